@@ -1,0 +1,34 @@
+"""Shared fixtures: catalog robots are loaded once per test session."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+
+CATALOG = ["talos", "g1", "humanoid15"]
+
+
+@pytest.fixture(scope="session")
+def robots():
+    cache: dict[str, wbc.Robot] = {}
+
+    def get(name: str) -> wbc.Robot:
+        if name not in cache:
+            cache[name] = wbc.load_robot(name)
+        return cache[name]
+
+    return get
+
+
+def random_configuration(robot: wbc.Robot, rng: np.random.Generator, spread: float = 0.3) -> np.ndarray:
+    """q_ref perturbed: joints by up to ±spread rad inside the limits, base by a random pose."""
+    model = robot.model
+    q = robot.q_ref.copy()
+    lo, hi = model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
+    q[7:] = np.clip(q[7:] + rng.uniform(-spread, spread, model.nq - 7), lo, hi)
+    base = pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3)), rng.uniform(-0.5, 0.5, 3))
+    q[:7] = pin.SE3ToXYZQUAT(base)
+    return q

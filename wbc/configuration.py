@@ -1,0 +1,96 @@
+"""Kinematic state of a robot: a configuration q and every Pinocchio quantity derived from it.
+
+:class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, frame placements, CoM and its
+Jacobian) and then answers frame placement / Jacobian / CoM queries from that cache. Nothing here re-derives
+kinematics: every number comes from Pinocchio.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import ConfigurationError
+from wbc.robot import Robot
+
+__all__ = ["Configuration", "check_vector"]
+
+LOCAL = pin.ReferenceFrame.LOCAL
+LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+WORLD = pin.ReferenceFrame.WORLD
+
+
+def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarray:
+    """Return ``x`` as a float (size,) array, or raise ``error`` saying what was wrong.
+
+    Raises:
+        error (default ConfigurationError): wrong shape, or NaN/inf entries.
+    """
+    arr = np.asarray(x, dtype=float)
+    if arr.shape != (size,):
+        raise error(f"{what} must have shape ({size},), got {arr.shape}")
+    if not np.isfinite(arr).all():
+        bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
+        raise error(f"{what} must be finite; NaN/inf at indices {bad}")
+    return arr
+
+
+class Configuration:
+    """A robot configuration with its kinematics computed by Pinocchio.
+
+    Args:
+        robot: the :class:`~wbc.robot.Robot`.
+        q: (nq,) configuration (default ``robot.q_ref``). Base position (m) in world, base quaternion
+            (x, y, z, w), then joint angles (rad) in Pinocchio's joint order.
+
+    Raises:
+        ConfigurationError: ``q`` has the wrong size, is not finite, or has a non-unit base quaternion.
+    """
+
+    def __init__(self, robot: Robot, q: np.ndarray | None = None):
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.q = np.array(robot.q_ref if q is None else q, dtype=float)
+        self.update(self.q)
+
+    def update(self, q: np.ndarray | None = None) -> None:
+        """Set q (if given) and recompute joint Jacobians, frame placements, CoM and CoM Jacobian.
+
+        Raises:
+            ConfigurationError: see the class docstring.
+        """
+        if q is not None:
+            q = check_vector(q, self.model.nq, "configuration q")
+            quat_norm = float(np.dot(q[3:7], q[3:7]))
+            if abs(quat_norm - 1.0) > 1e-6:
+                raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
+            self.q = q
+        pin.computeJointJacobians(self.model, self.data, self.q)
+        pin.updateFramePlacements(self.model, self.data)
+        self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
+
+    # -- queries (all from the cache filled by update) -------------------------------------------------------
+    def frame_placement(self, frame_id: int) -> pin.SE3:
+        """World placement ``oMf`` of a frame (SE3, translation in m)."""
+        return self.data.oMf[frame_id]
+
+    def frame_jacobian(self, frame_id: int, reference: pin.ReferenceFrame = LOCAL_WORLD_ALIGNED) -> np.ndarray:
+        """(6, nv) frame Jacobian: rows (linear m/s, angular rad/s) per unit of v, in ``reference``
+        (``LOCAL``: frame axes; ``LOCAL_WORLD_ALIGNED``: world axes at the frame origin; ``WORLD``)."""
+        return pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+
+    @property
+    def com(self) -> np.ndarray:
+        """(3,) centre of mass in world (m)."""
+        return self.data.com[0]
+
+    @property
+    def com_jacobian(self) -> np.ndarray:
+        """(3, nv) CoM Jacobian in world axes (m/s per unit of v)."""
+        return self._com_jacobian
+
+    def integrate(self, v: np.ndarray, dt: float) -> np.ndarray:
+        """(nq,) configuration reached by applying velocity v (nv,) for dt seconds, on the manifold
+        (``pin.integrate``)."""
+        return pin.integrate(self.model, self.q, v * dt)

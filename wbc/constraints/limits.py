@@ -1,0 +1,69 @@
+"""Joint position and velocity limits as bounds on the actuated part of v.
+
+Position limits over one period dt: q_min ≤ q + v dt ≤ q_max  ⇔  (q_min − q)/dt ≤ v ≤ (q_max − q)/dt.
+A joint already outside its range gets a bound that pushes it back at no more than its velocity limit, so the
+box stays non-empty and the joint returns inside instead of making the QP infeasible.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.constraints.base import BoxConstraint
+
+__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints"]
+
+
+def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
+    """(idx_q, idx_v) of the one-DoF joints with finite position limits (revolute/prismatic), in model order."""
+    idx_q, idx_v = [], []
+    for joint in model.joints[2:]:  # universe and the free-flyer root are unbounded
+        if joint.nq == 1 and joint.nv == 1:
+            lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            if np.isfinite(lo) and np.isfinite(hi) and lo < hi:
+                idx_q.append(joint.idx_q)
+                idx_v.append(joint.idx_v)
+    return np.asarray(idx_q, dtype=int), np.asarray(idx_v, dtype=int)
+
+
+class JointPositionLimit(BoxConstraint):
+    """Keep every bounded joint inside [lowerPositionLimit, upperPositionLimit] after the step.
+
+    Args:
+        robot: the robot (limits read from ``robot.model``).
+        margin: keep this far (rad) inside each limit, ≥ 0.
+    """
+
+    name = "joint_position_limit"
+
+    def __init__(self, robot, *, margin: float = 0.0):
+        model = robot.model
+        self.idx_q, self.indices = bounded_joints(model)
+        self.dim = int(self.indices.size)
+        self.q_min = model.lowerPositionLimit[self.idx_q] + margin
+        self.q_max = model.upperPositionLimit[self.idx_q] - margin
+        vmax = model.velocityLimit[self.indices]
+        self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+
+    def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        q = config.q[self.idx_q]
+        lb = np.clip((self.q_min - q) / dt, -self.v_max, self.v_max)
+        ub = np.clip((self.q_max - q) / dt, -self.v_max, self.v_max)
+        return lb, ub
+
+
+class JointVelocityLimit(BoxConstraint):
+    """|v_j| ≤ velocityLimit_j for every actuated joint (rad/s)."""
+
+    name = "joint_velocity_limit"
+
+    def __init__(self, robot, *, scale: float = 1.0):
+        model = robot.model
+        self.indices = np.arange(6, model.nv)
+        self.dim = int(self.indices.size)
+        vmax = scale * model.velocityLimit[self.indices]
+        self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+
+    def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return -self.v_max, self.v_max

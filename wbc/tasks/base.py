@@ -1,0 +1,88 @@
+"""Task interface shared by every kinematic task.
+
+A task is a residual e(q) ∈ R^m that should vanish, with its Jacobian J(q) = ∂e/∂q ∈ R^{m×nv} (derivative
+along the configuration manifold: e(q ⊕ δv) ≈ e(q) + J δv). At velocity level the controller asks for
+
+    J v = v*,   v* = ė* − K e,
+
+with K the task gain (1/s) and ė* an optional feed-forward rate of the error (e.g. a reference velocity).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["Task", "as_weight"]
+
+
+def as_weight(weight, dim: int, what: str) -> np.ndarray:
+    """Broadcast a scalar or (dim,) weight to a non-negative finite (dim,) array.
+
+    Raises:
+        InvalidInputError: wrong shape, negative or non-finite entries.
+    """
+    w = np.asarray(weight, dtype=float)
+    if w.ndim == 0:
+        w = np.full(dim, float(w))
+    if w.shape != (dim,) or not np.isfinite(w).all() or (w < 0).any():
+        raise InvalidInputError(f"{what} must be a non-negative finite scalar or ({dim},) array, got {weight!r}")
+    return w
+
+
+class Task(ABC):
+    """A weighted velocity-level task.
+
+    Attributes:
+        name: label used in reports.
+        dim: number of rows m of e and J.
+        gain: K (1/s), ≥ 0. Deadbeat at K = 1/dt.
+        weight: (m,) cost weight of each row (the QP cost is Σ w_r (J_r v − v*_r)²).
+    """
+
+    name: str = "task"
+    dim: int = 0
+
+    def __init__(self, *, gain: float, weight, name: str | None = None):
+        if not (np.isfinite(gain) and gain >= 0):
+            raise InvalidInputError(f"task gain must be finite and ≥ 0 (1/s), got {gain!r}")
+        self.gain = float(gain)
+        if name is not None:
+            self.name = name
+        self._weight = as_weight(weight, self.dim, f"{self.name} weight")
+
+    @property
+    def weight(self) -> np.ndarray:
+        return self._weight
+
+    @weight.setter
+    def weight(self, value) -> None:
+        self._weight = as_weight(value, self.dim, f"{self.name} weight")
+
+    @abstractmethod
+    def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        """Return (e (m,), J (m, nv)) at ``config``."""
+
+    def compute_error(self, config: Configuration) -> np.ndarray:
+        """(m,) task error e(q) (units of the task: m, rad, ...)."""
+        return self.compute(config)[0]
+
+    def compute_jacobian(self, config: Configuration) -> np.ndarray:
+        """(m, nv) Jacobian ∂e/∂q of the task error."""
+        return self.compute(config)[1]
+
+    def feedforward(self) -> np.ndarray | None:
+        """(m,) desired rate of the error ė* (None: zero)."""
+        return None
+
+    def velocity_target(self, error: np.ndarray) -> np.ndarray:
+        """(m,) v* = ė* − K e for the given error."""
+        ff = self.feedforward()
+        target = -self.gain * error
+        if ff is not None:
+            target = target + ff
+        return target

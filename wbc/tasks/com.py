@@ -1,0 +1,43 @@
+"""Centre-of-mass task: e = c(q) − c* (world, m), J = Pinocchio's CoM Jacobian (3, nv)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.configuration import Configuration, check_vector
+from wbc.exceptions import InvalidTargetError
+from wbc.tasks.base import Task
+
+__all__ = ["ComTask"]
+
+
+class ComTask(Task):
+    """Track a CoM position (and velocity feed-forward) in world.
+
+    Args:
+        weight: scalar or (3,) weights of the x, y, z rows.
+        gain: K (1/s).
+    """
+
+    dim = 3
+    name = "com"
+
+    def __init__(self, *, weight=1.0, gain: float = 100.0, name: str | None = None):
+        super().__init__(gain=gain, weight=weight, name=name)
+        self.target = np.zeros(3)
+        self._ff: np.ndarray | None = None
+
+    def set_target(self, com, velocity=None) -> None:
+        """Target CoM (3,) in world (m) and optional CoM velocity (3,) (m/s).
+
+        Raises:
+            InvalidTargetError: wrong shape or NaN.
+        """
+        self.target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+        self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
+
+    def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        return config.com - self.target, config.com_jacobian
+
+    def feedforward(self) -> np.ndarray | None:
+        return self._ff

@@ -1,0 +1,132 @@
+"""Frame pose task: drive a frame's world placement ``oMf`` to a target pose.
+
+Error (6,): position p − p* in world axes (m), then orientation log₃(R*ᵀ R) in the target's axes (rad).
+Jacobian: [R J_lin^LOCAL ; Jlog₃(R*ᵀR) J_ang^LOCAL], exact derivative of that error (Jlog₃ is the inverse of
+the right Jacobian of SO(3), ``pin.Jlog3``).
+Position-only and orientation-only forms keep only those rows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.configuration import LOCAL, Configuration
+from wbc.exceptions import InvalidTargetError
+from wbc.tasks.base import Task, as_weight
+
+__all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "as_se3"]
+
+
+def as_se3(pose, what: str = "target pose") -> pin.SE3:
+    """Convert a pin.SE3 or a (4, 4) homogeneous matrix to pin.SE3.
+
+    Raises:
+        InvalidTargetError: wrong type/shape, non-finite entries, or a non-rotation 3×3 block.
+    """
+    if isinstance(pose, pin.SE3):
+        mat = pose.homogeneous
+    else:
+        mat = np.asarray(pose, dtype=float)
+        if mat.shape != (4, 4):
+            raise InvalidTargetError(f"{what} must be a pin.SE3 or a (4, 4) matrix, got shape {mat.shape}")
+    if not np.isfinite(mat).all():
+        raise InvalidTargetError(f"{what} contains NaN/inf")
+    rot = mat[:3, :3]
+    if np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) < 0:
+        raise InvalidTargetError(f"{what} rotation block is not a rotation matrix")
+    return pose if isinstance(pose, pin.SE3) else pin.SE3(rot.copy(), mat[:3, 3].copy())
+
+
+def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    """(6,) error and (6, nv) Jacobian of frame ``frame_id`` w.r.t. ``target`` (see module docstring)."""
+    oMf = config.data.oMf[frame_id]
+    rot = oMf.rotation
+    j_local = config.frame_jacobian(frame_id, LOCAL)
+    rel = target.rotation.T @ rot
+    e_rot = pin.log3(rel)
+    error = np.empty(6)
+    error[:3] = oMf.translation - target.translation
+    error[3:] = e_rot
+    jac = np.empty((6, j_local.shape[1]))
+    np.matmul(rot, j_local[:3], out=jac[:3])
+    np.matmul(pin.Jlog3(rel), j_local[3:], out=jac[3:])
+    return error, jac
+
+
+class FrameTask(Task):
+    """Track a target placement of a frame, with per-axis weights.
+
+    Args:
+        config_or_robot: used only to resolve the frame name.
+        frame: frame name.
+        position_weight: scalar or (3,) weights of x, y, z position rows (world axes); 0 drops a row.
+        orientation_weight: scalar or (3,) weights of the orientation rows (target axes); 0 drops a row.
+        gain: K (1/s).
+        name: label (default: the frame name).
+
+    Raises:
+        UnknownFrameError: no such frame.
+        InvalidInputError: bad weights or gain; all weights zero.
+    """
+
+    def __init__(self, robot, frame: str, *, position_weight=1.0, orientation_weight=1.0, gain: float = 100.0,
+                 name: str | None = None):
+        self.frame = frame
+        self.frame_id = robot.frame_id(frame)
+        w6 = np.concatenate([as_weight(position_weight, 3, "position_weight"),
+                             as_weight(orientation_weight, 3, "orientation_weight")])
+        self.rows = np.flatnonzero(w6 > 0)
+        if self.rows.size == 0:
+            raise InvalidTargetError(f"frame task on {frame!r}: every weight is zero")
+        self._all_rows = self.rows.size == 6
+        self.dim = int(self.rows.size)
+        super().__init__(gain=gain, weight=w6[self.rows], name=name or frame)
+        self.target = pin.SE3.Identity()
+        self._ff6 = np.zeros(6)
+        self._ff: np.ndarray | None = None
+
+    def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
+        """Set the target placement (pin.SE3 or (4,4), world) and optionally its spatial velocity
+        (6,) = (linear m/s, angular rad/s), both in world axes (LOCAL_WORLD_ALIGNED at the target).
+
+        Raises:
+            InvalidTargetError: malformed pose or velocity.
+        """
+        self.target = as_se3(pose, f"target of {self.name}")
+        if velocity is None:
+            self._ff = None
+            return
+        vel = np.asarray(velocity, dtype=float)
+        if vel.shape != (6,) or not np.isfinite(vel).all():
+            raise InvalidTargetError(f"velocity of {self.name} must be a finite (6,) array, got {vel!r}")
+        self._ff6[:3] = vel[:3]
+        self._ff6[3:] = self.target.rotation.T @ vel[3:]
+        self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
+
+    def set_target_from_configuration(self, config: Configuration) -> None:
+        """Target = the frame's current placement, zero velocity."""
+        self.set_target(config.data.oMf[self.frame_id].copy())
+
+    def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        error, jac = frame_error_and_jacobian(config, self.frame_id, self.target)
+        if self._all_rows:
+            return error, jac
+        return error[self.rows], jac[self.rows]
+
+    def feedforward(self) -> np.ndarray | None:
+        return self._ff
+
+
+class PositionTask(FrameTask):
+    """Frame position only (3 rows, world axes). Same arguments as :class:`FrameTask` minus orientation."""
+
+    def __init__(self, robot, frame: str, *, weight=1.0, gain: float = 100.0, name: str | None = None):
+        super().__init__(robot, frame, position_weight=weight, orientation_weight=0.0, gain=gain, name=name)
+
+
+class OrientationTask(FrameTask):
+    """Frame orientation only (3 rows, target axes). Same arguments as :class:`FrameTask` minus position."""
+
+    def __init__(self, robot, frame: str, *, weight=1.0, gain: float = 100.0, name: str | None = None):
+        super().__init__(robot, frame, position_weight=0.0, orientation_weight=weight, gain=gain, name=name)

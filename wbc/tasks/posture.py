@@ -1,0 +1,58 @@
+"""Posture task: e = q ⊖ q* on the actuated joints (rad), J = the matching rows of the identity (nv columns).
+
+q ⊖ q* is ``pin.difference(model, q*, q)``, so continuous joints and the manifold are handled by Pinocchio.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.configuration import Configuration, check_vector
+from wbc.exceptions import InvalidTargetError
+from wbc.tasks.base import Task
+
+__all__ = ["PostureTask"]
+
+
+class PostureTask(Task):
+    """Pull joints towards a reference configuration.
+
+    Args:
+        robot: the robot (its ``q_ref`` is the initial target).
+        joints: joint names to regulate (default: every actuated joint — grippers too).
+        weight: scalar or (len(rows),) weights.
+        gain: K (1/s).
+
+    Raises:
+        UnknownJointError: a joint name is not in the model.
+    """
+
+    name = "posture"
+
+    def __init__(self, robot, *, joints: list[str] | None = None, weight=1e-2, gain: float = 10.0,
+                 name: str | None = None):
+        model = robot.model
+        names = robot.joint_names if joints is None else joints
+        rows: list[int] = []
+        for jname in names:
+            joint = model.joints[robot.joint_id(jname)]
+            rows.extend(range(joint.idx_v, joint.idx_v + joint.nv))
+        self.model = model
+        self.rows = np.asarray(rows, dtype=int)
+        self.dim = int(self.rows.size)
+        super().__init__(gain=gain, weight=weight, name=name)
+        self._jac = np.zeros((self.dim, model.nv))
+        self._jac[np.arange(self.dim), self.rows] = 1.0
+        self.target = np.array(robot.q_ref, dtype=float)
+
+    def set_target(self, q) -> None:
+        """Target configuration (nq,) (only the regulated joints matter).
+
+        Raises:
+            InvalidTargetError: wrong size or NaN.
+        """
+        self.target = check_vector(q, self.model.nq, "posture target", InvalidTargetError).copy()
+
+    def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
