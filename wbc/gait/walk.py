@@ -1,0 +1,414 @@
+"""Walk plans: footsteps + support schedule + LIPM CoM + swing feet, precomputed on the control-sample grid.
+
+:func:`plan_walk` returns a :class:`WalkPlan` whose arrays are indexed by the control tick (``dt``, 2 ms by
+default), so a 500 Hz controller only reads row ``k`` each tick. :meth:`WalkPlan.replan` re-solves the CoM from
+a measured CoM state mid-walk while keeping the remaining footsteps.
+
+Frames and units: world frame, z up, flat ground z = 0; metres, seconds, radians. Sole velocities are those of
+the sole-frame origin, linear then angular, both expressed in world axes (Pinocchio's LOCAL_WORLD_ALIGNED).
+The CoM math is documented in :mod:`wbc.gait.com_plan`, the footstep convention in :mod:`wbc.gait.footsteps`,
+the timing and ZMP reference in :mod:`wbc.gait.schedule`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import GaitError
+from wbc.gait.com_plan import lipm_omega, plan_lipm
+from wbc.gait.footsteps import Footstep, Side, feet_overlap, plan_footsteps, pose_to_xy_yaw
+from wbc.gait.schedule import (
+    DOUBLE_SUPPORT,
+    LEFT_SUPPORT,
+    Phase,
+    ZmpSegments,
+    build_phases,
+    zmp_segments,
+)
+from wbc.gait.support import _hull, _signed_distance_point, _sole_corners, signed_distance
+from wbc.gait.swing import sample_feet
+
+__all__ = ["WalkPlan", "plan_walk"]
+
+_FLAT_Z_TOL = 0.01  # m: soles must be this close to the ground plane
+_FLAT_TILT_TOL = 0.1  # rad: and this close to horizontal
+
+
+@dataclass(frozen=True, eq=False)
+class WalkPlan:
+    """A walk sampled every ``dt``; N samples, row k at time ``t[k] = k * dt`` (plan clock).
+
+    All arrays are read-only. Support codes: 0 double support, 1 left stance (right foot swinging), 2 right
+    stance (left foot swinging); at a lift-off sample the code is already single support, at a touch-down
+    sample it is double support.
+
+    Attributes:
+        t: (N,) time (s), ``t[0] = 0``. ``t_offset`` is the time of sample 0 on the clock of the original plan
+            (0 for :func:`plan_walk`, ``k * dt`` accumulated by :meth:`replan`).
+        com, com_vel, com_acc: (N, 3) CoM position (m), velocity (m/s), acceleration (m/s²), world; z is the
+            constant ``com_height`` (z velocity and acceleration are 0).
+        zmp: (N, 2) ZMP reference (m), world xy; equals ``com[:, :2] - com_acc[:, :2] / omega**2``.
+        dcm: (N, 2) divergent component of motion ``c + ċ/ω`` (m).
+            ``com`` .. ``dcm`` are column views of one (N, 13) buffer: each row ``com[k]`` is contiguous.
+        left_sole, right_sole: (N, 4, 4) world poses of the sole frames.
+        left_sole_vel, right_sole_vel: (N, 6) sole-origin velocity, linear (m/s) then angular (rad/s), world axes.
+        support: (N,) int8 support code.
+        footsteps: landing poses of the steps not yet completed at sample 0, in order.
+        phases: support phases covering samples 0 .. N-1 (sample indices of this plan).
+        planned_distance: distance (m) between the feet mid-point (xy) at the first and last sample; for a fresh
+            straight walk ``(n_steps - 1) * step_length``.
+        duration: ``t[-1]`` (s).
+        dt: sample period (s); omega: LIPM frequency (1/s); com_height: CoM height (m);
+        sole_length, sole_width: sole rectangle (m), centred on the sole frame.
+        segments: the ZMP reference as linear segments on this plan's samples (:class:`ZmpSegments`);
+            ``segments.start[0]`` is the start point solved from the initial CoM state. Used by :meth:`replan`.
+    """
+
+    t: np.ndarray
+    com: np.ndarray
+    com_vel: np.ndarray
+    com_acc: np.ndarray
+    zmp: np.ndarray
+    dcm: np.ndarray
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    left_sole_vel: np.ndarray
+    right_sole_vel: np.ndarray
+    support: np.ndarray
+    footsteps: tuple[Footstep, ...]
+    phases: tuple[Phase, ...]
+    planned_distance: float
+    duration: float
+    dt: float
+    omega: float
+    com_height: float
+    sole_length: float
+    sole_width: float
+    t_offset: float = 0.0
+    segments: ZmpSegments | None = field(default=None, repr=False)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples N."""
+        return self.t.shape[0]
+
+    def index(self, t: float) -> int:
+        """Sample index nearest to time ``t`` (s, plan clock), clamped to ``[0, N-1]``.
+
+        Raises:
+            GaitError: ``t`` is not a finite number.
+        """
+        try:
+            tf = float(t)
+        except (TypeError, ValueError) as exc:
+            raise GaitError(f"index(t) needs a finite time in seconds; got {t!r}") from exc
+        if not math.isfinite(tf):
+            raise GaitError(f"index(t) needs a finite time in seconds; got {t!r}")
+        return int(min(max(round(tf / self.dt), 0), self.n_samples - 1))
+
+    def support_polygon(self, k: int) -> np.ndarray:
+        """(m, 2) support polygon (CCW, world xy, m) at sample ``k``: the stance sole rectangle in single
+        support, the convex hull of both sole rectangles in double support.
+
+        Raises:
+            GaitError: ``k`` outside ``[0, N-1]``.
+        """
+        k = self._check_k(k, self.n_samples - 1)
+        return np.array(_support_corners(self.left_sole[k], self.right_sole[k], int(self.support[k]),
+                                         self.sole_length, self.sole_width))
+
+    def zmp_margin(self) -> np.ndarray:
+        """(N,) signed distance (m, positive inside) of the plan's ZMP to the support polygon at each sample.
+
+        The ZMP is recomputed from the CoM trajectory, ``p = c_xy − c̈_xy / ω²`` (LIPM), not copied from the
+        reference; polygons are those of :meth:`support_polygon`, constant over each phase.
+        """
+        p = self.com[:, :2] - self.com_acc[:, :2] / self.omega**2
+        out = np.empty(self.n_samples)
+        bounds = [(ph.first, ph.end) for ph in self.phases]
+        bounds[-1] = (bounds[-1][0], self.n_samples)
+        for (k0, k1) in bounds:
+            out[k0:k1] = signed_distance(p[k0:k1], self.support_polygon(k0))
+        return out
+
+    def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray) -> WalkPlan:
+        """Re-plan the CoM from a measured state at sample ``k``, keeping the remaining footsteps and timing.
+
+        The new plan's sample 0 is this plan's sample ``k`` (time re-origined at 0; ``t_offset`` grows by
+        ``k * dt``); its feet, support codes and footsteps are this plan's from sample ``k`` on. The ZMP
+        reference is unchanged except on the remainder of the current ZMP segment, which becomes linear from a
+        solved start point to the segment's original end point, so that the DCM starts at
+        ``com + com_vel / ω`` exactly (see :mod:`wbc.gait.com_plan`). Only the xy components of ``com`` and
+        ``com_vel`` are used (the plan keeps its CoM height).
+
+        Args:
+            k: sample index, ``0 <= k <= N - 2``.
+            com: (3,) measured CoM position (m), world.
+            com_vel: (3,) measured CoM velocity (m/s), world.
+
+        Raises:
+            GaitError: bad ``k``, shapes or non-finite values; or the CoM state cannot be captured: the ZMP
+                start point needed lies outside the current support polygon (the DCM error is too large for
+                the time left in the current ZMP segment — a step would have to change).
+        """
+        k = self._check_k(k, self.n_samples - 2)
+        c = _vector(com, 3, "com")
+        cd = _vector(com_vel, 3, "com_vel")
+        seg = self.segments
+        j = int(np.searchsorted(seg.first, k, side="right")) - 1
+        first = seg.first[j:] - k
+        count = seg.count[j:].copy()
+        count[0] -= k - seg.first[j]
+        first[0] = 0
+        start = seg.start[j:].copy()
+        start[0] = np.nan
+        new_seg = ZmpSegments(first, count, start, seg.end[j:], seg.phase[j:] - seg.phase[j])
+        ip = int(seg.phase[j])
+        phases = [Phase(ph.support, max(ph.first - k, 0), ph.end - max(ph.first, k), ph.step, ph.dt)
+                  for ph in self.phases[ip:]]
+        n_done = len(self.footsteps) - sum(1 for ph in phases if ph.support != DOUBLE_SUPPORT)
+        phases = [Phase(ph.support, ph.first, ph.count, ph.step - n_done if ph.step >= 0 else -1, ph.dt)
+                  for ph in phases]
+        return _assemble(
+            new_seg, phases, self.footsteps[n_done:], c[:2], cd[:2], self.com_height, self.omega, self.dt,
+            self.left_sole[k:], self.right_sole[k:], self.left_sole_vel[k:], self.right_sole_vel[k:],
+            self.support[k:], self.sole_length, self.sole_width, self.t_offset + k * self.dt,
+        )
+
+    def _check_k(self, k: int, k_max: int) -> int:
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k <= k_max:
+            raise GaitError(f"sample index must be an integer in [0, {k_max}]; got {k!r}")
+        return int(k)
+
+
+def _support_corners(left: np.ndarray, right: np.ndarray, support: int, length: float,
+                     width: float) -> list[tuple[float, float]]:
+    """Support polygon (CCW vertex list) for the given sole poses and support code."""
+    if support == DOUBLE_SUPPORT:
+        return _hull(_sole_corners(*pose_to_xy_yaw(left), length, width)
+                     + _sole_corners(*pose_to_xy_yaw(right), length, width))
+    return _sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
+
+
+def _readonly(*arrays: np.ndarray) -> None:
+    for a in arrays:
+        a.flags.writeable = False
+
+
+def _assemble(seg: ZmpSegments, phases: list[Phase], footsteps: tuple[Footstep, ...] | list[Footstep],
+              com_xy: np.ndarray, com_vel_xy: np.ndarray, com_height: float, omega: float, dt: float,
+              left: np.ndarray, right: np.ndarray, left_vel: np.ndarray, right_vel: np.ndarray,
+              support: np.ndarray, length: float, width: float, t_offset: float) -> WalkPlan:
+    """Solve the CoM for ``seg`` from the given state, check the solved ZMP start point, build the plan."""
+    lipm = plan_lipm(seg.first, seg.count, seg.start, seg.end, com_xy, com_vel_xy, omega, dt)
+    a0 = lipm.start[0]
+    ax, ay = float(a0[0]), float(a0[1])
+    poly = _support_corners(left[0], right[0], int(support[0]), length, width)
+    margin = _signed_distance_point(ax, ay, poly) if math.isfinite(ax) and math.isfinite(ay) else -math.inf
+    if not margin >= -1e-9:
+        raise GaitError(
+            f"cannot start the walk from CoM {np.round(com_xy, 4).tolist()} m with velocity "
+            f"{np.round(com_vel_xy, 4).tolist()} m/s: the ZMP would have to start at {np.round(a0, 4).tolist()} m, "
+            f"{-margin:.4f} m outside the current support polygon; the DCM c + v/ω must be steerable with the ZMP "
+            f"inside the support polygon within the time left in the current ZMP segment ({seg.count[0] * dt:.3f} s)"
+        )
+    seg = ZmpSegments(seg.first, seg.count, lipm.start, seg.end, seg.phase)
+    smp = lipm.sample(com_height)
+    com, com_vel, com_acc = smp.com, smp.com_vel, smp.com_acc
+    n = com.shape[0]
+    t = np.arange(n) * dt
+    mid0 = 0.5 * (left[0, :2, 3] + right[0, :2, 3])
+    mid1 = 0.5 * (left[-1, :2, 3] + right[-1, :2, 3])
+    _readonly(t, com, com_vel, com_acc, smp.zmp, smp.dcm, seg.first, seg.count, seg.start, seg.end, seg.phase)
+    return WalkPlan(
+        t=t, com=com, com_vel=com_vel, com_acc=com_acc, zmp=smp.zmp, dcm=smp.dcm,
+        left_sole=left, right_sole=right, left_sole_vel=left_vel, right_sole_vel=right_vel, support=support,
+        footsteps=tuple(footsteps), phases=tuple(phases), planned_distance=float(np.linalg.norm(mid1 - mid0)),
+        duration=float(t[-1]), dt=dt, omega=omega, com_height=com_height, sole_length=length, sole_width=width,
+        t_offset=t_offset, segments=seg,
+    )
+
+
+def _vector(x, n: int, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise GaitError(f"{name} must be a ({n},) array of finite numbers; got {x!r}") from exc
+    if a.shape != (n,):
+        raise GaitError(f"{name} must have shape ({n},); got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise GaitError(f"{name} must be finite; got {a.tolist()}")
+    return a
+
+
+def _sole_pose(x, name: str) -> np.ndarray:
+    if isinstance(x, pin.SE3):
+        x = x.homogeneous
+    try:
+        m = np.array(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise GaitError(f"{name} must be a pin.SE3 or a (4, 4) homogeneous matrix; got {type(x).__name__}") from exc
+    if m.shape != (4, 4):
+        raise GaitError(f"{name} must be a pin.SE3 or a (4, 4) homogeneous matrix; got shape {m.shape}")
+    rows = m.tolist()
+    if not all(math.isfinite(v) for row in rows for v in row):
+        raise GaitError(f"{name} must be finite; got NaN or inf")
+    r = [row[:3] for row in rows[:3]]
+    cols = list(zip(*r))
+    ortho = max(abs(sum(a * b for a, b in zip(cols[i], cols[j])) - (i == j)) for i in range(3) for j in range(3))
+    x_axis, y_axis, z_axis = cols
+    det = sum(p * q for p, q in zip(z_axis, (x_axis[1] * y_axis[2] - x_axis[2] * y_axis[1],
+                                              x_axis[2] * y_axis[0] - x_axis[0] * y_axis[2],
+                                              x_axis[0] * y_axis[1] - x_axis[1] * y_axis[0])))
+    if ortho > 1e-6 or det < 0 or rows[3] != [0.0, 0.0, 0.0, 1.0]:
+        raise GaitError(f"{name} must be a rigid transform (orthonormal rotation, last row [0, 0, 0, 1])")
+    if abs(rows[2][3]) > _FLAT_Z_TOL or r[2][2] < math.cos(_FLAT_TILT_TOL):
+        raise GaitError(
+            f"{name} must lie flat on the ground z = 0 (|z| <= {_FLAT_Z_TOL} m, tilt <= {_FLAT_TILT_TOL} rad); "
+            f"got z = {rows[2][3]:.4f} m, tilt = {math.acos(max(-1.0, min(1.0, r[2][2]))):.4f} rad"
+        )
+    return m
+
+
+def _scalar(x, name: str, *, positive: bool = False, nonneg: bool = False) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError) as exc:
+        raise GaitError(f"{name} must be a finite number; got {x!r}") from exc
+    if not math.isfinite(v):
+        raise GaitError(f"{name} must be a finite number; got {x!r}")
+    if positive and not v > 0:
+        raise GaitError(f"{name} must be > 0; got {v}")
+    if nonneg and not v >= 0:
+        raise GaitError(f"{name} must be >= 0; got {v}")
+    return v
+
+
+def _samples(duration: float, dt: float, name: str, minimum: int = 1) -> int:
+    n = round(duration / dt)
+    if n < minimum:
+        raise GaitError(f"{name} = {duration} s is shorter than {minimum} sample(s) of dt = {dt} s")
+    return n
+
+
+def plan_walk(
+    left_sole: np.ndarray | pin.SE3,
+    right_sole: np.ndarray | pin.SE3,
+    com: np.ndarray,
+    *,
+    n_steps: int = 8,
+    step_length: float = 0.15,
+    step_width: float | None = None,
+    turn: float = 0.0,
+    step_height: float = 0.05,
+    t_ss: float = 0.8,
+    t_ds: float = 0.3,
+    t_init: float = 1.0,
+    t_final: float = 1.2,
+    dt: float = 0.002,
+    sole_length: float = 0.21,
+    sole_width: float = 0.13,
+    com_velocity: np.ndarray | None = None,
+    first_side: Side = "left",
+    gravity: float = 9.81,
+) -> WalkPlan:
+    """Plan a walk from the current feet and CoM: footsteps, schedule, LIPM CoM and swing-foot trajectories.
+
+    Footstep convention: :mod:`wbc.gait.footsteps` (steps 1..n-1 advance ``step_length`` ahead of the stance
+    foot, step n closes alongside). Timing and ZMP reference: :mod:`wbc.gait.schedule` (durations rounded to
+    whole samples). CoM: exact LIPM/DCM solution of :mod:`wbc.gait.com_plan` (Englsberger, Ott, Albu-Schäffer,
+    IEEE T-RO 31(2), 2015), starting exactly at ``com`` / ``com_velocity`` and ending at rest over the final
+    feet mid-point. Swing: :mod:`wbc.gait.swing` (minimum-jerk, clearance bump ``step_height``).
+
+    Args:
+        left_sole, right_sole: current world poses of the sole frames, (4, 4) or ``pin.SE3``, flat on z = 0
+            (|z| <= 1 cm, tilt <= 0.1 rad); the left sole must be on the left of the right one.
+        com: (3,) current CoM (m), world; ``com[2] > 0`` is the constant CoM height of the plan.
+        n_steps: number of swing phases, integer >= 1.
+        step_length: forward displacement (m) of each walking step relative to the stance foot.
+        step_width: lateral distance (m) between the feet; default: the current one.
+        turn: yaw change (rad) per walking step, ``|turn| < pi/2``; positive turns left.
+        step_height: swing clearance (m, >= 0).
+        t_ss, t_ds: single / double support durations (s, > 0).
+        t_init: initial double support (s, > 0): the CoM shifts towards the first stance foot.
+        t_final: final double support (s, >= 2 dt): ZMP back to the feet mid-point, CoM settles.
+        dt: sample period (s, > 0).
+        sole_length, sole_width: sole rectangle (m, > 0), centred on the sole frame, x forward.
+        com_velocity: (3,) current CoM velocity (m/s); default 0. Only xy is used.
+        first_side: the foot that swings first, ``"left"`` or ``"right"``.
+        gravity: gravity acceleration (m/s², > 0).
+
+    Returns:
+        A :class:`WalkPlan` sampled at ``dt``.
+
+    Raises:
+        GaitError: invalid argument (the message names it and the valid range), feet overlapping at the start
+            or at a footstep, or a CoM state that cannot be captured from the current support polygon.
+    """
+    L = _sole_pose(left_sole, "left_sole")
+    R = _sole_pose(right_sole, "right_sole")
+    c = _vector(com, 3, "com")
+    if not c[2] > 0:
+        raise GaitError(f"com height com[2] must be > 0 m above the ground; got {c[2]}")
+    cd = np.zeros(3) if com_velocity is None else _vector(com_velocity, 3, "com_velocity")
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
+        raise GaitError(f"n_steps must be an integer >= 1; got {n_steps!r}")
+    if first_side not in ("left", "right"):
+        raise GaitError(f"first_side must be 'left' or 'right'; got {first_side!r}")
+    dt = _scalar(dt, "dt", positive=True)
+    step_length = _scalar(step_length, "step_length")
+    turn = _scalar(turn, "turn")
+    if not abs(turn) < math.pi / 2:
+        raise GaitError(f"turn must be in (-pi/2, pi/2) rad per step; got {turn}")
+    step_height = _scalar(step_height, "step_height", nonneg=True)
+    length = _scalar(sole_length, "sole_length", positive=True)
+    width = _scalar(sole_width, "sole_width", positive=True)
+    g = _scalar(gravity, "gravity", positive=True)
+    n_init = _samples(_scalar(t_init, "t_init", positive=True), dt, "t_init")
+    n_ss = _samples(_scalar(t_ss, "t_ss", positive=True), dt, "t_ss")
+    n_ds = _samples(_scalar(t_ds, "t_ds", positive=True), dt, "t_ds")
+    n_final = _samples(_scalar(t_final, "t_final", positive=True), dt, "t_final", minimum=2)
+
+    lft, rgt = pose_to_xy_yaw(L), pose_to_xy_yaw(R)
+    heading = math.atan2(math.sin(lft[2]) + math.sin(rgt[2]), math.cos(lft[2]) + math.cos(rgt[2]))
+    lateral = -(lft[0] - rgt[0]) * math.sin(heading) + (lft[1] - rgt[1]) * math.cos(heading)
+    if not lateral > 0:
+        raise GaitError(f"left_sole must be on the left of right_sole (lateral offset {lateral:.4f} m <= 0)")
+    if step_width is None:
+        step_width = lateral
+    step_width = _scalar(step_width, "step_width", positive=True)
+    steps = plan_footsteps(lft, rgt, int(n_steps), step_length, step_width, turn, first_side)
+
+    # Overlap check: initial feet, then each landing pose against its stance foot.
+    feet = {"left": lft, "right": rgt}
+    pairs_a, pairs_b = [lft], [rgt]
+    for fs in steps:
+        pairs_a.append(feet["right" if fs.side == "left" else "left"])
+        pairs_b.append((fs.x, fs.y, fs.yaw))
+        feet[fs.side] = (fs.x, fs.y, fs.yaw)
+    hit = feet_overlap(np.array(pairs_a), np.array(pairs_b), length, width)
+    if hit.any():
+        i = int(np.argmax(hit))
+        where = "the initial feet overlap" if i == 0 else f"step {i} lands on the stance foot"
+        raise GaitError(f"{where} (soles {length} x {width} m); increase step_width (now {step_width:.4f} m, "
+                        f"must exceed the sole width {width} m) or reduce turn (now {turn} rad)")
+
+    phases = build_phases(int(n_steps), first_side, n_init, n_ss, n_ds, n_final, dt)
+    seg = zmp_segments(phases, steps, lft[:2], rgt[:2], max(1, min(n_ds, n_final // 2)))
+    n = phases[-1].end + 1
+
+    swings = [ph for ph in phases if ph.step >= 0]
+    foot = [0 if steps[ph.step].side == "left" else 1 for ph in swings]
+    poses, vels = sample_feet(n, np.array([L, R]), np.array([steps[ph.step].pose() for ph in swings]), foot,
+                              [ph.first for ph in swings], n_ss, dt, step_height)
+    lp, rp, lv, rv = poses[0], poses[1], vels[0], vels[1]
+    counts = [ph.count for ph in phases]
+    counts[-1] += 1  # the last sample closes the final double support
+    support = np.repeat(np.array([ph.support for ph in phases], dtype=np.int8), counts)
+    _readonly(lp, lv, rp, rv, support)
+    return _assemble(seg, phases, steps, c[:2], cd[:2], float(c[2]), lipm_omega(float(c[2]), g), dt,
+                     lp, rp, lv, rv, support, length, width, 0.0)
