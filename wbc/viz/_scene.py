@@ -1,0 +1,144 @@
+"""Scene pieces shared by the HTML recorder and the live viewer (internal).
+
+meshcat paths used (all in meshcat's world frame, z up, metres):
+
+* ``/meshcat/<robot>/visuals/<geometry name>``: one node per visual geometry, loaded by Pinocchio's
+  :class:`~pinocchio.visualize.MeshcatVisualizer` (collision model skipped);
+* ``/meshcat/overlays/<name>``: a small sphere per overlay point (CoM, ZMP, ...);
+* ``/meshcat/polygons/<i>``: support polygon outlines;
+* ``/Cameras/default/rotated/<object>``: the camera; ``/Cameras/target``: an empty node whose position the
+  HTML recordings' script makes the camera look at (and follow).
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from typing import Any
+
+import meshcat
+import meshcat.geometry as mg
+import numpy as np
+import pinocchio as pin
+from pinocchio.visualize import MeshcatVisualizer
+
+from wbc.exceptions import InvalidInputError
+from wbc.robot import Robot
+
+OVERLAY_ROOT = "/meshcat/overlays"
+POLYGON_ROOT = "/meshcat/polygons"
+CAMERA_TARGET = "/Cameras/target"
+CAMERA_OBJECT = "/Cameras/default/rotated/<object>"
+#: Colours (0xRRGGBB) of well-known overlays; others cycle through ``_PALETTE``.
+OVERLAY_COLORS = {"com": 0xE0262B, "zmp": 0x1FA34A, "cop": 0x1FA34A, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0}
+_PALETTE = (0xF28C1B, 0x9B3FD1, 0x15A5B5, 0xD4C21A)
+OVERLAY_RADIUS = 0.025  # m
+
+
+class CommandRecorder:
+    """Stand-in for meshcat's ``ViewerWindow``: keeps the lowered commands instead of sending them.
+
+    ``meshcat.Visualizer(window=CommandRecorder())`` then works offline, without a server.
+    """
+
+    def __init__(self) -> None:
+        self.commands: list[dict[str, Any]] = []
+
+    def send(self, command: Any) -> None:
+        self.commands.append(command.lower())
+
+
+def root_name(robot: Robot) -> str:
+    """meshcat node name of the robot (its name with path separators removed)."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", robot.name) or "robot"
+
+
+def load_robot_visuals(robot: Robot, viewer: meshcat.Visualizer) -> MeshcatVisualizer:
+    """Send the robot's visual meshes to ``viewer`` through Pinocchio's MeshcatVisualizer.
+
+    Returns the MeshcatVisualizer (its ``viewerVisualGroupName`` is the visuals folder path, relative to
+    ``/meshcat``). Geometry node names are ``visual_model.geometryObjects[i].name``.
+    """
+    viz = MeshcatVisualizer(robot.model, None, robot.visual_model)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "meshcat.Visualizer has no get_image" for recorder windows
+        viz.initViewer(viewer=viewer)
+        viz.loadViewerModel(rootNodeName=root_name(robot))
+    return viz
+
+
+def visual_paths(robot: Robot) -> list[str]:
+    """Absolute meshcat path of every visual geometry node, in ``visual_model`` order."""
+    return [f"/meshcat/{root_name(robot)}/visuals/{g.name}" for g in robot.visual_model.geometryObjects]
+
+
+def overlay_color(name: str, index: int) -> int:
+    return OVERLAY_COLORS.get(name.lower(), _PALETTE[index % len(_PALETTE)])
+
+
+def overlay_sphere(color: int) -> mg.Mesh:
+    """A sphere drawn on top of the robot (no depth test), so a CoM inside the pelvis stays visible."""
+    material = mg.MeshLambertMaterial(color=color, opacity=0.9, transparent=True, depthTest=False)
+    return mg.Mesh(mg.Sphere(OVERLAY_RADIUS), material)
+
+
+def polygon_outline(vertices: np.ndarray, color: int = 0xFFD21F) -> mg.LineLoop:
+    """Closed outline through ``vertices`` (K, 3), world frame (m)."""
+    return mg.LineLoop(mg.PointsGeometry(vertices.T.astype(np.float32)), mg.LineBasicMaterial(color=color))
+
+
+def robot_height(robot: Robot) -> float:
+    """Rough robot height (m): highest visual geometry origin in ``q_ref``, at least 0.5 m."""
+    data = robot.model.createData()
+    gdata = robot.visual_model.createData()
+    pin.forwardKinematics(robot.model, data, robot.q_ref)
+    pin.updateGeometryPlacements(robot.model, data, robot.visual_model, gdata)
+    zmax = max((float(M.translation[2]) for M in gdata.oMg), default=0.0)
+    return max(zmax + 0.1, 0.5)
+
+
+def camera_offset(robot: Robot, *, target_on_ground: bool = False) -> np.ndarray:
+    """Camera position relative to the point it looks at (world frame, m), in front of the robot's right.
+
+    ``target_on_ground``: the camera looks at the robot's feet (live viewer: the target is the world origin)
+    rather than at mid height, so it stands further back and higher to keep the head in view.
+    """
+    h = robot_height(robot)
+    return h * (np.array([1.2, -1.5, 0.6]) if target_on_ground else np.array([0.8, -1.0, 0.2]))
+
+
+def set_camera_offset(viewer: meshcat.Visualizer, offset: np.ndarray) -> None:
+    """Place the default camera at ``offset`` (3,) from the point it looks at (world frame, m).
+
+    meshcat 0.3.2 cannot move the orbit-controls target by command: it stays at the world origin (a
+    translated ``/Cameras/default`` moves the camera but not where it looks). The camera object hangs under
+    ``/Cameras/default/rotated`` (+90 deg about x, three.js is y-up), so a world offset (dx, dy, dz) is the
+    local position (dx, dz, -dy). The HTML recordings move the target with JavaScript (``CAMERA_TARGET``).
+    """
+    dx, dy, dz = (float(v) for v in offset)
+    viewer[CAMERA_OBJECT].set_property("position", [dx, dz, -dy])
+
+
+def check_q(robot: Robot, q: np.ndarray, what: str = "q") -> np.ndarray:
+    """``q`` as a float (nq,) or (N, nq) array (a copy).
+
+    Raises:
+        InvalidInputError: wrong last dimension or NaN/inf.
+    """
+    q = np.array(q, dtype=float)
+    if q.ndim not in (1, 2) or q.shape[-1] != robot.nq:
+        raise InvalidInputError(f"{what} must have shape (nq,) or (N, nq) with nq = {robot.nq}, got {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise InvalidInputError(f"{what} contains NaN or inf")
+    return q
+
+
+def normalized(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """(nq,) configuration with its base quaternion renormalised.
+
+    Raises:
+        InvalidInputError: the quaternion norm is off by more than 1e-3 (not a rounding error).
+    """
+    if not pin.isNormalized(robot.model, q, 1e-3):
+        raise InvalidInputError(f"base quaternion q[3:7] = {q[3:7]} is not unit norm")
+    return pin.normalize(robot.model, q)
