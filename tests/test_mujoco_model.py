@@ -1,0 +1,255 @@
+"""MuJoCo model built from the robot's URDF agrees with the Pinocchio model (wbc.sim.mujoco_model)."""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc.exceptions import InvalidInputError, UnknownFrameError
+from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model
+
+ROBOTS = ["talos", "g1"] + (["humanoid15"] if "humanoid15" in wbc.catalog() else [])
+TOL = 1e-9
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def sim(request):
+    return build_mujoco_model(wbc.load_robot(request.param))
+
+
+def _random_states(robot, n=4, seed=0):
+    """(q, v) with joints uniform within their limits, a random base pose 5 m above the floor."""
+    rng = np.random.default_rng(seed)
+    pm = robot.model
+    for _ in range(n):
+        q = pin.neutral(pm)
+        q[7:] = rng.uniform(pm.lowerPositionLimit[7:], pm.upperPositionLimit[7:])
+        q[0:3] = rng.uniform(-1.0, 1.0, 3) + [0.0, 0.0, 5.0]
+        q[3:7] = pin.Quaternion(pin.exp3(rng.normal(size=3))).coeffs()
+        yield q, rng.normal(size=pm.nv)
+
+
+def _body_frame(pm, name):
+    return pm.getFrameId(name, pin.FrameType.BODY)
+
+
+def _full_mass_matrix(m, d):
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return M
+
+
+def test_structure_actuators_and_mass(sim):
+    robot, m = sim.robot, sim.model
+    pm = robot.model
+    assert m.opt.timestep <= 0.002
+    assert m.nu == robot.nv - 6 and m.nv == robot.nv
+    assert [m.actuator(i).name for i in sim.actuator_ids] == robot.joint_names
+    effort = np.array([pm.effortLimit[pm.joints[pm.getJointId(n)].idx_v] for n in robot.joint_names])
+    np.testing.assert_array_equal(m.actuator_ctrlrange[sim.actuator_ids], np.c_[-effort, effort])
+    np.testing.assert_array_equal(m.actuator_forcerange[sim.actuator_ids], np.c_[-effort, effort])
+    assert np.all(m.actuator_gear[:, 0] == 1.0)
+    # The free joint is on the URDF root link, the body that carries Pinocchio's free flyer.
+    assert m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE and m.jnt_bodyid[0] == 1
+    root_frame = pm.frames[_body_frame(pm, m.body(1).name)]
+    assert root_frame.parentJoint == 1 and root_frame.placement.isIdentity()
+    assert abs(sim.total_mass - robot.mass) <= TOL
+    assert np.all(m.dof_damping == 0.0) and np.all(m.dof_frictionloss == 0.0)
+    # Collision bits: robot geoms touch only the environment, the floor touches the robot.
+    robot_geoms = np.flatnonzero(m.geom_contype != 0)
+    robot_geoms = robot_geoms[robot_geoms != sim.floor_geom]
+    assert np.all(m.geom_contype[robot_geoms] == ROBOT_BIT) and np.all(m.geom_conaffinity[robot_geoms] == ENV_BIT)
+    assert m.geom_conaffinity[sim.floor_geom] & ROBOT_BIT
+    # Visual meshes are kept.
+    assert np.sum((m.geom_contype == 0) & (m.geom_conaffinity == 0)) > 0
+
+
+def test_kinematics_com_and_mass_matrix_agree(sim):
+    robot, m, d = sim.robot, sim.model, sim.data
+    pm = robot.model
+    pd = pm.createData()
+    for q, v in _random_states(robot):
+        sim.set_state(q, v)
+        pin.framesForwardKinematics(pm, pd, q)
+        for b in range(1, m.nbody):
+            oMf = pd.oMf[_body_frame(pm, m.body(b).name)]
+            assert np.abs(d.xpos[b] - oMf.translation).max() < TOL
+            assert np.abs(d.xmat[b].reshape(3, 3) - oMf.rotation).max() < TOL
+        assert np.abs(d.subtree_com[1] - pin.centerOfMass(pm, pd, q)).max() < TOL
+        M_pin = pin.crba(pm, pd, q)
+        M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
+        T = sim.state_map.velocity_transform(q)
+        M_mj = _full_mass_matrix(m, d)
+        assert np.abs(M_pin - T.T @ M_mj @ T).max() < TOL * np.abs(M_pin).max()
+
+
+def test_velocity_round_trip_and_body_velocities(sim):
+    robot, m, d = sim.robot, sim.model, sim.data
+    pm = robot.model
+    pd = pm.createData()
+    for q, v in _random_states(robot, seed=1):
+        sim.set_state(q, v)
+        q2, v2 = sim.get_state()
+        np.testing.assert_array_equal(q2[7:], q[7:])
+        assert np.abs(q2 - q).max() < 1e-15 and np.abs(v2 - v).max() < 1e-13
+        assert np.abs(sim.state_map.velocity_transform(q) @ v - d.qvel).max() < 1e-13
+        pin.forwardKinematics(pm, pd, q, v)
+        pin.updateFramePlacements(pm, pd)
+        res = np.zeros(6)
+        for b in range(1, m.nbody):
+            mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, b, res, 0)  # (ang, lin) at xpos, world
+            vp = pin.getFrameVelocity(pm, pd, _body_frame(pm, m.body(b).name), pin.LOCAL_WORLD_ALIGNED)
+            assert np.abs(res[3:6] - vp.linear).max() < TOL and np.abs(res[0:3] - vp.angular).max() < TOL
+
+
+def test_bias_forces_and_forward_dynamics(sim):
+    robot, m, d = sim.robot, sim.model, sim.data
+    pm = robot.model
+    pd = pm.createData()
+    rng = np.random.default_rng(2)
+    for q, v in _random_states(robot, seed=2):
+        tau = rng.uniform(-1.0, 1.0, robot.nv - 6) * np.minimum(sim.effort_limit, 50.0)
+        sim.set_state(q, v, forward=False)
+        sim.set_torques(tau)
+        mujoco.mj_forward(m, d)
+        assert d.ncon == 0 and d.nefc == 0  # in the air, joints strictly inside their limits
+        T = sim.state_map.velocity_transform(q)
+        nle_mj = T.T @ (d.qfrc_bias + _full_mass_matrix(m, d) @ sim.state_map.acceleration_offset(q, v))
+        nle = pin.nonLinearEffects(pm, pd, q, v)
+        assert np.abs(nle - nle_mj).max() < TOL * np.abs(nle).max()
+        a = pin.aba(pm, pd, q, v, np.r_[np.zeros(6), tau])
+        assert np.abs(sim.get_acceleration() - a).max() < TOL * np.abs(a).max()
+    sim.set_torques(np.zeros(robot.nv - 6))
+
+
+def test_external_force_at_point(sim):
+    robot, m, d = sim.robot, sim.model, sim.data
+    pm = robot.model
+    pd = pm.createData()
+    q, v = next(_random_states(robot, n=1, seed=3))
+    body = robot.torso
+    force = np.array([30.0, -20.0, 10.0])
+    for point in (None, np.array([0.1, 0.2, 5.3])):
+        sim.set_state(q, v)
+        qacc0 = d.qacc.copy()
+        sim.apply_external_force(body, force, point)
+        mujoco.mj_forward(m, d)
+        gen_mj = _full_mass_matrix(m, d) @ (d.qacc - qacc0)
+        sim.clear_external_forces()
+        gen_pin = sim.state_map.force_to_pin(q, gen_mj)
+        fid = _body_frame(pm, body)
+        J = pin.computeFrameJacobian(pm, pd, q, fid, pin.LOCAL_WORLD_ALIGNED)
+        r = np.zeros(3) if point is None else point - pd.oMf[fid].translation
+        J_point = J[0:3] - pin.skew(r) @ J[3:6]
+        expected = J_point.T @ force
+        assert np.abs(gen_pin - expected).max() < TOL * np.abs(expected).max()
+    with pytest.raises(UnknownFrameError):
+        sim.apply_external_force("no_such_body", force)
+
+
+def _standing_torques(robot, sim):
+    """Contact-consistent gravity compensation at q_ref (weight shared by the feet) plus stable joint PD gains."""
+    pm, q0 = robot.model, robot.q_ref
+    pd = pm.createData()
+    g = pin.rnea(pm, pd, q0, np.zeros(pm.nv), np.zeros(pm.nv))
+    J = np.vstack([
+        pin.computeFrameJacobian(pm, pd, q0, robot.frame_id(f), pin.LOCAL_WORLD_ALIGNED)
+        for f in (robot.left_sole, robot.right_sole)
+    ])
+    wrenches = np.linalg.lstsq(J[:, :6].T, g[:6], rcond=None)[0]
+    M = pin.crba(pm, pd, q0)
+    M = np.triu(M) + np.triu(M, 1).T
+    i_eff = 1.0 / np.diag(np.linalg.inv(M))[6:]  # joint inertia seen with the base free
+    dt = sim.timestep
+    kp = np.minimum(10.0 * sim.effort_limit, 0.1 * i_eff / dt**2)
+    kd = 0.5 * i_eff / dt
+    return (g - J.T @ wrenches)[6:], kp, kd
+
+
+def test_standing_contacts_and_ground_reaction(sim):
+    robot, d = sim.robot, sim.data
+    q0 = robot.q_ref
+    mujoco.mj_resetData(sim.model, d)
+    sim.set_state(q0)
+    # Initial contact set: only foot boxes touch the floor, no self-contact.
+    assert sim.non_foot_ground_contacts() == [] and sim.self_contacts() == []
+    foot_geoms = np.concatenate(list(sim.foot_geoms.values()))
+    for i in range(d.ncon):
+        assert {d.contact.geom1[i], d.contact.geom2[i]} - {sim.floor_geom} <= set(foot_geoms)
+    tau_ff, kp, kd = _standing_torques(robot, sim)
+    mg = 9.81 * robot.mass
+    fz = []
+    for _ in range(250):
+        q, v = sim.get_state()
+        sim.set_torques(tau_ff + kp * (q0[7:] - q[7:]) - kd * v[6:])
+        sim.step()
+        assert sim.non_foot_ground_contacts() == [] and sim.self_contacts() == []
+        f = sim.foot_contact_forces()
+        fz.append(f["left"][2] + f["right"][2])
+    points = sim.foot_contact_points()
+    assert {s: len(p) for s, p in points.items()} == {"left": 4, "right": 4}
+    # The 4 contacts are the sole rectangle's corners.
+    for side, pts in points.items():
+        pose = sim.sole_pose(side)
+        corners = robot.sole_corners_local() @ pose.rotation.T + pose.translation
+        dist = np.min(np.linalg.norm(pts[:, None, :2] - corners[None, :, :2], axis=2), axis=1)
+        assert dist.max() < 2e-3 and np.abs(pts[:, 2]).max() < 2e-3
+    assert abs(np.mean(fz[-50:]) / mg - 1.0) < 0.01
+    q, _ = sim.get_state()
+    assert abs(q[2] - q0[2]) < 5e-3 and np.abs(q[7:] - q0[7:]).max() < 0.05
+    wrench = sim.foot_contact_wrenches()
+    np.testing.assert_allclose(wrench["left"][:3], sim.foot_contact_forces()["left"])
+    sim.set_torques(np.zeros(robot.nv - 6))
+
+
+def test_invalid_inputs(sim):
+    robot = sim.robot
+    with pytest.raises(InvalidInputError):
+        sim.set_torques(np.zeros(robot.nv - 5))
+    with pytest.raises(InvalidInputError):
+        sim.set_torques(np.full(robot.nv - 6, np.nan))
+    with pytest.raises(InvalidInputError):
+        sim.set_state(robot.q_ref[:-1])
+    bad = robot.q_ref.copy()
+    bad[3:7] = [0.0, 0.0, 0.0, 2.0]
+    with pytest.raises(InvalidInputError):
+        sim.set_state(bad)
+    with pytest.raises(InvalidInputError):
+        build_mujoco_model(robot, timestep=0.004)
+    with pytest.raises(InvalidInputError):
+        build_mujoco_model(robot, foot_contact="spheres")
+
+
+def test_damping_friction_kept_and_srdf_self_collision():
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, zero_joint_damping_friction=False, self_collision="srdf")
+    dofs = sim.state_map.mj_qvel
+    np.testing.assert_array_equal(sim.model.dof_damping[dofs], robot.model.damping[6:])
+    np.testing.assert_array_equal(sim.model.dof_frictionloss[dofs], robot.model.friction[6:])
+    np.testing.assert_array_equal(sim.joint_damping, robot.model.damping[6:])
+    assert sim.damping_friction_in_sim and sim.joint_friction.max() == 1.0
+    # half_sitting: the SRDF's disabled pairs remove every overlap of Talos's collision meshes.
+    assert sim.self_contacts() == []
+    assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
+
+
+def test_mj_step_time_talos(record_property):
+    """Time of one ``mj_step`` for Talos standing on 8 foot contacts (reported, not asserted)."""
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot)
+    tau_ff, kp, kd = _standing_torques(robot, sim)
+    q0, spent, n = robot.q_ref, 0.0, 500
+    for k in range(50 + n):
+        q, v = sim.get_state()
+        sim.set_torques(tau_ff + kp * (q0[7:] - q[7:]) - kd * v[6:])
+        t0 = time.perf_counter()
+        mujoco.mj_step(sim.model, sim.data)
+        spent += (time.perf_counter() - t0) if k >= 50 else 0.0
+    us = spent / n * 1e6
+    record_property("talos_mj_step_us", us)
+    print(f"talos mj_step: {us:.1f} us per step ({sim.data.ncon} contacts)")

@@ -1,0 +1,153 @@
+"""State conversion between Pinocchio (free-flyer) and MuJoCo (free joint) vectors.
+
+Pure numpy; the conventions themselves are documented once, in :mod:`wbc.sim.mujoco_model`. A :class:`StateMap`
+holds the index maps (joints matched by name) and converts configurations, velocities, accelerations and
+generalized forces both ways.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["StateMap", "quat_xyzw_to_matrix", "check_vector"]
+
+_QUAT_NORM_TOL = 1e-3
+
+
+def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
+    """(3, 3) rotation matrix of a unit quaternion given as (x, y, z, w) (normalized first)."""
+    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def check_vector(x, size: int, what: str) -> np.ndarray:
+    """``x`` as a float (size,) array. Raises InvalidInputError on a wrong shape or NaN/inf."""
+    arr = np.asarray(x, dtype=float)
+    if arr.shape != (size,):
+        raise InvalidInputError(f"{what} must have shape ({size},), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInputError(f"{what} contains NaN or inf")
+    return arr
+
+
+@dataclass(frozen=True)
+class StateMap:
+    """Index maps between Pinocchio's and MuJoCo's state vectors (root joint first in both).
+
+    Attributes:
+        nq, nv: Pinocchio sizes; MuJoCo has ``nq - n_continuous`` qpos entries and ``nv`` qvel entries.
+        pin_q: (k,) Pinocchio q indices of the 1-coordinate joints (revolute, prismatic).
+        mj_qpos: (k,) matching MuJoCo qpos indices.
+        pin_q_cs: (c, 2) Pinocchio q indices (cos, sin) of continuous (unbounded revolute) joints.
+        mj_qpos_cs: (c,) matching MuJoCo qpos indices (hinge angle, rad).
+        mj_qvel: (nv - 6,) MuJoCo qvel index of Pinocchio ``v[6 + i]``.
+    """
+
+    nq: int
+    nv: int
+    nq_mj: int
+    pin_q: np.ndarray
+    mj_qpos: np.ndarray
+    pin_q_cs: np.ndarray
+    mj_qpos_cs: np.ndarray
+    mj_qvel: np.ndarray
+
+    # -- configuration ---------------------------------------------------------------------------------------
+    def base_rotation(self, q) -> np.ndarray:
+        """(3, 3) world rotation of the base from a Pinocchio q (quaternion x, y, z, w at q[3:7])."""
+        return quat_xyzw_to_matrix(self._check_quat(np.asarray(q, dtype=float)[3:7]))
+
+    def q_to_mj(self, q) -> np.ndarray:
+        """Pinocchio q (nq,) -> MuJoCo qpos (nq_mj,). The quaternion is normalized (|norm - 1| <= 1e-3).
+
+        Raises:
+            InvalidInputError: wrong shape, NaN/inf, or a base quaternion that is far from unit norm.
+        """
+        q = check_vector(q, self.nq, "q")
+        quat = self._check_quat(q[3:7])
+        qpos = np.empty(self.nq_mj)
+        qpos[0:3] = q[0:3]
+        qpos[3] = quat[3]
+        qpos[4:7] = quat[0:3]
+        qpos[self.mj_qpos] = q[self.pin_q]
+        if len(self.mj_qpos_cs):
+            qpos[self.mj_qpos_cs] = np.arctan2(q[self.pin_q_cs[:, 1]], q[self.pin_q_cs[:, 0]])
+        return qpos
+
+    def q_from_mj(self, qpos) -> np.ndarray:
+        """MuJoCo qpos (nq_mj,) -> Pinocchio q (nq,)."""
+        qpos = check_vector(qpos, self.nq_mj, "qpos")
+        q = np.empty(self.nq)
+        q[0:3] = qpos[0:3]
+        q[3:6] = qpos[4:7]
+        q[6] = qpos[3]
+        q[self.pin_q] = qpos[self.mj_qpos]
+        if len(self.mj_qpos_cs):
+            q[self.pin_q_cs[:, 0]] = np.cos(qpos[self.mj_qpos_cs])
+            q[self.pin_q_cs[:, 1]] = np.sin(qpos[self.mj_qpos_cs])
+        return q
+
+    # -- velocity, acceleration, force ----------------------------------------------------------------------
+    def v_to_mj(self, q, v) -> np.ndarray:
+        """Pinocchio v (nv,) at configuration q -> MuJoCo qvel (nv,): ``qvel = T(q) v``."""
+        v = check_vector(v, self.nv, "v")
+        rot = self.base_rotation(check_vector(q, self.nq, "q"))
+        qvel = np.empty(self.nv)
+        qvel[0:3] = rot @ v[0:3]
+        qvel[3:6] = v[3:6]
+        qvel[self.mj_qvel] = v[6:]
+        return qvel
+
+    def v_from_mj(self, q, qvel) -> np.ndarray:
+        """MuJoCo qvel (nv,) -> Pinocchio v (nv,) at Pinocchio configuration q: ``v = T(q)⁻¹ qvel``."""
+        qvel = check_vector(qvel, self.nv, "qvel")
+        rot = self.base_rotation(check_vector(q, self.nq, "q"))
+        v = np.empty(self.nv)
+        v[0:3] = rot.T @ qvel[0:3]
+        v[3:6] = qvel[3:6]
+        v[6:] = qvel[self.mj_qvel]
+        return v
+
+    def velocity_transform(self, q) -> np.ndarray:
+        """(nv, nv) matrix T(q) with ``qvel = T v``: blockdiag(R_base, I3, permutation)."""
+        T = np.zeros((self.nv, self.nv))
+        T[0:3, 0:3] = self.base_rotation(check_vector(q, self.nq, "q"))
+        T[3:6, 3:6] = np.eye(3)
+        T[self.mj_qvel, np.arange(6, self.nv)] = 1.0
+        return T
+
+    def acceleration_offset(self, q, v) -> np.ndarray:
+        """(nv,) term ``Ṫ v`` of ``qacc = T a + Ṫ v``: only ``[0:3] = R (ω × v_lin)`` is non-zero."""
+        v = check_vector(v, self.nv, "v")
+        off = np.zeros(self.nv)
+        off[0:3] = self.base_rotation(check_vector(q, self.nq, "q")) @ np.cross(v[3:6], v[0:3])
+        return off
+
+    def a_from_mj(self, q, v, qacc) -> np.ndarray:
+        """MuJoCo qacc (nv,) -> Pinocchio a (nv,) = dv/dt at state (q, v) in Pinocchio conventions."""
+        qacc = check_vector(qacc, self.nv, "qacc")
+        return self.v_from_mj(q, qacc - self.acceleration_offset(q, v))
+
+    def force_to_pin(self, q, f_mj) -> np.ndarray:
+        """Generalized force in MuJoCo coordinates (nv,) -> Pinocchio coordinates: ``Tᵀ f`` (same power).
+
+        Note: for a bias force, ``b_pin = Tᵀ (qfrc_bias + M_mj Ṫ v)`` (see :meth:`acceleration_offset`).
+        """
+        f_mj = check_vector(f_mj, self.nv, "generalized force")
+        return self.velocity_transform(q).T @ f_mj
+
+    def _check_quat(self, quat: np.ndarray) -> np.ndarray:
+        n = float(np.linalg.norm(quat))
+        if not np.isfinite(n) or abs(n - 1.0) > _QUAT_NORM_TOL:
+            raise InvalidInputError(
+                f"base quaternion q[3:7] (x, y, z, w) = {quat} has norm {n:.6g}; expected a unit quaternion"
+            )
+        return quat / n

@@ -1,0 +1,315 @@
+"""MuJoCo model of a :class:`~wbc.robot.Robot`, compiled at run time from the same URDF as the Pinocchio model.
+
+:func:`build_mujoco_model` loads the URDF text (``package://`` and relative mesh paths made absolute) into
+``mujoco.MjSpec`` with ``<compiler fusestatic="false" discardvisual="false" strippath="false"
+inertiafromgeom="false" balanceinertia="false"/>`` (without ``fusestatic="false"`` the jointless root link is
+merged into the world and Talos loses 13.5 kg), then edits the spec:
+
+* a free joint ``root_joint`` on the root body (the URDF root link, whose body frame is Pinocchio's root joint
+  frame), a ground plane ``floor`` (z = 0, priority 1 so its friction is the contact friction);
+* one ``motor`` actuator per actuated joint, named like the joint, created in **Pinocchio's joint order** (so
+  ``ctrl[i]`` is the torque of Pinocchio's ``v[6 + i]``), gear 1, ctrlrange = forcerange = ± URDF effort limit
+  (unlimited when the URDF limit is 0 or inf);
+* feet (``foot_contact="box"``): the collision geoms of every body rigidly attached to a sole frame are removed
+  and replaced by one box ``{left,right}_foot_box`` whose bottom face is the sole rectangle
+  (``sole_length`` × ``sole_width``) at the sole frame; box-on-plane gives 4 corner contacts per flat foot.
+  ``"urdf"`` keeps the URDF collision geoms instead. Visual geoms (group 1, no collision) are always kept;
+* collision bits: robot collision geoms have ``contype=ROBOT_BIT, conaffinity=ENV_BIT``; the floor has
+  ``contype=ENV_BIT, conaffinity=ENV_BIT | ROBOT_BIT``. Hence every robot collision geom touches the floor (a
+  non-foot body on the ground means a fall) while robot–robot pairs never collide (default: URDF collision
+  meshes of Talos overlap in half_sitting: 23 contacts, ~480 kN). ``self_collision="srdf"`` re-enables
+  robot–robot collision minus the SRDF ``disable_collisions`` pairs, ``"all"`` minus MuJoCo's parent–child
+  filter only. Objects added later should use the floor's bits to be touched by the robot;
+* joint damping / dry friction: MuJoCo applies URDF ``<dynamics damping friction>`` (Talos upper body: 1 and 1),
+  Pinocchio's RNEA/ABA ignore them. Default ``zero_joint_damping_friction=True`` zeroes them in MuJoCo so both
+  models have the same dynamics; the URDF values stay available (``joint_damping``, ``joint_friction``) for a
+  controller that wants to compensate them after building with ``zero_joint_damping_friction=False``;
+* armature = Pinocchio's ``model.armature`` (0 for the catalog robots). To model rotor inertia, set
+  ``robot.model.armature[6:]`` before building: both models then keep the same mass matrix. The model itself
+  is stable at 2 ms with zero armature, but an explicit joint PD is not on light links (G1 ankle roll and wrist:
+  effective inertia ~4e-4 kg·m²): keep ``kd < Ieff / dt`` and ``kp < 0.1 Ieff / dt²`` there, Ieff = 1 / (M⁻¹)ᵢᵢ.
+* the foot boxes are in geom group 3 (hidden by default in viewers); URDF collision geoms stay in group 0.
+  Joint position limits are enforced by MuJoCo, velocity limits are not.
+
+Conventions (implemented by :class:`wbc.sim.conventions.StateMap`), with R the base rotation (world ← base):
+
+==================  =========================================  ==========================================
+quantity            Pinocchio                                  MuJoCo
+==================  =========================================  ==========================================
+base position       ``q[0:3]`` world (m)                       ``qpos[0:3]`` world (same)
+base orientation    ``q[3:7]`` = (x, y, z, w)                  ``qpos[3:7]`` = (w, x, y, z)
+joints              ``q[7:]`` Pinocchio tree order             ``qpos[mj_qpos]``, matched by joint name
+base linear vel.    ``v[0:3]`` base frame (LOCAL)              ``qvel[0:3] = R v[0:3]`` world frame
+base angular vel.   ``v[3:6]`` base frame                      ``qvel[3:6] = v[3:6]`` base frame (same)
+joint velocities    ``v[6:]``                                  ``qvel[mj_qvel]``
+==================  =========================================  ==========================================
+
+So ``qvel = T(q) v`` with ``T = blockdiag(R, I3, P)`` (P a permutation), ``qacc = T a + Ṫ v`` with
+``Ṫ v = [R (ω × v_lin), 0, ...]``, generalized forces ``τ_pin = Tᵀ τ_mj``, ``M_pin = Tᵀ M_mj T`` and
+``nle_pin = Tᵀ (qfrc_bias + M_mj Ṫ v)``. Continuous joints (Pinocchio (cos, sin)) map to a hinge angle.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Callable
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import InvalidInputError, SimulationError
+from wbc.robot import Robot
+from wbc.sim.conventions import StateMap
+from wbc.sim.mujoco_runtime import MujocoModel
+
+__all__ = ["MujocoModel", "build_mujoco_model", "ENV_BIT", "ROBOT_BIT", "MAX_TIMESTEP"]
+
+ENV_BIT = 1  #: contype/conaffinity bit of the environment (floor, obstacles)
+ROBOT_BIT = 2  #: contype bit of robot collision geoms
+MAX_TIMESTEP = 0.002  #: s
+_SIDES = ("left", "right")
+
+
+def build_mujoco_model(
+    robot: Robot,
+    *,
+    timestep: float = MAX_TIMESTEP,
+    foot_contact: str = "box",
+    self_collision: bool | str = False,
+    zero_joint_damping_friction: bool = True,
+    floor_friction: float = 1.0,
+    foot_box_thickness: float = 0.005,
+    integrator: str = "implicitfast",
+    customize: Callable[[mujoco.MjSpec], None] | None = None,
+) -> MujocoModel:
+    """Compile a MuJoCo model of ``robot`` from its URDF (see the module docstring for every modelling choice).
+
+    Args:
+        robot: the robot; its URDF, package dirs, sole frames and sole size are used.
+        timestep: integration step (s), 0 < timestep <= 0.002.
+        foot_contact: ``"box"`` (sole-rectangle box per foot) or ``"urdf"`` (URDF foot collision geoms).
+        self_collision: ``False`` (robot geoms collide with the environment only), ``"srdf"`` (robot–robot
+            collision except the SRDF ``disable_collisions`` pairs) or ``"all"``.
+        zero_joint_damping_friction: zero URDF joint damping and dry friction in MuJoCo (Pinocchio ignores them).
+        floor_friction: sliding friction coefficient of the floor (it overrides the robot geoms' friction).
+        foot_box_thickness: height (m) of the foot boxes (they extend from the sole plane up into the foot).
+        integrator: MuJoCo integrator name: ``"euler"``, ``"implicitfast"``, ``"implicit"`` or ``"rk4"``.
+        customize: called with the ``MjSpec`` just before compilation (add cameras, lights, obstacles...).
+
+    Returns:
+        A :class:`MujocoModel` whose state is ``robot.q_ref`` at rest (``mj_forward`` done).
+
+    Raises:
+        InvalidInputError: a bad option value.
+        SimulationError: the URDF cannot be compiled or does not match the Pinocchio model (joint names,
+            joint types, total mass).
+    """
+    if not (0.0 < timestep <= MAX_TIMESTEP):
+        raise InvalidInputError(f"timestep must be in (0, {MAX_TIMESTEP}] s, got {timestep}")
+    if foot_contact not in ("box", "urdf"):
+        raise InvalidInputError(f"foot_contact must be 'box' or 'urdf', got {foot_contact!r}")
+    if self_collision not in (False, "srdf", "all"):
+        raise InvalidInputError(f"self_collision must be False, 'srdf' or 'all', got {self_collision!r}")
+    if self_collision == "srdf" and robot.srdf_path is None:
+        raise InvalidInputError(f"self_collision='srdf' but robot {robot.name!r} has no SRDF")
+    integrators = {"euler": "EULER", "implicitfast": "IMPLICITFAST", "implicit": "IMPLICIT", "rk4": "RK4"}
+    if integrator not in integrators:
+        raise InvalidInputError(f"integrator must be one of {sorted(integrators)}, got {integrator!r}")
+    if not (floor_friction > 0 and foot_box_thickness > 0):
+        raise InvalidInputError("floor_friction and foot_box_thickness must be positive")
+
+    pmodel = robot.model
+    text = _urdf_for_mujoco(robot)
+    try:
+        spec = mujoco.MjSpec.from_string(text)
+    except Exception as exc:  # mujoco raises ValueError with the compiler message
+        raise SimulationError(f"MuJoCo cannot load the URDF of {robot.name!r}: {exc}") from exc
+    spec.option.timestep = float(timestep)
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrators[integrator]}")
+
+    roots = list(spec.worldbody.bodies)
+    if len(roots) != 1 or list(roots[0].joints):
+        raise SimulationError(f"URDF of {robot.name!r} must have one jointless root link, got {len(roots)}")
+    roots[0].add_freejoint(name="root_joint")
+
+    # Joints (matched by name) and actuators, in Pinocchio order.
+    joint_names = list(pmodel.names[2:])
+    mj_joint_names = {j.name for j in spec.joints if j.type != mujoco.mjtJoint.mjJNT_FREE}
+    if set(joint_names) != mj_joint_names:
+        raise SimulationError(
+            f"joint names differ between Pinocchio and MuJoCo for {robot.name!r}: only in Pinocchio "
+            f"{sorted(set(joint_names) - mj_joint_names)}, only in MuJoCo {sorted(mj_joint_names - set(joint_names))}"
+        )
+    effort = np.array([pmodel.effortLimit[pmodel.joints[i].idx_v] for i in range(2, pmodel.njoints)])
+    effort = np.where((effort > 0) & np.isfinite(effort), effort, np.inf)
+    for i, name in enumerate(joint_names):
+        jmodel = pmodel.joints[i + 2]
+        if jmodel.nv != 1:
+            raise SimulationError(f"joint {name!r} has {jmodel.nv} DoF; only 1-DoF joints are supported")
+        joint = spec.joint(name)
+        if zero_joint_damping_friction:
+            joint.damping, joint.frictionloss = np.zeros(3), 0.0  # damping: polynomial coefficients
+        joint.armature = float(pmodel.armature[jmodel.idx_v])
+        limited = bool(np.isfinite(effort[i]))
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE if limited else mujoco.mjtLimited.mjLIMITED_FALSE
+        act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_motor()
+        act.gear[0] = 1.0
+        if limited:
+            joint.actfrcrange = [-effort[i], effort[i]]
+            act.ctrllimited = act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            act.ctrlrange = act.forcerange = [-effort[i], effort[i]]
+        else:
+            act.ctrllimited = act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
+
+    # Collision geometry: feet, bits, floor, self-collision exclusions.
+    feet = {side: _foot(robot, getattr(robot, f"{side}_sole")) for side in _SIDES}
+    foot_body_names = {side: feet[side][1] for side in _SIDES}
+    self_bits = ROBOT_BIT if self_collision else 0
+    for geom in list(spec.geoms):
+        if geom.contype == 0 and geom.conaffinity == 0:
+            continue  # visual geom
+        body = geom.parent.name
+        if foot_contact == "box" and any(body in names for names in foot_body_names.values()):
+            spec.delete(geom)
+            continue
+        geom.contype, geom.conaffinity = ROBOT_BIT, ENV_BIT | self_bits
+        geom.margin = geom.gap = 0.0
+    if foot_contact == "box":
+        h = float(foot_box_thickness)
+        for side in _SIDES:
+            body_name, _, placement = feet[side]
+            center = placement.translation + placement.rotation @ np.array([0.0, 0.0, 0.5 * h])
+            quat = pin.Quaternion(placement.rotation)
+            spec.body(body_name).add_geom(
+                name=f"{side}_foot_box", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
+                quat=[quat.w, quat.x, quat.y, quat.z],
+                size=[0.5 * robot.sole_length, 0.5 * robot.sole_width, 0.5 * h],
+                contype=ROBOT_BIT, conaffinity=ENV_BIT | self_bits, group=3, rgba=[0.9, 0.5, 0.1, 0.5],
+            )
+    spec.worldbody.add_geom(
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 0.05], contype=ENV_BIT,
+        conaffinity=ENV_BIT | ROBOT_BIT, friction=[floor_friction, 0.005, 0.0001], priority=1,
+        rgba=[0.8, 0.8, 0.8, 1.0],
+    )
+    if self_collision == "srdf":
+        bodies = {b.name for b in spec.bodies}
+        for a, b in _srdf_disabled_pairs(robot.srdf_path):
+            if a in bodies and b in bodies:
+                spec.add_exclude(bodyname1=a, bodyname2=b)
+    if customize is not None:
+        customize(spec)
+
+    try:
+        model = spec.compile()
+    except Exception as exc:
+        raise SimulationError(f"MuJoCo cannot compile the model of {robot.name!r}: {exc}") from exc
+    return _assemble(robot, model, feet, foot_contact, not zero_joint_damping_friction, effort)
+
+
+def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:
+    pmodel = robot.model
+    mass = float(model.body_subtreemass[1])
+    if abs(mass - robot.mass) > 1e-9 * max(1.0, robot.mass):
+        raise SimulationError(f"MuJoCo total mass {mass} kg differs from Pinocchio's {robot.mass} kg")
+    if model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE or model.jnt_bodyid[0] != 1:
+        raise SimulationError("the root free joint must be MuJoCo's first joint, on body 1")
+    pin_q, mj_qpos, pin_cs, mj_cs, mj_qvel = [], [], [], [], []
+    for i in range(2, pmodel.njoints):
+        jm, jid = pmodel.joints[i], model.joint(pmodel.names[i]).id
+        mj_qvel.append(model.jnt_dofadr[jid])
+        if jm.nq == 1:
+            pin_q.append(jm.idx_q)
+            mj_qpos.append(model.jnt_qposadr[jid])
+        elif jm.nq == 2 and model.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
+            pin_cs.append([jm.idx_q, jm.idx_q + 1])
+            mj_cs.append(model.jnt_qposadr[jid])
+        else:
+            raise SimulationError(f"joint {pmodel.names[i]!r} ({jm.shortname()}) has no MuJoCo equivalent")
+    smap = StateMap(
+        nq=pmodel.nq, nv=pmodel.nv, nq_mj=7 + len(pin_q) + len(pin_cs), pin_q=np.array(pin_q, dtype=int),
+        mj_qpos=np.array(mj_qpos, dtype=int), pin_q_cs=np.array(pin_cs, dtype=int).reshape(-1, 2),
+        mj_qpos_cs=np.array(mj_cs, dtype=int), mj_qvel=np.array(mj_qvel, dtype=int),
+    )
+
+    def body_id(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+
+    foot_bodies = {s: np.array(sorted(body_id(n) for n in feet[s][1]), dtype=int) for s in _SIDES}
+    if foot_contact == "box":
+        foot_geoms = {s: np.array([model.geom(f"{s}_foot_box").id]) for s in _SIDES}
+    else:
+        colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+        foot_geoms = {
+            s: np.flatnonzero(colliding & np.isin(model.geom_bodyid, foot_bodies[s])) for s in _SIDES
+        }
+    sole_placements = {s: (body_id(feet[s][0]), feet[s][2]) for s in _SIDES}
+    v_idx = [pmodel.joints[i].idx_v for i in range(2, pmodel.njoints)]
+    mm = MujocoModel(
+        robot=robot, model=model, data=mujoco.MjData(model), state_map=smap,
+        actuator_ids=np.array([model.actuator(n).id for n in pmodel.names[2:]], dtype=int),
+        effort_limit=effort, joint_damping=np.array(pmodel.damping[v_idx]),
+        joint_friction=np.array(pmodel.friction[v_idx]), damping_friction_in_sim=keep_df,
+        floor_geom=model.geom("floor").id, foot_geoms=foot_geoms, foot_bodies=foot_bodies,
+        sole_placements=sole_placements,
+    )
+    mm.set_state(robot.q_ref, np.zeros(pmodel.nv))
+    return mm
+
+
+def _foot(robot: Robot, sole: str) -> tuple[str, set[str], pin.SE3]:
+    """(MuJoCo body carrying the sole's joint, names of all bodies rigidly attached to it, sole in that body)."""
+    pmodel = robot.model
+    frame = pmodel.frames[robot.frame_id(sole)]
+    joint = frame.parentJoint
+    bodies = [f for f in pmodel.frames if f.type == pin.FrameType.BODY and f.parentJoint == joint]
+    # The link moved by the joint: its BODY frame has the joint frame placement closest to identity (the child
+    # link of the joint); fixed links hang below it.
+    link = next((f for f in bodies if f.parentFrame == _joint_frame_id(pmodel, joint)), None)
+    if link is None:
+        raise SimulationError(f"cannot find the link moved by joint {pmodel.names[joint]!r} (sole {sole!r})")
+    return link.name, {f.name for f in bodies}, link.placement.actInv(frame.placement)
+
+
+def _joint_frame_id(pmodel: pin.Model, joint: int) -> int:
+    return next(i for i, f in enumerate(pmodel.frames) if f.type == pin.FrameType.JOINT and f.parentJoint == joint)
+
+
+def _urdf_for_mujoco(robot: Robot) -> str:
+    """URDF text with absolute mesh paths and MuJoCo compiler options (see the module docstring)."""
+    urdf = Path(robot.urdf_path)
+    text = urdf.read_text()
+    dirs = [Path(d) for d in robot.package_dirs]
+
+    def resolve(match: re.Match) -> str:
+        ref = match.group(2)
+        if ref.startswith("package://"):
+            rel = ref[len("package://"):]
+            candidates = [d / rel for d in dirs]
+        elif ref.startswith("file://"):
+            candidates = [Path(ref[len("file://"):])]
+        else:
+            candidates = [urdf.parent / ref]
+        for c in candidates:
+            if c.is_file():
+                return f"{match.group(1)}{c.resolve()}{match.group(3)}"
+        raise SimulationError(f"mesh {ref!r} of {urdf} not found (searched {[str(c) for c in candidates]})")
+
+    text = re.sub(r"""(<mesh\b[^>]*?\bfilename\s*=\s*["'])([^"']+)(["'])""", resolve, text)
+    text = re.sub(r"<mujoco\b.*?</mujoco>|<mujoco\b[^>]*/>", "", text, flags=re.S)
+    compiler = (
+        '<mujoco><compiler fusestatic="false" discardvisual="false" strippath="false" '
+        'inertiafromgeom="false" balanceinertia="false" angle="radian"/></mujoco>'
+    )
+    text, n = re.subn(r"(<robot\b[^>]*>)", lambda m: m.group(1) + compiler, text, count=1)
+    if n != 1:
+        raise SimulationError(f"{urdf} has no <robot> element")
+    return text
+
+
+def _srdf_disabled_pairs(srdf: Path) -> list[tuple[str, str]]:
+    root = ET.parse(srdf).getroot()
+    return [(e.get("link1"), e.get("link2")) for e in root.iter("disable_collisions")]
