@@ -9,6 +9,13 @@ velocity (floating base included):
             lb ≤ v ≤ ub                       (intersection of all bound constraints: joint position and velocity
                                                limits over dt)
 
+Equality rows that are (numerically) linearly dependent on others are dropped before the solve and their
+residual is checked after it (≤ ``dependent_row_tolerance``). Example: a leg whose hip-roll → hip-pitch →
+knee → ankle-pitch → ankle-roll chain is in gimbal lock when the sole is flat cannot change the foot's yaw
+relative to the pelvis, so two flat stance feet fix the base yaw twice. The independent set is chosen by QR
+with column pivoting of Aᵀ (numerical rank: |R_ii| > ``rank_rtol`` · |R_00|), once per change of the
+constraint set, and again after a failed tick.
+
 with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s), feed-forward ė*_i, and
 v*_i = ė*_i − K_i e_i. ε (``damping``) keeps H positive definite. The next configuration is
 q⁺ = pin.integrate(q, v dt).
@@ -23,6 +30,7 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
+import scipy.linalg
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
@@ -61,6 +69,8 @@ class KinematicController:
         solver: QP backend name (``proxqp`` default: warm-started, holds bounds to 1e-9) or a
             :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
+        rank_rtol: relative tolerance of the numerical rank of the equality rows.
+        dependent_row_tolerance: largest residual accepted on a dropped equality row (its units: m/s, rad/s).
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -68,12 +78,15 @@ class KinematicController:
     """
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
-                 solver: str | QPBackend = "proxqp", damping: float = 1e-6):
+                 solver: str | QPBackend = "proxqp", damping: float = 1e-6, rank_rtol: float = 1e-3,
+                 dependent_row_tolerance: float = 1e-3):
         if not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
         self.nv = robot.model.nv
         self.damping = float(damping)
+        self.rank_rtol = float(rank_rtol)
+        self.dependent_row_tolerance = float(dependent_row_tolerance)
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
         self.constraints: list[Constraint] = []
@@ -85,6 +98,7 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
+        self._eq_rows: np.ndarray | None = None  # independent equality rows; None = recompute
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task) -> Task:
@@ -100,10 +114,22 @@ class KinematicController:
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self.constraints.append(constraint)
+        self._eq_rows = None
         return constraint
 
     def remove_constraint(self, constraint: Constraint) -> None:
         self.constraints.remove(constraint)
+        self._eq_rows = None
+
+    @staticmethod
+    def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
+        """Indices of a maximal linearly independent subset of the rows of A (QR with pivoting of Aᵀ)."""
+        if A.shape[0] == 0:
+            return np.zeros(0, dtype=int)
+        _, R, piv = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
+        diag = np.abs(np.diag(R))
+        rank = int(np.sum(diag > rtol * max(diag[0], 1.0)))
+        return np.sort(piv[:rank])
 
     # -- assembly -------------------------------------------------------------------------------------------
     def assemble(self, config: Configuration, dt: float):
@@ -155,12 +181,21 @@ class KinematicController:
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         t0 = perf_counter()
-        problem = self.assemble(config, dt)
+        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+        if self._eq_rows is None:
+            self._eq_rows = self.independent_rows(A, self.rank_rtol)
+        full_rank = self._eq_rows.size == A.shape[0]
+        A_kept, b_kept = (A, b) if full_rank else (A[self._eq_rows], b[self._eq_rows])
         t1 = perf_counter()
         try:
-            v = self.backend.solve(*problem)
+            v = self.backend.solve(H, g, A_kept, b_kept, C, l, u, lb, ub)
+            if not full_rank:
+                residual = float(np.max(np.abs(A @ v - b)))
+                if residual > self.dependent_row_tolerance:
+                    raise SolverError(f"dependent equality rows violated by {residual:.3g} after the solve")
             result = TickResult(v)
         except SolverError as exc:
+            self._eq_rows = None  # the rank may have changed: recompute next tick
             result = TickResult(np.zeros(self.nv), ok=False, message=str(exc))
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}

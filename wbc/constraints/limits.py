@@ -32,12 +32,13 @@ class JointPositionLimit(BoxConstraint):
 
     Args:
         robot: the robot (limits read from ``robot.model``).
-        margin: keep this far (rad) inside each limit, ≥ 0.
+        margin: keep this far (rad) inside each limit, ≥ 0. The default 1e-9 rad absorbs the round-off of
+            q + ((q_max − q)/dt)·dt, which can otherwise land one ulp outside the limit.
     """
 
     name = "joint_position_limit"
 
-    def __init__(self, robot, *, margin: float = 0.0):
+    def __init__(self, robot, *, margin: float = 1e-9):
         model = robot.model
         self.idx_q, self.indices = bounded_joints(model)
         self.dim = int(self.indices.size)

@@ -1,0 +1,274 @@
+"""Walking at 500 Hz: the gait plan feeds the kinematic QP controller every tick.
+
+Per tick k (period dt): the :class:`~wbc.gait.WalkPlan` gives the CoM reference (position, velocity), the swing
+sole reference (pose, velocity) and the support phase; stance soles are hard contact constraints at their
+touch-down placement; the QP gives v; q ← pin.integrate(q, v dt).
+
+The log (``--log walk.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv); ``com`` and
+``com_ref`` (N, 3) m, world; ``zmp_ref`` (N, 2) m, world; ``left_sole``/``right_sole`` (N, 4, 4) world poses;
+``support`` (N,) 0 = double, 1 = left stance, 2 = right stance; ``tick_time`` (N,) s; ``joint_names`` (nv−6,);
+``robot`` (name); ``dt``. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
+computed from it (applied for dt); ``com_ref[k]`` is the plan's CoM at t[k].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from time import perf_counter
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.controller import KinematicController
+from wbc.gait import WalkPlan, plan_walk
+from wbc.gait.support import signed_distance, sole_polygon, convex_hull
+from wbc.robot import Robot
+from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+
+__all__ = ["WalkController", "WalkRun", "plan_default_walk", "run_walk", "walk_summary"]
+
+DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
+
+
+def plan_default_walk(robot: Robot, config: Configuration | None = None, dt: float = 0.002, **overrides) -> WalkPlan:
+    """Plan a straight walk from the robot's current stance with its descriptor's gait defaults.
+
+    Args:
+        robot: the robot; ``robot.gait`` holds its defaults.
+        config: current configuration (default: ``robot.q_ref``).
+        dt: sampling period (s).
+        **overrides: any keyword of :func:`wbc.gait.plan_walk` (``n_steps``, ``step_length``...); None values
+            are ignored.
+
+    Raises:
+        GaitError: the requested walk cannot be planned.
+    """
+    config = config or Configuration(robot)
+    kwargs = dict(robot.gait)
+    kwargs.update({k: v for k, v in overrides.items() if v is not None})
+    return plan_walk(
+        config.data.oMf[robot.frame_id(robot.left_sole)].homogeneous,
+        config.data.oMf[robot.frame_id(robot.right_sole)].homogeneous,
+        config.com.copy(),
+        dt=dt,
+        sole_length=robot.sole_length,
+        sole_width=robot.sole_width,
+        **kwargs,
+    )
+
+
+class WalkController:
+    """The kinematic QP wired for walking: CoM, swing sole, torso orientation and posture tasks; stance soles as
+    hard contacts; joint position and velocity limits.
+
+    Args:
+        robot: the robot.
+        config: its current configuration (contacts start at the current sole placements).
+        solver: QP backend name.
+        com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s).
+    """
+
+    def __init__(self, robot: Robot, config: Configuration, *, solver: str = "proxqp", com_gain: float = 100.0,
+                 foot_gain: float = 100.0, torso_gain: float = 50.0, posture_gain: float = 10.0):
+        self.robot = robot
+        self.com = ComTask(weight=10.0, gain=com_gain)
+        self.torso = OrientationTask(robot, robot.torso, weight=1.0, gain=torso_gain, name="torso")
+        self.posture = PostureTask(robot, weight=1e-2, gain=posture_gain)
+        self.swing = {
+            side: FrameTask(robot, frame, position_weight=10.0, orientation_weight=10.0, gain=foot_gain,
+                            name=f"swing:{side}")
+            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
+        }
+        self.contact = {
+            side: ContactConstraint(robot, frame, gain=foot_gain)
+            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
+        }
+        for c in self.contact.values():
+            c.set_placement_from_configuration(config)
+        self.torso.set_target_from_configuration(config)
+        self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
+        self.controller = KinematicController(
+            robot, [self.com, self.torso, self.posture],
+            [self.contact["left"], self.contact["right"], JointPositionLimit(robot), JointVelocityLimit(robot)],
+            solver=solver,
+        )
+        self.stance = {"left": True, "right": True}
+
+    def set_support(self, support: int, config: Configuration) -> None:
+        """Switch contacts/swing tasks for a support phase (0 double, 1 left stance, 2 right stance); a sole that
+        touches down is held where it landed (its placement in ``config``)."""
+        wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
+        for side in ("left", "right"):
+            if wanted[side] == self.stance[side]:
+                continue
+            if wanted[side]:  # touch-down
+                self.controller.remove_task(self.swing[side])
+                self.contact[side].set_placement_from_configuration(config)
+                self.controller.add_constraint(self.contact[side])
+            else:  # lift-off
+                self.controller.remove_constraint(self.contact[side])
+                self.controller.add_task(self.swing[side])
+            self.stance[side] = wanted[side]
+
+    def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
+        """Targets of sample k of the plan, at the current configuration."""
+        self.set_support(int(plan.support[k]), config)
+        self.com.set_target(plan.com[k], plan.com_vel[k])
+        if not self.stance["left"]:
+            self.swing["left"].set_target(plan.left_sole[k], plan.left_sole_vel[k])
+        if not self.stance["right"]:
+            self.swing["right"].set_target(plan.right_sole[k], plan.right_sole_vel[k])
+        yaw_l = math.atan2(plan.left_sole[k][1, 0], plan.left_sole[k][0, 0])
+        yaw_r = math.atan2(plan.right_sole[k][1, 0], plan.right_sole[k][0, 0])
+        yaw = math.atan2(math.sin(yaw_l) + math.sin(yaw_r), math.cos(yaw_l) + math.cos(yaw_r))
+        self.torso.set_target(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, np.zeros(3)))
+
+
+@dataclass
+class WalkRun:
+    """Arrays recorded during a walk (see the module docstring for the log format)."""
+
+    robot: str
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    com: np.ndarray
+    com_ref: np.ndarray
+    zmp_ref: np.ndarray
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    support: np.ndarray
+    tick_time: np.ndarray
+    solver_ok: np.ndarray
+    joint_names: list[str]
+
+    def save(self, path) -> None:
+        """Write the npz log (module docstring)."""
+        np.savez_compressed(
+            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, zmp_ref=self.zmp_ref,
+            left_sole=self.left_sole, right_sole=self.right_sole, support=self.support, tick_time=self.tick_time,
+            solver_ok=self.solver_ok, joint_names=np.array(self.joint_names), robot=np.array(self.robot),
+            dt=np.array(self.dt),
+        )
+
+
+def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = "proxqp", config: Configuration | None = None,
+             viewer=None, pacer=None) -> WalkRun:
+    """Walk ``plan`` at its sampling period under the kinematic QP.
+
+    Args:
+        robot: the robot.
+        plan: the walk (from :func:`plan_default_walk` or :func:`wbc.gait.plan_walk`).
+        solver: QP backend name.
+        config: starting configuration (default ``robot.q_ref``; must match the plan's initial stance).
+        viewer: optional object with ``update(q, t)`` (non-blocking, e.g. :class:`wbc.viz.LiveViewer`).
+        pacer: optional :class:`wbc.viz.RealTimePacer` (``wait(t_sim)`` once per tick) for real-time pacing.
+
+    Returns:
+        :class:`WalkRun` with one row per tick.
+    """
+    config = config or Configuration(robot)
+    walker = WalkController(robot, config, solver=solver)
+    n, dt = len(plan.t), plan.dt
+    model = robot.model
+    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
+    out_q = np.empty((n, model.nq))
+    out_v = np.empty((n, model.nv))
+    out_com = np.empty((n, 3))
+    out_l = np.empty((n, 4, 4))
+    out_r = np.empty((n, 4, 4))
+    tick = np.empty(n)
+    ok = np.empty(n, dtype=bool)
+    for k in range(n):
+        out_q[k] = config.q
+        out_com[k] = config.com
+        out_l[k] = config.data.oMf[lf].homogeneous
+        out_r[k] = config.data.oMf[rf].homogeneous
+        t0 = perf_counter()
+        walker.set_references(plan, k, config)
+        result = walker.controller.solve(config, dt)
+        config.update(config.integrate(result.v, dt))
+        tick[k] = perf_counter() - t0
+        ok[k] = result.ok
+        out_v[k] = result.v
+        if viewer is not None:
+            viewer.update(config.q, (k + 1) * dt)
+        if pacer is not None:
+            pacer.wait((k + 1) * dt)
+    return WalkRun(
+        robot=robot.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com, com_ref=plan.com.copy(),
+        zmp_ref=plan.zmp.copy(), left_sole=out_l, right_sole=out_r, support=plan.support.copy(), tick_time=tick,
+        solver_ok=ok, joint_names=robot.joint_names,
+    )
+
+
+def _support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, support: np.ndarray,
+                    length: float, width: float) -> np.ndarray:
+    """Signed distance (m, > 0 inside) of each point (N, 2) to the support polygon given by the sole poses."""
+    out = np.empty(len(points))
+    for k in range(len(points)):
+        polys = []
+        for side, pose in ((LEFT_STANCE, left[k]), (RIGHT_STANCE, right[k])):
+            if support[k] in (DOUBLE, side):
+                polys.append(sole_polygon(pose[0, 3], pose[1, 3], math.atan2(pose[1, 0], pose[0, 0]), length, width))
+        poly = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+        out[k] = float(signed_distance(points[k], poly))
+    return out
+
+
+def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
+    """Acceptance metrics of a walk.
+
+    Returns a dict with: robot, solver-independent plan info, dt (s), ticks, planned_distance and
+    walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
+    max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
+    its stance began), min_zmp_margin (m, signed distance of the plan's ZMP — recomputed from its CoM
+    and CoM acceleration — to the support polygon of the REALIZED soles, negative = outside),
+    joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
+    solver_failures, nan (any non-finite q or v).
+    """
+    model = robot.model
+    from wbc.constraints.limits import bounded_joints
+
+    idx_q, idx_v = bounded_joints(model)
+    qj = run.q[:, idx_q]
+    pos_viol = int(np.sum((qj < model.lowerPositionLimit[idx_q]) | (qj > model.upperPositionLimit[idx_q])))
+    vmax = model.velocityLimit[6:]
+    vel_viol = int(np.sum(np.abs(run.v[:, 6:]) > vmax))
+    mid0 = 0.5 * (plan.left_sole[0, :2, 3] + plan.right_sole[0, :2, 3])
+    mid1 = 0.5 * (run.left_sole[-1, :2, 3] + run.right_sole[-1, :2, 3])
+    slip = 0.0
+    for side, stance_ids, poses in (("left", (DOUBLE, LEFT_STANCE), run.left_sole),
+                                    ("right", (DOUBLE, RIGHT_STANCE), run.right_sole)):
+        in_stance = np.isin(run.support, stance_ids)
+        # contiguous stance intervals (rows are states at the start of each tick)
+        starts = np.flatnonzero(in_stance & ~np.r_[False, in_stance[:-1]])
+        ends = np.flatnonzero(in_stance & ~np.r_[in_stance[1:], False])
+        for a, b in zip(starts, ends):
+            anchor = poses[a, :3, 3]  # where the sole was when its stance began
+            slip = max(slip, float(np.max(np.linalg.norm(poses[a:b + 1, :3, 3] - anchor, axis=1))))
+    zmp_plan = plan.com[:, :2] - plan.com_acc[:, :2] / plan.omega**2
+    zmp_margin = _support_margin(zmp_plan, run.left_sole, run.right_sole, run.support, robot.sole_length,
+                                 robot.sole_width)
+    tt = run.tick_time * 1e6
+    return {
+        "robot": robot.name,
+        "dt": run.dt,
+        "ticks": int(len(run.t)),
+        "duration_s": float(run.t[-1]),
+        "steps": int(len(plan.footsteps)),
+        "planned_distance_m": float(plan.planned_distance),
+        "walked_distance_m": float(np.linalg.norm(mid1 - mid0)),
+        "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
+        "max_com_error_m": float(np.max(np.linalg.norm(run.com - run.com_ref, axis=1))),
+        "max_stance_slip_m": slip,
+        "min_zmp_margin_m": float(zmp_margin.min()),
+        "joint_position_violations": pos_viol,
+        "joint_velocity_violations": vel_viol,
+        "solver_failures": int(np.sum(~run.solver_ok)),
+        "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
+    }
