@@ -95,7 +95,7 @@ def cmd_walk(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from wbc.qp import available_solvers
+    from wbc.qp import DEFAULT_SOLVER, available_solvers
 
     parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -106,7 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--step-length", type=float, default=None, help="m (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=float, default=None, help="m (default: current feet distance)")
     walk.add_argument("--turn", type=float, default=0.0, help="yaw change per step, rad (default 0)")
-    walk.add_argument("--solver", default="proxqp", choices=available_solvers(), help="QP backend")
+    walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     _add_outputs(walk)
     walk.set_defaults(func=cmd_walk)

@@ -35,7 +35,7 @@ import scipy.linalg
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import QPBackend, make_backend
+from wbc.qp import DEFAULT_SOLVER, QPBackend, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -66,8 +66,8 @@ class KinematicController:
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (``proxqp`` default: warm-started, holds bounds to 1e-9) or a
-            :class:`~wbc.qp.QPBackend`.
+        solver: QP backend name (default ``wbc.qp.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+            exactly) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped equality row (its units: m/s, rad/s).
@@ -78,7 +78,7 @@ class KinematicController:
     """
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
-                 solver: str | QPBackend = "proxqp", damping: float = 1e-6, rank_rtol: float = 1e-3,
+                 solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
                  dependent_row_tolerance: float = 1e-3):
         if not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
@@ -90,6 +90,8 @@ class KinematicController:
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
         self.constraints: list[Constraint] = []
+        self._layout_ok = False
+        self._eq_rows: np.ndarray | None = None
         for t in tasks:
             self.add_task(t)
         for c in constraints:
@@ -98,7 +100,6 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
-        self._eq_rows: np.ndarray | None = None  # independent equality rows; None = recompute
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task) -> Task:
@@ -115,11 +116,13 @@ class KinematicController:
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self.constraints.append(constraint)
         self._eq_rows = None
+        self._layout_ok = False
         return constraint
 
     def remove_constraint(self, constraint: Constraint) -> None:
         self.constraints.remove(constraint)
         self._eq_rows = None
+        self._layout_ok = False
 
     @staticmethod
     def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
@@ -132,40 +135,55 @@ class KinematicController:
         return np.sort(piv[:rank])
 
     # -- assembly -------------------------------------------------------------------------------------------
+    def _build_layout(self) -> None:
+        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change)."""
+        eq = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
+        ineq = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
+        self._box = [c for c in self.constraints if isinstance(c, BoxConstraint)]
+        self._eq_blocks, self._in_blocks = [], []
+        row = 0
+        for c in eq:
+            self._eq_blocks.append((c, row, row + c.dim))
+            row += c.dim
+        self._A = np.zeros((row, self.nv))
+        self._b = np.zeros(row)
+        row = 0
+        for c in ineq:
+            self._in_blocks.append((c, row, row + c.dim))
+            row += c.dim
+        self._C = np.zeros((row, self.nv))
+        self._l = np.zeros(row)
+        self._u = np.zeros(row)
+        self._lb = np.empty(self.nv)
+        self._ub = np.empty(self.nv)
+        self._layout_ok = True
+
     def assemble(self, config: Configuration, dt: float):
-        """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring)."""
+        """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
+
+        The arrays are buffers owned by the controller, overwritten at the next call.
+        """
+        if not self._layout_ok:
+            self._build_layout()
         H, g = self._H, self._g
         np.copyto(H, self._eye)
         g.fill(0.0)
         for task in self.tasks:
-            error, jac = task.compute(config)
-            target = task.velocity_target(error)
-            wj = jac * task.weight[:, None]
-            H += jac.T @ wj
-            g -= wj.T @ target
-        eq_A, eq_b, in_C, in_l, in_u = [], [], [], [], []
-        lb = np.full(self.nv, -np.inf)
-        ub = np.full(self.nv, np.inf)
-        for c in self.constraints:
-            if isinstance(c, EqualityConstraint):
-                A, b = c.compute(config, dt)
-                eq_A.append(A)
-                eq_b.append(b)
-            elif isinstance(c, InequalityConstraint):
-                C, l, u = c.compute(config, dt)
-                in_C.append(C)
-                in_l.append(l)
-                in_u.append(u)
-            else:
-                lo, hi = c.compute(config, dt)
-                idx = c.indices
-                lb[idx] = np.maximum(lb[idx], lo)
-                ub[idx] = np.minimum(ub[idx], hi)
-        A = np.vstack(eq_A) if eq_A else np.zeros((0, self.nv))
-        b = np.concatenate(eq_b) if eq_b else np.zeros(0)
-        C = np.vstack(in_C) if in_C else np.zeros((0, self.nv))
-        l = np.concatenate(in_l) if in_l else np.zeros(0)
-        u = np.concatenate(in_u) if in_u else np.zeros(0)
+            task.add_cost(config, H, g)
+        A, b = self._A, self._b
+        for c, r0, r1 in self._eq_blocks:
+            A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        C, l, u = self._C, self._l, self._u
+        for c, r0, r1 in self._in_blocks:
+            C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
+        lb, ub = self._lb, self._ub
+        lb.fill(-np.inf)
+        ub.fill(np.inf)
+        for c in self._box:
+            lo, hi = c.compute(config, dt)
+            idx = c.indices
+            lb[idx] = np.maximum(lb[idx], lo)
+            ub[idx] = np.minimum(ub[idx], hi)
         return H, g, A, b, C, l, u, lb, ub
 
     # -- one tick -------------------------------------------------------------------------------------------

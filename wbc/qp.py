@@ -4,15 +4,17 @@ Every backend solves
 
     min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
 
-and returns x, or raises :class:`~wbc.exceptions.SolverError`. ``proxqp`` keeps one warm-started
-``proxsuite.proxqp.dense.QP`` per problem size (rebuilt only when the number of rows changes); every other name
-goes through ``qpsolvers.solve_qp``. After a solve, the solution is checked against every constraint: a
+and returns x, or raises :class:`~wbc.exceptions.SolverError`. ``daqp`` calls DAQP's dual active-set solver
+directly (no conversion layer; equalities as sense-5 rows, bounds as DAQP's simple bounds, the previous tick's
+active bounds as warm start); ``proxqp`` keeps one warm-started ``proxsuite.proxqp.dense.QP`` per problem size
+(rebuilt only when the number of rows changes); every other name goes through ``qpsolvers.solve_qp``. After a solve, the solution is checked against every constraint: a
 violation above the backend's tolerance is a failure; one below it is projected onto the bounds so that
 integrating x never crosses a joint limit.
 """
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -20,7 +22,11 @@ import qpsolvers
 
 from wbc.exceptions import SolverError, UnknownSolverError
 
-__all__ = ["QPBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
+
+#: Backend used when none is named: measured fastest on the Talos tick while holding bounds exactly
+#: (benchmarks/: ``wbc bench`` solver table).
+DEFAULT_SOLVER = "daqp"
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 
@@ -51,7 +57,7 @@ class QPBackend(ABC):
                 ``tolerance``.
         """
         x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is None or not np.all(np.isfinite(x)):
+        if x is None or not math.isfinite(x @ x):
             raise SolverError(f"QP backend {self.name!r} found no solution")
         viol = self.violation(x, A, b, C, l, u, lb, ub)
         if viol > self.tolerance:
@@ -61,13 +67,54 @@ class QPBackend(ABC):
     @staticmethod
     def violation(x, A, b, C, l, u, lb, ub) -> float:
         """Largest violation of any constraint by x (0 when feasible)."""
-        worst = max(0.0, float(np.max(lb - x, initial=0.0)), float(np.max(x - ub, initial=0.0)))
+        worst = max(0.0, (lb - x).max(), (x - ub).max())
         if A.shape[0]:
-            worst = max(worst, float(np.max(np.abs(A @ x - b))))
+            worst = max(worst, np.abs(A @ x - b).max())
         if C.shape[0]:
             cx = C @ x
-            worst = max(worst, float(np.max(l - cx, initial=0.0)), float(np.max(cx - u, initial=0.0)))
-        return worst
+            worst = max(worst, (l - cx).max(), (cx - u).max())
+        return float(worst)
+
+
+class DaqpBackend(QPBackend):
+    """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
+    recursive LDLᵀ updates", IEEE TAC 2022) called directly: bounds as simple bounds, equalities as sense-5 rows,
+    the previous tick's active bounds as warm start (sense 1)."""
+
+    name = "daqp"
+
+    def __init__(self, tolerance: float = 1e-6):
+        import daqp
+
+        self._daqp = daqp
+        self.tolerance = tolerance
+        self._sense: np.ndarray | None = None
+        self._layout: tuple[int, int, int] | None = None
+
+    def _solve(self, H, g, A, b, C, l, u, lb, ub):
+        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
+        if self._layout != (n, n_eq, n_in):
+            self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
+            self._layout = (n, n_eq, n_in)
+        sense = self._sense
+        sense[n:n + n_eq] = 5
+        if n_in:
+            G = np.vstack([A, C]) if n_eq else C
+            upper = np.concatenate([ub, b, u])
+            lower = np.concatenate([lb, b, l])
+        else:
+            G = A
+            upper = np.concatenate([ub, b])
+            lower = np.concatenate([lb, b])
+        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, sense)
+        if exitflag < 1:
+            sense[:] = 0
+            return None
+        active = np.abs(info["lam"]) > 0
+        sense[:n] = active[:n]
+        if n_in:
+            sense[n + n_eq:] = active[n + n_eq:]
+        return x
 
 
 class ProxQPBackend(QPBackend):
@@ -157,4 +204,6 @@ def make_backend(name: str) -> QPBackend:
         raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
     if name == "proxqp":
         return ProxQPBackend()
+    if name == "daqp":
+        return DaqpBackend()
     return QpsolversBackend(name, **_SETTINGS.get(name, {}))

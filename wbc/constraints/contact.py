@@ -1,7 +1,11 @@
 """Contact constraint: a frame in rigid contact does not move.
 
-Hard equality on its 6-D velocity, with drift correction towards the pose recorded at contact:
-    J v = −K e,   e = frame pose error w.r.t. the contact placement (see :mod:`wbc.tasks.frame`).
+Hard equality on its 6-D velocity in ``LOCAL_WORLD_ALIGNED`` (linear and angular velocity in world axes), with
+drift correction towards the placement recorded at contact:
+
+    J v = −K e,   e = (p − p*, R* log₃(R*ᵀ R))   (m, rad; world axes)
+
+J v = 0 is exactly "the frame does not move"; the correction term only removes integration drift.
 """
 
 from __future__ import annotations
@@ -9,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbc.configuration import Configuration
+from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import EqualityConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.tasks.frame import as_se3, frame_error_and_jacobian
+from wbc.tasks.frame import as_se3
 
 __all__ = ["ContactConstraint"]
 
@@ -41,18 +45,39 @@ class ContactConstraint(EqualityConstraint):
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
 
+    @property
+    def placement(self) -> pin.SE3:
+        """Contact placement (world) the frame must hold."""
+        return self._placement
+
+    @placement.setter
+    def placement(self, pose: pin.SE3) -> None:
+        self._placement = pose.copy()
+        self._rot = pose.rotation.copy()
+        self._rot_t = self._rot.T.copy()
+        self._pos = pose.translation.copy()
+
     def set_placement(self, pose) -> None:
-        """Contact placement (pin.SE3 or (4,4), world) the frame must hold."""
-        self.placement = as_se3(pose, f"placement of {self.name}").copy()
+        """Contact placement (pin.SE3 or (4,4), world) the frame must hold.
+
+        Raises:
+            InvalidTargetError: malformed pose.
+        """
+        self.placement = as_se3(pose, f"placement of {self.name}")
 
     def set_placement_from_configuration(self, config: Configuration) -> None:
         """Contact placement = the frame's current placement."""
-        self.placement = config.data.oMf[self.frame_id].copy()
+        self.placement = config.data.oMf[self.frame_id]
 
     def compute_error(self, config: Configuration) -> np.ndarray:
-        """(6,) pose error of the frame w.r.t. its contact placement (m, rad)."""
-        return frame_error_and_jacobian(config, self.frame_id, self.placement)[0]
+        """(6,) pose error of the frame w.r.t. its contact placement (m, rad; world axes)."""
+        oMf = config.data.oMf[self.frame_id]
+        error = np.empty(6)
+        error[:3] = oMf.translation - self._pos
+        error[3:] = self._rot @ pin.log3(self._rot_t @ oMf.rotation)
+        return error
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        error, jac = frame_error_and_jacobian(config, self.frame_id, self.placement)
-        return jac, -min(self.gain, 1.0 / dt) * error
+        error = self.compute_error(config)
+        error *= -min(self.gain, 1.0 / dt)
+        return config.frame_jacobian(self.frame_id, LOCAL_WORLD_ALIGNED), error

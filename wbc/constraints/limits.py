@@ -46,11 +46,12 @@ class JointPositionLimit(BoxConstraint):
         self.q_max = model.upperPositionLimit[self.idx_q] - margin
         vmax = model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+        self._neg_v_max = -self.v_max
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         q = config.q[self.idx_q]
-        lb = np.clip((self.q_min - q) / dt, -self.v_max, self.v_max)
-        ub = np.clip((self.q_max - q) / dt, -self.v_max, self.v_max)
+        lb = np.minimum(np.maximum((self.q_min - q) / dt, self._neg_v_max), self.v_max)
+        ub = np.maximum(np.minimum((self.q_max - q) / dt, self.v_max), self._neg_v_max)
         return lb, ub
 
 
@@ -65,6 +66,7 @@ class JointVelocityLimit(BoxConstraint):
         self.dim = int(self.indices.size)
         vmax = scale * model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+        self._neg_v_max = -self.v_max
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        return -self.v_max, self.v_max
+        return self._neg_v_max, self.v_max

@@ -23,6 +23,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.controller import KinematicController
+from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.robot import Robot
@@ -71,7 +72,7 @@ class WalkController:
         com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s).
     """
 
-    def __init__(self, robot: Robot, config: Configuration, *, solver: str = "proxqp", com_gain: float = 100.0,
+    def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER, com_gain: float = 100.0,
                  foot_gain: float = 100.0, torso_gain: float = 50.0, posture_gain: float = 10.0):
         self.robot = robot
         self.com = ComTask(weight=10.0, gain=com_gain)
@@ -156,7 +157,7 @@ class WalkRun:
         )
 
 
-def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = "proxqp", config: Configuration | None = None,
+def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
              viewer=None, pacer=None) -> WalkRun:
     """Walk ``plan`` at its sampling period under the kinematic QP.
 

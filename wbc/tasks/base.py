@@ -84,5 +84,13 @@ class Task(ABC):
         ff = self.feedforward()
         target = -self.gain * error
         if ff is not None:
-            target = target + ff
+            target += ff
         return target
+
+    def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
+        """Add this task's cost Σ_r w_r (J_r v − v*_r)² to the QP as H += Jᵀ W J, g −= Jᵀ W v* (the constant
+        term is dropped). H (nv, nv) and g (nv,) are modified in place."""
+        error, jac = self.compute(config)
+        wj = jac * self._weight[:, None]
+        H += jac.T @ wj
+        g -= wj.T @ self.velocity_target(error)

@@ -56,3 +56,9 @@ class PostureTask(Task):
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
+
+    def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
+        """J selects coordinates of v, so Jᵀ W J is diagonal: added without forming J."""
+        error = pin.difference(self.model, self.target, config.q)[self.rows]
+        H[self.rows, self.rows] += self._weight
+        g[self.rows] -= self._weight * self.velocity_target(error)
