@@ -1,6 +1,13 @@
-"""wbc: whole-body kinematics and control for humanoid robots, built on Pinocchio."""
+"""wbc: whole-body kinematics and control for humanoid robots, built on Pinocchio.
 
+Data flows one way: robot model (:func:`load_robot`) → kinematics (:class:`Configuration`) → tasks and
+constraints (:mod:`wbc.tasks`, :mod:`wbc.constraints`) → one QP per tick (:class:`KinematicController`) →
+command v, integrated on the manifold.
+"""
+
+from wbc.configuration import Configuration
+from wbc.controller import KinematicController
 from wbc.robot import Robot, catalog, load_robot
 
-__all__ = ["Robot", "catalog", "load_robot"]
+__all__ = ["Configuration", "KinematicController", "Robot", "catalog", "load_robot"]
 __version__ = "0.1.0"
