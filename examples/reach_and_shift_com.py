@@ -1,28 +1,28 @@
-"""Shift the CoM and move a hand while both Talos soles stay fixed: the README's API example.
+"""Shift the CoM and move a hand while both Talos soles stay fixed (the README's API example).
 
 Run: python examples/reach_and_shift_com.py
 """
 
 import numpy as np
 import wbc
-from wbc.tasks import ComTask, PositionTask, PostureTask
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.tasks import ComTask, PositionTask, PostureTask
 
-robot = wbc.load_robot("talos")                     # free-flyer model, half_sitting, soles on z = 0
-config = wbc.Configuration(robot)                   # q = robot.q_ref; Pinocchio kinematics cached
+robot = wbc.load_robot("talos")                       # free flyer, half_sitting, soles on z = 0
+config = wbc.Configuration(robot)                     # q and Pinocchio's kinematics, updated per tick
 feet = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
 for foot in feet:
-    foot.set_placement_from_configuration(config)   # stance soles: hard J v = 0
-com = ComTask(weight=10.0, gain=50.0)                # weights trade tasks off; gains in 1/s
+    foot.set_placement_from_configuration(config)     # hard constraint: J_foot v = 0
+com = ComTask(weight=10.0, gain=50.0)                 # weight: trade-off between tasks; gain: 1/s
 hand = PositionTask(robot, robot.right_hand, weight=10.0, gain=50.0)
-com.set_target(config.com + [0.0, 0.03, -0.05])     # world frame, m
-target = config.frame_placement(hand.frame_id).homogeneous.copy()
-target[:3, 3] += [0.15, 0.0, 0.10]                  # hand 15 cm forward, 10 cm up (world axes)
+com.set_target(config.com + [0.0, 0.03, -0.05])       # world frame, m
+target = config.frame_placement(hand.frame_id).copy()
+target.translation += [0.15, 0.0, 0.10]               # hand 15 cm forward, 10 cm up
 hand.set_target(target)
 ctrl = wbc.KinematicController(robot, [com, hand, PostureTask(robot)],
                                [*feet, JointPositionLimit(robot), JointVelocityLimit(robot)])
-for _ in range(1000):                               # 2 s at 500 Hz
-    result = ctrl.solve(config, dt=0.002)           # QP → generalized velocity v (nv,)
-    config.update(config.integrate(result.v, 0.002))
+for _ in range(1000):                                 # 2 s at 500 Hz
+    v = ctrl.solve(config, dt=0.002).v                # QP → generalized velocity (nv,)
+    config.update(config.integrate(v, 0.002))
 print(f"CoM error {np.linalg.norm(com.compute_error(config)) * 1e3:.2f} mm, "
       f"hand error {np.linalg.norm(hand.compute_error(config)) * 1e3:.2f} mm")
