@@ -1,0 +1,248 @@
+"""Inverse-dynamics QP (wbc.dynamics): equations of motion, RNEA agreement and constraints at every tick."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc.dynamics import (
+    AngularMomentumTask,
+    BalanceController,
+    ComAccelerationTask,
+    DynamicsState,
+    FrameAccelerationTask,
+    InverseDynamicsController,
+    InverseDynamicsQP,
+    PostureAccelerationTask,
+    SoleContact,
+    acceleration_task,
+)
+from wbc.exceptions import (
+    ConfigurationError,
+    InvalidInputError,
+    InvalidTargetError,
+    SolverError,
+    UnknownFrameError,
+    UnknownSolverError,
+)
+from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.tasks import ComTask, FrameTask, PositionTask, PostureTask
+
+TOL = 1e-6
+
+
+def _independent_contact_jacobian(robot, q, contact: SoleContact) -> np.ndarray:
+    """(12, nv) Jacobians of the 4 corner points, rows in the sole frame, from Pinocchio only."""
+    model = robot.model
+    data = model.createData()
+    J6 = pin.computeFrameJacobian(model, data, q, contact.frame_id, pin.LOCAL)
+    rows = [J6[:3] - pin.skew(c) @ J6[3:] for c in contact.corners]  # v_corner = v_o + ω × c (sole axes)
+    return np.vstack(rows)
+
+
+def _run_and_check(robot_name: str, ticks: int, push: float):
+    robot = wbc.load_robot(robot_name)
+    sim = build_mujoco_model(robot)
+    ctrl = BalanceController(robot, dt=sim.timestep, f_min=1.0)
+    q, v = sim.get_state()
+    ctrl.reset(q, v)
+    model = robot.model
+    data = model.createData()
+    effort = np.asarray(model.effortLimit[6:])
+    worst = {"residual": 0.0, "rnea": 0.0, "friction": np.inf, "normal": np.inf, "cop": np.inf, "torque": np.inf,
+             "contact_acc": 0.0}
+    for k in range(ticks):
+        if k == ticks // 3:
+            sim.apply_external_force(robot.torso, [0.0, push, 0.0])
+        if k == ticks // 3 + 50:
+            sim.clear_external_forces()
+        q, v = sim.get_state()
+        cmd = ctrl.compute(q, v)
+        assert cmd.ok and not cmd.relaxed, cmd.message
+        dv, f, tau = cmd.dv, cmd.forces, cmd.tau
+        # Equations of motion with independently computed M, h, J_c.
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        h = pin.nonLinearEffects(model, data, q, v)
+        gen_c = np.zeros(model.nv)
+        for i, c in enumerate(ctrl.qp.contacts):
+            gen_c += _independent_contact_jacobian(robot, q, c).T @ f[12 * i:12 * i + 12]
+        residual = M @ dv + h - np.r_[np.zeros(6), tau] - gen_c
+        worst["residual"] = max(worst["residual"], float(np.abs(residual).max()))
+        # τ = RNEA(q, v, v̇) − J_cᵀ f on the actuated rows.
+        rnea = pin.rnea(model, data, q, v, dv)
+        worst["rnea"] = max(worst["rnea"], float(np.abs(tau - (rnea - gen_c)[6:]).max()))
+        # Friction pyramid, unilaterality, CoP in the sole, torque limits.
+        for i, c in enumerate(ctrl.qp.contacts):
+            fc = f[12 * i:12 * i + 12].reshape(4, 3)
+            mu_in = c.mu / math.sqrt(2)
+            worst["friction"] = min(worst["friction"], float((mu_in * fc[:, 2:3] - np.abs(fc[:, :2])).min()))
+            worst["normal"] = min(worst["normal"], float((fc[:, 2] - c.f_min).min()))
+            cop = c.cop(f[12 * i:12 * i + 12])
+            a, b = c.corners[0, 0], c.corners[0, 1]
+            worst["cop"] = min(worst["cop"], float(min(a - abs(cop[0]), b - abs(cop[1]))))
+            # Stance sole does not accelerate: J v̇ + J̇ v = −K_d J v.
+            pin.forwardKinematics(model, data, q, v, dv)
+            acc = pin.getFrameClassicalAcceleration(model, data, c.frame_id, pin.LOCAL).vector
+            vel = pin.getFrameVelocity(model, data, c.frame_id, pin.LOCAL).vector
+            worst["contact_acc"] = max(worst["contact_acc"], float(np.abs(acc + c.kd * vel).max()))
+        worst["torque"] = min(worst["torque"], float((effort - np.abs(tau)).min()))
+        sim.set_torques(tau)
+        sim.step()
+    return worst
+
+
+@pytest.mark.parametrize("robot_name,push", [("talos", 300.0), ("g1", 80.0)])
+def test_dynamics_rnea_and_constraints_every_tick(robot_name, push):
+    """400 ticks (0.8 s) in MuJoCo with a lateral push: every tick satisfies the acceptance equations."""
+    w = _run_and_check(robot_name, 400, push)
+    assert w["residual"] < TOL, w
+    assert w["rnea"] < TOL, w
+    assert w["friction"] > -TOL and w["normal"] > -TOL and w["cop"] > -TOL, w
+    assert w["torque"] > -TOL, w
+    assert w["contact_acc"] < 1e-5, w
+
+
+def test_state_matches_pinocchio_algorithms(robots):
+    robot = robots("talos")
+    rng = np.random.default_rng(0)
+    q = robot.q_ref.copy()
+    q[7:] += rng.uniform(-0.1, 0.1, robot.nq - 7)
+    v = rng.normal(size=robot.nv)
+    st = DynamicsState(robot, q, v)
+    data = robot.model.createData()
+    M = pin.crba(robot.model, data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    assert np.abs(st.M - M).max() < 1e-10  # both triangles filled by computeAllTerms
+    assert np.abs(st.h - pin.nonLinearEffects(robot.model, data, q, v)).max() < 1e-10
+    pin.centerOfMass(robot.model, data, q, v, np.zeros(robot.nv))
+    assert np.abs(st.com_drift - data.acom[0]).max() < 1e-10
+    pin.computeCentroidalMomentumTimeVariation(robot.model, data, q, v, np.zeros(robot.nv))
+    assert np.abs(st.centroidal_drift - data.dhg.vector).max() < 1e-10
+
+
+def _numeric_drift(robot, q, v, f, eps=1e-7):
+    """d/dt (J v) at v̇ = 0 by finite differences along q(t) = q ⊕ t v."""
+    q1 = pin.integrate(robot.model, q, v * eps)
+    q0 = pin.integrate(robot.model, q, -v * eps)
+    return (f(q1) - f(q0)) / (2 * eps)
+
+
+def test_task_drifts_match_finite_differences(robots):
+    robot = robots("talos")
+    rng = np.random.default_rng(1)
+    q = robot.q_ref.copy()
+    q[7:] += rng.uniform(-0.1, 0.1, robot.nq - 7)
+    v = rng.normal(scale=0.5, size=robot.nv)
+    st = DynamicsState(robot, q, v)
+    com = ComAccelerationTask()
+    pos = FrameAccelerationTask(PositionTask(robot, robot.left_sole))
+    pos.set_target(pin.SE3.Identity())
+    for task in (com, pos):
+        _, J, drift, _ = task.error_jacobian_drift(st)
+
+        def jv(qq, task=task):
+            s = DynamicsState(robot, qq, v)
+            return task.error_jacobian_drift(s)[1] @ v
+
+        assert np.abs(drift - _numeric_drift(robot, q, v, jv)).max() < 1e-5 * max(1.0, np.abs(drift).max())
+    # Angular momentum: d/dt (Ag v) at v̇ = 0.
+    am = AngularMomentumTask()
+    J, r = am.compute(st)
+    num = _numeric_drift(robot, q, v, lambda qq: DynamicsState(robot, qq, v).centroidal_momentum_matrix[3:] @ v)
+    assert np.abs(st.centroidal_drift[3:] - num).max() < 1e-5 * max(1.0, np.abs(num).max())
+
+
+def test_solvers_agree_and_fallback(robots):
+    robot = robots("g1")
+    sols = {}
+    for name in ("daqp", "proxqp"):
+        ctrl = BalanceController(robot, solver=name)
+        ctrl.reset(robot.q_ref)
+        cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
+        assert cmd.ok
+        sols[name] = cmd
+    assert np.abs(sols["daqp"].tau - sols["proxqp"].tau).max() < 1e-3
+    assert np.abs(sols["daqp"].dv - sols["proxqp"].dv).max() < 1e-4
+
+    class Broken:
+        name = "broken"
+        tolerance = 1e-6
+
+        def solve(self, *args):
+            raise SolverError("broken on purpose")
+
+    ctrl = BalanceController(robot)
+    ctrl.reset(robot.q_ref)
+    ctrl.qp.backend = Broken()
+    cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
+    assert not cmd.ok and "broken on purpose" in cmd.message
+    assert np.all(np.isfinite(cmd.tau)) and np.all(np.abs(cmd.tau) <= robot.model.effortLimit[6:] + 1e-9)
+    # The fallback's gravity compensation carries the weight: Σ f_z of its wrenches = m g.
+    fz = sum(w[2] for w in cmd.wrenches.values())
+    assert abs(fz - robot.mass * 9.81) < 1e-6 * robot.mass * 9.81
+
+
+def test_joint_acceleration_bounds_keep_limits(robots):
+    robot = robots("talos")
+    qp = InverseDynamicsQP(robot, [PostureAccelerationTask(PostureTask(robot))])
+    dt = 0.002
+    q = robot.q_ref.copy()
+    v = np.zeros(robot.nv)
+    j = qp._iv[0]  # first 1-DoF joint
+    iq = qp._iq[0]
+    q[iq] = qp._qmax[0] - 1e-3
+    v[j] = 0.2  # moving towards the upper limit
+    st = DynamicsState(robot, q, v)
+    lo, hi = qp.joint_acceleration_bounds(st, dt)
+    assert np.all(lo <= hi)
+    # Applying the upper bound for one tick keeps the joint below its limit and the velocity stoppable.
+    v1 = v[j] + hi[0] * dt
+    q1 = q[iq] + v[j] * dt + 0.5 * hi[0] * dt**2
+    assert q1 <= qp._qmax[0] + 1e-12
+    assert v1 <= math.sqrt(2 * qp.braking_acceleration * max(qp._qmax[0] - q1, 0.0)) + 1e-9
+
+
+def test_wrap_and_typed_errors(robots):
+    robot = robots("talos")
+    assert isinstance(acceleration_task(ComTask(), kp=10.0), ComAccelerationTask)
+    assert isinstance(acceleration_task(FrameTask(robot, robot.torso), kp=10.0), FrameAccelerationTask)
+    assert isinstance(acceleration_task(PostureTask(robot), kp=10.0), PostureAccelerationTask)
+    with pytest.raises(InvalidInputError):
+        acceleration_task(object(), kp=1.0)
+    with pytest.raises(InvalidInputError):
+        ComAccelerationTask(kp=-1.0)
+    with pytest.raises(InvalidInputError):
+        FrameAccelerationTask(ComTask())
+    with pytest.raises(InvalidTargetError):
+        ComAccelerationTask().set_feedforward_acceleration([0.0, np.nan, 0.0])
+    with pytest.raises(InvalidInputError):
+        SoleContact(robot, robot.left_sole, mu=0.0)
+    with pytest.raises(InvalidInputError):
+        SoleContact(robot, robot.left_sole, f_min=10.0, f_max=5.0)
+    with pytest.raises(UnknownFrameError):
+        SoleContact(robot, "no_such_sole")
+    with pytest.raises(UnknownSolverError):
+        InverseDynamicsQP(robot, solver="no_such_solver")
+    with pytest.raises(InvalidInputError):
+        InverseDynamicsQP(robot, force_regularization=0.0)
+    with pytest.raises(InvalidInputError):
+        InverseDynamicsController(InverseDynamicsQP(robot), dt=0.0)
+    with pytest.raises(InvalidInputError):
+        BalanceController(robot, gains={"no_such_gain": 1.0})
+    ctrl = BalanceController(robot)
+    ctrl.reset(robot.q_ref)
+    with pytest.raises(ConfigurationError):
+        ctrl.compute(robot.q_ref[:-1], np.zeros(robot.nv))
+    with pytest.raises(ConfigurationError):
+        ctrl.compute(robot.q_ref, np.full(robot.nv, np.nan))
+    bad = robot.q_ref.copy()
+    bad[3:7] = [0.0, 0.0, 0.0, 2.0]
+    with pytest.raises(ConfigurationError):
+        ctrl.compute(bad, np.zeros(robot.nv))
+    with pytest.raises(InvalidInputError):
+        ctrl.qp.solve(ctrl.state, -1.0)

@@ -1,0 +1,137 @@
+"""Closed-loop MuJoCo scenarios under the inverse-dynamics controller (acceptance criteria of ``wbc sim``).
+
+Durations are short but honest: the stand runs 2 s, the pushes run 0.5 s + the push + 2.5 s of recovery.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import wbc
+from wbc.cli import main
+from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.sim.scenarios import (
+    DEFAULT_PUSH_FORCE,
+    OneLegScenario,
+    PushScenario,
+    StandScenario,
+    capture_point_bound,
+    make_controller,
+    run_scenario,
+)
+
+_SIMS: dict[str, object] = {}
+
+
+def _sim(name):
+    if name not in _SIMS:
+        _SIMS[name] = build_mujoco_model(wbc.load_robot(name))
+    return _SIMS[name]
+
+
+def _check_id_summary(s):
+    assert s["max_dynamics_residual"] < 1e-6
+    assert s["solver_failures"] == 0 and s["relaxed_qp_ticks"] == 0
+    assert s["min_friction_margin_n"] > -1e-6 and s["min_normal_force_margin_n"] > -1e-6
+    assert s["min_cop_margin_m"] > -1e-9 and s["min_torque_margin_nm"] > -1e-6
+    assert s["real_time_factor"] >= 1.0, s["real_time_factor"]
+
+
+@pytest.mark.parametrize("robot_name", ["talos", "g1"])
+def test_stand(robot_name):
+    sim = _sim(robot_name)
+    run, s = run_scenario(sim, make_controller(sim.robot, "id"), StandScenario(2.0))
+    assert s["passed"], s["failed_criteria"]
+    assert not s["fell"] and s["com_drift_m"] < 0.005
+    _check_id_summary(s)
+    assert s["tick_time_us"]["median"] < 2000.0
+
+
+@pytest.mark.parametrize("robot_name", ["talos", "g1"])
+def test_push(robot_name):
+    """Talos 450 N, G1 120 N, 0.1 s, lateral, at the torso link origin: no fall, feet stay (no stepping)."""
+    sim = _sim(robot_name)
+    force = DEFAULT_PUSH_FORCE[robot_name]
+    run, s = run_scenario(sim, make_controller(sim.robot, "id"), PushScenario(force, 0.1))
+    assert s["passed"], s["failed_criteria"]
+    assert not s["fell"] and s["feet_moved_m"] < 0.02
+    assert abs(s["push_impulse_ns"] - 0.1 * force) < 1e-6 * force
+    assert np.abs(run.ext_force[:, 1]).max() == force
+    _check_id_summary(s)
+
+
+def test_pd_baseline_falls_where_id_survives():
+    sim = _sim("talos")
+    _, s = run_scenario(sim, make_controller(sim.robot, "pd"), PushScenario(DEFAULT_PUSH_FORCE["talos"], 0.1))
+    assert s["fell"] or s["feet_moved_m"] > 0.02
+    assert not s["passed"]
+
+
+def test_one_leg_talos():
+    sim = _sim("talos")
+    run, s = run_scenario(sim, make_controller(sim.robot, "id"), OneLegScenario())
+    assert s["passed"], s["failed_criteria"]
+    assert s["hold_completed"] and s["lifted_foot_min_height_m"] >= 0.04
+    _check_id_summary(s)
+
+
+def test_capture_point_bound_talos():
+    cp = capture_point_bound(wbc.load_robot("talos"), 0.1)
+    # d = sole half-width + half feet distance (0.065 + 0.085) minus the CoM's lateral offset.
+    assert 0.14 < cp["edge_distance_m"] < 0.155
+    assert cp["f_max_finite_n"] > cp["f_max_impulse_n"] > 400.0
+
+
+def test_cli_stand_json(tmp_path):
+    out = tmp_path / "s.json"
+    log = tmp_path / "s.npz"
+    code = main(["sim", "stand", "--robot", "g1", "--duration", "0.5", "--json", str(out), "--log", str(log)])
+    assert code == 0
+    s = json.loads(out.read_text())
+    for key in ("fell", "fall_reason", "com_drift_m", "max_com_error_m", "min_friction_margin_n",
+                "min_torque_margin_nm", "max_dynamics_residual", "real_time_factor", "tick_time_us"):
+        assert key in s
+    assert set(s["tick_time_us"]) == {"median", "p99", "max"}
+    data = np.load(log)
+    assert data["q"].shape == (250, wbc.load_robot("g1").nq)
+    assert main(["sim", "sway", "--robot", "g1", "--controller", "pd", "--duration", "0.2"]) == 2
+
+
+@pytest.mark.skipif(os.environ.get("MUJOCO_GL", "egl") != "egl" and not os.environ.get("DISPLAY"),
+                    reason="offscreen rendering needs MUJOCO_GL=egl")
+def test_video(tmp_path):
+    pytest.importorskip("imageio_ffmpeg")
+    from wbc.sim.video import render_video
+
+    sim = _sim("g1")
+    t = np.arange(0.0, 0.4, 0.002)
+    q = np.tile(sim.robot.q_ref, (t.size, 1))
+    path = render_video(sim, t, q, tmp_path / "v.mp4", fps=10, width=160, height=120)
+    assert path.stat().st_size > 1000
+
+
+def test_logged_foot_wrenches_match_contact_forces():
+    """The closed loop's cfrc_ext-based foot wrenches equal MujocoModel.foot_contact_wrenches (contact by contact)."""
+    import mujoco
+
+    from wbc.sim.closed_loop import _foot_wrenches
+
+    sim = _sim("talos")
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(sim.robot.q_ref)
+    sim.apply_external_force(sim.robot.torso, [20.0, 40.0, 0.0])
+    for _ in range(5):
+        mujoco.mj_step(sim.model, sim.data)
+    sim.clear_external_forces()
+    sides = ("left", "right")
+    out_w, out_p = np.zeros((2, 6)), np.zeros((2, 3))
+    _foot_wrenches(sim, [sim.foot_bodies[s] for s in sides], [sim.sole_placements[s][0] for s in sides],
+                   [sim.sole_placements[s][1] for s in sides], out_w, out_p)
+    ref = sim.foot_contact_wrenches()
+    for i, s in enumerate(sides):
+        assert np.abs(out_w[i] - ref[s]).max() < 1e-9 * max(1.0, np.abs(ref[s]).max())
+        assert np.abs(out_p[i] - sim.sole_pose(s).translation).max() < 1e-12

@@ -1,0 +1,171 @@
+"""A humanoid balance controller: the inverse-dynamics QP with a standard task set.
+
+Tasks (all at acceleration level, :mod:`wbc.dynamics.tasks`), weights relative to each other:
+
+* CoM position (world), PD + feed-forward — the balance task (highest weight);
+* torso orientation (the robot's ``torso`` frame), keeps the upper body upright;
+* centroidal angular momentum regulated to zero with a moderate weight: it damps whole-body rotation but lets
+  the upper body rotate (hip strategy) when the CoM task needs more horizontal force than the CoP alone
+  gives (Lee & Goswami 2012);
+* posture (every actuated joint, reference ``robot.q_ref``), lowest weight, regularises the redundancy;
+* one pose task per foot, enabled only while that foot is released (swing).
+
+Contacts: one :class:`~wbc.dynamics.contacts.SoleContact` per sole (``left``/``right``), 4 corner forces each.
+Push recovery comes from the CoM task alone: its desired acceleration (PD, Kp 100 /s², Kd 20 /s) exceeds what the
+support polygon allows under a strong push, and the QP then puts the CoP on the polygon edge (corner-force
+bounds) and uses the remaining freedom — upper-body rotation, limited by the angular-momentum and torso tasks —
+to get closer to it; no explicit DCM/capture-point reference shaping is used (measured against the capture-point
+bound in ``wbc sim push --sweep``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.dynamics.contacts import SoleContact
+from wbc.dynamics.controller import IDCommand, InverseDynamicsController
+from wbc.dynamics.formulation import InverseDynamicsQP
+from wbc.dynamics.tasks import (
+    AngularMomentumTask,
+    ComAccelerationTask,
+    FrameAccelerationTask,
+    PostureAccelerationTask,
+)
+from wbc.exceptions import InvalidInputError
+from wbc.robot import Robot
+from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+
+__all__ = ["BalanceController", "DEFAULT_GAINS"]
+
+#: Default gains (kp 1/s², kd 1/s or momentum gain 1/s) and weights.
+DEFAULT_GAINS: dict[str, float] = {
+    "com_kp": 100.0, "com_kd": 20.0, "com_weight": 1000.0,
+    "torso_kp": 100.0, "torso_kd": 20.0, "torso_weight": 10.0,
+    "momentum_gain": 10.0, "momentum_weight": 0.1,
+    "posture_kp": 50.0, "posture_kd": 14.0, "posture_weight": 1.0,
+    "foot_kp": 400.0, "foot_kd": 40.0, "foot_weight": 100.0,
+    "contact_kd": 20.0,
+}
+
+
+class BalanceController:
+    """Inverse-dynamics balance controller for a humanoid standing on its two soles (module docstring).
+
+    Args:
+        robot: the robot.
+        dt: control period (s).
+        solver: QP backend name.
+        mu: friction coefficient of the controller's pyramids.
+        f_min: minimum normal force per sole corner (N).
+        sole_margin: the controller's contact rectangle is the sole shrunk by this much on every side (m), so
+            the CoP it plans keeps this distance from the real sole's edges.
+        gains: overrides of :data:`DEFAULT_GAINS`.
+
+    Raises:
+        InvalidInputError: unknown gain names or bad values. UnknownSolverError: unknown solver.
+    """
+
+    SIDES = ("left", "right")
+
+    def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "daqp", mu: float = 0.7,
+                 f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
+                 **qp_options):
+        unknown = set(gains or {}) - set(DEFAULT_GAINS)
+        if unknown:
+            raise InvalidInputError(f"unknown gains {sorted(unknown)}; known: {sorted(DEFAULT_GAINS)}")
+        self.gains = {**DEFAULT_GAINS, **(gains or {})}
+        gn = self.gains
+        self.robot = robot
+        self.dt = float(dt)
+        self.com = ComAccelerationTask(ComTask(), kp=gn["com_kp"], kd=gn["com_kd"], weight=gn["com_weight"])
+        self.torso = FrameAccelerationTask(OrientationTask(robot, robot.torso), kp=gn["torso_kp"],
+                                           kd=gn["torso_kd"], weight=gn["torso_weight"])
+        self.momentum = AngularMomentumTask(gain=gn["momentum_gain"], weight=gn["momentum_weight"])
+        self.posture = PostureAccelerationTask(PostureTask(robot), kp=gn["posture_kp"], kd=gn["posture_kd"],
+                                               weight=gn["posture_weight"])
+        soles = {"left": robot.left_sole, "right": robot.right_sole}
+        length, width = robot.sole_length - 2 * sole_margin, robot.sole_width - 2 * sole_margin
+        if not (length > 0 and width > 0):
+            raise InvalidInputError(f"sole_margin {sole_margin} m leaves no contact area")
+        self.contacts = {
+            s: SoleContact(robot, soles[s], length=length, width=width, mu=mu, f_min=f_min, kd=gn["contact_kd"],
+                           name=s) for s in self.SIDES
+        }
+        self.feet = {
+            s: FrameAccelerationTask(FrameTask(robot, soles[s]), kp=gn["foot_kp"], kd=gn["foot_kd"],
+                                     weight=gn["foot_weight"], name=f"{s}_foot") for s in self.SIDES
+        }
+        self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
+                                    list(self.contacts.values()), solver=solver, **qp_options)
+        self.controller = InverseDynamicsController(self.qp, dt)
+        self.com_ref = np.zeros(3)
+        self.com_vel_ref = np.zeros(3)
+        self.com_acc_ref = np.zeros(3)
+
+    @property
+    def state(self):
+        """The :class:`~wbc.dynamics.state.DynamicsState` of the last tick."""
+        return self.controller.state
+
+    # -- references ------------------------------------------------------------------------------------------
+    def reset(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
+        """Both feet in contact, CoM reference = current CoM, torso reference = current torso orientation,
+        posture reference = ``robot.q_ref``.
+
+        Raises:
+            ConfigurationError: bad q / v.
+        """
+        st = self.controller.state
+        st.update(q, np.zeros(self.robot.nv) if v is None else v)
+        self.set_com_reference(st.com.copy())
+        self.torso.set_target(st.data.oMf[self.torso.task.frame_id].copy())
+        self.posture.set_target(self.robot.q_ref)
+        for side in self.SIDES:
+            self.contacts[side].activate(st)
+            self.contacts[side].f_max = math.inf
+            if self.feet[side] in self.qp.tasks:
+                self.qp.remove_task(self.feet[side])
+
+    def set_com_reference(self, position, velocity=None, acceleration=None) -> None:
+        """CoM reference (3,) world (m), optional velocity (m/s) and acceleration (m/s²) feed-forwards.
+
+        Raises:
+            InvalidTargetError: wrong shape or NaN.
+        """
+        self.com.set_target(position, velocity)
+        self.com.set_feedforward_acceleration(acceleration)
+        self.com_ref = np.array(position, dtype=float)
+        self.com_vel_ref = np.zeros(3) if velocity is None else np.array(velocity, dtype=float)
+        self.com_acc_ref = np.zeros(3) if acceleration is None else np.array(acceleration, dtype=float)
+
+    def set_max_normal_force(self, side: str, total: float) -> None:
+        """Bound the total normal force of a sole (N) — ramp it to 0 to unload a foot before lifting it."""
+        self.contacts[side].f_max = max(float(total), self.contacts[side].f_min) / 4.0
+
+    def release_foot(self, side: str) -> None:
+        """Deactivate a sole contact and track the foot pose with a frame task (target: current pose)."""
+        contact = self.contacts[side]
+        contact.deactivate()
+        foot = self.feet[side]
+        foot.set_target(self.controller.state.data.oMf[foot.task.frame_id].copy())
+        if foot not in self.qp.tasks:
+            self.qp.add_task(foot)
+
+    def set_foot_reference(self, side: str, pose: pin.SE3, velocity=None, acceleration=None) -> None:
+        """Swing foot reference: pose (world), spatial velocity (6,) and acceleration (6,) feed-forwards
+        (linear then angular, world axes)."""
+        foot = self.feet[side]
+        foot.set_target(pose, velocity)
+        foot.set_feedforward_acceleration(None if acceleration is None else np.asarray(acceleration)[foot.task.rows])
+
+    # -- tick ------------------------------------------------------------------------------------------------
+    def compute(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
+        """Torques for the measured state (see :meth:`InverseDynamicsController.tick`).
+
+        Raises:
+            ConfigurationError: bad q / v.
+        """
+        return self.controller.tick(q, v)

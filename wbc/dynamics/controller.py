@@ -1,0 +1,142 @@
+"""Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.dynamics.formulation`) → torques τ.
+
+:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.controller.KinematicController`:
+one :meth:`~InverseDynamicsController.tick` per control period reads the measured state, updates the Pinocchio
+quantities once (:class:`~wbc.dynamics.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
+contact forces.
+
+Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
+
+1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
+   the same QP is solved **without joint acceleration bounds and torque limits**
+   (:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
+   and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True.
+2. that fails too → **contact-consistent gravity compensation with joint damping** at the current state,
+
+       W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
+       τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)
+
+   the damping gain being the largest a 1-tick explicit loop keeps stable on light links (see
+   :mod:`wbc.sim.mujoco_model`). ``ok`` is False and the reason is in ``message``; the next tick tries the QP
+   again (cold-started by the backend).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from time import perf_counter
+
+import numpy as np
+
+from wbc.dynamics.formulation import IDSolution, InverseDynamicsQP
+from wbc.dynamics.state import DynamicsState
+from wbc.exceptions import InvalidInputError, SolverError
+
+__all__ = ["InverseDynamicsController", "IDCommand"]
+
+
+@dataclass
+class IDCommand:
+    """Output of one tick.
+
+    Attributes:
+        tau: (nv − 6,) joint torques (N·m), Pinocchio's actuated order.
+        dv: (nv,) generalized acceleration of the QP (zeros on fallback).
+        forces: (12 n_c,) corner forces (N, sole frames) (zeros on fallback).
+        wrenches: contact name → (6,) wrench at the sole origin, world axes (N, N·m).
+        ok: a QP (full or relaxed) was solved.
+        relaxed: the relaxed QP (no joint bounds / torque limits) was used.
+        message: failure reason ('' when ok).
+        dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
+        timings: seconds in 'pinocchio', 'assembly', 'solve', 'total'.
+    """
+
+    tau: np.ndarray
+    dv: np.ndarray
+    forces: np.ndarray
+    wrenches: dict[str, np.ndarray] = field(default_factory=dict)
+    ok: bool = True
+    relaxed: bool = False
+    message: str = ""
+    dynamics_residual: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+class InverseDynamicsController:
+    """One inverse-dynamics QP per control tick (module docstring).
+
+    Args:
+        qp: the problem (tasks and contacts are edited on it between ticks).
+        dt: control period (s), > 0.
+
+    Raises:
+        InvalidInputError: dt not finite and > 0.
+    """
+
+    def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002):
+        if not (np.isfinite(dt) and dt > 0):
+            raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+        self.qp = qp
+        self.robot = qp.robot
+        self.dt = float(dt)
+        self.state = DynamicsState(self.robot)
+        self.last_solution: IDSolution | None = None
+        self.n_failures = 0
+        self.n_relaxed = 0
+
+    def tick(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
+        """Compute the torques for the measured state.
+
+        Args:
+            q: (nq,) configuration (Pinocchio conventions). v: (nv,) velocity.
+
+        Returns:
+            :class:`IDCommand` (on QP failure: the fallback of the module docstring, ``ok`` False).
+
+        Raises:
+            ConfigurationError: q or v with a wrong size, NaN/inf, or a non-unit base quaternion.
+        """
+        t0 = perf_counter()
+        self.state.update(q, v)
+        t1 = perf_counter()
+        relaxed = False
+        try:
+            sol = self.qp.solve(self.state, self.dt)
+        except SolverError as exc:
+            try:
+                sol = self.qp.solve_relaxed(self.state, self.dt)
+                relaxed = True
+                self.n_relaxed += 1
+            except SolverError as exc2:
+                self.n_failures += 1
+                cmd = self.fallback(f"{exc}; relaxed QP: {exc2}")
+                cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
+                return cmd
+        self.last_solution = sol
+        cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
+                        dynamics_residual=sol.dynamics_residual)
+        cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
+        return cmd
+
+    def fallback(self, message: str = "") -> IDCommand:
+        """Contact-consistent gravity compensation at the current state (module docstring)."""
+        qp, st = self.qp, self.state
+        nv = qp.nv
+        h = st.h
+        Js = [c.jacobian(st) for c in qp.contacts if c.active]
+        tau = h[6:].copy()
+        wrenches = {c.name: np.zeros(6) for c in qp.contacts}
+        if Js:
+            Jc = np.vstack(Js)
+            W = np.linalg.lstsq(Jc[:, :6].T, h[:6], rcond=None)[0]
+            tau -= (Jc.T @ W)[6:]
+            for i, c in enumerate(c for c in qp.contacts if c.active):
+                R = st.data.oMf[c.frame_id].rotation  # LOCAL sole wrench -> world axes
+                wrenches[c.name] = np.concatenate([R @ W[6 * i:6 * i + 3], R @ W[6 * i + 3:6 * i + 6]])
+        i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[6:]
+        tau -= 0.5 * i_eff / self.dt * st.v[6:]
+        lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
+        tau = np.clip(tau, -lim, lim)
+        return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
+                         message=message or "fallback", dynamics_residual=float("nan"))
+
