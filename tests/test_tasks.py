@@ -9,8 +9,10 @@ import pytest
 from conftest import CATALOG, random_configuration
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint
-from wbc.exceptions import InvalidTargetError, UnknownFrameError, UnknownJointError
-from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask
+from wbc.tasks.base import Task
+from wbc.exceptions import InvalidInputError, InvalidTargetError, UnknownFrameError, UnknownJointError
+from wbc.tasks import (AngularMomentumTask, ComTask, DampingTask, FrameTask, OrientationTask, PositionTask,
+                       PostureTask, RelativeFrameTask)
 
 EPS = 1e-6
 
@@ -30,7 +32,13 @@ def make_tasks(robot, rng):
     posture = PostureTask(robot)
     posture.set_target(random_configuration(robot, rng))
     subset = PostureTask(robot, joints=robot.joint_names[:3])
-    return [frame, partial, pos, ori, com, posture, subset]
+    hand = robot.right_hand or robot.right_sole
+    rel = RelativeFrameTask(robot, hand, robot.torso, position_weight=[1, 2, 3], orientation_weight=[1, 0.5, 2])
+    rel.set_target(target)
+    rel_partial = RelativeFrameTask(robot, robot.left_sole, robot.right_sole, position_weight=[0, 1, 1],
+                                    orientation_weight=[1, 0, 0])
+    rel_partial.set_target(target)
+    return [frame, partial, pos, ori, com, posture, subset, rel, rel_partial]
 
 
 def fd_jacobian(task, robot, q):
@@ -94,3 +102,106 @@ def test_bad_task_inputs_raise_typed_errors(robots):
         com.set_target([0.0, np.nan, 0.8])
     with pytest.raises(InvalidTargetError, match=r"\(3,\)"):
         com.set_target([0.0, 0.8])
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_relative_frame_task_error_is_the_relative_pose(robots, name):
+    """Independent geometry: rMf from the two world placements (homogeneous matrices), error = its translation
+    minus the target's and the rotation vector of R*ᵀ R_rel (scipy), zero at the current relative placement."""
+    from scipy.spatial.transform import Rotation
+
+    robot = robots(name)
+    config = Configuration(robot, random_configuration(robot, np.random.default_rng(5)))
+    hand = robot.right_hand or robot.right_sole
+    task = RelativeFrameTask(robot, hand, robot.torso)
+    task.set_target_from_configuration(config)
+    np.testing.assert_allclose(task.compute_error(config), 0, atol=1e-12)
+    target = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.2, -0.1, 0.05]))
+    task.set_target(target.homogeneous)
+    rel = np.linalg.inv(config.frame_placement(robot.frame_id(robot.torso)).homogeneous) @ \
+        config.frame_placement(robot.frame_id(hand)).homogeneous
+    expected = np.r_[rel[:3, 3] - target.translation,
+                     Rotation.from_matrix(target.rotation.T @ rel[:3, :3]).as_rotvec()]
+    np.testing.assert_allclose(task.compute_error(config), expected, atol=1e-12)
+
+
+def test_damping_task_adds_its_weights_to_the_diagonal(robots):
+    """Velocity-level task: e ≡ 0 and J = identity rows, so its cost is exactly Σ w_j v_j² (H += diag(w), g += 0)."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    for actuated_only, first in ((False, 0), (True, 6)):
+        w = np.linspace(1.0, 2.0, robot.nv - first)
+        task = DampingTask(robot, weight=w, actuated_only=actuated_only)
+        error, J = task.compute(config)
+        assert task.dim == robot.nv - first and np.all(error == 0)
+        np.testing.assert_array_equal(J, np.eye(robot.nv)[first:])
+        H, g = np.zeros((robot.nv, robot.nv)), np.zeros(robot.nv)
+        task.add_cost(config, H, g)
+        np.testing.assert_array_equal(H, np.diag(np.r_[np.zeros(first), w]))
+        assert not g.any()
+        H2, g2 = np.zeros((robot.nv, robot.nv)), np.zeros(robot.nv)
+        Task.add_cost(task, config, H2, g2)  # the generic Jᵀ W J path gives the same
+        np.testing.assert_allclose(H2, H, atol=0)
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_angular_momentum_matrix(robots, name):
+    """J v (J = rows 3:6 of A_g) equals Pinocchio's computeCentroidalMomentum(q, v).angular and an independent
+    sum over bodies Σ (c_i − c) × m_i ċ_i + R_i I_i R_iᵀ ω_i (body velocities from pin.forwardKinematics);
+    computing it leaves the configuration's cached kinematics unchanged."""
+    robot = robots(name)
+    model = robot.model
+    rng = np.random.default_rng(7)
+    q = random_configuration(robot, rng)
+    config = Configuration(robot, q)
+    before = (config.com_jacobian.copy(), config.frame_jacobian(robot.frame_id(robot.torso)).copy(),
+              config.frame_placement(robot.frame_id(robot.left_sole)).homogeneous.copy())
+    task = AngularMomentumTask(robot, weight=[1, 2, 3])
+    error, J = task.compute(config)
+    assert J.shape == (3, robot.nv) and not error.any()
+    np.testing.assert_allclose(config.com_jacobian, before[0], atol=1e-14)
+    np.testing.assert_allclose(config.frame_jacobian(robot.frame_id(robot.torso)), before[1], atol=1e-14)
+    np.testing.assert_allclose(config.frame_placement(robot.frame_id(robot.left_sole)).homogeneous, before[2],
+                               atol=1e-14)
+    data = model.createData()
+    for _ in range(3):
+        v = rng.standard_normal(robot.nv)
+        h = pin.computeCentroidalMomentum(model, data, q, v)
+        np.testing.assert_allclose(J @ v, h.angular, atol=1e-10)
+        pin.forwardKinematics(model, data, q, v)
+        c = pin.centerOfMass(model, data, q)
+        k = np.zeros(3)
+        for i in range(1, model.njoints):
+            inertia, M, vel = model.inertias[i], data.oMi[i], data.v[i]  # vel: body velocity in joint frame
+            ci = M.act(inertia.lever)
+            vi = M.rotation @ (vel.linear + np.cross(vel.angular, inertia.lever))
+            wi = M.rotation @ vel.angular
+            Iw = M.rotation @ inertia.inertia @ M.rotation.T  # rotational inertia about c_i, world axes
+            k += np.cross(ci - c, inertia.mass * vi) + Iw @ wi
+        np.testing.assert_allclose(J @ v, k, atol=1e-9 * max(1.0, np.abs(k).max()))
+    task.set_target([0.0, 0.1, 0.0])
+    np.testing.assert_array_equal(task.velocity_target(error), [0.0, 0.1, 0.0])
+
+
+def test_position_task_accepts_a_point(robots):
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    task = PositionTask(robot, robot.right_hand)
+    p = config.frame_placement(task.frame_id).translation + [0.1, 0, 0]
+    task.set_target(p, velocity=[0.2, 0, 0])
+    np.testing.assert_allclose(task.compute_error(config), [-0.1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(task.feedforward(), [0.2, 0, 0])
+    with pytest.raises(InvalidTargetError):
+        task.set_target([0.0, np.nan, 0.0])
+
+
+def test_new_task_inputs_raise_typed_errors(robots):
+    robot = robots("talos")
+    with pytest.raises(UnknownFrameError):
+        RelativeFrameTask(robot, robot.right_hand, "no_such_frame")
+    with pytest.raises(InvalidInputError):
+        DampingTask(robot, weight=-1.0)
+    with pytest.raises(InvalidInputError):
+        AngularMomentumTask(robot, weight=[1.0, 2.0])
+    with pytest.raises(InvalidTargetError):
+        AngularMomentumTask(robot).set_target([0.0, np.inf, 0.0])

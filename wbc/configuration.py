@@ -7,6 +7,8 @@ kinematics: every number comes from Pinocchio.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -29,9 +31,10 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
     arr = np.asarray(x, dtype=float)
     if arr.shape != (size,):
         raise error(f"{what} must have shape ({size},), got {arr.shape}")
-    if not np.isfinite(arr).all():
+    if not math.isfinite(arr @ arr):  # one BLAS call; NaN/inf propagate (an overflow also lands here)
         bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
-        raise error(f"{what} must be finite; NaN/inf at indices {bad}")
+        if bad:
+            raise error(f"{what} must be finite; NaN/inf at indices {bad}")
     return arr
 
 
@@ -62,7 +65,8 @@ class Configuration:
         """
         if q is not None:
             q = check_vector(q, self.model.nq, "configuration q")
-            quat_norm = float(np.dot(q[3:7], q[3:7]))
+            quat = q[3:7]
+            quat_norm = float(quat @ quat)
             if abs(quat_norm - 1.0) > 1e-6:
                 raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
             self.q = q

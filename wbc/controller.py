@@ -10,7 +10,10 @@ velocity (floating base included):
                                                limits over dt)
 
 Equality rows that are (numerically) linearly dependent on others are dropped before the solve and their
-residual is checked after it (≤ ``dependent_row_tolerance``). Example: a leg whose hip-roll → hip-pitch →
+residual is checked after it (``dependent_residual``): above ``dependent_row_tolerance`` the rank is recomputed
+on the current rows and, if rows have become independent since it was last computed, the tick is solved again
+with them; if not, the dependent rows contradict the kept ones and the tick fails (diagnosis and safe command
+below). Example: a leg whose hip-roll → hip-pitch →
 knee → ankle-pitch → ankle-roll chain is in gimbal lock when the sole is flat cannot change the foot's yaw
 relative to the pelvis, so two flat stance feet fix the base yaw twice. The independent set is chosen by QR
 with column pivoting of Aᵀ (numerical rank: |R_ii| > ``rank_rtol`` · |R_00|), once per change of the
@@ -20,8 +23,33 @@ with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s),
 v*_i = ė*_i − K_i e_i. ε (``damping``) keeps H positive definite. The next configuration is
 q⁺ = pin.integrate(q, v dt).
 
-When the QP cannot be solved, the tick does not raise: the command falls back to v = 0 (hold the current
-posture), ``last_result.ok`` is False and the reason is recorded.
+Priorities (``add_task``):
+
+* ``level=None`` (default): the task joins the weighted soft level above.
+* ``hard=True``: the task becomes an equality constraint J v = v* (:class:`~wbc.constraints.TaskConstraint`,
+  named after the task in conflict reports).
+* ``level=k`` (int ≥ 0; 0 is the highest priority): strict hierarchy. Levels are optimised in increasing k, each
+  only within the optimal set of those above, and the weighted soft level (with ε) comes last — the lexicographic
+  cascade of :mod:`wbc.hierarchy`. That path is taken only when at least one integer level exists; otherwise the
+  single QP above is solved as before.
+
+Bounds are intersected in ``BoxConstraint.priority`` order, lower priorities yielding (see
+:mod:`wbc.constraints.base`); constraints that need the previous command (``needs_previous_command``) receive
+``TickResult.v`` after every tick. Constraints marked ``relaxable`` (joint acceleration limits: a smoothness
+preference) are left out of a tick whose QP is infeasible with them, and the tick is solved again
+(``TickResult.relaxed`` names them) before anything is declared failed.
+
+When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
+input error), ``solve`` does not raise and never returns NaN:
+
+1. diagnosis (:mod:`wbc.diagnosis`): a slack-relaxed solve of the hard set names the conflicting constraints and
+   the violation of each (``TickResult.conflicts``, largest first);
+2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
+   hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend:
+   ``fallback="constraints_only"``; if that fails too (the constraints themselves conflict), v = 0, hold the
+   current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
+
+``ok`` is False for such a tick and ``message`` says why.
 """
 
 from __future__ import annotations
@@ -30,12 +58,14 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
-import scipy.linalg
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
+from wbc.constraints.task import TaskConstraint
+from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import DEFAULT_SOLVER, QPBackend, make_backend
+from wbc.hierarchy import independent_rows, solve_lexicographic
+from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -47,16 +77,26 @@ class TickResult:
     """Outcome of one control tick.
 
     Attributes:
-        v: (nv,) commanded generalized velocity (zero when the solve failed).
+        v: (nv,) commanded generalized velocity; always finite (the safe command when the solve failed).
         ok: the QP was solved.
         message: failure reason ('' when ok).
-        timings: seconds spent in 'assembly' (tasks + constraints) and 'solve'.
+        timings: seconds spent in 'assembly' (tasks + constraints) and 'solve' (including the fallback).
+        conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
+            conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
+        fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
+            objects, hard tasks and strict levels left out) or 'hold' (v = 0).
+        relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
+            left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
+            then solved).
     """
 
     v: np.ndarray
     ok: bool = True
     message: str = ""
     timings: dict[str, float] = field(default_factory=dict)
+    conflicts: list[tuple[str, float]] = field(default_factory=list)
+    fallback: str = ""
+    relaxed: list[str] = field(default_factory=list)
 
 
 class KinematicController:
@@ -70,7 +110,8 @@ class KinematicController:
             exactly) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
-        dependent_row_tolerance: largest residual accepted on a dropped equality row (its units: m/s, rad/s).
+        dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
+            without recomputing the rank within the tick.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -89,9 +130,19 @@ class KinematicController:
         self.dependent_row_tolerance = float(dependent_row_tolerance)
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
+        self.levels: dict[int, list[Task]] = {}
         self.constraints: list[Constraint] = []
+        self._hard: dict[int, TaskConstraint] = {}
+        self._level_order: list[int] = []
+        self._level_backends: list[QPBackend] = []
+        self._fallback_backend: QPBackend | None = None
+        self._final_backend: QPBackend | None = None
+        #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
+        self.level_residuals: list[float] = []
         self._layout_ok = False
         self._eq_rows: np.ndarray | None = None
+        #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
+        self.dependent_residual = 0.0
         for t in tasks:
             self.add_task(t)
         for c in constraints:
@@ -102,16 +153,66 @@ class KinematicController:
         self._eye = np.eye(self.nv) * self.damping
 
     # -- problem definition -------------------------------------------------------------------------------
-    def add_task(self, task: Task) -> Task:
+    def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
+        """Add a task (module docstring: priorities).
+
+        Args:
+            task: the task.
+            level: None (default): weighted soft level; int ≥ 0: strict priority level (0 highest).
+            hard: hold the task as an equality constraint J v = v* (not with ``level``).
+
+        Raises:
+            InvalidInputError: not a Task, a negative/non-integer level, or both ``level`` and ``hard``.
+        """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        self.tasks.append(task)
+        if hard:
+            if level is not None:
+                raise InvalidInputError("a task is either hard or on a priority level, not both")
+            wrapper = TaskConstraint(task)
+            self._hard[id(task)] = wrapper
+            self.add_constraint(wrapper)
+        elif level is None:
+            self.tasks.append(task)
+        else:
+            if isinstance(level, bool) or not isinstance(level, (int, np.integer)) or level < 0:
+                raise InvalidInputError(f"priority level must be an int ≥ 0 (0 = highest), got {level!r}")
+            self.levels.setdefault(int(level), []).append(task)
+            self._level_order = sorted(self.levels)
         return task
 
     def remove_task(self, task: Task) -> None:
-        self.tasks.remove(task)
+        """Remove a task from wherever it was added.
+
+        Raises:
+            ValueError: the task is not in the controller.
+        """
+        if task in self.tasks:
+            self.tasks.remove(task)
+            return
+        if id(task) in self._hard:
+            self.remove_constraint(self._hard.pop(id(task)))
+            return
+        for k, tasks in self.levels.items():
+            if task in tasks:
+                tasks.remove(task)
+                if not tasks:
+                    del self.levels[k]
+                    self._level_order = sorted(self.levels)
+                return
+        raise ValueError(f"task {getattr(task, 'name', task)!r} is not in the controller")
+
+    @property
+    def hard_tasks(self) -> list[Task]:
+        """Tasks added with ``hard=True``."""
+        return [w.task for w in self._hard.values()]
 
     def add_constraint(self, constraint: Constraint) -> Constraint:
+        """Add an equality, inequality or box constraint.
+
+        Raises:
+            InvalidInputError: not a wbc Constraint.
+        """
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self.constraints.append(constraint)
@@ -127,19 +228,22 @@ class KinematicController:
     @staticmethod
     def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
         """Indices of a maximal linearly independent subset of the rows of A (QR with pivoting of Aᵀ)."""
-        if A.shape[0] == 0:
-            return np.zeros(0, dtype=int)
-        _, R, piv = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
-        diag = np.abs(np.diag(R))
-        rank = int(np.sum(diag > rtol * max(diag[0], 1.0)))
-        return np.sort(piv[:rank])
+        return independent_rows(A, rtol)
 
     # -- assembly -------------------------------------------------------------------------------------------
     def _build_layout(self) -> None:
         """Row layout of the equality and inequality blocks and their buffers (redone when constraints change)."""
         eq = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
         ineq = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
-        self._box = [c for c in self.constraints if isinstance(c, BoxConstraint)]
+        self._box = sorted((c for c in self.constraints if isinstance(c, BoxConstraint)), key=lambda c: c.priority)
+        self._feedback = [c for c in self.constraints if c.needs_previous_command]
+        self._box_sel = []  # (box, its indices as a slice when contiguous: views instead of fancy indexing)
+        for c in self._box:
+            idx = np.asarray(c.indices)
+            contiguous = idx.size and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size))
+            self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
+        self._relaxable = [c for c in self.constraints if c.relaxable]
+        self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, self._in_blocks = [], []
         row = 0
         for c in eq:
@@ -156,6 +260,10 @@ class KinematicController:
         self._u = np.zeros(row)
         self._lb = np.empty(self.nv)
         self._ub = np.empty(self.nv)
+        self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
+        for c, r0, r1 in self._eq_blocks:
+            if isinstance(c, TaskConstraint):
+                self._not_hard_task[r0:r1] = False
         self._layout_ok = True
 
     def assemble(self, config: Configuration, dt: float):
@@ -176,46 +284,205 @@ class KinematicController:
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
+        self._intersect_boxes(config, dt)
+        return H, g, A, b, C, l, u, self._lb, self._ub
+
+    def _intersect_boxes(self, config: Configuration, dt: float, record: list | None = None,
+                         skip: set | None = None) -> None:
+        """lb, ub = intersection of the boxes in priority order, each clipped into the running box (so it
+        yields where it would empty it). ``record`` receives (name, indices, lo, hi) effective bounds; boxes
+        whose id is in ``skip`` are left out."""
         lb, ub = self._lb, self._ub
-        lb.fill(-np.inf)
-        ub.fill(np.inf)
-        for c in self._box:
+        boxes = self._box_sel
+        first = True
+        if skip is None and record is None:
+            # leading constant boxes (e.g. velocity limits) are intersected once per layout
+            if self._const_prefix is None:
+                n_const = 0
+                while n_const < len(boxes) and boxes[n_const][0].constant:
+                    n_const += 1
+                self._const_prefix = n_const
+                self._intersect_boxes(config, dt, skip={id(c) for c, _ in boxes[n_const:]})
+                self._const_lb, self._const_ub = lb.copy(), ub.copy()
+            if self._const_prefix:
+                np.copyto(lb, self._const_lb)
+                np.copyto(ub, self._const_ub)
+                boxes = boxes[self._const_prefix:]
+                first = False
+        if first:
+            lb.fill(-np.inf)
+            ub.fill(np.inf)
+        for c, sel in boxes:
+            if skip and id(c) in skip:
+                continue
             lo, hi = c.compute(config, dt)
-            idx = c.indices
-            lb[idx] = np.maximum(lb[idx], lo)
-            ub[idx] = np.minimum(ub[idx], hi)
-        return H, g, A, b, C, l, u, lb, ub
+            if not first:  # clip into the running box (the first box meets ±inf only)
+                cur_lo, cur_hi = lb[sel], ub[sel]
+                lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
+                hi = np.maximum(np.minimum(hi, cur_hi), cur_lo)
+            first = False
+            lb[sel] = lo
+            ub[sel] = hi
+            if record is not None:
+                record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
         """Solve one tick at ``config`` with control period ``dt`` (s).
 
         Returns:
-            :class:`TickResult`; on failure ``v`` is zero (hold posture) and ``ok`` is False.
+            :class:`TickResult`; on failure ``ok`` is False, ``v`` is the safe command (``fallback``) and
+            ``conflicts`` names the conflicting hard constraints (module docstring).
 
         Raises:
-            InvalidInputError: dt not finite and > 0.
+            InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         t0 = perf_counter()
-        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
-        if self._eq_rows is None:
-            self._eq_rows = self.independent_rows(A, self.rank_rtol)
-        full_rank = self._eq_rows.size == A.shape[0]
-        A_kept, b_kept = (A, b) if full_rank else (A[self._eq_rows], b[self._eq_rows])
-        t1 = perf_counter()
+        t1 = None
+        self._assembled = False
         try:
-            v = self.backend.solve(H, g, A_kept, b_kept, C, l, u, lb, ub)
-            if not full_rank:
-                residual = float(np.max(np.abs(A @ v - b)))
-                if residual > self.dependent_row_tolerance:
-                    raise SolverError(f"dependent equality rows violated by {residual:.3g} after the solve")
-            result = TickResult(v)
-        except SolverError as exc:
+            H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+            self._assembled = True
+            t1 = perf_counter()
+            try:
+                v = self._solve_assembled(config)
+                relaxed = []
+            except SolverError:
+                if not self._relaxable:
+                    raise
+                self._relax(config, dt)
+                v = self._solve_assembled(config)
+                relaxed = [c.name for c in self._relaxable]
+            result = TickResult(v, relaxed=relaxed)
+        except InvalidInputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
+            t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
-            result = TickResult(np.zeros(self.nv), ok=False, message=str(exc))
+            result = self._recover(config, dt, exc)
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
+        for c in self._feedback:
+            c.set_previous(result.v)
         self.last_result = result
         return result
+
+    def _solve_assembled(self, config: Configuration) -> np.ndarray:
+        """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist)."""
+        args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+        if self._level_order:
+            return self._solve_levels(config, *args)
+        return self._solve_flat(*args)
+
+    def _relax(self, config: Configuration, dt: float) -> None:
+        """Drop the relaxable constraints from the assembled buffers (rows made void, boxes re-intersected)."""
+        relax = set(map(id, self._relaxable))
+        for c, r0, r1 in self._eq_blocks:
+            if id(c) in relax:
+                self._A[r0:r1] = 0.0
+                self._b[r0:r1] = 0.0
+        for c, r0, r1 in self._in_blocks:
+            if id(c) in relax:
+                self._l[r0:r1] = -np.inf
+                self._u[r0:r1] = np.inf
+        self._intersect_boxes(config, dt, skip=relax)
+        self._eq_rows = None
+
+    def _solve_flat(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        fresh = self._eq_rows is None
+        if fresh:
+            self._eq_rows = independent_rows(A, self.rank_rtol)
+        while True:
+            full_rank = self._eq_rows.size == A.shape[0]
+            A_kept, b_kept = (A, b) if full_rank else (A[self._eq_rows], b[self._eq_rows])
+            v = self.backend.solve(H, g, A_kept, b_kept, C, l, u, lb, ub)
+            self.dependent_residual = 0.0 if full_rank else float(np.max(np.abs(A @ v - b)))
+            if self.dependent_residual <= self.dependent_row_tolerance:
+                return v
+            rows = None if fresh else independent_rows(A, self.rank_rtol)
+            if rows is None or np.array_equal(rows, self._eq_rows):
+                # dependent rows whose right-hand sides disagree: contradictory hard equalities
+                raise SolverError(f"dependent equality rows violated by {self.dependent_residual:.3g} after the "
+                                  "solve (contradictory hard equalities)")
+            # the dropped rows have become independent since the rank was computed: solve again with them
+            fresh = True
+            self._eq_rows = rows
+
+    def _new_backend(self, **daqp_settings) -> QPBackend:
+        """A fresh backend of the same kind as ``self.backend`` (own warm start)."""
+        if isinstance(self.backend, DaqpBackend):
+            return DaqpBackend(tolerance=self.backend.tolerance, **{**self.backend.settings, **daqp_settings})
+        return make_backend(self.backend.name)
+
+    def _solve_levels(self, config, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        levels = []
+        for k in self._level_order:
+            rows_J, rows_t = [], []
+            for task in self.levels[k]:
+                error, jac = task.compute(config)
+                sw = np.sqrt(task.weight)
+                rows_J.append(jac * sw[:, None])
+                rows_t.append(task.velocity_target(error) * sw)
+            levels.append((np.vstack(rows_J), np.concatenate(rows_t)))
+        while len(self._level_backends) < len(levels):
+            # semidefinite J_kᵀJ_k: DAQP's proximal-point iterations; a weight of 1e-3 on the proximal term was
+            # reliable where the default (1e-6) reported degenerate feasible levels as infeasible
+            self._level_backends.insert(0, self._new_backend(eps_prox=1e-3))
+        if self._final_backend is None:
+            self._final_backend = self._new_backend()
+        v, self.level_residuals = solve_lexicographic(
+            levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
+            rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance)
+        return v
+
+    # -- failure handling -------------------------------------------------------------------------------------
+    def _recover(self, config: Configuration, dt: float, exc: Exception) -> TickResult:
+        """Diagnosis + safe command after a failed tick (module docstring). Never raises."""
+        message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
+        conflicts: list[tuple[str, float]] = []
+        if not self._assembled:
+            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold")
+        try:
+            conflicts = self.diagnose(config, dt, include_relaxable=False)
+        except Exception as dexc:  # noqa: BLE001
+            message += f"; diagnosis failed: {type(dexc).__name__}: {dexc}"
+        if conflicts:
+            message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+        v, fallback = np.zeros(self.nv), "hold"
+        try:
+            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
+                self._lb, self._ub
+            if not self._not_hard_task.all():
+                A, b = A[self._not_hard_task], b[self._not_hard_task]
+            keep = independent_rows(A, self.rank_rtol)
+            if self._fallback_backend is None:
+                self._fallback_backend = self._new_backend()
+            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
+            if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
+                raise SolverError("dependent equality rows violated")
+            v, fallback = v_safe, "constraints_only"
+        except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
+            pass
+        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback)
+
+    def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
+        """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the
+        slack-relaxed solve of :mod:`wbc.diagnosis` (empty when the hard set is feasible). Tasks whose cost
+        has non-finite numbers are reported with violation nan. ``include_relaxable=False`` leaves out the
+        relaxable constraints (as a failed tick does). The controller's buffers are left holding that problem."""
+        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+        skip = set() if include_relaxable else set(map(id, self._relaxable))
+        if skip:
+            self._relax(config, dt)
+        record: list = []
+        self._intersect_boxes(config, dt, record, skip)
+        conflicts, _ = diagnose(
+            A, b, C, l, u, lb, ub, [(c.name, r0, r1) for c, r0, r1 in self._eq_blocks if id(c) not in skip],
+            [(c.name, r0, r1) for c, r0, r1 in self._in_blocks if id(c) not in skip], record)
+        if not (np.isfinite(H).all() and np.isfinite(g).all()):
+            tasks = [*self.tasks, *(t for k in self._level_order for t in self.levels[k])]
+            conflicts += [(t.name, float("nan")) for t in tasks
+                          if not all(np.isfinite(x).all() for x in t.compute(config))]
+        return conflicts

@@ -20,7 +20,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 import qpsolvers
 
-from wbc.exceptions import SolverError, UnknownSolverError
+from wbc.exceptions import InvalidInputError, SolverError, UnknownSolverError
 
 __all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
 
@@ -59,17 +59,32 @@ class QPBackend(ABC):
         x = self._solve(H, g, A, b, C, l, u, lb, ub)
         if x is None or not math.isfinite(x @ x):
             raise SolverError(f"QP backend {self.name!r} found no solution")
-        viol = self.violation(x, A, b, C, l, u, lb, ub)
-        if viol > self.tolerance:
-            raise SolverError(f"QP backend {self.name!r} returned a solution violating constraints by {viol:.3g}")
-        return np.clip(x, lb, ub, out=x)
+        # Projection onto the bounds, then every residual measured on the returned point. Squared 2-norms: as
+        # strict as the max-norm (‖r‖∞ ≤ ‖r‖₂) and cheaper on the 500 Hz path than numpy reductions.
+        xc = np.minimum(np.maximum(x, lb), ub)
+        d = x - xc
+        worst2 = d @ d
+        if A.shape[0]:
+            r = A @ xc
+            r -= b
+            worst2 = max(worst2, r @ r)
+        if C.shape[0]:
+            cx = C @ xc
+            dc = cx - np.minimum(np.maximum(cx, l), u)
+            worst2 = max(worst2, dc @ dc)
+        if worst2 > self.tolerance**2:
+            raise SolverError(f"QP backend {self.name!r} returned a solution violating constraints by "
+                              f"{self.violation(x, A, b, C, l, u, lb, ub):.3g}")
+        return xc
 
     @staticmethod
     def violation(x, A, b, C, l, u, lb, ub) -> float:
         """Largest violation of any constraint by x (0 when feasible)."""
-        worst = max(0.0, (lb - x).max(), (x - ub).max())
+        worst = max((lb - x).max(initial=0.0), (x - ub).max(initial=0.0))
         if A.shape[0]:
-            worst = max(worst, np.abs(A @ x - b).max())
+            r = A @ x
+            r -= b
+            worst = max(worst, r.max(), -r.min())
         if C.shape[0]:
             cx = C @ x
             worst = max(worst, (l - cx).max(), (cx - u).max())
@@ -78,42 +93,107 @@ class QPBackend(ABC):
 
 class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
-    recursive LDLᵀ updates", IEEE TAC 2022) called directly: bounds as simple bounds, equalities as sense-5 rows,
-    the previous tick's active bounds as warm start (sense 1)."""
+    recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
+    per problem size, then ``update`` + ``solve`` every tick, warm-started from the previous tick's working set;
+    a failed warm-started solve is repeated from a cold start, then with DAQP's one-shot ``daqp.solve``, before
+    the tick is declared failed.
+    Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities two-sided rows.
+
+    Args:
+        tolerance: largest constraint violation accepted (constraint units).
+        warm_start: ``"workspace"`` (persistent ``daqp.Model``: the factorisations and working set are reused;
+            fastest on the kinematic tick, few inequalities) or ``"dual"`` (one-shot ``daqp.solve`` started from
+            the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities — both
+            measured side by side).
+        **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
+            ``primal_tol``); DAQP's defaults otherwise.
+
+    Raises:
+        InvalidInputError: unknown ``warm_start``.
+    """
 
     name = "daqp"
 
-    def __init__(self, tolerance: float = 1e-6):
+    def __init__(self, tolerance: float = 1e-6, warm_start: str = "workspace", **settings):
         import daqp
 
+        if warm_start not in ("workspace", "dual"):
+            raise InvalidInputError(f"warm_start must be 'workspace' or 'dual', got {warm_start!r}")
         self._daqp = daqp
         self.tolerance = tolerance
-        self._sense: np.ndarray | None = None
+        self.warm_start = warm_start
+        self.settings = settings
+        self._model = None
+        self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
+        #: DAQP iterations of the last solve.
+        self.last_iterations = 0
+        #: warm-started solves that failed and were solved again from a cold start.
+        self.warm_failures = 0
+
+    def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
+        self._layout = (n, n_eq, n_in)
+        self._dual = None
+        self._G = np.empty((n_eq + n_in, n))
+        self._upper = np.empty(n + n_eq + n_in)
+        self._lower = np.empty(n + n_eq + n_in)
+        self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
+        self._sense[n:n + n_eq] = 5
+        self._model = None
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
         if self._layout != (n, n_eq, n_in):
-            self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
-            self._layout = (n, n_eq, n_in)
-        sense = self._sense
-        sense[n:n + n_eq] = 5
+            self._prepare(n, n_eq, n_in)
+        G, upper, lower = self._G, self._upper, self._lower
+        e = n + n_eq
+        upper[:n] = ub  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
+        lower[:n] = lb
+        upper[n:e] = b
+        lower[n:e] = b
+        G[:n_eq] = A
         if n_in:
-            G = np.vstack([A, C]) if n_eq else C
-            upper = np.concatenate([ub, b, u])
-            lower = np.concatenate([lb, b, l])
-        else:
-            G = A
-            upper = np.concatenate([ub, b])
-            lower = np.concatenate([lb, b])
-        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, sense)
+            G[n_eq:] = C
+            upper[e:] = u
+            lower[e:] = l
+        if self.warm_start == "dual":
+            return self._solve_dual(H, g, G, upper, lower)
+        warm = self._model is not None
+        if warm:
+            self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
+            x, _, exitflag, info = self._model.solve()
+            self.last_iterations = int(info["iterations"])
+            if exitflag >= 1:
+                return x
+            self.warm_failures += 1
+        # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
+        model = self._daqp.Model()
+        if self.settings:
+            model.settings = dict(self.settings)
+        self._model = None
+        if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
+            x, _, exitflag, info = model.solve()
+            self.last_iterations = int(info["iterations"])
+            if exitflag >= 1:
+                self._model = model
+                return x
+        # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
+        # cascade) that a Model workspace reports infeasible
+        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
+        self.last_iterations = int(info["iterations"])
+        return x if exitflag >= 1 else None
+
+    def _solve_dual(self, H, g, G, upper, lower):
+        kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}
+        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
+        if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
+            self.warm_failures += 1
+            x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
+        self.last_iterations = int(info["iterations"])
         if exitflag < 1:
-            sense[:] = 0
+            self._dual = None
             return None
-        active = np.abs(info["lam"]) > 0
-        sense[:n] = active[:n]
-        if n_in:
-            sense[n + n_eq:] = active[n + n_eq:]
+        self._dual = np.array(info["lam"])
         return x
 
 
@@ -194,8 +274,13 @@ _SETTINGS = {
 }
 
 
-def make_backend(name: str) -> QPBackend:
-    """Create a backend by name: ``proxqp`` (warm-started proxsuite) or any installed qpsolvers backend.
+def make_backend(name: str, **settings) -> QPBackend:
+    """Create a backend by name: ``daqp`` (DAQP workspace, warm-started), ``proxqp`` (warm-started proxsuite)
+    or any other installed qpsolvers backend.
+
+    Args:
+        name: backend name (:func:`available_solvers`).
+        **settings: solver settings passed to the backend (e.g. ``primal_tol=1e-9`` for daqp).
 
     Raises:
         UnknownSolverError: the name is not installed; the message lists the available ones.
@@ -203,7 +288,7 @@ def make_backend(name: str) -> QPBackend:
     if name not in available_solvers():
         raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
     if name == "proxqp":
-        return ProxQPBackend()
+        return ProxQPBackend(**settings)
     if name == "daqp":
-        return DaqpBackend()
-    return QpsolversBackend(name, **_SETTINGS.get(name, {}))
+        return DaqpBackend(**settings)
+    return QpsolversBackend(name, **{**_SETTINGS.get(name, {}), **settings})

@@ -5,6 +5,14 @@
 * :class:`BoxConstraint`: lb ≤ v[idx] ≤ ub on some velocity coordinates.
 
 Each computes its rows from a :class:`~wbc.configuration.Configuration` and the control period dt (s).
+
+Bounds never conflict with each other: the controller intersects boxes in increasing ``priority`` (then insertion
+order), each one clipped into the intersection of those before it, so a lower-priority box *yields* where it would
+empty the box (joint velocity limits 0 > recoverable position limits 1 > acceleration limits 2). Inside the
+joint range every box contains 0 and nothing is clipped.
+
+A constraint that needs the command actually sent at the previous tick sets ``needs_previous_command = True`` and
+implements ``set_previous(v)``; the controller calls it with ``TickResult.v`` after every tick (fallbacks included).
 """
 
 from __future__ import annotations
@@ -19,10 +27,16 @@ __all__ = ["Constraint", "EqualityConstraint", "InequalityConstraint", "BoxConst
 
 
 class Constraint(ABC):
-    """Common base: a name (used in infeasibility reports) and a dimension."""
+    """Common base: a name (used in infeasibility reports) and a dimension (number of rows, fixed for the
+    constraint's lifetime: the controller's row layout is built from it)."""
 
     name: str = "constraint"
     dim: int = 0
+    #: True: the controller calls ``set_previous(v)`` with the command of every tick (module docstring).
+    needs_previous_command: bool = False
+    #: True: a preference rather than a safety limit — left out of a tick whose QP is infeasible with it
+    #: (``TickResult.relaxed``), e.g. acceleration limits against a contact + joint-limit recovery.
+    relaxable: bool = False
 
 
 class EqualityConstraint(Constraint):
@@ -40,6 +54,10 @@ class InequalityConstraint(Constraint):
 class BoxConstraint(Constraint):
     #: (k,) indices of v that are bounded.
     indices: np.ndarray
+    #: intersection order; a box with a larger number yields to those before it (module docstring).
+    priority: int = 0
+    #: True: the bounds depend on neither the configuration nor dt (computed once by the controller).
+    constant: bool = False
 
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:

@@ -1,11 +1,12 @@
 """Contact constraint: a frame in rigid contact does not move.
 
-Hard equality on its 6-D velocity in ``LOCAL_WORLD_ALIGNED`` (linear and angular velocity in world axes), with
-drift correction towards the placement recorded at contact:
+Hard equality on its 6-D body velocity (``LOCAL``: linear and angular velocity in the contact frame's axes),
+with drift correction towards the placement P recorded at contact:
 
-    J v = −K e,   e = (p − p*, R* log₃(R*ᵀ R))   (m, rad; world axes)
+    J v = −K e,   e = log₆(P⁻¹ oMf)   (m, rad; contact frame axes)
 
-J v = 0 is exactly "the frame does not move"; the correction term only removes integration drift.
+J v = 0 is exactly "the frame does not move"; the correction term (first order in e) only removes integration
+drift.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
+from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.tasks.frame import as_se3
@@ -70,14 +71,10 @@ class ContactConstraint(EqualityConstraint):
         self.placement = config.data.oMf[self.frame_id]
 
     def compute_error(self, config: Configuration) -> np.ndarray:
-        """(6,) pose error of the frame w.r.t. its contact placement (m, rad; world axes)."""
-        oMf = config.data.oMf[self.frame_id]
-        error = np.empty(6)
-        error[:3] = oMf.translation - self._pos
-        error[3:] = self._rot @ pin.log3(self._rot_t @ oMf.rotation)
-        return error
+        """(6,) pose error log₆(P⁻¹ oMf) of the frame w.r.t. its contact placement (m, rad; contact axes)."""
+        return pin.log6(self._placement.actInv(config.data.oMf[self.frame_id])).vector
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        error = self.compute_error(config)
-        error *= -min(self.gain, 1.0 / dt)
-        return config.frame_jacobian(self.frame_id, LOCAL_WORLD_ALIGNED), error
+        b = self.compute_error(config)
+        b *= -min(self.gain, 1.0 / dt)
+        return pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL), b

@@ -2,7 +2,9 @@
 
 Position limits over one period dt: q_min ≤ q + v dt ≤ q_max  ⇔  (q_min − q)/dt ≤ v ≤ (q_max − q)/dt.
 A joint already outside its range gets a bound that pushes it back at no more than its velocity limit, so the
-box stays non-empty and the joint returns inside instead of making the QP infeasible.
+box stays non-empty and the joint returns inside instead of making the QP infeasible. That recovery bound has box
+priority 1: it yields to :class:`JointVelocityLimit` (priority 0, e.g. a ``scale`` < 1 slows the return), and
+acceleration limits (priority 2) yield to it (see :mod:`wbc.constraints.base`).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class JointPositionLimit(BoxConstraint):
     """
 
     name = "joint_position_limit"
+    priority = 1
 
     def __init__(self, robot, *, margin: float = 1e-9):
         model = robot.model
@@ -50,8 +53,10 @@ class JointPositionLimit(BoxConstraint):
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         q = config.q[self.idx_q]
-        lb = np.minimum(np.maximum((self.q_min - q) / dt, self._neg_v_max), self.v_max)
-        ub = np.maximum(np.minimum((self.q_max - q) / dt, self.v_max), self._neg_v_max)
+        # only the recovery side is capped (a joint outside its range returns at ≤ v_max, and lb ≤ ub always);
+        # the other side is the velocity limit's job
+        lb = np.minimum((self.q_min - q) / dt, self.v_max)
+        ub = np.maximum((self.q_max - q) / dt, self._neg_v_max)
         return lb, ub
 
 
@@ -59,6 +64,8 @@ class JointVelocityLimit(BoxConstraint):
     """|v_j| ≤ velocityLimit_j for every actuated joint (rad/s)."""
 
     name = "joint_velocity_limit"
+    priority = 0
+    constant = True
 
     def __init__(self, robot, *, scale: float = 1.0):
         model = robot.model

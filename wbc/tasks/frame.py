@@ -15,7 +15,8 @@ from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, as_weight
 
-__all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "as_se3"]
+__all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
+           "as_se3"]
 
 
 def as_se3(pose, what: str = "target pose") -> pin.SE3:
@@ -38,20 +39,23 @@ def as_se3(pose, what: str = "target pose") -> pin.SE3:
     return pose if isinstance(pose, pin.SE3) else pin.SE3(rot.copy(), mat[:3, 3].copy())
 
 
-def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
-    """(6,) error and (6, nv) Jacobian of frame ``frame_id`` w.r.t. ``target`` (see module docstring)."""
-    oMf = config.data.oMf[frame_id]
-    rot = oMf.rotation
-    j_local = config.frame_jacobian(frame_id, LOCAL)
+def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    """(6,) error and (6, nv) Jacobian of a pose M = ``placement`` w.r.t. ``target`` (module docstring), given
+    the (6, nv) body Jacobian ``j_local`` of M (M⁻¹ dM/dt = j_local v, rows linear then angular, M's axes)."""
+    rot = placement.rotation
     rel = target.rotation.T @ rot
-    e_rot = pin.log3(rel)
     error = np.empty(6)
-    error[:3] = oMf.translation - target.translation
-    error[3:] = e_rot
+    error[:3] = placement.translation - target.translation
+    error[3:] = pin.log3(rel)
     jac = np.empty((6, j_local.shape[1]))
     np.matmul(rot, j_local[:3], out=jac[:3])
     np.matmul(pin.Jlog3(rel), j_local[3:], out=jac[3:])
     return error, jac
+
+
+def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    """(6,) error and (6, nv) Jacobian of frame ``frame_id`` w.r.t. ``target`` (see module docstring)."""
+    return pose_error_and_jacobian(config.data.oMf[frame_id], config.frame_jacobian(frame_id, LOCAL), target)
 
 
 class FrameTask(Task):
@@ -80,6 +84,9 @@ class FrameTask(Task):
         if self.rows.size == 0:
             raise InvalidTargetError(f"frame task on {frame!r}: every weight is zero")
         self._all_rows = self.rows.size == 6
+        self._has_pos = bool((self.rows < 3).any())
+        self._has_rot = bool((self.rows >= 3).any())
+        self._rot_rows = self.rows[self.rows >= 3] - 3
         self.dim = int(self.rows.size)
         super().__init__(gain=gain, weight=w6[self.rows], name=name or frame)
         self.target = pin.SE3.Identity()
@@ -104,14 +111,36 @@ class FrameTask(Task):
         self._ff6[3:] = self.target.rotation.T @ vel[3:]
         self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
 
+    @property
+    def target(self) -> pin.SE3:
+        """Target placement (world)."""
+        return self._target
+
+    @target.setter
+    def target(self, pose: pin.SE3) -> None:
+        self._target = pose
+        self._target_rot_t = pose.rotation.T.copy()
+
     def set_target_from_configuration(self, config: Configuration) -> None:
         """Target = the frame's current placement, zero velocity."""
         self.set_target(config.data.oMf[self.frame_id].copy())
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
-        error, jac = frame_error_and_jacobian(config, self.frame_id, self.target)
         if self._all_rows:
-            return error, jac
+            return frame_error_and_jacobian(config, self.frame_id, self.target)
+        # only the blocks that have rows (same formulas as pose_error_and_jacobian)
+        oMf = config.data.oMf[self.frame_id]
+        j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
+        rot = oMf.rotation
+        if not self._has_rot:
+            return (oMf.translation - self.target.translation)[self.rows], (rot @ j_local[:3])[self.rows]
+        rel = self._target_rot_t @ rot
+        if not self._has_pos:
+            if self._rot_rows.size == 3:
+                return pin.log3(rel), pin.Jlog3(rel) @ j_local[3:]
+            rows = self._rot_rows
+            return pin.log3(rel)[rows], (pin.Jlog3(rel) @ j_local[3:])[rows]
+        error, jac = pose_error_and_jacobian(oMf, j_local, self.target)
         return error[self.rows], jac[self.rows]
 
     def feedforward(self) -> np.ndarray | None:
@@ -119,10 +148,23 @@ class FrameTask(Task):
 
 
 class PositionTask(FrameTask):
-    """Frame position only (3 rows, world axes). Same arguments as :class:`FrameTask` minus orientation."""
+    """Frame position only (3 rows, world axes). Same arguments as :class:`FrameTask` minus orientation.
+
+    ``set_target`` also accepts a (3,) position (m, world); ``velocity`` may then be a (3,) linear velocity.
+    """
 
     def __init__(self, robot, frame: str, *, weight=1.0, gain: float = 100.0, name: str | None = None):
         super().__init__(robot, frame, position_weight=weight, orientation_weight=0.0, gain=gain, name=name)
+
+    def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
+        if not isinstance(pose, pin.SE3) and np.shape(pose) == (3,):
+            pos = np.asarray(pose, dtype=float)
+            if not np.isfinite(pos).all():
+                raise InvalidTargetError(f"target of {self.name} contains NaN/inf")
+            pose = pin.SE3(np.eye(3), pos.copy())
+        if velocity is not None and np.shape(velocity) == (3,):
+            velocity = np.concatenate([np.asarray(velocity, dtype=float), np.zeros(3)])
+        super().set_target(pose, velocity)
 
 
 class OrientationTask(FrameTask):

@@ -44,6 +44,9 @@ class PostureTask(Task):
         super().__init__(gain=gain, weight=weight, name=name)
         self._jac = np.zeros((self.dim, model.nv))
         self._jac[np.arange(self.dim), self.rows] = 1.0
+        nv = model.nv
+        contiguous = self.dim and np.array_equal(self.rows, np.arange(self.rows[0], self.rows[0] + self.dim))
+        self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
         self.target = np.array(robot.q_ref, dtype=float)
 
     def set_target(self, q) -> None:
@@ -60,5 +63,9 @@ class PostureTask(Task):
     def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
         """J selects coordinates of v, so Jᵀ W J is diagonal: added without forming J."""
         error = pin.difference(self.model, self.target, config.q)[self.rows]
-        H[self.rows, self.rows] += self._weight
-        g[self.rows] -= self._weight * self.velocity_target(error)
+        if self._span is not None:  # contiguous rows: a strided view of H's diagonal, no fancy indexing
+            H.ravel()[self._span] += self._weight
+            g[self.rows[0]:self.rows[0] + self.dim] -= self._weight * self.velocity_target(error)
+        else:
+            H[self.rows, self.rows] += self._weight
+            g[self.rows] -= self._weight * self.velocity_target(error)

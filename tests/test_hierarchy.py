@@ -1,0 +1,159 @@
+"""Strict priorities: an upper level is unaffected by the levels below; a lower level is optimal within it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+from scipy.optimize import minimize
+
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint, JointVelocityLimit
+from wbc.controller import KinematicController
+from wbc.exceptions import InvalidInputError
+from wbc.tasks import ComTask, DampingTask, FrameTask, PositionTask, PostureTask
+
+DT = 0.002
+
+
+def residual(task, config, v):
+    """‖√W (J v − v*)‖ of a task at config (weights applied, as the level's cost)."""
+    error, jac = task.compute(config)
+    return float(np.linalg.norm(np.sqrt(task.weight) * (jac @ v - task.velocity_target(error))))
+
+
+def build(robot, config, *, hand_level, com_level, limits=True):
+    """Contacts (+ joint velocity limits); a hand target out of reach at the velocity limits and a CoM shift
+    that pulls the other way; each task on the given level ("off" = not added)."""
+    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    ctrl = KinematicController(robot, [PostureTask(robot, weight=1e-3)],
+                               [*contacts, *([JointVelocityLimit(robot)] if limits else [])])
+    hand = PositionTask(robot, robot.right_hand, gain=20.0, name="hand")
+    hand.set_target(config.frame_placement(hand.frame_id).translation + [0.6, -0.4, 0.3])
+    com = ComTask(gain=20.0)
+    com.set_target(config.com + [-0.1, 0.1, -0.05])
+    for task, level in ((hand, hand_level), (com, com_level)):
+        if level != "off":
+            ctrl.add_task(task, level=level)
+    return ctrl, hand, com
+
+
+def level_optimum(J, t, E, e, lb, ub, v_start):
+    """min ½‖J v − t‖² s.t. E v = e, lb ≤ v ≤ ub by scipy's SLSQP from the feasible ``v_start`` (an independent
+    solver, no cascade): the residual ‖J v − t‖ at its optimum."""
+    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
+    out = minimize(lambda x: 0.5 * np.sum((J @ x - t) ** 2), v_start, jac=lambda x: J.T @ (J @ x - t),
+                   method="SLSQP", bounds=bounds, options={"ftol": 1e-14, "maxiter": 2000},
+                   constraints=[{"type": "eq", "fun": lambda x: E @ x - e, "jac": lambda x: E}])
+    # status 8 ("positive directional derivative in line search"): no descent left at the tolerance
+    assert out.status in (0, 8) and np.max(np.abs(E @ out.x - e)) < 1e-9, out.message
+    return float(np.linalg.norm(J @ out.x - t))
+
+
+def test_upper_level_same_as_alone_and_lower_level_optimal_within(robots):
+    """Level 0: hand (unreachable at the velocity limits: nonzero residual); level 1: CoM (conflicting).
+
+    Every tick of a 60-tick closed loop: the hand's residual and its image J_hand v equal those of the hand solved
+    alone to 1e-6; the CoM level's residual equals the optimum within the hand's optimal set computed by an
+    independent solver (scipy SLSQP) to 1e-6; and
+    the conflict is real: the weighted (flat) mix degrades the hand, the hierarchy degrades the CoM.
+    """
+    robot = robots("talos")
+    config = Configuration(robot)
+    hier, hand, com = build(robot, config, hand_level=0, com_level=1)
+    alone, hand_alone, _ = build(robot, config, hand_level=0, com_level="off")
+    com_only, _, com_solo = build(robot, config, hand_level="off", com_level=0)
+    flat, hand_flat, _ = build(robot, config, hand_level=None, com_level=None)
+    worst_upper = worst_image = worst_lower = 0.0
+    for k in range(60):
+        rh, ra, rc, rf = (c.solve(config, DT) for c in (hier, alone, com_only, flat))
+        assert rh.ok and ra.ok and rc.ok and rf.ok, (rh.message, ra.message)
+        r_up, r_alone = residual(hand, config, rh.v), residual(hand_alone, config, ra.v)
+        worst_upper = max(worst_upper, abs(r_up - r_alone))
+        J0 = hand.compute(config)[1]
+        worst_image = max(worst_image, float(np.max(np.abs(J0 @ rh.v - J0 @ ra.v))))
+        # lower level: min ‖J1 v − v1*‖ s.t. contacts, J0 v = J0 v_alone, velocity bounds — by SLSQP, started
+        # from v_alone (feasible), compared with the hierarchy's level-1 residual
+        _, _, A, b, _, _, _, lb, ub = hier.assemble(config, DT)
+        e1, J1 = com.compute(config)
+        t1 = com.velocity_target(e1)
+        ref = level_optimum(J1, t1, np.vstack([A, J0]), np.r_[b, J0 @ ra.v], lb, ub, ra.v)
+        worst_lower = max(worst_lower, abs(float(np.linalg.norm(J1 @ rh.v - t1)) - ref))
+        if k == 0:
+            assert r_alone > 1.0  # the hand target is out of reach: level 0 is not trivially satisfied
+            assert residual(hand_flat, config, rf.v) > r_alone + 0.5  # weighted mixing degrades the hand
+            assert residual(com, config, rh.v) > residual(com_solo, config, rc.v) + 1.0  # CoM gives way
+        config.update(config.integrate(rh.v, DT))
+    print(f"\nmax |upper residual − alone| = {worst_upper:.2e}, max |J0 v − J0 v_alone| = {worst_image:.2e}, "
+          f"max |level-1 residual − SLSQP optimum within level 0| = {worst_lower:.2e}")
+    assert worst_upper < 1e-6
+    assert worst_image < 1e-6
+    assert worst_lower < 1e-6
+
+
+def test_lower_level_matches_closed_form_nullspace_projection(robots):
+    """Without inequalities the cascade has a closed form (Siciliano & Slotine, ICAR 1991): with N the null
+    space of [J_c; J_0], v = v_0 + N (J_1 N)⁺ (v*_1 − J_1 v_0). Level 0: hand pose (6 rows); level 1: posture
+    (every joint; conflicts with the hand); the contacts hard."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    hand = FrameTask(robot, robot.right_hand, gain=5.0)
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.2, -0.1, 0.15]
+    hand.set_target(target)
+    posture = PostureTask(robot, weight=1.0, gain=5.0)
+    q_far = robot.q_ref.copy()
+    q_far[7:] += 0.3
+    posture.set_target(q_far)
+    ctrl = KinematicController(robot, [], contacts)
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(posture, level=1)
+    worst0 = worst1 = 0.0
+    for _ in range(20):
+        res = ctrl.solve(config, DT)
+        assert res.ok, res.message
+        _, _, A, b, *_ = ctrl.assemble(config, DT)
+        e0, J0 = hand.compute(config)
+        e1, J1 = posture.compute(config)
+        t0, t1 = hand.velocity_target(e0), posture.velocity_target(e1)
+        Nc = scipy.linalg.null_space(A)
+        v_c = np.linalg.lstsq(A, b, rcond=None)[0]
+        v0 = v_c + Nc @ np.linalg.lstsq(J0 @ Nc, t0 - J0 @ v_c, rcond=None)[0]
+        N = scipy.linalg.null_space(np.vstack([A, J0]))
+        v1 = v0 + N @ np.linalg.lstsq(J1 @ N, t1 - J1 @ v0, rcond=None)[0]
+        worst0 = max(worst0, float(np.max(np.abs(J0 @ res.v - t0))))  # level 0 is reachable: residual 0
+        worst1 = max(worst1, abs(np.linalg.norm(J1 @ res.v - t1) - np.linalg.norm(J1 @ v1 - t1)))
+        config.update(config.integrate(res.v, DT))
+    print(f"\nlevel-0 residual ≤ {worst0:.2e}; |level-1 residual − closed form| ≤ {worst1:.2e}")
+    assert worst0 < 1e-6
+    assert worst1 < 1e-6
+
+
+def test_levels_api(robots):
+    robot = robots("humanoid15")
+    ctrl = KinematicController(robot)
+    damping = DampingTask(robot)
+    com = ComTask()
+    ctrl.add_task(com, level=2)
+    ctrl.add_task(damping, level=0)
+    assert ctrl._level_order == [0, 2]
+    with pytest.raises(InvalidInputError):
+        ctrl.add_task(ComTask(), level=-1)
+    with pytest.raises(InvalidInputError):
+        ctrl.add_task(ComTask(), level=1, hard=True)
+    ctrl.remove_task(com)
+    ctrl.remove_task(damping)
+    assert ctrl.levels == {} and ctrl._level_order == []
+    with pytest.raises(ValueError):
+        ctrl.remove_task(com)
+    # a single strict level, no weighted task: the hierarchy path still solves (soft level = damping only)
+    config = Configuration(robot)
+    com.set_target(config.com + [0.01, 0, 0])
+    ctrl.add_task(com, level=0)
+    res = ctrl.solve(config, DT)
+    assert res.ok and np.allclose(config.com_jacobian @ res.v, -com.gain * (config.com - com.target), atol=1e-6)

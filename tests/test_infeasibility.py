@@ -1,0 +1,127 @@
+"""Infeasible hard constraints: no exception, no NaN, a safe command, and a report naming the conflict."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import CATALOG
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint, EqualityConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.controller import KinematicController
+from wbc.exceptions import InvalidInputError
+from wbc.tasks import ComTask, FrameTask, PostureTask
+from wbc.tasks.base import Task
+
+DT = 0.002
+
+
+def standing(robot, config, *tasks):
+    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    com = ComTask()
+    com.set_target(config.com)
+    ctrl = KinematicController(robot, [com, PostureTask(robot), *tasks],
+                               [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot)])
+    return ctrl, contacts
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_hard_foot_target_against_fixed_feet(robots, name):
+    """Both feet are contacts and a hard task asks the left foot to go 1 m forward: every tick returns a finite
+    command without raising, flagged (ok False), naming both the contact and the hard task with their violation
+    (m/s, rad/s); the command is the constraints-only fallback: the contacts and limits hold."""
+    robot = robots(name)
+    config = Configuration(robot)
+    ctrl, contacts = standing(robot, config)
+    foot = FrameTask(robot, robot.left_sole, gain=10.0, name="left_foot_target")
+    target = config.frame_placement(foot.frame_id).copy()
+    target.translation += [1.0, 0.0, 0.0]
+    foot.set_target(target)
+    ctrl.add_task(foot, hard=True)
+    for _ in range(20):
+        res = ctrl.solve(config, DT)
+        assert not res.ok and np.isfinite(res.v).all()
+        names = [n for n, _ in res.conflicts]
+        assert "left_foot_target" in names and f"contact:{robot.left_sole}" in names, res.conflicts
+        assert all(viol > 1.0 for n, viol in res.conflicts if n in ("left_foot_target", f"contact:{robot.left_sole}"))
+        assert [v for _, v in res.conflicts] == sorted((v for _, v in res.conflicts), reverse=True)
+        assert res.fallback == "constraints_only"
+        for c in contacts:
+            J, b = c.compute(config, DT)
+            assert np.max(np.abs(J @ res.v - b)) < 1e-3
+        config.update(config.integrate(res.v, DT))
+    print(f"\n{name}: {res.message}")
+    # the conflict gone, the next tick is ok again
+    ctrl.remove_task(foot)
+    assert ctrl.solve(config, DT).ok
+
+
+def test_conflicting_constraints_hold(robots):
+    """A contact placed 1 m away from its sole (100 m/s asked) against the joint velocity limits: the constraint
+    objects themselves conflict, so the command is v = 0 ('hold'), and the report names both."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, contacts = standing(robot, config)
+    moved = config.frame_placement(contacts[0].frame_id).copy()
+    moved.translation += [1.0, 0.0, 0.0]
+    contacts[0].set_placement(moved)
+    res = ctrl.solve(config, DT)
+    assert not res.ok and res.fallback == "hold"
+    assert np.array_equal(res.v, np.zeros(robot.nv))
+    names = [n for n, _ in res.conflicts]
+    assert f"contact:{robot.left_sole}" in names and "joint_velocity_limit" in names, res.conflicts
+    print(f"\n{res.message}")
+
+
+class NanTask(Task):
+    dim = 1
+    name = "nan_task"
+
+    def __init__(self):
+        super().__init__(gain=1.0, weight=1.0)
+
+    def compute(self, config):
+        return np.array([np.nan]), np.ones((1, config.model.nv))
+
+
+class BrokenConstraint(EqualityConstraint):
+    name = "broken"
+    dim = 1
+
+    def compute(self, config, dt):
+        raise RuntimeError("sensor unplugged")
+
+
+def test_nan_task_and_raising_constraint_do_not_escape(robots):
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config, NanTask())
+    res = ctrl.solve(config, DT)
+    assert not res.ok and np.isfinite(res.v).all() and res.fallback == "hold"
+    assert ("nan_task" in [n for n, _ in res.conflicts]), res.conflicts
+    ctrl2, _ = standing(robot, config)
+    ctrl2.add_constraint(BrokenConstraint())
+    res = ctrl2.solve(config, DT)
+    assert not res.ok and np.array_equal(res.v, np.zeros(robot.nv)) and "sensor unplugged" in res.message
+    with pytest.raises(InvalidInputError):
+        ctrl2.solve(config, float("nan"))
+
+
+def test_infeasible_hard_set_under_a_hierarchy(robots):
+    """With strict levels the same conflict is reported and the fallback drops the levels and the hard task."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config)
+    hand = FrameTask(robot, robot.right_hand, gain=5.0)
+    hand.set_target_from_configuration(config)
+    ctrl.add_task(hand, level=0)
+    foot = FrameTask(robot, robot.right_sole, gain=10.0, name="right_foot_target")
+    target = config.frame_placement(foot.frame_id).copy()
+    target.translation += [0.0, 0.0, 1.0]
+    foot.set_target(target)
+    ctrl.add_task(foot, hard=True)
+    res = ctrl.solve(config, DT)
+    assert not res.ok and res.fallback == "constraints_only" and np.isfinite(res.v).all()
+    assert {"right_foot_target", f"contact:{robot.right_sole}"} <= {n for n, _ in res.conflicts}

@@ -1,0 +1,73 @@
+"""Joint acceleration limits: the actuated velocity may change by at most a_max·dt per tick (smooth commands).
+
+    v_prev − a_max dt ≤ v[6:] ≤ v_prev + a_max dt          (rad/s; a_max in rad/s²)
+
+v_prev is the command of the previous tick. The controller feeds it: the constraint declares
+``needs_previous_command`` and :class:`~wbc.controller.KinematicController` calls :meth:`set_previous` with
+``TickResult.v`` after every tick (a fallback command included). Before the first tick v_prev = 0 (robot at
+rest); call :meth:`set_previous` yourself when starting from motion or when integrating another velocity.
+
+Acceleration limits yield to position safety, in two ways:
+
+* box priority 2: per joint, the bound is clipped into the joint velocity limits and the recovery bound of the
+  joint position limits (see :mod:`wbc.constraints.base`), so a joint that must come back inside its range (or
+  stop at it) may do so faster than a_max — the box never empties;
+* ``relaxable``: when the QP is still infeasible with them — a recovering leg joint drags the rest of the leg
+  through the contact closure faster than a_max allows — the controller leaves them out of that tick
+  (``TickResult.relaxed``) instead of failing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.configuration import Configuration, check_vector
+from wbc.constraints.base import BoxConstraint
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["JointAccelerationLimit"]
+
+
+class JointAccelerationLimit(BoxConstraint):
+    """|v_j − v_prev,j| ≤ a_max,j dt on every actuated joint (module docstring).
+
+    Args:
+        robot: the robot.
+        a_max: scalar or (nv − 6,) acceleration bounds (rad/s², > 0; inf = unbounded joint).
+        name: label in reports (default ``"joint_acceleration_limit"``).
+
+    Raises:
+        InvalidInputError: a_max of the wrong shape, NaN, or ≤ 0.
+    """
+
+    name = "joint_acceleration_limit"
+    priority = 2
+    needs_previous_command = True
+    relaxable = True
+
+    def __init__(self, robot, *, a_max=50.0, name: str | None = None):
+        nv = robot.model.nv
+        self.indices = np.arange(6, nv)
+        self.dim = int(self.indices.size)
+        a = np.asarray(a_max, dtype=float)
+        if a.ndim == 0:
+            a = np.full(self.dim, float(a))
+        if a.shape != (self.dim,) or np.isnan(a).any() or (a <= 0).any():
+            raise InvalidInputError(f"a_max must be a positive scalar or ({self.dim},) array (rad/s²), got {a_max!r}")
+        self.a_max = a
+        if name is not None:
+            self.name = name
+        self.nv = nv
+        self.v_prev = np.zeros(self.dim)
+
+    def set_previous(self, v) -> None:
+        """Record the command v (nv,) sent at the previous tick (only v[6:] is used).
+
+        Raises:
+            ConfigurationError: wrong shape or NaN.
+        """
+        self.v_prev = check_vector(v, self.nv, "previous command v")[6:].copy()
+
+    def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        step = self.a_max * dt
+        return self.v_prev - step, self.v_prev + step

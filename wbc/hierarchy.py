@@ -1,0 +1,94 @@
+"""Strict task priorities: a cascade of least-squares QPs (lexicographic optimisation).
+
+Levels 1..p (``KinematicController.add_task(task, level=k)``, k = 0 highest) are each a stack of weighted task
+rows  J_k v ≈ v*_k  (J_k = diag(√w) J, v*_k = diag(√w) (ė* − K e)), below them the weighted soft level (every
+task added with ``level=None``, plus the damping ε‖v‖²). With 𝓗 the hard set (equalities A v = b, inequalities
+l ≤ C v ≤ u, bounds lb ≤ v ≤ ub), level k solves
+
+    v_k = argmin_v ‖J_k v − v*_k‖²   s.t.  v ∈ 𝓗,   J_j v = J_j v_{k−1}  for every level j < k       (P_k)
+
+and the soft level solves min_v Σ_i ‖J_i v − v*_i‖²_W + ε‖v‖² under the same constraints for all p levels. The
+optimal set of (P_k) is exactly {v ∈ feasible set of (P_k) : J_k v = J_k v_k}: the cost is strictly convex in
+J_k v, so every minimiser has the same image J_k v. Fixing that image therefore optimises each lower level *within*
+the optimal set of the levels above, which is the lexicographic order of Kanoun, Lamiraux, Wieber, "Kinematic
+control of redundant manipulators: generalizing the task-priority framework to inequality tasks", IEEE T-RO
+27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard, Wieber,
+"Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
+Every level's images are re-read from the latest solution, so the fixed rows are always consistent.
+
+Regularisation only enters the last (soft) level: the upper levels have semidefinite Hessians J_kᵀJ_k and are
+solved exactly (DAQP's proximal-point iterations handle singular H; Arnström, Bemporad, Axehill, IEEE TAC 2022), so the
+upper levels' optimality is not biased by ε. Equality rows that are numerically dependent (a level repeating a
+contact, two levels sharing a direction) are dropped before each solve by QR with column pivoting and their
+residual is checked after the last one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.exceptions import SolverError
+
+__all__ = ["solve_lexicographic", "independent_rows"]
+
+
+def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
+    """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
+    numerical rank: |R_ii| > rtol · max(|R_00|, 1))."""
+    import scipy.linalg
+
+    if A.shape[0] == 0:
+        return np.zeros(0, dtype=int)
+    _, R, piv = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(R))
+    rank = int(np.sum(diag > rtol * max(diag[0], 1.0)))
+    return np.sort(piv[:rank])
+
+
+def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
+                        dependent_row_tolerance: float = 1e-3, band: float = 1e-9) -> tuple[np.ndarray, list[float]]:
+    """Solve the cascade of the module docstring.
+
+    Args:
+        levels: list (highest priority first) of (J (m_k, nv), target (m_k,)) with the weights already applied.
+        H, g: (nv, nv), (nv,) cost of the soft level (weighted tasks + damping).
+        A, b, C, l, u, lb, ub: the hard set (see :mod:`wbc.controller`).
+        backends: one QP backend per level in ``levels`` (each keeps its own warm start).
+        final_backend: backend of the soft level.
+        rank_rtol: relative rank tolerance of the stacked equality rows.
+        dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
+        band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
+
+    Returns:
+        (v (nv,), residuals): the soft level's solution and ‖J_k v − v*_k‖ per level.
+
+    Raises:
+        SolverError: a level's QP failed (infeasible hard set, numerical failure) or a dropped row is violated.
+    """
+    keep = independent_rows(A, rank_rtol)
+    A_kept, b_kept = A[keep], b[keep]
+    fixed_J: list[np.ndarray] = []
+    v = None
+    for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
+        if fixed_J:
+            F = np.vstack(fixed_J)
+            Fv = F @ v
+            Ck, lk, uk = np.vstack([C, F]), np.concatenate([l, Fv - band]), np.concatenate([u, Fv + band])
+        else:
+            Ck, lk, uk = C, l, u
+        if J is None:
+            Hk, gk = H, g
+        else:
+            Hk, gk = J.T @ J, -(J.T @ target)
+        try:
+            v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+        except SolverError as exc:
+            raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
+                              f"soft level below {len(levels)} priority levels: {exc}") from None
+        if J is not None:
+            fixed_J.append(J)
+    if keep.size < A.shape[0]:
+        residual = float(np.max(np.abs(A @ v - b)))
+        if residual > dependent_row_tolerance:
+            raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical solve")
+    return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
