@@ -4,7 +4,6 @@ from wbc.dynamics.balance import DEFAULT_GAINS, BalanceController
 from wbc.dynamics.contacts import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.dynamics.formulation import IDSolution, InverseDynamicsQP
-from wbc.dynamics.solvers import DaqpBackend, make_id_backend
 from wbc.dynamics.state import DynamicsState
 from wbc.dynamics.tasks import (
     AccelerationTask,
@@ -17,7 +16,6 @@ from wbc.dynamics.tasks import (
 
 __all__ = [
     "AccelerationTask", "AngularMomentumTask", "BalanceController", "ComAccelerationTask", "DEFAULT_GAINS",
-    "DaqpBackend", "make_id_backend",
     "DynamicsState", "FrameAccelerationTask", "IDCommand", "IDSolution", "InverseDynamicsController",
     "InverseDynamicsQP", "PostureAccelerationTask", "SoleContact", "acceleration_task",
 ]
