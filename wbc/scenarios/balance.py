@@ -1,0 +1,338 @@
+"""Balance behaviours at 500 Hz: the behaviour interface, the common runner, the run record and the summary.
+
+A behaviour (``shift``, ``one-leg``, ``wave``, ``squat``, ``reach``; one module ``balance_<name>.py`` each) is a
+reference generator: time t (s) → CoM target, support phase, swing-sole target, joint targets, hand target.
+:func:`run_balance` feeds it to :class:`BalanceController` every tick of period dt:
+
+* stance soles are hard contacts (:class:`~wbc.constraints.ContactConstraint`) at their touch-down placement;
+* the CoM ground projection is kept inside the current support polygon shrunk by a margin, as a hard
+  inequality (:class:`~wbc.constraints.ComPolygonConstraint`, re-targeted at every support change);
+* joint position and velocity limits are hard bounds;
+* tasks: CoM (weight 10), torso orientation (1), posture on every DoF (weight 1e-2, gain 2/s: a regulariser —
+  Talos's grippers sit on their limit and need a cost — whose low gain keeps it from biasing the tracked tasks:
+  at gain 10/s it cost ~1.5 mm of squat depth), plus the behaviour's own tasks (swing sole, arms, hand);
+* q ← pin.integrate(q, v dt).
+
+The building blocks (references, support polygon, CoM constraint, controller wiring) are in
+:mod:`wbc.scenarios.balance_control` and re-exported here. References are quintic minimum-jerk ramps
+(Flash & Hogan, "The coordination of arm movements: an experimentally confirmed mathematical model",
+J. Neurosci. 1985) or cosine-enveloped sines, always with their velocity as feed-forward, so tracking errors
+stay around a millimetre or below.
+
+The log (``--log balance.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv); ``com`` (N, 3)
+m, world; ``com_ref`` (N, 3) m, world (NaN rows while the behaviour has no CoM target, e.g. ``reach``);
+``left_sole``/``right_sole`` (N, 4, 4) world poses; ``support`` (N,) 0 = double, 1 = left stance, 2 = right
+stance; ``com_margin`` (N,) m, signed distance of the CoM ground projection to the current support polygon
+(> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,) and ``task_error`` (N, T),
+norm of each task's error at the start of the tick (task units: m, rad; NaN while the task is inactive);
+``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``. Row k is the state at the start of tick k,
+t[k] = k dt, v[k] the command computed from it (applied for dt), references are those of t[k].
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from time import perf_counter
+from typing import Callable
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.constraints.limits import bounded_joints
+from wbc.exceptions import InvalidInputError
+from wbc.gait.support import signed_distance
+from wbc.qp import DEFAULT_SOLVER
+from wbc.robot import Robot
+from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
+    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk,
+    support_polygon,
+)
+
+__all__ = [
+    "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
+    "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
+    "make_behaviour", "min_jerk", "run_balance", "support_polygon",
+]
+
+#: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
+BEHAVIOURS = {
+    "shift": "wbc.scenarios.balance_shift:ShiftBehaviour",
+    "one-leg": "wbc.scenarios.balance_one_leg:OneLegBehaviour",
+    "wave": "wbc.scenarios.balance_wave:WaveBehaviour",
+    "squat": "wbc.scenarios.balance_squat:SquatBehaviour",
+    "reach": "wbc.scenarios.balance_reach:ReachBehaviour",
+}
+
+#: (summary key, description, predicate on the summary).
+Criterion = tuple[str, str, Callable[[dict], bool]]
+
+
+# -- behaviours -------------------------------------------------------------------------------------------------
+class Behaviour(ABC):
+    """A balance behaviour: reference generator + its own summary entries and acceptance criteria.
+
+    Subclasses set ``name``, ``duration`` (s) and implement :meth:`update`; they may add tasks in :meth:`setup`
+    and change ``polygon_margin`` (m, margin of the CoM polygon constraint).
+
+    Args:
+        robot: the robot.
+        config: the starting configuration (the plan is built from it).
+    """
+
+    name: str = "behaviour"
+    duration: float = 0.0
+    polygon_margin: float = 0.01
+
+    def __init__(self, robot: Robot, config: Configuration):
+        self.robot = robot
+        self.com0 = config.com.copy()
+        self.left0 = config.data.oMf[robot.frame_id(robot.left_sole)].copy()
+        self.right0 = config.data.oMf[robot.frame_id(robot.right_sole)].copy()
+
+    def setup(self, ctrl: BalanceController) -> None:
+        """Add the behaviour's tasks / adjust weights (called once before the first tick)."""
+
+    @abstractmethod
+    def update(self, ctrl: BalanceController, t: float, config: Configuration) -> None:
+        """Set every reference (and the support phase via ``ctrl.set_support``) for time t (s)."""
+
+    def summary(self, run: BalanceRun) -> dict:
+        """Behaviour-specific summary entries."""
+        return {}
+
+    def criteria(self) -> list[Criterion]:
+        """Behaviour-specific acceptance criteria."""
+        return []
+
+    def overlays(self, run: BalanceRun) -> dict[str, np.ndarray]:
+        """Extra points to draw in recordings: name → (N, 3) world points (m)."""
+        return {}
+
+
+def make_behaviour(name: str, robot: Robot, config: Configuration, **options) -> Behaviour:
+    """Instantiate a behaviour by name (see :data:`BEHAVIOURS`).
+
+    Raises:
+        InvalidInputError: unknown behaviour name.
+    """
+    if name not in BEHAVIOURS:
+        raise InvalidInputError(f"unknown balance behaviour {name!r}; valid: {sorted(BEHAVIOURS)}")
+    module, cls = BEHAVIOURS[name].split(":")
+    return getattr(importlib.import_module(module), cls)(robot, config, **options)
+
+
+# -- run --------------------------------------------------------------------------------------------------------
+@dataclass
+class BalanceRun:
+    """Arrays recorded during a behaviour (see the module docstring for the log format)."""
+
+    robot: str
+    behaviour: str
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    com: np.ndarray
+    com_ref: np.ndarray
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    support: np.ndarray
+    com_margin: np.ndarray
+    tick_time: np.ndarray
+    solver_ok: np.ndarray
+    task_names: list[str]
+    task_error: np.ndarray
+    joint_names: list[str]
+    extra: dict = field(default_factory=dict)
+
+    def save(self, path) -> None:
+        """Write the npz log (module docstring)."""
+        np.savez_compressed(
+            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, left_sole=self.left_sole,
+            right_sole=self.right_sole, support=self.support, com_margin=self.com_margin, tick_time=self.tick_time,
+            solver_ok=self.solver_ok, task_names=np.array(self.task_names), task_error=self.task_error,
+            joint_names=np.array(self.joint_names), robot=np.array(self.robot),
+            behaviour=np.array(self.behaviour), dt=np.array(self.dt),
+        )
+
+    def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
+        """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
+        out = []
+        change = np.flatnonzero(np.diff(self.support)) + 1
+        starts, ends = np.r_[0, change], np.r_[change, len(self.t)]
+        for a, b in zip(starts, ends):
+            soles = [p[a] for s, p in ((LEFT_STANCE, self.left_sole), (RIGHT_STANCE, self.right_sole))
+                     if self.support[a] in (DOUBLE, s)]
+            poly = support_polygon(robot, soles)
+            t_end = self.t[b] if b < len(self.t) else self.t[-1] + self.dt
+            out.append((float(self.t[a]), float(t_end), np.c_[poly, np.zeros(len(poly))]))
+        return out
+
+
+def _com_margin(robot: Robot, com_xy: np.ndarray, left: np.ndarray, right: np.ndarray,
+                support: int) -> float:
+    soles = [p for s, p in ((LEFT_STANCE, left), (RIGHT_STANCE, right)) if support in (DOUBLE, s)]
+    return float(signed_distance(com_xy, support_polygon(robot, soles)))
+
+
+def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, solver: str = DEFAULT_SOLVER,
+                config: Configuration | None = None, viewer=None, pacer=None, **options) -> BalanceRun:
+    """Run one balance behaviour under the kinematic QP at period dt.
+
+    Args:
+        robot: the robot.
+        behaviour: a name of :data:`BEHAVIOURS` or a :class:`Behaviour` built on ``config``.
+        dt: control period (s), > 0.
+        solver: QP backend name.
+        config: starting configuration (default ``robot.q_ref``, both soles on the ground).
+        viewer: optional object with ``update(q, t, overlays={"com": c})`` (non-blocking, e.g.
+            :class:`wbc.viz.LiveViewer`).
+        pacer: optional :class:`wbc.viz.RealTimePacer` (``wait(t_sim)`` once per tick).
+        **options: keyword arguments of the behaviour's constructor (when given by name).
+
+    Returns:
+        :class:`BalanceRun` with one row per tick.
+
+    Raises:
+        InvalidInputError: unknown behaviour, bad option or dt.
+    """
+    if not (np.isfinite(dt) and dt > 0):
+        raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+    config = config or Configuration(robot)
+    beh = make_behaviour(behaviour, robot, config, **options) if isinstance(behaviour, str) else behaviour
+    ctrl = BalanceController(robot, config, solver=solver, polygon_margin=beh.polygon_margin)
+    beh.setup(ctrl)
+    tasks = list(ctrl.controller.tasks) + [t for t in ctrl.swing.values() if not ctrl.has_task(t)]
+    extra_tasks = getattr(beh, "tasks", [])
+    tasks += [t for t in extra_tasks if all(t is not u for u in tasks)]
+    n = int(math.floor(beh.duration / dt + 1e-9)) + 1
+    model = robot.model
+    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
+    out_q = np.empty((n, model.nq))
+    out_v = np.empty((n, model.nv))
+    out_com = np.empty((n, 3))
+    out_ref = np.full((n, 3), np.nan)
+    out_l = np.empty((n, 4, 4))
+    out_r = np.empty((n, 4, 4))
+    support = np.empty(n, dtype=np.int8)
+    margin = np.empty(n)
+    tick = np.empty(n)
+    ok = np.empty(n, dtype=bool)
+    errors = np.full((n, len(tasks)), np.nan)
+    for k in range(n):
+        t = k * dt
+        out_q[k] = config.q
+        out_com[k] = config.com
+        out_l[k] = config.data.oMf[lf].homogeneous
+        out_r[k] = config.data.oMf[rf].homogeneous
+        t0 = perf_counter()
+        beh.update(ctrl, t, config)
+        result = ctrl.solve(config, dt)
+        tick[k] = perf_counter() - t0
+        support[k] = ctrl.support
+        if ctrl.has_task(ctrl.com):
+            out_ref[k] = ctrl.com.target
+        for i, task in enumerate(tasks):
+            if ctrl.has_task(task):
+                errors[k, i] = float(np.linalg.norm(task.compute_error(config)))
+        margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
+        config.update(config.integrate(result.v, dt))
+        ok[k] = result.ok
+        out_v[k] = result.v
+        if viewer is not None:
+            viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
+        if pacer is not None:
+            pacer.wait((k + 1) * dt)
+    return BalanceRun(
+        robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com,
+        com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
+        solver_ok=ok, task_names=[t.name for t in tasks], task_error=errors, joint_names=robot.joint_names,
+        extra={"behaviour": beh},
+    )
+
+
+# -- summary and acceptance ---------------------------------------------------------------------------------
+def _stance_slip(run: BalanceRun) -> float:
+    """Largest displacement (m) of a stance sole from where its stance began."""
+    slip = 0.0
+    for stance_ids, poses in (((DOUBLE, LEFT_STANCE), run.left_sole), ((DOUBLE, RIGHT_STANCE), run.right_sole)):
+        in_stance = np.isin(run.support, stance_ids)
+        starts = np.flatnonzero(in_stance & ~np.r_[False, in_stance[:-1]])
+        ends = np.flatnonzero(in_stance & ~np.r_[in_stance[1:], False])
+        for a, b in zip(starts, ends):
+            slip = max(slip, float(np.max(np.linalg.norm(poses[a:b + 1, :3, 3] - poses[a, :3, 3], axis=1))))
+    return slip
+
+
+#: Criteria of every behaviour (from the issue): (summary key, description, predicate).
+COMMON_CRITERIA: list[Criterion] = [
+    ("min_com_margin_m", "CoM projection inside the support polygon at every tick", lambda s: s["min_com_margin_m"] >= 0.0),
+    ("max_stance_slip_m", "stance soles do not slip (≤ 1 mm)", lambda s: s["max_stance_slip_m"] <= 1e-3),
+    ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
+    ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
+    ("solver_failures", "no solver failure", lambda s: s["solver_failures"] == 0),
+    ("nan", "no NaN", lambda s: not s["nan"]),
+]
+
+
+def balance_summary(robot: Robot, run: BalanceRun) -> dict:
+    """Acceptance metrics of a balance run.
+
+    Returns a dict with: robot, behaviour, dt (s), ticks, duration_s, tick_time_us {median, p99, max} (reference
+    update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
+    polygon of the realized stance soles, min over ticks, negative = outside), max_task_error {task: max over
+    active ticks of ‖e‖, task units m or rad; frame tasks mix m and rad rows}, max_stance_slip_m,
+    joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
+    solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    """
+    model = robot.model
+    idx_q, _ = bounded_joints(model)
+    qj = run.q[:, idx_q]
+    pos_viol = int(np.sum((qj < model.lowerPositionLimit[idx_q]) | (qj > model.upperPositionLimit[idx_q])))
+    vel_viol = int(np.sum(np.abs(run.v[:, 6:]) > model.velocityLimit[6:]))
+    tt = run.tick_time * 1e6
+    task_err = {}
+    for i, name in enumerate(run.task_names):
+        col = run.task_error[:, i]
+        if np.isfinite(col).any():
+            task_err[name] = float(np.nanmax(col))
+    summary = {
+        "robot": robot.name,
+        "behaviour": run.behaviour,
+        "dt": run.dt,
+        "ticks": int(len(run.t)),
+        "duration_s": float(run.t[-1]),
+        "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
+        "min_com_margin_m": float(run.com_margin.min()),
+        "max_task_error": task_err,
+        "max_stance_slip_m": _stance_slip(run),
+        "joint_position_violations": pos_viol,
+        "joint_velocity_violations": vel_viol,
+        "solver_failures": int(np.sum(~run.solver_ok)),
+        "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
+    }
+    beh = run.extra.get("behaviour")
+    criteria = list(COMMON_CRITERIA)
+    if beh is not None:
+        summary.update(beh.summary(run))
+        criteria += beh.criteria()
+    passed, failed = balance_passes(summary, criteria)
+    summary["passed"] = passed
+    summary["failed_criteria"] = failed
+    return summary
+
+
+def balance_passes(summary: dict, criteria: list[Criterion]) -> tuple[bool, list[str]]:
+    """(all criteria hold, descriptions of the failed ones); a criterion whose key is missing fails."""
+    failed = []
+    for key, desc, ok in criteria:
+        try:
+            good = bool(ok(summary))
+        except (KeyError, TypeError):
+            good = False
+        if not good:
+            failed.append(desc)
+    return not failed, failed

@@ -1,0 +1,76 @@
+"""``wbc balance BEHAVIOUR``: run a balance behaviour (shift, one-leg, wave, squat, reach) on a robot.
+
+Same outputs as ``wbc walk``: the summary is printed; ``--json`` writes it, ``--log`` writes the npz time series
+(format in :mod:`wbc.scenarios.balance`), ``--out`` a self-contained meshcat HTML recording (CoM, its ground
+projection and the support polygons drawn), ``--live`` shows the motion in meshcat paced to real time.
+Exit code 0 when the behaviour met its acceptance criteria, 1 when it did not, 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register", "cmd_balance"]
+
+
+def cmd_balance(args) -> int:
+    import numpy as np
+
+    from wbc.cli import _live, _print_summary, _write_outputs
+    from wbc.robot import load_robot
+    from wbc.scenarios.balance import balance_summary, run_balance
+
+    robot = load_robot(args.robot)
+    options = {}
+    if args.behaviour == "one-leg" and args.stance is not None:
+        options["stance"] = args.stance
+    if args.behaviour == "reach" and args.hand is not None:
+        options["hand"] = args.hand
+    viewer = pacer = None
+    if args.live:
+        viewer, pacer = _live(robot)
+    try:
+        run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=viewer, pacer=pacer,
+                          **options)
+    finally:
+        if viewer is not None:
+            viewer.close()
+    summary = balance_summary(robot, run)
+    summary["solver"] = args.solver
+    print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
+          f"solver {args.solver}")
+    _print_summary(summary)
+    overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
+    overlays.update(run.extra["behaviour"].overlays(run))
+    out, args.out = args.out, None
+    _write_outputs(args, summary, run, robot)
+    if out:
+        from wbc.viz import record_html
+
+        path = record_html(robot, run.t, run.q, out, overlays=overlays, polygons=run.polygons(robot))
+        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    return 0 if summary["passed"] else 1
+
+
+def register(subparsers, add_outputs) -> None:
+    """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
+    from wbc.qp import DEFAULT_SOLVER, available_solvers
+    from wbc.scenarios.balance import BEHAVIOURS
+
+    p = subparsers.add_parser(
+        "balance", help="balance behaviours (shift, one-leg, wave, squat, reach) under the 500 Hz kinematic QP",
+        description="Run a balance behaviour on a robot under the 500 Hz kinematic QP.", formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="shift: CoM over the left foot, the right foot, then centred.  one-leg: CoM over one foot, lift the "
+               "other 10 cm, hold 3 s, put it back.  wave: both arms wave 5 s.  squat: CoM down 15 cm and up, 3 "
+               "times.  reach: a hand target 0.6 m in front of the chest, reached as far as balance allows.",
+    )
+    p.add_argument("behaviour", choices=list(BEHAVIOURS), help="behaviour to run")
+    p.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
+    p.add_argument("--stance", choices=["left", "right"], default=None,
+                   help="one-leg: the foot that stays on the ground (default left)")
+    p.add_argument("--hand", choices=["left", "right"], default=None, help="reach: the reaching hand (default right)")
+    p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
+                   help=f"QP backend (default {DEFAULT_SOLVER})")
+    p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
+    add_outputs(p)
+    p.set_defaults(func=cmd_balance)
