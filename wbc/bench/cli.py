@@ -1,0 +1,55 @@
+"""``wbc bench``: run the benchmark suite (:mod:`wbc.bench.suite`) and write its report (:mod:`wbc.bench.report`).
+
+Exit code 0 when every acceptance criterion of the report is met, 1 when one is not (the report is written in
+both cases).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+__all__ = ["register", "cmd_bench"]
+
+SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait")
+
+
+def register(subparsers, add_outputs=None) -> None:
+    """Add the ``bench`` sub-command (``add_outputs`` is not used: the outputs go to ``--out-dir``)."""
+    p = subparsers.add_parser("bench", help="benchmark wbc against placo and Pink (tick latency, solvers, gait)")
+    p.add_argument("--ticks", type=int, default=2000, help="timed ticks per run (default 2000)")
+    p.add_argument("--repeats", type=int, default=5, help="interleaved repeats per library (default 5)")
+    p.add_argument("--warmup", type=int, default=100, help="untimed ticks before each run (default 100)")
+    p.add_argument("--robot", default="talos", help="robot of the comparisons (default talos)")
+    p.add_argument("--out-dir", type=Path, default=Path("benchmarks/results"),
+                   help="folder for results.json, results.md, latency.png (default benchmarks/results)")
+    p.add_argument("--sections", nargs="+", choices=SECTIONS, default=list(SECTIONS), metavar="SECTION",
+                   help=f"subset to run (default all: {' '.join(SECTIONS)})")
+    p.add_argument("--quick", action="store_true", help="a few ticks and repeats: checks the pipeline in seconds")
+    p.add_argument("--blas-threads", type=int, default=1,
+                   help="OpenBLAS threads during the run (default 1; 0 keeps the library default)")
+    p.set_defaults(func=cmd_bench)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from wbc.bench.report import acceptance, write_report
+    from wbc.bench.stats import limit_blas_threads
+    from wbc.bench.suite import SuiteConfig, run_suite
+
+    blas = limit_blas_threads(args.blas_threads) if args.blas_threads > 0 else {}
+    if args.quick:
+        cfg = SuiteConfig.quick()
+        cfg = SuiteConfig(**{**cfg.__dict__, "robot": args.robot, "sections": tuple(args.sections)})
+    else:
+        cfg = SuiteConfig(robot=args.robot, ticks=args.ticks, repeats=args.repeats, warmup=args.warmup,
+                          sections=tuple(args.sections))
+    t0 = time.perf_counter()
+    results = run_suite(cfg)
+    results["machine"]["blas_threads"] = blas or "library default"
+    paths = write_report(results, args.out_dir)
+    print(paths["markdown"].read_text())
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    print(f"wbc bench: {time.perf_counter() - t0:.1f} s")
+    return 0 if all(a["met"] for a in acceptance(results)) else 1
