@@ -12,20 +12,19 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.constraints import ComPolygonConstraint, ContactConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.controller import KinematicController, TickResult
+from wbc.constraints import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import convex_hull, sole_polygon
 from wbc.qp import DEFAULT_SOLVER
 from wbc.robot import Robot
-from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, SIDES, StanceController
+from wbc.tasks import PostureTask
 
 __all__ = [
     "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "BalanceController", "JointTrackingTask", "MinJerkPath", "min_jerk",
     "support_polygon",
 ]
 
-DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
 
 
 # -- reference profiles ---------------------------------------------------------------------------------------
@@ -115,9 +114,9 @@ class JointTrackingTask(PostureTask):
         return self._ff
 
 
-class BalanceController:
-    """The kinematic QP wired for standing balance: CoM, torso orientation and posture tasks; stance soles as
-    hard contacts, swing soles as frame tasks; CoM-in-support-polygon, joint position and velocity limits.
+class BalanceController(StanceController):
+    """:class:`~wbc.scenarios.stance.StanceController` for standing balance, plus the CoM-in-support-polygon
+    constraint, updated at every support switch.
 
     Args:
         robot: the robot.
@@ -134,62 +133,15 @@ class BalanceController:
                  polygon_margin: float = 0.01, com_gain: float = 100.0, foot_gain: float = 100.0,
                  torso_gain: float = 50.0, posture_gain: float = 2.0,
                  rank_rtol: float = 1e-4):
-        self.robot = robot
-        self.com = ComTask(weight=10.0, gain=com_gain)
-        self.com.set_target(config.com.copy())
-        self.torso = OrientationTask(robot, robot.torso, weight=1.0, gain=torso_gain, name="torso")
-        self.torso.set_target_from_configuration(config)
-        self.posture = PostureTask(robot, weight=1e-2, gain=posture_gain)
-        self.posture.set_target(config.q)
-        self.swing = {
-            side: FrameTask(robot, frame, position_weight=10.0, orientation_weight=10.0, gain=foot_gain,
-                            name=f"swing:{side}")
-            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
-        }
-        self.contact = {
-            side: ContactConstraint(robot, frame, gain=foot_gain)
-            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
-        }
-        for c in self.contact.values():
-            c.set_placement_from_configuration(config)
         self.com_polygon = ComPolygonConstraint(robot, margin=polygon_margin)
-        self.controller = KinematicController(
-            robot, [self.com, self.torso, self.posture],
-            [self.contact["left"], self.contact["right"], self.com_polygon, JointPositionLimit(robot),
-             JointVelocityLimit(robot)],
-            solver=solver, rank_rtol=rank_rtol,
-        )
-        self.stance = {"left": True, "right": True}
-        self.support = DOUBLE
-        self._update_polygon()
+        super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
+                         torso_gain=torso_gain, posture_gain=posture_gain, extra_constraints=(self.com_polygon,),
+                         rank_rtol=rank_rtol)
+        self.support_changed()
 
-    def solve(self, config: Configuration, dt: float) -> TickResult:
-        """One QP tick (``KinematicController.solve``)."""
-        return self.controller.solve(config, dt)
-
-    def _update_polygon(self) -> None:
-        self.com_polygon.set_support([self.contact[s].placement for s in ("left", "right") if self.stance[s]])
-
-    def set_support(self, support: int, config: Configuration) -> None:
-        """Switch to a support phase (0 double, 1 left stance, 2 right stance). A sole that lifts off gets a swing
-        task whose target is its current placement (zero velocity); one that touches down is held where it is."""
-        if support == self.support:
-            return
-        wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
-        for side in ("left", "right"):
-            if wanted[side] == self.stance[side]:
-                continue
-            if wanted[side]:  # touch-down
-                self.controller.remove_task(self.swing[side])
-                self.contact[side].set_placement_from_configuration(config)
-                self.controller.add_constraint(self.contact[side])
-            else:  # lift-off
-                self.controller.remove_constraint(self.contact[side])
-                self.swing[side].set_target_from_configuration(config)
-                self.controller.add_task(self.swing[side])
-            self.stance[side] = wanted[side]
-        self.support = support
-        self._update_polygon()
+    def support_changed(self) -> None:
+        """The CoM polygon follows the soles in contact."""
+        self.com_polygon.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
 
     def has_task(self, task) -> bool:
         return any(t is task for t in self.controller.tasks)

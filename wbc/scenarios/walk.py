@@ -21,17 +21,14 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.controller import KinematicController
 from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.robot import Robot
-from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 
 __all__ = ["WalkController", "WalkRun", "plan_default_walk", "run_walk", "walk_summary"]
 
-DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
 
 
 def plan_default_walk(robot: Robot, config: Configuration | None = None, dt: float = 0.002, **overrides) -> WalkPlan:
@@ -61,9 +58,9 @@ def plan_default_walk(robot: Robot, config: Configuration | None = None, dt: flo
     )
 
 
-class WalkController:
-    """The kinematic QP wired for walking: CoM, swing sole, torso orientation and posture tasks; stance soles as
-    hard contacts; joint position and velocity limits.
+class WalkController(StanceController):
+    """:class:`~wbc.scenarios.stance.StanceController` driven by a walk plan: CoM and swing-sole references, and
+    a torso yaw that follows the mean heading of the soles.
 
     Args:
         robot: the robot.
@@ -74,45 +71,9 @@ class WalkController:
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER, com_gain: float = 100.0,
                  foot_gain: float = 100.0, torso_gain: float = 50.0, posture_gain: float = 10.0):
-        self.robot = robot
-        self.com = ComTask(weight=10.0, gain=com_gain)
-        self.torso = OrientationTask(robot, robot.torso, weight=1.0, gain=torso_gain, name="torso")
-        self.posture = PostureTask(robot, weight=1e-2, gain=posture_gain)
-        self.swing = {
-            side: FrameTask(robot, frame, position_weight=10.0, orientation_weight=10.0, gain=foot_gain,
-                            name=f"swing:{side}")
-            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
-        }
-        self.contact = {
-            side: ContactConstraint(robot, frame, gain=foot_gain)
-            for side, frame in (("left", robot.left_sole), ("right", robot.right_sole))
-        }
-        for c in self.contact.values():
-            c.set_placement_from_configuration(config)
-        self.torso.set_target_from_configuration(config)
+        super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
+                         torso_gain=torso_gain, posture_gain=posture_gain)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
-        self.controller = KinematicController(
-            robot, [self.com, self.torso, self.posture],
-            [self.contact["left"], self.contact["right"], JointPositionLimit(robot), JointVelocityLimit(robot)],
-            solver=solver,
-        )
-        self.stance = {"left": True, "right": True}
-
-    def set_support(self, support: int, config: Configuration) -> None:
-        """Switch contacts/swing tasks for a support phase (0 double, 1 left stance, 2 right stance); a sole that
-        touches down is held where it landed (its placement in ``config``)."""
-        wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
-        for side in ("left", "right"):
-            if wanted[side] == self.stance[side]:
-                continue
-            if wanted[side]:  # touch-down
-                self.controller.remove_task(self.swing[side])
-                self.contact[side].set_placement_from_configuration(config)
-                self.controller.add_constraint(self.contact[side])
-            else:  # lift-off
-                self.controller.remove_constraint(self.contact[side])
-                self.controller.add_task(self.swing[side])
-            self.stance[side] = wanted[side]
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
         """Targets of sample k of the plan, at the current configuration."""

@@ -1,0 +1,92 @@
+"""Stance controller: the kinematic QP wired for a humanoid standing or stepping on flat ground.
+
+Tasks: CoM (weight 10), torso orientation (1), posture on every DoF (1e-2), and a frame task on each swinging
+sole (10 on position and orientation). Constraints: each stance sole is a hard contact; joint position and
+velocity limits; optional extra constraints (e.g. CoM in the support polygon). Contact switching
+(:meth:`StanceController.set_support`): a sole that touches down is held where it is; one that lifts off gets
+a swing task starting at its current placement. Walking (:mod:`wbc.scenarios.walk`) and the balance behaviours
+(:mod:`wbc.scenarios.balance_control`) are both this controller with their own references.
+"""
+
+from __future__ import annotations
+
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.constraints.base import Constraint
+from wbc.controller import KinematicController, TickResult
+from wbc.qp import DEFAULT_SOLVER
+from wbc.robot import Robot
+from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+
+__all__ = ["DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
+
+#: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
+DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
+SIDES = ("left", "right")
+
+
+class StanceController:
+    """The stance wiring of the module docstring around a :class:`~wbc.controller.KinematicController`.
+
+    Args:
+        robot: the robot.
+        config: current configuration: both soles start in contact where they are; CoM, torso and posture targets
+            start at their current values.
+        solver: QP backend name.
+        com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s); ``foot_gain`` also drives the
+            contacts' drift correction.
+        extra_constraints: added after the contacts (before the joint limits).
+        **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
+    """
+
+    def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
+                 com_gain: float = 100.0, foot_gain: float = 100.0, torso_gain: float = 50.0,
+                 posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (), **controller_options):
+        self.robot = robot
+        self.com = ComTask(weight=10.0, gain=com_gain)
+        self.com.set_target(config.com.copy())
+        self.torso = OrientationTask(robot, robot.torso, weight=1.0, gain=torso_gain, name="torso")
+        self.torso.set_target_from_configuration(config)
+        self.posture = PostureTask(robot, weight=1e-2, gain=posture_gain)
+        self.posture.set_target(config.q)
+        frames = {"left": robot.left_sole, "right": robot.right_sole}
+        self.swing = {side: FrameTask(robot, frames[side], position_weight=10.0, orientation_weight=10.0,
+                                      gain=foot_gain, name=f"swing:{side}") for side in SIDES}
+        self.contact = {side: ContactConstraint(robot, frames[side], gain=foot_gain) for side in SIDES}
+        for c in self.contact.values():
+            c.set_placement_from_configuration(config)
+        self.controller = KinematicController(
+            robot, [self.com, self.torso, self.posture],
+            [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
+             JointVelocityLimit(robot)],
+            solver=solver, **controller_options,
+        )
+        self.stance = {"left": True, "right": True}
+        self.support = DOUBLE
+
+    def set_support(self, support: int, config: Configuration) -> None:
+        """Switch to a support phase (0 double, 1 left stance, 2 right stance) at the current configuration."""
+        if support == self.support:
+            return
+        wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
+        for side in SIDES:
+            if wanted[side] == self.stance[side]:
+                continue
+            if wanted[side]:  # touch-down: held where it landed
+                self.controller.remove_task(self.swing[side])
+                self.contact[side].set_placement_from_configuration(config)
+                self.controller.add_constraint(self.contact[side])
+            else:  # lift-off
+                self.controller.remove_constraint(self.contact[side])
+                self.swing[side].set_target_from_configuration(config)
+                self.controller.add_task(self.swing[side])
+            self.stance[side] = wanted[side]
+        self.support = support
+        self.support_changed()
+
+    def support_changed(self) -> None:
+        """Hook called after every support switch (default: nothing)."""
+
+    def solve(self, config: Configuration, dt: float) -> TickResult:
+        """One QP tick (``KinematicController.solve``)."""
+        return self.controller.solve(config, dt)
