@@ -23,6 +23,6 @@ ctrl = wbc.KinematicController(robot, [com, hand, PostureTask(robot)],
                                [*feet, JointPositionLimit(robot), JointVelocityLimit(robot)])
 for _ in range(1000):                                 # 2 s at 500 Hz
     v = ctrl.solve(config, dt=0.002).v                # QP → generalized velocity (nv,)
-    config.update(config.integrate(v, 0.002))
+    config.step(v, dt=0.002)                          # q ← pin.integrate(q, v dt); kinematics updated
 print(f"CoM error {np.linalg.norm(com.compute_error(config)) * 1e3:.2f} mm, "
       f"hand error {np.linalg.norm(hand.compute_error(config)) * 1e3:.2f} mm")

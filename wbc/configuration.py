@@ -94,6 +94,18 @@ class Configuration:
         """(3, nv) CoM Jacobian in world axes (m/s per unit of v)."""
         return self._com_jacobian
 
+    def step(self, v: np.ndarray, dt: float) -> None:
+        """Apply the generalized velocity v (nv,) for dt seconds (q ← ``pin.integrate(q, v dt)``) and update the
+        kinematics. q stays valid by construction, so it is not re-validated (unlike :meth:`update`).
+
+        Raises:
+            ConfigurationError: v has the wrong size or is not finite.
+        """
+        if v.shape != (self.model.nv,) or not math.isfinite(v @ v):
+            check_vector(v, self.model.nv, "velocity v")  # raises with the details
+        self.q = pin.integrate(self.model, self.q, v * dt)
+        self.update()
+
     def integrate(self, v: np.ndarray, dt: float) -> np.ndarray:
         """(nq,) configuration reached by applying velocity v (nv,) for dt seconds, on the manifold
         (``pin.integrate``)."""

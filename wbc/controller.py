@@ -54,6 +54,7 @@ input error), ``solve`` does not raise and never returns NaN:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from time import perf_counter
 
@@ -337,7 +338,7 @@ class KinematicController:
         Raises:
             InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
         """
-        if not (np.isfinite(dt) and dt > 0):
+        if not (isinstance(dt, (float, int, np.floating, np.integer)) and math.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         t0 = perf_counter()
         t1 = None

@@ -214,12 +214,11 @@ class WbcRunner(KinematicRunner):
         dt = self.spec.dt
         self.com.set_target(self.targets[k + 1])
         res = self.controller.solve(self.config, dt)
-        q = self.config.integrate(res.v, dt)
         if self._breakdown is None:
-            self.config.update(q)
+            self.config.step(res.v, dt)
         else:
             t0 = perf_counter_ns()
-            self.config.update(q)
+            self.config.step(res.v, dt)
             self._breakdown["kinematics"][k] = perf_counter_ns() - t0
             self._breakdown["assembly"][k] = int(res.timings["assembly"] * 1e9)
             self._breakdown["solve"][k] = int(res.timings["solve"] * 1e9)

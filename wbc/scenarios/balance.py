@@ -239,7 +239,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
             if ctrl.has_task(task):
                 errors[k, i] = float(np.linalg.norm(task.compute_error(config)))
         margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
-        config.update(config.integrate(result.v, dt))
+        config.step(result.v, dt)
         ok[k] = result.ok
         out_v[k] = result.v
         if viewer is not None:

@@ -153,7 +153,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
         t0 = perf_counter()
         walker.set_references(plan, k, config)
         result = walker.controller.solve(config, dt)
-        config.update(config.integrate(result.v, dt))
+        config.step(result.v, dt)
         tick[k] = perf_counter() - t0
         ok[k] = result.ok
         out_v[k] = result.v
