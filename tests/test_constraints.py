@@ -273,7 +273,7 @@ def test_self_collision_rows_match_distance_rates(robots, name):
     rate = (d_plus - d_minus) / (2 * eps)
     checked = 0
     for row, (k, d) in enumerate(active):
-        ds, gamma = constraint.min_distance, min(constraint.gain, 1 / DT)
+        ds, gamma = constraint.min_distance + constraint.safety_margin, min(constraint.gain, 1 / DT)
         bound = -gamma * (d - ds) if d >= ds else min(gamma * (ds - d), constraint.recovery_speed)
         assert l[row] == pytest.approx(bound) and u[row] == np.inf
         if d > 1e-3:

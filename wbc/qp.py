@@ -57,11 +57,29 @@ class QPBackend(ABC):
                 ``tolerance``.
         """
         x = self._solve(H, g, A, b, C, l, u, lb, ub)
+        if x is not None:
+            xc = np.minimum(np.maximum(x, lb), ub)
+            if not self._violates(x, xc, A, b, C, l, u):
+                return xc
+            # a warm start can mislead an active-set solver: once more from scratch before declaring failure
+            x = self._solve_cold(H, g, A, b, C, l, u, lb, ub)
         if x is None or not math.isfinite(x @ x):
             raise SolverError(f"QP backend {self.name!r} found no solution")
-        # Projection onto the bounds, then every residual measured on the returned point. Squared 2-norms: as
-        # strict as the max-norm (‖r‖∞ ≤ ‖r‖₂) and cheaper on the 500 Hz path than numpy reductions.
         xc = np.minimum(np.maximum(x, lb), ub)
+        if self._violates(x, xc, A, b, C, l, u):
+            raise SolverError(f"QP backend {self.name!r} returned a solution violating constraints by "
+                              f"{self.violation(x, A, b, C, l, u, lb, ub):.3g}")
+        return xc
+
+    def _solve_cold(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """Solve without any warm start (default: the same as ``_solve``)."""
+        return self._solve(H, g, A, b, C, l, u, lb, ub)
+
+    def _violates(self, x, xc, A, b, C, l, u) -> bool:
+        """x, or its projection ``xc`` onto the bounds, violates a constraint by more than ``tolerance``.
+
+        Every residual is measured on the projected point; squared 2-norms are as strict as the max-norm
+        (‖r‖∞ ≤ ‖r‖₂) and cheaper on the 500 Hz path than numpy reductions. NaN/inf count as violations."""
         d = x - xc
         worst2 = d @ d
         if A.shape[0]:
@@ -72,10 +90,7 @@ class QPBackend(ABC):
             cx = C @ xc
             dc = cx - np.minimum(np.maximum(cx, l), u)
             worst2 = max(worst2, dc @ dc)
-        if worst2 > self.tolerance**2:
-            raise SolverError(f"QP backend {self.name!r} returned a solution violating constraints by "
-                              f"{self.violation(x, A, b, C, l, u, lb, ub):.3g}")
-        return xc
+        return not worst2 <= self.tolerance**2
 
     @staticmethod
     def violation(x, A, b, C, l, u, lb, ub) -> float:
@@ -95,8 +110,8 @@ class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
     per problem size, then ``update`` + ``solve`` every tick, warm-started from the previous tick's working set;
-    a failed warm-started solve is repeated from a cold start, then with DAQP's one-shot ``daqp.solve``, before
-    the tick is declared failed.
+    a warm-started solve that fails, or whose solution fails the independent constraint check, is repeated from a
+    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed.
     Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities two-sided rows.
 
     Args:
@@ -182,6 +197,12 @@ class DaqpBackend(QPBackend):
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations = int(info["iterations"])
         return x if exitflag >= 1 else None
+
+    def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
+        self.warm_failures += 1
+        self._model = None
+        self._dual = None
+        return self._solve(H, g, A, b, C, l, u, lb, ub)
 
     def _solve_dual(self, H, g, G, upper, lower):
         kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}

@@ -23,7 +23,8 @@ the pair is first seen. A pair that starts too close is kept from coming closer 
 pair back up to its floor when the first-order step let it sink slightly below (linearisation error: the witness
 points of polyhedra jump between faces), instead of letting that error accumulate.
 
-d_s = ``min_distance``. Distances come from coal; nothing is re-derived. By default the collision meshes are
+d_s = ``min_distance`` + ``safety_margin`` (default 3 mm: the first-order dips described below stay above
+``min_distance``). Distances come from coal; nothing is re-derived. By default the collision meshes are
 replaced by their convex hulls (coal ``buildConvexHull``, qhull): GJK on hulls costs ~2 µs per pair against
 ~250 µs for mesh BVHs, and a hull contains its mesh, so the mesh distance is never smaller than the hull's. A
 bounding-sphere test (one sphere per geometry, from coal's local AABB) skips the pairs that cannot be within d_i.
@@ -34,8 +35,9 @@ The row count is fixed (``max_active``): the closest active pairs fill the rows,
 
 Limits (measured): one witness pair per body pair is a first-order model of a piecewise-smooth distance. When a
 body rotates while sliding along another, a different vertex can become the closest one within a tick; the
-damper then restores the floor over the next ticks. Talos driving a hand through its torso: min 19.6 mm for
-d_s = 20 mm; g1 (hulls of large non-convex meshes, fast wrist rotation): min 18.3 mm. Cost on Talos (883 pairs,
+damper then restores the floor over the next ticks. Driving a hand through the torso with the damper at 20 mm
+(no safety margin): Talos min 19.6 mm, g1 (hulls of large non-convex meshes, fast wrist rotation) 18.3 mm; hence
+the default 3 mm safety margin (with 2 mm, g1 still dipped to 19.84 mm). Cost on Talos (883 pairs,
 ~80 pass the sphere test): ≈ 0.4 ms per tick (sphere test 0.09, GJK 0.2, rows 0.1).
 """
 
@@ -80,6 +82,8 @@ class SelfCollisionConstraint(InequalityConstraint):
             ``"torso_2_link_0"``) or link/frame names (every geometry attached to that link).
         activation_distance: d_i (m, > min_distance): pairs farther apart get no row.
         gain: γ (1/s, > 0), capped at 1/dt.
+        safety_margin: m (≥ 0) added to d_s by the damper, so the first-order dips of polyhedral distances
+            (module docstring: up to 2.2 mm measured) stay above ``min_distance``.
         recovery_speed: rate (m/s, ≥ 0) at which the floor of a pair already closer than d_s rises towards d_s
             (0: the pair is only kept from coming closer).
         max_active: number of rows (the closest active pairs; ≥ 1).
@@ -95,14 +99,16 @@ class SelfCollisionConstraint(InequalityConstraint):
     """
 
     def __init__(self, robot, *, min_distance: float = 0.02, pairs=None, activation_distance: float = 0.1,
-                 gain: float = 50.0, recovery_speed: float = 0.0, max_active: int = 32, convex: bool = True,
-                 name: str = "self_collision"):
+                 gain: float = 50.0, safety_margin: float = 0.003, recovery_speed: float = 0.0,
+                 max_active: int = 32, convex: bool = True, name: str = "self_collision"):
         if not (math.isfinite(min_distance) and min_distance >= 0):
             raise InvalidInputError(f"min_distance must be finite and ≥ 0 (m), got {min_distance!r}")
         if not (math.isfinite(activation_distance) and activation_distance > min_distance):
             raise InvalidInputError(f"activation_distance must be > min_distance, got {activation_distance!r}")
         if not (math.isfinite(gain) and gain > 0):
             raise InvalidInputError(f"gain must be finite and > 0 (1/s), got {gain!r}")
+        if not (math.isfinite(safety_margin) and safety_margin >= 0):
+            raise InvalidInputError(f"safety_margin must be finite and ≥ 0 (m), got {safety_margin!r}")
         if not (math.isfinite(recovery_speed) and recovery_speed >= 0):
             raise InvalidInputError(f"recovery_speed must be finite and ≥ 0 (m/s), got {recovery_speed!r}")
         if int(max_active) < 1:
@@ -113,6 +119,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self.activation_distance = float(activation_distance)
         self.gain = float(gain)
         self.recovery_speed = float(recovery_speed)
+        self.safety_margin = float(safety_margin)
         self.dim = int(max_active)
         gm = robot.collision_model.copy()
         index_pairs = default_collision_pairs(robot) if pairs is None else self._resolve(robot.model, gm, pairs)
@@ -226,7 +233,7 @@ class SelfCollisionConstraint(InequalityConstraint):
             p_x_n = np.stack([p[:, 1] * n[:, 2] - p[:, 2] * n[:, 1], p[:, 2] * n[:, 0] - p[:, 0] * n[:, 2],
                               p[:, 0] * n[:, 1] - p[:, 1] * n[:, 0]], axis=1)
             C[:m] += sign * (n @ J_lin + p_x_n @ J_ang) * self._support[joints]
-        gamma, ds = min(self.gain, 1.0 / dt), self.min_distance
+        gamma, ds = min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin
         prev = self._floor[k]
         floor = np.minimum(ds, np.where(np.isnan(prev), d, np.fmax(prev, d) + self.recovery_speed * dt))
         self._floor[k] = floor
