@@ -32,3 +32,24 @@ def random_configuration(robot: wbc.Robot, rng: np.random.Generator, spread: flo
     base = pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3)), rng.uniform(-0.5, 0.5, 3))
     q[:7] = pin.SE3ToXYZQUAT(base)
     return q
+
+
+def standing_controller(robot, config, *extra_constraints, tasks=(), vel_scale=1.0, posture_weight=1e-2):
+    """The walk's standing set: both soles as contacts where they are, CoM (weight 10) and torso orientation held,
+    posture on every DoF, joint position + velocity limits; plus ``extra_constraints`` and ``tasks``.
+    Returns (controller, CoM task)."""
+    from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+    from wbc.controller import KinematicController
+    from wbc.tasks import ComTask, OrientationTask, PostureTask
+
+    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    com = ComTask(weight=10.0)
+    com.set_target(config.com)
+    torso = OrientationTask(robot, robot.torso, name="torso")
+    torso.set_target_from_configuration(config)
+    ctrl = KinematicController(robot, [com, torso, *tasks, PostureTask(robot, weight=posture_weight)],
+                               [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot, scale=vel_scale),
+                                *extra_constraints])
+    return ctrl, com

@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import CATALOG, random_configuration
+from conftest import CATALOG, random_configuration, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints import (ComPolygonConstraint, ContactConstraint, JointAccelerationLimit, JointPositionLimit,
                              JointVelocityLimit, SelfCollisionConstraint, TaskConstraint)
@@ -17,24 +17,11 @@ from wbc.constraints.self_collision import default_collision_pairs
 from wbc.controller import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import convex_hull, signed_distance, sole_polygon
-from wbc.tasks import ComTask, OrientationTask, PostureTask
+from wbc.tasks import ComTask, PostureTask
 
 DT = 0.002
 
 
-def standing_controller(robot, config, *extra, vel_scale=1.0):
-    """Contacts, CoM, torso, posture, joint position + velocity limits (the walk's set) plus ``extra``."""
-    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
-    for c in contacts:
-        c.set_placement_from_configuration(config)
-    com = ComTask(weight=10.0)
-    com.set_target(config.com)
-    torso = OrientationTask(robot, robot.torso, name="torso")
-    torso.set_target_from_configuration(config)
-    ctrl = KinematicController(robot, [com, torso, PostureTask(robot)],
-                               [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot, scale=vel_scale),
-                                *extra])
-    return ctrl, com
 
 
 # -- joint limits ---------------------------------------------------------------------------------------------

@@ -8,10 +8,10 @@ import pinocchio as pin
 import pytest
 
 from wbc.configuration import Configuration
-from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit, SelfCollisionConstraint
-from wbc.controller import KinematicController
+from conftest import standing_controller
+from wbc.constraints import SelfCollisionConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.tasks import ComTask, OrientationTask, PositionTask, PostureTask
+from wbc.tasks import PositionTask
 
 DT = 0.002
 #: geometry name prefixes: the moving arm vs the body it is driven through
@@ -42,18 +42,9 @@ def drive_hand_through_torso(robot, with_constraint, stop_below=None):
     """1.2 s: the right-hand target goes from the hand to the origin of the body frame (``THROUGH``: Talos torso)
     in 0.5 s, then on through the body, and stays. Returns (min watched distance, its tick)."""
     config = Configuration(robot)
-    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
-    for c in contacts:
-        c.set_placement_from_configuration(config)
-    com = ComTask(weight=10.0)
-    com.set_target(config.com)
-    torso = OrientationTask(robot, robot.torso, name="torso")
-    torso.set_target_from_configuration(config)
     hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
-    constraints = [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot)]
-    if with_constraint:
-        constraints.append(SelfCollisionConstraint(robot, min_distance=0.02))
-    ctrl = KinematicController(robot, [com, torso, hand, PostureTask(robot, weight=1e-3)], constraints)
+    extra = [SelfCollisionConstraint(robot, min_distance=0.02)] if with_constraint else []
+    ctrl, _ = standing_controller(robot, config, *extra, tasks=(hand,), posture_weight=1e-3)
     gm, gd = watched_model(robot)
     data = robot.model.createData()
     p0 = config.frame_placement(hand.frame_id).translation.copy()

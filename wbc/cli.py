@@ -63,6 +63,7 @@ def _live(robot):
 
 
 def cmd_walk(args) -> int:
+    """`wbc walk`: plan, walk, print and write the outputs; exit code 0 passed, 1 failed criteria."""
     import numpy as np
 
     from wbc.robot import load_robot
@@ -95,6 +96,7 @@ def cmd_walk(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The `wbc` argument parser with every sub-command (walk here; balance, sim, bench from their modules)."""
     from wbc.qp import DEFAULT_SOLVER, available_solvers
 
     parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
@@ -131,6 +133,8 @@ def _extra_commands():
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `wbc` console script. Returns the exit code: 0 passed, 1 acceptance failed, 2 bad input
+    (a typed ``wbc.exceptions.WbcError``, printed on stderr)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -222,6 +222,11 @@ class KinematicController:
         return constraint
 
     def remove_constraint(self, constraint: Constraint) -> None:
+        """Remove a constraint added with :meth:`add_constraint`.
+
+        Raises:
+            ValueError: the constraint is not in the controller.
+        """
         self.constraints.remove(constraint)
         self._eq_rows = None
         self._layout_ok = False

@@ -111,10 +111,12 @@ class Robot:
 
     @property
     def nq(self) -> int:
+        """Size of the configuration vector q."""
         return self.model.nq
 
     @property
     def nv(self) -> int:
+        """Size of the velocity vector v (tangent space of q)."""
         return self.model.nv
 
     @property

@@ -40,18 +40,21 @@ class Constraint(ABC):
 
 
 class EqualityConstraint(Constraint):
+    """A :math:`A v = b` block (e.g. contacts, hard tasks)."""
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Return (A (m, nv), b (m,)) such that A v = b must hold."""
 
 
 class InequalityConstraint(Constraint):
+    """An :math:`l ≤ C v ≤ u` block (e.g. CoM polygon, self-collision)."""
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return (C (m, nv), l (m,), u (m,)) such that l ≤ C v ≤ u must hold (±inf allowed)."""
 
 
 class BoxConstraint(Constraint):
+    """Bounds :math:`lb ≤ v[indices] ≤ ub`, intersected by the controller in ``priority`` order."""
     #: (k,) indices of v that are bounded.
     indices: np.ndarray
     #: intersection order; a box with a larger number yields to those before it (module docstring).

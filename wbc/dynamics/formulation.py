@@ -184,6 +184,11 @@ class InverseDynamicsQP:
         return task
 
     def remove_task(self, task: AccelerationTask) -> None:
+        """Remove an acceleration task added to the QP.
+
+        Raises:
+            ValueError: the task is not in the QP.
+        """
         self.tasks.remove(task)
 
     def contact(self, name: str) -> SoleContact:

@@ -102,12 +102,7 @@ class WalkPlan:
         Raises:
             GaitError: ``t`` is not a finite number.
         """
-        try:
-            tf = float(t)
-        except (TypeError, ValueError) as exc:
-            raise GaitError(f"index(t) needs a finite time in seconds; got {t!r}") from exc
-        if not math.isfinite(tf):
-            raise GaitError(f"index(t) needs a finite time in seconds; got {t!r}")
+        tf = _scalar(t, "index(t): the time t (s)")
         return int(min(max(round(tf / self.dt), 0), self.n_samples - 1))
 
     def support_polygon(self, k: int) -> np.ndarray:

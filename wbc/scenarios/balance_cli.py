@@ -14,6 +14,7 @@ __all__ = ["register", "cmd_balance"]
 
 
 def cmd_balance(args) -> int:
+    """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
     import numpy as np
 
     from wbc.cli import _live, _print_summary, _write_outputs

@@ -144,4 +144,5 @@ class BalanceController(StanceController):
         self.com_polygon.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
 
     def has_task(self, task) -> bool:
+        """True if ``task`` is currently in the controller's weighted level."""
         return any(t is task for t in self.controller.tasks)

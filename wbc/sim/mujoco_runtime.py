@@ -138,6 +138,7 @@ class MujocoModel:
         return bid
 
     def body_name(self, body_id: int) -> str:
+        """Name of the MuJoCo body ``body_id`` (the URDF link name)."""
         return self.model.body(int(body_id)).name
 
     # -- contacts --------------------------------------------------------------------------------------------
