@@ -76,11 +76,18 @@ def cmd_walk(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = _live(robot)
+    ros2_pub = None
+    if args.ros2 or args.bag is not None:
+        from wbc.ros2.cli import attach, finish
+
+        viewer_or_pub, ros2_pub = attach(args, robot, viewer, args.dt)
     try:
-        run = run_walk(robot, plan, solver=args.solver, viewer=viewer, pacer=pacer)
+        run = run_walk(robot, plan, solver=args.solver, viewer=viewer_or_pub if ros2_pub else viewer, pacer=pacer)
     finally:
         if viewer is not None:
             viewer.close()
+        if ros2_pub is not None:
+            finish(ros2_pub)
     summary = walk_summary(robot, plan, run)
     summary["solver"] = args.solver
     passed, failures = walk_passes(summary)
@@ -111,6 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     _add_outputs(walk)
+    from wbc.ros2.cli import add_run_options
+
+    add_run_options(walk)
     walk.set_defaults(func=cmd_walk)
 
     for register in _extra_commands():
@@ -123,7 +133,7 @@ def _extra_commands():
     import importlib
 
     out = []
-    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli"):
+    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli", "wbc.ros2.cli"):
         try:
             out.append(importlib.import_module(module).register)
         except ModuleNotFoundError as exc:

@@ -1,0 +1,224 @@
+"""``wbc ros2 ...`` commands (the ROS 2 humanoid tutorial's nodes) and the ``--ros2``/``--bag`` options of runs.
+
+- ``wbc ros2 joint-publisher --robot humanoid15 --rate 50``: publishes the controller's walking motion on
+  /joint_states, /tf, /tf_static, /robot_description, looping until Ctrl-C; serves ``/reset_robot``
+  (std_srvs/srv/Trigger) which restarts the motion.
+- ``wbc ros2 echo-joint right_knee``: prints that joint's position from any /joint_states publisher.
+- ``wbc ros2 topics``: lists the ROS 2 topics (and their types) on the domain.
+
+Every command honours ``ROS_DOMAIN_ID``; ``--loopback`` confines DDS to 127.0.0.1 (see :mod:`wbc.ros2.dds`).
+"""
+
+from __future__ import annotations
+
+import time
+
+__all__ = ["register", "add_run_options", "attach"]
+
+
+def add_run_options(p) -> None:
+    """Add ``--ros2 --ros2-rate --tf --bag --storage`` to a run's argument parser (e.g. ``wbc walk``)."""
+    g = p.add_argument_group("ROS 2 (extra wbc[ros2])")
+    g.add_argument("--ros2", action="store_true",
+                   help="publish /joint_states, /tf, /tf_static, /robot_description on DDS (ROS_DOMAIN_ID)")
+    g.add_argument("--ros2-rate", type=float, default=50.0, help="publishing rate, Hz (default 50, max 500)")
+    g.add_argument("--tf", choices=("base", "all"), default="all",
+                   help="/tf content: odom->root link only, or every link (default all)")
+    g.add_argument("--bag", default=None, metavar="DIR", help="record the same topics as a rosbag2 in DIR")
+    g.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
+
+
+class _Tee:
+    """Forward ``update(q, t)`` to several viewers/publishers."""
+
+    def __init__(self, *targets):
+        self.targets = [t for t in targets if t is not None]
+
+    def update(self, q, t=None, *a, **k):
+        for target in self.targets:
+            target.update(q, t)
+
+
+def attach(args, robot, viewer, dt: float):
+    """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`."""
+    if not getattr(args, "ros2", False) and getattr(args, "bag", None) is None:
+        return viewer, None
+    from wbc.ros2.publisher import Ros2Publisher
+
+    pub = Ros2Publisher(robot, rate=args.ros2_rate, tf=args.tf, dds=args.ros2, bag=args.bag,
+                        storage=args.storage, dt=dt)
+    if args.ros2:
+        time.sleep(0.5)  # let DDS discovery match subscribers already running
+    return (_Tee(viewer, pub) if viewer is not None else pub), pub
+
+
+def finish(pub) -> None:
+    """Close the publisher and print what it did."""
+    if pub is None:
+        return
+    n = max(pub.published, 1)
+    pub.close()
+    msg = f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs"
+    if getattr(pub, "bag_path", None) is not None:
+        size = sum(f.stat().st_size for f in pub.bag_path.rglob("*") if f.is_file())
+        msg += f"; bag {pub.bag_path} ({size / 1e6:.2f} MB)"
+    print(msg)
+
+
+def _loopback(args) -> None:
+    if getattr(args, "loopback", False):
+        from wbc.ros2.dds import use_loopback
+
+        use_loopback()
+
+
+def cmd_joint_publisher(args) -> int:
+    """Loop the walking motion on ROS 2 until Ctrl-C (or ``--duration`` s); serve /reset_robot."""
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from wbc.robot import load_robot
+    from wbc.ros2 import dds, msgs
+    from wbc.ros2.publisher import Ros2Publisher
+    from wbc.scenarios.walk import plan_default_walk, run_walk
+
+    _loopback(args)
+    robot = load_robot(args.robot)
+    plan = plan_default_walk(robot, n_steps=args.steps)
+    run = run_walk(robot, plan)
+    pub = Ros2Publisher(robot, rate=args.rate, tf=args.tf, dt=run.dt)
+    part = pub.participant
+    qos = dds.qos_stream(10)
+    req_reader = DataReader(part, Topic(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos=qos), qos=qos)
+    rep_writer = DataWriter(part, Topic(part, "rr/reset_robotReply", msgs.TriggerReply, qos=qos), qos=qos)
+    stride = max(1, int(round(1.0 / (args.rate * run.dt))))
+    print(f"wbc ros2 joint-publisher: {robot.name}, {len(run.t)} ticks looped at {args.rate:g} Hz "
+          f"(domain {dds.domain_id()}); Ctrl-C to stop", flush=True)
+    k, loops, resets = 0, 0, 0
+    t_start = time.monotonic()
+    period = 1.0 / args.rate
+    next_wake = t_start
+    try:
+        while args.duration is None or time.monotonic() - t_start < args.duration:
+            for req in req_reader.take(N=10):
+                if not isinstance(req, msgs.TriggerRequest):
+                    continue
+                k, resets = 0, resets + 1
+                pub.reset()
+                rep_writer.write(msgs.TriggerReply(req.client_guid, req.seq, True,
+                                                   f"motion reset (reset {resets})"))
+                print(f"/reset_robot: reset {resets}", flush=True)
+            now = time.time()
+            pub.update(run.q[k], now, v=run.v[k])
+            k += stride
+            if k >= len(run.t):
+                k, loops = 0, loops + 1
+            next_wake += period
+            time.sleep(max(0.0, next_wake - time.monotonic()))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        pub.close()
+    print(f"joint-publisher: {pub.published} samples, {loops} loops, {resets} resets", flush=True)
+    return 0
+
+
+def cmd_echo_joint(args) -> int:
+    """Print ``<stamp> <joint> <position>`` for every /joint_states sample carrying the joint."""
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from wbc.exceptions import UnknownJointError
+    from wbc.ros2 import dds, msgs
+
+    _loopback(args)
+    part = dds.participant()
+    qos = dds.qos_stream(100)
+    reader = DataReader(part, Topic(part, dds.ros_topic("/joint_states"), msgs.JointState, qos=qos), qos=qos)
+    got = 0
+    t_end = None if args.timeout is None else time.monotonic() + args.timeout
+    try:
+        while (args.count is None or got < args.count) and (t_end is None or time.monotonic() < t_end):
+            samples = reader.take(N=100)
+            if not samples:
+                time.sleep(0.005)
+                continue
+            for s in samples:
+                if not isinstance(s, msgs.JointState):
+                    continue
+                if args.joint not in s.name:
+                    raise UnknownJointError(f"/joint_states has no joint {args.joint!r}; valid: {list(s.name)}")
+                pos = s.position[list(s.name).index(args.joint)]
+                print(f"{s.header.stamp.sec}.{s.header.stamp.nanosec:09d} {args.joint} {pos:.6f}", flush=True)
+                got += 1
+                if args.count is not None and got >= args.count:
+                    break
+    except KeyboardInterrupt:
+        pass
+    return 0 if got else 1
+
+
+def cmd_topics(args) -> int:
+    """List ROS 2 topics seen on the domain during ``--wait`` s (from DDS built-in publication/subscription data)."""
+    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
+
+    from wbc.ros2 import dds
+
+    _loopback(args)
+    part = dds.participant()
+    readers = [BuiltinDataReader(part, BuiltinTopicDcpsPublication),
+               BuiltinDataReader(part, BuiltinTopicDcpsSubscription)]
+    seen: dict[str, set[str]] = {}
+    t_end = time.monotonic() + args.wait
+    while time.monotonic() < t_end:
+        for r in readers:
+            for s in r.take(N=100):
+                name = getattr(s, "topic_name", None)
+                if name:
+                    seen.setdefault(name, set()).add(_ros_type(getattr(s, "type_name", "")))
+        time.sleep(0.05)
+    for name in sorted(seen):
+        ros = "/" + name[3:] if name[:3] in ("rt/", "rq/", "rr/") else name
+        print(f"{ros} [{', '.join(sorted(seen[name]))}]" + ("" if name.startswith("rt/") else f"  (DDS {name})"))
+    return 0
+
+
+def _ros_type(dds_type: str) -> str:
+    """``sensor_msgs::msg::dds_::JointState_`` → ``sensor_msgs/msg/JointState``."""
+    parts = dds_type.split("::")
+    if len(parts) == 4 and parts[2] == "dds_" and parts[3].endswith("_"):
+        return f"{parts[0]}/{parts[1]}/{parts[3][:-1]}"
+    return dds_type
+
+
+def _positive_rate(text: str) -> float:
+    import argparse
+
+    value = float(text)
+    if not 0 < value <= 500:
+        raise argparse.ArgumentTypeError(f"rate {value} Hz is invalid: valid is 0 < rate <= 500")
+    return value
+
+
+def register(subparsers, add_outputs) -> None:
+    """Add ``wbc ros2 {joint-publisher, echo-joint, topics}`` (``add_outputs`` unused)."""
+    ros2 = subparsers.add_parser("ros2", help="ROS 2 nodes on DDS without ROS 2 (extra wbc[ros2])")
+    sub = ros2.add_subparsers(dest="ros2_command", required=True)
+    jp = sub.add_parser("joint-publisher", help="publish the walking motion until Ctrl-C; /reset_robot service")
+    jp.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
+    jp.add_argument("--rate", type=_positive_rate, default=50.0, help="Hz (default 50, max 500)")
+    jp.add_argument("--steps", type=int, default=4, help="walking steps in the looped motion (default 4)")
+    jp.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
+    jp.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: Ctrl-C)")
+    jp.set_defaults(func=cmd_joint_publisher)
+    ej = sub.add_parser("echo-joint", help="print a joint's position from /joint_states")
+    ej.add_argument("joint", help="joint name, e.g. right_knee")
+    ej.add_argument("--count", type=int, default=None, help="exit after this many samples")
+    ej.add_argument("--timeout", type=float, default=None, help="exit after this many seconds")
+    ej.set_defaults(func=cmd_echo_joint)
+    tp = sub.add_parser("topics", help="list the ROS 2 topics on the domain")
+    tp.add_argument("--wait", type=float, default=2.0, help="discovery time, s (default 2)")
+    tp.set_defaults(func=cmd_topics)
+    for p in (jp, ej, tp):
+        p.add_argument("--loopback", action="store_true", help="confine DDS to 127.0.0.1 (sets CYCLONEDDS_URI)")
