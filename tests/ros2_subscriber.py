@@ -116,10 +116,13 @@ def main():
     if mode == "joint_states":
         r = DataReader(dp, Topic(dp, "rt/joint_states", JointState_, qos=stream), qos=stream)
         print("ready", flush=True)
-        lat, names, frames, n, knee = [], None, set(), 0, []
-        while time.monotonic() < t_end:
+        lat, names, frames, n = [], None, set(), 0
+        last = time.monotonic()
+        while time.monotonic() < t_end and not (n and time.monotonic() - last > 5.0):  # 5 s silence: done
             got = r.take(N=1000)
             now = time.time()
+            if got:
+                last = time.monotonic()
             for s in got:
                 if isinstance(s, JointState_):
                     n += 1

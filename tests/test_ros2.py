@@ -235,7 +235,7 @@ def test_bag_read_back_identical(tmp_path, storage):
     assert counts["/robot_description"] == counts["/tf_static"] == 1
     pos = np.array([m.position for _, m in js])
     np.testing.assert_array_equal(pos, run.q[:, 7:])
-    np.testing.assert_array_equal(np.array([ts for ts, _ in js]), (run.t * 1e9).astype(np.int64))
+    np.testing.assert_array_equal(np.array([ts for ts, _ in js]), np.round(run.t * 1e9).astype(np.int64))
     vel = np.array([m.velocity for _, m in js])
     np.testing.assert_allclose(vel[1:], np.diff(run.q[:, 7:], axis=0) / run.dt, rtol=0, atol=1e-9)
     assert sorted(js[0][1].name) == sorted(_urdf_joint_names("humanoid15"))  # URDF names, Pinocchio order
@@ -249,3 +249,63 @@ def test_bag_read_back_identical(tmp_path, storage):
             mpos = [list(m.position) for _, ch, _, m in make_reader(f, decoder_factories=[DecoderFactory()])
                     .iter_decoded_messages(topics=["/joint_states"])]
         np.testing.assert_array_equal(np.array(mpos), pos)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_preallocated_encoders_equal_cyclonedds_serializer(seed):
+    from wbc.ros2.cdr import JointStatePacker, TFPacker
+
+    rng = np.random.default_rng(100 + seed)
+    names = [_rand_str(rng) + str(i) for i in range(int(rng.integers(1, 30)))]
+    frame = _rand_str(rng)
+    packer = JointStatePacker(names, frame)
+    for _ in range(3):
+        sec, nsec = _stamp(rng)
+        p, v = rng.normal(size=len(names)), rng.normal(size=len(names))
+        ref = msgs.JointState(msgs.Header(msgs.Time(sec, nsec), frame), names, p.tolist(), v.tolist(), [])
+        assert packer.encode(sec, nsec, p, v) == msgs.to_bytes(ref)
+    pairs = [(_rand_str(rng), _rand_str(rng)) for _ in range(int(rng.integers(1, 12)))]
+    tf = TFPacker(pairs)
+    sec, nsec = _stamp(rng)
+    x = rng.normal(size=(len(pairs), 7))
+    ref = msgs.TFMessage([msgs.TransformStamped(msgs.Header(msgs.Time(sec, nsec), a), b, msgs.Transform(
+        msgs.Vector3(*x[i, :3].tolist()), msgs.Quaternion(*x[i, 3:].tolist()))) for i, (a, b) in enumerate(pairs)])
+    assert tf.encode(sec, nsec, x) == msgs.to_bytes(ref)
+
+
+def test_bag_tf_chain_reproduces_pinocchio_frames(tmp_path):
+    """Composing /tf_static and /tf from odom gives every link's pose as Pinocchio's oMf (independent path)."""
+    import pinocchio as pin
+    from rosbags.highlevel import AnyReader
+
+    from wbc.robot import load_robot
+    from wbc.ros2.publisher import Ros2Publisher
+
+    robot = load_robot("humanoid15")
+    rng = np.random.default_rng(3)
+    q = pin.randomConfiguration(robot.model, -np.ones(robot.nq), np.ones(robot.nq))
+    q[:3] = rng.normal(size=3)
+    pub = Ros2Publisher(robot, rate=500, dds=False, bag=tmp_path / "b", clock="sim")
+    pub.update(q, 1.0)
+    pub.close()
+    edges = {}
+    with AnyReader([tmp_path / "b"]) as reader:
+        for c, _, raw in reader.messages():
+            if c.topic in ("/tf", "/tf_static"):
+                for ts in reader.deserialize(raw, c.msgtype).transforms:
+                    tr, r = ts.transform.translation, ts.transform.rotation
+                    edges[ts.child_frame_id] = (ts.header.frame_id, pin.SE3(
+                        pin.Quaternion(r.w, r.x, r.y, r.z).matrix(), np.array([tr.x, tr.y, tr.z])))
+    # /tf_static was written for q_ref; fixed-joint placements do not depend on q.
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    links = [f.name for f in robot.model.frames if f.type == pin.FrameType.BODY]
+    assert set(links) == set(edges)
+    for fid, f in enumerate(robot.model.frames):
+        if f.type != pin.FrameType.BODY:
+            continue
+        pose, name = pin.SE3.Identity(), f.name
+        while name != "odom":
+            parent, rel = edges[name]
+            pose, name = rel * pose, parent
+        np.testing.assert_allclose(pose.homogeneous, data.oMf[fid].homogeneous, atol=1e-12)

@@ -103,6 +103,13 @@ class Ros2Publisher:
         self._moving = [(p, c) for p, c, m in self._edges if m]
         self._static = [(p, c) for p, c, m in self._edges if not m]
         self.description = Path(robot.urdf_path).read_text()
+        from wbc.ros2.cdr import JointStatePacker, TFPacker
+
+        frames = model.frames
+        self._js_packer = JointStatePacker(self.names, self.root)
+        self._tf_packer = TFPacker([("odom", self.root)]
+                                   + [(frames[p].name, frames[c].name) for p, c in self._moving])
+        self._tf_vals = np.zeros((1 + len(self._moving), 7))
         self._next_t = None
         self._q_prev = None
         self.published = 0
@@ -174,12 +181,18 @@ class Ros2Publisher:
             m.Header(stamp, parent), child,
             m.Transform(m.Vector3(*map(float, xyz)), m.Quaternion(*map(float, xyzw))))
 
-    def _send(self, topic: str, msg, t: float) -> None:
+    def _send(self, topic: str, msg, t: float, data: bytes | None = None) -> None:
+        """Write ``msg`` (or, when ``data`` is given, those CDR bytes as a ``msg``-typed sample)."""
         w = self._writers.get(topic)
         if w is not None:
+            if data is not None:
+                from wbc.ros2.cdr import prepacked
+
+                msg = prepacked(msg, data)
             w.write(msg)
         if self._bag is not None:
-            self._bag.write(self._conn[topic], int(t * 1e9), self._msgs.to_bytes(msg))
+            raw = data if data is not None else self._msgs.to_bytes(msg)
+            self._bag.write(self._conn[topic], int(round(t * 1e9)), raw)
 
     def _latched(self, t: float) -> None:
         q = self.robot.q_ref
@@ -209,14 +222,26 @@ class Ros2Publisher:
             vel = (q[7:] - q_prev[7:]) / self.dt
         else:
             vel = np.zeros(len(self.names))
-        m = self._msgs
+        m, pin = self._msgs, self._pin
         stamp = self._stamp(t)
-        js = m.JointState(m.Header(stamp, self.root), self.names, q[7:].tolist(), vel.tolist(),
-                          [] if effort is None else np.asarray(effort, dtype=float).tolist())
-        self._send("/joint_states", js, t)
+        if effort is None:
+            data = self._js_packer.encode(stamp.sec, stamp.nanosec, q[7:], vel)
+            self._send("/joint_states", m.JointState, t, data)
+        else:
+            js = m.JointState(m.Header(stamp, self.root), self.names, q[7:].tolist(), vel.tolist(),
+                              np.asarray(effort, dtype=float).tolist())
+            self._send("/joint_states", js, t)
+        vals = self._tf_vals
+        vals[0, :3] = q[:3]
+        vals[0, 3:] = q[3:7]
         if self._moving:
-            self._pin.framesForwardKinematics(self.robot.model, self._data, q)
-        self._send("/tf", self._tf(t, self._moving, q), t)
+            pin.framesForwardKinematics(self.robot.model, self._data, q)
+            oMf = self._data.oMf
+            for i, (p, c) in enumerate(self._moving, start=1):
+                rel = oMf[p].actInv(oMf[c])
+                vals[i, :3] = rel.translation
+                vals[i, 3:] = pin.Quaternion(rel.rotation).coeffs()
+        self._send("/tf", m.TFMessage, t, self._tf_packer.encode(stamp.sec, stamp.nanosec, vals))
         self.published += 1
         self.write_time += time.perf_counter() - t0
         return True
