@@ -175,7 +175,7 @@ def cmd_topics(args) -> int:
         for r in readers:
             for s in r.take(N=100):
                 name = getattr(s, "topic_name", None)
-                if name:
+                if name and not name.startswith("DCPS"):  # skip DDS built-in topics
                     seen.setdefault(name, set()).add(_ros_type(getattr(s, "type_name", "")))
         time.sleep(0.05)
     for name in sorted(seen):
