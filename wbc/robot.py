@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import importlib.metadata
 import importlib.resources
+import math
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -292,9 +293,13 @@ def _build(
     if not (sole_length > 0 and sole_width > 0):
         raise RobotDescriptionError(f"sole size must be positive, got {sole_length} x {sole_width} m")
     dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
-    model, collision_model, visual_model = pin.buildModelsFromUrdf(
-        str(urdf), dirs, pin.JointModelFreeFlyer()
-    )
+    try:
+        model, collision_model, visual_model = pin.buildModelsFromUrdf(
+            str(urdf), dirs, pin.JointModelFreeFlyer()
+        )
+    except (ValueError, RuntimeError) as exc:  # urdfdom/Pinocchio parse errors carry the reason in the message
+        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {exc} (fix the URDF: it must be well-formed XML "
+                                    f"with one root link and valid joints/links)") from exc
     model.name = name
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
@@ -337,6 +342,12 @@ def _build(
         q = np.array(model.referenceConfigurations[reference], dtype=float)
     for jname, angle in reference_joints.items():
         jid = robot.joint_id(jname)
+        try:
+            ok = math.isfinite(float(angle))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise RobotDescriptionError(f"reference_joints[{jname!r}] must be a finite angle (rad), got {angle!r}")
         q[model.joints[jid].idx_q] = float(angle)
     robot.q_ref = _stand_on_ground(robot, q)
     return robot
