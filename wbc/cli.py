@@ -70,7 +70,9 @@ def cmd_walk(args) -> int:
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.scenarios.acceptance import walk_passes
 
-    robot = load_robot(args.robot)
+    from wbc.robot_cli import robot_from_args
+
+    robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
                              step_width=args.step_width, turn=args.turn, dt=args.dt)
     viewer = pacer = None
@@ -111,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     _add_outputs(walk)
+    from wbc.robot_cli import add_robot_options
+
+    add_robot_options(walk)
     walk.set_defaults(func=cmd_walk)
 
     for register in _extra_commands():
@@ -123,7 +128,7 @@ def _extra_commands():
     import importlib
 
     out = []
-    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli"):
+    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli", "wbc.robot_cli"):
         try:
             out.append(importlib.import_module(module).register)
         except ModuleNotFoundError as exc:
