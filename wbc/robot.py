@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import importlib.metadata
 import importlib.resources
+import math
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -181,8 +182,8 @@ def load_robot(
     torso: str | None = None,
     left_hand: str | None = None,
     right_hand: str | None = None,
-    sole_length: float = 0.2,
-    sole_width: float = 0.1,
+    sole_length: float | None = None,
+    sole_width: float | None = None,
     package_dirs: list[str | Path] | None = None,
 ) -> Robot:
     """Load a catalog robot by name, or any humanoid URDF.
@@ -289,12 +290,17 @@ def _build(
         raise RobotDescriptionError(
             "left_sole, right_sole and torso frame names are required to load a humanoid from a URDF path"
         )
-    if not (sole_length > 0 and sole_width > 0):
-        raise RobotDescriptionError(f"sole size must be positive, got {sole_length} x {sole_width} m")
+    if not all(x is None or (isinstance(x, (int, float)) and math.isfinite(x) and x > 0)
+               for x in (sole_length, sole_width)):
+        raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
-    model, collision_model, visual_model = pin.buildModelsFromUrdf(
-        str(urdf), dirs, pin.JointModelFreeFlyer()
-    )
+    try:
+        model, collision_model, visual_model = pin.buildModelsFromUrdf(
+            str(urdf), dirs, pin.JointModelFreeFlyer()
+        )
+    except (ValueError, RuntimeError) as exc:  # urdfdom/Pinocchio parse errors carry the reason in the message
+        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {exc} (fix the URDF: it must be well-formed XML "
+                                    f"with one root link and valid joints/links)") from exc
     model.name = name
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
@@ -315,8 +321,8 @@ def _build(
         torso=torso,
         left_hand=left_hand,
         right_hand=right_hand,
-        sole_length=float(sole_length),
-        sole_width=float(sole_width),
+        sole_length=float(sole_length) if sole_length is not None else math.nan,
+        sole_width=float(sole_width) if sole_width is not None else math.nan,
         urdf_path=urdf,
         srdf_path=srdf,
         package_dirs=dirs,
@@ -337,9 +343,204 @@ def _build(
         q = np.array(model.referenceConfigurations[reference], dtype=float)
     for jname, angle in reference_joints.items():
         jid = robot.joint_id(jname)
+        try:
+            ok = math.isfinite(float(angle))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise RobotDescriptionError(f"reference_joints[{jname!r}] must be a finite angle (rad), got {angle!r}")
         q[model.joints[jid].idx_q] = float(angle)
+    _check_soles_distinct(robot)
+    if sole_length is None or sole_width is None:
+        length, width = sole_rectangle_from_collision(robot)
+        robot.sole_length = float(sole_length) if sole_length is not None else length
+        robot.sole_width = float(sole_width) if sole_width is not None else width
     robot.q_ref = _stand_on_ground(robot, q)
+    _check_robot(robot)
+    if not robot.gait:
+        robot.gait = scaled_gait(robot)
     return robot
+
+
+#: Talos's gait (robots/talos.toml) and its base height above the soles in half_sitting (m): the reference of
+#: :func:`scaled_gait`.
+_REFERENCE_GAIT = {"step_length": 0.15, "step_height": 0.05, "t_ss": 0.8, "t_ds": 0.3}
+_REFERENCE_LEG = 1.019
+
+
+def scaled_gait(robot: Robot) -> dict[str, float]:
+    """Default gait of a robot without a ``[gait]`` table: Talos's gait scaled to the robot.
+
+    Lengths scale with the leg (base height above the soles in ``q_ref``, ratio s = leg / 1.019 m); the step
+    length is also capped at 0.75 × the sole length (a step no longer than the foot keeps the ZMP transfer short);
+    durations scale with √s (equal Froude number, Alexander 1984, "The gaits of bipedal and quadrupedal animals").
+
+    Returns:
+        keyword arguments of :func:`wbc.gait.plan_walk`: step_length, step_height (m), t_ss, t_ds (s).
+    """
+    s = float(robot.q_ref[2]) / _REFERENCE_LEG
+    g = _REFERENCE_GAIT
+    return {"step_length": round(float(min(g["step_length"] * s, 0.75 * robot.sole_length)), 3),
+            "step_height": round(g["step_height"] * s, 3),
+            "t_ss": round(g["t_ss"] * math.sqrt(s), 3), "t_ds": round(g["t_ds"] * math.sqrt(s), 3)}
+
+
+def _geometry_points(geo) -> np.ndarray | None:
+    """Points (k, 3) bounding a collision geometry in its own frame (mesh vertices, box corners, sphere/cylinder
+    extremes), or None for an unsupported shape."""
+    if hasattr(geo, "vertices"):
+        return np.asarray(geo.vertices(), dtype=float).reshape(-1, 3)
+    if hasattr(geo, "halfSide"):
+        h = np.asarray(geo.halfSide, dtype=float)
+        return np.array([[sx * h[0], sy * h[1], sz * h[2]] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    if hasattr(geo, "radius"):
+        r = float(geo.radius)
+        hl = float(getattr(geo, "halfLength", 0.0))
+        return np.array([[sx * r, sy * r, sz * (hl + (r if not hasattr(geo, "halfLength") else 0.0))]
+                         for sx in (-1, 0, 1) for sy in (-1, 0, 1) for sz in (-1, 1)])
+    return None
+
+
+def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> tuple[float, float]:
+    """Sole rectangle (length, width) m derived from the feet's collision geometry.
+
+    The collision geometry attached to each sole's parent joint is expressed in the sole frame; its points within
+    ``contact_band`` m of the lowest one are the contact patch; the rectangle, centred on the sole frame (x
+    forward), is the largest one inside that patch's bounding box: length = 2 min(x_max, −x_min), width =
+    2 min(y_max, −y_min). The smaller of the two feet is returned.
+
+    Raises:
+        RobotDescriptionError: a foot has no collision geometry, or the sole frame is not above its contact patch
+            (pass ``sole_length`` / ``sole_width`` explicitly, or fix the sole frame).
+    """
+    model = robot.model
+    sizes = []
+    for frame in (robot.left_sole, robot.right_sole):
+        fr = model.frames[model.getFrameId(frame)]
+        s_m_j = fr.placement.inverse()
+        pts = []
+        for g in robot.collision_model.geometryObjects:
+            if g.parentJoint != fr.parentJoint:
+                continue
+            local = _geometry_points(g.geometry)
+            if local is None:
+                continue
+            m = (s_m_j * g.placement)
+            pts.append(local @ m.rotation.T + m.translation)
+        if not pts:
+            raise RobotDescriptionError(
+                f"{robot.name}: no collision geometry on the link of sole frame {frame!r}; pass sole_length and "
+                f"sole_width (m) explicitly (--sole-length/--sole-width)")
+        p = np.vstack(pts)
+        patch = p[p[:, 2] <= p[:, 2].min() + contact_band]
+        length = 2.0 * min(patch[:, 0].max(), -patch[:, 0].min())
+        width = 2.0 * min(patch[:, 1].max(), -patch[:, 1].min())
+        span = patch[:, :2].max(axis=0) - patch[:, :2].min(axis=0)
+        centre = 0.5 * (patch[:, :2].max(axis=0) + patch[:, :2].min(axis=0))
+        if length > 0.01 and width > 0.01 and (length < 0.5 * span[0] or width < 0.5 * span[1]):
+            raise RobotDescriptionError(
+                f"{robot.name}: sole frame {frame!r} is off the centre of its foot's contact patch by "
+                f"({centre[0]:.3f}, {centre[1]:.3f}) m (patch {span[0]:.3f} x {span[1]:.3f} m in the sole frame, "
+                f"x forward); a centred rectangle would be only {length:.3f} x {width:.3f} m. Add a sole frame at "
+                f"the patch centre (a fixed frame, x forward, z up) or pass sole_length and sole_width explicitly")
+        if not (length > 0.01 and width > 0.01):
+            raise RobotDescriptionError(
+                f"{robot.name}: sole frame {frame!r} is not above its foot's contact patch (x in "
+                f"[{patch[:, 0].min():.3f}, {patch[:, 0].max():.3f}], y in [{patch[:, 1].min():.3f}, "
+                f"{patch[:, 1].max():.3f}] m in the sole frame); put the sole frame inside the foot's footprint or "
+                f"pass sole_length and sole_width explicitly")
+        sizes.append((length, width))
+    return min(s[0] for s in sizes), min(s[1] for s in sizes)
+
+
+#: Largest tilt (deg) of a sole's z axis from the world vertical in the reference posture.
+MAX_SOLE_TILT_DEG = 5.0
+#: Tolerance (rad or m) on the reference posture's joint limits.
+LIMIT_TOLERANCE = 1e-6
+#: How far (m) a joint origin may sit below the soles' plane before the soles are judged not to be the feet.
+BELOW_SOLE_TOLERANCE = 0.03
+
+
+def _chain(model: pin.Model, joint_id: int) -> list[int]:
+    out = []
+    while joint_id > 0:
+        out.append(joint_id)
+        joint_id = model.parents[joint_id]
+    return out[::-1]
+
+
+def _check_soles_distinct(robot: Robot) -> None:
+    """Left and right soles are different frames on different legs (branches after the floating base)."""
+    model = robot.model
+    if robot.left_sole == robot.right_sole:
+        raise RobotDescriptionError(
+            f"{robot.name}: left_sole and right_sole are the same frame {robot.left_sole!r}; name the left foot's "
+            f"sole frame and the right foot's sole frame")
+    jl = model.frames[model.getFrameId(robot.left_sole)].parentJoint
+    jr = model.frames[model.getFrameId(robot.right_sole)].parentJoint
+    cl, cr = _chain(model, jl), _chain(model, jr)
+    # index 0 is the free-flyer; the legs must split right after it (or after a shared pelvis chain)
+    if jl in cr or jr in cl or jl == jr:
+        raise RobotDescriptionError(
+            f"{robot.name}: soles {robot.left_sole!r} and {robot.right_sole!r} are on the same kinematic chain "
+            f"(joint {model.names[jl]!r} / {model.names[jr]!r}); each sole must be on its own leg")
+
+
+def _check_robot(robot: Robot) -> None:
+    """Validate a loaded humanoid (called by :func:`load_robot`).
+
+    Raises:
+        RobotDescriptionError: mass ≤ 0 or non-finite inertias; reference posture outside the joint limits;
+            a sole tilted more than ``MAX_SOLE_TILT_DEG`` from flat; a joint below the soles (the named soles
+            are not the lowest points: not feet); soles not below the floating base (a legless robot).
+    """
+    model, name = robot.model, robot.name
+    bad_inertia = [model.names[j] for j in range(1, model.njoints)
+                   if not (np.isfinite(model.inertias[j].mass) and np.isfinite(model.inertias[j].lever).all()
+                           and np.isfinite(model.inertias[j].inertia).all() and model.inertias[j].mass >= 0)]
+    if bad_inertia:
+        raise RobotDescriptionError(
+            f"{name}: non-finite or negative inertial parameters on the bodies of joints {bad_inertia[:5]}; "
+            f"give every <link> a finite <inertial> (mass ≥ 0, inertia matrix)")
+    mass = float(sum(model.inertias[j].mass for j in range(1, model.njoints)))
+    if not mass > 0:
+        raise RobotDescriptionError(
+            f"{name}: total mass is {mass} kg; the URDF has no <inertial> elements — add masses and inertias "
+            f"(the CoM is undefined without them)")
+    q = robot.q_ref
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    out = [(model.names[j], float(q[model.joints[j].idx_q]), float(lo[model.joints[j].idx_q]),
+            float(hi[model.joints[j].idx_q])) for j in range(2, model.njoints) if model.joints[j].nq == 1
+           and not (lo[model.joints[j].idx_q] - LIMIT_TOLERANCE <= q[model.joints[j].idx_q]
+                    <= hi[model.joints[j].idx_q] + LIMIT_TOLERANCE)]
+    if out:
+        desc = ", ".join(f"{n} = {v:.3f} rad not in [{a:.3f}, {b:.3f}]" for n, v, a, b in out[:5])
+        raise RobotDescriptionError(
+            f"{name}: the reference posture is outside the joint limits ({desc}); fix the SRDF group_state / "
+            f"reference_joints or the URDF <limit>")
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
+        z = data.oMf[model.getFrameId(frame)].rotation[:, 2]
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(z[2])))))
+        if tilt > MAX_SOLE_TILT_DEG:
+            raise RobotDescriptionError(
+                f"{name}: {side} sole frame {frame!r} is tilted {tilt:.1f}° from flat in the reference posture "
+                f"(z axis {np.round(z, 3).tolist()}, at most {MAX_SOLE_TILT_DEG}° allowed); name a frame whose z "
+                f"axis points up when the robot stands (add one with a fixed rpy), or fix the reference posture")
+    low = [(model.names[j], float(data.oMi[j].translation[2])) for j in range(1, model.njoints)
+           if data.oMi[j].translation[2] < -BELOW_SOLE_TOLERANCE]
+    if low:
+        n, z = min(low, key=lambda x: x[1])
+        raise RobotDescriptionError(
+            f"{name}: joint {n!r} is {-z:.3f} m below the named soles {robot.left_sole!r}/{robot.right_sole!r}; "
+            f"the soles must be the lowest points of a standing humanoid — name the feet's sole frames")
+    base_z = float(data.oMi[1].translation[2])
+    if base_z < 0.1:
+        raise RobotDescriptionError(
+            f"{name}: the floating base is {base_z:.3f} m above the soles {robot.left_sole!r}/"
+            f"{robot.right_sole!r}; a humanoid stands on legs below its base (≥ 0.1 m) — a legless robot or "
+            f"hands named as soles cannot walk")
 
 
 def _stand_on_ground(robot: Robot, q: np.ndarray) -> np.ndarray:

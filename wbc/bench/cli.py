@@ -1,7 +1,9 @@
 """``wbc bench``: run the benchmark suite (:mod:`wbc.bench.suite`) and write its report (:mod:`wbc.bench.report`).
 
 Exit code 0 when every acceptance criterion of the report is met, 1 when one is not (the report is written in
-both cases).
+both cases). With ``--quick`` the run is a pipeline check: wall-clock criteria are reported but do not set the exit
+code (a few ticks on a loaded machine say nothing about speed); every correctness criterion (same-work check, plan
+ZMP margin) still must hold.
 """
 
 from __future__ import annotations
@@ -52,4 +54,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     for kind, path in paths.items():
         print(f"{kind}: {path}")
     print(f"wbc bench: {time.perf_counter() - t0:.1f} s")
-    return 0 if all(a["met"] for a in acceptance(results)) else 1
+    rows = acceptance(results)
+    if args.quick:
+        rows = [a for a in rows if not a.get("timing")]
+    return 0 if rows and all(a["met"] for a in rows) else 1

@@ -13,6 +13,7 @@ import numpy as np
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
+from wbc.exceptions import InvalidInputError
 
 __all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints"]
 
@@ -36,12 +37,17 @@ class JointPositionLimit(BoxConstraint):
         robot: the robot (limits read from ``robot.model``).
         margin: keep this far (rad) inside each limit, ≥ 0. The default 1e-9 rad absorbs the round-off of
             q + ((q_max − q)/dt)·dt, which can otherwise land one ulp outside the limit.
+
+    Raises:
+        InvalidInputError: ``margin`` negative or not finite (a negative margin would widen the limits).
     """
 
     name = "joint_position_limit"
     priority = 1
 
     def __init__(self, robot, *, margin: float = 1e-9):
+        if isinstance(margin, bool) or not (np.isfinite(margin) and margin >= 0):
+            raise InvalidInputError(f"JointPositionLimit margin must be a finite number ≥ 0 (rad), got {margin!r}")
         model = robot.model
         self.idx_q, self.indices = bounded_joints(model)
         self.dim = int(self.indices.size)
@@ -61,13 +67,23 @@ class JointPositionLimit(BoxConstraint):
 
 
 class JointVelocityLimit(BoxConstraint):
-    """|v_j| ≤ velocityLimit_j for every actuated joint (rad/s)."""
+    """|v_j| ≤ scale · velocityLimit_j for every actuated joint (rad/s).
+
+    Args:
+        robot: the robot (limits read from ``robot.model``).
+        scale: fraction of the URDF velocity limit allowed, finite and > 0 (default 1).
+
+    Raises:
+        InvalidInputError: ``scale`` ≤ 0 or not finite (it would switch the limits off or invert them).
+    """
 
     name = "joint_velocity_limit"
     priority = 0
     constant = True
 
     def __init__(self, robot, *, scale: float = 1.0):
+        if isinstance(scale, bool) or not (np.isfinite(scale) and scale > 0):
+            raise InvalidInputError(f"JointVelocityLimit scale must be a finite number > 0, got {scale!r}")
         model = robot.model
         self.indices = np.arange(6, model.nv)
         self.dim = int(self.indices.size)

@@ -10,7 +10,7 @@ WALK_CRITERIA = [
      lambda s: abs(s["walked_distance_m"] - s["planned_distance_m"]) <= 0.05 * max(s["planned_distance_m"], 1e-9)),
     ("max_stance_slip_m", "stance-foot slip ≤ 1 mm", lambda s: s["max_stance_slip_m"] <= 1e-3),
     ("max_com_error_m", "CoM tracking error ≤ 5 mm", lambda s: s["max_com_error_m"] <= 5e-3),
-    ("min_zmp_margin_m", "ZMP inside the support polygon", lambda s: s["min_zmp_margin_m"] >= 0.0),
+    ("min_zmp_margin_m", "ZMP of the executed motion inside the support polygon", lambda s: s["min_zmp_margin_m"] >= 0.0),
     ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
     ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
     ("solver_failures", "no solver failure", lambda s: s["solver_failures"] == 0),

@@ -46,6 +46,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
 from wbc.qp import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk,
     support_polygon,
@@ -270,6 +271,8 @@ def _stance_slip(run: BalanceRun) -> float:
 #: Criteria of every behaviour (from the issue): (summary key, description, predicate).
 COMMON_CRITERIA: list[Criterion] = [
     ("min_com_margin_m", "CoM projection inside the support polygon at every tick", lambda s: s["min_com_margin_m"] >= 0.0),
+    ("min_zmp_margin_m", "ZMP of the executed motion inside the support polygon at every tick",
+     lambda s: s["min_zmp_margin_m"] >= 0.0),
     ("max_stance_slip_m", "stance soles do not slip (≤ 1 mm)", lambda s: s["max_stance_slip_m"] <= 1e-3),
     ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
     ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
@@ -278,12 +281,22 @@ COMMON_CRITERIA: list[Criterion] = [
 ]
 
 
+def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
+    """Min over ticks of the signed distance (m) of the executed-motion ZMP to the realized support polygon."""
+    ground = stance_ground_z(run.left_sole, run.right_sole, run.support, DOUBLE, LEFT_STANCE)
+    zmp = executed_zmp(run.com, run.dt, ground)
+    return float(support_margin(zmp, run.left_sole, run.right_sole, run.support, robot.sole_length,
+                                robot.sole_width, DOUBLE, LEFT_STANCE, RIGHT_STANCE).min())
+
+
 def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     """Acceptance metrics of a balance run.
 
     Returns a dict with: robot, behaviour, dt (s), ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
-    polygon of the realized stance soles, min over ticks, negative = outside), max_task_error {task: max over
+    polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
+    of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
+    :mod:`wbc.scenarios.metrics`), max_task_error {task: max over
     active ticks of ‖e‖, task units m or rad; frame tasks mix m and rad rows}, max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
     solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
@@ -307,6 +320,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "duration_s": float(run.t[-1]),
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
         "min_com_margin_m": float(run.com_margin.min()),
+        "min_zmp_margin_m": _executed_zmp_margin(robot, run),
         "max_task_error": task_err,
         "max_stance_slip_m": _stance_slip(run),
         "joint_position_violations": pos_viol,

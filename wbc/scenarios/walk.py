@@ -25,6 +25,7 @@ from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.robot import Robot
+from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 
 __all__ = ["WalkController", "WalkRun", "plan_default_walk", "run_walk", "walk_summary"]
@@ -171,15 +172,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
 def _support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, support: np.ndarray,
                     length: float, width: float) -> np.ndarray:
     """Signed distance (m, > 0 inside) of each point (N, 2) to the support polygon given by the sole poses."""
-    out = np.empty(len(points))
-    for k in range(len(points)):
-        polys = []
-        for side, pose in ((LEFT_STANCE, left[k]), (RIGHT_STANCE, right[k])):
-            if support[k] in (DOUBLE, side):
-                polys.append(sole_polygon(pose[0, 3], pose[1, 3], math.atan2(pose[1, 0], pose[0, 0]), length, width))
-        poly = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
-        out[k] = float(signed_distance(points[k], poly))
-    return out
+    return support_margin(points, left, right, support, length, width, DOUBLE, LEFT_STANCE, RIGHT_STANCE)
 
 
 def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
@@ -188,13 +181,19 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     Returns a dict with: robot, solver-independent plan info, dt (s), ticks, planned_distance and
     walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
     max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
-    its stance began), min_zmp_margin (m, signed distance of the plan's ZMP — recomputed from its CoM
-    and CoM acceleration — to the support polygon of the REALIZED soles, negative = outside),
+    its stance began), min_zmp_margin_m (m, signed distance of the ZMP of the EXECUTED motion to the support
+    polygon of the realized soles at that tick, negative = outside; the CoM is the one of the integrated q and
+    its acceleration the central second finite difference of that executed CoM, see
+    :mod:`wbc.scenarios.metrics`), min_zmp_margin_plan_m (the same distance for the plan's ZMP, reported beside
+    it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
-    solver_failures, nan (any non-finite q or v).
+    solver_failures, nan (any non-finite q or v), passed and failed_criteria
+    (:data:`wbc.scenarios.acceptance.WALK_CRITERIA`).
     """
-    model = robot.model
     from wbc.constraints.limits import bounded_joints
+    from wbc.scenarios.acceptance import walk_passes
+
+    model = robot.model
 
     idx_q, idx_v = bounded_joints(model)
     qj = run.q[:, idx_q]
@@ -214,10 +213,14 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
             anchor = poses[a, :3, 3]  # where the sole was when its stance began
             slip = max(slip, float(np.max(np.linalg.norm(poses[a:b + 1, :3, 3] - anchor, axis=1))))
     zmp_plan = plan.com[:, :2] - plan.com_acc[:, :2] / plan.omega**2
-    zmp_margin = _support_margin(zmp_plan, run.left_sole, run.right_sole, run.support, robot.sole_length,
+    zmp_margin_plan = _support_margin(zmp_plan, run.left_sole, run.right_sole, run.support, robot.sole_length,
+                                      robot.sole_width)
+    ground = stance_ground_z(run.left_sole, run.right_sole, run.support, DOUBLE, LEFT_STANCE)
+    zmp_exec = executed_zmp(run.com, run.dt, ground)
+    zmp_margin = _support_margin(zmp_exec, run.left_sole, run.right_sole, run.support, robot.sole_length,
                                  robot.sole_width)
     tt = run.tick_time * 1e6
-    return {
+    summary = {
         "robot": robot.name,
         "dt": run.dt,
         "ticks": int(len(run.t)),
@@ -229,8 +232,11 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "max_com_error_m": float(np.max(np.linalg.norm(run.com - run.com_ref, axis=1))),
         "max_stance_slip_m": slip,
         "min_zmp_margin_m": float(zmp_margin.min()),
+        "min_zmp_margin_plan_m": float(zmp_margin_plan.min()),
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
+    summary["passed"], summary["failed_criteria"] = walk_passes(summary)
+    return summary

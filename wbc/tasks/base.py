@@ -48,12 +48,29 @@ class Task(ABC):
     dim: int = 0
 
     def __init__(self, *, gain: float, weight, name: str | None = None):
-        if not (np.isfinite(gain) and gain >= 0):
-            raise InvalidInputError(f"task gain must be finite and ≥ 0 (1/s), got {gain!r}")
-        self.gain = float(gain)
         if name is not None:
             self.name = name
+        self.gain = gain
         self._weight = as_weight(weight, self.dim, f"{self.name} weight")
+
+    @property
+    def gain(self) -> float:
+        """K (1/s), finite and ≥ 0; validated on assignment.
+
+        Raises:
+            InvalidInputError: negative, NaN/inf or not a number.
+        """
+        return self._gain
+
+    @gain.setter
+    def gain(self, value) -> None:
+        try:
+            k = float(value)
+        except (TypeError, ValueError):
+            k = float("nan")
+        if isinstance(value, bool) or not (np.isfinite(k) and k >= 0):
+            raise InvalidInputError(f"{self.name} gain must be a finite number ≥ 0 (1/s), got {value!r}")
+        self._gain = k
 
     @property
     def weight(self) -> np.ndarray:

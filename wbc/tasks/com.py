@@ -33,11 +33,20 @@ class ComTask(Task):
         Raises:
             InvalidTargetError: wrong shape or NaN.
         """
-        self.target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+        self.target = com
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
+    @property
+    def target(self) -> np.ndarray:
+        """Target CoM (3,) m, world; validated on assignment (raises InvalidTargetError: wrong shape or NaN)."""
+        return self._target
+
+    @target.setter
+    def target(self, com) -> None:
+        self._target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
-        return config.com - self.target, config.com_jacobian
+        return config.com - self._target, config.com_jacobian
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff

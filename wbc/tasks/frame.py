@@ -100,7 +100,7 @@ class FrameTask(Task):
         Raises:
             InvalidTargetError: malformed pose or velocity.
         """
-        self.target = as_se3(pose, f"target of {self.name}")
+        self.target = pose  # validated by the setter
         if velocity is None:
             self._ff = None
             return
@@ -117,7 +117,9 @@ class FrameTask(Task):
         return self._target
 
     @target.setter
-    def target(self, pose: pin.SE3) -> None:
+    def target(self, pose) -> None:
+        """Validated on assignment (pin.SE3 or (4, 4)); raises InvalidTargetError like :func:`as_se3`."""
+        pose = as_se3(pose, f"target of {self.name}")
         self._target = pose
         self._target_rot_t = pose.rotation.T.copy()
 

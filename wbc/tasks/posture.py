@@ -55,7 +55,16 @@ class PostureTask(Task):
         Raises:
             InvalidTargetError: wrong size or NaN.
         """
-        self.target = check_vector(q, self.model.nq, "posture target", InvalidTargetError).copy()
+        self.target = q
+
+    @property
+    def target(self) -> np.ndarray:
+        """Target configuration (nq,); validated on assignment (raises InvalidTargetError: wrong size or NaN)."""
+        return self._target
+
+    @target.setter
+    def target(self, q) -> None:
+        self._target = check_vector(q, self.model.nq, "posture target", InvalidTargetError).copy()
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
