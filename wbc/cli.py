@@ -21,7 +21,11 @@ def _add_outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", type=Path, metavar="FILE", help="write the summary as JSON")
     p.add_argument("--log", type=Path, metavar="FILE", help="write the time series as npz")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a self-contained meshcat HTML recording")
-    p.add_argument("--live", action="store_true", help="show the motion live in meshcat (paced to real time)")
+    p.add_argument("--live", action="store_true",
+                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the viewer stays up "
+                        "after the motion until Ctrl-C or --hold")
+    p.add_argument("--hold", type=float, metavar="SECONDS", default=None,
+                   help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
 
 
 def _print_summary(summary: dict, indent: str = "  ") -> None:
@@ -53,13 +57,57 @@ def _write_outputs(args, summary: dict, run, robot, overlays: dict | None = None
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
 
 
+_LIVE_VIEWERS: list = []  # viewers opened by _live, closed by main() after the hold
+
+
+class _HeldViewer:
+    """A LiveViewer whose ``close()`` (called by the commands when the motion ends) is deferred to main()."""
+
+    def __init__(self, viewer):
+        self._viewer = viewer
+
+    def __getattr__(self, name):
+        return getattr(self._viewer, name)
+
+    def close(self) -> None:
+        pass
+
+
 def _live(robot):
-    """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 and a real-time pacer."""
+    """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer.
+
+    The URL is printed before the motion starts; main() keeps the viewer up after the command until Ctrl-C or
+    ``--hold`` seconds, then closes it.
+    """
     from wbc.viz import LiveViewer, RealTimePacer
 
     viewer = LiveViewer(robot)
-    print(f"meshcat viewer: {viewer.url} (open it in a browser)")
-    return viewer, RealTimePacer()
+    _LIVE_VIEWERS.append(viewer)
+    print(f"meshcat viewer: {viewer.url} (open it in a browser)", flush=True)
+    return _HeldViewer(viewer), RealTimePacer()
+
+
+def _hold_live(seconds: float | None) -> None:
+    """Keep the live viewers up for ``seconds`` (None: until Ctrl-C)."""
+    import time
+
+    if not _LIVE_VIEWERS:
+        return
+    urls = ", ".join(v.url for v in _LIVE_VIEWERS)
+    bound = "Ctrl-C" if seconds is None else f"{seconds:g} s or Ctrl-C"
+    print(f"motion done; meshcat viewer stays up at {urls} (until {bound})", flush=True)
+    try:
+        if seconds is None:
+            while True:
+                time.sleep(3600)
+        time.sleep(max(0.0, seconds))
+    except KeyboardInterrupt:
+        pass
+
+
+def _close_live() -> None:
+    while _LIVE_VIEWERS:
+        _LIVE_VIEWERS.pop().close()
 
 
 def cmd_walk(args) -> int:
@@ -138,10 +186,38 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        _check_args(args)
+        code = int(args.func(args))
+        if getattr(args, "live", False):
+            _hold_live(args.hold)
+        return code
     except WbcError as exc:
         print(f"wbc {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        _close_live()
+
+
+def _check_args(args) -> None:
+    """Checks common to every command, before any run.
+
+    Raises:
+        InvalidInputError: an output file's directory does not exist; ``--hold`` is negative or given without
+            ``--live``.
+    """
+    from wbc.exceptions import InvalidInputError
+
+    for opt in ("json", "log", "out", "plot"):
+        path = getattr(args, opt, None)
+        if path is not None:
+            parent = Path(path).parent
+            if not parent.is_dir():
+                raise InvalidInputError(f"--{opt} {path}: directory {str(parent)!r} does not exist (create it first)")
+    hold = getattr(args, "hold", None)
+    if hold is not None and not (hold >= 0 and hold != float("inf")):
+        raise InvalidInputError(f"--hold must be a finite number of seconds >= 0, got {hold}")
+    if hold is not None and not getattr(args, "live", False):
+        raise InvalidInputError("--hold only applies with --live")
 
 
 if __name__ == "__main__":  # pragma: no cover

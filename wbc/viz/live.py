@@ -8,6 +8,7 @@ and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transfo
 
 from __future__ import annotations
 
+import atexit
 import subprocess
 import threading
 import time
@@ -23,7 +24,7 @@ import zmq
 
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
-from wbc.viz import _scene
+from wbc.viz import _scene, _server
 
 __all__ = ["LiveViewer", "RealTimePacer"]
 
@@ -34,8 +35,9 @@ class LiveViewer:
     Args:
         robot: the robot; its visual model is shown (collision model skipped).
         fps: display rate of the background thread (Hz); it shows fewer frames if sending takes longer.
-        zmq_url: an existing meshcat server (``tcp://127.0.0.1:6000``); ``None`` starts one on 127.0.0.1 (a
-            subprocess, killed by :meth:`close`). meshcat prints the viewer URL.
+        zmq_url: an existing meshcat server (``tcp://127.0.0.1:6000``); ``None`` starts one (a subprocess,
+            killed by :meth:`close`) whose zmq *and* web/websocket ports all listen on 127.0.0.1 only
+            (``meshcat-server`` 0.3.2 serves the page on every interface).
         open: open the viewer URL in the default web browser.
 
     Attributes:
@@ -60,8 +62,11 @@ class LiveViewer:
         self.error: BaseException | None = None
         if zmq_url is not None:
             _probe(zmq_url, timeout=3.0)
-        self._vis = meshcat.Visualizer(zmq_url=zmq_url)  # starts a server when zmq_url is None
-        self._server: subprocess.Popen | None = getattr(self._vis.window, "server_proc", None)
+        self._server: subprocess.Popen | None = None
+        if zmq_url is None:
+            self._server, zmq_url, _ = _server.start()
+            atexit.register(_kill, self._server)
+        self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
@@ -105,8 +110,7 @@ class LiveViewer:
         self._wake.set()
         self._thread.join(timeout=10.0)
         if self._server is not None:
-            self._server.kill()
-            self._server.wait(timeout=10.0)
+            _kill(self._server)
             self._server = None
         self._vis.window.zmq_socket.close(linger=0)
 
@@ -195,6 +199,12 @@ class RealTimePacer:
             self.late_ticks += 1
             self._origin = now - t / self.speed
         return lag
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait(timeout=10.0)
 
 
 def _probe(zmq_url: str, timeout: float) -> None:
