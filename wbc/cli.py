@@ -43,7 +43,7 @@ def _fmt(value) -> str:
     return str(value)
 
 
-def _write_outputs(args, summary: dict, run, robot, overlays: dict | None = None) -> None:
+def _write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:
     if args.json:
         args.json.write_text(json.dumps(summary, indent=2) + "\n")
         print(f"summary written to {args.json}")
@@ -53,7 +53,8 @@ def _write_outputs(args, summary: dict, run, robot, overlays: dict | None = None
     if args.out:
         from wbc.viz import record_html
 
-        path = record_html(robot, run.t, run.q, args.out, overlays=overlays)
+        extra = {} if scene is None else {k: scene[k] for k in ("polygons", "paths", "outlines") if k in scene}
+        path = record_html(robot, run.t, run.q, args.out, overlays=overlays, **extra)
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
 
 
@@ -137,9 +138,10 @@ def cmd_walk(args) -> int:
     print(f"wbc walk: {robot.name}, {summary['steps']} steps, {summary['ticks']} ticks at "
           f"{1 / args.dt:.0f} Hz, solver {args.solver}")
     _print_summary(summary)
-    com = run.com
-    zmp = np.c_[run.zmp_ref, np.zeros(len(run.t))]
-    _write_outputs(args, summary, run, robot, overlays={"com": com, "zmp": zmp})
+    from wbc.viz.overlays import walk_overlays
+
+    scene = walk_overlays(robot, plan, run)
+    _write_outputs(args, summary, run, robot, overlays=scene["points"], scene=scene)
     return 0 if passed else 1
 
 

@@ -70,6 +70,7 @@ class LiveViewer:
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
+        _scene.add_floor(self._vis)
         _scene.set_camera_offset(self._vis, _scene.camera_offset(robot, target_on_ground=True))
         self._viz.display(robot.q_ref)
         if open:

@@ -48,6 +48,7 @@ _HTML = """<!DOCTYPE html>
 </head>
 <body>
 <div id="meshcat-pane"></div>
+{legend}
 <script>
 {viewer_js}
 </script>
@@ -104,6 +105,9 @@ def record_html(
     fps: float = 25.0,
     overlays: Mapping[str, np.ndarray] | None = None,
     polygons: Sequence[Polygon] | None = None,
+    paths: Mapping[str, Sequence[np.ndarray]] | None = None,
+    outlines: Mapping[str, Sequence[np.ndarray]] | None = None,
+    legend: bool = True,
     follow_camera: bool = True,
     loop: bool = True,
     compress: bool = True,
@@ -121,6 +125,11 @@ def record_html(
             ``{"com": com, "zmp": zmp}`` ("com" red, "zmp"/"cop" green, "dcm" blue, others cycled).
         polygons: support polygon outlines, each ``(t_start, t_end, vertices (K, 3))``, shown while
             ``t_start <= t < t_end`` (times on the clock of ``t``).
+        paths: name -> list of (K, 3) open polylines (world, m) drawn for the whole recording under
+            ``/meshcat/overlays/<name>/<i>`` (e.g. swing-foot trajectories).
+        outlines: name -> list of (K, 3) closed outlines, same (e.g. planned footsteps, footprints).
+        legend: add an HTML legend (colour -> overlay name) in the page's lower-left corner. Every overlay
+            is a separate meshcat path, shown or hidden from meshcat's "Open Controls" panel.
         follow_camera: the camera looks at and follows the base (smoothed over 1 s, at mid robot height);
             else it looks at the mean base position. Mouse orbit and zoom work in both cases.
         loop: replay the animation forever (else once; the viewer's Animations panel replays it).
@@ -139,17 +148,27 @@ def record_html(
     times = (t[idx] - t[0]).astype(np.float32)
     q_frames = np.array([_scene.normalized(robot, qi) for qi in q[idx]])
     marks = _check_overlays(overlays, len(t))
-    outlines = _check_polygons(polygons)
+    support = _check_polygons(polygons)
+    lines = _check_paths(paths, "paths") + _check_paths(outlines, "outlines", closed=True)
 
     recorder = _scene.CommandRecorder()
     vis = meshcat.Visualizer(window=recorder)
     _scene.load_robot_visuals(robot, vis)
     # Pinocchio's loader also sends scaled placements (set_transform) of a blank pose: replaced below.
     recorder.commands = [c for c in recorder.commands if c["type"] != "set_transform"]
+    _scene.add_floor(vis)
+    entries = {name: _scene.overlay_color(name, i) for i, name in enumerate(marks)}
+    for j, (name, closed, items) in enumerate(lines):
+        color = _scene.overlay_color(name, len(marks) + j)
+        entries[name] = color
+        for i, v in enumerate(items):
+            vis[f"{_scene.OVERLAY_ROOT}/{name}/{i}"].set_object(_scene.polyline(v, color, closed))
+    if support:
+        entries["support_polygon"] = _scene.overlay_color("support_polygon", 0)
     animations = [
         *_robot_clips(vis, robot, q_frames, times),
         *_overlay_clips(vis, {name: points[idx] for name, points in marks.items()}, times),
-        *_polygon_clips(vis, outlines, t[0], times),
+        *_polygon_clips(vis, support, t[0], times),
         *_camera_clips(vis, robot, q_frames, times, fps, follow_camera),
     ]
     if len(times) > 1:
@@ -161,7 +180,8 @@ def record_html(
             "animations": animations,
             "options": {"play": True, "repetitions": float("inf") if loop else 1},
         })
-    return _write(Path(path), recorder.commands, compress, title=f"wbc: {robot.name}")
+    return _write(Path(path), recorder.commands, compress, title=f"wbc: {robot.name}",
+                  legend=_scene.legend_html(entries) if legend and entries else "")
 
 
 def _robot_clips(vis: meshcat.Visualizer, robot: Robot, q_frames: np.ndarray, times: np.ndarray) -> list[dict]:
@@ -192,7 +212,7 @@ def _polygon_clips(vis: meshcat.Visualizer, outlines: list[tuple[float, float, n
     """One outline per polygon, its ``visible`` switched by a boolean (step) track."""
     clips = []
     for i, (t_start, t_end, vertices) in enumerate(outlines):
-        node = f"{_scene.POLYGON_ROOT}/{i}"
+        node = f"{_scene.OVERLAY_ROOT}/support_polygon/{i}"
         vis[node].set_object(_scene.polygon_outline(vertices))
         key_t, key_v = [0.0], [bool(t_start <= t0 < t_end)]
         vis[node].set_property("visible", key_v[0])
@@ -245,6 +265,21 @@ def _check_overlays(overlays: Mapping[str, np.ndarray] | None, n: int) -> dict[s
             raise InvalidInputError(f"overlay {name!r} must be a finite (N, 3) = ({n}, 3) array, got {p.shape}")
         key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "overlay"
         out[key] = p
+    return out
+
+
+def _check_paths(paths: Mapping[str, Sequence[np.ndarray]] | None, what: str,
+                 closed: bool = False) -> list[tuple[str, bool, list[np.ndarray]]]:
+    out = []
+    for name, items in (paths or {}).items():
+        arrays = []
+        for i, v in enumerate(items):
+            v = np.asarray(v, dtype=float)
+            if v.ndim != 2 or v.shape[1] != 3 or len(v) < 2 or not np.all(np.isfinite(v)):
+                raise InvalidInputError(f"{what} {name!r}[{i}] must be a finite (K >= 2, 3) array, got {v.shape}")
+            arrays.append(v)
+        key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "path"
+        out.append((key, closed, arrays))
     return out
 
 
@@ -310,12 +345,13 @@ def _clip(node: str, tracks: list[dict[str, Any]]) -> dict[str, Any]:
     return {"path": node, "clip": {"fps": 1.0, "name": "default", "tracks": tracks}}
 
 
-def _write(path: Path, commands: list[dict[str, Any]], compress: bool, title: str) -> Path:
+def _write(path: Path, commands: list[dict[str, Any]], compress: bool, title: str, legend: str = "") -> Path:
     blob = b"".join(struct.pack("<I", len(b)) + b for b in map(umsgpack.packb, commands))
     if compress:
         blob = gzip.compress(blob, compresslevel=6, mtime=0)
     html = _HTML.format(
         title=title,
+        legend=legend,
         viewer_js=_VIEWER_JS.read_text(encoding="utf-8"),
         encoding="gzip" if compress else "none",
         payload=base64.b64encode(blob).decode("ascii"),
