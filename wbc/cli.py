@@ -24,6 +24,8 @@ def _add_outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--live", action="store_true",
                    help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the viewer stays up "
                         "after the motion until Ctrl-C or --hold")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="write plots of the run (CoM/ZMP/DCM, top view, joint limits, contact forces, tick times)")
     p.add_argument("--hold", type=float, metavar="SECONDS", default=None,
                    help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
 
@@ -50,12 +52,41 @@ def _write_outputs(args, summary: dict, run, robot, overlays: dict | None = None
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
+    if getattr(args, "plot", None):
+        _write_plot(args.plot, run)
     if args.out:
         from wbc.viz import record_html
 
         extra = {} if scene is None else {k: scene[k] for k in ("polygons", "paths", "outlines") if k in scene}
         path = record_html(robot, run.t, run.q, args.out, overlays=overlays, **extra)
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+
+
+def _write_plot(path, run) -> None:
+    """Plot a run (anything with ``save(file)`` writing an npz log) to the PNG ``path``."""
+    import io
+
+    import numpy as np
+
+    from wbc.viz.plots import plot_log
+
+    buf = io.BytesIO()
+    run.save(buf)
+    buf.seek(0)
+    with np.load(buf, allow_pickle=False) as z:
+        log = {k: z[k] for k in z.files}
+    plot_log(log, path)
+    print(f"plots written to {path}")
+
+
+def cmd_plot(args) -> int:
+    """`wbc plot LOG.npz`: plot a log written with --log; exit code 0, 2 on a bad log or output path."""
+    from wbc.viz.plots import plot_log
+
+    out = args.out or Path(args.log_file).with_suffix(".png")
+    plot_log(args.log_file, out)
+    print(f"plots written to {out}")
+    return 0
 
 
 _LIVE_VIEWERS: list = []  # viewers opened by _live, closed by main() after the hold
@@ -162,6 +193,14 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     _add_outputs(walk)
     walk.set_defaults(func=cmd_walk)
+
+    plot = sub.add_parser("plot", help="plot a run's npz log (written with --log) to a PNG",
+                          description="Plot a log written by `wbc walk/balance/sim --log FILE.npz`: CoM, ZMP/CoP "
+                                      "and DCM vs time with support bands, top view, joints vs limits, contact "
+                                      "forces (sim), tick-time histogram.")
+    plot.add_argument("log_file", type=Path, metavar="LOG.npz", help="npz log of a run")
+    plot.add_argument("--out", type=Path, metavar="PNG", help="output PNG (default: LOG with .png)")
+    plot.set_defaults(func=cmd_plot)
 
     for register in _extra_commands():
         register(sub, _add_outputs)

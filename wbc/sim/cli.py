@@ -121,6 +121,10 @@ def cmd_sim(args) -> int:
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
+    if getattr(args, "plot", None):
+        from wbc.cli import _write_plot
+
+        _write_plot(args.plot, run)
     if args.out:
         from wbc.viz import record_html
 
