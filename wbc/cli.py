@@ -142,6 +142,60 @@ def _close_live() -> None:
         _LIVE_VIEWERS.pop().close()
 
 
+def deadline_misses(tick_time, dt: float) -> int:
+    """Number of ticks whose controller time (s) exceeded the control period ``dt`` (s)."""
+    import numpy as np
+
+    return int(np.count_nonzero(np.asarray(tick_time, dtype=float) > dt))
+
+
+MIN_STEPS = 2  # one step forward and the closing step
+
+
+def leg_reach(robot) -> float:
+    """Largest fore-aft distance (m) between the two soles in double support that the legs can span.
+
+    Geometric bound: leg length l (sum of the distances between the joint origins from the hip to the sole
+    frame, ``q_ref``) and hip height h above the sole at ``q_ref``; with the hips above the mid-point the
+    soles are at most ``2 sqrt(l^2 - h^2)`` apart. A step moves the feet mid-point by the step length, so
+    the soles are one step length apart in double support.
+    """
+    import numpy as np
+    import pinocchio as pin
+
+    model = robot.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    fid = robot.frame_id(robot.left_sole)
+    chain = []
+    j = model.frames[fid].parentJoint
+    while j > 0 and model.joints[j].nq != 7:  # up to the joint under the free flyer (the hip)
+        chain.append(j)
+        j = model.parents[j]
+    points = [data.oMf[fid].translation] + [data.oMi[j].translation for j in chain]
+    length = float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:])))
+    height = float(points[-1][2] - points[0][2])
+    return 2.0 * float(np.sqrt(max(length**2 - height**2, 0.0)))
+
+
+def _check_walk_args(args, robot) -> None:
+    """Refuse walk parameters that cannot be walked, before any run.
+
+    Raises:
+        InvalidInputError: ``--steps`` < 2, ``--step-length`` negative or beyond :func:`leg_reach`.
+    """
+    from wbc.exceptions import InvalidInputError
+
+    if args.steps < MIN_STEPS:
+        raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
+                                f"{MIN_STEPS}; the last step brings the feet side by side)")
+    if args.step_length is not None:
+        reach = leg_reach(robot)
+        if not (0.0 <= args.step_length <= reach):
+            raise InvalidInputError(f"--step-length {args.step_length} m is beyond the reach of {robot.name}'s legs "
+                                    f"(valid: 0 <= step length <= {reach:.3f} m)")
+
+
 def cmd_walk(args) -> int:
     """`wbc walk`: plan, walk, print and write the outputs; exit code 0 passed, 1 failed criteria."""
     import numpy as np
@@ -151,6 +205,7 @@ def cmd_walk(args) -> int:
     from wbc.scenarios.acceptance import walk_passes
 
     robot = load_robot(args.robot)
+    _check_walk_args(args, robot)
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
                              step_width=args.step_width, turn=args.turn, dt=args.dt)
     viewer = pacer = None
@@ -163,6 +218,7 @@ def cmd_walk(args) -> int:
             viewer.close()
     summary = walk_summary(robot, plan, run)
     summary["solver"] = args.solver
+    summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
     passed, failures = walk_passes(summary)
     summary["passed"] = passed
     summary["failed_criteria"] = failures
@@ -180,13 +236,21 @@ def build_parser() -> argparse.ArgumentParser:
     """The `wbc` argument parser with every sub-command (walk here; balance, sim, bench from their modules)."""
     from wbc.qp import DEFAULT_SOLVER, available_solvers
 
+    from wbc import __version__
+
     parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller")
+    walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller",
+                          description="Plan a straight (or turning) walk from the robot's reference stance and track "
+                                      "it with the 500 Hz kinematic QP; prints a summary with acceptance criteria.")
     walk.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
-    walk.add_argument("--steps", type=int, default=8, help="number of steps (default 8)")
-    walk.add_argument("--step-length", type=float, default=None, help="m (default: the robot's, talos 0.15)")
+    walk.add_argument("--steps", type=int, default=8,
+                      help=f"number of steps, >= {MIN_STEPS}, the last one bringing the feet side by side: the feet "
+                           "advance (steps - 1) x step length (default 8)")
+    walk.add_argument("--step-length", type=float, default=None,
+                      help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=float, default=None, help="m (default: current feet distance)")
     walk.add_argument("--turn", type=float, default=0.0, help="yaw change per step, rad (default 0)")
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
@@ -204,6 +268,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     for register in _extra_commands():
         register(sub, _add_outputs)
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    for name, p in sub.choices.items():  # every `wbc X --help` starts with a description
+        if not p.description and helps.get(name):
+            p.description = helps[name][0].upper() + helps[name][1:] + "."
     return parser
 
 

@@ -52,4 +52,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     for kind, path in paths.items():
         print(f"{kind}: {path}")
     print(f"wbc bench: {time.perf_counter() - t0:.1f} s")
-    return 0 if all(a["met"] for a in acceptance(results)) else 1
+    rows = acceptance(results)
+    if args.quick:
+        # A pipeline check: a few ticks say nothing about speed, so only the non-timing criteria decide.
+        rows = [a for a in rows if "median" not in a["criterion"]]
+        print("wbc bench --quick: pipeline check; timing criteria not judged on a few ticks")
+    return 0 if all(a["met"] for a in rows) else 1

@@ -95,6 +95,9 @@ def cmd_sim(args) -> int:
             viewer.close()
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    from wbc.cli import deadline_misses
+
+    summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
     if args.scenario == "push" and args.sweep:
