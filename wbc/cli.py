@@ -26,6 +26,7 @@ def _add_outputs(p: argparse.ArgumentParser) -> None:
                         "after the motion until Ctrl-C or --hold")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="write plots of the run (CoM/ZMP/DCM, top view, joint limits, contact forces, tick times)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown on a terminal for runs > 2 s)")
     p.add_argument("--hold", type=float, metavar="SECONDS", default=None,
                    help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
 
@@ -117,6 +118,13 @@ def _live(robot):
     _LIVE_VIEWERS.append(viewer)
     print(f"meshcat viewer: {viewer.url} (open it in a browser)", flush=True)
     return _HeldViewer(viewer), RealTimePacer()
+
+
+def _progress(args, total: float | None, viewer=None, desc: str = ""):
+    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal."""
+    from wbc.viz.progress import ProgressViewer
+
+    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
 
 
 def _hold_live(seconds: float | None) -> None:
@@ -211,6 +219,7 @@ def cmd_walk(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = _live(robot)
+    viewer = _progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     try:
         run = run_walk(robot, plan, solver=args.solver, viewer=viewer, pacer=pacer)
     finally:

@@ -30,6 +30,9 @@ def cmd_balance(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = _live(robot)
+    from wbc.cli import _progress
+
+    viewer = _progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     try:
         run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=viewer, pacer=pacer,
                           **options)

@@ -87,6 +87,9 @@ def cmd_sim(args) -> int:
         from wbc.cli import _live
 
         viewer, pacer = _live(robot)
+    from wbc.cli import _progress
+
+    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     controller = make()
     try:
         run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=viewer, pacer=pacer)
