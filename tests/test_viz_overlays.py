@@ -67,3 +67,24 @@ def test_recording_draws_paths_and_outlines_each_under_its_own_path(talos, tmp_p
 
     with pytest.raises(InvalidInputError, match="footprints"):
         record_html(talos, t, q, tmp_path / "bad.html", outlines={"footprints": [np.zeros((1, 3))]})
+
+
+def test_force_arrow_points_along_the_force_and_scales_with_it(talos, tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    t = np.arange(3) * 0.1
+    q = np.tile(talos.q_ref, (3, 1))
+    origin = np.tile([0.1, 0.2, 0.0], (3, 1))
+    force = np.array([[0.0, 0.0, 450.0], [300.0, 0.0, 400.0], [0.0, -100.0, 0.0]])
+    path = record_html(talos, t, q, tmp_path / "a.html", arrows={"contact_force_left": (origin, force)})
+    cmds = _commands(path)
+    anim = next(c for c in cmds if c["type"] == "set_animation")
+    clip = next(a["clip"] for a in anim["animations"] if a["path"] == "/meshcat/overlays/contact_force_left")
+    tracks = {tr["name"]: np.frombuffer(tr["values"].data, "<f4").reshape(3, -1) for tr in clip["tracks"]}
+    for k in range(3):
+        length = np.linalg.norm(force[k]) * 1e-3  # 1 mm per N
+        assert tracks[".scale"][k][1] == pytest.approx(length, rel=1e-6)
+        tip_dir = Rotation.from_quat(tracks[".quaternion"][k]).apply([0.0, 1.0, 0.0])  # cylinder axis: local y
+        np.testing.assert_allclose(tip_dir, force[k] / np.linalg.norm(force[k]), atol=1e-6)
+        np.testing.assert_allclose(tracks[".position"][k], origin[k] + 0.5e-3 * force[k], atol=1e-6)
+    assert "contact_force_left" in path.read_text().split('id="wbc-legend"')[1][:2000]

@@ -134,7 +134,10 @@ def cmd_sim(args) -> int:
     if args.out:
         from wbc.viz import record_html
 
-        path = record_html(robot, run.t, run.q, args.out, overlays={"com": run.com})
+        from wbc.viz.overlays import sim_overlays
+
+        scene = sim_overlays(run)
+        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
     if args.video:
         from wbc.sim.video import render_video

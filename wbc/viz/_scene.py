@@ -39,7 +39,8 @@ OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "zmp": 0x1FA34A, "cop
                   "zmp_planned": 0x1FA34A, "zmp_executed": 0x9BE15D, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0,
                   "dcm_planned": 0x2B6FE0, "dcm_executed": 0x7FB2FF, "footsteps_planned": 0xF28C1B,
                   "footprints": 0x222222, "swing_left": 0x9B3FD1, "swing_right": 0x15A5B5,
-                  "support_polygon": 0xFFD21F, "contact_forces": 0xD11FB0, "push": 0xFF2020}
+                  "support_polygon": 0xFFD21F, "contact_forces": 0xD11FB0, "push": 0xFF2020,
+                  "contact_force_left": 0x9B3FD1, "contact_force_right": 0x15A5B5}
 _PALETTE = (0xF28C1B, 0x9B3FD1, 0x15A5B5, 0xD4C21A)
 OVERLAY_RADIUS = 0.025  # m
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from wbc.gait.support import convex_hull, sole_polygon
 
-__all__ = ["walk_overlays", "cart_table_zmp", "dcm_of", "GRAVITY"]
+__all__ = ["walk_overlays", "sim_overlays", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
 
 GRAVITY = 9.81  # m/s^2
 
@@ -88,3 +88,41 @@ def walk_overlays(robot, plan, run) -> dict:
     outlines = {"footsteps_planned": planned, "footprints": prints}
     paths = {"swing_left": [run.left_sole[:, :3, 3]], "swing_right": [run.right_sole[:, :3, 3]]}
     return {"points": points, "polygons": polygons, "outlines": outlines, "paths": paths}
+
+
+def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
+    """(N, 3) net CoP on z = 0 from ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world
+    axes) at sole origins (N, 2, 3). Each foot's CoP solves m = (c − p) × f with c on the ground
+    (c_x = p_x − m_y / f_z, c_y = p_y + m_x / f_z); the net CoP is their f_z-weighted mean. nan where the total
+    f_z is below ``min_fz`` N (flight)."""
+    w, p = sim_wrench, sole_pos
+    fz = w[:, :, 2]
+    loaded = fz > min_fz
+    safe = np.where(loaded, fz, 1.0)
+    cx = np.where(loaded, p[:, :, 0] - w[:, :, 4] / safe, 0.0)
+    cy = np.where(loaded, p[:, :, 1] + w[:, :, 3] / safe, 0.0)
+    weight = np.where(loaded, fz, 0.0)
+    total = weight.sum(axis=1)
+    ok = total > min_fz
+    den = np.where(ok, total, 1.0)
+    x = np.where(ok, (cx * weight).sum(axis=1) / den, np.nan)
+    y = np.where(ok, (cy * weight).sum(axis=1) / den, np.nan)
+    return np.c_[x, y, np.zeros(len(x))]
+
+
+def sim_overlays(run) -> dict:
+    """Overlays of a MuJoCo run (:class:`wbc.sim.closed_loop.ClosedLoopRun`): ``points`` com, com_ground,
+    cop (measured, ground truth; at the CoM projection in flight), dcm_executed; ``arrows`` contact forces on
+    each sole (ground truth) and the push on the torso (drawn from the CoM), 1 mm per N."""
+    t, com = run.t, run.com
+    ground = np.c_[com[:, :2], np.zeros(len(t))]
+    cop = measured_cop(run.sim_wrench, run.sole_pos)
+    cop = np.where(np.isnan(cop), ground, cop)
+    points = {"com": com, "com_ground": ground, "cop": cop, "dcm_executed": dcm_of(t, com)}
+    arrows = {
+        "contact_force_left": (run.sole_pos[:, 0], run.sim_wrench[:, 0, :3]),
+        "contact_force_right": (run.sole_pos[:, 1], run.sim_wrench[:, 1, :3]),
+    }
+    if np.any(run.ext_force):
+        arrows["push"] = (com, run.ext_force)
+    return {"points": points, "arrows": arrows}

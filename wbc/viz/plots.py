@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.viz.overlays import GRAVITY, cart_table_zmp, dcm_of
+from wbc.viz.overlays import cart_table_zmp, dcm_of, measured_cop
 
 __all__ = ["plot_log", "load_log"]
 
@@ -49,18 +49,7 @@ def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
 
 
 def _cop(log: Mapping[str, np.ndarray]) -> np.ndarray:
-    """(N, 3) net CoP on the ground from sim_wrench (N, 2, 6) about sole_pos (N, 2, 3); nan in flight."""
-    w, p = log["sim_wrench"], log["sole_pos"]
-    fz = w[:, :, 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # moment about the sole origin m = (c - p) x f with c on the ground: c_x - p_x = -m_y / f_z, c_y - p_y = m_x / f_z
-        cx = p[:, :, 0] - w[:, :, 4] / fz
-        cy = p[:, :, 1] + w[:, :, 3] / fz
-        total = fz.sum(axis=1)
-        good = total > 1.0
-        x = np.where(good, np.nansum(np.where(fz > 1.0, cx * fz, 0.0), axis=1) / total, np.nan)
-        y = np.where(good, np.nansum(np.where(fz > 1.0, cy * fz, 0.0), axis=1) / total, np.nan)
-    return np.c_[x, y, np.zeros(len(x))]
+    return measured_cop(np.asarray(log["sim_wrench"], float), np.asarray(log["sole_pos"], float))
 
 
 def _stance_bands(log):

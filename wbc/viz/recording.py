@@ -107,6 +107,8 @@ def record_html(
     polygons: Sequence[Polygon] | None = None,
     paths: Mapping[str, Sequence[np.ndarray]] | None = None,
     outlines: Mapping[str, Sequence[np.ndarray]] | None = None,
+    arrows: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
+    arrow_scale: float = 1e-3,
     legend: bool = True,
     follow_camera: bool = True,
     loop: bool = True,
@@ -128,6 +130,9 @@ def record_html(
         paths: name -> list of (K, 3) open polylines (world, m) drawn for the whole recording under
             ``/meshcat/overlays/<name>/<i>`` (e.g. swing-foot trajectories).
         outlines: name -> list of (K, 3) closed outlines, same (e.g. planned footsteps, footprints).
+        arrows: name -> (origins (N, 3) m, vectors (N, 3)) drawn as a cylinder from the origin along the
+            vector, ``arrow_scale`` metres per unit (default 1 mm per N: a 450 N foot force is 0.45 m long).
+        arrow_scale: see ``arrows``.
         legend: add an HTML legend (colour -> overlay name) in the page's lower-left corner. Every overlay
             is a separate meshcat path, shown or hidden from meshcat's "Open Controls" panel.
         follow_camera: the camera looks at and follows the base (smoothed over 1 s, at mid robot height);
@@ -149,6 +154,7 @@ def record_html(
     q_frames = np.array([_scene.normalized(robot, qi) for qi in q[idx]])
     marks = _check_overlays(overlays, len(t))
     support = _check_polygons(polygons)
+    arrow_items = _check_arrows(arrows, len(t))
     lines = _check_paths(paths, "paths") + _check_paths(outlines, "outlines", closed=True)
 
     recorder = _scene.CommandRecorder()
@@ -170,6 +176,7 @@ def record_html(
         *_overlay_clips(vis, {name: points[idx] for name, points in marks.items()}, times),
         *_polygon_clips(vis, support, t[0], times),
         *_camera_clips(vis, robot, q_frames, times, fps, follow_camera),
+        *_arrow_clips(vis, arrow_items, idx, times, arrow_scale, entries),
     ]
     if len(times) > 1:
         for a in animations:
@@ -266,6 +273,53 @@ def _check_overlays(overlays: Mapping[str, np.ndarray] | None, n: int) -> dict[s
         key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "overlay"
         out[key] = p
     return out
+
+
+def _check_arrows(arrows, n: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    out = {}
+    for name, item in (arrows or {}).items():
+        try:
+            origin, vec = (np.asarray(a, dtype=float) for a in item)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"arrow {name!r} must be (origins (N, 3), vectors (N, 3))") from exc
+        if origin.shape != (n, 3) or vec.shape != (n, 3) or not (np.isfinite(origin).all() and np.isfinite(vec).all()):
+            raise InvalidInputError(f"arrow {name!r}: origins and vectors must be finite ({n}, 3) arrays, got "
+                                    f"{origin.shape} and {vec.shape}")
+        key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "arrow"
+        out[key] = (origin, vec)
+    return out
+
+
+def _arrow_clips(vis, arrows, idx, times, scale: float, entries: dict) -> list[dict]:
+    """Unit cylinder (along local y, meshcat's convention) moved, turned and stretched along each vector."""
+    import meshcat.geometry as mg
+
+    clips = []
+    y = np.array([0.0, 1.0, 0.0])
+    for name, (origin, vec) in arrows.items():
+        color = _scene.overlay_color(name, len(entries))
+        entries[name] = color
+        o, v = origin[idx], vec[idx] * scale
+        length = np.linalg.norm(v, axis=1)
+        d = np.where(length[:, None] > 1e-9, v / np.maximum(length, 1e-12)[:, None], y)
+        axis = np.cross(y, d)
+        s = np.linalg.norm(axis, axis=1)
+        c = d @ y
+        angle = np.arctan2(s, c)
+        axis = np.where(s[:, None] > 1e-9, axis / np.maximum(s, 1e-12)[:, None], np.array([1.0, 0.0, 0.0]))
+        quat = Rotation.from_rotvec(axis * angle[:, None]).as_quat()
+        node = f"{_scene.OVERLAY_ROOT}/{name}"
+        material = mg.MeshLambertMaterial(color=color, opacity=0.9, transparent=True)
+        vis[node].set_object(mg.Mesh(mg.Cylinder(1.0, radius=0.012), material))
+        pos = o + 0.5 * v
+        scl = np.c_[np.ones(len(o)), np.maximum(length, 1e-4), np.ones(len(o))]
+        vis[node].set_property("position", _floats(pos[0]))
+        vis[node].set_property("quaternion", _floats(quat[0]))
+        vis[node].set_property("scale", _floats(scl[0]))
+        clips.append(_clip(node, [_track("position", "vector3", times, pos),
+                                  _track("quaternion", "quaternion", times, quat),
+                                  _track("scale", "vector3", times, scl)]))
+    return clips
 
 
 def _check_paths(paths: Mapping[str, Sequence[np.ndarray]] | None, what: str,
