@@ -309,7 +309,7 @@ def _arrow_clips(vis, arrows, idx, times, scale: float, entries: dict) -> list[d
         axis = np.where(s[:, None] > 1e-9, axis / np.maximum(s, 1e-12)[:, None], np.array([1.0, 0.0, 0.0]))
         quat = Rotation.from_rotvec(axis * angle[:, None]).as_quat()
         node = f"{_scene.OVERLAY_ROOT}/{name}"
-        material = mg.MeshLambertMaterial(color=color, opacity=0.9, transparent=True)
+        material = mg.MeshLambertMaterial(color=color, opacity=0.8, transparent=True, depthTest=False)  # seen through the legs
         vis[node].set_object(mg.Mesh(mg.Cylinder(1.0, radius=0.012), material))
         pos = o + 0.5 * v
         scl = np.c_[np.ones(len(o)), np.maximum(length, 1e-4), np.ones(len(o))]
