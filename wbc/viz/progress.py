@@ -40,7 +40,7 @@ class ProgressViewer:
         self.bar = tqdm(total=None if total is None else round(float(total), 3), unit="s", desc=desc,
                         file=stream, disable=not enabled, delay=delay, leave=False,
                         bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]"
-                        if total is not None else None)
+                        if total is not None else "{desc} {n:.2f} s sim [{elapsed}]")
 
     def update(self, q, t: float | None = None, *args: Any, **kwargs: Any) -> None:
         """Forward to the inner viewer; advance the bar to simulated time ``t`` (s)."""
