@@ -39,7 +39,7 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
-    p.add_argument("--video-size", default="320x240", help="video frame size WxH (default 320x240)")
+    p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
     p.set_defaults(func=cmd_sim)
 
