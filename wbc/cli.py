@@ -1,7 +1,8 @@
-"""Command line: ``wbc walk``, ``wbc balance``, ``wbc sim``, ``wbc bench`` (also ``python -m wbc``).
+"""Command line: ``wbc walk``, ``wbc balance``, ``wbc sim``, ``wbc bench``, ``wbc plot`` (also ``python -m wbc``).
 
-Each sub-command prints a summary, and can write it as JSON (``--json``), a log (``--log``, npz), a
-self-contained meshcat HTML recording (``--out``), or show the motion live in meshcat (``--live``).
+Each run command (walk, balance, sim) prints a summary, and can write it as JSON (``--json``), a log (``--log``,
+npz), plots (``--plot``, PNG), a self-contained meshcat HTML recording (``--out``), or show the motion live in
+meshcat (``--live``, 127.0.0.1 only, held after the motion until Ctrl-C or ``--hold``).
 Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input.
 """
 
@@ -206,8 +207,6 @@ def _check_walk_args(args, robot) -> None:
 
 def cmd_walk(args) -> int:
     """`wbc walk`: plan, walk, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    import numpy as np
-
     from wbc.robot import load_robot
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.scenarios.acceptance import walk_passes
