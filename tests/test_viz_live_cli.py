@@ -112,3 +112,21 @@ def test_live_viewer_listens_on_loopback_only_and_holds():
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)
             proc.wait(timeout=30)
+
+
+def test_live_viewer_shows_the_com_when_the_loop_gives_none(robots):
+    import time as _time
+
+    from wbc.viz import LiveViewer
+
+    talos = robots("talos")
+    viewer = LiveViewer(talos, fps=25.0)
+    try:
+        viewer.update(talos.q_ref, 0.0)  # what run_walk does: no overlays
+        deadline = _time.monotonic() + 30
+        while viewer.frames_displayed == 0 and _time.monotonic() < deadline and viewer.error is None:
+            _time.sleep(0.05)
+        assert viewer.error is None and viewer.frames_displayed >= 1
+        assert {"com", "com_ground"} <= viewer._markers
+    finally:
+        viewer.close()

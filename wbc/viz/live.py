@@ -88,7 +88,8 @@ class LiveViewer:
         Args:
             q: (nq,) configuration (copied).
             t: its time (s), reported as :attr:`displayed_time`.
-            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"com": c, "zmp": p}``).
+            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"com": c, "zmp": p}``); without
+                ``"com"`` the display thread computes the CoM of ``q`` and shows it with its ground projection.
 
         Raises:
             InvalidInputError: ``q`` is not a finite (nq,) vector, or an overlay is not a finite 3-vector.
@@ -149,7 +150,13 @@ class LiveViewer:
             self._stop.wait(max(0.0, next_frame - time.perf_counter()))
 
     def _show(self, q: np.ndarray, t: float | None, marks: dict[str, np.ndarray]) -> None:
-        self._viz.display(pin.normalize(self.robot.model, q))
+        q = pin.normalize(self.robot.model, q)
+        self._viz.display(q)
+        if "com" not in marks:  # computed here, in the display thread, never on the control path
+            if not hasattr(self, "_data"):
+                self._data = self.robot.model.createData()
+            com = pin.centerOfMass(self.robot.model, self._data, q).copy()
+            marks = {"com": com, "com_ground": np.array([com[0], com[1], 0.0]), **marks}
         for i, (name, p) in enumerate(marks.items()):
             node = self._vis[f"{_scene.OVERLAY_ROOT}/{name}"]
             if name not in self._markers:
