@@ -116,10 +116,10 @@ def test_recording_has_one_animation_with_expected_frames(talos, recording):
         np.testing.assert_allclose(f32(tracks[".position"]["times"]), np.arange(n_frames) / FPS, atol=1e-6)
         assert f32(tracks[".position"]["values"]).shape == (3 * n_frames,)
         assert f32(tracks[".quaternion"]["values"]).shape == (4 * n_frames,)
-    assert {"/meshcat/overlays/com", "/meshcat/overlays/zmp", "/meshcat/polygons/0", "/Cameras/target"} <= set(clips)
+    assert {"/meshcat/overlays/com", "/meshcat/overlays/zmp", "/meshcat/overlays/support_polygon/0", "/Cameras/target"} <= set(clips)
     assert {c["duration"] for c in clips.values()} == {DURATION}  # equal durations: clips loop in step
-    assert len([c for c in commands if c["type"] == "set_object"]) == talos.visual_model.ngeoms + 3
-    visible = clips["/meshcat/polygons/0"]["tracks"][0]
+    assert len([c for c in commands if c["type"] == "set_object"]) == talos.visual_model.ngeoms + 3 + 2  # + floor slab and grid
+    visible = clips["/meshcat/overlays/support_polygon/0"]["tracks"][0]
     assert visible["values"] == [True, False] and visible["times"] == [0.0, 0.5]
 
 
@@ -202,7 +202,7 @@ def test_recording_renders_offline_in_chromium(talos, motion, recording, tmp_pat
     from playwright.sync_api import sync_playwright
 
     t, q, _ = motion
-    n_meshes = talos.visual_model.ngeoms + 2  # robot + CoM and ZMP spheres
+    n_meshes = talos.visual_model.ngeoms + 2 + 1  # robot + CoM and ZMP spheres + floor slab
     frame = 12
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
@@ -224,6 +224,13 @@ def test_recording_renders_offline_in_chromium(talos, motion, recording, tmp_pat
                                    timeout=20_000)
             assert page.evaluate("() => window.wbcError") is None
             assert page.evaluate(count_js) == n_meshes
+            # The ground: meshcat's /Grid hidden, our slab's top face at z = 0 (meshcat world) under the feet.
+            assert page.evaluate("() => viewer.scene_tree.find(['Grid']).object.visible") is False
+            slab = np.array(page.evaluate(
+                "() => viewer.scene_tree.find(['meshcat', 'floor', 'plane']).object"
+                ".matrixWorld.clone().premultiply(viewer.scene.matrixWorld.clone().invert()).elements")).reshape(4, 4).T
+            assert slab[2, 3] == pytest.approx(-0.001, abs=1e-9)  # 2 mm thick slab: top at z = 0
+            assert page.evaluate("() => !!document.getElementById('wbc-legend')")
             # Freeze the animation on a key frame; read what three.js will draw for mirrored meshes.
             page.evaluate(f"() => {{ viewer.animator.pause(); viewer.animator.seek({frame / FPS}); }}")
             page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")

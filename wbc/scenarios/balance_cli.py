@@ -30,6 +30,9 @@ def cmd_balance(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = _live(robot)
+    from wbc.cli import _progress
+
+    viewer = _progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     try:
         run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=viewer, pacer=pacer,
                           **options)
@@ -38,6 +41,9 @@ def cmd_balance(args) -> int:
             viewer.close()
     summary = balance_summary(robot, run)
     summary["solver"] = args.solver
+    from wbc.cli import deadline_misses
+
+    summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
     _print_summary(summary)

@@ -39,7 +39,7 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
-    p.add_argument("--video-size", default="320x240", help="video frame size WxH (default 320x240)")
+    p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
     p.set_defaults(func=cmd_sim)
 
@@ -87,6 +87,9 @@ def cmd_sim(args) -> int:
         from wbc.cli import _live
 
         viewer, pacer = _live(robot)
+    from wbc.cli import _progress
+
+    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     controller = make()
     try:
         run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=viewer, pacer=pacer)
@@ -95,6 +98,9 @@ def cmd_sim(args) -> int:
             viewer.close()
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    from wbc.cli import deadline_misses
+
+    summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
     if args.scenario == "push" and args.sweep:
@@ -121,10 +127,17 @@ def cmd_sim(args) -> int:
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
+    if getattr(args, "plot", None):
+        from wbc.cli import _write_plot
+
+        _write_plot(args.plot, run)
     if args.out:
         from wbc.viz import record_html
 
-        path = record_html(robot, run.t, run.q, args.out, overlays={"com": run.com})
+        from wbc.viz.overlays import sim_overlays
+
+        scene = sim_overlays(run)
+        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
     if args.video:
         from wbc.sim.video import render_video

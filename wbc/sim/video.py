@@ -24,8 +24,8 @@ from wbc.sim.mujoco_runtime import MujocoModel
 __all__ = ["render_video"]
 
 
-def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: float = 25.0, width: int = 320,
-                 height: int = 240, distance: float = 3.0, azimuth: float = 150.0, elevation: float = -15.0,
+def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: float = 25.0, width: int = 640,
+                 height: int = 480, distance: float = 3.0, azimuth: float = 150.0, elevation: float = -15.0,
                  max_frames: int | None = None) -> Path:
     """Render the motion ``(t, q)`` to an MP4 file.
 
@@ -70,6 +70,10 @@ def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: f
             f"importing mujoco (current MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}) and install libegl1 "
             f"libgl1-mesa-dri") from exc
     data = mujoco.MjData(model)
+    # A brighter headlight than MuJoCo's default (ambient 0.1, diffuse 0.4): rendering only, restored after.
+    light = model.vis.headlight
+    saved = (light.ambient.copy(), light.diffuse.copy())
+    light.ambient[:], light.diffuse[:] = 0.35, 0.75
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.azimuth, cam.elevation = distance, azimuth, elevation
@@ -84,4 +88,5 @@ def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: f
                 writer.append_data(renderer.render())
     finally:
         renderer.close()
+        light.ambient[:], light.diffuse[:] = saved
     return path

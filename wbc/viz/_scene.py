@@ -4,8 +4,12 @@ meshcat paths used (all in meshcat's world frame, z up, metres):
 
 * ``/meshcat/<robot>/visuals/<geometry name>``: one node per visual geometry, loaded by Pinocchio's
   :class:`~pinocchio.visualize.MeshcatVisualizer` (collision model skipped);
-* ``/meshcat/overlays/<name>``: a small sphere per overlay point (CoM, ZMP, ...);
-* ``/meshcat/polygons/<i>``: support polygon outlines;
+* ``/meshcat/overlays/<name>``: a small sphere per overlay point (CoM, ZMP, ...), or a folder of lines
+  ``/meshcat/overlays/<name>/<i>`` (support polygons, footsteps, footprints, swing trajectories): each overlay
+  is its own path, so meshcat's control panel shows and hides it;
+* ``/meshcat/floor/plane`` and ``/meshcat/floor/grid``: the ground (z = 0) as a thin slab and a 0.5 m grid of
+  short line pieces (meshcat's own ``/Grid`` is hidden: its 20 m lines cross the camera plane and are dropped
+  whole by some WebGL renderers (SwiftShader), leaving only the far lines at about the camera's height);
 * ``/Cameras/default/rotated/<object>``: the camera; ``/Cameras/target``: an empty node whose position the
   HTML recordings' script makes the camera look at (and follow).
 """
@@ -27,10 +31,16 @@ from wbc.robot import Robot
 
 OVERLAY_ROOT = "/meshcat/overlays"
 POLYGON_ROOT = "/meshcat/polygons"
+FLOOR_ROOT = "/meshcat/floor"
 CAMERA_TARGET = "/Cameras/target"
 CAMERA_OBJECT = "/Cameras/default/rotated/<object>"
 #: Colours (0xRRGGBB) of well-known overlays; others cycle through ``_PALETTE``.
-OVERLAY_COLORS = {"com": 0xE0262B, "zmp": 0x1FA34A, "cop": 0x1FA34A, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0}
+OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "zmp": 0x1FA34A, "cop": 0x1FA34A,
+                  "zmp_planned": 0x1FA34A, "zmp_executed": 0x9BE15D, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0,
+                  "dcm_planned": 0x2B6FE0, "dcm_executed": 0x7FB2FF, "footsteps_planned": 0xF28C1B,
+                  "footprints": 0x222222, "swing_left": 0x9B3FD1, "swing_right": 0x15A5B5,
+                  "support_polygon": 0xFFD21F, "contact_forces": 0xD11FB0, "push": 0xFF2020,
+                  "contact_force_left": 0x9B3FD1, "contact_force_right": 0x15A5B5}
 _PALETTE = (0xF28C1B, 0x9B3FD1, 0x15A5B5, 0xD4C21A)
 OVERLAY_RADIUS = 0.025  # m
 
@@ -82,9 +92,47 @@ def overlay_sphere(color: int) -> mg.Mesh:
     return mg.Mesh(mg.Sphere(OVERLAY_RADIUS), material)
 
 
+def polyline(vertices: np.ndarray, color: int, closed: bool = False):
+    """Open (Line) or closed (LineLoop) polyline through ``vertices`` (K, 3), world frame (m)."""
+    cls = mg.LineLoop if closed else mg.Line
+    return cls(mg.PointsGeometry(np.asarray(vertices).T.astype(np.float32)), mg.LineBasicMaterial(color=color))
+
+
+def legend_html(entries: dict[str, int]) -> str:
+    """A fixed HTML box listing overlay names with their colours (0xRRGGBB)."""
+    rows = "".join(
+        f'<div><span style="display:inline-block;width:12px;height:12px;margin-right:6px;'
+        f'background:#{color:06x}"></span>{name}</div>' for name, color in entries.items())
+    return ('<div id="wbc-legend" style="position:fixed;left:8px;bottom:8px;padding:6px 8px;background:'
+            'rgba(255,255,255,0.85);font:12px sans-serif;border-radius:4px;z-index:10">'
+            '<b>overlays</b> (toggle under Open Controls &rsaquo; meshcat &rsaquo; overlays)' + rows + '</div>')
+
+
 def polygon_outline(vertices: np.ndarray, color: int = 0xFFD21F) -> mg.LineLoop:
     """Closed outline through ``vertices`` (K, 3), world frame (m)."""
     return mg.LineLoop(mg.PointsGeometry(vertices.T.astype(np.float32)), mg.LineBasicMaterial(color=color))
+
+
+def add_floor(viewer: meshcat.Visualizer, half_extent: float = 10.0, step: float = 0.5) -> None:
+    """Ground at z = 0 (world, m): a light slab whose top is at z = 0 and a grid of ``step`` squares, drawn as
+    ``step``-long line pieces (a renderer that drops a line crossing the camera plane then drops only a piece).
+    Hides meshcat's default ``/Grid``."""
+    import meshcat.transformations as tf
+
+    viewer["/Grid"].set_property("visible", False)
+    size = 2.0 * half_extent
+    viewer[f"{FLOOR_ROOT}/plane"].set_object(mg.Box([size, size, 0.002]), mg.MeshLambertMaterial(color=0xC8CCD0))
+    viewer[f"{FLOOR_ROOT}/plane"].set_transform(tf.translation_matrix([0.0, 0.0, -0.001]))
+    ticks = np.arange(-half_extent, half_extent + 1e-9, step)
+    a, b = ticks[:-1], ticks[1:]
+    pieces = []
+    for v in ticks:
+        for u0, u1 in zip(a, b):
+            pieces += [[u0, v, 0.0], [u1, v, 0.0], [v, u0, 0.0], [v, u1, 0.0]]
+    points = np.array(pieces, dtype=np.float32).T
+    points[2] += 0.001  # just above the slab
+    viewer[f"{FLOOR_ROOT}/grid"].set_object(mg.LineSegments(mg.PointsGeometry(points),
+                                                            mg.LineBasicMaterial(color=0x50565E)))
 
 
 def robot_height(robot: Robot) -> float:

@@ -8,6 +8,7 @@ and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transfo
 
 from __future__ import annotations
 
+import atexit
 import subprocess
 import threading
 import time
@@ -23,7 +24,7 @@ import zmq
 
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
-from wbc.viz import _scene
+from wbc.viz import _scene, _server
 
 __all__ = ["LiveViewer", "RealTimePacer"]
 
@@ -34,8 +35,9 @@ class LiveViewer:
     Args:
         robot: the robot; its visual model is shown (collision model skipped).
         fps: display rate of the background thread (Hz); it shows fewer frames if sending takes longer.
-        zmq_url: an existing meshcat server (``tcp://127.0.0.1:6000``); ``None`` starts one on 127.0.0.1 (a
-            subprocess, killed by :meth:`close`). meshcat prints the viewer URL.
+        zmq_url: an existing meshcat server (``tcp://127.0.0.1:6000``); ``None`` starts one (a subprocess,
+            killed by :meth:`close`) whose zmq *and* web/websocket ports all listen on 127.0.0.1 only
+            (``meshcat-server`` 0.3.2 serves the page on every interface).
         open: open the viewer URL in the default web browser.
 
     Attributes:
@@ -60,11 +62,15 @@ class LiveViewer:
         self.error: BaseException | None = None
         if zmq_url is not None:
             _probe(zmq_url, timeout=3.0)
-        self._vis = meshcat.Visualizer(zmq_url=zmq_url)  # starts a server when zmq_url is None
-        self._server: subprocess.Popen | None = getattr(self._vis.window, "server_proc", None)
+        self._server: subprocess.Popen | None = None
+        if zmq_url is None:
+            self._server, zmq_url, _ = _server.start()
+            atexit.register(_kill, self._server)
+        self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
+        _scene.add_floor(self._vis)
         _scene.set_camera_offset(self._vis, _scene.camera_offset(robot, target_on_ground=True))
         self._viz.display(robot.q_ref)
         if open:
@@ -82,7 +88,8 @@ class LiveViewer:
         Args:
             q: (nq,) configuration (copied).
             t: its time (s), reported as :attr:`displayed_time`.
-            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"com": c, "zmp": p}``).
+            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"com": c, "zmp": p}``); without
+                ``"com"`` the display thread computes the CoM of ``q`` and shows it with its ground projection.
 
         Raises:
             InvalidInputError: ``q`` is not a finite (nq,) vector, or an overlay is not a finite 3-vector.
@@ -105,8 +112,7 @@ class LiveViewer:
         self._wake.set()
         self._thread.join(timeout=10.0)
         if self._server is not None:
-            self._server.kill()
-            self._server.wait(timeout=10.0)
+            _kill(self._server)
             self._server = None
         self._vis.window.zmq_socket.close(linger=0)
 
@@ -144,7 +150,13 @@ class LiveViewer:
             self._stop.wait(max(0.0, next_frame - time.perf_counter()))
 
     def _show(self, q: np.ndarray, t: float | None, marks: dict[str, np.ndarray]) -> None:
-        self._viz.display(pin.normalize(self.robot.model, q))
+        q = pin.normalize(self.robot.model, q)
+        self._viz.display(q)
+        if "com" not in marks:  # computed here, in the display thread, never on the control path
+            if not hasattr(self, "_data"):
+                self._data = self.robot.model.createData()
+            com = pin.centerOfMass(self.robot.model, self._data, q).copy()
+            marks = {"com": com, "com_ground": np.array([com[0], com[1], 0.0]), **marks}
         for i, (name, p) in enumerate(marks.items()):
             node = self._vis[f"{_scene.OVERLAY_ROOT}/{name}"]
             if name not in self._markers:
@@ -195,6 +207,12 @@ class RealTimePacer:
             self.late_ticks += 1
             self._origin = now - t / self.speed
         return lag
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait(timeout=10.0)
 
 
 def _probe(zmq_url: str, timeout: float) -> None:

@@ -48,6 +48,7 @@ _HTML = """<!DOCTYPE html>
 </head>
 <body>
 <div id="meshcat-pane"></div>
+{legend}
 <script>
 {viewer_js}
 </script>
@@ -104,6 +105,11 @@ def record_html(
     fps: float = 25.0,
     overlays: Mapping[str, np.ndarray] | None = None,
     polygons: Sequence[Polygon] | None = None,
+    paths: Mapping[str, Sequence[np.ndarray]] | None = None,
+    outlines: Mapping[str, Sequence[np.ndarray]] | None = None,
+    arrows: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
+    arrow_scale: float = 1e-3,
+    legend: bool = True,
     follow_camera: bool = True,
     loop: bool = True,
     compress: bool = True,
@@ -121,6 +127,14 @@ def record_html(
             ``{"com": com, "zmp": zmp}`` ("com" red, "zmp"/"cop" green, "dcm" blue, others cycled).
         polygons: support polygon outlines, each ``(t_start, t_end, vertices (K, 3))``, shown while
             ``t_start <= t < t_end`` (times on the clock of ``t``).
+        paths: name -> list of (K, 3) open polylines (world, m) drawn for the whole recording under
+            ``/meshcat/overlays/<name>/<i>`` (e.g. swing-foot trajectories).
+        outlines: name -> list of (K, 3) closed outlines, same (e.g. planned footsteps, footprints).
+        arrows: name -> (origins (N, 3) m, vectors (N, 3)) drawn as a cylinder from the origin along the
+            vector, ``arrow_scale`` metres per unit (default 1 mm per N: a 450 N foot force is 0.45 m long).
+        arrow_scale: see ``arrows``.
+        legend: add an HTML legend (colour -> overlay name) in the page's lower-left corner. Every overlay
+            is a separate meshcat path, shown or hidden from meshcat's "Open Controls" panel.
         follow_camera: the camera looks at and follows the base (smoothed over 1 s, at mid robot height);
             else it looks at the mean base position. Mouse orbit and zoom work in both cases.
         loop: replay the animation forever (else once; the viewer's Animations panel replays it).
@@ -139,18 +153,30 @@ def record_html(
     times = (t[idx] - t[0]).astype(np.float32)
     q_frames = np.array([_scene.normalized(robot, qi) for qi in q[idx]])
     marks = _check_overlays(overlays, len(t))
-    outlines = _check_polygons(polygons)
+    support = _check_polygons(polygons)
+    arrow_items = _check_arrows(arrows, len(t))
+    lines = _check_paths(paths, "paths") + _check_paths(outlines, "outlines", closed=True)
 
     recorder = _scene.CommandRecorder()
     vis = meshcat.Visualizer(window=recorder)
     _scene.load_robot_visuals(robot, vis)
     # Pinocchio's loader also sends scaled placements (set_transform) of a blank pose: replaced below.
     recorder.commands = [c for c in recorder.commands if c["type"] != "set_transform"]
+    _scene.add_floor(vis)
+    entries = {name: _scene.overlay_color(name, i) for i, name in enumerate(marks)}
+    for j, (name, closed, items) in enumerate(lines):
+        color = _scene.overlay_color(name, len(marks) + j)
+        entries[name] = color
+        for i, v in enumerate(items):
+            vis[f"{_scene.OVERLAY_ROOT}/{name}/{i}"].set_object(_scene.polyline(v, color, closed))
+    if support:
+        entries["support_polygon"] = _scene.overlay_color("support_polygon", 0)
     animations = [
         *_robot_clips(vis, robot, q_frames, times),
         *_overlay_clips(vis, {name: points[idx] for name, points in marks.items()}, times),
-        *_polygon_clips(vis, outlines, t[0], times),
+        *_polygon_clips(vis, support, t[0], times),
         *_camera_clips(vis, robot, q_frames, times, fps, follow_camera),
+        *_arrow_clips(vis, arrow_items, idx, times, arrow_scale, entries),
     ]
     if len(times) > 1:
         for a in animations:
@@ -161,7 +187,8 @@ def record_html(
             "animations": animations,
             "options": {"play": True, "repetitions": float("inf") if loop else 1},
         })
-    return _write(Path(path), recorder.commands, compress, title=f"wbc: {robot.name}")
+    return _write(Path(path), recorder.commands, compress, title=f"wbc: {robot.name}",
+                  legend=_scene.legend_html(entries) if legend and entries else "")
 
 
 def _robot_clips(vis: meshcat.Visualizer, robot: Robot, q_frames: np.ndarray, times: np.ndarray) -> list[dict]:
@@ -192,7 +219,7 @@ def _polygon_clips(vis: meshcat.Visualizer, outlines: list[tuple[float, float, n
     """One outline per polygon, its ``visible`` switched by a boolean (step) track."""
     clips = []
     for i, (t_start, t_end, vertices) in enumerate(outlines):
-        node = f"{_scene.POLYGON_ROOT}/{i}"
+        node = f"{_scene.OVERLAY_ROOT}/support_polygon/{i}"
         vis[node].set_object(_scene.polygon_outline(vertices))
         key_t, key_v = [0.0], [bool(t_start <= t0 < t_end)]
         vis[node].set_property("visible", key_v[0])
@@ -245,6 +272,68 @@ def _check_overlays(overlays: Mapping[str, np.ndarray] | None, n: int) -> dict[s
             raise InvalidInputError(f"overlay {name!r} must be a finite (N, 3) = ({n}, 3) array, got {p.shape}")
         key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "overlay"
         out[key] = p
+    return out
+
+
+def _check_arrows(arrows, n: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    out = {}
+    for name, item in (arrows or {}).items():
+        try:
+            origin, vec = (np.asarray(a, dtype=float) for a in item)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"arrow {name!r} must be (origins (N, 3), vectors (N, 3))") from exc
+        if origin.shape != (n, 3) or vec.shape != (n, 3) or not (np.isfinite(origin).all() and np.isfinite(vec).all()):
+            raise InvalidInputError(f"arrow {name!r}: origins and vectors must be finite ({n}, 3) arrays, got "
+                                    f"{origin.shape} and {vec.shape}")
+        key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "arrow"
+        out[key] = (origin, vec)
+    return out
+
+
+def _arrow_clips(vis, arrows, idx, times, scale: float, entries: dict) -> list[dict]:
+    """Unit cylinder (along local y, meshcat's convention) moved, turned and stretched along each vector."""
+    import meshcat.geometry as mg
+
+    clips = []
+    y = np.array([0.0, 1.0, 0.0])
+    for name, (origin, vec) in arrows.items():
+        color = _scene.overlay_color(name, len(entries))
+        entries[name] = color
+        o, v = origin[idx], vec[idx] * scale
+        length = np.linalg.norm(v, axis=1)
+        d = np.where(length[:, None] > 1e-9, v / np.maximum(length, 1e-12)[:, None], y)
+        axis = np.cross(y, d)
+        s = np.linalg.norm(axis, axis=1)
+        c = d @ y
+        angle = np.arctan2(s, c)
+        axis = np.where(s[:, None] > 1e-9, axis / np.maximum(s, 1e-12)[:, None], np.array([1.0, 0.0, 0.0]))
+        quat = Rotation.from_rotvec(axis * angle[:, None]).as_quat()
+        node = f"{_scene.OVERLAY_ROOT}/{name}"
+        material = mg.MeshLambertMaterial(color=color, opacity=0.8, transparent=True, depthTest=False)  # seen through the legs
+        vis[node].set_object(mg.Mesh(mg.Cylinder(1.0, radius=0.012), material))
+        pos = o + 0.5 * v
+        scl = np.c_[np.ones(len(o)), np.maximum(length, 1e-4), np.ones(len(o))]
+        vis[node].set_property("position", _floats(pos[0]))
+        vis[node].set_property("quaternion", _floats(quat[0]))
+        vis[node].set_property("scale", _floats(scl[0]))
+        clips.append(_clip(node, [_track("position", "vector3", times, pos),
+                                  _track("quaternion", "quaternion", times, quat),
+                                  _track("scale", "vector3", times, scl)]))
+    return clips
+
+
+def _check_paths(paths: Mapping[str, Sequence[np.ndarray]] | None, what: str,
+                 closed: bool = False) -> list[tuple[str, bool, list[np.ndarray]]]:
+    out = []
+    for name, items in (paths or {}).items():
+        arrays = []
+        for i, v in enumerate(items):
+            v = np.asarray(v, dtype=float)
+            if v.ndim != 2 or v.shape[1] != 3 or len(v) < 2 or not np.all(np.isfinite(v)):
+                raise InvalidInputError(f"{what} {name!r}[{i}] must be a finite (K >= 2, 3) array, got {v.shape}")
+            arrays.append(v)
+        key = "".join(c if c.isalnum() or c in "_-." else "_" for c in str(name)) or "path"
+        out.append((key, closed, arrays))
     return out
 
 
@@ -310,12 +399,13 @@ def _clip(node: str, tracks: list[dict[str, Any]]) -> dict[str, Any]:
     return {"path": node, "clip": {"fps": 1.0, "name": "default", "tracks": tracks}}
 
 
-def _write(path: Path, commands: list[dict[str, Any]], compress: bool, title: str) -> Path:
+def _write(path: Path, commands: list[dict[str, Any]], compress: bool, title: str, legend: str = "") -> Path:
     blob = b"".join(struct.pack("<I", len(b)) + b for b in map(umsgpack.packb, commands))
     if compress:
         blob = gzip.compress(blob, compresslevel=6, mtime=0)
     html = _HTML.format(
         title=title,
+        legend=legend,
         viewer_js=_VIEWER_JS.read_text(encoding="utf-8"),
         encoding="gzip" if compress else "none",
         payload=base64.b64encode(blob).decode("ascii"),

@@ -1,0 +1,46 @@
+"""wbc.viz.progress: the bar follows simulated time on a terminal, is silent elsewhere, and forwards updates."""
+
+from __future__ import annotations
+
+import io
+
+from wbc.viz.progress import ProgressViewer
+
+
+class _Tty(io.StringIO):
+    def isatty(self):
+        return True
+
+
+class _Inner:
+    def __init__(self):
+        self.calls, self.closed = [], False
+
+    def update(self, q, t, overlays=None):
+        self.calls.append((t, overlays))
+
+    def close(self):
+        self.closed = True
+
+
+def test_bar_on_a_terminal_reaches_the_total():
+    stream, inner = _Tty(), _Inner()
+    p = ProgressViewer(2.0, inner, desc="run", stream=stream, delay=0.0, step=0.05)
+    for k in range(1, 1001):
+        p.update(None, k * 0.002, overlays={"com": k})
+    assert abs(p.bar.n - 2.0) < 0.05
+    p.bar.refresh()
+    text = stream.getvalue()
+    assert "run" in text and "2.00 s sim" in text
+    assert len(inner.calls) == 1000 and inner.calls[-1] == (2.0, {"com": 1000})  # every tick forwarded
+    p.close()
+    assert inner.closed
+
+
+def test_silent_when_not_a_terminal_or_disabled():
+    for kwargs in ({"stream": io.StringIO()}, {"stream": _Tty(), "enabled": False}):
+        p = ProgressViewer(1.0, delay=0.0, **kwargs)
+        for k in range(1, 501):
+            p.update(None, k * 0.002)
+        p.close()
+        assert kwargs["stream"].getvalue() == ""

@@ -1,0 +1,128 @@
+"""What to draw over a walk: moving markers, support polygons, footsteps and trajectories (world frame, m).
+
+:func:`walk_overlays` turns a walk plan and its run into the three kinds of items :func:`wbc.viz.record_html`
+draws, each under its own meshcat path (toggled in meshcat's "Open Controls" panel):
+
+* ``points`` name -> (N, 3) moving spheres: ``com`` (measured CoM), ``com_ground`` (its ground projection),
+  ``zmp_planned`` (plan's ZMP), ``zmp_executed`` (cart-table ZMP of the executed CoM motion,
+  p = c_xy - c_z / g * c̈_xy, Kajita et al. 2003, eq. 3; CoM acceleration by central finite differences),
+  ``dcm_planned`` (plan's DCM), ``dcm_executed`` (ξ = c + ċ / ω, ω = sqrt(g / c_z), Englsberger et al. 2015,
+  eq. 7; ċ by finite differences), at z = 0 except the CoM;
+* ``polygons`` (t_start, t_end, (K, 3)): the support polygon of each support phase (realized sole poses);
+* ``outlines`` name -> list of closed (K, 3) outlines, static: ``footsteps_planned`` (sole rectangles of the
+  plan's footsteps), ``footprints`` (realized sole rectangles at the start and at each touchdown);
+* ``paths`` name -> list of open (K, 3) polylines, static: ``swing_left`` / ``swing_right`` (sole-origin
+  trajectories).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbc.gait.support import convex_hull, sole_polygon
+
+__all__ = ["walk_overlays", "sim_overlays", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
+
+GRAVITY = 9.81  # m/s^2
+
+
+def cart_table_zmp(t: np.ndarray, com: np.ndarray, g: float = GRAVITY) -> np.ndarray:
+    """(N, 3) cart-table ZMP on z = 0 of a CoM path (N, 3) sampled at times t (N,) (Kajita 2003, eq. 3)."""
+    acc = np.gradient(np.gradient(com[:, :2], t, axis=0), t, axis=0)
+    p = com[:, :2] - (com[:, 2:3] / g) * acc
+    return np.c_[p, np.zeros(len(t))]
+
+
+def dcm_of(t: np.ndarray, com: np.ndarray, g: float = GRAVITY) -> np.ndarray:
+    """(N, 3) DCM ξ = c + ċ/ω on z = 0, ω = sqrt(g / c_z) (Englsberger 2015, eq. 7)."""
+    vel = np.gradient(com[:, :2], t, axis=0)
+    omega = np.sqrt(g / np.maximum(com[:, 2:3], 1e-3))
+    return np.c_[com[:, :2] + vel / omega, np.zeros(len(t))]
+
+
+def _outline(pose: np.ndarray, length: float, width: float, z: float = 0.002) -> np.ndarray:
+    xy = sole_polygon(pose[0, 3], pose[1, 3], math.atan2(pose[1, 0], pose[0, 0]), length, width)
+    return np.c_[xy, np.full(len(xy), z)]
+
+
+def walk_overlays(robot, plan, run) -> dict:
+    """Overlays of a kinematic walk (``plan``: :class:`wbc.gait.WalkPlan`, ``run``: ``WalkRun``).
+
+    Returns ``{"points": {...}, "polygons": [...], "outlines": {...}, "paths": {...}}`` (see the module docstring).
+    """
+    t = run.t
+    n = len(t)
+    zeros = np.zeros((n, 1))
+    points = {
+        "com": run.com,
+        "com_ground": np.c_[run.com[:, :2], zeros],
+        "zmp_planned": np.c_[run.zmp_ref[:, :2], zeros],
+        "zmp_executed": cart_table_zmp(t, run.com),
+        "dcm_planned": np.c_[plan.dcm[:n, :2], zeros],
+        "dcm_executed": dcm_of(t, run.com),
+    }
+    L, W = robot.sole_length, robot.sole_width
+    polygons = []
+    support = np.asarray(run.support)
+    starts = np.r_[0, np.flatnonzero(np.diff(support)) + 1]
+    ends = np.r_[starts[1:], n]
+    for a, b in zip(starts, ends):
+        k = a
+        polys = []
+        if support[k] in (0, 1):
+            polys.append(_outline(run.left_sole[k], L, W)[:, :2])
+        if support[k] in (0, 2):
+            polys.append(_outline(run.right_sole[k], L, W)[:, :2])
+        hull = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+        t_end = t[b] if b < n else t[-1] + (t[-1] - t[-2] if n > 1 else 1.0)
+        polygons.append((float(t[a]), float(t_end), np.c_[hull, np.full(len(hull), 0.003)]))
+    planned = [_outline(f.pose(), L, W) for f in plan.footsteps]
+    prints = []
+    for side, soles, swing_phase in (("left", run.left_sole, 2), ("right", run.right_sole, 1)):
+        prints.append(_outline(soles[0], L, W))
+        swinging = support == swing_phase
+        for k in np.flatnonzero(swinging[:-1] & ~swinging[1:]) + 1:  # touchdown: swing phase ends
+            prints.append(_outline(soles[k], L, W))
+    outlines = {"footsteps_planned": planned, "footprints": prints}
+    paths = {"swing_left": [run.left_sole[:, :3, 3]], "swing_right": [run.right_sole[:, :3, 3]]}
+    return {"points": points, "polygons": polygons, "outlines": outlines, "paths": paths}
+
+
+def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
+    """(N, 3) net CoP on z = 0 from ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world
+    axes) at sole origins (N, 2, 3). Each foot's CoP solves m = (c − p) × f with c on the ground
+    (c_x = p_x − m_y / f_z, c_y = p_y + m_x / f_z); the net CoP is their f_z-weighted mean. nan where the total
+    f_z is below ``min_fz`` N (flight)."""
+    w, p = sim_wrench, sole_pos
+    fz = w[:, :, 2]
+    loaded = fz > min_fz
+    safe = np.where(loaded, fz, 1.0)
+    cx = np.where(loaded, p[:, :, 0] - w[:, :, 4] / safe, 0.0)
+    cy = np.where(loaded, p[:, :, 1] + w[:, :, 3] / safe, 0.0)
+    weight = np.where(loaded, fz, 0.0)
+    total = weight.sum(axis=1)
+    ok = total > min_fz
+    den = np.where(ok, total, 1.0)
+    x = np.where(ok, (cx * weight).sum(axis=1) / den, np.nan)
+    y = np.where(ok, (cy * weight).sum(axis=1) / den, np.nan)
+    return np.c_[x, y, np.zeros(len(x))]
+
+
+def sim_overlays(run) -> dict:
+    """Overlays of a MuJoCo run (:class:`wbc.sim.closed_loop.ClosedLoopRun`): ``points`` com, com_ground,
+    cop (measured, ground truth; at the CoM projection in flight), dcm_executed; ``arrows`` contact forces on
+    each sole (ground truth) and the push on the torso (drawn from the CoM), 1 mm per N."""
+    t, com = run.t, run.com
+    ground = np.c_[com[:, :2], np.zeros(len(t))]
+    cop = measured_cop(run.sim_wrench, run.sole_pos)
+    cop = np.where(np.isnan(cop), ground, cop)
+    points = {"com": com, "com_ground": ground, "cop": cop, "dcm_executed": dcm_of(t, com)}
+    arrows = {
+        "contact_force_left": (run.sole_pos[:, 0], run.sim_wrench[:, 0, :3]),
+        "contact_force_right": (run.sole_pos[:, 1], run.sim_wrench[:, 1, :3]),
+    }
+    if np.any(run.ext_force):
+        arrows["push"] = (com, run.ext_force)
+    return {"points": points, "arrows": arrows}

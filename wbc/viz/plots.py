@@ -1,0 +1,189 @@
+"""Plots of a run's log (matplotlib, Agg backend): what the controller did, on one PNG.
+
+:func:`plot_log` reads any of wbc's npz logs (``wbc walk``/``wbc balance``: ``com``, ``com_ref``, ``left_sole``,
+``right_sole``, ``support``, ``tick_time``...; ``wbc sim``: ``com``, ``sole_pos``, ``sim_wrench``,
+``contact_active``...) and draws, one axes each (titles are stable, tests look for them):
+
+* ``CoM, ZMP, DCM: x`` and ``... : y`` vs time (m): CoM, CoM reference, planned ZMP (walk logs), executed
+  ZMP (cart-table ZMP of the CoM, Kajita 2003 eq. 3) or measured CoP (sim: from the ground-truth foot
+  wrenches), DCM (c + ċ/ω, Englsberger 2015 eq. 7); shaded bands: single support (left / right stance);
+* ``top view`` (x-y, m): sole positions (footprints), CoM and ZMP/CoP paths;
+* ``joint positions / limits``: each bounded joint's position mapped to [0, 1] over its URDF range (0 and 1
+  are the limits, drawn as lines);
+* ``contact forces`` (sim logs only): vertical ground reaction on each foot (N);
+* ``tick time``: histogram of the controller's time per tick (ms) with the control period (e.g. 2 ms) line.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from wbc.exceptions import InvalidInputError
+from wbc.viz.overlays import cart_table_zmp, dcm_of, measured_cop
+
+__all__ = ["plot_log", "load_log"]
+
+
+def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The arrays of an npz log as a dict.
+
+    Raises:
+        InvalidInputError: the file does not exist or is not an npz log with ``t``, ``q`` and ``com``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidInputError(f"log {str(path)!r} does not exist (write one with --log FILE.npz)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            log = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as exc:
+        raise InvalidInputError(f"{str(path)!r} is not an npz log: {exc}") from exc
+    missing = [k for k in ("t", "q", "com") if k not in log]
+    if missing:
+        raise InvalidInputError(f"log {str(path)!r} lacks {missing} (not a wbc walk/balance/sim log)")
+    return log
+
+
+def _cop(log: Mapping[str, np.ndarray]) -> np.ndarray:
+    return measured_cop(np.asarray(log["sim_wrench"], float), np.asarray(log["sole_pos"], float))
+
+
+def _stance_bands(log):
+    """(t_start, t_end, label) of single-support phases."""
+    t = log["t"]
+    if "support" in log:
+        s = np.asarray(log["support"]).astype(int)
+        single = {1: "left stance", 2: "right stance"}
+    elif "contact_active" in log:
+        c = np.asarray(log["contact_active"]).astype(bool)
+        s = np.where(c[:, 0] & ~c[:, 1], 1, np.where(c[:, 1] & ~c[:, 0], 2, 0))
+        single = {1: "left stance", 2: "right stance"}
+    else:
+        return []
+    out = []
+    starts = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
+    ends = np.r_[starts[1:], len(s) - 1]
+    for a, b in zip(starts, ends):
+        if s[a] in single:
+            out.append((float(t[a]), float(t[b]), single[s[a]]))
+    return out
+
+
+def _limits(log):
+    """(lo, hi, q_columns) of bounded joints from the robot named in the log, or None."""
+    if "robot" not in log:
+        return None
+    try:
+        from wbc.constraints.limits import bounded_joints
+        from wbc.robot import load_robot
+
+        robot = load_robot(str(log["robot"]))
+    except Exception:  # noqa: BLE001 - a custom URDF may not be loadable by name: skip the panel
+        return None
+    if robot.nq != log["q"].shape[1]:
+        return None
+    idx_q, _ = bounded_joints(robot.model)
+    return robot.model.lowerPositionLimit[idx_q], robot.model.upperPositionLimit[idx_q], idx_q
+
+
+def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | os.PathLike[str] | None = None):
+    """Draw the panels of the module docstring for one run; returns the matplotlib Figure (saved to ``out``).
+
+    Args:
+        log: an npz path or the dict of its arrays (:func:`load_log`).
+        out: PNG path (its folder must exist), or None to only return the figure.
+
+    Raises:
+        InvalidInputError: see :func:`load_log`; ``out``'s folder does not exist.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    if not isinstance(log, Mapping):
+        log = load_log(log)
+    if out is not None and not Path(out).parent.is_dir():
+        raise InvalidInputError(f"plot folder {str(Path(out).parent)!r} does not exist")
+    t, com = np.asarray(log["t"], float), np.asarray(log["com"], float)
+    physics = "sim_wrench" in log
+    zmp_name, zmp = ("CoP measured", _cop(log)) if physics else ("ZMP executed", cart_table_zmp(t, com))
+    dcm = dcm_of(t, com)
+    limits = _limits(log)
+    n_panels = 4 + (limits is not None) + physics
+    fig, axes = plt.subplots(n_panels, 1, figsize=(10, 3.2 * n_panels), constrained_layout=True)
+    axes = list(axes)
+    bands = _stance_bands(log)
+    for i, coord in enumerate("xy"):
+        ax = axes.pop(0)
+        ax.set_title(f"CoM, ZMP, DCM: {coord}")
+        ax.plot(t, com[:, i], color="#e0262b", label="CoM")
+        if "com_ref" in log:
+            ax.plot(t, log["com_ref"][:, i], color="#e0262b", ls="--", label="CoM reference")
+        if "zmp_ref" in log:
+            ax.plot(t, log["zmp_ref"][:, i], color="#1fa34a", ls="--", label="ZMP planned")
+        ax.plot(t, zmp[:, i], color="#1fa34a", alpha=0.8, label=zmp_name)
+        ax.plot(t, dcm[:, i], color="#2b6fe0", label="DCM")
+        for k, (a, b, label) in enumerate(bands):
+            color = "#d9c2f0" if label.startswith("left") else "#c2eaf0"
+            ax.axvspan(a, b, color=color, alpha=0.5, lw=0, label=label if label not in
+                       [bb[2] for bb in bands[:k]] else None)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(f"{coord} (m)")
+        ax.legend(loc="upper left", fontsize=7, ncol=3)
+    ax = axes.pop(0)
+    ax.set_title("top view")
+    if "left_sole" in log:
+        feet = {"left sole": log["left_sole"][:, :2, 3], "right sole": log["right_sole"][:, :2, 3]}
+    elif "sole_pos" in log:
+        feet = {"left sole": log["sole_pos"][:, 0, :2], "right sole": log["sole_pos"][:, 1, :2]}
+    else:
+        feet = {}
+    for (name, xy), color in zip(feet.items(), ("#9b3fd1", "#15a5b5")):
+        ax.plot(xy[:, 0], xy[:, 1], color=color, lw=0.8, label=name)
+    ax.plot(com[:, 0], com[:, 1], color="#e0262b", label="CoM path")
+    ax.plot(zmp[:, 0], zmp[:, 1], color="#1fa34a", lw=0.8, label=f"{zmp_name} path")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(loc="upper left", fontsize=7)
+    if limits is not None:
+        lo, hi, idx = limits
+        ax = axes.pop(0)
+        ax.set_title("joint positions / limits")
+        frac = (np.asarray(log["q"])[:, idx] - lo) / np.where(hi > lo, hi - lo, 1.0)
+        names = list(log["joint_names"]) if "joint_names" in log and len(log["joint_names"]) == len(idx) else None
+        for j in range(frac.shape[1]):
+            ax.plot(t, frac[:, j], lw=0.7, label=str(names[j]) if names else f"joint {j}")
+        ax.axhline(0.0, color="k", lw=1.2, label="lower limit")
+        ax.axhline(1.0, color="k", lw=1.2, ls="--", label="upper limit")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("(q - lower) / (upper - lower)")
+    if physics:
+        ax = axes.pop(0)
+        ax.set_title("contact forces")
+        w = log["sim_wrench"]
+        ax.plot(t, w[:, 0, 2], color="#9b3fd1", label="left foot f_z")
+        ax.plot(t, w[:, 1, 2], color="#15a5b5", label="right foot f_z")
+        if "ext_force" in log and np.any(log["ext_force"]):
+            ax.plot(t, np.linalg.norm(log["ext_force"], axis=1), color="#ff2020", label="push |f|")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("force (N)")
+        ax.legend(loc="upper left", fontsize=7)
+    ax = axes.pop(0)
+    ax.set_title("tick time")
+    tick_ms = 1e3 * np.asarray(log["tick_time"], float)
+    ax.hist(tick_ms, bins=60, color="#777777", label="controller tick")
+    dt_ms = 1e3 * float(log["dt"]) if "dt" in log else 2.0
+    ax.axvline(dt_ms, color="#e0262b", label=f"period {dt_ms:g} ms")
+    ax.set_xlabel("time per tick (ms)")
+    ax.set_ylabel("ticks")
+    ax.set_yscale("log")
+    ax.legend(loc="upper right", fontsize=7)
+    if out is not None:
+        fig.savefig(out, dpi=90)
+    return fig

@@ -1,0 +1,63 @@
+"""A progress bar (tqdm, on stderr) fed through the ``viewer`` hook of the run loops.
+
+The walk, balance and simulation loops call ``viewer.update(q, t, ...)`` once per tick; :class:`ProgressViewer`
+advances a bar by simulated time (at most every ``step`` s of simulated time, so a tick costs one float
+comparison) and forwards every call to an optional inner viewer (a live meshcat view).
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any, TextIO
+
+__all__ = ["ProgressViewer"]
+
+
+class ProgressViewer:
+    """Progress of a run in simulated seconds; also forwards ``update``/``close`` to ``inner``.
+
+    Args:
+        total: simulated duration of the run (s), or None if unknown (the bar then counts up).
+        inner: a viewer with ``update(q, t, ...)`` and ``close()`` (e.g. :class:`wbc.viz.LiveViewer`), or None.
+        desc: label in front of the bar.
+        enabled: show the bar; None: only when ``stream`` is a terminal.
+        stream: where the bar is drawn (default ``sys.stderr``).
+        delay: the bar appears only after this many wall-clock seconds (short runs stay silent).
+        step: simulated seconds between bar refreshes.
+    """
+
+    def __init__(self, total: float | None, inner: Any = None, *, desc: str = "", enabled: bool | None = None,
+                 stream: TextIO | None = None, delay: float = 2.0, step: float = 0.05):
+        from tqdm import tqdm
+
+        stream = sys.stderr if stream is None else stream
+        if enabled is None:
+            enabled = bool(getattr(stream, "isatty", lambda: False)())
+        self.inner = inner
+        self.enabled = enabled
+        self._step = float(step)
+        self._shown = 0.0
+        self.bar = tqdm(total=None if total is None else round(float(total), 3), unit="s", desc=desc,
+                        file=stream, disable=not enabled, delay=delay, leave=False,
+                        bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]"
+                        if total is not None else "{desc} {n:.2f} s sim [{elapsed}]")
+
+    def update(self, q, t: float | None = None, *args: Any, **kwargs: Any) -> None:
+        """Forward to the inner viewer; advance the bar to simulated time ``t`` (s)."""
+        if self.inner is not None:
+            self.inner.update(q, t, *args, **kwargs)
+        if t is not None and t - self._shown >= self._step:
+            self.bar.update(t - self._shown)
+            self._shown = t
+
+    def close(self) -> None:
+        """Close the bar and the inner viewer."""
+        self.bar.close()
+        if self.inner is not None:
+            self.inner.close()
+
+    def __getattr__(self, name: str) -> Any:
+        inner = self.__dict__.get("inner")
+        if inner is None:
+            raise AttributeError(name)
+        return getattr(inner, name)
