@@ -18,7 +18,7 @@ def _options(name):
 
 def test_walk_usage_block_matches_the_parser():
     block = re.search(r"```\n(wbc walk .*?)```", README, re.S).group(1)
-    assert set(re.findall(r"--[a-z][a-z-]*", block)) == _options("walk")
+    assert set(re.findall(r"--[a-z][a-z0-9-]*", block)) == _options("walk")
 
 
 def test_shared_options_exist_where_readme_says():
