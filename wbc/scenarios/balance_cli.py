@@ -32,13 +32,17 @@ def cmd_balance(args) -> int:
         viewer, pacer = _live(robot)
     from wbc.cli import _progress
 
+    from wbc.ros2.cli import attach, finish
+
     viewer = _progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
+    target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
-        run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=viewer, pacer=pacer,
+        run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=target, pacer=pacer,
                           **options)
     finally:
         if viewer is not None:
             viewer.close()
+        finish(ros2_pub)
     summary = balance_summary(robot, run)
     summary["solver"] = args.solver
     from wbc.cli import deadline_misses
@@ -80,4 +84,7 @@ def register(subparsers, add_outputs) -> None:
                    help=f"QP backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     add_outputs(p)
+    from wbc.ros2.cli import add_run_options
+
+    add_run_options(p)
     p.set_defaults(func=cmd_balance)
