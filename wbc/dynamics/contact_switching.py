@@ -5,8 +5,9 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 
 ``stance`` → (:meth:`~ContactSwitcher.unload`) → ``unloading`` → ``swing`` → (touch-down) → ``loading`` → ``stance``
 
-* **unloading** (ramp-out): the bound on the sole's total normal force falls linearly from ``F_full`` to 0 over
-  ``ramp_time``, ``F_max(t) = F_full (1 − (t − t₀)/T_ramp)``; the QP moves the weight to the other foot
+* **unloading** (ramp-out): the bound on the sole's total normal force falls linearly from ``F₀`` (the sole's
+  normal force in the controller's last QP solution when the ramp starts) to 0 over ``ramp_time``,
+  ``F_max(t) = F₀ (1 − (t − t₀)/T_ramp)``; the QP moves the weight to the other foot
   continuously (no force jump), and when the bound reaches 0 the contact is released (its forces are then
   bounded to 0 and the foot is tracked by a frame task, :meth:`BalanceController.release_foot`). So no weight is
   left on a released foot: at release the QP's normal force of that sole is 0 by construction.
@@ -21,8 +22,8 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 * **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
   ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
 
-``F_full`` defaults to 2 m g (twice the robot weight: never active in normal walking, so the ramps only act
-near 0). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
+``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
+``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
 ``ContactTransition`` made explicit with the sole's corner-force bounds (:mod:`wbc.dynamics.contacts`).
 
 The switcher works on a :class:`~wbc.dynamics.balance.BalanceController` (its ``contacts``, ``feet``, ``qp``,
@@ -54,7 +55,7 @@ class ContactSwitcher:
         touchdown_height: sole height (m, world z of the sole frame) at or below which an armed swing foot is
             in contact (default 3 mm).
         touchdown_speed: the sole's vertical velocity (m/s) must be ≤ this (not rising) (default 0.05 m/s).
-        full_force: F_full (N), end value of the ramp-in and start of the ramp-out (default 2 m g).
+        full_force: F_full (N), end value of the ramp-in (default m g).
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
@@ -75,7 +76,7 @@ class ContactSwitcher:
                 raise InvalidInputError(f"{what} must be finite, got {val!r}")
         self.controller = controller
         robot = controller.robot
-        self.full_force = 2.0 * robot.mass * 9.81 if full_force is None else float(full_force)
+        self.full_force = robot.mass * 9.81 if full_force is None else float(full_force)
         if not (np.isfinite(self.full_force) and self.full_force > 0):
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
         self.ramp_time = float(ramp_time)
@@ -87,6 +88,7 @@ class ContactSwitcher:
         self._phase = {s: "stance" for s in self.SIDES}
         self._t0 = {s: 0.0 for s in self.SIDES}
         self._armed = {s: False for s in self.SIDES}
+        self._f0 = {s: self.full_force for s in self.SIDES}
         self.touchdown_time: dict[str, float | None] = {s: None for s in self.SIDES}
         self.events: list[tuple[float, str, str]] = []
 
@@ -114,6 +116,7 @@ class ContactSwitcher:
             raise InvalidInputError(f"cannot unload the {side} foot in phase {self._phase[side]!r}")
         self._phase[side] = "unloading"
         self._t0[side] = float(t)
+        self._f0[side] = self.current_normal_force(side)
         self._armed[side] = False
         self.events.append((float(t), side, "unload"))
 
@@ -145,6 +148,15 @@ class ContactSwitcher:
         self.touchdown_time[side] = float(t)
         self.events.append((float(t), side, "touchdown"))
 
+    def current_normal_force(self, side: str) -> float:
+        """Total normal force (N) of ``side`` in the controller's last QP solution (``full_force`` if none)."""
+        c = self.controller
+        sol = c.controller.last_solution
+        if sol is None:
+            return self.full_force
+        i = c.qp.contacts.index(c.contacts[side])
+        return float(sol.forces[12 * i + 2:12 * i + 12:3].sum())
+
     def sole_height_velocity(self, side: str) -> tuple[float, float]:
         """(z (m), ż (m/s)) of the sole frame at the last :meth:`update` state (world)."""
         fid = self._fid[self._side(side)]
@@ -170,7 +182,7 @@ class ContactSwitcher:
                 if a >= 1.0 - 1e-9:
                     self.release(s, t)
                 else:
-                    c.set_max_normal_force(s, self.full_force * (1.0 - a))
+                    c.set_max_normal_force(s, self._f0[s] * (1.0 - a))
             elif ph == "loading":
                 a = (t - self._t0[s]) / self.ramp_time
                 if a >= 1.0:

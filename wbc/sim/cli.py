@@ -12,7 +12,7 @@ from pathlib import Path
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -38,6 +38,18 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
+    w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
+    w.add_argument("--steps", type=int, default=8, help="walk: number of steps (default 8)")
+    w.add_argument("--step-length", type=float, default=0.15, help="walk: step length, m (default 0.15)")
+    w.add_argument("--step-duration", type=float, default=0.8,
+                   help="walk: s per step, single + double support (20%%) (default 0.8)")
+    w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
+    w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
+    w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
+    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
+    w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
+    w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="320x240", help="video frame size WxH (default 320x240)")
     add_outputs(p)
@@ -55,6 +67,14 @@ def _scenario(args, robot):
         return SwayScenario(10.0 if args.duration is None else args.duration)
     if args.scenario == "one-leg":
         return OneLegScenario()
+    if args.scenario == "walk":
+        import math
+
+        from wbc.sim.walk import WalkScenario
+
+        return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
+                            push=args.push, push_time=args.push_time, push_duration=args.push_duration,
+                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -80,7 +100,8 @@ def cmd_sim(args) -> int:
 
     def make(kind=args.controller):
         return make_controller(robot, kind, dt=sim.timestep, solver=args.solver, **(
-            {"mu": args.mu, "f_min": args.f_min} if kind == "id" else {}))
+            {"mu": args.mu, "f_min": args.f_min, **({"sole_margin": args.sole_margin} if args.scenario == "walk"
+                                                    else {})} if kind == "id" else {}))
 
     viewer = pacer = None
     if args.live:

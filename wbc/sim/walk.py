@@ -274,7 +274,10 @@ class WalkScenario:
         # Start the ramp-out of the next swing so that the foot is released at the planned lift-off.
         if self._next < len(self.swings):
             side, k_lift, k_td, fs = self.swings[self._next]
-            if t >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading"):
+            other = "right" if side == "left" else "left"
+            # Never release a foot while the other one is not yet down (late touch-down: the step waits).
+            if t >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
+                    and sw.phase(other) in ("stance", "loading"):
                 sw.unload(side, t)
                 self._active[side] = self.swings[self._next]
                 self._next += 1
