@@ -14,7 +14,7 @@ from wbc.sim.scenarios import make_controller, run_scenario
 from wbc.sim.walk import WalkScenario, measured_cop, polygon_margin
 
 
-@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.2, 0.6), ("g1", 0.1, 0.6)])
+@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.2, 0.6), ("g1", 0.1, 0.8)])
 def test_four_step_walk(name, step_length, step_duration):
     robot = load_robot(name)
     sim = build_mujoco_model(robot)
