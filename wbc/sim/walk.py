@@ -424,14 +424,18 @@ class WalkScenario:
         return out
 
 
-def walk_acceptance(summary: dict, *, distance_tol: float = 0.05, slip_max: float = 0.005) -> list[str]:
-    """Failed criteria of a walk summary: walked distance within ``distance_tol`` (relative) of commanded,
-    stance slip ≤ ``slip_max`` (m) per step, walk completed, 0 solver failures (falls are checked by
-    :func:`wbc.sim.scenarios.acceptance`)."""
+def walk_acceptance(summary: dict, *, distance_tol: float = 0.05, slip_max: float = 0.005,
+                    heading_tol: float = math.radians(5.0)) -> list[str]:
+    """Failed criteria of a walk summary: walked distance within ``distance_tol`` (relative, at least 1 cm) of
+    commanded, final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
+    walk completed, 0 solver failures (falls are checked by :func:`wbc.sim.scenarios.acceptance`)."""
     fails = []
     cmd, got = summary["commanded_distance_m"], summary["walked_distance_m"]
-    if cmd > 0 and abs(got - cmd) > distance_tol * cmd:
+    if abs(got - cmd) > max(distance_tol * cmd, 0.01):
         fails.append(f"walked {got:.3f} m vs commanded {cmd:.3f} m (> {distance_tol:.0%})")
+    dh = abs(math.remainder(summary["walked_heading_rad"] - summary["commanded_heading_rad"], 2 * math.pi))
+    if dh > heading_tol:
+        fails.append(f"heading error {math.degrees(dh):.1f} deg > {math.degrees(heading_tol):.0f} deg")
     if summary["max_stance_slip_m"] > slip_max:
         fails.append(f"stance slip {summary['max_stance_slip_m'] * 1e3:.1f} mm > {slip_max * 1e3:.0f} mm")
     if summary.get("solver_failures", 0):
