@@ -61,3 +61,39 @@ def test_measured_cop_and_margin():
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     assert polygon_margin(np.array([0.5, 0.2]), square) == pytest.approx(0.2)
     assert polygon_margin(np.array([1.3, 0.5]), square) == pytest.approx(-0.3)
+
+
+def test_perturb_plant_and_controller():
+    from wbc.exceptions import InvalidInputError
+    from wbc.sim.perturb import PerturbedController, perturb_plant
+
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    m0 = float(sim.model.body_mass.sum())
+    base = sim.model.body_mass.copy()
+    info = perturb_plant(sim, mass_error=0.05, payload=5.0, friction=0.5, armature=0.1, seed=3)
+    ratio = sim.model.body_mass[1:] / np.where(base[1:] > 0, base[1:], 1.0)
+    torso = sim.body_id(robot.torso)
+    others = np.delete(np.arange(1, sim.model.nbody), torso - 1)
+    assert np.all(np.abs(ratio[others - 1][base[others] > 0] - 1.0) <= 0.05 + 1e-12)
+    assert info["model_mass_kg"] == pytest.approx(m0)
+    assert abs(float(sim.model.body_mass.sum()) - (m0 + 5.0)) <= 0.05 * m0
+    assert np.all(sim.model.dof_frictionloss[6:] == 0.5)
+    with pytest.raises(InvalidInputError, match="mass_error"):
+        perturb_plant(sim, mass_error=1.5)
+    # Delay: with 2 ticks, the torque applied at tick k is the one computed (undelayed) at tick k − 2.
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    ref = PerturbedController(robot, dt=0.002)
+    late = PerturbedController(robot, dt=0.002, delay=2)
+    ref.reset(q, v)
+    late.reset(q, v)
+    taus, outs = [], []
+    for k in range(5):
+        vk = v.copy()
+        vk[6:] = 0.01 * k  # a different state every tick
+        taus.append(ref.compute(q, vk).tau.copy())
+        outs.append(late.compute(q, vk).tau.copy())
+    np.testing.assert_allclose(outs[4], taus[2], atol=1e-9)
+    np.testing.assert_allclose(outs[3], taus[1], atol=1e-9)
+    with pytest.raises(InvalidInputError, match="delay"):
+        PerturbedController(robot, delay=-1)

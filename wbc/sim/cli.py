@@ -50,6 +50,13 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
+    w.add_argument("--mass-error", type=float, default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
+    w.add_argument("--payload", type=float, default=0.0, help="walk: unmodelled torso payload on the plant, kg")
+    w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
+    w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
+    w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
+    w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
+    w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="320x240", help="video frame size WxH (default 320x240)")
     add_outputs(p)
@@ -98,7 +105,22 @@ def cmd_sim(args) -> int:
     sim = build_mujoco_model(robot)
     scenario = _scenario(args, robot)
 
+    perturbed = args.scenario == "walk" and any(
+        (args.mass_error, args.payload, args.friction, args.armature, args.delay, args.q_noise, args.v_noise))
+    plant = None
+    if perturbed:
+        from wbc.sim.perturb import perturb_plant
+
+        plant = perturb_plant(sim, mass_error=args.mass_error / 100.0, payload=args.payload, friction=args.friction,
+                              armature=args.armature, seed=args.seed)
+
     def make(kind=args.controller):
+        if perturbed and kind == "id":
+            from wbc.sim.perturb import PerturbedController
+
+            return PerturbedController(robot, dt=sim.timestep, solver=args.solver, mu=args.mu, f_min=args.f_min,
+                                       sole_margin=args.sole_margin, q_noise=args.q_noise, v_noise=args.v_noise,
+                                       delay=args.delay, seed=args.seed)
         return make_controller(robot, kind, dt=sim.timestep, solver=args.solver, **(
             {"mu": args.mu, "f_min": args.f_min, **({"sole_margin": args.sole_margin} if args.scenario == "walk"
                                                     else {})} if kind == "id" else {}))
@@ -116,6 +138,10 @@ def cmd_sim(args) -> int:
             viewer.close()
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    if plant is not None:
+        summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
+                            "delay_ticks": args.delay, "q_noise": args.q_noise, "v_noise": args.v_noise,
+                            "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
     if args.scenario == "push" and args.sweep:
