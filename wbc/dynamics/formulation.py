@@ -88,7 +88,7 @@ class IDSolution:
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: a tight primal tolerance keeps the inequalities (friction, torque limits) to 1e-9 as well; the dual warm
 #: start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
-_ID_SETTINGS = {"daqp": {"primal_tol": 1e-9, "warm_start": "dual"}}
+_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring.

@@ -12,7 +12,7 @@ from pathlib import Path
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -38,6 +38,29 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
+    w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
+    w.add_argument("--steps", type=int, default=8, help="walk: number of steps (default 8)")
+    w.add_argument("--step-length", type=float, default=0.15, help="walk: step length, m (default 0.15)")
+    w.add_argument("--step-duration", type=float, default=0.8,
+                   help="walk: s per step, single + double support (20%%) (default 0.8)")
+    w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
+    w.add_argument("--vx", type=float, default=None,
+                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration)")
+    w.add_argument("--wz", type=float, default=None,
+                   help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
+    w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
+    w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
+    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
+    w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
+    w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
+    w.add_argument("--mass-error", type=float, default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
+    w.add_argument("--payload", type=float, default=0.0, help="walk: unmodelled torso payload on the plant, kg")
+    w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
+    w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
+    w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
+    w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
+    w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
@@ -55,6 +78,18 @@ def _scenario(args, robot):
         return SwayScenario(10.0 if args.duration is None else args.duration)
     if args.scenario == "one-leg":
         return OneLegScenario()
+    if args.scenario == "walk":
+        import math
+
+        from wbc.sim.walk import WalkScenario
+
+        if args.vx is not None:
+            args.step_length = args.vx * args.step_duration
+        if args.wz is not None:
+            args.turn = args.wz * args.step_duration
+        return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
+                            push=args.push, push_time=args.push_time, push_duration=args.push_duration,
+                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -78,9 +113,25 @@ def cmd_sim(args) -> int:
     sim = build_mujoco_model(robot)
     scenario = _scenario(args, robot)
 
+    perturbed = args.scenario == "walk" and any(
+        (args.mass_error, args.payload, args.friction, args.armature, args.delay, args.q_noise, args.v_noise))
+    plant = None
+    if perturbed:
+        from wbc.sim.perturb import perturb_plant
+
+        plant = perturb_plant(sim, mass_error=args.mass_error / 100.0, payload=args.payload, friction=args.friction,
+                              armature=args.armature, seed=args.seed)
+
     def make(kind=args.controller):
+        if perturbed and kind == "id":
+            from wbc.sim.perturb import PerturbedController
+
+            return PerturbedController(robot, dt=sim.timestep, solver=args.solver, mu=args.mu, f_min=args.f_min,
+                                       sole_margin=args.sole_margin, q_noise=args.q_noise, v_noise=args.v_noise,
+                                       delay=args.delay, seed=args.seed)
         return make_controller(robot, kind, dt=sim.timestep, solver=args.solver, **(
-            {"mu": args.mu, "f_min": args.f_min} if kind == "id" else {}))
+            {"mu": args.mu, "f_min": args.f_min, **({"sole_margin": args.sole_margin} if args.scenario == "walk"
+                                                    else {})} if kind == "id" else {}))
 
     viewer = pacer = None
     if args.live:
@@ -101,6 +152,10 @@ def cmd_sim(args) -> int:
     from wbc.cli import deadline_misses
 
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
+    if plant is not None:
+        summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
+                            "delay_ticks": args.delay, "q_noise": args.q_noise, "v_noise": args.v_noise,
+                            "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
     if args.scenario == "push" and args.sweep:

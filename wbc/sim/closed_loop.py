@@ -87,6 +87,7 @@ class SimRun:
             "t", "q", "v", "tau", "com", "com_ref", "qp_forces", "contact_active", "sim_wrench", "sole_pos",
             "ext_force", "residual", "ok", "relaxed", "tick_time", "step_time")}
         np.savez_compressed(path, **arrays, robot=np.array(self.robot), controller=np.array(self.controller),
+                            **{k: v for k, v in self.extra.items() if isinstance(v, np.ndarray)},
                             scenario=np.array(self.scenario), dt=np.array(self.dt), fell=np.array(self.fell),
                             fall_reason=np.array(self.fall_reason))
 

@@ -350,6 +350,10 @@ def acceptance(summary: dict) -> tuple[bool, list[str]]:
             fails.append("the 3 s hold was not completed")
         if summary.get("lifted_foot_min_height_m", 0.0) < 0.04:
             fails.append(f"lifted foot min height {summary.get('lifted_foot_min_height_m', 0.0):.4g} < 0.04 m")
+    if sc == "walk":
+        from wbc.sim.walk import walk_acceptance
+
+        fails.extend(walk_acceptance(summary))
     if sc == "push" and summary.get("feet_moved_m", 0.0) > 0.02:
         fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m (stepping/sliding)")
     return not fails, fails

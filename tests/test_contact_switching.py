@@ -1,0 +1,59 @@
+"""Contact switching: ramps are linear and end in a release / an unbounded contact; touch-down from the state."""
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.dynamics import BalanceController
+from wbc.dynamics.contact_switching import ContactSwitcher
+from wbc.exceptions import InvalidInputError
+from wbc.robot import load_robot
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("talos")
+
+
+def test_ramp_out_release_touchdown_ramp_in(robot):
+    c = BalanceController(robot)
+    q = robot.q_ref.copy()
+    v = np.zeros(robot.nv)
+    c.reset(q, v)
+    sw = ContactSwitcher(c, ramp_time=0.04, full_force=1000.0)
+    sw.unload("right", 0.0)
+    sw.update(0.02, q, v)
+    assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)  # half way down the linear ramp
+    assert c.contacts["right"].active
+    sw.update(0.04, q, v)
+    assert sw.phase("right") == "swing" and not c.contacts["right"].active
+    assert c.feet["right"] in c.qp.tasks
+    # Armed at q_ref (sole on the floor, at rest): touch-down is detected at once from the state.
+    sw.arm("right")
+    q_up = q.copy()
+    q_up[2] += 0.05  # whole robot 5 cm up: sole above the threshold, no touch-down
+    sw.update(0.05, q_up, v)
+    assert sw.phase("right") == "swing"
+    v_up = v.copy()
+    v_up[2] = 0.5  # on the floor but rising: not a touch-down
+    sw.update(0.052, q, v_up)
+    assert sw.phase("right") == "swing"
+    sw.update(0.054, q, v)
+    assert sw.phase("right") == "loading" and c.contacts["right"].active
+    assert c.feet["right"] not in c.qp.tasks
+    assert c.contacts["right"].f_max == pytest.approx(0.0)
+    sw.update(0.074, q, v)
+    assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)
+    sw.update(0.1, q, v)
+    assert sw.phase("right") == "stance" and math.isinf(c.contacts["right"].f_max)
+    assert [e[2] for e in sw.events] == ["unload", "release", "touchdown", "loaded"]
+
+
+def test_bad_input(robot):
+    c = BalanceController(robot)
+    with pytest.raises(InvalidInputError, match="ramp_time"):
+        ContactSwitcher(c, ramp_time=0.0)
+    sw = ContactSwitcher(c)
+    with pytest.raises(InvalidInputError, match="side"):
+        sw.unload("middle", 0.0)

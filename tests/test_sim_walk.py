@@ -1,0 +1,99 @@
+"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here.
+
+Independent references: the walked distance and the stance slip are measured on MuJoCo's ground-truth sole
+positions; the CoP is computed from MuJoCo's contact forces; the commanded distance is the footstep geometry
+(3 walking steps of ``step_length``; the 4th closes alongside). No wall-clock assertion.
+"""
+
+import numpy as np
+import pytest
+
+from wbc.robot import load_robot
+from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.sim.scenarios import make_controller, run_scenario
+from wbc.sim.walk import WalkScenario, measured_cop, polygon_margin
+
+
+@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.2, 0.6), ("g1", 0.1, 0.8)])
+def test_four_step_walk(name, step_length, step_duration):
+    robot = load_robot(name)
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = WalkScenario(4, step_length, step_duration)
+    run, s = run_scenario(sim, controller, scenario)
+    commanded = 3 * step_length
+    assert s["commanded_distance_m"] == pytest.approx(commanded)
+    # Walked distance from MuJoCo's sole positions (feet mid-point), within 5 % of commanded.
+    mid = run.sole_pos[:, :, :2].mean(axis=1)
+    walked = float(np.linalg.norm(mid[-1] - mid[0]))
+    assert abs(walked - commanded) <= 0.05 * commanded
+    assert not s["fell"] and s["completed"]
+    assert s["solver_failures"] == 0
+    assert s["touchdowns"] == 4
+    # Stance slip ≤ 5 mm for every stance interval; landing within 2 cm of the planned footstep.
+    assert len(s["stance_slip_m"]) >= 5 and max(s["stance_slip_m"]) <= 0.005
+    assert max(s["landing_error_m"]) <= 0.02
+    # Measured CoP (plant contact forces) stays inside the loaded soles' hull.
+    assert s["min_measured_cop_margin_m"] > 0.0
+    # Released feet carry no QP force, and the plant's force on a released foot is small (ramp-out worked).
+    phase = run.extra["support_phase"]
+    for j in range(2):
+        swing = phase[:, j] == 2
+        assert swing.any()
+        assert np.abs(run.qp_forces[swing, 12 * j + 2:12 * j + 12:3]).max() <= 1e-6
+        start = np.flatnonzero(np.diff(swing.astype(int)) == 1) + 1  # first swing tick of each release
+        assert run.sim_wrench[start, j, 2].max() <= 0.1 * robot.mass * 9.81
+    # No force jump: the QP's total normal force on a foot changes by < 10 % of the weight per tick.
+    fz = run.qp_forces.reshape(len(run.t), 2, 4, 3)[:, :, :, 2].sum(axis=2)
+    assert np.abs(np.diff(fz, axis=0)).max() < 0.1 * robot.mass * 9.81
+
+
+def test_measured_cop_and_margin():
+    # Two vertical forces: 300 N at (0, 0.1), 100 N at (0.2, −0.1) → CoP (0.05, 0.05) (lever rule).
+    w = np.zeros((2, 6))
+    w[0, 2], w[1, 2] = 300.0, 100.0
+    pos = np.array([[0.0, 0.1, 0.0], [0.2, -0.1, 0.0]])
+    assert measured_cop(w, pos) == pytest.approx([0.05, 0.05])
+    # A pure moment about the sole origin shifts the CoP: τ_y = −F_z Δx.
+    w2 = np.zeros((2, 6))
+    w2[0, 2], w2[0, 4] = 400.0, -400.0 * 0.03
+    assert measured_cop(w2, np.zeros((2, 3))) == pytest.approx([0.03, 0.0])
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    assert polygon_margin(np.array([0.5, 0.2]), square) == pytest.approx(0.2)
+    assert polygon_margin(np.array([1.3, 0.5]), square) == pytest.approx(-0.3)
+
+
+def test_perturb_plant_and_controller():
+    from wbc.exceptions import InvalidInputError
+    from wbc.sim.perturb import PerturbedController, perturb_plant
+
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    m0 = float(sim.model.body_mass.sum())
+    base = sim.model.body_mass.copy()
+    info = perturb_plant(sim, mass_error=0.05, payload=5.0, friction=0.5, armature=0.1, seed=3)
+    ratio = sim.model.body_mass[1:] / np.where(base[1:] > 0, base[1:], 1.0)
+    torso = sim.body_id(robot.torso)
+    others = np.delete(np.arange(1, sim.model.nbody), torso - 1)
+    assert np.all(np.abs(ratio[others - 1][base[others] > 0] - 1.0) <= 0.05 + 1e-12)
+    assert info["model_mass_kg"] == pytest.approx(m0)
+    assert abs(float(sim.model.body_mass.sum()) - (m0 + 5.0)) <= 0.05 * m0
+    assert np.all(sim.model.dof_frictionloss[6:] == 0.5)
+    with pytest.raises(InvalidInputError, match="mass_error"):
+        perturb_plant(sim, mass_error=1.5)
+    # Delay: with 2 ticks, the torque applied at tick k is the one computed (undelayed) at tick k − 2.
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    ref = PerturbedController(robot, dt=0.002)
+    late = PerturbedController(robot, dt=0.002, delay=2)
+    ref.reset(q, v)
+    late.reset(q, v)
+    taus, outs = [], []
+    for k in range(5):
+        vk = v.copy()
+        vk[6:] = 0.01 * k  # a different state every tick
+        taus.append(ref.compute(q, vk).tau.copy())
+        outs.append(late.compute(q, vk).tau.copy())
+    np.testing.assert_allclose(outs[4], taus[2], atol=1e-9)
+    np.testing.assert_allclose(outs[3], taus[1], atol=1e-9)
+    with pytest.raises(InvalidInputError, match="delay"):
+        PerturbedController(robot, delay=-1)

@@ -1,0 +1,197 @@
+"""Contact switching for the inverse-dynamics controller: force ramp-out before lift-off, ramp-in after
+touch-down, touch-down detected from the measured state.
+
+A foot goes through four phases, driven by :class:`ContactSwitcher`:
+
+``stance`` → (:meth:`~ContactSwitcher.unload`) → ``unloading`` → ``swing`` → (touch-down) → ``loading`` → ``stance``
+
+* **unloading** (ramp-out): the bound on the sole's total normal force falls linearly from ``F₀`` (the sole's
+  normal force in the controller's last QP solution when the ramp starts) to 0 over ``ramp_time``,
+  ``F_max(t) = F₀ (1 − (t − t₀)/T_ramp)``; the QP moves the weight to the other foot
+  continuously (no force jump), and when the bound reaches 0 the contact is released (its forces are then
+  bounded to 0 and the foot is tracked by a frame task, :meth:`BalanceController.release_foot`). So no weight is
+  left on a released foot: at release the QP's normal force of that sole is 0 by construction.
+* **swing**: the caller sets the foot reference (pose, velocity and acceleration feed-forward). Touch-down
+  detection is armed by :meth:`~ContactSwitcher.arm` (e.g. after mid-swing, so lift-off is not mistaken for
+  touch-down).
+* **touch-down** is detected **from the state** (q, v — no force sensing): the sole frame height
+  ``z ≤ touchdown_height`` (m, world) **and** its vertical velocity ``ż ≤ touchdown_speed`` (m/s; not rising).
+  This handles early touch-down (the foot meets the floor before the plan says so: the contact is switched on
+  at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
+  contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
+* **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
+  ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
+
+``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
+``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
+``ContactTransition`` made explicit with the sole's corner-force bounds (:mod:`wbc.dynamics.contacts`).
+
+The switcher works on a :class:`~wbc.dynamics.balance.BalanceController` (its ``contacts``, ``feet``, ``qp``,
+``set_max_normal_force`` and ``release_foot``). Call :meth:`~ContactSwitcher.update` once per control tick,
+before the controller's ``compute``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["ContactSwitcher", "PHASES"]
+
+#: The phases of a foot.
+PHASES = ("stance", "unloading", "swing", "loading")
+
+
+class ContactSwitcher:
+    """Force ramps and state-based touch-down detection for the two soles of a balance controller.
+
+    Args:
+        controller: a :class:`~wbc.dynamics.balance.BalanceController` (both feet in stance after ``reset``).
+        ramp_time: duration of the ramp-out and ramp-in (s, > 0; default 0.04 s = 20 ticks at 500 Hz).
+        touchdown_height: sole height (m, world z of the sole frame) at or below which an armed swing foot is
+            in contact (default 3 mm).
+        touchdown_speed: the sole's vertical velocity (m/s) must be ≤ this (not rising) (default 0.05 m/s).
+        full_force: F_full (N), end value of the ramp-in (default m g).
+
+    Attributes:
+        events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
+        touchdown_time: side → time (s) of the last touch-down (None before).
+
+    Raises:
+        InvalidInputError: non-positive ramp_time / full_force, non-finite thresholds.
+    """
+
+    SIDES = ("left", "right")
+
+    def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
+                 touchdown_speed: float = 0.05, full_force: float | None = None):
+        if not (np.isfinite(ramp_time) and ramp_time > 0):
+            raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
+        for val, what in ((touchdown_height, "touchdown_height"), (touchdown_speed, "touchdown_speed")):
+            if not np.isfinite(val):
+                raise InvalidInputError(f"{what} must be finite, got {val!r}")
+        self.controller = controller
+        robot = controller.robot
+        self.full_force = robot.mass * 9.81 if full_force is None else float(full_force)
+        if not (np.isfinite(self.full_force) and self.full_force > 0):
+            raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
+        self.ramp_time = float(ramp_time)
+        self.touchdown_height = float(touchdown_height)
+        self.touchdown_speed = float(touchdown_speed)
+        self._model = robot.model
+        self._data = robot.model.createData()
+        self._fid = {s: robot.frame_id(robot.left_sole if s == "left" else robot.right_sole) for s in self.SIDES}
+        self._phase = {s: "stance" for s in self.SIDES}
+        self._t0 = {s: 0.0 for s in self.SIDES}
+        self._armed = {s: False for s in self.SIDES}
+        self._f0 = {s: self.full_force for s in self.SIDES}
+        self.touchdown_time: dict[str, float | None] = {s: None for s in self.SIDES}
+        self.events: list[tuple[float, str, str]] = []
+
+    def _side(self, side: str) -> str:
+        if side not in self.SIDES:
+            raise InvalidInputError(f"side must be 'left' or 'right', got {side!r}")
+        return side
+
+    def phase(self, side: str) -> str:
+        """Current phase of ``side`` (one of :data:`PHASES`)."""
+        return self._phase[self._side(side)]
+
+    def in_contact(self, side: str) -> bool:
+        """The sole's contact is active (stance, unloading or loading)."""
+        return self._phase[self._side(side)] != "swing"
+
+    def unload(self, side: str, t: float) -> None:
+        """Start the ramp-out of ``side`` at time t (s); it is released ``ramp_time`` later by :meth:`update`.
+
+        Raises:
+            InvalidInputError: bad side, or the foot is not in stance/loading.
+        """
+        self._side(side)
+        if self._phase[side] not in ("stance", "loading"):
+            raise InvalidInputError(f"cannot unload the {side} foot in phase {self._phase[side]!r}")
+        self._phase[side] = "unloading"
+        self._t0[side] = float(t)
+        self._f0[side] = self.current_normal_force(side)
+        self._armed[side] = False
+        self.events.append((float(t), side, "unload"))
+
+    def release(self, side: str, t: float) -> None:
+        """Release ``side`` now (no ramp): contact off, foot task on at the current pose."""
+        self._side(side)
+        self.controller.set_max_normal_force(side, 0.0)
+        self.controller.release_foot(side)
+        self._phase[side] = "swing"
+        self._armed[side] = False
+        self.events.append((float(t), side, "release"))
+
+    def arm(self, side: str) -> None:
+        """Enable touch-down detection of a swinging foot (call after lift-off, e.g. past mid-swing)."""
+        self._armed[self._side(side)] = True
+
+    def touch_down(self, side: str, t: float) -> None:
+        """Switch ``side``'s contact on now and start its ramp-in (called by :meth:`update` on detection)."""
+        self._side(side)
+        c = self.controller
+        c.contacts[side].activate(c.state)
+        c.set_max_normal_force(side, 0.0)
+        foot = c.feet[side]
+        if foot in c.qp.tasks:
+            c.qp.remove_task(foot)
+        self._phase[side] = "loading"
+        self._t0[side] = float(t)
+        self._armed[side] = False
+        self.touchdown_time[side] = float(t)
+        self.events.append((float(t), side, "touchdown"))
+
+    def current_normal_force(self, side: str) -> float:
+        """Total normal force (N) of ``side`` in the controller's last QP solution (``full_force`` if none)."""
+        c = self.controller
+        sol = c.controller.last_solution
+        if sol is None:
+            return self.full_force
+        i = c.qp.contacts.index(c.contacts[side])
+        return float(sol.forces[12 * i + 2:12 * i + 12:3].sum())
+
+    def sole_height_velocity(self, side: str) -> tuple[float, float]:
+        """(z (m), ż (m/s)) of the sole frame at the last :meth:`update` state (world)."""
+        fid = self._fid[self._side(side)]
+        z = float(self._data.oMf[fid].translation[2])
+        vz = float(pin.getFrameVelocity(self._model, self._data, fid, pin.LOCAL_WORLD_ALIGNED).linear[2])
+        return z, vz
+
+    def update(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
+        """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)).
+
+        Call once per tick before the controller computes.
+        """
+        if self._armed["left"] or self._armed["right"]:
+            pin.forwardKinematics(self._model, self._data, q, v)
+            for s in self.SIDES:
+                if self._armed[s]:
+                    pin.updateFramePlacement(self._model, self._data, self._fid[s])
+        c = self.controller
+        for s in self.SIDES:
+            ph = self._phase[s]
+            if ph == "unloading":
+                a = (t - self._t0[s]) / self.ramp_time
+                if a >= 1.0 - 1e-9:
+                    self.release(s, t)
+                else:
+                    c.set_max_normal_force(s, self._f0[s] * (1.0 - a))
+            elif ph == "loading":
+                a = (t - self._t0[s]) / self.ramp_time
+                if a >= 1.0:
+                    c.contacts[s].f_max = math.inf
+                    self._phase[s] = "stance"
+                    self.events.append((float(t), s, "loaded"))
+                else:
+                    c.set_max_normal_force(s, self.full_force * a)
+            elif ph == "swing" and self._armed[s]:
+                z, vz = self.sole_height_velocity(s)
+                if z <= self.touchdown_height and vz <= self.touchdown_speed:
+                    self.touch_down(s, t)

@@ -1,0 +1,445 @@
+"""``wbc sim walk``: the gait plan tracked closed loop by the inverse-dynamics controller in MuJoCo (500 Hz).
+
+Per control tick (the scenario's :meth:`WalkScenario.update`, then the controller, then one ``mj_step``):
+
+* **Plan** (:func:`wbc.gait.plan_walk`, sampled at the control period): footsteps, LIPM CoM/DCM trajectory
+  (Englsberger et al. 2015), swing-foot poses and velocities. The swing-foot **acceleration feed-forward** is
+  the plan's sole velocity differentiated by central differences (``np.gradient``, the plan being sampled at dt).
+* **Contacts**: the stance soles are the QP's contacts; contact switching (force ramp-out before lift-off,
+  state-based touch-down, ramp-in) by :class:`wbc.dynamics.contact_switching.ContactSwitcher`. The ramp-out
+  starts ``ramp_time`` before the planned lift-off so the foot is released unloaded at the planned time.
+  Touch-down is detected **from the measured state: sole height ≤ 3 mm and vertical sole velocity ≤ 0.05 m/s**,
+  armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
+  ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor) until the detection fires; early touch-down
+  switches the contact on at once.
+* **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
+  With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
+  feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
+
+Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
+landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
+displacement of a loaded stance sole from its position when fully loaded until its ramp-out begins), minimum
+measured CoP margin (m, the CoP of the plant's foot contact wrenches to the edge of the convex hull of the
+loaded soles, ≥ 10 N each; negative outside), touch-down times vs plan. Falls, solver failures and the real-time
+factor come from :func:`wbc.sim.scenarios.summarize`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.dynamics.contact_switching import ContactSwitcher
+from wbc.exceptions import InvalidInputError
+from wbc.gait import plan_walk
+
+__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance"]
+
+_CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """Convex hull (counter-clockwise, (m, 2)) of (n, 2) points (Andrew's monotone chain)."""
+    pts = sorted(map(tuple, points))
+    if len(pts) <= 2:
+        return np.array(pts)
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def polygon_margin(point: np.ndarray, hull: np.ndarray) -> float:
+    """Signed distance (m) of a (2,) point to the edges of a counter-clockwise convex polygon (m, 2):
+    positive inside (distance to the nearest edge line), negative outside."""
+    d = np.inf
+    for i in range(len(hull)):
+        a, b = hull[i], hull[(i + 1) % len(hull)]
+        e = b - a
+        n = np.array([-e[1], e[0]]) / np.linalg.norm(e)  # inward normal (ccw)
+        d = min(d, float(n @ (point - a)))
+    return d
+
+
+def _project(point: np.ndarray, hull: np.ndarray) -> np.ndarray:
+    """Closest point of a convex polygon (ccw) to ``point`` (the point itself when inside)."""
+    if polygon_margin(point, hull) >= 0:
+        return point
+    best, dbest = point, np.inf
+    for i in range(len(hull)):
+        a, b = hull[i], hull[(i + 1) % len(hull)]
+        e = b - a
+        s = min(max(float((point - a) @ e / (e @ e)), 0.0), 1.0)
+        p = a + s * e
+        dd = float(np.linalg.norm(point - p))
+        if dd < dbest:
+            best, dbest = p, dd
+    return best
+
+
+def _sole_corners(pose: pin.SE3, length: float, width: float) -> np.ndarray:
+    a, b = 0.5 * length, 0.5 * width
+    c = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+    return (c @ pose.rotation.T + pose.translation)[:, :2]
+
+
+def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0) -> np.ndarray | None:
+    """CoP (2,) on the floor z = 0 (m, world) of the plant's foot wrenches.
+
+    Args:
+        wrench: (2, 6) ground reaction per foot: force (N), moment (N·m) about the sole origin, world axes.
+        sole_pos: (2, 3) sole origins (m, world).
+        min_fz: total normal force (N) below which there is no CoP (None).
+
+    With the total force F and the moment about the world origin M = Σ (τ_i + o_i × f_i), a force F at
+    p = (p_x, p_y, 0) has moment p × F, so p_x = −M_y / F_z, p_y = M_x / F_z (Sardain & Bessonnet 2004, ZMP =
+    CoP on flat ground).
+    """
+    F = wrench[:, :3].sum(axis=0)
+    if F[2] < min_fz:
+        return None
+    M = wrench[:, 3:].sum(axis=0) + np.cross(sole_pos, wrench[:, :3]).sum(axis=0)
+    return np.array([-M[1] / F[2], M[0] / F[2]])
+
+
+class DcmStabilizer:
+    """DCM tracking with CoP feedback and integral action, commanded CoP kept in the support area.
+
+    LIPM: c̈ = ω² (c − p), DCM ξ = c + ċ/ω, ξ̇ = ω (ξ − p) (Englsberger, Ott, Albu-Schäffer 2015, IEEE T-RO 31(2),
+    eqs. 3–6). The desired CoP (Englsberger 2015 eq. 29 with gain k_ξ; Caron, Kheddar, Tempier 2019, "Stair
+    climbing stabilization of the HRP-4 humanoid robot using whole-body admittance control", ICRA, eq. 9, DCM
+    feedback with proportional and integral terms):
+
+        p_d = p_ref + k_p (ξ − ξ_ref) + k_i ∫ (ξ − ξ_ref) dt,      k_p = 1 + k_ξ/ω > 1
+
+    which gives ξ̇ − ξ̇_ref = −k_ξ (ξ − ξ_ref) − ω k_i ∫… for an exact LIPM. ``p_d`` is projected onto the
+    support area (the convex hull of the soles in contact, each shrunk by ``margin``); the integral is frozen
+    while the projection is active (anti-windup) and clipped to ``i_max``. The CoM acceleration sent to the
+    whole-body QP is c̈_d = ω² (c − p_d) (LIPM eq. 1). CoP feedback (Caron 2019 eq. 10's ZMP term) is
+    ``k_z (p_d − p_measured)`` added to p_d when a measured CoP is given (default k_z = 0: the QP's contact
+    forces realise p_d directly).
+
+    Args:
+        omega: LIPM frequency √(g/z_c) (1/s).
+        k_xi: DCM gain k_ξ (1/s, ≥ 0). k_i: integral gain (1/s, ≥ 0). k_z: CoP feedback gain (≥ 0).
+        margin: CoP margin from the sole edges (m). i_max: integral clip (m·s). dt: period (s).
+    """
+
+    def __init__(self, omega: float, *, k_xi: float = 3.0, k_i: float = 1.0, k_z: float = 0.0,
+                 margin: float = 0.015, i_max: float = 0.05, dt: float = 0.002):
+        for val, what in ((omega, "omega"), (dt, "dt")):
+            if not (np.isfinite(val) and val > 0):
+                raise InvalidInputError(f"{what} must be finite and > 0, got {val!r}")
+        for val, what in ((k_xi, "k_xi"), (k_i, "k_i"), (k_z, "k_z"), (margin, "margin"), (i_max, "i_max")):
+            if not (np.isfinite(val) and val >= 0):
+                raise InvalidInputError(f"{what} must be finite and ≥ 0, got {val!r}")
+        self.omega, self.dt = float(omega), float(dt)
+        self.k_p = 1.0 + k_xi / omega
+        self.k_i, self.k_z, self.margin, self.i_max = float(k_i), float(k_z), float(margin), float(i_max)
+        self.integral = np.zeros(2)
+        self.last_cop = np.zeros(2)
+        self.saturated = False
+
+    def __call__(self, c: np.ndarray, cd: np.ndarray, xi_ref: np.ndarray, p_ref: np.ndarray,
+                 hull: np.ndarray, p_meas: np.ndarray | None = None) -> np.ndarray:
+        """Horizontal CoM acceleration (2,) (m/s²) from CoM c (2,), ċ (2,), references ξ_ref, p_ref (2,) and the
+        support hull (m, 2) (already shrunk by the margin)."""
+        w = self.omega
+        e = c + cd / w - xi_ref
+        p = p_ref + self.k_p * e + self.k_i * self.integral
+        if self.k_z > 0 and p_meas is not None:
+            p = p + self.k_z * (p - p_meas)
+        pc = _project(p, hull) if len(hull) >= 3 else p
+        self.saturated = bool(np.linalg.norm(pc - p) > 1e-9)
+        if not self.saturated:
+            self.integral = np.clip(self.integral + e * self.dt, -self.i_max, self.i_max)
+        self.last_cop = pc
+        return w * w * (c - pc)
+
+
+class WalkScenario:
+    """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
+
+    Args:
+        n_steps: number of steps (≥ 1). step_length: m. step_duration: s per step (single + double support;
+            double support is 20 % of it, at least 0.08 s). step_height: swing clearance (m). turn: yaw per
+            step (rad). step_width: lateral feet distance (m, default the current one).
+        push: force (N) at the torso origin, 0 = none; push_time (s, sim clock), push_duration (s), push_dir
+            (deg, world, 0 = +x forward, 90 = +y left).
+        stabilizer: use :class:`DcmStabilizer` (else CoM PD tracking of the plan).
+        ramp_time: force ramps (s). settle: time after the plan ends (s). descent_speed: late touch-down (m/s).
+        cop_margin: stabilizer CoP margin (m).
+
+    Raises:
+        InvalidInputError / GaitError: bad numbers.
+    """
+
+    name = "walk"
+    needs_id = True
+
+    def __init__(self, n_steps: int = 4, step_length: float = 0.15, step_duration: float = 0.8, *,
+                 step_height: float = 0.05, turn: float = 0.0, step_width: float | None = None,
+                 push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
+                 stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
+                 descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8):
+        if not (np.isfinite(step_duration) and step_duration > 0.2):
+            raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
+        if not (np.isfinite(push) and push >= 0):
+            raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
+        self.n_steps, self.step_length, self.step_duration = int(n_steps), float(step_length), float(step_duration)
+        self.t_ds = max(0.08, 0.2 * self.step_duration)
+        self.t_ss = self.step_duration - self.t_ds
+        self.step_height, self.turn, self.step_width = float(step_height), float(turn), step_width
+        self.push, self.push_time, self.push_duration = float(push), float(push_time), float(push_duration)
+        a = math.radians(push_dir)
+        self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
+        self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
+        self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
+        self.t_final = 1.0
+        # Duration estimate (refined in setup from the plan): init + steps + final + settle.
+        self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
+        self.plan = None
+
+    # -- setup ---------------------------------------------------------------------------------------------
+    def setup(self, controller, sim, q, v):
+        robot = sim.robot
+        self.com0 = pin.centerOfMass(robot.model, robot.model.createData(), q).copy()
+        self.robot = robot
+        self.dt = sim.timestep
+        self._model = robot.model
+        self._data = robot.model.createData()
+        pin.framesForwardKinematics(self._model, self._data, q)
+        self._fid = {"left": robot.frame_id(robot.left_sole), "right": robot.frame_id(robot.right_sole)}
+        L = self._data.oMf[self._fid["left"]].copy()
+        R = self._data.oMf[self._fid["right"]].copy()
+        plan = plan_walk(L, R, self.com0, n_steps=self.n_steps, step_length=self.step_length,
+                         step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
+                         t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
+                         sole_length=robot.sole_length, sole_width=robot.sole_width)
+        self.plan = plan
+        # (the run length was fixed from the estimate of __init__, before setup)
+        self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
+                    "right": np.gradient(plan.right_sole_vel, self.dt, axis=0)}
+        self.poses = {"left": plan.left_sole, "right": plan.right_sole}
+        self.vels = {"left": plan.left_sole_vel, "right": plan.right_sole_vel}
+        # Swings: (side, lift-off sample, touch-down sample, footstep).
+        self.swings = []
+        for ph in plan.phases:
+            if ph.step >= 0:
+                side = _CODE_SWING[int(ph.support)]
+                self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
+        self._next = 0  # next swing to start
+        self._active: dict[str, tuple] = {}
+        self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
+        self.controller = controller
+        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt)
+        self._push_body = robot.torso
+        if self.push > 0:
+            sim.body_id(self._push_body)
+        n = int(round(max(self.duration, plan.duration + self.settle) / self.dt)) + 2
+        self.log = {"phase": np.zeros((n, 2), dtype=np.int8), "dcm": np.full((n, 2), np.nan),
+                    "dcm_ref": np.full((n, 2), np.nan), "cop_cmd": np.full((n, 2), np.nan),
+                    "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2)), "hull": [None] * n}
+        self._k = 0
+        self._pushing = False
+
+    def com_reference(self, t):
+        return self.plan.com[self.plan.index(t)]
+
+    def _hull(self, shrink: float) -> np.ndarray:
+        pts = []
+        r = self.robot
+        for s in ("left", "right"):
+            if self.switcher.in_contact(s):
+                pts.append(_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
+                                         r.sole_width - 2 * shrink))
+        return _hull(np.vstack(pts)) if pts else np.zeros((0, 2))
+
+    # -- per tick ------------------------------------------------------------------------------------------
+    def update(self, t, controller, sim, q, v):
+        plan, dt, sw = self.plan, self.dt, self.switcher
+        k = plan.index(t)
+        # Start the ramp-out of the next swing so that the foot is released at the planned lift-off.
+        if self._next < len(self.swings):
+            side, k_lift, k_td, fs = self.swings[self._next]
+            other = "right" if side == "left" else "left"
+            # Never release a foot while the other one is not yet down (late touch-down: the step waits).
+            if t >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
+                    and sw.phase(other) in ("stance", "loading"):
+                sw.unload(side, t)
+                self._active[side] = self.swings[self._next]
+                self._next += 1
+        sw.update(t, q, v)
+        for side, (_, k_lift, k_td, fs) in list(self._active.items()):
+            ph = sw.phase(side)
+            if ph == "swing":
+                if t >= (k_lift + 0.5 * (k_td - k_lift)) * dt:
+                    sw.arm(side)
+                kk = min(k, k_td)
+                pose = pin.SE3(self.poses[side][kk])
+                vel = self.vels[side][kk].copy()
+                acc = self.acc[side][kk].copy()
+                late = t - k_td * dt
+                if late > 0:  # late touch-down: keep descending slowly until the state says contact
+                    pose.translation = pose.translation - [0.0, 0.0, min(self.descent_speed * late, 0.02)]
+                    vel[:] = 0.0
+                    vel[2] = -self.descent_speed if self.descent_speed * late < 0.02 else 0.0
+                    acc[:] = 0.0
+                controller.set_foot_reference(side, pose, vel, acc)
+            elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
+                    and sw.touchdown_time[side] >= k_lift * dt:
+                del self._active[side]
+        # State quantities (CoM velocity, soles) for the DCM and the log.
+        pin.centerOfMass(self._model, self._data, q, v)
+        pin.framesForwardKinematics(self._model, self._data, q)
+        c, cd = self._data.com[0], self._data.vcom[0]
+        w = plan.omega
+        xi = c[:2] + cd[:2] / w
+        i = min(self._k, len(self.log["phase"]) - 1)
+        if self.stabilizer_on:
+            hull = self._hull(self.cop_margin)
+            a_xy = self.stab(c[:2], cd[:2], plan.dcm[k], plan.zmp[k], hull)
+            target = np.array([c[0], c[1], plan.com[k, 2]])
+            vel = np.array([cd[0], cd[1], 0.0])
+            controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
+            self.log["cop_cmd"][i] = self.stab.last_cop
+        else:
+            controller.set_com_reference(plan.com[k], plan.com_vel[k], plan.com_acc[k])
+        lg = self.log
+        lg["dcm"][i] = xi
+        lg["dcm_ref"][i] = plan.dcm[k]
+        for j, s in enumerate(("left", "right")):
+            lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(sw.phase(s))
+            M = self._data.oMf[self._fid[s]]
+            lg["sole_xy"][i, j] = M.translation[:2]
+            lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        lg["hull"][i] = self._hull(0.0)
+        self._k += 1
+        # Push.
+        if self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9:
+            f = self.push * self.push_vec
+            sim.apply_external_force(self._push_body, f)
+            self._pushing = True
+            return f
+        if self._pushing:
+            sim.clear_external_forces()
+            self._pushing = False
+        return None
+
+    # -- summary -------------------------------------------------------------------------------------------
+    def extra_summary(self, run) -> dict:
+        n = len(run.t)
+        lg = {k: (v[:n] if isinstance(v, np.ndarray) else v[:n]) for k, v in self.log.items()}
+        plan, dt = self.plan, self.dt
+        # Measured CoP and its margin in the loaded soles' hull (plant's contact forces).
+        cop = np.full((n, 2), np.nan)
+        margin = np.full(n, np.nan)
+        settle = min(n - 1, 5)
+        r = self.robot
+        for i in range(settle, n):
+            wr = run.sim_wrench[i]
+            p = measured_cop(wr, run.sole_pos[i])
+            if p is None:
+                continue
+            cop[i] = p
+            pts = []
+            for j in range(2):
+                if wr[j, 2] > 10.0:
+                    yaw = lg["sole_yaw"][i, j]
+                    pose = pin.SE3(pin.rpy.rpyToMatrix(0, 0, yaw), np.r_[run.sole_pos[i, j, :2], 0.0])
+                    pts.append(_sole_corners(pose, r.sole_length, r.sole_width))
+            if pts:
+                margin[i] = polygon_margin(p, _hull(np.vstack(pts)))
+        # Touch-downs vs footsteps; stance slip per loaded-stance interval.
+        ev = self.switcher.events
+        landing, td_delay, slips = [], [], []
+        swings = list(self.swings)
+        tds = [(t, s) for t, s, e in ev if e == "touchdown"]
+        for (side, k_lift, k_td, fs) in swings:
+            match = [t for t, s in tds if s == side and t > k_lift * dt]
+            if not match:
+                continue
+            ttd = match[0]
+            i = min(int(round(ttd / dt)), n - 1)
+            j = 0 if side == "left" else 1
+            landing.append(float(np.linalg.norm(lg["sole_xy"][i, j] - [fs.x, fs.y])))
+            td_delay.append(ttd - k_td * dt)
+        for j, s in enumerate(("left", "right")):
+            stance = lg["phase"][:, j] == 0  # fully loaded stance
+            k = 0
+            while k < n:
+                if stance[k]:
+                    k1 = k
+                    while k1 < n and stance[k1]:
+                        k1 += 1
+                    xy = lg["sole_xy"][k:k1, j]
+                    slips.append(float(np.linalg.norm(xy - xy[0], axis=1).max()))
+                    k = k1
+                else:
+                    k += 1
+        mid0 = run.sole_pos[0, :, :2].mean(axis=0)
+        mid1 = run.sole_pos[-1, :, :2].mean(axis=0)
+        yaw_end = math.atan2(np.sin(lg["sole_yaw"][-1]).sum(), np.cos(lg["sole_yaw"][-1]).sum())
+        yaw0 = math.atan2(np.sin(lg["sole_yaw"][0]).sum(), np.cos(lg["sole_yaw"][0]).sum())
+        last = {}
+        for fs in plan.footsteps:
+            last[fs.side] = fs.yaw
+        yaw_cmd = yaw0 + (self.n_steps - 1) * self.turn if self.n_steps > 1 else yaw0
+        dxi = np.linalg.norm(lg["dcm"] - lg["dcm_ref"], axis=1)
+        complete = bool(run.t[-1] >= self.duration - 2 * dt) and not run.fell
+        out = {
+            "steps": self.n_steps, "step_length_m": self.step_length, "step_duration_s": self.step_duration,
+            "commanded_speed_mps": self.step_length / self.step_duration,
+            "commanded_distance_m": float(plan.planned_distance),
+            "walked_distance_m": float(np.linalg.norm(mid1 - mid0)),
+            "commanded_heading_rad": float(yaw_cmd - yaw0),
+            "walked_heading_rad": float(math.remainder(yaw_end - yaw0, 2 * math.pi)),
+            "touchdowns": len(landing),
+            "landing_error_m": landing,
+            "max_landing_error_m": max(landing) if landing else float("nan"),
+            "touchdown_delay_s": td_delay,
+            "stance_slip_m": slips,
+            "max_stance_slip_m": max(slips) if slips else 0.0,
+            "min_measured_cop_margin_m": float(np.nanmin(margin)) if np.isfinite(margin).any() else float("nan"),
+            "max_dcm_error_m": float(np.nanmax(dxi)) if np.isfinite(dxi).any() else float("nan"),
+            "stabilizer": self.stabilizer_on,
+            "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s",
+            "push_n": self.push, "push_time_s": self.push_time,
+            "completed": complete,
+        }
+        run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
+                          "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
+        return out
+
+
+def walk_acceptance(summary: dict, *, distance_tol: float = 0.05, slip_max: float = 0.005,
+                    heading_tol: float = math.radians(5.0)) -> list[str]:
+    """Failed criteria of a walk summary: walked distance within ``distance_tol`` (relative, at least 1 cm) of
+    commanded, final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
+    walk completed, 0 solver failures (falls are checked by :func:`wbc.sim.scenarios.acceptance`)."""
+    fails = []
+    cmd, got = summary["commanded_distance_m"], summary["walked_distance_m"]
+    if abs(got - cmd) > max(distance_tol * cmd, 0.01):
+        fails.append(f"walked {got:.3f} m vs commanded {cmd:.3f} m (> {distance_tol:.0%})")
+    dh = abs(math.remainder(summary["walked_heading_rad"] - summary["commanded_heading_rad"], 2 * math.pi))
+    if dh > heading_tol:
+        fails.append(f"heading error {math.degrees(dh):.1f} deg > {math.degrees(heading_tol):.0f} deg")
+    if summary["max_stance_slip_m"] > slip_max:
+        fails.append(f"stance slip {summary['max_stance_slip_m'] * 1e3:.1f} mm > {slip_max * 1e3:.0f} mm")
+    if summary.get("solver_failures", 0):
+        fails.append(f"{summary['solver_failures']} solver failures")
+    if not summary["completed"]:
+        fails.append("walk not completed")
+    return fails
