@@ -82,13 +82,14 @@ def cmd_sim(args) -> int:
     sim = build_mujoco_model(robot)
     scenario = _scenario(args, robot)
 
-    from wbc.sim.physics_scenarios import id_solver_for
+    from wbc.sim.physics_scenarios import id_options_for
 
     def make(kind=args.controller):
-        # robots with rank-deficient two-sole contact rows (humanoid15) get the equality-reducing wrapper
-        solver = id_solver_for(robot, args.solver) if kind == "id" else args.solver
-        return make_controller(robot, kind, dt=sim.timestep, solver=solver, **(
-            {"mu": args.mu, "f_min": args.f_min} if kind == "id" else {}))
+        # robots with near rank-deficient two-sole contact rows (humanoid15): DAQP primal_tol 1e-6, 1 cm margin
+        if kind != "id":
+            return make_controller(robot, kind, dt=sim.timestep, solver=args.solver)
+        return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min,
+                               **id_options_for(robot, args.solver))
 
     viewer = pacer = None
     if args.live:
