@@ -49,3 +49,9 @@ def test_one_leg_in_mujoco(name):
     hold = (run.t >= sc.t_hold) & (run.t < sc.t_hold + sc.hold)
     assert run.sole_pos[hold, 1, 2].min() > 0.04  # right (swing) sole, MuJoCo ground truth
     assert run.ok.all()  # every tick solved the QP (humanoid15 needs id_options_for: see its docstring)
+
+
+def test_cli_wave_needs_the_id_controller():
+    from wbc.cli import main
+
+    assert main(["sim", "wave", "--robot", "g1", "--controller", "pd"]) == 2
