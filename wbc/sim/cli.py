@@ -40,6 +40,7 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     p.add_argument("--height", type=float, default=0.08,
                    help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="320x240", help="video frame size WxH (default 320x240)")
     add_outputs(p)
@@ -64,7 +65,7 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height)
+        return JumpScenario(height=args.height, count=args.count)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)

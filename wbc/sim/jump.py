@@ -13,10 +13,11 @@ sets the apex). For an apex CoM rise h above the take-off point, v₀ = √(2 g 
    acceleration is −g, the only one the floating-base rows of the QP admit without contact forces: total linear
    momentum rate = m g, angular momentum rate = 0), the feet are tracked relative to the CoM and tucked by
    ``tuck``;
-4. landing: touch-down detected from the plant state — each foot's MuJoCo ground contact force (> 20 N) — the
-   sole contact is re-activated with its normal-force bound ramped in over ``t_ramp``; the CoM reference
+4. landing: touch-down detected from the plant state — each foot's MuJoCo ground contact force (> 20 N) — that
+   sole's contact is re-activated (each foot on its own) with its normal-force bound ramped in over ``t_ramp``; the CoM reference
    decelerates to the stance height with a critically damped reference;
-5. stance until the end.
+5. stance until the end; with ``count`` > 1 the next jump starts one ``period`` after the previous one
+   (experimental: measured on G1, the series falls after 2–3 jumps).
 
 Controller gains for the jump (:data:`JUMP_GAINS`): torso orientation weight 1 and posture weight 0.1 (defaults
 10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck. At the landing impact
@@ -52,7 +53,7 @@ class JumpScenario:
 
     Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
     over time of the lower sole's rise above its start), ``time_both_feet_5cm_s`` (longest interval with both
-    soles ≥ 5 cm up), ``flight_time_s`` (plant ground force < 1 N), ``peak_grf_n``, ``max_torque_over_limit``
+    soles ≥ 5 cm up; with ``count`` > 1 jumps — one every ``period`` s — the smallest over the jumps), ``flight_time_s`` (plant ground force < 1 N), ``peak_grf_n``, ``max_torque_over_limit``
     (commanded |τ| / URDF limit, with the joint), ``landing_com_min_m`` (lowest CoM relative to the start:
     landing overshoot), ``landed``, ``feet_moved_m`` (horizontal sole displacement end vs start).
 
@@ -65,7 +66,10 @@ class JumpScenario:
 
     def __init__(self, height: float = 0.08, crouch: float = 0.08, extension: float = 0.02, t_crouch: float = 0.6,
                  tuck: float = 0.14, t_ramp: float = 0.03, settle: float = 1.5, t_start: float = 0.2,
-                 w_land: float = 8.0):
+                 w_land: float = 8.0, count: int = 1):
+        if not (isinstance(count, int) and count >= 1):
+            raise InvalidInputError(f"jump: count must be an int >= 1, got {count!r}")
+        self.count = count
         if not all(np.isfinite(x) and x > 0 for x in (height, crouch, t_crouch, t_ramp, settle)):
             raise InvalidInputError("jump: height, crouch and durations must be finite and > 0")
         self.h, self.crouch, self.ext = float(height), float(crouch), float(extension)
@@ -76,7 +80,8 @@ class JumpScenario:
         self.t_push0 = t_start + t_crouch + 0.2
         self.t_takeoff = self.t_push0 + self.v0 / self.a_push
         self.t_flight = 2 * self.v0 / G
-        self.duration = self.t_takeoff + self.t_flight + 0.3 + settle
+        self.period = self.t_takeoff + self.t_flight + 0.3 + settle  # one jump, s
+        self.duration = count * self.period
         self.phase = "stand"
         self.w_land = float(w_land)
         self.com0 = np.zeros(3)
@@ -89,6 +94,8 @@ class JumpScenario:
         self.soles = {s: data.oMf[self.robot.frame_id(f)].copy()
                       for s, f in (("left", self.robot.left_sole), ("right", self.robot.right_sole))}
         self.phase = "stand"
+        self.t0 = 0.0
+        self.jumps = []
         self._data = self.robot.model.createData()
         self.t_land = {}
         self.t_touch = None
@@ -104,7 +111,14 @@ class JumpScenario:
         return self._ref[0]
 
     def update(self, t, ctrl, sim, q, v):
+        if self.phase == "land" and t >= self.t0 + self.period - 1e-9:  # next jump of a series
+            self.jumps.append(self.t_touch)
+            self.t0 += self.period
+            self.phase = "stand"
+            for side in ("left", "right"):
+                ctrl.contacts[side].f_max = math.inf
         c0 = self.com0
+        t_abs, t = t, t - self.t0  # time within the current jump
         z_low = c0[2] - self.crouch
         if self.phase in ("stand", "push") and t < self.t_push0:
             s, ds, dds = _mj((t - self.t_start) / self.t_crouch)
@@ -126,6 +140,7 @@ class JumpScenario:
                 self.c_to, self.v_to = d.com[0].copy(), d.vcom[0].copy()  # measured take-off state
                 self.feet_to = {s: st.data.oMf[ctrl.feet[s].task.frame_id].copy() for s in ("left", "right")}
                 self.t_to_actual = t
+                self.takeoffs = getattr(self, "takeoffs", []) + [t_abs]
             tau = t - self.t_to_actual
             c_to, v_to = self.c_to, self.v_to  # ballistic from the measured take-off state (no task conflict)
             ref = (c_to + v_to * tau + [0, 0, -0.5 * G * tau**2], v_to + [0, 0, -G * tau], np.array([0, 0, -G]))
@@ -146,22 +161,26 @@ class JumpScenario:
                 touching = [s for s in ("left", "right") if np.linalg.norm(forces.get(s, np.zeros(3))) > 20.0]
                 if touching:
                     self.phase = "land"
-                    self.t_touch = t
+                    self.t_touch = t_abs
                     st = ctrl.state
-                    for side in ("left", "right"):
-                        ctrl.contacts[side].activate(st)
-                        ctrl.contacts[side].f_max = 1.0
-                        if ctrl.feet[side] in ctrl.qp.tasks:
-                            ctrl.qp.remove_task(ctrl.feet[side])
                     self.c_land, self.v_land = st.com.copy(), np.zeros(3)
                     self.v_land[2] = self.v_to[2] - G * tau
         else:
             ref = None
         if self.phase == "land":
-            tau = t - self.t_touch
+            # each sole's contact is activated when that foot's plant ground force exceeds 20 N
+            forces = sim.foot_contact_forces()
+            for side in ("left", "right"):
+                if not ctrl.contacts[side].active and np.linalg.norm(forces.get(side, np.zeros(3))) > 20.0:
+                    ctrl.contacts[side].activate(ctrl.state)
+                    ctrl.contacts[side].f_max = 1.0
+                    if ctrl.feet[side] in ctrl.qp.tasks:
+                        ctrl.qp.remove_task(ctrl.feet[side])
+            tau = t_abs - self.t_touch
             r = min(tau / self.t_ramp, 1.0)
             for side in ("left", "right"):
-                ctrl.contacts[side].f_max = max(1.0, r * 3 * self.robot.mass * G) if r < 1 else math.inf
+                if ctrl.contacts[side].active:
+                    ctrl.contacts[side].f_max = max(1.0, r * 3 * self.robot.mass * G) if r < 1 else math.inf
             # critically damped reference from the touch-down state to the stance height, ω = w_land
             w = self.w_land
             x0 = self.c_land[2] - c0[2]
@@ -182,24 +201,28 @@ class JumpScenario:
     def extra_summary(self, run) -> dict:
         z = run.sole_pos[:, :, 2] - run.sole_pos[0, :, 2]
         both = z.min(axis=1)
-        clear = both >= 0.05
-        # longest run of consecutive ticks with both feet ≥ 5 cm up
-        best = cur = 0
-        for c in clear:
-            cur = cur + 1 if c else 0
-            best = max(best, cur)
+        per_jump = []
+        for k in range(self.count):  # longest run of consecutive ticks with both feet ≥ 5 cm up, per jump
+            sel = (run.t >= k * self.period) & (run.t < (k + 1) * self.period)
+            best = cur = 0
+            for c in both[sel] >= 0.05:
+                cur = cur + 1 if c else 0
+                best = max(best, cur)
+            per_jump.append(best * run.dt)
+        best = min(per_jump) / run.dt
         fz = run.sim_wrench[:, :, 2].sum(axis=1)
         air = fz < 1.0
         moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1).max()
         lim = np.asarray(self.robot.model.effortLimit[6:])
         ratio = np.abs(run.tau) / np.where(lim > 0, lim, np.inf)
         j = int(np.argmax(ratio.max(axis=0)))
-        return {"apex_foot_clearance_m": float(both.max()), "time_both_feet_5cm_s": best * run.dt,
+        return {"jumps": self.count, "time_both_feet_5cm_per_jump_s": per_jump,
+                "apex_foot_clearance_m": float(both.max()), "time_both_feet_5cm_s": best * run.dt,
                 "flight_time_s": float(air[int(0.05 / run.dt):].sum() * run.dt),
                 "peak_grf_n": float(fz.max()), "peak_grf_body_weights": float(fz.max() / (self.robot.mass * G)),
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
                 "landing_com_min_m": float(run.com[:, 2].min() - self.com0[2]) if self.t_touch else None,
-                "landed": self.t_touch is not None, "feet_moved_m": float(moved),
+                "landed": self.t_touch is not None and len(self.jumps) + 1 >= self.count, "feet_moved_m": float(moved),
                 "takeoff_velocity_plan_mps": self.v0}
 
 
