@@ -12,7 +12,7 @@ from pathlib import Path
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -20,7 +20,7 @@ def register(subparsers, add_outputs) -> None:
     from wbc.qp import available_solvers
 
     p = subparsers.add_parser(
-        "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push",
+        "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
                     "ground-truth state from MuJoCo and applies joint torques at 500 Hz (one 2 ms mj_step per tick).")
     p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
@@ -61,6 +61,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
+    p.add_argument("--height", type=float, default=0.08,
+                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
@@ -90,6 +93,14 @@ def _scenario(args, robot):
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
+    if args.scenario == "wave":
+        from wbc.sim.physics_scenarios import WaveScenario
+
+        return WaveScenario()
+    if args.scenario == "jump":
+        from wbc.sim.jump import JumpScenario
+
+        return JumpScenario(height=args.height, count=args.count)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -121,17 +132,26 @@ def cmd_sim(args) -> int:
 
         plant = perturb_plant(sim, mass_error=args.mass_error / 100.0, payload=args.payload, friction=args.friction,
                               armature=args.armature, seed=args.seed)
+    from wbc.sim.physics_scenarios import id_options_for
 
     def make(kind=args.controller):
-        if perturbed and kind == "id":
+        if kind != "id":
+            return make_controller(robot, kind, dt=sim.timestep, solver=args.solver)
+        if perturbed:
             from wbc.sim.perturb import PerturbedController
 
             return PerturbedController(robot, dt=sim.timestep, solver=args.solver, mu=args.mu, f_min=args.f_min,
                                        sole_margin=args.sole_margin, q_noise=args.q_noise, v_noise=args.v_noise,
                                        delay=args.delay, seed=args.seed)
-        return make_controller(robot, kind, dt=sim.timestep, solver=args.solver, **(
-            {"mu": args.mu, "f_min": args.f_min, **({"sole_margin": args.sole_margin} if args.scenario == "walk"
-                                                    else {})} if kind == "id" else {}))
+        # robots with near rank-deficient two-sole contact rows (humanoid15): DAQP primal_tol 1e-6, 1 cm margin
+        options = id_options_for(robot, args.solver)
+        if args.scenario == "walk" and args.sole_margin:
+            options["sole_margin"] = args.sole_margin
+        if args.scenario == "jump":
+            from wbc.sim.jump import JUMP_GAINS
+
+            options["gains"] = JUMP_GAINS
+        return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min, **options)
 
     viewer = pacer = None
     if args.live:
@@ -147,6 +167,16 @@ def cmd_sim(args) -> int:
     finally:
         if viewer is not None:
             viewer.close()
+    if args.scenario == "wave":
+        from wbc.sim.physics_scenarios import wave_acceptance
+
+        summary["failed_criteria"] = wave_acceptance(summary)
+        summary["passed"] = not summary["failed_criteria"]
+    if args.scenario == "jump":
+        from wbc.sim.jump import jump_acceptance
+
+        summary["failed_criteria"] = jump_acceptance(summary)
+        summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     from wbc.cli import deadline_misses

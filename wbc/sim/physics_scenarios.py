@@ -1,0 +1,195 @@
+"""More closed-loop MuJoCo scenarios (``wbc sim wave``) and the ID-QP options of robots whose two-foot contact
+constraints are near rank deficient (``humanoid15``).
+
+``wave`` (:class:`WaveScenario`): both arms go (minimum jerk, ``raise_time``) from the standing posture to the
+"hand up" pose of :func:`wbc.scenarios.balance_wave.wave_joints`, the wave joints oscillate
+q = q_up + A e(t) sin(2π f t) for ``wave_time`` s (e(t) a cosine envelope rising / falling over ``ramp`` s, so
+the velocity starts and ends at 0), then the arms return (``raise_time``) and the robot holds ``settle`` s. The
+reference goes, as position + acceleration feed-forward, to the balance controller's posture task and to an
+extra joint task on the arm joints (``arms``: Kp ``arm_kp`` = 400 /s², Kd 2√Kp, weight ``arm_weight`` = 10, above
+the posture and angular-momentum tasks, which would otherwise damp the swing); the CoM and the feet are held.
+Pass: no fall, each sole within 2 cm of its start (MuJoCo ground truth), and the measured wave joints swept at
+least half their commanded peak-to-peak range (the arms did wave).
+
+Rank-deficient contacts: a robot without hip yaw joints (``humanoid15``) can hardly rotate one flat foot about
+the vertical relative to the other (only through roll-pitch coupling), so the 12 rows of the two
+sole-acceleration equalities are near rank deficient (smallest singular value 2e-18 at ``q_ref``). With the ID
+QP's DAQP ``primal_tol`` of 1e-9, DAQP stops with exit flag -6 (overdetermined initial working set) on every
+tick once the robot moves and the controller falls back to gravity compensation (humanoid15 one-leg: 1144 failed
+ticks, fell). :func:`id_options_for` gives such robots DAQP with ``primal_tol`` 1e-6 and a 1 cm sole margin
+(measured on humanoid15 one-leg: 1e-6 alone still tipped over the sole edge at the unload, 1e-6 + 1 cm margin
+passed with 0 failed ticks; removing the dependent rows by a pivoted QR instead was worse: 324 relaxed ticks, fell).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.tasks import PostureAccelerationTask
+from wbc.exceptions import InvalidInputError
+from wbc.qp import make_backend
+from wbc.scenarios.balance_wave import wave_joints
+from wbc.tasks import PostureTask
+
+__all__ = ["contacts_rank_deficient", "id_options_for", "WaveScenario", "wave_acceptance"]
+
+#: DAQP settings of the ID QP for robots with near rank-deficient contact rows (module docstring).
+DAQP_RANK_DEFICIENT = {"primal_tol": 1e-6, "warm_start": "dual"}
+
+
+def contacts_rank_deficient(robot, tol: float = 1e-9) -> bool:
+    """True when the stacked 12 × nv Jacobian of both soles (LOCAL) at ``robot.q_ref`` has a smallest singular
+    value below ``tol`` × its largest."""
+    model = robot.model
+    data = model.createData()
+    pin.computeJointJacobians(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    J = np.vstack([pin.getFrameJacobian(model, data, robot.frame_id(f), pin.LOCAL)
+                   for f in (robot.left_sole, robot.right_sole)])
+    s = np.linalg.svd(J, compute_uv=False)
+    return bool(s[-1] < tol * s[0])
+
+
+def id_options_for(robot, solver: str = "daqp") -> dict:
+    """Keyword options (``solver``, maybe ``sole_margin``) of :class:`~wbc.dynamics.balance.BalanceController`
+    for ``robot``: ``{"solver": solver}``, or for near rank-deficient two-sole contacts with DAQP a DAQP backend
+    with ``primal_tol`` 1e-6 and ``sole_margin`` 0.01 m (module docstring)."""
+    if solver != "daqp" or not contacts_rank_deficient(robot):
+        return {"solver": solver}
+    return {"solver": make_backend("daqp", **DAQP_RANK_DEFICIENT), "sole_margin": 0.01}
+
+
+def _min_jerk(s: float) -> tuple[float, float, float]:
+    s = min(max(s, 0.0), 1.0)
+    return (10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4, 60 * s - 180 * s**2 + 120 * s**3)
+
+
+class WaveScenario:
+    """Both arms wave in MuJoCo while the robot stands (module docstring). Needs the ID controller.
+
+    Args:
+        wave_time: s. frequency: Hz. raise_time: s. ramp: envelope rise/fall (s), 2·ramp ≤ wave_time.
+        settle: s held at the end. t_start: s before the arms start moving.
+
+    Raises:
+        InvalidInputError: non-positive durations / frequency or 2·ramp > wave_time.
+    """
+
+    name = "wave"
+    needs_id = True
+
+    def __init__(self, wave_time: float = 5.0, frequency: float = 1.0, raise_time: float = 1.0,
+                 ramp: float = 0.5, settle: float = 1.0, t_start: float = 0.2, arm_kp: float = 400.0,
+                 arm_weight: float = 10.0):
+        vals = (wave_time, frequency, raise_time, settle)
+        if not all(np.isfinite(x) and x > 0 for x in vals) or not (0 < 2 * ramp <= wave_time) or t_start < 0:
+            raise InvalidInputError("wave: durations and frequency must be finite and > 0, 0 < 2·ramp ≤ wave_time, "
+                                    f"t_start ≥ 0; got {vals + (ramp, t_start)}")
+        self.wave_time, self.frequency, self.raise_time = float(wave_time), float(frequency), float(raise_time)
+        self.ramp, self.settle, self.t_start = float(ramp), float(settle), float(t_start)
+        self.t_wave = self.t_start + self.raise_time
+        self.t_lower = self.t_wave + self.wave_time
+        self.duration = self.t_lower + self.raise_time + self.settle
+        self.com0 = np.zeros(3)
+        self.arm_kp, self.arm_weight = float(arm_kp), float(arm_weight)
+
+    def setup(self, controller, sim, q, v) -> None:
+        robot = sim.robot
+        model = robot.model
+        self.com0 = pin.centerOfMass(model, model.createData(), q).copy()
+        raise_, wave = wave_joints(robot)
+        self.q0 = robot.q_ref.copy()
+        self.q_up = self.q0.copy()
+        for name, off in raise_.items():
+            self.q_up[model.joints[robot.joint_id(name)].idx_q] += off
+        self.q_up[7:] = np.clip(self.q_up[7:], model.lowerPositionLimit[7:] + 0.05,
+                                model.upperPositionLimit[7:] - 0.05)
+        self.wave_names = list(wave)
+        self.iq = np.array([model.joints[robot.joint_id(n)].idx_q for n in wave])
+        self.iv = np.array([model.joints[robot.joint_id(n)].idx_v for n in wave])
+        lo = model.lowerPositionLimit[self.iq] + 0.05
+        hi = model.upperPositionLimit[self.iq] - 0.05
+        c = self.q_up[self.iq]
+        amp = np.array(list(wave.values()))
+        self.amplitude = np.sign(amp) * np.minimum(np.abs(amp), np.minimum(hi - c, c - lo).clip(0))
+        self._q = self.q0.copy()
+        self._a = np.zeros(model.nv)
+        self.wave_q = []
+        arm = sorted(set(raise_) | set(wave), key=robot.joint_names.index)
+        self.arm = PostureAccelerationTask(PostureTask(robot, joints=arm), kp=self.arm_kp, kd=2 * math.sqrt(self.arm_kp),
+                                           weight=self.arm_weight, name="arms")
+        self.arm_iv = self.arm.task.rows
+        if isinstance(controller, BalanceController):
+            controller.qp.add_task(self.arm)
+
+    def com_reference(self, t: float) -> np.ndarray:
+        return self.com0
+
+    def _envelope(self, tau: float) -> tuple[float, float, float]:
+        if tau <= 0 or tau >= self.wave_time:
+            return 0.0, 0.0, 0.0
+        w = math.pi / self.ramp
+        if tau < self.ramp:
+            return 0.5 - 0.5 * math.cos(w * tau), 0.5 * w * math.sin(w * tau), 0.5 * w * w * math.cos(w * tau)
+        if tau > self.wave_time - self.ramp:
+            r = self.wave_time - tau
+            return 0.5 - 0.5 * math.cos(w * r), -0.5 * w * math.sin(w * r), 0.5 * w * w * math.cos(w * r)
+        return 1.0, 0.0, 0.0
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(posture reference q (nq,), acceleration feed-forward (nv,)) at time t (s)."""
+        q, a = self._q, self._a
+        a[:] = 0.0
+        if t < self.t_lower:
+            s, _, dds = _min_jerk((t - self.t_start) / self.raise_time)
+            q[7:] = self.q0[7:] + s * (self.q_up[7:] - self.q0[7:])
+            a[6:] = dds / self.raise_time**2 * (self.q_up[7:] - self.q0[7:])
+        else:
+            s, _, dds = _min_jerk((t - self.t_lower) / self.raise_time)
+            q[7:] = self.q_up[7:] + s * (self.q0[7:] - self.q_up[7:])
+            a[6:] = dds / self.raise_time**2 * (self.q0[7:] - self.q_up[7:])
+        e, de, dde = self._envelope(t - self.t_wave)
+        if e > 0:
+            w = 2 * math.pi * self.frequency
+            tau = t - self.t_wave
+            sn, cs = math.sin(w * tau), math.cos(w * tau)
+            q[self.iq] += self.amplitude * e * sn
+            a[self.iv] += self.amplitude * (dde * sn + 2 * de * w * cs - e * w * w * sn)
+        return q, a
+
+    def update(self, t, controller, sim, q, v):
+        qr, a = self.reference(t)
+        controller.posture.set_target(qr)
+        controller.posture.set_feedforward_acceleration(a[6:])
+        self.arm.set_target(qr)
+        self.arm.set_feedforward_acceleration(a[self.arm_iv])
+        if self.t_wave <= t < self.t_lower:
+            self.wave_q.append(q[self.iq].copy())
+        return None
+
+    def extra_summary(self, run) -> dict:
+        moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
+        wq = np.array(self.wave_q) if self.wave_q else np.zeros((1, len(self.iq)))
+        swept = wq.max(axis=0) - wq.min(axis=0)
+        return {"wave_joints": self.wave_names, "wave_amplitude_rad": self.amplitude.tolist(),
+                "wave_swept_rad": swept.tolist(), "feet_moved_m": float(moved),
+                "wave_completed": bool(run.t[-1] >= self.duration - 1.5 * run.dt)}
+
+
+def wave_acceptance(summary: dict) -> list[str]:
+    """Failed criteria of a wave summary (module docstring); empty when it passed."""
+    fails = []
+    if summary["fell"]:
+        fails.append(f"fell: {summary['fall_reason']}")
+    if not summary.get("wave_completed"):
+        fails.append("the wave was not completed")
+    if summary.get("feet_moved_m", 0.0) > 0.02:
+        fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m")
+    for name, a, s in zip(summary["wave_joints"], summary["wave_amplitude_rad"], summary["wave_swept_rad"]):
+        if s < abs(a):  # peak-to-peak 2|A| commanded; at least half of it measured
+            fails.append(f"{name} swept {s:.3f} rad < |A| = {abs(a):.3f} rad")
+    return fails
