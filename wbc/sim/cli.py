@@ -61,8 +61,8 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
-    p.add_argument("--height", type=float, default=0.08,
-                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--height", type=float, default=0.12,
+                   help="jump: planned apex CoM rise above take-off, m (default 0.12; tuned on g1)")
     p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")

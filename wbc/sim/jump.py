@@ -64,7 +64,7 @@ class JumpScenario:
     name = "jump"
     needs_id = True
 
-    def __init__(self, height: float = 0.08, crouch: float = 0.08, extension: float = 0.02, t_crouch: float = 0.6,
+    def __init__(self, height: float = 0.12, crouch: float = 0.08, extension: float = 0.02, t_crouch: float = 0.6,
                  tuck: float = 0.14, t_ramp: float = 0.03, settle: float = 1.5, t_start: float = 0.2,
                  w_land: float = 8.0, count: int = 1):
         if not (isinstance(count, int) and count >= 1):
