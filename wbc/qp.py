@@ -306,6 +306,9 @@ def make_backend(name: str, **settings) -> QPBackend:
     Raises:
         UnknownSolverError: the name is not installed; the message lists the available ones.
     """
+    if name == "fast":  # compiled exact kernel with DAQP fallback (wbc.fastqp)
+        from wbc.fastqp import FastBackend
+        return FastBackend(**settings)
     if name not in available_solvers():
         raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
     if name == "proxqp":

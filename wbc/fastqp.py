@@ -1,0 +1,282 @@
+"""Compiled (numba) exact solver for the common QP of the kinematic tick, with DAQP as fallback.
+
+Solves
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   lb ≤ x ≤ ub
+
+(H symmetric positive definite, A full row rank) by an active set on the bounds, warm-started from the previous
+call's active set. For a fixed working set W (variables held at a bound) the free part F solves the
+equality-constrained QP through its KKT system, eliminated with a Cholesky factor L Lᵀ = H_FF and the Schur
+complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space
+method"). The working set is then corrected: the free variable furthest outside its bounds is fixed at the
+violated bound; otherwise the fixed variable whose bound multiplier has the wrong sign (most negative) is freed (single-pivot
+principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5), 1994). The loop ends
+only when every KKT condition holds (stationarity by construction, primal feasibility, dual sign, complementarity
+since free variables carry no multiplier), so the returned x is the exact optimum; when it does not end within the
+iteration cap, when H_FF is not positive definite, when S is singular (dependent equalities) or when the problem has
+general inequality rows, the call is handed to :class:`wbc.qp.DaqpBackend`.
+
+The kernel is compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles it eagerly and
+returns the seconds it took.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numba as nb
+import numpy as np
+
+from wbc.qp import DaqpBackend, QPBackend
+
+__all__ = ["FastBackend", "solve_box_eq", "warm_up"]
+
+#: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
+NOT_POSITIVE_DEFINITE = -1
+DEPENDENT_EQUALITIES = -2
+ITERATION_CAP = -3
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def _chol(M, k):
+    """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
+    for j in range(k):
+        s = M[j, j]
+        for p in range(j):
+            s -= M[j, p] * M[j, p]
+        if not s > 0.0:
+            return False
+        d = np.sqrt(s)
+        M[j, j] = d
+        for i in range(j + 1, k):
+            t = M[i, j]
+            for p in range(j):
+                t -= M[i, p] * M[j, p]
+            M[i, j] = t / d
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def _fwd(L, k, v):
+    """v ← L⁻¹ v (leading k block)."""
+    for i in range(k):
+        t = v[i]
+        for p in range(i):
+            t -= L[i, p] * v[p]
+        v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, nogil=True)
+def _bwd(L, k, v):
+    """v ← L⁻ᵀ v (leading k block)."""
+    for i in range(k - 1, -1, -1):
+        t = v[i]
+        for p in range(i + 1, k):
+            t -= L[p, i] * v[p]
+        v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
+    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
+
+    Args:
+        H (n, n), g (n,), A (m, n), b (m,), lb/ub (n,) (±inf for free entries).
+        state (n,) int8, in/out: working set (0 free, -1 held at lb, +1 held at ub); read as the warm start.
+        x (n,), nu (m,), z (n,): out — solution, equality multipliers, bound multipliers
+            (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, z ≥ 0 at an upper bound, 0 when free).
+        max_iter: working-set iterations allowed.
+        primal_tol: bound violation (absolute) that makes a free variable be fixed.
+        dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
+        rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
+
+    Returns:
+        iterations (≥ 1) on success, or a negative exit code.
+    """
+    n = H.shape[0]
+    m = A.shape[0]
+    # a warm-start state is only valid where its bound is finite
+    for i in range(n):
+        if state[i] == -1 and not np.isfinite(lb[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(ub[i]):
+            state[i] = 0
+    free = np.empty(n, np.int64)
+    L = np.empty((n, n))
+    Y = np.empty((n, m))
+    S = np.empty((m, m))
+    t = np.empty(n)
+    rhs = np.empty(m)
+    for it in range(1, max_iter + 1):
+        nf = 0
+        for i in range(n):
+            if state[i] == 0:
+                free[nf] = i
+                nf += 1
+            elif state[i] < 0:
+                x[i] = lb[i]
+            else:
+                x[i] = ub[i]
+        if nf < m:
+            return DEPENDENT_EQUALITIES
+        # r = g_F + H_FW x_W ; H_FF
+        for a in range(nf):
+            i = free[a]
+            r = g[i]
+            for j in range(n):
+                if state[j] != 0:
+                    r += H[i, j] * x[j]
+            t[a] = r
+            for c in range(a + 1):
+                L[a, c] = H[i, free[c]]
+        if not _chol(L, nf):
+            return NOT_POSITIVE_DEFINITE
+        _fwd(L, nf, t)
+        # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
+        for k in range(m):
+            bw = b[k]
+            for j in range(n):
+                if state[j] != 0:
+                    bw -= A[k, j] * x[j]
+            col = Y[:, k]
+            for a in range(nf):
+                col[a] = A[k, free[a]]
+            _fwd(L, nf, col)
+            s = 0.0
+            for a in range(nf):
+                s += col[a] * t[a]
+            rhs[k] = -bw - s
+        smax = 0.0
+        for k in range(m):
+            for c in range(k + 1):
+                s = 0.0
+                for a in range(nf):
+                    s += Y[a, k] * Y[a, c]
+                S[k, c] = s
+            if S[k, k] > smax:
+                smax = S[k, k]
+        if m:
+            if not _chol(S, m):
+                return DEPENDENT_EQUALITIES
+            for k in range(m):
+                if S[k, k] * S[k, k] <= rank_tol * smax:
+                    return DEPENDENT_EQUALITIES
+            for k in range(m):
+                nu[k] = rhs[k]
+            _fwd(S, m, nu)
+            _bwd(S, m, nu)
+        # x_F = -L⁻ᵀ (t + Y nu)
+        for a in range(nf):
+            s = t[a]
+            for k in range(m):
+                s += Y[a, k] * nu[k]
+            t[a] = -s
+        _bwd(L, nf, t)
+        worst = primal_tol
+        worst_i = -1
+        worst_side = 0
+        for a in range(nf):
+            i = free[a]
+            v = t[a]
+            x[i] = v
+            if lb[i] - v > worst:
+                worst = lb[i] - v
+                worst_i = i
+                worst_side = -1
+            elif v - ub[i] > worst:
+                worst = v - ub[i]
+                worst_i = i
+                worst_side = 1
+        if worst_i >= 0:
+            state[worst_i] = worst_side
+            continue
+        # bound multipliers z = -(H x + g + Aᵀ nu) on the fixed set; the worst wrong sign is freed
+        worst = dual_tol
+        worst_i = -1
+        for i in range(n):
+            if state[i] == 0:
+                z[i] = 0.0
+                continue
+            s = g[i]
+            for j in range(n):
+                s += H[i, j] * x[j]
+            for k in range(m):
+                s += A[k, i] * nu[k]
+            z[i] = -s
+            wrong = z[i] if state[i] < 0 else -z[i]
+            if wrong > worst:
+                worst = wrong
+                worst_i = i
+        if worst_i < 0:
+            return it
+        state[worst_i] = 0
+    return ITERATION_CAP
+
+
+class FastBackend(QPBackend):
+    """Compiled exact solver for bound- and equality-constrained QPs (module docstring), DAQP for the rest.
+
+    Args:
+        tolerance: largest constraint violation accepted (constraint units), as for every backend.
+        max_iter: working-set iterations before handing the problem to DAQP.
+        **settings: DAQP settings for the fallback.
+
+    Attributes:
+        last_iterations: working-set iterations of the last kernel call (negative: exit code of a failed call).
+        kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
+    """
+
+    name = "fast"
+
+    def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, **settings):
+        self.tolerance = tolerance
+        self.max_iter = int(max_iter)
+        self.settings = settings
+        self.fallback = DaqpBackend(tolerance=tolerance, **settings)
+        self._n = -1
+        self.last_iterations = 0
+        self.kernel_solves = 0
+        self.fallbacks = 0
+
+    def _prepare(self, n: int, m: int) -> None:
+        self._n, self._m = n, m
+        self._state = np.zeros(n, np.int8)
+        self._x = np.empty(n)
+        self._z = np.zeros(n)
+        self._nu = np.zeros(m)
+
+    def _solve(self, H, g, A, b, C, l, u, lb, ub):
+        n, m = H.shape[0], A.shape[0]
+        if C.shape[0] == 0:
+            if n != self._n or m != self._m:
+                self._prepare(n, m)
+            it = solve_box_eq(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
+                              self.max_iter, 1e-12, 1e-12, 1e-24)
+            self.last_iterations = it
+            if it > 0:
+                self.kernel_solves += 1
+                return self._x.copy()
+            self._state[:] = 0
+        self.fallbacks += 1
+        x = self.fallback._solve(H, g, A, b, C, l, u, lb, ub)
+        if x is not None and C.shape[0] == 0 and n == self._n:
+            # warm start the kernel's next call from the bounds DAQP found active
+            self._state[:] = 0
+            self._state[x <= lb + 1e-12] = -1
+            self._state[x >= ub - 1e-12] = 1
+        return x
+
+    def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
+        self._n = -1
+        self.fallbacks += 1
+        return self.fallback._solve_cold(H, g, A, b, C, l, u, lb, ub)
+
+
+def warm_up() -> float:
+    """Compile (or load from the on-disk cache) the kernel; returns the seconds taken."""
+    t0 = time.perf_counter()
+    H = np.eye(2)
+    s = np.zeros(2, np.int8)
+    solve_box_eq(H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2), s, np.empty(2),
+                 np.empty(1), np.empty(2), 10, 1e-12, 1e-12, 1e-24)
+    return time.perf_counter() - t0
