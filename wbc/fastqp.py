@@ -29,15 +29,19 @@ import numpy as np
 
 from wbc.qp import DaqpBackend, QPBackend
 
-__all__ = ["FastBackend", "solve_box_eq", "warm_up"]
+__all__ = ["FastBackend", "solve_box_eq", "solve_box_eq_ws", "warm_up"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
 DEPENDENT_EQUALITIES = -2
 ITERATION_CAP = -3
 
+#: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only — no
+#: "no-inf/no-nan" assumptions, since ±inf bounds are legitimate input.
+_FM = {"reassoc", "contract"}
 
-@nb.njit(cache=True, fastmath=False, nogil=True)
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def _chol(M, k):
     """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
     for j in range(k):
@@ -56,7 +60,7 @@ def _chol(M, k):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def _fwd(L, k, v):
     """v ← L⁻¹ v (leading k block)."""
     for i in range(k):
@@ -66,7 +70,7 @@ def _fwd(L, k, v):
         v[i] = t / L[i, i]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def _bwd(L, k, v):
     """v ← L⁻ᵀ v (leading k block)."""
     for i in range(k - 1, -1, -1):
@@ -76,8 +80,18 @@ def _bwd(L, k, v):
         v[i] = t / L[i, i]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
+    """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
+    n, m = H.shape[0], A.shape[0]
+    return solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                           np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)),
+                           np.empty(n), np.empty(m), np.empty(1))
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                    free, L, Y, S, t, rhs, eq_residual):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
 
     Args:
@@ -89,6 +103,10 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
         primal_tol: bound violation (absolute) that makes a free variable be fixed.
         dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
         rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
+        free (n,) int64, L (n, n), Y (n, m), S (m, m), t (n,), rhs (m,): workspace.
+        eq_residual (1,): out — max |A x − b| of the returned x.
+
+    On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
 
     Returns:
         iterations (≥ 1) on success, or a negative exit code.
@@ -101,12 +119,6 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
             state[i] = 0
         elif state[i] == 1 and not np.isfinite(ub[i]):
             state[i] = 0
-    free = np.empty(n, np.int64)
-    L = np.empty((n, n))
-    Y = np.empty((n, m))
-    S = np.empty((m, m))
-    t = np.empty(n)
-    rhs = np.empty(m)
     for it in range(1, max_iter + 1):
         nf = 0
         for i in range(n):
@@ -208,6 +220,19 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
                 worst = wrong
                 worst_i = i
         if worst_i < 0:
+            for i in range(n):
+                if x[i] < lb[i]:
+                    x[i] = lb[i]
+                elif x[i] > ub[i]:
+                    x[i] = ub[i]
+            r = 0.0
+            for k in range(m):
+                s = -b[k]
+                for j in range(n):
+                    s += A[k, j] * x[j]
+                if abs(s) > r:
+                    r = abs(s)
+            eq_residual[0] = r
             return it
         state[worst_i] = 0
     return ITERATION_CAP
@@ -239,24 +264,42 @@ class FastBackend(QPBackend):
         self.fallbacks = 0
 
     def _prepare(self, n: int, m: int) -> None:
+        if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
+            self._state = np.zeros(n, np.int8)
+            self._x = np.empty(n)
+            self._z = np.zeros(n)
         self._n, self._m = n, m
-        self._state = np.zeros(n, np.int8)
-        self._x = np.empty(n)
-        self._z = np.zeros(n)
         self._nu = np.zeros(m)
+        self._ws = (np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)), np.empty(n),
+                    np.empty(m), np.empty(1))
+
+    def _kernel(self, H, g, A, b, lb, ub) -> bool:
+        n, m = H.shape[0], A.shape[0]
+        if n != self._n or m != self._m:
+            self._prepare(n, m)
+        it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
+                             self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
+        self.last_iterations = it
+        if it > 0 and self._ws[6][0] <= self.tolerance:
+            self.kernel_solves += 1
+            return True
+        self._state[:] = 0
+        return False
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        """As :meth:`wbc.qp.QPBackend.solve`. A kernel solution is returned as is: it satisfies every KKT
+        condition, lies inside the bounds by construction and its equality residual was checked in the kernel
+        against ``tolerance``; anything else goes through DAQP and the general check.
+
+        Raises:
+            SolverError: the DAQP fallback failed (see :meth:`wbc.qp.QPBackend.solve`).
+        """
+        if C.shape[0] == 0 and self._kernel(H, g, A, b, lb, ub):
+            return self._x.copy()
+        return super().solve(H, g, A, b, C, l, u, lb, ub)
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
-        n, m = H.shape[0], A.shape[0]
-        if C.shape[0] == 0:
-            if n != self._n or m != self._m:
-                self._prepare(n, m)
-            it = solve_box_eq(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
-                              self.max_iter, 1e-12, 1e-12, 1e-24)
-            self.last_iterations = it
-            if it > 0:
-                self.kernel_solves += 1
-                return self._x.copy()
-            self._state[:] = 0
+        n = H.shape[0]
         self.fallbacks += 1
         x = self.fallback._solve(H, g, A, b, C, l, u, lb, ub)
         if x is not None and C.shape[0] == 0 and n == self._n:
@@ -267,7 +310,8 @@ class FastBackend(QPBackend):
         return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
-        self._n = -1
+        if self._n == H.shape[0]:
+            self._state[:] = 0
         self.fallbacks += 1
         return self.fallback._solve_cold(H, g, A, b, C, l, u, lb, ub)
 

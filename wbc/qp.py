@@ -32,8 +32,8 @@ _BIG = 1e10  # stands for an infinite bound where a backend needs a finite numbe
 
 
 def available_solvers() -> list[str]:
-    """Names accepted by :func:`make_backend` (installed qpsolvers backends)."""
-    return sorted(qpsolvers.available_solvers)
+    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
+    return sorted([*qpsolvers.available_solvers, "fast"])
 
 
 class QPBackend(ABC):
