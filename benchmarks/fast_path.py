@@ -96,9 +96,9 @@ def _one(lib: str, ticks: int) -> None:
     r.run()
 
 
-def callgrind(n: int) -> None:
+def callgrind(n: int, libs: tuple[str, ...] = LIBS) -> None:
     irs: dict[str, float] = {}
-    for lib in LIBS:
+    for lib in libs:
         ir = []
         for ticks in (n, 2 * n):
             with tempfile.TemporaryDirectory() as d:
@@ -113,7 +113,7 @@ def callgrind(n: int) -> None:
                 print(f"  callgrind {lib} {ticks} ticks: {ir[-1]:,} Ir ({time.time() - t0:.0f} s)", flush=True)
         irs[lib] = (ir[1] - ir[0]) / n
     print(f"instructions per kinematic tick (callgrind, {n} vs {2 * n} ticks differenced):")
-    for lib in LIBS:
+    for lib in libs:
         print(f"  {lib:9s} {irs[lib] / 1e3:8.0f} k   / placo {irs[lib] / irs['placo']:.2f}")
 
 
@@ -123,16 +123,22 @@ def main() -> None:
     p.add_argument("--ticks", type=int, default=2000)
     p.add_argument("--walk-steps", type=int, default=4)
     p.add_argument("--callgrind", type=int, default=0, help="N ticks for the instruction count (0: skip)")
+    p.add_argument("--callgrind-libs", default=",".join(LIBS), help="comma-separated subset of " + ",".join(LIBS))
+    p.add_argument("--only-callgrind", action="store_true", help="skip the timing sections")
     p.add_argument("--child", default=None, help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.child:
         _one(a.child, a.ticks)
         return
-    timing(a.repeats, a.ticks)
-    if a.walk_steps:
-        walk(a.repeats, a.walk_steps)
+    if not a.only_callgrind:
+        timing(a.repeats, a.ticks)
+        if a.walk_steps:
+            walk(a.repeats, a.walk_steps)
     if a.callgrind:
-        callgrind(a.callgrind)
+        libs = tuple(a.callgrind_libs.split(","))
+        if "placo" not in libs or not set(libs) <= set(LIBS):
+            p.error(f"--callgrind-libs must be a subset of {LIBS} that includes placo")
+        callgrind(a.callgrind, libs)
 
 
 if __name__ == "__main__":

@@ -69,7 +69,7 @@ def test_backend_falls_back_on_inequality_rows_and_dependent_equalities():
     A2, b2 = np.vstack([A, A[:1]]), np.concatenate([b, b[:1]])  # a repeated row: Schur complement singular
     empty = np.zeros((0, n))
     fast.solve(H, g, A2, b2, empty, np.zeros(0), np.zeros(0), lb, ub)
-    assert fast.last_iterations < 0 and fast.fallbacks == 2
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 2
 
 
 def test_walk_matches_the_daqp_path(robots):
@@ -90,3 +90,29 @@ def test_balance_matches_the_daqp_path(robots):
     ref, fast = run_balance(robot, "shift", solver="daqp"), run_balance(robot, "shift", solver="fast")
     assert ref.solver_ok.all() and fast.solver_ok.all()
     assert np.abs(ref.q - fast.q).max() < 1e-9
+
+
+def test_strict_hierarchy_takes_the_general_path(robots):
+    """Strict levels are semidefinite QPs: with ``fast`` they are solved by DAQP backends, same result as daqp."""
+    import sys
+    from pathlib import Path
+
+    from wbc.configuration import Configuration
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_hierarchy import build
+
+    robot = robots("talos")
+    vs = {}
+    for solver in ("daqp", "fast"):
+        config = Configuration(robot)
+        ctrl, _, _ = build(robot, config, hand_level=0, com_level=1)
+        ctrl.backend = make_backend(solver)
+        out = []
+        for _ in range(10):
+            r = ctrl.solve(config, 0.002)
+            assert r.ok, r.message
+            out.append(r.v)
+            config.step(r.v, 0.002)
+        vs[solver] = np.array(out)
+    assert np.abs(vs["daqp"] - vs["fast"]).max() < 1e-9

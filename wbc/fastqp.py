@@ -27,7 +27,7 @@ import time
 import numba as nb
 import numpy as np
 
-from wbc.qp import DaqpBackend, QPBackend
+from wbc.qp import DaqpBackend
 
 __all__ = ["FastBackend", "solve_box_eq", "solve_box_eq_ws", "warm_up"]
 
@@ -238,32 +238,34 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
     return ITERATION_CAP
 
 
-class FastBackend(QPBackend):
-    """Compiled exact solver for bound- and equality-constrained QPs (module docstring), DAQP for the rest.
+class FastBackend(DaqpBackend):
+    """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
+    every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.qp.DaqpBackend` it
+    extends (so a controller's hierarchy levels and safe-command fallback, built as fresh DAQP backends of the same
+    settings, take the general path).
 
     Args:
         tolerance: largest constraint violation accepted (constraint units), as for every backend.
         max_iter: working-set iterations before handing the problem to DAQP.
-        **settings: DAQP settings for the fallback.
+        **settings: DAQP settings for the fallback (:class:`~wbc.qp.DaqpBackend`).
 
     Attributes:
-        last_iterations: working-set iterations of the last kernel call (negative: exit code of a failed call).
+        last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
     """
 
     name = "fast"
 
     def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, **settings):
-        self.tolerance = tolerance
+        super().__init__(tolerance=tolerance, **settings)
         self.max_iter = int(max_iter)
-        self.settings = settings
-        self.fallback = DaqpBackend(tolerance=tolerance, **settings)
         self._n = -1
-        self.last_iterations = 0
+        self._m = -1
+        self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
 
-    def _prepare(self, n: int, m: int) -> None:
+    def _prepare_kernel(self, n: int, m: int) -> None:
         if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
             self._state = np.zeros(n, np.int8)
             self._x = np.empty(n)
@@ -276,10 +278,10 @@ class FastBackend(QPBackend):
     def _kernel(self, H, g, A, b, lb, ub) -> bool:
         n, m = H.shape[0], A.shape[0]
         if n != self._n or m != self._m:
-            self._prepare(n, m)
+            self._prepare_kernel(n, m)
         it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
                              self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
-        self.last_iterations = it
+        self.last_kernel_iterations = it
         if it > 0 and self._ws[6][0] <= self.tolerance:
             self.kernel_solves += 1
             return True
@@ -296,24 +298,14 @@ class FastBackend(QPBackend):
         """
         if C.shape[0] == 0 and self._kernel(H, g, A, b, lb, ub):
             return self._x.copy()
-        return super().solve(H, g, A, b, C, l, u, lb, ub)
-
-    def _solve(self, H, g, A, b, C, l, u, lb, ub):
-        n = H.shape[0]
         self.fallbacks += 1
-        x = self.fallback._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and C.shape[0] == 0 and n == self._n:
+        x = super().solve(H, g, A, b, C, l, u, lb, ub)
+        if C.shape[0] == 0 and H.shape[0] == self._n:
             # warm start the kernel's next call from the bounds DAQP found active
             self._state[:] = 0
             self._state[x <= lb + 1e-12] = -1
             self._state[x >= ub - 1e-12] = 1
         return x
-
-    def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
-        if self._n == H.shape[0]:
-            self._state[:] = 0
-        self.fallbacks += 1
-        return self.fallback._solve_cold(H, g, A, b, C, l, u, lb, ub)
 
 
 def warm_up() -> float:
