@@ -55,41 +55,83 @@ def test_kernel_is_the_exact_optimum(seed):
     assert it2 == 1
 
 
-def test_backend_falls_back_on_inequality_rows_and_dependent_equalities():
+@pytest.mark.parametrize("seed", range(40))
+def test_kernel_with_inequality_rows_is_the_exact_optimum(seed):
+    rng = np.random.default_rng(1000 + seed)
+    n, m = int(rng.integers(8, 40)), int(rng.integers(0, 4))
+    p = int(rng.integers(1, n // 2))
+    H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=1.0)
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0] if m else np.zeros(n)
+    C = rng.standard_normal((p, n))
+    l, u = C @ x0 - rng.uniform(0.0, 0.5, p), C @ x0 + rng.uniform(0.0, 0.5, p)
+    l[rng.random(p) < 0.3] = -np.inf
+    fast = make_backend("fast")
+    x = fast.solve(H, g, A, b, C, l, u, lb, ub)
+    if fast.kernel_solves == 0:  # degenerate (e.g. x0 outside the box): answered by DAQP, still the optimum
+        assert fast.fallbacks == 1
+    else:
+        st = H @ x + g + A.T @ fast._nu + C.T @ fast._mu + fast._z
+        assert np.abs(st).max() < 1e-9
+        cx = C @ x
+        assert (fast._mu[fast._rstate == -1] <= 1e-12).all() and (fast._mu[fast._rstate == 1] >= -1e-12).all()
+        assert (fast._mu[fast._rstate == 0] == 0).all()
+        assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all()
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    fin = np.isfinite(h)
+    ref = qpsolvers.solve_qp(H, g, G=G[fin], h=h[fin], A=A if m else None, b=b if m else None,
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
+    if ref is None:  # infeasible draw: the backend must have said so too
+        return
+    assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
+
+
+def test_backend_falls_back_on_dependent_equalities():
     rng = np.random.default_rng(3)
     n = 6
     H, g, A, b, lb, ub = _random_qp(rng, n, 2, 1.0)
     fast, daqp = make_backend("fast"), make_backend("daqp")
     assert isinstance(fast, FastBackend)
-    C = rng.standard_normal((2, n))
-    l, u = -0.1 * np.ones(2), 0.1 * np.ones(2)
-    x = fast.solve(H, g, A, b, C, l, u, lb, ub)
-    assert fast.fallbacks == 1 and fast.kernel_solves == 0
-    assert np.abs(x - daqp.solve(H, g, A, b, C, l, u, lb, ub)).max() < 1e-9
     A2, b2 = np.vstack([A, A[:1]]), np.concatenate([b, b[:1]])  # a repeated row: Schur complement singular
     empty = np.zeros((0, n))
-    fast.solve(H, g, A2, b2, empty, np.zeros(0), np.zeros(0), lb, ub)
-    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 2
+    x = fast.solve(H, g, A2, b2, empty, np.zeros(0), np.zeros(0), lb, ub)
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 1 and fast.kernel_solves == 0
+    assert np.abs(x - daqp.solve(H, g, A, b, empty, np.zeros(0), np.zeros(0), lb, ub)).max() < 1e-9
 
 
-def test_walk_matches_the_daqp_path(robots):
+def _count_fast_backends(monkeypatch) -> list:
+    made = []
+    init = FastBackend.__init__
+
+    def counting(self, *a, **k):
+        init(self, *a, **k)
+        made.append(self)
+
+    monkeypatch.setattr(FastBackend, "__init__", counting)
+    return made
+
+
+def test_walk_matches_the_daqp_path(robots, monkeypatch):
     from wbc.scenarios.walk import plan_default_walk, run_walk
 
+    made = _count_fast_backends(monkeypatch)
     robot = robots("talos")
     plan = plan_default_walk(robot, n_steps=2)
     ref, fast = run_walk(robot, plan, solver="daqp"), run_walk(robot, plan, solver="fast")
     assert ref.solver_ok.all() and fast.solver_ok.all()
     assert np.abs(ref.q - fast.q).max() < 1e-9
     assert np.abs(ref.v - fast.v).max() < 1e-9 / plan.dt  # v = Δq/dt
+    assert sum(b.kernel_solves for b in made) > 0.9 * len(plan.t)  # the compiled path did the work
 
 
-def test_balance_matches_the_daqp_path(robots):
+def test_balance_matches_the_daqp_path(robots, monkeypatch):
     from wbc.scenarios.balance import run_balance
 
+    made = _count_fast_backends(monkeypatch)
     robot = robots("talos")
     ref, fast = run_balance(robot, "shift", solver="daqp"), run_balance(robot, "shift", solver="fast")
     assert ref.solver_ok.all() and fast.solver_ok.all()
     assert np.abs(ref.q - fast.q).max() < 1e-9
+    assert sum(b.kernel_solves for b in made) > 0.9 * len(fast.q)  # CoM-polygon rows solved by the kernel
 
 
 def test_strict_hierarchy_takes_the_general_path(robots):
