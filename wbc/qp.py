@@ -24,9 +24,9 @@ from wbc.exceptions import InvalidInputError, SolverError, UnknownSolverError
 
 __all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
 
-#: Backend used when none is named: measured fastest on the Talos tick while holding bounds exactly
-#: (benchmarks/: ``wbc bench`` solver table).
-DEFAULT_SOLVER = "daqp"
+#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
+#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
+DEFAULT_SOLVER = "fast"
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 
