@@ -24,16 +24,16 @@ from wbc.exceptions import InvalidInputError, SolverError, UnknownSolverError
 
 __all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
 
-#: Backend used when none is named: measured fastest on the Talos tick while holding bounds exactly
-#: (benchmarks/: ``wbc bench`` solver table).
-DEFAULT_SOLVER = "daqp"
+#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
+#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
+DEFAULT_SOLVER = "fast"
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 
 
 def available_solvers() -> list[str]:
-    """Names accepted by :func:`make_backend` (installed qpsolvers backends)."""
-    return sorted(qpsolvers.available_solvers)
+    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
+    return sorted([*qpsolvers.available_solvers, "fast"])
 
 
 class QPBackend(ABC):
@@ -306,6 +306,9 @@ def make_backend(name: str, **settings) -> QPBackend:
     Raises:
         UnknownSolverError: the name is not installed; the message lists the available ones.
     """
+    if name == "fast":  # compiled exact kernel with DAQP fallback (wbc.fastqp)
+        from wbc.fastqp import FastBackend
+        return FastBackend(**settings)
     if name not in available_solvers():
         raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
     if name == "proxqp":

@@ -1,0 +1,160 @@
+"""The compiled QP kernel (wbc.fastqp) against independent solvers (DAQP, quadprog via qpsolvers) and the KKT
+conditions, and the controller's trajectories with ``solver="fast"`` against the general DAQP path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import qpsolvers
+
+from wbc.fastqp import FastBackend, solve_box_eq
+from wbc.qp import make_backend
+
+
+def _random_qp(rng, n, m, box_scale):
+    M = rng.standard_normal((n, n))
+    H = M @ M.T + 0.1 * np.eye(n)
+    g = rng.standard_normal(n) * 3.0
+    A = rng.standard_normal((m, n))
+    x0 = rng.uniform(-0.5, 0.5, n) * box_scale  # a feasible point inside the box
+    b = A @ x0
+    lb = -box_scale * np.ones(n)
+    ub = box_scale * np.ones(n)
+    lb[rng.random(n) < 0.1] = -np.inf
+    return H, g, A, b, lb, ub
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_kernel_is_the_exact_optimum(seed):
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(3, 40)), int(rng.integers(0, 4))
+    H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=float(rng.uniform(0.3, 2.0)))
+    state = np.zeros(n, np.int8)
+    x, nu, z = np.empty(n), np.zeros(m), np.zeros(n)
+    it = solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, 200, 1e-12, 1e-12, 1e-24)
+    assert it > 0, it
+    # KKT: stationarity, primal feasibility, dual sign, complementarity (thresholds set here)
+    assert np.abs(H @ x + g + A.T @ nu + z).max() < 1e-9
+    assert np.abs(A @ x - b).max() < 1e-9 if m else True
+    assert (x >= lb - 1e-12).all() and (x <= ub + 1e-12).all()
+    at_lb, at_ub = state == -1, state == 1
+    assert (z[at_lb] <= 1e-12).all() and (z[at_ub] >= -1e-12).all()
+    assert (z[state == 0] == 0).all()
+    assert np.abs(x[at_lb] - lb[at_lb]).max(initial=0) == 0 and np.abs(x[at_ub] - ub[at_ub]).max(initial=0) == 0
+    # same x as two independent solvers
+    Ae, be = (A, b) if m else (None, None)
+    for solver in ("quadprog", "daqp"):
+        if solver not in qpsolvers.available_solvers:
+            continue
+        lbf, ubf = np.where(np.isfinite(lb), lb, -1e20), ub
+        ref = qpsolvers.solve_qp(H, g, A=Ae, b=be, lb=lbf, ub=ubf, solver=solver)
+        assert ref is not None
+        assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max()), solver
+    # warm start from the optimal set: one iteration
+    it2 = solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, 200, 1e-12, 1e-12, 1e-24)
+    assert it2 == 1
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_kernel_with_inequality_rows_is_the_exact_optimum(seed):
+    rng = np.random.default_rng(1000 + seed)
+    n, m = int(rng.integers(8, 40)), int(rng.integers(0, 4))
+    p = int(rng.integers(1, n // 2))
+    H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=1.0)
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0] if m else np.zeros(n)
+    C = rng.standard_normal((p, n))
+    l, u = C @ x0 - rng.uniform(0.0, 0.5, p), C @ x0 + rng.uniform(0.0, 0.5, p)
+    l[rng.random(p) < 0.3] = -np.inf
+    fast = make_backend("fast")
+    x = fast.solve(H, g, A, b, C, l, u, lb, ub)
+    if fast.kernel_solves == 0:  # degenerate (e.g. x0 outside the box): answered by DAQP, still the optimum
+        assert fast.fallbacks == 1
+    else:
+        st = H @ x + g + A.T @ fast._nu + C.T @ fast._mu + fast._z
+        assert np.abs(st).max() < 1e-9
+        cx = C @ x
+        assert (fast._mu[fast._rstate == -1] <= 1e-12).all() and (fast._mu[fast._rstate == 1] >= -1e-12).all()
+        assert (fast._mu[fast._rstate == 0] == 0).all()
+        assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all()
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    fin = np.isfinite(h)
+    ref = qpsolvers.solve_qp(H, g, G=G[fin], h=h[fin], A=A if m else None, b=b if m else None,
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
+    if ref is None:  # infeasible draw: the backend must have said so too
+        return
+    assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
+
+
+def test_backend_falls_back_on_dependent_equalities():
+    rng = np.random.default_rng(3)
+    n = 6
+    H, g, A, b, lb, ub = _random_qp(rng, n, 2, 1.0)
+    fast, daqp = make_backend("fast"), make_backend("daqp")
+    assert isinstance(fast, FastBackend)
+    A2, b2 = np.vstack([A, A[:1]]), np.concatenate([b, b[:1]])  # a repeated row: Schur complement singular
+    empty = np.zeros((0, n))
+    x = fast.solve(H, g, A2, b2, empty, np.zeros(0), np.zeros(0), lb, ub)
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 1 and fast.kernel_solves == 0
+    assert np.abs(x - daqp.solve(H, g, A, b, empty, np.zeros(0), np.zeros(0), lb, ub)).max() < 1e-9
+
+
+def _count_fast_backends(monkeypatch) -> list:
+    made = []
+    init = FastBackend.__init__
+
+    def counting(self, *a, **k):
+        init(self, *a, **k)
+        made.append(self)
+
+    monkeypatch.setattr(FastBackend, "__init__", counting)
+    return made
+
+
+def test_walk_matches_the_daqp_path(robots, monkeypatch):
+    from wbc.scenarios.walk import plan_default_walk, run_walk
+
+    made = _count_fast_backends(monkeypatch)
+    robot = robots("talos")
+    plan = plan_default_walk(robot, n_steps=2)
+    ref, fast = run_walk(robot, plan, solver="daqp"), run_walk(robot, plan, solver="fast")
+    assert ref.solver_ok.all() and fast.solver_ok.all()
+    assert np.abs(ref.q - fast.q).max() < 1e-9
+    assert np.abs(ref.v - fast.v).max() < 1e-9 / plan.dt  # v = Δq/dt
+    assert sum(b.kernel_solves for b in made) > 0.9 * len(plan.t)  # the compiled path did the work
+
+
+def test_balance_matches_the_daqp_path(robots, monkeypatch):
+    from wbc.scenarios.balance import run_balance
+
+    made = _count_fast_backends(monkeypatch)
+    robot = robots("talos")
+    ref, fast = run_balance(robot, "shift", solver="daqp"), run_balance(robot, "shift", solver="fast")
+    assert ref.solver_ok.all() and fast.solver_ok.all()
+    assert np.abs(ref.q - fast.q).max() < 1e-9
+    assert sum(b.kernel_solves for b in made) > 0.9 * len(fast.q)  # CoM-polygon rows solved by the kernel
+
+
+def test_strict_hierarchy_takes_the_general_path(robots):
+    """Strict levels are semidefinite QPs: with ``fast`` they are solved by DAQP backends, same result as daqp."""
+    import sys
+    from pathlib import Path
+
+    from wbc.configuration import Configuration
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_hierarchy import build
+
+    robot = robots("talos")
+    vs = {}
+    for solver in ("daqp", "fast"):
+        config = Configuration(robot)
+        ctrl, _, _ = build(robot, config, hand_level=0, com_level=1)
+        ctrl.backend = make_backend(solver)
+        out = []
+        for _ in range(10):
+            r = ctrl.solve(config, 0.002)
+            assert r.ok, r.message
+            out.append(r.v)
+            config.step(r.v, 0.002)
+        vs[solver] = np.array(out)
+    assert np.abs(vs["daqp"] - vs["fast"]).max() < 1e-9

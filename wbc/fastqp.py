@@ -1,0 +1,544 @@
+"""Compiled (numba) exact solver for the common QP of the kinematic tick, with DAQP as fallback.
+
+Solves
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+
+(H symmetric positive definite, A full row rank) by an active set on the bounds and the rows of C
+(:func:`solve_qp_ws`; :func:`solve_box_eq_ws` when C has no rows), warm-started from the previous
+call's active set. For a fixed working set W (variables held at a bound) the free part F solves the
+equality-constrained QP through its KKT system, eliminated with a Cholesky factor L Lᵀ = H_FF and the Schur
+complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space
+method"). The working set is then corrected: the free variable furthest outside its bounds is fixed at the
+violated bound; otherwise the fixed variable whose bound multiplier has the wrong sign (most negative) is freed (single-pivot
+principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5), 1994). The loop ends
+only when every KKT condition holds (stationarity by construction, primal feasibility, dual sign, complementarity
+since free variables and inactive rows carry no multiplier), so the returned x is the exact optimum; when it does not
+end within the iteration cap, when H_FF is not positive definite or when S is singular (dependent equalities or
+active rows, more active constraints than free variables), the call is handed to :class:`wbc.qp.DaqpBackend`.
+
+The kernel is compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles it eagerly and
+returns the seconds it took.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numba as nb
+import numpy as np
+
+from wbc.qp import DaqpBackend
+
+__all__ = ["FastBackend", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up"]
+
+#: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
+NOT_POSITIVE_DEFINITE = -1
+DEPENDENT_EQUALITIES = -2
+ITERATION_CAP = -3
+
+#: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only — no
+#: "no-inf/no-nan" assumptions, since ±inf bounds are legitimate input.
+_FM = {"reassoc", "contract"}
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _chol(M, k):
+    """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
+    for j in range(k):
+        s = M[j, j]
+        for p in range(j):
+            s -= M[j, p] * M[j, p]
+        if not s > 0.0:
+            return False
+        d = np.sqrt(s)
+        M[j, j] = d
+        for i in range(j + 1, k):
+            t = M[i, j]
+            for p in range(j):
+                t -= M[i, p] * M[j, p]
+            M[i, j] = t / d
+    return True
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _fwd(L, k, v):
+    """v ← L⁻¹ v (leading k block)."""
+    for i in range(k):
+        t = v[i]
+        for p in range(i):
+            t -= L[i, p] * v[p]
+        v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _bwd(L, k, v):
+    """v ← L⁻ᵀ v (leading k block)."""
+    for i in range(k - 1, -1, -1):
+        t = v[i]
+        for p in range(i + 1, k):
+            t -= L[p, i] * v[p]
+        v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
+    """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
+    n, m = H.shape[0], A.shape[0]
+    return solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                           np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)),
+                           np.empty(n), np.empty(m), np.empty(1))
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                    free, L, Y, S, t, rhs, eq_residual):
+    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
+
+    Args:
+        H (n, n), g (n,), A (m, n), b (m,), lb/ub (n,) (±inf for free entries).
+        state (n,) int8, in/out: working set (0 free, -1 held at lb, +1 held at ub); read as the warm start.
+        x (n,), nu (m,), z (n,): out — solution, equality multipliers, bound multipliers
+            (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, z ≥ 0 at an upper bound, 0 when free).
+        max_iter: working-set iterations allowed.
+        primal_tol: bound violation (absolute) that makes a free variable be fixed.
+        dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
+        rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
+        free (n,) int64, L (n, n), Y (n, m), S (m, m), t (n,), rhs (m,): workspace.
+        eq_residual (1,): out — max |A x − b| of the returned x.
+
+    On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
+
+    Returns:
+        iterations (≥ 1) on success, or a negative exit code.
+    """
+    n = H.shape[0]
+    m = A.shape[0]
+    # a warm-start state is only valid where its bound is finite
+    for i in range(n):
+        if state[i] == -1 and not np.isfinite(lb[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(ub[i]):
+            state[i] = 0
+    for it in range(1, max_iter + 1):
+        nf = 0
+        for i in range(n):
+            if state[i] == 0:
+                free[nf] = i
+                nf += 1
+            elif state[i] < 0:
+                x[i] = lb[i]
+            else:
+                x[i] = ub[i]
+        if nf < m:
+            return DEPENDENT_EQUALITIES
+        # r = g_F + H_FW x_W ; H_FF
+        for a in range(nf):
+            i = free[a]
+            r = g[i]
+            for j in range(n):
+                if state[j] != 0:
+                    r += H[i, j] * x[j]
+            t[a] = r
+            for c in range(a + 1):
+                L[a, c] = H[i, free[c]]
+        if not _chol(L, nf):
+            return NOT_POSITIVE_DEFINITE
+        _fwd(L, nf, t)
+        # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
+        for k in range(m):
+            bw = b[k]
+            for j in range(n):
+                if state[j] != 0:
+                    bw -= A[k, j] * x[j]
+            col = Y[:, k]
+            for a in range(nf):
+                col[a] = A[k, free[a]]
+            _fwd(L, nf, col)
+            s = 0.0
+            for a in range(nf):
+                s += col[a] * t[a]
+            rhs[k] = -bw - s
+        smax = 0.0
+        for k in range(m):
+            for c in range(k + 1):
+                s = 0.0
+                for a in range(nf):
+                    s += Y[a, k] * Y[a, c]
+                S[k, c] = s
+            if S[k, k] > smax:
+                smax = S[k, k]
+        if m:
+            if not _chol(S, m):
+                return DEPENDENT_EQUALITIES
+            for k in range(m):
+                if S[k, k] * S[k, k] <= rank_tol * smax:
+                    return DEPENDENT_EQUALITIES
+            for k in range(m):
+                nu[k] = rhs[k]
+            _fwd(S, m, nu)
+            _bwd(S, m, nu)
+        # x_F = -L⁻ᵀ (t + Y nu)
+        for a in range(nf):
+            s = t[a]
+            for k in range(m):
+                s += Y[a, k] * nu[k]
+            t[a] = -s
+        _bwd(L, nf, t)
+        worst = primal_tol
+        worst_i = -1
+        worst_side = 0
+        for a in range(nf):
+            i = free[a]
+            v = t[a]
+            x[i] = v
+            if lb[i] - v > worst:
+                worst = lb[i] - v
+                worst_i = i
+                worst_side = -1
+            elif v - ub[i] > worst:
+                worst = v - ub[i]
+                worst_i = i
+                worst_side = 1
+        if worst_i >= 0:
+            state[worst_i] = worst_side
+            continue
+        # bound multipliers z = -(H x + g + Aᵀ nu) on the fixed set; the worst wrong sign is freed
+        worst = dual_tol
+        worst_i = -1
+        for i in range(n):
+            if state[i] == 0:
+                z[i] = 0.0
+                continue
+            s = g[i]
+            for j in range(n):
+                s += H[i, j] * x[j]
+            for k in range(m):
+                s += A[k, i] * nu[k]
+            z[i] = -s
+            wrong = z[i] if state[i] < 0 else -z[i]
+            if wrong > worst:
+                worst = wrong
+                worst_i = i
+        if worst_i < 0:
+            for i in range(n):
+                if x[i] < lb[i]:
+                    x[i] = lb[i]
+                elif x[i] > ub[i]:
+                    x[i] = ub[i]
+            r = 0.0
+            for k in range(m):
+                s = -b[k]
+                for j in range(n):
+                    s += A[k, j] * x[j]
+                if abs(s) > r:
+                    r = abs(s)
+            eq_residual[0] = r
+            return it
+        state[worst_i] = 0
+    return ITERATION_CAP
+
+
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
+                rank_tol, Aw, bw, free, L, Y, S, t, rhs, nuw, eq_residual):
+    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub: the working set of
+    :func:`solve_box_eq_ws` extended to the rows of C (an active row is held as an equality at the bound it
+    touches, with the same fix-worst-violation / free-worst-wrong-sign rule).
+
+    Args (beyond :func:`solve_box_eq_ws`):
+        C (p, n), l/u (p,): inequality rows (±inf for one-sided rows).
+        rstate (p,) int8, in/out: row working set (0 inactive, -1 held at l, +1 held at u).
+        mu (p,): out — row multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0; mu ≤ 0 at l, ≥ 0 at u, 0 inactive).
+        Aw (m + p, n), bw (m + p,), nuw (m + p,): workspace; Y (n, m + p), S (m + p, m + p), rhs (m + p,).
+
+    Returns:
+        iterations (≥ 1) on success, or a negative exit code.
+    """
+    n = H.shape[0]
+    m = A.shape[0]
+    p = C.shape[0]
+    for i in range(n):
+        if state[i] == -1 and not np.isfinite(lb[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(ub[i]):
+            state[i] = 0
+    for r in range(p):
+        if rstate[r] == -1 and not np.isfinite(l[r]):
+            rstate[r] = 0
+        elif rstate[r] == 1 and not np.isfinite(u[r]):
+            rstate[r] = 0
+    for it in range(1, max_iter + 1):
+        # working equality rows: A, then the active rows of C
+        mw = m
+        for k in range(m):
+            Aw[k, :] = A[k, :]
+            bw[k] = b[k]
+        for r in range(p):
+            if rstate[r] != 0:
+                Aw[mw, :] = C[r, :]
+                bw[mw] = l[r] if rstate[r] < 0 else u[r]
+                mw += 1
+        nf = 0
+        for i in range(n):
+            if state[i] == 0:
+                free[nf] = i
+                nf += 1
+            elif state[i] < 0:
+                x[i] = lb[i]
+            else:
+                x[i] = ub[i]
+        if nf < mw:
+            return DEPENDENT_EQUALITIES
+        for a in range(nf):
+            i = free[a]
+            s = g[i]
+            for j in range(n):
+                if state[j] != 0:
+                    s += H[i, j] * x[j]
+            t[a] = s
+            for c in range(a + 1):
+                L[a, c] = H[i, free[c]]
+        if not _chol(L, nf):
+            return NOT_POSITIVE_DEFINITE
+        _fwd(L, nf, t)
+        for k in range(mw):
+            bk = bw[k]
+            for j in range(n):
+                if state[j] != 0:
+                    bk -= Aw[k, j] * x[j]
+            col = Y[:, k]
+            for a in range(nf):
+                col[a] = Aw[k, free[a]]
+            _fwd(L, nf, col)
+            s = 0.0
+            for a in range(nf):
+                s += col[a] * t[a]
+            rhs[k] = -bk - s
+        smax = 0.0
+        for k in range(mw):
+            for c in range(k + 1):
+                s = 0.0
+                for a in range(nf):
+                    s += Y[a, k] * Y[a, c]
+                S[k, c] = s
+            if S[k, k] > smax:
+                smax = S[k, k]
+        if mw:
+            if not _chol(S, mw):
+                return DEPENDENT_EQUALITIES
+            for k in range(mw):
+                if S[k, k] * S[k, k] <= rank_tol * smax:
+                    return DEPENDENT_EQUALITIES
+            for k in range(mw):
+                nuw[k] = rhs[k]
+            _fwd(S, mw, nuw)
+            _bwd(S, mw, nuw)
+        for a in range(nf):
+            s = t[a]
+            for k in range(mw):
+                s += Y[a, k] * nuw[k]
+            t[a] = -s
+        _bwd(L, nf, t)
+        # primal: the worst violated bound or inactive row is added to the working set
+        worst = primal_tol
+        worst_i = -1
+        worst_side = 0
+        worst_row = False
+        for a in range(nf):
+            i = free[a]
+            v = t[a]
+            x[i] = v
+            if lb[i] - v > worst:
+                worst, worst_i, worst_side, worst_row = lb[i] - v, i, -1, False
+            elif v - ub[i] > worst:
+                worst, worst_i, worst_side, worst_row = v - ub[i], i, 1, False
+        for r in range(p):
+            if rstate[r] != 0:
+                continue
+            s = 0.0
+            for j in range(n):
+                s += C[r, j] * x[j]
+            if l[r] - s > worst:
+                worst, worst_i, worst_side, worst_row = l[r] - s, r, -1, True
+            elif s - u[r] > worst:
+                worst, worst_i, worst_side, worst_row = s - u[r], r, 1, True
+        if worst_i >= 0:
+            if worst_row:
+                rstate[worst_i] = worst_side
+            else:
+                state[worst_i] = worst_side
+            continue
+        # dual: row multipliers, then bound multipliers; the worst wrong sign leaves the working set
+        for k in range(m):
+            nu[k] = nuw[k]
+        k = m
+        worst = dual_tol
+        worst_i = -1
+        worst_row = False
+        for r in range(p):
+            if rstate[r] == 0:
+                mu[r] = 0.0
+                continue
+            mu[r] = nuw[k]
+            k += 1
+            wrong = mu[r] if rstate[r] < 0 else -mu[r]
+            if wrong > worst:
+                worst, worst_i, worst_row = wrong, r, True
+        for i in range(n):
+            if state[i] == 0:
+                z[i] = 0.0
+                continue
+            s = g[i]
+            for j in range(n):
+                s += H[i, j] * x[j]
+            for k2 in range(mw):
+                s += Aw[k2, i] * nuw[k2]
+            z[i] = -s
+            wrong = z[i] if state[i] < 0 else -z[i]
+            if wrong > worst:
+                worst, worst_i, worst_row = wrong, i, False
+        if worst_i >= 0:
+            if worst_row:
+                rstate[worst_i] = 0
+            else:
+                state[worst_i] = 0
+            continue
+        for i in range(n):
+            if x[i] < lb[i]:
+                x[i] = lb[i]
+            elif x[i] > ub[i]:
+                x[i] = ub[i]
+        res = 0.0
+        for k in range(m):
+            s = -b[k]
+            for j in range(n):
+                s += A[k, j] * x[j]
+            if abs(s) > res:
+                res = abs(s)
+        for r in range(p):
+            s = 0.0
+            for j in range(n):
+                s += C[r, j] * x[j]
+            if l[r] - s > res:
+                res = l[r] - s
+            elif s - u[r] > res:
+                res = s - u[r]
+        eq_residual[0] = res
+        return it
+    return ITERATION_CAP
+
+
+class FastBackend(DaqpBackend):
+    """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
+    every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.qp.DaqpBackend` it
+    extends (so a controller's hierarchy levels and safe-command fallback, built as fresh DAQP backends of the same
+    settings, take the general path).
+
+    Args:
+        tolerance: largest constraint violation accepted (constraint units), as for every backend.
+        max_iter: working-set iterations before handing the problem to DAQP.
+        **settings: DAQP settings for the fallback (:class:`~wbc.qp.DaqpBackend`).
+
+    Attributes:
+        last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
+        kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
+    """
+
+    name = "fast"
+
+    def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, **settings):
+        super().__init__(tolerance=tolerance, **settings)
+        self.max_iter = int(max_iter)
+        self._n = -1
+        self._m = -1
+        self._p = -1
+        self._pm = -1
+        self.last_kernel_iterations = 0
+        self.kernel_solves = 0
+        self.fallbacks = 0
+
+    def _prepare_kernel(self, n: int, m: int) -> None:
+        if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
+            self._state = np.zeros(n, np.int8)
+            self._x = np.empty(n)
+            self._z = np.zeros(n)
+        self._n, self._m = n, m
+        self._nu = np.zeros(m)
+        self._ws = (np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)), np.empty(n),
+                    np.empty(m), np.empty(1))
+        self._p = -1  # row workspace shares these buffers: rebuilt with them
+
+    def _kernel(self, H, g, A, b, lb, ub) -> bool:
+        n, m = H.shape[0], A.shape[0]
+        if n != self._n or m != self._m:
+            self._prepare_kernel(n, m)
+        it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
+                             self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
+        self.last_kernel_iterations = it
+        if it > 0 and self._ws[6][0] <= self.tolerance:
+            self.kernel_solves += 1
+            return True
+        self._state[:] = 0
+        return False
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        """As :meth:`wbc.qp.QPBackend.solve`. A kernel solution is returned as is: it satisfies every KKT
+        condition, lies inside the bounds by construction and its equality residual was checked in the kernel
+        against ``tolerance``; anything else goes through DAQP and the general check.
+
+        Raises:
+            SolverError: the DAQP fallback failed (see :meth:`wbc.qp.QPBackend.solve`).
+        """
+        p = C.shape[0]
+        if (self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub)):
+            return self._x.copy()
+        self.fallbacks += 1
+        x = super().solve(H, g, A, b, C, l, u, lb, ub)
+        if H.shape[0] == self._n:
+            # warm start the kernel's next call from the bounds (and rows) DAQP found active
+            self._state[:] = 0
+            self._state[x <= lb + 1e-12] = -1
+            self._state[x >= ub - 1e-12] = 1
+            if p and self._p == p:
+                cx = C @ x
+                self._rstate[:] = 0
+                self._rstate[cx <= l + 1e-12] = -1
+                self._rstate[cx >= u - 1e-12] = 1
+        return x
+
+    def _kernel_rows(self, H, g, A, b, C, l, u, lb, ub) -> bool:
+        n, m, p = H.shape[0], A.shape[0], C.shape[0]
+        if n != self._n or m != self._m:
+            self._prepare_kernel(n, m)
+        if p != self._p or m != self._pm:
+            self._p, self._pm = p, m
+            self._rstate = np.zeros(p, np.int8)
+            self._mu = np.zeros(p)
+            self._ws_rows = (np.empty((m + p, n)), np.empty(m + p), self._ws[0], self._ws[1],
+                             np.empty((n, m + p)), np.empty((m + p, m + p)), self._ws[4], np.empty(m + p),
+                             np.empty(m + p), self._ws[6])
+        it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
+                         self._z, self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws_rows)
+        self.last_kernel_iterations = it
+        if it > 0 and self._ws[6][0] <= self.tolerance:
+            self.kernel_solves += 1
+            return True
+        self._state[:] = 0
+        self._rstate[:] = 0
+        return False
+
+
+def warm_up() -> float:
+    """Compile (or load from the on-disk cache) the kernel; returns the seconds taken."""
+    t0 = time.perf_counter()
+    H = np.eye(2)
+    s = np.zeros(2, np.int8)
+    solve_box_eq(H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2), s, np.empty(2),
+                 np.empty(1), np.empty(2), 10, 1e-12, 1e-12, 1e-24)
+    b = FastBackend()
+    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
+            np.ones(2))
+    return time.perf_counter() - t0
