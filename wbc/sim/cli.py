@@ -67,6 +67,9 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
+    from wbc.ros2.cli import add_run_options
+
+    add_run_options(p)
     p.set_defaults(func=cmd_sim)
 
 
@@ -161,12 +164,16 @@ def cmd_sim(args) -> int:
     from wbc.cli import _progress
 
     viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
+    from wbc.ros2.cli import attach, finish
+
+    target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
     try:
-        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=viewer, pacer=pacer)
+        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer)
     finally:
         if viewer is not None:
             viewer.close()
+        finish(ros2_pub)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import wave_acceptance
 
