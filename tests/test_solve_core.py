@@ -159,6 +159,7 @@ def test_stance_soles_hold_on_ok_ticks_g1(robots):
     rng = np.random.default_rng(3)
     config = Configuration(robot)
     ctrl, com = standing_controller(robot, config)
+    ctrl.sole_drift_tolerance = 5e-5
     contacts = ctrl.constraints[:2]
     hand = FrameTask(robot, "left_wrist_roll_joint", gain=1000.0, position_weight=100.0, name="hand")
     ctrl.add_task(hand)

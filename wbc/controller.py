@@ -124,7 +124,9 @@ class KinematicController:
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
-        sole_drift_tolerance: largest contact-frame drift per tick (m) on an ok tick (``TickResult.sole_drift``).
+        sole_drift_tolerance: None (default: drift measured in ``TickResult.sole_drift``, not enforced — the
+            trust region changes the optimum of strict hierarchies) or the largest contact-frame drift per tick
+            (m, e.g. 5e-5) on an ok tick.
             A tick whose solution drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from
             max|v| up to 8 times: the drift is second order in v dt); if none drifts less, the tick is not ok.
 
@@ -135,7 +137,7 @@ class KinematicController:
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
-                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float = 5e-5):
+                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = None):
         if not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
@@ -143,9 +145,10 @@ class KinematicController:
         self.damping = float(damping)
         self.rank_rtol = float(rank_rtol)
         self.dependent_row_tolerance = float(dependent_row_tolerance)
-        if not (math.isfinite(sole_drift_tolerance) and sole_drift_tolerance > 0):
-            raise InvalidInputError(f"sole_drift_tolerance must be finite and > 0 (m), got {sole_drift_tolerance!r}")
-        self.sole_drift_tolerance = float(sole_drift_tolerance)
+        if sole_drift_tolerance is not None and not (math.isfinite(sole_drift_tolerance) and sole_drift_tolerance > 0):
+            raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
+                                    f"{sole_drift_tolerance!r}")
+        self.sole_drift_tolerance = sole_drift_tolerance
         self._drift_data = robot.model.createData()
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
@@ -435,7 +438,7 @@ class KinematicController:
     def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
         drift = self.sole_drift(config, v, dt)
-        if drift <= self.sole_drift_tolerance:
+        if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
         lb0, ub0 = self._lb.copy(), self._ub.copy()
         best_v, best = v, drift

@@ -109,7 +109,7 @@ class QPBackend(ABC):
                 continue
             try:
                 if name == "proxqp":
-                    backend = ProxQPBackend(tolerance=self.tolerance)
+                    backend = ProxQPBackend(tolerance=self.tolerance, max_iter=200)
                 elif name == "quadprog":
                     if np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
                         continue  # quadprog needs H positive definite
@@ -295,9 +295,10 @@ class ProxQPBackend(QPBackend):
 
     name = "proxqp"
 
-    def __init__(self, eps_abs: float = 1e-9, tolerance: float = 1e-6):
+    def __init__(self, eps_abs: float = 1e-9, tolerance: float = 1e-6, max_iter: int | None = None):
         import proxsuite
 
+        self.max_iter = max_iter
         self._proxsuite = proxsuite
         self.eps_abs = eps_abs
         self.tolerance = tolerance
@@ -317,6 +318,9 @@ class ProxQPBackend(QPBackend):
             qp.settings.eps_abs = self.eps_abs
             qp.settings.eps_rel = 0.0
             qp.settings.verbose = False
+            if self.max_iter is not None:  # bounded work (the independent re-solve on a 500 Hz tick)
+                qp.settings.max_iter = self.max_iter
+                qp.settings.max_iter_in = min(self.max_iter, 100)
             qp.init(H, g, A, b, Cn, lf, uf, lbf, ubf)
             qp.solve()
             # Warm start only once a previous result exists: proxsuite 0.8 segfaults otherwise.
