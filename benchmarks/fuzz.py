@@ -53,6 +53,7 @@ def build_episode(robot, name, rng, kind, strict):
     config.q[:7] = robot.q_ref[:7]
     config.update(config.q)
     ctrl, com = standing_controller(robot, config)
+    ctrl.sole_drift_tolerance = 5e-5  # contact trust region on (m per tick)
     ctrl.tasks[0].gain = float(10 ** rng.uniform(0, 6))  # CoM gain up to 1e6
     frame = HANDS[name] or robot.torso
     hand = FrameTask(robot, frame, gain=float(10 ** rng.uniform(-1, 4)),
