@@ -55,13 +55,16 @@ input error), ``solve`` does not raise and never returns NaN:
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
+import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
+from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
@@ -84,11 +87,17 @@ class TickResult:
         timings: seconds spent in 'assembly' (tasks + constraints) and 'solve' (including the fallback).
         conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
             conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
-        fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
+        fallback: '' when ok, else the safe command returned: 'trust_region' (the least-drifting solution when no
+            trust region kept the contacts within sole_drift_tolerance), 'constraints_only' (soft level under the constraint
             objects, hard tasks and strict levels left out) or 'hold' (v = 0).
         relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
             left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
             then solved).
+        consecutive_failures: failed ticks in a row ending with this one (0 when ok). A failure never latches:
+            every tick is solved afresh, so the first feasible tick after failures is ok again.
+        sole_drift: largest second-order drift (m) of a contact frame over this tick: ‖t(e⁺) − (1 − K dt) t(e)‖
+            with e⁺ the contact error at pin.integrate(q, v dt) and t(·) its translation part (what the
+            linearised contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``.
     """
 
     v: np.ndarray
@@ -98,6 +107,8 @@ class TickResult:
     conflicts: list[tuple[str, float]] = field(default_factory=list)
     fallback: str = ""
     relaxed: list[str] = field(default_factory=list)
+    consecutive_failures: int = 0
+    sole_drift: float = 0.0
 
 
 class KinematicController:
@@ -113,6 +124,11 @@ class KinematicController:
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
+        sole_drift_tolerance: None (default: drift measured in ``TickResult.sole_drift``, not enforced — the
+            trust region changes the optimum of strict hierarchies) or the largest contact-frame drift per tick
+            (m, e.g. 5e-5) on an ok tick.
+            A tick whose solution drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from
+            max|v| up to 8 times: the drift is second order in v dt); if none drifts less, the tick is not ok.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -121,7 +137,7 @@ class KinematicController:
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
-                 dependent_row_tolerance: float = 1e-3):
+                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = None):
         if not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
@@ -129,6 +145,11 @@ class KinematicController:
         self.damping = float(damping)
         self.rank_rtol = float(rank_rtol)
         self.dependent_row_tolerance = float(dependent_row_tolerance)
+        if sole_drift_tolerance is not None and not (math.isfinite(sole_drift_tolerance) and sole_drift_tolerance > 0):
+            raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
+                                    f"{sole_drift_tolerance!r}")
+        self.sole_drift_tolerance = sole_drift_tolerance
+        self._drift_data = robot.model.createData()
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
         self.levels: dict[int, list[Task]] = {}
@@ -144,6 +165,14 @@ class KinematicController:
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
+        #: failed ticks in a row up to the last tick (0 after an ok tick).
+        self.consecutive_failures = 0
+        #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
+        #: found at build and reported once with a warning.
+        self.locked_joints = self._find_locked_joints(robot)
+        if self.locked_joints:
+            warnings.warn(f"{len(self.locked_joints)} joint(s) have a zero-width position or velocity range and "
+                          f"are treated as locked: {', '.join(self.locked_joints)}", stacklevel=2)
         for t in tasks:
             self.add_task(t)
         for c in constraints:
@@ -152,6 +181,21 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
+
+    @staticmethod
+    def _find_locked_joints(robot: Robot) -> list[str]:
+        model = robot.model
+        locked = []
+        for j in range(1, model.njoints):
+            joint = model.joints[j]
+            if joint.nv == 0 or joint.shortname() == "JointModelFreeFlyer":
+                continue
+            iq, iv = joint.idx_q, joint.idx_v
+            lo, hi = model.lowerPositionLimit[iq:iq + joint.nq], model.upperPositionLimit[iq:iq + joint.nq]
+            vmax = model.velocityLimit[iv:iv + joint.nv]
+            if np.any(np.isfinite(lo) & (hi - lo <= 0)) or np.any(vmax <= 0):
+                locked.append(model.names[j])
+        return locked
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -249,6 +293,7 @@ class KinematicController:
             contiguous = idx.size and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size))
             self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
         self._relaxable = [c for c in self.constraints if c.relaxable]
+        self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, self._in_blocks = [], []
         row = 0
@@ -361,7 +406,7 @@ class KinematicController:
                 self._relax(config, dt)
                 v = self._solve_assembled(config)
                 relaxed = [c.name for c in self._relaxable]
-            result = TickResult(v, relaxed=relaxed)
+            result = self._hold_contacts(config, dt, v, relaxed)
         except InvalidInputError:
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
@@ -372,8 +417,56 @@ class KinematicController:
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         for c in self._feedback:
             c.set_previous(result.v)
+        self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
+        result.consecutive_failures = self.consecutive_failures
         self.last_result = result
         return result
+
+    def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
+        """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
+        if not self._contacts:
+            return 0.0
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        worst = 0.0
+        for c in self._contacts:
+            e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            expected = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            worst = max(worst, float(np.linalg.norm(e_plus[:3] - expected[:3])))
+        return worst
+
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
+        drift = self.sole_drift(config, v, dt)
+        if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
+            return TickResult(v, relaxed=relaxed, sole_drift=drift)
+        lb0, ub0 = self._lb.copy(), self._ub.copy()
+        best_v, best = v, drift
+        rho = float(np.max(np.abs(v)))
+        try:
+            for _ in range(8):
+                rho *= 0.5
+                np.clip(lb0, -rho, rho, out=self._lb)
+                np.clip(ub0, -rho, rho, out=self._ub)
+                np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
+                np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
+                try:
+                    v_tr = self._solve_assembled(config)
+                except SolverError:
+                    break  # the contact rows cannot be met inside this region: keep the best so far
+                d = self.sole_drift(config, v_tr, dt)
+                if d < best:
+                    best_v, best = v_tr, d
+                if best <= self.sole_drift_tolerance:
+                    break
+        finally:
+            np.copyto(self._lb, lb0)
+            np.copyto(self._ub, ub0)
+        if best <= self.sole_drift_tolerance:
+            return TickResult(best_v, relaxed=relaxed, sole_drift=best)
+        return TickResult(best_v, ok=False, relaxed=relaxed, sole_drift=best, fallback="trust_region",
+                          message=f"contact frame drifts {best:.3g} m over the tick (> sole_drift_tolerance "
+                                  f"{self.sole_drift_tolerance:.3g} m) even inside a trust region")
 
     def _solve_assembled(self, config: Configuration) -> np.ndarray:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist)."""

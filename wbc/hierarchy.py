@@ -63,12 +63,17 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         (v (nv,), residuals): the soft level's solution and ‖J_k v − v*_k‖ per level.
 
     Raises:
-        SolverError: a level's QP failed (infeasible hard set, numerical failure) or a dropped row is violated.
+        SolverError: the first level's QP failed (the hard set has no solution: every level is a least-squares
+            problem, so a strict level that cannot be met is met as well as possible and never makes the tick
+            fail), or a dropped hard row is violated. A lower level whose QP fails numerically is solved again
+            with the upper levels fixed to the backend's tolerance instead of ``band``, else left at the previous
+            level's solution (``solve_lexicographic.last_skipped`` lists such levels).
     """
     keep = independent_rows(A, rank_rtol)
     A_kept, b_kept = A[keep], b[keep]
     fixed_J: list[np.ndarray] = []
     v = None
+    skipped: list[int] = []
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
         if fixed_J:
             F = np.vstack(fixed_J)
@@ -83,12 +88,29 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         try:
             v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
-            raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
-                              f"soft level below {len(levels)} priority levels: {exc}") from None
+            if v is None:  # the first level failed: the hard set itself has no solution
+                raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
+                                  f"soft level below {len(levels)} priority levels: {exc}") from None
+            # below the first level the problem is feasible by construction (the previous v meets every row);
+            # a failure is numerical (the ±band is degenerate): once more with a band at the solver's tolerance,
+            # else keep the previous level's v (optimal for every level above, feasible for the hard set)
+            v_prev = v
+            if fixed_J:
+                wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
+                lk, uk = np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide])
+                try:
+                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                except SolverError:
+                    v = v_prev
+            skipped.append(k)
         if J is not None:
             fixed_J.append(J)
     if keep.size < A.shape[0]:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical solve")
+    solve_lexicographic.last_skipped = skipped
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
+
+
+solve_lexicographic.last_skipped = []

@@ -28,18 +28,20 @@ class ContactConstraint(EqualityConstraint):
     Args:
         robot: the robot.
         frame: frame name (e.g. ``robot.left_sole``).
-        gain: drift-correction gain K (1/s), 0 ≤ K ≤ 1/dt.
+        gain: drift-correction gain K (1/s), 0 < K (capped at 1/dt).
         name: label in reports (default ``contact:<frame>``).
 
     Raises:
         UnknownFrameError: no such frame.
+        InvalidInputError: gain not finite and > 0.
     """
 
     dim = 6
 
     def __init__(self, robot, frame: str, *, gain: float = 100.0, name: str | None = None):
-        if not (np.isfinite(gain) and gain >= 0):
-            raise InvalidInputError(f"contact gain must be finite and ≥ 0 (1/s), got {gain!r}")
+        if not (np.isfinite(gain) and gain > 0):
+            raise InvalidInputError(f"contact gain must be finite and > 0 (1/s; 0 lets drift accumulate, e.g. "
+                                    f"100), got {gain!r}")
         self.frame = frame
         self.frame_id = robot.frame_id(frame)
         self.gain = float(gain)

@@ -19,12 +19,13 @@ __all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints"]
 
 
 def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
-    """(idx_q, idx_v) of the one-DoF joints with finite position limits (revolute/prismatic), in model order."""
+    """(idx_q, idx_v) of the one-DoF joints with finite position limits (revolute/prismatic), in model order
+    (a zero-width range counts: the joint is locked)."""
     idx_q, idx_v = [], []
     for joint in model.joints[2:]:  # universe and the free-flyer root are unbounded
         if joint.nq == 1 and joint.nv == 1:
             lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
-            if np.isfinite(lo) and np.isfinite(hi) and lo < hi:
+            if np.isfinite(lo) and np.isfinite(hi) and lo <= hi:  # lo = hi: a locked joint, pinned
                 idx_q.append(joint.idx_q)
                 idx_v.append(joint.idx_v)
     return np.asarray(idx_q, dtype=int), np.asarray(idx_v, dtype=int)
@@ -53,6 +54,12 @@ class JointPositionLimit(BoxConstraint):
         self.dim = int(self.indices.size)
         self.q_min = model.lowerPositionLimit[self.idx_q] + margin
         self.q_max = model.upperPositionLimit[self.idx_q] - margin
+        # a zero-width range (lower = upper: a locked joint) would cross under the margin (lb > ub by 2·margin/dt,
+        # measured 5e-7 per joint): pin such joints at the middle of their range instead
+        crossed = self.q_min > self.q_max
+        mid = 0.5 * (model.lowerPositionLimit[self.idx_q] + model.upperPositionLimit[self.idx_q])
+        self.q_min = np.where(crossed, mid, self.q_min)
+        self.q_max = np.where(crossed, mid, self.q_max)
         vmax = model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
         self._neg_v_max = -self.v_max
@@ -88,7 +95,8 @@ class JointVelocityLimit(BoxConstraint):
         self.indices = np.arange(6, model.nv)
         self.dim = int(self.indices.size)
         vmax = scale * model.velocityLimit[self.indices]
-        self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+        # velocity limit 0 = a locked joint (zero-width range, KinematicController.locked_joints); inf = none
+        self.v_max = np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf)
         self._neg_v_max = -self.v_max
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
