@@ -431,6 +431,9 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     return ITERATION_CAP
 
 
+_WARM = False  # set once warm_up() has run in this process
+
+
 class FastBackend(DaqpBackend):
     """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
     every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.qp.DaqpBackend` it
@@ -459,6 +462,10 @@ class FastBackend(DaqpBackend):
         self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
+        global _WARM
+        if not _WARM:  # compile / load the kernel here, once per process, not inside a controller's first tick
+            _WARM = True
+            warm_up()
 
     def _prepare_kernel(self, n: int, m: int) -> None:
         if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
