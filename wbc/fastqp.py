@@ -91,6 +91,84 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs):
+    """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
+    set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to the first m rows of ``A x = b``, through
+    the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal &
+    Wright 2006, §16.2). On return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the multipliers.
+
+    Returns:
+        nf, the number of free variables (≥ 0), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES.
+    """
+    n = H.shape[0]
+    nf = 0
+    for i in range(n):
+        if state[i] == 0:
+            free[nf] = i
+            nf += 1
+        elif state[i] < 0:
+            x[i] = lb[i]
+        else:
+            x[i] = ub[i]
+    if nf < m:
+        return DEPENDENT_EQUALITIES
+    # r = g_F + H_FW x_W ; H_FF
+    for a in range(nf):
+        i = free[a]
+        r = g[i]
+        for j in range(n):
+            if state[j] != 0:
+                r += H[i, j] * x[j]
+        t[a] = r
+        for c in range(a + 1):
+            L[a, c] = H[i, free[c]]
+    if not _chol(L, nf):
+        return NOT_POSITIVE_DEFINITE
+    _fwd(L, nf, t)
+    # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
+    for k in range(m):
+        bw = b[k]
+        for j in range(n):
+            if state[j] != 0:
+                bw -= A[k, j] * x[j]
+        col = Y[:, k]
+        for a in range(nf):
+            col[a] = A[k, free[a]]
+        _fwd(L, nf, col)
+        s = 0.0
+        for a in range(nf):
+            s += col[a] * t[a]
+        rhs[k] = -bw - s
+    smax = 0.0
+    for k in range(m):
+        for c in range(k + 1):
+            s = 0.0
+            for a in range(nf):
+                s += Y[a, k] * Y[a, c]
+            S[k, c] = s
+        if S[k, k] > smax:
+            smax = S[k, k]
+    if m:
+        if not _chol(S, m):
+            return DEPENDENT_EQUALITIES
+        for k in range(m):
+            if S[k, k] * S[k, k] <= rank_tol * smax:
+                return DEPENDENT_EQUALITIES
+        for k in range(m):
+            nu[k] = rhs[k]
+        _fwd(S, m, nu)
+        _bwd(S, m, nu)
+    # x_F = -L⁻ᵀ (t + Y nu)
+    for a in range(nf):
+        s = t[a]
+        for k in range(m):
+            s += Y[a, k] * nu[k]
+        t[a] = -s
+    _bwd(L, nf, t)
+    return nf
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
                     free, L, Y, S, t, rhs, eq_residual):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
@@ -121,70 +199,9 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
         elif state[i] == 1 and not np.isfinite(ub[i]):
             state[i] = 0
     for it in range(1, max_iter + 1):
-        nf = 0
-        for i in range(n):
-            if state[i] == 0:
-                free[nf] = i
-                nf += 1
-            elif state[i] < 0:
-                x[i] = lb[i]
-            else:
-                x[i] = ub[i]
-        if nf < m:
-            return DEPENDENT_EQUALITIES
-        # r = g_F + H_FW x_W ; H_FF
-        for a in range(nf):
-            i = free[a]
-            r = g[i]
-            for j in range(n):
-                if state[j] != 0:
-                    r += H[i, j] * x[j]
-            t[a] = r
-            for c in range(a + 1):
-                L[a, c] = H[i, free[c]]
-        if not _chol(L, nf):
-            return NOT_POSITIVE_DEFINITE
-        _fwd(L, nf, t)
-        # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
-        for k in range(m):
-            bw = b[k]
-            for j in range(n):
-                if state[j] != 0:
-                    bw -= A[k, j] * x[j]
-            col = Y[:, k]
-            for a in range(nf):
-                col[a] = A[k, free[a]]
-            _fwd(L, nf, col)
-            s = 0.0
-            for a in range(nf):
-                s += col[a] * t[a]
-            rhs[k] = -bw - s
-        smax = 0.0
-        for k in range(m):
-            for c in range(k + 1):
-                s = 0.0
-                for a in range(nf):
-                    s += Y[a, k] * Y[a, c]
-                S[k, c] = s
-            if S[k, k] > smax:
-                smax = S[k, k]
-        if m:
-            if not _chol(S, m):
-                return DEPENDENT_EQUALITIES
-            for k in range(m):
-                if S[k, k] * S[k, k] <= rank_tol * smax:
-                    return DEPENDENT_EQUALITIES
-            for k in range(m):
-                nu[k] = rhs[k]
-            _fwd(S, m, nu)
-            _bwd(S, m, nu)
-        # x_F = -L⁻ᵀ (t + Y nu)
-        for a in range(nf):
-            s = t[a]
-            for k in range(m):
-                s += Y[a, k] * nu[k]
-            t[a] = -s
-        _bwd(L, nf, t)
+        nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs)
+        if nf < 0:
+            return nf
         worst = primal_tol
         worst_i = -1
         worst_side = 0
@@ -281,67 +298,9 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
                 Aw[mw, :] = C[r, :]
                 bw[mw] = l[r] if rstate[r] < 0 else u[r]
                 mw += 1
-        nf = 0
-        for i in range(n):
-            if state[i] == 0:
-                free[nf] = i
-                nf += 1
-            elif state[i] < 0:
-                x[i] = lb[i]
-            else:
-                x[i] = ub[i]
-        if nf < mw:
-            return DEPENDENT_EQUALITIES
-        for a in range(nf):
-            i = free[a]
-            s = g[i]
-            for j in range(n):
-                if state[j] != 0:
-                    s += H[i, j] * x[j]
-            t[a] = s
-            for c in range(a + 1):
-                L[a, c] = H[i, free[c]]
-        if not _chol(L, nf):
-            return NOT_POSITIVE_DEFINITE
-        _fwd(L, nf, t)
-        for k in range(mw):
-            bk = bw[k]
-            for j in range(n):
-                if state[j] != 0:
-                    bk -= Aw[k, j] * x[j]
-            col = Y[:, k]
-            for a in range(nf):
-                col[a] = Aw[k, free[a]]
-            _fwd(L, nf, col)
-            s = 0.0
-            for a in range(nf):
-                s += col[a] * t[a]
-            rhs[k] = -bk - s
-        smax = 0.0
-        for k in range(mw):
-            for c in range(k + 1):
-                s = 0.0
-                for a in range(nf):
-                    s += Y[a, k] * Y[a, c]
-                S[k, c] = s
-            if S[k, k] > smax:
-                smax = S[k, k]
-        if mw:
-            if not _chol(S, mw):
-                return DEPENDENT_EQUALITIES
-            for k in range(mw):
-                if S[k, k] * S[k, k] <= rank_tol * smax:
-                    return DEPENDENT_EQUALITIES
-            for k in range(mw):
-                nuw[k] = rhs[k]
-            _fwd(S, mw, nuw)
-            _bwd(S, mw, nuw)
-        for a in range(nf):
-            s = t[a]
-            for k in range(mw):
-                s += Y[a, k] * nuw[k]
-            t[a] = -s
-        _bwd(L, nf, t)
+        nf = _working_set_step(H, g, Aw, bw, mw, lb, ub, state, x, nuw, rank_tol, free, L, Y, S, t, rhs)
+        if nf < 0:
+            return nf
         # primal: the worst violated bound or inactive row is added to the working set
         worst = primal_tol
         worst_i = -1
