@@ -169,6 +169,30 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
+    """Bound multipliers z = −(H x + g + A[:m]ᵀ nu) on the variables held at a bound (0 on the free ones), and the
+    variable whose multiplier has the largest wrong sign above ``worst`` (z > 0 at a lower bound, z < 0 at an upper
+    one). Returns (that magnitude or ``worst``, its index or −1)."""
+    n = H.shape[0]
+    worst_i = -1
+    for i in range(n):
+        if state[i] == 0:
+            z[i] = 0.0
+            continue
+        s = g[i]
+        for j in range(n):
+            s += H[i, j] * x[j]
+        for k in range(m):
+            s += A[k, i] * nu[k]
+        z[i] = -s
+        wrong = z[i] if state[i] < 0 else -z[i]
+        if wrong > worst:
+            worst = wrong
+            worst_i = i
+    return worst, worst_i
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
                     free, L, Y, S, t, rhs, eq_residual):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
@@ -221,22 +245,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
             state[worst_i] = worst_side
             continue
         # bound multipliers z = -(H x + g + Aᵀ nu) on the fixed set; the worst wrong sign is freed
-        worst = dual_tol
-        worst_i = -1
-        for i in range(n):
-            if state[i] == 0:
-                z[i] = 0.0
-                continue
-            s = g[i]
-            for j in range(n):
-                s += H[i, j] * x[j]
-            for k in range(m):
-                s += A[k, i] * nu[k]
-            z[i] = -s
-            wrong = z[i] if state[i] < 0 else -z[i]
-            if wrong > worst:
-                worst = wrong
-                worst_i = i
+        worst, worst_i = _bound_multipliers(H, g, A, m, nu, state, x, z, dual_tol)
         if worst_i < 0:
             for i in range(n):
                 if x[i] < lb[i]:
@@ -346,19 +355,9 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
             wrong = mu[r] if rstate[r] < 0 else -mu[r]
             if wrong > worst:
                 worst, worst_i, worst_row = wrong, r, True
-        for i in range(n):
-            if state[i] == 0:
-                z[i] = 0.0
-                continue
-            s = g[i]
-            for j in range(n):
-                s += H[i, j] * x[j]
-            for k2 in range(mw):
-                s += Aw[k2, i] * nuw[k2]
-            z[i] = -s
-            wrong = z[i] if state[i] < 0 else -z[i]
-            if wrong > worst:
-                worst, worst_i, worst_row = wrong, i, False
+        worst_b, worst_bi = _bound_multipliers(H, g, Aw, mw, nuw, state, x, z, worst)
+        if worst_bi >= 0:
+            worst, worst_i, worst_row = worst_b, worst_bi, False
         if worst_i >= 0:
             if worst_row:
                 rstate[worst_i] = 0
