@@ -8,7 +8,7 @@ Entry point: :func:`plan_walk` → :class:`WalkPlan` (arrays precomputed on the 
 from wbc.gait.com_plan import LipmPlan, LipmSamples, lipm_omega, plan_lipm
 from wbc.gait.footsteps import Footstep, feet_overlap, plan_footsteps, pose_to_xy_yaw
 from wbc.gait.schedule import DOUBLE_SUPPORT, LEFT_SUPPORT, RIGHT_SUPPORT, Phase, ZmpSegments
-from wbc.gait.support import convex_hull, polygons_overlap, signed_distance, sole_polygon
+from wbc.geometry import convex_hull, polygons_overlap, signed_distance, sole_polygon
 from wbc.gait.swing import min_jerk, sample_feet
 from wbc.gait.walk import WalkPlan, plan_walk
 

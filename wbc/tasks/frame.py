@@ -13,30 +13,11 @@ import pinocchio as pin
 
 from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
+from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
            "as_se3"]
-
-
-def as_se3(pose, what: str = "target pose") -> pin.SE3:
-    """Convert a pin.SE3 or a (4, 4) homogeneous matrix to pin.SE3.
-
-    Raises:
-        InvalidTargetError: wrong type/shape, non-finite entries, or a non-rotation 3×3 block.
-    """
-    if isinstance(pose, pin.SE3):
-        mat = pose.homogeneous
-    else:
-        mat = np.asarray(pose, dtype=float)
-        if mat.shape != (4, 4):
-            raise InvalidTargetError(f"{what} must be a pin.SE3 or a (4, 4) matrix, got shape {mat.shape}")
-    if not np.isfinite(mat).all():
-        raise InvalidTargetError(f"{what} contains NaN/inf")
-    rot = mat[:3, :3]
-    if np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) < 0:
-        raise InvalidTargetError(f"{what} rotation block is not a rotation matrix")
-    return pose if isinstance(pose, pin.SE3) else pin.SE3(rot.copy(), mat[:3, 3].copy())
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
