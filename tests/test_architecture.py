@@ -26,7 +26,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("wbc.gait",),
     ("wbc.scenarios", "wbc.sim"),
     ("wbc.viz", "wbc.ros2", "wbc.bench"),
-    ("wbc.cli", "wbc.__main__", "wbc.robot_cli"),
+    ("wbc.cli", "wbc.__main__"),
 ]
 # The package root re-exports the public API; it sits with the layer of its highest export.
 PACKAGE_INIT_LAYER = 4

@@ -7,8 +7,10 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
@@ -67,8 +69,6 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_sim)
 
@@ -158,14 +158,8 @@ def cmd_sim(args) -> int:
 
     viewer = pacer = None
     if args.live:
-        from wbc.cli import _live
-
-        viewer, pacer = _live(robot)
-    from wbc.cli import _progress
-
-    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
-    from wbc.ros2.cli import attach, finish
-
+        viewer, pacer = open_live(robot)
+    viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
     try:
@@ -186,8 +180,6 @@ def cmd_sim(args) -> int:
         summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
@@ -212,25 +204,19 @@ def cmd_sim(args) -> int:
         if best <= sweep["pd"]["max_survived_n"]:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
-    _print(summary)
+    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n")
-        print(f"summary written to {args.json}")
+        write_json(args.json, summary)
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
     if getattr(args, "plot", None):
-        from wbc.cli import _write_plot
-
-        _write_plot(args.plot, run)
+        write_plot(args.plot, run)
     if args.out:
-        from wbc.viz import record_html
-
         from wbc.viz.overlays import sim_overlays
 
         scene = sim_overlays(run)
-        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"])
     if args.video:
         from wbc.sim.video import render_video
 
@@ -239,19 +225,3 @@ def cmd_sim(args) -> int:
         print(f"video written to {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return 0 if summary["passed"] else 1
 
-
-def _jsonable(x):
-    import numpy as np
-
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x).__name__)
-
-
-def _print(summary: dict) -> None:
-    from wbc.cli import _print_summary
-
-    short = {k: v for k, v in summary.items() if k != "sweep_trials"}
-    _print_summary(short)
