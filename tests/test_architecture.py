@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions",),
-    ("wbc.geometry",),
+    ("wbc.geometry", "wbc.profiles"),
     ("wbc.robot", "wbc.configuration"),
     ("wbc.tasks", "wbc.constraints"),
     ("wbc.qp", "wbc.fastqp", "wbc.diagnosis", "wbc.hierarchy", "wbc.controller", "wbc.dynamics",

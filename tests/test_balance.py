@@ -14,8 +14,9 @@ from conftest import CATALOG
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk_ramp as min_jerk
 from wbc.scenarios.balance import (
-    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary, min_jerk,
+    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary,
     run_balance, support_polygon,
 )
 

@@ -168,16 +168,6 @@ def cmd_sim(args) -> int:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
-    if args.scenario == "wave":
-        from wbc.sim.physics_scenarios import wave_acceptance
-
-        summary["failed_criteria"] = wave_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
-    if args.scenario == "jump":
-        from wbc.sim.jump import jump_acceptance
-
-        summary["failed_criteria"] = jump_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)

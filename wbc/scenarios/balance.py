@@ -36,7 +36,6 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from time import perf_counter
-from typing import Callable
 
 import numpy as np
 
@@ -46,16 +45,17 @@ from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
 from wbc.qp import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion, RunRecord, evaluate
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
-    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk,
+    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk_ramp,
     support_polygon,
 )
 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk", "run_balance", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "support_polygon",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -66,9 +66,6 @@ BEHAVIOURS = {
     "squat": "wbc.scenarios.balance_squat:SquatBehaviour",
     "reach": "wbc.scenarios.balance_reach:ReachBehaviour",
 }
-
-#: (summary key, description, predicate on the summary).
-Criterion = tuple[str, str, Callable[[dict], bool]]
 
 
 # -- behaviours -------------------------------------------------------------------------------------------------
@@ -127,8 +124,8 @@ def make_behaviour(name: str, robot: Robot, config: Configuration, **options) ->
 
 # -- run --------------------------------------------------------------------------------------------------------
 @dataclass
-class BalanceRun:
-    """Arrays recorded during a behaviour (see the module docstring for the log format)."""
+class BalanceRun(RunRecord):
+    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``)."""
 
     robot: str
     behaviour: str
@@ -148,16 +145,6 @@ class BalanceRun:
     task_error: np.ndarray
     joint_names: list[str]
     extra: dict = field(default_factory=dict)
-
-    def save(self, path) -> None:
-        """Write the npz log (module docstring)."""
-        np.savez_compressed(
-            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, left_sole=self.left_sole,
-            right_sole=self.right_sole, support=self.support, com_margin=self.com_margin, tick_time=self.tick_time,
-            solver_ok=self.solver_ok, task_names=np.array(self.task_names), task_error=self.task_error,
-            joint_names=np.array(self.joint_names), robot=np.array(self.robot),
-            behaviour=np.array(self.behaviour), dt=np.array(self.dt),
-        )
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -268,16 +255,15 @@ def _stance_slip(run: BalanceRun) -> float:
     return slip
 
 
-#: Criteria of every behaviour (from the issue): (summary key, description, predicate).
+#: Criteria of every behaviour (from the issue).
 COMMON_CRITERIA: list[Criterion] = [
-    ("min_com_margin_m", "CoM projection inside the support polygon at every tick", lambda s: s["min_com_margin_m"] >= 0.0),
-    ("min_zmp_margin_m", "ZMP of the executed motion inside the support polygon at every tick",
-     lambda s: s["min_zmp_margin_m"] >= 0.0),
-    ("max_stance_slip_m", "stance soles do not slip (≤ 1 mm)", lambda s: s["max_stance_slip_m"] <= 1e-3),
-    ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
-    ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
-    ("solver_failures", "no solver failure", lambda s: s["solver_failures"] == 0),
-    ("nan", "no NaN", lambda s: not s["nan"]),
+    Criterion("CoM projection inside the support polygon at every tick", "min_com_margin_m", ">=", 0.0),
+    Criterion("ZMP of the executed motion inside the support polygon at every tick", "min_zmp_margin_m", ">=", 0.0),
+    Criterion("stance soles do not slip (≤ 1 mm)", "max_stance_slip_m", "<=", 1e-3),
+    Criterion("no joint position limit violation", "joint_position_violations", "==", 0),
+    Criterion("no joint velocity limit violation", "joint_velocity_violations", "==", 0),
+    Criterion("no solver failure", "solver_failures", "==", 0),
+    Criterion("no NaN", "nan", "==", False),
 ]
 
 
@@ -341,12 +327,4 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
 
 def balance_passes(summary: dict, criteria: list[Criterion]) -> tuple[bool, list[str]]:
     """(all criteria hold, descriptions of the failed ones); a criterion whose key is missing fails."""
-    failed = []
-    for key, desc, ok in criteria:
-        try:
-            good = bool(ok(summary))
-        except (KeyError, TypeError):
-            good = False
-        if not good:
-            failed.append(desc)
-    return not failed, failed
+    return evaluate(summary, criteria)

@@ -25,6 +25,7 @@ from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.robot import Robot
+from wbc.scenarios.framework import RunRecord
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 
@@ -91,8 +92,8 @@ class WalkController(StanceController):
 
 
 @dataclass
-class WalkRun:
-    """Arrays recorded during a walk (see the module docstring for the log format)."""
+class WalkRun(RunRecord):
+    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``)."""
 
     robot: str
     dt: float
@@ -108,15 +109,6 @@ class WalkRun:
     tick_time: np.ndarray
     solver_ok: np.ndarray
     joint_names: list[str]
-
-    def save(self, path) -> None:
-        """Write the npz log (module docstring)."""
-        np.savez_compressed(
-            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, zmp_ref=self.zmp_ref,
-            left_sole=self.left_sole, right_sole=self.right_sole, support=self.support, tick_time=self.tick_time,
-            solver_ok=self.solver_ok, joint_names=np.array(self.joint_names), robot=np.array(self.robot),
-            dt=np.array(self.dt),
-        )
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,

@@ -33,18 +33,16 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.scenarios import FEET_STILL, NO_FALL
 
-__all__ = ["JumpScenario", "JUMP_GAINS", "jump_acceptance"]
+__all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_CRITERIA", "jump_acceptance"]
 
 #: BalanceController gain overrides used for the jump (module docstring).
 JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1}
 
 G = 9.81
-
-
-def _mj(s):
-    s = min(max(s, 0.0), 1.0)
-    return (10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4, 60 * s - 180 * s**2 + 120 * s**3)
 
 
 class JumpScenario:
@@ -121,7 +119,7 @@ class JumpScenario:
         t_abs, t = t, t - self.t0  # time within the current jump
         z_low = c0[2] - self.crouch
         if self.phase in ("stand", "push") and t < self.t_push0:
-            s, ds, dds = _mj((t - self.t_start) / self.t_crouch)
+            s, ds, dds = min_jerk((t - self.t_start) / self.t_crouch)
             ref = (c0 - [0, 0, s * self.crouch], np.array([0, 0, -ds / self.t_crouch * self.crouch]),
                    np.array([0, 0, -dds / self.t_crouch**2 * self.crouch]))
         elif self.phase in ("stand", "push") and t < self.t_takeoff and not self._takeoff(q, v, c0):
@@ -144,9 +142,9 @@ class JumpScenario:
             tau = t - self.t_to_actual
             c_to, v_to = self.c_to, self.v_to  # ballistic from the measured take-off state (no task conflict)
             ref = (c_to + v_to * tau + [0, 0, -0.5 * G * tau**2], v_to + [0, 0, -G * tau], np.array([0, 0, -G]))
-            s, ds, dds = _mj(tau / (0.5 * self.t_flight))
+            s, ds, dds = min_jerk(tau / (0.5 * self.t_flight))
             if tau > 0.5 * self.t_flight:
-                s, ds, dds = _mj(1 - (tau - 0.5 * self.t_flight) / (0.5 * self.t_flight))
+                s, ds, dds = min_jerk(1 - (tau - 0.5 * self.t_flight) / (0.5 * self.t_flight))
                 ds = -ds
             for side in ("left", "right"):
                 pose = self.feet_to[side].copy()
@@ -198,6 +196,10 @@ class JumpScenario:
         ctrl.set_com_reference(*self._ref)
         return None
 
+    def criteria(self) -> list[Criterion]:
+        """:data:`JUMP_CRITERIA`."""
+        return JUMP_CRITERIA
+
     def extra_summary(self, run) -> dict:
         z = run.sole_pos[:, :, 2] - run.sole_pos[0, :, 2]
         both = z.min(axis=1)
@@ -226,16 +228,16 @@ class JumpScenario:
                 "takeoff_velocity_plan_mps": self.v0}
 
 
+#: Acceptance of a jump (issue 14).
+JUMP_CRITERIA = [
+    NO_FALL,
+    Criterion("landing detected", "landed", "==", True),
+    Criterion("both feet ≥ 5 cm up for ≥ 0.1 s", "time_both_feet_5cm_s", ">=", 0.1),
+    FEET_STILL,
+]
+
+
 def jump_acceptance(summary: dict) -> list[str]:
-    """Failed criteria of a jump summary (issue 14): no fall, landed, both soles ≥ 5 cm up for ≥ 0.1 s,
-    feet within 2 cm of their start at the end."""
-    fails = []
-    if summary["fell"]:
-        fails.append(f"fell: {summary['fall_reason']}")
-    if not summary.get("landed"):
-        fails.append("no landing detected")
-    if summary.get("time_both_feet_5cm_s", 0.0) < 0.1:
-        fails.append(f"both feet >= 5 cm for {summary.get('time_both_feet_5cm_s', 0.0):.3f} s < 0.1 s")
-    if summary.get("feet_moved_m", 0.0) > 0.02:
-        fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m")
-    return fails
+    """Failed criteria of a jump summary (:data:`JUMP_CRITERIA`): no fall, landed, both soles ≥ 5 cm up for
+    ≥ 0.1 s, feet within 2 cm of their start at the end."""
+    return evaluate(summary, JUMP_CRITERIA)[1]
