@@ -24,7 +24,7 @@ import pinocchio as pin
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 
 __all__ = [
-    "as_se3", "yaw_of", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
     "signed_distance_point", "signed_distance", "polygons_overlap",
 ]
 
@@ -64,6 +64,13 @@ def yaw_of(pose) -> float:
     """
     rot = pose.rotation if isinstance(pose, pin.SE3) else pose
     return math.atan2(float(rot[1, 0]), float(rot[0, 0]))
+
+
+def mean_heading(a, b) -> float:
+    """Heading (rad) halfway between the :func:`yaw_of` of two poses (pin.SE3 or (4, 4)): the direction of the
+    sum of their unit heading vectors (undefined when they are opposite)."""
+    ya, yb = yaw_of(a), yaw_of(b)
+    return math.atan2(math.sin(ya) + math.sin(yb), math.cos(ya) + math.cos(yb))
 
 
 def sole_corners(x: float, y: float, yaw: float, length: float, width: float) -> list[Point]:

@@ -13,7 +13,6 @@ computed from it (applied for dt); ``com_ref[k]`` is the plan's CoM at t[k].
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from time import perf_counter
 
@@ -24,6 +23,7 @@ from wbc.configuration import Configuration
 from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
+from wbc.geometry import mean_heading
 from wbc.robot import Robot
 from wbc.scenarios.framework import RunRecord
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
@@ -76,19 +76,24 @@ class WalkController(StanceController):
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
+        self._zero3 = np.zeros(3)
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
-        """Targets of sample k of the plan, at the current configuration."""
+        """Targets of sample k of the plan, at the current configuration.
+
+        The plan was validated when it was built (:func:`wbc.gait.plan_walk`: finite, read-only arrays, rotation
+        blocks from yaw angles), so its rows go to the tasks through their trusted setters
+        (``set_target_trusted``), not re-validated every tick.
+        """
         self.set_support(int(plan.support[k]), config)
-        self.com.set_target(plan.com[k], plan.com_vel[k])
-        if not self.stance["left"]:
-            self.swing["left"].set_target(plan.left_sole[k], plan.left_sole_vel[k])
-        if not self.stance["right"]:
-            self.swing["right"].set_target(plan.right_sole[k], plan.right_sole_vel[k])
-        yaw_l = math.atan2(plan.left_sole[k][1, 0], plan.left_sole[k][0, 0])
-        yaw_r = math.atan2(plan.right_sole[k][1, 0], plan.right_sole[k][0, 0])
-        yaw = math.atan2(math.sin(yaw_l) + math.sin(yaw_r), math.cos(yaw_l) + math.cos(yaw_r))
-        self.torso.set_target(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, np.zeros(3)))
+        self.com.set_target_trusted(plan.com[k], plan.com_vel[k])
+        for side, soles, vels in (("left", plan.left_sole, plan.left_sole_vel),
+                                  ("right", plan.right_sole, plan.right_sole_vel)):
+            if not self.stance[side]:
+                M = soles[k]
+                self.swing[side].set_target_trusted(pin.SE3(M[:3, :3].copy(), M[:3, 3].copy()), vels[k])
+        yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
+        self.torso.set_target_trusted(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, self._zero3))
 
 
 @dataclass
