@@ -173,7 +173,10 @@ class TorqueLimits(IDConstraint):
         self.joints = np.flatnonzero(np.isfinite(effort) & (effort > 0))
         self.dim = int(self.joints.size)
         self._v_rows = 6 + self.joints
+        if self.dim and np.array_equal(self.joints, np.arange(self.joints[0], self.joints[0] + self.dim)):
+            self._v_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
         self._lim = effort[self.joints]
+        self._neg_lim = -self._lim
 
     def write(self, ctx, C, l, u):
         if not self.dim:
@@ -182,7 +185,7 @@ class TorqueLimits(IDConstraint):
         C[:, :nv] = ctx.state.M[rows]
         np.negative(ctx.JcT[rows], out=C[:, nv:])
         hr = ctx.state.h[rows]
-        np.subtract(-self._lim, hr, out=l)
+        np.subtract(self._neg_lim, hr, out=l)
         np.subtract(self._lim, hr, out=u)
 
 
@@ -218,6 +221,13 @@ class Unilaterality(IDConstraint):
         self.contact = contact
         self.name = f"unilaterality:{contact.name}"
         self.indices = np.arange(offset, offset + 12)
+        #: :meth:`key` of the bounds last written by the formulation (None: never).
+        self.written: tuple | None = None
+
+    def key(self) -> tuple:
+        """What the bounds depend on: (active, f_min, f_max) — rewritten only when it changes."""
+        c = self.contact
+        return (c.active, c.f_min, c.f_max)
 
     def write(self, ctx, _, lb, ub):
         c = self.contact

@@ -163,6 +163,7 @@ class InverseDynamicsQP:
         self.n = n = nv + 12 * nc
         # Named constraints (wbc.dynamics.constraints), each with its place in the preallocated blocks.
         self.dynamics = FloatingBaseDynamics()
+        self.dynamics.rows = slice(0, 6)
         self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
         self.torque_limits = TorqueLimits(robot, torque_limit_scale)
         self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
@@ -188,8 +189,11 @@ class InverseDynamicsQP:
         self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT, jacobians={})
         for con in self.friction:  # constant rows: written once
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
-        self._reg = np.concatenate([np.full(nv, self.eps_a), np.full(12 * nc, self.eps_f)])
-        self._diag = np.arange(n)
+        self._reg_v = np.full(nv, self.eps_a)
+        self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
+        self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
+        self._spans: dict = {}
+        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
@@ -258,24 +262,28 @@ class InverseDynamicsQP:
 
     def build(self, state: DynamicsState, dt: float):
         """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: every
-        constraint writes its block in place."""
+        constraint writes its block in place; the constant blocks (force regularisation, friction rows, force
+        bounds whose contact did not change) are not rewritten."""
         nv = self.nv
-        H, g = self._H, self._g
-        H.fill(0.0)
-        g.fill(0.0)
-        Hvv = H[:nv, :nv]
-        gv = g[:nv]
+        Hvv, gv = self._Hvv, self._gv
+        Hvv.fill(0.0)
+        gv.fill(0.0)
         for task in self.tasks:
             J, r = task.compute(state)
             if isinstance(task, PostureAccelerationTask):  # J is a row selection: diagonal update
-                idx = task.task.rows
-                H[idx, idx] += task.weight
-                gv[idx] -= task.weight * r
+                span = self._posture_span(task)
+                if span is not None:
+                    self._H.ravel()[span] += task.weight
+                    gv[task.task.rows[0]:task.task.rows[0] + task.dim] -= task.weight * r
+                else:
+                    idx = task.task.rows
+                    Hvv[idx, idx] += task.weight
+                    gv[idx] -= task.weight * r
                 continue
             wJ = J * task.weight[:, None]
             Hvv += J.T @ wJ
             gv -= wJ.T @ r
-        H[self._diag, self._diag] += self._reg
+        self._H.ravel()[:nv * (self.n + 1):self.n + 1] += self._reg_v
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
         JcT, jac = self._JcT, ctx.jacobians
@@ -284,7 +292,6 @@ class InverseDynamicsQP:
             jac[c.name] = J
             np.matmul(J.T, c.force_map(), out=JcT[:, 12 * k:12 * k + 12])
         A, b = self._A, self._b
-        self.dynamics.rows = slice(0, 6)
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
         for con in (*self.contact_accelerations, *self.hard_tasks):
@@ -297,9 +304,11 @@ class InverseDynamicsQP:
         tl = self.torque_limits
         tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
         lb, ub = self._lb, self._ub
-        for con in self.unilaterality:
-            s = slice(con.indices[0], con.indices[-1] + 1)
-            con.write(ctx, None, lb[s], ub[s])
+        for con, s in zip(self.unilaterality, self._force_slices):
+            key = con.key()
+            if key != con.written:  # force bounds change only when the contact is switched or re-bounded
+                con.write(ctx, None, lb[s], ub[s])
+                con.written = key
         if self.joint_limits:
             jl = self.joint_acceleration_limits
             if self._jl_slice is not None:
@@ -307,7 +316,19 @@ class InverseDynamicsQP:
             else:
                 lo, hi = jl.bounds(state, dt)
                 lb[jl.iv], ub[jl.iv] = lo, hi
-        return H, g, A[:i], b[:i], C, l, u, lb, ub
+        return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
+
+    def _posture_span(self, task: PostureAccelerationTask) -> slice | None:
+        """Strided slice of H's flattened diagonal over the task's rows when they are contiguous (cached)."""
+        rows = task.task.rows
+        key = (id(task), rows.size)
+        span = self._spans.get(key, False)
+        if span is False:
+            n = self.n
+            contiguous = rows.size and np.array_equal(rows, np.arange(rows[0], rows[0] + rows.size))
+            span = slice(int(rows[0]) * (n + 1), (int(rows[-1]) + 1) * (n + 1), n + 1) if contiguous else None
+            self._spans[key] = span
+        return span
 
     def _relax(self, l, u, lb, ub):
         """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits)."""
