@@ -42,7 +42,7 @@ from wbc.robot import Robot
 
 __all__ = [
     "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "TorqueLimits",
-    "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds",
+    "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
 ]
 
 
@@ -159,6 +159,7 @@ class TorqueLimits(IDConstraint):
 
     Attributes:
         tau_max: (nv − 6,) scaled effort limits (all joints). joints: indices (into τ) of the limited joints.
+        limits: (dim,) the limits of those joints. velocity_rows: their indices in v (a slice when contiguous).
     """
 
     name = "torque_limits"
@@ -172,21 +173,21 @@ class TorqueLimits(IDConstraint):
         self.tau_max = effort
         self.joints = np.flatnonzero(np.isfinite(effort) & (effort > 0))
         self.dim = int(self.joints.size)
-        self._v_rows = 6 + self.joints
+        self.velocity_rows = 6 + self.joints
         if self.dim and np.array_equal(self.joints, np.arange(self.joints[0], self.joints[0] + self.dim)):
-            self._v_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
-        self._lim = effort[self.joints]
-        self._neg_lim = -self._lim
+            self.velocity_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
+        self.limits = effort[self.joints]
+        self._neg_lim = -self.limits
 
     def write(self, ctx, C, l, u):
         if not self.dim:
             return
-        nv, rows = ctx.nv, self._v_rows
+        nv, rows = ctx.nv, self.velocity_rows
         C[:, :nv] = ctx.state.M[rows]
         np.negative(ctx.JcT[rows], out=C[:, nv:])
         hr = ctx.state.h[rows]
         np.subtract(self._neg_lim, hr, out=l)
-        np.subtract(self._lim, hr, out=u)
+        np.subtract(self.limits, hr, out=u)
 
 
 class FrictionPyramid(IDConstraint):
@@ -242,8 +243,9 @@ class Unilaterality(IDConstraint):
 
 
 @nb.njit(cache=True, nogil=True)
-def _joint_bounds(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out):
-    """Kernel of :func:`joint_acceleration_bounds` (same operations, in the same order, per joint)."""
+def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out):
+    """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint), written into lo_out,
+    hi_out (k,)."""
     dt2 = dt * dt
     for j in range(iq.size):
         qj = q[iq[j]]
@@ -277,7 +279,7 @@ def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_accelerati
     k = len(iq)
     lo = np.empty(k) if lo is None else lo
     hi = np.empty(k) if hi is None else hi
-    _joint_bounds(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi)
+    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi)
     return lo, hi
 
 

@@ -73,6 +73,7 @@ from wbc.dynamics.constraints import (
     Unilaterality,
 )
 from wbc.dynamics.contacts import SoleContact
+from wbc.dynamics.idkernel import id_tick
 from wbc.dynamics.state import DynamicsState
 from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
@@ -106,7 +107,7 @@ class IDSolution:
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
 #: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
-_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}}
+_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
 
 class InverseDynamicsQP:
@@ -117,8 +118,9 @@ class InverseDynamicsQP:
         tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`), weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
-            the compiled working-set kernel of :mod:`wbc.fastqp` with DAQP as fallback; any other qpsolvers
-            backend — :func:`wbc.qp.make_backend`) or a :class:`~wbc.qp.QPBackend`.
+            the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
+            and torques in one call — with DAQP as fallback; any other qpsolvers backend —
+            :func:`wbc.qp.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
         torque_limit_scale: fraction of the URDF effort limit used in (6), in (0, 1].
@@ -193,6 +195,9 @@ class InverseDynamicsQP:
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
         self._spans: dict = {}
+        self._kernel = None
+        if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
+            self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
         jl = self.joint_acceleration_limits
@@ -367,10 +372,50 @@ class InverseDynamicsQP:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+        if self._kernel is not None and not self.hard_tasks:
+            return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub)
+        t2 = perf_counter()
+        return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+
+    def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
+        """:meth:`solve` through :func:`wbc.dynamics.idkernel.id_tick` (same QP, compiled assembly and solve);
+        a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
+        t0 = perf_counter()
+        kb = self._kernel
+        kb.gather(self, state)
+        ta = perf_counter()
+        for con, s in zip(self.unilaterality, self._force_slices):
+            key = con.key()
+            if key != con.written:
+                con.write(self._ctx, None, self._lb[s], self._ub[s])
+                con.written = key
+        jl = self.joint_acceleration_limits
+        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self._reg_v, state.M, state.h, kb.Jc, kb.Gc,
+                        kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
+                        jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
+                        self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,
+                        kb.x, kb.nu, kb.mu, kb.z, kb.max_iter, *kb.ws, kb.residual, kb.tau)
+        self._m = m
+        t1 = perf_counter()
+        nv = self.nv
+        if it > 0 and kb.residual[0] <= self.backend.tolerance:
+            kb.solves += 1
+            x = kb.x
+            f = x[nv:]
+            wrenches = {c.name: (c.world_wrench(state, f[12 * k:12 * k + 12]) if c.active else np.zeros(6))
+                        for k, c in enumerate(self.contacts)}
+            return IDSolution(dv=x[:nv].copy(), forces=f.copy(), tau=kb.tau.copy(), wrenches=wrenches,
+                              dynamics_residual=float(kb.residual[1]),
+                              timings={"assembly": ta - t0, "solve": t1 - ta})
+        kb.fallbacks += 1
+        kb.state[:] = 0
+        kb.rstate[:] = 0
+        x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
+                               self._ub)
         t2 = perf_counter()
         return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
 
@@ -444,3 +489,75 @@ class InverseDynamicsQP:
         if self.tau_rows.size:
             out["torque"] = float(np.min(self.tau_max[self.tau_rows] - np.abs(sol.tau[self.tau_rows])))
         return out
+
+
+class _KernelBuffers:
+    """Preallocated inputs, solver state and workspace of :func:`wbc.dynamics.idkernel.id_tick` for one QP; the
+    stacked task rows are re-laid out only when the task list changes."""
+
+    def __init__(self, qp: InverseDynamicsQP):
+        nv, n, nc = qp.nv, qp.n, len(qp.contacts)
+        tl = qp.torque_limits
+        self.t0 = int(tl.velocity_rows.start) if tl.dim else 6
+        self.lim = tl.limits.copy()
+        self.Jc = np.zeros((nc, 6, nv))
+        self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
+        self.bc = np.zeros((nc, 6))
+        self.active = np.zeros(nc, dtype=np.bool_)
+        m_max, p = 6 + 6 * nc, qp._C.shape[0]
+        self.state = np.zeros(n, np.int8)
+        self.rstate = np.zeros(p, np.int8)
+        self.x = np.zeros(n)
+        self.nu = np.zeros(m_max)
+        self.mu = np.zeros(p)
+        self.z = np.zeros(n)
+        self.max_iter = 100
+        w = m_max + p
+        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, w)),
+                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.residual = np.zeros(2)
+        self.tau = np.zeros(nv - 6)
+        k = qp.joint_acceleration_limits.dim
+        self.jlo, self.jhi = np.empty(k), np.empty(k)
+        self.layout: tuple = ()
+        self.solves = 0
+        self.fallbacks = 0
+
+    def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
+        soft = [t for t in qp.tasks if not isinstance(t, PostureAccelerationTask)]
+        posture = [t for t in qp.tasks if isinstance(t, PostureAccelerationTask)]
+        mt = sum(t.dim for t in soft)
+        self.Jt = np.zeros((mt, qp.nv))
+        self.wt = np.zeros(mt)
+        self.rt = np.zeros(mt)
+        self.pidx = np.concatenate([t.task.rows for t in posture]).astype(np.int64) if posture else \
+            np.zeros(0, np.int64)
+        self.pw = np.zeros(self.pidx.size)
+        self.pr = np.zeros(self.pidx.size)
+        self.layout = key
+
+    def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
+        """Task rows and contact data of this tick into the buffers."""
+        tasks = qp.tasks
+        key = tuple(map(id, tasks))
+        if key != self.layout:
+            self._relayout(qp, key)
+        k = kp = 0
+        for task in tasks:
+            J, r = task.compute(state)
+            d = task.dim
+            if isinstance(task, PostureAccelerationTask):
+                self.pr[kp:kp + d] = r
+                self.pw[kp:kp + d] = task.weight
+                kp += d
+            else:
+                self.Jt[k:k + d] = J
+                self.rt[k:k + d] = r
+                self.wt[k:k + d] = task.weight
+                k += d
+        for c_i, c in enumerate(qp.contacts):
+            J = c.jacobian(state)
+            self.Jc[c_i] = J
+            self.active[c_i] = c.active
+            if c.active:
+                self.bc[c_i] = c.acceleration_target(state, J)
