@@ -68,6 +68,7 @@ from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.fastqp import clip_box_into, ensure_compiled, weighted_normal_equations
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
 from wbc.robot import Robot
@@ -181,6 +182,8 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
+        self._soft_tasks: list[Task] | None = None
+        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -312,10 +315,27 @@ class KinematicController:
         self._lb = np.empty(self.nv)
         self._ub = np.empty(self.nv)
         self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
+        self._contact_rows = [(c, r0) for c, r0, _ in self._eq_blocks if isinstance(c, ContactConstraint)]
         for c, r0, r1 in self._eq_blocks:
             if isinstance(c, TaskConstraint):
                 self._not_hard_task[r0:r1] = False
         self._layout_ok = True
+
+    def _build_soft_layout(self) -> None:
+        """Rows of the stacked soft tasks that use the generic cost (``Task.add_cost``); the others (e.g. the
+        posture task's diagonal cost) add their own. Redone when ``tasks`` changes."""
+        self._soft_tasks = list(self.tasks)
+        self._soft_dense, self._soft_own = [], []
+        row = 0
+        for task in self.tasks:
+            if type(task).add_cost is Task.add_cost:
+                self._soft_dense.append((task, row, row + task.dim))
+                row += task.dim
+            else:
+                self._soft_own.append(task)
+        self._soft_J = np.zeros((row, self.nv))
+        self._soft_w = np.zeros(row)
+        self._soft_r = np.zeros(row)
 
     def assemble(self, config: Configuration, dt: float):
         """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
@@ -325,9 +345,17 @@ class KinematicController:
         if not self._layout_ok:
             self._build_layout()
         H, g = self._H, self._g
-        np.copyto(H, self._eye)
-        g.fill(0.0)
-        for task in self.tasks:
+        if self._soft_tasks != self.tasks:
+            self._build_soft_layout()
+        # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
+        J, w, r = self._soft_J, self._soft_w, self._soft_r
+        for task, r0, r1 in self._soft_dense:
+            error, jac = task.compute(config)
+            J[r0:r1] = jac
+            r[r0:r1] = task.velocity_target(error)
+            w[r0:r1] = task.weight
+        weighted_normal_equations(J, w, r, self.damping, H, g)
+        for task in self._soft_own:
             task.add_cost(config, H, g)
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
@@ -367,6 +395,9 @@ class KinematicController:
             if skip and id(c) in skip:
                 continue
             lo, hi = c.compute(config, dt)
+            if not first and record is None and isinstance(sel, slice):  # same clip, compiled, in place
+                clip_box_into(lb, ub, sel.start, lo, hi)
+                continue
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
                 lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
@@ -424,20 +455,29 @@ class KinematicController:
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
+        if not self._layout_ok:
+            self._build_layout()
+        return self._drift(config, v, dt, None)
+
+    def _drift(self, config: Configuration, v: np.ndarray, dt: float, b: np.ndarray | None) -> float:
+        """:meth:`sole_drift`; with ``b`` the equality right-hand sides assembled at ``config`` this tick, the
+        contact errors e are read back from their rows (b = −min(K, 1/dt) e) instead of being recomputed."""
         if not self._contacts:
             return 0.0
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
-        for c in self._contacts:
-            e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            expected = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
-            worst = max(worst, float(np.linalg.norm(e_plus[:3] - expected[:3])))
+        for c, r0 in self._contact_rows:
+            k = min(c.gain, 1.0 / dt)
+            e = c.compute_error(config)[:3] if b is None else b[r0:r0 + 3] / -k
+            e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).linear
+            d = e_plus - e * (1.0 - k * dt)
+            worst = max(worst, math.sqrt(d @ d))
         return worst
 
     def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
-        drift = self.sole_drift(config, v, dt)
+        drift = self._drift(config, v, dt, self._b)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
         lb0, ub0 = self._lb.copy(), self._ub.copy()
@@ -454,7 +494,7 @@ class KinematicController:
                     v_tr = self._solve_assembled(config)
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
-                d = self.sole_drift(config, v_tr, dt)
+                d = self._drift(config, v_tr, dt, self._b)
                 if d < best:
                     best_v, best = v_tr, d
                 if best <= self.sole_drift_tolerance:

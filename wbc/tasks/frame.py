@@ -111,6 +111,21 @@ class FrameTask(Task):
         self._ff6[3:] = self.target.rotation.T @ vel[3:]
         self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
 
+    def set_target_unchecked(self, pose: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        """:meth:`set_target` without validation, for a per-tick reference produced by wbc itself from inputs
+        validated once (e.g. a :class:`~wbc.gait.WalkPlan`'s samples): ``pose`` a (4, 4) homogeneous matrix
+        (world, m), ``velocity`` None or (6,) (linear m/s, angular rad/s, world axes). Malformed input is not
+        detected here."""
+        rot = pose[:3, :3]
+        self._target = pin.SE3(rot, pose[:3, 3])
+        self._target_rot_t = rot.T.copy()
+        if velocity is None:
+            self._ff = None
+            return
+        self._ff6[:3] = velocity[:3]
+        self._ff6[3:] = self._target_rot_t @ velocity[3:]
+        self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
+
     @property
     def target(self) -> pin.SE3:
         """Target placement (world)."""
