@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
+from wbc.exceptions import InvalidTargetError
 from wbc.qp import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
@@ -76,24 +77,48 @@ class WalkController(StanceController):
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
-        self._zero3 = np.zeros(3)
+        self._plan: WalkPlan | None = None
+        self._torso_targets = np.zeros((0, 4, 4))
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
         """Targets of sample k of the plan, at the current configuration.
 
-        The plan was validated when it was built (:func:`wbc.gait.plan_walk`: finite, read-only arrays, rotation
-        blocks from yaw angles), so its rows go to the tasks through their trusted setters
-        (``set_target_trusted``), not re-validated every tick.
+        The plan's samples are validated once per plan (finite, rotation blocks orthonormal) and then handed to
+        the tasks without per-tick validation; the torso targets of the whole plan are computed at that time.
+
+        Raises:
+            InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
         """
+        if self._plan is not plan:
+            self._prepare_plan(plan)
         self.set_support(int(plan.support[k]), config)
         self.com.set_target_trusted(plan.com[k], plan.com_vel[k])
-        for side, soles, vels in (("left", plan.left_sole, plan.left_sole_vel),
-                                  ("right", plan.right_sole, plan.right_sole_vel)):
-            if not self.stance[side]:
-                M = soles[k]
-                self.swing[side].set_target_trusted(pin.SE3(M[:3, :3].copy(), M[:3, 3].copy()), vels[k])
-        yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
-        self.torso.set_target_trusted(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, self._zero3))
+        if not self.stance["left"]:
+            self.swing["left"].set_target_trusted(plan.left_sole[k], plan.left_sole_vel[k])
+        if not self.stance["right"]:
+            self.swing["right"].set_target_trusted(plan.right_sole[k], plan.right_sole_vel[k])
+        self.torso.set_target_trusted(self._torso_targets[k])
+
+    def _prepare_plan(self, plan: WalkPlan) -> None:
+        """Validate the plan's samples once and compute its torso targets (yaw = mean heading of the soles)."""
+        for name in ("com", "com_vel", "left_sole_vel", "right_sole_vel"):
+            if not np.isfinite(getattr(plan, name)).all():
+                raise InvalidTargetError(f"walk plan {name} contains NaN/inf")
+        for name in ("left_sole", "right_sole"):
+            poses = getattr(plan, name)
+            rot = poses[:, :3, :3]
+            if not np.isfinite(poses).all() or np.abs(rot.transpose(0, 2, 1) @ rot - np.eye(3)).max() > 1e-6 \
+                    or (np.linalg.det(rot) < 0).any():
+                raise InvalidTargetError(f"walk plan {name} has non-finite entries or a non-rotation block")
+        targets = np.zeros((len(plan.t), 4, 4))
+        targets[:, 3, 3] = 1.0
+        for k in range(len(plan.t)):
+            yaw_l = math.atan2(plan.left_sole[k][1, 0], plan.left_sole[k][0, 0])
+            yaw_r = math.atan2(plan.right_sole[k][1, 0], plan.right_sole[k][0, 0])
+            yaw = math.atan2(math.sin(yaw_l) + math.sin(yaw_r), math.cos(yaw_l) + math.cos(yaw_r))
+            targets[k, :3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot
+        self._torso_targets = targets
+        self._plan = plan
 
 
 @dataclass
