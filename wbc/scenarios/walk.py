@@ -113,9 +113,7 @@ class WalkController(StanceController):
         targets = np.zeros((len(plan.t), 4, 4))
         targets[:, 3, 3] = 1.0
         for k in range(len(plan.t)):
-            yaw_l = math.atan2(plan.left_sole[k][1, 0], plan.left_sole[k][0, 0])
-            yaw_r = math.atan2(plan.right_sole[k][1, 0], plan.right_sole[k][0, 0])
-            yaw = math.atan2(math.sin(yaw_l) + math.sin(yaw_r), math.cos(yaw_l) + math.cos(yaw_r))
+            yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
             targets[k, :3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot
         self._torso_targets = targets
         self._plan = plan
