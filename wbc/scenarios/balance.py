@@ -25,7 +25,8 @@ m, world; ``com_ref`` (N, 3) m, world (NaN rows while the behaviour has no CoM t
 stance; ``com_margin`` (N,) m, signed distance of the CoM ground projection to the current support polygon
 (> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,) and ``task_error`` (N, T),
 norm of each task's error at the start of the tick (task units: m, rad; NaN while the task is inactive);
-``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``. Row k is the state at the start of tick k,
+``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``; ``relaxed`` (N,) bool, tick solved without its
+relaxable constraints. Row k is the state at the start of tick k,
 t[k] = k dt, v[k] the command computed from it (applied for dt), references are those of t[k].
 """
 
@@ -145,6 +146,7 @@ class BalanceRun(RunRecord):
     task_error: np.ndarray
     joint_names: list[str]
     extra: dict = field(default_factory=dict)
+    relaxed: np.ndarray | None = None
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -209,6 +211,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     margin = np.empty(n)
     tick = np.empty(n)
     ok = np.empty(n, dtype=bool)
+    relaxed = np.zeros(n, dtype=bool)
     errors = np.full((n, len(tasks)), np.nan)
     for k in range(n):
         t = k * dt
@@ -229,6 +232,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
         config.step(result.v, dt)
         ok[k] = result.ok
+        relaxed[k] = bool(result.relaxed)
         out_v[k] = result.v
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
@@ -238,7 +242,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com,
         com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
         solver_ok=ok, task_names=[t.name for t in tasks], task_error=errors, joint_names=robot.joint_names,
-        extra={"behaviour": beh},
+        extra={"behaviour": beh}, relaxed=relaxed,
     )
 
 
@@ -285,7 +289,8 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     :mod:`wbc.scenarios.metrics`), max_task_error {task: max over
     active ticks of ‖e‖, task units m or rad; frame tasks mix m and rad rows}, max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
-    solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    solver_failures (ticks whose command fell back to a safe command), relaxed_ticks (ticks solved without the
+    relaxable constraints — executed-ZMP constraint — reported, not judged), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
     """
     model = robot.model
     idx_q, _ = bounded_joints(model)
@@ -312,6 +317,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     beh = run.extra.get("behaviour")

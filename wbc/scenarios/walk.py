@@ -7,7 +7,7 @@ touch-down placement; the QP gives v; q ← pin.integrate(q, v dt).
 The log (``--log walk.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv); ``com`` and
 ``com_ref`` (N, 3) m, world; ``zmp_ref`` (N, 2) m, world; ``left_sole``/``right_sole`` (N, 4, 4) world poses;
 ``support`` (N,) 0 = double, 1 = left stance, 2 = right stance; ``tick_time`` (N,) s; ``joint_names`` (nv−6,);
-``robot`` (name); ``dt``. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
+``robot`` (name); ``dt``; ``relaxed`` (N,) bool, tick solved without its relaxable constraints. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
 computed from it (applied for dt); ``com_ref[k]`` is the plan's CoM at t[k].
 """
 
@@ -137,6 +137,7 @@ class WalkRun(RunRecord):
     tick_time: np.ndarray
     solver_ok: np.ndarray
     joint_names: list[str]
+    relaxed: np.ndarray | None = None
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
@@ -166,6 +167,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     out_r = np.empty((n, 4, 4))
     tick = np.empty(n)
     ok = np.empty(n, dtype=bool)
+    relaxed = np.zeros(n, dtype=bool)
     for k in range(n):
         out_q[k] = config.q
         out_com[k] = config.com
@@ -177,6 +179,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
         config.step(result.v, dt)
         tick[k] = perf_counter() - t0
         ok[k] = result.ok
+        relaxed[k] = bool(result.relaxed)
         out_v[k] = result.v
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt)
@@ -185,7 +188,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     return WalkRun(
         robot=robot.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com, com_ref=plan.com.copy(),
         zmp_ref=plan.zmp.copy(), left_sole=out_l, right_sole=out_r, support=plan.support.copy(), tick_time=tick,
-        solver_ok=ok, joint_names=robot.joint_names,
+        solver_ok=ok, joint_names=robot.joint_names, relaxed=relaxed,
     )
 
 
@@ -207,7 +210,8 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     :mod:`wbc.scenarios.metrics`), min_zmp_margin_plan_m (the same distance for the plan's ZMP, reported beside
     it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
-    solver_failures, nan (any non-finite q or v), passed and failed_criteria
+    solver_failures, relaxed_ticks (ticks solved without the relaxable constraints, e.g. the executed-ZMP
+    constraint; reported, not judged: the ZMP margin judges the motion), nan (any non-finite q or v), passed and failed_criteria
     (:data:`wbc.scenarios.acceptance.WALK_CRITERIA`).
     """
     from wbc.constraints.limits import bounded_joints
@@ -256,6 +260,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     summary["passed"], summary["failed_criteria"] = walk_passes(summary)
