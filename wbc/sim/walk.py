@@ -32,8 +32,9 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
-from wbc.exceptions import InvalidInputError
-from wbc.gait import plan_walk
+from wbc.exceptions import GaitError, InvalidInputError
+from wbc.gait import Footstep, plan_walk
+from wbc.gait.step_adjustment import StepAdjuster
 
 __all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance"]
 
@@ -181,6 +182,15 @@ class WalkScenario:
         stabilizer: use :class:`DcmStabilizer` (else CoM PD tracking of the plan).
         ramp_time: force ramps (s). settle: time after the plan ends (s). descent_speed: late touch-down (m/s).
         cop_margin: stabilizer CoP margin (m).
+        step_adjust: adapt the landing point of the swing foot from the measured DCM
+            (:class:`wbc.gait.step_adjustment.StepAdjuster`, Khadiv et al. 2016 eq. 6–7; the DCM plan and the swing
+            trajectory are replanned from the new step by :meth:`wbc.gait.WalkPlan.replan`); the remaining
+            footsteps move with it. ``adjust_dead_band`` (m): dead band on the predicted landing correction;
+            ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
+            ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + 0.35 z_c``
+            (``z_c`` the CoM height).
+        first_side: the foot that swings first. step_lateral: lateral displacement of the feet mid-point per
+            step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
     Raises:
         InvalidInputError / GaitError: bad numbers.
@@ -193,7 +203,9 @@ class WalkScenario:
                  step_height: float = 0.05, turn: float = 0.0, step_width: float | None = None,
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
-                 descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8):
+                 descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.04, adjust_freeze: float = 0.1,
+                 first_side: str | None = None, step_lateral: float = 0.0):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -208,6 +220,11 @@ class WalkScenario:
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
         self.t_final = 1.0
+        self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
+        self.adjust_freeze, self.step_lateral = float(adjust_freeze), float(step_lateral)
+        if first_side is None:
+            first_side = "right" if self.step_lateral < 0 else "left"
+        self.first_side = first_side
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.plan = None
@@ -227,19 +244,34 @@ class WalkScenario:
         plan = plan_walk(L, R, self.com0, n_steps=self.n_steps, step_length=self.step_length,
                          step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
                          t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
-                         sole_length=robot.sole_length, sole_width=robot.sole_width)
+                         sole_length=robot.sole_length, sole_width=robot.sole_width,
+                         first_side=self.first_side, **({"step_lateral": self.step_lateral} if self.step_lateral
+                                                         else {}))
         self.plan = plan
         # (the run length was fixed from the estimate of __init__, before setup)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
                     "right": np.gradient(plan.right_sole_vel, self.dt, axis=0)}
-        self.poses = {"left": plan.left_sole, "right": plan.right_sole}
-        self.vels = {"left": plan.left_sole_vel, "right": plan.right_sole_vel}
+        # Writable references (indexed by the original plan's samples; step adjustment rewrites them from the
+        # replanning sample on).
+        self.poses = {"left": plan.left_sole.copy(), "right": plan.right_sole.copy()}
+        self.vels = {"left": plan.left_sole_vel.copy(), "right": plan.right_sole_vel.copy()}
+        self.ref_dcm, self.ref_zmp = plan.dcm.copy(), plan.zmp.copy()
         # Swings: (side, lift-off sample, touch-down sample, footstep).
         self.swings = []
         for ph in plan.phases:
             if ph.step >= 0:
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
+        self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
+        self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
+        self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
+        self.replan_failures = 0
+        zc = float(self.com0[2])
+        w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
+        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
+                                     min_width=robot.sole_width + 0.05, max_width=w0 + 0.35 * zc,
+                                     dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
+                                     sole_width=robot.sole_width)
         self._next = 0  # next swing to start
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
@@ -307,10 +339,12 @@ class WalkScenario:
         c, cd = self._data.com[0], self._data.vcom[0]
         w = plan.omega
         xi = c[:2] + cd[:2] / w
+        if self.step_adjust:
+            self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
-            a_xy = self.stab(c[:2], cd[:2], plan.dcm[k], plan.zmp[k], hull)
+            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull)
             target = np.array([c[0], c[1], plan.com[k, 2]])
             vel = np.array([cd[0], cd[1], 0.0])
             controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
@@ -319,7 +353,7 @@ class WalkScenario:
             controller.set_com_reference(plan.com[k], plan.com_vel[k], plan.com_acc[k])
         lg = self.log
         lg["dcm"][i] = xi
-        lg["dcm_ref"][i] = plan.dcm[k]
+        lg["dcm_ref"][i] = self.ref_dcm[k]
         for j, s in enumerate(("left", "right")):
             lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(sw.phase(s))
             M = self._data.oMf[self._fid[s]]
@@ -337,6 +371,56 @@ class WalkScenario:
             sim.clear_external_forces()
             self._pushing = False
         return None
+
+    def _adjust_step(self, t, k, c, cd, xi):
+        """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
+        the measured DCM vs the DCM plan held at the swing's start (eq. 1 of :mod:`wbc.gait.step_adjustment`);
+        when it moved by more than 1 cm, replan the DCM and the swing from it (measured CoM state)."""
+        idx = None
+        for i, (side, k_lift, k_td, fs) in enumerate(self.swings):
+            if k_lift <= k < k_td:
+                idx = i
+                break
+        if idx is None:
+            self._base = None
+            return
+        side, k_lift, k_td, fs = self.swings[idx]
+        if self.switcher.phase(side) != "swing":
+            return
+        if self._base is None or self._base[0] != idx:
+            self._base = (idx, fs, self.ref_dcm.copy())
+        time_left = (k_td - k) * self.dt
+        if time_left < self.adjust_freeze:
+            return
+        _, fs0, dcm0 = self._base
+        other = "right" if side == "left" else "left"
+        M = self._data.oMf[self._fid[other]]
+        stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
+        corr = self.adjuster.correction(xi, dcm0[k], time_left)
+        if not corr.any() and abs(fs.x - fs0.x) + abs(fs.y - fs0.y) == 0.0:
+            return
+        target = self.adjuster.landing(fs0, stance, corr) if corr.any() else fs0
+        d = np.array([target.x - fs.x, target.y - fs.y])
+        if np.linalg.norm(d) < 0.01:
+            return
+        remaining = [(i, sw) for i, sw in enumerate(self.swings) if sw[2] > k]
+        new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
+        try:
+            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False)
+        except GaitError:
+            self.replan_failures += 1
+            return
+        self._rp, self._rp_k0 = rp, k
+        for (i, sw), f in zip(remaining, new):
+            self.swings[i] = (sw[0], sw[1], sw[2], f)
+        n = rp.n_samples
+        for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
+            self.poses[s][k:k + n] = P
+            self.vels[s][k:k + n] = V
+            self.acc[s][k:k + n] = np.gradient(V, self.dt, axis=0)
+        self.ref_dcm[k:k + n] = rp.dcm
+        self.ref_zmp[k:k + n] = rp.zmp
+        self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
     # -- summary -------------------------------------------------------------------------------------------
     def extra_summary(self, run) -> dict:
