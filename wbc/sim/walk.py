@@ -185,7 +185,7 @@ class WalkScenario:
         step_adjust: adapt the landing point of the swing foot from the measured DCM
             (:class:`wbc.gait.step_adjustment.StepAdjuster`, Khadiv et al. 2016 eq. 6–7; the DCM plan and the swing
             trajectory are replanned from the new step by :meth:`wbc.gait.WalkPlan.replan`); the remaining
-            footsteps move with it. ``adjust_dead_band`` (m): dead band on the predicted landing correction;
+            footsteps move with it. ``adjust_dead_band`` (m): dead band on the DCM error;
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
             ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + 0.35 z_c``
             (``z_c`` the CoM height).
@@ -204,7 +204,7 @@ class WalkScenario:
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
-                 step_adjust: bool = True, adjust_dead_band: float = 0.04, adjust_freeze: float = 0.1,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.1,
                  first_side: str | None = None, step_lateral: float = 0.0):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
