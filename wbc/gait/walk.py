@@ -382,6 +382,7 @@ def plan_walk(
     first_side: Side = "left",
     gravity: float = 9.81,
     step_lateral: float = 0.0,
+    check_start: bool = True,
 ) -> WalkPlan:
     """Plan a walk from the current feet and CoM: footsteps, schedule, LIPM CoM and swing-foot trajectories.
 
@@ -410,6 +411,8 @@ def plan_walk(
         gravity: gravity acceleration (m/s², > 0).
         step_lateral: lateral displacement (m, + left) of the feet mid-point per walking step (side-stepping,
             :mod:`wbc.gait.footsteps`).
+        check_start: raise when the CoM state cannot be captured (below); ``False`` returns the plan with its solved
+            ZMP start point wherever it is (e.g. as the nominal geometry of a capture step, then replanned).
 
     Returns:
         A :class:`WalkPlan` sampled at ``dt``.
@@ -481,4 +484,4 @@ def plan_walk(
     support = np.repeat(np.array([ph.support for ph in phases], dtype=np.int8), counts)
     _readonly(lp, lv, rp, rv, support)
     return _assemble(seg, phases, steps, c[:2], cd[:2], float(c[2]), lipm_omega(float(c[2]), g), dt,
-                     lp, rp, lv, rv, support, length, width, 0.0)
+                     lp, rp, lv, rv, support, length, width, 0.0, check_start=check_start)

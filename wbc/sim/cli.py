@@ -12,7 +12,7 @@ from pathlib import Path
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -54,7 +54,8 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
     w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
-    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--push-dir", type=float, default=90.0,
+                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
@@ -101,6 +102,11 @@ def _scenario(args, robot):
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+    if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
+        from wbc.sim.capture_step import CaptureStepScenario
+
+        force = 450.0 if args.force is None else args.force
+        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
 

@@ -189,6 +189,9 @@ class WalkScenario:
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
             ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + 0.35 z_c``
             (``z_c`` the CoM height).
+        from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
+            DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
+            first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
         first_side: the foot that swings first. step_lateral: lateral displacement of the feet mid-point per
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
@@ -205,7 +208,7 @@ class WalkScenario:
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
                  step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.1,
-                 first_side: str | None = None, step_lateral: float = 0.0):
+                 first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -225,6 +228,7 @@ class WalkScenario:
         if first_side is None:
             first_side = "right" if self.step_lateral < 0 else "left"
         self.first_side = first_side
+        self.from_state = bool(from_state)
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.plan = None
@@ -245,8 +249,16 @@ class WalkScenario:
                          step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
                          t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
                          sole_length=robot.sole_length, sole_width=robot.sole_width,
-                         first_side=self.first_side, **({"step_lateral": self.step_lateral} if self.step_lateral
+                         first_side=self.first_side, check_start=not self.from_state, **({"step_lateral": self.step_lateral} if self.step_lateral
                                                          else {}))
+        zc = float(self.com0[2])
+        w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
+        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
+                                     min_width=robot.sole_width + 0.05, max_width=w0 + 0.35 * zc,
+                                     dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
+                                     sole_width=robot.sole_width)
+        if self.from_state:
+            plan = self._capture_plan(plan, q, v)
         self.plan = plan
         # (the run length was fixed from the estimate of __init__, before setup)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
@@ -266,12 +278,6 @@ class WalkScenario:
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
-        zc = float(self.com0[2])
-        w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
-        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
-                                     min_width=robot.sole_width + 0.05, max_width=w0 + 0.35 * zc,
-                                     dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
-                                     sole_width=robot.sole_width)
         self._next = 0  # next swing to start
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
@@ -286,6 +292,26 @@ class WalkScenario:
                     "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2)), "hull": [None] * n}
         self._k = 0
         self._pushing = False
+
+    def _capture_plan(self, plan, q, v):
+        """The plan from rest ``plan`` replanned from the measured CoM state, its first step placed from the
+        measured DCM and the closing step moved with it (``from_state``)."""
+        data = self._model.createData()
+        pin.centerOfMass(self._model, data, q, v)
+        c, cd = data.com[0].copy(), data.vcom[0].copy()
+        xi = c[:2] + cd[:2] / plan.omega
+        first = next(ph for ph in plan.phases if ph.step == 0)
+        fs = plan.footsteps[0]
+        other = "right" if fs.side == "left" else "left"
+        M = self._data.oMf[self._fid[other]]
+        stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
+        e = xi - plan.dcm[0]
+        corr = math.exp(plan.omega * first.end * self.dt) * e
+        land = self.adjuster.landing(fs, stance, corr)
+        d = (land.x - fs.x, land.y - fs.y)
+        new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in plan.footsteps]
+        self.capture_landing = (float(d[0]), float(d[1]))
+        return plan.replan(0, c, cd, new, check_start=False)
 
     def com_reference(self, t):
         return self.plan.com[self.plan.index(t)]
