@@ -14,7 +14,7 @@ from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -47,12 +47,17 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: s per step, single + double support (20%%) (default 0.8)")
     w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
     w.add_argument("--vx", type=float, default=None,
-                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration)")
+                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration; with --vy/--wz alone: 0)")
     w.add_argument("--wz", type=float, default=None,
                    help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
+    w.add_argument("--vy", type=float, default=0.0,
+                   help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
+    w.add_argument("--no-step-adjust", action="store_true",
+                   help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
     w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
-    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--push-dir", type=float, default=90.0,
+                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
@@ -89,13 +94,19 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
-        if args.vx is not None:
-            args.step_length = args.vx * args.step_duration
-        if args.wz is not None:
-            args.turn = args.wz * args.step_duration
+        if args.vx is not None or args.vy or args.wz is not None:  # velocity command: what is not given is 0
+            args.step_length = (args.vx or 0.0) * args.step_duration
+            if args.wz is not None:
+                args.turn = args.wz * args.step_duration
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
-                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
+                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
+                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+    if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
+        from wbc.sim.capture_step import CaptureStepScenario
+
+        force = 450.0 if args.force is None else args.force
+        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
 
