@@ -166,5 +166,6 @@ class WaveBehaviour(Behaviour):
         return [
             ("wave_amplitude_ratio", "arms wave with ≥ 95% of the commanded amplitude",
              lambda s: s["wave_amplitude_ratio"] >= 0.95),
-            ("max_task_error", "arm joints tracked within 0.05 rad", lambda s: s["max_task_error"]["arms"] <= 0.05),
+            ("max_task_error_rad", "arm joints tracked within 0.05 rad",
+             lambda s: s["max_task_error_rad"]["arms"] <= 0.05),
         ]
