@@ -228,8 +228,9 @@ def cmd_sim(args) -> int:
 
         from wbc.viz.overlays import sim_overlays
 
-        scene = sim_overlays(run)
-        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
+        scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
+        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"],
+                           polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
     if args.video:
         from wbc.sim.video import render_video
