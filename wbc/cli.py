@@ -219,7 +219,10 @@ def cmd_walk(args) -> int:
                              step_width=args.step_width, turn=args.turn, dt=args.dt)
     viewer = pacer = None
     if args.live:
+        from wbc.viz.live_overlays import LiveOverlays
+
         viewer, pacer = _live(robot)
+        viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
     viewer = _progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     ros2_pub = None
     if args.ros2 or args.bag is not None:
