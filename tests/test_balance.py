@@ -84,7 +84,7 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
 
 def test_summary_keys_and_log_format(runs, tmp_path):
     robot, run, s = runs("one-leg", "humanoid15")
-    for key in ("robot", "behaviour", "dt", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error_m",
+    for key in ("robot", "behaviour", "dt_s", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error_m",
                 "max_task_error_rad",
                 "joint_position_violations", "joint_velocity_violations", "solver_failures", "nan", "passed",
                 "failed_criteria"):

@@ -341,7 +341,7 @@ def _check_args(args) -> None:
     """
     from wbc.exceptions import InvalidInputError
 
-    for opt in ("json", "log", "out", "plot"):
+    for opt in ("json", "log", "out", "plot", "video"):
         path = getattr(args, opt, None)
         if path is not None:
             parent = Path(path).parent

@@ -323,7 +323,7 @@ def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
 def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     """Acceptance metrics of a balance run.
 
-    Returns a dict with: robot, behaviour, dt (s), ticks, duration_s, tick_time_us {median, p99, max} (reference
+    Returns a dict with: robot, behaviour, dt_s, ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
     polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
     of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
@@ -348,7 +348,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     summary = {
         "robot": robot.name,
         "behaviour": run.behaviour,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
