@@ -68,6 +68,8 @@ def test_output_into_a_missing_folder_is_refused_and_not_created(tmp_path, capsy
         assert code == 2, opt
         assert "does not exist" in err and "nonexistent_dir" in err
         assert not target.parent.exists()
+    code, _, err = _run(["sim", "stand", "--video", str(target.with_suffix(".mp4"))], capsys)
+    assert code == 2 and "--video" in err and "does not exist" in err and not target.parent.exists()
 
 
 def test_hold_needs_live_and_a_finite_duration(capsys):
