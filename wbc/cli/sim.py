@@ -216,8 +216,9 @@ def cmd_sim(args) -> int:
     if args.out:
         from wbc.viz.overlays import sim_overlays
 
-        scene = sim_overlays(run)
-        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"])
+        scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
+        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
+                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
     if args.video:
         from wbc.sim.video import render_video
 

@@ -201,7 +201,7 @@ def _support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, sup
 def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     """Acceptance metrics of a walk.
 
-    Returns a dict with: robot, solver-independent plan info, dt (s), ticks, planned_distance and
+    Returns a dict with: robot, solver-independent plan info, dt_s, ticks, planned_distance and
     walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
     max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
     its stance began), min_zmp_margin_m (m, signed distance of the ZMP of the EXECUTED motion to the support
@@ -246,7 +246,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     tt = run.tick_time * 1e6
     summary = {
         "robot": robot.name,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "steps": int(len(plan.footsteps)),
