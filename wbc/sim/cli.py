@@ -61,9 +61,10 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
-    p.add_argument("--height", type=float, default=0.12,
-                   help="jump: planned apex CoM rise above take-off, m (default 0.12; tuned on g1)")
-    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
+    p.add_argument("--height", type=float, default=0.08,
+                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
+    p.add_argument("--forward", type=float, default=0.0, help="jump: forward hop per jump, m (default 0: vertical)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
@@ -103,7 +104,7 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height, count=args.count)
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -151,9 +152,9 @@ def cmd_sim(args) -> int:
         if args.scenario == "walk" and args.sole_margin:
             options["sole_margin"] = args.sole_margin
         if args.scenario == "jump":
-            from wbc.sim.jump import JUMP_GAINS
+            from wbc.sim.jump import JUMP_OPTIONS
 
-            options["gains"] = JUMP_GAINS
+            options.update(JUMP_OPTIONS)
         return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min, **options)
 
     viewer = pacer = None
@@ -182,7 +183,7 @@ def cmd_sim(args) -> int:
     if args.scenario == "jump":
         from wbc.sim.jump import jump_acceptance
 
-        summary["failed_criteria"] = jump_acceptance(summary)
+        summary["failed_criteria"] = jump_acceptance(summary, forward=args.forward)
         summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
