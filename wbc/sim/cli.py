@@ -64,7 +64,10 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--height", type=float, default=0.08,
                    help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
     p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
-    p.add_argument("--forward", type=float, default=0.0, help="jump: forward hop per jump, m (default 0: vertical)")
+    p.add_argument("--forward", type=float, default=0.0,
+                   help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
+    p.add_argument("--min-hop", type=float, default=None,
+                   help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
@@ -183,7 +186,7 @@ def cmd_sim(args) -> int:
     if args.scenario == "jump":
         from wbc.sim.jump import jump_acceptance
 
-        summary["failed_criteria"] = jump_acceptance(summary, forward=args.forward)
+        summary["failed_criteria"] = jump_acceptance(summary, min_hop=args.min_hop)
         summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
