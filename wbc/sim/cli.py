@@ -32,7 +32,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--push-duration", type=float, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
-                        "baseline (bisection), and report the capture-point bound")
+                        "baseline (bisection), and report the capture-point bound; jump: also find the highest "
+                        "planned height within the torque limits (see wbc.sim.jump_sweep)")
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
@@ -199,6 +200,8 @@ def cmd_sim(args) -> int:
                             "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
+    if args.scenario == "jump" and args.sweep:
+        _jump_sweep(args, robot, sim, make, summary)
     if args.scenario == "push" and args.sweep:
         cp = capture_point_bound(robot, args.push_duration)
         summary["capture_point"] = cp
@@ -242,6 +245,37 @@ def cmd_sim(args) -> int:
         path = render_video(sim, run.t, run.q, args.video, width=w, height=h)
         print(f"video written to {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return 0 if summary["passed"] else 1
+
+
+def _jump_sweep(args, robot, sim, make, summary) -> None:
+    """``wbc sim jump --sweep``: highest planned height within the torque limits (:mod:`wbc.sim.jump_sweep`)."""
+    from wbc.sim.jump import JumpScenario
+    from wbc.sim.jump_sweep import jump_height_sweep, pushoff_bound
+    from wbc.sim.scenarios import run_scenario
+
+    last = {}
+
+    def trial(h):
+        sc = JumpScenario(height=h)
+        _, s = run_scenario(sim, make(), sc)
+        last[h] = sc
+        return s
+
+    print("  sweep of the planned height (one jump per trial):")
+    res = jump_height_sweep(trial, log=print)
+    h_best = res["max_height_m"]
+    probe = last.get(h_best) or last[res["min_failed_m"]]
+    bound = pushoff_bound(robot, probe.push_postures, probe.plan.stroke)
+    best_row = next((r for r in res["trials"] if r["height_m"] == h_best), None)
+    summary["sweep"] = {"max_planned_height_m": h_best, "min_failed_height_m": res["min_failed_m"],
+                        "apex_foot_clearance_at_max_m": best_row and best_row["apex_foot_clearance_m"],
+                        "push_limiting_joint_measured": best_row and best_row["push_max_torque_joint"],
+                        "push_max_torque_over_limit_measured": best_row and best_row["push_max_torque_over_limit"],
+                        "quasi_static_bound": bound}
+    summary["sweep_trials"] = res["trials"]
+    if h_best is None:
+        summary["failed_criteria"].append("sweep: no planned height succeeded")
+    summary["passed"] = not summary["failed_criteria"]
 
 
 def _jsonable(x):

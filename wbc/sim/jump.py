@@ -33,7 +33,11 @@ is that of the commanded, i.e. applied, torques.
 
 Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
 10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; angular-momentum weight 1 (default
-0.1) against a pitching take-off; braking acceleration of the joint-limit viability bound
+0.1), and :data:`HOP_MOMENTUM_WEIGHT` = 50 for a forward hop (measured on G1, 0.2 m planned hop: with weight 1
+the centroidal angular momentum grew to 4.9 N·m·s pitching forward during the push and the robot fell on
+landing; with 50 it landed. For vertical series weight 50 made the take-off velocity alternate sideways up to
+±0.045 m/s over 10 jumps and the flight shrink to 0.09 s, weight 1 kept 5 jumps at 0.142–0.148 s; 50 during
+the push only did not save the hop); braking acceleration of the joint-limit viability bound
 (:mod:`wbc.dynamics.formulation`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
 from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and the QP cut the push-off force from
 700 N to 0 at a take-off velocity of 0.86 m/s instead of the planned 1.53 m/s (measured at 0.12 m planned height);
@@ -60,7 +64,9 @@ from wbc.tasks import OrientationTask, PostureTask
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_acceptance", "limit_landing_torques"]
 
 #: BalanceController gain overrides used for the jump (module docstring).
-JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 50.0}
+JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
+#: Weight of the centroidal angular-momentum task during a forward hop (module docstring).
+HOP_MOMENTUM_WEIGHT = 50.0
 #: Weight of the torso and base (pelvis) orientation tasks in flight and landing (module docstring).
 FLIGHT_ORIENTATION_WEIGHT = 1.0
 #: Weight of the joint task holding the upper body (every actuated joint not between the base and a sole) at
@@ -181,7 +187,7 @@ class JumpScenario:
         self.jump = 0
         self.t0 = 0.0
         self.c_start = self.com0.copy()
-        self.takeoffs, self.touchdowns, self.takeoff_velocity = [], [], []
+        self.takeoffs, self.touchdowns, self.takeoff_velocity, self.push_starts = [], [], [], []
         self.how = {"qp": 0, "soft_contact": 0, "clipped": 0}
         self._ref = (self.com0.copy(), np.zeros(3), np.zeros(3))
         self._wrap(controller)
@@ -191,6 +197,8 @@ class JumpScenario:
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
         self.foot_weight = np.array(controller.feet["left"].weight, dtype=float).copy()
+        if self.plan.forward > 0:
+            controller.momentum.weight[:] = HOP_MOMENTUM_WEIGHT
         legs = set()
         for f in (robot.left_sole, robot.right_sole):
             legs.update(model.supports[model.frames[robot.frame_id(f)].parentJoint])
@@ -243,6 +251,8 @@ class JumpScenario:
                 tp = tau - p.t_push_start
                 c, vc = self._com_state(q, v)
                 if tp < p.t_push and vc[2] < p.vz:
+                    if self.phase != "push":
+                        self.push_starts.append(t)
                     self.phase = "push"
                     ref = p.push_reference(self.c_start, tp)
                 else:
@@ -347,6 +357,12 @@ class JumpScenario:
         ratio = np.abs(run.tau) / np.where(lim > 0, lim, np.inf)
         j = int(np.argmax(ratio.max(axis=0)))
         landed = len(self.touchdowns) == self.count and not run.fell
+        push = np.zeros(len(run.t), dtype=bool)
+        for a, b in zip(self.push_starts, self.takeoffs):
+            push[int(round(a / dt)):int(round(b / dt))] = True
+        push_ratio = ratio[push].max(axis=0) if push.any() else np.zeros(ratio.shape[1])
+        jp = int(np.argmax(push_ratio))
+        self.push_postures = run.q[push]
         return {"jumps": self.count, "planned_height_m": self.plan.height, "planned_forward_m": self.plan.forward,
                 "takeoff_velocity_plan_mps": [float(x) for x in self.plan.takeoff_velocity],
                 "takeoff_velocity_measured_mps": [[float(x) for x in vv] for vv in self.takeoff_velocity],
@@ -355,6 +371,7 @@ class JumpScenario:
                 "flight_time_per_jump_s": flight, "peak_grf_n": float(fz.max()),
                 "peak_grf_body_weights": float(fz.max() / (self.robot.mass * G)),
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
+                "push_max_torque_over_limit": float(push_ratio[jp]), "push_max_torque_joint": self.robot.joint_names[jp],
                 "landing_soft_contact_ticks": self.how["soft_contact"], "torque_clipped_ticks": self.how["clipped"],
                 "landing_com_overshoot_m": max(overshoot) if overshoot else None,
                 "landed": landed, "slide_per_jump_m": slide, "max_slide_m": max(slide) if slide else None,
