@@ -61,6 +61,21 @@ NO_FALL = Criterion("no fall (base drop > 0.2 m or a non-foot body on the floor)
 FEET_STILL = Criterion("feet moved ≤ 2 cm (no stepping/sliding)", "feet_moved_m", "<=", 0.02)
 
 
+def timed_push(sim, body: str, force: np.ndarray, active: bool, pushing: bool) -> tuple[np.ndarray | None, bool]:
+    """One tick of a push: while ``active``, apply ``force`` (3,) N, world, at the origin of ``body`` (re-applied
+    every tick); at the first inactive tick after a push, clear the external forces.
+
+    Returns:
+        (force applied this tick or None, whether a push is on) — pass the latter back as ``pushing``.
+    """
+    if active:
+        sim.apply_external_force(body, force)
+        return force, True
+    if pushing:
+        sim.clear_external_forces()
+    return None, False
+
+
 class _Base:
     name = "base"
     needs_id = False
@@ -238,15 +253,9 @@ class PushScenario(_Base):
         self._on = False
 
     def update(self, t, controller, sim, q, v):
-        if self.t_push <= t < self.t_push + self.push_duration - 1e-9:
-            f = self.force * self.direction
-            sim.apply_external_force(self._body, f)  # at the body origin, re-applied every tick
-            self._on = True
-            return f
-        if self._on:
-            sim.clear_external_forces()
-            self._on = False
-        return None
+        f, self._on = timed_push(sim, self._body, self.force * self.direction,
+                                 self.t_push <= t < self.t_push + self.push_duration - 1e-9, self._on)
+        return f
 
     def extra_summary(self, run) -> dict:
         moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
