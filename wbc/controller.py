@@ -69,7 +69,8 @@ from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
+from wbc.backends import make_backend
+from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 

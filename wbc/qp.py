@@ -7,7 +7,8 @@ Every backend solves
 and returns x, or raises :class:`~wbc.exceptions.SolverError`. ``daqp`` calls DAQP's dual active-set solver
 directly (no conversion layer; equalities as sense-5 rows, bounds as DAQP's simple bounds, the previous tick's
 active bounds as warm start); ``proxqp`` keeps one warm-started ``proxsuite.proxqp.dense.QP`` per problem size
-(rebuilt only when the number of rows changes); every other name goes through ``qpsolvers.solve_qp``. After a solve, the solution is checked against every constraint: a
+(rebuilt only when the number of rows changes); every other name goes through ``qpsolvers.solve_qp``. Backends are created by name with
+:func:`wbc.backends.make_backend` (which also knows the compiled ``fast`` backend of :mod:`wbc.fastqp`). After a solve, the solution is checked against every constraint: a
 violation above the backend's tolerance is a failure; one below it is projected onto the bounds so that
 integrating x never crosses a joint limit.
 """
@@ -20,9 +21,10 @@ from abc import ABC, abstractmethod
 import numpy as np
 import qpsolvers
 
-from wbc.exceptions import InvalidInputError, SolverError, UnknownSolverError
+from wbc.exceptions import InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "available_solvers", "DEFAULT_SOLVER",
+           "TIGHT_SETTINGS"]
 
 #: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
 #: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
@@ -32,7 +34,7 @@ _BIG = 1e10  # stands for an infinite bound where a backend needs a finite numbe
 
 
 def available_solvers() -> list[str]:
-    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
+    """Names accepted by :func:`wbc.backends.make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
     return sorted([*qpsolvers.available_solvers, "fast"])
 
 
@@ -115,7 +117,7 @@ class QPBackend(ABC):
                         continue  # quadprog needs H positive definite
                     backend = QpsolversBackend("quadprog", tolerance=self.tolerance)
                 else:
-                    backend = QpsolversBackend(name, tolerance=self.tolerance, **_SETTINGS.get(name, {}))
+                    backend = QpsolversBackend(name, tolerance=self.tolerance, **TIGHT_SETTINGS.get(name, {}))
                 x = backend._solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None
@@ -364,30 +366,8 @@ class QpsolversBackend(QPBackend):
 #: Independent solvers of :meth:`QPBackend.confirm`, in order.
 _INDEPENDENT = ("proxqp", "quadprog", "daqp")
 
-#: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
-_SETTINGS = {
+#: Tight settings per qpsolvers backend so that joint limits hold to solver precision (used by
+#: :func:`wbc.backends.make_backend` and :meth:`QPBackend.confirm`).
+TIGHT_SETTINGS = {
     "osqp": {"eps_abs": 1e-9, "eps_rel": 0.0, "polishing": True, "max_iter": 20000},
 }
-
-
-def make_backend(name: str, **settings) -> QPBackend:
-    """Create a backend by name: ``daqp`` (DAQP workspace, warm-started), ``proxqp`` (warm-started proxsuite)
-    or any other installed qpsolvers backend.
-
-    Args:
-        name: backend name (:func:`available_solvers`).
-        **settings: solver settings passed to the backend (e.g. ``primal_tol=1e-9`` for daqp).
-
-    Raises:
-        UnknownSolverError: the name is not installed; the message lists the available ones.
-    """
-    if name == "fast":  # compiled exact kernel with DAQP fallback (wbc.fastqp)
-        from wbc.fastqp import FastBackend
-        return FastBackend(**settings)
-    if name not in available_solvers():
-        raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
-    if name == "proxqp":
-        return ProxQPBackend(**settings)
-    if name == "daqp":
-        return DaqpBackend(**settings)
-    return QpsolversBackend(name, **{**_SETTINGS.get(name, {}), **settings})

@@ -55,7 +55,7 @@ import numpy as np
 
 from wbc.dynamics.contacts import SoleContact
 from wbc.dynamics.state import DynamicsState
-from wbc.qp import make_backend
+from wbc.backends import make_backend
 from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.qp import QPBackend
@@ -98,7 +98,7 @@ class InverseDynamicsQP:
         tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-9;
-            ``proxqp`` warm-started; any other qpsolvers backend — :func:`wbc.qp.make_backend`) or a
+            ``proxqp`` warm-started; any other qpsolvers backend — :func:`wbc.backends.make_backend`) or a
             :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
