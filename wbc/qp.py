@@ -7,8 +7,7 @@ Every backend solves
 and returns x, or raises :class:`~wbc.exceptions.SolverError`. ``daqp`` calls DAQP's dual active-set solver
 directly (no conversion layer; equalities as sense-5 rows, bounds as DAQP's simple bounds, the previous tick's
 active bounds as warm start); ``proxqp`` keeps one warm-started ``proxsuite.proxqp.dense.QP`` per problem size
-(rebuilt only when the number of rows changes); every other name goes through ``qpsolvers.solve_qp``. Backends are created by name with
-:func:`wbc.backends.make_backend` (which also knows the compiled ``fast`` backend of :mod:`wbc.fastqp`). After a solve, the solution is checked against every constraint: a
+(rebuilt only when the number of rows changes); every other name goes through ``qpsolvers.solve_qp``. After a solve, the solution is checked against every constraint: a
 violation above the backend's tolerance is a failure; one below it is projected onto the bounds so that
 integrating x never crosses a joint limit.
 """
@@ -23,19 +22,9 @@ import qpsolvers
 
 from wbc.exceptions import InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "available_solvers", "DEFAULT_SOLVER",
-           "TIGHT_SETTINGS"]
-
-#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
-#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
-DEFAULT_SOLVER = "fast"
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
-
-
-def available_solvers() -> list[str]:
-    """Names accepted by :func:`wbc.backends.make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
-    return sorted([*qpsolvers.available_solvers, "fast"])
 
 
 class QPBackend(ABC):
@@ -117,7 +106,7 @@ class QPBackend(ABC):
                         continue  # quadprog needs H positive definite
                     backend = QpsolversBackend("quadprog", tolerance=self.tolerance)
                 else:
-                    backend = QpsolversBackend(name, tolerance=self.tolerance, **TIGHT_SETTINGS.get(name, {}))
+                    backend = QpsolversBackend(name, tolerance=self.tolerance)
                 x = backend._solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None
@@ -343,13 +332,14 @@ class QpsolversBackend(QPBackend):
 
     Args:
         solver: qpsolvers backend name.
-        **settings: passed to the backend (e.g. ``eps_abs=1e-9`` for osqp).
+        **settings: passed to the backend, over wbc's tight defaults for that backend (osqp: ``eps_abs=1e-9``,
+            ``eps_rel=0``, polishing, 20000 iterations) so that joint limits hold to solver precision.
     """
 
     def __init__(self, solver: str, tolerance: float = 1e-6, **settings):
         self.name = solver
         self.tolerance = tolerance
-        self.settings = settings
+        self.settings = {**_SETTINGS.get(solver, {}), **settings}
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G = h = None
@@ -366,8 +356,9 @@ class QpsolversBackend(QPBackend):
 #: Independent solvers of :meth:`QPBackend.confirm`, in order.
 _INDEPENDENT = ("proxqp", "quadprog", "daqp")
 
-#: Tight settings per qpsolvers backend so that joint limits hold to solver precision (used by
-#: :func:`wbc.backends.make_backend` and :meth:`QPBackend.confirm`).
-TIGHT_SETTINGS = {
+#: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
+_SETTINGS = {
     "osqp": {"eps_abs": 1e-9, "eps_rel": 0.0, "polishing": True, "max_iter": 20000},
 }
+
+

@@ -69,7 +69,7 @@ def check_args(args) -> None:
         InvalidInputError: an output file's directory does not exist; ``--hold`` is negative or given without
             ``--live``.
     """
-    for opt in ("json", "log", "out", "plot"):
+    for opt in ("json", "log", "out", "plot", "video"):
         path = getattr(args, opt, None)
         if path is not None:
             parent = Path(path).parent

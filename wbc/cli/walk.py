@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -10,7 +12,7 @@ from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["register", "cmd_walk", "leg_reach", "MIN_STEPS"]
+__all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "MIN_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
 
@@ -54,6 +56,24 @@ def check_walk_args(args, robot) -> None:
                                     f"(valid: 0 <= step length <= {reach:.3f} m)")
 
 
+def velocity_command(args, robot) -> dict:
+    """``--vx/--vy/--wz`` (m/s, m/s, deg/s) → per-step ``--step-length``, lateral step and ``--turn`` (rad), with the
+    step duration ``t_ss + t_ds`` of the robot's gait (the walk starts and stops at rest: the first step leaves
+    from standing, the last one closes the feet). Returns extra :func:`wbc.gait.plan_walk` keywords."""
+    vx, vy, wz = getattr(args, "vx", None), getattr(args, "vy", None), getattr(args, "wz", None)
+    if vx is None and not vy and wz is None:
+        return {}
+    vx = 0.0 if vx is None else vx  # a velocity command: what is not commanded is 0
+    gait = dict(robot.gait)
+    period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
+    args.step_length = vx * period
+    if wz is not None:
+        args.turn = math.radians(wz) * period
+    if not vy:
+        return {}
+    return {"step_lateral": vy * period, "first_side": "left" if vy > 0 else "right"}
+
+
 def cmd_walk(args) -> int:
     """`wbc walk`: plan, walk, print and write the outputs; exit code 0 passed, 1 failed criteria."""
     from wbc.robot import load_robot
@@ -62,12 +82,16 @@ def cmd_walk(args) -> int:
     from wbc.viz.overlays import walk_overlays
 
     robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
+    velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
-                             step_width=args.step_width, turn=args.turn, dt=args.dt)
+                             step_width=args.step_width, turn=args.turn, dt=args.dt, **velocity)
     viewer = pacer = None
     if args.live:
+        from wbc.viz.live_overlays import LiveOverlays
+
         viewer, pacer = open_live(robot)
+        viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
     viewer = progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
@@ -92,7 +116,7 @@ def cmd_walk(args) -> int:
 
 def register(sub, add_outputs=add_outputs) -> None:
     """Add the ``walk`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import DEFAULT_SOLVER, available_solvers
+    from wbc.backends import DEFAULT_SOLVER, available_solvers
 
     walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller",
                           description="Plan a straight (or turning) walk from the robot's reference stance and track "
@@ -105,6 +129,12 @@ def register(sub, add_outputs=add_outputs) -> None:
                       help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=float, default=None, help="m (default: current feet distance)")
     walk.add_argument("--turn", type=float, default=0.0, help="yaw change per step, rad (default 0)")
+    walk.add_argument("--vx", type=float, default=None,
+                      help="forward velocity command, m/s (sets --step-length = vx x step duration t_ss + t_ds)")
+    walk.add_argument("--vy", type=float, default=0.0,
+                      help="lateral velocity command, m/s, + left (side-steps of vy x step duration)")
+    walk.add_argument("--wz", type=float, default=None,
+                      help="turning velocity command, deg/s (sets --turn = wz x step duration)")
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     add_outputs(walk)

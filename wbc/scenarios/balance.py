@@ -23,9 +23,12 @@ The log (``--log balance.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq);
 m, world; ``com_ref`` (N, 3) m, world (NaN rows while the behaviour has no CoM target, e.g. ``reach``);
 ``left_sole``/``right_sole`` (N, 4, 4) world poses; ``support`` (N,) 0 = double, 1 = left stance, 2 = right
 stance; ``com_margin`` (N,) m, signed distance of the CoM ground projection to the current support polygon
-(> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,) and ``task_error`` (N, T),
-norm of each task's error at the start of the tick (task units: m, rad; NaN while the task is inactive);
-``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``. Row k is the state at the start of tick k,
+(> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,), ``task_units`` (T,) and
+``task_error`` (N, T), norm of each task's error at the start of the tick in ``task_units`` (``m`` or ``rad``; a
+frame task with position and orientation rows has two columns, ``<name> position`` m and ``<name> orientation``
+rad; NaN while the task is inactive);
+``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``; ``relaxed`` (N,) bool, tick solved without its
+relaxable constraints. Row k is the state at the start of tick k,
 t[k] = k dt, v[k] the command computed from it (applied for dt), references are those of t[k].
 """
 
@@ -43,11 +46,14 @@ from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.scenarios.stance import StanceRecorder, StanceRun
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
+from wbc.tasks.com import ComTask
+from wbc.tasks.frame import FrameTask
+from wbc.tasks.posture import PostureTask
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk_ramp,
     support_polygon,
@@ -145,6 +151,7 @@ class BalanceRun(StanceRun):
     com_margin: np.ndarray
     task_names: list[str]
     task_error: np.ndarray
+    task_units: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
@@ -202,7 +209,8 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     out_ref = np.full((n, 3), np.nan)
     support = np.empty(n, dtype=np.int8)
     margin = np.empty(n)
-    errors = np.full((n, len(tasks)), np.nan)
+    parts = [(i, *part) for i, task in enumerate(tasks) for part in task_error_parts(task)]
+    errors = np.full((n, len(parts)), np.nan)
     for k in range(n):
         t = k * dt
         rec.record_state(k, config)
@@ -213,9 +221,12 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         support[k] = ctrl.support
         if ctrl.has_task(ctrl.com):
             out_ref[k] = ctrl.com.target
-        for i, task in enumerate(tasks):
-            if ctrl.has_task(task):
-                errors[k, i] = float(np.linalg.norm(task.compute_error(config)))
+        last, e = -1, None
+        for c, (i, _, _, rows) in enumerate(parts):
+            if ctrl.has_task(tasks[i]):
+                if i != last:
+                    last, e = i, tasks[i].compute_error(config)
+                errors[k, c] = float(np.linalg.norm(e if rows is None else e[rows]))
         margin[k] = _com_margin(robot, rec.com[k, :2], rec.left_sole[k], rec.right_sole[k], ctrl.support)
         config.step(result.v, dt)
         rec.record_command(k, result, tick)
@@ -225,9 +236,29 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
             pacer.wait((k + 1) * dt)
     return BalanceRun(
         robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, com_ref=out_ref, support=support,
-        com_margin=margin, task_names=[t.name for t in tasks], task_error=errors, joint_names=robot.joint_names,
-        extra={"behaviour": beh}, **rec.arrays(),
+        com_margin=margin, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
+        task_units=[p[2] for p in parts], extra={"behaviour": beh}, **rec.arrays(),
     )
+
+
+def task_error_parts(task) -> list[tuple[str, str, np.ndarray | None]]:
+    """How a task's error splits by unit: ``(label, unit, rows of compute_error() or None for all)``.
+
+    CoM and frame position rows are in m, posture and frame orientation rows in rad (revolute joints); a frame
+    task with both gives ``<name> position`` and ``<name> orientation``; any other task is one part whose
+    unit is ``"task"`` (its own units).
+    """
+    if isinstance(task, FrameTask):
+        rows = np.asarray(task.rows)
+        pos, rot = np.flatnonzero(rows < 3), np.flatnonzero(rows >= 3)
+        if pos.size and rot.size:
+            return [(f"{task.name} position", "m", pos), (f"{task.name} orientation", "rad", rot)]
+        return [(task.name, "m" if pos.size else "rad", None)]
+    if isinstance(task, ComTask):
+        return [(task.name, "m", None)]
+    if isinstance(task, PostureTask):
+        return [(task.name, "rad", None)]
+    return [(task.name, "task", None)]
 
 
 # -- summary and acceptance ---------------------------------------------------------------------------------
@@ -266,14 +297,16 @@ def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
 def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     """Acceptance metrics of a balance run.
 
-    Returns a dict with: robot, behaviour, dt (s), ticks, duration_s, tick_time_us {median, p99, max} (reference
+    Returns a dict with: robot, behaviour, dt_s, ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
     polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
     of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
-    :mod:`wbc.scenarios.metrics`), max_task_error {task: max over
-    active ticks of ‖e‖, task units m or rad; frame tasks mix m and rad rows}, max_stance_slip_m,
+    :mod:`wbc.scenarios.metrics`), max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
+    positions}, max_task_error_rad {the same in rad: orientations, posture} (see :func:`task_error_parts`; a
+    task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
-    solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    solver_failures (ticks whose command fell back to a safe command), relaxed_ticks (ticks solved without the
+    relaxable constraints — executed-ZMP constraint — reported, not judged), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
     """
     model = robot.model
     idx_q, _ = bounded_joints(model)
@@ -281,25 +314,27 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     pos_viol = int(np.sum((qj < model.lowerPositionLimit[idx_q]) | (qj > model.upperPositionLimit[idx_q])))
     vel_viol = int(np.sum(np.abs(run.v[:, 6:]) > model.velocityLimit[6:]))
     tt = run.tick_time * 1e6
-    task_err = {}
-    for i, name in enumerate(run.task_names):
+    task_err: dict[str, dict[str, float]] = {"m": {}, "rad": {}}
+    units = run.task_units or ["task"] * len(run.task_names)
+    for i, (name, unit) in enumerate(zip(run.task_names, units)):
         col = run.task_error[:, i]
         if np.isfinite(col).any():
-            task_err[name] = float(np.nanmax(col))
+            task_err.setdefault(unit, {})[name] = float(np.nanmax(col))
     summary = {
         "robot": robot.name,
         "behaviour": run.behaviour,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
         "min_com_margin_m": float(run.com_margin.min()),
         "min_zmp_margin_m": _executed_zmp_margin(robot, run),
-        "max_task_error": task_err,
+        **{f"max_task_error_{unit}": errs for unit, errs in task_err.items()},
         "max_stance_slip_m": _stance_slip(run),
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     beh = run.extra.get("behaviour")

@@ -12,11 +12,11 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.constraints import ComPolygonConstraint
+from wbc.constraints.zmp import DcmPolygonConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import support_polygon as sole_support_polygon
 from wbc.profiles import min_jerk_ramp
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, SIDES, StanceController
 from wbc.tasks import PostureTask
@@ -110,7 +110,7 @@ class BalanceController(StanceController):
                  polygon_margin: float = 0.01, com_gain: float = 100.0, foot_gain: float = 100.0,
                  torso_gain: float = 50.0, posture_gain: float = 2.0,
                  rank_rtol: float = 1e-4):
-        self.com_polygon = ComPolygonConstraint(robot, margin=polygon_margin)
+        self.com_polygon = DcmPolygonConstraint(robot, margin=polygon_margin)
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain, extra_constraints=(self.com_polygon,),
                          rank_rtol=rank_rtol)

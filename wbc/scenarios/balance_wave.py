@@ -166,5 +166,5 @@ class WaveBehaviour(Behaviour):
     def criteria(self):
         return [
             Criterion("arms wave with ≥ 95% of the commanded amplitude", "wave_amplitude_ratio", ">=", 0.95),
-            Criterion("arm joints tracked within 0.05 rad", "max_task_error.arms", "<=", 0.05),
+            Criterion("arm joints tracked within 0.05 rad", "max_task_error_rad.arms", "<=", 0.05),
         ]

@@ -37,7 +37,7 @@ class Criterion:
 
     Args:
         description: what the criterion demands, as reported in ``failed_criteria``.
-        key: summary entry; a dotted path reaches into a dict entry (``max_task_error.arms``).
+        key: summary entry; a dotted path reaches into a dict entry (``max_task_error_rad.arms``).
         op: one of ``<=``, ``<``, ``>=``, ``>``, ``==``, ``!=``.
         threshold: the bound (a number or a bool), in the entry's units.
         minus: another entry (or a number): the value is ``|summary[key] − summary[minus]|`` (wrapped into

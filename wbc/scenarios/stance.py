@@ -2,7 +2,9 @@
 
 Tasks: CoM (weight 10), torso orientation (1), posture on every DoF (1e-2), and a frame task on each swinging
 sole (10 on position and orientation). Constraints: each stance sole is a hard contact; joint position and
-velocity limits; optional extra constraints (e.g. CoM in the support polygon). Contact switching
+velocity limits; the ZMP of the executed motion inside the stance soles' polygon
+(:class:`~wbc.constraints.zmp.ExecutedZmpConstraint`, relaxable); optional extra constraints (e.g. CoM in the
+support polygon). Contact switching
 (:meth:`StanceController.set_support`): a sole that touches down is held where it is; one that lifts off gets
 a swing task starting at its current placement. Walking (:mod:`wbc.scenarios.walk`) and the balance behaviours
 (:mod:`wbc.scenarios.balance_control`) are both this controller with their own references.
@@ -17,9 +19,10 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
+from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import RunRecord
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
@@ -43,12 +46,15 @@ class StanceController:
         com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s); ``foot_gain`` also drives the
             contacts' drift correction.
         extra_constraints: added after the contacts (before the joint limits).
+        zmp_margin: margin (m) of the :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` that keeps the ZMP of
+            the executed motion inside the support polygon of the stance soles (None: no such constraint).
         **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
                  com_gain: float = 100.0, foot_gain: float = 100.0, torso_gain: float = 50.0,
-                 posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (), **controller_options):
+                 posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (),
+                 zmp_margin: float | None = 0.002, **controller_options):
         self.robot = robot
         self.com = ComTask(weight=10.0, gain=com_gain)
         self.com.set_target(config.com.copy())
@@ -62,6 +68,10 @@ class StanceController:
         self.contact = {side: ContactConstraint(robot, frames[side], gain=foot_gain) for side in SIDES}
         for c in self.contact.values():
             c.set_placement_from_configuration(config)
+        self.zmp = None if zmp_margin is None else ExecutedZmpConstraint(robot, margin=zmp_margin)
+        if self.zmp is not None:
+            self.zmp.set_support([self.contact[s].placement for s in SIDES])
+            extra_constraints = (*extra_constraints, self.zmp)
         self.controller = KinematicController(
             robot, [self.com, self.torso, self.posture],
             [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
@@ -89,6 +99,8 @@ class StanceController:
                 self.controller.add_task(self.swing[side])
             self.stance[side] = wanted[side]
         self.support = support
+        if self.zmp is not None:
+            self.zmp.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
         self.support_changed()
 
     def support_changed(self) -> None:
@@ -104,8 +116,8 @@ class StanceRun(RunRecord):
     """What every run of the stance controller records (walk, balance behaviours), one row per tick k at
     t[k] = k dt: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref``
     (N, 3) m, world; ``left_sole``, ``right_sole`` (N, 4, 4) world poses; ``support`` (N,) int8
-    (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``joint_names`` (nv − 6,); ``robot``;
-    ``dt`` s."""
+    (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``relaxed`` (N,) bool, the tick was solved
+    without its relaxable constraints; ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
 
     robot: str
     dt: float
@@ -119,6 +131,7 @@ class StanceRun(RunRecord):
     support: np.ndarray
     tick_time: np.ndarray
     solver_ok: np.ndarray
+    relaxed: np.ndarray
     joint_names: list[str]
 
 
@@ -137,6 +150,7 @@ class StanceRecorder:
         self.right_sole = np.empty((n, 4, 4))
         self.tick_time = np.empty(n)
         self.solver_ok = np.empty(n, dtype=bool)
+        self.relaxed = np.zeros(n, dtype=bool)
 
     def record_state(self, k: int, config: Configuration) -> None:
         """Row k: q, CoM and sole poses of ``config``."""
@@ -146,12 +160,13 @@ class StanceRecorder:
         self.right_sole[k] = config.data.oMf[self._rf].homogeneous
 
     def record_command(self, k: int, result: TickResult, tick_time: float) -> None:
-        """Row k: the command, whether the QP solved, the tick time (s)."""
+        """Row k: the command, whether the QP solved (and without its relaxable constraints), the tick time (s)."""
         self.tick_time[k] = tick_time
         self.solver_ok[k] = result.ok
+        self.relaxed[k] = bool(result.relaxed)
         self.v[k] = result.v
 
     def arrays(self) -> dict:
         """The recorded arrays under their :class:`StanceRun` field names."""
         return {"q": self.q, "v": self.v, "com": self.com, "left_sole": self.left_sole, "right_sole": self.right_sole,
-                "tick_time": self.tick_time, "solver_ok": self.solver_ok}
+                "tick_time": self.tick_time, "solver_ok": self.solver_ok, "relaxed": self.relaxed}

@@ -7,7 +7,7 @@ touch-down placement; the QP gives v; q ← pin.integrate(q, v dt).
 The log (``--log walk.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv); ``com`` and
 ``com_ref`` (N, 3) m, world; ``zmp_ref`` (N, 2) m, world; ``left_sole``/``right_sole`` (N, 4, 4) world poses;
 ``support`` (N,) 0 = double, 1 = left stance, 2 = right stance; ``tick_time`` (N,) s; ``joint_names`` (nv−6,);
-``robot`` (name); ``dt``. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
+``robot`` (name); ``dt``; ``relaxed`` (N,) bool, tick solved without its relaxable constraints. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
 computed from it (applied for dt); ``com_ref[k]`` is the plan's CoM at t[k].
 """
 
@@ -20,7 +20,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.qp import DEFAULT_SOLVER
+from wbc.exceptions import InvalidTargetError
+from wbc.backends import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.geometry import mean_heading
@@ -75,24 +76,46 @@ class WalkController(StanceController):
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
-        self._zero3 = np.zeros(3)
+        self._plan: WalkPlan | None = None
+        self._torso_targets = np.zeros((0, 4, 4))
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
         """Targets of sample k of the plan, at the current configuration.
 
-        The plan was validated when it was built (:func:`wbc.gait.plan_walk`: finite, read-only arrays, rotation
-        blocks from yaw angles), so its rows go to the tasks through their trusted setters
-        (``set_target_trusted``), not re-validated every tick.
+        The plan's samples are validated once per plan (finite, rotation blocks orthonormal) and then handed to
+        the tasks without per-tick validation; the torso targets of the whole plan are computed at that time.
+
+        Raises:
+            InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
         """
+        if self._plan is not plan:
+            self._prepare_plan(plan)
         self.set_support(int(plan.support[k]), config)
         self.com.set_target_trusted(plan.com[k], plan.com_vel[k])
-        for side, soles, vels in (("left", plan.left_sole, plan.left_sole_vel),
-                                  ("right", plan.right_sole, plan.right_sole_vel)):
-            if not self.stance[side]:
-                M = soles[k]
-                self.swing[side].set_target_trusted(pin.SE3(M[:3, :3].copy(), M[:3, 3].copy()), vels[k])
-        yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
-        self.torso.set_target_trusted(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, self._zero3))
+        if not self.stance["left"]:
+            self.swing["left"].set_target_trusted(plan.left_sole[k], plan.left_sole_vel[k])
+        if not self.stance["right"]:
+            self.swing["right"].set_target_trusted(plan.right_sole[k], plan.right_sole_vel[k])
+        self.torso.set_target_trusted(self._torso_targets[k])
+
+    def _prepare_plan(self, plan: WalkPlan) -> None:
+        """Validate the plan's samples once and compute its torso targets (yaw = mean heading of the soles)."""
+        for name in ("com", "com_vel", "left_sole_vel", "right_sole_vel"):
+            if not np.isfinite(getattr(plan, name)).all():
+                raise InvalidTargetError(f"walk plan {name} contains NaN/inf")
+        for name in ("left_sole", "right_sole"):
+            poses = getattr(plan, name)
+            rot = poses[:, :3, :3]
+            if not np.isfinite(poses).all() or np.abs(rot.transpose(0, 2, 1) @ rot - np.eye(3)).max() > 1e-6 \
+                    or (np.linalg.det(rot) < 0).any():
+                raise InvalidTargetError(f"walk plan {name} has non-finite entries or a non-rotation block")
+        targets = np.zeros((len(plan.t), 4, 4))
+        targets[:, 3, 3] = 1.0
+        for k in range(len(plan.t)):
+            yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
+            targets[k, :3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot
+        self._torso_targets = targets
+        self._plan = plan
 
 
 @dataclass
@@ -148,7 +171,7 @@ def _support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, sup
 def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     """Acceptance metrics of a walk.
 
-    Returns a dict with: robot, solver-independent plan info, dt (s), ticks, planned_distance and
+    Returns a dict with: robot, solver-independent plan info, dt_s, ticks, planned_distance and
     walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
     max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
     its stance began), min_zmp_margin_m (m, signed distance of the ZMP of the EXECUTED motion to the support
@@ -157,7 +180,8 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     :mod:`wbc.scenarios.metrics`), min_zmp_margin_plan_m (the same distance for the plan's ZMP, reported beside
     it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
-    solver_failures, nan (any non-finite q or v), passed and failed_criteria
+    solver_failures, relaxed_ticks (ticks solved without the relaxable constraints, e.g. the executed-ZMP
+    constraint; reported, not judged: the ZMP margin judges the motion), nan (any non-finite q or v), passed and failed_criteria
     (:data:`wbc.scenarios.acceptance.WALK_CRITERIA`).
     """
     from wbc.constraints.limits import bounded_joints
@@ -192,7 +216,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     tt = run.tick_time * 1e6
     summary = {
         "robot": robot.name,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "steps": int(len(plan.footsteps)),
@@ -206,6 +230,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     summary["passed"], summary["failed_criteria"] = walk_passes(summary)

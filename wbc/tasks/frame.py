@@ -90,21 +90,24 @@ class FrameTask(Task):
             raise InvalidTargetError(f"velocity of {self.name} must be a finite (6,) array, got {vel!r}")
         self._set_feedforward(vel)
 
-    def set_target_trusted(self, pose: pin.SE3, velocity: np.ndarray | None = None) -> None:
-        """:meth:`set_target` without validation, for a controller's own loop feeding targets it built and
-        validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``pose`` a pin.SE3 with a rotation
-        block (world), kept by reference, ``velocity`` a finite (6,) float array (linear m/s, angular rad/s, world
-        axes) or None."""
-        self._target = pose
-        self._target_rot_t = pose.rotation.T.copy()
-        if velocity is None:
-            self._ff = None
-        else:
-            self._set_feedforward(velocity)
-
     def _set_feedforward(self, vel: np.ndarray) -> None:
         self._ff6[:3] = vel[:3]
         self._ff6[3:] = self._target.rotation.T @ vel[3:]
+        self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
+
+    def set_target_trusted(self, pose: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        """:meth:`set_target` without validation, for a controller's own loop feeding targets it built and
+        validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``pose`` a (4, 4) homogeneous matrix
+        (world, m), ``velocity`` None or a finite (6,) float array (linear m/s, angular rad/s, world axes).
+        Malformed input is not detected here."""
+        rot = pose[:3, :3]
+        self._target = pin.SE3(rot, pose[:3, 3])
+        self._target_rot_t = rot.T.copy()
+        if velocity is None:
+            self._ff = None
+            return
+        self._ff6[:3] = velocity[:3]
+        self._ff6[3:] = self._target_rot_t @ velocity[3:]
         self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
 
     @property
