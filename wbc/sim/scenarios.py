@@ -46,7 +46,8 @@ from wbc.scenarios.framework import Criterion, evaluate
 
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
-    "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "make_controller",
+    "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
+    "make_controller",
     "DEFAULT_PUSH_FORCE",
 ]
 
@@ -430,16 +431,31 @@ def push_sweep(sim, make, *, push_duration: float = 0.1, f_hi: float, resolution
                 f" (fell {s['fell']}, feet moved {s['feet_moved_m']:.3f} m)")
         return s["passed"]
 
-    lo, hi = 0.0, float(f_hi)
-    while survives(hi):
+    lo, hi = largest_passing(survives, float(f_hi), limit=max_force, resolution=resolution, lo=0.0)
+    return {"max_survived_n": lo, "min_failed_n": hi, "trials": trials}
+
+
+def largest_passing(ok, start: float, *, limit: float, resolution: float, lo: float | None = None):
+    """Bracket then bisect the largest value that passes ``ok`` (assumed monotonic: passes below a threshold).
+
+    ``start`` is doubled while it passes (``None`` for the failing end once it exceeds ``limit``), then the bracket
+    [lo, hi] is halved until narrower than ``resolution`` (units of the value).
+
+    Returns:
+        (largest passing value or ``lo`` when ``start`` already fails, smallest failing value or None).
+    """
+    hi = start
+    while ok(hi):
         lo = hi
         hi *= 2.0
-        if hi > max_force:
-            return {"max_survived_n": lo, "min_failed_n": None, "trials": trials}
+        if hi > limit:
+            return lo, None
+    if lo is None:
+        return None, hi
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
-        if survives(mid):
+        if ok(mid):
             lo = mid
         else:
             hi = mid
-    return {"max_survived_n": lo, "min_failed_n": hi, "trials": trials}
+    return lo, hi
