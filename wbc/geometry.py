@@ -24,7 +24,7 @@ import pinocchio as pin
 from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError
 
 __all__ = [
-    "check_vector", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
     "signed_distance_point", "signed_distance", "polygons_overlap",
 ]
 
@@ -49,6 +49,26 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
         if bad:
             raise error(f"{what} must be finite; NaN/inf at indices {bad}")
     return arr
+
+
+def check_scalar(x, what: str, unit: str, *, minimum: float = 0.0, strict: bool = False,
+                 error=InvalidInputError) -> float:
+    """Return ``x`` as a float if it is finite and ≥ ``minimum`` (> with ``strict``), else raise ``error``
+    ("<what> must be finite and ≥ <minimum> (<unit>), got <x>"); a bool is refused."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(x, bool) or not math.isfinite(v) or v < minimum or (strict and v == minimum):
+        raise error(f"{what} must be finite and {'>' if strict else '≥'} {minimum:g} ({unit}), got {x!r}")
+    return v
+
+
+def check_count(n, what: str, minimum: int = 1, error=InvalidInputError) -> int:
+    """Return ``int(n)`` if it is ≥ ``minimum``, else raise ``error`` ("<what> must be ≥ <minimum>, got <n>")."""
+    if int(n) < minimum:
+        raise error(f"{what} must be ≥ {minimum}, got {n!r}")
+    return int(n)
 
 
 def as_se3(pose, what: str = "target pose") -> pin.SE3:
