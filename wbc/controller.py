@@ -312,20 +312,13 @@ class KinematicController:
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
-        self._eq_blocks, self._in_blocks = [], []
-        row = 0
-        for c in eq:
-            self._eq_blocks.append((c, row, row + c.dim))
-            row += c.dim
-        self._A = np.zeros((row, self.nv))
-        self._b = np.zeros(row)
-        row = 0
-        for c in ineq:
-            self._in_blocks.append((c, row, row + c.dim))
-            row += c.dim
-        self._C = np.zeros((row, self.nv))
-        self._l = np.zeros(row)
-        self._u = np.zeros(row)
+        self._eq_blocks, n_eq = _row_blocks(eq)
+        self._A = np.zeros((n_eq, self.nv))
+        self._b = np.zeros(n_eq)
+        self._in_blocks, n_in = _row_blocks(ineq)
+        self._C = np.zeros((n_in, self.nv))
+        self._l = np.zeros(n_in)
+        self._u = np.zeros(n_in)
         self._lb = np.empty(self.nv)
         self._ub = np.empty(self.nv)
         self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
@@ -684,3 +677,12 @@ class KinematicController:
             conflicts += [(t.name, float("nan")) for t in tasks
                           if not all(np.isfinite(x).all() for x in t.compute(config))]
         return conflicts
+
+
+def _row_blocks(constraints) -> tuple[list, int]:
+    """``([(constraint, first row, end row)...], total rows)`` of constraints stacked in order."""
+    blocks, row = [], 0
+    for c in constraints:
+        blocks.append((c, row, row + c.dim))
+        row += c.dim
+    return blocks, row

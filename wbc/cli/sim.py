@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs
 from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
@@ -213,19 +213,12 @@ def cmd_sim(args) -> int:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
     print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
-    if args.json:
-        write_json(args.json, summary)
-    if args.log:
-        run.save(args.log)
-        print(f"log written to {args.log}")
-    if getattr(args, "plot", None):
-        write_plot(args.plot, run)
+    scene = {}
     if args.out:
         from wbc.viz.overlays import sim_overlays
 
         scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
-        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
-                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
+    write_outputs(args, summary, run, robot, overlays=scene.get("points"), scene=scene)
     if args.video:
         from wbc.sim.video import render_video
 

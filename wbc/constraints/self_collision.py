@@ -52,6 +52,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_count, check_scalar
 
 __all__ = ["SelfCollisionConstraint", "default_collision_pairs"]
 
@@ -101,18 +102,13 @@ class SelfCollisionConstraint(InequalityConstraint):
     def __init__(self, robot, *, min_distance: float = 0.02, pairs=None, activation_distance: float = 0.1,
                  gain: float = 50.0, safety_margin: float = 0.003, recovery_speed: float = 0.0,
                  max_active: int = 32, convex: bool = True, name: str = "self_collision"):
-        if not (math.isfinite(min_distance) and min_distance >= 0):
-            raise InvalidInputError(f"min_distance must be finite and ≥ 0 (m), got {min_distance!r}")
+        check_scalar(min_distance, "min_distance", "m")
         if not (math.isfinite(activation_distance) and activation_distance > min_distance):
             raise InvalidInputError(f"activation_distance must be > min_distance, got {activation_distance!r}")
-        if not (math.isfinite(gain) and gain > 0):
-            raise InvalidInputError(f"gain must be finite and > 0 (1/s), got {gain!r}")
-        if not (math.isfinite(safety_margin) and safety_margin >= 0):
-            raise InvalidInputError(f"safety_margin must be finite and ≥ 0 (m), got {safety_margin!r}")
-        if not (math.isfinite(recovery_speed) and recovery_speed >= 0):
-            raise InvalidInputError(f"recovery_speed must be finite and ≥ 0 (m/s), got {recovery_speed!r}")
-        if int(max_active) < 1:
-            raise InvalidInputError(f"max_active must be ≥ 1, got {max_active!r}")
+        check_scalar(gain, "gain", "1/s", strict=True)
+        check_scalar(safety_margin, "safety_margin", "m")
+        check_scalar(recovery_speed, "recovery_speed", "m/s")
+        check_count(max_active, "max_active")
         self.model = robot.model
         self.name = name
         self.min_distance = float(min_distance)

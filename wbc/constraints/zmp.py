@@ -44,7 +44,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, convex_hull, sole_polygon
+from wbc.geometry import as_se3, check_count, check_scalar, support_polygon
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 
@@ -73,14 +73,10 @@ class ExecutedZmpConstraint(InequalityConstraint):
 
     def __init__(self, robot, *, margin: float = 0.002, max_soles: int = 2, gravity: float = GRAVITY,
                  name: str = "executed_zmp"):
-        if not (math.isfinite(margin) and margin >= 0):
-            raise InvalidInputError(f"margin must be finite and ≥ 0 (m), got {margin!r}")
-        if not (math.isfinite(gravity) and gravity > 0):
-            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
-        if int(max_soles) < 1:
-            raise InvalidInputError(f"max_soles must be ≥ 1, got {max_soles!r}")
-        self.robot = robot
-        self.margin, self.gravity, self.max_soles, self.name = float(margin), float(gravity), int(max_soles), name
+        self.robot, self.name = robot, name
+        self.margin = check_scalar(margin, "margin", "m")
+        self.gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
+        self.max_soles = check_count(max_soles, "max_soles")
         nv = robot.model.nv
         self.dim = 4 * self.max_soles
         self.nv = nv
@@ -107,11 +103,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         poses = [as_se3(p, "sole placement") for p in sole_placements]
         if not 1 <= len(poses) <= self.max_soles:
             raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
-        corners = np.vstack([
-            sole_polygon(float(M.translation[0]), float(M.translation[1]),
-                         math.atan2(M.rotation[1, 0], M.rotation[0, 0]), self.robot.sole_length,
-                         self.robot.sole_width) for M in poses])
-        poly = corners if len(poses) == 1 else convex_hull(corners)
+        poly = support_polygon(poses, self.robot.sole_length, self.robot.sole_width)
         normals, offsets = halfplanes(poly)
         if float(np.min(offsets - normals @ poly.mean(axis=0))) <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
@@ -172,10 +164,9 @@ class DcmPolygonConstraint(ComPolygonConstraint):
     """
 
     def __init__(self, robot, *, gravity: float = GRAVITY, name: str = "dcm_polygon", **kwargs):
-        if not (math.isfinite(gravity) and gravity > 0):
-            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
+        gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
         super().__init__(robot, name=name, **kwargs)
-        self.gravity = float(gravity)
+        self.gravity = gravity
         self.ground_z = 0.0
 
     def set_support(self, sole_placements) -> None:

@@ -48,7 +48,8 @@ from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
-from wbc.scenarios.framework import Criterion, RunRecord, evaluate
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.scenarios.stance import StanceRecorder, StanceRun
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.tasks.com import ComTask
 from wbc.tasks.frame import FrameTask
@@ -61,7 +62,7 @@ from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk_ramp", "run_balance", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "side_option", "support_polygon",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -116,6 +117,17 @@ class Behaviour(ABC):
         return {}
 
 
+def side_option(value: str, what: str) -> str:
+    """``value`` if it is ``"left"`` or ``"right"``.
+
+    Raises:
+        InvalidInputError: any other value, naming the option ``what``.
+    """
+    if value not in ("left", "right"):
+        raise InvalidInputError(f"{what} must be 'left' or 'right', got {value!r}")
+    return value
+
+
 def make_behaviour(name: str, robot: Robot, config: Configuration, **options) -> Behaviour:
     """Instantiate a behaviour by name (see :data:`BEHAVIOURS`).
 
@@ -130,29 +142,17 @@ def make_behaviour(name: str, robot: Robot, config: Configuration, **options) ->
 
 # -- run --------------------------------------------------------------------------------------------------------
 @dataclass
-class BalanceRun(RunRecord):
-    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``)."""
+class BalanceRun(StanceRun):
+    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``):
+    those of :class:`~wbc.scenarios.stance.StanceRun`, the behaviour's name, ``com_margin`` (N,) m, and the
+    tasks' names and errors."""
 
-    robot: str
     behaviour: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
-    left_sole: np.ndarray
-    right_sole: np.ndarray
-    support: np.ndarray
     com_margin: np.ndarray
-    tick_time: np.ndarray
-    solver_ok: np.ndarray
     task_names: list[str]
     task_error: np.ndarray
-    joint_names: list[str]
     task_units: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
-    relaxed: np.ndarray | None = None
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -205,31 +205,19 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     extra_tasks = getattr(beh, "tasks", [])
     tasks += [t for t in extra_tasks if all(t is not u for u in tasks)]
     n = int(math.floor(beh.duration / dt + 1e-9)) + 1
-    model = robot.model
-    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
-    out_q = np.empty((n, model.nq))
-    out_v = np.empty((n, model.nv))
-    out_com = np.empty((n, 3))
+    rec = StanceRecorder(robot, n)
     out_ref = np.full((n, 3), np.nan)
-    out_l = np.empty((n, 4, 4))
-    out_r = np.empty((n, 4, 4))
     support = np.empty(n, dtype=np.int8)
     margin = np.empty(n)
-    tick = np.empty(n)
-    ok = np.empty(n, dtype=bool)
-    relaxed = np.zeros(n, dtype=bool)
     parts = [(i, *part) for i, task in enumerate(tasks) for part in task_error_parts(task)]
     errors = np.full((n, len(parts)), np.nan)
     for k in range(n):
         t = k * dt
-        out_q[k] = config.q
-        out_com[k] = config.com
-        out_l[k] = config.data.oMf[lf].homogeneous
-        out_r[k] = config.data.oMf[rf].homogeneous
+        rec.record_state(k, config)
         t0 = perf_counter()
         beh.update(ctrl, t, config)
         result = ctrl.solve(config, dt)
-        tick[k] = perf_counter() - t0
+        tick = perf_counter() - t0
         support[k] = ctrl.support
         if ctrl.has_task(ctrl.com):
             out_ref[k] = ctrl.com.target
@@ -239,21 +227,17 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
                 if i != last:
                     last, e = i, tasks[i].compute_error(config)
                 errors[k, c] = float(np.linalg.norm(e if rows is None else e[rows]))
-        margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
+        margin[k] = _com_margin(robot, rec.com[k, :2], rec.left_sole[k], rec.right_sole[k], ctrl.support)
         config.step(result.v, dt)
-        ok[k] = result.ok
-        relaxed[k] = bool(result.relaxed)
-        out_v[k] = result.v
+        rec.record_command(k, result, tick)
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
         if pacer is not None:
             pacer.wait((k + 1) * dt)
     return BalanceRun(
-        robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com,
-        com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
-        solver_ok=ok, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
-        task_units=[p[2] for p in parts],
-        extra={"behaviour": beh}, relaxed=relaxed,
+        robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, com_ref=out_ref, support=support,
+        com_margin=margin, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
+        task_units=[p[2] for p in parts], extra={"behaviour": beh}, **rec.arrays(),
     )
 
 

@@ -12,6 +12,10 @@ a swing task starting at its current placement. Walking (:mod:`wbc.scenarios.wal
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
@@ -20,9 +24,10 @@ from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import RunRecord
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
+__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController", "StanceRecorder", "StanceRun"]
 
 #: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
 # The support codes of :class:`wbc.gait.schedule.Support` under the scenarios' names.
@@ -104,3 +109,64 @@ class StanceController:
     def solve(self, config: Configuration, dt: float) -> TickResult:
         """One QP tick (``KinematicController.solve``)."""
         return self.controller.solve(config, dt)
+
+
+@dataclass
+class StanceRun(RunRecord):
+    """What every run of the stance controller records (walk, balance behaviours), one row per tick k at
+    t[k] = k dt: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref``
+    (N, 3) m, world; ``left_sole``, ``right_sole`` (N, 4, 4) world poses; ``support`` (N,) int8
+    (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``relaxed`` (N,) bool, the tick was solved
+    without its relaxable constraints; ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
+
+    robot: str
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    com: np.ndarray
+    com_ref: np.ndarray
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    support: np.ndarray
+    tick_time: np.ndarray
+    solver_ok: np.ndarray
+    relaxed: np.ndarray
+    joint_names: list[str]
+
+
+class StanceRecorder:
+    """Preallocated per-tick arrays of a stance-controller run of ``n`` ticks (the common part of
+    :class:`StanceRun`): state at the start of tick k (:meth:`record_state`), then the command (:meth:`record_command`).
+    """
+
+    def __init__(self, robot: Robot, n: int):
+        model = robot.model
+        self._lf, self._rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
+        self.q = np.empty((n, model.nq))
+        self.v = np.empty((n, model.nv))
+        self.com = np.empty((n, 3))
+        self.left_sole = np.empty((n, 4, 4))
+        self.right_sole = np.empty((n, 4, 4))
+        self.tick_time = np.empty(n)
+        self.solver_ok = np.empty(n, dtype=bool)
+        self.relaxed = np.zeros(n, dtype=bool)
+
+    def record_state(self, k: int, config: Configuration) -> None:
+        """Row k: q, CoM and sole poses of ``config``."""
+        self.q[k] = config.q
+        self.com[k] = config.com
+        self.left_sole[k] = config.data.oMf[self._lf].homogeneous
+        self.right_sole[k] = config.data.oMf[self._rf].homogeneous
+
+    def record_command(self, k: int, result: TickResult, tick_time: float) -> None:
+        """Row k: the command, whether the QP solved (and without its relaxable constraints), the tick time (s)."""
+        self.tick_time[k] = tick_time
+        self.solver_ok[k] = result.ok
+        self.relaxed[k] = bool(result.relaxed)
+        self.v[k] = result.v
+
+    def arrays(self) -> dict:
+        """The recorded arrays under their :class:`StanceRun` field names."""
+        return {"q": self.q, "v": self.v, "com": self.com, "left_sole": self.left_sole, "right_sole": self.right_sole,
+                "tick_time": self.tick_time, "solver_ok": self.solver_ok, "relaxed": self.relaxed}

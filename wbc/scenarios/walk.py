@@ -26,9 +26,8 @@ from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.geometry import mean_heading
 from wbc.robot import Robot
-from wbc.scenarios.framework import RunRecord
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
-from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
+from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController, StanceRecorder, StanceRun
 
 __all__ = ["WalkController", "WalkRun", "plan_default_walk", "run_walk", "walk_summary"]
 
@@ -120,24 +119,11 @@ class WalkController(StanceController):
 
 
 @dataclass
-class WalkRun(RunRecord):
-    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``)."""
+class WalkRun(StanceRun):
+    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``):
+    those of :class:`~wbc.scenarios.stance.StanceRun` and the plan's ZMP reference ``zmp_ref`` (N, 2) m."""
 
-    robot: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
     zmp_ref: np.ndarray
-    left_sole: np.ndarray
-    right_sole: np.ndarray
-    support: np.ndarray
-    tick_time: np.ndarray
-    solver_ok: np.ndarray
-    joint_names: list[str]
-    relaxed: np.ndarray | None = None
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
@@ -158,37 +144,21 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     config = config or Configuration(robot)
     walker = WalkController(robot, config, solver=solver)
     n, dt = len(plan.t), plan.dt
-    model = robot.model
-    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
-    out_q = np.empty((n, model.nq))
-    out_v = np.empty((n, model.nv))
-    out_com = np.empty((n, 3))
-    out_l = np.empty((n, 4, 4))
-    out_r = np.empty((n, 4, 4))
-    tick = np.empty(n)
-    ok = np.empty(n, dtype=bool)
-    relaxed = np.zeros(n, dtype=bool)
+    rec = StanceRecorder(robot, n)
     for k in range(n):
-        out_q[k] = config.q
-        out_com[k] = config.com
-        out_l[k] = config.data.oMf[lf].homogeneous
-        out_r[k] = config.data.oMf[rf].homogeneous
+        rec.record_state(k, config)
         t0 = perf_counter()
         walker.set_references(plan, k, config)
         result = walker.controller.solve(config, dt)
         config.step(result.v, dt)
-        tick[k] = perf_counter() - t0
-        ok[k] = result.ok
-        relaxed[k] = bool(result.relaxed)
-        out_v[k] = result.v
+        rec.record_command(k, result, perf_counter() - t0)
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt)
         if pacer is not None:
             pacer.wait((k + 1) * dt)
     return WalkRun(
-        robot=robot.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com, com_ref=plan.com.copy(),
-        zmp_ref=plan.zmp.copy(), left_sole=out_l, right_sole=out_r, support=plan.support.copy(), tick_time=tick,
-        solver_ok=ok, joint_names=robot.joint_names, relaxed=relaxed,
+        robot=robot.name, dt=dt, t=np.arange(n) * dt, com_ref=plan.com.copy(), zmp_ref=plan.zmp.copy(),
+        support=plan.support.copy(), joint_names=robot.joint_names, **rec.arrays(),
     )
 
 

@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
+from wbc.sim.scenarios import largest_passing
 
 __all__ = ["static_torques", "pushoff_bound", "jump_height_sweep"]
 
@@ -111,18 +112,5 @@ def jump_height_sweep(run_trial, *, start: float = 0.02, max_height: float = 0.3
                 f"({row['push_max_torque_joint']})")
         return success
 
-    lo, hi = None, start
-    while ok(hi):
-        lo = hi
-        hi *= 2.0
-        if hi > max_height:
-            return {"max_height_m": lo, "min_failed_m": None, "trials": trials}
-    if lo is None:
-        return {"max_height_m": None, "min_failed_m": hi, "trials": trials}
-    while hi - lo > resolution:
-        mid = 0.5 * (lo + hi)
-        if ok(mid):
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = largest_passing(ok, start, limit=max_height, resolution=resolution)
     return {"max_height_m": lo, "min_failed_m": hi, "trials": trials}
