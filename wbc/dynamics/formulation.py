@@ -514,7 +514,8 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, w)),
+        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
+        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
                    np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
