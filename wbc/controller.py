@@ -65,6 +65,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
+from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
@@ -220,10 +221,12 @@ class KinematicController:
             hard: hold the task as an equality constraint J v = v* (not with ``level``).
 
         Raises:
-            InvalidInputError: not a Task, a negative/non-integer level, or both ``level`` and ``hard``.
+            InvalidInputError: not a Task, a negative/non-integer level, both ``level`` and ``hard``, or a task
+                built for another robot (other model, frame ids or nv).
         """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
+        self._check_robot(task, "task")
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -269,14 +272,55 @@ class KinematicController:
         """Add an equality, inequality or box constraint.
 
         Raises:
-            InvalidInputError: not a wbc Constraint.
+            InvalidInputError: not a wbc Constraint, or built for another robot (other model, frame ids or nv).
         """
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
+        self._check_robot(constraint, "constraint")
         self.constraints.append(constraint)
         self._eq_rows = None
         self._layout_ok = False
         return constraint
+
+    def _check_robot(self, obj, what: str) -> None:
+        """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
+        not this robot's (other nq, nv or joint names), a frame id whose name differs in this model, a Jacobian
+        or an index set sized for another nv."""
+        model = self.robot.model
+        name = getattr(obj, "name", type(obj).__name__)
+        here = f"this controller's robot is {model.name!r} (nq {model.nq}, nv {model.nv})"
+
+        def foreign(why: str) -> InvalidInputError:
+            return InvalidInputError(f"{what} {name!r} was built for another robot ({why}); {here}: build it "
+                                     f"with the controller's robot")
+
+        if isinstance(obj, TaskConstraint):
+            self._check_robot(obj.task, what)
+        other = getattr(obj, "model", None)
+        if other is None and getattr(obj, "robot", None) is not None:
+            other = getattr(obj.robot, "model", None)
+        if isinstance(other, pin.Model) and other is not model and (
+                other.nq != model.nq or other.nv != model.nv or list(other.names) != list(model.names)):
+            raise foreign(f"model {other.name!r}, nq {other.nq}, nv {other.nv}")
+        for id_attr, name_attr in (("frame_id", "frame"), ("reference_id", "reference_frame")):
+            fid, fname = getattr(obj, id_attr, None), getattr(obj, name_attr, None)
+            if isinstance(fid, (int, np.integer)) and isinstance(fname, str) and (
+                    not 0 <= fid < model.nframes or model.frames[fid].name != fname):
+                raise foreign(f"its frame {fname!r} has id {fid}, which is "
+                              + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
+                                 f"beyond this model's {model.nframes} frames"))
+        jac = getattr(obj, "_jac", None)
+        if isinstance(jac, np.ndarray) and jac.ndim == 2 and jac.shape[1] != model.nv:
+            raise foreign(f"Jacobian with {jac.shape[1]} columns (nv)")
+        if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
+            raise foreign(f"nv {obj.nv}")
+        indices = getattr(obj, "indices", None)
+        if indices is not None and np.size(indices) and int(np.max(indices)) >= model.nv:
+            raise foreign(f"velocity index {int(np.max(indices))} ≥ nv")
+        if isinstance(obj, (JointPositionLimit, JointVelocityLimit)):
+            expected = bounded_joints(model)[1] if isinstance(obj, JointPositionLimit) else np.arange(6, model.nv)
+            if not np.array_equal(np.asarray(obj.indices), expected):
+                raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
@@ -307,6 +351,7 @@ class KinematicController:
             self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
+        self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, self._in_blocks = [], []
         row = 0
@@ -315,6 +360,9 @@ class KinematicController:
             row += c.dim
         self._A = np.zeros((row, self.nv))
         self._b = np.zeros(row)
+        contact_ids = set(map(id, self._contacts))
+        self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
+                                       for i in range(r0, r1)], dtype=int)
         row = 0
         for c in ineq:
             self._in_blocks.append((c, row, row + c.dim))
@@ -410,6 +458,8 @@ class KinematicController:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
             t1 = perf_counter()
+            if self._contact_rows.size and (self._eq_rows is None or self._eq_rows.size < A.shape[0]):
+                self._consistent_contact_rhs()
             try:
                 v = self._solve_assembled(config)
                 relaxed = []
@@ -455,6 +505,21 @@ class KinematicController:
             drifts.append(d)
             worst = max(worst, float(np.linalg.norm(d[:3])))
         return worst, drifts
+
+    def _consistent_contact_rhs(self) -> None:
+        """Drift corrections of dependent contact rows made consistent (least squares).
+
+        When the contact rows J_c are rank deficient (two flat 5-DoF legs in gimbal lock both fix the base yaw),
+        their drift corrections −K e may disagree in the dependent directions (the feet's yaw errors differ after
+        a finite step), which no v can meet: b_c is replaced by its projection U_r U_rᵀ b_c onto the range of
+        J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the corrections are averaged where
+        the contacts are dependent and unchanged where they are not (full rank: b_c unchanged)."""
+        rows = self._contact_rows
+        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        if rank < rows.size:
+            Ur = U[:, :rank]
+            self._b[rows] = Ur @ (Ur.T @ self._b[rows])
 
     def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``)."""
