@@ -17,7 +17,19 @@ below). Example: a leg whose hip-roll → hip-pitch →
 knee → ankle-pitch → ankle-roll chain is in gimbal lock when the sole is flat cannot change the foot's yaw
 relative to the pelvis, so two flat stance feet fix the base yaw twice. The independent set is chosen by QR
 with column pivoting of Aᵀ (numerical rank: |R_ii| > ``rank_rtol`` · |R_00|), once per change of the
-constraint set, and again after a failed tick.
+constraint set, and again after a failed tick. Dropped rows that are only nearly dependent (their residual
+above the tolerance while the rank is unchanged) are put back as band rows |A_d v − b_d| ≤
+``dependent_row_tolerance``/2 and the tick is solved again; only when that has no solution do the hard
+equalities contradict each other.
+
+Contacts (:class:`~wbc.constraints.ContactConstraint`) hold to second order at dt. (1) When the contact rows
+are rank deficient (the example above), their drift corrections −K e are projected onto the range of J_c
+(least squares) so that two feet never ask contradictory corrections of the same direction. (2) After the solve
+the contact frames are placed at q⁺ = pin.integrate(q, v dt) by forward kinematics; if one drifts from its
+expected placement by more than ``contact_correction`` (m), the contact rows' right-hand sides are corrected by
+the measured drift and the tick is solved again (a Newton step on e⁺(v) = (1 − K dt) e, ≤ 3 iterations: only
+the contact targets move, every task and priority is kept). (3) A tick whose drift still exceeds
+``sole_drift_tolerance`` is solved in a trust region, else reported not ok (``TickResult.sole_drift``).
 
 with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s), feed-forward ė*_i, and
 v*_i = ė*_i − K_i e_i. ε (``damping``) keeps H positive definite. The next configuration is
@@ -693,7 +705,12 @@ class KinematicController:
                 self._fallback_backend = self._new_backend()
             v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
             if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
-                raise SolverError("dependent equality rows violated")
+                # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
+                drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+                half = 0.5 * self.dependent_row_tolerance
+                v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
+                                                      np.concatenate([l, b[drop] - half]),
+                                                      np.concatenate([u, b[drop] + half]), lb, ub)
             v, fallback = v_safe, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
             pass
