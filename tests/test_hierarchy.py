@@ -171,8 +171,8 @@ def test_infeasible_top_level_met_in_least_squares_lower_level_still_optimised(r
     orientation, conflicting with the CoM motion) is still optimised within level 0's optimal set: its residual
     equals the closed-form null-space solution v₁ = v₀ + N (J₁N)⁺ (t₁ − J₁v₀), N = null([J_c; J_com]), to 1e-6
     relative to ‖t₁‖. The
-    contacts stay hard (A v = b to 1e-9)."""
-    robot = robots("humanoid15")
+    contacts stay hard (A v = b to 1e-9; Talos: its contact rows are independent)."""
+    robot = robots("talos")
     config = Configuration(robot)
     contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
     for c in contacts:
