@@ -183,7 +183,14 @@ def main() -> None:
     p.add_argument("--chunk", type=int, default=50_000, help="ticks per chunk (one result file each)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder of per-chunk results: finished chunks are skipped (resume), all are aggregated")
+    p.add_argument("--aggregate-only", action="store_true",
+                   help="run nothing: aggregate every finished chunk file in --out (e.g. of several processes)")
     a = p.parse_args()
+    if a.aggregate_only:
+        files = sorted(a.out.glob("chunk_*.json"))
+        print(f"{len(files)} chunk files in {a.out}", flush=True)
+        print(report(aggregate([json.loads(f.read_text()) for f in files])), flush=True)
+        return
     warnings.simplefilter("ignore")
     robots = {n: wbc.load_robot(n) for n in ("talos", "g1", "humanoid15")}
     limits = {}
