@@ -23,8 +23,9 @@ above the tolerance while the rank is unchanged) are put back as band rows |A_d 
 equalities contradict each other.
 
 Contacts (:class:`~wbc.constraints.ContactConstraint`) hold to second order at dt. (1) When the contact rows
-are rank deficient (the example above), their drift corrections −K e are projected onto the range of J_c
-(least squares) so that two feet never ask contradictory corrections of the same direction. (2) After the solve
+are rank deficient (the example above) and the tick fails, their drift corrections −K e are projected onto the
+range of J_c (least squares: two feet never ask contradictory corrections of the same direction) and the tick is
+solved again. (2) After the solve
 the contact frames are placed at q⁺ = pin.integrate(q, v dt) by forward kinematics; if one drifts from its
 expected placement by more than ``contact_correction`` (m), the contact rows' right-hand sides are corrected by
 the measured drift and the tick is solved again (a Newton step on e⁺(v) = (1 − K dt) e, ≤ 3 iterations: only
@@ -470,17 +471,23 @@ class KinematicController:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
             t1 = perf_counter()
-            if self._contact_rows.size and (self._eq_rows is None or self._eq_rows.size < A.shape[0]):
-                self._consistent_contact_rhs()
             try:
                 v = self._solve_assembled(config)
                 relaxed = []
             except SolverError:
-                if not self._relaxable:
-                    raise
-                self._relax(config, dt)
-                v = self._solve_assembled(config)
-                relaxed = [c.name for c in self._relaxable]
+                v = None
+                if self._contact_rows.size and self._consistent_contact_rhs():
+                    try:  # dependent contact rows asked contradictory corrections: once more in least squares
+                        v = self._solve_assembled(config)
+                        relaxed = []
+                    except SolverError:
+                        v = None
+                if v is None:
+                    if not self._relaxable:
+                        raise
+                    self._relax(config, dt)
+                    v = self._solve_assembled(config)
+                    relaxed = [c.name for c in self._relaxable]
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
@@ -518,20 +525,25 @@ class KinematicController:
             worst = max(worst, float(np.linalg.norm(d[:3])))
         return worst, drifts
 
-    def _consistent_contact_rhs(self) -> None:
-        """Drift corrections of dependent contact rows made consistent (least squares).
+    def _consistent_contact_rhs(self) -> bool:
+        """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
 
         When the contact rows J_c are rank deficient (two flat 5-DoF legs in gimbal lock both fix the base yaw),
         their drift corrections −K e may disagree in the dependent directions (the feet's yaw errors differ after
-        a finite step), which no v can meet: b_c is replaced by its projection U_r U_rᵀ b_c onto the range of
-        J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the corrections are averaged where
-        the contacts are dependent and unchanged where they are not (full rank: b_c unchanged)."""
+        a finite step), which no v can meet. After such a failed solve, b_c is replaced by its projection
+        U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
+        corrections are averaged where the contacts are dependent and unchanged where they are not."""
         rows = self._contact_rows
         U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
-        if rank < rows.size:
-            Ur = U[:, :rank]
-            self._b[rows] = Ur @ (Ur.T @ self._b[rows])
+        if rank == rows.size:
+            return False
+        Ur = U[:, :rank]
+        projected = Ur @ (Ur.T @ self._b[rows])
+        changed = not np.array_equal(projected, self._b[rows])
+        self._b[rows] = projected
+        self._eq_rows = None  # recompute the independent rows for the retry
+        return changed
 
     def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``)."""
