@@ -82,8 +82,10 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.fastqp import clip_box_into, ensure_compiled, weighted_normal_equations
 from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
+from wbc.qp import DaqpBackend, QPBackend
+from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -132,7 +134,7 @@ class KinematicController:
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.qp.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+        solver: QP backend name (default ``wbc.backends.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
             exactly) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
@@ -208,6 +210,8 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
+        self._soft_tasks: list[Task] | None = None
+        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -391,6 +395,22 @@ class KinematicController:
                 self._not_hard_task[r0:r1] = False
         self._layout_ok = True
 
+    def _build_soft_layout(self) -> None:
+        """Rows of the stacked soft tasks that use the generic cost (``Task.add_cost``); the others (e.g. the
+        posture task's diagonal cost) add their own. Redone when ``tasks`` changes."""
+        self._soft_tasks = list(self.tasks)
+        self._soft_dense, self._soft_own = [], []
+        row = 0
+        for task in self.tasks:
+            if type(task).add_cost is Task.add_cost:
+                self._soft_dense.append((task, row, row + task.dim))
+                row += task.dim
+            else:
+                self._soft_own.append(task)
+        self._soft_J = np.zeros((row, self.nv))
+        self._soft_w = np.zeros(row)
+        self._soft_r = np.zeros(row)
+
     def assemble(self, config: Configuration, dt: float):
         """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
 
@@ -399,9 +419,17 @@ class KinematicController:
         if not self._layout_ok:
             self._build_layout()
         H, g = self._H, self._g
-        np.copyto(H, self._eye)
-        g.fill(0.0)
-        for task in self.tasks:
+        if self._soft_tasks != self.tasks:
+            self._build_soft_layout()
+        # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
+        J, w, r = self._soft_J, self._soft_w, self._soft_r
+        for task, r0, r1 in self._soft_dense:
+            error, jac = task.compute(config)
+            J[r0:r1] = jac
+            r[r0:r1] = task.velocity_target(error)
+            w[r0:r1] = task.weight
+        weighted_normal_equations(J, w, r, self.damping, H, g)
+        for task in self._soft_own:
             task.add_cost(config, H, g)
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
@@ -441,6 +469,9 @@ class KinematicController:
             if skip and id(c) in skip:
                 continue
             lo, hi = c.compute(config, dt)
+            if not first and record is None and isinstance(sel, slice):  # same clip, compiled, in place
+                clip_box_into(lb, ub, sel.start, lo, hi)
+                continue
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
                 lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
