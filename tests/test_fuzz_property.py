@@ -145,9 +145,11 @@ def test_inverse_dynamics_controller_fuzz(robots, robot_name, seed, com_offset, 
             # both the full and the relaxed QP failed: neither has a feasible point (independent solver)
             H, g, A, b, C, l, u, lb, ub = qp.build(ctrl.state, ctrl.dt)
             lr, ur, lbr, ubr = l.copy(), u.copy(), lb.copy(), ub.copy()
-            nt = qp.tau_rows.size
-            lr[:nt], ur[:nt] = -np.inf, np.inf
-            lbr[:qp.nv], ubr[:qp.nv] = -np.inf, np.inf
+            for con in qp.constraints:  # the relaxed QP: relaxable constraints (torque, joint limits) left out
+                if con.relaxable and con.kind == "inequality":
+                    lr[con.rows], ur[con.rows] = -np.inf, np.inf
+                elif con.relaxable and con.kind == "bounds":
+                    lbr[con.indices], ubr[con.indices] = -np.inf, np.inf
             assert not feasible(H, A, b, C, lr, ur, lbr, ubr), f"false failure: {cmd.message}"
         # semi-implicit Euler on the model itself (no simulator: the QP's acceleration is applied)
         v = v + cmd.dv * ctrl.dt
