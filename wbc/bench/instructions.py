@@ -1,11 +1,13 @@
 """Instructions per kinematic tick, counted by valgrind's callgrind: a measure that does not move with machine load.
 
 Each library runs the ``wbc bench`` kinematic scenario (:mod:`wbc.bench.kinematic`) in a child process under
-``valgrind --tool=callgrind``, once with N and once with 2N timed ticks (same warm-up); (Ir(2N) − Ir(N)) / N is
-its instructions per tick, with interpreter start-up, imports, model loading and JIT loading cancelled out.
-Slow (≈ 50× under valgrind): N of a few hundred ticks.
+``valgrind --tool=callgrind --instr-atstart=no`` (imports, model loading, JIT loading and 20 warm-up ticks run
+uninstrumented, which is several times faster); then instrumentation is switched on and the counters zeroed
+(``callgrind_control``), the child runs N ticks, the parent reads the instruction count Ir(N), the child runs N
+more, the parent reads Ir(2N): (Ir(2N) − Ir(N)) / N is the instructions per tick, free of start-up effects.
 
-Child entry point: ``python -m wbc.bench.instructions <library> <ticks>`` (library: ``wbc`` or ``placo``).
+Child entry point: ``python -m wbc.bench.instructions <library> <N> [robot]`` (library: ``wbc`` or ``placo``);
+it prints READY / HALF / DONE and waits for a line on stdin after each.
 """
 
 from __future__ import annotations
@@ -23,33 +25,68 @@ LIBRARIES = ("wbc", "placo")
 
 
 def callgrind_available() -> bool:
-    """Whether ``valgrind`` is on the PATH."""
-    return shutil.which("valgrind") is not None
+    """Whether ``valgrind`` and ``callgrind_control`` are on the PATH."""
+    return shutil.which("valgrind") is not None and shutil.which("callgrind_control") is not None
 
 
-def _child(library: str, ticks: int, robot_name: str = "talos") -> None:
+def _child(library: str, n: int, robot_name: str = "talos") -> None:
     from wbc.bench.kinematic import KinematicSpec, PlacoRunner, WbcRunner
     from wbc.bench.stats import limit_blas_threads
     from wbc.robot import load_robot
 
     limit_blas_threads(1)
     robot = load_robot(robot_name)
-    spec = KinematicSpec(robot=robot_name, ticks=ticks, warmup=20)
+    spec = KinematicSpec(robot=robot_name, ticks=2 * n, warmup=20)
     runner = {"wbc": WbcRunner, "placo": PlacoRunner}[library](spec, robot)
-    runner.run()
+    runner.reset()
+    k = 0
+    for marker, ticks in (("READY", spec.warmup), ("HALF", n), ("DONE", n)):
+        for _ in range(ticks):
+            runner.tick(k)
+            k += 1
+        print(marker, flush=True)
+        sys.stdin.readline()
     if runner.failures:
         raise SystemExit(f"{library}: {runner.failures} failed ticks ({runner.first_error})")
 
 
-def _count(library: str, ticks: int, robot_name: str) -> int:
+def _control(pid: int, *args: str) -> str:
+    r = subprocess.run(["callgrind_control", *args, str(pid)], capture_output=True, text=True, timeout=600)
+    if r.returncode:
+        raise RuntimeError(f"callgrind_control {' '.join(args)} failed: {r.stderr[-500:]}")
+    return r.stdout
+
+
+def _count(library: str, n: int, robot_name: str) -> tuple[int, int]:
+    """(Ir after N ticks, Ir after 2N ticks) of one child run."""
     with tempfile.TemporaryDirectory() as d:
-        p = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={d}/cg.out",
-                            sys.executable, "-m", "wbc.bench.instructions", library, str(ticks), robot_name],
-                           capture_output=True, text=True)
-        m = re.search(r"Collected : (\d+)", p.stderr)
-        if p.returncode or not m:
-            raise RuntimeError(f"callgrind run of {library} ({ticks} ticks) failed: {p.stderr[-2000:]}")
-        return int(m.group(1))
+        p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={d}/cg.out",
+                              sys.executable, "-m", "wbc.bench.instructions", library, str(n), robot_name],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            irs = []
+            for marker in ("READY", "HALF", "DONE"):
+                line = p.stdout.readline().strip()
+                if line != marker:
+                    raise RuntimeError(f"callgrind child {library}: expected {marker}, got {line!r}: "
+                                       f"{p.stderr.read()[-2000:]}")
+                if marker == "READY":
+                    _control(p.pid, "-i", "on")
+                    _control(p.pid, "-z")
+                else:
+                    m = re.search(r"Th 1\s+([\d,]+)", _control(p.pid, "-e", "Ir"))
+                    if not m:
+                        raise RuntimeError("callgrind_control printed no Ir total")
+                    irs.append(int(m.group(1).replace(",", "")))
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            p.wait(timeout=600)
+            if p.returncode:
+                raise RuntimeError(f"callgrind child {library} failed: {p.stderr.read()[-2000:]}")
+        finally:
+            if p.poll() is None:
+                p.kill()
+        return irs[0], irs[1]
 
 
 def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) -> dict[str, object]:
@@ -70,11 +107,10 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     t0 = time.perf_counter()
     raw: dict[str, list[int]] = {}
     for lib in LIBRARIES:
-        raw[lib] = []
-        for ticks in (n, 2 * n):
-            t1 = time.perf_counter()
-            raw[lib].append(_count(lib, ticks, robot_name))
-            log(f"callgrind {lib} {ticks} ticks: {raw[lib][-1]:,} instructions ({time.perf_counter() - t1:.0f} s)")
+        t1 = time.perf_counter()
+        raw[lib] = list(_count(lib, n, robot_name))
+        log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
+            f"({time.perf_counter() - t1:.0f} s)")
     per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
     return {"n": n, "robot": robot_name, "instructions": per, "raw": raw,
             "ratio_wbc_placo": per["wbc"] / per["placo"], "seconds": time.perf_counter() - t0}
