@@ -198,6 +198,7 @@ class KinematicController:
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
         self._in_solve, self._drift_cache = False, None
+        self._contact_errors: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -374,6 +375,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
+            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
+                                    if isinstance(c, ContactConstraint)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -438,7 +442,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
-        self._in_solve, self._drift_cache = True, None
+        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -487,9 +491,11 @@ class KinematicController:
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        for c in self._contacts:
+        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        for i, c in enumerate(self._contacts):
             e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            d = e_plus - c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            e = c.compute_error(config) if errors is None else errors[i]
+            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
             drifts.append(d)
             worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
         if self._in_solve:
