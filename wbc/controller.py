@@ -211,6 +211,8 @@ class KinematicController:
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
+        self._in_solve, self._drift_cache = False, None
+        self._contact_errors: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -427,6 +429,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
+            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
+                                    if isinstance(c, ContactConstraint)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -491,6 +496,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
+        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -516,11 +522,13 @@ class KinematicController:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
         except InvalidInputError:
+            self._in_solve, self._drift_cache = False, None
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             result = self._recover(config, dt, exc)
+        self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         for c in self._feedback:
@@ -538,15 +546,22 @@ class KinematicController:
         """(largest translation drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v."""
         if not self._contacts:
             return 0.0, []
+        cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
+        if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
+            return cache[3]
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        for c in self._contacts:
+        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        for i, c in enumerate(self._contacts):
             e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            d = e_plus - c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            e = c.compute_error(config) if errors is None else errors[i]
+            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
             drifts.append(d)
-            worst = max(worst, float(np.linalg.norm(d[:3])))
+            worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+        if self._in_solve:
+            self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
 
     def _consistent_contact_rhs(self) -> bool:
