@@ -116,7 +116,10 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._dt_now = 0.0
         self._have_now = False
         self.angular_momentum = bool(angular_momentum)
+        self._model = robot.model
         self._data = robot.model.createData()
+        self._a = np.zeros((self.dim, 3))
+        self._e = np.zeros((self.dim, 3))
         self.mass = float(sum(i.mass for i in robot.model.inertias))
         self._A_now = np.zeros((3, nv))          # A_G,ang(q_k)
         self._J_prev = np.zeros((3, nv))         # J_com(q_{k−1})
@@ -174,7 +177,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
         c, J = config.com, config.com_jacobian
         if self.angular_momentum:
-            self._A_now[:] = pin.computeCentroidalMap(self.robot.model, self._data, config.q)[3:]
+            np.copyto(self._A_now, pin.computeCentroidalMap(self._model, self._data, config.q)[3:])
         self._c_now[:] = c
         self._J_now[:] = J
         self._dt_now = float(dt)
@@ -195,15 +198,15 @@ class ExecutedZmpConstraint(InequalityConstraint):
         r = (c - self._c_pred) - dt * (dJ @ self._v_prev)
         J = np.add(J, dJ, out=self._J_eff)
         s = self.offsets - self.normals @ c[:2]          # (k,) slack of the CoM to each shrunk edge
-        a = np.empty((k, 3))
-        a[:, :2] = -self.normals
-        a[:, 2] = -s / h
+        a = self._a[:k]
+        np.negative(self.normals, out=a[:, :2])
+        np.divide(s, -h, out=a[:, 2])
         np.matmul(a, J, out=C[:k])
         u[:k] = (s * self.gravity * dt * dt / h - a @ (r - dc)) / dt
         if self.angular_momentum:
-            e = np.zeros((k, 3))
+            e = self._e[:k]
             e[:, 0], e[:, 1] = self.normals[:, 1], -self.normals[:, 0]
-            e /= self.mass * h
+            e *= 1.0 / (self.mass * h)
             C[:k] += e @ self._A_now
             u[:k] += e @ self._L_prev
         # −c̈_z ≤ (1 − ρ) g   ⇔   −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt
