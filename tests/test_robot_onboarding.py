@@ -167,6 +167,9 @@ def test_romeo_zero_width_joints_locked_and_short_walk_passes():
     assert abs(s["walked_distance_m"] - s["planned_distance_m"]) <= 0.05 * s["planned_distance_m"]
     assert s["min_zmp_margin_m"] >= 0.0 and s["max_stance_slip_m"] <= 1e-3 and s["max_com_error_m"] <= 5e-3
     assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
+    assert s["relaxed_ticks"] == 0
+    # joint accelerations stay within the walk's 50 rad/s² bound, also where the ankles reach their limits
+    assert np.abs(np.diff(run.v[:, 6:], axis=0)).max() / run.dt <= 50.0 + 1e-6
     locked = [robot.model.getJointId(n) for n in ("LHand", "RThumb1")]
     for jid in locked:
         iv = robot.model.joints[jid].idx_v

@@ -90,3 +90,22 @@ def test_bad_inputs(robots):
     config = Configuration(robot)
     with pytest.raises(InvalidInputError, match="too small for margin"):
         zmp.set_support([config.data.oMf[robot.frame_id(robot.left_sole)]])
+
+
+def test_braking_bounds(robots):
+    """ub dt + ub²/(2 a) = q_max − q (move one tick, then brake at a), symmetric for the lower limit; 0 at a limit."""
+    from wbc.constraints.braking import JointBrakingLimit
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    brake = JointBrakingLimit(robot, a_max=40.0)
+    dt = 0.002
+    lb, ub = (x.copy() for x in brake.compute(config, dt))
+    q = config.q[brake.idx_q]
+    np.testing.assert_allclose(ub * dt + ub**2 / 80.0, brake.q_max - q, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(-lb * dt + lb**2 / 80.0, q - brake.q_min, rtol=1e-9, atol=1e-15)
+    at_limit = np.isclose(q, brake.q_max)  # Talos's grippers sit on their upper limit in half_sitting
+    assert at_limit.any() and np.all(ub[at_limit] <= 1e-12)
+    for bad in (0.0, -1.0, float("inf"), True):
+        with pytest.raises(InvalidInputError):
+            JointBrakingLimit(robot, a_max=bad)
