@@ -14,8 +14,9 @@ from conftest import CATALOG
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk_ramp as min_jerk
 from wbc.scenarios.balance import (
-    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary, min_jerk,
+    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary,
     run_balance, support_polygon,
 )
 
@@ -48,7 +49,8 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
     assert s["solver_failures"] == 0 and not s["nan"]
     assert np.all(run.com_margin >= 0.0) and s["min_com_margin_m"] >= 0.0
     assert s["max_stance_slip_m"] <= 1e-3
-    assert set(s["max_task_error"]) >= {"torso", "posture"}
+    assert set(s["max_task_error_rad"]) >= {"torso", "posture"}
+    assert ("com" if behaviour != "reach" else "hand:right") in s["max_task_error_m"]  # reach: no CoM task
     if behaviour == "shift":
         assert max(s["shift_target_error_m"].values()) <= 0.005
         # the CoM really went over each sole: its lateral excursion is half the feet distance
@@ -63,7 +65,7 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
         assert s["touchdown_error_m"] <= 0.002
     elif behaviour == "wave":
         assert s["wave_time_s"] == 5.0 and s["wave_amplitude_ratio"] >= 0.95
-        assert s["max_task_error"]["arms"] <= 0.05
+        assert s["max_task_error_rad"]["arms"] <= 0.05
     elif behaviour == "squat":
         assert len(s["squat_depths_m"]) == 3
         assert all(d == pytest.approx(0.15, abs=0.005) for d in s["squat_depths_m"])
@@ -78,7 +80,8 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
 
 def test_summary_keys_and_log_format(runs, tmp_path):
     robot, run, s = runs("one-leg", "humanoid15")
-    for key in ("robot", "behaviour", "dt", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error",
+    for key in ("robot", "behaviour", "dt_s", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error_m",
+                "max_task_error_rad",
                 "joint_position_violations", "joint_velocity_violations", "solver_failures", "nan", "passed",
                 "failed_criteria"):
         assert key in s
@@ -93,7 +96,11 @@ def test_summary_keys_and_log_format(runs, tmp_path):
     assert data["left_sole"].shape == (n, 4, 4) and data["right_sole"].shape == (n, 4, 4)
     assert data["support"].shape == (n,) and data["com_margin"].shape == (n,)
     assert data["task_error"].shape == (n, len(data["task_names"]))
-    assert "swing:right" in list(data["task_names"])
+    names, units = list(data["task_names"]), list(data["task_units"])
+    assert len(units) == len(names)
+    # the swing sole's 6-D frame task: its position error (m) and orientation error (rad) in separate columns
+    assert units[names.index("swing:right position")] == "m"
+    assert units[names.index("swing:right orientation")] == "rad"
     assert list(data["joint_names"]) == robot.joint_names
     assert str(data["robot"]) == "humanoid15" and str(data["behaviour"]) == "one-leg"
 

@@ -18,14 +18,16 @@ from wbc.constraints.base import Constraint
 from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
-from wbc.qp import DEFAULT_SOLVER
+from wbc.gait.schedule import Support
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
+__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
 
 #: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
-DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
+# The support codes of :class:`wbc.gait.schedule.Support` under the scenarios' names.
+DOUBLE, LEFT_STANCE, RIGHT_STANCE = Support.DOUBLE, Support.LEFT, Support.RIGHT
 SIDES = ("left", "right")
 
 
