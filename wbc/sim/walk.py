@@ -212,10 +212,10 @@ class WalkScenario:
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
-                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.1,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.35):
+                 lateral_reach: float = 0.5):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
