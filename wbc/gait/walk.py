@@ -29,8 +29,9 @@ from wbc.gait.schedule import (
     build_phases,
     zmp_segments,
 )
-from wbc.gait.support import _hull, _signed_distance_point, _sole_corners, signed_distance
-from wbc.gait.swing import min_jerk, sample_feet
+from wbc.geometry import hull, signed_distance, signed_distance_point, sole_corners
+from wbc.gait.swing import sample_feet
+from wbc.profiles import min_jerk
 
 __all__ = ["WalkPlan", "plan_walk"]
 
@@ -234,9 +235,9 @@ def _support_corners(left: np.ndarray, right: np.ndarray, support: int, length: 
                      width: float) -> list[tuple[float, float]]:
     """Support polygon (CCW vertex list) for the given sole poses and support code."""
     if support == DOUBLE_SUPPORT:
-        return _hull(_sole_corners(*pose_to_xy_yaw(left), length, width)
-                     + _sole_corners(*pose_to_xy_yaw(right), length, width))
-    return _sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
+        return hull(sole_corners(*pose_to_xy_yaw(left), length, width)
+                     + sole_corners(*pose_to_xy_yaw(right), length, width))
+    return sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
 
 
 def _readonly(*arrays: np.ndarray) -> None:
@@ -254,7 +255,7 @@ def _assemble(seg: ZmpSegments, phases: list[Phase], footsteps: tuple[Footstep, 
     a0 = lipm.start[0]
     ax, ay = float(a0[0]), float(a0[1])
     poly = _support_corners(left[0], right[0], int(support[0]), length, width)
-    margin = _signed_distance_point(ax, ay, poly) if math.isfinite(ax) and math.isfinite(ay) else -math.inf
+    margin = signed_distance_point(ax, ay, poly) if math.isfinite(ax) and math.isfinite(ay) else -math.inf
     if check_start and not margin >= -1e-9:
         raise GaitError(
             f"cannot start the walk from CoM {np.round(com_xy, 4).tolist()} m with velocity "
@@ -312,7 +313,7 @@ def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple
         d1 = np.array([new[ph.step].x - old[ph.step].x, new[ph.step].y - old[ph.step].y])
         n = ph.count
         s = np.arange(n) / n
-        b, db = min_jerk(s)
+        b, db, _ = min_jerk(s)
         # Samples from this swing on already carry d0 (added with the previous swing's landing).
         poses[f][ph.first:ph.first + n, :2, 3] += np.outer(b, d1 - d0)
         vels[f][ph.first:ph.first + n, :2] += np.outer(db / (n * dt), d1 - d0)

@@ -24,6 +24,8 @@ import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
+from wbc.scenarios.framework import Criterion
+from wbc.sim.scenarios import NO_FALL
 from wbc.sim.walk import WalkScenario, polygon_margin
 
 __all__ = ["CaptureStepScenario"]
@@ -115,6 +117,11 @@ class CaptureStepScenario:
             sim.clear_external_forces()
             self._on = False
         return None
+
+    def criteria(self) -> list[Criterion]:
+        """Pass: no fall, the run completed, no solver failure (a step is allowed, not required)."""
+        return [NO_FALL, Criterion("run completed", "completed", "==", True),
+                Criterion("no solver failure", "solver_failures", "==", 0)]
 
     def extra_summary(self, run) -> dict:
         moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1)

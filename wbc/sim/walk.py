@@ -35,8 +35,11 @@ from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.scenarios import NO_FALL
 
-__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance"]
+__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
+           "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
 
@@ -479,6 +482,10 @@ class WalkScenario:
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
     # -- summary -------------------------------------------------------------------------------------------
+    def criteria(self) -> list[Criterion]:
+        """:func:`walk_criteria` with the default tolerances."""
+        return walk_criteria()
+
     def extra_summary(self, run) -> dict:
         n = len(run.t)
         lg = {k: (v[:n] if isinstance(v, np.ndarray) else v[:n]) for k, v in self.log.items()}
@@ -574,29 +581,29 @@ class WalkScenario:
             "replan_failures": self.replan_failures,
             "completed": complete,
         }
+        out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
         run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
                           "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
         return out
 
 
-def walk_acceptance(summary: dict, *, distance_tol: float = 0.05, slip_max: float = 0.005,
-                    heading_tol: float = math.radians(5.0)) -> list[str]:
-    """Failed criteria of a walk summary: walked distance within ``distance_tol`` (relative, at least 1 cm) of
-    commanded (of the adjusted plan's distance when steps were adjusted), final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
-    walk completed, 0 solver failures (falls are checked by :func:`wbc.sim.scenarios.acceptance`)."""
-    fails = []
-    cmd, got = summary["commanded_distance_m"], summary["walked_distance_m"]
-    if summary.get("step_adjustments", 0):
-        cmd = summary["adjusted_distance_m"]
-    if abs(got - cmd) > max(distance_tol * cmd, 0.01):
-        fails.append(f"walked {got:.3f} m vs commanded {cmd:.3f} m (> {distance_tol:.0%})")
-    dh = abs(math.remainder(summary["walked_heading_rad"] - summary["commanded_heading_rad"], 2 * math.pi))
-    if dh > heading_tol:
-        fails.append(f"heading error {math.degrees(dh):.1f} deg > {math.degrees(heading_tol):.0f} deg")
-    if summary["max_stance_slip_m"] > slip_max:
-        fails.append(f"stance slip {summary['max_stance_slip_m'] * 1e3:.1f} mm > {slip_max * 1e3:.0f} mm")
-    if summary.get("solver_failures", 0):
-        fails.append(f"{summary['solver_failures']} solver failures")
-    if not summary["completed"]:
-        fails.append("walk not completed")
-    return fails
+def walk_criteria(*, distance_tol: float = 0.05, slip_max: float = 0.005,
+                  heading_tol: float = math.radians(5.0)) -> list[Criterion]:
+    """Criteria of a physics walk: no fall, walked distance within ``distance_tol`` (relative, at least 1 cm) of
+    the target distance (commanded, or the adjusted plan's distance when steps were adjusted), final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
+    0 solver failures, walk completed."""
+    return [
+        NO_FALL,
+        Criterion(f"walked distance within {distance_tol:.0%} (≥ 1 cm) of the target", "walked_distance_m", "<=",
+                  distance_tol, minus="target_distance_m", scale_by="target_distance_m", floor=0.01),
+        Criterion(f"final heading within {math.degrees(heading_tol):.0f} deg of commanded", "walked_heading_rad",
+                  "<=", heading_tol, minus="commanded_heading_rad", period=2 * math.pi),
+        Criterion(f"stance slip ≤ {slip_max * 1e3:.0f} mm", "max_stance_slip_m", "<=", slip_max),
+        Criterion("no solver failure", "solver_failures", "==", 0),
+        Criterion("walk completed", "completed", "==", True),
+    ]
+
+
+def walk_acceptance(summary: dict, **tolerances) -> list[str]:
+    """Failed criteria of a walk summary (:func:`walk_criteria`, keyword arguments passed on)."""
+    return evaluate(summary, walk_criteria(**tolerances))[1]

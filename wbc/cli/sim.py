@@ -7,8 +7,10 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
@@ -32,7 +34,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--push-duration", type=float, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
-                        "baseline (bisection), and report the capture-point bound")
+                        "baseline (bisection), and report the capture-point bound; jump: also find the highest "
+                        "planned height within the torque limits (see wbc.sim.jump_sweep)")
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
@@ -69,14 +72,16 @@ def register(subparsers, add_outputs) -> None:
                         "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
-    p.add_argument("--height", type=float, default=0.12,
-                   help="jump: planned apex CoM rise above take-off, m (default 0.12; tuned on g1)")
-    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
+    p.add_argument("--height", type=float, default=0.08,
+                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
+    p.add_argument("--forward", type=float, default=0.0,
+                   help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
+    p.add_argument("--min-hop", type=float, default=None,
+                   help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_sim)
 
@@ -117,7 +122,7 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height, count=args.count)
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -171,21 +176,15 @@ def cmd_sim(args) -> int:
         if args.scenario == "walk" and args.sole_margin:
             options["sole_margin"] = args.sole_margin
         if args.scenario == "jump":
-            from wbc.sim.jump import JUMP_GAINS
+            from wbc.sim.jump import JUMP_OPTIONS
 
-            options["gains"] = JUMP_GAINS
+            options.update(JUMP_OPTIONS)
         return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min, **options)
 
     viewer = pacer = None
     if args.live:
-        from wbc.cli import _live
-
-        viewer, pacer = _live(robot)
-    from wbc.cli import _progress
-
-    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
-    from wbc.ros2.cli import attach, finish
-
+        viewer, pacer = open_live(robot)
+    viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
     try:
@@ -194,21 +193,9 @@ def cmd_sim(args) -> int:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
-    if args.scenario == "wave":
-        from wbc.sim.physics_scenarios import wave_acceptance
-
-        summary["failed_criteria"] = wave_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
-    if args.scenario == "jump":
-        from wbc.sim.jump import jump_acceptance
-
-        summary["failed_criteria"] = jump_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
@@ -216,6 +203,8 @@ def cmd_sim(args) -> int:
                             "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
+    if args.scenario == "jump" and args.sweep:
+        _jump_sweep(args, robot, sim, make, summary)
     if args.scenario == "push" and args.sweep:
         cp = capture_point_bound(robot, args.push_duration)
         summary["capture_point"] = cp
@@ -233,25 +222,20 @@ def cmd_sim(args) -> int:
         if best <= sweep["pd"]["max_survived_n"]:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
-    _print(summary)
+    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n")
-        print(f"summary written to {args.json}")
+        write_json(args.json, summary)
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
     if getattr(args, "plot", None):
-        from wbc.cli import _write_plot
-
-        _write_plot(args.plot, run)
+        write_plot(args.plot, run)
     if args.out:
-        from wbc.viz import record_html
-
         from wbc.viz.overlays import sim_overlays
 
-        scene = sim_overlays(run)
-        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
+        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
+                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
     if args.video:
         from wbc.sim.video import render_video
 
@@ -261,18 +245,33 @@ def cmd_sim(args) -> int:
     return 0 if summary["passed"] else 1
 
 
-def _jsonable(x):
-    import numpy as np
+def _jump_sweep(args, robot, sim, make, summary) -> None:
+    """``wbc sim jump --sweep``: highest planned height within the torque limits (:mod:`wbc.sim.jump_sweep`)."""
+    from wbc.sim.jump import JumpScenario
+    from wbc.sim.jump_sweep import jump_height_sweep, pushoff_bound
+    from wbc.sim.scenarios import run_scenario
 
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x).__name__)
+    last = {}
 
+    def trial(h):
+        sc = JumpScenario(height=h)
+        _, s = run_scenario(sim, make(), sc)
+        last[h] = sc
+        return s
 
-def _print(summary: dict) -> None:
-    from wbc.cli import _print_summary
+    print("  sweep of the planned height (one jump per trial):")
+    res = jump_height_sweep(trial, log=print)
+    h_best = res["max_height_m"]
+    probe = last.get(h_best) or last[res["min_failed_m"]]
+    bound = pushoff_bound(robot, probe.push_postures, probe.plan.stroke)
+    best_row = next((r for r in res["trials"] if r["height_m"] == h_best), None)
+    summary["sweep"] = {"max_planned_height_m": h_best, "min_failed_height_m": res["min_failed_m"],
+                        "apex_foot_clearance_at_max_m": best_row and best_row["apex_foot_clearance_m"],
+                        "push_limiting_joint_measured": best_row and best_row["push_max_torque_joint"],
+                        "push_max_torque_over_limit_measured": best_row and best_row["push_max_torque_over_limit"],
+                        "quasi_static_bound": bound}
+    summary["sweep_trials"] = res["trials"]
+    if h_best is None:
+        summary["failed_criteria"].append("sweep: no planned height succeeded")
+    summary["passed"] = not summary["failed_criteria"]
 
-    short = {k: v for k, v in summary.items() if k != "sweep_trials"}
-    _print_summary(short)
