@@ -1,4 +1,5 @@
-"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here.
+"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here; a lateral
+push in single support recovered by step adjustment; a standing push recovered by a capture step.
 
 Independent references: the walked distance and the stance slip are measured on MuJoCo's ground-truth sole
 positions; the CoP is computed from MuJoCo's contact forces; the commanded distance is the footstep geometry
@@ -121,3 +122,18 @@ def test_lateral_push_in_single_support_is_recovered_by_a_step():
     assert run.sole_pos[i, 1, 1] < nominal.y - 0.10
     # The push was applied as commanded (MuJoCo external force log).
     assert np.abs(run.ext_force[:, 1]).max() == pytest.approx(400.0)
+
+
+def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
+    from wbc.sim.capture_step import CaptureStepScenario
+
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = CaptureStepScenario(450.0, 0.1, t_push=0.5, push_dir=180.0)  # towards -x: pushed from the front
+    run, s = run_scenario(sim, controller, scenario)
+    assert not s["fell"] and s["completed"] and s["solver_failures"] == 0
+    assert s["stepped"] and 0.5 <= s["trigger_time_s"] <= 0.6
+    # Both feet ended behind where they started (MuJoCo sole positions): the robot stepped backwards.
+    assert np.all(run.sole_pos[-1, :, 0] - run.sole_pos[0, :, 0] < -0.1)
+    assert np.abs(run.ext_force[:, 0]).max() == pytest.approx(450.0)

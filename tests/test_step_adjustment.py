@@ -150,3 +150,20 @@ def test_replan_skip_ends_the_swing_earlier():
     assert q.dcm[0] == pytest.approx(p.com[k, :2] + p.com_vel[k, :2] / p.omega, abs=1e-9)
     with pytest.raises(GaitError, match="skip"):
         p.replan(k, p.com[k], p.com_vel[k], skip=n_left, check_start=False)
+
+
+def test_kinematic_walk_velocity_commands(tmp_path):
+    # `wbc walk --vy`: side-steps of vy x (t_ss + t_ds) (Talos gait: 0.8 + 0.3 s); `--vx --wz`: an arc.
+    from wbc.cli import main
+
+    log = tmp_path / "side.npz"
+    assert main(["walk", "--steps", "5", "--vy", "0.05", "--quiet", "--log", str(log)]) == 0
+    d = np.load(log)
+    mid = 0.5 * (d["left_sole"][:, :2, 3] + d["right_sole"][:, :2, 3])
+    # 4 walking steps of 0.055 m to the left (the closing step is the leading foot's: no displacement)
+    assert mid[-1] - mid[0] == pytest.approx([0.0, 4 * 0.05 * 1.1], abs=2e-3)
+    log2 = tmp_path / "arc.npz"
+    assert main(["walk", "--steps", "4", "--vx", "0.1", "--wz", "5", "--quiet", "--log", str(log2)]) == 0
+    d = np.load(log2)
+    R = d["left_sole"][-1, :3, :3]
+    assert math.atan2(R[1, 0], R[0, 0]) == pytest.approx(math.radians(3 * 5 * 1.1), abs=math.radians(0.5))
