@@ -241,6 +241,10 @@ class WalkScenario:
         self.from_state = bool(from_state)
         self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
         self.max_cut = float(max_cut)
+        self.recovery_margin = 0.02
+        if self.push > 0 and self.step_adjust:  # time for a recovery step after the walk
+            self.settle = max(self.settle, 2.5)
+            self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.lateral_reach = float(lateral_reach)
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
@@ -292,6 +296,7 @@ class WalkScenario:
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
+        self._recovery, self._t_recovery = None, None
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
@@ -344,6 +349,8 @@ class WalkScenario:
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
+        if self._recovery is not None:
+            return self._recovery_update(t, controller, sim, q, v)
         plan, dt, sw = self.plan, self.dt, self.switcher
         k = min(plan.index(t) + self._shift, plan.n_samples - 1)
         tp = k * dt  # plan clock
@@ -406,7 +413,40 @@ class WalkScenario:
             lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
         lg["hull"][i] = self._hull(0.0)
         self._k += 1
-        # Push.
+        if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
+                and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
+                and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
+            self._start_recovery(t, controller, sim, q, v, xi)
+        return self._apply_push(t, sim)
+
+    def _start_recovery(self, t, controller, sim, q, v, xi):
+        """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
+        (a 2-step walk planned from the measured state, first step from the measured DCM), as
+        :class:`wbc.sim.capture_step.CaptureStepScenario` does for a standing robot."""
+        mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
+        side = "left" if (xi - mid) @ self._data.oMf[self._fid["left"]].rotation[:2, 1] >= 0 else "right"
+        rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
+                           first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
+                           cop_margin=self.cop_margin)
+        rec.setup(controller, sim, q, v)
+        self._recovery, self._t_recovery = rec, float(t)
+
+    def _recovery_update(self, t, controller, sim, q, v):
+        rec = self._recovery
+        rec.update(t - self._t_recovery, controller, sim, q, v)
+        pin.framesForwardKinematics(self._model, self._data, q)
+        i = min(self._k, len(self.log["phase"]) - 1)
+        lg = self.log
+        for j, s in enumerate(("left", "right")):
+            lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(rec.switcher.phase(s))
+            M = self._data.oMf[self._fid[s]]
+            lg["sole_xy"][i, j] = M.translation[:2]
+            lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        lg["hull"][i] = self._hull(0.0)
+        self._k += 1
+        return self._apply_push(t, sim)
+
+    def _apply_push(self, t, sim):
         if self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9:
             f = self.push * self.push_vec
             sim.apply_external_force(self._push_body, f)
@@ -579,6 +619,7 @@ class WalkScenario:
                 0.5 * (self.poses["left"][-1, :2, 3] + self.poses["right"][-1, :2, 3])
                 - 0.5 * (self.poses["left"][0, :2, 3] + self.poses["right"][0, :2, 3]))),
             "replan_failures": self.replan_failures,
+            "recovery_step_time_s": self._t_recovery,
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
