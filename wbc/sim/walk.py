@@ -16,6 +16,14 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
 
+* **Step adjustment** (``step_adjust``, default on): during the single support of a released swing foot, the
+  landing point follows the measured DCM (:class:`wbc.gait.step_adjustment.StepAdjuster`: Khadiv et al. 2016
+  eq. 6–7, dead band 3 cm on the DCM error, reach box and minimum width between the feet); when it moves by
+  more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
+  (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
+  last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
+  capture step (a 2-step walk planned from the measured state). Optional step timing adjustment (eq. 2, off).
+
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
 displacement of a loaded stance sole from its position when fully loaded until its ramp-out begins), minimum
