@@ -21,7 +21,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("wbc.geometry", "wbc.profiles"),
     ("wbc.robot", "wbc.configuration"),
     ("wbc.tasks", "wbc.constraints"),
-    ("wbc.qp", "wbc.fastqp", "wbc.diagnosis", "wbc.hierarchy", "wbc.controller", "wbc.dynamics",
+    ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.controller", "wbc.dynamics",
      "wbc.formulations", "wbc.solve"),
     ("wbc.gait",),
     ("wbc.scenarios", "wbc.sim"),

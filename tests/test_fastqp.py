@@ -8,7 +8,7 @@ import pytest
 import qpsolvers
 
 from wbc.fastqp import FastBackend, solve_box_eq
-from wbc.qp import make_backend
+from wbc.backends import make_backend
 
 
 def _random_qp(rng, n, m, box_scale):

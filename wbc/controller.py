@@ -70,7 +70,8 @@ from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.fastqp import clip_box_into, ensure_compiled, weighted_normal_equations
 from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
+from wbc.qp import DaqpBackend, QPBackend
+from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -119,7 +120,7 @@ class KinematicController:
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.qp.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+        solver: QP backend name (default ``wbc.backends.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
             exactly) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.

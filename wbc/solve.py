@@ -15,7 +15,8 @@ from wbc.configuration import Configuration
 from wbc.constraints.base import Constraint
 from wbc.controller import KinematicController
 from wbc.exceptions import SolverError
-from wbc.qp import DEFAULT_SOLVER, QPBackend
+from wbc.qp import QPBackend
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -38,7 +39,7 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
         tasks: weighted tasks (:mod:`wbc.tasks`), their targets already set.
         dt: period over which v is applied (s, > 0): sets the limits' velocity bounds and the contacts' rows.
         constraints: constraints (:mod:`wbc.constraints`): contacts, joint limits, CoM polygon, ...
-        solver: QP backend name (:func:`wbc.qp.available_solvers`) or a :class:`~wbc.qp.QPBackend`.
+        solver: QP backend name (:func:`wbc.backends.available_solvers`) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (> 0).
         safe_fallback: when the QP cannot be solved, return the controller's safe command (the soft tasks under
             the constraint objects only, or v = 0) instead of raising.

@@ -58,7 +58,7 @@ def cmd_balance(args) -> int:
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import DEFAULT_SOLVER, available_solvers
+    from wbc.backends import DEFAULT_SOLVER, available_solvers
     from wbc.scenarios.balance import BEHAVIOURS
 
     p = subparsers.add_parser(

@@ -19,7 +19,7 @@ _SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import available_solvers
+    from wbc.backends import available_solvers
 
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",

@@ -44,8 +44,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
 from wbc.exceptions import InvalidInputError
-from wbc.gait.support import convex_hull, sole_polygon
-from wbc.tasks.frame import as_se3
+from wbc.geometry import as_se3, convex_hull, sole_polygon
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 

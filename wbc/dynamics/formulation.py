@@ -77,7 +77,8 @@ from wbc.dynamics.idkernel import id_tick
 from wbc.dynamics.state import DynamicsState
 from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
-from wbc.qp import QPBackend, make_backend
+from wbc.qp import QPBackend
+from wbc.backends import make_backend
 from wbc.robot import Robot
 
 __all__ = ["InverseDynamicsQP", "IDSolution"]
@@ -120,7 +121,7 @@ class InverseDynamicsQP:
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
             the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
             and torques in one call — with DAQP as fallback; any other qpsolvers backend —
-            :func:`wbc.qp.make_backend`) or a :class:`~wbc.qp.QPBackend`.
+            :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
         torque_limit_scale: fraction of the URDF effort limit used in (6), in (0, 1].

@@ -46,7 +46,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, RunRecord, evaluate
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin

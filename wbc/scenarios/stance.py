@@ -18,7 +18,7 @@ from wbc.constraints.base import Constraint
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 

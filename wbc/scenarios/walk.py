@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidTargetError
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.geometry import mean_heading
