@@ -198,7 +198,7 @@ class WalkScenario:
             trajectory are replanned from the new step by :meth:`wbc.gait.WalkPlan.replan`); the remaining
             footsteps move with it. ``adjust_dead_band`` (m): dead band on the DCM error;
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
-            ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + lateral_reach z_c``
+            ``forward_reach z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + lateral_reach z_c``
             (``z_c`` the CoM height).
         adjust_timing: (default off: on 2 seeded 300 N pushes it did not turn a fall into a recovery) cut the swing in
             progress short (by at most ``max_cut`` s, to no less than ``min_time_left``
@@ -226,7 +226,7 @@ class WalkScenario:
                  step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.5):
+                 lateral_reach: float = 0.5, forward_reach: float = 0.55):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -253,7 +253,7 @@ class WalkScenario:
         if self.push > 0 and self.step_adjust:  # time for a recovery step after the walk
             self.settle = max(self.settle, 2.5)
             self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
-        self.lateral_reach = float(lateral_reach)
+        self.lateral_reach, self.forward_reach = float(lateral_reach), float(forward_reach)
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.plan = None
@@ -278,7 +278,7 @@ class WalkScenario:
                                                          else {}))
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
-        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
+        self.adjuster = StepAdjuster(plan.omega, max_forward=self.forward_reach * zc, max_backward=0.35 * zc,
                                      min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
