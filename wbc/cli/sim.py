@@ -67,6 +67,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
     w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
+    w.add_argument("--impratio", type=float, default=None,
+                   help="plant: MuJoCo friction-to-normal impedance ratio (MuJoCo default 1: its soft friction lets "
+                        "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     p.add_argument("--height", type=float, default=0.08,
@@ -141,6 +144,12 @@ def cmd_sim(args) -> int:
 
     robot = load_robot(args.robot)
     sim = build_mujoco_model(robot)
+    if args.impratio is not None:
+        from wbc.exceptions import InvalidInputError
+
+        if not args.impratio >= 1.0:
+            raise InvalidInputError(f"--impratio must be >= 1, got {args.impratio}")
+        sim.model.opt.impratio = args.impratio
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -186,6 +195,7 @@ def cmd_sim(args) -> int:
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
