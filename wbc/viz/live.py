@@ -9,6 +9,8 @@ and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transfo
 from __future__ import annotations
 
 import atexit
+import contextlib
+import io
 import math
 import subprocess
 import threading
@@ -74,7 +76,8 @@ class LiveViewer:
         if zmq_url is None:
             self._server, zmq_url, _ = _server.start()
             atexit.register(_kill, self._server)
-        self._vis = meshcat.Visualizer(zmq_url=zmq_url)
+        with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; the caller decides
+            self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
