@@ -15,7 +15,6 @@ __all__ = ["register", "cmd_balance"]
 
 def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    import numpy as np
 
     from wbc.cli import _live, _print_summary, _write_outputs
     from wbc.robot import load_robot
@@ -51,14 +50,17 @@ def cmd_balance(args) -> int:
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
     _print_summary(summary)
-    overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
-    overlays.update(run.extra["behaviour"].overlays(run))
+    from wbc.viz.overlays import balance_overlays
+
+    scene = balance_overlays(robot, run)
+    overlays = {**scene["points"], **run.extra["behaviour"].overlays(run)}
     out, args.out = args.out, None
     _write_outputs(args, summary, run, robot)
     if out:
         from wbc.viz import record_html
 
-        path = record_html(robot, run.t, run.q, out, overlays=overlays, polygons=run.polygons(robot))
+        path = record_html(robot, run.t, run.q, out, overlays=overlays, polygons=run.polygons(robot),
+                           outlines=scene["outlines"], paths=scene["paths"])
         print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0 if summary["passed"] else 1
 
