@@ -3,6 +3,8 @@
 :class:`LiveViewer` keeps only the latest state given to :meth:`LiveViewer.update` (a copy, microseconds)
 and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transform`` is a blocking
 ~0.3 ms round trip, so a Talos pose (52 meshes) takes ~20 ms to send and a 500 Hz loop cannot wait for it.
+The same thread computes the overlays of each shown pose (:class:`~wbc.viz.live_overlays.LiveOverlays`) and
+moves ``/Cameras/target`` with the base, which the page of wbc's server (:mod:`wbc.viz._server`) follows.
 :class:`RealTimePacer` runs a simulated loop at wall-clock speed.
 """
 
