@@ -161,6 +161,10 @@ def cmd_sim(args) -> int:
         from wbc.cli import _live
 
         viewer, pacer = _live(robot)
+        if args.scenario == "walk":  # the plan is made when the run starts
+            from wbc.viz.live_overlays import LiveOverlays
+
+            viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
     from wbc.cli import _progress
 
     viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
