@@ -14,19 +14,14 @@ from conftest import CATALOG
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk_ramp as min_jerk
 from wbc.scenarios.balance import (
-    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary, min_jerk,
+    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary,
     run_balance, support_polygon,
 )
 
 CASES = [(b, r) for b in BEHAVIOURS for r in CATALOG]
 
-#: Measured on this branch (min executed-motion ZMP margin): the kinematic controller stops the CoM within a tick
-#: when the balance constraint becomes active (reach: talos −4.81 m, g1 −2.27 m, humanoid15 −1.28 m) and G1's
-#: one-leg lift-off / squat turn-around have acceleration spikes (−6.5 mm, −33 mm). A kinematically planned
-#: motion whose executed ZMP leaves the feet is not balanced: these fail until the controller limits the CoM
-#: acceleration (issue 8 solve-core work); remove a case from this set when it passes.
-ZMP_KNOWN_FAIL = {("reach", "talos"), ("reach", "g1"), ("reach", "humanoid15"), ("one-leg", "g1"), ("squat", "g1")}
 ZMP_CRITERION = "ZMP of the executed motion inside the support polygon at every tick"
 
 
@@ -110,9 +105,7 @@ def test_summary_keys_and_log_format(runs, tmp_path):
     assert str(data["robot"]) == "humanoid15" and str(data["behaviour"]) == "one-leg"
 
 
-@pytest.mark.parametrize("behaviour,name", [
-    pytest.param(b, r, marks=pytest.mark.xfail(strict=True, reason="executed ZMP leaves the support (measured)"))
-    if (b, r) in ZMP_KNOWN_FAIL else (b, r) for b, r in CASES])
+@pytest.mark.parametrize("behaviour,name", CASES)
 def test_executed_zmp_stays_in_support(runs, behaviour, name):
     robot, run, s = runs(behaviour, name)
     assert s["min_zmp_margin_m"] >= 0.0

@@ -6,32 +6,43 @@ import pytest
 pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
 
 from wbc.robot import load_robot  # noqa: E402
-from wbc.sim.jump import JUMP_GAINS, JumpScenario  # noqa: E402
+from wbc.sim.jump import JUMP_OPTIONS, JumpScenario  # noqa: E402
 from wbc.sim.mujoco_model import build_mujoco_model  # noqa: E402
 from wbc.sim.scenarios import make_controller, run_scenario  # noqa: E402
+
+
+def _longest(mask) -> int:
+    best = cur = 0
+    for m in mask:
+        cur = cur + 1 if m else 0
+        best = max(best, cur)
+    return best
 
 
 def test_g1_vertical_jump():
     robot = load_robot("g1")
     sim = build_mujoco_model(robot)
     sc = JumpScenario()
-    run, s = run_scenario(sim, make_controller(robot, "id", dt=sim.timestep, gains=JUMP_GAINS), sc)
+    run, s = run_scenario(sim, make_controller(robot, "id", dt=sim.timestep, **JUMP_OPTIONS), sc)
     assert not run.fell
+    assert run.t[-1] >= sc.duration - 2 * run.dt
     # MuJoCo ground truth: sole positions and plant ground reaction forces, not the plan
     rise = run.sole_pos[:, :, 2] - run.sole_pos[0, :, 2]
     both_up = rise.min(axis=1) >= 0.05
-    longest = best = 0
-    for up in both_up:
-        longest = longest + 1 if up else 0
-        best = max(best, longest)
-    assert best * run.dt >= 0.1, best * run.dt
+    assert _longest(both_up) * run.dt >= 0.1, _longest(both_up) * run.dt
     fz = run.sim_wrench[:, :, 2].sum(axis=1)
     assert (fz[both_up] < 1e-6).all()  # no ground force while both feet are up
     # landed and stands: the last 0.5 s on both feet with the robot's weight on them, feet not slid
     last = run.t > run.t[-1] - 0.5
     weight = robot.mass * 9.81
     assert np.abs(fz[last].mean() - weight) < 0.1 * weight
-    assert (rise[last] < 0.005).all()
+    assert (np.abs(rise[last]) < 0.005).all()
+    air = np.flatnonzero(both_up)
+    after = run.t > run.t[air[-1]] + 0.05  # from 50 ms after the last airborne tick: feet down, no sliding
+    pos = run.sole_pos[after, :, :2]
+    assert np.linalg.norm(pos - pos[0], axis=2).max() <= 0.02
     slide = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1).max()
     assert slide <= 0.02, slide
-    assert run.t[-1] >= sc.duration - 2 * run.dt
+    # applied torques within the URDF effort limits (the landing does not relax them)
+    lim = robot.model.effortLimit[6:]
+    assert (np.abs(run.tau) <= lim * (1 + 1e-9)).all()

@@ -27,7 +27,8 @@ stance; ``com_margin`` (N,) m, signed distance of the CoM ground projection to t
 ``task_error`` (N, T), norm of each task's error at the start of the tick in ``task_units`` (``m`` or ``rad``; a
 frame task with position and orientation rows has two columns, ``<name> position`` m and ``<name> orientation``
 rad; NaN while the task is inactive);
-``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``. Row k is the state at the start of tick k,
+``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``; ``relaxed`` (N,) bool, tick solved without its
+relaxable constraints. Row k is the state at the start of tick k,
 t[k] = k dt, v[k] the command computed from it (applied for dt), references are those of t[k].
 """
 
@@ -38,7 +39,6 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from time import perf_counter
-from typing import Callable
 
 import numpy as np
 
@@ -46,21 +46,22 @@ from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion, RunRecord, evaluate
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.tasks.com import ComTask
 from wbc.tasks.frame import FrameTask
 from wbc.tasks.posture import PostureTask
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
-    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk,
+    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk_ramp,
     support_polygon,
 )
 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk", "run_balance", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "support_polygon",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -71,9 +72,6 @@ BEHAVIOURS = {
     "squat": "wbc.scenarios.balance_squat:SquatBehaviour",
     "reach": "wbc.scenarios.balance_reach:ReachBehaviour",
 }
-
-#: (summary key, description, predicate on the summary).
-Criterion = tuple[str, str, Callable[[dict], bool]]
 
 
 # -- behaviours -------------------------------------------------------------------------------------------------
@@ -132,8 +130,8 @@ def make_behaviour(name: str, robot: Robot, config: Configuration, **options) ->
 
 # -- run --------------------------------------------------------------------------------------------------------
 @dataclass
-class BalanceRun:
-    """Arrays recorded during a behaviour (see the module docstring for the log format)."""
+class BalanceRun(RunRecord):
+    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``)."""
 
     robot: str
     behaviour: str
@@ -154,16 +152,7 @@ class BalanceRun:
     joint_names: list[str]
     task_units: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
-
-    def save(self, path) -> None:
-        """Write the npz log (module docstring)."""
-        np.savez_compressed(
-            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, left_sole=self.left_sole,
-            right_sole=self.right_sole, support=self.support, com_margin=self.com_margin, tick_time=self.tick_time,
-            solver_ok=self.solver_ok, task_names=np.array(self.task_names), task_error=self.task_error,
-            task_units=np.array(self.task_units), joint_names=np.array(self.joint_names), robot=np.array(self.robot),
-            behaviour=np.array(self.behaviour), dt=np.array(self.dt),
-        )
+    relaxed: np.ndarray | None = None
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -228,6 +217,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     margin = np.empty(n)
     tick = np.empty(n)
     ok = np.empty(n, dtype=bool)
+    relaxed = np.zeros(n, dtype=bool)
     parts = [(i, *part) for i, task in enumerate(tasks) for part in task_error_parts(task)]
     errors = np.full((n, len(parts)), np.nan)
     for k in range(n):
@@ -252,6 +242,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
         config.step(result.v, dt)
         ok[k] = result.ok
+        relaxed[k] = bool(result.relaxed)
         out_v[k] = result.v
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
@@ -262,7 +253,7 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
         solver_ok=ok, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
         task_units=[p[2] for p in parts],
-        extra={"behaviour": beh},
+        extra={"behaviour": beh}, relaxed=relaxed,
     )
 
 
@@ -299,16 +290,15 @@ def _stance_slip(run: BalanceRun) -> float:
     return slip
 
 
-#: Criteria of every behaviour (from the issue): (summary key, description, predicate).
+#: Criteria of every behaviour (from the issue).
 COMMON_CRITERIA: list[Criterion] = [
-    ("min_com_margin_m", "CoM projection inside the support polygon at every tick", lambda s: s["min_com_margin_m"] >= 0.0),
-    ("min_zmp_margin_m", "ZMP of the executed motion inside the support polygon at every tick",
-     lambda s: s["min_zmp_margin_m"] >= 0.0),
-    ("max_stance_slip_m", "stance soles do not slip (≤ 1 mm)", lambda s: s["max_stance_slip_m"] <= 1e-3),
-    ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
-    ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
-    ("solver_failures", "no solver failure", lambda s: s["solver_failures"] == 0),
-    ("nan", "no NaN", lambda s: not s["nan"]),
+    Criterion("CoM projection inside the support polygon at every tick", "min_com_margin_m", ">=", 0.0),
+    Criterion("ZMP of the executed motion inside the support polygon at every tick", "min_zmp_margin_m", ">=", 0.0),
+    Criterion("stance soles do not slip (≤ 1 mm)", "max_stance_slip_m", "<=", 1e-3),
+    Criterion("no joint position limit violation", "joint_position_violations", "==", 0),
+    Criterion("no joint velocity limit violation", "joint_velocity_violations", "==", 0),
+    Criterion("no solver failure", "solver_failures", "==", 0),
+    Criterion("no NaN", "nan", "==", False),
 ]
 
 
@@ -331,7 +321,8 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     positions}, max_task_error_rad {the same in rad: orientations, posture} (see :func:`task_error_parts`; a
     task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
-    solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    solver_failures (ticks whose command fell back to a safe command), relaxed_ticks (ticks solved without the
+    relaxable constraints — executed-ZMP constraint — reported, not judged), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
     """
     model = robot.model
     idx_q, _ = bounded_joints(model)
@@ -359,6 +350,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     beh = run.extra.get("behaviour")
@@ -374,12 +366,4 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
 
 def balance_passes(summary: dict, criteria: list[Criterion]) -> tuple[bool, list[str]]:
     """(all criteria hold, descriptions of the failed ones); a criterion whose key is missing fails."""
-    failed = []
-    for key, desc, ok in criteria:
-        try:
-            good = bool(ok(summary))
-        except (KeyError, TypeError):
-            good = False
-        if not good:
-            failed.append(desc)
-    return not failed, failed
+    return evaluate(summary, criteria)

@@ -2,7 +2,8 @@
 
 Same outputs as ``wbc walk``: the summary is printed; ``--json`` writes it, ``--log`` writes the npz time series
 (format in :mod:`wbc.scenarios.balance`), ``--out`` a self-contained meshcat HTML recording (CoM, its ground
-projection and the support polygons drawn), ``--live`` shows the motion in meshcat paced to real time.
+projection and target, executed ZMP and DCM, support polygons, footprints, sole paths:
+:func:`wbc.viz.overlays.balance_overlays`), ``--live`` shows the motion in meshcat paced to real time.
 Exit code 0 when the behaviour met its acceptance criteria, 1 when it did not, 2 on bad input.
 """
 
@@ -10,13 +11,14 @@ from __future__ import annotations
 
 import argparse
 
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
+
 __all__ = ["register", "cmd_balance"]
 
 
 def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-
-    from wbc.cli import _live, _print_summary, _write_outputs
     from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
@@ -28,12 +30,8 @@ def cmd_balance(args) -> int:
         options["hand"] = args.hand
     viewer = pacer = None
     if args.live:
-        viewer, pacer = _live(robot)
-    from wbc.cli import _progress
-
-    from wbc.ros2.cli import attach, finish
-
-    viewer = _progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
+        viewer, pacer = open_live(robot)
+    viewer = progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
         run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=target, pacer=pacer,
@@ -44,30 +42,25 @@ def cmd_balance(args) -> int:
         finish(ros2_pub)
     summary = balance_summary(robot, run)
     summary["solver"] = args.solver
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
-    _print_summary(summary)
+    print_summary(summary)
     from wbc.viz.overlays import balance_overlays
 
     scene = balance_overlays(robot, run)
     overlays = {**scene["points"], **run.extra["behaviour"].overlays(run)}
     out, args.out = args.out, None
-    _write_outputs(args, summary, run, robot)
+    write_outputs(args, summary, run, robot)
     if out:
-        from wbc.viz import record_html
-
-        path = record_html(robot, run.t, run.q, out, overlays=overlays, polygons=run.polygons(robot),
-                           outlines=scene["outlines"], paths=scene["paths"])
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot),
+                        outlines=scene["outlines"], paths=scene["paths"])
     return 0 if summary["passed"] else 1
 
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import DEFAULT_SOLVER, available_solvers
+    from wbc.backends import DEFAULT_SOLVER, available_solvers
     from wbc.scenarios.balance import BEHAVIOURS
 
     p = subparsers.add_parser(
@@ -86,7 +79,5 @@ def register(subparsers, add_outputs) -> None:
                    help=f"QP backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_balance)

@@ -7,17 +7,19 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import available_solvers
+    from wbc.backends import available_solvers
 
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
@@ -32,7 +34,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--push-duration", type=float, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
-                        "baseline (bisection), and report the capture-point bound")
+                        "baseline (bisection), and report the capture-point bound; jump: also find the highest "
+                        "planned height within the torque limits (see wbc.sim.jump_sweep)")
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
@@ -45,12 +48,17 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: s per step, single + double support (20%%) (default 0.8)")
     w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
     w.add_argument("--vx", type=float, default=None,
-                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration)")
+                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration; with --vy/--wz alone: 0)")
     w.add_argument("--wz", type=float, default=None,
                    help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
+    w.add_argument("--vy", type=float, default=0.0,
+                   help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
+    w.add_argument("--no-step-adjust", action="store_true",
+                   help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
     w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
-    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--push-dir", type=float, default=90.0,
+                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
@@ -61,14 +69,16 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
-    p.add_argument("--height", type=float, default=0.12,
-                   help="jump: planned apex CoM rise above take-off, m (default 0.12; tuned on g1)")
-    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1; experimental: G1 does not yet survive a series)")
+    p.add_argument("--height", type=float, default=0.08,
+                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
+    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
+    p.add_argument("--forward", type=float, default=0.0,
+                   help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
+    p.add_argument("--min-hop", type=float, default=None,
+                   help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_sim)
 
@@ -89,13 +99,19 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
-        if args.vx is not None:
-            args.step_length = args.vx * args.step_duration
-        if args.wz is not None:
-            args.turn = args.wz * args.step_duration
+        if args.vx is not None or args.vy or args.wz is not None:  # velocity command: what is not given is 0
+            args.step_length = (args.vx or 0.0) * args.step_duration
+            if args.wz is not None:
+                args.turn = args.wz * args.step_duration
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
-                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
+                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
+                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+    if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
+        from wbc.sim.capture_step import CaptureStepScenario
+
+        force = 450.0 if args.force is None else args.force
+        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
 
@@ -103,7 +119,7 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height, count=args.count)
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -151,25 +167,19 @@ def cmd_sim(args) -> int:
         if args.scenario == "walk" and args.sole_margin:
             options["sole_margin"] = args.sole_margin
         if args.scenario == "jump":
-            from wbc.sim.jump import JUMP_GAINS
+            from wbc.sim.jump import JUMP_OPTIONS
 
-            options["gains"] = JUMP_GAINS
+            options.update(JUMP_OPTIONS)
         return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min, **options)
 
     viewer = pacer = None
     if args.live:
-        from wbc.cli import _live
-
-        viewer, pacer = _live(robot)
+        viewer, pacer = open_live(robot)
         if args.scenario == "walk":  # the plan is made when the run starts
             from wbc.viz.live_overlays import LiveOverlays
 
             viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
-    from wbc.cli import _progress
-
-    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
-    from wbc.ros2.cli import attach, finish
-
+    viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
     try:
@@ -178,20 +188,8 @@ def cmd_sim(args) -> int:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
-    if args.scenario == "wave":
-        from wbc.sim.physics_scenarios import wave_acceptance
-
-        summary["failed_criteria"] = wave_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
-    if args.scenario == "jump":
-        from wbc.sim.jump import jump_acceptance
-
-        summary["failed_criteria"] = jump_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
@@ -199,6 +197,8 @@ def cmd_sim(args) -> int:
                             "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
+    if args.scenario == "jump" and args.sweep:
+        _jump_sweep(args, robot, sim, make, summary)
     if args.scenario == "push" and args.sweep:
         cp = capture_point_bound(robot, args.push_duration)
         summary["capture_point"] = cp
@@ -216,26 +216,20 @@ def cmd_sim(args) -> int:
         if best <= sweep["pd"]["max_survived_n"]:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
-    _print(summary)
+    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n")
-        print(f"summary written to {args.json}")
+        write_json(args.json, summary)
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
     if getattr(args, "plot", None):
-        from wbc.cli import _write_plot
-
-        _write_plot(args.plot, run)
+        write_plot(args.plot, run)
     if args.out:
-        from wbc.viz import record_html
-
         from wbc.viz.overlays import sim_overlays
 
         scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
-        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"],
-                           polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
+                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
     if args.video:
         from wbc.sim.video import render_video
 
@@ -245,18 +239,33 @@ def cmd_sim(args) -> int:
     return 0 if summary["passed"] else 1
 
 
-def _jsonable(x):
-    import numpy as np
+def _jump_sweep(args, robot, sim, make, summary) -> None:
+    """``wbc sim jump --sweep``: highest planned height within the torque limits (:mod:`wbc.sim.jump_sweep`)."""
+    from wbc.sim.jump import JumpScenario
+    from wbc.sim.jump_sweep import jump_height_sweep, pushoff_bound
+    from wbc.sim.scenarios import run_scenario
 
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x).__name__)
+    last = {}
 
+    def trial(h):
+        sc = JumpScenario(height=h)
+        _, s = run_scenario(sim, make(), sc)
+        last[h] = sc
+        return s
 
-def _print(summary: dict) -> None:
-    from wbc.cli import _print_summary
+    print("  sweep of the planned height (one jump per trial):")
+    res = jump_height_sweep(trial, log=print)
+    h_best = res["max_height_m"]
+    probe = last.get(h_best) or last[res["min_failed_m"]]
+    bound = pushoff_bound(robot, probe.push_postures, probe.plan.stroke)
+    best_row = next((r for r in res["trials"] if r["height_m"] == h_best), None)
+    summary["sweep"] = {"max_planned_height_m": h_best, "min_failed_height_m": res["min_failed_m"],
+                        "apex_foot_clearance_at_max_m": best_row and best_row["apex_foot_clearance_m"],
+                        "push_limiting_joint_measured": best_row and best_row["push_max_torque_joint"],
+                        "push_max_torque_over_limit_measured": best_row and best_row["push_max_torque_over_limit"],
+                        "quasi_static_bound": bound}
+    summary["sweep_trials"] = res["trials"]
+    if h_best is None:
+        summary["failed_criteria"].append("sweep: no planned height succeeded")
+    summary["passed"] = not summary["failed_criteria"]
 
-    short = {k: v for k, v in summary.items() if k != "sweep_trials"}
-    _print_summary(short)
