@@ -2,7 +2,8 @@
 
 Same outputs as ``wbc walk``: the summary is printed; ``--json`` writes it, ``--log`` writes the npz time series
 (format in :mod:`wbc.scenarios.balance`), ``--out`` a self-contained meshcat HTML recording (CoM, its ground
-projection and the support polygons drawn), ``--live`` shows the motion in meshcat paced to real time.
+projection and target, executed ZMP and DCM, support polygons, footprints, sole paths:
+:func:`wbc.viz.overlays.balance_overlays`), ``--live`` shows the motion in meshcat paced to real time.
 Exit code 0 when the behaviour met its acceptance criteria, 1 when it did not, 2 on bad input.
 """
 
@@ -18,8 +19,6 @@ __all__ = ["register", "cmd_balance"]
 
 def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    import numpy as np
-
     from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
@@ -47,12 +46,15 @@ def cmd_balance(args) -> int:
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
     print_summary(summary)
-    overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
-    overlays.update(run.extra["behaviour"].overlays(run))
+    from wbc.viz.overlays import balance_overlays
+
+    scene = balance_overlays(robot, run)
+    overlays = {**scene["points"], **run.extra["behaviour"].overlays(run)}
     out, args.out = args.out, None
     write_outputs(args, summary, run, robot)
     if out:
-        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot))
+        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot),
+                        outlines=scene["outlines"], paths=scene["paths"])
     return 0 if summary["passed"] else 1
 
 

@@ -184,6 +184,10 @@ def cmd_sim(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = open_live(robot)
+        if args.scenario == "walk":  # the plan is made when the run starts
+            from wbc.viz.live_overlays import LiveOverlays
+
+            viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
