@@ -21,6 +21,10 @@ def cmd_balance(args) -> int:
     from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
+    if args.behaviour == "jump":  # kinematic preview of the planned jump (wbc.scenarios.balance_jump)
+        from wbc.scenarios.balance_jump import cmd_preview
+
+        return cmd_preview(args)
     robot = load_robot(args.robot)
     options = {}
     if args.behaviour == "one-leg" and args.stance is not None:
@@ -75,7 +79,8 @@ def register(subparsers, add_outputs) -> None:
                "other 10 cm, hold 3 s, put it back.  wave: both arms wave 5 s.  squat: CoM down 15 cm and up, 3 "
                "times.  reach: a hand target 0.6 m in front of the chest, reached as far as balance allows.",
     )
-    p.add_argument("behaviour", choices=list(BEHAVIOURS), help="behaviour to run")
+    p.add_argument("behaviour", choices=[*BEHAVIOURS, "jump"], help="behaviour to run (jump: kinematic preview of "
+                   "the planned jump of wbc sim jump, no physics)")
     p.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
     p.add_argument("--stance", choices=["left", "right"], default=None,
                    help="one-leg: the foot that stays on the ground (default left)")
@@ -83,6 +88,9 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
                    help=f"QP backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
+    p.add_argument("--height", type=float, default=0.08, help="jump: planned apex CoM rise, m (default 0.08)")
+    p.add_argument("--forward", type=float, default=0.0, help="jump: planned forward foot displacement, m")
+    p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)
     from wbc.ros2.cli import add_run_options
 
