@@ -67,6 +67,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
     p.add_argument("--forward", type=float, default=0.0,
                    help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
+    p.add_argument("--momentum-weight", type=float, default=None,
+                   help="jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)")
     p.add_argument("--min-hop", type=float, default=None,
                    help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
@@ -108,7 +110,10 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height, forward=args.forward, count=args.count)
+        from wbc.sim.jump import JUMP_MOMENTUM_WEIGHT
+
+        w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count, momentum_weight=w)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)

@@ -28,16 +28,19 @@ sole at once), the controller's fallback drops the torque limits (:mod:`wbc.dyna
 scenario then re-solves the QP with the torque limits kept and the velocity-damping of the landing contacts
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
 too, clips the relaxed torques at the URDF limits (what MuJoCo's actuators apply anyway). The counts of both
-are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``), and ``max_torque_over_limit``
+are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``torque_limited_ticks`` lists the
+first 20 as (time s, phase, how)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
 Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
-10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; angular-momentum weight 1 (default
-0.1), and :data:`HOP_MOMENTUM_WEIGHT` = 50 for a forward hop (measured on G1, 0.2 m planned hop: with weight 1
-the centroidal angular momentum grew to 4.9 N·m·s pitching forward during the push and the robot fell on
-landing; with 50 it landed. For vertical series weight 50 made the take-off velocity alternate sideways up to
-±0.045 m/s over 10 jumps and the flight shrink to 0.09 s, weight 1 kept 5 jumps at 0.142–0.148 s; 50 during
-the push only did not save the hop); braking acceleration of the joint-limit viability bound
+10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; during the jump the centroidal
+angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1). Measured: G1 0.2 m planned hop,
+with weight 1 the angular momentum grew to 4.9 N·m·s (pitching forward) during the push and the robot fell on
+landing, with 50 it landed (50 only from the push start on: fell); humanoid15 vertical jump, weight 1: take-off
+0.084 m/s sideways and the feet 10 cm away, 50: 3.5 mm. But G1 series of vertical jumps need weight 1
+(``momentum_weight``; ``--momentum-weight``): with 50 the take-off velocity alternated sideways (up to ±0.045
+m/s) and the 4th of 10 jumps fell (settle 2.5 s) / the flight shrank to 0.09 s (settle 1.5 s); with 1, 10 of 10
+jumps passed; braking acceleration of the joint-limit viability bound
 (:mod:`wbc.dynamics.formulation`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
 from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and the QP cut the push-off force from
 700 N to 0 at a take-off velocity of 0.86 m/s instead of the planned 1.53 m/s (measured at 0.12 m planned height);
@@ -45,7 +48,8 @@ with 400 the late braking needed more than the hip torque limits (relaxed QP tic
 A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`; without it the arms
 flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
 and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 1 (with 10 they rotated the legs
-and the feet landed 9–14 cm behind their take-off point).
+and the feet landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
+(default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000).
 """
 
 from __future__ import annotations
@@ -65,8 +69,8 @@ __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_acceptance", "lim
 
 #: BalanceController gain overrides used for the jump (module docstring).
 JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
-#: Weight of the centroidal angular-momentum task during a forward hop (module docstring).
-HOP_MOMENTUM_WEIGHT = 50.0
+#: Default weight of the centroidal angular-momentum task during the jump (module docstring).
+JUMP_MOMENTUM_WEIGHT = 50.0
 #: Weight of the torso and base (pelvis) orientation tasks in flight and landing (module docstring).
 FLIGHT_ORIENTATION_WEIGHT = 1.0
 #: Weight of the joint task holding the upper body (every actuated joint not between the base and a sole) at
@@ -120,7 +124,8 @@ class JumpScenario:
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
             planned landing (s). t_start: stand before the first crouch (s). touchdown_height: sole height (m,
             world) at or below which a falling sole is in contact. landing_force: end of the ramp (N; default
-            4 m g).
+            4 m g). momentum_weight: weight of the centroidal angular-momentum task during the jump (module
+            docstring).
 
     Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
     over time of the lower sole's rise above the ground), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s``
@@ -142,7 +147,7 @@ class JumpScenario:
     def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, crouch: float = 0.1,
                  extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.03,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
-                 landing_force: float | None = None):
+                 landing_force: float | None = None, momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
         if not (isinstance(count, int) and count >= 1):
             raise InvalidInputError(f"jump: count must be an int >= 1, got {count!r}")
         for value, what in ((t_ramp, "t_ramp"), (settle, "settle"), (touchdown_height, "touchdown_height")):
@@ -157,6 +162,9 @@ class JumpScenario:
         self.t_ramp, self.settle, self.t_start = float(t_ramp), float(settle), float(t_start)
         self.touchdown_height = float(touchdown_height)
         self.landing_force = landing_force
+        if not (np.isfinite(momentum_weight) and momentum_weight > 0):
+            raise InvalidInputError(f"jump: momentum_weight must be finite and > 0, got {momentum_weight!r}")
+        self.momentum_weight = float(momentum_weight)
         self._set_period()
         self.phase = "stand"
         self.com0 = np.zeros(3)
@@ -189,6 +197,7 @@ class JumpScenario:
         self.c_start = self.com0.copy()
         self.takeoffs, self.touchdowns, self.takeoff_velocity, self.push_starts = [], [], [], []
         self.how = {"qp": 0, "soft_contact": 0, "clipped": 0}
+        self.limited_ticks, self._t_now = [], 0.0
         self._ref = (self.com0.copy(), np.zeros(3), np.zeros(3))
         self._wrap(controller)
         base = next(f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
@@ -197,8 +206,7 @@ class JumpScenario:
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
         self.foot_weight = np.array(controller.feet["left"].weight, dtype=float).copy()
-        if self.plan.forward > 0:
-            controller.momentum.weight[:] = HOP_MOMENTUM_WEIGHT
+        controller.momentum.weight[:] = self.momentum_weight
         legs = set()
         for f in (robot.left_sole, robot.right_sole):
             legs.update(model.supports[model.frames[robot.frame_id(f)].parentJoint])
@@ -217,6 +225,8 @@ class JumpScenario:
         def limited(q, v):
             cmd, h = limit_landing_torques(controller, compute(q, v))
             how[h] += 1
+            if h != "qp":
+                self.limited_ticks.append((round(self._t_now, 6), self.phase, h))
             return cmd
 
         controller.compute = limited
@@ -230,6 +240,7 @@ class JumpScenario:
         return d.com[0].copy(), d.vcom[0].copy()
 
     def update(self, t, ctrl, sim, q, v):
+        self._t_now = t
         p = self.plan
         sw = self.switcher
         if self.phase == "land" and t >= self.t0 + self.period - 1e-9 and self.jump + 1 < self.count:
@@ -373,6 +384,7 @@ class JumpScenario:
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
                 "push_max_torque_over_limit": float(push_ratio[jp]), "push_max_torque_joint": self.robot.joint_names[jp],
                 "landing_soft_contact_ticks": self.how["soft_contact"], "torque_clipped_ticks": self.how["clipped"],
+                "torque_limited_ticks": self.limited_ticks[:20],
                 "landing_com_overshoot_m": max(overshoot) if overshoot else None,
                 "landed": landed, "slide_per_jump_m": slide, "max_slide_m": max(slide) if slide else None,
                 "hop_distance_per_jump_m": hop, "feet_moved_m": float(moved)}
