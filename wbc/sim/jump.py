@@ -29,7 +29,7 @@ scenario then re-solves the QP with the torque limits kept and the velocity-damp
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
 too, clips the relaxed torques at the URDF limits (what MuJoCo's actuators apply anyway). The counts of both
 are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``torque_limited_ticks`` lists the
-first 20 as (time s, phase, how)), and ``max_torque_over_limit``
+first 20 as (time s, phase, how, joint most beyond its limit in the relaxed QP, its |τ|/limit)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
 Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
@@ -90,12 +90,16 @@ def limit_landing_torques(controller, cmd):
     (module docstring): the QP again with every active contact's ``kd`` at 0, else the relaxed torques clipped.
 
     Returns:
-        (command, how) with how in ``"qp"`` (unchanged), ``"soft_contact"``, ``"clipped"``.
+        (command, how, (joint index, |τ|/limit)) with how in ``"qp"`` (unchanged), ``"soft_contact"``,
+        ``"clipped"``; the pair is the joint farthest beyond its limit in the relaxed command (before clipping).
     """
     if not cmd.relaxed:
-        return cmd, "qp"
+        return cmd, "qp", None
     ctrl = controller.controller
     qp = ctrl.qp
+    lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
+    ratio = np.abs(cmd.tau) / lim
+    worst = (int(np.argmax(ratio)), float(ratio.max()))
     saved = [(c, c.kd) for c in qp.contacts if c.active]
     for c, _ in saved:
         c.kd = 0.0
@@ -106,13 +110,12 @@ def limit_landing_torques(controller, cmd):
         cmd.dynamics_residual, cmd.relaxed = sol.dynamics_residual, False
         how = "soft_contact"
     except SolverError:
-        lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
         cmd.tau = np.clip(cmd.tau, -lim, lim)
         how = "clipped"
     finally:
         for c, kd in saved:
             c.kd = kd
-    return cmd, how
+    return cmd, how, worst
 
 
 class JumpScenario:
@@ -223,10 +226,11 @@ class JumpScenario:
         how = self.how
 
         def limited(q, v):
-            cmd, h = limit_landing_torques(controller, compute(q, v))
+            cmd, h, worst = limit_landing_torques(controller, compute(q, v))
             how[h] += 1
             if h != "qp":
-                self.limited_ticks.append((round(self._t_now, 6), self.phase, h))
+                self.limited_ticks.append((round(self._t_now, 6), self.phase, h, self.robot.joint_names[worst[0]],
+                                           round(worst[1], 3)))
             return cmd
 
         controller.compute = limited

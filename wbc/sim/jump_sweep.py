@@ -102,13 +102,14 @@ def jump_height_sweep(run_trial, *, start: float = 0.02, max_height: float = 0.3
                "torque_clipped_ticks": s.get("torque_clipped_ticks"),
                "max_torque_over_limit": s.get("max_torque_over_limit"), "max_torque_joint": s.get("max_torque_joint"),
                "push_max_torque_over_limit": s.get("push_max_torque_over_limit"),
-               "push_max_torque_joint": s.get("push_max_torque_joint")}
+               "push_max_torque_joint": s.get("push_max_torque_joint"),
+               "torque_limited_ticks": s.get("torque_limited_ticks")}
         trials.append(row)
         if log:
             log(f"    h {h:.4f} m: {'ok    ' if success else 'FAILED'} fell {s['fell']}, clearance "
                 f"{row['apex_foot_clearance_m']:.3f} m, take-off {row['takeoff_velocity_mps']} m/s, clipped "
                 f"{row['torque_clipped_ticks']}, push max |τ|/limit {row['push_max_torque_over_limit']:.3f} "
-                f"({row['push_max_torque_joint']})")
+                f"({row['push_max_torque_joint']}); torque-limited ticks {row['torque_limited_ticks']}")
         return success
 
     lo, hi = None, start
