@@ -127,8 +127,8 @@ class JumpScenario:
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
             planned landing (s). t_start: stand before the first crouch (s). touchdown_height: sole height (m,
             world) at or below which a falling sole is in contact. landing_force: end of the ramp (N; default
-            4 m g). momentum_weight: weight of the centroidal angular-momentum task during the jump (module
-            docstring).
+            4 m g). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
+            task during the jump (module docstring).
 
     Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
     over time of the lower sole's rise above the ground), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s``
@@ -165,9 +165,10 @@ class JumpScenario:
         self.t_ramp, self.settle, self.t_start = float(t_ramp), float(settle), float(t_start)
         self.touchdown_height = float(touchdown_height)
         self.landing_force = landing_force
-        if not (np.isfinite(momentum_weight) and momentum_weight > 0):
-            raise InvalidInputError(f"jump: momentum_weight must be finite and > 0, got {momentum_weight!r}")
-        self.momentum_weight = float(momentum_weight)
+        w = np.asarray(momentum_weight, dtype=float)
+        if w.shape not in ((), (3,)) or not (np.isfinite(w).all() and (w > 0).all()):
+            raise InvalidInputError(f"jump: momentum_weight must be a finite scalar or (3,) > 0, got {momentum_weight!r}")
+        self.momentum_weight = w.copy()
         self._set_period()
         self.phase = "stand"
         self.com0 = np.zeros(3)
