@@ -70,3 +70,15 @@ def test_preview_is_ballistic_in_flight():
     inner[first:first + 10] = False  # 20 ms after take-off: the velocity-level tracking turns from push to free fall
     assert np.abs(acc[inner[: len(acc)]] + g).max() < 1.0  # within 10 % of g (measured 0.56 m/s²)
     assert s["fell"] is False
+
+
+def test_height_sweep_brackets_the_threshold():
+    from wbc.sim.jump_sweep import jump_height_sweep
+
+    def trial(h):  # a fake robot whose landing needs clipped torques above 0.0637 m
+        return {"fell": False, "landed": True, "apex_foot_clearance_m": 0.05, "torque_clipped_ticks": int(h > 0.0637)}
+
+    r = jump_height_sweep(trial, start=0.02, resolution=0.005)
+    assert r["max_height_m"] <= 0.0637 < r["min_failed_m"]
+    assert r["min_failed_m"] - r["max_height_m"] <= 0.005
+    assert [t["success"] for t in r["trials"]] == [t["height_m"] <= 0.0637 for t in r["trials"]]
