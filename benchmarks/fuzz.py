@@ -4,12 +4,19 @@ exceptions, NaN commands, limit violations beyond 1e-9, failed ticks that an ind
 feasibility LP of the hard set) finds feasible, holds lasting past a feasible tick, stance-sole drift on ok ticks,
 failure rates of weighted vs strict episodes.
 
-    python benchmarks/fuzz.py [--ticks 1000000] [--episode 50] [--seed 0]
+    python benchmarks/fuzz.py [--ticks 1000000] [--episode 50] [--seed 0] [--chunk 50000] [--out DIR]
+
+Chunks of ``--chunk`` ticks use seeds seed, seed + 1, ...; with ``--out`` each finished chunk is saved there and
+skipped when the command is run again (resume), and the totals are aggregated over all chunks. Several processes
+may share one --out folder with different --seed (e.g. 0 and 100) and be aggregated by a final run over both.
+The independent solver check runs on failed ticks only. Every episode is one stance (both soles in contact);
+"stance offset" is the sole's distance from its contact placement, "tick displacement" its motion over one ok tick.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 import warnings
@@ -53,8 +60,10 @@ def build_episode(robot, name, rng, kind, strict):
     config.q[:7] = robot.q_ref[:7]
     config.update(config.q)
     ctrl, com = standing_controller(robot, config)
-    ctrl.sole_drift_tolerance = 5e-5  # contact trust region on (m per tick)
     ctrl.tasks[0].gain = float(10 ** rng.uniform(0, 6))  # CoM gain up to 1e6
+    ctrl.tasks[0].weight = float(10 ** rng.uniform(-2, 3))
+    for contact in ctrl.constraints[:2]:
+        contact.gain = float(10 ** rng.uniform(0, 3))  # drift-correction gain 1..1000 1/s (capped at 1/dt)
     frame = HANDS[name] or robot.torso
     hand = FrameTask(robot, frame, gain=float(10 ** rng.uniform(-1, 4)),
                      position_weight=float(10 ** rng.uniform(-3, 3)), orientation_weight=0.0, name="hand")
@@ -66,47 +75,46 @@ def build_episode(robot, name, rng, kind, strict):
     com.set_target(config.com + rng.uniform(-0.05, 0.05, 3) * (20 if kind != "reachable" else 1))
     if strict:
         ctrl.add_task(hand, level=0)
-        ctrl.add_task(PostureTask(robot, weight=1.0), level=1)
+        ctrl.add_task(PostureTask(robot, weight=float(10 ** rng.uniform(-2, 1))), level=1)
+        if rng.random() < 0.5:  # the CoM task moves up to the top level (above the hand)
+            com_task = ctrl.tasks[0]
+            ctrl.remove_task(com_task)
+            ctrl.add_task(com_task, level=0)
+            ctrl.remove_task(hand)
+            ctrl.add_task(hand, level=1)
     else:
         ctrl.add_task(hand)
     return config, ctrl
 
 
-def main() -> None:
-    p = argparse.ArgumentParser()
-    p.add_argument("--ticks", type=int, default=1_000_000)
-    p.add_argument("--episode", type=int, default=50)
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args()
-    warnings.simplefilter("ignore")
-    rng = np.random.default_rng(a.seed)
-    robots = {n: wbc.load_robot(n) for n in ("talos", "g1", "humanoid15")}
-    limits = {}
-    for n, r in robots.items():
-        iq, iv = bounded_joints(r.model)
-        vmax = r.model.velocityLimit[6:]
-        limits[n] = (iq, r.model.lowerPositionLimit[iq], r.model.upperPositionLimit[iq],
-                     np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
-    c = dict(ticks=0, exceptions=0, nan=0, limit_violations=0, failed=0, failed_feasible=0, drift_failed=0,
-             holds_past_feasible=0, ok_drift_over_0_05mm=0, weighted_ticks=0, weighted_failed=0,
-             strict_ticks=0, strict_failed=0)
-    max_drift = 0.0
+COUNTS = ("ticks", "episodes", "exceptions", "nan", "limit_violations", "failed", "failed_feasible",
+          "failed_confirmed_infeasible", "drift_failed", "holds_past_feasible", "ok_tick_displacement_over_0_05mm",
+          "stance_offset_over_1mm", "weighted_ticks", "weighted_failed", "strict_ticks", "strict_failed",
+          "contact_corrected_ticks")
+MAXIMA = ("max_ok_tick_displacement_mm", "max_stance_offset_mm", "max_ok_sole_drift_mm")
+
+
+def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "") -> dict:
+    """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring)."""
+    rng = np.random.default_rng(seed)
+    c = dict.fromkeys(COUNTS, 0) | dict.fromkeys(MAXIMA, 0.0)
     t0 = time.time()
-    while c["ticks"] < a.ticks:
-        name = rng.choice(list(robots))
+    next_print = 0
+    while c["ticks"] < ticks:
+        name = str(rng.choice(list(robots)))
         robot = robots[name]
-        kind = rng.choice(["reachable", "absurd", "far"])
+        kind = str(rng.choice(["reachable", "absurd", "far"]))
         strict = bool(rng.random() < 0.5)
+        c["episodes"] += 1
         try:
             config, ctrl = build_episode(robot, name, rng, kind, strict)
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
-            print("build exception:", type(exc).__name__, exc)
+            print("build exception:", type(exc).__name__, exc, flush=True)
             continue
         iq, lo, hi, vmax = limits[name]
         contacts = ctrl.constraints[:2]
-        prev_failed_feasible = False
-        for _ in range(a.episode):
+        for _ in range(episode):
             c["ticks"] += 1
             c["strict_ticks" if strict else "weighted_ticks"] += 1
             try:
@@ -114,38 +122,93 @@ def main() -> None:
                 res = ctrl.solve(config, DT)
             except Exception as exc:  # noqa: BLE001
                 c["exceptions"] += 1
-                print("tick exception:", type(exc).__name__, exc)
+                print("tick exception:", type(exc).__name__, exc, flush=True)
                 break
             if not np.isfinite(res.v).all():
                 c["nan"] += 1
                 break
             if np.any(np.abs(res.v[6:]) > vmax + 1e-9):
                 c["limit_violations"] += 1
+            c["contact_corrected_ticks"] += int(ctrl.contact_corrections > 0)
             if not res.ok:
                 c["failed"] += 1
                 c["strict_failed" if strict else "weighted_failed"] += 1
                 if res.fallback == "trust_region":
                     c["drift_failed"] += 1
-                else:
-                    feasible = hard_set_feasible(ctrl, config)
-                    c["failed_feasible"] += int(feasible)
-                    if res.fallback == "hold" and prev_failed_feasible:
-                        c["holds_past_feasible"] += 1
-                    prev_failed_feasible = feasible
+                feasible = hard_set_feasible(ctrl, config)  # independent check, failed ticks only
+                c["failed_feasible"] += int(feasible)
+                c["failed_confirmed_infeasible"] += int(not feasible)
+                if res.fallback == "hold" and feasible:
+                    c["holds_past_feasible"] += 1
             config.update(config.integrate(res.v, DT))
             q = config.q[iq]
             if np.any(q < lo - 1e-9) or np.any(q > hi + 1e-9):
                 c["limit_violations"] += 1
             if res.ok:
-                drift = max(np.linalg.norm(config.frame_placement(k.frame_id).translation - p0)
+                moved = max(np.linalg.norm(config.frame_placement(k.frame_id).translation - p0)
                             for k, p0 in zip(contacts, before))
-                max_drift = max(max_drift, drift)
-                c["ok_drift_over_0_05mm"] += int(res.sole_drift > 5e-5)
-        if c["ticks"] % 5000 < a.episode:
-            print(f"[{time.time() - t0:.0f} s] {c} max sole displacement on ok ticks {1e3 * max_drift:.4f} mm",
-                  flush=True)
-    print(f"FINAL {c} max sole displacement on ok ticks {1e3 * max_drift:.4f} mm "
-          f"({time.time() - t0:.0f} s)", flush=True)
+                offset = max(np.linalg.norm(config.frame_placement(k.frame_id).translation - k.placement.translation)
+                             for k in contacts)
+                c["max_ok_tick_displacement_mm"] = max(c["max_ok_tick_displacement_mm"], float(1e3 * moved))
+                c["max_stance_offset_mm"] = max(c["max_stance_offset_mm"], float(1e3 * offset))
+                c["max_ok_sole_drift_mm"] = max(c["max_ok_sole_drift_mm"], 1e3 * res.sole_drift)
+                c["ok_tick_displacement_over_0_05mm"] += int(moved > 5e-5)
+                c["stance_offset_over_1mm"] += int(offset > 1e-3)
+        if c["ticks"] >= next_print:
+            next_print += 10_000
+            print(f"{progress}[{time.time() - t0:.0f} s] {c}", flush=True)
+    c["seconds"] = time.time() - t0
+    return c
+
+
+def aggregate(chunks: list[dict]) -> dict:
+    total = {k: sum(ch[k] for ch in chunks) for k in COUNTS}
+    total |= {k: max(ch[k] for ch in chunks) for k in MAXIMA}
+    total["seconds"] = sum(ch["seconds"] for ch in chunks)
+    return total
+
+
+def report(total: dict) -> str:
+    w = total["weighted_failed"] / max(total["weighted_ticks"], 1)
+    s = total["strict_failed"] / max(total["strict_ticks"], 1)
+    return (f"FINAL {total}\nfailure rate weighted {w:.3e}, strict {s:.3e} "
+            f"(strict ≤ weighted: {s <= w})")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--ticks", type=int, default=1_000_000, help="total ticks")
+    p.add_argument("--episode", type=int, default=50, help="ticks per episode (one stance)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first chunk (chunk i uses seed + i)")
+    p.add_argument("--chunk", type=int, default=50_000, help="ticks per chunk (one result file each)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder of per-chunk results: finished chunks are skipped (resume), all are aggregated")
+    a = p.parse_args()
+    warnings.simplefilter("ignore")
+    robots = {n: wbc.load_robot(n) for n in ("talos", "g1", "humanoid15")}
+    limits = {}
+    for n, r in robots.items():
+        iq, iv = bounded_joints(r.model)
+        vmax = r.model.velocityLimit[6:]
+        limits[n] = (iq, r.model.lowerPositionLimit[iq], r.model.upperPositionLimit[iq],
+                     np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
+    n_chunks = max(1, -(-a.ticks // a.chunk))
+    chunks = []
+    if a.out is not None:
+        a.out.mkdir(parents=True, exist_ok=True)
+    for i in range(n_chunks):
+        ticks = min(a.chunk, a.ticks - i * a.chunk)
+        f = a.out / f"chunk_{a.seed + i}_{ticks}_{a.episode}.json" if a.out is not None else None
+        if f is not None and f.exists():
+            chunks.append(json.loads(f.read_text()))
+            print(f"chunk {i + 1}/{n_chunks} (seed {a.seed + i}) already done: {f}", flush=True)
+            continue
+        ch = run_chunk(robots, limits, ticks, a.episode, a.seed + i, progress=f"chunk {i + 1}/{n_chunks} ")
+        chunks.append(ch)
+        if f is not None:
+            f.write_text(json.dumps(ch))
+        print(f"chunk {i + 1}/{n_chunks} done; so far: {aggregate(chunks)}", flush=True)
+    print(report(aggregate(chunks)), flush=True)
 
 
 if __name__ == "__main__":

@@ -14,19 +14,14 @@ from conftest import CATALOG
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk_ramp as min_jerk
 from wbc.scenarios.balance import (
-    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary, min_jerk,
+    BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary,
     run_balance, support_polygon,
 )
 
 CASES = [(b, r) for b in BEHAVIOURS for r in CATALOG]
 
-#: Measured on this branch (min executed-motion ZMP margin): the kinematic controller stops the CoM within a tick
-#: when the balance constraint becomes active (reach: talos −4.81 m, g1 −2.27 m, humanoid15 −1.28 m) and G1's
-#: one-leg lift-off / squat turn-around have acceleration spikes (−6.5 mm, −33 mm). A kinematically planned
-#: motion whose executed ZMP leaves the feet is not balanced: these fail until the controller limits the CoM
-#: acceleration (issue 8 solve-core work); remove a case from this set when it passes.
-ZMP_KNOWN_FAIL = {("reach", "talos"), ("reach", "g1"), ("reach", "humanoid15"), ("one-leg", "g1"), ("squat", "g1")}
 ZMP_CRITERION = "ZMP of the executed motion inside the support polygon at every tick"
 
 
@@ -54,7 +49,7 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
     assert s["solver_failures"] == 0 and not s["nan"]
     assert np.all(run.com_margin >= 0.0) and s["min_com_margin_m"] >= 0.0
     assert s["max_stance_slip_m"] <= 1e-3
-    assert set(s["max_task_error"]) >= {"torso", "posture"}
+    assert set(s["max_task_error_rad"]) >= {"torso", "posture"} and "com" in s["max_task_error_m"]
     if behaviour == "shift":
         assert max(s["shift_target_error_m"].values()) <= 0.005
         # the CoM really went over each sole: its lateral excursion is half the feet distance
@@ -69,7 +64,7 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
         assert s["touchdown_error_m"] <= 0.002
     elif behaviour == "wave":
         assert s["wave_time_s"] == 5.0 and s["wave_amplitude_ratio"] >= 0.95
-        assert s["max_task_error"]["arms"] <= 0.05
+        assert s["max_task_error_rad"]["arms"] <= 0.05
     elif behaviour == "squat":
         assert len(s["squat_depths_m"]) == 3
         assert all(d == pytest.approx(0.15, abs=0.005) for d in s["squat_depths_m"])
@@ -84,7 +79,8 @@ def test_behaviour_meets_acceptance(runs, behaviour, name):
 
 def test_summary_keys_and_log_format(runs, tmp_path):
     robot, run, s = runs("one-leg", "humanoid15")
-    for key in ("robot", "behaviour", "dt", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error",
+    for key in ("robot", "behaviour", "dt_s", "ticks", "tick_time_us", "min_com_margin_m", "max_task_error_m",
+                "max_task_error_rad",
                 "joint_position_violations", "joint_velocity_violations", "solver_failures", "nan", "passed",
                 "failed_criteria"):
         assert key in s
@@ -99,14 +95,16 @@ def test_summary_keys_and_log_format(runs, tmp_path):
     assert data["left_sole"].shape == (n, 4, 4) and data["right_sole"].shape == (n, 4, 4)
     assert data["support"].shape == (n,) and data["com_margin"].shape == (n,)
     assert data["task_error"].shape == (n, len(data["task_names"]))
-    assert "swing:right" in list(data["task_names"])
+    names, units = list(data["task_names"]), list(data["task_units"])
+    assert len(units) == len(names)
+    # the swing sole's 6-D frame task: its position error (m) and orientation error (rad) in separate columns
+    assert units[names.index("swing:right position")] == "m"
+    assert units[names.index("swing:right orientation")] == "rad"
     assert list(data["joint_names"]) == robot.joint_names
     assert str(data["robot"]) == "humanoid15" and str(data["behaviour"]) == "one-leg"
 
 
-@pytest.mark.parametrize("behaviour,name", [
-    pytest.param(b, r, marks=pytest.mark.xfail(strict=True, reason="executed ZMP leaves the support (measured)"))
-    if (b, r) in ZMP_KNOWN_FAIL else (b, r) for b, r in CASES])
+@pytest.mark.parametrize("behaviour,name", CASES)
 def test_executed_zmp_stays_in_support(runs, behaviour, name):
     robot, run, s = runs(behaviour, name)
     assert s["min_zmp_margin_m"] >= 0.0

@@ -68,6 +68,8 @@ def test_output_into_a_missing_folder_is_refused_and_not_created(tmp_path, capsy
         assert code == 2, opt
         assert "does not exist" in err and "nonexistent_dir" in err
         assert not target.parent.exists()
+    code, _, err = _run(["sim", "stand", "--video", str(target.with_suffix(".mp4"))], capsys)
+    assert code == 2 and "--video" in err and "does not exist" in err and not target.parent.exists()
 
 
 def test_hold_needs_live_and_a_finite_duration(capsys):
@@ -90,3 +92,77 @@ def test_deadline_misses_counts_ticks_over_the_period():
 @pytest.fixture(scope="module")
 def talos(robots):
     return robots("talos")
+
+
+# Summary keys that need no unit suffix: names, flags, counts and lists of text; each is listed with why.
+UNITLESS = {
+    "robot", "behaviour", "scenario", "controller", "solver", "state_source", "stabilizer", "touchdown_detection",
+    "fall_reason", "passed", "failed_criteria", "nan", "fell", "completed",  # names, flags, text
+    "ticks", "steps", "touchdowns", "deadline_misses", "solver_failures", "relaxed_qp_ticks",
+    "joint_position_violations", "joint_velocity_violations",  # counts
+}
+UNIT_SUFFIXES = ("_m", "_s", "_rad", "_us", "_n", "_nm", "_mps", "_hz", "_kg", "_ratio", "_fraction", "_factor")
+
+
+def _unlabelled(summary: dict) -> list[str]:
+    return sorted(k for k, v in summary.items() if isinstance(v, (int, float, dict, list)) and not
+                  isinstance(v, bool) and k not in UNITLESS and not k.endswith(UNIT_SUFFIXES))
+
+
+@pytest.fixture(scope="module")
+def walk3(tmp_path_factory):
+    """`wbc walk --steps 3` (Talos, default 0.15 m steps) with its JSON summary and npz log."""
+    folder = tmp_path_factory.mktemp("walk3")
+    js, log = folder / "s.json", folder / "w.npz"
+    assert main(["walk", "--steps", "3", "--quiet", "--json", str(js), "--log", str(log)]) == 0
+    import json
+
+    with np.load(log) as z:
+        data = {k: z[k] for k in z.files}
+    return json.loads(js.read_text()), data
+
+
+def test_steps_n_walks_n_steps(walk3):
+    summary, log = walk3
+    support = log["support"]
+    # N steps = N single-support phases in the executed support sequence; the feet advance (N - 1) x 0.15 m
+    phases = support[np.r_[True, np.diff(support) != 0]]
+    assert int(np.sum(phases != 0)) == 3 and summary["steps"] == 3
+    mid0 = 0.5 * (log["left_sole"][0, :2, 3] + log["right_sole"][0, :2, 3])
+    mid1 = 0.5 * (log["left_sole"][-1, :2, 3] + log["right_sole"][-1, :2, 3])
+    assert np.linalg.norm(mid1 - mid0) == pytest.approx(2 * 0.15, abs=0.005)
+    assert summary["walked_distance_m"] == pytest.approx(np.linalg.norm(mid1 - mid0), abs=1e-9)
+
+
+def test_walk_summary_keys_carry_units(walk3):
+    summary, _ = walk3
+    assert _unlabelled(summary) == []
+    assert summary["dt_s"] == 0.002 and "dt" not in summary
+
+
+def test_balance_summary_keys_carry_units(robots):
+    from wbc.scenarios.balance import balance_summary, run_balance
+
+    robot = robots("humanoid15")
+    summary = balance_summary(robot, run_balance(robot, "shift"))
+    assert _unlabelled(summary) == []
+    assert "max_task_error" not in summary and {"com"} <= set(summary["max_task_error_m"])
+    assert {"torso", "posture"} <= set(summary["max_task_error_rad"])
+
+
+def test_every_npz_key_of_the_walk_log_is_in_the_readme(walk3):
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    paragraph = re.search(r"`--log` writes an npz with (.*?)Row k", readme, re.S).group(1)
+    documented = set(re.findall(r"`([a-z_]+)`", paragraph))
+    _, log = walk3
+    assert set(log) == documented, (set(log) - documented, documented - set(log))
+
+
+def test_bench_quick_exits_0(tmp_path, capsys):
+    """`wbc bench --quick` (every section, few repeats) is a pipeline check: exit code 0 when it works."""
+    code = main(["bench", "--quick", "--out-dir", str(tmp_path)])
+    out = capsys.readouterr()
+    assert code == 0, out.out[-2000:] + out.err[-2000:]
+    assert (tmp_path / "results.md").is_file()

@@ -8,7 +8,7 @@ import pytest
 import qpsolvers
 
 from wbc.fastqp import FastBackend, solve_box_eq
-from wbc.qp import make_backend
+from wbc.backends import make_backend
 
 
 def _random_qp(rng, n, m, box_scale):
@@ -110,11 +110,25 @@ def _count_fast_backends(monkeypatch) -> list:
     return made
 
 
-def test_walk_matches_the_daqp_path(robots, monkeypatch):
+def _catalog():
+    from wbc.robot import catalog
+
+    return catalog()
+
+
+def _behaviours():
+    from wbc.scenarios.balance import BEHAVIOURS
+
+    return sorted(BEHAVIOURS)
+
+
+@pytest.mark.parametrize("name", _catalog())
+def test_walk_matches_the_daqp_path(robots, monkeypatch, name):
+    """Issue 10: the compiled path's walk is the general (DAQP) path's walk to 1e-9, on every catalog robot."""
     from wbc.scenarios.walk import plan_default_walk, run_walk
 
     made = _count_fast_backends(monkeypatch)
-    robot = robots("talos")
+    robot = robots(name)
     plan = plan_default_walk(robot, n_steps=2)
     ref, fast = run_walk(robot, plan, solver="daqp"), run_walk(robot, plan, solver="fast")
     assert ref.solver_ok.all() and fast.solver_ok.all()
@@ -123,12 +137,15 @@ def test_walk_matches_the_daqp_path(robots, monkeypatch):
     assert sum(b.kernel_solves for b in made) > 0.9 * len(plan.t)  # the compiled path did the work
 
 
-def test_balance_matches_the_daqp_path(robots, monkeypatch):
+@pytest.mark.parametrize("behaviour", _behaviours())
+@pytest.mark.parametrize("name", _catalog())
+def test_balance_matches_the_daqp_path(robots, monkeypatch, name, behaviour):
+    """Issue 10: every catalog balance behaviour on every catalog robot, compiled path = DAQP path to 1e-9."""
     from wbc.scenarios.balance import run_balance
 
     made = _count_fast_backends(monkeypatch)
-    robot = robots("talos")
-    ref, fast = run_balance(robot, "shift", solver="daqp"), run_balance(robot, "shift", solver="fast")
+    robot = robots(name)
+    ref, fast = run_balance(robot, behaviour, solver="daqp"), run_balance(robot, behaviour, solver="fast")
     assert ref.solver_ok.all() and fast.solver_ok.all()
     assert np.abs(ref.q - fast.q).max() < 1e-9
     assert sum(b.kernel_solves for b in made) > 0.9 * len(fast.q)  # CoM-polygon rows solved by the kernel

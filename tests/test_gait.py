@@ -362,7 +362,7 @@ def test_feet_poses_exact_at_ends_and_constant_between_swings():
 
 def test_min_jerk_profile():
     s = np.linspace(0, 1, 11)
-    b, db = min_jerk(s)
+    b, db, _ = min_jerk(s)
     assert b[0] == 0.0 and b[-1] == 1.0 and db[0] == 0.0 and db[-1] == 0.0
     assert b[5] == pytest.approx(0.5)
 

@@ -28,8 +28,11 @@ def build(robot, config, *, hand_level, com_level, limits=True):
     contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
     for c in contacts:
         c.set_placement_from_configuration(config)
+    # the oracles below re-solve the assembled QP: the second-order contact correction (which moves the contact
+    # rows' right-hand sides within the tick) and the drift trust region are off here (tested in test_solve_core)
     ctrl = KinematicController(robot, [PostureTask(robot, weight=1e-3)],
-                               [*contacts, *([JointVelocityLimit(robot)] if limits else [])])
+                               [*contacts, *([JointVelocityLimit(robot)] if limits else [])],
+                               contact_correction=0.0, sole_drift_tolerance=None)
     hand = PositionTask(robot, robot.right_hand, gain=20.0, name="hand")
     hand.set_target(config.frame_placement(hand.frame_id).translation + [0.6, -0.4, 0.3])
     com = ComTask(gain=20.0)
@@ -110,7 +113,8 @@ def test_lower_level_matches_closed_form_nullspace_projection(robots):
     q_far = robot.q_ref.copy()
     q_far[7:] += 0.3
     posture.set_target(q_far)
-    ctrl = KinematicController(robot, [], contacts)
+    # closed form of the assembled rows: no in-tick contact correction, no trust region (see build())
+    ctrl = KinematicController(robot, [], contacts, contact_correction=0.0, sole_drift_tolerance=None)
     ctrl.add_task(hand, level=0)
     ctrl.add_task(posture, level=1)
     worst0 = worst1 = 0.0

@@ -193,9 +193,9 @@ def test_joint_acceleration_bounds_keep_limits(robots):
     dt = 0.002
     q = robot.q_ref.copy()
     v = np.zeros(robot.nv)
-    j = qp._iv[0]  # first 1-DoF joint
-    iq = qp._iq[0]
-    q[iq] = qp._qmax[0] - 1e-3
+    j = qp.joint_acceleration_limits.iv[0]  # first 1-DoF joint
+    iq = qp.joint_acceleration_limits.iq[0]
+    q[iq] = qp.joint_acceleration_limits.qmax[0] - 1e-3
     v[j] = 0.2  # moving towards the upper limit
     st = DynamicsState(robot, q, v)
     lo, hi = qp.joint_acceleration_bounds(st, dt)
@@ -203,8 +203,8 @@ def test_joint_acceleration_bounds_keep_limits(robots):
     # Applying the upper bound for one tick keeps the joint below its limit and the velocity stoppable.
     v1 = v[j] + hi[0] * dt
     q1 = q[iq] + v[j] * dt + 0.5 * hi[0] * dt**2
-    assert q1 <= qp._qmax[0] + 1e-12
-    assert v1 <= math.sqrt(2 * qp.braking_acceleration * max(qp._qmax[0] - q1, 0.0)) + 1e-9
+    assert q1 <= qp.joint_acceleration_limits.qmax[0] + 1e-12
+    assert v1 <= math.sqrt(2 * qp.braking_acceleration * max(qp.joint_acceleration_limits.qmax[0] - q1, 0.0)) + 1e-9
 
 
 def test_wrap_and_typed_errors(robots):

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 import pytest
 
 import wbc
@@ -65,9 +67,17 @@ def test_soles_on_one_leg_refused(talos):
 
 
 def test_hands_as_soles_refused(talos):
-    with pytest.raises(RobotDescriptionError, match=r"tilted .*° from flat"):
+    with pytest.raises(RobotDescriptionError, match=r"'arm_left_\d_joint', 0\.\d+ m above the floating base link "
+                                                    r"'base_link'.*legless"):
         _talos_path(talos, left_sole="gripper_left_base_link", right_sole="gripper_right_base_link",
                     sole_length=0.1, sole_width=0.1)
+
+
+def test_tilted_soles_refused(talos):
+    """Half-sitting with both ankle pitches at 0 (from about -0.4 rad): the soles point 20-odd degrees off flat."""
+    with pytest.raises(RobotDescriptionError, match=r"left sole frame 'left_sole_link' is tilted 2\d\.\d° from flat"):
+        _talos_path(talos, reference_joints={"leg_left_5_joint": 0.0, "leg_right_5_joint": 0.0},
+                    sole_length=0.2, sole_width=0.1)
 
 
 def test_posture_outside_limits_refused(talos):
@@ -127,3 +137,68 @@ def test_cli_robots_lists_the_catalog(capsys):
         assert f"| {name} |" in out
     talos_row = next(line for line in out.splitlines() if line.startswith("| talos |"))
     assert "0.210×0.130" in talos_row and "| 39 | 38 |" in talos_row
+
+
+# -- humanoids of example-robot-data outside the catalog (issue 8 acceptance; full 8-step CLI walks in README) --
+_HAS_ERD = pytest.mark.skipif(not (ERD / "romeo_description").is_dir(), reason="example-robot-data absent")
+
+
+def _romeo():
+    d = ERD / "romeo_description"
+    return wbc.load_robot(d / "urdf/romeo.urdf", srdf=d / "srdf/romeo.srdf", reference="half_sitting",
+                          left_sole="l_sole", right_sole="r_sole", torso="torso")
+
+
+@_HAS_ERD
+def test_romeo_zero_width_joints_locked_and_short_walk_passes():
+    """Romeo's URDF has 24 hand joints with a zero-width range (velocity="0"): they are reported once as locked,
+    no tick fails, and a 3-step walk meets the executed-motion criteria (thresholds written here)."""
+    from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
+
+    robot = _romeo()
+    assert 0.15 < robot.sole_length < 0.18 and 0.10 < robot.sole_width < 0.12  # from its foot mesh
+    assert robot.gait["step_length"] < 0.15  # scaled to its 0.84 m leg
+    plan = plan_default_walk(robot, n_steps=3)
+    with pytest.warns(UserWarning, match=r"24 joint\(s\) have a zero-width .* treated as locked") as rec:
+        run = run_walk(robot, plan)
+    assert sum("zero-width" in str(w.message) for w in rec) == 1
+    s = walk_summary(robot, plan, run)
+    assert s["solver_failures"] == 0 and not s["nan"]
+    assert abs(s["walked_distance_m"] - s["planned_distance_m"]) <= 0.05 * s["planned_distance_m"]
+    assert s["min_zmp_margin_m"] >= 0.0 and s["max_stance_slip_m"] <= 1e-3 and s["max_com_error_m"] <= 5e-3
+    assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
+    locked = [robot.model.getJointId(n) for n in ("LHand", "RThumb1")]
+    for jid in locked:
+        iv = robot.model.joints[jid].idx_v
+        assert np.all(run.v[:, iv] == 0.0)
+    assert s["passed"], s["failed_criteria"]
+
+
+@_HAS_ERD
+def test_icub_refused_sole_frame_off_its_foot():
+    d = ERD / "icub_description"
+    with pytest.raises(RobotDescriptionError, match=r"'l_sole' is off the centre of its foot's contact patch.*"
+                                                    r"x must point along the foot"):
+        wbc.load_robot(d / "robots/icub.urdf", srdf=d / "srdf/icub.srdf", reference="half_sitting",
+                       left_sole="l_sole", right_sole="r_sole", torso="chest")
+
+
+@_HAS_ERD
+def test_legless_upper_body_refused():
+    """Alex (example-robot-data) is an upper body on a pelvis: its hands named as soles are refused, whether the
+    sole size is derived or given."""
+    d = ERD / "alex_description"
+    for size in ({}, {"sole_length": 0.05, "sole_width": 0.05}):
+        with pytest.raises(RobotDescriptionError, match=r"'LeftShoulder\w+', 0\.\d+ m above the floating base "
+                                                        r"link 'Pelvis'.*legless"):
+            wbc.load_robot(d / "urdf/alex_nub_hands.urdf", srdf=d / "srdf/alex_nub_hands.srdf", reference="default",
+                           left_sole="leftNub", right_sole="rightNub", torso="Torso", **size)
+
+
+@_HAS_ERD
+def test_cli_refuses_a_legless_robot(capsys):
+    d = ERD / "alex_description"
+    code = main(["walk", "--robot", str(d / "urdf/alex_nub_hands.urdf"), "--srdf", str(d / "srdf/alex_nub_hands.srdf"),
+                 "--reference", "default", "--left-sole", "leftNub", "--right-sole", "rightNub", "--torso", "Torso"])
+    assert code == 2
+    assert "legless" in capsys.readouterr().err

@@ -12,7 +12,8 @@ import scipy.optimize
 from conftest import standing_controller
 from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
-from wbc.qp import DaqpBackend, QPBackend, make_backend
+from wbc.qp import DaqpBackend, QPBackend
+from wbc.backends import make_backend
 
 DT = 0.002
 

@@ -88,3 +88,70 @@ def test_force_arrow_points_along_the_force_and_scales_with_it(talos, tmp_path):
         np.testing.assert_allclose(tip_dir, force[k] / np.linalg.norm(force[k]), atol=1e-6)
         np.testing.assert_allclose(tracks[".position"][k], origin[k] + 0.5e-3 * force[k], atol=1e-6)
     assert "contact_force_left" in path.read_text().split('id="wbc-legend"')[1][:2000]
+
+
+def test_overlays_drawn_together_have_distinct_colours():
+    from wbc.viz._scene import overlay_color
+
+    walk = ["com", "com_ground", "zmp_planned", "zmp_executed", "dcm_planned", "dcm_executed", "support_polygon",
+            "footsteps_planned", "footprints", "swing_left", "swing_right"]
+    physics = ["com", "com_ground", "cop", "zmp_planned", "dcm_planned", "dcm_executed", "support_polygon",
+               "footsteps_planned", "footprints", "swing_left", "swing_right", "contact_force_left",
+               "contact_force_right", "push"]
+    for names in (walk, physics):
+        colours = [overlay_color(n, i) for i, n in enumerate(names)]
+        assert len(set(colours)) == len(names), dict(zip(names, map(hex, colours)))
+
+
+def test_live_overlays_against_closed_forms(talos):
+    """LiveOverlays on a base moving at constant acceleration a along x (joints fixed): CoM from Pinocchio, DCM
+    c + ċ/ω with ċ by a backward difference, cart-table ZMP c − z/g c̈ at the middle frame; feet on the ground
+    all along: both footprints once, one support polygon (hull of both soles), swing paths every 5 frames."""
+    import pinocchio as pin
+
+    from wbc.viz.live_overlays import LiveOverlays
+
+    src = LiveOverlays(talos, trail_every=5)
+    a, h = 0.5, 0.04  # m/s^2, s between displayed frames
+    data = talos.model.createData()
+    frames = []
+    for k in range(6):
+        q = talos.q_ref.copy()
+        q[0] += 0.5 * a * (k * h) ** 2  # the whole robot slides: soles stay on the ground (z unchanged)
+        frames.append((q, src.frame(q, k * h)))
+    q5, last = frames[-1]
+    com = pin.centerOfMass(talos.model, data, q5)
+    np.testing.assert_allclose(last["points"]["com"], com, atol=1e-12)
+    np.testing.assert_allclose(last["points"]["com_ground"], [com[0], com[1], 0.0], atol=1e-12)
+    g, omega = 9.81, np.sqrt(9.81 / com[2])
+    v_backward = a * (5 * h - 0.5 * h)  # (x(t5) - x(t4)) / h for x = a t^2 / 2
+    assert last["points"]["dcm_executed"][0] == pytest.approx(com[0] + v_backward / omega, abs=1e-9)
+    c4 = pin.centerOfMass(talos.model, data, frames[4][0])
+    assert last["points"]["zmp_executed"][0] == pytest.approx(c4[0] - c4[2] / g * a, abs=1e-9)
+    assert last["points"]["zmp_executed"][1] == pytest.approx(c4[1], abs=1e-9)
+    first = frames[0][1]
+    assert len(first["footprints"]) == 2 and "dcm_executed" not in first["points"]
+    assert first["support_polygon"] is not None and len(first["support_polygon"]) >= 4
+    assert all(f["support_polygon"] is None and not f["footprints"] for _, f in frames[1:])
+    assert [bool(f["trails"]) for _, f in frames] == [False, False, False, False, True, False]
+    assert frames[4][1]["trails"]["swing_left"].shape == (5, 3)
+
+
+def test_live_overlays_touchdown_from_the_sole_height(talos):
+    """Without a plan: a sole more than 5 mm up is not in contact; putting it back down adds its footprint."""
+    import pinocchio as pin
+
+    from wbc.viz.live_overlays import LiveOverlays
+
+    src = LiveOverlays(talos)
+    src.frame(talos.q_ref, 0.0)
+    q = talos.q_ref.copy()
+    q[2] += 0.05  # whole robot 5 cm up: no contact
+    out = src.frame(q, 0.04)
+    assert out["support_polygon"].shape == (0, 3) and not out["footprints"]
+    out = src.frame(talos.q_ref, 0.08)
+    assert len(out["footprints"]) == 2 and len(out["support_polygon"]) >= 4
+    data = talos.model.createData()
+    pin.framesForwardKinematics(talos.model, data, talos.q_ref)
+    left = data.oMf[talos.frame_id(talos.left_sole)].translation
+    np.testing.assert_allclose(out["footprints"][0][:, :2].mean(axis=0), left[:2], atol=1e-9)

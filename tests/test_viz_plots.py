@@ -29,7 +29,8 @@ def _panels(fig):
 
 
 def _labels(ax):
-    return [line.get_label() for line in ax.get_lines()]
+    """Legend labels of the lines (matplotlib names unlabelled lines ``_child<k>``)."""
+    return [line.get_label() for line in ax.get_lines() if not line.get_label().startswith("_")]
 
 
 def test_walk_log_panels(talos, tmp_path):
@@ -48,7 +49,17 @@ def test_walk_log_panels(talos, tmp_path):
         assert _labels(ax) == ["CoM", "CoM reference", "ZMP planned", "ZMP executed", "DCM"]
         assert {p.get_label() for p in ax.patches} >= {"left stance", "right stance"}  # support bands
     np.testing.assert_allclose(panels["CoM, ZMP, DCM: y"].get_lines()[0].get_ydata(), log["com"][:, 1])
-    assert _labels(panels["top view"]) == ["left sole", "right sole", "CoM path", "ZMP executed path"]
+    top = panels["top view"]
+    assert _labels(top) == ["left sole", "right sole", "footprints", "CoM path", "ZMP executed path"]
+    # footprints: each foot at the start, and the right foot at its touchdown (left stance 1 -> double 0; the
+    # log ends with the left foot in the air): 3 closed rectangles of Talos's sole size on the sole origin (0, 0)
+    outlines = [ln for ln in top.get_lines() if ln.get_color() == "#222222"]
+    assert len(outlines) == 3
+    for ln in outlines:
+        x, y = ln.get_xdata(), ln.get_ydata()
+        assert len(x) == 5 and (x[0], y[0]) == (x[-1], y[-1])
+        assert np.ptp(x) == pytest.approx(talos.sole_length) and np.ptp(y) == pytest.approx(talos.sole_width)
+        assert np.mean(x[:4]) == pytest.approx(0.0, abs=1e-12)
     joints = panels["joint positions / limits"]
     n_bounded = talos.model.nq - 7  # Talos: every actuated joint is bounded
     assert len(joints.get_lines()) == n_bounded + 2 and _labels(joints)[-2:] == ["lower limit", "upper limit"]
@@ -65,16 +76,56 @@ def test_sim_log_has_contact_forces_and_measured_cop(talos):
     wrench[:, 0, 4] = -450.0 * 0.01  # left CoP 1 cm ahead of the sole origin: m_y = -(c_x - p_x) f_z
     sole_pos = np.zeros((n, 2, 3))
     sole_pos[:, 0, 1], sole_pos[:, 1, 1] = 0.085, -0.085
+    push = np.zeros((n, 3))
+    push[100:110, 1] = 150.0
+    dcm_ref = np.c_[np.linspace(0, 0.1, n), np.zeros(n)]
     log.update(sim_wrench=wrench, sole_pos=sole_pos, contact_active=np.ones((n, 2), bool),
-               ext_force=np.zeros((n, 3)))
+               ext_force=push, dcm_ref=dcm_ref, cop_cmd=np.zeros((n, 2)))
     panels = _panels(plot_log(log))
-    assert _labels(panels["contact forces"]) == ["left foot f_z", "right foot f_z"]
+    assert set(panels) == {"CoM, ZMP, DCM: x", "CoM, ZMP, DCM: y", "top view", "joint positions / limits",
+                           "contact forces", "tick time"}
+    assert _labels(panels["contact forces"]) == ["left foot f_z", "right foot f_z", "push |f|"]
+    np.testing.assert_allclose(panels["contact forces"].get_lines()[2].get_ydata(), np.linalg.norm(push, axis=1))
+    assert _labels(panels["CoM, ZMP, DCM: x"]) == ["CoM", "CoM reference", "CoP commanded", "CoP measured", "DCM",
+                                                   "DCM planned"]
+    np.testing.assert_allclose(panels["CoM, ZMP, DCM: x"].get_lines()[5].get_ydata(), dcm_ref[:, 0])
+    # both feet loaded all along (f_z 450 N > 10 N): one footprint per foot, at the sole frames of q (q_ref)
+    assert "footprints" in _labels(panels["top view"])
     x = panels["CoM, ZMP, DCM: x"]
     assert "CoP measured" in _labels(x)
     cop_x = x.get_lines()[_labels(x).index("CoP measured")].get_ydata()
     np.testing.assert_allclose(cop_x, 0.005, atol=1e-12)  # (0.01 * 450 + 0 * 450) / 900
     cop_y = panels["CoM, ZMP, DCM: y"].get_lines()[_labels(x).index("CoP measured")].get_ydata()
     np.testing.assert_allclose(cop_y, 0.0, atol=1e-12)
+
+
+def test_balance_log_panels(talos):
+    """A balance log (no planned ZMP): CoM, its reference, executed ZMP and DCM; left-stance band only."""
+    log = _base_log(talos)
+    n = len(log["t"])
+    sole = np.tile(np.eye(4), (n, 1, 1))
+    right = sole.copy()
+    right[:, 1, 3] = -0.17
+    support = np.r_[np.zeros(60), np.ones(80), np.zeros(60)].astype(np.int8)
+    log.update(left_sole=sole, right_sole=right, support=support, com_margin=np.full(n, 0.05),
+               solver_ok=np.ones(n, bool), behaviour=np.array("one-leg"))
+    panels = _panels(plot_log(log))
+    assert "contact forces" not in panels
+    y = panels["CoM, ZMP, DCM: y"]
+    assert _labels(y) == ["CoM", "CoM reference", "ZMP executed", "DCM"]
+    assert [p.get_label() for p in y.patches] == ["left stance"]
+    band = y.patches[0]  # the single-support phase: ticks 60 .. 140
+    assert band.get_x() == pytest.approx(log["t"][60])
+    assert band.get_x() + band.get_width() == pytest.approx(log["t"][140])
+    # the executed ZMP is the cart-table ZMP of the logged CoM (independent closed form: c - z/g * c'')
+    from wbc.viz.overlays import cart_table_zmp
+
+    zmp = y.get_lines()[_labels(y).index("ZMP executed")].get_ydata()
+    np.testing.assert_allclose(zmp, cart_table_zmp(log["t"], log["com"])[:, 1])
+    top = panels["top view"]
+    outlines = [ln for ln in top.get_lines() if ln.get_color() == "#222222"]
+    assert len(outlines) == 3  # left at start, right at start, right at its touchdown (t = 140 dt)
+    assert sorted(round(float(np.mean(ln.get_ydata()[:4])), 6) for ln in outlines) == [-0.17, -0.17, 0.0]
 
 
 def test_bad_logs_are_refused(tmp_path):

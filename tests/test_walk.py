@@ -33,20 +33,7 @@ def _failed_walk_criteria(s: dict) -> list[str]:
     return failed
 
 
-#: Measured on this branch: the executed CoM of G1's default walk has a 2-tick acceleration spike at the first
-#: lift-off (t = 1.0 s, c̈_y = −0.66 m/s² where the plan has +0.40) that puts the executed ZMP 34 mm outside the
-#: stance sole. The controller-side fix belongs to issue 8's solve-core work; remove the mark when it passes.
-_ZMP_KNOWN_FAIL = {"g1"}
-
-
-def _walk_case(name):
-    if name in _ZMP_KNOWN_FAIL:
-        return pytest.param(name, marks=pytest.mark.xfail(
-            strict=True, reason="executed-motion ZMP leaves the sole at lift-off (34 mm, measured)"))
-    return name
-
-
-@pytest.mark.parametrize("name", [_walk_case(n) for n in CATALOG])
+@pytest.mark.parametrize("name", CATALOG)
 def test_default_walk_meets_acceptance(robots, name):
     robot = robots(name)
     plan = plan_default_walk(robot)  # 8 steps, the robot's default step length

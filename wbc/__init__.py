@@ -8,6 +8,7 @@ command v, integrated on the manifold.
 from wbc.configuration import Configuration
 from wbc.controller import KinematicController
 from wbc.robot import Robot, catalog, load_robot
+from wbc.solve import solve_ik
 
-__all__ = ["Configuration", "KinematicController", "Robot", "catalog", "load_robot"]
+__all__ = ["Configuration", "KinematicController", "Robot", "catalog", "load_robot", "solve_ik"]
 __version__ = "0.1.0"

@@ -68,8 +68,10 @@ from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.fastqp import clip_box_into, ensure_compiled, weighted_normal_equations
 from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DEFAULT_SOLVER, DaqpBackend, QPBackend, make_backend
+from wbc.qp import DaqpBackend, QPBackend
+from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -118,17 +120,22 @@ class KinematicController:
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.qp.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+        solver: QP backend name (default ``wbc.backends.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
             exactly) or a :class:`~wbc.qp.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
-        sole_drift_tolerance: None (default: drift measured in ``TickResult.sole_drift``, not enforced — the
-            trust region changes the optimum of strict hierarchies) or the largest contact-frame drift per tick
-            (m, e.g. 5e-5) on an ok tick.
-            A tick whose solution drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from
-            max|v| up to 8 times: the drift is second order in v dt); if none drifts less, the tick is not ok.
+        contact_correction: second-order contact correction threshold (m; default 1e-6, 0 = off). The contact
+            rows J v = −K e hold the sole to first order in v dt only; when the drift of a contact frame at
+            q⁺ = pin.integrate(q, v dt) (``TickResult.sole_drift``) exceeds this threshold, the contact rows'
+            right-hand sides are corrected by the measured drift, b ← b − (e⁺ − (1 − K dt) e)/dt, and the tick
+            is solved again (a Newton step on the exact contact condition e⁺(v) = (1 − K dt) e; at most 3
+            iterations). This keeps every objective and priority of the QP: only the contact target moves.
+        sole_drift_tolerance: the largest contact-frame drift per tick (m, default 5e-5) on an ok tick, or None
+            (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
+            drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
+            drift is second order in v dt); if none drifts less, the tick is not ok.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -137,7 +144,8 @@ class KinematicController:
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
-                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = None):
+                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
+                 contact_correction: float = 1e-6):
         if not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
@@ -149,6 +157,12 @@ class KinematicController:
             raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
                                     f"{sole_drift_tolerance!r}")
         self.sole_drift_tolerance = sole_drift_tolerance
+        if not (math.isfinite(contact_correction) and contact_correction >= 0):
+            raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
+                                    f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
+        self.contact_correction = float(contact_correction)
+        #: second-order contact corrections (re-solves) done by the last tick.
+        self.contact_corrections = 0
         self._drift_data = robot.model.createData()
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
@@ -159,6 +173,7 @@ class KinematicController:
         self._level_backends: list[QPBackend] = []
         self._fallback_backend: QPBackend | None = None
         self._final_backend: QPBackend | None = None
+        self._band_backend: QPBackend | None = None
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
         self._layout_ok = False
@@ -181,6 +196,8 @@ class KinematicController:
         self._H = np.empty((self.nv, self.nv))
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
+        self._soft_tasks: list[Task] | None = None
+        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -317,6 +334,22 @@ class KinematicController:
                 self._not_hard_task[r0:r1] = False
         self._layout_ok = True
 
+    def _build_soft_layout(self) -> None:
+        """Rows of the stacked soft tasks that use the generic cost (``Task.add_cost``); the others (e.g. the
+        posture task's diagonal cost) add their own. Redone when ``tasks`` changes."""
+        self._soft_tasks = list(self.tasks)
+        self._soft_dense, self._soft_own = [], []
+        row = 0
+        for task in self.tasks:
+            if type(task).add_cost is Task.add_cost:
+                self._soft_dense.append((task, row, row + task.dim))
+                row += task.dim
+            else:
+                self._soft_own.append(task)
+        self._soft_J = np.zeros((row, self.nv))
+        self._soft_w = np.zeros(row)
+        self._soft_r = np.zeros(row)
+
     def assemble(self, config: Configuration, dt: float):
         """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
 
@@ -325,9 +358,17 @@ class KinematicController:
         if not self._layout_ok:
             self._build_layout()
         H, g = self._H, self._g
-        np.copyto(H, self._eye)
-        g.fill(0.0)
-        for task in self.tasks:
+        if self._soft_tasks != self.tasks:
+            self._build_soft_layout()
+        # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
+        J, w, r = self._soft_J, self._soft_w, self._soft_r
+        for task, r0, r1 in self._soft_dense:
+            error, jac = task.compute(config)
+            J[r0:r1] = jac
+            r[r0:r1] = task.velocity_target(error)
+            w[r0:r1] = task.weight
+        weighted_normal_equations(J, w, r, self.damping, H, g)
+        for task in self._soft_own:
             task.add_cost(config, H, g)
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
@@ -367,6 +408,9 @@ class KinematicController:
             if skip and id(c) in skip:
                 continue
             lo, hi = c.compute(config, dt)
+            if not first and record is None and isinstance(sel, slice):  # same clip, compiled, in place
+                clip_box_into(lb, ub, sel.start, lo, hi)
+                continue
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
                 lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
@@ -406,6 +450,8 @@ class KinematicController:
                 self._relax(config, dt)
                 v = self._solve_assembled(config)
                 relaxed = [c.name for c in self._relaxable]
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
         except InvalidInputError:
             raise
@@ -424,16 +470,50 @@ class KinematicController:
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
+        return self._contact_drifts(config, v, dt)[0]
+
+    def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray]]:
+        """(largest translation drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v."""
         if not self._contacts:
-            return 0.0
+            return 0.0, []
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
+        drifts = []
         for c in self._contacts:
             e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            expected = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
-            worst = max(worst, float(np.linalg.norm(e_plus[:3] - expected[:3])))
-        return worst
+            d = e_plus - c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            drifts.append(d)
+            worst = max(worst, float(np.linalg.norm(d[:3])))
+        return worst, drifts
+
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``)."""
+        self.contact_corrections = 0
+        worst, drifts = self._contact_drifts(config, v, dt)
+        if worst <= self.contact_correction:
+            return v
+        blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
+        rows = [blocks[id(c)] for c in self._contacts]
+        b0 = self._b.copy()
+        try:
+            for _ in range(3):
+                for (r0, r1), d in zip(rows, drifts):
+                    self._b[r0:r1] -= d / dt
+                try:
+                    v_new = self._solve_assembled(config)
+                except SolverError:
+                    break  # keep the last solution (the trust region of _hold_contacts takes over)
+                self.contact_corrections += 1
+                new_worst, new_drifts = self._contact_drifts(config, v_new, dt)
+                if new_worst >= worst:
+                    break  # not converging (e.g. a dropped dependent row): keep the better solution
+                v, worst, drifts = v_new, new_worst, new_drifts
+                if worst <= self.contact_correction:
+                    break
+        finally:
+            np.copyto(self._b, b0)
+        return v
 
     def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
@@ -502,12 +582,31 @@ class KinematicController:
                 return v
             rows = None if fresh else independent_rows(A, self.rank_rtol)
             if rows is None or np.array_equal(rows, self._eq_rows):
-                # dependent rows whose right-hand sides disagree: contradictory hard equalities
-                raise SolverError(f"dependent equality rows violated by {self.dependent_residual:.3g} after the "
-                                  "solve (contradictory hard equalities)")
+                # the dropped rows are only nearly dependent (or their right-hand sides disagree): solve again
+                # with them as band rows |A_d v − b_d| ≤ dependent_row_tolerance / 2 (a well-posed inequality
+                # for the active-set solver); if that has no solution the hard equalities contradict each other
+                return self._solve_banded(H, g, A, b, C, l, u, lb, ub)
             # the dropped rows have become independent since the rank was computed: solve again with them
             fresh = True
             self._eq_rows = rows
+
+    def _solve_banded(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        """Flat solve with the dropped dependent equality rows as band inequalities (``_solve_flat``)."""
+        dropped = np.setdiff1d(np.arange(A.shape[0]), self._eq_rows)
+        half = 0.5 * self.dependent_row_tolerance
+        if self._band_backend is None:
+            self._band_backend = self._new_backend()
+        residual = self.dependent_residual
+        try:
+            v = self._band_backend.solve(H, g, A[self._eq_rows], b[self._eq_rows], np.vstack([C, A[dropped]]),
+                                         np.concatenate([l, b[dropped] - half]),
+                                         np.concatenate([u, b[dropped] + half]), lb, ub)
+        except SolverError as exc:
+            raise SolverError(f"dependent equality rows violated by {residual:.3g} after the solve, and no "
+                              f"solution holds them within ±{half:.3g} (contradictory hard equalities): {exc}") \
+                from None
+        self.dependent_residual = float(np.max(np.abs(A @ v - b)))
+        return v
 
     def _new_backend(self, **daqp_settings) -> QPBackend:
         """A fresh backend of the same kind as ``self.backend`` (own warm start)."""

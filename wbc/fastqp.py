@@ -30,7 +30,7 @@ import numpy as np
 
 from wbc.qp import DaqpBackend
 
-__all__ = ["FastBackend", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up"]
+__all__ = ["FastBackend", "clip_box_into", "ensure_compiled", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up", "weighted_normal_equations"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
@@ -82,11 +82,57 @@ def _bwd(L, k, v):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
+def weighted_normal_equations(J, w, r, damping, H, g):
+    """H = ε I + Jᵀ diag(w) J and g = −Jᵀ diag(w) r: the weighted least-squares cost Σ_k w_k (J_k v − r_k)² + ε‖v‖²
+    of stacked task rows (the constant term dropped), written into H and g.
+
+    Args:
+        J (m, n): stacked task Jacobians; w (m,): row weights (≥ 0); r (m,): row velocity targets v*;
+        damping: ε; H (n, n), g (n,): out.
+    """
+    n = H.shape[0]
+    m = J.shape[0]
+    for i in range(n):
+        for j in range(n):
+            H[i, j] = 0.0
+        H[i, i] = damping
+        g[i] = 0.0
+    for k in range(m):
+        wk = w[k]
+        if wk == 0.0:
+            continue
+        rk = wk * r[k]
+        for i in range(n):
+            jki = J[k, i]
+            if jki == 0.0:
+                continue
+            g[i] -= jki * rk
+            a = wk * jki
+            for j in range(i, n):
+                H[i, j] += a * J[k, j]
+    for i in range(n):
+        for j in range(i + 1, n):
+            H[j, i] = H[i, j]
+
+
+@nb.njit(cache=True, nogil=True)
+def clip_box_into(lb, ub, start, lo, hi):
+    """Intersect the box [lo, hi] with the running box lb[start:start+k], ub[start:start+k] (k = lo.size), the
+    new box clipped into the running one so that it yields where it would empty it:
+    lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (both computed from the running values)."""
+    for i in range(lo.shape[0]):
+        cl = lb[start + i]
+        cu = ub[start + i]
+        lb[start + i] = min(max(lo[i], cl), cu)
+        ub[start + i] = max(min(hi[i], cu), cl)
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
     """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
     n, m = H.shape[0], A.shape[0]
     return solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
-                           np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)),
+                           np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)),
                            np.empty(n), np.empty(m), np.empty(1))
 
 
@@ -131,7 +177,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         for j in range(n):
             if state[j] != 0:
                 bw -= A[k, j] * x[j]
-        col = Y[:, k]
+        col = Y[k]
         for a in range(nf):
             col[a] = A[k, free[a]]
         _fwd(L, nf, col)
@@ -144,7 +190,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         for c in range(k + 1):
             s = 0.0
             for a in range(nf):
-                s += Y[a, k] * Y[a, c]
+                s += Y[k, a] * Y[c, a]
             S[k, c] = s
         if S[k, k] > smax:
             smax = S[k, k]
@@ -159,11 +205,13 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         _fwd(S, m, nu)
         _bwd(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
+    for k in range(m):
+        nk = nu[k]
+        yk = Y[k]
+        for a in range(nf):
+            t[a] += yk[a] * nk
     for a in range(nf):
-        s = t[a]
-        for k in range(m):
-            s += Y[a, k] * nu[k]
-        t[a] = -s
+        t[a] = -t[a]
     _bwd(L, nf, t)
     return nf
 
@@ -206,7 +254,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
         primal_tol: bound violation (absolute) that makes a free variable be fixed.
         dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
         rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
-        free (n,) int64, L (n, n), Y (n, m), S (m, m), t (n,), rhs (m,): workspace.
+        free (n,) int64, L (n, n), Y (m, n), S (m, m), t (n,), rhs (m,): workspace.
         eq_residual (1,): out — max |A x − b| of the returned x.
 
     On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
@@ -278,7 +326,7 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
         C (p, n), l/u (p,): inequality rows (±inf for one-sided rows).
         rstate (p,) int8, in/out: row working set (0 inactive, -1 held at l, +1 held at u).
         mu (p,): out — row multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0; mu ≤ 0 at l, ≥ 0 at u, 0 inactive).
-        Aw (m + p, n), bw (m + p,), nuw (m + p,): workspace; Y (n, m + p), S (m + p, m + p), rhs (m + p,).
+        Aw (m + p, n), bw (m + p,), nuw (m + p,): workspace; Y (m + p, n), S (m + p, m + p), rhs (m + p,).
 
     Returns:
         iterations (≥ 1) on success, or a negative exit code.
@@ -420,10 +468,7 @@ class FastBackend(DaqpBackend):
         self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
-        global _WARM
-        if not _WARM:  # compile / load the kernel here, once per process, not inside a controller's first tick
-            _WARM = True
-            warm_up()
+        ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
     def _prepare_kernel(self, n: int, m: int) -> None:
         if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
@@ -432,7 +477,7 @@ class FastBackend(DaqpBackend):
             self._z = np.zeros(n)
         self._n, self._m = n, m
         self._nu = np.zeros(m)
-        self._ws = (np.empty(n, np.int64), np.empty((n, n)), np.empty((n, m)), np.empty((m, m)), np.empty(n),
+        self._ws = (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
                     np.empty(m), np.empty(1))
         self._p = -1  # row workspace shares these buffers: rebuilt with them
 
@@ -483,7 +528,7 @@ class FastBackend(DaqpBackend):
             self._rstate = np.zeros(p, np.int8)
             self._mu = np.zeros(p)
             self._ws_rows = (np.empty((m + p, n)), np.empty(m + p), self._ws[0], self._ws[1],
-                             np.empty((n, m + p)), np.empty((m + p, m + p)), self._ws[4], np.empty(m + p),
+                             np.empty((m + p, n)), np.empty((m + p, m + p)), self._ws[4], np.empty(m + p),
                              np.empty(m + p), self._ws[6])
         it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
                          self._z, self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws_rows)
@@ -496,6 +541,14 @@ class FastBackend(DaqpBackend):
         return False
 
 
+def ensure_compiled() -> None:
+    """Run :func:`warm_up` once per process (later calls return at once)."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        warm_up()
+
+
 def warm_up() -> float:
     """Compile (or load from the on-disk cache) the kernel; returns the seconds taken."""
     t0 = time.perf_counter()
@@ -503,6 +556,8 @@ def warm_up() -> float:
     s = np.zeros(2, np.int8)
     solve_box_eq(H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2), s, np.empty(2),
                  np.empty(1), np.empty(2), 10, 1e-12, 1e-12, 1e-24)
+    weighted_normal_equations(np.ones((1, 2)), np.ones(1), np.ones(1), 1e-6, np.empty((2, 2)), np.empty(2))
+    clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     b = FastBackend()
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))

@@ -70,7 +70,27 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             level's solution (``solve_lexicographic.last_skipped`` lists such levels).
     """
     keep = independent_rows(A, rank_rtol)
-    A_kept, b_kept = A[keep], b[keep]
+    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band)
+    if keep.size < A.shape[0]:
+        residual = float(np.max(np.abs(A @ v - b)))
+        if residual > dependent_row_tolerance:
+            # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
+            # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
+            dropped = np.setdiff1d(np.arange(A.shape[0]), keep)
+            half = 0.5 * dependent_row_tolerance
+            try:
+                v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
+                                      np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
+                                      lb, ub, backends, final_backend, band)
+            except SolverError as exc:
+                raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
+                                  f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
+    solve_lexicographic.last_skipped = skipped
+    return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
+
+
+def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band):
+    """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
     fixed_J: list[np.ndarray] = []
     v = None
     skipped: list[int] = []
@@ -105,12 +125,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             skipped.append(k)
         if J is not None:
             fixed_J.append(J)
-    if keep.size < A.shape[0]:
-        residual = float(np.max(np.abs(A @ v - b)))
-        if residual > dependent_row_tolerance:
-            raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical solve")
-    solve_lexicographic.last_skipped = skipped
-    return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
+    return v, skipped
 
 
 solve_lexicographic.last_skipped = []

@@ -20,20 +20,11 @@ from abc import ABC, abstractmethod
 import numpy as np
 import qpsolvers
 
-from wbc.exceptions import InvalidInputError, SolverError, UnknownSolverError
+from wbc.exceptions import InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "make_backend", "available_solvers"]
-
-#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
-#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
-DEFAULT_SOLVER = "fast"
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
-
-
-def available_solvers() -> list[str]:
-    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
-    return sorted([*qpsolvers.available_solvers, "fast"])
 
 
 class QPBackend(ABC):
@@ -115,7 +106,7 @@ class QPBackend(ABC):
                         continue  # quadprog needs H positive definite
                     backend = QpsolversBackend("quadprog", tolerance=self.tolerance)
                 else:
-                    backend = QpsolversBackend(name, tolerance=self.tolerance, **_SETTINGS.get(name, {}))
+                    backend = QpsolversBackend(name, tolerance=self.tolerance)
                 x = backend._solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None
@@ -341,13 +332,14 @@ class QpsolversBackend(QPBackend):
 
     Args:
         solver: qpsolvers backend name.
-        **settings: passed to the backend (e.g. ``eps_abs=1e-9`` for osqp).
+        **settings: passed to the backend, over wbc's tight defaults for that backend (osqp: ``eps_abs=1e-9``,
+            ``eps_rel=0``, polishing, 20000 iterations) so that joint limits hold to solver precision.
     """
 
     def __init__(self, solver: str, tolerance: float = 1e-6, **settings):
         self.name = solver
         self.tolerance = tolerance
-        self.settings = settings
+        self.settings = {**_SETTINGS.get(solver, {}), **settings}
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G = h = None
@@ -370,24 +362,3 @@ _SETTINGS = {
 }
 
 
-def make_backend(name: str, **settings) -> QPBackend:
-    """Create a backend by name: ``daqp`` (DAQP workspace, warm-started), ``proxqp`` (warm-started proxsuite)
-    or any other installed qpsolvers backend.
-
-    Args:
-        name: backend name (:func:`available_solvers`).
-        **settings: solver settings passed to the backend (e.g. ``primal_tol=1e-9`` for daqp).
-
-    Raises:
-        UnknownSolverError: the name is not installed; the message lists the available ones.
-    """
-    if name == "fast":  # compiled exact kernel with DAQP fallback (wbc.fastqp)
-        from wbc.fastqp import FastBackend
-        return FastBackend(**settings)
-    if name not in available_solvers():
-        raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
-    if name == "proxqp":
-        return ProxQPBackend(**settings)
-    if name == "daqp":
-        return DaqpBackend(**settings)
-    return QpsolversBackend(name, **{**_SETTINGS.get(name, {}), **settings})

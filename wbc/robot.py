@@ -351,6 +351,7 @@ def _build(
             raise RobotDescriptionError(f"reference_joints[{jname!r}] must be a finite angle (rad), got {angle!r}")
         q[model.joints[jid].idx_q] = float(angle)
     _check_soles_distinct(robot)
+    _check_legs(robot, q)
     if sole_length is None or sole_width is None:
         length, width = sole_rectangle_from_collision(robot)
         robot.sole_length = float(sole_length) if sole_length is not None else length
@@ -437,12 +438,15 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
         width = 2.0 * min(patch[:, 1].max(), -patch[:, 1].min())
         span = patch[:, :2].max(axis=0) - patch[:, :2].min(axis=0)
         centre = 0.5 * (patch[:, :2].max(axis=0) + patch[:, :2].min(axis=0))
+        along = (f" The patch is longer along the sole frame's y axis than along its x axis: x must point along "
+                 f"the foot." if span[1] > span[0] else "")
         if length > 0.01 and width > 0.01 and (length < 0.5 * span[0] or width < 0.5 * span[1]):
             raise RobotDescriptionError(
                 f"{robot.name}: sole frame {frame!r} is off the centre of its foot's contact patch by "
                 f"({centre[0]:.3f}, {centre[1]:.3f}) m (patch {span[0]:.3f} x {span[1]:.3f} m in the sole frame, "
-                f"x forward); a centred rectangle would be only {length:.3f} x {width:.3f} m. Add a sole frame at "
-                f"the patch centre (a fixed frame, x forward, z up) or pass sole_length and sole_width explicitly")
+                f"x forward); a centred rectangle would be only {length:.3f} x {width:.3f} m.{along} Add a sole "
+                f"frame at the patch centre (a fixed frame, x forward, z up) or pass sole_length and sole_width "
+                f"explicitly")
         if not (length > 0.01 and width > 0.01):
             raise RobotDescriptionError(
                 f"{robot.name}: sole frame {frame!r} is not above its foot's contact patch (x in "
@@ -457,6 +461,8 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
 MAX_SOLE_TILT_DEG = 5.0
 #: Tolerance (rad or m) on the reference posture's joint limits.
 LIMIT_TOLERANCE = 1e-6
+#: How far (m) a joint on a sole's chain may sit above the floating base's origin (hips hang below the pelvis).
+LEG_ABOVE_BASE_TOLERANCE = 0.02
 #: How far (m) a joint origin may sit below the soles' plane before the soles are judged not to be the feet.
 BELOW_SOLE_TOLERANCE = 0.03
 
@@ -484,6 +490,38 @@ def _check_soles_distinct(robot: Robot) -> None:
         raise RobotDescriptionError(
             f"{robot.name}: soles {robot.left_sole!r} and {robot.right_sole!r} are on the same kinematic chain "
             f"(joint {model.names[jl]!r} / {model.names[jr]!r}); each sole must be on its own leg")
+
+
+def _root_link(model: pin.Model) -> str:
+    """Name of the URDF root link (the body moved by the floating base)."""
+    return next((f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY), "base")
+
+
+def _check_legs(robot: Robot, q: np.ndarray) -> None:
+    """Each sole hangs at the end of a leg: every joint between the floating base and the sole is below the base
+    origin in the posture q (hips hang from the pelvis; an arm starts at a shoulder above it).
+
+    Raises:
+        RobotDescriptionError: a joint of a sole's chain is above the base (a legless robot, hands named as soles).
+    """
+    model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    base_z = float(data.oMi[1].translation[2])
+    for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
+        chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]  # after the free flyer
+        if not chain:
+            raise RobotDescriptionError(
+                f"{robot.name}: {side} sole frame {frame!r} is on the floating base itself, not on a leg; name the "
+                f"{side} foot's sole frame")
+        top = max(chain, key=lambda j: data.oMi[j].translation[2])
+        above = float(data.oMi[top].translation[2]) - base_z
+        if above > LEG_ABOVE_BASE_TOLERANCE:
+            raise RobotDescriptionError(
+                f"{robot.name}: {side} sole frame {frame!r} is reached through joint {model.names[top]!r}, "
+                f"{above:.3f} m above the floating base link {_root_link(model)!r}; "
+                f"soles must be at the end of legs hanging below the base — a legless robot (e.g. hands named as "
+                f"soles) cannot stand or walk. Name the feet's sole frames of a robot with legs")
 
 
 def _check_robot(robot: Robot) -> None:

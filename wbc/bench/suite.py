@@ -236,7 +236,7 @@ def _kinematic_section(cfg: SuiteConfig, robot, spec: KinematicSpec) -> dict[str
 
 def _solvers_section(cfg: SuiteConfig, robot, spec: KinematicSpec, reference: dict | None) -> dict[str, object]:
     """wbc with every installed backend, interleaved over ``cfg.repeats`` rounds, per-phase timers on."""
-    from wbc.qp import available_solvers
+    from wbc.backends import available_solvers
 
     rows: dict[str, dict] = {}
     runners: dict[str, object] = {}

@@ -1,8 +1,7 @@
 """Static balance: the CoM ground projection stays inside the support polygon shrunk by a margin.
 
 The support polygon is the convex hull of the sole rectangles (``robot.sole_length`` × ``robot.sole_width``,
-centred on each sole frame, heading = the sole's yaw; :func:`wbc.gait.support.sole_polygon` and
-:func:`~wbc.gait.support.convex_hull`). Written as half-planes n_iᵀ x ≤ d_i (n_i the unit outward normal of edge
+centred on each sole frame, heading = the sole's yaw; :func:`wbc.geometry.support_polygon`). Written as half-planes n_iᵀ x ≤ d_i (n_i the unit outward normal of edge
 i), the shrunk polygon is n_iᵀ x ≤ d_i − margin. Over one period the CoM moves to c + J_com v dt (first order), so
 each edge gives the row
 
@@ -22,13 +21,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.gait.support import convex_hull, sole_polygon
-from wbc.tasks.frame import as_se3
+from wbc.geometry import as_se3, support_polygon
 
 __all__ = ["ComPolygonConstraint", "halfplanes"]
 
@@ -90,12 +87,7 @@ class ComPolygonConstraint(InequalityConstraint):
         poses = [as_se3(p, "sole placement") for p in sole_placements]
         if not 1 <= len(poses) <= self.max_soles:
             raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
-        corners = np.vstack([
-            sole_polygon(float(M.translation[0]), float(M.translation[1]),
-                         math.atan2(M.rotation[1, 0], M.rotation[0, 0]), self.robot.sole_length, self.robot.sole_width)
-            for M in poses
-        ])
-        poly = corners if len(poses) == 1 else convex_hull(corners)
+        poly = support_polygon(poses, self.robot.sole_length, self.robot.sole_width)
         normals, offsets = halfplanes(poly)
         if not _contains_disc(normals, offsets, poly, self.margin):
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")

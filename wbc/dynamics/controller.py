@@ -7,10 +7,14 @@ contact forces.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
+0. diagnosis: the named constraints of :mod:`wbc.dynamics.constraints` that conflict at this state, with their
+   violations, are reported in ``IDCommand.conflicts`` (largest first; :meth:`InverseDynamicsQP.diagnose`, a
+   slack-relaxed least-squares solve of the hard set, :mod:`wbc.diagnosis`), and named in ``message``;
 1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
    the same QP is solved **without joint acceleration bounds and torque limits**
    (:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
-   and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True.
+   and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True; the command's torques are clipped
+   to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
 2. that fails too → **contact-consistent gravity compensation with joint damping** at the current state,
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
@@ -46,7 +50,9 @@ class IDCommand:
         wrenches: contact name → (6,) wrench at the sole origin, world axes (N, N·m).
         ok: a QP (full or relaxed) was solved.
         relaxed: the relaxed QP (no joint bounds / torque limits) was used.
-        message: failure reason ('' when ok).
+        message: failure reason ('' when the full QP was solved); names the conflicting constraints.
+        conflicts: after a failed full QP, (constraint name, violation in its units) of the conflicting
+            constraints, largest first (:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.diagnose`).
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
         timings: seconds in 'pinocchio', 'assembly', 'solve', 'total'.
     """
@@ -59,7 +65,14 @@ class IDCommand:
     relaxed: bool = False
     message: str = ""
     dynamics_residual: float = 0.0
+    conflicts: list[tuple[str, float]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+
+
+def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
+    if not conflicts:
+        return ""
+    return "; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
 
 
 class InverseDynamicsController:
@@ -100,23 +113,39 @@ class InverseDynamicsController:
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False
+        message = ""
+        conflicts: list[tuple[str, float]] = []
         try:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
+            conflicts = self._diagnose()
+            message = str(exc) + _conflict_text(conflicts)
             try:
                 sol = self.qp.solve_relaxed(self.state, self.dt)
                 relaxed = True
                 self.n_relaxed += 1
             except SolverError as exc2:
                 self.n_failures += 1
-                cmd = self.fallback(f"{exc}; relaxed QP: {exc2}")
+                cmd = self.fallback(f"{message}; relaxed QP: {exc2}")
+                cmd.conflicts = conflicts
                 cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
                 return cmd
+            lim = self.qp.torque_limits
+            if lim.dim:
+                sol.tau[lim.joints] = np.clip(sol.tau[lim.joints], -lim.tau_max[lim.joints],
+                                              lim.tau_max[lim.joints])
         self.last_solution = sol
         cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
-                        dynamics_residual=sol.dynamics_residual)
+                        message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts)
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
         return cmd
+
+    def _diagnose(self) -> list[tuple[str, float]]:
+        """Conflicting constraints at the current state (never raises: a failing diagnosis reports nothing)."""
+        try:
+            return self.qp.diagnose(self.state, self.dt)
+        except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
+            return []
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring)."""

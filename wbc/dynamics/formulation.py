@@ -42,6 +42,13 @@ q_max), the bounds would demand an arbitrarily large braking acceleration in one
 cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
 best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
 
+Every constraint (4)–(9) is a named object of :mod:`wbc.dynamics.constraints` (``floating_base_dynamics``,
+``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``; plus ``task:<t>`` for
+a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
+preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
+them in place every tick; the friction rows are constant and written once. When the QP is infeasible,
+:meth:`InverseDynamicsQP.diagnose` names the conflicting constraints (:mod:`wbc.diagnosis`).
+
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
 then hold to the solver's equality accuracy on rows 0..5 and exactly on the actuated rows.
 """
@@ -53,12 +60,25 @@ from time import perf_counter
 
 import numpy as np
 
+from wbc.diagnosis import diagnose
+from wbc.dynamics.constraints import (
+    ContactAcceleration,
+    FloatingBaseDynamics,
+    FrictionPyramid,
+    HardTask,
+    IDConstraint,
+    IDContext,
+    JointAccelerationLimits,
+    TorqueLimits,
+    Unilaterality,
+)
 from wbc.dynamics.contacts import SoleContact
+from wbc.dynamics.idkernel import id_tick
 from wbc.dynamics.state import DynamicsState
-from wbc.qp import make_backend
 from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.qp import QPBackend
+from wbc.backends import make_backend
 from wbc.robot import Robot
 
 __all__ = ["InverseDynamicsQP", "IDSolution"]
@@ -86,25 +106,31 @@ class IDSolution:
 
 
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
-#: a tight primal tolerance keeps the inequalities (friction, torque limits) to 1e-9 as well; the dual warm
-#: start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
-_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}}
+#: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
+#: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
+_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
+
 
 class InverseDynamicsQP:
-    """Builds and solves the QP of the module docstring.
+    """Builds and solves the QP of the module docstring from its named constraints.
 
     Args:
         robot: the robot.
-        tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`).
+        tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`), weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
-        solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-9;
-            ``proxqp`` warm-started; any other qpsolvers backend — :func:`wbc.qp.make_backend`) or a
-            :class:`~wbc.qp.QPBackend`.
+        solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
+            the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
+            and torques in one call — with DAQP as fallback; any other qpsolvers backend —
+            :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
         torque_limit_scale: fraction of the URDF effort limit used in (6), in (0, 1].
         braking_acceleration: a_brk of the viability bound (rad/s²), > 0.
         joint_limits: apply the joint acceleration bounds (9).
+
+    Attributes:
+        constraints: every named constraint (:mod:`wbc.dynamics.constraints`), in row order.
+        torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
@@ -115,21 +141,18 @@ class InverseDynamicsQP:
                  force_regularization: float = 1e-7, torque_limit_scale: float = 1.0,
                  braking_acceleration: float = 50.0, joint_limits: bool = True):
         for value, what in ((acceleration_regularization, "acceleration_regularization"),
-                            (force_regularization, "force_regularization"),
-                            (braking_acceleration, "braking_acceleration")):
+                            (force_regularization, "force_regularization")):
             if not (np.isfinite(value) and value > 0):
                 raise InvalidInputError(f"{what} must be finite and > 0, got {value!r}")
-        if not (0 < torque_limit_scale <= 1):
-            raise InvalidInputError(f"torque_limit_scale must be in (0, 1], got {torque_limit_scale!r}")
         self.robot = robot
         model = robot.model
         self.nv = nv = model.nv
         self.backend = (make_backend(solver, **_ID_SETTINGS.get(solver, {})) if isinstance(solver, str) else solver)
         self.eps_a = float(acceleration_regularization)
         self.eps_f = float(force_regularization)
-        self.braking_acceleration = float(braking_acceleration)
         self.joint_limits = bool(joint_limits)
         self.tasks: list[AccelerationTask] = []
+        self.hard_tasks: list[HardTask] = []
         for t in tasks:
             self.add_task(t)
         self.contacts: list[SoleContact] = []
@@ -140,56 +163,94 @@ class InverseDynamicsQP:
                 raise InvalidInputError(f"two contacts named {c.name!r}")
             self.contacts.append(c)
         nc = len(self.contacts)
-        self.n = nv + 12 * nc
-        # Torque limits (6).
-        effort = np.asarray(model.effortLimit[6:], dtype=float) * float(torque_limit_scale)
-        self.tau_rows = np.flatnonzero(np.isfinite(effort) & (effort > 0))
-        self.tau_max = effort
-        self._tau_v_rows = 6 + self.tau_rows
-        self._tau_lim = effort[self.tau_rows]
-        # Joint limit indices (9): 1-DoF joints.
-        iq, iv = [], []
-        for j in range(2, model.njoints):
-            jm = model.joints[j]
-            if jm.nq == 1 and jm.nv == 1:
-                iq.append(jm.idx_q)
-                iv.append(jm.idx_v)
-        self._iq, self._iv = np.array(iq, dtype=int), np.array(iv, dtype=int)
-        self._qmin = np.asarray(model.lowerPositionLimit)[self._iq]
-        self._qmax = np.asarray(model.upperPositionLimit)[self._iq]
-        vmax = np.asarray(model.velocityLimit)[self._iv]
-        self._vmax = np.where(vmax > 0, vmax, np.inf)
-        # Preallocated matrices.
-        self._H = np.zeros((self.n, self.n))
-        self._g = np.zeros(self.n)
-        n_tau = self.tau_rows.size
-        self._C = np.zeros((n_tau + 16 * nc, self.n))
-        self._l = np.full(n_tau + 16 * nc, -np.inf)
-        self._u = np.zeros(n_tau + 16 * nc)
-        for k, c in enumerate(self.contacts):
-            r0 = n_tau + 16 * k
-            self._C[r0:r0 + 16, nv + 12 * k:nv + 12 * k + 12] = c.friction_matrix
+        self.n = n = nv + 12 * nc
+        # Named constraints (wbc.dynamics.constraints), each with its place in the preallocated blocks.
+        self.dynamics = FloatingBaseDynamics()
+        self.dynamics.rows = slice(0, 6)
+        self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
+        self.torque_limits = TorqueLimits(robot, torque_limit_scale)
+        self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
+        self.unilaterality = [Unilaterality(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
+        self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
+        self.tau_max = self.torque_limits.tau_max
+        self.tau_rows = self.torque_limits.joints
+        r = 0
+        for con in (self.torque_limits, *self.friction):
+            con.rows = slice(r, r + con.dim)
+            r += con.dim
+        # Preallocated blocks.
+        self._H = np.zeros((n, n))
+        self._g = np.zeros(n)
+        self._A = np.zeros((6 + 6 * nc, n))  # grown by add_task(hard=True)
+        self._b = np.zeros(6 + 6 * nc)
+        self._C = np.zeros((r, n))
+        self._l = np.full(r, -np.inf)
+        self._u = np.zeros(r)
+        self._lb = np.full(n, -np.inf)
+        self._ub = np.full(n, np.inf)
         self._JcT = np.zeros((nv, 12 * nc))
-        self._lb = np.full(self.n, -np.inf)
-        self._ub = np.full(self.n, np.inf)
-        self._reg = np.concatenate([np.full(nv, self.eps_a), np.full(12 * nc, self.eps_f)])
-        self._diag = np.arange(self.n)
+        self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT, jacobians={})
+        for con in self.friction:  # constant rows: written once
+            con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
+        self._reg_v = np.full(nv, self.eps_a)
+        self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
+        self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
+        self._spans: dict = {}
+        self._kernel = None
+        if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
+            self._kernel = _KernelBuffers(self)
+        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
+        self._m = 6  # equality rows of the last build
+        jl = self.joint_acceleration_limits
+        self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
+                          if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
+
+    @property
+    def braking_acceleration(self) -> float:
+        """a_brk of the joint viability bounds (rad/s²)."""
+        return self.joint_acceleration_limits.braking_acceleration
+
+    @property
+    def constraints(self) -> list[IDConstraint]:
+        """Every named constraint: equalities (dynamics, active contacts, hard tasks), inequalities, bounds."""
+        return [self.dynamics, *self.contact_accelerations, *self.hard_tasks, self.torque_limits, *self.friction,
+                *self.unilaterality, self.joint_acceleration_limits]
 
     # -- problem definition ----------------------------------------------------------------------------------
-    def add_task(self, task: AccelerationTask) -> AccelerationTask:
-        """Add an acceleration task. Raises InvalidInputError for another object."""
+    def add_task(self, task: AccelerationTask, *, hard: bool = False) -> AccelerationTask:
+        """Add an acceleration task: weighted (default) or, with ``hard=True``, held as the equality constraint
+        ``task:<name>`` (:class:`~wbc.dynamics.constraints.HardTask`).
+
+        Raises:
+            InvalidInputError: not an AccelerationTask.
+        """
         if not isinstance(task, AccelerationTask):
             raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
-        self.tasks.append(task)
+        if hard:
+            self.hard_tasks.append(HardTask(task))
+            if hasattr(self, "_A"):
+                self._grow_equalities()
+        else:
+            self.tasks.append(task)
         return task
 
     def remove_task(self, task: AccelerationTask) -> None:
-        """Remove an acceleration task added to the QP.
+        """Remove an acceleration task (weighted or hard) added to the QP.
 
         Raises:
             ValueError: the task is not in the QP.
         """
+        for h in self.hard_tasks:
+            if h.task is task:
+                self.hard_tasks.remove(h)
+                return
         self.tasks.remove(task)
+
+    def _grow_equalities(self) -> None:
+        rows = 6 + 6 * len(self.contacts) + sum(h.dim for h in self.hard_tasks)
+        if rows > self._A.shape[0]:
+            self._A = np.zeros((rows, self.n))
+            self._b = np.zeros(rows)
 
     def contact(self, name: str) -> SoleContact:
         """The contact called ``name``. Raises InvalidInputError (listing the names) when there is none."""
@@ -200,99 +261,100 @@ class InverseDynamicsQP:
 
     # -- assembly --------------------------------------------------------------------------------------------
     def joint_acceleration_bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) bounds (9) on the 1-DoF joint accelerations (rad/s²), in the order of ``self._iv``."""
-        q = state.q[self._iq]
-        v = state.v[self._iv]
-        q1 = q + v * dt
-        d_hi = self._qmax - q1
-        d_lo = q1 - self._qmin
-        a = self.braking_acceleration
-        dt2 = dt * dt
-        hi = np.minimum((self._vmax - v) / dt, 2.0 * d_hi / dt2)
-        lo = np.maximum((-self._vmax - v) / dt, -2.0 * d_lo / dt2)
-        # Viability (larger root of the quadratic of the module docstring), mirrored for the lower limit.
-        for sign, d, out in ((1.0, d_hi, "hi"), (-1.0, d_lo, "lo")):
-            w = sign * v
-            B = 2.0 * w * dt + a * dt2
-            disc = np.maximum(B * B - 4.0 * dt2 * (w * w - 2.0 * a * d), 0.0)
-            root = (-B + np.sqrt(disc)) / (2.0 * dt2)
-            if out == "hi":
-                hi = np.minimum(hi, root)
-            else:
-                lo = np.maximum(lo, -root)
-        hi = np.maximum(hi, -a)
-        lo = np.minimum(lo, a)
-        return np.minimum(lo, hi), hi
+        """(lo, hi) bounds (9) on the 1-DoF joint accelerations (rad/s²), in the order of
+        ``joint_acceleration_limits.iv`` (copies)."""
+        lo, hi = self.joint_acceleration_limits.bounds(state, dt)
+        return lo.copy(), hi.copy()
 
     def build(self, state: DynamicsState, dt: float):
-        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused."""
-        nv, n = self.nv, self.n
-        H, g = self._H, self._g
-        H.fill(0.0)
-        g.fill(0.0)
-        Hvv = H[:nv, :nv]
-        gv = g[:nv]
+        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: every
+        constraint writes its block in place; the constant blocks (force regularisation, friction rows, force
+        bounds whose contact did not change) are not rewritten."""
+        nv = self.nv
+        Hvv, gv = self._Hvv, self._gv
+        Hvv.fill(0.0)
+        gv.fill(0.0)
         for task in self.tasks:
             J, r = task.compute(state)
             if isinstance(task, PostureAccelerationTask):  # J is a row selection: diagonal update
-                idx = task.task.rows
-                H[idx, idx] += task.weight
-                gv[idx] -= task.weight * r
+                span = self._posture_span(task)
+                if span is not None:
+                    self._H.ravel()[span] += task.weight
+                    gv[task.task.rows[0]:task.task.rows[0] + task.dim] -= task.weight * r
+                else:
+                    idx = task.task.rows
+                    Hvv[idx, idx] += task.weight
+                    gv[idx] -= task.weight * r
                 continue
             wJ = J * task.weight[:, None]
             Hvv += J.T @ wJ
             gv -= wJ.T @ r
-        H[self._diag, self._diag] += self._reg
-        M, h = state.M, state.h
-        JcT = self._JcT
-        n_act = sum(c.active for c in self.contacts)
-        A = np.zeros((6 + 6 * n_act, n))
-        b = np.empty(6 + 6 * n_act)
-        lb, ub = self._lb, self._ub
-        i = 6
+        self._H.ravel()[:nv * (self.n + 1):self.n + 1] += self._reg_v
+        ctx = self._ctx
+        ctx.state, ctx.dt = state, dt
+        JcT, jac = self._JcT, ctx.jacobians
         for k, c in enumerate(self.contacts):
             J = c.jacobian(state)
-            cols = slice(nv + 12 * k, nv + 12 * k + 12)
-            np.matmul(J.T, c._G, out=JcT[:, 12 * k:12 * k + 12])
-            if c.active:
-                lb[cols] = -np.inf
-                ub[cols] = np.inf
-                lb[nv + 12 * k + 2:nv + 12 * k + 12:3] = c.f_min
-                ub[nv + 12 * k + 2:nv + 12 * k + 12:3] = c.f_max
-                A[i:i + 6, :nv] = J
-                b[i:i + 6] = c.acceleration_target(state, J)
-                i += 6
-            else:
-                lb[cols] = 0.0
-                ub[cols] = 0.0
-        A[:6, :nv] = M[:6]
-        A[:6, nv:] = -JcT[:6]
-        np.negative(h[:6], out=b[:6])
+            jac[c.name] = J
+            np.matmul(J.T, c.force_map(), out=JcT[:, 12 * k:12 * k + 12])
+        A, b = self._A, self._b
+        self.dynamics.write(ctx, A[0:6], b[0:6], None)
+        i = 6
+        for con in (*self.contact_accelerations, *self.hard_tasks):
+            if con.enabled:
+                con.rows = slice(i, i + con.dim)
+                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
+                i += con.dim
+        self._m = i
         C, l, u = self._C, self._l, self._u
-        rows = self._tau_v_rows
-        nt = rows.size
-        if nt:
-            C[:nt, :nv] = M[rows]
-            C[:nt, nv:] = -JcT[rows]
-            hr = h[rows]
-            np.subtract(-self._tau_lim, hr, out=l[:nt])
-            np.subtract(self._tau_lim, hr, out=u[:nt])
+        tl = self.torque_limits
+        tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
+        lb, ub = self._lb, self._ub
+        for con, s in zip(self.unilaterality, self._force_slices):
+            key = con.key()
+            if key != con.written:  # force bounds change only when the contact is switched or re-bounded
+                con.write(ctx, None, lb[s], ub[s])
+                con.written = key
         if self.joint_limits:
-            lo, hi = self.joint_acceleration_bounds(state, dt)
-            lb[self._iv], ub[self._iv] = lo, hi
-        return H, g, A, b, C, l, u, lb, ub
+            jl = self.joint_acceleration_limits
+            if self._jl_slice is not None:
+                jl.write(ctx, None, lb[self._jl_slice], ub[self._jl_slice])
+            else:
+                lo, hi = jl.bounds(state, dt)
+                lb[jl.iv], ub[jl.iv] = lo, hi
+        return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
+
+    def _posture_span(self, task: PostureAccelerationTask) -> slice | None:
+        """Strided slice of H's flattened diagonal over the task's rows when they are contiguous (cached)."""
+        rows = task.task.rows
+        key = (id(task), rows.size)
+        span = self._spans.get(key, False)
+        if span is False:
+            n = self.n
+            contiguous = rows.size and np.array_equal(rows, np.arange(rows[0], rows[0] + rows.size))
+            span = slice(int(rows[0]) * (n + 1), (int(rows[-1]) + 1) * (n + 1), n + 1) if contiguous else None
+            self._spans[key] = span
+        return span
+
+    def _relax(self, l, u, lb, ub):
+        """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits)."""
+        l, u, lb, ub = l.copy(), u.copy(), lb.copy(), ub.copy()
+        for con in self.constraints:
+            if not con.relaxable:
+                continue
+            if con.kind == "inequality":
+                l[con.rows], u[con.rows] = -np.inf, np.inf
+            elif con.kind == "bounds":
+                lb[con.indices], ub[con.indices] = -np.inf, np.inf
+        return l, u, lb, ub
 
     def solve_relaxed(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Solve the QP without the joint acceleration bounds (9) and torque limits (6) — a fallback when the
-        full QP is infeasible (MuJoCo still enforces joint limits and clamps torques). Same returns/raises as
-        :meth:`solve`."""
+        """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
+        a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques). Same
+        returns/raises as :meth:`solve`."""
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        nt = self.tau_rows.size
-        l, u = l.copy(), u.copy()
-        l[:nt], u[:nt] = -np.inf, np.inf
-        lb, ub = lb.copy(), ub.copy()
-        lb[:self.nv], ub[:self.nv] = -np.inf, np.inf
+        l, u, lb, ub = self._relax(l, u, lb, ub)
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
@@ -311,12 +373,78 @@ class InverseDynamicsQP:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+        if self._kernel is not None and not self.hard_tasks:
+            return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
         return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+
+    def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
+        """:meth:`solve` through :func:`wbc.dynamics.idkernel.id_tick` (same QP, compiled assembly and solve);
+        a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
+        t0 = perf_counter()
+        kb = self._kernel
+        kb.gather(self, state)
+        ta = perf_counter()
+        for con, s in zip(self.unilaterality, self._force_slices):
+            key = con.key()
+            if key != con.written:
+                con.write(self._ctx, None, self._lb[s], self._ub[s])
+                con.written = key
+        jl = self.joint_acceleration_limits
+        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self._reg_v, state.M, state.h, kb.Jc, kb.Gc,
+                        kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
+                        jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
+                        self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,
+                        kb.x, kb.nu, kb.mu, kb.z, kb.max_iter, *kb.ws, kb.residual, kb.tau)
+        self._m = m
+        t1 = perf_counter()
+        nv = self.nv
+        if it > 0 and kb.residual[0] <= self.backend.tolerance:
+            kb.solves += 1
+            x = kb.x
+            f = x[nv:]
+            wrenches = {c.name: (c.world_wrench(state, f[12 * k:12 * k + 12]) if c.active else np.zeros(6))
+                        for k, c in enumerate(self.contacts)}
+            return IDSolution(dv=x[:nv].copy(), forces=f.copy(), tau=kb.tau.copy(), wrenches=wrenches,
+                              dynamics_residual=float(kb.residual[1]),
+                              timings={"assembly": ta - t0, "solve": t1 - ta})
+        kb.fallbacks += 1
+        kb.state[:] = 0
+        kb.rstate[:] = 0
+        x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
+                               self._ub)
+        t2 = perf_counter()
+        return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+
+    def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
+                 tol: float = 1e-6) -> list[tuple[str, float]]:
+        """Names of the hard constraints that conflict at ``state``, with their violation (constraint units),
+        largest first (:func:`wbc.diagnosis.diagnose`: slack-relaxed least-squares solve of the hard set).
+        Empty when the hard set is feasible.
+
+        Args:
+            include_relaxable: False: diagnose the set without torque and joint limits (the relaxed QP).
+            tol: smallest violation reported.
+        """
+        H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        if not include_relaxable:
+            l, u, lb, ub = self._relax(l, u, lb, ub)
+        eq, ineq, box = [], [], []
+        for con in self.constraints:
+            if not con.enabled or (con.relaxable and not include_relaxable):
+                continue
+            if con.kind == "equality":
+                eq.append((con.name, con.rows.start, con.rows.stop))
+            elif con.kind == "inequality":
+                ineq.append((con.name, con.rows.start, con.rows.stop))
+            elif con.kind == "bounds" and (con is not self.joint_acceleration_limits or self.joint_limits):
+                box.append((con.name, con.indices, lb[con.indices], ub[con.indices]))
+        conflicts, _ = diagnose(A, b, C, l, u, lb, ub, eq, ineq, box, tol=tol)
+        return conflicts
 
     def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None) -> IDSolution:
         """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1).
@@ -362,3 +490,75 @@ class InverseDynamicsQP:
         if self.tau_rows.size:
             out["torque"] = float(np.min(self.tau_max[self.tau_rows] - np.abs(sol.tau[self.tau_rows])))
         return out
+
+
+class _KernelBuffers:
+    """Preallocated inputs, solver state and workspace of :func:`wbc.dynamics.idkernel.id_tick` for one QP; the
+    stacked task rows are re-laid out only when the task list changes."""
+
+    def __init__(self, qp: InverseDynamicsQP):
+        nv, n, nc = qp.nv, qp.n, len(qp.contacts)
+        tl = qp.torque_limits
+        self.t0 = int(tl.velocity_rows.start) if tl.dim else 6
+        self.lim = tl.limits.copy()
+        self.Jc = np.zeros((nc, 6, nv))
+        self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
+        self.bc = np.zeros((nc, 6))
+        self.active = np.zeros(nc, dtype=np.bool_)
+        m_max, p = 6 + 6 * nc, qp._C.shape[0]
+        self.state = np.zeros(n, np.int8)
+        self.rstate = np.zeros(p, np.int8)
+        self.x = np.zeros(n)
+        self.nu = np.zeros(m_max)
+        self.mu = np.zeros(p)
+        self.z = np.zeros(n)
+        self.max_iter = 100
+        w = m_max + p
+        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, w)),
+                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.residual = np.zeros(2)
+        self.tau = np.zeros(nv - 6)
+        k = qp.joint_acceleration_limits.dim
+        self.jlo, self.jhi = np.empty(k), np.empty(k)
+        self.layout: tuple = ()
+        self.solves = 0
+        self.fallbacks = 0
+
+    def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
+        soft = [t for t in qp.tasks if not isinstance(t, PostureAccelerationTask)]
+        posture = [t for t in qp.tasks if isinstance(t, PostureAccelerationTask)]
+        mt = sum(t.dim for t in soft)
+        self.Jt = np.zeros((mt, qp.nv))
+        self.wt = np.zeros(mt)
+        self.rt = np.zeros(mt)
+        self.pidx = np.concatenate([t.task.rows for t in posture]).astype(np.int64) if posture else \
+            np.zeros(0, np.int64)
+        self.pw = np.zeros(self.pidx.size)
+        self.pr = np.zeros(self.pidx.size)
+        self.layout = key
+
+    def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
+        """Task rows and contact data of this tick into the buffers."""
+        tasks = qp.tasks
+        key = tuple(map(id, tasks))
+        if key != self.layout:
+            self._relayout(qp, key)
+        k = kp = 0
+        for task in tasks:
+            J, r = task.compute(state)
+            d = task.dim
+            if isinstance(task, PostureAccelerationTask):
+                self.pr[kp:kp + d] = r
+                self.pw[kp:kp + d] = task.weight
+                kp += d
+            else:
+                self.Jt[k:k + d] = J
+                self.rt[k:k + d] = r
+                self.wt[k:k + d] = task.weight
+                k += d
+        for c_i, c in enumerate(qp.contacts):
+            J = c.jacobian(state)
+            self.Jc[c_i] = J
+            self.active[c_i] = c.active
+            if c.active:
+                self.bc[c_i] = c.acceleration_target(state, J)

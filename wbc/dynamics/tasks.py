@@ -166,17 +166,19 @@ class FrameAccelerationTask(_WrappedTask):
     def error_jacobian_drift(self, state):
         task = self.task
         fid = task.frame_id
-        e6, J6 = frame_error_and_jacobian(state, fid, task.target)
-        model, data = state.model, state.data
-        lin = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
-        ang_local = pin.getFrameAcceleration(model, data, fid, pin.LOCAL).angular
-        rel = task.target.rotation.T @ data.oMf[fid].rotation
-        self._drift6[:3] = lin
-        self._drift6[3:] = pin.Jlog3(rel) @ ang_local
         rows = task.rows
+        model, data = state.model, state.data
         if rows.size == 6:
-            return e6, J6, self._drift6, task.feedforward()
-        return e6[rows], J6[rows], self._drift6[rows], task.feedforward()
+            e, J = frame_error_and_jacobian(state, fid, task.target)
+        else:  # the kinematic task's own row-selected path (same formulas, only the rows it has)
+            e, J = task.compute(state)
+        d = self._drift6
+        if rows[0] < 3:
+            d[:3] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+        if rows[-1] >= 3:
+            rel = task.target.rotation.T @ data.oMf[fid].rotation
+            d[3:] = pin.Jlog3(rel) @ pin.getFrameAcceleration(model, data, fid, pin.LOCAL).angular
+        return e, J, (d if rows.size == 6 else d[rows]), task.feedforward()
 
 
 class PostureAccelerationTask(_WrappedTask):

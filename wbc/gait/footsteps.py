@@ -8,6 +8,10 @@ Convention (``plan_footsteps``): a walk of ``n_steps`` has ``n_steps`` swing pha
   that step) at ``(x_s, y_s) + R(yaw_s + turn) @ (step_length, ±step_width)`` — ``+`` for a left swing foot,
   ``-`` for a right one. So each step puts the swing foot ``step_length`` ahead of the stance foot and
   ``step_width`` beside it, both measured along / across the new heading.
+* Lateral walking (``step_lateral = d ≠ 0``, side-stepping): the **leading** foot (left for ``d > 0``, right for
+  ``d < 0``) lands ``2|d|`` further out, at ``R(yaw_s + turn) @ (step_length, ±(step_width + 2|d|))``; the trailing
+  foot lands at the normal ``step_width`` beside it. Each walking step then moves the feet mid-point by ``d``
+  sideways and the soles never come closer than ``step_width`` (no crossing, no collision between the legs).
 * Step ``n`` (closing step): the swing foot lands alongside the stance foot, same yaw, at
   ``(x_s, y_s) + R(yaw_s) @ (0, ±step_width)``.
 
@@ -63,6 +67,7 @@ def plan_footsteps(
     step_width: float,
     turn: float = 0.0,
     first_side: Side = "left",
+    step_lateral: float = 0.0,
 ) -> list[Footstep]:
     """Landing poses of the ``n_steps`` swing phases (see the module docstring for the convention).
 
@@ -74,6 +79,8 @@ def plan_footsteps(
         step_width: lateral distance (m) between the feet, > 0.
         turn: yaw change (rad) of each walking step.
         first_side: the foot that swings first.
+        step_lateral: lateral displacement (m, + left) of the feet mid-point per walking step (side-stepping, see
+            the module docstring).
 
     Returns:
         ``n_steps`` :class:`Footstep` in swing order, sides alternating.
@@ -87,6 +94,9 @@ def plan_footsteps(
         raise GaitError(f"first_side must be 'left' or 'right'; got {first_side!r}")
     if not step_width > 0:
         raise GaitError(f"step_width must be > 0 m; got {step_width}")
+    if not math.isfinite(step_lateral):
+        raise GaitError(f"step_lateral must be a finite number (m); got {step_lateral}")
+    leading = "left" if step_lateral > 0 else "right"
     feet = {"left": tuple(map(float, left)), "right": tuple(map(float, right))}
     swing: Side = first_side
     steps: list[Footstep] = []
@@ -99,6 +109,8 @@ def plan_footsteps(
         fwd = 0.0 if closing else step_length
         c, s = math.cos(yaw), math.sin(yaw)
         lat = sign * step_width
+        if not closing and step_lateral != 0.0 and swing == leading:
+            lat += 2.0 * step_lateral
         step = Footstep(swing, xs + c * fwd - s * lat, ys + s * fwd + c * lat, yaw)
         steps.append(step)
         feet[swing] = (step.x, step.y, step.yaw)

@@ -31,17 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbc.profiles import min_jerk
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["JumpPlan", "G", "min_jerk3", "critically_damped"]
+__all__ = ["JumpPlan", "G", "critically_damped"]
 
 G = 9.81  #: gravity (m/s²)
-
-
-def min_jerk3(s: float) -> tuple[float, float, float]:
-    """Minimum-jerk blend 10s³ − 15s⁴ + 6s⁵ and its first and second derivatives in s, s clamped to [0, 1]."""
-    s = min(max(s, 0.0), 1.0)
-    return (10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4, 60 * s - 180 * s**2 + 120 * s**3)
 
 
 def critically_damped(x0: np.ndarray, v0: np.ndarray, w: float, tau: float):
@@ -137,7 +132,7 @@ class JumpPlan:
 
     def crouch_reference(self, c_start: np.ndarray, tau: float):
         """(c, ċ, c̈) (3,) each, τ s after the crouch start from the standing CoM ``c_start``."""
-        s, ds, dds = min_jerk3(tau / self.t_crouch)
+        s, ds, dds = min_jerk(tau / self.t_crouch)
         d = np.array([0.0, 0.0, -self.crouch])
         return c_start + s * d, ds / self.t_crouch * d, dds / self.t_crouch**2 * d
 
@@ -165,16 +160,16 @@ class JumpPlan:
         p = np.asarray(foot_to, dtype=float).copy()
         v, a = np.zeros(3), np.zeros(3)
         tx = 0.8 * t_flight
-        s, ds, dds = min_jerk3(tau / tx)
+        s, ds, dds = min_jerk(tau / tx)
         dxy = (np.asarray(target) - foot_to)[:2]
         p[:2] += s * dxy
         v[:2] = ds / tx * dxy
         a[:2] = dds / tx**2 * dxy
         half = 0.5 * t_flight
         if tau <= half:
-            s, ds, dds = min_jerk3(tau / half)
+            s, ds, dds = min_jerk(tau / half)
         else:
-            s, ds, dds = min_jerk3(1.0 - (tau - half) / half)
+            s, ds, dds = min_jerk(1.0 - (tau - half) / half)
             ds = -ds
         p[2] += dz_com + self.tuck * s
         v[2] = vz_com + self.tuck * ds / half

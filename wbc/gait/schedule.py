@@ -26,17 +26,28 @@ from __future__ import annotations
 import math
 
 from dataclasses import dataclass
+from enum import IntEnum
 from typing import NamedTuple
 
 import numpy as np
 
 from wbc.gait.footsteps import Footstep
 
-__all__ = ["DOUBLE_SUPPORT", "LEFT_SUPPORT", "RIGHT_SUPPORT", "Phase", "ZmpSegments", "build_phases", "zmp_segments"]
+__all__ = ["Support", "DOUBLE_SUPPORT", "LEFT_SUPPORT", "RIGHT_SUPPORT", "Phase", "ZmpSegments", "build_phases",
+           "zmp_segments"]
 
-DOUBLE_SUPPORT = 0
-LEFT_SUPPORT = 1  # left foot in stance, right foot swinging
-RIGHT_SUPPORT = 2  # right foot in stance, left foot swinging
+
+class Support(IntEnum):
+    """Support code of a tick, the one used by the gait plans, the scenarios and their logs (``support`` arrays,
+    int8): which soles are in contact with the ground."""
+
+    DOUBLE = 0  #: both soles in stance
+    LEFT = 1  #: left foot in stance, right foot swinging
+    RIGHT = 2  #: right foot in stance, left foot swinging
+
+
+# The same members under the gait layer's names.
+DOUBLE_SUPPORT, LEFT_SUPPORT, RIGHT_SUPPORT = Support.DOUBLE, Support.LEFT, Support.RIGHT
 
 
 class Phase(NamedTuple):

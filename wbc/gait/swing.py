@@ -20,13 +20,9 @@ from functools import lru_cache
 import numpy as np
 import pinocchio as pin
 
+from wbc.profiles import min_jerk
+
 __all__ = ["min_jerk", "sample_feet"]
-
-
-def min_jerk(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Minimum-jerk blend ``b(s) = 10s³ − 15s⁴ + 6s⁵`` and its derivative ``db/ds = 30 s² (1 − s)²``."""
-    s2 = s * s
-    return s2 * s * (10.0 - 15.0 * s + 6.0 * s2), 30.0 * s2 * (1.0 - s) ** 2
 
 
 @lru_cache(maxsize=32)
@@ -35,7 +31,7 @@ def _swing_profile(n_swing: int, dt: float, height: float) -> tuple[np.ndarray, 
     clearance bump ``h·64 s³(1−s)³`` (n,), and the velocity basis (2, n): ``ḃ`` and the bump's time derivative."""
     T = n_swing * dt
     s = np.arange(n_swing) / n_swing
-    b, db = min_jerk(s)
+    b, db, _ = min_jerk(s)
     sm = s * (1.0 - s)
     bump = height * 64.0 * sm**3
     vbasis = np.stack((db / T, height * 192.0 * sm**2 * (1.0 - 2.0 * s) / T))

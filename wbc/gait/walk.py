@@ -29,8 +29,9 @@ from wbc.gait.schedule import (
     build_phases,
     zmp_segments,
 )
-from wbc.gait.support import _hull, _signed_distance_point, _sole_corners, signed_distance
+from wbc.geometry import hull, signed_distance, signed_distance_point, sole_corners
 from wbc.gait.swing import sample_feet
+from wbc.profiles import min_jerk
 
 __all__ = ["WalkPlan", "plan_walk"]
 
@@ -130,7 +131,9 @@ class WalkPlan:
             out[k0:k1] = signed_distance(p[k0:k1], self.support_polygon(k0))
         return out
 
-    def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray) -> WalkPlan:
+    def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray,
+               footsteps: tuple[Footstep, ...] | list[Footstep] | None = None, *,
+               check_start: bool = True) -> WalkPlan:
         """Re-plan the CoM from a measured state at sample ``k``, keeping the remaining footsteps and timing.
 
         The new plan's sample 0 is this plan's sample ``k`` (time re-origined at 0; ``t_offset`` grows by
@@ -144,11 +147,22 @@ class WalkPlan:
             k: sample index, ``0 <= k <= N - 2``.
             com: (3,) measured CoM position (m), world.
             com_vel: (3,) measured CoM velocity (m/s), world.
+            footsteps: optional new landing poses of the remaining steps (same number, sides and yaws as
+                ``footsteps`` of this plan from sample ``k`` on, i.e. of the steps not completed at ``k``; only
+                x, y may change — step adjustment, :mod:`wbc.gait.step_adjustment`). The ZMP reference is
+                rebuilt from them (:func:`wbc.gait.schedule.zmp_segments`) and every foot trajectory is
+                shifted: a foot at rest by the shift of the footstep it stands on, a swing by
+                ``d_0 + (d_1 − d_0) b(s)`` with ``d_0``/``d_1`` the shifts of its start/landing footsteps and
+                ``b`` the minimum-jerk blend of :mod:`wbc.gait.swing` over the swing (for the swing in progress at
+                ``k``: over its remaining samples, so position, velocity and acceleration stay continuous).
+            check_start: raise when the solved ZMP start point is outside the current support polygon (default);
+                ``False`` returns the plan anyway (a stabilizer then saturates the CoP at the polygon edge).
 
         Raises:
-            GaitError: bad ``k``, shapes or non-finite values; or the CoM state cannot be captured: the ZMP
-                start point needed lies outside the current support polygon (the DCM error is too large for
-                the time left in the current ZMP segment — a step would have to change).
+            GaitError: bad ``k``, shapes or non-finite values; bad ``footsteps`` (count, side, yaw) or ``k`` in
+                the final double support when ``footsteps`` is given; or (``check_start``) the CoM state cannot be
+                captured: the ZMP start point needed lies outside the current support polygon (the DCM error is
+                too large for the time left in the current ZMP segment — a step would have to change).
         """
         k = self._check_k(k, self.n_samples - 2)
         c = _vector(com, 3, "com")
@@ -168,10 +182,23 @@ class WalkPlan:
         n_done = len(self.footsteps) - sum(1 for ph in phases if ph.support != DOUBLE_SUPPORT)
         phases = [Phase(ph.support, ph.first, ph.count, ph.step - n_done if ph.step >= 0 else -1, ph.dt)
                   for ph in phases]
+        steps = self.footsteps[n_done:]
+        feet = (self.left_sole[k:], self.right_sole[k:], self.left_sole_vel[k:], self.right_sole_vel[k:])
+        if footsteps is not None:
+            new_steps = _check_new_footsteps(footsteps, steps)
+            if phases[-1] is phases[0] or len(seg.first) - j != len(phases) + 1:
+                raise GaitError("cannot change footsteps in the final double support (no step left)")
+            pts = zmp_segments(phases, list(new_steps), tuple(feet[0][0, :2, 3]), tuple(feet[1][0, :2, 3]),
+                               int(seg.count[-2]))
+            start = pts.start.astype(float).copy()
+            start[0] = np.nan
+            new_seg = ZmpSegments(first, count, start, pts.end.astype(float), new_seg.phase)
+            feet = _shift_feet(feet, phases, steps, new_steps)
+            steps = new_steps
         return _assemble(
-            new_seg, phases, self.footsteps[n_done:], c[:2], cd[:2], self.com_height, self.omega, self.dt,
-            self.left_sole[k:], self.right_sole[k:], self.left_sole_vel[k:], self.right_sole_vel[k:],
-            self.support[k:], self.sole_length, self.sole_width, self.t_offset + k * self.dt,
+            new_seg, phases, steps, c[:2], cd[:2], self.com_height, self.omega, self.dt,
+            *feet, self.support[k:], self.sole_length, self.sole_width, self.t_offset + k * self.dt,
+            check_start=check_start,
         )
 
     def _check_k(self, k: int, k_max: int) -> int:
@@ -184,9 +211,9 @@ def _support_corners(left: np.ndarray, right: np.ndarray, support: int, length: 
                      width: float) -> list[tuple[float, float]]:
     """Support polygon (CCW vertex list) for the given sole poses and support code."""
     if support == DOUBLE_SUPPORT:
-        return _hull(_sole_corners(*pose_to_xy_yaw(left), length, width)
-                     + _sole_corners(*pose_to_xy_yaw(right), length, width))
-    return _sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
+        return hull(sole_corners(*pose_to_xy_yaw(left), length, width)
+                     + sole_corners(*pose_to_xy_yaw(right), length, width))
+    return sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
 
 
 def _readonly(*arrays: np.ndarray) -> None:
@@ -197,14 +224,15 @@ def _readonly(*arrays: np.ndarray) -> None:
 def _assemble(seg: ZmpSegments, phases: list[Phase], footsteps: tuple[Footstep, ...] | list[Footstep],
               com_xy: np.ndarray, com_vel_xy: np.ndarray, com_height: float, omega: float, dt: float,
               left: np.ndarray, right: np.ndarray, left_vel: np.ndarray, right_vel: np.ndarray,
-              support: np.ndarray, length: float, width: float, t_offset: float) -> WalkPlan:
+              support: np.ndarray, length: float, width: float, t_offset: float, *,
+              check_start: bool = True) -> WalkPlan:
     """Solve the CoM for ``seg`` from the given state, check the solved ZMP start point, build the plan."""
     lipm = plan_lipm(seg.first, seg.count, seg.start, seg.end, com_xy, com_vel_xy, omega, dt)
     a0 = lipm.start[0]
     ax, ay = float(a0[0]), float(a0[1])
     poly = _support_corners(left[0], right[0], int(support[0]), length, width)
-    margin = _signed_distance_point(ax, ay, poly) if math.isfinite(ax) and math.isfinite(ay) else -math.inf
-    if not margin >= -1e-9:
+    margin = signed_distance_point(ax, ay, poly) if math.isfinite(ax) and math.isfinite(ay) else -math.inf
+    if check_start and not margin >= -1e-9:
         raise GaitError(
             f"cannot start the walk from CoM {np.round(com_xy, 4).tolist()} m with velocity "
             f"{np.round(com_vel_xy, 4).tolist()} m/s: the ZMP would have to start at {np.round(a0, 4).tolist()} m, "
@@ -226,6 +254,50 @@ def _assemble(seg: ZmpSegments, phases: list[Phase], footsteps: tuple[Footstep, 
         duration=float(t[-1]), dt=dt, omega=omega, com_height=com_height, sole_length=length, sole_width=width,
         t_offset=t_offset, segments=seg,
     )
+
+
+def _check_new_footsteps(new, old: tuple[Footstep, ...]) -> tuple[Footstep, ...]:
+    """Validate replacement footsteps: same count, sides and yaws as ``old``, finite x, y."""
+    new = tuple(new)
+    if len(new) != len(old):
+        raise GaitError(f"footsteps: expected {len(old)} remaining steps, got {len(new)}")
+    out = []
+    for i, (a, b) in enumerate(zip(new, old)):
+        if not isinstance(a, Footstep):
+            raise GaitError(f"footsteps[{i}] must be a Footstep; got {type(a).__name__}")
+        if a.side != b.side or abs(a.yaw - b.yaw) > 1e-12:
+            raise GaitError(f"footsteps[{i}]: only x, y may change (side {b.side}, yaw {b.yaw:.6f} rad); "
+                            f"got side {a.side}, yaw {a.yaw:.6f} rad")
+        if not (math.isfinite(a.x) and math.isfinite(a.y)):
+            raise GaitError(f"footsteps[{i}] must have finite x, y; got ({a.x}, {a.y})")
+        out.append(a)
+    return tuple(out)
+
+
+def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple[Footstep, ...]):
+    """Foot trajectories (left, right poses (N, 4, 4), velocities (N, 6)) shifted for moved footsteps (see
+    :meth:`WalkPlan.replan`): rest by the shift of the footstep stood on, swings by ``d0 + (d1 − d0) b(s)``."""
+    poses = [feet[0].copy(), feet[1].copy()]
+    vels = [feet[2].copy(), feet[3].copy()]
+    dt = phases[0].dt
+    shift = [np.zeros(2), np.zeros(2)]  # current shift of each foot's rest pose
+    for ph in phases:
+        if ph.support == DOUBLE_SUPPORT or ph.step < 0:
+            continue
+        f = 0 if old[ph.step].side == "left" else 1
+        d0 = shift[f]
+        d1 = np.array([new[ph.step].x - old[ph.step].x, new[ph.step].y - old[ph.step].y])
+        n = ph.count
+        s = np.arange(n) / n
+        b, db, _ = min_jerk(s)
+        # Samples from this swing on already carry d0 (added with the previous swing's landing).
+        poses[f][ph.first:ph.first + n, :2, 3] += np.outer(b, d1 - d0)
+        vels[f][ph.first:ph.first + n, :2] += np.outer(db / (n * dt), d1 - d0)
+        poses[f][ph.first + n:, :2, 3] += d1 - d0
+        shift[f] = d1
+    for a in (*poses, *vels):
+        a.flags.writeable = False
+    return poses[0], poses[1], vels[0], vels[1]
 
 
 def _vector(x, n: int, name: str) -> np.ndarray:
@@ -310,6 +382,8 @@ def plan_walk(
     com_velocity: np.ndarray | None = None,
     first_side: Side = "left",
     gravity: float = 9.81,
+    step_lateral: float = 0.0,
+    check_start: bool = True,
 ) -> WalkPlan:
     """Plan a walk from the current feet and CoM: footsteps, schedule, LIPM CoM and swing-foot trajectories.
 
@@ -336,6 +410,10 @@ def plan_walk(
         com_velocity: (3,) current CoM velocity (m/s); default 0. Only xy is used.
         first_side: the foot that swings first, ``"left"`` or ``"right"``.
         gravity: gravity acceleration (m/s², > 0).
+        step_lateral: lateral displacement (m, + left) of the feet mid-point per walking step (side-stepping,
+            :mod:`wbc.gait.footsteps`).
+        check_start: raise when the CoM state cannot be captured (below); ``False`` returns the plan with its solved
+            ZMP start point wherever it is (e.g. as the nominal geometry of a capture step, then replanned).
 
     Returns:
         A :class:`WalkPlan` sampled at ``dt``.
@@ -376,7 +454,8 @@ def plan_walk(
     if step_width is None:
         step_width = lateral
     step_width = _scalar(step_width, "step_width", positive=True)
-    steps = plan_footsteps(lft, rgt, int(n_steps), step_length, step_width, turn, first_side)
+    step_lateral = _scalar(step_lateral, "step_lateral")
+    steps = plan_footsteps(lft, rgt, int(n_steps), step_length, step_width, turn, first_side, step_lateral)
 
     # Overlap check: initial feet, then each landing pose against its stance foot.
     feet = {"left": lft, "right": rgt}
@@ -406,4 +485,4 @@ def plan_walk(
     support = np.repeat(np.array([ph.support for ph in phases], dtype=np.int8), counts)
     _readonly(lp, lv, rp, rv, support)
     return _assemble(seg, phases, steps, c[:2], cd[:2], float(c[2]), lipm_omega(float(c[2]), g), dt,
-                     lp, rp, lv, rv, support, length, width, 0.0)
+                     lp, rp, lv, rv, support, length, width, 0.0, check_start=check_start)

@@ -2,7 +2,7 @@
 
 wbc's core never imports this package's dependencies: ``cyclonedds`` (the DDS implementation ROS 2 Humble/Jazzy
 ship as ``rmw_cyclonedds_cpp``) and ``rosbags`` (rosbag2 writer) are imported only by the submodules
-:mod:`wbc.ros2.msgs`, :mod:`wbc.ros2.dds`, :mod:`wbc.ros2.publisher` and :mod:`wbc.ros2.cli`.
+:mod:`wbc.ros2.msgs`, :mod:`wbc.ros2.dds`, :mod:`wbc.ros2.publisher` and the command line :mod:`wbc.cli.ros2`.
 
 ROS 2 conventions followed (ROS 2 design article "Topic and Service name mapping to DDS"): a topic ``/x`` is the
 DDS topic ``rt/x``; message ``pkg/msg/M`` is the DDS type ``pkg::msg::dds_::M_`` (final struct, XCDR1); service

@@ -23,9 +23,12 @@ The log (``--log balance.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq);
 m, world; ``com_ref`` (N, 3) m, world (NaN rows while the behaviour has no CoM target, e.g. ``reach``);
 ``left_sole``/``right_sole`` (N, 4, 4) world poses; ``support`` (N,) 0 = double, 1 = left stance, 2 = right
 stance; ``com_margin`` (N,) m, signed distance of the CoM ground projection to the current support polygon
-(> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,) and ``task_error`` (N, T),
-norm of each task's error at the start of the tick (task units: m, rad; NaN while the task is inactive);
-``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``. Row k is the state at the start of tick k,
+(> 0 inside); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``task_names`` (T,), ``task_units`` (T,) and
+``task_error`` (N, T), norm of each task's error at the start of the tick in ``task_units`` (``m`` or ``rad``; a
+frame task with position and orientation rows has two columns, ``<name> position`` m and ``<name> orientation``
+rad; NaN while the task is inactive);
+``joint_names`` (nv−6,); ``robot``; ``behaviour``; ``dt``; ``relaxed`` (N,) bool, tick solved without its
+relaxable constraints. Row k is the state at the start of tick k,
 t[k] = k dt, v[k] the command computed from it (applied for dt), references are those of t[k].
 """
 
@@ -36,7 +39,6 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from time import perf_counter
-from typing import Callable
 
 import numpy as np
 
@@ -44,18 +46,22 @@ from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion, RunRecord, evaluate
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
+from wbc.tasks.com import ComTask
+from wbc.tasks.frame import FrameTask
+from wbc.tasks.posture import PostureTask
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
-    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk,
+    DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk_ramp,
     support_polygon,
 )
 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk", "run_balance", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "support_polygon",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -66,9 +72,6 @@ BEHAVIOURS = {
     "squat": "wbc.scenarios.balance_squat:SquatBehaviour",
     "reach": "wbc.scenarios.balance_reach:ReachBehaviour",
 }
-
-#: (summary key, description, predicate on the summary).
-Criterion = tuple[str, str, Callable[[dict], bool]]
 
 
 # -- behaviours -------------------------------------------------------------------------------------------------
@@ -127,8 +130,8 @@ def make_behaviour(name: str, robot: Robot, config: Configuration, **options) ->
 
 # -- run --------------------------------------------------------------------------------------------------------
 @dataclass
-class BalanceRun:
-    """Arrays recorded during a behaviour (see the module docstring for the log format)."""
+class BalanceRun(RunRecord):
+    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``)."""
 
     robot: str
     behaviour: str
@@ -147,17 +150,9 @@ class BalanceRun:
     task_names: list[str]
     task_error: np.ndarray
     joint_names: list[str]
+    task_units: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
-
-    def save(self, path) -> None:
-        """Write the npz log (module docstring)."""
-        np.savez_compressed(
-            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, left_sole=self.left_sole,
-            right_sole=self.right_sole, support=self.support, com_margin=self.com_margin, tick_time=self.tick_time,
-            solver_ok=self.solver_ok, task_names=np.array(self.task_names), task_error=self.task_error,
-            joint_names=np.array(self.joint_names), robot=np.array(self.robot),
-            behaviour=np.array(self.behaviour), dt=np.array(self.dt),
-        )
+    relaxed: np.ndarray | None = None
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -222,7 +217,9 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     margin = np.empty(n)
     tick = np.empty(n)
     ok = np.empty(n, dtype=bool)
-    errors = np.full((n, len(tasks)), np.nan)
+    relaxed = np.zeros(n, dtype=bool)
+    parts = [(i, *part) for i, task in enumerate(tasks) for part in task_error_parts(task)]
+    errors = np.full((n, len(parts)), np.nan)
     for k in range(n):
         t = k * dt
         out_q[k] = config.q
@@ -236,12 +233,16 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
         support[k] = ctrl.support
         if ctrl.has_task(ctrl.com):
             out_ref[k] = ctrl.com.target
-        for i, task in enumerate(tasks):
-            if ctrl.has_task(task):
-                errors[k, i] = float(np.linalg.norm(task.compute_error(config)))
+        last, e = -1, None
+        for c, (i, _, _, rows) in enumerate(parts):
+            if ctrl.has_task(tasks[i]):
+                if i != last:
+                    last, e = i, tasks[i].compute_error(config)
+                errors[k, c] = float(np.linalg.norm(e if rows is None else e[rows]))
         margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
         config.step(result.v, dt)
         ok[k] = result.ok
+        relaxed[k] = bool(result.relaxed)
         out_v[k] = result.v
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
@@ -250,9 +251,30 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     return BalanceRun(
         robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com,
         com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
-        solver_ok=ok, task_names=[t.name for t in tasks], task_error=errors, joint_names=robot.joint_names,
-        extra={"behaviour": beh},
+        solver_ok=ok, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
+        task_units=[p[2] for p in parts],
+        extra={"behaviour": beh}, relaxed=relaxed,
     )
+
+
+def task_error_parts(task) -> list[tuple[str, str, np.ndarray | None]]:
+    """How a task's error splits by unit: ``(label, unit, rows of compute_error() or None for all)``.
+
+    CoM and frame position rows are in m, posture and frame orientation rows in rad (revolute joints); a frame
+    task with both gives ``<name> position`` and ``<name> orientation``; any other task is one part whose
+    unit is ``"task"`` (its own units).
+    """
+    if isinstance(task, FrameTask):
+        rows = np.asarray(task.rows)
+        pos, rot = np.flatnonzero(rows < 3), np.flatnonzero(rows >= 3)
+        if pos.size and rot.size:
+            return [(f"{task.name} position", "m", pos), (f"{task.name} orientation", "rad", rot)]
+        return [(task.name, "m" if pos.size else "rad", None)]
+    if isinstance(task, ComTask):
+        return [(task.name, "m", None)]
+    if isinstance(task, PostureTask):
+        return [(task.name, "rad", None)]
+    return [(task.name, "task", None)]
 
 
 # -- summary and acceptance ---------------------------------------------------------------------------------
@@ -268,16 +290,15 @@ def _stance_slip(run: BalanceRun) -> float:
     return slip
 
 
-#: Criteria of every behaviour (from the issue): (summary key, description, predicate).
+#: Criteria of every behaviour (from the issue).
 COMMON_CRITERIA: list[Criterion] = [
-    ("min_com_margin_m", "CoM projection inside the support polygon at every tick", lambda s: s["min_com_margin_m"] >= 0.0),
-    ("min_zmp_margin_m", "ZMP of the executed motion inside the support polygon at every tick",
-     lambda s: s["min_zmp_margin_m"] >= 0.0),
-    ("max_stance_slip_m", "stance soles do not slip (≤ 1 mm)", lambda s: s["max_stance_slip_m"] <= 1e-3),
-    ("joint_position_violations", "no joint position limit violation", lambda s: s["joint_position_violations"] == 0),
-    ("joint_velocity_violations", "no joint velocity limit violation", lambda s: s["joint_velocity_violations"] == 0),
-    ("solver_failures", "no solver failure", lambda s: s["solver_failures"] == 0),
-    ("nan", "no NaN", lambda s: not s["nan"]),
+    Criterion("CoM projection inside the support polygon at every tick", "min_com_margin_m", ">=", 0.0),
+    Criterion("ZMP of the executed motion inside the support polygon at every tick", "min_zmp_margin_m", ">=", 0.0),
+    Criterion("stance soles do not slip (≤ 1 mm)", "max_stance_slip_m", "<=", 1e-3),
+    Criterion("no joint position limit violation", "joint_position_violations", "==", 0),
+    Criterion("no joint velocity limit violation", "joint_velocity_violations", "==", 0),
+    Criterion("no solver failure", "solver_failures", "==", 0),
+    Criterion("no NaN", "nan", "==", False),
 ]
 
 
@@ -292,14 +313,16 @@ def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
 def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     """Acceptance metrics of a balance run.
 
-    Returns a dict with: robot, behaviour, dt (s), ticks, duration_s, tick_time_us {median, p99, max} (reference
+    Returns a dict with: robot, behaviour, dt_s, ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
     polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
     of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
-    :mod:`wbc.scenarios.metrics`), max_task_error {task: max over
-    active ticks of ‖e‖, task units m or rad; frame tasks mix m and rad rows}, max_stance_slip_m,
+    :mod:`wbc.scenarios.metrics`), max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
+    positions}, max_task_error_rad {the same in rad: orientations, posture} (see :func:`task_error_parts`; a
+    task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
-    solver_failures (ticks whose command fell back to a safe command), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    solver_failures (ticks whose command fell back to a safe command), relaxed_ticks (ticks solved without the
+    relaxable constraints — executed-ZMP constraint — reported, not judged), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
     """
     model = robot.model
     idx_q, _ = bounded_joints(model)
@@ -307,25 +330,27 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     pos_viol = int(np.sum((qj < model.lowerPositionLimit[idx_q]) | (qj > model.upperPositionLimit[idx_q])))
     vel_viol = int(np.sum(np.abs(run.v[:, 6:]) > model.velocityLimit[6:]))
     tt = run.tick_time * 1e6
-    task_err = {}
-    for i, name in enumerate(run.task_names):
+    task_err: dict[str, dict[str, float]] = {"m": {}, "rad": {}}
+    units = run.task_units or ["task"] * len(run.task_names)
+    for i, (name, unit) in enumerate(zip(run.task_names, units)):
         col = run.task_error[:, i]
         if np.isfinite(col).any():
-            task_err[name] = float(np.nanmax(col))
+            task_err.setdefault(unit, {})[name] = float(np.nanmax(col))
     summary = {
         "robot": robot.name,
         "behaviour": run.behaviour,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
         "min_com_margin_m": float(run.com_margin.min()),
         "min_zmp_margin_m": _executed_zmp_margin(robot, run),
-        "max_task_error": task_err,
+        **{f"max_task_error_{unit}": errs for unit, errs in task_err.items()},
         "max_stance_slip_m": _stance_slip(run),
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     beh = run.extra.get("behaviour")
@@ -341,12 +366,4 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
 
 def balance_passes(summary: dict, criteria: list[Criterion]) -> tuple[bool, list[str]]:
     """(all criteria hold, descriptions of the failed ones); a criterion whose key is missing fails."""
-    failed = []
-    for key, desc, ok in criteria:
-        try:
-            good = bool(ok(summary))
-        except (KeyError, TypeError):
-            good = False
-        if not good:
-            failed.append(desc)
-    return not failed, failed
+    return evaluate(summary, criteria)

@@ -12,38 +12,24 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.constraints import ComPolygonConstraint
+from wbc.constraints.zmp import DcmPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.gait.support import convex_hull, sole_polygon
-from wbc.qp import DEFAULT_SOLVER
+from wbc.geometry import support_polygon as sole_support_polygon
+from wbc.profiles import min_jerk_ramp
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, SIDES, StanceController
 from wbc.tasks import PostureTask
 
 __all__ = [
-    "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "BalanceController", "JointTrackingTask", "MinJerkPath", "min_jerk",
+    "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "BalanceController", "JointTrackingTask", "MinJerkPath",
+    "min_jerk_ramp",
     "support_polygon",
 ]
 
 
 
 # -- reference profiles ---------------------------------------------------------------------------------------
-def min_jerk(t: float, t0: float, duration: float) -> tuple[float, float]:
-    """Minimum-jerk ramp s(t) from 0 to 1 over [t0, t0 + duration] (Flash & Hogan 1985) and ds/dt (1/s).
-
-    s = 10τ³ − 15τ⁴ + 6τ⁵ with τ = (t − t0)/duration clipped to [0, 1]: zero velocity and acceleration at both ends.
-    """
-    if duration <= 0:
-        return (1.0 if t >= t0 else 0.0), 0.0
-    tau = (t - t0) / duration
-    if tau <= 0.0:
-        return 0.0, 0.0
-    if tau >= 1.0:
-        return 1.0, 0.0
-    t2 = tau * tau
-    return t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2), 30.0 * t2 * (1.0 - 2.0 * tau + t2) / duration
-
-
 class MinJerkPath:
     """Piecewise minimum-jerk path through waypoints, with holds.
 
@@ -75,25 +61,16 @@ class MinJerkPath:
         """(value (d,), rate (d,)) at time t (s)."""
         for t0, move, a, b in reversed(self._segs):
             if t >= t0:
-                s, ds = min_jerk(t, t0, move)
+                s, ds = min_jerk_ramp(t, t0, move)
                 return a + s * (b - a), ds * (b - a)
         return self.start.copy(), np.zeros_like(self.start)
 
 
 # -- support polygon --------------------------------------------------------------------------------------------
-def _yaw(pose) -> float:
-    m = pose.homogeneous if isinstance(pose, pin.SE3) else np.asarray(pose)
-    return math.atan2(m[1, 0], m[0, 0])
-
-
 def support_polygon(robot: Robot, soles) -> np.ndarray:
     """(k, 2) CCW support polygon (m, world xy) of the given sole placements (pin.SE3 or (4, 4), world):
     the sole rectangle for one sole, the convex hull of the rectangles for several."""
-    polys = []
-    for pose in soles:
-        m = pose.homogeneous if isinstance(pose, pin.SE3) else np.asarray(pose)
-        polys.append(sole_polygon(m[0, 3], m[1, 3], _yaw(m), robot.sole_length, robot.sole_width))
-    return polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+    return sole_support_polygon(soles, robot.sole_length, robot.sole_width)
 
 
 # -- controller wiring ------------------------------------------------------------------------------------------
@@ -133,7 +110,7 @@ class BalanceController(StanceController):
                  polygon_margin: float = 0.01, com_gain: float = 100.0, foot_gain: float = 100.0,
                  torso_gain: float = 50.0, posture_gain: float = 2.0,
                  rank_rtol: float = 1e-4):
-        self.com_polygon = ComPolygonConstraint(robot, margin=polygon_margin)
+        self.com_polygon = DcmPolygonConstraint(robot, margin=polygon_margin)
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain, extra_constraints=(self.com_polygon,),
                          rank_rtol=rank_rtol)

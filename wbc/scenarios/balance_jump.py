@@ -39,7 +39,7 @@ from wbc.configuration import Configuration
 from wbc.controller import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.gait.jump_plan import G, JumpPlan
-from wbc.qp import DEFAULT_SOLVER
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
@@ -238,41 +238,3 @@ def preview_summary(robot: Robot, run: JumpPreviewRun) -> dict:
         "fell": False,
     }
 
-
-def cmd_preview(args) -> int:
-    """``wbc balance jump``: run the preview, print the summary, write --json/--log/--plot/--out; exit 0."""
-    import json
-
-    from wbc.cli import _print_summary, _write_plot
-    from wbc.robot import load_robot
-
-    robot = load_robot(args.robot)
-    viewer = pacer = None
-    if args.live:
-        from wbc.cli import _live
-
-        viewer, pacer = _live(robot)
-    try:
-        run = preview_jump(robot, height=args.height, forward=args.forward, count=args.count, dt=args.dt,
-                           solver=args.solver, viewer=viewer, pacer=pacer)
-    finally:
-        if viewer is not None:
-            viewer.close()
-    summary = preview_summary(robot, run)
-    print(f"wbc balance jump: {robot.name}, {len(run.t)} ticks at {1 / args.dt:.0f} Hz, solver {args.solver}")
-    _print_summary(summary)
-    if args.json:
-        args.json.write_text(json.dumps(summary, indent=2) + "\n")
-        print(f"summary written to {args.json}")
-    if args.log:
-        run.save(args.log)
-        print(f"log written to {args.log}")
-    if getattr(args, "plot", None):
-        _write_plot(args.plot, run)
-    if args.out:
-        from wbc.viz import record_html
-
-        overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
-        path = record_html(robot, run.t, run.q, args.out, overlays=overlays)
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
-    return 0

@@ -19,6 +19,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import (
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, Behaviour, BalanceController, BalanceRun, MinJerkPath, support_polygon,
 )
@@ -102,10 +103,9 @@ class OneLegBehaviour(Behaviour):
     def criteria(self):
         h, tol = self.height, self.height_tolerance
         return [
-            ("lift_height_m", f"swing sole lifted {h * 100:g} cm ± {tol * 1e3:g} mm",
-             lambda s: abs(s["lift_height_m"] - h) <= tol),
-            ("lift_hold_s", f"swing sole held up ≥ {self.hold:g} s", lambda s: s["lift_hold_s"] >= self.hold),
-            ("min_stance_margin_m", "CoM ≥ 0.01 m inside the stance sole from arrival to touch-down",
-             lambda s: s["min_stance_margin_m"] >= 0.01),
-            ("touchdown_error_m", "swing sole put back within 2 mm", lambda s: s["touchdown_error_m"] <= 2e-3),
+            Criterion(f"swing sole lifted {h * 100:g} cm ± {tol * 1e3:g} mm", "lift_height_m", "<=", tol, minus=h),
+            Criterion(f"swing sole held up ≥ {self.hold:g} s", "lift_hold_s", ">=", self.hold),
+            Criterion("CoM ≥ 0.01 m inside the stance sole from arrival to touch-down", "min_stance_margin_m", ">=",
+                      0.01),
+            Criterion("swing sole put back within 2 mm", "touchdown_error_m", "<=", 2e-3),
         ]

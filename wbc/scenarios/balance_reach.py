@@ -27,6 +27,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, MinJerkPath
 from wbc.tasks import PositionTask
 
@@ -124,8 +125,9 @@ class ReachBehaviour(Behaviour):
     def criteria(self):
         tol = self.tolerance
         return [
-            ("reach_residual_m", "hand on target, or stopped by balance / joint limits",
-             lambda s: s["reach_residual_m"] <= tol or bool(s["reach_limited_by"])),
-            ("reach_residual_m", "hand closer to the target than at the start",
-             lambda s: s["reach_residual_m"] < s["reach_initial_distance_m"]),
+            Criterion("hand on target, or stopped by balance / joint limits", "reach_residual_m", "<=", tol,
+                      either=(Criterion("stopped by balance / joint limits", "reach_limited_by", ">", 0,
+                                        reduce="len"),)),
+            Criterion("hand closer to the target than at the start", "reach_residual_m", "<", 1.0,
+                      scale_by="reach_initial_distance_m"),
         ]

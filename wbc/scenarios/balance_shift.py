@@ -11,6 +11,7 @@ import numpy as np
 
 from wbc.configuration import Configuration
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, MinJerkPath
 
 __all__ = ["ShiftBehaviour"]
@@ -62,5 +63,5 @@ class ShiftBehaviour(Behaviour):
 
     def criteria(self):
         tol = self.tolerance
-        return [("shift_target_error_m", f"CoM over each target (≤ {tol * 1e3:g} mm) at the end of its hold",
-                 lambda s: max(s["shift_target_error_m"].values()) <= tol)]
+        return [Criterion(f"CoM over each target (≤ {tol * 1e3:g} mm) at the end of its hold", "shift_target_error_m",
+                          "<=", tol, reduce="max")]

@@ -13,6 +13,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, MinJerkPath
 
 __all__ = ["SquatBehaviour"]
@@ -69,8 +70,8 @@ class SquatBehaviour(Behaviour):
     def criteria(self):
         d, tol, n = self.depth, self.tolerance, self.repetitions
         return [
-            ("squat_depths_m", f"{n} squats, each {d * 100:g} cm ± {tol * 1e3:g} mm deep (CoM)",
-             lambda s: len(s["squat_depths_m"]) == n and all(abs(x - d) <= tol for x in s["squat_depths_m"])),
-            ("final_height_error_m", f"CoM back up within {tol * 1e3:g} mm",
-             lambda s: s["final_height_error_m"] <= tol),
+            Criterion(f"{n} squats (CoM)", "squat_depths_m", "==", n, reduce="len"),
+            Criterion(f"each squat {d * 100:g} cm ± {tol * 1e3:g} mm deep (CoM)", "squat_depths_m", "<=", tol, minus=d,
+                      reduce="max"),
+            Criterion(f"CoM back up within {tol * 1e3:g} mm", "final_height_error_m", "<=", tol),
         ]

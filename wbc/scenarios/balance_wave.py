@@ -22,6 +22,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
+from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, JointTrackingTask, MinJerkPath
 
 __all__ = ["WaveBehaviour", "WAVE_JOINTS"]
@@ -164,7 +165,6 @@ class WaveBehaviour(Behaviour):
 
     def criteria(self):
         return [
-            ("wave_amplitude_ratio", "arms wave with ≥ 95% of the commanded amplitude",
-             lambda s: s["wave_amplitude_ratio"] >= 0.95),
-            ("max_task_error", "arm joints tracked within 0.05 rad", lambda s: s["max_task_error"]["arms"] <= 0.05),
+            Criterion("arms wave with ≥ 95% of the commanded amplitude", "wave_amplitude_ratio", ">=", 0.95),
+            Criterion("arm joints tracked within 0.05 rad", "max_task_error_rad.arms", "<=", 0.05),
         ]

@@ -2,7 +2,9 @@
 
 Tasks: CoM (weight 10), torso orientation (1), posture on every DoF (1e-2), and a frame task on each swinging
 sole (10 on position and orientation). Constraints: each stance sole is a hard contact; joint position and
-velocity limits; optional extra constraints (e.g. CoM in the support polygon). Contact switching
+velocity limits; the ZMP of the executed motion inside the stance soles' polygon
+(:class:`~wbc.constraints.zmp.ExecutedZmpConstraint`, relaxable); optional extra constraints (e.g. CoM in the
+support polygon). Contact switching
 (:meth:`StanceController.set_support`): a sole that touches down is held where it is; one that lifts off gets
 a swing task starting at its current placement. Walking (:mod:`wbc.scenarios.walk`) and the balance behaviours
 (:mod:`wbc.scenarios.balance_control`) are both this controller with their own references.
@@ -13,15 +15,18 @@ from __future__ import annotations
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
+from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
-from wbc.qp import DEFAULT_SOLVER
+from wbc.gait.schedule import Support
+from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
+__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
 
 #: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
-DOUBLE, LEFT_STANCE, RIGHT_STANCE = 0, 1, 2
+# The support codes of :class:`wbc.gait.schedule.Support` under the scenarios' names.
+DOUBLE, LEFT_STANCE, RIGHT_STANCE = Support.DOUBLE, Support.LEFT, Support.RIGHT
 SIDES = ("left", "right")
 
 
@@ -36,12 +41,15 @@ class StanceController:
         com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s); ``foot_gain`` also drives the
             contacts' drift correction.
         extra_constraints: added after the contacts (before the joint limits).
+        zmp_margin: margin (m) of the :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` that keeps the ZMP of
+            the executed motion inside the support polygon of the stance soles (None: no such constraint).
         **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
                  com_gain: float = 100.0, foot_gain: float = 100.0, torso_gain: float = 50.0,
-                 posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (), **controller_options):
+                 posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (),
+                 zmp_margin: float | None = 0.002, **controller_options):
         self.robot = robot
         self.com = ComTask(weight=10.0, gain=com_gain)
         self.com.set_target(config.com.copy())
@@ -55,6 +63,10 @@ class StanceController:
         self.contact = {side: ContactConstraint(robot, frames[side], gain=foot_gain) for side in SIDES}
         for c in self.contact.values():
             c.set_placement_from_configuration(config)
+        self.zmp = None if zmp_margin is None else ExecutedZmpConstraint(robot, margin=zmp_margin)
+        if self.zmp is not None:
+            self.zmp.set_support([self.contact[s].placement for s in SIDES])
+            extra_constraints = (*extra_constraints, self.zmp)
         self.controller = KinematicController(
             robot, [self.com, self.torso, self.posture],
             [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
@@ -82,6 +94,8 @@ class StanceController:
                 self.controller.add_task(self.swing[side])
             self.stance[side] = wanted[side]
         self.support = support
+        if self.zmp is not None:
+            self.zmp.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
         self.support_changed()
 
     def support_changed(self) -> None:

@@ -7,13 +7,12 @@ touch-down placement; the QP gives v; q ← pin.integrate(q, v dt).
 The log (``--log walk.npz``) holds, for N ticks: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv); ``com`` and
 ``com_ref`` (N, 3) m, world; ``zmp_ref`` (N, 2) m, world; ``left_sole``/``right_sole`` (N, 4, 4) world poses;
 ``support`` (N,) 0 = double, 1 = left stance, 2 = right stance; ``tick_time`` (N,) s; ``joint_names`` (nv−6,);
-``robot`` (name); ``dt``. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
+``robot`` (name); ``dt``; ``relaxed`` (N,) bool, tick solved without its relaxable constraints. Row k is the state at the start of tick k, t[k] = k dt, and v[k] the command
 computed from it (applied for dt); ``com_ref[k]`` is the plan's CoM at t[k].
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from time import perf_counter
 
@@ -21,10 +20,13 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.qp import DEFAULT_SOLVER
+from wbc.exceptions import InvalidTargetError
+from wbc.backends import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
+from wbc.geometry import mean_heading
 from wbc.robot import Robot
+from wbc.scenarios.framework import RunRecord
 from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 
@@ -75,24 +77,51 @@ class WalkController(StanceController):
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
+        self._plan: WalkPlan | None = None
+        self._torso_targets = np.zeros((0, 4, 4))
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
-        """Targets of sample k of the plan, at the current configuration."""
+        """Targets of sample k of the plan, at the current configuration.
+
+        The plan's samples are validated once per plan (finite, rotation blocks orthonormal) and then handed to
+        the tasks without per-tick validation; the torso targets of the whole plan are computed at that time.
+
+        Raises:
+            InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
+        """
+        if self._plan is not plan:
+            self._prepare_plan(plan)
         self.set_support(int(plan.support[k]), config)
-        self.com.set_target(plan.com[k], plan.com_vel[k])
+        self.com.set_target_trusted(plan.com[k], plan.com_vel[k])
         if not self.stance["left"]:
-            self.swing["left"].set_target(plan.left_sole[k], plan.left_sole_vel[k])
+            self.swing["left"].set_target_trusted(plan.left_sole[k], plan.left_sole_vel[k])
         if not self.stance["right"]:
-            self.swing["right"].set_target(plan.right_sole[k], plan.right_sole_vel[k])
-        yaw_l = math.atan2(plan.left_sole[k][1, 0], plan.left_sole[k][0, 0])
-        yaw_r = math.atan2(plan.right_sole[k][1, 0], plan.right_sole[k][0, 0])
-        yaw = math.atan2(math.sin(yaw_l) + math.sin(yaw_r), math.cos(yaw_l) + math.cos(yaw_r))
-        self.torso.set_target(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot, np.zeros(3)))
+            self.swing["right"].set_target_trusted(plan.right_sole[k], plan.right_sole_vel[k])
+        self.torso.set_target_trusted(self._torso_targets[k])
+
+    def _prepare_plan(self, plan: WalkPlan) -> None:
+        """Validate the plan's samples once and compute its torso targets (yaw = mean heading of the soles)."""
+        for name in ("com", "com_vel", "left_sole_vel", "right_sole_vel"):
+            if not np.isfinite(getattr(plan, name)).all():
+                raise InvalidTargetError(f"walk plan {name} contains NaN/inf")
+        for name in ("left_sole", "right_sole"):
+            poses = getattr(plan, name)
+            rot = poses[:, :3, :3]
+            if not np.isfinite(poses).all() or np.abs(rot.transpose(0, 2, 1) @ rot - np.eye(3)).max() > 1e-6 \
+                    or (np.linalg.det(rot) < 0).any():
+                raise InvalidTargetError(f"walk plan {name} has non-finite entries or a non-rotation block")
+        targets = np.zeros((len(plan.t), 4, 4))
+        targets[:, 3, 3] = 1.0
+        for k in range(len(plan.t)):
+            yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
+            targets[k, :3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot
+        self._torso_targets = targets
+        self._plan = plan
 
 
 @dataclass
-class WalkRun:
-    """Arrays recorded during a walk (see the module docstring for the log format)."""
+class WalkRun(RunRecord):
+    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``)."""
 
     robot: str
     dt: float
@@ -108,15 +137,7 @@ class WalkRun:
     tick_time: np.ndarray
     solver_ok: np.ndarray
     joint_names: list[str]
-
-    def save(self, path) -> None:
-        """Write the npz log (module docstring)."""
-        np.savez_compressed(
-            path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref, zmp_ref=self.zmp_ref,
-            left_sole=self.left_sole, right_sole=self.right_sole, support=self.support, tick_time=self.tick_time,
-            solver_ok=self.solver_ok, joint_names=np.array(self.joint_names), robot=np.array(self.robot),
-            dt=np.array(self.dt),
-        )
+    relaxed: np.ndarray | None = None
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
@@ -146,6 +167,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     out_r = np.empty((n, 4, 4))
     tick = np.empty(n)
     ok = np.empty(n, dtype=bool)
+    relaxed = np.zeros(n, dtype=bool)
     for k in range(n):
         out_q[k] = config.q
         out_com[k] = config.com
@@ -157,6 +179,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
         config.step(result.v, dt)
         tick[k] = perf_counter() - t0
         ok[k] = result.ok
+        relaxed[k] = bool(result.relaxed)
         out_v[k] = result.v
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt)
@@ -165,7 +188,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     return WalkRun(
         robot=robot.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com, com_ref=plan.com.copy(),
         zmp_ref=plan.zmp.copy(), left_sole=out_l, right_sole=out_r, support=plan.support.copy(), tick_time=tick,
-        solver_ok=ok, joint_names=robot.joint_names,
+        solver_ok=ok, joint_names=robot.joint_names, relaxed=relaxed,
     )
 
 
@@ -178,7 +201,7 @@ def _support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, sup
 def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     """Acceptance metrics of a walk.
 
-    Returns a dict with: robot, solver-independent plan info, dt (s), ticks, planned_distance and
+    Returns a dict with: robot, solver-independent plan info, dt_s, ticks, planned_distance and
     walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
     max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
     its stance began), min_zmp_margin_m (m, signed distance of the ZMP of the EXECUTED motion to the support
@@ -187,7 +210,8 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     :mod:`wbc.scenarios.metrics`), min_zmp_margin_plan_m (the same distance for the plan's ZMP, reported beside
     it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
-    solver_failures, nan (any non-finite q or v), passed and failed_criteria
+    solver_failures, relaxed_ticks (ticks solved without the relaxable constraints, e.g. the executed-ZMP
+    constraint; reported, not judged: the ZMP margin judges the motion), nan (any non-finite q or v), passed and failed_criteria
     (:data:`wbc.scenarios.acceptance.WALK_CRITERIA`).
     """
     from wbc.constraints.limits import bounded_joints
@@ -222,7 +246,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     tt = run.tick_time * 1e6
     summary = {
         "robot": robot.name,
-        "dt": run.dt,
+        "dt_s": run.dt,
         "ticks": int(len(run.t)),
         "duration_s": float(run.t[-1]),
         "steps": int(len(plan.footsteps)),
@@ -236,6 +260,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
+        "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     summary["passed"], summary["failed_criteria"] = walk_passes(summary)

@@ -25,6 +25,7 @@ import pinocchio as pin
 
 from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
+from wbc.scenarios.framework import RunRecord
 from wbc.sim.mujoco_runtime import MujocoModel
 
 __all__ = ["SimRun", "run_closed_loop", "FALL_HEIGHT_DROP"]
@@ -33,7 +34,7 @@ FALL_HEIGHT_DROP = 0.2  #: m, base height drop that counts as a fall
 
 
 @dataclass
-class SimRun:
+class SimRun(RunRecord):
     """Time series of a closed-loop run (one row per control tick; arrays truncated at the last tick run).
 
     Attributes:
@@ -81,15 +82,7 @@ class SimRun:
     fall_time: float | None = None
     extra: dict = field(default_factory=dict)
 
-    def save(self, path) -> None:
-        """Write every array (and the names) to an ``.npz`` file."""
-        arrays = {k: getattr(self, k) for k in (
-            "t", "q", "v", "tau", "com", "com_ref", "qp_forces", "contact_active", "sim_wrench", "sole_pos",
-            "ext_force", "residual", "ok", "relaxed", "tick_time", "step_time")}
-        np.savez_compressed(path, **arrays, robot=np.array(self.robot), controller=np.array(self.controller),
-                            **{k: v for k, v in self.extra.items() if isinstance(v, np.ndarray)},
-                            scenario=np.array(self.scenario), dt=np.array(self.dt), fell=np.array(self.fell),
-                            fall_reason=np.array(self.fall_reason))
+    not_logged = ("wall_time", "fall_time")  # wall time is measured, not computed; fall_time is in the summary
 
 
 def _foot_wrenches(sim, foot_bodies, sole_body, sole_off, out_wrench, out_pos) -> None:

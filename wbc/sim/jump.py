@@ -63,9 +63,11 @@ from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.dynamics.tasks import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import G, JumpPlan
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.scenarios import NO_FALL
 from wbc.tasks import OrientationTask, PostureTask
 
-__all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_acceptance", "limit_landing_torques"]
+__all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
 
 #: BalanceController gain overrides used for the jump (module docstring).
 JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
@@ -150,7 +152,11 @@ class JumpScenario:
     def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, crouch: float = 0.1,
                  extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.03,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
-                 landing_force: float | None = None, momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
+                 landing_force: float | None = None, min_hop: float | None = None,
+                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
+        if min_hop is not None and not (np.isfinite(min_hop) and min_hop >= 0):
+            raise InvalidInputError(f"jump: min_hop must be None or finite and >= 0 m, got {min_hop!r}")
+        self.min_hop = min_hop
         if not (isinstance(count, int) and count >= 1):
             raise InvalidInputError(f"jump: count must be an int >= 1, got {count!r}")
         for value, what in ((t_ramp, "t_ramp"), (settle, "settle"), (touchdown_height, "touchdown_height")):
@@ -343,6 +349,10 @@ class JumpScenario:
         self._target = mid + self.com_offset
 
     # -- summary -------------------------------------------------------------------------------------------
+    def criteria(self) -> list[Criterion]:
+        """:func:`jump_criteria` with this scenario's ``min_hop``."""
+        return jump_criteria(self.min_hop)
+
     def extra_summary(self, run) -> dict:
         ground = np.array([self.soles0[s].translation[2] for s in SIDES])
         z = run.sole_pos[:, :, 2] - ground
@@ -395,24 +405,25 @@ class JumpScenario:
                 "hop_distance_per_jump_m": hop, "feet_moved_m": float(moved)}
 
 
-def jump_acceptance(summary: dict, *, min_hop: float | None = None) -> list[str]:
-    """Failed criteria of a jump summary (issue 14): no fall, every jump landed, both soles ≥ 5 cm up for
-    ≥ 0.1 s in every jump, no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop
-    (mean x displacement of the soles, take-off to end of the jump) ≥ min_hop, else (vertical jumps) the feet
-    within 2 cm per jump of their start at the end."""
-    fails = []
-    if summary["fell"]:
-        fails.append(f"fell: {summary['fall_reason']}")
-    if not summary.get("landed"):
-        fails.append("not every jump landed")
-    if summary.get("time_both_feet_5cm_s", 0.0) < 0.1:
-        fails.append(f"both feet >= 5 cm for {summary.get('time_both_feet_5cm_s', 0.0):.3f} s < 0.1 s")
-    if (summary.get("max_slide_m") or 0.0) > 0.02:
-        fails.append(f"a sole slid {summary['max_slide_m']:.4g} m > 0.02 m after touch-down")
-    hops = summary.get("hop_distance_per_jump_m") or []
+def jump_criteria(min_hop: float | None = None) -> list[Criterion]:
+    """Acceptance of a jump series (issue 14): no fall, every jump landed, both soles ≥ 5 cm up for ≥ 0.1 s in
+    every jump, no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop (mean x
+    displacement of the soles, take-off to end of the jump) ≥ min_hop, else (vertical jumps) the feet within 2 cm
+    per jump of their start at the end."""
+    out = [
+        NO_FALL,
+        Criterion("every jump landed", "landed", "==", True),
+        Criterion("both feet ≥ 5 cm up for ≥ 0.1 s in every jump", "time_both_feet_5cm_s", ">=", 0.1),
+        Criterion("no sole slid > 2 cm after a touch-down", "max_slide_m", "<=", 0.02),
+    ]
     if min_hop is not None:
-        if not hops or min(hops) < min_hop:
-            fails.append(f"hops {[round(h, 4) for h in hops]} m, want each >= {min_hop} m")
-    elif summary.get("feet_moved_m", 0.0) > 0.02 * summary.get("jumps", 1):
-        fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m per jump")
-    return fails
+        out.append(Criterion(f"every hop ≥ {min_hop} m", "hop_distance_per_jump_m", ">=", min_hop, reduce="min"))
+    else:
+        out.append(Criterion("feet within 2 cm per jump of their start", "feet_moved_m", "<=", 0.02,
+                             scale_by="jumps"))
+    return out
+
+
+def jump_acceptance(summary: dict, *, min_hop: float | None = None) -> list[str]:
+    """Failed criteria of a jump summary (:func:`jump_criteria`)."""
+    return evaluate(summary, jump_criteria(min_hop))[1]

@@ -31,7 +31,10 @@ import pinocchio as pin
 from wbc.dynamics.balance import BalanceController
 from wbc.dynamics.tasks import PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
-from wbc.qp import make_backend
+from wbc.profiles import min_jerk
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.scenarios import FEET_STILL, NO_FALL
+from wbc.backends import make_backend
 from wbc.scenarios.balance_wave import wave_joints
 from wbc.tasks import PostureTask
 
@@ -61,11 +64,6 @@ def id_options_for(robot, solver: str = "daqp") -> dict:
     if solver != "daqp" or not contacts_rank_deficient(robot):
         return {"solver": solver}
     return {"solver": make_backend("daqp", **DAQP_RANK_DEFICIENT), "sole_margin": 0.01}
-
-
-def _min_jerk(s: float) -> tuple[float, float, float]:
-    s = min(max(s, 0.0), 1.0)
-    return (10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4, 60 * s - 180 * s**2 + 120 * s**3)
 
 
 class WaveScenario:
@@ -145,11 +143,11 @@ class WaveScenario:
         q, a = self._q, self._a
         a[:] = 0.0
         if t < self.t_lower:
-            s, _, dds = _min_jerk((t - self.t_start) / self.raise_time)
+            s, _, dds = min_jerk((t - self.t_start) / self.raise_time)
             q[7:] = self.q0[7:] + s * (self.q_up[7:] - self.q0[7:])
             a[6:] = dds / self.raise_time**2 * (self.q_up[7:] - self.q0[7:])
         else:
-            s, _, dds = _min_jerk((t - self.t_lower) / self.raise_time)
+            s, _, dds = min_jerk((t - self.t_lower) / self.raise_time)
             q[7:] = self.q_up[7:] + s * (self.q0[7:] - self.q_up[7:])
             a[6:] = dds / self.raise_time**2 * (self.q0[7:] - self.q_up[7:])
         e, de, dde = self._envelope(t - self.t_wave)
@@ -171,6 +169,14 @@ class WaveScenario:
             self.wave_q.append(q[self.iq].copy())
         return None
 
+    @staticmethod
+    def criteria() -> list[Criterion]:
+        """No fall, the wave completed, feet still, every waving joint swept at least |A| (half the commanded
+        peak-to-peak 2|A|)."""
+        return [NO_FALL, Criterion("the wave was completed", "wave_completed", "==", True), FEET_STILL,
+                Criterion("each waving joint swept ≥ |A| (half the commanded peak-to-peak)", "wave_swept_rad", ">=",
+                          threshold_key="wave_amplitude_rad")]
+
     def extra_summary(self, run) -> dict:
         moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
         wq = np.array(self.wave_q) if self.wave_q else np.zeros((1, len(self.iq)))
@@ -182,14 +188,4 @@ class WaveScenario:
 
 def wave_acceptance(summary: dict) -> list[str]:
     """Failed criteria of a wave summary (module docstring); empty when it passed."""
-    fails = []
-    if summary["fell"]:
-        fails.append(f"fell: {summary['fall_reason']}")
-    if not summary.get("wave_completed"):
-        fails.append("the wave was not completed")
-    if summary.get("feet_moved_m", 0.0) > 0.02:
-        fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m")
-    for name, a, s in zip(summary["wave_joints"], summary["wave_amplitude_rad"], summary["wave_swept_rad"]):
-        if s < abs(a):  # peak-to-peak 2|A| commanded; at least half of it measured
-            fails.append(f"{name} swept {s:.3f} rad < |A| = {abs(a):.3f} rad")
-    return fails
+    return evaluate(summary, WaveScenario.criteria())[1]

@@ -41,6 +41,8 @@ import pinocchio as pin
 
 from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError
+from wbc.profiles import min_jerk
+from wbc.scenarios.framework import Criterion, evaluate
 
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
@@ -52,10 +54,11 @@ __all__ = [
 DEFAULT_PUSH_FORCE = {"talos": 450.0, "g1": 120.0}
 
 
-def min_jerk(s: float) -> tuple[float, float, float]:
-    """Minimum-jerk blend (value, d/ds, d²/ds²) at s ∈ [0, 1] (clamped): 10s³ − 15s⁴ + 6s⁵."""
-    s = min(max(s, 0.0), 1.0)
-    return (10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4, 60 * s - 180 * s**2 + 120 * s**3)
+#: Every physics scenario: the robot did not fall (:mod:`wbc.sim.closed_loop`).
+NO_FALL = Criterion("no fall (base drop > 0.2 m or a non-foot body on the floor)", "fell", "==", False)
+
+#: A push or a wave must not make the robot step or slide.
+FEET_STILL = Criterion("feet moved ≤ 2 cm (no stepping/sliding)", "feet_moved_m", "<=", 0.02)
 
 
 class _Base:
@@ -81,6 +84,10 @@ class _Base:
     def extra_summary(self, run) -> dict:
         return {}
 
+    def criteria(self) -> list[Criterion]:
+        """Acceptance criteria of the scenario (module docstring)."""
+        return [NO_FALL]
+
 
 class StandScenario(_Base):
     """Hold the reference posture (module docstring)."""
@@ -90,12 +97,18 @@ class StandScenario(_Base):
     def __init__(self, duration: float = 10.0):
         super().__init__(duration)
 
+    def criteria(self) -> list[Criterion]:
+        return [NO_FALL, Criterion("CoM drift < 5 mm", "com_drift_m", "<", 0.005)]
+
 
 class SwayScenario(_Base):
     """Lateral CoM sway (module docstring). Needs the ID controller."""
 
     name = "sway"
     needs_id = True
+
+    def criteria(self) -> list[Criterion]:
+        return [NO_FALL, Criterion("CoM tracking error < 1 cm", "max_com_error_m", "<", 0.01)]
 
     def __init__(self, duration: float = 10.0, amplitude: float = 0.03, frequency: float = 0.5):
         super().__init__(duration)
@@ -194,6 +207,10 @@ class OneLegScenario(_Base):
             "hold_completed": bool(complete and hold.any()),
         }
 
+    def criteria(self) -> list[Criterion]:
+        return [NO_FALL, Criterion(f"the {self.hold:g} s hold was completed", "hold_completed", "==", True),
+                Criterion("lifted foot ≥ 4 cm above the floor during the hold", "lifted_foot_min_height_m", ">=", 0.04)]
+
 
 class PushScenario(_Base):
     """Lateral push at the torso link origin (module docstring)."""
@@ -237,6 +254,9 @@ class PushScenario(_Base):
         impulse = float(np.sum(np.linalg.norm(run.ext_force, axis=1)) * run.dt)
         return {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_body": self._body,
                 "push_impulse_ns": impulse, "feet_moved_m": float(moved), "max_sole_lift_m": lift}
+
+    def criteria(self) -> list[Criterion]:
+        return [NO_FALL, FEET_STILL]
 
 
 SCENARIOS = {"stand": StandScenario, "sway": SwayScenario, "one-leg": OneLegScenario, "push": PushScenario}
@@ -335,28 +355,10 @@ def summarize(run, scenario, controller=None) -> dict:
     return out
 
 
-def acceptance(summary: dict) -> tuple[bool, list[str]]:
-    """(passed, failed criteria) of a scenario summary (module docstring)."""
-    fails = []
-    if summary["fell"]:
-        fails.append(f"fell: {summary['fall_reason']}")
-    sc = summary["scenario"]
-    if sc == "stand" and summary["com_drift_m"] >= 0.005:
-        fails.append(f"com_drift_m {summary['com_drift_m']:.4g} >= 0.005")
-    if sc == "sway" and summary["max_com_error_m"] >= 0.01:
-        fails.append(f"max_com_error_m {summary['max_com_error_m']:.4g} >= 0.01")
-    if sc == "one-leg":
-        if not summary.get("hold_completed"):
-            fails.append("the 3 s hold was not completed")
-        if summary.get("lifted_foot_min_height_m", 0.0) < 0.04:
-            fails.append(f"lifted foot min height {summary.get('lifted_foot_min_height_m', 0.0):.4g} < 0.04 m")
-    if sc == "walk":
-        from wbc.sim.walk import walk_acceptance
-
-        fails.extend(walk_acceptance(summary))
-    if sc == "push" and summary.get("feet_moved_m", 0.0) > 0.02:
-        fails.append(f"feet moved {summary['feet_moved_m']:.4g} m > 0.02 m (stepping/sliding)")
-    return not fails, fails
+def acceptance(summary: dict, scenario) -> tuple[bool, list[str]]:
+    """(passed, failed criteria) of a scenario summary: :func:`wbc.scenarios.framework.evaluate` of
+    ``scenario.criteria()``."""
+    return evaluate(summary, scenario.criteria())
 
 
 def make_controller(robot, kind: str = "id", *, dt: float = 0.002, solver: str = "daqp", **options):
@@ -387,7 +389,7 @@ def run_scenario(sim, controller, scenario, **kwargs):
         raise InvalidInputError(f"scenario {scenario.name!r} needs the inverse-dynamics controller (--controller id)")
     run = run_closed_loop(sim, controller, scenario, **kwargs)
     summary = summarize(run, scenario, controller)
-    passed, fails = acceptance(summary)
+    passed, fails = acceptance(summary, scenario)
     summary["passed"], summary["failed_criteria"] = passed, fails
     return run, summary
 

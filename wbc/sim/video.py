@@ -2,7 +2,8 @@
 
 Rendering replays a logged motion (``SimRun.q``, Pinocchio conventions) into the MuJoCo model after the run, so
 the closed loop is never slowed down by rendering. The camera tracks the floating base at a fixed distance
-(free camera, azimuth/elevation in degrees). Encoding uses ``imageio`` with the ``imageio-ffmpeg`` plugin
+(free camera, azimuth/elevation in degrees) over a floor grid of 0.5 m squares drawn into the rendered scene
+(so the motion shows against the ground). Encoding uses ``imageio`` with the ``imageio-ffmpeg`` plugin
 (H.264, yuv420p). Headless Linux needs ``MUJOCO_GL=egl`` set before ``mujoco`` is imported (see
 :mod:`wbc.sim`) and the EGL/Mesa system libraries. Debian 12 packages that provide what MuJoCo's EGL backend
 loads here: ``libegl1`` (libEGL, glvnd; depends on ``libglvnd0`` and ``libegl-mesa0``), ``libopengl0``
@@ -85,8 +86,25 @@ def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: f
                 sim.set_state(q[i], data=data)
                 cam.lookat[:] = [data.qpos[0], data.qpos[1], 0.6 * data.qpos[2]]
                 renderer.update_scene(data, camera=cam)
+                _add_floor_grid(renderer.scene, data.qpos[:2])
                 writer.append_data(renderer.render())
     finally:
         renderer.close()
         light.ambient[:], light.diffuse[:] = saved
     return path
+
+
+def _add_floor_grid(scene, center_xy, half: float = 4.0, step: float = 0.5) -> None:
+    """Dark 8 mm lines every ``step`` m on the floor (z = 0), fixed in the world, within ``half`` m of the base:
+    the uniform floor alone hides that the tracked robot moves. Added to the rendered scene only."""
+    ticks = np.arange(-half, half + 1e-9, step)
+    cx, cy = (np.round(np.asarray(center_xy, dtype=float) / step) * step).tolist()
+    rgba = np.array([0.25, 0.25, 0.28, 1.0], dtype=np.float32)
+    eye = np.eye(3).ravel()
+    for k in ticks:
+        for size, pos in (([half, 0.004, 0.0005], [cx, cy + k, 0.001]), ([0.004, half, 0.0005], [cx + k, cy, 0.001])):
+            if scene.ngeom >= scene.maxgeom:
+                return
+            mujoco.mjv_initGeom(scene.geoms[scene.ngeom], mujoco.mjtGeom.mjGEOM_BOX, np.array(size), np.array(pos),
+                                eye, rgba)
+            scene.ngeom += 1

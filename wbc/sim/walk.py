@@ -32,10 +32,14 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
-from wbc.exceptions import InvalidInputError
-from wbc.gait import plan_walk
+from wbc.exceptions import GaitError, InvalidInputError
+from wbc.gait import Footstep, plan_walk
+from wbc.gait.step_adjustment import StepAdjuster
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.scenarios import NO_FALL
 
-__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance"]
+__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
+           "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
 
@@ -181,6 +185,18 @@ class WalkScenario:
         stabilizer: use :class:`DcmStabilizer` (else CoM PD tracking of the plan).
         ramp_time: force ramps (s). settle: time after the plan ends (s). descent_speed: late touch-down (m/s).
         cop_margin: stabilizer CoP margin (m).
+        step_adjust: adapt the landing point of the swing foot from the measured DCM
+            (:class:`wbc.gait.step_adjustment.StepAdjuster`, Khadiv et al. 2016 eq. 6–7; the DCM plan and the swing
+            trajectory are replanned from the new step by :meth:`wbc.gait.WalkPlan.replan`); the remaining
+            footsteps move with it. ``adjust_dead_band`` (m): dead band on the DCM error;
+            ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
+            ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + 0.35 z_c``
+            (``z_c`` the CoM height).
+        from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
+            DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
+            first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
+        first_side: the foot that swings first. step_lateral: lateral displacement of the feet mid-point per
+            step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
     Raises:
         InvalidInputError / GaitError: bad numbers.
@@ -193,7 +209,9 @@ class WalkScenario:
                  step_height: float = 0.05, turn: float = 0.0, step_width: float | None = None,
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
-                 descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8):
+                 descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.1,
+                 first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -208,6 +226,12 @@ class WalkScenario:
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
         self.t_final = 1.0
+        self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
+        self.adjust_freeze, self.step_lateral = float(adjust_freeze), float(step_lateral)
+        if first_side is None:
+            first_side = "right" if self.step_lateral < 0 else "left"
+        self.first_side = first_side
+        self.from_state = bool(from_state)
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.plan = None
@@ -227,19 +251,36 @@ class WalkScenario:
         plan = plan_walk(L, R, self.com0, n_steps=self.n_steps, step_length=self.step_length,
                          step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
                          t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
-                         sole_length=robot.sole_length, sole_width=robot.sole_width)
+                         sole_length=robot.sole_length, sole_width=robot.sole_width,
+                         first_side=self.first_side, check_start=not self.from_state, **({"step_lateral": self.step_lateral} if self.step_lateral
+                                                         else {}))
+        zc = float(self.com0[2])
+        w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
+        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
+                                     min_width=robot.sole_width + 0.05, max_width=w0 + 0.35 * zc,
+                                     dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
+                                     sole_width=robot.sole_width)
+        if self.from_state:
+            plan = self._capture_plan(plan, q, v)
         self.plan = plan
         # (the run length was fixed from the estimate of __init__, before setup)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
                     "right": np.gradient(plan.right_sole_vel, self.dt, axis=0)}
-        self.poses = {"left": plan.left_sole, "right": plan.right_sole}
-        self.vels = {"left": plan.left_sole_vel, "right": plan.right_sole_vel}
+        # Writable references (indexed by the original plan's samples; step adjustment rewrites them from the
+        # replanning sample on).
+        self.poses = {"left": plan.left_sole.copy(), "right": plan.right_sole.copy()}
+        self.vels = {"left": plan.left_sole_vel.copy(), "right": plan.right_sole_vel.copy()}
+        self.ref_dcm, self.ref_zmp = plan.dcm.copy(), plan.zmp.copy()
         # Swings: (side, lift-off sample, touch-down sample, footstep).
         self.swings = []
         for ph in plan.phases:
             if ph.step >= 0:
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
+        self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
+        self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
+        self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
+        self.replan_failures = 0
         self._next = 0  # next swing to start
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
@@ -254,6 +295,26 @@ class WalkScenario:
                     "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2)), "hull": [None] * n}
         self._k = 0
         self._pushing = False
+
+    def _capture_plan(self, plan, q, v):
+        """The plan from rest ``plan`` replanned from the measured CoM state, its first step placed from the
+        measured DCM and the closing step moved with it (``from_state``)."""
+        data = self._model.createData()
+        pin.centerOfMass(self._model, data, q, v)
+        c, cd = data.com[0].copy(), data.vcom[0].copy()
+        xi = c[:2] + cd[:2] / plan.omega
+        first = next(ph for ph in plan.phases if ph.step == 0)
+        fs = plan.footsteps[0]
+        other = "right" if fs.side == "left" else "left"
+        M = self._data.oMf[self._fid[other]]
+        stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
+        e = xi - plan.dcm[0]
+        corr = math.exp(plan.omega * first.end * self.dt) * e
+        land = self.adjuster.landing(fs, stance, corr)
+        d = (land.x - fs.x, land.y - fs.y)
+        new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in plan.footsteps]
+        self.capture_landing = (float(d[0]), float(d[1]))
+        return plan.replan(0, c, cd, new, check_start=False)
 
     def com_reference(self, t):
         return self.plan.com[self.plan.index(t)]
@@ -307,10 +368,12 @@ class WalkScenario:
         c, cd = self._data.com[0], self._data.vcom[0]
         w = plan.omega
         xi = c[:2] + cd[:2] / w
+        if self.step_adjust:
+            self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
-            a_xy = self.stab(c[:2], cd[:2], plan.dcm[k], plan.zmp[k], hull)
+            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull)
             target = np.array([c[0], c[1], plan.com[k, 2]])
             vel = np.array([cd[0], cd[1], 0.0])
             controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
@@ -319,7 +382,7 @@ class WalkScenario:
             controller.set_com_reference(plan.com[k], plan.com_vel[k], plan.com_acc[k])
         lg = self.log
         lg["dcm"][i] = xi
-        lg["dcm_ref"][i] = plan.dcm[k]
+        lg["dcm_ref"][i] = self.ref_dcm[k]
         for j, s in enumerate(("left", "right")):
             lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(sw.phase(s))
             M = self._data.oMf[self._fid[s]]
@@ -338,7 +401,61 @@ class WalkScenario:
             self._pushing = False
         return None
 
+    def _adjust_step(self, t, k, c, cd, xi):
+        """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
+        the measured DCM vs the DCM plan held at the swing's start (eq. 1 of :mod:`wbc.gait.step_adjustment`);
+        when it moved by more than 1 cm, replan the DCM and the swing from it (measured CoM state)."""
+        idx = None
+        for i, (side, k_lift, k_td, fs) in enumerate(self.swings):
+            if k_lift <= k < k_td:
+                idx = i
+                break
+        if idx is None:
+            self._base = None
+            return
+        side, k_lift, k_td, fs = self.swings[idx]
+        if self.switcher.phase(side) != "swing":
+            return
+        if self._base is None or self._base[0] != idx:
+            self._base = (idx, fs, self.ref_dcm.copy())
+        time_left = (k_td - k) * self.dt
+        if time_left < self.adjust_freeze:
+            return
+        _, fs0, dcm0 = self._base
+        other = "right" if side == "left" else "left"
+        M = self._data.oMf[self._fid[other]]
+        stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
+        corr = self.adjuster.correction(xi, dcm0[k], time_left)
+        if not corr.any() and abs(fs.x - fs0.x) + abs(fs.y - fs0.y) == 0.0:
+            return
+        target = self.adjuster.landing(fs0, stance, corr) if corr.any() else fs0
+        d = np.array([target.x - fs.x, target.y - fs.y])
+        if np.linalg.norm(d) < 0.01:
+            return
+        remaining = [(i, sw) for i, sw in enumerate(self.swings) if sw[2] > k]
+        new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
+        try:
+            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False)
+        except GaitError:
+            self.replan_failures += 1
+            return
+        self._rp, self._rp_k0 = rp, k
+        for (i, sw), f in zip(remaining, new):
+            self.swings[i] = (sw[0], sw[1], sw[2], f)
+        n = rp.n_samples
+        for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
+            self.poses[s][k:k + n] = P
+            self.vels[s][k:k + n] = V
+            self.acc[s][k:k + n] = np.gradient(V, self.dt, axis=0)
+        self.ref_dcm[k:k + n] = rp.dcm
+        self.ref_zmp[k:k + n] = rp.zmp
+        self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
     # -- summary -------------------------------------------------------------------------------------------
+    def criteria(self) -> list[Criterion]:
+        """:func:`walk_criteria` with the default tolerances."""
+        return walk_criteria()
+
     def extra_summary(self, run) -> dict:
         n = len(run.t)
         lg = {k: (v[:n] if isinstance(v, np.ndarray) else v[:n]) for k, v in self.log.items()}
@@ -417,29 +534,37 @@ class WalkScenario:
             "stabilizer": self.stabilizer_on,
             "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s",
             "push_n": self.push, "push_time_s": self.push_time,
+            "step_adjustments": len(self.adjustments),
+            "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
+            "adjusted_distance_m": float(np.linalg.norm(
+                0.5 * (self.poses["left"][-1, :2, 3] + self.poses["right"][-1, :2, 3])
+                - 0.5 * (self.poses["left"][0, :2, 3] + self.poses["right"][0, :2, 3]))),
+            "replan_failures": self.replan_failures,
             "completed": complete,
         }
+        out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
         run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
                           "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
         return out
 
 
-def walk_acceptance(summary: dict, *, distance_tol: float = 0.05, slip_max: float = 0.005,
-                    heading_tol: float = math.radians(5.0)) -> list[str]:
-    """Failed criteria of a walk summary: walked distance within ``distance_tol`` (relative, at least 1 cm) of
-    commanded, final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
-    walk completed, 0 solver failures (falls are checked by :func:`wbc.sim.scenarios.acceptance`)."""
-    fails = []
-    cmd, got = summary["commanded_distance_m"], summary["walked_distance_m"]
-    if abs(got - cmd) > max(distance_tol * cmd, 0.01):
-        fails.append(f"walked {got:.3f} m vs commanded {cmd:.3f} m (> {distance_tol:.0%})")
-    dh = abs(math.remainder(summary["walked_heading_rad"] - summary["commanded_heading_rad"], 2 * math.pi))
-    if dh > heading_tol:
-        fails.append(f"heading error {math.degrees(dh):.1f} deg > {math.degrees(heading_tol):.0f} deg")
-    if summary["max_stance_slip_m"] > slip_max:
-        fails.append(f"stance slip {summary['max_stance_slip_m'] * 1e3:.1f} mm > {slip_max * 1e3:.0f} mm")
-    if summary.get("solver_failures", 0):
-        fails.append(f"{summary['solver_failures']} solver failures")
-    if not summary["completed"]:
-        fails.append("walk not completed")
-    return fails
+def walk_criteria(*, distance_tol: float = 0.05, slip_max: float = 0.005,
+                  heading_tol: float = math.radians(5.0)) -> list[Criterion]:
+    """Criteria of a physics walk: no fall, walked distance within ``distance_tol`` (relative, at least 1 cm) of
+    the target distance (commanded, or the adjusted plan's distance when steps were adjusted), final heading within ``heading_tol`` (rad) of commanded, stance slip ≤ ``slip_max`` (m) per step,
+    0 solver failures, walk completed."""
+    return [
+        NO_FALL,
+        Criterion(f"walked distance within {distance_tol:.0%} (≥ 1 cm) of the target", "walked_distance_m", "<=",
+                  distance_tol, minus="target_distance_m", scale_by="target_distance_m", floor=0.01),
+        Criterion(f"final heading within {math.degrees(heading_tol):.0f} deg of commanded", "walked_heading_rad",
+                  "<=", heading_tol, minus="commanded_heading_rad", period=2 * math.pi),
+        Criterion(f"stance slip ≤ {slip_max * 1e3:.0f} mm", "max_stance_slip_m", "<=", slip_max),
+        Criterion("no solver failure", "solver_failures", "==", 0),
+        Criterion("walk completed", "completed", "==", True),
+    ]
+
+
+def walk_acceptance(summary: dict, **tolerances) -> list[str]:
+    """Failed criteria of a walk summary (:func:`walk_criteria`, keyword arguments passed on)."""
+    return evaluate(summary, walk_criteria(**tolerances))[1]

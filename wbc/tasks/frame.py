@@ -13,30 +13,11 @@ import pinocchio as pin
 
 from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
+from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
            "as_se3"]
-
-
-def as_se3(pose, what: str = "target pose") -> pin.SE3:
-    """Convert a pin.SE3 or a (4, 4) homogeneous matrix to pin.SE3.
-
-    Raises:
-        InvalidTargetError: wrong type/shape, non-finite entries, or a non-rotation 3×3 block.
-    """
-    if isinstance(pose, pin.SE3):
-        mat = pose.homogeneous
-    else:
-        mat = np.asarray(pose, dtype=float)
-        if mat.shape != (4, 4):
-            raise InvalidTargetError(f"{what} must be a pin.SE3 or a (4, 4) matrix, got shape {mat.shape}")
-    if not np.isfinite(mat).all():
-        raise InvalidTargetError(f"{what} contains NaN/inf")
-    rot = mat[:3, :3]
-    if np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) < 0:
-        raise InvalidTargetError(f"{what} rotation block is not a rotation matrix")
-    return pose if isinstance(pose, pin.SE3) else pin.SE3(rot.copy(), mat[:3, 3].copy())
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -107,8 +88,26 @@ class FrameTask(Task):
         vel = np.asarray(velocity, dtype=float)
         if vel.shape != (6,) or not np.isfinite(vel).all():
             raise InvalidTargetError(f"velocity of {self.name} must be a finite (6,) array, got {vel!r}")
+        self._set_feedforward(vel)
+
+    def _set_feedforward(self, vel: np.ndarray) -> None:
         self._ff6[:3] = vel[:3]
-        self._ff6[3:] = self.target.rotation.T @ vel[3:]
+        self._ff6[3:] = self._target.rotation.T @ vel[3:]
+        self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
+
+    def set_target_trusted(self, pose: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        """:meth:`set_target` without validation, for a controller's own loop feeding targets it built and
+        validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``pose`` a (4, 4) homogeneous matrix
+        (world, m), ``velocity`` None or a finite (6,) float array (linear m/s, angular rad/s, world axes).
+        Malformed input is not detected here."""
+        rot = pose[:3, :3]
+        self._target = pin.SE3(rot, pose[:3, 3])
+        self._target_rot_t = rot.T.copy()
+        if velocity is None:
+            self._ff = None
+            return
+        self._ff6[:3] = velocity[:3]
+        self._ff6[3:] = self._target_rot_t @ velocity[3:]
         self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
 
     @property

@@ -11,7 +11,7 @@ meshcat paths used (all in meshcat's world frame, z up, metres):
   short line pieces (meshcat's own ``/Grid`` is hidden: its 20 m lines cross the camera plane and are dropped
   whole by some WebGL renderers (SwiftShader), leaving only the far lines at about the camera's height);
 * ``/Cameras/default/rotated/<object>``: the camera; ``/Cameras/target``: an empty node whose position the
-  HTML recordings' script makes the camera look at (and follow).
+  HTML recordings' and the live page's script makes the camera look at (and follow).
 """
 
 from __future__ import annotations
@@ -35,12 +35,13 @@ FLOOR_ROOT = "/meshcat/floor"
 CAMERA_TARGET = "/Cameras/target"
 CAMERA_OBJECT = "/Cameras/default/rotated/<object>"
 #: Colours (0xRRGGBB) of well-known overlays; others cycle through ``_PALETTE``.
-OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "zmp": 0x1FA34A, "cop": 0x1FA34A,
+#: Overlays drawn together in one scene have distinct colours (a test checks it).
+OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "zmp": 0x1FA34A, "cop": 0x0B5D1E,
                   "zmp_planned": 0x1FA34A, "zmp_executed": 0x9BE15D, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0,
                   "dcm_planned": 0x2B6FE0, "dcm_executed": 0x7FB2FF, "footsteps_planned": 0xF28C1B,
                   "footprints": 0x222222, "swing_left": 0x9B3FD1, "swing_right": 0x15A5B5,
                   "support_polygon": 0xFFD21F, "contact_forces": 0xD11FB0, "push": 0xFF2020,
-                  "contact_force_left": 0x9B3FD1, "contact_force_right": 0x15A5B5}
+                  "contact_force_left": 0xD11FB0, "contact_force_right": 0x8C564B}
 _PALETTE = (0xF28C1B, 0x9B3FD1, 0x15A5B5, 0xD4C21A)
 OVERLAY_RADIUS = 0.025  # m
 
@@ -98,6 +99,61 @@ def polyline(vertices: np.ndarray, color: int, closed: bool = False):
     return cls(mg.PointsGeometry(np.asarray(vertices).T.astype(np.float32)), mg.LineBasicMaterial(color=color))
 
 
+#: JavaScript (plain string, no format braces) defining ``wbcFollow(viewer)``: every animation frame, the orbit
+#: controls' target and the camera move by how much ``/Cameras/target`` moved, so the camera follows that node
+#: and mouse orbit/zoom keep working. With ``/Cameras/default`` left at identity, the camera's parent frame is
+#: three.js's world frame.
+FOLLOW_JS = """
+function wbcFollow(viewer) {
+  const node = viewer.scene_tree.find(["Cameras", "target"]).object;
+  const step = () => {
+    const delta = node.getWorldPosition(viewer.controls.target.clone()).sub(viewer.controls.target);
+    if (delta.lengthSq() > 0) {
+      viewer.controls.target.add(delta);
+      viewer.camera.position.add(delta);
+      viewer.set_dirty();
+    }
+    requestAnimationFrame(step);
+  };
+  step();
+}
+"""
+
+#: JavaScript defining ``wbcLiveLegend(viewer)``: a legend box (``#wbc-legend``) listing the children of
+#: ``/meshcat/overlays`` present in the scene with their material colour, refreshed every second (the live
+#: viewer adds overlays as they appear).
+LIVE_LEGEND_JS = """
+function wbcLiveLegend(viewer) {
+  const box = document.createElement("div");
+  box.id = "wbc-legend";
+  box.style.cssText = "position:fixed;left:8px;bottom:8px;padding:6px 8px;background:rgba(255,255,255,0.85);" +
+                      "font:12px sans-serif;border-radius:4px;z-index:10";
+  document.body.appendChild(box);
+  let shown = "";
+  const refresh = () => {
+    const root = viewer.scene_tree.find(["meshcat", "overlays"]);
+    const rows = [];
+    for (const name of Object.keys(root.children)) {
+      let color = null;
+      root.children[name].object.traverse(o => {
+        if (color === null && o.material && o.material.color) color = o.material.color.getHexString();
+      });
+      if (color !== null) rows.push([name, color]);
+    }
+    const key = JSON.stringify(rows);
+    if (key !== shown) {
+      shown = key;
+      box.innerHTML = "<b>overlays</b> (toggle under Open Controls &rsaquo; meshcat &rsaquo; overlays)" +
+        rows.map(([n, c]) => '<div class="wbc-legend-row" data-overlay="' + n + '"><span style="display:inline-block;' +
+          'width:12px;height:12px;margin-right:6px;background:#' + c + '"></span>' + n + '</div>').join("");
+    }
+  };
+  refresh();
+  setInterval(refresh, 1000);
+}
+"""
+
+
 def legend_html(entries: dict[str, int]) -> str:
     """A fixed HTML box listing overlay names with their colours (0xRRGGBB)."""
     rows = "".join(
@@ -145,14 +201,10 @@ def robot_height(robot: Robot) -> float:
     return max(zmax + 0.1, 0.5)
 
 
-def camera_offset(robot: Robot, *, target_on_ground: bool = False) -> np.ndarray:
-    """Camera position relative to the point it looks at (world frame, m), in front of the robot's right.
-
-    ``target_on_ground``: the camera looks at the robot's feet (live viewer: the target is the world origin)
-    rather than at mid height, so it stands further back and higher to keep the head in view.
-    """
-    h = robot_height(robot)
-    return h * (np.array([1.2, -1.5, 0.6]) if target_on_ground else np.array([0.8, -1.0, 0.2]))
+def camera_offset(robot: Robot) -> np.ndarray:
+    """Camera position relative to the point it looks at (mid robot height above the base; world frame, m),
+    in front of the robot's right."""
+    return robot_height(robot) * np.array([0.8, -1.0, 0.2])
 
 
 def set_camera_offset(viewer: meshcat.Visualizer, offset: np.ndarray) -> None:
@@ -161,7 +213,8 @@ def set_camera_offset(viewer: meshcat.Visualizer, offset: np.ndarray) -> None:
     meshcat 0.3.2 cannot move the orbit-controls target by command: it stays at the world origin (a
     translated ``/Cameras/default`` moves the camera but not where it looks). The camera object hangs under
     ``/Cameras/default/rotated`` (+90 deg about x, three.js is y-up), so a world offset (dx, dy, dz) is the
-    local position (dx, dz, -dy). The HTML recordings move the target with JavaScript (``CAMERA_TARGET``).
+    local position (dx, dz, -dy). The HTML recordings and the live viewer's page move the target with
+    JavaScript (:data:`FOLLOW_JS`, following ``CAMERA_TARGET``).
     """
     dx, dy, dz = (float(v) for v in offset)
     viewer[CAMERA_OBJECT].set_property("position", [dx, dz, -dy])

@@ -9,6 +9,7 @@ and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transfo
 from __future__ import annotations
 
 import atexit
+import math
 import subprocess
 import threading
 import time
@@ -25,6 +26,7 @@ import zmq
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.viz import _scene, _server
+from wbc.viz.live_overlays import LiveOverlays
 
 __all__ = ["LiveViewer", "RealTimePacer"]
 
@@ -39,6 +41,11 @@ class LiveViewer:
             killed by :meth:`close`) whose zmq *and* web/websocket ports all listen on 127.0.0.1 only
             (``meshcat-server`` 0.3.2 serves the page on every interface).
         open: open the viewer URL in the default web browser.
+        overlays: what to draw over each displayed pose, computed in the display thread
+            (:class:`wbc.viz.live_overlays.LiveOverlays`); default: ``LiveOverlays(robot)`` (CoM, its ground
+            projection, executed DCM and ZMP, support polygon, footprints, swing paths). See :meth:`set_overlays`.
+        follow_camera: the camera follows the base (its x, y smoothed over ~0.5 s, at mid robot height); the
+            page served by the viewer's own server moves the orbit target with ``/Cameras/target``.
 
     Attributes:
         url: the viewer's web address.
@@ -52,7 +59,8 @@ class LiveViewer:
         ConnectionError: no meshcat server answers at ``zmq_url`` within 3 s.
     """
 
-    def __init__(self, robot: Robot, *, fps: float = 25.0, zmq_url: str | None = None, open: bool = False):
+    def __init__(self, robot: Robot, *, fps: float = 25.0, zmq_url: str | None = None, open: bool = False,
+                 overlays: LiveOverlays | None = None, follow_camera: bool = True):
         if not (np.isfinite(fps) and fps > 0):
             raise InvalidInputError(f"fps must be positive, got {fps}")
         self.robot = robot
@@ -71,11 +79,19 @@ class LiveViewer:
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
         _scene.add_floor(self._vis)
-        _scene.set_camera_offset(self._vis, _scene.camera_offset(robot, target_on_ground=True))
+        self._height = _scene.robot_height(robot)
+        _scene.set_camera_offset(self._vis, _scene.camera_offset(robot))
+        self.follow_camera = bool(follow_camera)
+        self._target: np.ndarray | None = None
+        self._last_t: float | None = None
+        self._move_target(robot.q_ref, None)
         self._viz.display(robot.q_ref)
         if open:
             self._vis.open()
         self._markers: set[str] = set()
+        self._footprints = 0
+        self._source: LiveOverlays | None = None
+        self._pending_source: LiveOverlays | None = overlays or LiveOverlays(robot)
         self._latest: tuple[np.ndarray, float | None, dict[str, np.ndarray]] | None = None
         self._wake = threading.Event()
         self._stop = threading.Event()
@@ -88,8 +104,8 @@ class LiveViewer:
         Args:
             q: (nq,) configuration (copied).
             t: its time (s), reported as :attr:`displayed_time`.
-            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"com": c, "zmp": p}``); without
-                ``"com"`` the display thread computes the CoM of ``q`` and shows it with its ground projection.
+            overlays: name -> (3,) world point (m) shown as a small sphere (e.g. ``{"zmp": p}``), on top of (and
+                replacing same-named) points of the viewer's :class:`LiveOverlays`, computed in the display thread.
 
         Raises:
             InvalidInputError: ``q`` is not a finite (nq,) vector, or an overlay is not a finite 3-vector.
@@ -104,6 +120,14 @@ class LiveViewer:
                 raise InvalidInputError(f"overlay {name!r} must be a finite 3-vector, got shape {p.shape}")
             marks[str(name)] = p
         self._latest = (q, t, marks)  # a single reference swap: atomic, no lock
+        self._wake.set()
+
+    def set_overlays(self, overlays: LiveOverlays) -> None:
+        """Replace what is drawn over the poses (e.g. ``LiveOverlays(robot, plan)`` for a walk) before a run.
+
+        The display thread draws its static items (planned footsteps) before the next pose; returns at once.
+        """
+        self._pending_source = overlays
         self._wake.set()
 
     def close(self) -> None:
@@ -149,20 +173,54 @@ class LiveViewer:
             next_frame = max(next_frame + self.period, time.perf_counter())
             self._stop.wait(max(0.0, next_frame - time.perf_counter()))
 
+    def _move_target(self, q: np.ndarray, t: float | None) -> None:
+        """Move ``/Cameras/target`` to the base's x, y (first-order smoothing, 0.5 s) at mid robot height."""
+        if not self.follow_camera:
+            return
+        xy = np.asarray(q[:2], dtype=float)
+        if self._target is None or t is None or self._last_t is None or t <= self._last_t:
+            self._target = xy.copy()
+        else:
+            self._target += (1.0 - math.exp(-(t - self._last_t) / 0.5)) * (xy - self._target)
+        self._last_t = t
+        self._vis[_scene.CAMERA_TARGET].set_transform(
+            tf.translation_matrix([self._target[0], self._target[1], 0.5 * self._height]))
+
+    def _draw_static(self, source: LiveOverlays) -> None:
+        for name, outlines in source.static().items():
+            self._vis[f"{_scene.OVERLAY_ROOT}/{name}"].delete()
+            color = _scene.overlay_color(name, 0)
+            for i, v in enumerate(outlines):
+                self._vis[f"{_scene.OVERLAY_ROOT}/{name}/{i}"].set_object(_scene.polyline(v, color, closed=True))
+
     def _show(self, q: np.ndarray, t: float | None, marks: dict[str, np.ndarray]) -> None:
+        if self._pending_source is not None:
+            self._source, self._pending_source = self._pending_source, None
+            self._draw_static(self._source)
         q = pin.normalize(self.robot.model, q)
         self._viz.display(q)
-        if "com" not in marks:  # computed here, in the display thread, never on the control path
-            if not hasattr(self, "_data"):
-                self._data = self.robot.model.createData()
-            com = pin.centerOfMass(self.robot.model, self._data, q).copy()
-            marks = {"com": com, "com_ground": np.array([com[0], com[1], 0.0]), **marks}
-        for i, (name, p) in enumerate(marks.items()):
+        self._move_target(q, t)
+        frame = self._source.frame(q, t) if self._source is not None else {}
+        points = {**frame.get("points", {}), **marks}  # computed here, in the display thread
+        for i, (name, p) in enumerate(points.items()):
             node = self._vis[f"{_scene.OVERLAY_ROOT}/{name}"]
             if name not in self._markers:
                 node.set_object(_scene.overlay_sphere(_scene.overlay_color(name, i)))
                 self._markers.add(name)
             node.set_transform(tf.translation_matrix(p))
+        polygon = frame.get("support_polygon")
+        if polygon is not None:
+            node = self._vis[f"{_scene.OVERLAY_ROOT}/support_polygon/0"]
+            if len(polygon) >= 2:
+                node.set_object(_scene.polygon_outline(polygon))
+            else:
+                node.delete()
+        for v in frame.get("footprints", []):
+            self._vis[f"{_scene.OVERLAY_ROOT}/footprints/{self._footprints}"].set_object(
+                _scene.polyline(v, _scene.overlay_color("footprints", 0), closed=True))
+            self._footprints += 1
+        for name, v in frame.get("trails", {}).items():
+            self._vis[f"{_scene.OVERLAY_ROOT}/{name}/0"].set_object(_scene.polyline(v, _scene.overlay_color(name, 0)))
         self.frames_displayed += 1
         self.displayed_time = t
 

@@ -13,6 +13,9 @@ draws, each under its own meshcat path (toggled in meshcat's "Open Controls" pan
   plan's footsteps), ``footprints`` (realized sole rectangles at the start and at each touchdown);
 * ``paths`` name -> list of open (K, 3) polylines, static: ``swing_left`` / ``swing_right`` (sole-origin
   trajectories).
+
+:func:`sim_overlays` does the same for a MuJoCo run from the plant's ground truth (support from the measured
+foot forces, measured CoP, contact-force and push arrows) plus the walk plan's footsteps, ZMP and DCM.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import numpy as np
 
 from wbc.gait.support import convex_hull, sole_polygon
 
-__all__ = ["walk_overlays", "sim_overlays", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
+__all__ = ["walk_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
 
 GRAVITY = 9.81  # m/s^2
 
@@ -63,31 +66,51 @@ def walk_overlays(robot, plan, run) -> dict:
         "dcm_planned": np.c_[plan.dcm[:n, :2], zeros],
         "dcm_executed": dcm_of(t, run.com),
     }
-    L, W = robot.sole_length, robot.sole_width
+    polygons, prints, paths = contact_items(t, run.support, run.left_sole, run.right_sole, robot.sole_length,
+                                            robot.sole_width)
+    planned = [_outline(f.pose(), robot.sole_length, robot.sole_width) for f in plan.footsteps]
+    outlines = {"footsteps_planned": planned, "footprints": prints}
+    return {"points": points, "polygons": polygons, "outlines": outlines, "paths": paths}
+
+
+def contact_items(t: np.ndarray, support: np.ndarray, left_sole: np.ndarray, right_sole: np.ndarray,
+                  length: float, width: float) -> tuple[list, list, dict]:
+    """Support polygons, footprints and swing paths from a support sequence and the realized sole poses.
+
+    Args:
+        t: (N,) s. support: (N,) codes 0 double support, 1 left stance, 2 right stance, 3 no contact (flight).
+        left_sole, right_sole: (N, 4, 4) world poses (m). length, width: sole rectangle (m).
+
+    Returns:
+        ``(polygons, footprints, paths)``: one ``(t_start, t_end, (K, 3))`` support polygon per phase with a
+        contact (3 mm above the ground); closed sole outlines at the start and at each touchdown (end of a
+        phase in which that foot was not in contact); ``{"swing_left": [(N, 3)], "swing_right": [(N, 3)]}``
+        sole-origin paths.
+    """
+    n = len(t)
+    support = np.asarray(support)
     polygons = []
-    support = np.asarray(run.support)
     starts = np.r_[0, np.flatnonzero(np.diff(support)) + 1]
     ends = np.r_[starts[1:], n]
     for a, b in zip(starts, ends):
-        k = a
         polys = []
-        if support[k] in (0, 1):
-            polys.append(_outline(run.left_sole[k], L, W)[:, :2])
-        if support[k] in (0, 2):
-            polys.append(_outline(run.right_sole[k], L, W)[:, :2])
+        if support[a] in (0, 1):
+            polys.append(_outline(left_sole[a], length, width)[:, :2])
+        if support[a] in (0, 2):
+            polys.append(_outline(right_sole[a], length, width)[:, :2])
+        if not polys:
+            continue
         hull = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
         t_end = t[b] if b < n else t[-1] + (t[-1] - t[-2] if n > 1 else 1.0)
         polygons.append((float(t[a]), float(t_end), np.c_[hull, np.full(len(hull), 0.003)]))
-    planned = [_outline(f.pose(), L, W) for f in plan.footsteps]
     prints = []
-    for side, soles, swing_phase in (("left", run.left_sole, 2), ("right", run.right_sole, 1)):
-        prints.append(_outline(soles[0], L, W))
-        swinging = support == swing_phase
-        for k in np.flatnonzero(swinging[:-1] & ~swinging[1:]) + 1:  # touchdown: swing phase ends
-            prints.append(_outline(soles[k], L, W))
-    outlines = {"footsteps_planned": planned, "footprints": prints}
-    paths = {"swing_left": [run.left_sole[:, :3, 3]], "swing_right": [run.right_sole[:, :3, 3]]}
-    return {"points": points, "polygons": polygons, "outlines": outlines, "paths": paths}
+    for soles, stance in ((left_sole, (0, 1)), (right_sole, (0, 2))):
+        prints.append(_outline(soles[0], length, width))
+        down = np.isin(support, stance)
+        for k in np.flatnonzero(~down[:-1] & down[1:]) + 1:  # touchdown: the foot is in contact again
+            prints.append(_outline(soles[k], length, width))
+    paths = {"swing_left": [left_sole[:, :3, 3]], "swing_right": [right_sole[:, :3, 3]]}
+    return polygons, prints, paths
 
 
 def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
@@ -110,12 +133,27 @@ def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1
     return np.c_[x, y, np.zeros(len(x))]
 
 
-def sim_overlays(run) -> dict:
-    """Overlays of a MuJoCo run (:class:`wbc.sim.closed_loop.ClosedLoopRun`): ``points`` com, com_ground,
-    cop (measured, ground truth; at the CoM projection in flight), dcm_executed; ``arrows`` contact forces on
-    each sole (ground truth) and the push on the torso (drawn from the CoM), 1 mm per N."""
+def sim_overlays(run, robot=None, plan=None, min_fz: float = 10.0) -> dict:
+    """Overlays of a MuJoCo run (:class:`wbc.sim.closed_loop.SimRun`).
+
+    Args:
+        run: the run. robot: its :class:`~wbc.robot.Robot` (sole frames and rectangle), to draw the support
+            polygons, footprints and swing-foot paths; None skips them. plan: the walk's
+            :class:`~wbc.gait.WalkPlan` (same clock as ``run.t``), to draw its footsteps, ZMP and DCM; or None.
+        min_fz: a foot is in contact while the plant's ground reaction on it exceeds this (N).
+
+    Returns:
+        ``{"points", "arrows", "polygons", "outlines", "paths"}``: points com, com_ground, cop (measured,
+        ground truth; at the CoM projection in flight), dcm_executed (+ zmp_planned, dcm_planned with a plan);
+        arrows: contact forces on each sole (ground truth) and the push on the torso (drawn from the CoM),
+        1 mm per N; support polygons of the feet in contact, footprints at the start and at each touchdown,
+        swing_left / swing_right sole paths (with a robot), footsteps_planned (with a plan).
+    """
+    import pinocchio as pin
+
     t, com = run.t, run.com
-    ground = np.c_[com[:, :2], np.zeros(len(t))]
+    n = len(t)
+    ground = np.c_[com[:, :2], np.zeros(n)]
     cop = measured_cop(run.sim_wrench, run.sole_pos)
     cop = np.where(np.isnan(cop), ground, cop)
     points = {"com": com, "com_ground": ground, "cop": cop, "dcm_executed": dcm_of(t, com)}
@@ -125,4 +163,28 @@ def sim_overlays(run) -> dict:
     }
     if np.any(run.ext_force):
         arrows["push"] = (com, run.ext_force)
-    return {"points": points, "arrows": arrows}
+    out = {"points": points, "arrows": arrows, "polygons": [], "outlines": {}, "paths": {}}
+    if plan is not None:
+        k = np.clip(np.rint(t / plan.dt).astype(int), 0, plan.n_samples - 1)
+        points["zmp_planned"] = np.c_[plan.zmp[k], np.zeros(n)]
+        points["dcm_planned"] = np.c_[plan.dcm[k], np.zeros(n)]
+        if robot is not None:
+            out["outlines"]["footsteps_planned"] = [_outline(f.pose(), robot.sole_length, robot.sole_width)
+                                                    for f in plan.footsteps]
+    if robot is not None:
+        model = robot.model
+        data = model.createData()
+        frames = (robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole))
+        soles = np.empty((2, n, 4, 4))
+        for i, q in enumerate(run.q):
+            pin.framesForwardKinematics(model, data, q)
+            for j, f in enumerate(frames):
+                soles[j, i] = data.oMf[f].homogeneous
+        down = run.sim_wrench[:, :, 2] > min_fz
+        support = np.where(down[:, 0] & down[:, 1], 0, np.where(down[:, 0], 1, np.where(down[:, 1], 2, 3)))
+        polygons, prints, paths = contact_items(t, support, soles[0], soles[1], robot.sole_length,
+                                                robot.sole_width)
+        out["polygons"] = polygons
+        out["outlines"]["footprints"] = prints
+        out["paths"] = paths
+    return out

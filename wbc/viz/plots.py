@@ -4,10 +4,12 @@
 ``right_sole``, ``support``, ``tick_time``...; ``wbc sim``: ``com``, ``sole_pos``, ``sim_wrench``,
 ``contact_active``...) and draws, one axes each (titles are stable, tests look for them):
 
-* ``CoM, ZMP, DCM: x`` and ``... : y`` vs time (m): CoM, CoM reference, planned ZMP (walk logs), executed
+* ``CoM, ZMP, DCM: x`` and ``... : y`` vs time (m): CoM, CoM reference, planned ZMP (walk logs) or
+  commanded CoP and planned DCM (sim walk logs: ``cop_cmd``, ``dcm_ref``), executed
   ZMP (cart-table ZMP of the CoM, Kajita 2003 eq. 3) or measured CoP (sim: from the ground-truth foot
   wrenches), DCM (c + ċ/ω, Englsberger 2015 eq. 7); shaded bands: single support (left / right stance);
-* ``top view`` (x-y, m): sole positions (footprints), CoM and ZMP/CoP paths;
+* ``top view`` (x-y, m): sole-origin paths, footprints (sole outlines at the start and at each touchdown, with
+  a loadable robot), CoM and ZMP/CoP paths;
 * ``joint positions / limits``: each bounded joint's position mapped to [0, 1] over its URDF range (0 and 1
   are the limits, drawn as lines);
 * ``contact forces`` (sim logs only): vertical ground reaction on each foot (N);
@@ -23,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.viz.overlays import cart_table_zmp, dcm_of, measured_cop
+from wbc.viz.overlays import cart_table_zmp, contact_items, dcm_of, measured_cop
 
 __all__ = ["plot_log", "load_log"]
 
@@ -73,19 +75,54 @@ def _stance_bands(log):
     return out
 
 
-def _limits(log):
-    """(lo, hi, q_columns) of bounded joints from the robot named in the log, or None."""
+def _robot(log):
+    """The robot named in the log (None if it cannot be loaded by name or does not match ``q``)."""
     if "robot" not in log:
         return None
     try:
-        from wbc.constraints.limits import bounded_joints
         from wbc.robot import load_robot
 
         robot = load_robot(str(log["robot"]))
-    except Exception:  # noqa: BLE001 - a custom URDF may not be loadable by name: skip the panel
+    except Exception:  # noqa: BLE001 - a custom URDF may not be loadable by name: skip what needs it
         return None
-    if robot.nq != log["q"].shape[1]:
+    return robot if robot.nq == log["q"].shape[1] else None
+
+
+def _footprints(log, robot) -> list[np.ndarray]:
+    """Closed sole outlines (K, 3) where each foot stood: at the start and at each touchdown (m, world).
+
+    Walk/balance logs: realized sole poses and support codes. Sim logs: sole poses of ``q`` (Pinocchio) and
+    contact from the plant's vertical foot force (> 10 N)."""
+    if robot is None:
+        return []
+    t = np.asarray(log["t"], float)
+    if "left_sole" in log and "support" in log:
+        left, right, support = log["left_sole"], log["right_sole"], np.asarray(log["support"]).astype(int)
+    elif "sim_wrench" in log:
+        import pinocchio as pin
+
+        model, data = robot.model, robot.model.createData()
+        frames = (robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole))
+        soles = np.empty((2, len(t), 4, 4))
+        for i, q in enumerate(np.asarray(log["q"], float)):
+            pin.framesForwardKinematics(model, data, q)
+            for j, f in enumerate(frames):
+                soles[j, i] = data.oMf[f].homogeneous
+        left, right = soles
+        down = np.asarray(log["sim_wrench"])[:, :, 2] > 10.0
+        support = np.where(down[:, 0] & down[:, 1], 0, np.where(down[:, 0], 1, np.where(down[:, 1], 2, 3)))
+    else:
+        return []
+    _, prints, _ = contact_items(t, support, left, right, robot.sole_length, robot.sole_width)
+    return prints
+
+
+def _limits(robot):
+    """(lo, hi, q_columns) of the robot's bounded joints, or None without a robot."""
+    if robot is None:
         return None
+    from wbc.constraints.limits import bounded_joints
+
     idx_q, _ = bounded_joints(robot.model)
     return robot.model.lowerPositionLimit[idx_q], robot.model.upperPositionLimit[idx_q], idx_q
 
@@ -113,7 +150,8 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
     physics = "sim_wrench" in log
     zmp_name, zmp = ("CoP measured", _cop(log)) if physics else ("ZMP executed", cart_table_zmp(t, com))
     dcm = dcm_of(t, com)
-    limits = _limits(log)
+    robot = _robot(log)
+    limits = _limits(robot)
     n_panels = 4 + (limits is not None) + physics
     fig, axes = plt.subplots(n_panels, 1, figsize=(10, 3.2 * n_panels), constrained_layout=True)
     axes = list(axes)
@@ -126,8 +164,12 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
             ax.plot(t, log["com_ref"][:, i], color="#e0262b", ls="--", label="CoM reference")
         if "zmp_ref" in log:
             ax.plot(t, log["zmp_ref"][:, i], color="#1fa34a", ls="--", label="ZMP planned")
+        if "cop_cmd" in log:
+            ax.plot(t, log["cop_cmd"][:, i], color="#1fa34a", ls="--", label="CoP commanded")
         ax.plot(t, zmp[:, i], color="#1fa34a", alpha=0.8, label=zmp_name)
         ax.plot(t, dcm[:, i], color="#2b6fe0", label="DCM")
+        if "dcm_ref" in log:
+            ax.plot(t, log["dcm_ref"][:, i], color="#2b6fe0", ls="--", label="DCM planned")
         for k, (a, b, label) in enumerate(bands):
             color = "#d9c2f0" if label.startswith("left") else "#c2eaf0"
             ax.axvspan(a, b, color=color, alpha=0.5, lw=0, label=label if label not in
@@ -145,6 +187,9 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
         feet = {}
     for (name, xy), color in zip(feet.items(), ("#9b3fd1", "#15a5b5")):
         ax.plot(xy[:, 0], xy[:, 1], color=color, lw=0.8, label=name)
+    for k, outline in enumerate(_footprints(log, robot)):
+        closed = np.vstack([outline, outline[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="#222222", lw=0.8, label="footprints" if k == 0 else None)
     ax.plot(com[:, 0], com[:, 1], color="#e0262b", label="CoM path")
     ax.plot(zmp[:, 0], zmp[:, 1], color="#1fa34a", lw=0.8, label=f"{zmp_name} path")
     ax.set_aspect("equal", adjustable="datalim")

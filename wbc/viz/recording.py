@@ -54,6 +54,7 @@ _HTML = """<!DOCTYPE html>
 </script>
 <script id="wbc-scene" type="application/octet-stream" data-encoding="{encoding}">{payload}</script>
 <script>
+{follow_js}
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 (async function () {{
   try {{
@@ -72,19 +73,7 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
       count += 1;
     }}
     window.wbcCommandCount = count;
-    // Orbit around (and follow) /Cameras/target: shift the controls' target and the camera together.
-    // With /Cameras/default left at identity the camera's parent frame is three.js's world frame.
-    const node = viewer.scene_tree.find(["Cameras", "target"]).object;
-    const follow = () => {{
-      const delta = node.getWorldPosition(viewer.controls.target.clone()).sub(viewer.controls.target);
-      if (delta.lengthSq() > 0) {{
-        viewer.controls.target.add(delta);
-        viewer.camera.position.add(delta);
-        viewer.set_dirty();
-      }}
-      requestAnimationFrame(follow);
-    }};
-    follow();
+    wbcFollow(viewer);  // orbit around (and follow) /Cameras/target
   }} catch (err) {{
     window.wbcError = String(err);
     console.error("wbc recording:", err);
@@ -407,6 +396,7 @@ def _write(path: Path, commands: list[dict[str, Any]], compress: bool, title: st
         title=title,
         legend=legend,
         viewer_js=_VIEWER_JS.read_text(encoding="utf-8"),
+        follow_js=_scene.FOLLOW_JS,
         encoding="gzip" if compress else "none",
         payload=base64.b64encode(blob).decode("ascii"),
     )

@@ -7,17 +7,19 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump")
+_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import available_solvers
+    from wbc.backends import available_solvers
 
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
@@ -46,12 +48,17 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: s per step, single + double support (20%%) (default 0.8)")
     w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
     w.add_argument("--vx", type=float, default=None,
-                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration)")
+                   help="walk: forward velocity command, m/s (sets --step-length = vx · step duration; with --vy/--wz alone: 0)")
     w.add_argument("--wz", type=float, default=None,
                    help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
+    w.add_argument("--vy", type=float, default=0.0,
+                   help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
+    w.add_argument("--no-step-adjust", action="store_true",
+                   help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
     w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
-    w.add_argument("--push-dir", type=float, default=90.0, help="walk: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--push-dir", type=float, default=90.0,
+                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
@@ -74,8 +81,6 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_sim)
 
@@ -96,13 +101,19 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
-        if args.vx is not None:
-            args.step_length = args.vx * args.step_duration
-        if args.wz is not None:
-            args.turn = args.wz * args.step_duration
+        if args.vx is not None or args.vy or args.wz is not None:  # velocity command: what is not given is 0
+            args.step_length = (args.vx or 0.0) * args.step_duration
+            if args.wz is not None:
+                args.turn = args.wz * args.step_duration
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
-                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer)
+                            push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
+                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+    if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
+        from wbc.sim.capture_step import CaptureStepScenario
+
+        force = 450.0 if args.force is None else args.force
+        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
 
@@ -113,7 +124,8 @@ def _scenario(args, robot):
         from wbc.sim.jump import JUMP_MOMENTUM_WEIGHT
 
         w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
-        return JumpScenario(height=args.height, forward=args.forward, count=args.count, momentum_weight=w)
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop,
+                            momentum_weight=w)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -168,14 +180,8 @@ def cmd_sim(args) -> int:
 
     viewer = pacer = None
     if args.live:
-        from wbc.cli import _live
-
-        viewer, pacer = _live(robot)
-    from wbc.cli import _progress
-
-    viewer = _progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
-    from wbc.ros2.cli import attach, finish
-
+        viewer, pacer = open_live(robot)
+    viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
     try:
@@ -184,20 +190,8 @@ def cmd_sim(args) -> int:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
-    if args.scenario == "wave":
-        from wbc.sim.physics_scenarios import wave_acceptance
-
-        summary["failed_criteria"] = wave_acceptance(summary)
-        summary["passed"] = not summary["failed_criteria"]
-    if args.scenario == "jump":
-        from wbc.sim.jump import jump_acceptance
-
-        summary["failed_criteria"] = jump_acceptance(summary, min_hop=args.min_hop)
-        summary["passed"] = not summary["failed_criteria"]
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
@@ -224,25 +218,20 @@ def cmd_sim(args) -> int:
         if best <= sweep["pd"]["max_survived_n"]:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
-    _print(summary)
+    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n")
-        print(f"summary written to {args.json}")
+        write_json(args.json, summary)
     if args.log:
         run.save(args.log)
         print(f"log written to {args.log}")
     if getattr(args, "plot", None):
-        from wbc.cli import _write_plot
-
-        _write_plot(args.plot, run)
+        write_plot(args.plot, run)
     if args.out:
-        from wbc.viz import record_html
-
         from wbc.viz.overlays import sim_overlays
 
-        scene = sim_overlays(run)
-        path = record_html(robot, run.t, run.q, args.out, overlays=scene["points"], arrows=scene["arrows"])
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
+        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
+                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
     if args.video:
         from wbc.sim.video import render_video
 
@@ -261,19 +250,3 @@ def _jump_sweep(args, robot, sim, make, summary) -> None:
         summary["failed_criteria"].append("sweep: no planned height succeeded")
     summary["passed"] = not summary["failed_criteria"]
 
-
-def _jsonable(x):
-    import numpy as np
-
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x).__name__)
-
-
-def _print(summary: dict) -> None:
-    from wbc.cli import _print_summary
-
-    short = {k: v for k, v in summary.items() if k != "sweep_trials"}
-    _print_summary(short)

@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import argparse
 
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
+from wbc.cli.ros2 import add_run_options, attach, finish
+
 __all__ = ["register", "cmd_balance"]
 
 
@@ -17,14 +20,11 @@ def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
     import numpy as np
 
-    from wbc.cli import _live, _print_summary, _write_outputs
     from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
     if args.behaviour == "jump":  # kinematic preview of the planned jump (wbc.scenarios.balance_jump)
-        from wbc.scenarios.balance_jump import cmd_preview
-
-        return cmd_preview(args)
+        return _jump_preview(args)
     robot = load_robot(args.robot)
     options = {}
     if args.behaviour == "one-leg" and args.stance is not None:
@@ -33,12 +33,8 @@ def cmd_balance(args) -> int:
         options["hand"] = args.hand
     viewer = pacer = None
     if args.live:
-        viewer, pacer = _live(robot)
-    from wbc.cli import _progress
-
-    from wbc.ros2.cli import attach, finish
-
-    viewer = _progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
+        viewer, pacer = open_live(robot)
+    viewer = progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
         run = run_balance(robot, args.behaviour, dt=args.dt, solver=args.solver, viewer=target, pacer=pacer,
@@ -49,27 +45,50 @@ def cmd_balance(args) -> int:
         finish(ros2_pub)
     summary = balance_summary(robot, run)
     summary["solver"] = args.solver
-    from wbc.cli import deadline_misses
-
     summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
-    _print_summary(summary)
+    print_summary(summary)
     overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
     overlays.update(run.extra["behaviour"].overlays(run))
     out, args.out = args.out, None
-    _write_outputs(args, summary, run, robot)
+    write_outputs(args, summary, run, robot)
     if out:
-        from wbc.viz import record_html
-
-        path = record_html(robot, run.t, run.q, out, overlays=overlays, polygons=run.polygons(robot))
-        print(f"meshcat recording written to {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot))
     return 0 if summary["passed"] else 1
+
+
+def _jump_preview(args) -> int:
+    """``wbc balance jump``: the kinematic preview of :mod:`wbc.scenarios.balance_jump`; exit code 0."""
+    import numpy as np
+
+    from wbc.robot import load_robot
+    from wbc.scenarios.balance_jump import preview_jump, preview_summary
+
+    robot = load_robot(args.robot)
+    viewer = pacer = None
+    if args.live:
+        viewer, pacer = open_live(robot)
+    try:
+        run = preview_jump(robot, height=args.height, forward=args.forward, count=args.count, dt=args.dt,
+                           solver=args.solver, viewer=viewer, pacer=pacer)
+    finally:
+        if viewer is not None:
+            viewer.close()
+    summary = preview_summary(robot, run)
+    print(f"wbc balance jump: {robot.name}, {len(run.t)} ticks at {1 / args.dt:.0f} Hz, solver {args.solver}")
+    print_summary(summary)
+    out, args.out = args.out, None
+    write_outputs(args, summary, run, robot)
+    if out:
+        write_recording(robot, run, out, overlays={"com": run.com,
+                                                   "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]})
+    return 0
 
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.qp import DEFAULT_SOLVER, available_solvers
+    from wbc.backends import DEFAULT_SOLVER, available_solvers
     from wbc.scenarios.balance import BEHAVIOURS
 
     p = subparsers.add_parser(
@@ -92,7 +111,5 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--forward", type=float, default=0.0, help="jump: planned forward foot displacement, m")
     p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)
-    from wbc.ros2.cli import add_run_options
-
     add_run_options(p)
     p.set_defaults(func=cmd_balance)

@@ -1,0 +1,80 @@
+"""Seeded pushes during a physics walk (issue 11 acceptance): ``--trials`` walks of Talos in MuJoCo, each pushed once
+at the torso with ``--force`` N for ``--push-duration`` s at a random time during the walking steps and in a random
+horizontal direction (both drawn from ``numpy.random.default_rng(seed)``). A trial survives when the robot did not
+fall and finished the walk (:class:`wbc.sim.walk.WalkScenario` summary). Prints one line per trial and the count.
+
+Also ``--standing``: pushes from the front (180 deg: towards −x) and from behind (0 deg) on the standing robot
+(a walk of 0 walking steps would not stand still, so the walk scenario is run with the push during its initial
+double support and a 2-step plan that the step adjustment may move).
+
+Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
+       [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+import wbc
+from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.sim.scenarios import make_controller, run_scenario
+from wbc.sim.walk import WalkScenario
+
+
+def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust):
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    sc = WalkScenario(steps, step_length, step_duration, push=force, push_time=push_time, push_duration=duration,
+                      push_dir=push_dir, step_adjust=step_adjust)
+    _, s = run_scenario(sim, controller, sc)
+    return s
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robot", default="talos")
+    ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--force", type=float, default=300.0)
+    ap.add_argument("--push-duration", type=float, default=0.1)
+    ap.add_argument("--steps", type=int, default=8)
+    ap.add_argument("--step-length", type=float, default=0.25)
+    ap.add_argument("--step-duration", type=float, default=0.6)
+    ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--no-step-adjust", action="store_true")
+    ap.add_argument("--standing", action="store_true", help="front and back pushes while standing (see docstring)")
+    args = ap.parse_args()
+    robot = wbc.load_robot(args.robot)
+    common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
+                  step_adjust=not args.no_step_adjust)
+    if args.standing:
+        for name, d in (("front (push towards -x)", 180.0), ("behind (push towards +x)", 0.0)):
+            s = trial(robot, push_time=0.3, push_dir=d, steps=2, step_length=0.0, **common)
+            print(f"standing, from the {name}: {args.force:.0f} N x {args.push_duration} s: fell {s['fell']}, "
+                  f"completed {s['completed']}, step adjustments {s['step_adjustments']} "
+                  f"(max {s['max_step_adjustment_m']:.3f} m)")
+        return
+    t_init = 0.8  # WalkScenario's initial double support
+    t_walk = (args.steps - 1) * args.step_duration
+    survived = 0
+    for i in range(args.trials):
+        seed = args.seed0 + i
+        rng = np.random.default_rng(seed)
+        t = float(t_init + rng.uniform(0.0, t_walk - args.push_duration))
+        d = float(rng.uniform(0.0, 360.0))
+        s = trial(robot, push_time=t, push_dir=d, steps=args.steps, step_length=args.step_length, **common)
+        ok = (not s["fell"]) and s["completed"]
+        survived += ok
+        print(f"seed {seed:2d}: push {args.force:.0f} N at t = {t:.3f} s, dir {d:6.1f} deg: "
+              f"{'survived' if ok else 'FELL'}; walked {s['walked_distance_m']:.3f} m, "
+              f"step adjustments {s['step_adjustments']} (max {s['max_step_adjustment_m']:.3f} m), "
+              f"solver failures {s['solver_failures']}", flush=True)
+    print(f"survived {survived} of {args.trials} ({args.force:.0f} N x {args.push_duration} s, {args.robot}, "
+          f"{args.steps} steps x {args.step_length} m at {args.step_duration} s/step, "
+          f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s)")
+
+
+if __name__ == "__main__":
+    main()

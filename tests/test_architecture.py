@@ -1,0 +1,195 @@
+"""The import graph of ``wbc``, derived from the source with ``ast``: no cycle, no import from a higher layer
+into a lower one, no import of another module's private names.
+
+Every import is counted: module-level, inside functions (lazy), and ``importlib.import_module("wbc...")`` with a
+string literal. The layers are data here (not imported from wbc): a module may import modules of its own layer
+or of lower layers only.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "wbc"
+
+# Lowest first. A module belongs to the layer of its longest matching prefix.
+LAYERS: list[tuple[str, ...]] = [
+    ("wbc.exceptions",),
+    ("wbc.geometry", "wbc.profiles"),
+    ("wbc.robot", "wbc.configuration"),
+    ("wbc.tasks", "wbc.constraints"),
+    ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.controller", "wbc.dynamics",
+     "wbc.formulations", "wbc.solve"),
+    ("wbc.gait",),
+    ("wbc.scenarios", "wbc.sim"),
+    ("wbc.viz", "wbc.ros2", "wbc.bench"),
+    ("wbc.cli", "wbc.__main__"),
+]
+# The package root re-exports the public API; it sits with the layer of its highest export.
+PACKAGE_INIT_LAYER = 4
+
+
+def layer_of(module: str) -> int:
+    if module == "wbc":
+        return PACKAGE_INIT_LAYER
+    best, best_len = None, -1
+    for i, prefixes in enumerate(LAYERS):
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best_len:
+                best, best_len = i, len(p)
+    if best is None:
+        raise AssertionError(f"module {module} is in no layer of tests/test_architecture.py: add it to LAYERS")
+    return best
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def all_modules() -> dict[str, Path]:
+    return {module_name(p): p for p in sorted(ROOT.rglob("*.py"))}
+
+
+def _resolve(current: str, is_pkg: bool, level: int, target: str | None) -> str:
+    if level == 0:
+        return target or ""
+    base = current.split(".") if is_pkg else current.split(".")[:-1]
+    base = base[: len(base) - (level - 1)]
+    return ".".join(base + ([target] if target else []))
+
+
+def imports_of(name: str, path: Path, modules: dict[str, Path]) -> list[tuple[str, int, list[str]]]:
+    """(imported wbc module, line, names imported from it) for every import in the file, lazy ones included."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    is_pkg = path.name == "__init__.py"
+    out: list[tuple[str, int, list[str]]] = []
+    dynamic = False
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] == "wbc":
+                    out.append((alias.name, node.lineno, []))
+        elif isinstance(node, ast.ImportFrom):
+            target = _resolve(name, is_pkg, node.level, node.module)
+            if target.split(".")[0] != "wbc":
+                continue
+            plain = []
+            for alias in node.names:  # `from wbc.x import y` where y is a submodule imports wbc.x.y
+                sub = f"{target}.{alias.name}"
+                if sub in modules:
+                    out.append((sub, node.lineno, []))
+                else:
+                    plain.append(alias.name)
+            out.append((target, node.lineno, plain))
+        elif isinstance(node, ast.Call):
+            f = node.func
+            fname = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+            if fname in ("import_module", "__import__") and node.args:
+                arg = node.args[0]
+                if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                    if arg.value.split(".")[0] == "wbc":
+                        out.append((arg.value, node.lineno, []))
+                else:
+                    dynamic = True
+    if dynamic:  # a computed module name: every string in the file naming a wbc module counts as imported
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in modules:
+                out.append((node.value, node.lineno, []))
+    return out
+
+
+def graph() -> dict[str, dict[str, list[tuple[int, list[str]]]]]:
+    modules = all_modules()
+    edges: dict[str, dict[str, list[tuple[int, list[str]]]]] = {}
+    for name, path in modules.items():
+        edges[name] = {}
+        for target, line, names in imports_of(name, path, modules):
+            if target not in modules:
+                raise AssertionError(f"{name}:{line} imports {target}, which is not a module of wbc")
+            if target != name:
+                edges[name].setdefault(target, []).append((line, names))
+    return edges
+
+
+def _package_chain(module: str) -> list[str]:
+    """Packages whose __init__ runs when ``module`` is imported (wbc.a.b -> wbc, wbc.a)."""
+    parts = module.split(".")
+    return [".".join(parts[:i]) for i in range(1, len(parts))]
+
+
+def test_every_module_is_in_a_layer():
+    for name in all_modules():
+        layer_of(name)
+
+
+def test_no_import_from_a_higher_layer():
+    bad = []
+    for src, targets in graph().items():
+        for dst, sites in targets.items():
+            if layer_of(dst) > layer_of(src) and not src.startswith(dst + ".") and dst != "wbc":
+                bad.append(f"{src} (layer {layer_of(src)}) imports {dst} (layer {layer_of(dst)}) at line "
+                           f"{sites[0][0]}")
+    assert not bad, "imports against the layering:\n" + "\n".join(bad)
+
+
+def test_no_import_cycle():
+    edges = {src: set(dsts) for src, dsts in graph().items()}
+    # Importing wbc.a.b runs the __init__ of wbc and wbc.a first: a package __init__ importing its own
+    # submodules is not a cycle, but a submodule importing a sibling package does go through its __init__.
+    for src in list(edges):
+        edges[src] = {d for d in edges[src] if not src.startswith(d + ".") and d != "wbc"}
+    state: dict[str, int] = {}
+    stack: list[str] = []
+    cycles: list[list[str]] = []
+
+    def visit(n: str) -> None:
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(edges.get(n, ())):
+            if state.get(m, 0) == 0:
+                visit(m)
+            elif state[m] == 1:
+                cycles.append(stack[stack.index(m):] + [m])
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(edges):
+        if state.get(n, 0) == 0:
+            visit(n)
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_no_private_name_imported_across_modules():
+    bad = []
+    for src, targets in graph().items():
+        for dst, sites in targets.items():
+            for line, names in sites:
+                for n in names:
+                    if n.startswith("_") and not n.startswith("__"):
+                        bad.append(f"{src}:{line} imports {n} from {dst}")
+    assert not bad, "private names imported across modules:\n" + "\n".join(bad)
+
+
+def test_the_checker_sees_lazy_and_string_imports(tmp_path):
+    """The extraction itself: a lazy import inside a function and an importlib string are both found."""
+    src = tmp_path / "m.py"
+    src.write_text("import importlib\n\ndef f():\n    from wbc.robot import _x\n"
+                   "    return importlib.import_module('wbc.sim.cli')\n")
+    found = imports_of("wbc.fake", src, {"wbc.robot": src, "wbc.sim.cli": src})
+    assert ("wbc.robot", 4, ["_x"]) in found
+    assert ("wbc.sim.cli", 5, []) in found
+    src.write_text("import importlib\n\ndef f():\n    for m in ('wbc.sim.cli', 'x'):\n"
+                   "        importlib.import_module(m)\n")
+    assert ("wbc.sim.cli", 4, []) in imports_of("wbc.fake", src, {"wbc.sim.cli": src})
+
+
+@pytest.mark.parametrize("module", ["wbc.gait.walk", "wbc.cli"])
+def test_layers_are_ordered_as_documented(module):
+    assert layer_of("wbc.exceptions") < layer_of("wbc.geometry") < layer_of("wbc.robot") < layer_of(
+        "wbc.tasks.base") < layer_of("wbc.controller") < layer_of("wbc.gait") <= layer_of(module)

@@ -1,0 +1,86 @@
+"""wbc.solve_ik, the stateless one-call entry point, against the stateful controller and a closed form."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.controller import KinematicController
+from wbc.exceptions import ConfigurationError, SolverError
+from wbc.tasks import ComTask, OrientationTask, PostureTask
+
+DT = 0.002
+
+
+def _standing(robot, config):
+    contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    com = ComTask(weight=10.0)
+    com.set_target(config.com + np.array([0.01, -0.02, -0.01]))
+    torso = OrientationTask(robot, robot.torso, name="torso")
+    torso.set_target_from_configuration(config)
+    tasks = [com, torso, PostureTask(robot, weight=1e-2)]
+    return tasks, [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot)]
+
+
+@pytest.mark.parametrize("name", ["talos", "g1"])
+def test_solve_ik_equals_the_stateful_controller(robots, name):
+    robot = robots(name)
+    config = Configuration(robot)
+    tasks, constraints = _standing(robot, config)
+    v = wbc.solve_ik(robot, robot.q_ref, tasks, DT, constraints, solver="daqp")
+    ctrl = KinematicController(robot, tasks, constraints, solver="daqp")
+    result = ctrl.solve(config, DT)
+    assert result.ok
+    assert v.shape == (robot.model.nv,)
+    np.testing.assert_allclose(v, result.v, atol=1e-12)
+    # the contacts hold to first order: J_sole v = -K e = 0 at the placement they were set from
+    for frame in (robot.left_sole, robot.right_sole):
+        J = pin.getFrameJacobian(robot.model, config.data, robot.frame_id(frame), pin.LOCAL)
+        assert np.abs(J @ v).max() < 1e-8
+
+
+def test_solve_ik_matches_the_closed_form_without_constraints(robots):
+    """One CoM task, no constraints: v = (w JᵀJ + εI)⁻¹ w Jᵀ v*, with J the CoM Jacobian from Pinocchio and
+    v* = −K (c − c*)."""
+    robot = robots("talos")
+    q = robot.q_ref.copy()
+    target = pin.centerOfMass(robot.model, robot.model.createData(), q) + np.array([0.02, 0.01, -0.03])
+    com = ComTask(weight=3.0, gain=50.0)
+    com.set_target(target)
+    eps = 1e-4
+    v = wbc.solve_ik(robot, q, [com], DT, damping=eps, solver="daqp")
+    data = robot.model.createData()
+    J = pin.jacobianCenterOfMass(robot.model, data, q)
+    v_star = -50.0 * (data.com[0] - target)
+    expected = np.linalg.solve(3.0 * J.T @ J + eps * np.eye(robot.model.nv), 3.0 * J.T @ v_star)
+    np.testing.assert_allclose(v, expected, atol=1e-7)
+
+
+def test_solve_ik_names_the_conflict_or_returns_the_safe_command(robots):
+    robot = robots("talos")
+    config = Configuration(robot)
+    # the same sole held at two placements 5 cm apart: the contacts contradict each other
+    a, b = ContactConstraint(robot, robot.left_sole, name="left_here"), ContactConstraint(
+        robot, robot.left_sole, name="left_there")
+    a.set_placement_from_configuration(config)
+    moved = config.frame_placement(robot.frame_id(robot.left_sole)).copy()
+    moved.translation[0] += 0.05
+    b.set_placement(moved)
+    com = ComTask()
+    com.set_target(config.com)
+    with pytest.raises(SolverError, match="left_"):
+        wbc.solve_ik(robot, robot.q_ref, [com], DT, [a, b])
+    v = wbc.solve_ik(robot, robot.q_ref, [com], DT, [a, b], safe_fallback=True)
+    assert v.shape == (robot.model.nv,) and np.all(np.isfinite(v))
+
+
+def test_solve_ik_rejects_a_bad_configuration(robots):
+    robot = robots("talos")
+    with pytest.raises(ConfigurationError):
+        wbc.solve_ik(robot, robot.q_ref[:-1], [ComTask()], DT)

@@ -1,0 +1,126 @@
+"""Step adjustment (wbc.gait.step_adjustment), replanning with moved footsteps (WalkPlan.replan) and side-stepping
+footsteps. References: the DCM ODE ξ̇ = ω(ξ − p) integrated numerically (not the closed form under test), finite
+differences of the sampled trajectories, the footstep geometry written here."""
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.exceptions import GaitError
+from wbc.gait import Footstep, plan_footsteps, plan_walk
+from wbc.gait.step_adjustment import StepAdjuster
+
+OMEGA = math.sqrt(9.81 / 0.87)
+
+
+def _adjuster(**kw):
+    args = dict(max_forward=0.45, max_backward=0.3, min_width=0.18, max_width=0.5, dead_band=0.0,
+                sole_length=0.21, sole_width=0.13)
+    args.update(kw)
+    return StepAdjuster(OMEGA, **args)
+
+
+def test_landing_restores_the_nominal_dcm_offset():
+    # Plan: stance CoP u0, nominal landing u1, reference DCM xi_ref at time t, tau left. Measured DCM off by e.
+    u0, u1 = np.array([0.0, -0.1]), np.array([0.25, 0.1])
+    xi_ref, e, tau = np.array([0.12, -0.02]), np.array([0.01, 0.03]), 0.2
+
+    def end_dcm(xi0):  # ξ̇ = ω (ξ − u0), explicit Euler with 1e-5 s steps
+        xi = xi0.copy()
+        for _ in range(20000):
+            xi += 1e-5 * OMEGA * (xi - u0)
+        return xi
+
+    b_nom = end_dcm(xi_ref) - u1
+    adj = _adjuster()
+    d = adj.correction(xi_ref + e, xi_ref, tau)
+    new = adj.landing(Footstep("left", *u1, 0.0), (*u0, 0.0), d)
+    assert end_dcm(xi_ref + e) - np.array([new.x, new.y]) == pytest.approx(b_nom, abs=2e-4)
+
+
+def test_dead_band_reach_and_collision_limits():
+    adj = _adjuster(dead_band=0.03)
+    assert not adj.correction([0.02, 0.0], [0.0, 0.0], 0.3).any()
+    d = adj.correction([0.05, 0.0], [0.0, 0.0], 0.3)
+    assert d == pytest.approx([math.exp(OMEGA * 0.3) * 0.02, 0.0])
+    stance = (1.0, -0.1, 0.0)
+    nominal = Footstep("left", 1.2, 0.1, 0.0)
+    far = adj.landing(nominal, stance, np.array([1.0, 1.0]))  # beyond the reach: clipped to the box corner
+    assert (far.x, far.y) == pytest.approx((1.45, 0.4))
+    inward = adj.landing(nominal, stance, np.array([0.0, -0.5]))  # towards the stance leg: held at min width
+    assert inward.y == pytest.approx(-0.1 + 0.18)
+    back = adj.landing(nominal, stance, np.array([-1.0, 0.0]))
+    assert back.x == pytest.approx(0.7)
+    assert far.side == "left" and far.yaw == 0.0
+    right = adj.landing(Footstep("right", 1.2, -0.3, 0.0), (1.0, -0.1, 0.0), np.array([0.0, 0.6]))
+    assert right.y == pytest.approx(-0.1 - 0.18)  # a right foot stays on the right of the left stance foot
+    with pytest.raises(GaitError):
+        StepAdjuster(OMEGA, max_forward=0.4, max_backward=0.3, min_width=0.3, max_width=0.2)
+
+
+def _plan():
+    L, R = np.eye(4), np.eye(4)
+    L[1, 3], R[1, 3] = 0.1, -0.1
+    return plan_walk(L, R, np.array([0.0, 0.0, 0.87]), n_steps=6, step_length=0.2, t_ss=0.5, t_ds=0.1,
+                     t_init=0.6, t_final=0.8)
+
+
+def test_replan_with_moved_footsteps():
+    p = _plan()
+    ph = next(x for x in p.phases if x.step == 1)  # the second swing
+    k = ph.first + ph.count // 2
+    old = p.footsteps[1:]
+    d = np.array([0.03, -0.12])
+    new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in old]
+    com, com_vel = p.com[k] + [0.01, -0.02, 0.0], p.com_vel[k] + [0.0, -0.2, 0.0]
+    q = p.replan(k, com, com_vel, new, check_start=False)
+    side = old[0].side
+    P, V = (q.left_sole, q.left_sole_vel) if side == "left" else (q.right_sole, q.right_sole_vel)
+    P0, V0 = (p.left_sole, p.left_sole_vel) if side == "left" else (p.right_sole, p.right_sole_vel)
+    # Continuous at the replanning sample; lands on the moved footstep at the planned touch-down sample.
+    assert np.abs(P[0] - P0[k]).max() == 0.0 and np.abs(V[0] - V0[k]).max() == 0.0
+    assert P[ph.end - k][:2, 3] == pytest.approx([new[0].x, new[0].y], abs=1e-12)
+    assert P[ph.end - k][2, 3] == pytest.approx(0.0, abs=1e-12)
+    # Velocities are the derivatives of the poses (central differences).
+    for Pf, Vf in ((q.left_sole, q.left_sole_vel), (q.right_sole, q.right_sole_vel)):
+        fd = (Pf[2:, :3, 3] - Pf[:-2, :3, 3]) / (2 * q.dt)
+        assert np.abs(fd - Vf[1:-1, :3]).max() < 2e-3
+    # Final feet moved by d; the DCM starts at the measured c + ċ/ω; the CoM is a LIPM of the ZMP.
+    for Pf, Pf0 in ((q.left_sole, p.left_sole), (q.right_sole, p.right_sole)):
+        assert Pf[-1][:2, 3] - Pf0[-1][:2, 3] == pytest.approx(d, abs=1e-12)
+    assert q.dcm[0] == pytest.approx(com[:2] + com_vel[:2] / q.omega, abs=1e-9)
+    acc = (q.com[2:, :2] - 2 * q.com[1:-1, :2] + q.com[:-2, :2]) / q.dt**2
+    lipm = q.omega**2 * (q.com[1:-1, :2] - q.zmp[1:-1])
+    kink = np.zeros(len(acc), bool)  # the ZMP slope changes at segment starts: central differences see c⃛ jump
+    for f in q.segments.first[1:]:
+        kink[max(f - 2, 0):f + 1] = True
+    err = np.abs(acc - lipm).max(axis=1)
+    assert err[~kink].max() < 1e-4 and err.max() < 0.05
+    assert q.zmp[-1] == pytest.approx(0.5 * (q.left_sole[-1][:2, 3] + q.right_sole[-1][:2, 3]), abs=1e-9)
+    # The stance foot does not move before its own lift-off.
+    other = q.right_sole if side == "left" else q.left_sole
+    assert np.abs(other[: ph.end - k + 1] - other[0]).max() == 0.0
+    # Only x, y may change; the count must match; the check of the ZMP start raises when asked.
+    with pytest.raises(GaitError, match="only x, y"):
+        p.replan(k, com, com_vel, [Footstep(f.side, f.x, f.y, f.yaw + 0.1) for f in old])
+    with pytest.raises(GaitError, match="remaining steps"):
+        p.replan(k, com, com_vel, new[1:])
+    with pytest.raises(GaitError, match="outside the current support polygon"):
+        p.replan(k, p.com[k], p.com_vel[k] + [0.0, -1.0, 0.0], new)
+
+
+def test_side_step_footsteps():
+    w, d = 0.2, 0.05
+    steps = plan_footsteps((0.0, w / 2, 0.0), (0.0, -w / 2, 0.0), 9, 0.0, w, 0.0, "left", d)
+    feet = {"left": (0.0, w / 2), "right": (0.0, -w / 2)}
+    mids = [0.0]
+    for fs in steps:
+        feet[fs.side] = (fs.x, fs.y)
+        gap = feet["left"][1] - feet["right"][1]
+        assert gap >= w - 1e-12  # the legs never come closer than the step width
+        mids.append(0.5 * (feet["left"][1] + feet["right"][1]))
+    assert np.diff(mids)[:-1] == pytest.approx([d] * 8)  # every walking step moves the mid-point by d
+    assert mids[-1] == pytest.approx(8 * d) and feet["left"][1] - feet["right"][1] == pytest.approx(w)
+    right = plan_footsteps((0.0, w / 2, 0.0), (0.0, -w / 2, 0.0), 9, 0.0, w, 0.0, "right", -d)
+    assert right[0].side == "right" and right[0].y == pytest.approx(-w / 2 - 2 * d)

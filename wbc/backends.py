@@ -1,0 +1,47 @@
+"""QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast``.
+
+The one place that knows every backend: the general ones of :mod:`wbc.qp` (DAQP, ProxQP, any qpsolvers backend)
+and the compiled exact kernel of :mod:`wbc.fastqp` (which falls back to DAQP), so neither of those modules imports
+the other's registry.
+"""
+
+from __future__ import annotations
+
+import qpsolvers
+
+from wbc.exceptions import UnknownSolverError
+from wbc.fastqp import FastBackend
+from wbc.qp import DaqpBackend, ProxQPBackend, QPBackend, QpsolversBackend
+
+__all__ = ["DEFAULT_SOLVER", "available_solvers", "make_backend"]
+
+#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
+#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
+DEFAULT_SOLVER = "fast"
+
+
+def available_solvers() -> list[str]:
+    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
+    return sorted([*qpsolvers.available_solvers, "fast"])
+
+
+def make_backend(name: str, **settings) -> QPBackend:
+    """Create a backend by name: ``fast`` (compiled exact kernel, DAQP fallback), ``daqp`` (DAQP workspace,
+    warm-started), ``proxqp`` (warm-started proxsuite) or any other installed qpsolvers backend.
+
+    Args:
+        name: backend name (:func:`available_solvers`).
+        **settings: solver settings passed to the backend (e.g. ``primal_tol=1e-9`` for daqp).
+
+    Raises:
+        UnknownSolverError: the name is not installed; the message lists the available ones.
+    """
+    if name == "fast":
+        return FastBackend(**settings)
+    if name not in available_solvers():
+        raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
+    if name == "proxqp":
+        return ProxQPBackend(**settings)
+    if name == "daqp":
+        return DaqpBackend(**settings)
+    return QpsolversBackend(name, **settings)

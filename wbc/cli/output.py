@@ -1,0 +1,172 @@
+"""What every run command (walk, balance, sim) shares: the output options, the summary printer, the writers of
+the JSON summary / npz log / plots / meshcat recording, the live viewer and the progress bar.
+
+Public, so that the command modules of :mod:`wbc.cli` use one implementation; nothing below the CLI layer
+imports this module.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
+    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable",
+]
+
+
+def add_outputs(p: argparse.ArgumentParser) -> None:
+    """Add ``--json --log --out --live --plot --quiet --hold`` to a run command's parser."""
+    p.add_argument("--json", type=Path, metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--log", type=Path, metavar="FILE", help="write the time series as npz")
+    p.add_argument("--out", type=Path, metavar="FILE", help="write a self-contained meshcat HTML recording")
+    p.add_argument("--live", action="store_true",
+                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the viewer stays up "
+                        "after the motion until Ctrl-C or --hold")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="write plots of the run (CoM/ZMP/DCM, top view, joint limits, contact forces, tick times)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown on a terminal for runs > 2 s)")
+    p.add_argument("--hold", type=float, metavar="SECONDS", default=None,
+                   help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
+
+
+def print_summary(summary: dict, indent: str = "  ") -> None:
+    """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``)."""
+    for key, value in summary.items():
+        if isinstance(value, dict):
+            inner = ", ".join(f"{k} {format_value(v)}" for k, v in value.items())
+            print(f"{indent}{key:28s} {inner}")
+        else:
+            print(f"{indent}{key:28s} {format_value(value)}")
+
+
+def format_value(value) -> str:
+    """Floats with 6 significant digits, anything else as ``str``."""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def jsonable(x):
+    """``json.dumps(default=...)`` hook: numpy scalars and arrays to Python numbers and lists."""
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(type(x).__name__)
+
+
+def write_json(path: Path, summary: dict) -> None:
+    """Write the summary as indented JSON to ``path``."""
+    path.write_text(json.dumps(summary, indent=2, default=jsonable) + "\n")
+    print(f"summary written to {path}")
+
+
+def write_recording(robot, run, path: Path, **scene) -> None:
+    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path``;
+    ``scene`` goes to :func:`wbc.viz.record_html` (overlays, arrows, polygons, paths, outlines)."""
+    from wbc.viz import record_html
+
+    out = record_html(robot, run.t, run.q, path, **scene)
+    print(f"meshcat recording written to {out} ({out.stat().st_size / 1e6:.1f} MB)")
+
+
+def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:
+    """Write what ``args`` asks for (``--json``, ``--log``, ``--plot``, ``--out``) for a finished run."""
+    if args.json:
+        write_json(args.json, summary)
+    if args.log:
+        run.save(args.log)
+        print(f"log written to {args.log}")
+    if getattr(args, "plot", None):
+        write_plot(args.plot, run)
+    if args.out:
+        extra = {} if scene is None else {k: scene[k] for k in ("polygons", "paths", "outlines") if k in scene}
+        write_recording(robot, run, args.out, overlays=overlays, **extra)
+
+
+def write_plot(path, run) -> None:
+    """Plot a run (anything with ``save(file)`` writing an npz log) to the PNG ``path``."""
+    from wbc.viz.plots import plot_log
+
+    buf = io.BytesIO()
+    run.save(buf)
+    buf.seek(0)
+    with np.load(buf, allow_pickle=False) as z:
+        log = {k: z[k] for k in z.files}
+    plot_log(log, path)
+    print(f"plots written to {path}")
+
+
+_LIVE_VIEWERS: list = []  # viewers opened by open_live, closed by close_live() after the hold
+
+
+class _HeldViewer:
+    """A LiveViewer whose ``close()`` (called by the commands when the motion ends) is deferred to close_live()."""
+
+    def __init__(self, viewer):
+        self._viewer = viewer
+
+    def __getattr__(self, name):
+        return getattr(self._viewer, name)
+
+    def close(self) -> None:
+        pass
+
+
+def open_live(robot):
+    """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer.
+
+    The URL is printed before the motion starts; :func:`wbc.cli.main` keeps the viewer up after the command until
+    Ctrl-C or ``--hold`` seconds (:func:`hold_live`), then closes it (:func:`close_live`).
+    """
+    from wbc.viz import LiveViewer, RealTimePacer
+
+    viewer = LiveViewer(robot)
+    _LIVE_VIEWERS.append(viewer)
+    print(f"meshcat viewer: {viewer.url} (open it in a browser)", flush=True)
+    return _HeldViewer(viewer), RealTimePacer()
+
+
+def progress(args, total: float | None, viewer=None, desc: str = ""):
+    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal.
+
+    Args:
+        total: simulated duration of the run (s), None when unknown.
+    """
+    from wbc.viz.progress import ProgressViewer
+
+    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
+
+
+def hold_live(seconds: float | None) -> None:
+    """Keep the live viewers up for ``seconds`` (None: until Ctrl-C)."""
+    if not _LIVE_VIEWERS:
+        return
+    urls = ", ".join(v.url for v in _LIVE_VIEWERS)
+    bound = "Ctrl-C" if seconds is None else f"{seconds:g} s or Ctrl-C"
+    print(f"motion done; meshcat viewer stays up at {urls} (until {bound})", flush=True)
+    try:
+        if seconds is None:
+            while True:
+                time.sleep(3600)
+        time.sleep(max(0.0, seconds))
+    except KeyboardInterrupt:
+        pass
+
+
+def close_live() -> None:
+    """Close every viewer opened by :func:`open_live`."""
+    while _LIVE_VIEWERS:
+        _LIVE_VIEWERS.pop().close()
+
+
+def deadline_misses(tick_time, dt: float) -> int:
+    """Number of ticks whose controller time (s) exceeded the control period ``dt`` (s)."""
+    return int(np.count_nonzero(np.asarray(tick_time, dtype=float) > dt))

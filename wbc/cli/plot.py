@@ -1,0 +1,28 @@
+"""``wbc plot LOG.npz``: plot a run's npz log (written with ``--log``) to a PNG."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["register", "cmd_plot"]
+
+
+def cmd_plot(args) -> int:
+    """`wbc plot LOG.npz`: plot a log written with --log; exit code 0, 2 on a bad log or output path."""
+    from wbc.viz.plots import plot_log
+
+    out = args.out or Path(args.log_file).with_suffix(".png")
+    plot_log(args.log_file, out)
+    print(f"plots written to {out}")
+    return 0
+
+
+def register(sub, add_outputs=None) -> None:
+    """Add the ``plot`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` is not used)."""
+    plot = sub.add_parser("plot", help="plot a run's npz log (written with --log) to a PNG",
+                          description="Plot a log written by `wbc walk/balance/sim --log FILE.npz`: CoM, ZMP/CoP "
+                                      "and DCM vs time with support bands, top view, joints vs limits, contact "
+                                      "forces (sim), tick-time histogram.")
+    plot.add_argument("log_file", type=Path, metavar="LOG.npz", help="npz log of a run")
+    plot.add_argument("--out", type=Path, metavar="PNG", help="output PNG (default: LOG with .png)")
+    plot.set_defaults(func=cmd_plot)

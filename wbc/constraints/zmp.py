@@ -1,0 +1,195 @@
+"""Dynamic balance for the kinematic QP: the ZMP of the executed motion and the DCM stay in the support polygon.
+
+A kinematic controller chooses velocities; the motion it executes is q_{k+1} = q_k ⊕ v_k dt. Its CoM c_k has the
+acceleration of the central second difference c̈_k = (c_{k+1} − 2 c_k + c_{k−1}) / dt², and the ZMP on flat ground
+of height z_g, neglecting the rate of angular momentum about the CoM (Kajita et al., "Introduction to Humanoid
+Robotics", 2014, eq. 4.62 with L̇ = 0), is p = c_xy − h c̈_xy / (g + c̈_z), h = c_z − z_g. This is exactly how
+:mod:`wbc.scenarios.metrics` measures the executed motion; these two constraints make the controller produce a
+motion that meets it, instead of a motion with unbounded CoM acceleration whenever a task switches or a hard
+limit becomes active.
+
+:class:`ExecutedZmpConstraint` — for each edge i of the support polygon shrunk by ``margin`` (unit outward
+normal n_i, offset b_i), with s_i = b_i − n_i·c_xy and g + c̈_z > 0,
+
+    n_i·p ≤ b_i   ⇔   −h n_i·c̈_xy − s_i c̈_z ≤ s_i g                      (linear in c̈, exact)
+
+and c̈_k is linear in v_k: c_{k+1} = c_k + J_com v_k dt + r, where r, the second-order part of the CoM step, is
+taken equal to the one measured over the previous tick (c_k − c_{k−1} − J_com,k−1 v_{k−1} dt). Divided by h dt
+(units m/s), the row is
+
+    (−n_i, −s_i/h)·J_com v ≤ [s_i g dt² + (n_i h, s_i)·(r − Δc)] / (h dt),    Δc = c_k − c_{k−1}.
+
+It needs the previous command (``needs_previous_command``) and the previous CoM, both recorded by the
+controller's tick; until one tick has been solved (or after :meth:`reset`) its rows are inactive. It is
+``relaxable``: a tick on which it cannot hold together with the hard constraints (e.g. a joint position limit
+that stops a joint within one tick) is solved without it and reported in ``TickResult.relaxed``.
+
+:class:`DcmPolygonConstraint` — the ZMP constraint alone is not enough near the edge of the CoM polygon: a CoM
+that reaches the polygon's edge with speed has to stop within one tick, and no ZMP inside the feet can do that.
+Keeping the divergent component of motion (capture point) ξ = c + ċ/ω, ω = √(g/h), inside the shrunk polygon
+(Pratt et al., "Capture point: a step toward humanoid push recovery", Humanoids 2006; Englsberger et al., IEEE
+T-RO 2015) caps the CoM speed towards edge i at ω s_i, so the CoM approaches the edge exponentially, with
+deceleration ω² s_i, whose ZMP (p = c − c̈/ω²) is at most on the shrunk edge itself. Row: n_i·J_com,xy v ≤ ω s_i
+(and, as in :class:`~wbc.constraints.ComPolygonConstraint`, a CoM already outside is pulled back at no more than
+``recovery_speed``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.constraints.base import InequalityConstraint
+from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
+from wbc.exceptions import InvalidInputError
+from wbc.geometry import as_se3, convex_hull, sole_polygon
+
+__all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
+
+#: Standard gravity (m/s²), the value Pinocchio's default model uses.
+GRAVITY = 9.81
+
+
+class ExecutedZmpConstraint(InequalityConstraint):
+    """ZMP of the executed CoM motion inside the support polygon shrunk by ``margin`` (module docstring).
+
+    Args:
+        robot: the robot (sole rectangle ``robot.sole_length`` × ``robot.sole_width``).
+        margin: inward shrink of the support polygon (m, ≥ 0).
+        max_soles: most soles ever passed to :meth:`set_support` (rows: 4 × max_soles).
+        gravity: g (m/s², > 0).
+        name: label in reports.
+
+    Call :meth:`set_support` before the first solve (until then every row is inactive).
+
+    Raises:
+        InvalidInputError: negative or non-finite margin, gravity ≤ 0, max_soles < 1.
+    """
+
+    needs_previous_command = True
+    relaxable = True
+
+    def __init__(self, robot, *, margin: float = 0.002, max_soles: int = 2, gravity: float = GRAVITY,
+                 name: str = "executed_zmp"):
+        if not (math.isfinite(margin) and margin >= 0):
+            raise InvalidInputError(f"margin must be finite and ≥ 0 (m), got {margin!r}")
+        if not (math.isfinite(gravity) and gravity > 0):
+            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
+        if int(max_soles) < 1:
+            raise InvalidInputError(f"max_soles must be ≥ 1, got {max_soles!r}")
+        self.robot = robot
+        self.margin, self.gravity, self.max_soles, self.name = float(margin), float(gravity), int(max_soles), name
+        nv = robot.model.nv
+        self.dim = 4 * self.max_soles
+        self.nv = nv
+        self.normals = np.zeros((0, 2))
+        self.offsets = np.zeros(0)
+        self.ground_z = 0.0
+        self._C = np.zeros((self.dim, nv))
+        self._l = np.full(self.dim, -np.inf)
+        self._u = np.full(self.dim, np.inf)
+        self._c_now = np.zeros(3)
+        self._J_now = np.zeros((3, nv))
+        self._dt_now = 0.0
+        self._have_now = False
+        self._c_prev: np.ndarray | None = None   # c_{k−1}
+        self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
+
+    def set_support(self, sole_placements) -> None:
+        """Support polygon = hull of the sole rectangles at these placements (pin.SE3 or (4, 4), world); the ground
+        height is their mean z.
+
+        Raises:
+            InvalidInputError: no sole or more than ``max_soles``, malformed pose, polygon smaller than the margin.
+        """
+        poses = [as_se3(p, "sole placement") for p in sole_placements]
+        if not 1 <= len(poses) <= self.max_soles:
+            raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
+        corners = np.vstack([
+            sole_polygon(float(M.translation[0]), float(M.translation[1]),
+                         math.atan2(M.rotation[1, 0], M.rotation[0, 0]), self.robot.sole_length,
+                         self.robot.sole_width) for M in poses])
+        poly = corners if len(poses) == 1 else convex_hull(corners)
+        normals, offsets = halfplanes(poly)
+        if float(np.min(offsets - normals @ poly.mean(axis=0))) <= self.margin:
+            raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
+        self.normals, self.offsets = normals, offsets - self.margin
+        self.ground_z = float(np.mean([M.translation[2] for M in poses]))
+        self._C[len(offsets):] = 0.0
+        self._u[len(offsets):] = np.inf
+
+    def reset(self) -> None:
+        """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
+        by anything else than the controller's commands."""
+        self._c_prev = self._c_pred = None
+        self._have_now = False
+
+    def set_previous(self, v) -> None:
+        """Record the command v (nv,) applied from the configuration of the last :meth:`compute`."""
+        if not self._have_now:
+            return
+        v = np.asarray(v, dtype=float)
+        if v.shape != (self.nv,) or not np.isfinite(v).all():
+            self.reset()
+            return
+        self._c_prev = self._c_now.copy()
+        self._c_pred = self._c_now + (self._J_now @ v) * self._dt_now
+        self._have_now = False
+
+    def compute(self, config: Configuration, dt: float):
+        """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
+        c, J = config.com, config.com_jacobian
+        self._c_now[:] = c
+        self._J_now[:] = J
+        self._dt_now = float(dt)
+        self._have_now = True
+        k = len(self.offsets)
+        C, u = self._C, self._u
+        h = float(c[2]) - self.ground_z
+        if k == 0 or self._c_prev is None or h <= 0.0:
+            C[:k] = 0.0
+            u[:k] = np.inf
+            return C, self._l, u
+        dc = c - self._c_prev            # Δc = c_k − c_{k−1}
+        r = c - self._c_pred             # second-order part of the last step
+        s = self.offsets - self.normals @ c[:2]          # (k,) slack of the CoM to each shrunk edge
+        a = np.empty((k, 3))
+        a[:, :2] = -self.normals
+        a[:, 2] = -s / h
+        np.matmul(a, J, out=C[:k])
+        u[:k] = (s * self.gravity * dt * dt / h - a @ (r - dc)) / dt
+        return C, self._l, u
+
+
+class DcmPolygonConstraint(ComPolygonConstraint):
+    """The divergent component of motion ξ = c + ċ/ω inside the support polygon shrunk by ``margin`` (module
+    docstring): rows n_i·J_com,xy v ≤ max(ω s_i, −recovery_speed), ω = √(g / (c_z − z_ground)).
+
+    Args: those of :class:`~wbc.constraints.ComPolygonConstraint`, plus ``gravity`` (m/s², > 0). The ground
+    height is the mean z of the soles given to :meth:`set_support`.
+    """
+
+    def __init__(self, robot, *, gravity: float = GRAVITY, name: str = "dcm_polygon", **kwargs):
+        if not (math.isfinite(gravity) and gravity > 0):
+            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
+        super().__init__(robot, name=name, **kwargs)
+        self.gravity = float(gravity)
+        self.ground_z = 0.0
+
+    def set_support(self, sole_placements) -> None:
+        poses = [as_se3(p, "sole placement") for p in sole_placements]
+        super().set_support(poses)
+        self.ground_z = float(np.mean([M.translation[2] for M in poses]))
+
+    def compute(self, config: Configuration, dt: float):
+        k = len(self.offsets)
+        if k:
+            C, u = self._C, self._u
+            np.matmul(self.normals, config.com_jacobian[:2], out=C[:k])
+            h = max(float(config.com[2]) - self.ground_z, 1e-3)
+            omega = math.sqrt(self.gravity / h)
+            slack = self.offsets - self.margin - self.normals @ config.com[:2]
+            u[:k] = np.maximum(np.minimum(omega * slack, slack / dt), -self.recovery_speed)
+        return self._C, self._l, self._u

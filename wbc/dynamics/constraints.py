@@ -1,0 +1,326 @@
+"""Named constraints of the inverse-dynamics QP (:mod:`wbc.dynamics.formulation`).
+
+Each constraint is an object with a ``name`` (used in infeasibility reports, :mod:`wbc.diagnosis`), a ``kind``
+(``"equality"`` rows of ``A x = b``, ``"inequality"`` rows of ``l ≤ C x ≤ u``, ``"bounds"`` on entries of x) and a
+fixed number of rows. The decision variable is x = [v̇ ; f] (nv + 12 n_c). The formulation gives each constraint its
+place once (row block or variable indices, :attr:`IDConstraint.rows` / :attr:`IDConstraint.indices`); per tick
+:meth:`IDConstraint.write` writes the constraint's numbers **in place** into the formulation's preallocated
+arrays, so no matrix is rebuilt and a constant block (the friction pyramids) is written only once.
+
+The per-tick quantities that several constraints share (M, h, the contact Jacobians J_k and J_cᵀ = [J_kᵀ G_k]_k)
+are computed once by the formulation and handed over in an :class:`IDContext`.
+
+============================  ==========  ===============================================================  ===========
+name                          kind        rows                                                             relaxable
+============================  ==========  ===============================================================  ===========
+``floating_base_dynamics``    equality    M_u v̇ − (J_cᵀ)_u f = −h_u (eq. 4)                                no
+``contact:<c>``               equality    J_k v̇ = −J̇_k v − K_d J_k v − K_p e_k, active contacts (eq. 5)     no
+``task:<t>``                  equality    a hard acceleration task J v̇ = a* − J̇ v                          no
+``torque_limits``             inequality  −τ_max − h_a ≤ M_a v̇ − (J_cᵀ)_a f ≤ τ_max − h_a (eq. 6)           yes
+``friction:<c>``              inequality  friction pyramid F_k f_k ≤ 0 (eq. 7), constant                   no
+``unilaterality:<c>``         bounds      f_min ≤ f_z ≤ f_max per corner (CoP inside the sole), or f_k = 0  no
+                                          when the contact is inactive (eq. 8)
+``joint_limits``              bounds      joint position / velocity / viability bounds on v̇ (eq. 9)        yes
+============================  ==========  ===============================================================  ===========
+
+*Relaxable* constraints are the ones the controller drops when the full QP is infeasible
+(:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from wbc.dynamics.contacts import SoleContact
+from wbc.dynamics.state import DynamicsState
+from wbc.dynamics.tasks import AccelerationTask
+from wbc.exceptions import InvalidInputError
+from wbc.robot import Robot
+
+__all__ = [
+    "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "TorqueLimits",
+    "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
+]
+
+
+@dataclass
+class IDContext:
+    """Per-tick quantities shared by the constraints (written by the formulation before they are).
+
+    Attributes:
+        state: the dynamic state. dt: control period (s). nv: velocity dimension.
+        JcT: (nv, 12 n_c) J_cᵀ = [J_kᵀ G_k]_k (LOCAL sole Jacobians; inactive contacts included).
+        jacobians: contact name → (6, nv) LOCAL sole Jacobian of this tick.
+    """
+
+    state: DynamicsState
+    dt: float
+    nv: int
+    JcT: np.ndarray
+    jacobians: dict
+
+
+class IDConstraint:
+    """Base of the named ID constraints (module docstring).
+
+    Attributes:
+        name: label in reports. kind: ``equality``, ``inequality`` or ``bounds``. dim: rows (or bounded entries).
+        relaxable: dropped by the relaxed solve. constant: written once (rows do not depend on the state).
+        rows: slice of the constraint's rows in A (equality) or C (inequality), set by the formulation.
+        indices: (dim,) indices of x bounded by a ``bounds`` constraint.
+    """
+
+    name: str = "constraint"
+    kind: str = "equality"
+    dim: int = 0
+    relaxable: bool = False
+    constant: bool = False
+    rows: slice = slice(0, 0)
+    indices: np.ndarray | None = None
+
+    @property
+    def enabled(self) -> bool:
+        """False while the constraint has no rows in the QP (an inactive contact's acceleration rows)."""
+        return True
+
+    def write(self, ctx: IDContext, M_rows: np.ndarray, rhs_lo: np.ndarray, rhs_hi: np.ndarray | None) -> None:
+        """Write this tick's numbers in place: for ``equality`` M_rows = A[rows], rhs_lo = b[rows] (rhs_hi None);
+        for ``inequality`` C[rows], l[rows], u[rows]; for ``bounds`` (M_rows None) lb[indices], ub[indices] —
+        given as the views ``rhs_lo``/``rhs_hi`` of length dim."""
+        raise NotImplementedError
+
+
+class FloatingBaseDynamics(IDConstraint):
+    """Unactuated rows of the equations of motion (eq. 4): M_u v̇ − (J_cᵀ)_u f = −h_u (N, N·m)."""
+
+    name = "floating_base_dynamics"
+    kind = "equality"
+    dim = 6
+
+    def write(self, ctx, A, b, _):
+        nv = ctx.nv
+        A[:, :nv] = ctx.state.M[:6]
+        np.negative(ctx.JcT[:6], out=A[:, nv:])
+        np.negative(ctx.state.h[:6], out=b)
+
+
+class ContactAcceleration(IDConstraint):
+    """The sole of an active contact does not accelerate (eq. 5; m/s², rad/s², LOCAL). No rows while inactive."""
+
+    kind = "equality"
+    dim = 6
+
+    def __init__(self, contact: SoleContact):
+        self.contact = contact
+        self.name = f"contact:{contact.name}"
+
+    @property
+    def enabled(self) -> bool:
+        return self.contact.active
+
+    def write(self, ctx, A, b, _):
+        J = ctx.jacobians[self.contact.name]
+        A[:, :ctx.nv] = J
+        A[:, ctx.nv:] = 0.0
+        b[:] = self.contact.acceleration_target(ctx.state, J)
+
+
+class HardTask(IDConstraint):
+    """An acceleration task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
+
+    Raises:
+        InvalidInputError: not an :class:`~wbc.dynamics.tasks.AccelerationTask`.
+    """
+
+    kind = "equality"
+
+    def __init__(self, task: AccelerationTask):
+        if not isinstance(task, AccelerationTask):
+            raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
+        self.task = task
+        self.name = f"task:{task.name}"
+        self.dim = task.dim
+
+    def write(self, ctx, A, b, _):
+        J, r = self.task.compute(ctx.state)
+        A[:, :ctx.nv] = J
+        A[:, ctx.nv:] = 0.0
+        b[:] = r
+
+
+class TorqueLimits(IDConstraint):
+    """URDF effort limits on the torques of eq. 2 (eq. 6, N·m), joints with a finite positive limit only.
+
+    Args:
+        robot: the robot. scale: fraction of the URDF effort limit, in (0, 1].
+
+    Attributes:
+        tau_max: (nv − 6,) scaled effort limits (all joints). joints: indices (into τ) of the limited joints.
+        limits: (dim,) the limits of those joints. velocity_rows: their indices in v (a slice when contiguous).
+    """
+
+    name = "torque_limits"
+    kind = "inequality"
+    relaxable = True
+
+    def __init__(self, robot: Robot, scale: float = 1.0):
+        if not (0 < scale <= 1):
+            raise InvalidInputError(f"torque_limit_scale must be in (0, 1], got {scale!r}")
+        effort = np.asarray(robot.model.effortLimit[6:], dtype=float) * float(scale)
+        self.tau_max = effort
+        self.joints = np.flatnonzero(np.isfinite(effort) & (effort > 0))
+        self.dim = int(self.joints.size)
+        self.velocity_rows = 6 + self.joints
+        if self.dim and np.array_equal(self.joints, np.arange(self.joints[0], self.joints[0] + self.dim)):
+            self.velocity_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
+        self.limits = effort[self.joints]
+        self._neg_lim = -self.limits
+
+    def write(self, ctx, C, l, u):
+        if not self.dim:
+            return
+        nv, rows = ctx.nv, self.velocity_rows
+        C[:, :nv] = ctx.state.M[rows]
+        np.negative(ctx.JcT[rows], out=C[:, nv:])
+        hr = ctx.state.h[rows]
+        np.subtract(self._neg_lim, hr, out=l)
+        np.subtract(self.limits, hr, out=u)
+
+
+class FrictionPyramid(IDConstraint):
+    """Inscribed friction pyramid of a sole's 4 corner forces (eq. 7; N): ``friction_matrix @ f_k ≤ 0``. Constant:
+    written once. ``offset`` is the first force variable of the contact in x."""
+
+    kind = "inequality"
+    dim = 16
+    constant = True
+
+    def __init__(self, contact: SoleContact, offset: int):
+        self.contact = contact
+        self.name = f"friction:{contact.name}"
+        self.offset = int(offset)
+
+    def write(self, ctx, C, l, u):
+        C[:] = 0.0
+        C[:, self.offset:self.offset + 12] = self.contact.friction_matrix
+        l[:] = -np.inf
+        u[:] = 0.0
+
+
+class Unilaterality(IDConstraint):
+    """Bounds on a sole's 12 corner forces (eq. 8; N): f_min ≤ f_z ≤ f_max and tangential free while active —
+    the unilateral contact, which keeps the CoP inside the sole rectangle (:mod:`wbc.dynamics.contacts`) —, all
+    zero while inactive."""
+
+    kind = "bounds"
+    dim = 12
+
+    def __init__(self, contact: SoleContact, offset: int):
+        self.contact = contact
+        self.name = f"unilaterality:{contact.name}"
+        self.indices = np.arange(offset, offset + 12)
+        #: :meth:`key` of the bounds last written by the formulation (None: never).
+        self.written: tuple | None = None
+
+    def key(self) -> tuple:
+        """What the bounds depend on: (active, f_min, f_max) — rewritten only when it changes."""
+        c = self.contact
+        return (c.active, c.f_min, c.f_max)
+
+    def write(self, ctx, _, lb, ub):
+        c = self.contact
+        if c.active:
+            lb.fill(-np.inf)
+            ub.fill(np.inf)
+            lb[2::3] = c.f_min
+            ub[2::3] = c.f_max
+        else:
+            lb.fill(0.0)
+            ub.fill(0.0)
+
+
+@nb.njit(cache=True, nogil=True)
+def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out):
+    """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint), written into lo_out,
+    hi_out (k,)."""
+    dt2 = dt * dt
+    for j in range(iq.size):
+        qj = q[iq[j]]
+        vj = v[iv[j]]
+        q1 = qj + vj * dt
+        d_hi = qmax[j] - q1
+        d_lo = q1 - qmin[j]
+        hi = min((vmax[j] - vj) / dt, 2.0 * d_hi / dt2)
+        lo = max((-vmax[j] - vj) / dt, -2.0 * d_lo / dt2)
+        # viability: larger root of dt² x² + B x + (w² − 2 a d) = 0, mirrored for the lower limit
+        w = vj
+        B = 2.0 * w * dt + a * dt2
+        disc = max(B * B - 4.0 * dt2 * (w * w - 2.0 * a * d_hi), 0.0)
+        hi = min(hi, (-B + np.sqrt(disc)) / (2.0 * dt2))
+        w = -vj
+        B = 2.0 * w * dt + a * dt2
+        disc = max(B * B - 4.0 * dt2 * (w * w - 2.0 * a * d_lo), 0.0)
+        lo = max(lo, -((-B + np.sqrt(disc)) / (2.0 * dt2)))
+        hi = max(hi, -a)
+        lo = min(lo, a)
+        lo_out[j] = min(lo, hi)
+        hi_out[j] = hi
+
+
+def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float,
+                              lo: np.ndarray | None = None, hi: np.ndarray | None = None):
+    """(lo, hi) joint acceleration bounds (rad/s²) of eq. 9 (position, velocity and viability with braking
+    acceleration a_brk; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV) for the 1-DoF joints with configuration
+    indices ``iq`` and velocity indices ``iv`` (limits qmin, qmax (rad), vmax (rad/s, inf when unlimited)).
+    Written into ``lo``/``hi`` when given."""
+    k = len(iq)
+    lo = np.empty(k) if lo is None else lo
+    hi = np.empty(k) if hi is None else hi
+    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi)
+    return lo, hi
+
+
+class JointAccelerationLimits(IDConstraint):
+    """Joint position / velocity / viability bounds on the 1-DoF joint accelerations (eq. 9; rad/s²).
+
+    Args:
+        robot: the robot. braking_acceleration: a_brk (rad/s²), > 0.
+    """
+
+    name = "joint_limits"
+    kind = "bounds"
+    relaxable = True
+
+    def __init__(self, robot: Robot, braking_acceleration: float = 50.0):
+        if not (np.isfinite(braking_acceleration) and braking_acceleration > 0):
+            raise InvalidInputError(f"braking_acceleration must be finite and > 0, got {braking_acceleration!r}")
+        model = robot.model
+        iq, iv = [], []
+        for j in range(2, model.njoints):
+            jm = model.joints[j]
+            if jm.nq == 1 and jm.nv == 1:
+                iq.append(jm.idx_q)
+                iv.append(jm.idx_v)
+        self.iq, self.iv = np.array(iq, dtype=np.int64), np.array(iv, dtype=np.int64)
+        self.indices = self.iv
+        self.dim = int(self.iv.size)
+        self.qmin = np.asarray(model.lowerPositionLimit, dtype=float)[self.iq].copy()
+        self.qmax = np.asarray(model.upperPositionLimit, dtype=float)[self.iq].copy()
+        vmax = np.asarray(model.velocityLimit, dtype=float)[self.iv]
+        self.vmax = np.where(vmax > 0, vmax, np.inf)
+        self.braking_acceleration = float(braking_acceleration)
+        self._lo = np.empty(self.dim)
+        self._hi = np.empty(self.dim)
+
+    def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""
+        return joint_acceleration_bounds(state.q, state.v, self.iq, self.iv, self.qmin, self.qmax, self.vmax,
+                                         self.braking_acceleration, dt, self._lo, self._hi)
+
+    def write(self, ctx, _, lb, ub):
+        lo, hi = self.bounds(ctx.state, ctx.dt)
+        lb[:] = lo
+        ub[:] = hi

@@ -1,0 +1,112 @@
+r"""Step adjustment from the measured DCM: where the swing foot must land to capture a disturbed walk.
+
+LIPM / DCM (Englsberger, Ott, Albu-Schäffer, IEEE T-RO 31(2), 2015, eqs. 3–6): ``ξ = c + ċ/ω``,
+``ξ̇ = ω (ξ − p)``. With the CoP held at the stance foot ``u_0`` for the rest ``τ = T − t`` of the single support,
+
+    ξ(T) = u_0 + (ξ(t) − u_0) e^{ωτ}                                   (Khadiv et al. 2016, eq. 6)
+
+and a gait keeps a nominal **DCM offset** at the end of the step, ``b = ξ(T) − u_1`` (eq. 7), ``u_1`` the next
+footstep. The plan being such a gait (its ZMP is constant on the stance foot in single support,
+:mod:`wbc.gait.schedule`), the planned landing ``u_1^nom`` and DCM ``ξ_ref`` satisfy the same relation, so
+subtracting the two gives the landing point that restores the nominal offset from the measured DCM:
+
+    u_1 = u_1^nom + e^{ωτ} (ξ(t) − ξ_ref(t))                            (1)
+
+Khadiv, Herzog, Moosavian, Righetti, "Step timing adjustment: a step toward generating robust gaits",
+Humanoids 2016 (and "Walking control based on step timing adaptation", IEEE T-RO 36(3), 2020) solve a QP over
+``u_1``, the offset ``b`` and the step time ``e^{ωT}`` with the landing inside the kinematic reach; with the step
+time held (this module adapts location only) and the offset fixed to its nominal value, the QP's solution is (1)
+projected onto the reachable set, which for a box is a clip per axis. Griffin, Wiedebach, Bertrand, Leonessa,
+Pratt, "Walking stabilization using step timing and location adjustment on the humanoid robot, Atlas", IROS
+2017, use the same DCM-based adjustment with a dead band and a reachable region.
+
+Reachable, collision-free set (stance-sole heading frame, ``x`` forward, ``y`` towards the swing side):
+``x ∈ [−max_backward, max_forward]``, ``y ∈ [min_width, max_width]`` — ``min_width`` keeps the soles apart
+(> sole width: no sole overlap and the swing leg never crosses the stance leg, since the swing path is a
+blend between two points on the swing side, :meth:`wbc.gait.WalkPlan.replan`).
+
+Dead band (Griffin 2017) on the DCM error: ``d = e^{ωτ} max(0, 1 − δ/‖e‖) e`` with ``e = ξ − ξ_ref``: the DCM
+errors of normal walking (≈ 1–2 cm, measured) stay with the CoP feedback of the stabilizer, and the adjustment is
+continuous in ``e``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbc.exceptions import GaitError
+from wbc.gait.footsteps import Footstep, feet_overlap
+
+__all__ = ["StepAdjuster"]
+
+
+class StepAdjuster:
+    """Landing point of the swing foot from the measured DCM (module docstring, eq. 1), clipped to the reach.
+
+    Args:
+        omega: LIPM frequency ω (1/s, > 0).
+        max_forward, max_backward: reach of the landing point ahead of / behind the stance sole along the stance
+            heading (m, ≥ 0).
+        min_width, max_width: lateral distance (m) from the stance sole towards the swing side,
+            ``0 < min_width < max_width`` (``min_width`` above the sole width keeps the soles apart).
+        dead_band: δ (m, ≥ 0) on the DCM error ‖ξ − ξ_ref‖.
+        sole_length, sole_width: sole rectangle (m) for the overlap check of turned feet.
+
+    Raises:
+        GaitError: non-finite or out-of-range arguments.
+    """
+
+    def __init__(self, omega: float, *, max_forward: float, max_backward: float, min_width: float,
+                 max_width: float, dead_band: float = 0.03, sole_length: float = 0.2, sole_width: float = 0.1):
+        vals = dict(omega=omega, max_forward=max_forward, max_backward=max_backward, min_width=min_width,
+                    max_width=max_width, dead_band=dead_band, sole_length=sole_length, sole_width=sole_width)
+        for k, v in vals.items():
+            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v >= 0):
+                raise GaitError(f"{k} must be a finite number >= 0; got {v!r}")
+        if not omega > 0 or not 0 < min_width < max_width or not sole_length > 0 or not sole_width > 0:
+            raise GaitError(f"need omega > 0, 0 < min_width < max_width, sole size > 0; got omega={omega}, "
+                            f"min_width={min_width}, max_width={max_width}, sole {sole_length} x {sole_width}")
+        self.omega = float(omega)
+        self.max_forward, self.max_backward = float(max_forward), float(max_backward)
+        self.min_width, self.max_width = float(min_width), float(max_width)
+        self.dead_band = float(dead_band)
+        self.sole_length, self.sole_width = float(sole_length), float(sole_width)
+
+    def correction(self, xi: np.ndarray, xi_ref: np.ndarray, time_left: float) -> np.ndarray:
+        """Dead-banded landing correction ``d`` (2,) (m, world xy): eq. 1 with the DCM error shrunk by δ.
+
+        Args:
+            xi, xi_ref: (2,) measured and planned DCM (m, world xy). time_left: τ ≥ 0 (s) to the planned landing.
+        """
+        e = np.asarray(xi, float) - np.asarray(xi_ref, float)
+        n = float(np.linalg.norm(e))
+        if n <= self.dead_band:
+            return np.zeros(2)
+        return math.exp(self.omega * max(float(time_left), 0.0)) * (1.0 - self.dead_band / n) * e
+
+    def landing(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray) -> Footstep:
+        """The adjusted footstep: ``nominal`` moved by ``correction`` (2,) (m, world xy), projected onto the
+        reachable box around the ``stance`` sole ``(x, y, yaw)`` (module docstring), then pushed outwards until
+        the soles do not overlap (turned feet).
+
+        Returns:
+            A :class:`~wbc.gait.Footstep` with the side and yaw of ``nominal``.
+        """
+        xs, ys, yaws = (float(v) for v in stance)
+        c, s = math.cos(yaws), math.sin(yaws)
+        sign = 1.0 if nominal.side == "left" else -1.0
+        px = nominal.x + float(correction[0]) - xs
+        py = nominal.y + float(correction[1]) - ys
+        fx = c * px + s * py  # stance heading frame
+        fy = sign * (-s * px + c * py)  # towards the swing side
+        fx = min(max(fx, -self.max_backward), self.max_forward)
+        fy = min(max(fy, self.min_width), self.max_width)
+        for _ in range(50):
+            x, y = xs + c * fx - s * sign * fy, ys + s * fx + c * sign * fy
+            if not feet_overlap(np.array([[xs, ys, yaws]]), np.array([[x, y, nominal.yaw]]),
+                                self.sole_length, self.sole_width)[0] or fy >= self.max_width:
+                break
+            fy = min(fy + 0.01, self.max_width)
+        return Footstep(nominal.side, x, y, nominal.yaw)

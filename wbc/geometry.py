@@ -1,0 +1,272 @@
+"""Geometry below tasks, constraints and gait: SE3 checks, ground-plane headings, and planar support polygons
+(sole rectangles, convex hulls, signed distances, overlap tests).
+
+This module imports nothing of wbc but :mod:`wbc.exceptions`; every higher layer (tasks, constraints, gait,
+scenarios, viz) takes its geometry from here.
+
+All planar points are 2-D ground-plane coordinates ``(x, y)`` in metres, in whatever frame the caller uses (the world
+frame in the gait layer). Polygons are ``(k, 2)`` arrays of vertices; the functions that need a convex polygon
+accept either orientation and do not repeat the first vertex at the end.
+
+These helpers are shared by the gait planner (ZMP margins) and by other modules (CoM-projection and CoP margins).
+Small inputs (one point, a few vertices) take plain-Python paths (:func:`sole_corners`, :func:`hull`,
+:func:`signed_distance_point`: lists of ``(x, y)`` tuples, no validation, for callers that built their input
+themselves): numpy's per-call overhead would dominate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import InvalidInputError, InvalidTargetError
+
+__all__ = [
+    "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "signed_distance_point", "signed_distance", "polygons_overlap",
+]
+
+Point = tuple[float, float]
+
+
+def as_se3(pose, what: str = "target pose") -> pin.SE3:
+    """Convert a pin.SE3 or a (4, 4) homogeneous matrix to pin.SE3 (a pin.SE3 is returned as is).
+
+    Args:
+        pose: pin.SE3 or (4, 4) homogeneous matrix (translation in m).
+        what: name of the argument in the error message.
+
+    Raises:
+        InvalidTargetError: wrong type/shape, non-finite entries, or a 3×3 block that is not a rotation
+            (|RᵀR − I| > 1e-6 or det R < 0).
+    """
+    if isinstance(pose, pin.SE3):
+        mat = pose.homogeneous
+    else:
+        mat = np.asarray(pose, dtype=float)
+        if mat.shape != (4, 4):
+            raise InvalidTargetError(f"{what} must be a pin.SE3 or a (4, 4) matrix, got shape {mat.shape}")
+    if not np.isfinite(mat).all():
+        raise InvalidTargetError(f"{what} contains NaN/inf")
+    rot = mat[:3, :3]
+    if np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) < 0:
+        raise InvalidTargetError(f"{what} rotation block is not a rotation matrix")
+    return pose if isinstance(pose, pin.SE3) else pin.SE3(rot.copy(), mat[:3, 3].copy())
+
+
+def yaw_of(pose) -> float:
+    """Heading (rad) of a pose's x axis projected on the ground plane: ``atan2(R[1, 0], R[0, 0])``.
+
+    Args:
+        pose: pin.SE3 or (4, 4) homogeneous matrix (no validation: for poses the caller built or checked).
+    """
+    rot = pose.rotation if isinstance(pose, pin.SE3) else pose
+    return math.atan2(float(rot[1, 0]), float(rot[0, 0]))
+
+
+def mean_heading(a, b) -> float:
+    """Heading (rad) halfway between the :func:`yaw_of` of two poses (pin.SE3 or (4, 4)): the direction of the
+    sum of their unit heading vectors (undefined when they are opposite)."""
+    ya, yb = yaw_of(a), yaw_of(b)
+    return math.atan2(math.sin(ya) + math.sin(yb), math.cos(ya) + math.cos(yb))
+
+
+def sole_corners(x: float, y: float, yaw: float, length: float, width: float) -> list[Point]:
+    """Plain-Python :func:`sole_polygon` without validation: the 4 corners (m) as ``(x, y)`` tuples, CCW."""
+    a, b = 0.5 * length, 0.5 * width
+    c, s = math.cos(yaw), math.sin(yaw)
+    return [(x + c * u - s * v, y + s * u + c * v) for u, v in ((a, b), (-a, b), (-a, -b), (a, -b))]
+
+
+def sole_polygon(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
+    """Corners of a sole rectangle centred at ``(x, y)``, rotated by ``yaw`` about the vertical.
+
+    Args:
+        x, y: rectangle centre (m).
+        yaw: heading of the sole's x axis (rad, counter-clockwise from the frame's x axis).
+        length: size along the sole's x axis (m, > 0).
+        width: size along the sole's y axis (m, > 0).
+
+    Returns:
+        (4, 2) corners, counter-clockwise: front-left, rear-left, rear-right, front-right.
+
+    Raises:
+        InvalidInputError: non-finite input or non-positive size.
+    """
+    vals = (x, y, yaw, length, width)
+    if not all(math.isfinite(v) for v in vals):
+        raise InvalidInputError(f"sole_polygon needs finite x, y, yaw, length, width; got {vals}")
+    if length <= 0 or width <= 0:
+        raise InvalidInputError(f"sole length and width must be > 0 m; got length={length}, width={width}")
+    return np.array(sole_corners(x, y, yaw, length, width))
+
+
+def _cross(o: Point, a: Point, b: Point) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def hull(points: list[Point]) -> list[Point]:
+    """Plain-Python :func:`convex_hull` without validation: CCW hull vertices of ``(x, y)`` tuples (m); fewer
+    than 3 vertices when the points are collinear."""
+    pts = sorted(points)
+    lower: list[Point] = []
+    for p in pts:
+        while len(lower) >= 2 and _cross(lower[-2], lower[-1], p) <= 0.0:
+            lower.pop()
+        lower.append(p)
+    upper: list[Point] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and _cross(upper[-2], upper[-1], p) <= 0.0:
+            upper.pop()
+        upper.append(p)
+    return lower[:-1] + upper[:-1]
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Convex hull of planar points (Andrew's monotone chain).
+
+    Args:
+        points: (n, 2) points (m), n >= 3, finite.
+
+    Returns:
+        (k, 2) hull vertices, counter-clockwise, starting from the lowest-x (then lowest-y) point, without
+        collinear vertices or a repeated first vertex.
+
+    Raises:
+        InvalidInputError: wrong shape, non-finite values, or all points collinear (no area).
+    """
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
+        raise InvalidInputError(f"convex_hull needs an (n, 2) array with n >= 3; got shape {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise InvalidInputError("convex_hull needs finite points; got NaN or inf")
+    vertices = hull([(p[0], p[1]) for p in pts.tolist()])
+    if len(vertices) < 3:
+        raise InvalidInputError("convex_hull: the points are collinear, their hull has no area")
+    return np.array(vertices)
+
+
+def support_polygon(sole_placements, length: float, width: float) -> np.ndarray:
+    """Support polygon (k, 2) (m, ground xy of the placements' frame), counter-clockwise, of soles in contact:
+    the ``length`` × ``width`` sole rectangle centred on each placement, heading its :func:`yaw_of`; one sole
+    gives its rectangle, several the convex hull of their rectangles.
+
+    Args:
+        sole_placements: sequence of pin.SE3 or (4, 4) sole poses (at least one).
+        length, width: sole rectangle size (m, > 0).
+
+    Raises:
+        InvalidInputError: no placement, non-finite pose or non-positive size.
+    """
+    polys = []
+    for pose in sole_placements:
+        m = pose.homogeneous if isinstance(pose, pin.SE3) else np.asarray(pose, dtype=float)
+        polys.append(sole_polygon(float(m[0, 3]), float(m[1, 3]), yaw_of(m), length, width))
+    if not polys:
+        raise InvalidInputError("support_polygon needs at least one sole placement")
+    return polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+
+
+def _ccw_polygon(polygon: np.ndarray, name: str = "polygon") -> np.ndarray:
+    poly = np.asarray(polygon, dtype=float)
+    if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3:
+        raise InvalidInputError(f"{name} must be a (k, 2) array with k >= 3 vertices; got shape {poly.shape}")
+    if not np.all(np.isfinite(poly)):
+        raise InvalidInputError(f"{name} vertices must be finite; got NaN or inf")
+    x, y = poly[:, 0], poly[:, 1]
+    area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    if area2 == 0.0:
+        raise InvalidInputError(f"{name} has zero area")
+    return poly if area2 > 0 else poly[::-1]
+
+
+def signed_distance_point(px: float, py: float, poly: list[Point]) -> float:
+    """Plain-Python :func:`signed_distance` of one point ``(px, py)`` (m) to a CCW convex polygon given as a
+    list of ``(x, y)`` vertex tuples, without validation (m, positive inside)."""
+    best = math.inf
+    outside = False
+    n = len(poly)
+    for i in range(n):
+        x0, y0 = poly[i]
+        x1, y1 = poly[(i + 1) % n]
+        ex, ey = x1 - x0, y1 - y0
+        rx, ry = px - x0, py - y0
+        if rx * ey - ry * ex > 0.0:
+            outside = True
+        u = min(1.0, max(0.0, (rx * ex + ry * ey) / (ex * ex + ey * ey)))
+        dx, dy = rx - u * ex, ry - u * ey
+        best = min(best, dx * dx + dy * dy)
+    d = math.sqrt(best)
+    return -d if outside else d
+
+
+def signed_distance(points: np.ndarray, polygon: np.ndarray) -> np.ndarray | float:
+    """Signed Euclidean distance from points to the boundary of a convex polygon, positive inside.
+
+    Inside, the value is the distance to the nearest edge (the margin before leaving the polygon); outside it
+    is minus the distance to the nearest boundary point.
+
+    Args:
+        points: (2,) one point or (N, 2) points (m).
+        polygon: (k, 2) vertices of a convex polygon, k >= 3, either orientation (e.g. from
+            :func:`convex_hull` or :func:`sole_polygon`).
+
+    Returns:
+        A float for a (2,) point, else an (N,) array (m).
+
+    Raises:
+        InvalidInputError: wrong shapes, non-finite values, or a zero-area polygon.
+    """
+    pts = np.asarray(points, dtype=float)
+    single = pts.ndim == 1
+    if single:
+        pts = pts[None, :]
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise InvalidInputError(f"points must have shape (2,) or (N, 2); got {np.shape(points)}")
+    if not np.all(np.isfinite(pts)):
+        raise InvalidInputError("points must be finite; got NaN or inf")
+    poly = _ccw_polygon(polygon)
+    if single:
+        return signed_distance_point(float(pts[0, 0]), float(pts[0, 1]), [tuple(p) for p in poly.tolist()])
+    nxt = np.concatenate((poly[1:], poly[:1]))
+    ex, ey = nxt[:, 0] - poly[:, 0], nxt[:, 1] - poly[:, 1]  # (k,) edges
+    rx = pts[:, :1] - poly[:, 0]  # (N, k) point relative to each edge start
+    ry = pts[:, 1:] - poly[:, 1]
+    # Outward normal of a CCW edge (ex, ey) is (ey, -ex): positive cross means the point is outside that edge.
+    outside = np.any(rx * ey - ry * ex > 0.0, axis=1)
+    u = np.clip((rx * ex + ry * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+    dx, dy = rx - u * ex, ry - u * ey
+    dist = np.sqrt(np.min(dx * dx + dy * dy, axis=1))
+    return np.where(outside, -dist, dist)
+
+
+def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bool:
+    """Whether two convex polygons intersect or come closer than ``clearance`` (separating-axis test).
+
+    Conservative for ``clearance > 0``: polygons count as overlapping unless one edge normal separates them by
+    more than ``clearance`` (two corners facing each other diagonally may be reported although farther apart).
+
+    Args:
+        a, b: (k, 2) and (m, 2) convex polygons (m), either orientation.
+        clearance: required gap (m, >= 0).
+
+    Returns:
+        True when no edge normal separates them by more than ``clearance`` (touching counts as overlapping).
+
+    Raises:
+        InvalidInputError: wrong shapes or non-finite values.
+    """
+    pa, pb = _ccw_polygon(a, "a"), _ccw_polygon(b, "b")
+    for p, q in ((pa, pb), (pb, pa)):
+        edge = np.roll(p, -1, axis=0) - p
+        normal = np.stack([edge[:, 1], -edge[:, 0]], axis=1)
+        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+        # The max of p along its own outward edge normal is reached on that edge; q is separated by that
+        # normal if all its vertices lie beyond.
+        p_max = np.einsum("kj,kj->k", p, normal)
+        q_min = np.min(q @ normal.T, axis=0)
+        if np.any(q_min - p_max > clearance):
+            return False
+    return True

@@ -1,0 +1,129 @@
+"""``CaptureStepScenario``: the robot stands, is pushed at the torso, and takes a step when its measured DCM leaves
+the support area (push recovery by stepping, MuJoCo, inverse-dynamics controller).
+
+While standing the controller holds its standing posture (as in :class:`wbc.sim.scenarios.PushScenario`). Every
+tick the DCM ``ξ = c + ċ/ω`` (Englsberger et al. 2015, eq. 3; c, ċ from the measured state) is compared with the
+convex hull of both soles shrunk by ``trigger_margin``: when ξ is outside, the robot can no longer be captured by
+its CoP alone (the capture point lies outside the support polygon: Pratt, Carff, Drakunov, Goswami, "Capture
+point: a step toward humanoid push recovery", Humanoids 2006) and a two-step walk starts at once
+(:class:`wbc.sim.walk.WalkScenario` with ``from_state=True``): the first step lands where the measured DCM says
+(eq. 1 of :mod:`wbc.gait.step_adjustment`, time left = time to the touch-down), re-adjusted during the swing; the
+second step closes the feet. The stepping foot is the one on the side the DCM moved to (left when it moved left
+or straight forward/back).
+
+Summary: trigger time (s), stepping side, landing shift of the first step (m, vs a step in place), feet moved (m),
+step adjustments during the swing, completed (no fall, run to the end).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import InvalidInputError
+from wbc.gait import convex_hull, lipm_omega, sole_polygon
+from wbc.sim.walk import WalkScenario, polygon_margin
+
+__all__ = ["CaptureStepScenario"]
+
+
+def _hull_of_soles(data, fids, length, width):
+    pts = []
+    for fid in fids:
+        M = data.oMf[fid]
+        yaw = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        pts.append(sole_polygon(M.translation[0], M.translation[1], yaw, length, width))
+    return convex_hull(np.vstack(pts))
+
+
+class CaptureStepScenario:
+    """Standing push, recovered by a capture step (module docstring). Needs the ID controller.
+
+    Args:
+        force: push (N, ≥ 0) at the torso origin for ``push_duration`` (s) from ``t_push`` (s), horizontal
+            direction ``push_dir`` (deg, world: 0 = +x, 90 = +y).
+        step_duration: s per step of the recovery walk (single + double support).
+        trigger_margin: the soles are shrunk by this (m) for the trigger test.
+        settle: s after the push when no step is triggered; the run lasts ``t_push + push_duration + settle`` at
+            least, and until the recovery walk has finished.
+
+    Raises:
+        InvalidInputError: negative or non-finite numbers.
+    """
+
+    name = "push-step"
+    needs_id = True
+
+    def __init__(self, force: float = 450.0, push_duration: float = 0.1, t_push: float = 0.5, push_dir: float = 0.0,
+                 *, step_duration: float = 0.5, trigger_margin: float = 0.02, settle: float = 3.5):
+        for val, what in ((force, "force"), (push_duration, "push_duration"), (t_push, "t_push"),
+                          (trigger_margin, "trigger_margin"), (settle, "settle")):
+            if not (np.isfinite(val) and val >= 0):
+                raise InvalidInputError(f"{what} must be finite and ≥ 0, got {val!r}")
+        self.force, self.push_duration, self.t_push = float(force), float(push_duration), float(t_push)
+        a = math.radians(push_dir)
+        self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
+        self.push_dir = float(push_dir)
+        self.step_duration, self.trigger_margin = float(step_duration), float(trigger_margin)
+        self.duration = self.t_push + self.push_duration + float(settle)
+        self.walk: WalkScenario | None = None
+        self.t_trigger: float | None = None
+
+    def setup(self, controller, sim, q, v):
+        robot = sim.robot
+        self._model, self._data = robot.model, robot.model.createData()
+        pin.centerOfMass(self._model, self._data, q)
+        self.com0 = self._data.com[0].copy()
+        self.omega = lipm_omega(float(self.com0[2]))
+        pin.framesForwardKinematics(self._model, self._data, q)
+        self._fids = [robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)]
+        self._hull = _hull_of_soles(self._data, self._fids, robot.sole_length - 2 * self.trigger_margin,
+                                    robot.sole_width - 2 * self.trigger_margin)
+        self._body = robot.torso
+        sim.body_id(self._body)
+        self._on = False
+        self._sim = sim
+        self.walk, self.t_trigger = None, None
+
+    def com_reference(self, t):
+        if self.walk is None:
+            return self.com0
+        return self.walk.com_reference(t - self.t_trigger)
+
+    def update(self, t, controller, sim, q, v):
+        if self.walk is None:
+            pin.centerOfMass(self._model, self._data, q, v)
+            c, cd = self._data.com[0], self._data.vcom[0]
+            xi = c[:2] + cd[:2] / self.omega
+            if polygon_margin(xi, self._hull) < 0.0:
+                e = xi - self.com0[:2]
+                side = "right" if e[1] < 0 else "left"
+                self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
+                                         first_side=side)
+                self.walk.setup(controller, sim, q, v)
+                self.t_trigger = float(t)
+        if self.walk is not None:
+            self.walk.update(t - self.t_trigger, controller, sim, q, v)
+        if self.t_push <= t < self.t_push + self.push_duration - 1e-9:
+            f = self.force * self.push_vec
+            sim.apply_external_force(self._body, f)
+            self._on = True
+            return f
+        if self._on:
+            sim.clear_external_forces()
+            self._on = False
+        return None
+
+    def extra_summary(self, run) -> dict:
+        moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1)
+        out = {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_dir_deg": self.push_dir,
+               "stepped": self.walk is not None, "trigger_time_s": self.t_trigger,
+               "feet_moved_m": [float(m) for m in moved],
+               "completed": bool(run.t[-1] >= self.duration - 2 * run.dt) and not run.fell}
+        if self.walk is not None:
+            out.update({"stepping_side": self.walk.first_side,
+                        "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),
+                        "step_adjustments": len(self.walk.adjustments)})
+        return out
