@@ -23,8 +23,9 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
 5. stance until the end of the jump's period; with ``count`` > 1 the next jump starts from there.
 
-Torque limits at landing: when the torque-limited QP is infeasible (impact: the contact rows ask to stop the
-sole at once), the controller's fallback drops the torque limits (:mod:`wbc.dynamics.controller`). This
+Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
+rows ask to stop the sole at once; measured too in the last ticks of some push-offs), the controller's fallback
+drops the torque limits (:mod:`wbc.dynamics.controller`). This
 scenario then re-solves the QP with the torque limits kept and the velocity-damping of the landing contacts
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
 too, clips the relaxed torques at the URDF limits (what MuJoCo's actuators apply anyway). The counts of both
