@@ -101,7 +101,8 @@ def limit_landing_torques(controller, cmd):
     ctrl = controller.controller
     qp = ctrl.qp
     lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
-    ratio = np.abs(cmd.tau) / lim
+    relaxed_tau = qp.solution_from(ctrl.state, np.concatenate([cmd.dv, cmd.forces])).tau  # before any clipping
+    ratio = np.abs(relaxed_tau) / lim
     worst = (int(np.argmax(ratio)), float(ratio.max()))
     saved = [(c, c.kd) for c in qp.contacts if c.active]
     for c, _ in saved:
@@ -113,7 +114,7 @@ def limit_landing_torques(controller, cmd):
         cmd.dynamics_residual, cmd.relaxed = sol.dynamics_residual, False
         how = "soft_contact"
     except SolverError:
-        cmd.tau = np.clip(cmd.tau, -lim, lim)
+        cmd.tau = np.clip(relaxed_tau, -lim, lim)
         how = "clipped"
     finally:
         for c, kd in saved:
@@ -122,7 +123,8 @@ def limit_landing_torques(controller, cmd):
 
 
 class JumpScenario:
-    """``count`` jumps (module docstring), each following a :class:`~wbc.gait.jump_plan.JumpPlan`.
+    """``count`` jumps (module docstring), each following a :class:`~wbc.gait.jump_plan.JumpPlan`
+    (attribute ``jump_plan``).
 
     Args:
         height: apex CoM rise above take-off (m). forward: foot displacement per jump along world x (m).
@@ -168,7 +170,7 @@ class JumpScenario:
         self.count = count
         self._plan_args = dict(height=height, forward=forward, crouch=crouch, extension=extension,
                                t_crouch=t_crouch, tuck=tuck, w_land=w_land)
-        self.plan = JumpPlan(**self._plan_args)  # validated now; com_height set in setup
+        self.jump_plan = JumpPlan(**self._plan_args)  # validated now; com_height set in setup
         self.t_ramp, self.settle, self.t_start = float(t_ramp), float(settle), float(t_start)
         self.touchdown_height = float(touchdown_height)
         self.landing_force = landing_force
@@ -182,7 +184,7 @@ class JumpScenario:
         self._ref = (np.zeros(3), np.zeros(3), np.zeros(3))
 
     def _set_period(self):
-        p = self.plan
+        p = self.jump_plan
         self.t_takeoff_plan = self.t_start + p.t_push_start + p.t_push
         self.period = self.t_takeoff_plan + p.t_flight + self.settle  # one jump, s
         self.duration = self.count * self.period
@@ -196,7 +198,7 @@ class JumpScenario:
         self.soles0 = {s: data.oMf[robot.frame_id(f)].copy() for s, f in zip(SIDES, (robot.left_sole, robot.right_sole))}
         mid = 0.5 * (self.soles0["left"].translation + self.soles0["right"].translation)
         self.com_offset = self.com0 - mid  # CoM relative to the mid-sole point when standing
-        self.plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
+        self.jump_plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
         self._set_period()
         force = self.landing_force if self.landing_force is not None else 4 * robot.mass * G
         self.switcher = ContactSwitcher(controller, ramp_time=self.t_ramp, touchdown_height=self.touchdown_height,
@@ -253,7 +255,7 @@ class JumpScenario:
 
     def update(self, t, ctrl, sim, q, v):
         self._t_now = t
-        p = self.plan
+        p = self.jump_plan
         sw = self.switcher
         if self.phase == "land" and t >= self.t0 + self.period - 1e-9 and self.jump + 1 < self.count:
             self.jump += 1  # next jump of a series, from the landed stance
@@ -304,7 +306,7 @@ class JumpScenario:
         self.c_to, self.v_to, self.t_to = c, vc, t
         self.t_flight = 2 * max(vc[2], 0.05) / G  # measured flight time to the take-off height
         self.feet_to = {s: st.data.oMf[ctrl.feet[s].task.frame_id].translation.copy() for s in SIDES}
-        self.foot_target = {s: self.plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
+        self.foot_target = {s: self.jump_plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
         self.foot_target.update({s: np.r_[self.foot_target[s][:2], self.soles0[s].translation[2]] for s in SIDES})
         self.takeoffs.append(t)
         self.takeoff_velocity.append(vc.copy())
@@ -312,12 +314,12 @@ class JumpScenario:
     def _swing_feet(self, t, ctrl):
         """Foot references of the soles still in swing (flight, or landing before their own touch-down)."""
         tau = t - self.t_to
-        cref = self.plan.flight_reference(self.c_to, self.v_to, tau)
+        cref = self.jump_plan.flight_reference(self.c_to, self.v_to, tau)
         dz = cref[0][2] - self.c_to[2]
         for side in SIDES:
             if self.switcher.phase(side) != "swing":
                 continue
-            pos, vel, acc = self.plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
+            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
                                                          -G, tau, self.t_flight)
             if self.phase == "land":  # the other sole is down: this one goes down to the ground
                 pos[2] = min(pos[2], self.foot_target[side][2] - 0.01)
@@ -328,7 +330,7 @@ class JumpScenario:
                 self.switcher.arm(side)
 
     def _flight(self, t, ctrl, q, v):
-        ref = self.plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
+        ref = self.jump_plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
         self._swing_feet(t, ctrl)
         down = [s for s in SIDES if self.switcher.phase(s) != "swing"]
         if down:  # first touch-down: landing from the measured CoM state
@@ -390,8 +392,8 @@ class JumpScenario:
         push_ratio = ratio[push].max(axis=0) if push.any() else np.zeros(ratio.shape[1])
         jp = int(np.argmax(push_ratio))
         self.push_postures = run.q[push]
-        return {"jumps": self.count, "planned_height_m": self.plan.height, "planned_forward_m": self.plan.forward,
-                "takeoff_velocity_plan_mps": [float(x) for x in self.plan.takeoff_velocity],
+        return {"jumps": self.count, "planned_height_m": self.jump_plan.height, "planned_forward_m": self.jump_plan.forward,
+                "takeoff_velocity_plan_mps": [float(x) for x in self.jump_plan.takeoff_velocity],
                 "takeoff_velocity_measured_mps": [[float(x) for x in vv] for vv in self.takeoff_velocity],
                 "apex_foot_clearance_m": float(both.max()),
                 "time_both_feet_5cm_per_jump_s": per_jump, "time_both_feet_5cm_s": min(per_jump),

@@ -155,7 +155,7 @@ def sweep_report(robot, sim, make, *, log=None, **sweep_options) -> tuple[dict, 
     res = jump_height_sweep(trial, log=log, **sweep_options)
     best = res["max_height_m"]
     probe = scenarios.get(best) or scenarios[res["min_failed_m"]]
-    bound = pushoff_bound(robot, probe.push_postures, probe.plan.stroke) if len(probe.push_postures) else None
+    bound = pushoff_bound(robot, probe.push_postures, probe.jump_plan.stroke) if len(probe.push_postures) else None
     row = next((r for r in res["trials"] if r["height_m"] == best), None)
     report = {"max_planned_height_m": best, "min_failed_height_m": res["min_failed_m"],
               "apex_foot_clearance_at_max_m": row and row["apex_foot_clearance_m"],
