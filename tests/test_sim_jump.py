@@ -48,3 +48,8 @@ def test_g1_vertical_jump():
     lim = robot.model.effortLimit[6:]
     assert (np.abs(run.tau) <= lim * (1 + 1e-9)).all()
     assert s["torque_clipped_ticks"] == 0, s["torque_limited_ticks"]
+    # the recording overlays of `wbc sim jump --out` accept the jump run (the CLI passes scenario.plan or None)
+    from wbc.viz.overlays import sim_overlays
+
+    scene = sim_overlays(run, robot, getattr(sc, "plan", None))
+    assert len(scene["points"]["com"]) == len(run.t)
