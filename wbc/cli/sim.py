@@ -76,6 +76,8 @@ def register(subparsers, add_outputs) -> None:
                    help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
     p.add_argument("--momentum-weight", type=float, default=None,
                    help="jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)")
+    p.add_argument("--landing-ramp", type=float, default=0.06,
+                   help="jump: normal-force ramp-in after a touch-down, s (default 0.06)")
     p.add_argument("--min-hop", type=float, default=None,
                    help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
@@ -125,7 +127,7 @@ def _scenario(args, robot):
 
         w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
         return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop,
-                            momentum_weight=w)
+                            momentum_weight=w, t_ramp=args.landing_ramp)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)

@@ -50,7 +50,9 @@ A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_W
 flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
 and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 1 (with 10 they rotated the legs
 and the feet landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
-(default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000).
+(default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000). Landing force ramp ``t_ramp``
+0.06 s: with 0.03 s the G1 series of 10 had 2 clipped-torque ticks and Talos at 0.03 m one (hip roll 1.5× its limit
+at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks with 0.03 s, 16 with 0.06 s).
 """
 
 from __future__ import annotations
@@ -153,7 +155,7 @@ class JumpScenario:
     needs_id = True
 
     def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, crouch: float = 0.1,
-                 extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.03,
+                 extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.06,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
                  landing_force: float | None = None, min_hop: float | None = None,
                  momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
