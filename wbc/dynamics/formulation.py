@@ -395,7 +395,7 @@ class InverseDynamicsQP:
                 con.write(self._ctx, None, self._lb[s], self._ub[s])
                 con.written = key
         jl = self.joint_acceleration_limits
-        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self._reg_v, state.M, state.h, kb.Jc, kb.Gc,
+        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self.eps_a, state.M, state.h, kb.Jc, kb.Gc,
                         kb.Rc, kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
                         jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
                         self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,
