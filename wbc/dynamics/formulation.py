@@ -120,7 +120,8 @@ class InverseDynamicsQP:
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
             the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
-            and torques in one call — with DAQP as fallback; any other qpsolvers backend —
+            and torques in one call — with DAQP as fallback (the general path while a hard task is present or the
+            torque-limited joints are not contiguous in v); any other qpsolvers backend —
             :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
