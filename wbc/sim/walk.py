@@ -18,7 +18,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
 
 * **Step adjustment** (``step_adjust``, default on): during the single support of a released swing foot, the
   landing point follows the measured DCM (:class:`wbc.gait.step_adjustment.StepAdjuster`: Khadiv et al. 2016
-  eq. 6–7, dead band 3 cm on the DCM error, reach box and minimum width between the feet); when it moves by
+  eq. 6–7, dead band 2 cm on the DCM error, reach box and minimum width between the feet); when it moves by
   more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
@@ -223,10 +223,10 @@ class WalkScenario:
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
-                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.05,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.5, forward_reach: float = 0.55):
+                 lateral_reach: float = 0.6, forward_reach: float = 0.65):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
