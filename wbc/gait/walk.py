@@ -29,7 +29,7 @@ from wbc.gait.schedule import (
     build_phases,
     zmp_segments,
 )
-from wbc.geometry import hull, signed_distance, signed_distance_point, sole_corners
+from wbc.geometry import check_vector, hull, signed_distance, signed_distance_point, sole_corners
 from wbc.gait.swing import sample_feet
 from wbc.profiles import min_jerk
 
@@ -170,8 +170,8 @@ class WalkPlan:
                 too large for the time left in the current ZMP segment — a step would have to change).
         """
         k = self._check_k(k, self.n_samples - 2)
-        c = _vector(com, 3, "com")
-        cd = _vector(com_vel, 3, "com_vel")
+        c = check_vector(com, 3, "com", GaitError)
+        cd = check_vector(com_vel, 3, "com_vel", GaitError)
         seg = self.segments
         j = int(np.searchsorted(seg.first, k, side="right")) - 1
         first = seg.first[j:] - k
@@ -351,18 +351,6 @@ def _compress_swing(feet, f: int, n0: int, skip: int):
     return out_p[0], out_p[1], out_v[0], out_v[1]
 
 
-def _vector(x, n: int, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise GaitError(f"{name} must be a ({n},) array of finite numbers; got {x!r}") from exc
-    if a.shape != (n,):
-        raise GaitError(f"{name} must have shape ({n},); got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise GaitError(f"{name} must be finite; got {a.tolist()}")
-    return a
-
-
 def _sole_pose(x, name: str) -> np.ndarray:
     if isinstance(x, pin.SE3):
         x = x.homogeneous
@@ -475,10 +463,10 @@ def plan_walk(
     """
     L = _sole_pose(left_sole, "left_sole")
     R = _sole_pose(right_sole, "right_sole")
-    c = _vector(com, 3, "com")
+    c = check_vector(com, 3, "com", GaitError)
     if not c[2] > 0:
         raise GaitError(f"com height com[2] must be > 0 m above the ground; got {c[2]}")
-    cd = np.zeros(3) if com_velocity is None else _vector(com_velocity, 3, "com_velocity")
+    cd = np.zeros(3) if com_velocity is None else check_vector(com_velocity, 3, "com_velocity", GaitError)
     if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
         raise GaitError(f"n_steps must be an integer >= 1; got {n_steps!r}")
     if first_side not in ("left", "right"):

@@ -25,7 +25,7 @@ import pinocchio as pin
 from wbc.exceptions import InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
-from wbc.sim.scenarios import NO_FALL
+from wbc.sim.scenarios import NO_FALL, timed_push
 from wbc.sim.walk import WalkScenario, polygon_margin
 
 __all__ = ["CaptureStepScenario"]
@@ -108,15 +108,9 @@ class CaptureStepScenario:
                 self.t_trigger = float(t)
         if self.walk is not None:
             self.walk.update(t - self.t_trigger, controller, sim, q, v)
-        if self.t_push <= t < self.t_push + self.push_duration - 1e-9:
-            f = self.force * self.push_vec
-            sim.apply_external_force(self._body, f)
-            self._on = True
-            return f
-        if self._on:
-            sim.clear_external_forces()
-            self._on = False
-        return None
+        active = self.t_push <= t < self.t_push + self.push_duration - 1e-9
+        f, self._on = timed_push(sim, self._body, self.force * self.push_vec if active else None, active, self._on)
+        return f
 
     def criteria(self) -> list[Criterion]:
         """Pass: no fall, the run completed, no solver failure (a step is allowed, not required)."""

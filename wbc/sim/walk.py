@@ -44,7 +44,7 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.scenarios.framework import Criterion, evaluate
-from wbc.sim.scenarios import NO_FALL
+from wbc.sim.scenarios import NO_FALL, timed_push
 
 __all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
            "walk_criteria"]
@@ -455,15 +455,10 @@ class WalkScenario:
         return self._apply_push(t, sim)
 
     def _apply_push(self, t, sim):
-        if self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9:
-            f = self.push * self.push_vec
-            sim.apply_external_force(self._push_body, f)
-            self._pushing = True
-            return f
-        if self._pushing:
-            sim.clear_external_forces()
-            self._pushing = False
-        return None
+        active = self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9
+        f, self._pushing = timed_push(sim, self._push_body, self.push * self.push_vec if active else None, active,
+                                      self._pushing)
+        return f
 
     def _adjust_step(self, t, k, c, cd, xi):
         """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
