@@ -22,7 +22,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.exceptions import InvalidInputError
+from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
 from wbc.sim.scenarios import NO_FALL, timed_push
@@ -104,8 +104,12 @@ class CaptureStepScenario:
                 side = "right" if e[1] < 0 else "left"
                 self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
                                          first_side=side)
-                self.walk.setup(controller, sim, q, v)
-                self.t_trigger = float(t)
+                try:
+                    self.walk.setup(controller, sim, q, v)
+                except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
+                    self.walk, self._hull = None, np.zeros((0, 2))
+                else:
+                    self.t_trigger = float(t)
         if self.walk is not None:
             self.walk.update(t - self.t_trigger, controller, sim, q, v)
         active = self.t_push <= t < self.t_push + self.push_duration - 1e-9

@@ -305,6 +305,7 @@ class WalkScenario:
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
         self._recovery, self._t_recovery = None, None
+        self.recovery_failures = 0
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
@@ -422,6 +423,7 @@ class WalkScenario:
         lg["hull"][i] = self._hull(0.0)
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
+                and not self.recovery_failures \
                 and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
                 and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
@@ -436,7 +438,11 @@ class WalkScenario:
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            cop_margin=self.cop_margin)
-        rec.setup(controller, sim, q, v)
+        try:
+            rec.setup(controller, sim, q, v)
+        except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
+            self.recovery_failures += 1  # (not tried again: see the trigger in update)
+            return
         self._recovery, self._t_recovery = rec, float(t)
 
     def _recovery_update(self, t, controller, sim, q, v):
@@ -623,6 +629,7 @@ class WalkScenario:
                 - 0.5 * (self.poses["left"][0, :2, 3] + self.poses["right"][0, :2, 3]))),
             "replan_failures": self.replan_failures,
             "recovery_step_time_s": self._t_recovery,
+            "recovery_plan_failures": self.recovery_failures,
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
