@@ -102,8 +102,11 @@ class CaptureStepScenario:
             if polygon_margin(xi, self._hull) < 0.0:
                 e = xi - self.com0[:2]
                 side = "right" if e[1] < 0 else "left"
+                # reach and dead band of the capture step: measured (Talos, 450 N from behind) to fall with the walk
+                # defaults (forward reach 0.65 z_c, dead band 2 cm), to recover with 0.55 z_c and 3 cm.
                 self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
-                                         first_side=side)
+                                         first_side=side, forward_reach=0.55, lateral_reach=0.5,
+                                         adjust_dead_band=0.03)
                 try:
                     self.walk.setup(controller, sim, q, v)
                 except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
