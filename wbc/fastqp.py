@@ -217,6 +217,35 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _place_free(free, t, nf, x, lb, ub, primal_tol):
+    """Write the free-variable solution ``t[:nf]`` into ``x[free[:nf]]`` and return the bound it violates most
+    beyond ``primal_tol``: ``(violation, variable index or −1, −1 lower / +1 upper / 0)``."""
+    worst = primal_tol
+    worst_i = -1
+    worst_side = 0
+    for a in range(nf):
+        i = free[a]
+        v = t[a]
+        x[i] = v
+        if lb[i] - v > worst:
+            worst, worst_i, worst_side = lb[i] - v, i, -1
+        elif v - ub[i] > worst:
+            worst, worst_i, worst_side = v - ub[i], i, 1
+    return worst, worst_i, worst_side
+
+
+@nb.njit(cache=True, nogil=True)
+def _drop_infinite_active(state, lo, hi):
+    """A warm-start state (−1 at the lower, +1 at the upper bound, 0 free) is only valid where that bound is
+    finite: free the others, in place."""
+    for i in range(state.shape[0]):
+        if state[i] == -1 and not np.isfinite(lo[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(hi[i]):
+            state[i] = 0
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def _clip_eq_residual(x, lb, ub, A, b, n, m):
     """Clip x into [lb, ub] in place (the kernel's KKT point is within rounding of its bounds) and return the
     largest equality residual max_k |A_k x − b_k|."""
@@ -283,31 +312,12 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
     """
     n = H.shape[0]
     m = A.shape[0]
-    # a warm-start state is only valid where its bound is finite
-    for i in range(n):
-        if state[i] == -1 and not np.isfinite(lb[i]):
-            state[i] = 0
-        elif state[i] == 1 and not np.isfinite(ub[i]):
-            state[i] = 0
+    _drop_infinite_active(state, lb, ub)
     for it in range(1, max_iter + 1):
         nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs)
         if nf < 0:
             return nf
-        worst = primal_tol
-        worst_i = -1
-        worst_side = 0
-        for a in range(nf):
-            i = free[a]
-            v = t[a]
-            x[i] = v
-            if lb[i] - v > worst:
-                worst = lb[i] - v
-                worst_i = i
-                worst_side = -1
-            elif v - ub[i] > worst:
-                worst = v - ub[i]
-                worst_i = i
-                worst_side = 1
+        worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
         if worst_i >= 0:
             state[worst_i] = worst_side
             continue
@@ -341,16 +351,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
-    for i in range(n):
-        if state[i] == -1 and not np.isfinite(lb[i]):
-            state[i] = 0
-        elif state[i] == 1 and not np.isfinite(ub[i]):
-            state[i] = 0
-    for r in range(p):
-        if rstate[r] == -1 and not np.isfinite(l[r]):
-            rstate[r] = 0
-        elif rstate[r] == 1 and not np.isfinite(u[r]):
-            rstate[r] = 0
+    _drop_infinite_active(state, lb, ub)
+    _drop_infinite_active(rstate, l, u)
     for it in range(1, max_iter + 1):
         # working equality rows: A, then the active rows of C
         mw = m
@@ -366,18 +368,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
         if nf < 0:
             return nf
         # primal: the worst violated bound or inactive row is added to the working set
-        worst = primal_tol
-        worst_i = -1
-        worst_side = 0
+        worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
         worst_row = False
-        for a in range(nf):
-            i = free[a]
-            v = t[a]
-            x[i] = v
-            if lb[i] - v > worst:
-                worst, worst_i, worst_side, worst_row = lb[i] - v, i, -1, False
-            elif v - ub[i] > worst:
-                worst, worst_i, worst_side, worst_row = v - ub[i], i, 1, False
         for r in range(p):
             if rstate[r] != 0:
                 continue
