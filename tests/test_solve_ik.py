@@ -39,10 +39,14 @@ def test_solve_ik_equals_the_stateful_controller(robots, name):
     assert result.ok
     assert v.shape == (robot.model.nv,)
     np.testing.assert_allclose(v, result.v, atol=1e-12)
-    # the contacts hold to first order: J_sole v = -K e = 0 at the placement they were set from
+    # the contacts hold over the tick (second order, wbc.controller's contact correction): the soles at
+    # q ⊕ v dt (Pinocchio FK) are within 1 µm of where they were set (measured 0.02–0.48 µm at |v| up to 9.7 rad/s)
+    q1 = pin.integrate(robot.model, robot.q_ref, v * DT)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q1)
     for frame in (robot.left_sole, robot.right_sole):
-        J = pin.getFrameJacobian(robot.model, config.data, robot.frame_id(frame), pin.LOCAL)
-        assert np.abs(J @ v).max() < 1e-8
+        fid = robot.frame_id(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.data.oMf[fid].translation) < 1e-6
 
 
 def test_solve_ik_matches_the_closed_form_without_constraints(robots):

@@ -132,3 +132,33 @@ def test_malformed_urdf_raises_typed_error_with_reason(tmp_path, talos):
     truncated.write_text('<robot name="x"><link name="a">')
     with pytest.raises(RobotDescriptionError, match="cannot parse URDF"):
         wbc.load_robot(truncated, left_sole="a", right_sole="a", torso="a")
+
+
+def test_task_or_constraint_of_another_robot_rejected(talos):
+    """Each object built for G1 and added to a Talos controller raises InvalidInputError naming the object, the
+    other robot's mismatch and this robot (before the fix it became a silent freeze or wrong rows)."""
+    from wbc.constraints import ComPolygonConstraint, ContactConstraint, JointAccelerationLimit
+    from wbc.controller import KinematicController
+    from wbc.tasks import DampingTask
+
+    g1 = wbc.load_robot("g1")
+    tasks = [FrameTask(g1, g1.left_sole), PostureTask(g1), DampingTask(g1)]
+    constraints = [ContactConstraint(g1, g1.left_sole), JointPositionLimit(g1), JointVelocityLimit(g1),
+                   JointAccelerationLimit(g1), ComPolygonConstraint(g1)]
+    ctrl = KinematicController(talos)
+    for obj in tasks:
+        with pytest.raises(InvalidInputError, match=rf"task '{obj.name}' was built for another robot.*'talos' "
+                                                    rf"\(nq 39, nv 38\)"):
+            ctrl.add_task(obj)
+        with pytest.raises(InvalidInputError, match="built for another robot"):
+            ctrl.add_task(obj, hard=True)
+    for obj in constraints:
+        with pytest.raises(InvalidInputError, match=rf"constraint '{obj.name}' was built for another robot"):
+            ctrl.add_constraint(obj)
+    assert ctrl.tasks == [] and ctrl.constraints == [] and ctrl.levels == {}
+    # the same objects built for Talos (also from a second load of the same robot: an equal model) are accepted
+    talos2 = wbc.load_robot("talos")
+    for robot in (talos, talos2):
+        KinematicController(talos, [FrameTask(robot, robot.left_sole), PostureTask(robot), DampingTask(robot)],
+                            [ContactConstraint(robot, robot.left_sole), JointPositionLimit(robot),
+                             JointVelocityLimit(robot), JointAccelerationLimit(robot), ComPolygonConstraint(robot)])

@@ -17,7 +17,20 @@ below). Example: a leg whose hip-roll → hip-pitch →
 knee → ankle-pitch → ankle-roll chain is in gimbal lock when the sole is flat cannot change the foot's yaw
 relative to the pelvis, so two flat stance feet fix the base yaw twice. The independent set is chosen by QR
 with column pivoting of Aᵀ (numerical rank: |R_ii| > ``rank_rtol`` · |R_00|), once per change of the
-constraint set, and again after a failed tick.
+constraint set, and again after a failed tick. Dropped rows that are only nearly dependent (their residual
+above the tolerance while the rank is unchanged) are put back as band rows |A_d v − b_d| ≤
+``dependent_row_tolerance``/2 and the tick is solved again; only when that has no solution do the hard
+equalities contradict each other.
+
+Contacts (:class:`~wbc.constraints.ContactConstraint`) hold to second order at dt. (1) When the contact rows
+are rank deficient (the example above) and the tick fails, their drift corrections −K e are projected onto the
+range of J_c (least squares: two feet never ask contradictory corrections of the same direction) and the tick is
+solved again. (2) After the solve
+the contact frames are placed at q⁺ = pin.integrate(q, v dt) by forward kinematics; if one drifts from its
+expected placement by more than ``contact_correction`` (m), the contact rows' right-hand sides are corrected by
+the measured drift and the tick is solved again (a Newton step on e⁺(v) = (1 − K dt) e, ≤ 3 iterations: only
+the contact targets move, every task and priority is kept). (3) A tick whose drift still exceeds
+``sole_drift_tolerance`` is solved in a trust region, else reported not ok (``TickResult.sole_drift``).
 
 with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s), feed-forward ė*_i, and
 v*_i = ė*_i − K_i e_i. ε (``damping``) keeps H positive definite. The next configuration is
@@ -65,6 +78,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
+from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
@@ -197,6 +211,8 @@ class KinematicController:
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
+        self._in_solve, self._drift_cache = False, None
+        self._contact_errors: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -224,10 +240,12 @@ class KinematicController:
             hard: hold the task as an equality constraint J v = v* (not with ``level``).
 
         Raises:
-            InvalidInputError: not a Task, a negative/non-integer level, or both ``level`` and ``hard``.
+            InvalidInputError: not a Task, a negative/non-integer level, both ``level`` and ``hard``, or a task
+                built for another robot (other model, frame ids or nv).
         """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
+        self._check_robot(task, "task")
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -273,14 +291,55 @@ class KinematicController:
         """Add an equality, inequality or box constraint.
 
         Raises:
-            InvalidInputError: not a wbc Constraint.
+            InvalidInputError: not a wbc Constraint, or built for another robot (other model, frame ids or nv).
         """
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
+        self._check_robot(constraint, "constraint")
         self.constraints.append(constraint)
         self._eq_rows = None
         self._layout_ok = False
         return constraint
+
+    def _check_robot(self, obj, what: str) -> None:
+        """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
+        not this robot's (other nq, nv or joint names), a frame id whose name differs in this model, a Jacobian
+        or an index set sized for another nv."""
+        model = self.robot.model
+        name = getattr(obj, "name", type(obj).__name__)
+        here = f"this controller's robot is {model.name!r} (nq {model.nq}, nv {model.nv})"
+
+        def foreign(why: str) -> InvalidInputError:
+            return InvalidInputError(f"{what} {name!r} was built for another robot ({why}); {here}: build it "
+                                     f"with the controller's robot")
+
+        if isinstance(obj, TaskConstraint):
+            self._check_robot(obj.task, what)
+        other = getattr(obj, "model", None)
+        if other is None and getattr(obj, "robot", None) is not None:
+            other = getattr(obj.robot, "model", None)
+        if isinstance(other, pin.Model) and other is not model and (
+                other.nq != model.nq or other.nv != model.nv or list(other.names) != list(model.names)):
+            raise foreign(f"model {other.name!r}, nq {other.nq}, nv {other.nv}")
+        for id_attr, name_attr in (("frame_id", "frame"), ("reference_id", "reference_frame")):
+            fid, fname = getattr(obj, id_attr, None), getattr(obj, name_attr, None)
+            if isinstance(fid, (int, np.integer)) and isinstance(fname, str) and (
+                    not 0 <= fid < model.nframes or model.frames[fid].name != fname):
+                raise foreign(f"its frame {fname!r} has id {fid}, which is "
+                              + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
+                                 f"beyond this model's {model.nframes} frames"))
+        jac = getattr(obj, "_jac", None)
+        if isinstance(jac, np.ndarray) and jac.ndim == 2 and jac.shape[1] != model.nv:
+            raise foreign(f"Jacobian with {jac.shape[1]} columns (nv)")
+        if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
+            raise foreign(f"nv {obj.nv}")
+        indices = getattr(obj, "indices", None)
+        if indices is not None and np.size(indices) and int(np.max(indices)) >= model.nv:
+            raise foreign(f"velocity index {int(np.max(indices))} ≥ nv")
+        if isinstance(obj, (JointPositionLimit, JointVelocityLimit)):
+            expected = bounded_joints(model)[1] if isinstance(obj, JointPositionLimit) else np.arange(6, model.nv)
+            if not np.array_equal(np.asarray(obj.indices), expected):
+                raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
@@ -311,10 +370,14 @@ class KinematicController:
             self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
+        self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, n_eq = _row_blocks(eq)
         self._A = np.zeros((n_eq, self.nv))
         self._b = np.zeros(n_eq)
+        contact_ids = set(map(id, self._contacts))
+        self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
+                                       for i in range(r0, r1)], dtype=int)
         self._in_blocks, n_in = _row_blocks(ineq)
         self._C = np.zeros((n_in, self.nv))
         self._l = np.zeros(n_in)
@@ -366,6 +429,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
+            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
+                                    if isinstance(c, ContactConstraint)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -430,6 +496,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
+        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -438,20 +505,30 @@ class KinematicController:
                 v = self._solve_assembled(config)
                 relaxed = []
             except SolverError:
-                if not self._relaxable:
-                    raise
-                self._relax(config, dt)
-                v = self._solve_assembled(config)
-                relaxed = [c.name for c in self._relaxable]
+                v = None
+                if self._contact_rows.size and self._consistent_contact_rhs():
+                    try:  # dependent contact rows asked contradictory corrections: once more in least squares
+                        v = self._solve_assembled(config)
+                        relaxed = []
+                    except SolverError:
+                        v = None
+                if v is None:
+                    if not self._relaxable:
+                        raise
+                    self._relax(config, dt)
+                    v = self._solve_assembled(config)
+                    relaxed = [c.name for c in self._relaxable]
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
         except InvalidInputError:
+            self._in_solve, self._drift_cache = False, None
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             result = self._recover(config, dt, exc)
+        self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         for c in self._feedback:
@@ -469,16 +546,43 @@ class KinematicController:
         """(largest translation drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v."""
         if not self._contacts:
             return 0.0, []
+        cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
+        if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
+            return cache[3]
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        for c in self._contacts:
+        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        for i, c in enumerate(self._contacts):
             e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            d = e_plus - c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            e = c.compute_error(config) if errors is None else errors[i]
+            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
             drifts.append(d)
-            worst = max(worst, float(np.linalg.norm(d[:3])))
+            worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+        if self._in_solve:
+            self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
+
+    def _consistent_contact_rhs(self) -> bool:
+        """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
+
+        When the contact rows J_c are rank deficient (two flat 5-DoF legs in gimbal lock both fix the base yaw),
+        their drift corrections −K e may disagree in the dependent directions (the feet's yaw errors differ after
+        a finite step), which no v can meet. After such a failed solve, b_c is replaced by its projection
+        U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
+        corrections are averaged where the contacts are dependent and unchanged where they are not."""
+        rows = self._contact_rows
+        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        if rank == rows.size:
+            return False
+        Ur = U[:, :rank]
+        projected = Ur @ (Ur.T @ self._b[rows])
+        changed = not np.array_equal(projected, self._b[rows])
+        self._b[rows] = projected
+        self._eq_rows = None  # recompute the independent rows for the retry
+        return changed
 
     def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``)."""
@@ -652,7 +756,12 @@ class KinematicController:
                 self._fallback_backend = self._new_backend()
             v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
             if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
-                raise SolverError("dependent equality rows violated")
+                # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
+                drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+                half = 0.5 * self.dependent_row_tolerance
+                v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
+                                                      np.concatenate([l, b[drop] - half]),
+                                                      np.concatenate([u, b[drop] + half]), lb, ub)
             v, fallback = v_safe, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
             pass

@@ -16,6 +16,12 @@ control of redundant manipulators: generalizing the task-priority framework to i
 "Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
 Every level's images are re-read from the latest solution, so the fixed rows are always consistent.
 
+An upper level that cannot be met (a target out of reach, two tasks of one level contradicting each other, a
+task against the hard set) is met as well as possible and never dropped: with the slack w_k = J_k v − v*_k,
+(P_k) is Kanoun et al.'s level  min ‖w_k‖²  s.t. hard set, J_k v − w_k = v*_k, the levels above at their optimal
+slacks  w_j = w_j*  (eliminating w_k gives the cost above; fixing J_j v fixes w_j = J_j v − v*_j). The achieved
+residual ‖w_k*‖ is returned per level; the hard set is never relaxed (only its infeasibility fails the tick).
+
 Regularisation only enters the last (soft) level: the upper levels have semidefinite Hessians J_kᵀJ_k and are
 solved exactly (DAQP's proximal-point iterations handle singular H; Arnström, Bemporad, Axehill, IEEE TAC 2022), so the
 upper levels' optimality is not biased by ε. Equality rows that are numerically dependent (a level repeating a
@@ -65,9 +71,10 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     Raises:
         SolverError: the first level's QP failed (the hard set has no solution: every level is a least-squares
             problem, so a strict level that cannot be met is met as well as possible and never makes the tick
-            fail), or a dropped hard row is violated. A lower level whose QP fails numerically is solved again
-            with the upper levels fixed to the backend's tolerance instead of ``band``, else left at the previous
-            level's solution (``solve_lexicographic.last_skipped`` lists such levels).
+            fail), or dropped (nearly dependent) hard rows cannot be held even as ±tolerance/2 band rows (the
+            cascade is solved once more with them as bands first). A lower level whose QP fails numerically is
+            solved again with the upper levels fixed to the backend's tolerance instead of ``band``, else left at
+            the previous level's solution (``solve_lexicographic.last_skipped`` lists such levels).
     """
     keep = independent_rows(A, rank_rtol)
     v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band)

@@ -39,14 +39,31 @@ class ContactConstraint(EqualityConstraint):
     dim = 6
 
     def __init__(self, robot, frame: str, *, gain: float = 100.0, name: str | None = None):
-        if not (np.isfinite(gain) and gain > 0):
-            raise InvalidInputError(f"contact gain must be finite and > 0 (1/s; 0 lets drift accumulate, e.g. "
-                                    f"100), got {gain!r}")
         self.frame = frame
         self.frame_id = robot.frame_id(frame)
-        self.gain = float(gain)
+        self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
+
+    @property
+    def gain(self) -> float:
+        """Drift-correction gain K (1/s), finite and > 0; validated on assignment.
+
+        Raises:
+            InvalidInputError: not a finite number > 0.
+        """
+        return self._gain
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        try:
+            ok = not isinstance(value, bool) and bool(np.isfinite(value) and value > 0)
+        except TypeError:
+            ok = False
+        if not ok:
+            raise InvalidInputError(f"contact gain must be a finite number > 0 (1/s; 0 lets drift accumulate, "
+                                    f"e.g. 100), got {value!r}")
+        self._gain = float(value)
 
     @property
     def placement(self) -> pin.SE3:
