@@ -30,7 +30,8 @@ import numpy as np
 
 from wbc.qp import DaqpBackend
 
-__all__ = ["FastBackend", "clip_box_into", "ensure_compiled", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up", "weighted_normal_equations"]
+__all__ = ["FastBackend", "clip_box_into", "ensure_compiled", "lower_solve", "lower_transpose_solve", "solve_box_eq",
+           "solve_box_eq_ws", "solve_qp_ws", "warm_up", "weighted_normal_equations"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
@@ -62,8 +63,8 @@ def _chol(M, k):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _fwd(L, k, v):
-    """v ← L⁻¹ v (leading k block)."""
+def lower_solve(L, k, v):
+    """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
     for i in range(k):
         t = v[i]
         for p in range(i):
@@ -72,8 +73,8 @@ def _fwd(L, k, v):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _bwd(L, k, v):
-    """v ← L⁻ᵀ v (leading k block)."""
+def lower_transpose_solve(L, k, v):
+    """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled)."""
     for i in range(k - 1, -1, -1):
         t = v[i]
         for p in range(i + 1, k):
@@ -170,7 +171,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             L[a, c] = H[i, free[c]]
     if not _chol(L, nf):
         return NOT_POSITIVE_DEFINITE
-    _fwd(L, nf, t)
+    lower_solve(L, nf, t)
     # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
     for k in range(m):
         bw = b[k]
@@ -180,7 +181,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         col = Y[k]
         for a in range(nf):
             col[a] = A[k, free[a]]
-        _fwd(L, nf, col)
+        lower_solve(L, nf, col)
         s = 0.0
         for a in range(nf):
             s += col[a] * t[a]
@@ -202,8 +203,8 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
                 return DEPENDENT_EQUALITIES
         for k in range(m):
             nu[k] = rhs[k]
-        _fwd(S, m, nu)
-        _bwd(S, m, nu)
+        lower_solve(S, m, nu)
+        lower_transpose_solve(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
     for k in range(m):
         nk = nu[k]
@@ -212,7 +213,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             t[a] += yk[a] * nk
     for a in range(nf):
         t[a] = -t[a]
-    _bwd(L, nf, t)
+    lower_transpose_solve(L, nf, t)
     return nf
 
 

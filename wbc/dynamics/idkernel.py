@@ -34,7 +34,7 @@ import numba as nb
 import numpy as np
 
 from wbc.dynamics.constraints import joint_bounds_kernel
-from wbc.fastqp import solve_qp_ws
+from wbc.fastqp import lower_solve, lower_transpose_solve, solve_qp_ws
 
 __all__ = ["id_tick"]
 
@@ -62,26 +62,6 @@ def _cholesky_lower(S, k):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _lower_solve(L, k, y):
-    """y ← L⁻¹ y, L lower (k × k)."""
-    for i in range(k):
-        acc = y[i]
-        for p in range(i):
-            acc -= L[i, p] * y[p]
-        y[i] = acc / L[i, i]
-
-
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _upper_solve(L, k, y):
-    """y ← L⁻ᵀ y, L lower (k × k)."""
-    for i in range(k - 1, -1, -1):
-        acc = y[i]
-        for p in range(i + 1, k):
-            acc -= L[p, i] * y[p]
-        y[i] = acc / L[i, i]
-
-
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
 def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
     """The equality-constrained optimum with no active bound or row (module docstring), written into x. Returns
     the largest equality residual, or −1 when H_vv or S is not positive definite, a joint variable is fixed, or x
@@ -96,11 +76,11 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
         return -1.0
     for i in range(nv):
         t[i] = g[i]
-    _lower_solve(L, nv, t)
+    lower_solve(L, nv, t)
     for k in range(m):
         for i in range(nv):
             Yt[k, i] = A[k, i]
-        _lower_solve(L, nv, Yt[k])
+        lower_solve(L, nv, Yt[k])
     for k in range(m):
         for c in range(k + 1):
             acc = 0.0
@@ -119,14 +99,14 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
         nu[k] = -acc
     if not _cholesky_lower(S, m):
         return -1.0
-    _lower_solve(S, m, nu)
-    _upper_solve(S, m, nu)
+    lower_solve(S, m, nu)
+    lower_transpose_solve(S, m, nu)
     for i in range(nv):
         acc = t[i]
         for k in range(m):
             acc += Yt[k, i] * nu[k]
         x[i] = -acc
-    _upper_solve(L, nv, x[:nv])
+    lower_transpose_solve(L, nv, x[:nv])
     for f in range(nv, n):
         if lb[f] == ub[f]:
             x[f] = lb[f]
