@@ -30,8 +30,9 @@ import numpy as np
 
 from wbc.qp import DaqpBackend
 
-__all__ = ["FastBackend", "clip_box_into", "ensure_compiled", "lower_solve", "lower_transpose_solve", "solve_box_eq",
-           "solve_box_eq_ws", "solve_qp_ws", "warm_up", "weighted_normal_equations"]
+__all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "ensure_compiled",
+           "forward_substitution", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
+           "weighted_normal_equations"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
@@ -44,7 +45,7 @@ _FM = {"reassoc", "contract"}
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _chol(M, k):
+def cholesky_lower(M, k):
     """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
     for j in range(k):
         s = M[j, j]
@@ -63,7 +64,7 @@ def _chol(M, k):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def lower_solve(L, k, v):
+def forward_substitution(L, k, v):
     """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
     for i in range(k):
         t = v[i]
@@ -73,7 +74,7 @@ def lower_solve(L, k, v):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def lower_transpose_solve(L, k, v):
+def backward_substitution(L, k, v):
     """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled)."""
     for i in range(k - 1, -1, -1):
         t = v[i]
@@ -169,9 +170,9 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         t[a] = r
         for c in range(a + 1):
             L[a, c] = H[i, free[c]]
-    if not _chol(L, nf):
+    if not cholesky_lower(L, nf):
         return NOT_POSITIVE_DEFINITE
-    lower_solve(L, nf, t)
+    forward_substitution(L, nf, t)
     # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
     for k in range(m):
         bw = b[k]
@@ -181,7 +182,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         col = Y[k]
         for a in range(nf):
             col[a] = A[k, free[a]]
-        lower_solve(L, nf, col)
+        forward_substitution(L, nf, col)
         s = 0.0
         for a in range(nf):
             s += col[a] * t[a]
@@ -196,15 +197,15 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         if S[k, k] > smax:
             smax = S[k, k]
     if m:
-        if not _chol(S, m):
+        if not cholesky_lower(S, m):
             return DEPENDENT_EQUALITIES
         for k in range(m):
             if S[k, k] * S[k, k] <= rank_tol * smax:
                 return DEPENDENT_EQUALITIES
         for k in range(m):
             nu[k] = rhs[k]
-        lower_solve(S, m, nu)
-        lower_transpose_solve(S, m, nu)
+        forward_substitution(S, m, nu)
+        backward_substitution(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
     for k in range(m):
         nk = nu[k]
@@ -213,7 +214,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             t[a] += yk[a] * nk
     for a in range(nf):
         t[a] = -t[a]
-    lower_transpose_solve(L, nf, t)
+    backward_substitution(L, nf, t)
     return nf
 
 
