@@ -16,7 +16,7 @@ from wbc.constraints.limits import bounded_joints
 from wbc.constraints.self_collision import default_collision_pairs
 from wbc.controller import KinematicController
 from wbc.exceptions import InvalidInputError
-from wbc.gait.support import convex_hull, signed_distance, sole_polygon
+from wbc.geometry import convex_hull, signed_distance, sole_polygon
 from wbc.tasks import ComTask, PostureTask
 
 DT = 0.002

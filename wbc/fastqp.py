@@ -30,7 +30,9 @@ import numpy as np
 
 from wbc.qp import DaqpBackend
 
-__all__ = ["FastBackend", "clip_box_into", "ensure_compiled", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up", "weighted_normal_equations"]
+__all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "ensure_compiled",
+           "forward_substitution", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
+           "weighted_normal_equations"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
@@ -43,7 +45,7 @@ _FM = {"reassoc", "contract"}
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _chol(M, k):
+def cholesky_lower(M, k):
     """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
     for j in range(k):
         s = M[j, j]
@@ -62,8 +64,8 @@ def _chol(M, k):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _fwd(L, k, v):
-    """v ← L⁻¹ v (leading k block)."""
+def forward_substitution(L, k, v):
+    """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
     for i in range(k):
         t = v[i]
         for p in range(i):
@@ -72,8 +74,8 @@ def _fwd(L, k, v):
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def _bwd(L, k, v):
-    """v ← L⁻ᵀ v (leading k block)."""
+def backward_substitution(L, k, v):
+    """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled)."""
     for i in range(k - 1, -1, -1):
         t = v[i]
         for p in range(i + 1, k):
@@ -168,9 +170,9 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         t[a] = r
         for c in range(a + 1):
             L[a, c] = H[i, free[c]]
-    if not _chol(L, nf):
+    if not cholesky_lower(L, nf):
         return NOT_POSITIVE_DEFINITE
-    _fwd(L, nf, t)
+    forward_substitution(L, nf, t)
     # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
     for k in range(m):
         bw = b[k]
@@ -180,7 +182,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         col = Y[k]
         for a in range(nf):
             col[a] = A[k, free[a]]
-        _fwd(L, nf, col)
+        forward_substitution(L, nf, col)
         s = 0.0
         for a in range(nf):
             s += col[a] * t[a]
@@ -195,15 +197,15 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         if S[k, k] > smax:
             smax = S[k, k]
     if m:
-        if not _chol(S, m):
+        if not cholesky_lower(S, m):
             return DEPENDENT_EQUALITIES
         for k in range(m):
             if S[k, k] * S[k, k] <= rank_tol * smax:
                 return DEPENDENT_EQUALITIES
         for k in range(m):
             nu[k] = rhs[k]
-        _fwd(S, m, nu)
-        _bwd(S, m, nu)
+        forward_substitution(S, m, nu)
+        backward_substitution(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
     for k in range(m):
         nk = nu[k]
@@ -212,8 +214,37 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             t[a] += yk[a] * nk
     for a in range(nf):
         t[a] = -t[a]
-    _bwd(L, nf, t)
+    backward_substitution(L, nf, t)
     return nf
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _place_free(free, t, nf, x, lb, ub, primal_tol):
+    """Write the free-variable solution ``t[:nf]`` into ``x[free[:nf]]`` and return the bound it violates most
+    beyond ``primal_tol``: ``(violation, variable index or −1, −1 lower / +1 upper / 0)``."""
+    worst = primal_tol
+    worst_i = -1
+    worst_side = 0
+    for a in range(nf):
+        i = free[a]
+        v = t[a]
+        x[i] = v
+        if lb[i] - v > worst:
+            worst, worst_i, worst_side = lb[i] - v, i, -1
+        elif v - ub[i] > worst:
+            worst, worst_i, worst_side = v - ub[i], i, 1
+    return worst, worst_i, worst_side
+
+
+@nb.njit(cache=True, nogil=True)
+def _drop_infinite_active(state, lo, hi):
+    """A warm-start state (−1 at the lower, +1 at the upper bound, 0 free) is only valid where that bound is
+    finite: free the others, in place."""
+    for i in range(state.shape[0]):
+        if state[i] == -1 and not np.isfinite(lo[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(hi[i]):
+            state[i] = 0
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
@@ -283,31 +314,12 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
     """
     n = H.shape[0]
     m = A.shape[0]
-    # a warm-start state is only valid where its bound is finite
-    for i in range(n):
-        if state[i] == -1 and not np.isfinite(lb[i]):
-            state[i] = 0
-        elif state[i] == 1 and not np.isfinite(ub[i]):
-            state[i] = 0
+    _drop_infinite_active(state, lb, ub)
     for it in range(1, max_iter + 1):
         nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs)
         if nf < 0:
             return nf
-        worst = primal_tol
-        worst_i = -1
-        worst_side = 0
-        for a in range(nf):
-            i = free[a]
-            v = t[a]
-            x[i] = v
-            if lb[i] - v > worst:
-                worst = lb[i] - v
-                worst_i = i
-                worst_side = -1
-            elif v - ub[i] > worst:
-                worst = v - ub[i]
-                worst_i = i
-                worst_side = 1
+        worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
         if worst_i >= 0:
             state[worst_i] = worst_side
             continue
@@ -341,16 +353,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
-    for i in range(n):
-        if state[i] == -1 and not np.isfinite(lb[i]):
-            state[i] = 0
-        elif state[i] == 1 and not np.isfinite(ub[i]):
-            state[i] = 0
-    for r in range(p):
-        if rstate[r] == -1 and not np.isfinite(l[r]):
-            rstate[r] = 0
-        elif rstate[r] == 1 and not np.isfinite(u[r]):
-            rstate[r] = 0
+    _drop_infinite_active(state, lb, ub)
+    _drop_infinite_active(rstate, l, u)
     for it in range(1, max_iter + 1):
         # working equality rows: A, then the active rows of C
         mw = m
@@ -366,18 +370,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
         if nf < 0:
             return nf
         # primal: the worst violated bound or inactive row is added to the working set
-        worst = primal_tol
-        worst_i = -1
-        worst_side = 0
+        worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
         worst_row = False
-        for a in range(nf):
-            i = free[a]
-            v = t[a]
-            x[i] = v
-            if lb[i] - v > worst:
-                worst, worst_i, worst_side, worst_row = lb[i] - v, i, -1, False
-            elif v - ub[i] > worst:
-                worst, worst_i, worst_side, worst_row = v - ub[i], i, 1, False
         for r in range(p):
             if rstate[r] != 0:
                 continue
@@ -558,10 +552,3 @@ def warm_up() -> float:
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
     return time.perf_counter() - t0
-
-
-#: Public names of the dense kernels above, for other compiled modules (``wbc.dynamics.idkernel``): in-place lower
-#: Cholesky of a leading k × k block, v ← L⁻¹ v and v ← L⁻ᵀ v.
-cholesky_lower = _chol
-forward_substitution = _fwd
-backward_substitution = _bwd

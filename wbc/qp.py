@@ -59,30 +59,20 @@ class QPBackend(ABC):
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
-        x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and np.isfinite(x).all():
-            xc = np.minimum(np.maximum(x, lb), ub)
-            worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
-            if worst <= self.tolerance:
-                return xc
-            if worst <= _POLISH_RANGE:
-                xp = self.polish(x, A, b, C, l, u, lb, ub)
-                if xp is not None:
-                    self.polished += 1
-                    return xp
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure
-        x = self._solve_cold(H, g, A, b, C, l, u, lb, ub)
-        worst = math.inf
-        if x is not None and np.isfinite(x).all():
-            xc = np.minimum(np.maximum(x, lb), ub)
-            worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
-            if worst <= self.tolerance:
-                return xc
-            if worst <= _POLISH_RANGE:
-                xp = self.polish(x, A, b, C, l, u, lb, ub)
-                if xp is not None:
-                    self.polished += 1
-                    return xp
+        for attempt in (self._solve, self._solve_cold):
+            x = attempt(H, g, A, b, C, l, u, lb, ub)
+            worst = math.inf
+            if x is not None and np.isfinite(x).all():
+                xc = np.minimum(np.maximum(x, lb), ub)
+                worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
+                if worst <= self.tolerance:
+                    return xc
+                if worst <= _POLISH_RANGE:
+                    xp = self.polish(x, A, b, C, l, u, lb, ub)
+                    if xp is not None:
+                        self.polished += 1
+                        return xp
         x_ind, confirmed = self.confirm(H, g, A, b, C, l, u, lb, ub)
         if x_ind is not None:
             self.rescues += 1

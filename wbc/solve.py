@@ -52,8 +52,9 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
         ConfigurationError: q has the wrong size, is not finite, or its quaternion is not unit.
         InvalidInputError: dt not finite and > 0, damping ≤ 0, or an object that is not a Task/Constraint.
         UnknownSolverError: unknown backend name.
-        SolverError: the QP has no solution (infeasible constraints); the message names the conflicting
-            constraints and their violation (:mod:`wbc.diagnosis`). Not raised with ``safe_fallback=True``.
+        SolverError: the tick is not ok (infeasible constraints, or contacts that drift beyond the controller's
+            tolerance); the message gives the reason and the conflicting constraints with their violation when the
+            diagnosis names them (:mod:`wbc.diagnosis`). Not raised with ``safe_fallback=True``.
     """
     config = Configuration(robot, q)
     controller = KinematicController(robot, list(tasks), list(constraints), solver=solver, damping=damping)

@@ -9,7 +9,7 @@ start/end double support 1.04 s) and the same sole rectangle.
 Each plan's ZMP is recomputed from its CoM trajectory every 2 ms, ``p = c_xy − c̈_xy z / g`` (each planner's own
 g: wbc 9.81, placo 9.80665 m/s²), and its margin is the signed distance (m, positive inside) to the support
 polygon of the phase that starts at that sample: the stance sole rectangle in single support, the convex hull of
-both sole rectangles in double support (:mod:`wbc.gait.support`), with each planner's own phases.
+both sole rectangles in double support (:mod:`wbc.geometry`), with each planner's own phases.
 
 Replanning: from the CoM state of the plan in the middle of the third single support; wbc ``WalkPlan.replan(k,
 c, ċ)``; placo ``WalkPatternGenerator.replan(supports, trajectory, t)`` with the remaining supports (the current
@@ -28,7 +28,7 @@ import numpy as np
 from wbc.bench.stats import pooled_summary_us
 from wbc.configuration import Configuration
 from wbc.gait import DOUBLE_SUPPORT, plan_walk
-from wbc.gait.support import convex_hull, signed_distance, sole_polygon
+from wbc.geometry import convex_hull, signed_distance, sole_polygon
 from wbc.robot import Robot
 
 __all__ = ["GaitSpec", "run_gait_benchmark", "wbc_plan_margins", "placo_plan_margins"]

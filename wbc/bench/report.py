@@ -298,21 +298,8 @@ def markdown(results: dict) -> str:
                     f"{p['zmp_margin_param_m'] * 1e3:g} mm; replan from t = {p['replan_t']:g} s "
                     f"(success: {p['replan_success']}). wbc replans from the same time."]
         out.append("")
-    walk = results.get("walk")
-    if walk:
-        sp = walk["spec"]
-        out += [f"## 7. Walk tick (the main job): default plan, {sp['n_steps']} steps, {walk['ticks']} ticks × "
-                f"{sp['repeats']} interleaved repeats", "",
-                "One tick = set the plan's references + solve + integrate + update kinematics. wbc: stance soles hard "
-                "contacts, swing sole a soft frame task (support switches); placo-hard: both soles HARD frame tasks on "
-                "the plan's sole poses; placo-soft: placo's own `WalkTasks` (soft feet). Errors are against the plan.",
-                "", "| library | median µs | p99 µs (median over repeats) | max µs | / placo-hard | failures | "
-                "max CoM error mm | max sole error mm |", "|---|---|---|---|---|---|---|---|"]
-        for lib, v in walk["libraries"].items():
-            out.append(f"| {lib} | {_f(v['wall_us']['median_of_repeat_medians'])} | {_f(v['p99_us'])} | "
-                       f"{_f(v['wall_us']['max'])} | {_f(walk.get('ratios_to_placo-hard', {}).get(lib), 2)} | "
-                       f"{v['failures']} | {_f(1e3 * v['max_com_error'], 2)} | {_f(1e3 * v['max_sole_error'], 2)} |")
-        out.append("")
+    if results.get("walk"):
+        out += _walk_section(results["walk"])
     ins = results.get("instructions")
     if ins:
         out += ["## 8. Instructions per kinematic tick (valgrind callgrind; independent of machine load)", ""]
@@ -401,3 +388,21 @@ def write_report(results: dict, out_dir: Path) -> dict[str, Path]:
         paths["raw"] = out_dir / "latencies.npz"
         np.savez_compressed(paths["raw"], **arrays)
     return paths
+
+
+def _walk_section(walk: dict) -> list[str]:
+    """Markdown lines of the walk-tick section (wbc vs placo hard-feet and soft-feet walks)."""
+    sp = walk["spec"]
+    out = [f"## 7. Walk tick (the main job): default plan, {sp['n_steps']} steps, {walk['ticks']} ticks × "
+           f"{sp['repeats']} interleaved repeats", "",
+           "One tick = set the plan's references + solve + integrate + update kinematics. wbc: stance soles hard "
+           "contacts, swing sole a soft frame task (support switches); placo-hard: both soles HARD frame tasks on "
+           "the plan's sole poses; placo-soft: placo's own `WalkTasks` (soft feet). Errors are against the plan.",
+           "", "| library | median µs | p99 µs (median over repeats) | max µs | / placo-hard | failures | "
+           "max CoM error mm | max sole error mm |", "|---|---|---|---|---|---|---|---|"]
+    for lib, v in walk["libraries"].items():
+        out.append(f"| {lib} | {_f(v['wall_us']['median_of_repeat_medians'])} | {_f(v['p99_us'])} | "
+                   f"{_f(v['wall_us']['max'])} | {_f(walk.get('ratios_to_placo-hard', {}).get(lib), 2)} | "
+                   f"{v['failures']} | {_f(1e3 * v['max_com_error'], 2)} | {_f(1e3 * v['max_sole_error'], 2)} |")
+    out.append("")
+    return out

@@ -17,6 +17,18 @@ __all__ = ["register", "cmd_sim"]
 _SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
+#: ``wbc sim jump`` options: (flag, type, default, help).
+JUMP_OPTIONS = (
+    ("--height", float, 0.08, "jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)"),
+    ("--count", int, 1, "jump: number of consecutive jumps (default 1)"),
+    ("--forward", float, 0.0, "jump: planned forward foot displacement per jump, m (default 0: vertical)"),
+    ("--momentum-weight", float, None,
+     "jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)"),
+    ("--landing-ramp", float, 0.06, "jump: normal-force ramp-in after a touch-down, s (default 0.06)"),
+    ("--min-hop", float, None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
+)
+
+
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
     from wbc.backends import available_solvers
@@ -72,17 +84,8 @@ def register(subparsers, add_outputs) -> None:
                         "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
-    p.add_argument("--height", type=float, default=0.08,
-                   help="jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)")
-    p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
-    p.add_argument("--forward", type=float, default=0.0,
-                   help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
-    p.add_argument("--momentum-weight", type=float, default=None,
-                   help="jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)")
-    p.add_argument("--landing-ramp", type=float, default=0.06,
-                   help="jump: normal-force ramp-in after a touch-down, s (default 0.06)")
-    p.add_argument("--min-hop", type=float, default=None,
-                   help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
+    for flag, kind, default, text in JUMP_OPTIONS:
+        p.add_argument(flag, type=kind, default=default, help=text)
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
     add_outputs(p)

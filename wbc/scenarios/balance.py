@@ -49,7 +49,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
-from wbc.gait.support import signed_distance
+from wbc.geometry import signed_distance
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate

@@ -41,6 +41,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.gait.jump_plan import G, JumpPlan
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
 __all__ = ["JumpPreviewRun", "preview_jump", "preview_summary"]
@@ -53,29 +54,19 @@ SWITCH_WINDOW = 0.01
 
 
 @dataclass
-class JumpPreviewRun:
+class JumpPreviewRun(MotionRun):
     """Time series of a preview (N ticks): t (N,) s; q (N, nq); v (N, nv) commanded; com, com_ref (N, 3) m,
     world; sole_pos (N, 2, 3) m, world (left, right); contact_active (N, 2) planned contact flags; tick_time (N,)
     s; plus the plan and the planned touch-down times (s)."""
 
-    robot: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
     sole_pos: np.ndarray
     contact_active: np.ndarray
     tick_time: np.ndarray
     plan: JumpPlan
     touchdowns: list = field(default_factory=list)
+    scenario: str = "jump preview"
 
-    def save(self, path) -> None:
-        """Write the arrays (and the robot name, dt) to an ``.npz`` file (readable by ``wbc plot``)."""
-        np.savez_compressed(path, t=self.t, q=self.q, v=self.v, com=self.com, com_ref=self.com_ref,
-                            sole_pos=self.sole_pos, contact_active=self.contact_active, tick_time=self.tick_time,
-                            robot=np.array(self.robot), dt=np.array(self.dt), scenario=np.array("jump preview"))
+    not_logged = ("touchdowns",)  # in the summary; the log (``save``) keeps the arrays, names, dt and scenario
 
 
 def preview_jump(robot: Robot, *, height: float = 0.08, forward: float = 0.0, count: int = 1, dt: float = 0.002,

@@ -24,7 +24,7 @@ from wbc.scenarios.balance import (
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, Behaviour, BalanceController, BalanceRun, MinJerkPath, side_option,
     support_polygon,
 )
-from wbc.gait.support import signed_distance
+from wbc.geometry import signed_distance
 
 __all__ = ["OneLegBehaviour"]
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["Criterion", "evaluate", "RunRecord"]
+__all__ = ["Criterion", "evaluate", "RunRecord", "MotionRun"]
 
 _OPS = {"<=": operator.le, "<": operator.lt, ">=": operator.ge, ">": operator.gt, "==": operator.eq,
         "!=": operator.ne}
@@ -140,3 +140,17 @@ class RunRecord:
         extra = getattr(self, "extra", None) or {}
         arrays.update({k: v for k, v in extra.items() if isinstance(v, np.ndarray) and k not in arrays})
         np.savez_compressed(path, **arrays)
+
+
+@dataclass
+class MotionRun(RunRecord):
+    """The series every kinematic run records, N ticks, row k at t[k] = k dt: ``robot`` name; ``dt`` s; ``t``
+    (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref`` (N, 3) m, world."""
+
+    robot: str
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    com: np.ndarray
+    com_ref: np.ndarray

@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from wbc.gait.support import convex_hull, signed_distance, sole_polygon
+from wbc.geometry import convex_hull, signed_distance, sole_polygon
 
 __all__ = ["GRAVITY", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
            "support_margin"]

@@ -25,7 +25,7 @@ from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
-from wbc.scenarios.framework import RunRecord
+from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
 __all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController", "StanceRecorder", "StanceRun"]
@@ -146,20 +146,13 @@ class StanceController:
 
 
 @dataclass
-class StanceRun(RunRecord):
+class StanceRun(MotionRun):
     """What every run of the stance controller records (walk, balance behaviours), one row per tick k at
     t[k] = k dt: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref``
     (N, 3) m, world; ``left_sole``, ``right_sole`` (N, 4, 4) world poses; ``support`` (N,) int8
     (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``relaxed`` (N,) bool, the tick was solved
     without its relaxable constraints; ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
 
-    robot: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
     left_sole: np.ndarray
     right_sole: np.ndarray
     support: np.ndarray

@@ -17,7 +17,30 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["Task", "as_weight"]
+__all__ = ["Task", "as_weight", "ValidatedAttribute"]
+
+
+class ValidatedAttribute:
+    """A task attribute validated on assignment: ``check(task, value)`` returns the value to store (in
+    ``task._<name>``) or raises; reading returns the stored value.
+
+    Args:
+        check: ``(task, value) -> stored value``, raising a typed error from :mod:`wbc.exceptions`.
+        doc: docstring of the attribute (shape, units, frame, errors).
+    """
+
+    def __init__(self, check, doc: str = ""):
+        self.check = check
+        self.__doc__ = doc
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.attr = "_" + name
+
+    def __get__(self, obj, owner=None):
+        return self if obj is None else getattr(obj, self.attr)
+
+    def __set__(self, obj, value) -> None:
+        setattr(obj, self.attr, self.check(obj, value))
 
 
 def as_weight(weight, dim: int, what: str) -> np.ndarray:
@@ -72,13 +95,8 @@ class Task(ABC):
             raise InvalidInputError(f"{self.name} gain must be a finite number ≥ 0 (1/s), got {value!r}")
         self._gain = k
 
-    @property
-    def weight(self) -> np.ndarray:
-        return self._weight
-
-    @weight.setter
-    def weight(self, value) -> None:
-        self._weight = as_weight(value, self.dim, f"{self.name} weight")
+    weight = ValidatedAttribute(lambda task, w: as_weight(w, task.dim, f"{task.name} weight"),
+                                "(m,) cost weight of each row, ≥ 0 (raises InvalidInputError like as_weight).")
 
     @abstractmethod
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,7 @@ import numpy as np
 
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
-from wbc.tasks.base import Task
+from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["ComTask"]
 
@@ -36,14 +36,9 @@ class ComTask(Task):
         self.target = com
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
-    @property
-    def target(self) -> np.ndarray:
-        """Target CoM (3,) m, world; validated on assignment (raises InvalidTargetError: wrong shape or NaN)."""
-        return self._target
-
-    @target.setter
-    def target(self, com) -> None:
-        self._target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+    target = ValidatedAttribute(lambda task, com: check_vector(com, 3, "CoM target", InvalidTargetError).copy(),
+                                "Target CoM (3,) m, world; validated on assignment (raises InvalidTargetError: "
+                                "wrong shape or NaN).")
 
     def set_target_trusted(self, com: np.ndarray, velocity: np.ndarray | None = None) -> None:
         """:meth:`set_target` without validation or copies, for a controller's own loop feeding targets it built

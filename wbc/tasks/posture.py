@@ -10,7 +10,7 @@ import pinocchio as pin
 
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
-from wbc.tasks.base import Task
+from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["PostureTask"]
 
@@ -57,14 +57,9 @@ class PostureTask(Task):
         """
         self.target = q
 
-    @property
-    def target(self) -> np.ndarray:
-        """Target configuration (nq,); validated on assignment (raises InvalidTargetError: wrong size or NaN)."""
-        return self._target
-
-    @target.setter
-    def target(self, q) -> None:
-        self._target = check_vector(q, self.model.nq, "posture target", InvalidTargetError).copy()
+    target = ValidatedAttribute(
+        lambda task, q: check_vector(q, task.model.nq, "posture target", InvalidTargetError).copy(),
+        "Target configuration (nq,); validated on assignment (raises InvalidTargetError: wrong size or NaN).")
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac

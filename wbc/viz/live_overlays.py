@@ -23,7 +23,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.gait.support import convex_hull, sole_polygon
+from wbc.geometry import convex_hull, sole_polygon
 from wbc.robot import Robot
 
 __all__ = ["LiveOverlays"]

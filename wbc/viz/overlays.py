@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from wbc.gait.support import convex_hull, sole_polygon
+from wbc.geometry import convex_hull, sole_polygon
 
 __all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
 
