@@ -558,3 +558,10 @@ def warm_up() -> float:
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
     return time.perf_counter() - t0
+
+
+#: Public names of the dense kernels above, for other compiled modules (``wbc.dynamics.idkernel``): in-place lower
+#: Cholesky of a leading k × k block, v ← L⁻¹ v and v ← L⁻ᵀ v.
+cholesky_lower = _chol
+forward_substitution = _fwd
+backward_substitution = _bwd

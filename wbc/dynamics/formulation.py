@@ -120,7 +120,8 @@ class InverseDynamicsQP:
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
             the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
-            and torques in one call — with DAQP as fallback; any other qpsolvers backend —
+            and torques in one call — with DAQP as fallback (the general path while a hard task is present or the
+            torque-limited joints are not contiguous in v); any other qpsolvers backend —
             :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
@@ -395,7 +396,7 @@ class InverseDynamicsQP:
                 con.write(self._ctx, None, self._lb[s], self._ub[s])
                 con.written = key
         jl = self.joint_acceleration_limits
-        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self._reg_v, state.M, state.h, kb.Jc, kb.Gc,
+        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self.eps_a, state.M, state.h, kb.Jc, kb.Gc,
                         kb.Rc, kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
                         jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
                         self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,

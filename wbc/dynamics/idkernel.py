@@ -34,51 +34,19 @@ import numba as nb
 import numpy as np
 
 from wbc.dynamics.constraints import joint_bounds_kernel
-from wbc.fastqp import solve_qp_ws
+from wbc.fastqp import (
+    backward_substitution,
+    cholesky_lower,
+    forward_substitution,
+    solve_qp_ws,
+    weighted_normal_equations,
+)
 
 __all__ = ["id_tick"]
 
 #: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only; ±inf bounds stay
 #: legitimate input (no "no-inf/no-nan" assumption).
 _FM = {"reassoc", "contract"}
-
-
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _cholesky_lower(S, k):
-    """In place: the lower triangle of S[:k, :k] becomes its Cholesky factor (row-oriented). False when a pivot is
-    not positive."""
-    for i in range(k):
-        for j in range(i + 1):
-            acc = S[i, j]
-            for p in range(j):
-                acc -= S[i, p] * S[j, p]
-            if i == j:
-                if not acc > 0.0:
-                    return False
-                S[i, i] = np.sqrt(acc)
-            else:
-                S[i, j] = acc / S[j, j]
-    return True
-
-
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _lower_solve(L, k, y):
-    """y ← L⁻¹ y, L lower (k × k)."""
-    for i in range(k):
-        acc = y[i]
-        for p in range(i):
-            acc -= L[i, p] * y[p]
-        y[i] = acc / L[i, i]
-
-
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _upper_solve(L, k, y):
-    """y ← L⁻ᵀ y, L lower (k × k)."""
-    for i in range(k - 1, -1, -1):
-        acc = y[i]
-        for p in range(i + 1, k):
-            acc -= L[p, i] * y[p]
-        y[i] = acc / L[i, i]
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
@@ -92,15 +60,15 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
             return -1.0
         for j in range(i + 1):
             L[i, j] = H[i, j]
-    if not _cholesky_lower(L, nv):
+    if not cholesky_lower(L, nv):
         return -1.0
     for i in range(nv):
         t[i] = g[i]
-    _lower_solve(L, nv, t)
+    forward_substitution(L, nv, t)
     for k in range(m):
         for i in range(nv):
             Yt[k, i] = A[k, i]
-        _lower_solve(L, nv, Yt[k])
+        forward_substitution(L, nv, Yt[k])
     for k in range(m):
         for c in range(k + 1):
             acc = 0.0
@@ -117,16 +85,16 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
         for i in range(nv):
             acc += Yt[k, i] * t[i]
         nu[k] = -acc
-    if not _cholesky_lower(S, m):
+    if not cholesky_lower(S, m):
         return -1.0
-    _lower_solve(S, m, nu)
-    _upper_solve(S, m, nu)
+    forward_substitution(S, m, nu)
+    backward_substitution(S, m, nu)
     for i in range(nv):
         acc = t[i]
         for k in range(m):
             acc += Yt[k, i] * nu[k]
         x[i] = -acc
-    _upper_solve(L, nv, x[:nv])
+    backward_substitution(L, nv, x[:nv])
     for f in range(nv, n):
         if lb[f] == ub[f]:
             x[f] = lb[f]
@@ -156,7 +124,7 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
-def id_tick(Jt, wt, rt, pidx, pw, pr, reg_v, M, h, Jc, Gc, Rc, bc, active, t0, lim, joint_limits, q, v, iq, iv, qmin,
+def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, lim, joint_limits, q, v, iq, iv, qmin,
             qmax, vmax, a_brk, dt, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, z, max_iter, ws_Aw,
             ws_bw, ws_free, ws_L, ws_Y, ws_S, ws_t, ws_rhs, ws_nuw, residual, tau, wrench):
     """One ID tick (module docstring).
@@ -164,7 +132,7 @@ def id_tick(Jt, wt, rt, pidx, pw, pr, reg_v, M, h, Jc, Gc, Rc, bc, active, t0, l
     Args:
         Jt (mt, nv), wt (mt,), rt (mt,): stacked weighted task rows (J, w, r = a* − J̇v).
         pidx (kp,) int64, pw (kp,), pr (kp,): posture rows (v indices), weights, targets.
-        reg_v (nv,): ε_a. M (nv, nv), h (nv,). Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner
+        eps_a: ε_a (weight of ‖v̇‖²). M (nv, nv), h (nv,). Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner
         maps; Rc (nc, 3, 3): sole rotations (world ← sole); bc (nc, 6): eq. 5 right-hand sides; active (nc,)
         bool.
         t0, lim (nt,): first velocity index and limits (N·m) of the contiguous torque-limited joints.
@@ -182,28 +150,12 @@ def id_tick(Jt, wt, rt, pidx, pw, pr, reg_v, M, h, Jc, Gc, Rc, bc, active, t0, l
     nv = M.shape[0]
     n = H.shape[0]
     nc = Jc.shape[0]
-    # cost
-    for i in range(nv):
-        g[i] = 0.0
-        for j in range(nv):
-            H[i, j] = 0.0
-    for r in range(Jt.shape[0]):
-        w = wt[r]
-        if w == 0.0:
-            continue
-        for i in range(nv):
-            wji = w * Jt[r, i]
-            if wji == 0.0:
-                continue
-            g[i] -= wji * rt[r]
-            for j in range(nv):
-                H[i, j] += wji * Jt[r, j]
+    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture); H_ff = ε_f I stays as written
+    weighted_normal_equations(Jt, wt, rt, eps_a, H[:nv, :nv], g[:nv])
     for k in range(pidx.size):
         i = pidx[k]
         H[i, i] += pw[k]
         g[i] -= pw[k] * pr[k]
-    for i in range(nv):
-        H[i, i] += reg_v[i]
     # J_cᵀ = [J_kᵀ G_k]
     for c in range(nc):
         for i in range(nv):

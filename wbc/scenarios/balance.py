@@ -5,8 +5,11 @@ reference generator: time t (s) → CoM target, support phase, swing-sole target
 :func:`run_balance` feeds it to :class:`BalanceController` every tick of period dt:
 
 * stance soles are hard contacts (:class:`~wbc.constraints.ContactConstraint`) at their touch-down placement;
-* the CoM ground projection is kept inside the current support polygon shrunk by a margin, as a hard
-  inequality (:class:`~wbc.constraints.ComPolygonConstraint`, re-targeted at every support change);
+* the capture point (DCM) c + ċ/ω is kept inside the current support polygon shrunk by a margin, as a hard
+  inequality (:class:`~wbc.constraints.zmp.DcmPolygonConstraint`, re-targeted at every support change): the CoM
+  ground projection stays inside too and approaches an edge exponentially instead of stopping within one tick;
+* the multi-body ZMP of the motion each command produces stays inside the stance soles
+  (:class:`~wbc.constraints.zmp.ExecutedZmpConstraint`, relaxable; :mod:`wbc.scenarios.stance`);
 * joint position and velocity limits are hard bounds;
 * tasks: CoM (weight 10), torso orientation (1), posture on every DoF (weight 1e-2, gain 2/s: a regulariser —
   Talos's grippers sit on their limit and need a cost — whose low gain keeps it from biasing the tracked tasks:
@@ -50,7 +53,7 @@ from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.scenarios.stance import StanceRecorder, StanceRun
-from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
+from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
 from wbc.tasks.com import ComTask
 from wbc.tasks.frame import FrameTask
 from wbc.tasks.posture import PostureTask
@@ -286,10 +289,15 @@ COMMON_CRITERIA: list[Criterion] = [
 ]
 
 
-def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
-    """Min over ticks of the signed distance (m) of the executed-motion ZMP to the realized support polygon."""
+def _executed_zmp_margin(robot: Robot, run: BalanceRun, multibody: bool = True) -> float:
+    """Min over ticks of the signed distance (m) of the executed-motion ZMP (multi-body, or CoM-only with L̇ = 0)
+    to the realized support polygon."""
     ground = stance_ground_z(run.left_sole, run.right_sole, run.support, DOUBLE, LEFT_STANCE)
-    zmp = executed_zmp(run.com, run.dt, ground)
+    if multibody:
+        zmp = executed_zmp(run.com, run.dt, ground, mass=robot.mass,
+                           angular_momentum=executed_angular_momentum(robot.model, run.q, run.v))
+    else:
+        zmp = executed_zmp(run.com, run.dt, ground)
     return float(support_margin(zmp, run.left_sole, run.right_sole, run.support, robot.sole_length,
                                 robot.sole_width, DOUBLE, LEFT_STANCE, RIGHT_STANCE).min())
 
@@ -300,8 +308,10 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     Returns a dict with: robot, behaviour, dt_s, ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
     polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
-    of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
-    :mod:`wbc.scenarios.metrics`), max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
+    of the EXECUTED motion: multi-body ZMP from the CoM of the integrated q, c̈ by central second finite
+    differences of that CoM and L̇ by backward differences of the centroidal angular momentum A_G(q_k) v_k, see
+    :mod:`wbc.scenarios.metrics`), min_zmp_margin_com_only_m (the same with L̇ = 0; reported, not judged),
+    max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
     positions}, max_task_error_rad {the same in rad: orientations, posture} (see :func:`task_error_parts`; a
     task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
@@ -329,6 +339,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
         "min_com_margin_m": float(run.com_margin.min()),
         "min_zmp_margin_m": _executed_zmp_margin(robot, run),
+        "min_zmp_margin_com_only_m": _executed_zmp_margin(robot, run, multibody=False),
         **{f"max_task_error_{unit}": errs for unit, errs in task_err.items()},
         "max_stance_slip_m": _stance_slip(run),
         "joint_position_violations": pos_viol,

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbc.configuration import Configuration
-from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.constraints import ContactConstraint, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
+from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
@@ -48,13 +49,16 @@ class StanceController:
         extra_constraints: added after the contacts (before the joint limits).
         zmp_margin: margin (m) of the :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` that keeps the ZMP of
             the executed motion inside the support polygon of the stance soles (None: no such constraint).
+        joint_acceleration: a_max (rad/s²) of a :class:`~wbc.constraints.JointAccelerationLimit` on every actuated
+            joint and of a :class:`~wbc.constraints.braking.JointBrakingLimit` (joints approach their position
+            limits no faster than they can stop at a_max); both relaxable; None: neither.
         **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
                  com_gain: float = 100.0, foot_gain: float = 100.0, torso_gain: float = 50.0,
                  posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (),
-                 zmp_margin: float | None = 0.002, **controller_options):
+                 zmp_margin: float | None = 0.002, joint_acceleration: float | None = None, **controller_options):
         self.robot = robot
         self.com = ComTask(weight=10.0, gain=com_gain)
         self.com.set_target(config.com.copy())
@@ -72,10 +76,12 @@ class StanceController:
         if self.zmp is not None:
             self.zmp.set_support([self.contact[s].placement for s in SIDES])
             extra_constraints = (*extra_constraints, self.zmp)
+        smooth = () if joint_acceleration is None else (
+            JointAccelerationLimit(robot, a_max=joint_acceleration), JointBrakingLimit(robot, a_max=joint_acceleration))
         self.controller = KinematicController(
             robot, [self.com, self.torso, self.posture],
             [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
-             JointVelocityLimit(robot)],
+             JointVelocityLimit(robot), *smooth],
             solver=solver, **controller_options,
         )
         self.stance = {"left": True, "right": True}
