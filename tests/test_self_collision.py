@@ -92,9 +92,9 @@ def test_self_collision_inputs(robots):
 
 
 def test_temporal_pruning_keeps_the_rows(robots, monkeypatch):
-    """Issue 10: skipping the coal distance of pairs whose distance lower bound stays above the activation distance
-    changes nothing: the hand-through-torso drive gives the same joint trajectory and active pairs, with fewer
-    coal distance calls."""
+    """Issue 10: skipping the coal distance of pairs whose distance lower bound stays above the activation distance,
+    or above the max_active-th smallest distance, changes nothing: the hand-through-torso drive gives the same
+    joint trajectory and active pairs, with fewer coal distance calls."""
     robot = robots("talos")
     calls = [0]
     distance = pin.computeDistance
@@ -122,6 +122,11 @@ def test_temporal_pruning_keeps_the_rows(robots, monkeypatch):
             config.update(config.integrate(res.v, DT))
             qs.append(config.q.copy())
         runs[pruning] = (np.array(qs), active, calls[0])
-    assert np.abs(runs[True][0] - runs[False][0]).max() == 0.0
-    assert runs[True][1] == runs[False][1]
-    assert runs[True][2] < 0.8 * runs[False][2]  # measured: 76.6 vs 135.8 calls per tick on the full drive
+    # the same pairs get rows at every tick; their distances agree to GJK's tolerance (1e-9 m, set by the
+    # constraint): coal warm-starts each pair from its previous call, which pruning makes an older one (measured:
+    # up to 1.04e-9 m apart, trajectories equal to 1e-12 rad)
+    assert np.abs(runs[True][0] - runs[False][0]).max() < 1e-8
+    for pruned, full in zip(runs[True][1], runs[False][1]):
+        assert [p[:2] for p in pruned] == [p[:2] for p in full]
+        assert max((abs(a[2] - b[2]) for a, b in zip(pruned, full)), default=0.0) < 5e-9
+    assert runs[True][2] < 0.6 * runs[False][2]  # measured: 37.7 vs 135.8 calls per tick on the full drive

@@ -4,7 +4,7 @@ Every library follows the same :class:`~wbc.gait.WalkPlan` (``plan_default_walk`
 one tick every ``plan.dt``:
 
 * ``wbc``: :func:`wbc.scenarios.walk.run_walk`'s tick — ``WalkController.set_references`` (support switch, CoM,
-  swing sole, torso targets) + ``KinematicController.solve`` + ``Configuration.step``; stance soles are hard
+  swing sole, torso targets) + ``WalkController.solve`` + ``Configuration.step``; stance soles are hard
   contact constraints, the swing sole a soft frame task.
 * ``placo-hard``: placo ``KinematicsSolver`` with both soles as HARD frame tasks on the plan's sole poses (the
   stance sole's pose is constant, the swing sole's follows the plan), CoM (weight 10), torso orientation (1) and
@@ -81,7 +81,6 @@ class _WbcWalk:
         robot, plan = self.robot, self.plan
         config = Configuration(robot)
         walker = WalkController(robot, config, solver=self.solver)
-        ctrl = walker.controller
         n, dt = len(plan.t), plan.dt
         wall = np.empty(n, np.int64)
         qs = np.empty((n + 1, robot.nq))
@@ -91,7 +90,7 @@ class _WbcWalk:
         for k in range(n):
             t0 = perf_counter_ns()
             walker.set_references(plan, k, config)
-            res = ctrl.solve(config, dt)
+            res = walker.solve(config, dt)
             config.step(res.v, dt)
             wall[k] = perf_counter_ns() - t0
             failures += not res.ok

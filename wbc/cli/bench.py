@@ -66,7 +66,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print("wbc bench --quick: pipeline check; timing criteria not judged on a few ticks")
     missed = [a for a in rows if a["met"] is False]
     for a in missed:
-        print(f"wbc bench: target missed: {a['criterion']}: measured {a['value']}, goal {a['goal']}")
+        value = f"{a['value']:.3g}" if isinstance(a["value"], float) else a["value"]
+        print(f"wbc bench: target missed: {a['criterion']}: measured {value}, goal {a['goal']}")
     if not rows:
         print("wbc bench: no criterion could be evaluated")
     return 0 if rows and not missed else 1
