@@ -3,25 +3,21 @@
 Timing: the ``wbc bench`` kinematic scenario (Talos, feet hard, CoM sway, torso, posture, position + velocity
 limits; :mod:`wbc.bench.kinematic`) run interleaved A B C A B C ... in this one process, ``--repeats`` times;
 medians over the repeats of each run's median CPU tick, ratios against placo, machine load (``os.getloadavg``)
-printed before and after. Then the walk tick (targets + QP + integration) of the default Talos walk with
-``--walk-steps`` steps, fast vs daqp interleaved, median and p99.
+printed before and after. Then the walk tick (:mod:`wbc.bench.walk`: wbc vs placo with both feet hard on the same
+plan and placo's own soft-feet ``WalkTasks``), median and p99.
 
-Instructions (``--callgrind``): every library runs the scenario under ``valgrind --tool=callgrind`` once with N and
-once with 2N timed ticks; (Ir(2N) − Ir(N)) / N is its instructions per tick, free of start-up and independent of
-machine load. Slow (≈ 50× under valgrind): keep N small.
+Extra tasks (``--extra-tasks``): the same scenario with 10 more soft 6-D frame tasks, per-task cost per library.
 
-Usage: python benchmarks/fast_path.py [--repeats 5] [--ticks 2000] [--walk-steps 4] [--callgrind 200]
+Instructions (``--callgrind N``): :mod:`wbc.bench.instructions` — wbc and placo under callgrind, instruction counts
+after N and 2N ticks in one instrumented run, differenced: instructions per tick, independent of machine load.
+
+Usage: python benchmarks/fast_path.py [--repeats 5] [--ticks 2000] [--walk-steps 8] [--extra-tasks] [--callgrind 100]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import re
-import subprocess
-import sys
-import tempfile
-import time
 
 import numpy as np
 
@@ -68,77 +64,94 @@ def timing(repeats: int, ticks: int) -> dict[str, float]:
     return out
 
 
-def walk(repeats: int, steps: int) -> None:
+def walk(repeats: int, steps: int) -> dict:
+    """The walk section of ``wbc bench`` (:mod:`wbc.bench.walk`): wbc vs placo hard-feet and soft-feet walks."""
     import wbc
-    from wbc.scenarios.walk import plan_default_walk, run_walk
+    from wbc.bench.walk import WalkBenchSpec, run_walk_benchmark
 
     robot = wbc.load_robot("talos")
-    plan = plan_default_walk(robot, n_steps=steps)
-    stats: dict[str, list[tuple[float, float]]] = {"fast": [], "daqp": []}
+    out = run_walk_benchmark(robot, WalkBenchSpec(n_steps=steps, repeats=repeats), log=lambda _: None)
+    print(f"walk tick, Talos, {steps} steps ({out['ticks']} ticks) x {repeats} repeats, interleaved; {_load()}")
+    for lib, v in out["libraries"].items():
+        print(f"  {lib:10s} median {v['wall_us']['median_of_repeat_medians']:7.1f} us  p99 {v['p99_us']:8.1f} us  "
+              f"/ placo-hard {out['ratios_to_placo-hard'][lib]:.2f}  failures {v['failures']}  "
+              f"max CoM error {v['max_com_error'] * 1e3:.2f} mm")
+    return out
+
+
+#: the extra frame tasks of :func:`extra_tasks` (Talos bodies spread over the tree)
+EXTRA_FRAMES = ("leg_left_3_link", "leg_right_3_link", "arm_left_2_link", "arm_right_2_link", "arm_left_4_link",
+                "arm_right_4_link", "arm_left_7_link", "arm_right_7_link", "head_2_link", "torso_1_link")
+
+
+def extra_tasks(repeats: int, ticks: int) -> dict:
+    """Cost of one extra 6-D frame task (soft, weight 1, target = its initial placement): the benchmark tick with
+    the 10 ``EXTRA_FRAMES`` tasks minus without, divided by 10, per library, interleaved."""
+    import wbc
+    from wbc.bench.kinematic import KinematicSpec, PlacoRunner, WbcRunner
+    from wbc.tasks import FrameTask
+
+    class WbcExtra(WbcRunner):
+        def reset(self):
+            super().reset()
+            dt = self.spec.dt
+            for f in EXTRA_FRAMES:
+                t = FrameTask(self.robot, f, position_weight=1.0, orientation_weight=1.0, gain=1.0 / dt)
+                t.set_target_from_configuration(self.config)
+                self.controller.add_task(t)
+
+    class PlacoExtra(PlacoRunner):
+        def reset(self):
+            super().reset()
+            for f in EXTRA_FRAMES:
+                self.solver.add_frame_task(f, self.wrapper.get_T_world_frame(f)).configure(f, "soft", 1.0, 1.0)
+
+    robot = wbc.load_robot("talos")
+    spec = KinematicSpec(ticks=ticks)
+    runners = {"wbc": WbcRunner(spec, robot), "wbc+10": WbcExtra(spec, robot), "placo": PlacoRunner(spec, robot),
+               "placo+10": PlacoExtra(spec, robot)}
+    med: dict[str, list[float]] = {k: [] for k in runners}
     for _ in range(repeats):
-        for s in stats:
-            t = run_walk(robot, plan, solver=s).tick_time * 1e6
-            stats[s].append((float(np.median(t)), float(np.percentile(t, 99))))
-    print(f"walk tick, Talos, {steps} steps ({len(plan.t)} ticks) x {repeats} repeats, interleaved; {_load()}")
-    for s, v in stats.items():
-        a = np.array(v)
-        print(f"  wbc-{s:5s} median {np.median(a[:, 0]):7.1f} us  p99 {np.median(a[:, 1]):7.1f} us (medians over repeats)")
+        for k, r in runners.items():
+            run = r.run()
+            assert r.failures == 0, (k, r.first_error)
+            med[k].append(float(np.median(run.cpu_ns)) / 1e3)
+    per = {lib: float(np.median([(a - b) / len(EXTRA_FRAMES) for a, b in zip(med[lib + "+10"], med[lib])]))
+           for lib in ("wbc", "placo")}
+    print(f"extra 6-D frame task, Talos, {len(EXTRA_FRAMES)} tasks, {ticks} ticks x {repeats} repeats; {_load()}")
+    for lib, v in per.items():
+        print(f"  {lib:6s} +{v:5.1f} us per task  (tick {np.median(med[lib]):.1f} -> {np.median(med[lib + '+10']):.1f} us)")
+    return per
 
 
-def _one(lib: str, ticks: int) -> None:
-    """Child process under valgrind: build and run one library's scenario."""
-    import wbc
-    from wbc.fastqp import warm_up
+def callgrind(n: int) -> dict:
+    """Instructions per kinematic tick, wbc (default backend) vs placo (:mod:`wbc.bench.instructions`)."""
+    from wbc.bench.instructions import instructions_per_tick
 
-    warm_up()
-    robot = wbc.load_robot("talos")
-    r = _runner(lib, ticks, robot)
-    r.run()
-
-
-def callgrind(n: int, libs: tuple[str, ...] = LIBS) -> None:
-    irs: dict[str, float] = {}
-    for lib in libs:
-        ir = []
-        for ticks in (n, 2 * n):
-            with tempfile.TemporaryDirectory() as d:
-                t0 = time.time()
-                p = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={d}/cg.out",
-                                    sys.executable, __file__, "--child", lib, "--ticks", str(ticks)],
-                                   capture_output=True, text=True)
-                m = re.search(r"Collected : (\d+)", p.stderr)
-                if p.returncode or not m:
-                    raise RuntimeError(f"callgrind run of {lib} failed: {p.stderr[-2000:]}")
-                ir.append(int(m.group(1)))
-                print(f"  callgrind {lib} {ticks} ticks: {ir[-1]:,} Ir ({time.time() - t0:.0f} s)", flush=True)
-        irs[lib] = (ir[1] - ir[0]) / n
-    print(f"instructions per kinematic tick (callgrind, {n} vs {2 * n} ticks differenced):")
-    for lib in libs:
-        print(f"  {lib:9s} {irs[lib] / 1e3:8.0f} k   / placo {irs[lib] / irs['placo']:.2f}")
+    out = instructions_per_tick(n, log=lambda m: print("  " + m, flush=True))
+    print(f"instructions per kinematic tick (callgrind, {n} vs {2 * n} ticks differenced, load-independent):")
+    for lib, v in out["instructions"].items():
+        print(f"  {lib:6s} {v / 1e3:8.0f} k   / placo {v / out['instructions']['placo']:.2f}")
+    return out
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--ticks", type=int, default=2000)
-    p.add_argument("--walk-steps", type=int, default=4)
+    p.add_argument("--walk-steps", type=int, default=8, help="steps of the walk (0: skip the walk)")
+    p.add_argument("--extra-tasks", action="store_true", help="also measure the cost of an extra frame task")
     p.add_argument("--callgrind", type=int, default=0, help="N ticks for the instruction count (0: skip)")
-    p.add_argument("--callgrind-libs", default=",".join(LIBS), help="comma-separated subset of " + ",".join(LIBS))
     p.add_argument("--only-callgrind", action="store_true", help="skip the timing sections")
-    p.add_argument("--child", default=None, help=argparse.SUPPRESS)
     a = p.parse_args()
-    if a.child:
-        _one(a.child, a.ticks)
-        return
     if not a.only_callgrind:
         timing(a.repeats, a.ticks)
         if a.walk_steps:
             walk(a.repeats, a.walk_steps)
+        if a.extra_tasks:
+            extra_tasks(a.repeats, a.ticks)
     if a.callgrind:
-        libs = tuple(a.callgrind_libs.split(","))
-        if "placo" not in libs or not set(libs) <= set(LIBS):
-            p.error(f"--callgrind-libs must be a subset of {LIBS} that includes placo")
-        callgrind(a.callgrind, libs)
+        callgrind(a.callgrind)
 
 
 if __name__ == "__main__":

@@ -109,7 +109,8 @@ def test_suite_and_report_writer(tmp_path):
     from wbc.bench.suite import SuiteConfig, run_suite
 
     cfg = SuiteConfig(ticks=5, repeats=2, warmup=1, pink_select_ticks=3, scaling_robots=("humanoid15",),
-                      gait_repeats=2, placo_gait_repeats=1)
+                      gait_repeats=2, placo_gait_repeats=1, walk_steps=2,
+                      sections=("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk"))
     results = run_suite(cfg)
     paths = write_report(results, tmp_path / "out")
     for key in ("json", "markdown", "plot", "raw"):
@@ -119,7 +120,7 @@ def test_suite_and_report_writer(tmp_path):
     assert {a["criterion"] for a in data["acceptance"]} == {a["criterion"] for a in acceptance(results)}
     text = markdown(results)
     for title in ("## 1. Kinematic tick", "## 2. wbc tick breakdown", "## 3. wbc with each QP backend",
-                  "## 4. Scaling", "## 5. Inverse dynamics", "## 6. Gait planning"):
+                  "## 4. Scaling", "## 5. Inverse dynamics", "## 6. Gait planning", "## 7. Walk tick"):
         assert title in text
 
 
@@ -129,3 +130,40 @@ def test_cli_bench_quick(tmp_path):
     code = main(["bench", "--quick", "--sections", "gait", "--out-dir", str(tmp_path)])
     assert code == 0  # --quick: the pipeline works and its correctness criteria hold (timing is not judged)
     assert (tmp_path / "results.md").read_text().startswith("# wbc benchmarks")
+
+
+def test_walk_benchmark_few_ticks(robots):
+    """The walk section: wbc, placo with hard feet and placo's own soft-feet walk follow the same plan."""
+    from wbc.bench.walk import WalkBenchSpec, run_walk_benchmark
+
+    out = run_walk_benchmark(robots("talos"), WalkBenchSpec(n_steps=2, repeats=1), log=lambda _: None)
+    assert set(out["libraries"]) == {"wbc", "placo-hard", "placo-soft"}
+    for lib, v in out["libraries"].items():
+        assert v["failures"] == 0 and v["finite"], lib
+        assert out["_raw"][lib].shape == (out["ticks"],)
+    # wbc's stance soles are hard contacts and its swing sole tracks the plan: within 2 mm of the plan's soles
+    assert out["libraries"]["wbc"]["max_sole_error"] < 2e-3
+    # placo's hard feet follow the plan's soles exactly up to its QP's precision
+    assert out["libraries"]["placo-hard"]["max_sole_error"] < 2e-3
+    assert out["ratios_to_placo-hard"]["placo-hard"] == 1.0
+
+
+def test_bench_exit_code_names_the_missed_target(monkeypatch, tmp_path, capsys):
+    """``wbc bench`` exits 1 only when a measured criterion is missed, and prints which; a criterion that could not
+    be measured (met None) does not fail the run."""
+    import wbc.bench.report as report
+    import wbc.bench.suite as suite
+    from wbc.cli import main
+
+    monkeypatch.setattr(suite, "run_suite", lambda cfg: {"machine": {}, "_raw": {}})
+    monkeypatch.setattr(report, "write_report", lambda results, out: {"markdown": tmp_path / "r.md"})
+    (tmp_path / "r.md").write_text("report")
+    rows = [{"criterion": "A", "value": 1.2, "goal": "≤ 1.0", "met": False, "timing": False},
+            {"criterion": "B", "value": "valgrind missing", "goal": "≤ 0.8", "met": None, "timing": False},
+            {"criterion": "C", "value": 3.0, "goal": "≥ 1", "met": True, "timing": False}]
+    monkeypatch.setattr(report, "acceptance", lambda results: rows)
+    assert main(["bench", "--sections", "gait", "--out-dir", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "target missed: A" in out and "target missed: B" not in out and "target missed: C" not in out
+    rows[0]["met"] = True
+    assert main(["bench", "--sections", "gait", "--out-dir", str(tmp_path)]) == 0

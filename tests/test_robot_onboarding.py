@@ -167,6 +167,9 @@ def test_romeo_zero_width_joints_locked_and_short_walk_passes():
     assert abs(s["walked_distance_m"] - s["planned_distance_m"]) <= 0.05 * s["planned_distance_m"]
     assert s["min_zmp_margin_m"] >= 0.0 and s["max_stance_slip_m"] <= 1e-3 and s["max_com_error_m"] <= 5e-3
     assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
+    assert s["relaxed_ticks"] == 0
+    # joint accelerations stay within the walk's 50 rad/s² bound, also where the ankles reach their limits
+    assert np.abs(np.diff(run.v[:, 6:], axis=0)).max() / run.dt <= 50.0 + 1e-6
     locked = [robot.model.getJointId(n) for n in ("LHand", "RThumb1")]
     for jid in locked:
         iv = robot.model.joints[jid].idx_v
@@ -202,3 +205,40 @@ def test_cli_refuses_a_legless_robot(capsys):
                  "--reference", "default", "--left-sole", "leftNub", "--right-sole", "rightNub", "--torso", "Torso"])
     assert code == 2
     assert "legless" in capsys.readouterr().err
+
+
+_ALEXANDER = ERD / "alexander_description"
+#: Sole links added at the bottom of Alexander's feet: its Foot.obj spans x in [-0.055, 0.157], y in
+#: [-0.048, 0.048] m and reaches 0.072 m below the LEFT_FOOT/RIGHT_FOOT (ankle) frames.
+_SOLE_LINKS = """
+  <link name="{side}_sole"/>
+  <joint name="{side}_sole_fixed" type="fixed"><parent link="{foot}"/><child link="{side}_sole"/>
+    <origin xyz="0.05 0 -0.072" rpy="0 0 0"/></joint>
+"""
+
+
+@pytest.mark.skipif(not _ALEXANDER.is_dir(), reason="example-robot-data absent")
+def test_alexander_ankle_frames_refused_then_sole_frames_walk(tmp_path):
+    """Alexander's lower body: its foot frames are the ankles, 7.2 cm above the sole (visual mesh; it has no
+    collision geometry): refused with the fix. With sole links added as the message says, it loads and a 3-step
+    walk meets the executed-motion criteria."""
+    from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
+
+    urdf = _ALEXANDER / "urdf/alexander_v1.lowerBodyOnly.urdf"
+    common = dict(srdf=_ALEXANDER / "srdf/alexander.srdf", reference="default", torso="TORSO_LINK",
+                  sole_length=0.2, sole_width=0.09)
+    with pytest.raises(RobotDescriptionError, match=r"'LEFT_FOOT' is 0\.07\d m above the bottom of its foot's "
+                                                    r"visual geometry.*add one to the URDF"):
+        wbc.load_robot(urdf, left_sole="LEFT_FOOT", right_sole="RIGHT_FOOT", **common)
+    text = urdf.read_text()
+    extra = "".join(_SOLE_LINKS.format(side=s, foot=f) for s, f in (("left", "LEFT_FOOT"), ("right", "RIGHT_FOOT")))
+    fixed = tmp_path / "alexander_soles.urdf"
+    fixed.write_text(text.replace("</robot>", extra + "</robot>"))
+    robot = wbc.load_robot(fixed, left_sole="left_sole", right_sole="right_sole", **common)
+    plan = plan_default_walk(robot, n_steps=3)
+    s = walk_summary(robot, plan, run_walk(robot, plan))
+    assert s["solver_failures"] == 0 and not s["nan"]
+    assert abs(s["walked_distance_m"] - s["planned_distance_m"]) <= 0.05 * s["planned_distance_m"]
+    assert s["min_zmp_margin_m"] >= 0.0 and s["max_stance_slip_m"] <= 1e-3 and s["max_com_error_m"] <= 5e-3
+    assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
+    assert s["passed"], s["failed_criteria"]

@@ -89,3 +89,39 @@ def test_self_collision_inputs(robots):
         SelfCollisionConstraint(robot, pairs=[("torso", "no_such_link")])
     c = SelfCollisionConstraint(robot, pairs=[("torso", "right_forearm"), ("pelvis_0", "right_hand_0")])
     assert sorted(c.pair_names) == sorted([("torso_0", "right_forearm_0"), ("pelvis_0", "right_hand_0")])
+
+
+def test_temporal_pruning_keeps_the_rows(robots, monkeypatch):
+    """Issue 10: skipping the coal distance of pairs whose distance lower bound stays above the activation distance
+    changes nothing: the hand-through-torso drive gives the same joint trajectory and active pairs, with fewer
+    coal distance calls."""
+    robot = robots("talos")
+    calls = [0]
+    distance = pin.computeDistance
+
+    def counted(*args):
+        calls[0] += 1
+        return distance(*args)
+
+    monkeypatch.setattr(pin, "computeDistance", counted)
+    runs = {}
+    for pruning in (False, True):
+        calls[0] = 0
+        config = Configuration(robot)
+        hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
+        sc = SelfCollisionConstraint(robot, min_distance=0.02, temporal_pruning=pruning)
+        ctrl, _ = standing_controller(robot, config, sc, tasks=(hand,), posture_weight=1e-3)
+        p0 = config.frame_placement(hand.frame_id).translation.copy()
+        target = config.frame_placement(robot.frame_id(THROUGH["talos"][0])).act(np.zeros(3))
+        qs, active = [], []
+        for k in range(150):
+            hand.set_target(p0 + (target - p0) * min(1.0, k / 100))
+            res = ctrl.solve(config, DT)
+            assert res.ok, res.message
+            active.append(list(sc.active))
+            config.update(config.integrate(res.v, DT))
+            qs.append(config.q.copy())
+        runs[pruning] = (np.array(qs), active, calls[0])
+    assert np.abs(runs[True][0] - runs[False][0]).max() == 0.0
+    assert runs[True][1] == runs[False][1]
+    assert runs[True][2] < 0.8 * runs[False][2]  # measured: 76.6 vs 135.8 calls per tick on the full drive

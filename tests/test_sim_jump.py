@@ -43,6 +43,13 @@ def test_g1_vertical_jump():
     assert np.linalg.norm(pos - pos[0], axis=2).max() <= 0.02
     slide = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1).max()
     assert slide <= 0.02, slide
-    # applied torques within the URDF effort limits (the landing does not relax them)
+    # applied torques within the URDF effort limits, and every one of them from a QP solved with those limits
+    # (no tick fell back to clipping the torques of the relaxed QP)
     lim = robot.model.effortLimit[6:]
     assert (np.abs(run.tau) <= lim * (1 + 1e-9)).all()
+    assert s["torque_clipped_ticks"] == 0, s["torque_limited_ticks"]
+    # the recording overlays of `wbc sim jump --out` accept the jump run (the CLI passes scenario.plan or None)
+    from wbc.viz.overlays import sim_overlays
+
+    scene = sim_overlays(run, robot, getattr(sc, "plan", None))
+    assert len(scene["points"]["com"]) == len(run.t)

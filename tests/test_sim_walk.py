@@ -1,4 +1,5 @@
-"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here.
+"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here; a lateral
+push in single support recovered by step adjustment; a standing push recovered by a capture step.
 
 Independent references: the walked distance and the stance slip are measured on MuJoCo's ground-truth sole
 positions; the CoP is computed from MuJoCo's contact forces; the commanded distance is the footstep geometry
@@ -14,7 +15,7 @@ from wbc.sim.scenarios import make_controller, run_scenario
 from wbc.sim.walk import WalkScenario, measured_cop, polygon_margin
 
 
-@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.2, 0.6), ("g1", 0.1, 0.8)])
+@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.24, 0.6), ("g1", 0.1, 0.8)])  # 0.4, 0.125 m/s
 def test_four_step_walk(name, step_length, step_duration):
     robot = load_robot(name)
     sim = build_mujoco_model(robot)
@@ -97,3 +98,42 @@ def test_perturb_plant_and_controller():
     np.testing.assert_allclose(outs[3], taus[1], atol=1e-9)
     with pytest.raises(InvalidInputError, match="delay"):
         PerturbedController(robot, delay=-1)
+
+
+def test_lateral_push_in_single_support_is_recovered_by_a_step():
+    # Talos, 400 N x 0.1 s to the right at mid single support of the 4th swing (right foot swinging, 0.6 s steps:
+    # single support 0.48 s from 0.8 + 3 x 0.6 s). The right foot must land further right than planned.
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    t_mid = 0.8 + 3 * 0.6 + 0.24
+    scenario = WalkScenario(6, 0.2, 0.6, push=400.0, push_time=t_mid - 0.05, push_duration=0.1, push_dir=-90.0)
+    run, s = run_scenario(sim, controller, scenario)
+    assert not s["fell"] and s["completed"]
+    assert s["solver_failures"] == 0
+    assert s["step_adjustments"] >= 1
+    # The pushed step, from MuJoCo's sole position at its touch-down, lies > 10 cm right of the nominal footstep.
+    nominal = scenario.plan.footsteps[3]
+    assert nominal.side == "right"
+    k_td = next(ph.end for ph in scenario.plan.phases if ph.step == 3)
+    td = [t for t, side, e in scenario.switcher.events if side == "right" and e == "touchdown" and t > 2.6]
+    i = int(round(td[0] / sim.timestep))
+    assert abs(i - k_td) <= 25
+    assert run.sole_pos[i, 1, 1] < nominal.y - 0.10
+    # The push was applied as commanded (MuJoCo external force log).
+    assert np.abs(run.ext_force[:, 1]).max() == pytest.approx(400.0)
+
+
+def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
+    from wbc.sim.capture_step import CaptureStepScenario
+
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = CaptureStepScenario(450.0, 0.1, t_push=0.5, push_dir=180.0)  # towards -x: pushed from the front
+    run, s = run_scenario(sim, controller, scenario)
+    assert not s["fell"] and s["completed"] and s["solver_failures"] == 0
+    assert s["stepped"] and 0.5 <= s["trigger_time_s"] <= 0.6
+    # Both feet ended behind where they started (MuJoCo sole positions): the robot stepped backwards.
+    assert np.all(run.sole_pos[-1, :, 0] - run.sole_pos[0, :, 0] < -0.1)
+    assert np.abs(run.ext_force[:, 0]).max() == pytest.approx(450.0)

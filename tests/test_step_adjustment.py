@@ -37,6 +37,12 @@ def test_landing_restores_the_nominal_dcm_offset():
     d = adj.correction(xi_ref + e, xi_ref, tau)
     new = adj.landing(Footstep("left", *u1, 0.0), (*u0, 0.0), d)
     assert end_dcm(xi_ref + e) - np.array([new.x, new.y]) == pytest.approx(b_nom, abs=2e-4)
+    # Eq. 2: landing 0.05 s earlier (tau' = 0.15 s) keeps the nominal offset at the new landing time.
+    d2 = adj.correction(xi_ref + e, xi_ref, tau, 0.15, u0)
+    xi = xi_ref + e
+    for _ in range(15000):
+        xi = xi + 1e-5 * OMEGA * (xi - u0)
+    assert xi - (u1 + d2) == pytest.approx(b_nom, abs=2e-4)
 
 
 def test_dead_band_reach_and_collision_limits():
@@ -124,3 +130,40 @@ def test_side_step_footsteps():
     assert mids[-1] == pytest.approx(8 * d) and feet["left"][1] - feet["right"][1] == pytest.approx(w)
     right = plan_footsteps((0.0, w / 2, 0.0), (0.0, -w / 2, 0.0), 9, 0.0, w, 0.0, "right", -d)
     assert right[0].side == "right" and right[0].y == pytest.approx(-w / 2 - 2 * d)
+
+
+def test_replan_skip_ends_the_swing_earlier():
+    p = _plan()
+    ph = next(x for x in p.phases if x.step == 1)
+    k = ph.first + ph.count // 2
+    n_left = ph.end - k
+    q = p.replan(k, p.com[k], p.com_vel[k], skip=50, check_start=False)
+    assert q.n_samples == p.n_samples - k - 50
+    side = p.footsteps[1].side
+    P = q.left_sole if side == "left" else q.right_sole
+    P0 = p.left_sole if side == "left" else p.right_sole
+    # The swing lands 50 samples earlier on the same footstep; the rest of the plan is the old one, 50 samples earlier.
+    assert q.support[n_left - 50 - 1] != 0 and q.support[n_left - 50] == 0
+    assert P[n_left - 50][:3, 3] == pytest.approx(P0[ph.end][:3, 3], abs=1e-12)
+    assert np.array_equal(P[n_left - 50:], P0[ph.end:])
+    assert P[0][:3, 3] == pytest.approx(P0[k][:3, 3], abs=1e-12)
+    assert q.dcm[0] == pytest.approx(p.com[k, :2] + p.com_vel[k, :2] / p.omega, abs=1e-9)
+    with pytest.raises(GaitError, match="skip"):
+        p.replan(k, p.com[k], p.com_vel[k], skip=n_left, check_start=False)
+
+
+def test_kinematic_walk_velocity_commands(tmp_path):
+    # `wbc walk --vy`: side-steps of vy x (t_ss + t_ds) (Talos gait: 0.8 + 0.3 s); `--vx --wz`: an arc.
+    from wbc.cli import main
+
+    log = tmp_path / "side.npz"
+    assert main(["walk", "--steps", "5", "--vy", "0.05", "--quiet", "--log", str(log)]) == 0
+    d = np.load(log)
+    mid = 0.5 * (d["left_sole"][:, :2, 3] + d["right_sole"][:, :2, 3])
+    # 4 walking steps of 0.055 m to the left (the closing step is the leading foot's: no displacement)
+    assert mid[-1] - mid[0] == pytest.approx([0.0, 4 * 0.05 * 1.1], abs=2e-3)
+    log2 = tmp_path / "arc.npz"
+    assert main(["walk", "--steps", "4", "--vx", "0.1", "--wz", "5", "--quiet", "--log", str(log2)]) == 0
+    d = np.load(log2)
+    R = d["left_sole"][-1, :3, :3]
+    assert math.atan2(R[1, 0], R[0, 0]) == pytest.approx(math.radians(3 * 5 * 1.1), abs=math.radians(0.5))

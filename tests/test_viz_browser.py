@@ -30,7 +30,8 @@ if not Path(CHROMIUM).exists() or importlib.util.find_spec("playwright") is None
 
 WALK_OVERLAYS = {"com", "com_ground", "zmp_planned", "zmp_executed", "dcm_planned", "dcm_executed",
                  "support_polygon", "footsteps_planned", "footprints", "swing_left", "swing_right"}
-BALANCE_OVERLAYS = {"com", "com_ground", "support_polygon"}
+BALANCE_OVERLAYS = {"com", "com_ground", "com_reference", "zmp_executed", "dcm_executed", "support_polygon",
+                    "footprints", "swing_left", "swing_right"}
 PHYSICS_OVERLAYS = {"com", "com_ground", "cop", "zmp_planned", "dcm_planned", "dcm_executed", "support_polygon",
                     "footsteps_planned", "footprints", "swing_left", "swing_right", "contact_force_left",
                     "contact_force_right", "push"}

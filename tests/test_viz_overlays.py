@@ -98,7 +98,9 @@ def test_overlays_drawn_together_have_distinct_colours():
     physics = ["com", "com_ground", "cop", "zmp_planned", "dcm_planned", "dcm_executed", "support_polygon",
                "footsteps_planned", "footprints", "swing_left", "swing_right", "contact_force_left",
                "contact_force_right", "push"]
-    for names in (walk, physics):
+    balance = ["com", "com_ground", "com_reference", "zmp_executed", "dcm_executed", "support_polygon",
+               "footprints", "swing_left", "swing_right"]
+    for names in (walk, physics, balance):
         colours = [overlay_color(n, i) for i, n in enumerate(names)]
         assert len(set(colours)) == len(names), dict(zip(names, map(hex, colours)))
 

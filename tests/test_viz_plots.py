@@ -128,6 +128,18 @@ def test_balance_log_panels(talos):
     assert sorted(round(float(np.mean(ln.get_ydata()[:4])), 6) for ln in outlines) == [-0.17, -0.17, 0.0]
 
 
+def test_tick_histogram_keeps_its_range_when_one_tick_is_very_slow(talos):
+    log = _base_log(talos)
+    n = len(log["t"])
+    log["tick_time"] = np.full(n, 0.3e-3)
+    log["tick_time"][:3] = [0.58, 2.5e-3, 1.0e-3]  # a 580 ms first tick (compilation), one deadline miss
+    hist = _panels(plot_log(log))["tick time"]
+    assert hist.get_xlim()[1] < 20.0  # not stretched to 580 ms
+    assert sum(p.get_height() for p in hist.patches) == n - 1  # all but the outlier are drawn
+    labels = [h.get_label() for h in hist.patches[:1]] + _labels(hist)
+    assert any("1 > 10 ms not shown, max 580 ms" in lb for lb in labels), labels
+
+
 def test_bad_logs_are_refused(tmp_path):
     with pytest.raises(InvalidInputError, match="does not exist"):
         plot_log(tmp_path / "missing.npz")

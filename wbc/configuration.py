@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import ConfigurationError
+from wbc.geometry import check_vector
 from wbc.robot import Robot
 
 __all__ = ["Configuration", "check_vector"]
@@ -20,25 +21,6 @@ __all__ = ["Configuration", "check_vector"]
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 WORLD = pin.ReferenceFrame.WORLD
-
-
-def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarray:
-    """Return ``x`` as a float (size,) array, or raise ``error`` saying what was wrong.
-
-    Raises:
-        error (default ConfigurationError): not numeric, wrong shape, or NaN/inf entries.
-    """
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
-    if arr.shape != (size,):
-        raise error(f"{what} must have shape ({size},), got {arr.shape}")
-    if not math.isfinite(arr @ arr):  # one BLAS call; NaN/inf propagate (an overflow also lands here)
-        bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
-        if bad:
-            raise error(f"{what} must be finite; NaN/inf at indices {bad}")
-    return arr
 
 
 class Configuration:

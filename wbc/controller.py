@@ -211,6 +211,8 @@ class KinematicController:
         self._g = np.empty(self.nv)
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
+        self._in_solve, self._drift_cache = False, None
+        self._contact_errors: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -370,23 +372,16 @@ class KinematicController:
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
         self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
-        self._eq_blocks, self._in_blocks = [], []
-        row = 0
-        for c in eq:
-            self._eq_blocks.append((c, row, row + c.dim))
-            row += c.dim
-        self._A = np.zeros((row, self.nv))
-        self._b = np.zeros(row)
+        self._eq_blocks, n_eq = _row_blocks(eq)
+        self._A = np.zeros((n_eq, self.nv))
+        self._b = np.zeros(n_eq)
         contact_ids = set(map(id, self._contacts))
         self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
                                        for i in range(r0, r1)], dtype=int)
-        row = 0
-        for c in ineq:
-            self._in_blocks.append((c, row, row + c.dim))
-            row += c.dim
-        self._C = np.zeros((row, self.nv))
-        self._l = np.zeros(row)
-        self._u = np.zeros(row)
+        self._in_blocks, n_in = _row_blocks(ineq)
+        self._C = np.zeros((n_in, self.nv))
+        self._l = np.zeros(n_in)
+        self._u = np.zeros(n_in)
         self._lb = np.empty(self.nv)
         self._ub = np.empty(self.nv)
         self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
@@ -434,6 +429,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
+            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
+                                    if isinstance(c, ContactConstraint)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -498,6 +496,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
+        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -523,11 +522,13 @@ class KinematicController:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
         except InvalidInputError:
+            self._in_solve, self._drift_cache = False, None
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             result = self._recover(config, dt, exc)
+        self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         for c in self._feedback:
@@ -545,15 +546,22 @@ class KinematicController:
         """(largest translation drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v."""
         if not self._contacts:
             return 0.0, []
+        cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
+        if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
+            return cache[3]
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        for c in self._contacts:
+        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        for i, c in enumerate(self._contacts):
             e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            d = e_plus - c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            e = c.compute_error(config) if errors is None else errors[i]
+            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
             drifts.append(d)
-            worst = max(worst, float(np.linalg.norm(d[:3])))
+            worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+        if self._in_solve:
+            self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
 
     def _consistent_contact_rhs(self) -> bool:
@@ -778,3 +786,12 @@ class KinematicController:
             conflicts += [(t.name, float("nan")) for t in tasks
                           if not all(np.isfinite(x).all() for x in t.compute(config))]
         return conflicts
+
+
+def _row_blocks(constraints) -> tuple[list, int]:
+    """``([(constraint, first row, end row)...], total rows)`` of constraints stacked in order."""
+    blocks, row = [], 0
+    for c in constraints:
+        blocks.append((c, row, row + c.dim))
+        row += c.dim
+    return blocks, row

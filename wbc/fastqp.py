@@ -217,6 +217,25 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
+def _clip_eq_residual(x, lb, ub, A, b, n, m):
+    """Clip x into [lb, ub] in place (the kernel's KKT point is within rounding of its bounds) and return the
+    largest equality residual max_k |A_k x − b_k|."""
+    for i in range(n):
+        if x[i] < lb[i]:
+            x[i] = lb[i]
+        elif x[i] > ub[i]:
+            x[i] = ub[i]
+    r = 0.0
+    for k in range(m):
+        s = -b[k]
+        for j in range(n):
+            s += A[k, j] * x[j]
+        if abs(s) > r:
+            r = abs(s)
+    return r
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
 def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
     """Bound multipliers z = −(H x + g + A[:m]ᵀ nu) on the variables held at a bound (0 on the free ones), and the
     variable whose multiplier has the largest wrong sign above ``worst`` (z > 0 at a lower bound, z < 0 at an upper
@@ -295,19 +314,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
         # bound multipliers z = -(H x + g + Aᵀ nu) on the fixed set; the worst wrong sign is freed
         worst, worst_i = _bound_multipliers(H, g, A, m, nu, state, x, z, dual_tol)
         if worst_i < 0:
-            for i in range(n):
-                if x[i] < lb[i]:
-                    x[i] = lb[i]
-                elif x[i] > ub[i]:
-                    x[i] = ub[i]
-            r = 0.0
-            for k in range(m):
-                s = -b[k]
-                for j in range(n):
-                    s += A[k, j] * x[j]
-                if abs(s) > r:
-                    r = abs(s)
-            eq_residual[0] = r
+            eq_residual[0] = _clip_eq_residual(x, lb, ub, A, b, n, m)
             return it
         state[worst_i] = 0
     return ITERATION_CAP
@@ -412,18 +419,7 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
             else:
                 state[worst_i] = 0
             continue
-        for i in range(n):
-            if x[i] < lb[i]:
-                x[i] = lb[i]
-            elif x[i] > ub[i]:
-                x[i] = ub[i]
-        res = 0.0
-        for k in range(m):
-            s = -b[k]
-            for j in range(n):
-                s += A[k, j] * x[j]
-            if abs(s) > res:
-                res = abs(s)
+        res = _clip_eq_residual(x, lb, ub, A, b, n, m)
         for r in range(p):
             s = 0.0
             for j in range(n):
@@ -562,3 +558,10 @@ def warm_up() -> float:
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
     return time.perf_counter() - t0
+
+
+#: Public names of the dense kernels above, for other compiled modules (``wbc.dynamics.idkernel``): in-place lower
+#: Cholesky of a leading k × k block, v ← L⁻¹ v and v ← L⁻ᵀ v.
+cholesky_lower = _chol
+forward_substitution = _fwd
+backward_substitution = _bwd

@@ -1,4 +1,4 @@
-"""Geometry below tasks, constraints and gait: SE3 checks, ground-plane headings, and planar support polygons
+"""Geometry below tasks, constraints and gait: vector and SE3 checks, ground-plane headings, and planar support polygons
 (sole rectangles, convex hulls, signed distances, overlap tests).
 
 This module imports nothing of wbc but :mod:`wbc.exceptions`; every higher layer (tasks, constraints, gait,
@@ -21,14 +21,54 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.exceptions import InvalidInputError, InvalidTargetError
+from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError
 
 __all__ = [
-    "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
     "signed_distance_point", "signed_distance", "polygons_overlap",
 ]
 
 Point = tuple[float, float]
+
+
+def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarray:
+    """Return ``x`` as a float (size,) array, or raise ``error`` (a :class:`~wbc.exceptions.WbcError` subclass)
+    saying what was wrong.
+
+    Raises:
+        error (default ConfigurationError): not numeric, wrong shape, or NaN/inf entries.
+    """
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
+    if arr.shape != (size,):
+        raise error(f"{what} must have shape ({size},), got {arr.shape}")
+    if not math.isfinite(arr @ arr):  # one BLAS call; NaN/inf propagate (an overflow also lands here)
+        bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
+        if bad:
+            raise error(f"{what} must be finite; NaN/inf at indices {bad}")
+    return arr
+
+
+def check_scalar(x, what: str, unit: str, *, minimum: float = 0.0, strict: bool = False,
+                 error=InvalidInputError) -> float:
+    """Return ``x`` as a float if it is finite and ≥ ``minimum`` (> with ``strict``), else raise ``error``
+    ("<what> must be finite and ≥ <minimum> (<unit>), got <x>"); a bool is refused."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(x, bool) or not math.isfinite(v) or v < minimum or (strict and v == minimum):
+        raise error(f"{what} must be finite and {'>' if strict else '≥'} {minimum:g} ({unit}), got {x!r}")
+    return v
+
+
+def check_count(n, what: str, minimum: int = 1, error=InvalidInputError) -> int:
+    """Return ``int(n)`` if it is ≥ ``minimum``, else raise ``error`` ("<what> must be ≥ <minimum>, got <n>")."""
+    if int(n) < minimum:
+        raise error(f"{what} must be ≥ {minimum}, got {n!r}")
+    return int(n)
 
 
 def as_se3(pose, what: str = "target pose") -> pin.SE3:

@@ -350,8 +350,10 @@ def _build(
         if not ok:
             raise RobotDescriptionError(f"reference_joints[{jname!r}] must be a finite angle (rad), got {angle!r}")
         q[model.joints[jid].idx_q] = float(angle)
+    _check_posture_limits(robot, q)
     _check_soles_distinct(robot)
     _check_legs(robot, q)
+    check_sole_heights(robot)
     if sole_length is None or sole_width is None:
         length, width = sole_rectangle_from_collision(robot)
         robot.sole_length = float(sole_length) if sole_length is not None else length
@@ -386,6 +388,10 @@ def scaled_gait(robot: Robot) -> dict[str, float]:
             "t_ss": round(g["t_ss"] * math.sqrt(s), 3), "t_ds": round(g["t_ds"] * math.sqrt(s), 3)}
 
 
+#: Largest distance (m) between a sole frame and the bottom of its foot's geometry (:func:`check_sole_heights`).
+SOLE_HEIGHT_TOLERANCE = 0.01
+
+
 def _geometry_points(geo) -> np.ndarray | None:
     """Points (k, 3) bounding a collision geometry in its own frame (mesh vertices, box corners, sphere/cylinder
     extremes), or None for an unsupported shape."""
@@ -402,6 +408,51 @@ def _geometry_points(geo) -> np.ndarray | None:
     return None
 
 
+def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
+    """Points (k, 3) m of the geometry attached to the joint carrying ``frame``, expressed in that frame, or None
+    when that joint has no (supported) geometry."""
+    model = robot.model
+    fr = model.frames[model.getFrameId(frame)]
+    s_m_j = fr.placement.inverse()
+    pts = []
+    for g in geometry_model.geometryObjects:
+        if g.parentJoint != fr.parentJoint:
+            continue
+        local = _geometry_points(g.geometry)
+        if local is None:
+            continue
+        m = s_m_j * g.placement
+        pts.append(local @ m.rotation.T + m.translation)
+    return np.vstack(pts) if pts else None
+
+
+def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -> None:
+    """Each sole frame is at the bottom of its foot: the lowest point of the foot's collision geometry (its visual
+    geometry when it has none) is within ``tolerance`` m of the sole plane z = 0 of the sole frame. A robot whose
+    feet carry no geometry at all is not checked.
+
+    Raises:
+        RobotDescriptionError: a sole frame above the bottom of its foot (the foot would sink into the ground when
+            the frame is put on it, e.g. an ankle frame named as the sole) or below it (the foot floats).
+    """
+    for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
+        for kind, gm in (("collision", robot.collision_model), ("visual", robot.visual_model)):
+            p = _foot_points(robot, frame, gm) if gm is not None else None
+            if p is not None:
+                break
+        if p is None:
+            continue
+        z = float(p[:, 2].min())
+        if abs(z) > tolerance:
+            where = "above" if z < 0 else "below"
+            raise RobotDescriptionError(
+                f"{robot.name}: {side} sole frame {frame!r} is {abs(z):.3f} m {where} the bottom of its foot's "
+                f"{kind} geometry (at most {tolerance} m); standing it on the ground would put the foot "
+                f"{'into' if z < 0 else 'above'} the ground. Name the frame at the bottom of the foot, or add one "
+                f"to the URDF (a fixed joint from the foot link, origin at the centre of the foot's underside, "
+                f"x forward, z up)")
+
+
 def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> tuple[float, float]:
     """Sole rectangle (length, width) m derived from the feet's collision geometry.
 
@@ -414,25 +465,13 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
         RobotDescriptionError: a foot has no collision geometry, or the sole frame is not above its contact patch
             (pass ``sole_length`` / ``sole_width`` explicitly, or fix the sole frame).
     """
-    model = robot.model
     sizes = []
     for frame in (robot.left_sole, robot.right_sole):
-        fr = model.frames[model.getFrameId(frame)]
-        s_m_j = fr.placement.inverse()
-        pts = []
-        for g in robot.collision_model.geometryObjects:
-            if g.parentJoint != fr.parentJoint:
-                continue
-            local = _geometry_points(g.geometry)
-            if local is None:
-                continue
-            m = (s_m_j * g.placement)
-            pts.append(local @ m.rotation.T + m.translation)
-        if not pts:
+        p = _foot_points(robot, frame, robot.collision_model)
+        if p is None:
             raise RobotDescriptionError(
                 f"{robot.name}: no collision geometry on the link of sole frame {frame!r}; pass sole_length and "
                 f"sole_width (m) explicitly (--sole-length/--sole-width)")
-        p = np.vstack(pts)
         patch = p[p[:, 2] <= p[:, 2].min() + contact_band]
         length = 2.0 * min(patch[:, 0].max(), -patch[:, 0].min())
         width = 2.0 * min(patch[:, 1].max(), -patch[:, 1].min())
@@ -524,6 +563,25 @@ def _check_legs(robot: Robot, q: np.ndarray) -> None:
                 f"soles) cannot stand or walk. Name the feet's sole frames of a robot with legs")
 
 
+def _check_posture_limits(robot: Robot, q: np.ndarray) -> None:
+    """The reference posture q is inside the joint limits (± ``LIMIT_TOLERANCE``).
+
+    Raises:
+        RobotDescriptionError: names up to 5 joints outside their range, with their value and range.
+    """
+    model, name = robot.model, robot.name
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    out = [(model.names[j], float(q[model.joints[j].idx_q]), float(lo[model.joints[j].idx_q]),
+            float(hi[model.joints[j].idx_q])) for j in range(2, model.njoints) if model.joints[j].nq == 1
+           and not (lo[model.joints[j].idx_q] - LIMIT_TOLERANCE <= q[model.joints[j].idx_q]
+                    <= hi[model.joints[j].idx_q] + LIMIT_TOLERANCE)]
+    if out:
+        desc = ", ".join(f"{n} = {v:.3f} rad not in [{a:.3f}, {b:.3f}]" for n, v, a, b in out[:5])
+        raise RobotDescriptionError(
+            f"{name}: the reference posture is outside the joint limits ({desc}); fix the SRDF group_state / "
+            f"reference_joints or the URDF <limit>")
+
+
 def _check_robot(robot: Robot) -> None:
     """Validate a loaded humanoid (called by :func:`load_robot`).
 
@@ -546,16 +604,7 @@ def _check_robot(robot: Robot) -> None:
             f"{name}: total mass is {mass} kg; the URDF has no <inertial> elements — add masses and inertias "
             f"(the CoM is undefined without them)")
     q = robot.q_ref
-    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
-    out = [(model.names[j], float(q[model.joints[j].idx_q]), float(lo[model.joints[j].idx_q]),
-            float(hi[model.joints[j].idx_q])) for j in range(2, model.njoints) if model.joints[j].nq == 1
-           and not (lo[model.joints[j].idx_q] - LIMIT_TOLERANCE <= q[model.joints[j].idx_q]
-                    <= hi[model.joints[j].idx_q] + LIMIT_TOLERANCE)]
-    if out:
-        desc = ", ".join(f"{n} = {v:.3f} rad not in [{a:.3f}, {b:.3f}]" for n, v, a, b in out[:5])
-        raise RobotDescriptionError(
-            f"{name}: the reference posture is outside the joint limits ({desc}); fix the SRDF group_state / "
-            f"reference_joints or the URDF <limit>")
+    _check_posture_limits(robot, q)
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):

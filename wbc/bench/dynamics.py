@@ -134,18 +134,15 @@ class PlacoDynamicsRunner(_DynamicsRunner):
 
         self.wrapper = placo_robot_wrapper(robot)
 
-    @property
-    def solver_name(self) -> str:
-        return "eiquadprog"
+    solver_name = "eiquadprog"
 
     def reset(self) -> None:
         import placo
 
+        from wbc.bench.placo_models import reset_at_reference
+
         s, robot, w = self.spec, self.robot, self.wrapper
-        w.state.q = robot.q_ref.copy()
-        w.state.qd = np.zeros(robot.nv)
-        w.state.qdd = np.zeros(robot.nv)
-        w.update_kinematics()
+        reset_at_reference(w, robot)
         solver = placo.DynamicsSolver(w)
         solver.dt = s.dt
         solver.mask_fbase(False)

@@ -245,22 +245,14 @@ class PlacoRunner(KinematicRunner):
         self.wrapper = placo_robot_wrapper(robot)
         self.velocity_scale = 1.0 / spec.dt
 
-    @property
-    def solver_name(self) -> str:
-        return "eiquadprog"
+    solver_name = "eiquadprog"
 
     def reset(self) -> None:
-        import placo
+        from wbc.bench.placo_models import kinematics_solver, reset_at_reference
 
         s, robot, w = self.spec, self.robot, self.wrapper
-        w.state.q = robot.q_ref.copy()
-        w.state.qd = np.zeros(robot.nv)
-        w.update_kinematics()
-        solver = placo.KinematicsSolver(w)
-        solver.dt = s.dt
-        solver.problem.regularization = s.damping
-        solver.enable_joint_limits(True)
-        solver.enable_velocity_limits(True)
+        reset_at_reference(w, robot)
+        solver = kinematics_solver(w, s.dt, s.damping)
         for frame in (robot.left_sole, robot.right_sole):
             solver.add_frame_task(frame, w.get_T_world_frame(frame)).configure(frame, "hard", 1.0, 1.0)
         self.com = solver.add_com_task(self.targets[0].copy())

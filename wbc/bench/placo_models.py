@@ -103,3 +103,25 @@ def placo_humanoid(robot: Robot):
     humanoid.state.qd = np.zeros(robot.nv)
     humanoid.update_kinematics()
     return humanoid
+
+
+def reset_at_reference(model, robot: Robot) -> None:
+    """Put a placo robot (``placo_robot_wrapper`` or ``placo_humanoid``) at ``robot.q_ref``, at rest (q̇ = q̈ = 0),
+    and update its kinematics."""
+    model.state.q = robot.q_ref.copy()
+    model.state.qd = np.zeros(robot.nv)
+    model.state.qdd = np.zeros(robot.nv)
+    model.update_kinematics()
+
+
+def kinematics_solver(model, dt: float, regularization: float):
+    """A placo ``KinematicsSolver`` on ``model`` with period ``dt`` (s), the given regularisation and joint
+    position and velocity limits enabled (as every placo set-up of the benchmarks uses it)."""
+    import placo
+
+    solver = placo.KinematicsSolver(model)
+    solver.dt = dt
+    solver.problem.regularization = regularization
+    solver.enable_joint_limits(True)
+    solver.enable_velocity_limits(True)
+    return solver

@@ -47,7 +47,10 @@ class SuiteConfig:
         pink_select_ticks: ticks of the pre-pass choosing Pink's fastest valid solver.
         scaling_robots: robots of section 4.
         gait_repeats, placo_gait_repeats: timed plans per planner.
-        sections: subset of {"kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait"}.
+        walk_steps: steps of the walk section's plan (``plan_default_walk``); its repeats are ``repeats``.
+        callgrind_ticks: N of the instruction count (runs of N and 2N ticks under callgrind).
+        sections: subset of {"kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk",
+            "instructions"}.
     """
 
     robot: str = "talos"
@@ -58,12 +61,16 @@ class SuiteConfig:
     scaling_robots: tuple[str, ...] = ("humanoid15", "g1", "talos")
     gait_repeats: int = 200
     placo_gait_repeats: int = 20
-    sections: tuple[str, ...] = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait")
+    walk_steps: int = 8
+    callgrind_ticks: int = 200
+    sections: tuple[str, ...] = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk",
+                                 "instructions")
 
     @classmethod
     def quick(cls) -> "SuiteConfig":
         """A seconds-long configuration for smoke tests (numbers not meaningful)."""
-        return cls(ticks=60, repeats=1, warmup=5, pink_select_ticks=20, gait_repeats=3, placo_gait_repeats=1)
+        return cls(ticks=60, repeats=1, warmup=5, pink_select_ticks=20, gait_repeats=3, placo_gait_repeats=1,
+                   walk_steps=2, callgrind_ticks=20)
 
 
 @contextlib.contextmanager
@@ -306,8 +313,13 @@ def _dynamics_section(cfg: SuiteConfig, robot) -> dict[str, object]:
 
 def run_suite(cfg: SuiteConfig = SuiteConfig()) -> dict[str, object]:
     """Run the sections of ``cfg`` and return the results (module docstring)."""
+    from wbc.fastqp import ensure_compiled
+
     t_start = time.perf_counter()
     results: dict[str, object] = {"machine": machine_info(), "config": asdict(cfg)}
+    ensure_compiled()  # numba kernels: compiled, or loaded from the on-disk cache
+    results["jit_first_call_s"] = time.perf_counter() - t_start
+    _log(f"numba kernels first call (compile or on-disk cache load): {results['jit_first_call_s']:.2f} s")
     robot = load_robot(cfg.robot)
     spec = KinematicSpec(robot=cfg.robot, ticks=cfg.ticks, warmup=cfg.warmup)
     raw: dict[str, dict] = {}
@@ -335,6 +347,20 @@ def run_suite(cfg: SuiteConfig = SuiteConfig()) -> dict[str, object]:
         results["gait"] = run_gait_benchmark(robot, GaitSpec(repeats=cfg.gait_repeats,
                                                              placo_repeats=cfg.placo_gait_repeats))
         _log(f"gait: wbc plan {results['gait']['wbc']['plan_us']['median']:.1f} µs")
+    if "walk" in cfg.sections:
+        from wbc.bench.walk import WalkBenchSpec, run_walk_benchmark
+
+        walk = run_walk_benchmark(robot, WalkBenchSpec(n_steps=cfg.walk_steps, repeats=cfg.repeats), log=_log)
+        raw["walk"] = walk.pop("_raw")
+        results["walk"] = walk
+    if "instructions" in cfg.sections:
+        from wbc.bench.instructions import callgrind_available, instructions_per_tick
+
+        if callgrind_available():
+            results["instructions"] = instructions_per_tick(cfg.callgrind_ticks, cfg.robot, log=_log)
+        else:
+            results["instructions"] = {"error": "valgrind is not installed: instruction counts not measured"}
+            _log(results["instructions"]["error"])
     results["runtime_s"] = time.perf_counter() - t_start
     results["machine"]["load_average_after"] = machine_info()["load_average_1_5_15"]
     results["_raw"] = raw

@@ -99,30 +99,62 @@ class _WbcWalk:
         return wall, qs, failures
 
 
-class _PlacoHardWalk:
-    library = "placo-hard"
+class _PlacoWalk:
+    """A placo ``KinematicsSolver`` tracking the plan (the same loop for the hard-feet and the soft-feet set-ups:
+    subclasses load the placo model and add their tasks, returning the per-tick target update)."""
+
+    library = "placo"
 
     def __init__(self, robot: Robot, plan):
-        from wbc.bench.placo_models import placo_robot_wrapper
-
         self.robot, self.plan = robot, plan
-        self.wrapper = placo_robot_wrapper(robot)
+        self.model = self._load(robot)
         data = robot.model.createData()
         pin.framesForwardKinematics(robot.model, data, robot.q_ref)
         self.rot = _torso_rotations(plan, data.oMf[robot.frame_id(robot.torso)].rotation.copy())
 
-    def run(self) -> tuple[np.ndarray, np.ndarray, int]:
-        import placo
+    def _load(self, robot: Robot):
+        raise NotImplementedError
 
-        robot, plan, w = self.robot, self.plan, self.wrapper
-        w.state.q = robot.q_ref.copy()
-        w.state.qd = np.zeros(robot.nv)
-        w.update_kinematics()
-        solver = placo.KinematicsSolver(w)
-        solver.dt = plan.dt
-        solver.problem.regularization = 1e-6
-        solver.enable_joint_limits(True)
-        solver.enable_velocity_limits(True)
+    def _tasks(self, solver, model):
+        """Add the tasks to ``solver``; return ``update(k)`` setting the targets of tick k."""
+        raise NotImplementedError
+
+    def run(self) -> tuple[np.ndarray, np.ndarray, int]:
+        from wbc.bench.placo_models import kinematics_solver, reset_at_reference
+
+        robot, plan, w = self.robot, self.plan, self.model
+        reset_at_reference(w, robot)
+        solver = kinematics_solver(w, plan.dt, 1e-6)
+        update = self._tasks(solver, w)
+        n = len(plan.t)
+        wall = np.empty(n, np.int64)
+        qs = np.empty((n + 1, robot.nq))
+        qs[0] = w.state.q
+        failures = 0
+        gc.collect()
+        for k in range(n):
+            t0 = perf_counter_ns()
+            update(k)
+            try:
+                solver.solve(True)
+            except RuntimeError:
+                failures += 1
+            w.update_kinematics()
+            wall[k] = perf_counter_ns() - t0
+            qs[k + 1] = w.state.q
+        return wall, qs, failures
+
+
+class _PlacoHardWalk(_PlacoWalk):
+    library = "placo-hard"
+
+    def _load(self, robot: Robot):
+        from wbc.bench.placo_models import placo_robot_wrapper
+
+        return placo_robot_wrapper(robot)
+
+    def _tasks(self, solver, w):
+        robot, plan = self.robot, self.plan
         feet = []
         for frame in (robot.left_sole, robot.right_sole):
             t = solver.add_frame_task(frame, w.get_T_world_frame(frame))
@@ -136,73 +168,36 @@ class _PlacoHardWalk:
         posture.set_joints({name: float(robot.q_ref[robot.model.joints[robot.joint_id(name)].idx_q])
                             for name in robot.joint_names})
         posture.configure("posture", "soft", 1e-2)
-        n = len(plan.t)
-        wall = np.empty(n, np.int64)
-        qs = np.empty((n + 1, robot.nq))
-        qs[0] = w.state.q
-        failures = 0
         left, right, rot, com_ref = plan.left_sole, plan.right_sole, self.rot, plan.com
-        gc.collect()
-        for k in range(n):
-            t0 = perf_counter_ns()
+
+        def update(k: int) -> None:
             feet[0].T_world_frame = left[k]
             feet[1].T_world_frame = right[k]
             com.target_world = com_ref[k]
             torso.R_world_frame = rot[k]
-            try:
-                solver.solve(True)
-            except RuntimeError:
-                failures += 1
-            w.update_kinematics()
-            wall[k] = perf_counter_ns() - t0
-            qs[k + 1] = w.state.q
-        return wall, qs, failures
+
+        return update
 
 
-class _PlacoSoftWalk:
+class _PlacoSoftWalk(_PlacoWalk):
     library = "placo-soft"
 
-    def __init__(self, robot: Robot, plan):
+    def _load(self, robot: Robot):
         from wbc.bench.placo_models import placo_humanoid
 
-        self.robot, self.plan = robot, plan
-        self.humanoid = placo_humanoid(robot)
-        data = robot.model.createData()
-        pin.framesForwardKinematics(robot.model, data, robot.q_ref)
-        self.rot = _torso_rotations(plan, data.oMf[robot.frame_id(robot.torso)].rotation.copy())
+        return placo_humanoid(robot)
 
-    def run(self) -> tuple[np.ndarray, np.ndarray, int]:
+    def _tasks(self, solver, h):
         import placo
 
-        robot, plan, h = self.robot, self.plan, self.humanoid
-        h.state.q = robot.q_ref.copy()
-        h.state.qd = np.zeros(robot.nv)
-        h.update_kinematics()
-        solver = placo.KinematicsSolver(h)
-        solver.dt = plan.dt
-        solver.problem.regularization = 1e-6
-        solver.enable_joint_limits(True)
-        solver.enable_velocity_limits(True)
         tasks = placo.WalkTasks()
         tasks.initialize_tasks(solver, h)
-        n = len(plan.t)
-        wall = np.empty(n, np.int64)
-        qs = np.empty((n + 1, robot.nq))
-        qs[0] = h.state.q
-        failures = 0
-        left, right, rot, com_ref = plan.left_sole, plan.right_sole, self.rot, plan.com
-        gc.collect()
-        for k in range(n):
-            t0 = perf_counter_ns()
+        left, right, rot, com_ref = self.plan.left_sole, self.plan.right_sole, self.rot, self.plan.com
+
+        def update(k: int) -> None:
             tasks.update_tasks(left[k], right[k], com_ref[k], rot[k])
-            try:
-                solver.solve(True)
-            except RuntimeError:
-                failures += 1
-            h.update_kinematics()
-            wall[k] = perf_counter_ns() - t0
-            qs[k + 1] = h.state.q
-        return wall, qs, failures
+
+        return update
 
 
 def run_walk_benchmark(robot: Robot, spec: WalkBenchSpec = WalkBenchSpec(), with_placo: bool = True,

@@ -2,7 +2,8 @@
 
 Same outputs as ``wbc walk``: the summary is printed; ``--json`` writes it, ``--log`` writes the npz time series
 (format in :mod:`wbc.scenarios.balance`), ``--out`` a self-contained meshcat HTML recording (CoM, its ground
-projection and the support polygons drawn), ``--live`` shows the motion in meshcat paced to real time.
+projection and target, executed ZMP and DCM, support polygons, footprints, sole paths:
+:func:`wbc.viz.overlays.balance_overlays`), ``--live`` shows the motion in meshcat paced to real time.
 Exit code 0 when the behaviour met its acceptance criteria, 1 when it did not, 2 on bad input.
 """
 
@@ -18,11 +19,11 @@ __all__ = ["register", "cmd_balance"]
 
 def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    import numpy as np
-
     from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
+    if args.behaviour == "jump":  # kinematic preview of the planned jump (wbc.scenarios.balance_jump)
+        return _jump_preview(args)
     robot = load_robot(args.robot)
     options = {}
     if args.behaviour == "one-leg" and args.stance is not None:
@@ -47,13 +48,44 @@ def cmd_balance(args) -> int:
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
     print_summary(summary)
-    overlays = {"com": run.com, "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]}
-    overlays.update(run.extra["behaviour"].overlays(run))
+    from wbc.viz.overlays import balance_overlays
+
+    scene = balance_overlays(robot, run)
+    overlays = {**scene["points"], **run.extra["behaviour"].overlays(run)}
     out, args.out = args.out, None
     write_outputs(args, summary, run, robot)
     if out:
-        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot))
+        write_recording(robot, run, out, overlays=overlays, polygons=run.polygons(robot),
+                        outlines=scene["outlines"], paths=scene["paths"])
     return 0 if summary["passed"] else 1
+
+
+def _jump_preview(args) -> int:
+    """``wbc balance jump``: the kinematic preview of :mod:`wbc.scenarios.balance_jump`; exit code 0."""
+    import numpy as np
+
+    from wbc.robot import load_robot
+    from wbc.scenarios.balance_jump import preview_jump, preview_summary
+
+    robot = load_robot(args.robot)
+    viewer = pacer = None
+    if args.live:
+        viewer, pacer = open_live(robot)
+    try:
+        run = preview_jump(robot, height=args.height, forward=args.forward, count=args.count, dt=args.dt,
+                           solver=args.solver, viewer=viewer, pacer=pacer)
+    finally:
+        if viewer is not None:
+            viewer.close()
+    summary = preview_summary(robot, run)
+    print(f"wbc balance jump: {robot.name}, {len(run.t)} ticks at {1 / args.dt:.0f} Hz, solver {args.solver}")
+    print_summary(summary)
+    out, args.out = args.out, None
+    write_outputs(args, summary, run, robot)
+    if out:
+        write_recording(robot, run, out, overlays={"com": run.com,
+                                                   "com_ground": np.c_[run.com[:, :2], np.zeros(len(run.t))]})
+    return 0
 
 
 def register(subparsers, add_outputs) -> None:
@@ -68,7 +100,8 @@ def register(subparsers, add_outputs) -> None:
                "other 10 cm, hold 3 s, put it back.  wave: both arms wave 5 s.  squat: CoM down 15 cm and up, 3 "
                "times.  reach: a hand target 0.6 m in front of the chest, reached as far as balance allows.",
     )
-    p.add_argument("behaviour", choices=list(BEHAVIOURS), help="behaviour to run")
+    p.add_argument("behaviour", choices=[*BEHAVIOURS, "jump"], help="behaviour to run (jump: kinematic preview of "
+                   "the planned jump of wbc sim jump, no physics)")
     p.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
     p.add_argument("--stance", choices=["left", "right"], default=None,
                    help="one-leg: the foot that stays on the ground (default left)")
@@ -76,6 +109,9 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
                    help=f"QP backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
+    p.add_argument("--height", type=float, default=0.08, help="jump: planned apex CoM rise, m (default 0.08)")
+    p.add_argument("--forward", type=float, default=0.0, help="jump: planned forward foot displacement, m")
+    p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)
     add_run_options(p)
     p.set_defaults(func=cmd_balance)

@@ -77,6 +77,10 @@ def write_recording(robot, run, path: Path, **scene) -> None:
     print(f"meshcat recording written to {out} ({out.stat().st_size / 1e6:.1f} MB)")
 
 
+#: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
+SCENE_KEYS = ("polygons", "paths", "outlines", "arrows")
+
+
 def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:
     """Write what ``args`` asks for (``--json``, ``--log``, ``--plot``, ``--out``) for a finished run."""
     if args.json:
@@ -87,7 +91,7 @@ def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None,
     if getattr(args, "plot", None):
         write_plot(args.plot, run)
     if args.out:
-        extra = {} if scene is None else {k: scene[k] for k in ("polygons", "paths", "outlines") if k in scene}
+        extra = {} if scene is None else {k: scene[k] for k in SCENE_KEYS if k in scene}
         write_recording(robot, run, args.out, overlays=overlays, **extra)
 
 

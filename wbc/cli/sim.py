@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_json, write_plot, write_recording
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs
 from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
@@ -67,6 +67,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
     w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
+    w.add_argument("--impratio", type=float, default=None,
+                   help="plant: MuJoCo friction-to-normal impedance ratio (MuJoCo default 1: its soft friction lets "
+                        "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     p.add_argument("--height", type=float, default=0.08,
@@ -74,6 +77,10 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--count", type=int, default=1, help="jump: number of consecutive jumps (default 1)")
     p.add_argument("--forward", type=float, default=0.0,
                    help="jump: planned forward foot displacement per jump, m (default 0: vertical)")
+    p.add_argument("--momentum-weight", type=float, default=None,
+                   help="jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)")
+    p.add_argument("--landing-ramp", type=float, default=0.06,
+                   help="jump: normal-force ramp-in after a touch-down, s (default 0.06)")
     p.add_argument("--min-hop", type=float, default=None,
                    help="jump: pass criterion, measured forward hop per jump >= this, m (default: none)")
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
@@ -119,7 +126,11 @@ def _scenario(args, robot):
     if args.scenario == "jump":
         from wbc.sim.jump import JumpScenario
 
-        return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop)
+        from wbc.sim.jump import JUMP_MOMENTUM_WEIGHT
+
+        w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
+        return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop,
+                            momentum_weight=w, t_ramp=args.landing_ramp)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)
@@ -141,6 +152,12 @@ def cmd_sim(args) -> int:
 
     robot = load_robot(args.robot)
     sim = build_mujoco_model(robot)
+    if args.impratio is not None:
+        from wbc.exceptions import InvalidInputError
+
+        if not args.impratio >= 1.0:
+            raise InvalidInputError(f"--impratio must be >= 1, got {args.impratio}")
+        sim.model.opt.impratio = args.impratio
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -175,6 +192,10 @@ def cmd_sim(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = open_live(robot)
+        if args.scenario == "walk":  # the plan is made when the run starts
+            from wbc.viz.live_overlays import LiveOverlays
+
+            viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
@@ -186,6 +207,7 @@ def cmd_sim(args) -> int:
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
@@ -213,19 +235,12 @@ def cmd_sim(args) -> int:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
     print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
-    if args.json:
-        write_json(args.json, summary)
-    if args.log:
-        run.save(args.log)
-        print(f"log written to {args.log}")
-    if getattr(args, "plot", None):
-        write_plot(args.plot, run)
+    scene = {}
     if args.out:
         from wbc.viz.overlays import sim_overlays
 
         scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
-        write_recording(robot, run, args.out, overlays=scene["points"], arrows=scene["arrows"],
-                        polygons=scene["polygons"], outlines=scene["outlines"], paths=scene["paths"])
+    write_outputs(args, summary, run, robot, overlays=scene.get("points"), scene=scene)
     if args.video:
         from wbc.sim.video import render_video
 
@@ -237,31 +252,10 @@ def cmd_sim(args) -> int:
 
 def _jump_sweep(args, robot, sim, make, summary) -> None:
     """``wbc sim jump --sweep``: highest planned height within the torque limits (:mod:`wbc.sim.jump_sweep`)."""
-    from wbc.sim.jump import JumpScenario
-    from wbc.sim.jump_sweep import jump_height_sweep, pushoff_bound
-    from wbc.sim.scenarios import run_scenario
+    from wbc.sim.jump_sweep import sweep_report
 
-    last = {}
-
-    def trial(h):
-        sc = JumpScenario(height=h)
-        _, s = run_scenario(sim, make(), sc)
-        last[h] = sc
-        return s
-
-    print("  sweep of the planned height (one jump per trial):")
-    res = jump_height_sweep(trial, log=print)
-    h_best = res["max_height_m"]
-    probe = last.get(h_best) or last[res["min_failed_m"]]
-    bound = pushoff_bound(robot, probe.push_postures, probe.plan.stroke)
-    best_row = next((r for r in res["trials"] if r["height_m"] == h_best), None)
-    summary["sweep"] = {"max_planned_height_m": h_best, "min_failed_height_m": res["min_failed_m"],
-                        "apex_foot_clearance_at_max_m": best_row and best_row["apex_foot_clearance_m"],
-                        "push_limiting_joint_measured": best_row and best_row["push_max_torque_joint"],
-                        "push_max_torque_over_limit_measured": best_row and best_row["push_max_torque_over_limit"],
-                        "quasi_static_bound": bound}
-    summary["sweep_trials"] = res["trials"]
-    if h_best is None:
+    summary["sweep"], summary["sweep_trials"] = sweep_report(robot, sim, make, log=print)
+    if summary["sweep"]["max_planned_height_m"] is None:
         summary["failed_criteria"].append("sweep: no planned height succeeded")
     summary["passed"] = not summary["failed_criteria"]
 

@@ -18,14 +18,12 @@ The row count is fixed (4 × ``max_soles``): unused rows are 0 ≤ +inf.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, support_polygon
+from wbc.geometry import as_se3, check_count, check_scalar, support_polygon
 
 __all__ = ["ComPolygonConstraint", "halfplanes"]
 
@@ -57,17 +55,10 @@ class ComPolygonConstraint(InequalityConstraint):
 
     def __init__(self, robot, *, margin: float = 0.01, recovery_speed: float = 0.05, max_soles: int = 2,
                  name: str = "com_polygon"):
-        if not (math.isfinite(margin) and margin >= 0):
-            raise InvalidInputError(f"margin must be finite and ≥ 0 (m), got {margin!r}")
-        if not (math.isfinite(recovery_speed) and recovery_speed > 0):
-            raise InvalidInputError(f"recovery_speed must be finite and > 0 (m/s), got {recovery_speed!r}")
-        if int(max_soles) < 1:
-            raise InvalidInputError(f"max_soles must be ≥ 1, got {max_soles!r}")
-        self.robot = robot
-        self.margin = float(margin)
-        self.recovery_speed = float(recovery_speed)
-        self.max_soles = int(max_soles)
-        self.name = name
+        self.margin = check_scalar(margin, "margin", "m")
+        self.recovery_speed = check_scalar(recovery_speed, "recovery_speed", "m/s", strict=True)
+        self.max_soles = check_count(max_soles, "max_soles")
+        self.robot, self.name = robot, name
         self.dim = 4 * self.max_soles
         self.polygon = np.zeros((0, 2))
         self.normals = np.zeros((0, 2))

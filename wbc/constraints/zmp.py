@@ -1,23 +1,35 @@
 """Dynamic balance for the kinematic QP: the ZMP of the executed motion and the DCM stay in the support polygon.
 
 A kinematic controller chooses velocities; the motion it executes is q_{k+1} = q_k ⊕ v_k dt. Its CoM c_k has the
-acceleration of the central second difference c̈_k = (c_{k+1} − 2 c_k + c_{k−1}) / dt², and the ZMP on flat ground
-of height z_g, neglecting the rate of angular momentum about the CoM (Kajita et al., "Introduction to Humanoid
-Robotics", 2014, eq. 4.62 with L̇ = 0), is p = c_xy − h c̈_xy / (g + c̈_z), h = c_z − z_g. This is exactly how
-:mod:`wbc.scenarios.metrics` measures the executed motion; these two constraints make the controller produce a
-motion that meets it, instead of a motion with unbounded CoM acceleration whenever a task switches or a hard
-limit becomes active.
+acceleration of the central second difference c̈_k = (c_{k+1} − 2 c_k + c_{k−1}) / dt², its centroidal angular
+momentum over tick k is L_k = A_G,ang(q_k) v_k (Pinocchio's centroidal momentum matrix; Orin, Goswami & Lee,
+"Centroidal dynamics of a humanoid robot", Autonomous Robots 2013) and L̇_k = (L_k − L_{k−1}) / dt. The ZMP on
+flat ground of height z_g of this multi-body motion (Newton–Euler about the CoM with the ground wrench at p;
+Kajita et al., "Introduction to Humanoid Robotics", 2014, ch. 3, ZMP from the robot's motion), with h = c_z − z_g, m the mass, is
+
+    p_x = c_x − (m h c̈_x + L̇_y) / (m (g + c̈_z)),      p_y = c_y − (m h c̈_y − L̇_x) / (m (g + c̈_z)).
+
+This is exactly how :mod:`wbc.scenarios.metrics` measures the executed motion; these two constraints make the
+controller produce a motion that meets it, instead of a motion with unbounded CoM acceleration or angular
+momentum rate whenever a task switches or a hard limit becomes active.
 
 :class:`ExecutedZmpConstraint` — for each edge i of the support polygon shrunk by ``margin`` (unit outward
 normal n_i, offset b_i), with s_i = b_i − n_i·c_xy and g + c̈_z > 0,
 
-    n_i·p ≤ b_i   ⇔   −h n_i·c̈_xy − s_i c̈_z ≤ s_i g                      (linear in c̈, exact)
+    n_i·p ≤ b_i   ⇔   −h n_i·c̈_xy − s_i c̈_z − (n_i × L̇)_z / m ≤ s_i g         (linear in c̈ and L̇, exact)
 
-and c̈_k is linear in v_k: c_{k+1} = c_k + J_com v_k dt + r, where r, the second-order part of the CoM step, is
-taken equal to the one measured over the previous tick (c_k − c_{k−1} − J_com,k−1 v_{k−1} dt). Divided by h dt
-(units m/s), the row is
+valid while the ground pushes, g + c̈_z > 0; one more row keeps the normal force at least ``min_normal_ratio``
+of the weight, c̈_z ≥ −(1 − min_normal_ratio) g (a CoM in free fall makes every ZMP row meaningless). c̈_k and L̇_k are
+linear in v_k: c_{k+1} = c_k + J_com v_k dt + r, where r, the second-order part of the CoM step, is
+linearised about the previous command: r(v) ≈ r_{k−1} + dt (J_com,k − J_com,k−1)(v − v_{k−1}), with r_{k−1} =
+c_k − c_{k−1} − J_com,k−1 v_{k−1} dt measured over the previous tick (½ dt² vᵀ∇²c v has gradient dt² ∇²c v, and
+dt ∇²c v_{k−1} ≈ J_com,k − J_com,k−1); below, J_com stands for 2 J_com,k − J_com,k−1 and r for
+r_{k−1} − dt (J_com,k − J_com,k−1) v_{k−1}. And
+L̇_k = (A_G,ang v_k − L_{k−1}) / dt. With e_i = (n_i,y, −n_i,x, 0) (so that −(n_i × L̇)_z = e_i·L̇), divided
+by h (units m/s), the row is
 
-    (−n_i, −s_i/h)·J_com v ≤ [s_i g dt² + (n_i h, s_i)·(r − Δc)] / (h dt),    Δc = c_k − c_{k−1}.
+    [(−n_i, −s_i/h)·J_com + e_i·A_G,ang / (m h)] v
+        ≤ s_i g dt / h + (n_i, s_i/h)·(r − Δc) / dt + e_i·L_{k−1} / (m h),         Δc = c_k − c_{k−1}.
 
 It needs the previous command (``needs_previous_command``) and the previous CoM, both recorded by the
 controller's tick; until one tick has been solved (or after :meth:`reset`) its rows are inactive. It is
@@ -39,12 +51,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, convex_hull, sole_polygon
+from wbc.geometry import as_se3, check_count, check_scalar, support_polygon
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 
@@ -58,31 +71,34 @@ class ExecutedZmpConstraint(InequalityConstraint):
     Args:
         robot: the robot (sole rectangle ``robot.sole_length`` × ``robot.sole_width``).
         margin: inward shrink of the support polygon (m, ≥ 0).
-        max_soles: most soles ever passed to :meth:`set_support` (rows: 4 × max_soles).
+        min_normal_ratio: smallest vertical ground force as a fraction of the weight, in [0, 1): row
+            c̈_z ≥ −(1 − min_normal_ratio) g.
+        max_soles: most soles ever passed to :meth:`set_support` (rows: 4 × max_soles + 1).
         gravity: g (m/s², > 0).
+        angular_momentum: include L̇ (the multi-body ZMP); False: L̇ = 0 (the CoM-only, LIPM-like ZMP).
         name: label in reports.
 
     Call :meth:`set_support` before the first solve (until then every row is inactive).
 
     Raises:
-        InvalidInputError: negative or non-finite margin, gravity ≤ 0, max_soles < 1.
+        InvalidInputError: negative or non-finite margin, min_normal_ratio outside [0, 1), gravity ≤ 0,
+            max_soles < 1.
     """
 
     needs_previous_command = True
     relaxable = True
 
-    def __init__(self, robot, *, margin: float = 0.002, max_soles: int = 2, gravity: float = GRAVITY,
-                 name: str = "executed_zmp"):
-        if not (math.isfinite(margin) and margin >= 0):
-            raise InvalidInputError(f"margin must be finite and ≥ 0 (m), got {margin!r}")
-        if not (math.isfinite(gravity) and gravity > 0):
-            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
-        if int(max_soles) < 1:
-            raise InvalidInputError(f"max_soles must be ≥ 1, got {max_soles!r}")
-        self.robot = robot
-        self.margin, self.gravity, self.max_soles, self.name = float(margin), float(gravity), int(max_soles), name
+    def __init__(self, robot, *, margin: float = 0.002, min_normal_ratio: float = 0.5, max_soles: int = 2,
+                 gravity: float = GRAVITY, angular_momentum: bool = True, name: str = "executed_zmp"):
+        self.robot, self.name = robot, name
+        self.margin = check_scalar(margin, "margin", "m")
+        self.min_normal_ratio = check_scalar(min_normal_ratio, "min_normal_ratio", "fraction of the weight")
+        if self.min_normal_ratio >= 1.0:
+            raise InvalidInputError(f"min_normal_ratio must be in [0, 1), got {min_normal_ratio!r}")
+        self.gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
+        self.max_soles = check_count(max_soles, "max_soles")
         nv = robot.model.nv
-        self.dim = 4 * self.max_soles
+        self.dim = 4 * self.max_soles + 1   # last row: the normal-force row
         self.nv = nv
         self.normals = np.zeros((0, 2))
         self.offsets = np.zeros(0)
@@ -94,6 +110,17 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._J_now = np.zeros((3, nv))
         self._dt_now = 0.0
         self._have_now = False
+        self.angular_momentum = bool(angular_momentum)
+        self._model = robot.model
+        self._data = robot.model.createData()
+        self._a = np.zeros((self.dim, 3))
+        self._e = np.zeros((self.dim, 3))
+        self.mass = float(sum(i.mass for i in robot.model.inertias))
+        self._A_now = np.zeros((3, nv))          # A_G,ang(q_k)
+        self._J_prev = np.zeros((3, nv))         # J_com(q_{k−1})
+        self._v_prev = np.zeros(nv)              # v_{k−1}
+        self._J_eff = np.zeros((3, nv))
+        self._L_prev = np.zeros(3)               # L_{k−1}
         self._c_prev: np.ndarray | None = None   # c_{k−1}
         self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
 
@@ -107,18 +134,14 @@ class ExecutedZmpConstraint(InequalityConstraint):
         poses = [as_se3(p, "sole placement") for p in sole_placements]
         if not 1 <= len(poses) <= self.max_soles:
             raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
-        corners = np.vstack([
-            sole_polygon(float(M.translation[0]), float(M.translation[1]),
-                         math.atan2(M.rotation[1, 0], M.rotation[0, 0]), self.robot.sole_length,
-                         self.robot.sole_width) for M in poses])
-        poly = corners if len(poses) == 1 else convex_hull(corners)
+        poly = support_polygon(poses, self.robot.sole_length, self.robot.sole_width)
         normals, offsets = halfplanes(poly)
         if float(np.min(offsets - normals @ poly.mean(axis=0))) <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
         self.normals, self.offsets = normals, offsets - self.margin
         self.ground_z = float(np.mean([M.translation[2] for M in poses]))
-        self._C[len(offsets):] = 0.0
-        self._u[len(offsets):] = np.inf
+        self._C[len(offsets):-1] = 0.0
+        self._u[len(offsets):-1] = np.inf
 
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
@@ -136,11 +159,16 @@ class ExecutedZmpConstraint(InequalityConstraint):
             return
         self._c_prev = self._c_now.copy()
         self._c_pred = self._c_now + (self._J_now @ v) * self._dt_now
+        self._L_prev = self._A_now @ v
+        self._J_prev[:] = self._J_now
+        self._v_prev[:] = v
         self._have_now = False
 
     def compute(self, config: Configuration, dt: float):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
         c, J = config.com, config.com_jacobian
+        if self.angular_momentum:
+            np.copyto(self._A_now, pin.computeCentroidalMap(self._model, self._data, config.q)[3:])
         self._c_now[:] = c
         self._J_now[:] = J
         self._dt_now = float(dt)
@@ -151,15 +179,30 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if k == 0 or self._c_prev is None or h <= 0.0:
             C[:k] = 0.0
             u[:k] = np.inf
+            C[-1] = 0.0
+            u[-1] = np.inf
             return C, self._l, u
         dc = c - self._c_prev            # Δc = c_k − c_{k−1}
-        r = c - self._c_pred             # second-order part of the last step
+        # second-order part of this step, r(v) ≈ r_{k−1} + dt (J_k − J_{k−1})(v − v_{k−1}) (module docstring):
+        # c_{k+1} ≈ c_k + (2 J_k − J_{k−1}) v dt + r_{k−1} − dt (J_k − J_{k−1}) v_{k−1}
+        dJ = J - self._J_prev
+        r = (c - self._c_pred) - dt * (dJ @ self._v_prev)
+        J = np.add(J, dJ, out=self._J_eff)
         s = self.offsets - self.normals @ c[:2]          # (k,) slack of the CoM to each shrunk edge
-        a = np.empty((k, 3))
-        a[:, :2] = -self.normals
-        a[:, 2] = -s / h
+        a = self._a[:k]
+        np.negative(self.normals, out=a[:, :2])
+        np.divide(s, -h, out=a[:, 2])
         np.matmul(a, J, out=C[:k])
         u[:k] = (s * self.gravity * dt * dt / h - a @ (r - dc)) / dt
+        if self.angular_momentum:
+            e = self._e[:k]
+            e[:, 0], e[:, 1] = self.normals[:, 1], -self.normals[:, 0]
+            e *= 1.0 / (self.mass * h)
+            C[:k] += e @ self._A_now
+            u[:k] += e @ self._L_prev
+        # −c̈_z ≤ (1 − ρ) g   ⇔   −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt
+        np.negative(J[2], out=C[-1])
+        u[-1] = (1.0 - self.min_normal_ratio) * self.gravity * dt + (r[2] - dc[2]) / dt
         return C, self._l, u
 
 
@@ -172,10 +215,9 @@ class DcmPolygonConstraint(ComPolygonConstraint):
     """
 
     def __init__(self, robot, *, gravity: float = GRAVITY, name: str = "dcm_polygon", **kwargs):
-        if not (math.isfinite(gravity) and gravity > 0):
-            raise InvalidInputError(f"gravity must be finite and > 0 (m/s²), got {gravity!r}")
+        gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
         super().__init__(robot, name=name, **kwargs)
-        self.gravity = float(gravity)
+        self.gravity = gravity
         self.ground_z = 0.0
 
     def set_support(self, sole_placements) -> None:

@@ -29,7 +29,7 @@ from wbc.dynamics.contacts import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.dynamics.formulation import InverseDynamicsQP
 from wbc.dynamics.tasks import (
-    AngularMomentumTask,
+    AngularMomentumRateTask,
     ComAccelerationTask,
     FrameAccelerationTask,
     PostureAccelerationTask,
@@ -38,7 +38,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["BalanceController", "DEFAULT_GAINS"]
+__all__ = ["IDBalanceController", "BalanceController", "DEFAULT_GAINS"]
 
 #: Default gains (kp 1/s², kd 1/s or momentum gain 1/s) and weights.
 DEFAULT_GAINS: dict[str, float] = {
@@ -51,7 +51,7 @@ DEFAULT_GAINS: dict[str, float] = {
 }
 
 
-class BalanceController:
+class IDBalanceController:
     """Inverse-dynamics balance controller for a humanoid standing on its two soles (module docstring).
 
     Args:
@@ -83,7 +83,7 @@ class BalanceController:
         self.com = ComAccelerationTask(ComTask(), kp=gn["com_kp"], kd=gn["com_kd"], weight=gn["com_weight"])
         self.torso = FrameAccelerationTask(OrientationTask(robot, robot.torso), kp=gn["torso_kp"],
                                            kd=gn["torso_kd"], weight=gn["torso_weight"])
-        self.momentum = AngularMomentumTask(gain=gn["momentum_gain"], weight=gn["momentum_weight"])
+        self.momentum = AngularMomentumRateTask(gain=gn["momentum_gain"], weight=gn["momentum_weight"])
         self.posture = PostureAccelerationTask(PostureTask(robot), kp=gn["posture_kp"], kd=gn["posture_kd"],
                                                weight=gn["posture_weight"])
         soles = {"left": robot.left_sole, "right": robot.right_sole}
@@ -169,3 +169,8 @@ class BalanceController:
             ConfigurationError: bad q / v.
         """
         return self.controller.tick(q, v)
+
+
+#: Former name of :class:`IDBalanceController` (kept so existing callers run; the kinematic balance controller of
+#: :mod:`wbc.scenarios.balance` has the same name).
+BalanceController = IDBalanceController

@@ -120,7 +120,8 @@ class InverseDynamicsQP:
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
             the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
-            and torques in one call — with DAQP as fallback; any other qpsolvers backend —
+            and torques in one call — with DAQP as fallback (the general path while a hard task is present or the
+            torque-limited joints are not contiguous in v); any other qpsolvers backend —
             :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
@@ -395,21 +396,19 @@ class InverseDynamicsQP:
                 con.write(self._ctx, None, self._lb[s], self._ub[s])
                 con.written = key
         jl = self.joint_acceleration_limits
-        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self._reg_v, state.M, state.h, kb.Jc, kb.Gc,
-                        kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
+        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self.eps_a, state.M, state.h, kb.Jc, kb.Gc,
+                        kb.Rc, kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
                         jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
                         self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,
-                        kb.x, kb.nu, kb.mu, kb.z, kb.max_iter, *kb.ws, kb.residual, kb.tau)
+                        kb.x, kb.nu, kb.mu, kb.z, kb.max_iter, *kb.ws, kb.residual, kb.tau, kb.wrench)
         self._m = m
         t1 = perf_counter()
         nv = self.nv
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             kb.solves += 1
             x = kb.x
-            f = x[nv:]
-            wrenches = {c.name: (c.world_wrench(state, f[12 * k:12 * k + 12]) if c.active else np.zeros(6))
-                        for k, c in enumerate(self.contacts)}
-            return IDSolution(dv=x[:nv].copy(), forces=f.copy(), tau=kb.tau.copy(), wrenches=wrenches,
+            wrenches = {c.name: kb.wrench[k].copy() for k, c in enumerate(self.contacts)}
+            return IDSolution(dv=x[:nv].copy(), forces=x[nv:].copy(), tau=kb.tau.copy(), wrenches=wrenches,
                               dynamics_residual=float(kb.residual[1]),
                               timings={"assembly": ta - t0, "solve": t1 - ta})
         kb.fallbacks += 1
@@ -504,6 +503,8 @@ class _KernelBuffers:
         self.Jc = np.zeros((nc, 6, nv))
         self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.bc = np.zeros((nc, 6))
+        self.Rc = np.zeros((nc, 3, 3))
+        self.wrench = np.zeros((nc, 6))
         self.active = np.zeros(nc, dtype=np.bool_)
         m_max, p = 6 + 6 * nc, qp._C.shape[0]
         self.state = np.zeros(n, np.int8)
@@ -514,7 +515,8 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, w)),
+        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
+        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
                    np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
@@ -562,3 +564,4 @@ class _KernelBuffers:
             self.active[c_i] = c.active
             if c.active:
                 self.bc[c_i] = c.acceleration_target(state, J)
+                self.Rc[c_i] = state.data.oMf[c.frame_id].rotation

@@ -46,6 +46,7 @@ class DynamicsState(Configuration):
         self.v = np.zeros(robot.model.nv) if v is None else check_vector(v, robot.model.nv, "velocity v").copy()
         self.mass = robot.mass
         self._dAg_v = np.zeros(6)
+        self._views: tuple | None = None
         super().__init__(robot, q)
 
     def update(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> None:  # type: ignore[override]
@@ -64,19 +65,24 @@ class DynamicsState(Configuration):
             self.v = check_vector(v, self.model.nv, "velocity v")
         pin.computeAllTerms(self.model, self.data, self.q, self.v)
         pin.updateFramePlacements(self.model, self.data)
-        self._com_jacobian = self.data.Jcom
-        np.matmul(self.data.dAg, self.v, out=self._dAg_v)
+        if self._views is None:
+            # numpy views of Data's fixed-size storage, which computeAllTerms overwrites in place: fetched once
+            # (each attribute access through the bindings costs ≈ 1.5 µs)
+            d = self.data
+            self._views = (d.M, d.nle, d.Jcom, d.Ag, d.dAg)
+        self._com_jacobian = self._views[2]
+        np.matmul(self._views[4], self.v, out=self._dAg_v)
 
     # -- dynamics --------------------------------------------------------------------------------------------
     @property
     def M(self) -> np.ndarray:
         """(nv, nv) joint-space inertia matrix (kg, kg·m, kg·m² blocks)."""
-        return self.data.M
+        return self._views[0]
 
     @property
     def h(self) -> np.ndarray:
         """(nv,) non-linear effects C(q, v) v + g(q) (N, N·m)."""
-        return self.data.nle
+        return self._views[1]
 
     # -- centroidal ------------------------------------------------------------------------------------------
     @property
@@ -92,7 +98,7 @@ class DynamicsState(Configuration):
     @property
     def centroidal_momentum_matrix(self) -> np.ndarray:
         """(6, nv) Ag: ``[m ċ ; L] = Ag v`` (linear N·s, angular N·m·s about the CoM, world axes)."""
-        return self.data.Ag
+        return self._views[3]
 
     @property
     def centroidal_drift(self) -> np.ndarray:

@@ -21,7 +21,8 @@ J̇ v from Pinocchio:
   drift in LOCAL) and **drop (d/dt Jlog₃) ω**: it is second order (∝ |e|·|ω|² near the target, where
   Jlog₃ = I + ½[e]× + O(|e|²)), negligible for the small orientation errors of balance tasks.
 * Posture (:class:`PostureAccelerationTask`): J is a constant selection, J̇ v = 0 (exact for 1-DoF joints).
-* Centroidal angular momentum (:class:`AngularMomentumTask`): not a position task; L = Ag[3:6] v, L̇ = Ag[3:6] v̇ +
+* Centroidal angular momentum rate (:class:`AngularMomentumRateTask`; its former name ``AngularMomentumTask`` stays
+  an alias — the kinematic :class:`wbc.tasks.AngularMomentumTask` is the velocity-level task): not a position task; L = Ag[3:6] v, L̇ = Ag[3:6] v̇ +
   (dAg v)[3:6]; the target rate is ``L̇* = L̇_ff − K (L − L*)`` (1/s). (Lee & Goswami 2012, "A momentum-based
   balance controller for humanoid robots on non-level and non-stationary ground", Auton. Robots 33:399–414.)
 """
@@ -46,6 +47,7 @@ __all__ = [
     "ComAccelerationTask",
     "FrameAccelerationTask",
     "PostureAccelerationTask",
+    "AngularMomentumRateTask",
     "AngularMomentumTask",
     "acceleration_task",
 ]
@@ -196,7 +198,7 @@ class PostureAccelerationTask(_WrappedTask):
         return e, J, self._zero, self.task.feedforward()
 
 
-class AngularMomentumTask(AccelerationTask):
+class AngularMomentumRateTask(AccelerationTask):
     """Centroidal angular momentum regulation: ask L̇ = L̇_ff − K (L − L*) (module docstring).
 
     Args:
@@ -234,6 +236,11 @@ class AngularMomentumTask(AccelerationTask):
         if self._acc_ff is not None:
             r += self._acc_ff
         return J, r
+
+
+#: Former name of :class:`AngularMomentumRateTask` (kept so existing callers run; it shadowed
+#: :class:`wbc.tasks.AngularMomentumTask`, the velocity-level task).
+AngularMomentumTask = AngularMomentumRateTask
 
 
 def acceleration_task(task: Task, *, kp: float, kd: float | None = None, weight=None) -> AccelerationTask:

@@ -25,6 +25,15 @@ Reachable, collision-free set (stance-sole heading frame, ``x`` forward, ``y`` t
 (> sole width: no sole overlap and the swing leg never crosses the stance leg, since the swing path is a
 blend between two points on the swing side, :meth:`wbc.gait.WalkPlan.replan`).
 
+**Step timing** (Khadiv 2016 adapt the step time in the same QP): landing after ``τ'`` instead of ``τ`` (the swing
+cut short), the DCM at landing is ``u_0 + (ξ − u_0) e^{ωτ'}`` and the nominal offset still holds, so
+
+    u_1 = u_1^nom + e^{ωτ'} (ξ(t) − u_0) − e^{ωτ} (ξ_ref(t) − u_0)                 (2)
+
+which is (1) for ``τ' = τ``. A step that cannot reach the landing (1) — the reach clips it, e.g. a push towards the
+stance leg: the swing foot cannot cross — is cut short so that the next step, which can, comes sooner
+(:class:`wbc.sim.walk.WalkScenario`).
+
 Dead band (Griffin 2017) on the DCM error: ``d = e^{ωτ} max(0, 1 − δ/‖e‖) e`` with ``e = ξ − ξ_ref``: the DCM
 errors of normal walking (≈ 1–2 cm, measured) stay with the CoP feedback of the stabilizer, and the adjustment is
 continuous in ``e``.
@@ -74,17 +83,26 @@ class StepAdjuster:
         self.dead_band = float(dead_band)
         self.sole_length, self.sole_width = float(sole_length), float(sole_width)
 
-    def correction(self, xi: np.ndarray, xi_ref: np.ndarray, time_left: float) -> np.ndarray:
-        """Dead-banded landing correction ``d`` (2,) (m, world xy): eq. 1 with the DCM error shrunk by δ.
+    def correction(self, xi: np.ndarray, xi_ref: np.ndarray, time_left: float, new_time_left: float | None = None,
+                   stance_cop: np.ndarray | None = None) -> np.ndarray:
+        """Dead-banded landing correction ``d`` (2,) (m, world xy, to add to the nominal landing): eq. 1, or eq. 2
+        when the landing is moved to ``new_time_left``, with the DCM error ``ξ − ξ_ref`` shrunk by δ.
 
         Args:
             xi, xi_ref: (2,) measured and planned DCM (m, world xy). time_left: τ ≥ 0 (s) to the planned landing.
+            new_time_left: τ' (s) to the new landing time (eq. 2); None: τ' = τ (eq. 1).
+            stance_cop: (2,) u_0, the plan's CoP on the stance foot (m, world xy); needed with ``new_time_left``.
         """
-        e = np.asarray(xi, float) - np.asarray(xi_ref, float)
+        xi_ref = np.asarray(xi_ref, float)
+        e = np.asarray(xi, float) - xi_ref
         n = float(np.linalg.norm(e))
-        if n <= self.dead_band:
-            return np.zeros(2)
-        return math.exp(self.omega * max(float(time_left), 0.0)) * (1.0 - self.dead_band / n) * e
+        es = np.zeros(2) if n <= self.dead_band else (1.0 - self.dead_band / n) * e
+        g = math.exp(self.omega * max(float(time_left), 0.0))
+        if new_time_left is None:
+            return g * es
+        u0 = np.asarray(stance_cop, float)
+        g1 = math.exp(self.omega * max(float(new_time_left), 0.0))
+        return g1 * (xi_ref + es - u0) - g * (xi_ref - u0)
 
     def landing(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray) -> Footstep:
         """The adjusted footstep: ``nominal`` moved by ``correction`` (2,) (m, world xy), projected onto the

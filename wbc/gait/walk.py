@@ -29,7 +29,7 @@ from wbc.gait.schedule import (
     build_phases,
     zmp_segments,
 )
-from wbc.geometry import hull, signed_distance, signed_distance_point, sole_corners
+from wbc.geometry import check_vector, hull, signed_distance, signed_distance_point, sole_corners
 from wbc.gait.swing import sample_feet
 from wbc.profiles import min_jerk
 
@@ -133,7 +133,7 @@ class WalkPlan:
 
     def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray,
                footsteps: tuple[Footstep, ...] | list[Footstep] | None = None, *,
-               check_start: bool = True) -> WalkPlan:
+               check_start: bool = True, skip: int = 0) -> WalkPlan:
         """Re-plan the CoM from a measured state at sample ``k``, keeping the remaining footsteps and timing.
 
         The new plan's sample 0 is this plan's sample ``k`` (time re-origined at 0; ``t_offset`` grows by
@@ -157,6 +157,11 @@ class WalkPlan:
                 ``k``: over its remaining samples, so position, velocity and acceleration stay continuous).
             check_start: raise when the solved ZMP start point is outside the current support polygon (default);
                 ``False`` returns the plan anyway (a stabilizer then saturates the CoP at the polygon edge).
+            skip: step timing adjustment (Khadiv et al. 2016): end the single support in progress at ``k`` this
+                many samples earlier (``0 <= skip <=`` its remaining samples − 10). The rest of the swing in
+                progress is time-compressed (positions resampled linearly, velocities scaled by the compression
+                ratio); everything after it moves ``skip`` samples earlier, and the plan is ``skip`` samples
+                shorter.
 
         Raises:
             GaitError: bad ``k``, shapes or non-finite values; bad ``footsteps`` (count, side, yaw) or ``k`` in
@@ -165,8 +170,8 @@ class WalkPlan:
                 too large for the time left in the current ZMP segment — a step would have to change).
         """
         k = self._check_k(k, self.n_samples - 2)
-        c = _vector(com, 3, "com")
-        cd = _vector(com_vel, 3, "com_vel")
+        c = check_vector(com, 3, "com", GaitError)
+        cd = check_vector(com_vel, 3, "com_vel", GaitError)
         seg = self.segments
         j = int(np.searchsorted(seg.first, k, side="right")) - 1
         first = seg.first[j:] - k
@@ -184,6 +189,12 @@ class WalkPlan:
                   for ph in phases]
         steps = self.footsteps[n_done:]
         feet = (self.left_sole[k:], self.right_sole[k:], self.left_sole_vel[k:], self.right_sole_vel[k:])
+        support = self.support[k:]
+        skip = int(skip)
+        if skip:
+            if phases[0].support == DOUBLE_SUPPORT or not 0 < skip <= phases[0].count - 10:
+                raise GaitError(f"skip must be in [0, remaining single-support samples - 10]; got {skip} "
+                                f"(phase at k: support {phases[0].support}, {phases[0].count} samples left)")
         if footsteps is not None:
             new_steps = _check_new_footsteps(footsteps, steps)
             if phases[-1] is phases[0] or len(seg.first) - j != len(phases) + 1:
@@ -195,9 +206,22 @@ class WalkPlan:
             new_seg = ZmpSegments(first, count, start, pts.end.astype(float), new_seg.phase)
             feet = _shift_feet(feet, phases, steps, new_steps)
             steps = new_steps
+        if skip:
+            n0 = phases[0].count
+            f = 0 if steps[phases[0].step].side == "left" else 1
+            feet = _compress_swing(feet, f, n0, skip)
+            support = np.concatenate([support[:n0 - skip], support[n0:]])
+            support.flags.writeable = False
+            phases = [Phase(phases[0].support, 0, n0 - skip, phases[0].step, phases[0].dt)] + [
+                Phase(ph.support, ph.first - skip, ph.count, ph.step, ph.dt) for ph in phases[1:]]
+            cnt = new_seg.count.copy()
+            fst = new_seg.first.copy()
+            cnt[0] -= skip
+            fst[1:] -= skip
+            new_seg = ZmpSegments(fst, cnt, new_seg.start, new_seg.end, new_seg.phase)
         return _assemble(
             new_seg, phases, steps, c[:2], cd[:2], self.com_height, self.omega, self.dt,
-            *feet, self.support[k:], self.sole_length, self.sole_width, self.t_offset + k * self.dt,
+            *feet, support, self.sole_length, self.sole_width, self.t_offset + k * self.dt,
             check_start=check_start,
         )
 
@@ -300,16 +324,31 @@ def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple
     return poses[0], poses[1], vels[0], vels[1]
 
 
-def _vector(x, n: int, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise GaitError(f"{name} must be a ({n},) array of finite numbers; got {x!r}") from exc
-    if a.shape != (n,):
-        raise GaitError(f"{name} must have shape ({n},); got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise GaitError(f"{name} must be finite; got {a.tolist()}")
-    return a
+def _compress_swing(feet, f: int, n0: int, skip: int):
+    """Feet arrays with the first ``n0`` samples of foot ``f`` (its swing in progress; sample ``n0`` is its landing)
+    resampled onto ``n0 − skip`` samples, and ``skip`` samples of the other foot's rest dropped."""
+    poses = [np.asarray(feet[0]), np.asarray(feet[1])]
+    vels = [np.asarray(feet[2]), np.asarray(feet[3])]
+    m = n0 - skip
+    x = np.arange(m) * (n0 / m)
+    i0 = np.floor(x).astype(int)
+    a = (x - i0)[:, None]
+    i1 = np.minimum(i0 + 1, n0)
+    out_p, out_v = [], []
+    for g in range(2):
+        P, V = poses[g], vels[g]
+        if g == f:
+            head = P[np.rint(x).astype(int)].copy()  # rotations: nearest sample
+            head[:, :3, 3] = (1 - a) * P[i0, :3, 3] + a * P[i1, :3, 3]
+            vhead = ((1 - a) * V[i0] + a * V[i1]) * (n0 / m)
+            out_p.append(np.concatenate([head, P[n0:]]))
+            out_v.append(np.concatenate([vhead, V[n0:]]))
+        else:
+            out_p.append(np.concatenate([P[:m], P[n0:]]))
+            out_v.append(np.concatenate([V[:m], V[n0:]]))
+    for arr in (*out_p, *out_v):
+        arr.flags.writeable = False
+    return out_p[0], out_p[1], out_v[0], out_v[1]
 
 
 def _sole_pose(x, name: str) -> np.ndarray:
@@ -424,10 +463,10 @@ def plan_walk(
     """
     L = _sole_pose(left_sole, "left_sole")
     R = _sole_pose(right_sole, "right_sole")
-    c = _vector(com, 3, "com")
+    c = check_vector(com, 3, "com", GaitError)
     if not c[2] > 0:
         raise GaitError(f"com height com[2] must be > 0 m above the ground; got {c[2]}")
-    cd = np.zeros(3) if com_velocity is None else _vector(com_velocity, 3, "com_velocity")
+    cd = np.zeros(3) if com_velocity is None else check_vector(com_velocity, 3, "com_velocity", GaitError)
     if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
         raise GaitError(f"n_steps must be an integer >= 1; got {n_steps!r}")
     if first_side not in ("left", "right"):

@@ -9,6 +9,7 @@ the fields, as ``rmw_cyclonedds_cpp`` puts it on the wire.
 
 import hashlib
 import json
+import types
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
@@ -21,100 +22,52 @@ __all__ = [
 ]
 
 
-@dataclass
-@final
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    """builtin_interfaces/msg/Time: seconds and nanoseconds since the epoch."""
-    sec: int32 = 0
-    nanosec: uint32 = 0
+def _struct(name: str, typename: str, doc: str, /, **fields) -> type:
+    """A ``@final`` IDL struct dataclass ``name`` with DDS type ``typename``; ``fields``: field name →
+    ``(IDL type, default)`` in rosidl's order, a class or ``list`` as default meaning a fresh instance each."""
+    namespace = {"__annotations__": {k: t for k, (t, _) in fields.items()}, "__doc__": doc, "__module__": __name__,
+                 "__qualname__": name}
+    for k, (_, default) in fields.items():
+        namespace[k] = field(default_factory=default) if isinstance(default, type) else default
+    cls = types.new_class(name, (IdlStruct,), {"typename": typename}, lambda ns: ns.update(namespace))
+    return dataclass(final(cls))
 
 
-@dataclass
-@final
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    """std_msgs/msg/Header: stamp and frame id."""
-    stamp: Time = field(default_factory=Time)
-    frame_id: str = ""
-
-
-@dataclass
-@final
-class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
-    """sensor_msgs/msg/JointState: names, positions (rad or m), velocities (rad/s), efforts (N·m)."""
-    header: Header = field(default_factory=Header)
-    name: sequence[str] = field(default_factory=list)
-    position: sequence[float64] = field(default_factory=list)
-    velocity: sequence[float64] = field(default_factory=list)
-    effort: sequence[float64] = field(default_factory=list)
-
-
-@dataclass
-@final
-class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
-    """geometry_msgs/msg/Vector3 (m)."""
-    x: float64 = 0.0
-    y: float64 = 0.0
-    z: float64 = 0.0
-
-
-@dataclass
-@final
-class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    """geometry_msgs/msg/Quaternion (x, y, z, w; ROS default w = 1)."""
-    x: float64 = 0.0
-    y: float64 = 0.0
-    z: float64 = 0.0
-    w: float64 = 1.0
-
-
-@dataclass
-@final
-class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
-    """geometry_msgs/msg/Transform: pose of the child frame in the parent frame."""
-    translation: Vector3 = field(default_factory=Vector3)
-    rotation: Quaternion = field(default_factory=Quaternion)
-
-
-@dataclass
-@final
-class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
-    """geometry_msgs/msg/TransformStamped: header.frame_id is the parent, child_frame_id the child."""
-    header: Header = field(default_factory=Header)
-    child_frame_id: str = ""
-    transform: Transform = field(default_factory=Transform)
-
-
-@dataclass
-@final
-class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
-    """tf2_msgs/msg/TFMessage: a list of stamped transforms (/tf, /tf_static)."""
-    transforms: sequence[TransformStamped] = field(default_factory=list)
-
-
-@dataclass
-@final
-class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
-    """std_msgs/msg/String (e.g. /robot_description, the URDF text)."""
-    data: str = ""
-
-
-@dataclass
-@final
-class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
-    """std_srvs/srv/Trigger request with rmw_cyclonedds' request header (client guid, sequence number)."""
-    client_guid: uint64 = 0
-    seq: int64 = 0
-    structure_needs_at_least_one_member: uint8 = 0
-
-
-@dataclass
-@final
-class TriggerReply(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
-    """std_srvs/srv/Trigger response with rmw_cyclonedds' header echoing the request's guid and sequence."""
-    client_guid: uint64 = 0
-    seq: int64 = 0
-    success: bool = False
-    message: str = ""
+Time = _struct("Time", "builtin_interfaces::msg::dds_::Time_",
+               "builtin_interfaces/msg/Time: seconds and nanoseconds since the epoch.",
+               sec=(int32, 0), nanosec=(uint32, 0))
+Header = _struct("Header", "std_msgs::msg::dds_::Header_", "std_msgs/msg/Header: stamp and frame id.",
+                 stamp=(Time, Time), frame_id=(str, ""))
+JointState = _struct(
+    "JointState", "sensor_msgs::msg::dds_::JointState_",
+    "sensor_msgs/msg/JointState: names, positions (rad or m), velocities (rad/s), efforts (N·m).",
+    header=(Header, Header), name=(sequence[str], list), position=(sequence[float64], list),
+    velocity=(sequence[float64], list), effort=(sequence[float64], list))
+Vector3 = _struct("Vector3", "geometry_msgs::msg::dds_::Vector3_", "geometry_msgs/msg/Vector3 (m).",
+                  x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0))
+Quaternion = _struct("Quaternion", "geometry_msgs::msg::dds_::Quaternion_",
+                     "geometry_msgs/msg/Quaternion (x, y, z, w; ROS default w = 1).",
+                     x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0), w=(float64, 1.0))
+Transform = _struct("Transform", "geometry_msgs::msg::dds_::Transform_",
+                    "geometry_msgs/msg/Transform: pose of the child frame in the parent frame.",
+                    translation=(Vector3, Vector3), rotation=(Quaternion, Quaternion))
+TransformStamped = _struct(
+    "TransformStamped", "geometry_msgs::msg::dds_::TransformStamped_",
+    "geometry_msgs/msg/TransformStamped: header.frame_id is the parent, child_frame_id the child.",
+    header=(Header, Header), child_frame_id=(str, ""), transform=(Transform, Transform))
+TFMessage = _struct("TFMessage", "tf2_msgs::msg::dds_::TFMessage_",
+                    "tf2_msgs/msg/TFMessage: a list of stamped transforms (/tf, /tf_static).",
+                    transforms=(sequence[TransformStamped], list))
+String = _struct("String", "std_msgs::msg::dds_::String_",
+                 "std_msgs/msg/String (e.g. /robot_description, the URDF text).", data=(str, ""))
+TriggerRequest = _struct(
+    "TriggerRequest", "std_srvs::srv::dds_::Trigger_Request_",
+    "std_srvs/srv/Trigger request with rmw_cyclonedds' request header (client guid, sequence number).",
+    client_guid=(uint64, 0), seq=(int64, 0), structure_needs_at_least_one_member=(uint8, 0))
+TriggerReply = _struct(
+    "TriggerReply", "std_srvs::srv::dds_::Trigger_Response_",
+    "std_srvs/srv/Trigger response with rmw_cyclonedds' header echoing the request's guid and sequence.",
+    client_guid=(uint64, 0), seq=(int64, 0), success=(bool, False), message=(str, ""))
 
 
 def to_bytes(msg: IdlStruct) -> bytes:

@@ -5,8 +5,11 @@ reference generator: time t (s) → CoM target, support phase, swing-sole target
 :func:`run_balance` feeds it to :class:`BalanceController` every tick of period dt:
 
 * stance soles are hard contacts (:class:`~wbc.constraints.ContactConstraint`) at their touch-down placement;
-* the CoM ground projection is kept inside the current support polygon shrunk by a margin, as a hard
-  inequality (:class:`~wbc.constraints.ComPolygonConstraint`, re-targeted at every support change);
+* the capture point (DCM) c + ċ/ω is kept inside the current support polygon shrunk by a margin, as a hard
+  inequality (:class:`~wbc.constraints.zmp.DcmPolygonConstraint`, re-targeted at every support change): the CoM
+  ground projection stays inside too and approaches an edge exponentially instead of stopping within one tick;
+* the multi-body ZMP of the motion each command produces stays inside the stance soles
+  (:class:`~wbc.constraints.zmp.ExecutedZmpConstraint`, relaxable; :mod:`wbc.scenarios.stance`);
 * joint position and velocity limits are hard bounds;
 * tasks: CoM (weight 10), torso orientation (1), posture on every DoF (weight 1e-2, gain 2/s: a regulariser —
   Talos's grippers sit on their limit and need a cost — whose low gain keeps it from biasing the tracked tasks:
@@ -48,8 +51,9 @@ from wbc.exceptions import InvalidInputError
 from wbc.gait.support import signed_distance
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
-from wbc.scenarios.framework import Criterion, RunRecord, evaluate
-from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
+from wbc.scenarios.framework import Criterion, evaluate
+from wbc.scenarios.stance import StanceRecorder, StanceRun
+from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
 from wbc.tasks.com import ComTask
 from wbc.tasks.frame import FrameTask
 from wbc.tasks.posture import PostureTask
@@ -61,7 +65,7 @@ from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk_ramp", "run_balance", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "side_option", "support_polygon",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -116,6 +120,17 @@ class Behaviour(ABC):
         return {}
 
 
+def side_option(value: str, what: str) -> str:
+    """``value`` if it is ``"left"`` or ``"right"``.
+
+    Raises:
+        InvalidInputError: any other value, naming the option ``what``.
+    """
+    if value not in ("left", "right"):
+        raise InvalidInputError(f"{what} must be 'left' or 'right', got {value!r}")
+    return value
+
+
 def make_behaviour(name: str, robot: Robot, config: Configuration, **options) -> Behaviour:
     """Instantiate a behaviour by name (see :data:`BEHAVIOURS`).
 
@@ -130,29 +145,17 @@ def make_behaviour(name: str, robot: Robot, config: Configuration, **options) ->
 
 # -- run --------------------------------------------------------------------------------------------------------
 @dataclass
-class BalanceRun(RunRecord):
-    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``)."""
+class BalanceRun(StanceRun):
+    """Arrays recorded during a behaviour (see the module docstring for the log format; written by ``save``):
+    those of :class:`~wbc.scenarios.stance.StanceRun`, the behaviour's name, ``com_margin`` (N,) m, and the
+    tasks' names and errors."""
 
-    robot: str
     behaviour: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
-    left_sole: np.ndarray
-    right_sole: np.ndarray
-    support: np.ndarray
     com_margin: np.ndarray
-    tick_time: np.ndarray
-    solver_ok: np.ndarray
     task_names: list[str]
     task_error: np.ndarray
-    joint_names: list[str]
     task_units: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
-    relaxed: np.ndarray | None = None
 
     def polygons(self, robot: Robot) -> list[tuple[float, float, np.ndarray]]:
         """Support polygons for :func:`wbc.viz.record_html`: one ``(t_start, t_end, (k, 3))`` per support phase."""
@@ -205,31 +208,19 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
     extra_tasks = getattr(beh, "tasks", [])
     tasks += [t for t in extra_tasks if all(t is not u for u in tasks)]
     n = int(math.floor(beh.duration / dt + 1e-9)) + 1
-    model = robot.model
-    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
-    out_q = np.empty((n, model.nq))
-    out_v = np.empty((n, model.nv))
-    out_com = np.empty((n, 3))
+    rec = StanceRecorder(robot, n)
     out_ref = np.full((n, 3), np.nan)
-    out_l = np.empty((n, 4, 4))
-    out_r = np.empty((n, 4, 4))
     support = np.empty(n, dtype=np.int8)
     margin = np.empty(n)
-    tick = np.empty(n)
-    ok = np.empty(n, dtype=bool)
-    relaxed = np.zeros(n, dtype=bool)
     parts = [(i, *part) for i, task in enumerate(tasks) for part in task_error_parts(task)]
     errors = np.full((n, len(parts)), np.nan)
     for k in range(n):
         t = k * dt
-        out_q[k] = config.q
-        out_com[k] = config.com
-        out_l[k] = config.data.oMf[lf].homogeneous
-        out_r[k] = config.data.oMf[rf].homogeneous
+        rec.record_state(k, config)
         t0 = perf_counter()
         beh.update(ctrl, t, config)
         result = ctrl.solve(config, dt)
-        tick[k] = perf_counter() - t0
+        tick = perf_counter() - t0
         support[k] = ctrl.support
         if ctrl.has_task(ctrl.com):
             out_ref[k] = ctrl.com.target
@@ -239,21 +230,17 @@ def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, 
                 if i != last:
                     last, e = i, tasks[i].compute_error(config)
                 errors[k, c] = float(np.linalg.norm(e if rows is None else e[rows]))
-        margin[k] = _com_margin(robot, out_com[k, :2], out_l[k], out_r[k], ctrl.support)
+        margin[k] = _com_margin(robot, rec.com[k, :2], rec.left_sole[k], rec.right_sole[k], ctrl.support)
         config.step(result.v, dt)
-        ok[k] = result.ok
-        relaxed[k] = bool(result.relaxed)
-        out_v[k] = result.v
+        rec.record_command(k, result, tick)
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt, overlays={"com": config.com})
         if pacer is not None:
             pacer.wait((k + 1) * dt)
     return BalanceRun(
-        robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com,
-        com_ref=out_ref, left_sole=out_l, right_sole=out_r, support=support, com_margin=margin, tick_time=tick,
-        solver_ok=ok, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
-        task_units=[p[2] for p in parts],
-        extra={"behaviour": beh}, relaxed=relaxed,
+        robot=robot.name, behaviour=beh.name, dt=dt, t=np.arange(n) * dt, com_ref=out_ref, support=support,
+        com_margin=margin, task_names=[p[1] for p in parts], task_error=errors, joint_names=robot.joint_names,
+        task_units=[p[2] for p in parts], extra={"behaviour": beh}, **rec.arrays(),
     )
 
 
@@ -302,10 +289,15 @@ COMMON_CRITERIA: list[Criterion] = [
 ]
 
 
-def _executed_zmp_margin(robot: Robot, run: BalanceRun) -> float:
-    """Min over ticks of the signed distance (m) of the executed-motion ZMP to the realized support polygon."""
+def _executed_zmp_margin(robot: Robot, run: BalanceRun, multibody: bool = True) -> float:
+    """Min over ticks of the signed distance (m) of the executed-motion ZMP (multi-body, or CoM-only with L̇ = 0)
+    to the realized support polygon."""
     ground = stance_ground_z(run.left_sole, run.right_sole, run.support, DOUBLE, LEFT_STANCE)
-    zmp = executed_zmp(run.com, run.dt, ground)
+    if multibody:
+        zmp = executed_zmp(run.com, run.dt, ground, mass=robot.mass,
+                           angular_momentum=executed_angular_momentum(robot.model, run.q, run.v))
+    else:
+        zmp = executed_zmp(run.com, run.dt, ground)
     return float(support_margin(zmp, run.left_sole, run.right_sole, run.support, robot.sole_length,
                                 robot.sole_width, DOUBLE, LEFT_STANCE, RIGHT_STANCE).min())
 
@@ -316,8 +308,10 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     Returns a dict with: robot, behaviour, dt_s, ticks, duration_s, tick_time_us {median, p99, max} (reference
     update + QP assembly + solve), min_com_margin_m (signed distance of the CoM ground projection to the support
     polygon of the realized stance soles, min over ticks, negative = outside), min_zmp_margin_m (the same for the ZMP
-    of the EXECUTED motion: CoM of the integrated q, c̈ by central second finite differences of that CoM, see
-    :mod:`wbc.scenarios.metrics`), max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
+    of the EXECUTED motion: multi-body ZMP from the CoM of the integrated q, c̈ by central second finite
+    differences of that CoM and L̇ by backward differences of the centroidal angular momentum A_G(q_k) v_k, see
+    :mod:`wbc.scenarios.metrics`), min_zmp_margin_com_only_m (the same with L̇ = 0; reported, not judged),
+    max_task_error_m {task: max over active ticks of ‖e‖ in m: CoM, frame
     positions}, max_task_error_rad {the same in rad: orientations, posture} (see :func:`task_error_parts`; a
     task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
@@ -345,6 +339,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "tick_time_us": {"median": float(np.median(tt)), "p99": float(np.percentile(tt, 99)), "max": float(tt.max())},
         "min_com_margin_m": float(run.com_margin.min()),
         "min_zmp_margin_m": _executed_zmp_margin(robot, run),
+        "min_zmp_margin_com_only_m": _executed_zmp_margin(robot, run, multibody=False),
         **{f"max_task_error_{unit}": errs for unit, errs in task_err.items()},
         "max_stance_slip_m": _stance_slip(run),
         "joint_position_violations": pos_viol,

@@ -104,16 +104,17 @@ class BalanceController(StanceController):
         rank_rtol: numerical-rank tolerance of the equality rows (``KinematicController``). 1e-4 rather than
             the controller's 1e-3: reaching, humanoid15's sole-yaw rows become independent with
             σ_min/σ_max ≈ 9e-4 (hip roll ≈ 0.34 rad), and dropping such a row lets that sole yaw.
+        joint_acceleration: a_max (rad/s²) of a relaxable joint acceleration limit (None: none).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
                  polygon_margin: float = 0.01, com_gain: float = 100.0, foot_gain: float = 100.0,
                  torso_gain: float = 50.0, posture_gain: float = 2.0,
-                 rank_rtol: float = 1e-4):
+                 rank_rtol: float = 1e-4, joint_acceleration: float | None = None):
         self.com_polygon = DcmPolygonConstraint(robot, margin=polygon_margin)
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
                          torso_gain=torso_gain, posture_gain=posture_gain, extra_constraints=(self.com_polygon,),
-                         rank_rtol=rank_rtol)
+                         rank_rtol=rank_rtol, joint_acceleration=joint_acceleration)
         self.support_changed()
 
     def support_changed(self) -> None:

@@ -21,7 +21,8 @@ from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import (
-    DOUBLE, LEFT_STANCE, RIGHT_STANCE, Behaviour, BalanceController, BalanceRun, MinJerkPath, support_polygon,
+    DOUBLE, LEFT_STANCE, RIGHT_STANCE, Behaviour, BalanceController, BalanceRun, MinJerkPath, side_option,
+    support_polygon,
 )
 from wbc.gait.support import signed_distance
 
@@ -49,9 +50,8 @@ class OneLegBehaviour(Behaviour):
     def __init__(self, robot: Robot, config: Configuration, *, stance: str = "left", height: float = 0.10,
                  hold: float = 3.0, shift: float = 2.0, lift: float = 1.0, settle: float = 0.5,
                  stance_margin: float = 0.0125, height_tolerance: float = 0.005):
+        side_option(stance, "stance")
         super().__init__(robot, config)
-        if stance not in ("left", "right"):
-            raise InvalidInputError(f"stance must be 'left' or 'right', got {stance!r}")
         if min(height, hold, shift, lift, settle) <= 0:
             raise InvalidInputError("one-leg height and durations must be > 0")
         self.stance, self.swing = stance, ("right" if stance == "left" else "left")

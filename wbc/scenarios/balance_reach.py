@@ -28,7 +28,7 @@ from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion
-from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, MinJerkPath
+from wbc.scenarios.balance import Behaviour, BalanceController, BalanceRun, MinJerkPath, side_option
 from wbc.tasks import PositionTask
 
 __all__ = ["ReachBehaviour"]
@@ -56,8 +56,7 @@ class ReachBehaviour(Behaviour):
                  move: float = 3.0, hold: float = 2.0, hand_weight: float = 10.0, torso_weight: float = 0.1,
                  polygon_margin: float = 0.01, tolerance: float = 0.005):
         super().__init__(robot, config)
-        if hand not in ("right", "left"):
-            raise InvalidInputError(f"hand must be 'right' or 'left', got {hand!r}")
+        side_option(hand, "hand")
         frame = robot.right_hand if hand == "right" else robot.left_hand
         if frame is None:
             raise InvalidInputError(f"robot {robot.name!r} has no {hand} hand frame")

@@ -12,17 +12,23 @@ a swing task starting at its current placement. Walking (:mod:`wbc.scenarios.wal
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+
 from wbc.configuration import Configuration
-from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+from wbc.constraints import ContactConstraint, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
+from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.controller import KinematicController, TickResult
 from wbc.gait.schedule import Support
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.scenarios.framework import RunRecord
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController"]
+__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController", "StanceRecorder", "StanceRun"]
 
 #: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
 # The support codes of :class:`wbc.gait.schedule.Support` under the scenarios' names.
@@ -43,13 +49,16 @@ class StanceController:
         extra_constraints: added after the contacts (before the joint limits).
         zmp_margin: margin (m) of the :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` that keeps the ZMP of
             the executed motion inside the support polygon of the stance soles (None: no such constraint).
+        joint_acceleration: a_max (rad/s²) of a :class:`~wbc.constraints.JointAccelerationLimit` on every actuated
+            joint and of a :class:`~wbc.constraints.braking.JointBrakingLimit` (joints approach their position
+            limits no faster than they can stop at a_max); both relaxable; None: neither.
         **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
                  com_gain: float = 100.0, foot_gain: float = 100.0, torso_gain: float = 50.0,
                  posture_gain: float = 10.0, extra_constraints: tuple[Constraint, ...] = (),
-                 zmp_margin: float | None = 0.002, **controller_options):
+                 zmp_margin: float | None = 0.002, joint_acceleration: float | None = None, **controller_options):
         self.robot = robot
         self.com = ComTask(weight=10.0, gain=com_gain)
         self.com.set_target(config.com.copy())
@@ -67,10 +76,12 @@ class StanceController:
         if self.zmp is not None:
             self.zmp.set_support([self.contact[s].placement for s in SIDES])
             extra_constraints = (*extra_constraints, self.zmp)
+        smooth = () if joint_acceleration is None else (
+            JointAccelerationLimit(robot, a_max=joint_acceleration), JointBrakingLimit(robot, a_max=joint_acceleration))
         self.controller = KinematicController(
             robot, [self.com, self.torso, self.posture],
             [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
-             JointVelocityLimit(robot)],
+             JointVelocityLimit(robot), *smooth],
             solver=solver, **controller_options,
         )
         self.stance = {"left": True, "right": True}
@@ -104,3 +115,64 @@ class StanceController:
     def solve(self, config: Configuration, dt: float) -> TickResult:
         """One QP tick (``KinematicController.solve``)."""
         return self.controller.solve(config, dt)
+
+
+@dataclass
+class StanceRun(RunRecord):
+    """What every run of the stance controller records (walk, balance behaviours), one row per tick k at
+    t[k] = k dt: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref``
+    (N, 3) m, world; ``left_sole``, ``right_sole`` (N, 4, 4) world poses; ``support`` (N,) int8
+    (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``relaxed`` (N,) bool, the tick was solved
+    without its relaxable constraints; ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
+
+    robot: str
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    com: np.ndarray
+    com_ref: np.ndarray
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    support: np.ndarray
+    tick_time: np.ndarray
+    solver_ok: np.ndarray
+    relaxed: np.ndarray
+    joint_names: list[str]
+
+
+class StanceRecorder:
+    """Preallocated per-tick arrays of a stance-controller run of ``n`` ticks (the common part of
+    :class:`StanceRun`): state at the start of tick k (:meth:`record_state`), then the command (:meth:`record_command`).
+    """
+
+    def __init__(self, robot: Robot, n: int):
+        model = robot.model
+        self._lf, self._rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
+        self.q = np.empty((n, model.nq))
+        self.v = np.empty((n, model.nv))
+        self.com = np.empty((n, 3))
+        self.left_sole = np.empty((n, 4, 4))
+        self.right_sole = np.empty((n, 4, 4))
+        self.tick_time = np.empty(n)
+        self.solver_ok = np.empty(n, dtype=bool)
+        self.relaxed = np.zeros(n, dtype=bool)
+
+    def record_state(self, k: int, config: Configuration) -> None:
+        """Row k: q, CoM and sole poses of ``config``."""
+        self.q[k] = config.q
+        self.com[k] = config.com
+        self.left_sole[k] = config.data.oMf[self._lf].homogeneous
+        self.right_sole[k] = config.data.oMf[self._rf].homogeneous
+
+    def record_command(self, k: int, result: TickResult, tick_time: float) -> None:
+        """Row k: the command, whether the QP solved (and without its relaxable constraints), the tick time (s)."""
+        self.tick_time[k] = tick_time
+        self.solver_ok[k] = result.ok
+        self.relaxed[k] = bool(result.relaxed)
+        self.v[k] = result.v
+
+    def arrays(self) -> dict:
+        """The recorded arrays under their :class:`StanceRun` field names."""
+        return {"q": self.q, "v": self.v, "com": self.com, "left_sole": self.left_sole, "right_sole": self.right_sole,
+                "tick_time": self.tick_time, "solver_ok": self.solver_ok, "relaxed": self.relaxed}

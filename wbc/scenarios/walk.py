@@ -26,9 +26,8 @@ from wbc.gait import WalkPlan, plan_walk
 from wbc.gait.support import signed_distance, sole_polygon, convex_hull
 from wbc.geometry import mean_heading
 from wbc.robot import Robot
-from wbc.scenarios.framework import RunRecord
-from wbc.scenarios.metrics import executed_zmp, stance_ground_z, support_margin
-from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
+from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
+from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController, StanceRecorder, StanceRun
 
 __all__ = ["WalkController", "WalkRun", "plan_default_walk", "run_walk", "walk_summary"]
 
@@ -70,12 +69,18 @@ class WalkController(StanceController):
         config: its current configuration (contacts start at the current sole placements).
         solver: QP backend name.
         com_gain, foot_gain, torso_gain, posture_gain: task gains K (1/s).
+        joint_acceleration: a_max (rad/s²) of the joint acceleration and braking limits (relaxable; None: none).
+            Without them a lift-off moved Alexander's swing hip by 1.9 rad/s in one tick (CoM acceleration
+            53 m/s² vertically) and Romeo's ankle stopped at its limit within one tick (8.2 m/s²).
+        **stance_options: other keywords of :class:`~wbc.scenarios.stance.StanceController` (e.g. ``zmp_margin``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER, com_gain: float = 100.0,
-                 foot_gain: float = 100.0, torso_gain: float = 50.0, posture_gain: float = 10.0):
+                 foot_gain: float = 100.0, torso_gain: float = 50.0, posture_gain: float = 10.0,
+                 joint_acceleration: float | None = 50.0, **stance_options):
         super().__init__(robot, config, solver=solver, com_gain=com_gain, foot_gain=foot_gain,
-                         torso_gain=torso_gain, posture_gain=posture_gain)
+                         torso_gain=torso_gain, posture_gain=posture_gain, joint_acceleration=joint_acceleration,
+                         **stance_options)
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
         self._plan: WalkPlan | None = None
         self._torso_targets = np.zeros((0, 4, 4))
@@ -120,24 +125,11 @@ class WalkController(StanceController):
 
 
 @dataclass
-class WalkRun(RunRecord):
-    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``)."""
+class WalkRun(StanceRun):
+    """Arrays recorded during a walk (see the module docstring for the log format; written by ``save``):
+    those of :class:`~wbc.scenarios.stance.StanceRun` and the plan's ZMP reference ``zmp_ref`` (N, 2) m."""
 
-    robot: str
-    dt: float
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    com: np.ndarray
-    com_ref: np.ndarray
     zmp_ref: np.ndarray
-    left_sole: np.ndarray
-    right_sole: np.ndarray
-    support: np.ndarray
-    tick_time: np.ndarray
-    solver_ok: np.ndarray
-    joint_names: list[str]
-    relaxed: np.ndarray | None = None
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
@@ -158,37 +150,21 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
     config = config or Configuration(robot)
     walker = WalkController(robot, config, solver=solver)
     n, dt = len(plan.t), plan.dt
-    model = robot.model
-    lf, rf = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
-    out_q = np.empty((n, model.nq))
-    out_v = np.empty((n, model.nv))
-    out_com = np.empty((n, 3))
-    out_l = np.empty((n, 4, 4))
-    out_r = np.empty((n, 4, 4))
-    tick = np.empty(n)
-    ok = np.empty(n, dtype=bool)
-    relaxed = np.zeros(n, dtype=bool)
+    rec = StanceRecorder(robot, n)
     for k in range(n):
-        out_q[k] = config.q
-        out_com[k] = config.com
-        out_l[k] = config.data.oMf[lf].homogeneous
-        out_r[k] = config.data.oMf[rf].homogeneous
+        rec.record_state(k, config)
         t0 = perf_counter()
         walker.set_references(plan, k, config)
         result = walker.controller.solve(config, dt)
         config.step(result.v, dt)
-        tick[k] = perf_counter() - t0
-        ok[k] = result.ok
-        relaxed[k] = bool(result.relaxed)
-        out_v[k] = result.v
+        rec.record_command(k, result, perf_counter() - t0)
         if viewer is not None:
             viewer.update(config.q, (k + 1) * dt)
         if pacer is not None:
             pacer.wait((k + 1) * dt)
     return WalkRun(
-        robot=robot.name, dt=dt, t=np.arange(n) * dt, q=out_q, v=out_v, com=out_com, com_ref=plan.com.copy(),
-        zmp_ref=plan.zmp.copy(), left_sole=out_l, right_sole=out_r, support=plan.support.copy(), tick_time=tick,
-        solver_ok=ok, joint_names=robot.joint_names, relaxed=relaxed,
+        robot=robot.name, dt=dt, t=np.arange(n) * dt, com_ref=plan.com.copy(), zmp_ref=plan.zmp.copy(),
+        support=plan.support.copy(), joint_names=robot.joint_names, **rec.arrays(),
     )
 
 
@@ -205,10 +181,11 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     walked_distance (m, feet mid-point displacement in the ground plane), tick_time_us {median, p99, max},
     max_com_error (m, ‖c − c_ref‖), max_stance_slip (m, largest displacement of a stance sole from where it was when
     its stance began), min_zmp_margin_m (m, signed distance of the ZMP of the EXECUTED motion to the support
-    polygon of the realized soles at that tick, negative = outside; the CoM is the one of the integrated q and
-    its acceleration the central second finite difference of that executed CoM, see
-    :mod:`wbc.scenarios.metrics`), min_zmp_margin_plan_m (the same distance for the plan's ZMP, reported beside
-    it, not judged),
+    polygon of the realized soles at that tick, negative = outside; multi-body ZMP: the CoM is the one of the
+    integrated q, its acceleration the central second finite difference of that executed CoM, the rate of
+    centroidal angular momentum the backward difference of A_G(q_k) v_k, see :mod:`wbc.scenarios.metrics`),
+    min_zmp_margin_com_only_m (the same with L̇ = 0, reported, not judged), min_zmp_margin_plan_m (the same
+    distance for the plan's ZMP, reported beside it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
     solver_failures, relaxed_ticks (ticks solved without the relaxable constraints, e.g. the executed-ZMP
     constraint; reported, not judged: the ZMP margin judges the motion), nan (any non-finite q or v), passed and failed_criteria
@@ -240,9 +217,12 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     zmp_margin_plan = _support_margin(zmp_plan, run.left_sole, run.right_sole, run.support, robot.sole_length,
                                       robot.sole_width)
     ground = stance_ground_z(run.left_sole, run.right_sole, run.support, DOUBLE, LEFT_STANCE)
-    zmp_exec = executed_zmp(run.com, run.dt, ground)
+    zmp_exec = executed_zmp(run.com, run.dt, ground, angular_momentum=executed_angular_momentum(model, run.q, run.v),
+                            mass=robot.mass)
     zmp_margin = _support_margin(zmp_exec, run.left_sole, run.right_sole, run.support, robot.sole_length,
                                  robot.sole_width)
+    zmp_margin_com = _support_margin(executed_zmp(run.com, run.dt, ground), run.left_sole, run.right_sole,
+                                     run.support, robot.sole_length, robot.sole_width)
     tt = run.tick_time * 1e6
     summary = {
         "robot": robot.name,
@@ -256,6 +236,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "max_com_error_m": float(np.max(np.linalg.norm(run.com - run.com_ref, axis=1))),
         "max_stance_slip_m": slip,
         "min_zmp_margin_m": float(zmp_margin.min()),
+        "min_zmp_margin_com_only_m": float(zmp_margin_com.min()),
         "min_zmp_margin_plan_m": float(zmp_margin_plan.min()),
         "joint_position_violations": pos_viol,
         "joint_velocity_violations": vel_viol,

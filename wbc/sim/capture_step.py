@@ -24,6 +24,8 @@ import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
+from wbc.scenarios.framework import Criterion
+from wbc.sim.scenarios import NO_FALL, timed_push
 from wbc.sim.walk import WalkScenario, polygon_margin
 
 __all__ = ["CaptureStepScenario"]
@@ -106,15 +108,14 @@ class CaptureStepScenario:
                 self.t_trigger = float(t)
         if self.walk is not None:
             self.walk.update(t - self.t_trigger, controller, sim, q, v)
-        if self.t_push <= t < self.t_push + self.push_duration - 1e-9:
-            f = self.force * self.push_vec
-            sim.apply_external_force(self._body, f)
-            self._on = True
-            return f
-        if self._on:
-            sim.clear_external_forces()
-            self._on = False
-        return None
+        active = self.t_push <= t < self.t_push + self.push_duration - 1e-9
+        f, self._on = timed_push(sim, self._body, self.force * self.push_vec if active else None, active, self._on)
+        return f
+
+    def criteria(self) -> list[Criterion]:
+        """Pass: no fall, the run completed, no solver failure (a step is allowed, not required)."""
+        return [NO_FALL, Criterion("run completed", "completed", "==", True),
+                Criterion("no solver failure", "solver_failures", "==", 0)]
 
     def extra_summary(self, run) -> dict:
         moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1)

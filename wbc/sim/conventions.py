@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_vector
 
 __all__ = ["StateMap", "quat_xyzw_to_matrix", "check_vector"]
 
@@ -26,16 +27,6 @@ def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
     ])
-
-
-def check_vector(x, size: int, what: str) -> np.ndarray:
-    """``x`` as a float (size,) array. Raises InvalidInputError on a wrong shape or NaN/inf."""
-    arr = np.asarray(x, dtype=float)
-    if arr.shape != (size,):
-        raise InvalidInputError(f"{what} must have shape ({size},), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError(f"{what} contains NaN or inf")
-    return arr
 
 
 @dataclass(frozen=True)

@@ -23,21 +23,25 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
 5. stance until the end of the jump's period; with ``count`` > 1 the next jump starts from there.
 
-Torque limits at landing: when the torque-limited QP is infeasible (impact: the contact rows ask to stop the
-sole at once), the controller's fallback drops the torque limits (:mod:`wbc.dynamics.controller`). This
+Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
+rows ask to stop the sole at once; measured too in the last ticks of some push-offs), the controller's fallback
+drops the torque limits (:mod:`wbc.dynamics.controller`). This
 scenario then re-solves the QP with the torque limits kept and the velocity-damping of the landing contacts
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
 too, clips the relaxed torques at the URDF limits (what MuJoCo's actuators apply anyway). The counts of both
-are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``), and ``max_torque_over_limit``
+are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``torque_limited_ticks`` lists the
+first 20 as (time s, phase, how, joint most beyond its limit in the relaxed QP, its |τ|/limit)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
 Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
-10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; angular-momentum weight 1 (default
-0.1), and :data:`HOP_MOMENTUM_WEIGHT` = 50 for a forward hop (measured on G1, 0.2 m planned hop: with weight 1
-the centroidal angular momentum grew to 4.9 N·m·s pitching forward during the push and the robot fell on
-landing; with 50 it landed. For vertical series weight 50 made the take-off velocity alternate sideways up to
-±0.045 m/s over 10 jumps and the flight shrink to 0.09 s, weight 1 kept 5 jumps at 0.142–0.148 s; 50 during
-the push only did not save the hop); braking acceleration of the joint-limit viability bound
+10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; during the jump the centroidal
+angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1). Measured: G1 0.2 m planned hop,
+with weight 1 the angular momentum grew to 4.9 N·m·s (pitching forward) during the push and the robot fell on
+landing, with 50 it landed (50 only from the push start on: fell); humanoid15 vertical jump, weight 1: take-off
+0.084 m/s sideways and the feet 10 cm away, 50: 3.5 mm. But G1 series of vertical jumps need weight 1
+(``momentum_weight``; ``--momentum-weight``): with 50 the take-off velocity alternated sideways (up to ±0.045
+m/s) and the 4th of 10 jumps fell (settle 2.5 s) / the flight shrank to 0.09 s (settle 1.5 s); with 1, 10 of 10
+jumps passed; braking acceleration of the joint-limit viability bound
 (:mod:`wbc.dynamics.formulation`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
 from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and the QP cut the push-off force from
 700 N to 0 at a take-off velocity of 0.86 m/s instead of the planned 1.53 m/s (measured at 0.12 m planned height);
@@ -45,7 +49,10 @@ with 400 the late braking needed more than the hip torque limits (relaxed QP tic
 A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`; without it the arms
 flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
 and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 1 (with 10 they rotated the legs
-and the feet landed 9–14 cm behind their take-off point).
+and the feet landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
+(default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000). Landing force ramp ``t_ramp``
+0.06 s: with 0.03 s the G1 series of 10 had 2 clipped-torque ticks and Talos at 0.03 m one (hip roll 1.5× its limit
+at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks with 0.03 s, 16 with 0.06 s).
 """
 
 from __future__ import annotations
@@ -67,8 +74,8 @@ __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_
 
 #: BalanceController gain overrides used for the jump (module docstring).
 JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
-#: Weight of the centroidal angular-momentum task during a forward hop (module docstring).
-HOP_MOMENTUM_WEIGHT = 50.0
+#: Default weight of the centroidal angular-momentum task during the jump (module docstring).
+JUMP_MOMENTUM_WEIGHT = 50.0
 #: Weight of the torso and base (pelvis) orientation tasks in flight and landing (module docstring).
 FLIGHT_ORIENTATION_WEIGHT = 1.0
 #: Weight of the joint task holding the upper body (every actuated joint not between the base and a sole) at
@@ -88,12 +95,17 @@ def limit_landing_torques(controller, cmd):
     (module docstring): the QP again with every active contact's ``kd`` at 0, else the relaxed torques clipped.
 
     Returns:
-        (command, how) with how in ``"qp"`` (unchanged), ``"soft_contact"``, ``"clipped"``.
+        (command, how, (joint index, |τ|/limit)) with how in ``"qp"`` (unchanged), ``"soft_contact"``,
+        ``"clipped"``; the pair is the joint farthest beyond its limit in the relaxed command (before clipping).
     """
     if not cmd.relaxed:
-        return cmd, "qp"
+        return cmd, "qp", None
     ctrl = controller.controller
     qp = ctrl.qp
+    lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
+    relaxed_tau = qp.solution_from(ctrl.state, np.concatenate([cmd.dv, cmd.forces])).tau  # before any clipping
+    ratio = np.abs(relaxed_tau) / lim
+    worst = (int(np.argmax(ratio)), float(ratio.max()))
     saved = [(c, c.kd) for c in qp.contacts if c.active]
     for c, _ in saved:
         c.kd = 0.0
@@ -104,17 +116,17 @@ def limit_landing_torques(controller, cmd):
         cmd.dynamics_residual, cmd.relaxed = sol.dynamics_residual, False
         how = "soft_contact"
     except SolverError:
-        lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
-        cmd.tau = np.clip(cmd.tau, -lim, lim)
+        cmd.tau = np.clip(relaxed_tau, -lim, lim)
         how = "clipped"
     finally:
         for c, kd in saved:
             c.kd = kd
-    return cmd, how
+    return cmd, how, worst
 
 
 class JumpScenario:
-    """``count`` jumps (module docstring), each following a :class:`~wbc.gait.jump_plan.JumpPlan`.
+    """``count`` jumps (module docstring), each following a :class:`~wbc.gait.jump_plan.JumpPlan`
+    (attribute ``jump_plan``).
 
     Args:
         height: apex CoM rise above take-off (m). forward: foot displacement per jump along world x (m).
@@ -122,7 +134,8 @@ class JumpScenario:
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
             planned landing (s). t_start: stand before the first crouch (s). touchdown_height: sole height (m,
             world) at or below which a falling sole is in contact. landing_force: end of the ramp (N; default
-            4 m g).
+            4 m g). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
+            task during the jump (module docstring).
 
     Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
     over time of the lower sole's rise above the ground), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s``
@@ -142,9 +155,10 @@ class JumpScenario:
     needs_id = True
 
     def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, crouch: float = 0.1,
-                 extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.03,
+                 extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.06,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
-                 landing_force: float | None = None, min_hop: float | None = None):
+                 landing_force: float | None = None, min_hop: float | None = None,
+                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
         if min_hop is not None and not (np.isfinite(min_hop) and min_hop >= 0):
             raise InvalidInputError(f"jump: min_hop must be None or finite and >= 0 m, got {min_hop!r}")
         self.min_hop = min_hop
@@ -158,17 +172,21 @@ class JumpScenario:
         self.count = count
         self._plan_args = dict(height=height, forward=forward, crouch=crouch, extension=extension,
                                t_crouch=t_crouch, tuck=tuck, w_land=w_land)
-        self.plan = JumpPlan(**self._plan_args)  # validated now; com_height set in setup
+        self.jump_plan = JumpPlan(**self._plan_args)  # validated now; com_height set in setup
         self.t_ramp, self.settle, self.t_start = float(t_ramp), float(settle), float(t_start)
         self.touchdown_height = float(touchdown_height)
         self.landing_force = landing_force
+        w = np.asarray(momentum_weight, dtype=float)
+        if w.shape not in ((), (3,)) or not (np.isfinite(w).all() and (w > 0).all()):
+            raise InvalidInputError(f"jump: momentum_weight must be a finite scalar or (3,) > 0, got {momentum_weight!r}")
+        self.momentum_weight = w.copy()
         self._set_period()
         self.phase = "stand"
         self.com0 = np.zeros(3)
         self._ref = (np.zeros(3), np.zeros(3), np.zeros(3))
 
     def _set_period(self):
-        p = self.plan
+        p = self.jump_plan
         self.t_takeoff_plan = self.t_start + p.t_push_start + p.t_push
         self.period = self.t_takeoff_plan + p.t_flight + self.settle  # one jump, s
         self.duration = self.count * self.period
@@ -182,7 +200,7 @@ class JumpScenario:
         self.soles0 = {s: data.oMf[robot.frame_id(f)].copy() for s, f in zip(SIDES, (robot.left_sole, robot.right_sole))}
         mid = 0.5 * (self.soles0["left"].translation + self.soles0["right"].translation)
         self.com_offset = self.com0 - mid  # CoM relative to the mid-sole point when standing
-        self.plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
+        self.jump_plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
         self._set_period()
         force = self.landing_force if self.landing_force is not None else 4 * robot.mass * G
         self.switcher = ContactSwitcher(controller, ramp_time=self.t_ramp, touchdown_height=self.touchdown_height,
@@ -194,6 +212,7 @@ class JumpScenario:
         self.c_start = self.com0.copy()
         self.takeoffs, self.touchdowns, self.takeoff_velocity, self.push_starts = [], [], [], []
         self.how = {"qp": 0, "soft_contact": 0, "clipped": 0}
+        self.limited_ticks, self._t_now = [], 0.0
         self._ref = (self.com0.copy(), np.zeros(3), np.zeros(3))
         self._wrap(controller)
         base = next(f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
@@ -202,8 +221,7 @@ class JumpScenario:
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
         self.foot_weight = np.array(controller.feet["left"].weight, dtype=float).copy()
-        if self.plan.forward > 0:
-            controller.momentum.weight[:] = HOP_MOMENTUM_WEIGHT
+        controller.momentum.weight[:] = self.momentum_weight
         legs = set()
         for f in (robot.left_sole, robot.right_sole):
             legs.update(model.supports[model.frames[robot.frame_id(f)].parentJoint])
@@ -220,8 +238,11 @@ class JumpScenario:
         how = self.how
 
         def limited(q, v):
-            cmd, h = limit_landing_torques(controller, compute(q, v))
+            cmd, h, worst = limit_landing_torques(controller, compute(q, v))
             how[h] += 1
+            if h != "qp":
+                self.limited_ticks.append((round(self._t_now, 6), self.phase, h, self.robot.joint_names[worst[0]],
+                                           round(worst[1], 3)))
             return cmd
 
         controller.compute = limited
@@ -235,7 +256,8 @@ class JumpScenario:
         return d.com[0].copy(), d.vcom[0].copy()
 
     def update(self, t, ctrl, sim, q, v):
-        p = self.plan
+        self._t_now = t
+        p = self.jump_plan
         sw = self.switcher
         if self.phase == "land" and t >= self.t0 + self.period - 1e-9 and self.jump + 1 < self.count:
             self.jump += 1  # next jump of a series, from the landed stance
@@ -286,7 +308,7 @@ class JumpScenario:
         self.c_to, self.v_to, self.t_to = c, vc, t
         self.t_flight = 2 * max(vc[2], 0.05) / G  # measured flight time to the take-off height
         self.feet_to = {s: st.data.oMf[ctrl.feet[s].task.frame_id].translation.copy() for s in SIDES}
-        self.foot_target = {s: self.plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
+        self.foot_target = {s: self.jump_plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
         self.foot_target.update({s: np.r_[self.foot_target[s][:2], self.soles0[s].translation[2]] for s in SIDES})
         self.takeoffs.append(t)
         self.takeoff_velocity.append(vc.copy())
@@ -294,12 +316,12 @@ class JumpScenario:
     def _swing_feet(self, t, ctrl):
         """Foot references of the soles still in swing (flight, or landing before their own touch-down)."""
         tau = t - self.t_to
-        cref = self.plan.flight_reference(self.c_to, self.v_to, tau)
+        cref = self.jump_plan.flight_reference(self.c_to, self.v_to, tau)
         dz = cref[0][2] - self.c_to[2]
         for side in SIDES:
             if self.switcher.phase(side) != "swing":
                 continue
-            pos, vel, acc = self.plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
+            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
                                                          -G, tau, self.t_flight)
             if self.phase == "land":  # the other sole is down: this one goes down to the ground
                 pos[2] = min(pos[2], self.foot_target[side][2] - 0.01)
@@ -310,7 +332,7 @@ class JumpScenario:
                 self.switcher.arm(side)
 
     def _flight(self, t, ctrl, q, v):
-        ref = self.plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
+        ref = self.jump_plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
         self._swing_feet(t, ctrl)
         down = [s for s in SIDES if self.switcher.phase(s) != "swing"]
         if down:  # first touch-down: landing from the measured CoM state
@@ -372,8 +394,8 @@ class JumpScenario:
         push_ratio = ratio[push].max(axis=0) if push.any() else np.zeros(ratio.shape[1])
         jp = int(np.argmax(push_ratio))
         self.push_postures = run.q[push]
-        return {"jumps": self.count, "planned_height_m": self.plan.height, "planned_forward_m": self.plan.forward,
-                "takeoff_velocity_plan_mps": [float(x) for x in self.plan.takeoff_velocity],
+        return {"jumps": self.count, "planned_height_m": self.jump_plan.height, "planned_forward_m": self.jump_plan.forward,
+                "takeoff_velocity_plan_mps": [float(x) for x in self.jump_plan.takeoff_velocity],
                 "takeoff_velocity_measured_mps": [[float(x) for x in vv] for vv in self.takeoff_velocity],
                 "apex_foot_clearance_m": float(both.max()),
                 "time_both_feet_5cm_per_jump_s": per_jump, "time_both_feet_5cm_s": min(per_jump),
@@ -382,6 +404,7 @@ class JumpScenario:
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
                 "push_max_torque_over_limit": float(push_ratio[jp]), "push_max_torque_joint": self.robot.joint_names[jp],
                 "landing_soft_contact_ticks": self.how["soft_contact"], "torque_clipped_ticks": self.how["clipped"],
+                "torque_limited_ticks": self.limited_ticks[:20],
                 "landing_com_overshoot_m": max(overshoot) if overshoot else None,
                 "landed": landed, "slide_per_jump_m": slide, "max_slide_m": max(slide) if slide else None,
                 "hop_distance_per_jump_m": hop, "feet_moved_m": float(moved)}

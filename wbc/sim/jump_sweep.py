@@ -27,8 +27,9 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
+from wbc.sim.scenarios import largest_passing
 
-__all__ = ["static_torques", "pushoff_bound", "jump_height_sweep"]
+__all__ = ["static_torques", "pushoff_bound", "jump_height_sweep", "sweep_report"]
 
 G = 9.81
 
@@ -102,27 +103,51 @@ def jump_height_sweep(run_trial, *, start: float = 0.02, max_height: float = 0.3
                "torque_clipped_ticks": s.get("torque_clipped_ticks"),
                "max_torque_over_limit": s.get("max_torque_over_limit"), "max_torque_joint": s.get("max_torque_joint"),
                "push_max_torque_over_limit": s.get("push_max_torque_over_limit"),
-               "push_max_torque_joint": s.get("push_max_torque_joint")}
+               "push_max_torque_joint": s.get("push_max_torque_joint"),
+               "torque_limited_ticks": s.get("torque_limited_ticks")}
         trials.append(row)
         if log:
             log(f"    h {h:.4f} m: {'ok    ' if success else 'FAILED'} fell {s['fell']}, clearance "
-                f"{row['apex_foot_clearance_m']:.3f} m, take-off {row['takeoff_velocity_mps']} m/s, clipped "
-                f"{row['torque_clipped_ticks']}, push max |τ|/limit {row['push_max_torque_over_limit']:.3f} "
-                f"({row['push_max_torque_joint']})")
+                f"{row['apex_foot_clearance_m']} m, take-off {row['takeoff_velocity_mps']} m/s, clipped "
+                f"{row['torque_clipped_ticks']}, push max |τ|/limit {row['push_max_torque_over_limit']} "
+                f"({row['push_max_torque_joint']}); torque-limited ticks {row['torque_limited_ticks']}")
         return success
 
-    lo, hi = None, start
-    while ok(hi):
-        lo = hi
-        hi *= 2.0
-        if hi > max_height:
-            return {"max_height_m": lo, "min_failed_m": None, "trials": trials}
-    if lo is None:
-        return {"max_height_m": None, "min_failed_m": hi, "trials": trials}
-    while hi - lo > resolution:
-        mid = 0.5 * (lo + hi)
-        if ok(mid):
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = largest_passing(ok, start, limit=max_height, resolution=resolution)
     return {"max_height_m": lo, "min_failed_m": hi, "trials": trials}
+
+
+def sweep_report(robot, sim, make, *, log=None, **sweep_options) -> tuple[dict, list]:
+    """Run :func:`jump_height_sweep` with one-jump :class:`~wbc.sim.jump.JumpScenario` trials on ``sim`` (each
+    with a fresh controller from ``make()``) and the push-off bound on the push postures of the highest success
+    (or, if none, of the lowest failure).
+
+    Returns:
+        (report dict: ``max_planned_height_m``, ``min_failed_height_m``, ``apex_foot_clearance_at_max_m``,
+        ``push_limiting_joint_measured``, ``push_max_torque_over_limit_measured``, ``quasi_static_bound``;
+        the list of trials).
+    """
+    from wbc.sim.jump import JumpScenario
+    from wbc.sim.scenarios import run_scenario
+
+    scenarios = {}
+
+    def trial(h):
+        sc = JumpScenario(height=h)
+        _, s = run_scenario(sim, make(), sc)
+        scenarios[h] = sc
+        return s
+
+    if log:
+        log("  sweep of the planned height (one jump per trial):")
+    res = jump_height_sweep(trial, log=log, **sweep_options)
+    best = res["max_height_m"]
+    probe = scenarios.get(best) or scenarios[res["min_failed_m"]]
+    bound = pushoff_bound(robot, probe.push_postures, probe.jump_plan.stroke) if len(probe.push_postures) else None
+    row = next((r for r in res["trials"] if r["height_m"] == best), None)
+    report = {"max_planned_height_m": best, "min_failed_height_m": res["min_failed_m"],
+              "apex_foot_clearance_at_max_m": row and row["apex_foot_clearance_m"],
+              "push_limiting_joint_measured": row and row["push_max_torque_joint"],
+              "push_max_torque_over_limit_measured": row and row["push_max_torque_over_limit"],
+              "quasi_static_bound": bound}
+    return report, res["trials"]

@@ -46,7 +46,8 @@ from wbc.scenarios.framework import Criterion, evaluate
 
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
-    "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "make_controller",
+    "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
+    "make_controller",
     "DEFAULT_PUSH_FORCE",
 ]
 
@@ -59,6 +60,21 @@ NO_FALL = Criterion("no fall (base drop > 0.2 m or a non-foot body on the floor)
 
 #: A push or a wave must not make the robot step or slide.
 FEET_STILL = Criterion("feet moved ≤ 2 cm (no stepping/sliding)", "feet_moved_m", "<=", 0.02)
+
+
+def timed_push(sim, body: str, force: np.ndarray, active: bool, pushing: bool) -> tuple[np.ndarray | None, bool]:
+    """One tick of a push: while ``active``, apply ``force`` (3,) N, world, at the origin of ``body`` (re-applied
+    every tick); at the first inactive tick after a push, clear the external forces.
+
+    Returns:
+        (force applied this tick or None, whether a push is on) — pass the latter back as ``pushing``.
+    """
+    if active:
+        sim.apply_external_force(body, force)
+        return force, True
+    if pushing:
+        sim.clear_external_forces()
+    return None, False
 
 
 class _Base:
@@ -238,15 +254,9 @@ class PushScenario(_Base):
         self._on = False
 
     def update(self, t, controller, sim, q, v):
-        if self.t_push <= t < self.t_push + self.push_duration - 1e-9:
-            f = self.force * self.direction
-            sim.apply_external_force(self._body, f)  # at the body origin, re-applied every tick
-            self._on = True
-            return f
-        if self._on:
-            sim.clear_external_forces()
-            self._on = False
-        return None
+        f, self._on = timed_push(sim, self._body, self.force * self.direction,
+                                 self.t_push <= t < self.t_push + self.push_duration - 1e-9, self._on)
+        return f
 
     def extra_summary(self, run) -> dict:
         moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
@@ -421,16 +431,31 @@ def push_sweep(sim, make, *, push_duration: float = 0.1, f_hi: float, resolution
                 f" (fell {s['fell']}, feet moved {s['feet_moved_m']:.3f} m)")
         return s["passed"]
 
-    lo, hi = 0.0, float(f_hi)
-    while survives(hi):
+    lo, hi = largest_passing(survives, float(f_hi), limit=max_force, resolution=resolution, lo=0.0)
+    return {"max_survived_n": lo, "min_failed_n": hi, "trials": trials}
+
+
+def largest_passing(ok, start: float, *, limit: float, resolution: float, lo: float | None = None):
+    """Bracket then bisect the largest value that passes ``ok`` (assumed monotonic: passes below a threshold).
+
+    ``start`` is doubled while it passes (``None`` for the failing end once it exceeds ``limit``), then the bracket
+    [lo, hi] is halved until narrower than ``resolution`` (units of the value).
+
+    Returns:
+        (largest passing value or ``lo`` when ``start`` already fails, smallest failing value or None).
+    """
+    hi = start
+    while ok(hi):
         lo = hi
         hi *= 2.0
-        if hi > max_force:
-            return {"max_survived_n": lo, "min_failed_n": None, "trials": trials}
+        if hi > limit:
+            return lo, None
+    if lo is None:
+        return None, hi
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
-        if survives(mid):
+        if ok(mid):
             lo = mid
         else:
             hi = mid
-    return {"max_survived_n": lo, "min_failed_n": hi, "trials": trials}
+    return lo, hi

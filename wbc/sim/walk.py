@@ -16,6 +16,14 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
 
+* **Step adjustment** (``step_adjust``, default on): during the single support of a released swing foot, the
+  landing point follows the measured DCM (:class:`wbc.gait.step_adjustment.StepAdjuster`: Khadiv et al. 2016
+  eq. 6–7, dead band 3 cm on the DCM error, reach box and minimum width between the feet); when it moves by
+  more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
+  (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
+  last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
+  capture step (a 2-step walk planned from the measured state). Optional step timing adjustment (eq. 2, off).
+
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
 displacement of a loaded stance sole from its position when fully loaded until its ramp-out begins), minimum
@@ -36,7 +44,7 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.scenarios.framework import Criterion, evaluate
-from wbc.sim.scenarios import NO_FALL
+from wbc.sim.scenarios import NO_FALL, timed_push
 
 __all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
            "walk_criteria"]
@@ -190,8 +198,13 @@ class WalkScenario:
             trajectory are replanned from the new step by :meth:`wbc.gait.WalkPlan.replan`); the remaining
             footsteps move with it. ``adjust_dead_band`` (m): dead band on the DCM error;
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
-            ``0.55 z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + 0.35 z_c``
+            ``forward_reach z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + lateral_reach z_c``
             (``z_c`` the CoM height).
+        adjust_timing: (default off: on 2 seeded 300 N pushes it did not turn a fall into a recovery) cut the swing in
+            progress short (by at most ``max_cut`` s, to no less than ``min_time_left``
+            s before landing; eq. 2 of
+            :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
+            adjusted landing by more than 5 cm, so that the next step comes sooner.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
             DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
             first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
@@ -210,8 +223,10 @@ class WalkScenario:
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
-                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.1,
-                 first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False):
+                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.05,
+                 first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
+                 adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
+                 lateral_reach: float = 0.5, forward_reach: float = 0.55):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -232,6 +247,13 @@ class WalkScenario:
             first_side = "right" if self.step_lateral < 0 else "left"
         self.first_side = first_side
         self.from_state = bool(from_state)
+        self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
+        self.max_cut = float(max_cut)
+        self.recovery_margin = 0.02
+        if self.push > 0 and self.step_adjust:  # time for a recovery step after the walk
+            self.settle = max(self.settle, 2.5)
+            self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
+        self.lateral_reach, self.forward_reach = float(lateral_reach), float(forward_reach)
         # Duration estimate (refined in setup from the plan): init + steps + final + settle.
         self.duration = self.t_init + self.n_steps * self.step_duration + self.t_final + self.settle
         self.plan = None
@@ -256,8 +278,8 @@ class WalkScenario:
                                                          else {}))
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
-        self.adjuster = StepAdjuster(plan.omega, max_forward=0.55 * zc, max_backward=0.35 * zc,
-                                     min_width=robot.sole_width + 0.05, max_width=w0 + 0.35 * zc,
+        self.adjuster = StepAdjuster(plan.omega, max_forward=self.forward_reach * zc, max_backward=0.35 * zc,
+                                     min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
         if self.from_state:
@@ -278,10 +300,15 @@ class WalkScenario:
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
+        self._skipped = -1  # swing whose timing was changed
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
+        self._recovery, self._t_recovery = None, None
+        self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
+        self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
+        self._t_unload = {"left": -1.0, "right": -1.0}
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
@@ -317,7 +344,7 @@ class WalkScenario:
         return plan.replan(0, c, cd, new, check_start=False)
 
     def com_reference(self, t):
-        return self.plan.com[self.plan.index(t)]
+        return self.plan.com[min(self.plan.index(t) + self._shift, self.plan.n_samples - 1)]
 
     def _hull(self, shrink: float) -> np.ndarray:
         pts = []
@@ -330,29 +357,33 @@ class WalkScenario:
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
+        if self._recovery is not None:
+            return self._recovery_update(t, controller, sim, q, v)
         plan, dt, sw = self.plan, self.dt, self.switcher
-        k = plan.index(t)
+        k = min(plan.index(t) + self._shift, plan.n_samples - 1)
+        tp = k * dt  # plan clock
         # Start the ramp-out of the next swing so that the foot is released at the planned lift-off.
         if self._next < len(self.swings):
             side, k_lift, k_td, fs = self.swings[self._next]
             other = "right" if side == "left" else "left"
             # Never release a foot while the other one is not yet down (late touch-down: the step waits).
-            if t >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
+            if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
                     and sw.phase(other) in ("stance", "loading"):
                 sw.unload(side, t)
+                self._t_unload[side] = t
                 self._active[side] = self.swings[self._next]
                 self._next += 1
         sw.update(t, q, v)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
-                if t >= (k_lift + 0.5 * (k_td - k_lift)) * dt:
+                if tp >= (k_lift + 0.5 * (k_td - k_lift)) * dt:
                     sw.arm(side)
                 kk = min(k, k_td)
                 pose = pin.SE3(self.poses[side][kk])
                 vel = self.vels[side][kk].copy()
                 acc = self.acc[side][kk].copy()
-                late = t - k_td * dt
+                late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
                     pose.translation = pose.translation - [0.0, 0.0, min(self.descent_speed * late, 0.02)]
                     vel[:] = 0.0
@@ -360,7 +391,7 @@ class WalkScenario:
                     acc[:] = 0.0
                 controller.set_foot_reference(side, pose, vel, acc)
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
-                    and sw.touchdown_time[side] >= k_lift * dt:
+                    and sw.touchdown_time[side] > self._t_unload[side]:
                 del self._active[side]
         # State quantities (CoM velocity, soles) for the DCM and the log.
         pin.centerOfMass(self._model, self._data, q, v)
@@ -390,16 +421,44 @@ class WalkScenario:
             lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
         lg["hull"][i] = self._hull(0.0)
         self._k += 1
-        # Push.
-        if self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9:
-            f = self.push * self.push_vec
-            sim.apply_external_force(self._push_body, f)
-            self._pushing = True
-            return f
-        if self._pushing:
-            sim.clear_external_forces()
-            self._pushing = False
-        return None
+        if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
+                and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
+                and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
+            self._start_recovery(t, controller, sim, q, v, xi)
+        return self._apply_push(t, sim)
+
+    def _start_recovery(self, t, controller, sim, q, v, xi):
+        """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
+        (a 2-step walk planned from the measured state, first step from the measured DCM), as
+        :class:`wbc.sim.capture_step.CaptureStepScenario` does for a standing robot."""
+        mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
+        side = "left" if (xi - mid) @ self._data.oMf[self._fid["left"]].rotation[:2, 1] >= 0 else "right"
+        rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
+                           first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
+                           cop_margin=self.cop_margin)
+        rec.setup(controller, sim, q, v)
+        self._recovery, self._t_recovery = rec, float(t)
+
+    def _recovery_update(self, t, controller, sim, q, v):
+        rec = self._recovery
+        rec.update(t - self._t_recovery, controller, sim, q, v)
+        pin.framesForwardKinematics(self._model, self._data, q)
+        i = min(self._k, len(self.log["phase"]) - 1)
+        lg = self.log
+        for j, s in enumerate(("left", "right")):
+            lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(rec.switcher.phase(s))
+            M = self._data.oMf[self._fid[s]]
+            lg["sole_xy"][i, j] = M.translation[:2]
+            lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        lg["hull"][i] = self._hull(0.0)
+        self._k += 1
+        return self._apply_push(t, sim)
+
+    def _apply_push(self, t, sim):
+        active = self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9
+        f, self._pushing = timed_push(sim, self._push_body, self.push * self.push_vec if active else None, active,
+                                      self._pushing)
+        return f
 
     def _adjust_step(self, t, k, c, cd, xi):
         """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
@@ -429,26 +488,40 @@ class WalkScenario:
         if not corr.any() and abs(fs.x - fs0.x) + abs(fs.y - fs0.y) == 0.0:
             return
         target = self.adjuster.landing(fs0, stance, corr) if corr.any() else fs0
+        skip = 0
+        clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
+        if self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
+                and not (self._skipped == idx):
+            skip = int(round(min(time_left - self.min_time_left, self.max_cut) / self.dt))
+            u0 = np.array(stance[:2])
+            corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left - skip * self.dt, u0)
+            target = self.adjuster.landing(fs0, stance, corr)
         d = np.array([target.x - fs.x, target.y - fs.y])
-        if np.linalg.norm(d) < 0.01:
+        if np.linalg.norm(d) < 0.01 and not skip:
             return
         remaining = [(i, sw) for i, sw in enumerate(self.swings) if sw[2] > k]
         new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
         try:
-            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False)
+            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False, skip=skip)
         except GaitError:
             self.replan_failures += 1
             return
-        self._rp, self._rp_k0 = rp, k
+        k1 = k + skip  # the plan sample of the current time after the timing change
+        self._rp, self._rp_k0 = rp, k1
         for (i, sw), f in zip(remaining, new):
             self.swings[i] = (sw[0], sw[1], sw[2], f)
         n = rp.n_samples
         for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
-            self.poses[s][k:k + n] = P
-            self.vels[s][k:k + n] = V
-            self.acc[s][k:k + n] = np.gradient(V, self.dt, axis=0)
-        self.ref_dcm[k:k + n] = rp.dcm
-        self.ref_zmp[k:k + n] = rp.zmp
+            self.poses[s][k1:k1 + n] = P
+            self.vels[s][k1:k1 + n] = V
+            self.acc[s][k1:k1 + n] = np.gradient(V, self.dt, axis=0)
+        self.ref_dcm[k1:k1 + n] = rp.dcm
+        self.ref_zmp[k1:k1 + n] = rp.zmp
+        if skip:
+            self._shift += skip
+            self._skipped = idx
+            self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
+            self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
     # -- summary -------------------------------------------------------------------------------------------
@@ -484,15 +557,23 @@ class WalkScenario:
         landing, td_delay, slips = [], [], []
         swings = list(self.swings)
         tds = [(t, s) for t, s, e in ev if e == "touchdown"]
+        unloads = {sd: [t for t, s, e in ev if e == "unload" and s == sd] for sd in ("left", "right")}
+        count = {"left": 0, "right": 0}
         for (side, k_lift, k_td, fs) in swings:
-            match = [t for t, s in tds if s == side and t > k_lift * dt]
+            # the swings of a side are unloaded in order: the i-th unload of a side starts its i-th swing
+            if count[side] >= len(unloads[side]):
+                continue
+            t_unload = unloads[side][count[side]]
+            count[side] += 1
+            match = [t for t, s in tds if s == side and t > t_unload]
             if not match:
                 continue
             ttd = match[0]
             i = min(int(round(ttd / dt)), n - 1)
             j = 0 if side == "left" else 1
             landing.append(float(np.linalg.norm(lg["sole_xy"][i, j] - [fs.x, fs.y])))
-            td_delay.append(ttd - k_td * dt)
+            earlier = sum(m for tt, sd, m in self.timing_changes if tt <= ttd)  # planned landing moved earlier
+            td_delay.append(ttd - (k_td * dt - earlier))
         for j, s in enumerate(("left", "right")):
             stance = lg["phase"][:, j] == 0  # fully loaded stance
             k = 0
@@ -535,11 +616,13 @@ class WalkScenario:
             "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s",
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
+            "step_timing_changes_s": [m for _, _, m in self.timing_changes],
             "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
             "adjusted_distance_m": float(np.linalg.norm(
                 0.5 * (self.poses["left"][-1, :2, 3] + self.poses["right"][-1, :2, 3])
                 - 0.5 * (self.poses["left"][0, :2, 3] + self.poses["right"][0, :2, 3]))),
             "replan_failures": self.replan_failures,
+            "recovery_step_time_s": self._t_recovery,
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]

@@ -36,13 +36,6 @@ class ComTask(Task):
         self.target = com
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
-    def set_target_trusted(self, com: np.ndarray, velocity: np.ndarray | None = None) -> None:
-        """:meth:`set_target` without validation or copies, for a controller's own loop feeding targets it built
-        and validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``com`` (3,) m and ``velocity``
-        (3,) m/s or None, float arrays, finite, world, kept by reference (the caller must not modify them)."""
-        self._target = com
-        self._ff = velocity
-
     @property
     def target(self) -> np.ndarray:
         """Target CoM (3,) m, world; validated on assignment (raises InvalidTargetError: wrong shape or NaN)."""
@@ -51,6 +44,13 @@ class ComTask(Task):
     @target.setter
     def target(self, com) -> None:
         self._target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+
+    def set_target_trusted(self, com: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        """:meth:`set_target` without validation or copies, for a controller's own loop feeding targets it built
+        and validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``com`` (3,) m and ``velocity``
+        (3,) m/s or None, float arrays, finite, world, kept by reference (the caller must not modify them)."""
+        self._target = com
+        self._ff = velocity
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return config.com - self._target, config.com_jacobian

@@ -15,6 +15,7 @@ from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
 from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
+from wbc.tasks.pose_kernel import ensure_compiled, orientation_error_jacobian, pose_error_jacobian
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
            "as_se3"]
@@ -71,6 +72,7 @@ class FrameTask(Task):
         self.dim = int(self.rows.size)
         super().__init__(gain=gain, weight=w6[self.rows], name=name or frame)
         self.target = pin.SE3.Identity()
+        ensure_compiled()
         self._ff6 = np.zeros(6)
         self._ff: np.ndarray | None = None
 
@@ -103,6 +105,8 @@ class FrameTask(Task):
         rot = pose[:3, :3]
         self._target = pin.SE3(rot, pose[:3, 3])
         self._target_rot_t = rot.T.copy()
+        self._target_rot = np.array(rot, order="C")
+        self._target_pos = np.array(pose[:3, 3], dtype=float)
         if velocity is None:
             self._ff = None
             return
@@ -121,20 +125,27 @@ class FrameTask(Task):
         pose = as_se3(pose, f"target of {self.name}")
         self._target = pose
         self._target_rot_t = pose.rotation.T.copy()
+        self._target_rot = np.array(pose.rotation, order="C")
+        self._target_pos = np.array(pose.translation)
 
     def set_target_from_configuration(self, config: Configuration) -> None:
         """Target = the frame's current placement, zero velocity."""
         self.set_target(config.data.oMf[self.frame_id].copy())
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
-        if self._all_rows:
-            return frame_error_and_jacobian(config, self.frame_id, self.target)
-        # only the blocks that have rows (same formulas as pose_error_and_jacobian)
         oMf = config.data.oMf[self.frame_id]
         j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
         rot = oMf.rotation
+        if self._all_rows:  # compiled (wbc.tasks.pose_kernel); Pinocchio's log3/Jlog3 beyond its angle range
+            ok, error, jac = pose_error_jacobian(rot, oMf.translation, self._target_rot, self._target_pos, j_local)
+            return (error, jac) if ok else pose_error_and_jacobian(oMf, j_local, self.target)
+        # only the blocks that have rows (same formulas as pose_error_and_jacobian)
         if not self._has_rot:
             return (oMf.translation - self.target.translation)[self.rows], (rot @ j_local[:3])[self.rows]
+        if not self._has_pos and self._rot_rows.size == 3:
+            ok, error, jac = orientation_error_jacobian(rot, self._target_rot, j_local)
+            if ok:
+                return error, jac
         rel = self._target_rot_t @ rot
         if not self._has_pos:
             if self._rot_rows.size == 3:

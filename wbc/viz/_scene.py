@@ -36,7 +36,7 @@ CAMERA_TARGET = "/Cameras/target"
 CAMERA_OBJECT = "/Cameras/default/rotated/<object>"
 #: Colours (0xRRGGBB) of well-known overlays; others cycle through ``_PALETTE``.
 #: Overlays drawn together in one scene have distinct colours (a test checks it).
-OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "zmp": 0x1FA34A, "cop": 0x0B5D1E,
+OVERLAY_COLORS = {"com": 0xE0262B, "com_ground": 0xF08080, "com_reference": 0x7A0F12, "zmp": 0x1FA34A, "cop": 0x0B5D1E,
                   "zmp_planned": 0x1FA34A, "zmp_executed": 0x9BE15D, "dcm": 0x2B6FE0, "capture_point": 0x2B6FE0,
                   "dcm_planned": 0x2B6FE0, "dcm_executed": 0x7FB2FF, "footsteps_planned": 0xF28C1B,
                   "footprints": 0x222222, "swing_left": 0x9B3FD1, "swing_right": 0x15A5B5,

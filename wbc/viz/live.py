@@ -3,12 +3,16 @@
 :class:`LiveViewer` keeps only the latest state given to :meth:`LiveViewer.update` (a copy, microseconds)
 and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transform`` is a blocking
 ~0.3 ms round trip, so a Talos pose (52 meshes) takes ~20 ms to send and a 500 Hz loop cannot wait for it.
+The same thread computes the overlays of each shown pose (:class:`~wbc.viz.live_overlays.LiveOverlays`) and
+moves ``/Cameras/target`` with the base, which the page of wbc's server (:mod:`wbc.viz._server`) follows.
 :class:`RealTimePacer` runs a simulated loop at wall-clock speed.
 """
 
 from __future__ import annotations
 
 import atexit
+import contextlib
+import io
 import math
 import subprocess
 import threading
@@ -74,7 +78,8 @@ class LiveViewer:
         if zmq_url is None:
             self._server, zmq_url, _ = _server.start()
             atexit.register(_kill, self._server)
-        self._vis = meshcat.Visualizer(zmq_url=zmq_url)
+        with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; the caller decides
+            self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)

@@ -42,7 +42,8 @@ class LiveOverlays:
 
     Args:
         robot: the robot (sole frames ``robot.left_sole`` / ``robot.right_sole`` and sole rectangle).
-        plan: optional :class:`wbc.gait.WalkPlan` on the clock of the times given to :meth:`frame`.
+        plan: optional :class:`wbc.gait.WalkPlan` on the clock of the times given to :meth:`frame`, or a
+            function returning it (or None) when asked, for a plan made once the run has started.
         contact_height: without a plan, a sole whose origin is at most this high (m) is in contact.
         trail_every: swing paths are re-sent every this many frames (and at each touchdown).
     """
@@ -59,12 +60,16 @@ class LiveOverlays:
         self._trails: tuple[list, list] = ([], [])
         self._count = 0
 
+    def _plan(self):
+        return self.plan() if callable(self.plan) and not hasattr(self.plan, "index") else self.plan
+
     def static(self) -> dict[str, list[np.ndarray]]:
         """Closed outlines drawn once: ``{"footsteps_planned": [(4, 3), ...]}`` with a plan, else ``{}``."""
-        if self.plan is None:
+        plan = self._plan()
+        if plan is None:
             return {}
         L, W = self.robot.sole_length, self.robot.sole_width
-        return {"footsteps_planned": [_outline(f.pose(), L, W) for f in self.plan.footsteps]}
+        return {"footsteps_planned": [_outline(f.pose(), L, W) for f in plan.footsteps]}
 
     def frame(self, q: np.ndarray, t: float | None) -> dict:
         """Overlays of one displayed pose ``q`` (nq,) at time ``t`` (s, or None).
@@ -93,11 +98,12 @@ class LiveOverlays:
                 acc = 2.0 * ((c2 - c1) / (t2 - t1) - (c1 - c0) / (t1 - t0)) / (t2 - t0)
                 points["zmp_executed"] = np.array([c1[0] - c1[2] / GRAVITY * acc[0],
                                                    c1[1] - c1[2] / GRAVITY * acc[1], 0.0])
-        if self.plan is not None and t is not None:
-            k = self.plan.index(t)
-            points["zmp_planned"] = np.array([*self.plan.zmp[k], 0.0])
-            points["dcm_planned"] = np.array([*self.plan.dcm[k], 0.0])
-            support = int(self.plan.support[k])
+        plan = self._plan()
+        if plan is not None and t is not None:
+            k = plan.index(t)
+            points["zmp_planned"] = np.array([*plan.zmp[k], 0.0])
+            points["dcm_planned"] = np.array([*plan.dcm[k], 0.0])
+            support = int(plan.support[k])
         else:
             down = [s[2, 3] <= self.contact_height for s in soles]
             support = 0 if all(down) else 1 if down[0] else 2 if down[1] else 3

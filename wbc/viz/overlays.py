@@ -26,7 +26,7 @@ import numpy as np
 
 from wbc.gait.support import convex_hull, sole_polygon
 
-__all__ = ["walk_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
+__all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
 
 GRAVITY = 9.81  # m/s^2
 
@@ -71,6 +71,23 @@ def walk_overlays(robot, plan, run) -> dict:
     planned = [_outline(f.pose(), robot.sole_length, robot.sole_width) for f in plan.footsteps]
     outlines = {"footsteps_planned": planned, "footprints": prints}
     return {"points": points, "polygons": polygons, "outlines": outlines, "paths": paths}
+
+
+def balance_overlays(robot, run) -> dict:
+    """Overlays of a balance run (``run``: :class:`wbc.scenarios.balance.BalanceRun`), same items as a walk's:
+    points com, com_ground, com_reference (ground projection of the CoM target, when the behaviour has one all
+    along), zmp_executed (cart-table ZMP of the executed CoM), dcm_executed; support polygons of each phase;
+    footprints; swing_left / swing_right sole paths."""
+    t, com = run.t, run.com
+    zeros = np.zeros((len(t), 1))
+    points = {"com": com, "com_ground": np.c_[com[:, :2], zeros]}
+    if np.isfinite(run.com_ref).all():
+        points["com_reference"] = np.c_[run.com_ref[:, :2], zeros]
+    points["zmp_executed"] = cart_table_zmp(t, com)
+    points["dcm_executed"] = dcm_of(t, com)
+    polygons, prints, paths = contact_items(t, run.support, run.left_sole, run.right_sole, robot.sole_length,
+                                            robot.sole_width)
+    return {"points": points, "polygons": polygons, "outlines": {"footprints": prints}, "paths": paths}
 
 
 def contact_items(t: np.ndarray, support: np.ndarray, left_sole: np.ndarray, right_sole: np.ndarray,

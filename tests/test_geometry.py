@@ -1,0 +1,62 @@
+"""wbc.geometry, the layer below tasks, constraints and gait: checked against scipy and closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from scipy.spatial import ConvexHull
+
+from wbc.exceptions import ConfigurationError, GaitError, InvalidTargetError
+from wbc.geometry import (
+    as_se3, check_vector, hull, mean_heading, signed_distance, signed_distance_point, sole_corners, support_polygon,
+    yaw_of,
+)
+
+
+def test_hull_matches_scipy():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        pts = rng.normal(size=(12, 2))
+        ours = np.array(hull([tuple(p) for p in pts.tolist()]))
+        ref = pts[ConvexHull(pts).vertices]  # counter-clockwise in 2-D
+        assert len(ours) == len(ref)
+        assert {tuple(np.round(p, 12)) for p in ours} == {tuple(np.round(p, 12)) for p in ref}
+        x, y = ours[:, 0], ours[:, 1]
+        assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0  # CCW
+
+
+def test_support_polygon_of_two_soles_closed_form():
+    """Two 0.2 × 0.1 m soles side by side at y = ±0.1: the hull is the 0.2 × 0.3 rectangle."""
+    left = pin.SE3(np.eye(3), np.array([0.0, 0.1, 0.0]))
+    right = np.eye(4)
+    right[1, 3] = -0.1
+    poly = support_polygon([left, right], 0.2, 0.1)
+    assert poly.min(axis=0) == pytest.approx([-0.1, -0.15]) and poly.max(axis=0) == pytest.approx([0.1, 0.15])
+    assert signed_distance(np.zeros(2), poly) == pytest.approx(0.1)  # nearest edges: x = ±0.1
+    assert signed_distance_point(0.3, 0.0, [tuple(p) for p in poly.tolist()]) == pytest.approx(-0.2)
+    one = support_polygon([left], 0.2, 0.1)
+    assert len(one) == 4 and signed_distance(np.array([0.0, 0.1]), one) == pytest.approx(0.05)
+
+
+def test_yaw_and_mean_heading_closed_form():
+    a = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, 0.3), np.zeros(3))
+    b = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, -0.1), np.zeros(3)).homogeneous
+    assert yaw_of(a) == pytest.approx(0.3) and yaw_of(b) == pytest.approx(-0.1)
+    assert mean_heading(a, b) == pytest.approx(0.1)
+    c = sole_corners(1.0, 2.0, math.pi / 2, 0.2, 0.1)  # rotated a quarter turn: front-left at (x − 0.05, y + 0.1)
+    assert c[0] == pytest.approx((0.95, 2.1))
+
+
+def test_checks_raise_typed_errors():
+    assert check_vector([1, 2, 3], 3, "v").dtype == float
+    with pytest.raises(ConfigurationError, match="shape"):
+        check_vector([1, 2], 3, "v")
+    with pytest.raises(GaitError, match="finite"):
+        check_vector([1, np.nan, 3], 3, "com", GaitError)
+    with pytest.raises(InvalidTargetError, match="rotation"):
+        as_se3(np.diag([1.0, 1.0, -1.0, 1.0]))
+    M = as_se3(np.eye(4))
+    assert isinstance(M, pin.SE3) and as_se3(M) is M

@@ -1,0 +1,120 @@
+"""Instructions per kinematic tick, counted by valgrind's callgrind: a measure that does not move with machine load.
+
+Each library runs the ``wbc bench`` kinematic scenario (:mod:`wbc.bench.kinematic`) in a child process under
+``valgrind --tool=callgrind --instr-atstart=no`` (imports, model loading, JIT loading and 20 warm-up ticks run
+uninstrumented, which is several times faster); then instrumentation is switched on and the counters zeroed
+(``callgrind_control``), the child runs N ticks, the parent reads the instruction count Ir(N), the child runs N
+more, the parent reads Ir(2N): (Ir(2N) − Ir(N)) / N is the instructions per tick, free of start-up effects.
+
+Child entry point: ``python -m wbc.bench.instructions <library> <N> [robot]`` (library: ``wbc`` or ``placo``);
+it prints READY / HALF / DONE and waits for a line on stdin after each.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+__all__ = ["callgrind_available", "instructions_per_tick"]
+
+LIBRARIES = ("wbc", "placo")
+
+
+def callgrind_available() -> bool:
+    """Whether ``valgrind`` and ``callgrind_control`` are on the PATH."""
+    return shutil.which("valgrind") is not None and shutil.which("callgrind_control") is not None
+
+
+def _child(library: str, n: int, robot_name: str = "talos") -> None:
+    from wbc.bench.kinematic import KinematicSpec, PlacoRunner, WbcRunner
+    from wbc.bench.stats import limit_blas_threads
+    from wbc.robot import load_robot
+
+    limit_blas_threads(1)
+    robot = load_robot(robot_name)
+    spec = KinematicSpec(robot=robot_name, ticks=2 * n, warmup=20)
+    runner = {"wbc": WbcRunner, "placo": PlacoRunner}[library](spec, robot)
+    runner.reset()
+    k = 0
+    for marker, ticks in (("READY", spec.warmup), ("HALF", n), ("DONE", n)):
+        for _ in range(ticks):
+            runner.tick(k)
+            k += 1
+        print(marker, flush=True)
+        sys.stdin.readline()
+    if runner.failures:
+        raise SystemExit(f"{library}: {runner.failures} failed ticks ({runner.first_error})")
+
+
+def _control(pid: int, *args: str) -> str:
+    r = subprocess.run(["callgrind_control", *args, str(pid)], capture_output=True, text=True, timeout=600)
+    if r.returncode:
+        raise RuntimeError(f"callgrind_control {' '.join(args)} failed: {r.stderr[-500:]}")
+    return r.stdout
+
+
+def _count(library: str, n: int, robot_name: str) -> tuple[int, int]:
+    """(Ir after N ticks, Ir after 2N ticks) of one child run."""
+    with tempfile.TemporaryDirectory() as d:
+        p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={d}/cg.out",
+                              sys.executable, "-m", "wbc.bench.instructions", library, str(n), robot_name],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            irs = []
+            for marker in ("READY", "HALF", "DONE"):
+                line = p.stdout.readline().strip()
+                if line != marker:
+                    raise RuntimeError(f"callgrind child {library}: expected {marker}, got {line!r}: "
+                                       f"{p.stderr.read()[-2000:]}")
+                if marker == "READY":
+                    _control(p.pid, "-i", "on")
+                    _control(p.pid, "-z")
+                else:
+                    m = re.search(r"Th 1\s+([\d,]+)", _control(p.pid, "-e", "Ir"))
+                    if not m:
+                        raise RuntimeError("callgrind_control printed no Ir total")
+                    irs.append(int(m.group(1).replace(",", "")))
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            p.wait(timeout=600)
+            if p.returncode:
+                raise RuntimeError(f"callgrind child {library} failed: {p.stderr.read()[-2000:]}")
+        finally:
+            if p.poll() is None:
+                p.kill()
+        return irs[0], irs[1]
+
+
+def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) -> dict[str, object]:
+    """Instructions per kinematic tick of wbc and placo (module docstring).
+
+    Returns:
+        {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "ratio_wbc_placo",
+        "seconds"}.
+
+    Raises:
+        RuntimeError: valgrind missing or a child run failed.
+    """
+    if not callgrind_available():
+        raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
+    from wbc.fastqp import ensure_compiled
+
+    ensure_compiled()  # the JIT cache is written here, so that both child runs only load it
+    t0 = time.perf_counter()
+    raw: dict[str, list[int]] = {}
+    for lib in LIBRARIES:
+        t1 = time.perf_counter()
+        raw[lib] = list(_count(lib, n, robot_name))
+        log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
+            f"({time.perf_counter() - t1:.0f} s)")
+    per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
+    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw,
+            "ratio_wbc_placo": per["wbc"] / per["placo"], "seconds": time.perf_counter() - t0}
+
+
+if __name__ == "__main__":
+    _child(sys.argv[1], int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "talos")

@@ -1,0 +1,69 @@
+"""Joint position limits reached with bounded deceleration: a joint may only move towards a limit as fast as it can
+still stop before it with deceleration a_max.
+
+The plain position bound v ≤ (q_max − q)/dt (:class:`~wbc.constraints.JointPositionLimit`) lets a joint run into
+its limit at full speed and stop within one tick: an unbounded joint acceleration, which shows as a spike of the
+CoM acceleration and of the executed ZMP (measured: Romeo's ankle pitch stopping at −0.5236 rad during a walk, CoM
+acceleration 8.2 m/s²). Moving at v over one tick and then braking at a_max covers v dt + v²/(2 a_max), so
+
+    v ≤ −a_max dt + √((a_max dt)² + 2 a_max (q_max − q)),     v ≥ a_max dt − √((a_max dt)² + 2 a_max (q − q_min))
+
+(the velocity-damper idea of Faverjon & Tournassoud, ICRA 1987, with the braking distance of a constant
+deceleration; Del Prete, "Joint position and velocity bounds in discrete-time acceleration/torque control of robot
+manipulators", IEEE RA-L 2018). Box priority 2 (:mod:`wbc.constraints.base`): the bound yields to the velocity
+limits and to the position limits' recovery bound, so the box never empties; it is relaxable like the acceleration
+limits it complements.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.constraints.base import BoxConstraint
+from wbc.constraints.limits import bounded_joints
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["JointBrakingLimit"]
+
+
+class JointBrakingLimit(BoxConstraint):
+    """Velocity towards each position limit bounded by the braking distance (module docstring).
+
+    Args:
+        robot: the robot (limits from ``robot.model``).
+        a_max: deceleration available to stop (rad/s², finite, > 0).
+        name: label in reports.
+
+    Raises:
+        InvalidInputError: a_max not finite or ≤ 0.
+    """
+
+    name = "joint_braking_limit"
+    priority = 2
+    relaxable = True
+
+    def __init__(self, robot, *, a_max: float = 50.0, name: str | None = None):
+        if isinstance(a_max, bool) or not (math.isfinite(a_max) and a_max > 0):
+            raise InvalidInputError(f"a_max must be finite and > 0 (rad/s²), got {a_max!r}")
+        model = robot.model
+        self.a_max = float(a_max)
+        self.idx_q, self.indices = bounded_joints(model)
+        self.dim = int(self.indices.size)
+        self.q_min = model.lowerPositionLimit[self.idx_q].copy()
+        self.q_max = model.upperPositionLimit[self.idx_q].copy()
+        if name is not None:
+            self.name = name
+        self._lb = np.zeros(self.dim)
+        self._ub = np.zeros(self.dim)
+
+    def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        a, q = self.a_max, config.q[self.idx_q]
+        adt = a * dt
+        up = np.maximum(self.q_max - q, 0.0)
+        down = np.maximum(q - self.q_min, 0.0)
+        np.subtract(np.sqrt(adt * adt + 2.0 * a * up), adt, out=self._ub)
+        np.subtract(adt, np.sqrt(adt * adt + 2.0 * a * down), out=self._lb)
+        return self._lb, self._ub
