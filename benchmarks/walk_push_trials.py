@@ -3,9 +3,8 @@ at the torso with ``--force`` N for ``--push-duration`` s at a random time durin
 horizontal direction (both drawn from ``numpy.random.default_rng(seed)``). A trial survives when the robot did not
 fall and finished the walk (:class:`wbc.sim.walk.WalkScenario` summary). Prints one line per trial and the count.
 
-Also ``--standing``: pushes from the front (180 deg: towards −x) and from behind (0 deg) on the standing robot
-(a walk of 0 walking steps would not stand still, so the walk scenario is run with the push during its initial
-double support and a 2-step plan that the step adjustment may move).
+Also ``--standing``: pushes from the front (180 deg: towards −x) and from behind (0 deg) on the standing robot,
+recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, same as ``wbc sim push-step``).
 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
@@ -50,11 +49,15 @@ def main() -> None:
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
                   step_adjust=not args.no_step_adjust)
     if args.standing:
+        from wbc.sim.capture_step import CaptureStepScenario
+
         for name, d in (("front (push towards -x)", 180.0), ("behind (push towards +x)", 0.0)):
-            s = trial(robot, push_time=0.3, push_dir=d, steps=2, step_length=0.0, **common)
+            sim = build_mujoco_model(robot)
+            controller = make_controller(robot, "id", dt=sim.timestep)
+            _, s = run_scenario(sim, controller, CaptureStepScenario(args.force, args.push_duration, push_dir=d))
             print(f"standing, from the {name}: {args.force:.0f} N x {args.push_duration} s: fell {s['fell']}, "
-                  f"completed {s['completed']}, step adjustments {s['step_adjustments']} "
-                  f"(max {s['max_step_adjustment_m']:.3f} m)")
+                  f"completed {s['completed']}, stepped {s['stepped']}, first step shift "
+                  f"{s.get('first_step_shift_m')}")
         return
     t_init = 0.8  # WalkScenario's initial double support
     t_walk = (args.steps - 1) * args.step_duration

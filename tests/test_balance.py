@@ -162,8 +162,9 @@ def test_reach_without_polygon_constraint_leaves_the_polygon(robots):
 
 
 def test_squat_without_zmp_constraint_leaves_the_support(robots):
-    """The executed-ZMP constraint is what keeps G1's squat balanced: without it the ankles stop at their limit
-    within one tick and the executed ZMP leaves the feet (measured −33 mm before the constraint existed)."""
+    """The dynamic-balance constraints are what keep G1's squat balanced: without the executed-ZMP constraint and
+    the acceleration/braking limits the ankles stop at their limit within one tick and the executed ZMP leaves the
+    feet (measured −33 mm before these constraints existed)."""
     robot = robots("g1")
     config = Configuration(robot)
     from wbc.scenarios.balance_squat import SquatBehaviour
@@ -171,7 +172,9 @@ def test_squat_without_zmp_constraint_leaves_the_support(robots):
     class Unconstrained(SquatBehaviour):
         def setup(self, ctrl):
             super().setup(ctrl)
-            ctrl.controller.remove_constraint(ctrl.zmp)
+            for c in (ctrl.zmp, *ctrl.smoothness):
+                ctrl.controller.remove_constraint(c)
+            ctrl.zmp, ctrl.smoothness = None, ()
 
     run = run_balance(robot, Unconstrained(robot, config), config=config)
     s = balance_summary(robot, run)

@@ -37,10 +37,14 @@ def _failed_walk_criteria(s: dict) -> list[str]:
 def test_default_walk_meets_acceptance(robots, name):
     robot = robots(name)
     plan = plan_default_walk(robot)  # 8 steps, the robot's default step length
-    summary = walk_summary(robot, plan, run_walk(robot, plan))
+    run = run_walk(robot, plan)
+    summary = walk_summary(robot, plan, run)
     failed = _failed_walk_criteria(summary)
     assert not failed, (failed, summary)
     assert summary["planned_distance_m"] == pytest.approx(7 * robot.gait["step_length"])
+    # joint accelerations |v_k − v_{k−1}|/dt within 50 rad/s² (the walk's bound) on every tick
+    assert summary["relaxed_ticks"] == 0
+    assert np.abs(np.diff(run.v[:, 6:], axis=0)).max() / run.dt <= 50.0 + 1e-6
 
 
 def test_turning_walk(robots):

@@ -149,6 +149,24 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._c_prev = self._c_pred = None
         self._have_now = False
 
+    def state(self) -> tuple:
+        """Snapshot of the tick memory (previous CoM, prediction, momentum, Jacobian, command) for :meth:`restore`:
+        to solve the same tick again after :meth:`set_previous` has been called with a command that is not sent."""
+        return (None if self._c_prev is None else self._c_prev.copy(),
+                None if self._c_pred is None else self._c_pred.copy(),
+                self._L_prev.copy(), self._J_prev.copy(), self._v_prev.copy())
+
+    def restore(self, state: tuple) -> None:
+        """Back to a :meth:`state` snapshot; the next :meth:`set_previous` again refers to the configuration of
+        the last :meth:`compute`."""
+        c_prev, c_pred, L_prev, J_prev, v_prev = state
+        self._have_now = True
+        self._c_prev = None if c_prev is None else c_prev.copy()
+        self._c_pred = None if c_pred is None else c_pred.copy()
+        self._L_prev[:] = L_prev
+        self._J_prev[:] = J_prev
+        self._v_prev[:] = v_prev
+
     def set_previous(self, v) -> None:
         """Record the command v (nv,) applied from the configuration of the last :meth:`compute`."""
         if not self._have_now:

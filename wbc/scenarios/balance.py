@@ -10,7 +10,8 @@ reference generator: time t (s) → CoM target, support phase, swing-sole target
   ground projection stays inside too and approaches an edge exponentially instead of stopping within one tick;
 * the multi-body ZMP of the motion each command produces stays inside the stance soles
   (:class:`~wbc.constraints.zmp.ExecutedZmpConstraint`, relaxable; :mod:`wbc.scenarios.stance`);
-* joint position and velocity limits are hard bounds;
+* joint position and velocity limits are hard bounds (joint accelerations are not bounded by default:
+  ``BalanceController(joint_acceleration=...)``);
 * tasks: CoM (weight 10), torso orientation (1), posture on every DoF (weight 1e-2, gain 2/s: a regulariser —
   Talos's grippers sit on their limit and need a cost — whose low gain keeps it from biasing the tracked tasks:
   at gain 10/s it cost ~1.5 mm of squat depth), plus the behaviour's own tasks (swing sole, arms, hand);

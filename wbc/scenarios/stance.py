@@ -78,6 +78,7 @@ class StanceController:
             extra_constraints = (*extra_constraints, self.zmp)
         smooth = () if joint_acceleration is None else (
             JointAccelerationLimit(robot, a_max=joint_acceleration), JointBrakingLimit(robot, a_max=joint_acceleration))
+        self.smoothness = smooth
         self.controller = KinematicController(
             robot, [self.com, self.torso, self.posture],
             [self.contact["left"], self.contact["right"], *extra_constraints, JointPositionLimit(robot),
@@ -113,8 +114,35 @@ class StanceController:
         """Hook called after every support switch (default: nothing)."""
 
     def solve(self, config: Configuration, dt: float) -> TickResult:
-        """One QP tick (``KinematicController.solve``)."""
-        return self.controller.solve(config, dt)
+        """One QP tick (``KinematicController.solve``).
+
+        The controller leaves every relaxable constraint out of a tick that is infeasible with them. When the
+        acceleration limits are what conflicts (e.g. a change of rank of the contact rows asks for a velocity step),
+        dropping the executed-ZMP constraint too would let the ZMP leave the feet: such a tick is solved again
+        without the acceleration and braking limits only, keeping the ZMP constraint; ``relaxed`` then names the
+        limits left out.
+        """
+        zmp_state = self.zmp.state() if (self.zmp is not None and self.smoothness) else None
+        result = self.controller.solve(config, dt)
+        if zmp_state is None or not result.relaxed:
+            return result
+        self.zmp.restore(zmp_state)
+        for c in self.smoothness:
+            self.controller.remove_constraint(c)
+        try:
+            retry = self.controller.solve(config, dt)
+        finally:
+            for c in self.smoothness:
+                self.controller.add_constraint(c)
+        if not retry.ok or retry.relaxed:  # the ZMP constraint itself conflicts: keep the controller's answer
+            self.zmp.restore(zmp_state)
+            self.zmp.set_previous(result.v)
+            return result
+        retry.relaxed = [c.name for c in self.smoothness]
+        for c in self.smoothness:
+            if c.needs_previous_command:
+                c.set_previous(retry.v)
+        return retry
 
 
 @dataclass

@@ -155,7 +155,7 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
         rec.record_state(k, config)
         t0 = perf_counter()
         walker.set_references(plan, k, config)
-        result = walker.controller.solve(config, dt)
+        result = walker.solve(config, dt)
         config.step(result.v, dt)
         rec.record_command(k, result, perf_counter() - t0)
         if viewer is not None:

@@ -18,7 +18,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
 
 * **Step adjustment** (``step_adjust``, default on): during the single support of a released swing foot, the
   landing point follows the measured DCM (:class:`wbc.gait.step_adjustment.StepAdjuster`: Khadiv et al. 2016
-  eq. 6–7, dead band 3 cm on the DCM error, reach box and minimum width between the feet); when it moves by
+  eq. 6–7, dead band 2 cm on the DCM error, reach box and minimum width between the feet); when it moves by
   more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
@@ -223,10 +223,10 @@ class WalkScenario:
                  push: float = 0.0, push_time: float = 0.0, push_duration: float = 0.1, push_dir: float = 90.0,
                  stabilizer: bool = True, ramp_time: float = 0.04, settle: float = 1.0,
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
-                 step_adjust: bool = True, adjust_dead_band: float = 0.03, adjust_freeze: float = 0.05,
+                 step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.5, forward_reach: float = 0.55):
+                 lateral_reach: float = 0.6, forward_reach: float = 0.65):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(push) and push >= 0):
@@ -305,6 +305,7 @@ class WalkScenario:
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
         self._recovery, self._t_recovery = None, None
+        self.recovery_failures = 0
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
@@ -422,6 +423,7 @@ class WalkScenario:
         lg["hull"][i] = self._hull(0.0)
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
+                and not self.recovery_failures \
                 and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
                 and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
@@ -436,7 +438,11 @@ class WalkScenario:
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            cop_margin=self.cop_margin)
-        rec.setup(controller, sim, q, v)
+        try:
+            rec.setup(controller, sim, q, v)
+        except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
+            self.recovery_failures += 1  # (not tried again: see the trigger in update)
+            return
         self._recovery, self._t_recovery = rec, float(t)
 
     def _recovery_update(self, t, controller, sim, q, v):
@@ -623,6 +629,7 @@ class WalkScenario:
                 - 0.5 * (self.poses["left"][0, :2, 3] + self.poses["right"][0, :2, 3]))),
             "replan_failures": self.replan_failures,
             "recovery_step_time_s": self._t_recovery,
+            "recovery_plan_failures": self.recovery_failures,
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
