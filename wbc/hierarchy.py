@@ -115,9 +115,31 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
         try:
             v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
-            if v is None:  # the first level failed: the hard set itself has no solution
-                raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
-                                  f"soft level below {len(levels)} priority levels: {exc}") from None
+            if J is not None:
+                # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
+                # 5e-6 – 2e-3 off the rows: once more damped, JᵀJ + μI with μ = 1e-9 · max(1, max diag)
+                # (Kanoun et al.'s damped least squares; relative bias ~1e-9)
+                mu = 1e-9 * max(1.0, float(np.max(np.diag(Hk))))
+                try:
+                    v_damped = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                except SolverError:
+                    v_damped = None
+                if v_damped is not None:
+                    v = v_damped
+                    if J is not None:
+                        fixed_J.append(J)
+                    continue
+            if v is None:
+                # the first level failed twice: is the hard set itself infeasible? (min ‖v‖² on it)
+                try:
+                    v = backend.solve(np.eye(Hk.shape[0]), np.zeros(Hk.shape[0]), A_kept, b_kept, C, l, u, lb, ub)
+                except SolverError:
+                    raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
+                                      f"soft level below {len(levels)} priority levels: {exc}") from None
+                skipped.append(k)  # numerical failure of this level: v is a point of the hard set
+                if J is not None:
+                    fixed_J.append(J)
+                continue
             # below the first level the problem is feasible by construction (the previous v meets every row);
             # a failure is numerical (the ±band is degenerate): once more with a band at the solver's tolerance,
             # else keep the previous level's v (optimal for every level above, feasible for the hard set)
