@@ -497,6 +497,7 @@ class KinematicController:
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_errors = True, None, None
+        self._projected_contacts = []
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -521,6 +522,13 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if not result.ok and self._projected_contacts:
+                # the hard set had no solution until the dependent contact rows were made consistent: name them
+                result.conflicts = list(self._projected_contacts)
+                worst = max(d for _, d in self._projected_contacts)
+                names = [name for name, _ in self._projected_contacts]
+                result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
+                                   f"directions (projected by up to {worst:.3g} in their rows' units)")
         except InvalidInputError:
             self._in_solve, self._drift_cache = False, None
             raise
@@ -580,6 +588,13 @@ class KinematicController:
         Ur = U[:, :rank]
         projected = Ur @ (Ur.T @ self._b[rows])
         changed = not np.array_equal(projected, self._b[rows])
+        change = np.abs(projected - self._b[rows])
+        self._projected_contacts = []  # (contact name, largest change of its rows' rhs) for the report
+        for c, r0, r1 in self._eq_blocks:
+            if isinstance(c, ContactConstraint):
+                sel = (rows >= r0) & (rows < r1)
+                if sel.any() and change[sel].max() > 1e-9:
+                    self._projected_contacts.append((c.name, float(change[sel].max())))
         self._b[rows] = projected
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
