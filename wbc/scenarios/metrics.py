@@ -29,7 +29,7 @@ import numpy as np
 
 from wbc.geometry import convex_hull, signed_distance, sole_polygon
 
-__all__ = ["GRAVITY", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
+__all__ = ["executed_multibody_zmp", "GRAVITY", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
            "support_margin"]
 
 #: Standard gravity (m/s²), the value Pinocchio's default model uses.
@@ -103,3 +103,16 @@ def stance_ground_z(left: np.ndarray, right: np.ndarray, support: np.ndarray, do
     """Height (N,) m of the support plane at each tick: the stance sole's z (mean of both in double support)."""
     zl, zr = left[:, 2, 3], right[:, 2, 3]
     return np.where(support == double, 0.5 * (zl + zr), np.where(support == left_stance, zl, zr))
+
+
+def executed_multibody_zmp(model, mass: float, dt: float, com: np.ndarray, q: np.ndarray, v: np.ndarray,
+                           left: np.ndarray, right: np.ndarray, support: np.ndarray, double: int = 0,
+                           left_stance: int = 1) -> np.ndarray:
+    """Multi-body ZMP (N, 2) m, world, of an executed kinematic run, as the walk and balance summaries judge it:
+    :func:`executed_zmp` on the stance plane (:func:`stance_ground_z`) with the centroidal angular momentum of
+    every (q_k, v_k) (:func:`executed_angular_momentum`). ``com`` (N, 3) m, ``q`` (N, nq), ``v`` (N, nv), ``left``
+    and ``right`` (N, 4, 4) sole poses, ``support`` (N,) codes (``double``, ``left_stance``, else right stance),
+    ``mass`` kg, ``dt`` s."""
+    ground = stance_ground_z(left, right, support, double, left_stance)
+    return executed_zmp(com, dt, ground, angular_momentum=executed_angular_momentum(model, q, v), mass=mass)
+

@@ -4,8 +4,9 @@
 draws, each under its own meshcat path (toggled in meshcat's "Open Controls" panel):
 
 * ``points`` name -> (N, 3) moving spheres: ``com`` (measured CoM), ``com_ground`` (its ground projection),
-  ``zmp_planned`` (plan's ZMP), ``zmp_executed`` (cart-table ZMP of the executed CoM motion,
-  p = c_xy - c_z / g * c̈_xy, Kajita et al. 2003, eq. 3; CoM acceleration by central finite differences),
+  ``zmp_planned`` (plan's ZMP), ``zmp_executed`` (multi-body ZMP of the executed motion, the one the summaries
+  judge: :func:`wbc.scenarios.metrics.executed_multibody_zmp`; c̈ by central finite differences, L̇ from
+  Pinocchio's centroidal momentum),
   ``dcm_planned`` (plan's DCM), ``dcm_executed`` (ξ = c + ċ / ω, ω = sqrt(g / c_z), Englsberger et al. 2015,
   eq. 7; ċ by finite differences), at z = 0 except the CoM;
 * ``polygons`` (t_start, t_end, (K, 3)): the support polygon of each support phase (realized sole poses);
@@ -25,6 +26,7 @@ import math
 import numpy as np
 
 from wbc.geometry import convex_hull, sole_polygon
+from wbc.scenarios.metrics import executed_multibody_zmp
 
 __all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
 
@@ -36,6 +38,13 @@ def cart_table_zmp(t: np.ndarray, com: np.ndarray, g: float = GRAVITY) -> np.nda
     acc = np.gradient(np.gradient(com[:, :2], t, axis=0), t, axis=0)
     p = com[:, :2] - (com[:, 2:3] / g) * acc
     return np.c_[p, np.zeros(len(t))]
+
+
+def _zmp_executed(robot, run) -> np.ndarray:
+    """(N, 3) multi-body ZMP of a kinematic run on z = 0 (module docstring)."""
+    zmp = executed_multibody_zmp(robot.model, robot.mass, run.dt, run.com, run.q, run.v, run.left_sole,
+                                 run.right_sole, run.support)
+    return np.c_[zmp, np.zeros(len(zmp))]
 
 
 def dcm_of(t: np.ndarray, com: np.ndarray, g: float = GRAVITY) -> np.ndarray:
@@ -62,7 +71,7 @@ def walk_overlays(robot, plan, run) -> dict:
         "com": run.com,
         "com_ground": np.c_[run.com[:, :2], zeros],
         "zmp_planned": np.c_[run.zmp_ref[:, :2], zeros],
-        "zmp_executed": cart_table_zmp(t, run.com),
+        "zmp_executed": _zmp_executed(robot, run),
         "dcm_planned": np.c_[plan.dcm[:n, :2], zeros],
         "dcm_executed": dcm_of(t, run.com),
     }
@@ -76,14 +85,14 @@ def walk_overlays(robot, plan, run) -> dict:
 def balance_overlays(robot, run) -> dict:
     """Overlays of a balance run (``run``: :class:`wbc.scenarios.balance.BalanceRun`), same items as a walk's:
     points com, com_ground, com_reference (ground projection of the CoM target, when the behaviour has one all
-    along), zmp_executed (cart-table ZMP of the executed CoM), dcm_executed; support polygons of each phase;
+    along), zmp_executed (multi-body ZMP of the executed motion, as for a walk), dcm_executed; support polygons of each phase;
     footprints; swing_left / swing_right sole paths."""
     t, com = run.t, run.com
     zeros = np.zeros((len(t), 1))
     points = {"com": com, "com_ground": np.c_[com[:, :2], zeros]}
     if np.isfinite(run.com_ref).all():
         points["com_reference"] = np.c_[run.com_ref[:, :2], zeros]
-    points["zmp_executed"] = cart_table_zmp(t, com)
+    points["zmp_executed"] = _zmp_executed(robot, run)
     points["dcm_executed"] = dcm_of(t, com)
     polygons, prints, paths = contact_items(t, run.support, run.left_sole, run.right_sole, robot.sole_length,
                                             robot.sole_width)

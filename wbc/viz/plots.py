@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
+from wbc.scenarios.metrics import executed_multibody_zmp
 from wbc.viz.overlays import cart_table_zmp, contact_items, dcm_of, measured_cop
 
 __all__ = ["plot_log", "load_log"]
@@ -149,9 +150,17 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
         raise InvalidInputError(f"plot folder {str(Path(out).parent)!r} does not exist")
     t, com = np.asarray(log["t"], float), np.asarray(log["com"], float)
     physics = "sim_wrench" in log
-    zmp_name, zmp = ("CoP measured", _cop(log)) if physics else ("ZMP executed", cart_table_zmp(t, com))
-    dcm = dcm_of(t, com)
     robot = _robot(log)
+    if physics:
+        zmp_name, zmp = "CoP measured", _cop(log)
+    elif robot is not None and all(k in log for k in ("q", "v", "left_sole", "right_sole", "support")):
+        # the multi-body ZMP the summaries judge (wbc.scenarios.metrics.executed_multibody_zmp)
+        zmp_name = "ZMP executed"
+        zmp = executed_multibody_zmp(robot.model, robot.mass, float(t[1] - t[0]), com, log["q"], log["v"],
+                                     log["left_sole"], log["right_sole"], log["support"])
+    else:  # a robot that cannot be loaded by name: the CoM-only (cart-table) ZMP, labelled as such
+        zmp_name, zmp = "ZMP executed (CoM only)", cart_table_zmp(t, com)
+    dcm = dcm_of(t, com)
     limits = _limits(robot)
     n_panels = 4 + (limits is not None) + physics
     fig, axes = plt.subplots(n_panels, 1, figsize=(10, 3.2 * n_panels), constrained_layout=True)
