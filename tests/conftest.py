@@ -53,3 +53,21 @@ def standing_controller(robot, config, *extra_constraints, tasks=(), vel_scale=1
                                [*contacts, JointPositionLimit(robot), JointVelocityLimit(robot, scale=vel_scale),
                                 *extra_constraints])
     return ctrl, com
+
+
+def centroidal_oracle(model, q: np.ndarray, v: np.ndarray, dt: float):
+    """Independent oracle of the executed-ZMP tests, straight from Pinocchio: total mass (kg), CoM (N, 3) of each
+    q, its central second differences c̈ (N, 3) (end rows copied), and L̇ (N, 3), the backward difference of the
+    centroidal angular momentum of each (q, v) (first row copied)."""
+    data = model.createData()
+    mass = sum(inertia.mass for inertia in model.inertias)
+    com = np.array([pin.centerOfMass(model, data, qk) for qk in q])
+    L = np.array([pin.computeCentroidalMomentum(model, data, qk, vk).angular for qk, vk in zip(q, v)])
+    acc = np.zeros_like(com)
+    acc[1:-1] = np.diff(com, 2, axis=0) / dt**2
+    acc[0], acc[-1] = acc[1], acc[-2]
+    ldot = np.zeros_like(L)
+    ldot[1:] = np.diff(L, axis=0) / dt
+    ldot[0] = ldot[1]
+    return mass, com, acc, ldot
+

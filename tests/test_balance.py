@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import wbc
-from conftest import CATALOG
+from conftest import CATALOG, centroidal_oracle
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError
@@ -116,20 +116,9 @@ def test_executed_zmp_independent_oracle(runs):
     """The summary's ZMP margin against a computation from the logged q, v (Pinocchio centerOfMass and
     computeCentroidalMomentum, np.diff), single-support ticks only so the oracle is a plain rectangle distance in
     the sole frame. Multi-body ZMP: p_x = c_x − (m h c̈_x + L̇_y)/(m(g + c̈_z)), p_y = c_y − (m h c̈_y − L̇_x)/(m(g + c̈_z))."""
-    import pinocchio as pin
 
     robot, run, s = runs("one-leg", "talos")
-    model = robot.model
-    data = model.createData()
-    mass = sum(inertia.mass for inertia in model.inertias)
-    com = np.array([pin.centerOfMass(model, data, q) for q in run.q])
-    L = np.array([pin.computeCentroidalMomentum(model, data, q, v).angular for q, v in zip(run.q, run.v)])
-    acc = np.zeros_like(com)
-    acc[1:-1] = np.diff(com, 2, axis=0) / run.dt**2
-    acc[0], acc[-1] = acc[1], acc[-2]
-    ldot = np.zeros_like(L)
-    ldot[1:] = np.diff(L, axis=0) / run.dt
-    ldot[0] = ldot[1]
+    mass, com, acc, ldot = centroidal_oracle(robot.model, run.q, run.v, run.dt)
     single = np.flatnonzero(run.support == LEFT_STANCE)
     worst = np.inf
     for k in single:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import wbc
-from conftest import CATALOG
+from conftest import CATALOG, centroidal_oracle
 from wbc.cli import main
 from wbc.configuration import Configuration
 from wbc.exceptions import RobotFileNotFoundError, UnknownRobotError
@@ -145,23 +145,12 @@ def test_summary_zmp_is_the_executed_motion_zmp(robots, name):
     centerOfMass, c̈ by np.diff twice, centroidal angular momentum from the logged (q, v) with Pinocchio's
     computeCentroidalMomentum and L̇ by np.diff, Newton-Euler about the CoM with the ground wrench at the ZMP on
     the stance sole plane, distance to the sole rectangles with scipy's ConvexHull."""
-    import pinocchio as pin
 
     robot = robots(name)
     plan = plan_default_walk(robot)
     run = run_walk(robot, plan)
     s = walk_summary(robot, plan, run)
-    model = robot.model
-    data = model.createData()
-    mass = sum(inertia.mass for inertia in model.inertias)
-    com = np.array([pin.centerOfMass(model, data, q) for q in run.q])
-    L = np.array([pin.computeCentroidalMomentum(model, data, q, v).angular for q, v in zip(run.q, run.v)])
-    acc = np.zeros_like(com)
-    acc[1:-1] = np.diff(com, 2, axis=0) / run.dt**2
-    acc[0], acc[-1] = acc[1], acc[-2]
-    ldot = np.zeros_like(L)
-    ldot[1:] = np.diff(L, axis=0) / run.dt
-    ldot[0] = ldot[1]
+    mass, com, acc, ldot = centroidal_oracle(robot.model, run.q, run.v, run.dt)
     margins, margins_com = [], []
     for k in range(len(com)):
         soles = [p[k] for code, p in ((1, run.left_sole), (2, run.right_sole)) if run.support[k] in (0, code)]
