@@ -1,21 +1,21 @@
 """Inverse-dynamics whole-body control: acceleration tasks, sole contacts, named constraints, the ID QP and its
 controller.
 
-Layers (TSID's split): tasks (:mod:`~wbc.dynamics.tasks`: a kinematic task's e(q), J stated once in
-:mod:`wbc.tasks`, plus its drift J̇v) and contacts (:mod:`~wbc.dynamics.contacts`) → named constraints
-(:mod:`~wbc.dynamics.constraints`) → the formulation, the QP written once in :mod:`~wbc.dynamics.formulation`'s
-docstring → solvers (:mod:`wbc.qp` backends; the compiled tick :mod:`~wbc.dynamics.idkernel`) → the controller
+Layers (TSID's split): tasks (:mod:`~wbc.tasks.acceleration`: a kinematic task's e(q), J stated once in
+:mod:`wbc.tasks`, plus its drift J̇v) and contacts (:mod:`~wbc.constraints.sole_contact`) → named constraints
+(:mod:`~wbc.constraints.dynamics`) → the formulation, the QP written once in :mod:`~wbc.formulations.acceleration`'s
+docstring → solvers (:mod:`wbc.qp` backends; the compiled tick :mod:`~wbc.formulations.idkernel`) → the controller
 (:mod:`~wbc.dynamics.controller`: diagnosis, relaxed solve, safe command) → :class:`IDBalanceController`.
 ``BalanceController`` and ``AngularMomentumTask`` are the former names of :class:`IDBalanceController` and
 :class:`AngularMomentumRateTask` (aliases).
 """
 
 from wbc.dynamics.balance import DEFAULT_GAINS, BalanceController, IDBalanceController
-from wbc.dynamics.contacts import SoleContact
+from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
-from wbc.dynamics.formulation import IDSolution, InverseDynamicsQP
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import (
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.state import DynamicsState
+from wbc.tasks.acceleration import (
     AccelerationTask,
     AngularMomentumRateTask,
     AngularMomentumTask,

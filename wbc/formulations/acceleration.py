@@ -4,7 +4,7 @@ The problem, solved once per control tick of period dt (s), at the measured stat
 
 Variables  x = [v̇ ; f] ∈ R^{nv + 12 n_c}: generalized accelerations v̇ (Pinocchio conventions: base spatial
 acceleration in the base frame, then joints) and, per declared sole contact k, 4 corner forces f_k ∈ R^12 in
-the sole frame (:mod:`wbc.dynamics.contacts`).
+the sole frame (:mod:`wbc.constraints.sole_contact`).
 
 Equations of motion (Featherstone 2008, "Rigid Body Dynamics Algorithms", eq. 3.6 with contacts)
 
@@ -16,7 +16,7 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
     τ = M_a v̇ + h_a − Σ_k (J_kᵀ G_k)_a f_k          (a: rows 6..nv−1)                              (2)
 
     min_x   Σ_i ‖ diag(√w_i) (J_i v̇ − r_i) ‖²  +  ε_a ‖v̇‖²  +  ε_f ‖f‖²                           (3)
-            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (tasks, wbc.dynamics.tasks)
+            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (tasks, wbc.tasks.acceleration)
     s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
@@ -42,7 +42,7 @@ q_max), the bounds would demand an arbitrarily large braking acceleration in one
 cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
 best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
 
-Every constraint (4)–(9) is a named object of :mod:`wbc.dynamics.constraints` (``floating_base_dynamics``,
+Every constraint (4)–(9) is a named object of :mod:`wbc.constraints.dynamics` (``floating_base_dynamics``,
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``; plus ``task:<t>`` for
 a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
@@ -61,7 +61,7 @@ from time import perf_counter
 import numpy as np
 
 from wbc.diagnosis import diagnose
-from wbc.dynamics.constraints import (
+from wbc.constraints.dynamics import (
     ContactAcceleration,
     FloatingBaseDynamics,
     FrictionPyramid,
@@ -72,10 +72,10 @@ from wbc.dynamics.constraints import (
     TorqueLimits,
     Unilaterality,
 )
-from wbc.dynamics.contacts import SoleContact
-from wbc.dynamics.idkernel import id_tick
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
+from wbc.constraints.sole_contact import SoleContact
+from wbc.formulations.idkernel import id_tick
+from wbc.state import DynamicsState
+from wbc.tasks.acceleration import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.qp import QPBackend
 from wbc.backends import make_backend
@@ -116,10 +116,10 @@ class InverseDynamicsQP:
 
     Args:
         robot: the robot.
-        tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`), weighted (soft).
+        tasks: acceleration tasks (:mod:`wbc.tasks.acceleration`), weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
-            the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
+            the compiled tick of :mod:`wbc.formulations.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
             and torques in one call — with DAQP as fallback (the general path while a hard task is present or the
             torque-limited joints are not contiguous in v); any other qpsolvers backend —
             :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
@@ -130,7 +130,7 @@ class InverseDynamicsQP:
         joint_limits: apply the joint acceleration bounds (9).
 
     Attributes:
-        constraints: every named constraint (:mod:`wbc.dynamics.constraints`), in row order.
+        constraints: every named constraint (:mod:`wbc.constraints.dynamics`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
 
     Raises:
@@ -165,7 +165,7 @@ class InverseDynamicsQP:
             self.contacts.append(c)
         nc = len(self.contacts)
         self.n = n = nv + 12 * nc
-        # Named constraints (wbc.dynamics.constraints), each with its place in the preallocated blocks.
+        # Named constraints (wbc.constraints.dynamics), each with its place in the preallocated blocks.
         self.dynamics = FloatingBaseDynamics()
         self.dynamics.rows = slice(0, 6)
         self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
@@ -220,7 +220,7 @@ class InverseDynamicsQP:
     # -- problem definition ----------------------------------------------------------------------------------
     def add_task(self, task: AccelerationTask, *, hard: bool = False) -> AccelerationTask:
         """Add an acceleration task: weighted (default) or, with ``hard=True``, held as the equality constraint
-        ``task:<name>`` (:class:`~wbc.dynamics.constraints.HardTask`).
+        ``task:<name>`` (:class:`~wbc.constraints.dynamics.HardTask`).
 
         Raises:
             InvalidInputError: not an AccelerationTask.
@@ -384,7 +384,7 @@ class InverseDynamicsQP:
         return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
 
     def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
-        """:meth:`solve` through :func:`wbc.dynamics.idkernel.id_tick` (same QP, compiled assembly and solve);
+        """:meth:`solve` through :func:`wbc.formulations.idkernel.id_tick` (same QP, compiled assembly and solve);
         a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
         t0 = perf_counter()
         kb = self._kernel
@@ -492,7 +492,7 @@ class InverseDynamicsQP:
 
 
 class _KernelBuffers:
-    """Preallocated inputs, solver state and workspace of :func:`wbc.dynamics.idkernel.id_tick` for one QP; the
+    """Preallocated inputs, solver state and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP; the
     stacked task rows are re-laid out only when the task list changes."""
 
     def __init__(self, qp: InverseDynamicsQP):

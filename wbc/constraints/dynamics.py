@@ -1,4 +1,4 @@
-"""Named constraints of the inverse-dynamics QP (:mod:`wbc.dynamics.formulation`).
+"""Named constraints of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`).
 
 Each constraint is an object with a ``name`` (used in infeasibility reports, :mod:`wbc.diagnosis`), a ``kind``
 (``"equality"`` rows of ``A x = b``, ``"inequality"`` rows of ``l ≤ C x ≤ u``, ``"bounds"`` on entries of x) and a
@@ -24,7 +24,7 @@ name                          kind        rows                                  
 ============================  ==========  ===============================================================  ===========
 
 *Relaxable* constraints are the ones the controller drops when the full QP is infeasible
-(:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`).
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`).
 """
 
 from __future__ import annotations
@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from wbc.dynamics.contacts import SoleContact
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import AccelerationTask
+from wbc.constraints.sole_contact import SoleContact
+from wbc.state import DynamicsState
+from wbc.tasks.acceleration import AccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 
@@ -132,7 +132,7 @@ class HardTask(IDConstraint):
     """An acceleration task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
 
     Raises:
-        InvalidInputError: not an :class:`~wbc.dynamics.tasks.AccelerationTask`.
+        InvalidInputError: not an :class:`~wbc.tasks.acceleration.AccelerationTask`.
     """
 
     kind = "equality"
@@ -212,7 +212,7 @@ class FrictionPyramid(IDConstraint):
 
 class Unilaterality(IDConstraint):
     """Bounds on a sole's 12 corner forces (eq. 8; N): f_min ≤ f_z ≤ f_max and tangential free while active —
-    the unilateral contact, which keeps the CoP inside the sole rectangle (:mod:`wbc.dynamics.contacts`) —, all
+    the unilateral contact, which keeps the CoP inside the sole rectangle (:mod:`wbc.constraints.sole_contact`) —, all
     zero while inactive."""
 
     kind = "bounds"

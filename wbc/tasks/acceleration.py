@@ -9,7 +9,7 @@ The QP cost of a task is ``Σ_r w_r (J_r v̇ + (J̇v)_r − a*_r)²`` with the P
     a* = ä_ff − Kp e − Kd (J v − ė_ff)                                                    (1)
 
 (Kp in 1/s², Kd in 1/s; ``kd`` defaults to the critically damped 2√Kp). The kinematic tasks of :mod:`wbc.tasks`
-give e and J unchanged (they are evaluated on a :class:`~wbc.dynamics.state.DynamicsState`); this module adds
+give e and J unchanged (they are evaluated on a :class:`~wbc.state.DynamicsState`); this module adds
 J̇ v from Pinocchio:
 
 * CoM (:class:`ComAccelerationTask`): J̇ v = ``(dAg v)[0:3] / m`` (= ``data.acom[0]`` of
@@ -35,7 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import check_vector
-from wbc.dynamics.state import DynamicsState
+from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 from wbc.tasks.base import Task, as_weight
 from wbc.tasks.com import ComTask
