@@ -36,7 +36,6 @@ import numpy as np
 
 from wbc.constraints.sole_contact import SoleContact
 from wbc.state import DynamicsState
-from wbc.tasks.acceleration import AccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 
@@ -129,17 +128,16 @@ class ContactAcceleration(IDConstraint):
 
 
 class HardTask(IDConstraint):
-    """An acceleration task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
+    """A task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
 
-    Raises:
-        InvalidInputError: not an :class:`~wbc.tasks.acceleration.AccelerationTask`.
+    Args:
+        task: an :class:`~wbc.formulations.reference.AccelerationReference` (anything with ``name``, ``dim`` and
+            ``compute(state) -> (J, r)``; the formulation checks the type).
     """
 
     kind = "equality"
 
-    def __init__(self, task: AccelerationTask):
-        if not isinstance(task, AccelerationTask):
-            raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
+    def __init__(self, task):
         self.task = task
         self.name = f"task:{task.name}"
         self.dim = task.dim

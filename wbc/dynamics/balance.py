@@ -28,7 +28,7 @@ import pinocchio as pin
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import InverseDynamicsQP
-from wbc.tasks.acceleration import (
+from wbc.formulations.reference import (
     AngularMomentumRateTask,
     ComAccelerationTask,
     FrameAccelerationTask,

@@ -16,7 +16,7 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
     τ = M_a v̇ + h_a − Σ_k (J_kᵀ G_k)_a f_k          (a: rows 6..nv−1)                              (2)
 
     min_x   Σ_i ‖ diag(√w_i) (J_i v̇ − r_i) ‖²  +  ε_a ‖v̇‖²  +  ε_f ‖f‖²                           (3)
-            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (tasks, wbc.tasks.acceleration)
+            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (wbc.formulations.reference)
     s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
@@ -75,11 +75,13 @@ from wbc.constraints.dynamics import (
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import id_tick
 from wbc.state import DynamicsState
-from wbc.tasks.acceleration import AccelerationTask, PostureAccelerationTask
+from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
 from wbc.qp import QPBackend
 from wbc.backends import make_backend
 from wbc.robot import Robot
+from wbc.tasks.base import Task
+from wbc.tasks.posture import PostureTask
 
 __all__ = ["InverseDynamicsQP", "IDSolution"]
 
@@ -116,7 +118,8 @@ class InverseDynamicsQP:
 
     Args:
         robot: the robot.
-        tasks: acceleration tasks (:mod:`wbc.tasks.acceleration`), weighted (soft).
+        tasks: tasks with their PD references (:class:`~wbc.formulations.reference.AccelerationReference`),
+            weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
             the compiled tick of :mod:`wbc.formulations.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
@@ -137,7 +140,7 @@ class InverseDynamicsQP:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
     """
 
-    def __init__(self, robot: Robot, tasks: list[AccelerationTask] = (), contacts: list[SoleContact] = (), *,
+    def __init__(self, robot: Robot, tasks: list[AccelerationReference] = (), contacts: list[SoleContact] = (), *,
                  solver: str | QPBackend = "daqp", acceleration_regularization: float = 1e-6,
                  force_regularization: float = 1e-7, torque_limit_scale: float = 1.0,
                  braking_acceleration: float = 50.0, joint_limits: bool = True):
@@ -152,7 +155,7 @@ class InverseDynamicsQP:
         self.eps_a = float(acceleration_regularization)
         self.eps_f = float(force_regularization)
         self.joint_limits = bool(joint_limits)
-        self.tasks: list[AccelerationTask] = []
+        self.tasks: list[AccelerationReference] = []
         self.hard_tasks: list[HardTask] = []
         for t in tasks:
             self.add_task(t)
@@ -218,15 +221,25 @@ class InverseDynamicsQP:
                 *self.unilaterality, self.joint_acceleration_limits]
 
     # -- problem definition ----------------------------------------------------------------------------------
-    def add_task(self, task: AccelerationTask, *, hard: bool = False) -> AccelerationTask:
-        """Add an acceleration task: weighted (default) or, with ``hard=True``, held as the equality constraint
-        ``task:<name>`` (:class:`~wbc.constraints.dynamics.HardTask`).
+    def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
+                 kd: float | None = None, weight=None) -> AccelerationReference:
+        """Add a task: weighted (default) or, with ``hard=True``, held as the equality constraint ``task:<name>``
+        (:class:`~wbc.constraints.dynamics.HardTask`). ``task`` is an
+        :class:`~wbc.formulations.reference.AccelerationReference`, or a :class:`wbc.tasks.base.Task` given with
+        its reference gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight`` (then wrapped in one).
+
+        Returns:
+            the :class:`~wbc.formulations.reference.AccelerationReference` added (remove it with it).
 
         Raises:
-            InvalidInputError: not an AccelerationTask.
+            InvalidInputError: neither; a Task without ``kp``; bad gains or weights.
         """
-        if not isinstance(task, AccelerationTask):
-            raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
+        if isinstance(task, Task):
+            if kp is None:
+                raise InvalidInputError(f"add_task({task.name}): a Task needs its reference gain kp (1/s²)")
+            task = AccelerationReference(task, kp=kp, kd=kd, weight=weight)
+        if not isinstance(task, AccelerationReference):
+            raise InvalidInputError(f"expected an AccelerationReference or a Task, got {type(task).__name__}")
         if hard:
             self.hard_tasks.append(HardTask(task))
             if hasattr(self, "_A"):
@@ -235,7 +248,7 @@ class InverseDynamicsQP:
             self.tasks.append(task)
         return task
 
-    def remove_task(self, task: AccelerationTask) -> None:
+    def remove_task(self, task: AccelerationReference) -> None:
         """Remove an acceleration task (weighted or hard) added to the QP.
 
         Raises:
@@ -277,7 +290,7 @@ class InverseDynamicsQP:
         gv.fill(0.0)
         for task in self.tasks:
             J, r = task.compute(state)
-            if isinstance(task, PostureAccelerationTask):  # J is a row selection: diagonal update
+            if isinstance(task.task, PostureTask):  # J is a row selection: diagonal update
                 span = self._posture_span(task)
                 if span is not None:
                     self._H.ravel()[span] += task.weight
@@ -325,7 +338,7 @@ class InverseDynamicsQP:
                 lb[jl.iv], ub[jl.iv] = lo, hi
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
 
-    def _posture_span(self, task: PostureAccelerationTask) -> slice | None:
+    def _posture_span(self, task: AccelerationReference) -> slice | None:
         """Strided slice of H's flattened diagonal over the task's rows when they are contiguous (cached)."""
         rows = task.task.rows
         key = (id(task), rows.size)
@@ -527,8 +540,8 @@ class _KernelBuffers:
         self.fallbacks = 0
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
-        soft = [t for t in qp.tasks if not isinstance(t, PostureAccelerationTask)]
-        posture = [t for t in qp.tasks if isinstance(t, PostureAccelerationTask)]
+        soft = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
+        posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
         mt = sum(t.dim for t in soft)
         self.Jt = np.zeros((mt, qp.nv))
         self.wt = np.zeros(mt)
@@ -549,7 +562,7 @@ class _KernelBuffers:
         for task in tasks:
             J, r = task.compute(state)
             d = task.dim
-            if isinstance(task, PostureAccelerationTask):
+            if isinstance(task.task, PostureTask):
                 self.pr[kp:kp + d] = r
                 self.pw[kp:kp + d] = task.weight
                 kp += d

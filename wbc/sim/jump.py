@@ -63,7 +63,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
-from wbc.tasks.acceleration import FrameAccelerationTask, PostureAccelerationTask
+from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import G, JumpPlan
 from wbc.scenarios.framework import Criterion, evaluate

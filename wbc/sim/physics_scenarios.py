@@ -31,7 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.balance import BalanceController
-from wbc.tasks.acceleration import PostureAccelerationTask
+from wbc.formulations.reference import PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate

@@ -3,6 +3,9 @@
 Error (6,): position p − p* in world axes (m), then orientation log₃(R*ᵀ R) in the target's axes (rad).
 Jacobian: [R J_lin^LOCAL ; Jlog₃(R*ᵀR) J_ang^LOCAL], exact derivative of that error (Jlog₃ is the inverse of
 the right Jacobian of SO(3), ``pin.Jlog3``).
+Drift J̇v (acceleration level, ë = J v̇ + J̇ v): position rows, the classical acceleration of the frame origin at
+v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orientation rows, Jlog₃(R*ᵀR) times the
+angular acceleration at v̇ = 0 in LOCAL (``pin.getFrameAcceleration``).
 Position-only and orientation-only forms keep only those rows.
 """
 
@@ -72,6 +75,7 @@ class FrameTask(Task):
         super().__init__(gain=gain, weight=w6[self.rows], name=name or frame)
         self.target = pin.SE3.Identity()
         self._ff6 = np.zeros(6)
+        self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -150,6 +154,18 @@ class FrameTask(Task):
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
+
+    def drift(self, state) -> np.ndarray:
+        """(dim,) J̇ v (module docstring): m/s² (position rows, world), rad/s² (orientation rows, target axes)."""
+        fid = self.frame_id
+        model, data = state.model, state.data
+        d = self._drift6
+        if self._has_pos:
+            d[:3] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+        if self._has_rot:
+            rel = self._target.rotation.T @ data.oMf[fid].rotation
+            d[3:] = pin.Jlog3(rel) @ pin.getFrameAcceleration(model, data, fid, pin.LOCAL).angular
+        return d if self._all_rows else d[self.rows]
 
 
 class PositionTask(FrameTask):
