@@ -12,7 +12,8 @@ import pytest
 from wbc.robot import load_robot
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.scenarios import make_controller, run_scenario
-from wbc.sim.walk import WalkScenario, measured_cop, polygon_margin
+from wbc.geometry import polygon_margin
+from wbc.sim.walk import WalkScenario, measured_cop
 
 
 @pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.24, 0.6), ("g1", 0.1, 0.8)])  # 0.4, 0.125 m/s
