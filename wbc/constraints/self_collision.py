@@ -314,6 +314,40 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def compute(self, config: Configuration, dt: float):
         """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring)."""
+        C, l, d, floor, _ = self._rows(config, dt)
+        m = d.size
+        if m:
+            l[:m] = -min(self.gain, 1.0 / dt) * (d - floor)
+        return C, l, self._u
+
+    def barrier(self, state, dt: float):
+        """(h (max_active,) m, G (max_active, nv), Ġv (max_active,) m/s²) at a DynamicsState: per active pair
+        h = d − f (its floor, module docstring), G the damper row (ḋ = G v), and Ġv = nᵀ(p̈2 − p̈1) with p̈_k the
+        classical acceleration at v̇ = 0 of body k's material point at its witness point (Pinocchio's joint
+        velocity and acceleration ``data.v``, ``data.a``). The terms of the witness normal's rotation
+        (2ṅᵀ(ṗ2 − ṗ1) − d|ṅ|²) are left out: first order in the bodies' relative angular velocity, they vanish for
+        translating bodies. Unused rows: h = +inf."""
+        C, _, d, floor, found = self._rows(state, dt)
+        m = d.size
+        h = np.full(self.dim, np.inf)
+        drift = np.zeros(self.dim)
+        if m:
+            h[:m] = d - floor
+            data = state.data
+            for r, (_, k, res) in enumerate(found):
+                n = np.asarray(res.normal)
+                acc = []
+                for side, p in ((0, res.getNearestPoint1()), (1, res.getNearestPoint2())):
+                    j = int(self._joint[self.pairs[k, side]])
+                    at = pin.SE3(np.eye(3), data.oMi[j].actInv(np.asarray(p)))  # the point, joint axes
+                    v, a = at.actInv(data.v[j]), at.actInv(data.a[j])
+                    acc.append(data.oMi[j].rotation @ (a.linear + np.cross(v.angular, v.linear)))
+                drift[r] = n @ (acc[1] - acc[0])
+        return h, C, drift
+
+    def _rows(self, config: Configuration, dt: float):
+        """(C with the damper rows of the active pairs, l with unused rows at −inf, d (m,), floors (m,), found
+        [(d, pair index, coal result)]) for the m active pairs, closest first; updates the floors."""
         model, data = self.model, config.data
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
@@ -335,7 +369,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         l[m:] = -np.inf
         self.active = [(*self.pair_names[k], float(d)) for d, k, _ in found]
         if not m:
-            return C, l, self._u
+            return C, l, np.zeros(0), np.zeros(0), found
         d = np.array([item[0] for item in found])
         k = np.array([item[1] for item in found])
         n = np.array([item[2].normal for item in found])
@@ -345,12 +379,11 @@ class SelfCollisionConstraint(InequalityConstraint):
         # data.J: (6, nv) joint Jacobians in WORLD, filled by computeJointJacobians (Configuration.update)
         _damper_rows(n, p1, p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]], data.J,
                      self._support, C)
-        gamma, ds = min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin
+        ds = self.min_distance + self.safety_margin
         prev = self._floor[k]
         floor = np.minimum(ds, np.where(np.isnan(prev), d, np.fmax(prev, d) + self.recovery_speed * dt))
         self._floor[k] = floor
-        l[:m] = -gamma * (d - floor)
-        return C, l, self._u
+        return C, l, d, floor, found
 
     def reset(self) -> None:
         """Forget the per-pair floors (module docstring), e.g. after teleporting the robot."""

@@ -1,6 +1,8 @@
-"""Kinematic (velocity-level) QP whole-body controller.
+"""Velocity-level formulation: the kinematic QP whole-body controller (:class:`KinematicController`).
 
-The optimisation problem, solved once per control tick of period dt (s), with v ∈ R^nv the generalized
+It assembles the shared task objects of :mod:`wbc.tasks` as (J_i, v*_i) — the acceleration-level formulation
+(:mod:`wbc.formulations.acceleration`) uses the same objects as (J_i, a*_i − J̇_i v) — and the constraint objects
+of :mod:`wbc.constraints` (their ``compute`` rows on v). The optimisation problem, solved once per control tick of period dt (s), with v ∈ R^nv the generalized
 velocity (floating base included):
 
     min_v   Σ_i ‖ diag(√w_i) (J_i v − v*_i) ‖²  +  ε ‖v‖²                     (weighted tasks)
