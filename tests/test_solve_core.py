@@ -263,3 +263,77 @@ def test_second_order_contact_correction_holds_soles_without_trust_region(robots
     assert n_ok == 150
     assert moved <= 5e-5
     assert offset <= 1e-3
+
+
+class _PastTheBound(QPBackend):
+    """A solver whose answer is its exact solution pushed 3e-5 past the upper bound of x0 (the measured symptom:
+    cancellation with |g| ~ 1e11 left every solver 3.2e-5 rad/s past a 32 rad/s bound)."""
+
+    name = "past_the_bound"
+
+    def _solve(self, H, g, A, b, C, l, u, lb, ub):
+        return np.array([1.0 - 1e-5 + 3e-5, 0.0])  # exact: x0 = b0 = 1 − 1e-5 (the only feasible x0)
+
+
+def test_polish_projects_an_answer_that_must_leave_its_bound():
+    """The row x0 = 1 − 1e-5 sits 1e-5 inside the bound x0 ≤ 1; the solver answers x0 = 1 + 2e-5. Clipping
+    to the bound leaves the row off by 1e-5 and no free entry can correct it (the least-squares polish fails):
+    the answer is projected onto the hard set, giving the closed-form feasible point x0 = 1 − 1e-5, without the
+    independent solvers."""
+    backend = _PastTheBound()
+    H, g = np.eye(2), np.array([-10.0, 0.0])
+    A, b = np.array([[1.0, 0.0]]), np.array([1.0 - 1e-5])
+    x = backend.solve(H, g, A, b, np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2), np.ones(2))
+    assert abs(x[0] - (1.0 - 1e-5)) <= 1e-9 and abs(x[1]) <= 1e-9
+    assert backend.polished == 1 and backend.rescues == 0
+
+
+def test_fuzz_seed_1328_feasible_tick_solves_and_does_not_hold(robots):
+    """The fuzz state that failed 10 ticks in a row (seed 1328, episode 14, tick 40: G1, CoM gain 1758, a wrist
+    target 1e6 m away at gain 531 and weight 270, so |g| = 1.3e11): every solver answered 3.2e-5 rad/s past a
+    32 rad/s velocity bound, the least-squares polish could not hold the 12 contact rows with the 21 free
+    entries (rank 11), the safe command failed the same way and the robot held (v = 0) with the state unchanged.
+    An independent LP (scipy HiGHS, tolerance 1e-9) finds the hard set feasible; the tick must be ok, within the
+    velocity limits (model, 1e-9) and move each sole ≤ 0.05 mm (forward kinematics)."""
+    from wbc.tasks import FrameTask
+
+    robot = robots("g1")
+    config = Configuration(robot)  # episode start: the reference posture
+    ctrl, com = standing_controller(robot, config)
+    com.gain, com.weight = 1758.1889846507397, 0.10829436327180514
+    com.set_target(np.array([0.6629961487879527, 0.2704955473603578, 0.7615997946254517]))
+    for contact, gain in zip(ctrl.constraints[:2], (247.8717747952035, 3.6010787841248466)):
+        contact.gain = gain
+    hand = FrameTask(robot, "left_wrist_roll_joint", gain=530.6302744760818, position_weight=270.4792155328829,
+                     orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation = np.array([560443.6800666036, 322084.2593146328, -762996.4315212069])
+    hand.set_target(target)
+    ctrl.add_task(hand)
+    q = np.array([
+        5.4277182626974452e-01, 9.5441949758798217e-02, 3.5216375378062642e-01, 8.8606362790079080e-04,
+        9.2653362131231287e-01, 2.1811672013676915e-03, 3.7620460653582993e-01, -1.3923457994984909e+00,
+        -1.8712088577994423e-01, -1.9034533211444898e-01, -8.7266998999999873e-02, -8.7266999899999997e-01,
+        2.6141302300484620e-01, -1.3922981656035358e+00, -1.8739103984377214e-01, -1.9061744172850226e-01,
+        -8.7266998999999984e-02, -8.7266999899999975e-01, 2.6179999899999989e-01, -5.1199996614708065e-01,
+        2.4000000005960515e-01, -2.4000000000000080e-01, -2.8119999999999989e+00, 1.0880000121641313e+00,
+        -1.4799999630050487e-01, 1.1919999833475119e+00, -8.9882755690737809e-02, -5.2480550228124623e-01,
+        1.8320664193543160e-01, 1.2662259616135028e+00, -5.4827628364942205e-01, 9.1091772552356964e-01,
+        1.0331456236114704e+00, -3.7428045235001137e-02, 8.5424112747164591e-02, 8.1679212223381606e-02])
+    config.update(q)
+    _, _, A, b, _, _, _, lb, ub = ctrl.assemble(config, DT)
+    lp = scipy.optimize.linprog(np.zeros(robot.model.nv), A_eq=A, b_eq=b, method="highs",
+                                bounds=[(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None)
+                                        for lo, hi in zip(lb, ub)],
+                                options={"primal_feasibility_tolerance": 1e-9})
+    assert lp.status == 0  # the independent solver: feasible
+    soles = [config.frame_placement(c.frame_id).translation.copy() for c in ctrl.constraints[:2]]
+    for k in range(3):  # and it stays solved (no hold, no latch)
+        res = ctrl.solve(config, DT)
+        assert res.ok and res.fallback == "" and res.consecutive_failures == 0, res.message
+        vmax = robot.model.velocityLimit[6:]
+        assert np.all(np.abs(res.v[6:]) <= vmax + 1e-9)
+        config.update(config.integrate(res.v, DT))
+        for c, p0 in zip(ctrl.constraints[:2], soles):
+            p = config.frame_placement(c.frame_id).translation
+            assert np.linalg.norm(p - p0) <= 5e-5 * (k + 1)
