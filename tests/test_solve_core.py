@@ -337,3 +337,92 @@ def test_fuzz_seed_1328_feasible_tick_solves_and_does_not_hold(robots):
         for c, p0 in zip(ctrl.constraints[:2], soles):
             p = config.frame_placement(c.frame_id).translation
             assert np.linalg.norm(p - p0) <= 5e-5 * (k + 1)
+
+
+def _commanded(contact, oMf_before):
+    """Independent oracle of where the contact row J v = −K e sends a sole over one tick (Pinocchio):
+    placement · exp((1 − K dt) e), e = log(placement⁻¹ · oMf) before the tick."""
+    import pinocchio as pin
+
+    e = pin.log6(contact.placement.actInv(oMf_before)).vector
+    return contact.placement * pin.exp6(e * (1.0 - min(contact.gain, 1.0 / DT) * DT))
+
+
+def test_fuzz_seed_1003_dependent_contact_rows_keep_soles_on_ok_ticks(robots):
+    """Fuzz seed 1003, episode 41 (humanoid15, CoM gain 6.5e4, torso target 5 cm away at gain 1940): the two
+    flat feet fix the base yaw twice (contact rows of rank 11 < 12); the feet's second-order drifts differ in
+    that direction, the corrected right-hand sides contradicted each other, the correction was dropped and the
+    soles slid ~0.03 mm on every ok tick, 1.21 mm from their placement after 50 ok ticks. Measured here by
+    forward kinematics: every tick ok, each sole ≤ 0.05 mm from where its contact row sent it, ≤ 1 mm (in fact
+    far less: 0.1 mm here) from its placement."""
+    from wbc.tasks import FrameTask
+
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, com = standing_controller(robot, config)
+    com.gain, com.weight = 65114.84788974869, 0.03530437186521772
+    com.set_target(np.array([0.0217239036447486, 0.02703371463154508, 0.7088377814588085]))
+    contacts = ctrl.constraints[:2]
+    for contact, gain in zip(contacts, (2.8128763610069947, 52.14519612727255)):
+        contact.gain = gain
+    hand = FrameTask(robot, robot.torso, gain=1940.1131435694, position_weight=4.980474059710353,
+                     orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation = np.array([-0.06905025071075976, 0.02101008456714527, 1.0022896264256023])
+    hand.set_target(target)
+    ctrl.add_task(hand)
+    worst_drift = worst_offset = 0.0
+    for _ in range(50):
+        before = [config.frame_placement(c.frame_id).copy() for c in contacts]
+        res = ctrl.solve(config, DT)
+        assert res.ok, res.message
+        config.update(config.integrate(res.v, DT))
+        for c, oMf in zip(contacts, before):
+            p = config.frame_placement(c.frame_id).translation
+            worst_drift = max(worst_drift, np.linalg.norm(p - _commanded(c, oMf).translation))
+            worst_offset = max(worst_offset, np.linalg.norm(p - c.placement.translation))
+    print(f"\nmax drift per tick {1e3 * worst_drift:.5f} mm, max offset {1e3 * worst_offset:.5f} mm")
+    assert worst_drift <= 5e-5
+    assert worst_offset <= 1e-4
+
+
+def test_safe_command_of_a_failed_tick_holds_contacts_to_second_order(robots):
+    """A failed tick's safe command (constraints only) is a QP solution like any other: with G1's velocity limits
+    (up to 37 rad/s) and a wrist target 1 m away at gain 1000, its first-order contact rows let a sole move
+    > 0.05 mm per tick (measured 2.7 mm on ok ticks before the correction existed). A hard foot target 1 m away
+    makes every tick fail; the safe command must keep each sole ≤ 0.05 mm from where its contact row sent it
+    (forward kinematics) and ≤ 1 mm from its placement over 30 failed ticks."""
+    from wbc.tasks import FrameTask
+
+    robot = robots("g1")
+    config = Configuration(robot)
+    ctrl, com = standing_controller(robot, config)
+    contacts = ctrl.constraints[:2]
+    rng = np.random.default_rng(3)
+    hand = FrameTask(robot, "left_wrist_roll_joint", gain=1000.0, position_weight=100.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += rng.uniform(-1.0, 1.0, 3)
+    hand.set_target(target)
+    ctrl.add_task(hand)
+    foot = FrameTask(robot, robot.left_sole, gain=10.0, name="far_foot")
+    far = config.frame_placement(foot.frame_id).copy()
+    far.translation += [1.0, 0.0, 0.0]
+    foot.set_target(far)
+    ctrl.add_task(foot, hard=True)
+    worst_drift = worst_offset = 0.0
+    moved = 0.0
+    for _ in range(30):
+        before = [config.frame_placement(c.frame_id).copy() for c in contacts]
+        res = ctrl.solve(config, DT)
+        assert not res.ok and res.fallback == "constraints_only", res.fallback
+        config.update(config.integrate(res.v, DT))
+        moved = max(moved, float(np.abs(res.v[6:]).max()))
+        for c, oMf in zip(contacts, before):
+            p = config.frame_placement(c.frame_id).translation
+            worst_drift = max(worst_drift, np.linalg.norm(p - _commanded(c, oMf).translation))
+            worst_offset = max(worst_offset, np.linalg.norm(p - c.placement.translation))
+    print(f"\nmax joint speed {moved:.3g} rad/s, max drift per tick {1e3 * worst_drift:.5f} mm, max offset "
+          f"{1e3 * worst_offset:.5f} mm")
+    assert moved > 1.0  # the safe command does move the robot (not a hold)
+    assert worst_drift <= 5e-5
+    assert worst_offset <= 1e-3
