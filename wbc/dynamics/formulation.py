@@ -73,7 +73,7 @@ from wbc.dynamics.constraints import (
     Unilaterality,
 )
 from wbc.dynamics.contacts import SoleContact
-from wbc.dynamics.idkernel import id_tick
+from wbc.dynamics.idkernel import id_tick, id_workspace
 from wbc.dynamics.state import DynamicsState
 from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
@@ -515,9 +515,7 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
-                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.ws = id_workspace(n, nv, p, w)
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
         k = qp.joint_acceleration_limits.dim
