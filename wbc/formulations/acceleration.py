@@ -73,7 +73,7 @@ from wbc.constraints.dynamics import (
     Unilaterality,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import id_tick
+from wbc.formulations.idkernel import id_tick, id_workspace
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
@@ -528,9 +528,7 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
-                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.ws = id_workspace(n, nv, p, w)
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
         k = qp.joint_acceleration_limits.dim
