@@ -80,8 +80,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--impratio", type=float, default=None,
-                   help="plant: MuJoCo friction-to-normal impedance ratio (MuJoCo default 1: its soft friction lets "
-                        "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
+                   help="plant: MuJoCo friction-to-normal impedance ratio of the elliptic friction cones (default 10, "
+                        "see wbc.sim.mujoco_model; 1, MuJoCo's default, lets a loaded foot creep below the friction "
+                        "limit)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     for flag, kind, default, text in JUMP_OPTIONS:
