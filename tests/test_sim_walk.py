@@ -169,3 +169,32 @@ def test_dependent_contact_rows_are_made_consistent():
     out = b.copy()
     assert consistent_contact_rhs(rng.standard_normal((12, 20)), out) == 0
     assert np.array_equal(out, b)
+
+
+def test_turning_is_refused_for_legs_without_hip_yaw():
+    # humanoid15 (5-DoF legs, no hip yaw): the soles' relative yaw rate has a zero Jacobian (Pinocchio), so a
+    # turning plan is refused with a typed error at setup; straight walking is planned.
+    import pinocchio as pin
+
+    from wbc.exceptions import GaitError
+
+    robot = load_robot("humanoid15")
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    Jl, Jr = (pin.getFrameJacobian(model, data, robot.frame_id(f), pin.LOCAL_WORLD_ALIGNED)
+              for f in (robot.left_sole, robot.right_sole))
+    assert np.abs(Jl[5] - Jr[5]).max() < 1e-12
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep, **id_options_for(robot))
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    controller.reset(q, v)
+    with pytest.raises(GaitError, match="cannot yaw"):
+        WalkScenario(4, 0.0, 0.8, turn=np.radians(8.0)).setup(controller, sim, q, v)
+    WalkScenario(4, 0.1, 0.8).setup(controller, sim, q, v)  # straight: planned
+    # Talos (hip yaw joints) is planned with the same turn.
+    talos = load_robot("talos")
+    tsim = build_mujoco_model(talos)
+    tc = make_controller(talos, "id", dt=tsim.timestep)
+    tc.reset(talos.q_ref.copy(), np.zeros(talos.nv))
+    WalkScenario(4, 0.0, 0.8, turn=np.radians(8.0)).setup(tc, tsim, talos.q_ref.copy(), np.zeros(talos.nv))
