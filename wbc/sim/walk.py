@@ -71,6 +71,17 @@ def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0)
     return np.array([-M[1] / F[2], M[0] / F[2]])
 
 
+def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
+    """Whether the joints can change the relative yaw of the two soles at q: the z row of the Jacobian of
+    ω_left − ω_right (world axes; the floating base cancels) is non-zero (> 1e-6 of a unit joint rate). False for
+    legs without a hip yaw joint (humanoid15), whose feet then cannot turn relative to each other."""
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.framesForwardKinematics(model, data, q)
+    Jl, Jr = (pin.getFrameJacobian(model, data, fid[s], pin.LOCAL_WORLD_ALIGNED) for s in ("left", "right"))
+    return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
+
+
 class DcmStabilizer:
     """DCM tracking with CoP feedback and integral action, commanded CoP kept in the support area.
 
@@ -157,7 +168,9 @@ class WalkScenario:
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
     Raises:
-        InvalidInputError / GaitError: bad numbers.
+        InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
+            differing by > 0.01 rad) on a robot whose legs cannot yaw one sole relative to the other (no hip yaw
+            joint, humanoid15: the soles' relative yaw rate has a zero Jacobian at the start state).
     """
 
     name = "walk"
@@ -227,6 +240,11 @@ class WalkScenario:
                                      min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
+        yaws = [fs.yaw for fs in plan.footsteps]
+        if yaws and max(yaws) - min(yaws) > 0.01 and not _feet_can_yaw(robot, q, self._fid):  # > 0.6 deg
+            raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
+                            "relative yaw rate of the soles has a zero Jacobian), so its feet cannot turn; the plan "
+                            f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
         if self.from_state:
             plan = self._capture_plan(plan, q, v)
         self.plan = plan
