@@ -128,6 +128,28 @@ def test_lateral_push_in_single_support_is_recovered_by_a_step():
     assert np.abs(run.ext_force[:, 1]).max() == pytest.approx(400.0)
 
 
+def test_push_towards_the_stance_leg_is_recovered_by_cutting_the_step_short():
+    # Talos 8 x 0.25 m at 0.6 s/step; 300 N x 0.1 s at t = 2.816 s towards +y (84.4 deg; seed 26 of
+    # benchmarks/walk_push_trials.py) while the right foot swings (4th swing, single support 2.6-3.08 s, left
+    # stance): the right foot cannot land left of the stance leg, so the reach clips it and the swing is cut short
+    # (step timing adjustment); the left step then goes out. With the timing fixed this push fell (measured).
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = WalkScenario(8, 0.25, 0.6, push=300.0, push_time=2.816, push_duration=0.1, push_dir=84.4)
+    run, s = run_scenario(sim, controller, scenario)
+    assert not s["fell"] and s["completed"]
+    assert s["solver_failures"] == 0
+    assert max(s["step_timing_changes_s"]) >= 0.05
+    # The pushed right foot touched down (MuJoCo state) before its planned landing at 3.08 s.
+    td = [t for t, side, e in scenario.switcher.events if side == "right" and e == "touchdown" and 2.6 < t < 3.2]
+    assert td and td[0] < 3.08 - 0.04
+    # Every shortened swing still reached its (adjusted) footstep: MuJoCo's sole at touch-down within 2 cm.
+    assert max(s["landing_error_m"]) <= 0.02
+    # The left step after it went out to the left by more than 30 cm (MuJoCo's sole position, at the end).
+    assert run.sole_pos[-1, 0, 1] > 0.085 + 0.30
+
+
 def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
     from wbc.sim.capture_step import CaptureStepScenario
 
