@@ -55,6 +55,7 @@ __all__ = [
     "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "AccelerationBarrier",
     "TorqueLimits",
     "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
+    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs",
 ]
 
 
@@ -138,6 +139,42 @@ class ContactAcceleration(IDConstraint):
         A[:, :ctx.nv] = J
         A[:, ctx.nv:] = 0.0
         b[:] = self.contact.acceleration_target(ctx.state, J)
+
+
+#: σ/σ_max below which a direction of the stacked rows of the active contacts counts as dependent
+#: (:func:`consistent_contact_rhs`). Measured in double support: Talos and G1 (6-DoF legs) ≥ 0.05 at their
+#: reference stance; humanoid15 (5-DoF legs, no hip yaw) 0 at ``q_ref`` and ≤ 0.005 over a walk.
+DEPENDENT_CONTACT_RATIO = 1e-2
+
+
+def consistent_contact_rhs(J: np.ndarray, b: np.ndarray, ratio: float = DEPENDENT_CONTACT_RATIO) -> int:
+    """Make the stacked contact equalities ``J v̇ = b`` (eq. 5 of every active contact) consistent, in place.
+
+    Two flat soles of a robot whose legs cannot yaw the foot (humanoid15: 5-DoF legs) fix the relative yaw of the
+    feet twice: the 12 rows of the two soles have rank 11 at a flat stance (σ_min / σ_max = 8e-19) and stay
+    nearly dependent while walking (≤ 5e-3). The component of ``b`` along such a direction u (−uᵀJ̇v − K_d uᵀJv:
+    a relative foot yaw the legs can only produce through second-order roll–pitch coupling, non-zero after a
+    touch-down with some foot velocity) either makes the equalities infeasible (exact dependence: the controller
+    fell back to the relaxed QP with kN forces and the robot fell) or demands an acceleration of order |uᵀb|/σ.
+    Here ``b`` is replaced by its projection onto the span of the left singular vectors of ``J`` whose singular
+    value is ≥ ``ratio`` σ_max, the least-squares consistent right-hand side of the well-conditioned rows; the rows
+    themselves are kept (a dependent row with a consistent right-hand side is satisfied by the solution of the
+    others up to σ/σ_max). Singular vectors from the eigen-decomposition of the (m, m) Gram matrix J Jᵀ (σ² = λ).
+
+    Args:
+        J: (m, nv) stacked contact rows. b: (m,) right-hand side, modified in place.
+        ratio: relative singular-value threshold (dimensionless, in [0, 1)).
+
+    Returns:
+        The number of directions projected out (0: ``b`` unchanged).
+    """
+    lam, U = np.linalg.eigh(J @ J.T)  # ascending
+    keep = lam >= (ratio * ratio) * lam[-1]
+    n_out = int(J.shape[0] - np.count_nonzero(keep))
+    if n_out:
+        Uk = U[:, keep]
+        b[:] = Uk @ (Uk.T @ b)
+    return n_out
 
 
 class HardTask(IDConstraint):

@@ -25,6 +25,8 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
             r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (wbc.formulations.reference)
     s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
+                (with ≥ 2 active contacts, the stacked right-hand side is projected onto the span of the rows' left
+                singular vectors with σ ≥ 1e-2 σ_max: dependent rows made consistent, constraints.consistent_contact_rhs)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
             F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis)            (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
@@ -81,9 +83,10 @@ from wbc.constraints.dynamics import (
     JointAccelerationLimits,
     TorqueLimits,
     Unilaterality,
+    consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import id_tick
+from wbc.formulations.idkernel import id_tick, id_workspace
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
@@ -217,6 +220,9 @@ class InverseDynamicsQP:
             self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
+        #: directions of the stacked active contact rows projected out of their right-hand side at the last build
+        #: (:func:`wbc.dynamics.constraints.consistent_contact_rhs`; 0 for legs that can yaw the foot)
+        self.dependent_contact_rows = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -371,7 +377,14 @@ class InverseDynamicsQP:
         A, b = self._A, self._b
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
-        for con in (*self.contact_accelerations, *self.hard_tasks):
+        for con in self.contact_accelerations:
+            if con.enabled:
+                con.rows = slice(i, i + con.dim)
+                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
+                i += con.dim
+        # ≥ 2 active contacts: right-hand side of (nearly) dependent contact rows made consistent
+        self.dependent_contact_rows = consistent_contact_rhs(A[6:i, :nv], b[6:i]) if i > 12 else 0
+        for con in self.hard_tasks:
             if con.enabled:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
@@ -587,9 +600,7 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
-                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.ws = id_workspace(n, nv, p, w)
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
         k = qp.joint_acceleration_limits.dim
@@ -637,3 +648,9 @@ class _KernelBuffers:
             if c.active:
                 self.bc[c_i] = c.acceleration_target(state, J)
                 self.Rc[c_i] = state.data.oMf[c.frame_id].rotation
+        act = np.flatnonzero(self.active)
+        qp.dependent_contact_rows = 0
+        if len(act) >= 2:  # as in InverseDynamicsQP.build
+            bc = self.bc[act].reshape(-1)
+            qp.dependent_contact_rows = consistent_contact_rhs(self.Jc[act].reshape(-1, self.Jc.shape[2]), bc)
+            self.bc[act] = bc.reshape(-1, 6)

@@ -114,6 +114,14 @@ class Task(ABC):
         """(m, nv) Jacobian ∂e/∂q of the task error."""
         return self.compute(config)[1]
 
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        """Write e (m,) and J (m, nv) at ``config`` into the given arrays (views of a controller's stacked
+        buffers): the same numbers as :meth:`compute`, without returning new arrays. Tasks with a cheaper
+        in-place form override it."""
+        error, jac = self.compute(config)
+        error_out[:] = error
+        jac_out[:] = jac
+
     def feedforward(self) -> np.ndarray | None:
         """(m,) desired rate of the error ė* (None: zero)."""
         return None

@@ -52,6 +52,10 @@ class ComTask(Task):
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return config.com - self._target, config.com_jacobian
 
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        np.subtract(config.com, self._target, out=error_out)
+        jac_out[:] = config.com_jacobian
+
     def feedforward(self) -> np.ndarray | None:
         return self._ff
 

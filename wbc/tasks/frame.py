@@ -16,6 +16,7 @@ Position-only and orientation-only forms keep only those rows.
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -57,6 +58,24 @@ def orientation_drift(rel: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> 
         # and θ̇ = Jlog₃ ω (checked against pin.Hlog3 at 1e-2 rad and finite differences in tests/test_tasks.py)
         return pin.Jlog3(rel) @ alpha - np.cross(omega, np.cross(theta, omega)) / 6.0
     return pin.Jlog3(rel) @ alpha + pin.Hlog3(rel, omega) @ omega
+
+
+@nb.njit(cache=True, nogil=True)
+def _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out):
+    """The selected rows of error [p − p*; log] and Jacobian [rot J_lin; jlog J_ang] (module docstring), written
+    into error_out (k,) and jac_out (k, nv): a compiled 3×3 by 3×nv product of matrices given by Pinocchio
+    (``oMf.rotation``, ``pin.Jlog3``, ``getFrameJacobian``) and of the log ``pin.log3``, no kinematics."""
+    nv = j_local.shape[1]
+    for a in range(rows.shape[0]):
+        r = rows[a]
+        if r < 3:
+            error_out[a] = pos[r] - target_pos[r]
+            m0, m1, m2, off = rot[r, 0], rot[r, 1], rot[r, 2], 0
+        else:
+            error_out[a] = log[r - 3]
+            m0, m1, m2, off = jlog[r - 3, 0], jlog[r - 3, 1], jlog[r - 3, 2], 3
+        for j in range(nv):
+            jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
 
 
 def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -173,6 +192,20 @@ class FrameTask(Task):
             return pin.log3(rel)[rows], (pin.Jlog3(rel) @ j_local[3:])[rows]
         error, jac = pose_error_and_jacobian(oMf, j_local, self.target)
         return error[self.rows], jac[self.rows]
+
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
+            Task.compute_into(self, config, error_out, jac_out)
+            return
+        oMf = config.data.oMf[self.frame_id]
+        rot = oMf.rotation
+        j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
+        if self._has_rot:
+            rel = self._target_rot_t @ rot
+            log, jlog = pin.log3(rel), pin.Jlog3(rel)
+        else:
+            log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
+        _frame_rows(rot, jlog, j_local, oMf.translation, self._target_pos, log, self.rows, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
