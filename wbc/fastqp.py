@@ -45,13 +45,15 @@ _FM = {"reassoc", "contract"}
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
-def cholesky_lower(M, k):
-    """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not positive."""
+def cholesky_lower(M, k, rel_tol=0.0):
+    """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not above ``rel_tol`` times
+    its diagonal entry (0: not positive; > 0: a numerically dependent row, as the ID kernel's working set uses)."""
     for j in range(k):
-        s = M[j, j]
+        d0 = M[j, j]
+        s = d0
         for p in range(j):
             s -= M[j, p] * M[j, p]
-        if not s > 0.0:
+        if not s > rel_tol * d0:
             return False
         d = np.sqrt(s)
         M[j, j] = d

@@ -112,6 +112,12 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
             acc += C[r, j] * x[j]
         if acc < l[r] - tol or acc > u[r] + tol:
             return -1.0
+    return _clip_and_equality_residual(A, b, m, lb, ub, x, n)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
+    """Clip x[:n] into [lb, ub] in place and return max_k |A_k x − b_k| over the first m rows."""
     for i in range(n):
         x[i] = min(max(x[i], lb[i]), ub[i])
     res = 0.0
@@ -192,32 +198,24 @@ def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, f
         if nz:
             forward_substitution(L, nfv, y)
         for c in range(k + 1):
-            Rc = _row(A, C, m, rows[c])
-            acc = 0.0
-            if nz and vrow[c]:
-                yc = Yv[c]
-                for a in range(nfv):
-                    acc += y[a] * yc[a]
-            for a in range(nff):
-                f = ffree[a]
-                acc += R[f] * Rc[f] / H[f, f]
-            S[k, c] = acc
-    for j in range(mw):
-        d0 = S[j, j]
-        s = d0
-        for q in range(j):
-            s -= S[j, q] * S[j, q]
-        if not s > dep_tol * d0:
-            return DEPENDENT_WORKING_SET
-        d = np.sqrt(s)
-        S[j, j] = d
-        for i in range(j + 1, mw):
-            t = S[i, j]
-            for q in range(j):
-                t -= S[i, q] * S[j, q]
-            S[i, j] = t / d
+            S[k, c] = _free_dot(0.0, nz and vrow[c], y, Yv[c], nfv, R, _row(A, C, m, rows[c]), ffree, nff, H)
+    if not cholesky_lower(S, mw, dep_tol):
+        return DEPENDENT_WORKING_SET
     fac[2] = mw
     return mw
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
+    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
+    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
+    if with_v:
+        for i in range(nfv):
+            acc += y[i] * w[i]
+    for i in range(nff):
+        f = ffree[i]
+        acc += R[f] * X[f] / H[f, f]
+    return acc
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
@@ -236,15 +234,7 @@ def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, 
         q += a[f] * a[f] / H[f, f]
     for k in range(mw):
         R = _row(A, C, m, rows[k])
-        s = -c[k]
-        if vrow[k]:
-            yk = Yv[k]
-            for i in range(nfv):
-                s += yk[i] * tv[i]
-        for i in range(nff):
-            f = ffree[i]
-            s += R[f] * a[f] / H[f, f]
-        rho[k] = s
+        rho[k] = _free_dot(-c[k], vrow[k], Yv[k], tv, nfv, R, a, ffree, nff, H)
     forward_substitution(S, mw, rho)
     backward_substitution(S, mw, rho)
     for k in range(mw):
@@ -572,14 +562,7 @@ def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter,
             big = max(big, abs(lam_r[r]))
             worst = min(worst, lam_r[r])
             mu[r] = -lam_r[r] if rstate[r] < 0 else lam_r[r]
-    for i in range(n):
-        x[i] = min(max(x[i], lb[i]), ub[i])
-    res = 0.0
-    for k in range(m):
-        s = -b[k]
-        for j in range(n):
-            s += A[k, j] * x[j]
-        res = max(res, abs(s))
+    res = _clip_and_equality_residual(A, b, m, lb, ub, x, n)
     for r in range(p):
         s = 0.0
         for j in range(n):
