@@ -214,7 +214,7 @@ class KinematicController:
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
         self._in_solve, self._drift_cache = False, None
-        self._contact_errors: list[np.ndarray] | None = None
+        self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -378,6 +378,7 @@ class KinematicController:
         self._A = np.zeros((n_eq, self.nv))
         self._b = np.zeros(n_eq)
         contact_ids = set(map(id, self._contacts))
+        self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
         self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
                                        for i in range(r0, r1)], dtype=int)
         self._in_blocks, n_in = _row_blocks(ineq)
@@ -400,7 +401,9 @@ class KinematicController:
         row = 0
         for task in self.tasks:
             if type(task).add_cost is Task.add_cost:
-                self._soft_dense.append((task, row, row + task.dim))
+                # v* = ė* − K e computed in place unless the task defines its own velocity_target
+                self._soft_dense.append((task, row, row + task.dim,
+                                         type(task).velocity_target is Task.velocity_target))
                 row += task.dim
             else:
                 self._soft_own.append(task)
@@ -420,10 +423,16 @@ class KinematicController:
             self._build_soft_layout()
         # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
         J, w, r = self._soft_J, self._soft_w, self._soft_r
-        for task, r0, r1 in self._soft_dense:
-            error, jac = task.compute(config)
-            J[r0:r1] = jac
-            r[r0:r1] = task.velocity_target(error)
+        for task, r0, r1, plain_target in self._soft_dense:
+            rows = r[r0:r1]
+            task.compute_into(config, rows, J[r0:r1])  # e, then v* = ė* − K e in place
+            if plain_target:
+                rows *= -task.gain
+                ff = task.feedforward()
+                if ff is not None:
+                    rows += ff
+            else:
+                rows[:] = task.velocity_target(rows.copy())
             w[r0:r1] = task.weight
         weighted_normal_equations(J, w, r, self.damping, H, g)
         for task in self._soft_own:
@@ -431,9 +440,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
-        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
-            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
-                                    if isinstance(c, ContactConstraint)]
+        if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
+            self._contact_expected = [b[r0:r1] * (dt - 1.0 / min(c.gain, 1.0 / dt))
+                                      for c, r0, r1 in self._contact_blocks]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -498,7 +507,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
-        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
+        self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -563,13 +572,19 @@ class KinematicController:
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
         for i, c in enumerate(self._contacts):
-            e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e = c.compute_error(config) if errors is None else errors[i]
-            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            d = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            if expected is None:
+                d -= c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            else:
+                d -= expected[i]
             drifts.append(d)
-            worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+            t = d[:3]
+            n2 = float(t @ t)
+            if n2 > worst:
+                worst = n2
+        worst = math.sqrt(worst)
         if self._in_solve:
             self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
