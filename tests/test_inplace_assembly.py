@@ -48,3 +48,40 @@ def test_position_limit_bounds_closed_form(robots, name):
     for k, (i_q, lo, hi) in enumerate(zip(iq, model.lowerPositionLimit[iq], model.upperPositionLimit[iq])):
         assert lb[k] == min((lo - q[i_q]) / dt, vmax[k])
         assert ub[k] == max((hi - q[i_q]) / dt, -vmax[k])
+
+
+def test_support_switch_reuses_the_layout_and_solves_as_a_fresh_controller(robots):
+    """Removing a contact and adding it back (a step) reuses the layout built the first time for that constraint
+    list (same buffers), and every tick equals the tick of a controller built fresh with that constraint list."""
+    from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
+    from wbc.controller import KinematicController
+    from wbc.tasks import ComTask, PostureTask
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    dt = 0.002
+
+    def problem():
+        com = ComTask(weight=10.0, gain=1 / dt)
+        com.set_target(config.com + np.array([0.01, 0.02, -0.01]))
+        contacts = [ContactConstraint(robot, f, gain=1 / dt) for f in (robot.left_sole, robot.right_sole)]
+        for c in contacts:
+            c.set_placement_from_configuration(config)
+        return [com, PostureTask(robot, weight=1e-2)], contacts, [JointPositionLimit(robot), JointVelocityLimit(robot)]
+
+    tasks, (left, right), limits = problem()
+    ctrl = KinematicController(robot, tasks, [left, right, *limits])
+    ctrl.solve(config, dt)
+    ctrl.remove_constraint(right)
+    single = ctrl.solve(config, dt).v
+    A_single = ctrl._A
+    ctrl.add_constraint(right)
+    double = ctrl.solve(config, dt).v
+    ctrl.remove_constraint(right)
+    again = ctrl.solve(config, dt).v
+    assert ctrl._A is A_single  # the single-support layout came back, not rebuilt
+    for order, v in (([left, *limits], single), ([left, *limits, right], double), ([left, *limits], again)):
+        t2, (l2, r2), lim2 = problem()
+        fresh = KinematicController(robot, t2, [{id(left): l2, id(right): r2}.get(id(c), None) or
+                                                lim2[limits.index(c)] for c in order])
+        np.testing.assert_allclose(v, fresh.solve(config, dt).v, rtol=0, atol=1e-9)  # same optimum, other warm start
