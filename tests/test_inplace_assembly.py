@@ -54,7 +54,7 @@ def test_support_switch_reuses_the_layout_and_solves_as_a_fresh_controller(robot
     """Removing a contact and adding it back (a step) reuses the layout built the first time for that constraint
     list (same buffers), and every tick equals the tick of a controller built fresh with that constraint list."""
     from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-    from wbc.controller import KinematicController
+    from wbc import KinematicController
     from wbc.tasks import ComTask, PostureTask
 
     robot = robots("talos")
