@@ -29,7 +29,8 @@ solved again. (2) After the solve
 the contact frames are placed at q⁺ = pin.integrate(q, v dt) by forward kinematics; if one drifts from its
 expected placement by more than ``contact_correction`` (m), the contact rows' right-hand sides are corrected by
 the measured drift and the tick is solved again (a Newton step on e⁺(v) = (1 − K dt) e, ≤ 3 iterations: only
-the contact targets move, every task and priority is kept). (3) A tick whose drift still exceeds
+the contact targets move, every task and priority is kept; when the contact rows are rank deficient the corrected
+right-hand sides are projected onto the range of J_c, least squares, as in (1)). (3) A tick whose drift still exceeds
 ``sole_drift_tolerance`` is solved in a trust region, else reported not ok (``TickResult.sole_drift``).
 
 with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s), feed-forward ė*_i, and
@@ -58,7 +59,8 @@ input error), ``solve`` does not raise and never returns NaN:
 1. diagnosis (:mod:`wbc.diagnosis`): a slack-relaxed solve of the hard set names the conflicting constraints and
    the violation of each (``TickResult.conflicts``, largest first);
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
-   hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend:
+   hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
+   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift):
    ``fallback="constraints_only"``; if that fails too (the constraints themselves conflict), v = 0, hold the
    current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
 
@@ -648,21 +650,42 @@ class KinematicController:
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
-        """Second-order contact correction (constructor docstring, ``contact_correction``)."""
+    def _contact_range_basis(self) -> np.ndarray | None:
+        """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
+        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
+        rows = self._contact_rows
+        if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+            return None  # every equality row independent (rank computed on this constraint set)
+        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        return None if rank == rows.size else U[:, :rank]
+
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
+        re-solves the problem in the buffers (default: the tick's QP)."""
+        solve = solve or self._solve_assembled
         self.contact_corrections = 0
         worst, drifts = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
             return v
         blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
         rows = [blocks[id(c)] for c in self._contacts]
+        range_basis = self._contact_range_basis()
         b0 = self._b.copy()
         try:
             for _ in range(3):
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
+                if range_basis is not None:
+                    # dependent contact rows (two flat feet both fixing the base yaw): the feet's second-order
+                    # drifts differ in the dependent directions, so the corrected right-hand sides would contradict
+                    # each other (measured on humanoid15: the corrected solve failed or was not better, the
+                    # correction was dropped and the soles slid 0.03 mm per ok tick, > 1 mm over a stance).
+                    # Least squares instead: the corrections projected onto the range of J_c.
+                    cr = self._contact_rows
+                    self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
                 try:
-                    v_new = self._solve_assembled(config)
+                    v_new = solve(config)
                 except SolverError:
                     break  # keep the last solution (the trust region of _hold_contacts takes over)
                 self.contact_corrections += 1
@@ -676,8 +699,10 @@ class KinematicController:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
+        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP)."""
+        solve = solve or self._solve_assembled
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -692,7 +717,7 @@ class KinematicController:
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
                 np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
                 try:
-                    v_tr = self._solve_assembled(config)
+                    v_tr = solve(config)
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 d = self.sole_drift(config, v_tr, dt)
@@ -811,25 +836,39 @@ class KinematicController:
             message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
-                self._lb, self._ub
-            if not self._not_hard_task.all():
-                A, b = A[self._not_hard_task], b[self._not_hard_task]
-            keep = independent_rows(A, self.rank_rtol)
-            if self._fallback_backend is None:
-                self._fallback_backend = self._new_backend()
-            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
-            if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
-                # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
-                drop = np.setdiff1d(np.arange(A.shape[0]), keep)
-                half = 0.5 * self.dependent_row_tolerance
-                v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
-                                                      np.concatenate([l, b[drop] - half]),
-                                                      np.concatenate([u, b[drop] + half]), lb, ub)
-            v, fallback = v_safe, "constraints_only"
+            v = self._solve_constraints_only(config)
+            fallback = "constraints_only"
+            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v, self._solve_constraints_only)
+            v = self._hold_contacts(config, dt, v, [], self._solve_constraints_only).v
         except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
             pass
-        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback)
+        try:
+            drift = self.sole_drift(config, v, dt)
+        except Exception:  # noqa: BLE001 — never raises (module docstring)
+            drift = float("nan")
+        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift)
+
+    def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
+        """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
+        objects held in the buffers (hard tasks left out), on the fallback backend. Raises SolverError."""
+        H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
+            self._lb, self._ub
+        if not self._not_hard_task.all():
+            A, b = A[self._not_hard_task], b[self._not_hard_task]
+        keep = independent_rows(A, self.rank_rtol)
+        if self._fallback_backend is None:
+            self._fallback_backend = self._new_backend()
+        v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
+        if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
+            # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
+            drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+            half = 0.5 * self.dependent_row_tolerance
+            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
+                                                  np.concatenate([l, b[drop] - half]),
+                                                  np.concatenate([u, b[drop] + half]), lb, ub)
+        return v_safe
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the
