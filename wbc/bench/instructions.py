@@ -74,13 +74,14 @@ def _walk_child(library: str, n_steps: int, robot_name: str = "talos") -> None:
     sys.stdin.readline()
 
 
-def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=print) -> dict[str, object]:
+def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=print,
+                               libraries: tuple[str, ...] = LIBRARIES) -> dict[str, object]:
     """Instructions per walk tick of wbc and placo (hard feet) on the same plan (``plan_default_walk`` with
     ``n_steps``): each library's ticks after the first 20 counted under callgrind and averaged (support switches
     included, the same ticks for both).
 
     Returns:
-        {"n_steps", "ticks", "instructions": {lib: per tick}, "ratio_wbc_placo"}.
+        {"n_steps", "ticks", "instructions": {lib: per tick}, "ratio_wbc_placo" (when both ran)}.
 
     Raises:
         RuntimeError: valgrind missing or a child run failed.
@@ -91,7 +92,7 @@ def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=
 
     ensure_compiled()
     per, ticks = {}, 0
-    for lib in LIBRARIES:
+    for lib in libraries:
         with tempfile.TemporaryDirectory() as d:
             p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
                                   f"--callgrind-out-file={d}/cg.out", sys.executable, "-m", "wbc.bench.instructions",
@@ -120,7 +121,10 @@ def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=
                 if p.poll() is None:
                     p.kill()
         log(f"callgrind walk {lib}: {per[lib]:,.0f} instructions per tick over {ticks} ticks")
-    return {"n_steps": n_steps, "ticks": ticks, "instructions": per, "ratio_wbc_placo": per["wbc"] / per["placo"]}
+    out = {"n_steps": n_steps, "ticks": ticks, "instructions": per}
+    if "wbc" in per and "placo" in per:
+        out["ratio_wbc_placo"] = per["wbc"] / per["placo"]
+    return out
 
 
 def _control(pid: int, *args: str) -> str:
