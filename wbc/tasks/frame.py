@@ -148,7 +148,6 @@ class FrameTask(Task):
         rot = pose[:3, :3]
         self._target = pin.SE3(rot, pose[:3, 3])
         self._target_rot_t = rot.T.copy()
-        self._target_rot = np.array(rot, order="C")
         self._target_pos = np.array(pose[:3, 3], dtype=float)
         if velocity is None:
             self._ff = None
@@ -168,7 +167,6 @@ class FrameTask(Task):
         pose = as_se3(pose, f"target of {self.name}")
         self._target = pose
         self._target_rot_t = pose.rotation.T.copy()
-        self._target_rot = np.array(pose.rotation, order="C")
         self._target_pos = np.array(pose.translation)
 
     def set_target_from_configuration(self, config: Configuration) -> None:
