@@ -562,4 +562,7 @@ def warm_up() -> float:
     b = FastBackend()
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
+    # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
+    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
+            np.ones(2))
     return time.perf_counter() - t0

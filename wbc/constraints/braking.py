@@ -42,6 +42,18 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
         lb[k] = adt - math.sqrt(adt * adt + 2.0 * a * down)
 
 
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_braking_bounds` (on-disk cache) once per process, at construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        z = np.zeros(1)
+        _braking_bounds(z, np.zeros(1, dtype=np.int64), z, z, 1.0, 1.0, np.empty(1), np.empty(1))
+
+
 class JointBrakingLimit(BoxConstraint):
     """Velocity towards each position limit bounded by the braking distance (module docstring).
 
@@ -71,6 +83,7 @@ class JointBrakingLimit(BoxConstraint):
             self.name = name
         self._lb = np.zeros(self.dim)
         self._ub = np.zeros(self.dim)
+        _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         _braking_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.a_max, float(dt), self._lb, self._ub)

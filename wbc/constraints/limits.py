@@ -41,6 +41,18 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
         ub[k] = max((q_max[k] - qk) / dt, neg_v_max[k])
 
 
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_position_bounds` (on-disk cache) once per process, at construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        z = np.zeros(1)
+        _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 1.0, np.empty(1), np.empty(1))
+
+
 class JointPositionLimit(BoxConstraint):
     """Keep every bounded joint inside [lowerPositionLimit, upperPositionLimit] after the step.
 
@@ -73,6 +85,7 @@ class JointPositionLimit(BoxConstraint):
         vmax = model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
         self._neg_v_max = -self.v_max
+        _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         # lb = min((q_min − q)/dt, v_max), ub = max((q_max − q)/dt, −v_max): only the recovery side is capped (a

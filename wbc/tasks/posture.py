@@ -27,6 +27,17 @@ def _diagonal_cost(diff, start, weight, gain, H, g):
         g[i] -= weight[k] * (-gain * diff[i])
 
 
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_diagonal_cost` (on-disk cache) once per process, at task construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
+
+
 class PostureTask(Task):
     """Pull joints towards a reference configuration.
 
@@ -62,6 +73,7 @@ class PostureTask(Task):
         self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
         self._vspan = slice(int(self.rows[0]), int(self.rows[-1]) + 1) if contiguous else None  # rows of v as a slice
         self.target = np.array(robot.q_ref, dtype=float)
+        _warm_up()
 
     def set_target(self, q) -> None:
         """Target configuration (nq,) (only the regulated joints matter).
