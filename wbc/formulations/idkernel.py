@@ -1,7 +1,7 @@
 """Compiled tick of the inverse-dynamics QP: assembly of every block, the exact working-set solve and the torques
-in one numba call (the ``fast`` solver of :class:`~wbc.dynamics.formulation.InverseDynamicsQP`).
+in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration.InverseDynamicsQP`).
 
-The QP is the one of :mod:`wbc.dynamics.formulation` (same rows, same named constraints); only its arithmetic
+The QP is the one of :mod:`wbc.formulations.acceleration` (same rows, same named constraints); only its arithmetic
 moves into compiled code. From Python come the task rows (J_i, w_i, r_i of eq. 3, stacked), the posture task's
 diagonal rows, M, h, the LOCAL sole Jacobians and contact right-hand sides of eq. 5, the state (q, v) for the joint
 bounds of eq. 9; the kernel writes
@@ -33,7 +33,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.dynamics.constraints import joint_bounds_kernel
+from wbc.constraints.dynamics import joint_bounds_kernel
 from wbc.fastqp import backward_substitution, cholesky_lower, forward_substitution, weighted_normal_equations
 
 __all__ = ["id_solve", "id_tick", "id_workspace"]
