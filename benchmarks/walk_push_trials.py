@@ -8,6 +8,7 @@ recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, 
 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
+       [--adjust-timing on|off]
 """
 
 from __future__ import annotations
@@ -23,11 +24,12 @@ from wbc.sim.scenarios import make_controller, run_scenario
 from wbc.sim.walk import WalkScenario
 
 
-def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust):
+def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
+          adjust_timing):
     sim = build_mujoco_model(robot)
     controller = make_controller(robot, "id", dt=sim.timestep)
     sc = WalkScenario(steps, step_length, step_duration, push=force, push_time=push_time, push_duration=duration,
-                      push_dir=push_dir, step_adjust=step_adjust)
+                      push_dir=push_dir, step_adjust=step_adjust, adjust_timing=adjust_timing)
     _, s = run_scenario(sim, controller, sc)
     return s
 
@@ -43,11 +45,13 @@ def main() -> None:
     ap.add_argument("--step-duration", type=float, default=0.6)
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--no-step-adjust", action="store_true")
+    ap.add_argument("--adjust-timing", choices=("on", "off"), default="on",
+                    help="step timing adaptation (WalkScenario adjust_timing)")
     ap.add_argument("--standing", action="store_true", help="front and back pushes while standing (see docstring)")
     args = ap.parse_args()
     robot = wbc.load_robot(args.robot)
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
-                  step_adjust=not args.no_step_adjust)
+                  step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on")
     if args.standing:
         from wbc.sim.capture_step import CaptureStepScenario
 

@@ -31,8 +31,11 @@ cut short), the DCM at landing is ``u_0 + (ξ − u_0) e^{ωτ'}`` and the nomin
     u_1 = u_1^nom + e^{ωτ'} (ξ(t) − u_0) − e^{ωτ} (ξ_ref(t) − u_0)                 (2)
 
 which is (1) for ``τ' = τ``. A step that cannot reach the landing (1) — the reach clips it, e.g. a push towards the
-stance leg: the swing foot cannot cross — is cut short so that the next step, which can, comes sooner
-(:class:`wbc.sim.walk.WalkScenario`).
+stance leg: the swing foot cannot cross — is cut short so that the next step, which can, comes sooner; a step
+clipped at its outer reach lands sooner with a DCM that diverged less (``e^{ωτ'} < e^{ωτ}`` in (2)). This is the
+trade-off Khadiv et al. (2016, Sec. IV; 2020, Sec. IV) solve in one QP over location and ``e^{ωT}``; here the time
+is cut by a fixed amount, bounded so that the swing foot can still travel to the new landing
+(:class:`wbc.sim.walk.WalkScenario`, ``max_swing_speed``).
 
 Dead band (Griffin 2017) on the DCM error: ``d = e^{ωτ} max(0, 1 − δ/‖e‖) e`` with ``e = ξ − ξ_ref``: the DCM
 errors of normal walking (≤ 1.7 cm measured on Talos and G1 walks, perturbed ones included) stay with the CoP feedback of the stabilizer, and the adjustment is

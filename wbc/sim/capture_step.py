@@ -26,7 +26,8 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
 from wbc.sim.scenarios import NO_FALL, timed_push
-from wbc.sim.walk import WalkScenario, polygon_margin
+from wbc.geometry import polygon_margin
+from wbc.sim.walk import WalkScenario
 
 __all__ = ["CaptureStepScenario"]
 
@@ -106,7 +107,7 @@ class CaptureStepScenario:
                 # defaults (forward reach 0.65 z_c, dead band 2 cm), to recover with 0.55 z_c and 3 cm.
                 self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
                                          first_side=side, forward_reach=0.55, lateral_reach=0.5,
-                                         adjust_dead_band=0.03)
+                                         adjust_dead_band=0.03, adjust_timing=False)
                 try:
                     self.walk.setup(controller, sim, q, v)
                 except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here

@@ -22,7 +22,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
-  capture step (a 2-step walk planned from the measured state). Optional step timing adjustment (eq. 2, off).
+  capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
+  on): a swing whose adjusted landing the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
+  can still travel at ``max_swing_speed``.
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
@@ -41,70 +43,15 @@ import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
+from wbc.geometry import closest_point_in_polygon, convex_hull, polygon_margin, projected_sole_corners
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL, timed_push
 
-__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
-           "walk_criteria"]
+__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "walk_acceptance", "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
-
-
-def _hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull (counter-clockwise, (m, 2)) of (n, 2) points (Andrew's monotone chain)."""
-    pts = sorted(map(tuple, points))
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower, upper = [], []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def polygon_margin(point: np.ndarray, hull: np.ndarray) -> float:
-    """Signed distance (m) of a (2,) point to the edges of a counter-clockwise convex polygon (m, 2):
-    positive inside (distance to the nearest edge line), negative outside."""
-    d = np.inf
-    for i in range(len(hull)):
-        a, b = hull[i], hull[(i + 1) % len(hull)]
-        e = b - a
-        n = np.array([-e[1], e[0]]) / np.linalg.norm(e)  # inward normal (ccw)
-        d = min(d, float(n @ (point - a)))
-    return d
-
-
-def _project(point: np.ndarray, hull: np.ndarray) -> np.ndarray:
-    """Closest point of a convex polygon (ccw) to ``point`` (the point itself when inside)."""
-    if polygon_margin(point, hull) >= 0:
-        return point
-    best, dbest = point, np.inf
-    for i in range(len(hull)):
-        a, b = hull[i], hull[(i + 1) % len(hull)]
-        e = b - a
-        s = min(max(float((point - a) @ e / (e @ e)), 0.0), 1.0)
-        p = a + s * e
-        dd = float(np.linalg.norm(point - p))
-        if dd < dbest:
-            best, dbest = p, dd
-    return best
-
-
-def _sole_corners(pose: pin.SE3, length: float, width: float) -> np.ndarray:
-    a, b = 0.5 * length, 0.5 * width
-    c = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
-    return (c @ pose.rotation.T + pose.translation)[:, :2]
 
 
 def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0) -> np.ndarray | None:
@@ -124,6 +71,17 @@ def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0)
         return None
     M = wrench[:, 3:].sum(axis=0) + np.cross(sole_pos, wrench[:, :3]).sum(axis=0)
     return np.array([-M[1] / F[2], M[0] / F[2]])
+
+
+def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
+    """Whether the joints can change the relative yaw of the two soles at q: the z row of the Jacobian of
+    ω_left − ω_right (world axes; the floating base cancels) is non-zero (> 1e-6 of a unit joint rate). False for
+    legs without a hip yaw joint (humanoid15), whose feet then cannot turn relative to each other."""
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.framesForwardKinematics(model, data, q)
+    Jl, Jr = (pin.getFrameJacobian(model, data, fid[s], pin.LOCAL_WORLD_ALIGNED) for s in ("left", "right"))
+    return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
 
 
 class DcmStabilizer:
@@ -173,7 +131,7 @@ class DcmStabilizer:
         p = p_ref + self.k_p * e + self.k_i * self.integral
         if self.k_z > 0 and p_meas is not None:
             p = p + self.k_z * (p - p_meas)
-        pc = _project(p, hull) if len(hull) >= 3 else p
+        pc = closest_point_in_polygon(p, hull) if len(hull) >= 3 else p
         self.saturated = bool(np.linalg.norm(pc - p) > 1e-9)
         if not self.saturated:
             self.integral = np.clip(self.integral + e * self.dt, -self.i_max, self.i_max)
@@ -200,11 +158,16 @@ class WalkScenario:
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
             ``forward_reach z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + lateral_reach z_c``
             (``z_c`` the CoM height).
-        adjust_timing: (default off: on 2 seeded 300 N pushes it did not turn a fall into a recovery) cut the swing in
-            progress short (by at most ``max_cut`` s, to no less than ``min_time_left``
-            s before landing; eq. 2 of
+        adjust_timing: step timing adjustment (Khadiv et al. 2016, Sec. III–IV: when the location saturates at the
+            reach, the step time is the remaining means of capture; default on). The swing in progress is cut
+            short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            adjusted landing by more than 5 cm, so that the next step comes sooner.
+            adjusted landing by more than 5 cm: landing sooner, the DCM has diverged less when the new stance
+            starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
+            cannot cross the stance leg. Once per swing, and never more than the swing foot can still travel:
+            the remaining time is kept ≥ (distance from the foot to its new landing) / ``max_swing_speed`` (m/s,
+            default 2: a swing compressed further touched down on its way, 43 cm short of its target, and the
+            walk fell — Talos, 300 N, seed 3 of ``benchmarks/walk_push_trials.py``).
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
             DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
             first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
@@ -212,7 +175,9 @@ class WalkScenario:
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
     Raises:
-        InvalidInputError / GaitError: bad numbers.
+        InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
+            differing by > 0.01 rad) on a robot whose legs cannot yaw one sole relative to the other (no hip yaw
+            joint, humanoid15: the soles' relative yaw rate has a zero Jacobian at the start state).
     """
 
     name = "walk"
@@ -225,10 +190,12 @@ class WalkScenario:
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
                  step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
-                 adjust_timing: bool = False, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.6, forward_reach: float = 0.65):
+                 adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.15,
+                 lateral_reach: float = 0.6, forward_reach: float = 0.65, max_swing_speed: float = 2.0):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
+        if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
+            raise InvalidInputError(f"max_swing_speed must be finite and > 0 m/s, got {max_swing_speed!r}")
         if not (np.isfinite(push) and push >= 0):
             raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
         self.n_steps, self.step_length, self.step_duration = int(n_steps), float(step_length), float(step_duration)
@@ -249,6 +216,7 @@ class WalkScenario:
         self.from_state = bool(from_state)
         self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
         self.max_cut = float(max_cut)
+        self.max_swing_speed = float(max_swing_speed)
         self.recovery_margin = 0.02
         if self.push > 0 and self.step_adjust:  # time for a recovery step after the walk
             self.settle = max(self.settle, 2.5)
@@ -282,6 +250,11 @@ class WalkScenario:
                                      min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
+        yaws = [fs.yaw for fs in plan.footsteps]
+        if yaws and max(yaws) - min(yaws) > 0.01 and not _feet_can_yaw(robot, q, self._fid):  # > 0.6 deg
+            raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
+                            "relative yaw rate of the soles has a zero Jacobian), so its feet cannot turn; the plan "
+                            f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
         if self.from_state:
             plan = self._capture_plan(plan, q, v)
         self.plan = plan
@@ -306,6 +279,7 @@ class WalkScenario:
         self.replan_failures = 0
         self._recovery, self._t_recovery = None, None
         self.recovery_failures = 0
+        self.recovery_swapped = False  # the capture step was taken by the foot away from the DCM (_start_recovery)
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
@@ -352,9 +326,9 @@ class WalkScenario:
         r = self.robot
         for s in ("left", "right"):
             if self.switcher.in_contact(s):
-                pts.append(_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
+                pts.append(projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
                                          r.sole_width - 2 * shrink))
-        return _hull(np.vstack(pts)) if pts else np.zeros((0, 2))
+        return convex_hull(np.vstack(pts)) if pts else np.zeros((0, 2))
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
@@ -432,12 +406,25 @@ class WalkScenario:
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
         (a 2-step walk planned from the measured state, first step from the measured DCM), as
-        :class:`wbc.sim.capture_step.CaptureStepScenario` does for a standing robot."""
+        :class:`wbc.sim.capture_step.CaptureStepScenario` does for a standing robot.
+
+        The stepping foot is the one on the DCM's side of the feet, unless the DCM lies laterally over that sole or
+        beyond it (less than half a sole width inwards of its middle): that sole then carries the CoP the DCM needs
+        — lifting it leaves the CoP on the other sole, from which the DCM diverges as ``e^{ωt}`` (Englsberger 2015,
+        eq. 6) out of any reach (Talos, 300 N at the end of a walk, seeds 13 and 28 of
+        ``benchmarks/walk_push_trials.py``: the capture step lifted that sole and the robot fell within 0.2 s) —
+        and the other foot steps instead, towards it (a closing step: the feet are wide apart after a lateral
+        recovery step; the CoP stays on the sole under the DCM)."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
-        side = "left" if (xi - mid) @ self._data.oMf[self._fid["left"]].rotation[:2, 1] >= 0 else "right"
+        lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
+        side = "left" if (xi - mid) @ lat >= 0 else "right"
+        sign = 1.0 if side == "left" else -1.0
+        if sign * float((xi - self._data.oMf[self._fid[side]].translation[:2]) @ lat) > -0.5 * self.robot.sole_width:
+            side = "right" if side == "left" else "left"
+            self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
-                           cop_margin=self.cop_margin)
+                           cop_margin=self.cop_margin, adjust_timing=False)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
@@ -498,10 +485,16 @@ class WalkScenario:
         clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
         if self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
                 and not (self._skipped == idx):
-            skip = int(round(min(time_left - self.min_time_left, self.max_cut) / self.dt))
-            u0 = np.array(stance[:2])
-            corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left - skip * self.dt, u0)
-            target = self.adjuster.landing(fs0, stance, corr)
+            # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
+            # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
+            foot = self._data.oMf[self._fid[side]].translation[:2]
+            dist = float(np.linalg.norm(foot - [target.x, target.y]))
+            cut = min(time_left - self.min_time_left, self.max_cut, time_left - dist / self.max_swing_speed)
+            skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
+            if skip:
+                u0 = np.array(stance[:2])
+                corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left - skip * self.dt, u0)
+                target = self.adjuster.landing(fs0, stance, corr)
         d = np.array([target.x - fs.x, target.y - fs.y])
         if np.linalg.norm(d) < 0.01 and not skip:
             return
@@ -555,9 +548,9 @@ class WalkScenario:
                 if wr[j, 2] > 10.0:
                     yaw = lg["sole_yaw"][i, j]
                     pose = pin.SE3(pin.rpy.rpyToMatrix(0, 0, yaw), np.r_[run.sole_pos[i, j, :2], 0.0])
-                    pts.append(_sole_corners(pose, r.sole_length, r.sole_width))
+                    pts.append(projected_sole_corners(pose, r.sole_length, r.sole_width))
             if pts:
-                margin[i] = polygon_margin(p, _hull(np.vstack(pts)))
+                margin[i] = polygon_margin(p, convex_hull(np.vstack(pts)))
         # Touch-downs vs footsteps; stance slip per loaded-stance interval.
         ev = self.switcher.events
         landing, td_delay, slips = [], [], []
@@ -630,6 +623,7 @@ class WalkScenario:
             "replan_failures": self.replan_failures,
             "recovery_step_time_s": self._t_recovery,
             "recovery_plan_failures": self.recovery_failures,
+            "recovery_step_by_far_foot": self.recovery_swapped,
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
