@@ -205,10 +205,12 @@ def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C):
 
 @nb.njit(cache=True, nogil=True)
 def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise):
-    """The velocity-damper rows of the m = len(k) close pairs (module docstring): C[:m] (``_damper_rows``), each pair's floor f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN),
-    l[:m] = −γ (d − f)."""
+    """The velocity-damper rows of the m = len(k) close pairs (module docstring): C[:m] (``_damper_rows``), each
+    pair's floor f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN), l[:m] = −γ (d − f); the unused
+    rows C = 0, l = −∞."""
     m = k.shape[0]
-    C[:m] = 0.0
+    C[:, :] = 0.0
+    l[m:] = -np.inf
     _damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C)
     for r in range(m):
         f = floor[k[r]]
@@ -318,6 +320,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
+        self._witness = [(r, r.getNearestPoint1, r.getNearestPoint2) for r in self._results]
         self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
         npairs = len(self.pairs)
@@ -428,12 +431,11 @@ class SelfCollisionConstraint(InequalityConstraint):
         k = cand[self._rows[:m]]
         kl = k.tolist()
         if m:
-            rs = [res[kk] for kk in kl]
-            p1 = np.array([r.getNearestPoint1() for r in rs])
-            p2 = np.array([r.getNearestPoint2() for r in rs])
+            wit = self._witness
             # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
             # simplex), enough to change a closed-loop run
-            normal = np.array([r.normal for r in rs])
+            w = np.array([(a(), b(), r.normal) for r, a, b in [wit[kk] for kk in kl]])  # (m, 3, 3)
+            p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
         else:
             p1 = p2 = normal = self._empty
         d = dist[self._rows[:m]]
@@ -458,14 +460,12 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def compute(self, config: Configuration, dt: float):
         """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring)."""
-        m = self._narrow(config)
-        C, l = self._C, self._l
-        C[m:] = 0.0
-        l[m:] = -np.inf
+        self._narrow(config)
         f = self._found
-        _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, config.data.J, self._support, C, l, self._floor, min(self.gain, 1.0 / dt),
-                self.min_distance + self.safety_margin, self.recovery_speed * dt)
-        return C, l, self._u
+        _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, config.data.J, self._support, self._C,
+                self._l, self._floor, min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin,
+                self.recovery_speed * dt)
+        return self._C, self._l, self._u
 
     def reset(self) -> None:
         """Forget the per-pair floors (module docstring) and the broad phase's bounds, e.g. after teleporting."""
