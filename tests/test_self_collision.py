@@ -214,6 +214,8 @@ def test_broad_phase_is_exact_under_jumps_and_random_motion(robots, name):
     hi = np.where(np.abs(upper) < 1e3, upper, 1.0)
     checked = 0
     for step in (1e-3, 1e-2, 0.1, 0.3, None):
+        if step == 0.3:
+            sc.reset()  # forgets the bounds too: the next call starts from the sphere gaps again
         for _ in range(25):
             if step is None:
                 q = pin.randomConfiguration(robot.model, lo, hi)
