@@ -209,7 +209,7 @@ class InverseDynamicsQP:
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
         #: directions of the stacked active contact rows projected out of their right-hand side at the last build
-        #: (:func:`wbc.dynamics.constraints.consistent_contact_rhs`; 0 for legs that can yaw the foot)
+        #: (:func:`wbc.constraints.dynamics.consistent_contact_rhs`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
