@@ -132,29 +132,37 @@ def _numeric_drift(robot, q, v, f, eps=1e-7):
     return (f(q1) - f(q0)) / (2 * eps)
 
 
-def test_task_drifts_match_finite_differences(robots):
+def test_reference_rows_are_the_shared_task_terms(robots):
+    """The acceleration-level rows of a task are (J, a* − J̇v) from the SAME task object the velocity level uses:
+    r = −Kp e − Kd (J v − ė_ff) − J̇v (+ ä_ff), with e, J, J̇v the task's own (its drift is checked against finite
+    differences in tests/test_tasks.py); the angular-momentum reference asks L̇ = −K (L − L*) − (dAg v)[3:6] with L
+    from Pinocchio's centroidal momentum and the drift against finite differences of Ag v."""
     robot = robots("talos")
     rng = np.random.default_rng(1)
     q = robot.q_ref.copy()
     q[7:] += rng.uniform(-0.1, 0.1, robot.nq - 7)
     v = rng.normal(scale=0.5, size=robot.nv)
     st = DynamicsState(robot, q, v)
-    com = ComAccelerationTask()
-    pos = FrameAccelerationTask(PositionTask(robot, robot.left_sole))
+    pos_task = PositionTask(robot, robot.left_sole)
+    pos = FrameAccelerationTask(pos_task, kp=30.0, kd=7.0)
     pos.set_target(pin.SE3.Identity())
-    for task in (com, pos):
-        _, J, drift, _ = task.error_jacobian_drift(st)
-
-        def jv(qq, task=task):
-            s = DynamicsState(robot, qq, v)
-            return task.error_jacobian_drift(s)[1] @ v
-
-        assert np.abs(drift - _numeric_drift(robot, q, v, jv)).max() < 1e-5 * max(1.0, np.abs(drift).max())
-    # Angular momentum: d/dt (Ag v) at v̇ = 0.
-    am = AngularMomentumTask()
+    assert pos.task is pos_task
+    J, r = pos.compute(st)
+    # independent: position error, LWA linear Jacobian, classical acceleration from Pinocchio
+    pin.forwardKinematics(robot.model, st.data, q, v, np.zeros(robot.nv))
+    fid = pos_task.frame_id
+    e = st.data.oMf[fid].translation
+    J_ref = pin.getFrameJacobian(robot.model, st.data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+    acc = pin.getFrameClassicalAcceleration(robot.model, st.data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+    assert np.abs(J - J_ref).max() < 1e-12
+    assert np.abs(r - (-30.0 * e - 7.0 * (J_ref @ v) - acc)).max() < 1e-9
+    am = AngularMomentumTask(gain=4.0)
+    am.set_target([0.1, -0.2, 0.3])
     J, r = am.compute(st)
+    L = pin.computeCentroidalMomentum(robot.model, robot.model.createData(), q, v).angular
     num = _numeric_drift(robot, q, v, lambda qq: DynamicsState(robot, qq, v).centroidal_momentum_matrix[3:] @ v)
     assert np.abs(st.centroidal_drift[3:] - num).max() < 1e-5 * max(1.0, np.abs(num).max())
+    assert np.abs(r - (-4.0 * (L - [0.1, -0.2, 0.3]) - num)).max() < 1e-5 * max(1.0, np.abs(num).max())
 
 
 def test_solvers_agree_and_fallback(robots):
@@ -209,9 +217,9 @@ def test_joint_acceleration_bounds_keep_limits(robots):
 
 def test_wrap_and_typed_errors(robots):
     robot = robots("talos")
-    assert isinstance(acceleration_task(ComTask(), kp=10.0), ComAccelerationTask)
-    assert isinstance(acceleration_task(FrameTask(robot, robot.torso), kp=10.0), FrameAccelerationTask)
-    assert isinstance(acceleration_task(PostureTask(robot), kp=10.0), PostureAccelerationTask)
+    for task in (ComTask(), FrameTask(robot, robot.torso), PostureTask(robot)):
+        ref = acceleration_task(task, kp=10.0)
+        assert ref.task is task and ref.kd == pytest.approx(2 * math.sqrt(10.0))
     with pytest.raises(InvalidInputError):
         acceleration_task(object(), kp=1.0)
     with pytest.raises(InvalidInputError):

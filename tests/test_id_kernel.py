@@ -1,4 +1,4 @@
-"""The compiled ID tick (``solver="fast"``, :mod:`wbc.dynamics.idkernel`) solves the same QP as the general path.
+"""The compiled ID tick (``solver="fast"``, :mod:`wbc.formulations.idkernel`) solves the same QP as the general path.
 
 Independent references: DAQP on the numpy-assembled QP of :meth:`InverseDynamicsQP.build` (objective value and
 solution), and the constraint rows of that assembly evaluated at the kernel's solution (feasibility), plus the

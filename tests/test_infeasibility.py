@@ -8,7 +8,7 @@ import pytest
 from conftest import CATALOG
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, EqualityConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.controller import KinematicController
+from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import ComTask, FrameTask, PostureTask
 from wbc.tasks.base import Task

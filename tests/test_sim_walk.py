@@ -1,5 +1,5 @@
-"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1) with the acceptance criteria written here; a lateral
-push in single support recovered by step adjustment; a standing push recovered by a capture step.
+"""``wbc sim walk``: 4-step physics walks in MuJoCo (talos, g1, humanoid15) with the acceptance criteria written
+here; a lateral push in single support recovered by step adjustment; a standing push recovered by a capture step.
 
 Independent references: the walked distance and the stance slip are measured on MuJoCo's ground-truth sole
 positions; the CoP is computed from MuJoCo's contact forces; the commanded distance is the footstep geometry
@@ -11,15 +11,19 @@ import pytest
 
 from wbc.robot import load_robot
 from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.sim.physics_scenarios import id_options_for
 from wbc.sim.scenarios import make_controller, run_scenario
-from wbc.sim.walk import WalkScenario, measured_cop, polygon_margin
+from wbc.geometry import polygon_margin
+from wbc.sim.walk import WalkScenario, measured_cop
 
 
-@pytest.mark.parametrize("name, step_length, step_duration", [("talos", 0.24, 0.6), ("g1", 0.1, 0.8)])  # 0.4, 0.125 m/s
+@pytest.mark.parametrize("name, step_length, step_duration",
+                         [("talos", 0.24, 0.6), ("g1", 0.1, 0.8), ("humanoid15", 0.15, 0.8)])  # 0.4, 0.125, 0.19 m/s
 def test_four_step_walk(name, step_length, step_duration):
     robot = load_robot(name)
     sim = build_mujoco_model(robot)
-    controller = make_controller(robot, "id", dt=sim.timestep)
+    # the controller options `wbc sim walk` uses (humanoid15: near rank-deficient two-sole rows, 2 cm sole margin)
+    controller = make_controller(robot, "id", dt=sim.timestep, **id_options_for(robot))
     scenario = WalkScenario(4, step_length, step_duration)
     run, s = run_scenario(sim, controller, scenario)
     commanded = 3 * step_length
@@ -159,3 +163,61 @@ def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
     # Both feet ended behind where they started (MuJoCo sole positions): the robot stepped backwards.
     assert np.all(run.sole_pos[-1, :, 0] - run.sole_pos[0, :, 0] < -0.1)
     assert np.abs(run.ext_force[:, 0]).max() == pytest.approx(450.0)
+
+
+def test_dependent_contact_rows_are_made_consistent():
+    from wbc.dynamics.constraints import consistent_contact_rhs
+
+    rng = np.random.default_rng(4)
+    # Rank 11 of 12 (a dependent row, as two flat soles of 5-DoF legs): the projected b is the least-squares
+    # consistent right-hand side J J⁺ b (numpy pinv as the reference) and J x = b is then solvable exactly.
+    J = rng.standard_normal((12, 20))
+    J[11] = J[:11].T @ rng.standard_normal(11)
+    b = rng.standard_normal(12)
+    ref = J @ np.linalg.pinv(J, rcond=1e-10) @ b
+    out = b.copy()
+    assert consistent_contact_rhs(J, out) == 1
+    np.testing.assert_allclose(out, ref, atol=1e-10)
+    x = np.linalg.lstsq(J, out, rcond=None)[0]
+    np.testing.assert_allclose(J @ x, out, atol=1e-10)
+    # Nearly dependent (σ_min/σ_max = 1e-3 < 1e-2): projected like the exact case, onto the other 11 directions.
+    U, _, Vt = np.linalg.svd(rng.standard_normal((12, 20)), full_matrices=False)
+    s = np.linspace(1.0, 0.5, 12)
+    s[-1] = 1e-3
+    Jn = U @ np.diag(s) @ Vt
+    out = b.copy()
+    assert consistent_contact_rhs(Jn, out) == 1
+    np.testing.assert_allclose(out, b - U[:, -1] * (U[:, -1] @ b), atol=1e-10)
+    # Well conditioned (the 12 rows of two 6-DoF legs): b untouched.
+    out = b.copy()
+    assert consistent_contact_rhs(rng.standard_normal((12, 20)), out) == 0
+    assert np.array_equal(out, b)
+
+
+def test_turning_is_refused_for_legs_without_hip_yaw():
+    # humanoid15 (5-DoF legs, no hip yaw): the soles' relative yaw rate has a zero Jacobian (Pinocchio), so a
+    # turning plan is refused with a typed error at setup; straight walking is planned.
+    import pinocchio as pin
+
+    from wbc.exceptions import GaitError
+
+    robot = load_robot("humanoid15")
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    Jl, Jr = (pin.getFrameJacobian(model, data, robot.frame_id(f), pin.LOCAL_WORLD_ALIGNED)
+              for f in (robot.left_sole, robot.right_sole))
+    assert np.abs(Jl[5] - Jr[5]).max() < 1e-12
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep, **id_options_for(robot))
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    controller.reset(q, v)
+    with pytest.raises(GaitError, match="cannot yaw"):
+        WalkScenario(4, 0.0, 0.8, turn=np.radians(8.0)).setup(controller, sim, q, v)
+    WalkScenario(4, 0.1, 0.8).setup(controller, sim, q, v)  # straight: planned
+    # Talos (hip yaw joints) is planned with the same turn.
+    talos = load_robot("talos")
+    tsim = build_mujoco_model(talos)
+    tc = make_controller(talos, "id", dt=tsim.timestep)
+    tc.reset(talos.q_ref.copy(), np.zeros(talos.nv))
+    WalkScenario(4, 0.0, 0.8, turn=np.radians(8.0)).setup(tc, tsim, talos.q_ref.copy(), np.zeros(talos.nv))

@@ -9,7 +9,7 @@ import pytest
 import wbc
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.controller import KinematicController
+from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import ConfigurationError, SolverError
 from wbc.tasks import ComTask, OrientationTask, PostureTask
 
@@ -39,7 +39,7 @@ def test_solve_ik_equals_the_stateful_controller(robots, name):
     assert result.ok
     assert v.shape == (robot.model.nv,)
     np.testing.assert_allclose(v, result.v, atol=1e-12)
-    # the contacts hold over the tick (second order, wbc.controller's contact correction): the soles at
+    # the contacts hold over the tick (second order, wbc.formulations.velocity's contact correction): the soles at
     # q ⊕ v dt (Pinocchio FK) are within 1 µm of where they were set (measured 0.02–0.48 µm at |v| up to 9.7 rad/s)
     q1 = pin.integrate(robot.model, robot.q_ref, v * DT)
     data = robot.model.createData()

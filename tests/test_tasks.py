@@ -205,3 +205,52 @@ def test_new_task_inputs_raise_typed_errors(robots):
         AngularMomentumTask(robot, weight=[1.0, 2.0])
     with pytest.raises(InvalidTargetError):
         AngularMomentumTask(robot).set_target([0.0, np.inf, 0.0])
+
+
+def fd_drift(task, robot, q, v, eps=1e-6):
+    """d/dt (J(q(t)) v) at t = 0 along q(t) = q ⊕ t v (constant v, i.e. v̇ = 0), central differences."""
+    jp = task.compute_jacobian(Configuration(robot, pin.integrate(robot.model, q, v * eps))) @ v
+    jm = task.compute_jacobian(Configuration(robot, pin.integrate(robot.model, q, -v * eps))) @ v
+    return (jp - jm) / (2 * eps)
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_task_drifts_match_finite_differences(robots, name):
+    """J̇v of every task (the acceleration-level term of the same object) = d/dt (J v) at v̇ = 0 by finite differences
+    of the task's own Jacobian along the motion; the targets are far from the current pose (orientation errors up
+    to ~1 rad), where the second-order terms of the orientation rows matter."""
+    from wbc.state import DynamicsState
+
+    robot = robots(name)
+    rng = np.random.default_rng(3)
+    q = random_configuration(robot, rng)
+    v = rng.normal(scale=0.7, size=robot.nv)
+    state = DynamicsState(robot, q, v)
+    tasks = make_tasks(robot, rng) + [AngularMomentumTask(robot), DampingTask(robot)]
+    for task in tasks:
+        drift = task.drift(state)
+        assert drift.shape == (task.dim,), task.name
+        num = fd_drift(task, robot, q, v)
+        np.testing.assert_allclose(drift, num, atol=1e-5 * max(1.0, np.abs(num).max()), err_msg=task.name)
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-6, 5e-4, 2e-3, 0.3, 2.5])
+def test_orientation_drift_at_any_error(angle):
+    """J̇v of log₃(R*ᵀR) for a body rotating at constant ω with angular acceleration α: finite differences of
+    d/dt log₃(R*ᵀR(t)) with R(t) = R exp(t ω + ½ t² α)-like motion, i.e. ë at t = 0, for errors from 0 (the target
+    itself, where pin.Hlog3 is NaN) to 2.5 rad."""
+    from wbc.tasks.frame import orientation_drift
+
+    rng = np.random.default_rng(4)
+    axis = rng.normal(size=3)
+    rel0 = pin.exp3(angle * axis / np.linalg.norm(axis))
+    omega, alpha = rng.normal(size=3), rng.normal(size=3)
+    h = 1e-4
+
+    def err(t):  # body angular velocity ω + α t: R(t) = R exp(∫) to second order, exact for ë at t = 0
+        return pin.log3(rel0 @ pin.exp3(omega * t + 0.5 * alpha * t * t))
+
+    num = (err(h) - 2 * err(0.0) + err(-h)) / h**2
+    d = orientation_drift(rel0, omega, alpha)
+    assert np.all(np.isfinite(d))
+    np.testing.assert_allclose(d, num, atol=2e-5 * max(1.0, np.abs(num).max()))

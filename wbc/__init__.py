@@ -6,7 +6,7 @@ command v, integrated on the manifold.
 """
 
 from wbc.configuration import Configuration
-from wbc.controller import KinematicController
+from wbc.formulations.velocity import KinematicController
 from wbc.robot import Robot, catalog, load_robot
 from wbc.solve import solve_ik
 

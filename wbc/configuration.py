@@ -79,6 +79,14 @@ class Configuration:
         """(3, nv) CoM Jacobian in world axes (m/s per unit of v)."""
         return self._com_jacobian
 
+    @property
+    def centroidal_momentum_matrix(self) -> np.ndarray:
+        """(6, nv) centroidal momentum matrix Ag(q): ``[m ċ ; L] = Ag v`` (linear N·s, angular N·m·s about the CoM,
+        world axes). Computed on demand (``pin.computeCentroidalMap``, which rewrites the joint placements, joint
+        Jacobians and CoM of ``data`` with the values they already hold);
+        :class:`~wbc.state.DynamicsState` returns the one of its ``computeAllTerms``."""
+        return pin.computeCentroidalMap(self.model, self.data, self.q)
+
     def step(self, v: np.ndarray, dt: float) -> None:
         """Apply the generalized velocity v (nv,) for dt seconds (q ← ``pin.integrate(q, v dt)``) and update the
         kinematics. q stays valid by construction, so it is not re-validated (unlike :meth:`update`).

@@ -25,7 +25,8 @@ from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetE
 
 __all__ = [
     "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
-    "signed_distance_point", "signed_distance", "polygons_overlap",
+    "signed_distance_point", "signed_distance", "polygons_overlap", "polygon_margin", "closest_point_in_polygon",
+    "projected_sole_corners",
 ]
 
 Point = tuple[float, float]
@@ -310,3 +311,44 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bo
         if np.any(q_min - p_max > clearance):
             return False
     return True
+
+
+def polygon_margin(point: np.ndarray, polygon: np.ndarray) -> float:
+    """Edge-line margin (m) of a (2,) point in a counter-clockwise convex polygon (m, 2): min over the edges of the
+    signed distance to the edge's line, positive inside (there: the distance to the boundary, as
+    :func:`signed_distance`), negative outside (there: minus the largest violation of an edge's half-plane, which
+    is smaller in magnitude than the Euclidean distance of :func:`signed_distance` near a vertex). No validation."""
+    d = np.inf
+    for i in range(len(polygon)):
+        a, b = polygon[i], polygon[(i + 1) % len(polygon)]
+        e = b - a
+        n = np.array([-e[1], e[0]]) / np.linalg.norm(e)  # inward normal (ccw)
+        d = min(d, float(n @ (point - a)))
+    return d
+
+
+def closest_point_in_polygon(point: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Closest point (2,) of a counter-clockwise convex polygon (m, 2) to a (2,) ``point`` (m): the point itself
+    when inside (:func:`polygon_margin` ≥ 0), else its projection on the nearest edge. No validation."""
+    if polygon_margin(point, polygon) >= 0:
+        return point
+    best, dbest = point, np.inf
+    for i in range(len(polygon)):
+        a, b = polygon[i], polygon[(i + 1) % len(polygon)]
+        e = b - a
+        s = min(max(float((point - a) @ e / (e @ e)), 0.0), 1.0)
+        p = a + s * e
+        dd = float(np.linalg.norm(point - p))
+        if dd < dbest:
+            best, dbest = p, dd
+    return best
+
+
+def projected_sole_corners(pose: pin.SE3, length: float, width: float) -> np.ndarray:
+    """(4, 2) ground projection (m, world xy) of the corners of the ``length`` × ``width`` sole rectangle centred
+    on a (possibly tilted) sole pose, in the order of :func:`sole_polygon` (front-left, rear-left, rear-right,
+    front-right; CCW when the sole is not upside down). For a level sole this is :func:`sole_polygon` at the
+    pose's (x, y, yaw). No validation."""
+    a, b = 0.5 * length, 0.5 * width
+    c = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+    return (c @ pose.rotation.T + pose.translation)[:, :2]

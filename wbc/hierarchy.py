@@ -58,7 +58,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     Args:
         levels: list (highest priority first) of (J (m_k, nv), target (m_k,)) with the weights already applied.
         H, g: (nv, nv), (nv,) cost of the soft level (weighted tasks + damping).
-        A, b, C, l, u, lb, ub: the hard set (see :mod:`wbc.controller`).
+        A, b, C, l, u, lb, ub: the hard set (see :mod:`wbc.formulations.velocity`).
         backends: one QP backend per level in ``levels`` (each keeps its own warm start).
         final_backend: backend of the soft level.
         rank_rtol: relative rank tolerance of the stacked equality rows.

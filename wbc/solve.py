@@ -1,7 +1,7 @@
 """Stateless one-call entry point for scripting: :func:`solve_ik` (as Pink's ``solve_ik`` and mink's
-``solve_ik``), beside the stateful :class:`~wbc.controller.KinematicController`.
+``solve_ik``), beside the stateful :class:`~wbc.formulations.velocity.KinematicController`.
 
-One call builds the kinematics at ``q``, the velocity-level QP of :mod:`wbc.controller` from the given tasks and
+One call builds the kinematics at ``q``, the velocity-level QP of :mod:`wbc.formulations.velocity` from the given tasks and
 constraints, solves it once and returns the generalized velocity. Nothing is kept between calls (no warm start,
 no previous command, no cached constraint rank): a 500 Hz loop should keep a :class:`KinematicController`
 instead, which reuses its QP workspace and layout.
@@ -13,7 +13,7 @@ import numpy as np
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import Constraint
-from wbc.controller import KinematicController
+from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import SolverError
 from wbc.qp import QPBackend
 from wbc.backends import DEFAULT_SOLVER
@@ -28,7 +28,7 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
              ) -> np.ndarray:
     """Generalized velocity v that best achieves ``tasks`` at ``q`` under ``constraints`` over one period ``dt``.
 
-    The problem is the one of :mod:`wbc.controller`: min_v Σ_i ‖√w_i (J_i v − v*_i)‖² + ε‖v‖² subject to the
+    The problem is the one of :mod:`wbc.formulations.velocity`: min_v Σ_i ‖√w_i (J_i v − v*_i)‖² + ε‖v‖² subject to the
     equality, inequality and bound constraints, with v*_i = ė*_i − K_i e_i from each task's target. Integrate the
     result on the manifold with ``pinocchio.integrate(robot.model, q, v * dt)``.
 

@@ -80,8 +80,11 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--impratio", type=float, default=None,
-                   help="plant: MuJoCo friction-to-normal impedance ratio (MuJoCo default 1: its soft friction lets "
-                        "a loaded foot creep below the friction limit; 10 makes friction as stiff as contact)")
+                   help="plant: MuJoCo friction-to-normal impedance ratio of the elliptic friction cones (default 10, "
+                        "see wbc.sim.mujoco_model; 1, MuJoCo's default, lets a loaded foot creep below the friction "
+                        "limit)")
+    w.add_argument("--cone", choices=("elliptic", "pyramidal"), default="elliptic",
+                   help="plant: MuJoCo friction cone (default elliptic; pyramidal is MuJoCo's default)")
     w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
     w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
     for flag, kind, default, text in JUMP_OPTIONS:
@@ -154,13 +157,7 @@ def cmd_sim(args) -> int:
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
     robot = load_robot(args.robot)
-    sim = build_mujoco_model(robot)
-    if args.impratio is not None:
-        from wbc.exceptions import InvalidInputError
-
-        if not args.impratio >= 1.0:
-            raise InvalidInputError(f"--impratio must be >= 1, got {args.impratio}")
-        sim.model.opt.impratio = args.impratio
+    sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -211,6 +208,7 @@ def cmd_sim(args) -> int:
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
+    summary["mujoco_cone"] = args.cone
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],

@@ -95,5 +95,5 @@ class ContactConstraint(EqualityConstraint):
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         b = self.compute_error(config)
-        b *= -min(self.gain, 1.0 / dt)
+        b *= -min(self._gain, 1.0 / dt)
         return pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL), b

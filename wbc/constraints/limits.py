@@ -63,9 +63,12 @@ class JointPositionLimit(BoxConstraint):
         vmax = model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
         self._neg_v_max = -self.v_max
+        iq = self.idx_q
+        self._q_sel = slice(int(iq[0]), int(iq[-1]) + 1) if iq.size and np.array_equal(
+            iq, np.arange(iq[0], iq[0] + iq.size)) else iq  # a view of q when the bounded joints are contiguous
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        q = config.q[self.idx_q]
+        q = config.q[self._q_sel]
         # only the recovery side is capped (a joint outside its range returns at ≤ v_max, and lb ≤ ub always);
         # the other side is the velocity limit's job
         lb = np.minimum((self.q_min - q) / dt, self.v_max)

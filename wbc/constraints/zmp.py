@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -63,6 +64,64 @@ __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 
 #: Standard gravity (m/s²), the value Pinocchio's default model uses.
 GRAVITY = 9.81
+
+
+@nb.njit(cache=True, nogil=True)
+def _zmp_rows(c, J, J_prev, v_prev, c_prev, c_pred, normals, offsets, h, gravity, dt, use_momentum, A_now, L_prev,
+              inv_mh, min_normal_ratio, J_eff, C, u):
+    """Rows of :meth:`ExecutedZmpConstraint.compute` (module docstring) written into C (k + 1 used rows) and u,
+    from the CoM c, its Jacobians J (now) and J_prev, the centroidal map rows A_now (all from Pinocchio) and the
+    recorded previous tick: compiled assembly arithmetic, no kinematics."""
+    nv = J.shape[1]
+    k = offsets.shape[0]
+    r = np.empty(3)
+    dc = np.empty(3)
+    for i in range(3):
+        s = 0.0
+        for j in range(nv):
+            dj = J[i, j] - J_prev[i, j]
+            s += dj * v_prev[j]
+            J_eff[i, j] = J[i, j] + dj
+        r[i] = (c[i] - c_pred[i]) - dt * s
+        dc[i] = c[i] - c_prev[i]
+    for e in range(k):
+        nx, ny = normals[e, 0], normals[e, 1]
+        se = offsets[e] - (nx * c[0] + ny * c[1])
+        a0, a1, a2 = -nx, -ny, se / -h
+        u[e] = (se * gravity * dt * dt / h - (a0 * (r[0] - dc[0]) + a1 * (r[1] - dc[1]) + a2 * (r[2] - dc[2]))) / dt
+        for j in range(nv):
+            C[e, j] = a0 * J_eff[0, j] + a1 * J_eff[1, j] + a2 * J_eff[2, j]
+        if use_momentum:
+            e0, e1 = ny * inv_mh, -nx * inv_mh
+            for j in range(nv):
+                C[e, j] += e0 * A_now[0, j] + e1 * A_now[1, j]
+            u[e] += e0 * L_prev[0] + e1 * L_prev[1]
+    last = C.shape[0] - 1
+    for j in range(nv):
+        C[last, j] = -J_eff[2, j]
+    u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r[2] - dc[2]) / dt
+
+
+@nb.njit(cache=True, nogil=True)
+def _zmp_record(v, c_now, J_now, A_now, dt, c_prev, c_pred, L_prev, J_prev, v_prev):
+    """:meth:`ExecutedZmpConstraint.set_previous` in place: False (nothing written) when v is not finite."""
+    nv = v.shape[0]
+    for j in range(nv):
+        if not np.isfinite(v[j]):
+            return False
+    for i in range(3):
+        s = 0.0
+        m = 0.0
+        for j in range(nv):
+            s += J_now[i, j] * v[j]
+            m += A_now[i, j] * v[j]
+            J_prev[i, j] = J_now[i, j]
+        c_prev[i] = c_now[i]
+        c_pred[i] = c_now[i] + s * dt
+        L_prev[i] = m
+    for j in range(nv):
+        v_prev[j] = v[j]
+    return True
 
 
 class ExecutedZmpConstraint(InequalityConstraint):
@@ -113,8 +172,6 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self.angular_momentum = bool(angular_momentum)
         self._model = robot.model
         self._data = robot.model.createData()
-        self._a = np.zeros((self.dim, 3))
-        self._e = np.zeros((self.dim, 3))
         self.mass = float(sum(i.mass for i in robot.model.inertias))
         self._A_now = np.zeros((3, nv))          # A_G,ang(q_k)
         self._J_prev = np.zeros((3, nv))         # J_com(q_{k−1})
@@ -172,14 +229,15 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if not self._have_now:
             return
         v = np.asarray(v, dtype=float)
-        if v.shape != (self.nv,) or not np.isfinite(v).all():
+        if v.shape != (self.nv,):
             self.reset()
             return
-        self._c_prev = self._c_now.copy()
-        self._c_pred = self._c_now + (self._J_now @ v) * self._dt_now
-        self._L_prev = self._A_now @ v
-        self._J_prev[:] = self._J_now
-        self._v_prev[:] = v
+        if self._c_prev is None:
+            self._c_prev, self._c_pred = np.empty(3), np.empty(3)
+        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, self._c_prev, self._c_pred,
+                           self._L_prev, self._J_prev, self._v_prev):
+            self.reset()
+            return
         self._have_now = False
 
     def compute(self, config: Configuration, dt: float):
@@ -200,27 +258,13 @@ class ExecutedZmpConstraint(InequalityConstraint):
             C[-1] = 0.0
             u[-1] = np.inf
             return C, self._l, u
-        dc = c - self._c_prev            # Δc = c_k − c_{k−1}
-        # second-order part of this step, r(v) ≈ r_{k−1} + dt (J_k − J_{k−1})(v − v_{k−1}) (module docstring):
-        # c_{k+1} ≈ c_k + (2 J_k − J_{k−1}) v dt + r_{k−1} − dt (J_k − J_{k−1}) v_{k−1}
-        dJ = J - self._J_prev
-        r = (c - self._c_pred) - dt * (dJ @ self._v_prev)
-        J = np.add(J, dJ, out=self._J_eff)
-        s = self.offsets - self.normals @ c[:2]          # (k,) slack of the CoM to each shrunk edge
-        a = self._a[:k]
-        np.negative(self.normals, out=a[:, :2])
-        np.divide(s, -h, out=a[:, 2])
-        np.matmul(a, J, out=C[:k])
-        u[:k] = (s * self.gravity * dt * dt / h - a @ (r - dc)) / dt
-        if self.angular_momentum:
-            e = self._e[:k]
-            e[:, 0], e[:, 1] = self.normals[:, 1], -self.normals[:, 0]
-            e *= 1.0 / (self.mass * h)
-            C[:k] += e @ self._A_now
-            u[:k] += e @ self._L_prev
-        # −c̈_z ≤ (1 − ρ) g   ⇔   −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt
-        np.negative(J[2], out=C[-1])
-        u[-1] = (1.0 - self.min_normal_ratio) * self.gravity * dt + (r[2] - dc[2]) / dt
+        # Δc = c_k − c_{k−1}; second-order part of this step, r(v) ≈ r_{k−1} + dt (J_k − J_{k−1})(v − v_{k−1})
+        # (module docstring): c_{k+1} ≈ c_k + (2 J_k − J_{k−1}) v dt + r_{k−1} − dt (J_k − J_{k−1}) v_{k−1};
+        # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on
+        # A_G,ang; last row −c̈_z ≤ (1 − ρ) g ⇔ −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt (compiled, one call)
+        _zmp_rows(c, J, self._J_prev, self._v_prev, self._c_prev, self._c_pred, self.normals, self.offsets, h,
+                  self.gravity, float(dt), self.angular_momentum, self._A_now, self._L_prev, 1.0 / (self.mass * h),
+                  self.min_normal_ratio, self._J_eff, C, u)
         return C, self._l, u
 
 

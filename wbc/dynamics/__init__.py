@@ -1,32 +1,40 @@
-"""Inverse-dynamics whole-body control: acceleration tasks, sole contacts, named constraints, the ID QP and its
-controller.
+"""Inverse-dynamics whole-body control: the balance controller and the stateful ID controller, re-exporting the
+acceleration-level public API.
 
-Layers (TSID's split): tasks (:mod:`~wbc.dynamics.tasks`: a kinematic task's e(q), J stated once in
-:mod:`wbc.tasks`, plus its drift J̇v) and contacts (:mod:`~wbc.dynamics.contacts`) → named constraints
-(:mod:`~wbc.dynamics.constraints`) → the formulation, the QP written once in :mod:`~wbc.dynamics.formulation`'s
-docstring → solvers (:mod:`wbc.qp` backends; the compiled tick :mod:`~wbc.dynamics.idkernel`) → the controller
-(:mod:`~wbc.dynamics.controller`: diagnosis, relaxed solve, safe command) → :class:`IDBalanceController`.
-``BalanceController`` and ``AngularMomentumTask`` are the former names of :class:`IDBalanceController` and
-:class:`AngularMomentumRateTask` (aliases).
+Layers (TSID's split): tasks (:mod:`wbc.tasks`: each states e(q), J and the drift J̇v once, for both levels) and
+contacts (:mod:`~wbc.constraints.sole_contact`) → named constraints (:mod:`~wbc.constraints.dynamics`) → the
+formulation, the QP written once in :mod:`~wbc.formulations.acceleration`'s docstring, with each task's PD
+reference a* (:class:`~wbc.formulations.reference.AccelerationReference`) → solvers (:mod:`wbc.qp` backends; the
+compiled tick :mod:`~wbc.formulations.idkernel`) → the controller (:mod:`~wbc.dynamics.controller`: diagnosis,
+relaxed solve, safe command) → :class:`IDBalanceController`.
+
+Deprecated names kept for callers: ``BalanceController`` (= :class:`IDBalanceController`), ``AccelerationTask``
+(= :class:`~wbc.formulations.reference.AccelerationReference`), the constructors ``ComAccelerationTask``,
+``FrameAccelerationTask``, ``PostureAccelerationTask``, ``AngularMomentumRateTask`` (also under its former name
+``AngularMomentumTask``, not to be confused with the shared :class:`wbc.tasks.AngularMomentumTask`) and
+``acceleration_task``, each returning an ``AccelerationReference`` on a shared task.
 """
 
 from wbc.dynamics.balance import DEFAULT_GAINS, BalanceController, IDBalanceController
-from wbc.dynamics.contacts import SoleContact
+from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
-from wbc.dynamics.formulation import IDSolution, InverseDynamicsQP
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import (
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.state import DynamicsState
+from wbc.formulations.reference import (
+    AccelerationReference,
     AccelerationTask,
     AngularMomentumRateTask,
-    AngularMomentumTask,
     ComAccelerationTask,
     FrameAccelerationTask,
     PostureAccelerationTask,
     acceleration_task,
 )
 
+#: Former name of :func:`AngularMomentumRateTask` (deprecated; :class:`wbc.tasks.AngularMomentumTask` is the task).
+AngularMomentumTask = AngularMomentumRateTask
+
 __all__ = [
-    "AccelerationTask", "AngularMomentumRateTask", "AngularMomentumTask", "BalanceController", "ComAccelerationTask",
+    "AccelerationReference", "AccelerationTask", "AngularMomentumRateTask", "AngularMomentumTask", "BalanceController", "ComAccelerationTask",
     "DEFAULT_GAINS", "IDBalanceController", "DynamicsState", "FrameAccelerationTask", "IDCommand", "IDSolution", "InverseDynamicsController",
     "InverseDynamicsQP", "PostureAccelerationTask", "SoleContact", "acceleration_task",
 ]

@@ -1,6 +1,6 @@
 """A humanoid balance controller: the inverse-dynamics QP with a standard task set.
 
-Tasks (all at acceleration level, :mod:`wbc.dynamics.tasks`), weights relative to each other:
+Tasks (all at acceleration level, :mod:`wbc.tasks.acceleration`), weights relative to each other:
 
 * CoM position (world), PD + feed-forward — the balance task (highest weight);
 * torso orientation (the robot's ``torso`` frame), keeps the upper body upright;
@@ -10,7 +10,7 @@ Tasks (all at acceleration level, :mod:`wbc.dynamics.tasks`), weights relative t
 * posture (every actuated joint, reference ``robot.q_ref``), lowest weight, regularises the redundancy;
 * one pose task per foot, enabled only while that foot is released (swing).
 
-Contacts: one :class:`~wbc.dynamics.contacts.SoleContact` per sole (``left``/``right``), 4 corner forces each.
+Contacts: one :class:`~wbc.constraints.sole_contact.SoleContact` per sole (``left``/``right``), 4 corner forces each.
 Push recovery comes from the CoM task alone: its desired acceleration (PD, Kp 100 /s², Kd 20 /s) exceeds what the
 support polygon allows under a strong push, and the QP then puts the CoP on the polygon edge (corner-force
 bounds) and uses the remaining freedom — upper-body rotation, limited by the angular-momentum and torso tasks —
@@ -25,10 +25,10 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.dynamics.contacts import SoleContact
+from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
-from wbc.dynamics.formulation import InverseDynamicsQP
-from wbc.dynamics.tasks import (
+from wbc.formulations.acceleration import InverseDynamicsQP
+from wbc.formulations.reference import (
     AngularMomentumRateTask,
     ComAccelerationTask,
     FrameAccelerationTask,
@@ -107,7 +107,7 @@ class IDBalanceController:
 
     @property
     def state(self):
-        """The :class:`~wbc.dynamics.state.DynamicsState` of the last tick."""
+        """The :class:`~wbc.state.DynamicsState` of the last tick."""
         return self.controller.state
 
     # -- references ------------------------------------------------------------------------------------------

@@ -24,7 +24,7 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 
 ``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
 ``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
-``ContactTransition`` made explicit with the sole's corner-force bounds (:mod:`wbc.dynamics.contacts`).
+``ContactTransition`` made explicit with the sole's corner-force bounds (:mod:`wbc.constraints.sole_contact`).
 
 The switcher works on a :class:`~wbc.dynamics.balance.BalanceController` (its ``contacts``, ``feet``, ``qp``,
 ``set_max_normal_force`` and ``release_foot``). Call :meth:`~ContactSwitcher.update` once per control tick,

@@ -1,18 +1,18 @@
-"""Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.dynamics.formulation`) → torques τ.
+"""Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.formulations.acceleration`) → torques τ.
 
-:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.controller.KinematicController`:
+:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.formulations.velocity.KinematicController`:
 one :meth:`~InverseDynamicsController.tick` per control period reads the measured state, updates the Pinocchio
-quantities once (:class:`~wbc.dynamics.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
+quantities once (:class:`~wbc.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
 contact forces.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
-0. diagnosis: the named constraints of :mod:`wbc.dynamics.constraints` that conflict at this state, with their
+0. diagnosis: the named constraints of :mod:`wbc.constraints.dynamics` that conflict at this state, with their
    violations, are reported in ``IDCommand.conflicts`` (largest first; :meth:`InverseDynamicsQP.diagnose`, a
    slack-relaxed least-squares solve of the hard set, :mod:`wbc.diagnosis`), and named in ``message``;
 1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
    the same QP is solved **without joint acceleration bounds and torque limits**
-   (:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
+   (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
    and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True; the command's torques are clipped
    to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
 2. that fails too → **contact-consistent gravity compensation with joint damping** at the current state,
@@ -32,8 +32,8 @@ from time import perf_counter
 
 import numpy as np
 
-from wbc.dynamics.formulation import IDSolution, InverseDynamicsQP
-from wbc.dynamics.state import DynamicsState
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 
 __all__ = ["InverseDynamicsController", "IDCommand"]
@@ -52,7 +52,7 @@ class IDCommand:
         relaxed: the relaxed QP (no joint bounds / torque limits) was used.
         message: failure reason ('' when the full QP was solved); names the conflicting constraints.
         conflicts: after a failed full QP, (constraint name, violation in its units) of the conflicting
-            constraints, largest first (:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.diagnose`).
+            constraints, largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`).
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
         timings: seconds in 'pinocchio', 'assembly', 'solve', 'total'.
     """

@@ -21,7 +21,7 @@ from wbc.constraints import ContactConstraint, JointAccelerationLimit, JointPosi
 from wbc.constraints.base import Constraint
 from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
-from wbc.controller import KinematicController, TickResult
+from wbc.formulations.velocity import KinematicController, TickResult
 from wbc.gait.schedule import Support
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
@@ -37,7 +37,7 @@ SIDES = ("left", "right")
 
 
 class StanceController:
-    """The stance wiring of the module docstring around a :class:`~wbc.controller.KinematicController`.
+    """The stance wiring of the module docstring around a :class:`~wbc.formulations.velocity.KinematicController`.
 
     Args:
         robot: the robot.
@@ -52,7 +52,7 @@ class StanceController:
         joint_acceleration: a_max (rad/s²) of a :class:`~wbc.constraints.JointAccelerationLimit` on every actuated
             joint and of a :class:`~wbc.constraints.braking.JointBrakingLimit` (joints approach their position
             limits no faster than they can stop at a_max); both relaxable; None: neither.
-        **controller_options: passed to :class:`~wbc.controller.KinematicController` (e.g. ``rank_rtol``).
+        **controller_options: passed to :class:`~wbc.formulations.velocity.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,

@@ -26,7 +26,8 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
 from wbc.sim.scenarios import NO_FALL, timed_push
-from wbc.sim.walk import WalkScenario, polygon_margin
+from wbc.geometry import polygon_margin
+from wbc.sim.walk import WalkScenario
 
 __all__ = ["CaptureStepScenario"]
 

@@ -42,7 +42,7 @@ landing, with 50 it landed (50 only from the push start on: fell); humanoid15 ve
 (``momentum_weight``; ``--momentum-weight``): with 50 the take-off velocity alternated sideways (up to ±0.045
 m/s) and the 4th of 10 jumps fell (settle 2.5 s) / the flight shrank to 0.09 s (settle 1.5 s); with 1, 10 of 10
 jumps passed; braking acceleration of the joint-limit viability bound
-(:mod:`wbc.dynamics.formulation`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
+(:mod:`wbc.formulations.acceleration`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
 from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and the QP cut the push-off force from
 700 N to 0 at a take-off velocity of 0.86 m/s instead of the planned 1.53 m/s (measured at 0.12 m planned height);
 with 400 the late braking needed more than the hip torque limits (relaxed QP ticks at take-off, pitching kick).
@@ -63,7 +63,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
-from wbc.dynamics.tasks import FrameAccelerationTask, PostureAccelerationTask
+from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import G, JumpPlan
 from wbc.scenarios.framework import Criterion, evaluate

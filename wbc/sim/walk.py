@@ -43,70 +43,15 @@ import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
+from wbc.geometry import closest_point_in_polygon, convex_hull, polygon_margin, projected_sole_corners
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL, timed_push
 
-__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "polygon_margin", "walk_acceptance",
-           "walk_criteria"]
+__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "walk_acceptance", "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
-
-
-def _hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull (counter-clockwise, (m, 2)) of (n, 2) points (Andrew's monotone chain)."""
-    pts = sorted(map(tuple, points))
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower, upper = [], []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def polygon_margin(point: np.ndarray, hull: np.ndarray) -> float:
-    """Signed distance (m) of a (2,) point to the edges of a counter-clockwise convex polygon (m, 2):
-    positive inside (distance to the nearest edge line), negative outside."""
-    d = np.inf
-    for i in range(len(hull)):
-        a, b = hull[i], hull[(i + 1) % len(hull)]
-        e = b - a
-        n = np.array([-e[1], e[0]]) / np.linalg.norm(e)  # inward normal (ccw)
-        d = min(d, float(n @ (point - a)))
-    return d
-
-
-def _project(point: np.ndarray, hull: np.ndarray) -> np.ndarray:
-    """Closest point of a convex polygon (ccw) to ``point`` (the point itself when inside)."""
-    if polygon_margin(point, hull) >= 0:
-        return point
-    best, dbest = point, np.inf
-    for i in range(len(hull)):
-        a, b = hull[i], hull[(i + 1) % len(hull)]
-        e = b - a
-        s = min(max(float((point - a) @ e / (e @ e)), 0.0), 1.0)
-        p = a + s * e
-        dd = float(np.linalg.norm(point - p))
-        if dd < dbest:
-            best, dbest = p, dd
-    return best
-
-
-def _sole_corners(pose: pin.SE3, length: float, width: float) -> np.ndarray:
-    a, b = 0.5 * length, 0.5 * width
-    c = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
-    return (c @ pose.rotation.T + pose.translation)[:, :2]
 
 
 def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0) -> np.ndarray | None:
@@ -126,6 +71,17 @@ def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0)
         return None
     M = wrench[:, 3:].sum(axis=0) + np.cross(sole_pos, wrench[:, :3]).sum(axis=0)
     return np.array([-M[1] / F[2], M[0] / F[2]])
+
+
+def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
+    """Whether the joints can change the relative yaw of the two soles at q: the z row of the Jacobian of
+    ω_left − ω_right (world axes; the floating base cancels) is non-zero (> 1e-6 of a unit joint rate). False for
+    legs without a hip yaw joint (humanoid15), whose feet then cannot turn relative to each other."""
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.framesForwardKinematics(model, data, q)
+    Jl, Jr = (pin.getFrameJacobian(model, data, fid[s], pin.LOCAL_WORLD_ALIGNED) for s in ("left", "right"))
+    return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
 
 
 class DcmStabilizer:
@@ -175,7 +131,7 @@ class DcmStabilizer:
         p = p_ref + self.k_p * e + self.k_i * self.integral
         if self.k_z > 0 and p_meas is not None:
             p = p + self.k_z * (p - p_meas)
-        pc = _project(p, hull) if len(hull) >= 3 else p
+        pc = closest_point_in_polygon(p, hull) if len(hull) >= 3 else p
         self.saturated = bool(np.linalg.norm(pc - p) > 1e-9)
         if not self.saturated:
             self.integral = np.clip(self.integral + e * self.dt, -self.i_max, self.i_max)
@@ -220,7 +176,9 @@ class WalkScenario:
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
     Raises:
-        InvalidInputError / GaitError: bad numbers.
+        InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
+            differing by > 0.01 rad) on a robot whose legs cannot yaw one sole relative to the other (no hip yaw
+            joint, humanoid15: the soles' relative yaw rate has a zero Jacobian at the start state).
     """
 
     name = "walk"
@@ -293,6 +251,11 @@ class WalkScenario:
                                      min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
+        yaws = [fs.yaw for fs in plan.footsteps]
+        if yaws and max(yaws) - min(yaws) > 0.01 and not _feet_can_yaw(robot, q, self._fid):  # > 0.6 deg
+            raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
+                            "relative yaw rate of the soles has a zero Jacobian), so its feet cannot turn; the plan "
+                            f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
         if self.from_state:
             plan = self._capture_plan(plan, q, v)
         self.plan = plan
@@ -364,9 +327,9 @@ class WalkScenario:
         r = self.robot
         for s in ("left", "right"):
             if self.switcher.in_contact(s):
-                pts.append(_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
+                pts.append(projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
                                          r.sole_width - 2 * shrink))
-        return _hull(np.vstack(pts)) if pts else np.zeros((0, 2))
+        return convex_hull(np.vstack(pts)) if pts else np.zeros((0, 2))
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
@@ -597,9 +560,9 @@ class WalkScenario:
                 if wr[j, 2] > 10.0:
                     yaw = lg["sole_yaw"][i, j]
                     pose = pin.SE3(pin.rpy.rpyToMatrix(0, 0, yaw), np.r_[run.sole_pos[i, j, :2], 0.0])
-                    pts.append(_sole_corners(pose, r.sole_length, r.sole_width))
+                    pts.append(projected_sole_corners(pose, r.sole_length, r.sole_width))
             if pts:
-                margin[i] = polygon_margin(p, _hull(np.vstack(pts)))
+                margin[i] = polygon_margin(p, convex_hull(np.vstack(pts)))
         # Touch-downs vs footsteps; stance slip per loaded-stance interval.
         ev = self.switcher.events
         landing, td_delay, slips = [], [], []

@@ -1,11 +1,15 @@
-"""Task interface shared by every kinematic task.
+"""Task interface shared by both control levels.
 
 A task is a residual e(q) ∈ R^m that should vanish, with its Jacobian J(q) = ∂e/∂q ∈ R^{m×nv} (derivative
-along the configuration manifold: e(q ⊕ δv) ≈ e(q) + J δv). At velocity level the controller asks for
+along the configuration manifold: e(q ⊕ δv) ≈ e(q) + J δv) and its drift J̇ v ∈ R^m (the part of ë that does not
+depend on v̇: ë = J v̇ + J̇ v, evaluated at a :class:`~wbc.state.DynamicsState`, i.e. after Pinocchio's forward
+kinematics with (q, v, v̇ = 0)). Each task states e, J and J̇v once (:meth:`Task.compute`, :meth:`Task.drift`); the
+formulations use them as they need:
 
-    J v = v*,   v* = ė* − K e,
-
-with K the task gain (1/s) and ė* an optional feed-forward rate of the error (e.g. a reference velocity).
+* velocity level (:mod:`wbc.formulations.velocity`): J v = v*,   v* = ė* − K e,
+  with K the task gain (1/s) and ė* an optional feed-forward rate of the error (e.g. a reference velocity);
+* acceleration level (:mod:`wbc.formulations.acceleration`): J v̇ = a* − J̇ v,  a* = ä* − Kp e − Kd (J v − ė*),
+  with the PD gains and ä* held by the formulation's :class:`~wbc.formulations.reference.AccelerationReference`.
 """
 
 from __future__ import annotations
@@ -110,9 +114,27 @@ class Task(ABC):
         """(m, nv) Jacobian ∂e/∂q of the task error."""
         return self.compute(config)[1]
 
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        """Write e (m,) and J (m, nv) at ``config`` into the given arrays (views of a controller's stacked
+        buffers): the same numbers as :meth:`compute`, without returning new arrays. Tasks with a cheaper
+        in-place form override it."""
+        error, jac = self.compute(config)
+        error_out[:] = error
+        jac_out[:] = jac
+
     def feedforward(self) -> np.ndarray | None:
         """(m,) desired rate of the error ė* (None: zero)."""
         return None
+
+    def drift(self, state) -> np.ndarray:
+        """(m,) J̇ v at ``state`` (a :class:`~wbc.state.DynamicsState`: Pinocchio data after the forward kinematics
+        with (q, v, v̇ = 0)), so that ë = J v̇ + J̇ v (task units /s²). Checked against finite differences of J v
+        along q(t) = q ⊕ t v in ``tests/test_tasks.py``.
+
+        Raises:
+            NotImplementedError: a task without an acceleration-level form.
+        """
+        raise NotImplementedError(f"{type(self).__name__} has no drift J̇v (no acceleration-level form)")
 
     def velocity_target(self, error: np.ndarray) -> np.ndarray:
         """(m,) v* = ė* − K e for the given error."""

@@ -1,4 +1,6 @@
-"""Centre-of-mass task: e = c(q) − c* (world, m), J = Pinocchio's CoM Jacobian (3, nv)."""
+"""Centre-of-mass task: e = c(q) − c* (world, m), J = Pinocchio's CoM Jacobian (3, nv), drift J̇v = c̈ at v̇ = 0
+= (dAg v)[0:3] / m (``DynamicsState.com_drift``; equal to ``data.acom[0]`` of ``pin.centerOfMass(model, data, q, v,
+0)``)."""
 
 from __future__ import annotations
 
@@ -50,5 +52,13 @@ class ComTask(Task):
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return config.com - self._target, config.com_jacobian
 
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        np.subtract(config.com, self._target, out=error_out)
+        jac_out[:] = config.com_jacobian
+
     def feedforward(self) -> np.ndarray | None:
         return self._ff
+
+    def drift(self, state) -> np.ndarray:
+        """(3,) c̈ at v̇ = 0 (m/s², world)."""
+        return state.com_drift

@@ -45,6 +45,10 @@ class DampingTask(Task):
         """(zeros (dim,), selection matrix (dim, nv))."""
         return self._zero, self._jac
 
+    def drift(self, state) -> np.ndarray:
+        """(dim,) zeros: J is a constant selection."""
+        return self._zero
+
     def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
         """H[j, j] += w_j on the selected coordinates; g unchanged (v* = 0)."""
         H[self.rows, self.rows] += self._weight

@@ -3,11 +3,20 @@
 Error (6,): position p − p* in world axes (m), then orientation log₃(R*ᵀ R) in the target's axes (rad).
 Jacobian: [R J_lin^LOCAL ; Jlog₃(R*ᵀR) J_ang^LOCAL], exact derivative of that error (Jlog₃ is the inverse of
 the right Jacobian of SO(3), ``pin.Jlog3``).
+Drift J̇v (acceleration level, ë = J v̇ + J̇ v), exact: position rows, the classical acceleration of the frame origin
+at v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orientation rows, with ė = Jlog₃(rel) ω
+(rel = R*ᵀR, ω the LOCAL angular velocity, rel̇ = rel [ω]×),
+
+    ë = Jlog₃(rel) ω̇ + (d/dt Jlog₃(rel)) ω   ⇒   J̇v = Jlog₃(rel) α₀ + Hlog₃(rel, ω) ω
+
+with α₀ the LOCAL angular acceleration at v̇ = 0 (``pin.getFrameAcceleration``) and ``pin.Hlog3(rel, ω)`` the
+derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/test_tasks.py``).
 Position-only and orientation-only forms keep only those rows.
 """
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -17,7 +26,7 @@ from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
-           "as_se3"]
+           "orientation_drift", "as_se3"]
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -32,6 +41,41 @@ def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin
     np.matmul(rot, j_local[:3], out=jac[:3])
     np.matmul(pin.Jlog3(rel), j_local[3:], out=jac[3:])
     return error, jac
+
+
+#: |θ| (rad) below which :func:`orientation_drift` uses the small-angle form of (d/dt Jlog₃) ω.
+SMALL_ANGLE = 1e-3
+
+
+def orientation_drift(rel: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(3,) J̇v of the orientation error log₃(rel) (module docstring): Jlog₃(rel) α₀ + Hlog₃(rel, ω) ω, for
+    rel (3, 3) = R*ᵀR, ω (3,) the LOCAL angular velocity (rad/s) and α₀ (3,) the LOCAL angular acceleration at
+    v̇ = 0 (rad/s²)."""
+    theta = pin.log3(rel)
+    if theta @ theta < SMALL_ANGLE**2:
+        # pin.Hlog3 is NaN at rel = I and loses digits below ~1e-3 rad (measured: 4e-6 error at 1e-4 rad); there
+        # (d/dt Jlog₃) ω = −(1/6) ω × (θ × ω) + O(|θ|² |ω|²), from Jlog₃ = I + ½[θ]× + (1/12)[θ]×² + O(|θ|³)
+        # and θ̇ = Jlog₃ ω (checked against pin.Hlog3 at 1e-2 rad and finite differences in tests/test_tasks.py)
+        return pin.Jlog3(rel) @ alpha - np.cross(omega, np.cross(theta, omega)) / 6.0
+    return pin.Jlog3(rel) @ alpha + pin.Hlog3(rel, omega) @ omega
+
+
+@nb.njit(cache=True, nogil=True)
+def _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out):
+    """The selected rows of error [p − p*; log] and Jacobian [rot J_lin; jlog J_ang] (module docstring), written
+    into error_out (k,) and jac_out (k, nv): a compiled 3×3 by 3×nv product of matrices given by Pinocchio
+    (``oMf.rotation``, ``pin.Jlog3``, ``getFrameJacobian``) and of the log ``pin.log3``, no kinematics."""
+    nv = j_local.shape[1]
+    for a in range(rows.shape[0]):
+        r = rows[a]
+        if r < 3:
+            error_out[a] = pos[r] - target_pos[r]
+            m0, m1, m2, off = rot[r, 0], rot[r, 1], rot[r, 2], 0
+        else:
+            error_out[a] = log[r - 3]
+            m0, m1, m2, off = jlog[r - 3, 0], jlog[r - 3, 1], jlog[r - 3, 2], 3
+        for j in range(nv):
+            jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
 
 
 def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -72,6 +116,7 @@ class FrameTask(Task):
         super().__init__(gain=gain, weight=w6[self.rows], name=name or frame)
         self.target = pin.SE3.Identity()
         self._ff6 = np.zeros(6)
+        self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -148,8 +193,35 @@ class FrameTask(Task):
         error, jac = pose_error_and_jacobian(oMf, j_local, self.target)
         return error[self.rows], jac[self.rows]
 
+    def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
+            Task.compute_into(self, config, error_out, jac_out)
+            return
+        oMf = config.data.oMf[self.frame_id]
+        rot = oMf.rotation
+        j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
+        if self._has_rot:
+            rel = self._target_rot_t @ rot
+            log, jlog = pin.log3(rel), pin.Jlog3(rel)
+        else:
+            log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
+        _frame_rows(rot, jlog, j_local, oMf.translation, self._target_pos, log, self.rows, error_out, jac_out)
+
     def feedforward(self) -> np.ndarray | None:
         return self._ff
+
+    def drift(self, state) -> np.ndarray:
+        """(dim,) J̇ v (module docstring): m/s² (position rows, world), rad/s² (orientation rows, target axes)."""
+        fid = self.frame_id
+        model, data = state.model, state.data
+        d = self._drift6
+        if self._has_pos:
+            d[:3] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+        if self._has_rot:
+            rel = self._target.rotation.T @ data.oMf[fid].rotation
+            d[3:] = orientation_drift(rel, pin.getFrameVelocity(model, data, fid, LOCAL).angular,
+                                      pin.getFrameAcceleration(model, data, fid, LOCAL).angular)
+        return d if self._all_rows else d[self.rows]
 
 
 class PositionTask(FrameTask):

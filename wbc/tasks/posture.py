@@ -1,4 +1,5 @@
-"""Posture task: e = q ⊖ q* on the actuated joints (rad), J = the matching rows of the identity (nv columns).
+"""Posture task: e = q ⊖ q* on the actuated joints (rad), J = the matching rows of the identity (nv columns),
+drift J̇v = 0 (J is constant: the rows of 1-DoF and continuous joints, whose q ⊖ q* has derivative 1 along v).
 
 q ⊖ q* is ``pin.difference(model, q*, q)``, so continuous joints and the manifold are handled by Pinocchio.
 """
@@ -44,9 +45,11 @@ class PostureTask(Task):
         super().__init__(gain=gain, weight=weight, name=name)
         self._jac = np.zeros((self.dim, model.nv))
         self._jac[np.arange(self.dim), self.rows] = 1.0
+        self._zero = np.zeros(self.dim)
         nv = model.nv
         contiguous = self.dim and np.array_equal(self.rows, np.arange(self.rows[0], self.rows[0] + self.dim))
         self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
+        self._vspan = slice(int(self.rows[0]), int(self.rows[-1]) + 1) if contiguous else None  # rows of v as a slice
         self.target = np.array(robot.q_ref, dtype=float)
 
     def set_target(self, q) -> None:
@@ -64,12 +67,17 @@ class PostureTask(Task):
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
 
+    def drift(self, state) -> np.ndarray:
+        """(dim,) zeros: J is a constant selection."""
+        return self._zero
+
     def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
         """J selects coordinates of v, so Jᵀ W J is diagonal: added without forming J."""
-        error = pin.difference(self.model, self.target, config.q)[self.rows]
-        if self._span is not None:  # contiguous rows: a strided view of H's diagonal, no fancy indexing
+        if self._span is not None:  # contiguous rows: views (a strided one of H's diagonal), no fancy indexing
+            error = pin.difference(self.model, self._target, config.q)[self._vspan]
             H.ravel()[self._span] += self._weight
-            g[self.rows[0]:self.rows[0] + self.dim] -= self._weight * self.velocity_target(error)
+            g[self._vspan] -= self._weight * self.velocity_target(error)
         else:
+            error = pin.difference(self.model, self._target, config.q)[self.rows]
             H[self.rows, self.rows] += self._weight
             g[self.rows] -= self._weight * self.velocity_target(error)

@@ -8,14 +8,23 @@ rMf = oMr⁻¹ oMf. Its body velocity (f axes) is
 since oMf = oMr rMf ⇒ ν_f = Ad(fMr) ν_r + ν_rel. The error and Jacobian are then those of
 :mod:`wbc.tasks.frame` applied to rMf: position rMf.p − p* in the reference frame's axes (m), orientation
 log₃(R*ᵀ R_rel) in the target's axes (rad); J = [R_rel J_rel,lin ; Jlog₃(R*ᵀR_rel) J_rel,ang] (6, nv).
+
+Drift (acceleration level): with d/dt Ad(fMr) = −ad(ν_rel) Ad(fMr) (fMr = rMf⁻¹, rMḟ = rMf [ν_rel]), the body
+acceleration of rMf at v̇ = 0 is
+
+    α₀ = a_f − Ad(fMr) a_r + ν_rel × (Ad(fMr) ν_r)                (a_f, a_r: LOCAL frame accelerations at v̇ = 0)
+
+and, with ν_rel = (v, ω), the position rows drift by R_rel (α₀,lin + ω × v) (the classical acceleration) and the
+orientation rows by Jlog₃ α₀,ang + Hlog₃(R*ᵀR_rel, ω) ω (:func:`wbc.tasks.frame.orientation_drift`).
 """
 
 from __future__ import annotations
 
+import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import LOCAL, Configuration
-from wbc.tasks.frame import FrameTask, pose_error_and_jacobian
+from wbc.tasks.frame import FrameTask, orientation_drift, pose_error_and_jacobian
 
 __all__ = ["RelativeFrameTask"]
 
@@ -65,3 +74,18 @@ class RelativeFrameTask(FrameTask):
         if self._all_rows:
             return error, jac
         return error[self.rows], jac[self.rows]
+
+    def drift(self, state) -> np.ndarray:
+        """(dim,) J̇ v (module docstring): m/s² (position rows, reference frame axes), rad/s² (orientation rows)."""
+        model, data = state.model, state.data
+        rMf = self.relative_placement(state)
+        fMr = rMf.inverse()
+        nu_r = pin.getFrameVelocity(model, data, self.reference_id, LOCAL)
+        nu_rel = pin.getFrameVelocity(model, data, self.frame_id, LOCAL) - fMr.act(nu_r)
+        acc = (pin.getFrameAcceleration(model, data, self.frame_id, LOCAL)
+               - fMr.act(pin.getFrameAcceleration(model, data, self.reference_id, LOCAL))
+               + nu_rel.cross(fMr.act(nu_r)))
+        d = self._drift6
+        d[:3] = rMf.rotation @ (acc.linear + np.cross(nu_rel.angular, nu_rel.linear))
+        d[3:] = orientation_drift(self._target.rotation.T @ rMf.rotation, nu_rel.angular, acc.angular)
+        return d if self._all_rows else d[self.rows]

@@ -1,4 +1,4 @@
-"""Named constraints of the inverse-dynamics QP (:mod:`wbc.dynamics.formulation`).
+"""Named constraints of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`).
 
 Each constraint is an object with a ``name`` (used in infeasibility reports, :mod:`wbc.diagnosis`), a ``kind``
 (``"equality"`` rows of ``A x = b``, ``"inequality"`` rows of ``l ≤ C x ≤ u``, ``"bounds"`` on entries of x) and a
@@ -24,7 +24,7 @@ name                          kind        rows                                  
 ============================  ==========  ===============================================================  ===========
 
 *Relaxable* constraints are the ones the controller drops when the full QP is infeasible
-(:meth:`~wbc.dynamics.formulation.InverseDynamicsQP.solve_relaxed`).
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`).
 """
 
 from __future__ import annotations
@@ -34,15 +34,15 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from wbc.dynamics.contacts import SoleContact
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import AccelerationTask
+from wbc.constraints.sole_contact import SoleContact
+from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 
 __all__ = [
     "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "TorqueLimits",
     "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
+    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs",
 ]
 
 
@@ -128,18 +128,53 @@ class ContactAcceleration(IDConstraint):
         b[:] = self.contact.acceleration_target(ctx.state, J)
 
 
-class HardTask(IDConstraint):
-    """An acceleration task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
+#: σ/σ_max below which a direction of the stacked rows of the active contacts counts as dependent
+#: (:func:`consistent_contact_rhs`). Measured in double support: Talos and G1 (6-DoF legs) ≥ 0.05 at their
+#: reference stance; humanoid15 (5-DoF legs, no hip yaw) 0 at ``q_ref`` and ≤ 0.005 over a walk.
+DEPENDENT_CONTACT_RATIO = 1e-2
 
-    Raises:
-        InvalidInputError: not an :class:`~wbc.dynamics.tasks.AccelerationTask`.
+
+def consistent_contact_rhs(J: np.ndarray, b: np.ndarray, ratio: float = DEPENDENT_CONTACT_RATIO) -> int:
+    """Make the stacked contact equalities ``J v̇ = b`` (eq. 5 of every active contact) consistent, in place.
+
+    Two flat soles of a robot whose legs cannot yaw the foot (humanoid15: 5-DoF legs) fix the relative yaw of the
+    feet twice: the 12 rows of the two soles have rank 11 at a flat stance (σ_min / σ_max = 8e-19) and stay
+    nearly dependent while walking (≤ 5e-3). The component of ``b`` along such a direction u (−uᵀJ̇v − K_d uᵀJv:
+    a relative foot yaw the legs can only produce through second-order roll–pitch coupling, non-zero after a
+    touch-down with some foot velocity) either makes the equalities infeasible (exact dependence: the controller
+    fell back to the relaxed QP with kN forces and the robot fell) or demands an acceleration of order |uᵀb|/σ.
+    Here ``b`` is replaced by its projection onto the span of the left singular vectors of ``J`` whose singular
+    value is ≥ ``ratio`` σ_max, the least-squares consistent right-hand side of the well-conditioned rows; the rows
+    themselves are kept (a dependent row with a consistent right-hand side is satisfied by the solution of the
+    others up to σ/σ_max). Singular vectors from the eigen-decomposition of the (m, m) Gram matrix J Jᵀ (σ² = λ).
+
+    Args:
+        J: (m, nv) stacked contact rows. b: (m,) right-hand side, modified in place.
+        ratio: relative singular-value threshold (dimensionless, in [0, 1)).
+
+    Returns:
+        The number of directions projected out (0: ``b`` unchanged).
+    """
+    lam, U = np.linalg.eigh(J @ J.T)  # ascending
+    keep = lam >= (ratio * ratio) * lam[-1]
+    n_out = int(J.shape[0] - np.count_nonzero(keep))
+    if n_out:
+        Uk = U[:, keep]
+        b[:] = Uk @ (Uk.T @ b)
+    return n_out
+
+
+class HardTask(IDConstraint):
+    """A task held as a hard equality J v̇ = a* − J̇ v (task units /s²); its weights play no role.
+
+    Args:
+        task: an :class:`~wbc.formulations.reference.AccelerationReference` (anything with ``name``, ``dim`` and
+            ``compute(state) -> (J, r)``; the formulation checks the type).
     """
 
     kind = "equality"
 
-    def __init__(self, task: AccelerationTask):
-        if not isinstance(task, AccelerationTask):
-            raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
+    def __init__(self, task):
         self.task = task
         self.name = f"task:{task.name}"
         self.dim = task.dim
@@ -212,7 +247,7 @@ class FrictionPyramid(IDConstraint):
 
 class Unilaterality(IDConstraint):
     """Bounds on a sole's 12 corner forces (eq. 8; N): f_min ≤ f_z ≤ f_max and tangential free while active —
-    the unilateral contact, which keeps the CoP inside the sole rectangle (:mod:`wbc.dynamics.contacts`) —, all
+    the unilateral contact, which keeps the CoP inside the sole rectangle (:mod:`wbc.constraints.sole_contact`) —, all
     zero while inactive."""
 
     kind = "bounds"

@@ -29,7 +29,8 @@ solved again. (2) After the solve
 the contact frames are placed at q⁺ = pin.integrate(q, v dt) by forward kinematics; if one drifts from its
 expected placement by more than ``contact_correction`` (m), the contact rows' right-hand sides are corrected by
 the measured drift and the tick is solved again (a Newton step on e⁺(v) = (1 − K dt) e, ≤ 3 iterations: only
-the contact targets move, every task and priority is kept). (3) A tick whose drift still exceeds
+the contact targets move, every task and priority is kept; when the contact rows are rank deficient the corrected
+right-hand sides are projected onto the range of J_c, least squares, as in (1)). (3) A tick whose drift still exceeds
 ``sole_drift_tolerance`` is solved in a trust region, else reported not ok (``TickResult.sole_drift``).
 
 with, for each task i: error e_i(q), Jacobian J_i = ∂e_i/∂q, gain K_i (1/s), feed-forward ė*_i, and
@@ -58,7 +59,8 @@ input error), ``solve`` does not raise and never returns NaN:
 1. diagnosis (:mod:`wbc.diagnosis`): a slack-relaxed solve of the hard set names the conflicting constraints and
    the violation of each (``TickResult.conflicts``, largest first);
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
-   hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend:
+   hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
+   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift):
    ``fallback="constraints_only"``; if that fails too (the constraints themselves conflict), v = 0, hold the
    current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
 
@@ -212,7 +214,7 @@ class KinematicController:
         self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
         self._in_solve, self._drift_cache = False, None
-        self._contact_errors: list[np.ndarray] | None = None
+        self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @staticmethod
@@ -376,6 +378,7 @@ class KinematicController:
         self._A = np.zeros((n_eq, self.nv))
         self._b = np.zeros(n_eq)
         contact_ids = set(map(id, self._contacts))
+        self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
         self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
                                        for i in range(r0, r1)], dtype=int)
         self._in_blocks, n_in = _row_blocks(ineq)
@@ -398,7 +401,9 @@ class KinematicController:
         row = 0
         for task in self.tasks:
             if type(task).add_cost is Task.add_cost:
-                self._soft_dense.append((task, row, row + task.dim))
+                # v* = ė* − K e computed in place unless the task defines its own velocity_target
+                self._soft_dense.append((task, row, row + task.dim,
+                                         type(task).velocity_target is Task.velocity_target))
                 row += task.dim
             else:
                 self._soft_own.append(task)
@@ -418,10 +423,16 @@ class KinematicController:
             self._build_soft_layout()
         # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
         J, w, r = self._soft_J, self._soft_w, self._soft_r
-        for task, r0, r1 in self._soft_dense:
-            error, jac = task.compute(config)
-            J[r0:r1] = jac
-            r[r0:r1] = task.velocity_target(error)
+        for task, r0, r1, plain_target in self._soft_dense:
+            rows = r[r0:r1]
+            task.compute_into(config, rows, J[r0:r1])  # e, then v* = ė* − K e in place
+            if plain_target:
+                rows *= -task.gain
+                ff = task.feedforward()
+                if ff is not None:
+                    rows += ff
+            else:
+                rows[:] = task.velocity_target(rows.copy())
             w[r0:r1] = task.weight
         weighted_normal_equations(J, w, r, self.damping, H, g)
         for task in self._soft_own:
@@ -429,9 +440,9 @@ class KinematicController:
         A, b = self._A, self._b
         for c, r0, r1 in self._eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
-        if self._in_solve:  # contact errors of this tick's configuration, read back from b = −min(K, 1/dt) e
-            self._contact_errors = [b[r0:r1] / -min(c.gain, 1.0 / dt) for c, r0, r1 in self._eq_blocks
-                                    if isinstance(c, ContactConstraint)]
+        if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
+            self._contact_expected = [b[r0:r1] * (dt - 1.0 / min(c.gain, 1.0 / dt))
+                                      for c, r0, r1 in self._contact_blocks]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -496,7 +507,7 @@ class KinematicController:
         t0 = perf_counter()
         t1 = None
         self._assembled = False
-        self._in_solve, self._drift_cache, self._contact_errors = True, None, None
+        self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -561,13 +572,19 @@ class KinematicController:
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         drifts = []
-        errors = self._contact_errors if self._in_solve else None  # assembled at this config within solve()
+        expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
         for i, c in enumerate(self._contacts):
-            e_plus = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e = c.compute_error(config) if errors is None else errors[i]
-            d = e_plus - e * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            d = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            if expected is None:
+                d -= c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
+            else:
+                d -= expected[i]
             drifts.append(d)
-            worst = max(worst, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+            t = d[:3]
+            n2 = float(t @ t)
+            if n2 > worst:
+                worst = n2
+        worst = math.sqrt(worst)
         if self._in_solve:
             self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
@@ -599,21 +616,42 @@ class KinematicController:
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray) -> np.ndarray:
-        """Second-order contact correction (constructor docstring, ``contact_correction``)."""
+    def _contact_range_basis(self) -> np.ndarray | None:
+        """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
+        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
+        rows = self._contact_rows
+        if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+            return None  # every equality row independent (rank computed on this constraint set)
+        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        return None if rank == rows.size else U[:, :rank]
+
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
+        re-solves the problem in the buffers (default: the tick's QP)."""
+        solve = solve or self._solve_assembled
         self.contact_corrections = 0
         worst, drifts = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
             return v
         blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
         rows = [blocks[id(c)] for c in self._contacts]
+        range_basis = self._contact_range_basis()
         b0 = self._b.copy()
         try:
             for _ in range(3):
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
+                if range_basis is not None:
+                    # dependent contact rows (two flat feet both fixing the base yaw): the feet's second-order
+                    # drifts differ in the dependent directions, so the corrected right-hand sides would contradict
+                    # each other (measured on humanoid15: the corrected solve failed or was not better, the
+                    # correction was dropped and the soles slid 0.03 mm per ok tick, > 1 mm over a stance).
+                    # Least squares instead: the corrections projected onto the range of J_c.
+                    cr = self._contact_rows
+                    self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
                 try:
-                    v_new = self._solve_assembled(config)
+                    v_new = solve(config)
                 except SolverError:
                     break  # keep the last solution (the trust region of _hold_contacts takes over)
                 self.contact_corrections += 1
@@ -627,8 +665,10 @@ class KinematicController:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring)."""
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
+        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP)."""
+        solve = solve or self._solve_assembled
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -643,7 +683,7 @@ class KinematicController:
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
                 np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
                 try:
-                    v_tr = self._solve_assembled(config)
+                    v_tr = solve(config)
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 d = self.sole_drift(config, v_tr, dt)
@@ -762,25 +802,39 @@ class KinematicController:
             message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
-                self._lb, self._ub
-            if not self._not_hard_task.all():
-                A, b = A[self._not_hard_task], b[self._not_hard_task]
-            keep = independent_rows(A, self.rank_rtol)
-            if self._fallback_backend is None:
-                self._fallback_backend = self._new_backend()
-            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
-            if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
-                # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
-                drop = np.setdiff1d(np.arange(A.shape[0]), keep)
-                half = 0.5 * self.dependent_row_tolerance
-                v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
-                                                      np.concatenate([l, b[drop] - half]),
-                                                      np.concatenate([u, b[drop] + half]), lb, ub)
-            v, fallback = v_safe, "constraints_only"
+            v = self._solve_constraints_only(config)
+            fallback = "constraints_only"
+            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v, self._solve_constraints_only)
+            v = self._hold_contacts(config, dt, v, [], self._solve_constraints_only).v
         except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
             pass
-        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback)
+        try:
+            drift = self.sole_drift(config, v, dt)
+        except Exception:  # noqa: BLE001 — never raises (module docstring)
+            drift = float("nan")
+        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift)
+
+    def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
+        """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
+        objects held in the buffers (hard tasks left out), on the fallback backend. Raises SolverError."""
+        H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
+            self._lb, self._ub
+        if not self._not_hard_task.all():
+            A, b = A[self._not_hard_task], b[self._not_hard_task]
+        keep = independent_rows(A, self.rank_rtol)
+        if self._fallback_backend is None:
+            self._fallback_backend = self._new_backend()
+        v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
+        if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
+            # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
+            drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+            half = 0.5 * self.dependent_row_tolerance
+            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
+                                                  np.concatenate([l, b[drop] - half]),
+                                                  np.concatenate([u, b[drop] + half]), lb, ub)
+        return v_safe
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the

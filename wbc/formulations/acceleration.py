@@ -4,7 +4,7 @@ The problem, solved once per control tick of period dt (s), at the measured stat
 
 Variables  x = [v̇ ; f] ∈ R^{nv + 12 n_c}: generalized accelerations v̇ (Pinocchio conventions: base spatial
 acceleration in the base frame, then joints) and, per declared sole contact k, 4 corner forces f_k ∈ R^12 in
-the sole frame (:mod:`wbc.dynamics.contacts`).
+the sole frame (:mod:`wbc.constraints.sole_contact`).
 
 Equations of motion (Featherstone 2008, "Rigid Body Dynamics Algorithms", eq. 3.6 with contacts)
 
@@ -16,9 +16,11 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
     τ = M_a v̇ + h_a − Σ_k (J_kᵀ G_k)_a f_k          (a: rows 6..nv−1)                              (2)
 
     min_x   Σ_i ‖ diag(√w_i) (J_i v̇ − r_i) ‖²  +  ε_a ‖v̇‖²  +  ε_f ‖f‖²                           (3)
-            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (tasks, wbc.dynamics.tasks)
+            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (wbc.formulations.reference)
     s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
+                (with ≥ 2 active contacts, the stacked right-hand side is projected onto the span of the rows' left
+                singular vectors with σ ≥ 1e-2 σ_max: dependent rows made consistent, constraints.consistent_contact_rhs)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
             F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis)            (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
@@ -42,7 +44,7 @@ q_max), the bounds would demand an arbitrarily large braking acceleration in one
 cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
 best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
 
-Every constraint (4)–(9) is a named object of :mod:`wbc.dynamics.constraints` (``floating_base_dynamics``,
+Every constraint (4)–(9) is a named object of :mod:`wbc.constraints.dynamics` (``floating_base_dynamics``,
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``; plus ``task:<t>`` for
 a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
@@ -61,7 +63,7 @@ from time import perf_counter
 import numpy as np
 
 from wbc.diagnosis import diagnose
-from wbc.dynamics.constraints import (
+from wbc.constraints.dynamics import (
     ContactAcceleration,
     FloatingBaseDynamics,
     FrictionPyramid,
@@ -71,15 +73,18 @@ from wbc.dynamics.constraints import (
     JointAccelerationLimits,
     TorqueLimits,
     Unilaterality,
+    consistent_contact_rhs,
 )
-from wbc.dynamics.contacts import SoleContact
-from wbc.dynamics.idkernel import id_tick
-from wbc.dynamics.state import DynamicsState
-from wbc.dynamics.tasks import AccelerationTask, PostureAccelerationTask
+from wbc.constraints.sole_contact import SoleContact
+from wbc.formulations.idkernel import id_tick, id_workspace
+from wbc.state import DynamicsState
+from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
 from wbc.qp import QPBackend
 from wbc.backends import make_backend
 from wbc.robot import Robot
+from wbc.tasks.base import Task
+from wbc.tasks.posture import PostureTask
 
 __all__ = ["InverseDynamicsQP", "IDSolution"]
 
@@ -116,10 +121,11 @@ class InverseDynamicsQP:
 
     Args:
         robot: the robot.
-        tasks: acceleration tasks (:mod:`wbc.dynamics.tasks`), weighted (soft).
+        tasks: tasks with their PD references (:class:`~wbc.formulations.reference.AccelerationReference`),
+            weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``daqp``: warm-started from the previous duals, ``primal_tol`` 1e-6; ``fast``:
-            the compiled tick of :mod:`wbc.dynamics.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
+            the compiled tick of :mod:`wbc.formulations.idkernel` — assembly, working-set solve of :mod:`wbc.fastqp`
             and torques in one call — with DAQP as fallback (the general path while a hard task is present or the
             torque-limited joints are not contiguous in v); any other qpsolvers backend —
             :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
@@ -130,14 +136,14 @@ class InverseDynamicsQP:
         joint_limits: apply the joint acceleration bounds (9).
 
     Attributes:
-        constraints: every named constraint (:mod:`wbc.dynamics.constraints`), in row order.
+        constraints: every named constraint (:mod:`wbc.constraints.dynamics`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
     """
 
-    def __init__(self, robot: Robot, tasks: list[AccelerationTask] = (), contacts: list[SoleContact] = (), *,
+    def __init__(self, robot: Robot, tasks: list[AccelerationReference] = (), contacts: list[SoleContact] = (), *,
                  solver: str | QPBackend = "daqp", acceleration_regularization: float = 1e-6,
                  force_regularization: float = 1e-7, torque_limit_scale: float = 1.0,
                  braking_acceleration: float = 50.0, joint_limits: bool = True):
@@ -152,7 +158,7 @@ class InverseDynamicsQP:
         self.eps_a = float(acceleration_regularization)
         self.eps_f = float(force_regularization)
         self.joint_limits = bool(joint_limits)
-        self.tasks: list[AccelerationTask] = []
+        self.tasks: list[AccelerationReference] = []
         self.hard_tasks: list[HardTask] = []
         for t in tasks:
             self.add_task(t)
@@ -165,7 +171,7 @@ class InverseDynamicsQP:
             self.contacts.append(c)
         nc = len(self.contacts)
         self.n = n = nv + 12 * nc
-        # Named constraints (wbc.dynamics.constraints), each with its place in the preallocated blocks.
+        # Named constraints (wbc.constraints.dynamics), each with its place in the preallocated blocks.
         self.dynamics = FloatingBaseDynamics()
         self.dynamics.rows = slice(0, 6)
         self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
@@ -202,6 +208,9 @@ class InverseDynamicsQP:
             self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
+        #: directions of the stacked active contact rows projected out of their right-hand side at the last build
+        #: (:func:`wbc.dynamics.constraints.consistent_contact_rhs`; 0 for legs that can yaw the foot)
+        self.dependent_contact_rows = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -218,15 +227,25 @@ class InverseDynamicsQP:
                 *self.unilaterality, self.joint_acceleration_limits]
 
     # -- problem definition ----------------------------------------------------------------------------------
-    def add_task(self, task: AccelerationTask, *, hard: bool = False) -> AccelerationTask:
-        """Add an acceleration task: weighted (default) or, with ``hard=True``, held as the equality constraint
-        ``task:<name>`` (:class:`~wbc.dynamics.constraints.HardTask`).
+    def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
+                 kd: float | None = None, weight=None) -> AccelerationReference:
+        """Add a task: weighted (default) or, with ``hard=True``, held as the equality constraint ``task:<name>``
+        (:class:`~wbc.constraints.dynamics.HardTask`). ``task`` is an
+        :class:`~wbc.formulations.reference.AccelerationReference`, or a :class:`wbc.tasks.base.Task` given with
+        its reference gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight`` (then wrapped in one).
+
+        Returns:
+            the :class:`~wbc.formulations.reference.AccelerationReference` added (remove it with it).
 
         Raises:
-            InvalidInputError: not an AccelerationTask.
+            InvalidInputError: neither; a Task without ``kp``; bad gains or weights.
         """
-        if not isinstance(task, AccelerationTask):
-            raise InvalidInputError(f"expected an AccelerationTask, got {type(task).__name__}")
+        if isinstance(task, Task):
+            if kp is None:
+                raise InvalidInputError(f"add_task({task.name}): a Task needs its reference gain kp (1/s²)")
+            task = AccelerationReference(task, kp=kp, kd=kd, weight=weight)
+        if not isinstance(task, AccelerationReference):
+            raise InvalidInputError(f"expected an AccelerationReference or a Task, got {type(task).__name__}")
         if hard:
             self.hard_tasks.append(HardTask(task))
             if hasattr(self, "_A"):
@@ -235,7 +254,7 @@ class InverseDynamicsQP:
             self.tasks.append(task)
         return task
 
-    def remove_task(self, task: AccelerationTask) -> None:
+    def remove_task(self, task: AccelerationReference) -> None:
         """Remove an acceleration task (weighted or hard) added to the QP.
 
         Raises:
@@ -277,7 +296,7 @@ class InverseDynamicsQP:
         gv.fill(0.0)
         for task in self.tasks:
             J, r = task.compute(state)
-            if isinstance(task, PostureAccelerationTask):  # J is a row selection: diagonal update
+            if isinstance(task.task, PostureTask):  # J is a row selection: diagonal update
                 span = self._posture_span(task)
                 if span is not None:
                     self._H.ravel()[span] += task.weight
@@ -301,7 +320,14 @@ class InverseDynamicsQP:
         A, b = self._A, self._b
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
-        for con in (*self.contact_accelerations, *self.hard_tasks):
+        for con in self.contact_accelerations:
+            if con.enabled:
+                con.rows = slice(i, i + con.dim)
+                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
+                i += con.dim
+        # ≥ 2 active contacts: right-hand side of (nearly) dependent contact rows made consistent
+        self.dependent_contact_rows = consistent_contact_rhs(A[6:i, :nv], b[6:i]) if i > 12 else 0
+        for con in self.hard_tasks:
             if con.enabled:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
@@ -325,7 +351,7 @@ class InverseDynamicsQP:
                 lb[jl.iv], ub[jl.iv] = lo, hi
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
 
-    def _posture_span(self, task: PostureAccelerationTask) -> slice | None:
+    def _posture_span(self, task: AccelerationReference) -> slice | None:
         """Strided slice of H's flattened diagonal over the task's rows when they are contiguous (cached)."""
         rows = task.task.rows
         key = (id(task), rows.size)
@@ -384,7 +410,7 @@ class InverseDynamicsQP:
         return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
 
     def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
-        """:meth:`solve` through :func:`wbc.dynamics.idkernel.id_tick` (same QP, compiled assembly and solve);
+        """:meth:`solve` through :func:`wbc.formulations.idkernel.id_tick` (same QP, compiled assembly and solve);
         a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
         t0 = perf_counter()
         kb = self._kernel
@@ -492,7 +518,7 @@ class InverseDynamicsQP:
 
 
 class _KernelBuffers:
-    """Preallocated inputs, solver state and workspace of :func:`wbc.dynamics.idkernel.id_tick` for one QP; the
+    """Preallocated inputs, solver state and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP; the
     stacked task rows are re-laid out only when the task list changes."""
 
     def __init__(self, qp: InverseDynamicsQP):
@@ -515,9 +541,7 @@ class _KernelBuffers:
         self.z = np.zeros(n)
         self.max_iter = 100
         w = m_max + p
-        # wbc.fastqp.solve_qp_ws workspace: Aw (w, n), bw, free, L (n, n), Y (w, n) row-major, S, t, rhs, nuw
-        self.ws = (np.empty((w, n)), np.empty(w), np.empty(n, np.int64), np.empty((n, n)), np.empty((w, n)),
-                   np.empty((w, w)), np.empty(n), np.empty(w), np.empty(w))
+        self.ws = id_workspace(n, nv, p, w)
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
         k = qp.joint_acceleration_limits.dim
@@ -527,8 +551,8 @@ class _KernelBuffers:
         self.fallbacks = 0
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
-        soft = [t for t in qp.tasks if not isinstance(t, PostureAccelerationTask)]
-        posture = [t for t in qp.tasks if isinstance(t, PostureAccelerationTask)]
+        soft = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
+        posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
         mt = sum(t.dim for t in soft)
         self.Jt = np.zeros((mt, qp.nv))
         self.wt = np.zeros(mt)
@@ -549,7 +573,7 @@ class _KernelBuffers:
         for task in tasks:
             J, r = task.compute(state)
             d = task.dim
-            if isinstance(task, PostureAccelerationTask):
+            if isinstance(task.task, PostureTask):
                 self.pr[kp:kp + d] = r
                 self.pw[kp:kp + d] = task.weight
                 kp += d
@@ -565,3 +589,9 @@ class _KernelBuffers:
             if c.active:
                 self.bc[c_i] = c.acceleration_target(state, J)
                 self.Rc[c_i] = state.data.oMf[c.frame_id].rotation
+        act = np.flatnonzero(self.active)
+        qp.dependent_contact_rows = 0
+        if len(act) >= 2:  # as in InverseDynamicsQP.build
+            bc = self.bc[act].reshape(-1)
+            qp.dependent_contact_rows = consistent_contact_rhs(self.Jc[act].reshape(-1, self.Jc.shape[2]), bc)
+            self.bc[act] = bc.reshape(-1, 6)

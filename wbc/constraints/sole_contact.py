@@ -34,7 +34,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.dynamics.state import DynamicsState
+from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 

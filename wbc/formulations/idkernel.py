@@ -1,0 +1,719 @@
+"""Compiled tick of the inverse-dynamics QP: assembly of every block, the exact working-set solve and the torques
+in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration.InverseDynamicsQP`).
+
+The QP is the one of :mod:`wbc.formulations.acceleration` (same rows, same named constraints); only its arithmetic
+moves into compiled code. From Python come the task rows (J_i, w_i, r_i of eq. 3, stacked), the posture task's
+diagonal rows, M, h, the LOCAL sole Jacobians and contact right-hand sides of eq. 5, the state (q, v) for the joint
+bounds of eq. 9; the kernel writes
+
+    H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,   g_v = −Σ_i J_iᵀ W_i r_i,   J_cᵀ = [J_kᵀ G_k]_k,
+    A, b (eq. 4, 5),  C, l, u torque rows (eq. 6),  lb, ub joint bounds (eq. 9),
+
+into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
+force bounds (8) — are already there), solves with :func:`id_solve` (working set warm-started from
+the previous tick) and computes τ by eq. 2. Sums are done in the kernel's order, so the QP equals the one of the
+numpy assembly to rounding (not bit for bit); the solver returns its exact optimum (KKT conditions checked), and
+any call that does not end in one is handed back to the formulation's DAQP fallback by the caller.
+
+Structure used before the general solve (:func:`_equality_step`): H = blockdiag(H_vv, ε_f I) and, while no bound
+or inequality row is active (standing, walking without saturation), the optimum is that of the equality-constrained
+QP over the free variables (forces of inactive contacts are fixed by lb = ub = 0). Its KKT system is solved by the
+range-space method on the blocks (Nocedal & Wright 2006, *Numerical Optimization*, §16.2, eq. 16.16):
+
+    L Lᵀ = H_vv,  Y = L⁻¹ A_vᵀ,  S = Yᵀ Y + A_f D⁻¹ A_fᵀ  (D = ε_f I on the free forces),
+    S ν = −(b − A_f,fixed x_fixed + Yᵀ L⁻¹ g_v),   x_v = −L⁻ᵀ (L⁻¹ g_v + Y ν),   x_f = −D⁻¹ A_fᵀ ν,
+
+a 38 × 38 Cholesky for Talos instead of a 62 × 62 one. If that x satisfies every bound and row (to 1e-12; the
+inequality multipliers are then zero, so every KKT condition holds and x is the optimum of the full QP), it is
+returned; otherwise the working-set solver takes over.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from wbc.constraints.dynamics import joint_bounds_kernel
+from wbc.fastqp import backward_substitution, cholesky_lower, forward_substitution, weighted_normal_equations
+
+__all__ = ["id_solve", "id_tick", "id_workspace"]
+
+#: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only; ±inf bounds stay
+#: legitimate input (no "no-inf/no-nan" assumption).
+_FM = {"reassoc", "contract"}
+
+#: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
+#: dependent on it (:func:`id_solve`)
+DEPENDENCE_TOL = 1e-10
+#: violation (constraint units: m/s², N, N·m) beyond which a bound or row enters the working set (:func:`id_solve`)
+PRIMAL_TOL = 1e-11
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
+    """The equality-constrained optimum with no active bound or row (module docstring), written into x. Returns
+    the largest equality residual, or −1 when H_vv or S is not positive definite, a joint variable is fixed, or x
+    violates a bound or row by more than ``tol``."""
+    n = H.shape[0]
+    for i in range(nv):
+        if lb[i] == ub[i]:
+            return -1.0
+        for j in range(i + 1):
+            L[i, j] = H[i, j]
+    if not cholesky_lower(L, nv):
+        return -1.0
+    for i in range(nv):
+        t[i] = g[i]
+    forward_substitution(L, nv, t)
+    for k in range(m):
+        for i in range(nv):
+            Yt[k, i] = A[k, i]
+        forward_substitution(L, nv, Yt[k])
+    for k in range(m):
+        for c in range(k + 1):
+            acc = 0.0
+            for i in range(nv):
+                acc += Yt[k, i] * Yt[c, i]
+            for f in range(nv, n):
+                if lb[f] < ub[f]:
+                    acc += A[k, f] * A[c, f] / H[f, f]
+            S[k, c] = acc
+        acc = b[k]
+        for f in range(nv, n):
+            if lb[f] == ub[f]:
+                acc -= A[k, f] * lb[f]
+        for i in range(nv):
+            acc += Yt[k, i] * t[i]
+        nu[k] = -acc
+    if not cholesky_lower(S, m):
+        return -1.0
+    forward_substitution(S, m, nu)
+    backward_substitution(S, m, nu)
+    for i in range(nv):
+        acc = t[i]
+        for k in range(m):
+            acc += Yt[k, i] * nu[k]
+        x[i] = -acc
+    backward_substitution(L, nv, x[:nv])
+    for f in range(nv, n):
+        if lb[f] == ub[f]:
+            x[f] = lb[f]
+        else:
+            acc = 0.0
+            for k in range(m):
+                acc += A[k, f] * nu[k]
+            x[f] = -acc / H[f, f]
+    for i in range(n):
+        if x[i] < lb[i] - tol or x[i] > ub[i] + tol:
+            return -1.0
+    for r in range(C.shape[0]):
+        acc = 0.0
+        for j in range(n):
+            acc += C[r, j] * x[j]
+        if acc < l[r] - tol or acc > u[r] + tol:
+            return -1.0
+    for i in range(n):
+        x[i] = min(max(x[i], lb[i]), ub[i])
+    res = 0.0
+    for k in range(m):
+        acc = -b[k]
+        for j in range(n):
+            acc += A[k, j] * x[j]
+        res = max(res, abs(acc))
+    return res
+
+
+#: exit codes of :func:`id_solve` (besides −3, iteration cap, as :mod:`wbc.fastqp`)
+NOT_POSITIVE_DEFINITE = -1
+DEPENDENT_WORKING_SET = -2
+ITERATION_CAP = -3
+INFEASIBLE = -4
+NOT_VERIFIED = -5
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _row(A, C, m, rk):
+    return A[rk] if rk < m else C[rk - m]
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol):
+    """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
+    from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
+    of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ in S. Returns the
+    number of working rows, NOT_POSITIVE_DEFINITE, or DEPENDENT_WORKING_SET when a row is (numerically, squared
+    sine below ``dep_tol``) a combination of the ones before it."""
+    n = H.shape[0]
+    p = C.shape[0]
+    nfv = 0
+    same = fac[0] >= 0
+    for i in range(nv):
+        if state[i] == 0:
+            if same and (nfv >= fac[0] or vfree[nfv] != i):
+                same = False
+            vfree[nfv] = i
+            nfv += 1
+    if nfv != fac[0]:
+        same = False
+    nff = 0
+    for i in range(nv, n):
+        if state[i] == 0:
+            ffree[nff] = i
+            nff += 1
+    fac[1] = nff
+    if not same:
+        for a in range(nfv):
+            i = vfree[a]
+            for c in range(a + 1):
+                L[a, c] = H[i, vfree[c]]
+        if not cholesky_lower(L, nfv):
+            fac[0] = -1
+            return NOT_POSITIVE_DEFINITE
+        fac[0] = nfv
+    mw = 0
+    for k in range(m):
+        rows[mw] = k
+        mw += 1
+    for r in range(p):
+        if rstate[r] != 0:
+            rows[mw] = m + r
+            mw += 1
+    if mw > nfv + nff:
+        return DEPENDENT_WORKING_SET
+    for k in range(mw):
+        R = _row(A, C, m, rows[k])
+        y = Yv[k]
+        nz = False
+        for a in range(nfv):
+            y[a] = R[vfree[a]]
+            if y[a] != 0.0:
+                nz = True
+        vrow[k] = nz
+        if nz:
+            forward_substitution(L, nfv, y)
+        for c in range(k + 1):
+            Rc = _row(A, C, m, rows[c])
+            acc = 0.0
+            if nz and vrow[c]:
+                yc = Yv[c]
+                for a in range(nfv):
+                    acc += y[a] * yc[a]
+            for a in range(nff):
+                f = ffree[a]
+                acc += R[f] * Rc[f] / H[f, f]
+            S[k, c] = acc
+    for j in range(mw):
+        d0 = S[j, j]
+        s = d0
+        for q in range(j):
+            s -= S[j, q] * S[j, q]
+        if not s > dep_tol * d0:
+            return DEPENDENT_WORKING_SET
+        d = np.sqrt(s)
+        S[j, j] = d
+        for i in range(j + 1, mw):
+            t = S[i, j]
+            for q in range(j):
+                t -= S[i, q] * S[j, q]
+            S[i, j] = t / d
+    fac[2] = mw
+    return mw
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, tv):
+    """With the factors of :func:`_factor`: y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space,
+    Nocedal & Wright 2006 eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
+    nfv, nff = fac[0], fac[1]
+    for i in range(nfv):
+        tv[i] = a[vfree[i]]
+    forward_substitution(L, nfv, tv)
+    q = 0.0
+    for i in range(nfv):
+        q += tv[i] * tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        q += a[f] * a[f] / H[f, f]
+    for k in range(mw):
+        R = _row(A, C, m, rows[k])
+        s = -c[k]
+        if vrow[k]:
+            yk = Yv[k]
+            for i in range(nfv):
+                s += yk[i] * tv[i]
+        for i in range(nff):
+            f = ffree[i]
+            s += R[f] * a[f] / H[f, f]
+        rho[k] = s
+    forward_substitution(S, mw, rho)
+    backward_substitution(S, mw, rho)
+    for k in range(mw):
+        if vrow[k]:
+            yk = Yv[k]
+            rk = rho[k]
+            for i in range(nfv):
+                tv[i] -= yk[i] * rk
+    backward_substitution(L, nfv, tv)
+    for i in range(nfv):
+        y[vfree[i]] = tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        s = a[f]
+        for k in range(mw):
+            s -= _row(A, C, m, rows[k])[f] * rho[k]
+        y[f] = s / H[f, f]
+    return q
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, x, lam_b,
+         lam_r, nuw, a, c, tv, ra, rc, dx, drho):
+    """x = optimum of the working set's equality-constrained QP (fixed variables on their bound), and the
+    multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j = ±e_i for a bound,
+    ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i for a bound held at its
+    lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r for a row held at l (s = −1) or u (s = +1). Returns the
+    most negative λ (or 0) and its index (variables 0..n−1, rows n..n+p−1; −1 when none)."""
+    n = H.shape[0]
+    for i in range(n):
+        if state[i] < 0:
+            x[i] = lb[i]
+        elif state[i] > 0:
+            x[i] = ub[i]
+    for i in range(n):
+        if state[i] != 0:
+            a[i] = 0.0
+            continue
+        s = -g[i]
+        if i < nv:
+            for j in range(nv):
+                if state[j] != 0:
+                    s -= H[i, j] * x[j]
+        a[i] = s
+    for k in range(mw):
+        rk = rows[k]
+        R = _row(A, C, m, rk)
+        if rk < m:
+            s = b[rk]
+        else:
+            s = l[rk - m] if rstate[rk - m] < 0 else u[rk - m]
+        for j in range(n):
+            if state[j] != 0:
+                s -= R[j] * x[j]
+        c[k] = s
+    _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, x, nuw, tv)
+    # iterative refinement (the Schur complement carries D⁻¹ = 1/ε_f: one correction step restores the digits)
+    for _ in range(2):
+        for i in range(n):
+            if state[i] != 0:
+                dx[i] = 0.0
+                continue
+            s = a[i]
+            if i < nv:
+                for j in range(nv):
+                    if state[j] == 0:
+                        s -= H[i, j] * x[j]
+            else:
+                s -= H[i, i] * x[i]
+            ra[i] = s
+        for i in range(n):
+            if state[i] == 0:
+                for k in range(mw):
+                    ra[i] -= _row(A, C, m, rows[k])[i] * nuw[k]
+            else:
+                ra[i] = 0.0
+        for k in range(mw):
+            R = _row(A, C, m, rows[k])
+            s = c[k]
+            for j in range(n):
+                if state[j] == 0:
+                    s -= R[j] * x[j]
+            rc[k] = s
+        _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, ra, rc, dx, drho, tv)
+        for i in range(n):
+            if state[i] == 0:
+                x[i] += dx[i]
+        for k in range(mw):
+            nuw[k] += drho[k]
+    worst = 0.0
+    worst_i = -1
+    for k in range(m, mw):
+        r = rows[k] - m
+        lam_r[r] = rstate[r] * nuw[k]
+        if lam_r[r] < worst:
+            worst, worst_i = lam_r[r], n + r
+    for i in range(n):
+        if state[i] == 0:
+            continue
+        s = g[i]
+        if i < nv:
+            for j in range(nv):
+                s += H[i, j] * x[j]
+        else:
+            s += H[i, i] * x[i]
+        for k in range(mw):
+            s += _row(A, C, m, rows[k])[i] * nuw[k]
+        lam_b[i] = -state[i] * s
+        if lb[i] != ub[i] and lam_b[i] < worst:
+            worst, worst_i = lam_b[i], i
+    return worst, worst_i
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def _violation(C, l, u, lb, ub, x, state, rstate, tol):
+    """The constraint outside the working set violated most beyond ``tol``: (slack < 0, index — variable i or
+    row n + r —, side −1 lower / +1 upper); index −1 when none."""
+    n = x.shape[0]
+    worst = -tol
+    wi = -1
+    side = 0
+    for i in range(n):
+        if state[i] != 0:
+            continue
+        if x[i] - lb[i] < worst:
+            worst, wi, side = x[i] - lb[i], i, -1
+        elif ub[i] - x[i] < worst:
+            worst, wi, side = ub[i] - x[i], i, 1
+    for r in range(C.shape[0]):
+        if rstate[r] != 0:
+            continue
+        s = 0.0
+        Cr = C[r]
+        for j in range(n):
+            s += Cr[j] * x[j]
+        if s - l[r] < worst:
+            worst, wi, side = s - l[r], n + r, -1
+        elif u[r] - s < worst:
+            worst, wi, side = u[r] - s, n + r, 1
+    return worst, wi, side
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter, primal_tol, dep_tol,
+             rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, out):
+    """Exact solution of the ID QP  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub,  with
+    H = blockdiag(H_vv, D), D diagonal > 0 (the force regularisation ε_f I), by the dual active-set method of
+    Goldfarb & Idnani (1983, "A numerically stable dual method for solving strictly convex quadratic programs",
+    Math. Programming 27:1–33) — the method of quadprog and of placo's qpmad.
+
+    From a dual-feasible working set (the equality-constrained optimum, or the previous tick's working set
+    with any wrong-sign multiplier removed), the most violated bound or row p is added along the step
+    (z, r) solving H z = n_p − Σ_W r_j n_j, z ⟂ W; a multiplier that would turn negative first drops its
+    constraint (partial step). A constraint p linearly dependent on the working set (z = 0: e.g. at a sole corner
+    with f_z = 0 the corner's friction-pyramid rows and its bound are dependent, |f_x|, |f_y| ≤ μ' f_z = 0) only
+    drops constraints, which keeps the working set linearly independent — the degenerate case that stopped the
+    previous primal working-set kernel. Each step is solved with the block structure: L Lᵀ = H_vv on the free
+    accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur complement of the working
+    rows (range-space method, Nocedal & Wright 2006 §16.2).
+
+    After each full step x and λ are recomputed as the working set's equality-constrained optimum (from its
+    factors, with two steps of iterative refinement: the Schur complement carries D⁻¹ = 1/ε_f), so the GI updates
+    only steer; at the end every KKT condition is checked on that x: multipliers ≥ −1e-9 (relative to the
+    largest) and every equality, bound and row satisfied to 1e-9; otherwise NOT_VERIFIED.
+
+    Args:
+        H (n, n), g (n,), A (≥ m, n), b, C (p, n), l, u (p,), lb, ub (n,): the QP (H[:nv, nv:] = 0,
+            H[nv:, nv:] diagonal > 0). nv: number of accelerations.
+        state (n,) int8, rstate (p,) int8: in/out working set (0 free / inactive, −1 at lb or l, +1 at ub or u);
+            read as the warm start.
+        x (n,): out, the solution. mu (p,): out, row multipliers (H x + g + Aᵀν + Cᵀμ + z = 0 convention: μ ≤ 0
+            at l, ≥ 0 at u). primal_tol: violation that makes a constraint enter. dep_tol: squared sine below
+            which a constraint counts as dependent on the working set.
+        rows … lam_r: workspace (:func:`id_workspace`). out (3,): out — largest constraint violation of x (equality
+            residual included), iterations (partial steps included), working rows.
+
+    Returns:
+        iterations (≥ 1), or NOT_POSITIVE_DEFINITE, DEPENDENT_WORKING_SET, ITERATION_CAP, INFEASIBLE, NOT_VERIFIED.
+    """
+    n = H.shape[0]
+    p = C.shape[0]
+    fac[0] = -1
+    for i in range(n):
+        if lb[i] == ub[i]:
+            state[i] = -1
+        elif (state[i] == -1 and not np.isfinite(lb[i])) or (state[i] == 1 and not np.isfinite(ub[i])):
+            state[i] = 0
+    for r in range(p):
+        if (rstate[r] == -1 and not np.isfinite(l[r])) or (rstate[r] == 1 and not np.isfinite(u[r])):
+            rstate[r] = 0
+    # dual-feasible start: the warm working set minus wrong-sign multipliers (cold: the equalities only)
+    it = 0
+    while True:
+        it += 1
+        if it > max_iter:
+            return ITERATION_CAP
+        mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
+        if mw == NOT_POSITIVE_DEFINITE:
+            return mw
+        if mw < 0:
+            cold = True
+            for i in range(n):
+                if state[i] != 0 and lb[i] != ub[i]:
+                    cold = False
+                    state[i] = 0
+            for r in range(p):
+                if rstate[r] != 0:
+                    cold = False
+                    rstate[r] = 0
+            if cold:
+                return mw
+            continue
+        worst, wi = _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow,
+                         fac, x, lam_b, lam_r, nuw, a, c, tv, ra, rc, dx, drho)
+        if wi < 0:
+            break
+        if wi < n:
+            state[wi] = 0
+        else:
+            rstate[wi - n] = 0
+    # Goldfarb–Idnani iterations
+    while True:
+        slack, pi, side = _violation(C, l, u, lb, ub, x, state, rstate, primal_tol)
+        if pi < 0:
+            break
+        for i in range(n):
+            npv[i] = 0.0
+        if pi < n:
+            npv[pi] = -side
+        else:
+            Cr = C[pi - n]
+            for j in range(n):
+                npv[j] = -side * Cr[j]
+        lam_p = 0.0
+        while True:
+            it += 1
+            if it > max_iter:
+                return ITERATION_CAP
+            # direction: a = n_p on F, c = 0
+            for i in range(n):
+                a[i] = npv[i] if state[i] == 0 else 0.0
+                z[i] = 0.0
+            for k in range(mw):
+                c[k] = 0.0
+            q = _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, z, nuw, tv)
+            nz = 0.0
+            for i in range(n):
+                nz += a[i] * z[i]
+            # r of the working inequalities (rows: −s ρ; bounds: σ (n_p − H z − R_wᵀ ρ)_i)
+            t2 = np.inf
+            blk = -1
+            for k in range(m, mw):
+                r = rows[k] - m
+                rr = -rstate[r] * nuw[k]
+                if rr > 0.0 and lam_r[r] / rr < t2:
+                    t2, blk = lam_r[r] / rr, n + r
+                mu[r] = rr  # r of the rows, kept in mu until the step
+            for i in range(n):
+                if state[i] == 0:
+                    continue
+                s = npv[i]
+                if i < nv:
+                    for j in range(nv):
+                        s -= H[i, j] * z[j]
+                for k in range(mw):
+                    s -= _row(A, C, m, rows[k])[i] * nuw[k]
+                rb[i] = -state[i] * s
+                if lb[i] != ub[i] and rb[i] > 0.0 and lam_b[i] / rb[i] < t2:
+                    t2, blk = lam_b[i] / rb[i], i
+            dependent = not nz > dep_tol * q
+            if dependent:
+                if blk < 0:
+                    return INFEASIBLE
+                t = t2
+            else:
+                sl = 0.0
+                for j in range(n):
+                    sl += npv[j] * x[j]
+                sl -= (lb[pi] if side < 0 else -ub[pi]) if pi < n else (l[pi - n] if side < 0 else -u[pi - n])
+                t1 = -sl / nz
+                t = min(t1, t2)
+                for i in range(n):
+                    x[i] += t * z[i]
+            for k in range(m, mw):
+                r = rows[k] - m
+                lam_r[r] -= t * mu[r]
+            for i in range(n):
+                if state[i] != 0:
+                    lam_b[i] -= t * rb[i]
+            lam_p += t
+            if not dependent and t == t1:  # full step: p joins the working set
+                if pi < n:
+                    state[pi] = side
+                    lam_b[pi] = lam_p
+                else:
+                    rstate[pi - n] = side
+                    lam_r[pi - n] = lam_p
+                mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
+                if mw < 0:
+                    return mw
+                # x, λ again from the new working set's factors (exact, refined; the GI updates only steer)
+                _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, x,
+                     lam_b, lam_r, nuw, a, c, tv, ra, rc, dx, drho)
+                break
+            # partial step: the blocking constraint leaves
+            if blk < n:
+                state[blk] = 0
+                lam_b[blk] = 0.0
+            else:
+                rstate[blk - n] = 0
+                lam_r[blk - n] = 0.0
+            mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
+            if mw < 0:
+                return mw
+    # verification: x and λ are the working set's equality-constrained optimum (last _eqp)
+    worst = 0.0
+    big = 1.0
+    for i in range(n):
+        if state[i] != 0 and lb[i] != ub[i]:
+            big = max(big, abs(lam_b[i]))
+            worst = min(worst, lam_b[i])
+    for r in range(p):
+        mu[r] = 0.0
+        if rstate[r] != 0:
+            big = max(big, abs(lam_r[r]))
+            worst = min(worst, lam_r[r])
+            mu[r] = -lam_r[r] if rstate[r] < 0 else lam_r[r]
+    for i in range(n):
+        x[i] = min(max(x[i], lb[i]), ub[i])
+    res = 0.0
+    for k in range(m):
+        s = -b[k]
+        for j in range(n):
+            s += A[k, j] * x[j]
+        res = max(res, abs(s))
+    for r in range(p):
+        s = 0.0
+        for j in range(n):
+            s += C[r, j] * x[j]
+        res = max(res, l[r] - s, s - u[r])
+    out[0] = res
+    out[1] = it
+    out[2] = mw
+    if worst < -1e-9 * big or res > 1e-9:
+        return NOT_VERIFIED
+    return it
+
+
+def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
+    """Workspace of :func:`id_solve` (and of the block equality step) for n variables, nv accelerations, p
+    inequality rows and up to w working rows: (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb,
+    lam_b, lam_r, out)."""
+    return (np.empty(w, np.int64), np.zeros((w, nv)), np.empty((w, w)), np.empty((nv, nv)), np.empty(nv),
+            np.zeros(w), np.zeros(w), np.zeros(w, np.bool_), np.empty(nv, np.int64), np.empty(max(n - nv, 1), np.int64),
+            np.zeros(3, np.int64), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(p),
+            np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
+
+
+@nb.njit(cache=True, nogil=True, fastmath=_FM)
+def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, lim, joint_limits, q, v, iq, iv, qmin,
+            qmax, vmax, a_brk, dt, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, z, max_iter,
+            ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv,
+            ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
+    """One ID tick (module docstring).
+
+    Args:
+        Jt (mt, nv), wt (mt,), rt (mt,): stacked weighted task rows (J, w, r = a* − J̇v).
+        pidx (kp,) int64, pw (kp,), pr (kp,): posture rows (v indices), weights, targets.
+        eps_a: ε_a (weight of ‖v̇‖²). M (nv, nv), h (nv,). Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner
+        maps; Rc (nc, 3, 3): sole rotations (world ← sole); bc (nc, 6): eq. 5 right-hand sides; active (nc,)
+        bool.
+        t0, lim (nt,): first velocity index and limits (N·m) of the contiguous torque-limited joints.
+        joint_limits: write the eq. 9 bounds. q, v, iq, iv, qmin, qmax, vmax, a_brk, dt: their data; jlo, jhi
+            (k,): workspace.
+        H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
+        contact). state, rstate, x, mu, max_iter, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`);
+            nu (≥ m,): equality multipliers of the block equality step; z: unused.
+        residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
+            unactuated rows). tau (nv − 6,): out, eq. 2. wrench (nc, 6): out, each sole's wrench G_k f_k at its
+            origin in world axes (N, N·m), zero for an inactive contact.
+
+    Returns:
+        (kernel iterations (negative: exit code of id_solve), number of equality rows m).
+    """
+    nv = M.shape[0]
+    n = H.shape[0]
+    nc = Jc.shape[0]
+    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture); H_ff = ε_f I stays as written
+    weighted_normal_equations(Jt, wt, rt, eps_a, H[:nv, :nv], g[:nv])
+    for k in range(pidx.size):
+        i = pidx[k]
+        H[i, i] += pw[k]
+        g[i] -= pw[k] * pr[k]
+    # J_cᵀ = [J_kᵀ G_k]
+    for c in range(nc):
+        for i in range(nv):
+            for col in range(12):
+                s = 0.0
+                for k in range(6):
+                    s += Jc[c, k, i] * Gc[c, k, col]
+                JcT[i, 12 * c + col] = s
+    # equalities: floating-base dynamics (4), active contacts (5)
+    nf = n - nv
+    for r in range(6):
+        for j in range(nv):
+            A[r, j] = M[r, j]
+        for j in range(nf):
+            A[r, nv + j] = -JcT[r, j]
+        b[r] = -h[r]
+    m = 6
+    for c in range(nc):
+        if not active[c]:
+            continue
+        for r in range(6):
+            for j in range(nv):
+                A[m, j] = Jc[c, r, j]
+            for j in range(nf):
+                A[m, nv + j] = 0.0
+            b[m] = bc[c, r]
+            m += 1
+    # torque limits (6)
+    for r in range(lim.size):
+        vr = t0 + r
+        for j in range(nv):
+            C[r, j] = M[vr, j]
+        for j in range(nf):
+            C[r, nv + j] = -JcT[vr, j]
+        l[r] = -lim[r] - h[vr]
+        u[r] = lim[r] - h[vr]
+    if joint_limits:
+        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a_brk, dt, jlo, jhi)
+        for j in range(iv.size):
+            lb[iv[j]] = jlo[j]
+            ub[iv[j]] = jhi[j]
+    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12)
+    if res >= 0.0:
+        it = 1
+        residual[0] = res
+        for i in range(n):
+            state[i] = -1 if (i >= nv and lb[i] == ub[i]) else 0
+        for r in range(rstate.size):
+            rstate[r] = 0
+    else:
+        it = id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter, PRIMAL_TOL, DEPENDENCE_TOL,
+                      ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z,
+                      ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
+        residual[0] = ws_out[0]
+    if it > 0:
+        worst = 0.0
+        for i in range(nv):
+            s = h[i]
+            for j in range(nv):
+                s += M[i, j] * x[j]
+            for j in range(nf):
+                s -= JcT[i, j] * x[nv + j]
+            if i >= 6:
+                tau[i - 6] = s
+            elif abs(s) > worst:
+                worst = abs(s)
+        residual[1] = worst
+        for c in range(nc):
+            for k in range(6):
+                wrench[c, k] = 0.0
+            if not active[c]:
+                continue
+            for k in range(6):
+                s = 0.0
+                for col in range(12):
+                    s += Gc[c, k, col] * x[nv + 12 * c + col]
+                for r in range(3):
+                    wrench[c, 3 * (k // 3) + r] += Rc[c, r, k % 3] * s
+    return it, m
