@@ -531,9 +531,9 @@ class WalkScenario:
         may land short of its target (seeds 3 and 38 of ``benchmarks/walk_push_trials.py``, after a wide
         lateral step had put the stance sole under the DCM)."""
         r = self.robot
-        sole = _sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
-                             r.sole_width - 2 * self.cop_margin)
-        return polygon_margin(np.asarray(xi, float), _hull(sole)) >= 0.0
+        sole = projected_sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
+                                      r.sole_width - 2 * self.cop_margin)
+        return polygon_margin(np.asarray(xi, float), convex_hull(sole)) >= 0.0
 
     # -- summary -------------------------------------------------------------------------------------------
     def criteria(self) -> list[Criterion]:
