@@ -471,6 +471,39 @@ class SelfCollisionConstraint(InequalityConstraint):
                 self.recovery_speed * dt)
         return self._C, self._l, self._u
 
+    def barrier(self, state, dt: float):
+        """(h (max_active,) m, G (max_active, nv), Ġv (max_active,) m/s²) at a DynamicsState: per active pair
+        h = d − f (its floor, module docstring, updated as by :meth:`compute`), G the damper row (ḋ = G v), and
+        Ġv = nᵀ(p̈2 − p̈1) with p̈_k the classical acceleration at v̇ = 0 of body k's material point at its witness
+        point (Pinocchio's joint velocity and acceleration ``data.v``, ``data.a``). The terms of the witness
+        normal's rotation (2ṅᵀ(ṗ2 − ṗ1) − d|ṅ|²) are left out: first order in the bodies' relative angular
+        velocity, they vanish for translating bodies. Unused rows: h = +inf, G = 0, Ġv = 0."""
+        close = self.close_pairs(state)
+        m = len(close.pairs)
+        G = self._C
+        G[:] = 0.0
+        h = np.full(self.dim, np.inf)
+        drift = np.zeros(self.dim)
+        if not m:
+            return h, G, drift
+        self.distance_jacobian(state, close, out=G)
+        k, d = close.pairs, close.distance
+        prev = self._floor[k]
+        floor = np.minimum(self.min_distance + self.safety_margin,
+                           np.where(np.isnan(prev), d, np.fmax(prev, d) + self.recovery_speed * dt))
+        self._floor[k] = floor
+        h[:m] = d - floor
+        data = state.data
+        for r in range(m):
+            acc = []
+            for side, p in ((0, close.p1[r]), (1, close.p2[r])):
+                j = int(self._joint[self.pairs[k[r], side]])
+                at = pin.SE3(np.eye(3), data.oMi[j].actInv(np.asarray(p)))  # the point, joint axes
+                v, a = at.actInv(data.v[j]), at.actInv(data.a[j])
+                acc.append(data.oMi[j].rotation @ (a.linear + np.cross(v.angular, v.linear)))
+            drift[r] = close.normal[r] @ (acc[1] - acc[0])
+        return h, G, drift
+
     def reset(self) -> None:
         """Forget the per-pair floors (module docstring) and the broad phase's bounds, e.g. after teleporting."""
         self._floor[:] = np.nan
