@@ -50,66 +50,93 @@ PRIMAL_TOL = 1e-11
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
+def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol, dinv, fnz):
     """The equality-constrained optimum with no active bound or row (module docstring), written into x. Returns
     the largest equality residual, or −1 when H_vv or S is not positive definite, a joint variable is fixed, or x
-    violates a bound or row by more than ``tol``."""
+    violates a bound or row by more than ``tol``. dinv (n,), fnz (≥ m,) bool: workspace (1/D on the free forces,
+    0 on the fixed ones; whether row k has an entry on a free force)."""
     n = H.shape[0]
     for i in range(nv):
         if lb[i] == ub[i]:
             return -1.0
         for j in range(i + 1):
             L[i, j] = H[i, j]
+    for f in range(nv, n):
+        dinv[f] = 1.0 / H[f, f] if lb[f] < ub[f] else 0.0
     if not cholesky_lower(L, nv):
         return -1.0
     for i in range(nv):
         t[i] = g[i]
     forward_substitution(L, nv, t)
     for k in range(m):
+        Ak = A[k]
         for i in range(nv):
-            Yt[k, i] = A[k, i]
+            Yt[k, i] = Ak[i]
         forward_substitution(L, nv, Yt[k])
+        nz = False
+        for f in range(nv, n):
+            if Ak[f] != 0.0 and dinv[f] != 0.0:
+                nz = True
+                break
+        fnz[k] = nz
     for k in range(m):
+        Ak = A[k]
+        Yk = Yt[k]
         for c in range(k + 1):
+            Yc = Yt[c]
             acc = 0.0
             for i in range(nv):
-                acc += Yt[k, i] * Yt[c, i]
-            for f in range(nv, n):
-                if lb[f] < ub[f]:
-                    acc += A[k, f] * A[c, f] / H[f, f]
+                acc += Yk[i] * Yc[i]
+            if fnz[k] and fnz[c]:
+                Ac = A[c]
+                for f in range(nv, n):
+                    acc += Ak[f] * Ac[f] * dinv[f]
             S[k, c] = acc
         acc = b[k]
         for f in range(nv, n):
-            if lb[f] == ub[f]:
-                acc -= A[k, f] * lb[f]
+            if dinv[f] == 0.0:
+                acc -= Ak[f] * lb[f]
+            else:
+                acc += Ak[f] * g[f] * dinv[f]
         for i in range(nv):
-            acc += Yt[k, i] * t[i]
+            acc += Yk[i] * t[i]
         nu[k] = -acc
     if not cholesky_lower(S, m):
         return -1.0
     forward_substitution(S, m, nu)
     backward_substitution(S, m, nu)
     for i in range(nv):
-        acc = t[i]
-        for k in range(m):
-            acc += Yt[k, i] * nu[k]
-        x[i] = -acc
+        x[i] = t[i]
+    for k in range(m):
+        nk = nu[k]
+        Yk = Yt[k]
+        for i in range(nv):
+            x[i] += Yk[i] * nk
+    for i in range(nv):
+        x[i] = -x[i]
     backward_substitution(L, nv, x[:nv])
     for f in range(nv, n):
-        if lb[f] == ub[f]:
+        if dinv[f] == 0.0:
             x[f] = lb[f]
         else:
-            acc = 0.0
-            for k in range(m):
-                acc += A[k, f] * nu[k]
-            x[f] = -acc / H[f, f]
+            x[f] = 0.0
+    for k in range(m):
+        if fnz[k]:
+            nk = nu[k]
+            Ak = A[k]
+            for f in range(nv, n):
+                x[f] -= Ak[f] * nk * dinv[f]
+    for f in range(nv, n):
+        if dinv[f] != 0.0:
+            x[f] = x[f] - g[f] * dinv[f]
     for i in range(n):
         if x[i] < lb[i] - tol or x[i] > ub[i] + tol:
             return -1.0
     for r in range(C.shape[0]):
         acc = 0.0
+        Cr = C[r]
         for j in range(n):
-            acc += C[r, j] * x[j]
+            acc += Cr[j] * x[j]
         if acc < l[r] - tol or acc > u[r] + tol:
             return -1.0
     for i in range(n):
@@ -117,8 +144,9 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol):
     res = 0.0
     for k in range(m):
         acc = -b[k]
+        Ak = A[k]
         for j in range(n):
-            acc += A[k, j] * x[j]
+            acc += Ak[j] * x[j]
         res = max(res, abs(acc))
     return res
 
@@ -679,7 +707,7 @@ def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, l
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
-    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12)
+    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12, ws_rb, ws_vrow)
     if res >= 0.0:
         it = 1
         residual[0] = res
