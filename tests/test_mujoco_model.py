@@ -235,3 +235,46 @@ def test_damping_friction_kept_and_srdf_self_collision():
     # half_sitting: the SRDF's disabled pairs remove every overlap of Talos's collision meshes.
     assert sim.self_contacts() == []
     assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
+
+
+def _crate_displacement(cone, impratio, force_ratio, robot):
+    """x displacement (m) in 1 s of a 10 kg box (0.2 × 0.1 × 0.05 m) resting on the floor of the robot's plant,
+    pushed horizontally at its centre by ``force_ratio`` × its weight."""
+
+    def add_crate(spec):
+        b = spec.worldbody.add_body(name="crate", pos=[3.0, 0.0, 0.0249], mass=10.0,
+                                    inertia=[0.0104, 0.0354, 0.0417], ipos=[0.0, 0.0, 0.0])
+        b.add_freejoint(name="crate_joint")
+        b.add_geom(name="crate_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.05, 0.025],
+                   contype=ROBOT_BIT, conaffinity=ENV_BIT)
+
+    kw = {} if cone is None else {"cone": cone, "impratio": impratio}
+    sim = build_mujoco_model(robot, customize=add_crate, **kw)
+    m, d = sim.model, sim.data
+    body, adr = m.body("crate").id, m.jnt_qposadr[m.joint("crate_joint").id]
+    for _ in range(100):  # settle
+        mujoco.mj_step(m, d)
+    x0 = float(d.qpos[adr])
+    d.xfrc_applied[body, 0] = force_ratio * 10.0 * 9.81
+    for _ in range(int(round(1.0 / m.opt.timestep))):
+        mujoco.mj_step(m, d)
+    return float(d.qpos[adr]) - x0
+
+
+def test_plant_friction_holds_below_the_friction_limit():
+    # Coulomb: a box pushed at 0.3 of its weight on a floor of μ = 1 does not move. MuJoCo's soft friction creeps;
+    # the builder's default (elliptic cones, impratio 10) creeps < 0.2 mm in 1 s, MuJoCo's own defaults (pyramidal,
+    # impratio 1) more than 5 times as much (measured 0.08 vs 1.5 mm). Above the limit (1.2 × weight) the box
+    # slides in both (the friction coefficient is unchanged): ½ (0.2 g) t² = 0.98 m.
+    robot = wbc.load_robot("g1")
+    sim = build_mujoco_model(robot)
+    assert sim.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and sim.model.opt.impratio == 10.0
+    held = _crate_displacement(None, None, 0.3, robot)
+    soft = _crate_displacement("pyramidal", 1.0, 0.3, robot)
+    assert 0.0 <= held < 2e-4 and soft > 5 * held
+    for cone, imp in ((None, None), ("pyramidal", 1.0)):
+        assert _crate_displacement(cone, imp, 1.2, robot) == pytest.approx(0.5 * 0.2 * 9.81, rel=0.1)
+    with pytest.raises(InvalidInputError, match="cone"):
+        build_mujoco_model(robot, cone="conic")
+    with pytest.raises(InvalidInputError, match="impratio"):
+        build_mujoco_model(robot, impratio=0.5)
