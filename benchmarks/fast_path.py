@@ -12,6 +12,7 @@ Instructions (``--callgrind N``): :mod:`wbc.bench.instructions` — wbc and plac
 after N and 2N ticks in one instrumented run, differenced: instructions per tick, independent of machine load.
 
 Usage: python benchmarks/fast_path.py [--repeats 5] [--ticks 2000] [--walk-steps 8] [--extra-tasks] [--callgrind 100]
+       [--callgrind-walk 2] [--only-callgrind]
 """
 
 from __future__ import annotations
@@ -135,6 +136,17 @@ def callgrind(n: int) -> dict:
     return out
 
 
+def callgrind_walk(n_steps: int) -> dict:
+    """Instructions per walk tick, wbc vs placo with both feet hard (:func:`wbc.bench.instructions.walk_instructions_per_tick`)."""
+    from wbc.bench.instructions import walk_instructions_per_tick
+
+    out = walk_instructions_per_tick(n_steps, log=lambda m: print("  " + m, flush=True))
+    print(f"instructions per walk tick (callgrind, {n_steps}-step walk, {out['ticks']} ticks each, load-independent):")
+    for lib, v in out["instructions"].items():
+        print(f"  {lib:6s} {v / 1e3:8.0f} k   / placo {v / out['instructions']['placo']:.2f}")
+    return out
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=5)
@@ -142,6 +154,7 @@ def main() -> None:
     p.add_argument("--walk-steps", type=int, default=8, help="steps of the walk (0: skip the walk)")
     p.add_argument("--extra-tasks", action="store_true", help="also measure the cost of an extra frame task")
     p.add_argument("--callgrind", type=int, default=0, help="N ticks for the instruction count (0: skip)")
+    p.add_argument("--callgrind-walk", type=int, default=0, help="steps of the walk counted by callgrind (0: skip)")
     p.add_argument("--only-callgrind", action="store_true", help="skip the timing sections")
     a = p.parse_args()
     if not a.only_callgrind:
@@ -152,6 +165,8 @@ def main() -> None:
             extra_tasks(a.repeats, a.ticks)
     if a.callgrind:
         callgrind(a.callgrind)
+    if a.callgrind_walk:
+        callgrind_walk(a.callgrind_walk)
 
 
 if __name__ == "__main__":

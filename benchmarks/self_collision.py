@@ -1,20 +1,34 @@
-"""Cost of the self-collision constraint per tick, with and without temporal pruning, and the distances held.
+"""Cost of the self-collision constraint per tick (issue 10 target: ≤ 200 µs on Talos), broad phase vs exhaustive.
 
 Scenario (as ``tests/test_self_collision.py``): Talos stands (soles hard), a right-hand position target is driven
 through the torso over 1.2 s at 500 Hz, the default :class:`~wbc.constraints.SelfCollisionConstraint`
-(883 default pairs, min_distance 20 mm) keeps the arm away. Both variants run interleaved ``--repeats`` times in
-this process; per variant: median / p99 of ``SelfCollisionConstraint.compute`` per tick (µs; wall and thread CPU), coal distance calls
-per tick, the smallest watched distance reached (coal on the original meshes), and the largest difference of the
-joint trajectory between the two variants (0 when pruning drops only pairs that could not have produced a row).
+(883 default pairs, min_distance 20 mm) keeps the arm away. Variants, run interleaved ``--repeats`` times in this
+process:
 
-Usage: python benchmarks/self_collision.py [--robot talos] [--repeats 3]
+* ``broad``: the default constraint (broad phase: coal only on the pairs whose distance bounds may give them a row);
+* ``exhaustive``: ``broad_phase=False`` (coal on all 883 pairs at every tick: the reference);
+* ``none``: the same controller without the constraint (the arm then runs into the torso).
+
+Printed per variant: ``SelfCollisionConstraint.compute`` per tick (median / p99 µs, wall and thread CPU), coal
+distances per tick (``SelfCollisionConstraint.coal_calls``; the test counts them independently), the smallest distance held (coal on the
+original meshes of the arm–torso pairs, and the smallest active distance of the constraint's hulls), the whole
+controller tick (median µs) and its excess over ``none``; then whether the broad phase gave the same active pairs at
+every tick and the same joint trajectory as the exhaustive variant, and PASS/FAIL of the ≤ 200 µs target (median
+compute per tick, wall clock). The machine load (``os.getloadavg``) is printed before and after: wall-clock numbers
+on a loaded machine are inflated; the instruction counts (``--callgrind``, valgrind) are not.
+
+Usage: python benchmarks/self_collision.py [--robot talos] [--repeats 3] [--callgrind N]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import re
+import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from time import perf_counter_ns, thread_time_ns
 
@@ -23,8 +37,14 @@ import pinocchio as pin
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+TARGET_US = 200.0  # issue 10: self-collision on Talos ≤ 200 µs per tick
 
-def run(robot, pruning: bool):
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def run(robot, variant: str) -> dict:
     from conftest import standing_controller
     from test_self_collision import DT, THROUGH, watched_model
 
@@ -34,76 +54,162 @@ def run(robot, pruning: bool):
 
     config = Configuration(robot)
     hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
-    sc = SelfCollisionConstraint(robot, min_distance=0.02, temporal_pruning=pruning)
-    ctrl, _ = standing_controller(robot, config, sc, tasks=(hand,), posture_weight=1e-3)
+    sc = None if variant == "none" else SelfCollisionConstraint(robot, min_distance=0.02,
+                                                                 broad_phase=variant == "broad")
+    ctrl, _ = standing_controller(robot, config, *([sc] if sc else []), tasks=(hand,), posture_weight=1e-3)
     gm, gd = watched_model(robot)
     data = robot.model.createData()
-    times, cpu, calls = [], [], [0]
-    compute = sc.compute
-    distance = pin.computeDistance
+    times, cpu, tick, active, calls = [], [], [], [], 0
+    distances = pin.computeDistances
 
-    def timed(config, dt):
-        c0 = thread_time_ns()
+    if sc is not None:
+        compute = sc.compute
+
+        def timed(config, dt):
+            c0 = thread_time_ns()
+            t0 = perf_counter_ns()
+            out = compute(config, dt)
+            times.append(perf_counter_ns() - t0)
+            cpu.append(thread_time_ns() - c0)
+            return out
+
+        sc.compute = timed
+    p0 = config.frame_placement(hand.frame_id).translation.copy()
+    frame, end = THROUGH[robot.name]
+    T = config.frame_placement(robot.frame_id(frame))
+    p_mid, p_end = T.act(np.zeros(3)), T.act(np.array(end))
+    qs, d_min, d_hull = [], np.inf, np.inf
+    n = int(1.2 / DT)
+    for k in range(n):
+        s = min(1.0, k * DT / 1.0)
+        hand.set_target(p0 + (p_mid - p0) * min(1.0, 2 * s) + (p_end - p_mid) * max(0.0, 2 * s - 1))
         t0 = perf_counter_ns()
-        out = compute(config, dt)
-        times.append(perf_counter_ns() - t0)
-        cpu.append(thread_time_ns() - c0)
-        return out
-
-    def counted(*a):
-        calls[0] += 1
-        return distance(*a)
-
-    sc.compute = timed
-    pin.computeDistance = counted
-    try:
-        p0 = config.frame_placement(hand.frame_id).translation.copy()
-        frame, end = THROUGH[robot.name]
-        T = config.frame_placement(robot.frame_id(frame))
-        p_mid, p_end = T.act(np.zeros(3)), T.act(np.array(end))
-        qs, d_min = [], np.inf
-        n = int(1.2 / DT)
-        for k in range(n):
-            s = min(1.0, k * DT / 1.0)
-            hand.set_target(p0 + (p_mid - p0) * min(1.0, 2 * s) + (p_end - p_mid) * max(0.0, 2 * s - 1))
-            res = ctrl.solve(config, DT)
-            assert res.ok, res.message
-            config.update(config.integrate(res.v, DT))
-            qs.append(config.q.copy())
-            pin.computeDistances(robot.model, data, gm, gd, config.q)
-            d_min = min(d_min, min(r.min_distance for r in gd.distanceResults))
-    finally:
-        pin.computeDistance = distance
-    t = np.array(times) / 1e3
+        res = ctrl.solve(config, DT)
+        tick.append(perf_counter_ns() - t0)
+        assert res.ok, res.message
+        if sc is not None:
+            active.append([a[:2] for a in sc.active])
+            calls += sc.coal_calls
+            d_hull = min(d_hull, min((a[2] for a in sc.active), default=np.inf))
+        config.update(config.integrate(res.v, DT))
+        qs.append(config.q.copy())
+    for q in qs:  # after the run: the mesh distances would evict the constraint's data from the caches
+        distances(robot.model, data, gm, gd, q)
+        d_min = min(d_min, min(r.min_distance for r in gd.distanceResults))
+    t = np.array(times or [0]) / 1e3
     return {"median_us": float(np.median(t)), "p99_us": float(np.percentile(t, 99)),
-            "cpu_median_us": float(np.median(cpu)) / 1e3,
-            "coal_calls_per_tick": calls[0] / n, "min_distance_mm": 1e3 * d_min, "q": np.array(qs)}
+            "cpu_median_us": float(np.median(cpu or [0])) / 1e3, "tick_median_us": float(np.median(tick)) / 1e3,
+            "coal_per_tick": calls / n, "min_mesh_mm": 1e3 * d_min, "min_hull_mm": 1e3 * d_hull,
+            "q": np.array(qs), "active": active}
+
+
+# -- instruction counts (callgrind): compute() over 2N ticks of the recorded trajectory (after 5 uninstrumented),
+#    minus the same ticks without compute (Configuration.update only) ------------------------------------------------------------
+def _callgrind_child(variant: str, n: int, traj: str) -> None:
+    import wbc
+    from wbc.configuration import Configuration
+    from wbc.constraints import SelfCollisionConstraint
+
+    robot = wbc.load_robot("talos")
+    qs = np.load(traj)
+    config = Configuration(robot)
+    sc = SelfCollisionConstraint(robot, min_distance=0.02, broad_phase=variant == "broad")
+    k = 0
+    for marker, ticks in (("READY", 5), ("HALF", n), ("DONE", n)):
+        for _ in range(ticks):
+            config.update(qs[k % len(qs)])
+            if variant != "update":
+                sc.compute(config, 0.002)
+            k += 1
+        print(marker, flush=True)
+        sys.stdin.readline()
+
+
+def _callgrind(variant: str, n: int, traj: str) -> list[int]:
+    with tempfile.TemporaryDirectory() as d:
+        p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={d}/cg.out",
+                              sys.executable, __file__, "--child", variant, str(n), traj],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        irs = []
+        try:
+            for marker in ("READY", "HALF", "DONE"):
+                line = p.stdout.readline().strip()
+                if line != marker:
+                    raise RuntimeError(f"callgrind child: expected {marker}, got {line!r}: {p.stderr.read()[-2000:]}")
+                ctl = ["callgrind_control"]
+                if marker == "READY":
+                    subprocess.run([*ctl, "-i", "on", str(p.pid)], capture_output=True, check=True)
+                    subprocess.run([*ctl, "-z", str(p.pid)], capture_output=True, check=True)
+                else:
+                    out = subprocess.run([*ctl, "-e", "Ir", str(p.pid)], capture_output=True, text=True).stdout
+                    irs.append(int(re.search(r"Th 1\s+([\d,]+)", out).group(1).replace(",", "")))
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            p.wait(timeout=600)
+        finally:
+            if p.poll() is None:
+                p.kill()
+        return irs
+
+
+def instructions(robot, n: int) -> dict[str, float]:
+    """Instructions per compute() (broad, exhaustive) over ticks 5..5 + 2n of the recorded broad-phase trajectory
+    (n = 297: all of it), minus the same ticks without compute()."""
+    q = run(robot, "broad")["q"]
+    with tempfile.TemporaryDirectory() as d:
+        traj = f"{d}/traj.npy"
+        np.save(traj, q)
+        irs = {v: _callgrind(v, n, traj) for v in ("update", "broad", "exhaustive")}
+    return {v: (irs[v][1] - irs["update"][1]) / (2 * n) for v in ("broad", "exhaustive")}
 
 
 def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        _callgrind_child(sys.argv[2], int(sys.argv[3]), sys.argv[4])
+        return
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--robot", default="talos")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--callgrind", type=int, default=0, metavar="N",
+                   help="also count instructions per compute() with valgrind over N ticks (0: no)")
+    p.add_argument("--json", default=None, help="write the numbers to this file")
     a = p.parse_args()
     import wbc
     from wbc.bench.stats import limit_blas_threads
 
     limit_blas_threads(1)
     robot = wbc.load_robot(a.robot)
-    print(f"self-collision, {a.robot}, hand through the torso, {a.repeats} interleaved repeats; "
-          f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    out: dict[bool, list[dict]] = {True: [], False: []}
+    print(f"self-collision, {a.robot}, hand through the torso, {a.repeats} interleaved repeats; load {load()}")
+    variants = ("broad", "exhaustive", "none")
+    out: dict[str, list[dict]] = {v: [] for v in variants}
     for _ in range(a.repeats):
-        for pruning in (False, True):
-            out[pruning].append(run(robot, pruning))
-    for pruning, rs in out.items():
-        print(f"  temporal_pruning={pruning!s:5s}: compute median {np.median([r['median_us'] for r in rs]):7.1f} µs, "
-              f"p99 {np.median([r['p99_us'] for r in rs]):7.1f} µs, CPU median "
-              f"{np.median([r['cpu_median_us'] for r in rs]):7.1f} µs, coal calls/tick {rs[0]['coal_calls_per_tick']:.1f}, "
-              f"min watched distance {rs[0]['min_distance_mm']:.2f} mm")
-    gap = max(float(np.abs(x["q"] - y["q"]).max()) for x in out[True] for y in out[False])
-    print(f"  largest joint-trajectory difference pruned vs unpruned: {gap:.1e}; "
-          f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+        for v in variants:
+            out[v].append(run(robot, v))
+    med = {v: {key: float(np.median([r[key] for r in rs])) for key in rs[0] if key not in ("q", "active")}
+           for v, rs in out.items()}
+    for v in variants:
+        m = med[v]
+        sc = "" if v == "none" else (
+            f"compute median {m['median_us']:7.1f} µs (CPU {m['cpu_median_us']:7.1f}), p99 {m['p99_us']:7.1f} µs, "
+            f"coal {m['coal_per_tick']:6.1f}/tick, min hull distance {m['min_hull_mm']:.2f} mm, ")
+        print(f"  {v:10s}: {sc}tick {m['tick_median_us']:7.1f} µs (+{m['tick_median_us'] - med['none']['tick_median_us']:6.1f} "
+              f"over none), min arm–torso mesh distance {m['min_mesh_mm']:.2f} mm")
+    same_active = all(x["active"] == y["active"] for x in out["broad"] for y in out["exhaustive"])
+    gap = max(float(np.abs(x["q"] - y["q"]).max()) for x in out["broad"] for y in out["exhaustive"])
+    print(f"  broad vs exhaustive: same active pairs at every tick: {same_active}; largest joint-trajectory "
+          f"difference {gap:.1e}; load {load()}")
+    ok = med["broad"]["median_us"] <= TARGET_US
+    print(f"  target (issue 10): self-collision ≤ {TARGET_US:.0f} µs per tick: median {med['broad']['median_us']:.1f} µs "
+          f"(wall, load {load()}) -> {'PASS' if ok else 'FAIL'}")
+    result = {"load": os.getloadavg(), "median": med, "same_active": same_active, "trajectory_gap": gap, "pass": ok}
+    if a.callgrind:
+        ir = instructions(robot, a.callgrind)
+        print(f"  instructions per compute() (callgrind, {2 * a.callgrind} ticks): broad {ir['broad']:,.0f}, "
+              f"exhaustive {ir['exhaustive']:,.0f}")
+        result["instructions"] = ir
+    if a.json:
+        Path(a.json).write_text(json.dumps(result, indent=1))
+    sys.exit(0 if ok and same_active else 1)
 
 
 if __name__ == "__main__":

@@ -166,7 +166,7 @@ def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
 
 
 def test_dependent_contact_rows_are_made_consistent():
-    from wbc.dynamics.constraints import consistent_contact_rhs
+    from wbc.constraints.dynamics import consistent_contact_rhs
 
     rng = np.random.default_rng(4)
     # Rank 11 of 12 (a dependent row, as two flat soles of 5-DoF legs): the projected b is the least-squares

@@ -426,3 +426,41 @@ def test_safe_command_of_a_failed_tick_holds_contacts_to_second_order(robots):
     assert moved > 1.0  # the safe command does move the robot (not a hold)
     assert worst_drift <= 5e-5
     assert worst_offset <= 1e-3
+
+
+def test_fuzz_seed_1004_strict_levels_nearly_dependent_contacts_hold_without_failing(robots):
+    """Fuzz seed 1004, episode 16 (humanoid15, strict: CoM on level 0, posture and a torso target at gain 2709 on
+    level 1, contact gains 47 and 613): the flat feet's contact rows are nearly dependent and their corrections
+    disagree in that direction, so the cascade asked 24 rad/s and the soles drifted 8.3e-5 m; the correction
+    was not better and every smaller trust region had no solution (the dependent rows' bands), so tick 4 failed
+    on drift alone. The same feasible situation must be solved ok with each sole ≤ 0.05 mm from where its
+    contact row sent it (forward kinematics), as a weighted controller's would be."""
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, com = standing_controller(robot, config)
+    com.gain, com.weight = 12.13563525091764, 399.28710729728107
+    com.set_target(np.array([0.02874008069290959, -0.01636683973489159, 0.6887347697900775]))
+    contacts = ctrl.constraints[:2]
+    for contact, gain in zip(contacts, (47.32062983022001, 612.9587503390428)):
+        contact.gain = gain
+    hand = FrameTask(robot, robot.torso, gain=2709.247174830203, position_weight=761.6788091433795,
+                     orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation = np.array([-0.0220423956132506, -0.03146626899018545, 0.9328541871789733])
+    hand.set_target(target)
+    ctrl.remove_task(com)
+    ctrl.add_task(com, level=0)
+    ctrl.add_task(PostureTask(robot, weight=3.2682029423729837), level=1)
+    ctrl.add_task(hand, level=1)
+    worst = 0.0
+    for _ in range(8):
+        before = [config.frame_placement(c.frame_id).copy() for c in contacts]
+        res = ctrl.solve(config, DT)
+        assert res.ok, res.message
+        config.update(config.integrate(res.v, DT))
+        for c, oMf in zip(contacts, before):
+            worst = max(worst, np.linalg.norm(config.frame_placement(c.frame_id).translation
+                                              - _commanded(c, oMf).translation))
+    assert worst <= 5e-5

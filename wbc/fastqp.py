@@ -465,10 +465,16 @@ class FastBackend(DaqpBackend):
             self._state = np.zeros(n, np.int8)
             self._x = np.empty(n)
             self._z = np.zeros(n)
+            self._ws_by_m: dict = {}   # workspaces per number of equality rows (a support switch goes back and
+            self._ws_by_mp: dict = {}  # forth between a few shapes: no allocation after the first of each)
+            self._rstate_p = -1
         self._n, self._m = n, m
-        self._nu = np.zeros(m)
-        self._ws = (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
-                    np.empty(m), np.empty(1))
+        cached = self._ws_by_m.get(m)
+        if cached is None:
+            cached = self._ws_by_m[m] = (np.zeros(m), (
+                np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
+                np.empty(m), np.empty(1)))
+        self._nu, self._ws = cached
         self._p = -1  # row workspace shares these buffers: rebuilt with them
 
     def _kernel(self, H, g, A, b, lb, ub) -> bool:
@@ -515,11 +521,16 @@ class FastBackend(DaqpBackend):
             self._prepare_kernel(n, m)
         if p != self._p or m != self._pm:
             self._p, self._pm = p, m
-            self._rstate = np.zeros(p, np.int8)
-            self._mu = np.zeros(p)
-            self._ws_rows = (np.empty((m + p, n)), np.empty(m + p), self._ws[0], self._ws[1],
-                             np.empty((m + p, n)), np.empty((m + p, m + p)), self._ws[4], np.empty(m + p),
-                             np.empty(m + p), self._ws[6])
+            if p != self._rstate_p:  # the rows' working set is kept when only the equality rows changed
+                self._rstate_p = p
+                self._rstate = np.zeros(p, np.int8)
+                self._mu = np.zeros(p)
+            ws = self._ws_by_mp.get((m, p))
+            if ws is None:
+                ws = self._ws_by_mp[(m, p)] = (
+                    np.empty((m + p, n)), np.empty(m + p), self._ws[0], self._ws[1], np.empty((m + p, n)),
+                    np.empty((m + p, m + p)), self._ws[4], np.empty(m + p), np.empty(m + p), self._ws[6])
+            self._ws_rows = ws
         it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
                          self._z, self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws_rows)
         self.last_kernel_iterations = it
@@ -550,5 +561,8 @@ def warm_up() -> float:
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     b = FastBackend()
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
+            np.ones(2))
+    # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
+    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
     return time.perf_counter() - t0

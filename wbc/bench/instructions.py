@@ -19,7 +19,7 @@ import sys
 import tempfile
 import time
 
-__all__ = ["callgrind_available", "instructions_per_tick"]
+__all__ = ["callgrind_available", "instructions_per_tick", "walk_instructions_per_tick"]
 
 LIBRARIES = ("wbc", "placo")
 
@@ -48,6 +48,83 @@ def _child(library: str, n: int, robot_name: str = "talos") -> None:
         sys.stdin.readline()
     if runner.failures:
         raise SystemExit(f"{library}: {runner.failures} failed ticks ({runner.first_error})")
+
+
+def _walk_child(library: str, n_steps: int, robot_name: str = "talos") -> None:
+    """The walk tick (:mod:`wbc.bench.walk`: ``wbc`` = set_references + solve + step, ``placo`` = placo with both
+    soles hard on the same plan): 20 ticks uninstrumented, then every remaining tick of the plan (printed)."""
+    from wbc.bench.stats import limit_blas_threads
+    from wbc.bench.walk import walk_ticks
+    from wbc.robot import load_robot
+    from wbc.scenarios.walk import plan_default_walk
+
+    limit_blas_threads(1)
+    robot = load_robot(robot_name)
+    plan = plan_default_walk(robot, n_steps=n_steps)
+    ticks = walk_ticks("wbc" if library == "wbc" else "placo-hard", robot, plan)
+    warm = 20
+    for _ in range(warm):
+        next(ticks)
+    print("READY", flush=True)
+    sys.stdin.readline()
+    n = 0
+    for _ in ticks:
+        n += 1
+    print(f"DONE {n}", flush=True)
+    sys.stdin.readline()
+
+
+def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=print,
+                               libraries: tuple[str, ...] = LIBRARIES) -> dict[str, object]:
+    """Instructions per walk tick of wbc and placo (hard feet) on the same plan (``plan_default_walk`` with
+    ``n_steps``): each library's ticks after the first 20 counted under callgrind and averaged (support switches
+    included, the same ticks for both).
+
+    Returns:
+        {"n_steps", "ticks", "instructions": {lib: per tick}, "ratio_wbc_placo" (when both ran)}.
+
+    Raises:
+        RuntimeError: valgrind missing or a child run failed.
+    """
+    if not callgrind_available():
+        raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
+    from wbc.fastqp import ensure_compiled
+
+    ensure_compiled()
+    per, ticks = {}, 0
+    for lib in libraries:
+        with tempfile.TemporaryDirectory() as d:
+            p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                                  f"--callgrind-out-file={d}/cg.out", sys.executable, "-m", "wbc.bench.instructions",
+                                  "walk-" + lib, str(n_steps), robot_name],
+                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            try:
+                line = p.stdout.readline().strip()
+                if line != "READY":
+                    raise RuntimeError(f"callgrind walk child {lib}: {line!r}: {p.stderr.read()[-2000:]}")
+                _control(p.pid, "-i", "on")
+                _control(p.pid, "-z")
+                p.stdin.write("go\n")
+                p.stdin.flush()
+                line = p.stdout.readline().strip()
+                if not line.startswith("DONE"):
+                    raise RuntimeError(f"callgrind walk child {lib}: {line!r}: {p.stderr.read()[-2000:]}")
+                ticks = int(line.split()[1])
+                m = re.search(r"Th 1\s+([\d,]+)", _control(p.pid, "-e", "Ir"))
+                if not m:
+                    raise RuntimeError("callgrind_control printed no Ir total")
+                per[lib] = int(m.group(1).replace(",", "")) / ticks
+                p.stdin.write("go\n")
+                p.stdin.flush()
+                p.wait(timeout=600)
+            finally:
+                if p.poll() is None:
+                    p.kill()
+        log(f"callgrind walk {lib}: {per[lib]:,.0f} instructions per tick over {ticks} ticks")
+    out = {"n_steps": n_steps, "ticks": ticks, "instructions": per}
+    if "wbc" in per and "placo" in per:
+        out["ratio_wbc_placo"] = per["wbc"] / per["placo"]
+    return out
 
 
 def _control(pid: int, *args: str) -> str:
@@ -117,4 +194,7 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
 
 
 if __name__ == "__main__":
-    _child(sys.argv[1], int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "talos")
+    if sys.argv[1].startswith("walk-"):
+        _walk_child(sys.argv[1][5:], int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "talos")
+    else:
+        _child(sys.argv[1], int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "talos")

@@ -31,7 +31,7 @@ from wbc.bench.stats import pooled_summary_us, summarize_us
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 
-__all__ = ["WalkBenchSpec", "run_walk_benchmark"]
+__all__ = ["WalkBenchSpec", "run_walk_benchmark", "walk_ticks"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,20 @@ class _WbcWalk:
             qs[k + 1] = config.q
         return wall, qs, failures
 
+    def ticks(self):
+        """Generator: one untimed walk tick (the timed scope of :meth:`run`) per ``next``."""
+        from wbc.configuration import Configuration
+        from wbc.scenarios.walk import WalkController
+
+        robot, plan = self.robot, self.plan
+        config = Configuration(robot)
+        walker = WalkController(robot, config, solver=self.solver)
+        for k in range(len(plan.t)):
+            walker.set_references(plan, k, config)
+            res = walker.solve(config, plan.dt)
+            config.step(res.v, plan.dt)
+            yield res.ok
+
 
 class _PlacoWalk:
     """A placo ``KinematicsSolver`` tracking the plan (the same loop for the hard-feet and the soft-feet set-ups:
@@ -113,6 +127,24 @@ class _PlacoWalk:
 
     def _load(self, robot: Robot):
         raise NotImplementedError
+
+    def ticks(self):
+        """Generator: one untimed walk tick (the timed scope of :meth:`run`) per ``next``."""
+        from wbc.bench.placo_models import kinematics_solver, reset_at_reference
+
+        robot, plan, w = self.robot, self.plan, self.model
+        reset_at_reference(w, robot)
+        solver = kinematics_solver(w, plan.dt, 1e-6)
+        update = self._tasks(solver, w)
+        for k in range(len(plan.t)):
+            update(k)
+            ok = True
+            try:
+                solver.solve(True)
+            except RuntimeError:
+                ok = False
+            w.update_kinematics()
+            yield ok
 
     def _tasks(self, solver, model):
         """Add the tasks to ``solver``; return ``update(k)`` setting the targets of tick k."""
@@ -197,6 +229,20 @@ class _PlacoSoftWalk(_PlacoWalk):
             tasks.update_tasks(left[k], right[k], com_ref[k], rot[k])
 
         return update
+
+
+def walk_ticks(library: str, robot: Robot, plan, solver: str = DEFAULT_SOLVER):
+    """Generator of the walk ticks of ``library`` (``"wbc"`` or ``"placo-hard"``, module docstring) on ``plan``,
+    one per ``next`` (yielding whether the tick solved), for instruction counting.
+
+    Raises:
+        ValueError: unknown library.
+    """
+    if library == "wbc":
+        return _WbcWalk(robot, plan, solver).ticks()
+    if library == "placo-hard":
+        return _PlacoHardWalk(robot, plan).ticks()
+    raise ValueError(f"unknown walk library {library!r} (wbc, placo-hard)")
 
 
 def run_walk_benchmark(robot: Robot, spec: WalkBenchSpec = WalkBenchSpec(), with_placo: bool = True,

@@ -47,10 +47,24 @@ class EqualityConstraint(Constraint):
 
 
 class InequalityConstraint(Constraint):
-    """An :math:`l ≤ C v ≤ u` block (e.g. CoM polygon, self-collision)."""
+    """An :math:`l ≤ C v ≤ u` block (e.g. CoM polygon, self-collision).
+
+    A constraint that keeps a function h(q) ≥ 0 (a distance, a margin) also gives :meth:`barrier`, the same
+    quantity for the acceleration level: h, its Jacobian G = ∂h/∂q and its drift Ġv, so the inverse-dynamics
+    formulation can hold it as the second-order barrier of :class:`wbc.constraints.dynamics.AccelerationBarrier`
+    under the same name."""
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return (C (m, nv), l (m,), u (m,)) such that l ≤ C v ≤ u must hold (±inf allowed)."""
+
+    def barrier(self, state, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h (m,), G (m, nv), Ġv (m,)) at a :class:`~wbc.state.DynamicsState`: the rows' functions h(q) ≥ 0 (units of
+        the constraint, +inf on an unused row), their Jacobians ∂h/∂q and drifts (ḧ = G v̇ + Ġv).
+
+        Raises:
+            NotImplementedError: a constraint without an acceleration-level (barrier) form.
+        """
+        raise NotImplementedError(f"{type(self).__name__} has no acceleration-level (barrier) form")
 
 
 class BoxConstraint(Constraint):

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 
 from wbc.configuration import Configuration
@@ -27,6 +28,30 @@ from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["JointBrakingLimit"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
+    """ub = √((a dt)² + 2 a max(q_max − q, 0)) − a dt, lb = a dt − √((a dt)² + 2 a max(q − q_min, 0)) (compiled)."""
+    adt = a * dt
+    for k in range(idx_q.shape[0]):
+        qk = q[idx_q[k]]
+        up = max(q_max[k] - qk, 0.0)
+        down = max(qk - q_min[k], 0.0)
+        ub[k] = math.sqrt(adt * adt + 2.0 * a * up) - adt
+        lb[k] = adt - math.sqrt(adt * adt + 2.0 * a * down)
+
+
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_braking_bounds` (on-disk cache) once per process, at construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        z = np.zeros(1)
+        _braking_bounds(z, np.zeros(1, dtype=np.int64), z, z, 1.0, 1.0, np.empty(1), np.empty(1))
 
 
 class JointBrakingLimit(BoxConstraint):
@@ -58,12 +83,8 @@ class JointBrakingLimit(BoxConstraint):
             self.name = name
         self._lb = np.zeros(self.dim)
         self._ub = np.zeros(self.dim)
+        _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        a, q = self.a_max, config.q[self.idx_q]
-        adt = a * dt
-        up = np.maximum(self.q_max - q, 0.0)
-        down = np.maximum(q - self.q_min, 0.0)
-        np.subtract(np.sqrt(adt * adt + 2.0 * a * up), adt, out=self._ub)
-        np.subtract(adt, np.sqrt(adt * adt + 2.0 * a * down), out=self._lb)
+        _braking_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.a_max, float(dt), self._lb, self._ub)
         return self._lb, self._ub

@@ -14,6 +14,9 @@ satisfiable in CoM-velocity space: for any interior point x0 every violated edge
 velocity −α (c_xy − x0) with α large enough satisfies all of them at once.
 
 The row count is fixed (4 × ``max_soles``): unused rows are 0 ≤ +inf.
+
+Acceleration level (:meth:`ComPolygonConstraint.barrier`, held by :class:`wbc.constraints.dynamics.AccelerationBarrier`):
+h_i = d_i − margin − n_iᵀ c_xy ≥ 0 (m), G_i = −n_iᵀ J_com,xy, drift −n_iᵀ c̈_xy at v̇ = 0 (``DynamicsState.com_drift``).
 """
 
 from __future__ import annotations
@@ -95,6 +98,19 @@ class ComPolygonConstraint(InequalityConstraint):
             slack = self.offsets - self.margin - self.normals @ config.com[:2]
             u[:k] = np.maximum(slack / dt, -self.recovery_speed)
         return self._C, self._l, self._u
+
+    def barrier(self, state, dt: float):
+        """(h (dim,) m, G (dim, nv), Ġv (dim,) m/s²) of the module docstring at a DynamicsState; h = +inf on the
+        rows beyond the polygon's edge count."""
+        k = len(self.offsets)
+        h = np.full(self.dim, np.inf)
+        G = np.zeros((self.dim, state.model.nv))
+        drift = np.zeros(self.dim)
+        if k:
+            h[:k] = self.offsets - self.margin - self.normals @ state.com[:2]
+            G[:k] = -(self.normals @ state.com_jacobian[:2])
+            drift[:k] = -(self.normals @ state.com_drift[:2])
+        return h, G, drift
 
     def shrunk_distance(self, point_xy) -> float:
         """Signed distance (m, > 0 inside) from a ground point to the nearest edge line of the shrunk polygon:

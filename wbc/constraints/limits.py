@@ -9,6 +9,7 @@ acceleration limits (priority 2) yield to it (see :mod:`wbc.constraints.base`).
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from wbc.configuration import Configuration
@@ -29,6 +30,27 @@ def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
                 idx_q.append(joint.idx_q)
                 idx_v.append(joint.idx_v)
     return np.asarray(idx_q, dtype=int), np.asarray(idx_v, dtype=int)
+
+
+@nb.njit(cache=True, nogil=True)
+def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
+    """lb = min((q_min − q)/dt, v_max), ub = max((q_max − q)/dt, −v_max) on the bounded joints (compiled)."""
+    for k in range(idx_q.shape[0]):
+        qk = q[idx_q[k]]
+        lb[k] = min((q_min[k] - qk) / dt, v_max[k])
+        ub[k] = max((q_max[k] - qk) / dt, neg_v_max[k])
+
+
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_position_bounds` (on-disk cache) once per process, at construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        z = np.zeros(1)
+        _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 1.0, np.empty(1), np.empty(1))
 
 
 class JointPositionLimit(BoxConstraint):
@@ -63,16 +85,13 @@ class JointPositionLimit(BoxConstraint):
         vmax = model.velocityLimit[self.indices]
         self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
         self._neg_v_max = -self.v_max
-        iq = self.idx_q
-        self._q_sel = slice(int(iq[0]), int(iq[-1]) + 1) if iq.size and np.array_equal(
-            iq, np.arange(iq[0], iq[0] + iq.size)) else iq  # a view of q when the bounded joints are contiguous
+        _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        q = config.q[self._q_sel]
-        # only the recovery side is capped (a joint outside its range returns at ≤ v_max, and lb ≤ ub always);
-        # the other side is the velocity limit's job
-        lb = np.minimum((self.q_min - q) / dt, self.v_max)
-        ub = np.maximum((self.q_max - q) / dt, self._neg_v_max)
+        # lb = min((q_min − q)/dt, v_max), ub = max((q_max − q)/dt, −v_max): only the recovery side is capped (a
+        # joint outside its range returns at ≤ v_max, and lb ≤ ub always); the other side is the velocity limit's
+        lb, ub = np.empty(self.dim), np.empty(self.dim)
+        _position_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.v_max, self._neg_v_max, float(dt), lb, ub)
         return lb, ub
 
 

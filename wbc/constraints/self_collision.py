@@ -26,8 +26,7 @@ points of polyhedra jump between faces), instead of letting that error accumulat
 d_s = ``min_distance`` + ``safety_margin`` (default 3 mm: the first-order dips described below stay above
 ``min_distance``). Distances come from coal; nothing is re-derived. By default the collision meshes are
 replaced by their convex hulls (coal ``buildConvexHull``, qhull): GJK on hulls costs ~2 µs per pair against
-~250 µs for mesh BVHs, and a hull contains its mesh, so the mesh distance is never smaller than the hull's. A
-bounding-sphere test (one sphere per geometry, from coal's local AABB) skips the pairs that cannot be within d_i.
+~250 µs for mesh BVHs, and a hull contains its mesh, so the mesh distance is never smaller than the hull's.
 
 Default pairs: every pair of ``robot.collision_model`` minus the SRDF's ``disable_collisions`` (when
 ``robot.srdf_path`` is set) minus pairs on the same or on adjacent joints (parent–child in the kinematic tree).
@@ -37,18 +36,37 @@ Limits (measured): one witness pair per body pair is a first-order model of a pi
 body rotates while sliding along another, a different vertex can become the closest one within a tick; the
 damper then restores the floor over the next ticks. Driving a hand through the torso with the damper at 20 mm
 (no safety margin): Talos min 19.6 mm, g1 (hulls of large non-convex meshes, fast wrist rotation) 18.3 mm; hence
-the default 3 mm safety margin (with 2 mm, g1 still dipped to 19.84 mm). Broad phase (compiled): the sphere test, then
-(``temporal_pruning``) a pair whose last coal distance minus a bound on how far its bodies moved since stays above
-d_i is skipped (a rigorous lower bound: the same pairs get rows, their distances equal to GJK's tolerance). Measured on Talos (883 pairs; 2-core machine at
-load ≈ 22, thread CPU time): standing, 78 pairs pass the sphere test, 34 need coal, 181 µs per call (310 µs before
-the compiled broad phase and rows); driving the hand through the torso (load ≈ 20), 37.7 coal calls per tick
-instead of 135.8, 627 µs instead of 970 µs per call (``benchmarks/self_collision.py``).
+the default 3 mm safety margin (with 2 mm, g1 still dipped to 19.84 mm).
+
+Broad phase (``broad_phase=True``, issue 10; one compiled pass over the pairs, then ONE ``pin.computeDistances`` on
+the candidates, marked through ``GeometryData.setActiveCollisionPairs``). Each geometry g has a bounding sphere
+(centre c_g in its joint's frame and radius r_g, from coal's local AABB: the sphere around the box contains the
+geometry). Placements are taken in the root joint's frame (``data.oMi``; a distance does not depend on the frame,
+and this one leaves out the floating base's motion). Per call and geometry, every point p = c_g + R (p_loc − c_loc)
+moves by at most |Δc_g| + ‖ΔR‖₂ r_g ≤ |Δc_g| + ‖ΔR‖_F r_g; these are summed since the start (``moved_g``). A distance
+is 1-Lipschitz in each body's displacement, so for a pair (a, b) last computed by coal at distance d_k:
+
+    L_k = max(|c_a − c_b| − r_a − r_b,  d_k − (moved_a + moved_b − moved_at_k))  ≤  d  ≤  U_k = d_k + (...)
+
+(U = ∞ for a pair never computed). With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
+only on the pairs with L_k < d_i and L_k ≤ τ: any other pair is farther than d_i, or farther than ``max_active``
+pairs that are computed. The rows are therefore those of coal on every pair (``broad_phase=False``, the
+reference): same pairs, distances equal to coal's tolerances (GJK 1e-9 m; coal warm-starts a pair from its previous
+call, so a pair computed at fewer calls can end elsewhere within tolerance; EPA 1e-6 m when penetrating) —
+``tests/test_self_collision.py`` checks this against coal on all pairs along the hand-through-torso drive and
+under random motion and jumps. No static pruning beyond the SRDF and adjacency: a far pair costs a few
+floating-point operations per call.
+
+Measured on Talos (883 pairs, hand driven through the torso, ``benchmarks/self_collision.py``): 38.6 coal
+distances per call instead of 883 (37.7 before with a sequential stop, 135.8 without it); instructions per call
+(callgrind, load-independent) 2.12 M before (sphere test + sequential coal calls from Python), see the benchmark
+for the current count and times.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
+from typing import NamedTuple
 
 import coal
 import numba as nb
@@ -60,58 +78,109 @@ from wbc.constraints.base import InequalityConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_count, check_scalar
 
-__all__ = ["SelfCollisionConstraint", "default_collision_pairs"]
+__all__ = ["ClosePairs", "SelfCollisionConstraint", "default_collision_pairs"]
 
 
 @nb.njit(cache=True, nogil=True)
-def _broad_phase(homogeneous, slot, centre_local, radius, pairs, activation, pruning, prev, moved, d_known,
-                 moved_at, out, lower):
-    """Candidate pairs (indices written to ``out``, count returned): bounding spheres closer than ``activation``
-    and, with ``pruning``, ``d_known − (moved_a + moved_b − moved_at) < activation`` (nan d_known: never
-    computed, a candidate). ``homogeneous`` (joints, 4, 4) placements of the joints carrying geometries, ``slot``
-    (ngeoms,) a geometry's row in it; ``prev`` (joints, 4, 4) the placements of the previous call (NaN at the
-    first), overwritten; ``moved`` (ngeoms,) each geometry's accumulated displacement bound, updated:
-    |Δ centre| + ‖ΔR‖_F · radius per call."""
-    ng = slot.shape[0]
-    centre = np.empty((ng, 3))
-    first = np.isnan(prev[0, 0, 0])
-    for g in range(ng):
-        s = slot[g]
+def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
+                 d_known, exact, activation, k_max, mask, cand, buf):
+    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``,
+    mask[a, b] set for them (upper triangle, cleared first), their count returned.
+
+    ``homogeneous`` (njoints, 4, 4) joint placements (``data.oMi``), expressed here in the frame of joint ``ref``
+    (distances do not depend on the frame; the root joint's frame leaves out the floating base's motion).
+    ``joint`` (ngeoms,) parent joint of each geometry, ``centre_local`` (ngeoms, 3) / ``radius`` (ngeoms,) its
+    bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
+    (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
+    each geometry's displacement (|Δc| + ‖ΔR‖_F r per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
+    computed the pair, ``d_known`` its distance then, ``exact`` whether it was ever computed.
+    Per pair: lower bound L = max(sphere gap, d_known − (moved_a + moved_b − moved_at)), upper bound
+    U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th smallest U below
+    ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ."""
+    nj = homogeneous.shape[0]
+    ng = joint.shape[0]
+    rot = np.empty((nj, 3, 3))
+    pos = np.empty((nj, 3))
+    for s in range(nj):
         for i in range(3):
-            c = homogeneous[s, i, 3]
             for j in range(3):
-                c += homogeneous[s, i, j] * centre_local[g, j]
+                x = 0.0
+                for k in range(3):
+                    x += homogeneous[ref, k, i] * homogeneous[s, k, j]
+                rot[s, i, j] = x
+            x = 0.0
+            for k in range(3):
+                x += homogeneous[ref, k, i] * (homogeneous[s, k, 3] - homogeneous[ref, k, 3])
+            pos[s, i] = x
+    centre = np.empty((ng, 3))
+    for g in range(ng):
+        s = joint[g]
+        dc = 0.0
+        for i in range(3):
+            c = pos[s, i]
+            for j in range(3):
+                c += rot[s, i, j] * centre_local[g, j]
             centre[g, i] = c
-        if pruning and not first:
-            dc = 0.0
+            dc += (c - prev_c[g, i]) ** 2
+        if not first:
             dr = 0.0
             for i in range(3):
-                pc = prev[s, i, 3]
                 for j in range(3):
-                    pc += prev[s, i, j] * centre_local[g, j]
-                    e = homogeneous[s, i, j] - prev[s, i, j]
-                    dr += e * e
-                dc += (centre[g, i] - pc) ** 2
+                    dr += (rot[s, i, j] - prev_r[s, i, j]) ** 2
             moved[g] += np.sqrt(dc) + np.sqrt(dr) * radius[g]
-    if pruning:
-        prev[:] = homogeneous
+    prev_c[:] = centre
+    prev_r[:] = rot
+    npairs = pairs.shape[0]
+    nu = 0
+    for k in range(npairs):
+        if exact[k]:
+            u = d_known[k] + (moved[pairs[k, 0]] + moved[pairs[k, 1]] - moved_at[k])
+            if u < activation:
+                buf[nu] = u
+                nu += 1
+    tau = activation
+    if nu >= k_max:
+        tau = np.sort(buf[:nu])[k_max - 1]
+    mask[:, :] = False
     n = 0
-    for k in range(pairs.shape[0]):
+    for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
         d2 = 0.0
         for i in range(3):
             d2 += (centre[a, i] - centre[b, i]) ** 2
-        gap = np.sqrt(d2) - radius[a] - radius[b]
-        if gap >= activation:
+        low = np.sqrt(d2) - radius[a] - radius[b]
+        if low >= activation or low > tau:
             continue
-        bound = d_known[k] - (moved[a] + moved[b] - moved_at[k])  # nan when never computed
-        if pruning and bound >= activation:
-            continue
-        out[n] = k
-        lower[n] = bound if pruning and bound > gap else gap
+        if exact[k]:
+            low = max(low, d_known[k] - (moved[a] + moved[b] - moved_at[k]))
+            if low >= activation or low > tau:
+                continue
+        cand[n] = k
+        mask[a, b] = True
         n += 1
     return n
+
+
+@nb.njit(cache=True, nogil=True)
+def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows):
+    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state) and write to ``rows`` the
+    positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first (ties: lower pair
+    index first); returns their count."""
+    n = cand.shape[0]
+    for i in range(n):
+        k = cand[i]
+        d_known[k] = dist[i]
+        exact[k] = True
+        moved_at[k] = moved[pairs[k, 0]] + moved[pairs[k, 1]]
+    order = np.argsort(dist, kind="mergesort")
+    m = 0
+    for i in order:
+        if m == k_max or dist[i] >= activation:
+            break
+        rows[m] = i
+        m += 1
+    return m
 
 
 @nb.njit(cache=True, nogil=True)
@@ -134,6 +203,23 @@ def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C):
                                        + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
 
 
+@nb.njit(cache=True, nogil=True)
+def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise):
+    """The velocity-damper rows of the m = len(k) close pairs (module docstring): C[:m] (``_damper_rows``), each
+    pair's floor f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN), l[:m] = −γ (d − f); the unused
+    rows C = 0, l = −∞."""
+    m = k.shape[0]
+    C[:, :] = 0.0
+    l[m:] = -np.inf
+    _damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C)
+    for r in range(m):
+        f = floor[k[r]]
+        f = d[r] if np.isnan(f) else max(f, d[r]) + rise
+        f = min(ds, f)
+        floor[k[r]] = f
+        l[r] = -gamma * (d[r] - f)
+
+
 def _adjacent(model: pin.Model, j1: int, j2: int) -> bool:
     return j1 == j2 or model.parents[j1] == j2 or model.parents[j2] == j1
 
@@ -148,6 +234,23 @@ def default_collision_pairs(robot) -> list[tuple[int, int]]:
     geoms = gm.geometryObjects
     return [(cp.first, cp.second) for cp in gm.collisionPairs
             if not _adjacent(robot.model, geoms[cp.first].parentJoint, geoms[cp.second].parentJoint)]
+
+
+class ClosePairs(NamedTuple):
+    """The pairs closer than the activation distance at one configuration, closest first (at most ``max_active``).
+
+    Attributes:
+        pairs: (m,) indices into ``SelfCollisionConstraint.pairs``.
+        distance: (m,) coal distances (m; negative when penetrating).
+        normal: (m, 3) unit normals from body 1 to body 2, WORLD frame (p2 = p1 + distance · normal).
+        p1, p2: (m, 3) witness points on body 1 / body 2, WORLD frame (m).
+    """
+
+    pairs: np.ndarray
+    distance: np.ndarray
+    normal: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
 
 
 class SelfCollisionConstraint(InequalityConstraint):
@@ -166,18 +269,16 @@ class SelfCollisionConstraint(InequalityConstraint):
             (0: the pair is only kept from coming closer).
         max_active: number of rows (the closest active pairs; ≥ 1).
         convex: use the convex hulls of mesh geometries (True, module docstring) or the meshes themselves.
-        temporal_pruning: skip the coal distance of a pair while its last coal distance, minus a bound on how far
-            each of its two bodies moved since (|Δ sphere centre| + ‖ΔR‖_F · sphere radius, summed over calls),
-            stays ≥ the activation distance (a rigorous lower bound: the rows are those of the unpruned
-            computation, distances equal to GJK's 1e-9 m tolerance: coal warm-starts each pair from its previous
-            call, which pruning makes an older one), and compute
-            the remaining candidates in increasing order of that bound, stopping once the bound exceeds the
-            ``max_active``-th smallest distance found. False: coal for every pair that passes the sphere test.
+        broad_phase: True: coal only for the pairs whose distance bounds (module docstring: broad phase) leave
+            them possibly among the ``max_active`` closest pairs within the activation distance (same rows as
+            False, which calls coal for every pair at every call: the exhaustive reference).
         name: label in reports.
 
     Attributes:
+        pairs: (npairs, 2) geometry indices of the watched pairs; ``pair_names`` their geometry names.
         active: after each ``compute``, list of (geometry name 1, geometry name 2, distance m) of the pairs that
             got a row, closest first.
+        coal_calls: number of coal distances computed by the last ``compute``/``close_pairs``.
 
     Raises:
         InvalidInputError: inconsistent distances/gain, unknown names, or no pair left.
@@ -185,7 +286,7 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def __init__(self, robot, *, min_distance: float = 0.02, pairs=None, activation_distance: float = 0.1,
                  gain: float = 50.0, safety_margin: float = 0.003, recovery_speed: float = 0.0,
-                 max_active: int = 32, convex: bool = True, temporal_pruning: bool = True,
+                 max_active: int = 32, convex: bool = True, broad_phase: bool = True,
                  name: str = "self_collision"):
         check_scalar(min_distance, "min_distance", "m")
         if not (math.isfinite(activation_distance) and activation_distance > min_distance):
@@ -194,7 +295,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         check_scalar(safety_margin, "safety_margin", "m")
         check_scalar(recovery_speed, "recovery_speed", "m/s")
         check_count(max_active, "max_active")
-        self.model = robot.model
+        self.model = model = robot.model
         self.name = name
         self.min_distance = float(min_distance)
         self.activation_distance = float(activation_distance)
@@ -203,7 +304,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self.safety_margin = float(safety_margin)
         self.dim = int(max_active)
         gm = robot.collision_model.copy()
-        index_pairs = default_collision_pairs(robot) if pairs is None else self._resolve(robot.model, gm, pairs)
+        index_pairs = default_collision_pairs(robot) if pairs is None else self._resolve(model, gm, pairs)
         if not index_pairs:
             raise InvalidInputError(f"{name}: no collision pair to watch")
         if convex:
@@ -215,17 +316,17 @@ class SelfCollisionConstraint(InequalityConstraint):
         for a, b in index_pairs:
             gm.addCollisionPair(pin.CollisionPair(a, b))
         self.geometry_model = gm
-        self.geometry_data = pin.GeometryData(gm)
-        for req in self.geometry_data.distanceRequests:
+        self.geometry_data = gd = pin.GeometryData(gm)
+        for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
-        self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=int)
+        self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
+        self._witness = [(r, r.getNearestPoint1, r.getNearestPoint2) for r in self._results]
+        self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
+        npairs = len(self.pairs)
         # bounding sphere of each geometry (centre in its parent joint frame, radius), from coal's local AABB
         geoms = np.unique(self.pairs)
-        self._joint = np.array([int(geom.parentJoint) for geom in gm.geometryObjects], dtype=int)
-        self._joints = [int(j) for j in np.unique(self._joint[geoms])]
-        slot = {j: i for i, j in enumerate(self._joints)}
-        self._slot = np.array([slot.get(int(j), 0) for j in self._joint], dtype=int)
+        self._joint = np.array([int(geom.parentJoint) for geom in gm.geometryObjects], dtype=np.int64)
         self._centre_local = np.zeros((gm.ngeoms, 3))
         self._radius = np.zeros(gm.ngeoms)
         for g in geoms:
@@ -233,20 +334,39 @@ class SelfCollisionConstraint(InequalityConstraint):
             geom.geometry.computeLocalAABB()
             self._centre_local[g] = geom.placement.act(np.asarray(geom.geometry.aabb_center))
             self._radius[g] = geom.geometry.aabb_radius
+        self._pair_joint = self._joint[self.pairs]  # (npairs, 2)
+        self.broad_phase = bool(broad_phase)
+        # reference frame of the broad phase's displacements: the root joint (its motion moves every body alike)
+        self._ref = 1 if model.njoints > 1 else 0
         # velocity of a point p of joint j's body: columns of data.J (WORLD) in j's support, ṗ = v_O + ω × p
-        self._support = np.zeros((self.model.njoints, self.model.nv))
-        for j in range(1, self.model.njoints):
-            for i in self.model.supports[j]:
-                joint = self.model.joints[i]
+        self._support = np.zeros((model.njoints, model.nv))
+        for j in range(1, model.njoints):
+            for i in model.supports[j]:
+                joint = model.joints[i]
                 if i > 0:
                     self._support[j, joint.idx_v:joint.idx_v + joint.nv] = 1.0
-        self._C = np.zeros((self.dim, self.model.nv))
+        self._C = np.zeros((self.dim, model.nv))
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
-        self.active: list[tuple[str, str, float]] = []
-        self._floor = np.full(len(self.pairs), np.nan)
-        self.temporal_pruning = bool(temporal_pruning)
-        self._forget_distances()
+        self._empty = np.zeros((0, 3))
+        self._mask = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        self._all = np.arange(npairs, dtype=np.int64)
+        self._cand = np.empty(npairs, dtype=np.int64)
+        self._buf = np.empty(npairs)
+        self._rows = np.empty(self.dim, dtype=np.int64)
+        self._floor = np.full(npairs, np.nan)
+        self._d_known = np.full(npairs, np.inf)
+        self._exact = np.zeros(npairs, dtype=bool)
+        self._moved = np.zeros(gm.ngeoms)
+        self._moved_at = np.zeros(npairs)
+        self._prev_c = np.zeros((gm.ngeoms, 3))
+        self._prev_r = np.zeros((model.njoints, 3, 3))
+        self._first = True
+        self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
+        self.coal_calls = 0
+        if not self.broad_phase:
+            self._mask[self.pairs[:, 0], self.pairs[:, 1]] = True
+            gd.setActiveCollisionPairs(gm, self._mask, True)
 
     @staticmethod
     def _resolve(model: pin.Model, gm: pin.GeometryModel, pairs) -> list[tuple[int, int]]:
@@ -268,99 +388,120 @@ class SelfCollisionConstraint(InequalityConstraint):
                         out.append((min(a, b), max(a, b)))
         return sorted(set(out))
 
-    def _candidates(self, data: pin.Data) -> np.ndarray:
-        """Pair indices that may be closer than the activation distance: their bounding spheres are, and (with
-        ``temporal_pruning``) so may their last coal distance minus how far the two bodies moved since then:
-        every point p of a geometry moved by at most |Δc| + ‖ΔR‖₂ r ≤ |Δc| + ‖ΔR‖_F r per call (c its sphere
-        centre, r its radius, R its joint's rotation: p − c = R (p_local − c_local)), and a distance is
-        1-Lipschitz in each body's displacement: d_now ≥ d_then − moved_a − moved_b."""
-        oMi = data.oMi
-        homogeneous = np.array([oMi[j].homogeneous for j in self._joints])  # (joints, 4, 4)
-        n = _broad_phase(homogeneous, self._slot, self._centre_local, self._radius, self.pairs,
-                         self.activation_distance, self.temporal_pruning, self._prev, self._moved, self._d_known,
-                         self._moved_at, self._cand, self._lower)
-        return self._cand[:n], self._lower[:n]
-
     def distances(self, config: Configuration, pair_indices=None) -> np.ndarray:
-        """Coal distances (m) of the watched pairs (all, or ``pair_indices``) at ``config``."""
+        """Coal distances (m) of the watched pairs (all, or ``pair_indices``) at ``config`` (no broad phase)."""
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(self.model, config.data, gm, gd)
         idx = range(len(self.pairs)) if pair_indices is None else pair_indices
         return np.array([pin.computeDistance(gm, gd, int(k)).min_distance for k in idx])
 
-    def _closest(self, cand: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, list]:
-        """Coal distances of the candidates in increasing order of their distance lower bound, stopping once the
-        next bound exceeds the ``max_active``-th smallest distance below the activation distance found so far
-        (a pair left out is farther than every pair that gets a row). Returns (computed pair indices in their
-        original order, their coal results)."""
-        gm, gd = self.geometry_model, self.geometry_data
-        act, k_max = self.activation_distance, self.dim
-        heap: list[float] = []  # −distance of the k_max closest pairs within the activation distance
-        done, results = [], []
-        for i in np.argsort(lower, kind="stable").tolist():
-            if len(heap) == k_max and lower[i] > -heap[0]:
-                break
-            res = pin.computeDistance(gm, gd, int(cand[i]))
-            done.append(i)
-            results.append(res)
-            d = res.min_distance
-            if d < act:
-                if len(heap) < k_max:
-                    heapq.heappush(heap, -d)
-                elif d < -heap[0]:
-                    heapq.heapreplace(heap, -d)
-        perm = np.argsort(done, kind="stable")
-        return cand[np.asarray(done)[perm]], [results[p] for p in perm.tolist()]
+    def close_pairs(self, config: Configuration) -> ClosePairs:
+        """The (at most ``max_active``) pairs closer than the activation distance at ``config``, closest first, with
+        their coal distances, normals and witness points (:class:`ClosePairs`; the arrays are views of buffers
+        overwritten by the next call). ``config.data`` must hold the joint placements of ``config.q`` (as after
+        ``Configuration.update``). With ``broad_phase``, coal runs only on the candidates of the module docstring's
+        bounds, which are updated from the placements of the previous call (any jump is accounted for); the
+        result is the same as without."""
+        self._narrow(config)
+        return self._found
 
-    def compute(self, config: Configuration, dt: float):
-        """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring)."""
+    def _narrow(self, config: Configuration) -> int:
+        """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``;
+        returns the number of rows m."""
         model, data = self.model, config.data
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
-        cand, lower = self._candidates(data)
-        if self.temporal_pruning and cand.size > self.dim:
-            cand, results = self._closest(cand, lower)
+        if self.broad_phase:
+            homogeneous = np.array([M.homogeneous for M in data.oMi.tolist()])
+            n = _broad_phase(homogeneous, self._ref, self._joint, self._centre_local, self._radius, self.pairs,
+                             self._first, self._prev_c, self._prev_r, self._moved, self._moved_at, self._d_known,
+                             self._exact, self.activation_distance, self.dim, self._mask, self._cand, self._buf)
+            self._first = False
+            cand = self._cand[:n]
+            gd.setActiveCollisionPairs(gm, self._mask, True)
         else:
-            results = [pin.computeDistance(gm, gd, k) for k in cand.tolist()]
-        dist = np.array([res.min_distance for res in results])
-        if self.temporal_pruning and cand.size:
-            self._d_known[cand] = dist
-            self._moved_at[cand] = self._moved[self.pairs[cand, 0]] + self._moved[self.pairs[cand, 1]]
-        within = np.flatnonzero(dist < self.activation_distance)
-        order = within[np.argsort(dist[within], kind="stable")][:self.dim]  # closest first
-        found = [(results[i].min_distance, int(cand[i]), results[i]) for i in order.tolist()]
-        m = len(found)
-        C, l = self._C, self._l
-        C[m:] = 0.0
-        l[m:] = -np.inf
-        self.active = [(*self.pair_names[k], float(d)) for d, k, _ in found]
-        if not m:
-            return C, l, self._u
-        d = np.array([item[0] for item in found])
-        k = np.array([item[1] for item in found])
-        n = np.array([item[2].normal for item in found])
-        p1 = np.array([item[2].getNearestPoint1() for item in found])
-        p2 = np.array([item[2].getNearestPoint2() for item in found])
+            cand = self._all
+        pin.computeDistances(gm, gd)
+        res = self._results
+        dl = [res[k].min_distance for k in cand.tolist()]
+        dist = np.array(dl)
+        self.coal_calls = len(dl)
+        m = _narrow_phase_done(cand, dist, self.activation_distance, self.dim, self.pairs, self._d_known,
+                               self._exact, self._moved, self._moved_at, self._rows)
+        k = cand[self._rows[:m]]
+        kl = k.tolist()
+        if m:
+            wit = self._witness
+            # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
+            # simplex), enough to change a closed-loop run
+            w = np.array([(a(), b(), r.normal) for r, a, b in [wit[kk] for kk in kl]])  # (m, 3, 3)
+            p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
+        else:
+            p1 = p2 = normal = self._empty
+        d = dist[self._rows[:m]]
+        self._found = ClosePairs(k, d, normal, p1, p2)
+        return m
+
+    def distance_jacobian(self, config: Configuration, close: ClosePairs, out: np.ndarray | None = None) -> np.ndarray:
+        """(m, nv) rows ∂d/∂v of the distances of ``close`` (module docstring: ḋ = row · v), from ``config.data.J``
+        (WORLD joint Jacobians, filled by ``Configuration.update``); written to ``out`` (m, nv) if given."""
+        m = len(close.pairs)
+        C = np.zeros((m, self.model.nv)) if out is None else out
         C[:m] = 0.0
-        # data.J: (6, nv) joint Jacobians in WORLD, filled by computeJointJacobians (Configuration.update)
-        _damper_rows(n, p1, p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]], data.J,
-                     self._support, C)
-        gamma, ds = min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin
+        k = close.pairs
+        _damper_rows(close.normal, close.p1, close.p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]],
+                     config.data.J, self._support, C)
+        return C
+
+    @property
+    def active(self) -> list[tuple[str, str, float]]:
+        names = self.pair_names
+        return [(*names[k], d) for k, d in zip(self._found.pairs.tolist(), self._found.distance.tolist())]
+
+    def compute(self, config: Configuration, dt: float):
+        """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring)."""
+        self._narrow(config)
+        f = self._found
+        _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, config.data.J, self._support, self._C,
+                self._l, self._floor, min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin,
+                self.recovery_speed * dt)
+        return self._C, self._l, self._u
+
+    def barrier(self, state, dt: float):
+        """(h (max_active,) m, G (max_active, nv), Ġv (max_active,) m/s²) at a DynamicsState: per active pair
+        h = d − f (its floor, module docstring, updated as by :meth:`compute`), G the damper row (ḋ = G v), and
+        Ġv = nᵀ(p̈2 − p̈1) with p̈_k the classical acceleration at v̇ = 0 of body k's material point at its witness
+        point (Pinocchio's joint velocity and acceleration ``data.v``, ``data.a``). The terms of the witness
+        normal's rotation (2ṅᵀ(ṗ2 − ṗ1) − d|ṅ|²) are left out: first order in the bodies' relative angular
+        velocity, they vanish for translating bodies. Unused rows: h = +inf, G = 0, Ġv = 0."""
+        close = self.close_pairs(state)
+        m = len(close.pairs)
+        G = self._C
+        G[:] = 0.0
+        h = np.full(self.dim, np.inf)
+        drift = np.zeros(self.dim)
+        if not m:
+            return h, G, drift
+        self.distance_jacobian(state, close, out=G)
+        k, d = close.pairs, close.distance
         prev = self._floor[k]
-        floor = np.minimum(ds, np.where(np.isnan(prev), d, np.fmax(prev, d) + self.recovery_speed * dt))
+        floor = np.minimum(self.min_distance + self.safety_margin,
+                           np.where(np.isnan(prev), d, np.fmax(prev, d) + self.recovery_speed * dt))
         self._floor[k] = floor
-        l[:m] = -gamma * (d - floor)
-        return C, l, self._u
+        h[:m] = d - floor
+        data = state.data
+        for r in range(m):
+            acc = []
+            for side, p in ((0, close.p1[r]), (1, close.p2[r])):
+                j = int(self._joint[self.pairs[k[r], side]])
+                at = pin.SE3(np.eye(3), data.oMi[j].actInv(np.asarray(p)))  # the point, joint axes
+                v, a = at.actInv(data.v[j]), at.actInv(data.a[j])
+                acc.append(data.oMi[j].rotation @ (a.linear + np.cross(v.angular, v.linear)))
+            drift[r] = close.normal[r] @ (acc[1] - acc[0])
+        return h, G, drift
 
     def reset(self) -> None:
-        """Forget the per-pair floors (module docstring), e.g. after teleporting the robot."""
+        """Forget the per-pair floors (module docstring) and the broad phase's bounds, e.g. after teleporting."""
         self._floor[:] = np.nan
-        self._forget_distances()
-
-    def _forget_distances(self) -> None:
-        self._d_known = np.full(len(self.pairs), np.nan)
-        self._moved_at = np.zeros(len(self.pairs))
-        self._moved = np.zeros(self.geometry_model.ngeoms)
-        self._prev = np.full((len(self._joints), 4, 4), np.nan)
-        self._cand = np.empty(len(self.pairs), dtype=np.int64)
-        self._lower = np.empty(len(self.pairs))
+        self._first = True
+        self._exact[:] = False

@@ -124,6 +124,20 @@ def _zmp_record(v, c_now, J_now, A_now, dt, c_prev, c_pred, L_prev, J_prev, v_pr
     return True
 
 
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_zmp_rows` and :func:`_zmp_record` (on-disk cache) once per process, at construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
+        _zmp_rows(c, J, J, v, c, c, np.zeros((1, 2)), np.zeros(1), 1.0, 9.81, 0.002, True, J, c, 1.0, 0.5,
+                  np.zeros((3, 1)), np.zeros((2, 1)), np.zeros(2))
+        _zmp_record(v, c, J, J, 0.002, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 1)), np.zeros(1))
+
+
 class ExecutedZmpConstraint(InequalityConstraint):
     """ZMP of the executed CoM motion inside the support polygon shrunk by ``margin`` (module docstring).
 
@@ -180,6 +194,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._L_prev = np.zeros(3)               # L_{k−1}
         self._c_prev: np.ndarray | None = None   # c_{k−1}
         self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
+        _warm_up()
 
     def set_support(self, sole_placements) -> None:
         """Support polygon = hull of the sole rectangles at these placements (pin.SE3 or (4, 4), world); the ground

@@ -1,4 +1,10 @@
-"""Inverse-dynamics QP for a floating-base robot in contact.
+"""Acceleration-level formulation: the inverse-dynamics QP for a floating-base robot in contact.
+
+It assembles the shared task objects of :mod:`wbc.tasks` as (J_i, a*_i − J̇_i v) (their e, J and drift J̇v, with the
+PD reference a*_i of :class:`~wbc.formulations.reference.AccelerationReference`) — the velocity-level formulation
+(:mod:`wbc.formulations.velocity`) uses the same objects as (J_i, v*_i) — and named constraint objects
+(:mod:`wbc.constraints.dynamics`, plus any kinematic constraint of :mod:`wbc.constraints` with a barrier form,
+under its own name: ``com_polygon``, ``self_collision``).
 
 The problem, solved once per control tick of period dt (s), at the measured state (q, v):
 
@@ -25,6 +31,8 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
             F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis)            (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
             v̇_lo ≤ v̇_joints ≤ v̇_hi                      (joint position/velocity limits, below)             (9)
+            G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j       for each added barrier j (h_j(q) ≥ 0, ḣ_j = G_j v:   (10)
+                                                        CoM polygon, self-collision; :meth:`add_constraint`)
 
 Joint acceleration bounds (9), per 1-DoF joint with limits [q_min, q_max], |v| ≤ v_max (URDF), and a braking
 acceleration a_brk (``braking_acceleration``, rad/s²):
@@ -44,9 +52,9 @@ q_max), the bounds would demand an arbitrarily large braking acceleration in one
 cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
 best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
 
-Every constraint (4)–(9) is a named object of :mod:`wbc.constraints.dynamics` (``floating_base_dynamics``,
-``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``; plus ``task:<t>`` for
-a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
+Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics` (``floating_base_dynamics``,
+``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
+name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
 them in place every tick; the friction rows are constant and written once. When the QP is infeasible,
 :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints (:mod:`wbc.diagnosis`).
@@ -63,8 +71,10 @@ from time import perf_counter
 import numpy as np
 
 from wbc.diagnosis import diagnose
+from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.dynamics import (
     DEPENDENT_CONTACT_RATIO,
+    AccelerationBarrier,
     ContactAcceleration,
     FloatingBaseDynamics,
     FrictionPyramid,
@@ -188,6 +198,8 @@ class InverseDynamicsQP:
         for con in (self.torque_limits, *self.friction):
             con.rows = slice(r, r + con.dim)
             r += con.dim
+        self._r0 = r  # inequality rows before the added constraints (add_constraint)
+        self.extra_constraints: list[IDConstraint] = []
         # Preallocated blocks.
         self._H = np.zeros((n, n))
         self._g = np.zeros(n)
@@ -212,7 +224,7 @@ class InverseDynamicsQP:
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
         #: directions of the stacked active contact rows projected out of their right-hand side at the last build
-        #: (:func:`wbc.dynamics.constraints.consistent_contact_rhs`; 0 for legs that can yaw the foot)
+        #: (:func:`wbc.constraints.dynamics.consistent_contact_rhs`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
@@ -227,7 +239,52 @@ class InverseDynamicsQP:
     def constraints(self) -> list[IDConstraint]:
         """Every named constraint: equalities (dynamics, active contacts, hard tasks), inequalities, bounds."""
         return [self.dynamics, *self.contact_accelerations, *self.hard_tasks, self.torque_limits, *self.friction,
-                *self.unilaterality, self.joint_acceleration_limits]
+                *self.extra_constraints, *self.unilaterality, self.joint_acceleration_limits]
+
+    def add_constraint(self, constraint, *, gain: float = 10.0) -> IDConstraint:
+        """Add an inequality constraint under its name: an inequality :class:`~wbc.constraints.dynamics.IDConstraint`,
+        or a kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
+        ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.dynamics.AccelerationBarrier` with γ =
+        ``gain`` (1/s). While one is present the general (DAQP) path solves the QP.
+
+        Returns:
+            the ID constraint added (remove it with it, or with the kinematic constraint).
+
+        Raises:
+            InvalidInputError: another kind of object, no barrier form, bad gain, or a name already in the QP.
+        """
+        if isinstance(constraint, InequalityConstraint):
+            constraint = AccelerationBarrier(constraint, gain=gain)
+        if not isinstance(constraint, IDConstraint) or constraint.kind != "inequality":
+            raise InvalidInputError(f"add_constraint takes an inequality constraint, got {type(constraint).__name__}")
+        if any(c.name == constraint.name for c in self.constraints):
+            raise InvalidInputError(f"a constraint named {constraint.name!r} is already in the QP")
+        self.extra_constraints.append(constraint)
+        self._layout_inequalities()
+        return constraint
+
+    def remove_constraint(self, constraint) -> None:
+        """Remove a constraint added by :meth:`add_constraint` (the ID constraint or the kinematic one it holds).
+
+        Raises:
+            ValueError: not in the QP.
+        """
+        for con in self.extra_constraints:
+            if con is constraint or getattr(con, "constraint", None) is constraint:
+                self.extra_constraints.remove(con)
+                self._layout_inequalities()
+                return
+        raise ValueError(f"{constraint!r} is not in the QP")
+
+    def _layout_inequalities(self) -> None:
+        r = self._r0
+        for con in self.extra_constraints:
+            con.rows = slice(r, r + con.dim)
+            r += con.dim
+        C, l, u = np.zeros((r, self.n)), np.full(r, -np.inf), np.zeros(r)
+        r0 = self._r0
+        C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
+        self._C, self._l, self._u = C, l, u
 
     # -- problem definition ----------------------------------------------------------------------------------
     def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
@@ -339,6 +396,8 @@ class InverseDynamicsQP:
         C, l, u = self._C, self._l, self._u
         tl = self.torque_limits
         tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
+        for con in self.extra_constraints:
+            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
         lb, ub = self._lb, self._ub
         for con, s in zip(self.unilaterality, self._force_slices):
             key = con.key()
@@ -403,7 +462,7 @@ class InverseDynamicsQP:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
-        if self._kernel is not None and not self.hard_tasks:
+        if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)

@@ -1,6 +1,8 @@
-"""Kinematic (velocity-level) QP whole-body controller.
+"""Velocity-level formulation: the kinematic QP whole-body controller (:class:`KinematicController`).
 
-The optimisation problem, solved once per control tick of period dt (s), with v ∈ R^nv the generalized
+It assembles the shared task objects of :mod:`wbc.tasks` as (J_i, v*_i) — the acceleration-level formulation
+(:mod:`wbc.formulations.acceleration`) uses the same objects as (J_i, a*_i − J̇_i v) — and the constraint objects
+of :mod:`wbc.constraints` (their ``compute`` rows on v). The optimisation problem, solved once per control tick of period dt (s), with v ∈ R^nv the generalized
 velocity (floating base included):
 
     min_v   Σ_i ‖ diag(√w_i) (J_i v − v*_i) ‖²  +  ε ‖v‖²                     (weighted tasks)
@@ -193,6 +195,9 @@ class KinematicController:
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
         self._layout_ok = False
+        self._layout_key: tuple | None = None
+        self._layouts: dict[tuple, dict] = {}
+        self._soft_layouts: dict[tuple, tuple] = {}
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -360,7 +365,27 @@ class KinematicController:
 
     # -- assembly -------------------------------------------------------------------------------------------
     def _build_layout(self) -> None:
-        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change)."""
+        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change).
+
+        Layouts are kept per constraint list (the same objects in the same order, with the same row counts), so
+        that a support switch that returns to an earlier set of contacts reuses its layout, buffers and the
+        intersection of its constant boxes instead of building them again."""
+        key = tuple((id(c), c.dim) for c in self.constraints)
+        if self._layout_key is not None:  # keep the current layout (with what _intersect_boxes cached since)
+            self._layouts[self._layout_key] = {a: getattr(self, a) for a in _LAYOUT_ATTRS if hasattr(self, a)}
+            while len(self._layouts) > 16:
+                self._layouts.pop(next(iter(self._layouts)))
+        cached = self._layouts.get(key)
+        if cached is not None and len(cached["_constraints"]) == len(self.constraints) and all(
+                a is b for a, b in zip(cached["_constraints"], self.constraints)):
+            for a, value in cached.items():
+                setattr(self, a, value)
+            self._layout_key = key
+            self._layout_ok = True
+            return
+        self._layout_key = key
+        self._constraints = list(self.constraints)
+        self._const_lb = self._const_ub = None
         eq = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
         ineq = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
         self._box = sorted((c for c in self.constraints if isinstance(c, BoxConstraint)), key=lambda c: c.priority)
@@ -395,7 +420,14 @@ class KinematicController:
 
     def _build_soft_layout(self) -> None:
         """Rows of the stacked soft tasks that use the generic cost (``Task.add_cost``); the others (e.g. the
-        posture task's diagonal cost) add their own. Redone when ``tasks`` changes."""
+        posture task's diagonal cost) add their own. Redone when ``tasks`` changes; kept per task list (the same
+        task objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
+        key = tuple((id(t), t.dim) for t in self.tasks)
+        cached = self._soft_layouts.get(key)
+        if cached is not None and all(a is b for a, b in zip(cached[0], self.tasks)):
+            (self._soft_tasks, self._soft_dense, self._soft_own, self._soft_J, self._soft_w,
+             self._soft_r) = cached
+            return
         self._soft_tasks = list(self.tasks)
         self._soft_dense, self._soft_own = [], []
         row = 0
@@ -410,6 +442,10 @@ class KinematicController:
         self._soft_J = np.zeros((row, self.nv))
         self._soft_w = np.zeros(row)
         self._soft_r = np.zeros(row)
+        self._soft_layouts[key] = (self._soft_tasks, self._soft_dense, self._soft_own, self._soft_J, self._soft_w,
+                                   self._soft_r)
+        while len(self._soft_layouts) > 16:
+            self._soft_layouts.pop(next(iter(self._soft_layouts)))
 
     def assemble(self, config: Configuration, dt: float):
         """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
@@ -667,25 +703,38 @@ class KinematicController:
 
     def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
-        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP)."""
+        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
+
+        When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
+        the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask
+        a large v in the nearly singular direction (measured on humanoid15: 25 rad/s, drift 8e-5 m) and their
+        ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
+        the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
-        lb0, ub0 = self._lb.copy(), self._ub.copy()
+        lb0, ub0, b0 = self._lb.copy(), self._ub.copy(), self._b.copy()
         best_v, best = v, drift
         rho = float(np.max(np.abs(v)))
+        basis = self._contact_range_basis() if self._contact_rows.size else None
+        radii = [rho * 0.5 ** k for k in range(1, 9)]
         try:
-            for _ in range(8):
-                rho *= 0.5
-                np.clip(lb0, -rho, rho, out=self._lb)
-                np.clip(ub0, -rho, rho, out=self._ub)
+            if basis is not None:
+                cr = self._contact_rows
+                self._b[cr] = basis @ (basis.T @ self._b[cr])
+                radii.insert(0, math.inf)  # first the whole box, with consistent contact rows
+            for radius in radii:
+                np.clip(lb0, -radius, radius, out=self._lb)
+                np.clip(ub0, -radius, radius, out=self._ub)
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
                 np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
                 try:
                     v_tr = solve(config)
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
+                if self.contact_correction > 0:
+                    v_tr = self._correct_contacts(config, dt, v_tr, solve)
                 d = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d
@@ -694,6 +743,7 @@ class KinematicController:
         finally:
             np.copyto(self._lb, lb0)
             np.copyto(self._ub, ub0)
+            np.copyto(self._b, b0)
         if best <= self.sole_drift_tolerance:
             return TickResult(best_v, relaxed=relaxed, sole_drift=best)
         return TickResult(best_v, ok=False, relaxed=relaxed, sole_drift=best, fallback="trust_region",
@@ -855,6 +905,12 @@ class KinematicController:
             conflicts += [(t.name, float("nan")) for t in tasks
                           if not all(np.isfinite(x).all() for x in t.compute(config))]
         return conflicts
+
+
+#: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
+_LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
+                 "_const_prefix", "_const_lb", "_const_ub", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
+                 "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task")
 
 
 def _row_blocks(constraints) -> tuple[list, int]:

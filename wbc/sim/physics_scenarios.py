@@ -24,7 +24,7 @@ After the November merges (compiled frame-task errors, equal to Pinocchio's to 1
 Walking: at a touch-down the right-hand side of the two soles' rows is inconsistent along the dependent direction
 (a relative foot yaw acceleration the legs cannot produce); the QP was infeasible, the relaxed QP answered with kN
 forces and humanoid15 fell at its first landing. The ID QP now projects that right-hand side onto the
-well-conditioned rows (:func:`wbc.dynamics.constraints.consistent_contact_rhs`, σ < 1e-2 σ_max counts as
+well-conditioned rows (:func:`wbc.constraints.dynamics.consistent_contact_rhs`, σ < 1e-2 σ_max counts as
 dependent); humanoid15 then walks (``wbc sim walk --robot humanoid15 --steps 10``: 1.349 of 1.35 m, 0 failed
 ticks).
 """

@@ -164,7 +164,8 @@ class WalkScenario:
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
             adjusted landing by more than 5 cm: landing sooner, the DCM has diverged less when the new stance
             starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
-            cannot cross the stance leg. Once per swing, and never more than the swing foot can still travel:
+            cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
+            ``_capturable``). Once per swing, and never more than the swing foot can still travel:
             the remaining time is kept ≥ (distance from the foot to its new landing) / ``max_swing_speed`` (m/s,
             default 2: a swing compressed further touched down on its way, 43 cm short of its target, and the
             walk fell — Talos, 300 N, seed 3 of ``benchmarks/walk_push_trials.py``).
@@ -484,7 +485,7 @@ class WalkScenario:
         skip = 0
         clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
         if self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
-                and not (self._skipped == idx):
+                and not (self._skipped == idx) and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             foot = self._data.oMf[self._fid[side]].translation[:2]
@@ -522,6 +523,17 @@ class WalkScenario:
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _capturable(self, xi: np.ndarray, stance: str) -> bool:
+        """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
+        DCM the DCM stays put (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6) — the state is 0-step capturable (Pratt et
+        al. 2006; Koolen et al., IJRR 31(9), 2012) and landing sooner gains nothing, while the swing, hurried,
+        may land short of its target (seeds 3 and 38 of ``benchmarks/walk_push_trials.py``, after a wide
+        lateral step had put the stance sole under the DCM)."""
+        r = self.robot
+        sole = projected_sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
+                                      r.sole_width - 2 * self.cop_margin)
+        return polygon_margin(np.asarray(xi, float), convex_hull(sole)) >= 0.0
 
     # -- summary -------------------------------------------------------------------------------------------
     def criteria(self) -> list[Criterion]:

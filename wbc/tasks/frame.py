@@ -78,6 +78,22 @@ def _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_o
             jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
 
 
+_WARM = False  # the compiled row writer loaded (from the on-disk cache) in this process
+
+
+def _warm_up() -> None:
+    """Load :func:`_frame_rows` for the array types of a real call (Pinocchio's F-ordered rotation, C-ordered
+    Jacobians), once per process: at task construction, not inside a controller's first tick."""
+    global _WARM
+    if _WARM:
+        return
+    _WARM = True
+    rot, jac, rows = np.asfortranarray(np.eye(3)), np.zeros((6, 1)), np.arange(6)
+    e, j = np.empty(6), np.empty((6, 1))
+    _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows
+    _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
+
+
 def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
     """(6,) error and (6, nv) Jacobian of frame ``frame_id`` w.r.t. ``target`` (see module docstring)."""
     return pose_error_and_jacobian(config.data.oMf[frame_id], config.frame_jacobian(frame_id, LOCAL), target)
@@ -118,6 +134,7 @@ class FrameTask(Task):
         self._ff6 = np.zeros(6)
         self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
+        _warm_up()
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
         """Set the target placement (pin.SE3 or (4,4), world) and optionally its spatial velocity
@@ -148,7 +165,6 @@ class FrameTask(Task):
         rot = pose[:3, :3]
         self._target = pin.SE3(rot, pose[:3, 3])
         self._target_rot_t = rot.T.copy()
-        self._target_rot = np.array(rot, order="C")
         self._target_pos = np.array(pose[:3, 3], dtype=float)
         if velocity is None:
             self._ff = None
@@ -168,7 +184,6 @@ class FrameTask(Task):
         pose = as_se3(pose, f"target of {self.name}")
         self._target = pose
         self._target_rot_t = pose.rotation.T.copy()
-        self._target_rot = np.array(pose.rotation, order="C")
         self._target_pos = np.array(pose.translation)
 
     def set_target_from_configuration(self, config: Configuration) -> None:

@@ -6,6 +6,7 @@ q ⊖ q* is ``pin.difference(model, q*, q)``, so continuous joints and the manif
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -14,6 +15,27 @@ from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["PostureTask"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _diagonal_cost(diff, start, weight, gain, H, g):
+    """H[i, i] += w_k and g[i] −= w_k (−K e_k) for the contiguous rows i = start + k, e = diff[start:start + k]
+    (``pin.difference``): the cost of a selection Jacobian with v* = −K e, compiled (assembly arithmetic)."""
+    for k in range(weight.shape[0]):
+        i = start + k
+        H[i, i] += weight[k]
+        g[i] -= weight[k] * (-gain * diff[i])
+
+
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load :func:`_diagonal_cost` (on-disk cache) once per process, at task construction."""
+    global _WARM
+    if not _WARM:
+        _WARM = True
+        _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
 
 
 class PostureTask(Task):
@@ -51,6 +73,7 @@ class PostureTask(Task):
         self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
         self._vspan = slice(int(self.rows[0]), int(self.rows[-1]) + 1) if contiguous else None  # rows of v as a slice
         self.target = np.array(robot.q_ref, dtype=float)
+        _warm_up()
 
     def set_target(self, q) -> None:
         """Target configuration (nq,) (only the regulated joints matter).
@@ -73,7 +96,11 @@ class PostureTask(Task):
 
     def add_cost(self, config: Configuration, H: np.ndarray, g: np.ndarray) -> None:
         """J selects coordinates of v, so Jᵀ W J is diagonal: added without forming J."""
-        if self._span is not None:  # contiguous rows: views (a strided one of H's diagonal), no fancy indexing
+        if self._span is not None and type(self).velocity_target is Task.velocity_target and \
+                type(self).feedforward is Task.feedforward:  # contiguous rows, v* = −K e: one compiled loop
+            _diagonal_cost(pin.difference(self.model, self._target, config.q), self._vspan.start, self._weight,
+                           self._gain, H, g)
+        elif self._span is not None:  # contiguous rows: views (a strided one of H's diagonal), no fancy indexing
             error = pin.difference(self.model, self._target, config.q)[self._vspan]
             H.ravel()[self._span] += self._weight
             g[self._vspan] -= self._weight * self.velocity_target(error)
