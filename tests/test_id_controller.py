@@ -184,7 +184,8 @@ def test_solvers_agree_and_fallback(robots):
         def solve(self, *args):
             raise SolverError("broken on purpose")
 
-    ctrl = BalanceController(robot)
+    # the general path (the default compiled tick only reaches its backend on a fallback)
+    ctrl = BalanceController(robot, solver="daqp")
     ctrl.reset(robot.q_ref)
     ctrl.qp.backend = Broken()
     cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))

@@ -50,7 +50,8 @@ def register(subparsers, add_outputs) -> None:
                         "planned height within the torque limits (see wbc.sim.jump_sweep)")
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
-    p.add_argument("--solver", default="daqp", choices=available_solvers(), help="QP backend (default daqp)")
+    p.add_argument("--solver", default="fast", choices=available_solvers(),
+                   help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")

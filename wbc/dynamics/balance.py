@@ -57,7 +57,8 @@ class IDBalanceController:
     Args:
         robot: the robot.
         dt: control period (s).
-        solver: QP backend name.
+        solver: QP backend name (default ``fast``: the compiled ID tick of :mod:`wbc.formulations.idkernel`, DAQP as
+            its fallback; ``daqp``: the general path).
         mu: friction coefficient of the controller's pyramids.
         f_min: minimum normal force per sole corner (N).
         sole_margin: the controller's contact rectangle is the sole shrunk by this much on every side (m), so
@@ -70,7 +71,7 @@ class IDBalanceController:
 
     SIDES = ("left", "right")
 
-    def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "daqp", mu: float = 0.7,
+    def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
                  **qp_options):
         unknown = set(gains or {}) - set(DEFAULT_GAINS)

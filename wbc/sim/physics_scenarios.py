@@ -65,11 +65,12 @@ def contacts_rank_deficient(robot, tol: float = 1e-9) -> bool:
     return bool(s[-1] < tol * s[0])
 
 
-def id_options_for(robot, solver: str = "daqp") -> dict:
+def id_options_for(robot, solver: str = "fast") -> dict:
     """Keyword options (``solver``, maybe ``sole_margin``) of :class:`~wbc.dynamics.balance.BalanceController`
-    for ``robot``: ``{"solver": solver}``, or for near rank-deficient two-sole contacts with DAQP a DAQP backend
+    for ``robot``: ``{"solver": solver}``, or for near rank-deficient two-sole contacts with DAQP or ``fast`` (whose
+    compiled tick would fall back on the dependent contact rows anyway) a DAQP backend
     with ``primal_tol`` 1e-6 and ``sole_margin`` 0.02 m (module docstring)."""
-    if solver != "daqp" or not contacts_rank_deficient(robot):
+    if solver not in ("daqp", "fast") or not contacts_rank_deficient(robot):
         return {"solver": solver}
     return {"solver": make_backend("daqp", **DAQP_RANK_DEFICIENT), "sole_margin": 0.02}
 

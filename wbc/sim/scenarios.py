@@ -371,7 +371,7 @@ def acceptance(summary: dict, scenario) -> tuple[bool, list[str]]:
     return evaluate(summary, scenario.criteria())
 
 
-def make_controller(robot, kind: str = "id", *, dt: float = 0.002, solver: str = "daqp", **options):
+def make_controller(robot, kind: str = "id", *, dt: float = 0.002, solver: str = "fast", **options):
     """``"id"`` → :class:`~wbc.dynamics.balance.BalanceController` (``options`` passed on), ``"pd"`` →
     :class:`~wbc.sim.baseline.JointPDController`.
 
