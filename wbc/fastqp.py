@@ -28,11 +28,12 @@ import time
 import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.qp import DaqpBackend
 
 __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "ensure_compiled",
-           "forward_substitution", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
-           "weighted_normal_equations"]
+           "forward_substitution", "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws",
+           "warm_up", "weighted_normal_equations"]
 
 #: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = -1
@@ -83,6 +84,22 @@ def backward_substitution(L, k, v):
         for p in range(i + 1, k):
             t -= L[p, i] * v[p]
         v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, fastmath=_FM, nogil=True)
+def primal_from_multipliers(L, n, t, Y, nu, m, x):
+    """x[:n] ← −L⁻ᵀ (t[:n] + Σ_k<m nu_k Y[k, :n]): the primal step of a Cholesky/Schur KKT solve (H = L Lᵀ, t = L⁻¹ g,
+    Y = L⁻¹ Aᵀ row by row, nu the equality multipliers), compiled; x may be t itself."""
+    for a in range(n):
+        x[a] = t[a]
+    for k in range(m):
+        nk = nu[k]
+        yk = Y[k]
+        for a in range(n):
+            x[a] += yk[a] * nk
+    for a in range(n):
+        x[a] = -x[a]
+    backward_substitution(L, n, x)
 
 
 @nb.njit(cache=True, fastmath=_FM, nogil=True)
@@ -209,14 +226,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         forward_substitution(S, m, nu)
         backward_substitution(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
-    for k in range(m):
-        nk = nu[k]
-        yk = Y[k]
-        for a in range(nf):
-            t[a] += yk[a] * nk
-    for a in range(nf):
-        t[a] = -t[a]
-    backward_substitution(L, nf, t)
+    primal_from_multipliers(L, nf, t, Y, nu, m, t)
     return nf
 
 
@@ -429,9 +439,6 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     return ITERATION_CAP
 
 
-_WARM = False  # set once warm_up() has run in this process
-
-
 class FastBackend(DaqpBackend):
     """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
     every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.qp.DaqpBackend` it
@@ -544,12 +551,10 @@ class FastBackend(DaqpBackend):
         return False
 
 
-def ensure_compiled() -> None:
-    """Run :func:`warm_up` once per process (later calls return at once)."""
-    global _WARM
-    if not _WARM:
-        _WARM = True
-        warm_up()
+@once_per_process
+def ensure_compiled() -> float:
+    """Run :func:`warm_up` once per process (later calls return None at once)."""
+    return warm_up()
 
 
 def warm_up() -> float:

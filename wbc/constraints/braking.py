@@ -22,6 +22,7 @@ import math
 import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.constraints.limits import bounded_joints
@@ -42,16 +43,11 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
         lb[k] = adt - math.sqrt(adt * adt + 2.0 * a * down)
 
 
-_WARM = False
-
-
+@once_per_process
 def _warm_up() -> None:
     """Load :func:`_braking_bounds` (on-disk cache) once per process, at construction."""
-    global _WARM
-    if not _WARM:
-        _WARM = True
-        z = np.zeros(1)
-        _braking_bounds(z, np.zeros(1, dtype=np.int64), z, z, 1.0, 1.0, np.empty(1), np.empty(1))
+    z = np.zeros(1)
+    _braking_bounds(z, np.zeros(1, dtype=np.int64), z, z, 1.0, 1.0, np.empty(1), np.empty(1))
 
 
 class JointBrakingLimit(BoxConstraint):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
@@ -41,16 +42,11 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
         ub[k] = max((q_max[k] - qk) / dt, neg_v_max[k])
 
 
-_WARM = False
-
-
+@once_per_process
 def _warm_up() -> None:
     """Load :func:`_position_bounds` (on-disk cache) once per process, at construction."""
-    global _WARM
-    if not _WARM:
-        _WARM = True
-        z = np.zeros(1)
-        _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 1.0, np.empty(1), np.empty(1))
+    z = np.zeros(1)
+    _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 1.0, np.empty(1), np.empty(1))
 
 
 class JointPositionLimit(BoxConstraint):

@@ -54,6 +54,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
@@ -124,18 +125,13 @@ def _zmp_record(v, c_now, J_now, A_now, dt, c_prev, c_pred, L_prev, J_prev, v_pr
     return True
 
 
-_WARM = False
-
-
+@once_per_process
 def _warm_up() -> None:
     """Load :func:`_zmp_rows` and :func:`_zmp_record` (on-disk cache) once per process, at construction."""
-    global _WARM
-    if not _WARM:
-        _WARM = True
-        v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
-        _zmp_rows(c, J, J, v, c, c, np.zeros((1, 2)), np.zeros(1), 1.0, 9.81, 0.002, True, J, c, 1.0, 0.5,
-                  np.zeros((3, 1)), np.zeros((2, 1)), np.zeros(2))
-        _zmp_record(v, c, J, J, 0.002, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 1)), np.zeros(1))
+    v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
+    _zmp_rows(c, J, J, v, c, c, np.zeros((1, 2)), np.zeros(1), 1.0, 9.81, 0.002, True, J, c, 1.0, 0.5,
+              np.zeros((3, 1)), np.zeros((2, 1)), np.zeros(2))
+    _zmp_record(v, c, J, J, 0.002, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 1)), np.zeros(1))
 
 
 class ExecutedZmpConstraint(InequalityConstraint):

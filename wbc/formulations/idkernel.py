@@ -40,7 +40,8 @@ import numba as nb
 import numpy as np
 
 from wbc.constraints.dynamics import joint_bounds_kernel
-from wbc.fastqp import backward_substitution, cholesky_lower, forward_substitution, weighted_normal_equations
+from wbc.fastqp import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
+                         weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace"]
 
@@ -111,16 +112,7 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol, 
         return -1.0
     forward_substitution(S, m, nu)
     backward_substitution(S, m, nu)
-    for i in range(nv):
-        x[i] = t[i]
-    for k in range(m):
-        nk = nu[k]
-        Yk = Yt[k]
-        for i in range(nv):
-            x[i] += Yk[i] * nk
-    for i in range(nv):
-        x[i] = -x[i]
-    backward_substitution(L, nv, x[:nv])
+    primal_from_multipliers(L, nv, t, Yt, nu, m, x[:nv])
     for f in range(nv, n):
         if dinv[f] == 0.0:
             x[f] = lb[f]

@@ -20,6 +20,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
 from wbc.geometry import as_se3
@@ -78,16 +79,10 @@ def _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_o
             jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
 
 
-_WARM = False  # the compiled row writer loaded (from the on-disk cache) in this process
-
-
+@once_per_process
 def _warm_up() -> None:
     """Load :func:`_frame_rows` for the array types of a real call (Pinocchio's F-ordered rotation, C-ordered
     Jacobians), once per process: at task construction, not inside a controller's first tick."""
-    global _WARM
-    if _WARM:
-        return
-    _WARM = True
     rot, jac, rows = np.asfortranarray(np.eye(3)), np.zeros((6, 1)), np.arange(6)
     e, j = np.empty(6), np.empty((6, 1))
     _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows

@@ -10,6 +10,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
@@ -27,15 +28,10 @@ def _diagonal_cost(diff, start, weight, gain, H, g):
         g[i] -= weight[k] * (-gain * diff[i])
 
 
-_WARM = False
-
-
+@once_per_process
 def _warm_up() -> None:
     """Load :func:`_diagonal_cost` (on-disk cache) once per process, at task construction."""
-    global _WARM
-    if not _WARM:
-        _WARM = True
-        _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
+    _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
 
 
 class PostureTask(Task):
