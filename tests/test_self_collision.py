@@ -205,6 +205,7 @@ def test_broad_phase_is_exact_under_jumps_and_random_motion(robots, name):
     and their distances equal an exhaustive coal reference on all pairs."""
     robot = robots(name)
     rng = np.random.default_rng(7)
+    pin.seed(11)  # pin.randomConfiguration's generator; with 11, humanoid15's pair 18 (0.12 m − 1 ulp) comes up
     sc = SelfCollisionConstraint(robot, activation_distance=0.12, max_active=12)
     gm, gd = _reference_model(sc)
     data = robot.model.createData()
@@ -225,13 +226,20 @@ def test_broad_phase_is_exact_under_jumps_and_random_motion(robots, name):
             sc.compute(config, DT)
             got = [(sc.pair_names.index(a[:2]), a[2]) for a in sc.active]
             ref = _reference_close_pairs(sc, robot, gm, gd, data, q)
-            assert [k for k, _ in got] == [k for k, _ in ref]
-            d_got, d_ref = np.array([d for _, d in got]), np.array([d for _, d in ref])
             # within coal's tolerances: GJK 1e-9 m for separated pairs, EPA 1e-6 m for penetrating ones (coal's
             # solvers warm-start from a pair's previous call, so a pair computed at fewer calls can end elsewhere
             # within tolerance: measured up to 2.6e-10 m and 7.9e-7 m apart at random configurations)
-            tol = np.where(d_ref > 0, 1e-9, 1e-6)
-            assert np.all(np.abs(d_got - d_ref) <= tol)
+            d_got, d_ref = dict(got), dict(ref)
+            assert len(got) == len(ref)
+            # the same pairs; a pair may differ only at a tie (within tolerance) with the last one kept by max_active
+            for k in set(d_got) ^ set(d_ref):
+                assert len(ref) == sc.dim and abs(d_got.get(k, d_ref.get(k)) - ref[-1][1]) <= 1e-6, (k, got, ref)
+            for k in set(d_got) & set(d_ref):
+                assert abs(d_got[k] - d_ref[k]) <= (1e-9 if d_ref[k] > 0 else 1e-6), (k, d_got[k], d_ref[k])
+            # closest first; pairs at equal distance (e.g. mirror-symmetric left/right pairs, equal to 1e-10 m) may
+            # come in either order
+            dg = [d for _, d in got]
+            assert all(b >= a - 1e-6 for a, b in zip(dg, dg[1:]))
             checked += len(ref)
     assert checked > 50  # pairs within the activation distance were met
 
