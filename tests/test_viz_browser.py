@@ -13,6 +13,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -153,6 +154,11 @@ def test_live_page_of_a_running_walk(browser):
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--steps", "8", "--live", "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    # stderr drained all along (an unread pipe would block the process once 64 kB of warnings fill it), shown on
+    # failure
+    err: list[str] = []
+    drain = threading.Thread(target=lambda: err.extend(proc.stderr), daemon=True)
+    drain.start()
     try:
         url = None
         for line in proc.stdout:
@@ -195,7 +201,11 @@ def test_live_page_of_a_running_walk(browser):
         _shot(page, "live_walk_held")
         page.close()
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=120) == 0
+        try:
+            code = proc.wait(timeout=120)
+        except subprocess.TimeoutExpired:
+            code = None
+        assert code == 0, f"exit code {code} after SIGINT; stderr: {''.join(err)[-3000:]}"
     finally:
         if proc.poll() is None:
             proc.kill()
