@@ -153,7 +153,11 @@ def test_live_page_of_a_running_walk(browser):
     follows the base, and the process stays up after the motion until interrupted (SIGINT: exit code 0)."""
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--steps", "8", "--live", "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+                            # Ctrl-C as in a terminal: a test runner started in the background (`cmd &` without job
+                            # control) ignores SIGINT and its children would inherit that (measured: the walk then
+                            # held forever after SIGINT in a `.ci/run` started with `&`)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # stderr drained all along (an unread pipe would block the process once 64 kB of warnings fill it), shown on
     # failure
     err: list[str] = []

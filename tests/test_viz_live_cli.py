@@ -73,7 +73,9 @@ def _listening(pids: list[int]) -> list[tuple[str, int]]:
 
 def _run_live(extra: list[str]) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "wbc", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+                            # SIGINT as in a terminal, even when the test runner was started with SIGINT ignored
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def test_live_viewer_listens_on_loopback_only_and_holds():
