@@ -44,6 +44,7 @@ class ContactConstraint(EqualityConstraint):
         self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
+        self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): compute_into
 
     @property
     def gain(self) -> float:
@@ -97,3 +98,15 @@ class ContactConstraint(EqualityConstraint):
         b = self.compute_error(config)
         b *= -min(self._gain, 1.0 / dt)
         return pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL), b
+
+    def compute_into(self, config: Configuration, dt: float, A_out: np.ndarray, b_out: np.ndarray) -> float:
+        """Write the rows of :meth:`compute` into A_out (6, nv) and b_out (6,) (views of a controller's stacked
+        buffers); returns the gain used, min(K, 1/dt) (1/s)."""
+        data = config.data
+        views = self._oMf_views
+        if views is None or views[0] is not data:  # data.oMf[frame] is a reference into Pinocchio's data
+            views = self._oMf_views = (data, data.oMf[self.frame_id])
+        k = min(self._gain, 1.0 / dt)
+        np.multiply(pin.log6(self._placement.actInv(views[1])).vector, -k, out=b_out)
+        np.copyto(A_out, pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL))
+        return k

@@ -54,7 +54,7 @@ class ComTask(Task):
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
         np.subtract(config.com, self._target, out=error_out)
-        jac_out[:] = config.com_jacobian
+        np.copyto(jac_out, config.com_jacobian)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
