@@ -86,8 +86,8 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.fastqp import (FastBackend, clip_box_into, contact_drift, ensure_compiled, kinematic_tick,
-                         kinematic_workspace, weighted_normal_equations)
+from wbc.fastqp import (FastBackend, clip_box_into, contact_drift, ensure_compiled, kinematic_pack,
+                         kinematic_tick_packed, weighted_normal_equations)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend
 from wbc.backends import DEFAULT_SOLVER, make_backend
@@ -562,39 +562,46 @@ class KinematicController:
         does not end at a KKT point within tolerance, when the equality rows are rank deficient, or when a
         contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the caller then solves the tick by
         the general path (DAQP fallback, correction, trust region, diagnosis)."""
-        model, data = self.robot.model, config.data
+        model = self.robot.model
         q = config.q
+        gains, has_ff = plan.gains, plan.has_ff
         for task, e, J, w, gain_rows, ff_rows, k in plan.dense:
             task.compute_into(config, e, J)
             if task._weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
                 w[:] = task._weight
                 task._weight = w
-            if task._gain != plan.gains[k]:
+            if task._gain != gains[k]:
                 gain_rows.fill(task._gain)
-                plan.gains[k] = task._gain
+                gains[k] = task._gain
             ff = task.feedforward()
             if ff is not None:
                 ff_rows[:] = ff
-                plan.has_ff[k] = True
-            elif plan.has_ff[k]:
+                has_ff[k] = True
+            elif has_ff[k]:
                 ff_rows.fill(0.0)
-                plan.has_ff[k] = False
+                has_ff[k] = False
         posture = plan.posture
         if posture is not None:
-            diff, pw, pgain = pin.difference(model, posture._target, q), posture._weight, posture._gain
+            diff, pgain = pin.difference(model, posture._target, q), posture._gain
+            if posture._weight is not plan.pw:
+                plan.pw[:] = posture._weight
+                posture._weight = plan.pw
         else:
-            diff, pw, pgain = plan.zero_nv, plan.zero_f, 0.0
-        A, b = plan.A, plan.b
+            diff, pgain = q, 0.0  # unused (no posture rows)
         factors = plan.factors
         for i, (c, A_rows, b_rows) in enumerate(plan.contacts):
             factors[i] = dt - 1.0 / c.compute_into(config, dt, A_rows, b_rows)
+        A, b = plan.A, plan.b
         for c, r0, r1 in plan.equalities:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
-        C, cl, cu = plan.C, plan.cl, plan.cu
-        for c, r0, r1 in plan.inequalities:
-            C[r0:r1], cl[r0:r1], cu[r0:r1] = c.compute(config, dt)
+        if plan.inequalities:
+            C, cl, cu = plan.C, plan.cl, plan.cu
+            for c, r0, r1 in plan.inequalities:
+                C[r0:r1], cl[r0:r1], cu[r0:r1] = c.compute(config, dt)
         if plan.python_boxes:
             self._intersect_boxes(config, dt)
+            plan.lb[:] = self._lb
+            plan.ub[:] = self._ub
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
@@ -602,9 +609,8 @@ class KinematicController:
         t1 = perf_counter()
         v = np.empty(self.nv)
         backend = self.backend
-        it = kinematic_tick(plan.Js, plan.es, plan.rowp, diff, pw, plan.posture_rows, pgain, A, b, plan.lb, plan.ub,
-                            q, plan.plim, plan.pidx, C, cl, cu, float(dt), self.damping, backend.tolerance,
-                            plan.er, backend.max_iter, plan.state, plan.rstate, plan.ws, plan.iws, v)
+        it = kinematic_tick_packed(plan.fb, plan.ib, plan.state, plan.rstate, diff, q, v, pgain, float(dt),
+                                   self.damping, backend.tolerance, backend.max_iter)
         backend.last_kernel_iterations = it
         if it < 1:
             return None
@@ -1041,8 +1047,9 @@ def _row_blocks(constraints) -> tuple[list, int]:
 
 class _FusedPlan:
     """Buffers and bindings of the compiled tick (:meth:`KinematicController._fused_tick`) for one constraint
-    layout and one list of soft tasks: views of the controller's stacked rows per task and constraint, the
-    position-limit data read by the kernel, the floating-base elimination row and the kernel's workspace."""
+    layout and one list of soft tasks: the kernel's two packed arrays (:func:`wbc.fastqp.kinematic_pack`) and, per
+    task and constraint, the views of them its rows are written into; the position-limit data read by the kernel
+    and the floating-base elimination row."""
 
     supported = False
 
@@ -1058,71 +1065,61 @@ class _FusedPlan:
         own = ctrl._soft_own
         if len(own) > 1 or (own and type(own[0]) is not PostureTask):
             return plan  # a task with its own cost other than one posture task
-        plan.posture = own[0] if own else None
-        plan.posture_rows = np.asarray(own[0].rows, np.int64) if own else np.zeros(0, np.int64)
-        plan.zero_nv, plan.zero_f = np.zeros(nv), np.zeros(0)
-        plan.Js = ctrl._soft_J
-        mt = plan.Js.shape[0]
-        plan.es = np.zeros(mt)
-        plan.rowp = np.zeros((3, mt))  # gain, weight, feed-forward of each stacked row
-        plan.dense, plan.gains, plan.has_ff = [], [], []
-        for k, (task, r0, r1, _) in enumerate(ctrl._soft_dense):
+        for task, *_ in ctrl._soft_dense:
             if not (isinstance(getattr(task, "_weight", None), np.ndarray) and hasattr(task, "_gain")):
                 return plan
-            plan.dense.append((task, plan.es[r0:r1], plan.Js[r0:r1], plan.rowp[1, r0:r1], plan.rowp[0, r0:r1],
-                               plan.rowp[2, r0:r1], k))
-            plan.gains.append(None)
-            plan.has_ff.append(True)
-        plan.A, plan.b = ctrl._A, ctrl._b
-        plan.C, plan.cl, plan.cu = ctrl._C, ctrl._l, ctrl._u
-        plan.contacts, plan.equalities, starts = [], [], []
-        for c, r0, r1 in ctrl._eq_blocks:
-            if type(c) is ContactConstraint:
-                plan.contacts.append((c, plan.A[r0:r1], plan.b[r0:r1]))
-                starts.append(r0)
-            elif isinstance(c, ContactConstraint):
-                return plan  # a contact with rows of its own
-            else:
-                plan.equalities.append((c, r0, r1))
-        plan.inequalities = list(ctrl._in_blocks)
-        plan.starts = np.asarray(starts, np.int64)
-        plan.factors = np.zeros(len(starts))
-        plan.logs = np.zeros((len(starts), 6))
+        if any(type(c) is not ContactConstraint for c in ctrl._contacts):
+            return plan  # a contact with rows of its own
+        plan.posture = own[0] if own else None
         # bounds: the constant boxes intersected once; one position limit after them in the kernel, else in Python
         boxes = ctrl._box
         n_const = 0
         while n_const < len(boxes) and boxes[n_const].constant:
             n_const += 1
         rest = boxes[n_const:]
-        if len(rest) == 1 and type(rest[0]) is JointPositionLimit:
-            lim = rest[0]
-            plan.python_boxes = False
-            if n_const:
-                plan.lb, plan.ub = np.full(nv, -np.inf), np.full(nv, np.inf)
-                for c in boxes[:n_const]:  # the general path's order and clipping (_intersect_boxes)
-                    lo, hi = c.compute(config, dt)
-                    idx = np.asarray(c.indices)
-                    cur_lo, cur_hi = plan.lb[idx], plan.ub[idx]
-                    plan.lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
-                    plan.ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
-            else:
-                plan.lb, plan.ub = np.full(nv, -np.inf), np.full(nv, np.inf)
-            plan.plim = np.array([lim.q_min, lim.q_max, lim.v_max, lim._neg_v_max], dtype=float).reshape(4, -1)
-            plan.pidx = np.array([lim.idx_q, lim.indices], dtype=np.int64).reshape(2, -1)
-        else:
-            plan.python_boxes = True
-            plan.lb, plan.ub = ctrl._lb, ctrl._ub
-            plan.plim, plan.pidx = np.zeros((4, 0)), np.zeros((2, 0), np.int64)
+        lim = rest[0] if len(rest) == 1 and type(rest[0]) is JointPositionLimit else None
+        plan.python_boxes = lim is None and bool(boxes)
         # floating-base elimination through the first contact: a free flyer at v[0:6] that no box bounds
         model = ctrl.robot.model
         free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
             model.joints[1].idx_v == 0
         base_bounded = any(np.size(c.indices) and int(np.min(c.indices)) < 6 for c in boxes)
-        plan.er = int(starts[0]) if starts and free_flyer and not base_bounded else -1
-        plan.ws, plan.iws = kinematic_workspace(nv, plan.A.shape[0], plan.C.shape[0], plan.er >= 0)
-        plan.vdt = plan.ws[:nv]
+        contact_blocks = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is ContactConstraint]
+        plan.er = contact_blocks[0][1] if contact_blocks and free_flyer and not base_bounded else -1
+        n_eq, n_in = ctrl._A.shape[0], ctrl._C.shape[0]
+        mt = ctrl._soft_J.shape[0]
+        plan.fb, plan.ib, views = kinematic_pack(nv, mt, n_eq, n_in, 0 if lim is None else lim.dim,
+                                                 0 if plan.posture is None else plan.posture.dim, plan.er)
+        for name in ("Js", "es", "A", "b", "C", "cl", "cu", "lb", "ub", "pw", "vdt"):
+            setattr(plan, name, views[name])
+        rowp = views["rowp"]  # gain, weight, feed-forward of each stacked row
+        plan.dense, plan.gains, plan.has_ff = [], [], []
+        for k, (task, r0, r1, _) in enumerate(ctrl._soft_dense):
+            plan.dense.append((task, plan.es[r0:r1], plan.Js[r0:r1], rowp[1, r0:r1], rowp[0, r0:r1], rowp[2, r0:r1],
+                               k))
+            plan.gains.append(None)
+            plan.has_ff.append(True)
+        if plan.posture is not None:
+            views["prow"][:] = plan.posture.rows
+        plan.contacts = [(c, plan.A[r0:r1], plan.b[r0:r1]) for c, r0, r1 in contact_blocks]
+        plan.equalities = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is not ContactConstraint]
+        plan.inequalities = list(ctrl._in_blocks)
+        plan.starts = np.array([r0 for _, r0, _ in contact_blocks], np.int64)
+        plan.factors = np.zeros(len(contact_blocks))
+        plan.logs = np.zeros((len(contact_blocks), 6))
+        plan.lb.fill(-np.inf)
+        plan.ub.fill(np.inf)
+        if lim is not None:
+            for c in boxes[:n_const]:  # the general path's order and clipping (_intersect_boxes)
+                lo, hi = c.compute(config, dt)
+                idx = np.asarray(c.indices)
+                cur_lo, cur_hi = plan.lb[idx], plan.ub[idx]
+                plan.lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
+                plan.ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
+            views["plim"][:] = (lim.q_min, lim.q_max, lim.v_max, lim._neg_v_max)
+            views["pidx"][:] = (lim.idx_q, lim.indices)
         nr = nv - 6 if plan.er >= 0 else nv
         plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
-        plan.rstate = np.zeros(plan.C.shape[0], np.int8)                     # across support switches
+        plan.rstate = np.zeros(n_in, np.int8)                                 # across support switches
         plan.supported = True
         return plan
