@@ -11,15 +11,32 @@ drift.
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.tasks.frame import as_se3
 
 __all__ = ["ContactConstraint"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _write_rows(jac, error, scale, A_out, b_out):
+    """A_out = jac, b_out = scale · error (one compiled call instead of two numpy ones)."""
+    for i in range(jac.shape[0]):
+        b_out[i] = scale * error[i]
+        for j in range(jac.shape[1]):
+            A_out[i, j] = jac[i, j]
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_write_rows` (on-disk cache) once per process, at construction."""
+    _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
 
 
 class ContactConstraint(EqualityConstraint):
@@ -45,6 +62,7 @@ class ContactConstraint(EqualityConstraint):
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
         self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): compute_into
+        _warm_up()
 
     @property
     def gain(self) -> float:
@@ -107,6 +125,6 @@ class ContactConstraint(EqualityConstraint):
         if views is None or views[0] is not data:  # data.oMf[frame] is a reference into Pinocchio's data
             views = self._oMf_views = (data, data.oMf[self.frame_id])
         k = min(self._gain, 1.0 / dt)
-        np.multiply(pin.log6(self._placement.actInv(views[1])).vector, -k, out=b_out)
-        np.copyto(A_out, pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL))
+        _write_rows(pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL),
+                    pin.log6(self._placement.actInv(views[1])).vector, -k, A_out, b_out)
         return k
