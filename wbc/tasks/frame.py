@@ -129,6 +129,7 @@ class FrameTask(Task):
         self._ff6 = np.zeros(6)
         self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
+        self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
         _warm_up()
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -207,15 +208,21 @@ class FrameTask(Task):
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
-        oMf = config.data.oMf[self.frame_id]
-        rot = oMf.rotation
-        j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
+        data = config.data
+        views = self._oMf_views
+        if views is None or views[0] is not data:
+            # data.oMf[frame] is a reference into Pinocchio's data and its rotation/translation are views of it
+            # (eigenpy): kept per Data object (with the objects that own them), they follow every update
+            oMf = data.oMf[self.frame_id]
+            views = self._oMf_views = (data, oMf, oMf.rotation, oMf.translation)
+        rot = views[2]
+        j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         if self._has_rot:
-            rel = self._target_rot_t @ rot
+            rel = self._target_rot_t.dot(rot)
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
         else:
             log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
-        _frame_rows(rot, jlog, j_local, oMf.translation, self._target_pos, log, self.rows, error_out, jac_out)
+        _frame_rows(rot, jlog, j_local, views[3], self._target_pos, log, self.rows, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
