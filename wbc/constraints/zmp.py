@@ -190,6 +190,9 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._L_prev = np.zeros(3)               # L_{k−1}
         self._c_prev: np.ndarray | None = None   # c_{k−1}
         self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
+        # set_previous writes into a spare set of these buffers and keeps the one it replaced (undo_previous)
+        self._spare = (np.empty(3), np.empty(3), np.zeros(3), np.zeros((3, nv)), np.zeros(nv))
+        self._undo: tuple | None = None
         _warm_up()
 
     def set_support(self, sole_placements) -> None:
@@ -216,6 +219,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         by anything else than the controller's commands."""
         self._c_prev = self._c_pred = None
         self._have_now = False
+        self._undo = None
 
     def state(self) -> tuple:
         """Snapshot of the tick memory (previous CoM, prediction, momentum, Jacobian, command) for :meth:`restore`:
@@ -229,6 +233,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         the last :meth:`compute`."""
         c_prev, c_pred, L_prev, J_prev, v_prev = state
         self._have_now = True
+        self._undo = None
         self._c_prev = None if c_prev is None else c_prev.copy()
         self._c_pred = None if c_pred is None else c_pred.copy()
         self._L_prev[:] = L_prev
@@ -236,20 +241,41 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._v_prev[:] = v_prev
 
     def set_previous(self, v) -> None:
-        """Record the command v (nv,) applied from the configuration of the last :meth:`compute`."""
+        """Record the command v (nv,) applied from the configuration of the last :meth:`compute`
+        (:meth:`undo_previous` takes it back)."""
         if not self._have_now:
+            self._undo = None
             return
         v = np.asarray(v, dtype=float)
+        current = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
         if v.shape != (self.nv,):
             self.reset()
+            self._undo = current
             return
-        if self._c_prev is None:
-            self._c_prev, self._c_pred = np.empty(3), np.empty(3)
-        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, self._c_prev, self._c_pred,
-                           self._L_prev, self._J_prev, self._v_prev):
+        spare = self._spare
+        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, *spare[:2], *spare[2:]):
             self.reset()
+            self._undo = current
             return
+        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = spare
+        self._spare = current if current[0] is not None else (np.empty(3), np.empty(3), *current[2:])
+        self._undo = current
         self._have_now = False
+
+    def undo_previous(self) -> None:
+        """Take back the last :meth:`set_previous` (no-op when it recorded nothing or was already taken back): the
+        tick memory is again that of before it and the next :meth:`set_previous` again refers to the configuration
+        of the last :meth:`compute` — to solve the same tick once more, as :meth:`state` / :meth:`restore` do,
+        without copying the memory every tick."""
+        undo = self._undo
+        if undo is None:
+            return
+        self._undo = None
+        replaced = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
+        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = undo
+        if replaced[0] is not None:  # the buffers just given up become the spare set
+            self._spare = replaced
+        self._have_now = True
 
     def compute(self, config: Configuration, dt: float):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
