@@ -57,9 +57,9 @@ import pinocchio as pin
 from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
-from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
+from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, check_count, check_scalar, support_polygon
+from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 
@@ -205,14 +205,44 @@ class ExecutedZmpConstraint(InequalityConstraint):
         poses = [as_se3(p, "sole placement") for p in sole_placements]
         if not 1 <= len(poses) <= self.max_soles:
             raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
-        poly = support_polygon(poses, self.robot.sole_length, self.robot.sole_width)
-        normals, offsets = halfplanes(poly)
-        if float(np.min(offsets - normals @ poly.mean(axis=0))) <= self.margin:
+        self.set_support_trusted(poses)
+
+    def set_support_trusted(self, sole_placements) -> None:
+        """:meth:`set_support` without validating the placements, for a controller's own support switches (e.g.
+        :class:`~wbc.scenarios.stance.StanceController` with its contacts' placements, validated when they were
+        set): ``sole_placements`` 1..``max_soles`` pin.SE3 with rotation blocks that are rotations. The polygon is
+        built from plain floats (:func:`wbc.geometry.sole_corners`, :func:`wbc.geometry.hull`), the same numbers
+        as :func:`wbc.geometry.support_polygon`.
+
+        Raises:
+            InvalidInputError: polygon smaller than the margin.
+        """
+        length, width = self.robot.sole_length, self.robot.sole_width
+        corners, ground = [], 0.0
+        for M in sole_placements:
+            t = M.translation
+            corners += sole_corners(float(t[0]), float(t[1]), yaw_of(M), length, width)
+            ground += float(t[2])
+        poly = corners if len(sole_placements) == 1 else hull(corners)
+        # half-planes of the CCW polygon in plain floats: the arithmetic of com_polygon.halfplanes, edge by edge
+        k = len(poly)
+        cx, cy = sum(p[0] for p in poly) / k, sum(p[1] for p in poly) / k
+        normals, offsets, inner = [], [], math.inf
+        for i in range(k):
+            (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % k]
+            ex, ey = x1 - x0, y1 - y0
+            norm = math.sqrt(ey * ey + ex * ex)
+            nx, ny = ey / norm, -ex / norm
+            d = nx * x0 + ny * y0
+            normals.append((nx, ny))
+            offsets.append(d - self.margin)
+            inner = min(inner, d - (nx * cx + ny * cy))
+        if inner <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
-        self.normals, self.offsets = normals, offsets - self.margin
-        self.ground_z = float(np.mean([M.translation[2] for M in poses]))
-        self._C[len(offsets):-1] = 0.0
-        self._u[len(offsets):-1] = np.inf
+        self.normals, self.offsets = np.array(normals), np.array(offsets)
+        self.ground_z = ground / len(sole_placements)
+        self._C[k:-1] = 0.0
+        self._u[k:-1] = np.inf
 
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot

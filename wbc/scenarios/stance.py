@@ -106,8 +106,8 @@ class StanceController:
                 self.controller.add_task(self.swing[side])
             self.stance[side] = wanted[side]
         self.support = support
-        if self.zmp is not None:
-            self.zmp.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
+        if self.zmp is not None:  # the contacts' placements, validated when set
+            self.zmp.set_support_trusted([self.contact[s].placement for s in SIDES if self.stance[s]])
         self.support_changed()
 
     def support_changed(self) -> None:

@@ -200,8 +200,8 @@ class FrameTask(Task):
         self._target_pos = np.array(pose.translation)
 
     def set_target_from_configuration(self, config: Configuration) -> None:
-        """Target = the frame's current placement, zero velocity."""
-        self.set_target(config.data.oMf[self.frame_id].copy())
+        """Target = the frame's current placement, zero velocity (Pinocchio's placement: nothing to validate)."""
+        self.set_target_trusted(config.data.oMf[self.frame_id].homogeneous)
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         oMf = config.data.oMf[self.frame_id]
