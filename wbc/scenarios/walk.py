@@ -23,7 +23,7 @@ from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 from wbc.backends import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
-from wbc.geometry import convex_hull, mean_heading, signed_distance, sole_polygon
+from wbc.geometry import mean_heading
 from wbc.robot import Robot
 from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController, StanceRecorder, StanceRun
