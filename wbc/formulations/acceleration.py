@@ -637,9 +637,9 @@ class _KernelBuffers:
         for ref in dense + posture:
             s = slice(k, k + ref.dim)
             # reference, its task, dense rows?, views of its J rows, e, ė_ff, J̇v, ä_ff, weights; its columns of R;
-            # the (Kp, Kd) last written there
+            # the (Kp, Kd) last written there; whether its ė_ff and ä_ff columns hold zeros
             self.entries.append([ref, ref.task, k < mt, self.Jt[s], self.R[R_ERROR, s], self.R[R_ERROR_RATE_FF, s],
-                                 self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None])
+                                 self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
             ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
             k += ref.dim
         self.head = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
@@ -653,22 +653,26 @@ class _KernelBuffers:
             self._relayout(qp, key)
         R = self.R
         for ent in self.entries:
-            ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent
+            ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
             if dense:
                 task.compute_into(state, e, J)
             else:
                 e[:] = task.compute(state)[0]
             drift[:] = task.drift(state)
             ff = task.feedforward()
-            if ff is None:
-                eff.fill(0.0)
-            else:
+            if ff is not None:
                 eff[:] = ff
+                ent[11] = False
+            elif not ent[11]:
+                eff.fill(0.0)
+                ent[11] = True
             ff = ref.feedforward_acceleration
-            if ff is None:
-                aff.fill(0.0)
-            else:
+            if ff is not None:
                 aff[:] = ff
+                ent[12] = False
+            elif not ent[12]:
+                aff.fill(0.0)
+                ent[12] = True
             w[:] = ref.weight
             if gains is None or gains[0] != ref.kp or gains[1] != ref.kd:
                 R[R_KP, s] = ref.kp

@@ -767,13 +767,18 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
         else:
             jv = v[pidx[k - mt]]
         rt[k] = R[R_ACC_FF, k] - R[R_KP, k] * R[R_ERROR, k] - R[R_KD, k] * (jv - R[R_ERROR_RATE_FF, k]) - R[R_DRIFT, k]
-    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture); H_ff = ε_f I stays as written
-    weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, H[:nv, :nv], g[:nv])
+    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture), formed in the contiguous
+    # workspace L (vectorised loops) and copied into H, g; H_ff = ε_f I stays as written
+    weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, ws_L, ws_tv)
     for k in range(pidx.size):
         i = pidx[k]
         w = R[R_WEIGHT, mt + k]
-        H[i, i] += w
-        g[i] -= w * rt[mt + k]
+        ws_L[i, i] += w
+        ws_tv[i] -= w * rt[mt + k]
+    for i in range(nv):
+        g[i] = ws_tv[i]
+        for j in range(nv):
+            H[i, j] = ws_L[i, j]
     # contact right-hand sides (eq. 5), certified consistent or handed back for projection
     if mode == 0:
         nact = 0
