@@ -69,6 +69,7 @@ was not met on this loaded machine (``benchmarks/self_collision.py`` prints PASS
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -154,19 +155,20 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
     for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
+        # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
+        # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
+        # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
+        # the two bounds: either one at or above the cut-off excludes the pair (the cheaper one first)
+        if exact[k]:
+            low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
+            if low >= activation or low > tau:
+                continue
         d2 = 0.0
         for i in range(3):
             d2 += (centre[a, i] - centre[b, i]) ** 2
-        # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
-        # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
-        # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12)
         low = np.sqrt(d2) - radius[a] - radius[b] - BOUND_SLACK
         if low >= activation or low > tau:
             continue
-        if exact[k]:
-            low = max(low, d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK)
-            if low >= activation or low > tau:
-                continue
         cand[n] = k
         mask[a, b] = True
         n += 1
@@ -358,7 +360,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
-        self._witness = [(r, r.getNearestPoint1, r.getNearestPoint2) for r in self._results]
+        normal = type(self._results[0]).normal.fget
+        # per pair: the getters of its witness points and normal (one flat list per call, one np.concatenate: a
+        # nested np.array of tuples of arrays cost more than the 32 coal distances' bookkeeping)
+        self._witness = [(r.getNearestPoint1, r.getNearestPoint2, functools.partial(normal, r)) for r in self._results]
         self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
         npairs = len(self.pairs)
@@ -476,7 +481,7 @@ class SelfCollisionConstraint(InequalityConstraint):
             wit = self._witness
             # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
             # simplex), enough to change a closed-loop run
-            w = np.array([(a(), b(), r.normal) for r, a, b in [wit[kk] for kk in kl]])  # (m, 3, 3)
+            w = np.concatenate([f() for kk in kl for f in wit[kk]]).reshape(m, 3, 3)
             p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
         else:
             p1 = p2 = normal = self._empty
