@@ -166,18 +166,19 @@ def test_push_towards_the_stance_leg_is_recovered_by_cutting_the_step_short():
     assert run.sole_pos[-1, 0, 1] > 0.085 + 0.30
 
 
-def test_standing_push_from_the_front_is_recovered_by_a_capture_step():
+@pytest.mark.parametrize("push_dir, sign", [(180.0, -1.0), (0.0, 1.0)])  # from the front (towards -x), from behind
+def test_standing_push_from_the_front_and_behind_is_recovered_by_a_capture_step(push_dir, sign):
     from wbc.sim.capture_step import CaptureStepScenario
 
     robot = load_robot("talos")
     sim = build_mujoco_model(robot)
     controller = make_controller(robot, "id", dt=sim.timestep)
-    scenario = CaptureStepScenario(450.0, 0.1, t_push=0.5, push_dir=180.0)  # towards -x: pushed from the front
+    scenario = CaptureStepScenario(450.0, 0.1, t_push=0.5, push_dir=push_dir)
     run, s = run_scenario(sim, controller, scenario)
     assert not s["fell"] and s["completed"] and s["solver_failures"] == 0
     assert s["stepped"] and 0.5 <= s["trigger_time_s"] <= 0.6
-    # Both feet ended behind where they started (MuJoCo sole positions): the robot stepped backwards.
-    assert np.all(run.sole_pos[-1, :, 0] - run.sole_pos[0, :, 0] < -0.1)
+    # Both feet ended > 10 cm from where they started along the push (MuJoCo sole positions): the robot stepped.
+    assert np.all(sign * (run.sole_pos[-1, :, 0] - run.sole_pos[0, :, 0]) > 0.1)
     assert np.abs(run.ext_force[:, 0]).max() == pytest.approx(450.0)
 
 
