@@ -28,7 +28,8 @@ import pinocchio as pin
 from wbc.bench.kinematic import KinematicRunner, KinematicSpec
 from wbc.robot import Robot
 
-__all__ = ["DynamicsSpec", "WbcDynamicsRunner", "PlacoDynamicsRunner", "wbc_dynamics_available"]
+__all__ = ["DynamicsSpec", "WbcDynamicsRunner", "PlacoDynamicsRunner", "wbc_dynamics_available",
+           "dynamics_instructions_per_tick"]
 
 
 @dataclass(frozen=True)
@@ -68,10 +69,10 @@ class DynamicsSpec(KinematicSpec):
 def wbc_dynamics_available() -> tuple[bool, str]:
     """(available, reason): whether ``wbc.dynamics`` provides the ``BalanceController`` used here."""
     try:
-        from wbc.dynamics.balance import BalanceController  # noqa: F401
+        from wbc.dynamics.balance import BalanceController
     except Exception as exc:  # not written yet, or broken mid-edit
         return False, f"wbc.dynamics not available ({type(exc).__name__}: {exc})"
-    return True, ""
+    return callable(BalanceController), ""
 
 
 class _DynamicsRunner(KinematicRunner):
@@ -183,3 +184,100 @@ class PlacoDynamicsRunner(_DynamicsRunner):
 
     def configuration(self) -> np.ndarray:
         return np.array(self.wrapper.state.q)
+
+
+def _instructions_child(library: str, n: int, robot_name: str = "talos") -> None:
+    """Child of :func:`dynamics_instructions_per_tick`: READY after 30 uninstrumented ticks, HALF after N, DONE
+    after 2N, each followed by a line read from stdin."""
+    import sys
+
+    from wbc.bench.stats import limit_blas_threads
+    from wbc.robot import load_robot
+
+    limit_blas_threads(1)
+    robot = load_robot(robot_name)
+    spec = DynamicsSpec(robot=robot_name, ticks=2 * n + 30, warmup=30)
+    runner = {"wbc": WbcDynamicsRunner, "placo": PlacoDynamicsRunner}[library](spec, robot)
+    runner.reset()
+    k = 0
+    for marker, ticks in (("READY", 30), ("HALF", n), ("DONE", n)):
+        for _ in range(ticks):
+            runner.tick(k)
+            k += 1
+        print(marker, flush=True)
+        sys.stdin.readline()
+    if runner.failures:
+        raise SystemExit(f"{library}: {runner.failures} failed ticks ({runner.first_error})")
+
+
+def dynamics_instructions_per_tick(n: int = 100, robot_name: str = "talos", log=print) -> dict[str, object]:
+    """Instructions per inverse-dynamics tick of wbc and placo (this module's scenario), counted by valgrind's
+    callgrind as :func:`wbc.bench.instructions.instructions_per_tick` does for the kinematic tick: each library in
+    a child process, instrumentation on after 30 ticks, (Ir(2N) − Ir(N)) / N — a measure that does not move with
+    machine load.
+
+    Returns:
+        {"n", "robot", "instructions": {lib: per tick}, "ratio_wbc_placo"}.
+
+    Raises:
+        RuntimeError: valgrind missing or a child run failed.
+    """
+    import re
+    import subprocess
+    import sys
+    import tempfile
+
+    from wbc.bench.instructions import callgrind_available
+
+    if not callgrind_available():
+        raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
+
+    def control(pid: int, *args: str) -> str:
+        r = subprocess.run(["callgrind_control", *args, str(pid)], capture_output=True, text=True, timeout=600)
+        if r.returncode:
+            raise RuntimeError(f"callgrind_control {' '.join(args)} failed: {r.stderr[-500:]}")
+        return r.stdout
+
+    per = {}
+    for lib in ("wbc", "placo"):
+        with tempfile.TemporaryDirectory() as d:
+            p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                                  f"--callgrind-out-file={d}/cg.out", sys.executable, "-m", "wbc.bench.dynamics",
+                                  lib, str(n), robot_name],
+                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            try:
+                irs = []
+                for marker in ("READY", "HALF", "DONE"):
+                    line = p.stdout.readline().strip()
+                    if line != marker:
+                        raise RuntimeError(f"callgrind dynamics child {lib}: expected {marker}, got {line!r}: "
+                                           f"{p.stderr.read()[-2000:]}")
+                    if marker == "READY":
+                        control(p.pid, "-i", "on")
+                        control(p.pid, "-z")
+                    else:
+                        m = re.search(r"Th 1\s+([\d,]+)", control(p.pid, "-e", "Ir"))
+                        if not m:
+                            raise RuntimeError("callgrind_control printed no Ir total")
+                        irs.append(int(m.group(1).replace(",", "")))
+                    p.stdin.write("go\n")
+                    p.stdin.flush()
+                p.wait(timeout=600)
+                if p.returncode:
+                    raise RuntimeError(f"callgrind dynamics child {lib} failed: {p.stderr.read()[-2000:]}")
+            finally:
+                if p.poll() is None:
+                    p.kill()
+        per[lib] = (irs[1] - irs[0]) / n
+        log(f"callgrind dynamics {lib}: {per[lib]:,.0f} instructions per tick ({n} vs {2 * n} ticks differenced)")
+    return {"n": n, "robot": robot_name, "instructions": per, "ratio_wbc_placo": per["wbc"] / per["placo"]}
+
+
+if __name__ == "__main__":
+    import sys
+
+    if len(sys.argv) == 1:
+        out = dynamics_instructions_per_tick()
+        print(f"instruction ratio wbc / placo: {out['ratio_wbc_placo']:.3f}")
+    else:
+        _instructions_child(sys.argv[1], int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "talos")
