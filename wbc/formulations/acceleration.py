@@ -500,11 +500,11 @@ class InverseDynamicsQP:
         t1 = perf_counter()
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             kb.solves += 1
-            x = kb.x
+            x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
             nv = self.nv
-            wrench = kb.wrench
-            return IDSolution(dv=x[:nv].copy(), forces=x[nv:].copy(), tau=kb.tau.copy(),
-                              wrenches={name: wrench[k].copy() for k, name in enumerate(kb.names)},
+            wrench = kb.wrench.copy()
+            return IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
+                              wrenches={name: wrench[k] for k, name in enumerate(kb.names)},
                               dynamics_residual=float(kb.residual[1]),
                               timings={"assembly": ta - t0, "solve": t1 - ta})
         kb.fallbacks += 1

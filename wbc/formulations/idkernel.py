@@ -804,14 +804,20 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
                 bc[c, r] = cdrift[c, r] - ckd[c] * s
         if nact >= 2 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
             return PROJECT_CONTACT_RHS, 0
-    # J_cᵀ = [J_kᵀ G_k]
+    # J_cᵀ = [J_kᵀ G_k] (G_k = [I; [c_i]×] per corner: 7 of its 18 entries per corner are non-zero)
+    for i in range(nv):
+        for j in range(12 * nc):
+            JcT[i, j] = 0.0
     for c in range(nc):
-        for i in range(nv):
+        for k in range(6):
+            Jk = Jc[c, k]
             for col in range(12):
-                s = 0.0
-                for k in range(6):
-                    s += Jc[c, k, i] * Gc[c, k, col]
-                JcT[i, 12 * c + col] = s
+                gk = Gc[c, k, col]
+                if gk == 0.0:
+                    continue
+                j = 12 * c + col
+                for i in range(nv):
+                    JcT[i, j] += Jk[i] * gk
     # equalities: floating-base dynamics (4), active contacts (5)
     nf = n - nv
     for r in range(6):
