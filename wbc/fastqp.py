@@ -969,4 +969,17 @@ def warm_up() -> float:
     # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
+    # the kinematic controller's compiled tick (a 7-velocity problem whose base is eliminated through 6 rows), for a
+    # writeable configuration and a read-only one (a Configuration built from a read-only q keeps it)
+    fb, ib, views = kinematic_pack(7, 1, 6, 0, 0, 0, 0)
+    views["A"][:, :6] = np.eye(6)
+    views["rowp"][1] = 1.0
+    views["Js"][0, 6] = 1.0
+    views["lb"][6], views["ub"][6] = -1.0, 1.0
+    frozen = np.zeros(7)
+    frozen.flags.writeable = False
+    for q in (np.zeros(7), frozen):
+        kinematic_tick_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), q, q, np.empty(7), 0.0, 0.002,
+                              1e-6, 1e-6, 10)
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
     return time.perf_counter() - t0
