@@ -628,8 +628,7 @@ class KinematicController:
         backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, sole_drift=drift)
-        result.timings = {"assembly": t1 - t0, "solve": perf_counter() - t1}
+        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
