@@ -269,3 +269,47 @@ def test_close_pairs_reusable_part(robots):
     J = sc.distance_jacobian(config, close).copy()
     C, _, _ = SelfCollisionConstraint(robot).compute(config, DT)
     np.testing.assert_allclose(J, C[:m], atol=1e-12)
+
+
+def test_compiled_tick_is_skipped_once_after_its_kernel_failed_with_rows(robots):
+    """With inequality rows (self-collision), a tick whose compiled kernel ends without a KKT point is solved by the
+    general path, and so is the next tick without trying the compiled one; the tick after tries it again. Every
+    tick is solved (the general path answers them all correctly: same v as a DAQP controller)."""
+    from wbc.fastqp import FastBackend
+
+    robot = robots("talos")
+    runs = {}
+    for solver in ("fast", "daqp"):
+        config = Configuration(robot)
+        hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
+        sc = SelfCollisionConstraint(robot, min_distance=0.02)
+        ctrl, _ = standing_controller(robot, config, sc, tasks=(hand,), posture_weight=1e-3)
+        if solver == "fast":
+            ctrl.backend = FastBackend(max_iter=1)  # the compiled kernel fails whenever it needs 2 iterations
+        else:
+            from wbc.backends import make_backend
+
+            ctrl.backend = make_backend("daqp")
+        events, fused = [], ctrl._fused_tick
+
+        def traced(plan, config, dt, t0, fused=fused, events=events, ctrl=ctrl):
+            ctrl.backend.last_kernel_iterations = 0
+            out = fused(plan, config, dt, t0)
+            events[-1] = "ok" if out is not None else ("failed" if ctrl.backend.last_kernel_iterations < 1 else "other")
+            return out
+
+        ctrl._fused_tick = traced
+        hand.set_target(config.frame_placement(hand.frame_id).translation + np.array([0.0, 0.3, 0.1]))
+        vs = []
+        for _ in range(30):
+            events.append("skipped")
+            res = ctrl.solve(config, DT)
+            assert res.ok, res.message
+            vs.append(res.v.copy())
+            config.update(config.integrate(res.v, DT))
+        runs[solver] = (events, np.array(vs))
+    events = runs["fast"][0]
+    assert "failed" in events
+    for a, b in zip(events, events[1:]):
+        assert (b == "skipped") == (a == "failed"), events
+    assert np.abs(runs["fast"][1] - runs["daqp"][1]).max() < 1e-5
