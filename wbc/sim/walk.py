@@ -460,12 +460,18 @@ class WalkScenario:
         eq. 6) out of any reach (Talos, 300 N at the end of a walk, seeds 13 and 28 of
         ``benchmarks/walk_push_trials.py``: the capture step lifted that sole and the robot fell within 0.2 s) —
         and the other foot steps instead, towards it (a closing step: the feet are wide apart after a lateral
-        recovery step; the CoP stays on the sole under the DCM)."""
+        recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
+        the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk,
+        seed 106) is captured by that foot stepping forward, not by lifting the other one, on which the DCM then
+        nearly stands (Talos fell so)."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
         lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
         side = "left" if (xi - mid) @ lat >= 0 else "right"
         sign = 1.0 if side == "left" else -1.0
-        if sign * float((xi - self._data.oMf[self._fid[side]].translation[:2]) @ lat) > -0.5 * self.robot.sole_width:
+        rel = xi - self._data.oMf[self._fid[side]].translation[:2]
+        fwd = self._data.oMf[self._fid[side]].rotation[:2, 0]
+        if sign * float(rel @ lat) > -0.5 * self.robot.sole_width \
+                and abs(float(rel @ fwd)) <= 0.5 * self.robot.sole_length:
             side = "right" if side == "left" else "left"
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
