@@ -73,7 +73,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push-dir", type=float, default=90.0,
                    help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
-    w.add_argument("--sole-margin", type=float, default=0.0, help="walk: controller sole shrink per side, m")
+    w.add_argument("--sole-margin", type=float, default=None,
+                   help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
+                        "wbc.sim.physics_scenarios.walk_options_for)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=float, default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
     w.add_argument("--payload", type=float, default=0.0, help="walk: unmodelled torso payload on the plant, kg")
@@ -169,21 +171,22 @@ def cmd_sim(args) -> int:
 
         plant = perturb_plant(sim, mass_error=args.mass_error / 100.0, payload=args.payload, friction=args.friction,
                               armature=args.armature, seed=args.seed)
-    from wbc.sim.physics_scenarios import id_options_for
+    from wbc.sim.physics_scenarios import id_options_for, walk_options_for
 
     def make(kind=args.controller):
         if kind != "id":
             return make_controller(robot, kind, dt=sim.timestep, solver=args.solver)
+        # robots with near rank-deficient two-sole contact rows (humanoid15): DAQP primal_tol 1e-6, 2 cm margin;
+        # walking: the controller's soles shrunk (walk_options_for)
+        if args.scenario == "walk":
+            options = walk_options_for(robot, args.solver, args.sole_margin)
+        else:
+            options = id_options_for(robot, args.solver)
         if perturbed:
             from wbc.sim.perturb import PerturbedController
 
-            return PerturbedController(robot, dt=sim.timestep, solver=args.solver, mu=args.mu, f_min=args.f_min,
-                                       sole_margin=args.sole_margin, q_noise=args.q_noise, v_noise=args.v_noise,
-                                       delay=args.delay, seed=args.seed)
-        # robots with near rank-deficient two-sole contact rows (humanoid15): DAQP primal_tol 1e-6, 1 cm margin
-        options = id_options_for(robot, args.solver)
-        if args.scenario == "walk" and args.sole_margin:
-            options["sole_margin"] = args.sole_margin
+            return PerturbedController(robot, dt=sim.timestep, mu=args.mu, f_min=args.f_min, q_noise=args.q_noise,
+                                       v_noise=args.v_noise, delay=args.delay, seed=args.seed, **options)
         if args.scenario == "jump":
             from wbc.sim.jump import JUMP_OPTIONS
 
@@ -210,6 +213,10 @@ def cmd_sim(args) -> int:
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
+    if args.scenario == "walk" and args.controller == "id":
+        walk_opts = walk_options_for(robot, args.solver, args.sole_margin)
+        summary["controller_sole_margin_m"] = walk_opts["sole_margin"]
+        summary["controller_momentum_weight"] = walk_opts["gains"]["momentum_weight"]
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],

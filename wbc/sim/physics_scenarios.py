@@ -27,6 +27,23 @@ forces and humanoid15 fell at its first landing. The ID QP now projects that rig
 well-conditioned rows (:func:`wbc.constraints.dynamics.consistent_contact_rhs`, σ < 1e-2 σ_max counts as
 dependent); humanoid15 then walks (``wbc sim walk --robot humanoid15 --steps 10``: 1.349 of 1.35 m, 0 failed
 ticks).
+
+Walking sole margin (:func:`walk_options_for`): the walk's DCM stabilizer keeps its commanded CoP 1.5 cm inside the
+soles, but it commands a CoM acceleration, and the QP's contact forces also carry the rate of the centroidal
+angular momentum (swing leg, torso; the momentum task's weight is low): the CoP of the QP's forces — which the
+plant's contact forces follow — differs from the stabilizer's by up to 5 cm and, with the controller's contact
+rectangle the whole sole, sat on the sole edge (QP CoP margin 0, a corner force at 0: the foot on the verge of
+tipping). Measured (plant contact forces, ``wbc sim walk`` summary ``min_measured_cop_margin_m``): G1 20 × 0.24 m
+at 0.3 m/s 0.08 mm, the CoP on the stance sole's outer edge for 0.2 s of each late single support; Talos
+20 × 0.24 m at 0.4 m/s with the robustness perturbations −0.002 mm to 1.4 mm. The controller's sole rectangle is
+therefore shrunk by ``WALK_SOLE_MARGIN_FRACTION`` × the sole width per side while walking, so the CoP it commands
+keeps that distance from the real sole's edges. That margin alone cost G1 its walk (20 × 0.24 m at 0.3 m/s: 5 mm
+fell at 13.1 s, 2.5 mm fell too; the DCM error grew step after step, 20 and 280 step adjustments): its 5 cm wide
+sole leaves no room for the swing leg's uncompensated angular momentum. With the centroidal angular-momentum
+task's weight raised from 0.1 to ``WALK_MOMENTUM_WEIGHT`` = 1 while walking (the upper body counters the swing
+leg, Lee & Goswami 2012), the realised CoP stays nearer the stabilizer's (single support, median distance
+43 → 33 mm along x, 11.4 → 8.7 mm across) and G1 walked the 20 steps with the
+5 mm margin: 4.557 of 4.56 m, max DCM error 13 mm, no step adjustment, measured CoP margin 5.0 mm.
 """
 
 from __future__ import annotations
@@ -46,7 +63,8 @@ from wbc.backends import make_backend
 from wbc.scenarios.balance_wave import wave_joints
 from wbc.tasks import PostureTask
 
-__all__ = ["contacts_rank_deficient", "id_options_for", "WaveScenario", "wave_acceptance"]
+__all__ = ["contacts_rank_deficient", "id_options_for", "walk_options_for", "WALK_SOLE_MARGIN_FRACTION",
+           "WALK_MOMENTUM_WEIGHT", "WaveScenario", "wave_acceptance"]
 
 #: DAQP settings of the ID QP for robots with near rank-deficient contact rows (module docstring).
 DAQP_RANK_DEFICIENT = {"primal_tol": 1e-6, "warm_start": "dual"}
@@ -73,6 +91,31 @@ def id_options_for(robot, solver: str = "fast") -> dict:
     if solver not in ("daqp", "fast") or not contacts_rank_deficient(robot):
         return {"solver": solver}
     return {"solver": make_backend("daqp", **DAQP_RANK_DEFICIENT), "sole_margin": 0.02}
+
+
+#: Controller sole shrink per side while walking, as a fraction of the sole width (module docstring).
+WALK_SOLE_MARGIN_FRACTION = 0.1
+#: Weight of the balance controller's centroidal angular-momentum task while walking (module docstring).
+WALK_MOMENTUM_WEIGHT = 1.0
+
+
+def walk_options_for(robot, solver: str = "fast", sole_margin: float | None = None) -> dict:
+    """:func:`id_options_for` for walking: the controller's contact rectangle shrunk by ``sole_margin`` (m) per
+    side, by default ``WALK_SOLE_MARGIN_FRACTION`` × ``robot.sole_width`` (or the rank-deficient robots' margin
+    when larger), so the CoP of the QP's contact forces keeps that distance from the sole edges, and the
+    angular-momentum task's weight ``WALK_MOMENTUM_WEIGHT`` (``gains``; module docstring).
+
+    Raises:
+        InvalidInputError: a negative or non-finite ``sole_margin``.
+    """
+    options = id_options_for(robot, solver)
+    if sole_margin is None:
+        sole_margin = max(options.get("sole_margin", 0.0), WALK_SOLE_MARGIN_FRACTION * robot.sole_width)
+    elif not (np.isfinite(sole_margin) and sole_margin >= 0):
+        raise InvalidInputError(f"sole_margin must be finite and ≥ 0 m, got {sole_margin!r}")
+    options["sole_margin"] = float(sole_margin)
+    options["gains"] = {"momentum_weight": WALK_MOMENTUM_WEIGHT}
+    return options
 
 
 class WaveScenario:
