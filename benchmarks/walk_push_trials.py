@@ -8,7 +8,7 @@ recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, 
 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
-       [--adjust-timing on|off]
+       [--adjust-timing on|off] [--seeds S ...] [--jobs N]
 """
 
 from __future__ import annotations
@@ -44,6 +44,8 @@ def main() -> None:
     ap.add_argument("--step-length", type=float, default=0.25)
     ap.add_argument("--step-duration", type=float, default=0.6)
     ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--seeds", type=int, nargs="+", help="these seeds instead of --seed0 .. --seed0 + --trials - 1")
+    ap.add_argument("--jobs", type=int, default=1, help="trials run in parallel processes (default 1)")
     ap.add_argument("--no-step-adjust", action="store_true")
     ap.add_argument("--adjust-timing", choices=("on", "off"), default="on",
                     help="step timing adaptation (WalkScenario adjust_timing)")
@@ -63,24 +65,46 @@ def main() -> None:
                   f"completed {s['completed']}, stepped {s['stepped']}, first step shift "
                   f"{s.get('first_step_shift_m')}")
         return
-    t_init = 0.8  # WalkScenario's initial double support
-    t_walk = (args.steps - 1) * args.step_duration
-    survived = 0
-    for i in range(args.trials):
-        seed = args.seed0 + i
-        rng = np.random.default_rng(seed)
-        t = float(t_init + rng.uniform(0.0, t_walk - args.push_duration))
-        d = float(rng.uniform(0.0, 360.0))
-        s = trial(robot, push_time=t, push_dir=d, steps=args.steps, step_length=args.step_length, **common)
-        ok = (not s["fell"]) and s["completed"]
-        survived += ok
-        print(f"seed {seed:2d}: push {args.force:.0f} N at t = {t:.3f} s, dir {d:6.1f} deg: "
-              f"{'survived' if ok else 'FELL'}; walked {s['walked_distance_m']:.3f} m, "
-              f"step adjustments {s['step_adjustments']} (max {s['max_step_adjustment_m']:.3f} m), "
-              f"solver failures {s['solver_failures']}", flush=True)
-    print(f"survived {survived} of {args.trials} ({args.force:.0f} N x {args.push_duration} s, {args.robot}, "
+    seeds = args.seeds if args.seeds else [args.seed0 + i for i in range(args.trials)]
+    jobs = [(args.robot, seed, args.steps, args.step_length, common) for seed in seeds]
+    survived, fell = 0, []
+    if args.jobs > 1:
+        import multiprocessing
+
+        with multiprocessing.get_context("spawn").Pool(args.jobs) as pool:
+            lines = pool.imap(_seeded_trial, jobs)
+            for seed, ok, line in lines:
+                survived += ok
+                fell += [] if ok else [seed]
+                print(line, flush=True)
+    else:
+        for job in jobs:
+            seed, ok, line = _seeded_trial(job, robot)
+            survived += ok
+            fell += [] if ok else [seed]
+            print(line, flush=True)
+    print(f"survived {survived} of {len(seeds)} ({args.force:.0f} N x {args.push_duration} s, {args.robot}, "
           f"{args.steps} steps x {args.step_length} m at {args.step_duration} s/step, "
-          f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s)")
+          f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s); fell: seeds {fell}")
+
+
+def _seeded_trial(job, robot=None):
+    """One trial from its seed: push time uniform over the walking steps, direction uniform in [0, 360) deg."""
+    name, seed, steps, step_length, common = job
+    robot = robot if robot is not None else wbc.load_robot(name)
+    t_init = 0.8  # WalkScenario's initial double support
+    t_walk = (steps - 1) * common["step_duration"]
+    rng = np.random.default_rng(seed)
+    t = float(t_init + rng.uniform(0.0, t_walk - common["duration"]))
+    d = float(rng.uniform(0.0, 360.0))
+    s = trial(robot, push_time=t, push_dir=d, steps=steps, step_length=step_length, **common)
+    ok = bool((not s["fell"]) and s["completed"])
+    line = (f"seed {seed:2d}: push {common['force']:.0f} N at t = {t:.3f} s, dir {d:6.1f} deg: "
+            f"{'survived' if ok else 'FELL'}; walked {s['walked_distance_m']:.3f} m, "
+            f"step adjustments {s['step_adjustments']} (max {s['max_step_adjustment_m']:.3f} m), "
+            f"timing changes {[round(x, 3) for x in s['step_timing_changes_s']]} s, "
+            f"solver failures {s['solver_failures']}")
+    return seed, ok, line
 
 
 if __name__ == "__main__":

@@ -110,7 +110,8 @@ def test_suite_and_report_writer(tmp_path):
 
     cfg = SuiteConfig(ticks=5, repeats=2, warmup=1, pink_select_ticks=3, scaling_robots=("humanoid15",),
                       gait_repeats=2, placo_gait_repeats=1, walk_steps=2,
-                      sections=("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk"))
+                      sections=("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk",
+                                "frame_tasks"))
     results = run_suite(cfg)
     paths = write_report(results, tmp_path / "out")
     for key in ("json", "markdown", "plot", "raw"):
@@ -120,8 +121,12 @@ def test_suite_and_report_writer(tmp_path):
     assert {a["criterion"] for a in data["acceptance"]} == {a["criterion"] for a in acceptance(results)}
     text = markdown(results)
     for title in ("## 1. Kinematic tick", "## 2. wbc tick breakdown", "## 3. wbc with each QP backend",
-                  "## 4. Scaling", "## 5. Inverse dynamics", "## 6. Gait planning", "## 7. Walk tick"):
+                  "## 4. Scaling", "## 5. Inverse dynamics", "## 6. Gait planning", "## 7. Walk tick",
+                  "## 8. Cost of an extra 6-D frame task"):
         assert title in text
+    ft = data["frame_tasks"]
+    assert ft["failures"] == {"wbc": 0, "wbc+10": 0, "placo": 0, "placo+10": 0}
+    assert all(len(v) == 2 and all(t > 0 for t in v) for v in ft["tick_us"].values())
 
 
 def test_cli_bench_quick(tmp_path):

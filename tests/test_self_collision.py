@@ -172,7 +172,9 @@ def test_broad_phase_keeps_the_rows_hand_through_torso(robots, monkeypatch):
             ref = _reference_close_pairs(sc, robot, gm, gd, data, config.q)
             calls[0] = n_calls
             assert [k for k, _ in got] == [k for k, _ in ref], k
-            assert np.allclose([d for _, d in got], [d for _, d in ref], rtol=0, atol=1e-9), k  # GJK tolerance
+            # each run is within GJK's 1e-9 m of the true distance (the pair is warm-started from a different
+            # previous call in each), so two runs agree to 2e-9 m: measured 1.02e-9 on pair 9 at tick 105
+            assert np.allclose([d for _, d in got], [d for _, d in ref], rtol=0, atol=2e-9), k
             active.append(got)
             d_min = min(d_min, ref[0][1])
             config.update(config.integrate(res.v, DT))
@@ -184,7 +186,7 @@ def test_broad_phase_keeps_the_rows_hand_through_torso(robots, monkeypatch):
     assert len(rows1) == len(rows0) == len(q1)  # one compute per tick
     for a1, a0 in zip(act1, act0, strict=True):
         assert [k for k, _ in a1] == [k for k, _ in a0]
-        assert np.allclose([d for _, d in a1], [d for _, d in a0], rtol=0, atol=1e-9)  # GJK tolerance
+        assert np.allclose([d for _, d in a1], [d for _, d in a0], rtol=0, atol=2e-9)  # 2 × GJK tolerance
     # measured: C equal to 1.7e-16, trajectories identical (coal's warm start could move a witness point along a
     # flat face within GJK's tolerance: calling compute twice per tick gave rows up to 2.7e-6 apart)
     for (C1, l1), (C0, l0) in zip(rows1, rows0):

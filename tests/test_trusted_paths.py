@@ -23,6 +23,7 @@ def test_trusted_setters_equal_the_validated_ones(robots):
         for x, y in zip(a.compute(config), b.compute(config)):
             np.testing.assert_array_equal(x, y)
         np.testing.assert_array_equal(a.feedforward(), b.feedforward())
+        np.testing.assert_array_equal(a.target.homogeneous, b.target.homogeneous)  # the SE3 built on first read
         b.set_target_trusted(M.homogeneous)
         assert b.feedforward() is None
     c, d = ComTask(), ComTask()
@@ -50,3 +51,22 @@ def test_the_walk_tick_uses_the_trusted_setters(robots, monkeypatch):
     lift_offs = sum(1 for ph in plan.phases if ph.support != 0)
     assert len(calls) <= lift_offs and set(calls) <= {"FrameTask"}
     assert np.array_equal(walker.com.target, plan.com[len(plan.t) - 1 - (len(plan.t) - 1) % 25])
+
+
+def test_walk_references_reject_a_bad_sample_index(robots):
+    """The per-tick walk path skips validation of the plan's rows, not of the index it is given."""
+    import pytest
+
+    from wbc.exceptions import InvalidInputError, InvalidTargetError
+    from wbc.scenarios.walk import WalkController, plan_default_walk
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    plan = plan_default_walk(robot, config, n_steps=1)
+    walker = WalkController(robot, config)
+    for k in (-1, len(plan.t), 1.0, True, "3"):
+        with pytest.raises(InvalidInputError, match="sample index"):
+            walker.set_references(plan, k, config)
+    walker.set_references(plan, np.int64(len(plan.t) - 1), config)
+    with pytest.raises(InvalidTargetError, match="WalkPlan"):
+        walker.set_plan("not a plan")

@@ -64,6 +64,55 @@ def test_zmp_rows_are_the_executed_zmp_distance(robots, name):
     assert (u[-1] - C[-1] @ v1) == pytest.approx(dt * ((1 - 0.5) * 9.81 + acc[2]), abs=1e-3 * dt * 9.81)
 
 
+def test_undo_previous_takes_back_exactly_one_command(robots):
+    """A tick solved twice (StanceController's retry): after set_previous(v1), undo_previous(), set_previous(v2) the
+    next tick's rows are those of a constraint that only ever saw v2 (bitwise); a second undo is a no-op."""
+    robot = robots("talos")
+    dt = 0.002
+    rng = np.random.default_rng(5)
+    v0, v1, v2 = (np.r_[np.zeros(6), 0.1 * rng.standard_normal(robot.nv - 6)] for _ in range(3))
+    rows = []
+    for retried in (False, True):
+        config = Configuration(robot)
+        zmp = ExecutedZmpConstraint(robot)
+        zmp.set_support([config.data.oMf[robot.frame_id(f)] for f in (robot.left_sole, robot.right_sole)])
+        zmp.compute(config, dt)
+        zmp.set_previous(v0)
+        config.step(v0, dt)
+        zmp.compute(config, dt)
+        if retried:
+            zmp.set_previous(v1)
+            zmp.undo_previous()
+            zmp.undo_previous()
+        zmp.set_previous(v2)
+        config.step(v2, dt)
+        rows.append([x.copy() for x in zmp.compute(config, dt)])
+    for a, b in zip(*rows):
+        np.testing.assert_array_equal(a, b)
+    assert np.isfinite(rows[0][2][:-1]).sum() >= 4  # the rows are active (a previous tick is known)
+
+
+def test_support_half_planes_match_the_geometry_module(robots):
+    """set_support's plain-float half-planes (one sole, two soles, turned and shifted) are those of
+    wbc.geometry.support_polygon + com_polygon.halfplanes shrunk by the margin; ground height = mean sole z."""
+    from wbc.constraints.com_polygon import halfplanes
+    from wbc.geometry import support_polygon
+
+    robot = robots("talos")
+    zmp = ExecutedZmpConstraint(robot, margin=0.003)
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        poses = [pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, rng.uniform(-1, 1)), np.r_[rng.uniform(-1, 1, 2), z])
+                 for z in rng.uniform(-0.01, 0.01, int(rng.integers(1, 3)))]
+        if len(poses) == 2:
+            poses[1].translation = poses[0].translation + np.r_[rng.uniform(-0.3, 0.3), 0.25, 0.0]
+        zmp.set_support(poses)
+        normals, offsets = halfplanes(support_polygon(poses, robot.sole_length, robot.sole_width))
+        np.testing.assert_allclose(zmp.normals, normals, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(zmp.offsets, offsets - 0.003, rtol=0, atol=1e-15)
+        assert zmp.ground_z == pytest.approx(np.mean([p.translation[2] for p in poses]), abs=1e-15)
+
+
 def test_dcm_rows(robots):
     """n_i·J_com,xy v ≤ ω s_i: at the bound, the capture point c + ċ/ω lands on the shrunk edge."""
     robot = robots("talos")

@@ -41,6 +41,7 @@ class Configuration:
         self.data = robot.model.createData()
         self.q = np.array(robot.q_ref if q is None else q, dtype=float)
         self.update(self.q)
+        self._com = self.data.com[0]  # a view of Pinocchio's data.com[0] (eigenpy): follows every update
 
     def update(self, q: np.ndarray | None = None) -> None:
         """Set q (if given) and recompute joint Jacobians, frame placements, CoM and CoM Jacobian.
@@ -71,8 +72,9 @@ class Configuration:
 
     @property
     def com(self) -> np.ndarray:
-        """(3,) centre of mass in world (m)."""
-        return self.data.com[0]
+        """(3,) centre of mass in world (m): a view of Pinocchio's ``data.com[0]``, updated in place by
+        :meth:`update` (copy it to keep a value)."""
+        return self._com
 
     @property
     def com_jacobian(self) -> np.ndarray:

@@ -41,14 +41,20 @@ __all__ = ["solve_lexicographic", "independent_rows"]
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
     numerical rank: |R_ii| > rtol · max(|R_00|, 1))."""
-    import scipy.linalg
+    from scipy.linalg import lapack
 
     if A.shape[0] == 0:
         return np.zeros(0, dtype=int)
-    _, R, piv = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
-    diag = np.abs(np.diag(R))
+    # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls, with the same workspace query), without
+    # forming Q: only |R_ii| and the pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
+    At = np.array(A.T, dtype=float, order="F")  # a copy: dgeqp3 overwrites it
+    lwork = int(lapack.dgeqp3(At, lwork=-1)[3][0].real)
+    qr, jpvt, _, _, info = lapack.dgeqp3(At, lwork=max(lwork, 1), overwrite_a=True)
+    if info != 0:
+        raise SolverError(f"QR with column pivoting of the equality rows failed (LAPACK dgeqp3 info {info})")
+    diag = np.abs(np.diagonal(qr)[:min(qr.shape)])
     rank = int(np.sum(diag > rtol * max(diag[0], 1.0)))
-    return np.sort(piv[:rank])
+    return np.sort(jpvt[:rank] - 1)
 
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,

@@ -46,6 +46,7 @@ class DynamicsState(Configuration):
         self.v = np.zeros(robot.model.nv) if v is None else check_vector(v, robot.model.nv, "velocity v").copy()
         self.mass = robot.mass
         self._dAg_v = np.zeros(6)
+        self._com_drift = np.zeros(3)
         self._views: tuple | None = None
         super().__init__(robot, q)
 
@@ -69,9 +70,11 @@ class DynamicsState(Configuration):
             # numpy views of Data's fixed-size storage, which computeAllTerms overwrites in place: fetched once
             # (each attribute access through the bindings costs ≈ 1.5 µs)
             d = self.data
-            self._views = (d.M, d.nle, d.Jcom, d.Ag, d.dAg)
-        self._com_jacobian = self._views[2]
-        np.matmul(self._views[4], self.v, out=self._dAg_v)
+            self._views = (d.M, d.nle, d.Jcom, d.Ag, d.dAg, d.com[0])
+            self._com_jacobian = self._views[2]
+        views = self._views
+        np.matmul(views[4], self.v, out=self._dAg_v)
+        np.multiply(self._dAg_v[0:3], 1.0 / self.mass, out=self._com_drift)
 
     # -- dynamics --------------------------------------------------------------------------------------------
     @property
@@ -91,9 +94,14 @@ class DynamicsState(Configuration):
         return self.data.vcom[0]
 
     @property
+    def com(self) -> np.ndarray:
+        """(3,) centre of mass in world (m): a view of ``data.com[0]``, updated in place by :meth:`update`."""
+        return self._views[5]
+
+    @property
     def com_drift(self) -> np.ndarray:
-        """(3,) CoM acceleration at v̇ = 0 (m/s²): ``(dAg v)[0:3] / m``."""
-        return self._dAg_v[0:3] / self.mass
+        """(3,) CoM acceleration at v̇ = 0 (m/s²): ``(dAg v)[0:3] / m`` (an array rewritten by :meth:`update`)."""
+        return self._com_drift
 
     @property
     def centroidal_momentum_matrix(self) -> np.ndarray:

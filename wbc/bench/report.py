@@ -79,6 +79,11 @@ def acceptance(results: dict) -> list[dict[str, object]]:
         r = dyn["ratios_to_placo"]["wbc"]["median"]
         rows.append({"criterion": "wbc inverse-dynamics tick median / placo DynamicsSolver", "value": r,
                      "goal": "≤ 1.0", "met": r <= 1.0, "timing": True})
+    ft = results.get("frame_tasks")
+    if ft:
+        v = ft["per_task_us"]["wbc"]
+        rows.append({"criterion": "one extra 6-D frame task, wbc µs per task (median of per-repeat differences)",
+                     "value": v, "goal": "≤ 6", "met": v <= 6.0, "timing": True})
     gait = results.get("gait")
     if gait:
         w = gait["wbc"]
@@ -300,9 +305,11 @@ def markdown(results: dict) -> str:
         out.append("")
     if results.get("walk"):
         out += _walk_section(results["walk"])
+    if results.get("frame_tasks"):
+        out += _frame_task_section(results["frame_tasks"])
     ins = results.get("instructions")
     if ins:
-        out += ["## 8. Instructions per kinematic tick (valgrind callgrind; independent of machine load)", ""]
+        out += ["## 9. Instructions per kinematic tick (valgrind callgrind; independent of machine load)", ""]
         if "error" in ins:
             out += [ins["error"], ""]
         else:
@@ -404,5 +411,20 @@ def _walk_section(walk: dict) -> list[str]:
         out.append(f"| {lib} | {_f(v['wall_us']['median_of_repeat_medians'])} | {_f(v['p99_us'])} | "
                    f"{_f(v['wall_us']['max'])} | {_f(walk.get('ratios_to_placo-hard', {}).get(lib), 2)} | "
                    f"{v['failures']} | {_f(1e3 * v['max_com_error'], 2)} | {_f(1e3 * v['max_sole_error'], 2)} |")
+    out.append("")
+    return out
+
+
+def _frame_task_section(ft: dict) -> list[str]:
+    """Markdown lines of the extra-frame-task section."""
+    n = len(ft["frames"])
+    out = [f"## 8. Cost of an extra 6-D frame task: the kinematic tick with {n} more soft frame tasks, "
+           f"{ft['ticks']} ticks × {ft['repeats']} interleaved repeats", "",
+           f"Frames: {', '.join(ft['frames'])} (weight 1, target = initial placement). Per-task cost = (median tick "
+           f"with them − median tick without) / {n}, per repeat; median over repeats.", "",
+           f"| library | tick µs | tick + {n} tasks µs | µs per extra task |", "|---|---|---|---|"]
+    for lib in ("wbc", "placo"):
+        out.append(f"| {lib} | {_f(float(np.median(ft['tick_us'][lib])))} | "
+                   f"{_f(float(np.median(ft['tick_us'][f'{lib}+{n}'])))} | {_f(ft['per_task_us'][lib])} |")
     out.append("")
     return out

@@ -1,5 +1,6 @@
 """The whole benchmark suite, run in one process: kinematic tick (wbc / placo / Pink), wbc breakdown, wbc QP
-backends, scaling over robots, inverse dynamics (wbc / placo) and gait planning (wbc / placo).
+backends, scaling over robots, inverse dynamics (wbc / placo), gait planning (wbc / placo), the walk tick, the cost
+of an extra frame task and instruction counts.
 
 :func:`run_suite` returns one JSON-serialisable dict (plus raw latency arrays under ``"_raw"``, for the plot);
 :mod:`wbc.bench.report` turns it into JSON, markdown and a PNG.
@@ -50,7 +51,7 @@ class SuiteConfig:
         walk_steps: steps of the walk section's plan (``plan_default_walk``); its repeats are ``repeats``.
         callgrind_ticks: N of the instruction count (runs of N and 2N ticks under callgrind).
         sections: subset of {"kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk",
-            "instructions"}.
+            "frame_tasks", "instructions"}.
     """
 
     robot: str = "talos"
@@ -64,7 +65,7 @@ class SuiteConfig:
     walk_steps: int = 8
     callgrind_ticks: int = 200
     sections: tuple[str, ...] = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk",
-                                 "instructions")
+                                 "frame_tasks", "instructions")
 
     @classmethod
     def quick(cls) -> "SuiteConfig":
@@ -353,6 +354,11 @@ def run_suite(cfg: SuiteConfig = SuiteConfig()) -> dict[str, object]:
         walk = run_walk_benchmark(robot, WalkBenchSpec(n_steps=cfg.walk_steps, repeats=cfg.repeats), log=_log)
         raw["walk"] = walk.pop("_raw")
         results["walk"] = walk
+    if "frame_tasks" in cfg.sections:
+        from wbc.bench.frame_tasks import FrameTaskSpec, run_frame_task_benchmark
+
+        results["frame_tasks"] = run_frame_task_benchmark(
+            robot, FrameTaskSpec(ticks=cfg.ticks, repeats=cfg.repeats, warmup=cfg.warmup), log=_log)
     if "instructions" in cfg.sections:
         from wbc.bench.instructions import callgrind_available, instructions_per_tick
 

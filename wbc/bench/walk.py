@@ -81,6 +81,7 @@ class _WbcWalk:
         robot, plan = self.robot, self.plan
         config = Configuration(robot)
         walker = WalkController(robot, config, solver=self.solver)
+        walker.set_plan(plan)  # as run_walk: validated and precomputed before the first tick
         n, dt = len(plan.t), plan.dt
         wall = np.empty(n, np.int64)
         qs = np.empty((n + 1, robot.nq))
@@ -105,6 +106,7 @@ class _WbcWalk:
         robot, plan = self.robot, self.plan
         config = Configuration(robot)
         walker = WalkController(robot, config, solver=self.solver)
+        walker.set_plan(plan)
         for k in range(len(plan.t)):
             walker.set_references(plan, k, config)
             res = walker.solve(config, plan.dt)

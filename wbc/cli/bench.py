@@ -17,7 +17,8 @@ from pathlib import Path
 
 __all__ = ["register", "cmd_bench"]
 
-SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk", "instructions")
+SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk", "frame_tasks",
+            "instructions")
 
 
 def register(subparsers, add_outputs=None) -> None:

@@ -19,6 +19,8 @@ Acceleration limits yield to position safety, in two ways:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbc.configuration import Configuration, check_vector
@@ -59,6 +61,9 @@ class JointAccelerationLimit(BoxConstraint):
             self.name = name
         self.nv = nv
         self.v_prev = np.zeros(self.dim)
+        self._lb = np.empty(self.dim)
+        self._ub = np.empty(self.dim)
+        self._step = np.empty(self.dim)
 
     def set_previous(self, v) -> None:
         """Record the command v (nv,) sent at the previous tick (only v[6:] is used).
@@ -66,8 +71,13 @@ class JointAccelerationLimit(BoxConstraint):
         Raises:
             ConfigurationError: wrong shape or NaN.
         """
-        self.v_prev = check_vector(v, self.nv, "previous command v")[6:].copy()
+        if not (type(v) is np.ndarray and v.shape == (self.nv,) and v.dtype == np.float64 and math.isfinite(v @ v)):
+            v = check_vector(v, self.nv, "previous command v")  # raises with the details (or converts)
+        self.v_prev = v[6:].copy()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        step = self.a_max * dt
-        return self.v_prev - step, self.v_prev + step
+        """(lb, ub) of the module docstring, buffers owned by the constraint (overwritten at the next call)."""
+        np.multiply(self.a_max, dt, out=self._step)
+        np.subtract(self.v_prev, self._step, out=self._lb)
+        np.add(self.v_prev, self._step, out=self._ub)
+        return self._lb, self._ub

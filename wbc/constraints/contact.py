@@ -11,15 +11,32 @@ drift.
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.tasks.frame import as_se3
 
 __all__ = ["ContactConstraint"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _write_rows(jac, error, scale, A_out, b_out):
+    """A_out = jac, b_out = scale · error (one compiled call instead of two numpy ones)."""
+    for i in range(jac.shape[0]):
+        b_out[i] = scale * error[i]
+        for j in range(jac.shape[1]):
+            A_out[i, j] = jac[i, j]
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_write_rows` (on-disk cache) once per process, at construction."""
+    _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
 
 
 class ContactConstraint(EqualityConstraint):
@@ -44,6 +61,8 @@ class ContactConstraint(EqualityConstraint):
         self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
+        self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): compute_into
+        _warm_up()
 
     @property
     def gain(self) -> float:
@@ -97,3 +116,15 @@ class ContactConstraint(EqualityConstraint):
         b = self.compute_error(config)
         b *= -min(self._gain, 1.0 / dt)
         return pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL), b
+
+    def compute_into(self, config: Configuration, dt: float, A_out: np.ndarray, b_out: np.ndarray) -> float:
+        """Write the rows of :meth:`compute` into A_out (6, nv) and b_out (6,) (views of a controller's stacked
+        buffers); returns the gain used, min(K, 1/dt) (1/s)."""
+        data = config.data
+        views = self._oMf_views
+        if views is None or views[0] is not data:  # data.oMf[frame] is a reference into Pinocchio's data
+            views = self._oMf_views = (data, data.oMf[self.frame_id])
+        k = min(self._gain, 1.0 / dt)
+        _write_rows(pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL),
+                    pin.log6(self._placement.actInv(views[1])).vector, -k, A_out, b_out)
+        return k

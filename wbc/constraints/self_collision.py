@@ -69,6 +69,7 @@ was not met on this loaded machine (``benchmarks/self_collision.py`` prints PASS
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -154,19 +155,20 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
     for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
+        # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
+        # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
+        # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
+        # the two bounds: either one at or above the cut-off excludes the pair (the cheaper one first)
+        if exact[k]:
+            low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
+            if low >= activation or low > tau:
+                continue
         d2 = 0.0
         for i in range(3):
             d2 += (centre[a, i] - centre[b, i]) ** 2
-        # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
-        # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
-        # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12)
         low = np.sqrt(d2) - radius[a] - radius[b] - BOUND_SLACK
         if low >= activation or low > tau:
             continue
-        if exact[k]:
-            low = max(low, d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK)
-            if low >= activation or low > tau:
-                continue
         cand[n] = k
         mask[a, b] = True
         n += 1
@@ -195,16 +197,17 @@ def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, mov
 
 
 @nb.njit(cache=True, nogil=True)
-def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C):
-    """C[r] = nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang restricted to each body's support columns
-    (module docstring), for the rows r < normal.shape[0]."""
+def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
+    """C[slot[r]] = nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang restricted to each body's support
+    columns (module docstring), for r < normal.shape[0]."""
     nv = J.shape[1]
-    for r in range(normal.shape[0]):
-        n0, n1, n2 = normal[r, 0], normal[r, 1], normal[r, 2]
+    for i in range(normal.shape[0]):
+        r = slot[i]
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
         for side in range(2):
-            p = p2[r] if side == 1 else p1[r]
+            p = p2[i] if side == 1 else p1[i]
             sign = 1.0 if side == 1 else -1.0
-            jt = joint2[r] if side == 1 else joint1[r]
+            jt = joint2[i] if side == 1 else joint1[i]
             x0 = p[1] * n2 - p[2] * n1
             x1 = p[2] * n0 - p[0] * n2
             x2 = p[0] * n1 - p[1] * n0
@@ -215,20 +218,46 @@ def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C):
 
 
 @nb.njit(cache=True, nogil=True)
-def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise):
-    """The velocity-damper rows of the m = len(k) close pairs (module docstring): C[:m] (``_damper_rows``), each
-    pair's floor f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN), l[:m] = −γ (d − f); the unused
-    rows C = 0, l = −∞."""
+def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slot_of, in_slot, slot):
+    """The velocity-damper rows of the m = len(k) close pairs (module docstring), each pair's floor
+    f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN) and l = −γ (d − f); the unused rows C = 0,
+    l = −∞.
+
+    Rows are slots kept across calls (``slot_of`` (npairs,): a pair's row or −1; ``in_slot`` (rows,): a row's pair
+    or −1): a pair that stays active keeps its row, a new one takes the lowest free row. The QP is the same in any
+    row order; a stable order lets the solver's warm start (its working set, by row index) carry over from one
+    tick to the next. ``slot`` (≥ m,): out, the row of each pair of k."""
     m = k.shape[0]
+    for r in range(in_slot.shape[0]):  # free the rows of the pairs no longer active
+        q = in_slot[r]
+        if q >= 0:
+            keep = False
+            for i in range(m):
+                if k[i] == q:
+                    keep = True
+                    break
+            if not keep:
+                slot_of[q] = -1
+                in_slot[r] = -1
+    free = 0
+    for i in range(m):
+        r = slot_of[k[i]]
+        if r < 0:
+            while in_slot[free] >= 0:
+                free += 1
+            r = free
+            slot_of[k[i]] = r
+            in_slot[r] = k[i]
+        slot[i] = r
     C[:, :] = 0.0
-    l[m:] = -np.inf
-    _damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C)
-    for r in range(m):
-        f = floor[k[r]]
-        f = d[r] if np.isnan(f) else max(f, d[r]) + rise
+    l[:] = -np.inf
+    _damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C, slot)
+    for i in range(m):
+        f = floor[k[i]]
+        f = d[i] if np.isnan(f) else max(f, d[i]) + rise
         f = min(ds, f)
-        floor[k[r]] = f
-        l[r] = -gamma * (d[r] - f)
+        floor[k[i]] = f
+        l[slot[i]] = -gamma * (d[i] - f)
 
 
 def _adjacent(model: pin.Model, j1: int, j2: int) -> bool:
@@ -331,7 +360,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
-        self._witness = [(r, r.getNearestPoint1, r.getNearestPoint2) for r in self._results]
+        normal = type(self._results[0]).normal.fget
+        # per pair: the getters of its witness points and normal (one flat list per call, one np.concatenate: a
+        # nested np.array of tuples of arrays cost more than the 32 coal distances' bookkeeping)
+        self._witness = [(r.getNearestPoint1, r.getNearestPoint2, functools.partial(normal, r)) for r in self._results]
         self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
         npairs = len(self.pairs)
@@ -365,6 +397,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._cand = np.empty(npairs, dtype=np.int64)
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
+        self._slot_of = np.full(npairs, -1, dtype=np.int64)  # row of each active pair (compute), −1: none
+        self._in_slot = np.full(self.dim, -1, dtype=np.int64)  # pair of each row, −1: unused
+        self._slot = np.empty(self.dim, dtype=np.int64)
+        self._identity = np.arange(self.dim, dtype=np.int64)
         self._floor = np.full(npairs, np.nan)
         self._d_known = np.full(npairs, np.inf)
         self._exact = np.zeros(npairs, dtype=bool)
@@ -445,7 +481,7 @@ class SelfCollisionConstraint(InequalityConstraint):
             wit = self._witness
             # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
             # simplex), enough to change a closed-loop run
-            w = np.array([(a(), b(), r.normal) for r, a, b in [wit[kk] for kk in kl]])  # (m, 3, 3)
+            w = np.concatenate([f() for kk in kl for f in wit[kk]]).reshape(m, 3, 3)
             p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
         else:
             p1 = p2 = normal = self._empty
@@ -461,7 +497,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         C[:m] = 0.0
         k = close.pairs
         _damper_rows(close.normal, close.p1, close.p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]],
-                     config.data.J, self._support, C)
+                     config.data.J, self._support, C, self._identity[:m])
         return C
 
     @property
@@ -470,12 +506,14 @@ class SelfCollisionConstraint(InequalityConstraint):
         return [(*names[k], d) for k, d in zip(self._found.pairs.tolist(), self._found.distance.tolist())]
 
     def compute(self, config: Configuration, dt: float):
-        """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring)."""
+        """(C (max_active, nv), l, u) with one velocity-damper row per active pair (module docstring); a pair keeps
+        its row while it stays active (rows in no particular distance order: :attr:`active` lists the pairs
+        closest first)."""
         self._narrow(config)
         f = self._found
         _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, config.data.J, self._support, self._C,
                 self._l, self._floor, min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin,
-                self.recovery_speed * dt)
+                self.recovery_speed * dt, self._slot_of, self._in_slot, self._slot)
         return self._C, self._l, self._u
 
     def barrier(self, state, dt: float):
@@ -516,3 +554,5 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._floor[:] = np.nan
         self._first = True
         self._exact[:] = False
+        self._slot_of[:] = -1
+        self._in_slot[:] = -1

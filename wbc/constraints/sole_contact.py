@@ -134,8 +134,14 @@ class SoleContact:
 
     def acceleration_target(self, state: DynamicsState, J: np.ndarray) -> np.ndarray:
         """(6,) right-hand side b of ``J v̇ = b`` (LOCAL): −J̇v − K_d J v − K_p e (module docstring)."""
-        drift = pin.getFrameClassicalAcceleration(state.model, state.data, self.frame_id, pin.LOCAL).vector
-        b = -drift - self.kd * (J @ state.v)
+        b = self.acceleration_offset(state)
+        b -= self.kd * (J @ state.v)
+        return b
+
+    def acceleration_offset(self, state: DynamicsState) -> np.ndarray:
+        """(6,) the velocity-free part −J̇v − K_p e of :meth:`acceleration_target` (LOCAL; m/s², rad/s²), a new
+        array."""
+        b = -pin.getFrameClassicalAcceleration(state.model, state.data, self.frame_id, pin.LOCAL).vector
         if self.kp > 0 and self.reference is not None:
             b -= self.kp * pin.log6(self.reference.actInv(state.data.oMf[self.frame_id])).vector
         return b

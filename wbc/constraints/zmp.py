@@ -57,9 +57,9 @@ import pinocchio as pin
 from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
-from wbc.constraints.com_polygon import ComPolygonConstraint, halfplanes
+from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, check_count, check_scalar, support_polygon
+from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
 
@@ -190,6 +190,9 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._L_prev = np.zeros(3)               # L_{k−1}
         self._c_prev: np.ndarray | None = None   # c_{k−1}
         self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
+        # set_previous writes into a spare set of these buffers and keeps the one it replaced (undo_previous)
+        self._spare = (np.empty(3), np.empty(3), np.zeros(3), np.zeros((3, nv)), np.zeros(nv))
+        self._undo: tuple | None = None
         _warm_up()
 
     def set_support(self, sole_placements) -> None:
@@ -202,20 +205,51 @@ class ExecutedZmpConstraint(InequalityConstraint):
         poses = [as_se3(p, "sole placement") for p in sole_placements]
         if not 1 <= len(poses) <= self.max_soles:
             raise InvalidInputError(f"set_support needs 1..{self.max_soles} sole placements, got {len(poses)}")
-        poly = support_polygon(poses, self.robot.sole_length, self.robot.sole_width)
-        normals, offsets = halfplanes(poly)
-        if float(np.min(offsets - normals @ poly.mean(axis=0))) <= self.margin:
+        self.set_support_trusted(poses)
+
+    def set_support_trusted(self, sole_placements) -> None:
+        """:meth:`set_support` without validating the placements, for a controller's own support switches (e.g.
+        :class:`~wbc.scenarios.stance.StanceController` with its contacts' placements, validated when they were
+        set): ``sole_placements`` 1..``max_soles`` pin.SE3 with rotation blocks that are rotations. The polygon is
+        built from plain floats (:func:`wbc.geometry.sole_corners`, :func:`wbc.geometry.hull`), the same numbers
+        as :func:`wbc.geometry.support_polygon`.
+
+        Raises:
+            InvalidInputError: polygon smaller than the margin.
+        """
+        length, width = self.robot.sole_length, self.robot.sole_width
+        corners, ground = [], 0.0
+        for M in sole_placements:
+            t = M.translation
+            corners += sole_corners(float(t[0]), float(t[1]), yaw_of(M), length, width)
+            ground += float(t[2])
+        poly = corners if len(sole_placements) == 1 else hull(corners)
+        # half-planes of the CCW polygon in plain floats: the arithmetic of com_polygon.halfplanes, edge by edge
+        k = len(poly)
+        cx, cy = sum(p[0] for p in poly) / k, sum(p[1] for p in poly) / k
+        normals, offsets, inner = [], [], math.inf
+        for i in range(k):
+            (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % k]
+            ex, ey = x1 - x0, y1 - y0
+            norm = math.sqrt(ey * ey + ex * ex)
+            nx, ny = ey / norm, -ex / norm
+            d = nx * x0 + ny * y0
+            normals.append((nx, ny))
+            offsets.append(d - self.margin)
+            inner = min(inner, d - (nx * cx + ny * cy))
+        if inner <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
-        self.normals, self.offsets = normals, offsets - self.margin
-        self.ground_z = float(np.mean([M.translation[2] for M in poses]))
-        self._C[len(offsets):-1] = 0.0
-        self._u[len(offsets):-1] = np.inf
+        self.normals, self.offsets = np.array(normals), np.array(offsets)
+        self.ground_z = ground / len(sole_placements)
+        self._C[k:-1] = 0.0
+        self._u[k:-1] = np.inf
 
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
         by anything else than the controller's commands."""
         self._c_prev = self._c_pred = None
         self._have_now = False
+        self._undo = None
 
     def state(self) -> tuple:
         """Snapshot of the tick memory (previous CoM, prediction, momentum, Jacobian, command) for :meth:`restore`:
@@ -229,6 +263,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         the last :meth:`compute`."""
         c_prev, c_pred, L_prev, J_prev, v_prev = state
         self._have_now = True
+        self._undo = None
         self._c_prev = None if c_prev is None else c_prev.copy()
         self._c_pred = None if c_pred is None else c_pred.copy()
         self._L_prev[:] = L_prev
@@ -236,20 +271,41 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._v_prev[:] = v_prev
 
     def set_previous(self, v) -> None:
-        """Record the command v (nv,) applied from the configuration of the last :meth:`compute`."""
+        """Record the command v (nv,) applied from the configuration of the last :meth:`compute`
+        (:meth:`undo_previous` takes it back)."""
         if not self._have_now:
+            self._undo = None
             return
         v = np.asarray(v, dtype=float)
+        current = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
         if v.shape != (self.nv,):
             self.reset()
+            self._undo = current
             return
-        if self._c_prev is None:
-            self._c_prev, self._c_pred = np.empty(3), np.empty(3)
-        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, self._c_prev, self._c_pred,
-                           self._L_prev, self._J_prev, self._v_prev):
+        spare = self._spare
+        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, *spare[:2], *spare[2:]):
             self.reset()
+            self._undo = current
             return
+        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = spare
+        self._spare = current if current[0] is not None else (np.empty(3), np.empty(3), *current[2:])
+        self._undo = current
         self._have_now = False
+
+    def undo_previous(self) -> None:
+        """Take back the last :meth:`set_previous` (no-op when it recorded nothing or was already taken back): the
+        tick memory is again that of before it and the next :meth:`set_previous` again refers to the configuration
+        of the last :meth:`compute` — to solve the same tick once more, as :meth:`state` / :meth:`restore` do,
+        without copying the memory every tick."""
+        undo = self._undo
+        if undo is None:
+            return
+        self._undo = None
+        replaced = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
+        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = undo
+        if replaced[0] is not None:  # the buffers just given up become the spare set
+            self._spare = replaced
+        self._have_now = True
 
     def compute(self, config: Configuration, dt: float):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""

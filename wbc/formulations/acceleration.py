@@ -87,7 +87,8 @@ from wbc.constraints.dynamics import (
     consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import contact_rows_well_conditioned, id_tick, id_workspace
+from wbc.formulations.idkernel import (PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
+                                       R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
@@ -477,26 +478,29 @@ class InverseDynamicsQP:
         t0 = perf_counter()
         kb = self._kernel
         kb.gather(self, state)
-        ta = perf_counter()
         for con, s in zip(self.unilaterality, self._force_slices):
             key = con.key()
             if key != con.written:
                 con.write(self._ctx, None, self._lb[s], self._ub[s])
                 con.written = key
-        jl = self.joint_acceleration_limits
-        it, m = id_tick(kb.Jt, kb.wt, kb.rt, kb.pidx, kb.pw, kb.pr, self.eps_a, state.M, state.h, kb.Jc, kb.Gc,
-                        kb.Rc, kb.bc, kb.active, kb.t0, kb.lim, self.joint_limits, state.q, state.v, jl.iq, jl.iv, jl.qmin,
-                        jl.qmax, jl.vmax, jl.braking_acceleration, dt, kb.jlo, kb.jhi, self._H, self._g, self._A,
-                        self._b, self._C, self._l, self._u, self._lb, self._ub, self._JcT, kb.state, kb.rstate,
-                        kb.x, kb.nu, kb.mu, kb.z, kb.max_iter, *kb.ws, kb.residual, kb.tau, kb.wrench)
+        ta = perf_counter()
+        it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
+        self.dependent_contact_rows = 0
+        if it == PROJECT_CONTACT_RHS:  # as in InverseDynamicsQP.build
+            act = np.flatnonzero(kb.active)
+            bc = kb.bc[act].reshape(-1)
+            self.dependent_contact_rows = consistent_contact_rhs(kb.Jc[act].reshape(-1, self.nv), bc)
+            kb.bc[act] = bc.reshape(-1, 6)
+            it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 1, *kb.tail)
         self._m = m
         t1 = perf_counter()
-        nv = self.nv
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             kb.solves += 1
             x = kb.x
-            wrenches = {c.name: kb.wrench[k].copy() for k, c in enumerate(self.contacts)}
-            return IDSolution(dv=x[:nv].copy(), forces=x[nv:].copy(), tau=kb.tau.copy(), wrenches=wrenches,
+            nv = self.nv
+            wrench = kb.wrench
+            return IDSolution(dv=x[:nv].copy(), forces=x[nv:].copy(), tau=kb.tau.copy(),
+                              wrenches={name: wrench[k].copy() for k, name in enumerate(kb.names)},
                               dynamics_residual=float(kb.residual[1]),
                               timings={"assembly": ta - t0, "solve": t1 - ta})
         kb.fallbacks += 1
@@ -580,83 +584,109 @@ class InverseDynamicsQP:
 
 
 class _KernelBuffers:
-    """Preallocated inputs, solver state and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP; the
-    stacked task rows are re-laid out only when the task list changes."""
+    """Preallocated inputs, solver state and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP, and
+    its argument tuples; the stacked task rows are re-laid out only when the task list changes."""
 
     def __init__(self, qp: InverseDynamicsQP):
         nv, n, nc = qp.nv, qp.n, len(qp.contacts)
         tl = qp.torque_limits
-        self.t0 = int(tl.velocity_rows.start) if tl.dim else 6
-        self.lim = tl.limits.copy()
+        jl = qp.joint_acceleration_limits
+        self.names = [c.name for c in qp.contacts]
         self.Jc = np.zeros((nc, 6, nv))
         self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
+        self.cdrift = np.zeros((nc, 6))
+        self.ckd = np.zeros(nc)
         self.bc = np.zeros((nc, 6))
         self.Rc = np.zeros((nc, 3, 3))
         self.wrench = np.zeros((nc, 6))
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.gram, self.gram_y = np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc)
+        self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
+                             DEPENDENT_CONTACT_RATIO, float(tl.velocity_rows.start) if tl.dim else 6.0])
         m_max, p = 6 + 6 * nc, qp._C.shape[0]
         self.state = np.zeros(n, np.int8)
         self.rstate = np.zeros(p, np.int8)
         self.x = np.zeros(n)
         self.nu = np.zeros(m_max)
         self.mu = np.zeros(p)
-        self.z = np.zeros(n)
-        self.max_iter = 100
-        w = m_max + p
-        self.ws = id_workspace(n, nv, p, w)
         self.residual = np.zeros(2)
         self.tau = np.zeros(nv - 6)
-        k = qp.joint_acceleration_limits.dim
-        self.jlo, self.jhi = np.empty(k), np.empty(k)
+        k = jl.dim
+        self.contact = (self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd, self.active, self.bc)
+        self.tail = (tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax, np.empty(k), np.empty(k),
+                     qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub, qp._JcT, self.state, self.rstate,
+                     self.x, self.nu, self.mu, np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
+                     *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
         self.layout: tuple = ()
+        self.entries: list = []
+        self.head: tuple = ()
+        self._rotations: tuple = (None, [])
         self.solves = 0
         self.fallbacks = 0
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
-        soft = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
+        dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
         posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
-        mt = sum(t.dim for t in soft)
+        mt = sum(t.dim for t in dense)
+        mp = sum(t.dim for t in posture)
         self.Jt = np.zeros((mt, qp.nv))
-        self.wt = np.zeros(mt)
-        self.rt = np.zeros(mt)
-        self.pidx = np.concatenate([t.task.rows for t in posture]).astype(np.int64) if posture else \
-            np.zeros(0, np.int64)
-        self.pw = np.zeros(self.pidx.size)
-        self.pr = np.zeros(self.pidx.size)
+        self.R = np.zeros((7, mt + mp))
+        pidx = [t.task.rows for t in posture]
+        self.pidx = np.concatenate(pidx).astype(np.int64) if pidx else np.zeros(0, np.int64)
+        self.entries = []
+        k = 0
+        for ref in dense + posture:
+            s = slice(k, k + ref.dim)
+            # reference, its task, dense rows?, views of its J rows, e, ė_ff, J̇v, ä_ff, weights; its columns of R;
+            # the (Kp, Kd) last written there; whether its ė_ff and ä_ff columns hold zeros
+            self.entries.append([ref, ref.task, k < mt, self.Jt[s], self.R[R_ERROR, s], self.R[R_ERROR_RATE_FF, s],
+                                 self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
+            ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
+            k += ref.dim
+        self.head = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
         self.layout = key
 
     def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
-        """Task rows and contact data of this tick into the buffers."""
-        tasks = qp.tasks
-        key = tuple(map(id, tasks))
+        """Task rows and contact data of this tick into the buffers (no validation: the tasks and contacts
+        validated their targets when they were set)."""
+        key = tuple(map(id, qp.tasks))
         if key != self.layout:
             self._relayout(qp, key)
-        k = kp = 0
-        for task in tasks:
-            J, r = task.compute(state)
-            d = task.dim
-            if isinstance(task.task, PostureTask):
-                self.pr[kp:kp + d] = r
-                self.pw[kp:kp + d] = task.weight
-                kp += d
+        R = self.R
+        for ent in self.entries:
+            ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
+            if dense:
+                task.compute_into(state, e, J)
             else:
-                self.Jt[k:k + d] = J
-                self.rt[k:k + d] = r
-                self.wt[k:k + d] = task.weight
-                k += d
-        for c_i, c in enumerate(qp.contacts):
-            J = c.jacobian(state)
-            self.Jc[c_i] = J
-            self.active[c_i] = c.active
-            if c.active:
-                self.bc[c_i] = c.acceleration_target(state, J)
-                self.Rc[c_i] = state.data.oMf[c.frame_id].rotation
-        act = np.flatnonzero(self.active)
-        qp.dependent_contact_rows = 0
-        if len(act) >= 2 and not contact_rows_well_conditioned(self.Jc, self.active, DEPENDENT_CONTACT_RATIO,
-                                                               self.gram, self.gram_y):
-            # as in InverseDynamicsQP.build (skipped when certified to leave the right-hand side unchanged)
-            bc = self.bc[act].reshape(-1)
-            qp.dependent_contact_rows = consistent_contact_rhs(self.Jc[act].reshape(-1, self.Jc.shape[2]), bc)
-            self.bc[act] = bc.reshape(-1, 6)
+                e[:] = task.compute(state)[0]
+            drift[:] = task.drift(state)
+            ff = task.feedforward()
+            if ff is not None:
+                eff[:] = ff
+                ent[11] = False
+            elif not ent[11]:
+                eff.fill(0.0)
+                ent[11] = True
+            ff = ref.feedforward_acceleration
+            if ff is not None:
+                aff[:] = ff
+                ent[12] = False
+            elif not ent[12]:
+                aff.fill(0.0)
+                ent[12] = True
+            w[:] = ref.weight
+            if gains is None or gains[0] != ref.kp or gains[1] != ref.kd:
+                R[R_KP, s] = ref.kp
+                R[R_KD, s] = ref.kd
+                ent[10] = (ref.kp, ref.kd)
+        data = state.data
+        if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
+            self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
+        rotations = self._rotations[1]
+        for i, c in enumerate(qp.contacts):
+            self.Jc[i] = c.jacobian(state)
+            a = c.active
+            self.active[i] = a
+            if a:
+                self.cdrift[i] = c.acceleration_offset(state)
+                self.ckd[i] = c.kd
+                self.Rc[i] = rotations[i]

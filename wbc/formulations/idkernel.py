@@ -43,7 +43,7 @@ from wbc.constraints.dynamics import joint_bounds_kernel
 from wbc.fastqp import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
                          weighted_normal_equations)
 
-__all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace"]
+__all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace", "PROJECT_CONTACT_RHS"]
 
 #: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only; ±inf bounds stay
 #: legitimate input (no "no-inf/no-nan" assumption).
@@ -57,78 +57,109 @@ PRIMAL_TOL = 1e-11
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
-def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol, dinv, fnz):
-    """The equality-constrained optimum with no active bound or row (module docstring), written into x. Returns
-    the largest equality residual, or −1 when H_vv or S is not positive definite, a joint variable is fixed, or x
-    violates a bound or row by more than ``tol``. dinv (n,), fnz (≥ m,) bool: workspace (1/D on the free forces,
-    0 on the fixed ones; whether row k has an entry on a free force)."""
+def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, S, t, nu, tol, dinv, fnz, vfree,
+                   xv, bx):
+    """The optimum of the previous tick's working set of bounds (module docstring), written into x: the variables
+    with ``state`` ≠ 0 (and the forces with lb = ub) held on their bound, the equality-constrained QP solved over
+    the others. Returns the largest equality residual, or −1 — ``state`` untouched — when that x is not the
+    optimum of the full QP or the step does not apply: a working inequality row (``rstate`` ≠ 0), a joint
+    variable with lb = ub, H_FF or S not positive definite, a free variable or a row violated by more than
+    ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative. dinv (n,), fnz (≥ m,)
+    bool, vfree (nv,) int, xv (nv,), bx (≥ m,): workspace."""
     n = H.shape[0]
+    for r in range(rstate.size):
+        if rstate[r] != 0:
+            return -1.0
+    nfv = 0
     for i in range(nv):
         if lb[i] == ub[i]:
             return -1.0
-        for j in range(i + 1):
-            L[i, j] = H[i, j]
+        s = state[i]
+        if s == 0:
+            vfree[nfv] = i
+            nfv += 1
+        else:
+            bound = lb[i] if s < 0 else ub[i]
+            if not np.isfinite(bound):
+                return -1.0
+            x[i] = bound
     for f in range(nv, n):
-        dinv[f] = 1.0 / H[f, f] if lb[f] < ub[f] else 0.0
-    if not cholesky_lower(L, nv):
+        if lb[f] == ub[f] or state[f] != 0:
+            bound = ub[f] if (state[f] > 0 and lb[f] != ub[f]) else lb[f]
+            if not np.isfinite(bound):
+                return -1.0
+            x[f] = bound
+            dinv[f] = 0.0
+        else:
+            dinv[f] = 1.0 / H[f, f]
+    held = nfv < nv
+    for a in range(nfv):
+        i = vfree[a]
+        s = g[i]
+        if held:
+            for j in range(nv):
+                if state[j] != 0:
+                    s += H[i, j] * x[j]
+        t[a] = s
+        for c in range(a + 1):
+            L[a, c] = H[i, vfree[c]]
+    if not cholesky_lower(L, nfv):
         return -1.0
-    for i in range(nv):
-        t[i] = g[i]
-    forward_substitution(L, nv, t)
+    forward_substitution(L, nfv, t)
     for k in range(m):
         Ak = A[k]
-        for i in range(nv):
-            Yt[k, i] = Ak[i]
-        forward_substitution(L, nv, Yt[k])
+        y = Yt[k]
+        for a in range(nfv):
+            y[a] = Ak[vfree[a]]
+        forward_substitution(L, nfv, y)
+        acc = b[k]
+        if held:
+            for j in range(nv):
+                if state[j] != 0:
+                    acc -= Ak[j] * x[j]
         nz = False
         for f in range(nv, n):
-            if Ak[f] != 0.0 and dinv[f] != 0.0:
+            if dinv[f] == 0.0:
+                acc -= Ak[f] * x[f]
+            elif Ak[f] != 0.0:
                 nz = True
-                break
+                acc += Ak[f] * g[f] * dinv[f]
         fnz[k] = nz
+        bx[k] = acc
     for k in range(m):
         Ak = A[k]
         Yk = Yt[k]
         for c in range(k + 1):
             Yc = Yt[c]
             acc = 0.0
-            for i in range(nv):
-                acc += Yk[i] * Yc[i]
+            for a in range(nfv):
+                acc += Yk[a] * Yc[a]
             if fnz[k] and fnz[c]:
                 Ac = A[c]
                 for f in range(nv, n):
                     acc += Ak[f] * Ac[f] * dinv[f]
             S[k, c] = acc
-        acc = b[k]
-        for f in range(nv, n):
-            if dinv[f] == 0.0:
-                acc -= Ak[f] * lb[f]
-            else:
-                acc += Ak[f] * g[f] * dinv[f]
-        for i in range(nv):
-            acc += Yk[i] * t[i]
+        acc = bx[k]
+        for a in range(nfv):
+            acc += Yk[a] * t[a]
         nu[k] = -acc
     if not cholesky_lower(S, m):
         return -1.0
     forward_substitution(S, m, nu)
     backward_substitution(S, m, nu)
-    primal_from_multipliers(L, nv, t, Yt, nu, m, x[:nv])
-    for f in range(nv, n):
-        if dinv[f] == 0.0:
-            x[f] = lb[f]
-        else:
-            x[f] = 0.0
-    for k in range(m):
-        if fnz[k]:
-            nk = nu[k]
-            Ak = A[k]
-            for f in range(nv, n):
-                x[f] -= Ak[f] * nk * dinv[f]
+    primal_from_multipliers(L, nfv, t, Yt, nu, m, xv)
+    for a in range(nfv):
+        x[vfree[a]] = xv[a]
     for f in range(nv, n):
         if dinv[f] != 0.0:
-            x[f] = x[f] - g[f] * dinv[f]
+            s = g[f]
+            for k in range(m):
+                if fnz[k]:
+                    s += A[k, f] * nu[k]
+            x[f] = -s * dinv[f]
+    # primal feasibility of the free variables and of every row
     for i in range(n):
-        if x[i] < lb[i] - tol or x[i] > ub[i] + tol:
+        if state[i] == 0 and lb[i] != ub[i] and (x[i] < lb[i] - tol or x[i] > ub[i] + tol):
             return -1.0
     for r in range(C.shape[0]):
         acc = 0.0
@@ -136,6 +167,20 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, L, Yt, S, t, nu, tol, 
         for j in range(n):
             acc += Cr[j] * x[j]
         if acc < l[r] - tol or acc > u[r] + tol:
+            return -1.0
+    # dual feasibility of the held bounds
+    for i in range(n):
+        if state[i] == 0 or lb[i] == ub[i]:
+            continue
+        s = g[i]
+        if i < nv:
+            for j in range(nv):
+                s += H[i, j] * x[j]
+        else:
+            s += H[i, i] * x[i]
+        for k in range(m):
+            s += A[k, i] * nu[k]
+        if -state[i] * s < 0.0:
             return -1.0
     return _clip_and_equality_residual(A, b, m, lb, ub, x, n)
 
@@ -666,41 +711,88 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
+#: :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified well conditioned
+#: (:func:`contact_rows_well_conditioned`); the caller makes their right-hand side consistent
+#: (:func:`wbc.constraints.dynamics.consistent_contact_rhs` on ``bc``) and calls again with ``mode`` 1.
+PROJECT_CONTACT_RHS = -10
+
+#: entries of :func:`id_tick`'s ``par`` vector
+PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_TORQUE_ROW0 = range(6)
+#: rows of :func:`id_tick`'s ``R`` array (one column per task row)
+R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
+
+
 @nb.njit(cache=True, nogil=True, fastmath=_FM)
-def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, lim, joint_limits, q, v, iq, iv, qmin,
-            qmax, vmax, a_brk, dt, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, z, max_iter,
-            ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv,
-            ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
-    """One ID tick (module docstring).
+def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc, mode, lim, par, iq, iv, qmin, qmax,
+            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows, ws_Yv,
+            ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b,
+            ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
+    """One ID tick (module docstring): task right-hand sides, assembly, solve, torques and wrenches.
 
     Args:
-        Jt (mt, nv), wt (mt,), rt (mt,): stacked weighted task rows (J, w, r = a* − J̇v).
-        pidx (kp,) int64, pw (kp,), pr (kp,): posture rows (v indices), weights, targets.
-        eps_a: ε_a (weight of ‖v̇‖²). M (nv, nv), h (nv,). Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner
-        maps; Rc (nc, 3, 3): sole rotations (world ← sole); bc (nc, 6): eq. 5 right-hand sides; active (nc,)
-        bool.
-        t0, lim (nt,): first velocity index and limits (N·m) of the contiguous torque-limited joints.
-        joint_limits: write the eq. 9 bounds. q, v, iq, iv, qmin, qmax, vmax, a_brk, dt: their data; jlo, jhi
-            (k,): workspace.
+        Jt (mt, nv): stacked Jacobians of the dense task rows. R (7, mt + kp): per task row (dense rows, then the
+            posture rows) its error e, error-rate feed-forward ė_ff, drift J̇v, acceleration feed-forward ä_ff, Kp,
+            Kd and weight (rows ``R_*``); the row asks J v̇ = r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v
+            (:mod:`wbc.formulations.reference`, eq. 1). pidx (kp,) int64: the v index of each posture row (J = e_i).
+            rt (mt + kp,): out, r.
+        M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
+        Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
+            ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side bc = cdrift − K_d J v (cdrift = −J̇v − K_p e);
+            active (nc,) bool. bc (nc, 6): out (mode 0: computed here) or in (mode 1: given, already consistent).
+        lim (nt,): limits (N·m) of the contiguous torque-limited joints. par (6,): ε_a, a_brk, joint limits on
+            (≠ 0), iteration cap, contact conditioning ratio, first torque-limited v index (``PAR_*``).
+        iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-        contact). state, rstate, x, mu, max_iter, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`);
-            nu (≥ m,): equality multipliers of the block equality step; z: unused.
+            contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`);
+            nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
+            :func:`contact_rows_well_conditioned`.
         residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
             unactuated rows). tau (nv − 6,): out, eq. 2. wrench (nc, 6): out, each sole's wrench G_k f_k at its
             origin in world axes (N, N·m), zero for an inactive contact.
 
     Returns:
-        (kernel iterations (negative: exit code of id_solve), number of equality rows m).
+        (kernel iterations (negative: exit code of id_solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
     n = H.shape[0]
     nc = Jc.shape[0]
-    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture); H_ff = ε_f I stays as written
-    weighted_normal_equations(Jt, wt, rt, eps_a, H[:nv, :nv], g[:nv])
+    mt = Jt.shape[0]
+    eps_a = par[PAR_EPS_A]
+    # task right-hand sides (reference eq. 1)
+    for k in range(R.shape[1]):
+        if k < mt:
+            jv = 0.0
+            for j in range(nv):
+                jv += Jt[k, j] * v[j]
+        else:
+            jv = v[pidx[k - mt]]
+        rt[k] = R[R_ACC_FF, k] - R[R_KP, k] * R[R_ERROR, k] - R[R_KD, k] * (jv - R[R_ERROR_RATE_FF, k]) - R[R_DRIFT, k]
+    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture), formed in the contiguous
+    # workspace L (vectorised loops) and copied into H, g; H_ff = ε_f I stays as written
+    weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, ws_L, ws_tv)
     for k in range(pidx.size):
         i = pidx[k]
-        H[i, i] += pw[k]
-        g[i] -= pw[k] * pr[k]
+        w = R[R_WEIGHT, mt + k]
+        ws_L[i, i] += w
+        ws_tv[i] -= w * rt[mt + k]
+    for i in range(nv):
+        g[i] = ws_tv[i]
+        for j in range(nv):
+            H[i, j] = ws_L[i, j]
+    # contact right-hand sides (eq. 5), certified consistent or handed back for projection
+    if mode == 0:
+        nact = 0
+        for c in range(nc):
+            if not active[c]:
+                continue
+            nact += 1
+            for r in range(6):
+                s = 0.0
+                for j in range(nv):
+                    s += Jc[c, r, j] * v[j]
+                bc[c, r] = cdrift[c, r] - ckd[c] * s
+        if nact >= 2 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
+            return PROJECT_CONTACT_RHS, 0
     # J_cᵀ = [J_kᵀ G_k]
     for c in range(nc):
         for i in range(nv):
@@ -729,6 +821,7 @@ def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, l
             b[m] = bc[c, r]
             m += 1
     # torque limits (6)
+    t0 = int(par[PAR_TORQUE_ROW0])
     for r in range(lim.size):
         vr = t0 + r
         for j in range(nv):
@@ -737,23 +830,20 @@ def id_tick(Jt, wt, rt, pidx, pw, pr, eps_a, M, h, Jc, Gc, Rc, bc, active, t0, l
             C[r, nv + j] = -JcT[vr, j]
         l[r] = -lim[r] - h[vr]
         u[r] = lim[r] - h[vr]
-    if joint_limits:
-        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a_brk, dt, jlo, jhi)
+    if par[PAR_JOINT_LIMITS] != 0.0:
+        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi)
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
-    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12, ws_rb, ws_vrow)
+    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12,
+                         ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
     if res >= 0.0:
         it = 1
         residual[0] = res
-        for i in range(n):
-            state[i] = -1 if (i >= nv and lb[i] == ub[i]) else 0
-        for r in range(rstate.size):
-            rstate[r] = 0
     else:
-        it = id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter, PRIMAL_TOL, DEPENDENCE_TOL,
-                      ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z,
-                      ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
+        it = id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, int(par[PAR_MAX_ITER]), PRIMAL_TOL,
+                      DEPENDENCE_TOL, ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree,
+                      ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
         residual[0] = ws_out[0]
     if it > 0:
         worst = 0.0

@@ -85,6 +85,11 @@ class AccelerationReference:
         self._acc_ff = None if acceleration is None else check_vector(
             acceleration, self.dim, f"{self.name} feed-forward acceleration", InvalidTargetError).copy()
 
+    @property
+    def feedforward_acceleration(self) -> np.ndarray | None:
+        """(m,) ä_ff of eq. 1 (None: zero); set by :meth:`set_feedforward_acceleration`."""
+        return self._acc_ff
+
     def compute(self, state: DynamicsState) -> tuple[np.ndarray, np.ndarray]:
         """(J (m, nv), r (m,)) such that the task asks J v̇ = r, r = a* − J̇ v (eq. 1).
 

@@ -86,12 +86,14 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.fastqp import clip_box_into, ensure_compiled, weighted_normal_equations
+from wbc.fastqp import (FastBackend, clip_box_into, contact_drift, ensure_compiled, kinematic_pack,
+                         kinematic_tick_packed, weighted_normal_equations)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend
 from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
+from wbc.tasks.posture import PostureTask
 
 __all__ = ["KinematicController", "TickResult"]
 
@@ -198,6 +200,9 @@ class KinematicController:
         self._layout_key: tuple | None = None
         self._layouts: dict[tuple, dict] = {}
         self._soft_layouts: dict[tuple, tuple] = {}
+        self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
+        self._fused_plans: dict[tuple, _FusedPlan] = {}
+        self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -527,6 +532,110 @@ class KinematicController:
             if record is not None:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
+    # -- compiled tick (wbc.fastqp.kinematic_tick) --------------------------------------------------------------
+    def _fused_plan(self, config: Configuration, dt: float) -> _FusedPlan | None:
+        """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
+        with it), or None when the problem is outside what it covers: strict levels, a backend other than
+        :class:`~wbc.fastqp.FastBackend`, a soft task with its own cost or velocity target other than one plain
+        :class:`~wbc.tasks.PostureTask`."""
+        if self._level_order or not isinstance(self.backend, FastBackend):
+            return None
+        if not self._layout_ok:
+            self._build_layout()
+        if self._soft_tasks != self.tasks:
+            self._build_soft_layout()
+        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
+        plan = self._fused_plans.get(key)
+        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
+            plan = self._fused_plans[key] = _FusedPlan.build(self, config, dt)
+            while len(self._fused_plans) > 16:
+                self._fused_plans.pop(next(iter(self._fused_plans)))
+        if plan.supported:
+            plan.layout_key = self._layout_key  # the identity checked every tick
+            self._fused = plan
+            return plan
+        return None
+
+    def _fused_tick(self, plan: _FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
+        """One tick through the compiled kernel (:func:`wbc.fastqp.kinematic_tick`): the same QP as the general
+        path, assembled from the same task and constraint rows and solved exactly. Returns None when the kernel
+        does not end at a KKT point within tolerance, when the equality rows are rank deficient, or when a
+        contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the caller then solves the tick by
+        the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        model = self.robot.model
+        q = config.q
+        gains, has_ff = plan.gains, plan.has_ff
+        for task, e, J, w, gain_rows, ff_rows, k in plan.dense:
+            task.compute_into(config, e, J)
+            if task._weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
+                w[:] = task._weight
+                task._weight = w
+            if task._gain != gains[k]:
+                gain_rows.fill(task._gain)
+                gains[k] = task._gain
+            ff = task.feedforward()
+            if ff is not None:
+                ff_rows[:] = ff
+                has_ff[k] = True
+            elif has_ff[k]:
+                ff_rows.fill(0.0)
+                has_ff[k] = False
+        posture = plan.posture
+        if posture is not None:
+            diff, pgain = pin.difference(model, posture._target, q), posture._gain
+            if posture._weight is not plan.pw:
+                plan.pw[:] = posture._weight
+                posture._weight = plan.pw
+        else:
+            diff, pgain = q, 0.0  # unused (no posture rows)
+        factors = plan.factors
+        for i, (c, A_rows, b_rows) in enumerate(plan.contacts):
+            factors[i] = dt - 1.0 / c.compute_into(config, dt, A_rows, b_rows)
+        A, b = plan.A, plan.b
+        for c, r0, r1 in plan.equalities:
+            A[r0:r1], b[r0:r1] = c.compute(config, dt)
+        if plan.inequalities:
+            C, cl, cu = plan.C, plan.cl, plan.cu
+            for c, r0, r1 in plan.inequalities:
+                C[r0:r1], cl[r0:r1], cu[r0:r1] = c.compute(config, dt)
+        if plan.python_boxes:
+            self._intersect_boxes(config, dt)
+            plan.lb[:] = self._lb
+            plan.ub[:] = self._ub
+        if self._eq_rows is None:
+            self._eq_rows = independent_rows(A, self.rank_rtol)
+        if self._eq_rows.size != A.shape[0]:
+            return None  # dependent equality rows: dropped and checked by the general path
+        t1 = perf_counter()
+        v = np.empty(self.nv)
+        backend = self.backend
+        it = kinematic_tick_packed(plan.fb, plan.ib, plan.state, plan.rstate, diff, q, v, pgain, float(dt),
+                                   self.damping, backend.tolerance, backend.max_iter)
+        backend.last_kernel_iterations = it
+        if it < 1:
+            return None
+        drift = 0.0
+        if plan.contacts:
+            ddata = self._drift_data
+            pin.forwardKinematics(model, ddata, pin.integrate(model, q, plan.vdt))
+            logs = plan.logs
+            for i, (c, _, _) in enumerate(plan.contacts):
+                logs[i] = pin.log6(c._placement.actInv(pin.updateFramePlacement(model, ddata, c.frame_id))).vector
+            drift = contact_drift(logs, b, plan.starts, factors)
+            if (self.contact_correction > 0 and drift > self.contact_correction) or (
+                    self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
+                return None  # second-order correction / trust region: the general path
+        backend.kernel_solves += 1
+        self.dependent_residual = 0.0
+        self.contact_corrections = 0
+        result = TickResult(v, sole_drift=drift)
+        result.timings = {"assembly": t1 - t0, "solve": perf_counter() - t1}
+        for c in self._feedback:
+            c.set_previous(v)
+        self.consecutive_failures = 0
+        self.last_result = result
+        return result
+
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
         """Solve one tick at ``config`` with control period ``dt`` (s).
@@ -541,6 +650,20 @@ class KinematicController:
         if not (isinstance(dt, (float, int, np.floating, np.integer)) and math.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         t0 = perf_counter()
+        plan = self._fused
+        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
+                                and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
+                                and not self._level_order):
+            plan = self._fused_plan(config, dt)
+        if plan is not None:
+            try:
+                result = self._fused_tick(plan, config, dt, t0)
+            except InvalidInputError:
+                raise
+            except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
+                result = None
+            if result is not None:
+                return result
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
@@ -920,3 +1043,83 @@ def _row_blocks(constraints) -> tuple[list, int]:
         blocks.append((c, row, row + c.dim))
         row += c.dim
     return blocks, row
+
+
+class _FusedPlan:
+    """Buffers and bindings of the compiled tick (:meth:`KinematicController._fused_tick`) for one constraint
+    layout and one list of soft tasks: the kernel's two packed arrays (:func:`wbc.fastqp.kinematic_pack`) and, per
+    task and constraint, the views of them its rows are written into; the position-limit data read by the kernel
+    and the floating-base elimination row."""
+
+    supported = False
+
+    @classmethod
+    def build(cls, ctrl: KinematicController, config: Configuration, dt: float) -> _FusedPlan:
+        plan = cls()
+        plan.layout_key = ctrl._layout_key
+        plan.soft_tasks = ctrl._soft_tasks
+        plan.backend = ctrl.backend
+        nv = ctrl.nv
+        if any(not plain for *_, plain in ctrl._soft_dense):
+            return plan  # a task with its own velocity target
+        own = ctrl._soft_own
+        if len(own) > 1 or (own and type(own[0]) is not PostureTask):
+            return plan  # a task with its own cost other than one posture task
+        for task, *_ in ctrl._soft_dense:
+            if not (isinstance(getattr(task, "_weight", None), np.ndarray) and hasattr(task, "_gain")):
+                return plan
+        if any(type(c) is not ContactConstraint for c in ctrl._contacts):
+            return plan  # a contact with rows of its own
+        plan.posture = own[0] if own else None
+        # bounds: the constant boxes intersected once; one position limit after them in the kernel, else in Python
+        boxes = ctrl._box
+        n_const = 0
+        while n_const < len(boxes) and boxes[n_const].constant:
+            n_const += 1
+        rest = boxes[n_const:]
+        lim = rest[0] if len(rest) == 1 and type(rest[0]) is JointPositionLimit else None
+        plan.python_boxes = lim is None and bool(boxes)
+        # floating-base elimination through the first contact: a free flyer at v[0:6] that no box bounds
+        model = ctrl.robot.model
+        free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
+            model.joints[1].idx_v == 0
+        base_bounded = any(np.size(c.indices) and int(np.min(c.indices)) < 6 for c in boxes)
+        contact_blocks = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is ContactConstraint]
+        plan.er = contact_blocks[0][1] if contact_blocks and free_flyer and not base_bounded else -1
+        n_eq, n_in = ctrl._A.shape[0], ctrl._C.shape[0]
+        mt = ctrl._soft_J.shape[0]
+        plan.fb, plan.ib, views = kinematic_pack(nv, mt, n_eq, n_in, 0 if lim is None else lim.dim,
+                                                 0 if plan.posture is None else plan.posture.dim, plan.er)
+        for name in ("Js", "es", "A", "b", "C", "cl", "cu", "lb", "ub", "pw", "vdt"):
+            setattr(plan, name, views[name])
+        rowp = views["rowp"]  # gain, weight, feed-forward of each stacked row
+        plan.dense, plan.gains, plan.has_ff = [], [], []
+        for k, (task, r0, r1, _) in enumerate(ctrl._soft_dense):
+            plan.dense.append((task, plan.es[r0:r1], plan.Js[r0:r1], rowp[1, r0:r1], rowp[0, r0:r1], rowp[2, r0:r1],
+                               k))
+            plan.gains.append(None)
+            plan.has_ff.append(True)
+        if plan.posture is not None:
+            views["prow"][:] = plan.posture.rows
+        plan.contacts = [(c, plan.A[r0:r1], plan.b[r0:r1]) for c, r0, r1 in contact_blocks]
+        plan.equalities = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is not ContactConstraint]
+        plan.inequalities = list(ctrl._in_blocks)
+        plan.starts = np.array([r0 for _, r0, _ in contact_blocks], np.int64)
+        plan.factors = np.zeros(len(contact_blocks))
+        plan.logs = np.zeros((len(contact_blocks), 6))
+        plan.lb.fill(-np.inf)
+        plan.ub.fill(np.inf)
+        if lim is not None:
+            for c in boxes[:n_const]:  # the general path's order and clipping (_intersect_boxes)
+                lo, hi = c.compute(config, dt)
+                idx = np.asarray(c.indices)
+                cur_lo, cur_hi = plan.lb[idx], plan.ub[idx]
+                plan.lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
+                plan.ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
+            views["plim"][:] = (lim.q_min, lim.q_max, lim.v_max, lim._neg_v_max)
+            views["pidx"][:] = (lim.idx_q, lim.indices)
+        nr = nv - 6 if plan.er >= 0 else nv
+        plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
+        plan.rstate = np.zeros(n_in, np.int8)                                 # across support switches
+        plan.supported = True
+        return plan

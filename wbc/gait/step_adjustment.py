@@ -107,6 +107,16 @@ class StepAdjuster:
         g1 = math.exp(self.omega * max(float(new_time_left), 0.0))
         return g1 * (xi_ref + es - u0) - g * (xi_ref - u0)
 
+    def lateral_offset(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray) -> float:
+        """Unclipped lateral distance (m) of ``nominal`` moved by ``correction`` (2,) from the ``stance`` sole
+        ``(x, y, yaw)``, towards the swing side (stance heading frame): below ``min_width`` the landing wanted lies
+        inwards of what the legs allow (a push towards the stance side: the swing foot would have to cross)."""
+        xs, ys, yaws = (float(v) for v in stance)
+        sign = 1.0 if nominal.side == "left" else -1.0
+        px = nominal.x + float(correction[0]) - xs
+        py = nominal.y + float(correction[1]) - ys
+        return sign * (-math.sin(yaws) * px + math.cos(yaws) * py)
+
     def landing(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray) -> Footstep:
         """The adjusted footstep: ``nominal`` moved by ``correction`` (2,) (m, world xy), projected onto the
         reachable box around the ``stance`` sole ``(x, y, yaw)`` (module docstring), then pushed outwards until

@@ -37,6 +37,7 @@ __all__ = ["WalkPlan", "plan_walk"]
 
 _FLAT_Z_TOL = 0.01  # m: soles must be this close to the ground plane
 _FLAT_TILT_TOL = 0.1  # rad: and this close to horizontal
+MAX_STRETCH = 250  # samples: the longest lengthening of a single support by replan(skip < 0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,10 +159,12 @@ class WalkPlan:
             check_start: raise when the solved ZMP start point is outside the current support polygon (default);
                 ``False`` returns the plan anyway (a stabilizer then saturates the CoP at the polygon edge).
             skip: step timing adjustment (Khadiv et al. 2016): end the single support in progress at ``k`` this
-                many samples earlier (``0 <= skip <=`` its remaining samples − 10). The rest of the swing in
-                progress is time-compressed (positions resampled linearly, velocities scaled by the compression
-                ratio); everything after it moves ``skip`` samples earlier, and the plan is ``skip`` samples
-                shorter.
+                many samples earlier (``-MAX_STRETCH <= skip <=`` its remaining samples − 10, at least 10 samples
+                left). The rest of the swing in progress is time-compressed (positions resampled linearly,
+                velocities scaled by the compression ratio); everything after it moves ``skip`` samples earlier,
+                and the plan is ``skip`` samples shorter. A negative ``skip`` lengthens the single support the same
+                way (the swing stretched, the stance foot held, everything after it later; Khadiv et al. 2020's
+                step time ``T`` in ``[T_min, T_max]``).
 
         Raises:
             GaitError: bad ``k``, shapes or non-finite values; bad ``footsteps`` (count, side, yaw) or ``k`` in
@@ -192,9 +195,11 @@ class WalkPlan:
         support = self.support[k:]
         skip = int(skip)
         if skip:
-            if phases[0].support == DOUBLE_SUPPORT or not 0 < skip <= phases[0].count - 10:
-                raise GaitError(f"skip must be in [0, remaining single-support samples - 10]; got {skip} "
-                                f"(phase at k: support {phases[0].support}, {phases[0].count} samples left)")
+            if phases[0].support == DOUBLE_SUPPORT or not (-MAX_STRETCH <= skip <= phases[0].count - 10) \
+                    or phases[0].count < 10:
+                raise GaitError(f"skip must be in [-{MAX_STRETCH}, remaining single-support samples - 10] with >= 10 "
+                                f"samples left; got {skip} (phase at k: support {phases[0].support}, "
+                                f"{phases[0].count} samples left)")
         if footsteps is not None:
             new_steps = _check_new_footsteps(footsteps, steps)
             if phases[-1] is phases[0] or len(seg.first) - j != len(phases) + 1:
@@ -210,7 +215,8 @@ class WalkPlan:
             n0 = phases[0].count
             f = 0 if steps[phases[0].step].side == "left" else 1
             feet = _compress_swing(feet, f, n0, skip)
-            support = np.concatenate([support[:n0 - skip], support[n0:]])
+            support = np.concatenate([support[:n0 - skip], support[n0:]]) if skip > 0 else \
+                np.concatenate([support[:n0], np.repeat(support[n0 - 1:n0], -skip), support[n0:]])
             support.flags.writeable = False
             phases = [Phase(phases[0].support, 0, n0 - skip, phases[0].step, phases[0].dt)] + [
                 Phase(ph.support, ph.first - skip, ph.count, ph.step, ph.dt) for ph in phases[1:]]
@@ -326,7 +332,8 @@ def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple
 
 def _compress_swing(feet, f: int, n0: int, skip: int):
     """Feet arrays with the first ``n0`` samples of foot ``f`` (its swing in progress; sample ``n0`` is its landing)
-    resampled onto ``n0 − skip`` samples, and ``skip`` samples of the other foot's rest dropped."""
+    resampled onto ``n0 − skip`` samples, and ``skip`` samples of the other foot's rest dropped (``skip < 0``:
+    ``−skip`` samples of its rest repeated)."""
     poses = [np.asarray(feet[0]), np.asarray(feet[1])]
     vels = [np.asarray(feet[2]), np.asarray(feet[3])]
     m = n0 - skip
@@ -343,9 +350,12 @@ def _compress_swing(feet, f: int, n0: int, skip: int):
             vhead = ((1 - a) * V[i0] + a * V[i1]) * (n0 / m)
             out_p.append(np.concatenate([head, P[n0:]]))
             out_v.append(np.concatenate([vhead, V[n0:]]))
-        else:
+        elif skip >= 0:
             out_p.append(np.concatenate([P[:m], P[n0:]]))
             out_v.append(np.concatenate([V[:m], V[n0:]]))
+        else:  # stretched: the other foot (at rest in this single support) held for -skip more samples
+            out_p.append(np.concatenate([P[:n0], np.repeat(P[n0 - 1:n0], -skip, axis=0), P[n0:]]))
+            out_v.append(np.concatenate([V[:n0], np.repeat(V[n0 - 1:n0], -skip, axis=0), V[n0:]]))
     for arr in (*out_p, *out_v):
         arr.flags.writeable = False
     return out_p[0], out_p[1], out_v[0], out_v[1]

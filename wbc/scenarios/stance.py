@@ -106,8 +106,8 @@ class StanceController:
                 self.controller.add_task(self.swing[side])
             self.stance[side] = wanted[side]
         self.support = support
-        if self.zmp is not None:
-            self.zmp.set_support([self.contact[s].placement for s in SIDES if self.stance[s]])
+        if self.zmp is not None:  # the contacts' placements, validated when set
+            self.zmp.set_support_trusted([self.contact[s].placement for s in SIDES if self.stance[s]])
         self.support_changed()
 
     def support_changed(self) -> None:
@@ -122,11 +122,10 @@ class StanceController:
         without the acceleration and braking limits only, keeping the ZMP constraint; ``relaxed`` then names the
         limits left out.
         """
-        zmp_state = self.zmp.state() if (self.zmp is not None and self.smoothness) else None
         result = self.controller.solve(config, dt)
-        if zmp_state is None or not result.relaxed:
+        if not result.relaxed or self.zmp is None or not self.smoothness:
             return result
-        self.zmp.restore(zmp_state)
+        self.zmp.undo_previous()  # the tick is solved again: its ZMP memory back to before this tick
         for c in self.smoothness:
             self.controller.remove_constraint(c)
         try:
@@ -135,7 +134,7 @@ class StanceController:
             for c in self.smoothness:
                 self.controller.add_constraint(c)
         if not retry.ok or retry.relaxed:  # the ZMP constraint itself conflicts: keep the controller's answer
-            self.zmp.restore(zmp_state)
+            self.zmp.undo_previous()
             self.zmp.set_previous(result.v)
             return result
         retry.relaxed = [c.name for c in self.smoothness]

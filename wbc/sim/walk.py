@@ -108,7 +108,7 @@ class DcmStabilizer:
     """
 
     def __init__(self, omega: float, *, k_xi: float = 3.0, k_i: float = 1.0, k_z: float = 0.0,
-                 margin: float = 0.015, i_max: float = 0.05, dt: float = 0.002):
+                 margin: float = 0.015, i_max: float = 0.05, dt: float = 0.002, cmp_offset: float = 0.0):
         for val, what in ((omega, "omega"), (dt, "dt")):
             if not (np.isfinite(val) and val > 0):
                 raise InvalidInputError(f"{what} must be finite and > 0, got {val!r}")
@@ -118,8 +118,12 @@ class DcmStabilizer:
         self.omega, self.dt = float(omega), float(dt)
         self.k_p = 1.0 + k_xi / omega
         self.k_i, self.k_z, self.margin, self.i_max = float(k_i), float(k_z), float(margin), float(i_max)
+        if not (np.isfinite(cmp_offset) and cmp_offset >= 0):
+            raise InvalidInputError(f"cmp_offset must be finite and ≥ 0 m, got {cmp_offset!r}")
+        self.cmp_offset = float(cmp_offset)
         self.integral = np.zeros(2)
         self.last_cop = np.zeros(2)
+        self.last_cmp = np.zeros(2)
         self.saturated = False
 
     def __call__(self, c: np.ndarray, cd: np.ndarray, xi_ref: np.ndarray, p_ref: np.ndarray,
@@ -132,11 +136,16 @@ class DcmStabilizer:
         if self.k_z > 0 and p_meas is not None:
             p = p + self.k_z * (p - p_meas)
         pc = closest_point_in_polygon(p, hull) if len(hull) >= 3 else p
-        self.saturated = bool(np.linalg.norm(pc - p) > 1e-9)
+        out = float(np.linalg.norm(p - pc))
+        self.saturated = out > 1e-9
         if not self.saturated:
             self.integral = np.clip(self.integral + e * self.dt, -self.i_max, self.i_max)
         self.last_cop = pc
-        return w * w * (c - pc)
+        r = pc
+        if self.saturated and self.cmp_offset > 0:  # CMP beyond the CoP's reach: angular momentum (hip strategy)
+            r = pc + (min(out, self.cmp_offset) / out) * (p - pc)
+        self.last_cmp = r
+        return w * w * (c - r)
 
 
 class WalkScenario:
@@ -192,7 +201,9 @@ class WalkScenario:
                  step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.6, forward_reach: float = 0.65, max_swing_speed: float = 2.0):
+                 lateral_reach: float = 0.6, forward_reach: float = 0.65, max_swing_speed: float = 2.0,
+                 cmp_offset: float = 0.0, max_stretch: float = 0.15, stretch_speed: float = 1.0,
+                 stretch_min: float = 0.03, stretch_window: float = 0.2):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -218,6 +229,10 @@ class WalkScenario:
         self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
         self.max_cut = float(max_cut)
         self.max_swing_speed = float(max_swing_speed)
+        self.cmp_offset = float(cmp_offset)
+        self.max_stretch, self.stretch_speed, self.stretch_min = float(max_stretch), float(stretch_speed), \
+            float(stretch_min)
+        self.stretch_window = float(stretch_window)
         self.recovery_margin = 0.02
         if self.push > 0 and self.step_adjust:  # time for a recovery step after the walk
             self.settle = max(self.settle, 2.5)
@@ -274,7 +289,8 @@ class WalkScenario:
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
-        self._skipped = -1  # swing whose timing was changed
+        self._skipped = -1  # swing whose timing was changed (cut short)
+        self._stretched = -1  # swing that was lengthened
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
@@ -288,7 +304,7 @@ class WalkScenario:
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
-        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt)
+        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset)
         self._push_body = robot.torso
         if self.push > 0:
             sim.body_id(self._push_body)
@@ -353,7 +369,11 @@ class WalkScenario:
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
-                if tp >= (k_lift + 0.5 * (k_td - k_lift)) * dt:
+                # Armed from mid-swing in sim time: release at t_unload + ramp_time, landing at the planned
+                # touch-down less the timing cuts made since (a cut at lift-off must not arm a foot still on the
+                # floor: it then "touched down" at once and never stepped).
+                t_rel = self._t_unload[side] + self.ramp_time
+                if t >= t_rel + 0.5 * (k_td * dt - self._shift * dt - t_rel) - 1e-9:
                     sw.arm(side)
                 kk = min(k, k_td)
                 pose = pin.SE3(self.poses[side][kk])
@@ -425,7 +445,7 @@ class WalkScenario:
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
-                           cop_margin=self.cop_margin, adjust_timing=False)
+                           cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
@@ -472,7 +492,9 @@ class WalkScenario:
         if self._base is None or self._base[0] != idx:
             self._base = (idx, fs, self.ref_dcm.copy())
         time_left = (k_td - k) * self.dt
-        if time_left < self.adjust_freeze:
+        frozen = time_left < self.adjust_freeze
+        if frozen and not (self.adjust_timing and self.max_stretch > 0 and self._stretched != idx
+                           and time_left >= 0.02):
             return
         _, fs0, dcm0 = self._base
         other = "right" if side == "left" else "left"
@@ -483,12 +505,20 @@ class WalkScenario:
             return
         target = self.adjuster.landing(fs0, stance, corr) if corr.any() else fs0
         skip = 0
+        foot = self._data.oMf[self._fid[side]].translation[:2]
+        stretch = self._stretch(idx, fs, fs0, stance, corr, target, foot, xi, dcm0[k], time_left)
+        if stretch:
+            skip = -stretch
+            corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left + stretch * self.dt,
+                                            np.array(stance[:2]))
+            target = self.adjuster.landing(fs0, stance, corr)
+        elif frozen:
+            return
         clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
-        if self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
-                and not (self._skipped == idx) and not self._capturable(xi, other):
+        if not skip and self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
+                and self._skipped != idx and self._stretched != idx and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
-            foot = self._data.oMf[self._fid[side]].translation[:2]
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
             cut = min(time_left - self.min_time_left, self.max_cut, time_left - dist / self.max_swing_speed)
             skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
@@ -519,10 +549,53 @@ class WalkScenario:
         self.ref_zmp[k1:k1 + n] = rp.zmp
         if skip:
             self._shift += skip
-            self._skipped = idx
+            if skip > 0:
+                self._skipped = idx
+            else:
+                self._stretched = idx
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
+        """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
+        landing (Khadiv et al. 2020, IEEE T-RO 36(3), Sec. III: the step time ``T`` is a decision variable in
+        ``[T_min, T_max]``, here ``T_max`` = planned + ``max_stretch``).
+
+        A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
+        (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
+        foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot cross
+        to capture it, and two more steps are needed while the DCM diverges (Talos, 300 N, seeds 104, 109, 204 and
+        219 of ``benchmarks/walk_push_trials.py``). Landing later with the same foot captures it in one step
+        when the landing of eq. 2 of :mod:`wbc.gait.step_adjustment` (``τ' = τ + Δ``, the DCM diverging further
+        from the stance CoP ``u_0`` meanwhile) is within the reach.
+
+        Trigger: in the last ``stretch_window`` s of the swing (earlier, a cut is better: the foot can still
+        travel and landing sooner lets the DCM diverge less), the swing not yet stretched or cut, the landing moved by more than ``stretch_min`` from the
+        current plan's, the move not inwards of ``min_width`` (that landing needs the other foot: the step is cut
+        short instead) and the foot more than ``stretch_speed · τ`` from it. ``Δ``: the least multiple of 10 ms
+        up to ``max_stretch`` with ``‖u(τ + Δ) − foot‖ ≤ stretch_speed · (τ + Δ)``, else ``max_stretch``."""
+        if not self.adjust_timing or self.max_stretch <= 0 or self._stretched == idx or self._skipped == idx \
+                or time_left > self.stretch_window:
+            return 0
+        if math.hypot(target.x - fs.x, target.y - fs.y) < self.stretch_min:
+            return 0
+        if self.adjuster.lateral_offset(fs0, stance, corr) < self.adjuster.min_width:
+            return 0
+        v = self.stretch_speed
+        if math.hypot(target.x - foot[0], target.y - foot[1]) <= v * time_left:
+            return 0
+        u0 = np.array(stance[:2])
+        n_max = int(round(self.max_stretch / self.dt))
+        step = max(1, int(round(0.01 / self.dt)))
+        for n in range(step, n_max + step, step):
+            n = min(n, n_max)
+            tl = time_left + n * self.dt
+            c2 = self.adjuster.correction(xi, xi_ref, time_left, tl, u0)
+            t2 = self.adjuster.landing(fs0, stance, c2)
+            if math.hypot(t2.x - foot[0], t2.y - foot[1]) <= v * tl:
+                return n
+        return n_max
 
     def _capturable(self, xi: np.ndarray, stance: str) -> bool:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the

@@ -4,13 +4,34 @@
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["ComTask"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _com_rows(com, target, jac, error_out, jac_out):
+    """error_out = com − target, jac_out = jac (one compiled call instead of two numpy ones)."""
+    for i in range(jac.shape[0]):
+        error_out[i] = com[i] - target[i]
+        for j in range(jac.shape[1]):
+            jac_out[i, j] = jac[i, j]
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_com_rows` (on-disk cache) once per process, at construction: for a writeable target and for a
+    read-only one (a :class:`~wbc.gait.WalkPlan` row given to :meth:`ComTask.set_target_trusted`)."""
+    frozen = np.zeros(3)
+    frozen.flags.writeable = False
+    for target in (np.zeros(3), frozen):
+        _com_rows(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
 
 
 class ComTask(Task):
@@ -28,6 +49,7 @@ class ComTask(Task):
         super().__init__(gain=gain, weight=weight, name=name)
         self.target = np.zeros(3)
         self._ff: np.ndarray | None = None
+        _warm_up()
 
     def set_target(self, com, velocity=None) -> None:
         """Target CoM (3,) in world (m) and optional CoM velocity (3,) (m/s).
@@ -53,8 +75,7 @@ class ComTask(Task):
         return config.com - self._target, config.com_jacobian
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
-        np.subtract(config.com, self._target, out=error_out)
-        jac_out[:] = config.com_jacobian
+        _com_rows(config.com, self._target, config.com_jacobian, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff

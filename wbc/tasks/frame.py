@@ -129,6 +129,7 @@ class FrameTask(Task):
         self._ff6 = np.zeros(6)
         self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
+        self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
         _warm_up()
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -149,7 +150,7 @@ class FrameTask(Task):
 
     def _set_feedforward(self, vel: np.ndarray) -> None:
         self._ff6[:3] = vel[:3]
-        self._ff6[3:] = self._target.rotation.T @ vel[3:]
+        self._ff6[3:] = self._target_rot_t @ vel[3:]
         self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
 
     def set_target_trusted(self, pose: np.ndarray, velocity: np.ndarray | None = None) -> None:
@@ -157,21 +158,39 @@ class FrameTask(Task):
         validated once (e.g. the rows of a :class:`~wbc.gait.WalkPlan`): ``pose`` a (4, 4) homogeneous matrix
         (world, m), ``velocity`` None or a finite (6,) float array (linear m/s, angular rad/s, world axes).
         Malformed input is not detected here."""
-        rot = pose[:3, :3]
-        self._target = pin.SE3(rot, pose[:3, 3])
-        self._target_rot_t = rot.T.copy()
-        self._target_pos = np.array(pose[:3, 3], dtype=float)
-        if velocity is None:
-            self._ff = None
-            return
-        self._ff6[:3] = velocity[:3]
-        self._ff6[3:] = self._target_rot_t @ velocity[3:]
-        self._ff = self._ff6 if self._all_rows else self._ff6[self.rows]
+        rot_t = pose[:3, :3].T.copy()
+        ff = None
+        if velocity is not None:
+            ff = np.empty(6)
+            ff[:3] = velocity[:3]
+            ff[3:] = rot_t @ velocity[3:]
+        self.set_target_rows(rot_t, pose[:3, 3].copy(), ff)
+
+    def set_target_rows(self, rotation_t: np.ndarray, position: np.ndarray,
+                        feedforward: np.ndarray | None = None) -> None:
+        """The cheapest trusted target path, for a controller that precomputed its targets once (e.g. a walk plan's
+        rows, :class:`~wbc.scenarios.walk.WalkController`): no validation, no copy, no ``pin.SE3`` built.
+
+        Args:
+            rotation_t: (3, 3) C-contiguous float array, the TRANSPOSED target rotation R*ᵀ (world → target axes).
+            position: (3,) contiguous float array, target position p* (m, world).
+            feedforward: None or (6,) float array, the error rate ė* of all six rows: linear velocity (m/s, world)
+                then R*ᵀ ω* (rad/s, target axes) — what :meth:`set_target` derives from a world velocity.
+
+        The arrays are kept by reference until the next target is set (the caller must not modify them); the
+        ``target`` SE3 is built only when read."""
+        self._target = None
+        self._target_rot_t = rotation_t
+        self._target_pos = position
+        self._ff = None if feedforward is None else (feedforward if self._all_rows else feedforward[self.rows])
 
     @property
     def target(self) -> pin.SE3:
         """Target placement (world)."""
-        return self._target
+        t = self._target
+        if t is None:  # set through set_target_rows: built on first read (pin.SE3 copies its arguments)
+            t = self._target = pin.SE3(self._target_rot_t.T, self._target_pos)
+        return t
 
     @target.setter
     def target(self, pose) -> None:
@@ -182,8 +201,8 @@ class FrameTask(Task):
         self._target_pos = np.array(pose.translation)
 
     def set_target_from_configuration(self, config: Configuration) -> None:
-        """Target = the frame's current placement, zero velocity."""
-        self.set_target(config.data.oMf[self.frame_id].copy())
+        """Target = the frame's current placement, zero velocity (Pinocchio's placement: nothing to validate)."""
+        self.set_target_trusted(config.data.oMf[self.frame_id].homogeneous)
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         oMf = config.data.oMf[self.frame_id]
@@ -207,15 +226,21 @@ class FrameTask(Task):
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
-        oMf = config.data.oMf[self.frame_id]
-        rot = oMf.rotation
-        j_local = pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL)
+        data = config.data
+        views = self._oMf_views
+        if views is None or views[0] is not data:
+            # data.oMf[frame] is a reference into Pinocchio's data and its rotation/translation are views of it
+            # (eigenpy): kept per Data object (with the objects that own them), they follow every update
+            oMf = data.oMf[self.frame_id]
+            views = self._oMf_views = (data, oMf, oMf.rotation, oMf.translation)
+        rot = views[2]
+        j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         if self._has_rot:
-            rel = self._target_rot_t @ rot
+            rel = self._target_rot_t.dot(rot)
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
         else:
             log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
-        _frame_rows(rot, jlog, j_local, oMf.translation, self._target_pos, log, self.rows, error_out, jac_out)
+        _frame_rows(rot, jlog, j_local, views[3], self._target_pos, log, self.rows, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
@@ -228,7 +253,7 @@ class FrameTask(Task):
         if self._has_pos:
             d[:3] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
         if self._has_rot:
-            rel = self._target.rotation.T @ data.oMf[fid].rotation
+            rel = self._target_rot_t @ data.oMf[fid].rotation
             d[3:] = orientation_drift(rel, pin.getFrameVelocity(model, data, fid, LOCAL).angular,
                                       pin.getFrameAcceleration(model, data, fid, LOCAL).angular)
         return d if self._all_rows else d[self.rows]

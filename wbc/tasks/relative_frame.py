@@ -87,5 +87,5 @@ class RelativeFrameTask(FrameTask):
                + nu_rel.cross(fMr.act(nu_r)))
         d = self._drift6
         d[:3] = rMf.rotation @ (acc.linear + np.cross(nu_rel.angular, nu_rel.linear))
-        d[3:] = orientation_drift(self._target.rotation.T @ rMf.rotation, nu_rel.angular, acc.angular)
+        d[3:] = orientation_drift(self._target_rot_t @ rMf.rotation, nu_rel.angular, acc.angular)
         return d if self._all_rows else d[self.rows]
