@@ -9,19 +9,10 @@ point: a step toward humanoid push recovery", Humanoids 2006) and a two-step wal
 (:class:`wbc.sim.walk.WalkScenario` with ``from_state=True``): the first step lands where the measured DCM says
 (eq. 1 of :mod:`wbc.gait.step_adjustment`, time left = time to the touch-down), re-adjusted during the swing; the
 second step closes the feet. The stepping foot is the one on the side the DCM moved to (left when it moved left
-or straight forward/back). When that walk has landed both its steps (every swing loaded again) and the measured DCM
-is still outside the soles' hull shrunk by ``trigger_margin``, the state is not yet 0-step capturable (Koolen,
-de Boer, Rebula, Goswami, Pratt, "Capturability-based analysis and control of legged locomotion, Part 1", IJRR
-31(9), 2012: an N-step capturable state may need more than one step) and another capture walk starts from the
-measured state, up to ``max_walks`` walks in all; its first step is taken by the foot farther from the DCM (the
-nearer sole keeps the CoP close to the DCM during the swing, slowing its divergence ``ξ̇ = ω (ξ − p)``,
-Englsberger 2015 eq. 6). Measured (Talos, 475 N × 0.1 s from behind, one capture walk): its second step was
-adjusted 0.41 m past the first one, the feet ended 0.41 m apart along x, the DCM left their hull sideways 0.3 s
-later and the robot fell at 2.68 s.
+or straight forward/back).
 
 Summary: trigger time (s), stepping side, landing shift of the first step (m, vs a step in place), feet moved (m),
-step adjustments during the swing, the number of capture walks and their start times (s), completed (no fall, run
-to the end).
+step adjustments during the swing, completed (no fall, run to the end).
 """
 
 from __future__ import annotations
@@ -58,9 +49,8 @@ class CaptureStepScenario:
             direction ``push_dir`` (deg, world: 0 = +x, 90 = +y).
         step_duration: s per step of the recovery walk (single + double support).
         trigger_margin: the soles are shrunk by this (m) for the trigger test.
-        settle: s after the push; the run lasts ``t_push + push_duration + settle``.
-        max_walks: most capture walks (≥ 1): the first, then one more each time a walk has landed and the measured
-            DCM is still outside the soles' hull.
+        settle: s after the push when no step is triggered; the run lasts ``t_push + push_duration + settle`` at
+            least, and until the recovery walk has finished.
 
     Raises:
         InvalidInputError: negative or non-finite numbers.
@@ -70,15 +60,11 @@ class CaptureStepScenario:
     needs_id = True
 
     def __init__(self, force: float = 450.0, push_duration: float = 0.1, t_push: float = 0.5, push_dir: float = 0.0,
-                 *, step_duration: float = 0.5, trigger_margin: float = 0.02, settle: float = 3.5,
-                 max_walks: int = 3):
+                 *, step_duration: float = 0.5, trigger_margin: float = 0.02, settle: float = 3.5):
         for val, what in ((force, "force"), (push_duration, "push_duration"), (t_push, "t_push"),
                           (trigger_margin, "trigger_margin"), (settle, "settle")):
             if not (np.isfinite(val) and val >= 0):
                 raise InvalidInputError(f"{what} must be finite and ≥ 0, got {val!r}")
-        if isinstance(max_walks, bool) or not isinstance(max_walks, (int, np.integer)) or max_walks < 1:
-            raise InvalidInputError(f"max_walks must be an integer ≥ 1, got {max_walks!r}")
-        self.max_walks = int(max_walks)
         self.force, self.push_duration, self.t_push = float(force), float(push_duration), float(t_push)
         a = math.radians(push_dir)
         self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
@@ -87,8 +73,6 @@ class CaptureStepScenario:
         self.duration = self.t_push + self.push_duration + float(settle)
         self.walk: WalkScenario | None = None
         self.t_trigger: float | None = None
-        self.walk_times: list[float] = []
-        self.walks: list[WalkScenario] = []
 
     def setup(self, controller, sim, q, v):
         robot = sim.robot
@@ -98,61 +82,40 @@ class CaptureStepScenario:
         self.omega = lipm_omega(float(self.com0[2]))
         pin.framesForwardKinematics(self._model, self._data, q)
         self._fids = [robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)]
-        self._sole = (robot.sole_length - 2 * self.trigger_margin, robot.sole_width - 2 * self.trigger_margin)
-        self._hull = _hull_of_soles(self._data, self._fids, self._sole[0], self._sole[1])
+        self._hull = _hull_of_soles(self._data, self._fids, robot.sole_length - 2 * self.trigger_margin,
+                                    robot.sole_width - 2 * self.trigger_margin)
         self._body = robot.torso
         sim.body_id(self._body)
         self._on = False
         self._sim = sim
-        self.walk, self.t_trigger, self.walk_times, self.walks = None, None, [], []
-        self._t_walk = 0.0
-        self._no_more = False
+        self.walk, self.t_trigger = None, None
 
     def com_reference(self, t):
         if self.walk is None:
             return self.com0
-        return self.walk.com_reference(t - self._t_walk)
-
-    def _walk_landed(self) -> bool:
-        """The current capture walk has loaded every foot it lifted (one ``loaded`` event per swing)."""
-        w = self.walk
-        return sum(1 for _, _, e in w.switcher.events if e == "loaded") >= len(w.swings)
-
-    def _start_walk(self, t, controller, sim, q, v, side):
-        # reach and dead band of the capture step: measured (Talos, 450 N from behind) to fall with the walk
-        # defaults (forward reach 0.65 z_c, dead band 2 cm), to recover with 0.55 z_c and 3 cm.
-        walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
-                            first_side=side, forward_reach=0.55, lateral_reach=0.5,
-                            adjust_dead_band=0.03, adjust_timing=False)
-        try:
-            walk.setup(controller, sim, q, v)
-        except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
-            self._no_more = True
-            return
-        self.walk, self._t_walk = walk, float(t)
-        self.walks.append(walk)
-        self.walk_times.append(float(t))
-        if self.t_trigger is None:
-            self.t_trigger = float(t)
+        return self.walk.com_reference(t - self.t_trigger)
 
     def update(self, t, controller, sim, q, v):
-        first = self.walk is None
-        if not self._no_more and len(self.walk_times) < self.max_walks and (first or self._walk_landed()):
+        if self.walk is None:
             pin.centerOfMass(self._model, self._data, q, v)
             c, cd = self._data.com[0], self._data.vcom[0]
             xi = c[:2] + cd[:2] / self.omega
-            if not first:  # the soles where the last walk left them
-                pin.framesForwardKinematics(self._model, self._data, q)
-                self._hull = _hull_of_soles(self._data, self._fids, self._sole[0], self._sole[1])
             if polygon_margin(xi, self._hull) < 0.0:
-                if first:
-                    side = "right" if xi[1] - self.com0[1] < 0 else "left"
-                else:  # the foot farther from the DCM steps (module docstring)
-                    d = [np.linalg.norm(xi - self._data.oMf[f].translation[:2]) for f in self._fids]
-                    side = "left" if d[0] > d[1] else "right"
-                self._start_walk(t, controller, sim, q, v, side)
+                e = xi - self.com0[:2]
+                side = "right" if e[1] < 0 else "left"
+                # reach and dead band of the capture step: measured (Talos, 450 N from behind) to fall with the walk
+                # defaults (forward reach 0.65 z_c, dead band 2 cm), to recover with 0.55 z_c and 3 cm.
+                self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
+                                         first_side=side, forward_reach=0.55, lateral_reach=0.5,
+                                         adjust_dead_band=0.03, adjust_timing=False)
+                try:
+                    self.walk.setup(controller, sim, q, v)
+                except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
+                    self.walk, self._hull = None, np.zeros((0, 2))
+                else:
+                    self.t_trigger = float(t)
         if self.walk is not None:
-            self.walk.update(t - self._t_walk, controller, sim, q, v)
+            self.walk.update(t - self.t_trigger, controller, sim, q, v)
         active = self.t_push <= t < self.t_push + self.push_duration - 1e-9
         f, self._on = timed_push(sim, self._body, self.force * self.push_vec if active else None, active, self._on)
         return f
@@ -168,11 +131,8 @@ class CaptureStepScenario:
                "stepped": self.walk is not None, "trigger_time_s": self.t_trigger,
                "feet_moved_m": [float(m) for m in moved],
                "completed": bool(run.t[-1] >= self.duration - 2 * run.dt) and not run.fell}
-        out["capture_walks"] = len(self.walk_times)
-        out["capture_walk_times_s"] = list(self.walk_times)
-        if self.walks:
-            first = self.walks[0]
-            out.update({"stepping_side": first.first_side,
-                        "first_step_shift_m": list(getattr(first, "capture_landing", (0.0, 0.0))),
-                        "step_adjustments": sum(len(w.adjustments) for w in self.walks)})
+        if self.walk is not None:
+            out.update({"stepping_side": self.walk.first_side,
+                        "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),
+                        "step_adjustments": len(self.walk.adjustments)})
         return out
