@@ -17,8 +17,13 @@ since free variables and inactive rows carry no multiplier), so the returned x i
 end within the iteration cap, when H_FF is not positive definite or when S is singular (dependent equalities or
 active rows, more active constraints than free variables), the call is handed to :class:`wbc.qp.DaqpBackend`.
 
-The kernel is compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles it eagerly and
-returns the seconds it took.
+:func:`kinematic_tick` is the kinematic controller's whole QP tick in one compiled call (assembly from stacked task
+rows, posture diagonal, damping and position limits; floating-base elimination through a contact's 6 rows; the
+working set above on the reduced problem; residuals of the original rows checked), with its persistent arrays
+packed into two by :func:`kinematic_pack` for :func:`kinematic_tick_packed`.
+
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
+them eagerly and returns the seconds it took.
 """
 
 from __future__ import annotations
@@ -978,4 +983,14 @@ def warm_up() -> float:
     # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
+    # the kinematic controller's compiled tick (a 7-velocity problem whose base is eliminated through 6 rows)
+    fb, ib, views = kinematic_pack(7, 1, 6, 0, 0, 0, 0)
+    views["A"][:, :6] = np.eye(6)
+    views["rowp"][1] = 1.0
+    views["Js"][0, 6] = 1.0
+    views["lb"][6], views["ub"][6] = -1.0, 1.0
+    q = np.zeros(7)
+    kinematic_tick_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), q, q, np.empty(7), 0.0, 0.002, 1e-6,
+                          1e-6, 10)
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
     return time.perf_counter() - t0

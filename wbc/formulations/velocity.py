@@ -67,6 +67,18 @@ input error), ``solve`` does not raise and never returns NaN:
    current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
 
 ``ok`` is False for such a tick and ``message`` says why.
+
+Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict
+level, a tick is gathered into preallocated stacked buffers (each task's ``compute_into``, each contact's rows, the
+posture task's q ⊖ q*) and assembled and solved by one compiled call, :func:`wbc.fastqp.kinematic_tick`: the same
+QP, with the floating base eliminated through the first contact's rows and the exact optimum of an active set
+warm-started from the previous tick. The tick then goes on as above (contact drift measured at q⁺); whenever the
+kernel does not end at a KKT point within the backend's tolerance, the equality rows are rank deficient, a contact
+drifts above ``contact_correction``, or anything raises, the tick is solved again by the general path described
+above (DAQP fallback, correction, trust region, diagnosis), so results and failure handling are those of the general
+path. Soft tasks with their own cost or velocity target (other than one plain :class:`~wbc.tasks.PostureTask`)
+take the general path. A task's ``weight`` array becomes a view of the controller's stacked weights on its first
+compiled tick (in-place changes of it are seen, a new array assigned is copied in).
 """
 
 from __future__ import annotations
@@ -564,6 +576,8 @@ class KinematicController:
         does not end at a KKT point within tolerance, when the equality rows are rank deficient, or when a
         contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the caller then solves the tick by
         the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        if self._eq_rows is not None and self._eq_rows.size != plan.A.shape[0]:
+            return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
         q = config.q
         gains, has_ff = plan.gains, plan.has_ff
@@ -639,8 +653,7 @@ class KinematicController:
         self._fused_fails = 0
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, sole_drift=drift)
-        result.timings = {"assembly": t1 - t0, "solve": perf_counter() - t1}
+        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
