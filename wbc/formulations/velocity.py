@@ -215,7 +215,8 @@ class KinematicController:
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
         self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
-        self._fused_skip = False  # the compiled tick's kernel failed on the last tick, with inequality rows
+        self._fused_fails = 0  # consecutive failures of the compiled tick's kernel with inequality rows
+        self._fused_wait = 0  # ticks left that go to the general path without trying the compiled tick
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -628,11 +629,14 @@ class KinematicController:
                                    self.damping, backend.tolerance, backend.max_iter)
         backend.last_kernel_iterations = it
         if it < 1:
-            # with inequality rows, the next tick goes to the general path at once (then this one is tried again):
-            # degenerate rows (self-collision rows on joints held at velocity bounds) defeat the kernel's pivoting
-            # for stretches of ticks — on the Talos hand-through-torso drive 523 of 600 ticks, each failed attempt
-            # costing its assembly and up to max_iter working-set iterations
-            self._fused_skip = bool(plan.inequalities)
+            # with inequality rows, the next 1, 2, 4, 8, then 16 ticks (after 1, 2, 3, 4, ≥ 5 failures in a row) go
+            # to the general path at once, then the compiled tick is tried again: degenerate rows (self-collision
+            # rows on joints held at velocity bounds) defeat the kernel's pivoting for stretches of ticks — on the
+            # Talos hand-through-torso drive 523 of 600 ticks, each failed attempt costing its assembly and up to
+            # max_iter working-set iterations from a cold start
+            if plan.inequalities:
+                self._fused_fails += 1
+                self._fused_wait = min(1 << (self._fused_fails - 1), 16)
             return None
         drift = 0.0
         if plan.contacts:
@@ -646,6 +650,7 @@ class KinematicController:
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
         backend.kernel_solves += 1
+        self._fused_fails = 0
         self.dependent_residual = 0.0
         self.contact_corrections = 0
         result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
@@ -674,8 +679,8 @@ class KinematicController:
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
                                 and not self._level_order):
             plan = self._fused_plan(config, dt)
-        if plan is not None and self._fused_skip:
-            self._fused_skip = False
+        if plan is not None and self._fused_wait:
+            self._fused_wait -= 1
             plan = None
         if plan is not None:
             try:
