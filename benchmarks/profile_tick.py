@@ -1,10 +1,11 @@
 #!/usr/bin/env python
 """Where does a wbc kinematic tick go? ``python benchmarks/profile_tick.py [--robot talos] [--ticks 2000]``.
 
-Runs the benchmark scenario (:mod:`wbc.bench.kinematic`) once with wbc, recording the QPs the controller sends to
-its backend, then times on the recorded problems, one piece at a time (medians in µs):
+Runs the benchmark scenario (:mod:`wbc.bench.kinematic`) once with wbc (the compiled tick's gather and kernel times
+from ``TickResult.timings``), records the QPs of the general path (``KinematicController.assemble``) at its
+configurations, then times on the recorded problems, one piece at a time (medians in µs):
 
-* the Pinocchio update (``Configuration.update``) and the whole ``KinematicController.assemble``;
+* the Pinocchio update (``Configuration.update``) and the general path's ``KinematicController.assemble``;
 * the wbc backend call (``QPBackend.solve``: solver + violation check + clip) for every backend;
 * the raw solvers without wbc around them: proxsuite dense ``update`` + ``solve`` warm-started, and daqp's
   ``solve`` with bounds and equalities in its native form;
@@ -52,27 +53,34 @@ def main() -> None:
 
     runner = WbcRunner(spec, robot)
     runner.reset()
-    backend = runner.controller.backend
-    recorded: list[tuple] = []
-    original = backend.solve
-
-    def recording_solve(*qp):
-        recorded.append(tuple(np.array(a, copy=True) for a in qp))
-        return original(*qp)
-
-    backend.solve = recording_solve
     configs: list[np.ndarray] = []
+    timings: list[dict] = []
     for k in range(spec.total_ticks):
         configs.append(runner.config.q.copy())
         runner.tick(k)
-    problems = recorded[spec.warmup:]
+        timings.append(runner.controller.last_result.timings)
+    ctrl0 = runner.controller
+    print(f"compiled tick (solver {spec.solver!r}): gather (task/constraint rows, Pinocchio queries) "
+          f"{np.median([t['assembly'] for t in timings[spec.warmup:]]) * 1e6:.1f} µs, kernel + contact drift check "
+          f"{np.median([t['solve'] for t in timings[spec.warmup:]]) * 1e6:.1f} µs (TickResult.timings); "
+          f"fast backend: {ctrl0.backend.kernel_solves} kernel solves, {ctrl0.backend.fallbacks} DAQP fallbacks")
+    # The QPs of the general path (KinematicController.assemble) at the recorded configurations.
+    from wbc.configuration import Configuration
+
+    rec_cfg = Configuration(robot)
+    recorded: list[tuple] = []
+    for q in configs[spec.warmup:]:
+        rec_cfg.update(q)
+        recorded.append(tuple(np.array(a, copy=True) for a in ctrl0.assemble(rec_cfg, spec.dt)))
+    backend = ctrl0.backend
+    problems = recorded
     n, n_eq = problems[0][0].shape[0], problems[0][2].shape[0]
     print(f"{robot.name}: nv {n}, {n_eq} equality rows, {len(problems)} recorded QPs")
 
     # Whole tick, for reference.
     tick = summarize_us(WbcRunner(spec, robot).run().wall_ns)["median"]
     placo = summarize_us(PlacoRunner(spec, robot).run().wall_ns)["median"]
-    print(f"tick median: wbc (proxqp) {tick:.1f} µs, placo {placo:.1f} µs")
+    print(f"tick median: wbc ({spec.solver}) {tick:.1f} µs, placo {placo:.1f} µs")
 
     # Pinocchio update and assembly, on the recorded configurations.
     fresh = WbcRunner(spec, robot)
@@ -85,7 +93,7 @@ def main() -> None:
         cfg.update(q)
         ctrl.assemble(cfg, spec.dt)
 
-    print(f"KinematicController.assemble (3 tasks, 2 contacts, 2 limit boxes): "
+    print(f"KinematicController.assemble, general path (3 tasks, 2 contacts, 2 limit boxes): "
           f"{_median_us(assemble, qs) - _median_us(cfg.update, qs):.1f} µs")
 
     # wbc backends on the recorded problems (sequential, so warm starts see consecutive ticks).

@@ -175,3 +175,104 @@ def test_strict_hierarchy_takes_the_general_path(robots):
             config.step(r.v, 0.002)
         vs[solver] = np.array(out)
     assert np.abs(vs["daqp"] - vs["fast"]).max() < 1e-9
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_compiled_tick_is_the_optimum_of_its_qp(seed):
+    """wbc.fastqp.kinematic_tick (assembly + floating-base elimination + active set) against quadprog on the QP
+    written out here: task rows with gains/weights/feed-forward, a posture diagonal, damping, equality rows whose
+    first 6 are an invertible base block, inequality rows, and position limits clipped into a velocity box. When
+    the kernel gives up (negative code) the full-space kernel must give up on that QP too."""
+    from wbc.fastqp import kinematic_pack, kinematic_tick_packed
+
+    rng = np.random.default_rng(500 + seed)
+    nv = int(rng.integers(16, 40))
+    nq = nv + 1
+    mt, n_eq, n_in = int(rng.integers(1, 8)), 6 + 6 * int(rng.integers(0, 2)), int(rng.integers(0, 3))
+    eliminate = seed % 3 != 0
+    er = 0 if eliminate else -1
+    joints = np.arange(6, nv)
+    kl = joints.size
+    fb, ib, x = kinematic_pack(nv, mt, n_eq, n_in, kl, kl, er)
+    x["Js"][:] = rng.standard_normal((mt, nv))
+    x["es"][:] = rng.standard_normal(mt)
+    x["rowp"][:] = (rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt))
+    A = rng.standard_normal((n_eq, nv))
+    A[:6, :6] += 3 * np.eye(6)  # invertible base block
+    v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
+    x["A"][:] = A
+    x["b"][:] = A @ v0
+    C = rng.standard_normal((n_in, nv))
+    x["C"][:] = C
+    x["cl"][:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
+    x["cu"][:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
+    vmax = np.abs(v0[joints]) + rng.uniform(0.2, 2.0, kl)
+    x["lb"][:], x["ub"][:] = -np.inf, np.inf
+    x["lb"][6:], x["ub"][6:] = -vmax, vmax
+    q = rng.uniform(-1, 1, nq)
+    idx_q = joints + 1
+    dt = 0.01
+    # position limits that bind (some tighter than the velocity box), v0 inside them
+    qmin = q[idx_q] + dt * (v0[joints] - rng.uniform(0.05, 2.0, kl))
+    qmax = q[idx_q] + dt * (v0[joints] + rng.uniform(0.05, 2.0, kl))
+    x["plim"][:] = (qmin, qmax, vmax, -vmax)
+    x["pidx"][:] = (idx_q, joints)
+    x["prow"][:] = joints
+    x["pw"][:] = rng.uniform(0.01, 0.1, kl)
+    diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
+    nr = nv - 6 if eliminate else nv
+    state, rstate, v = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    it = kinematic_tick_packed(fb, ib, state, rstate, diff, q, v, pgain, dt, damping, 1e-6, 200)
+    # the same QP in numpy: cost ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
+    gain, w, ff = x["rowp"]
+    target = ff - gain * x["es"]
+    d = np.zeros(nv)
+    d[joints] = x["pw"]
+    s = -pgain * diff
+    H = x["Js"].T @ (w[:, None] * x["Js"]) + np.diag(d + damping)
+    g = -x["Js"].T @ (w * target) - d * s
+    lb, ub = x["lb"].copy(), x["ub"].copy()
+    lo = np.minimum((qmin - q[idx_q]) / dt, vmax)
+    hi = np.maximum((qmax - q[idx_q]) / dt, -vmax)
+    lb[joints], ub[joints] = np.minimum(np.maximum(lo, lb[joints]), ub[joints]), \
+        np.maximum(np.minimum(hi, ub[joints]), lb[joints])
+    G, h = np.vstack([C, -C]), np.concatenate([x["cu"], -x["cl"]])
+    ref = qpsolvers.solve_qp(H, g, G=G if n_in else None, h=h if n_in else None, A=A, b=x["b"],
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=np.where(np.isfinite(ub), ub, 1e20),
+                             solver="quadprog")
+    assert ref is not None
+    if it < 1:  # the single-pivot working set gave up (cold start, many active bounds): so does the full-space
+        full = make_backend("fast")  # kernel on the same QP, and both controllers' ticks go to DAQP
+        full.solve(H, g, A, x["b"], C, x["cl"], x["cu"], lb, ub)
+        assert full.kernel_solves == 0 and full.fallbacks == 1
+        return
+    assert np.abs(v - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
+    assert np.abs(A @ v - x["b"]).max() < 1e-7  # the kernel accepts ≤ its tolerance (1e-6 here)
+    assert (v >= lb - 1e-9).all() and (v <= ub + 1e-9).all()
+    assert np.abs(x["vdt"] - v * dt).max() == 0.0
+
+
+def test_after_a_failed_kernel_call_with_rows_the_next_goes_to_daqp():
+    """A kernel call with inequality rows that ends without a KKT point (here: its iteration cap of 1 on a problem
+    that needs more) is answered by DAQP, and so is the next call with rows, without running the kernel; the call
+    after tries the kernel again. Every answer is the optimum (quadprog)."""
+    rng = np.random.default_rng(7)
+    n = 12
+    H, g, A, b, lb, ub = _random_qp(rng, n, 2, 0.2)
+    g = g * 20.0  # an unconstrained optimum far outside the box: several bounds and rows active
+    C = rng.standard_normal((4, n))
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0]
+    l, u = C @ x0 - 0.05, C @ x0 + 0.05
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    ref = qpsolvers.solve_qp(H, g, G=G, h=h, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+    assert ref is not None
+    fast = FastBackend(max_iter=1)
+    seen = []
+    for _ in range(3):
+        fast.last_kernel_iterations = 0
+        x = fast.solve(H, g, A, b, C, l, u, lb, ub)
+        assert np.abs(x - ref).max() < 1e-6 * max(1.0, np.abs(ref).max())
+        seen.append((fast.last_kernel_iterations, fast.kernel_solves, fast.fallbacks))
+    assert seen[0][0] < 0 and seen[0][2] == 1  # the kernel ran out of iterations: DAQP
+    assert seen[1] == (0, 0, 2)  # kernel not run: DAQP
+    assert seen[2][0] != 0  # the kernel ran again

@@ -17,8 +17,13 @@ since free variables and inactive rows carry no multiplier), so the returned x i
 end within the iteration cap, when H_FF is not positive definite or when S is singular (dependent equalities or
 active rows, more active constraints than free variables), the call is handed to :class:`wbc.qp.DaqpBackend`.
 
-The kernel is compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles it eagerly and
-returns the seconds it took.
+:func:`kinematic_tick` is the kinematic controller's whole QP tick in one compiled call (assembly from stacked task
+rows, posture diagonal, damping and position limits; floating-base elimination through a contact's 6 rows; the
+working set above on the reduced problem; residuals of the original rows checked), with its persistent arrays
+packed into two by :func:`kinematic_pack` for :func:`kinematic_tick_packed`.
+
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
+them eagerly and returns the seconds it took.
 """
 
 from __future__ import annotations
@@ -864,6 +869,7 @@ class FastBackend(DaqpBackend):
         self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
+        self._rows_failed = False
         ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
     def _prepare_kernel(self, n: int, m: int) -> None:
@@ -905,8 +911,16 @@ class FastBackend(DaqpBackend):
             SolverError: the DAQP fallback failed (see :meth:`wbc.qp.QPBackend.solve`).
         """
         p = C.shape[0]
-        if (self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub)):
+        if p and self._rows_failed:
+            # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
+            # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held
+            # at velocity bounds, defeat its pivoting for stretches of ticks: on the Talos hand-through-torso drive
+            # 414 of 605 calls; a failed attempt cost about half a DAQP solve)
+            self._rows_failed = False
+        elif self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub):
             return self._x.copy()
+        else:
+            self._rows_failed = p > 0
         self.fallbacks += 1
         x = super().solve(H, g, A, b, C, l, u, lb, ub)
         if H.shape[0] == self._n:
@@ -969,4 +983,14 @@ def warm_up() -> float:
     # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
+    # the kinematic controller's compiled tick (a 7-velocity problem whose base is eliminated through 6 rows)
+    fb, ib, views = kinematic_pack(7, 1, 6, 0, 0, 0, 0)
+    views["A"][:, :6] = np.eye(6)
+    views["rowp"][1] = 1.0
+    views["Js"][0, 6] = 1.0
+    views["lb"][6], views["ub"][6] = -1.0, 1.0
+    q = np.zeros(7)
+    kinematic_tick_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), q, q, np.empty(7), 0.0, 0.002, 1e-6,
+                          1e-6, 10)
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
     return time.perf_counter() - t0

@@ -67,6 +67,18 @@ input error), ``solve`` does not raise and never returns NaN:
    current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
 
 ``ok`` is False for such a tick and ``message`` says why.
+
+Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict
+level, a tick is gathered into preallocated stacked buffers (each task's ``compute_into``, each contact's rows, the
+posture task's q ⊖ q*) and assembled and solved by one compiled call, :func:`wbc.fastqp.kinematic_tick`: the same
+QP, with the floating base eliminated through the first contact's rows and the exact optimum of an active set
+warm-started from the previous tick. The tick then goes on as above (contact drift measured at q⁺); whenever the
+kernel does not end at a KKT point within the backend's tolerance, the equality rows are rank deficient, a contact
+drifts above ``contact_correction``, or anything raises, the tick is solved again by the general path described
+above (DAQP fallback, correction, trust region, diagnosis), so results and failure handling are those of the general
+path. Soft tasks with their own cost or velocity target (other than one plain :class:`~wbc.tasks.PostureTask`)
+take the general path. A task's ``weight`` array becomes a view of the controller's stacked weights on its first
+compiled tick (in-place changes of it are seen, a new array assigned is copied in).
 """
 
 from __future__ import annotations
@@ -203,6 +215,7 @@ class KinematicController:
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
         self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
+        self._fused_skip = False  # the compiled tick's kernel failed on the last tick, with inequality rows
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -562,6 +575,8 @@ class KinematicController:
         does not end at a KKT point within tolerance, when the equality rows are rank deficient, or when a
         contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the caller then solves the tick by
         the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        if self._eq_rows is not None and self._eq_rows.size != plan.A.shape[0]:
+            return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
         q = config.q
         gains, has_ff = plan.gains, plan.has_ff
@@ -613,6 +628,11 @@ class KinematicController:
                                    self.damping, backend.tolerance, backend.max_iter)
         backend.last_kernel_iterations = it
         if it < 1:
+            # with inequality rows, the next tick goes to the general path at once (then this one is tried again):
+            # degenerate rows (self-collision rows on joints held at velocity bounds) defeat the kernel's pivoting
+            # for stretches of ticks — on the Talos hand-through-torso drive 523 of 600 ticks, each failed attempt
+            # costing its assembly and up to max_iter working-set iterations
+            self._fused_skip = bool(plan.inequalities)
             return None
         drift = 0.0
         if plan.contacts:
@@ -628,8 +648,7 @@ class KinematicController:
         backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, sole_drift=drift)
-        result.timings = {"assembly": t1 - t0, "solve": perf_counter() - t1}
+        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
@@ -655,6 +674,9 @@ class KinematicController:
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
                                 and not self._level_order):
             plan = self._fused_plan(config, dt)
+        if plan is not None and self._fused_skip:
+            self._fused_skip = False
+            plan = None
         if plan is not None:
             try:
                 result = self._fused_tick(plan, config, dt, t0)
