@@ -152,6 +152,29 @@ def test_replan_skip_ends_the_swing_earlier():
         p.replan(k, p.com[k], p.com_vel[k], skip=n_left, check_start=False)
 
 
+def test_replan_negative_skip_lengthens_the_swing():
+    p = _plan()
+    ph = next(x for x in p.phases if x.step == 1)
+    k = ph.first + ph.count // 2
+    n_left = ph.end - k
+    q = p.replan(k, p.com[k], p.com_vel[k], skip=-40, check_start=False)
+    assert q.n_samples == p.n_samples - k + 40
+    side = p.footsteps[1].side
+    P, P0 = (q.left_sole, p.left_sole) if side == "left" else (q.right_sole, p.right_sole)
+    S, S0 = (q.right_sole, p.right_sole) if side == "left" else (q.left_sole, p.left_sole)  # stance foot
+    # The swing lands 40 samples later on the same footstep; the rest of the plan is the old one, 40 samples later.
+    assert q.support[n_left + 40 - 1] != 0 and q.support[n_left + 40] == 0
+    assert P[n_left + 40][:3, 3] == pytest.approx(P0[ph.end][:3, 3], abs=1e-12)
+    assert np.array_equal(P[n_left + 40:], P0[ph.end:])
+    assert P[0][:3, 3] == pytest.approx(P0[k][:3, 3], abs=1e-12)
+    # The stretched swing stays continuous (no step > the old largest step per sample) and the stance foot is held.
+    step = np.linalg.norm(np.diff(P[:n_left + 41, :3, 3], axis=0), axis=1).max()
+    assert step <= np.linalg.norm(np.diff(P0[k:ph.end + 1, :3, 3], axis=0), axis=1).max() + 1e-12
+    assert np.all(S[:n_left + 40, :3, 3] == S0[k, :3, 3])
+    with pytest.raises(GaitError, match="skip"):
+        p.replan(k, p.com[k], p.com_vel[k], skip=-10_000, check_start=False)
+
+
 def test_kinematic_walk_velocity_commands(tmp_path):
     # `wbc walk --vy`: side-steps of vy x (t_ss + t_ds) (Talos gait: 0.8 + 0.3 s); `--vx --wz`: an arc.
     from wbc.cli import main
