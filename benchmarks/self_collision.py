@@ -10,12 +10,19 @@ process:
 * ``none``: the same controller without the constraint (the arm then runs into the torso).
 
 Printed per variant: ``SelfCollisionConstraint.compute`` per tick (median / p99 µs, wall and thread CPU), coal
-distances per tick (``SelfCollisionConstraint.coal_calls``; the test counts them independently), the smallest distance held (coal on the
-original meshes of the arm–torso pairs, and the smallest active distance of the constraint's hulls), the whole
-controller tick (median thread CPU µs: wall time on a loaded machine includes waiting) and its excess over ``none``; then whether the broad phase gave the same active pairs at
-every tick and the same joint trajectory as the exhaustive variant, and PASS/FAIL of the ≤ 200 µs target (median
-compute per tick, wall clock). The machine load (``os.getloadavg``) is printed before and after: wall-clock numbers
-on a loaded machine are inflated; the instruction counts (``--callgrind``, valgrind) are not.
+distances per tick (``SelfCollisionConstraint.coal_calls``; the test counts them independently), the smallest
+distance held (coal on the original meshes of the arm–torso pairs, and the smallest active distance of the
+constraint's hulls), the whole controller tick (median thread CPU µs: wall time on a loaded machine includes
+waiting) and its excess over ``none``, and how the tick's QPs were answered (compiled kernel / DAQP fallback,
+:class:`wbc.fastqp.FastBackend`); then whether the broad phase gave the same active pairs at every tick and the
+same joint trajectory as the exhaustive variant.
+
+Verdict of the issue-10 target (≤ 200 µs per tick), read as what a user pays for turning self-collision avoidance
+on: PASS only when BOTH the median ``compute`` (wall) AND the median tick's increase over ``none`` (thread CPU)
+are ≤ 200 µs, the active pairs are the exhaustive variant's at every tick and the arm stays ≥ min_distance
+(20 mm) from the torso on the original meshes; exit status 1 otherwise. The machine load (``os.getloadavg``) is
+printed before and after: wall-clock numbers on a loaded machine are inflated; the instruction counts
+(``--callgrind``, valgrind) are not.
 
 Usage: python benchmarks/self_collision.py [--robot talos] [--repeats 3] [--callgrind N]
 """
@@ -38,6 +45,7 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 TARGET_US = 200.0  # issue 10: self-collision on Talos ≤ 200 µs per tick
+MIN_DISTANCE = 0.02  # m, the constraint's min_distance in this scenario
 
 
 def load() -> str:
@@ -54,7 +62,7 @@ def run(robot, variant: str) -> dict:
 
     config = Configuration(robot)
     hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
-    sc = None if variant == "none" else SelfCollisionConstraint(robot, min_distance=0.02,
+    sc = None if variant == "none" else SelfCollisionConstraint(robot, min_distance=MIN_DISTANCE,
                                                                  broad_phase=variant == "broad")
     ctrl, _ = standing_controller(robot, config, *([sc] if sc else []), tasks=(hand,), posture_weight=1e-3)
     gm, gd = watched_model(robot)
@@ -65,12 +73,12 @@ def run(robot, variant: str) -> dict:
     if sc is not None:
         compute = sc.compute
 
-        def timed(config, dt):
+        def timed(config, dt):  # summed over the tick's calls (the general path may call it again: cached)
             c0 = thread_time_ns()
             t0 = perf_counter_ns()
             out = compute(config, dt)
-            times.append(perf_counter_ns() - t0)
-            cpu.append(thread_time_ns() - c0)
+            times[-1] += perf_counter_ns() - t0
+            cpu[-1] += thread_time_ns() - c0
             return out
 
         sc.compute = timed
@@ -83,9 +91,11 @@ def run(robot, variant: str) -> dict:
     for k in range(n):
         s = min(1.0, k * DT / 1.0)
         hand.set_target(p0 + (p_mid - p0) * min(1.0, 2 * s) + (p_end - p_mid) * max(0.0, 2 * s - 1))
-        t0 = perf_counter_ns()
+        times.append(0)
+        cpu.append(0)
+        c0 = thread_time_ns()
         res = ctrl.solve(config, DT)
-        tick.append(perf_counter_ns() - t0)
+        tick.append(thread_time_ns() - c0)
         assert res.ok, res.message
         if sc is not None:
             active.append([a[:2] for a in sc.active])
@@ -96,10 +106,11 @@ def run(robot, variant: str) -> dict:
     for q in qs:  # after the run: the mesh distances would evict the constraint's data from the caches
         distances(robot.model, data, gm, gd, q)
         d_min = min(d_min, min(r.min_distance for r in gd.distanceResults))
-    t = np.array(times or [0]) / 1e3
+    t = np.array(times) / 1e3
     return {"median_us": float(np.median(t)), "p99_us": float(np.percentile(t, 99)),
-            "cpu_median_us": float(np.median(cpu or [0])) / 1e3, "tick_median_us": float(np.median(tick)) / 1e3,
+            "cpu_median_us": float(np.median(cpu)) / 1e3, "tick_median_us": float(np.median(tick)) / 1e3,
             "coal_per_tick": calls / n, "min_mesh_mm": 1e3 * d_min, "min_hull_mm": 1e3 * d_hull,
+            "kernel_solves": getattr(ctrl.backend, "kernel_solves", 0), "fallbacks": getattr(ctrl.backend, "fallbacks", 0),
             "q": np.array(qs), "active": active}
 
 
@@ -193,15 +204,27 @@ def main() -> None:
             f"compute median {m['median_us']:7.1f} µs (CPU {m['cpu_median_us']:7.1f}), p99 {m['p99_us']:7.1f} µs, "
             f"coal {m['coal_per_tick']:6.1f}/tick, min hull distance {m['min_hull_mm']:.2f} mm, ")
         print(f"  {v:10s}: {sc}tick CPU {m['tick_median_us']:7.1f} µs (+{m['tick_median_us'] - med['none']['tick_median_us']:6.1f} "
-              f"over none), min arm–torso mesh distance {m['min_mesh_mm']:.2f} mm")
+              f"over none), QPs kernel/DAQP {m['kernel_solves']:.0f}/{m['fallbacks']:.0f}, "
+              f"min arm–torso mesh distance {m['min_mesh_mm']:.2f} mm")
     same_active = all(x["active"] == y["active"] for x in out["broad"] for y in out["exhaustive"])
     gap = max(float(np.abs(x["q"] - y["q"]).max()) for x in out["broad"] for y in out["exhaustive"])
     print(f"  broad vs exhaustive: same active pairs at every tick: {same_active}; largest joint-trajectory "
           f"difference {gap:.1e}; load {load()}")
-    ok = med["broad"]["median_us"] <= TARGET_US
-    print(f"  target (issue 10): self-collision ≤ {TARGET_US:.0f} µs per tick: median {med['broad']['median_us']:.1f} µs "
-          f"(wall, load {load()}) -> {'PASS' if ok else 'FAIL'}")
-    result = {"load": os.getloadavg(), "median": med, "same_active": same_active, "trajectory_gap": gap, "pass": ok}
+    compute_us = med["broad"]["median_us"]
+    increment_us = med["broad"]["tick_median_us"] - med["none"]["tick_median_us"]
+    held = med["broad"]["min_mesh_mm"] >= 1e3 * MIN_DISTANCE
+    verdict = {"compute()": compute_us <= TARGET_US, "tick increment": increment_us <= TARGET_US,
+               "same active pairs": same_active, "min distance held": held}
+    ok = all(verdict.values())
+    print(f"  target (issue 10): self-collision ≤ {TARGET_US:.0f} µs per tick (load {load()}):\n"
+          f"    compute() median {compute_us:.1f} µs (wall) -> {'PASS' if verdict['compute()'] else 'FAIL'}\n"
+          f"    tick increment over none {increment_us:.1f} µs (thread CPU medians) -> "
+          f"{'PASS' if verdict['tick increment'] else 'FAIL'}\n"
+          f"    same active pairs as exhaustive: {same_active}; min arm–torso mesh distance "
+          f"{med['broad']['min_mesh_mm']:.2f} mm ≥ {1e3 * MIN_DISTANCE:.0f} mm: {held}\n"
+          f"  -> {'PASS' if ok else 'FAIL: ' + ', '.join(k for k, v in verdict.items() if not v)}")
+    result = {"load": os.getloadavg(), "median": med, "same_active": same_active, "trajectory_gap": gap,
+              "compute_us": compute_us, "increment_us": increment_us, "verdict": verdict, "pass": ok}
     if a.callgrind:
         ir = instructions(robot, a.callgrind)
         print(f"  instructions per compute() (callgrind, {2 * a.callgrind} ticks): broad {ir['broad']:,.0f}, "
@@ -209,7 +232,7 @@ def main() -> None:
         result["instructions"] = ir
     if a.json:
         Path(a.json).write_text(json.dumps(result, indent=1))
-    sys.exit(0 if ok and same_active else 1)
+    sys.exit(0 if ok else 1)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, 
 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
-       [--adjust-timing on|off] [--seeds S ...] [--jobs N]
+       [--adjust-timing on|off] [--seeds S ...] [--jobs N] [--cli-options]
 """
 
 from __future__ import annotations
@@ -25,9 +25,14 @@ from wbc.sim.walk import WalkScenario
 
 
 def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
-          adjust_timing):
+          adjust_timing, cli_options=False):
     sim = build_mujoco_model(robot)
-    controller = make_controller(robot, "id", dt=sim.timestep)
+    options = {}
+    if cli_options:  # the controller `wbc sim walk` builds (soles shrunk, angular-momentum weight 1)
+        from wbc.sim.physics_scenarios import walk_options_for
+
+        options = walk_options_for(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep, **options)
     sc = WalkScenario(steps, step_length, step_duration, push=force, push_time=push_time, push_duration=duration,
                       push_dir=push_dir, step_adjust=step_adjust, adjust_timing=adjust_timing)
     _, s = run_scenario(sim, controller, sc)
@@ -49,11 +54,15 @@ def main() -> None:
     ap.add_argument("--no-step-adjust", action="store_true")
     ap.add_argument("--adjust-timing", choices=("on", "off"), default="on",
                     help="step timing adaptation (WalkScenario adjust_timing)")
+    ap.add_argument("--cli-options", action="store_true",
+                    help="the controller options of `wbc sim walk` (wbc.sim.physics_scenarios.walk_options_for: "
+                         "sole rectangle shrunk, angular-momentum weight 1); default: make_controller's defaults")
     ap.add_argument("--standing", action="store_true", help="front and back pushes while standing (see docstring)")
     args = ap.parse_args()
     robot = wbc.load_robot(args.robot)
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
-                  step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on")
+                  step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on",
+                  cli_options=args.cli_options)
     if args.standing:
         from wbc.sim.capture_step import CaptureStepScenario
 
@@ -85,7 +94,8 @@ def main() -> None:
             print(line, flush=True)
     print(f"survived {survived} of {len(seeds)} ({args.force:.0f} N x {args.push_duration} s, {args.robot}, "
           f"{args.steps} steps x {args.step_length} m at {args.step_duration} s/step, "
-          f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s); fell: seeds {fell}")
+          f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s, controller options "
+          f"{'of wbc sim walk' if args.cli_options else 'default'}); fell: seeds {fell}")
 
 
 def _seeded_trial(job, robot=None):

@@ -250,3 +250,29 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     assert np.abs(A @ v - x["b"]).max() < 1e-7  # the kernel accepts ≤ its tolerance (1e-6 here)
     assert (v >= lb - 1e-9).all() and (v <= ub + 1e-9).all()
     assert np.abs(x["vdt"] - v * dt).max() == 0.0
+
+
+def test_after_a_failed_kernel_call_with_rows_the_next_goes_to_daqp():
+    """A kernel call with inequality rows that ends without a KKT point (here: its iteration cap of 1 on a problem
+    that needs more) is answered by DAQP, and so is the next call with rows, without running the kernel; the call
+    after tries the kernel again. Every answer is the optimum (quadprog)."""
+    rng = np.random.default_rng(7)
+    n = 12
+    H, g, A, b, lb, ub = _random_qp(rng, n, 2, 0.2)
+    g = g * 20.0  # an unconstrained optimum far outside the box: several bounds and rows active
+    C = rng.standard_normal((4, n))
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0]
+    l, u = C @ x0 - 0.05, C @ x0 + 0.05
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    ref = qpsolvers.solve_qp(H, g, G=G, h=h, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+    assert ref is not None
+    fast = FastBackend(max_iter=1)
+    seen = []
+    for _ in range(3):
+        fast.last_kernel_iterations = 0
+        x = fast.solve(H, g, A, b, C, l, u, lb, ub)
+        assert np.abs(x - ref).max() < 1e-6 * max(1.0, np.abs(ref).max())
+        seen.append((fast.last_kernel_iterations, fast.kernel_solves, fast.fallbacks))
+    assert seen[0][0] < 0 and seen[0][2] == 1  # the kernel ran out of iterations: DAQP
+    assert seen[1] == (0, 0, 2)  # kernel not run: DAQP
+    assert seen[2][0] != 0  # the kernel ran again

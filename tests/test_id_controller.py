@@ -107,22 +107,41 @@ def test_dynamics_rnea_and_constraints_every_tick(robot_name, push):
     assert w["contact_acc"] < 1e-5, w
 
 
-def test_state_matches_pinocchio_algorithms(robots):
-    robot = robots("talos")
+@pytest.mark.parametrize("robot_name", ["talos", "g1"])
+def test_state_matches_pinocchio_algorithms(robots, robot_name):
+    """Every DynamicsState quantity against Pinocchio's own algorithm for it, at a random base pose (rotated and
+    translated: the centroidal quantities are derived from M's base rows and the base placement) and velocity."""
+    robot = robots(robot_name)
+    model = robot.model
     rng = np.random.default_rng(0)
     q = robot.q_ref.copy()
+    q[:3] = rng.normal(size=3)
+    quat = rng.normal(size=4)
+    q[3:7] = quat / np.linalg.norm(quat)
     q[7:] += rng.uniform(-0.1, 0.1, robot.nq - 7)
     v = rng.normal(size=robot.nv)
     st = DynamicsState(robot, q, v)
-    data = robot.model.createData()
-    M = pin.crba(robot.model, data, q)
+    data = model.createData()
+    M = pin.crba(model, data, q)
     M = np.triu(M) + np.triu(M, 1).T
-    assert np.abs(st.M - M).max() < 1e-10  # both triangles filled by computeAllTerms
-    assert np.abs(st.h - pin.nonLinearEffects(robot.model, data, q, v)).max() < 1e-10
-    pin.centerOfMass(robot.model, data, q, v, np.zeros(robot.nv))
+    assert np.abs(st.M - M).max() < 1e-10  # both triangles filled
+    assert np.abs(st.h - pin.nonLinearEffects(model, data, q, v)).max() < 1e-10
+    pin.centerOfMass(model, data, q, v, np.zeros(robot.nv))
+    assert np.abs(st.com - data.com[0]).max() < 1e-12
+    assert np.abs(st.com_velocity - data.vcom[0]).max() < 1e-12
     assert np.abs(st.com_drift - data.acom[0]).max() < 1e-10
-    pin.computeCentroidalMomentumTimeVariation(robot.model, data, q, v, np.zeros(robot.nv))
+    assert np.abs(st.com_jacobian - pin.jacobianCenterOfMass(model, data, q)).max() < 1e-12
+    assert np.abs(st.centroidal_momentum_matrix - pin.computeCentroidalMap(model, data, q)).max() < 1e-10
+    pin.computeCentroidalMomentumTimeVariation(model, data, q, v, np.zeros(robot.nv))
     assert np.abs(st.centroidal_drift - data.dhg.vector).max() < 1e-10
+    assert np.abs(st.angular_momentum - data.hg.angular).max() < 1e-10
+    pin.forwardKinematics(model, data, q, v, np.zeros(robot.nv))
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    fid = model.getFrameId(robot.torso)
+    assert np.abs(st.frame_jacobian(fid, pin.LOCAL) - pin.getFrameJacobian(model, data, fid, pin.LOCAL)).max() < 1e-12
+    assert np.abs(st.frame_classical_drift(fid) - pin.getFrameClassicalAcceleration(
+        model, data, fid, pin.LOCAL_WORLD_ALIGNED).vector).max() < 1e-12
 
 
 def _numeric_drift(robot, q, v, f, eps=1e-7):

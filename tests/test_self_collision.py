@@ -153,38 +153,43 @@ def test_broad_phase_keeps_the_rows_hand_through_torso(robots, monkeypatch):
         T = config.frame_placement(robot.frame_id(frame))
         p_mid, p_end = T.act(np.zeros(3)), T.act(np.array(end))
         qs, rows, active, d_min = [], [], [], np.inf
-        compute = sc.compute
+        narrow, computed = sc._narrow, [0]
 
-        def recorded(config, dt, compute=compute, rows=rows):  # the rows the controller gets
-            out = compute(config, dt)
-            rows.append(tuple(x.copy() for x in out[:2]))
-            return out
+        def counted(config, narrow=narrow, computed=computed):  # distances and rows actually computed
+            computed[0] += 1
+            return narrow(config)
 
-        sc.compute = recorded
+        sc._narrow = counted
         c0 = calls[0]
         for k in range(int(1.2 / DT)):
             s = min(1.0, k * DT / 1.0)
             hand.set_target(p0 + (p_mid - p0) * min(1.0, 2 * s) + (p_end - p_mid) * max(0.0, 2 * s - 1))
             res = ctrl.solve(config, DT)
             assert res.ok, res.message
+            rows.append((sc._C.copy(), sc._l.copy()))  # the rows compute() returned to the controller
             got = [(sc.pair_names.index(a[:2]), a[2]) for a in sc.active]
             n_calls = calls[0]
             ref = _reference_close_pairs(sc, robot, gm, gd, data, config.q)
             calls[0] = n_calls
             assert [k for k, _ in got] == [k for k, _ in ref], k
-            assert np.allclose([d for _, d in got], [d for _, d in ref], rtol=0, atol=1e-9), k  # GJK tolerance
+            # each run is within GJK's 1e-9 m of the true distance (the pair is warm-started from a different
+            # previous call in each), so two runs agree to 2e-9 m: measured 1.02e-9 on pair 9 at tick 105
+            assert np.allclose([d for _, d in got], [d for _, d in ref], rtol=0, atol=2e-9), k
             active.append(got)
             d_min = min(d_min, ref[0][1])
             config.update(config.integrate(res.v, DT))
             qs.append(config.q.copy())
         n_calls = calls[0] - c0
+        # one computation per tick, also when the compiled tick hands the tick over to the general path, which
+        # assembles it again (a second compute() at the same configuration returns the same rows)
+        assert computed[0] == len(qs)
         runs[broad] = (np.array(qs), rows, active, n_calls)
     assert d_min < 0.03  # the drive does bring pairs within a few mm of the 23 mm floor
     (q1, rows1, act1, n1), (q0, rows0, act0, n0) = runs[True], runs[False]
-    assert len(rows1) == len(rows0) == len(q1)  # one compute per tick
+    assert len(rows1) == len(rows0) == len(q1)
     for a1, a0 in zip(act1, act0, strict=True):
         assert [k for k, _ in a1] == [k for k, _ in a0]
-        assert np.allclose([d for _, d in a1], [d for _, d in a0], rtol=0, atol=1e-9)  # GJK tolerance
+        assert np.allclose([d for _, d in a1], [d for _, d in a0], rtol=0, atol=2e-9)  # 2 × GJK tolerance
     # measured: C equal to 1.7e-16, trajectories identical (coal's warm start could move a witness point along a
     # flat face within GJK's tolerance: calling compute twice per tick gave rows up to 2.7e-6 apart)
     for (C1, l1), (C0, l0) in zip(rows1, rows0):
@@ -264,3 +269,47 @@ def test_close_pairs_reusable_part(robots):
     J = sc.distance_jacobian(config, close).copy()
     C, _, _ = SelfCollisionConstraint(robot).compute(config, DT)
     np.testing.assert_allclose(J, C[:m], atol=1e-12)
+
+
+def test_compiled_tick_is_skipped_once_after_its_kernel_failed_with_rows(robots):
+    """With inequality rows (self-collision), a tick whose compiled kernel ends without a KKT point is solved by the
+    general path, and so is the next tick without trying the compiled one; the tick after tries it again. Every
+    tick is solved (the general path answers them all correctly: same v as a DAQP controller)."""
+    from wbc.fastqp import FastBackend
+
+    robot = robots("talos")
+    runs = {}
+    for solver in ("fast", "daqp"):
+        config = Configuration(robot)
+        hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
+        sc = SelfCollisionConstraint(robot, min_distance=0.02)
+        ctrl, _ = standing_controller(robot, config, sc, tasks=(hand,), posture_weight=1e-3)
+        if solver == "fast":
+            ctrl.backend = FastBackend(max_iter=1)  # the compiled kernel fails whenever it needs 2 iterations
+        else:
+            from wbc.backends import make_backend
+
+            ctrl.backend = make_backend("daqp")
+        events, fused = [], ctrl._fused_tick
+
+        def traced(plan, config, dt, t0, fused=fused, events=events, ctrl=ctrl):
+            ctrl.backend.last_kernel_iterations = 0
+            out = fused(plan, config, dt, t0)
+            events[-1] = "ok" if out is not None else ("failed" if ctrl.backend.last_kernel_iterations < 1 else "other")
+            return out
+
+        ctrl._fused_tick = traced
+        hand.set_target(config.frame_placement(hand.frame_id).translation + np.array([0.0, 0.3, 0.1]))
+        vs = []
+        for _ in range(30):
+            events.append("skipped")
+            res = ctrl.solve(config, DT)
+            assert res.ok, res.message
+            vs.append(res.v.copy())
+            config.update(config.integrate(res.v, DT))
+        runs[solver] = (events, np.array(vs))
+    events = runs["fast"][0]
+    assert "failed" in events
+    for a, b in zip(events, events[1:]):
+        assert (b == "skipped") == (a == "failed"), events
+    assert np.abs(runs["fast"][1] - runs["daqp"][1]).max() < 1e-5

@@ -166,6 +166,33 @@ def test_push_towards_the_stance_leg_is_recovered_by_cutting_the_step_short():
     assert run.sole_pos[-1, 0, 1] > 0.085 + 0.30
 
 
+def test_push_late_in_a_swing_is_recovered_by_lengthening_the_swing():
+    # Talos 8 x 0.25 m at 0.6 s/step; 300 N x 0.1 s at t = 2.999 s towards -y and slightly forward (292.3 deg;
+    # seed 204 of benchmarks/walk_push_trials.py), 0.08 s before the right foot's planned landing at 3.08 s (4th
+    # swing, left stance). Landing at its nominal place, the DCM ends beyond the right sole's outer edge and the
+    # left foot cannot cross to catch it: with the swing length fixed (max_stretch=0) this push fell (measured).
+    # The swing is lengthened instead and the right foot lands later and further right.
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = WalkScenario(8, 0.25, 0.6, push=300.0, push_time=2.99938388023065, push_duration=0.1,
+                            push_dir=292.3110388691157)
+    run, s = run_scenario(sim, controller, scenario)
+    assert not s["fell"] and s["completed"]
+    assert s["solver_failures"] == 0
+    assert min(s["step_timing_changes_s"]) <= -0.05  # a lengthened swing (negative: later)
+    # The right foot touched down (MuJoCo state, the switcher's state-based detection) after its planned 3.08 s …
+    td = [t for t, side, e in scenario.switcher.events if side == "right" and e == "touchdown" and 2.6 < t < 3.5]
+    assert td and td[0] > 3.08 + 0.05
+    # … and MuJoCo's sole there lies > 8 cm right of the nominal footstep (y = -0.085 m).
+    i = int(round(td[0] / sim.timestep))
+    nominal = scenario.plan.footsteps[3]
+    assert nominal.side == "right"
+    assert run.sole_pos[i, 1, 1] < nominal.y - 0.08
+    # The feet stayed apart by ≥ a sole width laterally at the end (no crossing).
+    assert run.sole_pos[-1, 0, 1] - run.sole_pos[-1, 1, 1] > robot.sole_width
+
+
 @pytest.mark.parametrize("push_dir, sign", [(180.0, -1.0), (0.0, 1.0)])  # from the front (towards -x), from behind
 def test_standing_push_from_the_front_and_behind_is_recovered_by_a_capture_step(push_dir, sign):
     from wbc.sim.capture_step import CaptureStepScenario

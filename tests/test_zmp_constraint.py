@@ -66,29 +66,35 @@ def test_zmp_rows_are_the_executed_zmp_distance(robots, name):
 
 def test_undo_previous_takes_back_exactly_one_command(robots):
     """A tick solved twice (StanceController's retry): after set_previous(v1), undo_previous(), set_previous(v2) the
-    next tick's rows are those of a constraint that only ever saw v2 (bitwise); a second undo is a no-op."""
+    next tick's rows are those of a constraint that only ever saw v2 (bitwise); a second undo is a no-op; the same
+    with a state() snapshot taken before the tick and restore()."""
     robot = robots("talos")
     dt = 0.002
     rng = np.random.default_rng(5)
     v0, v1, v2 = (np.r_[np.zeros(6), 0.1 * rng.standard_normal(robot.nv - 6)] for _ in range(3))
     rows = []
-    for retried in (False, True):
+    for retry in (None, "undo", "restore"):
         config = Configuration(robot)
         zmp = ExecutedZmpConstraint(robot)
         zmp.set_support([config.data.oMf[robot.frame_id(f)] for f in (robot.left_sole, robot.right_sole)])
         zmp.compute(config, dt)
         zmp.set_previous(v0)
         config.step(v0, dt)
+        snapshot = zmp.state()
         zmp.compute(config, dt)
-        if retried:
+        if retry == "undo":
             zmp.set_previous(v1)
             zmp.undo_previous()
             zmp.undo_previous()
+        elif retry == "restore":
+            zmp.set_previous(v1)
+            zmp.restore(snapshot)
         zmp.set_previous(v2)
         config.step(v2, dt)
         rows.append([x.copy() for x in zmp.compute(config, dt)])
-    for a, b in zip(*rows):
-        np.testing.assert_array_equal(a, b)
+    for other in rows[1:]:
+        for a, b in zip(rows[0], other):
+            np.testing.assert_array_equal(a, b)
     assert np.isfinite(rows[0][2][:-1]).sum() >= 4  # the rows are active (a previous tick is known)
 
 

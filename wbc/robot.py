@@ -477,8 +477,8 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
         width = 2.0 * min(patch[:, 1].max(), -patch[:, 1].min())
         span = patch[:, :2].max(axis=0) - patch[:, :2].min(axis=0)
         centre = 0.5 * (patch[:, :2].max(axis=0) + patch[:, :2].min(axis=0))
-        along = (f" The patch is longer along the sole frame's y axis than along its x axis: x must point along "
-                 f"the foot." if span[1] > span[0] else "")
+        along = (" The patch is longer along the sole frame's y axis than along its x axis: x must point along "
+                 "the foot." if span[1] > span[0] else "")
         if length > 0.01 and width > 0.01 and (length < 0.5 * span[0] or width < 0.5 * span[1]):
             raise RobotDescriptionError(
                 f"{robot.name}: sole frame {frame!r} is off the centre of its foot's contact patch by "

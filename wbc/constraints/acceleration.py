@@ -21,13 +21,31 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["JointAccelerationLimit"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _acceleration_bounds(v_prev, a_max, dt, lb, ub):
+    """lb = v_prev − a_max dt, ub = v_prev + a_max dt, in place (compiled: one call instead of three ufuncs)."""
+    for j in range(v_prev.shape[0]):
+        step = a_max[j] * dt
+        lb[j] = v_prev[j] - step
+        ub[j] = v_prev[j] + step
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_acceleration_bounds` (on-disk cache) once per process, at construction."""
+    z = np.zeros(1)
+    _acceleration_bounds(z, np.ones(1), 0.002, np.empty(1), np.empty(1))
 
 
 class JointAccelerationLimit(BoxConstraint):
@@ -60,10 +78,11 @@ class JointAccelerationLimit(BoxConstraint):
         if name is not None:
             self.name = name
         self.nv = nv
-        self.v_prev = np.zeros(self.dim)
+        self._v = np.zeros(nv)  # the last command; v_prev is a view of its actuated part
+        self.v_prev = self._v[6:]
         self._lb = np.empty(self.dim)
         self._ub = np.empty(self.dim)
-        self._step = np.empty(self.dim)
+        _warm_up()
 
     def set_previous(self, v) -> None:
         """Record the command v (nv,) sent at the previous tick (only v[6:] is used).
@@ -73,11 +92,14 @@ class JointAccelerationLimit(BoxConstraint):
         """
         if not (type(v) is np.ndarray and v.shape == (self.nv,) and v.dtype == np.float64 and math.isfinite(v @ v)):
             v = check_vector(v, self.nv, "previous command v")  # raises with the details (or converts)
-        self.v_prev = v[6:].copy()
+        if self.v_prev.base is not self._v:  # v_prev was assigned: a view of the buffer again
+            self.v_prev = self._v[6:]
+        np.copyto(self._v, v)
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lb, ub) of the module docstring, buffers owned by the constraint (overwritten at the next call)."""
-        np.multiply(self.a_max, dt, out=self._step)
-        np.subtract(self.v_prev, self._step, out=self._lb)
-        np.add(self.v_prev, self._step, out=self._ub)
+        v_prev = self.v_prev
+        if not (type(v_prev) is np.ndarray and v_prev.dtype == np.float64 and v_prev.shape == (self.dim,)):
+            v_prev = self.v_prev = check_vector(v_prev, self.dim, "v_prev (actuated velocities)")
+        _acceleration_bounds(v_prev, self.a_max, float(dt), self._lb, self._ub)
         return self._lb, self._ub

@@ -68,13 +68,49 @@ GRAVITY = 9.81
 
 
 @nb.njit(cache=True, nogil=True)
-def _zmp_rows(c, J, J_prev, v_prev, c_prev, c_pred, normals, offsets, h, gravity, dt, use_momentum, A_now, L_prev,
-              inv_mh, min_normal_ratio, J_eff, C, u):
-    """Rows of :meth:`ExecutedZmpConstraint.compute` (module docstring) written into C (k + 1 used rows) and u,
-    from the CoM c, its Jacobians J (now) and J_prev, the centroidal map rows A_now (all from Pinocchio) and the
-    recorded previous tick: compiled assembly arithmetic, no kinematics."""
+def _zmp_tick(c, J, Ag, use_momentum, c_now, J_now, A_now, active, c_prev, J_prev, A_prev, v_prev, dt_prev, normals,
+              offsets, ground_z, mass, gravity, dt, min_normal_ratio, J_eff, C, u):
+    """:meth:`ExecutedZmpConstraint.compute` in one compiled call: keep this tick's CoM c, CoM Jacobian J and
+    (use_momentum) the angular rows of the centroidal map Ag (6, nv) in c_now, J_now, A_now; then, when the previous
+    tick is known (``active``: its CoM c_prev, Jacobians J_prev, A_prev, command v_prev over dt_prev, all finite), write
+    the rows of the module docstring into C (k + 1 used rows) and u, else make them inactive (0 ≤ +inf). All
+    kinematic quantities come from Pinocchio; this is assembly arithmetic only."""
     nv = J.shape[1]
+    for i in range(3):
+        c_now[i] = c[i]
+        for j in range(nv):
+            J_now[i, j] = J[i, j]
+            if use_momentum:
+                A_now[i, j] = Ag[3 + i, j]
     k = offsets.shape[0]
+    last = C.shape[0] - 1
+    h = c[2] - ground_z
+    if active:
+        for j in range(nv):
+            if not np.isfinite(v_prev[j]):
+                active = False
+                break
+    if k == 0 or not active or h <= 0.0:
+        for e in range(k):
+            for j in range(nv):
+                C[e, j] = 0.0
+            u[e] = np.inf
+        for j in range(nv):
+            C[last, j] = 0.0
+        u[last] = np.inf
+        return
+    # the previous tick: c_pred = c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k), L_{k−1} = A_{k−1} v_{k−1}
+    c_pred = np.empty(3)
+    L_prev = np.empty(3)
+    for i in range(3):
+        s = 0.0
+        m = 0.0
+        for j in range(nv):
+            s += J_prev[i, j] * v_prev[j]
+            m += A_prev[i, j] * v_prev[j]
+        c_pred[i] = c_prev[i] + s * dt_prev
+        L_prev[i] = m
+    inv_mh = 1.0 / (mass * h)
     r = np.empty(3)
     dc = np.empty(3)
     for i in range(3):
@@ -97,41 +133,19 @@ def _zmp_rows(c, J, J_prev, v_prev, c_prev, c_pred, normals, offsets, h, gravity
             for j in range(nv):
                 C[e, j] += e0 * A_now[0, j] + e1 * A_now[1, j]
             u[e] += e0 * L_prev[0] + e1 * L_prev[1]
-    last = C.shape[0] - 1
     for j in range(nv):
         C[last, j] = -J_eff[2, j]
     u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r[2] - dc[2]) / dt
 
 
-@nb.njit(cache=True, nogil=True)
-def _zmp_record(v, c_now, J_now, A_now, dt, c_prev, c_pred, L_prev, J_prev, v_prev):
-    """:meth:`ExecutedZmpConstraint.set_previous` in place: False (nothing written) when v is not finite."""
-    nv = v.shape[0]
-    for j in range(nv):
-        if not np.isfinite(v[j]):
-            return False
-    for i in range(3):
-        s = 0.0
-        m = 0.0
-        for j in range(nv):
-            s += J_now[i, j] * v[j]
-            m += A_now[i, j] * v[j]
-            J_prev[i, j] = J_now[i, j]
-        c_prev[i] = c_now[i]
-        c_pred[i] = c_now[i] + s * dt
-        L_prev[i] = m
-    for j in range(nv):
-        v_prev[j] = v[j]
-    return True
-
-
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_zmp_rows` and :func:`_zmp_record` (on-disk cache) once per process, at construction."""
+    """Load :func:`_zmp_tick` (on-disk cache) once per process, at construction (C-ordered arrays, as Pinocchio's
+    CoM Jacobian and centroidal map are)."""
     v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
-    _zmp_rows(c, J, J, v, c, c, np.zeros((1, 2)), np.zeros(1), 1.0, 9.81, 0.002, True, J, c, 1.0, 0.5,
-              np.zeros((3, 1)), np.zeros((2, 1)), np.zeros(2))
-    _zmp_record(v, c, J, J, 0.002, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 1)), np.zeros(1))
+    _zmp_tick(c, J, np.zeros((6, 1)), True, np.zeros(3), np.zeros((3, 1)), np.zeros((3, 1)), True, c, J, J, v, 0.002,
+              np.zeros((1, 2)), np.zeros(1), 0.0, 1.0, 9.81, 0.002, 0.5, np.zeros((3, 1)), np.zeros((2, 1)),
+              np.zeros(2))
 
 
 class ExecutedZmpConstraint(InequalityConstraint):
@@ -175,23 +189,22 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._C = np.zeros((self.dim, nv))
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
-        self._c_now = np.zeros(3)
-        self._J_now = np.zeros((3, nv))
-        self._dt_now = 0.0
-        self._have_now = False
         self.angular_momentum = bool(angular_momentum)
         self._model = robot.model
         self._data = robot.model.createData()
         self.mass = float(sum(i.mass for i in robot.model.inertias))
-        self._A_now = np.zeros((3, nv))          # A_G,ang(q_k)
-        self._J_prev = np.zeros((3, nv))         # J_com(q_{k−1})
-        self._v_prev = np.zeros(nv)              # v_{k−1}
         self._J_eff = np.zeros((3, nv))
-        self._L_prev = np.zeros(3)               # L_{k−1}
-        self._c_prev: np.ndarray | None = None   # c_{k−1}
-        self._c_pred: np.ndarray | None = None   # c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k)
-        # set_previous writes into a spare set of these buffers and keeps the one it replaced (undo_previous)
-        self._spare = (np.empty(3), np.empty(3), np.zeros(3), np.zeros((3, nv)), np.zeros(nv))
+        # tick memory: "now" = c, J_com, A_G,ang of the last compute (its dt); "rec" = those of the tick whose command
+        # set_previous recorded (c_{k−1}, J_{k−1}, A_{k−1}, v_{k−1} over dt_{k−1}). set_previous hands the now
+        # buffers over to rec and takes rec's old ones as the next now buffers: no copy but the command's
+        self._now = (np.zeros(3), np.zeros((3, nv)), np.zeros((3, nv)))
+        self._dt_now = 0.0
+        self._have_now = False
+        self._now_in_rec = False   # set_previous since the last compute: its values are in rec
+        self._rec = (np.zeros(3), np.zeros((3, nv)), np.zeros((3, nv)), np.zeros(nv))
+        self._rec_dt = 0.0
+        self._rec_valid = False
+        self._spare_v = np.zeros(nv)
         self._undo: tuple | None = None
         _warm_up()
 
@@ -247,49 +260,49 @@ class ExecutedZmpConstraint(InequalityConstraint):
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
         by anything else than the controller's commands."""
-        self._c_prev = self._c_pred = None
+        self._rec_valid = False
         self._have_now = False
         self._undo = None
 
     def state(self) -> tuple:
-        """Snapshot of the tick memory (previous CoM, prediction, momentum, Jacobian, command) for :meth:`restore`:
-        to solve the same tick again after :meth:`set_previous` has been called with a command that is not sent."""
-        return (None if self._c_prev is None else self._c_prev.copy(),
-                None if self._c_pred is None else self._c_pred.copy(),
-                self._L_prev.copy(), self._J_prev.copy(), self._v_prev.copy())
+        """Snapshot of the tick memory (previous tick's CoM, CoM Jacobian, centroidal rows, command, period) for
+        :meth:`restore`: to solve the same tick again after :meth:`set_previous` has been called with a command that
+        is not sent (:meth:`undo_previous` does the same without copies)."""
+        c, J, A, v = self._rec
+        return c.copy(), J.copy(), A.copy(), v.copy(), self._rec_dt, self._rec_valid
 
     def restore(self, state: tuple) -> None:
         """Back to a :meth:`state` snapshot; the next :meth:`set_previous` again refers to the configuration of
         the last :meth:`compute`."""
-        c_prev, c_pred, L_prev, J_prev, v_prev = state
+        c, J, A, v, dt, valid = state
+        if self._now_in_rec:  # the last compute's values went to rec with set_previous: take them back
+            self._now = self._rec[:3]
+            self._now_in_rec = False
+        self._rec = (c.copy(), J.copy(), A.copy(), v.copy())
+        self._rec_dt, self._rec_valid = dt, valid
         self._have_now = True
         self._undo = None
-        self._c_prev = None if c_prev is None else c_prev.copy()
-        self._c_pred = None if c_pred is None else c_pred.copy()
-        self._L_prev[:] = L_prev
-        self._J_prev[:] = J_prev
-        self._v_prev[:] = v_prev
 
     def set_previous(self, v) -> None:
         """Record the command v (nv,) applied from the configuration of the last :meth:`compute`
-        (:meth:`undo_previous` takes it back)."""
+        (:meth:`undo_previous` takes it back). A v that is not finite leaves the next tick's rows inactive."""
         if not self._have_now:
             self._undo = None
             return
+        self._undo = (self._rec, self._rec_dt, self._rec_valid, self._now)
         v = np.asarray(v, dtype=float)
-        current = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
         if v.shape != (self.nv,):
-            self.reset()
-            self._undo = current
+            self._rec_valid = False
+            self._have_now = False
             return
-        spare = self._spare
-        if not _zmp_record(v, self._c_now, self._J_now, self._A_now, self._dt_now, *spare[:2], *spare[2:]):
-            self.reset()
-            self._undo = current
-            return
-        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = spare
-        self._spare = current if current[0] is not None else (np.empty(3), np.empty(3), *current[2:])
-        self._undo = current
+        spare = self._spare_v
+        np.copyto(spare, v)
+        c, J, A, self._spare_v = self._rec
+        self._rec = (*self._now, spare)
+        self._now = (c, J, A)
+        self._rec_dt = self._dt_now
+        self._rec_valid = True
+        self._now_in_rec = True
         self._have_now = False
 
     def undo_previous(self) -> None:
@@ -301,38 +314,29 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if undo is None:
             return
         self._undo = None
-        replaced = (self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev)
-        self._c_prev, self._c_pred, self._L_prev, self._J_prev, self._v_prev = undo
-        if replaced[0] is not None:  # the buffers just given up become the spare set
-            self._spare = replaced
+        if self._now_in_rec:  # the command buffer it wrote becomes the spare one again
+            self._spare_v = self._rec[3]
+        self._rec, self._rec_dt, self._rec_valid, self._now = undo
+        self._now_in_rec = False
         self._have_now = True
 
     def compute(self, config: Configuration, dt: float):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
-        c, J = config.com, config.com_jacobian
-        if self.angular_momentum:
-            np.copyto(self._A_now, pin.computeCentroidalMap(self._model, self._data, config.q)[3:])
-        self._c_now[:] = c
-        self._J_now[:] = J
-        self._dt_now = float(dt)
-        self._have_now = True
-        k = len(self.offsets)
-        C, u = self._C, self._u
-        h = float(c[2]) - self.ground_z
-        if k == 0 or self._c_prev is None or h <= 0.0:
-            C[:k] = 0.0
-            u[:k] = np.inf
-            C[-1] = 0.0
-            u[-1] = np.inf
-            return C, self._l, u
+        J = config.com_jacobian
+        Ag = pin.computeCentroidalMap(self._model, self._data, config.q) if self.angular_momentum else J
         # Δc = c_k − c_{k−1}; second-order part of this step, r(v) ≈ r_{k−1} + dt (J_k − J_{k−1})(v − v_{k−1})
         # (module docstring): c_{k+1} ≈ c_k + (2 J_k − J_{k−1}) v dt + r_{k−1} − dt (J_k − J_{k−1}) v_{k−1};
         # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on
         # A_G,ang; last row −c̈_z ≤ (1 − ρ) g ⇔ −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt (compiled, one call)
-        _zmp_rows(c, J, self._J_prev, self._v_prev, self._c_prev, self._c_pred, self.normals, self.offsets, h,
-                  self.gravity, float(dt), self.angular_momentum, self._A_now, self._L_prev, 1.0 / (self.mass * h),
-                  self.min_normal_ratio, self._J_eff, C, u)
-        return C, self._l, u
+        dt = float(dt)
+        _zmp_tick(config.com, J, Ag, self.angular_momentum, *self._now, self._rec_valid, *self._rec, self._rec_dt,
+                  self.normals, self.offsets, self.ground_z, self.mass, self.gravity, dt, self.min_normal_ratio,
+                  self._J_eff, self._C, self._u)
+        self._dt_now = dt
+        self._have_now = True
+        self._now_in_rec = False
+        self._undo = None
+        return self._C, self._l, self._u
 
 
 class DcmPolygonConstraint(ComPolygonConstraint):

@@ -87,8 +87,8 @@ from wbc.constraints.dynamics import (
     consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
-                                       R_WEIGHT, id_tick, id_workspace)
+from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PROJECT_CONTACT_RHS, R_ACC_FF,
+                                       R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
@@ -483,6 +483,10 @@ class InverseDynamicsQP:
             if key != con.written:
                 con.write(self._ctx, None, self._lb[s], self._ub[s])
                 con.written = key
+        par = kb.par  # settings read every tick, as the general path does
+        par[PAR_EPS_A] = self.eps_a
+        par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
+        par[PAR_JOINT_LIMITS] = self.joint_limits
         ta = perf_counter()
         it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
         self.dependent_contact_rows = 0

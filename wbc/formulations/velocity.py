@@ -215,6 +215,7 @@ class KinematicController:
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
         self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
+        self._fused_skip = False  # the compiled tick's kernel failed on the last tick, with inequality rows
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -627,6 +628,11 @@ class KinematicController:
                                    self.damping, backend.tolerance, backend.max_iter)
         backend.last_kernel_iterations = it
         if it < 1:
+            # with inequality rows, the next tick goes to the general path at once (then this one is tried again):
+            # degenerate rows (self-collision rows on joints held at velocity bounds) defeat the kernel's pivoting
+            # for stretches of ticks — on the Talos hand-through-torso drive 523 of 600 ticks, each failed attempt
+            # costing its assembly and up to max_iter working-set iterations
+            self._fused_skip = bool(plan.inequalities)
             return None
         drift = 0.0
         if plan.contacts:
@@ -668,6 +674,9 @@ class KinematicController:
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
                                 and not self._level_order):
             plan = self._fused_plan(config, dt)
+        if plan is not None and self._fused_skip:
+            self._fused_skip = False
+            plan = None
         if plan is not None:
             try:
                 result = self._fused_tick(plan, config, dt, t0)

@@ -6,10 +6,7 @@ See :mod:`wbc.scenarios.balance` for the runner, the run record and the summary.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.zmp import DcmPolygonConstraint

@@ -57,8 +57,6 @@ at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks w
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pinocchio as pin
 

@@ -34,7 +34,6 @@ Neither accounts for centroidal angular momentum (upper-body rotation), which ca
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin

@@ -13,6 +13,7 @@ at 320×240 rendered and encoded in 6.4 s on 2 CPU cores (≈ 8 frames/s).
 
 from __future__ import annotations
 
+import importlib
 import os
 from pathlib import Path
 
@@ -53,7 +54,7 @@ def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: f
         raise InvalidInputError("fps, width and height must be positive")
     try:
         import imageio.v2 as imageio
-        import imageio_ffmpeg  # noqa: F401  (the ffmpeg plugin)
+        importlib.import_module("imageio_ffmpeg")  # the ffmpeg plugin imageio needs for mp4
     except ImportError as exc:
         raise SimulationError("--video needs `pip install imageio imageio-ffmpeg`") from exc
     grid = np.arange(t[0], t[-1] + 1e-9, 1.0 / fps)

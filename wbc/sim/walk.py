@@ -24,7 +24,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
   capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
   on): a swing whose adjusted landing the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
-  can still travel at ``max_swing_speed``.
+  can still travel at ``max_swing_speed``; late in a swing, a landing the foot can no longer reach in time lengthens
+  the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
+  ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
@@ -101,10 +103,21 @@ class DcmStabilizer:
     ``k_z (p_d − p_measured)`` added to p_d when a measured CoP is given (default k_z = 0: the QP's contact
     forces realise p_d directly).
 
+    **Hip strategy** (``cmp_offset`` > 0): when ``p_d`` lies outside the support area, the point sent to the QP is
+    the centroidal moment pivot (CMP) ``r = p_c + min(‖p_d − p_c‖, cmp_offset) (p_d − p_c)/‖p_d − p_c‖`` (``p_c`` the
+    projected CoP), c̈_d = ω² (c − r): with a rate of centroidal angular momentum the CMP leaves the support
+    polygon while the CoP stays in it, ``r_cmp = p − (L̇ × e_z)_xy … / F_z`` (Popovic, Goswami, Herr, "Ground reference
+    points in legged locomotion", IJRR 24(12), 2005), and ξ̇ = ω (ξ − r_cmp) (Englsberger 2015, with the CMP in place
+    of the CoP); Hofmann, Popovic, Herr, "Exploiting angular momentum to enhance bipedal center-of-mass control",
+    ICRA 2009, use this bounded CMP–CoP offset as the hip strategy. The whole-body QP realises the difference by
+    upper-body rotation (its CoM task outweighs its angular-momentum and torso tasks,
+    :mod:`wbc.dynamics.balance`).
+
     Args:
         omega: LIPM frequency √(g/z_c) (1/s).
         k_xi: DCM gain k_ξ (1/s, ≥ 0). k_i: integral gain (1/s, ≥ 0). k_z: CoP feedback gain (≥ 0).
         margin: CoP margin from the sole edges (m). i_max: integral clip (m·s). dt: period (s).
+        cmp_offset: largest CMP distance outside the support area (m, ≥ 0; 0: none).
     """
 
     def __init__(self, omega: float, *, k_xi: float = 3.0, k_i: float = 1.0, k_z: float = 0.0,
@@ -176,8 +189,20 @@ class WalkScenario:
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
             the remaining time is kept ≥ (distance from the foot to its new landing) / ``max_swing_speed`` (m/s,
-            default 2: a swing compressed further touched down on its way, 43 cm short of its target, and the
-            walk fell — Talos, 300 N, seed 3 of ``benchmarks/walk_push_trials.py``).
+            default 2.5; at 2, when touch-down could still be armed by the plan clock at once after a cut, a swing
+            touched down on its way, 43 cm short of its target, and the walk fell — Talos, 300 N, seed 3 of
+            ``benchmarks/walk_push_trials.py``; touch-down is now armed at mid-swing in sim time). Defaults
+            ``max_cut`` 0.3 s, ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7, ``cmp_offset`` 0.04 m: each of
+            them turned falls of seeds 104, 109, 111, 114, 217, 219 (Talos 300 N; the tuning seeds, 100–119 and
+            200–219) into recoveries, where the previous 0.15 s / 2 m/s / 0.6 / 0 did not: a push towards the stance
+            leg needs two quick steps (the inner foot, which cannot cross, then the outer one) and the DCM diverges
+            from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by at most
+            ``max_stretch`` s) when, in its last ``stretch_window`` s, the adjusted landing is farther from the foot
+            than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
+            side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
+        cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
+        min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
+            timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
             DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
             first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
@@ -200,9 +225,9 @@ class WalkScenario:
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
                  step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
-                 adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.15,
-                 lateral_reach: float = 0.6, forward_reach: float = 0.65, max_swing_speed: float = 2.0,
-                 cmp_offset: float = 0.0, max_stretch: float = 0.15, stretch_speed: float = 1.0,
+                 adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
+                 lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
+                 cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2):
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
@@ -435,12 +460,18 @@ class WalkScenario:
         eq. 6) out of any reach (Talos, 300 N at the end of a walk, seeds 13 and 28 of
         ``benchmarks/walk_push_trials.py``: the capture step lifted that sole and the robot fell within 0.2 s) —
         and the other foot steps instead, towards it (a closing step: the feet are wide apart after a lateral
-        recovery step; the CoP stays on the sole under the DCM)."""
+        recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
+        the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk,
+        seed 106) is captured by that foot stepping forward, not by lifting the other one, on which the DCM then
+        nearly stands (Talos fell so)."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
         lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
         side = "left" if (xi - mid) @ lat >= 0 else "right"
         sign = 1.0 if side == "left" else -1.0
-        if sign * float((xi - self._data.oMf[self._fid[side]].translation[:2]) @ lat) > -0.5 * self.robot.sole_width:
+        rel = xi - self._data.oMf[self._fid[side]].translation[:2]
+        fwd = self._data.oMf[self._fid[side]].rotation[:2, 0]
+        if sign * float(rel @ lat) > -0.5 * self.robot.sole_width \
+                and abs(float(rel @ fwd)) <= 0.5 * self.robot.sole_length:
             side = "right" if side == "left" else "left"
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
@@ -559,8 +590,9 @@ class WalkScenario:
 
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
         """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
-        landing (Khadiv et al. 2020, IEEE T-RO 36(3), Sec. III: the step time ``T`` is a decision variable in
-        ``[T_min, T_max]``, here ``T_max`` = planned + ``max_stretch``).
+        landing (Khadiv, Herzog, Moosavian, Righetti 2020, "Walking control based on step timing adaptation",
+        IEEE T-RO 36(3): the step duration ``T`` is a decision variable bounded to ``[T_min, T_max]``, here
+        ``T_max`` = planned + ``max_stretch``).
 
         A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
         (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
