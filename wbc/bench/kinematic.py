@@ -23,7 +23,7 @@ from __future__ import annotations
 import gc
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from time import perf_counter_ns, thread_time_ns
 
 import numpy as np
