@@ -282,11 +282,9 @@ class PlacoRunner(KinematicRunner):
 # -- Pink -----------------------------------------------------------------------------------------------------
 def pink_available() -> bool:
     """Whether ``pin-pink`` (the ``[bench]`` extra) is importable."""
-    try:
-        import pink  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    import importlib.util
+
+    return importlib.util.find_spec("pink") is not None
 
 
 class PinkRunner(KinematicRunner):
