@@ -222,52 +222,13 @@ def dynamics_instructions_per_tick(n: int = 100, robot_name: str = "talos", log=
     Raises:
         RuntimeError: valgrind missing or a child run failed.
     """
-    import re
-    import subprocess
-    import sys
-    import tempfile
-
-    from wbc.bench.instructions import callgrind_available
+    from wbc.bench.instructions import callgrind_available, callgrind_half_and_done
 
     if not callgrind_available():
         raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
-
-    def control(pid: int, *args: str) -> str:
-        r = subprocess.run(["callgrind_control", *args, str(pid)], capture_output=True, text=True, timeout=600)
-        if r.returncode:
-            raise RuntimeError(f"callgrind_control {' '.join(args)} failed: {r.stderr[-500:]}")
-        return r.stdout
-
     per = {}
     for lib in ("wbc", "placo"):
-        with tempfile.TemporaryDirectory() as d:
-            p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                                  f"--callgrind-out-file={d}/cg.out", sys.executable, "-m", "wbc.bench.dynamics",
-                                  lib, str(n), robot_name],
-                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-            try:
-                irs = []
-                for marker in ("READY", "HALF", "DONE"):
-                    line = p.stdout.readline().strip()
-                    if line != marker:
-                        raise RuntimeError(f"callgrind dynamics child {lib}: expected {marker}, got {line!r}: "
-                                           f"{p.stderr.read()[-2000:]}")
-                    if marker == "READY":
-                        control(p.pid, "-i", "on")
-                        control(p.pid, "-z")
-                    else:
-                        m = re.search(r"Th 1\s+([\d,]+)", control(p.pid, "-e", "Ir"))
-                        if not m:
-                            raise RuntimeError("callgrind_control printed no Ir total")
-                        irs.append(int(m.group(1).replace(",", "")))
-                    p.stdin.write("go\n")
-                    p.stdin.flush()
-                p.wait(timeout=600)
-                if p.returncode:
-                    raise RuntimeError(f"callgrind dynamics child {lib} failed: {p.stderr.read()[-2000:]}")
-            finally:
-                if p.poll() is None:
-                    p.kill()
+        irs = callgrind_half_and_done("wbc.bench.dynamics", [lib, str(n), robot_name], f"dynamics {lib}")
         per[lib] = (irs[1] - irs[0]) / n
         log(f"callgrind dynamics {lib}: {per[lib]:,.0f} instructions per tick ({n} vs {2 * n} ticks differenced)")
     return {"n": n, "robot": robot_name, "instructions": per, "ratio_wbc_placo": per["wbc"] / per["placo"]}

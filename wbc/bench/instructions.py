@@ -19,7 +19,7 @@ import sys
 import tempfile
 import time
 
-__all__ = ["callgrind_available", "instructions_per_tick", "walk_instructions_per_tick"]
+__all__ = ["callgrind_available", "callgrind_half_and_done", "instructions_per_tick", "walk_instructions_per_tick"]
 
 LIBRARIES = ("wbc", "placo")
 
@@ -134,18 +134,27 @@ def _control(pid: int, *args: str) -> str:
     return r.stdout
 
 
-def _count(library: str, n: int, robot_name: str) -> tuple[int, int]:
-    """(Ir after N ticks, Ir after 2N ticks) of one child run."""
+def callgrind_half_and_done(module: str, args: list[str], label: str) -> tuple[int, int]:
+    """Run ``python -m module *args`` under valgrind callgrind with instrumentation off, and read its instruction
+    totals at two points of a line protocol: the child prints READY (instrumentation is switched on and zeroed),
+    HALF (after N ticks) and DONE (after 2N ticks), each time waiting for a "go" line on stdin.
+
+    Returns:
+        (Ir at HALF, Ir at DONE), counted from READY (instructions of thread 1).
+
+    Raises:
+        RuntimeError: the child printed something else, failed, or callgrind_control gave no Ir total.
+    """
     with tempfile.TemporaryDirectory() as d:
         p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={d}/cg.out",
-                              sys.executable, "-m", "wbc.bench.instructions", library, str(n), robot_name],
+                              sys.executable, "-m", module, *args],
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             irs = []
             for marker in ("READY", "HALF", "DONE"):
                 line = p.stdout.readline().strip()
                 if line != marker:
-                    raise RuntimeError(f"callgrind child {library}: expected {marker}, got {line!r}: "
+                    raise RuntimeError(f"callgrind child {label}: expected {marker}, got {line!r}: "
                                        f"{p.stderr.read()[-2000:]}")
                 if marker == "READY":
                     _control(p.pid, "-i", "on")
@@ -159,7 +168,7 @@ def _count(library: str, n: int, robot_name: str) -> tuple[int, int]:
                 p.stdin.flush()
             p.wait(timeout=600)
             if p.returncode:
-                raise RuntimeError(f"callgrind child {library} failed: {p.stderr.read()[-2000:]}")
+                raise RuntimeError(f"callgrind child {label} failed: {p.stderr.read()[-2000:]}")
         finally:
             if p.poll() is None:
                 p.kill()
@@ -185,7 +194,7 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     raw: dict[str, list[int]] = {}
     for lib in LIBRARIES:
         t1 = time.perf_counter()
-        raw[lib] = list(_count(lib, n, robot_name))
+        raw[lib] = list(callgrind_half_and_done("wbc.bench.instructions", [lib, str(n), robot_name], lib))
         log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
             f"({time.perf_counter() - t1:.0f} s)")
     per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
