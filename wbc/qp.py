@@ -271,6 +271,9 @@ class DaqpBackend(QPBackend):
         self.last_iterations = 0
         #: warm-started solves that failed and were solved again from a cold start.
         self.warm_failures = 0
+        #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
+        #: inequality rows; > 0 at an upper bound, < 0 at a lower one, 0 off its working set), else None.
+        self.last_multipliers: np.ndarray | None = None
 
     def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
         self._layout = (n, n_eq, n_in)
@@ -305,6 +308,7 @@ class DaqpBackend(QPBackend):
             x, _, exitflag, info = self._model.solve()
             self.last_iterations = int(info["iterations"])
             if exitflag >= 1:
+                self.last_multipliers = info["lam"]
                 return x
             self.warm_failures += 1
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
@@ -317,11 +321,13 @@ class DaqpBackend(QPBackend):
             self.last_iterations = int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
+                self.last_multipliers = info["lam"]
                 return x
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations = int(info["iterations"])
+        self.last_multipliers = info["lam"] if exitflag >= 1 else None
         return x if exitflag >= 1 else None
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):

@@ -72,11 +72,13 @@ Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.
 level, a tick is gathered into preallocated stacked buffers (each task's ``compute_into``, each contact's rows, the
 posture task's q ⊖ q*) and assembled and solved by one compiled call, :func:`wbc.fastqp.kinematic_tick`: the same
 QP, with the floating base eliminated through the first contact's rows and the exact optimum of an active set
-warm-started from the previous tick. The tick then goes on as above (contact drift measured at q⁺); whenever the
-kernel does not end at a KKT point within the backend's tolerance, the equality rows are rank deficient, a contact
-drifts above ``contact_correction``, or anything raises, the tick is solved again by the general path described
-above (DAQP fallback, correction, trust region, diagnosis), so results and failure handling are those of the general
-path. Soft tasks with their own cost or velocity target (other than one plain :class:`~wbc.tasks.PostureTask`)
+warm-started from the previous tick. When the kernel gives up on that QP (iteration cap, dependent equalities),
+DAQP solves the same reduced QP and the tick is completed from its answer (:meth:`KinematicController._fused_rescue`;
+the kernel's next tick starts from DAQP's working set). The tick then goes on as above (contact drift measured at
+q⁺); whenever no solver ends at a KKT point within the backend's tolerance, the equality rows are rank deficient, a
+contact drifts above ``contact_correction``, or anything raises, the tick is solved again by the general path
+described above (DAQP fallback, correction, trust region, diagnosis), so results and failure handling are those of
+the general path. Soft tasks with their own cost or velocity target (other than one plain :class:`~wbc.tasks.PostureTask`)
 take the general path. A task's ``weight`` array becomes a view of the controller's stacked weights on its first
 compiled tick (in-place changes of it are seen, a new array assigned is copied in).
 """
@@ -98,8 +100,9 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.fastqp import (FastBackend, clip_box_into, contact_drift, ensure_compiled, kinematic_pack,
-                         kinematic_tick_packed, weighted_normal_equations)
+from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
+                         clip_box_into, contact_drift, ensure_compiled, kinematic_finish_packed, kinematic_pack,
+                         kinematic_reduced_packed, kinematic_tick_packed, weighted_normal_equations)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend
 from wbc.backends import DEFAULT_SOLVER, make_backend
@@ -108,6 +111,10 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 __all__ = ["KinematicController", "TickResult"]
+
+#: exit codes of :func:`wbc.fastqp.kinematic_tick` after which its reduced QP is handed to DAQP
+#: (:meth:`KinematicController._fused_rescue`)
+_KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
 
 @dataclass
@@ -215,8 +222,6 @@ class KinematicController:
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
         self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
-        self._fused_fails = 0  # consecutive failures of the compiled tick's kernel with inequality rows
-        self._fused_wait = 0  # ticks left that go to the general path without trying the compiled tick
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -628,16 +633,11 @@ class KinematicController:
         it = kinematic_tick_packed(plan.fb, plan.ib, plan.state, plan.rstate, diff, q, v, pgain, float(dt),
                                    self.damping, backend.tolerance, backend.max_iter)
         backend.last_kernel_iterations = it
+        rescued = it in _KERNEL_GAVE_UP and plan.inequalities
+        if rescued:
+            it = self._fused_rescue(plan, v, dt)
         if it < 1:
-            # with inequality rows, the next 1, 2, 4, 8, then 16 ticks (after 1, 2, 3, 4, ≥ 5 failures in a row) go
-            # to the general path at once, then the compiled tick is tried again: degenerate rows (self-collision
-            # rows on joints held at velocity bounds) defeat the kernel's pivoting for stretches of ticks — on the
-            # Talos hand-through-torso drive 523 of 600 ticks, each failed attempt costing its assembly and up to
-            # max_iter working-set iterations from a cold start
-            if plan.inequalities:
-                self._fused_fails += 1
-                self._fused_wait = min(1 << (self._fused_fails - 1), 16)
-            return None
+            return None  # the general path: diagnosis, relaxation, safe command
         drift = 0.0
         if plan.contacts:
             ddata = self._drift_data
@@ -649,8 +649,8 @@ class KinematicController:
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
-        backend.kernel_solves += 1
-        self._fused_fails = 0
+        if not rescued:
+            backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
         result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
@@ -659,6 +659,38 @@ class KinematicController:
         self.consecutive_failures = 0
         self.last_result = result
         return result
+
+    def _fused_rescue(self, plan: _FusedPlan, v: np.ndarray, dt: float) -> int:
+        """The compiled tick's kernel gave up on its reduced QP (dependent active rows — e.g. self-collision rows
+        of the thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
+        (:func:`wbc.fastqp.kinematic_reduced_packed`) is solved by DAQP, whose dual active set handles dependent
+        constraints, and the tick completed from its solution (:func:`wbc.fastqp.kinematic_finish_packed`: base
+        velocity, every original row checked). The kernel's next tick is warm-started from DAQP's working set
+        (its nonzero multipliers: linearly independent rows), from which it converges again. Returns 1 on
+        success, else the kernel's exit code (the general path then solves the tick)."""
+        backend = self.backend
+        rescue = plan.rescue
+        if rescue is None:
+            rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
+        H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(plan.fb, plan.ib)
+        try:
+            x = rescue.solve(H, g, A, b, C, l, u, lb, ub)
+        except SolverError:
+            return backend.last_kernel_iterations
+        if not kinematic_finish_packed(plan.fb, plan.ib, x, v, float(dt), backend.tolerance):
+            return backend.last_kernel_iterations
+        lam = rescue.last_multipliers
+        n, m = H.shape[0], A.shape[0]
+        if lam is not None and lam.shape[0] == n + m + C.shape[0]:
+            plan.state[:] = np.sign(lam[:n])
+            plan.rstate[:] = np.sign(lam[n + m:])
+        else:  # no multipliers (an independent solver answered): the bounds and rows x touches
+            plan.state[:] = (x >= ub) * 1 - (x <= lb)
+            cx = C @ x
+            plan.rstate[:] = (cx >= u - 1e-12) * 1 - (cx <= l + 1e-12)
+        backend.fallbacks += 1
+        backend.reduced_fallbacks += 1
+        return 1
 
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
@@ -679,9 +711,6 @@ class KinematicController:
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
                                 and not self._level_order):
             plan = self._fused_plan(config, dt)
-        if plan is not None and self._fused_wait:
-            self._fused_wait -= 1
-            plan = None
         if plan is not None:
             try:
                 result = self._fused_tick(plan, config, dt, t0)
@@ -1148,5 +1177,6 @@ class _FusedPlan:
         nr = nv - 6 if plan.er >= 0 else nv
         plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
         plan.rstate = np.zeros(n_in, np.int8)                                 # across support switches
+        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
         plan.supported = True
         return plan
