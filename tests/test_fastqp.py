@@ -85,6 +85,69 @@ def test_kernel_with_inequality_rows_is_the_exact_optimum(seed):
     assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
 
 
+@pytest.mark.parametrize("seed", range(30))
+def test_kernel_with_dependent_inequality_rows_is_the_exact_optimum(seed):
+    """Rows of C that are repeated, scaled, combinations of each other or of the equality rows, and bounds they
+    compete with (the self-collision case: nearly parallel rows at their floor next to joints at velocity bounds):
+    the dual active set answers them itself (no DAQP fallback) with every KKT condition, and quadprog agrees."""
+    rng = np.random.default_rng(5000 + seed)
+    n, m = int(rng.integers(6, 30)), int(rng.integers(0, 3))
+    H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=1.0)
+    g = g * 10.0  # an unconstrained optimum far outside: many constraints active
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0] if m else np.zeros(n)
+    x0 = np.clip(x0, 0.5 * lb, 0.5 * ub)
+    base = rng.standard_normal((3, n))
+    rows = [base[0], base[0], 2.0 * base[1], base[0] + base[1], base[2] - base[1]]
+    if m:
+        rows.append(A[0] + 0.5 * base[2])
+        rows.append(A[0])
+    C = np.array(rows)
+    cx0 = C @ x0
+    l = cx0 - rng.uniform(0.0, 0.2, len(rows))
+    u = cx0 + rng.uniform(0.0, 0.2, len(rows))
+    if m:  # the row equal to an equality row: consistent with it
+        l[-1], u[-1] = b[0] - 0.1, b[0] + 0.1
+    fast = FastBackend()
+    x = fast.solve(H, g, A, b, C, l, u, lb, ub)
+    assert fast.kernel_solves == 1 and fast.fallbacks == 0, fast.last_kernel_iterations
+    st = H @ x + g + A.T @ fast._nu + C.T @ fast._mu + fast._z
+    assert np.abs(st).max() < 1e-8 * max(1.0, np.abs(g).max())
+    assert (fast._mu[fast._rstate == -1] <= 1e-12).all() and (fast._mu[fast._rstate == 1] >= -1e-12).all()
+    assert (fast._z[fast._state == -1] <= 1e-12).all() and (fast._z[fast._state == 1] >= -1e-12).all()
+    assert (fast._mu[fast._rstate == 0] == 0).all() and (fast._z[fast._state == 0] == 0).all()
+    cx = C @ x
+    assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all() and (x >= lb).all() and (x <= ub).all()
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    ref = qpsolvers.solve_qp(H, g, G=G, h=h, A=A if m else None, b=b if m else None,
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
+    assert ref is not None
+    assert np.abs(x - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
+    # warm-started from its own working set: the same x in one step
+    x2 = fast.solve(H, g, A, b, C, l, u, lb, ub)
+    assert fast.last_kernel_iterations == 1 and np.abs(x2 - x).max() < 1e-12 * max(1.0, np.abs(x).max())
+
+
+def test_kernel_reports_infeasible_rows():
+    """Two rows that cannot both hold (c·x ≥ 1 and the same c·x ≤ 0): the dual active set stops with INFEASIBLE,
+    and the backend, after DAQP and the independent solvers, raises SolverError."""
+    from wbc.exceptions import SolverError
+    from wbc.fastqp import INFEASIBLE, solve_qp_ws
+
+    n = 5
+    H, g = np.eye(n), np.ones(n)
+    c = np.arange(1.0, n + 1.0)
+    C = np.array([c, c])
+    l, u = np.array([1.0, -np.inf]), np.array([np.inf, 0.0])
+    lb, ub = -np.ones(n), np.ones(n)
+    A, b = np.zeros((0, n)), np.zeros(0)
+    state, rstate = np.zeros(n, np.int8), np.zeros(2, np.int8)
+    it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
+                     np.zeros(n), 100, 1e-12, 1e-12, 1e-24, np.zeros(1))
+    assert it == INFEASIBLE
+    with pytest.raises(SolverError):
+        FastBackend().solve(H, g, A, b, C, l, u, lb, ub)
+
+
 def test_backend_falls_back_on_dependent_equalities():
     rng = np.random.default_rng(3)
     n = 6
