@@ -501,31 +501,39 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     p = C.shape[0]
     _drop_infinite_active(state, lb, ub)
     _drop_infinite_active(rstate, l, u)
-    L = np.empty((n, n))
+    K = n + m + 1  # a working set of independent constraints has at most n members
+    fw = np.empty(n * n + K * n + 2 * K * K + 4 * n + 5 * K)  # one allocation, views below
+    iw = np.empty(3 * K, np.int64)
+    o = 0
+    L = fw[o:o + n * n].reshape((n, n))
+    o += n * n
+    Yw = fw[o:o + K * n].reshape((K, n))
+    o += K * n
+    Sm = fw[o:o + K * K].reshape((K, K))
+    o += K * K
+    Sf = fw[o:o + K * K].reshape((K, K))
+    o += K * K
+    t0 = fw[o:o + n]
+    y = fw[o + n:o + 2 * n]
+    w = fw[o + 2 * n:o + 3 * n]
+    zd = fw[o + 3 * n:o + 4 * n]
+    o += 4 * n
+    bw = fw[o:o + K]
+    uw = fw[o + K:o + 2 * K]  # multipliers of the working inequalities on their inward normals (≥ 0)
+    nuw = fw[o + 2 * K:o + 3 * K]
+    r = fw[o + 3 * K:o + 4 * K]
+    tmp = fw[o + 4 * K:o + 5 * K]
+    kind = iw[:K]  # 0 equality, 1 row of C, 2 bound
+    idx = iw[K:2 * K]
+    side = iw[2 * K:]
     for i in range(n):
         for j in range(i + 1):
             L[i, j] = H[i, j]
     if not cholesky_lower(L, n):
         return NOT_POSITIVE_DEFINITE
-    t0 = np.empty(n)
     for i in range(n):
         t0[i] = g[i]
     forward_substitution(L, n, t0)
-    K = n + m + 1
-    Yw = np.empty((K, n))
-    Sm = np.empty((K, K))
-    Sf = np.empty((K, K))
-    kind = np.empty(K, np.int64)  # 0 equality, 1 row of C, 2 bound
-    idx = np.empty(K, np.int64)
-    side = np.empty(K, np.int64)
-    bw = np.empty(K)
-    uw = np.zeros(K)  # multipliers of the working inequalities on their inward normals (≥ 0)
-    nuw = np.empty(K)
-    y = np.empty(n)
-    w = np.empty(n)
-    zd = np.empty(n)
-    r = np.empty(K)
-    tmp = np.empty(K)
     # the warm start: equality rows, rows of C, bounds
     for attempt in range(2):
         mw = 0
