@@ -69,7 +69,6 @@ was not met on this loaded machine (``benchmarks/self_collision.py`` prints PASS
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
@@ -92,9 +91,10 @@ BOUND_SLACK = 1e-6
 
 @nb.njit(cache=True, nogil=True)
 def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, mask, cand, buf):
-    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``,
-    mask[a, b] set for them (upper triangle, cleared first), their count returned.
+                 d_known, exact, activation, k_max, on, toggle, cand, buf):
+    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
+    ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
+    out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
 
     ``homogeneous`` (njoints, 4, 4) joint placements (``data.oMi``), expressed here in the frame of joint ``ref``
     (distances do not depend on the frame; the root joint's frame leaves out the floating base's motion).
@@ -150,11 +150,15 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
     tau = activation
     if nu >= k_max:
         tau = np.sort(buf[:nu])[k_max - 1]
-    mask[:, :] = False
     n = 0
+    nt = 0
     for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
+        if on[k]:  # assumed dropped; switched back on below if it is a candidate
+            toggle[nt] = ~k
+            nt += 1
+            on[k] = False
         # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
         # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
         # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
@@ -170,9 +174,14 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
         if low >= activation or low > tau:
             continue
         cand[n] = k
-        mask[a, b] = True
         n += 1
-    return n
+        if nt > 0 and toggle[nt - 1] == ~k:  # active and staying so
+            nt -= 1
+        else:
+            toggle[nt] = k
+            nt += 1
+        on[k] = True
+    return n, nt
 
 
 @nb.njit(cache=True, nogil=True)
@@ -360,10 +369,13 @@ class SelfCollisionConstraint(InequalityConstraint):
         for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
-        normal = type(self._results[0]).normal.fget
-        # per pair: the getters of its witness points and normal (one flat list per call, one np.concatenate: a
-        # nested np.array of tuples of arrays cost more than the 32 coal distances' bookkeeping)
-        self._witness = [(r.getNearestPoint1, r.getNearestPoint2, functools.partial(normal, r)) for r in self._results]
+        result = type(self._results[0])
+        # per call, the rows' witness points and normals are read with these unbound getters mapped over the rows'
+        # results, and their (3,) arrays joined into one buffer (bytes.join: 1/4 of np.concatenate's cost)
+        self._witness = (result.getNearestPoint1, result.getNearestPoint2, result.normal.fget)
+        self._distance = result.min_distance.fget
+        self._homogeneous = pin.SE3.homogeneous.fget
+        self._activate, self._deactivate = gd.activateCollisionPair, gd.deactivateCollisionPair
         self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
         npairs = len(self.pairs)
@@ -392,7 +404,8 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
         self._empty = np.zeros((0, 3))
-        self._mask = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        self._on = np.zeros(npairs, dtype=bool)  # the pairs active in geometry_data (broad phase)
+        self._toggle = np.empty(npairs, dtype=np.int64)
         self._all = np.arange(npairs, dtype=np.int64)
         self._cand = np.empty(npairs, dtype=np.int64)
         self._buf = np.empty(npairs)
@@ -413,9 +426,11 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._first = True
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
-        if not self.broad_phase:
-            self._mask[self.pairs[:, 0], self.pairs[:, 1]] = True
-            gd.setActiveCollisionPairs(gm, self._mask, True)
+        if self.broad_phase:
+            gd.deactivateAllCollisionPairs()  # then switched per call (_on)
+        else:
+            for k in range(npairs):
+                gd.activateCollisionPair(k)
 
     @staticmethod
     def _resolve(model: pin.Model, gm: pin.GeometryModel, pairs) -> list[tuple[int, int]]:
@@ -462,30 +477,37 @@ class SelfCollisionConstraint(InequalityConstraint):
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
         if self.broad_phase:
-            homogeneous = np.array([M.homogeneous for M in data.oMi.tolist()])
-            n = _broad_phase(homogeneous, self._ref, self._joint, self._centre_local, self._radius, self.pairs,
-                             self._first, self._prev_c, self._prev_r, self._moved, self._moved_at, self._d_known,
-                             self._exact, self.activation_distance, self.dim, self._mask, self._cand, self._buf)
+            # (njoints, 4, 4) data.oMi: each SE3.homogeneous is a fresh C-contiguous (4, 4) array (a non-contiguous
+            # one would raise in bytes.join); one join and one view cost 2/3 of np.array of the list
+            homogeneous = np.frombuffer(b"".join(map(self._homogeneous, data.oMi.tolist()))).reshape(-1, 4, 4)
+            n, nt = _broad_phase(homogeneous, self._ref, self._joint, self._centre_local, self._radius, self.pairs,
+                                 self._first, self._prev_c, self._prev_r, self._moved, self._moved_at, self._d_known,
+                                 self._exact, self.activation_distance, self.dim, self._on, self._toggle, self._cand,
+                                 self._buf)
             self._first = False
             cand = self._cand[:n]
-            gd.setActiveCollisionPairs(gm, self._mask, True)
+            if nt:  # the candidates differ little from one call to the next: switch those that changed
+                activate, deactivate = self._activate, self._deactivate
+                for k in self._toggle[:nt].tolist():
+                    if k >= 0:
+                        activate(k)
+                    else:
+                        deactivate(~k)
         else:
             cand = self._all
         pin.computeDistances(gm, gd)
         res = self._results
-        dl = [res[k].min_distance for k in cand.tolist()]
-        dist = np.array(dl)
-        self.coal_calls = len(dl)
+        dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
+        self.coal_calls = len(dist)
         m = _narrow_phase_done(cand, dist, self.activation_distance, self.dim, self.pairs, self._d_known,
                                self._exact, self._moved, self._moved_at, self._rows)
         k = cand[self._rows[:m]]
-        kl = k.tolist()
         if m:
-            wit = self._witness
+            rl = list(map(res.__getitem__, k.tolist()))
+            g1, g2, gn = self._witness
             # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
             # simplex), enough to change a closed-loop run
-            w = np.concatenate([f() for kk in kl for f in wit[kk]]).reshape(m, 3, 3)
-            p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
+            p1, p2, normal = np.frombuffer(b"".join([*map(g1, rl), *map(g2, rl), *map(gn, rl)])).reshape(3, m, 3)
         else:
             p1 = p2 = normal = self._empty
         d = dist[self._rows[:m]]
