@@ -207,9 +207,9 @@ def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, mov
 
 @nb.njit(cache=True, nogil=True)
 def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
-    """C[slot[r]] = nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang restricted to each body's support
-    columns (module docstring), for r < normal.shape[0]."""
-    nv = J.shape[1]
+    """C[slot[r]] += nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (module
+    docstring), for r < normal.shape[0]; C's other entries untouched. ``support`` (njoints, 1 + nv) int32: row j
+    holds the number of columns of joint j's support, then those columns."""
     for i in range(normal.shape[0]):
         r = slot[i]
         n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
@@ -220,10 +220,10 @@ def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
             x0 = p[1] * n2 - p[2] * n1
             x1 = p[2] * n0 - p[0] * n2
             x2 = p[0] * n1 - p[1] * n0
-            for c in range(nv):
-                if support[jt, c] != 0.0:
-                    C[r, c] += sign * (n0 * J[0, c] + n1 * J[1, c] + n2 * J[2, c]
-                                       + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
+            for t in range(1, support[jt, 0] + 1):
+                c = support[jt, t]
+                C[r, c] += sign * (n0 * J[0, c] + n1 * J[1, c] + n2 * J[2, c]
+                                   + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
 
 
 @nb.njit(cache=True, nogil=True)
@@ -394,12 +394,13 @@ class SelfCollisionConstraint(InequalityConstraint):
         # reference frame of the broad phase's displacements: the root joint (its motion moves every body alike)
         self._ref = 1 if model.njoints > 1 else 0
         # velocity of a point p of joint j's body: columns of data.J (WORLD) in j's support, ṗ = v_O + ω × p
-        self._support = np.zeros((model.njoints, model.nv))
+        # (row j: the count, then the columns; a dense 0/1 mask cost a branch per pair, side and column)
+        self._support = np.zeros((model.njoints, 1 + model.nv), dtype=np.int32)
         for j in range(1, model.njoints):
-            for i in model.supports[j]:
-                joint = model.joints[i]
-                if i > 0:
-                    self._support[j, joint.idx_v:joint.idx_v + joint.nv] = 1.0
+            cols = sorted(c for i in model.supports[j] if i > 0
+                          for c in range(model.joints[i].idx_v, model.joints[i].idx_v + model.joints[i].nv))
+            self._support[j, 0] = len(cols)
+            self._support[j, 1:1 + len(cols)] = cols
         self._C = np.zeros((self.dim, model.nv))
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
