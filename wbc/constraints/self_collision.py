@@ -205,6 +205,70 @@ def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, mov
     return m
 
 
+#: entries of the integer pack's header (``_unpack``): geometries, joints, pairs, root joint, max_active
+_HEADER = 5
+
+
+def _pack(*arrays):
+    """(pack, views): one 1-D array holding ``arrays`` (one dtype) one after the other, and views of it shaped as
+    them. A compiled call taking a few packs instead of ~18 arrays: Numba's dispatch checks each argument's type."""
+    pack = np.concatenate([np.ravel(a) for a in arrays])
+    views, at = [], 0
+    for a in arrays:
+        views.append(pack[at:at + np.size(a)].reshape(np.shape(a)))
+        at += np.size(a)
+    return pack, views
+
+
+@nb.njit(cache=True, nogil=True)
+def _unpack(fpack, ipack, bpack):
+    """The broad phase's state as views of its three packs (``SelfCollisionConstraint.__init__``: the order)."""
+    ng, nj, npairs, ref, k_max = ipack[0], ipack[1], ipack[2], ipack[3], ipack[4]
+    o = 0
+    centre_local = fpack[o:o + 3 * ng].reshape((ng, 3))
+    o += 3 * ng
+    radius = fpack[o:o + ng]
+    o += ng
+    prev_c = fpack[o:o + 3 * ng].reshape((ng, 3))
+    o += 3 * ng
+    moved = fpack[o:o + ng]
+    o += ng
+    prev_r = fpack[o:o + 9 * nj].reshape((nj, 3, 3))
+    o += 9 * nj
+    d_known = fpack[o:o + npairs]
+    moved_at = fpack[o + npairs:o + 2 * npairs]
+    buf = fpack[o + 2 * npairs:o + 3 * npairs]
+    o = _HEADER
+    joint = ipack[o:o + ng]
+    o += ng
+    pairs = ipack[o:o + 2 * npairs].reshape((npairs, 2))
+    o += 2 * npairs
+    cand = ipack[o:o + npairs]
+    toggle = ipack[o + npairs:o + 2 * npairs]
+    rows = ipack[o + 2 * npairs:o + 2 * npairs + k_max]
+    exact = bpack[:npairs]
+    on = bpack[npairs:2 * npairs]
+    return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
+            toggle, cand, buf, rows)
+
+
+@nb.njit(cache=True, nogil=True)
+def _broad_phase_packed(homogeneous, first, activation, fpack, ipack, bpack):
+    """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
+    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
+     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+    return _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
+                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf)
+
+
+@nb.njit(cache=True, nogil=True)
+def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
+    """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
+    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
+     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+
+
 @nb.njit(cache=True, nogil=True)
 def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
     """C[slot[r]] += nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (module
@@ -407,7 +471,6 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._empty = np.zeros((0, 3))
         self._on = np.zeros(npairs, dtype=bool)  # the pairs active in geometry_data (broad phase)
         self._toggle = np.empty(npairs, dtype=np.int64)
-        self._all = np.arange(npairs, dtype=np.int64)
         self._cand = np.empty(npairs, dtype=np.int64)
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
@@ -425,11 +488,20 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._prev_c = np.zeros((gm.ngeoms, 3))
         self._prev_r = np.zeros((model.njoints, 3, 3))
         self._first = True
+        # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
+        header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
+        self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
+                      self._moved_at, self._buf) = _pack(self._centre_local, self._radius, self._prev_c, self._moved,
+                                                         self._prev_r, self._d_known, self._moved_at, self._buf)
+        self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = _pack(
+            np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
+        self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
         if self.broad_phase:
             gd.deactivateAllCollisionPairs()  # then switched per call (_on)
         else:
+            self._cand[:] = np.arange(npairs)
             for k in range(npairs):
                 gd.activateCollisionPair(k)
 
@@ -481,10 +553,8 @@ class SelfCollisionConstraint(InequalityConstraint):
             # (njoints, 4, 4) data.oMi: each SE3.homogeneous is a fresh C-contiguous (4, 4) array (a non-contiguous
             # one would raise in bytes.join); one join and one view cost 2/3 of np.array of the list
             homogeneous = np.frombuffer(b"".join(map(self._homogeneous, data.oMi.tolist()))).reshape(-1, 4, 4)
-            n, nt = _broad_phase(homogeneous, self._ref, self._joint, self._centre_local, self._radius, self.pairs,
-                                 self._first, self._prev_c, self._prev_r, self._moved, self._moved_at, self._d_known,
-                                 self._exact, self.activation_distance, self.dim, self._on, self._toggle, self._cand,
-                                 self._buf)
+            n, nt = _broad_phase_packed(homogeneous, self._first, self.activation_distance, self._fpack, self._ipack,
+                                        self._bpack)
             self._first = False
             cand = self._cand[:n]
             if nt:  # the candidates differ little from one call to the next: switch those that changed
@@ -495,13 +565,13 @@ class SelfCollisionConstraint(InequalityConstraint):
                     else:
                         deactivate(~k)
         else:
-            cand = self._all
+            n = len(self.pairs)
+            cand = self._cand  # all pairs (__init__)
         pin.computeDistances(gm, gd)
         res = self._results
         dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
         self.coal_calls = len(dist)
-        m = _narrow_phase_done(cand, dist, self.activation_distance, self.dim, self.pairs, self._d_known,
-                               self._exact, self._moved, self._moved_at, self._rows)
+        m = _narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
         k = cand[self._rows[:m]]
         if m:
             rl = list(map(res.__getitem__, k.tolist()))
