@@ -534,8 +534,8 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def close_pairs(self, config: Configuration) -> ClosePairs:
         """The (at most ``max_active``) pairs closer than the activation distance at ``config``, closest first, with
-        their coal distances, normals and witness points (:class:`ClosePairs`; the arrays are views of buffers
-        overwritten by the next call). ``config.data`` must hold the joint placements of ``config.q`` (as after
+        their coal distances, normals and witness points (:class:`ClosePairs`; its normal, p1 and p2 are read-only
+        views of one buffer of coal's values). ``config.data`` must hold the joint placements of ``config.q`` (as after
         ``Configuration.update``). With ``broad_phase``, coal runs only on the candidates of the module docstring's
         bounds, which are updated from the placements of the previous call (any jump is accounted for); the
         result is the same as without."""
