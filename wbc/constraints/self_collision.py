@@ -57,14 +57,19 @@ call, so a pair computed at fewer calls can end elsewhere within tolerance; EPA 
 under random motion and jumps. No static pruning beyond the SRDF and adjacency: a far pair costs a few
 floating-point operations per call.
 
-Measured on Talos (883 pairs, hand driven through the torso; November 2026, 2-core machine at load 12–19):
-38.6 coal distances per call (883 without the broad phase; 37.7 with the previous sequential stop, 135.8 without
-it). Instructions per call (callgrind over the 594-tick drive, load-independent): 1.54 M, 2.12 M before (sphere test
-and one Python call per coal distance); replayed in one process, thread CPU median 175 µs against 302 µs before;
-inside the controller loop (caches shared with the QP) 280–380 µs against 360–740 µs, of which coal's GJK is
-140–200 µs: with at least ``max_active`` = 32 pairs within d_i in this posture, every call needs ≥ 32 GJK runs,
-memory-bound when the controller has evicted the hulls from the caches. The issue-10 target of 200 µs per call
-was not met on this loaded machine (``benchmarks/self_collision.py`` prints PASS/FAIL with the load).
+Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
+2-core machine shared with other jobs, November 2026): 38.6 coal distances per call (883 without the broad phase;
+37.7 with the previous sequential stop, 135.8 without it). compute() median, interleaved runs at load 0.8–1.0:
+204–205 µs, against 214–216 µs before the per-call glue was trimmed (same rows bitwise: witness points and
+placements read through one bytes.join, only the pairs whose activation changed switched, damper rows over the
+support columns, packed compiled arguments). Instructions per call (``--callgrind 100``, 200 ticks,
+load-independent): 1.21 M, 1.44 M before. Of a call inside the controller loop (timers around each step, load
+1.4): coal (``pin.computeDistances``) ~105 µs — with at least ``max_active`` = 32 pairs within d_i in this posture
+every call needs ≥ 32 GJK runs, on hulls the controller has evicted from the caches; reading the results through
+the Python bindings ~60 µs (witness points and normals of 32 rows 32–36 µs, 34 joint placements 15 µs, 39
+distances 10 µs: per value read, one bound C++ call and one NumPy array, ~2 k instructions per array); the compiled broad
+phase 14 µs, the damper rows 5 µs. The issue-10 target of 200 µs per call is met by neither compute() nor the
+tick's increment (the QP side) on this machine (``benchmarks/self_collision.py`` prints PASS/FAIL with the load).
 """
 
 from __future__ import annotations
@@ -435,7 +440,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
         result = type(self._results[0])
         # per call, the rows' witness points and normals are read with these unbound getters mapped over the rows'
-        # results, and their (3,) arrays joined into one buffer (bytes.join: 1/4 of np.concatenate's cost)
+        # results, and their (3,) arrays joined into one buffer (bytes.join: 0.7× np.concatenate's time)
         self._witness = (result.getNearestPoint1, result.getNearestPoint2, result.normal.fget)
         self._distance = result.min_distance.fget
         self._homogeneous = pin.SE3.homogeneous.fget
