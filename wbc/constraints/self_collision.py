@@ -66,10 +66,11 @@ support columns, packed compiled arguments). Instructions per call (``--callgrin
 load-independent): 1.21 M, 1.44 M before. Of a call inside the controller loop (timers around each step, load
 1.4): coal (``pin.computeDistances``) ~105 µs — with at least ``max_active`` = 32 pairs within d_i in this posture
 every call needs ≥ 32 GJK runs, on hulls the controller has evicted from the caches; reading the results through
-the Python bindings ~60 µs (witness points and normals of 32 rows 32–36 µs, 34 joint placements 15 µs, 39
-distances 10 µs: per value read, one bound C++ call and one NumPy array, ~2 k instructions per array); the
-compiled broad phase 14 µs, the damper rows 5 µs. The issue-10 target of 200 µs per call is met by neither compute() nor the
-tick's increment (the QP side) on this machine (``benchmarks/self_collision.py`` prints PASS/FAIL with the load).
+the Python bindings ~60 µs (witness points and normals of 32 rows 32–36 µs, 34 joint placements 15 µs,
+39 distances 10 µs: per value read, one bound C++ call and one NumPy array, ~2 k instructions per array); the
+compiled broad phase 14 µs, the damper rows 5 µs. The issue-10 target of 200 µs per call is met by neither
+compute() nor the tick's increment (the QP side) on this machine (``benchmarks/self_collision.py`` prints
+PASS/FAIL with the load).
 """
 
 from __future__ import annotations
