@@ -271,6 +271,51 @@ def test_close_pairs_reusable_part(robots):
     np.testing.assert_allclose(J, C[:m], atol=1e-12)
 
 
+def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
+    """compute()'s rows against a plain evaluation, along a random walk with a jump: the pairs active in the
+    constraint's GeometryData are exactly those coal ran on (coal_calls); each row's distance, witness points and
+    normal are bitwise those of its pair's coal result (read one by one from geometry_data.distanceResults), and
+    its C row is nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (NumPy, from
+    data.J and model.supports); unused rows are C = 0, l = −inf."""
+    robot = robots("talos")
+    model = robot.model
+    sc = SelfCollisionConstraint(robot)
+    config = Configuration(robot)
+    gm, gd = sc.geometry_model, sc.geometry_data
+    rng = np.random.default_rng(5)
+    q = config.q.copy()
+    rows_seen = 0
+    for step in range(25):
+        q = pin.integrate(model, q, rng.normal(size=model.nv) * (0.3 if step == 15 else 0.01))
+        config.update(q)
+        C, l, _ = sc.compute(config, DT)
+        close = sc._found
+        assert sc.coal_calls == sum(gd.activeCollisionPairs)
+        used = np.zeros(sc.dim, dtype=bool)
+        for i, k in enumerate(close.pairs.tolist()):
+            assert gd.activeCollisionPairs[k]
+            r = gd.distanceResults[k]
+            assert close.distance[i] == r.min_distance
+            np.testing.assert_array_equal(close.p1[i], r.getNearestPoint1())
+            np.testing.assert_array_equal(close.p2[i], r.getNearestPoint2())
+            np.testing.assert_array_equal(close.normal[i], r.normal)
+            n = close.normal[i]
+            row = np.zeros(model.nv)
+            for side, p, sign in ((0, close.p1[i], -1.0), (1, close.p2[i], 1.0)):
+                j = gm.geometryObjects[int(sc.pairs[k, side])].parentJoint
+                cols = [c for s in model.supports[j] if s > 0
+                        for c in range(model.joints[s].idx_v, model.joints[s].idx_v + model.joints[s].nv)]
+                J = config.data.J[:, cols]
+                row[cols] += sign * (n @ J[:3] + np.cross(p, n) @ J[3:])
+            slot = int(sc._slot_of[k])
+            used[slot] = True
+            np.testing.assert_allclose(C[slot], row, rtol=0, atol=1e-12)
+            assert np.isfinite(l[slot])
+        assert not C[~used].any() and np.all(l[~used] == -np.inf)
+        rows_seen += len(close.pairs)
+    assert rows_seen > 25 * 8  # the walk keeps pairs within the activation distance
+
+
 def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(robots):
     """With inequality rows (self-collision), a tick whose compiled kernel gives up (here: an iteration cap of 1,
     so every tick whose working set changes) is still a compiled tick: DAQP solves the same reduced QP and the

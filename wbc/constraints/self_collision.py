@@ -57,19 +57,24 @@ call, so a pair computed at fewer calls can end elsewhere within tolerance; EPA 
 under random motion and jumps. No static pruning beyond the SRDF and adjacency: a far pair costs a few
 floating-point operations per call.
 
-Measured on Talos (883 pairs, hand driven through the torso; November 2026, 2-core machine at load 12–19):
-38.6 coal distances per call (883 without the broad phase; 37.7 with the previous sequential stop, 135.8 without
-it). Instructions per call (callgrind over the 594-tick drive, load-independent): 1.54 M, 2.12 M before (sphere test
-and one Python call per coal distance); replayed in one process, thread CPU median 175 µs against 302 µs before;
-inside the controller loop (caches shared with the QP) 280–380 µs against 360–740 µs, of which coal's GJK is
-140–200 µs: with at least ``max_active`` = 32 pairs within d_i in this posture, every call needs ≥ 32 GJK runs,
-memory-bound when the controller has evicted the hulls from the caches. The issue-10 target of 200 µs per call
-was not met on this loaded machine (``benchmarks/self_collision.py`` prints PASS/FAIL with the load).
+Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
+2-core machine shared with other jobs, November 2026): 38.6 coal distances per call (883 without the broad phase;
+37.7 with the previous sequential stop, 135.8 without it). compute() median, interleaved runs at load 0.8–1.0:
+204–205 µs, against 214–216 µs before the per-call glue was trimmed (same rows bitwise: witness points and
+placements read through one bytes.join, only the pairs whose activation changed switched, damper rows over the
+support columns, packed compiled arguments). Instructions per call (``--callgrind 100``, 200 ticks,
+load-independent): 1.21 M, 1.44 M before. Of a call inside the controller loop (timers around each step, load
+1.4): coal (``pin.computeDistances``) ~105 µs — with at least ``max_active`` = 32 pairs within d_i in this posture
+every call needs ≥ 32 GJK runs, on hulls the controller has evicted from the caches; reading the results through
+the Python bindings ~60 µs (witness points and normals of 32 rows 32–36 µs, 34 joint placements 15 µs,
+39 distances 10 µs: per value read, one bound C++ call and one NumPy array, ~2 k instructions per array); the
+compiled broad phase 14 µs, the damper rows 5 µs. The issue-10 target of 200 µs per call is met by neither
+compute() nor the tick's increment (the QP side) on this machine (``benchmarks/self_collision.py`` prints
+PASS/FAIL with the load).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
@@ -92,9 +97,10 @@ BOUND_SLACK = 1e-6
 
 @nb.njit(cache=True, nogil=True)
 def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, mask, cand, buf):
-    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``,
-    mask[a, b] set for them (upper triangle, cleared first), their count returned.
+                 d_known, exact, activation, k_max, on, toggle, cand, buf):
+    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
+    ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
+    out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
 
     ``homogeneous`` (njoints, 4, 4) joint placements (``data.oMi``), expressed here in the frame of joint ``ref``
     (distances do not depend on the frame; the root joint's frame leaves out the floating base's motion).
@@ -150,11 +156,15 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
     tau = activation
     if nu >= k_max:
         tau = np.sort(buf[:nu])[k_max - 1]
-    mask[:, :] = False
     n = 0
+    nt = 0
     for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
+        if on[k]:  # assumed dropped; switched back on below if it is a candidate
+            toggle[nt] = ~k
+            nt += 1
+            on[k] = False
         # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
         # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
         # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
@@ -170,9 +180,14 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
         if low >= activation or low > tau:
             continue
         cand[n] = k
-        mask[a, b] = True
         n += 1
-    return n
+        if nt > 0 and toggle[nt - 1] == ~k:  # active and staying so
+            nt -= 1
+        else:
+            toggle[nt] = k
+            nt += 1
+        on[k] = True
+    return n, nt
 
 
 @nb.njit(cache=True, nogil=True)
@@ -196,11 +211,75 @@ def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, mov
     return m
 
 
+#: entries of the integer pack's header (``_unpack``): geometries, joints, pairs, root joint, max_active
+_HEADER = 5
+
+
+def _pack(*arrays):
+    """(pack, views): one 1-D array holding ``arrays`` (one dtype) one after the other, and views of it shaped as
+    them. A compiled call taking a few packs instead of ~18 arrays: Numba's dispatch checks each argument's type."""
+    pack = np.concatenate([np.ravel(a) for a in arrays])
+    views, at = [], 0
+    for a in arrays:
+        views.append(pack[at:at + np.size(a)].reshape(np.shape(a)))
+        at += np.size(a)
+    return pack, views
+
+
+@nb.njit(cache=True, nogil=True)
+def _unpack(fpack, ipack, bpack):
+    """The broad phase's state as views of its three packs (``SelfCollisionConstraint.__init__``: the order)."""
+    ng, nj, npairs, ref, k_max = ipack[0], ipack[1], ipack[2], ipack[3], ipack[4]
+    o = 0
+    centre_local = fpack[o:o + 3 * ng].reshape((ng, 3))
+    o += 3 * ng
+    radius = fpack[o:o + ng]
+    o += ng
+    prev_c = fpack[o:o + 3 * ng].reshape((ng, 3))
+    o += 3 * ng
+    moved = fpack[o:o + ng]
+    o += ng
+    prev_r = fpack[o:o + 9 * nj].reshape((nj, 3, 3))
+    o += 9 * nj
+    d_known = fpack[o:o + npairs]
+    moved_at = fpack[o + npairs:o + 2 * npairs]
+    buf = fpack[o + 2 * npairs:o + 3 * npairs]
+    o = _HEADER
+    joint = ipack[o:o + ng]
+    o += ng
+    pairs = ipack[o:o + 2 * npairs].reshape((npairs, 2))
+    o += 2 * npairs
+    cand = ipack[o:o + npairs]
+    toggle = ipack[o + npairs:o + 2 * npairs]
+    rows = ipack[o + 2 * npairs:o + 2 * npairs + k_max]
+    exact = bpack[:npairs]
+    on = bpack[npairs:2 * npairs]
+    return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
+            toggle, cand, buf, rows)
+
+
+@nb.njit(cache=True, nogil=True)
+def _broad_phase_packed(homogeneous, first, activation, fpack, ipack, bpack):
+    """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
+    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
+     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+    return _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
+                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf)
+
+
+@nb.njit(cache=True, nogil=True)
+def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
+    """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
+    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
+     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+
+
 @nb.njit(cache=True, nogil=True)
 def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
-    """C[slot[r]] = nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang restricted to each body's support
-    columns (module docstring), for r < normal.shape[0]."""
-    nv = J.shape[1]
+    """C[slot[r]] += nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (module
+    docstring), for r < normal.shape[0]; C's other entries untouched. ``support`` (njoints, 1 + nv) int32: row j
+    holds the number of columns of joint j's support, then those columns."""
     for i in range(normal.shape[0]):
         r = slot[i]
         n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
@@ -211,10 +290,10 @@ def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
             x0 = p[1] * n2 - p[2] * n1
             x1 = p[2] * n0 - p[0] * n2
             x2 = p[0] * n1 - p[1] * n0
-            for c in range(nv):
-                if support[jt, c] != 0.0:
-                    C[r, c] += sign * (n0 * J[0, c] + n1 * J[1, c] + n2 * J[2, c]
-                                       + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
+            for t in range(1, support[jt, 0] + 1):
+                c = support[jt, t]
+                C[r, c] += sign * (n0 * J[0, c] + n1 * J[1, c] + n2 * J[2, c]
+                                   + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
 
 
 @nb.njit(cache=True, nogil=True)
@@ -360,10 +439,13 @@ class SelfCollisionConstraint(InequalityConstraint):
         for req in gd.distanceRequests:
             req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
-        normal = type(self._results[0]).normal.fget
-        # per pair: the getters of its witness points and normal (one flat list per call, one np.concatenate: a
-        # nested np.array of tuples of arrays cost more than the 32 coal distances' bookkeeping)
-        self._witness = [(r.getNearestPoint1, r.getNearestPoint2, functools.partial(normal, r)) for r in self._results]
+        result = type(self._results[0])
+        # per call, the rows' witness points and normals are read with these unbound getters mapped over the rows'
+        # results, and their (3,) arrays joined into one buffer (bytes.join: 0.7× np.concatenate's time)
+        self._witness = (result.getNearestPoint1, result.getNearestPoint2, result.normal.fget)
+        self._distance = result.min_distance.fget
+        self._homogeneous = pin.SE3.homogeneous.fget
+        self._activate, self._deactivate = gd.activateCollisionPair, gd.deactivateCollisionPair
         self.pairs = np.array([(cp.first, cp.second) for cp in gm.collisionPairs], dtype=np.int64)
         self.pair_names = [(gm.geometryObjects[int(a)].name, gm.geometryObjects[int(b)].name) for a, b in self.pairs]
         npairs = len(self.pairs)
@@ -382,18 +464,19 @@ class SelfCollisionConstraint(InequalityConstraint):
         # reference frame of the broad phase's displacements: the root joint (its motion moves every body alike)
         self._ref = 1 if model.njoints > 1 else 0
         # velocity of a point p of joint j's body: columns of data.J (WORLD) in j's support, ṗ = v_O + ω × p
-        self._support = np.zeros((model.njoints, model.nv))
+        # (row j: the count, then the columns; a dense 0/1 mask cost a branch per pair, side and column)
+        self._support = np.zeros((model.njoints, 1 + model.nv), dtype=np.int32)
         for j in range(1, model.njoints):
-            for i in model.supports[j]:
-                joint = model.joints[i]
-                if i > 0:
-                    self._support[j, joint.idx_v:joint.idx_v + joint.nv] = 1.0
+            cols = sorted(c for i in model.supports[j] if i > 0
+                          for c in range(model.joints[i].idx_v, model.joints[i].idx_v + model.joints[i].nv))
+            self._support[j, 0] = len(cols)
+            self._support[j, 1:1 + len(cols)] = cols
         self._C = np.zeros((self.dim, model.nv))
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
         self._empty = np.zeros((0, 3))
-        self._mask = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
-        self._all = np.arange(npairs, dtype=np.int64)
+        self._on = np.zeros(npairs, dtype=bool)  # the pairs active in geometry_data (broad phase)
+        self._toggle = np.empty(npairs, dtype=np.int64)
         self._cand = np.empty(npairs, dtype=np.int64)
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
@@ -411,11 +494,22 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._prev_c = np.zeros((gm.ngeoms, 3))
         self._prev_r = np.zeros((model.njoints, 3, 3))
         self._first = True
+        # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
+        header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
+        self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
+                      self._moved_at, self._buf) = _pack(self._centre_local, self._radius, self._prev_c, self._moved,
+                                                         self._prev_r, self._d_known, self._moved_at, self._buf)
+        self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = _pack(
+            np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
+        self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
-        if not self.broad_phase:
-            self._mask[self.pairs[:, 0], self.pairs[:, 1]] = True
-            gd.setActiveCollisionPairs(gm, self._mask, True)
+        if self.broad_phase:
+            gd.deactivateAllCollisionPairs()  # then switched per call (_on)
+        else:
+            self._cand[:] = np.arange(npairs)
+            for k in range(npairs):
+                gd.activateCollisionPair(k)
 
     @staticmethod
     def _resolve(model: pin.Model, gm: pin.GeometryModel, pairs) -> list[tuple[int, int]]:
@@ -446,8 +540,8 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def close_pairs(self, config: Configuration) -> ClosePairs:
         """The (at most ``max_active``) pairs closer than the activation distance at ``config``, closest first, with
-        their coal distances, normals and witness points (:class:`ClosePairs`; the arrays are views of buffers
-        overwritten by the next call). ``config.data`` must hold the joint placements of ``config.q`` (as after
+        their coal distances, normals and witness points (:class:`ClosePairs`; its normal, p1 and p2 are read-only
+        views of one buffer of coal's values). ``config.data`` must hold the joint placements of ``config.q`` (as after
         ``Configuration.update``). With ``broad_phase``, coal runs only on the candidates of the module docstring's
         bounds, which are updated from the placements of the previous call (any jump is accounted for); the
         result is the same as without."""
@@ -462,30 +556,35 @@ class SelfCollisionConstraint(InequalityConstraint):
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
         if self.broad_phase:
-            homogeneous = np.array([M.homogeneous for M in data.oMi.tolist()])
-            n = _broad_phase(homogeneous, self._ref, self._joint, self._centre_local, self._radius, self.pairs,
-                             self._first, self._prev_c, self._prev_r, self._moved, self._moved_at, self._d_known,
-                             self._exact, self.activation_distance, self.dim, self._mask, self._cand, self._buf)
+            # (njoints, 4, 4) data.oMi: each SE3.homogeneous is a fresh C-contiguous (4, 4) array (a non-contiguous
+            # one would raise in bytes.join); one join and one view cost 2/3 of np.array of the list
+            homogeneous = np.frombuffer(b"".join(map(self._homogeneous, data.oMi.tolist()))).reshape(-1, 4, 4)
+            n, nt = _broad_phase_packed(homogeneous, self._first, self.activation_distance, self._fpack, self._ipack,
+                                        self._bpack)
             self._first = False
             cand = self._cand[:n]
-            gd.setActiveCollisionPairs(gm, self._mask, True)
+            if nt:  # the candidates differ little from one call to the next: switch those that changed
+                activate, deactivate = self._activate, self._deactivate
+                for k in self._toggle[:nt].tolist():
+                    if k >= 0:
+                        activate(k)
+                    else:
+                        deactivate(~k)
         else:
-            cand = self._all
+            n = len(self.pairs)
+            cand = self._cand  # all pairs (__init__)
         pin.computeDistances(gm, gd)
         res = self._results
-        dl = [res[k].min_distance for k in cand.tolist()]
-        dist = np.array(dl)
-        self.coal_calls = len(dl)
-        m = _narrow_phase_done(cand, dist, self.activation_distance, self.dim, self.pairs, self._d_known,
-                               self._exact, self._moved, self._moved_at, self._rows)
+        dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
+        self.coal_calls = len(dist)
+        m = _narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
         k = cand[self._rows[:m]]
-        kl = k.tolist()
         if m:
-            wit = self._witness
+            rl = list(map(res.__getitem__, k.tolist()))
+            g1, g2, gn = self._witness
             # coal's normal, not (p2 − p1) / d: on g1 they differ by up to ~1e-6 (witness points of GJK's last
             # simplex), enough to change a closed-loop run
-            w = np.concatenate([f() for kk in kl for f in wit[kk]]).reshape(m, 3, 3)
-            p1, p2, normal = w[:, 0], w[:, 1], w[:, 2]
+            p1, p2, normal = np.frombuffer(b"".join([*map(g1, rl), *map(g2, rl), *map(gn, rl)])).reshape(3, m, 3)
         else:
             p1 = p2 = normal = self._empty
         d = dist[self._rows[:m]]
