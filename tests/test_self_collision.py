@@ -273,8 +273,9 @@ def test_close_pairs_reusable_part(robots):
 
 def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
     """compute()'s rows against a plain evaluation, along a random walk with a jump: the pairs active in the
-    constraint's GeometryData are exactly those coal ran on (coal_calls); each row's distance, witness points and
-    normal are bitwise those of its pair's coal result (read one by one from geometry_data.distanceResults), and
+    constraint's GeometryData are exactly those coal ran on (coal_calls); each row's distance, witness point p1 and
+    normal are bitwise those of its pair's coal result (read one by one from geometry_data.distanceResults), p2 is
+    coal's to 1e-12 m, and
     its C row is nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (NumPy, from
     data.J and model.supports); unused rows are C = 0, l = −inf."""
     robot = robots("talos")
@@ -297,8 +298,9 @@ def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
             r = gd.distanceResults[k]
             assert close.distance[i] == r.min_distance
             np.testing.assert_array_equal(close.p1[i], r.getNearestPoint1())
-            np.testing.assert_array_equal(close.p2[i], r.getNearestPoint2())
             np.testing.assert_array_equal(close.normal[i], r.normal)
+            # p2 on the witness line (module docstring): coal's own p2 to its GJK tolerance
+            np.testing.assert_allclose(close.p2[i], r.getNearestPoint2(), rtol=0, atol=1e-12)
             n = close.normal[i]
             row = np.zeros(model.nv)
             for side, p, sign in ((0, close.p1[i], -1.0), (1, close.p2[i], 1.0)):
