@@ -609,7 +609,7 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
                 elif x[i] - ub[i] > worst:
                     worst, pi, pside, is_row = x[i] - ub[i], i, 1, False
         for q in range(p):
-            if rstate[q] != 0:
+            if rstate[q] != 0 or (l[q] == -np.inf and u[q] == np.inf):
                 continue
             s = 0.0
             for j in range(n):
@@ -729,6 +729,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
             x[idx[k]] = bw[k]
     res = _clip_eq_residual(x, lb, ub, A, b, n, m)
     for q in range(p):
+        if l[q] == -np.inf and u[q] == np.inf:
+            continue
         s = 0.0
         for j in range(n):
             s += C[q, j] * x[j]
@@ -993,6 +995,10 @@ def kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, p
         br[kk] = b[r] - _reduce_row(A[r], n0, nr, Tc, Ar[kk])
         kk += 1
     for r in range(p):
+        if cl[r] == -np.inf and cu[r] == np.inf:  # an unused row (e.g. self-collision's beyond its close pairs)
+            lr[r] = -np.inf
+            ur[r] = np.inf
+            continue
         shift = _reduce_row(C[r], n0, nr, Tc, Cr[r])
         lr[r] = cl[r] - shift
         ur[r] = cu[r] - shift
@@ -1037,6 +1043,8 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
         if abs(s) > res:
             res = abs(s)
     for r in range(p):
+        if cl[r] == -np.inf and cu[r] == np.inf:
+            continue
         s = 0.0
         for j in range(n):
             s += C[r, j] * v[j]
