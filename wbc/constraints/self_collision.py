@@ -61,19 +61,20 @@ under random motion and jumps. No static pruning beyond the SRDF and adjacency: 
 floating-point operations per call.
 
 Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
-2-core machine shared with other jobs, November 2026): 38.6 coal distances per call (883 without the broad phase;
-37.7 with the previous sequential stop, 135.8 without it). compute() median, interleaved runs at load 0.8–1.0:
-204–205 µs, against 214–216 µs before the per-call glue was trimmed (same rows bitwise: witness points and
-placements read through one bytes.join, only the pairs whose activation changed switched, damper rows over the
-support columns, packed compiled arguments). Instructions per call (``--callgrind 100``, 200 ticks,
-load-independent): 1.21 M, 1.44 M before. Of a call inside the controller loop (timers around each step, load
-1.4): coal (``pin.computeDistances``) ~105 µs — with at least ``max_active`` = 32 pairs within d_i in this posture
-every call needs ≥ 32 GJK runs, on hulls the controller has evicted from the caches; reading the results through
-the Python bindings ~60 µs (witness points and normals of 32 rows 32–36 µs, 34 joint placements 15 µs,
-39 distances 10 µs: per value read, one bound C++ call and one NumPy array, ~2 k instructions per array); the
-compiled broad phase 14 µs, the damper rows 5 µs. The issue-10 target of 200 µs per call is met by neither
-compute() nor the tick's increment (the QP side) on this machine (``benchmarks/self_collision.py`` prints
-PASS/FAIL with the load).
+2-core machine, November 2026): 38.6 coal distances per call (883 without the broad phase; 37.7 with the previous
+sequential stop, 135.8 without it). In the run of ``benchmarks/run_all.py`` of 2026-11-22 07:20 UTC (load 0.97):
+compute() median 181.8 µs (214–216 µs before this session's trimming of the per-call glue: witness points and
+placements read through one bytes.join, p1 and n only, the pairs whose activation changed switched, damper rows
+over the support columns, packed compiled arguments); instructions per call (``--callgrind 100``, 200 ticks,
+load-independent) 1.13 M, 1.44 M before. Of a call inside the controller loop (timers around each step): coal
+(``pin.computeDistances``) ~100 µs — with at least ``max_active`` = 32 pairs within d_i in this posture every call
+needs ≥ 32 GJK runs (coal's own timer: 1.35–1.7 µs each; the rest is per-pair overhead and caches the controller
+evicted), and rows of rank 20–31 by distance do bind in this drive (the hand approaching fast), so fewer rows would
+change the motion; reading the results through the Python bindings ~45 µs (one bound C++ call and one NumPy array
+per value); the compiled broad phase ~14 µs, the damper rows ~5 µs. The whole controller tick grows by 224.5 µs
+(thread CPU medians, with vs without the constraint): compute(), +20 µs for the QP with its rows (the compiled
+kernel answers all 605 QPs) and ≈ +25 µs of the rest of the tick running on caches coal evicted — above the issue-10
+target of 200 µs per tick, which compute() alone meets.
 """
 
 from __future__ import annotations
