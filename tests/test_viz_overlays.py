@@ -157,3 +157,39 @@ def test_live_overlays_touchdown_from_the_sole_height(talos):
     pin.framesForwardKinematics(talos.model, data, talos.q_ref)
     left = data.oMf[talos.frame_id(talos.left_sole)].translation
     np.testing.assert_allclose(out["footprints"][0][:, :2].mean(axis=0), left[:2], atol=1e-9)
+
+
+@pytest.mark.parametrize("every", [1, 20, 650])
+def test_live_overlays_footprints_of_every_touchdown_whatever_frames_are_skipped(talos, every):
+    """With a walk plan, a footprint per foot at the start and one per touch-down of the plan, whether every
+    sample is displayed or only one in 20 or 650 (1.3 s: whole single supports unseen, as when the display
+    thread is starved on a loaded machine); a skipped touch-down's footprint is the plan's sole at that sample,
+    a displayed foot still down is outlined where it is."""
+    from wbc.scenarios.walk import plan_default_walk
+    from wbc.viz.live_overlays import LiveOverlays
+
+    plan = plan_default_walk(talos, n_steps=8)
+    sup = plan.support.astype(int)
+    touchdowns = [(j, i) for i in range(1, len(sup)) for j, codes in enumerate(((0, 1), (0, 2)))
+                  if sup[i] in codes and sup[i - 1] not in codes]
+    assert len(touchdowns) == 8
+    src = LiveOverlays(talos, plan)
+    prints = []
+    samples = list(range(0, len(sup), every))
+    if samples[-1] != len(sup) - 1:
+        samples.append(len(sup) - 1)
+    for k in samples:
+        out = src.frame(talos.q_ref, float(plan.t[k]))  # the pose does not matter for the plan's touch-downs
+        prints += out["footprints"]
+    assert len(prints) == 2 + len(touchdowns)
+    # each touch-down's outline is centred on the plan's sole at it, unless the foot was displayed still down
+    # (then it is the displayed sole: here q_ref's)
+    for (j, i), outline in zip(touchdowns, prints[2:]):
+        plan_sole = (plan.left_sole if j == 0 else plan.right_sole)[i][:2, 3]
+        centre = outline[:, :2].mean(axis=0)
+        assert outline.shape[1] == 3
+        if every == 650:
+            shown = [k for k in samples if k >= i]
+            still_down = shown and all(sup[m] in ((0, 1), (0, 2))[j] for m in range(i, shown[0] + 1))
+            if not still_down:
+                np.testing.assert_allclose(centre, plan_sole, atol=1e-9)

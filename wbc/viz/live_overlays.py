@@ -11,7 +11,9 @@ names and colours as the HTML recordings (:mod:`wbc.viz.overlays`), each under i
   walk plan also ``zmp_planned`` and ``dcm_planned`` at the displayed time;
 * ``support_polygon``: hull of the soles in contact (from the plan's support phase, or without a plan the
   soles whose origin is within ``contact_height`` of the ground), re-sent when the support changes;
-* ``footprints``: sole outline of each foot at the start and wherever it touches down;
+* ``footprints``: sole outline of each foot at the start and wherever it touches down (with a plan, every
+  touch-down of the plan's samples since the previous displayed frame: the displayed sole if it is still down,
+  else the plan's sole pose at that touch-down — frames skipped by a starved display thread lose none);
 * ``swing_left`` / ``swing_right``: the path of each sole origin so far (re-sent every ``trail_every`` frames);
 * static, once: ``footsteps_planned`` (the plan's footsteps).
 """
@@ -59,6 +61,8 @@ class LiveOverlays:
         self._support: int | None = None
         self._trails: tuple[list, list] = ([], [])
         self._count = 0
+        self._k: int | None = None  # plan sample of the last frame, and that plan (touch-downs between frames)
+        self._k_plan = None
 
     def _plan(self):
         return self.plan() if callable(self.plan) and not hasattr(self.plan, "index") else self.plan
@@ -99,22 +103,42 @@ class LiveOverlays:
                 points["zmp_executed"] = np.array([c1[0] - c1[2] / GRAVITY * acc[0],
                                                    c1[1] - c1[2] / GRAVITY * acc[1], 0.0])
         plan = self._plan()
+        touches = None  # with a plan: the touch-downs (foot, sample) of every sample since the last frame
         if plan is not None and t is not None:
             k = plan.index(t)
             points["zmp_planned"] = np.array([*plan.zmp[k], 0.0])
             points["dcm_planned"] = np.array([*plan.dcm[k], 0.0])
             support = int(plan.support[k])
+            if self._k_plan is plan and self._k is not None and k >= self._k:
+                # the display thread shows the latest pose only (frames are skipped when it is starved, e.g. on a
+                # loaded machine): a touch-down between two displayed frames still gets its footprint
+                sup = plan.support
+                touches = [(j, i) for i in range(self._k + 1, k + 1)
+                           for j, codes in enumerate((_LEFT_DOWN, _RIGHT_DOWN))
+                           if int(sup[i]) in codes and int(sup[i - 1]) not in codes]
+            self._k, self._k_plan = k, plan
         else:
             down = [s[2, 3] <= self.contact_height for s in soles]
             support = 0 if all(down) else 1 if down[0] else 2 if down[1] else 3
+            self._k = self._k_plan = None
         out: dict = {"points": points, "support_polygon": None, "footprints": [], "trails": {}}
         L, W = robot.sole_length, robot.sole_width
         touchdown = False
         for j, codes in enumerate((_LEFT_DOWN, _RIGHT_DOWN)):
             self._trails[j].append(soles[j][:3, 3].copy())
-            was = self._support in codes if self._support is not None else False
-            if support in codes and not was:
-                out["footprints"].append(_outline(soles[j], L, W))
+            if touches is None:
+                was = self._support in codes if self._support is not None else False
+                if support in codes and not was:
+                    out["footprints"].append(_outline(soles[j], L, W))
+                    touchdown = True
+                continue
+            mine = [i for jj, i in touches if jj == j]
+            for n, i in enumerate(mine):
+                # the realized sole (the displayed one) if it is still down since its last touch-down, else the
+                # plan's sole pose at that touch-down (its stance was not displayed)
+                last_down = n == len(mine) - 1 and support in codes
+                pose = soles[j] if last_down else (plan.left_sole if j == 0 else plan.right_sole)[i]
+                out["footprints"].append(_outline(pose, L, W))
                 touchdown = True
         if support != self._support:
             polys = [_outline(soles[j], L, W)[:, :2] for j, codes in enumerate((_LEFT_DOWN, _RIGHT_DOWN))
