@@ -5,7 +5,9 @@ through the torso over 1.2 s at 500 Hz, the default :class:`~wbc.constraints.Sel
 (883 default pairs, min_distance 20 mm) keeps the arm away. Variants, run interleaved ``--repeats`` times in this
 process:
 
-* ``broad``: the default constraint (broad phase: coal only on the pairs whose distance bounds may give them a row);
+* ``broad``: the default constraint (broad phase: coal only on the pairs whose distance bounds may give them a row;
+  the compiled narrow phase ``wbc.constraints.narrow_phase`` when it is built — printed);
+* ``broad-pinocchio``: the same with ``compiled=False`` (coal through Pinocchio's ``computeDistances`` and bindings);
 * ``exhaustive``: ``broad_phase=False`` (coal on all 883 pairs at every tick: the reference);
 * ``none``: the same controller without the constraint (the arm then runs into the torso).
 
@@ -62,8 +64,9 @@ def run(robot, variant: str) -> dict:
 
     config = Configuration(robot)
     hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
-    sc = None if variant == "none" else SelfCollisionConstraint(robot, min_distance=MIN_DISTANCE,
-                                                                 broad_phase=variant == "broad")
+    sc = None if variant == "none" else SelfCollisionConstraint(
+        robot, min_distance=MIN_DISTANCE, broad_phase=variant.startswith("broad"),
+        compiled=False if variant == "broad-pinocchio" else None)
     ctrl, _ = standing_controller(robot, config, *([sc] if sc else []), tasks=(hand,), posture_weight=1e-3)
     gm, gd = watched_model(robot)
     data = robot.model.createData()
@@ -111,7 +114,7 @@ def run(robot, variant: str) -> dict:
             "cpu_median_us": float(np.median(cpu)) / 1e3, "tick_median_us": float(np.median(tick)) / 1e3,
             "coal_per_tick": calls / n, "min_mesh_mm": 1e3 * d_min, "min_hull_mm": 1e3 * d_hull,
             "kernel_solves": getattr(ctrl.backend, "kernel_solves", 0), "fallbacks": getattr(ctrl.backend, "fallbacks", 0),
-            "q": np.array(qs), "active": active}
+            "q": np.array(qs), "active": active, "narrow_phase": sc.narrow_phase if sc else None}
 
 
 # -- instruction counts (callgrind): compute() over 2N ticks of the recorded trajectory (after 5 uninstrumented),
@@ -191,25 +194,32 @@ def main() -> None:
     limit_blas_threads(1)
     robot = wbc.load_robot(a.robot)
     print(f"self-collision, {a.robot}, hand through the torso, {a.repeats} interleaved repeats; load {load()}")
-    variants = ("broad", "exhaustive", "none")
+    # broad: the default constraint (broad phase, compiled narrow phase when built); broad-pinocchio: the same with
+    # Pinocchio's narrow phase (bindings); exhaustive: coal on every pair (the reference)
+    variants = ("broad", "broad-pinocchio", "exhaustive", "none")
     out: dict[str, list[dict]] = {v: [] for v in variants}
     for _ in range(a.repeats):
         for v in variants:
             out[v].append(run(robot, v))
-    med = {v: {key: float(np.median([r[key] for r in rs])) for key in rs[0] if key not in ("q", "active")}
+    med = {v: {key: float(np.median([r[key] for r in rs])) for key in rs[0] if key not in ("q", "active", "narrow_phase")}
            for v, rs in out.items()}
     for v in variants:
         m = med[v]
         sc = "" if v == "none" else (
             f"compute median {m['median_us']:7.1f} µs (CPU {m['cpu_median_us']:7.1f}), p99 {m['p99_us']:7.1f} µs, "
             f"coal {m['coal_per_tick']:6.1f}/tick, min hull distance {m['min_hull_mm']:.2f} mm, ")
-        print(f"  {v:10s}: {sc}tick CPU {m['tick_median_us']:7.1f} µs (+{m['tick_median_us'] - med['none']['tick_median_us']:6.1f} "
+        narrow = "" if v == "none" else f" [{out[v][0]['narrow_phase']} narrow phase]"
+        print(f"  {v + narrow:46s}: {sc}tick CPU {m['tick_median_us']:7.1f} µs (+{m['tick_median_us'] - med['none']['tick_median_us']:6.1f} "
               f"over none), QPs kernel/DAQP {m['kernel_solves']:.0f}/{m['fallbacks']:.0f}, "
               f"min arm–torso mesh distance {m['min_mesh_mm']:.2f} mm")
     same_active = all(x["active"] == y["active"] for x in out["broad"] for y in out["exhaustive"])
     gap = max(float(np.abs(x["q"] - y["q"]).max()) for x in out["broad"] for y in out["exhaustive"])
     print(f"  broad vs exhaustive: same active pairs at every tick: {same_active}; largest joint-trajectory "
           f"difference {gap:.1e}; load {load()}")
+    gap_narrow = max(float(np.abs(x["q"] - y["q"]).max()) for x in out["broad"] for y in out["broad-pinocchio"])
+    print(f"  {out['broad'][0]['narrow_phase']} vs pinocchio narrow phase: largest joint-trajectory difference "
+          f"{gap_narrow:.1e}; tick increment {med['broad']['tick_median_us'] - med['none']['tick_median_us']:.1f} vs "
+          f"{med['broad-pinocchio']['tick_median_us'] - med['none']['tick_median_us']:.1f} µs")
     compute_us = med["broad"]["median_us"]
     increment_us = med["broad"]["tick_median_us"] - med["none"]["tick_median_us"]
     held = med["broad"]["min_mesh_mm"] >= 1e3 * MIN_DISTANCE
@@ -224,6 +234,7 @@ def main() -> None:
           f"{med['broad']['min_mesh_mm']:.2f} mm ≥ {1e3 * MIN_DISTANCE:.0f} mm: {held}\n"
           f"  -> {'PASS' if ok else 'FAIL: ' + ', '.join(k for k, v in verdict.items() if not v)}")
     result = {"load": os.getloadavg(), "median": med, "same_active": same_active, "trajectory_gap": gap,
+              "narrow_phase": out["broad"][0]["narrow_phase"], "trajectory_gap_narrow_phases": gap_narrow,
               "compute_us": compute_us, "increment_us": increment_us, "verdict": verdict, "pass": ok}
     if a.callgrind:
         ir = instructions(robot, a.callgrind)

@@ -112,9 +112,19 @@ def _reference_close_pairs(sc, robot, gm, gd, data, q):
 
 
 def _count_coal(monkeypatch):
-    """Patch pin.computeDistance(s) to count the coal distances computed (active pairs of a computeDistances)."""
+    """Patch pin.computeDistance(s) and the compiled narrow phase's ``distances`` to count the coal distances
+    computed (active pairs of a computeDistances, candidates given to the compiled call)."""
+    from wbc.constraints import narrow_phase
+
     calls = [0]
     distances, distance = pin.computeDistances, pin.computeDistance
+    compiled = narrow_phase.distances
+
+    def counted_compiled(pair_set, homogeneous, cand, out):
+        calls[0] += len(cand)
+        return compiled(pair_set, homogeneous, cand, out)
+
+    monkeypatch.setattr(narrow_phase, "distances", counted_compiled)
 
     def counted_all(*args):
         if len(args) == 2:  # (geometry_model, geometry_data): the active pairs only
@@ -271,18 +281,21 @@ def test_close_pairs_reusable_part(robots):
     np.testing.assert_allclose(J, C[:m], atol=1e-12)
 
 
-def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
-    """compute()'s rows against a plain evaluation, along a random walk with a jump: the pairs active in the
-    constraint's GeometryData are exactly those coal ran on (coal_calls); each row's distance, witness point p1 and
-    normal are bitwise those of its pair's coal result (read one by one from geometry_data.distanceResults), p2 is
-    coal's to 1e-12 m, and
+@pytest.mark.parametrize("compiled", [False, True])
+def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots, compiled):
+    """compute()'s rows against a plain evaluation, along a random walk with a jump. Pinocchio narrow phase: the
+    pairs active in the constraint's GeometryData are exactly those coal ran on (coal_calls); compiled narrow phase:
+    a separate GeometryData (Pinocchio's computeDistance) runs coal on the same pairs, call for call (the same GJK
+    warm starts). Each row's distance, witness point p1 and normal are bitwise those of its pair's coal result (read
+    one by one from distanceResults), p2 is coal's to 1e-12 m, and
     its C row is nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (NumPy, from
     data.J and model.supports); unused rows are C = 0, l = −inf."""
     robot = robots("talos")
     model = robot.model
-    sc = SelfCollisionConstraint(robot)
+    sc = SelfCollisionConstraint(robot, compiled=compiled)
+    assert sc.narrow_phase == ("compiled" if compiled else "pinocchio")
     config = Configuration(robot)
-    gm, gd = sc.geometry_model, sc.geometry_data
+    gm, gd = _reference_model(sc) if compiled else (sc.geometry_model, sc.geometry_data)
     rng = np.random.default_rng(5)
     q = config.q.copy()
     rows_seen = 0
@@ -291,10 +304,16 @@ def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
         config.update(q)
         C, l, _ = sc.compute(config, DT)
         close = sc._found
-        assert sc.coal_calls == sum(gd.activeCollisionPairs)
+        computed = set(sc._cand[:sc.coal_calls].tolist())
+        if compiled:
+            pin.updateGeometryPlacements(model, config.data, gm, gd)
+            for k in sorted(computed):
+                pin.computeDistance(gm, gd, k)
+        else:
+            assert computed == {k for k, on in enumerate(gd.activeCollisionPairs) if on}
         used = np.zeros(sc.dim, dtype=bool)
         for i, k in enumerate(close.pairs.tolist()):
-            assert gd.activeCollisionPairs[k]
+            assert k in computed
             r = gd.distanceResults[k]
             assert close.distance[i] == r.min_distance
             np.testing.assert_array_equal(close.p1[i], r.getNearestPoint1())
@@ -316,6 +335,92 @@ def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots):
         assert not C[~used].any() and np.all(l[~used] == -np.inf)
         rows_seen += len(close.pairs)
     assert rows_seen > 25 * 8  # the walk keeps pairs within the activation distance
+
+
+def test_compiled_narrow_phase_is_built():
+    """``pip install`` built the C++ narrow phase (setup.py) against the coal loaded here; without it the constraint
+    falls back to Pinocchio's bindings (same results, about 45 µs more per call on Talos)."""
+    from wbc.constraints import self_collision
+
+    assert self_collision.COMPILED_NARROW_PHASE_MISSING is None
+
+
+def test_joint_placements_view_is_data_oMi(robots):
+    """joint_placements_view: per joint, data.oMi's rotation (column-major) and translation, read-only, following
+    data through forward kinematics at random configurations (all three robots)."""
+    from wbc.constraints.self_collision import joint_placements_view
+
+    for name in ("talos", "g1", "humanoid15"):
+        model = robots(name).model
+        data = model.createData()
+        view = joint_placements_view(data)
+        assert view is not None and view.shape == (model.njoints, 12) and not view.flags.writeable
+        for seed in range(3):
+            pin.seed(seed)
+            pin.forwardKinematics(model, data, pin.randomConfiguration(model))
+            for j in range(model.njoints):
+                M = data.oMi[j]
+                np.testing.assert_array_equal(view[j].reshape(4, 3), np.vstack([M.rotation.T, M.translation]))
+
+
+@pytest.mark.parametrize("placements", ["view", "read"])
+def test_narrow_phases_give_the_same_motion(robots, monkeypatch, placements):
+    """The compiled narrow phase (with data.oMi as a view or read through the bindings) and Pinocchio's give
+    bitwise the same rows and the same closed-loop motion along 0.6 s of the hand-through-torso drive (coal's same
+    inputs and warm starts: bitwise the same distances)."""
+    from wbc.constraints import self_collision
+
+    robot = robots("talos")
+    if placements == "read":
+        monkeypatch.setattr(self_collision, "joint_placements_view", lambda data: None)
+    runs = {}
+    for compiled in (True, False):
+        config = Configuration(robot)
+        hand = PositionTask(robot, robot.right_hand, gain=10.0, name="hand")
+        sc = SelfCollisionConstraint(robot, min_distance=0.02, compiled=compiled)
+        assert sc.narrow_phase == ("compiled" if compiled else "pinocchio")
+        ctrl, _ = standing_controller(robot, config, sc, tasks=(hand,), posture_weight=1e-3)
+        p0 = config.frame_placement(hand.frame_id).translation.copy()
+        T = config.frame_placement(robot.frame_id(THROUGH["talos"][0]))
+        qs, rows = [], []
+        for k in range(300):
+            hand.set_target(p0 + (T.translation - p0) * min(1.0, k * DT / 0.5))
+            res = ctrl.solve(config, DT)
+            assert res.ok, res.message
+            rows.append((sc._C.copy(), sc._l.copy()))
+            config.update(config.integrate(res.v, DT))
+            qs.append(config.q.copy())
+        runs[compiled] = np.array(qs), rows, sc.active
+    (q1, rows1, active1), (q0, rows0, active0) = runs[True], runs[False]
+    assert active0 and active1 == active0
+    for (C1, l1), (C0, l0) in zip(rows1, rows0, strict=True):
+        np.testing.assert_array_equal(C1, C0)
+        np.testing.assert_array_equal(l1, l0)
+    np.testing.assert_array_equal(q1, q0)
+
+
+def test_compiled_narrow_phase_inputs(robots):
+    """compiled=True where the compiled narrow phase has no description of a watched geometry (meshes without
+    their convex hulls) raises, naming the geometries; the default then falls back to Pinocchio and says why.
+    The extension itself rejects buffers of the wrong type or size."""
+    from wbc.constraints import narrow_phase
+
+    robot = robots("talos")
+    pairs = [("arm_right_4_link", "torso_2_link")]
+    with pytest.raises(InvalidInputError, match="arm_right_4_link_0"):
+        SelfCollisionConstraint(robot, pairs=pairs, convex=False, compiled=True)
+    sc = SelfCollisionConstraint(robot, pairs=pairs, convex=False)
+    assert sc.narrow_phase == "pinocchio" and "convex=True" in sc.narrow_phase_note
+    sc = SelfCollisionConstraint(robot, pairs=pairs, compiled=True)
+    h = np.zeros((robot.model.njoints, 12))
+    with pytest.raises(TypeError, match="int64"):
+        narrow_phase.distances(sc._pair_set, h, np.zeros(1), np.zeros(7))
+    with pytest.raises(ValueError, match="values"):
+        narrow_phase.distances(sc._pair_set, h[:-1], np.zeros(1, dtype=np.int64), np.zeros(7))
+    with pytest.raises(IndexError, match="pair index"):
+        narrow_phase.distances(sc._pair_set, h, np.array([len(sc.pairs)]), np.zeros(7))
+    with pytest.raises(ValueError, match="needed"):
+        narrow_phase.distances(sc._pair_set, h, np.zeros(2, dtype=np.int64), np.zeros(7))
 
 
 def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(robots):

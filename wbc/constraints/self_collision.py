@@ -41,8 +41,8 @@ damper then restores the floor over the next ticks. Driving a hand through the t
 (no safety margin): Talos min 19.6 mm, g1 (hulls of large non-convex meshes, fast wrist rotation) 18.3 mm; hence
 the default 3 mm safety margin (with 2 mm, g1 still dipped to 19.84 mm).
 
-Broad phase (``broad_phase=True``, issue 10; one compiled pass over the pairs, then ONE ``pin.computeDistances`` on
-the candidates, marked through ``GeometryData.setActiveCollisionPairs``). Each geometry g has a bounding sphere
+Broad phase (``broad_phase=True``, issue 10; one compiled pass over the pairs, then coal on the candidates only: the
+narrow phase below). Each geometry g has a bounding sphere
 (centre c_g in its joint's frame and radius r_g, from coal's local AABB: the sphere around the box contains the
 geometry). Placements are taken in the root joint's frame (``data.oMi``; a distance does not depend on the frame,
 and this one leaves out the floating base's motion). Per call and geometry, every point p = c_g + R (p_loc − c_loc)
@@ -60,21 +60,29 @@ call, so a pair computed at fewer calls can end elsewhere within tolerance; EPA 
 under random motion and jumps. No static pruning beyond the SRDF and adjacency: a far pair costs a few
 floating-point operations per call.
 
+Narrow phase (``compiled``). The compiled one, ``wbc.constraints.narrow_phase`` (C++, ``narrow_phase.cpp``, built by
+``pip install`` through ``setup.py`` against the ``libcoal`` wheel's headers), owns its own coal geometries (the
+same shapes; a mesh's hull is rebuilt by coal's ``ConvexBase::convexHull`` from the same vertices and qhull command
+as ``buildConvexHull``), one ``coal::ComputeDistance`` functor, request and result per pair as
+``pinocchio::GeometryData`` has (coal keeps a pair's GJK guess in its request), and the geometry placements
+oMg = oMi · jMg as ``pin.updateGeometryPlacements`` computes them: one call computes the candidates' distances,
+witness points and normals — bitwise those of Pinocchio's ``computeDistances`` (tests/test_self_collision.py),
+without one bound call per value read back. The joint placements ``data.oMi`` are read as a view of the Data's
+own memory (:func:`joint_placements_view`, checked when built), not one bound call per joint. Without the
+extension (no C++ compiler at install), with meshes and ``convex=False``, or with ``compiled=False``: Pinocchio's
+``computeDistances`` on a ``GeometryData`` whose active pairs are the candidates, results read through the bindings.
+
 Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
-2-core machine, November 2026): 38.6 coal distances per call (883 without the broad phase; 37.7 with the previous
-sequential stop, 135.8 without it). In the run of ``benchmarks/run_all.py`` of 2026-11-22 07:20 UTC (load 0.97):
-compute() median 181.8 µs (214–216 µs before this session's trimming of the per-call glue: witness points and
-placements read through one bytes.join, p1 and n only, the pairs whose activation changed switched, damper rows
-over the support columns, packed compiled arguments); instructions per call (``--callgrind 100``, 200 ticks,
-load-independent) 1.13 M, 1.44 M before. Of a call inside the controller loop (timers around each step): coal
-(``pin.computeDistances``) ~100 µs — with at least ``max_active`` = 32 pairs within d_i in this posture every call
-needs ≥ 32 GJK runs (coal's own timer: 1.35–1.7 µs each; the rest is per-pair overhead and caches the controller
-evicted), and rows of rank 20–31 by distance do bind in this drive (the hand approaching fast), so fewer rows would
-change the motion; reading the results through the Python bindings ~45 µs (one bound C++ call and one NumPy array
-per value); the compiled broad phase ~14 µs, the damper rows ~5 µs. The whole controller tick grows by 224.5 µs
-(thread CPU medians, with vs without the constraint): compute(), +20 µs for the QP with its rows (the compiled
-kernel answers all 605 QPs) and ≈ +25 µs of the rest of the tick running on caches coal evicted — above the issue-10
-target of 200 µs per tick, which compute() alone meets.
+2-core machine, 2026-11-22 08:23 UTC, load 0.78): 38.6 coal distances per call (883 without the broad phase);
+compute() median 118.8 µs; the whole controller tick grows by 155.6 µs (thread CPU medians, with vs without the
+constraint; issue 10's target: ≤ 200). With Pinocchio's narrow phase, the same day: compute() 181.8 µs, the tick
++224.5 µs. Of a call inside the controller loop (timers around each step): the compiled narrow phase ~86 µs
+(coal's GJK on ≥ 32 pairs: at least ``max_active`` = 32 pairs are within d_i in this posture and rows of rank
+20–31 by distance do bind in this drive, so fewer rows would change the motion; coal's own timer gives 1.35–1.7 µs
+per pair, the rest is caches the controller evicted), the compiled broad phase ~12 µs, the damper rows ~5 µs.
+Reading the results back through Pinocchio's bindings cost ~45 µs per call (one bound C++ call and one NumPy array
+per value), the joint placements ~14 µs, the rows' arrays ~18 µs of NumPy calls: the compiled narrow phase, the
+view of ``data.oMi`` and one compiled call for the rows replace them.
 """
 
 from __future__ import annotations
@@ -92,21 +100,35 @@ from wbc.constraints.base import InequalityConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_count, check_scalar
 
-__all__ = ["ClosePairs", "SelfCollisionConstraint", "default_collision_pairs"]
+try:  # the compiled narrow phase (C++ on coal, built by pip install from setup.py; module docstring)
+    from wbc.constraints import narrow_phase as compiled_narrow_phase
+except ImportError as error:
+    compiled_narrow_phase = None
+    COMPILED_NARROW_PHASE_MISSING = f"wbc.constraints.narrow_phase was not built or does not load ({error})"
+else:
+    COMPILED_NARROW_PHASE_MISSING = (
+        None if compiled_narrow_phase.coal_version == coal.__version__ else
+        f"wbc.constraints.narrow_phase was built against coal {compiled_narrow_phase.coal_version}, "
+        f"coal {coal.__version__} is loaded (reinstall wbc)")
+
+__all__ = ["ClosePairs", "SelfCollisionConstraint", "default_collision_pairs", "joint_placements_view"]
 
 
 #: m subtracted from every lower bound of the broad phase (rounding of the bounds, GJK's 1e-9 m tolerance)
 BOUND_SLACK = 1e-6
+#: m, coal's GJK tolerance for every pair (coal's default 1e-6 m is too coarse for the distance rate: noise / dt)
+GJK_TOLERANCE = 1e-9
 
 
 @nb.njit(cache=True, nogil=True)
-def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
+def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
                  d_known, exact, activation, k_max, on, toggle, cand, buf):
     """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
     ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
     out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
 
-    ``homogeneous`` (njoints, 4, 4) joint placements (``data.oMi``), expressed here in the frame of joint ``ref``
+    ``placements`` (njoints, 12) joint placements (``data.oMi``: rotation column-major, then translation; the layout
+    of ``_joint_placements``), expressed here in the frame of joint ``ref``
     (distances do not depend on the frame; the root joint's frame leaves out the floating base's motion).
     ``joint`` (ngeoms,) parent joint of each geometry, ``centre_local`` (ngeoms, 3) / ``radius`` (ngeoms,) its
     bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
@@ -116,7 +138,7 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
     Per pair: lower bound L = max(sphere gap, d_known − (moved_a + moved_b − moved_at)), upper bound
     U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th smallest U below
     ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ."""
-    nj = homogeneous.shape[0]
+    nj = placements.shape[0]
     ng = joint.shape[0]
     rot = np.empty((nj, 3, 3))
     pos = np.empty((nj, 3))
@@ -125,11 +147,11 @@ def _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, pr
             for j in range(3):
                 x = 0.0
                 for k in range(3):
-                    x += homogeneous[ref, k, i] * homogeneous[s, k, j]
+                    x += placements[ref, 3 * i + k] * placements[s, 3 * j + k]  # R_ref[k, i] R_s[k, j]
                 rot[s, i, j] = x
             x = 0.0
             for k in range(3):
-                x += homogeneous[ref, k, i] * (homogeneous[s, k, 3] - homogeneous[ref, k, 3])
+                x += placements[ref, 3 * i + k] * (placements[s, 9 + k] - placements[ref, 9 + k])
             pos[s, i] = x
     centre = np.empty((ng, 3))
     for g in range(ng):
@@ -263,11 +285,11 @@ def _unpack(fpack, ipack, bpack):
 
 
 @nb.njit(cache=True, nogil=True)
-def _broad_phase_packed(homogeneous, first, activation, fpack, ipack, bpack):
+def _broad_phase_packed(placements, first, activation, fpack, ipack, bpack):
     """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
      cand, buf, rows) = _unpack(fpack, ipack, bpack)
-    return _broad_phase(homogeneous, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
+    return _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
                         moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf)
 
 
@@ -277,6 +299,31 @@ def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
      cand, buf, rows) = _unpack(fpack, ipack, bpack)
     return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+
+
+@nb.njit(cache=True, nogil=True)
+def _close_pairs_packed(n, found, activation, fpack, ipack, bpack):
+    """``_narrow_phase_done`` for the first n candidates of the packed state, their results in ``found`` (the
+    compiled narrow phase's output: n distances, then n witness points p1, then n normals), and the rows' arrays of
+    :class:`ClosePairs` (fresh): pair indices, distances, normals, p1, p2 = p1 + d n."""
+    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
+     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+    dist = found[:n]
+    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+    k = np.empty(m, dtype=np.int64)
+    d = np.empty(m)
+    normal = np.empty((m, 3))
+    p1 = np.empty((m, 3))
+    p2 = np.empty((m, 3))
+    for i in range(m):
+        r = rows[i]
+        k[i] = cand[r]
+        d[i] = dist[r]
+        for j in range(3):
+            p1[i, j] = found[n + 3 * r + j]
+            normal[i, j] = found[4 * n + 3 * r + j]
+            p2[i, j] = p1[i, j] + d[i] * normal[i, j]
+    return k, d, normal, p1, p2
 
 
 @nb.njit(cache=True, nogil=True)
@@ -343,6 +390,54 @@ def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds
         l[slot[i]] = -gamma * (d[i] - f)
 
 
+def _shape(geometry, convex: bool):
+    """The compiled narrow phase's description of a coal geometry (``narrow_phase.cpp``: ``make_shape``), or None
+    if it has none (meshes without ``convex``, other shapes, swept-sphere radii)."""
+    if isinstance(geometry, coal.BVHModelBase):
+        # the hull is rebuilt by coal from the same vertices and qhull command as buildConvexHull(True, "Qt")
+        return ("hull", np.ascontiguousarray(geometry.vertices(), dtype=np.float64)) if convex else None
+    if not isinstance(geometry, coal.ShapeBase) or geometry.getSweptSphereRadius() != 0.0:
+        return None
+    if isinstance(geometry, coal.Box):
+        return ("box", *(2.0 * np.asarray(geometry.halfSide, dtype=float)).tolist())
+    if isinstance(geometry, coal.Sphere):
+        return ("sphere", float(geometry.radius))
+    if isinstance(geometry, (coal.Cylinder, coal.Capsule)):
+        kind = "cylinder" if isinstance(geometry, coal.Cylinder) else "capsule"
+        return (kind, float(geometry.radius), 2.0 * float(geometry.halfLength))
+    return None
+
+
+def joint_placements_view(data: pin.Data) -> np.ndarray | None:
+    """A read-only (njoints, 12) float64 view of the joint placements ``data.oMi`` in ``data``'s own memory (per
+    joint: the rotation column-major, then the translation), or None if the memory is not laid out that way.
+
+    Pinocchio's bindings (eigenpy) give ``data.oMi[j].rotation`` and ``.translation`` as NumPy views of the
+    C++ ``SE3`` objects in ``data.oMi`` (a std::vector); this view spans them all. It is checked here, not assumed:
+    every joint's rotation and translation must be at the addresses and strides of one (njoints, 12) C-contiguous
+    array of float64, and the view must equal them. The view follows ``data`` (forward kinematics write in place) and
+    is valid while ``data`` lives: the caller keeps ``data`` alive as long as it uses the view."""
+    placements = data.oMi
+    nj = len(placements)
+
+    def address(a):
+        return a.__array_interface__["data"][0]
+
+    first = placements[0].rotation
+    base = address(first)
+    for j, M in enumerate(placements):
+        rotation, translation = M.rotation, M.translation
+        if (rotation.strides != (8, 24) or translation.strides != (8,) or address(rotation) != base + 96 * j
+                or address(translation) != base + 96 * j + 72 or rotation.dtype != np.float64):
+            return None
+    view = np.lib.stride_tricks.as_strided(first, shape=(nj, 12), strides=(96, 8), writeable=False)
+    for j, M in enumerate(placements):
+        if not (np.array_equal(view[j, :9], M.rotation.ravel(order="F"))
+                and np.array_equal(view[j, 9:], M.translation)):
+            return None
+    return view
+
+
 def _adjacent(model: pin.Model, j1: int, j2: int) -> bool:
     return j1 == j2 or model.parents[j1] == j2 or model.parents[j2] == j1
 
@@ -397,6 +492,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         broad_phase: True: coal only for the pairs whose distance bounds (module docstring: broad phase) leave
             them possibly among the ``max_active`` closest pairs within the activation distance (same rows as
             False, which calls coal for every pair at every call: the exhaustive reference).
+        compiled: the narrow phase (module docstring): True: the compiled extension
+            ``wbc.constraints.narrow_phase`` (raises if it is unavailable or a watched geometry has no compiled
+            description); False: Pinocchio's ``computeDistances`` and the Python bindings; None (default): the
+            compiled one when possible. Both give bitwise the same distances, witness points and normals.
         name: label in reports.
 
     Attributes:
@@ -404,15 +503,18 @@ class SelfCollisionConstraint(InequalityConstraint):
         active: after each ``compute``, list of (geometry name 1, geometry name 2, distance m) of the pairs that
             got a row, closest first.
         coal_calls: number of coal distances computed by the last ``compute``/``close_pairs``.
+        narrow_phase: ``"compiled"`` or ``"pinocchio"``: which narrow phase runs; ``narrow_phase_note`` why the
+            compiled one does not (None when it does).
 
     Raises:
-        InvalidInputError: inconsistent distances/gain, unknown names, or no pair left.
+        InvalidInputError: inconsistent distances/gain, unknown names, no pair left, or ``compiled=True`` without
+            the compiled narrow phase (the message says why).
     """
 
     def __init__(self, robot, *, min_distance: float = 0.02, pairs=None, activation_distance: float = 0.1,
                  gain: float = 50.0, safety_margin: float = 0.003, recovery_speed: float = 0.0,
                  max_active: int = 32, convex: bool = True, broad_phase: bool = True,
-                 name: str = "self_collision"):
+                 compiled: bool | None = None, name: str = "self_collision"):
         check_scalar(min_distance, "min_distance", "m")
         if not (math.isfinite(activation_distance) and activation_distance > min_distance):
             raise InvalidInputError(f"activation_distance must be > min_distance, got {activation_distance!r}")
@@ -432,6 +534,9 @@ class SelfCollisionConstraint(InequalityConstraint):
         index_pairs = default_collision_pairs(robot) if pairs is None else self._resolve(model, gm, pairs)
         if not index_pairs:
             raise InvalidInputError(f"{name}: no collision pair to watch")
+        in_pairs = {g for pair in index_pairs for g in pair}
+        shapes = [_shape(geom.geometry, convex) if g in in_pairs else None
+                  for g, geom in enumerate(gm.geometryObjects)]
         if convex:
             for geom in gm.geometryObjects:
                 if isinstance(geom.geometry, coal.BVHModelBase):
@@ -443,7 +548,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self.geometry_model = gm
         self.geometry_data = gd = pin.GeometryData(gm)
         for req in gd.distanceRequests:
-            req.gjk_tolerance = 1e-9  # default 1e-6 m: too coarse for the distance rate (noise / dt)
+            req.gjk_tolerance = GJK_TOLERANCE
         self._results = list(gd.distanceResults)  # references into gd (filled in place by computeDistances)
         result = type(self._results[0])
         # per call, the rows' witness points and normals are read with these unbound getters mapped over the rows'
@@ -500,6 +605,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._prev_c = np.zeros((gm.ngeoms, 3))
         self._prev_r = np.zeros((model.njoints, 3, 3))
         self._first = True
+        self._placements_of = None  # (data, its joint placements view or None): _joint_placements
         # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
         header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
         self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
@@ -510,6 +616,22 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
+        note = COMPILED_NARROW_PHASE_MISSING
+        if note is None:
+            unsupported = [gm.geometryObjects[g].name for g in sorted(in_pairs) if shapes[g] is None]
+            if unsupported:
+                note = (f"no compiled description of geometries {unsupported[:3]}{'...' if len(unsupported) > 3 else ''}"
+                        " (meshes need convex=True; boxes, spheres, cylinders, capsules)")
+        if compiled and note is not None:
+            raise InvalidInputError(f"{name}: compiled=True, but {note}")
+        self._pair_set = None
+        self.narrow_phase, self.narrow_phase_note = "pinocchio", note if compiled is None else "compiled=False"
+        if compiled is not False and note is None:
+            placements = np.array([geom.placement.homogeneous for geom in gm.geometryObjects])
+            self._pair_set = compiled_narrow_phase.new(shapes, placements, self._joint.copy(), self.pairs.copy(),
+                                                       model.njoints, GJK_TOLERANCE)
+            self._wit = np.empty(7 * npairs)  # distances, witness points p1, normals of the candidates
+            self.narrow_phase, self.narrow_phase_note = "compiled", None
         if self.broad_phase:
             gd.deactivateAllCollisionPairs()  # then switched per call (_on)
         else:
@@ -546,8 +668,8 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def close_pairs(self, config: Configuration) -> ClosePairs:
         """The (at most ``max_active``) pairs closer than the activation distance at ``config``, closest first, with
-        their coal distances, normals and witness points (:class:`ClosePairs`; its normal, p1 and p2 are read-only
-        views of one buffer of coal's values). ``config.data`` must hold the joint placements of ``config.q`` (as after
+        their coal distances, normals and witness points (:class:`ClosePairs`: arrays of this call, not updated by
+        later calls). ``config.data`` must hold the joint placements of ``config.q`` (as after
         ``Configuration.update``). With ``broad_phase``, coal runs only on the candidates of the module docstring's
         bounds, which are updated from the placements of the previous call (any jump is accounted for); the
         result is the same as without."""
@@ -558,18 +680,19 @@ class SelfCollisionConstraint(InequalityConstraint):
         """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``;
         returns the number of rows m."""
         self._rows_at = None  # compute's rows (and the barrier's, which share _C) are recomputed
-        model, data = self.model, config.data
+        data = config.data
         gm, gd = self.geometry_model, self.geometry_data
-        pin.updateGeometryPlacements(model, data, gm, gd)
+        pair_set = self._pair_set
+        if pair_set is None:
+            pin.updateGeometryPlacements(self.model, data, gm, gd)
+        if self.broad_phase or pair_set is not None:
+            placements = self._joint_placements(data)
         if self.broad_phase:
-            # (njoints, 4, 4) data.oMi: each SE3.homogeneous is a fresh C-contiguous (4, 4) array (a non-contiguous
-            # one would raise in bytes.join); one join and one view cost 2/3 of np.array of the list
-            homogeneous = np.frombuffer(b"".join(map(self._homogeneous, data.oMi.tolist()))).reshape(-1, 4, 4)
-            n, nt = _broad_phase_packed(homogeneous, self._first, self.activation_distance, self._fpack, self._ipack,
+            n, nt = _broad_phase_packed(placements, self._first, self.activation_distance, self._fpack, self._ipack,
                                         self._bpack)
             self._first = False
             cand = self._cand[:n]
-            if nt:  # the candidates differ little from one call to the next: switch those that changed
+            if nt and pair_set is None:  # the candidates differ little from one call to the next: switch those
                 activate, deactivate = self._activate, self._deactivate
                 for k in self._toggle[:nt].tolist():
                     if k >= 0:
@@ -579,10 +702,17 @@ class SelfCollisionConstraint(InequalityConstraint):
         else:
             n = len(self.pairs)
             cand = self._cand  # all pairs (__init__)
+        self.coal_calls = n
+        if pair_set is not None:
+            # one call: geometry placements, coal on the candidates, distances / witness points / normals written;
+            # then one compiled call for the rows
+            compiled_narrow_phase.distances(pair_set, placements, cand, self._wit)
+            self._found = ClosePairs(*_close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
+                                                          self._ipack, self._bpack))
+            return len(self._found.pairs)
         pin.computeDistances(gm, gd)
         res = self._results
         dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
-        self.coal_calls = len(dist)
         m = _narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
         k = cand[self._rows[:m]]
         d = dist[self._rows[:m]]
@@ -598,6 +728,19 @@ class SelfCollisionConstraint(InequalityConstraint):
             p1 = p2 = normal = self._empty
         self._found = ClosePairs(k, d, normal, p1, p2)
         return m
+
+    def _joint_placements(self, data: pin.Data) -> np.ndarray:
+        """(njoints, 12) joint placements ``data.oMi`` of ``data``: per joint the rotation column-major, then the
+        translation — a read-only view of ``data``'s own memory when ``joint_placements_view`` gives one (built once
+        per Data object, which is kept alive with it), else read through the bindings."""
+        at = self._placements_of
+        if at is None or at[0] is not data:
+            self._placements_of = at = (data, joint_placements_view(data))
+        if at[1] is not None:
+            return at[1]
+        # each SE3.homogeneous is a fresh C-contiguous (4, 4) array; one bytes.join and one view
+        h = np.frombuffer(b"".join(map(self._homogeneous, data.oMi.tolist()))).reshape(-1, 4, 4)
+        return np.concatenate([h[:, :3, :3].transpose(0, 2, 1).reshape(-1, 9), h[:, :3, 3]], axis=1)
 
     def distance_jacobian(self, config: Configuration, close: ClosePairs, out: np.ndarray | None = None) -> np.ndarray:
         """(m, nv) rows ∂d/∂v of the distances of ``close`` (module docstring: ḋ = row · v), from ``config.data.J``
