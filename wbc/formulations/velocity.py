@@ -63,8 +63,14 @@ input error), ``solve`` does not raise and never returns NaN:
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
    hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
    second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift):
-   ``fallback="constraints_only"``; if that fails too (the constraints themselves conflict), v = 0, hold the
-   current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves no joint further out).
+   ``fallback="constraints_only"``;
+3. if the constraints themselves conflict and contacts are among them, the same without the contacts' drift
+   correction (J_c v = 0: each contact frame kept where it is rather than pulled back onto its placement; e.g. a
+   sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
+   limits — measured in the fuzz suite on humanoid15, seed 331 episode 454: 39 ticks in a row held at v = 0, the
+   state never changing; with this step 5 failed ticks, then ok again): ``fallback="contacts_held"``;
+4. else v = 0, hold the current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves
+   no joint further out).
 
 ``ok`` is False for such a tick and ``message`` says why.
 
@@ -130,7 +136,8 @@ class TickResult:
             conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
         fallback: '' when ok, else the safe command returned: 'trust_region' (the least-drifting solution when no
             trust region kept the contacts within sole_drift_tolerance), 'constraints_only' (soft level under the constraint
-            objects, hard tasks and strict levels left out) or 'hold' (v = 0).
+            objects, hard tasks and strict levels left out), 'contacts_held' (the same with the contacts' drift
+            correction left out: J_c v = 0) or 'hold' (v = 0).
         relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
             left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
             then solved).
@@ -1037,8 +1044,16 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v, self._solve_constraints_only)
             v = self._hold_contacts(config, dt, v, [], self._solve_constraints_only).v
-        except Exception:  # noqa: BLE001 — the constraints themselves conflict: hold
-            pass
+        except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
+            if fallback == "hold" and self._contact_rows.size:  # without the contacts' drift correction (step 3)
+                b0 = self._b.copy()
+                try:
+                    self._b[self._contact_rows] = 0.0
+                    v, fallback = self._solve_constraints_only(config), "contacts_held"
+                except Exception:  # noqa: BLE001 — they conflict even so: hold
+                    pass
+                finally:
+                    np.copyto(self._b, b0)
         try:
             drift = self.sole_drift(config, v, dt)
         except Exception:  # noqa: BLE001 — never raises (module docstring)
