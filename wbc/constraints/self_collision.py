@@ -73,10 +73,12 @@ extension (no C++ compiler at install), with meshes and ``convex=False``, or wit
 ``computeDistances`` on a ``GeometryData`` whose active pairs are the candidates, results read through the bindings.
 
 Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
-2-core machine, 2026-11-22 08:23 UTC, load 0.78): 38.6 coal distances per call (883 without the broad phase);
-compute() median 118.8 µs; the whole controller tick grows by 155.6 µs (thread CPU medians, with vs without the
-constraint; issue 10's target: ≤ 200). With Pinocchio's narrow phase, the same day: compute() 181.8 µs, the tick
-+224.5 µs. Of a call inside the controller loop (timers around each step): the compiled narrow phase ~86 µs
+2-core machine; in the run of ``benchmarks/run_all.py`` of 2026-11-22 09:31 UTC, load 0.95): 38.6 coal distances
+per call (883 without the broad phase); compute() median 120.4 µs; the whole controller tick grows by 158.0 µs
+(thread CPU medians, with vs without the constraint; issue 10's target: ≤ 200). With Pinocchio's narrow phase
+(``compiled=False``) in the same run: compute() 162.8 µs, the tick +203.2 µs, the same trajectory (difference 0.0);
+before the compiled narrow phase, the view of ``data.oMi`` and the compiled rows (07:20 UTC): 181.8 µs, +224.5 µs.
+Of a call inside the controller loop (timers around each step): the compiled narrow phase ~86 µs
 (coal's GJK on ≥ 32 pairs: at least ``max_active`` = 32 pairs are within d_i in this posture and rows of rank
 20–31 by distance do bind in this drive, so fewer rows would change the motion; coal's own timer gives 1.35–1.7 µs
 per pair, the rest is caches the controller evicted), the compiled broad phase ~12 µs, the damper rows ~5 µs.
