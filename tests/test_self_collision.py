@@ -411,6 +411,8 @@ def test_compiled_narrow_phase_inputs(robots):
         SelfCollisionConstraint(robot, pairs=pairs, convex=False, compiled=True)
     sc = SelfCollisionConstraint(robot, pairs=pairs, convex=False)
     assert sc.narrow_phase == "pinocchio" and "convex=True" in sc.narrow_phase_note
+    with pytest.raises(InvalidInputError, match="compiled"):
+        SelfCollisionConstraint(robot, pairs=pairs, compiled="yes")
     sc = SelfCollisionConstraint(robot, pairs=pairs, compiled=True)
     h = np.zeros((robot.model.njoints, 12))
     with pytest.raises(TypeError, match="int64"):

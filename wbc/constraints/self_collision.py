@@ -524,6 +524,9 @@ class SelfCollisionConstraint(InequalityConstraint):
         check_scalar(safety_margin, "safety_margin", "m")
         check_scalar(recovery_speed, "recovery_speed", "m/s")
         check_count(max_active, "max_active")
+        if compiled is not None and not isinstance(compiled, (bool, np.bool_)):
+            raise InvalidInputError(f"compiled must be None (the compiled narrow phase when possible), True or False, "
+                                    f"got {compiled!r}")
         self.model = model = robot.model
         self.name = name
         self.min_distance = float(min_distance)
