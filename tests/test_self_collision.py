@@ -347,8 +347,11 @@ def test_compiled_narrow_phase_is_built():
 
 def test_joint_placements_view_is_data_oMi(robots):
     """joint_placements_view: per joint, data.oMi's rotation (column-major) and translation, read-only, following
-    data through forward kinematics at random configurations (all three robots)."""
+    data through forward kinematics at random configurations (all three robots); anything but a pin.Data raises."""
     from wbc.constraints.self_collision import joint_placements_view
+
+    with pytest.raises(InvalidInputError, match="pin.Data"):
+        joint_placements_view(robots("talos").model)
 
     for name in ("talos", "g1", "humanoid15"):
         model = robots(name).model

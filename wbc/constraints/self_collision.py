@@ -412,13 +412,22 @@ def _shape(geometry, convex: bool):
 
 def joint_placements_view(data: pin.Data) -> np.ndarray | None:
     """A read-only (njoints, 12) float64 view of the joint placements ``data.oMi`` in ``data``'s own memory (per
-    joint: the rotation column-major, then the translation), or None if the memory is not laid out that way.
+    joint j, the placement of joint j in WORLD: its rotation matrix column-major, then its translation in m), or None
+    if the memory is not laid out that way.
+
+    Args:
+        data: a ``pin.Data`` (its ``oMi``, filled by forward kinematics).
+
+    Raises:
+        InvalidInputError: ``data`` is not a ``pin.Data``.
 
     Pinocchio's bindings (eigenpy) give ``data.oMi[j].rotation`` and ``.translation`` as NumPy views of the
     C++ ``SE3`` objects in ``data.oMi`` (a std::vector); this view spans them all. It is checked here, not assumed:
     every joint's rotation and translation must be at the addresses and strides of one (njoints, 12) C-contiguous
     array of float64, and the view must equal them. The view follows ``data`` (forward kinematics write in place) and
     is valid while ``data`` lives: the caller keeps ``data`` alive as long as it uses the view."""
+    if not isinstance(data, pin.Data):
+        raise InvalidInputError(f"joint_placements_view takes a pin.Data, got {type(data).__name__}")
     placements = data.oMi
     nj = len(placements)
 
