@@ -25,7 +25,7 @@ LAYERS: list[tuple[str, ...]] = [
      "wbc.solve"),
     ("wbc.gait",),
     ("wbc.scenarios", "wbc.sim"),
-    ("wbc.viz", "wbc.ros2", "wbc.bench"),
+    ("wbc.viz", "wbc.ros2", "wbc.bench", "wbc.campaign"),
     ("wbc.cli", "wbc.__main__"),
 ]
 # The package root re-exports the public API; it sits with the layer of its highest export.

@@ -6,7 +6,7 @@ meshcat (``--live``, 127.0.0.1 only, held after the motion until Ctrl-C or ``--h
 Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input.
 
 One module per command group (:mod:`wbc.cli.walk`, :mod:`~wbc.cli.plot`, :mod:`~wbc.cli.balance`,
-:mod:`~wbc.cli.sim`, :mod:`~wbc.cli.bench`, :mod:`~wbc.cli.robots`, :mod:`~wbc.cli.ros2`), each with
+:mod:`~wbc.cli.sim`, :mod:`~wbc.cli.campaign`, :mod:`~wbc.cli.bench`, :mod:`~wbc.cli.robots`, :mod:`~wbc.cli.ros2`), each with
 ``register(subparsers, add_outputs)``; what they share (summary printer, output writers, live viewer, progress)
 is :mod:`wbc.cli.output`. The CLI is the top layer: nothing else in wbc imports it.
 """
@@ -17,7 +17,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from wbc.cli import balance, bench, plot, robots, ros2, sim, walk
+from wbc.cli import balance, bench, campaign, plot, robots, ros2, sim, walk
 from wbc.cli.output import add_outputs, close_live, deadline_misses, hold_live
 from wbc.cli.walk import leg_reach
 from wbc.exceptions import InvalidInputError, WbcError
@@ -25,7 +25,7 @@ from wbc.exceptions import InvalidInputError, WbcError
 __all__ = ["main", "build_parser", "deadline_misses", "leg_reach"]
 
 #: The command modules, in the order of ``wbc --help``.
-COMMANDS = (walk, plot, balance, sim, bench, robots, ros2)
+COMMANDS = (walk, plot, balance, sim, campaign, bench, robots, ros2)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -201,6 +201,8 @@ class WalkScenario:
             than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
             side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
+        stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s, "k_z": –}`` (any subset; default
+            the stabilizer's own defaults).
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -228,7 +230,14 @@ class WalkScenario:
                  adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
-                 stretch_min: float = 0.03, stretch_window: float = 0.2):
+                 stretch_min: float = 0.03, stretch_window: float = 0.2, stabilizer_gains: dict | None = None):
+        gains = {} if stabilizer_gains is None else stabilizer_gains
+        if not isinstance(gains, dict) or set(gains) - {"k_xi", "k_i", "k_z"}:
+            raise InvalidInputError(f"stabilizer_gains must be a dict with keys among k_xi, k_i, k_z, got {gains!r}")
+        for key, val in gains.items():
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val >= 0):
+                raise InvalidInputError(f"stabilizer_gains[{key!r}] must be finite and ≥ 0, got {val!r}")
+        self.stabilizer_gains = {k: float(v) for k, v in gains.items()}
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -329,7 +338,8 @@ class WalkScenario:
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
-        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset)
+        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
+                                  **self.stabilizer_gains)
         self._push_body = robot.torso
         if self.push > 0:
             sim.body_id(self._push_body)
@@ -476,7 +486,8 @@ class WalkScenario:
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
-                           cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset)
+                           cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset,
+                           stabilizer_gains=self.stabilizer_gains)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here

@@ -1,0 +1,292 @@
+"""wbc.campaign: trial parameters as a pure function of (seed, index), the Parquet results folder (atomic, resumable,
+exactly once), Wilson intervals against the score-test inversion, serial = Ray trial by trial, a killed Ray worker's
+trial retried, and a real physics campaign on local Ray and serially with equal outcomes.
+
+Ray runs in a subprocess: ``wbc campaign run --ray`` (and ``RayExecutor``) confines the local Ray to a private
+network namespace whose only interface is lo, and that confinement is for the whole process.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wbc.campaign import default_spec, load_spec, read_results, run, trial_params, wilson_interval
+from wbc.campaign.report import factor_table, format_report, make_plots, summarize_campaign
+from wbc.campaign.store import ResultStore
+from wbc.cli import main
+from wbc.exceptions import InvalidInputError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+try:
+    import ray  # noqa: F401
+
+    HAVE_RAY = True
+except ImportError:  # pragma: no cover
+    HAVE_RAY = False
+needs_ray = pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'wbc[ray]')")
+
+
+def toy_trial(spec, params):
+    """A cheap deterministic trial: survives when force · cos(direction) < 400."""
+    f, d = params["force"], math.radians(params["direction_deg"])
+    load = f * math.cos(d)
+    return {"survived": bool(load < 400.0), "outcome": "survived" if load < 400.0 else "fell",
+            "fall_reason": "" if load < 400.0 else "toy: load", "load": load}
+
+
+# -- spec ------------------------------------------------------------------------------------------------------
+
+def test_trial_params_are_a_pure_function_of_seed_and_index():
+    spec = default_spec("push", trials=50, seed=7)
+    a = [trial_params(spec, i) for i in range(50)]
+    b = [trial_params(spec, i) for i in reversed(range(50))][::-1]
+    assert a == b
+    other = default_spec("push", trials=50, seed=8)
+    assert trial_params(other, 3) != a[3]
+    assert len({p["force"] for p in a}) == 50
+    forces = np.array([p["force"] for p in a])
+    assert forces.min() >= 300.0 and forces.max() <= 500.0
+    assert all(p["push_duration"] == 0.1 for p in a)
+    # draws do not depend on the order the factors are written in
+    d = default_spec("push").as_dict()
+    d["factors"] = dict(reversed(list(d["factors"].items())))
+    d.update(trials=50, seed=7)
+    assert [trial_params(load_spec(d), i) for i in range(50)] == a
+
+
+def test_sweep_grid_and_common_random_numbers():
+    spec = default_spec("sweep", sweep={"method": "grid", "points": 12, "trials_per_point": 3,
+                                        "params": {"k_xi": [1.0, 4.0], "k_i": [0.0, 2.0]}})
+    assert spec.trials == 36
+    rows = [trial_params(spec, i) for i in range(spec.trials)]
+    points = {}
+    for r in rows:
+        points.setdefault(r["point"], set()).add((r["k_xi"], r["k_i"]))
+    assert all(len(v) == 1 for v in points.values()) and len(points) == 12
+    grid = sorted(next(iter(v)) for v in points.values())
+    assert len(set(grid)) == 12  # 12 distinct lattice points inside the boxes
+    assert min(g[0] for g in grid) == 1.0 and max(g[0] for g in grid) == 4.0
+    # repeat r meets the same push at every point
+    by_repeat = {}
+    for r in rows:
+        by_repeat.setdefault(r["repeat"], set()).add((r["force"], r["direction_deg"], r["phase"]))
+    assert all(len(v) == 1 for v in by_repeat.values()) and len(by_repeat) == 3
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"kind": "shove"}, "kind must be one of"),
+    ({"trials": 0}, "trials must be an integer"),
+    ({"trials": True}, "trials must be an integer"),
+    ({"factors": {"forse": [1, 2]}}, "unknown key 'forse'"),
+    ({"factors": {"force": [500, 300]}}, "lo ≤ hi"),
+    ({"factors": {"force": float("nan")}}, "finite"),
+    ({"scenario": {"steps": 0}}, "scenario.steps"),
+    ({"scenario": {"robt": "talos"}}, "unknown key 'robt'"),
+    ({"kind": "sweep"}, "needs a [sweep] table"),
+    ({"kind": "sweep", "sweep": {"params": {"kp": [0, 1]}}}, "unknown key 'kp'"),
+    ({"metrics": {"keep": "fell"}}, "metrics.keep"),
+    ({"colour": 1}, "unknown key 'colour'"),
+])
+def test_bad_specs_are_refused_by_name(bad, words):
+    with pytest.raises(InvalidInputError, match=None) as e:
+        load_spec(bad)
+    assert words in str(e.value)
+
+
+def test_spec_from_toml_file(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text('kind = "robustness"\nseed = 3\ntrials = 5\n[scenario]\nrobot = "g1"\nsteps = 4\n'
+                    '[factors]\nfriction = [0.0, 2.0]\ndelay = {values = [0, 2]}\n')
+    spec = load_spec(path)
+    assert (spec.kind, spec.seed, spec.trials, spec.scenario["robot"], spec.scenario["steps"]) == \
+        ("robustness", 3, 5, "g1", 4)
+    assert all(trial_params(spec, i)["delay"] in (0.0, 2.0) for i in range(5))
+    path.write_text("kind = \n")
+    with pytest.raises(InvalidInputError, match="malformed TOML"):
+        load_spec(path)
+
+
+# -- statistics ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("k, n", [(0, 10), (17, 20), (19, 20), (20, 20), (1, 1), (500, 1000), (3, 1000)])
+def test_wilson_interval_is_the_score_test_inversion(k, n):
+    """Independent reference: the Wilson interval is {p : |p̂ − p| ≤ z √(p(1−p)/n)}, the roots of the quadratic
+    (p̂ − p)² n = z² p (1 − p), solved here with numpy.roots."""
+    z = 1.959963984540054
+    ph = k / n
+    roots = np.sort(np.roots([n + z * z, -(2 * n * ph + z * z), n * ph * ph]).real)
+    lo, hi = wilson_interval(k, n)
+    assert lo == pytest.approx(max(0.0, roots[0]), abs=1e-12)
+    assert hi == pytest.approx(min(1.0, roots[1]), abs=1e-12)
+    assert lo <= ph <= hi
+
+
+def test_wilson_interval_published_value():
+    # Newcombe 1998 (Statistics in Medicine 17, Table I, method 3): 81/263 → 0.2553 – 0.3662
+    lo, hi = wilson_interval(81, 263)
+    assert (round(lo, 4), round(hi, 4)) == (0.2553, 0.3662)
+    with pytest.raises(InvalidInputError):
+        wilson_interval(5, 4)
+
+
+# -- store and serial runs ---------------------------------------------------------------------------------------
+
+def test_serial_run_records_every_trial_once_and_resumes(tmp_path):
+    spec = default_spec("push", trials=30, seed=1)
+    out = tmp_path / "c"
+    first = run(spec, out, trial_fn=toy_trial, progress=False, indices=range(0, 30, 2))
+    assert first.num_rows == 15
+    calls = []
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return toy_trial(spec, params)
+
+    table = run(spec, out, trial_fn=counting, progress=False)
+    assert sorted(calls) == list(range(1, 30, 2))  # the recorded ones were not run again
+    assert table.column("trial").to_pylist() == list(range(30))
+    files = list((out / "trials").glob("*.parquet"))
+    assert len(files) == 1 and files[0].name.startswith("compact-")  # complete: compacted
+    rows = table.to_pylist()
+    for r in rows:
+        p = trial_params(spec, r["trial"])
+        assert r["force"] == p["force"] and r["survived"] == (p["force"] * math.cos(math.radians(
+            p["direction_deg"])) < 400.0)
+    s = summarize_campaign(table)
+    assert s["survived"] == sum(r["survived"] for r in rows) and s["errors"] == 0
+    assert s["wilson95"] == wilson_interval(s["survived"], 30)
+    text = format_report(table)
+    assert f"survival rate {s['survival_rate']:.3f}" in text and "by force" in text
+    bins = factor_table(table, "force")
+    assert sum(b["n"] for b in bins) == 30
+
+
+def test_duplicate_files_keep_the_first_and_foreign_folders_are_refused(tmp_path):
+    spec = default_spec("push", trials=4)
+    out = tmp_path / "c"
+    store = ResultStore(out, spec.as_dict())
+    store.append({**trial_params(spec, 0), "survived": True, "outcome": "survived"})
+    store.append({**trial_params(spec, 0), "survived": False, "outcome": "fell"})  # same trial twice
+    table = read_results(out)
+    assert table.num_rows == 1 and table.column("outcome").to_pylist() == ["survived"]
+    assert not list((out / "trials").glob(".*"))  # no temporary file left
+    with pytest.raises(InvalidInputError, match="another campaign"):
+        ResultStore(out, default_spec("push", trials=5).as_dict())
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InvalidInputError, match="is a file"):
+        ResultStore(tmp_path / "file", spec.as_dict())
+
+
+def test_a_trial_that_raises_is_an_error_row_not_a_crash(tmp_path):
+    def flaky(spec, params):
+        if params["trial"] == 2:
+            raise ValueError("boom")
+        return toy_trial(spec, params)
+
+    table = run(default_spec("push", trials=4), tmp_path / "c", trial_fn=flaky, progress=False)
+    rows = {r["trial"]: r for r in table.to_pylist()}
+    assert rows[2]["outcome"] == "error" and rows[2]["error"] == "ValueError: boom"
+    assert summarize_campaign(table)["errors"] == 1 and summarize_campaign(table)["trials"] == 4
+
+
+def test_plots_are_written(tmp_path):
+    spec = default_spec("sweep", sweep={"method": "random", "points": 6, "trials_per_point": 4,
+                                        "params": {"k_xi": [1.0, 4.0], "k_i": [0.0, 2.0]}})
+    table = run(spec, tmp_path / "c", trial_fn=toy_trial, progress=False)
+    paths = make_plots(table, tmp_path / "plots", sweep_params=["k_i", "k_xi"])
+    assert {p.name for p in paths} == {"survival_map.png", "metrics.png", "sweep.png"}
+    import matplotlib.image
+
+    for p in paths:  # real pictures: several colours, not a blank canvas
+        img = matplotlib.image.imread(p)
+        assert img.shape[0] > 300 and img.shape[1] > 300
+        assert len(np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0)) > 20
+
+
+def test_cli_bad_inputs_exit_2(tmp_path, capsys):
+    assert main(["campaign", "run", "--out", str(tmp_path / "o")]) == 2
+    assert "give a campaign TOML file or --kind" in capsys.readouterr().err
+    assert main(["campaign", "run", "--kind", "push", "--set", "factors.forse=[1,2]", "--out",
+                 str(tmp_path / "o")]) == 2
+    assert "unknown key 'forse'" in capsys.readouterr().err
+    assert main(["campaign", "run", "--kind", "push", "--workers", "2", "--out", str(tmp_path / "o")]) == 2
+    assert main(["campaign", "report", str(tmp_path / "nothing")]) == 2
+    assert "no campaign results" in capsys.readouterr().err
+
+
+# -- Ray (subprocesses: the local Ray is confined to a loopback-only network namespace) ---------------------------
+
+def _python(code: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(Path(__file__).parent),
+                                                        os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=timeout, env=env, cwd=ROOT)
+
+
+@needs_ray
+def test_ray_equals_serial_and_a_killed_worker_is_retried(tmp_path):
+    """Serial and Ray give the same rows; a worker that dies (os._exit, as SIGKILL would leave it) mid-trial has its
+    trial run again elsewhere: every trial recorded exactly once. The workers run in a network namespace other
+    than this one whose only interface is lo."""
+    marker, probe = tmp_path / "killed", tmp_path / "probe.json"
+    out = _python(f"""
+        import json, os
+        import test_campaign as tc
+        from wbc.campaign import RayExecutor, default_spec, run
+
+        def dying(spec, params):
+            if params["trial"] == 0:
+                ifaces = [line.split(":")[0].strip() for line in open("/proc/net/dev").read().splitlines()[2:]]
+                json.dump({{"netns": os.readlink("/proc/self/ns/net"), "ifaces": ifaces}}, open({str(probe)!r}, "w"))
+            if params["trial"] == 5 and not os.path.exists({str(marker)!r}):
+                open({str(marker)!r}, "w").close()
+                os._exit(9)  # the worker process dies without a word
+            return tc.toy_trial(spec, params)
+
+        spec = default_spec("push", trials=12, seed=4)
+        serial = run(spec, {str(tmp_path / 's')!r}, trial_fn=tc.toy_trial, progress=False)
+        ray_t = run(spec, {str(tmp_path / 'r')!r}, executor=RayExecutor(workers=2), trial_fn=dying, progress=False)
+        drop = ("wall_s", "worker")
+        print(json.dumps({{"serial": [{{k: v for k, v in r.items() if k not in drop}} for r in serial.to_pylist()],
+                          "ray": [{{k: v for k, v in r.items() if k not in drop}} for r in ray_t.to_pylist()],
+                          "workers": sorted({{r["worker"] for r in ray_t.to_pylist()}})}}))
+    """)
+    assert out.returncode == 0, out.stderr[-3000:]
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    assert marker.exists()  # a worker did die
+    assert [r["trial"] for r in res["ray"]] == list(range(12))
+    assert res["ray"] == res["serial"]
+    assert len(res["workers"]) >= 2  # the trials ran in more than one worker process
+    seen = json.loads(probe.read_text())
+    assert seen["ifaces"] == ["lo"]
+    assert seen["netns"] != os.readlink("/proc/self/ns/net")
+
+
+@needs_ray
+def test_physics_campaign_on_ray_equals_serial(tmp_path):
+    """CI acceptance: a 4-trial Talos push campaign (2-step walks, 350–450 N) on local Ray and serially: the same
+    outcome and metrics trial by trial."""
+    common = ["campaign", "run", "--kind", "push", "--trials", "4", "--seed", "11", "--no-plots", "--no-progress",
+              "--set", "scenario.steps=2", "--set", "scenario.step_length=0.1", "--set", "factors.force=[350,450]"]
+    assert main(common + ["--out", str(tmp_path / "serial")]) == 0
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    p = subprocess.run([sys.executable, "-m", "wbc", *common, "--out", str(tmp_path / "ray"), "--ray",
+                        "--workers", "2"], capture_output=True, text=True, timeout=900, env=env, cwd=ROOT)
+    assert p.returncode == 0, p.stderr[-3000:]
+    drop = {"wall_s", "worker"}
+    serial = [{k: v for k, v in r.items() if k not in drop} for r in read_results(tmp_path / "serial").to_pylist()]
+    on_ray = [{k: v for k, v in r.items() if k not in drop} for r in read_results(tmp_path / "ray").to_pylist()]
+    assert [r["trial"] for r in on_ray] == [0, 1, 2, 3]
+    assert on_ray == serial
+    assert all(r["outcome"] in ("survived", "fell", "failed") for r in serial)  # no trial raised
+    assert all(isinstance(r["walked_distance_m"], float) for r in serial)

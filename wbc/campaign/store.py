@@ -1,0 +1,152 @@
+"""A campaign's results on disk: a folder holding the spec and a Parquet dataset of one row per trial.
+
+Layout of ``OUT/``::
+
+    campaign.json          the spec (``CampaignSpec.as_dict``) the rows were made with
+    trials/part-*.parquet  one file per finished trial, written to a temporary name and renamed (atomic)
+    trials/compact-*.parquet  the parts merged once a run completes (then the parts are removed)
+
+Any Parquet reader takes the ``trials/`` folder as one table (``pyarrow.dataset``, ``pandas.read_parquet``).
+A trial is recorded once it finished; a run stopped at any point (Ctrl-C, SIGKILL, a lost machine) leaves only
+complete files, and a run restarted on the same folder skips the recorded trials. Rows are keyed by ``trial``:
+should two files hold the same trial (a crash between compaction and the removal of its parts), the first file
+in name order wins.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import time
+from pathlib import Path
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["ResultStore", "read_results"]
+
+
+class ResultStore:
+    """Append-only store of trial rows in ``out`` (module docstring).
+
+    Args:
+        out: the campaign folder (created if missing; its parent must exist).
+        spec_dict: the spec as a mapping; a folder made by another spec is refused.
+
+    Raises:
+        InvalidInputError: ``out`` is a file, its parent does not exist or is not writable, or the folder holds
+            another campaign's results (its ``campaign.json`` differs).
+    """
+
+    def __init__(self, out, spec_dict: dict):
+        import pyarrow  # noqa: F401  (fail here, before any trial runs, if pyarrow is missing)
+
+        self.out = Path(out)
+        if self.out.exists() and not self.out.is_dir():
+            raise InvalidInputError(f"campaign output {self.out} is a file; give a folder")
+        if not self.out.parent.is_dir():
+            raise InvalidInputError(f"campaign output {self.out}: parent folder {self.out.parent} does not exist")
+        self.trials_dir = self.out / "trials"
+        try:
+            self.trials_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise InvalidInputError(f"campaign output {self.out}: cannot create it ({e.strerror or e})") from None
+        if not os.access(self.trials_dir, os.W_OK):
+            raise InvalidInputError(f"campaign output {self.out}: not writable")
+        meta = self.out / "campaign.json"
+        text = json.dumps(spec_dict, indent=2, sort_keys=True)
+        if meta.exists():
+            try:
+                old = json.loads(meta.read_text())
+            except (OSError, ValueError) as e:
+                raise InvalidInputError(f"{meta}: unreadable ({e}); remove the folder or choose another") from None
+            if old != json.loads(text):
+                raise InvalidInputError(f"{self.out} holds the results of another campaign (its campaign.json "
+                                        "differs from this spec); choose another --out or remove it")
+        else:
+            _atomic_write_text(meta, text)
+        self._seq = 0
+        self._tag = f"{socket.gethostname()}-{os.getpid()}-{int(time.time() * 1e3)}"
+
+    def done(self) -> set:
+        """Indices of the trials already recorded."""
+        table = read_results(self.out, missing_ok=True)
+        return set() if table is None else set(table.column("trial").to_pylist())
+
+    def append(self, row: dict) -> None:
+        """Record one finished trial's row (atomically: a temporary file renamed into ``trials/``)."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        self._seq += 1
+        path = self.trials_dir / f"part-{self._tag}-{self._seq:07d}.parquet"
+        tmp = path.with_name("." + path.name + ".tmp")
+        pq.write_table(pa.Table.from_pylist([row]), tmp)
+        os.replace(tmp, path)
+
+    def compact(self) -> Path | None:
+        """Merge every file of ``trials/`` into one (written atomically, then the merged files removed)."""
+        import pyarrow.parquet as pq
+
+        files = _files(self.trials_dir)
+        if len(files) <= 1:
+            return files[0] if files else None
+        table = read_results(self.out)
+        path = self.trials_dir / f"compact-{self._tag}.parquet"
+        tmp = path.with_name("." + path.name + ".tmp")
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+        for f in files:
+            if f != path:
+                f.unlink(missing_ok=True)
+        return path
+
+
+def read_results(out, *, missing_ok: bool = False):
+    """The campaign's rows as a ``pyarrow.Table`` (one row per trial, sorted by ``trial``).
+
+    Args:
+        out: the campaign folder (or its ``trials/`` folder, or one Parquet file).
+        missing_ok: return None instead of raising when no row is recorded yet.
+
+    Raises:
+        InvalidInputError: no such folder / no rows (unless ``missing_ok``), or a file that is not Parquet.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = Path(out)
+    if out.is_file():
+        files = [out]
+    else:
+        d = out / "trials" if (out / "trials").is_dir() else out
+        files = _files(d) if d.is_dir() else []
+    if not files:
+        if missing_ok:
+            return None
+        raise InvalidInputError(f"no campaign results in {out} (expected {out}/trials/*.parquet)")
+    tables = []
+    for f in files:
+        try:
+            tables.append(pq.read_table(f))
+        except (OSError, pa.ArrowInvalid) as e:
+            raise InvalidInputError(f"{f}: not a readable Parquet file ({e})") from None
+    table = pa.concat_tables(tables, promote_options="permissive")
+    trial = table.column("trial").to_pylist()
+    seen, keep = set(), []
+    for i, t in enumerate(trial):  # first file in name order wins
+        if t not in seen:
+            seen.add(t)
+            keep.append(i)
+    table = table.take(pa.array(keep, type=pa.int64()))
+    return table.sort_by("trial")
+
+
+def _files(d: Path) -> list:
+    return sorted(p for p in d.glob("*.parquet") if not p.name.startswith("."))
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name("." + path.name + f".{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)

@@ -1,0 +1,129 @@
+"""The built-in trial: one physics walk (``wbc sim walk``'s scenario and controller) with the trial's push, plant
+errors and gains, summarised into one flat row.
+
+A trial function takes ``(spec, params)`` — the :class:`~wbc.campaign.spec.CampaignSpec` and the dict of
+:func:`~wbc.campaign.spec.trial_params` — and returns a flat dict of scalars (``bool``, ``int``, ``float``,
+``str``). :func:`walk_trial` is the one used for kinds ``push``, ``robustness`` and ``sweep``; a researcher's own
+controller is campaigned by passing another function with the same signature to :func:`wbc.campaign.run`.
+
+The robot model is loaded once per process (worker) and kept (:func:`cached_robot`); the numba kernels are compiled
+or loaded from their cache once per process by the first controller built. The MuJoCo plant is built anew for each
+trial (plant errors edit it in place).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["walk_trial", "cached_robot", "outcome_of"]
+
+_ROBOTS: dict = {}
+
+#: Summary keys measured on the wall clock: they describe the machine, not the trial, and are left out of a row (a
+#: trial's row is the same wherever it ran; its own run time is ``wall_s``).
+WALL_CLOCK_KEYS = frozenset({"real_time_factor", "deadline_misses", "tick_time_p50_us", "tick_time_p99_us",
+                             "tick_time_max_us", "wall_time_s"})
+
+#: Walk scenario's initial double support (s) before the first step (``WalkScenario`` ``t_init`` default).
+_T_INIT = 0.8
+
+
+def cached_robot(name: str):
+    """The robot ``name`` (catalog name or robot file), loaded once per process."""
+    robot = _ROBOTS.get(name)
+    if robot is None:
+        from wbc.robot import load_robot
+
+        robot = _ROBOTS[name] = load_robot(name)
+    return robot
+
+
+def outcome_of(summary: dict) -> tuple[bool, str]:
+    """(survived, what ended it) of a walk summary: survived = no fall and the walk completed; the reason is the
+    fall criterion that fired (``fall_reason``), ``"not completed"``, or ``""``."""
+    if summary.get("fell"):
+        return False, str(summary.get("fall_reason") or "fell")
+    if not summary.get("completed", False):
+        return False, "not completed"
+    return True, ""
+
+
+def walk_trial(spec, params: dict) -> dict:
+    """Run one physics walk for trial ``params`` of ``spec`` (module docstring).
+
+    The push (when ``force`` > 0) starts at ``t_init + phase · (t_walk − push_duration)`` s, ``t_walk`` the walking
+    steps' time ``(steps − 1) · step_duration``, in direction ``direction_deg`` (world, 0 = +x); plant errors
+    (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m²) are applied to the MuJoCo model and
+    sensor errors (``q_noise`` rad, ``v_noise`` rad/s, ``delay`` ticks) to the controller
+    (:mod:`wbc.sim.perturb`), seeded by the trial index.
+
+    Returns:
+        ``{"survived", "outcome", "fell", "completed", "passed", "failed_criteria", "push_time_s", ...}`` plus the
+        summary's scalar metrics (``spec.keep``, or all of them).
+
+    Raises:
+        InvalidInputError: a parameter of the wrong range (from the scenario or controller constructors).
+    """
+    from wbc.sim.mujoco_model import build_mujoco_model
+    from wbc.sim.physics_scenarios import walk_options_for
+    from wbc.sim.scenarios import make_controller, run_scenario
+    from wbc.sim.walk import WalkScenario
+
+    sc = spec.scenario
+    robot = cached_robot(sc["robot"])
+    sim = build_mujoco_model(robot)
+    force = float(params.get("force", 0.0))
+    duration = float(params.get("push_duration", 0.1))
+    t_walk = max(0.0, (sc["steps"] - 1) * sc["step_duration"] - duration)
+    push_time = _T_INIT + float(params.get("phase", 0.0)) * t_walk
+    gains = {k: params[k] for k in ("k_xi", "k_i", "k_z") if k in params}
+    walk_kw = {k: params[k] for k in ("cop_margin", "cmp_offset", "adjust_dead_band") if k in params}
+    scenario = WalkScenario(sc["steps"], sc["step_length"], sc["step_duration"], push=force, push_time=push_time,
+                            push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
+                            step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
+    options = walk_options_for(robot, sc["solver"], sc["sole_margin"])
+    seed = int(params["trial"])
+    plant_errors = {k: float(params.get(k, 0.0)) for k in ("mass_error", "payload", "friction", "armature")}
+    sensor_errors = {"q_noise": float(params.get("q_noise", 0.0)), "v_noise": float(params.get("v_noise", 0.0)),
+                     "delay": params.get("delay", 0)}
+    delay = sensor_errors["delay"]
+    if isinstance(delay, float):
+        if not delay.is_integer():
+            raise InvalidInputError(f"delay must be a whole number of ticks, got {delay!r}")
+        sensor_errors["delay"] = int(delay)
+    if any(plant_errors.values()):
+        from wbc.sim.perturb import perturb_plant
+
+        perturb_plant(sim, mass_error=plant_errors["mass_error"] / 100.0, payload=plant_errors["payload"],
+                      friction=plant_errors["friction"], armature=plant_errors["armature"], seed=seed)
+    if any(sensor_errors.values()):
+        from wbc.sim.perturb import PerturbedController
+
+        controller = PerturbedController(robot, dt=sim.timestep, seed=seed, **sensor_errors, **options)
+    else:
+        controller = make_controller(robot, "id", dt=sim.timestep, **options)
+    _, summary = run_scenario(sim, controller, scenario)
+    survived, reason = outcome_of(summary)
+    row = {"survived": survived, "outcome": "survived" if survived else "fell" if summary.get("fell") else "failed",
+           "fall_reason": reason, "push_time_s": push_time,
+           "failed_criteria": "; ".join(summary.get("failed_criteria", []))}
+    keys = spec.keep or [k for k, v in summary.items() if _scalar(v)]
+    for k in keys:
+        if k in row or k in params or k in WALL_CLOCK_KEYS:
+            continue
+        row[k] = _plain(summary.get(k))
+    return row
+
+
+def _scalar(v) -> bool:
+    """A value a Parquet column can hold as is: bool, int, float, str or a numpy scalar."""
+    return isinstance(v, (bool, int, float, str, np.generic))
+
+
+def _plain(v):
+    """Python scalar of ``v`` (numpy scalars unwrapped), or None for anything else."""
+    if isinstance(v, np.generic):
+        return v.item()
+    return v if isinstance(v, (bool, int, float, str)) else None

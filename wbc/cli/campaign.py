@@ -1,0 +1,150 @@
+"""``wbc campaign run|report``: many physics trials (push maps, Monte-Carlo robustness, gain sweeps), serially or
+on Ray, streamed to a Parquet results folder, resumable (:mod:`wbc.campaign`).
+
+    wbc campaign run --kind push --trials 1000 --out results/push --ray
+    wbc campaign run my_campaign.toml --out results/mine --set scenario.steps=6 --set factors.force=[300,500]
+    wbc campaign report results/push
+
+Exit code 0 when the campaign ran (whatever its survival rate), 2 on bad input, 130 when interrupted (every
+finished trial is recorded; run the same command again to resume).
+"""
+
+from __future__ import annotations
+
+import sys
+import tomllib
+from pathlib import Path
+
+__all__ = ["register", "cmd_campaign"]
+
+
+def register(subparsers, add_outputs=None) -> None:
+    """Add the ``campaign`` sub-command (``run``, ``report``)."""
+    from wbc.campaign.spec import KINDS
+
+    p = subparsers.add_parser(
+        "campaign", help="many physics trials (push maps, robustness, gain sweeps), serial or on Ray, to Parquet",
+        description="Campaigns of closed-loop physics walks: each trial a pure function of (seed, index), rows "
+                    "streamed to a Parquet folder as trials finish, resumable; survival with Wilson 95 %% "
+                    "intervals and plots.")
+    sub = p.add_subparsers(dest="campaign_command", required=True)
+    r = sub.add_parser("run", help="run (or resume) a campaign",
+                       description="Run a campaign from a TOML file or --kind, recording one row per trial in --out; "
+                                   "trials already in --out are skipped (resume).")
+    r.add_argument("spec", nargs="?", type=Path, help="campaign TOML file (see wbc.campaign.spec); or use --kind")
+    r.add_argument("--kind", choices=KINDS, default=None, help="a default campaign of this kind (no TOML file)")
+    r.add_argument("--trials", type=int, default=None, help="number of trials (not for a sweep: points × repeats)")
+    r.add_argument("--seed", type=int, default=None, help="campaign seed (default 0)")
+    r.add_argument("--robot", default=None, help="scenario.robot (catalog name)")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a spec entry, VALUE in TOML syntax, e.g. scenario.steps=6, factors.force=[300,500]")
+    r.add_argument("--out", type=Path, required=True, help="results folder (created; reused to resume)")
+    r.add_argument("--ray", action="store_true",
+                   help="run on a local Ray started on this machine's cores, confined to 127.0.0.1 (a private "
+                        "network namespace whose only interface is lo)")
+    r.add_argument("--workers", type=int, default=None, help="local Ray worker processes (default: all cores)")
+    r.add_argument("--ray-address", default=None, metavar="HOST:PORT", help="join an existing Ray cluster")
+    r.add_argument("--no-plots", action="store_true", help="do not write OUT/plots/*.png at the end")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    r.set_defaults(func=cmd_campaign)
+    rep = sub.add_parser("report", help="survival rates and plots of a results folder",
+                         description="Print the survival rate with its Wilson 95 %% interval, overall and per factor, "
+                                     "and (re)make the plots of a campaign's results folder.")
+    rep.add_argument("results", type=Path, help="campaign results folder (or a Parquet file)")
+    rep.add_argument("--plots", type=Path, default=None, help="plot folder (default RESULTS/plots)")
+    rep.set_defaults(func=cmd_campaign)
+
+
+def _spec(args):
+    from wbc.campaign.spec import default_spec, load_spec
+    from wbc.exceptions import InvalidInputError
+
+    if args.spec is not None and args.kind is not None:
+        raise InvalidInputError("give a campaign TOML file or --kind, not both")
+    if args.spec is None and args.kind is None:
+        raise InvalidInputError("give a campaign TOML file or --kind push|robustness|sweep")
+    if args.spec is not None:
+        if not args.spec.is_file():
+            raise InvalidInputError(f"campaign file {args.spec} does not exist")
+        d = load_spec(args.spec).as_dict()
+    else:
+        d = default_spec(args.kind).as_dict()
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise InvalidInputError(f"--set {item!r}: expected KEY=VALUE (e.g. scenario.steps=6)")
+        try:
+            val = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            val = value  # a bare word: a string
+        node = d
+        parts = key.split(".")
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise InvalidInputError(f"--set {key}: {part} is not a table")
+        node[parts[-1]] = val
+    if args.trials is not None:
+        d["trials"] = args.trials
+    if args.seed is not None:
+        d["seed"] = args.seed
+    if args.robot is not None:
+        d.setdefault("scenario", {})["robot"] = args.robot
+    if d.get("kind") == "sweep" and args.trials is None:
+        d.pop("trials", None)
+    return load_spec(d)
+
+
+def cmd_campaign(args) -> int:
+    """Run ``wbc campaign run`` or ``wbc campaign report`` (module docstring). Returns the exit code."""
+    from wbc.exceptions import InvalidInputError
+
+    if args.campaign_command == "report":
+        from wbc.campaign import format_report, make_plots, read_results
+
+        table = read_results(args.results)
+        print(format_report(table))
+        meta = Path(args.results) / "campaign.json"
+        sweep = None
+        if meta.is_file():
+            import json
+
+            sweep = sorted(json.loads(meta.read_text()).get("sweep", {}).get("params", {})) or None
+        plots = args.plots if args.plots is not None else Path(args.results) / "plots"
+        for path in make_plots(table, plots, sweep_params=sweep):
+            print(f"plot written to {path}")
+        return 0
+    if args.workers is not None and args.workers < 1:
+        raise InvalidInputError(f"--workers must be ≥ 1, got {args.workers}")
+    if args.ray_address is not None and args.ray:
+        raise InvalidInputError("--ray starts a local Ray; --ray-address joins one: give one of them")
+    if args.workers is not None and not args.ray:
+        raise InvalidInputError("--workers only applies with --ray")
+    spec = _spec(args)
+    from wbc.campaign import (RayExecutor, SerialExecutor, format_report, make_plots, run, summarize_campaign)
+    from wbc.campaign.store import ResultStore
+
+    ResultStore(args.out, spec.as_dict())  # refuse a bad or foreign folder before starting anything
+    if args.ray or args.ray_address:
+        executor = RayExecutor(args.ray_address, workers=args.workers)
+    else:
+        executor = SerialExecutor()
+    try:
+        table = run(spec, args.out, executor=executor, progress=not args.no_progress)
+    except KeyboardInterrupt:
+        from wbc.campaign import read_results
+
+        t = read_results(args.out, missing_ok=True)
+        n = 0 if t is None else t.num_rows
+        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials recorded in {args.out} "
+              "(run the same command again to resume)", file=sys.stderr)
+        return 130
+    print(format_report(table))
+    s = summarize_campaign(table)
+    print(f"results: {args.out}/trials ({table.num_rows} rows of {spec.trials}; executor {executor.name}, "
+          f"{executor.workers} worker(s)); errors {s['errors']}")
+    if not args.no_plots:
+        sweep = sorted(spec.sweep["params"]) if spec.sweep else None
+        for path in make_plots(table, Path(args.out) / "plots", sweep_params=sweep):
+            print(f"plot written to {path}")
+    return 0
