@@ -294,3 +294,48 @@ def test_physics_campaign_on_ray_equals_serial(tmp_path):
     assert on_ray == serial
     assert all(r["outcome"] == "survived" for r in serial)  # no trial raised or fell
     assert all(isinstance(r["walked_distance_m"], float) for r in serial)
+
+
+def slow_toy_trial(spec, params):
+    """toy_trial taking 0.2 s."""
+    import time
+
+    time.sleep(0.2)
+    return toy_trial(spec, params)
+
+
+def test_a_killed_driver_resumes_without_rerunning_finished_trials(tmp_path):
+    """SIGKILL the campaign's process mid-run: every recorded row is whole, and the resumed campaign runs exactly
+    the trials that were not recorded."""
+    import signal
+    import time
+
+    out = tmp_path / "c"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(Path(__file__).parent),
+                                                        os.environ.get("PYTHONPATH", "")])}
+    code = (f"import test_campaign as tc\nfrom wbc.campaign import default_spec, run\n"
+            f"run(default_spec('push', trials=40, seed=2), {str(out)!r}, trial_fn=tc.slow_toy_trial, progress=False)")
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env, cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 300
+        while len(list((out / "trials").glob("part-*.parquet"))) < 5:
+            assert proc.poll() is None, "the campaign ended before it was killed"
+            assert time.monotonic() < deadline, "no trial recorded within 300 s"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    before = read_results(out)
+    recorded = before.column("trial").to_pylist()
+    assert 5 <= len(recorded) < 40 and recorded == sorted(set(recorded))
+    calls = []
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return toy_trial(spec, params)
+
+    table = run(default_spec("push", trials=40, seed=2), out, trial_fn=counting, progress=False)
+    assert sorted(calls) == sorted(set(range(40)) - set(recorded))
+    assert table.column("trial").to_pylist() == list(range(40))
