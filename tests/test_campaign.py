@@ -274,14 +274,14 @@ def test_ray_equals_serial_and_a_killed_worker_is_retried(tmp_path):
 
 @needs_ray
 def test_physics_campaign_on_ray_equals_serial(tmp_path):
-    """CI acceptance: a 4-trial Talos push campaign (2-step walks, 150–250 N) on local Ray and serially: the same
+    """CI acceptance: a 4-trial Talos push campaign (2-step walks, 100–150 N) on local Ray and serially: the same
     outcome and metrics trial by trial.
 
     The pushes stay below what makes Talos fall: in a fall the controller meets QPs near infeasibility whose
     rescue by the re-solving backends (ProxQP, quadprog) was seen to succeed or not on the same input in different
     processes, so a falling trial is not yet reproducible to the bit across processes."""
     common = ["campaign", "run", "--kind", "push", "--trials", "4", "--seed", "11", "--no-plots", "--no-progress",
-              "--set", "scenario.steps=2", "--set", "scenario.step_length=0.1", "--set", "factors.force=[150,250]"]
+              "--set", "scenario.steps=2", "--set", "scenario.step_length=0.1", "--set", "factors.force=[100,150]"]
     assert main(common + ["--out", str(tmp_path / "serial")]) == 0
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     p = subprocess.run([sys.executable, "-m", "wbc", *common, "--out", str(tmp_path / "ray"), "--ray",
