@@ -8,16 +8,19 @@ imports this module.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import io
 import json
+import os
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
 
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
-    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable",
+    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "write_log",
 ]
 
 
@@ -62,19 +65,59 @@ def jsonable(x):
     raise TypeError(type(x).__name__)
 
 
+@contextlib.contextmanager
+def atomic_output(path):
+    """Write a file (or a folder) under a temporary name in its target folder, then rename it to ``path``.
+
+    Yields the temporary path (same folder, same suffix, unique per process and call): the caller writes it.
+    When the block ends normally the temporary is flushed to disk and renamed over ``path`` in one
+    ``os.replace`` (atomic on POSIX), so a reader sees either the previous file or the complete new one, and
+    concurrent writers leave the complete file of one of them. When the block raises (including Ctrl-C), the
+    temporary is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial{path.suffix}")
+    try:
+        yield tmp
+        if tmp.is_file():
+            with open(tmp, "rb+") as f:
+                os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            if tmp.is_dir():
+                import shutil
+
+                shutil.rmtree(tmp)
+            else:
+                tmp.unlink()
+        raise
+
+
 def write_json(path: Path, summary: dict) -> None:
-    """Write the summary as indented JSON to ``path``."""
-    path.write_text(json.dumps(summary, indent=2, default=jsonable) + "\n")
+    """Write the summary as indented JSON to ``path`` (atomically: :func:`atomic_output`)."""
+    text = json.dumps(summary, indent=2, default=jsonable) + "\n"
+    with atomic_output(path) as tmp:
+        tmp.write_text(text)
     print(f"summary written to {path}")
 
 
+def write_log(path: Path, run) -> None:
+    """Write ``run``'s npz log (``run.save``) to ``path`` (atomically: :func:`atomic_output`)."""
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as f:
+            run.save(f)
+    print(f"log written to {path}")
+
+
 def write_recording(robot, run, path: Path, **scene) -> None:
-    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path``;
+    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path`` (atomically);
     ``scene`` goes to :func:`wbc.viz.record_html` (overlays, arrows, polygons, paths, outlines)."""
     from wbc.viz import record_html
 
-    out = record_html(robot, run.t, run.q, path, **scene)
-    print(f"meshcat recording written to {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    with atomic_output(path) as tmp:
+        record_html(robot, run.t, run.q, tmp, **scene)
+    print(f"meshcat recording written to {path} ({Path(path).stat().st_size / 1e6:.1f} MB)")
 
 
 #: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
@@ -86,8 +129,7 @@ def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None,
     if args.json:
         write_json(args.json, summary)
     if args.log:
-        run.save(args.log)
-        print(f"log written to {args.log}")
+        write_log(args.log, run)
     if getattr(args, "plot", None):
         write_plot(args.plot, run)
     if args.out:
@@ -104,7 +146,8 @@ def write_plot(path, run) -> None:
     buf.seek(0)
     with np.load(buf, allow_pickle=False) as z:
         log = {k: z[k] for k in z.files}
-    plot_log(log, path)
+    with atomic_output(path) as tmp:
+        plot_log(log, tmp)
     print(f"plots written to {path}")
 
 

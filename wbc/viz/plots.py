@@ -44,8 +44,9 @@ def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as z:
             log = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise InvalidInputError(f"{str(path)!r} is not an npz log: {exc}") from exc
+    except Exception as exc:  # noqa: BLE001 - zipfile.BadZipFile, EOFError, ValueError...: not a readable npz
+        raise InvalidInputError(f"{str(path)!r} is not a readable npz log ({type(exc).__name__}: "
+                                f"{str(exc).splitlines()[0] if str(exc) else 'truncated'})") from exc
     missing = [k for k in ("t", "q", "com") if k not in log]
     if missing:
         raise InvalidInputError(f"log {str(path)!r} lacks {missing} (not a wbc walk/balance/sim log)")
