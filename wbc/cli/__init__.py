@@ -128,6 +128,8 @@ def check_args(args) -> None:
         raise InvalidInputError(f"--hold must be a finite number of seconds >= 0, got {hold}")
     if hold is not None and not getattr(args, "live", False):
         raise InvalidInputError("--hold only applies with --live")
+    if getattr(args, "live_start_now", False) and not getattr(args, "live", False):
+        raise InvalidInputError("--live-start-now only applies with --live")
     check = getattr(args, "check", None)
     if check is not None:
         check(args)

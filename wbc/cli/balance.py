@@ -33,7 +33,7 @@ def cmd_balance(args) -> int:
         options["hand"] = args.hand
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
     viewer = progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
@@ -87,7 +87,7 @@ def _jump_preview(args) -> int:
     robot = load_robot(args.robot)
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
     try:
         run = preview_jump(robot, height=args.height, forward=args.forward, count=args.count, dt=args.dt,
                            solver=args.solver, viewer=viewer, pacer=pacer)

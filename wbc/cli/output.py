@@ -30,8 +30,11 @@ def add_outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", type=Path, metavar="FILE", help="write the time series as npz")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a self-contained meshcat HTML recording")
     p.add_argument("--live", action="store_true",
-                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the viewer stays up "
+                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the motion starts when "
+                        "a browser opens the printed URL (or at once with --live-start-now); the viewer stays up "
                         "after the motion until Ctrl-C or --hold")
+    p.add_argument("--live-start-now", action="store_true",
+                   help="with --live: start the motion without waiting for a browser to connect")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="write plots of the run (CoM/ZMP/DCM, top view, joint limits, contact forces, tick times)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown on a terminal for runs > 2 s)")
@@ -167,17 +170,27 @@ class _HeldViewer:
         pass
 
 
-def open_live(robot):
+def open_live(robot, start_now: bool = False):
     """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer.
 
-    The URL is printed before the motion starts; :func:`wbc.cli.main` keeps the viewer up after the command until
-    Ctrl-C or ``--hold`` seconds (:func:`hold_live`), then closes it (:func:`close_live`).
+    The URL is printed before the motion starts; unless ``start_now``, the motion waits for a browser to open it
+    (and says so). :func:`wbc.cli.main` keeps the viewer up after the command until Ctrl-C or ``--hold`` seconds
+    (:func:`hold_live`), then closes it (:func:`close_live`).
     """
+    import sys
+
     from wbc.viz import LiveViewer, RealTimePacer
 
+    print("meshcat viewer: starting the server on 127.0.0.1 ...", file=sys.stderr, flush=True)
     viewer = LiveViewer(robot)
     _LIVE_VIEWERS.append(viewer)
-    print(f"meshcat viewer: {viewer.url} (open it in a browser)", flush=True)
+    if start_now:
+        print(f"meshcat viewer: {viewer.url} (open it in a browser; the motion starts now)", flush=True)
+    else:
+        print(f"meshcat viewer: {viewer.url} (open it in a browser; the motion starts when it connects, "
+              "--live-start-now not to wait; Ctrl-C to stop)", flush=True)
+        viewer.wait_for_browser()
+        print("meshcat viewer: browser connected, motion starting", flush=True)
     return _HeldViewer(viewer), RealTimePacer()
 
 

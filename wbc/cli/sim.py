@@ -224,7 +224,7 @@ def cmd_sim(args) -> int:
 
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
         if args.scenario == "walk":  # the plan is made when the run starts
             from wbc.viz.live_overlays import LiveOverlays
 
