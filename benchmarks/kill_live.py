@@ -73,7 +73,7 @@ def alive(pid: int) -> bool:
 
 
 def kill_once(sig: signal.Signals, robot: str = "humanoid15", timeout: float = 10.0,
-              startup: float = 600.0, extra: list[str] = ()) -> dict:
+              startup: float = 600.0, extra: list[str] = (), settle: float = 0.5) -> dict:
     """Start `wbc walk --live` (with ``extra`` options), send ``sig`` once its URL is printed; returns what was left
     and when."""
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--robot", robot, "--steps", "2", "--live",
@@ -89,7 +89,7 @@ def kill_once(sig: signal.Signals, robot: str = "humanoid15", timeout: float = 1
                 break
         if not line.startswith("meshcat viewer: http"):
             raise RuntimeError(f"wbc walk --live did not print its URL: exit {proc.poll()}, {proc.stderr.read()}")
-        time.sleep(0.5)
+        time.sleep(settle)
         pids = tree(proc.pid)
         ports = listening(socket_inodes(pids))
         t0 = time.monotonic()
@@ -103,9 +103,11 @@ def kill_once(sig: signal.Signals, robot: str = "humanoid15", timeout: float = 1
                 break
             time.sleep(0.05)
         stderr = proc.stderr.read()
+        rest = proc.stdout.read()
         return {"signal": sig.name, "exit_code": code, "pids": pids, "ports": sorted(ports),
                 "left_pids": left_pids, "left_ports": sorted(left_ports),
-                "cleanup_s": time.monotonic() - t0, "traceback": "Traceback" in stderr, "stderr": stderr}
+                "cleanup_s": time.monotonic() - t0, "traceback": "Traceback" in stderr, "stderr": stderr,
+                "url_line": line, "stdout_after_url": rest}
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -43,9 +43,12 @@ def test_ctrl_c_while_waiting_exits_130_and_keeps_the_previous_outputs(tmp_path)
     np.savez(log, t=np.arange(3.0))
     js.write_text('{"previous": true}\n')
     before = (log.read_bytes(), js.read_bytes())
-    r = _kill_live().kill_once(signal.SIGINT, robot="humanoid15", timeout=15.0,
+    r = _kill_live().kill_once(signal.SIGINT, robot="humanoid15", timeout=15.0, settle=3.0,
                                extra=["--log", str(log), "--json", str(js)])
     assert r["exit_code"] == 130, r
+    # --live waited for a browser: in the 3 s after the URL the motion did not start (nothing more printed);
+    # that a connection starts it is tests/test_viz_browser.py::test_live_page_of_a_running_walk
+    assert "starts when it connects" in r["url_line"] and r["stdout_after_url"] == "", r
     assert not r["traceback"] and "interrupted" in r["stderr"], r["stderr"][-2000:]
     assert r["left_pids"] == [] and r["left_ports"] == [], r
     assert (log.read_bytes(), js.read_bytes()) == before
