@@ -21,6 +21,7 @@ import numpy as np
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
     "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "write_log",
+    "compile_notice", "uncompiled_kernels",
 ]
 
 
@@ -42,20 +43,38 @@ def add_outputs(p: argparse.ArgumentParser) -> None:
                    help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
 
 
-def print_summary(summary: dict, indent: str = "  ") -> None:
-    """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``)."""
+#: Printing resolution per unit suffix of a summary key: a value smaller in magnitude prints as 0 (a
+#: -6.9e-18 m drift is floating-point noise); --json keeps full precision.
+RESOLUTION = {"_m": 1e-6, "_rad": 1e-6, "_deg": 1e-4, "_s": 1e-6, "_n": 1e-3, "_nm": 1e-3, "_us": 0.1,
+              "_mps": 1e-6, "_hz": 1e-3, "_kg": 1e-4}
+
+
+def print_summary(summary: dict, indent: str = "  ", hide=()) -> None:
+    """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``), floats to 4
+    significant digits and to the resolution of their unit (:data:`RESOLUTION`). Entries that are None (e.g. no
+    fall time when nothing fell) and the keys in ``hide`` (metrics that do not apply to the scenario) are not
+    printed; ``--json`` has every key at full precision."""
     for key, value in summary.items():
+        if value is None or key in hide:
+            continue
         if isinstance(value, dict):
-            inner = ", ".join(f"{k} {format_value(v)}" for k, v in value.items())
+            inner = ", ".join(f"{k} {format_value(v, key)}" for k, v in value.items() if v is not None)
             print(f"{indent}{key:28s} {inner}")
         else:
-            print(f"{indent}{key:28s} {format_value(value)}")
+            print(f"{indent}{key:28s} {format_value(value, key)}")
 
 
-def format_value(value) -> str:
-    """Floats with 6 significant digits, anything else as ``str``."""
-    if isinstance(value, float):
-        return f"{value:.6g}"
+def format_value(value, key: str = "") -> str:
+    """Floats with 4 significant digits, 0 below the resolution of ``key``'s unit suffix (:data:`RESOLUTION`,
+    default 1e-9); anything else as ``str``."""
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        if not np.isfinite(value):
+            return str(value)
+        resolution = next((r for suffix, r in RESOLUTION.items() if key.endswith(suffix)), 1e-9)
+        if abs(value) < resolution:
+            return "0"
+        return f"{value:.4g}"
     return str(value)
 
 
@@ -194,13 +213,66 @@ def open_live(robot, start_now: bool = False):
     return _HeldViewer(viewer), RealTimePacer()
 
 
+#: Modules whose numba kernels (``cache=True``) a kinematic run (walk, balance) compiles on first use: the
+#: on-disk caches a fresh ``wbc walk`` wrote (``NUMBA_CACHE_DIR`` set to an empty folder).
+KINEMATIC_KERNELS = ("wbc.fastqp", "wbc.tasks.com", "wbc.tasks.frame", "wbc.tasks.posture", "wbc.constraints.limits",
+                     "wbc.constraints.braking", "wbc.constraints.acceleration", "wbc.constraints.contact",
+                     "wbc.constraints.zmp")
+#: The same for the inverse-dynamics runs (``wbc sim``): the compiled ID tick.
+DYNAMICS_KERNELS = ("wbc.formulations.idkernel",)
+
+
+def uncompiled_kernels(modules=None) -> list[str]:
+    """Modules among ``modules`` (names; default: every wbc module with a ``@...jit(cache=True)`` kernel) that have
+    no on-disk numba cache yet (no ``__pycache__/<module>.*.nbi`` next to the source): their kernels compile on
+    first use, 30–80 s on a 2-core machine. Empty when ``NUMBA_CACHE_DIR`` moves the cache (then unknown)."""
+    import re
+
+    import wbc
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return []
+    root = Path(wbc.__file__).resolve().parent
+    if modules is None:
+        decorated = re.compile(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True")
+        modules = []
+        for path in sorted(root.rglob("*.py")):
+            try:
+                if decorated.search(path.read_text(encoding="utf-8")):
+                    modules.append(".".join(path.relative_to(root.parent).with_suffix("").parts))
+            except OSError:
+                continue
+    missing = []
+    for name in modules:
+        path = root.parent.joinpath(*name.split(".")).with_suffix(".py")
+        if path.is_file() and not any((path.parent / "__pycache__").glob(f"{path.stem}.*.nbi")):
+            missing.append(name)
+    return missing
+
+
+def compile_notice(desc: str, modules=None, stream=None) -> bool:
+    """Say on stderr that the numba kernels of ``modules`` (see :func:`uncompiled_kernels`) compile now (first run
+    after an install), so that the silent minute before the first tick is explained. Returns True when printed."""
+    import sys
+
+    missing = uncompiled_kernels(modules)
+    if missing:
+        print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
+              "later runs) ...", file=stream or sys.stderr, flush=True)
+    return bool(missing)
+
+
 def progress(args, total: float | None, viewer=None, desc: str = ""):
-    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal.
+    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal; say
+    first (unless --quiet) when the numba kernels are about to compile (:func:`compile_notice`).
 
     Args:
         total: simulated duration of the run (s), None when unknown.
     """
     from wbc.viz.progress import ProgressViewer
+
+    if not getattr(args, "quiet", False):
+        compile_notice(desc, DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS)
 
     return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
 
