@@ -181,3 +181,27 @@ def test_log_without_suffix_prints_the_file_it_wrote(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.strip() == f"log written to {target}.npz"
     assert [p.name for p in tmp_path.iterdir()] == ["shift.npz"]
+
+
+def test_dds_uses_loopback_by_default_and_says_so(monkeypatch):
+    """Without CYCLONEDDS_URI, a wbc participant is confined to `lo` (multicast off); --ros2-interface is in the
+    help of every command that opens DDS; a user's CYCLONEDDS_URI is left alone."""
+    pytest.importorskip("cyclonedds")
+    from wbc.cli import build_parser
+    from wbc.ros2 import dds
+
+    monkeypatch.setenv("CYCLONEDDS_URI", "")  # recorded, restored after the test
+    monkeypatch.delenv("CYCLONEDDS_URI")
+    monkeypatch.setattr(dds, "_chosen", [])  # as in a fresh process
+    part = dds.participant()
+    assert os.environ.get("CYCLONEDDS_URI") == dds.loopback_uri()
+    del part
+    mine = dds.loopback_uri().replace("60", "61")  # the user's own configuration wins
+    monkeypatch.setenv("CYCLONEDDS_URI", mine)
+    dds.use_interface("eth0")
+    assert os.environ["CYCLONEDDS_URI"] == mine
+    assert "<AllowMulticast>false</AllowMulticast>" in dds.loopback_uri() and 'name="lo"' in dds.loopback_uri()
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for name in ("walk", "balance", "sim"):
+        text = " ".join(sub.choices[name].format_help().split())
+        assert "--ros2-interface" in text and "127.0.0.1 only" in text, name

@@ -1,7 +1,9 @@
 """DDS participant, QoS profiles and the network interface configuration (cyclonedds).
 
-wbc's participants bind the loopback interface by default: :func:`participant` calls :func:`use_interface` with
-``"lo"`` unless ``CYCLONEDDS_URI`` is already set (the user's own Cyclone configuration always wins).
+wbc's participants use the loopback interface by default: :func:`participant` calls :func:`use_interface` with
+``"lo"`` unless ``CYCLONEDDS_URI`` is already set (the user's own Cyclone configuration always wins). Cyclone then
+advertises and sends to 127.0.0.1 only, multicast off; it still opens its unicast ports (7410 + ...) on the
+wildcard address, which its configuration cannot change (cyclonedds 11.0.1).
 ``loopback_uri()`` returns the ``CYCLONEDDS_URI`` value confining Cyclone DDS to 127.0.0.1: the ``lo`` interface,
 multicast off, and localhost as the only unicast peer. To reach other machines, choose an interface
 (:func:`use_interface` ``("eth0")``, the ``--ros2-interface`` option of the command line) or ``"any"`` (Cyclone's
