@@ -205,3 +205,30 @@ def test_dds_uses_loopback_by_default_and_says_so(monkeypatch):
     for name in ("walk", "balance", "sim"):
         text = " ".join(sub.choices[name].format_help().split())
         assert "--ros2-interface" in text and "127.0.0.1 only" in text, name
+
+
+def test_bench_report_is_moved_into_place_whole(tmp_path):
+    """`wbc bench` writes its report in a temporary folder of --out-dir and renames each file; a failing writer
+    leaves the previous report and no temporary folder."""
+    from wbc.cli.bench import _write_atomically
+
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "results.json").write_text('{"previous": 1}')
+
+    def writer(results, folder):
+        (folder / "results.json").write_text(json.dumps(results))
+        (folder / "results.md").write_text("# report\n")
+        return {"json": folder / "results.json", "markdown": folder / "results.md"}
+
+    def failing(results, folder):
+        (folder / "results.json").write_text('{"half')
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        _write_atomically({"new": 2}, out, failing)
+    assert json.loads((out / "results.json").read_text()) == {"previous": 1}
+    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+    paths = _write_atomically({"new": 2}, out, writer)
+    assert paths["json"] == out / "results.json" and json.loads(paths["json"].read_text()) == {"new": 2}
+    assert sorted(p.name for p in out.iterdir()) == ["results.json", "results.md"]

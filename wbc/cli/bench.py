@@ -42,6 +42,26 @@ def register(subparsers, add_outputs=None) -> None:
     p.set_defaults(func=cmd_bench, check=check_bench_args)
 
 
+def _write_atomically(results: dict, out_dir: Path, write_report) -> dict:
+    """Write the report into a hidden temporary folder inside ``out_dir``, then move each file over its final name
+    (``os.replace``, atomic): an interrupted or concurrent run never leaves a half-written results file."""
+    import os
+    import shutil
+    import tempfile
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".partial-", dir=out_dir))
+    try:
+        written = write_report(results, tmp)
+        final = {}
+        for kind, path in written.items():
+            final[kind] = out_dir / Path(path).name
+            os.replace(path, final[kind])
+        return final
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 def check_bench_args(args) -> None:
     """``wbc bench`` checks before any run: ``--out-dir`` is a folder that exists or can be created in a writable
     folder (not a file, not in /proc).
@@ -84,7 +104,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     results = run_suite(cfg)
     results["machine"]["blas_threads"] = blas or "library default"
-    paths = write_report(results, args.out_dir)
+    paths = _write_atomically(results, Path(args.out_dir), write_report)
     print(paths["markdown"].read_text())
     for kind, path in paths.items():
         print(f"{kind}: {path}")
