@@ -84,6 +84,11 @@ BAD = [
     (["walk", "--vx", "3"], "--vx"),
     (["walk", "--step-length", "5"], "--step-length"),
     (["sim", "walk", "--vx=-0.1"], "--vx"),
+    (["sim", "walk", "--vx", "3"], "--vx"),
+    (["sim", "walk", "--step-length", "5"], "--step-length"),
+    (["sim", "walk", "--wz", "1000"], "--wz"),
+    (["walk", "--wz", "1000"], "--wz"),
+    (["walk", "--vy", "5"], "--vy"),
 ]
 
 

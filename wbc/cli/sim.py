@@ -188,6 +188,8 @@ def cmd_sim(args) -> int:
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
     robot = load_robot(args.robot)
+    if args.scenario == "walk":
+        _check_walk_reach(args, robot)
     sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
     scenario = _scenario(args, robot)
 
@@ -291,6 +293,36 @@ def cmd_sim(args) -> int:
             render_video(sim, run.t, run.q, tmp, width=w, height=h)
         print(f"video written to {args.video} ({args.video.stat().st_size / 1e6:.2f} MB)")
     return 0 if summary["passed"] else 1
+
+
+def _check_walk_reach(args, robot) -> None:
+    """``wbc sim walk``: the per-step command (from ``--step-length``/``--turn`` or ``--vx/--vy/--wz``) within the
+    legs' reach, before the model is built; messages name the option given.
+
+    Raises:
+        InvalidInputError: see :func:`wbc.cli.walk.check_step_command`; a step length beyond the reach.
+    """
+    from wbc.cli.walk import check_step_command, leg_reach
+    from wbc.exceptions import InvalidInputError
+
+    period = args.step_duration
+    turn, length = args.turn, args.step_length
+    if args.vx is not None or args.vy or args.wz is not None:  # what _scenario will command
+        length = (args.vx or 0.0) * period
+        if args.wz is not None:
+            turn = args.wz * period
+    reach = leg_reach(robot)
+    saved = args.turn
+    args.turn = turn
+    try:
+        check_step_command(args, reach, period)
+    finally:
+        args.turn = saved
+    if length > reach:
+        source = f"--vx {args.vx:g} m/s gives a {length:.3g} m step" if args.vx is not None else \
+            f"--step-length {length:g} m"
+        raise InvalidInputError(f"{source}: beyond the reach of {robot.name}'s legs (valid: step length <= "
+                                f"{reach:.3f} m, vx <= {reach / period:.3f} m/s at --step-duration {period:g} s)")
 
 
 def _jump_sweep(args, robot, sim, make, summary) -> None:

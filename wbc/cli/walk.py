@@ -100,8 +100,9 @@ def check_walk_args(args, robot) -> None:
     gait = dict(robot.gait)
     period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
     check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+    reach = leg_reach(robot)
+    check_step_command(args, reach, period)
     if args.step_length is not None:
-        reach = leg_reach(robot)
         if not (0.0 <= args.step_length <= reach):
             source = getattr(args, "step_length_source", None)
             if source is not None and args.step_length < 0:
@@ -114,6 +115,31 @@ def check_walk_args(args, robot) -> None:
                     f"{period:g} s step)")
             raise InvalidInputError(f"--step-length {args.step_length} m is beyond the reach of {robot.name}'s legs "
                                     f"(valid: 0 <= step length <= {reach:.3f} m)")
+
+
+#: Largest yaw change per step (deg): the planner's bound, |turn| < 90° per step (:func:`wbc.gait.plan_walk`).
+MAX_TURN_DEG = 90.0
+
+
+def check_step_command(args, reach: float, period: float) -> None:
+    """Refuse a per-step command beyond the legs: the turn from ``--wz`` (or ``--turn``) beyond
+    :data:`MAX_TURN_DEG`, a lateral step from ``--vy`` beyond ``reach``; messages name the option given.
+
+    Args:
+        reach: the legs' reach (m, :func:`leg_reach`). period: step duration (s).
+
+    Raises:
+        InvalidInputError: naming ``--wz``/``--turn`` or ``--vy``.
+    """
+    wz, vy = getattr(args, "wz", None), getattr(args, "vy", None) or 0.0
+    if not abs(args.turn) < MAX_TURN_DEG:
+        source = f"--wz {wz:g} deg/s gives {args.turn:.4g} deg per {period:g} s step" if wz is not None else \
+            f"--turn {args.turn:g} deg per step"
+        limit = f"|wz| < {MAX_TURN_DEG / period:.4g} deg/s" if wz is not None else f"|turn| < {MAX_TURN_DEG:g} deg"
+        raise InvalidInputError(f"{source}: beyond what one step can turn (valid: {limit})")
+    if abs(vy) * period > reach:
+        raise InvalidInputError(f"--vy {vy:g} m/s gives a {abs(vy) * period:.3g} m side step per {period:g} s step, "
+                                f"beyond the legs' reach (valid: |vy| <= {reach / period:.3f} m/s)")
 
 
 def velocity_command(args, robot) -> dict:
