@@ -66,3 +66,23 @@ def test_the_kernel_lists_name_modules_with_cached_kernels():
         assert spec is not None and spec.origin, name
         with open(spec.origin, encoding="utf-8") as f:
             assert re.search(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True", f.read()), name
+
+
+def test_status_lines_only_on_a_terminal(monkeypatch, capsys):
+    import argparse
+    import sys
+
+    from wbc.cli.output import status
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Tty()
+    monkeypatch.setattr(sys, "stderr", tty)
+    status(argparse.Namespace(quiet=False), "wbc walk: loading talos ...")
+    status(argparse.Namespace(quiet=True), "hidden")
+    assert tty.getvalue() == "wbc walk: loading talos ...\n"
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    status(argparse.Namespace(quiet=False), "not a terminal")
+    assert sys.stderr.getvalue() == ""

@@ -21,7 +21,7 @@ import numpy as np
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
     "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "write_log",
-    "compile_notice", "uncompiled_kernels",
+    "compile_notice", "uncompiled_kernels", "status",
 ]
 
 
@@ -260,6 +260,15 @@ def compile_notice(desc: str, modules=None, stream=None) -> bool:
         print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
               "later runs) ...", file=stream or sys.stderr, flush=True)
     return bool(missing)
+
+
+def status(args, text: str) -> None:
+    """One line on stderr saying what the command does now (loading, planning...), on a terminal and without
+    --quiet, so that the seconds before the progress bar are not silent."""
+    import sys
+
+    if not getattr(args, "quiet", False) and getattr(sys.stderr, "isatty", lambda: False)():
+        print(text, file=sys.stderr, flush=True)
 
 
 def progress(args, total: float | None, viewer=None, desc: str = ""):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, video_size
 
@@ -187,6 +187,7 @@ def cmd_sim(args) -> int:
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
+    status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
     robot = load_robot(args.robot)
     if args.scenario == "walk":
         _check_walk_reach(args, robot)

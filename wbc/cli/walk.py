@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, write_outputs
+from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_range, check_ticks, finite
@@ -168,9 +168,11 @@ def cmd_walk(args) -> int:
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.viz.overlays import walk_overlays
 
+    status(args, f"wbc walk: loading {args.robot} ...")
     robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
     velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
+    status(args, f"wbc walk: planning {args.steps} steps ...")
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
                              step_width=args.step_width, turn=math.radians(args.turn), dt=args.dt, **velocity)
     viewer = pacer = None
