@@ -25,7 +25,7 @@ def test_format_value_rounds_to_meaningful_digits(value, key, text):
 
 
 def test_print_summary_hides_what_does_not_apply(capsys):
-    print_summary({"com_drift_m": -6.9e-18, "fall_time_s": None, "walked_distance_m": 1.0512345,
+    print_summary({"com_drift_m": -6.9e-18, "fall_time_s": None, "fall_reason": "", "walked_distance_m": 1.0512345,
                    "max_task_error_rad": {"torso": 0.00056322, "posture": 2e-9}}, hide={"com_drift_m"})
     out = capsys.readouterr().out.splitlines()
     assert [line.split()[0] for line in out] == ["walked_distance_m", "max_task_error_rad"]

@@ -51,11 +51,11 @@ RESOLUTION = {"_m": 1e-6, "_rad": 1e-6, "_deg": 1e-4, "_s": 1e-6, "_n": 1e-3, "_
 
 def print_summary(summary: dict, indent: str = "  ", hide=()) -> None:
     """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``), floats to 4
-    significant digits and to the resolution of their unit (:data:`RESOLUTION`). Entries that are None (e.g. no
-    fall time when nothing fell) and the keys in ``hide`` (metrics that do not apply to the scenario) are not
+    significant digits and to the resolution of their unit (:data:`RESOLUTION`). Entries that are None or empty
+    text (e.g. no fall time or fall reason when nothing fell) and the keys in ``hide`` (metrics that do not apply to the scenario) are not
     printed; ``--json`` has every key at full precision."""
     for key, value in summary.items():
-        if value is None or key in hide:
+        if value is None or (isinstance(value, str) and not value) or key in hide:
             continue
         if isinstance(value, dict):
             inner = ", ".join(f"{k} {format_value(v, key)}" for k, v in value.items() if v is not None)
