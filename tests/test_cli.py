@@ -63,8 +63,8 @@ def test_leg_reach_of_talos_is_plausible(talos):
 
 def test_output_into_a_missing_folder_is_refused_and_not_created(tmp_path, capsys):
     target = tmp_path / "nonexistent_dir" / "x.html"
-    for opt in ("--out", "--json", "--log", "--plot"):
-        code, out, err = _run(["walk", opt, str(target)], capsys)
+    for opt, suffix in (("--out", ".html"), ("--json", ".json"), ("--log", ".npz"), ("--plot", ".png")):
+        code, out, err = _run(["walk", opt, str(target.with_suffix(suffix))], capsys)
         assert code == 2, opt
         assert "does not exist" in err and "nonexistent_dir" in err
         assert not target.parent.exists()

@@ -79,7 +79,7 @@ def _run_live(extra: list[str]) -> subprocess.Popen:
 
 
 def test_live_viewer_listens_on_loopback_only_and_holds():
-    proc = _run_live(["balance", "shift", "--live", "--hold", "5"])
+    proc = _run_live(["balance", "shift", "--live", "--live-start-now", "--hold", "5"])
     try:
         lines = []
         deadline = time.monotonic() + 300

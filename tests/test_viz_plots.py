@@ -43,8 +43,8 @@ def test_walk_log_panels(talos, tmp_path):
     fig = plot_log(log, tmp_path / "p.png")
     assert (tmp_path / "p.png").stat().st_size > 10_000
     panels = _panels(fig)
-    assert set(panels) == {"CoM, ZMP, DCM: x", "CoM, ZMP, DCM: y", "top view", "joint positions / limits",
-                           "tick time"}
+    assert set(panels) == {"CoM, ZMP, DCM: x", "CoM, ZMP, DCM: y", "CoM, soles: z", "top view",
+                           "joint positions / limits", "tick time"}
     for coord in "xy":
         ax = panels[f"CoM, ZMP, DCM: {coord}"]
         assert _labels(ax) == ["CoM", "CoM reference", "ZMP planned", "ZMP executed", "DCM"]
@@ -83,8 +83,11 @@ def test_sim_log_has_contact_forces_and_measured_cop(talos):
     log.update(sim_wrench=wrench, sole_pos=sole_pos, contact_active=np.ones((n, 2), bool),
                ext_force=push, dcm_ref=dcm_ref, cop_cmd=np.zeros((n, 2)))
     panels = _panels(plot_log(log))
-    assert set(panels) == {"CoM, ZMP, DCM: x", "CoM, ZMP, DCM: y", "top view", "joint positions / limits",
-                           "contact forces", "tick time"}
+    assert set(panels) == {"CoM, ZMP, DCM: x", "CoM, ZMP, DCM: y", "CoM, soles: z", "top view",
+                           "joint positions / limits", "contact forces", "tick time"}
+    z = panels["CoM, soles: z"]
+    assert _labels(z) == ["CoM", "CoM reference", "left sole", "right sole"]
+    np.testing.assert_allclose(z.get_lines()[2].get_ydata(), sole_pos[:, 0, 2])
     assert _labels(panels["contact forces"]) == ["left foot f_z", "right foot f_z", "push |f|"]
     np.testing.assert_allclose(panels["contact forces"].get_lines()[2].get_ydata(), np.linalg.norm(push, axis=1))
     assert _labels(panels["CoM, ZMP, DCM: x"]) == ["CoM", "CoM reference", "CoP commanded", "CoP measured", "DCM",
@@ -149,3 +152,39 @@ def test_bad_logs_are_refused(tmp_path):
     np.savez(tmp_path / "x.npz", a=np.zeros(3))
     with pytest.raises(InvalidInputError, match="lacks"):
         plot_log(tmp_path / "x.npz")
+
+
+def test_z_panel_shows_a_squat_and_sole_heights(talos):
+    """A 15 cm squat (CoM z down and up) and a foot lifted 10 cm are drawn on the z panel at their true scale."""
+    log = _base_log(talos)
+    n = len(log["t"])
+    log["com"][:, 2] = 0.87 - 0.15 * np.sin(np.linspace(0.0, np.pi, n))
+    sole = np.tile(np.eye(4), (n, 1, 1))
+    right = sole.copy()
+    right[:, 2, 3] = 0.1 * np.sin(np.linspace(0.0, np.pi, n))
+    right[:, 1, 3] = -0.17
+    log.update(left_sole=sole, right_sole=right, support=np.ones(n, dtype=int))
+    panels = _panels(plot_log(log))
+    z = panels["CoM, soles: z"]
+    assert _labels(z) == ["CoM", "CoM reference", "left sole", "right sole"]
+    np.testing.assert_allclose(z.get_lines()[0].get_ydata(), log["com"][:, 2])
+    np.testing.assert_allclose(z.get_lines()[3].get_ydata(), right[:, 2, 3])
+    lo, hi = z.get_ylim()
+    assert lo <= 0.0 and hi >= 0.87  # soles on the floor and the standing CoM in view
+
+
+def test_autoscale_has_a_floor_on_its_span(talos):
+    """40 µm of noise on a flat CoM y must not fill its panel: the span is at least 1 cm (noise < 0.5 % of it)."""
+    log = _base_log(talos)
+    n = len(log["t"])
+    rng = np.random.default_rng(0)
+    log["com"][:, 1] = 0.00140 + 40e-6 * rng.random(n)
+    log["com_ref"] = log["com"].copy()
+    ax = _panels(plot_log(log))["CoM, ZMP, DCM: y"]
+    lo, hi = ax.get_ylim()
+    assert hi - lo >= 0.01 - 1e-12
+    assert lo < 0.00140 and hi > 0.00144
+    assert 40e-6 / (hi - lo) <= 0.005
+    # CoM x creeping 4 mm (DCM 3 mm ahead): data spanning 7 mm get a 1 cm panel
+    lo, hi = _panels(plot_log(_base_log(talos)))["CoM, ZMP, DCM: x"].get_ylim()
+    assert hi - lo == pytest.approx(0.01)

@@ -3,7 +3,11 @@
 Each run command (walk, balance, sim) prints a summary, and can write it as JSON (``--json``), a log (``--log``,
 npz), plots (``--plot``, PNG), a self-contained meshcat HTML recording (``--out``), or show the motion live in
 meshcat (``--live``, 127.0.0.1 only, held after the motion until Ctrl-C or ``--hold``).
-Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input.
+Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input (a one-line error on
+stderr, before any work: every value is checked first, :mod:`wbc.cli.validate`) or an output that could not be
+written, 130 on Ctrl-C (SIGINT) and 143 on SIGTERM. Every file is written under a temporary name in its folder and
+renamed when complete (:func:`wbc.cli.output.atomic_output`): an interrupted run leaves the previous file as it was.
+Angles on the command line are in degrees.
 
 One module per command group (:mod:`wbc.cli.walk`, :mod:`~wbc.cli.plot`, :mod:`~wbc.cli.balance`,
 :mod:`~wbc.cli.sim`, :mod:`~wbc.cli.campaign`, :mod:`~wbc.cli.bench`, :mod:`~wbc.cli.robots`, :mod:`~wbc.cli.ros2`), each with
@@ -14,11 +18,13 @@ is :mod:`wbc.cli.output`. The CLI is the top layer: nothing else in wbc imports 
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
-from pathlib import Path
 
 from wbc.cli import balance, bench, campaign, plot, robots, ros2, sim, walk
 from wbc.cli.output import add_outputs, close_live, deadline_misses, hold_live
+from wbc.cli.validate import check_outputs
 from wbc.cli.walk import leg_reach
 from wbc.exceptions import InvalidInputError, WbcError
 
@@ -28,11 +34,26 @@ __all__ = ["main", "build_parser", "deadline_misses", "leg_reach"]
 COMMANDS = (walk, plot, balance, sim, campaign, bench, robots, ros2)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (``wbc walk: error: argument --steps: ...``), exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that the run unwinds (temporary files removed, viewers closed)."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The `wbc` argument parser with every sub-command (one module of :mod:`wbc.cli` per command group)."""
     from wbc import __version__
 
-    parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for module in COMMANDS:
@@ -46,40 +67,72 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `wbc` console script. Returns the exit code: 0 passed, 1 acceptance failed, 2 bad input
-    (a typed ``wbc.exceptions.WbcError``, printed on stderr)."""
+    (a typed ``wbc.exceptions.WbcError``, printed on stderr as one line) or an output that could not be written,
+    130 interrupted by Ctrl-C, 143 by SIGTERM (no traceback in either case; no partial file left)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave SIGTERM alone
+        pass
     try:
         check_args(args)
         code = int(args.func(args))
         if getattr(args, "live", False):
             hold_live(args.hold)
+        sys.stdout.flush()
         return code
     except WbcError as exc:
         print(f"wbc {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"wbc {args.command}: interrupted (Ctrl-C); no output written for the unfinished step", file=sys.stderr)
+        return 130
+    except _Terminated:
+        print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
+        return 143
+    except BrokenPipeError:  # `wbc ... | head`: the reader has gone; stop quietly
+        _silence_stdout()
+        return 0
+    except OSError as exc:  # an output that passed the checks but could not be written (disk full...)
+        print(f"wbc {args.command}: error: could not write {exc.filename or ''}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
     finally:
         close_live()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush does not raise BrokenPipeError again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 def check_args(args) -> None:
-    """Checks common to every command, before any run.
+    """Checks common to every command, before any run: the output paths (:func:`wbc.cli.validate.check_outputs`)
+    and ``--hold``; then the command's own checks (``args.check(args)``, when the command sets one).
 
     Raises:
-        InvalidInputError: an output file's directory does not exist; ``--hold`` is negative or given without
-            ``--live``.
+        InvalidInputError: an output path is refused (folder missing or not writable, a folder, a device, wrong
+            suffix); ``--hold`` is negative or given without ``--live``; a command check fails.
     """
-    for opt in ("json", "log", "out", "plot", "video"):
-        path = getattr(args, opt, None)
-        if path is not None:
-            parent = Path(path).parent
-            if not parent.is_dir():
-                raise InvalidInputError(f"--{opt} {path}: directory {str(parent)!r} does not exist (create it first)")
+    check_outputs(args)
     hold = getattr(args, "hold", None)
     if hold is not None and not (hold >= 0 and hold != float("inf")):
         raise InvalidInputError(f"--hold must be a finite number of seconds >= 0, got {hold}")
     if hold is not None and not getattr(args, "live", False):
         raise InvalidInputError("--hold only applies with --live")
+    if getattr(args, "live_start_now", False) and not getattr(args, "live", False):
+        raise InvalidInputError("--live-start-now only applies with --live")
+    check = getattr(args, "check", None)
+    if check is not None:
+        check(args)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -13,6 +13,7 @@ import argparse
 
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
 from wbc.cli.ros2 import add_run_options, attach, finish
+from wbc.cli.validate import check_jump, finite
 
 __all__ = ["register", "cmd_balance"]
 
@@ -32,7 +33,7 @@ def cmd_balance(args) -> int:
         options["hand"] = args.hand
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
     viewer = progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
@@ -60,6 +61,22 @@ def cmd_balance(args) -> int:
     return 0 if summary["passed"] else 1
 
 
+def check_balance_args(args) -> None:
+    """``wbc balance`` checks before any run (called by :func:`wbc.cli.main`).
+
+    Raises:
+        InvalidInputError: ``--dt`` out of range; jump: ``--height``/``--count`` beyond what legs or memory allow.
+    """
+    from wbc.cli.walk import check_dt
+
+    check_dt(args.dt)
+    if args.behaviour == "jump":
+        from wbc.gait.jump_plan import JumpPlan
+
+        defaults = JumpPlan(height=0.08)  # the preview's plan: default crouch and extension
+        check_jump(args.height, defaults.stroke, args.count, args.dt)
+
+
 def _jump_preview(args) -> int:
     """``wbc balance jump``: the kinematic preview of :mod:`wbc.scenarios.balance_jump`; exit code 0."""
     import numpy as np
@@ -70,7 +87,7 @@ def _jump_preview(args) -> int:
     robot = load_robot(args.robot)
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
     try:
         run = preview_jump(robot, height=args.height, forward=args.forward, count=args.count, dt=args.dt,
                            solver=args.solver, viewer=viewer, pacer=pacer)
@@ -108,10 +125,11 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--hand", choices=["left", "right"], default=None, help="reach: the reaching hand (default right)")
     p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
                    help=f"QP backend (default {DEFAULT_SOLVER})")
-    p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
-    p.add_argument("--height", type=float, default=0.08, help="jump: planned apex CoM rise, m (default 0.08)")
-    p.add_argument("--forward", type=float, default=0.0, help="jump: planned forward foot displacement, m")
+    p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002; valid 0.0001..0.02)")
+    p.add_argument("--height", type=float, default=0.08,
+                   help="jump: planned apex CoM rise, m (default 0.08; at most 0.9 m: push force <= 10 x weight)")
+    p.add_argument("--forward", type=finite(0.0), default=0.0, help="jump: planned forward foot displacement, m")
     p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)
     add_run_options(p)
-    p.set_defaults(func=cmd_balance)
+    p.set_defaults(func=cmd_balance, check=check_balance_args)

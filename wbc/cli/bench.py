@@ -15,6 +15,8 @@ import argparse
 import time
 from pathlib import Path
 
+from wbc.cli.validate import count
+
 __all__ = ["register", "cmd_bench"]
 
 SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk", "frame_tasks",
@@ -24,18 +26,65 @@ SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", 
 def register(subparsers, add_outputs=None) -> None:
     """Add the ``bench`` sub-command (``add_outputs`` is not used: the outputs go to ``--out-dir``)."""
     p = subparsers.add_parser("bench", help="benchmark wbc against placo and Pink (tick latency, solvers, gait)")
-    p.add_argument("--ticks", type=int, default=2000, help="timed ticks per run (default 2000)")
-    p.add_argument("--repeats", type=int, default=5, help="interleaved repeats per library (default 5)")
-    p.add_argument("--warmup", type=int, default=100, help="untimed ticks before each run (default 100)")
+    p.add_argument("--ticks", type=count(1, 1_000_000), default=2000, help="timed ticks per run (default 2000; 1..10^6)")
+    p.add_argument("--repeats", type=count(1, 1000), default=5,
+                   help="interleaved repeats per library (default 5; 1..1000)")
+    p.add_argument("--warmup", type=count(0, 1_000_000), default=100,
+                   help="untimed ticks before each run (default 100; 0..10^6)")
     p.add_argument("--robot", default="talos", help="robot of the comparisons (default talos)")
     p.add_argument("--out-dir", type=Path, default=Path("benchmarks/results"),
                    help="folder for results.json, results.md, latency.png (default benchmarks/results)")
     p.add_argument("--sections", nargs="+", choices=SECTIONS, default=None, metavar="SECTION",
                    help=f"subset to run (default all: {' '.join(SECTIONS)}; with --quick all but instructions)")
     p.add_argument("--quick", action="store_true", help="a few ticks and repeats: checks the pipeline in seconds")
-    p.add_argument("--blas-threads", type=int, default=1,
+    p.add_argument("--blas-threads", type=count(0, 256), default=1,
                    help="OpenBLAS threads during the run (default 1; 0 keeps the library default)")
-    p.set_defaults(func=cmd_bench)
+    p.set_defaults(func=cmd_bench, check=check_bench_args)
+
+
+def _write_atomically(results: dict, out_dir: Path, write_report) -> dict:
+    """Write the report into a hidden temporary folder inside ``out_dir``, then move each file over its final name
+    (``os.replace``, atomic): an interrupted or concurrent run never leaves a half-written results file."""
+    import os
+    import shutil
+    import tempfile
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".partial-", dir=out_dir))
+    try:
+        written = write_report(results, tmp)
+        final = {}
+        for kind, path in written.items():
+            final[kind] = out_dir / Path(path).name
+            os.replace(path, final[kind])
+        return final
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def check_bench_args(args) -> None:
+    """``wbc bench`` checks before any run: ``--out-dir`` is a folder that exists or can be created in a writable
+    folder (not a file, not in /proc).
+
+    Raises:
+        InvalidInputError: naming ``--out-dir``.
+    """
+    import os
+
+    from wbc.exceptions import InvalidInputError
+
+    out = Path(args.out_dir)
+    if out.exists() and not out.is_dir():
+        raise InvalidInputError(f"--out-dir {out}: is a file (valid: a folder, created if missing)")
+    parent = out.absolute()
+    while not parent.exists():  # created with its parents: the nearest existing folder must be writable
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InvalidInputError(f"--out-dir {out}: {str(parent)!r} is a file (valid: a folder)")
+    real = parent.resolve()
+    if any(real == Path(r) or Path(r) in real.parents for r in ("/proc", "/sys", "/dev")) or not os.access(
+            real, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"--out-dir {out}: {str(parent)!r} is not a writable folder on disk")
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -55,7 +104,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     results = run_suite(cfg)
     results["machine"]["blas_threads"] = blas or "library default"
-    paths = write_report(results, args.out_dir)
+    paths = _write_atomically(results, Path(args.out_dir), write_report)
     print(paths["markdown"].read_text())
     for kind, path in paths.items():
         print(f"{kind}: {path}")

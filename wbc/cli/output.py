@@ -8,16 +8,20 @@ imports this module.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import io
 import json
+import os
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
 
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
-    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable",
+    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "write_log",
+    "compile_notice", "uncompiled_kernels", "status",
 ]
 
 
@@ -27,8 +31,11 @@ def add_outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", type=Path, metavar="FILE", help="write the time series as npz")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a self-contained meshcat HTML recording")
     p.add_argument("--live", action="store_true",
-                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the viewer stays up "
+                   help="show the motion live in meshcat (127.0.0.1 only, paced to real time); the motion starts when "
+                        "a browser opens the printed URL (or at once with --live-start-now); the viewer stays up "
                         "after the motion until Ctrl-C or --hold")
+    p.add_argument("--live-start-now", action="store_true",
+                   help="with --live: start the motion without waiting for a browser to connect")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="write plots of the run (CoM/ZMP/DCM, top view, joint limits, contact forces, tick times)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown on a terminal for runs > 2 s)")
@@ -36,20 +43,38 @@ def add_outputs(p: argparse.ArgumentParser) -> None:
                    help="with --live: keep the viewer up this long after the motion (default: until Ctrl-C)")
 
 
-def print_summary(summary: dict, indent: str = "  ") -> None:
-    """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``)."""
+#: Printing resolution per unit suffix of a summary key: a value smaller in magnitude prints as 0 (a
+#: -6.9e-18 m drift is floating-point noise); --json keeps full precision.
+RESOLUTION = {"_m": 1e-6, "_rad": 1e-6, "_deg": 1e-4, "_s": 1e-6, "_n": 1e-3, "_nm": 1e-3, "_us": 0.1,
+              "_mps": 1e-6, "_hz": 1e-3, "_kg": 1e-4}
+
+
+def print_summary(summary: dict, indent: str = "  ", hide=()) -> None:
+    """Print a run summary, one ``key value`` line per entry (a dict value on one line: ``k v, k v``), floats to 4
+    significant digits and to the resolution of their unit (:data:`RESOLUTION`). Entries that are None or empty
+    text (e.g. no fall time or fall reason when nothing fell) and the keys in ``hide`` (metrics that do not apply to the scenario) are not
+    printed; ``--json`` has every key at full precision."""
     for key, value in summary.items():
+        if value is None or (isinstance(value, str) and not value) or key in hide:
+            continue
         if isinstance(value, dict):
-            inner = ", ".join(f"{k} {format_value(v)}" for k, v in value.items())
+            inner = ", ".join(f"{k} {format_value(v, key)}" for k, v in value.items() if v is not None)
             print(f"{indent}{key:28s} {inner}")
         else:
-            print(f"{indent}{key:28s} {format_value(value)}")
+            print(f"{indent}{key:28s} {format_value(value, key)}")
 
 
-def format_value(value) -> str:
-    """Floats with 6 significant digits, anything else as ``str``."""
-    if isinstance(value, float):
-        return f"{value:.6g}"
+def format_value(value, key: str = "") -> str:
+    """Floats with 4 significant digits, 0 below the resolution of ``key``'s unit suffix (:data:`RESOLUTION`,
+    default 1e-9); anything else as ``str``."""
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        if not np.isfinite(value):
+            return str(value)
+        resolution = next((r for suffix, r in RESOLUTION.items() if key.endswith(suffix)), 1e-9)
+        if abs(value) < resolution:
+            return "0"
+        return f"{value:.4g}"
     return str(value)
 
 
@@ -62,19 +87,59 @@ def jsonable(x):
     raise TypeError(type(x).__name__)
 
 
+@contextlib.contextmanager
+def atomic_output(path):
+    """Write a file (or a folder) under a temporary name in its target folder, then rename it to ``path``.
+
+    Yields the temporary path (same folder, same suffix, unique per process and call): the caller writes it.
+    When the block ends normally the temporary is flushed to disk and renamed over ``path`` in one
+    ``os.replace`` (atomic on POSIX), so a reader sees either the previous file or the complete new one, and
+    concurrent writers leave the complete file of one of them. When the block raises (including Ctrl-C), the
+    temporary is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial{path.suffix}")
+    try:
+        yield tmp
+        if tmp.is_file():
+            with open(tmp, "rb+") as f:
+                os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            if tmp.is_dir():
+                import shutil
+
+                shutil.rmtree(tmp)
+            else:
+                tmp.unlink()
+        raise
+
+
 def write_json(path: Path, summary: dict) -> None:
-    """Write the summary as indented JSON to ``path``."""
-    path.write_text(json.dumps(summary, indent=2, default=jsonable) + "\n")
+    """Write the summary as indented JSON to ``path`` (atomically: :func:`atomic_output`)."""
+    text = json.dumps(summary, indent=2, default=jsonable) + "\n"
+    with atomic_output(path) as tmp:
+        tmp.write_text(text)
     print(f"summary written to {path}")
 
 
+def write_log(path: Path, run) -> None:
+    """Write ``run``'s npz log (``run.save``) to ``path`` (atomically: :func:`atomic_output`)."""
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as f:
+            run.save(f)
+    print(f"log written to {path}")
+
+
 def write_recording(robot, run, path: Path, **scene) -> None:
-    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path``;
+    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path`` (atomically);
     ``scene`` goes to :func:`wbc.viz.record_html` (overlays, arrows, polygons, paths, outlines)."""
     from wbc.viz import record_html
 
-    out = record_html(robot, run.t, run.q, path, **scene)
-    print(f"meshcat recording written to {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    with atomic_output(path) as tmp:
+        record_html(robot, run.t, run.q, tmp, **scene)
+    print(f"meshcat recording written to {path} ({Path(path).stat().st_size / 1e6:.1f} MB)")
 
 
 #: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
@@ -86,8 +151,7 @@ def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None,
     if args.json:
         write_json(args.json, summary)
     if args.log:
-        run.save(args.log)
-        print(f"log written to {args.log}")
+        write_log(args.log, run)
     if getattr(args, "plot", None):
         write_plot(args.plot, run)
     if args.out:
@@ -104,7 +168,8 @@ def write_plot(path, run) -> None:
     buf.seek(0)
     with np.load(buf, allow_pickle=False) as z:
         log = {k: z[k] for k in z.files}
-    plot_log(log, path)
+    with atomic_output(path) as tmp:
+        plot_log(log, tmp)
     print(f"plots written to {path}")
 
 
@@ -124,27 +189,99 @@ class _HeldViewer:
         pass
 
 
-def open_live(robot):
+def open_live(robot, start_now: bool = False):
     """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer.
 
-    The URL is printed before the motion starts; :func:`wbc.cli.main` keeps the viewer up after the command until
-    Ctrl-C or ``--hold`` seconds (:func:`hold_live`), then closes it (:func:`close_live`).
+    The URL is printed before the motion starts; unless ``start_now``, the motion waits for a browser to open it
+    (and says so). :func:`wbc.cli.main` keeps the viewer up after the command until Ctrl-C or ``--hold`` seconds
+    (:func:`hold_live`), then closes it (:func:`close_live`).
     """
+    import sys
+
     from wbc.viz import LiveViewer, RealTimePacer
 
+    print("meshcat viewer: starting the server on 127.0.0.1 ...", file=sys.stderr, flush=True)
     viewer = LiveViewer(robot)
     _LIVE_VIEWERS.append(viewer)
-    print(f"meshcat viewer: {viewer.url} (open it in a browser)", flush=True)
+    if start_now:
+        print(f"meshcat viewer: {viewer.url} (open it in a browser; the motion starts now)", flush=True)
+    else:
+        print(f"meshcat viewer: {viewer.url} (open it in a browser; the motion starts when it connects, "
+              "--live-start-now not to wait; Ctrl-C to stop)", flush=True)
+        viewer.wait_for_browser()
+        print("meshcat viewer: browser connected, motion starting", flush=True)
     return _HeldViewer(viewer), RealTimePacer()
 
 
+#: Modules whose numba kernels (``cache=True``) a kinematic run (walk, balance) compiles on first use: the
+#: on-disk caches a fresh ``wbc walk`` wrote (``NUMBA_CACHE_DIR`` set to an empty folder).
+KINEMATIC_KERNELS = ("wbc.fastqp", "wbc.tasks.com", "wbc.tasks.frame", "wbc.tasks.posture", "wbc.constraints.limits",
+                     "wbc.constraints.braking", "wbc.constraints.acceleration", "wbc.constraints.contact",
+                     "wbc.constraints.zmp")
+#: The same for the inverse-dynamics runs (``wbc sim``): the compiled ID tick.
+DYNAMICS_KERNELS = ("wbc.formulations.idkernel",)
+
+
+def uncompiled_kernels(modules=None) -> list[str]:
+    """Modules among ``modules`` (names; default: every wbc module with a ``@...jit(cache=True)`` kernel) that have
+    no on-disk numba cache yet (no ``__pycache__/<module>.*.nbi`` next to the source): their kernels compile on
+    first use, 30–80 s on a 2-core machine. Empty when ``NUMBA_CACHE_DIR`` moves the cache (then unknown)."""
+    import re
+
+    import wbc
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return []
+    root = Path(wbc.__file__).resolve().parent
+    if modules is None:
+        decorated = re.compile(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True")
+        modules = []
+        for path in sorted(root.rglob("*.py")):
+            try:
+                if decorated.search(path.read_text(encoding="utf-8")):
+                    modules.append(".".join(path.relative_to(root.parent).with_suffix("").parts))
+            except OSError:
+                continue
+    missing = []
+    for name in modules:
+        path = root.parent.joinpath(*name.split(".")).with_suffix(".py")
+        if path.is_file() and not any((path.parent / "__pycache__").glob(f"{path.stem}.*.nbi")):
+            missing.append(name)
+    return missing
+
+
+def compile_notice(desc: str, modules=None, stream=None) -> bool:
+    """Say on stderr that the numba kernels of ``modules`` (see :func:`uncompiled_kernels`) compile now (first run
+    after an install), so that the silent minute before the first tick is explained. Returns True when printed."""
+    import sys
+
+    missing = uncompiled_kernels(modules)
+    if missing:
+        print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
+              "later runs) ...", file=stream or sys.stderr, flush=True)
+    return bool(missing)
+
+
+def status(args, text: str) -> None:
+    """One line on stderr saying what the command does now (loading, planning...), on a terminal and without
+    --quiet, so that the seconds before the progress bar are not silent."""
+    import sys
+
+    if not getattr(args, "quiet", False) and getattr(sys.stderr, "isatty", lambda: False)():
+        print(text, file=sys.stderr, flush=True)
+
+
 def progress(args, total: float | None, viewer=None, desc: str = ""):
-    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal.
+    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal; say
+    first (unless --quiet) when the numba kernels are about to compile (:func:`compile_notice`).
 
     Args:
         total: simulated duration of the run (s), None when unknown.
     """
     from wbc.viz.progress import ProgressViewer
+
+    if not getattr(args, "quiet", False):
+        compile_notice(desc, DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS)
 
     return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
 

@@ -7,13 +7,27 @@ from pathlib import Path
 __all__ = ["register", "cmd_plot"]
 
 
+def check_plot_args(args) -> None:
+    """``wbc plot`` checks before any work: the log is a readable wbc npz log, the PNG path is writable.
+
+    Raises:
+        InvalidInputError: naming the log or ``--out``.
+    """
+    from wbc.cli.validate import output_path
+    from wbc.viz.plots import load_log
+
+    args.out = output_path("--out", args.out or Path(args.log_file).with_suffix(".png"), ".png")
+    args.log = load_log(args.log_file)
+
+
 def cmd_plot(args) -> int:
     """`wbc plot LOG.npz`: plot a log written with --log; exit code 0, 2 on a bad log or output path."""
+    from wbc.cli.output import atomic_output
     from wbc.viz.plots import plot_log
 
-    out = args.out or Path(args.log_file).with_suffix(".png")
-    plot_log(args.log_file, out)
-    print(f"plots written to {out}")
+    with atomic_output(args.out) as tmp:
+        plot_log(args.log, tmp)
+    print(f"plots written to {args.out}")
     return 0
 
 
@@ -25,4 +39,4 @@ def register(sub, add_outputs=None) -> None:
                                       "forces (sim), tick-time histogram.")
     plot.add_argument("log_file", type=Path, metavar="LOG.npz", help="npz log of a run")
     plot.add_argument("--out", type=Path, metavar="PNG", help="output PNG (default: LOG with .png)")
-    plot.set_defaults(func=cmd_plot)
+    plot.set_defaults(func=cmd_plot, check=check_plot_args, output_suffixes={"out": ".png"})

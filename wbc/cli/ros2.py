@@ -6,12 +6,19 @@
 - ``wbc ros2 echo-joint right_knee``: prints that joint's position from any /joint_states publisher.
 - ``wbc ros2 topics``: lists the ROS 2 topics (and their types) on the domain.
 
-Every command honours ``ROS_DOMAIN_ID``; ``--loopback`` confines DDS to 127.0.0.1 (see :mod:`wbc.ros2.dds`).
+Every command honours ``ROS_DOMAIN_ID``. DDS binds the loopback interface (127.0.0.1) by default;
+``--ros2-interface NAME`` chooses another (``any``: Cyclone's default); a ``CYCLONEDDS_URI`` set by the user wins
+(see :mod:`wbc.ros2.dds`).
 """
 
 from __future__ import annotations
 
+import os
 import time
+import uuid
+from pathlib import Path
+
+from wbc.cli.validate import count, seconds
 
 __all__ = ["register", "add_run_options", "attach"]
 
@@ -21,11 +28,20 @@ def add_run_options(p) -> None:
     g = p.add_argument_group("ROS 2 (extra wbc[ros2])")
     g.add_argument("--ros2", action="store_true",
                    help="publish /joint_states, /tf, /tf_static, /robot_description on DDS (ROS_DOMAIN_ID)")
-    g.add_argument("--ros2-rate", type=float, default=50.0, help="publishing rate, Hz (default 50, max 500)")
+    g.add_argument("--ros2-rate", type=_positive_rate, default=50.0, help="publishing rate, Hz (default 50, max 500)")
     g.add_argument("--tf", choices=("base", "all"), default="all",
                    help="/tf content: odom->root link only, or every link (default all)")
     g.add_argument("--bag", default=None, metavar="DIR", help="record the same topics as a rosbag2 in DIR")
     g.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage (default mcap)")
+    add_interface_option(g)
+
+
+def add_interface_option(p) -> None:
+    """Add ``--ros2-interface`` (default ``lo``: DDS on 127.0.0.1 only)."""
+    p.add_argument("--ros2-interface", default="lo", metavar="NAME", type=_interface,
+                   help="network interface DDS binds: lo (default: 127.0.0.1 only, multicast off), an interface "
+                        "name or IP (eth0) to reach other machines, or any (Cyclone's default); CYCLONEDDS_URI, "
+                        "when set, wins")
 
 
 class _Tee:
@@ -43,10 +59,17 @@ def attach(args, robot, viewer, dt: float):
     """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`."""
     if not getattr(args, "ros2", False) and getattr(args, "bag", None) is None:
         return viewer, None
+    from wbc.ros2.dds import use_interface
     from wbc.ros2.publisher import Ros2Publisher
 
-    pub = Ros2Publisher(robot, rate=args.ros2_rate, tf=args.tf, dds=args.ros2, bag=args.bag,
+    use_interface(args.ros2_interface)
+    bag = None
+    if args.bag is not None:  # written under a temporary name in its folder, renamed by finish()
+        final = Path(args.bag)
+        bag = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial")
+    pub = Ros2Publisher(robot, rate=args.ros2_rate, tf=args.tf, dds=args.ros2, bag=bag,
                         storage=args.storage, dt=dt)
+    pub.final_bag = None if bag is None else Path(args.bag)
     if args.ros2:
         time.sleep(0.5)  # let DDS discovery match subscribers already running
     return (_Tee(viewer, pub) if viewer is not None else pub), pub
@@ -59,17 +82,20 @@ def finish(pub) -> None:
     n = max(pub.published, 1)
     pub.close()
     msg = f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs"
-    if getattr(pub, "bag_path", None) is not None:
-        size = sum(f.stat().st_size for f in pub.bag_path.rglob("*") if f.is_file())
-        msg += f"; bag {pub.bag_path} ({size / 1e6:.2f} MB)"
+    bag = getattr(pub, "bag_path", None)
+    if bag is not None:  # a closed, complete bag (up to the last published sample) under its final name
+        final = getattr(pub, "final_bag", None) or bag
+        if final != bag:
+            os.replace(bag, final)
+        size = sum(f.stat().st_size for f in final.rglob("*") if f.is_file())
+        msg += f"; bag {final} ({size / 1e6:.2f} MB)"
     print(msg)
 
 
 def _loopback(args) -> None:
-    if getattr(args, "loopback", False):
-        from wbc.ros2.dds import use_loopback
+    from wbc.ros2.dds import use_interface
 
-        use_loopback()
+    use_interface("lo" if getattr(args, "loopback", False) else getattr(args, "ros2_interface", "lo"))
 
 
 def cmd_joint_publisher(args) -> int:
@@ -192,6 +218,19 @@ def _ros_type(dds_type: str) -> str:
     return dds_type
 
 
+def _interface(text: str) -> str:
+    import argparse
+
+    from wbc.exceptions import InvalidInputError
+    from wbc.ros2.dds import interface_uri
+
+    try:
+        interface_uri(text)
+    except InvalidInputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def _positive_rate(text: str) -> float:
     import argparse
 
@@ -208,17 +247,19 @@ def register(subparsers, add_outputs) -> None:
     jp = sub.add_parser("joint-publisher", help="publish the walking motion until Ctrl-C; /reset_robot service")
     jp.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
     jp.add_argument("--rate", type=_positive_rate, default=50.0, help="Hz (default 50, max 500)")
-    jp.add_argument("--steps", type=int, default=4, help="walking steps in the looped motion (default 4)")
+    jp.add_argument("--steps", type=count(2, 1000), default=4, help="walking steps in the looped motion (default 4)")
     jp.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
-    jp.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: Ctrl-C)")
+    jp.add_argument("--duration", type=seconds, default=None, help="stop after this many seconds (default: Ctrl-C)")
     jp.set_defaults(func=cmd_joint_publisher)
     ej = sub.add_parser("echo-joint", help="print a joint's position from /joint_states")
     ej.add_argument("joint", help="joint name, e.g. right_knee")
-    ej.add_argument("--count", type=int, default=None, help="exit after this many samples")
-    ej.add_argument("--timeout", type=float, default=None, help="exit after this many seconds")
+    ej.add_argument("--count", type=count(1), default=None, help="exit after this many samples")
+    ej.add_argument("--timeout", type=seconds, default=None, help="exit after this many seconds")
     ej.set_defaults(func=cmd_echo_joint)
     tp = sub.add_parser("topics", help="list the ROS 2 topics on the domain")
-    tp.add_argument("--wait", type=float, default=2.0, help="discovery time, s (default 2)")
+    tp.add_argument("--wait", type=seconds, default=2.0, help="discovery time, s (default 2)")
     tp.set_defaults(func=cmd_topics)
     for p in (jp, ej, tp):
-        p.add_argument("--loopback", action="store_true", help="confine DDS to 127.0.0.1 (sets CYCLONEDDS_URI)")
+        p.add_argument("--loopback", action="store_true",
+                       help="confine DDS to 127.0.0.1 (the default; kept for scripts that pass it)")
+        add_interface_option(p)

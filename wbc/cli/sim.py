@@ -7,10 +7,12 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs
+from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.ros2 import add_run_options, attach, finish
+from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, video_size
 
 __all__ = ["register", "cmd_sim"]
 
@@ -19,14 +21,38 @@ _SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-
 
 #: ``wbc sim jump`` options: (flag, type, default, help).
 JUMP_OPTIONS = (
-    ("--height", float, 0.08, "jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1)"),
+    ("--height", float, 0.08, "jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1; at most "
+                              "0.9 m: push force <= 10 x weight)"),
     ("--count", int, 1, "jump: number of consecutive jumps (default 1)"),
-    ("--forward", float, 0.0, "jump: planned forward foot displacement per jump, m (default 0: vertical)"),
-    ("--momentum-weight", float, None,
+    ("--forward", finite(0.0), 0.0, "jump: planned forward foot displacement per jump, m (default 0: vertical)"),
+    ("--momentum-weight", finite(0.0), None,
      "jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)"),
-    ("--landing-ramp", float, 0.06, "jump: normal-force ramp-in after a touch-down, s (default 0.06)"),
-    ("--min-hop", float, None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
+    ("--landing-ramp", seconds, 0.06, "jump: normal-force ramp-in after a touch-down, s (default 0.06)"),
+    ("--min-hop", finite(0.0), None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
 )
+
+#: Control period of ``wbc sim`` (s): one MuJoCo step per tick (:data:`wbc.sim.mujoco_model.MAX_TIMESTEP`).
+SIM_DT = 0.002
+
+
+def check_sim_args(args) -> None:
+    """``wbc sim`` checks before any run (called by :func:`wbc.cli.main`): the run's ticks fit in memory, the
+    jump is within what legs can push, the velocity command gives a non-negative step.
+
+    Raises:
+        InvalidInputError: naming the option given.
+    """
+    from wbc.exceptions import InvalidInputError
+
+    if args.duration is not None:
+        check_ticks(f"--duration {args.duration:g}", args.duration, SIM_DT)
+    if args.scenario == "walk":
+        check_ticks(f"--steps {args.steps} --step-duration {args.step_duration:g}",
+                    (args.steps + 2) * args.step_duration, SIM_DT)
+        if args.vx is not None and args.vx < 0:
+            raise InvalidInputError(f"--vx {args.vx:g}: walking backwards is not planned (valid: vx >= 0 m/s)")
+    if args.scenario == "jump":
+        check_jump(args.height, 0.1, args.count, SIM_DT)  # JumpScenario: crouch 0.1 m, extension 0
 
 
 def register(subparsers, add_outputs) -> None:
@@ -39,11 +65,11 @@ def register(subparsers, add_outputs) -> None:
                     "ground-truth state from MuJoCo and applies joint torques at 500 Hz (one 2 ms mj_step per tick).")
     p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
     p.add_argument("--robot", default="talos", help="catalog name (default talos)")
-    p.add_argument("--duration", type=float, default=None,
+    p.add_argument("--duration", type=seconds, default=None,
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
-    p.add_argument("--force", type=float, default=None,
+    p.add_argument("--force", type=finite(0.0), default=None,
                    help="push force, N (default: talos 450, g1 120, else half the capture-point bound)")
-    p.add_argument("--push-duration", type=float, default=0.1, help="push duration, s (default 0.1)")
+    p.add_argument("--push-duration", type=seconds, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
                         "baseline (bisection), and report the capture-point bound; jump: also find the highest "
@@ -52,51 +78,53 @@ def register(subparsers, add_outputs) -> None:
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", choices=available_solvers(),
                    help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
-    p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
-    p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
+    p.add_argument("--mu", type=finite(0.0, 10.0, lo_open=True), default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
+    p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
-    w.add_argument("--steps", type=int, default=8, help="walk: number of steps (default 8)")
-    w.add_argument("--step-length", type=float, default=0.15, help="walk: step length, m (default 0.15)")
-    w.add_argument("--step-duration", type=float, default=0.8,
+    w.add_argument("--steps", type=count(2), default=8, help="walk: number of steps (default 8)")
+    w.add_argument("--step-length", type=finite(0.0), default=0.15, help="walk: step length, m (default 0.15)")
+    w.add_argument("--step-duration", type=seconds, default=0.8,
                    help="walk: s per step, single + double support (20%%) (default 0.8)")
-    w.add_argument("--turn", type=float, default=0.0, help="walk: yaw per step, deg (default 0)")
-    w.add_argument("--vx", type=float, default=None,
+    w.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
+                   help="walk: yaw per step, deg (default 0; every angle option of wbc is in degrees)")
+    w.add_argument("--vx", type=finite(), default=None,
                    help="walk: forward velocity command, m/s (sets --step-length = vx · step duration; with --vy/--wz alone: 0)")
-    w.add_argument("--wz", type=float, default=None,
+    w.add_argument("--wz", type=finite(), default=None,
                    help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
-    w.add_argument("--vy", type=float, default=0.0,
+    w.add_argument("--vy", type=finite(), default=0.0,
                    help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
     w.add_argument("--no-step-adjust", action="store_true",
                    help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
-    w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
-    w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
-    w.add_argument("--push-dir", type=float, default=90.0,
+    w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
+    w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
+    w.add_argument("--push-dir", type=finite(), default=90.0,
                    help="walk, push-step: push direction, deg (0 forward, 90 left)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
-    w.add_argument("--sole-margin", type=float, default=None,
+    w.add_argument("--sole-margin", type=finite(0.0), default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
                         "wbc.sim.physics_scenarios.walk_options_for)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
-    w.add_argument("--mass-error", type=float, default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
-    w.add_argument("--payload", type=float, default=0.0, help="walk: unmodelled torso payload on the plant, kg")
-    w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
-    w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
-    w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
-    w.add_argument("--impratio", type=float, default=None,
+    w.add_argument("--mass-error", type=finite(0.0), default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
+    w.add_argument("--payload", type=finite(0.0), default=0.0, help="walk: unmodelled torso payload on the plant, kg")
+    w.add_argument("--friction", type=finite(0.0), default=0.0, help="walk: plant joint dry friction, N·m")
+    w.add_argument("--armature", type=finite(0.0), default=0.0, help="walk: plant rotor armature, kg·m²")
+    w.add_argument("--delay", type=count(0, 1000), default=0, help="walk: control delay, ticks")
+    w.add_argument("--impratio", type=finite(0.0, lo_open=True), default=None,
                    help="plant: MuJoCo friction-to-normal impedance ratio of the elliptic friction cones (default 10, "
                         "see wbc.sim.mujoco_model; 1, MuJoCo's default, lets a loaded foot creep below the friction "
                         "limit)")
     w.add_argument("--cone", choices=("elliptic", "pyramidal"), default="elliptic",
                    help="plant: MuJoCo friction cone (default elliptic; pyramidal is MuJoCo's default)")
-    w.add_argument("--q-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured joints, rad")
-    w.add_argument("--v-noise", type=float, default=0.0, help="walk: Gaussian noise std on measured v")
+    w.add_argument("--q-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on measured joint positions, deg")
+    w.add_argument("--v-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on every measured velocity, SI units of v (base m/s, joints and base turn rate in radians per s)")
     for flag, kind, default, text in JUMP_OPTIONS:
         p.add_argument(flag, type=kind, default=default, help=text)
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
-    p.add_argument("--video-size", default="640x480", help="video frame size WxH (default 640x480)")
+    p.add_argument("--video-size", type=video_size, default=(640, 480), metavar="WxH",
+                   help="video frame size in pixels, 16..4096 each (default 640x480)")
     add_outputs(p)
     add_run_options(p)
-    p.set_defaults(func=cmd_sim)
+    p.set_defaults(func=cmd_sim, check=check_sim_args)
 
 
 def _scenario(args, robot):
@@ -159,7 +187,10 @@ def cmd_sim(args) -> int:
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
+    status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
     robot = load_robot(args.robot)
+    if args.scenario == "walk":
+        _check_walk_reach(args, robot)
     sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
     scenario = _scenario(args, robot)
 
@@ -185,7 +216,8 @@ def cmd_sim(args) -> int:
         if perturbed:
             from wbc.sim.perturb import PerturbedController
 
-            return PerturbedController(robot, dt=sim.timestep, mu=args.mu, f_min=args.f_min, q_noise=args.q_noise,
+            return PerturbedController(robot, dt=sim.timestep, mu=args.mu, f_min=args.f_min,
+                                       q_noise=math.radians(args.q_noise),
                                        v_noise=args.v_noise, delay=args.delay, seed=args.seed, **options)
         if args.scenario == "jump":
             from wbc.sim.jump import JUMP_OPTIONS
@@ -195,7 +227,7 @@ def cmd_sim(args) -> int:
 
     viewer = pacer = None
     if args.live:
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
         if args.scenario == "walk":  # the plan is made when the run starts
             from wbc.viz.live_overlays import LiveOverlays
 
@@ -220,7 +252,7 @@ def cmd_sim(args) -> int:
     summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
-                            "delay_ticks": args.delay, "q_noise": args.q_noise, "v_noise": args.v_noise,
+                            "delay_ticks": args.delay, "q_noise_deg": args.q_noise, "v_noise": args.v_noise,
                             "friction": args.friction, "armature": args.armature, "seed": args.seed}
     print(f"wbc sim {scenario.name}: {robot.name}, controller {args.controller}, {len(run.t)} ticks at "
           f"{1 / sim.timestep:.0f} Hz (one mj_step of {sim.timestep * 1e3:.0f} ms per tick)")
@@ -243,7 +275,9 @@ def cmd_sim(args) -> int:
         if best <= sweep["pd"]["max_survived_n"]:
             summary["failed_criteria"].append("sweep: ID does not beat the PD baseline")
         summary["passed"] = not summary["failed_criteria"]
-    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"})
+    # standing metrics (CoM drift from the start) do not apply to a scenario that moves the robot on purpose
+    moving = {"com_drift_m", "max_com_deviation_m"} if args.scenario in ("walk", "push-step", "jump") else set()
+    print_summary({k: v for k, v in summary.items() if k != "sweep_trials"}, hide=moving)
     scene = {}
     if args.out:
         from wbc.viz.overlays import sim_overlays
@@ -253,10 +287,43 @@ def cmd_sim(args) -> int:
     if args.video:
         from wbc.sim.video import render_video
 
-        w, h = (int(x) for x in args.video_size.lower().split("x"))
-        path = render_video(sim, run.t, run.q, args.video, width=w, height=h)
-        print(f"video written to {path} ({path.stat().st_size / 1e6:.2f} MB)")
+        from wbc.cli.output import atomic_output
+
+        w, h = args.video_size
+        with atomic_output(args.video) as tmp:
+            render_video(sim, run.t, run.q, tmp, width=w, height=h)
+        print(f"video written to {args.video} ({args.video.stat().st_size / 1e6:.2f} MB)")
     return 0 if summary["passed"] else 1
+
+
+def _check_walk_reach(args, robot) -> None:
+    """``wbc sim walk``: the per-step command (from ``--step-length``/``--turn`` or ``--vx/--vy/--wz``) within the
+    legs' reach, before the model is built; messages name the option given.
+
+    Raises:
+        InvalidInputError: see :func:`wbc.cli.walk.check_step_command`; a step length beyond the reach.
+    """
+    from wbc.cli.walk import check_step_command, leg_reach
+    from wbc.exceptions import InvalidInputError
+
+    period = args.step_duration
+    turn, length = args.turn, args.step_length
+    if args.vx is not None or args.vy or args.wz is not None:  # what _scenario will command
+        length = (args.vx or 0.0) * period
+        if args.wz is not None:
+            turn = args.wz * period
+    reach = leg_reach(robot)
+    saved = args.turn
+    args.turn = turn
+    try:
+        check_step_command(args, reach, period)
+    finally:
+        args.turn = saved
+    if length > reach:
+        source = f"--vx {args.vx:g} m/s gives a {length:.3g} m step" if args.vx is not None else \
+            f"--step-length {length:g} m"
+        raise InvalidInputError(f"{source}: beyond the reach of {robot.name}'s legs (valid: step length <= "
+                                f"{reach:.3f} m, vx <= {reach / period:.3f} m/s at --step-duration {period:g} s)")
 
 
 def _jump_sweep(args, robot, sim, make, summary) -> None:

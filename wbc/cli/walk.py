@@ -7,14 +7,19 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, write_outputs
+from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
+from wbc.cli.validate import check_range, check_ticks, finite
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "MIN_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
+
+#: Control period range of the kinematic runs (s): below, the period is shorter than one QP tick (p99 ≈ 0.1 ms in
+#: benchmarks/README.md); above, the gait's phases span too few ticks (the 0.3 s double support of talos: 15).
+DT_RANGE = (1e-4, 0.02)
 
 
 def leg_reach(robot) -> float:
@@ -40,24 +45,105 @@ def leg_reach(robot) -> float:
     return 2.0 * float(np.sqrt(max(length**2 - height**2, 0.0)))
 
 
-def check_walk_args(args, robot) -> None:
-    """Refuse walk parameters that cannot be walked, before any run.
+def check_dt(dt: float) -> None:
+    """Refuse a control period outside :data:`DT_RANGE` (reason in the message).
 
     Raises:
-        InvalidInputError: ``--steps`` < 2, ``--step-length`` negative or beyond :func:`leg_reach`.
+        InvalidInputError: ``dt`` not finite or outside the range.
+    """
+    check_range("--dt", dt, *DT_RANGE, "the period must fit one QP tick (>= 0.1 ms) and sample the gait's "
+                "phases (<= 20 ms)")
+
+
+def _catalog_period(name: str) -> float | None:
+    """Step duration t_ss + t_ds (s) from a catalog robot's descriptor (``wbc/robots/<name>.toml``), read without
+    building the robot; None for a URDF path or a descriptor without it."""
+    import importlib.resources
+    import tomllib
+
+    try:
+        with (importlib.resources.files("wbc.robots") / f"{name}.toml").open("rb") as f:
+            gait = tomllib.load(f).get("gait", {})
+        return float(gait["t_ss"]) + float(gait["t_ds"])
+    except (OSError, KeyError, ValueError, TypeError, tomllib.TOMLDecodeError):
+        return None
+
+
+def precheck_walk_args(args) -> None:
+    """The checks of :func:`check_walk_args` that need no robot model (called by :func:`wbc.cli.main` before the
+    robot is loaded): ``--steps`` >= 2, ``--dt``, and the run's memory for a catalog robot.
+
+    Raises:
+        InvalidInputError: see :func:`check_walk_args`.
     """
     if args.steps < MIN_STEPS:
         raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
                                 f"{MIN_STEPS}; the last step brings the feet side by side)")
+    check_dt(args.dt)
+    period = _catalog_period(str(args.robot))
+    if period is not None:
+        check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+
+
+def check_walk_args(args, robot) -> None:
+    """Refuse walk parameters that cannot be walked, before any run; a message names the option the user gave
+    (``--vx`` when the step length comes from it).
+
+    Raises:
+        InvalidInputError: ``--steps`` < 2 or so many that the run would not fit in memory, ``--dt`` out of
+            :data:`DT_RANGE`, ``--step-length`` (or ``--vx``) negative or beyond :func:`leg_reach`.
+    """
+    if args.steps < MIN_STEPS:
+        raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
+                                f"{MIN_STEPS}; the last step brings the feet side by side)")
+    check_dt(args.dt)
+    gait = dict(robot.gait)
+    period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
+    check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+    reach = leg_reach(robot)
+    check_step_command(args, reach, period)
     if args.step_length is not None:
-        reach = leg_reach(robot)
         if not (0.0 <= args.step_length <= reach):
+            source = getattr(args, "step_length_source", None)
+            if source is not None and args.step_length < 0:
+                raise InvalidInputError(f"{source}: walking backwards is not planned (valid: 0 <= vx <= "
+                                        f"{reach / period:.3f} m/s)")
+            if source is not None:  # the step length came from --vx
+                raise InvalidInputError(
+                    f"{source} gives a step length of {args.step_length:.3g} m, beyond the reach of {robot.name}'s "
+                    f"legs (valid: 0 <= vx <= {reach / period:.3f} m/s, i.e. step length <= {reach:.3f} m per "
+                    f"{period:g} s step)")
             raise InvalidInputError(f"--step-length {args.step_length} m is beyond the reach of {robot.name}'s legs "
                                     f"(valid: 0 <= step length <= {reach:.3f} m)")
 
 
+#: Largest yaw change per step (deg): the planner's bound, |turn| < 90° per step (:func:`wbc.gait.plan_walk`).
+MAX_TURN_DEG = 90.0
+
+
+def check_step_command(args, reach: float, period: float) -> None:
+    """Refuse a per-step command beyond the legs: the turn from ``--wz`` (or ``--turn``) beyond
+    :data:`MAX_TURN_DEG`, a lateral step from ``--vy`` beyond ``reach``; messages name the option given.
+
+    Args:
+        reach: the legs' reach (m, :func:`leg_reach`). period: step duration (s).
+
+    Raises:
+        InvalidInputError: naming ``--wz``/``--turn`` or ``--vy``.
+    """
+    wz, vy = getattr(args, "wz", None), getattr(args, "vy", None) or 0.0
+    if not abs(args.turn) < MAX_TURN_DEG:
+        source = f"--wz {wz:g} deg/s gives {args.turn:.4g} deg per {period:g} s step" if wz is not None else \
+            f"--turn {args.turn:g} deg per step"
+        limit = f"|wz| < {MAX_TURN_DEG / period:.4g} deg/s" if wz is not None else f"|turn| < {MAX_TURN_DEG:g} deg"
+        raise InvalidInputError(f"{source}: beyond what one step can turn (valid: {limit})")
+    if abs(vy) * period > reach:
+        raise InvalidInputError(f"--vy {vy:g} m/s gives a {abs(vy) * period:.3g} m side step per {period:g} s step, "
+                                f"beyond the legs' reach (valid: |vy| <= {reach / period:.3f} m/s)")
+
+
 def velocity_command(args, robot) -> dict:
-    """``--vx/--vy/--wz`` (m/s, m/s, deg/s) → per-step ``--step-length``, lateral step and ``--turn`` (rad), with the
+    """``--vx/--vy/--wz`` (m/s, m/s, deg/s) → per-step ``--step-length``, lateral step and ``--turn`` (deg), with the
     step duration ``t_ss + t_ds`` of the robot's gait (the walk starts and stops at rest: the first step leaves
     from standing, the last one closes the feet). Returns extra :func:`wbc.gait.plan_walk` keywords."""
     vx, vy, wz = getattr(args, "vx", None), getattr(args, "vy", None), getattr(args, "wz", None)
@@ -67,8 +153,9 @@ def velocity_command(args, robot) -> dict:
     gait = dict(robot.gait)
     period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
     args.step_length = vx * period
+    args.step_length_source = f"--vx {vx:g}"
     if wz is not None:
-        args.turn = math.radians(wz) * period
+        args.turn = wz * period
     if not vy:
         return {}
     return {"step_lateral": vy * period, "first_side": "left" if vy > 0 else "right"}
@@ -81,16 +168,18 @@ def cmd_walk(args) -> int:
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.viz.overlays import walk_overlays
 
+    status(args, f"wbc walk: loading {args.robot} ...")
     robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
     velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
+    status(args, f"wbc walk: planning {args.steps} steps ...")
     plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
-                             step_width=args.step_width, turn=args.turn, dt=args.dt, **velocity)
+                             step_width=args.step_width, turn=math.radians(args.turn), dt=args.dt, **velocity)
     viewer = pacer = None
     if args.live:
         from wbc.viz.live_overlays import LiveOverlays
 
-        viewer, pacer = open_live(robot)
+        viewer, pacer = open_live(robot, args.live_start_now)
         viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
     viewer = progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
@@ -125,19 +214,22 @@ def register(sub, add_outputs=add_outputs) -> None:
     walk.add_argument("--steps", type=int, default=8,
                       help=f"number of steps, >= {MIN_STEPS}, the last one bringing the feet side by side: the feet "
                            "advance (steps - 1) x step length (default 8)")
-    walk.add_argument("--step-length", type=float, default=None,
+    walk.add_argument("--step-length", type=finite(), default=None,
                       help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
-    walk.add_argument("--step-width", type=float, default=None, help="m (default: current feet distance)")
-    walk.add_argument("--turn", type=float, default=0.0, help="yaw change per step, rad (default 0)")
-    walk.add_argument("--vx", type=float, default=None,
+    walk.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
+                      help="m (default: current feet distance)")
+    walk.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
+                      help="yaw change per step, deg (default 0; every angle option of wbc is in degrees)")
+    walk.add_argument("--vx", type=finite(), default=None,
                       help="forward velocity command, m/s (sets --step-length = vx x step duration t_ss + t_ds)")
-    walk.add_argument("--vy", type=float, default=0.0,
+    walk.add_argument("--vy", type=finite(), default=0.0,
                       help="lateral velocity command, m/s, + left (side-steps of vy x step duration)")
-    walk.add_argument("--wz", type=float, default=None,
+    walk.add_argument("--wz", type=finite(), default=None,
                       help="turning velocity command, deg/s (sets --turn = wz x step duration)")
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
-    walk.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002)")
+    walk.add_argument("--dt", type=float, default=0.002,
+                      help=f"control period, s (default 0.002; valid {DT_RANGE[0]:g}..{DT_RANGE[1]:g})")
     add_outputs(walk)
     add_robot_options(walk)
     add_run_options(walk)
-    walk.set_defaults(func=cmd_walk)
+    walk.set_defaults(func=cmd_walk, check=precheck_walk_args)

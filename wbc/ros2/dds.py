@@ -1,15 +1,27 @@
-"""DDS participant, QoS profiles and the loopback-only configuration (cyclonedds).
+"""DDS participant, QoS profiles and the network interface configuration (cyclonedds).
 
-``loopback_uri()`` returns a ``CYCLONEDDS_URI`` value confining Cyclone DDS to 127.0.0.1: the ``lo`` interface,
-multicast off, and localhost as the only unicast peer. Export it (``export CYCLONEDDS_URI=...``) before starting
-any process, or call :func:`use_loopback` before the first participant is created.
+wbc's participants use the loopback interface by default: :func:`participant` calls :func:`use_interface` with
+``"lo"`` unless ``CYCLONEDDS_URI`` is already set (the user's own Cyclone configuration always wins). Cyclone then
+advertises and sends to 127.0.0.1 only, multicast off; it still opens its unicast ports (7410 + ...) on the
+wildcard address, which its configuration cannot change (cyclonedds 11.0.1).
+``loopback_uri()`` returns the ``CYCLONEDDS_URI`` value confining Cyclone DDS to 127.0.0.1: the ``lo`` interface,
+multicast off, and localhost as the only unicast peer. To reach other machines, choose an interface
+(:func:`use_interface` ``("eth0")``, the ``--ros2-interface`` option of the command line) or ``"any"`` (Cyclone's
+own choice of interface, multicast discovery) before the first participant is created.
 """
 
 from __future__ import annotations
 
 import os
 
-__all__ = ["loopback_uri", "use_loopback", "domain_id", "participant", "qos_stream", "qos_latched", "ros_topic"]
+__all__ = ["loopback_uri", "interface_uri", "use_loopback", "use_interface", "domain_id", "participant", "qos_stream",
+           "qos_latched", "ros_topic", "LOOPBACK", "ANY_INTERFACE"]
+
+#: Interface name of the loopback configuration (the default).
+LOOPBACK = "lo"
+#: Interface choice that leaves Cyclone DDS its own default (an external interface, multicast discovery).
+ANY_INTERFACE = "any"
+_chosen: list[str] = []  # the interface set by use_interface in this process
 
 
 def loopback_uri() -> str:
@@ -22,9 +34,40 @@ def loopback_uri() -> str:
     )
 
 
+def interface_uri(interface: str) -> str | None:
+    """``CYCLONEDDS_URI`` value binding Cyclone DDS to the network interface ``interface`` (a name such as
+    ``eth0`` or an IP address): :func:`loopback_uri` for ``"lo"``, None for ``"any"`` (Cyclone's default).
+
+    Raises:
+        wbc.exceptions.InvalidInputError: ``interface`` is empty or holds characters outside ``[A-Za-z0-9_.:-]``.
+    """
+    import re
+
+    from wbc.exceptions import InvalidInputError
+
+    if not isinstance(interface, str) or not re.fullmatch(r"[A-Za-z0-9_.:\-]+", interface):
+        raise InvalidInputError(f"DDS interface {interface!r} is invalid: valid is an interface name (lo, eth0), "
+                                f"an IP address, or {ANY_INTERFACE!r}")
+    if interface == LOOPBACK:
+        return loopback_uri()
+    if interface == ANY_INTERFACE:
+        return None
+    return (f"<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"{interface}\"/>"
+            "</Interfaces></General></Domain></CycloneDDS>")
+
+
+def use_interface(interface: str = LOOPBACK) -> None:
+    """Bind this process's DDS participants to ``interface`` (see :func:`interface_uri`) by setting
+    ``CYCLONEDDS_URI``, unless the user already set it. Call before the first participant is created."""
+    uri = interface_uri(interface)
+    _chosen[:] = [interface]
+    if uri is not None:
+        os.environ.setdefault("CYCLONEDDS_URI", uri)
+
+
 def use_loopback() -> None:
     """Set ``CYCLONEDDS_URI`` to :func:`loopback_uri` in this process unless it is already set."""
-    os.environ.setdefault("CYCLONEDDS_URI", loopback_uri())
+    use_interface(LOOPBACK)
 
 
 def domain_id() -> int:
@@ -46,9 +89,12 @@ def domain_id() -> int:
 
 
 def participant(domain: int | None = None):
-    """A ``cyclonedds.domain.DomainParticipant`` on ``domain`` (default :func:`domain_id`)."""
+    """A ``cyclonedds.domain.DomainParticipant`` on ``domain`` (default :func:`domain_id`), bound to the
+    loopback interface unless :func:`use_interface` chose another or ``CYCLONEDDS_URI`` is set."""
     from cyclonedds.domain import DomainParticipant
 
+    if not _chosen:
+        use_interface(LOOPBACK)
     return DomainParticipant(domain_id() if domain is None else domain)
 
 

@@ -81,6 +81,7 @@ class LiveViewer:
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; the caller decides
             self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
+        self._zmq_url = zmq_url
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
         _scene.add_floor(self._vis)
@@ -126,6 +127,31 @@ class LiveViewer:
             marks[str(name)] = p
         self._latest = (q, t, marks)  # a single reference swap: atomic, no lock
         self._wake.set()
+
+    def wait_for_browser(self, timeout: float | None = None, poll: float = 0.2) -> bool:
+        """Block until a browser has the page open (a websocket connected to the server), or ``timeout`` s.
+
+        Uses meshcat's ``wait`` request on a socket of its own (the display thread's socket stays free); Ctrl-C
+        interrupts the wait (KeyboardInterrupt). Returns True when a browser is connected, False on timeout.
+
+        Raises:
+            InvalidInputError: ``timeout`` negative or not a number.
+        """
+        if timeout is not None and not (timeout >= 0):
+            raise InvalidInputError(f"timeout must be >= 0 s or None, got {timeout!r}")
+        sock = zmq.Context.instance().socket(zmq.REQ)
+        sock.setsockopt(zmq.LINGER, 0)
+        try:
+            sock.connect(self._zmq_url)
+            sock.send(b"wait")
+            end = None if timeout is None else time.monotonic() + timeout
+            while end is None or time.monotonic() < end:
+                if sock.poll(int(1000 * poll)):
+                    sock.recv()
+                    return True
+            return False
+        finally:
+            sock.close()
 
     def set_overlays(self, overlays: LiveOverlays) -> None:
         """Replace what is drawn over the poses (e.g. ``LiveOverlays(robot, plan)`` for a walk) before a run.
@@ -276,6 +302,10 @@ def _kill(proc: subprocess.Popen) -> None:
     if proc.poll() is None:
         proc.kill()
     proc.wait(timeout=10.0)
+    for pipe in (proc.stdin, proc.stdout):
+        if pipe is not None:
+            with contextlib.suppress(OSError):
+                pipe.close()
 
 
 def _probe(zmq_url: str, timeout: float) -> None:

@@ -8,6 +8,8 @@
   commanded CoP and planned DCM (sim walk logs: ``cop_cmd``, ``dcm_ref``), executed
   ZMP (cart-table ZMP of the CoM, Kajita 2003 eq. 3) or measured CoP (sim: from the ground-truth foot
   wrenches), DCM (c + ċ/ω, Englsberger 2015 eq. 7); shaded bands: single support (left / right stance);
+* ``CoM, soles: z`` vs time (m): CoM height (and its reference), left and right sole heights (a squat, a jump,
+  a swing foot); same bands;
 * ``top view`` (x-y, m): sole-origin paths, footprints (sole outlines at the start and at each touchdown, with
   a loadable robot), CoM and ZMP/CoP paths;
 * ``joint positions / limits``: each bounded joint's position mapped to [0, 1] over its URDF range (0 and 1
@@ -29,7 +31,29 @@ from wbc.exceptions import InvalidInputError
 from wbc.scenarios.metrics import executed_multibody_zmp
 from wbc.viz.overlays import cart_table_zmp, contact_items, dcm_of, measured_cop
 
-__all__ = ["plot_log", "load_log"]
+__all__ = ["plot_log", "load_log", "MIN_SPAN_M"]
+
+#: Smallest vertical span of the position panels (x, y, z vs time), m: a panel whose data vary less is centred on
+#: them with this span, so that sub-millimetre noise (40 µm) does not fill the panel and look like a swing.
+MIN_SPAN_M = 0.01
+
+
+def _floor_span(ax, span: float = MIN_SPAN_M) -> None:
+    """Widen ``ax``'s y-limits to at least ``span`` around their centre."""
+    lo, hi = ax.get_ylim()
+    if hi - lo < span:
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
+
+
+def _sole_heights(log) -> dict[str, np.ndarray]:
+    """Left and right sole-origin heights (m, world) of a walk/balance log (sole poses) or a sim log (sole_pos)."""
+    if "left_sole" in log and "right_sole" in log:
+        return {"left sole": np.asarray(log["left_sole"])[:, 2, 3], "right sole": np.asarray(log["right_sole"])[:, 2, 3]}
+    if "sole_pos" in log:
+        pos = np.asarray(log["sole_pos"])
+        return {"left sole": pos[:, 0, 2], "right sole": pos[:, 1, 2]}
+    return {}
 
 
 def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
@@ -44,8 +68,9 @@ def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as z:
             log = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise InvalidInputError(f"{str(path)!r} is not an npz log: {exc}") from exc
+    except Exception as exc:  # noqa: BLE001 - zipfile.BadZipFile, EOFError, ValueError...: not a readable npz
+        raise InvalidInputError(f"{str(path)!r} is not a readable npz log ({type(exc).__name__}: "
+                                f"{str(exc).splitlines()[0] if str(exc) else 'truncated'})") from exc
     missing = [k for k in ("t", "q", "com") if k not in log]
     if missing:
         raise InvalidInputError(f"log {str(path)!r} lacks {missing} (not a wbc walk/balance/sim log)")
@@ -162,10 +187,17 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
         zmp_name, zmp = "ZMP executed (CoM only)", cart_table_zmp(t, com)
     dcm = dcm_of(t, com)
     limits = _limits(robot)
-    n_panels = 4 + (limits is not None) + physics
+    n_panels = 5 + (limits is not None) + physics
     fig, axes = plt.subplots(n_panels, 1, figsize=(10, 3.2 * n_panels), constrained_layout=True)
     axes = list(axes)
     bands = _stance_bands(log)
+
+    def draw_bands(ax):
+        for k, (a, b, label) in enumerate(bands):
+            color = "#d9c2f0" if label.startswith("left") else "#c2eaf0"
+            ax.axvspan(a, b, color=color, alpha=0.5, lw=0, label=label if label not in
+                       [bb[2] for bb in bands[:k]] else None)
+
     for i, coord in enumerate("xy"):
         ax = axes.pop(0)
         ax.set_title(f"CoM, ZMP, DCM: {coord}")
@@ -180,13 +212,23 @@ def plot_log(log: Mapping[str, np.ndarray] | str | os.PathLike[str], out: str | 
         ax.plot(t, dcm[:, i], color="#2b6fe0", label="DCM")
         if "dcm_ref" in log:
             ax.plot(t, log["dcm_ref"][:, i], color="#2b6fe0", ls="--", label="DCM planned")
-        for k, (a, b, label) in enumerate(bands):
-            color = "#d9c2f0" if label.startswith("left") else "#c2eaf0"
-            ax.axvspan(a, b, color=color, alpha=0.5, lw=0, label=label if label not in
-                       [bb[2] for bb in bands[:k]] else None)
+        draw_bands(ax)
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"{coord} (m)")
         ax.legend(loc="upper left", fontsize=7, ncol=3)
+        _floor_span(ax)
+    ax = axes.pop(0)
+    ax.set_title("CoM, soles: z")
+    ax.plot(t, com[:, 2], color="#e0262b", label="CoM")
+    if "com_ref" in log:
+        ax.plot(t, np.asarray(log["com_ref"])[:, 2], color="#e0262b", ls="--", label="CoM reference")
+    for (name, z), color in zip(_sole_heights(log).items(), ("#9b3fd1", "#15a5b5")):
+        ax.plot(t, z, color=color, label=name)
+    draw_bands(ax)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("z (m)")
+    ax.legend(loc="center right", fontsize=7, ncol=2)
+    _floor_span(ax)
     ax = axes.pop(0)
     ax.set_title("top view")
     if "left_sole" in log:

@@ -1,0 +1,88 @@
+"""What the run commands print: summaries rounded to their unit's resolution (full precision stays in --json),
+keys that do not apply hidden, and the notice that the numba kernels compile on a first run."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from wbc.cli.output import compile_notice, format_value, print_summary, uncompiled_kernels
+
+
+@pytest.mark.parametrize("value, key, text", [
+    (-6.9e-18, "com_drift_m", "0"),  # floating-point noise on a length
+    (8.4e-7, "max_stance_slip_m", "0"),  # below 1 µm
+    (0.0327946, "min_zmp_margin_m", "0.03279"),
+    (1234.5678, "tick_time_us", "1235"),
+    (0.1234567, "torso_rad", "0.1235"),
+    (3, "ticks", "3"),
+    (float("nan"), "max_com_error_m", "nan"),
+    (True, "passed", "True"),
+])
+def test_format_value_rounds_to_meaningful_digits(value, key, text):
+    assert format_value(value, key) == text
+
+
+def test_print_summary_hides_what_does_not_apply(capsys):
+    print_summary({"com_drift_m": -6.9e-18, "fall_time_s": None, "fall_reason": "", "walked_distance_m": 1.0512345,
+                   "max_task_error_rad": {"torso": 0.00056322, "posture": 2e-9}}, hide={"com_drift_m"})
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in out] == ["walked_distance_m", "max_task_error_rad"]
+    assert out[0].split()[1] == "1.051"
+    assert out[1].split(None, 1)[1] == "torso 0.0005632, posture 0"
+
+
+def test_compile_notice_when_a_kernel_module_has_no_cache(tmp_path, monkeypatch):
+    import wbc
+
+    pkg = tmp_path / "wbc"
+    (pkg / "tasks").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "tasks" / "com.py").write_text("import numba as nb\n\n\n@nb.njit(cache=True)\ndef f(x):\n    return x\n")
+    (pkg / "plain.py").write_text("x = 1  # no kernels\n")
+    monkeypatch.setattr(wbc, "__file__", str(pkg / "__init__.py"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    assert uncompiled_kernels() == ["wbc.tasks.com"]
+    stream = io.StringIO()
+    assert compile_notice("wbc walk", stream=stream)
+    assert "compiling the numba kernels" in stream.getvalue() and "cached" in stream.getvalue()
+    (pkg / "tasks" / "__pycache__").mkdir()
+    (pkg / "tasks" / "__pycache__" / "com.f-4.py311.nbi").write_bytes(b"")  # numba's index of the cached kernel
+    assert uncompiled_kernels() == []
+    stream = io.StringIO()
+    assert not compile_notice("wbc walk", stream=stream) and stream.getvalue() == ""
+
+
+def test_the_kernel_lists_name_modules_with_cached_kernels():
+    """Every module the notice checks exists and has a numba kernel compiled with cache=True."""
+    import importlib.util
+    import re
+
+    from wbc.cli.output import DYNAMICS_KERNELS, KINEMATIC_KERNELS
+
+    for name in (*KINEMATIC_KERNELS, *DYNAMICS_KERNELS):
+        spec = importlib.util.find_spec(name)
+        assert spec is not None and spec.origin, name
+        with open(spec.origin, encoding="utf-8") as f:
+            assert re.search(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True", f.read()), name
+
+
+def test_status_lines_only_on_a_terminal(monkeypatch, capsys):
+    import argparse
+    import sys
+
+    from wbc.cli.output import status
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Tty()
+    monkeypatch.setattr(sys, "stderr", tty)
+    status(argparse.Namespace(quiet=False), "wbc walk: loading talos ...")
+    status(argparse.Namespace(quiet=True), "hidden")
+    assert tty.getvalue() == "wbc walk: loading talos ...\n"
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    status(argparse.Namespace(quiet=False), "not a terminal")
+    assert sys.stderr.getvalue() == ""

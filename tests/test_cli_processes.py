@@ -1,0 +1,234 @@
+"""Processes and files of a run under faults: the live viewer's meshcat server dies with its run (SIGTERM, SIGKILL,
+SIGINT of the `wbc` process), a malformed message on its zmq socket is answered and dropped, outputs are written
+atomically (concurrent writers, an interrupt during the write), Ctrl-C exits 130 without a traceback."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import multiprocessing
+import os
+import signal
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux only)")
+
+
+def _kill_live():
+    spec = importlib.util.spec_from_file_location("kill_live", ROOT / "benchmarks" / "kill_live.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@linux_only
+@pytest.mark.parametrize("sig", [signal.SIGKILL])  # SIGTERM too in benchmarks/kill_live.py (20 s per signal)
+def test_live_server_dies_with_its_run(sig):
+    r = _kill_live().kill_once(sig, robot="humanoid15", timeout=15.0)
+    assert len(r["pids"]) >= 2 and len(r["ports"]) >= 2, r  # wbc and its meshcat server, zmq + web ports
+    assert r["left_pids"] == [] and r["left_ports"] == [], r
+    assert r["exit_code"] == (143 if sig == signal.SIGTERM else -9), r
+    assert not r["traceback"], r["stderr"][-2000:]
+
+
+@linux_only
+def test_ctrl_c_while_waiting_exits_130_and_keeps_the_previous_outputs(tmp_path):
+    log, js = tmp_path / "run.npz", tmp_path / "run.json"
+    np.savez(log, t=np.arange(3.0))
+    js.write_text('{"previous": true}\n')
+    before = (log.read_bytes(), js.read_bytes())
+    r = _kill_live().kill_once(signal.SIGINT, robot="humanoid15", timeout=15.0, settle=3.0,
+                               extra=["--log", str(log), "--json", str(js)])
+    assert r["exit_code"] == 130, r
+    # --live waited for a browser: in the 3 s after the URL the motion did not start (nothing more printed);
+    # that a connection starts it is tests/test_viz_browser.py::test_live_page_of_a_running_walk
+    assert "starts when it connects" in r["url_line"] and r["stdout_after_url"] == "", r
+    assert not r["traceback"] and "interrupted" in r["stderr"], r["stderr"][-2000:]
+    assert r["left_pids"] == [] and r["left_ports"] == [], r
+    assert (log.read_bytes(), js.read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run.npz"]  # no temporary left
+
+
+def test_malformed_zmq_messages_are_dropped_and_the_server_goes_on(tmp_path):
+    import zmq
+
+    from wbc.viz import _server
+
+    log = tmp_path / "server.log"
+    proc, zmq_url, web_url = _server.start(log=log)
+    sock = zmq.Context.instance().socket(zmq.REQ)
+    sock.setsockopt(zmq.LINGER, 0)
+    sock.setsockopt(zmq.RCVTIMEO, 10000)
+    try:
+        sock.connect(zmq_url)
+        for frames in ([b"\xff\xfe\x00garbage"], [b"delete", b"\xff\xfe", b""], [b"set_transform", b"/a"],
+                       [b"no such command"]):
+            sock.send_multipart(frames)
+            reply = sock.recv()
+            assert reply.startswith(b"error"), (frames, reply)
+        sock.send(b"url")
+        assert sock.recv().decode() == web_url  # still serving
+        assert proc.poll() is None
+    finally:
+        sock.close()
+        proc.kill()
+        proc.wait()
+        proc.stdin.close()
+        proc.stdout.close()
+    text = log.read_text()
+    assert text.count("dropped a malformed message") == 2, text  # the two meshcat's own handler raised on
+
+
+class _FakeRun:
+    """Anything with save(file) writing an npz: the interface of the run records."""
+
+    def __init__(self, value: float, n: int):
+        self.value, self.n = value, n
+
+    def save(self, f):
+        np.savez(f, t=np.full(self.n, self.value), q=np.full((self.n, 8), self.value))
+
+
+def _writer(path: str, value: float, times: int) -> None:
+    from wbc.cli.output import write_json, write_log
+
+    for _ in range(times):
+        write_log(Path(path), _FakeRun(value, 100_000))
+        write_json(Path(path).with_suffix(".json"), {"value": value, "pad": [value] * 20000})
+
+
+def test_concurrent_runs_never_corrupt_a_log(tmp_path):
+    """Two processes write the same --log/--json 8 times each while the test reads them: every read is a complete
+    file of one writer (all values equal), and no temporary is left."""
+    path = tmp_path / "same.npz"
+    ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+    procs = [ctx.Process(target=_writer, args=(str(path), float(v), 8)) for v in (1, 2)]
+    for p in procs:
+        p.start()
+    reads = 0
+    while any(p.is_alive() for p in procs):
+        if path.exists():
+            with np.load(path) as z:
+                t, q = z["t"], z["q"]
+            assert t.size == 100_000 and len(np.unique(t)) == 1 and np.all(q == t[0])
+            js = path.with_suffix(".json")
+            if js.exists():
+                d = json.loads(js.read_text())
+                assert set(d["pad"]) == {d["value"]}
+            reads += 1
+    for p in procs:
+        p.join()
+        assert p.exitcode == 0
+    assert reads > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["same.json", "same.npz"]
+
+
+def test_an_interrupt_during_the_write_leaves_the_previous_file(tmp_path, monkeypatch):
+    """Ctrl-C in the middle of writing the log: the previous log is intact, no partial file is left."""
+    from wbc.cli.output import write_log
+
+    path = tmp_path / "run.npz"
+    write_log(path, _FakeRun(1.0, 1000))
+    before = path.read_bytes()
+
+    class Interrupted(_FakeRun):
+        def save(self, f):
+            f.write(b"PK\x03\x04" + b"\x00" * 4096)  # the first bytes of a zip, then Ctrl-C
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_log(path, Interrupted(2.0, 1000))
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["run.npz"]
+
+
+def test_ctrl_c_during_a_run_exits_130_without_output(tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the controller runs: exit code 130, one line on stderr, the previous files untouched."""
+    import wbc.scenarios.balance as balance
+
+    from wbc.cli import main
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(balance, "run_balance", interrupted)
+    log = tmp_path / "b.npz"
+    np.savez(log, t=np.zeros(2))
+    before = log.read_bytes()
+    code = main(["balance", "shift", "--robot", "humanoid15", "--quiet", "--log", str(log)])
+    err = capsys.readouterr().err
+    assert code == 130 and "interrupted" in err and "Traceback" not in err
+    assert log.read_bytes() == before
+
+
+def test_log_without_suffix_prints_the_file_it_wrote(tmp_path, capsys):
+    """`--log X` writes X.npz (numpy's rule) and says X.npz."""
+    import argparse
+
+    from wbc.cli.output import write_log
+    from wbc.cli.validate import check_outputs
+
+    target = tmp_path / "shift"
+    args = argparse.Namespace(log=target, json=None, out=None, plot=None)
+    check_outputs(args)
+    write_log(args.log, _FakeRun(1.0, 10))
+    out = capsys.readouterr().out
+    assert out.strip() == f"log written to {target}.npz"
+    assert [p.name for p in tmp_path.iterdir()] == ["shift.npz"]
+
+
+def test_dds_uses_loopback_by_default_and_says_so(monkeypatch):
+    """Without CYCLONEDDS_URI, a wbc participant is confined to `lo` (multicast off); --ros2-interface is in the
+    help of every command that opens DDS; a user's CYCLONEDDS_URI is left alone."""
+    pytest.importorskip("cyclonedds")
+    from wbc.cli import build_parser
+    from wbc.ros2 import dds
+
+    monkeypatch.setenv("CYCLONEDDS_URI", "")  # recorded, restored after the test
+    monkeypatch.delenv("CYCLONEDDS_URI")
+    monkeypatch.setattr(dds, "_chosen", [])  # as in a fresh process
+    part = dds.participant()
+    assert os.environ.get("CYCLONEDDS_URI") == dds.loopback_uri()
+    del part
+    mine = dds.loopback_uri().replace("60", "61")  # the user's own configuration wins
+    monkeypatch.setenv("CYCLONEDDS_URI", mine)
+    dds.use_interface("eth0")
+    assert os.environ["CYCLONEDDS_URI"] == mine
+    assert "<AllowMulticast>false</AllowMulticast>" in dds.loopback_uri() and 'name="lo"' in dds.loopback_uri()
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for name in ("walk", "balance", "sim"):
+        text = " ".join(sub.choices[name].format_help().split())
+        assert "--ros2-interface" in text and "127.0.0.1 only" in text, name
+
+
+def test_bench_report_is_moved_into_place_whole(tmp_path):
+    """`wbc bench` writes its report in a temporary folder of --out-dir and renames each file; a failing writer
+    leaves the previous report and no temporary folder."""
+    from wbc.cli.bench import _write_atomically
+
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "results.json").write_text('{"previous": 1}')
+
+    def writer(results, folder):
+        (folder / "results.json").write_text(json.dumps(results))
+        (folder / "results.md").write_text("# report\n")
+        return {"json": folder / "results.json", "markdown": folder / "results.md"}
+
+    def failing(results, folder):
+        (folder / "results.json").write_text('{"half')
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        _write_atomically({"new": 2}, out, failing)
+    assert json.loads((out / "results.json").read_text()) == {"previous": 1}
+    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+    paths = _write_atomically({"new": 2}, out, writer)
+    assert paths["json"] == out / "results.json" and json.loads(paths["json"].read_text()) == {"new": 2}
+    assert sorted(p.name for p in out.iterdir()) == ["results.json", "results.md"]
