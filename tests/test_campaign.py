@@ -214,12 +214,12 @@ def test_plots_are_written(tmp_path):
 
 
 def test_cli_bad_inputs_exit_2(tmp_path, capsys):
-    assert main(["campaign", "run", "--out", str(tmp_path / "o")]) == 2
+    assert main(["campaign", "run", "--results", str(tmp_path / "o")]) == 2
     assert "give a campaign TOML file or --kind" in capsys.readouterr().err
-    assert main(["campaign", "run", "--kind", "push", "--set", "factors.forse=[1,2]", "--out",
+    assert main(["campaign", "run", "--kind", "push", "--set", "factors.forse=[1,2]", "--results",
                  str(tmp_path / "o")]) == 2
     assert "unknown key 'forse'" in capsys.readouterr().err
-    assert main(["campaign", "run", "--kind", "push", "--workers", "2", "--out", str(tmp_path / "o")]) == 2
+    assert main(["campaign", "run", "--kind", "push", "--workers", "2", "--results", str(tmp_path / "o")]) == 2
     assert main(["campaign", "report", str(tmp_path / "nothing")]) == 2
     assert "no campaign results" in capsys.readouterr().err
 
@@ -282,9 +282,9 @@ def test_physics_campaign_on_ray_equals_serial(tmp_path):
     processes, so a falling trial is not yet reproducible to the bit across processes."""
     common = ["campaign", "run", "--kind", "push", "--trials", "4", "--seed", "11", "--no-plots", "--no-progress",
               "--set", "scenario.steps=2", "--set", "scenario.step_length=0.1", "--set", "factors.force=[100,150]"]
-    assert main(common + ["--out", str(tmp_path / "serial")]) == 0
+    assert main(common + ["--results", str(tmp_path / "serial")]) == 0
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    p = subprocess.run([sys.executable, "-m", "wbc", *common, "--out", str(tmp_path / "ray"), "--ray",
+    p = subprocess.run([sys.executable, "-m", "wbc", *common, "--results", str(tmp_path / "ray"), "--ray",
                         "--workers", "2"], capture_output=True, text=True, timeout=900, env=env, cwd=ROOT)
     assert p.returncode == 0, p.stderr[-3000:]
     drop = {"wall_s", "worker"}

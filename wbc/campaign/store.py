@@ -62,7 +62,7 @@ class ResultStore:
                 raise InvalidInputError(f"{meta}: unreadable ({e}); remove the folder or choose another") from None
             if old != json.loads(text):
                 raise InvalidInputError(f"{self.out} holds the results of another campaign (its campaign.json "
-                                        "differs from this spec); choose another --out or remove it")
+                                        "differs from this spec); choose another --results or remove it")
         else:
             _atomic_write_text(meta, text)
         self._seq = 0

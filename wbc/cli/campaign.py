@@ -1,8 +1,8 @@
 """``wbc campaign run|report``: many physics trials (push maps, Monte-Carlo robustness, gain sweeps), serially or
 on Ray, streamed to a Parquet results folder, resumable (:mod:`wbc.campaign`).
 
-    wbc campaign run --kind push --trials 1000 --out results/push --ray
-    wbc campaign run my_campaign.toml --out results/mine --set scenario.steps=6 --set factors.force=[300,500]
+    wbc campaign run --kind push --trials 1000 --results results/push --ray
+    wbc campaign run my_campaign.toml --results results/mine --set scenario.steps=6 --set factors.force=[300,500]
     wbc campaign report results/push
 
 Exit code 0 when the campaign ran (whatever its survival rate), 2 on bad input, 130 when interrupted (every
@@ -29,8 +29,8 @@ def register(subparsers, add_outputs=None) -> None:
                     "intervals and plots.")
     sub = p.add_subparsers(dest="campaign_command", required=True)
     r = sub.add_parser("run", help="run (or resume) a campaign",
-                       description="Run a campaign from a TOML file or --kind, recording one row per trial in --out; "
-                                   "trials already in --out are skipped (resume).")
+                       description="Run a campaign from a TOML file or --kind, recording one row per trial in --results; "
+                                   "trials already there are skipped (resume).")
     r.add_argument("spec", nargs="?", type=Path, help="campaign TOML file (see wbc.campaign.spec); or use --kind")
     r.add_argument("--kind", choices=KINDS, default=None, help="a default campaign of this kind (no TOML file)")
     r.add_argument("--trials", type=int, default=None, help="number of trials (not for a sweep: points × repeats)")
@@ -38,7 +38,8 @@ def register(subparsers, add_outputs=None) -> None:
     r.add_argument("--robot", default=None, help="scenario.robot (catalog name)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a spec entry, VALUE in TOML syntax, e.g. scenario.steps=6, factors.force=[300,500]")
-    r.add_argument("--out", type=Path, required=True, help="results folder (created; reused to resume)")
+    r.add_argument("--results", type=Path, required=True, metavar="DIR",
+                   help="results folder: Parquet rows, plots (created; reused to resume)")
     r.add_argument("--ray", action="store_true",
                    help="run on a local Ray started on this machine's cores, confined to 127.0.0.1 (a private "
                         "network namespace whose only interface is lo)")
@@ -124,27 +125,27 @@ def cmd_campaign(args) -> int:
     from wbc.campaign import (RayExecutor, SerialExecutor, format_report, make_plots, run, summarize_campaign)
     from wbc.campaign.store import ResultStore
 
-    ResultStore(args.out, spec.as_dict())  # refuse a bad or foreign folder before starting anything
+    ResultStore(args.results, spec.as_dict())  # refuse a bad or foreign folder before starting anything
     if args.ray or args.ray_address:
         executor = RayExecutor(args.ray_address, workers=args.workers)
     else:
         executor = SerialExecutor()
     try:
-        table = run(spec, args.out, executor=executor, progress=not args.no_progress)
+        table = run(spec, args.results, executor=executor, progress=not args.no_progress)
     except KeyboardInterrupt:
         from wbc.campaign import read_results
 
-        t = read_results(args.out, missing_ok=True)
+        t = read_results(args.results, missing_ok=True)
         n = 0 if t is None else t.num_rows
-        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials recorded in {args.out} "
+        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials recorded in {args.results} "
               "(run the same command again to resume)", file=sys.stderr)
         return 130
     print(format_report(table))
     s = summarize_campaign(table)
-    print(f"results: {args.out}/trials ({table.num_rows} rows of {spec.trials}; executor {executor.name}, "
+    print(f"results: {args.results}/trials ({table.num_rows} rows of {spec.trials}; executor {executor.name}, "
           f"{executor.workers} worker(s)); errors {s['errors']}")
     if not args.no_plots:
         sweep = sorted(spec.sweep["params"]) if spec.sweep else None
-        for path in make_plots(table, Path(args.out) / "plots", sweep_params=sweep):
+        for path in make_plots(table, Path(args.results) / "plots", sweep_params=sweep):
             print(f"plot written to {path}")
     return 0
