@@ -22,6 +22,8 @@ def add_run_options(p) -> None:
     g.add_argument("--ros2", action="store_true",
                    help="publish /joint_states, /tf, /tf_static, /robot_description on DDS (ROS_DOMAIN_ID)")
     g.add_argument("--ros2-rate", type=float, default=50.0, help="publishing rate, Hz (default 50, max 500)")
+    g.add_argument("--ros2-unpaced", action="store_true",
+                   help="with --ros2, run as fast as possible instead of at real time (stamps stay the run's time)")
     g.add_argument("--tf", choices=("base", "all"), default="all",
                    help="/tf content: odom->root link only, or every link (default all)")
     g.add_argument("--bag", default=None, metavar="DIR", help="record the same topics as a rosbag2 in DIR")
@@ -29,27 +31,39 @@ def add_run_options(p) -> None:
 
 
 class _Tee:
-    """Forward ``update(q, t)`` to several viewers/publishers."""
+    """Forward ``update(q, t)`` to several viewers/publishers, then wait for ``t`` on ``pacer`` (if any)."""
 
-    def __init__(self, *targets):
+    def __init__(self, *targets, pacer=None):
         self.targets = [t for t in targets if t is not None]
+        self.pacer = pacer
 
     def update(self, q, t=None, *a, **k):
         for target in self.targets:
             target.update(q, t)
+        if self.pacer is not None and t is not None:
+            self.pacer.wait(t)
 
 
 def attach(args, robot, viewer, dt: float):
-    """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`."""
+    """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`.
+
+    Stamps (DDS and bag) are the run's time: ``t`` from 0 for a bag alone, the wall-clock time of the start plus
+    ``t`` with ``--ros2``. With ``--ros2`` the run is paced to real time (``--ros2-unpaced``: as fast as it goes).
+    """
     if not getattr(args, "ros2", False) and getattr(args, "bag", None) is None:
         return viewer, None
     from wbc.ros2.publisher import Ros2Publisher
 
+    pacer = None
+    if args.ros2 and not getattr(args, "ros2_unpaced", False):
+        from wbc.viz.live import RealTimePacer
+
+        pacer = RealTimePacer()
     pub = Ros2Publisher(robot, rate=args.ros2_rate, tf=args.tf, dds=args.ros2, bag=args.bag,
-                        storage=args.storage, dt=dt)
+                        storage=args.storage, dt=dt, clock="sim", epoch=time.time() if args.ros2 else 0.0)
     if args.ros2:
         time.sleep(0.5)  # let DDS discovery match subscribers already running
-    return (_Tee(viewer, pub) if viewer is not None else pub), pub
+    return _Tee(viewer, pub, pacer=pacer), pub
 
 
 def finish(pub) -> None:
