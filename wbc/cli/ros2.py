@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
 __all__ = ["register", "add_run_options", "attach"]
 
 
@@ -198,6 +200,41 @@ def cmd_topics(args) -> int:
     return 0
 
 
+def cmd_node(args) -> int:
+    """``wbc ros2 node``: the controller node (:mod:`wbc.ros2.node`) until Ctrl-C or ``--duration`` s."""
+    import resource
+
+    from wbc.robot import load_robot
+    from wbc.ros2 import dds
+    from wbc.exceptions import InvalidInputError
+    from wbc.ros2.node import ControllerNode
+
+    if args.sim:
+        raise InvalidInputError("wbc ros2 node --sim: the MuJoCo closed-loop node is not implemented yet; "
+                                "valid: the kinematic node (without --sim)")
+    if args.duration is not None and not args.duration > 0:
+        raise InvalidInputError(f"--duration {args.duration}: valid is a number of seconds > 0")
+    _loopback(args)
+    robot = load_robot(args.robot)
+    node = ControllerNode(robot, time_mode=args.time, update_rate=args.rate, name=args.name, tf=args.tf)
+    print(f"wbc ros2 node: {robot.name} as /{args.name} on domain {dds.domain_id()}, time {args.time}, "
+          f"/joint_states at {args.rate:g} Hz; /cmd_vel, /navigate_to_pose, /navigate_to_goal, /reset_robot; "
+          "Ctrl-C to stop", flush=True)
+    wall0 = time.monotonic()
+    try:
+        node.spin(args.duration)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+    tt = np.asarray(node.tick_time) * 1e6
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"node: {node.ticks} ticks, node time {node.walk.t:.3f} s in {time.monotonic() - wall0:.1f} s wall; "
+          f"tick p50 {np.percentile(tt, 50):.0f} µs p99 {np.percentile(tt, 99):.0f} µs (last {len(tt)}); "
+          f"max RSS {rss:.0f} MB; {node.counts}", flush=True)
+    return 0
+
+
 def _ros_type(dds_type: str) -> str:
     """``sensor_msgs::msg::dds_::JointState_`` → ``sensor_msgs/msg/JointState``."""
     parts = dds_type.split("::")
@@ -231,8 +268,20 @@ def register(subparsers, add_outputs) -> None:
     ej.add_argument("--count", type=int, default=None, help="exit after this many samples")
     ej.add_argument("--timeout", type=float, default=None, help="exit after this many seconds")
     ej.set_defaults(func=cmd_echo_joint)
+    nd = sub.add_parser("node", help="the controller node: /cmd_vel, NavigateToPose, parameters, /reset_robot")
+    nd.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
+    nd.add_argument("--rate", type=_positive_rate, default=50.0,
+                    help="/joint_states, /tf, /odom rate, Hz (parameter update_rate; default 50, max 500)")
+    nd.add_argument("--time", choices=("real", "sim"), default="real",
+                    help="real: paced to the wall clock (default); sim: as fast as possible, /clock, sim stamps")
+    nd.add_argument("--sim", action="store_true",
+                    help="MuJoCo closed loop with the inverse-dynamics controller (not available yet: refused)")
+    nd.add_argument("--name", default="wbc_node", help="node name (parameter services /NAME/...; default wbc_node)")
+    nd.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
+    nd.add_argument("--duration", type=float, default=None, help="stop after this many seconds of node time")
+    nd.set_defaults(func=cmd_node)
     tp = sub.add_parser("topics", help="list the ROS 2 topics on the domain")
     tp.add_argument("--wait", type=float, default=2.0, help="discovery time, s (default 2)")
     tp.set_defaults(func=cmd_topics)
-    for p in (jp, ej, tp):
+    for p in (jp, ej, tp, nd):
         p.add_argument("--loopback", action="store_true", help="confine DDS to 127.0.0.1 (sets CYCLONEDDS_URI)")

@@ -22,7 +22,9 @@ Gait (a receding horizon of :func:`wbc.gait.plan_walk` plans):
   smallest count keeping the step within ``max_velocity T`` forward, ``max_lateral T`` sideways and
   ``max_turn T`` in yaw. The base pose is the free flyer's (x, y, yaw); its offset from the feet mid-point at
   rest (``q_ref``, heading frame) is kept.
-* **Stop** (:meth:`stop`): at the next touch-down a closing step is planned; standing once it has settled.
+* **Stop** (:meth:`stop`): in a double support before a step (at least 0.1 s of it left) the closing step is
+  planned at once, the remaining double support as its initial one; during a swing, at its touch-down. Standing
+  once the closing step has settled: at most one step starts after a stop.
 
 Frames and units: world frame (``odom``), z up, flat ground; m, s, rad.
 """
@@ -108,6 +110,7 @@ class CommandedWalk:
         self.goal: tuple[float, float, float] | None = None
         self._pending_goal: tuple[float, float, float] | None = None
         self._stop = False
+        self._stop_now = False
         self.replans = 0
         self.replan_failures = 0
         self.touchdowns = 0
@@ -166,6 +169,16 @@ class CommandedWalk:
         yaw = pose_to_xy_yaw(pin.XYZQUATToSE3(q[:7]).homogeneous)[2]
         return float(q[0]), float(q[1]), yaw
 
+    def footprint_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) where the base would stand at rest over the current soles (m, m, rad, world): the feet
+        mid-point and mean heading plus the base's offset from them at ``q_ref``. It moves only while a foot
+        swings, so its distance to a goal does not sway with the CoM."""
+        lf, rf = self._soles()
+        mx, my, yaw = self._midpoint(lf, rf)
+        ox, oy = self._base_offset
+        c, s = math.cos(yaw), math.sin(yaw)
+        return mx + c * ox - s * oy, my + s * ox + c * oy, yaw
+
     def time_remaining(self) -> float:
         """Time (s) until the current plan ends (0 when standing)."""
         return 0.0 if self.plan is None else (self.plan.n_samples - self.k) * self.dt
@@ -199,6 +212,7 @@ class CommandedWalk:
         self.command[:] = 0.0
         self.goal = self._pending_goal = None
         self._stop = True
+        self._stop_now = True
 
     def reset(self) -> None:
         """Back to the reference standing configuration, standing, no command."""
@@ -219,7 +233,11 @@ class CommandedWalk:
                 self._start(self._plan_from_state(None))
         elif self.k > 0 and plan.support[self.k] == _DOUBLE and plan.support[self.k - 1] != _DOUBLE:
             self.touchdowns += 1
+            self._stop_now = False
             self._at_touchdown()
+        elif self._stop_now:
+            self._stop_now = False
+            self._close_in_double_support()
         if self.plan is None:
             self.v[:] = 0.0
         else:
@@ -253,7 +271,25 @@ class CommandedWalk:
             self.plan, self.k = new, 0
             self.replans += 1
 
-    def _plan_from_state(self, at):
+    def _close_in_double_support(self) -> None:
+        """On :meth:`stop` in a double support before a step (≥ 0.1 s of it left): replace the rest of the plan by
+        the closing step now, instead of at the next touch-down (the step about to start is not taken)."""
+        plan, k = self.plan, self.k
+        phases = plan.phases
+        i = next(i for i, ph in enumerate(phases) if ph.first <= k < ph.first + ph.count)
+        ph = phases[i]
+        if ph.support != _DOUBLE or i + 1 >= len(phases):
+            return  # swinging (the closing step is planned at touch-down) or already in the final double support
+        left = (ph.first + ph.count - k) * self.dt
+        if left < 0.1:
+            return
+        first = "right" if int(phases[i + 1].support) == 1 else "left"  # left stance next: the right foot swings
+        new = self._plan_from_state((k, first), t_init=left)
+        if new is not None:
+            self.plan, self.k = new, 0
+            self.replans += 1
+
+    def _plan_from_state(self, at, t_init: float | None = None):
         """A plan from the current double support: ``at`` None (standing) or (k, first swinging side)."""
         if at is None:
             lf, rf = self._soles()
@@ -263,7 +299,7 @@ class CommandedWalk:
             p = self.plan
             lf, rf = p.left_sole[k], p.right_sole[k]
             com, com_vel = p.com[k].copy(), p.com_vel[k].copy()
-            t_init = self._t_ds
+            t_init = self._t_ds if t_init is None else t_init
         kwargs = dict(step_height=self.step_height, t_ss=self._t_ss, t_ds=self._t_ds, dt=self.dt,
                       sole_length=self.robot.sole_length, sole_width=self.robot.sole_width)
         if t_init is not None:
