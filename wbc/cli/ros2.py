@@ -214,6 +214,8 @@ def cmd_node(args) -> int:
                                 "valid: the kinematic node (without --sim)")
     if args.duration is not None and not args.duration > 0:
         raise InvalidInputError(f"--duration {args.duration}: valid is a number of seconds > 0")
+    if args.report_every is not None and not args.report_every > 0:
+        raise InvalidInputError(f"--report-every {args.report_every}: valid is a number of seconds > 0")
     _loopback(args)
     robot = load_robot(args.robot)
     node = ControllerNode(robot, time_mode=args.time, update_rate=args.rate, name=args.name, tf=args.tf)
@@ -222,7 +224,7 @@ def cmd_node(args) -> int:
           "Ctrl-C to stop", flush=True)
     wall0 = time.monotonic()
     try:
-        node.spin(args.duration)
+        node.spin(args.duration, report_every=args.report_every)
     except KeyboardInterrupt:
         pass
     finally:
@@ -279,6 +281,8 @@ def register(subparsers, add_outputs) -> None:
     nd.add_argument("--name", default="wbc_node", help="node name (parameter services /NAME/...; default wbc_node)")
     nd.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
     nd.add_argument("--duration", type=float, default=None, help="stop after this many seconds of node time")
+    nd.add_argument("--report-every", type=float, default=None, metavar="S",
+                    help="print tick time p50/p99 and RSS every S seconds of node time")
     nd.set_defaults(func=cmd_node)
     tp = sub.add_parser("topics", help="list the ROS 2 topics on the domain")
     tp.add_argument("--wait", type=float, default=2.0, help="discovery time, s (default 2)")

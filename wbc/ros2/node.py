@@ -80,6 +80,17 @@ PENDING, ACCEPTED, EXECUTING, CANCELING, SUCCEEDED, CANCELED, ABORTED = range(7)
 GOAL_TOLERANCE = (0.05, math.radians(5.0))  # m, rad: a goal ends SUCCEEDED within these
 
 
+def _rss_mb() -> float:
+    """Resident set size of this process, MB (Linux /proc/self/statm; nan elsewhere)."""
+    import os
+
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
+    except (OSError, ValueError):
+        return float("nan")
+
+
 def _yaw(qx, qy, qz, qw) -> float:
     return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
 
@@ -459,8 +470,11 @@ class ControllerNode:
             m.TwistWithCovariance(m.Twist(m.Vector3(*map(float, v[:3])), m.Vector3(*map(float, v[3:6])))))
         self._odom_w.write(odom)
 
-    def spin(self, duration: float | None = None) -> None:
+    def spin(self, duration: float | None = None, report_every: float | None = None) -> None:
         """Run until ``duration`` s of node time (None: until KeyboardInterrupt).
+
+        ``report_every`` (s of node time): print a line with the tick time p50/p99 (µs) of the last
+        ``report_every`` s and the resident memory (MB, /proc/self/statm) at that period.
 
         Per control tick (``dt`` = 2 ms): every 5th tick the subscriptions and services are served and /clock is
         published (``--time sim``); one walk tick; /joint_states, /tf, /odom at ``update_rate``; action feedback
@@ -475,6 +489,8 @@ class ControllerNode:
         w = self.walk
         poll = 5
         fb_every = int(round(0.1 / w.dt))
+        rep_every = None if report_every is None else max(1, int(round(report_every / w.dt)))
+        window = deque(maxlen=rep_every or 1)
         while duration is None or w.t < duration - 1e-9:
             t0 = time.perf_counter()
             if self.ticks % poll == 0:
@@ -490,7 +506,15 @@ class ControllerNode:
                 if self.ticks % fb_every == 0:
                     self._feedback()
                 self._goal_progress()
-            self.tick_time.append(time.perf_counter() - t0)
+            dt_tick = time.perf_counter() - t0
+            self.tick_time.append(dt_tick)
+            if rep_every is not None:
+                window.append(dt_tick)
+                if self.ticks % rep_every == 0:
+                    tt = np.asarray(window) * 1e6
+                    print(f"stats: node time {w.t:.1f} s, tick p50 {np.percentile(tt, 50):.0f} µs "
+                          f"p99 {np.percentile(tt, 99):.0f} µs, RSS {_rss_mb():.1f} MB, replans {w.replans}, "
+                          f"replan failures {w.replan_failures}", flush=True)
             if pacer is not None:
                 pacer.wait(w.t)
 

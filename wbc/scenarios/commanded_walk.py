@@ -77,7 +77,8 @@ class CommandedWalk:
             single/double support split of the robot's gait is kept.
         max_velocity: forward speed limit, m/s (> 0); commands beyond it are refused, goals walk at most at it.
         max_lateral: lateral speed limit, m/s (> 0).
-        max_turn: yaw rate limit, rad/s (> 0).
+        max_turn: yaw rate limit, rad/s (> 0); 0 when the legs cannot yaw the soles relative to each other (no
+            hip yaw joint, :attr:`can_turn` False): turning commands are then refused and goals must keep the heading.
 
     Raises:
         InvalidInputError: a non-finite or out-of-range argument (the message names it and the valid range).
@@ -98,8 +99,9 @@ class CommandedWalk:
         self.step_duration = self._t_ss0 + self._t_ds0 if step_duration is None else step_duration
         self.max_velocity = max_velocity
         self.max_lateral = _finite(max_lateral, "max_lateral", 1e-3, 2.0)
-        self.max_turn = _finite(max_turn, "max_turn", 1e-3, 3.0)
         self.config = Configuration(robot)
+        self.can_turn = self._feet_can_yaw()
+        self.max_turn = _finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
         self._solver = solver
         self.walker = WalkController(robot, self.config, solver=solver)
         self.v = np.zeros(robot.model.nv)
@@ -111,6 +113,7 @@ class CommandedWalk:
         self._pending_goal: tuple[float, float, float] | None = None
         self._stop = False
         self._stop_now = False
+        self._retry_at = 0.0
         self.replans = 0
         self.replan_failures = 0
         self.touchdowns = 0
@@ -120,6 +123,7 @@ class CommandedWalk:
         c, s = math.cos(yaw), math.sin(yaw)
         dx, dy = self.config.q[0] - mx, self.config.q[1] - my
         self._base_offset = (c * dx + s * dy, -s * dx + c * dy)  # base - feet mid-point, heading frame
+        self._step_width = self._width(lf, rf)  # nominal, at q_ref (side steps widen the stance only transiently)
 
     # -- parameters --------------------------------------------------------------------------------------------
     @property
@@ -190,6 +194,9 @@ class CommandedWalk:
         Raises:
             InvalidInputError: non-finite or beyond ``max_velocity`` / ``max_lateral`` / ``max_turn``.
         """
+        if wz and not self.can_turn:
+            raise InvalidInputError(f"wz = {wz} rad/s: {self.robot.name}'s legs cannot yaw one sole relative to the "
+                                    "other (no hip yaw joint); valid: wz = 0")
         self.command[:] = (_finite(vx, "vx (m/s)", -self.max_velocity, self.max_velocity),
                            _finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
                            _finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
@@ -229,8 +236,10 @@ class CommandedWalk:
         """Advance one control period ``dt``: (re)plan if due, then one QP tick (or hold when standing)."""
         plan = self.plan
         if plan is None:
-            if self._pending_goal is not None or np.any(self.command):
+            if (self._pending_goal is not None or np.any(self.command)) and self.t >= self._retry_at:
                 self._start(self._plan_from_state(None))
+                if self.plan is None:
+                    self._retry_at = self.t + 0.5  # a walk that cannot be planned is retried every 0.5 s
         elif self.k > 0 and plan.support[self.k] == _DOUBLE and plan.support[self.k - 1] != _DOUBLE:
             self.touchdowns += 1
             self._stop_now = False
@@ -306,7 +315,7 @@ class CommandedWalk:
             kwargs["t_init"] = t_init
         if com_vel is not None:
             kwargs["com_velocity"] = com_vel
-        width = self._width(lf, rf)
+        width = self._step_width
         try:
             if self._pending_goal is not None:
                 goal, self._pending_goal = self._pending_goal, None
@@ -331,6 +340,17 @@ class CommandedWalk:
             return None
 
     # -- geometry ----------------------------------------------------------------------------------------------
+    def _feet_can_yaw(self) -> bool:
+        """Whether the joints can change the relative yaw of the soles at the current q: the z row of the Jacobian
+        of ω_left − ω_right (world axes; the floating base cancels) is non-zero. False for legs without a hip yaw
+        joint, whose feet cannot turn relative to each other."""
+        model, data, q = self.robot.model, self.robot.model.createData(), self.config.q
+        pin.computeJointJacobians(model, data, q)
+        pin.framesForwardKinematics(model, data, q)
+        jl, jr = (pin.getFrameJacobian(model, data, self.robot.frame_id(f), pin.LOCAL_WORLD_ALIGNED)
+                  for f in (self.robot.left_sole, self.robot.right_sole))
+        return bool(np.abs(jl[5] - jr[5]).max() > 1e-6)
+
     def _soles(self):
         d = self.config.data
         return (d.oMf[self.robot.frame_id(self.robot.left_sole)].homogeneous.copy(),
@@ -358,8 +378,14 @@ class CommandedWalk:
         c0, s0 = math.cos(yaw0), math.sin(yaw0)
         fwd, lat = c0 * (tx - mx) + s0 * (ty - my), -s0 * (tx - mx) + c0 * (ty - my)
         T = self.step_duration
+        if not self.can_turn and abs(dyaw) > math.radians(0.5):
+            raise GaitError(f"{self.robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint): "
+                            f"a goal heading change of {math.degrees(dyaw):.1f} deg cannot be walked; valid: the "
+                            "current heading")
         n_walk = max(1, math.ceil(max(abs(fwd) / (self.max_velocity * T), abs(lat) / (self.max_lateral * T),
-                                      abs(dyaw) / (self.max_turn * T)) - 1e-9))
+                                      abs(dyaw) / (self.max_turn * T) if self.can_turn else 0.0) - 1e-9))
+        if not self.can_turn:
+            dyaw = 0.0
         turn = dyaw / n_walk
         side = first or ("right" if lat < 0 else "left")
         l0, r0 = pose_to_xy_yaw(lf), pose_to_xy_yaw(rf)
