@@ -177,3 +177,31 @@ def test_action_type_hashes_match_ros2():
                                           "rosgraph_msgs/msg/Clock", "geometry_msgs/msg/Twist"]
     for name in names:
         assert msgs.rihs01(name) == ts.hash_rihs01(name), name
+
+
+def test_node_refuses_bad_options_before_work():
+    for extra in (["--sim"], ["--duration", "-1"]):
+        r = subprocess.run([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", *extra],
+                           capture_output=True, text=True, timeout=120, cwd=str(HERE.parent))
+        assert r.returncode == 2, (extra, r.stdout, r.stderr)
+        assert "valid" in r.stderr.strip().splitlines()[-1], r.stderr
+
+
+def test_commanded_walk_typed_errors():
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot import load_robot
+    from wbc.scenarios.commanded_walk import CommandedWalk
+
+    walk = CommandedWalk(load_robot("humanoid15"))
+    assert not walk.can_turn  # no hip yaw joint
+    for bad in ((0.5, 0.0, 0.0), (float("nan"), 0.0, 0.0), (0.1, 0.0, 0.2), (0.0, 0.5, 0.0)):
+        with pytest.raises(InvalidInputError):
+            walk.set_velocity(*bad)
+    for value in (0.1, float("inf"), "1"):
+        with pytest.raises(InvalidInputError):
+            walk.step_duration = value
+    with pytest.raises(InvalidInputError):
+        walk.max_velocity = -0.1
+    with pytest.raises(InvalidInputError):
+        walk.set_goal(1.0, float("nan"), 0.0)
+    assert np.all(walk.command == 0.0) and walk.idle  # nothing applied

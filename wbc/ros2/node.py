@@ -12,6 +12,7 @@ ROS 2 name                                  type                                
 /tf_static, /robot_description              tf2_msgs/msg/TFMessage, std_msgs/msg/String   reliable, transient local, last 1
 /clock (``--time sim``, every 10 ms)        rosgraph_msgs/msg/Clock                       reliable, volatile, last 1
 /cmd_vel (subscribed)                       geometry_msgs/msg/Twist                       best effort reader, last 10
+/goal_pose (subscribed: RViz2 2D Goal Pose) geometry_msgs/msg/PoseStamped                 best effort reader, last 10
 /navigate_to_pose, /navigate_to_goal        nav2_msgs/action/NavigateToPose (Jazzy)       services: reliable, last 10;
                                                                                           status: transient local
 /reset_robot                                std_srvs/srv/Trigger                          reliable, volatile, last 10
@@ -37,7 +38,8 @@ Behaviour:
   SUCCEEDED (``error_code`` 0) when the robot stands with the base within 5 cm and 5° of the goal, else ABORTED
   (``error_code`` 9000, UNKNOWN) with the errors in ``error_msg``; a goal the gait cannot plan is ABORTED with the
   planner's message. Cancel → the robot stops with a closing step at the next touch-down; the goal ends CANCELED
-  once it stands, ``error_msg`` giving where. A nonzero /cmd_vel aborts an active goal.
+  once it stands, ``error_msg`` giving where. A nonzero /cmd_vel aborts an active goal. A pose on ``/goal_pose``
+  (RViz2's "2D Goal Pose" tool, as Nav2's bt_navigator takes it) starts a /navigate_to_pose goal.
 * ``/reset_robot``: back to the reference stance; an active goal is ABORTED.
 * Parameters (``ros2 param get/set/list/describe`` services): ``update_rate`` (Hz, double in [1, 500]),
   ``step_duration`` (s, [0.4, 3]), ``max_velocity`` (m/s, (0, 1]), ``cmd_vel_timeout`` (s, [0.05, 10]),
@@ -58,6 +60,7 @@ Memory: the node keeps no run log; finished goals are kept in a ring of 16 for g
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 
@@ -197,6 +200,7 @@ class ControllerNode:
             self._clock_w = DataWriter(part, Topic(part, "rt/clock", msgs.Clock, qos=q1), qos=q1)
         be = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10), Policy.Durability.Volatile)
         self._cmd_r = DataReader(part, Topic(part, "rt/cmd_vel", msgs.Twist, qos=be), qos=be)
+        self._goal_pose_r = DataReader(part, Topic(part, "rt/goal_pose", msgs.PoseStamped, qos=be), qos=be)
         srv = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(10),
                   Policy.Durability.Volatile)
         self._reset = _Service(part, "reset_robot", msgs.TriggerRequest, msgs.TriggerReply, srv)
@@ -339,6 +343,19 @@ class ControllerNode:
               f"{msg}", flush=True)
         self._publish_status()
 
+    def _start_goal(self, uuid: bytes, action: str, stamp, target) -> None:
+        self.counts["goals"] += 1
+        if self.active is not None:
+            self._end(self.active, ABORTED, 9000, "pre-empted by a new goal")
+        goal = _Goal(uuid, action, stamp, target, self.walk.t)
+        self.active = goal
+        self.walk.set_goal(*target)
+        self._failures0 = self.walk.replan_failures
+        goal.status = EXECUTING
+        print(f"goal {goal.uuid.hex()[:8]} on /{action}: x {target[0]:.3f} m, y {target[1]:.3f} m, "
+              f"yaw {math.degrees(target[2]):.1f} deg", flush=True)
+        self._publish_status()
+
     def _serve_actions(self) -> None:
         m = self.m
         for action, srv in self._actions.items():
@@ -351,17 +368,7 @@ class ControllerNode:
                 srv["send"].reply(req, accepted=ok, stamp=stamp)
                 if not ok:
                     continue
-                self.counts["goals"] += 1
-                if self.active is not None:
-                    self._end(self.active, ABORTED, 9000, "pre-empted by a new goal")
-                goal = _Goal(bytes(req.goal_id.uuid), action, stamp, target, self.walk.t)
-                self.active = goal
-                self.walk.set_goal(*target)
-                self._failures0 = self.walk.replan_failures
-                goal.status = EXECUTING
-                print(f"goal {goal.uuid.hex()[:8]} on /{action}: x {target[0]:.3f} m, y {target[1]:.3f} m, "
-                      f"yaw {math.degrees(target[2]):.1f} deg", flush=True)
-                self._publish_status()
+                self._start_goal(bytes(req.goal_id.uuid), action, stamp, target)
             for req in srv["result"].requests():
                 uid = bytes(req.goal_id.uuid)
                 if self.active is not None and self.active.uuid == uid:
@@ -444,6 +451,12 @@ class ControllerNode:
                 if self.active is None:
                     w.set_velocity(*cmd)
                     self._last_cmd_t = w.t
+        for s in self._goal_pose_r.take(N=10):
+            if isinstance(s, self.m.PoseStamped):  # RViz2's "2D Goal Pose" tool: a goal of /navigate_to_pose
+                o = s.pose.orientation
+                target = (s.pose.position.x, s.pose.position.y, _yaw(o.x, o.y, o.z, o.w))
+                if all(math.isfinite(v) for v in target):
+                    self._start_goal(os.urandom(16), "navigate_to_pose", self._time(), target)
         if self._last_cmd_t is not None and w.t - self._last_cmd_t > self.params["cmd_vel_timeout"]:
             self._last_cmd_t = None
             if self.active is None:
