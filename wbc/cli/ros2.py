@@ -74,7 +74,9 @@ def finish(pub) -> None:
         return
     n = max(pub.published, 1)
     pub.close()
-    msg = f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs"
+    msg = (f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs, "
+           f"stamps spanning {pub.span_run[1] - pub.span_run[0]:.2f} s in {pub.span_wall[1] - pub.span_wall[0]:.2f} s "
+           "of wall time")
     if getattr(pub, "bag_path", None) is not None:
         size = sum(f.stat().st_size for f in pub.bag_path.rglob("*") if f.is_file())
         msg += f"; bag {pub.bag_path} ({size / 1e6:.2f} MB)"

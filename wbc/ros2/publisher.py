@@ -120,6 +120,7 @@ class Ros2Publisher:
         self._q_prev = None
         self.published = 0
         self.write_time = 0.0
+        self.span_wall = self.span_run = (0.0, 0.0)  # (first, last) publication: perf_counter s, stamp s
         self._writers = {}
         if dds:
             self._open_dds()
@@ -250,6 +251,8 @@ class Ros2Publisher:
         self._send("/tf", m.TFMessage, t, self._tf_packer.encode(stamp.sec, stamp.nanosec, vals))
         self.published += 1
         self.write_time += time.perf_counter() - t0
+        self.span_wall = (self.span_wall[0] if self.published > 1 else t0, time.perf_counter())
+        self.span_run = (self.span_run[0] if self.published > 1 else t, t)
         return True
 
     def reset(self) -> None:
