@@ -224,6 +224,12 @@ def cmd_node(args) -> int:
     print(f"wbc ros2 node: {robot.name} as /{args.name} on domain {dds.domain_id()}, time {args.time}, "
           f"/joint_states at {args.rate:g} Hz; /cmd_vel, /navigate_to_pose, /navigate_to_goal, /reset_robot; "
           "Ctrl-C to stop", flush=True)
+    import signal
+
+    def _terminate(signum, frame):
+        raise KeyboardInterrupt  # SIGTERM stops the node like Ctrl-C: DDS entities released, summary printed
+
+    signal.signal(signal.SIGTERM, _terminate)
     wall0 = time.monotonic()
     try:
         node.spin(args.duration, report_every=args.report_every)
