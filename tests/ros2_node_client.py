@@ -4,6 +4,7 @@ ROS 2 IDL itself (rosidl's DDS names, rmw_cyclonedds' service request header) wi
 Usage:
   python ros2_node_client.py goal X Y YAW_DEG [CANCEL_AFTER_S]   /reset_robot, then NavigateToPose on
                                                                   /navigate_to_pose (cancel after that node time)
+  python ros2_node_client.py preempt                              a second goal while the first one runs
   python ros2_node_client.py cmdvel VX SECONDS                    /cmd_vel for SECONDS of node time (/clock)
   python ros2_node_client.py params NODE                          parameter services + /joint_states rate
 Prints one JSON line with what it measured.
@@ -476,6 +477,36 @@ def main_goal(x, y, yaw_deg, cancel_after):
     print(json.dumps(out), flush=True)
 
 
+def main_preempt():
+    """Goal A (1.5, 0.5); after 1 s of its feedback, goal B (0.5, 0.0): both results."""
+    assert Client("reset_robot", Trigger_Request_, Trigger_Response_).call().success
+    send = Client("navigate_to_pose/_action/send_goal", SendGoal_Request_, SendGoal_Response_)
+    result = Client("navigate_to_pose/_action/get_result", GetResult_Request_, GetResult_Response_)
+    fb_r = reader("rt/navigate_to_pose/_action/feedback", FeedbackMessage_)
+    od_r = reader("rt/odom", Odometry_)
+
+    def goal(x, y):
+        return Goal_(PoseStamped_(Header_(Time_(), "odom"), Pose_(Point_(x, y, 0.0), Quaternion_())))
+
+    a, b = [random.getrandbits(8) for _ in range(16)], [random.getrandbits(8) for _ in range(16)]
+    out = {"accepted_a": send.call(goal_id=UUID_(a), goal=goal(1.5, 0.5)).accepted}
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        fb = [f for f in fb_r.take(N=100) if isinstance(f, FeedbackMessage_) and list(f.goal_id.uuid) == a]
+        if fb and fb[-1].feedback.navigation_time.sec >= 1:
+            break
+        time.sleep(0.002)
+    out["accepted_b"] = send.call(goal_id=UUID_(b), goal=goal(0.5, 0.0)).accepted
+    ra = result.call(goal_id=UUID_(a))
+    rb = result.call(goal_id=UUID_(b), timeout=300)
+    out["a"] = [ra.status, ra.result.error_code, ra.result.error_msg]
+    out["b"] = [rb.status, rb.result.error_code, rb.result.error_msg]
+    time.sleep(0.5)
+    odom = [s for s in od_r.take(N=1000) if isinstance(s, Odometry_)]
+    out["final"] = [odom[-1].pose.pose.position.x, odom[-1].pose.pose.position.y]
+    print(json.dumps(out), flush=True)
+
+
 def main_cmdvel(vx, seconds):
     clock = Clock()
     pub = writer("rt/cmd_vel", Twist_)
@@ -559,6 +590,8 @@ if __name__ == "__main__":
     if mode == "goal":
         main_goal(float(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]),
                   float(sys.argv[5]) if len(sys.argv) > 5 else None)
+    elif mode == "preempt":
+        main_preempt()
     elif mode == "cmdvel":
         main_cmdvel(float(sys.argv[2]), float(sys.argv[3]))
     elif mode == "params":

@@ -117,6 +117,15 @@ def test_navigate_to_pose_goal_feedback_result_then_cancel(node):
     assert np.all(np.abs(np.diff(np.array(got["odom"])[-5:, 1:3], axis=0)) < 1e-6)  # at rest
 
 
+def test_second_goal_preempts_the_first(node):
+    got = _client(node, "preempt")
+    print(f"pre-emption: first goal {got['a']}, second goal {got['b']}, final base xy {np.round(got['final'], 4)}")
+    assert got["accepted_a"] and got["accepted_b"]
+    assert got["a"][0] == 6 and "pre-empted" in got["a"][2]  # ABORTED
+    assert got["b"][0] == 4  # SUCCEEDED
+    assert math.hypot(got["final"][0] - 0.5, got["final"][1]) <= 0.05
+
+
 def test_cmd_vel_walks_and_stops(node):
     vx, seconds = 0.3, 5.0
     got = _client(node, "cmdvel", vx, seconds)
