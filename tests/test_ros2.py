@@ -98,7 +98,10 @@ def test_rihs01_hash_of_joint_state():
     h = msgs.rihs01("sensor_msgs/msg/JointState")
     # Known ROS 2 value (Jazzy's sensor_msgs JointState type hash).
     assert h.startswith("RIHS01_a13ee3a3") and h.endswith("260e") and len(h) == 7 + 64
-    for name in msgs.TYPE_DESCRIPTIONS:
+    # every type rosbags' store knows (nav2_msgs' action types: tests/test_ros2_node.py registers them first)
+    known = [name for name in msgs.TYPE_DESCRIPTIONS if name in TS.types]
+    assert len(known) >= len(msgs.TYPE_DESCRIPTIONS) - 8
+    for name in known:
         assert msgs.rihs01(name) == TS.hash_rihs01(name), name
 
 
@@ -339,3 +342,27 @@ def test_balance_and_sim_record_bags(tmp_path, command):
     logged = np.asarray(data["q"])[:, 7:]
     for msg in js[:: max(1, len(js) // 5)]:
         assert np.min(np.abs(logged - np.asarray(msg.position)).max(axis=1)) < 1e-9
+
+
+def test_walk_bag_spans_the_run_time(tmp_path):
+    """`wbc walk --bag`: message times are the run's time, so the bag spans the walk's duration (not the wall
+    time of an unpaced run, which is several times shorter)."""
+    from rosbags.rosbag2 import Reader
+
+    bag, log = tmp_path / "bag", tmp_path / "run.npz"
+    r = subprocess.run([sys.executable, "-m", "wbc", "walk", "--robot", "humanoid15", "--steps", "8", "--bag",
+                        str(bag), "--ros2-rate", "50", "--log", str(log), "--quiet"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode in (0, 1), r.stderr + r.stdout
+    data = np.load(log, allow_pickle=True)
+    duration = float(data["t"][-1] - data["t"][0]) + float(data["dt"])
+    with Reader(bag) as reader:
+        times = np.array([ts for c, ts, _ in reader.messages() if c.topic == "/joint_states"]) * 1e-9
+        stamps = [TS.deserialize_cdr(raw, c.msgtype).header.stamp for c, _, raw in reader.messages()
+                  if c.topic == "/joint_states"]
+    span = times[-1] - times[0] + 1.0 / 50
+    print(f"walk {duration:.3f} s, bag /joint_states span {span:.3f} s ({len(times)} samples)")
+    assert duration > 9.0
+    assert abs(span - duration) <= 0.01 * duration
+    stamp_s = np.array([s.sec + 1e-9 * s.nanosec for s in stamps])
+    np.testing.assert_allclose(stamp_s, times, atol=1e-9)  # header stamps = bag times

@@ -20,6 +20,8 @@ from pathlib import Path
 
 from wbc.cli.validate import count, seconds
 
+import numpy as np
+
 __all__ = ["register", "add_run_options", "attach"]
 
 
@@ -29,6 +31,8 @@ def add_run_options(p) -> None:
     g.add_argument("--ros2", action="store_true",
                    help="publish /joint_states, /tf, /tf_static, /robot_description on DDS (ROS_DOMAIN_ID)")
     g.add_argument("--ros2-rate", type=_positive_rate, default=50.0, help="publishing rate, Hz (default 50, max 500)")
+    g.add_argument("--ros2-unpaced", action="store_true",
+                   help="with --ros2, run as fast as possible instead of at real time (stamps stay the run's time)")
     g.add_argument("--tf", choices=("base", "all"), default="all",
                    help="/tf content: odom->root link only, or every link (default all)")
     g.add_argument("--bag", default=None, metavar="DIR", help="record the same topics as a rosbag2 in DIR")
@@ -45,18 +49,25 @@ def add_interface_option(p) -> None:
 
 
 class _Tee:
-    """Forward ``update(q, t)`` to several viewers/publishers."""
+    """Forward ``update(q, t)`` to several viewers/publishers, then wait for ``t`` on ``pacer`` (if any)."""
 
-    def __init__(self, *targets):
+    def __init__(self, *targets, pacer=None):
         self.targets = [t for t in targets if t is not None]
+        self.pacer = pacer
 
     def update(self, q, t=None, *a, **k):
         for target in self.targets:
             target.update(q, t)
+        if self.pacer is not None and t is not None:
+            self.pacer.wait(t)
 
 
 def attach(args, robot, viewer, dt: float):
-    """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`."""
+    """(viewer to pass to the run, publisher or None) for ``args`` from :func:`add_run_options`.
+
+    Stamps (DDS and bag) are the run's time: ``t`` from 0 for a bag alone, the wall-clock time of the start plus
+    ``t`` with ``--ros2``. With ``--ros2`` the run is paced to real time (``--ros2-unpaced``: as fast as it goes).
+    """
     if not getattr(args, "ros2", False) and getattr(args, "bag", None) is None:
         return viewer, None
     from wbc.ros2.dds import use_interface
@@ -67,12 +78,17 @@ def attach(args, robot, viewer, dt: float):
     if args.bag is not None:  # written under a temporary name in its folder, renamed by finish()
         final = Path(args.bag)
         bag = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial")
+    pacer = None
+    if args.ros2 and not getattr(args, "ros2_unpaced", False):
+        from wbc.viz.live import RealTimePacer
+
+        pacer = RealTimePacer()
     pub = Ros2Publisher(robot, rate=args.ros2_rate, tf=args.tf, dds=args.ros2, bag=bag,
-                        storage=args.storage, dt=dt)
+                        storage=args.storage, dt=dt, clock="sim", epoch=time.time() if args.ros2 else 0.0)
     pub.final_bag = None if bag is None else Path(args.bag)
     if args.ros2:
         time.sleep(0.5)  # let DDS discovery match subscribers already running
-    return (_Tee(viewer, pub) if viewer is not None else pub), pub
+    return _Tee(viewer, pub, pacer=pacer), pub
 
 
 def finish(pub) -> None:
@@ -81,7 +97,9 @@ def finish(pub) -> None:
         return
     n = max(pub.published, 1)
     pub.close()
-    msg = f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs"
+    msg = (f"ros2: published {pub.published} samples at {pub.rate:g} Hz, mean write {1e6 * pub.write_time / n:.0f} µs, "
+           f"stamps spanning {pub.span_run[1] - pub.span_run[0]:.2f} s in {pub.span_wall[1] - pub.span_wall[0]:.2f} s "
+           "of wall time")
     bag = getattr(pub, "bag_path", None)
     if bag is not None:  # a closed, complete bag (up to the last published sample) under its final name
         final = getattr(pub, "final_bag", None) or bag
@@ -210,6 +228,49 @@ def cmd_topics(args) -> int:
     return 0
 
 
+def cmd_node(args) -> int:
+    """``wbc ros2 node``: the controller node (:mod:`wbc.ros2.node`) until Ctrl-C or ``--duration`` s."""
+    import resource
+
+    from wbc.robot import load_robot
+    from wbc.ros2 import dds
+    from wbc.exceptions import InvalidInputError
+    from wbc.ros2.node import ControllerNode
+
+    if args.sim:
+        raise InvalidInputError("wbc ros2 node --sim: the MuJoCo closed-loop node is not implemented yet; "
+                                "valid: the kinematic node (without --sim)")
+    if args.duration is not None and not args.duration > 0:
+        raise InvalidInputError(f"--duration {args.duration}: valid is a number of seconds > 0")
+    if args.report_every is not None and not args.report_every > 0:
+        raise InvalidInputError(f"--report-every {args.report_every}: valid is a number of seconds > 0")
+    _loopback(args)
+    robot = load_robot(args.robot)
+    node = ControllerNode(robot, time_mode=args.time, update_rate=args.rate, name=args.name, tf=args.tf)
+    print(f"wbc ros2 node: {robot.name} as /{args.name} on domain {dds.domain_id()}, time {args.time}, "
+          f"/joint_states at {args.rate:g} Hz; /cmd_vel, /navigate_to_pose, /navigate_to_goal, /reset_robot; "
+          "Ctrl-C to stop", flush=True)
+    import signal
+
+    def _terminate(signum, frame):
+        raise KeyboardInterrupt  # SIGTERM stops the node like Ctrl-C: DDS entities released, summary printed
+
+    signal.signal(signal.SIGTERM, _terminate)
+    wall0 = time.monotonic()
+    try:
+        node.spin(args.duration, report_every=args.report_every)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+    tt = np.asarray(node.tick_time) * 1e6
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"node: {node.ticks} ticks, node time {node.walk.t:.3f} s in {time.monotonic() - wall0:.1f} s wall; "
+          f"tick p50 {np.percentile(tt, 50):.0f} µs p99 {np.percentile(tt, 99):.0f} µs (last {len(tt)}); "
+          f"max RSS {rss:.0f} MB; {node.counts}", flush=True)
+    return 0
+
+
 def _ros_type(dds_type: str) -> str:
     """``sensor_msgs::msg::dds_::JointState_`` → ``sensor_msgs/msg/JointState``."""
     parts = dds_type.split("::")
@@ -256,10 +317,24 @@ def register(subparsers, add_outputs) -> None:
     ej.add_argument("--count", type=count(1), default=None, help="exit after this many samples")
     ej.add_argument("--timeout", type=seconds, default=None, help="exit after this many seconds")
     ej.set_defaults(func=cmd_echo_joint)
+    nd = sub.add_parser("node", help="the controller node: /cmd_vel, NavigateToPose, parameters, /reset_robot")
+    nd.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
+    nd.add_argument("--rate", type=_positive_rate, default=50.0,
+                    help="/joint_states, /tf, /odom rate, Hz (parameter update_rate; default 50, max 500)")
+    nd.add_argument("--time", choices=("real", "sim"), default="real",
+                    help="real: paced to the wall clock (default); sim: as fast as possible, /clock, sim stamps")
+    nd.add_argument("--sim", action="store_true",
+                    help="MuJoCo closed loop with the inverse-dynamics controller (not available yet: refused)")
+    nd.add_argument("--name", default="wbc_node", help="node name (parameter services /NAME/...; default wbc_node)")
+    nd.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
+    nd.add_argument("--duration", type=seconds, default=None, help="stop after this many seconds of node time")
+    nd.add_argument("--report-every", type=seconds, default=None, metavar="S",
+                    help="print tick time p50/p99 and RSS every S seconds of node time")
+    nd.set_defaults(func=cmd_node)
     tp = sub.add_parser("topics", help="list the ROS 2 topics on the domain")
     tp.add_argument("--wait", type=seconds, default=2.0, help="discovery time, s (default 2)")
     tp.set_defaults(func=cmd_topics)
-    for p in (jp, ej, tp):
+    for p in (jp, ej, tp, nd):
         p.add_argument("--loopback", action="store_true",
                        help="confine DDS to 127.0.0.1 (the default; kept for scripts that pass it)")
         add_interface_option(p)

@@ -1,9 +1,16 @@
 """ROS 2 message types declared in cyclonedds IDL with rosidl's DDS layout, and REP-2011 type hashes.
 
 Each class is a ``@final`` struct named ``<pkg>::msg::dds_::<Msg>_`` with the fields in rosidl's order, so its
-XCDR1 serialization is ROS 2's CDR (byte-identical to ``rosbags``' ROS 2 serializer, tested). Service types for
-``std_srvs/srv/Trigger`` carry rmw_cyclonedds' 16-byte request header (client guid, sequence number) in front of
-the fields, as ``rmw_cyclonedds_cpp`` puts it on the wire.
+XCDR1 serialization is ROS 2's CDR (byte-identical to ``rosbags``' ROS 2 serializer, tested). Service types
+(``std_srvs/srv/Trigger``, the ``rcl_interfaces`` parameter services, an action's ``send_goal``, ``get_result`` and
+``cancel_goal``) carry rmw_cyclonedds' 16-byte request header (client guid, sequence number) in front of the
+fields, as ``rmw_cyclonedds_cpp`` puts it on the wire.
+
+Actions (ROS 2 design article "Actions"; ``rcl_action`` names): action ``/a`` is the services
+``/a/_action/send_goal`` (``<Action>_SendGoal``), ``/a/_action/get_result`` (``<Action>_GetResult``),
+``/a/_action/cancel_goal`` (``action_msgs/srv/CancelGoal``) and the topics ``/a/_action/feedback``
+(``<Action>_FeedbackMessage``) and ``/a/_action/status`` (``action_msgs/msg/GoalStatusArray``); the DDS type of
+``pkg/action/A_SendGoal_Request`` is ``pkg::action::dds_::A_SendGoal_Request_``.
 """
 
 
@@ -14,11 +21,20 @@ from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
-from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint32, uint64
+from cyclonedds.idl.types import array, float32, float64, int8, int16, int32, int64, sequence, uint8, uint16, uint32, uint64
 
 __all__ = [
     "Time", "Header", "JointState", "Vector3", "Quaternion", "Transform", "TransformStamped", "TFMessage",
-    "String", "TriggerRequest", "TriggerReply", "rihs01", "TYPE_DESCRIPTIONS", "to_bytes",
+    "String", "TriggerRequest", "TriggerReply", "Duration", "Point", "Pose", "PoseStamped", "Twist",
+    "PoseWithCovariance", "TwistWithCovariance", "Odometry", "Clock", "UUID", "GoalInfo", "GoalStatus",
+    "GoalStatusArray", "CancelGoalRequest", "CancelGoalReply", "NavigateToPoseGoal", "NavigateToPoseResult",
+    "NavigateToPoseFeedback", "NavigateToPoseFeedbackMessage", "NavigateToPoseSendGoalRequest",
+    "NavigateToPoseSendGoalReply", "NavigateToPoseGetResultRequest", "NavigateToPoseGetResultReply",
+    "ParameterValue", "Parameter", "SetParametersResult", "FloatingPointRange", "IntegerRange", "ParameterDescriptor",
+    "ListParametersResult", "GetParametersRequest", "GetParametersReply", "SetParametersRequest",
+    "SetParametersReply", "SetParametersAtomicallyRequest", "SetParametersAtomicallyReply", "ListParametersRequest",
+    "ListParametersReply", "DescribeParametersRequest", "DescribeParametersReply", "GetParameterTypesRequest",
+    "GetParameterTypesReply", "rihs01", "TYPE_DESCRIPTIONS", "to_bytes",
 ]
 
 
@@ -28,7 +44,7 @@ def _struct(name: str, typename: str, doc: str, /, **fields) -> type:
     namespace = {"__annotations__": {k: t for k, (t, _) in fields.items()}, "__doc__": doc, "__module__": __name__,
                  "__qualname__": name}
     for k, (_, default) in fields.items():
-        namespace[k] = field(default_factory=default) if isinstance(default, type) else default
+        namespace[k] = field(default_factory=default) if callable(default) else default
     cls = types.new_class(name, (IdlStruct,), {"typename": typename}, lambda ns: ns.update(namespace))
     return dataclass(final(cls))
 
@@ -70,6 +86,149 @@ TriggerReply = _struct(
     client_guid=(uint64, 0), seq=(int64, 0), success=(bool, False), message=(str, ""))
 
 
+
+
+def _service(name: str, typename: str, doc: str, /, **fields) -> type:
+    """A service request/reply struct: rmw_cyclonedds' header (client guid, sequence number) then ``fields``."""
+    return _struct(name, typename, doc + " (with rmw_cyclonedds' request header)",
+                   client_guid=(uint64, 0), seq=(int64, 0), **fields)
+
+
+Duration = _struct("Duration", "builtin_interfaces::msg::dds_::Duration_", "builtin_interfaces/msg/Duration (s, ns).",
+                   sec=(int32, 0), nanosec=(uint32, 0))
+Point = _struct("Point", "geometry_msgs::msg::dds_::Point_", "geometry_msgs/msg/Point (m).",
+                x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0))
+Pose = _struct("Pose", "geometry_msgs::msg::dds_::Pose_", "geometry_msgs/msg/Pose: position (m), orientation.",
+               position=(Point, Point), orientation=(Quaternion, Quaternion))
+PoseStamped = _struct("PoseStamped", "geometry_msgs::msg::dds_::PoseStamped_", "geometry_msgs/msg/PoseStamped.",
+                      header=(Header, Header), pose=(Pose, Pose))
+Twist = _struct("Twist", "geometry_msgs::msg::dds_::Twist_",
+                "geometry_msgs/msg/Twist: linear (m/s) and angular (rad/s) velocity.",
+                linear=(Vector3, Vector3), angular=(Vector3, Vector3))
+PoseWithCovariance = _struct(
+    "PoseWithCovariance", "geometry_msgs::msg::dds_::PoseWithCovariance_",
+    "geometry_msgs/msg/PoseWithCovariance: pose and its 6x6 row-major covariance.",
+    pose=(Pose, Pose), covariance=(array[float64, 36], lambda: [0.0] * 36))
+TwistWithCovariance = _struct(
+    "TwistWithCovariance", "geometry_msgs::msg::dds_::TwistWithCovariance_",
+    "geometry_msgs/msg/TwistWithCovariance: twist and its 6x6 row-major covariance.",
+    twist=(Twist, Twist), covariance=(array[float64, 36], lambda: [0.0] * 36))
+Odometry = _struct(
+    "Odometry", "nav_msgs::msg::dds_::Odometry_",
+    "nav_msgs/msg/Odometry: pose in header.frame_id, twist in child_frame_id.",
+    header=(Header, Header), child_frame_id=(str, ""), pose=(PoseWithCovariance, PoseWithCovariance),
+    twist=(TwistWithCovariance, TwistWithCovariance))
+Clock = _struct("Clock", "rosgraph_msgs::msg::dds_::Clock_", "rosgraph_msgs/msg/Clock (/clock, sim time).",
+                clock=(Time, Time))
+
+# -- actions: action_msgs, unique_identifier_msgs, nav2_msgs/action/NavigateToPose (Jazzy) -------------------------
+UUID = _struct("UUID", "unique_identifier_msgs::msg::dds_::UUID_", "unique_identifier_msgs/msg/UUID (16 bytes).",
+               uuid=(array[uint8, 16], lambda: [0] * 16))
+GoalInfo = _struct("GoalInfo", "action_msgs::msg::dds_::GoalInfo_", "action_msgs/msg/GoalInfo: goal id, accept time.",
+                   goal_id=(UUID, UUID), stamp=(Time, Time))
+GoalStatus = _struct(
+    "GoalStatus", "action_msgs::msg::dds_::GoalStatus_",
+    "action_msgs/msg/GoalStatus: status 0 unknown, 1 accepted, 2 executing, 3 canceling, 4 succeeded, 5 canceled, "
+    "6 aborted.", goal_info=(GoalInfo, GoalInfo), status=(int8, 0))
+GoalStatusArray = _struct("GoalStatusArray", "action_msgs::msg::dds_::GoalStatusArray_",
+                          "action_msgs/msg/GoalStatusArray (the action's status topic).",
+                          status_list=(sequence[GoalStatus], list))
+CancelGoalRequest = _service("CancelGoalRequest", "action_msgs::srv::dds_::CancelGoal_Request_",
+                             "action_msgs/srv/CancelGoal request", goal_info=(GoalInfo, GoalInfo))
+CancelGoalReply = _service(
+    "CancelGoalReply", "action_msgs::srv::dds_::CancelGoal_Response_",
+    "action_msgs/srv/CancelGoal response: return_code 0 none, 1 rejected, 2 unknown goal id, 3 goal terminated",
+    return_code=(int8, 0), goals_canceling=(sequence[GoalInfo], list))
+NavigateToPoseGoal = _struct("NavigateToPoseGoal", "nav2_msgs::action::dds_::NavigateToPose_Goal_",
+                             "nav2_msgs/action/NavigateToPose goal (Jazzy).",
+                             pose=(PoseStamped, PoseStamped), behavior_tree=(str, ""))
+NavigateToPoseResult = _struct(
+    "NavigateToPoseResult", "nav2_msgs::action::dds_::NavigateToPose_Result_",
+    "nav2_msgs/action/NavigateToPose result (Jazzy): error_code 0 NONE, 9000 UNKNOWN, 9001 "
+    "FAILED_TO_LOAD_BEHAVIOR_TREE, 9002 TF_ERROR, 9003 TIMEOUT; error_msg.", error_code=(uint16, 0),
+    error_msg=(str, ""))
+NavigateToPoseFeedback = _struct(
+    "NavigateToPoseFeedback", "nav2_msgs::action::dds_::NavigateToPose_Feedback_",
+    "nav2_msgs/action/NavigateToPose feedback (Jazzy).", current_pose=(PoseStamped, PoseStamped),
+    navigation_time=(Duration, Duration), estimated_time_remaining=(Duration, Duration),
+    number_of_recoveries=(int16, 0), distance_remaining=(float32, 0.0))
+NavigateToPoseFeedbackMessage = _struct(
+    "NavigateToPoseFeedbackMessage", "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_",
+    "NavigateToPose feedback message: goal id and feedback.", goal_id=(UUID, UUID),
+    feedback=(NavigateToPoseFeedback, NavigateToPoseFeedback))
+NavigateToPoseSendGoalRequest = _service(
+    "NavigateToPoseSendGoalRequest", "nav2_msgs::action::dds_::NavigateToPose_SendGoal_Request_",
+    "NavigateToPose send_goal request", goal_id=(UUID, UUID), goal=(NavigateToPoseGoal, NavigateToPoseGoal))
+NavigateToPoseSendGoalReply = _service(
+    "NavigateToPoseSendGoalReply", "nav2_msgs::action::dds_::NavigateToPose_SendGoal_Response_",
+    "NavigateToPose send_goal response", accepted=(bool, False), stamp=(Time, Time))
+NavigateToPoseGetResultRequest = _service(
+    "NavigateToPoseGetResultRequest", "nav2_msgs::action::dds_::NavigateToPose_GetResult_Request_",
+    "NavigateToPose get_result request", goal_id=(UUID, UUID))
+NavigateToPoseGetResultReply = _service(
+    "NavigateToPoseGetResultReply", "nav2_msgs::action::dds_::NavigateToPose_GetResult_Response_",
+    "NavigateToPose get_result response: the goal's final status and result", status=(int8, 0),
+    result=(NavigateToPoseResult, NavigateToPoseResult))
+
+# -- rcl_interfaces: parameters --------------------------------------------------------------------------------
+ParameterValue = _struct(
+    "ParameterValue", "rcl_interfaces::msg::dds_::ParameterValue_",
+    "rcl_interfaces/msg/ParameterValue: type 0 not set, 1 bool, 2 integer, 3 double, 4 string, 5 byte[], 6 bool[], "
+    "7 integer[], 8 double[], 9 string[].", type=(uint8, 0), bool_value=(bool, False), integer_value=(int64, 0),
+    double_value=(float64, 0.0), string_value=(str, ""), byte_array_value=(sequence[uint8], list),
+    bool_array_value=(sequence[bool], list), integer_array_value=(sequence[int64], list),
+    double_array_value=(sequence[float64], list), string_array_value=(sequence[str], list))
+Parameter = _struct("Parameter", "rcl_interfaces::msg::dds_::Parameter_", "rcl_interfaces/msg/Parameter.",
+                    name=(str, ""), value=(ParameterValue, ParameterValue))
+SetParametersResult = _struct("SetParametersResult", "rcl_interfaces::msg::dds_::SetParametersResult_",
+                              "rcl_interfaces/msg/SetParametersResult.", successful=(bool, False), reason=(str, ""))
+FloatingPointRange = _struct("FloatingPointRange", "rcl_interfaces::msg::dds_::FloatingPointRange_",
+                             "rcl_interfaces/msg/FloatingPointRange.", from_value=(float64, 0.0),
+                             to_value=(float64, 0.0), step=(float64, 0.0))
+IntegerRange = _struct("IntegerRange", "rcl_interfaces::msg::dds_::IntegerRange_", "rcl_interfaces/msg/IntegerRange.",
+                       from_value=(int64, 0), to_value=(int64, 0), step=(uint64, 0))
+ParameterDescriptor = _struct(
+    "ParameterDescriptor", "rcl_interfaces::msg::dds_::ParameterDescriptor_", "rcl_interfaces/msg/ParameterDescriptor.",
+    name=(str, ""), type=(uint8, 0), description=(str, ""), additional_constraints=(str, ""),
+    read_only=(bool, False), dynamic_typing=(bool, False),
+    floating_point_range=(sequence[FloatingPointRange, 1], list), integer_range=(sequence[IntegerRange, 1], list))
+ListParametersResult = _struct("ListParametersResult", "rcl_interfaces::msg::dds_::ListParametersResult_",
+                               "rcl_interfaces/msg/ListParametersResult.", names=(sequence[str], list),
+                               prefixes=(sequence[str], list))
+GetParametersRequest = _service("GetParametersRequest", "rcl_interfaces::srv::dds_::GetParameters_Request_",
+                                "rcl_interfaces/srv/GetParameters request", names=(sequence[str], list))
+GetParametersReply = _service("GetParametersReply", "rcl_interfaces::srv::dds_::GetParameters_Response_",
+                              "rcl_interfaces/srv/GetParameters response", values=(sequence[ParameterValue], list))
+SetParametersRequest = _service("SetParametersRequest", "rcl_interfaces::srv::dds_::SetParameters_Request_",
+                                "rcl_interfaces/srv/SetParameters request", parameters=(sequence[Parameter], list))
+SetParametersReply = _service("SetParametersReply", "rcl_interfaces::srv::dds_::SetParameters_Response_",
+                              "rcl_interfaces/srv/SetParameters response", results=(sequence[SetParametersResult], list))
+SetParametersAtomicallyRequest = _service(
+    "SetParametersAtomicallyRequest", "rcl_interfaces::srv::dds_::SetParametersAtomically_Request_",
+    "rcl_interfaces/srv/SetParametersAtomically request", parameters=(sequence[Parameter], list))
+SetParametersAtomicallyReply = _service(
+    "SetParametersAtomicallyReply", "rcl_interfaces::srv::dds_::SetParametersAtomically_Response_",
+    "rcl_interfaces/srv/SetParametersAtomically response", result=(SetParametersResult, SetParametersResult))
+ListParametersRequest = _service("ListParametersRequest", "rcl_interfaces::srv::dds_::ListParameters_Request_",
+                                 "rcl_interfaces/srv/ListParameters request", prefixes=(sequence[str], list),
+                                 depth=(uint64, 0))
+ListParametersReply = _service("ListParametersReply", "rcl_interfaces::srv::dds_::ListParameters_Response_",
+                               "rcl_interfaces/srv/ListParameters response",
+                               result=(ListParametersResult, ListParametersResult))
+DescribeParametersRequest = _service(
+    "DescribeParametersRequest", "rcl_interfaces::srv::dds_::DescribeParameters_Request_",
+    "rcl_interfaces/srv/DescribeParameters request", names=(sequence[str], list))
+DescribeParametersReply = _service(
+    "DescribeParametersReply", "rcl_interfaces::srv::dds_::DescribeParameters_Response_",
+    "rcl_interfaces/srv/DescribeParameters response", descriptors=(sequence[ParameterDescriptor], list))
+GetParameterTypesRequest = _service(
+    "GetParameterTypesRequest", "rcl_interfaces::srv::dds_::GetParameterTypes_Request_",
+    "rcl_interfaces/srv/GetParameterTypes request", names=(sequence[str], list))
+GetParameterTypesReply = _service(
+    "GetParameterTypesReply", "rcl_interfaces::srv::dds_::GetParameterTypes_Response_",
+    "rcl_interfaces/srv/GetParameterTypes response", types=(sequence[uint8], list))
+
+
 def to_bytes(msg: IdlStruct) -> bytes:
     """ROS 2 CDR (XCDR1, little endian, with the 4-byte encapsulation header) of ``msg``, as rosbag2 stores it."""
     return msg.serialize(use_version_2=False)
@@ -79,7 +238,8 @@ def to_bytes(msg: IdlStruct) -> bytes:
 # type_description_interfaces/msg/FieldType: INT32 6, UINT32 7, DOUBLE 11, STRING 17, NESTED 1;
 # an unbounded sequence adds 144.
 _SEQ = 144
-TYPE_DESCRIPTIONS: dict[str, list[tuple[str, int, str]]] = {
+_ARRAY = 48  # a fixed-size array adds 48 (its size is the field's capacity)
+TYPE_DESCRIPTIONS: dict[str, list[tuple]] = {  # (name, type id, nested type[, capacity])
     "builtin_interfaces/msg/Time": [("sec", 6, ""), ("nanosec", 7, "")],
     "std_msgs/msg/Header": [("stamp", 1, "builtin_interfaces/msg/Time"), ("frame_id", 17, "")],
     "sensor_msgs/msg/JointState": [
@@ -97,6 +257,37 @@ TYPE_DESCRIPTIONS: dict[str, list[tuple[str, int, str]]] = {
         ("transform", 1, "geometry_msgs/msg/Transform"),
     ],
     "tf2_msgs/msg/TFMessage": [("transforms", 1 + _SEQ, "geometry_msgs/msg/TransformStamped")],
+    "builtin_interfaces/msg/Duration": [("sec", 6, ""), ("nanosec", 7, "")],
+    "geometry_msgs/msg/Point": [("x", 11, ""), ("y", 11, ""), ("z", 11, "")],
+    "geometry_msgs/msg/Pose": [("position", 1, "geometry_msgs/msg/Point"),
+                               ("orientation", 1, "geometry_msgs/msg/Quaternion")],
+    "geometry_msgs/msg/PoseStamped": [("header", 1, "std_msgs/msg/Header"), ("pose", 1, "geometry_msgs/msg/Pose")],
+    "geometry_msgs/msg/Twist": [("linear", 1, "geometry_msgs/msg/Vector3"), ("angular", 1, "geometry_msgs/msg/Vector3")],
+    "rosgraph_msgs/msg/Clock": [("clock", 1, "builtin_interfaces/msg/Time")],
+    "unique_identifier_msgs/msg/UUID": [("uuid", 3 + _ARRAY, "", 16)],
+    "action_msgs/msg/GoalInfo": [("goal_id", 1, "unique_identifier_msgs/msg/UUID"),
+                                 ("stamp", 1, "builtin_interfaces/msg/Time")],
+    "action_msgs/msg/GoalStatus": [("goal_info", 1, "action_msgs/msg/GoalInfo"), ("status", 2, "")],
+    "action_msgs/msg/GoalStatusArray": [("status_list", 1 + _SEQ, "action_msgs/msg/GoalStatus")],
+    "nav2_msgs/action/NavigateToPose_Goal": [("pose", 1, "geometry_msgs/msg/PoseStamped"), ("behavior_tree", 17, "")],
+    "nav2_msgs/action/NavigateToPose_Result": [("error_code", 5, ""), ("error_msg", 17, "")],
+    "nav2_msgs/action/NavigateToPose_Feedback": [
+        ("current_pose", 1, "geometry_msgs/msg/PoseStamped"), ("navigation_time", 1, "builtin_interfaces/msg/Duration"),
+        ("estimated_time_remaining", 1, "builtin_interfaces/msg/Duration"), ("number_of_recoveries", 4, ""),
+        ("distance_remaining", 10, ""),
+    ],
+    "nav2_msgs/action/NavigateToPose_FeedbackMessage": [
+        ("goal_id", 1, "unique_identifier_msgs/msg/UUID"), ("feedback", 1, "nav2_msgs/action/NavigateToPose_Feedback"),
+    ],
+    "nav2_msgs/action/NavigateToPose_SendGoal_Request": [
+        ("goal_id", 1, "unique_identifier_msgs/msg/UUID"), ("goal", 1, "nav2_msgs/action/NavigateToPose_Goal"),
+    ],
+    "nav2_msgs/action/NavigateToPose_SendGoal_Response": [("accepted", 15, ""),
+                                                          ("stamp", 1, "builtin_interfaces/msg/Time")],
+    "nav2_msgs/action/NavigateToPose_GetResult_Request": [("goal_id", 1, "unique_identifier_msgs/msg/UUID")],
+    "nav2_msgs/action/NavigateToPose_GetResult_Response": [
+        ("status", 2, ""), ("result", 1, "nav2_msgs/action/NavigateToPose_Result"),
+    ],
 }
 
 
@@ -104,9 +295,9 @@ def _describe(name: str) -> dict:
     return {
         "type_name": name,
         "fields": [
-            {"name": fname, "type": {"type_id": tid, "capacity": 0, "string_capacity": 0,
-                                     "nested_type_name": nested}}
-            for fname, tid, nested in TYPE_DESCRIPTIONS[name]
+            {"name": f[0], "type": {"type_id": f[1], "capacity": f[3] if len(f) > 3 else 0, "string_capacity": 0,
+                                     "nested_type_name": f[2]}}
+            for f in TYPE_DESCRIPTIONS[name]
         ],
     }
 
@@ -126,7 +317,8 @@ def rihs01(type_name: str) -> str:
     refs: set[str] = set()
     todo = [type_name]
     while todo:
-        for _, _, nested in TYPE_DESCRIPTIONS[todo.pop()]:
+        for f in TYPE_DESCRIPTIONS[todo.pop()]:
+            nested = f[2]
             if nested and nested not in refs:
                 refs.add(nested)
                 todo.append(nested)

@@ -65,7 +65,10 @@ class Ros2Publisher:
         storage: ``"mcap"`` or ``"sqlite3"``.
         dt: control period, s (velocity finite difference when ``update`` is called every tick).
         clock: ``"wall"`` (header stamps and bag times are the wall clock at publication, as a ROS 2 node
-            without sim time does) or ``"sim"`` (the run's time ``t``, starting at 0).
+            without sim time does) or ``"sim"`` (the run's time ``epoch + t``: a bag then plays back at the speed
+            the run happened, whatever the run's own speed).
+        epoch: s, added to the run's time ``t`` with ``clock="sim"`` (0: stamps start at 0 as under ``/clock``;
+            the wall-clock time at the start of a run paced to real time: stamps close to the wall clock).
 
     Raises:
         InvalidInputError: bad rate, tf mode, storage, or an existing bag directory.
@@ -73,7 +76,8 @@ class Ros2Publisher:
     """
 
     def __init__(self, robot, *, rate: float = 50.0, tf: str = "all", dds: bool = True, bag=None,
-                 storage: str = "mcap", dt: float = 0.002, clock: str = "wall"):
+                 storage: str = "mcap", dt: float = 0.002, clock: str = "wall",
+                 epoch: float = 0.0):
         from wbc.ros2 import require
 
         require()
@@ -87,7 +91,9 @@ class Ros2Publisher:
             raise InvalidInputError(f"tf mode {tf!r} is invalid: valid are {TF_MODES}")
         if clock not in ("wall", "sim"):
             raise InvalidInputError(f"clock {clock!r} is invalid: valid are ('wall', 'sim')")
-        self.clock = clock
+        if not (isinstance(epoch, (int, float)) and np.isfinite(epoch) and epoch >= 0):
+            raise InvalidInputError(f"epoch {epoch!r} s is invalid: valid is a finite number >= 0")
+        self.clock, self.epoch = clock, float(epoch)
         if storage not in STORAGES:
             raise InvalidInputError(f"bag storage {storage!r} is invalid: valid are {STORAGES}")
         model = robot.model
@@ -114,13 +120,14 @@ class Ros2Publisher:
         self._q_prev = None
         self.published = 0
         self.write_time = 0.0
+        self.span_wall = self.span_run = (0.0, 0.0)  # (first, last) publication: perf_counter s, stamp s
         self._writers = {}
         if dds:
             self._open_dds()
         self._bag = self._conn = None
         if bag is not None:
             self._open_bag(Path(bag), storage)
-        self._latched(time.time() if clock == "wall" else 0.0)
+        self._latched(time.time() if clock == "wall" else self.epoch)
 
     # -- setup -------------------------------------------------------------------------------------------------
     def _open_dds(self):
@@ -215,7 +222,7 @@ class Ros2Publisher:
             return False
         self._next_t = t + 1.0 / self.rate if self._next_t is None else max(self._next_t + 1.0 / self.rate, t)
         t0 = time.perf_counter()
-        t = time.time() if self.clock == "wall" else t
+        t = time.time() if self.clock == "wall" else self.epoch + t
         if v is not None:
             vel = np.asarray(v, dtype=float)[6:]
         elif q_prev is not None:
@@ -244,6 +251,8 @@ class Ros2Publisher:
         self._send("/tf", m.TFMessage, t, self._tf_packer.encode(stamp.sec, stamp.nanosec, vals))
         self.published += 1
         self.write_time += time.perf_counter() - t0
+        self.span_wall = (self.span_wall[0] if self.published > 1 else t0, time.perf_counter())
+        self.span_run = (self.span_run[0] if self.published > 1 else t, t)
         return True
 
     def reset(self) -> None:

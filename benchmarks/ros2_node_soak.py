@@ -1,0 +1,102 @@
+"""Soak of `wbc ros2 node --time sim` driven by /cmd_vel: memory (RSS) and tick time over a long run.
+
+Starts the node (``--robot``, default g1: humanoid15 has no hip yaw and cannot turn; loopback-only DDS, random domain) with ``--report-every 30``, drives it with a repeating
+/cmd_vel pattern in node time (read from /clock): walk 0.3 m/s 10 s, walk-and-turn (0.1 m/s, 0.3 rad/s) 10 s,
+side-step 0.05 m/s 10 s, stop 6 s — and samples the node's VmRSS (/proc/<pid>/status) every 10 s of wall time.
+
+    python benchmarks/ros2_node_soak.py --minutes 5
+
+Prints the RSS after the first minute and at the end, and the node's tick p99 of its first and last report.
+"""
+
+import argparse
+import os
+import random
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from wbc.ros2.dds import loopback_uri  # noqa: E402
+
+PATTERN = [((0.3, 0.0, 0.0), 10.0), ((0.1, 0.0, 0.3), 10.0), ((0.0, 0.05, 0.0), 10.0), ((0.0, 0.0, 0.0), 6.0)]
+
+
+def rss_mb(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--minutes", type=float, default=5.0, help="wall-clock minutes (default 5)")
+    ap.add_argument("--robot", default="g1", help="a robot whose legs can turn (hip yaw; default g1)")
+    args = ap.parse_args()
+    os.environ["CYCLONEDDS_URI"] = loopback_uri()
+    os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    node = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", args.robot, "--time", "sim",
+                             "--report-every", "30"], stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
+    lines = []
+    threading.Thread(target=lambda: [lines.append(ln.rstrip()) for ln in node.stdout], daemon=True).start()
+
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from wbc.ros2 import dds, msgs
+
+    part = dds.participant()
+    q = dds.qos_stream(10)
+    w = DataWriter(part, Topic(part, "rt/cmd_vel", msgs.Twist, qos=q), qos=q)
+    be = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
+    clock = DataReader(part, Topic(part, "rt/clock", msgs.Clock, qos=be), qos=be)
+    period = sum(d for _, d in PATTERN)
+    t_node = None
+    rss = []
+    t0 = time.monotonic()
+    next_sample = t0
+    try:
+        while time.monotonic() - t0 < 60 * args.minutes:
+            for s in clock.take(N=100):
+                if isinstance(s, msgs.Clock):
+                    t_node = s.clock.sec + 1e-9 * s.clock.nanosec
+            if t_node is not None:
+                phase = t_node % period
+                for (vx, vy, wz), d in PATTERN:
+                    if phase < d:
+                        break
+                    phase -= d
+                if vx or vy or wz:
+                    w.write(msgs.Twist(msgs.Vector3(vx, vy, 0.0), msgs.Vector3(0.0, 0.0, wz)))
+            if time.monotonic() >= next_sample:
+                rss.append((time.monotonic() - t0, t_node, rss_mb(node.pid)))
+                next_sample += 10.0
+            time.sleep(0.005)
+    finally:
+        node.terminate()
+        node.wait(timeout=60)
+    time.sleep(0.5)
+    after_1min = next(r for r in rss if r[0] >= 60.0)
+    print("wall s, node s, RSS MB:")
+    for r in rss:
+        print(f"  {r[0]:6.0f} {r[1] or 0:8.1f} {r[2]:8.1f}")
+    stats = [ln for ln in lines if ln.startswith("stats:")]
+    print(f"RSS after the first minute {after_1min[2]:.1f} MB (node time {after_1min[1]:.0f} s), at the end "
+          f"{rss[-1][2]:.1f} MB (node time {rss[-1][1]:.0f} s): growth {rss[-1][2] - after_1min[2]:+.1f} MB")
+    if stats:
+        print("first report:", stats[0])
+        print("last report: ", stats[-1])
+    print(lines[-1] if lines else "")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

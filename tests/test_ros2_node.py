@@ -1,0 +1,216 @@
+"""`wbc ros2 node` as a ROS 2 system: NavigateToPose action, /cmd_vel, parameters, /clock — driven by clients in a
+separate process that does not import wbc (tests/ros2_node_client.py declares the ROS 2 IDL itself).
+
+DDS is confined to 127.0.0.1 (CYCLONEDDS_URI: interface lo, multicast off, localhost peer) with a random
+ROS_DOMAIN_ID. The node runs with ``--time sim`` (as fast as it can, /clock, stamps in node time), so rates and
+durations are measured in node time from the messages' stamps and /clock. Skipped only when the extra wbc[ros2]
+(cyclonedds, rosbags) is absent.
+"""
+
+import json
+import math
+import os
+import random
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+for _mod in ("cyclonedds", "rosbags"):
+    pytest.importorskip(_mod, reason=f"the optional extra wbc[ros2] is not installed ({_mod} missing)")
+
+HERE = Path(__file__).parent
+CLIENT = HERE / "ros2_node_client.py"
+LOOPBACK = (
+    '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
+    "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+    '<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/></Peers>'
+    "</Discovery></Domain></CycloneDDS>"
+)
+
+
+@pytest.fixture(scope="module")
+def node():
+    """One `wbc ros2 node --time sim` for the module; yields the environment of its clients."""
+    env = dict(os.environ)
+    env["CYCLONEDDS_URI"] = LOOPBACK
+    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", "--time", "sim"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=str(HERE.parent))
+    first = proc.stdout.readline()
+    assert first.startswith("wbc ros2 node: humanoid15"), first + proc.stderr.read()
+    yield env
+    proc.terminate()
+    out, err = proc.communicate(timeout=60)
+    print(out[-2000:])
+
+
+def _client(env, *args, timeout=400):
+    r = subprocess.run([sys.executable, str(CLIENT), *map(str, args)], env=env, capture_output=True, text=True,
+                       timeout=timeout, cwd="/")
+    assert r.returncode == 0, r.stderr[-3000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def _sole_heights(joint_names, joints, odom):
+    """Sole heights (N, 2) m and times from the published /joint_states and /odom (Pinocchio forward kinematics of
+    the received q — independent of the node's own bookkeeping)."""
+    import pinocchio as pin
+
+    from wbc.robot import load_robot
+
+    robot = load_robot("humanoid15")
+    model, data = robot.model, robot.model.createData()
+    od = {round(o[0], 6): o[1:] for o in odom}
+    idx = [model.joints[model.getJointId(n)].idx_q for n in joint_names]
+    fl, fr = robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole)
+    t, z = [], []
+    for row in joints:
+        base = od.get(round(row[0], 6))
+        if base is None:
+            continue
+        q = robot.q_ref.copy()
+        q[:7] = base
+        q[idx] = row[1:]
+        pin.framesForwardKinematics(model, data, q)
+        t.append(row[0])
+        z.append([data.oMf[fl].translation[2], data.oMf[fr].translation[2]])
+    return np.array(t), np.array(z)
+
+
+def test_navigate_to_pose_goal_feedback_result_then_cancel(node):
+    got = _client(node, "goal", 1.5, 0.5, 0.0)
+    assert got["accepted"]
+    res = got["result"]
+    f = np.array(got["feedback"])  # navigation_time (s), distance_remaining (m), stamp
+    rate = (len(f) - 1) / (f[-1, 0] - f[0, 0])
+    final = np.array(got["odom"][-1])
+    yaw = math.atan2(2 * (final[7] * final[6] + final[4] * final[5]), 1 - 2 * (final[5] ** 2 + final[6] ** 2))
+    err_xy = math.hypot(final[1] - 1.5, final[2] - 0.5)
+    print(f"goal: {len(f)} feedback at {rate:.2f} Hz (node time), distance {f[0, 1]:.3f} -> {f[-1, 1]:.4f} m; "
+          f"result {res}; /odom final base error {err_xy * 1e3:.1f} mm, {math.degrees(abs(yaw)):.2f} deg")
+    assert res["status"] == 4 and res["error_code"] == 0  # SUCCEEDED, NONE
+    assert rate >= 5.0
+    assert np.all(np.diff(f[:, 0]) <= 0.2 + 1e-9)  # no gap longer than 0.2 s
+    assert f[0, 1] > 1.5 and f[-1, 1] < 0.05
+    assert np.all(np.diff(f[:, 1]) <= 1e-5)  # non-increasing (float32, µm contact drift)
+    assert err_xy <= 0.05 and abs(math.degrees(yaw)) <= 5.0
+
+    cancel_at = 3.0  # s of navigation time: mid-walk (the walk takes about 8.5 s)
+    got = _client(node, "goal", 1.5, 0.5, 0.0, cancel_at)
+    res = got["result"]
+    assert got["cancel_return_code"] == 0 and res["status"] == 5, res  # ERROR_NONE, CANCELED
+    t, z = _sole_heights(got["joint_names"], got["joints"], got["odom"])
+    up = (z > 0.003).any(axis=1)  # a sole more than 3 mm above the ground (the swing rises 40 mm): single support
+    after = t >= got["cancel_stamp"]
+    lift_offs = int(np.sum(up[after][1:] & ~up[after][:-1]))
+    final = np.array(got["odom"][-1])
+    print(f"cancel at {cancel_at} s: lift-offs after the cancel {lift_offs}, swinging at the cancel {bool(up[after][0])}, "
+          f"final sole heights {z[-1].round(5).tolist()} m, base x {final[1]:.3f} m; result {res['error_msg']}")
+    assert final[1] < 1.45  # stopped short of the goal
+    assert lift_offs <= 1  # at most one more step starts after the cancel (counted from the client's decision)
+    assert np.all(np.abs(z[-1]) < 0.003)  # ends in double support (kinematic touch-down: within 3 mm)
+    assert np.all(np.abs(np.diff(np.array(got["odom"])[-5:, 1:3], axis=0)) < 1e-6)  # at rest
+
+
+def test_second_goal_preempts_the_first(node):
+    got = _client(node, "preempt")
+    print(f"pre-emption: first goal {got['a']}, second goal {got['b']}, final base xy {np.round(got['final'], 4)}")
+    assert got["accepted_a"] and got["accepted_b"]
+    assert got["a"][0] == 6 and "pre-empted" in got["a"][2]  # ABORTED
+    assert got["b"][0] == 4  # SUCCEEDED
+    assert math.hypot(got["final"][0] - 0.5, got["final"][1]) <= 0.05
+
+
+def test_cmd_vel_walks_and_stops(node):
+    vx, seconds = 0.3, 5.0
+    got = _client(node, "cmdvel", vx, seconds)
+    odom = np.array(got["odom"])
+    start = np.array(got["start"])
+    walked = math.hypot(odom[-1, 1] - start[1], odom[-1, 2] - start[2])
+    print(f"/cmd_vel vx {vx} m/s for {got['t_stop'] - got['t_start']:.2f} s of /clock ({got['sent']} samples): walked "
+          f"{walked:.3f} m (commanded {vx * seconds:.2f} m), standing at /clock {odom[-1, 0]:.2f} s")
+    assert got["t_stop"] - got["t_start"] >= seconds
+    assert abs(walked - vx * seconds) <= 0.10 * vx * seconds
+    tail = odom[odom[:, 0] > odom[-1, 0] - 1.0]
+    assert np.all(tail[:, 3] == 0.0)  # zero twist for the last second: it stopped
+
+
+def test_parameters_update_rate_and_refusal(node):
+    got = _client(node, "params", "wbc_node")
+    assert set(got["list"]) >= {"update_rate", "step_duration", "max_velocity"}
+    assert got["describe"]["type"] == 3 and got["describe"]["range"] == [[1.0, 500.0]]
+    assert got["set_50"] == [True, ""]
+    (ok1, why1), (ok2, why2) = got["set_bad"]
+    assert not ok1 and "update_rate" in why1 and "500" in why1
+    assert not ok2 and "max_velocity" in why2 and "string" in why2
+    assert got["after_bad"] == [50.0, 0.3]  # nothing of the refused values applied
+    s = np.array(got["stamps"])
+    rate = (len(s) - 1) / (s[-1] - s[0])
+    print(f"update_rate=50: {len(s)} /joint_states over {s[-1] - s[0]:.2f} s of node time -> {rate:.3f} Hz; "
+          f"refused: {why1!r}, {why2!r}")
+    assert s[-1] - s[0] >= 9.0
+    assert abs(rate - 50.0) <= 0.02 * 50.0
+
+
+def test_action_type_hashes_match_ros2():
+    """RIHS01 of NavigateToPose's goal/result/feedback/service types and action_msgs' types, ours vs rosbags'
+    ``hash_rihs01`` of the Jazzy definitions (nav2_msgs is not in rosbags' store: registered from the .action text)."""
+    from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+    from wbc.ros2 import msgs
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    action = "nav2_msgs/action/NavigateToPose"
+    defs = {
+        "_Goal": "geometry_msgs/PoseStamped pose\nstring behavior_tree\n",
+        "_Result": "uint16 NONE=0\nuint16 UNKNOWN=9000\nuint16 FAILED_TO_LOAD_BEHAVIOR_TREE=9001\nuint16 TF_ERROR=9002\n"
+                   "uint16 TIMEOUT=9003\nuint16 error_code\nstring error_msg\n",
+        "_Feedback": "geometry_msgs/PoseStamped current_pose\nbuiltin_interfaces/Duration navigation_time\n"
+                     "builtin_interfaces/Duration estimated_time_remaining\nint16 number_of_recoveries\n"
+                     "float32 distance_remaining\n",
+        "_FeedbackMessage": f"unique_identifier_msgs/UUID goal_id\n{action}_Feedback feedback\n",
+        "_SendGoal_Request": f"unique_identifier_msgs/UUID goal_id\n{action}_Goal goal\n",
+        "_SendGoal_Response": "bool accepted\nbuiltin_interfaces/Time stamp\n",
+        "_GetResult_Request": "unique_identifier_msgs/UUID goal_id\n",
+        "_GetResult_Response": f"int8 status\n{action}_Result result\n",
+    }
+    for suffix, text in defs.items():
+        ts.register(get_types_from_msg(text, action + suffix))
+    names = [action + s for s in defs] + ["action_msgs/msg/GoalInfo", "action_msgs/msg/GoalStatus",
+                                          "action_msgs/msg/GoalStatusArray", "unique_identifier_msgs/msg/UUID",
+                                          "rosgraph_msgs/msg/Clock", "geometry_msgs/msg/Twist"]
+    for name in names:
+        assert msgs.rihs01(name) == ts.hash_rihs01(name), name
+
+
+def test_node_refuses_bad_options_before_work():
+    for extra in (["--sim"], ["--duration", "-1"]):
+        r = subprocess.run([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", *extra],
+                           capture_output=True, text=True, timeout=120, cwd=str(HERE.parent))
+        assert r.returncode == 2, (extra, r.stdout, r.stderr)
+        assert "valid" in r.stderr.strip().splitlines()[-1], r.stderr
+
+
+def test_commanded_walk_typed_errors():
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot import load_robot
+    from wbc.scenarios.commanded_walk import CommandedWalk
+
+    walk = CommandedWalk(load_robot("humanoid15"))
+    assert not walk.can_turn  # no hip yaw joint
+    for bad in ((0.5, 0.0, 0.0), (float("nan"), 0.0, 0.0), (0.1, 0.0, 0.2), (0.0, 0.5, 0.0)):
+        with pytest.raises(InvalidInputError):
+            walk.set_velocity(*bad)
+    for value in (0.1, float("inf"), "1"):
+        with pytest.raises(InvalidInputError):
+            walk.step_duration = value
+    with pytest.raises(InvalidInputError):
+        walk.max_velocity = -0.1
+    with pytest.raises(InvalidInputError):
+        walk.set_goal(1.0, float("nan"), 0.0)
+    assert np.all(walk.command == 0.0) and walk.idle  # nothing applied
