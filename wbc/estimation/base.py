@@ -1,0 +1,276 @@
+"""Floating-base state estimation from joint encoders, a base IMU and ankle force/torque sensors.
+
+Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
+
+1. **Joint velocities** (:class:`JointStateFilter`): backward difference of the encoder angles, then a first-order
+   low-pass filter of corner ``f_c``: v̇ⱼ ← vⱼ + α ((qⱼ,k − qⱼ,k−1)/Δt − vⱼ), α = Δt / (Δt + 1/(2π f_c)).
+2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32)
+   on the gyro and accelerometer; the base angular velocity is the bias-corrected gyro.
+3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
+   to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
+   uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
+   ground reaction (:class:`~wbc.estimation.contact.FootForceSensor`) and its normal force; a
+   :class:`~wbc.estimation.contact.ContactDetector` (hysteresis) decides contact. A foot that becomes a contact is
+   anchored: aᵢ = p̂ + rᵢ (its world position, held while it stays in contact).
+4. **Base position and velocity** (world), a Kalman filter per axis on x = (p, ṗ) with the IMU acceleration as
+   input and the leg odometry as measurement — the estimator of Flayols, Del Prete, Wensing, Mifsud, Benallegue,
+   Mansard 2017, "Experimental evaluation of simple estimators for humanoid robots", IEEE-RAS Humanoids (Sec.
+   III-C: IMU-driven prediction corrected by the kinematics of the feet in contact; a linear Kalman filter whose
+   steady state is a complementary filter):
+
+       prediction   a = R̂ aʸ + g,   p ← p + ṗ Δt + ½ a Δt²,   ṗ ← ṗ + a Δt,   P ← A P Aᵀ + Q
+       measurement  z_p = Σᵢ wᵢ (aᵢ − rᵢ),   z_v = −Σᵢ wᵢ uᵢ   (the feet in contact do not move),
+                    wᵢ = f_z,ᵢ / Σ f_z (normal-force weights)
+       update       K = P (P + R)⁻¹,   x ← x + K (z − x),   P ← (I − K) P
+
+   with A = [[1, Δt], [0, 1]], Q = σ_a² [[Δt⁴/4, Δt³/2], [Δt³/2, Δt²]], R = diag(σ_p², σ_v²), the same 2 × 2
+   covariance for the three axes (isotropic noises). Without a foot in contact (a flight phase) only the
+   prediction runs.
+
+The estimated configuration is q = (p̂, quaternion of R̂ (x, y, z, w), encoder angles) and
+v = (R̂ᵀ ṗ̂ (base frame, Pinocchio's convention), Ωʸ − b̂, filtered joint velocities). Every array is preallocated;
+one update costs one ``forwardKinematics`` with velocities and a few 3-vectors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.estimation.attitude import ComplementaryAttitudeFilter
+from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["JointStateFilter", "FloatingBaseEstimator"]
+
+_SIDES = ("left", "right")
+
+
+def _nonneg(value, what: str, positive: bool = False) -> float:
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and np.isfinite(value) and (value > 0 if positive else value >= 0)
+    if not ok:
+        raise InvalidInputError(f"{what} must be a finite number {'> 0' if positive else '≥ 0'}, got {value!r}")
+    return float(value)
+
+
+class JointStateFilter:
+    """Joint velocities from encoder angles: backward difference then a first-order low-pass (module docstring).
+
+    Args:
+        n: number of joints. dt: sample period (s). cutoff_hz: corner frequency f_c (Hz, > 0).
+
+    Attributes:
+        velocity: (n,) filtered velocity (rad/s).
+
+    Raises:
+        InvalidInputError: bad numbers.
+    """
+
+    def __init__(self, n: int, dt: float, cutoff_hz: float = 80.0):
+        self.dt = _nonneg(dt, "dt", positive=True)
+        self.cutoff_hz = _nonneg(cutoff_hz, "cutoff_hz", positive=True)
+        self.alpha = self.dt / (self.dt + 1.0 / (2.0 * math.pi * self.cutoff_hz))
+        self.velocity = np.zeros(int(n))
+        self._prev = np.zeros(int(n))
+        self._raw = np.zeros(int(n))
+        self._started = False
+
+    def reset(self, angles=None, velocity=None) -> None:
+        """Start from ``angles`` (n,) rad (default: the next sample) and ``velocity`` (n,) rad/s (default 0)."""
+        self.velocity[:] = 0.0 if velocity is None else velocity
+        self._started = angles is not None
+        if angles is not None:
+            self._prev[:] = angles
+
+    def update(self, angles: np.ndarray) -> np.ndarray:
+        """One sample of encoder angles (n,) rad → filtered velocities (n,) rad/s (the :attr:`velocity` array)."""
+        if self._started:
+            np.subtract(angles, self._prev, out=self._raw)
+            self._raw /= self.dt
+            self.velocity += self.alpha * (self._raw - self.velocity)
+        self._prev[:] = angles
+        self._started = True
+        return self.velocity
+
+
+class FloatingBaseEstimator:
+    """Base pose and velocity of a humanoid from its encoders, IMU and ankle F/T sensors (module docstring).
+
+    Args:
+        robot: the :class:`~wbc.robot.Robot` (Pinocchio model, sole frames).
+        dt: sample period (s).
+        velocity_cutoff_hz: joint-velocity filter corner (Hz).
+        k_p, k_i, accel_gate: attitude filter gains (:class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
+        contact_on, contact_off: contact hysteresis thresholds as fractions of the robot's weight
+            (0 ≤ off < on).
+        sigma_acc: IMU acceleration input noise σ_a (m/s², includes the tilt error of R̂ g).
+        sigma_pos: leg-odometry position noise σ_p (m). sigma_vel: leg-odometry velocity noise σ_v (m/s).
+
+    Attributes (after :meth:`update`):
+        q: (nq,) estimated configuration. v: (nv,) estimated velocity (Pinocchio conventions).
+        contact: {side: bool}. wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
+        sole: {side: pin.SE3} estimated world placement of each sole. velocity_world: (3,) ṗ̂ (m/s, world).
+
+    Raises:
+        InvalidInputError: bad numbers (here and on :meth:`reset`).
+    """
+
+    def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
+                 accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
+                 sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02):
+        self.robot = robot
+        model = robot.model
+        self.model, self.data = model, model.createData()
+        self.dt = _nonneg(dt, "dt", positive=True)
+        nj = model.nv - 6
+        self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz)
+        self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate)
+        weight = robot.mass * 9.81
+        self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in _SIDES}
+        self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in _SIDES}
+        for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
+            _nonneg(val, what, positive=True)
+        h = self.dt
+        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
+        self._R = np.diag([sigma_pos**2, sigma_vel**2])
+        self._A = np.array([[1.0, h], [0.0, 1.0]])
+        # joint angle → q maps (1-DoF joints; continuous joints as (cos, sin))
+        one, cs_q, cs_j = [], [], []
+        for i in range(2, model.njoints):
+            jm = model.joints[i]
+            if jm.nv != 1:
+                raise InvalidInputError(f"joint {model.names[i]!r} has {jm.nv} DoF; the estimator needs 1-DoF joints")
+            (one if jm.nq == 1 else cs_q).append(jm.idx_q)
+            if jm.nq == 2:
+                cs_j.append(jm.idx_v - 6)
+        self._q_one = np.array(one, dtype=int)
+        self._j_one = np.array([model.joints[i].idx_v - 6 for i in range(2, model.njoints)
+                                if model.joints[i].nq == 1], dtype=int)
+        self._q_cs, self._j_cs = np.array(cs_q, dtype=int), np.array(cs_j, dtype=int)
+        self.q = pin.neutral(model)
+        self.v = np.zeros(model.nv)
+        self._qk = pin.neutral(model)  # kinematic configuration: base at the origin with orientation R̂
+        self._vk = np.zeros(model.nv)
+        self.p = np.zeros(3)
+        self.velocity_world = np.zeros(3)
+        self.P = np.diag([1e-6, 1e-4])
+        self.anchor = {s: np.zeros(3) for s in _SIDES}
+        self.contact = {s: False for s in _SIDES}
+        self.normal_force = {s: 0.0 for s in _SIDES}
+        self.wrench = np.zeros((2, 6))
+        self.sole = {s: pin.SE3.Identity() for s in _SIDES}
+
+    def reset(self, q0, v0=None) -> None:
+        """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
+        orientation are taken as known) and velocity ``v0`` (nv,) (default at rest); contacts start open and are
+        detected from the first F/T sample.
+
+        Raises:
+            InvalidInputError: wrong shapes or non-finite values.
+        """
+        model = self.model
+        q0 = np.asarray(q0, dtype=float)
+        if q0.shape != (model.nq,) or not np.all(np.isfinite(q0)):
+            raise InvalidInputError(f"q0 must be a finite ({model.nq},) configuration, got shape {q0.shape}")
+        v0 = np.zeros(model.nv) if v0 is None else np.asarray(v0, dtype=float)
+        if v0.shape != (model.nv,) or not np.all(np.isfinite(v0)):
+            raise InvalidInputError(f"v0 must be a finite ({model.nv},) velocity, got shape {v0.shape}")
+        quat = q0[3:7] / np.linalg.norm(q0[3:7])
+        R = pin.Quaternion(quat[3], quat[0], quat[1], quat[2]).toRotationMatrix()
+        self.attitude.reset(R)
+        self.p[:] = q0[0:3]
+        self.velocity_world[:] = R @ v0[0:3]
+        self.P = np.diag([1e-6, 1e-4])
+        self.q[:] = q0
+        self.v[:] = v0
+        angles = np.empty(model.nv - 6)
+        angles[self._j_one] = q0[self._q_one]
+        if len(self._q_cs):
+            angles[self._j_cs] = np.arctan2(q0[self._q_cs + 1], q0[self._q_cs])
+        self.joints.reset(angles, v0[6:])
+        for s in _SIDES:
+            self.detectors[s].active = False
+            self.contact[s] = False
+
+    def update(self, joint_q: np.ndarray, gyro: np.ndarray, accel: np.ndarray, ft: np.ndarray):
+        """One sample of the sensors → ``(q, v)`` (the :attr:`q`, :attr:`v` arrays, overwritten next call).
+
+        Args:
+            joint_q: (nv − 6,) encoder angles (rad), Pinocchio's ``v[6:]`` order.
+            gyro: (3,) rad/s and accel: (3,) m/s² (specific force), base axes.
+            ft: (2, 6) (left, right) ankle F/T readings (:mod:`wbc.estimation.contact` convention).
+        """
+        model, data, dt = self.model, self.data, self.dt
+        vj = self.joints.update(joint_q)
+        R = self.attitude.update(gyro, accel)
+        omega = self.attitude.omega
+        # Kinematics with the base at the origin, orientation R̂, angular velocity ω, no base translation.
+        qk, vk = self._qk, self._vk
+        qk[0:3] = 0.0
+        qk[3:7] = pin.Quaternion(R).coeffs()
+        qk[self._q_one] = joint_q[self._j_one]
+        if len(self._q_cs):
+            qk[self._q_cs] = np.cos(joint_q[self._j_cs])
+            qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
+        vk[0:3] = 0.0
+        vk[3:6] = omega
+        vk[6:] = vj
+        pin.forwardKinematics(model, data, qk, vk)
+        # Prediction with the IMU acceleration.
+        a = R @ accel + GRAVITY_VECTOR
+        p, pd = self.p, self.velocity_world
+        p += pd * dt + 0.5 * dt * dt * a
+        pd += a * dt
+        A = self._A
+        self.P = A @ self.P @ A.T + self._Q
+        # Feet: ground reaction, contact, leg odometry.
+        zp = np.zeros(3)
+        zv = np.zeros(3)
+        total = 0.0
+        newly = []
+        for j, s in enumerate(_SIDES):
+            sensor = self.ft[s]
+            X = pin.updateFramePlacement(model, data, sensor.frame_id)
+            w = sensor.ground_wrench(ft[j], X.rotation)
+            self.wrench[j] = w
+            fz = float(X.rotation[2] @ w[0:3])
+            self.normal_force[s] = fz
+            was = self.contact[s]
+            now = self.detectors[s].update(fz)
+            self.contact[s] = now
+            r = X.translation
+            if now and not was:
+                newly.append((s, r.copy()))
+            if now and was:
+                u = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED).linear
+                wgt = max(fz, 0.0)
+                zp += wgt * (self.anchor[s] - r)
+                zv -= wgt * u
+                total += wgt
+        if total > 0:
+            zp /= total
+            zv /= total
+            S = self.P + self._R
+            K = self.P @ np.linalg.inv(S)
+            ep = zp - p
+            ev = zv - pd
+            p += K[0, 0] * ep + K[0, 1] * ev
+            pd += K[1, 0] * ep + K[1, 1] * ev
+            self.P = (np.eye(2) - K) @ self.P
+        for s, r in newly:
+            self.anchor[s] = p + r
+        for j, s in enumerate(_SIDES):
+            X = data.oMf[self.ft[s].frame_id]
+            self.sole[s] = pin.SE3(X.rotation, X.translation + p)
+        # Outputs.
+        q, v = self.q, self.v
+        q[0:3] = p
+        q[3:7] = qk[3:7]
+        q[7:] = qk[7:]
+        v[0:3] = R.T @ pd
+        v[3:6] = omega
+        v[6:] = vj
+        return q, v
