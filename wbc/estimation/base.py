@@ -5,7 +5,10 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
 1. **Joint velocities** (:class:`JointStateFilter`): backward difference of the encoder angles, then a first-order
    low-pass filter of corner ``f_c``: v̇ⱼ ← vⱼ + α ((qⱼ,k − qⱼ,k−1)/Δt − vⱼ), α = Δt / (Δt + 1/(2π f_c)).
 2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32)
-   on the gyro and accelerometer; the base angular velocity is the bias-corrected gyro.
+   on the gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics
+   (the leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the
+   walking accelerations, ~1 m/s², tilt the estimated vertical); the base angular velocity is the bias-corrected
+   gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
    uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
@@ -108,6 +111,8 @@ class FloatingBaseEstimator:
             (0 ≤ off < on).
         sigma_acc: IMU acceleration input noise σ_a (m/s², includes the tilt error of R̂ g).
         sigma_pos: leg-odometry position noise σ_p (m). sigma_vel: leg-odometry velocity noise σ_v (m/s).
+        accel_cutoff_hz: corner (Hz) of the low-pass on the differenced leg-odometry velocity, the base
+            acceleration removed from the accelerometer before the tilt correction.
 
     Attributes (after :meth:`update`):
         q: (nq,) estimated configuration. v: (nv,) estimated velocity (Pinocchio conventions).
@@ -120,7 +125,8 @@ class FloatingBaseEstimator:
 
     def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
-                 sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02):
+                 sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
+                 accel_cutoff_hz: float = 10.0):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -152,7 +158,7 @@ class FloatingBaseEstimator:
         self._q_cs, self._j_cs = np.array(cs_q, dtype=int), np.array(cs_j, dtype=int)
         self.q = pin.neutral(model)
         self.v = np.zeros(model.nv)
-        self._qk = pin.neutral(model)  # kinematic configuration: base at the origin with orientation R̂
+        self._qk = pin.neutral(model)  # kinematic configuration: base at the origin, identity orientation
         self._vk = np.zeros(model.nv)
         self.p = np.zeros(3)
         self.velocity_world = np.zeros(3)
@@ -162,6 +168,11 @@ class FloatingBaseEstimator:
         self.normal_force = {s: 0.0 for s in _SIDES}
         self.wrench = np.zeros((2, 6))
         self.sole = {s: pin.SE3.Identity() for s in _SIDES}
+        self._u = np.zeros((2, 3))
+        self._zv, self._zv_prev, self._f_grav = np.zeros(3), np.zeros(3), np.zeros(3)
+        self._have_zv = False
+        self.acc_kin = np.zeros(3)
+        self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
 
     def reset(self, q0, v0=None) -> None:
         """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
@@ -191,6 +202,8 @@ class FloatingBaseEstimator:
         if len(self._q_cs):
             angles[self._j_cs] = np.arctan2(q0[self._q_cs + 1], q0[self._q_cs])
         self.joints.reset(angles, v0[6:])
+        self._have_zv = False
+        self.acc_kin[:] = 0.0
         for s in _SIDES:
             self.detectors[s].active = False
             self.contact[s] = False
@@ -205,20 +218,48 @@ class FloatingBaseEstimator:
         """
         model, data, dt = self.model, self.data, self.dt
         vj = self.joints.update(joint_q)
-        R = self.attitude.update(gyro, accel)
-        omega = self.attitude.omega
-        # Kinematics with the base at the origin, orientation R̂, angular velocity ω, no base translation.
+        att = self.attitude
+        # Leg kinematics in the base frame (base at the origin, identity orientation, angular velocity ω of the
+        # last sample, no base translation); world axes are R̂ times these.
         qk, vk = self._qk, self._vk
-        qk[0:3] = 0.0
-        qk[3:7] = pin.Quaternion(R).coeffs()
         qk[self._q_one] = joint_q[self._j_one]
         if len(self._q_cs):
             qk[self._q_cs] = np.cos(joint_q[self._j_cs])
             qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
-        vk[0:3] = 0.0
-        vk[3:6] = omega
+        np.subtract(gyro, att.bias, out=vk[3:6])
         vk[6:] = vj
         pin.forwardKinematics(model, data, qk, vk)
+        R_prev = att.rotation
+        fz_total, zv = 0.0, self._zv
+        zv[:] = 0.0
+        for j, s in enumerate(_SIDES):
+            sensor = self.ft[s]
+            X = pin.updateFramePlacement(model, data, sensor.frame_id)
+            Rw = R_prev @ X.rotation
+            w = sensor.ground_wrench(ft[j], Rw)
+            self.wrench[j] = w
+            fz = float(Rw[2] @ w[0:3])
+            self.normal_force[s] = fz
+            self._u[j] = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED).linear
+            if self.contact[s] and fz > 0:
+                zv -= fz * self._u[j]
+                fz_total += fz
+        # Base acceleration from the leg kinematics (differenced, low-passed): it is removed from the
+        # accelerometer's specific force so that the attitude filter sees gravity alone.
+        if fz_total > 0:
+            zv /= fz_total
+            zw = R_prev @ zv
+            if self._have_zv:
+                self.acc_kin += self._beta * ((zw - self._zv_prev) / dt - self.acc_kin)
+            self._zv_prev[:] = zw
+            self._have_zv = True
+        else:
+            self._have_zv = False
+            self.acc_kin *= 1.0 - self._beta
+        self._f_grav[:] = accel - R_prev.T @ self.acc_kin
+        att.update(gyro, self._f_grav)
+        R = att.rotation
+        omega = att.omega
         # Prediction with the IMU acceleration.
         a = R @ accel + GRAVITY_VECTOR
         p, pd = self.p, self.velocity_world
@@ -226,37 +267,31 @@ class FloatingBaseEstimator:
         pd += a * dt
         A = self._A
         self.P = A @ self.P @ A.T + self._Q
-        # Feet: ground reaction, contact, leg odometry.
+        # Contacts and leg odometry.
         zp = np.zeros(3)
-        zv = np.zeros(3)
+        zvw = np.zeros(3)
         total = 0.0
         newly = []
         for j, s in enumerate(_SIDES):
-            sensor = self.ft[s]
-            X = pin.updateFramePlacement(model, data, sensor.frame_id)
-            w = sensor.ground_wrench(ft[j], X.rotation)
-            self.wrench[j] = w
-            fz = float(X.rotation[2] @ w[0:3])
-            self.normal_force[s] = fz
+            fz = self.normal_force[s]
             was = self.contact[s]
             now = self.detectors[s].update(fz)
             self.contact[s] = now
-            r = X.translation
+            r = R @ data.oMf[self.ft[s].frame_id].translation
             if now and not was:
-                newly.append((s, r.copy()))
+                newly.append((s, r))
             if now and was:
-                u = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED).linear
                 wgt = max(fz, 0.0)
                 zp += wgt * (self.anchor[s] - r)
-                zv -= wgt * u
+                zvw -= wgt * (R @ self._u[j])
                 total += wgt
         if total > 0:
             zp /= total
-            zv /= total
+            zvw /= total
             S = self.P + self._R
             K = self.P @ np.linalg.inv(S)
             ep = zp - p
-            ev = zv - pd
+            ev = zvw - pd
             p += K[0, 0] * ep + K[0, 1] * ev
             pd += K[1, 0] * ep + K[1, 1] * ev
             self.P = (np.eye(2) - K) @ self.P
@@ -264,11 +299,11 @@ class FloatingBaseEstimator:
             self.anchor[s] = p + r
         for j, s in enumerate(_SIDES):
             X = data.oMf[self.ft[s].frame_id]
-            self.sole[s] = pin.SE3(X.rotation, X.translation + p)
+            self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
         # Outputs.
         q, v = self.q, self.v
         q[0:3] = p
-        q[3:7] = qk[3:7]
+        q[3:7] = pin.Quaternion(R).coeffs()
         q[7:] = qk[7:]
         v[0:3] = R.T @ pd
         v[3:6] = omega
