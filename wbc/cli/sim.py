@@ -36,7 +36,8 @@ def register(subparsers, add_outputs) -> None:
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
-                    "ground-truth state from MuJoCo and applies joint torques at 500 Hz (one 2 ms mj_step per tick).")
+                    "state estimated from the simulated sensors (or MuJoCo's ground truth, --state) and applies "
+                    "joint torques at 500 Hz (one 2 ms mj_step per tick).")
     p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
     p.add_argument("--robot", default="talos", help="catalog name (default talos)")
     p.add_argument("--duration", type=float, default=None,
@@ -52,6 +53,10 @@ def register(subparsers, add_outputs) -> None:
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", choices=available_solvers(),
                    help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
+    p.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
+                   help="what the controller reads: estimated (default: encoders, pelvis IMU and ankle F/T sensors "
+                        "with noise and bias, wbc.sim.sensors, fused by wbc.estimation.FloatingBaseEstimator; "
+                        "noise seeded by --seed) or ground-truth (MuJoCo's qpos/qvel)")
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
@@ -203,14 +208,31 @@ def cmd_sim(args) -> int:
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
+    state = None
+    if args.state == "estimated":
+        from wbc.sim.estimated_state import EstimatedState
+
+        state = EstimatedState(sim, seed=args.seed)
     try:
-        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer)
+        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer,
+                                    state=state)
     finally:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
-    summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    if state is None:
+        summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    else:
+        from dataclasses import asdict
+
+        from wbc.sim.estimated_state import estimation_errors
+
+        summary["state_source"] = ("estimated: encoders + pelvis IMU + ankle F/T (wbc.sim.sensors), "
+                                   "wbc.estimation.FloatingBaseEstimator")
+        summary["sensors"] = {k: asdict(v) for k, v in vars(state.sensors.specs).items()}
+        summary["estimation_error"] = estimation_errors(run.q, run.v, run.extra["q_est"], run.extra["v_est"],
+                                                        summary.get("walked_distance_m"))
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":

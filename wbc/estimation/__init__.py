@@ -3,8 +3,8 @@ force/torque sensors (:mod:`wbc.estimation.base`); the orientation filter (:mod:
 ground reactions, contact detection and the measured ZMP (:mod:`wbc.estimation.contact`)."""
 
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
-from wbc.estimation.base import FloatingBaseEstimator, JointStateFilter
+from wbc.estimation.base import BaseKalmanFilter, FloatingBaseEstimator, JointStateFilter
 from wbc.estimation.contact import ContactDetector, FootForceSensor, zmp_from_wrenches
 
-__all__ = ["ComplementaryAttitudeFilter", "FloatingBaseEstimator", "JointStateFilter", "ContactDetector",
+__all__ = ["ComplementaryAttitudeFilter", "BaseKalmanFilter", "FloatingBaseEstimator", "JointStateFilter", "ContactDetector",
            "FootForceSensor", "zmp_from_wrenches"]

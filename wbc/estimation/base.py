@@ -46,7 +46,7 @@ from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["JointStateFilter", "FloatingBaseEstimator"]
+__all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
 
 _SIDES = ("left", "right")
 
@@ -99,6 +99,55 @@ class JointStateFilter:
         return self.velocity
 
 
+class BaseKalmanFilter:
+    """Linear Kalman filter of the base position p and velocity ṗ (world, m and m/s), one (p, ṗ) pair per axis,
+    driven by the IMU acceleration and corrected by the leg odometry (module docstring, step 4).
+
+    Args:
+        dt: period (s). sigma_acc: input noise σ_a (m/s²). sigma_pos: σ_p (m). sigma_vel: σ_v (m/s).
+
+    Attributes:
+        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis.
+
+    Raises:
+        InvalidInputError: bad numbers.
+    """
+
+    def __init__(self, dt: float, sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02):
+        h = _nonneg(dt, "dt", positive=True)
+        for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
+            _nonneg(val, what, positive=True)
+        self.dt = h
+        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
+        self._R = np.diag([sigma_pos**2, sigma_vel**2])
+        self._A = np.array([[1.0, h], [0.0, 1.0]])
+        self.p, self.velocity = np.zeros(3), np.zeros(3)
+        self.P = np.diag([1e-6, 1e-4])
+
+    def reset(self, p, velocity, P=None) -> None:
+        """Start at p (3,) m, ṗ (3,) m/s with covariance P (2, 2) (default diag(1e-6 m², 1e-4 m²/s²))."""
+        self.p[:] = p
+        self.velocity[:] = velocity
+        self.P = np.diag([1e-6, 1e-4]) if P is None else np.array(P, dtype=float)
+
+    def predict(self, a: np.ndarray) -> None:
+        """Propagate over dt with the world acceleration a (3,) m/s²."""
+        h = self.dt
+        self.p += self.velocity * h + 0.5 * h * h * a
+        self.velocity += a * h
+        A = self._A
+        self.P = A @ self.P @ A.T + self._Q
+
+    def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
+        """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
+        K = self.P @ np.linalg.inv(self.P + self._R)
+        ep = z_p - self.p
+        ev = z_v - self.velocity
+        self.p += K[0, 0] * ep + K[0, 1] * ev
+        self.velocity += K[1, 0] * ep + K[1, 1] * ev
+        self.P = (np.eye(2) - K) @ self.P
+
+
 class FloatingBaseEstimator:
     """Base pose and velocity of a humanoid from its encoders, IMU and ankle F/T sensors (module docstring).
 
@@ -137,12 +186,7 @@ class FloatingBaseEstimator:
         weight = robot.mass * 9.81
         self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in _SIDES}
         self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in _SIDES}
-        for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
-            _nonneg(val, what, positive=True)
-        h = self.dt
-        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
-        self._R = np.diag([sigma_pos**2, sigma_vel**2])
-        self._A = np.array([[1.0, h], [0.0, 1.0]])
+        self.kf = BaseKalmanFilter(self.dt, sigma_acc, sigma_pos, sigma_vel)
         # joint angle → q maps (1-DoF joints; continuous joints as (cos, sin))
         one, cs_q, cs_j = [], [], []
         for i in range(2, model.njoints):
@@ -160,9 +204,8 @@ class FloatingBaseEstimator:
         self.v = np.zeros(model.nv)
         self._qk = pin.neutral(model)  # kinematic configuration: base at the origin, identity orientation
         self._vk = np.zeros(model.nv)
-        self.p = np.zeros(3)
-        self.velocity_world = np.zeros(3)
-        self.P = np.diag([1e-6, 1e-4])
+        self.p = self.kf.p
+        self.velocity_world = self.kf.velocity
         self.anchor = {s: np.zeros(3) for s in _SIDES}
         self.contact = {s: False for s in _SIDES}
         self.normal_force = {s: 0.0 for s in _SIDES}
@@ -192,9 +235,7 @@ class FloatingBaseEstimator:
         quat = q0[3:7] / np.linalg.norm(q0[3:7])
         R = pin.Quaternion(quat[3], quat[0], quat[1], quat[2]).toRotationMatrix()
         self.attitude.reset(R)
-        self.p[:] = q0[0:3]
-        self.velocity_world[:] = R @ v0[0:3]
-        self.P = np.diag([1e-6, 1e-4])
+        self.kf.reset(q0[0:3], R @ v0[0:3])
         self.q[:] = q0
         self.v[:] = v0
         angles = np.empty(model.nv - 6)
@@ -261,12 +302,9 @@ class FloatingBaseEstimator:
         R = att.rotation
         omega = att.omega
         # Prediction with the IMU acceleration.
-        a = R @ accel + GRAVITY_VECTOR
-        p, pd = self.p, self.velocity_world
-        p += pd * dt + 0.5 * dt * dt * a
-        pd += a * dt
-        A = self._A
-        self.P = A @ self.P @ A.T + self._Q
+        kf = self.kf
+        kf.predict(R @ accel + GRAVITY_VECTOR)
+        p, pd = kf.p, kf.velocity
         # Contacts and leg odometry.
         zp = np.zeros(3)
         zvw = np.zeros(3)
@@ -288,13 +326,7 @@ class FloatingBaseEstimator:
         if total > 0:
             zp /= total
             zvw /= total
-            S = self.P + self._R
-            K = self.P @ np.linalg.inv(S)
-            ep = zp - p
-            ev = zvw - pd
-            p += K[0, 0] * ep + K[0, 1] * ev
-            pd += K[1, 0] * ep + K[1, 1] * ev
-            self.P = (np.eye(2) - K) @ self.P
+            kf.correct(zp, zvw)
         for s, r in newly:
             self.anchor[s] = p + r
         for j, s in enumerate(_SIDES):

@@ -86,6 +86,19 @@ def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
     return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
 
 
+def _sole_tracks(model, q: np.ndarray, fid: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2, 2) sole xy (m, world) and (N, 2) sole yaw (rad) of (left, right) along the configurations q (N, nq)."""
+    data = model.createData()
+    xy, yaw = np.zeros((len(q), 2, 2)), np.zeros((len(q), 2))
+    for k in range(len(q)):
+        pin.forwardKinematics(model, data, q[k])
+        for j, s in enumerate(("left", "right")):
+            M = pin.updateFramePlacement(model, data, fid[s])
+            xy[k, j] = M.translation[:2]
+            yaw[k, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+    return xy, yaw
+
+
 class DcmStabilizer:
     """DCM tracking with CoP feedback and integral action, commanded CoP kept in the support area.
 
@@ -648,6 +661,8 @@ class WalkScenario:
     def extra_summary(self, run) -> dict:
         n = len(run.t)
         lg = {k: (v[:n] if isinstance(v, np.ndarray) else v[:n]) for k, v in self.log.items()}
+        if "q_est" in run.extra:  # the controller read an estimate: the metrics use the plant's (logged) state
+            lg["sole_xy"], lg["sole_yaw"] = _sole_tracks(self._model, run.q, self._fid)
         plan, dt = self.plan, self.dt
         # Measured CoP and its margin in the loaded soles' hull (plant's contact forces).
         cop = np.full((n, 2), np.nan)
