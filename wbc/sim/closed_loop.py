@@ -2,8 +2,12 @@
 
 Every control tick k (period dt = the MuJoCo timestep, 2 ms → 500 Hz, one ``mj_step`` per tick, no substeps):
 
-1. read (q, v) from MuJoCo — **ground truth**, no estimation, no noise, converted to Pinocchio conventions by
-   :class:`~wbc.sim.conventions.StateMap`;
+1. read (q, v): MuJoCo's **ground truth** converted to Pinocchio conventions by
+   :class:`~wbc.sim.conventions.StateMap` (``state=None``), or the **estimate** of ``state`` from the plant's
+   sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: encoders, IMU and ankle F/T with noise and bias,
+   sampled after ``mj_step1`` — positions and velocities of the state at t — and fused by
+   :class:`wbc.estimation.FloatingBaseEstimator`; ``mj_step2`` then completes the step, together bitwise
+   ``mj_step``); the log keeps the ground truth, the estimate goes beside it;
 2. the scenario updates the references and external forces for time t = k dt;
 3. the controller computes τ (timed: this is the "tick time");
 4. τ is written to the actuators (MuJoCo clamps it to the URDF effort limits) and ``mj_step`` advances dt;
