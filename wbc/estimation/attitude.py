@@ -32,6 +32,11 @@ __all__ = ["ComplementaryAttitudeFilter", "GRAVITY"]
 GRAVITY = 9.81  #: m/s², magnitude used for the accelerometer gate
 
 
+def _cross(a, b) -> np.ndarray:
+    """a × b of two 3-vectors (cheaper than ``np.cross`` for one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def _nonneg(value, what: str, positive: bool = False) -> float:
     ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
         and np.isfinite(value) and (value > 0 if positive else value >= 0)
@@ -101,9 +106,9 @@ class ComplementaryAttitudeFilter:
         wm[:] = 0.0
         n = math.sqrt(accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2])
         if n > 0 and abs(n - GRAVITY) <= self.accel_gate:
-            wm += np.cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
+            wm += _cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
         for v0, v, k in directions:
-            wm += k * np.cross(v, R.T @ v0)
+            wm += k * _cross(v, R.T @ v0)
         omega = self.omega
         np.subtract(gyro, self.bias, out=omega)
         self.rotation = R @ pin.exp3((omega + self.k_p * wm) * self.dt)

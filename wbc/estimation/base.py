@@ -141,7 +141,9 @@ class BaseKalmanFilter:
 
     def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
         """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
-        K = self.P @ np.linalg.inv(self.P + self._R)
+        S = self.P + self._R
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        K = self.P @ (np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det)  # P S⁻¹ (2 × 2)
         ep = z_p - self.p
         ev = z_v - self.velocity
         self.p += K[0, 0] * ep + K[0, 1] * ev
