@@ -7,8 +7,12 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
 2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32)
    on the gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics
    (the leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the
-   walking accelerations, ~1 m/s², tilt the estimated vertical); the base angular velocity is the bias-corrected
-   gyro.
+   walking accelerations, ~1 m/s², tilt the estimated vertical) and, as a second reference direction of eq. 32,
+   the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
+   and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
+   sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
+   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading); the base angular velocity
+   is the bias-corrected gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
    uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
@@ -165,6 +169,8 @@ class FloatingBaseEstimator:
         sigma_pos: leg-odometry position noise σ_p (m). sigma_vel: leg-odometry velocity noise σ_v (m/s).
         accel_cutoff_hz: corner (Hz) of the low-pass on the differenced leg-odometry velocity, the base
             acceleration removed from the accelerometer before the tilt correction.
+        heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
+            alone, yaw then follows the gyro).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -182,7 +188,7 @@ class FloatingBaseEstimator:
     def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
-                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0):
+                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -217,6 +223,8 @@ class FloatingBaseEstimator:
         self.p = self.kf.p
         self.velocity_world = self.kf.velocity
         self.anchor = {s: np.zeros(3) for s in _SIDES}
+        self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in _SIDES}
+        self.heading_weight = _nonneg(heading_weight, "heading_weight")
         self.contact = {s: False for s in _SIDES}
         self.normal_force = {s: 0.0 for s in _SIDES}
         self.wrench = np.zeros((2, 6))
@@ -308,7 +316,14 @@ class FloatingBaseEstimator:
             self._have_zv = False
             self.acc_kin *= 1.0 - self._beta
         self._f_grav[:] = accel - R_prev.T @ self.acc_kin
-        att.update(gyro, self._f_grav)
+        dirs = []
+        if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
+            for s in _SIDES:
+                fz = self.normal_force[s]
+                if self.contact[s] and fz > 0:
+                    dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
+                                 self.heading_weight * fz / fz_total))
+        att.update(gyro, self._f_grav, dirs)
         R = att.rotation
         omega = att.omega
         # Prediction with the IMU acceleration.
@@ -339,8 +354,11 @@ class FloatingBaseEstimator:
             kf.correct(zp, zvw)
         for s, r in newly:
             self.anchor[s] = p + r
+            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
+                axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
+            self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for j, s in enumerate(_SIDES):
             X = data.oMf[self.ft[s].frame_id]
             self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
