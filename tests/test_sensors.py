@@ -106,3 +106,20 @@ def test_split_step_is_mj_step():
         mujoco.mj_step2(sims[1].model, sims[1].data)
     assert np.array_equal(sims[0].data.qpos, sims[1].data.qpos)
     assert np.array_equal(sims[0].data.qvel, sims[1].data.qvel)
+
+
+def test_measured_zmp_equals_the_cop_of_the_contact_forces(standing):
+    from wbc.sim.estimated_state import EstimatedState
+    from wbc.sim.walk import measured_cop
+
+    robot, sim = standing
+    state = EstimatedState(sim, SensorSpecs.ideal())
+    q, v = sim.get_state()
+    state.reset(q, v)
+    state.measure(sim, 0.0)
+    zmp = state.measured_zmp()
+    truth = sim.foot_contact_wrenches()
+    wrench = np.array([truth["left"], truth["right"]])
+    pos = np.array([sim.sole_pose(s).translation for s in ("left", "right")])
+    cop = measured_cop(wrench, pos)  # from mj_contactForce, world
+    assert np.linalg.norm(zmp - cop) < 1e-3

@@ -77,6 +77,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=float, default=90.0,
                    help="walk, push-step: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--zmp-feedback", type=float, default=0.0,
+                   help="walk: gain of the stabilizer's feedback of the ZMP measured by the ankle F/T sensors "
+                        "(DcmStabilizer k_z; needs --state estimated; default 0: off)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
@@ -120,6 +123,9 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
+        if args.zmp_feedback and args.state != "estimated":
+            raise InvalidInputError("--zmp-feedback needs the F/T sensors of --state estimated, got --state "
+                                    f"{args.state}")
         if args.vx is not None or args.vy or args.wz is not None:  # velocity command: what is not given is 0
             args.step_length = (args.vx or 0.0) * args.step_duration
             if args.wz is not None:
@@ -127,7 +133,8 @@ def _scenario(args, robot):
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
-                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
+                            zmp_feedback=args.zmp_feedback)
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 

@@ -183,6 +183,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
         q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
+        if state is not None and hasattr(scenario, "measured_zmp"):
+            scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
         if is_id:

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.estimation import FloatingBaseEstimator
+from wbc.estimation import FloatingBaseEstimator, zmp_from_wrenches
 from wbc.exceptions import InvalidInputError
 from wbc.sim.sensors import PlantSensors, SensorSpecs
 
@@ -50,6 +50,12 @@ class EstimatedState:
         by the next call)."""
         r = self.sensors.read(t, sim.data)
         return self.estimator.update(r.joint_q, r.gyro, r.accel, r.ft)
+
+    def measured_zmp(self, min_fz: float = 10.0) -> np.ndarray | None:
+        """ZMP (2,) (m, world) of the last sample's F/T ground reactions at the estimated sole placements
+        (:func:`wbc.estimation.zmp_from_wrenches`), None below ``min_fz`` N of total normal force."""
+        est = self.estimator
+        return zmp_from_wrenches(est.wrench, [est.sole["left"], est.sole["right"]], min_fz)
 
 
 def estimation_errors(q_true: np.ndarray, v_true: np.ndarray, q_est: np.ndarray, v_est: np.ndarray,

@@ -214,6 +214,10 @@ class WalkScenario:
             than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
             side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
+        zmp_feedback: gain k_z of :class:`DcmStabilizer`'s feedback of the measured ZMP (≥ 0; 0: off). The measured
+            ZMP is the attribute ``measured_zmp`` ((2,) m, world, or None), which the closed loop sets every tick
+            from the ankle F/T sensors when the controller reads an estimated state
+            (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -241,7 +245,11 @@ class WalkScenario:
                  adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
-                 stretch_min: float = 0.03, stretch_window: float = 0.2):
+                 stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0):
+        if not (np.isfinite(zmp_feedback) and zmp_feedback >= 0):
+            raise InvalidInputError(f"zmp_feedback must be finite and ≥ 0, got {zmp_feedback!r}")
+        self.zmp_feedback = float(zmp_feedback)
+        self.measured_zmp = None  # (2,) m, world: set by the closed loop from the F/T sensors (estimated state)
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -342,7 +350,8 @@ class WalkScenario:
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
-        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset)
+        self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
+                                  k_z=self.zmp_feedback)
         self._push_body = robot.torso
         if self.push > 0:
             sim.body_id(self._push_body)
@@ -438,7 +447,7 @@ class WalkScenario:
         i = min(self._k, len(self.log["phase"]) - 1)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
-            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull)
+            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
             target = np.array([c[0], c[1], plan.com[k, 2]])
             vel = np.array([cd[0], cd[1], 0.0])
             controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
@@ -489,6 +498,7 @@ class WalkScenario:
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
+                           zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset)
         try:
             rec.setup(controller, sim, q, v)
@@ -499,6 +509,7 @@ class WalkScenario:
 
     def _recovery_update(self, t, controller, sim, q, v):
         rec = self._recovery
+        rec.measured_zmp = self.measured_zmp
         rec.update(t - self._t_recovery, controller, sim, q, v)
         pin.framesForwardKinematics(self._model, self._data, q)
         i = min(self._k, len(self.log["phase"]) - 1)
