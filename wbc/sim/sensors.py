@@ -216,8 +216,10 @@ class SensorReadings:
         joint_q: (nv − 6,) encoder angles (rad), Pinocchio's ``v[6:]`` order (1-DoF joints).
         gyro: (3,) angular velocity (rad/s, IMU axes = base axes).
         accel: (3,) specific force a − g (m/s², IMU axes; +9.81 along the up axis at rest).
-        ft: (2, 6) (left, right) force (N) and moment (N·m about the sensor origin) that the ankle body exerts on
-            the foot below the sensor... as MuJoCo's ``force``/``torque`` sensors define them, sensor (sole) axes.
+        ft: (2, 6) (left, right) force (N) and moment (N·m, about the sensor origin) that the leg exerts on the
+            foot below the sensor (MuJoCo's ``force``/``torque`` sensors: the interaction between the sensor's body
+            and its parent), sensor (= sole) axes; :class:`wbc.estimation.FootForceSensor` turns it into the
+            ground reaction.
     """
 
     t: float
