@@ -42,3 +42,10 @@ def test_talos_walks_on_estimated_state():
     assert np.sqrt(np.mean(dv**2)) <= 0.05
     e = estimation_errors(run.q, run.v, qe, ve, walked)
     assert e["base_position_drift_m"] == drift and abs(e["max_orientation_error_deg"] - np.degrees(ang.max())) < 1e-9
+
+
+def test_cli_state_options_are_checked():
+    from wbc.cli import main
+
+    assert main(["sim", "walk", "--state", "ground-truth", "--zmp-feedback", "0.5"]) == 2
+    assert main(["sim", "walk", "--zmp-feedback", "-1"]) == 2
