@@ -54,6 +54,9 @@ class ComplementaryAttitudeFilter:
         k_i: integral (bias) gain (1/s², ≥ 0).
         accel_gate: |‖a‖ − g| (m/s²) above which the accelerometer is ignored for that sample (> 0).
         bias_max: bound on each component of the estimated gyro bias (rad/s, > 0).
+        bias_gate: the bias is integrated (eq. 32b) only on samples where the accelerometer was used and
+            ‖ω_mes‖ ≤ ``bias_gate`` (rad/s, > 0): impacts (a landing) give large, short, wrong corrections that
+            would otherwise be integrated into the bias and then turn into a drift.
 
     Attributes:
         rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample.
@@ -63,16 +66,17 @@ class ComplementaryAttitudeFilter:
     """
 
     def __init__(self, dt: float, *, k_p: float = 0.2, k_i: float = 0.01, accel_gate: float = 2.0,
-                 bias_max: float = 0.05):
+                 bias_max: float = 0.05, bias_gate: float = 0.02):
         self.dt = dt
-        self.k_p, self.k_i, self.accel_gate, self.bias_max = k_p, k_i, accel_gate, bias_max
+        self.k_p, self.k_i, self.accel_gate, self.bias_max, self.bias_gate = k_p, k_i, accel_gate, bias_max, bias_gate
+        self.accel_used = False
         self.rotation = np.eye(3)
         self.bias = np.zeros(3)
         self.omega = np.zeros(3)
         self._wm = np.zeros(3)
 
     def __setattr__(self, name, value):
-        if name in ("dt", "accel_gate", "bias_max"):
+        if name in ("dt", "accel_gate", "bias_max", "bias_gate"):
             value = _nonneg(value, name, positive=True)
         elif name in ("k_p", "k_i"):
             value = _nonneg(value, name)
@@ -105,14 +109,15 @@ class ComplementaryAttitudeFilter:
         wm = self._wm
         wm[:] = 0.0
         n = math.sqrt(accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2])
-        if n > 0 and abs(n - GRAVITY) <= self.accel_gate:
+        self.accel_used = n > 0 and abs(n - GRAVITY) <= self.accel_gate
+        if self.accel_used:
             wm += _cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
         for v0, v, k in directions:
             wm += k * _cross(v, R.T @ v0)
         omega = self.omega
         np.subtract(gyro, self.bias, out=omega)
         self.rotation = R @ pin.exp3((omega + self.k_p * wm) * self.dt)
-        if self.k_i:
+        if self.k_i and self.accel_used and wm @ wm <= self.bias_gate * self.bias_gate:
             self.bias -= self.k_i * self.dt * wm
             np.clip(self.bias, -self.bias_max, self.bias_max, out=self.bias)
         return self.rotation
