@@ -238,8 +238,10 @@ def cmd_sim(args) -> int:
         summary["state_source"] = ("estimated: encoders + pelvis IMU + ankle F/T (wbc.sim.sensors), "
                                    "wbc.estimation.FloatingBaseEstimator")
         summary["sensors"] = {k: asdict(v) for k, v in vars(state.sensors.specs).items()}
-        summary["estimation_error"] = estimation_errors(run.q, run.v, run.extra["q_est"], run.extra["v_est"],
-                                                        summary.get("walked_distance_m"))
+        n = len(run.t) if run.fall_time is None else int(round(run.fall_time / run.dt)) + 1  # until the fall
+        summary["estimation_error"] = estimation_errors(run.q[:n], run.v[:n], run.extra["q_est"][:n],
+                                                        run.extra["v_est"][:n], summary.get("walked_distance_m"))
+        summary["estimation_error"]["until_s"] = float(run.t[n - 1])
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":
