@@ -94,18 +94,20 @@ def test_sensor_rates_and_specs_are_checked(standing):
     assert np.array_equal(g[0], g[1]) and np.array_equal(g[2], g[3]) and not np.array_equal(g[1], g[2])
 
 
-def test_split_step_is_mj_step():
-    robot = load_robot("g1")
-    sims = [build_mujoco_model(robot) for _ in range(2)]
+def test_split_step_is_mj_step(standing):
+    robot, sim = standing
+    d0, d1 = mujoco.MjData(sim.model), mujoco.MjData(sim.model)
     tau = 0.3 * np.sin(np.arange(robot.model.nv - 6))
-    for s in sims:
-        s.set_torques(tau)
+    for d in (d0, d1):
+        sim.set_state(robot.q_ref, data=d)
+        sim.set_torques(tau, data=d)
     for _ in range(50):
-        mujoco.mj_step(sims[0].model, sims[0].data)
-        mujoco.mj_step1(sims[1].model, sims[1].data)
-        mujoco.mj_step2(sims[1].model, sims[1].data)
-    assert np.array_equal(sims[0].data.qpos, sims[1].data.qpos)
-    assert np.array_equal(sims[0].data.qvel, sims[1].data.qvel)
+        mujoco.mj_step(sim.model, d0)
+        mujoco.mj_step1(sim.model, d1)
+        mujoco.mj_step2(sim.model, d1)
+    assert d0.ncon > 0  # the feet touch the floor: contacts are part of the step
+    assert np.array_equal(d0.qpos, d1.qpos) and np.array_equal(d0.qvel, d1.qvel)
+    assert np.array_equal(d0.sensordata, d1.sensordata)
 
 
 def test_measured_zmp_equals_the_cop_of_the_contact_forces(standing):
