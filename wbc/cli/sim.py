@@ -77,9 +77,10 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=float, default=90.0,
                    help="walk, push-step: push direction, deg (0 forward, 90 left)")
-    w.add_argument("--zmp-feedback", type=float, default=0.0,
+    w.add_argument("--zmp-feedback", type=float, default=None,
                    help="walk: gain of the stabilizer's feedback of the ZMP measured by the ankle F/T sensors "
-                        "(DcmStabilizer k_z; needs --state estimated; default 0: off)")
+                        "(DcmStabilizer k_z; needs --state estimated; default 0.5 with --state estimated, "
+                        "0 with ground-truth)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
@@ -123,6 +124,8 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
+        if args.zmp_feedback is None:
+            args.zmp_feedback = 0.5 if args.state == "estimated" else 0.0
         if args.zmp_feedback and args.state != "estimated":
             raise InvalidInputError("--zmp-feedback needs the F/T sensors of --state estimated, got --state "
                                     f"{args.state}")
