@@ -20,7 +20,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions", "wbc.compiled"),
     ("wbc.geometry", "wbc.profiles"),
     ("wbc.robot", "wbc.configuration", "wbc.state"),
-    ("wbc.tasks", "wbc.constraints"),
+    ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.formulations", "wbc.dynamics",
      "wbc.solve"),
     ("wbc.gait",),

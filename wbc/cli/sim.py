@@ -62,7 +62,8 @@ def register(subparsers, add_outputs) -> None:
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
-                    "ground-truth state from MuJoCo and applies joint torques at 500 Hz (one 2 ms mj_step per tick).")
+                    "state estimated from the simulated sensors (or MuJoCo's ground truth, --state) and applies "
+                    "joint torques at 500 Hz (one 2 ms mj_step per tick).")
     p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
     p.add_argument("--robot", default="talos", help="catalog name (default talos)")
     p.add_argument("--duration", type=seconds, default=None,
@@ -78,6 +79,10 @@ def register(subparsers, add_outputs) -> None:
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", choices=available_solvers(),
                    help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
+    p.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
+                   help="what the controller reads: estimated (default: encoders, pelvis IMU and ankle F/T sensors "
+                        "with noise and bias, wbc.sim.sensors, fused by wbc.estimation.FloatingBaseEstimator; "
+                        "noise seeded by --seed) or ground-truth (MuJoCo's qpos/qvel)")
     p.add_argument("--mu", type=finite(0.0, 10.0, lo_open=True), default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
@@ -99,6 +104,10 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,
                    help="walk, push-step: push direction, deg (0 forward, 90 left)")
+    w.add_argument("--zmp-feedback", type=finite(0.0), default=None,
+                   help="walk: gain of the stabilizer's feedback of the ZMP measured by the ankle F/T sensors "
+                        "(DcmStabilizer k_z; needs --state estimated; default 0.5 with --state estimated, "
+                        "0 with ground-truth)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=finite(0.0), default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
@@ -143,6 +152,11 @@ def _scenario(args, robot):
 
         from wbc.sim.walk import WalkScenario
 
+        if args.zmp_feedback is None:
+            args.zmp_feedback = 0.5 if args.state == "estimated" else 0.0
+        if args.zmp_feedback and args.state != "estimated":
+            raise InvalidInputError("--zmp-feedback needs the F/T sensors of --state estimated, got --state "
+                                    f"{args.state}")
         if args.vx is not None or args.vy or args.wz is not None:  # velocity command: what is not given is 0
             args.step_length = (args.vx or 0.0) * args.step_duration
             if args.wz is not None:
@@ -150,7 +164,8 @@ def _scenario(args, robot):
         return WalkScenario(args.steps, args.step_length, args.step_duration, turn=math.radians(args.turn),
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
-                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration)
+                            step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
+                            zmp_feedback=args.zmp_feedback)
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 
@@ -235,14 +250,33 @@ def cmd_sim(args) -> int:
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
+    state = None
+    if args.state == "estimated":
+        from wbc.sim.estimated_state import EstimatedState
+
+        state = EstimatedState(sim, seed=args.seed)
     try:
-        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer)
+        run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer,
+                                    state=state)
     finally:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
-    summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    if state is None:
+        summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    else:
+        from dataclasses import asdict
+
+        from wbc.sim.estimated_state import estimation_errors
+
+        summary["state_source"] = ("estimated: encoders + pelvis IMU + ankle F/T (wbc.sim.sensors), "
+                                   "wbc.estimation.FloatingBaseEstimator")
+        summary["sensors"] = {k: asdict(v) for k, v in vars(state.sensors.specs).items()}
+        n = len(run.t) if run.fall_time is None else int(round(run.fall_time / run.dt)) + 1  # until the fall
+        summary["estimation_error"] = estimation_errors(run.q[:n], run.v[:n], run.extra["q_est"][:n],
+                                                        run.extra["v_est"][:n], summary.get("walked_distance_m"))
+        summary["estimation_error"]["until_s"] = float(run.t[n - 1])
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":

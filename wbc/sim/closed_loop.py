@@ -2,8 +2,12 @@
 
 Every control tick k (period dt = the MuJoCo timestep, 2 ms → 500 Hz, one ``mj_step`` per tick, no substeps):
 
-1. read (q, v) from MuJoCo — **ground truth**, no estimation, no noise, converted to Pinocchio conventions by
-   :class:`~wbc.sim.conventions.StateMap`;
+1. read (q, v): MuJoCo's **ground truth** converted to Pinocchio conventions by
+   :class:`~wbc.sim.conventions.StateMap` (``state=None``), or the **estimate** of ``state`` from the plant's
+   sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: encoders, IMU and ankle F/T with noise and bias,
+   sampled after ``mj_step1`` — positions and velocities of the state at t — and fused by
+   :class:`wbc.estimation.FloatingBaseEstimator`; ``mj_step2`` then completes the step, together bitwise
+   ``mj_step``); the log keeps the ground truth, the estimate goes beside it;
 2. the scenario updates the references and external forces for time t = k dt;
 3. the controller computes τ (timed: this is the "tick time");
 4. τ is written to the actuators (MuJoCo clamps it to the URDF effort limits) and ``mj_step`` advances dt;
@@ -113,7 +117,7 @@ def _foot_wrenches(sim, foot_bodies, sole_body, sole_off, out_wrench, out_pos) -
 
 
 def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float = 0.0, viewer=None,
-                    pacer=None) -> SimRun:
+                    pacer=None, state=None) -> SimRun:
     """Run ``scenario`` with ``controller`` on ``sim`` from ``robot.q_ref`` at rest (module docstring).
 
     Args:
@@ -125,6 +129,10 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             see :mod:`wbc.sim.scenarios`.
         after_fall: keep simulating this long (s) after a fall is detected (0: stop at once).
         viewer, pacer: optional live viewer (``update(q, t)``) and real-time pacer (``wait(t)``).
+        state: what the controller and the scenario read: None for MuJoCo's ground truth, or an estimator of the
+            state from the plant's sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: ``reset(q, v)``,
+            ``measure(sim, t) -> (q, v)``, called after ``mj_step1`` so the sensors see the state at t). The log's
+            ``q``, ``v`` stay the ground truth; the estimate goes to ``extra["q_est"]``, ``extra["v_est"]``.
 
     Returns:
         :class:`SimRun`.
@@ -144,6 +152,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     q, v = sim.get_state()
     controller.reset(q, v)
     scenario.setup(controller, sim, q, v)
+    if state is not None:
+        state.reset(q, v)
     is_id = isinstance(controller, BalanceController)
     pm = robot.model
     pdata = pm.createData()
@@ -155,6 +165,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         "sole_pos": np.empty((n, 2, 3)), "ext_force": np.zeros((n, 3)), "residual": np.full(n, np.nan),
         "ok": np.ones(n, dtype=bool), "relaxed": np.zeros(n, dtype=bool), "tick_time": np.empty(n), "step_time": np.empty(n),
     }
+    est = {"q_est": np.empty((n, pm.nq)), "v_est": np.empty((n, pm.nv))} if state is not None else {}
     is_foot = np.zeros(model.ngeom + 1, dtype=bool)  # index −1 (no robot geom) maps to the extra False
     is_foot[np.concatenate(list(sim.foot_geoms.values()))] = True
     foot_bodies = [sim.foot_bodies[s] for s in ("left", "right")]
@@ -168,17 +179,25 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
+        if state is not None:
+            mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
         q, v = sim.get_state()
-        f_ext = scenario.update(t, controller, sim, q, v)
+        qc, vc = (q, v) if state is None else state.measure(sim, t)
+        if state is not None and hasattr(scenario, "measured_zmp"):
+            scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
+        f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
         if is_id:
-            cmd = controller.compute(q, v)
+            cmd = controller.compute(qc, vc)
             tau = cmd.tau
         else:
-            tau = controller.compute(q, v)
+            tau = controller.compute(qc, vc)
         t1 = perf_counter()
         sim.set_torques(tau)
-        mujoco.mj_step(model, data)
+        if state is None:
+            mujoco.mj_step(model, data)
+        else:
+            mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
         if not np.all(np.isfinite(data.qpos)):
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
@@ -186,6 +205,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         log["t"][k] = t
         log["q"][k] = q
         log["v"][k] = v
+        if state is not None:
+            est["q_est"][k] = qc
+            est["v_est"][k] = vc
         log["tau"][k] = tau
         pin.centerOfMass(pm, pdata, q, False)
         log["com"][k] = pdata.com[0]
@@ -232,4 +254,4 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
                   scenario=scenario.name, dt=dt, wall_time=wall, fell=fell, fall_reason=reason,
-                  fall_time=fall_time, **cut)
+                  fall_time=fall_time, extra={key: val[:k_end] for key, val in est.items()}, **cut)

@@ -99,6 +99,7 @@ def build_mujoco_model(
     cone: str = "elliptic",
     impratio: float = 10.0,
     customize: Callable[[mujoco.MjSpec], None] | None = None,
+    sensors: bool = True,
 ) -> MujocoModel:
     """Compile a MuJoCo model of ``robot`` from its URDF (see the module docstring for every modelling choice).
 
@@ -115,6 +116,8 @@ def build_mujoco_model(
         cone: friction cone, ``"elliptic"`` (default) or ``"pyramidal"`` (MuJoCo's default; module docstring).
         impratio: ratio of frictional to normal constraint impedance (≥ 1; default 10, MuJoCo's 1).
         customize: called with the ``MjSpec`` just before compilation (add cameras, lights, obstacles...).
+        sensors: add the joint encoders, the pelvis IMU and the ankle F/T sensors of :mod:`wbc.sim.sensors`
+            (MuJoCo sensors; they do not change the physics).
 
     Returns:
         A :class:`MujocoModel` whose state is ``robot.q_ref`` at rest (``mj_forward`` done).
@@ -223,6 +226,10 @@ def build_mujoco_model(
         for a, b in _srdf_disabled_pairs(robot.srdf_path):
             if a in bodies and b in bodies:
                 spec.add_exclude(bodyname1=a, bodyname2=b)
+    if sensors:
+        from wbc.sim.sensors import add_sensors
+
+        add_sensors(spec, robot)
     if customize is not None:
         customize(spec)
 

@@ -86,6 +86,19 @@ def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
     return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
 
 
+def _sole_tracks(model, q: np.ndarray, fid: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2, 2) sole xy (m, world) and (N, 2) sole yaw (rad) of (left, right) along the configurations q (N, nq)."""
+    data = model.createData()
+    xy, yaw = np.zeros((len(q), 2, 2)), np.zeros((len(q), 2))
+    for k in range(len(q)):
+        pin.forwardKinematics(model, data, q[k])
+        for j, s in enumerate(("left", "right")):
+            M = pin.updateFramePlacement(model, data, fid[s])
+            xy[k, j] = M.translation[:2]
+            yaw[k, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+    return xy, yaw
+
+
 class DcmStabilizer:
     """DCM tracking with CoP feedback and integral action, commanded CoP kept in the support area.
 
@@ -201,8 +214,12 @@ class WalkScenario:
             than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
             side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
-        stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s, "k_z": –}`` (any subset; default
-            the stabilizer's own defaults).
+        stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s}`` (either or both; default the
+            stabilizer's own). Its CoP feedback gain k_z is ``zmp_feedback``.
+        zmp_feedback: gain k_z of :class:`DcmStabilizer`'s feedback of the measured ZMP (≥ 0; 0: off). The measured
+            ZMP is the attribute ``measured_zmp`` ((2,) m, world, or None), which the closed loop sets every tick
+            from the ankle F/T sensors when the controller reads an estimated state
+            (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -230,14 +247,20 @@ class WalkScenario:
                  adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
-                 stretch_min: float = 0.03, stretch_window: float = 0.2, stabilizer_gains: dict | None = None):
+                 stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
+                 stabilizer_gains: dict | None = None):
         gains = {} if stabilizer_gains is None else stabilizer_gains
-        if not isinstance(gains, dict) or set(gains) - {"k_xi", "k_i", "k_z"}:
-            raise InvalidInputError(f"stabilizer_gains must be a dict with keys among k_xi, k_i, k_z, got {gains!r}")
+        if not isinstance(gains, dict) or set(gains) - {"k_xi", "k_i"}:
+            raise InvalidInputError(f"stabilizer_gains must be a dict with keys among k_xi, k_i (k_z is zmp_feedback), "
+                                    f"got {gains!r}")
         for key, val in gains.items():
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val >= 0):
                 raise InvalidInputError(f"stabilizer_gains[{key!r}] must be finite and ≥ 0, got {val!r}")
         self.stabilizer_gains = {k: float(v) for k, v in gains.items()}
+        if not (np.isfinite(zmp_feedback) and zmp_feedback >= 0):
+            raise InvalidInputError(f"zmp_feedback must be finite and ≥ 0, got {zmp_feedback!r}")
+        self.zmp_feedback = float(zmp_feedback)
+        self.measured_zmp = None  # (2,) m, world: set by the closed loop from the F/T sensors (estimated state)
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -339,7 +362,7 @@ class WalkScenario:
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
         self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
-                                  **self.stabilizer_gains)
+                                  k_z=self.zmp_feedback, **self.stabilizer_gains)
         self._push_body = robot.torso
         if self.push > 0:
             sim.body_id(self._push_body)
@@ -435,7 +458,7 @@ class WalkScenario:
         i = min(self._k, len(self.log["phase"]) - 1)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
-            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull)
+            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
             target = np.array([c[0], c[1], plan.com[k, 2]])
             vel = np.array([cd[0], cd[1], 0.0])
             controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
@@ -486,6 +509,7 @@ class WalkScenario:
             self.recovery_swapped = True
         rec = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
+                           zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset,
                            stabilizer_gains=self.stabilizer_gains)
         try:
@@ -497,6 +521,7 @@ class WalkScenario:
 
     def _recovery_update(self, t, controller, sim, q, v):
         rec = self._recovery
+        rec.measured_zmp = self.measured_zmp
         rec.update(t - self._t_recovery, controller, sim, q, v)
         pin.framesForwardKinematics(self._model, self._data, q)
         i = min(self._k, len(self.log["phase"]) - 1)
@@ -659,6 +684,8 @@ class WalkScenario:
     def extra_summary(self, run) -> dict:
         n = len(run.t)
         lg = {k: (v[:n] if isinstance(v, np.ndarray) else v[:n]) for k, v in self.log.items()}
+        if "q_est" in run.extra:  # the controller read an estimate: the metrics use the plant's (logged) state
+            lg["sole_xy"], lg["sole_yaw"] = _sole_tracks(self._model, run.q, self._fid)
         plan, dt = self.plan, self.dt
         # Measured CoP and its margin in the loaded soles' hull (plant's contact forces).
         cop = np.full((n, 2), np.nan)

@@ -1,0 +1,123 @@
+"""Base orientation from a gyroscope and an accelerometer: the explicit complementary filter on SO(3) with gyro
+bias estimation (Mahony, Hamel, Pflimlin 2008, "Nonlinear complementary filters on the special orthogonal group",
+IEEE Trans. Automatic Control 53(5), Sec. V-C, eq. 32).
+
+With the IMU frame B, the estimate R̂ = ᴬR̂_B (world ← IMU), gyro reading Ωʸ (rad/s, B axes), inertial reference
+directions v₀ᵢ (world) measured in B as vᵢ (unit vectors) with weights kᵢ:
+
+    v̂ᵢ     = R̂ᵀ v₀ᵢ                                (the prediction of the measured direction)
+    ω_mes  = Σᵢ kᵢ vᵢ × v̂ᵢ                          (eq. 32c)
+    dR̂/dt  = R̂ (Ωʸ − b̂ + k_P ω_mes)×               (eq. 32a)
+    db̂/dt  = −k_I ω_mes                             (eq. 32b)
+
+integrated once per sample with the exponential map, R̂ ← R̂ exp((Ωʸ − b̂ + k_P ω_mes) Δt) (Pinocchio ``exp3``; R̂
+stays a rotation). The accelerometer gives the "up" direction: its specific force a − g is ``+g e_z`` at rest, so
+v = a/‖a‖ with v₀ = e_z. While the robot accelerates, a/‖a‖ is not the vertical; the filter trusts it with a
+small k_P (a low corner frequency) and with the weight k = 0 when ‖a‖ differs from g by more than ``accel_gate``.
+Only the directions given are corrected: with gravity alone, yaw follows the gyro (its bias about the vertical is
+not observable from gravity).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["ComplementaryAttitudeFilter", "GRAVITY"]
+
+GRAVITY = 9.81  #: m/s², magnitude used for the accelerometer gate
+
+
+def _cross(a, b) -> np.ndarray:
+    """a × b of two 3-vectors (cheaper than ``np.cross`` for one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _nonneg(value, what: str, positive: bool = False) -> float:
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and np.isfinite(value) and (value > 0 if positive else value >= 0)
+    if not ok:
+        raise InvalidInputError(f"{what} must be a finite number {'> 0' if positive else '≥ 0'}, got {value!r}")
+    return float(value)
+
+
+class ComplementaryAttitudeFilter:
+    """Mahony et al. 2008's explicit complementary filter (module docstring).
+
+    Args:
+        dt: sample period (s, > 0).
+        k_p: proportional gain (rad/s, ≥ 0; the corner frequency of the tilt correction).
+        k_i: integral (bias) gain (1/s², ≥ 0).
+        accel_gate: |‖a‖ − g| (m/s²) above which the accelerometer is ignored for that sample (> 0).
+        bias_max: bound on each component of the estimated gyro bias (rad/s, > 0).
+        bias_gate: the bias is integrated (eq. 32b) only on samples where the accelerometer was used and
+            ‖ω_mes‖ ≤ ``bias_gate`` (rad/s, > 0): impacts (a landing) give large, short, wrong corrections that
+            would otherwise be integrated into the bias and then turn into a drift.
+
+    Attributes:
+        rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample.
+
+    Raises:
+        InvalidInputError: bad gains or period, at construction and on assignment.
+    """
+
+    def __init__(self, dt: float, *, k_p: float = 0.2, k_i: float = 0.01, accel_gate: float = 2.0,
+                 bias_max: float = 0.05, bias_gate: float = 0.02):
+        self.dt = dt
+        self.k_p, self.k_i, self.accel_gate, self.bias_max, self.bias_gate = k_p, k_i, accel_gate, bias_max, bias_gate
+        self.accel_used = False
+        self.rotation = np.eye(3)
+        self.bias = np.zeros(3)
+        self.omega = np.zeros(3)
+        self._wm = np.zeros(3)
+
+    def __setattr__(self, name, value):
+        if name in ("dt", "accel_gate", "bias_max", "bias_gate"):
+            value = _nonneg(value, name, positive=True)
+        elif name in ("k_p", "k_i"):
+            value = _nonneg(value, name)
+        object.__setattr__(self, name, value)
+
+    def reset(self, rotation, bias=None) -> None:
+        """Start from ``rotation`` (3, 3, world ← IMU) and ``bias`` (3,) rad/s (default zeros).
+
+        Raises:
+            InvalidInputError: not a rotation matrix (‖RᵀR − I‖ > 1e-6) or a non-finite bias.
+        """
+        R = np.asarray(rotation, dtype=float)
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 \
+                or np.linalg.det(R) < 0:
+            raise InvalidInputError(f"rotation must be a (3, 3) rotation matrix, got {R!r}")
+        self.rotation = R.copy()
+        b = np.zeros(3) if bias is None else np.asarray(bias, dtype=float)
+        if b.shape != (3,) or not np.all(np.isfinite(b)):
+            raise InvalidInputError(f"bias must be a finite (3,) vector (rad/s), got {bias!r}")
+        self.bias = b.copy()
+
+    def update(self, gyro: np.ndarray, accel: np.ndarray, directions=()) -> np.ndarray:
+        """One sample: gyro (3,) rad/s and accelerometer (3,) m/s² in IMU axes, plus optional extra
+        ``directions``: iterable of (v₀ (3,) world unit vector, v (3,) measured IMU-frame unit vector, weight k).
+
+        Returns:
+            R̂ (3, 3), world ← IMU (the :attr:`rotation` array, updated).
+        """
+        R = self.rotation
+        wm = self._wm
+        wm[:] = 0.0
+        n = math.sqrt(accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2])
+        self.accel_used = n > 0 and abs(n - GRAVITY) <= self.accel_gate
+        if self.accel_used:
+            wm += _cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
+        for v0, v, k in directions:
+            wm += k * _cross(v, R.T @ v0)
+        omega = self.omega
+        np.subtract(gyro, self.bias, out=omega)
+        self.rotation = R @ pin.exp3((omega + self.k_p * wm) * self.dt)
+        if self.k_i and self.accel_used and wm @ wm <= self.bias_gate * self.bias_gate:
+            self.bias -= self.k_i * self.dt * wm
+            np.clip(self.bias, -self.bias_max, self.bias_max, out=self.bias)
+        return self.rotation

@@ -1,0 +1,373 @@
+"""Floating-base state estimation from joint encoders, a base IMU and ankle force/torque sensors.
+
+Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
+
+1. **Joint velocities** (:class:`JointStateFilter`): backward difference of the encoder angles, then a first-order
+   low-pass filter of corner ``f_c``: v̇ⱼ ← vⱼ + α ((qⱼ,k − qⱼ,k−1)/Δt − vⱼ), α = Δt / (Δt + 1/(2π f_c)).
+2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32)
+   on the gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics
+   (the leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the
+   walking accelerations, ~1 m/s², tilt the estimated vertical) and, as a second reference direction of eq. 32,
+   the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
+   and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
+   sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
+   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading); the base angular velocity
+   is the bias-corrected gyro.
+3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
+   to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
+   uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
+   ground reaction (:class:`~wbc.estimation.contact.FootForceSensor`) and its normal force; a
+   :class:`~wbc.estimation.contact.ContactDetector` (hysteresis) decides contact. A foot that becomes a contact is
+   anchored: aᵢ = p̂ + rᵢ (its world position, held while it stays in contact), its height set to the ground's
+   when the ground is flat and of known height (``ground_height``).
+4. **Base position and velocity** (world), a Kalman filter per axis on x = (p, ṗ) with the IMU acceleration as
+   input and the leg odometry as measurement — the estimator of Flayols, Del Prete, Wensing, Mifsud, Benallegue,
+   Mansard 2017, "Experimental evaluation of simple estimators for humanoid robots", IEEE-RAS Humanoids (Sec.
+   III-C: IMU-driven prediction corrected by the kinematics of the feet in contact; a linear Kalman filter whose
+   steady state is a complementary filter):
+
+       prediction   a = R̂ aʸ + g,   p ← p + ṗ Δt + ½ a Δt²,   ṗ ← ṗ + a Δt,   P ← A P Aᵀ + Q
+       measurement  z_p = Σᵢ wᵢ (aᵢ − rᵢ),   z_v = −Σᵢ wᵢ uᵢ   (the feet in contact do not move),
+                    wᵢ = f_z,ᵢ / Σ f_z (normal-force weights)
+       update       K = P (P + R)⁻¹,   x ← x + K (z − x),   P ← (I − K) P
+
+   with A = [[1, Δt], [0, 1]], Q = σ_a² [[Δt⁴/4, Δt³/2], [Δt³/2, Δt²]], R = diag(σ_p², σ_v²), the same 2 × 2
+   covariance for the three axes (isotropic noises). Without a foot in contact (a flight phase) only the
+   prediction runs.
+
+The estimated configuration is q = (p̂, quaternion of R̂ (x, y, z, w), encoder angles) and
+v = (R̂ᵀ ṗ̂ (base frame, Pinocchio's convention), Ωʸ − b̂, filtered joint velocities). Every array is preallocated;
+one update costs one ``forwardKinematics`` with velocities and a few 3-vectors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.estimation.attitude import ComplementaryAttitudeFilter
+from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
+
+_SIDES = ("left", "right")
+
+
+def _nonneg(value, what: str, positive: bool = False) -> float:
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and np.isfinite(value) and (value > 0 if positive else value >= 0)
+    if not ok:
+        raise InvalidInputError(f"{what} must be a finite number {'> 0' if positive else '≥ 0'}, got {value!r}")
+    return float(value)
+
+
+class JointStateFilter:
+    """Joint velocities from encoder angles: backward difference then a first-order low-pass (module docstring).
+
+    Args:
+        n: number of joints. dt: sample period (s). cutoff_hz: corner frequency f_c (Hz, > 0).
+
+    Attributes:
+        velocity: (n,) filtered velocity (rad/s).
+
+    Raises:
+        InvalidInputError: bad numbers.
+    """
+
+    def __init__(self, n: int, dt: float, cutoff_hz: float = 80.0):
+        self.dt = _nonneg(dt, "dt", positive=True)
+        self.cutoff_hz = _nonneg(cutoff_hz, "cutoff_hz", positive=True)
+        self.alpha = self.dt / (self.dt + 1.0 / (2.0 * math.pi * self.cutoff_hz))
+        self.velocity = np.zeros(int(n))
+        self._prev = np.zeros(int(n))
+        self._raw = np.zeros(int(n))
+        self._started = False
+
+    def reset(self, angles=None, velocity=None) -> None:
+        """Start from ``angles`` (n,) rad (default: the next sample) and ``velocity`` (n,) rad/s (default 0)."""
+        self.velocity[:] = 0.0 if velocity is None else velocity
+        self._started = angles is not None
+        if angles is not None:
+            self._prev[:] = angles
+
+    def update(self, angles: np.ndarray) -> np.ndarray:
+        """One sample of encoder angles (n,) rad → filtered velocities (n,) rad/s (the :attr:`velocity` array)."""
+        if self._started:
+            np.subtract(angles, self._prev, out=self._raw)
+            self._raw /= self.dt
+            self.velocity += self.alpha * (self._raw - self.velocity)
+        self._prev[:] = angles
+        self._started = True
+        return self.velocity
+
+
+class BaseKalmanFilter:
+    """Linear Kalman filter of the base position p and velocity ṗ (world, m and m/s), one (p, ṗ) pair per axis,
+    driven by the IMU acceleration and corrected by the leg odometry (module docstring, step 4).
+
+    Args:
+        dt: period (s). sigma_acc: input noise σ_a (m/s²). sigma_pos: σ_p (m). sigma_vel: σ_v (m/s).
+
+    Attributes:
+        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis.
+
+    Raises:
+        InvalidInputError: bad numbers.
+    """
+
+    def __init__(self, dt: float, sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02):
+        h = _nonneg(dt, "dt", positive=True)
+        for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
+            _nonneg(val, what, positive=True)
+        self.dt = h
+        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
+        self._R = np.diag([sigma_pos**2, sigma_vel**2])
+        self._A = np.array([[1.0, h], [0.0, 1.0]])
+        self.p, self.velocity = np.zeros(3), np.zeros(3)
+        self.P = np.diag([1e-6, 1e-4])
+
+    def reset(self, p, velocity, P=None) -> None:
+        """Start at p (3,) m, ṗ (3,) m/s with covariance P (2, 2) (default diag(1e-6 m², 1e-4 m²/s²))."""
+        self.p[:] = p
+        self.velocity[:] = velocity
+        self.P = np.diag([1e-6, 1e-4]) if P is None else np.array(P, dtype=float)
+
+    def predict(self, a: np.ndarray) -> None:
+        """Propagate over dt with the world acceleration a (3,) m/s²."""
+        h = self.dt
+        self.p += self.velocity * h + 0.5 * h * h * a
+        self.velocity += a * h
+        A = self._A
+        self.P = A @ self.P @ A.T + self._Q
+
+    def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
+        """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
+        S = self.P + self._R
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        K = self.P @ (np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det)  # P S⁻¹ (2 × 2)
+        ep = z_p - self.p
+        ev = z_v - self.velocity
+        self.p += K[0, 0] * ep + K[0, 1] * ev
+        self.velocity += K[1, 0] * ep + K[1, 1] * ev
+        self.P = (np.eye(2) - K) @ self.P
+
+
+class FloatingBaseEstimator:
+    """Base pose and velocity of a humanoid from its encoders, IMU and ankle F/T sensors (module docstring).
+
+    Args:
+        robot: the :class:`~wbc.robot.Robot` (Pinocchio model, sole frames).
+        dt: sample period (s).
+        velocity_cutoff_hz: joint-velocity filter corner (Hz).
+        k_p, k_i, accel_gate: attitude filter gains (:class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
+        contact_on, contact_off: contact hysteresis thresholds as fractions of the robot's weight
+            (0 ≤ off < on).
+        sigma_acc: IMU acceleration input noise σ_a (m/s², includes the tilt error of R̂ g).
+        sigma_pos: leg-odometry position noise σ_p (m). sigma_vel: leg-odometry velocity noise σ_v (m/s).
+        accel_cutoff_hz: corner (Hz) of the low-pass on the differenced leg-odometry velocity, the base
+            acceleration removed from the accelerometer before the tilt correction.
+        heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
+            alone, yaw then follows the gyro).
+        ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
+            (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
+            drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
+            contacts, Talos), as x and y do by the feet's rolling.
+
+    Attributes (after :meth:`update`):
+        q: (nq,) estimated configuration. v: (nv,) estimated velocity (Pinocchio conventions).
+        contact: {side: bool}. wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
+        sole: {side: pin.SE3} estimated world placement of each sole. velocity_world: (3,) ṗ̂ (m/s, world).
+
+    Raises:
+        InvalidInputError: bad numbers (here and on :meth:`reset`).
+    """
+
+    def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
+                 accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
+                 sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
+                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0):
+        self.robot = robot
+        model = robot.model
+        self.model, self.data = model, model.createData()
+        self.dt = _nonneg(dt, "dt", positive=True)
+        nj = model.nv - 6
+        self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz)
+        self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate)
+        weight = robot.mass * 9.81
+        self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in _SIDES}
+        self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in _SIDES}
+        if ground_height is not None:
+            ground_height = _nonneg(abs(ground_height), "ground_height") * np.sign(ground_height)
+        self.ground_height = ground_height
+        self.kf = BaseKalmanFilter(self.dt, sigma_acc, sigma_pos, sigma_vel)
+        # joint angle → q maps (1-DoF joints; continuous joints as (cos, sin))
+        one, cs_q, cs_j = [], [], []
+        for i in range(2, model.njoints):
+            jm = model.joints[i]
+            if jm.nv != 1:
+                raise InvalidInputError(f"joint {model.names[i]!r} has {jm.nv} DoF; the estimator needs 1-DoF joints")
+            (one if jm.nq == 1 else cs_q).append(jm.idx_q)
+            if jm.nq == 2:
+                cs_j.append(jm.idx_v - 6)
+        self._q_one = np.array(one, dtype=int)
+        self._j_one = np.array([model.joints[i].idx_v - 6 for i in range(2, model.njoints)
+                                if model.joints[i].nq == 1], dtype=int)
+        self._q_cs, self._j_cs = np.array(cs_q, dtype=int), np.array(cs_j, dtype=int)
+        self.q = pin.neutral(model)
+        self.v = np.zeros(model.nv)
+        self._qk = pin.neutral(model)  # kinematic configuration: base at the origin, identity orientation
+        self._vk = np.zeros(model.nv)
+        self.p = self.kf.p
+        self.velocity_world = self.kf.velocity
+        self.anchor = {s: np.zeros(3) for s in _SIDES}
+        self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in _SIDES}
+        self.heading_weight = _nonneg(heading_weight, "heading_weight")
+        self.contact = {s: False for s in _SIDES}
+        self.normal_force = {s: 0.0 for s in _SIDES}
+        self.wrench = np.zeros((2, 6))
+        self.sole = {s: pin.SE3.Identity() for s in _SIDES}
+        self._u = np.zeros((2, 3))
+        self._zv, self._zv_prev, self._f_grav = np.zeros(3), np.zeros(3), np.zeros(3)
+        self._have_zv = False
+        self.acc_kin = np.zeros(3)
+        self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
+
+    def reset(self, q0, v0=None) -> None:
+        """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
+        orientation are taken as known) and velocity ``v0`` (nv,) (default at rest); contacts start open and are
+        detected from the first F/T sample.
+
+        Raises:
+            InvalidInputError: wrong shapes or non-finite values.
+        """
+        model = self.model
+        q0 = np.asarray(q0, dtype=float)
+        if q0.shape != (model.nq,) or not np.all(np.isfinite(q0)):
+            raise InvalidInputError(f"q0 must be a finite ({model.nq},) configuration, got shape {q0.shape}")
+        v0 = np.zeros(model.nv) if v0 is None else np.asarray(v0, dtype=float)
+        if v0.shape != (model.nv,) or not np.all(np.isfinite(v0)):
+            raise InvalidInputError(f"v0 must be a finite ({model.nv},) velocity, got shape {v0.shape}")
+        quat = q0[3:7] / np.linalg.norm(q0[3:7])
+        R = pin.Quaternion(quat[3], quat[0], quat[1], quat[2]).toRotationMatrix()
+        self.attitude.reset(R)
+        self.kf.reset(q0[0:3], R @ v0[0:3])
+        self.q[:] = q0
+        self.v[:] = v0
+        angles = np.empty(model.nv - 6)
+        angles[self._j_one] = q0[self._q_one]
+        if len(self._q_cs):
+            angles[self._j_cs] = np.arctan2(q0[self._q_cs + 1], q0[self._q_cs])
+        self.joints.reset(angles, v0[6:])
+        self._have_zv = False
+        self.acc_kin[:] = 0.0
+        for s in _SIDES:
+            self.detectors[s].active = False
+            self.contact[s] = False
+
+    def update(self, joint_q: np.ndarray, gyro: np.ndarray, accel: np.ndarray, ft: np.ndarray):
+        """One sample of the sensors → ``(q, v)`` (the :attr:`q`, :attr:`v` arrays, overwritten next call).
+
+        Args:
+            joint_q: (nv − 6,) encoder angles (rad), Pinocchio's ``v[6:]`` order.
+            gyro: (3,) rad/s and accel: (3,) m/s² (specific force), base axes.
+            ft: (2, 6) (left, right) ankle F/T readings (:mod:`wbc.estimation.contact` convention).
+        """
+        model, data, dt = self.model, self.data, self.dt
+        vj = self.joints.update(joint_q)
+        att = self.attitude
+        # Leg kinematics in the base frame (base at the origin, identity orientation, angular velocity ω of the
+        # last sample, no base translation); world axes are R̂ times these.
+        qk, vk = self._qk, self._vk
+        qk[self._q_one] = joint_q[self._j_one]
+        if len(self._q_cs):
+            qk[self._q_cs] = np.cos(joint_q[self._j_cs])
+            qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
+        np.subtract(gyro, att.bias, out=vk[3:6])
+        vk[6:] = vj
+        pin.forwardKinematics(model, data, qk, vk)
+        R_prev = att.rotation
+        fz_total, zv = 0.0, self._zv
+        zv[:] = 0.0
+        for j, s in enumerate(_SIDES):
+            sensor = self.ft[s]
+            X = pin.updateFramePlacement(model, data, sensor.frame_id)
+            Rw = R_prev @ X.rotation
+            w = sensor.ground_wrench(ft[j], Rw)
+            self.wrench[j] = w
+            fz = float(Rw[2] @ w[0:3])
+            self.normal_force[s] = fz
+            self._u[j] = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED).linear
+            if self.contact[s] and fz > 0:
+                zv -= fz * self._u[j]
+                fz_total += fz
+        # Base acceleration from the leg kinematics (differenced, low-passed): it is removed from the
+        # accelerometer's specific force so that the attitude filter sees gravity alone.
+        if fz_total > 0:
+            zv /= fz_total
+            zw = R_prev @ zv
+            if self._have_zv:
+                self.acc_kin += self._beta * ((zw - self._zv_prev) / dt - self.acc_kin)
+            self._zv_prev[:] = zw
+            self._have_zv = True
+        else:
+            self._have_zv = False
+            self.acc_kin *= 1.0 - self._beta
+        self._f_grav[:] = accel - R_prev.T @ self.acc_kin
+        dirs = []
+        if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
+            for s in _SIDES:
+                fz = self.normal_force[s]
+                if self.contact[s] and fz > 0:
+                    dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
+                                 self.heading_weight * fz / fz_total))
+        att.update(gyro, self._f_grav, dirs)
+        R = att.rotation
+        omega = att.omega
+        # Prediction with the IMU acceleration.
+        kf = self.kf
+        kf.predict(R @ accel + GRAVITY_VECTOR)
+        p, pd = kf.p, kf.velocity
+        # Contacts and leg odometry.
+        zp = np.zeros(3)
+        zvw = np.zeros(3)
+        total = 0.0
+        newly = []
+        for j, s in enumerate(_SIDES):
+            fz = self.normal_force[s]
+            was = self.contact[s]
+            now = self.detectors[s].update(fz)
+            self.contact[s] = now
+            r = R @ data.oMf[self.ft[s].frame_id].translation
+            if now and not was:
+                newly.append((s, r))
+            if now and was:
+                wgt = max(fz, 0.0)
+                zp += wgt * (self.anchor[s] - r)
+                zvw -= wgt * (R @ self._u[j])
+                total += wgt
+        if total > 0:
+            zp /= total
+            zvw /= total
+            kf.correct(zp, zvw)
+        for s, r in newly:
+            self.anchor[s] = p + r
+            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+            if self.ground_height is not None:
+                self.anchor[s][2] = self.ground_height
+                axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
+            self.anchor_axis[s] = axis / np.linalg.norm(axis)
+        for j, s in enumerate(_SIDES):
+            X = data.oMf[self.ft[s].frame_id]
+            self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
+        # Outputs.
+        q, v = self.q, self.v
+        q[0:3] = p
+        q[3:7] = pin.Quaternion(R).coeffs()
+        q[7:] = qk[7:]
+        v[0:3] = R.T @ pd
+        v[3:6] = omega
+        v[6:] = vj
+        return q, v
