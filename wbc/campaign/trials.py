@@ -78,8 +78,10 @@ def walk_trial(spec, params: dict) -> dict:
     duration = float(params.get("push_duration", 0.1))
     t_walk = max(0.0, (sc["steps"] - 1) * sc["step_duration"] - duration)
     push_time = _T_INIT + float(params.get("phase", 0.0)) * t_walk
-    gains = {k: params[k] for k in ("k_xi", "k_i", "k_z") if k in params}
+    gains = {k: params[k] for k in ("k_xi", "k_i") if k in params}
     walk_kw = {k: params[k] for k in ("cop_margin", "cmp_offset", "adjust_dead_band") if k in params}
+    if "k_z" in params:  # the stabilizer's measured-ZMP feedback gain
+        walk_kw["zmp_feedback"] = params["k_z"]
     scenario = WalkScenario(sc["steps"], sc["step_length"], sc["step_duration"], push=force, push_time=push_time,
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
                             step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
