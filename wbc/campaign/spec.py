@@ -55,6 +55,7 @@ KINDS = ("push", "robustness", "sweep")
 SCENARIO_KEYS = {
     "robot": (str, "talos"), "steps": (int, 8), "step_length": (float, 0.25), "step_duration": (float, 0.6),
     "step_adjust": (bool, True), "solver": (str, "fast"), "sole_margin": (float, None),
+    "state": (str, "estimated"), "zmp_feedback": (float, None),
 }
 
 #: Factors a trial may vary: name → (unit, valid range). Push factors, then plant ≠ model (robustness).
@@ -161,6 +162,8 @@ def load_spec(source) -> CampaignSpec:
         raise InvalidInputError(f"{where}: scenario.steps must be in [1, 200], got {scenario['steps']}")
     if not 0.2 < scenario["step_duration"] <= 5.0:
         raise InvalidInputError(f"{where}: scenario.step_duration must be in (0.2, 5] s, got {scenario['step_duration']}")
+    if scenario["state"] not in ("estimated", "ground-truth"):
+        raise InvalidInputError(f"{where}: scenario.state must be estimated or ground-truth, got {scenario['state']!r}")
     if not -1.0 <= scenario["step_length"] <= 1.0:
         raise InvalidInputError(f"{where}: scenario.step_length must be in [-1, 1] m, got {scenario['step_length']}")
     factors = {}

@@ -57,7 +57,9 @@ def walk_trial(spec, params: dict) -> dict:
     steps' time ``(steps − 1) · step_duration``, in direction ``direction_deg`` (world, 0 = +x); plant errors
     (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m²) are applied to the MuJoCo model and
     sensor errors (``q_noise`` rad, ``v_noise`` rad/s, ``delay`` ticks) to the controller
-    (:mod:`wbc.sim.perturb`), seeded by the trial index.
+    (:mod:`wbc.sim.perturb`), seeded by the trial index. The controller reads ``scenario.state`` (``estimated``, as
+    ``wbc sim walk`` by default: :class:`wbc.sim.estimated_state.EstimatedState`, its sensor noise seeded by the trial
+    index; or ``ground-truth``).
 
     Returns:
         ``{"survived", "outcome", "fell", "completed", "passed", "failed_criteria", "push_time_s", ...}`` plus the
@@ -80,8 +82,11 @@ def walk_trial(spec, params: dict) -> dict:
     push_time = _T_INIT + float(params.get("phase", 0.0)) * t_walk
     gains = {k: params[k] for k in ("k_xi", "k_i") if k in params}
     walk_kw = {k: params[k] for k in ("cop_margin", "cmp_offset", "adjust_dead_band") if k in params}
-    if "k_z" in params:  # the stabilizer's measured-ZMP feedback gain
-        walk_kw["zmp_feedback"] = params["k_z"]
+    estimated = sc["state"] == "estimated"
+    zmp = sc["zmp_feedback"] if sc["zmp_feedback"] is not None else (0.5 if estimated else 0.0)  # wbc sim walk's
+    walk_kw["zmp_feedback"] = params.get("k_z", zmp)  # the stabilizer's measured-ZMP feedback gain
+    if walk_kw["zmp_feedback"] and not estimated:
+        raise InvalidInputError("the measured-ZMP feedback (zmp_feedback, k_z) needs scenario.state = estimated")
     scenario = WalkScenario(sc["steps"], sc["step_length"], sc["step_duration"], push=force, push_time=push_time,
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
                             step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
@@ -106,7 +111,12 @@ def walk_trial(spec, params: dict) -> dict:
         controller = PerturbedController(robot, dt=sim.timestep, seed=seed, **sensor_errors, **options)
     else:
         controller = make_controller(robot, "id", dt=sim.timestep, **options)
-    _, summary = run_scenario(sim, controller, scenario)
+    state = None
+    if estimated:  # what the controller reads, as in wbc sim walk: sensors fused by the floating-base estimator
+        from wbc.sim.estimated_state import EstimatedState
+
+        state = EstimatedState(sim, seed=seed)
+    _, summary = run_scenario(sim, controller, scenario, state=state)
     survived, reason = outcome_of(summary)
     row = {"survived": survived, "outcome": "survived" if survived else "fell" if summary.get("fell") else "failed",
            "fall_reason": reason, "push_time_s": push_time,
