@@ -119,7 +119,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
     c["events"] = {k: [] for k in EVENTS}
     paths: Counter = Counter()
     conflicts: Counter = Counter()
-    cpu, wall = [], []
+    cpu, wall, tick_paths = [], [], []
 
     def event(kind: str, ep: int, tick: int, detail: str = "") -> None:
         if len(c["events"][kind]) < MAX_EVENTS:
@@ -175,6 +175,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 print(f"episode {ep} tick {tick} {name} {cmd.path} ok={cmd.ok} cpu {1e3 * cmd.timings['cpu']:.2f} ms "
                       f"{cmd.message[:300]}", flush=True)
             cpu.append(cmd.timings.get("cpu", np.nan))
+            tick_paths.append(cmd.path)
             wall.append(cmd.timings.get("total", np.nan))
             if cmd.over_budget:
                 c["over_budget"] += 1
@@ -213,6 +214,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
     c["conflicts"] = dict(conflicts)
     c["cpu"] = [float(x) for x in cpu]
     c["wall"] = [float(x) for x in wall]
+    c["tick_paths"] = tick_paths
     return c
 
 
@@ -226,6 +228,7 @@ def aggregate(chunks: list[dict]) -> dict:
         total[key] = dict(acc)
     for key in ("cpu", "wall"):
         total[key] = np.array([x for ch in chunks for x in ch.get(key, [])])
+    total["tick_paths"] = np.array([x for ch in chunks for x in ch.get("tick_paths", [])])
     total["events"] = {k: [e for ch in chunks for e in ch.get("events", {}).get(k, [])][:MAX_EVENTS] for k in EVENTS}
     return total
 
@@ -253,6 +256,10 @@ def report(total: dict, budget: float = DT) -> str:
                  f"tick wall {pct(wall)}; over budget {total['over_budget']} ticks; fallback rate {rate:.3e} "
                  f"({total['fallback_ticks']}/{total['ticks']}), relaxed {total['relaxed_ticks']}")
     lines.append("paths " + str(dict(sorted(total["paths"].items(), key=lambda kv: -kv[1]))))
+    for path in sorted(total["paths"]):
+        sel = total["tick_paths"] == path
+        if sel.size == cpu.size and sel.any():
+            lines.append(f"  {path}: tick CPU {pct(cpu[sel])}; wall {pct(wall[sel])}")
     lines.append("conflicts named (kind: count, first 3 per failed tick) " + str(total["conflicts"]))
     lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
     lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")

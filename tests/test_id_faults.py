@@ -135,3 +135,103 @@ def test_nan_written_in_place_is_never_ok(robots, solver):
     ctrl.com.weight = 1000.0
     cmd = ctrl.compute(q, v)
     assert cmd.ok and cmd.path == ("kernel" if solver == "fast" else "general:daqp")
+
+
+def _hard_posture_qp(robot, solver="daqp"):
+    """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: infeasible (the static
+    torques need more, HiGHS in tests/test_id_diagnosis.py), feasible once the torque limits are relaxed."""
+    from wbc.dynamics import InverseDynamicsQP, PostureAccelerationTask, SoleContact
+    from wbc.tasks import PostureTask
+
+    posture = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
+    posture.set_target(robot.q_ref)
+    soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
+    qp = InverseDynamicsQP(robot, [], soles, solver=solver, torque_limit_scale=0.2)
+    qp.add_task(posture, hard=True)
+    return qp, posture
+
+
+class _Spy:
+    def __init__(self, fn):
+        self.fn, self.calls = fn, 0
+
+    def __call__(self, *args, **kwargs):
+        self.calls += 1
+        return self.fn(*args, **kwargs)
+
+
+def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robots):
+    """Item 7: a failing tick runs no independent re-solve (the backend's confirm is never called on the control
+    path); with its budget used up after the full QP it takes the safe command without trying the relaxed QP; with
+    an unbounded budget the relaxed QP gives the command; the controller does not latch (the next feasible tick is
+    ok on the full QP); the names of the conflict are available off the path (diagnose())."""
+    from wbc.dynamics import InverseDynamicsController
+
+    robot = robots("talos")
+    q, v = robot.q_ref, np.zeros(robot.nv)
+    qp, posture = _hard_posture_qp(robot)
+    confirm = qp.backend.confirm = _Spy(qp.backend.confirm)
+    relaxed = qp.solve_relaxed = _Spy(qp.solve_relaxed)
+    ctrl = InverseDynamicsController(qp, DT, budget=1e-9)
+    cmd = ctrl.tick(q, v)
+    assert not cmd.ok and cmd.path == "fallback:gravity" and "budget" in cmd.message
+    assert confirm.calls == 0 and relaxed.calls == 0
+    _finite_and_within_effort(cmd, robot)
+    names = [n for n, _ in ctrl.diagnose()]
+    assert "torque_limits" in names and "task:posture" in names, names
+    summary = ctrl.summary()
+    assert summary["ticks"] == 1 and summary["fallback_rate"] == 1.0 and summary["paths"] == {"fallback:gravity": 1}
+
+    ctrl.budget = math.inf
+    cmd = ctrl.tick(q, v)
+    assert cmd.ok and cmd.relaxed and cmd.path == "relaxed:daqp" and relaxed.calls == 1 and confirm.calls == 0
+    qp.remove_task(posture)  # feasible again: the next tick is the full QP
+    cmd = ctrl.tick(q, v)
+    assert cmd.ok and not cmd.relaxed and cmd.path == "general:daqp"
+
+
+def test_budget_is_validated(robots):
+    from wbc.dynamics import InverseDynamicsController
+
+    qp, _ = _hard_posture_qp(robots("talos"))
+    for bad in (0.0, -1.0, math.nan, "1ms", True):
+        with pytest.raises(InvalidInputError):
+            InverseDynamicsController(qp, DT, budget=bad)
+
+
+def _highs_feasible(A, b, C, l, u, lb, ub) -> bool:
+    import scipy.optimize as so
+
+    fu, fl = np.isfinite(u), np.isfinite(l)
+    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
+    r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
+                   A_eq=A, b_eq=b, bounds=bounds, method="highs")
+    return r.status == 0
+
+
+def test_daqp_solves_recorded_single_support_problem(robots):
+    """Item 6: a QP recorded from the ID fuzz (humanoid15, left foot released, ``solver="daqp"``) that DAQP
+    reported infeasible although HiGHS finds its hard set feasible. Its released contact's friction rows were
+    0 ≤ 0 on forces the bounds already fix at 0 (always active, dependent on those bounds). Written as the
+    formulation writes an inactive contact's pyramid, DAQP (the ID settings) solves it, and the solution meets
+    every row of the recorded problem to 1e-6 (checked here, scaled by max(1, |rhs|))."""
+    from pathlib import Path
+
+    from wbc.constraints.dynamics import FrictionPyramid
+    from wbc.dynamics import SoleContact
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_single_support_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    robot = robots("humanoid15")
+    released = SoleContact(robot, robot.left_sole, name="left")
+    released.deactivate()
+    r0, off = int(d["inactive_rows"][0]), int(d["inactive_offset"])
+    assert np.all(lb[off:off + 12] == 0) and np.all(ub[off:off + 12] == 0)  # the recorded contact is released
+    C2, l2, u2 = C.copy(), l.copy(), u.copy()
+    FrictionPyramid(released, off).write(None, C2[r0:r0 + 16], l2[r0:r0 + 16], u2[r0:r0 + 16])
+    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C2, l2, u2, lb, ub, confirm=False)
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(x >= lb - 1e-9) and np.all(x <= ub + 1e-9)

@@ -122,13 +122,10 @@ class InverseDynamicsController:
                  diagnose: bool = False):
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
-        budget = dt if budget is None else budget
-        if not (isinstance(budget, (int, float)) and not isinstance(budget, bool) and budget > 0):
-            raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {budget!r}")
         self.qp = qp
         self.robot = qp.robot
         self.dt = float(dt)
-        self.budget = float(budget)
+        self.budget = self.dt if budget is None else budget
         self.diagnose_failures = bool(diagnose)
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
@@ -137,6 +134,21 @@ class InverseDynamicsController:
         self.n_relaxed = 0
         self.n_over_budget = 0
         self.paths: Counter = Counter()
+
+    @property
+    def budget(self) -> float:
+        """CPU time a tick may use (s, > 0; ``math.inf``: unbounded), module docstring.
+
+        Raises:
+            InvalidInputError: on assignment of anything but a number > 0.
+        """
+        return self._budget
+
+    @budget.setter
+    def budget(self, value) -> None:
+        if not (isinstance(value, (int, float, np.floating)) and not isinstance(value, bool) and value > 0):
+            raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {value!r}")
+        self._budget = float(value)
 
     def tick(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.

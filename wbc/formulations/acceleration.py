@@ -28,7 +28,7 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
                 (with ≥ 2 active contacts, the stacked right-hand side is projected onto the span of the rows' left
                 singular vectors with σ ≥ 1e-2 σ_max: dependent rows made consistent, constraints.consistent_contact_rhs)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
-            F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis)            (7)
+            F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis; active k)  (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
             v̇_lo ≤ v̇_joints ≤ v̇_hi                      (joint position/velocity limits, below)             (9)
             G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j       for each added barrier j (h_j(q) ≥ 0, ḣ_j = G_j v:   (10)
