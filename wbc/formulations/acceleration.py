@@ -681,8 +681,8 @@ class InverseDynamicsQP:
         """Margins of a solution (≥ 0 when satisfied, in constraint units) — used by tests and logs.
 
         Returns:
-            ``friction`` (N, min over corners of μ/√2 f_z − |f_t|), ``normal`` (N, min f_z − min(f_min, f_max) over active
-            corners), ``torque`` (N·m, min τ_max − |τ| over limited joints), ``cop`` (m, min distance of each
+            ``friction`` (N, min over corners of μ/√2 f_z − |f_t|), ``normal`` (N, min f_z − min(f_min, f_max)
+            over active corners), ``torque`` (N·m, min τ_max − |τ| over limited joints), ``cop`` (m, min distance of each
             loaded foot's CoP to the sole edges).
         """
         out = {"friction": np.inf, "normal": np.inf, "torque": np.inf, "cop": np.inf}
