@@ -15,8 +15,8 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it). The full QP
-always runs; a further stage (the relaxed QP) starts only while budget remains, and a relaxed command that arrives
-past the budget is dropped for the safe command of step 2 (``message`` says so). Nothing latches: the next tick
+always runs; the relaxed QP (about as costly) starts only while at least half the budget remains, and a relaxed
+command that arrives past the budget is dropped for the safe command of step 2 (``message`` says so). Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
@@ -174,9 +174,10 @@ class InverseDynamicsController:
         except SolverError as exc:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
-            if thread_time() - c0 > self.budget:
-                return self._fail(f"{message}; no time left for the relaxed QP (budget {1e3 * self.budget:.3g} ms)",
-                                  conflicts, t0, t1, c0)
+            used = thread_time() - c0
+            if used > 0.5 * self.budget:  # the relaxed QP costs about what the full one did: it would not fit
+                return self._fail(f"{message}; no time left for the relaxed QP ({1e3 * used:.3g} ms of the "
+                                  f"{1e3 * self.budget:.3g} ms budget used)", conflicts, t0, t1, c0)
             try:
                 sol = self.qp.solve_relaxed(self.state, self.dt)
             except SolverError as exc2:
