@@ -230,7 +230,7 @@ def test_daqp_solves_recorded_single_support_problem(robots):
     assert np.all(lb[off:off + 12] == 0) and np.all(ub[off:off + 12] == 0)  # the recorded contact is released
     C2, l2, u2 = C.copy(), l.copy(), u.copy()
     FrictionPyramid(released, off).write(None, C2[r0:r0 + 16], l2[r0:r0 + 16], u2[r0:r0 + 16])
-    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C2, l2, u2, lb, ub, confirm=False)
+    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C2, l2, u2, lb, ub)
     assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
     cx = C @ x
     assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
