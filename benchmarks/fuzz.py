@@ -30,11 +30,12 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import scipy.optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
+from fuzz_common import highs_feasible  # noqa: E402
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -45,21 +46,8 @@ HANDS = {"talos": "gripper_left_joint", "g1": "left_wrist_roll_joint", "humanoid
 
 def hard_set_feasible(ctrl, config) -> bool:
     """Independent check (scipy HiGHS LP, tolerance 1e-7): does any v meet the hard rows at config?"""
-    H, g, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
-    n = H.shape[0]
-    A_ub, b_ub = [], []
-    for rows, hi, sign in ((C, u, 1.0), (C, l, -1.0)):
-        m = np.isfinite(hi)
-        if m.any():
-            A_ub.append(sign * rows[m])
-            b_ub.append(sign * hi[m])
-    r = scipy.optimize.linprog(np.zeros(n), A_ub=np.vstack(A_ub) if A_ub else None,
-                               b_ub=np.concatenate(b_ub) if b_ub else None, A_eq=A if A.shape[0] else None,
-                               b_eq=b if A.shape[0] else None,
-                               bounds=[(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None)
-                                       for lo, hi in zip(lb, ub)], method="highs",
-                               options={"primal_feasibility_tolerance": 1e-7})
-    return r.status == 0
+    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+    return highs_feasible(A, b, C, l, u, lb, ub, tol=1e-7)
 
 
 def build_episode(robot, name, rng, kind, strict):

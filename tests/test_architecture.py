@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status"),
     ("wbc.geometry", "wbc.profiles"),
     ("wbc.robot", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),

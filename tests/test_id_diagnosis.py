@@ -68,7 +68,7 @@ def test_hard_com_acceleration_against_friction_pyramids(robots, lateral, feasib
     qp.add_task(com, hard=True)
     com.set_target(np.zeros(3))
     com.set_feedforward_acceleration([0.0, lateral, 0.0])
-    ctrl = InverseDynamicsController(qp, DT)
+    ctrl = InverseDynamicsController(qp, DT, diagnose=True)  # diagnosis mode: conflicts named in the tick
     cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
     _check_safe(cmd, qp)
     if feasible:
@@ -90,7 +90,8 @@ def test_hard_posture_against_torque_limits(robots):
     posture.set_target(robot.q_ref)
     qp = InverseDynamicsQP(robot, [], _soles(robot, 0.7), torque_limit_scale=0.2)
     qp.add_task(posture, hard=True)
-    ctrl = InverseDynamicsController(qp, DT)
+    # diagnosis mode, no time budget: this test is about the names and the relaxed command, not the tick's time
+    ctrl = InverseDynamicsController(qp, DT, diagnose=True, budget=math.inf)
     cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
     _check_safe(cmd, qp)
     names = [n for n, _ in cmd.conflicts]
@@ -107,7 +108,7 @@ def test_hard_posture_against_torque_limits(robots):
 def test_feasible_tick_reports_nothing(robots):
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [PostureAccelerationTask(PostureTask(robot))], _soles(robot, 0.7))
-    ctrl = InverseDynamicsController(qp, DT)
+    ctrl = InverseDynamicsController(qp, DT, diagnose=True)  # diagnosis mode: conflicts named in the tick
     cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
     assert cmd.ok and not cmd.relaxed and cmd.conflicts == [] and cmd.message == ""
     # the diagnosis' ε‖x‖² (ε = 1e-8) against corner forces of ~100 N leaves slacks of order 1e-6 on a feasible

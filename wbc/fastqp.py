@@ -1241,8 +1241,8 @@ class FastBackend(DaqpBackend):
         self._state[:] = 0
         return False
 
-    def solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
-        """As :meth:`wbc.qp.QPBackend.solve`. A kernel solution is returned as is: it satisfies every KKT
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
+        """As :meth:`wbc.qp.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it satisfies every KKT
         condition, lies inside the bounds by construction and its equality residual was checked in the kernel
         against ``tolerance``; anything else goes through DAQP and the general check.
 
@@ -1261,7 +1261,7 @@ class FastBackend(DaqpBackend):
         else:
             self._rows_failed = p > 0
         self.fallbacks += 1
-        x = super().solve(H, g, A, b, C, l, u, lb, ub)
+        x = super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
         if H.shape[0] == self._n:
             # warm start the kernel's next call from the bounds (and rows) DAQP found active
             self._state[:] = 0

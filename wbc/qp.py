@@ -42,7 +42,7 @@ class QPBackend(ABC):
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
 
-    def solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
 
         Tolerance policy (the same for every backend and both controller levels): the solution is checked row
@@ -50,7 +50,8 @@ class QPBackend(ABC):
         and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto [lb, ub], so integrating
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
-        same check, is returned.
+        same check, is returned. ``confirm=False`` skips that re-solve (its time is unbounded: callers on a
+        control path with a time budget).
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -73,7 +74,8 @@ class QPBackend(ABC):
                     if xp is not None:
                         self.polished += 1
                         return xp
-        x_ind, confirmed = self.confirm(H, g, A, b, C, l, u, lb, ub)
+        x_ind, confirmed = (self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm
+                            else (None, "nobody (independent re-solve skipped: confirm=False)"))
         if x_ind is not None:
             self.rescues += 1
             return x_ind
@@ -81,7 +83,8 @@ class QPBackend(ABC):
         what = ("found no solution" if not math.isfinite(worst) else
                 f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
                 f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
-        raise SolverError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
+        raise SolverError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}"
+                          if confirm else f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
 
     #: solutions accepted after :meth:`polish` (the solver's answer was within 1e-3 but above ``tolerance``).
     polished: int = 0

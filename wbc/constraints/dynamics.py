@@ -17,9 +17,9 @@ name                          kind        rows                                  
 ``contact:<c>``               equality    J_k v̇ = −J̇_k v − K_d J_k v − K_p e_k, active contacts (eq. 5)     no
 ``task:<t>``                  equality    a hard acceleration task J v̇ = a* − J̇ v                          no
 ``torque_limits``             inequality  −τ_max − h_a ≤ M_a v̇ − (J_cᵀ)_a f ≤ τ_max − h_a (eq. 6)           yes
-``friction:<c>``              inequality  friction pyramid F_k f_k ≤ 0 (eq. 7), constant                   no
-``unilaterality:<c>``         bounds      f_min ≤ f_z ≤ f_max per corner (CoP inside the sole), or f_k = 0  no
-                                          when the contact is inactive (eq. 8)
+``friction:<c>``              inequality  friction pyramid F_k f_k ≤ 0 (eq. 7) while active, else free      no
+``unilaterality:<c>``         bounds      min(f_min, f_max) ≤ f_z ≤ f_max per corner (CoP inside the       no
+                                          sole), or f_k = 0 when the contact is inactive (eq. 8)
 ``joint_limits``              bounds      joint position / velocity / viability bounds on v̇ (eq. 9)        yes
 ``<name of the kinematic      inequality  second-order barrier G v̇ ≥ −Ġv − 2γ G v − γ² h of a kinematic      as the
 constraint>``                             constraint's h(q) ≥ 0 (:class:`AccelerationBarrier`: ``com_polygon``,  kinematic
@@ -276,8 +276,12 @@ class TorqueLimits(IDConstraint):
 
 
 class FrictionPyramid(IDConstraint):
-    """Inscribed friction pyramid of a sole's 4 corner forces (eq. 7; N): ``friction_matrix @ f_k ≤ 0``. Constant:
-    written once. ``offset`` is the first force variable of the contact in x."""
+    """Inscribed friction pyramid of a sole's 4 corner forces (eq. 7; N): ``friction_matrix @ f_k ≤ 0`` while the
+    contact is active; free rows (−inf ≤ · ≤ inf) while it is inactive, where its bounds already hold f_k = 0 (the
+    16 rows 0 ≤ 0 would be always active and dependent on those bounds: a degenerate set on which DAQP's dual
+    active-set method reported feasible single-support problems infeasible). Constant between changes of the
+    contact's μ or activity: the formulation rewrites it when :meth:`key` changes. ``offset`` is the first force
+    variable of the contact in x."""
 
     kind = "inequality"
     dim = 16
@@ -287,12 +291,18 @@ class FrictionPyramid(IDConstraint):
         self.contact = contact
         self.name = f"friction:{contact.name}"
         self.offset = int(offset)
+        #: :meth:`key` of the rows last written by the formulation (None: never).
+        self.written: tuple | None = None
+
+    def key(self) -> tuple:
+        """What the rows depend on: the contact's (μ, active)."""
+        return (self.contact.mu, self.contact.active)
 
     def write(self, ctx, C, l, u):
         C[:] = 0.0
         C[:, self.offset:self.offset + 12] = self.contact.friction_matrix
         l[:] = -np.inf
-        u[:] = 0.0
+        u[:] = 0.0 if self.contact.active else np.inf
 
 
 class Unilaterality(IDConstraint):
@@ -320,8 +330,7 @@ class Unilaterality(IDConstraint):
         if c.active:
             lb.fill(-np.inf)
             ub.fill(np.inf)
-            lb[2::3] = c.f_min
-            ub[2::3] = c.f_max
+            lb[2::3], ub[2::3] = c.normal_force_bounds  # min(f_min, f_max) ≤ f_z ≤ f_max: never crossed
         else:
             lb.fill(0.0)
             ub.fill(0.0)

@@ -4,7 +4,8 @@ A :class:`SoleContact` owns 12 QP variables: the forces f_i = (f_x, f_y, f_z) (N
 sole rectangle, **expressed in the sole frame** (z normal to the sole, pointing out of the ground into the foot).
 Per corner:
 
-* unilaterality and bounds: ``f_min ≤ f_z ≤ f_max`` (box bounds of the QP);
+* unilaterality and bounds: ``min(f_min, f_max) ≤ f_z ≤ f_max`` (box bounds of the QP: a maximum lowered below
+  the nominal minimum, as when a foot is unloaded, lowers the minimum with it, so the bounds never cross);
 * linearised friction cone, the pyramid inscribed in the cone of coefficient μ:
   ``|f_x| ≤ μ/√2 f_z`` and ``|f_y| ≤ μ/√2 f_z`` (4 linear rows; inscribed, so every force it admits lies in the
   true cone).
@@ -51,11 +52,14 @@ class SoleContact:
         mu: friction coefficient (> 0) of the cone the pyramid is inscribed in.
         f_min: minimum normal force per corner (N, ≥ 0).
         f_max: maximum normal force per corner (N, > f_min; default inf).
+
+    The parameters ``mu``, ``f_min``, ``f_max``, ``kp``, ``kd`` may be assigned later (validated on assignment,
+    used from the next tick on); the sole size (``corners``) is read-only.
         kp, kd: stabilising gains of the contact acceleration constraint (1/s², 1/s).
         name: label (default: the frame name).
 
     Raises:
-        UnknownFrameError: no such frame. InvalidInputError: bad numbers.
+        UnknownFrameError: no such frame. InvalidInputError: bad numbers (at construction or assignment).
     """
 
     n_forces = 12
@@ -78,28 +82,136 @@ class SoleContact:
             if not (np.isfinite(g) and g >= 0):
                 raise InvalidInputError(f"contact {what} must be finite and ≥ 0, got {g!r}")
         a, b = 0.5 * length, 0.5 * width
-        self.corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
-        self.mu = float(mu)
-        self.f_min = float(f_min)
-        self.f_max = float(f_max)
-        self.kp, self.kd = float(kp), float(kd)
+        corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+        corners.setflags(write=False)
+        self._corners = corners
+        #: (16, 12) friction rows: ``friction_matrix @ f ≤ 0`` (rewritten in place when :attr:`mu` is assigned).
+        self.friction_matrix = np.zeros((16, 12))
+        self._mu = math.nan
+        self.mu = mu
+        self._f_min, self._f_max = float(f_min), float(f_max)
+        self.kp, self.kd = kp, kd
         self.active = True
         self.reference: pin.SE3 | None = None
-        mu_in = self.mu / math.sqrt(2.0)
-        rows = []
-        for i in range(4):
-            for axis in (0, 1):
-                for sign in (1.0, -1.0):
-                    r = np.zeros(12)
-                    r[3 * i + axis] = sign
-                    r[3 * i + 2] = -mu_in
-                    rows.append(r)
-        #: (16, 12) friction rows: ``friction_matrix @ f ≤ 0``.
-        self.friction_matrix = np.array(rows)
         self._G = np.zeros((6, 12))
         for i, c in enumerate(self.corners):
             self._G[0:3, 3 * i:3 * i + 3] = np.eye(3)
             self._G[3:6, 3 * i:3 * i + 3] = pin.skew(c)
+        self._G.setflags(write=False)
+
+    # -- parameters (validated on assignment; the QP reads them every tick) ------------------------------------
+    @property
+    def corners(self) -> np.ndarray:
+        """(4, 3) sole corners in the sole frame (m), read-only (the sole size is fixed at construction)."""
+        return self._corners
+
+    @corners.setter
+    def corners(self, value) -> None:
+        raise InvalidInputError("SoleContact.corners is read-only (the sole size is fixed at construction): "
+                                "create a new SoleContact with the length and width wanted")
+
+    @property
+    def mu(self) -> float:
+        """Friction coefficient (> 0, finite) of the cone the pyramids are inscribed in. Assigning it rewrites
+        :attr:`friction_matrix` in place; the QP rewrites its friction rows on the next tick.
+
+        Raises:
+            InvalidInputError: on assignment of a value that is not finite and > 0.
+        """
+        return self._mu
+
+    @mu.setter
+    def mu(self, value) -> None:
+        try:
+            mu = float(value)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"friction coefficient mu must be a finite number > 0, got {value!r}") from None
+        if not (math.isfinite(mu) and mu > 0):
+            raise InvalidInputError(f"friction coefficient mu must be finite and > 0, got {value!r}")
+        mu_in = mu / math.sqrt(2.0)
+        F = self.friction_matrix
+        F.fill(0.0)
+        r = 0
+        for i in range(4):
+            for axis in (0, 1):
+                for sign in (1.0, -1.0):
+                    F[r, 3 * i + axis] = sign
+                    F[r, 3 * i + 2] = -mu_in
+                    r += 1
+        self._mu = mu
+
+    @staticmethod
+    def _force(value, what: str, *, allow_inf: bool) -> float:
+        try:
+            f = float(value)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"{what} must be a number of newtons ≥ 0, got {value!r}") from None
+        if math.isnan(f) or f < 0 or (math.isinf(f) and not allow_inf):
+            raise InvalidInputError(f"{what} must be {'≥ 0 (inf allowed)' if allow_inf else 'finite and ≥ 0'} (N), "
+                                    f"got {value!r}")
+        return f
+
+    @property
+    def f_min(self) -> float:
+        """Nominal minimum normal force per corner (N, finite, ≥ 0). The bound used is
+        :attr:`normal_force_bounds`.
+
+        Raises:
+            InvalidInputError: on assignment of a NaN, negative or infinite value.
+        """
+        return self._f_min
+
+    @f_min.setter
+    def f_min(self, value) -> None:
+        self._f_min = self._force(value, "f_min", allow_inf=False)
+
+    @property
+    def f_max(self) -> float:
+        """Maximum normal force per corner (N, ≥ 0, inf for none). Lowering it below :attr:`f_min` (a foot being
+        unloaded) lowers the lower bound with it (:attr:`normal_force_bounds`).
+
+        Raises:
+            InvalidInputError: on assignment of a NaN or negative value.
+        """
+        return self._f_max
+
+    @f_max.setter
+    def f_max(self, value) -> None:
+        self._f_max = self._force(value, "f_max", allow_inf=True)
+
+    @property
+    def normal_force_bounds(self) -> tuple[float, float]:
+        """(lo, hi) per-corner normal-force bounds of an active contact (N): (min(f_min, f_max), f_max) — lo ≤ hi
+        always, so ramping f_max down to 0 (unloading) never makes the bounds cross."""
+        return min(self._f_min, self._f_max), self._f_max
+
+    @property
+    def kp(self) -> float:
+        """Stabilising stiffness of the contact acceleration constraint (1/s², finite, ≥ 0)."""
+        return self._kp
+
+    @kp.setter
+    def kp(self, value) -> None:
+        self._kp = self._gain(value, "kp")
+
+    @property
+    def kd(self) -> float:
+        """Stabilising damping of the contact acceleration constraint (1/s, finite, ≥ 0)."""
+        return self._kd
+
+    @kd.setter
+    def kd(self, value) -> None:
+        self._kd = self._gain(value, "kd")
+
+    @staticmethod
+    def _gain(value, what: str) -> float:
+        try:
+            g = float(value)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"contact {what} must be a finite number ≥ 0, got {value!r}") from None
+        if not (math.isfinite(g) and g >= 0):
+            raise InvalidInputError(f"contact {what} must be finite and ≥ 0, got {value!r}")
+        return g
 
     # -- switching -------------------------------------------------------------------------------------------
     def activate(self, state: DynamicsState | None = None) -> None:
@@ -119,7 +231,7 @@ class SoleContact:
         lb = np.full(12, -np.inf)
         ub = np.full(12, np.inf)
         if self.active:
-            lb[2::3], ub[2::3] = self.f_min, self.f_max
+            lb[2::3], ub[2::3] = self.normal_force_bounds
         else:
             lb[:], ub[:] = 0.0, 0.0
         return lb, ub

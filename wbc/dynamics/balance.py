@@ -143,8 +143,23 @@ class IDBalanceController:
         self.com_acc_ref = np.zeros(3) if acceleration is None else np.array(acceleration, dtype=float)
 
     def set_max_normal_force(self, side: str, total: float) -> None:
-        """Bound the total normal force of a sole (N) — ramp it to 0 to unload a foot before lifting it."""
-        self.contacts[side].f_max = max(float(total), self.contacts[side].f_min) / 4.0
+        """Bound the total normal force of a sole (N, ≥ 0) — ramp it to 0 to unload a foot before lifting it.
+
+        Each corner gets f_max = total / 4; below the contact's f_min the lower bound follows it down
+        (:attr:`~wbc.constraints.sole_contact.SoleContact.normal_force_bounds`), so the bounds never cross.
+
+        Raises:
+            InvalidInputError: unknown side; total NaN or negative.
+        """
+        if side not in self.contacts:
+            raise InvalidInputError(f"side must be one of {sorted(self.contacts)}, got {side!r}")
+        try:
+            total = float(total)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"total normal force must be a number of newtons ≥ 0, got {total!r}") from None
+        if math.isnan(total) or total < 0:
+            raise InvalidInputError(f"total normal force must be ≥ 0 (N), got {total!r}")
+        self.contacts[side].f_max = total / 4.0
 
     def release_foot(self, side: str) -> None:
         """Deactivate a sole contact and track the foot pose with a frame task (target: current pose)."""

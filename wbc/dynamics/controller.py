@@ -5,11 +5,29 @@ one :meth:`~InverseDynamicsController.tick` per control period reads the measure
 quantities once (:class:`~wbc.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
 contact forces.
 
+Every command a QP returns passes an output check before it is used
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`: finite; corner forces within their bounds and
+friction pyramids; torques within their limits; the floating-base rows of the equations of motion): a command that
+fails it counts as a failed solve, with the violated constraints in ``IDCommand.conflicts``.
+
+Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
+(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below) or ``fallback:gravity`` (step 2).
+
+Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
+(``time.thread_time``: what the tick computes, not the time other processes take the core from it). The full QP
+always runs; the relaxed QP (about as costly) starts only while at least half the budget remains, and a relaxed
+command that arrives past the budget is dropped for the safe command of step 2 (``message`` says so). Nothing latches: the next tick
+starts again from the full QP. The independent re-solve that would confirm an infeasibility
+(:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
+(:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
+diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
+
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
-0. diagnosis: the named constraints of :mod:`wbc.constraints.dynamics` that conflict at this state, with their
-   violations, are reported in ``IDCommand.conflicts`` (largest first; :meth:`InverseDynamicsQP.diagnose`, a
-   slack-relaxed least-squares solve of the hard set, :mod:`wbc.diagnosis`), and named in ``message``;
+0. diagnosis (``diagnose=True``): the named constraints of :mod:`wbc.constraints.dynamics` that conflict at this
+   state, with their violations, are reported in ``IDCommand.conflicts`` (largest first;
+   :meth:`InverseDynamicsQP.diagnose`, a slack-relaxed least-squares solve of the hard set, :mod:`wbc.diagnosis`),
+   and named in ``message``;
 1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
    the same QP is solved **without joint acceleration bounds and torque limits**
    (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
@@ -27,8 +45,9 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
-from time import perf_counter
+from time import perf_counter, thread_time
 
 import numpy as np
 
@@ -54,7 +73,11 @@ class IDCommand:
         conflicts: after a failed full QP, (constraint name, violation in its units) of the conflicting
             constraints, largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`).
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
-        timings: seconds in 'pinocchio', 'assembly', 'solve', 'total'.
+        timings: seconds in 'pinocchio', 'assembly', 'solve', 'total' (wall clock) and 'cpu' (CPU time of the
+            thread, the budgeted quantity).
+        path: the route of the tick (module docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``,
+            ``fallback:gravity``.
+        over_budget: the tick used more than the controller's budget.
     """
 
     tau: np.ndarray
@@ -67,6 +90,8 @@ class IDCommand:
     dynamics_residual: float = 0.0
     conflicts: list[tuple[str, float]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    path: str = ""
+    over_budget: bool = False
 
 
 def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
@@ -81,21 +106,49 @@ class InverseDynamicsController:
     Args:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
+        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring.
+        diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
+            QP per failure; off by default, :meth:`diagnose` does it on demand).
+
+    Attributes:
+        n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
+        paths: route name → number of ticks that took it.
 
     Raises:
-        InvalidInputError: dt not finite and > 0.
+        InvalidInputError: dt or budget not finite and > 0 (budget may be inf).
     """
 
-    def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002):
+    def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002, *, budget: float | None = None,
+                 diagnose: bool = False):
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.qp = qp
         self.robot = qp.robot
         self.dt = float(dt)
+        self.budget = self.dt if budget is None else budget
+        self.diagnose_failures = bool(diagnose)
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
+        self.n_ticks = 0
         self.n_failures = 0
         self.n_relaxed = 0
+        self.n_over_budget = 0
+        self.paths: Counter = Counter()
+
+    @property
+    def budget(self) -> float:
+        """CPU time a tick may use (s, > 0; ``math.inf``: unbounded), module docstring.
+
+        Raises:
+            InvalidInputError: on assignment of anything but a number > 0.
+        """
+        return self._budget
+
+    @budget.setter
+    def budget(self, value) -> None:
+        if not (isinstance(value, (int, float, np.floating)) and not isinstance(value, bool) and value > 0):
+            raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {value!r}")
+        self._budget = float(value)
 
     def tick(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.
@@ -110,6 +163,7 @@ class InverseDynamicsController:
             ConfigurationError: q or v with a wrong size, NaN/inf, or a non-unit base quaternion.
         """
         t0 = perf_counter()
+        c0 = thread_time()
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False
@@ -118,27 +172,57 @@ class InverseDynamicsController:
         try:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
-            conflicts = self._diagnose()
+            conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
+            used = thread_time() - c0
+            if used > 0.5 * self.budget:  # the relaxed QP costs about what the full one did: it would not fit
+                return self._fail(f"{message}; no time left for the relaxed QP ({1e3 * used:.3g} ms of the "
+                                  f"{1e3 * self.budget:.3g} ms budget used)", conflicts, t0, t1, c0)
             try:
                 sol = self.qp.solve_relaxed(self.state, self.dt)
-                relaxed = True
-                self.n_relaxed += 1
             except SolverError as exc2:
-                self.n_failures += 1
-                cmd = self.fallback(f"{message}; relaxed QP: {exc2}")
-                cmd.conflicts = conflicts
-                cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
-                return cmd
+                return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
+            if thread_time() - c0 > self.budget:
+                return self._fail(f"{message}; relaxed QP solved past the budget ({1e3 * self.budget:.3g} ms)",
+                                  conflicts, t0, t1, c0)
+            relaxed = True
+            self.n_relaxed += 1
             lim = self.qp.torque_limits
             if lim.dim:
                 sol.tau[lim.joints] = np.clip(sol.tau[lim.joints], -lim.tau_max[lim.joints],
                                               lim.tau_max[lim.joints])
         self.last_solution = sol
         cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
-                        message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts)
+                        message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,
+                        path=sol.path)
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
+        return self._count(cmd, c0)
+
+    def _count(self, cmd: IDCommand, c0: float) -> IDCommand:
+        cpu = thread_time() - c0
+        cmd.timings["cpu"] = cpu
+        cmd.over_budget = cpu > self.budget
+        self.n_ticks += 1
+        self.n_over_budget += int(cmd.over_budget)
+        self.paths[cmd.path] += 1
         return cmd
+
+    def _fail(self, message: str, conflicts, t0: float, t1: float, c0: float) -> IDCommand:
+        self.n_failures += 1
+        cmd = self.fallback(message)
+        cmd.conflicts = conflicts
+        cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
+        return self._count(cmd, c0)
+
+    def _conflicts(self) -> list[tuple[str, float]]:
+        """Names for a failed full QP: the output check's violations, else the tasks with non-finite inputs, else
+        (diagnosis mode) the diagnosis."""
+        if self.qp.last_violations:
+            return list(self.qp.last_violations)
+        bad = self.qp.nonfinite_inputs()  # cheap: a NaN written in place past the setters
+        if bad:
+            return bad
+        return self._diagnose() if self.diagnose_failures else []
 
     def _diagnose(self) -> list[tuple[str, float]]:
         """Conflicting constraints at the current state (never raises: a failing diagnosis reports nothing)."""
@@ -146,6 +230,19 @@ class InverseDynamicsController:
             return self.qp.diagnose(self.state, self.dt)
         except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
             return []
+
+    def diagnose(self) -> list[tuple[str, float]]:
+        """The hard constraints that conflict at the state of the last tick, with their violations (constraint
+        units), largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`); empty when the
+        hard set is feasible. Off the control path: call it after a failed tick (it solves a least-squares QP)."""
+        return self._diagnose()
+
+    def summary(self) -> dict:
+        """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``fallback_rate`` (fallback ticks /
+        ticks), ``relaxed``, ``paths`` (route → ticks)."""
+        n = max(self.n_ticks, 1)
+        return {"ticks": self.n_ticks, "budget_ms": 1e3 * self.budget, "over_budget": self.n_over_budget,
+                "fallback_rate": self.n_failures / n, "relaxed": self.n_relaxed, "paths": dict(self.paths)}
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring)."""
@@ -167,5 +264,5 @@ class InverseDynamicsController:
         lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
         tau = np.clip(tau, -lim, lim)
         return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
-                         message=message or "fallback", dynamics_residual=float("nan"))
+                         message=message or "fallback", dynamics_residual=float("nan"), path="fallback:gravity")
 

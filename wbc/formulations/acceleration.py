@@ -28,7 +28,7 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
                 (with ≥ 2 active contacts, the stacked right-hand side is projected onto the span of the rows' left
                 singular vectors with σ ≥ 1e-2 σ_max: dependent rows made consistent, constraints.consistent_contact_rhs)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
-            F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis)            (7)
+            F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis; active k)  (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
             v̇_lo ≤ v̇_joints ≤ v̇_hi                      (joint position/velocity limits, below)             (9)
             G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j       for each added barrier j (h_j(q) ≥ 0, ḣ_j = G_j v:   (10)
@@ -65,6 +65,7 @@ then hold to the solver's equality accuracy on rows 0..5 and exactly on the actu
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
 from time import perf_counter
 
@@ -91,7 +92,7 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
                                        R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
-from wbc.exceptions import InvalidInputError
+from wbc.exceptions import InvalidInputError, SolverError
 from wbc.qp import QPBackend
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -112,6 +113,8 @@ class IDSolution:
         wrenches: contact name → (6,) wrench (N, N·m) at the sole origin, world axes.
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
         timings: seconds spent in 'assembly' and 'solve'.
+        path: the route that produced it: ``kernel`` (the compiled tick), ``general:<backend>`` (the backend on the
+            assembled QP), ``relaxed:<backend>`` (:meth:`InverseDynamicsQP.solve_relaxed`).
     """
 
     dv: np.ndarray
@@ -120,6 +123,7 @@ class IDSolution:
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
     dynamics_residual: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
+    path: str = ""
 
 
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
@@ -213,8 +217,9 @@ class InverseDynamicsQP:
         self._ub = np.full(n, np.inf)
         self._JcT = np.zeros((nv, 12 * nc))
         self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT, jacobians={})
-        for con in self.friction:  # constant rows: written once
+        for con in self.friction:  # constant while μ is: rewritten only when it changes (_refresh_contact_rows)
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
+            con.written = con.key()
         self._reg_v = np.full(nv, self.eps_a)
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
@@ -227,9 +232,24 @@ class InverseDynamicsQP:
         #: directions of the stacked active contact rows projected out of their right-hand side at the last build
         #: (:func:`wbc.constraints.dynamics.consistent_contact_rhs`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
+        #: run the backend's independent re-solve (:meth:`wbc.qp.QPBackend.confirm`) before declaring a failure;
+        #: False by default: it costs many control periods and belongs off the control path
+        #: (:meth:`wbc.dynamics.controller.InverseDynamicsController.diagnose`).
+        self.confirm_failures = False
+        # a user backend whose solve() predates the confirm keyword is called without it
+        self._takes_confirm: tuple = (None, False)
+        #: violations found by :meth:`verify` on the last solve ([] when it passed).
+        self.last_violations: list[tuple[str, float]] = []
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
+
+    @property
+    def _confirm_kw(self) -> dict:
+        backend = self.backend
+        if self._takes_confirm[0] is not backend:  # a backend assigned after construction
+            self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
+        return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
 
     @property
     def braking_acceleration(self) -> float:
@@ -286,6 +306,23 @@ class InverseDynamicsQP:
         r0 = self._r0
         C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
         self._C, self._l, self._u = C, l, u
+        if self._kernel is not None:  # its argument tuples hold the blocks: new blocks, new buffers
+            self._kernel = _KernelBuffers(self)
+
+    def _refresh_contact_rows(self) -> None:
+        """Rewrite the contact blocks whose parameters were assigned since they were written: the force bounds
+        (active, f_min, f_max) and the friction rows (μ); both paths read them from the preallocated blocks."""
+        ctx = self._ctx
+        for con, s in zip(self.unilaterality, self._force_slices):
+            key = con.key()
+            if key != con.written:  # force bounds change only when the contact is switched or re-bounded
+                con.write(ctx, None, self._lb[s], self._ub[s])
+                con.written = key
+        for con in self.friction:
+            key = con.key()
+            if key != con.written:
+                con.write(ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
+                con.written = key
 
     # -- problem definition ----------------------------------------------------------------------------------
     def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
@@ -400,11 +437,7 @@ class InverseDynamicsQP:
         for con in self.extra_constraints:
             con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
         lb, ub = self._lb, self._ub
-        for con, s in zip(self.unilaterality, self._force_slices):
-            key = con.key()
-            if key != con.written:  # force bounds change only when the contact is switched or re-bounded
-                con.write(ctx, None, lb[s], ub[s])
-                con.written = key
+        self._refresh_contact_rows()
         if self.joint_limits:
             jl = self.joint_acceleration_limits
             if self._jl_slice is not None:
@@ -446,9 +479,12 @@ class InverseDynamicsQP:
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         l, u, lb, ub = self._relax(l, u, lb, ub)
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub)
+        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
-        return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol.path = f"relaxed:{self.backend.name}"
+        self._guard(state, sol, relaxed=True)
+        return sol
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
         """Build and solve the QP at ``state`` for control period ``dt`` (s).
@@ -463,14 +499,90 @@ class InverseDynamicsQP:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+        self.last_violations = []
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub)
+        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
-        return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol.path = f"general:{self.backend.name}"
+        self._guard(state, sol)
+        return sol
+
+    def nonfinite_inputs(self) -> list[tuple[str, float]]:
+        """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
+        feed-forward are not finite — e.g. a target or weight array written in place with a NaN."""
+        out = []
+        for ref in (*self.tasks, *(h.task for h in self.hard_tasks)):
+            ff = ref.feedforward_acceleration
+            if not (np.isfinite(ref.last_error).all() and np.isfinite(ref.weight).all()
+                    and (ff is None or np.isfinite(ff).all())):
+                out.append((f"task:{ref.name}", float("nan")))
+        return out
+
+    def _guard(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False) -> None:
+        """Raise SolverError (naming the constraints, :attr:`last_violations`) when :meth:`verify` finds any."""
+        self.last_violations = viol = self.verify(state, sol, relaxed=relaxed)
+        if viol:
+            raise SolverError(f"{sol.path} returned a command that fails the output check: "
+                              + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
+
+    def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
+               tol: float | None = None) -> list[tuple[str, float]]:
+        """Output check of a solution against the hard constraints of the last assembly at ``state``, independent
+        of the solver that produced it: every entry finite; corner normal forces within their bounds
+        (``unilaterality:<c>``, N); the friction pyramids (``friction:<c>``, N); the torque limits
+        (``torque_limits``, N·m; skipped when ``relaxed``: the controller clips the relaxed torques); the
+        floating-base rows of the equations of motion (``floating_base_dynamics``, N, N·m). Each violation is
+        measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|), the
+        corner's normal force, the largest |h_u| entry), the scaling of :meth:`wbc.qp.QPBackend.scaled_violation`.
+
+        Args:
+            state: the state the solution was computed at. sol: the solution. relaxed: the torque limits were
+                dropped. tol: relative tolerance (default the backend's ``tolerance``).
+
+        Returns:
+            [(constraint name, violation in its units)], largest scaled first; empty when the solution passes.
+            A non-finite solution gives ``("non_finite_command", nan)`` followed by every task whose error is
+            not finite (``task:<name>``, nan), e.g. a target written in place with a NaN.
+        """
+        tol = self.backend.tolerance if tol is None else float(tol)
+        dv, f, tau = sol.dv, sol.forces, sol.tau
+        if not (np.isfinite(dv).all() and np.isfinite(f).all() and np.isfinite(tau).all()):
+            return [("non_finite_command", float("nan")), *self.nonfinite_inputs()]
+        found = []  # (scaled, name, violation)
+        nv = self.nv
+        lb, ub = self._lb[nv:], self._ub[nv:]
+        for k, c in enumerate(self.contacts):
+            s = slice(12 * k, 12 * k + 12)
+            fk, lo, hi = f[s], lb[s], ub[s]
+            with np.errstate(invalid="ignore"):
+                ex = np.maximum(lo - fk, fk - hi)
+                ref = np.maximum(1.0, np.where(lo - fk > fk - hi, np.abs(lo), np.abs(hi)))
+            ex = np.where(ex > 0, ex, 0.0)
+            worst = float(np.max(ex / ref))
+            if worst > tol:
+                found.append((worst, f"unilaterality:{c.name}", float(ex.max())))
+            if c.active:
+                fr = c.friction_matrix @ fk
+                scale = np.maximum(1.0, np.abs(np.repeat(fk[2::3], 4)) * c.mu)
+                worst = float(np.max(fr / scale))
+                if worst > tol:
+                    found.append((worst, f"friction:{c.name}", float(fr.max())))
+        if not relaxed and self.tau_rows.size:
+            tl = self.torque_limits
+            ex = np.abs(tau[tl.joints]) - tl.limits
+            worst = float(np.max(ex / np.maximum(1.0, tl.limits)))
+            if worst > tol:
+                found.append((worst, "torque_limits", float(ex.max())))
+        scale = max(1.0, float(np.max(np.abs(state.h[:6]))))
+        if sol.dynamics_residual / scale > tol:
+            found.append((sol.dynamics_residual / scale, "floating_base_dynamics", sol.dynamics_residual))
+        found.sort(key=lambda item: -item[0])
+        return [(name, v) for _, name, v in found]
 
     def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
         """:meth:`solve` through :func:`wbc.formulations.idkernel.id_tick` (same QP, compiled assembly and solve);
@@ -478,11 +590,7 @@ class InverseDynamicsQP:
         t0 = perf_counter()
         kb = self._kernel
         kb.gather(self, state)
-        for con, s in zip(self.unilaterality, self._force_slices):
-            key = con.key()
-            if key != con.written:
-                con.write(self._ctx, None, self._lb[s], self._ub[s])
-                con.written = key
+        self._refresh_contact_rows()
         par = kb.par  # settings read every tick, as the general path does
         par[PAR_EPS_A] = self.eps_a
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
@@ -499,21 +607,28 @@ class InverseDynamicsQP:
         self._m = m
         t1 = perf_counter()
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
-            kb.solves += 1
             x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
             nv = self.nv
             wrench = kb.wrench.copy()
-            return IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
-                              wrenches={name: wrench[k] for k, name in enumerate(kb.names)},
-                              dynamics_residual=float(kb.residual[1]),
-                              timings={"assembly": ta - t0, "solve": t1 - ta})
+            sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
+                             wrenches={name: wrench[k] for k, name in enumerate(kb.names)},
+                             dynamics_residual=float(kb.residual[1]),
+                             timings={"assembly": ta - t0, "solve": t1 - ta}, path="kernel")
+            self.last_violations = self.verify(state, sol)
+            if not self.last_violations:
+                kb.solves += 1
+                return sol
+            kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
         kb.fallbacks += 1
         kb.state[:] = 0
         kb.rstate[:] = 0
         x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
-                               self._ub)
+                               self._ub, **self._confirm_kw)
         t2 = perf_counter()
-        return self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        sol.path = f"general:{self.backend.name}"
+        self._guard(state, sol)
+        return sol
 
     def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
                  tol: float = 1e-6) -> list[tuple[str, float]]:
@@ -566,8 +681,8 @@ class InverseDynamicsQP:
         """Margins of a solution (≥ 0 when satisfied, in constraint units) — used by tests and logs.
 
         Returns:
-            ``friction`` (N, min over corners of μ/√2 f_z − |f_t|), ``normal`` (N, min f_z − f_min over active
-            corners), ``torque`` (N·m, min τ_max − |τ| over limited joints), ``cop`` (m, min distance of each
+            ``friction`` (N, min over corners of μ/√2 f_z − |f_t|), ``normal`` (N, min f_z − min(f_min, f_max)
+            over active corners), ``torque`` (N·m, min τ_max − |τ| over limited joints), ``cop`` (m, min distance of each
             loaded foot's CoP to the sole edges).
         """
         out = {"friction": np.inf, "normal": np.inf, "torque": np.inf, "cop": np.inf}
@@ -577,7 +692,7 @@ class InverseDynamicsQP:
             f = sol.forces[12 * k:12 * k + 12].reshape(4, 3)
             mu_in = c.mu / np.sqrt(2.0)
             out["friction"] = min(out["friction"], float(np.min(mu_in * f[:, 2:3] - np.abs(f[:, :2]))))
-            out["normal"] = min(out["normal"], float(np.min(f[:, 2] - c.f_min)))
+            out["normal"] = min(out["normal"], float(np.min(f[:, 2] - c.normal_force_bounds[0])))
             cop = c.cop(sol.forces[12 * k:12 * k + 12])
             if cop is not None:
                 a, bw = c.corners[0, 0], c.corners[0, 1]
@@ -626,6 +741,7 @@ class _KernelBuffers:
         self._rotations: tuple = (None, [])
         self.solves = 0
         self.fallbacks = 0
+        self.rejected = 0
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
         dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]

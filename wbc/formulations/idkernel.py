@@ -45,6 +45,7 @@ import numpy as np
 from wbc.constraints.dynamics import joint_bounds_kernel
 from wbc.fastqp import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
                          weighted_normal_equations)
+from wbc.solver_status import SolverStatus
 
 __all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace", "PROJECT_CONTACT_RHS"]
 
@@ -211,12 +212,13 @@ def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
     return res
 
 
-#: exit codes of :func:`id_solve` (besides −3, iteration cap, as :mod:`wbc.fastqp`)
-NOT_POSITIVE_DEFINITE = -1
-DEPENDENT_WORKING_SET = -2
-ITERATION_CAP = -3
-INFEASIBLE = -4
-NOT_VERIFIED = -5
+#: exit codes of :func:`id_solve`: the shared :class:`~wbc.solver_status.SolverStatus` values (plain ints, frozen by
+#: numba at compile time)
+NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
+DEPENDENT_WORKING_SET = int(SolverStatus.DEPENDENT_ROWS)
+ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
+INFEASIBLE = int(SolverStatus.INFEASIBLE)
+NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=_FM)

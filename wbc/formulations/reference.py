@@ -38,9 +38,13 @@ __all__ = [
 
 
 def _gain(value, what: str) -> float:
-    if not (np.isfinite(value) and value >= 0):
+    try:
+        g = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{what} must be a finite number ≥ 0, got {value!r}") from None
+    if not (math.isfinite(g) and g >= 0):
         raise InvalidInputError(f"{what} must be finite and ≥ 0, got {value!r}")
-    return float(value)
+    return g
 
 
 class AccelerationReference:
@@ -57,7 +61,8 @@ class AccelerationReference:
         task: the shared task. dim: rows m. last_error: (m,) error at the last :meth:`compute` (task units).
 
     Raises:
-        InvalidInputError: not a task; negative/non-finite gains or weights.
+        InvalidInputError: not a task; negative/non-finite gains or weights (at construction, or on assignment of
+            ``kp``, ``kd``, ``weight``).
     """
 
     def __init__(self, task: Task, *, kp: float, kd: float | None = None, weight=None, name: str | None = None):
@@ -65,12 +70,44 @@ class AccelerationReference:
             raise InvalidInputError(f"an acceleration reference needs a wbc.tasks Task, got {type(task).__name__}")
         self.task = task
         self.dim = task.dim
-        self.kp = _gain(kp, f"{name or task.name} kp")
-        self.kd = _gain(2.0 * math.sqrt(self.kp) if kd is None else kd, f"{name or task.name} kd")
         self.name = name or task.name
-        self.weight = as_weight(task.weight if weight is None else weight, self.dim, f"{self.name} weight")
+        self.kp = kp
+        self.kd = 2.0 * math.sqrt(self.kp) if kd is None else kd
+        self.weight = task.weight if weight is None else weight
         self._acc_ff: np.ndarray | None = None
         self.last_error = np.zeros(self.dim)
+
+    @property
+    def kp(self) -> float:
+        """Kp (1/s², finite, ≥ 0). Raises InvalidInputError on assignment of anything else."""
+        return self._kp
+
+    @kp.setter
+    def kp(self, value) -> None:
+        self._kp = _gain(value, f"{self.name} kp")
+
+    @property
+    def kd(self) -> float:
+        """Kd (1/s, finite, ≥ 0). Raises InvalidInputError on assignment of anything else."""
+        return self._kd
+
+    @kd.setter
+    def kd(self, value) -> None:
+        self._kd = _gain(value, f"{self.name} kd")
+
+    @property
+    def weight(self) -> np.ndarray:
+        """(m,) cost weights (finite, ≥ 0); assign a scalar or an (m,) array. Raises InvalidInputError on
+        assignment of anything else."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value) -> None:
+        try:
+            self._weight = as_weight(value, self.dim, f"{self.name} weight")
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"{self.name} weight must be a non-negative finite scalar or ({self.dim},) array, "
+                                    f"got {value!r}") from None
 
     def set_target(self, *args, **kwargs) -> None:
         """Forwarded to the task's ``set_target`` (its validation and errors)."""

@@ -344,6 +344,9 @@ def summarize(run, scenario, controller=None) -> dict:
             "solver_failures": int((~ok).sum()),
             "relaxed_qp_ticks": int(run.relaxed.sum()),
         })
+        tick = getattr(controller, "controller", None)  # the InverseDynamicsController: budget, routes, fallbacks
+        if tick is not None and hasattr(tick, "summary"):
+            out["tick_budget"] = tick.summary()
     settle = min(len(run.t) - 1, int(round(0.01 / run.dt)))  # skip the first 10 ms (contact settling at t = 0)
     w = run.sim_wrench[settle:]
     fz = w[:, :, 2]

@@ -1,0 +1,120 @@
+"""Pieces shared by the fuzz benchmarks (kinematic ``fuzz.py``, inverse-dynamics ``fuzz_id.py``): the independent
+feasibility check (scipy HiGHS LP of a QP's hard set), the robots with their joint limits loaded once per process,
+and the chunked, resumable, multi-process driver with its aggregation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import time
+import warnings
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import scipy.optimize
+
+import wbc
+from wbc.constraints.limits import bounded_joints
+
+ROBOTS = ("talos", "g1", "humanoid15")
+
+
+def highs_feasible(A, b, C, l, u, lb, ub, tol: float = 1e-7) -> bool:
+    """Independent check (scipy HiGHS LP, primal feasibility tolerance ``tol``): does any x meet A x = b,
+    l ≤ C x ≤ u, lb ≤ x ≤ ub? (±inf entries are absent bounds.)"""
+    n = A.shape[1] if A.shape[0] else C.shape[1] if C.shape[0] else lb.shape[0]
+    A_ub, b_ub = [], []
+    for rows, hi, sign in ((C, u, 1.0), (C, l, -1.0)):
+        m = np.isfinite(hi)
+        if m.any():
+            A_ub.append(sign * rows[m])
+            b_ub.append(sign * hi[m])
+    r = scipy.optimize.linprog(np.zeros(n), A_ub=np.vstack(A_ub) if A_ub else None,
+                               b_ub=np.concatenate(b_ub) if b_ub else None, A_eq=A if A.shape[0] else None,
+                               b_eq=b if A.shape[0] else None,
+                               bounds=[(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None)
+                                       for lo, hi in zip(lb, ub)], method="highs",
+                               options={"primal_feasibility_tolerance": tol})
+    return r.status == 0
+
+
+_ROBOTS: dict = {}
+
+
+def load_robots() -> tuple[dict, dict]:
+    """({name: Robot}, {name: (iq, q_lo, q_hi, v_max)}) for :data:`ROBOTS`, loaded once per process."""
+    if not _ROBOTS:
+        warnings.simplefilter("ignore")
+        robots = {n: wbc.load_robot(n) for n in ROBOTS}
+        limits = {}
+        for n, r in robots.items():
+            iq, iv = bounded_joints(r.model)
+            vmax = r.model.velocityLimit[6:]
+            limits[n] = (iq, r.model.lowerPositionLimit[iq], r.model.upperPositionLimit[iq],
+                         np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
+        _ROBOTS.update(robots=robots, limits=limits)
+    return _ROBOTS["robots"], _ROBOTS["limits"]
+
+
+def _run_job(job: tuple) -> tuple[int, dict]:
+    i, run_chunk, ticks, seed, n_chunks, out, options = job
+    ch = run_chunk(ticks, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ", **options)
+    if out is not None:
+        tmp = Path(out).with_suffix(".tmp")
+        tmp.write_text(json.dumps(ch))
+        tmp.replace(out)
+    return i, ch
+
+
+def chunk_arguments(p: argparse.ArgumentParser, ticks: int) -> None:
+    """The driver's options: --ticks --jobs --seed --chunk --out --aggregate-only."""
+    p.add_argument("--ticks", type=int, default=ticks, help="total ticks")
+    p.add_argument("--jobs", type=int, default=1, help="processes (chunks run in parallel, results summed)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first chunk (chunk i uses seed + i)")
+    p.add_argument("--chunk", type=int, default=50_000, help="ticks per chunk (one result file each)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder of per-chunk results: finished chunks are skipped (resume), all are aggregated")
+    p.add_argument("--aggregate-only", action="store_true",
+                   help="run nothing: aggregate every finished chunk file in --out")
+
+
+def run_chunks(a: argparse.Namespace, run_chunk: Callable, aggregate: Callable, report: Callable, tag: str,
+               **options) -> None:
+    """Run ``run_chunk(ticks, seed, progress=..., **options) -> dict`` over the chunks of ``a`` (see
+    :func:`chunk_arguments`), in ``a.jobs`` processes, saving/resuming per-chunk files ``<tag>_<seed>_<ticks>.json``
+    in ``a.out``; print ``report(aggregate(chunks))``."""
+    if a.aggregate_only:
+        files = sorted(a.out.glob(f"{tag}_*.json"))
+        print(f"{len(files)} chunk files in {a.out}", flush=True)
+        print(report(aggregate([json.loads(f.read_text()) for f in files])), flush=True)
+        return
+    t0 = time.time()
+    n_chunks = max(1, -(-a.ticks // a.chunk))
+    if a.out is not None:
+        a.out.mkdir(parents=True, exist_ok=True)
+    chunks: dict[int, dict] = {}
+    jobs = []
+    for i in range(n_chunks):
+        ticks = min(a.chunk, a.ticks - i * a.chunk)
+        f = a.out / f"{tag}_{a.seed + i}_{ticks}.json" if a.out is not None else None
+        if f is not None and f.exists():
+            chunks[i] = json.loads(f.read_text())
+            print(f"chunk {i + 1}/{n_chunks} (seed {a.seed + i}) already done: {f}", flush=True)
+            continue
+        jobs.append((i, run_chunk, ticks, a.seed + i, n_chunks, None if f is None else str(f), options))
+    if a.jobs <= 1:
+        results = map(_run_job, jobs)
+    else:
+        pool = multiprocessing.get_context("fork").Pool(a.jobs)
+        results = pool.imap_unordered(_run_job, jobs)
+    for i, ch in results:
+        chunks[i] = ch
+        print(f"chunk {i + 1}/{n_chunks} (seed {a.seed + i}) done", flush=True)
+    if a.jobs > 1:
+        pool.close()
+        pool.join()
+    print(f"wall time {time.time() - t0:.0f} s with {a.jobs} process(es)", flush=True)
+    print(report(aggregate([chunks[i] for i in sorted(chunks)])), flush=True)

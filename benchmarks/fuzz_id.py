@@ -1,0 +1,287 @@
+"""Fuzz the inverse-dynamics controller: N ticks over talos, g1 and humanoid15 with random CoM/torso targets and
+acceleration feed-forwards, gains, weights, friction coefficients (also re-assigned during an episode), per-corner
+minimum normal forces, torque-limit scalings, force ramps that unload a foot to zero and release it, and start
+states (joints spread inside their limits, random velocities). The state advances by the commanded v̇ (explicit
+Euler, dt = 2 ms; v̇ = 0 on a fallback tick). Prints the counts and one PASS/FAIL line per acceptance item:
+
+    python benchmarks/fuzz_id.py [--solver fast|daqp] [--ticks 1000000] [--jobs 2] [--episode 50] [--seed 0]
+                                 [--chunk 50000] [--out DIR]
+
+Checks, all computed in this script from Pinocchio and the numbers the script chose (not from the controller):
+exceptions; non-finite commands; on ok ticks, bound violations beyond 1e-6 (relative to max(1, |bound|)): corner
+normal force outside [min(f_min, f_max), f_max], corner tangential force outside the inscribed pyramid
+|f_x|, |f_y| ≤ μ/√2 f_z with the μ last assigned, |τ| above the scaled URDF effort (full-QP ticks), and the
+floating-base rows of M v̇ + h − Sᵀτ − Σ J_kᵀ G_k f_k (RNEA, LOCAL sole Jacobians) above 1e-6 max(1, |h_u|);
+failed full-QP ticks (relaxed or fallback) whose hard set HiGHS finds feasible (checked after the tick, off the
+control path); failed ticks that name no conflicting constraint (the tick's own names, else
+``InverseDynamicsController.diagnose()`` after the tick); tick CPU time (the budgeted quantity) and wall time,
+p50/p99/max, against the budget (the control period); the route each tick took (``IDCommand.path``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from conftest import random_configuration  # noqa: E402
+from fuzz_common import chunk_arguments, highs_feasible, load_robots, run_chunks  # noqa: E402
+from wbc.dynamics.balance import IDBalanceController  # noqa: E402
+
+DT = 0.002
+TOL = 1e-6
+COUNTS = ("ticks", "episodes", "exceptions", "nan", "bound_violations", "failed_full_qp", "fallback_ticks",
+          "relaxed_ticks", "failed_feasible", "failed_unnamed", "over_budget", "ramps", "mu_changes")
+EVENTS = ("exceptions", "nan", "bound_violations", "failed_feasible", "failed_unnamed", "over_budget")
+MAX_EVENTS = 20
+
+
+def log_uniform(rng, lo, hi):
+    return float(10 ** rng.uniform(np.log10(lo), np.log10(hi)))
+
+
+def build_episode(robot, rng, solver):
+    gains = {"com_kp": log_uniform(rng, 1, 1e4), "com_weight": log_uniform(rng, 1, 1e4),
+             "torso_kp": log_uniform(rng, 1, 1e3), "posture_kp": log_uniform(rng, 1, 1e3),
+             "posture_weight": log_uniform(rng, 1e-2, 10), "contact_kd": float(rng.uniform(0, 100))}
+    gains["com_kd"] = 2 * np.sqrt(gains["com_kp"]) * rng.uniform(0.2, 2)
+    scale = float(rng.uniform(0.2, 1.0))
+    ctrl = IDBalanceController(robot, dt=DT, solver=solver, mu=log_uniform(rng, 0.05, 1.5),
+                               f_min=float(rng.choice([0.0, 1.0, 10.0, 30.0])), gains=gains,
+                               torque_limit_scale=scale)
+    q = random_configuration(robot, rng, spread=float(rng.uniform(0, 0.3)))
+    if rng.random() < 0.7:
+        q[:7] = robot.q_ref[:7]
+    v = np.zeros(robot.nv)
+    v[6:] = rng.normal(size=robot.nv - 6) * rng.uniform(0, 1.0)
+    ctrl.reset(q, v)
+    ctrl.set_com_reference(ctrl.com_ref + rng.normal(size=3) * rng.choice([0.01, 0.05, 0.3]),
+                           acceleration=rng.normal(size=3) * rng.choice([0.0, 1.0, 5.0]))
+    return ctrl, q, v, scale
+
+
+def corner_map(contact) -> np.ndarray:
+    """(6, 12) corner forces → sole wrench (sole frame), from the corners, built here."""
+    G = np.zeros((6, 12))
+    for i, c in enumerate(contact.corners):
+        G[:3, 3 * i:3 * i + 3] = np.eye(3)
+        G[3:, 3 * i:3 * i + 3] = pin.skew(c)
+    return G
+
+
+def bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort) -> list[str]:
+    """Independent checks of an ok command (module docstring); names of the violated bounds."""
+    out = []
+    nv = robot.nv
+    f = cmd.forces
+    gen = pin.rnea(robot.model, data, q, v, cmd.dv).copy()
+    gen[6:] -= cmd.tau
+    pin.computeJointJacobians(robot.model, data, q)
+    pin.updateFramePlacements(robot.model, data)
+    for k, side in enumerate(ctrl.SIDES):
+        c = ctrl.contacts[side]
+        fk = f[12 * k:12 * k + 12].reshape(4, 3)
+        lo, hi, mu = bounds[side]
+        if not c.active:
+            lo = hi = 0.0
+            if np.max(np.abs(fk)) > TOL:
+                out.append(f"inactive {side} force {np.max(np.abs(fk)):.3g}")
+        if np.any(fk[:, 2] < lo - TOL * max(1, abs(lo))) or np.any(fk[:, 2] > hi + TOL * max(1, abs(hi))):
+            out.append(f"normal {side} {fk[:, 2]} not in [{lo}, {hi}]")
+        if c.active and np.any(np.abs(fk[:, :2]) > mu / np.sqrt(2) * fk[:, 2:3] + TOL * np.maximum(1, mu * fk[:, 2:3])):
+            out.append(f"friction {side} mu {mu}")
+        J = pin.getFrameJacobian(robot.model, data, c.frame_id, pin.LOCAL)
+        gen -= J.T @ (corner_map(c) @ f[12 * k:12 * k + 12])
+    scale = max(1.0, float(np.max(np.abs(pin.rnea(robot.model, data, q, v, np.zeros(nv))[:6]))))
+    if np.max(np.abs(gen[:6])) > TOL * scale:
+        out.append(f"dynamics residual {np.max(np.abs(gen[:6])):.3g}")
+    if not cmd.relaxed:
+        lim = np.isfinite(effort) & (effort > 0)
+        if np.any(np.abs(cmd.tau[lim]) > effort[lim] + TOL * np.maximum(1, effort[lim])):
+            out.append("torque")
+    return out
+
+
+def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", episode: int = 50,
+              replay: int | None = None, verbose: bool = False) -> dict:
+    """Fuzz ``ticks`` ticks from ``seed`` (module docstring); returns counts, timings and events. ``replay``: run
+    only that episode (the others are drawn, not run); ``verbose``: print every tick's path, time and message."""
+    robots, _ = load_robots()
+    rng = np.random.default_rng(seed)
+    c = dict.fromkeys(COUNTS, 0)
+    c["events"] = {k: [] for k in EVENTS}
+    paths: Counter = Counter()
+    conflicts: Counter = Counter()
+    cpu, wall, tick_paths = [], [], []
+
+    def event(kind: str, ep: int, tick: int, detail: str = "") -> None:
+        if len(c["events"][kind]) < MAX_EVENTS:
+            c["events"][kind].append(f"seed {seed} episode {ep} tick {tick} {detail}".rstrip())
+    t0 = time.time()
+    next_print = 0
+    while c["ticks"] < ticks:
+        name = str(rng.choice(list(robots)))
+        robot = robots[name]
+        ep = c["episodes"]
+        c["episodes"] += 1
+        try:
+            ctrl, q, v, scale = build_episode(robot, rng, solver)
+        except Exception as exc:  # noqa: BLE001
+            c["exceptions"] += 1
+            event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")
+            continue
+        data = robot.model.createData()
+        effort = np.asarray(robot.model.effortLimit[6:]) * scale  # the URDF effort times the episode's scale
+        f_min = ctrl.contacts["left"].f_min
+        bounds = {s: (f_min, np.inf, ctrl.contacts[s].mu) for s in ctrl.SIDES}
+        ramp_side = str(rng.choice(ctrl.SIDES)) if rng.random() < 0.5 else None
+        ramp_start, ramp_len = int(rng.integers(0, episode // 2)), int(rng.integers(1, 25))
+        f0 = robot.mass * 9.81 * rng.uniform(0.3, 1.2)
+        mu_tick = int(rng.integers(0, episode)) if rng.random() < 0.3 else -1
+        mu_side, mu_new = str(rng.choice(ctrl.SIDES)), log_uniform(rng, 0.02, 1.5)  # drawn up front: replayable
+        if replay is not None and ep != replay:
+            c["ticks"] += episode
+            continue
+        c["ramps"] += int(ramp_side is not None)
+        for tick in range(episode):
+            c["ticks"] += 1
+            if ramp_side is not None and ramp_start <= tick <= ramp_start + ramp_len:
+                total = f0 * (1 - (tick - ramp_start) / ramp_len)
+                if tick == ramp_start + ramp_len:
+                    total = 0.0
+                ctrl.set_max_normal_force(ramp_side, total)
+                bounds[ramp_side] = (min(f_min, total / 4), total / 4, bounds[ramp_side][2])
+                if total == 0.0:
+                    ctrl.release_foot(ramp_side)
+            if tick == mu_tick:
+                ctrl.contacts[mu_side].mu = mu_new
+                bounds[mu_side] = (*bounds[mu_side][:2], mu_new)
+                c["mu_changes"] += 1
+            try:
+                cmd = ctrl.compute(q, v)
+            except Exception as exc:  # noqa: BLE001
+                c["exceptions"] += 1
+                event("exceptions", ep, tick, f"{name} {type(exc).__name__}: {exc}")
+                break
+            paths[cmd.path] += 1
+            if verbose:
+                print(f"episode {ep} tick {tick} {name} {cmd.path} ok={cmd.ok} cpu {1e3 * cmd.timings['cpu']:.2f} ms "
+                      f"{cmd.message[:300]}", flush=True)
+            cpu.append(cmd.timings.get("cpu", np.nan))
+            tick_paths.append(cmd.path)
+            wall.append(cmd.timings.get("total", np.nan))
+            if cmd.over_budget:
+                c["over_budget"] += 1
+                event("over_budget", ep, tick, f"{name} {cmd.path} cpu {1e3 * cmd.timings['cpu']:.2f} ms")
+            if not (np.isfinite(cmd.tau).all() and np.isfinite(cmd.dv).all() and np.isfinite(cmd.forces).all()):
+                c["nan"] += 1
+                event("nan", ep, tick, name)
+                break
+            if cmd.ok:
+                bad = bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort)
+                if bad:
+                    c["bound_violations"] += 1
+                    event("bound_violations", ep, tick, f"{name} {cmd.path}: {'; '.join(bad)[:200]}")
+            if not cmd.ok or cmd.relaxed:
+                # off the control path: the full QP's hard set at this state, checked by HiGHS; the names
+                c["failed_full_qp"] += 1
+                c["relaxed_ticks" if cmd.ok else "fallback_ticks"] += 1
+                _, _, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, DT)
+                if highs_feasible(A, b, C, l, u, lb, ub):
+                    c["failed_feasible"] += 1
+                    event("failed_feasible", ep, tick, f"{name} {cmd.path}: {cmd.message[:200]}")
+                names = cmd.conflicts or ctrl.controller.diagnose()
+                for n, _ in names[:3]:
+                    conflicts[n.split(":")[0]] += 1
+                if not names:
+                    c["failed_unnamed"] += 1
+                    event("failed_unnamed", ep, tick, f"{name} {cmd.path}: {cmd.message[:160]}")
+            dv = cmd.dv if cmd.ok else np.zeros(robot.nv)
+            v = v + dv * DT
+            q = pin.integrate(robot.model, q, v * DT)
+        if c["ticks"] >= next_print:
+            next_print += 5_000
+            print(f"{progress}[{time.time() - t0:.0f} s] " + str({k: c[k] for k in COUNTS}), flush=True)
+    c["seconds"] = time.time() - t0
+    c["paths"] = dict(paths)
+    c["conflicts"] = dict(conflicts)
+    c["cpu"] = [float(x) for x in cpu]
+    c["wall"] = [float(x) for x in wall]
+    c["tick_paths"] = tick_paths
+    return c
+
+
+def aggregate(chunks: list[dict]) -> dict:
+    total = {k: sum(ch.get(k, 0) for ch in chunks) for k in COUNTS}
+    total["seconds"] = sum(ch["seconds"] for ch in chunks)
+    for key in ("paths", "conflicts"):
+        acc: Counter = Counter()
+        for ch in chunks:
+            acc.update(ch.get(key, {}))
+        total[key] = dict(acc)
+    for key in ("cpu", "wall"):
+        total[key] = np.array([x for ch in chunks for x in ch.get(key, [])])
+    total["tick_paths"] = np.array([x for ch in chunks for x in ch.get("tick_paths", [])])
+    total["events"] = {k: [e for ch in chunks for e in ch.get("events", {}).get(k, [])][:MAX_EVENTS] for k in EVENTS}
+    return total
+
+
+def report(total: dict, budget: float = DT, episode: int = 50) -> str:
+    cpu, wall = total["cpu"], total["wall"]
+
+    def pct(x):
+        return (f"p50 {1e3 * np.percentile(x, 50):.3f} ms, p99 {1e3 * np.percentile(x, 99):.3f} ms, "
+                f"max {1e3 * x.max():.3f} ms" if x.size else "none")
+    rate = total["fallback_ticks"] / max(total["ticks"], 1)
+    items = [
+        ("exceptions == 0", total["exceptions"], total["exceptions"] == 0),
+        ("NaN commands == 0", total["nan"], total["nan"] == 0),
+        ("bound violations beyond 1e-6 on ok ticks == 0", total["bound_violations"], total["bound_violations"] == 0),
+        ("failed full-QP ticks HiGHS finds feasible == 0",
+         f"{total['failed_feasible']} of {total['failed_full_qp']}", total["failed_feasible"] == 0),
+        ("every failure names its conflict (failed ticks naming none == 0)", total["failed_unnamed"],
+         total["failed_unnamed"] == 0),
+        (f"max tick CPU time <= 2 x budget ({2e3 * budget:.1f} ms)",
+         f"{1e3 * cpu.max():.3f} ms" if cpu.size else "none", bool(cpu.size) and cpu.max() <= 2 * budget),
+    ]
+    lines = ["FINAL " + str({k: total[k] for k in (*COUNTS, "seconds")})]
+    lines.append(f"budget {1e3 * budget:.1f} ms (CPU time of the tick's thread); tick CPU {pct(cpu)}; "
+                 f"tick wall {pct(wall)}; over budget {total['over_budget']} ticks; fallback rate {rate:.3e} "
+                 f"({total['fallback_ticks']}/{total['ticks']}), relaxed {total['relaxed_ticks']}")
+    if total["exceptions"] == 0 and total["nan"] == 0 and cpu.size % episode == 0:
+        later = np.arange(cpu.size) % episode != 0  # every episode has its full length: its first tick is i % episode
+        lines.append(f"tick CPU without each new controller's first tick (its one-time set-up): {pct(cpu[later])}; "
+                     f"first ticks: {pct(cpu[~later])}")
+    lines.append("paths " + str(dict(sorted(total["paths"].items(), key=lambda kv: -kv[1]))))
+    for path in sorted(total["paths"]):
+        sel = total["tick_paths"] == path
+        if sel.size == cpu.size and sel.any():
+            lines.append(f"  {path}: tick CPU {pct(cpu[sel])}; wall {pct(wall[sel])}")
+    lines.append("conflicts named (kind: count, first 3 per failed tick) " + str(total["conflicts"]))
+    lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
+    lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")
+    for k, evs in total["events"].items():
+        for e in evs:
+            lines.append(f"event {k}: {e}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    chunk_arguments(p, ticks=1_000_000)
+    p.add_argument("--solver", default="fast", help="the ID QP's solver (fast, daqp, ...)")
+    p.add_argument("--episode", type=int, default=50, help="ticks per episode")
+    a = p.parse_args()
+    run_chunks(a, run_chunk, aggregate, report, tag=f"id_{a.solver}_{a.episode}", solver=a.solver,
+               episode=a.episode)
+
+
+if __name__ == "__main__":
+    main()

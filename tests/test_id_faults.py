@@ -1,0 +1,237 @@
+"""Inverse-dynamics controller under faults: output checks, force-bound ramps, parameters assigned after
+construction, typed errors (issue 29, items 1, 4, 5).
+
+References independent of the code under test: the friction cone ‖f_t‖ ≤ μ f_z evaluated per corner from the
+returned forces with the μ the test assigned; the corner-force bounds the test computes from the total it asked
+for; finiteness and the URDF effort limits read from the model.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.dynamics import BalanceController
+from wbc.exceptions import InvalidInputError
+from wbc.qp import DaqpBackend, QPBackend
+
+DT = 0.002
+
+
+def _standing(robot, **kwargs):
+    ctrl = BalanceController(robot, dt=DT, **kwargs)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    ctrl.reset(q, v)
+    return ctrl, q, v
+
+
+def _finite_and_within_effort(cmd, robot):
+    effort = np.asarray(robot.model.effortLimit[6:])
+    limited = np.isfinite(effort) & (effort > 0)
+    assert np.isfinite(cmd.tau).all() and np.isfinite(cmd.dv).all() and np.isfinite(cmd.forces).all()
+    assert np.all(np.abs(cmd.tau[limited]) <= effort[limited] + 1e-9)
+
+
+@pytest.mark.parametrize("solver", ["fast", "daqp"])
+def test_force_ramp_to_zero_keeps_bounds_consistent(robots, solver):
+    """Item 4: ramping a foot out with f_min = 10 N per corner; every tick's corner normal forces lie in
+    [min(f_min, F/4), F/4] for the total F asked, and F = 0 means no force (the old bound stopped at f_min/4)."""
+    robot = robots("talos")
+    f_min = 10.0
+    ctrl, q, v = _standing(robot, solver=solver, f_min=f_min)
+    for total in (800.0, 400.0, 100.0, 40.0, 20.0, 4.0, 0.0):
+        ctrl.set_max_normal_force("left", total)
+        cmd = ctrl.compute(q, v)
+        assert cmd.ok, cmd.message
+        fz = cmd.forces[2:12:3]  # left sole's 4 corners (the first contact)
+        hi = total / 4.0
+        lo = min(f_min, hi)
+        assert np.all(fz >= lo - 1e-6) and np.all(fz <= hi + 1e-6), (total, fz)
+    assert np.allclose(cmd.forces[:12], 0.0, atol=1e-6)
+
+
+def test_typed_errors_on_assignment(robots):
+    robot = robots("talos")
+    ctrl, _, _ = _standing(robot)
+    contact = ctrl.contacts["left"]
+    for attr, bad in (("mu", math.nan), ("mu", 0.0), ("mu", "high"), ("f_min", -1.0), ("f_min", math.inf),
+                      ("f_max", math.nan), ("f_max", -1.0), ("kd", math.nan), ("kp", -1.0)):
+        with pytest.raises(InvalidInputError):
+            setattr(contact, attr, bad)
+    with pytest.raises(InvalidInputError):
+        contact.corners = np.zeros((4, 3))
+    with pytest.raises(ValueError):
+        contact.corners[0, 0] = 1.0  # read-only array: the sole size is fixed
+    for attr, bad in (("kp", math.nan), ("kd", -1.0), ("weight", "heavy"), ("weight", math.nan)):
+        with pytest.raises(InvalidInputError):
+            setattr(ctrl.com, attr, bad)
+    for bad in (math.nan, -1.0, "x"):
+        with pytest.raises(InvalidInputError):
+            ctrl.set_max_normal_force("left", bad)
+
+
+@pytest.mark.parametrize("solver", ["fast", "daqp"])
+def test_mu_assigned_after_construction_takes_effect(robots, solver):
+    """Item 5: μ = 0.05 assigned after construction; a lateral CoM acceleration that needs more friction than that
+    (1 m/s² against μ/√2 g ≈ 0.35 m/s²). Every corner force stays in the new cone (‖f_t‖ ≤ μ f_z, checked here
+    from the forces), and the tangential forces are not zero (the cone binds)."""
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=solver, mu=0.7)
+    mu = 0.05
+    for contact in ctrl.contacts.values():
+        contact.mu = mu
+    ctrl.set_com_reference(ctrl.com_ref, acceleration=[1.0, 0.5, 0.0])
+    for _ in range(3):
+        cmd = ctrl.compute(q, v)
+        assert cmd.ok, cmd.message
+        f = cmd.forces.reshape(-1, 3)
+        tangential = np.hypot(f[:, 0], f[:, 1])
+        assert np.all(tangential <= mu * f[:, 2] + 1e-6), np.max(tangential - mu * f[:, 2])
+        assert tangential.max() > 1.0  # the task pulls sideways: the cone is what limits it
+
+
+class _WrongForces(QPBackend):
+    """A backend whose answers put −50 N on a corner's normal force (a solver bug stand-in)."""
+
+    name = "wrong"
+
+    def __init__(self, nv):
+        self.inner = DaqpBackend()
+        self.nv = nv
+
+    def _solve(self, *args):
+        return None
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm=True):
+        x = self.inner.solve(H, g, A, b, C, l, u, lb, ub).copy()
+        x[self.nv + 2] = -50.0
+        return x
+
+
+def test_command_violating_a_bound_is_never_ok(robots):
+    """Item 1: a solver answer with a negative normal force is caught by the output check: the tick is not ok, names
+    the sole's unilaterality, and the safe command is finite and within the effort limits."""
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=_WrongForces(robot.nv))
+    cmd = ctrl.compute(q, v)
+    assert not cmd.ok and cmd.path == "fallback:gravity"
+    assert "unilaterality:left" in [n for n, _ in cmd.conflicts], cmd.conflicts
+    _finite_and_within_effort(cmd, robot)
+
+
+@pytest.mark.parametrize("solver", ["fast", "daqp"])
+def test_nan_written_in_place_is_never_ok(robots, solver):
+    """Item 1: a NaN written in place into a task's weight array (past every setter): the tick falls back, names
+    the task, and the next tick after the repair is ok again (no latch)."""
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=solver)
+    ctrl.com.weight[0] = math.nan
+    cmd = ctrl.compute(q, v)
+    assert not cmd.ok and cmd.path == "fallback:gravity"
+    assert "task:com" in [n for n, _ in cmd.conflicts], cmd.conflicts
+    _finite_and_within_effort(cmd, robot)
+    ctrl.com.weight = 1000.0
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok and cmd.path == ("kernel" if solver == "fast" else "general:daqp")
+
+
+def _hard_posture_qp(robot, solver="daqp"):
+    """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: infeasible (the static
+    torques need more, HiGHS in tests/test_id_diagnosis.py), feasible once the torque limits are relaxed."""
+    from wbc.dynamics import InverseDynamicsQP, PostureAccelerationTask, SoleContact
+    from wbc.tasks import PostureTask
+
+    posture = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
+    posture.set_target(robot.q_ref)
+    soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
+    qp = InverseDynamicsQP(robot, [], soles, solver=solver, torque_limit_scale=0.2)
+    qp.add_task(posture, hard=True)
+    return qp, posture
+
+
+class _Spy:
+    def __init__(self, fn):
+        self.fn, self.calls = fn, 0
+
+    def __call__(self, *args, **kwargs):
+        self.calls += 1
+        return self.fn(*args, **kwargs)
+
+
+def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robots):
+    """Item 7: a failing tick runs no independent re-solve (the backend's confirm is never called on the control
+    path); with its budget used up after the full QP it takes the safe command without trying the relaxed QP; with
+    an unbounded budget the relaxed QP gives the command; the controller does not latch (the next feasible tick is
+    ok on the full QP); the names of the conflict are available off the path (diagnose())."""
+    from wbc.dynamics import InverseDynamicsController
+
+    robot = robots("talos")
+    q, v = robot.q_ref, np.zeros(robot.nv)
+    qp, posture = _hard_posture_qp(robot)
+    confirm = qp.backend.confirm = _Spy(qp.backend.confirm)
+    relaxed = qp.solve_relaxed = _Spy(qp.solve_relaxed)
+    ctrl = InverseDynamicsController(qp, DT, budget=1e-9)
+    cmd = ctrl.tick(q, v)
+    assert not cmd.ok and cmd.path == "fallback:gravity" and "budget" in cmd.message
+    assert confirm.calls == 0 and relaxed.calls == 0
+    _finite_and_within_effort(cmd, robot)
+    names = [n for n, _ in ctrl.diagnose()]
+    assert "torque_limits" in names and "task:posture" in names, names
+    summary = ctrl.summary()
+    assert summary["ticks"] == 1 and summary["fallback_rate"] == 1.0 and summary["paths"] == {"fallback:gravity": 1}
+
+    ctrl.budget = math.inf
+    cmd = ctrl.tick(q, v)
+    assert cmd.ok and cmd.relaxed and cmd.path == "relaxed:daqp" and relaxed.calls == 1 and confirm.calls == 0
+    qp.remove_task(posture)  # feasible again: the next tick is the full QP
+    cmd = ctrl.tick(q, v)
+    assert cmd.ok and not cmd.relaxed and cmd.path == "general:daqp"
+
+
+def test_budget_is_validated(robots):
+    from wbc.dynamics import InverseDynamicsController
+
+    qp, _ = _hard_posture_qp(robots("talos"))
+    for bad in (0.0, -1.0, math.nan, "1ms", True):
+        with pytest.raises(InvalidInputError):
+            InverseDynamicsController(qp, DT, budget=bad)
+
+
+def _highs_feasible(A, b, C, l, u, lb, ub) -> bool:
+    import scipy.optimize as so
+
+    fu, fl = np.isfinite(u), np.isfinite(l)
+    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
+    r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
+                   A_eq=A, b_eq=b, bounds=bounds, method="highs")
+    return r.status == 0
+
+
+def test_daqp_solves_recorded_single_support_problem(robots):
+    """Item 6: a QP recorded from the ID fuzz (humanoid15, left foot released, ``solver="daqp"``) that DAQP
+    reported infeasible although HiGHS finds its hard set feasible. Its released contact's friction rows were
+    0 ≤ 0 on forces the bounds already fix at 0 (always active, dependent on those bounds). Written as the
+    formulation writes an inactive contact's pyramid, DAQP (the ID settings) solves it, and the solution meets
+    every row of the recorded problem to 1e-6 (checked here, scaled by max(1, |rhs|))."""
+    from pathlib import Path
+
+    from wbc.constraints.dynamics import FrictionPyramid
+    from wbc.dynamics import SoleContact
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_single_support_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    robot = robots("humanoid15")
+    released = SoleContact(robot, robot.left_sole, name="left")
+    released.deactivate()
+    r0, off = int(d["inactive_rows"][0]), int(d["inactive_offset"])
+    assert np.all(lb[off:off + 12] == 0) and np.all(ub[off:off + 12] == 0)  # the recorded contact is released
+    C2, l2, u2 = C.copy(), l.copy(), u.copy()
+    FrictionPyramid(released, off).write(None, C2[r0:r0 + 16], l2[r0:r0 + 16], u2[r0:r0 + 16])
+    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C2, l2, u2, lb, ub)
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(x >= lb - 1e-9) and np.all(x <= ub + 1e-9)

@@ -1,0 +1,35 @@
+"""Exit codes shared by the in-house QP kernels (:mod:`wbc.fastqp`, :mod:`wbc.formulations.idkernel`).
+
+A kernel returns a count ≥ 0 (iterations or working rows) on success and one negative :class:`SolverStatus`
+otherwise; one code means one thing in every kernel. Compiled kernels read the plain ``int`` values (module
+constants ``int(SolverStatus.X)``), which numba freezes at compile time.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+__all__ = ["SolverStatus"]
+
+
+class SolverStatus(IntEnum):
+    """Negative exit codes of the in-house QP kernels.
+
+    Members:
+        NOT_POSITIVE_DEFINITE: a Hessian (or reduced Hessian) factorisation failed.
+        DEPENDENT_ROWS: an equality or working-set row is (numerically) dependent on the others.
+        ITERATION_CAP: the active-set loop reached its iteration cap.
+        NOT_REDUCIBLE: the floating base cannot be eliminated (kinematic tick).
+        RESIDUAL: the solution's equality or inequality residual is above the tolerance (kinematic tick).
+        INFEASIBLE: a violated constraint that no working row can make room for (the constraints admit no
+            solution, up to the kernel's tolerance; the caller's general solver decides).
+        NOT_VERIFIED: the final KKT check (multiplier signs, residuals) did not pass (inverse-dynamics tick).
+    """
+
+    NOT_POSITIVE_DEFINITE = -1
+    DEPENDENT_ROWS = -2
+    ITERATION_CAP = -3
+    NOT_REDUCIBLE = -4
+    RESIDUAL = -5
+    INFEASIBLE = -6
+    NOT_VERIFIED = -7
