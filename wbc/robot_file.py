@@ -1,0 +1,388 @@
+"""Robot files: the TOML description of a humanoid (``robots/*.toml``, ``--robot my_robot.toml``), read into a
+typed :class:`RobotSpec`.
+
+A robot file names the URDF (path relative to the file, absolute, or ``erd:<path>`` inside example-robot-data),
+the optional SRDF and reference posture, the semantic frames (soles, torso, hands), frames to add, the sole
+rectangle, gait defaults and MuJoCo options. Every key is documented in ``docs/robot_file.md``. The loader
+refuses unknown keys (naming the closest valid one), wrong types, NaN/inf and out-of-range values with a
+:class:`~wbc.exceptions.RobotDescriptionError` that names the file, the key and what would be valid; it does not
+load the URDF (that is :func:`wbc.robot.load_robot`, which resolves the paths and builds the Pinocchio model).
+
+The module also checks that an URDF or SRDF is well-formed XML before Pinocchio parses it
+(:func:`check_xml`), so that a malformed file is reported with the XML parser's line and column.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
+
+__all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
+           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET"]
+
+#: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
+TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand",
+            "package_dirs", "base_rpy", "sole", "frames", "reference_joints", "gait", "mujoco")
+#: Keys of the ``[gait]`` table (keyword arguments of :func:`wbc.gait.plan_walk`) and their valid ranges.
+GAIT_KEYS = {"step_length": (0.0, 1.0), "step_height": (0.0, 0.5), "t_ss": (0.05, 5.0), "t_ds": (0.0, 5.0)}
+#: ``[mujoco] meshes``: how meshes MuJoCo cannot read (Collada, ...) are handled.
+MUJOCO_MESHES = ("convert", "collision")
+#: ``[mujoco] foot``: the plant's foot contact geometry.
+MUJOCO_FEET = ("urdf", "box")
+_SOLE_KEYS = ("length", "width")
+_FRAME_KEYS = ("name", "parent", "xyz", "rpy")
+_MUJOCO_KEYS = ("meshes", "foot", "armature")
+
+
+@dataclass(frozen=True)
+class FrameSpec:
+    """A frame added to the URDF's: ``name`` fixed to frame ``parent`` at translation ``xyz`` (m) and roll-pitch-yaw
+    ``rpy`` (rad, fixed axes X then Y then Z) in the parent frame."""
+
+    name: str
+    parent: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class MujocoOptions:
+    """Options of the MuJoCo plant built from the URDF (:func:`wbc.sim.mujoco_model.build_mujoco_model`).
+
+    Attributes:
+        meshes: ``"convert"``: meshes MuJoCo cannot read (``.dae``...) are converted to STL with trimesh into a
+            cache folder; ``"collision"``: visual meshes are dropped and unreadable collision meshes are replaced by
+            their bounding box (with a warning).
+        foot: ``"urdf"``: the feet touch the ground through the robot's own foot collision geometry; ``"box"``: a
+            thin box of the controller's sole rectangle.
+        armature: rotor inertia (kg·m²) added to every actuated joint, in Pinocchio and MuJoCo alike (≥ 0).
+    """
+
+    meshes: str = "convert"
+    foot: str = "box"
+    armature: float = 0.0
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """The content of a robot file, typed and range-checked; paths are as written (``erd:`` / relative to
+    ``base_dir``), resolved by :func:`wbc.robot.load_robot`.
+
+    Attributes:
+        name: robot name (default: the file stem).
+        base_dir: folder of the robot file (relative paths and ``package://`` are resolved from it).
+        urdf, srdf: file paths as written (``srdf`` may be None).
+        reference: name of the SRDF ``group_state`` used as the reference posture (None: ``reference_joints``).
+        reference_joints: joint name → angle (rad) set on top of the reference posture.
+        left_sole, right_sole, torso: frame names (required); left_hand, right_hand: optional frame names.
+        sole_length, sole_width: contact rectangle (m), None to derive it from the feet's collision geometry.
+        frames: frames to add to the URDF's.
+        package_dirs: extra folders for ``package://`` URIs (relative to ``base_dir``).
+        base_rpy: orientation (rad, roll-pitch-yaw) of the floating base in the reference posture; a Y-up URDF
+            stands with ``[1.5707963, 0, 0]``.
+        gait: default walk parameters (subset of :data:`GAIT_KEYS`).
+        mujoco: plant options.
+        source: the file read (None for a spec built in code).
+    """
+
+    name: str
+    base_dir: Path
+    urdf: str
+    left_sole: str | None = None
+    right_sole: str | None = None
+    torso: str | None = None
+    srdf: str | None = None
+    reference: str | None = None
+    reference_joints: dict[str, float] = field(default_factory=dict)
+    left_hand: str | None = None
+    right_hand: str | None = None
+    sole_length: float | None = None
+    sole_width: float | None = None
+    frames: tuple[FrameSpec, ...] = ()
+    package_dirs: tuple[str, ...] = ()
+    base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gait: dict[str, float] = field(default_factory=dict)
+    mujoco: MujocoOptions = field(default_factory=MujocoOptions)
+    source: Path | None = None
+
+    def with_overrides(self, **overrides) -> "RobotSpec":
+        """A copy with the given fields replaced (None values are ignored); each value is checked as if read from
+        the file.
+
+        Raises:
+            RobotDescriptionError: an unknown field or an invalid value.
+        """
+        where = "override"
+        valid = {f for f in self.__dataclass_fields__ if f not in ("base_dir", "source", "frames", "mujoco")}
+        clean = {}
+        for key, value in overrides.items():
+            if key not in valid:
+                raise RobotDescriptionError(f"{where}: unknown robot field {key!r}; valid: {sorted(valid)}")
+            if value is None or (key in ("package_dirs", "reference_joints") and not value):
+                continue
+            if key in ("sole_length", "sole_width"):
+                value = _number(value, f"{where} {key}", lo=0.0, lo_open=True, hi=1.0)
+            elif key == "reference_joints":
+                value = _joint_table(value, where)
+            elif key == "package_dirs":
+                value = tuple(self.package_dirs) + tuple(str(p) for p in value)
+            elif key == "base_rpy":
+                value = _vector(value, f"{where} base_rpy")
+            elif key == "gait":
+                value = _gait(value, where)
+            else:
+                value = _string(value, f"{where} {key}")
+            clean[key] = value
+        return replace(self, **clean)
+
+
+def _fail(where: str, msg: str) -> RobotDescriptionError:
+    return RobotDescriptionError(f"{where}: {msg}")
+
+
+def _unknown(where: str, table: str, key: str, valid) -> RobotDescriptionError:
+    close = difflib.get_close_matches(key, list(valid), n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return _fail(where, f"unknown key {key!r} in {table}{hint}; valid keys: {list(valid)}")
+
+
+def _string(value, where: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise _fail(where, f"must be a non-empty string, got {value!r}")
+    return value
+
+
+def _number(value, where: str, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+        raise _fail(where, f"must be a finite number, got {value!r}")
+    v = float(value)
+    if lo is not None and (v < lo or (lo_open and v <= lo)) or hi is not None and v > hi:
+        lo_s = "" if lo is None else f"{lo} {'<' if lo_open else '<='} "
+        hi_s = "" if hi is None else f" <= {hi}"
+        raise _fail(where, f"{v} out of range (valid: {lo_s}value{hi_s})")
+    return v
+
+
+def _vector(value, where: str) -> tuple[float, float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise _fail(where, f"must be a list of 3 numbers, got {value!r}")
+    return tuple(_number(x, f"{where}[{i}]") for i, x in enumerate(value))  # type: ignore[return-value]
+
+
+def _table(value, where: str) -> dict:
+    if not isinstance(value, dict):
+        raise _fail(where, f"must be a table, got {type(value).__name__} {value!r}")
+    return value
+
+
+def _joint_table(value, where: str) -> dict[str, float]:
+    value = _table(value, f"{where} [reference_joints]")
+    return {_string(k, f"{where} [reference_joints] key"): _number(v, f"{where} [reference_joints] {k}")
+            for k, v in value.items()}
+
+
+def _gait(value, where: str) -> dict[str, float]:
+    value = _table(value, f"{where} [gait]")
+    out = {}
+    for k, v in value.items():
+        if k not in GAIT_KEYS:
+            raise _unknown(where, "[gait]", k, GAIT_KEYS)
+        lo, hi = GAIT_KEYS[k]
+        out[k] = _number(v, f"{where} [gait] {k}", lo=lo, hi=hi, lo_open=k == "t_ss")
+    return out
+
+
+def parse_robot_spec(desc: dict, *, base_dir: Path, name: str, where: str, source: Path | None = None) -> RobotSpec:
+    """Check a robot-file table (as parsed from TOML) and return its :class:`RobotSpec`.
+
+    Raises:
+        RobotDescriptionError: an unknown key, a missing required key, a wrong type, NaN/inf or an out-of-range
+            value; the message starts with ``where`` and names the key and what is valid.
+    """
+    for k in desc:
+        if k not in TOP_KEYS:
+            raise _unknown(where, "the top level", k, TOP_KEYS)
+    if "urdf" not in desc:
+        raise _fail(where, "missing key 'urdf' (path of the URDF, relative to the robot file, or erd:<path> in "
+                           "example-robot-data)")
+    kw: dict = {}
+    for k in ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand"):
+        if k in desc:
+            kw[k] = _string(desc[k], f"{where} {k}")
+    for k in ("left_sole", "right_sole", "torso"):
+        if k not in kw:
+            raise _fail(where, f"missing key {k!r} (a frame name of the URDF, or one added under [[frames]]); "
+                               f"`wbc robot init my.urdf` writes a starting file with the frames it finds")
+    if "reference" in kw and "srdf" not in kw:
+        raise _fail(where, f"reference = {kw['reference']!r} needs an srdf = \"...\" with that group_state")
+    if "package_dirs" in desc:
+        dirs = desc["package_dirs"]
+        if not isinstance(dirs, list):
+            raise _fail(where, f"package_dirs must be a list of folder paths, got {dirs!r}")
+        kw["package_dirs"] = tuple(_string(d, f"{where} package_dirs[{i}]") for i, d in enumerate(dirs))
+    if "base_rpy" in desc:
+        kw["base_rpy"] = _vector(desc["base_rpy"], f"{where} base_rpy")
+    if "sole" in desc:
+        sole = _table(desc["sole"], f"{where} [sole]")
+        for k, v in sole.items():
+            if k not in _SOLE_KEYS:
+                raise _unknown(where, "[sole]", k, _SOLE_KEYS)
+            kw[f"sole_{k}"] = _number(v, f"{where} [sole] {k} (m)", lo=0.0, lo_open=True, hi=1.0)
+    if "frames" in desc:
+        frames = desc["frames"]
+        if not isinstance(frames, list):
+            raise _fail(where, "frames must be an array of tables ([[frames]] with name, parent, xyz, rpy)")
+        out = []
+        for i, fr in enumerate(frames):
+            w = f"{where} [[frames]] #{i + 1}"
+            fr = _table(fr, w)
+            for k in fr:
+                if k not in _FRAME_KEYS:
+                    raise _unknown(where, f"[[frames]] #{i + 1}", k, _FRAME_KEYS)
+            for k in ("name", "parent"):
+                if k not in fr:
+                    raise _fail(w, f"missing key {k!r}")
+            out.append(FrameSpec(_string(fr["name"], f"{w} name"), _string(fr["parent"], f"{w} parent"),
+                                 _vector(fr.get("xyz", [0, 0, 0]), f"{w} xyz"),
+                                 _vector(fr.get("rpy", [0, 0, 0]), f"{w} rpy")))
+        names = [f.name for f in out]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise _fail(where, f"[[frames]] names {dup} given more than once")
+        kw["frames"] = tuple(out)
+    if "reference_joints" in desc:
+        kw["reference_joints"] = _joint_table(desc["reference_joints"], where)
+    if "gait" in desc:
+        kw["gait"] = _gait(desc["gait"], where)
+    if "mujoco" in desc:
+        mj = _table(desc["mujoco"], f"{where} [mujoco]")
+        for k in mj:
+            if k not in _MUJOCO_KEYS:
+                raise _unknown(where, "[mujoco]", k, _MUJOCO_KEYS)
+        opts = {}
+        for k, choices in (("meshes", MUJOCO_MESHES), ("foot", MUJOCO_FEET)):
+            if k in mj:
+                if mj[k] not in choices:
+                    raise _fail(where, f"[mujoco] {k} = {mj[k]!r}; valid: {list(choices)}")
+                opts[k] = mj[k]
+        if "armature" in mj:
+            opts["armature"] = _number(mj["armature"], f"{where} [mujoco] armature (kg·m²)", lo=0.0, hi=10.0)
+        kw["mujoco"] = MujocoOptions(**opts)
+    kw.setdefault("name", name)
+    return RobotSpec(base_dir=base_dir, source=source, **kw)
+
+
+def load_robot_file(path: str | Path) -> RobotSpec:
+    """Read and check a robot file (TOML, format in ``docs/robot_file.md``).
+
+    Args:
+        path: the ``.toml`` file.
+
+    Returns:
+        Its :class:`RobotSpec` (paths not yet resolved, the URDF not yet loaded).
+
+    Raises:
+        RobotFileNotFoundError: no such file.
+        RobotDescriptionError: malformed TOML (with the parser's line and column), or any key problem listed in
+            :func:`parse_robot_spec`.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RobotFileNotFoundError(f"robot file not found: {path}")
+    try:
+        with path.open("rb") as f:
+            desc = tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotDescriptionError(f"{path}: malformed TOML: {exc}") from exc
+    return parse_robot_spec(desc, base_dir=path.resolve().parent, name=path.stem, where=str(path), source=path)
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(round(v, 6))
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return str(v)
+
+
+def spec_to_toml(spec: RobotSpec, comments: dict[str, str] | None = None) -> str:
+    """The TOML text of ``spec`` (the inverse of :func:`load_robot_file`), with an optional ``# comment`` line
+    above each key named in ``comments`` (key names as in the file: ``urdf``, ``sole``, ``frames``...)."""
+    comments = comments or {}
+    lines: list[str] = []
+
+    def note(key):
+        for c in comments.get(key, "").splitlines():
+            lines.append(f"# {c}")
+
+    note("header")
+    for k in ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand"):
+        v = getattr(spec, k)
+        if v is not None:
+            note(k)
+            lines.append(f"{k} = {_toml_value(v)}")
+    if spec.package_dirs:
+        lines.append(f"package_dirs = {_toml_value(list(spec.package_dirs))}")
+    if any(spec.base_rpy):
+        note("base_rpy")
+        lines.append(f"base_rpy = {_toml_value(list(spec.base_rpy))}")
+    if spec.sole_length is not None or spec.sole_width is not None:
+        lines.append("")
+        note("sole")
+        lines.append("[sole]")
+        for k in ("length", "width"):
+            v = getattr(spec, f"sole_{k}")
+            if v is not None:
+                lines.append(f"{k} = {_toml_value(v)}")
+    for fr in spec.frames:
+        lines.append("")
+        note(f"frames.{fr.name}")
+        lines += ["[[frames]]", f"name = {_toml_value(fr.name)}", f"parent = {_toml_value(fr.parent)}",
+                  f"xyz = {_toml_value(list(fr.xyz))}", f"rpy = {_toml_value(list(fr.rpy))}"]
+    if spec.reference_joints:
+        lines += ["", "[reference_joints]"]
+        lines += [f"{k} = {_toml_value(float(v))}" for k, v in spec.reference_joints.items()]
+    if spec.gait:
+        lines.append("")
+        note("gait")
+        lines.append("[gait]")
+        lines += [f"{k} = {_toml_value(float(v))}" for k, v in spec.gait.items()]
+    lines.append("")
+    note("mujoco")
+    lines += ["[mujoco]", f"meshes = {_toml_value(spec.mujoco.meshes)}", f"foot = {_toml_value(spec.mujoco.foot)}",
+              f"armature = {_toml_value(float(spec.mujoco.armature))}", ""]
+    return "\n".join(lines)
+
+
+def check_xml(path: Path, kind: str) -> ET.ElementTree:
+    """Parse ``path`` as XML and return the tree.
+
+    Args:
+        path: an URDF or SRDF file.
+        kind: ``"URDF"`` or ``"SRDF"`` (for the message), with the expected root element ``robot``.
+
+    Raises:
+        RobotDescriptionError: not well-formed XML (the message gives the parser's line and column), or a root
+            element other than ``<robot>``.
+    """
+    try:
+        tree = ET.parse(path)
+    except ET.ParseError as exc:
+        line, col = exc.position
+        raise RobotDescriptionError(
+            f"{kind} {path}:{line}:{col + 1}: malformed XML ({exc.msg if hasattr(exc, 'msg') else exc}); fix the "
+            f"file at that line") from exc
+    root = tree.getroot()
+    if root.tag != "robot":
+        raise RobotDescriptionError(f"{kind} {path}: root element is <{root.tag}>, expected <robot>")
+    return tree
