@@ -275,6 +275,34 @@ def build_robot(spec: RobotSpec) -> Robot:
     return robot
 
 
+def _check_group_state(srdf: Path, tree, reference: str, model: pin.Model) -> None:
+    """Every joint of the SRDF ``group_state`` ``reference`` is a joint of the URDF with a numeric value (Pinocchio
+    skips unknown names silently).
+
+    Raises:
+        RobotDescriptionError: names the unknown joints (with close matches) or the non-numeric values.
+    """
+    known = set(model.names) | {f.name for f in model.frames if f.type == pin.FrameType.FIXED_JOINT}
+    for state in tree.getroot().iter("group_state"):
+        if state.get("name") != reference:
+            continue
+        for joint in state.iter("joint"):
+            name, value = joint.get("name"), joint.get("value")
+            if name not in known:
+                close = difflib.get_close_matches(str(name), sorted(known), n=3)
+                raise RobotDescriptionError(
+                    f"SRDF {srdf}: group_state {reference!r} sets joint {name!r}, which is not in the URDF; close "
+                    f"matches: {close}")
+            try:
+                values = [float(x) for x in str(value).split()]
+            except ValueError:
+                values = []
+            if not values or not all(math.isfinite(x) for x in values):
+                raise RobotDescriptionError(
+                    f"SRDF {srdf}: group_state {reference!r} joint {name!r} has value {value!r}; give finite "
+                    f"numbers (rad or m)")
+
+
 def _check_upright(robot: Robot, q: np.ndarray) -> None:
     """Diagnose a model that is not z-up in its reference posture: the soles must lie below the floating base
     (along −z), not beside it.
@@ -340,8 +368,7 @@ def _build(
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     check_xml(urdf, "URDF")
-    if srdf is not None:
-        check_xml(srdf, "SRDF")
+    srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
     dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
     try:
         model, collision_model, visual_model = pin.buildModelsFromUrdf(
@@ -401,6 +428,7 @@ def _build(
         names = [entry.key() for entry in model.referenceConfigurations]
         if reference not in names:
             raise RobotDescriptionError(f"SRDF {srdf} has no reference configuration {reference!r}; has {names}")
+        _check_group_state(srdf, srdf_tree, reference, model)
         q = np.array(model.referenceConfigurations[reference], dtype=float)
     for jname, angle in reference_joints.items():
         jid = robot.joint_id(jname)

@@ -27,7 +27,7 @@ def register(subparsers, add_outputs=None) -> None:
     p.add_argument("--ticks", type=int, default=2000, help="timed ticks per run (default 2000)")
     p.add_argument("--repeats", type=int, default=5, help="interleaved repeats per library (default 5)")
     p.add_argument("--warmup", type=int, default=100, help="untimed ticks before each run (default 100)")
-    p.add_argument("--robot", default="talos", help="robot of the comparisons (default talos)")
+    p.add_argument("--robot", default="talos", help="robot of the comparisons: catalog name or robot file (.toml) (default talos)")
     p.add_argument("--out-dir", type=Path, default=Path("benchmarks/results"),
                    help="folder for results.json, results.md, latency.png (default benchmarks/results)")
     p.add_argument("--sections", nargs="+", choices=SECTIONS, default=None, metavar="SECTION",
