@@ -15,6 +15,8 @@ import importlib.metadata
 import importlib.resources
 import math
 import tomllib
+import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -29,7 +31,7 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
-from wbc.robot_file import RobotSpec, check_xml, load_robot_file
+from wbc.robot_file import RobotSpec, check_xml, load_robot_file, physical_inertials
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
@@ -92,6 +94,10 @@ class Robot:
         gait: default walking parameters for this robot (keyword arguments of ``wbc.gait.plan_walk``: step
             length, height, timing...), from the descriptor's ``[gait]`` table.
         spec: the robot file's content it was built from (with the overrides applied), incl. MuJoCo options.
+        urdf_xml: the URDF text actually loaded when its inertials had to be made physical (massless moving links,
+            point masses: :func:`wbc.robot_file.physical_inertials`), None when the file was loaded as is; the
+            MuJoCo plant loads the same text.
+        inertia_fixes: one sentence per link whose inertial was changed.
     """
 
     name: str
@@ -112,6 +118,8 @@ class Robot:
     added_frames: dict[str, tuple[str, pin.SE3]] = field(default_factory=dict)
     gait: dict[str, float] = field(default_factory=dict)
     spec: RobotSpec | None = None
+    urdf_xml: str | None = None
+    inertia_fixes: list[str] = field(default_factory=list)
 
     @property
     def nq(self) -> int:
@@ -286,13 +294,19 @@ def _check_group_state(srdf: Path, tree, reference: str, model: pin.Model) -> No
     for state in tree.getroot().iter("group_state"):
         if state.get("name") != reference:
             continue
+        unknown = [j.get("name") for j in state.iter("joint") if j.get("name") not in known]
+        if unknown and len(unknown) == len(list(state.iter("joint"))):
+            close = difflib.get_close_matches(str(unknown[0]), sorted(known), n=3)
+            raise RobotDescriptionError(
+                f"SRDF {srdf}: group_state {reference!r} sets no joint of the URDF (e.g. {unknown[0]!r}; close "
+                f"matches {close}): it describes another robot")
+        if unknown:  # SRDFs shared by several URDF variants name joints some variants lack
+            warnings.warn(f"SRDF {srdf}: group_state {reference!r} sets {len(unknown)} joints that are not in the "
+                          f"URDF (ignored): {unknown[:5]}", stacklevel=4)
         for joint in state.iter("joint"):
             name, value = joint.get("name"), joint.get("value")
             if name not in known:
-                close = difflib.get_close_matches(str(name), sorted(known), n=3)
-                raise RobotDescriptionError(
-                    f"SRDF {srdf}: group_state {reference!r} sets joint {name!r}, which is not in the URDF; close "
-                    f"matches: {close}")
+                continue
             try:
                 values = [float(x) for x in str(value).split()]
             except ValueError:
@@ -367,13 +381,26 @@ def _build(
     if not all(x is None or (isinstance(x, (int, float)) and math.isfinite(x) and x > 0)
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
-    check_xml(urdf, "URDF")
+    urdf_tree = check_xml(urdf, "URDF")
     srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
     dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
+    inertia_fixes = physical_inertials(urdf_tree.getroot())
+    urdf_xml = None
+    if inertia_fixes:  # Pinocchio and MuJoCo both load the corrected text (wbc.robot_file.physical_inertials)
+        for mesh in urdf_tree.getroot().iter("mesh"):
+            ref = mesh.get("filename", "")
+            if ref and "://" not in ref and not Path(ref).is_absolute():
+                mesh.set("filename", str((urdf.parent / ref).resolve()))
+        urdf_xml = ET.tostring(urdf_tree.getroot(), encoding="unicode")
     try:
-        model, collision_model, visual_model = pin.buildModelsFromUrdf(
-            str(urdf), dirs, pin.JointModelFreeFlyer()
-        )
+        if urdf_xml is None:
+            model, collision_model, visual_model = pin.buildModelsFromUrdf(
+                str(urdf), dirs, pin.JointModelFreeFlyer()
+            )
+        else:
+            model = pin.buildModelFromXML(urdf_xml, pin.JointModelFreeFlyer())
+            collision_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.COLLISION, None, dirs)
+            visual_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.VISUAL, None, dirs)
     except (ValueError, RuntimeError) as exc:  # urdfdom/Pinocchio parse errors carry the reason in the message
         text = str(exc)
         if "mesh" in text.lower() and ("not found" in text.lower() or "could not" in text.lower()):
@@ -394,6 +421,8 @@ def _build(
             pin.Frame(fname, pframe.parentJoint, pid, pframe.placement * placement, pin.FrameType.OP_FRAME)
         )
     robot = Robot(
+        urdf_xml=urdf_xml,
+        inertia_fixes=inertia_fixes,
         name=name,
         model=model,
         collision_model=collision_model,

@@ -24,7 +24,8 @@ from pathlib import Path
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
-           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET"]
+           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "MIN_LINK_MASS",
+           "INERTIA_RADIUS"]
 
 #: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
 TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand",
@@ -386,3 +387,88 @@ def check_xml(path: Path, kind: str) -> ET.ElementTree:
     if root.tag != "robot":
         raise RobotDescriptionError(f"{kind} {path}: root element is <{root.tag}>, expected <robot>")
     return tree
+
+
+#: Mass (kg) given to a URDF link moved by a joint that has no mass (MuJoCo refuses massless moving bodies).
+MIN_LINK_MASS = 1e-3
+#: Radius (m) of the solid sphere whose inertia 2/5 m r² is the floor of a link's principal moments.
+INERTIA_RADIUS = 0.01
+
+
+def physical_inertials(root: ET.Element) -> list[str]:
+    """Make every link's ``<inertial>`` physical, in place, so that Pinocchio and MuJoCo (which refuses the
+    others) load the same masses:
+
+    * a link moved by a non-fixed joint with no ``<inertial>`` or a mass ≤ 0 gets ``MIN_LINK_MASS`` kg at its
+      origin;
+    * for a link moved by a joint, a principal moment below 2/5 · m · ``INERTIA_RADIUS``² (a point mass, a zero or non-positive-definite
+      matrix) is raised to it, and a moment larger than the sum of the other two (triangle inequality) is lowered
+      to that sum; the principal axes are kept.
+
+    Args:
+        root: the ``<robot>`` element of a URDF.
+
+    Returns:
+        one sentence per link changed (empty: the URDF was already physical).
+    """
+    import numpy as np
+
+    moving = {j.find("child").get("link") for j in root.iter("joint")
+              if j.get("type") not in ("fixed", None) and j.find("child") is not None}
+    notes = []
+    for link in root.iter("link"):
+        name = link.get("name")
+        inertial = link.find("inertial")
+        mass_el = inertial.find("mass") if inertial is not None else None
+        try:
+            mass = float(mass_el.get("value")) if mass_el is not None else 0.0
+        except (TypeError, ValueError):
+            raise RobotDescriptionError(f"URDF link {name!r}: <mass value={mass_el.get('value')!r}> is not a "
+                                        f"number") from None
+        if not math.isfinite(mass):
+            raise RobotDescriptionError(f"URDF link {name!r}: mass {mass} is not finite")
+        if mass <= 0.0:
+            if name not in moving:
+                continue
+            if inertial is None:
+                inertial = ET.SubElement(link, "inertial")
+            for child in list(inertial):
+                inertial.remove(child)
+            ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
+            ET.SubElement(inertial, "mass", value=repr(MIN_LINK_MASS))
+            i0 = 0.4 * MIN_LINK_MASS * INERTIA_RADIUS**2
+            ET.SubElement(inertial, "inertia", ixx=repr(i0), iyy=repr(i0), izz=repr(i0), ixy="0", ixz="0", iyz="0")
+            notes.append(f"link {name!r} (moved by a joint) has no mass: given {MIN_LINK_MASS} kg, a sphere of "
+                         f"radius {INERTIA_RADIUS} m at its origin")
+            continue
+        if name not in moving:
+            continue  # a fixed link's inertia is merged into its moving parent's, by Pinocchio and MuJoCo alike
+        el = inertial.find("inertia")
+        keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        try:
+            v = {k: float(el.get(k, 0.0)) if el is not None else 0.0 for k in keys}
+        except (TypeError, ValueError):
+            raise RobotDescriptionError(f"URDF link {name!r}: an <inertia> value is not a number") from None
+        if not all(math.isfinite(x) for x in v.values()):
+            raise RobotDescriptionError(f"URDF link {name!r}: <inertia> {v} is not finite")
+        mat = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                        [v["ixz"], v["iyz"], v["izz"]]])
+        lam, vec = np.linalg.eigh(mat)
+        floor = 0.4 * mass * INERTIA_RADIUS**2
+        fixed = np.maximum(lam, floor)
+        for _ in range(3):
+            for i in range(3):
+                others = fixed.sum() - fixed[i]
+                if fixed[i] > others:
+                    fixed[i] = others
+        if np.allclose(fixed, lam, rtol=1e-9, atol=1e-12 * max(1.0, float(np.abs(lam).max()))):
+            continue
+        new = vec @ np.diag(fixed) @ vec.T
+        if el is None:
+            el = ET.SubElement(inertial, "inertia")
+        for k, (a, b) in zip(keys, ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+            el.set(k, repr(float(new[a, b])))
+        notes.append(f"link {name!r}: principal moments {np.round(lam, 9).tolist()} kg·m² are not physical "
+                     f"(each > 0, each ≤ the sum of the other two); raised/lowered to "
+                     f"{np.round(fixed, 9).tolist()}")
+    return notes

@@ -150,43 +150,44 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         while j > 1 and _geometry_points_world(model, data, cmodel, j) is None:
             j = model.parents[j]
         feet.append(j if j > 1 else tip)
-    # forward: the long horizontal axis of the foot's contact patch, towards the toes (away from the ankle)
-    pts = _geometry_points_world(model, data, cmodel, feet[0])
+    # lateral axis: the horizontal axis separating the feet; left/right from the link names when they say so,
+    # then forward = left × up (x = y × z); else forward from the toes (the foot's contact patch reaches further
+    # in front of the ankle than behind it) and left = the +y side
     horiz = [i for i in range(3) if i != axis]
-    if pts is not None:
-        low = pts[sign * pts[:, axis] >= (sign * pts[:, axis]).max() - 0.01]
-        span = low.max(axis=0) - low.min(axis=0)
-        fwd_axis = horiz[int(np.argmax(span[horiz]))]
-        centre = 0.5 * (low.max(axis=0) + low.min(axis=0))
-        ankle = data.oMi[feet[0]].translation
-        offset = centre[fwd_axis] - ankle[fwd_axis]
-        default = 1.0 if fwd_axis == 0 else -1.0 if (axis == 0) else 1.0
-        # the toes reach further from the ankle than the heel; below 10 % of the foot length the sign is
-        # not trusted and the model's own +x (or the default axis sign) is kept
-        fsign = (1.0 if offset > 0 else -1.0) if abs(offset) > 0.1 * span[fwd_axis] else default
-    else:
-        fwd_axis, fsign = horiz[0], 1.0
-    fwd = np.zeros(3)
-    fwd[fwd_axis] = fsign
+    sep = data.oMi[feet[0]].translation - data.oMi[feet[1]].translation
+    lat_axis = horiz[int(np.argmax(np.abs(sep[horiz])))]
+    fwd_axis = next(i for i in horiz if i != lat_axis)
     up = -down
-    rot = np.vstack([fwd, np.cross(up, fwd), up])  # world ← model: rows are the model's axes that become x, y, z
-    base_rpy = (0.0, 0.0, 0.0)
-    if not np.allclose(rot, np.eye(3)):
-        base_rpy = tuple(round(float(a), 6) for a in pin.rpy.matrixToRpy(rot))
-        notes.append(f"up axis: the model's {up_name} (forward {'+' if fsign > 0 else '-'}{'xyz'[fwd_axis]}); "
-                     f"base_rpy = {list(base_rpy)} turns it z-up, x forward")
-    else:
-        notes.append("up axis: +z, forward +x (no base rotation)")
-    # left/right: names, else the +y side in the world
     names = [model.names[j] for j in feet]
     sides = [_side_from_name(n) for n in names]
     if sides[0] is not None and sides[1] is not None and sides[0] != sides[1]:
+        left_dir = np.zeros(3)
+        left_dir[lat_axis] = np.sign(sep[lat_axis]) * (1.0 if sides[0] == "left" else -1.0)
+        fwd = np.cross(left_dir, up)
         how = "link names"
     else:
-        ya = (rot @ data.oMi[feet[0]].translation)[1]
-        yb = (rot @ data.oMi[feet[1]].translation)[1]
-        sides = ["left", "right"] if ya > yb else ["right", "left"]
-        how = "the +y side"
+        pts = _geometry_points_world(model, data, cmodel, feet[0])
+        fsign = 1.0
+        if pts is not None:
+            low = pts[sign * pts[:, axis] >= (sign * pts[:, axis]).max() - 0.01]
+            offset = 0.5 * (low[:, fwd_axis].max() + low[:, fwd_axis].min()) - data.oMi[feet[0]].translation[fwd_axis]
+            span = float(low[:, fwd_axis].max() - low[:, fwd_axis].min())
+            if abs(offset) > 0.1 * span:
+                fsign = 1.0 if offset > 0 else -1.0
+        fwd = np.zeros(3)
+        fwd[fwd_axis] = fsign
+        left_dir = np.cross(up, fwd)
+        sides = ["left", "right"] if float(sep @ left_dir) > 0 else ["right", "left"]
+        how = "the +y side (forward: the toes)"
+    rot = np.vstack([fwd, np.cross(up, fwd), up])  # world ← model: rows are the model's axes that become x, y, z
+    base_rpy = (0.0, 0.0, 0.0)
+    fwd_name = f"{'+' if fwd[fwd_axis] > 0 else '-'}{'xyz'[fwd_axis]}"
+    if not np.allclose(rot, np.eye(3)):
+        base_rpy = tuple(round(float(a), 6) for a in pin.rpy.matrixToRpy(rot))
+        notes.append(f"up axis: the model's {up_name}, forward {fwd_name}; base_rpy = {list(base_rpy)} turns it "
+                     f"z-up, x forward")
+    else:
+        notes.append("up axis: +z, forward +x (no base rotation)")
     foot = dict(zip(sides, feet))
     notes.append(f"feet: joints {model.names[foot['left']]!r} (left) and {model.names[foot['right']]!r} (right), "
                  f"the lowest branch tips, left/right from {how}")
