@@ -31,7 +31,7 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
-from wbc.robot_file import RobotSpec, check_xml, load_robot_file, physical_inertials
+from wbc.robot_file import RobotSpec, check_xml, load_robot_file, package_roots, physical_inertials
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
@@ -383,7 +383,7 @@ def _build(
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     urdf_tree = check_xml(urdf, "URDF")
     srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
-    dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
+    dirs = [*package_dirs, str(urdf.parent), *package_roots(urdf, urdf_tree.getroot()), str(example_robot_data_dir())]
     inertia_fixes = physical_inertials(urdf_tree.getroot())
     urdf_xml = None
     if inertia_fixes:  # Pinocchio and MuJoCo both load the corrected text (wbc.robot_file.physical_inertials)

@@ -24,7 +24,7 @@ from pathlib import Path
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
-           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "MIN_LINK_MASS",
+           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "MIN_LINK_MASS",
            "INERTIA_RADIUS"]
 
 #: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
@@ -472,3 +472,19 @@ def physical_inertials(root: ET.Element) -> list[str]:
                      f"(each > 0, each ≤ the sum of the other two); raised/lowered to "
                      f"{np.round(fixed, 9).tolist()}")
     return notes
+
+
+def package_roots(urdf: Path, root: ET.Element) -> list[str]:
+    """Folders that resolve the URDF's ``package://NAME/...`` URIs found by walking up from the URDF: an ancestor
+    folder called NAME (a package installed as ``share/NAME/...``, e.g. ``icub-models``' ``share/iCub``) gives its
+    parent. Packages not found this way must be given in ``package_dirs``."""
+    names = set()
+    for mesh in root.iter("mesh"):
+        ref = mesh.get("filename", "")
+        if ref.startswith("package://"):
+            names.add(ref[len("package://"):].split("/", 1)[0])
+    out = []
+    for parent in Path(urdf).resolve().parents:
+        if parent.name in names and str(parent.parent) not in out:
+            out.append(str(parent.parent))
+    return out

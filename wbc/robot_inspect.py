@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
+from wbc.geometry import polygon_margin, support_polygon
 from wbc.robot import (
     Robot,
     build_robot,
@@ -32,9 +33,12 @@ from wbc.robot import (
     geometry_points,
     load_robot,
 )
-from wbc.robot_file import FrameSpec, RobotSpec, check_xml
+from wbc.robot_file import FrameSpec, RobotSpec, check_xml, package_roots
 
-__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT"]
+__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN"]
+
+#: Smallest distance (m) of the reference posture's CoM inside the support polygon for `wbc robot check`.
+MIN_COM_MARGIN = 0.01
 
 #: Feet raised towards the base by this fraction of the leg length in the inferred reference posture (bent knees:
 #: a straight leg is a singular posture for CoM height tracking).
@@ -100,11 +104,14 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     urdf = Path(urdf).absolute()
     if not urdf.is_file():
         raise RobotFileNotFoundError(f"URDF file not found: {urdf}")
-    check_xml(urdf, "URDF")
+    tree = check_xml(urdf, "URDF")
     dirs = [str(Path(d).absolute()) for d in (package_dirs or [])]
-    model, cmodel, vmodel = pin.buildModelsFromUrdf(str(urdf), [*dirs, str(urdf.parent),
-                                                                str(example_robot_data_dir())],
-                                                    pin.JointModelFreeFlyer())
+    search = [*dirs, str(urdf.parent), *package_roots(urdf, tree.getroot()), str(example_robot_data_dir())]
+    try:
+        model, cmodel, vmodel = pin.buildModelsFromUrdf(str(urdf), search, pin.JointModelFreeFlyer())
+    except (ValueError, RuntimeError) as exc:
+        raise RobotDescriptionError(f"cannot load URDF {urdf}: {str(exc).strip()} (searched package folders "
+                                    f"{search}; pass --package-dir for a package:// folder elsewhere)") from exc
     notes: list[str] = []
     if not len(cmodel.geometryObjects):
         cmodel = vmodel
@@ -216,11 +223,12 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
                 soles[side] = f.name
                 notes.append(f"{side} sole: the URDF's frame {f.name!r}")
                 break
-            notes.append(f"{side} sole: the URDF's frame {f.name!r} is not at the centre of the foot's contact "
-                         f"patch with z up and x forward ({np.linalg.norm(w_m_f.translation - c):.3f} m away); "
-                         f"a new frame is added")
         if side in soles:
             continue
+        if existing:
+            notes.append(f"{side} sole: the URDF's frames {[f.name for f in existing][:3]}"
+                         f"{'...' if len(existing) > 3 else ''} are not at the centre of the foot's contact patch "
+                         f"with z up and x forward (within 1 cm, 5°/10°)")
         w_m_body = pin.SE3(rot, np.zeros(3)) * data.oMf[model.getFrameId(body.name)]
         w_m_sole = pin.SE3(np.eye(3), c)
         body_m_sole = w_m_body.inverse() * w_m_sole
@@ -265,7 +273,20 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
                 reference = next((s for s in ("half_sitting", "standing", "stand") if s in states), states[0])
                 notes.append(f"reference posture: group_state {reference!r} of {cand} (has {states})")
                 break
-    spec = RobotSpec(name=urdf.stem, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
+    # joints whose zero is outside their limits start at the nearest limit
+    clipped = {}
+    if reference is None:
+        for j in range(2, model.njoints):
+            jm = model.joints[j]
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if jm.nq == 1 and not lo <= 0.0 <= hi:
+                clipped[model.names[j]] = round(float(lo if lo > 0 else hi), 6)
+        if clipped:
+            notes.append(f"reference posture: joints whose zero is outside their limits start at the nearest "
+                         f"limit: {clipped}")
+    name = urdf.stem if urdf.stem.lower() not in ("model", "robot", "urdf") else urdf.parent.name
+    spec = RobotSpec(name=name, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
+                     reference_joints=clipped,
                      left_sole=soles["left"], right_sole=soles["right"], torso=torso, left_hand=hands.get("left"),
                      right_hand=hands.get("right"), frames=tuple(frames), package_dirs=tuple(dirs),
                      base_rpy=base_rpy)
@@ -277,7 +298,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     robot = build_robot(spec)
     if reference is None:
         joints = _bent_knees(robot, notes)
-        spec = RobotSpec(**{**spec.__dict__, "reference_joints": joints})
+        spec = RobotSpec(**{**spec.__dict__, "reference_joints": {**clipped, **joints}})
         robot = build_robot(spec)
     gait = {k: float(v) for k, v in robot.gait.items()}
     notes.append(f"gait: {gait} (scaled from Talos's by the leg length)")
@@ -343,6 +364,7 @@ def check_robot(path_or_name: str | Path) -> dict:
     model = robot.model
     data = model.createData()
     pin.centerOfMass(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
     legs, soles = {}, {}
     for side in ("left", "right"):
         frame = getattr(robot, f"{side}_sole")
@@ -353,9 +375,26 @@ def check_robot(path_or_name: str | Path) -> dict:
             soles[side] = {"frame": frame, "foot_geometry": None}
         else:
             patch = p[p[:, 2] <= p[:, 2].min() + 0.01]
+            span = patch.max(axis=0) - patch.min(axis=0)
+            if span[1] > 1.5 * span[0]:
+                raise RobotDescriptionError(
+                    f"{robot.name}: the {side} foot's contact patch is {span[0]:.3f} m long (x, forward) and "
+                    f"{span[1]:.3f} m wide (y) in sole frame {frame!r}: the foot geometry is turned across the "
+                    f"walking direction (a mesh rotated in the URDF, e.g. a Collada <up_axis> not applied by the "
+                    f"loaders, or a sole frame with x sideways). Fix the foot's <collision> origin rpy, or name a "
+                    f"sole frame whose x axis points along the foot")
             soles[side] = {"frame": frame, "foot_bottom_m": round(float(p[:, 2].min()), 4),
                            "patch_x_m": [round(float(patch[:, 0].min()), 3), round(float(patch[:, 0].max()), 3)],
                            "patch_y_m": [round(float(patch[:, 1].min()), 3), round(float(patch[:, 1].max()), 3)]}
+    poses = [data.oMf[model.getFrameId(f)] for f in (robot.left_sole, robot.right_sole)]
+    polygon = support_polygon(poses, robot.sole_length, robot.sole_width)
+    margin = polygon_margin(data.com[0][:2], polygon)
+    if margin < MIN_COM_MARGIN:
+        raise RobotDescriptionError(
+            f"{robot.name}: in the reference posture the CoM (x, y) = {np.round(data.com[0][:2], 3).tolist()} m is "
+            f"{'inside' if margin >= 0 else 'outside'} the feet's support polygon by {abs(margin):.3f} m (needs "
+            f"≥ {MIN_COM_MARGIN} m inside to start a walk); change the reference posture ([reference_joints] / "
+            f"reference) or the sole frames and [sole] rectangle so that the CoM is over the feet")
     no_vel = [model.names[j] for j in range(2, model.njoints)
               if not (0 < model.velocityLimit[model.joints[j].idx_v] < np.inf)]
     no_eff = [model.names[j] for j in range(2, model.njoints)
