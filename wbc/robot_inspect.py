@@ -280,10 +280,11 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
             jm = model.joints[j]
             lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
             if jm.nq == 1 and not lo <= 0.0 <= hi:
-                clipped[model.names[j]] = round(float(lo if lo > 0 else hi), 6)
+                inside = min(0.05 * float(hi - lo), 0.05)  # rad (or m) inside the range, off the limit
+                clipped[model.names[j]] = round(float(lo + inside if lo > 0 else hi - inside), 4)
         if clipped:
-            notes.append(f"reference posture: joints whose zero is outside their limits start at the nearest "
-                         f"limit: {clipped}")
+            notes.append(f"reference posture: joints whose zero is outside their limits start 0.05 rad (at most 5 % "
+                         f"of their range) inside the nearest limit: {clipped}")
     name = urdf.stem if urdf.stem.lower() not in ("model", "robot", "urdf") else urdf.parent.name
     spec = RobotSpec(name=name, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
                      reference_joints=clipped,
