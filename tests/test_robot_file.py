@@ -4,10 +4,12 @@ problem: each bad input is one line on stderr and exit 2 from the command line, 
 from __future__ import annotations
 
 import math
+import re
 import shutil
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from wbc.cli import main
@@ -169,3 +171,37 @@ def test_overrides_apply_to_a_catalog_robot():
     base = load_robot("humanoid15")
     r = load_robot("humanoid15", sole_length=0.15)
     assert r.sole_length == 0.15 and base.sole_length == pytest.approx(0.19)
+
+
+def _lock(text: str, joint: str, value: float) -> str:
+    i = text.index(f'<joint name="{joint}"')
+    j = text.index("</joint>", i)
+    block = re.sub(r'lower="[^"]*"', f'lower="{value}"', text[i:j])
+    block = re.sub(r'upper="[^"]*"', f'upper="{value}"', block)
+    return text[:i] + block + text[j:]
+
+
+def test_locked_joints_are_not_variables_and_keep_their_value(tmp_path):
+    path = _h15_file(tmp_path)
+    urdf = (ROBOTS / "humanoid15.urdf").read_text()
+    (tmp_path / "humanoid15.urdf").write_text(_lock(_lock(urdf, "neck", 0.3), "torso_yaw", 0.0))
+    locked, free = load_robot(str(path)), load_robot("humanoid15")
+    assert sorted(locked.locked_joints) == ["neck", "torso_yaw"]
+    assert locked.nv == free.nv - 2 and not locked.model.existJointName("neck")
+    # independent reference: the unlocked model with neck = 0.3 rad, torso_yaw = 0 (same reference otherwise)
+    q = free.q_ref.copy()
+    q[free.model.joints[free.joint_id("neck")].idx_q] = 0.3
+    q[free.model.joints[free.joint_id("torso_yaw")].idx_q] = 0.0
+    d_free, d_locked = free.model.createData(), locked.model.createData()
+    pin.framesForwardKinematics(free.model, d_free, q)
+    pin.framesForwardKinematics(locked.model, d_locked, locked.q_ref)
+    base_free = d_free.oMf[free.model.getFrameId("pelvis")]
+    base_locked = d_locked.oMf[locked.model.getFrameId("pelvis")]
+    for frame in ("head", "left_sole", "right_hand"):
+        a = base_free.actInv(d_free.oMf[free.model.getFrameId(frame)])
+        b = base_locked.actInv(d_locked.oMf[locked.model.getFrameId(frame)])
+        np.testing.assert_allclose(a.homogeneous, b.homogeneous, atol=1e-12)
+    from wbc.sim.mujoco_model import build_mujoco_model
+
+    sim = build_mujoco_model(locked)  # MuJoCo loads the same joints (the locked ones fixed)
+    assert sim.model.njnt == 1 + locked.nv - 6

@@ -31,7 +31,7 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
-from wbc.robot_file import RobotSpec, check_xml, load_robot_file, package_roots, physical_inertials
+from wbc.robot_file import RobotSpec, check_xml, lock_zero_range_joints, load_robot_file, package_roots, physical_inertials
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
@@ -98,6 +98,8 @@ class Robot:
             point masses: :func:`wbc.robot_file.physical_inertials`), None when the file was loaded as is; the
             MuJoCo plant loads the same text.
         inertia_fixes: one sentence per link whose inertial was changed.
+        locked_joints: URDF joints with an empty range, loaded as fixed joints at their only value
+            (:func:`wbc.robot_file.lock_zero_range_joints`): not in ``model``, not variables of any QP.
     """
 
     name: str
@@ -120,6 +122,7 @@ class Robot:
     spec: RobotSpec | None = None
     urdf_xml: str | None = None
     inertia_fixes: list[str] = field(default_factory=list)
+    locked_joints: list[str] = field(default_factory=list)
 
     @property
     def nq(self) -> int:
@@ -384,9 +387,10 @@ def _build(
     urdf_tree = check_xml(urdf, "URDF")
     srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
     dirs = [*package_dirs, str(urdf.parent), *package_roots(urdf, urdf_tree.getroot()), str(example_robot_data_dir())]
+    locked = lock_zero_range_joints(urdf_tree.getroot())
     inertia_fixes = physical_inertials(urdf_tree.getroot())
     urdf_xml = None
-    if inertia_fixes:  # Pinocchio and MuJoCo both load the corrected text (wbc.robot_file.physical_inertials)
+    if inertia_fixes or locked:  # Pinocchio and MuJoCo both load the corrected text (wbc.robot_file.physical_inertials)
         for mesh in urdf_tree.getroot().iter("mesh"):
             ref = mesh.get("filename", "")
             if ref and "://" not in ref and not Path(ref).is_absolute():
@@ -421,6 +425,7 @@ def _build(
             pin.Frame(fname, pframe.parentJoint, pid, pframe.placement * placement, pin.FrameType.OP_FRAME)
         )
     robot = Robot(
+        locked_joints=locked,
         urdf_xml=urdf_xml,
         inertia_fixes=inertia_fixes,
         name=name,

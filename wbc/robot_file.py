@@ -24,7 +24,7 @@ from pathlib import Path
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
-           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "MIN_LINK_MASS",
+           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
            "INERTIA_RADIUS"]
 
 #: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
@@ -488,3 +488,56 @@ def package_roots(urdf: Path, root: ET.Element) -> list[str]:
         if parent.name in names and str(parent.parent) not in out:
             out.append(str(parent.parent))
     return out
+
+
+#: A revolute or prismatic joint whose range (upper − lower, rad or m) is at most this is locked.
+LOCKED_RANGE = 1e-9
+
+
+def lock_zero_range_joints(root: ET.Element) -> list[str]:
+    """Turn every revolute or prismatic joint whose ``<limit>`` range is empty (upper − lower ≤ ``LOCKED_RANGE``)
+    into a fixed joint at its only value, in place, so that it is not a variable of Pinocchio's model (nor of any
+    QP) and MuJoCo's plant has the same joints: the joint origin becomes ``origin · motion(axis, lower)``
+    (a rotation about, or a translation along, the joint axis).
+
+    Args:
+        root: the ``<robot>`` element of a URDF.
+
+    Returns:
+        the names of the joints locked.
+    """
+    import numpy as np
+    import pinocchio as pin
+
+    locked = []
+    for joint in root.iter("joint"):
+        kind = joint.get("type")
+        limit = joint.find("limit")
+        if kind not in ("revolute", "prismatic") or limit is None or joint.find("mimic") is not None:
+            continue
+        try:
+            lo, hi = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
+        except ValueError:
+            continue
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi - lo <= LOCKED_RANGE):
+            continue
+        origin = joint.find("origin")
+        xyz = [float(x) for x in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()]
+        rpy = [float(x) for x in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]
+        axis_el = joint.find("axis")
+        axis = np.array([float(x) for x in (axis_el.get("xyz", "1 0 0") if axis_el is not None else "1 0 0")
+                         .split()])
+        axis = axis / np.linalg.norm(axis)
+        placement = pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(xyz))
+        if kind == "revolute":
+            motion = pin.SE3(pin.AngleAxis(lo, axis).matrix(), np.zeros(3))
+        else:
+            motion = pin.SE3(np.eye(3), lo * axis)
+        new = placement * motion
+        if origin is None:
+            origin = ET.SubElement(joint, "origin")
+        origin.set("xyz", " ".join(repr(float(x)) for x in new.translation))
+        origin.set("rpy", " ".join(repr(float(x)) for x in pin.rpy.matrixToRpy(new.rotation)))
+        joint.set("type", "fixed")
+        locked.append(joint.get("name"))
+    return locked

@@ -405,5 +405,5 @@ def check_robot(path_or_name: str | Path) -> dict:
             "com_height_m": round(float(data.com[0][2]), 4), "base_height_m": round(float(robot.q_ref[2]), 4),
             "legs": legs, "soles": soles, "sole_rectangle_m": [robot.sole_length, robot.sole_width],
             "torso": robot.torso, "hands": [robot.left_hand, robot.right_hand],
-            "locked_joints": locked_joints(model), "no_velocity_limit": no_vel, "no_effort_limit": no_eff,
+            "locked_joints": robot.locked_joints, "inertia_fixes": robot.inertia_fixes, "no_velocity_limit": no_vel, "no_effort_limit": no_eff,
             "massless_joint_bodies": massless, "gait": robot.gait}
