@@ -355,11 +355,14 @@ def check_robot(path_or_name: str | Path) -> dict:
         a report: ``name``, ``nq``, ``nv``, ``mass_kg``, ``com_height_m`` (above the soles in ``q_ref``),
         ``base_height_m``, ``legs`` (side → joint names from the base to the sole), ``soles`` (side → frame,
         height of the foot geometry's lowest point in the sole frame in m, contact patch size),
-        ``sole_rectangle_m``, ``locked_joints``, ``limits`` (joints without a velocity or effort limit),
-        ``massless_links``.
+        ``sole_rectangle_m``, ``locked_joints``, ``inertia_fixes``, ``no_velocity_limit`` / ``no_effort_limit``
+        (joint names), ``massless_joint_bodies``; per sole, ``patch_minus_rectangle_m``: how far the foot's contact
+        patch reaches beyond the sole rectangle at the front, back, left and right (m).
 
     Raises:
-        the errors of :func:`wbc.robot.load_robot`.
+        RobotDescriptionError: also when the reference CoM is less than ``MIN_COM_MARGIN`` inside the support
+            polygon, or a foot's contact patch is turned across the walking direction.
+        Any other failure is the typed error of :func:`wbc.robot.load_robot`.
     """
     robot = load_robot(path_or_name)
     model = robot.model
@@ -384,7 +387,14 @@ def check_robot(path_or_name: str | Path) -> dict:
                     f"walking direction (a mesh rotated in the URDF, e.g. a Collada <up_axis> not applied by the "
                     f"loaders, or a sole frame with x sideways). Fix the foot's <collision> origin rpy, or name a "
                     f"sole frame whose x axis points along the foot")
+            a, b = 0.5 * robot.sole_length, 0.5 * robot.sole_width
             soles[side] = {"frame": frame, "foot_bottom_m": round(float(p[:, 2].min()), 4),
+                           # how far the foot's contact patch (the plant's foot with [mujoco] foot = "urdf")
+                           # reaches beyond the controller's sole rectangle: front, back, left, right (m)
+                           "patch_minus_rectangle_m": [round(float(patch[:, 0].max() - a), 3),
+                                                       round(float(-patch[:, 0].min() - a), 3),
+                                                       round(float(patch[:, 1].max() - b), 3),
+                                                       round(float(-patch[:, 1].min() - b), 3)],
                            "patch_x_m": [round(float(patch[:, 0].min()), 3), round(float(patch[:, 0].max()), 3)],
                            "patch_y_m": [round(float(patch[:, 1].min()), 3), round(float(patch[:, 1].max()), 3)]}
     poses = [data.oMf[model.getFrameId(f)] for f in (robot.left_sole, robot.right_sole)]
