@@ -205,3 +205,22 @@ def test_locked_joints_are_not_variables_and_keep_their_value(tmp_path):
 
     sim = build_mujoco_model(locked)  # MuJoCo loads the same joints (the locked ones fixed)
     assert sim.model.njnt == 1 + locked.nv - 6
+
+
+def test_init_stands_a_y_up_model_and_check_refuses_a_turned_foot(tmp_path, capsys):
+    out = tmp_path / "human.toml"
+    assert main(["robot", "init", str(ERD / "human_description" / "robots" / "human.urdf"), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "up axis: the model's +y" in text
+    robot = load_robot(str(out))
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_ref)
+    left = data.oMf[robot.model.getFrameId(robot.left_sole)]
+    assert left.rotation[2, 2] > np.cos(np.radians(5)) and left.translation[1] > 0.05  # flat, left is +y
+    assert robot.q_ref[2] > 0.8  # the pelvis of a standing adult
+    # iCub of example-robot-data: its foot collision meshes lie across the leg's forward direction
+    out = tmp_path / "icub.toml"
+    assert main(["robot", "init", str(ERD / "icub_description" / "robots" / "icub.urdf"), "-o", str(out)]) == 0
+    capsys.readouterr()
+    err = _cli_error(["robot", "check", str(out)], capsys)
+    assert "turned across the walking direction" in err and "Fix the foot's <collision> origin rpy" in err
