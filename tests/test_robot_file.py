@@ -224,3 +224,12 @@ def test_init_stands_a_y_up_model_and_check_refuses_a_turned_foot(tmp_path, caps
     capsys.readouterr()
     err = _cli_error(["robot", "check", str(out)], capsys)
     assert "turned across the walking direction" in err and "Fix the foot's <collision> origin rpy" in err
+
+
+def test_nan_in_urdf_is_named(tmp_path):
+    path = _h15_file(tmp_path)
+    urdf = (ROBOTS / "humanoid15.urdf").read_text()
+    (tmp_path / "humanoid15.urdf").write_text(urdf.replace('<origin xyz="0 0 0.3" rpy="0 0 0"/>',
+                                                           '<origin xyz="0 nan 0.3" rpy="0 0 0"/>', 1))
+    with pytest.raises(RobotDescriptionError, match="<joint name='neck'> has <origin xyz='0 nan 0.3'>: not finite"):
+        load_robot(str(path))

@@ -386,7 +386,19 @@ def check_xml(path: Path, kind: str) -> ET.ElementTree:
     root = tree.getroot()
     if root.tag != "robot":
         raise RobotDescriptionError(f"{kind} {path}: root element is <{root.tag}>, expected <robot>")
+    for owner in list(root.iter("link")) + list(root.iter("joint")) + list(root.iter("group_state")):
+        for el in owner.iter():
+            for attr, text in el.attrib.items():
+                if attr in _NUMERIC_ATTRIBUTES and any(t.lower().lstrip("+-") in ("nan", "inf", "infinity")
+                                                       for t in text.split()):
+                    raise RobotDescriptionError(
+                        f"{kind} {path}: <{owner.tag} name={owner.get('name')!r}> has <{el.tag} {attr}="
+                        f"{text!r}>: not finite; give finite numbers")
     return tree
+
+
+_NUMERIC_ATTRIBUTES = {"xyz", "rpy", "value", "lower", "upper", "effort", "velocity", "ixx", "ixy", "ixz", "iyy",
+                       "iyz", "izz", "radius", "length", "size", "scale", "damping", "friction"}
 
 
 #: Mass (kg) given to a URDF link moved by a joint that has no mass (MuJoCo refuses massless moving bodies).
