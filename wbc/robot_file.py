@@ -507,8 +507,9 @@ LOCKED_RANGE = 1e-9
 
 
 def lock_zero_range_joints(root: ET.Element) -> list[str]:
-    """Turn every revolute or prismatic joint whose ``<limit>`` range is empty (upper − lower ≤ ``LOCKED_RANGE``)
-    into a fixed joint at its only value, in place, so that it is not a variable of Pinocchio's model (nor of any
+    """Turn every revolute or prismatic joint whose ``<limit>`` range is empty (upper − lower ≤ ``LOCKED_RANGE``:
+    locked at that value) or whose speed limit is 0 (``velocity="0"``: locked at 0, or at the limit nearest to 0)
+    into a fixed joint, in place, so that it is not a variable of Pinocchio's model (nor of any
     QP) and MuJoCo's plant has the same joints: the joint origin becomes ``origin · motion(axis, lower)``
     (a rotation about, or a translation along, the joint axis).
 
@@ -525,13 +526,20 @@ def lock_zero_range_joints(root: ET.Element) -> list[str]:
     for joint in root.iter("joint"):
         kind = joint.get("type")
         limit = joint.find("limit")
-        if kind not in ("revolute", "prismatic") or limit is None or joint.find("mimic") is not None:
+        if kind not in ("revolute", "prismatic") or limit is None:
             continue
         try:
             lo, hi = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
+            speed = float(limit.get("velocity", "inf"))
         except ValueError:
             continue
-        if not (math.isfinite(lo) and math.isfinite(hi) and hi - lo <= LOCKED_RANGE):
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            continue
+        if hi - lo <= LOCKED_RANGE:
+            pass
+        elif speed == 0.0:  # a zero speed limit: the joint cannot move; locked at 0 (or the nearest limit)
+            lo = min(max(0.0, lo), hi)
+        else:
             continue
         origin = joint.find("origin")
         xyz = [float(x) for x in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()]
