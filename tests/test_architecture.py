@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions", "wbc.compiled", "wbc.solver_status"),
     ("wbc.geometry", "wbc.profiles"),
-    ("wbc.robot", "wbc.configuration", "wbc.state"),
+    ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.formulations", "wbc.dynamics",
      "wbc.solve"),

@@ -15,6 +15,8 @@ import importlib.metadata
 import importlib.resources
 import math
 import tomllib
+import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -29,8 +31,9 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
+from wbc.robot_file import RobotSpec, check_xml, lock_zero_range_joints, load_robot_file, package_roots, physical_inertials
 
-__all__ = ["Robot", "load_robot", "catalog", "example_robot_data_dir"]
+__all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
 _ERD_PREFIX = "erd:"
 
@@ -90,6 +93,13 @@ class Robot:
         added_frames: frames added to the URDF's ones: name -> (parent frame name, placement in parent).
         gait: default walking parameters for this robot (keyword arguments of ``wbc.gait.plan_walk``: step
             length, height, timing...), from the descriptor's ``[gait]`` table.
+        spec: the robot file's content it was built from (with the overrides applied), incl. MuJoCo options.
+        urdf_xml: the URDF text actually loaded when its inertials had to be made physical (massless moving links,
+            point masses: :func:`wbc.robot_file.physical_inertials`), None when the file was loaded as is; the
+            MuJoCo plant loads the same text.
+        inertia_fixes: one sentence per link whose inertial was changed.
+        locked_joints: URDF joints with an empty range, loaded as fixed joints at their only value
+            (:func:`wbc.robot_file.lock_zero_range_joints`): not in ``model``, not variables of any QP.
     """
 
     name: str
@@ -109,6 +119,10 @@ class Robot:
     right_hand: str | None = None
     added_frames: dict[str, tuple[str, pin.SE3]] = field(default_factory=dict)
     gait: dict[str, float] = field(default_factory=dict)
+    spec: RobotSpec | None = None
+    urdf_xml: str | None = None
+    inertia_fixes: list[str] = field(default_factory=list)
+    locked_joints: list[str] = field(default_factory=list)
 
     @property
     def nq(self) -> int:
@@ -186,82 +200,157 @@ def load_robot(
     sole_width: float | None = None,
     package_dirs: list[str | Path] | None = None,
 ) -> Robot:
-    """Load a catalog robot by name, or any humanoid URDF.
+    """Load a catalog robot by name, a robot file (``.toml``), or any humanoid URDF.
 
     Args:
-        name_or_urdf: a catalog name (see :func:`catalog`: ``talos``, ``g1``, ``humanoid15``) or a path to a
-            ``.urdf`` file. For a catalog name every other argument is ignored.
+        name_or_urdf: a catalog name (see :func:`catalog`: ``talos``, ``g1``, ``humanoid15``), a path to a robot
+            file (``.toml``, format in ``docs/robot_file.md``, see :mod:`wbc.robot_file`) or a path to a ``.urdf``.
         srdf: SRDF path providing named reference configurations (``reference``).
         reference: name of the SRDF reference configuration to use as ``q_ref``.
-        reference_joints: joint name -> angle (rad) for ``q_ref`` (joints not given are 0), used when no SRDF
-            reference is given.
+        reference_joints: joint name -> angle (rad) set in ``q_ref`` (on top of the SRDF reference when given).
         left_sole, right_sole, torso: frame names (required for a URDF path).
         left_hand, right_hand: optional hand frame names.
         sole_length, sole_width: contact rectangle (m), centred on the sole frames.
         package_dirs: folders for ``package://`` URIs (example-robot-data's folder is always appended).
 
+        For a catalog name or a robot file, every argument given (not None) overrides the file's value and is
+        checked like it.
+
     Returns:
         A :class:`Robot` whose ``q_ref`` puts both soles on z = 0.
 
     Raises:
-        UnknownRobotError: ``name_or_urdf`` is neither a catalog name nor a ``.urdf`` path (lists the catalog).
-        RobotFileNotFoundError: the URDF or SRDF file does not exist.
+        UnknownRobotError: ``name_or_urdf`` is neither a catalog name nor a ``.urdf``/``.toml`` path (lists the
+            catalog).
+        RobotFileNotFoundError: the robot file, URDF, SRDF or a mesh does not exist.
         UnknownFrameError: a semantic frame is not in the model.
         UnknownJointError: a ``reference_joints`` key is not a joint.
-        RobotDescriptionError: missing semantic frames, unknown SRDF reference, or a non-positive sole size.
+        RobotDescriptionError: a robot-file key problem, malformed URDF/SRDF XML (with its line), missing semantic
+            frames, unknown SRDF reference, a non-positive or non-finite sole size, a Y-up or tilted model.
     """
-    spec = str(name_or_urdf)
-    if not spec.lower().endswith(".urdf"):
-        names = catalog()
-        if spec not in names:
-            raise UnknownRobotError(
-                f"unknown robot {spec!r}: the catalog has {names}; or pass a path to a .urdf file"
-            )
-        return _load_catalog(spec)
-    return _build(
-        name=Path(spec).stem,
-        urdf=Path(spec),
-        srdf=Path(srdf) if srdf is not None else None,
-        reference=reference,
-        reference_joints=reference_joints or {},
-        frames={},
-        left_sole=left_sole,
-        right_sole=right_sole,
-        torso=torso,
-        left_hand=left_hand,
-        right_hand=right_hand,
-        sole_length=sole_length,
-        sole_width=sole_width,
-        package_dirs=[str(p) for p in (package_dirs or [])],
-    )
+    spec = robot_spec(name_or_urdf)
+    overrides = dict(srdf=None if srdf is None else str(Path(srdf).absolute()), reference=reference,
+                     reference_joints=reference_joints, left_sole=left_sole, right_sole=right_sole, torso=torso,
+                     left_hand=left_hand, right_hand=right_hand, sole_length=sole_length, sole_width=sole_width,
+                     package_dirs=[str(Path(p).absolute()) for p in (package_dirs or [])])
+    return build_robot(spec.with_overrides(**overrides))
 
 
-def _load_catalog(name: str) -> Robot:
-    path = _robots_dir() / f"{name}.toml"
-    with path.open("rb") as f:
-        desc = tomllib.load(f)
-    base = path.parent
-    frames = {
-        fr["name"]: (fr["parent"], _placement(fr.get("xyz", [0, 0, 0]), fr.get("rpy", [0, 0, 0])))
-        for fr in desc.get("frames", [])
-    }
-    return _build(
-        name=name,
-        urdf=_resolve_path(desc["urdf"], base),
-        srdf=_resolve_path(desc["srdf"], base) if "srdf" in desc else None,
-        reference=desc.get("reference"),
-        reference_joints=desc.get("reference_joints", {}),
+def robot_spec(name_or_path: str | Path) -> RobotSpec:
+    """The :class:`~wbc.robot_file.RobotSpec` of a catalog name, a robot file (``.toml``) or a bare URDF path (no
+    semantic frames: give them as overrides).
+
+    Raises:
+        UnknownRobotError: neither a catalog name nor a ``.urdf``/``.toml`` path.
+        RobotFileNotFoundError, RobotDescriptionError: see :func:`wbc.robot_file.load_robot_file`.
+    """
+    text = str(name_or_path)
+    if text.lower().endswith(".toml"):
+        return load_robot_file(text)
+    if text.lower().endswith(".urdf"):
+        p = Path(text).absolute()
+        return RobotSpec(name=p.stem, base_dir=p.parent, urdf=str(p))
+    names = catalog()
+    if text not in names:
+        raise UnknownRobotError(
+            f"unknown robot {text!r}: the catalog has {names}; or pass a robot file (.toml, see `wbc robot init`) "
+            f"or a .urdf path"
+        )
+    return load_robot_file(_robots_dir() / f"{text}.toml")
+
+
+def build_robot(spec: RobotSpec) -> Robot:
+    """Build the :class:`Robot` of a robot spec (see :func:`load_robot` for the errors raised)."""
+    base = spec.base_dir
+    frames = {fr.name: (fr.parent, _placement(fr.xyz, fr.rpy)) for fr in spec.frames}
+    robot = _build(
+        name=spec.name,
+        urdf=_resolve_path(spec.urdf, base),
+        srdf=_resolve_path(spec.srdf, base) if spec.srdf is not None else None,
+        reference=spec.reference,
+        reference_joints=dict(spec.reference_joints),
         frames=frames,
-        left_sole=desc["left_sole"],
-        right_sole=desc["right_sole"],
-        torso=desc["torso"],
-        left_hand=desc.get("left_hand"),
-        right_hand=desc.get("right_hand"),
-        sole_length=desc["sole"]["length"],
-        sole_width=desc["sole"]["width"],
-        package_dirs=[str(base)],
-        gait=desc.get("gait", {}),
+        left_sole=spec.left_sole,
+        right_sole=spec.right_sole,
+        torso=spec.torso,
+        left_hand=spec.left_hand,
+        right_hand=spec.right_hand,
+        sole_length=spec.sole_length,
+        sole_width=spec.sole_width,
+        package_dirs=[str(_resolve_path(d, base)) for d in spec.package_dirs] + [str(base)],
+        gait=dict(spec.gait),
+        base_rpy=spec.base_rpy,
+        armature=spec.mujoco.armature,
     )
+    robot.spec = spec
+    return robot
+
+
+def _check_group_state(srdf: Path, tree, reference: str, model: pin.Model) -> None:
+    """Every joint of the SRDF ``group_state`` ``reference`` is a joint of the URDF with a numeric value (Pinocchio
+    skips unknown names silently).
+
+    Raises:
+        RobotDescriptionError: names the unknown joints (with close matches) or the non-numeric values.
+    """
+    known = set(model.names) | {f.name for f in model.frames if f.type == pin.FrameType.FIXED_JOINT}
+    for state in tree.getroot().iter("group_state"):
+        if state.get("name") != reference:
+            continue
+        unknown = [j.get("name") for j in state.iter("joint") if j.get("name") not in known]
+        if unknown and len(unknown) == len(list(state.iter("joint"))):
+            close = difflib.get_close_matches(str(unknown[0]), sorted(known), n=3)
+            raise RobotDescriptionError(
+                f"SRDF {srdf}: group_state {reference!r} sets no joint of the URDF (e.g. {unknown[0]!r}; close "
+                f"matches {close}): it describes another robot")
+        if unknown:  # SRDFs shared by several URDF variants name joints some variants lack
+            warnings.warn(f"SRDF {srdf}: group_state {reference!r} sets {len(unknown)} joints that are not in the "
+                          f"URDF (ignored): {unknown[:5]}", stacklevel=4)
+        for joint in state.iter("joint"):
+            name, value = joint.get("name"), joint.get("value")
+            if name not in known:
+                continue
+            try:
+                values = [float(x) for x in str(value).split()]
+            except ValueError:
+                values = []
+            if not values or not all(math.isfinite(x) for x in values):
+                raise RobotDescriptionError(
+                    f"SRDF {srdf}: group_state {reference!r} joint {name!r} has value {value!r}; give finite "
+                    f"numbers (rad or m)")
+
+
+def _check_upright(robot: Robot, q: np.ndarray) -> None:
+    """Diagnose a model that is not z-up in its reference posture: the soles must lie below the floating base
+    (along −z), not beside it.
+
+    Raises:
+        RobotDescriptionError: the base-to-soles direction is more than 45° from −z; the message names the axis the
+            model uses as up and the ``base_rpy`` that stands it up.
+    """
+    model = robot.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    mid = 0.5 * (data.oMf[model.getFrameId(robot.left_sole)].translation
+                 + data.oMf[model.getFrameId(robot.right_sole)].translation)
+    d = mid - data.oMi[1].translation
+    n = float(np.linalg.norm(d))
+    if n < 1e-6 or -d[2] >= math.cos(math.radians(45.0)) * n:
+        return
+    axis = int(np.argmax(np.abs(d)))
+    sign = -1.0 if d[axis] < 0 else 1.0
+    up = f"{'+' if sign < 0 else '-'}{'xyz'[axis]}"
+    # rotation taking the model's "up" (−d direction) to +z
+    u = -d / n
+    rot = pin.Quaternion.FromTwoVectors(u, np.array([0.0, 0.0, 1.0])).matrix()
+    rpy = [round(float(a), 4) for a in pin.rpy.matrixToRpy(rot @ data.oMi[1].rotation)]
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(-d[2] / n)))))
+    kind = f"{up.upper()[1:]}-up" if tilt > 80 else f"tilted {tilt:.0f}° from z-up"
+    raise RobotDescriptionError(
+        f"{robot.name}: the model is {kind}: in the reference posture its soles {robot.left_sole!r}/"
+        f"{robot.right_sole!r} are along {np.round(d / n, 3).tolist()} from the base, not below it (wbc needs z "
+        f"up). Fix: set base_rpy = {rpy} in the robot file (the base orientation of the reference posture), and "
+        f"sole frames whose z axis points up in that posture")
 
 
 def _build(
@@ -281,6 +370,8 @@ def _build(
     sole_width: float,
     package_dirs: list[str],
     gait: dict[str, float] | None = None,
+    base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    armature: float = 0.0,
 ) -> Robot:
     if not urdf.is_file():
         raise RobotFileNotFoundError(f"URDF file not found: {urdf}")
@@ -293,14 +384,37 @@ def _build(
     if not all(x is None or (isinstance(x, (int, float)) and math.isfinite(x) and x > 0)
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
-    dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
+    urdf_tree = check_xml(urdf, "URDF")
+    srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
+    dirs = [*package_dirs, str(urdf.parent), *package_roots(urdf, urdf_tree.getroot()), str(example_robot_data_dir())]
+    locked = lock_zero_range_joints(urdf_tree.getroot())
+    inertia_fixes = physical_inertials(urdf_tree.getroot())
+    urdf_xml = None
+    if inertia_fixes or locked:  # Pinocchio and MuJoCo both load the corrected text (wbc.robot_file.physical_inertials)
+        for mesh in urdf_tree.getroot().iter("mesh"):
+            ref = mesh.get("filename", "")
+            if ref and "://" not in ref and not Path(ref).is_absolute():
+                mesh.set("filename", str((urdf.parent / ref).resolve()))
+        urdf_xml = ET.tostring(urdf_tree.getroot(), encoding="unicode")
     try:
-        model, collision_model, visual_model = pin.buildModelsFromUrdf(
-            str(urdf), dirs, pin.JointModelFreeFlyer()
-        )
+        if urdf_xml is None:
+            model, collision_model, visual_model = pin.buildModelsFromUrdf(
+                str(urdf), dirs, pin.JointModelFreeFlyer()
+            )
+        else:
+            model = pin.buildModelFromXML(urdf_xml, pin.JointModelFreeFlyer())
+            collision_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.COLLISION, None, dirs)
+            visual_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.VISUAL, None, dirs)
     except (ValueError, RuntimeError) as exc:  # urdfdom/Pinocchio parse errors carry the reason in the message
-        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {exc} (fix the URDF: it must be well-formed XML "
+        text = str(exc)
+        if "mesh" in text.lower() and ("not found" in text.lower() or "could not" in text.lower()):
+            raise RobotFileNotFoundError(
+                f"URDF {urdf}: a mesh file is missing ({text.strip()}); searched package folders {dirs} — add the "
+                f"folder containing the package to package_dirs in the robot file (--package-dir)") from exc
+        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {text} (fix the URDF: it must be well-formed XML "
                                     f"with one root link and valid joints/links)") from exc
+    if armature:
+        model.armature[6:] = float(armature)
     model.name = name
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
@@ -311,6 +425,9 @@ def _build(
             pin.Frame(fname, pframe.parentJoint, pid, pframe.placement * placement, pin.FrameType.OP_FRAME)
         )
     robot = Robot(
+        locked_joints=locked,
+        urdf_xml=urdf_xml,
+        inertia_fixes=inertia_fixes,
         name=name,
         model=model,
         collision_model=collision_model,
@@ -336,10 +453,16 @@ def _build(
     if reference is not None:
         if srdf is None:
             raise RobotDescriptionError(f"reference configuration {reference!r} requested but no SRDF given")
-        pin.loadReferenceConfigurations(model, str(srdf), False)
+        try:
+            pin.loadReferenceConfigurations(model, str(srdf), False)
+        except (ValueError, RuntimeError) as exc:
+            raise RobotDescriptionError(f"cannot read the reference configurations of SRDF {srdf}: "
+                                        f"{str(exc).strip()} (fix the group_state entries: joint names of the URDF, "
+                                        f"one value per joint)") from exc
         names = [entry.key() for entry in model.referenceConfigurations]
         if reference not in names:
             raise RobotDescriptionError(f"SRDF {srdf} has no reference configuration {reference!r}; has {names}")
+        _check_group_state(srdf, srdf_tree, reference, model)
         q = np.array(model.referenceConfigurations[reference], dtype=float)
     for jname, angle in reference_joints.items():
         jid = robot.joint_id(jname)
@@ -350,7 +473,10 @@ def _build(
         if not ok:
             raise RobotDescriptionError(f"reference_joints[{jname!r}] must be a finite angle (rad), got {angle!r}")
         q[model.joints[jid].idx_q] = float(angle)
+    if any(base_rpy):
+        q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(*map(float, base_rpy))).coeffs()
     _check_posture_limits(robot, q)
+    _check_upright(robot, q)
     _check_soles_distinct(robot)
     _check_legs(robot, q)
     check_sole_heights(robot)
@@ -363,6 +489,8 @@ def _build(
     if not robot.gait:
         robot.gait = scaled_gait(robot)
     return robot
+
+
 
 
 #: Talos's gait (robots/talos.toml) and its base height above the soles in half_sitting (m): the reference of
@@ -424,6 +552,11 @@ def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
         m = s_m_j * g.placement
         pts.append(local @ m.rotation.T + m.translation)
     return np.vstack(pts) if pts else None
+
+
+#: Public names of the geometry helpers (used by :mod:`wbc.robot_inspect`).
+geometry_points = _geometry_points
+foot_points = _foot_points
 
 
 def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
+from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, finite
 
@@ -20,12 +21,11 @@ __all__ = ["register", "cmd_balance"]
 
 def cmd_balance(args) -> int:
     """`wbc balance BEHAVIOUR`: run, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    from wbc.robot import load_robot
     from wbc.scenarios.balance import balance_summary, run_balance
 
     if args.behaviour == "jump":  # kinematic preview of the planned jump (wbc.scenarios.balance_jump)
         return _jump_preview(args)
-    robot = load_robot(args.robot)
+    robot = robot_from_args(args)
     options = {}
     if args.behaviour == "one-leg" and args.stance is not None:
         options["stance"] = args.stance
@@ -81,10 +81,9 @@ def _jump_preview(args) -> int:
     """``wbc balance jump``: the kinematic preview of :mod:`wbc.scenarios.balance_jump`; exit code 0."""
     import numpy as np
 
-    from wbc.robot import load_robot
     from wbc.scenarios.balance_jump import preview_jump, preview_summary
 
-    robot = load_robot(args.robot)
+    robot = robot_from_args(args)
     viewer = pacer = None
     if args.live:
         viewer, pacer = open_live(robot, args.live_start_now)
@@ -119,7 +118,7 @@ def register(subparsers, add_outputs) -> None:
     )
     p.add_argument("behaviour", choices=[*BEHAVIOURS, "jump"], help="behaviour to run (jump: kinematic preview of "
                    "the planned jump of wbc sim jump, no physics)")
-    p.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
+    p.add_argument("--robot", default="talos", help="catalog name, robot file (.toml) or URDF path (default talos)")
     p.add_argument("--stance", choices=["left", "right"], default=None,
                    help="one-leg: the foot that stays on the ground (default left)")
     p.add_argument("--hand", choices=["left", "right"], default=None, help="reach: the reaching hand (default right)")
@@ -131,5 +130,6 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--forward", type=finite(0.0), default=0.0, help="jump: planned forward foot displacement, m")
     p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)
+    add_robot_options(p)
     add_run_options(p)
     p.set_defaults(func=cmd_balance, check=check_balance_args)

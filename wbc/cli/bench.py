@@ -31,7 +31,8 @@ def register(subparsers, add_outputs=None) -> None:
                    help="interleaved repeats per library (default 5; 1..1000)")
     p.add_argument("--warmup", type=count(0, 1_000_000), default=100,
                    help="untimed ticks before each run (default 100; 0..10^6)")
-    p.add_argument("--robot", default="talos", help="robot of the comparisons (default talos)")
+    p.add_argument("--robot", default="talos",
+                   help="robot of the comparisons: catalog name or robot file (.toml) (default talos)")
     p.add_argument("--out-dir", type=Path, default=Path("benchmarks/results"),
                    help="folder for results.json, results.md, latency.png (default benchmarks/results)")
     p.add_argument("--sections", nargs="+", choices=SECTIONS, default=None, metavar="SECTION",

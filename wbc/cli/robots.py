@@ -1,19 +1,23 @@
-"""``wbc robots`` (the catalog table) and the ``--robot my.urdf`` frame options of ``wbc walk``.
+"""``wbc robots`` (the catalog table), ``wbc robot init|check`` (robot files) and the robot options shared by every
+command (``--robot NAME|FILE.toml|FILE.urdf`` and the frame overrides).
 
-Bring your own humanoid: ``wbc walk --robot my.urdf --srdf my.srdf --reference half_sitting --left-sole l_sole
---right-sole r_sole --torso torso`` (see README, "Bring your own humanoid").
+Bring your own humanoid: ``wbc robot init my.urdf -o my_robot.toml``, ``wbc robot check my_robot.toml``, then
+``wbc walk --robot my_robot.toml`` (format: ``docs/robot_file.md``). The frame options (``--left-sole`` ...)
+override the robot file's (or catalog robot's) values and are checked like them.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-__all__ = ["register", "add_robot_options", "robot_from_args", "cmd_robots"]
+__all__ = ["register", "add_robot_options", "robot_from_args", "cmd_robots", "cmd_robot_init", "cmd_robot_check"]
 
 
 def add_robot_options(p: argparse.ArgumentParser) -> None:
-    """Options naming the frames of a robot given as a URDF path (ignored for a catalog name)."""
-    g = p.add_argument_group("robot from a URDF path (--robot my.urdf)")
+    """Frame options of ``--robot``: required for a bare URDF path, overrides of a robot file's or catalog robot's
+    values otherwise (each checked: an unknown frame, a missing SRDF or a NaN size is an error, exit 2)."""
+    g = p.add_argument_group("robot overrides (required with --robot my.urdf; override a robot file's values)")
     g.add_argument("--srdf", default=None, help="SRDF with the reference posture (group_state)")
     g.add_argument("--reference", default=None, help="name of the SRDF reference posture (e.g. half_sitting)")
     g.add_argument("--left-sole", default=None, help="left sole frame (z up, on the ground plane)")
@@ -32,11 +36,11 @@ def robot_from_args(args: argparse.Namespace):
     """
     from wbc.robot import load_robot
 
-    if not str(args.robot).lower().endswith(".urdf"):
+    if not hasattr(args, "left_sole"):
         return load_robot(args.robot)
-    extra = {k: getattr(args, k) for k in ("sole_length", "sole_width") if getattr(args, k, None) is not None}
     return load_robot(args.robot, srdf=args.srdf, reference=args.reference, left_sole=args.left_sole,
-                      right_sole=args.right_sole, torso=args.torso, package_dirs=args.package_dir, **extra)
+                      right_sole=args.right_sole, torso=args.torso, package_dirs=args.package_dir,
+                      sole_length=args.sole_length, sole_width=args.sole_width)
 
 
 def cmd_robots(args: argparse.Namespace) -> int:
@@ -54,7 +58,70 @@ def cmd_robots(args: argparse.Namespace) -> int:
     return 0
 
 
+def _relative(path: str, out_dir: Path) -> str:
+    """How a robot file in ``out_dir`` names ``path``: ``erd:...`` inside example-robot-data, else relative."""
+    import os
+
+    from wbc.robot import example_robot_data_dir
+
+    erd = example_robot_data_dir() / "example-robot-data" / "robots"
+    p = Path(path).resolve()
+    if p.is_relative_to(erd.resolve()):
+        return "erd:" + p.relative_to(erd.resolve()).as_posix()
+    return os.path.relpath(p, out_dir.resolve())
+
+
+def cmd_robot_init(args: argparse.Namespace) -> int:
+    """``wbc robot init my.urdf``: infer a robot file, check that it loads, write it and print what was guessed."""
+    from dataclasses import replace
+
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot_file import spec_to_toml
+    from wbc.robot_inspect import infer_robot_spec
+
+    out = Path(args.output) if args.output else Path(Path(args.urdf).stem + ".toml")
+    if not out.parent.is_dir():
+        raise InvalidInputError(f"-o {out}: directory {str(out.parent)!r} does not exist (create it first)")
+    if out.exists() and not args.force:
+        raise InvalidInputError(f"-o {out}: file exists (pass --force to overwrite)")
+    spec, notes = infer_robot_spec(args.urdf, args.package_dir)
+    out_dir = out.parent
+    spec = replace(spec, urdf=_relative(spec.urdf, out_dir),
+                   srdf=None if spec.srdf is None else _relative(spec.srdf, out_dir),
+                   package_dirs=tuple(_relative(d, out_dir) for d in spec.package_dirs))
+    header = (f"Robot file written by `wbc robot init {args.urdf}` (format: docs/robot_file.md).\n"
+              "What was guessed (check it with `wbc robot check`):\n" + "\n".join(f"- {n}" for n in notes))
+    out.write_text(spec_to_toml(spec, comments={"header": header}))
+    print(f"wbc robot init: wrote {out}")
+    for n in notes:
+        print(f"  guessed: {n}")
+    return 0
+
+
+def cmd_robot_check(args: argparse.Namespace) -> int:
+    """``wbc robot check my_robot.toml``: load it with every validation and print the report."""
+    from wbc.robot_inspect import check_robot
+
+    report = check_robot(args.robot_file)
+    print(f"wbc robot check: {args.robot_file}: ok")
+    for k, v in report.items():
+        print(f"  {k}: {v}")
+    return 0
+
+
 def register(subparsers, add_outputs=None) -> None:
-    """Add the ``robots`` sub-command."""
+    """Add the ``robots`` and ``robot`` sub-commands."""
     p = subparsers.add_parser("robots", help="list the robot catalog (names accepted by --robot)")
     p.set_defaults(func=cmd_robots)
+    r = subparsers.add_parser("robot", help="robot files: `robot init my.urdf` writes one, `robot check` validates",
+                              description="Robot files (--robot my_robot.toml, format in docs/robot_file.md).")
+    sub = r.add_subparsers(dest="robot_command", required=True)
+    i = sub.add_parser("init", help="infer a robot file from a humanoid URDF and say what was guessed")
+    i.add_argument("urdf", help="the humanoid's URDF")
+    i.add_argument("-o", "--output", default=None, help="robot file to write (default: URDF stem + .toml)")
+    i.add_argument("--force", action="store_true", help="overwrite the output file")
+    i.add_argument("--package-dir", action="append", default=[], help="folder searched for package:// meshes")
+    i.set_defaults(func=cmd_robot_init)
+    c = sub.add_parser("check", help="load a robot file with every validation and print a report")
+    c.add_argument("robot_file", help="robot file (.toml), catalog name or URDF")
+    c.set_defaults(func=cmd_robot_check)

@@ -122,13 +122,13 @@ def cmd_joint_publisher(args) -> int:
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
 
-    from wbc.robot import load_robot
+    from wbc.cli.robots import robot_from_args
     from wbc.ros2 import dds, msgs
     from wbc.ros2.publisher import Ros2Publisher
     from wbc.scenarios.walk import plan_default_walk, run_walk
 
     _loopback(args)
-    robot = load_robot(args.robot)
+    robot = robot_from_args(args)
     plan = plan_default_walk(robot, n_steps=args.steps)
     run = run_walk(robot, plan)
     pub = Ros2Publisher(robot, rate=args.rate, tf=args.tf, dt=run.dt)
@@ -306,11 +306,15 @@ def register(subparsers, add_outputs) -> None:
     ros2 = subparsers.add_parser("ros2", help="ROS 2 nodes on DDS without ROS 2 (extra wbc[ros2])")
     sub = ros2.add_subparsers(dest="ros2_command", required=True)
     jp = sub.add_parser("joint-publisher", help="publish the walking motion until Ctrl-C; /reset_robot service")
-    jp.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
+    jp.add_argument("--robot", default="humanoid15",
+                    help="catalog name, robot file (.toml) or URDF path (default humanoid15)")
     jp.add_argument("--rate", type=_positive_rate, default=50.0, help="Hz (default 50, max 500)")
     jp.add_argument("--steps", type=count(2, 1000), default=4, help="walking steps in the looped motion (default 4)")
     jp.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
     jp.add_argument("--duration", type=seconds, default=None, help="stop after this many seconds (default: Ctrl-C)")
+    from wbc.cli.robots import add_robot_options
+
+    add_robot_options(jp)
     jp.set_defaults(func=cmd_joint_publisher)
     ej = sub.add_parser("echo-joint", help="print a joint's position from /joint_states")
     ej.add_argument("joint", help="joint name, e.g. right_knee")

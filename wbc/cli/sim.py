@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
+from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, video_size
 
@@ -46,7 +47,7 @@ def check_sim_args(args) -> None:
 
     if args.duration is not None:
         check_ticks(f"--duration {args.duration:g}", args.duration, SIM_DT)
-    if args.scenario == "walk":
+    if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
         check_ticks(f"--steps {args.steps} --step-duration {args.step_duration:g}",
                     (args.steps + 2) * args.step_duration, SIM_DT)
         if args.vx is not None and args.vx < 0:
@@ -65,7 +66,7 @@ def register(subparsers, add_outputs) -> None:
                     "state estimated from the simulated sensors (or MuJoCo's ground truth, --state) and applies "
                     "joint torques at 500 Hz (one 2 ms mj_step per tick).")
     p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
-    p.add_argument("--robot", default="talos", help="catalog name (default talos)")
+    p.add_argument("--robot", default="talos", help="catalog name, robot file (.toml) or URDF path (default talos)")
     p.add_argument("--duration", type=seconds, default=None,
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
     p.add_argument("--force", type=finite(0.0), default=None,
@@ -87,9 +88,10 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
     w.add_argument("--steps", type=count(2), default=8, help="walk: number of steps (default 8)")
-    w.add_argument("--step-length", type=finite(0.0), default=0.15, help="walk: step length, m (default 0.15)")
-    w.add_argument("--step-duration", type=seconds, default=0.8,
-                   help="walk: s per step, single + double support (20%%) (default 0.8)")
+    w.add_argument("--step-length", type=finite(0.0), default=None,
+                   help="walk: step length, m (default: the robot's gait, talos 0.15)")
+    w.add_argument("--step-duration", type=seconds, default=None,
+                   help="walk: s per step, single + double support (20%%) (default: the robot's gait, talos 0.8)")
     w.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
                    help="walk: yaw per step, deg (default 0; every angle option of wbc is in degrees)")
     w.add_argument("--vx", type=finite(), default=None,
@@ -132,8 +134,30 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--video-size", type=video_size, default=(640, 480), metavar="WxH",
                    help="video frame size in pixels, 16..4096 each (default 640x480)")
     add_outputs(p)
+    add_robot_options(p)
     add_run_options(p)
     p.set_defaults(func=cmd_sim, check=check_sim_args)
+
+
+def _gait_defaults(args, robot) -> None:
+    """``--step-length`` / ``--step-duration`` not given: 0.15 m and 0.8 s for a catalog robot (the physics walk's
+    tuned defaults), else the robot's gait (``[gait]`` of its robot file, or the scaled one): its step length and
+    t_ss + t_ds."""
+    from wbc.robot import catalog
+
+    in_catalog = robot.name in catalog() and robot.spec is not None and robot.spec.source is not None \
+        and robot.spec.source.parent.resolve() == Path(str(_catalog_dir())).resolve()
+    gait = robot.gait
+    if getattr(args, "step_length", None) is None:
+        args.step_length = 0.15 if in_catalog else float(gait.get("step_length", 0.15))
+    if getattr(args, "step_duration", None) is None:
+        args.step_duration = 0.8 if in_catalog else float(gait.get("t_ss", 0.6) + gait.get("t_ds", 0.2))
+
+
+def _catalog_dir():
+    import importlib.resources
+
+    return importlib.resources.files("wbc.robots")
 
 
 def _scenario(args, robot):
@@ -198,15 +222,18 @@ def _scenario(args, robot):
 
 def cmd_sim(args) -> int:
     """Run ``wbc sim`` (see the module docstring). Returns the exit code."""
-    from wbc.robot import load_robot
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
     status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
-    robot = load_robot(args.robot)
+    robot = robot_from_args(args)
+    _gait_defaults(args, robot)
     if args.scenario == "walk":
+        check_sim_args(args)  # again, with the robot's own step duration
         _check_walk_reach(args, robot)
-    sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
+    foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
+    sim = build_mujoco_model(robot, cone=args.cone, foot_contact=foot,
+                             **({} if args.impratio is None else {"impratio": args.impratio}))
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(

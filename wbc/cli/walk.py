@@ -163,13 +163,12 @@ def velocity_command(args, robot) -> dict:
 
 def cmd_walk(args) -> int:
     """`wbc walk`: plan, walk, print and write the outputs; exit code 0 passed, 1 failed criteria."""
-    from wbc.robot import load_robot
     from wbc.scenarios.acceptance import walk_passes
     from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
     from wbc.viz.overlays import walk_overlays
 
     status(args, f"wbc walk: loading {args.robot} ...")
-    robot = robot_from_args(args) if hasattr(args, "left_sole") else load_robot(args.robot)
+    robot = robot_from_args(args)
     velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
     status(args, f"wbc walk: planning {args.steps} steps ...")
@@ -210,7 +209,7 @@ def register(sub, add_outputs=add_outputs) -> None:
     walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller",
                           description="Plan a straight (or turning) walk from the robot's reference stance and track "
                                       "it with the 500 Hz kinematic QP; prints a summary with acceptance criteria.")
-    walk.add_argument("--robot", default="talos", help="catalog name or URDF path (default talos)")
+    walk.add_argument("--robot", default="talos", help="catalog name, robot file (.toml) or URDF path (default talos)")
     walk.add_argument("--steps", type=int, default=8,
                       help=f"number of steps, >= {MIN_STEPS}, the last one bringing the feet side by side: the feet "
                            "advance (steps - 1) x step length (default 8)")

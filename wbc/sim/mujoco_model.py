@@ -65,6 +65,7 @@ So ``qvel = T(q) v`` with ``T = blockdiag(R, I3, P)`` (P a permutation), ``qacc 
 from __future__ import annotations
 
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Callable
@@ -76,6 +77,7 @@ import pinocchio as pin
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.robot import Robot
 from wbc.sim.conventions import StateMap
+from wbc.sim.meshes import MUJOCO_MESH_SUFFIXES, mujoco_readable
 from wbc.sim.mujoco_runtime import MujocoModel
 
 __all__ = ["MujocoModel", "build_mujoco_model", "ENV_BIT", "ROBOT_BIT", "MAX_TIMESTEP"]
@@ -311,8 +313,22 @@ def _joint_frame_id(pmodel: pin.Model, joint: int) -> int:
 def _urdf_for_mujoco(robot: Robot) -> str:
     """URDF text with absolute mesh paths and MuJoCo compiler options (see the module docstring)."""
     urdf = Path(robot.urdf_path)
-    text = urdf.read_text()
+    text = robot.urdf_xml if getattr(robot, "urdf_xml", None) is not None else urdf.read_text()
     dirs = [Path(d) for d in robot.package_dirs]
+    mode = robot.spec.mujoco.meshes if getattr(robot, "spec", None) is not None else "convert"
+    if mode == "collision":  # visuals MuJoCo cannot read are dropped: the collision geometry is shown instead
+        def drop(match: re.Match) -> str:
+            names = re.findall(r"""filename\s*=\s*["']([^"']+)["']""", match.group(0))
+            if any(Path(n).suffix.lower() not in MUJOCO_MESH_SUFFIXES for n in names):
+                dropped.append(names[0])
+                return ""
+            return match.group(0)
+
+        dropped: list[str] = []
+        text = re.sub(r"<visual\b.*?</visual>", drop, text, flags=re.S)
+        if dropped:
+            warnings.warn(f"{robot.name}: {len(dropped)} visual meshes MuJoCo cannot read were dropped (the "
+                          f"collision geometry is shown), e.g. {dropped[0]}", stacklevel=3)
 
     def resolve(match: re.Match) -> str:
         ref = match.group(2)
@@ -325,7 +341,7 @@ def _urdf_for_mujoco(robot: Robot) -> str:
             candidates = [urdf.parent / ref]
         for c in candidates:
             if c.is_file():
-                return f"{match.group(1)}{c.resolve()}{match.group(3)}"
+                return f"{match.group(1)}{mujoco_readable(c.resolve())}{match.group(3)}"
         raise SimulationError(f"mesh {ref!r} of {urdf} not found (searched {[str(c) for c in candidates]})")
 
     text = re.sub(r"""(<mesh\b[^>]*?\bfilename\s*=\s*["'])([^"']+)(["'])""", resolve, text)

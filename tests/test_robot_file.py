@@ -1,0 +1,235 @@
+"""Robot files (wbc.robot_file, wbc.robot_inspect, `wbc robot init|check`) and the typed errors of every robot
+problem: each bad input is one line on stderr and exit 2 from the command line, a typed error from the API."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.cli import main
+from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError, UnknownFrameError, WbcError
+from wbc.robot import catalog, example_robot_data_dir, load_robot
+from wbc.robot_file import load_robot_file
+
+ROBOTS = Path(__file__).resolve().parent.parent / "robots"
+ERD = example_robot_data_dir() / "example-robot-data" / "robots"
+
+
+def _cli_error(argv, capsys) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+def _h15_file(tmp_path: Path, extra: str = "", drop: str | None = None) -> Path:
+    """humanoid15's robot file copied next to its URDF/SRDF (so relative paths resolve), with edits."""
+    for f in ("humanoid15.urdf", "humanoid15.srdf"):
+        shutil.copy(ROBOTS / f, tmp_path / f)
+    text = (ROBOTS / "humanoid15.toml").read_text()
+    if drop is not None:
+        text = "\n".join(line for line in text.splitlines() if not line.startswith(drop))
+    path = tmp_path / "h15.toml"
+    path.write_text(text.replace('urdf = "humanoid15.urdf"', 'urdf = "humanoid15.urdf"\n' + extra, 1))
+    return path
+
+
+def test_catalog_files_load_as_robot_files():
+    for name in catalog():
+        spec = load_robot_file(ROBOTS / f"{name}.toml")
+        assert spec.left_sole and spec.right_sole and spec.torso
+    a, b = load_robot("humanoid15"), load_robot(str(ROBOTS / "humanoid15.toml"))
+    np.testing.assert_array_equal(a.q_ref, b.q_ref)
+    assert (a.sole_length, a.sole_width, a.gait) == (b.sole_length, b.sole_width, b.gait)
+
+
+@pytest.mark.parametrize("extra, words", [
+    ("torsoo = \"torso\"", ["unknown key 'torsoo'", "did you mean 'torso'"]),
+    ("base_rpy = [0, nan, 0]", ["base_rpy[1]", "finite"]),
+    ("[mujoco]\nmeshes = \"magic\"", ["[mujoco] meshes", "convert"]),
+    ("[mujoco]\narmature = -1.0", ["armature", "out of range"]),
+    ("[gait]\nt_ss = inf", ["t_ss", "finite"]),
+    ("[sole]\nlength = -0.1", ["[sole] length", "out of range"]),
+])
+def test_robot_file_key_errors_name_the_key(tmp_path, extra, words):
+    path = _h15_file(tmp_path)
+    text = path.read_text()
+    if extra.startswith("["):
+        section = extra.splitlines()[0]
+        if section in text:  # replace the existing table's content
+            head, _, _ = text.partition(section)
+            text = head
+        text += "\n" + extra + "\n"
+    else:
+        text = extra + "\n" + text
+    path.write_text(text)
+    with pytest.raises(RobotDescriptionError) as exc:
+        load_robot(str(path))
+    for w in words:
+        assert w in str(exc.value), str(exc.value)
+
+
+def test_missing_required_key_and_malformed_toml(tmp_path):
+    path = _h15_file(tmp_path, drop="torso")
+    with pytest.raises(RobotDescriptionError, match="missing key 'torso'"):
+        load_robot_file(path)
+    path.write_text("urdf = \"humanoid15.urdf\"\nleft_sole = = 3\ntorso = 1\n")
+    with pytest.raises(RobotDescriptionError, match="malformed TOML.*line"):
+        load_robot_file(path)
+    with pytest.raises(RobotFileNotFoundError):
+        load_robot_file(tmp_path / "nope.toml")
+
+
+def test_malformed_urdf_and_srdf_give_the_line(tmp_path):
+    path = _h15_file(tmp_path)
+    text = (tmp_path / "humanoid15.urdf").read_text()
+    i = text.index("</link>")
+    line = text[:i].count("\n") + 1
+    (tmp_path / "humanoid15.urdf").write_text(text[:i] + "</lnk>" + text[i + 7:])  # mismatched tag
+    with pytest.raises(RobotDescriptionError, match=rf"humanoid15.urdf:{line}:\d+: malformed XML"):
+        load_robot(str(path))
+    shutil.copy(ROBOTS / "humanoid15.urdf", tmp_path / "humanoid15.urdf")
+    (tmp_path / "humanoid15.srdf").write_text("<robot name='x'>\n<group_state name='standing'>\n</robot>\n")
+    with pytest.raises(RobotDescriptionError, match=r"humanoid15.srdf:3:\d+: malformed XML"):
+        load_robot(str(path))
+
+
+def test_srdf_with_unknown_joint_is_a_typed_error(tmp_path):
+    path = _h15_file(tmp_path)
+    srdf = (tmp_path / "humanoid15.srdf").read_text()
+    i = srdf.index("<group_state")
+    (tmp_path / "humanoid15.srdf").write_text(srdf[:i] + srdf[i:].replace('<joint name="', '<joint name="zz'))
+    with pytest.raises(RobotDescriptionError, match="group_state 'standing' sets no joint of the URDF.*'zz"):
+        load_robot(str(path))
+    (tmp_path / "humanoid15.srdf").write_text(srdf[:i] + srdf[i:].replace('value="', 'valu="', 1))
+    with pytest.raises(RobotDescriptionError, match="SRDF"):  # Pinocchio's RuntimeError "No such node", wrapped
+        load_robot(str(path))
+
+
+def test_missing_mesh_and_unknown_frame_parent(tmp_path):
+    path = _h15_file(tmp_path, extra='\n[[frames]]\nname = "extra"\nparent = "no_such_link"\n')
+    text = path.read_text()
+    # TOML: a table header after top-level keys would swallow them; move the [[frames]] to the end
+    body = text.replace('\n[[frames]]\nname = "extra"\nparent = "no_such_link"\n', "\n")
+    path.write_text(body + '\n[[frames]]\nname = "extra"\nparent = "no_such_link"\n')
+    with pytest.raises(UnknownFrameError, match="no_such_link"):
+        load_robot(str(path))
+    (tmp_path / "humanoid15.urdf").write_text(_with_missing_mesh((ROBOTS / "humanoid15.urdf").read_text()))
+    path.write_text(body)
+    with pytest.raises(RobotFileNotFoundError, match="foot_missing.stl"):
+        load_robot(str(path))
+
+
+def _with_missing_mesh(urdf: str) -> str:
+    i = urdf.index("<visual>")
+    j = urdf.index("</visual>", i)
+    return urdf[:i] + ('<visual><geometry><mesh filename="package://nowhere/foot_missing.stl"/></geometry>'
+                       '</visual>') + urdf[j + len("</visual>"):]
+
+
+def test_y_up_model_is_diagnosed_with_the_fix(tmp_path):
+    path = tmp_path / "human.toml"
+    path.write_text(f'urdf = "erd:human_description/robots/human.urdf"\nleft_sole = "left_foot"\n'
+                    f'right_sole = "right_foot"\ntorso = "middle_pelvis"\n[sole]\nlength = 0.2\nwidth = 0.1\n')
+    with pytest.raises(RobotDescriptionError) as exc:
+        load_robot(str(path))
+    msg = str(exc.value)
+    assert "Y-up" in msg and "base_rpy" in msg, msg
+
+
+# -- every bad input listed in the issue: one line, exit 2, before any run ---------------------------------------
+
+@pytest.mark.parametrize("argv, words", [
+    (["balance", "shift", "--robot", "humanoid15", "--srdf", "missing.srdf"], ["missing.srdf", "not found"]),
+    (["balance", "shift", "--robot", "humanoid15", "--reference", "nosuchpose"], ["nosuchpose"]),
+    (["walk", "--robot", "humanoid15", "--left-sole", "nosuchframe"], ["nosuchframe"]),
+    (["walk", "--robot", "humanoid15", "--sole-length", "nan"], ["sole_length", "finite"]),
+    (["sim", "stand", "--robot", "humanoid15", "--torso", "nosuchframe"], ["nosuchframe"]),
+    (["sim", "walk", "--robot", "nosuchrobot"], ["nosuchrobot", "catalog"]),
+    (["walk", "--robot", "missing_robot.toml"], ["robot file not found"]),
+    (["robot", "check", "missing_robot.toml"], ["robot file not found"]),
+])
+def test_cli_refuses_options_that_do_not_apply(argv, words, capsys):
+    err = _cli_error(argv, capsys)
+    for w in words:
+        assert w in err, err
+
+
+def test_reference_joints_nan_on_a_robot_with_srdf():
+    with pytest.raises(RobotDescriptionError, match="finite"):
+        load_robot("talos", reference_joints={"arm_left_1_joint": math.nan})
+
+
+def test_overrides_apply_to_a_catalog_robot():
+    base = load_robot("humanoid15")
+    r = load_robot("humanoid15", sole_length=0.15)
+    assert r.sole_length == 0.15 and base.sole_length == pytest.approx(0.19)
+
+
+def _lock(text: str, joint: str, value: float) -> str:
+    i = text.index(f'<joint name="{joint}"')
+    j = text.index("</joint>", i)
+    block = re.sub(r'lower="[^"]*"', f'lower="{value}"', text[i:j])
+    block = re.sub(r'upper="[^"]*"', f'upper="{value}"', block)
+    return text[:i] + block + text[j:]
+
+
+def test_locked_joints_are_not_variables_and_keep_their_value(tmp_path):
+    path = _h15_file(tmp_path)
+    urdf = (ROBOTS / "humanoid15.urdf").read_text()
+    (tmp_path / "humanoid15.urdf").write_text(_lock(_lock(urdf, "neck", 0.3), "torso_yaw", 0.0))
+    locked, free = load_robot(str(path)), load_robot("humanoid15")
+    assert sorted(locked.locked_joints) == ["neck", "torso_yaw"]
+    assert locked.nv == free.nv - 2 and not locked.model.existJointName("neck")
+    # independent reference: the unlocked model with neck = 0.3 rad, torso_yaw = 0 (same reference otherwise)
+    q = free.q_ref.copy()
+    q[free.model.joints[free.joint_id("neck")].idx_q] = 0.3
+    q[free.model.joints[free.joint_id("torso_yaw")].idx_q] = 0.0
+    d_free, d_locked = free.model.createData(), locked.model.createData()
+    pin.framesForwardKinematics(free.model, d_free, q)
+    pin.framesForwardKinematics(locked.model, d_locked, locked.q_ref)
+    base_free = d_free.oMf[free.model.getFrameId("pelvis")]
+    base_locked = d_locked.oMf[locked.model.getFrameId("pelvis")]
+    for frame in ("head", "left_sole", "right_hand"):
+        a = base_free.actInv(d_free.oMf[free.model.getFrameId(frame)])
+        b = base_locked.actInv(d_locked.oMf[locked.model.getFrameId(frame)])
+        np.testing.assert_allclose(a.homogeneous, b.homogeneous, atol=1e-12)
+    from wbc.sim.mujoco_model import build_mujoco_model
+
+    sim = build_mujoco_model(locked)  # MuJoCo loads the same joints (the locked ones fixed)
+    assert sim.model.njnt == 1 + locked.nv - 6
+
+
+def test_init_stands_a_y_up_model_and_check_refuses_a_turned_foot(tmp_path, capsys):
+    out = tmp_path / "human.toml"
+    assert main(["robot", "init", str(ERD / "human_description" / "robots" / "human.urdf"), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "up axis: the model's +y" in text
+    robot = load_robot(str(out))
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_ref)
+    left = data.oMf[robot.model.getFrameId(robot.left_sole)]
+    assert left.rotation[2, 2] > np.cos(np.radians(5)) and left.translation[1] > 0.05  # flat, left is +y
+    assert robot.q_ref[2] > 0.8  # the pelvis of a standing adult
+    # iCub of example-robot-data: its foot collision meshes lie across the leg's forward direction
+    out = tmp_path / "icub.toml"
+    assert main(["robot", "init", str(ERD / "icub_description" / "robots" / "icub.urdf"), "-o", str(out)]) == 0
+    capsys.readouterr()
+    err = _cli_error(["robot", "check", str(out)], capsys)
+    assert "turned across the walking direction" in err and "Fix the foot's <collision> origin rpy" in err
+
+
+def test_nan_in_urdf_is_named(tmp_path):
+    path = _h15_file(tmp_path)
+    urdf = (ROBOTS / "humanoid15.urdf").read_text()
+    (tmp_path / "humanoid15.urdf").write_text(urdf.replace('<origin xyz="0 0 0.3" rpy="0 0 0"/>',
+                                                           '<origin xyz="0 nan 0.3" rpy="0 0 0"/>', 1))
+    with pytest.raises(RobotDescriptionError, match="<joint name='neck'> has <origin xyz='0 nan 0.3'>: not finite"):
+        load_robot(str(path))

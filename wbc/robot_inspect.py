@@ -1,0 +1,419 @@
+"""Robot-file inference and validation: what ``wbc robot init`` guesses from a URDF and what ``wbc robot check``
+reports about a robot file.
+
+:func:`infer_robot_spec` reads a humanoid URDF and infers, from the kinematic tree and the collision geometry:
+the up axis (the longest extent of the joint origins, its sign pointing from the feet to the base), the two feet
+(the two lowest branch tips, on different branches, apart laterally), left and right (link names, else the
++y side), the forward axis (the long axis of a foot's contact patch, towards the toes), a sole frame at the
+centre of each foot's contact patch (added as a frame when the URDF has none), the sole rectangle, the torso,
+the hands, an SRDF beside the URDF and a bent-knee reference posture (the feet raised towards the base by a
+fraction of the leg length with Pinocchio's frame Jacobians, damped least squares). Every guess is returned as
+a note.
+
+:func:`check_robot` loads a robot file and measures what a user needs to trust it: mass, CoM height, leg chains,
+sole frames against the foot geometry, joint limits and locked joints.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
+from wbc.geometry import polygon_margin, support_polygon
+from wbc.robot import (
+    Robot,
+    build_robot,
+    example_robot_data_dir,
+    foot_points,
+    geometry_points,
+    load_robot,
+)
+from wbc.robot_file import FrameSpec, RobotSpec, check_xml, package_roots
+
+__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN"]
+
+#: Smallest distance (m) of the reference posture's CoM inside the support polygon for `wbc robot check`.
+MIN_COM_MARGIN = 0.01
+
+#: Feet raised towards the base by this fraction of the leg length in the inferred reference posture (bent knees:
+#: a straight leg is a singular posture for CoM height tracking).
+KNEE_LIFT = 0.06
+
+
+def _side_from_name(name: str) -> str | None:
+    """'left'/'right' from a link or joint name (``left``/``l`` tokens, ``LAnkle`` camel case), else None."""
+    tokens = {t.lower() for t in re.split(r"[_\W\d]+", name) if t}
+    low = name.lower()
+    left = bool(tokens & {"l", "left"}) or "left" in low or bool(re.match(r"L[A-Z]", name))
+    right = bool(tokens & {"r", "right"}) or "right" in low or bool(re.match(r"R[A-Z]", name))
+    return "left" if left and not right else "right" if right and not left else None
+
+
+def _chain(model: pin.Model, j: int) -> list[int]:
+    out = []
+    while j > 0:
+        out.append(j)
+        j = model.parents[j]
+    return out[::-1]
+
+
+def _geometry_points_world(model, data, gmodel, joint: int) -> np.ndarray | None:
+    pts = []
+    for g in gmodel.geometryObjects:
+        if g.parentJoint != joint:
+            continue
+        local = geometry_points(g.geometry)
+        if local is None:
+            continue
+        m = data.oMi[joint] * g.placement
+        pts.append(local @ m.rotation.T + m.translation)
+    return np.vstack(pts) if pts else None
+
+
+def locked_joints(model: pin.Model, tolerance: float = 1e-9) -> list[str]:
+    """Names of the 1-DoF joints whose position range is empty (upper − lower ≤ ``tolerance`` rad or m)."""
+    out = []
+    for j in range(2, model.njoints):
+        jm = model.joints[j]
+        if jm.nq == 1 and model.upperPositionLimit[jm.idx_q] - model.lowerPositionLimit[jm.idx_q] <= tolerance:
+            out.append(model.names[j])
+    return out
+
+
+def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) -> tuple[RobotSpec, list[str]]:
+    """Infer a robot file for a humanoid URDF (module docstring: what is inferred, and how).
+
+    Args:
+        urdf: path of the URDF.
+        package_dirs: extra folders for ``package://`` URIs.
+
+    Returns:
+        ``(spec, notes)``: the inferred :class:`~wbc.robot_file.RobotSpec` (paths absolute) and one sentence per
+        guess.
+
+    Raises:
+        RobotFileNotFoundError: no such URDF.
+        RobotDescriptionError: malformed XML, no two feet found (the message says what was found), or the spec
+            inferred does not load (the loader's message).
+    """
+    urdf = Path(urdf).absolute()
+    if not urdf.is_file():
+        raise RobotFileNotFoundError(f"URDF file not found: {urdf}")
+    tree = check_xml(urdf, "URDF")
+    dirs = [str(Path(d).absolute()) for d in (package_dirs or [])]
+    search = [*dirs, str(urdf.parent), *package_roots(urdf, tree.getroot()), str(example_robot_data_dir())]
+    try:
+        model, cmodel, vmodel = pin.buildModelsFromUrdf(str(urdf), search, pin.JointModelFreeFlyer())
+    except (ValueError, RuntimeError) as exc:
+        raise RobotDescriptionError(f"cannot load URDF {urdf}: {str(exc).strip()} (searched package folders "
+                                    f"{search}; pass --package-dir for a package:// folder elsewhere)") from exc
+    notes: list[str] = []
+    if not len(cmodel.geometryObjects):
+        cmodel = vmodel
+        notes.append("the URDF has no <collision> geometry: the feet are measured on the visual meshes, and the "
+                     "plant's feet are boxes of the sole rectangle ([mujoco] foot = \"box\")")
+    data = model.createData()
+    q0 = pin.neutral(model)
+    pin.framesForwardKinematics(model, data, q0)
+    base = data.oMi[1].translation
+    pos = np.array([data.oMi[j].translation for j in range(1, model.njoints)])
+    children = {j: [c for c in range(2, model.njoints) if model.parents[c] == j] for j in range(1, model.njoints)}
+    leaves = [j for j in range(2, model.njoints) if not children[j]]
+    # up axis: the longest extent of the joint origins; its sign: where the feet are not (two branch tips at
+    # the same extreme, apart laterally)
+    ext = pos.max(axis=0) - pos.min(axis=0)
+    axis = int(np.argmax(ext))
+    best = None
+    for sign in (-1.0, 1.0):
+        tips = sorted(leaves, key=lambda j: sign * data.oMi[j].translation[axis], reverse=True)
+        a = tips[0]
+        for b in tips[1:]:
+            ca, cb = _chain(model, a), _chain(model, b)
+            split = len([x for x, y in zip(ca, cb) if x == y])
+            da, db = sign * data.oMi[a].translation[axis], sign * data.oMi[b].translation[axis]
+            lat = np.delete(data.oMi[a].translation - data.oMi[b].translation, axis)
+            if da - db < 0.05 and np.linalg.norm(lat) > 0.05 and split <= 2:
+                reach = da - sign * base[axis]
+                if best is None or reach > best[0]:
+                    best = (reach, sign, a, b)
+                break
+    if best is None:
+        raise RobotDescriptionError(
+            f"{urdf.name}: no two feet found (two branch tips of the kinematic tree at the same lowest height, "
+            f"apart sideways); write the robot file by hand (docs/robot_file.md) naming left_sole/right_sole")
+    _, sign, fa, fb = best
+    down = np.zeros(3)
+    down[axis] = sign
+    up_name = f"{'+' if sign < 0 else '-'}{'xyz'[axis]}"
+    # the foot joints: walk up from the tip to the first joint carrying collision geometry
+    feet = []
+    for tip in (fa, fb):
+        j = tip
+        while j > 1 and _geometry_points_world(model, data, cmodel, j) is None:
+            j = model.parents[j]
+        feet.append(j if j > 1 else tip)
+    # lateral axis: the horizontal axis separating the feet; left/right from the link names when they say so,
+    # then forward = left × up (x = y × z); else forward from the toes (the foot's contact patch reaches further
+    # in front of the ankle than behind it) and left = the +y side
+    horiz = [i for i in range(3) if i != axis]
+    sep = data.oMi[feet[0]].translation - data.oMi[feet[1]].translation
+    lat_axis = horiz[int(np.argmax(np.abs(sep[horiz])))]
+    fwd_axis = next(i for i in horiz if i != lat_axis)
+    up = -down
+    names = [model.names[j] for j in feet]
+    sides = [_side_from_name(n) for n in names]
+    if sides[0] is not None and sides[1] is not None and sides[0] != sides[1]:
+        left_dir = np.zeros(3)
+        left_dir[lat_axis] = np.sign(sep[lat_axis]) * (1.0 if sides[0] == "left" else -1.0)
+        fwd = np.cross(left_dir, up)
+        how = "link names"
+    else:
+        pts = _geometry_points_world(model, data, cmodel, feet[0])
+        fsign = 1.0
+        if pts is not None:
+            low = pts[sign * pts[:, axis] >= (sign * pts[:, axis]).max() - 0.01]
+            offset = 0.5 * (low[:, fwd_axis].max() + low[:, fwd_axis].min()) - data.oMi[feet[0]].translation[fwd_axis]
+            span = float(low[:, fwd_axis].max() - low[:, fwd_axis].min())
+            if abs(offset) > 0.1 * span:
+                fsign = 1.0 if offset > 0 else -1.0
+        fwd = np.zeros(3)
+        fwd[fwd_axis] = fsign
+        left_dir = np.cross(up, fwd)
+        sides = ["left", "right"] if float(sep @ left_dir) > 0 else ["right", "left"]
+        how = "the +y side (forward: the toes)"
+    rot = np.vstack([fwd, np.cross(up, fwd), up])  # world ← model: rows are the model's axes that become x, y, z
+    base_rpy = (0.0, 0.0, 0.0)
+    fwd_name = f"{'+' if fwd[fwd_axis] > 0 else '-'}{'xyz'[fwd_axis]}"
+    if not np.allclose(rot, np.eye(3)):
+        base_rpy = tuple(round(float(a), 6) for a in pin.rpy.matrixToRpy(rot))
+        notes.append(f"up axis: the model's {up_name}, forward {fwd_name}; base_rpy = {list(base_rpy)} turns it "
+                     f"z-up, x forward")
+    else:
+        notes.append("up axis: +z, forward +x (no base rotation)")
+    foot = dict(zip(sides, feet))
+    notes.append(f"feet: joints {model.names[foot['left']]!r} (left) and {model.names[foot['right']]!r} (right), "
+                 f"the lowest branch tips, left/right from {how}")
+    # sole frames: an existing '*sole*' frame on the foot joint, else one at the centre of the contact patch
+    frames: list[FrameSpec] = []
+    soles = {}
+    patches = []
+    for side, j in foot.items():
+        p = _geometry_points_world(model, data, cmodel, j)
+        body = next(f for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY)
+        if p is None:
+            raise RobotDescriptionError(
+                f"{urdf.name}: the {side} foot (joint {model.names[j]!r}) has no geometry to put a sole frame on; "
+                f"add a [[frames]] sole frame and a [sole] rectangle by hand (docs/robot_file.md)")
+        pw = p @ rot.T
+        low = pw[pw[:, 2] <= pw[:, 2].min() + 0.01]
+        c = np.array([0.5 * (low[:, 0].max() + low[:, 0].min()), 0.5 * (low[:, 1].max() + low[:, 1].min()),
+                      pw[:, 2].min()])
+        patches.append(low.max(axis=0) - low.min(axis=0))
+        existing = [f for f in model.frames if f.parentJoint == j and "sole" in f.name.lower()
+                    and f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
+        for f in existing:
+            w_m_f = pin.SE3(rot, np.zeros(3)) * data.oMf[model.getFrameId(f.name)]
+            if (w_m_f.rotation[2, 2] > math.cos(math.radians(5)) and w_m_f.rotation[0, 0] > math.cos(
+                    math.radians(10)) and np.linalg.norm(w_m_f.translation - c) < 0.01):
+                soles[side] = f.name
+                notes.append(f"{side} sole: the URDF's frame {f.name!r}")
+                break
+        if side in soles:
+            continue
+        if existing:
+            notes.append(f"{side} sole: the URDF's frames {[f.name for f in existing][:3]}"
+                         f"{'...' if len(existing) > 3 else ''} are not at the centre of the foot's contact patch "
+                         f"with z up and x forward (within 1 cm, 5°/10°)")
+        w_m_body = pin.SE3(rot, np.zeros(3)) * data.oMf[model.getFrameId(body.name)]
+        w_m_sole = pin.SE3(np.eye(3), c)
+        body_m_sole = w_m_body.inverse() * w_m_sole
+        name = f"{side}_sole"
+        while model.existFrame(name):
+            name = f"wbc_{name}"
+        frames.append(FrameSpec(name, body.name, tuple(round(float(x), 5) for x in body_m_sole.translation),
+                                tuple(round(float(x), 6) for x in pin.rpy.matrixToRpy(body_m_sole.rotation))))
+        soles[side] = name
+        notes.append(f"{side} sole: new frame {name!r} on link {body.name!r} at the centre of the foot's contact "
+                     f"patch (lowest 1 cm of its geometry), z up, x forward")
+    # torso and hands
+    bodies = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+    root = next(f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
+    plain = [n for n in sorted(bodies, key=len) if not _side_from_name(n)
+             and not any(k in n.lower() for k in ("imu", "sensor", "camera", "frame", "gyro", "accel"))]
+    torso = next((n for key in ("torso", "chest", "trunk", "upper_body", "body") for n in plain
+                  if key in n.lower()), root)
+    notes.append(f"torso: {torso!r} ({'the root link' if torso == root else 'by name'})")
+    hands = {}
+    for side in ("left", "right"):
+        for key in ("hand", "gripper", "palm", "wrist"):
+            cands = [n for n in bodies if key in n.lower() and _side_from_name(n) == side]
+            if cands:
+                hands[side] = min(cands, key=lambda n: (len(_chain(model, model.frames[model.getFrameId(n)]
+                                                                            .parentJoint)), len(n)))
+                break
+    if hands:
+        notes.append(f"hands: {hands} (by name)")
+    # SRDF beside the URDF
+    srdf = reference = None
+    for cand in [urdf.with_suffix(".srdf"), urdf.parent.parent / "srdf" / f"{urdf.stem}.srdf",
+                 *sorted((urdf.parent.parent / "srdf").glob("*.srdf"))]:
+        if cand.is_file():
+            try:
+                tree = check_xml(cand, "SRDF")
+            except RobotDescriptionError:
+                continue
+            states = [s.get("name") for s in tree.getroot().iter("group_state")]
+            if states:
+                srdf = str(cand)
+                reference = next((s for s in ("half_sitting", "standing", "stand") if s in states), states[0])
+                notes.append(f"reference posture: group_state {reference!r} of {cand} (has {states})")
+                break
+    # joints whose zero is outside their limits start at the nearest limit
+    clipped = {}
+    if reference is None:
+        for j in range(2, model.njoints):
+            jm = model.joints[j]
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if jm.nq == 1 and not lo <= 0.0 <= hi:
+                inside = min(0.05 * float(hi - lo), 0.05)  # rad (or m) inside the range, off the limit
+                clipped[model.names[j]] = round(float(lo + inside if lo > 0 else hi - inside), 4)
+        if clipped:
+            notes.append(f"reference posture: joints whose zero is outside their limits start 0.05 rad (at most 5 % "
+                         f"of their range) inside the nearest limit: {clipped}")
+    name = urdf.stem if urdf.stem.lower() not in ("model", "robot", "urdf") else urdf.parent.name
+    spec = RobotSpec(name=name, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
+                     reference_joints=clipped,
+                     left_sole=soles["left"], right_sole=soles["right"], torso=torso, left_hand=hands.get("left"),
+                     right_hand=hands.get("right"), frames=tuple(frames), package_dirs=tuple(dirs),
+                     base_rpy=base_rpy)
+    length = round(0.95 * min(float(p[0]) for p in patches), 3)
+    width = round(0.95 * min(float(p[1]) for p in patches), 3)
+    notes.append(f"sole rectangle: {length} x {width} m (95 % of the smaller foot's contact patch, the lowest 1 cm "
+                 f"of its geometry)")
+    spec = RobotSpec(**{**spec.__dict__, "sole_length": length, "sole_width": width})
+    robot = build_robot(spec)
+    if reference is None:
+        joints = _bent_knees(robot, notes)
+        spec = RobotSpec(**{**spec.__dict__, "reference_joints": {**clipped, **joints}})
+        robot = build_robot(spec)
+    gait = {k: float(v) for k, v in robot.gait.items()}
+    notes.append(f"gait: {gait} (scaled from Talos's by the leg length)")
+    return RobotSpec(**{**spec.__dict__, "gait": gait}), notes
+
+
+def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:
+    """Leg joint angles that raise each sole towards the base by ``KNEE_LIFT`` × the leg length, the sole
+    orientation kept (damped least squares on Pinocchio's frame Jacobian, joint limits clipped); the knee (the
+    middle joint of the leg chain) is seeded towards its wider range to leave the straight-leg singularity."""
+    model = robot.model
+    data = model.createData()
+    q = robot.q_ref.copy()
+    out = {}
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        chain = [j for j in _chain(model, model.frames[fid].parentJoint)[1:] if model.joints[j].nq == 1]
+        if len(chain) < 3:
+            continue
+        pin.framesForwardKinematics(model, data, q)
+        length = float(abs(data.oMf[fid].translation[2] - data.oMi[chain[0]].translation[2]))
+        target = data.oMf[fid].copy()
+        target.translation = target.translation + np.array([0.0, 0.0, KNEE_LIFT * length])
+        knee = max(chain[1:-1], key=lambda j: min(np.linalg.norm(data.oMi[j].translation
+                                                                 - data.oMi[chain[0]].translation),
+                                                  np.linalg.norm(data.oMi[j].translation
+                                                                 - data.oMf[fid].translation)))
+        iq = model.joints[knee].idx_q
+        lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+        q[iq] = np.clip(0.3 if hi >= -lo else -0.3, lo, hi)
+        idx_v = [model.joints[j].idx_v for j in chain]
+        for _ in range(200):
+            pin.framesForwardKinematics(model, data, q)
+            err = pin.log6(data.oMf[fid].actInv(target)).vector
+            if np.linalg.norm(err) < 1e-6:
+                break
+            jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, idx_v]
+            dq = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), err)
+            for j, d in zip(chain, dq):
+                k = model.joints[j].idx_q
+                q[k] = np.clip(q[k] + d, model.lowerPositionLimit[k], model.upperPositionLimit[k])
+        for j in chain:
+            out[model.names[j]] = round(float(q[model.joints[j].idx_q]), 4)
+    notes.append(f"reference posture: no SRDF found; knees bent (feet {KNEE_LIFT:.0%} of the leg length closer to "
+                 f"the base, soles flat): {out}")
+    return out
+
+
+def check_robot(path_or_name: str | Path) -> dict:
+    """Load a robot (file, catalog name or URDF) and measure it; any failure is the loader's typed error.
+
+    Returns:
+        a report: ``name``, ``nq``, ``nv``, ``mass_kg``, ``com_height_m`` (above the soles in ``q_ref``),
+        ``base_height_m``, ``legs`` (side → joint names from the base to the sole), ``soles`` (side → frame,
+        height of the foot geometry's lowest point in the sole frame in m, contact patch size),
+        ``sole_rectangle_m``, ``locked_joints``, ``inertia_fixes``, ``no_velocity_limit`` / ``no_effort_limit``
+        (joint names), ``massless_joint_bodies``; per sole, ``patch_minus_rectangle_m``: how far the foot's contact
+        patch reaches beyond the sole rectangle at the front, back, left and right (m).
+
+    Raises:
+        RobotDescriptionError: also when the reference CoM is less than ``MIN_COM_MARGIN`` inside the support
+            polygon, or a foot's contact patch is turned across the walking direction.
+        Any other failure is the typed error of :func:`wbc.robot.load_robot`.
+    """
+    robot = load_robot(path_or_name)
+    model = robot.model
+    data = model.createData()
+    pin.centerOfMass(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    legs, soles = {}, {}
+    for side in ("left", "right"):
+        frame = getattr(robot, f"{side}_sole")
+        chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]
+        legs[side] = [model.names[j] for j in chain]
+        p = foot_points(robot, frame, robot.collision_model)
+        if p is None:
+            soles[side] = {"frame": frame, "foot_geometry": None}
+        else:
+            patch = p[p[:, 2] <= p[:, 2].min() + 0.01]
+            span = patch.max(axis=0) - patch.min(axis=0)
+            if span[1] > 1.5 * span[0]:
+                raise RobotDescriptionError(
+                    f"{robot.name}: the {side} foot's contact patch is {span[0]:.3f} m long (x, forward) and "
+                    f"{span[1]:.3f} m wide (y) in sole frame {frame!r}: the foot geometry is turned across the "
+                    f"walking direction (a mesh rotated in the URDF, e.g. a Collada <up_axis> not applied by the "
+                    f"loaders, or a sole frame with x sideways). Fix the foot's <collision> origin rpy, or name a "
+                    f"sole frame whose x axis points along the foot")
+            a, b = 0.5 * robot.sole_length, 0.5 * robot.sole_width
+            soles[side] = {"frame": frame, "foot_bottom_m": round(float(p[:, 2].min()), 4),
+                           # how far the foot's contact patch (the plant's foot with [mujoco] foot = "urdf")
+                           # reaches beyond the controller's sole rectangle: front, back, left, right (m)
+                           "patch_minus_rectangle_m": [round(float(patch[:, 0].max() - a), 3),
+                                                       round(float(-patch[:, 0].min() - a), 3),
+                                                       round(float(patch[:, 1].max() - b), 3),
+                                                       round(float(-patch[:, 1].min() - b), 3)],
+                           "patch_x_m": [round(float(patch[:, 0].min()), 3), round(float(patch[:, 0].max()), 3)],
+                           "patch_y_m": [round(float(patch[:, 1].min()), 3), round(float(patch[:, 1].max()), 3)]}
+    poses = [data.oMf[model.getFrameId(f)] for f in (robot.left_sole, robot.right_sole)]
+    polygon = support_polygon(poses, robot.sole_length, robot.sole_width)
+    margin = polygon_margin(data.com[0][:2], polygon)
+    if margin < MIN_COM_MARGIN:
+        raise RobotDescriptionError(
+            f"{robot.name}: in the reference posture the CoM (x, y) = {np.round(data.com[0][:2], 3).tolist()} m is "
+            f"{'inside' if margin >= 0 else 'outside'} the feet's support polygon by {abs(margin):.3f} m (needs "
+            f"≥ {MIN_COM_MARGIN} m inside to start a walk); change the reference posture ([reference_joints] / "
+            f"reference) or the sole frames and [sole] rectangle so that the CoM is over the feet")
+    no_vel = [model.names[j] for j in range(2, model.njoints)
+              if not (0 < model.velocityLimit[model.joints[j].idx_v] < np.inf)]
+    no_eff = [model.names[j] for j in range(2, model.njoints)
+              if not (0 < model.effortLimit[model.joints[j].idx_v] < np.inf)]
+    massless = [model.names[j] for j in range(1, model.njoints) if model.inertias[j].mass <= 0]
+    return {"name": robot.name, "nq": robot.nq, "nv": robot.nv, "mass_kg": round(robot.mass, 3),
+            "com_height_m": round(float(data.com[0][2]), 4), "base_height_m": round(float(robot.q_ref[2]), 4),
+            "legs": legs, "soles": soles, "sole_rectangle_m": [robot.sole_length, robot.sole_width],
+            "torso": robot.torso, "hands": [robot.left_hand, robot.right_hand],
+            "locked_joints": robot.locked_joints, "inertia_fixes": robot.inertia_fixes, "no_velocity_limit": no_vel, "no_effort_limit": no_eff,
+            "massless_joint_bodies": massless, "gait": robot.gait}
