@@ -52,6 +52,12 @@ def register(subparsers, add_outputs) -> None:
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", choices=available_solvers(),
                    help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
+    p.add_argument("--plant", choices=("ideal", "realistic"), default="realistic",
+                   help="plant drives (wbc.sim.actuators): realistic (default: URDF joint damping and dry friction, "
+                        "rotor armature, torque-speed envelope) or ideal (torque sources; plant = model). "
+                        "--friction/--armature/--mass-error/... add on top")
+    p.add_argument("--no-load-factor", type=float, default=None,
+                   help="realistic plant: drive no-load speed / URDF velocity limit (default 1.2)")
     p.add_argument("--mu", type=float, default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=float, default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
@@ -159,8 +165,16 @@ def cmd_sim(args) -> int:
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
+    from wbc.exceptions import InvalidInputError
+    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, actuator_model, apply_actuators
+
     robot = load_robot(args.robot)
+    factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
+    if not factor > 0:
+        raise InvalidInputError(f"--no-load-factor must be > 0, got {factor}")
+    drives = actuator_model(robot, args.plant, no_load_factor=factor)
     sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
+    apply_actuators(sim, drives)
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -211,6 +225,7 @@ def cmd_sim(args) -> int:
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
+    summary["plant_drives"] = {"plant": args.plant, **drives.summary()}
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":
