@@ -14,6 +14,9 @@ from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
+#: Realistic plant: fraction of the URDF joint speed limits the controller keeps free.
+SPEED_MARGIN = 0.05
+
 _SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
@@ -175,6 +178,15 @@ def cmd_sim(args) -> int:
     drives = actuator_model(robot, args.plant, no_load_factor=factor)
     sim = build_mujoco_model(robot, cone=args.cone, **({} if args.impratio is None else {"impratio": args.impratio}))
     apply_actuators(sim, drives)
+    compensation = {}
+    if args.plant == "realistic":
+        # the controller knows the nominal drives: armature in its model (M includes it), friction/damping
+        # feed-forward, joint speed limits with a 5 % margin (wbc.dynamics.balance.IDBalanceController)
+        from wbc.dynamics.actuator_compensation import JointFrictionCompensation
+
+        robot.model.armature[6:] = drives.armature
+        compensation = {"compensation": JointFrictionCompensation(drives.damping, drives.friction),
+                        "speed_margin": SPEED_MARGIN}
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -196,6 +208,7 @@ def cmd_sim(args) -> int:
             options = walk_options_for(robot, args.solver, args.sole_margin)
         else:
             options = id_options_for(robot, args.solver)
+        options.update(compensation)
         if perturbed:
             from wbc.sim.perturb import PerturbedController
 
@@ -226,6 +239,10 @@ def cmd_sim(args) -> int:
     summary["solver"] = args.solver if args.controller == "id" else None
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["plant_drives"] = {"plant": args.plant, **drives.summary()}
+    summary["controller_compensation"] = (
+        "armature in M, URDF damping + dry friction feed-forward, joint speed limits at "
+        f"{1 - SPEED_MARGIN:.0%} of URDF (also in the relaxed QP)" if compensation and args.controller == "id"
+        else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":
