@@ -14,9 +14,6 @@ from wbc.cli.ros2 import add_run_options, attach, finish
 
 __all__ = ["register", "cmd_sim"]
 
-#: Realistic plant: fraction of the URDF joint speed limits the controller keeps free.
-SPEED_MARGIN = 0.05
-
 _SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
@@ -169,7 +166,8 @@ def cmd_sim(args) -> int:
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
     from wbc.exceptions import InvalidInputError
-    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, actuator_model, apply_actuators
+    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, SPEED_MARGIN, actuator_model, apply_actuators
+    from wbc.sim.actuators import compensation_options
 
     robot = load_robot(args.robot)
     factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
@@ -182,11 +180,7 @@ def cmd_sim(args) -> int:
     if args.plant == "realistic":
         # the controller knows the nominal drives: armature in its model (M includes it), friction/damping
         # feed-forward, joint speed limits with a 5 % margin (wbc.dynamics.balance.IDBalanceController)
-        from wbc.dynamics.actuator_compensation import JointFrictionCompensation
-
-        robot.model.armature[6:] = drives.armature
-        compensation = {"compensation": JointFrictionCompensation(drives.damping, drives.friction),
-                        "speed_margin": SPEED_MARGIN}
+        compensation = compensation_options(robot, drives, SPEED_MARGIN)
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(

@@ -35,10 +35,12 @@ import numpy as np
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "PLANTS", "ROTOR_ARMATURE",
-           "NO_LOAD_SPEED_FACTOR"]
+__all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
+           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN"]
 
 PLANTS = ("ideal", "realistic")
+#: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant.
+SPEED_MARGIN = 0.05
 #: No-load speed of the drives as a multiple of the URDF velocity limit (an assumption: the URDF limit is taken
 #: as the drive's rated speed, below its no-load speed).
 NO_LOAD_SPEED_FACTOR = 1.2
@@ -160,3 +162,14 @@ def apply_actuators(sim, act: ActuatorModel) -> None:
     m.dof_armature[dofs] = act.armature
     mujoco.mj_setConst(m, sim.data)
     sim.drive = act if np.any(np.isfinite(act.no_load_speed)) else None
+
+
+def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN) -> dict:
+    """Make the controller know the nominal drives ``act``: writes their armature into ``robot.model.armature``
+    (the controller's mass matrix then includes it — call after building the MuJoCo model, which copies the
+    Pinocchio armature) and returns the :class:`~wbc.dynamics.balance.IDBalanceController` options
+    ``{"compensation": friction/damping feed-forward, "speed_margin": speed_margin}``."""
+    from wbc.dynamics.actuator_compensation import JointFrictionCompensation
+
+    robot.model.armature[6:] = act.armature
+    return {"compensation": JointFrictionCompensation(act.damping, act.friction), "speed_margin": float(speed_margin)}
