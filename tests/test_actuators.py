@@ -81,3 +81,13 @@ def test_bad_plant_options(talos):
     apply_actuators(sim, actuator_model(talos, extra_friction=2.0, armature=0.05))
     assert np.all(sim.model.dof_frictionloss[sim.state_map.mj_qvel] >= 2.0)
     assert np.all(sim.model.dof_armature[sim.state_map.mj_qvel] == 0.05)
+
+
+def test_cli_rejects_bad_plant_options(capsys):
+    from wbc.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "stand", "--plant", "perfect"])
+    assert exc.value.code == 2
+    assert main(["sim", "stand", "--no-load-factor", "0"]) == 2
+    assert "--no-load-factor must be > 0" in capsys.readouterr().err

@@ -77,7 +77,7 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push", type=float, default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=float, default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=float, default=90.0,
-                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
+                   help="walk, push-step, push: push direction, deg (0 forward, 90 left; default 90)")
     w.add_argument("--no-stabilizer", action="store_true", help="walk: CoM PD tracking instead of the DCM stabilizer")
     w.add_argument("--sole-margin", type=float, default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
@@ -156,7 +156,10 @@ def _scenario(args, robot):
         settle = args.duration - 0.5 - args.push_duration
         if settle <= 0:
             raise InvalidInputError(f"push --duration must exceed 0.5 + push duration = {0.5 + args.push_duration} s")
-    return PushScenario(force, args.push_duration, settle=settle)
+    import math
+
+    direction = (math.cos(math.radians(args.push_dir)), math.sin(math.radians(args.push_dir)), 0.0)
+    return PushScenario(force, args.push_duration, settle=settle, direction=direction)
 
 
 def cmd_sim(args) -> int:
