@@ -85,7 +85,11 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=float, default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
     w.add_argument("--payload", type=float, default=0.0, help="walk: unmodelled torso payload on the plant, kg")
-    w.add_argument("--friction", type=float, default=0.0, help="walk: plant joint dry friction, N·m")
+    w.add_argument("--friction", type=float, default=0.0,
+                   help="walk: extra plant joint dry friction, N·m (unknown to the controller unless --friction-known)")
+    w.add_argument("--friction-known", action="store_true",
+                   help="walk, realistic plant: the controller's friction feed-forward includes the --friction extra "
+                        "(an identified friction); default: it compensates the URDF friction only")
     w.add_argument("--armature", type=float, default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=int, default=0, help="walk: control delay, ticks")
     w.add_argument("--impratio", type=float, default=None,
@@ -183,7 +187,10 @@ def cmd_sim(args) -> int:
     if args.plant == "realistic":
         # the controller knows the nominal drives: armature in its model (M includes it), friction/damping
         # feed-forward, joint speed limits with a 5 % margin (wbc.dynamics.balance.IDBalanceController)
-        compensation = compensation_options(robot, drives, SPEED_MARGIN)
+        known = drives
+        if args.friction_known and args.scenario == "walk" and args.friction > 0:
+            known = actuator_model(robot, args.plant, extra_friction=args.friction, no_load_factor=factor)
+        compensation = compensation_options(robot, known, SPEED_MARGIN)
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -237,7 +244,8 @@ def cmd_sim(args) -> int:
     summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     summary["plant_drives"] = {"plant": args.plant, **drives.summary()}
     summary["controller_compensation"] = (
-        "armature in M, URDF damping + dry friction feed-forward, joint speed limits at "
+        f"armature in M, URDF damping + dry friction{' + the --friction extra' if args.friction_known else ''} "
+        "feed-forward, joint speed limits at "
         f"{1 - SPEED_MARGIN:.0%} of URDF (also in the relaxed QP)" if compensation and args.controller == "id"
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
