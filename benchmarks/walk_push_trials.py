@@ -1,7 +1,8 @@
 """Seeded pushes during a physics walk (issue 11 acceptance): ``--trials`` walks of Talos in MuJoCo, each pushed once
 at the torso with ``--force`` N for ``--push-duration`` s at a random time during the walking steps and in a random
 horizontal direction (both drawn from ``numpy.random.default_rng(seed)``). A trial survives when the robot did not
-fall and finished the walk (:class:`wbc.sim.walk.WalkScenario` summary). Prints one line per trial and the count.
+fall (base drop, pelvis/torso tilt > 30°, non-foot contact: wbc.sim.outcome), no joint passed its URDF speed
+limit, and it finished the walk (:class:`wbc.sim.walk.WalkScenario` summary). Prints one line per trial and the count.
 
 Also ``--standing``: pushes from the front (180 deg: towards −x) and from behind (0 deg) on the standing robot,
 recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, same as ``wbc sim push-step``).
@@ -24,15 +25,24 @@ from wbc.sim.scenarios import make_controller, run_scenario
 from wbc.sim.walk import WalkScenario
 
 
+def _plant(robot, plant):
+    """(MuJoCo model, controller options) for ``plant`` ("realistic": the drives of wbc.sim.actuators and the
+    controller's compensation, as ``wbc sim``; "ideal": plant = model)."""
+    from wbc.sim.actuators import actuator_model, compensation_options
+
+    sim = build_mujoco_model(robot, plant=plant)
+    return sim, (compensation_options(robot, actuator_model(robot)) if plant == "realistic" else {})
+
+
 def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
-          adjust_timing, cli_options=False):
-    sim = build_mujoco_model(robot)
+          adjust_timing, cli_options=False, plant="realistic"):
+    sim, comp = _plant(robot, plant)
     options = {}
     if cli_options:  # the controller `wbc sim walk` builds (soles shrunk, angular-momentum weight 1)
         from wbc.sim.physics_scenarios import walk_options_for
 
         options = walk_options_for(robot)
-    controller = make_controller(robot, "id", dt=sim.timestep, **options)
+    controller = make_controller(robot, "id", dt=sim.timestep, **options, **comp)
     sc = WalkScenario(steps, step_length, step_duration, push=force, push_time=push_time, push_duration=duration,
                       push_dir=push_dir, step_adjust=step_adjust, adjust_timing=adjust_timing)
     _, s = run_scenario(sim, controller, sc)
@@ -57,18 +67,20 @@ def main() -> None:
     ap.add_argument("--cli-options", action="store_true",
                     help="the controller options of `wbc sim walk` (wbc.sim.physics_scenarios.walk_options_for: "
                          "sole rectangle shrunk, angular-momentum weight 1); default: make_controller's defaults")
+    ap.add_argument("--plant", choices=("ideal", "realistic"), default="realistic",
+                    help="plant drives as `wbc sim --plant` (default realistic, with the controller's compensation)")
     ap.add_argument("--standing", action="store_true", help="front and back pushes while standing (see docstring)")
     args = ap.parse_args()
     robot = wbc.load_robot(args.robot)
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
                   step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on",
-                  cli_options=args.cli_options)
+                  cli_options=args.cli_options, plant=args.plant)
     if args.standing:
         from wbc.sim.capture_step import CaptureStepScenario
 
         for name, d in (("front (push towards -x)", 180.0), ("behind (push towards +x)", 0.0)):
-            sim = build_mujoco_model(robot)
-            controller = make_controller(robot, "id", dt=sim.timestep)
+            sim, comp = _plant(robot, args.plant)
+            controller = make_controller(robot, "id", dt=sim.timestep, **comp)
             _, s = run_scenario(sim, controller, CaptureStepScenario(args.force, args.push_duration, push_dir=d))
             print(f"standing, from the {name}: {args.force:.0f} N x {args.push_duration} s: fell {s['fell']}, "
                   f"completed {s['completed']}, stepped {s['stepped']}, first step shift "
@@ -108,12 +120,13 @@ def _seeded_trial(job, robot=None):
     t = float(t_init + rng.uniform(0.0, t_walk - common["duration"]))
     d = float(rng.uniform(0.0, 360.0))
     s = trial(robot, push_time=t, push_dir=d, steps=steps, step_length=step_length, **common)
-    ok = bool((not s["fell"]) and s["completed"])
+    ok = bool((not s["fell"]) and s["completed"] and s["joint_speed_exceedances"] == 0)
     line = (f"seed {seed:2d}: push {common['force']:.0f} N at t = {t:.3f} s, dir {d:6.1f} deg: "
             f"{'survived' if ok else 'FELL'}; walked {s['walked_distance_m']:.3f} m, "
             f"step adjustments {s['step_adjustments']} (max {s['max_step_adjustment_m']:.3f} m), "
             f"timing changes {[round(x, 3) for x in s['step_timing_changes_s']]} s, "
-            f"solver failures {s['solver_failures']}")
+            f"solver failures {s['solver_failures']}, joint-speed exceedances {s['joint_speed_exceedances']}"
+            f"{' (' + s['fall_reason'] + ')' if s['fell'] else ''}")
     return seed, ok, line
 
 

@@ -84,6 +84,12 @@ def register(subparsers, add_outputs) -> None:
                    help="what the controller reads: estimated (default: encoders, pelvis IMU and ankle F/T sensors "
                         "with noise and bias, wbc.sim.sensors, fused by wbc.estimation.FloatingBaseEstimator; "
                         "noise seeded by --seed) or ground-truth (MuJoCo's qpos/qvel)")
+    p.add_argument("--plant", choices=("ideal", "realistic"), default="realistic",
+                   help="plant drives (wbc.sim.actuators): realistic (default: URDF joint damping and dry friction, "
+                        "rotor armature, torque-speed envelope) or ideal (torque sources; plant = model). "
+                        "--friction/--armature/--mass-error/... add on top")
+    p.add_argument("--no-load-factor", type=finite(0.0, 100.0, lo_open=True), default=None,
+                   help="realistic plant: drive no-load speed / URDF velocity limit (default 1.2)")
     p.add_argument("--mu", type=finite(0.0, 10.0, lo_open=True), default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
@@ -105,7 +111,7 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,
-                   help="walk, push-step: push direction, deg (0 forward, 90 left)")
+                   help="walk, push-step, push: push direction, deg (0 forward, 90 left; default 90)")
     w.add_argument("--zmp-feedback", type=finite(0.0), default=None,
                    help="walk: gain of the stabilizer's feedback of the ZMP measured by the ankle F/T sensors "
                         "(DcmStabilizer k_z; needs --state estimated; default 0.5 with --state estimated, "
@@ -117,7 +123,11 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=finite(0.0), default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
     w.add_argument("--payload", type=finite(0.0), default=0.0, help="walk: unmodelled torso payload on the plant, kg")
-    w.add_argument("--friction", type=finite(0.0), default=0.0, help="walk: plant joint dry friction, N·m")
+    w.add_argument("--friction", type=finite(0.0), default=0.0,
+                   help="walk: extra plant joint dry friction, N·m (unknown to the controller unless --friction-known)")
+    w.add_argument("--friction-known", action="store_true",
+                   help="walk, realistic plant: the controller's friction feed-forward includes the --friction extra "
+                        "(an identified friction); default: it compensates the URDF friction only")
     w.add_argument("--armature", type=finite(0.0), default=0.0, help="walk: plant rotor armature, kg·m²")
     w.add_argument("--delay", type=count(0, 1000), default=0, help="walk: control delay, ticks")
     w.add_argument("--impratio", type=finite(0.0, lo_open=True), default=None,
@@ -217,7 +227,10 @@ def _scenario(args, robot):
         settle = args.duration - 0.5 - args.push_duration
         if settle <= 0:
             raise InvalidInputError(f"push --duration must exceed 0.5 + push duration = {0.5 + args.push_duration} s")
-    return PushScenario(force, args.push_duration, settle=settle)
+    import math
+
+    direction = (math.cos(math.radians(args.push_dir)), math.sin(math.radians(args.push_dir)), 0.0)
+    return PushScenario(force, args.push_duration, settle=settle, direction=direction)
 
 
 def cmd_sim(args) -> int:
@@ -225,15 +238,29 @@ def cmd_sim(args) -> int:
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
+    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, SPEED_MARGIN, actuator_model, apply_actuators
+    from wbc.sim.actuators import compensation_options
+
     status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
     robot = robot_from_args(args)
     _gait_defaults(args, robot)
     if args.scenario == "walk":
         check_sim_args(args)  # again, with the robot's own step duration
         _check_walk_reach(args, robot)
+    factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
+    drives = actuator_model(robot, args.plant, no_load_factor=factor)
     foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
     sim = build_mujoco_model(robot, cone=args.cone, foot_contact=foot,
                              **({} if args.impratio is None else {"impratio": args.impratio}))
+    apply_actuators(sim, drives)
+    compensation = {}
+    if args.plant == "realistic":
+        # the controller knows the nominal drives: armature in its model (M includes it), friction/damping
+        # feed-forward, joint speed limits with a 5 % margin (wbc.dynamics.balance.IDBalanceController)
+        known = drives
+        if args.friction_known and args.scenario == "walk" and args.friction > 0:
+            known = actuator_model(robot, args.plant, extra_friction=args.friction, no_load_factor=factor)
+        compensation = compensation_options(robot, known, SPEED_MARGIN)
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -255,6 +282,7 @@ def cmd_sim(args) -> int:
             options = walk_options_for(robot, args.solver, args.sole_margin)
         else:
             options = id_options_for(robot, args.solver)
+        options.update(compensation)
         if perturbed:
             from wbc.sim.perturb import PerturbedController
 
@@ -304,6 +332,12 @@ def cmd_sim(args) -> int:
         summary["estimation_error"] = estimation_errors(run.q[:n], run.v[:n], run.extra["q_est"][:n],
                                                         run.extra["v_est"][:n], summary.get("walked_distance_m"))
         summary["estimation_error"]["until_s"] = float(run.t[n - 1])
+    summary["plant_drives"] = {"plant": args.plant, **drives.summary()}
+    summary["controller_compensation"] = (
+        f"armature in M, URDF damping + dry friction{' + the --friction extra' if args.friction_known else ''} "
+        "feed-forward, joint speed limits at "
+        f"{1 - SPEED_MARGIN:.0%} of URDF (also in the relaxed QP)" if compensation and args.controller == "id"
+        else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
     if args.scenario == "walk" and args.controller == "id":

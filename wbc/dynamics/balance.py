@@ -25,7 +25,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constraints.joint_velocity import JointSpeedBounds
 from wbc.constraints.sole_contact import SoleContact
+from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import InverseDynamicsQP
 from wbc.formulations.reference import (
@@ -64,16 +66,23 @@ class IDBalanceController:
         sole_margin: the controller's contact rectangle is the sole shrunk by this much on every side (m), so
             the CoP it plans keeps this distance from the real sole's edges.
         gains: overrides of :data:`DEFAULT_GAINS`.
+        compensation: joint friction/damping feed-forward added to every command's torques (clipped to the
+            torque limits), evaluated at the commanded next-tick joint velocity v + v̇ dt
+            (:class:`~wbc.dynamics.actuator_compensation.JointFrictionCompensation`); None: none.
+        speed_margin: the joint speed limits the QP enforces on its accelerations, |v + v̇ dt| ≤ (1 − margin)
+            q̇_max (URDF), in the full QP (eq. 9 of :mod:`wbc.formulations.acceleration`) and — as the
+            non-relaxable :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` — in the relaxed one; in [0, 1).
 
     Raises:
-        InvalidInputError: unknown gain names or bad values. UnknownSolverError: unknown solver.
+        InvalidInputError: unknown gain names or bad values, a compensation of the wrong type or size, a speed
+            margin outside [0, 1). UnknownSolverError: unknown solver.
     """
 
     SIDES = ("left", "right")
 
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
-                 **qp_options):
+                 compensation: JointFrictionCompensation | None = None, speed_margin: float = 0.0, **qp_options):
         unknown = set(gains or {}) - set(DEFAULT_GAINS)
         if unknown:
             raise InvalidInputError(f"unknown gains {sorted(unknown)}; known: {sorted(DEFAULT_GAINS)}")
@@ -102,6 +111,16 @@ class IDBalanceController:
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
                                     list(self.contacts.values()), solver=solver, **qp_options)
         self.controller = InverseDynamicsController(self.qp, dt)
+        speed = JointSpeedBounds(robot, speed_margin)
+        self.qp.joint_speed_limits = speed
+        if speed_margin > 0:
+            self.qp.joint_acceleration_limits.vmax[:] *= 1.0 - speed_margin  # in place: the compiled tick reads it
+        if compensation is not None and (not isinstance(compensation, JointFrictionCompensation)
+                                         or compensation.damping.size != robot.nv - 6):
+            raise InvalidInputError(f"compensation must be a JointFrictionCompensation of size {robot.nv - 6}, "
+                                    f"got {compensation!r}")
+        self.compensation = compensation
+        self._tau_max = np.where(np.isfinite(self.qp.tau_max) & (self.qp.tau_max > 0), self.qp.tau_max, np.inf)
         self.com_ref = np.zeros(3)
         self.com_vel_ref = np.zeros(3)
         self.com_acc_ref = np.zeros(3)
@@ -184,7 +203,11 @@ class IDBalanceController:
         Raises:
             ConfigurationError: bad q / v.
         """
-        return self.controller.tick(q, v)
+        cmd = self.controller.tick(q, v)
+        if self.compensation is not None:
+            vj = np.asarray(v, dtype=float)[6:] + cmd.dv[6:] * self.dt  # commanded next-tick joint velocity
+            cmd.tau = np.clip(cmd.tau + self.compensation.torque(vj), -self._tau_max, self._tau_max)
+        return cmd
 
 
 #: Former name of :class:`IDBalanceController` (kept so existing callers run; the kinematic balance controller of

@@ -197,6 +197,9 @@ class InverseDynamicsQP:
         self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.unilaterality = [Unilaterality(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
+        #: optional non-relaxable joint speed bounds kept by :meth:`solve_relaxed`
+        #: (:class:`wbc.constraints.joint_velocity.JointSpeedBounds`); None: none
+        self.joint_speed_limits = None
         self.tau_max = self.torque_limits.tau_max
         self.tau_rows = self.torque_limits.joints
         r = 0
@@ -473,11 +476,13 @@ class InverseDynamicsQP:
 
     def solve_relaxed(self, state: DynamicsState, dt: float) -> IDSolution:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
-        a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques). Same
-        returns/raises as :meth:`solve`."""
+        a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques); the
+        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`."""
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         l, u, lb, ub = self._relax(l, u, lb, ub)
+        if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
+            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()

@@ -11,9 +11,11 @@ Every control tick k (period dt = the MuJoCo timestep, 2 ms → 500 Hz, one ``mj
 2. the scenario updates the references and external forces for time t = k dt;
 3. the controller computes τ (timed: this is the "tick time");
 4. τ is written to the actuators (MuJoCo clamps it to the URDF effort limits) and ``mj_step`` advances dt;
-5. the log records t, q, v, τ, the CoM and its reference, the controller's contact forces, the ground-truth foot
-   wrenches (contact forces summed per foot, valid for the state at t), and a fall check: base height below
-   its initial value − 0.2 m, or any robot geom other than the foot boxes touching the floor.
+5. the log records t, q, v, τ, the CoM and its reference, the controller's contact forces and the ground-truth foot
+   wrenches (contact forces summed per foot, valid for the state at t);
+6. :class:`~wbc.sim.outcome.OutcomeMonitor` checks the new state (t + dt) from MuJoCo's data: a fall (base drop
+   > 0.2 m, pelvis or torso tilt > 30° from nominal, or a non-foot body touching the floor), joint speeds above
+   the URDF limits, and the landing slide of the soles' contact points.
 
 The real-time factor is simulated time / wall time of the whole loop (controller + ``mj_step`` + logging).
 """
@@ -31,10 +33,9 @@ from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.scenarios.framework import RunRecord
 from wbc.sim.mujoco_runtime import MujocoModel
+from wbc.sim.outcome import FALL_HEIGHT_DROP, OutcomeMonitor
 
 __all__ = ["SimRun", "run_closed_loop", "FALL_HEIGHT_DROP"]
-
-FALL_HEIGHT_DROP = 0.2  #: m, base height drop that counts as a fall
 
 
 @dataclass
@@ -57,7 +58,9 @@ class SimRun(RunRecord):
         ok: (N,) a QP was solved (True for the baseline); relaxed: (N,) the relaxed QP was used.
         tick_time: (N,) controller time per tick (s). step_time: (N,) ``mj_step`` time (s).
         wall_time: wall time of the whole loop (s).
-        fell, fall_reason, fall_time: fall detection (module docstring).
+        fell, fall_reason, fall_time: fall detection (:mod:`wbc.sim.outcome`).
+        outcome: :meth:`wbc.sim.outcome.OutcomeMonitor.summary` of the run (fall, tilt, joint speed, landing
+            slide).
     """
 
     robot: str
@@ -84,9 +87,10 @@ class SimRun(RunRecord):
     fell: bool = False
     fall_reason: str = ""
     fall_time: float | None = None
+    outcome: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
 
-    not_logged = ("wall_time", "fall_time")  # wall time is measured, not computed; fall_time is in the summary
+    not_logged = ("wall_time", "fall_time", "outcome")  # wall time is measured, not computed; fall_time is in the summary
 
 
 def _foot_wrenches(sim, foot_bodies, sole_body, sole_off, out_wrench, out_pos) -> None:
@@ -166,14 +170,11 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         "ok": np.ones(n, dtype=bool), "relaxed": np.zeros(n, dtype=bool), "tick_time": np.empty(n), "step_time": np.empty(n),
     }
     est = {"q_est": np.empty((n, pm.nq)), "v_est": np.empty((n, pm.nv))} if state is not None else {}
-    is_foot = np.zeros(model.ngeom + 1, dtype=bool)  # index −1 (no robot geom) maps to the extra False
-    is_foot[np.concatenate(list(sim.foot_geoms.values()))] = True
+    monitor = OutcomeMonitor(sim)
     foot_bodies = [sim.foot_bodies[s] for s in ("left", "right")]
     sole_body = np.array([sim.sole_placements[s][0] for s in ("left", "right")])
     sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
-    floor = sim.floor_geom
-    z0 = float(q[2])
-    fell, reason, fall_time, stop_at = False, "", None, n
+    fell, stop_at = False, n
     sides = ("left", "right")
     k_end = n
     wall0 = perf_counter()
@@ -223,25 +224,10 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             log["ext_force"][k] = f_ext
         log["tick_time"][k] = t1 - t0
         log["step_time"][k] = t2 - t1
-        # -- fall check ------------------------------------------------------------------------------------
-        if not fell:
-            ncon = data.ncon
-            if ncon:
-                g1 = data.contact.geom1[:ncon]
-                g2 = data.contact.geom2[:ncon]
-                other = np.where(g1 == floor, g2, np.where(g2 == floor, g1, -1))
-                bad = other[(other >= 0) & ~is_foot[other]]
-            else:
-                bad = ()
-            if len(bad):
-                fell, fall_time = True, t
-                reason = "non-foot contact with the ground: " + ", ".join(
-                    sorted({sim.body_name(model.geom_bodyid[g]) for g in bad}))
-            elif q[2] < z0 - FALL_HEIGHT_DROP:
-                fell, fall_time = True, t
-                reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
-            if fell:
-                stop_at = min(n, k + 1 + int(round(after_fall / dt)))
+        # -- outcome (fall, joint speed, landing slide) of the new state ------------------------------------
+        if monitor.update(t + dt) and not fell:
+            fell = True
+            stop_at = min(n, k + 1 + int(round(after_fall / dt)))
         if viewer is not None:
             viewer.update(q, t)
         if pacer is not None:
@@ -253,5 +239,6 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     sim.clear_external_forces()
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
-                  scenario=scenario.name, dt=dt, wall_time=wall, fell=fell, fall_reason=reason,
-                  fall_time=fall_time, extra={key: val[:k_end] for key, val in est.items()}, **cut)
+                  scenario=scenario.name, dt=dt, wall_time=wall, fell=monitor.fell,
+                  fall_reason=monitor.fall_reason, fall_time=monitor.fall_time, outcome=monitor.summary(),
+                  extra={key: val[:k_end] for key, val in est.items()}, **cut)

@@ -20,6 +20,9 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
   meshes of Talos overlap in half_sitting: 23 contacts, ~480 kN). ``self_collision="srdf"`` re-enables
   robot–robot collision minus the SRDF ``disable_collisions`` pairs, ``"all"`` minus MuJoCo's parent–child
   filter only. Objects added later should use the floor's bits to be touched by the robot;
+* ``plant="realistic"``: the drive models of :mod:`wbc.sim.actuators` (URDF damping and dry friction, rotor
+  armature per robot, torque–speed envelope) are written into the compiled model; the default ``"ideal"`` keeps
+  the plant equal to the Pinocchio model as described next;
 * joint damping / dry friction: MuJoCo applies URDF ``<dynamics damping friction>`` (Talos upper body: 1 and 1),
   Pinocchio's RNEA/ABA ignore them. Default ``zero_joint_damping_friction=True`` zeroes them in MuJoCo so both
   models have the same dynamics; the URDF values stay available (``joint_damping``, ``joint_friction``) for a
@@ -76,6 +79,7 @@ import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.robot import Robot
+from wbc.sim.actuators import PLANTS, actuator_model, apply_actuators
 from wbc.sim.conventions import StateMap
 from wbc.sim.meshes import MUJOCO_MESH_SUFFIXES, mujoco_readable
 from wbc.sim.mujoco_runtime import MujocoModel
@@ -102,6 +106,7 @@ def build_mujoco_model(
     impratio: float = 10.0,
     customize: Callable[[mujoco.MjSpec], None] | None = None,
     sensors: bool = True,
+    plant: str = "ideal",
 ) -> MujocoModel:
     """Compile a MuJoCo model of ``robot`` from its URDF (see the module docstring for every modelling choice).
 
@@ -120,12 +125,16 @@ def build_mujoco_model(
         customize: called with the ``MjSpec`` just before compilation (add cameras, lights, obstacles...).
         sensors: add the joint encoders, the pelvis IMU and the ankle F/T sensors of :mod:`wbc.sim.sensors`
             (MuJoCo sensors; they do not change the physics).
+        plant: ``"ideal"`` (joints are ideal torque sources: the plant equals the Pinocchio model) or
+            ``"realistic"`` (the drives of :func:`wbc.sim.actuators.actuator_model` with its defaults: URDF damping
+            and dry friction, rotor armature, torque–speed envelope; replaces ``zero_joint_damping_friction``).
+            For other drive settings call :func:`wbc.sim.actuators.apply_actuators` on the ideal model.
 
     Returns:
         A :class:`MujocoModel` whose state is ``robot.q_ref`` at rest (``mj_forward`` done).
 
     Raises:
-        InvalidInputError: a bad option value.
+        InvalidInputError: a bad option value (``plant`` not ``"ideal"``/``"realistic"`` included).
         SimulationError: the URDF cannot be compiled or does not match the Pinocchio model (joint names,
             joint types, total mass).
     """
@@ -146,6 +155,8 @@ def build_mujoco_model(
         raise InvalidInputError(f"impratio must be finite and >= 1, got {impratio!r}")
     if not (floor_friction > 0 and foot_box_thickness > 0):
         raise InvalidInputError("floor_friction and foot_box_thickness must be positive")
+    if plant not in PLANTS:
+        raise InvalidInputError(f"plant must be one of {PLANTS}, got {plant!r}")
 
     pmodel = robot.model
     text = _urdf_for_mujoco(robot)
@@ -239,7 +250,12 @@ def build_mujoco_model(
         model = spec.compile()
     except Exception as exc:
         raise SimulationError(f"MuJoCo cannot compile the model of {robot.name!r}: {exc}") from exc
-    return _assemble(robot, model, feet, foot_contact, not zero_joint_damping_friction, effort)
+    sim = _assemble(robot, model, feet, foot_contact, not zero_joint_damping_friction, effort)
+    if plant == "realistic":
+        apply_actuators(sim, actuator_model(robot, plant))
+        sim.damping_friction_in_sim = True
+        sim.set_state(robot.q_ref, np.zeros(pmodel.nv))
+    return sim
 
 
 def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:

@@ -41,6 +41,9 @@ class MujocoModel:
         foot_geoms: side ("left"/"right") -> geom ids that make the foot's ground contact.
         foot_bodies: side -> ids of the bodies rigidly attached to the sole frame.
         sole_placements: side -> (body id, sole frame placement in that body's frame).
+        drive: the drives' torque–speed envelope applied by :meth:`set_torques`
+            (:class:`~wbc.sim.actuators.ActuatorModel`, installed by :func:`~wbc.sim.actuators.apply_actuators`);
+            None: ideal torque sources (clamped to the effort limits by MuJoCo).
     """
 
     robot: Robot
@@ -56,6 +59,7 @@ class MujocoModel:
     foot_geoms: dict[str, np.ndarray]
     foot_bodies: dict[str, np.ndarray]
     sole_placements: dict[str, tuple[int, pin.SE3]]
+    drive: object | None = None
 
     @property
     def timestep(self) -> float:
@@ -109,13 +113,17 @@ class MujocoModel:
     def set_torques(self, tau, data: mujoco.MjData | None = None) -> None:
         """Set the joint torques (N·m), ``(nv - 6,)`` in Pinocchio's actuated-joint order (``v[6:]``).
 
-        MuJoCo clamps them to ``±effort_limit``; they stay applied until changed.
+        MuJoCo clamps them to ``±effort_limit``; with a :attr:`drive`, its torque–speed envelope at the current
+        joint speeds limits them first. They stay applied until changed.
 
         Raises:
             InvalidInputError: wrong shape or NaN/inf.
         """
         d = self.data if data is None else data
-        d.ctrl[self.actuator_ids] = check_vector(tau, self.state_map.nv - 6, "tau")
+        tau = check_vector(tau, self.state_map.nv - 6, "tau")
+        if self.drive is not None:
+            tau = self.drive.available_torque(tau, d.qvel[self.state_map.mj_qvel])
+        d.ctrl[self.actuator_ids] = tau
 
     def step(self, n: int = 1, data: mujoco.MjData | None = None) -> None:
         """Advance ``n`` steps of :attr:`timestep` with the current torques and external forces."""

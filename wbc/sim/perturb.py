@@ -4,7 +4,8 @@
   (the controller keeps the exact Pinocchio model): every link mass (and its inertia, scaled with it) multiplied by
   ``1 + e``, e ~ U(−mass_error, +mass_error) per body; a point ``payload`` (kg) added to the torso body at its
   origin (mass added, inertia unchanged, body CoM moved accordingly); joint dry friction (N·m, ``frictionloss``)
-  and rotor armature (kg·m², ``armature``) on every actuated DoF.
+  and rotor armature (kg·m², ``armature``) added on every actuated DoF, on top of what the plant's drive model
+  (:mod:`wbc.sim.actuators`) already has.
 * :class:`PerturbedController` wraps a :class:`~wbc.dynamics.balance.BalanceController`: Gaussian noise on the
   measured q (joints, rad) and v (all DoF, rad/s or m/s) and a control delay of ``delay`` ticks (the torque applied
   at tick k is the one computed at tick k − delay; the first torque before).
@@ -67,7 +68,7 @@ def perturb_plant(sim, *, mass_error: float = 0.0, payload: float = 0.0, frictio
         m.body_ipos[b] = m.body_ipos[b] * m0 / (m0 + payload)  # payload at the body origin
         m.body_mass[b] = m0 + payload
     actuated = np.arange(6, m.nv)
-    m.dof_frictionloss[actuated] = friction
+    m.dof_frictionloss[actuated] += friction
     m.dof_armature[actuated] += armature
     mujoco.mj_setConst(m, sim.data)
     return {"plant_mass_kg": float(m.body_mass.sum()), "model_mass_kg": model_mass, "mass_factors": factors}

@@ -13,8 +13,10 @@ Scenarios (all start from ``robot.q_ref`` at rest on both feet; the CoM referenc
   torso link origin (``apply_external_force``), then ``settle`` s more. Pass: no fall and the feet did not move
   (each sole stays within 2 cm of its start: no stepping/sliding).
 
-A fall (any scenario): base height drop > 0.2 m, or a non-foot body touching the floor
-(:mod:`wbc.sim.closed_loop`).
+Every scenario (:data:`OUTCOME`, checked every tick by :mod:`wbc.sim.outcome` from MuJoCo's data, added to the
+scenario's own criteria by :func:`acceptance`): no fall (base drop > 0.2 m, pelvis or torso tilt > 30° from its
+nominal orientation, or a non-foot body touching the floor), no joint above its URDF velocity limit (0
+exceedances), landing slide (travel of the soles' contact points from first contact to lift-off) ≤ 10 mm.
 
 Capture-point bound of a push (linear inverted pendulum of height z_c, ω = √(g/z_c), support polygon edge at
 distance d from the CoM projection in the push direction; Pratt et al. 2006 "Capture point: a step toward
@@ -47,15 +49,23 @@ __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
     "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
     "make_controller",
-    "DEFAULT_PUSH_FORCE",
+    "DEFAULT_PUSH_FORCE", "NO_FALL", "JOINT_SPEED", "LANDING_SLIDE", "OUTCOME",
 ]
 
 #: Push force (N) of the acceptance criteria per catalog robot (0.1 s, lateral, at the torso link origin).
 DEFAULT_PUSH_FORCE = {"talos": 450.0, "g1": 120.0}
 
 
-#: Every physics scenario: the robot did not fall (:mod:`wbc.sim.closed_loop`).
-NO_FALL = Criterion("no fall (base drop > 0.2 m or a non-foot body on the floor)", "fell", "==", False)
+#: Every physics scenario: the robot did not fall (:mod:`wbc.sim.outcome`).
+NO_FALL = Criterion("no fall (base drop > 0.2 m, pelvis/torso tilt > 30°, or a non-foot body on the floor)",
+                    "fell", "==", False)
+#: Every physics scenario: no joint of the plant above its URDF velocity limit (MuJoCo qvel, every tick).
+JOINT_SPEED = Criterion("no joint above its URDF velocity limit (0 exceedances)", "joint_speed_exceedances",
+                        "==", 0)
+#: Every physics scenario: the soles' contact points travel ≤ 10 mm from first contact to lift-off.
+LANDING_SLIDE = Criterion("landing slide ≤ 10 mm", "max_landing_slide_m", "<=", 0.010)
+#: The operator's outcome criteria, added to every scenario's own (:func:`acceptance`).
+OUTCOME = (NO_FALL, JOINT_SPEED, LANDING_SLIDE)
 
 #: A push or a wave must not make the robot step or slide.
 FEET_STILL = Criterion("feet moved ≤ 2 cm (no stepping/sliding)", "feet_moved_m", "<=", 0.02)
@@ -314,6 +324,7 @@ def summarize(run, scenario, controller=None) -> dict:
         "scenario": run.scenario, "robot": run.robot, "controller": run.controller,
         "duration_s": round(sim_time, 6), "control_hz": round(1.0 / run.dt, 3),
         "fell": bool(run.fell), "fall_reason": run.fall_reason, "fall_time_s": run.fall_time,
+        **{k: v for k, v in run.outcome.items() if k not in ("fell", "fall_reason", "fall_time_s")},
         "com_drift_m": drift,
         "max_com_deviation_m": float(np.linalg.norm(c[:, :2] - c0[:2], axis=1).max()),
         "max_com_error_m": float(err.max()),
@@ -369,8 +380,9 @@ def summarize(run, scenario, controller=None) -> dict:
 
 def acceptance(summary: dict, scenario) -> tuple[bool, list[str]]:
     """(passed, failed criteria) of a scenario summary: :func:`wbc.scenarios.framework.evaluate` of
-    ``scenario.criteria()``."""
-    return evaluate(summary, scenario.criteria())
+    :data:`OUTCOME` followed by ``scenario.criteria()`` (each criterion once)."""
+    own = list(scenario.criteria())
+    return evaluate(summary, [c for c in OUTCOME if c not in own] + own)
 
 
 def make_controller(robot, kind: str = "id", *, dt: float = 0.002, solver: str = "fast", **options):

@@ -1,0 +1,93 @@
+"""Drive models of the plant (wbc.sim.actuators): URDF damping/friction and armature in MuJoCo, the torque–speed
+envelope against its closed form and in the physics."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import wbc
+from wbc.exceptions import InvalidInputError
+from wbc.sim.actuators import ActuatorModel, actuator_model, apply_actuators, nominal_armature
+from wbc.sim.mujoco_model import build_mujoco_model
+
+
+@pytest.fixture(scope="module")
+def talos():
+    return wbc.load_robot("talos")
+
+
+def test_envelope_closed_form():
+    act = ActuatorModel(np.zeros(4), np.zeros(4), np.zeros(4), np.full(4, 10.0), np.full(4, 2.0))
+    tau = np.array([10.0, 10.0, -10.0, 10.0])
+    qd = np.array([1.0, -1.0, 1.5, 3.0])
+    # motoring at half the no-load speed: 5 N·m; braking: full 10; motoring at 3/4: 2.5; above ω0: 0
+    np.testing.assert_allclose(act.available_torque(tau, qd), [5.0, 10.0, -10.0, 0.0])
+    np.testing.assert_allclose(act.available_torque(np.array([-3.0, 3.0, 2.0, -20.0]), qd), [-3.0, 3.0, 2.0, -10.0])
+
+
+def test_realistic_talos_plant_has_urdf_dynamics_and_srdf_armature(talos):
+    real = build_mujoco_model(talos, plant="realistic")
+    ideal = build_mujoco_model(talos, plant="ideal")
+    dofs = real.state_map.mj_qvel
+    m = talos.model
+    # URDF <dynamics>: Pinocchio's parse of the URDF is the reference (Talos: damping 0.5–1, friction 1 on 20 joints)
+    np.testing.assert_array_equal(real.model.dof_damping[dofs], m.damping[6:])
+    np.testing.assert_array_equal(real.model.dof_frictionloss[dofs], m.friction[6:])
+    assert (m.friction[6:] == 1.0).sum() == 20
+    # SRDF rotor_params: rotor inertia 1e-5 kg·m², gear ratio 100 on every listed joint → 0.1 kg·m²
+    names = list(m.names[2:])
+    arm = real.model.dof_armature[dofs]
+    assert arm[names.index("leg_left_4_joint")] == pytest.approx(0.1)
+    assert arm[names.index("arm_right_7_joint")] == pytest.approx(0.1)
+    assert np.all(ideal.model.dof_damping == 0) and np.all(ideal.model.dof_frictionloss == 0)
+    assert np.all(ideal.model.dof_armature == 0) and ideal.drive is None
+    assert real.drive is not None
+    np.testing.assert_allclose(real.drive.no_load_speed, 1.2 * m.velocityLimit[6:])
+    _, source = nominal_armature(wbc.load_robot("g1"))
+    assert "Menagerie" in source
+
+
+def test_drive_cannot_spin_its_joint_above_the_no_load_speed(talos):
+    """Full torque on the Talos wrist (URDF 1.95 rad/s): the ideal plant passes 1.2 × 1.95 rad/s within 0.1 s, the
+    realistic one stays below it (MuJoCo qvel)."""
+    peak = {}
+    for plant in ("ideal", "realistic"):
+        sim = build_mujoco_model(talos, plant=plant)
+        j = list(talos.model.names[2:]).index("arm_left_7_joint")
+        dof = sim.state_map.mj_qvel[j]
+        tau = np.zeros(talos.model.nv - 6)
+        tau[j] = sim.effort_limit[j]
+        fast = 0.0
+        for _ in range(50):
+            sim.set_torques(tau)
+            mujoco.mj_step(sim.model, sim.data)
+            fast = max(fast, abs(float(sim.data.qvel[dof])))
+        peak[plant] = fast
+    w0 = 1.2 * 1.95
+    assert peak["ideal"] > w0
+    assert peak["realistic"] <= w0 * 1.001
+
+
+def test_bad_plant_options(talos):
+    with pytest.raises(InvalidInputError, match="plant"):
+        actuator_model(talos, "perfect")
+    with pytest.raises(InvalidInputError, match="extra_friction"):
+        actuator_model(talos, extra_friction=-1.0)
+    with pytest.raises(InvalidInputError, match="plant"):
+        build_mujoco_model(talos, plant="real")
+    sim = build_mujoco_model(talos)
+    apply_actuators(sim, actuator_model(talos, extra_friction=2.0, armature=0.05))
+    assert np.all(sim.model.dof_frictionloss[sim.state_map.mj_qvel] >= 2.0)
+    assert np.all(sim.model.dof_armature[sim.state_map.mj_qvel] == 0.05)
+
+
+def test_cli_rejects_bad_plant_options(capsys):
+    from wbc.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "stand", "--plant", "perfect"])
+    assert exc.value.code == 2
+    assert main(["sim", "stand", "--no-load-factor", "0"]) == 2
+    assert "--no-load-factor must be > 0" in capsys.readouterr().err

@@ -1,0 +1,129 @@
+"""The operator's outcome of a closed-loop run (wbc.sim.outcome): tilt and non-foot contact falls, joint speed
+exceedances, landing slide — each checked against an independent reference (Pinocchio kinematics, MuJoCo's
+contact list, numbers set by hand)."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc.sim.baseline import JointPDController
+from wbc.sim.closed_loop import run_closed_loop
+from wbc.sim.mujoco_model import build_mujoco_model
+from wbc.sim.outcome import OutcomeMonitor
+from wbc.sim.scenarios import StandScenario, acceptance, summarize
+
+
+@pytest.fixture(scope="module")
+def talos_sim():
+    return build_mujoco_model(wbc.load_robot("talos"))
+
+
+def _joint_q(robot, name):
+    return robot.model.joints[robot.model.getJointId(name)].idx_q
+
+
+def _tilt_deg(robot, q0, q, frame):
+    """Angle (deg) between the frame's initially-up axis and world z (Pinocchio, independent of MuJoCo)."""
+    m, d = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(m, d, q0)
+    up = d.oMf[robot.frame_id(frame)].rotation.T @ [0, 0, 1]
+    pin.framesForwardKinematics(m, d, q)
+    return math.degrees(math.acos(np.clip((d.oMf[robot.frame_id(frame)].rotation @ up)[2], -1, 1)))
+
+
+class _LeanTorso(JointPDController):
+    """Joint PD that drives the torso pitch joint to 0.75 rad (43°) while the legs hold the stance."""
+
+    def __init__(self, robot, dt):
+        super().__init__(robot, dt)
+        self.q_ref = self.q_ref.copy()
+        self.q_ref[_joint_q(robot, "torso_2_joint")] = 0.75
+
+
+def test_torso_tilt_past_30deg_with_base_up_is_a_fall(talos_sim):
+    sim, robot = talos_sim, talos_sim.robot
+    scenario = StandScenario(2.0)
+    run = run_closed_loop(sim, _LeanTorso(robot, sim.timestep), scenario)
+    s = summarize(run, scenario)
+    passed, failed = acceptance(s, scenario)
+    assert run.fell and not passed and any("no fall" in f for f in failed)
+    assert "tilt" in run.fall_reason and "torso" in run.fall_reason, run.fall_reason
+    k = int(round(run.fall_time / run.dt))  # the fall is seen on the state after tick k - 1
+    # independent reference: Pinocchio on the logged MuJoCo state, around the fall
+    tilt = [_tilt_deg(robot, run.q[0], run.q[i], robot.torso) for i in (k - 3, min(k + 1, len(run.t) - 1))]
+    assert tilt[0] < 30.5 and tilt[1] > 29.5, tilt
+    assert run.q[0, 2] - run.q[: k + 1, 2].min() < 0.2  # the base stayed up
+    pelvis = _tilt_deg(robot, run.q[0], run.q[k - 1], "base_link")
+    assert pelvis < 30.0
+
+
+def test_knee_on_the_ground_is_a_fall(talos_sim):
+    sim, robot = talos_sim, talos_sim.robot
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(robot.q_ref)
+    monitor = OutcomeMonitor(sim)
+    q = robot.q_ref.copy()
+    q[_joint_q(robot, "leg_left_3_joint")] = -1.6  # hip flexed, knee bent: the knee is the leg's lowest point
+    q[_joint_q(robot, "leg_left_4_joint")] = 2.2
+    knee_body = sim.model.body("leg_left_4_link").id
+    thigh_body = sim.model.body("leg_left_3_link").id
+    touching = set()
+    while not touching & {knee_body, thigh_body}:
+        q[2] -= 0.005
+        sim.set_state(q)
+        touching = set()
+        for i in range(sim.data.ncon):  # MuJoCo's contact list: the reference
+            g1, g2 = sim.data.contact.geom1[i], sim.data.contact.geom2[i]
+            if sim.floor_geom in (g1, g2):
+                touching.add(int(sim.model.geom_bodyid[g2 if g1 == sim.floor_geom else g1]))
+        assert q[2] > 0
+    assert monitor.update(0.0)
+    assert "non-foot contact" in monitor.fall_reason
+    assert any(sim.body_name(b) in monitor.fall_reason for b in touching & {knee_body, thigh_body})
+
+
+def test_upright_stand_is_not_a_fall_and_speeds_are_counted(talos_sim):
+    sim, robot = talos_sim, talos_sim.robot
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(robot.q_ref)
+    monitor = OutcomeMonitor(sim)
+    assert not monitor.update(0.0)
+    assert monitor.speed_exceedances == 0 and monitor.max_tilt_deg["pelvis"] < 1e-9
+    m = robot.model
+    v = np.zeros(m.nv)
+    j = m.getJointId("arm_left_5_joint")
+    vmax = m.velocityLimit[m.joints[j].idx_v]
+    v[m.joints[j].idx_v] = -1.5 * vmax
+    sim.set_state(robot.q_ref, v)
+    monitor.update(0.002)
+    monitor.update(0.004)
+    assert monitor.speed_exceedances == 2
+    assert monitor.max_speed_joint == "arm_left_5_joint"
+    assert monitor.max_speed_ratio == pytest.approx(1.5, rel=1e-12)
+
+
+def test_landing_slide_is_the_travel_of_the_contact_corners(talos_sim):
+    """Both feet on the floor at t = 0; the whole robot is then translated by 7 mm in x and 4 mm in y while the
+    feet keep touching: every contact corner travelled hypot(7, 4) mm."""
+    sim, robot = talos_sim, talos_sim.robot
+    mujoco.mj_resetData(sim.model, sim.data)
+    q = robot.q_ref.copy()
+    q[2] -= 0.0005  # press the soles 0.5 mm into the floor: all 8 corners in contact
+    sim.set_state(q)
+    monitor = OutcomeMonitor(sim)
+    monitor.update(0.0)
+    for i in range(1, 11):
+        q[0] += 0.0007
+        q[1] += 0.0004
+        sim.set_state(q)
+        monitor.update(0.002 * i)
+    expected = math.hypot(0.007, 0.004)
+    assert monitor.max_landing_slide_m["left"] == pytest.approx(expected, abs=1e-9)
+    assert monitor.max_landing_slide_m["right"] == pytest.approx(expected, abs=1e-9)
+    assert not monitor.fell

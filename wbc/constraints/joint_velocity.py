@@ -1,0 +1,69 @@
+"""Joint speed limits on the accelerations the inverse-dynamics QP commands, kept in every solve.
+
+:class:`JointSpeedBounds`: for every 1-DoF joint with a URDF velocity limit q̇_max (scaled by ``1 − margin``),
+
+    −s q̇_max ≤ v + v̇ dt ≤ s q̇_max,   s = 1 − margin,
+
+i.e. v̇ ∈ [(−s q̇_max − v)/dt, (s q̇_max − v)/dt] (rad/s²): the velocity the commanded acceleration reaches at the
+next tick is within the limit. It is the velocity term of the joint bounds (eq. 9 of
+:mod:`wbc.formulations.acceleration`, del Prete 2018, IEEE RA-L 3(1):281–288, §III), which the relaxed solve drops
+together with the position and viability terms; this constraint is **not relaxable**, so the relaxed solve
+intersects its bounds back in (a joint above its limit is commanded back under it within one tick).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.constraints.dynamics import IDConstraint
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["JointSpeedBounds"]
+
+
+class JointSpeedBounds(IDConstraint):
+    """Bounds on the joint accelerations that keep the next-tick joint speeds within the limits (module docstring).
+
+    Args:
+        robot: the robot (URDF velocity limits of its Pinocchio model; joints without a positive finite limit
+            are unbounded).
+        margin: fraction of the limit kept free, in [0, 1) (e.g. 0.05: bound at 95 % of the URDF limit).
+
+    Raises:
+        InvalidInputError: margin outside [0, 1).
+    """
+
+    name = "joint_speed_limits"
+    kind = "bounds"
+    relaxable = False
+
+    def __init__(self, robot, margin: float = 0.0):
+        if not (np.isfinite(margin) and 0.0 <= margin < 1.0):
+            raise InvalidInputError(f"margin must be in [0, 1), got {margin!r}")
+        model = robot.model
+        iv = [model.joints[j].idx_v for j in range(2, model.njoints)
+              if model.joints[j].nv == 1 and 0 < model.velocityLimit[model.joints[j].idx_v] < np.inf]
+        self.indices = np.array(iv, dtype=np.int64)
+        self.dim = int(self.indices.size)
+        self.vmax = (1.0 - float(margin)) * np.asarray(model.velocityLimit, dtype=float)[self.indices]
+        self._lo = np.empty(self.dim)
+        self._hi = np.empty(self.dim)
+
+    def bounds(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (dim,) bounds on v̇[indices] (rad/s²) at the velocity ``v`` (nv,) for the period ``dt`` (s)."""
+        vj = v[self.indices]
+        np.divide(-self.vmax - vj, dt, out=self._lo)
+        np.divide(self.vmax - vj, dt, out=self._hi)
+        return self._lo, self._hi
+
+    def intersect(self, v: np.ndarray, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
+        """Tighten the QP's variable bounds ``lb``/``ub`` (n,) in place with these bounds."""
+        lo, hi = self.bounds(v, dt)
+        idx = self.indices
+        lb[idx] = np.maximum(lb[idx], lo)
+        ub[idx] = np.minimum(ub[idx], hi)
+
+    def write(self, ctx, _, lb, ub):
+        lo, hi = self.bounds(ctx.state.v, ctx.dt)
+        lb[:] = lo
+        ub[:] = hi

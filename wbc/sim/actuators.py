@@ -1,0 +1,175 @@
+"""Actuator models of the simulated plant (``--plant ideal|realistic``): what a real joint drive adds to an ideal
+torque source.
+
+``plant="ideal"``: every joint is an ideal torque source clamped to its URDF effort limit, no damping, friction or
+armature beyond the Pinocchio model's (the plant equals the controller's model; exact-model tests use it).
+
+``plant="realistic"`` (:func:`actuator_model`), per actuated joint i:
+
+* **viscous damping** d_i (N·m·s/rad) and **dry friction** f_i (N·m) from the URDF ``<dynamics damping friction>``
+  (Talos: 0.5–1 and 1 on 20 joints; G1 and humanoid15: none), plus ``extra_damping`` / ``extra_friction`` on every
+  joint; applied by MuJoCo (``dof_damping``, ``dof_frictionloss``: dry friction as a constraint force bounded by
+  f_i, i.e. static and kinetic friction equal);
+* **rotor armature** a_i (kg·m², the reflected rotor inertia I_rotor · N², added to the joint's diagonal of the mass
+  matrix; MuJoCo ``dof_armature``) from :func:`nominal_armature`: the SRDF ``<rotor_params>`` when the robot has
+  them (Pinocchio ``loadRotorParameters``: a_i = rotor inertia × gear ratio²; Talos: 1e-5 kg·m² × 100² = 0.1 kg·m²
+  on every joint), else :data:`ROTOR_ARMATURE` (G1: 0.01 kg·m², the joint default of the MuJoCo Menagerie
+  ``unitree_g1/g1.xml``; humanoid15: 0.01 kg·m², assumed — a teaching robot with no drive data); ``armature``
+  overrides it for all joints;
+* **torque limit** τ_max,i: the URDF effort limit (MuJoCo ``forcerange``);
+* **drive velocity behaviour: a linear torque–speed envelope** (a DC motor at its voltage limit): while the drive
+  is motoring (τ q̇ > 0) the torque it can deliver falls linearly from τ_max at rest to zero at the no-load speed
+  ω₀,i = ``no_load_factor`` × the URDF velocity limit (default :data:`NO_LOAD_SPEED_FACTOR`); braking (τ q̇ ≤ 0)
+  keeps τ_max. So a drive cannot drive its joint above ω₀, whatever torque is commanded. Applied where the
+  torques enter the plant (:meth:`~wbc.sim.mujoco_runtime.MujocoModel.set_torques`, with the velocity at the start
+  of the step).
+
+The controller's compensation of these effects is :mod:`wbc.dynamics.actuator_compensation`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
+           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN"]
+
+PLANTS = ("ideal", "realistic")
+#: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant.
+SPEED_MARGIN = 0.05
+#: No-load speed of the drives as a multiple of the URDF velocity limit (an assumption: the URDF limit is taken
+#: as the drive's rated speed, below its no-load speed).
+NO_LOAD_SPEED_FACTOR = 1.2
+#: Rotor armature (kg·m², every actuated joint) of the catalog robots without SRDF ``<rotor_params>``: (value,
+#: source).
+ROTOR_ARMATURE = {
+    "g1": (0.01, "MuJoCo Menagerie unitree_g1/g1.xml, default class 'g1' joint armature"),
+    "humanoid15": (0.01, "assumed (no drive data for this teaching robot)"),
+}
+
+
+@dataclass
+class ActuatorModel:
+    """Per-joint drive parameters, (nv − 6,) arrays in Pinocchio's actuated order (module docstring).
+
+    Attributes:
+        damping: viscous damping (N·m·s/rad). friction: dry friction (N·m). armature: rotor armature (kg·m²).
+        effort_limit: τ_max (N·m; inf when unlimited). no_load_speed: ω₀ (rad/s; inf: no envelope).
+        armature_source: where the armature values come from.
+    """
+
+    damping: np.ndarray
+    friction: np.ndarray
+    armature: np.ndarray
+    effort_limit: np.ndarray
+    no_load_speed: np.ndarray
+    armature_source: str = ""
+
+    def available_torque(self, tau: np.ndarray, qdot: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """The torque the drives deliver for the command ``tau`` (nv − 6,) N·m at joint speeds ``qdot`` (nv − 6,)
+        rad/s: clamped to ±τ_max, and while motoring (τ q̇ > 0) to τ_max (1 − |q̇|/ω₀)⁺ (module docstring)."""
+        out = np.empty_like(tau) if out is None else out
+        cap = self.effort_limit * np.clip(1.0 - np.abs(qdot) / self.no_load_speed, 0.0, 1.0)
+        cap = np.where(tau * qdot > 0, cap, self.effort_limit)
+        np.clip(tau, -cap, cap, out=out)
+        return out
+
+    def summary(self) -> dict:
+        """Ranges of the parameters (for run summaries)."""
+        def rng(a):
+            a = np.asarray(a)
+            return [float(a.min()), float(a.max())] if a.size else [0.0, 0.0]
+        return {"damping_nms_per_rad": rng(self.damping), "friction_nm": rng(self.friction),
+                "armature_kgm2": rng(self.armature), "armature_source": self.armature_source,
+                "no_load_speed_rad_s": rng(self.no_load_speed)}
+
+
+def nominal_armature(robot) -> tuple[np.ndarray, str]:
+    """(nv − 6,) rotor armature (kg·m²) of ``robot`` and its source (module docstring): the SRDF
+    ``<rotor_params>`` (rotor inertia × gear ratio²) when present, else :data:`ROTOR_ARMATURE`, else zeros."""
+    import pinocchio as pin
+
+    n = robot.model.nv - 6
+    if robot.srdf_path is not None and "rotor_params" in open(robot.srdf_path).read():
+        m = robot.model.copy()
+        pin.loadRotorParameters(m, str(robot.srdf_path), False)
+        arm = np.asarray(m.rotorInertia[6:]) * np.asarray(m.rotorGearRatio[6:]) ** 2
+        if np.any(arm > 0):
+            return arm, f"SRDF rotor_params (rotor inertia × gear ratio²) of {robot.srdf_path.name}"
+    if robot.name in ROTOR_ARMATURE:
+        value, source = ROTOR_ARMATURE[robot.name]
+        return np.full(n, value), source
+    return np.zeros(n), "none known (0)"
+
+
+def _check(x, what, allow_inf=False):
+    x = float(x)
+    if not ((np.isfinite(x) or (allow_inf and x == np.inf)) and x >= 0):
+        raise InvalidInputError(f"{what} must be a finite number ≥ 0, got {x!r}")
+    return x
+
+
+def actuator_model(robot, plant: str = "realistic", *, extra_friction: float = 0.0, extra_damping: float = 0.0,
+                   armature: float | None = None, no_load_factor: float = NO_LOAD_SPEED_FACTOR) -> ActuatorModel:
+    """The drives of ``robot`` for ``plant`` (module docstring).
+
+    Args:
+        robot: the robot (URDF damping/friction/limits from its Pinocchio model).
+        plant: ``"ideal"`` (zeros, effort limits only, no envelope) or ``"realistic"``.
+        extra_friction: N·m added to every joint's dry friction (≥ 0). extra_damping: N·m·s/rad (≥ 0).
+        armature: kg·m² for every joint instead of :func:`nominal_armature` (≥ 0; None: nominal).
+        no_load_factor: ω₀ / URDF velocity limit (> 0; inf: no envelope).
+
+    Raises:
+        InvalidInputError: unknown plant or a bad number.
+    """
+    if plant not in PLANTS:
+        raise InvalidInputError(f"plant must be one of {PLANTS}, got {plant!r}")
+    extra_friction, extra_damping = _check(extra_friction, "extra_friction"), _check(extra_damping, "extra_damping")
+    no_load_factor = _check(no_load_factor, "no_load_factor", allow_inf=True)
+    if no_load_factor == 0:
+        raise InvalidInputError("no_load_factor must be > 0")
+    m = robot.model
+    n = m.nv - 6
+    effort = np.asarray(m.effortLimit[6:], dtype=float)
+    effort = np.where((effort > 0) & np.isfinite(effort), effort, np.inf)
+    if plant == "ideal":
+        return ActuatorModel(np.zeros(n), np.zeros(n), np.asarray(m.armature[6:], dtype=float).copy(), effort,
+                             np.full(n, np.inf), "Pinocchio model.armature")
+    if armature is None:
+        arm, source = nominal_armature(robot)
+    else:
+        arm, source = np.full(n, _check(armature, "armature")), "set for all joints"
+    vlim = np.asarray(m.velocityLimit[6:], dtype=float)
+    w0 = np.where((vlim > 0) & np.isfinite(vlim), vlim * no_load_factor, np.inf)
+    return ActuatorModel(np.asarray(m.damping[6:], dtype=float) + extra_damping,
+                         np.asarray(m.friction[6:], dtype=float) + extra_friction, arm, effort, w0, source)
+
+
+def apply_actuators(sim, act: ActuatorModel) -> None:
+    """Write ``act`` into the compiled MuJoCo model of ``sim`` (damping, frictionloss, armature of the actuated
+    DoFs) and install its torque–speed envelope in ``sim.set_torques`` (``sim.drive``)."""
+    import mujoco
+
+    dofs = sim.state_map.mj_qvel
+    m = sim.model
+    m.dof_damping[dofs] = act.damping
+    m.dof_frictionloss[dofs] = act.friction
+    m.dof_armature[dofs] = act.armature
+    mujoco.mj_setConst(m, sim.data)
+    sim.drive = act if np.any(np.isfinite(act.no_load_speed)) else None
+
+
+def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN) -> dict:
+    """Make the controller know the nominal drives ``act``: writes their armature into ``robot.model.armature``
+    (the controller's mass matrix then includes it — call after building the MuJoCo model, which copies the
+    Pinocchio armature) and returns the :class:`~wbc.dynamics.balance.IDBalanceController` options
+    ``{"compensation": friction/damping feed-forward, "speed_margin": speed_margin}``."""
+    from wbc.dynamics.actuator_compensation import JointFrictionCompensation
+
+    robot.model.armature[6:] = act.armature
+    return {"compensation": JointFrictionCompensation(act.damping, act.friction), "speed_margin": float(speed_margin)}

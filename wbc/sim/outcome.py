@@ -1,0 +1,201 @@
+"""The outcome of a closed-loop run as an operator would judge it, checked every tick from MuJoCo's own data.
+
+:class:`OutcomeMonitor` is fed the MuJoCo data once per control tick (after ``mj_step``: positions, contacts and
+velocities of the new state) and decides:
+
+* **fall** — the first of
+  - base drop: the root body (the floating base, e.g. Talos' ``base_link`` = pelvis) lower than its initial height
+    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m;
+  - tilt: the **root body** (pelvis) or the **torso body** (the body carrying ``robot.torso``) tilted by more than
+    :data:`FALL_TILT_DEG` = 30° from its nominal orientation. The nominal is the body's orientation at the start
+    (``robot.q_ref``); tilt is the angle between the body-fixed axis that pointed up (world +z) at the start and
+    world +z now — heading changes (yaw, a turning walk) are not a tilt. Read from MuJoCo's ``xmat``;
+  - contact: any robot geom other than the foot contact geoms touching the floor (MuJoCo's ``data.contact``).
+* **joint speed** — every tick, every actuated joint whose MuJoCo ``qvel`` exceeds its URDF velocity limit (the
+  Pinocchio model's ``velocityLimit``, joints with a positive finite limit) is an exceedance; the count, the
+  worst ratio |q̇|/q̇_max and its joint are reported (an operator requires 0 exceedances).
+* **landing slide** — for each foot, the horizontal (world x, y) travel of the sole's contact points between the
+  first contact of a support phase and its lift-off: a sole corner becomes a contact point at the first tick a
+  MuJoCo foot–floor contact lies within :data:`CORNER_MATCH` of it, and its travel is measured from where it was at
+  that tick while the foot keeps touching the floor. A support phase ends (lift-off) after :data:`LIFTOFF_TICKS`
+  consecutive ticks without any foot–floor contact. The feet standing at t = 0 start a support phase too (their
+  slide is measured from t = 0). Corners are the sole rectangle's (``robot.sole_corners_local``) in the sole
+  frame, placed by MuJoCo's body pose.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["OutcomeMonitor", "FALL_HEIGHT_DROP", "FALL_TILT_DEG", "CORNER_MATCH", "LIFTOFF_TICKS"]
+
+FALL_HEIGHT_DROP = 0.2  #: m, base height drop that counts as a fall
+FALL_TILT_DEG = 30.0  #: deg, pelvis or torso tilt from its nominal orientation that counts as a fall
+CORNER_MATCH = 0.02  #: m, a contact point this close to a sole corner makes that corner a contact point
+LIFTOFF_TICKS = 10  #: consecutive ticks without foot contact that end a support phase
+
+
+class OutcomeMonitor:
+    """Per-tick fall, joint-speed and landing-slide checks of a run on ``sim`` (module docstring).
+
+    Args:
+        sim: :class:`~wbc.sim.mujoco_runtime.MujocoModel`, its data at the initial state (``mj_forward`` done):
+            the nominal base height and orientations are read at construction.
+
+    Attributes (updated by :meth:`update`):
+        fell, fall_reason, fall_time: first fall (time in s).
+        max_tilt_deg: {"pelvis": deg, "torso": deg} largest tilt so far (names of the bodies in ``tilt_bodies``).
+        tilt_bodies: {"pelvis": MuJoCo body name, "torso": MuJoCo body name}.
+        speed_exceedances: number of (tick, joint) pairs with |q̇| above the URDF limit.
+        max_speed_ratio, max_speed_joint: worst |q̇| / q̇_max and its joint name.
+        max_landing_slide_m: {"left": m, "right": m} largest contact-point travel in a support phase.
+        touchdowns: {"left": n, "right": n} support phases started after t = 0.
+    """
+
+    def __init__(self, sim):
+        robot = sim.robot
+        model, d = sim.model, sim.data
+        self.sim = sim
+        pm = robot.model
+        self.tilt_body_ids = np.array([sim.root_body, sim.body_id(_body_of_frame(robot, robot.torso))])
+        self.tilt_bodies = {"pelvis": sim.body_name(self.tilt_body_ids[0]),
+                            "torso": sim.body_name(self.tilt_body_ids[1])}
+        # body-fixed axis that points up at the start: R0ᵀ e_z (row 2 of R0)
+        self.up_local = np.array([np.array(d.xmat[b]).reshape(3, 3)[2, :] for b in self.tilt_body_ids])
+        self.cos_tilt = math.cos(math.radians(FALL_TILT_DEG))
+        self.z0 = float(d.qpos[2])
+        sm = sim.state_map
+        self.qvel_idx = sm.mj_qvel  # MuJoCo dof of Pinocchio's v[6 + i]
+        vlim = np.array([pm.velocityLimit[pm.joints[i].idx_v] for i in range(2, pm.njoints)])
+        self.vlim = np.where(np.isfinite(vlim) & (vlim > 0), vlim, np.inf)
+        self.joint_names = list(pm.names[2:])
+        self.is_foot = np.zeros(model.ngeom + 1, dtype=bool)
+        self.geom_side = np.full(model.ngeom + 1, -1, dtype=int)
+        for i, s in enumerate(("left", "right")):
+            self.is_foot[sim.foot_geoms[s]] = True
+            self.geom_side[sim.foot_geoms[s]] = i
+        self.floor = sim.floor_geom
+        self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
+        self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
+        self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
+        self.fell, self.fall_reason, self.fall_time = False, "", None
+        self.max_tilt_deg = {"pelvis": 0.0, "torso": 0.0}
+        self.speed_exceedances = 0
+        self.max_speed_ratio, self.max_speed_joint = 0.0, ""
+        self.max_landing_slide_m = {"left": 0.0, "right": 0.0}
+        self.touchdowns = {"left": 0, "right": 0}
+        self._ref = np.full((2, 4, 2), np.nan)  # corner reference positions (xy) of the current support phase
+        self._in_support = np.zeros(2, dtype=bool)
+        self._off_ticks = np.zeros(2, dtype=int)
+        self._first = True
+
+    def corners_world(self, side: int) -> np.ndarray:
+        """(4, 3) world positions (m) of the sole corners of ``side`` (0 left, 1 right) from MuJoCo's body pose."""
+        d = self.sim.data
+        b = self.sole_body[side]
+        R = np.array(d.xmat[b]).reshape(3, 3)
+        off = self.sole_off[side]
+        pts = off.rotation @ self.corners_local.T + off.translation[:, None]
+        return (R @ pts).T + d.xpos[b]
+
+    def update(self, t: float) -> bool:
+        """Check the state in ``sim.data`` (time ``t``, s). Returns whether the robot has fallen (so far)."""
+        d = self.sim.data
+        # -- joint speed ---------------------------------------------------------------------------------------
+        ratio = np.abs(d.qvel[self.qvel_idx]) / self.vlim
+        over = ratio > 1.0
+        if over.any():
+            self.speed_exceedances += int(over.sum())
+        j = int(np.argmax(ratio))
+        if ratio[j] > self.max_speed_ratio:
+            self.max_speed_ratio, self.max_speed_joint = float(ratio[j]), self.joint_names[j]
+        # -- tilt ----------------------------------------------------------------------------------------------
+        tilted = []
+        for i, key in enumerate(("pelvis", "torso")):
+            R = np.array(d.xmat[self.tilt_body_ids[i]]).reshape(3, 3)
+            c = float(np.clip(R[2, :] @ self.up_local[i], -1.0, 1.0))  # e_zᵀ R u0
+            deg = math.degrees(math.acos(c))
+            if deg > self.max_tilt_deg[key]:
+                self.max_tilt_deg[key] = deg
+            if c < self.cos_tilt:
+                tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
+        # -- contacts ------------------------------------------------------------------------------------------
+        ncon = d.ncon
+        bad = ()
+        touching = np.zeros(2, dtype=bool)
+        pts = [[], []]
+        if ncon:
+            g1 = d.contact.geom1[:ncon]
+            g2 = d.contact.geom2[:ncon]
+            other = np.where(g1 == self.floor, g2, np.where(g2 == self.floor, g1, -1))
+            bad = other[(other >= 0) & ~self.is_foot[other]]
+            for c in np.flatnonzero(other >= 0):
+                s = self.geom_side[other[c]]
+                if s >= 0:
+                    touching[s] = True
+                    pts[s].append(np.array(d.contact.pos[c]))
+        self._slide(touching, pts)
+        if not self.fell:
+            if len(bad):
+                names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
+                self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
+            elif d.qpos[2] < self.z0 - FALL_HEIGHT_DROP:
+                self.fall_reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
+            elif tilted:
+                self.fall_reason = f"tilt > {FALL_TILT_DEG:g}° from nominal: " + ", ".join(tilted)
+            if self.fall_reason:
+                self.fell, self.fall_time = True, float(t)
+        self._first = False
+        return self.fell
+
+    def _slide(self, touching, pts) -> None:
+        for s in range(2):
+            key = ("left", "right")[s]
+            if touching[s]:
+                self._off_ticks[s] = 0
+                if not self._in_support[s]:
+                    self._in_support[s] = True
+                    self._ref[s] = np.nan
+                    if not self._first:
+                        self.touchdowns[key] += 1
+                corners = self.corners_world(s)
+                for p in pts[s]:
+                    k = int(np.argmin(np.linalg.norm(corners - p, axis=1)))
+                    if np.linalg.norm(corners[k] - p) <= CORNER_MATCH and np.isnan(self._ref[s, k, 0]):
+                        self._ref[s, k] = corners[k, :2]
+                known = ~np.isnan(self._ref[s, :, 0])
+                if known.any():
+                    travel = float(np.linalg.norm(corners[known, :2] - self._ref[s, known], axis=1).max())
+                    if travel > self.max_landing_slide_m[key]:
+                        self.max_landing_slide_m[key] = travel
+            elif self._in_support[s]:
+                self._off_ticks[s] += 1
+                if self._off_ticks[s] >= LIFTOFF_TICKS:
+                    self._in_support[s] = False
+
+    def summary(self) -> dict:
+        """The summary entries of the outcome (module docstring)."""
+        return {
+            "fell": self.fell, "fall_reason": self.fall_reason, "fall_time_s": self.fall_time,
+            "max_tilt_deg": dict(self.max_tilt_deg), "tilt_bodies": dict(self.tilt_bodies),
+            "joint_speed_exceedances": self.speed_exceedances,
+            "max_joint_speed_ratio": self.max_speed_ratio, "max_joint_speed_joint": self.max_speed_joint,
+            "max_landing_slide_m": max(self.max_landing_slide_m.values()),
+            "landing_slide_m": dict(self.max_landing_slide_m), "touchdowns": dict(self.touchdowns),
+        }
+
+
+def _body_of_frame(robot, frame: str) -> str:
+    """Name of the link (MuJoCo body) a Pinocchio frame is attached to: the frame itself when it is a body frame,
+    else the BODY frame on the same joint closest up its parent chain."""
+    import pinocchio as pin
+
+    pm = robot.model
+    fid = robot.frame_id(frame)
+    f = pm.frames[fid]
+    while f.type != pin.FrameType.BODY and f.parentFrame != fid:
+        fid = f.parentFrame
+        f = pm.frames[fid]
+    return f.name
