@@ -125,7 +125,7 @@ def format_report(table, factors=None) -> str:
                                                                  sorted(s["fall_reasons"].items())))
     if factors is None:
         factors = [f for f in ("force", "direction_deg", "phase", "mass_error", "friction", "armature", "delay",
-                               "q_noise", "v_noise", "payload") if f in table.column_names]
+                               "q_noise_deg", "v_noise", "payload") if f in table.column_names]
     for f in factors:
         rows = factor_table(table, f)
         if len({(r["lo"], r["hi"]) for r in rows}) <= 1:
@@ -256,7 +256,7 @@ def make_plots(table, out_dir, *, sweep_params=None) -> list[Path]:
 def varies_param(name: str) -> bool:
     """Columns that are trial parameters, not measured metrics."""
     return name in {"force", "direction_deg", "phase", "push_duration", "mass_error", "payload", "friction",
-                    "armature", "delay", "q_noise", "v_noise", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
+                    "armature", "delay", "q_noise_deg", "v_noise", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
                     "adjust_dead_band"}
 
 

@@ -55,7 +55,7 @@ KINDS = ("push", "robustness", "sweep")
 SCENARIO_KEYS = {
     "robot": (str, "talos"), "steps": (int, 8), "step_length": (float, 0.25), "step_duration": (float, 0.6),
     "step_adjust": (bool, True), "solver": (str, "fast"), "sole_margin": (float, None),
-    "state": (str, "estimated"), "zmp_feedback": (float, None),
+    "state": (str, "estimated"), "zmp_feedback": (float, None), "plant": (str, "realistic"),
 }
 
 #: Factors a trial may vary: name → (unit, valid range). Push factors, then plant ≠ model (robustness).
@@ -64,7 +64,7 @@ FACTOR_KEYS = {
     "phase": ("fraction of the walking steps", (0.0, 1.0)), "push_duration": ("s", (0.0, 2.0)),
     "mass_error": ("% (uniform ± per link)", (0.0, 50.0)), "payload": ("kg", (0.0, 50.0)),
     "friction": ("N·m", (0.0, 20.0)), "armature": ("kg·m²", (0.0, 5.0)), "delay": ("ticks", (0.0, 50.0)),
-    "q_noise": ("rad", (0.0, 0.1)), "v_noise": ("rad/s", (0.0, 1.0)),
+    "q_noise_deg": ("deg", (0.0, 5.0)), "v_noise": ("rad/s", (0.0, 1.0)),
 }
 
 #: Sweepable options: DCM stabilizer gains (``wbc.sim.walk.DcmStabilizer``) and walk options.
@@ -74,7 +74,7 @@ SWEEP_KEYS = {"k_xi": (0.0, 50.0), "k_i": (0.0, 50.0), "k_z": (0.0, 10.0), "cop_
 _DEFAULT_FACTORS = {
     "push": {"force": [300.0, 500.0], "direction_deg": [0.0, 360.0], "phase": [0.0, 1.0], "push_duration": 0.1},
     "robustness": {"mass_error": [0.0, 10.0], "friction": [0.0, 2.0], "armature": [0.0, 0.1],
-                   "delay": {"values": [0, 1, 2]}, "q_noise": [0.0, 0.002], "v_noise": [0.0, 0.02]},
+                   "delay": {"values": [0, 1, 2]}, "q_noise_deg": [0.0, 0.1], "v_noise": [0.0, 0.02]},
     "sweep": {"force": [300.0, 500.0], "direction_deg": [0.0, 360.0], "phase": [0.0, 1.0], "push_duration": 0.1},
 }
 
@@ -162,6 +162,8 @@ def load_spec(source) -> CampaignSpec:
         raise InvalidInputError(f"{where}: scenario.steps must be in [1, 200], got {scenario['steps']}")
     if not 0.2 < scenario["step_duration"] <= 5.0:
         raise InvalidInputError(f"{where}: scenario.step_duration must be in (0.2, 5] s, got {scenario['step_duration']}")
+    if scenario["plant"] not in ("realistic", "ideal"):
+        raise InvalidInputError(f"{where}: scenario.plant must be realistic or ideal, got {scenario['plant']!r}")
     if scenario["state"] not in ("estimated", "ground-truth"):
         raise InvalidInputError(f"{where}: scenario.state must be estimated or ground-truth, got {scenario['state']!r}")
     if not -1.0 <= scenario["step_length"] <= 1.0:

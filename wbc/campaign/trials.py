@@ -13,6 +13,8 @@ trial (plant errors edit it in place).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
@@ -51,12 +53,14 @@ def outcome_of(summary: dict) -> tuple[bool, str]:
 
 
 def walk_trial(spec, params: dict) -> dict:
-    """Run one physics walk for trial ``params`` of ``spec`` (module docstring).
+    """Run one physics walk for trial ``params`` of ``spec`` (module docstring): the plant's drives
+    (``scenario.plant``, realistic by default as in ``wbc sim walk``: :mod:`wbc.sim.actuators`, compensated by the
+    controller) and the state the controller reads (``scenario.state``) are those of ``wbc sim walk``.
 
     The push (when ``force`` > 0) starts at ``t_init + phase · (t_walk − push_duration)`` s, ``t_walk`` the walking
     steps' time ``(steps − 1) · step_duration``, in direction ``direction_deg`` (world, 0 = +x); plant errors
     (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m²) are applied to the MuJoCo model and
-    sensor errors (``q_noise`` rad, ``v_noise`` rad/s, ``delay`` ticks) to the controller
+    sensor errors (``q_noise_deg`` deg, ``v_noise`` rad/s, ``delay`` ticks) to the controller
     (:mod:`wbc.sim.perturb`), seeded by the trial index. The controller reads ``scenario.state`` (``estimated``, as
     ``wbc sim walk`` by default: :class:`wbc.sim.estimated_state.EstimatedState`, its sensor noise seeded by the trial
     index; or ``ground-truth``).
@@ -68,6 +72,7 @@ def walk_trial(spec, params: dict) -> dict:
     Raises:
         InvalidInputError: a parameter of the wrong range (from the scenario or controller constructors).
     """
+    from wbc.sim.actuators import SPEED_MARGIN, actuator_model, apply_actuators, compensation_options
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.physics_scenarios import walk_options_for
     from wbc.sim.scenarios import make_controller, run_scenario
@@ -76,6 +81,8 @@ def walk_trial(spec, params: dict) -> dict:
     sc = spec.scenario
     robot = cached_robot(sc["robot"])
     sim = build_mujoco_model(robot)
+    drives = actuator_model(robot, sc["plant"])  # the plant's drives, as wbc sim walk (--plant)
+    apply_actuators(sim, drives)
     force = float(params.get("force", 0.0))
     duration = float(params.get("push_duration", 0.1))
     t_walk = max(0.0, (sc["steps"] - 1) * sc["step_duration"] - duration)
@@ -91,9 +98,12 @@ def walk_trial(spec, params: dict) -> dict:
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
                             step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
     options = walk_options_for(robot, sc["solver"], sc["sole_margin"])
+    if sc["plant"] == "realistic":  # the controller knows the nominal drives (wbc sim walk's compensation)
+        options.update(compensation_options(robot, drives, SPEED_MARGIN))
     seed = int(params["trial"])
     plant_errors = {k: float(params.get(k, 0.0)) for k in ("mass_error", "payload", "friction", "armature")}
-    sensor_errors = {"q_noise": float(params.get("q_noise", 0.0)), "v_noise": float(params.get("v_noise", 0.0)),
+    sensor_errors = {"q_noise": math.radians(float(params.get("q_noise_deg", 0.0))),
+                     "v_noise": float(params.get("v_noise", 0.0)),
                      "delay": params.get("delay", 0)}
     delay = sensor_errors["delay"]
     if isinstance(delay, float):
