@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from time import perf_counter
 
 import numpy as np
 import qpsolvers
@@ -41,6 +42,12 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
+    #: ``time.perf_counter()`` instant after which a failed solve is not retried cold nor confirmed by the
+    #: independent solvers (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no
+    #: limit.
+    deadline: float = math.inf
+    #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
+    independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
     def solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
@@ -50,7 +57,8 @@ class QPBackend(ABC):
         and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto [lb, ub], so integrating
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
-        same check, is returned.
+        same check, is returned. Once ``time.perf_counter()`` is past ``deadline``, the cold retry and the
+        independent solvers not yet run are skipped (the failure is then reported unconfirmed).
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -60,7 +68,9 @@ class QPBackend(ABC):
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure
-        for attempt in (self._solve, self._solve_cold):
+        for k, attempt in enumerate((self._solve, self._solve_cold)):
+            if k and perf_counter() > self.deadline:
+                break
             x = attempt(H, g, A, b, C, l, u, lb, ub)
             worst = math.inf
             if x is not None and np.isfinite(x).all():
@@ -163,9 +173,12 @@ class QPBackend(ABC):
             (the check of :meth:`solve`), else (None, 'names of the solvers that failed').
         """
         tried = []
-        for name in _INDEPENDENT:
+        for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue
+            if perf_counter() > self.deadline:
+                return None, (", ".join(tried) + " (then the tick budget was spent)" if tried else
+                              "no independent solver (tick budget spent: infeasibility not confirmed)")
             try:
                 if name == "proxqp":
                     backend = ProxQPBackend(tolerance=self.tolerance, max_iter=200)
@@ -441,8 +454,8 @@ class QpsolversBackend(QPBackend):
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 _POLISH_RANGE = 1e-3
 
-#: Independent solvers of :meth:`QPBackend.confirm`, in order.
-_INDEPENDENT = ("proxqp", "quadprog", "daqp")
+#: Independent solvers of :meth:`QPBackend.confirm`, in order (the default of ``QPBackend.independent``).
+_INDEPENDENT = QPBackend.independent
 
 #: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
 _SETTINGS = {
