@@ -14,6 +14,7 @@ import difflib
 import importlib.metadata
 import importlib.resources
 import math
+import warnings
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -190,7 +191,8 @@ def load_robot(
 
     Args:
         name_or_urdf: a catalog name (see :func:`catalog`: ``talos``, ``g1``, ``humanoid15``) or a path to a
-            ``.urdf`` file. For a catalog name every other argument is ignored.
+            ``.urdf`` file. For a catalog name, every other argument given (not None) replaces the descriptor's
+            value and is validated as for a URDF path (``reference_joints`` replaces the descriptor's table).
         srdf: SRDF path providing named reference configurations (``reference``).
         reference: name of the SRDF reference configuration to use as ``q_ref``.
         reference_joints: joint name -> angle (rad) for ``q_ref`` (joints not given are 0), used when no SRDF
@@ -217,7 +219,12 @@ def load_robot(
             raise UnknownRobotError(
                 f"unknown robot {spec!r}: the catalog has {names}; or pass a path to a .urdf file"
             )
-        return _load_catalog(spec)
+        overrides = {k: v for k, v in dict(srdf=srdf, reference=reference, reference_joints=reference_joints,
+                                               left_sole=left_sole, right_sole=right_sole, torso=torso,
+                                               left_hand=left_hand, right_hand=right_hand, sole_length=sole_length,
+                                               sole_width=sole_width, package_dirs=package_dirs).items()
+                     if v is not None}
+        return _load_catalog(spec, overrides)
     return _build(
         name=Path(spec).stem,
         urdf=Path(spec),
@@ -236,7 +243,7 @@ def load_robot(
     )
 
 
-def _load_catalog(name: str) -> Robot:
+def _load_catalog(name: str, overrides: dict | None = None) -> Robot:
     path = _robots_dir() / f"{name}.toml"
     with path.open("rb") as f:
         desc = tomllib.load(f)
@@ -245,7 +252,7 @@ def _load_catalog(name: str) -> Robot:
         fr["name"]: (fr["parent"], _placement(fr.get("xyz", [0, 0, 0]), fr.get("rpy", [0, 0, 0])))
         for fr in desc.get("frames", [])
     }
-    return _build(
+    kwargs = dict(
         name=name,
         urdf=_resolve_path(desc["urdf"], base),
         srdf=_resolve_path(desc["srdf"], base) if "srdf" in desc else None,
@@ -262,6 +269,15 @@ def _load_catalog(name: str) -> Robot:
         package_dirs=[str(base)],
         gait=desc.get("gait", {}),
     )
+    overrides = dict(overrides or {})
+    if "srdf" in overrides:
+        overrides["srdf"] = Path(overrides["srdf"])
+    if "package_dirs" in overrides:
+        overrides["package_dirs"] = [*map(str, overrides["package_dirs"]), str(base)]
+    if "reference_joints" in overrides and not isinstance(overrides["reference_joints"], dict):
+        raise RobotDescriptionError(f"reference_joints must be a dict joint name -> angle (rad), got "
+                                    f"{overrides['reference_joints']!r}")
+    return _build(**{**kwargs, **overrides})
 
 
 def _build(
@@ -290,7 +306,7 @@ def _build(
         raise RobotDescriptionError(
             "left_sole, right_sole and torso frame names are required to load a humanoid from a URDF path"
         )
-    if not all(x is None or (isinstance(x, (int, float)) and math.isfinite(x) and x > 0)
+    if not all(x is None or (isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0)
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     dirs = [*package_dirs, str(urdf.parent), str(example_robot_data_dir())]
@@ -302,6 +318,7 @@ def _build(
         raise RobotDescriptionError(f"cannot parse URDF {urdf}: {exc} (fix the URDF: it must be well-formed XML "
                                     f"with one root link and valid joints/links)") from exc
     model.name = name
+    _check_limit_order(model, urdf)
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
             raise UnknownFrameError(f"descriptor of {name!r}: parent frame {parent!r} of {fname!r} not in URDF")
@@ -561,6 +578,39 @@ def _check_legs(robot: Robot, q: np.ndarray) -> None:
                 f"{above:.3f} m above the floating base link {_root_link(model)!r}; "
                 f"soles must be at the end of legs hanging below the base — a legless robot (e.g. hands named as "
                 f"soles) cannot stand or walk. Name the feet's sole frames of a robot with legs")
+
+
+#: largest inversion (rad or m) of a joint's URDF position limits (lower > upper) read as round-off of a locked
+#: joint (lower = upper); a larger one is an error (:func:`_check_limit_order`)
+LIMIT_INVERSION_TOLERANCE = 1e-6
+
+
+def _check_limit_order(model: pin.Model, urdf: Path) -> None:
+    """Every finite position range has lower ≤ upper. One inverted by at most ``LIMIT_INVERSION_TOLERANCE`` is the
+    round-off of a locked joint: both limits are set to their middle (the joint keeps a position limit, zero wide;
+    see ``KinematicController.locked_joints``), with a warning.
+
+    Raises:
+        RobotDescriptionError: a range inverted by more (names up to 5 joints with their limits).
+    """
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    bad, snapped = [], []
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        for iq in range(joint.idx_q, joint.idx_q + joint.nq):
+            if np.isfinite(lo[iq]) and np.isfinite(hi[iq]) and lo[iq] > hi[iq]:
+                (snapped if lo[iq] - hi[iq] <= LIMIT_INVERSION_TOLERANCE else bad).append((model.names[j], iq))
+    if bad:
+        desc = ", ".join(f"{n}: lower {lo[iq]:.9g} > upper {hi[iq]:.9g}" for n, iq in bad[:5])
+        raise RobotDescriptionError(f"{urdf}: inverted joint limits ({desc}); fix the URDF <limit lower upper>")
+    if snapped:
+        new_lo, new_hi = lo.copy(), hi.copy()
+        for _, iq in snapped:
+            new_lo[iq] = new_hi[iq] = 0.5 * (lo[iq] + hi[iq])
+        model.lowerPositionLimit, model.upperPositionLimit = new_lo, new_hi
+        warnings.warn(f"{urdf}: joint limits inverted by ≤ {LIMIT_INVERSION_TOLERANCE:g} (round-off) on "
+                      f"{', '.join(n for n, _ in snapped[:5])}: read as locked joints (lower = upper = the middle)",
+                      stacklevel=4)
 
 
 def _check_posture_limits(robot: Robot, q: np.ndarray) -> None:

@@ -135,9 +135,10 @@ class TickResult:
         conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
             conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
         fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
-            objects, hard tasks and strict levels left out), 'contacts_held' (the same with the contacts' drift
-            correction scaled by 1/2, 1/10 or 0: J_c v = 0) or 'hold' (v = 0). Every safe command other than
-            'hold' keeps the contact frames within ``sole_drift_tolerance`` over the tick.
+            objects, hard tasks and strict levels left out), 'contacts_held' (the same with each contact frame held
+            where it was when the current run of failed ticks began, its correction towards there scaled by 1,
+            1/10 or 0: J_c v = 0) or 'hold' (v = 0). Every safe command other than 'hold' keeps the contact frames
+            within ``sole_drift_tolerance`` of where its rows send them over the tick.
         relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
             left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
             then solved).
@@ -295,6 +296,7 @@ class KinematicController:
                                     f"no budget), got {value!r}")
         self._budget = None if value is None else float(value)
         self._budget_s = math.nan
+        self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _late(self) -> bool:
         """The current tick's budget is spent."""
@@ -816,7 +818,7 @@ class KinematicController:
             try:
                 v = self._solve_assembled(config)
                 relaxed = []
-            except SolverError:
+            except SolverError as first_failure:
                 v = None
                 if self._contact_rows.size and not self._late() and self._consistent_contact_rhs():
                     try:  # dependent contact rows asked contradictory corrections: once more in least squares
@@ -834,7 +836,7 @@ class KinematicController:
                     except SolverError:
                         v = None
                 if v is None:
-                    v, return_rate = self._relax_return_rate(config)  # raises SolverError when that fails too
+                    v, return_rate = self._relax_return_rate(config, first_failure)  # raises SolverError if not
                     relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v)
@@ -911,7 +913,7 @@ class KinematicController:
                 return f"inequality row {k}: C v = {cv[k]:.6g} outside [{l[k]:.6g}, {u[k]:.6g}] (tolerance {tol:.3g})"
         return ""
 
-    def _relax_return_rate(self, config: Configuration) -> tuple[np.ndarray, float]:
+    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float]:
         """Solve the tick again with the return rate of the joints outside their position limits relaxed.
 
         A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
@@ -921,7 +923,8 @@ class KinematicController:
         α = 0 only forbids moving further out). Returns (v, α).
 
         Raises:
-            SolverError: no joint is outside its limits, none of the α solves, or the budget is spent.
+            SolverError: ``failure`` (the tick's) when no joint is outside its limits; none of the α solves, or
+                the budget is spent.
         """
         entries = []
         for c in self._box:
@@ -933,7 +936,7 @@ class KinematicController:
         low = np.concatenate([e for e in entries[0::2]]) if entries else np.zeros(0, int)
         high = -1 - np.concatenate([e for e in entries[1::2]]) if entries else np.zeros(0, int)
         if not (low.size or high.size):
-            raise SolverError("the hard constraints admit no solution (no joint outside its limits to relax)")
+            raise failure
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
@@ -951,8 +954,8 @@ class KinematicController:
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
-        raise SolverError("the hard constraints admit no solution, even with joints outside their limits held "
-                          "where they are (return rate 0)")
+        raise SolverError(f"{failure}; no solution either with the joints outside their limits held where they "
+                          f"are (return rate 0)")
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
@@ -1248,15 +1251,25 @@ class KinematicController:
             except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
                 pass
         if fallback == "hold" and self._contact_rows.size and not data_fault:
-            # the contacts' drift correction scaled by β (step 3): β = 1/2, 1/10, 0 (J_c v = 0)
+            # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
+            # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
+            if self.consecutive_failures == 0 or self._held_anchors is None or \
+                    set(self._held_anchors) != set(map(id, self._contacts)):
+                self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
+            anchors = [self._held_anchors[id(c)] for c in self._contacts]
             b0 = self._b.copy()
             backend = self._fallback_backend
             independent = backend.independent if backend is not None else ()
+            placements = [c.placement for c in self._contacts]
             try:
                 if backend is not None:
                     backend.independent = ()  # a failed β needs no confirmation: the next one is tried
+                for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
+                    c.placement = anchor
+                    self._b[r0:r1] = c.compute(config, dt)[1]
+                anchored = self._b[self._contact_rows].copy()
                 for beta in _HELD_CORRECTION_SCALES:
-                    self._b[self._contact_rows] = beta * b0[self._contact_rows]
+                    self._b[self._contact_rows] = beta * anchored
                     try:
                         v_h = self._solve_constraints_only(config)
                     except Exception:  # noqa: BLE001 — they conflict even so: next β, then hold
@@ -1264,7 +1277,7 @@ class KinematicController:
                     if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
                         continue
                     for _ in range(9 if beta == 0.0 else 1):
-                        if tol is None or self._held_drift(config, v_h, dt, beta) <= tol:
+                        if tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol:
                             v, fallback = v_h, "contacts_held"
                             break
                         v_h = 0.5 * v_h  # (β = 0: J_c v = 0 kept, the drift is second order in v dt)
@@ -1276,6 +1289,8 @@ class KinematicController:
             except Exception:  # noqa: BLE001 — never raises: hold
                 pass
             finally:
+                for c, placement in zip(self._contacts, placements):
+                    c.placement = placement
                 np.copyto(self._b, b0)
                 if backend is not None:
                     backend.independent = independent
@@ -1286,16 +1301,16 @@ class KinematicController:
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
                           path=f"fallback:{fallback}", reason=reason, over_budget=over_budget)
 
-    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float) -> float:
-        """Largest drift (m) of a contact frame over one tick with v from where its correction scaled by β sends
-        it: ‖t(e⁺) − (1 − β K dt) t(e)‖, e⁺ at pin.integrate(q, v dt) by forward kinematics (β = 0: the frame's
-        displacement)."""
+    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
+        """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
+        scaled by β sends it: ‖t(e⁺) − (1 − β K dt) t(e)‖, e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) by
+        forward kinematics (β = 0: the frame's displacement)."""
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
-        for c in self._contacts:
-            e1 = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e0 = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        for c, anchor in zip(self._contacts, anchors):
+            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
             worst = max(worst, float(np.linalg.norm((e1 - (1.0 - beta * min(c.gain, 1.0 / dt) * dt) * e0)[:3])))
         return worst
 
@@ -1365,7 +1380,7 @@ _CONFIRM_ORDER = ("quadprog", "daqp")
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 #: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
-_HELD_CORRECTION_SCALES = (0.5, 0.1, 0.0)
+_HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
 
 
 class _BudgetSpent(SolverError):
