@@ -53,7 +53,20 @@ Bounds are intersected in ``BoxConstraint.priority`` order, lower priorities yie
 :mod:`wbc.constraints.base`); constraints that need the previous command (``needs_previous_command``) receive
 ``TickResult.v`` after every tick. Constraints marked ``relaxable`` (joint acceleration limits: a smoothness
 preference) are left out of a tick whose QP is infeasible with them, and the tick is solved again
-(``TickResult.relaxed`` names them) before anything is declared failed.
+(``TickResult.relaxed`` names them) before anything is declared failed. Then, when joints are outside their
+position limits, their return rate (:class:`~wbc.constraints.JointPositionLimit`: min(distance/dt, v_max) back)
+is relaxed: it ranks below every other hard constraint and above the tasks, and is scaled by α = 1/2, 1/10, 1/100,
+1/1000, 0 until the tick solves (``TickResult.relaxed`` names α; α = 0 only forbids moving further out).
+
+Output guard: an ok tick's command is finite and within the box and inequality rows to the backend's tolerance
+(checked against the constraint objects' bounds recomputed at the tick, not read from the solver), its contacts
+within ``sole_drift_tolerance``, and every number of its QP finite (targets, weights, q, placements written in
+place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
+
+Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (cold retry,
+independent confirmation — inside a tick only the active-set solvers quadprog and DAQP, never ProxQP —,
+relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
+route every tick took.
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -62,13 +75,14 @@ input error), ``solve`` does not raise and never returns NaN:
    the violation of each (``TickResult.conflicts``, largest first);
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
    hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
-   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift):
-   ``fallback="constraints_only"``;
-3. if the constraints themselves conflict and contacts are among them, the same without the contacts' drift
-   correction (J_c v = 0: each contact frame kept where it is rather than pulled back onto its placement; e.g. a
+   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift), taken
+   only when that drift is ≤ ``sole_drift_tolerance``: ``fallback="constraints_only"``;
+3. if the constraints themselves conflict (or step 2's drift is too large) and contacts are among them, the same with each contact frame held
+   where it was when the current run of failed ticks began, its correction towards there scaled by 1, 1/10 or 0
+   (J_c v = 0: kept where it is rather than pulled back onto its placement; e.g. a
    sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
-   limits — measured in the fuzz suite on humanoid15, seed 331 episode 454: 39 ticks in a row held at v = 0, the
-   state never changing; with this step 5 failed ticks, then ok again): ``fallback="contacts_held"``;
+   limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
+   where its rows send it (forward kinematics; at β = 0 scaled down by halves until it does);
 4. else v = 0, hold the current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves
    no joint further out).
 
@@ -1026,7 +1040,8 @@ class KinematicController:
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
         return None if rank == rows.size else U[:, :rank]
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None) -> np.ndarray:
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
+                          bounded: bool = False) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
         re-solves the problem in the buffers (default: the tick's QP)."""
         solve = solve or self._solve_assembled
@@ -1040,6 +1055,8 @@ class KinematicController:
         b0 = self._b.copy()
         try:
             for _ in range(3):
+                if bounded and self._late():
+                    break  # the safe command's refinement stops at the tick budget
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
                 if range_basis is not None:
@@ -1065,7 +1082,8 @@ class KinematicController:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None) -> TickResult:
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
+                       bounded: bool = False) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
         ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
 
@@ -1089,6 +1107,8 @@ class KinematicController:
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
                 radii.insert(0, math.inf)  # first the whole box, with consistent contact rows
             for radius in radii:
+                if bounded and self._late():
+                    break  # the safe command's refinement stops at the tick budget
                 np.clip(lb0, -radius, radius, out=self._lb)
                 np.clip(ub0, -radius, radius, out=self._ub)
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
@@ -1098,7 +1118,7 @@ class KinematicController:
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
-                    v_tr = self._correct_contacts(config, dt, v_tr, solve)
+                    v_tr = self._correct_contacts(config, dt, v_tr, solve, bounded)
                 d = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d
@@ -1241,10 +1261,9 @@ class KinematicController:
             try:
                 v_c = self._solve_constraints_only(config)
                 # the safe command holds the contacts to second order like an ok tick (correction, trust region)
-                if self.contact_correction > 0 and self._contacts and not self._late():
-                    v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only)
-                if not self._late():
-                    v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only).v
+                if self.contact_correction > 0 and self._contacts:
+                    v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
+                v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
                 if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
                         tol is None or self.sole_drift(config, v_c, dt) <= tol):
                     v, fallback = v_c, "constraints_only"
