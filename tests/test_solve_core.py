@@ -457,6 +457,7 @@ def test_fuzz_seed_1004_strict_levels_nearly_dependent_contacts_hold_without_fai
     ctrl.add_task(com, level=0)
     ctrl.add_task(PostureTask(robot, weight=3.2682029423729837), level=1)
     ctrl.add_task(hand, level=1)
+    ctrl.budget = math.inf  # a level's failed solve is rescued by ProxQP's confirmation, whatever the machine's load
     worst = 0.0
     for _ in range(8):
         before = [config.frame_placement(c.frame_id).copy() for c in contacts]

@@ -64,7 +64,7 @@ within ``sole_drift_tolerance``, and every number of its QP finite (targets, wei
 place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
 
 Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (cold retry,
-independent confirmation — inside a tick only the active-set solvers quadprog and DAQP, never ProxQP —,
+independent confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
 route every tick took.
 
@@ -1389,10 +1389,11 @@ def _row_blocks(constraints) -> tuple[list, int]:
     return blocks, row
 
 
-#: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``): the two dual active-set
-#: methods (Goldfarb–Idnani's quadprog, DAQP one-shot), each a few hundred µs on a kinematic QP; ProxQP, whose
-#: iterations on an infeasible problem took tens of ms, is left off the control path
-_CONFIRM_ORDER = ("quadprog", "daqp")
+#: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``), each started only while the
+#: tick's budget lasts: first the two dual active-set methods (Goldfarb–Idnani's quadprog, DAQP one-shot), a few
+#: hundred µs each on a kinematic QP; ProxQP last (its iterations on an infeasible problem take tens of ms, but it
+#: solves the semidefinite levels of a hierarchy that the others refuse)
+_CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
 
 #: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
 #: (``KinematicController._relax_return_rate``)
