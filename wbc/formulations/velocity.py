@@ -167,7 +167,7 @@ class TickResult:
             'fallback:<fallback>'.
         reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
-            'budget' (the tick's budget was spent), 'output_guard' (the command was not finite or crossed a
+            'output_guard' (the command was not finite or crossed a
             bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
         over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished; its
             optional stages (cold retry, independent confirmation, diagnosis, further trust regions) were
@@ -212,10 +212,11 @@ class KinematicController:
             drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
             drift is second order in v dt); if none drifts less, the tick is not ok.
         budget: wall time (s) a tick may take before its optional stages are skipped, or None (default): the
-            tick's dt. Past it, a failed solve is neither retried cold nor confirmed by independent solvers, no
-            further relaxation, correction or trust region is tried, the diagnosis is skipped, and the tick returns
-            the safe command (``TickResult.over_budget``); the failure time is then the budget plus at most the
-            stage in progress and the safe command's solves. An ok tick is never cut short (its stages are
+            tick's dt. Past it, a failed solve is neither retried cold nor confirmed by independent solvers, the
+            diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
+            safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
+            rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
+            then the budget plus at most the stage in progress and the safe command's solves. An ok tick is never cut short (its stages are
             bounded by their iteration counts). ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
 
@@ -841,8 +842,7 @@ class KinematicController:
                     except SolverError:
                         v = None
                 relaxed = []
-                if v is None and self._relaxable:
-                    self._check_budget("relaxation of the relaxable constraints")
+                if v is None and self._relaxable:  # (one solve: not cut by the budget)
                     self._relax(config, dt)
                     relaxed = [c.name for c in self._relaxable]
                     try:
@@ -888,11 +888,6 @@ class KinematicController:
         self.last_result = result
         return result
 
-    def _check_budget(self, stage: str) -> None:
-        """Raise :class:`_BudgetSpent` when the tick's budget is spent before ``stage``."""
-        if self._late():
-            raise _BudgetSpent(f"tick budget {1e3 * self._budget_s:.3g} ms spent before {stage}")
-
     def _data_fault(self) -> str:
         """'' when the assembled QP's numbers are finite (bounds may be ±inf, never NaN), else what is not."""
         what = [name for name, x in (("cost H", self._H), ("cost g", self._g), ("equality rows A", self._A),
@@ -937,8 +932,7 @@ class KinematicController:
         α = 0 only forbids moving further out). Returns (v, α).
 
         Raises:
-            SolverError: ``failure`` (the tick's) when no joint is outside its limits; none of the α solves, or
-                the budget is spent.
+            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or none of the α solves.
         """
         entries = []
         for c in self._box:
@@ -957,8 +951,7 @@ class KinematicController:
         try:
             for b in backends:  # a failed α needs no independent confirmation: the next α is tried
                 b.independent = ()
-            for alpha in _RETURN_RATE_SCALES:
-                self._check_budget(f"the return rate × {alpha:g} of the joints outside their limits")
+            for alpha in _RETURN_RATE_SCALES:  # (at most 5 solves, unconfirmed: not cut by the budget)
                 self._lb[low] = alpha * lb0
                 self._ub[high] = alpha * ub0
                 try:
@@ -1234,8 +1227,8 @@ class KinematicController:
         rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (×1/2, up to
         8 times: the displacement is second order in v dt, and J_c v = 0 is kept) until it does, else v = 0."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
-        over_budget = isinstance(exc, _BudgetSpent)
-        reason = ("budget" if over_budget else "sole_drift" if isinstance(exc, _DriftFailure) else
+        over_budget = False
+        reason = ("sole_drift" if isinstance(exc, _DriftFailure) else
                   "output_guard" if message.startswith("output guard") else
                   "nonfinite" if message.startswith("non-finite") else
                   "infeasible" if isinstance(exc, SolverError) else "exception")
@@ -1401,10 +1394,6 @@ _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 #: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
 _HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
-
-
-class _BudgetSpent(SolverError):
-    """The tick's budget was spent before an optional stage (``KinematicController.budget``)."""
 
 
 class _DriftFailure(SolverError):
