@@ -42,9 +42,8 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
-    #: ``time.perf_counter()`` instant after which a failed solve is not retried cold nor confirmed by the
-    #: independent solvers (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no
-    #: limit.
+    #: ``time.perf_counter()`` instant after which a failed solve is not confirmed by the independent solvers
+    #: (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no limit.
     deadline: float = math.inf
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
@@ -57,8 +56,8 @@ class QPBackend(ABC):
         and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto [lb, ub], so integrating
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
-        same check, is returned. Once ``time.perf_counter()`` is past ``deadline``, the cold retry and the
-        independent solvers not yet run are skipped (the failure is then reported unconfirmed).
+        same check, is returned. Once ``time.perf_counter()`` is past ``deadline``, the independent solvers not yet
+        run are skipped (the failure is then reported unconfirmed).
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -68,9 +67,7 @@ class QPBackend(ABC):
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure
-        for k, attempt in enumerate((self._solve, self._solve_cold)):
-            if k and perf_counter() > self.deadline:
-                break
+        for attempt in (self._solve, self._solve_cold):
             x = attempt(H, g, A, b, C, l, u, lb, ub)
             worst = math.inf
             if x is not None and np.isfinite(x).all():

@@ -63,8 +63,8 @@ Output guard: an ok tick's command is finite and within the box and inequality r
 within ``sole_drift_tolerance``, and every number of its QP finite (targets, weights, q, placements written in
 place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
 
-Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (cold retry,
-independent confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
+Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (independent
+confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
 route every tick took.
 
@@ -170,7 +170,7 @@ class TickResult:
             'output_guard' (the command was not finite or crossed a
             bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
         over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished; its
-            optional stages (cold retry, independent confirmation, diagnosis, further trust regions) were
+            optional stages (independent confirmation, diagnosis, the safe command's trust regions) were
             skipped and the safe command returned.
     """
 
@@ -212,7 +212,7 @@ class KinematicController:
             drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
             drift is second order in v dt); if none drifts less, the tick is not ok.
         budget: wall time (s) a tick may take before its optional stages are skipped, or None (default): the
-            tick's dt. Past it, a failed solve is neither retried cold nor confirmed by independent solvers, the
+            tick's dt. Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
             rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
