@@ -82,7 +82,7 @@ input error), ``solve`` does not raise and never returns NaN:
    (J_c v = 0: kept where it is rather than pulled back onto its placement; e.g. a
    sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
    limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
-   where its rows send it (forward kinematics; at β = 0 scaled down by halves until it does);
+   where its rows send it (forward kinematics; at β = 0 scaled down by halves, up to 8 times, until it does);
 4. else v = 0, hold the current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves
    no joint further out).
 
@@ -1280,6 +1280,13 @@ class KinematicController:
                     c.placement = anchor
                     self._b[r0:r1] = c.compute(config, dt)[1]
                 anchored = self._b[self._contact_rows].copy()
+                # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
+                # their corrections are made consistent (least squares onto the range of J_c, as after a failed
+                # solve: _consistent_contact_rhs)
+                U, S, _ = np.linalg.svd(self._A[self._contact_rows], full_matrices=False)
+                rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+                if rank < anchored.size:
+                    anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
                 for beta in _HELD_CORRECTION_SCALES:
                     self._b[self._contact_rows] = beta * anchored
                     try:
