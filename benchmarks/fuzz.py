@@ -5,6 +5,15 @@ feasibility LP of the hard set) finds feasible, holds lasting past a feasible ti
 failure rates of weighted vs strict episodes.
 
     python benchmarks/fuzz.py [--ticks 1000000] [--jobs 2] [--episode 50] [--seed 0] [--chunk 50000] [--out DIR]
+                              [--dts 0.002,0.005,0.01,0.02] [--past-limits 0.2] [--budget SECONDS]
+
+``--dts``: each episode's control period drawn from this list (default 0.002). ``--past-limits``: fraction of
+episodes that start with 2–5 leg joints 5–50 mrad past their limits (a "limit violation" is then a joint moving
+further out, or a joint inside its range leaving it). ``--budget``: the controller's tick budget (default: None,
+the tick's dt). Issue 29 lines: holds longer than 50 ticks on a state where a slower return is feasible (HiGHS
+LP on the return-rate scale, checked once per such hold), the largest stance-sole displacement over any run of
+failed ticks (forward kinematics, from where the run began), tick time p50/p99/max and the ticks past their
+budget, the fallback rate, and the count of ticks per route (``TickResult.path``).
 
 Chunks of ``--chunk`` ticks use seeds seed, seed + 1, ...; ``--jobs N`` runs them in N processes (each chunk its
 own seed, results summed); with ``--out`` each finished chunk is saved there and skipped when the command is run
@@ -30,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+import scipy.optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -44,16 +54,66 @@ DT = 0.002
 HANDS = {"talos": "gripper_left_joint", "g1": "left_wrist_roll_joint", "humanoid15": None}
 
 
-def hard_set_feasible(ctrl, config) -> bool:
+def hard_set_feasible(ctrl, config, dt=DT) -> bool:
     """Independent check (scipy HiGHS LP, tolerance 1e-7): does any v meet the hard rows at config?"""
-    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, dt)
     return highs_feasible(A, b, C, l, u, lb, ub, tol=1e-7)
 
 
-def build_episode(robot, name, rng, kind, strict):
+def slower_return_feasible(ctrl, config, dt) -> bool:
+    """Independent check (scipy HiGHS LP): with the joints outside their limits required to return at α times the
+    rate of their position-limit bound, is some α ≥ 1e-3 feasible with every other hard row and bound?"""
+    from wbc.constraints.limits import JointPositionLimit
+
+    H, g, A, b, C, l, u, lb, ub = ctrl.assemble(config, dt)
+    lims = [c for c in ctrl.constraints if isinstance(c, JointPositionLimit)]
+    if not lims:
+        return False
+    lim = lims[0]
+    q = config.q[lim.idx_q]
+    idx = np.asarray(lim.indices)
+    low, high = idx[(q < lim.q_min) & (lb[idx] > 0)], idx[(q > lim.q_max) & (ub[idx] < 0)]
+    if not (low.size or high.size):
+        return False
+    lb, ub = lb.copy(), ub.copy()
+    lb[low] *= 1e-3
+    ub[high] *= 1e-3
+    n = lb.size
+    A_ub, b_ub = [], []
+    for rows, hi, sign in ((C, u, 1.0), (C, l, -1.0)):
+        m = np.isfinite(hi)
+        if m.any():
+            A_ub.append(sign * rows[m])
+            b_ub.append(sign * hi[m])
+    r = scipy.optimize.linprog(np.zeros(n), A_ub=np.vstack(A_ub) if A_ub else None,
+                               b_ub=np.concatenate(b_ub) if b_ub else None, A_eq=A if A.shape[0] else None,
+                               b_eq=b if A.shape[0] else None,
+                               bounds=[(x if np.isfinite(x) else None, y if np.isfinite(y) else None)
+                                       for x, y in zip(lb, ub)], method="highs",
+                               options={"primal_feasibility_tolerance": 1e-7})
+    return r.status == 0
+
+
+def push_past_limits(robot, config, rng) -> None:
+    """2–5 leg joints 5–50 mrad past their limits (in place; the soles' contacts are placed after)."""
+    model = robot.model
+    iq, _ = bounded_joints(model)
+    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
+    q = config.q.copy()
+    for k in rng.choice(legs, int(rng.integers(2, 6)), replace=False):
+        over = rng.uniform(0.005, 0.05)
+        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
+            model.lowerPositionLimit[iq[k]] - over
+    config.update(q)
+
+
+def build_episode(robot, name, rng, kind, strict, past_limits=False):
     config = Configuration(robot, random_configuration(robot, rng, spread=0.2) if rng.random() < 0.5 else None)
     config.q[:7] = robot.q_ref[:7]
     config.update(config.q)
+    if past_limits:
+        push_past_limits(robot, config, rng)
     ctrl, com = standing_controller(robot, config)
     ctrl.tasks[0].gain = float(10 ** rng.uniform(0, 6))  # CoM gain up to 1e6
     ctrl.tasks[0].weight = float(10 ** rng.uniform(-2, 3))
@@ -85,10 +145,13 @@ def build_episode(robot, name, rng, kind, strict):
 COUNTS = ("ticks", "episodes", "exceptions", "nan", "limit_violations", "failed", "failed_feasible",
           "failed_confirmed_infeasible", "drift_failed", "holds_past_feasible", "ok_sole_drift_over_0_05mm",
           "ok_tick_displacement_over_0_05mm", "stance_offset_over_1mm", "weighted_ticks", "weighted_failed",
-          "strict_ticks", "strict_failed", "contact_corrected_ticks")
-MAXIMA = ("max_ok_sole_drift_fk_mm", "max_ok_tick_displacement_mm", "max_stance_offset_mm", "max_ok_sole_drift_mm")
+          "strict_ticks", "strict_failed", "contact_corrected_ticks", "past_limit_episodes", "long_holds",
+          "long_holds_slower_return_feasible", "failed_runs_over_1mm", "over_budget", "return_rate_relaxed_ticks")
+MAXIMA = ("max_ok_sole_drift_fk_mm", "max_ok_tick_displacement_mm", "max_stance_offset_mm", "max_ok_sole_drift_mm",
+          "max_failed_run_displacement_mm", "tick_time_max_ms", "max_dt_ms")
 EVENTS = ("exceptions", "nan", "limit_violations", "failed_feasible", "holds_past_feasible",
-          "ok_sole_drift_over_0_05mm", "stance_offset_over_1mm")
+          "ok_sole_drift_over_0_05mm", "stance_offset_over_1mm", "long_holds_slower_return_feasible",
+          "failed_runs_over_1mm")
 MAX_EVENTS = 20
 
 
@@ -98,11 +161,15 @@ def commanded_placement(contact, oMf, dt):
     return contact.placement * pin.exp6(e * (1.0 - min(contact.gain, 1.0 / dt) * dt))
 
 
-def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "") -> dict:
+def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "", dts=(DT,),
+              past_limits: float = 0.0, budget=None) -> dict:
     """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring)."""
     rng = np.random.default_rng(seed)
+    extra = np.random.default_rng(seed + 7_000_000)  # dt and past-limit draws: build_episode's stream unchanged
     c = dict.fromkeys(COUNTS, 0) | dict.fromkeys(MAXIMA, 0.0)
     c["events"] = {k: [] for k in EVENTS}
+    c["paths"] = {}
+    c["tick_times"] = []
 
     def event(kind: str, ep: int, tick: int, detail: str = "") -> None:
         if len(c["events"][kind]) < MAX_EVENTS:
@@ -116,8 +183,13 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
         strict = bool(rng.random() < 0.5)
         ep = c["episodes"]
         c["episodes"] += 1
+        dt = float(extra.choice(dts))
+        past = bool(extra.random() < past_limits)
+        c["past_limit_episodes"] += int(past)
+        c["max_dt_ms"] = max(c["max_dt_ms"], 1e3 * dt)
         try:
-            config, ctrl = build_episode(robot, name, rng, kind, strict)
+            config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past)
+            ctrl.budget = budget
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")
@@ -125,12 +197,16 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
             continue
         iq, lo, hi, vmax = limits[name]
         contacts = ctrl.constraints[:2]
+        run_start, hold_run = None, 0
+        q_prev = config.q[iq].copy()
         for tick in range(episode):
             c["ticks"] += 1
             c["strict_ticks" if strict else "weighted_ticks"] += 1
             try:
                 before = [config.frame_placement(k.frame_id).copy() for k in contacts]
-                res = ctrl.solve(config, DT)
+                t_tick = time.perf_counter()
+                res = ctrl.solve(config, dt)
+                c["tick_times"].append(time.perf_counter() - t_tick)
             except Exception as exc:  # noqa: BLE001
                 c["exceptions"] += 1
                 event("exceptions", ep, tick, f"{type(exc).__name__}: {exc}")
@@ -144,15 +220,25 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 c["limit_violations"] += 1
                 event("limit_violations", ep, tick, f"{name} velocity")
             c["contact_corrected_ticks"] += int(ctrl.contact_corrections > 0)
+            c["paths"][res.path] = c["paths"].get(res.path, 0) + 1
+            c["over_budget"] += int(res.over_budget)
+            c["return_rate_relaxed_ticks"] += int(any(r.startswith("joint_position_limit return rate")
+                                                      for r in res.relaxed))
+            hold_run = hold_run + 1 if (not res.ok and res.fallback == "hold") else 0
+            if hold_run == 51:
+                c["long_holds"] += 1
+                if slower_return_feasible(ctrl, config, dt):
+                    c["long_holds_slower_return_feasible"] += 1
+                    event("long_holds_slower_return_feasible", ep, tick, name)
             if not res.ok:
                 c["failed"] += 1
                 c["strict_failed" if strict else "weighted_failed"] += 1
-                if res.fallback == "trust_region":
+                if getattr(res, "reason", "") == "sole_drift" or res.fallback == "trust_region":
                     # the QP solved; its least-drifting command still moves a sole > sole_drift_tolerance
                     # (second-order, not a linear feasibility question): counted apart, v is that command
                     c["drift_failed"] += 1
                 else:
-                    feasible = hard_set_feasible(ctrl, config)  # independent check, failed QP ticks only
+                    feasible = hard_set_feasible(ctrl, config, dt)  # independent check, failed QP ticks only
                     c["failed_feasible"] += int(feasible)
                     c["failed_confirmed_infeasible"] += int(not feasible)
                     if feasible:
@@ -160,16 +246,28 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                     if res.fallback == "hold" and feasible:
                         c["holds_past_feasible"] += 1
                         event("holds_past_feasible", ep, tick, name)
-            config.update(config.integrate(res.v, DT))
+            config.update(config.integrate(res.v, dt))
             q = config.q[iq]
-            if np.any(q < lo - 1e-9) or np.any(q > hi + 1e-9):
+            # a joint past a limit moving further out (one that starts outside may only come back)
+            if np.any((q < lo - 1e-9) & (q < q_prev - 1e-9)) or np.any((q > hi + 1e-9) & (q > q_prev + 1e-9)):
                 c["limit_violations"] += 1
                 event("limit_violations", ep, tick, f"{name} position")
+            q_prev = q.copy()
+            if not res.ok:
+                run_start = before if run_start is None else run_start
+                after = [config.frame_placement(k.frame_id) for k in contacts]
+                run = max(np.linalg.norm(a.translation - b.translation) for a, b in zip(after, run_start))
+                if run > 1e-3 and c["max_failed_run_displacement_mm"] <= 1.0:
+                    event("failed_runs_over_1mm", ep, tick, f"{name} {1e3 * run:.4f} mm")
+                c["failed_runs_over_1mm"] += int(run > 1e-3)
+                c["max_failed_run_displacement_mm"] = max(c["max_failed_run_displacement_mm"], float(1e3 * run))
+            else:
+                run_start = None
             if res.ok:
                 after = [config.frame_placement(k.frame_id) for k in contacts]
                 moved = max(np.linalg.norm(a.translation - b.translation) for a, b in zip(after, before))
                 offset = max(np.linalg.norm(a.translation - k.placement.translation) for a, k in zip(after, contacts))
-                drift = max(np.linalg.norm(a.translation - commanded_placement(k, b, DT).translation)
+                drift = max(np.linalg.norm(a.translation - commanded_placement(k, b, dt).translation)
                             for a, b, k in zip(after, before, contacts))
                 c["max_ok_sole_drift_fk_mm"] = max(c["max_ok_sole_drift_fk_mm"], float(1e3 * drift))
                 c["max_ok_tick_displacement_mm"] = max(c["max_ok_tick_displacement_mm"], float(1e3 * moved))
@@ -186,6 +284,8 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
             next_print += 10_000
             print(f"{progress}[{time.time() - t0:.0f} s] " + str({k: c[k] for k in (*COUNTS, *MAXIMA)}), flush=True)
     c["seconds"] = time.time() - t0
+    t = np.asarray(c["tick_times"])
+    c["tick_time_max_ms"] = float(1e3 * t.max()) if t.size else 0.0
     return c
 
 
@@ -194,6 +294,13 @@ def aggregate(chunks: list[dict]) -> dict:
     total |= {k: max(ch.get(k, 0.0) for ch in chunks) for k in MAXIMA}
     total["seconds"] = sum(ch["seconds"] for ch in chunks)
     total["events"] = {k: [e for ch in chunks for e in ch.get("events", {}).get(k, [])][:MAX_EVENTS] for k in EVENTS}
+    total["paths"] = {}
+    for ch in chunks:
+        for k, n in ch.get("paths", {}).items():
+            total["paths"][k] = total["paths"].get(k, 0) + n
+    times = np.concatenate([np.asarray(ch.get("tick_times", []), float) for ch in chunks]) if chunks else np.zeros(0)
+    total["tick_time_ms"] = {q: float(1e3 * np.percentile(times, p)) if times.size else 0.0
+                             for q, p in (("p50", 50), ("p99", 99), ("p999", 99.9))}
     return total
 
 
@@ -215,6 +322,13 @@ def report(total: dict) -> str:
         ("max stance-sole offset from its placement on ok ticks (per stance) <= 1 mm",
          f"{total['max_stance_offset_mm']:.4f} mm ({total['stance_offset_over_1mm']} ticks over)",
          total["stance_offset_over_1mm"] == 0),
+        ("holds longer than 50 ticks on a state where a slower return (1e-3 of the rate) is feasible (HiGHS) == 0",
+         f"{total['long_holds_slower_return_feasible']} (of {total['long_holds']} holds > 50 ticks; "
+         f"{total['past_limit_episodes']} episodes started past the limits, {total['return_rate_relaxed_ticks']} "
+         f"ticks with a relaxed return rate)", total["long_holds_slower_return_feasible"] == 0),
+        ("max stance-sole displacement over any run of failed ticks <= 1 mm (forward kinematics)",
+         f"{total['max_failed_run_displacement_mm']:.4f} mm ({total['failed_runs_over_1mm']} ticks over)",
+         total["failed_runs_over_1mm"] == 0),
         ("strict-level failure rate <= weighted failure rate",
          f"strict {s:.3e} ({total['strict_failed']}/{total['strict_ticks']}) vs weighted {w:.3e} "
          f"({total['weighted_failed']}/{total['weighted_ticks']})", s <= w),
@@ -226,6 +340,13 @@ def report(total: dict) -> str:
                  f"over 0.05 mm); controller-reported max sole_drift {total['max_ok_sole_drift_mm']:.4f} mm; "
                  f"failed {total['failed']} = {total['drift_failed']} drift (trust region) + "
                  f"{total['failed_confirmed_infeasible']} confirmed infeasible + {total['failed_feasible']} feasible")
+    tt = total["tick_time_ms"]
+    lines.append(f"info: tick time p50 {tt['p50']:.3f} ms, p99 {tt['p99']:.3f} ms, p99.9 {tt['p999']:.3f} ms, max "
+                 f"{total['tick_time_max_ms']:.3f} ms; budget {total.get('budget', 'dt')} (dt up to "
+                 f"{total['max_dt_ms']:g} ms); {total['over_budget']} ticks past their budget; fallback rate "
+                 f"{total['failed'] / max(total['ticks'], 1):.3e} ({total['failed']}/{total['ticks']})")
+    lines.append("info: ticks per path " + ", ".join(f"{k} {n}" for k, n in sorted(total["paths"].items(),
+                                                                                   key=lambda kv: -kv[1])))
     lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")
     for k, evs in total["events"].items():
         for e in evs:
@@ -253,9 +374,10 @@ def _load() -> tuple[dict, dict]:
 
 def _run_job(job: tuple) -> tuple[int, dict]:
     """One chunk in a worker process: (index, result)."""
-    i, ticks, episode, seed, n_chunks, out = job
+    i, ticks, episode, seed, n_chunks, out, dts, past_limits, budget = job
     robots, limits = _load()
-    ch = run_chunk(robots, limits, ticks, episode, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ")
+    ch = run_chunk(robots, limits, ticks, episode, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ",
+                   dts=dts, past_limits=past_limits, budget=budget)
     if out is not None:
         Path(out).write_text(json.dumps(ch))
     return i, ch
@@ -270,6 +392,10 @@ def main() -> None:
     p.add_argument("--chunk", type=int, default=50_000, help="ticks per chunk (one result file each)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder of per-chunk results: finished chunks are skipped (resume), all are aggregated")
+    p.add_argument("--dts", default="0.002", help="comma-separated control periods (s) drawn per episode")
+    p.add_argument("--past-limits", type=float, default=0.0,
+                   help="fraction of episodes starting with 2-5 leg joints 5-50 mrad past their limits")
+    p.add_argument("--budget", type=float, default=None, help="tick budget (s); default: the tick's dt")
     p.add_argument("--aggregate-only", action="store_true",
                    help="run nothing: aggregate every finished chunk file in --out (e.g. of several processes)")
     a = p.parse_args()
@@ -279,6 +405,7 @@ def main() -> None:
         print(report(aggregate([json.loads(f.read_text()) for f in files])), flush=True)
         return
     t0 = time.time()
+    dts = tuple(float(x) for x in a.dts.split(","))
     n_chunks = max(1, -(-a.ticks // a.chunk))
     if a.out is not None:
         a.out.mkdir(parents=True, exist_ok=True)
@@ -286,12 +413,15 @@ def main() -> None:
     jobs = []
     for i in range(n_chunks):
         ticks = min(a.chunk, a.ticks - i * a.chunk)
-        f = a.out / f"chunk_{a.seed + i}_{ticks}_{a.episode}.json" if a.out is not None else None
+        tag = "" if (dts == (DT,) and not a.past_limits and a.budget is None) else \
+            f"_dt{'-'.join(map(str, dts))}_pl{a.past_limits}_b{a.budget}"
+        f = a.out / f"chunk_{a.seed + i}_{ticks}_{a.episode}{tag}.json" if a.out is not None else None
         if f is not None and f.exists():
             chunks[i] = json.loads(f.read_text())
             print(f"chunk {i + 1}/{n_chunks} (seed {a.seed + i}) already done: {f}", flush=True)
             continue
-        jobs.append((i, ticks, a.episode, a.seed + i, n_chunks, None if f is None else str(f)))
+        jobs.append((i, ticks, a.episode, a.seed + i, n_chunks, None if f is None else str(f), dts, a.past_limits,
+                     a.budget))
     if a.jobs <= 1:
         results = map(_run_job, jobs)
     else:
@@ -306,7 +436,9 @@ def main() -> None:
         pool.close()
         pool.join()
     print(f"wall time {time.time() - t0:.0f} s with {a.jobs} process(es)", flush=True)
-    print(report(aggregate([chunks[i] for i in sorted(chunks)])), flush=True)
+    total = aggregate([chunks[i] for i in sorted(chunks)])
+    total["budget"] = "dt" if a.budget is None else f"{1e3 * a.budget:g} ms"
+    print(report(total), flush=True)
 
 
 if __name__ == "__main__":

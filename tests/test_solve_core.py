@@ -3,6 +3,8 @@ no latching after a failed tick, zero-width joint ranges treated as locked joint
 
 from __future__ import annotations
 
+import math
+
 import copy
 
 import numpy as np
@@ -397,6 +399,7 @@ def test_safe_command_of_a_failed_tick_holds_contacts_to_second_order(robots):
     robot = robots("g1")
     config = Configuration(robot)
     ctrl, com = standing_controller(robot, config)
+    ctrl.budget = math.inf  # the safe command's refinement, independent of the machine's load
     contacts = ctrl.constraints[:2]
     rng = np.random.default_rng(3)
     hand = FrameTask(robot, "left_wrist_roll_joint", gain=1000.0, position_weight=100.0, name="hand")
@@ -454,6 +457,7 @@ def test_fuzz_seed_1004_strict_levels_nearly_dependent_contacts_hold_without_fai
     ctrl.add_task(com, level=0)
     ctrl.add_task(PostureTask(robot, weight=3.2682029423729837), level=1)
     ctrl.add_task(hand, level=1)
+    ctrl.budget = math.inf  # a level's failed solve is rescued by ProxQP's confirmation, whatever the machine's load
     worst = 0.0
     for _ in range(8):
         before = [config.frame_placement(c.frame_id).copy() for c in contacts]

@@ -104,8 +104,9 @@ class Configuration:
             dt_ok = False
         if not dt_ok:
             raise ConfigurationError(f"dt must be a finite number > 0 (s), got {dt!r}")
-        if not isinstance(v, np.ndarray) or v.shape != (self.model.nv,) or not math.isfinite(v @ v):
-            check_vector(v, self.model.nv, "velocity v")  # raises with the details
+        if not isinstance(v, np.ndarray) or v.shape != (self.model.nv,) or v.dtype != np.float64 \
+                or not math.isfinite(v @ v):
+            v = check_vector(v, self.model.nv, "velocity v")  # raises with the details, else a float array
         self.q = pin.integrate(self.model, self.q, v * dt)
         self.update()
 

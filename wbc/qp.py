@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from time import perf_counter
 
 import numpy as np
 import qpsolvers
@@ -41,6 +42,11 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
+    #: ``time.perf_counter()`` instant after which a failed solve is not confirmed by the independent solvers
+    #: (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no limit.
+    deadline: float = math.inf
+    #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
+    independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
@@ -50,8 +56,9 @@ class QPBackend(ABC):
         and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto [lb, ub], so integrating
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
-        same check, is returned. ``confirm=False`` skips that re-solve (its time is unbounded: callers on a
-        control path with a time budget).
+        same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
+        unbounded); otherwise, once ``time.perf_counter()`` is past ``deadline``, the independent solvers not yet run
+        are skipped (the failure is then reported unconfirmed).
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -166,9 +173,12 @@ class QPBackend(ABC):
             (the check of :meth:`solve`), else (None, 'names of the solvers that failed').
         """
         tried = []
-        for name in _INDEPENDENT:
+        for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue
+            if perf_counter() > self.deadline:
+                return None, (", ".join(tried) + " (then the tick budget was spent)" if tried else
+                              "no independent solver (tick budget spent: infeasibility not confirmed)")
             try:
                 if name == "proxqp":
                     backend = ProxQPBackend(tolerance=self.tolerance, max_iter=200)
@@ -444,8 +454,8 @@ class QpsolversBackend(QPBackend):
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 _POLISH_RANGE = 1e-3
 
-#: Independent solvers of :meth:`QPBackend.confirm`, in order.
-_INDEPENDENT = ("proxqp", "quadprog", "daqp")
+#: Independent solvers of :meth:`QPBackend.confirm`, in order (the default of ``QPBackend.independent``).
+_INDEPENDENT = QPBackend.independent
 
 #: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
 _SETTINGS = {

@@ -14,7 +14,6 @@ import difflib
 import importlib.metadata
 import importlib.resources
 import math
-import tomllib
 import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -381,7 +380,7 @@ def _build(
         raise RobotDescriptionError(
             "left_sole, right_sole and torso frame names are required to load a humanoid from a URDF path"
         )
-    if not all(x is None or (isinstance(x, (int, float)) and math.isfinite(x) and x > 0)
+    if not all(x is None or (isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0)
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     urdf_tree = check_xml(urdf, "URDF")
@@ -416,6 +415,7 @@ def _build(
     if armature:
         model.armature[6:] = float(armature)
     model.name = name
+    _check_limit_order(model, urdf)
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
             raise UnknownFrameError(f"descriptor of {name!r}: parent frame {parent!r} of {fname!r} not in URDF")
@@ -694,6 +694,39 @@ def _check_legs(robot: Robot, q: np.ndarray) -> None:
                 f"{above:.3f} m above the floating base link {_root_link(model)!r}; "
                 f"soles must be at the end of legs hanging below the base — a legless robot (e.g. hands named as "
                 f"soles) cannot stand or walk. Name the feet's sole frames of a robot with legs")
+
+
+#: largest inversion (rad or m) of a joint's URDF position limits (lower > upper) read as round-off of a locked
+#: joint (lower = upper); a larger one is an error (:func:`_check_limit_order`)
+LIMIT_INVERSION_TOLERANCE = 1e-6
+
+
+def _check_limit_order(model: pin.Model, urdf: Path) -> None:
+    """Every finite position range has lower ≤ upper. One inverted by at most ``LIMIT_INVERSION_TOLERANCE`` is the
+    round-off of a locked joint: both limits are set to their middle (the joint keeps a position limit, zero wide;
+    see ``KinematicController.locked_joints``), with a warning.
+
+    Raises:
+        RobotDescriptionError: a range inverted by more (names up to 5 joints with their limits).
+    """
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    bad, snapped = [], []
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        for iq in range(joint.idx_q, joint.idx_q + joint.nq):
+            if np.isfinite(lo[iq]) and np.isfinite(hi[iq]) and lo[iq] > hi[iq]:
+                (snapped if lo[iq] - hi[iq] <= LIMIT_INVERSION_TOLERANCE else bad).append((model.names[j], iq))
+    if bad:
+        desc = ", ".join(f"{n}: lower {lo[iq]:.9g} > upper {hi[iq]:.9g}" for n, iq in bad[:5])
+        raise RobotDescriptionError(f"{urdf}: inverted joint limits ({desc}); fix the URDF <limit lower upper>")
+    if snapped:
+        new_lo, new_hi = lo.copy(), hi.copy()
+        for _, iq in snapped:
+            new_lo[iq] = new_hi[iq] = 0.5 * (lo[iq] + hi[iq])
+        model.lowerPositionLimit, model.upperPositionLimit = new_lo, new_hi
+        warnings.warn(f"{urdf}: joint limits inverted by ≤ {LIMIT_INVERSION_TOLERANCE:g} (round-off) on "
+                      f"{', '.join(n for n, _ in snapped[:5])}: read as locked joints (lower = upper = the middle)",
+                      stacklevel=4)
 
 
 def _check_posture_limits(robot: Robot, q: np.ndarray) -> None:

@@ -53,7 +53,20 @@ Bounds are intersected in ``BoxConstraint.priority`` order, lower priorities yie
 :mod:`wbc.constraints.base`); constraints that need the previous command (``needs_previous_command``) receive
 ``TickResult.v`` after every tick. Constraints marked ``relaxable`` (joint acceleration limits: a smoothness
 preference) are left out of a tick whose QP is infeasible with them, and the tick is solved again
-(``TickResult.relaxed`` names them) before anything is declared failed.
+(``TickResult.relaxed`` names them) before anything is declared failed. Then, when joints are outside their
+position limits, their return rate (:class:`~wbc.constraints.JointPositionLimit`: min(distance/dt, v_max) back)
+is relaxed: it ranks below every other hard constraint and above the tasks, and is scaled by α = 1/2, 1/10, 1/100,
+1/1000, 0 until the tick solves (``TickResult.relaxed`` names α; α = 0 only forbids moving further out).
+
+Output guard: an ok tick's command is finite and within the box and inequality rows to the backend's tolerance
+(checked against the constraint objects' bounds recomputed at the tick, not read from the solver), its contacts
+within ``sole_drift_tolerance``, and every number of its QP finite (targets, weights, q, placements written in
+place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
+
+Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (independent
+confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
+relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
+route every tick took.
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -62,13 +75,14 @@ input error), ``solve`` does not raise and never returns NaN:
    the violation of each (``TickResult.conflicts``, largest first);
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
    hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
-   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift):
-   ``fallback="constraints_only"``;
-3. if the constraints themselves conflict and contacts are among them, the same without the contacts' drift
-   correction (J_c v = 0: each contact frame kept where it is rather than pulled back onto its placement; e.g. a
+   second order like an ok tick's (correction, then trust region; ``TickResult.sole_drift`` is its drift), taken
+   only when that drift is ≤ ``sole_drift_tolerance``: ``fallback="constraints_only"``;
+3. if the constraints themselves conflict (or step 2's drift is too large) and contacts are among them, the same with each contact frame held
+   where it was when the current run of failed ticks began, its correction towards there scaled by 1, 1/10 or 0
+   (J_c v = 0: kept where it is rather than pulled back onto its placement; e.g. a
    sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
-   limits — measured in the fuzz suite on humanoid15, seed 331 episode 454: 39 ticks in a row held at v = 0, the
-   state never changing; with this step 5 failed ticks, then ok again): ``fallback="contacts_held"``;
+   limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
+   where its rows send it (forward kinematics; at β = 0 scaled down by halves, up to 8 times, until it does);
 4. else v = 0, hold the current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves
    no joint further out).
 
@@ -134,10 +148,11 @@ class TickResult:
         timings: seconds spent in 'assembly' (tasks + constraints) and 'solve' (including the fallback).
         conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
             conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
-        fallback: '' when ok, else the safe command returned: 'trust_region' (the least-drifting solution when no
-            trust region kept the contacts within sole_drift_tolerance), 'constraints_only' (soft level under the constraint
-            objects, hard tasks and strict levels left out), 'contacts_held' (the same with the contacts' drift
-            correction left out: J_c v = 0) or 'hold' (v = 0).
+        fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
+            objects, hard tasks and strict levels left out), 'contacts_held' (the same with each contact frame held
+            where it was when the current run of failed ticks began, its correction towards there scaled by 1,
+            1/10 or 0: J_c v = 0) or 'hold' (v = 0). Every safe command other than 'hold' keeps the contact frames
+            within ``sole_drift_tolerance`` of where its rows send them over the tick.
         relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
             left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
             then solved).
@@ -146,6 +161,17 @@ class TickResult:
         sole_drift: largest second-order drift (m) of a contact frame over this tick: ‖t(e⁺) − (1 − K dt) t(e)‖
             with e⁺ the contact error at pin.integrate(q, v dt) and t(·) its translation part (what the
             linearised contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``.
+        path: the route the tick took: 'compiled' (the compiled tick's kernel), 'compiled+daqp' (its reduced QP
+            solved by DAQP), 'general:<backend name>' (the general path's flat QP), 'levels' (strict hierarchy),
+            with '+return_rate' when the return rate of joints outside their limits was relaxed; on failure
+            'fallback:<fallback>'.
+        reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
+            'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
+            'output_guard' (the command was not finite or crossed a
+            bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
+        over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished; its
+            optional stages (independent confirmation, diagnosis, the safe command's trust regions) were
+            skipped and the safe command returned.
     """
 
     v: np.ndarray
@@ -157,6 +183,9 @@ class TickResult:
     relaxed: list[str] = field(default_factory=list)
     consecutive_failures: int = 0
     sole_drift: float = 0.0
+    path: str = ""
+    reason: str = ""
+    over_budget: bool = False
 
 
 class KinematicController:
@@ -182,17 +211,26 @@ class KinematicController:
             (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
             drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
             drift is second order in v dt); if none drifts less, the tick is not ok.
+        budget: wall time (s) a tick may take before its optional stages are skipped, or None (default): the
+            tick's dt. Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
+            diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
+            safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
+            rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
+            then the budget plus at most the stage in progress and the safe command's solves. An ok tick is never cut short (its stages are
+            bounded by their iteration counts). ``math.inf``: no budget (every failure-handling stage runs,
+            independent of the machine's load: offline analysis and tests).
 
     Raises:
         UnknownSolverError: unknown backend name.
-        InvalidInputError: damping ≤ 0, or an object that is not a Task/Constraint.
+        InvalidInputError: damping ≤ 0, budget not None nor finite and > 0, or an object that is not a
+            Task/Constraint.
     """
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
                  dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
-                 contact_correction: float = 1e-6):
-        if not (np.isfinite(damping) and damping > 0):
+                 contact_correction: float = 1e-6, budget: float | None = None):
+        if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
         self.nv = robot.model.nv
@@ -207,6 +245,8 @@ class KinematicController:
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
         self.contact_correction = float(contact_correction)
+        self.budget = budget
+        self._deadline = math.inf
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
         self._drift_data = robot.model.createData()
@@ -252,6 +292,39 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
+
+    @property
+    def budget(self) -> float | None:
+        """Wall time (s) of a tick before it falls back (constructor docstring), or None: the tick's dt.
+
+        Raises:
+            InvalidInputError: on assignment, not None and not a finite number > 0.
+        """
+        return self._budget
+
+    @budget.setter
+    def budget(self, value) -> None:
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, np.floating,
+                                                                                        np.integer))
+                                  or not (value > 0)):
+            raise InvalidInputError(f"budget must be None (the tick's dt) or a number of seconds > 0 (math.inf: "
+                                    f"no budget), got {value!r}")
+        self._budget = None if value is None else float(value)
+        self._budget_s = math.nan
+        self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
+
+    def _late(self) -> bool:
+        """The current tick's budget is spent."""
+        return perf_counter() > self._deadline
+
+    def _set_deadline(self, deadline: float, plan=None) -> None:
+        """Give every QP backend of the controller the tick's deadline (``QPBackend.deadline``)."""
+        self._deadline = deadline
+        for b in (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
+                  *self._level_backends, None if plan is None else plan.rescue):
+            if b is not None:
+                b.deadline = deadline
+                b.independent = _CONFIRM_ORDER
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -634,6 +707,11 @@ class KinematicController:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
             return None  # dependent equality rows: dropped and checked by the general path
+        # every number the kernel reads is finite (targets, weights, gains written in place, q, placements):
+        # one sum per buffer (NaN and inf propagate into it); else the general path meets them and fails the tick
+        if not math.isfinite(float(plan.es.sum()) + float(plan.rowp.sum()) + float(b.sum()) + float(diff.sum())
+                             + float(plan.pw.sum()) + float(pgain)):
+            return None
         t1 = perf_counter()
         v = np.empty(self.nv)
         backend = self.backend
@@ -645,6 +723,12 @@ class KinematicController:
             it = self._fused_rescue(plan, v, dt)
         if it < 1:
             return None  # the general path: diagnosis, relaxation, safe command
+        # output guard: v finite and inside the box of the constraint objects (recomputed here, not read from the
+        # kernel) and the inequality rows, to the backend's tolerance
+        if not plan.python_boxes:
+            self._intersect_boxes(config, dt)
+        if self._command_fault(v, self._lb, self._ub, plan.C, plan.cl, plan.cu):
+            return None
         drift = 0.0
         if plan.contacts:
             ddata = self._drift_data
@@ -660,7 +744,8 @@ class KinematicController:
             backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift)
+        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift,
+                            path="compiled+daqp" if rescued else "compiled")
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
@@ -679,6 +764,7 @@ class KinematicController:
         rescue = plan.rescue
         if rescue is None:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
+            rescue.deadline = self._deadline
         H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(plan.fb, plan.ib)
         try:
             x = rescue.solve(H, g, A, b, C, l, u, lb, ub)
@@ -710,15 +796,20 @@ class KinematicController:
         Raises:
             InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
         """
-        if not (isinstance(dt, (float, int, np.floating, np.integer)) and math.isfinite(dt) and dt > 0):
-            raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
+        if isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
+                                                    and math.isfinite(dt) and dt > 0):
+            raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
+        self._budget_s = dt if self._budget is None else self._budget
+        self._set_deadline(t0 + self._budget_s)
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
                                 and not self._level_order):
             plan = self._fused_plan(config, dt)
         if plan is not None:
+            if plan.rescue is not None:
+                plan.rescue.deadline = self._deadline
             try:
                 result = self._fused_tick(plan, config, dt, t0)
             except InvalidInputError:
@@ -731,30 +822,47 @@ class KinematicController:
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
+        return_rate = None
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
+            fault = self._data_fault()
+            if fault:
+                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
             t1 = perf_counter()
             try:
                 v = self._solve_assembled(config)
                 relaxed = []
-            except SolverError:
+            except SolverError as first_failure:
                 v = None
-                if self._contact_rows.size and self._consistent_contact_rhs():
+                if self._contact_rows.size and not self._late() and self._consistent_contact_rhs():
                     try:  # dependent contact rows asked contradictory corrections: once more in least squares
                         v = self._solve_assembled(config)
                         relaxed = []
                     except SolverError:
                         v = None
-                if v is None:
-                    if not self._relaxable:
-                        raise
+                relaxed = []
+                if v is None and self._relaxable:  # (one solve: not cut by the budget)
                     self._relax(config, dt)
-                    v = self._solve_assembled(config)
                     relaxed = [c.name for c in self._relaxable]
+                    try:
+                        v = self._solve_assembled(config)
+                    except SolverError:
+                        v = None
+                if v is None:
+                    v, return_rate = self._relax_return_rate(config, first_failure)  # raises SolverError if not
+                    relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
             if self.contact_correction > 0 and self._contacts:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if result.ok:
+                fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
+                if fault:
+                    raise SolverError(f"output guard: {fault}")
+                result.path = ("levels" if self._level_order else f"general:{self.backend.name}") + (
+                    "+return_rate" if return_rate is not None else "")
+            else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
+                raise _DriftFailure(result.message)
             if not result.ok and self._projected_contacts:
                 # the hard set had no solution until the dependent contact rows were made consistent: name them
                 result.conflicts = list(self._projected_contacts)
@@ -772,12 +880,89 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
+        result.over_budget = result.over_budget or t2 > self._deadline
         for c in self._feedback:
             c.set_previous(result.v)
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
         result.consecutive_failures = self.consecutive_failures
         self.last_result = result
         return result
+
+    def _data_fault(self) -> str:
+        """'' when the assembled QP's numbers are finite (bounds may be ±inf, never NaN), else what is not."""
+        what = [name for name, x in (("cost H", self._H), ("cost g", self._g), ("equality rows A", self._A),
+                                     ("equality rhs b", self._b), ("inequality rows C", self._C))
+                if not np.isfinite(x).all()]
+        what += [name for name, x in (("inequality bounds", self._l), ("inequality bounds", self._u),
+                                      ("box lb", self._lb), ("box ub", self._ub)) if np.isnan(x).any()]
+        return ", ".join(dict.fromkeys(what))
+
+    def _command_fault(self, v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray,
+                       u: np.ndarray) -> str:
+        """Output guard of an ok tick: '' when v is finite, within [lb, ub] and l ≤ C v ≤ u to the backend's
+        tolerance (each bound or row scaled by max(1, |bound|), as :meth:`wbc.qp.QPBackend.scaled_violation`),
+        else what it violates. The contact rows are held by the sole-drift check (``sole_drift_tolerance``)."""
+        if not math.isfinite(float(v @ v)):
+            return "the command v is not finite"
+        tol = self.backend.tolerance
+        over = np.maximum(lb - v, v - ub)
+        if not (over.max(initial=-math.inf) <= tol):
+            excess = over / np.maximum(1.0, np.maximum(np.abs(np.where(np.isfinite(lb), lb, 0.0)),
+                                                       np.abs(np.where(np.isfinite(ub), ub, 0.0))))
+            k = int(np.nanargmax(np.where(np.isnan(excess), np.inf, excess)))
+            if not excess[k] <= tol:
+                return (f"v[{k}] = {v[k]:.6g} outside its bounds [{lb[k]:.6g}, {ub[k]:.6g}] (tolerance {tol:.3g})")
+        if C.shape[0]:
+            cv = C @ v
+            scale = np.maximum(1.0, np.abs(C) @ np.abs(v))
+            over = np.maximum(l - cv, cv - u) / np.maximum(scale, np.maximum(
+                np.abs(np.where(np.isfinite(l), l, 0.0)), np.abs(np.where(np.isfinite(u), u, 0.0))))
+            if not (over.max() <= tol):
+                k = int(np.nanargmax(np.where(np.isnan(over), np.inf, over)))
+                return f"inequality row {k}: C v = {cv[k]:.6g} outside [{l[k]:.6g}, {u[k]:.6g}] (tolerance {tol:.3g})"
+        return ""
+
+    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float]:
+        """Solve the tick again with the return rate of the joints outside their position limits relaxed.
+
+        A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
+        several such joints and both soles in contact that can be impossible while a slower return is not. The
+        return rate ranks below every other hard constraint and above the tasks: the required return velocity of
+        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; the first that solves is kept;
+        α = 0 only forbids moving further out). Returns (v, α).
+
+        Raises:
+            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or none of the α solves.
+        """
+        entries = []
+        for c in self._box:
+            if isinstance(c, JointPositionLimit):
+                q = config.q[c.idx_q]
+                idx = np.asarray(c.indices)
+                entries.append(idx[(q < c.q_min) & (self._lb[idx] > 0)])
+                entries.append(-1 - idx[(q > c.q_max) & (self._ub[idx] < 0)])  # encoded: upper side
+        low = np.concatenate([e for e in entries[0::2]]) if entries else np.zeros(0, int)
+        high = -1 - np.concatenate([e for e in entries[1::2]]) if entries else np.zeros(0, int)
+        if not (low.size or high.size):
+            raise failure
+        lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        try:
+            for b in backends:  # a failed α needs no independent confirmation: the next α is tried
+                b.independent = ()
+            for alpha in _RETURN_RATE_SCALES:  # (at most 5 solves, unconfirmed: not cut by the budget)
+                self._lb[low] = alpha * lb0
+                self._ub[high] = alpha * ub0
+                try:
+                    return self._solve_assembled(config), alpha
+                except SolverError:
+                    continue
+        finally:
+            for b, ind in zip(backends, independent):
+                b.independent = ind
+        raise SolverError(f"{failure}; no solution either with the joints outside their limits held where they "
+                          f"are (return rate 0)")
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
@@ -848,7 +1033,8 @@ class KinematicController:
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
         return None if rank == rows.size else U[:, :rank]
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None) -> np.ndarray:
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
+                          bounded: bool = False) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
         re-solves the problem in the buffers (default: the tick's QP)."""
         solve = solve or self._solve_assembled
@@ -862,6 +1048,8 @@ class KinematicController:
         b0 = self._b.copy()
         try:
             for _ in range(3):
+                if bounded and self._late():
+                    break  # the safe command's refinement stops at the tick budget
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
                 if range_basis is not None:
@@ -887,7 +1075,8 @@ class KinematicController:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None) -> TickResult:
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
+                       bounded: bool = False) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
         ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
 
@@ -911,6 +1100,8 @@ class KinematicController:
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
                 radii.insert(0, math.inf)  # first the whole box, with consistent contact rows
             for radius in radii:
+                if bounded and self._late():
+                    break  # the safe command's refinement stops at the tick budget
                 np.clip(lb0, -radius, radius, out=self._lb)
                 np.clip(ub0, -radius, radius, out=self._ub)
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
@@ -920,7 +1111,7 @@ class KinematicController:
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
-                    v_tr = self._correct_contacts(config, dt, v_tr, solve)
+                    v_tr = self._correct_contacts(config, dt, v_tr, solve, bounded)
                 d = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d
@@ -999,8 +1190,12 @@ class KinematicController:
     def _new_backend(self, **daqp_settings) -> QPBackend:
         """A fresh backend of the same kind as ``self.backend`` (own warm start)."""
         if isinstance(self.backend, DaqpBackend):
-            return DaqpBackend(tolerance=self.backend.tolerance, **{**self.backend.settings, **daqp_settings})
-        return make_backend(self.backend.name)
+            backend = DaqpBackend(tolerance=self.backend.tolerance, **{**self.backend.settings, **daqp_settings})
+        else:
+            backend = make_backend(self.backend.name)
+        backend.deadline = self._deadline
+        backend.independent = _CONFIRM_ORDER
+        return backend
 
     def _solve_levels(self, config, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         levels = []
@@ -1025,40 +1220,118 @@ class KinematicController:
 
     # -- failure handling -------------------------------------------------------------------------------------
     def _recover(self, config: Configuration, dt: float, exc: Exception) -> TickResult:
-        """Diagnosis + safe command after a failed tick (module docstring). Never raises."""
+        """Diagnosis + safe command after a failed tick (module docstring). Never raises.
+
+        Every safe command other than v = 0 is taken only when it is finite and within the box, and when it keeps
+        the contact frames as an ok tick must (sole drift ≤ ``sole_drift_tolerance``; for 'contacts_held', whose
+        rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (×1/2, up to
+        8 times: the displacement is second order in v dt, and J_c v = 0 is kept) until it does, else v = 0."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
+        over_budget = False
+        reason = ("sole_drift" if isinstance(exc, _DriftFailure) else
+                  "output_guard" if message.startswith("output guard") else
+                  "nonfinite" if message.startswith("non-finite") else
+                  "infeasible" if isinstance(exc, SolverError) else "exception")
         conflicts: list[tuple[str, float]] = []
         if not self._assembled:
-            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold")
-        try:
-            conflicts = self.diagnose(config, dt, include_relaxable=False)
-        except Exception as dexc:  # noqa: BLE001
-            message += f"; diagnosis failed: {type(dexc).__name__}: {dexc}"
-        if conflicts:
-            message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
+                              path="fallback:hold", reason="exception")
+        data_fault = self._data_fault()
+        if not self._late():
+            try:
+                conflicts = self.diagnose(config, dt, include_relaxable=False)
+            except Exception as dexc:  # noqa: BLE001
+                message += f"; diagnosis failed: {type(dexc).__name__}: {dexc}"
+            if conflicts:
+                message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+        else:
+            over_budget = True
+            message += "; diagnosis skipped: tick budget spent (KinematicController.diagnose(config, dt) names the " \
+                       "conflict off the control path)"
         v, fallback = np.zeros(self.nv), "hold"
-        try:
-            v = self._solve_constraints_only(config)
-            fallback = "constraints_only"
-            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
-            if self.contact_correction > 0 and self._contacts:
-                v = self._correct_contacts(config, dt, v, self._solve_constraints_only)
-            v = self._hold_contacts(config, dt, v, [], self._solve_constraints_only).v
-        except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
-            if fallback == "hold" and self._contact_rows.size:  # without the contacts' drift correction (step 3)
-                b0 = self._b.copy()
-                try:
-                    self._b[self._contact_rows] = 0.0
-                    v, fallback = self._solve_constraints_only(config), "contacts_held"
-                except Exception:  # noqa: BLE001 — they conflict even so: hold
-                    pass
-                finally:
-                    np.copyto(self._b, b0)
+        tol = self.sole_drift_tolerance
+        if not data_fault:  # (non-finite QP data: hold)
+            try:
+                v_c = self._solve_constraints_only(config)
+                # the safe command holds the contacts to second order like an ok tick (correction, trust region)
+                if self.contact_correction > 0 and self._contacts:
+                    v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
+                v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
+                if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
+                        tol is None or self.sole_drift(config, v_c, dt) <= tol):
+                    v, fallback = v_c, "constraints_only"
+            except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
+                pass
+        if fallback == "hold" and self._contact_rows.size and not data_fault:
+            # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
+            # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
+            if self.consecutive_failures == 0 or self._held_anchors is None or \
+                    set(self._held_anchors) != set(map(id, self._contacts)):
+                self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
+            anchors = [self._held_anchors[id(c)] for c in self._contacts]
+            b0 = self._b.copy()
+            backend = self._fallback_backend
+            independent = backend.independent if backend is not None else ()
+            placements = [c.placement for c in self._contacts]
+            try:
+                if backend is not None:
+                    backend.independent = ()  # a failed β needs no confirmation: the next one is tried
+                for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
+                    c.placement = anchor
+                    self._b[r0:r1] = c.compute(config, dt)[1]
+                anchored = self._b[self._contact_rows].copy()
+                # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
+                # their corrections are made consistent (least squares onto the range of J_c, as after a failed
+                # solve: _consistent_contact_rhs)
+                U, S, _ = np.linalg.svd(self._A[self._contact_rows], full_matrices=False)
+                rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+                if rank < anchored.size:
+                    anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
+                for beta in _HELD_CORRECTION_SCALES:
+                    self._b[self._contact_rows] = beta * anchored
+                    try:
+                        v_h = self._solve_constraints_only(config)
+                    except Exception:  # noqa: BLE001 — they conflict even so: next β, then hold
+                        continue
+                    if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
+                        continue
+                    for _ in range(9 if beta == 0.0 else 1):
+                        if tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol:
+                            v, fallback = v_h, "contacts_held"
+                            break
+                        v_h = 0.5 * v_h  # (β = 0: J_c v = 0 kept, the drift is second order in v dt)
+                    if fallback != "hold":
+                        break
+                if fallback == "hold":
+                    message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
+                                f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m")
+            except Exception:  # noqa: BLE001 — never raises: hold
+                pass
+            finally:
+                for c, placement in zip(self._contacts, placements):
+                    c.placement = placement
+                np.copyto(self._b, b0)
+                if backend is not None:
+                    backend.independent = independent
         try:
             drift = self.sole_drift(config, v, dt)
         except Exception:  # noqa: BLE001 — never raises (module docstring)
             drift = float("nan")
-        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift)
+        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
+                          path=f"fallback:{fallback}", reason=reason, over_budget=over_budget)
+
+    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
+        """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
+        scaled by β sends it: ‖t(e⁺) − (1 − β K dt) t(e)‖, e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) by
+        forward kinematics (β = 0: the frame's displacement)."""
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        worst = 0.0
+        for c, anchor in zip(self._contacts, anchors):
+            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            worst = max(worst, float(np.linalg.norm((e1 - (1.0 - beta * min(c.gain, 1.0 / dt) * dt) * e0)[:3])))
+        return worst
 
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
         """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
@@ -1116,6 +1389,24 @@ def _row_blocks(constraints) -> tuple[list, int]:
     return blocks, row
 
 
+#: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``), each started only while the
+#: tick's budget lasts: first the two dual active-set methods (Goldfarb–Idnani's quadprog, DAQP one-shot), a few
+#: hundred µs each on a kinematic QP; ProxQP last (its iterations on an infeasible problem take tens of ms, but it
+#: solves the semidefinite levels of a hierarchy that the others refuse)
+_CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
+
+#: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
+#: (``KinematicController._relax_return_rate``)
+_RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
+
+#: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
+_HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
+
+
+class _DriftFailure(SolverError):
+    """The tick's QP solved, but no trust region kept the contact frames within ``sole_drift_tolerance``."""
+
+
 class _FusedPlan:
     """Buffers and bindings of the compiled tick (:meth:`KinematicController._fused_tick`) for one constraint
     layout and one list of soft tasks: the kernel's two packed arrays (:func:`wbc.fastqp.kinematic_pack`) and, per
@@ -1161,7 +1452,7 @@ class _FusedPlan:
         mt = ctrl._soft_J.shape[0]
         plan.fb, plan.ib, views = kinematic_pack(nv, mt, n_eq, n_in, 0 if lim is None else lim.dim,
                                                  0 if plan.posture is None else plan.posture.dim, plan.er)
-        for name in ("Js", "es", "A", "b", "C", "cl", "cu", "lb", "ub", "pw", "vdt"):
+        for name in ("Js", "es", "A", "b", "C", "cl", "cu", "lb", "ub", "pw", "vdt", "rowp"):
             setattr(plan, name, views[name])
         rowp = views["rowp"]  # gain, weight, feed-forward of each stacked row
         plan.dense, plan.gains, plan.has_ff = [], [], []

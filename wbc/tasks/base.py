@@ -51,9 +51,15 @@ def as_weight(weight, dim: int, what: str) -> np.ndarray:
     """Broadcast a scalar or (dim,) weight to a non-negative finite (dim,) array.
 
     Raises:
-        InvalidInputError: wrong shape, negative or non-finite entries.
+        InvalidInputError: not numbers (e.g. a string or a bool), wrong shape, negative or non-finite entries.
     """
-    w = np.asarray(weight, dtype=float)
+    try:
+        w = np.asarray(weight, dtype=float)
+    except (TypeError, ValueError):
+        w = None
+    if w is None or isinstance(weight, (bool, np.bool_)):
+        raise InvalidInputError(f"{what} must be a non-negative finite scalar or ({dim},) array of numbers, got "
+                                f"{weight!r}")
     if w.ndim == 0:
         w = np.full(dim, float(w))
     if w.shape != (dim,) or not np.isfinite(w).all() or (w < 0).any():
