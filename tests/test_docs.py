@@ -1,5 +1,6 @@
 """The documentation site builds with ``mkdocs build --strict`` (offline), and every tutorial page runs: its
-Python blocks, concatenated in order, execute in a fresh interpreter and their own assertions hold."""
+Python blocks, concatenated in order, execute in a fresh interpreter and their own assertions hold (so do the
+Python blocks of the other pages)."""
 
 from __future__ import annotations
 
@@ -15,12 +16,15 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 TUTORIAL = sorted((DOCS / "pages" / "tutorial").glob("*.md"))
+# every other hand-written page with Python code runs too (getting started, concepts)
+OTHER_CODE = sorted(p for p in (DOCS / "pages").rglob("*.md") if p.parent.name != "tutorial"
+                    and "```python" in p.read_text())
 
 
 def _env() -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
-    env["NO_MKDOCS_2_WARNING"] = "1"
+    env["NO_MKDOCS_2_WARNING"] = env["DISABLE_MKDOCS_2_WARNING"] = "true"
     env["MPLBACKEND"] = "Agg"
     env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))  # DDS: a random domain, loopback (the pages call
     from wbc.ros2.dds import loopback_uri                 # use_loopback; set here too for any child process)
@@ -65,7 +69,8 @@ def test_tutorial_pages_have_code():
             assert python_blocks(page).strip(), page.name
 
 
-@pytest.mark.parametrize("page", [p for p in TUTORIAL if p.stem != "index"], ids=lambda p: p.stem)
+@pytest.mark.parametrize("page", [p for p in TUTORIAL if p.stem != "index"] + OTHER_CODE,
+                         ids=lambda p: str(p.relative_to(DOCS / "pages").with_suffix("")))
 def test_tutorial_page_runs(page):
     code = python_blocks(page)
     if "wbc.ros2" in code:
