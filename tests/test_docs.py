@@ -17,8 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 TUTORIAL = sorted((DOCS / "pages" / "tutorial").glob("*.md"))
 # every other hand-written page with Python code runs too (getting started, concepts)
+GETTING_STARTED = DOCS / "pages" / "getting-started.md"
 OTHER_CODE = sorted(p for p in (DOCS / "pages").rglob("*.md") if p.parent.name != "tutorial"
-                    and "```python" in p.read_text())
+                    and p != GETTING_STARTED and "```python" in p.read_text())
 
 
 def _env() -> dict:
@@ -59,6 +60,13 @@ def test_site_builds_strict_offline(tmp_path):
     assert "KinematicController" in api and "min_v" in api  # rendered from the docstring
     for page in TUTORIAL:
         assert (site / "tutorial" / page.with_suffix(".html").name).is_file(), page.name
+
+
+def test_getting_started_shows_the_readme_example():
+    """The first program on the site is README's (which tests/test_readme.py runs and checks)."""
+    readme = (ROOT / "README.md").read_text()
+    first = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
+    assert python_blocks(GETTING_STARTED).strip() == first.strip()
 
 
 def test_tutorial_pages_have_code():
