@@ -21,7 +21,7 @@ import mkdocs_gen_files
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-os.environ.setdefault("COLUMNS", "110")  # argparse wraps help at the terminal width: make it fixed
+os.environ["COLUMNS"] = "88"  # argparse wraps help at the terminal width: fixed, to fit the page
 
 import wbc  # noqa: E402
 from wbc.cli import build_parser  # noqa: E402
