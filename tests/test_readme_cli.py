@@ -1,5 +1,7 @@
-"""README in step with the CLI: the `wbc walk` usage block lists exactly the walk parser's options, and the
-options README says `walk`, `balance` and `sim` share exist on each of them (and not on `bench`)."""
+"""The Commands page of the documentation (docs/pages/reference/commands.md, the command reference that was in
+README) in step with the CLI: the `wbc walk` usage block lists exactly the walk parser's options, the options it
+says `walk`, `balance` and `sim` share exist on each of them (and not on `bench`), every command is described;
+README links to it."""
 
 from __future__ import annotations
 
@@ -8,7 +10,8 @@ from pathlib import Path
 
 from wbc.cli import build_parser
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "docs" / "pages" / "reference" / "commands.md").read_text()
 
 
 def _options(name):
@@ -35,3 +38,10 @@ def test_every_command_is_in_readme():
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     for name in sub.choices:
         assert f"wbc {name}" in README, name
+
+
+def test_readme_links_the_commands_page():
+    readme = (ROOT / "README.md").read_text()
+    assert "(docs/pages/reference/commands.md)" in readme
+    for name in ("walk", "balance", "sim", "plot", "robots", "ros2", "bench"):
+        assert f"`{name}`" in readme or f"wbc {name}" in readme, name

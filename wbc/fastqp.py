@@ -343,7 +343,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
 
     Args:
-        H (n, n), g (n,), A (m, n), b (m,), lb/ub (n,) (±inf for free entries).
+        H, g, A, b, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (n,), (n,) (±inf for free entries).
         state (n,) int8, in/out: working set (0 free, -1 held at lb, +1 held at ub); read as the warm start.
         x (n,), nu (m,), z (n,): out — solution, equality multipliers, bound multipliers
             (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, z ≥ 0 at an upper bound, 0 when free).
@@ -482,7 +482,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     is checked (a failed check continues the method).
 
     Args:
-        H (n, n), g (n,), A (m, n), b (m,), C (p, n), l/u (p,), lb/ub (n,) (±inf for absent sides).
+        H, g, A, b, C, l, u, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (p, n), (p,), (p,), (n,), (n,)
+            (±inf for absent sides).
         state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
             side); read as the warm start.
         x (n,), nu (m,), mu (p,), z (n,): out — solution and multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0;

@@ -203,17 +203,17 @@ def load_robot(
 
     Args:
         name_or_urdf: a catalog name (see :func:`catalog`: ``talos``, ``g1``, ``humanoid15``), a path to a robot
-            file (``.toml``, format in ``docs/robot_file.md``, see :mod:`wbc.robot_file`) or a path to a ``.urdf``.
+            file (``.toml``, format in ``docs/pages/how-to/robot-file.md``, see :mod:`wbc.robot_file`) or a path
+            to a ``.urdf``.
         srdf: SRDF path providing named reference configurations (``reference``).
         reference: name of the SRDF reference configuration to use as ``q_ref``.
         reference_joints: joint name -> angle (rad) set in ``q_ref`` (on top of the SRDF reference when given).
         left_sole, right_sole, torso: frame names (required for a URDF path).
         left_hand, right_hand: optional hand frame names.
         sole_length, sole_width: contact rectangle (m), centred on the sole frames.
-        package_dirs: folders for ``package://`` URIs (example-robot-data's folder is always appended).
-
-        For a catalog name or a robot file, every argument given (not None) overrides the file's value and is
-        checked like it.
+        package_dirs: folders for ``package://`` URIs (example-robot-data's folder is always appended). For a
+            catalog name or a robot file, every argument given (not None) overrides the file's value and is checked
+            like it.
 
     Returns:
         A :class:`Robot` whose ``q_ref`` puts both soles on z = 0.

@@ -3,7 +3,7 @@ typed :class:`RobotSpec`.
 
 A robot file names the URDF (path relative to the file, absolute, or ``erd:<path>`` inside example-robot-data),
 the optional SRDF and reference posture, the semantic frames (soles, torso, hands), frames to add, the sole
-rectangle, gait defaults and MuJoCo options. Every key is documented in ``docs/robot_file.md``. The loader
+rectangle, gait defaults and MuJoCo options. Every key is documented in ``docs/pages/how-to/robot-file.md``. The loader
 refuses unknown keys (naming the closest valid one), wrong types, NaN/inf and out-of-range values with a
 :class:`~wbc.exceptions.RobotDescriptionError` that names the file, the key and what would be valid; it does not
 load the URDF (that is :func:`wbc.robot.load_robot`, which resolves the paths and builds the Pinocchio model).
@@ -280,7 +280,7 @@ def parse_robot_spec(desc: dict, *, base_dir: Path, name: str, where: str, sourc
 
 
 def load_robot_file(path: str | Path) -> RobotSpec:
-    """Read and check a robot file (TOML, format in ``docs/robot_file.md``).
+    """Read and check a robot file (TOML, format in ``docs/pages/how-to/robot-file.md``).
 
     Args:
         path: the ``.toml`` file.

@@ -145,7 +145,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     if best is None:
         raise RobotDescriptionError(
             f"{urdf.name}: no two feet found (two branch tips of the kinematic tree at the same lowest height, "
-            f"apart sideways); write the robot file by hand (docs/robot_file.md) naming left_sole/right_sole")
+            f"apart sideways); write the robot file by hand (docs/pages/how-to/robot-file.md) naming left_sole/right_sole")
     _, sign, fa, fb = best
     down = np.zeros(3)
     down[axis] = sign
@@ -208,7 +208,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         if p is None:
             raise RobotDescriptionError(
                 f"{urdf.name}: the {side} foot (joint {model.names[j]!r}) has no geometry to put a sole frame on; "
-                f"add a [[frames]] sole frame and a [sole] rectangle by hand (docs/robot_file.md)")
+                f"add a [[frames]] sole frame and a [sole] rectangle by hand (docs/pages/how-to/robot-file.md)")
         pw = p @ rot.T
         low = pw[pw[:, 2] <= pw[:, 2].min() + 0.01]
         c = np.array([0.5 * (low[:, 0].max() + low[:, 0].min()), 0.5 * (low[:, 1].max() + low[:, 1].min()),
@@ -361,8 +361,8 @@ def check_robot(path_or_name: str | Path) -> dict:
 
     Raises:
         RobotDescriptionError: also when the reference CoM is less than ``MIN_COM_MARGIN`` inside the support
-            polygon, or a foot's contact patch is turned across the walking direction.
-        Any other failure is the typed error of :func:`wbc.robot.load_robot`.
+            polygon, or a foot's contact patch is turned across the walking direction; otherwise the typed errors
+            of :func:`wbc.robot.load_robot`.
     """
     robot = load_robot(path_or_name)
     model = robot.model

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from wbc.cli.validate import count
 
-__all__ = ["register", "cmd_bench"]
+__all__ = ["register", "cmd_bench", "require_bench_extra"]
 
 SECTIONS = ("kinematic", "breakdown", "solvers", "scaling", "dynamics", "gait", "walk", "frame_tasks",
             "instructions")
@@ -88,7 +88,25 @@ def check_bench_args(args) -> None:
         raise InvalidInputError(f"--out-dir {out}: {str(parent)!r} is not a writable folder on disk")
 
 
+def require_bench_extra() -> None:
+    """Check that the libraries ``wbc bench`` measures wbc against are installed (the ``bench`` extra).
+
+    Raises:
+        InvalidInputError: placo or pin-pink is missing; names it and the extra that provides it.
+    """
+    import importlib.util
+
+    from wbc.exceptions import InvalidInputError
+
+    missing = [dist for module, dist in (("placo", "placo"), ("pink", "pin-pink"))
+               if importlib.util.find_spec(module) is None]
+    if missing:
+        raise InvalidInputError(f"needs {' and '.join(missing)} (the libraries it compares wbc with): "
+                                "pip install 'wbc[bench]'")
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
+    require_bench_extra()
     from wbc.bench.report import acceptance, write_report
     from wbc.bench.stats import limit_blas_threads
     from wbc.bench.suite import SuiteConfig, run_suite

@@ -2,7 +2,7 @@
 command (``--robot NAME|FILE.toml|FILE.urdf`` and the frame overrides).
 
 Bring your own humanoid: ``wbc robot init my.urdf -o my_robot.toml``, ``wbc robot check my_robot.toml``, then
-``wbc walk --robot my_robot.toml`` (format: ``docs/robot_file.md``). The frame options (``--left-sole`` ...)
+``wbc walk --robot my_robot.toml`` (format: ``docs/pages/how-to/robot-file.md``). The frame options (``--left-sole`` ...)
 override the robot file's (or catalog robot's) values and are checked like them.
 """
 
@@ -89,7 +89,7 @@ def cmd_robot_init(args: argparse.Namespace) -> int:
     spec = replace(spec, urdf=_relative(spec.urdf, out_dir),
                    srdf=None if spec.srdf is None else _relative(spec.srdf, out_dir),
                    package_dirs=tuple(_relative(d, out_dir) for d in spec.package_dirs))
-    header = (f"Robot file written by `wbc robot init {args.urdf}` (format: docs/robot_file.md).\n"
+    header = (f"Robot file written by `wbc robot init {args.urdf}` (format: docs/pages/how-to/robot-file.md).\n"
               "What was guessed (check it with `wbc robot check`):\n" + "\n".join(f"- {n}" for n in notes))
     out.write_text(spec_to_toml(spec, comments={"header": header}))
     print(f"wbc robot init: wrote {out}")
@@ -114,7 +114,7 @@ def register(subparsers, add_outputs=None) -> None:
     p = subparsers.add_parser("robots", help="list the robot catalog (names accepted by --robot)")
     p.set_defaults(func=cmd_robots)
     r = subparsers.add_parser("robot", help="robot files: `robot init my.urdf` writes one, `robot check` validates",
-                              description="Robot files (--robot my_robot.toml, format in docs/robot_file.md).")
+                              description="Robot files (--robot my_robot.toml, format in docs/pages/how-to/robot-file.md).")
     sub = r.add_subparsers(dest="robot_command", required=True)
     i = sub.add_parser("init", help="infer a robot file from a humanoid URDF and say what was guessed")
     i.add_argument("urdf", help="the humanoid's URDF")

@@ -75,10 +75,15 @@ def preview_jump(robot: Robot, *, height: float = 0.08, forward: float = 0.0, co
     """Run the kinematic preview (module docstring) from ``robot.q_ref``.
 
     Args:
-        robot: the robot. height: planned apex CoM rise (m). forward: planned foot displacement per jump (m,
-        world x). count: number of jumps. dt: period (s). solver: QP backend. settle: stance after each
-        planned touch-down (s). t_start: stand before the first crouch (s). viewer / pacer: see
-        :func:`wbc.scenarios.balance.run_balance`.
+        robot: the robot.
+        height: planned apex CoM rise (m).
+        forward: planned foot displacement per jump (m, world x).
+        count: number of jumps.
+        dt: period (s).
+        solver: QP backend.
+        settle: stance after each planned touch-down (s).
+        t_start: stand before the first crouch (s).
+        viewer, pacer: see :func:`wbc.scenarios.balance.run_balance`.
 
     Returns:
         :class:`JumpPreviewRun`.
