@@ -39,7 +39,6 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import scipy.optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -65,7 +64,7 @@ def slower_return_feasible(ctrl, config, dt) -> bool:
     rate of their position-limit bound, is some α ≥ 1e-3 feasible with every other hard row and bound?"""
     from wbc.constraints.limits import JointPositionLimit
 
-    H, g, A, b, C, l, u, lb, ub = ctrl.assemble(config, dt)
+    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, dt)
     lims = [c for c in ctrl.constraints if isinstance(c, JointPositionLimit)]
     if not lims:
         return False
@@ -78,20 +77,7 @@ def slower_return_feasible(ctrl, config, dt) -> bool:
     lb, ub = lb.copy(), ub.copy()
     lb[low] *= 1e-3
     ub[high] *= 1e-3
-    n = lb.size
-    A_ub, b_ub = [], []
-    for rows, hi, sign in ((C, u, 1.0), (C, l, -1.0)):
-        m = np.isfinite(hi)
-        if m.any():
-            A_ub.append(sign * rows[m])
-            b_ub.append(sign * hi[m])
-    r = scipy.optimize.linprog(np.zeros(n), A_ub=np.vstack(A_ub) if A_ub else None,
-                               b_ub=np.concatenate(b_ub) if b_ub else None, A_eq=A if A.shape[0] else None,
-                               b_eq=b if A.shape[0] else None,
-                               bounds=[(x if np.isfinite(x) else None, y if np.isfinite(y) else None)
-                                       for x, y in zip(lb, ub)], method="highs",
-                               options={"primal_feasibility_tolerance": 1e-7})
-    return r.status == 0
+    return highs_feasible(A, b, C, l, u, lb, ub, tol=1e-7)
 
 
 def push_past_limits(robot, config, rng) -> None:

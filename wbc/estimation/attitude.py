@@ -26,6 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_scalar
 
 __all__ = ["ComplementaryAttitudeFilter", "GRAVITY"]
 
@@ -38,11 +39,8 @@ def _cross(a, b) -> np.ndarray:
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and np.isfinite(value) and (value > 0 if positive else value >= 0)
-    if not ok:
-        raise InvalidInputError(f"{what} must be a finite number {'> 0' if positive else '≥ 0'}, got {value!r}")
-    return float(value)
+    """``value`` as a float, finite and ≥ 0 (> 0 with ``positive``) (:func:`wbc.geometry.check_scalar`)."""
+    return check_scalar(value, what, "SI units, see the docstring", strict=positive)
 
 
 class ComplementaryAttitudeFilter:

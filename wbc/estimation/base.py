@@ -50,6 +50,7 @@ import pinocchio as pin
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
 
@@ -57,11 +58,8 @@ _SIDES = ("left", "right")
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and np.isfinite(value) and (value > 0 if positive else value >= 0)
-    if not ok:
-        raise InvalidInputError(f"{what} must be a finite number {'> 0' if positive else '≥ 0'}, got {value!r}")
-    return float(value)
+    """``value`` as a float, finite and ≥ 0 (> 0 with ``positive``) (:func:`wbc.geometry.check_scalar`)."""
+    return check_scalar(value, what, "SI units, see the docstring", strict=positive)
 
 
 class JointStateFilter:
