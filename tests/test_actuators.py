@@ -89,5 +89,8 @@ def test_cli_rejects_bad_plant_options(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["sim", "stand", "--plant", "perfect"])
     assert exc.value.code == 2
-    assert main(["sim", "stand", "--no-load-factor", "0"]) == 2
-    assert "--no-load-factor must be > 0" in capsys.readouterr().err
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:  # refused while parsing, before any model is built
+        main(["sim", "stand", "--no-load-factor", "0"])
+    assert exc.value.code == 2
+    assert "--no-load-factor: 0 is out of range" in capsys.readouterr().err

@@ -415,6 +415,12 @@ def _build(
     if armature:
         model.armature[6:] = float(armature)
     model.name = name
+    mass = sum(model.inertias[j].mass for j in range(1, model.njoints))
+    if mass < MIN_ROBOT_MASS:
+        raise RobotDescriptionError(
+            f"URDF {urdf}: the robot weighs {mass:.3g} kg after {len(inertia_fixes)} massless or non-physical "
+            f"inertials were given the minimal one: its <inertial> elements are missing (a whole-body controller "
+            f"needs every link's mass and inertia; valid: a total mass ≥ {MIN_ROBOT_MASS:g} kg)")
     _check_limit_order(model, urdf)
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
@@ -633,6 +639,9 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
 MAX_SOLE_TILT_DEG = 5.0
 #: Tolerance (rad or m) on the reference posture's joint limits.
 LIMIT_TOLERANCE = 1e-6
+
+#: kg: a URDF whose links weigh less in total has lost its inertials (the smallest humanoids weigh a few kg)
+MIN_ROBOT_MASS = 1.0
 #: How far (m) a joint on a sole's chain may sit above the floating base's origin (hips hang below the pelvis).
 LEG_ABOVE_BASE_TOLERANCE = 0.02
 #: How far (m) a joint origin may sit below the soles' plane before the soles are judged not to be the feet.
