@@ -30,7 +30,8 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
-from wbc.robot_file import RobotSpec, check_xml, lock_zero_range_joints, load_robot_file, package_roots, physical_inertials
+from wbc.robot_file import (LIMIT_INVERSION_TOLERANCE, RobotSpec, check_xml, lock_zero_range_joints, load_robot_file,
+                            package_roots, physical_inertials)
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
@@ -418,9 +419,9 @@ def _build(
     mass = sum(model.inertias[j].mass for j in range(1, model.njoints))
     if mass < MIN_ROBOT_MASS:
         raise RobotDescriptionError(
-            f"URDF {urdf}: the robot weighs {mass:.3g} kg after {len(inertia_fixes)} massless or non-physical "
-            f"inertials were given the minimal one: its <inertial> elements are missing (a whole-body controller "
-            f"needs every link's mass and inertia; valid: a total mass ≥ {MIN_ROBOT_MASS:g} kg)")
+            f"URDF {urdf}: total mass is {mass:.3g} kg ({len(inertia_fixes)} massless or non-physical inertials "
+            f"were given the minimal one): its <inertial> elements are missing — add masses and inertias to the "
+            f"links (a whole-body controller needs them; valid: a total mass ≥ {MIN_ROBOT_MASS:g} kg)")
     _check_limit_order(model, urdf)
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
@@ -703,11 +704,6 @@ def _check_legs(robot: Robot, q: np.ndarray) -> None:
                 f"{above:.3f} m above the floating base link {_root_link(model)!r}; "
                 f"soles must be at the end of legs hanging below the base — a legless robot (e.g. hands named as "
                 f"soles) cannot stand or walk. Name the feet's sole frames of a robot with legs")
-
-
-#: largest inversion (rad or m) of a joint's URDF position limits (lower > upper) read as round-off of a locked
-#: joint (lower = upper); a larger one is an error (:func:`_check_limit_order`)
-LIMIT_INVERSION_TOLERANCE = 1e-6
 
 
 def _check_limit_order(model: pin.Model, urdf: Path) -> None:

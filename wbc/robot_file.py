@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import warnings
 import tomllib
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field, replace
@@ -506,6 +507,11 @@ def package_roots(urdf: Path, root: ET.Element) -> list[str]:
 LOCKED_RANGE = 1e-9
 
 
+#: rad or m: limits inverted by at most this much are round-off (the joint is locked at their middle); by more, the
+#: URDF is refused (``wbc.robot``'s limit check)
+LIMIT_INVERSION_TOLERANCE = 1e-6
+
+
 def lock_zero_range_joints(root: ET.Element) -> list[str]:
     """Turn every revolute or prismatic joint whose ``<limit>`` range is empty (upper − lower ≤ ``LOCKED_RANGE``:
     locked at that value) or whose speed limit is 0 (``velocity="0"``: locked at 0, or at the limit nearest to 0)
@@ -535,8 +541,13 @@ def lock_zero_range_joints(root: ET.Element) -> list[str]:
             continue
         if not (math.isfinite(lo) and math.isfinite(hi)):
             continue
+        if hi < lo - LIMIT_INVERSION_TOLERANCE:
+            continue  # inverted limits: a typed error when the model is built (wbc.robot), not a lock
         if hi - lo <= LOCKED_RANGE:
-            pass
+            if hi < lo:  # inverted by round-off: locked at the middle
+                warnings.warn(f"joint {joint.get('name')!r}: limits inverted by {lo - hi:.3g} ≤ "
+                              f"{LIMIT_INVERSION_TOLERANCE:g} rad (round-off): locked at the middle", stacklevel=2)
+                lo = 0.5 * (lo + hi)
         elif speed == 0.0:  # a zero speed limit: the joint cannot move; locked at 0 (or the nearest limit)
             lo = min(max(0.0, lo), hi)
         else:
