@@ -115,7 +115,7 @@ def test_configuration_step_rejects_bad_v(talos):
 
 def test_reference_joints_nan_rejected(talos):
     joint = talos.joint_names[0]
-    with pytest.raises(RobotDescriptionError, match=rf"reference_joints\['{joint}'\] must be a finite angle"):
+    with pytest.raises(RobotDescriptionError, match=rf"reference_joints.*{joint}.*must be a finite"):
         wbc.load_robot(talos.urdf_path, left_sole=talos.left_sole, right_sole=talos.right_sole, torso=talos.torso,
                        reference_joints={joint: math.nan})
 
@@ -130,7 +130,7 @@ def test_malformed_urdf_raises_typed_error_with_reason(tmp_path, talos):
     assert str(info.value.__cause__) in str(info.value)  # urdfdom's reason is carried in the message
     truncated = tmp_path / "truncated.urdf"
     truncated.write_text('<robot name="x"><link name="a">')
-    with pytest.raises(RobotDescriptionError, match="cannot parse URDF"):
+    with pytest.raises(RobotDescriptionError, match=r"truncated\.urdf:1:\d+: malformed XML"):  # file:line:column
         wbc.load_robot(truncated, left_sole="a", right_sole="a", torso="a")
 
 

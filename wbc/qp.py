@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from time import perf_counter
+from time import thread_time
 
 import numpy as np
 import qpsolvers
@@ -42,7 +42,7 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
-    #: ``time.perf_counter()`` instant after which a failed solve is not confirmed by the independent solvers
+    #: ``time.thread_time()`` instant (CPU time of the solving thread) after which a failed solve is not confirmed by the independent solvers
     #: (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no limit.
     deadline: float = math.inf
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
@@ -57,7 +57,7 @@ class QPBackend(ABC):
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
         same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
-        unbounded); otherwise, once ``time.perf_counter()`` is past ``deadline``, the independent solvers not yet run
+        unbounded); otherwise, once ``time.thread_time()`` is past ``deadline``, the independent solvers not yet run
         are skipped (the failure is then reported unconfirmed).
 
         Returns:
@@ -176,7 +176,7 @@ class QPBackend(ABC):
         for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue
-            if perf_counter() > self.deadline:
+            if thread_time() > self.deadline:
                 return None, (", ".join(tried) + " (then the tick budget was spent)" if tried else
                               "no independent solver (tick budget spent: infeasibility not confirmed)")
             try:

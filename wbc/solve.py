@@ -9,6 +9,8 @@ instead, which reuses its QP workspace and layout.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbc.configuration import Configuration
@@ -57,7 +59,9 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
             diagnosis names them (:mod:`wbc.diagnosis`). Not raised with ``safe_fallback=True``.
     """
     config = Configuration(robot, q)
-    controller = KinematicController(robot, list(tasks), list(constraints), solver=solver, damping=damping)
+    # a function call, not a control tick: no tick budget (every failure-handling stage runs, the conflict is named)
+    controller = KinematicController(robot, list(tasks), list(constraints), solver=solver, damping=damping,
+                                     budget=math.inf)
     result = controller.solve(config, dt)
     if not result.ok and not safe_fallback:
         conflicts = ", ".join(f"{name} ({violation:.3g})" for name, violation in result.conflicts) or "none named"

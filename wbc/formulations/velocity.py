@@ -63,7 +63,7 @@ Output guard: an ok tick's command is finite and within the box and inequality r
 within ``sole_drift_tolerance``, and every number of its QP finite (targets, weights, q, placements written in
 place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
 
-Tick budget (``budget``, default the tick's dt): past it, a failed tick stops its optional stages (independent
+Tick budget (``budget``, default the tick's dt, in CPU time of the calling thread): past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
 route every tick took.
@@ -108,7 +108,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from time import perf_counter
+from time import perf_counter, thread_time
 
 import numpy as np
 import pinocchio as pin
@@ -211,7 +211,8 @@ class KinematicController:
             (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
             drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
             drift is second order in v dt); if none drifts less, the tick is not ok.
-        budget: wall time (s) a tick may take before its optional stages are skipped, or None (default): the
+        budget: CPU time of the calling thread (s, ``time.thread_time``: what the tick computes, not the time other
+            processes take the core from it) a tick may use before its optional stages are skipped, or None (default): the
             tick's dt. Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
@@ -315,7 +316,7 @@ class KinematicController:
 
     def _late(self) -> bool:
         """The current tick's budget is spent."""
-        return perf_counter() > self._deadline
+        return thread_time() > self._deadline
 
     def _set_deadline(self, deadline: float, plan=None) -> None:
         """Give every QP backend of the controller the tick's deadline (``QPBackend.deadline``)."""
@@ -801,7 +802,7 @@ class KinematicController:
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._budget_s = dt if self._budget is None else self._budget
-        self._set_deadline(t0 + self._budget_s)
+        self._set_deadline(thread_time() + self._budget_s)  # CPU time of this thread
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -880,7 +881,7 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
-        result.over_budget = result.over_budget or t2 > self._deadline
+        result.over_budget = result.over_budget or thread_time() > self._deadline
         for c in self._feedback:
             c.set_previous(result.v)
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
