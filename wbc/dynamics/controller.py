@@ -11,12 +11,14 @@ friction pyramids; torques within their limits; the floating-base rows of the eq
 fails it counts as a failed solve, with the violated constraints in ``IDCommand.conflicts``.
 
 Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
-(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below) or ``fallback:gravity`` (step 2).
+(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold`` or ``fallback:gravity``
+(step 2).
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it). The full QP
-always runs; the relaxed QP (about as costly) starts only while at least half the budget remains, and a relaxed
-command that arrives past the budget is dropped for the safe command of step 2 (``message`` says so). Nothing latches: the next tick
+always runs; the relaxed QP starts only while the budget is not spent (else the safe command of step 2, and
+``message`` says so); a full or relaxed command that ends past the budget is used and counted (``over_budget``):
+the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
@@ -33,7 +35,11 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
    (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
    and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True; the command's torques are clipped
    to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
-2. that fails too → **contact-consistent gravity compensation with joint damping** at the current state,
+2. that fails too, or the budget is spent → the **previous tick's solved command** when the previous tick was
+   solved (``fallback:hold``: a zero-order hold for one tick, as a real-time loop does on a missed deadline — the
+   damping term below is a torque step at impact velocities that a single landing tick did not survive); a second
+   failed tick in a row (or a failure with no solved tick before it) takes
+   **contact-consistent gravity compensation with joint damping** at the current state (``fallback:gravity``),
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
        τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)
@@ -76,7 +82,7 @@ class IDCommand:
         timings: seconds in 'pinocchio', 'assembly', 'solve', 'total' (wall clock) and 'cpu' (CPU time of the
             thread, the budgeted quantity).
         path: the route of the tick (module docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``,
-            ``fallback:gravity``.
+            ``fallback:hold`` (the previous tick's solved command, held for one failed tick) or ``fallback:gravity``.
         over_budget: the tick used more than the controller's budget.
     """
 
@@ -129,6 +135,7 @@ class InverseDynamicsController:
         self.diagnose_failures = bool(diagnose)
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
+        self._last_ok: IDCommand | None = None  # the last solved command, for one tick of zero-order hold
         self.n_ticks = 0
         self.n_failures = 0
         self.n_relaxed = 0
@@ -175,16 +182,13 @@ class InverseDynamicsController:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
             used = thread_time() - c0
-            if used > 0.5 * self.budget:  # the relaxed QP costs about what the full one did: it would not fit
+            if used > self.budget:  # the budget is spent: the safe command at once
                 return self._fail(f"{message}; no time left for the relaxed QP ({1e3 * used:.3g} ms of the "
                                   f"{1e3 * self.budget:.3g} ms budget used)", conflicts, t0, t1, c0)
-            try:
+            try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
                 sol = self.qp.solve_relaxed(self.state, self.dt)
             except SolverError as exc2:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
-            if thread_time() - c0 > self.budget:
-                return self._fail(f"{message}; relaxed QP solved past the budget ({1e3 * self.budget:.3g} ms)",
-                                  conflicts, t0, t1, c0)
             relaxed = True
             self.n_relaxed += 1
             lim = self.qp.torque_limits
@@ -196,6 +200,7 @@ class InverseDynamicsController:
                         message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,
                         path=sol.path)
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
+        self._last_ok = cmd
         return self._count(cmd, c0)
 
     def _count(self, cmd: IDCommand, c0: float) -> IDCommand:
@@ -209,7 +214,15 @@ class InverseDynamicsController:
 
     def _fail(self, message: str, conflicts, t0: float, t1: float, c0: float) -> IDCommand:
         self.n_failures += 1
-        cmd = self.fallback(message)
+        prev, self._last_ok = self._last_ok, None
+        if prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
+            cmd = IDCommand(tau=prev.tau.copy(), dv=prev.dv.copy(), forces=prev.forces.copy(),
+                            wrenches={k: w.copy() for k, w in prev.wrenches.items()}, ok=False,
+                            message=f"{message}; the previous tick's command is held for this tick (a second "
+                                    "failed tick in a row takes the safe command)",
+                            dynamics_residual=float("nan"), path="fallback:hold")
+        else:
+            cmd = self.fallback(message)
         cmd.conflicts = conflicts
         cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
         return self._count(cmd, c0)

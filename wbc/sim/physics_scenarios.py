@@ -100,7 +100,8 @@ WALK_MOMENTUM_WEIGHT = 1.0
 
 
 def walk_options_for(robot, solver: str = "fast", sole_margin: float | None = None) -> dict:
-    """:func:`id_options_for` for walking: the controller's contact rectangle shrunk by ``sole_margin`` (m) per
+    """:func:`id_options_for` for walking (ProxQP for near rank-deficient contacts): the controller's contact
+    rectangle shrunk by ``sole_margin`` (m) per
     side, by default ``WALK_SOLE_MARGIN_FRACTION`` × ``robot.sole_width`` (or the rank-deficient robots' margin
     when larger), so the CoP of the QP's contact forces keeps that distance from the sole edges, and the
     angular-momentum task's weight ``WALK_MOMENTUM_WEIGHT`` (``gains``; module docstring).
@@ -109,6 +110,10 @@ def walk_options_for(robot, solver: str = "fast", sole_margin: float | None = No
         InvalidInputError: a negative or non-finite ``sole_margin``.
     """
     options = id_options_for(robot, solver)
+    if solver in ("daqp", "fast") and contacts_rank_deficient(robot):
+        # walking on nearly dependent two-sole rows: DAQP declares many of the walk's QPs infeasible (full and
+        # relaxed alike) that ProxQP, a proximal method, solves to 1e-7 (standing keeps DAQP: module docstring)
+        options["solver"] = make_backend("proxqp", eps_abs=1e-7)
     if sole_margin is None:
         sole_margin = max(options.get("sole_margin", 0.0), WALK_SOLE_MARGIN_FRACTION * robot.sole_width)
     elif not (np.isfinite(sole_margin) and sole_margin >= 0):
