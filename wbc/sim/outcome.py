@@ -80,6 +80,8 @@ class OutcomeMonitor:
         self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
         self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
+        # (3, 4) sole corners in the frame of the body carrying each sole (constant: computed once)
+        self._corners_body = [off.rotation @ self.corners_local.T + off.translation[:, None] for off in self.sole_off]
         self.fell, self.fall_reason, self.fall_time = False, "", None
         self.max_tilt_deg = {"pelvis": 0.0, "torso": 0.0}
         self.speed_exceedances = 0
@@ -95,10 +97,7 @@ class OutcomeMonitor:
         """(4, 3) world positions (m) of the sole corners of ``side`` (0 left, 1 right) from MuJoCo's body pose."""
         d = self.sim.data
         b = self.sole_body[side]
-        R = np.array(d.xmat[b]).reshape(3, 3)
-        off = self.sole_off[side]
-        pts = off.rotation @ self.corners_local.T + off.translation[:, None]
-        return (R @ pts).T + d.xpos[b]
+        return (d.xmat[b].reshape(3, 3) @ self._corners_body[side]).T + d.xpos[b]
 
     def update(self, t: float) -> bool:
         """Check the state in ``sim.data`` (time ``t``, s). Returns whether the robot has fallen (so far)."""
@@ -114,8 +113,7 @@ class OutcomeMonitor:
         # -- tilt ----------------------------------------------------------------------------------------------
         tilted = []
         for i, key in enumerate(("pelvis", "torso")):
-            R = np.array(d.xmat[self.tilt_body_ids[i]]).reshape(3, 3)
-            c = float(np.clip(R[2, :] @ self.up_local[i], -1.0, 1.0))  # e_zᵀ R u0
+            c = min(max(float(d.xmat[self.tilt_body_ids[i], 6:9] @ self.up_local[i]), -1.0), 1.0)  # e_zᵀ R u0
             deg = math.degrees(math.acos(c))
             if deg > self.max_tilt_deg[key]:
                 self.max_tilt_deg[key] = deg
@@ -125,17 +123,25 @@ class OutcomeMonitor:
         ncon = d.ncon
         bad = ()
         touching = np.zeros(2, dtype=bool)
-        pts = [[], []]
+        pts = [None, None]
         if ncon:
-            g1 = d.contact.geom1[:ncon]
-            g2 = d.contact.geom2[:ncon]
+            con = d.contact
+            g1 = con.geom1[:ncon]
+            g2 = con.geom2[:ncon]
             other = np.where(g1 == self.floor, g2, np.where(g2 == self.floor, g1, -1))
             bad = other[(other >= 0) & ~self.is_foot[other]]
-            for c in np.flatnonzero(other >= 0):
-                s = self.geom_side[other[c]]
-                if s >= 0:
+            side = np.where(other >= 0, self.geom_side[other], -1)
+            pos = None
+            for s in range(2):
+                on = side == s
+                if on.any():
                     touching[s] = True
-                    pts[s].append(np.array(d.contact.pos[c]))
+                    # contact points matter until every corner of the support phase has one (a phase starts now
+                    # when the foot was not in support: _slide then forgets the corners)
+                    if not self._in_support[s] or np.isnan(self._ref[s, :, 0]).any():
+                        if pos is None:
+                            pos = con.pos[:ncon]
+                        pts[s] = pos[on]
         self._slide(touching, pts)
         if not self.fell:
             if len(bad):
@@ -161,10 +167,13 @@ class OutcomeMonitor:
                     if not self._first:
                         self.touchdowns[key] += 1
                 corners = self.corners_world(s)
-                for p in pts[s]:
-                    k = int(np.argmin(np.linalg.norm(corners - p, axis=1)))
-                    if np.linalg.norm(corners[k] - p) <= CORNER_MATCH and np.isnan(self._ref[s, k, 0]):
-                        self._ref[s, k] = corners[k, :2]
+                if pts[s] is not None:  # (n, 3) contact points: each makes its nearest corner (≤ CORNER_MATCH) known
+                    diff = corners[None, :, :] - pts[s][:, None, :]
+                    dist = np.sqrt(np.add.reduce(diff * diff, axis=2))
+                    k = np.argmin(dist, axis=1)
+                    near = k[dist[np.arange(len(k)), k] <= CORNER_MATCH]
+                    new = near[np.isnan(self._ref[s, near, 0])]
+                    self._ref[s, new] = corners[new, :2]
                 known = ~np.isnan(self._ref[s, :, 0])
                 if known.any():
                     travel = float(np.linalg.norm(corners[known, :2] - self._ref[s, known], axis=1).max())
