@@ -86,3 +86,30 @@ def test_status_lines_only_on_a_terminal(monkeypatch, capsys):
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     status(argparse.Namespace(quiet=False), "not a terminal")
     assert sys.stderr.getvalue() == ""
+
+
+def test_compile_notice_reads_the_cache_that_numba_cache_dir_names(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set, a module counts as compiled once numba itself has written its index there (a real
+    compilation in a child process is the reference for numba's folder layout)."""
+    import subprocess
+    import sys
+
+    import wbc
+
+    pkg = tmp_path / "src" / "wbc"
+    (pkg / "tasks").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "tasks" / "__init__.py").write_text("")
+    (pkg / "tasks" / "com.py").write_text("import numba as nb\n\n\n@nb.njit(cache=True)\ndef f(x):\n    return x\n")
+    cache = tmp_path / "numba_cache"
+    monkeypatch.setattr(wbc, "__file__", str(pkg / "__init__.py"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(cache))
+    assert uncompiled_kernels() == ["wbc.tasks.com"]
+    assert compile_notice("wbc walk", stream=io.StringIO())
+    env = {k: v for k, v in __import__("os").environ.items() if k != "PYTHONPATH"}
+    env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(tmp_path / "src"))
+    subprocess.run([sys.executable, "-c", "from wbc.tasks.com import f; f(1)"], env=env, check=True,
+                   cwd=tmp_path)
+    assert not any((pkg / "tasks").glob("__pycache__/*.nbi"))  # numba wrote under NUMBA_CACHE_DIR only
+    assert uncompiled_kernels() == []
+    assert not compile_notice("wbc walk", stream=io.StringIO())

@@ -224,14 +224,16 @@ DYNAMICS_KERNELS = ("wbc.formulations.idkernel",)
 
 def uncompiled_kernels(modules=None) -> list[str]:
     """Modules among ``modules`` (names; default: every wbc module with a ``@...jit(cache=True)`` kernel) that have
-    no on-disk numba cache yet (no ``__pycache__/<module>.*.nbi`` next to the source): their kernels compile on
-    first use, 30–80 s on a 2-core machine. Empty when ``NUMBA_CACHE_DIR`` moves the cache (then unknown)."""
+    no on-disk numba cache yet (no ``<module>.*.nbi`` in ``__pycache__`` next to the source, or in numba's folder for
+    that source under ``NUMBA_CACHE_DIR`` when that variable moves the cache): their kernels compile on first use,
+    30–80 s on a 2-core machine."""
     import re
 
     import wbc
 
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return []
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    if cache_dir:
+        from numba.core.caching import UserProvidedCacheLocator
     root = Path(wbc.__file__).resolve().parent
     if modules is None:
         decorated = re.compile(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True")
@@ -245,7 +247,9 @@ def uncompiled_kernels(modules=None) -> list[str]:
     missing = []
     for name in modules:
         path = root.parent.joinpath(*name.split(".")).with_suffix(".py")
-        if path.is_file() and not any((path.parent / "__pycache__").glob(f"{path.stem}.*.nbi")):
+        where = path.parent / "__pycache__" if not cache_dir else \
+            Path(cache_dir) / UserProvidedCacheLocator.get_suitable_cache_subpath(str(path))
+        if path.is_file() and not any(where.glob(f"{path.stem}.*.nbi")):
             missing.append(name)
     return missing
 
