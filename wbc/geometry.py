@@ -318,12 +318,15 @@ def polygon_margin(point: np.ndarray, polygon: np.ndarray) -> float:
     signed distance to the edge's line, positive inside (there: the distance to the boundary, as
     :func:`signed_distance`), negative outside (there: minus the largest violation of an edge's half-plane, which
     is smaller in magnitude than the Euclidean distance of :func:`signed_distance` near a vertex). No validation."""
-    d = np.inf
-    for i in range(len(polygon)):
-        a, b = polygon[i], polygon[(i + 1) % len(polygon)]
-        e = b - a
-        n = np.array([-e[1], e[0]]) / np.linalg.norm(e)  # inward normal (ccw)
-        d = min(d, float(n @ (point - a)))
+    px, py = float(point[0]), float(point[1])
+    poly = polygon.tolist() if isinstance(polygon, np.ndarray) else polygon
+    d = math.inf
+    ax, ay = poly[-1]
+    for bx, by in poly:  # edges (last, first), (first, second), ...: the same set as (i, i + 1 mod m)
+        ex, ey = bx - ax, by - ay
+        # inward normal (ccw) (−e_y, e_x)/|e| dotted with (point − a)
+        d = min(d, (ex * (py - ay) - ey * (px - ax)) / math.sqrt(ex * ex + ey * ey))
+        ax, ay = bx, by
     return d
 
 

@@ -46,6 +46,7 @@ import pinocchio as pin
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import closest_point_in_polygon, convex_hull, polygon_margin, projected_sole_corners
+from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.scenarios.framework import Criterion, evaluate
@@ -71,7 +72,10 @@ def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0)
     F = wrench[:, :3].sum(axis=0)
     if F[2] < min_fz:
         return None
-    M = wrench[:, 3:].sum(axis=0) + np.cross(sole_pos, wrench[:, :3]).sum(axis=0)
+    o, f = sole_pos, wrench[:, :3]  # Σ o_i × f_i written out (np.cross costs more than the rest together)
+    M = wrench[:, 3:].sum(axis=0) + np.array([(o[:, 1] * f[:, 2] - o[:, 2] * f[:, 1]).sum(),
+                                              (o[:, 2] * f[:, 0] - o[:, 0] * f[:, 2]).sum(),
+                                              (o[:, 0] * f[:, 1] - o[:, 1] * f[:, 0]).sum()])
     return np.array([-M[1] / F[2], M[0] / F[2]])
 
 
@@ -403,7 +407,11 @@ class WalkScenario:
             if self.switcher.in_contact(s):
                 pts.append(projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
                                          r.sole_width - 2 * shrink))
-        return convex_hull(np.vstack(pts)) if pts else np.zeros((0, 2))
+        if not pts:
+            return np.zeros((0, 2))
+        pts = np.vstack(pts)
+        vertices = hull_vertices([(x, y) for x, y in pts.tolist()])  # the soles' corners are finite: no validation
+        return np.array(vertices) if len(vertices) >= 3 else convex_hull(pts)  # (convex_hull raises)
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
