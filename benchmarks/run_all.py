@@ -5,12 +5,15 @@
    dynamics, gait planning, the walk tick, the cost of an extra frame task, instruction counts; 2000 ticks × 5
    interleaved repeats), in this process;
 2. then ``benchmarks/self_collision.py`` (self-collision cost per tick, broad phase vs exhaustive), in a child
-   process (its scenario helpers live in ``tests/``).
+   process (its scenario helpers live in ``tests/``);
+3. then ``benchmarks/sim_rtf.py`` (real-time factor of the Talos 20-step physics walk, ``wbc sim walk``: ID tick +
+   MuJoCo step + sensors, estimator and outcome checks; CPU and wall time of the closed loop, start-up excluded,
+   load average printed; target CPU real-time factor ≥ 5), in a child process (skipped with ``--quick``).
 
 Outputs in ``benchmarks/results/`` next to this file (not committed): results.json, results.md (the self-collision
 report appended), latency.png, latencies.npz, self_collision.json. Extra arguments are passed to ``wbc bench``
 (e.g. ``--repeats 7``, ``--quick``; with ``--quick`` the self-collision part runs 1 repeat). Exit code: 0 when
-every acceptance criterion of both parts is met, 1 otherwise (each part says which it missed).
+every acceptance criterion of every part is met, 1 otherwise (each part says which it missed).
 """
 
 from __future__ import annotations
@@ -44,4 +47,17 @@ if __name__ == "__main__":
                  f"exit {sc.returncode})\n\n```\n{sc.stdout.strip()}\n```\n")
     if sc.returncode != 0:
         print("run_all: self-collision target missed (see above)", file=sys.stderr)
-    sys.exit(1 if code or sc.returncode else 0)
+    rtf_code = 0
+    if "--quick" not in sys.argv[1:]:
+        t0 = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        rt = subprocess.run([sys.executable, str(here / "sim_rtf.py"), "--json", str(out_dir / "sim_rtf.json")],
+                            capture_output=True, text=True)
+        sys.stdout.write(rt.stdout)
+        sys.stderr.write(rt.stderr)
+        rtf_code = rt.returncode
+        with open(out_dir / "results.md", "a") as md:
+            md.write(f"\n## 11. Physics walk real-time factor (`benchmarks/sim_rtf.py`, started {t0}, exit {rtf_code})"
+                     f"\n\n```\n{rt.stdout.strip()}\n```\n")
+        if rtf_code != 0:
+            print("run_all: physics walk real-time factor target missed (see above)", file=sys.stderr)
+    sys.exit(1 if code or sc.returncode or rtf_code else 0)

@@ -1,0 +1,83 @@
+#!/usr/bin/env python
+"""Real-time factor of the Talos physics walk: ``python benchmarks/sim_rtf.py [--steps 20] [--robot talos]``.
+
+Runs ``wbc sim walk --robot talos --steps 20`` in this process with the command's defaults (realistic plant,
+state estimated from the simulated encoders, IMU and ankle F/T, the ID controller at 500 Hz, one ``mj_step`` per
+tick) and times the closed loop alone (``wbc.sim.closed_loop.run_closed_loop``: start-up — imports, robot and
+MuJoCo model loading, controller construction, numba cache loading — and the summary afterwards are excluded):
+
+- simulated time / CPU time of the process over the loop (``time.process_time``): the real-time factor on one
+  core, independent of how many other processes share the machine;
+- simulated time / wall time over the loop (``time.perf_counter``), which a loaded machine lowers;
+- ``/proc/loadavg`` before and after.
+
+Issue target: CPU real-time factor ≥ 5. Exit code 0 when met, 1 otherwise. ``--json FILE`` writes the numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+TARGET_RTF = 5.0  #: issue target: simulated time / CPU time of the loop
+
+
+def loadavg() -> str:
+    try:
+        return Path("/proc/loadavg").read_text().strip()
+    except OSError:
+        return "n/a"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="talos")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--json", type=Path, default=None, help="write the numbers to this file")
+    args = parser.parse_args(argv)
+
+    import wbc.sim.scenarios as scenarios
+    from wbc.cli import main as wbc_main
+    from wbc.sim.closed_loop import run_closed_loop
+
+    timed = {}
+
+    def timed_loop(*a, **kw):
+        c0, w0 = time.process_time(), time.perf_counter()
+        run = run_closed_loop(*a, **kw)
+        timed.update(cpu_s=time.process_time() - c0, wall_s=time.perf_counter() - w0,
+                     sim_s=len(run.t) * run.dt, ticks=len(run.t))
+        return run
+
+    scenarios.run_closed_loop = timed_loop  # run_scenario looks it up in this module at call time
+    load_before = loadavg()
+    c_all, w_all = time.process_time(), time.perf_counter()
+    code = wbc_main(["sim", "walk", "--robot", args.robot, "--steps", str(args.steps), "--quiet"])
+    c_all, w_all = time.process_time() - c_all, time.perf_counter() - w_all
+    load_after = loadavg()
+    if "cpu_s" not in timed:
+        print("sim_rtf: the closed loop did not run", file=sys.stderr)
+        return 1
+    out = dict(timed, command=f"wbc sim walk --robot {args.robot} --steps {args.steps}", exit_code=code,
+               rtf_cpu=timed["sim_s"] / timed["cpu_s"], rtf_wall=timed["sim_s"] / timed["wall_s"],
+               cpu_per_tick_us=1e6 * timed["cpu_s"] / timed["ticks"], process_cpu_s=c_all, process_wall_s=w_all,
+               loadavg_before=load_before, loadavg_after=load_after, target_rtf_cpu=TARGET_RTF,
+               date=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+    print(f"{out['command']}: {timed['ticks']} ticks, simulated {timed['sim_s']:.2f} s; loop CPU {timed['cpu_s']:.2f} s "
+          f"({out['cpu_per_tick_us']:.0f} µs/tick), wall {timed['wall_s']:.2f} s; real-time factor CPU "
+          f"{out['rtf_cpu']:.2f}, wall {out['rtf_wall']:.2f} (target CPU ≥ {TARGET_RTF:g}); whole process CPU "
+          f"{c_all:.1f} s, wall {w_all:.1f} s; loadavg before {load_before} / after {load_after}")
+    if args.json is not None:
+        args.json.write_text(json.dumps(out, indent=1))
+    return 0 if out["rtf_cpu"] >= TARGET_RTF and code == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
