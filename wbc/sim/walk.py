@@ -373,7 +373,7 @@ class WalkScenario:
         n = int(round(max(self.duration, plan.duration + self.settle) / self.dt)) + 2
         self.log = {"phase": np.zeros((n, 2), dtype=np.int8), "dcm": np.full((n, 2), np.nan),
                     "dcm_ref": np.full((n, 2), np.nan), "cop_cmd": np.full((n, 2), np.nan),
-                    "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2)), "hull": [None] * n}
+                    "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2))}
         self._k = 0
         self._pushing = False
 
@@ -481,7 +481,6 @@ class WalkScenario:
             M = self._data.oMf[self._fid[s]]
             lg["sole_xy"][i, j] = M.translation[:2]
             lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
-        lg["hull"][i] = self._hull(0.0)
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
                 and not self.recovery_failures \
@@ -539,7 +538,6 @@ class WalkScenario:
             M = self._data.oMf[self._fid[s]]
             lg["sole_xy"][i, j] = M.translation[:2]
             lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
-        lg["hull"][i] = self._hull(0.0)
         self._k += 1
         return self._apply_push(t, sim)
 
