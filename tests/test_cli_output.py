@@ -113,3 +113,39 @@ def test_compile_notice_reads_the_cache_that_numba_cache_dir_names(tmp_path, mon
     assert not any((pkg / "tasks").glob("__pycache__/*.nbi"))  # numba wrote under NUMBA_CACHE_DIR only
     assert uncompiled_kernels() == []
     assert not compile_notice("wbc walk", stream=io.StringIO())
+
+
+def test_compile_notice_then_reports_each_module_as_its_kernels_become_ready(tmp_path, monkeypatch):
+    import time
+
+    import wbc
+    from wbc.compiled import once_per_process, set_load_listener
+
+    pkg = tmp_path / "wbc"
+    (pkg / "tasks").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "tasks" / "com.py").write_text("import numba as nb\n\n\n@nb.njit(cache=True)\ndef f(x):\n    return x\n")
+    monkeypatch.setattr(wbc, "__file__", str(pkg / "__init__.py"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+
+    def slow():  # stands for a loader whose kernels compile
+        time.sleep(0.6)
+        return 7
+
+    def fast():  # a loader that finds its cache
+        return 8
+
+    slow.__module__ = "wbc.tasks.com"
+    fast.__module__ = "wbc.tasks.frame"
+    slow, fast = once_per_process(slow), once_per_process(fast)
+    stream = io.StringIO()
+    previous = set_load_listener(None)
+    try:
+        assert compile_notice("wbc walk", stream=stream)
+        assert slow() == 7 and fast() == 8 and slow() is None
+    finally:
+        set_load_listener(previous)
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 2 and "compiling the numba kernels" in lines[0]
+    assert lines[1].startswith("wbc walk: wbc.tasks.com kernels ready (") and lines[1].endswith(" s)")
+    assert float(lines[1].split("(")[1].split()[0]) >= 0.6

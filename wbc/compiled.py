@@ -10,11 +10,27 @@ called when a task, constraint or backend is constructed.
 from __future__ import annotations
 
 import functools
+from time import perf_counter
 from typing import Callable, TypeVar
 
-__all__ = ["once_per_process"]
+__all__ = ["once_per_process", "set_load_listener"]
 
 R = TypeVar("R")
+
+_listener: Callable[[str, float], None] | None = None
+
+
+def set_load_listener(listener: Callable[[str, float], None] | None) -> Callable[[str, float], None] | None:
+    """Install ``listener(module, seconds)``, called after each loader of :func:`once_per_process` has run (the
+    module that defines the loader and the wall time the load — or the compilation — took), e.g. to show progress
+    while the kernels compile on a first run. None removes it.
+
+    Returns:
+        The listener installed before (None if none).
+    """
+    global _listener
+    previous, _listener = _listener, listener
+    return previous
 
 
 def once_per_process(load: Callable[[], R]) -> Callable[[], R | None]:
@@ -35,6 +51,11 @@ def once_per_process(load: Callable[[], R]) -> Callable[[], R | None]:
         if done:
             return None
         done = True
-        return load()
+        if _listener is None:
+            return load()
+        t0 = perf_counter()
+        value = load()
+        _listener(load.__module__, perf_counter() - t0)
+        return value
 
     return wrapper

@@ -256,13 +256,23 @@ def uncompiled_kernels(modules=None) -> list[str]:
 
 def compile_notice(desc: str, modules=None, stream=None) -> bool:
     """Say on stderr that the numba kernels of ``modules`` (see :func:`uncompiled_kernels`) compile now (first run
-    after an install), so that the silent minute before the first tick is explained. Returns True when printed."""
+    after an install), so that the silent minute before the first tick is explained; then, through
+    :func:`wbc.compiled.set_load_listener`, one line per module whose kernels took ≥ 0.5 s to become ready (the
+    progress of the compilation). Returns True when printed."""
     import sys
 
     missing = uncompiled_kernels(modules)
     if missing:
+        out = stream or sys.stderr
         print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
-              "later runs) ...", file=stream or sys.stderr, flush=True)
+              "later runs) ...", file=out, flush=True)
+        from wbc.compiled import set_load_listener
+
+        def report(module: str, seconds: float) -> None:  # one line per module as its kernels become ready
+            if seconds >= 0.5:
+                print(f"{desc}: {module} kernels ready ({seconds:.1f} s)", file=out, flush=True)
+
+        set_load_listener(report)
     return bool(missing)
 
 
