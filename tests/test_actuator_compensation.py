@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbc
@@ -12,6 +13,7 @@ from wbc.constraints.joint_velocity import JointSpeedBounds
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError
+from wbc.sim.actuators import actuator_model, compensation_options
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.state import DynamicsState
 
@@ -27,20 +29,49 @@ def test_friction_feedforward_closed_form():
         JointFrictionCompensation([1.0], [1.0], velocity_scale=0.0)
 
 
-def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
-    robot = wbc.load_robot("talos")
-    sim = build_mujoco_model(robot, plant="realistic")
-    robot.model.armature[6:] = sim.drive.armature
-    st = DynamicsState(robot)
-    q = robot.q_ref
-    st.update(q, np.zeros(robot.nv))
+def _mujoco_mass_matrix(sim):
     mujoco.mj_forward(sim.model, sim.data)
     M = np.zeros((sim.model.nv, sim.model.nv))
     mujoco.mj_fullM(sim.model, sim.data, M)
     idx = sim.state_map.mj_qvel
-    np.testing.assert_allclose(st.M[6:, 6:], M[np.ix_(idx, idx)], atol=1e-9)
+    return M[np.ix_(idx, idx)]
+
+
+def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, plant="realistic")
+    ctrl = BalanceController(robot, **compensation_options(robot, actuator_model(robot)))
+    st = DynamicsState(ctrl.robot)
+    st.update(robot.q_ref, np.zeros(robot.nv))
+    np.testing.assert_allclose(st.M[6:, 6:], _mujoco_mass_matrix(sim), atol=1e-9)
     legs = [i for i, n in enumerate(robot.model.names[2:]) if n.startswith(("leg_", "arm_", "torso_"))]
     assert len(legs) == 28 and np.all(np.diag(st.M)[6:][legs] > 0.1)  # SRDF: 0.1 kg·m² on each of them
+
+
+def test_compensation_leaves_the_shared_robot_unchanged():
+    """Two controllers and a plant built from one robot: the compensated controller's armature stays its own —
+    the robot's model, a second (plain) controller and an ideal MuJoCo plant built afterwards keep zero armature
+    (mass matrices compared with Pinocchio's CRBA on the untouched model and with MuJoCo's)."""
+    robot = wbc.load_robot("talos")
+    options = compensation_options(robot, actuator_model(robot))
+    compensated = BalanceController(robot, **options)
+    assert np.all(np.asarray(robot.model.armature) == 0.0)
+    np.testing.assert_array_equal(compensated.robot.model.armature[6:], options["armature"])
+    assert np.count_nonzero(options["armature"] == 0.1) == 30  # Talos SRDF rotor_params (grippers: none)
+    plain = BalanceController(robot)
+    q, v = robot.q_ref, np.zeros(robot.nv)
+    for c in (compensated, plain):
+        c.reset(q, v)
+    M0 = pin.crba(robot.model, robot.model.createData(), q)
+    M0 = np.triu(M0) + np.triu(M0, 1).T
+    np.testing.assert_allclose(plain.state.M, M0, atol=1e-9)
+    np.testing.assert_allclose(np.diag(compensated.state.M - M0)[6:], options["armature"], atol=1e-9)
+    ideal = build_mujoco_model(robot, plant="ideal")
+    np.testing.assert_allclose(_mujoco_mass_matrix(ideal), M0[6:, 6:], atol=1e-9)
+    with pytest.raises(InvalidInputError, match="armature"):
+        BalanceController(robot, armature=np.full(3, 0.1))
+    with pytest.raises(InvalidInputError, match="armature"):
+        BalanceController(robot, armature=np.full(robot.nv - 6, -0.1))
 
 
 def test_compensation_adds_the_feedforward_at_the_commanded_velocity():

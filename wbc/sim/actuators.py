@@ -165,11 +165,13 @@ def apply_actuators(sim, act: ActuatorModel) -> None:
 
 
 def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN) -> dict:
-    """Make the controller know the nominal drives ``act``: writes their armature into ``robot.model.armature``
-    (the controller's mass matrix then includes it — call after building the MuJoCo model, which copies the
-    Pinocchio armature) and returns the :class:`~wbc.dynamics.balance.IDBalanceController` options
-    ``{"compensation": friction/damping feed-forward, "speed_margin": speed_margin}``."""
+    """The :class:`~wbc.dynamics.balance.IDBalanceController` options that make the controller know the nominal
+    drives ``act``: ``{"armature": (nv − 6,) kg·m² (its mass matrix includes it, on the controller's own copy of the
+    model), "compensation": friction/damping feed-forward, "speed_margin": speed_margin}``. ``robot`` (used for its
+    size only) is not modified."""
     from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 
-    robot.model.armature[6:] = act.armature
-    return {"compensation": JointFrictionCompensation(act.damping, act.friction), "speed_margin": float(speed_margin)}
+    if act.armature.size != robot.model.nv - 6:
+        raise InvalidInputError(f"drive model of {act.armature.size} joints for a robot with {robot.model.nv - 6}")
+    return {"armature": act.armature.copy(), "compensation": JointFrictionCompensation(act.damping, act.friction),
+            "speed_margin": float(speed_margin)}
