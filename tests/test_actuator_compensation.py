@@ -123,3 +123,61 @@ def test_relaxed_qp_keeps_joint_speed_limits():
     assert np.any(np.abs(v + sol.dv * dt)[bounds.indices] > robot.model.velocityLimit[bounds.indices])
     with pytest.raises(InvalidInputError, match="margin"):
         JointSpeedBounds(robot, 1.0)
+
+
+def test_speed_horizon_bounds_in_both_qps():
+    """Arms at 99 % of their URDF speed, bound at 95 % over h = 4 ticks: the full QP (compiled tick, eq. 9's
+    velocity term) and the relaxed QP both command v + 4 v̇ dt within ±0.95 q̇_max, i.e. v̇ ≤ (0.95 q̇_max − v)/(4 dt)."""
+    robot = wbc.load_robot("talos")
+    h = 4.0
+    ctrl = BalanceController(robot, speed_margin=0.05, speed_horizon=h,
+                             gains={"posture_kp": 1e4, "posture_weight": 100.0})
+    arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
+    q = robot.q_ref.copy()
+    vmax = robot.model.velocityLimit[6:]
+    v = np.zeros(robot.nv)
+    v[6 + arms] = 0.99 * vmax[arms]
+    ctrl.reset(q, v)
+    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
+    st.update(q, v)
+    idx = 6 + arms
+    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
+        assert np.all(v[idx] + h * dt * sol.dv[idx] <= 0.95 * vmax[arms] + 1e-6)
+        assert np.all(sol.dv[idx] < 0)  # braking: above the bound
+    with pytest.raises(InvalidInputError, match="horizon"):
+        JointSpeedBounds(robot, 0.05, 0.5)
+
+
+def test_speed_horizon_keeps_a_lagging_velocity_loop_under_the_limit():
+    """One joint (a unit double integrator, the plant) driven as hard as the speed bound allows, its velocity read
+    through the estimator's encoder differencing + 80 Hz low-pass (wbc.estimation.JointStateFilter, ~1.5 ticks of
+    lag): the dead-beat bound (h = 1) lets the true velocity overshoot the URDF limit; h = 4 keeps it under it.
+    With a 2-tick control delay on top, h = 4 + 2 × 2 = 8 (wbc.sim.actuators.speed_horizon) keeps it under."""
+    from wbc.estimation import JointStateFilter
+    from wbc.sim.actuators import speed_horizon
+
+    robot = wbc.load_robot("talos")
+    dt = 0.002
+    j = robot.joint_names.index("arm_right_6_joint")
+
+    def peak(h, delay):
+        bounds = JointSpeedBounds(robot, 0.05, h)
+        col = int(np.nonzero(bounds.indices == 6 + j)[0][0])
+        filt = JointStateFilter(robot.nv - 6, dt)
+        filt.reset(np.zeros(robot.nv - 6))
+        q, vt = np.zeros(robot.nv - 6), 0.0
+        v_meas = np.zeros(robot.nv)
+        queue = [0.0] * delay
+        top = 0.0
+        for _ in range(300):
+            v_meas[6:] = filt.update(q)
+            queue.append(min(5000.0, bounds.bounds(v_meas, dt)[1][col]))  # as hard as the bound allows
+            vt += queue.pop(0) * dt
+            q[j] += vt * dt
+            top = max(top, vt)
+        return top / robot.model.velocityLimit[6 + j]
+
+    assert peak(1.0, 0) > 1.0
+    assert peak(speed_horizon(0), 0) <= 1.0
+    assert peak(speed_horizon(0), 2) > 1.0
+    assert peak(speed_horizon(2), 2) <= 1.0

@@ -73,6 +73,10 @@ class IDBalanceController:
         speed_margin: the joint speed limits the QP enforces on its accelerations, |v + v̇ dt| ≤ (1 − margin)
             q̇_max (URDF), in the full QP (eq. 9 of :mod:`wbc.formulations.acceleration`) and — as the
             non-relaxable :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` — in the relaxed one; in [0, 1).
+        speed_horizon: h (ticks, ≥ 1) of those speed bounds, in both QPs: v̇ h dt ≤ (1 − margin) q̇_max − v, so
+            a joint approaches its limit as a first-order system of time constant h dt — robust to a lagging
+            velocity measurement (:class:`~wbc.constraints.joint_velocity.JointSpeedBounds`); 1: the next tick's
+            velocity is bounded.
         armature: (nv − 6,) rotor armature (kg·m², ≥ 0) of the actuated joints, Pinocchio's actuated order, added to
             the diagonal of the controller's mass matrix. The controller then works on its own copy of the robot
             (``self.robot``, its ``model.armature[6:]`` set); the ``robot`` passed in is left unchanged, so other
@@ -80,7 +84,8 @@ class IDBalanceController:
 
     Raises:
         InvalidInputError: unknown gain names or bad values, a compensation of the wrong type or size, a speed
-            margin outside [0, 1), an armature of the wrong size or negative. UnknownSolverError: unknown solver.
+            margin outside [0, 1), a speed horizon < 1, an armature of the wrong size or negative.
+            UnknownSolverError: unknown solver.
     """
 
     SIDES = ("left", "right")
@@ -88,7 +93,7 @@ class IDBalanceController:
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
                  compensation: JointFrictionCompensation | None = None, speed_margin: float = 0.0,
-                 armature=None, **qp_options):
+                 speed_horizon: float = 1.0, armature=None, **qp_options):
         if armature is not None:
             robot = _with_armature(robot, armature)
         unknown = set(gains or {}) - set(DEFAULT_GAINS)
@@ -119,8 +124,9 @@ class IDBalanceController:
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
                                     list(self.contacts.values()), solver=solver, **qp_options)
         self.controller = InverseDynamicsController(self.qp, dt)
-        speed = JointSpeedBounds(robot, speed_margin)
+        speed = JointSpeedBounds(robot, speed_margin, speed_horizon)
         self.qp.joint_speed_limits = speed
+        self.qp.joint_acceleration_limits.speed_horizon = speed.horizon
         if speed_margin > 0:
             self.qp.joint_acceleration_limits.vmax[:] *= 1.0 - speed_margin  # in place: the compiled tick reads it
         if compensation is not None and (not isinstance(compensation, JointFrictionCompensation)
