@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbc
@@ -12,6 +13,7 @@ from wbc.constraints.joint_velocity import JointSpeedBounds
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError
+from wbc.sim.actuators import actuator_model, compensation_options
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.state import DynamicsState
 
@@ -27,20 +29,49 @@ def test_friction_feedforward_closed_form():
         JointFrictionCompensation([1.0], [1.0], velocity_scale=0.0)
 
 
-def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
-    robot = wbc.load_robot("talos")
-    sim = build_mujoco_model(robot, plant="realistic")
-    robot.model.armature[6:] = sim.drive.armature
-    st = DynamicsState(robot)
-    q = robot.q_ref
-    st.update(q, np.zeros(robot.nv))
+def _mujoco_mass_matrix(sim):
     mujoco.mj_forward(sim.model, sim.data)
     M = np.zeros((sim.model.nv, sim.model.nv))
     mujoco.mj_fullM(sim.model, sim.data, M)
     idx = sim.state_map.mj_qvel
-    np.testing.assert_allclose(st.M[6:, 6:], M[np.ix_(idx, idx)], atol=1e-9)
+    return M[np.ix_(idx, idx)]
+
+
+def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, plant="realistic")
+    ctrl = BalanceController(robot, **compensation_options(robot, actuator_model(robot)))
+    st = DynamicsState(ctrl.robot)
+    st.update(robot.q_ref, np.zeros(robot.nv))
+    np.testing.assert_allclose(st.M[6:, 6:], _mujoco_mass_matrix(sim), atol=1e-9)
     legs = [i for i, n in enumerate(robot.model.names[2:]) if n.startswith(("leg_", "arm_", "torso_"))]
     assert len(legs) == 28 and np.all(np.diag(st.M)[6:][legs] > 0.1)  # SRDF: 0.1 kg·m² on each of them
+
+
+def test_compensation_leaves_the_shared_robot_unchanged():
+    """Two controllers and a plant built from one robot: the compensated controller's armature stays its own —
+    the robot's model, a second (plain) controller and an ideal MuJoCo plant built afterwards keep zero armature
+    (mass matrices compared with Pinocchio's CRBA on the untouched model and with MuJoCo's)."""
+    robot = wbc.load_robot("talos")
+    options = compensation_options(robot, actuator_model(robot))
+    compensated = BalanceController(robot, **options)
+    assert np.all(np.asarray(robot.model.armature) == 0.0)
+    np.testing.assert_array_equal(compensated.robot.model.armature[6:], options["armature"])
+    assert np.count_nonzero(options["armature"] == 0.1) == 30  # Talos SRDF rotor_params (grippers: none)
+    plain = BalanceController(robot)
+    q, v = robot.q_ref, np.zeros(robot.nv)
+    for c in (compensated, plain):
+        c.reset(q, v)
+    M0 = pin.crba(robot.model, robot.model.createData(), q)
+    M0 = np.triu(M0) + np.triu(M0, 1).T
+    np.testing.assert_allclose(plain.state.M, M0, atol=1e-9)
+    np.testing.assert_allclose(np.diag(compensated.state.M - M0)[6:], options["armature"], atol=1e-9)
+    ideal = build_mujoco_model(robot, plant="ideal")
+    np.testing.assert_allclose(_mujoco_mass_matrix(ideal), M0[6:, 6:], atol=1e-9)
+    with pytest.raises(InvalidInputError, match="armature"):
+        BalanceController(robot, armature=np.full(3, 0.1))
+    with pytest.raises(InvalidInputError, match="armature"):
+        BalanceController(robot, armature=np.full(robot.nv - 6, -0.1))
 
 
 def test_compensation_adds_the_feedforward_at_the_commanded_velocity():
@@ -92,3 +123,61 @@ def test_relaxed_qp_keeps_joint_speed_limits():
     assert np.any(np.abs(v + sol.dv * dt)[bounds.indices] > robot.model.velocityLimit[bounds.indices])
     with pytest.raises(InvalidInputError, match="margin"):
         JointSpeedBounds(robot, 1.0)
+
+
+def test_speed_horizon_bounds_in_both_qps():
+    """Arms at 99 % of their URDF speed, bound at 95 % over h = 4 ticks: the full QP (compiled tick, eq. 9's
+    velocity term) and the relaxed QP both command v + 4 v̇ dt within ±0.95 q̇_max, i.e. v̇ ≤ (0.95 q̇_max − v)/(4 dt)."""
+    robot = wbc.load_robot("talos")
+    h = 4.0
+    ctrl = BalanceController(robot, speed_margin=0.05, speed_horizon=h,
+                             gains={"posture_kp": 1e4, "posture_weight": 100.0})
+    arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
+    q = robot.q_ref.copy()
+    vmax = robot.model.velocityLimit[6:]
+    v = np.zeros(robot.nv)
+    v[6 + arms] = 0.99 * vmax[arms]
+    ctrl.reset(q, v)
+    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
+    st.update(q, v)
+    idx = 6 + arms
+    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
+        assert np.all(v[idx] + h * dt * sol.dv[idx] <= 0.95 * vmax[arms] + 1e-6)
+        assert np.all(sol.dv[idx] < 0)  # braking: above the bound
+    with pytest.raises(InvalidInputError, match="horizon"):
+        JointSpeedBounds(robot, 0.05, 0.5)
+
+
+def test_speed_horizon_keeps_a_lagging_velocity_loop_under_the_limit():
+    """One joint (a unit double integrator, the plant) driven as hard as the speed bound allows, its velocity read
+    through the estimator's encoder differencing + 80 Hz low-pass (wbc.estimation.JointStateFilter, ~1.5 ticks of
+    lag): the dead-beat bound (h = 1) lets the true velocity overshoot the URDF limit; h = 4 keeps it under it.
+    With a 2-tick control delay on top, h = 4 + 2 × 2 = 8 (wbc.sim.actuators.speed_horizon) keeps it under."""
+    from wbc.estimation import JointStateFilter
+    from wbc.sim.actuators import speed_horizon
+
+    robot = wbc.load_robot("talos")
+    dt = 0.002
+    j = robot.joint_names.index("arm_right_6_joint")
+
+    def peak(h, delay):
+        bounds = JointSpeedBounds(robot, 0.05, h)
+        col = int(np.nonzero(bounds.indices == 6 + j)[0][0])
+        filt = JointStateFilter(robot.nv - 6, dt)
+        filt.reset(np.zeros(robot.nv - 6))
+        q, vt = np.zeros(robot.nv - 6), 0.0
+        v_meas = np.zeros(robot.nv)
+        queue = [0.0] * delay
+        top = 0.0
+        for _ in range(300):
+            v_meas[6:] = filt.update(q)
+            queue.append(min(5000.0, bounds.bounds(v_meas, dt)[1][col]))  # as hard as the bound allows
+            vt += queue.pop(0) * dt
+            q[j] += vt * dt
+            top = max(top, vt)
+        return top / robot.model.velocityLimit[6 + j]
+
+    assert peak(1.0, 0) > 1.0
+    assert peak(speed_horizon(0), 0) <= 1.0
+    assert peak(speed_horizon(0), 2) > 1.0
+    assert peak(speed_horizon(2), 2) <= 1.0

@@ -98,8 +98,6 @@ def walk_trial(spec, params: dict) -> dict:
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
                             step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
     options = walk_options_for(robot, sc["solver"], sc["sole_margin"])
-    if sc["plant"] == "realistic":  # the controller knows the nominal drives (wbc sim walk's compensation)
-        options.update(compensation_options(robot, drives, SPEED_MARGIN))
     seed = int(params["trial"])
     plant_errors = {k: float(params.get(k, 0.0)) for k in ("mass_error", "payload", "friction", "armature")}
     sensor_errors = {"q_noise": math.radians(float(params.get("q_noise_deg", 0.0))),
@@ -110,6 +108,8 @@ def walk_trial(spec, params: dict) -> dict:
         if not delay.is_integer():
             raise InvalidInputError(f"delay must be a whole number of ticks, got {delay!r}")
         sensor_errors["delay"] = int(delay)
+    if sc["plant"] == "realistic":  # the controller knows the nominal drives (wbc sim walk's compensation)
+        options.update(compensation_options(robot, drives, SPEED_MARGIN, delay=int(sensor_errors["delay"])))
     if any(plant_errors.values()):
         from wbc.sim.perturb import perturb_plant
 

@@ -260,7 +260,8 @@ def cmd_sim(args) -> int:
         known = drives
         if args.friction_known and args.scenario == "walk" and args.friction > 0:
             known = actuator_model(robot, args.plant, extra_friction=args.friction, no_load_factor=factor)
-        compensation = compensation_options(robot, known, SPEED_MARGIN)
+        compensation = compensation_options(robot, known, SPEED_MARGIN,
+                                            delay=args.delay if args.scenario == "walk" else 0)
     scenario = _scenario(args, robot)
 
     perturbed = args.scenario == "walk" and any(
@@ -336,7 +337,8 @@ def cmd_sim(args) -> int:
     summary["controller_compensation"] = (
         f"armature in M, URDF damping + dry friction{' + the --friction extra' if args.friction_known else ''} "
         "feed-forward, joint speed limits at "
-        f"{1 - SPEED_MARGIN:.0%} of URDF (also in the relaxed QP)" if compensation and args.controller == "id"
+        f"{1 - SPEED_MARGIN:.0%} of URDF, reached over {compensation.get('speed_horizon', 1):g} ticks "
+        "(also in the relaxed QP)" if compensation and args.controller == "id"
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone

@@ -337,18 +337,19 @@ class Unilaterality(IDConstraint):
 
 
 @nb.njit(cache=True, nogil=True)
-def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out):
+def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out, horizon):
     """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint), written into lo_out,
-    hi_out (k,)."""
+    hi_out (k,); the velocity term approaches ±vmax over ``horizon`` ticks."""
     dt2 = dt * dt
+    dth = dt * horizon
     for j in range(iq.size):
         qj = q[iq[j]]
         vj = v[iv[j]]
         q1 = qj + vj * dt
         d_hi = qmax[j] - q1
         d_lo = q1 - qmin[j]
-        hi = min((vmax[j] - vj) / dt, 2.0 * d_hi / dt2)
-        lo = max((-vmax[j] - vj) / dt, -2.0 * d_lo / dt2)
+        hi = min((vmax[j] - vj) / dth, 2.0 * d_hi / dt2)
+        lo = max((-vmax[j] - vj) / dth, -2.0 * d_lo / dt2)
         # viability: larger root of dt² x² + B x + (w² − 2 a d) = 0, mirrored for the lower limit
         w = vj
         B = 2.0 * w * dt + a * dt2
@@ -365,15 +366,17 @@ def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out):
 
 
 def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float,
-                              lo: np.ndarray | None = None, hi: np.ndarray | None = None):
+                              lo: np.ndarray | None = None, hi: np.ndarray | None = None, speed_horizon: float = 1.0):
     """(lo, hi) joint acceleration bounds (rad/s²) of eq. 9 (position, velocity and viability with braking
     acceleration a_brk; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV) for the 1-DoF joints with configuration
     indices ``iq`` and velocity indices ``iv`` (limits qmin, qmax (rad), vmax (rad/s, inf when unlimited)).
-    Written into ``lo``/``hi`` when given."""
+    The velocity term is (±vmax − v) / (h dt), h = ``speed_horizon`` (ticks, ≥ 1; 1: eq. 9's one-tick bound; see
+    :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` for h > 1). Written into ``lo``/``hi`` when given."""
     k = len(iq)
     lo = np.empty(k) if lo is None else lo
     hi = np.empty(k) if hi is None else hi
-    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi)
+    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi,
+                        float(speed_horizon))
     return lo, hi
 
 
@@ -406,13 +409,15 @@ class JointAccelerationLimits(IDConstraint):
         vmax = np.asarray(model.velocityLimit, dtype=float)[self.iv]
         self.vmax = np.where(vmax > 0, vmax, np.inf)
         self.braking_acceleration = float(braking_acceleration)
+        #: ticks h over which the velocity term lets a joint reach ±vmax (≥ 1; see joint_acceleration_bounds)
+        self.speed_horizon = 1.0
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""
         return joint_acceleration_bounds(state.q, state.v, self.iq, self.iv, self.qmin, self.qmax, self.vmax,
-                                         self.braking_acceleration, dt, self._lo, self._hi)
+                                         self.braking_acceleration, dt, self._lo, self._hi, self.speed_horizon)
 
     def write(self, ctx, _, lb, ub):
         lo, hi = self.bounds(ctx.state, ctx.dt)

@@ -8,7 +8,21 @@ i.e. v̇ ∈ [(−s q̇_max − v)/dt, (s q̇_max − v)/dt] (rad/s²): the velo
 next tick is within the limit. It is the velocity term of the joint bounds (eq. 9 of
 :mod:`wbc.formulations.acceleration`, del Prete 2018, IEEE RA-L 3(1):281–288, §III), which the relaxed solve drops
 together with the position and viability terms; this constraint is **not relaxable**, so the relaxed solve
-intersects its bounds back in (a joint above its limit is commanded back under it within one tick).
+intersects its bounds back in (a joint above its limit is commanded back under it).
+
+**Speed horizon.** The one-tick bound is dead-beat: it lets a joint reach the bound in one tick. When the velocity
+the controller reads lags the plant's (encoder differencing and low-pass filtering: ~1.5 ticks with
+:class:`wbc.estimation.JointStateFilter` at 80 Hz and 2 ms; a control delay of d ticks adds d), a dead-beat bound
+computed on the lagging velocity overshoots the limit. With a horizon of h ticks the bound becomes
+
+    −s q̇_max − v ≤ v̇ h dt ≤ s q̇_max − v,
+
+i.e. the joint approaches the limit at most as a first-order system of time constant h dt, and a joint beyond the
+bound is brought back under it at that rate too (asking a dead-beat return of a lagging measurement demands
+braking torques beyond the drive's limits and makes the full QP infeasible). A first-order loop of
+time constant τ with a pure delay θ does not overshoot for θ/τ ≤ 1/e, so h ≳ e × (lag in ticks) keeps the plant's
+velocity under the bound (h = 4 for the 1.5-tick estimator lag, + 2 per tick of control delay:
+:data:`wbc.sim.actuators.SPEED_HORIZON`). h = 1 is the dead-beat bound above.
 """
 
 from __future__ import annotations
@@ -28,18 +42,23 @@ class JointSpeedBounds(IDConstraint):
         robot: the robot (URDF velocity limits of its Pinocchio model; joints without a positive finite limit
             are unbounded).
         margin: fraction of the limit kept free, in [0, 1) (e.g. 0.05: bound at 95 % of the URDF limit).
+        horizon: h, ticks (≥ 1) over which the commanded acceleration may take a joint to the bound (module
+            docstring); 1: the next tick's velocity is bounded.
 
     Raises:
-        InvalidInputError: margin outside [0, 1).
+        InvalidInputError: margin outside [0, 1), horizon not a finite number ≥ 1.
     """
 
     name = "joint_speed_limits"
     kind = "bounds"
     relaxable = False
 
-    def __init__(self, robot, margin: float = 0.0):
+    def __init__(self, robot, margin: float = 0.0, horizon: float = 1.0):
         if not (np.isfinite(margin) and 0.0 <= margin < 1.0):
             raise InvalidInputError(f"margin must be in [0, 1), got {margin!r}")
+        if not (np.isfinite(horizon) and horizon >= 1.0):
+            raise InvalidInputError(f"horizon must be a finite number of ticks ≥ 1, got {horizon!r}")
+        self.horizon = float(horizon)
         model = robot.model
         iv = [model.joints[j].idx_v for j in range(2, model.njoints)
               if model.joints[j].nv == 1 and 0 < model.velocityLimit[model.joints[j].idx_v] < np.inf]
@@ -52,8 +71,9 @@ class JointSpeedBounds(IDConstraint):
     def bounds(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) bounds on v̇[indices] (rad/s²) at the velocity ``v`` (nv,) for the period ``dt`` (s)."""
         vj = v[self.indices]
-        np.divide(-self.vmax - vj, dt, out=self._lo)
-        np.divide(self.vmax - vj, dt, out=self._hi)
+        dth = dt * self.horizon
+        np.divide(-self.vmax - vj, dth, out=self._lo)
+        np.divide(self.vmax - vj, dth, out=self._hi)
         return self._lo, self._hi
 
     def intersect(self, v: np.ndarray, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:

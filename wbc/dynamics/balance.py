@@ -20,6 +20,7 @@ bound in ``wbc sim push --sweep``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -72,17 +73,29 @@ class IDBalanceController:
         speed_margin: the joint speed limits the QP enforces on its accelerations, |v + v̇ dt| ≤ (1 − margin)
             q̇_max (URDF), in the full QP (eq. 9 of :mod:`wbc.formulations.acceleration`) and — as the
             non-relaxable :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` — in the relaxed one; in [0, 1).
+        speed_horizon: h (ticks, ≥ 1) of those speed bounds, in both QPs: v̇ h dt ≤ (1 − margin) q̇_max − v, so
+            a joint approaches its limit as a first-order system of time constant h dt — robust to a lagging
+            velocity measurement (:class:`~wbc.constraints.joint_velocity.JointSpeedBounds`); 1: the next tick's
+            velocity is bounded.
+        armature: (nv − 6,) rotor armature (kg·m², ≥ 0) of the actuated joints, Pinocchio's actuated order, added to
+            the diagonal of the controller's mass matrix. The controller then works on its own copy of the robot
+            (``self.robot``, its ``model.armature[6:]`` set); the ``robot`` passed in is left unchanged, so other
+            controllers and plants built from it do not inherit the armature. None: the model's own armature.
 
     Raises:
         InvalidInputError: unknown gain names or bad values, a compensation of the wrong type or size, a speed
-            margin outside [0, 1). UnknownSolverError: unknown solver.
+            margin outside [0, 1), a speed horizon < 1, an armature of the wrong size or negative.
+            UnknownSolverError: unknown solver.
     """
 
     SIDES = ("left", "right")
 
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
-                 compensation: JointFrictionCompensation | None = None, speed_margin: float = 0.0, **qp_options):
+                 compensation: JointFrictionCompensation | None = None, speed_margin: float = 0.0,
+                 speed_horizon: float = 1.0, armature=None, **qp_options):
+        if armature is not None:
+            robot = _with_armature(robot, armature)
         unknown = set(gains or {}) - set(DEFAULT_GAINS)
         if unknown:
             raise InvalidInputError(f"unknown gains {sorted(unknown)}; known: {sorted(DEFAULT_GAINS)}")
@@ -111,8 +124,9 @@ class IDBalanceController:
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
                                     list(self.contacts.values()), solver=solver, **qp_options)
         self.controller = InverseDynamicsController(self.qp, dt)
-        speed = JointSpeedBounds(robot, speed_margin)
+        speed = JointSpeedBounds(robot, speed_margin, speed_horizon)
         self.qp.joint_speed_limits = speed
+        self.qp.joint_acceleration_limits.speed_horizon = speed.horizon
         if speed_margin > 0:
             self.qp.joint_acceleration_limits.vmax[:] *= 1.0 - speed_margin  # in place: the compiled tick reads it
         if compensation is not None and (not isinstance(compensation, JointFrictionCompensation)
@@ -208,6 +222,21 @@ class IDBalanceController:
             vj = np.asarray(v, dtype=float)[6:] + cmd.dv[6:] * self.dt  # commanded next-tick joint velocity
             cmd.tau = np.clip(cmd.tau + self.compensation.torque(vj), -self._tau_max, self._tau_max)
         return cmd
+
+
+def _with_armature(robot: Robot, armature) -> Robot:
+    """A copy of ``robot`` whose Pinocchio model (a copy) has ``model.armature[6:] = armature``; ``robot`` unchanged."""
+    n = robot.model.nv - 6
+    try:
+        arm = np.asarray(armature, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"armature must be {n} numbers (kg·m², ≥ 0), got {armature!r}") from None
+    if arm.size != n or not (np.all(np.isfinite(arm)) and np.all(arm >= 0)):
+        raise InvalidInputError(f"armature must be {n} finite numbers ≥ 0 (kg·m², one per actuated joint), "
+                                f"got shape {arm.shape} with min {arm.min() if arm.size else None}")
+    model = robot.model.copy()
+    model.armature[6:] = arm
+    return dataclasses.replace(robot, model=model)
 
 
 #: Former name of :class:`IDBalanceController` (kept so existing callers run; the kinematic balance controller of

@@ -88,8 +88,8 @@ from wbc.constraints.dynamics import (
     consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PROJECT_CONTACT_RHS, R_ACC_FF,
-                                       R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
+from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON,
+                                       PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -600,6 +600,7 @@ class InverseDynamicsQP:
         par[PAR_EPS_A] = self.eps_a
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
+        par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
         ta = perf_counter()
         it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
         self.dependent_contact_rows = 0
@@ -725,7 +726,8 @@ class _KernelBuffers:
         self.wrench = np.zeros((nc, 6))
         self.active = np.zeros(nc, dtype=np.bool_)
         self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
-                             DEPENDENT_CONTACT_RATIO, float(tl.velocity_rows.start) if tl.dim else 6.0])
+                             DEPENDENT_CONTACT_RATIO, float(tl.velocity_rows.start) if tl.dim else 6.0,
+                             jl.speed_horizon])
         m_max, p = 6 + 6 * nc, qp._C.shape[0]
         self.state = np.zeros(n, np.int8)
         self.rstate = np.zeros(p, np.int8)

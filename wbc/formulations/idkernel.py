@@ -730,7 +730,8 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_tick`'s ``par`` vector
-PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_TORQUE_ROW0 = range(6)
+(PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_TORQUE_ROW0,
+ PAR_SPEED_HORIZON) = range(7)
 #: rows of :func:`id_tick`'s ``R`` array (one column per task row)
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
@@ -752,8 +753,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
         Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
             ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side bc = cdrift − K_d J v (cdrift = −J̇v − K_p e);
             active (nc,) bool. bc (nc, 6): out (mode 0: computed here) or in (mode 1: given, already consistent).
-        lim (nt,): limits (N·m) of the contiguous torque-limited joints. par (6,): ε_a, a_brk, joint limits on
-            (≠ 0), iteration cap, contact conditioning ratio, first torque-limited v index (``PAR_*``).
+        lim (nt,): limits (N·m) of the contiguous torque-limited joints. par (7,): ε_a, a_brk, joint limits on
+            (≠ 0), iteration cap, contact conditioning ratio, first torque-limited v index, speed horizon in
+            ticks (``PAR_*``).
         iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
             contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`);
@@ -850,7 +852,7 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
         l[r] = -lim[r] - h[vr]
         u[r] = lim[r] - h[vr]
     if par[PAR_JOINT_LIMITS] != 0.0:
-        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi)
+        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi, par[PAR_SPEED_HORIZON])
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]

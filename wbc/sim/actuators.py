@@ -36,11 +36,17 @@ import numpy as np
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
-           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN"]
+           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN", "SPEED_HORIZON",
+           "SPEED_HORIZON_PER_DELAY_TICK", "speed_horizon"]
 
 PLANTS = ("ideal", "realistic")
 #: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant.
 SPEED_MARGIN = 0.05
+#: Ticks over which the controller's joint speed bounds let a joint reach the bound on a realistic plant, with no
+#: control delay (:class:`wbc.constraints.joint_velocity.JointSpeedBounds`: h ≳ e × the ~1.5-tick lag of the
+#: estimated joint velocities); :func:`speed_horizon` adds :data:`SPEED_HORIZON_PER_DELAY_TICK` per tick of delay.
+SPEED_HORIZON = 4.0
+SPEED_HORIZON_PER_DELAY_TICK = 2.0
 #: No-load speed of the drives as a multiple of the URDF velocity limit (an assumption: the URDF limit is taken
 #: as the drive's rated speed, below its no-load speed).
 NO_LOAD_SPEED_FACTOR = 1.2
@@ -164,12 +170,27 @@ def apply_actuators(sim, act: ActuatorModel) -> None:
     sim.drive = act if np.any(np.isfinite(act.no_load_speed)) else None
 
 
-def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN) -> dict:
-    """Make the controller know the nominal drives ``act``: writes their armature into ``robot.model.armature``
-    (the controller's mass matrix then includes it — call after building the MuJoCo model, which copies the
-    Pinocchio armature) and returns the :class:`~wbc.dynamics.balance.IDBalanceController` options
-    ``{"compensation": friction/damping feed-forward, "speed_margin": speed_margin}``."""
+def speed_horizon(delay: int = 0) -> float:
+    """Speed horizon (ticks) of the controller's joint speed bounds for a control delay of ``delay`` ticks (≥ 0):
+    :data:`SPEED_HORIZON` + :data:`SPEED_HORIZON_PER_DELAY_TICK` × delay.
+
+    Raises:
+        InvalidInputError: a negative or non-integer delay.
+    """
+    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+        raise InvalidInputError(f"delay must be an integer ≥ 0 (ticks), got {delay!r}")
+    return SPEED_HORIZON + SPEED_HORIZON_PER_DELAY_TICK * int(delay)
+
+
+def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN, *, delay: int = 0) -> dict:
+    """The :class:`~wbc.dynamics.balance.IDBalanceController` options that make the controller know the nominal
+    drives ``act``: ``{"armature": (nv − 6,) kg·m² (its mass matrix includes it, on the controller's own copy of the
+    model), "compensation": friction/damping feed-forward, "speed_margin": speed_margin, "speed_horizon":
+    speed_horizon(delay)}`` (``delay``: the control delay in ticks the controller runs with). ``robot`` (used for
+    its size only) is not modified."""
     from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 
-    robot.model.armature[6:] = act.armature
-    return {"compensation": JointFrictionCompensation(act.damping, act.friction), "speed_margin": float(speed_margin)}
+    if act.armature.size != robot.model.nv - 6:
+        raise InvalidInputError(f"drive model of {act.armature.size} joints for a robot with {robot.model.nv - 6}")
+    return {"armature": act.armature.copy(), "compensation": JointFrictionCompensation(act.damping, act.friction),
+            "speed_margin": float(speed_margin), "speed_horizon": speed_horizon(delay)}
