@@ -220,6 +220,44 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
         ctrl.budget = True
 
 
+def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
+    """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
+    level is solved: the cascade starts no further level, no contact correction nor trust region, and the tick
+    returns the first level's command, ok, with path 'levels+budget', over_budget and the skipped stages named.
+    Oracles: the level-0 residual ‖J v − v*‖ equals the full cascade's (budget math.inf; lower levels never
+    change it) while the command differs (the posture level was not solved), and forward kinematics of the soles
+    over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.05, 0.05, 0.05]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+    ctrl.budget = math.inf
+    full = ctrl.solve(config, DT)
+    assert full.ok and full.path == "levels" and not full.over_budget
+    ctrl.budget = 1e-9
+    cut = ctrl.solve(config, DT)
+    assert cut.ok and cut.over_budget and cut.path == "levels+budget"
+    assert "priority levels after the first 1 of 3" in cut.message
+    err, jac = hand.compute(config)
+    target_v = hand.velocity_target(err)
+    r_full = np.linalg.norm(jac @ full.v - target_v)
+    r_cut = np.linalg.norm(jac @ cut.v - target_v)
+    assert abs(r_cut - r_full) <= 1e-6 * max(1.0, r_full)
+    assert np.linalg.norm(cut.v - full.v) > 1e-6
+    model, data = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, cut.v * DT))
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.frame_placement(fid).translation) <= 5e-5
+
+
 # -- issue 26 item 4: the route of each tick ------------------------------------------------------------------------
 def test_each_tick_names_its_path(robots):
     """Standing: 'compiled'; the same problem on the DAQP backend: 'general:daqp'; with a strict level: 'levels';
