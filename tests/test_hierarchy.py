@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -33,7 +35,8 @@ def build(robot, config, *, hand_level, com_level, limits=True):
     # rows' right-hand sides within the tick) and the drift trust region are off here (tested in test_solve_core)
     ctrl = KinematicController(robot, [PostureTask(robot, weight=1e-3)],
                                [*contacts, *([JointVelocityLimit(robot)] if limits else [])],
-                               contact_correction=0.0, sole_drift_tolerance=None)
+                               contact_correction=0.0, sole_drift_tolerance=None,
+                               budget=math.inf)  # every level solved, whatever the machine's load
     hand = PositionTask(robot, robot.right_hand, gain=20.0, name="hand")
     hand.set_target(config.frame_placement(hand.frame_id).translation + [0.6, -0.4, 0.3])
     com = ComTask(gain=20.0)
@@ -115,7 +118,8 @@ def test_lower_level_matches_closed_form_nullspace_projection(robots):
     q_far[7:] += 0.3
     posture.set_target(q_far)
     # closed form of the assembled rows: no in-tick contact correction, no trust region (see build())
-    ctrl = KinematicController(robot, [], contacts, contact_correction=0.0, sole_drift_tolerance=None)
+    ctrl = KinematicController(robot, [], contacts, contact_correction=0.0, sole_drift_tolerance=None,
+                               budget=math.inf)
     ctrl.add_task(hand, level=0)
     ctrl.add_task(posture, level=1)
     worst0 = worst1 = 0.0
@@ -141,7 +145,7 @@ def test_lower_level_matches_closed_form_nullspace_projection(robots):
 
 def test_levels_api(robots):
     robot = robots("humanoid15")
-    ctrl = KinematicController(robot)
+    ctrl = KinematicController(robot, budget=math.inf)
     damping = DampingTask(robot)
     com = ComTask()
     ctrl.add_task(com, level=2)
@@ -184,7 +188,8 @@ def test_infeasible_top_level_met_in_least_squares_lower_level_still_optimised(r
     tilted = config.frame_placement(torso.frame_id).copy()
     tilted.rotation = tilted.rotation @ pin.rpy.rpyToMatrix(0.0, 0.3, 0.2)
     torso.set_target(tilted)
-    ctrl = KinematicController(robot, [], contacts, contact_correction=0.0, sole_drift_tolerance=None)
+    ctrl = KinematicController(robot, [], contacts, contact_correction=0.0, sole_drift_tolerance=None,
+                               budget=math.inf)
     ctrl.add_task(com_a, level=0)
     ctrl.add_task(com_b, level=0)
     ctrl.add_task(torso, level=1)

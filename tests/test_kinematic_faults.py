@@ -220,6 +220,74 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
         ctrl.budget = True
 
 
+def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
+    """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
+    level is solved: the cascade starts no further level, no contact correction nor trust region, and the tick
+    returns the first level's command, ok, with path 'levels+budget', over_budget and the skipped stages named.
+    Oracles: the level-0 residual ‖J v − v*‖ equals the full cascade's (budget math.inf; lower levels never
+    change it) while the command differs (the posture level was not solved), and forward kinematics of the soles
+    over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.05, 0.05, 0.05]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+    ctrl.budget = math.inf
+    full = ctrl.solve(config, DT)
+    assert full.ok and full.path == "levels" and not full.over_budget
+    ctrl.budget = 1e-9
+    cut = ctrl.solve(config, DT)
+    assert cut.ok and cut.over_budget and cut.path == "levels+budget"
+    assert "priority levels after the first 1 of 3" in cut.message
+    err, jac = hand.compute(config)
+    target_v = hand.velocity_target(err)
+    r_full = np.linalg.norm(jac @ full.v - target_v)
+    r_cut = np.linalg.norm(jac @ cut.v - target_v)
+    assert abs(r_cut - r_full) <= 1e-6 * max(1.0, r_full)
+    assert np.linalg.norm(cut.v - full.v) > 1e-6
+    model, data = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, cut.v * DT))
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.frame_placement(fid).translation) <= 5e-5
+
+
+@pytest.mark.parametrize("dt", [0.01, 0.02])
+def test_contact_refinement_stops_at_the_budget(robots, dt):
+    """A CoM shift (2 cm at dt = 10 ms, 5 cm at 20 ms; gain 50 1/s) large enough that the first solve's soles drift above
+    ``contact_correction`` over the tick: with no budget the second-order correction runs (≥ 1 re-solve); with a
+    budget already spent it runs no re-solve and no trust region. At dt = 10 ms the uncorrected command drifts less
+    than ``sole_drift_tolerance`` and is returned ok, path '+budget', the skipped correction named; at 20 ms it
+    does not, and the tick fails to its safe command, saying the budget stopped the refinement. Oracle: forward
+    kinematics of the soles over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, com = standing_controller(robot, config)
+    com.gain = 50.0
+    com.set_target(config.com + [0.02 if dt == 0.01 else 0.05, 0.0, 0.0])
+    ctrl.budget = math.inf
+    full = ctrl.solve(config, dt)
+    assert full.ok and ctrl.contact_corrections >= 1 and not full.over_budget
+    ctrl.budget = 1e-9
+    res = ctrl.solve(config, dt)
+    assert res.over_budget and ctrl.contact_corrections == 0
+    if dt == 0.01:
+        assert res.ok and res.path.endswith("+budget") and "contact correction after 0 of 3" in res.message
+    else:
+        assert not res.ok and res.path.startswith("fallback:") and "tick budget spent" in res.message
+    model, data = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * dt))
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.frame_placement(fid).translation) <= 5e-5
+
+
 # -- issue 26 item 4: the route of each tick ------------------------------------------------------------------------
 def test_each_tick_names_its_path(robots):
     """Standing: 'compiled'; the same problem on the DAQP backend: 'general:daqp'; with a strict level: 'levels';

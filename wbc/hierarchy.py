@@ -31,6 +31,9 @@ residual is checked after the last one.
 
 from __future__ import annotations
 
+import math
+from time import thread_time
+
 import numpy as np
 
 from wbc.exceptions import SolverError
@@ -58,7 +61,8 @@ def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
 
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
-                        dependent_row_tolerance: float = 1e-3, band: float = 1e-9) -> tuple[np.ndarray, list[float]]:
+                        dependent_row_tolerance: float = 1e-3, band: float = 1e-9,
+                        deadline: float = math.inf) -> tuple[np.ndarray, list[float]]:
     """Solve the cascade of the module docstring.
 
     Args:
@@ -70,9 +74,15 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         rank_rtol: relative rank tolerance of the stacked equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
+        deadline: ``time.thread_time()`` instant (CPU time of the calling thread, s) after which no further level is
+            started: the cascade then returns the solution of the last level it solved (a point of the hard set,
+            optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
+            of levels (soft level included) that were solved; None when every level was. The first level is
+            always solved. Default: no deadline.
 
     Returns:
-        (v (nv,), residuals): the soft level's solution and ‖J_k v − v*_k‖ per level.
+        (v (nv,), residuals): the soft level's solution (or the last solved level's: ``deadline``) and
+        ‖J_k v − v*_k‖ per level.
 
     Raises:
         SolverError: the first level's QP failed (the hard set has no solution: every level is a least-squares
@@ -83,7 +93,8 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             the previous level's solution (``solve_lexicographic.last_skipped`` lists such levels).
     """
     keep = independent_rows(A, rank_rtol)
-    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band)
+    solve_lexicographic.last_cut = None
+    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, deadline)
     if keep.size < A.shape[0]:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
@@ -94,7 +105,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                                      lb, ub, backends, final_backend, band)
+                                      lb, ub, backends, final_backend, band, deadline)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -102,12 +113,16 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
 
-def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band):
+def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, deadline=math.inf):
     """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
     fixed_J: list[np.ndarray] = []
     v = None
     skipped: list[int] = []
+    solve_lexicographic.last_cut = None
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
+        if v is not None and thread_time() > deadline:  # one clock read per level
+            solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
+            return v, skipped
         if fixed_J:
             F = np.vstack(fixed_J)
             Fv = F @ v
@@ -164,3 +179,4 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
 
 
 solve_lexicographic.last_skipped = []
+solve_lexicographic.last_cut = None

@@ -65,8 +65,12 @@ place are caught there); else the tick fails (``TickResult.reason``) and the saf
 
 Tick budget (``budget``, default the tick's dt, in CPU time of the calling thread): past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
-relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). ``TickResult.path`` names the
-route every tick took.
+relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the budget
+between its stages — before each level of the strict cascade, each second-order contact correction and each trust
+region — and, once it is spent, starts none of them: it keeps the command of the last stage it finished (the last
+solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
+check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
+``message`` names the stages it skipped. ``TickResult.path`` names the route every tick took.
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -163,15 +167,17 @@ class TickResult:
             linearised contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``.
         path: the route the tick took: 'compiled' (the compiled tick's kernel), 'compiled+daqp' (its reduced QP
             solved by DAQP), 'general:<backend name>' (the general path's flat QP), 'levels' (strict hierarchy),
-            with '+return_rate' when the return rate of joints outside their limits was relaxed; on failure
-            'fallback:<fallback>'.
+            with '+return_rate' when the return rate of joints outside their limits was relaxed and '+budget' when
+            the tick's budget stopped its cascade, contact correction or trust region (``message`` names what was
+            skipped); on failure 'fallback:<fallback>'.
         reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
             'output_guard' (the command was not finite or crossed a
             bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
-        over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished; its
-            optional stages (independent confirmation, diagnosis, the safe command's trust regions) were
-            skipped and the safe command returned.
+        over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished: on a
+            failed tick its optional stages (independent confirmation, diagnosis, the safe command's trust regions)
+            were skipped and the safe command returned; on an ok tick ('+budget' path) the remaining strict levels,
+            contact corrections or trust regions were skipped and the last finished stage's command returned.
     """
 
     v: np.ndarray
@@ -217,8 +223,10 @@ class KinematicController:
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
             rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
-            then the budget plus at most the stage in progress and the safe command's solves. An ok tick is never cut short (its stages are
-            bounded by their iteration counts). ``math.inf``: no budget (every failure-handling stage runs,
+            then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
+            no further strict level, contact correction or trust region past it and returns the last finished
+            stage's command (module docstring, '+budget' path): its time is the budget plus at most the stage in
+            progress (one QP solve) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
 
     Raises:
@@ -248,6 +256,7 @@ class KinematicController:
         self.contact_correction = float(contact_correction)
         self.budget = budget
         self._deadline = math.inf
+        self._cut: list[str] = []
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
         self._drift_data = robot.model.createData()
@@ -801,6 +810,7 @@ class KinematicController:
                                                     and math.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
+        self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._budget_s = dt if self._budget is None else self._budget
         self._set_deadline(thread_time() + self._budget_s)  # CPU time of this thread
         plan = self._fused
@@ -881,7 +891,10 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
-        result.over_budget = result.over_budget or thread_time() > self._deadline
+        result.over_budget = result.over_budget or bool(self._cut) or thread_time() > self._deadline
+        if self._cut and result.ok:
+            result.path += "+budget"
+            result.message = f"tick budget spent: {'; '.join(self._cut)} skipped"
         for c in self._feedback:
             c.set_previous(result.v)
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
@@ -1048,9 +1061,11 @@ class KinematicController:
         range_basis = self._contact_range_basis()
         b0 = self._b.copy()
         try:
-            for _ in range(3):
-                if bounded and self._late():
-                    break  # the safe command's refinement stops at the tick budget
+            for k in range(3):
+                if self._late():  # the refinement stops at the tick budget (the best command so far is kept)
+                    if not bounded:
+                        self._cut.append(f"contact correction after {k} of 3 re-solves")
+                    break
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
                 if range_basis is not None:
@@ -1100,9 +1115,11 @@ class KinematicController:
                 cr = self._contact_rows
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
                 radii.insert(0, math.inf)  # first the whole box, with consistent contact rows
-            for radius in radii:
-                if bounded and self._late():
-                    break  # the safe command's refinement stops at the tick budget
+            for k, radius in enumerate(radii):
+                if self._late():  # the trust region stops at the tick budget (the least drifting command is kept)
+                    if not bounded:
+                        self._cut.append(f"trust region after {k} of {len(radii)} radii")
+                    break
                 np.clip(lb0, -radius, radius, out=self._lb)
                 np.clip(ub0, -radius, radius, out=self._ub)
                 np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
@@ -1126,7 +1143,8 @@ class KinematicController:
             return TickResult(best_v, relaxed=relaxed, sole_drift=best)
         return TickResult(best_v, ok=False, relaxed=relaxed, sole_drift=best, fallback="trust_region",
                           message=f"contact frame drifts {best:.3g} m over the tick (> sole_drift_tolerance "
-                                  f"{self.sole_drift_tolerance:.3g} m) even inside a trust region")
+                                  f"{self.sole_drift_tolerance:.3g} m) even inside a trust region" + (
+                                      f" (tick budget spent: {'; '.join(self._cut)} skipped)" if self._cut else ""))
 
     def _solve_assembled(self, config: Configuration) -> np.ndarray:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist)."""
@@ -1216,7 +1234,12 @@ class KinematicController:
             self._final_backend = self._new_backend()
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
-            rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance)
+            rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
+            deadline=self._deadline if self._in_solve else math.inf)
+        cut = solve_lexicographic.last_cut
+        if cut is not None:
+            self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (the last solved level's "
+                             f"command)")
         return v
 
     # -- failure handling -------------------------------------------------------------------------------------
