@@ -6,7 +6,8 @@ controller, 500 Hz) and speaks ROS 2 on the wire (names and types: :mod:`wbc.ros
 ==========================================  ============================================  =========================
 ROS 2 name                                  type                                          QoS
 ==========================================  ============================================  =========================
-/joint_states (``update_rate`` Hz)          sensor_msgs/msg/JointState (position, velocity) reliable, volatile, last N
+/joint_states (``update_rate`` Hz)          sensor_msgs/msg/JointState (position, velocity, reliable, volatile, last N
+                                            effort with ``sim``)
 /tf (``update_rate`` Hz)                    tf2_msgs/msg/TFMessage                        reliable, volatile, last N
 /odom (``update_rate`` Hz)                  nav_msgs/msg/Odometry (odom → root link)      reliable, volatile, last N
 /tf_static, /robot_description              tf2_msgs/msg/TFMessage, std_msgs/msg/String   reliable, transient local, last 1
@@ -50,9 +51,13 @@ Behaviour:
 * Time: ``"real"`` paces the loop to the wall clock (:class:`wbc.viz.live.RealTimePacer`), stamps are the wall-clock
   time at the start plus the node time; ``"sim"`` runs as fast as it can, publishes /clock and stamps node time
   from 0.
-* Services answer rmw_cyclonedds clients (the request id travels in the payload header). rmw_fastrtps clients
-  carry the request id in DDS inline QoS, which cyclonedds' Python binding cannot read or write: they are not
-  answered.
+* Services answer rmw_cyclonedds clients (the request id travels in the payload header). rmw_fastrtps clients are
+  not answered: their request id is the request sample's RTPS identity (writer GUID, sequence number) and they take
+  a reply only when its ``related_sample_identity`` inline QoS names them; Cyclone DDS's API (Python binding and C)
+  exposes no received sequence number and writes no related sample identity.
+* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (walking segments; a command change, stop or cancel
+  takes effect at the end of the current segment); /joint_states effort is the applied torque, /odom and /tf the
+  estimate; the plant's ground truth is printed at each walk/stand transition.
 
 Memory: the node keeps no run log; finished goals are kept in a ring of 16 for get_result.
 """
