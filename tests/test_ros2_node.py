@@ -244,6 +244,27 @@ def test_node_refuses_bad_options_before_work():
         assert "valid" in r.stderr.strip().splitlines()[-1], r.stderr
 
 
+def test_sim_commanded_walk_typed_errors():
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot import load_robot
+    from wbc.sim.commanded import SimCommandedWalk
+
+    walk = SimCommandedWalk(load_robot("g1"))
+    for bad in ((-0.1, 0.0, 0.0), (0.5, 0.0, 0.0), (float("nan"), 0.0, 0.0), (0.1, 0.0, 0.9), (0.0, 0.5, 0.0)):
+        with pytest.raises(InvalidInputError):
+            walk.set_velocity(*bad)
+    for value in (0.1, float("inf"), "1"):
+        with pytest.raises(InvalidInputError):
+            walk.step_duration = value
+    with pytest.raises(InvalidInputError):
+        walk.max_velocity = 0.0
+    with pytest.raises(InvalidInputError):
+        walk.set_goal(1.0, float("nan"), 0.0)
+    with pytest.raises(InvalidInputError):
+        SimCommandedWalk(load_robot("g1"), plant="stiff")
+    assert np.all(walk.command == 0.0) and walk.idle and walk.step_duration == 0.8  # nothing applied
+
+
 def test_commanded_walk_typed_errors():
     from wbc.exceptions import InvalidInputError
     from wbc.robot import load_robot

@@ -20,9 +20,9 @@ Gait (walking **segments**, each a :class:`wbc.sim.walk.WalkScenario` planned fr
 * **Stop** (zero command or :meth:`stop`): no new segment starts; the current one ends with its closing step and
   the robot stands in double support (at most ``segment_steps`` steps after the stop).
 * **Pose goal** ``(x, y, yaw)`` of the base (world): one segment of ``n`` walking steps and a closing step, ``n``
-  the smallest count keeping each step within the limits, step length, lateral step and turn
-  splitting the displacement in the heading frame of the feet equally (exact for a straight or pure lateral
-  walk; with a turn the end point differs by the chord of the arc).
+  the smallest count keeping each step within the limits, the turn split equally and the step length and lateral
+  step those whose planned final feet mid-point puts the base at the goal
+  (:func:`wbc.scenarios.commanded_walk.steps_to_midpoint`); where the robot ends is what the plant did.
 
 State: :attr:`q`, :attr:`v` are what the controller reads (the estimate by default); :attr:`q_true`,
 :attr:`v_true` MuJoCo's ground truth (Pinocchio conventions); :attr:`tau` the torques applied in the last tick
@@ -41,6 +41,7 @@ import pinocchio as pin
 
 from wbc.exceptions import GaitError, InvalidInputError, SimulationError
 from wbc.gait.footsteps import pose_to_xy_yaw
+from wbc.scenarios.commanded_walk import steps_to_midpoint
 from wbc.geometry import mean_heading
 from wbc.sim.outcome import OutcomeMonitor
 from wbc.sim.scenarios import StandScenario, make_controller
@@ -217,7 +218,7 @@ class SimCommandedWalk:
             InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
                 ``max_turn``.
         """
-        self.command[:] = (_finite(vx, "vx (m/s)", -self.max_backward, self.max_velocity),
+        self.command[:] = (_finite(vx, "vx (m/s)", 0.0 - self.max_backward, self.max_velocity),
                            _finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
                            _finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
         self.goal = self._pending_goal = None
@@ -305,13 +306,14 @@ class SimCommandedWalk:
         try:
             if self._pending_goal is not None:
                 goal, self._pending_goal = self._pending_goal, None
-                n, length, lateral, turn = self._goal_steps(q, goal)
+                n, length, lateral, turn, side = self._goal_steps(q, goal)
                 self.goal = goal
             else:
                 n = self.segment_steps
                 length, lateral, turn = self.command * T
+                side = "right" if lateral < 0 or (lateral == 0 and turn < 0) else "left"
             seg = WalkScenario(n, float(length), T, turn=float(turn), step_lateral=float(lateral), settle=0.0,
-                               zmp_feedback=self.zmp_feedback)
+                               zmp_feedback=self.zmp_feedback, first_side=side)
             seg.setup(self.controller, self.sim, q, v)
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
             self.replan_failures += 1
@@ -329,7 +331,7 @@ class SimCommandedWalk:
         return d.oMf[self._fid[0]].homogeneous.copy(), d.oMf[self._fid[1]].homogeneous.copy()
 
     def _goal_steps(self, q, goal):
-        """(n_steps, step_length, step_lateral, turn) of a segment putting the base at ``goal``."""
+        """(n_steps, step_length, step_lateral, turn, first side) of a segment putting the base at ``goal``."""
         gx, gy, gyaw = goal
         ox, oy = self._base_offset
         c, s = math.cos(gyaw), math.sin(gyaw)
@@ -345,10 +347,17 @@ class SimCommandedWalk:
         T = self.step_duration
         n = max(1, math.ceil(max(abs(fwd) / (self.max_velocity * T), abs(lat) / (self.max_lateral * T),
                                  abs(dyaw) / (self.max_turn * T)) - 1e-9))
-        return n + 1, max(0.0, fwd) / n, lat / n, dyaw / n
+        turn = dyaw / n
+        side = "right" if lat < 0 else "left"  # WalkScenario's first foot for this lateral step
+        length, lateral = steps_to_midpoint(pose_to_xy_yaw(lf), pose_to_xy_yaw(rf), (tx, ty), n, self._width, turn,
+                                            side, lat >= 0)
+        if length < 0:
+            raise GaitError(f"the goal needs backward steps ({length:.3f} m): not planned in the physics walk; "
+                            "valid: a goal ahead")
+        return n + 1, length, lateral, turn, side
 
 
-def _finite(value, name: str, lo: float, hi: float) -> float:
+def _finite(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
             or not math.isfinite(float(value)):
         raise InvalidInputError(f"{name} must be a finite number; got {value!r}")
