@@ -272,6 +272,10 @@ def cmd_node(args) -> int:
     print(f"node: {node.ticks} ticks, node time {node.walk.t:.3f} s in {time.monotonic() - wall0:.1f} s wall; "
           f"tick p50 {np.percentile(tt, 50):.0f} µs p99 {np.percentile(tt, 99):.0f} µs (last {len(tt)}); "
           f"max RSS {rss:.0f} MB; {node.counts}", flush=True)
+    pacer = getattr(node, "pacer", None)
+    if pacer is not None and pacer.late_ticks:
+        print(f"node: real time not kept: {pacer.late_ticks} ticks found the loop > {pacer.max_lag:g} s behind the wall "
+              "clock (re-anchored: stamps are node time, which then runs slower than the wall clock)", flush=True)
     return 0
 
 

@@ -189,6 +189,7 @@ class ControllerNode:
         self._last_cmd_t = None
         self._warned_t = -1e9
         self.ticks = 0
+        self.pacer = None
         self.tick_time = deque(maxlen=30000)  # s per tick, a ring of the last minute at 500 Hz
         self.counts = {"cmd_vel": 0, "goals": 0, "resets": 0, "param_sets": 0}
 
@@ -517,6 +518,7 @@ class ControllerNode:
             from wbc.viz.live import RealTimePacer
 
             pacer = RealTimePacer()
+        self.pacer = pacer  # (late_ticks: ticks that found the loop > 0.1 s behind the wall clock; re-anchored)
         self._publish_status()
         w = self.walk
         poll = 5
