@@ -8,7 +8,7 @@ side-step 0.05 m/s 10 s, stop 6 s — and samples the node's VmRSS (/proc/<pid>/
 With ``--sim`` a fall (the node prints ``sim: FELL``) is answered by a /reset_robot call and counted.
 
     python benchmarks/ros2_node_soak.py --minutes 5
-    nice -n 10 python benchmarks/ros2_node_soak.py --sim --minutes 60
+    nice -n 10 python benchmarks/ros2_node_soak.py --sim --minutes 60 --node-log /tmp/node.log
 
 Prints the RSS after the first minute (wall) and at the end, its growth, and the node's tick p50/p99 of its first
 and last report (each over ``R`` s of node time: with ``--sim`` the first and the last minute of node time).
@@ -46,6 +46,7 @@ def main() -> int:
     ap.add_argument("--sim", action="store_true", help="the MuJoCo closed-loop node (wbc ros2 node --sim)")
     ap.add_argument("--report-every", type=float, default=None,
                     help="node-time period of the node's tick/RSS reports, s (default 30; 60 with --sim)")
+    ap.add_argument("--node-log", type=Path, default=None, help="write the node's stdout to this file")
     args = ap.parse_args()
     report = args.report_every or (60.0 if args.sim else 30.0)
     os.environ["CYCLONEDDS_URI"] = loopback_uri()
@@ -55,7 +56,16 @@ def main() -> int:
     print("node:", " ".join(cmd[1:]), flush=True)
     node = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
     lines = []
-    threading.Thread(target=lambda: [lines.append(ln.rstrip()) for ln in node.stdout], daemon=True).start()
+    log = open(args.node_log, "w") if args.node_log else None
+
+    def pump():
+        for ln in node.stdout:
+            lines.append(ln.rstrip())
+            if log is not None:
+                log.write(ln)
+                log.flush()
+
+    threading.Thread(target=pump, daemon=True).start()
 
     from cyclonedds.core import Policy, Qos
     from cyclonedds.pub import DataWriter
@@ -116,6 +126,9 @@ def main() -> int:
     stats = [ln for ln in lines if ln.startswith("stats:")]
     print(f"RSS after the first minute {after_1min[2]:.1f} MB (node time {after_1min[1]:.0f} s), at the end "
           f"{rss[-1][2]:.1f} MB (node time {rss[-1][1]:.0f} s): growth {rss[-1][2] - after_1min[2]:+.1f} MB")
+    print("node reports:")
+    for ln in stats:
+        print("  " + ln)
     if stats:
         print(f"first report ({report:g} s of node time):", stats[0])
         print(f"last report ({report:g} s of node time): ", stats[-1])
