@@ -208,7 +208,7 @@ class SimCommandedWalk:
         """Time (s) until the current segment's plan ends (0 when standing)."""
         if not self.walking:
             return 0.0
-        return max(0.0, self._segment.plan.duration - (self.t - self._t0))
+        return max(0.0, self._segment.ends_at - (self.t - self._t0))
 
     # -- commands ----------------------------------------------------------------------------------------------
     def set_velocity(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
@@ -298,7 +298,7 @@ class SimCommandedWalk:
         seg = self._segment
         if seg is self._stand:
             return True
-        return self.t - self._t0 >= seg.plan.duration - 1e-9
+        return self.t - self._t0 >= seg.ends_at - 1e-9  # (after a capture step, when one was started)
 
     def _start_segment(self) -> None:
         q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
