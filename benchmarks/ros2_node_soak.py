@@ -1,12 +1,17 @@
-"""Soak of `wbc ros2 node --time sim` driven by /cmd_vel: memory (RSS) and tick time over a long run.
+"""Soak of `wbc ros2 node --time sim` (with ``--sim``: the MuJoCo closed loop) driven by /cmd_vel: memory (RSS)
+and tick time over a long run.
 
-Starts the node (``--robot``, default g1: humanoid15 has no hip yaw and cannot turn; loopback-only DDS, random domain) with ``--report-every 30``, drives it with a repeating
+Starts the node (``--robot``, default g1: humanoid15 has no hip yaw and cannot turn; loopback-only DDS, random
+domain) with ``--report-every R`` (node time; default 30 s, 60 s with ``--sim``), drives it with a repeating
 /cmd_vel pattern in node time (read from /clock): walk 0.3 m/s 10 s, walk-and-turn (0.1 m/s, 0.3 rad/s) 10 s,
 side-step 0.05 m/s 10 s, stop 6 s — and samples the node's VmRSS (/proc/<pid>/status) every 10 s of wall time.
+With ``--sim`` a fall (the node prints ``sim: FELL``) is answered by a /reset_robot call and counted.
 
     python benchmarks/ros2_node_soak.py --minutes 5
+    nice -n 10 python benchmarks/ros2_node_soak.py --sim --minutes 60 --node-log /tmp/node.log
 
-Prints the RSS after the first minute and at the end, and the node's tick p99 of its first and last report.
+Prints the RSS after the first minute (wall) and at the end, its growth, and the node's tick p50/p99 of its first
+and last report (each over ``R`` s of node time: with ``--sim`` the first and the last minute of node time).
 """
 
 import argparse
@@ -38,18 +43,35 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=5.0, help="wall-clock minutes (default 5)")
     ap.add_argument("--robot", default="g1", help="a robot whose legs can turn (hip yaw; default g1)")
+    ap.add_argument("--sim", action="store_true", help="the MuJoCo closed-loop node (wbc ros2 node --sim)")
+    ap.add_argument("--report-every", type=float, default=None,
+                    help="node-time period of the node's tick/RSS reports, s (default 30; 60 with --sim)")
+    ap.add_argument("--node-log", type=Path, default=None, help="write the node's stdout to this file")
     args = ap.parse_args()
+    report = args.report_every or (60.0 if args.sim else 30.0)
     os.environ["CYCLONEDDS_URI"] = loopback_uri()
     os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
-    node = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", args.robot, "--time", "sim",
-                             "--report-every", "30"], stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
+    cmd = [sys.executable, "-m", "wbc", "ros2", "node", "--robot", args.robot, "--time", "sim",
+           "--report-every", f"{report:g}"] + (["--sim"] if args.sim else [])
+    print("node:", " ".join(cmd[1:]), flush=True)
+    node = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
     lines = []
-    threading.Thread(target=lambda: [lines.append(ln.rstrip()) for ln in node.stdout], daemon=True).start()
+    log = open(args.node_log, "w") if args.node_log else None
+
+    def pump():
+        for ln in node.stdout:
+            lines.append(ln.rstrip())
+            if log is not None:
+                log.write(ln)
+                log.flush()
+
+    threading.Thread(target=pump, daemon=True).start()
 
     from cyclonedds.core import Policy, Qos
     from cyclonedds.pub import DataWriter
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
+    from cyclonedds.util import duration
 
     from wbc.ros2 import dds, msgs
 
@@ -58,6 +80,11 @@ def main() -> int:
     w = DataWriter(part, Topic(part, "rt/cmd_vel", msgs.Twist, qos=q), qos=q)
     be = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
     clock = DataReader(part, Topic(part, "rt/clock", msgs.Clock, qos=be), qos=be)
+    srv = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(10), Policy.Durability.Volatile)
+    reset_w = DataWriter(part, Topic(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos=srv), qos=srv)
+    reset_r = DataReader(part, Topic(part, "rr/reset_robotReply", msgs.TriggerReply, qos=srv), qos=srv)
+    guid = random.getrandbits(63)
+    falls, seen = 0, 0
     period = sum(d for _, d in PATTERN)
     t_node = None
     rss = []
@@ -76,6 +103,14 @@ def main() -> int:
                     phase -= d
                 if vx or vy or wz:
                     w.write(msgs.Twist(msgs.Vector3(vx, vy, 0.0), msgs.Vector3(0.0, 0.0, wz)))
+            n_lines = len(lines)  # (appended by the reader thread)
+            fell = [ln for ln in lines[seen:n_lines] if ln.startswith("sim: FELL")]
+            seen = n_lines
+            if fell:
+                falls += len(fell)
+                reset_w.write(msgs.TriggerRequest(client_guid=guid, seq=falls))
+                print(f"{time.monotonic() - t0:.0f} s wall: {fell[-1]} -> /reset_robot", flush=True)
+            reset_r.take(N=10)
             if time.monotonic() >= next_sample:
                 rss.append((time.monotonic() - t0, t_node, rss_mb(node.pid)))
                 next_sample += 10.0
@@ -91,9 +126,15 @@ def main() -> int:
     stats = [ln for ln in lines if ln.startswith("stats:")]
     print(f"RSS after the first minute {after_1min[2]:.1f} MB (node time {after_1min[1]:.0f} s), at the end "
           f"{rss[-1][2]:.1f} MB (node time {rss[-1][1]:.0f} s): growth {rss[-1][2] - after_1min[2]:+.1f} MB")
+    print("node reports:")
+    for ln in stats:
+        print("  " + ln)
     if stats:
-        print("first report:", stats[0])
-        print("last report: ", stats[-1])
+        print(f"first report ({report:g} s of node time):", stats[0])
+        print(f"last report ({report:g} s of node time): ", stats[-1])
+    if args.sim:
+        print(f"falls (answered by /reset_robot): {falls}; walking segments started: "
+              f"{sum(1 for ln in lines if ln.startswith('sim: walking'))}")
     print(lines[-1] if lines else "")
     return 0
 

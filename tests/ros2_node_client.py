@@ -6,6 +6,7 @@ Usage:
                                                                   /navigate_to_pose (cancel after that node time)
   python ros2_node_client.py preempt                              a second goal while the first one runs
   python ros2_node_client.py cmdvel VX SECONDS                    /cmd_vel for SECONDS of node time (/clock)
+  python ros2_node_client.py cmdvel-sim VX SECONDS SETTLE         the same, then SETTLE s more (/odom, /joint_states)
   python ros2_node_client.py params NODE                          parameter services + /joint_states rate
 Prints one JSON line with what it measured.
 """
@@ -548,6 +549,49 @@ def main_cmdvel(vx, seconds):
                       "start": before[-1] if before else odom[0]}), flush=True)
 
 
+def main_cmdvel_sim(vx, seconds, settle):
+    """/cmd_vel for SECONDS of /clock, then SETTLE more seconds (the physics walk ends its segment); /odom and the
+    /joint_states it saw (the estimate's twist is never exactly zero: no stand detection here)."""
+    clock = Clock()
+    pub = writer("rt/cmd_vel", Twist_)
+    od_r = reader("rt/odom", Odometry_)
+    js_r = reader("rt/joint_states", JointState_)
+    deadline = time.monotonic() + 120
+    while clock.now() is None or not pub.get_matched_subscriptions() or not od_r.get_matched_publications():
+        if time.monotonic() > deadline:
+            raise RuntimeError("node not found")
+        time.sleep(0.01)
+    time.sleep(0.3)
+    odom, joints = [], []
+
+    def drain():
+        for s in od_r.take(N=500):
+            if isinstance(s, Odometry_):
+                p = s.pose.pose.position
+                odom.append([stamp_s(s.header), p.x, p.y, p.z])
+        for s in js_r.take(N=500):
+            if isinstance(s, JointState_):
+                joints.append([stamp_s(s.header), len(s.name), len(s.position), len(s.velocity), len(s.effort),
+                               max((abs(e) for e in s.effort), default=0.0)])
+
+    t0 = clock.now()
+    sent = 0
+    while clock.now() < t0 + seconds:
+        pub.write(Twist_(Vector3_(vx, 0.0, 0.0), Vector3_()))
+        sent += 1
+        drain()
+        time.sleep(0.01)
+    t1 = clock.now()
+    deadline = time.monotonic() + 300
+    while clock.now() < t1 + settle and time.monotonic() < deadline:
+        drain()
+        time.sleep(0.01)
+    drain()
+    before = [o for o in odom if o[0] <= t0]
+    print(json.dumps({"t_start": t0, "t_stop": t1, "t_end": clock.now(), "sent": sent, "odom": odom,
+                      "joints": joints, "start": before[-1] if before else odom[0]}), flush=True)
+
+
 def main_params(node):
     get = Client(f"{node}/get_parameters", GetReq, GetRep)
     set_ = Client(f"{node}/set_parameters", SetReq, SetRep)
@@ -594,6 +638,8 @@ if __name__ == "__main__":
         main_preempt()
     elif mode == "cmdvel":
         main_cmdvel(float(sys.argv[2]), float(sys.argv[3]))
+    elif mode == "cmdvel-sim":
+        main_cmdvel_sim(float(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]))
     elif mode == "params":
         main_params(sys.argv[2])
     else:

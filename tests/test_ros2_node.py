@@ -140,6 +140,54 @@ def test_cmd_vel_walks_and_stops(node):
     assert np.all(tail[:, 3] == 0.0)  # zero twist for the last second: it stopped
 
 
+def test_sim_cmd_vel_walks_and_stops_in_double_support():
+    """`wbc ros2 node --sim`: /cmd_vel vx 0.3 m/s for 5 s of /clock → the MuJoCo robot (ID controller, realistic
+    plant, estimated state) walks; /odom (the estimate) is checked against the plant's ground truth the node
+    prints, and the robot stands on both feet (MuJoCo contact forces) once the commands stop."""
+    import re
+
+    env = dict(os.environ)
+    env["CYCLONEDDS_URI"] = LOOPBACK
+    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "g1", "--sim", "--time", "sim"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(HERE.parent))
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("wbc ros2 node: g1"), first + proc.stderr.read()
+        vx, seconds, settle = 0.3, 5.0, 6.0
+        got = _client(env, "cmdvel-sim", vx, seconds, settle)
+    finally:
+        proc.terminate()
+        out, err = proc.communicate(timeout=120)
+    print(out[-3000:])
+    odom = np.array(got["odom"])
+    start = np.array(got["start"])
+    walked = math.hypot(odom[-1, 1] - start[1], odom[-1, 2] - start[2])
+    num = r"(-?\d+\.\d+)"
+    lines = re.findall(rf"sim: (walking|standing) at t = {num} s; ground truth base x {num} m, y {num} m, .*?"
+                       rf"estimate x {num} m, y {num} m, .*?feet normal force left {num} N, right {num} N", out)
+    assert lines, out[-2000:] + err[-2000:]
+    kind, t_stand, gx, gy, ex, ey, fl, fr = lines[-1]
+    t_stand, gx, gy, ex, ey, fl, fr = map(float, (t_stand, gx, gy, ex, ey, fl, fr))
+    truth = math.hypot(gx - float(lines[0][2]), gy - float(lines[0][3]))
+    print(f"--sim /cmd_vel vx {vx} m/s for {got['t_stop'] - got['t_start']:.2f} s of /clock: /odom walked "
+          f"{walked:.3f} m, plant ground truth {truth:.3f} m (from the first segment's start); standing at "
+          f"t = {t_stand:.2f} s with feet normal forces {fl:.0f} N, {fr:.0f} N; estimate - truth at the stand "
+          f"{math.hypot(ex - gx, ey - gy) * 1e3:.1f} mm")
+    assert "FELL" not in out
+    assert got["t_stop"] - got["t_start"] >= seconds
+    assert abs(walked - vx * seconds) <= 0.10 * vx * seconds
+    assert abs(truth - walked) <= 0.05  # /odom (the estimate) vs the plant's ground truth, 5 cm
+    assert kind == "standing" and got["t_stop"] < t_stand < got["t_end"]  # stopped after the commands stopped
+    assert fl > 50.0 and fr > 50.0  # double support: both feet loaded in MuJoCo
+    tail = odom[odom[:, 0] > t_stand + 0.2]
+    assert len(tail) > 10 and np.ptp(tail[:, 1]) < 0.01 and np.ptp(tail[:, 2]) < 0.01  # standing still
+    js = np.array(got["joints"])
+    assert len(js) > 100 and np.all(js[:, 1:5] == js[0, 1])  # names, position, velocity, effort all filled
+    assert js[:, 5].max() > 1.0  # effort: the applied torques (N·m)
+
+
 def test_parameters_update_rate_and_refusal(node):
     got = _client(node, "params", "wbc_node")
     assert set(got["list"]) >= {"update_rate", "step_duration", "max_velocity"}
@@ -189,11 +237,32 @@ def test_action_type_hashes_match_ros2():
 
 
 def test_node_refuses_bad_options_before_work():
-    for extra in (["--sim"], ["--duration", "-1"]):
+    for extra in (["--duration", "-1"], ["--sim", "--plant", "stiff"]):
         r = subprocess.run([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", *extra],
                            capture_output=True, text=True, timeout=120, cwd=str(HERE.parent))
         assert r.returncode == 2, (extra, r.stdout, r.stderr)
         assert "valid" in r.stderr.strip().splitlines()[-1], r.stderr
+
+
+def test_sim_commanded_walk_typed_errors():
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot import load_robot
+    from wbc.sim.commanded import SimCommandedWalk
+
+    walk = SimCommandedWalk(load_robot("g1"))
+    for bad in ((-0.1, 0.0, 0.0), (0.5, 0.0, 0.0), (float("nan"), 0.0, 0.0), (0.1, 0.0, 0.9), (0.0, 0.5, 0.0)):
+        with pytest.raises(InvalidInputError):
+            walk.set_velocity(*bad)
+    for value in (0.1, float("inf"), "1"):
+        with pytest.raises(InvalidInputError):
+            walk.step_duration = value
+    with pytest.raises(InvalidInputError):
+        walk.max_velocity = 0.0
+    with pytest.raises(InvalidInputError):
+        walk.set_goal(1.0, float("nan"), 0.0)
+    with pytest.raises(InvalidInputError):
+        SimCommandedWalk(load_robot("g1"), plant="stiff")
+    assert np.all(walk.command == 0.0) and walk.idle and walk.step_duration == 0.8  # nothing applied
 
 
 def test_commanded_walk_typed_errors():

@@ -237,17 +237,18 @@ def cmd_node(args) -> int:
     from wbc.exceptions import InvalidInputError
     from wbc.ros2.node import ControllerNode
 
-    if args.sim:
-        raise InvalidInputError("wbc ros2 node --sim: the MuJoCo closed-loop node is not implemented yet; "
-                                "valid: the kinematic node (without --sim)")
     if args.duration is not None and not args.duration > 0:
         raise InvalidInputError(f"--duration {args.duration}: valid is a number of seconds > 0")
     if args.report_every is not None and not args.report_every > 0:
         raise InvalidInputError(f"--report-every {args.report_every}: valid is a number of seconds > 0")
     _loopback(args)
     robot = load_robot(args.robot)
-    node = ControllerNode(robot, time_mode=args.time, update_rate=args.rate, name=args.name, tf=args.tf)
-    print(f"wbc ros2 node: {robot.name} as /{args.name} on domain {dds.domain_id()}, time {args.time}, "
+    sim_options = {"plant": args.plant, "state": args.state, "seed": args.seed} if args.sim else None
+    node = ControllerNode(robot, time_mode=args.time, update_rate=args.rate, name=args.name, tf=args.tf,
+                          sim=args.sim, sim_options=sim_options)
+    what = (f"MuJoCo closed loop (ID controller, {args.plant} plant, {args.state} state)" if args.sim
+            else "kinematic walk")
+    print(f"wbc ros2 node: {robot.name} as /{args.name} on domain {dds.domain_id()}, {what}, time {args.time}, "
           f"/joint_states at {args.rate:g} Hz; /cmd_vel, /navigate_to_pose, /navigate_to_goal, /reset_robot; "
           "Ctrl-C to stop", flush=True)
     import signal
@@ -263,11 +264,18 @@ def cmd_node(args) -> int:
         pass
     finally:
         node.close()
+    if args.sim:
+        print(f"node: end at t = {node.walk.t:.3f} s; {node.sim_state()}; segments {node.walk.segments}, "
+              f"fell {node.walk.fell}", flush=True)
     tt = np.asarray(node.tick_time) * 1e6
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"node: {node.ticks} ticks, node time {node.walk.t:.3f} s in {time.monotonic() - wall0:.1f} s wall; "
           f"tick p50 {np.percentile(tt, 50):.0f} µs p99 {np.percentile(tt, 99):.0f} µs (last {len(tt)}); "
           f"max RSS {rss:.0f} MB; {node.counts}", flush=True)
+    pacer = getattr(node, "pacer", None)
+    if pacer is not None and pacer.late_ticks:
+        print(f"node: real time not kept: {pacer.late_ticks} ticks found the loop > {pacer.max_lag:g} s behind the wall "
+              "clock (re-anchored: stamps are node time, which then runs slower than the wall clock)", flush=True)
     return 0
 
 
@@ -328,7 +336,13 @@ def register(subparsers, add_outputs) -> None:
     nd.add_argument("--time", choices=("real", "sim"), default="real",
                     help="real: paced to the wall clock (default); sim: as fast as possible, /clock, sim stamps")
     nd.add_argument("--sim", action="store_true",
-                    help="MuJoCo closed loop with the inverse-dynamics controller (not available yet: refused)")
+                    help="MuJoCo closed loop with the inverse-dynamics controller (wbc sim walk's plant and "
+                         "estimator; walks in segments of 4 steps, see wbc.sim.commanded)")
+    nd.add_argument("--plant", choices=("realistic", "ideal"), default="realistic",
+                    help="--sim: plant drives (default realistic, as wbc sim walk)")
+    nd.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
+                    help="--sim: what the controller, /odom and /tf read (default estimated, as wbc sim walk)")
+    nd.add_argument("--seed", type=int, default=0, help="--sim: sensor noise seed (default 0)")
     nd.add_argument("--name", default="wbc_node", help="node name (parameter services /NAME/...; default wbc_node)")
     nd.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
     nd.add_argument("--duration", type=seconds, default=None, help="stop after this many seconds of node time")

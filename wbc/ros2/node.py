@@ -6,7 +6,8 @@ controller, 500 Hz) and speaks ROS 2 on the wire (names and types: :mod:`wbc.ros
 ==========================================  ============================================  =========================
 ROS 2 name                                  type                                          QoS
 ==========================================  ============================================  =========================
-/joint_states (``update_rate`` Hz)          sensor_msgs/msg/JointState (position, velocity) reliable, volatile, last N
+/joint_states (``update_rate`` Hz)          sensor_msgs/msg/JointState (position, velocity, reliable, volatile, last N
+                                            effort with ``sim``)
 /tf (``update_rate`` Hz)                    tf2_msgs/msg/TFMessage                        reliable, volatile, last N
 /odom (``update_rate`` Hz)                  nav_msgs/msg/Odometry (odom → root link)      reliable, volatile, last N
 /tf_static, /robot_description              tf2_msgs/msg/TFMessage, std_msgs/msg/String   reliable, transient local, last 1
@@ -50,9 +51,13 @@ Behaviour:
 * Time: ``"real"`` paces the loop to the wall clock (:class:`wbc.viz.live.RealTimePacer`), stamps are the wall-clock
   time at the start plus the node time; ``"sim"`` runs as fast as it can, publishes /clock and stamps node time
   from 0.
-* Services answer rmw_cyclonedds clients (the request id travels in the payload header). rmw_fastrtps clients
-  carry the request id in DDS inline QoS, which cyclonedds' Python binding cannot read or write: they are not
-  answered.
+* Services answer rmw_cyclonedds clients (the request id travels in the payload header). rmw_fastrtps clients are
+  not answered: their request id is the request sample's RTPS identity (writer GUID, sequence number) and they take
+  a reply only when its ``related_sample_identity`` inline QoS names them; Cyclone DDS's API (Python binding and C)
+  exposes no received sequence number and writes no related sample identity.
+* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (walking segments; a command change, stop or cancel
+  takes effect at the end of the current segment); /joint_states effort is the applied torque, /odom and /tf the
+  estimate; the plant's ground truth is printed at each walk/stand transition.
 
 Memory: the node keeps no run log; finished goals are kept in a ring of 16 for get_result.
 """
@@ -137,6 +142,10 @@ class ControllerNode:
         name: node name (namespace of the parameter services), a ROS name without slashes.
         tf: ``"all"`` or ``"base"`` (:class:`wbc.ros2.publisher.Ros2Publisher`).
         step_duration, max_velocity: initial parameter values (None: the walk's defaults).
+        sim: drive the MuJoCo closed loop with the inverse-dynamics controller
+            (:class:`wbc.sim.commanded.SimCommandedWalk`, walking in segments) instead of the kinematic walk:
+            /joint_states carries the applied torques as effort, /odom and /tf the estimated state.
+        sim_options: keyword arguments of :class:`~wbc.sim.commanded.SimCommandedWalk` (plant, state, seed, ...).
 
     Raises:
         InvalidInputError: a bad time mode, rate, name or parameter value.
@@ -144,7 +153,8 @@ class ControllerNode:
     """
 
     def __init__(self, robot, *, time_mode: str = "real", update_rate: float = 50.0, name: str = "wbc_node",
-                 tf: str = "all", step_duration: float | None = None, max_velocity: float | None = None):
+                 tf: str = "all", step_duration: float | None = None, max_velocity: float | None = None,
+                 sim: bool = False, sim_options: dict | None = None):
         from wbc.ros2 import require
 
         require()
@@ -152,9 +162,16 @@ class ControllerNode:
             raise InvalidInputError(f"time mode {time_mode!r} is invalid: valid are 'real', 'sim'")
         if not name or not name.replace("_", "a").isalnum() or name[0].isdigit():
             raise InvalidInputError(f"node name {name!r} is invalid: letters, digits and '_', not starting with a digit")
-        from wbc.scenarios.commanded_walk import CommandedWalk
+        if sim:
+            from wbc.sim.commanded import SimCommandedWalk
 
-        self.walk = CommandedWalk(robot)
+            self.walk = SimCommandedWalk(robot, **(sim_options or {}))
+        else:
+            from wbc.scenarios.commanded_walk import CommandedWalk
+
+            self.walk = CommandedWalk(robot)
+        self.sim = bool(sim)
+        self._was_walking = False
         self.robot, self.name, self.time_mode = robot, name, time_mode
         self.params = {"update_rate": float(update_rate), "step_duration": self.walk.step_duration,
                        "max_velocity": self.walk.max_velocity, "cmd_vel_timeout": 0.5,
@@ -172,6 +189,7 @@ class ControllerNode:
         self._last_cmd_t = None
         self._warned_t = -1e9
         self.ticks = 0
+        self.pacer = None
         self.tick_time = deque(maxlen=30000)  # s per tick, a ring of the last minute at 500 Hz
         self.counts = {"cmd_vel": 0, "goals": 0, "resets": 0, "param_sets": 0}
 
@@ -437,14 +455,16 @@ class ControllerNode:
             s = samples[-1]
             cmd = np.array([s.linear.x, s.linear.y, s.angular.z], dtype=float)
             lim = np.array([w.max_velocity, w.max_lateral, w.max_turn])
+            low = -lim
+            low[0] = -getattr(w, "max_backward", w.max_velocity)  # the physics walk plans no backward step
             if not np.isfinite(cmd).all():
                 print("cmd_vel ignored: non-finite value", flush=True)
             else:
-                if np.any(np.abs(cmd) > lim) and w.t - self._warned_t > 1.0:
+                if (np.any(cmd > lim) or np.any(cmd < low)) and w.t - self._warned_t > 1.0:
                     self._warned_t = w.t
-                    print(f"cmd_vel (vx, vy, wz) = {cmd.round(3).tolist()} beyond the limits {lim.round(3).tolist()}: "
-                          "saturated", flush=True)
-                cmd = np.clip(cmd, -lim, lim)
+                    print(f"cmd_vel (vx, vy, wz) = {cmd.round(3).tolist()} beyond the limits "
+                          f"[{low.round(3).tolist()}, {lim.round(3).tolist()}]: saturated", flush=True)
+                cmd = np.clip(cmd, low, lim)
                 self.counts["cmd_vel"] += len(samples)
                 if self.active is not None and np.any(cmd):
                     self._end(self.active, ABORTED, 9000, "overridden by /cmd_vel")
@@ -474,7 +494,7 @@ class ControllerNode:
     # -- loop --------------------------------------------------------------------------------------------------
     def _publish_state(self) -> None:
         w, m = self.walk, self.m
-        if not self.pub.update(w.q, w.t, v=w.v):
+        if not self.pub.update(w.q, w.t, v=w.v, effort=w.tau if self.sim else None):
             return
         q, v = w.q, w.v
         odom = m.Odometry(
@@ -498,6 +518,7 @@ class ControllerNode:
             from wbc.viz.live import RealTimePacer
 
             pacer = RealTimePacer()
+        self.pacer = pacer  # (late_ticks: ticks that found the loop > 0.1 s behind the wall clock; re-anchored)
         self._publish_status()
         w = self.walk
         poll = 5
@@ -514,6 +535,8 @@ class ControllerNode:
                 self._serve_parameters()
             w.tick()
             self.ticks += 1
+            if self.sim:
+                self._report_sim()
             self._publish_state()
             if self.active is not None:
                 if self.ticks % fb_every == 0:
@@ -530,6 +553,29 @@ class ControllerNode:
                           f"replan failures {w.replan_failures}", flush=True)
             if pacer is not None:
                 pacer.wait(w.t)
+
+    def _report_sim(self) -> None:
+        """--sim: print the plant's ground truth beside the estimate when a walking segment starts and when the
+        robot stands again (and once on a fall): the independent check of /odom."""
+        w = self.walk
+        walking = w.walking
+        if walking != self._was_walking:
+            self._was_walking = walking
+            print(f"sim: {'walking' if walking else 'standing'} at t = {w.t:.3f} s; " + self.sim_state(), flush=True)
+        if w.fell and not getattr(self, "_fall_reported", False):
+            self._fall_reported = True
+            print(f"sim: FELL at t = {w.t:.3f} s ({w.monitor.fall_reason}); /reset_robot to restart", flush=True)
+
+    def sim_state(self) -> str:
+        """--sim: one line with the plant's ground-truth base (x, y, yaw), the estimate's, and the feet's normal
+        forces (MuJoCo contacts, N)."""
+        w = self.walk
+        qt = w.q_true
+        yt = _yaw(*qt[3:7])
+        x, y, yaw = w.base_pose()
+        feet = ", ".join(f"{s} {f[2]:.1f} N" for s, f in w.sim.foot_contact_forces().items())
+        return (f"ground truth base x {qt[0]:.4f} m, y {qt[1]:.4f} m, yaw {math.degrees(yt):.2f} deg; "
+                f"estimate x {x:.4f} m, y {y:.4f} m, yaw {math.degrees(yaw):.2f} deg; feet normal force {feet}")
 
     def close(self) -> None:
         """Release the DDS entities."""

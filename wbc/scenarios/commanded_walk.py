@@ -45,7 +45,7 @@ from wbc.geometry import mean_heading
 from wbc.robot import Robot
 from wbc.scenarios.walk import WalkController
 
-__all__ = ["CommandedWalk", "wrap_angle"]
+__all__ = ["CommandedWalk", "wrap_angle", "steps_to_midpoint"]
 
 _DOUBLE = 0
 
@@ -388,21 +388,35 @@ class CommandedWalk:
             dyaw = 0.0
         turn = dyaw / n_walk
         side = first or ("right" if lat < 0 else "left")
-        l0, r0 = pose_to_xy_yaw(lf), pose_to_xy_yaw(rf)
+        L, d = steps_to_midpoint(pose_to_xy_yaw(lf), pose_to_xy_yaw(rf), (tx, ty), n_walk, width, turn, side,
+                                 lat >= 0)
+        return n_walk + 1, L, d, float(turn), side
 
-        def end(L, d):
-            steps = plan_footsteps(l0, r0, n_walk + 1, L, width, turn, side, d)
-            a, b = steps[-1], steps[-2]
-            return np.array([0.5 * (a.x + b.x), 0.5 * (a.y + b.y)])
 
-        sign = 1.0 if lat >= 0 else -1.0
-        e0 = end(0.0, 0.0)
-        J = np.column_stack([end(1.0, 0.0) - e0, end(0.0, sign) - e0])
-        L, dd = np.linalg.solve(J, np.array([tx, ty]) - e0)
-        d = sign * dd
-        if dd < 0:  # the lateral step's sign flipped: solve with the other leading foot
-            sign = -sign
-            J[:, 1] = end(0.0, sign) - e0
-            L, dd = np.linalg.solve(J, np.array([tx, ty]) - e0)
-            d = sign * dd
-        return n_walk + 1, float(L), float(d), float(turn), side
+def steps_to_midpoint(left, right, target, n_walk: int, width: float, turn: float, side: str,
+                      to_the_left: bool) -> tuple[float, float]:
+    """(step_length, step_lateral) (m) of a walk of ``n_walk`` walking steps and a closing step
+    (:func:`wbc.gait.footsteps.plan_footsteps` with ``turn`` rad per step, ``width`` m, ``side`` swinging first)
+    whose final feet mid-point is ``target`` (x, y) (m, world) exactly, from the soles ``left``, ``right``
+    ``(x, y, yaw)``: the mid-point is affine in both for a fixed turn, solved from three evaluations.
+    ``to_the_left``: whether the target lies left of the current heading (the side of the leading foot tried first;
+    the other is tried when the solve gives a negative lateral step).
+
+    Raises:
+        numpy.linalg.LinAlgError: a singular solve (no such steps).
+    """
+    def end(L, d):
+        steps = plan_footsteps(left, right, n_walk + 1, L, width, turn, side, d)
+        a, b = steps[-1], steps[-2]
+        return np.array([0.5 * (a.x + b.x), 0.5 * (a.y + b.y)])
+
+    goal = np.asarray(target, dtype=float)
+    e0 = end(0.0, 0.0)
+    sign = 1.0 if to_the_left else -1.0
+    J = np.column_stack([end(1.0, 0.0) - e0, end(0.0, sign) - e0])
+    L, dd = np.linalg.solve(J, goal - e0)
+    if dd < 0:  # the lateral step's sign flipped: solve with the other leading foot
+        sign = -sign
+        J[:, 1] = end(0.0, sign) - e0
+        L, dd = np.linalg.solve(J, goal - e0)
+    return float(L), float(sign * dd)

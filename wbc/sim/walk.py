@@ -400,6 +400,15 @@ class WalkScenario:
     def com_reference(self, t):
         return self.plan.com[min(self.plan.index(t) + self._shift, self.plan.n_samples - 1)]
 
+    @property
+    def ends_at(self) -> float:
+        """Time (s, scenario clock) at which the walk ends in double support: the plan's end, or the end of the
+        capture step started after it (:meth:`_start_recovery`), whichever is later."""
+        end = self.plan.duration - self._shift * self.dt
+        if self._recovery is not None:
+            end = max(end, self._t_recovery + self._recovery.ends_at)
+        return end
+
     def _hull(self, shrink: float) -> np.ndarray:
         pts = []
         r = self.robot

@@ -1,0 +1,367 @@
+"""Walking on command in MuJoCo, tick by tick: the closed loop of ``wbc sim walk`` as a long-running loop.
+
+:class:`SimCommandedWalk` owns one MuJoCo plant, one inverse-dynamics controller and (by default) the state
+estimator, built exactly as ``wbc sim walk`` builds them (:func:`build_walk_loop`: realistic drives, the
+controller compensating the nominal drives, the controller reading the state estimated from the plant's sensors,
+ZMP feedback 0.5). :meth:`SimCommandedWalk.tick` advances one control period (2 ms, one ``mj_step``) as one
+iteration of :func:`wbc.sim.closed_loop.run_closed_loop`, without recording the run: memory stays constant
+however long it runs.
+
+Gait (walking **segments**, each a :class:`wbc.sim.walk.WalkScenario` planned from the measured state at rest):
+
+* **Standing**: the stance is held by the ID controller (CoM over the feet, both soles in contact).
+* **Velocity command** ``(vx, vy, wz)`` (m/s, m/s, rad/s, walking frame): when standing, a segment of
+  ``segment_steps`` steps is planned from the measured stance — ``segment_steps − 1`` walking steps of length
+  ``vx T``, lateral step ``vy T`` and turn ``wz T`` (``T`` the step duration) and a closing step — and tracked with
+  step adjustment, the DCM stabilizer and state-based touch-down as in ``wbc sim walk``. When it has ended (the
+  plan's final double support is over) and a command is still set, the next segment starts from there: the robot
+  walks in segments of ``segment_steps`` steps, each starting and ending in double support. Backward walking
+  (``vx < 0``) is not planned by :class:`~wbc.sim.walk.WalkScenario`: ``max_backward`` is 0.
+* **Stop** (zero command or :meth:`stop`): no new segment starts; the current one ends with its closing step and
+  the robot stands in double support (at most ``segment_steps`` steps after the stop).
+* **Pose goal** ``(x, y, yaw)`` of the base (world): one segment of ``n`` walking steps and a closing step, ``n``
+  the smallest count keeping each step within the limits, the turn split equally and the step length and lateral
+  step those whose planned final feet mid-point puts the base at the goal
+  (:func:`wbc.scenarios.commanded_walk.steps_to_midpoint`); where the robot ends is what the plant did.
+
+State: :attr:`q`, :attr:`v` are what the controller reads (the estimate by default); :attr:`q_true`,
+:attr:`v_true` MuJoCo's ground truth (Pinocchio conventions); :attr:`tau` the torques applied in the last tick
+(N·m, (nv − 6,), joint order of ``robot.model``: the command written to the actuators, which MuJoCo clamps to
+the URDF effort limits).
+Frames and units: world (``odom``), z up; m, s, rad.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import GaitError, InvalidInputError, SimulationError
+from wbc.gait.footsteps import pose_to_xy_yaw
+from wbc.scenarios.commanded_walk import steps_to_midpoint
+from wbc.geometry import mean_heading
+from wbc.sim.outcome import OutcomeMonitor
+from wbc.sim.scenarios import StandScenario, make_controller
+from wbc.sim.walk import WalkScenario
+
+__all__ = ["SimCommandedWalk", "build_walk_loop"]
+
+
+def build_walk_loop(robot, *, plant: str = "realistic", state: str = "estimated", solver: str = "fast",
+                    seed: int = 0):
+    """``(sim, controller, state_estimator or None, zmp_feedback)`` of ``wbc sim walk``'s defaults.
+
+    Args:
+        robot: a :class:`wbc.robot.Robot`.
+        plant: ``"realistic"`` (URDF damping and friction, armature, torque-speed envelope;
+            :mod:`wbc.sim.actuators`) or ``"ideal"``.
+        state: ``"estimated"`` (sensors + :class:`wbc.estimation.FloatingBaseEstimator`) or ``"ground-truth"``.
+        solver: QP backend of the controller.
+        seed: sensor noise seed.
+
+    Raises:
+        InvalidInputError: an unknown plant or state.
+    """
+    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, SPEED_MARGIN, actuator_model, apply_actuators
+    from wbc.sim.actuators import compensation_options
+    from wbc.sim.mujoco_model import build_mujoco_model
+    from wbc.sim.physics_scenarios import walk_options_for
+
+    if plant not in ("realistic", "ideal"):
+        raise InvalidInputError(f"plant {plant!r} is invalid: valid are 'realistic', 'ideal'")
+    if state not in ("estimated", "ground-truth"):
+        raise InvalidInputError(f"state {state!r} is invalid: valid are 'estimated', 'ground-truth'")
+    drives = actuator_model(robot, plant, no_load_factor=NO_LOAD_SPEED_FACTOR)
+    foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
+    sim = build_mujoco_model(robot, foot_contact=foot)
+    apply_actuators(sim, drives)
+    options = walk_options_for(robot, solver)
+    if plant == "realistic":
+        options.update(compensation_options(robot, drives, SPEED_MARGIN))
+    controller = make_controller(robot, "id", dt=sim.timestep, **options)
+    est = None
+    if state == "estimated":
+        from wbc.sim.estimated_state import EstimatedState
+
+        est = EstimatedState(sim, seed=seed)
+    return sim, controller, est, (0.5 if est is not None else 0.0)
+
+
+class SimCommandedWalk:
+    """The commanded physics walk of the module docstring.
+
+    Args:
+        robot: a :class:`wbc.robot.Robot` with soles (free flyer first).
+        plant, state, solver, seed: :func:`build_walk_loop`.
+        step_duration: single + double support of a step, s, in [0.4, 3] (default 0.8, ``wbc sim walk``'s).
+        max_velocity: forward speed limit, m/s, in (0, 1]. max_lateral: m/s, > 0. max_turn: rad/s, > 0.
+        segment_steps: steps per walking segment (>= 2: at least one walking step and the closing one).
+
+    Raises:
+        InvalidInputError: a bad argument (named, with the valid range).
+    """
+
+    max_backward = 0.0  # m/s: WalkScenario plans forward steps only
+
+    def __init__(self, robot, *, plant: str = "realistic", state: str = "estimated", solver: str = "fast",
+                 seed: int = 0, step_duration: float = 0.8, max_velocity: float = 0.3, max_lateral: float = 0.1,
+                 max_turn: float = 0.5, segment_steps: int = 4):
+        if isinstance(segment_steps, bool) or not isinstance(segment_steps, (int, np.integer)) or segment_steps < 2:
+            raise InvalidInputError(f"segment_steps must be an integer >= 2; got {segment_steps!r}")
+        self.robot = robot
+        self.segment_steps = int(segment_steps)
+        self.step_duration = step_duration
+        self.max_velocity = max_velocity
+        self.max_lateral = _finite(max_lateral, "max_lateral (m/s)", 1e-3, 2.0)
+        self.max_turn = _finite(max_turn, "max_turn (rad/s)", 1e-3, 3.0)
+        self.can_turn = True
+        self.sim, self.controller, self.state, self.zmp_feedback = build_walk_loop(
+            robot, plant=plant, state=state, solver=solver, seed=seed)
+        self.dt = self.sim.timestep
+        self._pdata = robot.model.createData()
+        self._fid = (robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole))
+        self.t = 0.0
+        self.command = np.zeros(3)
+        self.goal: tuple[float, float, float] | None = None
+        self._pending_goal: tuple[float, float, float] | None = None
+        self.replans = 0
+        self.replan_failures = 0
+        self.segments = 0
+        self.last_error = ""
+        self.tau = np.zeros(robot.model.nv - 6)
+        self.reset()
+
+    # -- parameters (validated on assignment) ------------------------------------------------------------------
+    @property
+    def step_duration(self) -> float:
+        """Single + double support of a step, s (takes effect at the next segment)."""
+        return self._step_duration
+
+    @step_duration.setter
+    def step_duration(self, value) -> None:
+        self._step_duration = _finite(value, "step_duration (s)", 0.4, 3.0)
+
+    @property
+    def max_velocity(self) -> float:
+        """Forward speed limit, m/s."""
+        return self._max_velocity
+
+    @max_velocity.setter
+    def max_velocity(self, value) -> None:
+        self._max_velocity = _finite(value, "max_velocity (m/s)", 1e-3, 1.0)
+
+    # -- state -------------------------------------------------------------------------------------------------
+    @property
+    def q(self) -> np.ndarray:
+        """(nq,) the configuration the controller reads (estimate, or ground truth with ``state="ground-truth"``)."""
+        return self._q
+
+    @property
+    def v(self) -> np.ndarray:
+        """(nv,) the velocity the controller reads."""
+        return self._v
+
+    @property
+    def q_true(self) -> np.ndarray:
+        """(nq,) MuJoCo's ground-truth configuration (Pinocchio conventions), after the last tick."""
+        return self.sim.get_state()[0]
+
+    @property
+    def v_true(self) -> np.ndarray:
+        """(nv,) MuJoCo's ground-truth velocity, after the last tick."""
+        return self.sim.get_state()[1]
+
+    @property
+    def fell(self) -> bool:
+        """A fall was detected (base drop > 0.2 m, tilt > 30°, or a non-sole body on the floor)."""
+        return self.monitor.fell
+
+    @property
+    def walking(self) -> bool:
+        """A segment is being walked (False: standing)."""
+        return self._segment is not None and not self._segment_done()
+
+    @property
+    def idle(self) -> bool:
+        """Standing in double support with no command and no goal waiting."""
+        return not self.walking and self._pending_goal is None and not np.any(self.command)
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the free flyer in :attr:`q` (m, m, rad), world."""
+        q = self._q
+        yaw = pose_to_xy_yaw(pin.XYZQUATToSE3(q[:7]).homogeneous)[2]
+        return float(q[0]), float(q[1]), yaw
+
+    def footprint_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) where the base would stand at rest over the soles of :attr:`q` (m, m, rad, world): the feet
+        mid-point and mean heading plus the base's offset from them at ``q_ref``."""
+        lf, rf = self._soles(self._q)
+        mx, my, yaw = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
+        ox, oy = self._base_offset
+        c, s = math.cos(yaw), math.sin(yaw)
+        return mx + c * ox - s * oy, my + s * ox + c * oy, yaw
+
+    def time_remaining(self) -> float:
+        """Time (s) until the current segment's plan ends (0 when standing)."""
+        if not self.walking:
+            return 0.0
+        return max(0.0, self._segment.ends_at - (self.t - self._t0))
+
+    # -- commands ----------------------------------------------------------------------------------------------
+    def set_velocity(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
+        """Velocity command (m/s, m/s, rad/s, walking frame); zeros: no further segment.
+
+        Raises:
+            InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
+                ``max_turn``.
+        """
+        self.command[:] = (_finite(vx, "vx (m/s)", 0.0 - self.max_backward, self.max_velocity),
+                           _finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
+                           _finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
+        self.goal = self._pending_goal = None
+
+    def set_goal(self, x: float, y: float, yaw: float) -> None:
+        """Walk the base to ``(x, y, yaw)`` (m, m, rad, world) in one segment, from the next double support.
+
+        Raises:
+            InvalidInputError: non-finite values.
+        """
+        self._pending_goal = (_finite(x, "goal x (m)"), _finite(y, "goal y (m)"), _finite(yaw, "goal yaw (rad)"))
+        self.command[:] = 0.0
+
+    def stop(self) -> None:
+        """No further segment: the current one ends with its closing step; clears the command and goal."""
+        self.command[:] = 0.0
+        self.goal = self._pending_goal = None
+
+    def reset(self) -> None:
+        """The plant back to ``q_ref`` at rest (teleported), the controller and estimator restarted, standing.
+        The node time :attr:`t` goes on."""
+        sim, robot = self.sim, self.robot
+        mujoco.mj_resetData(sim.model, sim.data)
+        sim.set_state(robot.q_ref)
+        q, v = sim.get_state()
+        self.controller.reset(q, v)
+        if self.state is not None:
+            self.state.reset(q, v)
+        self._q, self._v = q.copy(), v.copy()
+        self._segment = StandScenario(1.0)
+        self._segment.setup(self.controller, sim, q, v)
+        self._stand = self._segment
+        self._t0 = self.t
+        self.monitor = OutcomeMonitor(sim)
+        self.command[:] = 0.0
+        self.goal = self._pending_goal = None
+        lf, rf = self._soles(q)
+        mx, my, yaw = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
+        c, s = math.cos(yaw), math.sin(yaw)
+        dx, dy = q[0] - mx, q[1] - my
+        self._base_offset = (c * dx + s * dy, -s * dx + c * dy)
+        self._width = abs(-s * (lf[0, 3] - rf[0, 3]) + c * (lf[1, 3] - rf[1, 3]))
+
+    # -- one tick ----------------------------------------------------------------------------------------------
+    def tick(self) -> None:
+        """One control period: start a segment if due, then one iteration of the closed loop
+        (:func:`wbc.sim.closed_loop.run_closed_loop`'s steps 1–4 and 6, no log).
+
+        Raises:
+            SimulationError: the MuJoCo state became non-finite.
+        """
+        sim, model, data = self.sim, self.sim.model, self.sim.data
+        if not self.walking and not self.monitor.fell and (self._pending_goal is not None or np.any(self.command)):
+            self._start_segment()
+        if self.state is not None:
+            mujoco.mj_step1(model, data)
+        q, v = sim.get_state()
+        if self.state is not None:
+            q, v = self.state.measure(sim, self.t)
+            if self._segment is not self._stand:
+                self._segment.measured_zmp = self.state.measured_zmp()
+        self._segment.update(self.t - self._t0, self.controller, sim, q, v)
+        cmd = self.controller.compute(q, v)
+        sim.set_torques(cmd.tau)
+        if self.state is None:
+            mujoco.mj_step(model, data)
+        else:
+            mujoco.mj_step2(model, data)
+        if not np.all(np.isfinite(data.qpos)):
+            raise SimulationError(f"MuJoCo state became non-finite at t = {self.t:.3f} s")
+        self._q[:], self._v[:] = q, v
+        self.tau[:] = cmd.tau
+        self.t += self.dt
+        self.monitor.update(self.t)
+
+    def _segment_done(self) -> bool:
+        seg = self._segment
+        if seg is self._stand:
+            return True
+        return self.t - self._t0 >= seg.ends_at - 1e-9  # (after a capture step, when one was started)
+
+    def _start_segment(self) -> None:
+        q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
+        T = self.step_duration
+        try:
+            if self._pending_goal is not None:
+                goal, self._pending_goal = self._pending_goal, None
+                n, length, lateral, turn, side = self._goal_steps(q, goal)
+                self.goal = goal
+            else:
+                n = self.segment_steps
+                length, lateral, turn = self.command * T
+                side = "right" if lateral < 0 or (lateral == 0 and turn < 0) else "left"
+            seg = WalkScenario(n, float(length), T, turn=float(turn), step_lateral=float(lateral), settle=0.0,
+                               zmp_feedback=self.zmp_feedback, first_side=side)
+            seg.setup(self.controller, self.sim, q, v)
+        except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
+            self.replan_failures += 1
+            self.last_error = str(exc)
+            self.command[:] = 0.0
+            return
+        self._segment, self._t0 = seg, self.t
+        self.replans += 1
+        self.segments += 1
+
+    # -- geometry ----------------------------------------------------------------------------------------------
+    def _soles(self, q):
+        d = self._pdata
+        pin.framesForwardKinematics(self.robot.model, d, q)
+        return d.oMf[self._fid[0]].homogeneous.copy(), d.oMf[self._fid[1]].homogeneous.copy()
+
+    def _goal_steps(self, q, goal):
+        """(n_steps, step_length, step_lateral, turn, first side) of a segment putting the base at ``goal``."""
+        gx, gy, gyaw = goal
+        ox, oy = self._base_offset
+        c, s = math.cos(gyaw), math.sin(gyaw)
+        tx, ty = gx - (c * ox - s * oy), gy - (s * ox + c * oy)  # feet mid-point target
+        lf, rf = self._soles(q)
+        mx, my, yaw0 = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
+        dyaw = (gyaw - yaw0 + math.pi) % (2 * math.pi) - math.pi
+        c0, s0 = math.cos(yaw0), math.sin(yaw0)
+        fwd, lat = c0 * (tx - mx) + s0 * (ty - my), -s0 * (tx - mx) + c0 * (ty - my)
+        if fwd < -0.01:
+            raise GaitError(f"the goal is {-fwd:.3f} m behind the robot: backward walking is not planned in the "
+                            "physics walk; valid: a goal ahead (turn first)")
+        T = self.step_duration
+        n = max(1, math.ceil(max(abs(fwd) / (self.max_velocity * T), abs(lat) / (self.max_lateral * T),
+                                 abs(dyaw) / (self.max_turn * T)) - 1e-9))
+        turn = dyaw / n
+        side = "right" if lat < 0 else "left"  # WalkScenario's first foot for this lateral step
+        length, lateral = steps_to_midpoint(pose_to_xy_yaw(lf), pose_to_xy_yaw(rf), (tx, ty), n, self._width, turn,
+                                            side, lat >= 0)
+        if length < 0:
+            raise GaitError(f"the goal needs backward steps ({length:.3f} m): not planned in the physics walk; "
+                            "valid: a goal ahead")
+        return n + 1, length, lateral, turn, side
+
+
+def _finite(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(float(value)):
+        raise InvalidInputError(f"{name} must be a finite number; got {value!r}")
+    v = float(value)
+    if not lo <= v <= hi:
+        raise InvalidInputError(f"{name} = {v} is out of range: valid is [{lo:g}, {hi:g}]")
+    return v
