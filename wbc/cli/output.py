@@ -250,12 +250,16 @@ def uncompiled_kernels(modules=None) -> list[str]:
     return missing
 
 
+_NOTIFIED: set[str] = set()  # kernel modules already announced by compile_notice in this process
+
+
 def compile_notice(desc: str, modules=None, stream=None) -> bool:
     """Say on stderr that the numba kernels of ``modules`` (see :func:`uncompiled_kernels`) compile now (first run
     after an install), so that the silent minute before the first tick is explained. Returns True when printed."""
     import sys
 
-    missing = uncompiled_kernels(modules)
+    missing = [m for m in uncompiled_kernels(modules) if m not in _NOTIFIED]
+    _NOTIFIED.update(missing)
     if missing:
         print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
               "later runs) ...", file=stream or sys.stderr, flush=True)
