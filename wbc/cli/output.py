@@ -284,10 +284,13 @@ def progress(args, total: float | None, viewer=None, desc: str = ""):
     """
     from wbc.viz.progress import ProgressViewer
 
+    kernels = DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS
+    compiling = bool(uncompiled_kernels(kernels))
     if not getattr(args, "quiet", False):
-        compile_notice(desc, DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS)
-
-    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
+        compile_notice(desc, kernels)
+    # while the kernels compile (first run), the bar is drawn every second with its elapsed time
+    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None,
+                          heartbeat=1.0 if compiling else None)
 
 
 def hold_live(seconds: float | None) -> None:
