@@ -89,6 +89,36 @@ BAD = [
     (["sim", "walk", "--wz", "1000"], "--wz"),
     (["walk", "--wz", "1000"], "--wz"),
     (["walk", "--vy", "5"], "--vy"),
+    # names and choices
+    (["walk", "--robot", "nope"], "unknown robot 'nope'"),
+    (["walk", "--robot", "{file}"], "unknown robot"),
+    (["walk", "--solver", "nope"], "--solver"),
+    (["balance", "nope"], "behaviour"),
+    (["sim", "nope"], "scenario"),
+    (["walk", "--storage", "zip"], "--storage"),
+    (["walk", "--tf", "none"], "--tf"),
+    (["balance", "shift", "--ros2-interface", ""], "--ros2-interface"),
+    # more sizes and values
+    (["walk", "--steps", "-3"], "--steps -3"),
+    (["walk", "--steps", "2.5"], "--steps"),
+    (["walk", "--step-width", "-0.1"], "--step-width"),
+    (["walk", "--step-width", "nan"], "--step-width"),
+    (["walk", "--turn", "1e9"], "--turn"),
+    (["walk", "--ros2-rate", "1e9"], "--ros2-rate"),
+    (["sim", "stand", "--mu", "nan"], "--mu"),
+    (["sim", "stand", "--mu", "-1"], "--mu"),
+    (["sim", "walk", "--delay", "nan"], "--delay"),
+    (["sim", "jump", "--height", "inf"], "--height"),
+    (["sim", "push", "--push-duration", "nan"], "--push-duration"),
+    (["balance", "squat", "--dt", "0"], "--dt"),
+    (["bench", "--ticks", "abc"], "--ticks"),
+    (["bench", "--ticks", "1e12"], "--ticks"),
+    # more output paths and option pairs
+    (["walk", "--out", ""], "--out"),
+    (["walk", "--json", "{tmp}/a.json", "--log", "{tmp}/a.json"], ".npz"),
+    (["walk", "--log", "{tmp}/x.npz", "--out", "{tmp}/x.npz"], ".html"),
+    (["walk", "--live-start-now"], "--live-start-now"),
+    (["walk", "--live", "--hold", "-1"], "--hold"),
 ]
 
 

@@ -232,3 +232,95 @@ def test_bench_report_is_moved_into_place_whole(tmp_path):
     paths = _write_atomically({"new": 2}, out, writer)
     assert paths["json"] == out / "results.json" and json.loads(paths["json"].read_text()) == {"new": 2}
     assert sorted(p.name for p in out.iterdir()) == ["results.json", "results.md"]
+
+
+@linux_only
+@pytest.mark.parametrize("command,delay", [(["walk"], 1.5), (["walk"], 6.0), (["sim", "walk"], 6.0)],
+                         ids=["walk-while-loading", "walk-mid-run", "sim-walk-mid-run"])
+def test_sigint_to_a_running_cli_keeps_the_previous_log(tmp_path, command, delay):
+    """SIGINT to a `wbc ... --log X` process (a real one, as Ctrl-C in a terminal sends it), while it loads or
+    mid-run: exit code 130, one line on stderr and no traceback, and the previous X.npz either byte-identical or
+    replaced by a complete loadable log; no temporary file left next to it."""
+    import subprocess
+    import time
+
+    log = tmp_path / "X.npz"
+    np.savez(log, t=np.arange(3.0))
+    before = log.read_bytes()
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", *command, "--log", str(log), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
+    assert "Traceback" not in err and "interrupted (Ctrl-C)" in err, err[-2000:]
+    assert len(err.strip().splitlines()) == 1, err
+    if log.read_bytes() != before:  # a complete new log
+        with np.load(log) as z:
+            assert z["q"].shape[0] == z["t"].shape[0] > 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["X.npz"]
+
+
+def _udp_sockets_of(pid: int) -> dict[int, str]:
+    """{inode: local address (hex, as /proc/<pid>/net/udp* writes it)} of the UDP sockets process ``pid`` holds."""
+    held = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        try:
+            link = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue
+        if link.startswith("socket:["):
+            held.add(int(link[8:-1]))
+    found = {}
+    for name in ("udp", "udp6"):
+        for row in Path(f"/proc/{pid}/net/{name}").read_text().splitlines()[1:]:
+            cols = row.split()
+            if int(cols[9]) in held:
+                found[int(cols[9])] = cols[1]
+    return found
+
+
+@linux_only
+def test_ros2_run_binds_dds_to_loopback_only(tmp_path):
+    """`wbc walk --ros2` with no CYCLONEDDS_URI of the user's: every UDP socket of the process is either bound to
+    127.0.0.1 (/proc/<pid>/net/udp) or, for Cyclone's wildcard-bound receive sockets, restricted to the `lo`
+    device (`ss` shows 0.0.0.0%lo); nothing listens on TCP."""
+    import random
+    import shutil
+    import subprocess
+    import time
+
+    pytest.importorskip("cyclonedds")
+    ss = shutil.which("ss")
+    assert ss is not None, "iproute2's ss is needed to read the device a socket is bound to"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               ROS_DOMAIN_ID=str(random.randint(1, 200)))
+    env.pop("CYCLONEDDS_URI", None)
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--robot", "humanoid15", "--ros2", "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 90.0
+        udp = {}
+        while time.monotonic() < deadline and proc.poll() is None:
+            udp = _udp_sockets_of(proc.pid)
+            if len(udp) >= 3:  # Cyclone: discovery and data receive sockets, one transmit socket
+                time.sleep(0.5)  # the participant is complete once the binding has run
+                udp = _udp_sockets_of(proc.pid)
+                break
+            time.sleep(0.2)
+        assert len(udp) >= 3, (udp, proc.poll())
+        lines = subprocess.run([ss, "-H", "-uanp"], capture_output=True, text=True, check=True).stdout.splitlines()
+        mine = [ln.split()[3] for ln in lines if f"pid={proc.pid}," in ln]
+        tcp = subprocess.run([ss, "-H", "-ltnp"], capture_output=True, text=True, check=True).stdout.splitlines()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    loopback = {a for a in udp.values() if a.startswith("0100007F:")}
+    wildcard = {a for a in udp.values() if a.split(":")[0] in ("00000000", "0" * 32)}
+    assert loopback and len(loopback) + len(wildcard) == len(udp), udp  # 127.0.0.1 or 0.0.0.0, nothing else
+    assert len(mine) == len(udp), (mine, udp)
+    for local in mine:
+        assert local.startswith("127.0.0.1:") or "%lo:" in local, mine
+    assert not [ln for ln in tcp if f"pid={proc.pid}," in ln], tcp
+    assert proc.returncode in (0, 130) and "Traceback" not in err, err[-2000:]

@@ -44,3 +44,28 @@ def test_silent_when_not_a_terminal_or_disabled():
             p.update(None, k * 0.002)
         p.close()
         assert kwargs["stream"].getvalue() == ""
+
+
+def test_heartbeat_redraws_the_bar_before_the_first_tick_and_stops_after():
+    """With a heartbeat (first run: kernels compiling before the first tick) the bar is redrawn with its elapsed
+    time before any update; after the first update the heartbeat stops (only update() draws)."""
+    import time
+
+    stream = _Tty()
+    p = ProgressViewer(10.0, desc="run", stream=stream, delay=0.0, heartbeat=0.2)
+    deadline = time.monotonic() + 30.0
+    while stream.getvalue().count("0.00/10.00 s sim") < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert stream.getvalue().count("0.00/10.00 s sim") >= 2, stream.getvalue()  # drawn repeatedly, at 0 s sim
+    p.update(None, 1.0)
+    time.sleep(0.6)  # three heartbeat periods
+    drawn = stream.getvalue()
+    time.sleep(0.6)
+    assert stream.getvalue() == drawn  # no redraw without an update once the run has started
+    p.close()
+
+    quiet = _Tty()
+    p = ProgressViewer(10.0, stream=quiet, delay=0.0, heartbeat=None)
+    time.sleep(0.5)
+    assert quiet.getvalue().count("s sim") <= 1  # at most tqdm's own first draw
+    p.close()

@@ -5,10 +5,34 @@ constraints (:mod:`wbc.tasks`, :mod:`wbc.constraints`) → one QP per tick (:cla
 command v, integrated on the manifold.
 """
 
-from wbc.configuration import Configuration
-from wbc.formulations.velocity import KinematicController
-from wbc.robot import Robot, catalog, load_robot
-from wbc.solve import solve_ik
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the names below are imported on first use (PEP 562): `import wbc` itself stays instant
+    from wbc.configuration import Configuration
+    from wbc.formulations.velocity import KinematicController
+    from wbc.robot import Robot, catalog, load_robot
+    from wbc.solve import solve_ik
 
 __all__ = ["Configuration", "KinematicController", "Robot", "catalog", "load_robot", "solve_ik"]
 __version__ = "0.1.0"
+
+# Loading these modules loads (or, on the first run after an install, compiles) wbc's numba kernels: seconds to a
+# minute. Deferring them lets `wbc ...` say so and handle Ctrl-C before that work starts.
+_LAZY = {"Configuration": "wbc.configuration", "KinematicController": "wbc.formulations.velocity",
+         "Robot": "wbc.robot", "catalog": "wbc.robot", "load_robot": "wbc.robot", "solve_ik": "wbc.solve"}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'wbc' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -2,6 +2,10 @@
 
 import sys
 
-from wbc.cli import main
+try:
+    from wbc.cli import main
+except KeyboardInterrupt:  # Ctrl-C before main() installs its handlers: same exit code, no traceback
+    sys.stderr.write("wbc: interrupted (Ctrl-C) while loading\n")
+    sys.exit(130)
 
 sys.exit(main())

@@ -22,16 +22,33 @@ import os
 import signal
 import sys
 
-from wbc.cli import balance, bench, campaign, plot, robots, ros2, sim, walk
-from wbc.cli.output import add_outputs, close_live, deadline_misses, hold_live
-from wbc.cli.validate import check_outputs
-from wbc.cli.walk import leg_reach
 from wbc.exceptions import InvalidInputError, WbcError
 
 __all__ = ["main", "build_parser", "deadline_misses", "leg_reach"]
 
-#: The command modules, in the order of ``wbc --help``.
-COMMANDS = (walk, plot, balance, sim, campaign, bench, robots, ros2)
+# The command modules (and numpy, the solvers... behind them) load inside main(), where a Ctrl-C is handled and
+# where the first run after an install says first that it compiles: the `wbc` script imports only this module.
+
+
+def _commands() -> tuple:
+    """The command modules, in the order of ``wbc --help``."""
+    from wbc.cli import balance, bench, campaign, plot, robots, ros2, sim, walk
+
+    return (walk, plot, balance, sim, campaign, bench, robots, ros2)
+
+
+def __getattr__(name: str):
+    if name == "COMMANDS":
+        return _commands()
+    if name == "deadline_misses":
+        from wbc.cli.output import deadline_misses
+
+        return deadline_misses
+    if name == "leg_reach":
+        from wbc.cli.walk import leg_reach
+
+        return leg_reach
+    raise AttributeError(f"module 'wbc.cli' has no attribute {name!r}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -56,7 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for module in COMMANDS:
+    from wbc.cli.output import add_outputs
+
+    for module in _commands():
         module.register(sub, add_outputs)
     helps = {a.dest: a.help for a in sub._choices_actions}
     for name, p in sub.choices.items():  # every `wbc X --help` starts with a description
@@ -69,7 +88,21 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the `wbc` console script. Returns the exit code: 0 passed, 1 acceptance failed, 2 bad input
     (a typed ``wbc.exceptions.WbcError``, printed on stderr as one line) or an output that could not be written,
     130 interrupted by Ctrl-C, 143 by SIGTERM (no traceback in either case; no partial file left)."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # A Ctrl-C while the modules load (seconds; longer on a first run) ends the process at once with 130: nothing has
+    # been written yet, and raised inside an import a KeyboardInterrupt can end in a traceback or be swallowed by a
+    # library's `except:`.
+    try:
+        default_sigint = signal.signal(signal.SIGINT, _exit_while_loading)
+    except ValueError:  # not the main thread: leave SIGINT alone
+        default_sigint = None
+    try:
+        _first_run_notice(argv)
+        parser = build_parser()
+        _preload(argv)
+    finally:
+        if default_sigint is not None:
+            signal.signal(signal.SIGINT, default_sigint)
     args = parser.parse_args(argv)
     previous = None
     try:
@@ -80,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
         check_args(args)
         code = int(args.func(args))
         if getattr(args, "live", False):
+            from wbc.cli.output import hold_live
+
             hold_live(args.hold)
         sys.stdout.flush()
         return code
@@ -100,9 +135,41 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     finally:
+        from wbc.cli.output import close_live
+
         close_live()
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+
+
+def _exit_while_loading(signum, frame) -> None:
+    """SIGINT handler while the command modules load: say so and exit 130 (no output exists yet)."""
+    os.write(2, b"wbc: interrupted (Ctrl-C) while loading\n")
+    os._exit(130)
+
+
+def _preload(argv: list[str]) -> None:
+    """Import, while a Ctrl-C still exits at once, the third-party modules a run command loads later that catch
+    BaseException around their optional imports (trimesh, via meshcat/pinocchio.visualize and wbc.sim.meshes):
+    a Ctrl-C landing inside them would be swallowed and the run would go on."""
+    if argv and argv[0] in ("walk", "balance", "sim") and not {"-h", "--help"} & set(argv):
+        try:
+            import trimesh  # noqa: F401
+        except ImportError:
+            pass
+
+
+def _first_run_notice(argv: list[str]) -> None:
+    """Before the parser imports the solvers: on the first run after an install (numba kernels not yet cached), say
+    on stderr that loading and compiling takes a minute, for the commands that run a controller (on a terminal, not
+    with --quiet or --help; later, :func:`wbc.cli.output.progress` says it to the other outputs)."""
+    from wbc.cli.output import DYNAMICS_KERNELS, KINEMATIC_KERNELS, compile_notice
+
+    if not argv or argv[0] not in ("walk", "balance", "sim", "bench", "campaign"):
+        return
+    if {"-q", "--quiet", "-h", "--help"} & set(argv) or not getattr(sys.stderr, "isatty", lambda: False)():
+        return
+    compile_notice(f"wbc {argv[0]}", DYNAMICS_KERNELS if argv[0] == "sim" else KINEMATIC_KERNELS)
 
 
 def _silence_stdout() -> None:
@@ -122,6 +189,8 @@ def check_args(args) -> None:
         InvalidInputError: an output path is refused (folder missing or not writable, a folder, a device, wrong
             suffix); ``--hold`` is negative or given without ``--live``; a command check fails.
     """
+    from wbc.cli.validate import check_outputs
+
     check_outputs(args)
     hold = getattr(args, "hold", None)
     if hold is not None and not (hold >= 0 and hold != float("inf")):

@@ -254,6 +254,9 @@ def uncompiled_kernels(modules=None) -> list[str]:
     return missing
 
 
+_NOTIFIED: set[str] = set()  # kernel modules already announced by compile_notice in this process
+
+
 def compile_notice(desc: str, modules=None, stream=None) -> bool:
     """Say on stderr that the numba kernels of ``modules`` (see :func:`uncompiled_kernels`) compile now (first run
     after an install), so that the silent minute before the first tick is explained; then, through
@@ -261,7 +264,8 @@ def compile_notice(desc: str, modules=None, stream=None) -> bool:
     progress of the compilation). Returns True when printed."""
     import sys
 
-    missing = uncompiled_kernels(modules)
+    missing = [m for m in uncompiled_kernels(modules) if m not in _NOTIFIED]
+    _NOTIFIED.update(missing)
     if missing:
         out = stream or sys.stderr
         print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
@@ -294,10 +298,13 @@ def progress(args, total: float | None, viewer=None, desc: str = ""):
     """
     from wbc.viz.progress import ProgressViewer
 
+    kernels = DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS
+    compiling = bool(uncompiled_kernels(kernels))
     if not getattr(args, "quiet", False):
-        compile_notice(desc, DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS)
-
-    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None)
+        compile_notice(desc, kernels)
+    # while the kernels compile (first run), the bar is drawn every second with its elapsed time
+    return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None,
+                          heartbeat=1.0 if compiling else None)
 
 
 def hold_live(seconds: float | None) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pinocchio as pin
 
 from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
@@ -30,6 +29,8 @@ def leg_reach(robot) -> float:
     soles are at most ``2 sqrt(l^2 - h^2)`` apart. A step moves the feet mid-point by the step length, so
     the soles are one step length apart in double support.
     """
+    import pinocchio as pin  # here, not at the top: `wbc --help` and the first-run notice stay instant
+
     model = robot.model
     data = model.createData()
     pin.framesForwardKinematics(model, data, robot.q_ref)

@@ -2,8 +2,11 @@
 
 wbc's participants use the loopback interface by default: :func:`participant` calls :func:`use_interface` with
 ``"lo"`` unless ``CYCLONEDDS_URI`` is already set (the user's own Cyclone configuration always wins). Cyclone then
-advertises and sends to 127.0.0.1 only, multicast off; it still opens its unicast ports (7410 + ...) on the
-wildcard address, which its configuration cannot change (cyclonedds 11.0.1).
+advertises and sends to 127.0.0.1 only, multicast off. Cyclone binds its unicast receive sockets (discovery and
+data, 7400 + 250 domain + 10 + 2 index, + 1) to the wildcard address 0.0.0.0 whatever its configuration
+(cyclonedds 11.0.1, ``ddsi_udp_create_conn``); with the loopback configuration :func:`participant` therefore also
+binds those sockets to the ``lo`` device (``SO_BINDTODEVICE``, Linux): they then receive only what arrives on the
+loopback interface (``ss`` shows them as ``0.0.0.0%lo``).
 ``loopback_uri()`` returns the ``CYCLONEDDS_URI`` value confining Cyclone DDS to 127.0.0.1: the ``lo`` interface,
 multicast off, and localhost as the only unicast peer. To reach other machines, choose an interface
 (:func:`use_interface` ``("eth0")``, the ``--ros2-interface`` option of the command line) or ``"any"`` (Cyclone's
@@ -95,7 +98,62 @@ def participant(domain: int | None = None):
 
     if not _chosen:
         use_interface(LOOPBACK)
-    return DomainParticipant(domain_id() if domain is None else domain)
+    confine = _chosen == [LOOPBACK] and os.environ.get("CYCLONEDDS_URI") == loopback_uri()
+    before = _wildcard_udp_sockets() if confine else {}
+    part = DomainParticipant(domain_id() if domain is None else domain)
+    if confine:
+        _bind_to_loopback_device({fd: inode for fd, inode in _wildcard_udp_sockets().items()
+                                  if inode not in before.values()})
+    return part
+
+
+def _wildcard_udp_sockets() -> dict[int, int]:
+    """{file descriptor: socket inode} of this process's UDP sockets bound to the IPv4/IPv6 wildcard address
+    (from ``/proc/self/net/udp*`` and ``/proc/self/fd``); empty where /proc is not available."""
+    inodes = set()
+    for name, wildcard in (("udp", "00000000"), ("udp6", "0" * 32)):
+        try:
+            with open(f"/proc/self/net/{name}") as f:
+                rows = f.read().splitlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            cols = row.split()
+            if len(cols) > 9 and cols[1].split(":")[0] == wildcard:
+                inodes.add(int(cols[9]))
+    found = {}
+    try:
+        fds = os.listdir("/proc/self/fd")
+    except OSError:
+        return found
+    for fd in fds:
+        try:
+            link = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:
+            continue
+        if link.startswith("socket:[") and int(link[8:-1]) in inodes:
+            found[int(fd)] = int(link[8:-1])
+    return found
+
+
+def _bind_to_loopback_device(sockets: dict[int, int]) -> None:
+    """Restrict the sockets ``{fd: inode}`` (Cyclone's wildcard-bound receive sockets) to the ``lo`` device."""
+    import socket
+    import warnings
+
+    for fd in sockets:
+        try:
+            sock = socket.socket(fileno=os.dup(fd))
+        except OSError:
+            continue
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BINDTODEVICE, b"lo\0")
+        except (OSError, AttributeError) as exc:  # not Linux, or Linux < 5.7 without CAP_NET_RAW
+            warnings.warn(f"DDS: could not bind Cyclone's receive socket (fd {fd}) to the loopback device ({exc}); "
+                          "it stays on 0.0.0.0 (packets are still sent to 127.0.0.1 only)", RuntimeWarning,
+                          stacklevel=3)
+        finally:
+            sock.close()  # closes the duplicate only; Cyclone keeps its descriptor
 
 
 def qos_stream(depth: int):

@@ -24,10 +24,13 @@ class ProgressViewer:
         stream: where the bar is drawn (default ``sys.stderr``).
         delay: the bar appears only after this many wall-clock seconds (short runs stay silent).
         step: simulated seconds between bar refreshes.
+        heartbeat: wall-clock seconds between redraws of the bar (its elapsed time) until the first ``update`` —
+            for a run whose first tick waits on something slow (compiling kernels); None: no redraw before it.
     """
 
     def __init__(self, total: float | None, inner: Any = None, *, desc: str = "", enabled: bool | None = None,
-                 stream: TextIO | None = None, delay: float = 2.0, step: float = 0.05):
+                 stream: TextIO | None = None, delay: float = 2.0, step: float = 0.05,
+                 heartbeat: float | None = None):
         from tqdm import tqdm
 
         stream = sys.stderr if stream is None else stream
@@ -41,9 +44,27 @@ class ProgressViewer:
                         file=stream, disable=not enabled, delay=delay, leave=False,
                         bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]"
                         if total is not None else "{desc} {n:.2f} s sim [{elapsed}]")
+        self._beating = None
+        if enabled and heartbeat is not None:
+            import threading
+
+            self._beating = threading.Event()
+            threading.Thread(target=self._beat, args=(float(heartbeat), self._beating), daemon=True,
+                             name="wbc-progress-heartbeat").start()
+
+    def _beat(self, period: float, stop) -> None:
+        while not stop.wait(period):
+            self.bar.refresh()
+
+    def _stop_beat(self) -> None:
+        if self._beating is not None:
+            self._beating.set()
+            self._beating = None
 
     def update(self, q, t: float | None = None, *args: Any, **kwargs: Any) -> None:
         """Forward to the inner viewer; advance the bar to simulated time ``t`` (s)."""
+        if self._beating is not None:
+            self._stop_beat()
         if self.inner is not None:
             self.inner.update(q, t, *args, **kwargs)
         if t is not None and t - self._shown >= self._step:
@@ -52,6 +73,7 @@ class ProgressViewer:
 
     def close(self) -> None:
         """Close the bar and the inner viewer."""
+        self._stop_beat()
         self.bar.close()
         if self.inner is not None:
             self.inner.close()
