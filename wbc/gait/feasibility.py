@@ -138,7 +138,7 @@ def nominal_step_demand(robot: Robot, gait: dict[str, float], n_steps: int = 3) 
                       reach_error=reach, reach_joint=reach_joint)
 
 
-def feasible_gait(robot: Robot, gait: dict[str, float], max_rounds: int = 8) -> tuple[dict[str, float], GaitDemand,
+def feasible_gait(robot: Robot, gait: dict[str, float], max_rounds: int = 10) -> tuple[dict[str, float], GaitDemand,
                                                                                           list[str]]:
     """A gait derived from ``gait`` whose nominal demand fits the robot (module docstring).
 
@@ -159,8 +159,10 @@ def feasible_gait(robot: Robot, gait: dict[str, float], max_rounds: int = 8) -> 
     notes: list[str] = []
     a_max = ACCELERATION_FRACTION * WALK_ACCELERATION_BOUND
     d = nominal_step_demand(robot, g)
+    stretched, stretch, excess = None, True, math.inf
     for _ in range(max_rounds):
         if d.reach_error > REACH_TOLERANCE:
+            stretched = None
             old = (g["step_length"], g["step_height"])
             g["step_length"] = round(0.75 * g["step_length"], 3)
             g["step_height"] = round(max(0.8 * g["step_height"], 0.01), 3)
@@ -170,7 +172,17 @@ def feasible_gait(robot: Robot, gait: dict[str, float], max_rounds: int = 8) -> 
             s = max(d.speed_ratio / SPEED_FRACTION, math.sqrt(d.acceleration / a_max), 1.0)
             why = (f"{d.speed_joint} at {d.speed_ratio:.2f} × its speed limit" if d.speed_ratio > SPEED_FRACTION
                    else f"{d.acceleration_joint} at {d.acceleration:.0f} rad/s²")
-            if g["t_ss"] < MAX_T_SS - 1e-9:
+            if stretched is not None and max(d.speed_ratio / SPEED_FRACTION, d.acceleration / a_max) > excess:
+                # the slower step asks more (a longer single support sways the CoM further over a straightening
+                # leg): back to the durations before, shorten the step instead
+                g, d = stretched
+                stretched, stretch = None, False
+                notes.append(f"nominal step: stretching the durations raised the demand ({why}): single/double "
+                             f"support back to {g['t_ss']}/{g['t_ds']} s")
+                continue
+            excess = max(d.speed_ratio / SPEED_FRACTION, d.acceleration / a_max)
+            if stretch and g["t_ss"] < MAX_T_SS - 1e-9:
+                stretched = (dict(g), d)
                 t_ss = round(min(g["t_ss"] * s * 1.05, MAX_T_SS), 3)
                 f = t_ss / g["t_ss"]
                 old = (g["t_ss"], g["t_ds"])
@@ -178,10 +190,11 @@ def feasible_gait(robot: Robot, gait: dict[str, float], max_rounds: int = 8) -> 
                 notes.append(f"nominal step: {why}: single/double support {old[0]}/{old[1]} → "
                              f"{g['t_ss']}/{g['t_ds']} s")
             else:
+                stretched = None
                 old = (g["step_length"], g["step_height"])
                 g["step_length"] = round(g["step_length"] / min(s * 1.05, 2.0), 3)
                 g["step_height"] = round(max(g["step_height"] / min(math.sqrt(s * 1.05), 1.5), 0.01), 3)
-                notes.append(f"nominal step: {why} at the longest single support ({MAX_T_SS} s): step "
+                notes.append(f"nominal step: {why} (durations not stretched further): step "
                              f"length/height {old[0]}/{old[1]} → {g['step_length']}/{g['step_height']} m")
         else:
             break
