@@ -94,3 +94,20 @@ def test_cli_rejects_bad_plant_options(capsys):
         main(["sim", "stand", "--no-load-factor", "0"])
     assert exc.value.code == 2
     assert "--no-load-factor: 0 is out of range" in capsys.readouterr().err
+
+
+def test_robot_file_armature_reaches_the_realistic_plant(tmp_path):
+    """A robot file's [mujoco] armature is the realistic plant's (it was replaced by "none known (0)")."""
+    from pathlib import Path
+
+    cat = (Path(wbc.__file__).parent / "robots").resolve()
+    text = (cat / "humanoid15.toml").read_text().replace('"humanoid15.urdf"', f'"{cat / "humanoid15.urdf"}"')
+    text = text.replace('"humanoid15.srdf"', f'"{cat / "humanoid15.srdf"}"')
+    path = tmp_path / "mine.toml"
+    path.write_text('name = "mine"\n' + text + "\n[mujoco]\narmature = 0.03\n")
+    robot = wbc.load_robot(str(path))
+    act = actuator_model(robot, "realistic")
+    np.testing.assert_allclose(act.armature, 0.03)
+    assert "robot file" in act.armature_source
+    sim = build_mujoco_model(robot, plant="realistic")
+    np.testing.assert_allclose(sim.model.dof_armature[sim.state_map.mj_qvel], 0.03)

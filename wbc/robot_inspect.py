@@ -33,9 +33,15 @@ from wbc.robot import (
     geometry_points,
     load_robot,
 )
-from wbc.robot_file import FrameSpec, RobotSpec, check_xml, package_roots
+from wbc.robot_file import FrameSpec, MujocoOptions, RobotSpec, check_xml, package_roots
 
-__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN"]
+__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE"]
+
+#: Rotor armature (kg·m², every actuated joint) written by ``wbc robot init`` when the robot has no drive data
+#: (no SRDF ``<rotor_params>``): the value of MuJoCo Menagerie's Unitree G1 (``unitree_g1/g1.xml``, default class
+#: joint armature). Real drives have reflected rotor inertia (Talos's SRDF: 0.1); massless rotors let a light
+#: foot spin at several times its joint speed limit under small torques.
+ASSUMED_ARMATURE = 0.01
 
 #: Smallest distance (m) of the reference posture's CoM inside the support polygon for `wbc robot check`.
 MIN_COM_MARGIN = 0.01
@@ -285,12 +291,17 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         if clipped:
             notes.append(f"reference posture: joints whose zero is outside their limits start 0.05 rad (at most 5 % "
                          f"of their range) inside the nearest limit: {clipped}")
+    mujoco = MujocoOptions()
+    if srdf is None or "rotor_params" not in Path(srdf).read_text():
+        mujoco = MujocoOptions(armature=ASSUMED_ARMATURE)
+        notes.append(f"drives: no rotor data (no SRDF <rotor_params>): [mujoco] armature = {ASSUMED_ARMATURE} "
+                     f"kg·m² assumed (MuJoCo Menagerie's G1); set your drives' rotor inertia × gear ratio²")
     name = urdf.stem if urdf.stem.lower() not in ("model", "robot", "urdf") else urdf.parent.name
     spec = RobotSpec(name=name, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
                      reference_joints=clipped,
                      left_sole=soles["left"], right_sole=soles["right"], torso=torso, left_hand=hands.get("left"),
                      right_hand=hands.get("right"), frames=tuple(frames), package_dirs=tuple(dirs),
-                     base_rpy=base_rpy)
+                     base_rpy=base_rpy, mujoco=mujoco)
     length = round(0.95 * min(float(p[0]) for p in patches), 3)
     width = round(0.95 * min(float(p[1]) for p in patches), 3)
     notes.append(f"sole rectangle: {length} x {width} m (95 % of the smaller foot's contact patch, the lowest 1 cm "

@@ -71,6 +71,27 @@ def _relative(path: str, out_dir: Path) -> str:
     return os.path.relpath(p, out_dir.resolve())
 
 
+def _feasible_gait(spec):
+    """The spec with its ``[gait]`` bounded by the legs (:func:`wbc.gait.feasibility.feasible_gait`) and the notes
+    saying what was chosen and why."""
+    from dataclasses import replace
+
+    from wbc.gait.feasibility import feasible_gait
+    from wbc.robot import build_robot
+
+    from wbc.exceptions import GaitError
+
+    try:
+        gait, _, notes = feasible_gait(build_robot(spec), spec.gait)
+    except GaitError as exc:
+        return spec, [f"gait: not bounded by the legs (a nominal walk cannot be planned: {exc}); "
+                      f"`wbc robot check` says what to change"]
+    notes = [f"gait: {n}" for n in notes]
+    if gait != spec.gait:
+        notes.append(f"gait: chosen {gait} (was {spec.gait})")
+    return replace(spec, gait=gait), notes
+
+
 def cmd_robot_init(args: argparse.Namespace) -> int:
     """``wbc robot init my.urdf``: infer a robot file, check that it loads, write it and print what was guessed."""
     from dataclasses import replace
@@ -85,6 +106,8 @@ def cmd_robot_init(args: argparse.Namespace) -> int:
     if out.exists() and not args.force:
         raise InvalidInputError(f"-o {out}: file exists (pass --force to overwrite)")
     spec, notes = infer_robot_spec(args.urdf, args.package_dir)
+    spec, gait_notes = _feasible_gait(spec)
+    notes += gait_notes
     out_dir = out.parent
     spec = replace(spec, urdf=_relative(spec.urdf, out_dir),
                    srdf=None if spec.srdf is None else _relative(spec.srdf, out_dir),

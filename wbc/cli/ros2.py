@@ -330,7 +330,8 @@ def register(subparsers, add_outputs) -> None:
     ej.add_argument("--timeout", type=seconds, default=None, help="exit after this many seconds")
     ej.set_defaults(func=cmd_echo_joint)
     nd = sub.add_parser("node", help="the controller node: /cmd_vel, NavigateToPose, parameters, /reset_robot")
-    nd.add_argument("--robot", default="humanoid15", help="catalog name or URDF path (default humanoid15)")
+    nd.add_argument("--robot", default="humanoid15",
+                    help="catalog name or robot file (.toml) (default humanoid15)")
     nd.add_argument("--rate", type=_positive_rate, default=50.0,
                     help="/joint_states, /tf, /odom rate, Hz (parameter update_rate; default 50, max 500)")
     nd.add_argument("--time", choices=("real", "sim"), default="real",

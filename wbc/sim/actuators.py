@@ -96,7 +96,8 @@ class ActuatorModel:
 
 def nominal_armature(robot) -> tuple[np.ndarray, str]:
     """(nv − 6,) rotor armature (kg·m²) of ``robot`` and its source (module docstring): the SRDF
-    ``<rotor_params>`` (rotor inertia × gear ratio²) when present, else :data:`ROTOR_ARMATURE`, else zeros."""
+    ``<rotor_params>`` (rotor inertia × gear ratio²) when present, else the armature already in the Pinocchio
+    model (a robot file's ``[mujoco] armature``), else :data:`ROTOR_ARMATURE`, else zeros."""
     import pinocchio as pin
 
     n = robot.model.nv - 6
@@ -106,6 +107,8 @@ def nominal_armature(robot) -> tuple[np.ndarray, str]:
         arm = np.asarray(m.rotorInertia[6:]) * np.asarray(m.rotorGearRatio[6:]) ** 2
         if np.any(arm > 0):
             return arm, f"SRDF rotor_params (rotor inertia × gear ratio²) of {robot.srdf_path.name}"
+    if np.any(np.asarray(robot.model.armature[6:]) > 0):
+        return np.asarray(robot.model.armature[6:], dtype=float).copy(), "the robot file's [mujoco] armature"
     if robot.name in ROTOR_ARMATURE:
         value, source = ROTOR_ARMATURE[robot.name]
         return np.full(n, value), source
