@@ -74,7 +74,7 @@ def test_rotated_box_top_face_from_a_file(tmp_path):
 
 
 def test_heightfield_reproduces_a_plane_exactly():
-    """Bilinear interpolation is exact on an affine function z = a x + b y + c."""
+    """The triangle interpolant is exact on an affine function z = a x + b y + c."""
     a, b, c = 0.1, -0.05, 0.02
     xs, ys = np.arange(0, 2.01, 0.1), np.arange(-1, 1.01, 0.1)
     H = a * xs[None, :] + b * ys[:, None] + c

@@ -18,7 +18,7 @@ Textual descriptions (:func:`parse_terrain`, the ``--terrain`` option of the com
   ``x = 0.3``, a 1 m plateau, and a ramp down at the same angle back to ``z = 0``.
 * ``rough:AMPLITUDE:SEED``: a heightfield of 0.1 m cells over ``x ∈ [−1, 12]``, ``y ∈ [−1.5, 1.5]`` with node
   heights uniform in ``[−AMPLITUDE, AMPLITUDE]`` (numpy ``default_rng(SEED)``), 0 for ``x <= 0.4`` (the start
-  area), bilinear between nodes.
+  area), linear on two triangles per cell as MuJoCo's ``hfield``; the base plane is 5 cm below the lowest possible node.
 * a ``.json`` or ``.toml`` file: ``floor_z`` (m, default 0), ``boxes`` (a list of tables with ``center`` [x, y, z]
   and ``size`` [lx, ly, lz] in m, full edge lengths, and optional ``rpy_deg`` [roll, pitch, yaw] in degrees), and
   an optional ``heightfield`` table (``origin`` [x0, y0] m of node (0, 0), ``spacing`` m, ``heights`` a list of
@@ -112,7 +112,7 @@ class Box:
 
 @dataclass(frozen=True)
 class Heightfield:
-    """A heightfield on a regular grid, bilinear between nodes.
+    """A heightfield on a regular grid, linear on two triangles per cell (MuJoCo's ``hfield`` triangulation).
 
     Attributes:
         origin: (2,) world xy (m) of node (0, 0).
@@ -157,19 +157,23 @@ class Heightfield:
         return inside, i, j, gx - j, gy - i
 
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Bilinear height (m) at ``(x, y)``, ``-inf`` outside the grid."""
+        """Height (m) at ``(x, y)``, ``-inf`` outside the grid: linear on the two triangles of each cell, split
+        along the diagonal from node ``(i, j)`` to ``(i + 1, j + 1)`` (MuJoCo's triangulation of an ``hfield``)."""
         inside, i, j, fx, fy = self._cell(x, y)
         h = self.heights
-        z = (h[i, j] * (1 - fx) * (1 - fy) + h[i, j + 1] * fx * (1 - fy) + h[i + 1, j] * (1 - fx) * fy
-             + h[i + 1, j + 1] * fx * fy)
+        h00, h01, h10, h11 = h[i, j], h[i, j + 1], h[i + 1, j], h[i + 1, j + 1]  # 01: +x neighbour, 10: +y
+        lower = fx >= fy
+        z = np.where(lower, h00 + fx * (h01 - h00) + fy * (h11 - h01), h00 + fy * (h10 - h00) + fx * (h11 - h10))
         return np.where(inside, z, -np.inf)
 
     def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(∂z/∂x, ∂z/∂y)`` of the bilinear interpolant at ``(x, y)`` (0 outside)."""
+        """``(∂z/∂x, ∂z/∂y)`` of the triangle under ``(x, y)`` (0 outside the grid)."""
         inside, i, j, fx, fy = self._cell(x, y)
         h, d = self.heights, self.spacing
-        gx = ((h[i, j + 1] - h[i, j]) * (1 - fy) + (h[i + 1, j + 1] - h[i + 1, j]) * fy) / d
-        gy = ((h[i + 1, j] - h[i, j]) * (1 - fx) + (h[i + 1, j + 1] - h[i, j + 1]) * fx) / d
+        h00, h01, h10, h11 = h[i, j], h[i, j + 1], h[i + 1, j], h[i + 1, j + 1]
+        lower = fx >= fy
+        gx = np.where(lower, h01 - h00, h11 - h10) / d
+        gy = np.where(lower, h11 - h01, h10 - h00) / d
         return np.where(inside, gx, 0.0), np.where(inside, gy, 0.0)
 
 
@@ -368,7 +372,7 @@ def rough(amplitude: float, seed: int) -> Terrain:
     ys = np.arange(-1.5, 1.5 + 1e-9, d)
     h = np.random.default_rng(int(seed)).uniform(-amplitude, amplitude, (len(ys), len(xs)))
     h[:, xs <= 0.4 + 1e-9] = 0.0
-    return Terrain(f"rough:{amplitude:g}:{seed}", 0.0, (), Heightfield(np.array([xs[0], ys[0]]), d, h))
+    return Terrain(f"rough:{amplitude:g}:{seed}", -amplitude - 0.05, (), Heightfield(np.array([xs[0], ys[0]]), d, h))
 
 
 def _from_file(path: Path, spec: str) -> Terrain:

@@ -77,6 +77,8 @@ class OutcomeMonitor:
             self.is_foot[sim.foot_geoms[s]] = True
             self.geom_side[sim.foot_geoms[s]] = i
         self.floor = sim.floor_geom
+        self.is_ground = np.zeros(model.ngeom + 1, dtype=bool)  # the plane and the terrain's geoms
+        self.is_ground[sim.floor_geom if sim.ground_geoms is None else sim.ground_geoms] = True
         self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
         self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
@@ -129,7 +131,7 @@ class OutcomeMonitor:
         if ncon:
             g1 = d.contact.geom1[:ncon]
             g2 = d.contact.geom2[:ncon]
-            other = np.where(g1 == self.floor, g2, np.where(g2 == self.floor, g1, -1))
+            other = np.where(self.is_ground[g1], g2, np.where(self.is_ground[g2], g1, -1))
             bad = other[(other >= 0) & ~self.is_foot[other]]
             for c in np.flatnonzero(other >= 0):
                 s = self.geom_side[other[c]]
