@@ -152,3 +152,15 @@ def test_bad_files_and_boxes(tmp_path):
     good = tmp_path / "ok.toml"
     good.write_text("floor_z = 0.0\n[[boxes]]\ncenter = [1.0, 0.0, 0.05]\nsize = [0.4, 1.0, 0.1]\n")
     assert parse_terrain(str(good)).height(1.0, 0.0) == pytest.approx(0.1)
+
+
+def test_cli_refuses_a_bad_terrain_in_one_line_with_exit_2():
+    import os
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "wbc", "walk", "--terrain", "stairs:0.1:0.3:0"], capture_output=True,
+                       text=True, env=os.environ.copy(), timeout=120)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "N = 0 is out of range (valid: 1 <= N <= 100)" in lines[0]

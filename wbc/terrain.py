@@ -11,7 +11,7 @@ Textual descriptions (:func:`parse_terrain`, the ``--terrain`` option of the com
 
 * ``flat``: the plane ``z = 0``.
 * ``stairs:RISE:TREAD:N[:up|down|updown]``: ``N`` steps of ``RISE`` m rise and ``TREAD`` m tread along +x, the
-  first riser at ``x = max(TREAD / 2, 0.2)``, 2 m wide (``|y| <= 1``). ``up`` (default) ends on a 1.5 m landing;
+  first riser at ``x = max(TREAD / 2, 0.2)``, 2 m wide (``|y| <= 1``). ``up`` (default) ends on a 1.5 m landing (then a drop to the floor);
   ``down`` starts on a platform at ``z = 0`` and ends on the base plane ``z = −N · RISE``; ``updown`` climbs, crosses
   a ``3 · TREAD`` landing and descends back to ``z = 0``.
 * ``slope:DEG[:LENGTH]``: a ramp up at ``DEG`` degrees over ``LENGTH`` m (horizontal, default 2) starting at
@@ -267,6 +267,34 @@ class Terrain:
         return float(np.abs(self.height(px, py) - plane).max())
 
 
+    def swing_clearance(self, poses: np.ndarray, start_xy: np.ndarray, land_xy: np.ndarray, length: float,
+                        width: float, approach: float) -> float:
+        """Smallest height (m) of a swinging sole's underside above the ground, away from lift-off and touch-down.
+
+        The sole rectangle ``length × width`` (m, centred on the sole frame, in its xy plane) is sampled at 5 × 3
+        points (corners, edge midpoints, centre) at every pose of ``poses``; a pose counts only when its origin
+        is more than ``approach`` m (horizontally) from both ``start_xy`` and ``land_xy``, so the vertical lift-off
+        and touch-down near the footholds are not counted, the crossing of step edges in between is.
+
+        Args:
+            poses: (n, 4, 4) world poses of the sole frame along the swing.
+            start_xy, land_xy: (2,) lift-off and landing positions of the sole origin (m, world).
+
+        Returns:
+            The minimum of ``z(point) − height(x, y of point)`` over the counted poses; ``inf`` when none counts.
+        """
+        P = np.asarray(poses, dtype=float)
+        c = P[:, :2, 3]
+        far = (np.linalg.norm(c - np.asarray(start_xy, dtype=float), axis=1) > approach) & \
+              (np.linalg.norm(c - np.asarray(land_xy, dtype=float), axis=1) > approach)
+        if not far.any():
+            return math.inf
+        u, w = np.meshgrid(np.linspace(-0.5 * length, 0.5 * length, 5), np.linspace(-0.5 * width, 0.5 * width, 3))
+        local = np.stack([u.ravel(), w.ravel(), np.zeros(u.size)])  # (3, 15)
+        pts = np.matmul(P[far, :3, :3], local) + P[far, :3, 3:4]  # (m, 3, 15)
+        return float((pts[:, 2] - self.height(pts[:, 0], pts[:, 1])).min())
+
+
 # ----------------------------------------------------------------------------------------------------- parsing
 def _num(text: str, what: str, lo: float, hi: float, spec: str, *, lo_open: bool = False) -> float:
     try:
@@ -333,7 +361,7 @@ def stairs(rise: float, tread: float, n: int, direction: str = "up") -> Terrain:
             a += tread
         treads.append((a, math.inf, 0.0))
     else:
-        treads[-1] = (treads[-1][0], math.inf, treads[-1][2])
+        treads.append((treads[-1][1], math.inf, 0.0))  # beyond the landing: the floor
     return Terrain(name, 0.0, tuple(boxes), None, tuple(treads))
 
 
