@@ -115,7 +115,7 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
 
 
 def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
-                      clearance: float = 0.03, max_apex: float = 0.35, max_shift: float | None = None,
+                      clearance: float = 0.05, max_apex: float = 0.35, max_shift: float | None = None,
                       approach: float | None = None, **walk) -> TerrainWalk:
     """Plan a walk on ``terrain`` (module docstring).
 
