@@ -25,7 +25,9 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    ``ξ = c + ċ/ω`` obeys ``ξ̇ = ω (ξ − v)`` in all three axes with one constant ω. The xy part is the plan's LIPM
    (eCMP = ZMP reference); the z part is solved by the same exact piecewise-linear recursion
    (:func:`wbc.gait.plan_lipm`) for ``v_z`` = the stance sole's height + ``Δz`` in single support, linear between
-   the two stance heights in double support (the schedule of :mod:`wbc.gait.schedule` applied to heights), so the
+   the two stance heights in double support (the schedule of :mod:`wbc.gait.schedule` applied to heights; before a
+   step down the single support already goes linearly to the lower height, so that the stance leg bends and the
+   swing leg reaches the lower tread), so the
    CoM stays ``Δz`` (the initial CoM height) above the supporting ground at rest and moves between levels along
    the DCM plan.
 
@@ -230,6 +232,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     zl, zr = float(initial[0][2, 3]), float(initial[1][2, 3])
     zsteps = [Footstep(f.side, float(H[2, 3]), float(H[2, 3]), f.yaw) for f, H in zip(steps, holds)]
     zseg = zmp_segments(list(plan.phases), zsteps, (zl, zl), (zr, zr), int(seg.count[-2]))
+    zseg = _lower_before_stepping_down(zseg, list(plan.phases), holds)
     dz = float(com[2]) - 0.5 * (zl + zr)
     zstart = zseg.start[:, :1].repeat(2, axis=1) + dz
     zend = zseg.end[:, :1].repeat(2, axis=1) + dz
@@ -249,3 +252,20 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     holds.flags.writeable = False
     return TerrainWalk(plan, terrain, holds, np.array(shifts), apex, planned, approach)
 
+
+
+def _lower_before_stepping_down(zseg, phases, holds: np.ndarray):
+    """Height schedule with every step down anticipated: in the single support of a swing landing lower than its
+    stance foot, the height reference goes linearly from the stance height to the landing height (the stance leg
+    bends, so that the swing leg reaches the lower tread), and the double support after it stays there."""
+    start, end = zseg.start.copy(), zseg.end.copy()
+    for j in range(len(start)):
+        ph = phases[int(zseg.phase[j])]
+        if ph.step < 0:
+            continue
+        z_land = float(holds[ph.step][2, 3])
+        if z_land < start[j, 0] - 1e-9:
+            end[j] = z_land
+            if j + 1 < len(start):
+                start[j + 1] = z_land
+    return type(zseg)(zseg.first, zseg.count, start, end, zseg.phase)

@@ -5,7 +5,9 @@ velocities of the new state) and decides:
 
 * **fall** — the first of
   - base drop: the root body (the floating base, e.g. Talos' ``base_link`` = pelvis) lower than its initial height
-    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m;
+    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m (on a terrain, ``sim.terrain`` not None: its height above the
+    lower of the two soles lower than at the start by more than that — walking down stairs lowers the base with
+    the feet);
   - tilt: the **root body** (pelvis) or the **torso body** (the body carrying ``robot.torso``) tilted by more than
     :data:`FALL_TILT_DEG` = 30° from its nominal orientation. The nominal is the body's orientation at the start
     (``robot.q_ref``); tilt is the angle between the body-fixed axis that pointed up (world +z) at the start and
@@ -92,6 +94,13 @@ class OutcomeMonitor:
         self._in_support = np.zeros(2, dtype=bool)
         self._off_ticks = np.zeros(2, dtype=int)
         self._first = True
+        # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
+        self.on_terrain = getattr(sim, "terrain", None) is not None
+        self.zf0 = self.support_height() if self.on_terrain else 0.0
+
+    def support_height(self) -> float:
+        """World height (m) of the lower of the two soles (mean of its corners), from MuJoCo's body poses."""
+        return float(min(self.corners_world(0)[:, 2].mean(), self.corners_world(1)[:, 2].mean()))
 
     def corners_world(self, side: int) -> np.ndarray:
         """(4, 3) world positions (m) of the sole corners of ``side`` (0 left, 1 right) from MuJoCo's body pose."""
@@ -143,7 +152,7 @@ class OutcomeMonitor:
             if len(bad):
                 names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
-            elif d.qpos[2] < self.z0 - FALL_HEIGHT_DROP:
+            elif d.qpos[2] - (self.support_height() if self.on_terrain else 0.0) < self.z0 - self.zf0 - FALL_HEIGHT_DROP:
                 self.fall_reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
             elif tilted:
                 self.fall_reason = f"tilt > {FALL_TILT_DEG:g}° from nominal: " + ", ".join(tilted)
