@@ -13,7 +13,7 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
    soles lie flat on slopes.
 3. **Swings** (:func:`wbc.gait.sample_feet` between the 3-D footholds; the height change made by a minimum-jerk
-   blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LEAD` going
+   blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LAG` going
    down — the foot rises before it moves over the next tread and leaves its tread before it descends — plus the
    clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
@@ -54,7 +54,8 @@ from wbc.terrain import Terrain, parse_terrain
 
 __all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
 
-VERTICAL_LEAD = 0.6  #: fraction of a swing over which its height change is made (first part up, last part down)
+VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
+VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
 SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
 _SHIFT_STEP = 0.005  # m: grid of the foothold search
 
@@ -199,7 +200,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     bump, dbump = 64.0 * sm**3, 192.0 * sm**2 * (1.0 - 2.0 * s) / T
     # height blends: rising over the first VERTICAL_LEAD of the swing, descending over its last VERTICAL_LEAD
     up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
-    dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LEAD) / VERTICAL_LEAD, 0.0))
+    dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
     h0 = float(walk.get("step_height", 0.05))
     apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
     latest = [initial[0], initial[1]]
@@ -207,9 +208,9 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         a, b = ph.first, ph.first + n_ss
         start, land = latest[f][:2, 3].copy(), holds[ph.step][:2, 3]
         z0, z1 = float(latest[f][2, 3]), float(holds[ph.step][2, 3])
-        zb, zdb = (up_b, up_db) if z1 >= z0 else (dn_b, dn_db)
+        zb, zdb, frac = (up_b, up_db, VERTICAL_LEAD) if z1 >= z0 else (dn_b, dn_db, VERTICAL_LAG)
         poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
-        vels[f, a:b, 2] = (z1 - z0) * zdb / (VERTICAL_LEAD * T)
+        vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
         base = poses[f, a:b].copy()
         h = h0
         while True:
