@@ -37,7 +37,7 @@ import numpy as np
 
 from wbc.exceptions import TerrainError
 
-__all__ = ["Box", "Heightfield", "Terrain", "parse_terrain", "TERRAIN_KINDS", "FLOOR", "HEIGHTFIELD"]
+__all__ = ["Box", "Heightfield", "Terrain", "parse_terrain", "TERRAIN_KINDS", "FLOOR", "HEIGHTFIELD", "EDGE_HEIGHT"]
 
 #: The textual kinds :func:`parse_terrain` accepts (a file path is accepted too).
 TERRAIN_KINDS = ("flat", "stairs:RISE:TREAD:N[:up|down|updown]", "slope:DEG[:LENGTH]", "rough:AMPLITUDE:SEED",
@@ -45,6 +45,7 @@ TERRAIN_KINDS = ("flat", "stairs:RISE:TREAD:N[:up|down|updown]", "slope:DEG[:LEN
 FLOOR = -1  #: :meth:`Terrain.part_at` index of the base plane
 HEIGHTFIELD = -2  #: :meth:`Terrain.part_at` index of the heightfield
 
+EDGE_HEIGHT = 0.02  #: m: ground this far above a landing surface's plane is a step edge (swing_clearance)
 _MAX_TILT = math.radians(60.0)  # a box top face steeper than this is a wall, not ground
 
 
@@ -272,27 +273,39 @@ class Terrain:
         """Smallest height (m) of a swinging sole's underside above the ground, away from lift-off and touch-down.
 
         The sole rectangle ``length × width`` (m, centred on the sole frame, in its xy plane) is sampled at 5 × 3
-        points (corners, edge midpoints, centre) at every pose of ``poses``; a pose counts only when its origin
-        is more than ``approach`` m (horizontally) from both ``start_xy`` and ``land_xy``, so the vertical lift-off
-        and touch-down near the footholds are not counted, the crossing of step edges in between is.
+        points (corners, edge midpoints, centre) at every pose of ``poses``; a pose counts when its origin is more
+        than ``approach`` m (horizontally) from both ``start_xy`` and ``land_xy``, so the vertical lift-off
+        and touch-down near the footholds are not counted, the crossing of step edges in between is. Given a 3-D
+        ``land_xy``, the points of a pose near the landing still count over ground more than :data:`EDGE_HEIGHT`
+        above the plane of the landing surface (the edge of the tread a foot steps down from).
 
         Args:
             poses: (n, 4, 4) world poses of the sole frame along the swing.
-            start_xy, land_xy: (2,) lift-off and landing positions of the sole origin (m, world).
+            start_xy, land_xy: (2,) lift-off position, (2,) or (3,) landing position of the sole origin (m, world).
 
         Returns:
             The minimum of ``z(point) − height(x, y of point)`` over the counted poses; ``inf`` when none counts.
         """
         P = np.asarray(poses, dtype=float)
         c = P[:, :2, 3]
-        far = (np.linalg.norm(c - np.asarray(start_xy, dtype=float), axis=1) > approach) & \
-              (np.linalg.norm(c - np.asarray(land_xy, dtype=float), axis=1) > approach)
-        if not far.any():
-            return math.inf
+        start, land = np.asarray(start_xy, dtype=float), np.asarray(land_xy, dtype=float)
+        near_start = np.linalg.norm(c - start[:2], axis=1) <= approach
+        near_land = np.linalg.norm(c - land[:2], axis=1) <= approach
         u, w = np.meshgrid(np.linspace(-0.5 * length, 0.5 * length, 5), np.linspace(-0.5 * width, 0.5 * width, 3))
         local = np.stack([u.ravel(), w.ravel(), np.zeros(u.size)])  # (3, 15)
-        pts = np.matmul(P[far, :3, :3], local) + P[far, :3, 3:4]  # (m, 3, 15)
-        return float((pts[:, 2] - self.height(pts[:, 0], pts[:, 1])).min())
+        pts = np.matmul(P[:, :3, :3], local) + P[:, :3, 3:4]  # (n, 3, 15)
+        ground = self.height(pts[:, 0], pts[:, 1])
+        count = np.ones(ground.shape, dtype=bool)
+        count[near_start] = False
+        if len(land) == 3:  # near the landing: ground above the landing surface's plane (an edge) still counts
+            n = self.normal(float(land[0]), float(land[1]))
+            plane = land[2] - (n[0] * (pts[:, 0] - land[0]) + n[1] * (pts[:, 1] - land[1])) / n[2]
+            count[near_land] &= ground[near_land] > plane[near_land] + EDGE_HEIGHT
+        else:
+            count[near_land] = False
+        if not count.any():
+            return math.inf
+        return float((pts[:, 2] - ground)[count].min())
 
 
 # ----------------------------------------------------------------------------------------------------- parsing

@@ -14,7 +14,7 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    soles lie flat on slopes.
 3. **Swings** (:func:`wbc.gait.sample_feet` between the 3-D footholds; the height change made by a minimum-jerk
    blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LAG` going
-   down — the foot rises before it moves over the next tread and leaves its tread before it descends — plus the
+   down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves over the next tread and leaves its tread before it descends — plus the
    clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
@@ -55,6 +55,7 @@ from wbc.terrain import Terrain, parse_terrain
 __all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
 
 VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
+HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over which it moves horizontally
 VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
 SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
 _SHIFT_STEP = 0.005  # m: grid of the foothold search
@@ -201,16 +202,21 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     # height blends: rising over the first VERTICAL_LEAD of the swing, descending over its last VERTICAL_LEAD
     up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
     dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
+    fw_b, fw_db, _ = min_jerk(np.minimum(s / HORIZONTAL_LEAD, 1.0))
     h0 = float(walk.get("step_height", 0.05))
     apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
     latest = [initial[0], initial[1]]
     for ph, f in zip(swings, foot):
         a, b = ph.first, ph.first + n_ss
-        start, land = latest[f][:2, 3].copy(), holds[ph.step][:2, 3]
+        start, land = latest[f][:3, 3].copy(), holds[ph.step][:3, 3]
         z0, z1 = float(latest[f][2, 3]), float(holds[ph.step][2, 3])
         zb, zdb, frac = (up_b, up_db, VERTICAL_LEAD) if z1 >= z0 else (dn_b, dn_db, VERTICAL_LAG)
         poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
         vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
+        if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
+            dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
+            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
+            vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
         base = poses[f, a:b].copy()
         h = h0
         while True:

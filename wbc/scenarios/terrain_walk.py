@@ -101,7 +101,7 @@ def terrain_summary(walk: TerrainWalk, left: np.ndarray, right: np.ndarray, leng
         gaps.append(terrain.sole_support(float(P[k, 0, 3]), float(P[k, 1, 3]), yaw, length, width, 0.0))
         a, b = ph.first, min(ph.end, n)
         if b > a:
-            clear.append(terrain.swing_clearance(P[a:b], P[a, :2, 3], hold[:2, 3], length, width, walk.approach))
+            clear.append(terrain.swing_clearance(P[a:b], P[a, :3, 3], hold[:3, 3], length, width, walk.approach))
     finite = [c for c in clear if math.isfinite(c)]
     planned = [c for c in walk.planned_clearance.tolist() if math.isfinite(c)]
     return {
