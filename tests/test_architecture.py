@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions", "wbc.compiled", "wbc.solver_status"),
-    ("wbc.geometry", "wbc.profiles"),
+    ("wbc.geometry", "wbc.profiles", "wbc.terrain"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.formulations", "wbc.dynamics",

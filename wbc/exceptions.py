@@ -58,6 +58,10 @@ class GaitError(InvalidInputError):
     """A gait request cannot be planned (bad step count, timing, geometry...)."""
 
 
+class TerrainError(InvalidInputError):
+    """A terrain description cannot be parsed or built (unknown kind, bad number, malformed file)."""
+
+
 class UnknownSolverError(WbcError, ValueError):
     """A QP backend name is not installed or not known. The message lists the available ones."""
 

@@ -143,7 +143,7 @@ def write_recording(robot, run, path: Path, **scene) -> None:
 
 
 #: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
-SCENE_KEYS = ("polygons", "paths", "outlines", "arrows")
+SCENE_KEYS = ("polygons", "paths", "outlines", "arrows", "terrain")
 
 
 def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:

@@ -45,6 +45,10 @@ def check_sim_args(args) -> None:
     """
     from wbc.exceptions import InvalidInputError
 
+    if isinstance(getattr(args, "terrain", None), str):
+        from wbc.terrain import parse_terrain
+
+        args.terrain = parse_terrain(args.terrain)
     if args.duration is not None:
         check_ticks(f"--duration {args.duration:g}", args.duration, SIM_DT)
     if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
@@ -108,6 +112,10 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
     w.add_argument("--no-step-adjust", action="store_true",
                    help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
+    w.add_argument("--terrain", default=None,
+                   help="walk: ground, flat | stairs:RISE:TREAD:N[:up|down|updown] | slope:DEG[:LENGTH] | "
+                        "rough:AMPLITUDE:SEED | FILE.json/.toml (see wbc.terrain); built into the MuJoCo plant and "
+                        "planned on (no step adjustment off flat ground; default flat)")
     w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,
@@ -199,7 +207,7 @@ def _scenario(args, robot):
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
-                            zmp_feedback=args.zmp_feedback)
+                            zmp_feedback=args.zmp_feedback, terrain=getattr(args, "terrain", None))
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 
@@ -243,6 +251,10 @@ def cmd_sim(args) -> int:
 
     status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
     robot = robot_from_args(args)
+    terrain = getattr(args, "terrain", None)
+    if terrain is not None and len(terrain.treads) > 2 and getattr(args, "step_length", None) is None \
+            and getattr(args, "vx", None) is None:
+        args.step_length = terrain.treads[1][1] - terrain.treads[1][0]  # stairs: one foot per tread
     _gait_defaults(args, robot)
     if args.scenario == "walk":
         check_sim_args(args)  # again, with the robot's own step duration
@@ -251,7 +263,8 @@ def cmd_sim(args) -> int:
     drives = actuator_model(robot, args.plant, no_load_factor=factor)
     foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
     sim = build_mujoco_model(robot, cone=args.cone, foot_contact=foot,
-                             **({} if args.impratio is None else {"impratio": args.impratio}))
+                             **({} if args.impratio is None else {"impratio": args.impratio}),
+                             **({} if getattr(args, "terrain", None) is None else {"terrain": args.terrain}))
     apply_actuators(sim, drives)
     compensation = {}
     if args.plant == "realistic":
@@ -380,6 +393,8 @@ def cmd_sim(args) -> int:
         from wbc.viz.overlays import sim_overlays
 
         scene = sim_overlays(run, robot, getattr(scenario, "plan", None))
+        if getattr(sim, "terrain", None) is not None:
+            scene["terrain"] = sim.terrain
     write_outputs(args, summary, run, robot, overlays=scene.get("points"), scene=scene)
     if args.video:
         from wbc.sim.video import render_video

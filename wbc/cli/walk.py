@@ -81,9 +81,24 @@ def precheck_walk_args(args) -> None:
         raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
                                 f"{MIN_STEPS}; the last step brings the feet side by side)")
     check_dt(args.dt)
+    check_terrain(args)
     period = _catalog_period(str(args.robot))
     if period is not None:
         check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+
+
+def check_terrain(args) -> None:
+    """Parse ``--terrain`` once, before any work: ``args.terrain`` becomes a :class:`wbc.terrain.Terrain`.
+
+    Raises:
+        InvalidInputError: (``TerrainError``) the description cannot be parsed; the message names the field and
+            the valid forms.
+    """
+    from wbc.terrain import Terrain, parse_terrain
+
+    spec = getattr(args, "terrain", None)
+    if spec is not None and not isinstance(spec, Terrain):
+        args.terrain = parse_terrain(spec)
 
 
 def check_walk_args(args, robot) -> None:
@@ -173,8 +188,19 @@ def cmd_walk(args) -> int:
     velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
     status(args, f"wbc walk: planning {args.steps} steps ...")
-    plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
-                             step_width=args.step_width, turn=math.radians(args.turn), dt=args.dt, **velocity)
+    check_terrain(args)
+    terrain = getattr(args, "terrain", None)
+    terrain_walk = None
+    if terrain is None or terrain.is_flat:
+        plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
+                                 step_width=args.step_width, turn=math.radians(args.turn), dt=args.dt, **velocity)
+    else:
+        from wbc.scenarios.terrain_walk import plan_default_terrain_walk
+
+        terrain_walk = plan_default_terrain_walk(robot, terrain, n_steps=args.steps, step_length=args.step_length,
+                                                 step_width=args.step_width, turn=math.radians(args.turn),
+                                                 dt=args.dt, **velocity)
+        plan = terrain_walk.plan
     viewer = pacer = None
     if args.live:
         from wbc.viz.live_overlays import LiveOverlays
@@ -193,12 +219,26 @@ def cmd_walk(args) -> int:
     summary["solver"] = args.solver
     summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
     passed, failures = walk_passes(summary)
+    if terrain_walk is not None:
+        from wbc.scenarios.terrain_walk import terrain_passes, terrain_summary
+
+        summary.update(terrain_summary(terrain_walk, run.left_sole, run.right_sole, robot.sole_length,
+                                       robot.sole_width))
+        ok, more = terrain_passes(summary)
+        passed, failures = passed and ok, failures + more
     summary["passed"] = passed
     summary["failed_criteria"] = failures
     print(f"wbc walk: {robot.name}, {summary['steps']} steps, {summary['ticks']} ticks at "
           f"{1 / args.dt:.0f} Hz, solver {args.solver}")
     print_summary(summary)
     scene = walk_overlays(robot, plan, run)
+    if terrain_walk is not None:  # the terrain, and the planned footholds at their height
+        from wbc.geometry import sole_polygon
+
+        scene["terrain"] = terrain_walk.terrain
+        scene["outlines"]["footsteps_planned"] = [
+            np.c_[sole_polygon(H[0, 3], H[1, 3], math.atan2(H[1, 0], H[0, 0]), robot.sole_length, robot.sole_width),
+                  np.full(4, H[2, 3] + 0.002)] for H in terrain_walk.footholds]
     write_outputs(args, summary, run, robot, overlays=scene["points"], scene=scene)
     return 0 if passed else 1
 
@@ -226,6 +266,10 @@ def register(sub, add_outputs=add_outputs) -> None:
                       help="lateral velocity command, m/s, + left (side-steps of vy x step duration)")
     walk.add_argument("--wz", type=finite(), default=None,
                       help="turning velocity command, deg/s (sets --turn = wz x step duration)")
+    walk.add_argument("--terrain", default="flat",
+                      help="ground: flat | stairs:RISE:TREAD:N[:up|down|updown] | slope:DEG[:LENGTH] | "
+                           "rough:AMPLITUDE:SEED | FILE.json/.toml (boxes, heightfield); m and degrees, see "
+                           "wbc.terrain (default flat; on stairs the step length defaults to the tread)")
     walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002,
                       help=f"control period, s (default 0.002; valid {DT_RANGE[0]:g}..{DT_RANGE[1]:g})")

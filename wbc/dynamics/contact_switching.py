@@ -81,6 +81,9 @@ class ContactSwitcher:
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
         self.ramp_time = float(ramp_time)
         self.touchdown_height = float(touchdown_height)
+        #: side -> world height (m) of the ground the swing foot lands on (terrain; 0 on flat ground):
+        #: touch-down is ``z − ground_height ≤ touchdown_height``
+        self.ground_height = {"left": 0.0, "right": 0.0}
         self.touchdown_speed = float(touchdown_speed)
         self._model = robot.model
         self._data = robot.model.createData()
@@ -193,5 +196,5 @@ class ContactSwitcher:
                     c.set_max_normal_force(s, self.full_force * a)
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
-                if z <= self.touchdown_height and vz <= self.touchdown_speed:
+                if z - self.ground_height[s] <= self.touchdown_height and vz <= self.touchdown_speed:
                     self.touch_down(s, t)

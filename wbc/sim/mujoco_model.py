@@ -107,6 +107,7 @@ def build_mujoco_model(
     customize: Callable[[mujoco.MjSpec], None] | None = None,
     sensors: bool = True,
     plant: str = "ideal",
+    terrain=None,
 ) -> MujocoModel:
     """Compile a MuJoCo model of ``robot`` from its URDF (see the module docstring for every modelling choice).
 
@@ -129,6 +130,9 @@ def build_mujoco_model(
             ``"realistic"`` (the drives of :func:`wbc.sim.actuators.actuator_model` with its defaults: URDF damping
             and dry friction, rotor armature, torque–speed envelope; replaces ``zero_joint_damping_friction``).
             For other drive settings call :func:`wbc.sim.actuators.apply_actuators` on the ideal model.
+        terrain: a :class:`wbc.terrain.Terrain` (or its description, :func:`wbc.terrain.parse_terrain`); None or
+            flat: the plane ``z = 0`` alone. Otherwise :func:`add_terrain` builds it (the base plane ``floor`` at
+            the terrain's ``floor_z``, one box geom per terrain box, an ``hfield``), every part a ground geom.
 
     Returns:
         A :class:`MujocoModel` whose state is ``robot.q_ref`` at rest (``mj_forward`` done).
@@ -234,6 +238,12 @@ def build_mujoco_model(
         conaffinity=ENV_BIT | ROBOT_BIT, friction=[floor_friction, 0.005, 0.0001], priority=1,
         rgba=[0.8, 0.8, 0.8, 1.0],
     )
+    ground_names = ["floor"]
+    if terrain is not None:
+        from wbc.terrain import parse_terrain
+
+        terrain = parse_terrain(terrain)
+        ground_names += add_terrain(spec, terrain, floor_friction)
     if self_collision == "srdf":
         bodies = {b.name for b in spec.bodies}
         for a, b in _srdf_disabled_pairs(robot.srdf_path):
@@ -251,11 +261,54 @@ def build_mujoco_model(
     except Exception as exc:
         raise SimulationError(f"MuJoCo cannot compile the model of {robot.name!r}: {exc}") from exc
     sim = _assemble(robot, model, feet, foot_contact, not zero_joint_damping_friction, effort)
+    sim.ground_geoms = np.array([model.geom(n).id for n in ground_names], dtype=int)
+    sim.terrain = terrain
     if plant == "realistic":
         apply_actuators(sim, actuator_model(robot, plant))
         sim.damping_friction_in_sim = True
         sim.set_state(robot.q_ref, np.zeros(pmodel.nv))
     return sim
+
+
+def add_terrain(spec: mujoco.MjSpec, terrain, friction: float = 1.0) -> list[str]:
+    """Add a terrain's geometry to ``spec`` (world body), with the floor's collision bits, friction and priority.
+
+    The plane ``floor`` (already in the spec) moves to ``z = terrain.floor_z``; each :class:`wbc.terrain.Box`
+    becomes a box geom ``terrain_box_<i>`` (same centre, size and rotation); the heightfield becomes an ``hfield``
+    asset ``terrain_hf`` and its geom ``terrain_hfield`` (MuJoCo triangulates each cell along the diagonal from
+    node (i, j) to (i + 1, j + 1), as :meth:`wbc.terrain.Heightfield.height`; heights stored in float32).
+
+    Args:
+        spec: the model being built. terrain: a :class:`wbc.terrain.Terrain`. friction: sliding friction.
+
+    Returns:
+        Names of the geoms added (the ground geoms besides ``floor``).
+    """
+    floor = spec.geom("floor")
+    floor.pos = [0.0, 0.0, float(terrain.floor_z)]
+    common = dict(contype=ENV_BIT, conaffinity=ENV_BIT | ROBOT_BIT, friction=[friction, 0.005, 0.0001],
+                  priority=1)
+    names = []
+    for i, box in enumerate(terrain.boxes):
+        quat = pin.Quaternion(box.rotation)
+        name = f"terrain_box_{i}"
+        spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=box.center.tolist(),
+                                quat=[quat.w, quat.x, quat.y, quat.z], size=(0.5 * box.size).tolist(),
+                                rgba=[0.6, 0.6, 0.65, 1.0], **common)
+        names.append(name)
+    hf = terrain.heightfield
+    if hf is not None:
+        h = hf.heights
+        lo, hi = float(h.min()), float(h.max())
+        span = max(hi - lo, 1e-6)
+        x0, x1, y0, y1 = hf.extent
+        asset = spec.add_hfield(name="terrain_hf", nrow=h.shape[0], ncol=h.shape[1],
+                                size=[0.5 * (x1 - x0), 0.5 * (y1 - y0), span, 0.05])
+        asset.userdata = ((h - lo) / span).astype(np.float32).ravel().tolist()  # row i: y0 + i spacing
+        spec.worldbody.add_geom(name="terrain_hfield", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain_hf",
+                                pos=[0.5 * (x0 + x1), 0.5 * (y0 + y1), lo], rgba=[0.55, 0.5, 0.45, 1.0], **common)
+        names.append("terrain_hfield")
+    return names
 
 
 def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:

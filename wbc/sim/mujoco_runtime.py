@@ -38,6 +38,9 @@ class MujocoModel:
         joint_damping, joint_friction: (nv - 6,) URDF viscous damping (N·m·s/rad) and dry friction (N·m),
             Pinocchio order; applied by MuJoCo only when ``damping_friction_in_sim``.
         floor_geom: geom id of the ground plane.
+        ground_geoms: ids of every ground geom (the plane and the terrain's boxes and heightfield,
+            :func:`wbc.sim.mujoco_model.add_terrain`); None: the plane alone.
+        terrain: the :class:`wbc.terrain.Terrain` built into the model, or None (flat).
         foot_geoms: side ("left"/"right") -> geom ids that make the foot's ground contact.
         foot_bodies: side -> ids of the bodies rigidly attached to the sole frame.
         sole_placements: side -> (body id, sole frame placement in that body's frame).
@@ -60,6 +63,8 @@ class MujocoModel:
     foot_bodies: dict[str, np.ndarray]
     sole_placements: dict[str, tuple[int, pin.SE3]]
     drive: object | None = None
+    ground_geoms: np.ndarray | None = None
+    terrain: object | None = None
 
     @property
     def timestep(self) -> float:
@@ -154,11 +159,12 @@ class MujocoModel:
         """Yield (contact index, robot geom id, sign) for contacts with the floor; sign makes forces act on the
         robot geom."""
         con = d.contact
+        ground = (self.floor_geom,) if self.ground_geoms is None else set(self.ground_geoms.tolist())
         for i in range(d.ncon):
             g1, g2 = int(con.geom1[i]), int(con.geom2[i])
-            if g1 == self.floor_geom:
+            if g1 in ground:
                 yield i, g2, 1.0
-            elif g2 == self.floor_geom:
+            elif g2 in ground:
                 yield i, g1, -1.0
 
     def non_foot_ground_contacts(self, data: mujoco.MjData | None = None) -> list[str]:

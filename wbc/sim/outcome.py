@@ -5,7 +5,9 @@ velocities of the new state) and decides:
 
 * **fall** — the first of
   - base drop: the root body (the floating base, e.g. Talos' ``base_link`` = pelvis) lower than its initial height
-    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m;
+    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m (on a terrain, ``sim.terrain`` not None: its height above the
+    lower of the two soles lower than at the start by more than that — walking down stairs lowers the base with
+    the feet);
   - tilt: the **root body** (pelvis) or the **torso body** (the body carrying ``robot.torso``) tilted by more than
     :data:`FALL_TILT_DEG` = 30° from its nominal orientation. The nominal is the body's orientation at the start
     (``robot.q_ref``); tilt is the angle between the body-fixed axis that pointed up (world +z) at the start and
@@ -77,6 +79,8 @@ class OutcomeMonitor:
             self.is_foot[sim.foot_geoms[s]] = True
             self.geom_side[sim.foot_geoms[s]] = i
         self.floor = sim.floor_geom
+        self.is_ground = np.zeros(model.ngeom + 1, dtype=bool)  # the plane and the terrain's geoms
+        self.is_ground[sim.floor_geom if sim.ground_geoms is None else sim.ground_geoms] = True
         self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
         self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
@@ -92,6 +96,13 @@ class OutcomeMonitor:
         self._in_support = np.zeros(2, dtype=bool)
         self._off_ticks = np.zeros(2, dtype=int)
         self._first = True
+        # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
+        self.on_terrain = getattr(sim, "terrain", None) is not None
+        self.zf0 = self.support_height() if self.on_terrain else 0.0
+
+    def support_height(self) -> float:
+        """World height (m) of the lower of the two soles (mean of its corners), from MuJoCo's body poses."""
+        return float(min(self.corners_world(0)[:, 2].mean(), self.corners_world(1)[:, 2].mean()))
 
     def corners_world(self, side: int) -> np.ndarray:
         """(4, 3) world positions (m) of the sole corners of ``side`` (0 left, 1 right) from MuJoCo's body pose."""
@@ -128,7 +139,7 @@ class OutcomeMonitor:
             con = d.contact
             g1 = con.geom1[:ncon]
             g2 = con.geom2[:ncon]
-            other = np.where(g1 == self.floor, g2, np.where(g2 == self.floor, g1, -1))
+            other = np.where(self.is_ground[g1], g2, np.where(self.is_ground[g2], g1, -1))
             bad = other[(other >= 0) & ~self.is_foot[other]]
             side = np.where(other >= 0, self.geom_side[other], -1)
             pos = None
@@ -147,7 +158,7 @@ class OutcomeMonitor:
             if len(bad):
                 names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
-            elif d.qpos[2] < self.z0 - FALL_HEIGHT_DROP:
+            elif d.qpos[2] - (self.support_height() if self.on_terrain else 0.0) < self.z0 - self.zf0 - FALL_HEIGHT_DROP:
                 self.fall_reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
             elif tilted:
                 self.fall_reason = f"tilt > {FALL_TILT_DEG:g}° from nominal: " + ", ".join(tilted)

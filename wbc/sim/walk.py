@@ -252,7 +252,14 @@ class WalkScenario:
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
-                 stabilizer_gains: dict | None = None):
+                 stabilizer_gains: dict | None = None, terrain=None):
+        from wbc.terrain import parse_terrain
+
+        self.terrain = None if terrain is None else parse_terrain(terrain)
+        if self.terrain is not None and self.terrain.is_flat:
+            self.terrain = None
+        if self.terrain is not None:
+            step_adjust = False  # (replanning keeps a constant CoM height; footholds must stay on their treads)
         gains = {} if stabilizer_gains is None else stabilizer_gains
         if not isinstance(gains, dict) or set(gains) - {"k_xi", "k_i"}:
             raise InvalidInputError(f"stabilizer_gains must be a dict with keys among k_xi, k_i (k_z is zmp_feedback), "
@@ -315,12 +322,20 @@ class WalkScenario:
         self._fid = {"left": robot.frame_id(robot.left_sole), "right": robot.frame_id(robot.right_sole)}
         L = self._data.oMf[self._fid["left"]].copy()
         R = self._data.oMf[self._fid["right"]].copy()
-        plan = plan_walk(L, R, self.com0, n_steps=self.n_steps, step_length=self.step_length,
-                         step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
-                         t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
-                         sole_length=robot.sole_length, sole_width=robot.sole_width,
-                         first_side=self.first_side, check_start=not self.from_state, **({"step_lateral": self.step_lateral} if self.step_lateral
-                                                         else {}))
+        walk_kw = dict(n_steps=self.n_steps, step_length=self.step_length,
+                       step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
+                       t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
+                       sole_length=robot.sole_length, sole_width=robot.sole_width,
+                       first_side=self.first_side, check_start=not self.from_state,
+                       **({"step_lateral": self.step_lateral} if self.step_lateral else {}))
+        self.terrain_walk = None
+        if self.terrain is None:
+            plan = plan_walk(L, R, self.com0, **walk_kw)
+        else:  # footholds on the treads, 3-D swings, CoM height from the VRP (wbc.gait.terrain_walk)
+            from wbc.gait.terrain_walk import plan_terrain_walk
+
+            self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0, **walk_kw)
+            plan = self.terrain_walk.plan
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
         self.adjuster = StepAdjuster(plan.omega, max_forward=self.forward_reach * zc, max_backward=0.35 * zc,
@@ -437,6 +452,8 @@ class WalkScenario:
             if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
                     and sw.phase(other) in ("stance", "loading"):
                 sw.unload(side, t)
+                if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
+                    sw.ground_height[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
                 self._t_unload[side] = t
                 self._active[side] = self.swings[self._next]
                 self._next += 1
@@ -477,8 +494,8 @@ class WalkScenario:
             hull = self._hull(self.cop_margin)
             a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
             target = np.array([c[0], c[1], plan.com[k, 2]])
-            vel = np.array([cd[0], cd[1], 0.0])
-            controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], 0.0]))
+            vel = np.array([cd[0], cd[1], plan.com_vel[k, 2]])  # (z: 0 on flat ground)
+            controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], plan.com_acc[k, 2]]))
             self.log["cop_cmd"][i] = self.stab.last_cop
         else:
             controller.set_com_reference(plan.com[k], plan.com_vel[k], plan.com_acc[k])
@@ -693,7 +710,12 @@ class WalkScenario:
 
     # -- summary -------------------------------------------------------------------------------------------
     def criteria(self) -> list[Criterion]:
-        """:func:`walk_criteria` with the default tolerances."""
+        """:func:`walk_criteria` with the default tolerances (on terrain, and
+        :data:`wbc.scenarios.terrain_walk.TERRAIN_CRITERIA`)."""
+        if self.terrain is not None:
+            from wbc.scenarios.terrain_walk import TERRAIN_CRITERIA
+
+            return walk_criteria() + TERRAIN_CRITERIA
         return walk_criteria()
 
     def extra_summary(self, run) -> dict:
@@ -797,9 +819,27 @@ class WalkScenario:
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
+        if self.terrain_walk is not None:  # from the plant's state (logged q), wbc.scenarios.terrain_walk
+            from wbc.scenarios.terrain_walk import terrain_summary
+
+            soles = {s: np.empty((n, 4, 4)) for s in ("left", "right")}
+            data = self._model.createData()
+            for i in range(n):
+                pin.framesForwardKinematics(self._model, data, run.q[i])
+                for s in soles:
+                    soles[s][i] = data.oMf[self._fid[s]].homogeneous
+            ts = terrain_summary(self.terrain_walk, soles["left"], soles["right"], r.sole_length, r.sole_width)
+            if ts["min_swing_clearance_m"] is None:
+                ts["min_swing_clearance_m"] = float("inf")
+            out.update(ts)
         run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
                           "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
         return out
+
+
+def fs_index(plan, k_lift: int) -> int:
+    """Index in ``plan.footsteps`` of the step whose swing lifts off at sample ``k_lift``."""
+    return next(ph.step for ph in plan.phases if ph.step >= 0 and ph.first == k_lift)
 
 
 def walk_criteria(*, distance_tol: float = 0.05, slip_max: float = 0.005,

@@ -243,3 +243,34 @@ def normalized(robot: Robot, q: np.ndarray) -> np.ndarray:
     if not pin.isNormalized(robot.model, q, 1e-3):
         raise InvalidInputError(f"base quaternion q[3:7] = {q[3:7]} is not unit norm")
     return pin.normalize(robot.model, q)
+
+
+TERRAIN_ROOT = "/meshcat/terrain"
+
+
+def add_terrain(viewer: meshcat.Visualizer, terrain) -> None:
+    """Draw a :class:`wbc.terrain.Terrain` under ``/meshcat/terrain``: each box as a box, the heightfield as a
+    triangle mesh (the triangles of :meth:`wbc.terrain.Heightfield.height`); the base plane is the floor of
+    :func:`add_floor` moved to ``terrain.floor_z``."""
+    import meshcat.transformations as tf
+
+    if terrain.floor_z != 0.0:
+        viewer[FLOOR_ROOT].set_transform(tf.translation_matrix([0.0, 0.0, float(terrain.floor_z)]))
+    material = mg.MeshLambertMaterial(color=0xA8A29A)
+    for i, box in enumerate(terrain.boxes):
+        node = viewer[f"{TERRAIN_ROOT}/box_{i}"]
+        node.set_object(mg.Box(box.size.tolist()), material)
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = box.rotation, box.center
+        node.set_transform(T)
+    hf = terrain.heightfield
+    if hf is not None:
+        ny, nx = hf.heights.shape
+        xs = hf.origin[0] + hf.spacing * np.arange(nx)
+        ys = hf.origin[1] + hf.spacing * np.arange(ny)
+        X, Y = np.meshgrid(xs, ys)
+        verts = np.c_[X.ravel(), Y.ravel(), hf.heights.ravel()]
+        idx = np.arange(ny * nx).reshape(ny, nx)
+        a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+        faces = np.r_[np.c_[a, b, d], np.c_[a, d, c]]  # split along (i, j)-(i+1, j+1), counter-clockwise from above
+        viewer[f"{TERRAIN_ROOT}/heightfield"].set_object(mg.TriangularMeshGeometry(verts, faces), material)

@@ -102,6 +102,7 @@ def record_html(
     follow_camera: bool = True,
     loop: bool = True,
     compress: bool = True,
+    terrain=None,
 ) -> Path:
     """Write a self-contained HTML animation of a motion.
 
@@ -129,6 +130,7 @@ def record_html(
         loop: replay the animation forever (else once; the viewer's Animations panel replays it).
         compress: gzip the scene (about half the size; decoded with the browser's ``DecompressionStream``,
             Chrome 80+, Firefox 113+, Safari 16.4+). ``False`` writes plain base64 for older browsers.
+        terrain: a :class:`wbc.terrain.Terrain` drawn with the floor (boxes, heightfield); None: the floor alone.
 
     Returns:
         The path written. A 20 s Talos walk at 25 fps is about 6 MB (meshes are most of it).
@@ -152,6 +154,8 @@ def record_html(
     # Pinocchio's loader also sends scaled placements (set_transform) of a blank pose: replaced below.
     recorder.commands = [c for c in recorder.commands if c["type"] != "set_transform"]
     _scene.add_floor(vis)
+    if terrain is not None:
+        _scene.add_terrain(vis, terrain)
     entries = {name: _scene.overlay_color(name, i) for i, name in enumerate(marks)}
     for j, (name, closed, items) in enumerate(lines):
         color = _scene.overlay_color(name, len(marks) + j)

@@ -1,0 +1,114 @@
+"""wbc.gait.terrain_walk: footholds on treads, soles on slopes, swings over the edges, CoM height from the VRP —
+checked against the stairs' tread intervals, closed-form slope geometry and finite differences of the plan."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.exceptions import GaitError
+from wbc.gait import plan_walk
+from wbc.gait.terrain_walk import plan_terrain_walk
+from wbc.terrain import parse_terrain
+
+L, W = 0.22, 0.13  # sole (m)
+
+
+def _feet():
+    left, right = np.eye(4), np.eye(4)
+    left[1, 3], right[1, 3] = 0.085, -0.085
+    return left, right, np.array([0.0, 0.0, 0.87])
+
+
+def _plan(spec, **kw):
+    left, right, com = _feet()
+    kw = {"n_steps": 6, "step_length": 0.3, "sole_length": L, "sole_width": W, **kw}
+    return plan_terrain_walk(spec, left, right, com, **kw)
+
+
+def test_flat_terrain_gives_the_flat_plan_bit_for_bit():
+    left, right, com = _feet()
+    a = plan_walk(left, right, com, n_steps=4, step_length=0.2, sole_length=L, sole_width=W)
+    b = _plan("flat", n_steps=4, step_length=0.2).plan
+    for name in ("com", "com_vel", "com_acc", "zmp", "dcm", "left_sole", "right_sole", "left_sole_vel",
+                 "right_sole_vel", "support"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+@pytest.mark.parametrize("spec", ["stairs:0.1:0.3:3:up", "stairs:0.15:0.3:4:updown", "stairs:0.15:0.3:3:down"])
+def test_footholds_lie_on_one_tread_with_the_edge_margin(spec):
+    margin = 0.02
+    tw = _plan(spec, n_steps=12, edge_margin=margin)
+    treads = tw.terrain.treads
+    for H in tw.footholds:
+        x, z = H[0, 3], H[2, 3]
+        lo, hi = x - L / 2 - margin, x + L / 2 + margin
+        inside = [tr for tr in treads if tr[0] - 1e-9 <= lo and hi <= tr[1] + 1e-9]
+        assert len(inside) == 1, f"sole over x in [{lo:.3f}, {hi:.3f}] is not on one tread"
+        assert z == pytest.approx(inside[0][2], abs=1e-12)
+        assert np.allclose(H[:3, 2], [0, 0, 1])
+
+
+def test_swing_soles_clear_every_riser_edge():
+    """Where any underside point of a swinging sole is over a tread, it is above that tread by the clearance (the
+    planner's check uses a 5 x 3 grid; here 21 x 7 points, riser edges included, away from the footholds)."""
+    clearance = 0.03
+    tw = _plan("stairs:0.15:0.3:4:updown", n_steps=14, clearance=clearance)
+    p, terrain = tw.plan, tw.terrain
+    u, w = np.meshgrid(np.linspace(-L / 2, L / 2, 21), np.linspace(-W / 2, W / 2, 7))
+    local = np.stack([u.ravel(), w.ravel(), np.zeros(u.size)])
+    worst = math.inf
+    for ph in p.phases:
+        if ph.step < 0:
+            continue
+        poses = (p.left_sole if tw.plan.footsteps[ph.step].side == "left" else p.right_sole)[ph.first:ph.end]
+        start, land = poses[0, :2, 3], tw.footholds[ph.step][:2, 3]
+        far = (np.linalg.norm(poses[:, :2, 3] - start, axis=1) > L / 2) & \
+              (np.linalg.norm(poses[:, :2, 3] - land, axis=1) > L / 2)
+        pts = np.matmul(poses[far, :3, :3], local) + poses[far, :3, 3:4]
+        worst = min(worst, float((pts[:, 2] - terrain.height(pts[:, 0], pts[:, 1])).min()))
+    assert worst >= clearance - 0.005  # between the planner's grid points the underside is a plane
+
+
+def test_slope_soles_lie_on_the_incline():
+    deg = 10.0
+    tw = _plan(f"slope:{deg}", n_steps=10, step_length=0.2)
+    th = math.radians(deg)
+    on_ramp = [H for H in tw.footholds if 0.3 + L / 2 + 0.02 <= H[0, 3] <= 2.3 - L / 2 - 0.02]
+    assert len(on_ramp) >= 5
+    for H in on_ramp:
+        assert H[2, 3] == pytest.approx((H[0, 3] - 0.3) * math.tan(th), abs=1e-12)
+        assert np.allclose(H[:3, 2], [-math.sin(th), 0.0, math.cos(th)], atol=1e-12)  # sole z axis = normal
+        assert np.allclose(H[:3, :3].T @ H[:3, :3], np.eye(3), atol=1e-12)
+        assert H[1, 0] == pytest.approx(0.0, abs=1e-12)  # heading +x kept
+
+
+def test_com_height_follows_the_terrain_and_its_derivatives_are_consistent():
+    tw = _plan("stairs:0.1:0.3:3:up", n_steps=6)
+    p = tw.plan
+    z0 = 0.87
+    assert p.com[0, 2] == pytest.approx(z0, abs=1e-9)
+    assert p.com[-1, 2] == pytest.approx(z0 + 0.3, abs=2e-3)  # at rest over the top tread (DCM recursion's end)
+    dt = p.dt
+    vz_fd = np.gradient(p.com[:, 2], dt)
+    az_fd = np.gradient(p.com_vel[:, 2], dt)
+    assert np.abs(vz_fd - p.com_vel[:, 2])[1:-1].max() < 2e-3
+    assert np.abs(az_fd - p.com_acc[:, 2])[1:-1].max() < 5e-2
+    for side in ("left", "right"):
+        z = getattr(p, f"{side}_sole")[:, 2, 3]
+        vz = getattr(p, f"{side}_sole_vel")[:, 2]
+        assert np.abs(np.gradient(z, dt) - vz)[1:-1].max() < 5e-3  # sole z velocity = derivative of its z
+    assert (np.diff(p.com[:, 2]) >= -1e-6).all()  # climbing: the CoM never goes down
+
+
+def test_no_foothold_or_no_clearance_is_a_gait_error():
+    with pytest.raises(GaitError, match=r"step 1 .*no foothold"):
+        _plan("stairs:0.1:0.2:3", step_length=0.2)  # a 20 cm tread is shorter than the sole + 2 x 2 cm
+    with pytest.raises(GaitError, match="clears the terrain by only"):
+        _plan("stairs:0.1:0.3:3", clearance=0.05, max_apex=0.06)
+    with pytest.raises(GaitError, match="edge_margin"):
+        _plan("stairs:0.1:0.3:3", edge_margin=-0.01)
+    with pytest.raises(GaitError, match="straight"):
+        _plan("stairs:0.1:0.3:3", turn=0.1)

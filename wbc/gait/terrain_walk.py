@@ -1,0 +1,278 @@
+r"""Walks on terrain: footholds on treads, soles on the surface, swings over the edges, CoM height on the VRP.
+
+:func:`plan_terrain_walk` starts from the flat-ground plan of :func:`wbc.gait.plan_walk` (footstep convention,
+timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
+
+1. **Footholds.** Steps are placed one after the other: each nominal landing (``step_length`` ahead of the stance
+   foot, ``step_width`` beside it, :mod:`wbc.gait.footsteps`) is moved along the walking heading by the smallest
+   shift (5 mm grid, at most ``max_shift``) for which the sole rectangle grown by ``edge_margin`` on every side
+   lies on one planar surface (:meth:`wbc.terrain.Terrain.sole_support` ≤ 2 mm): full sole support, clear of the
+   step edges. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
+   (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
+2. **Sole poses.** A foothold's sole origin sits at the terrain height under it; its z axis is the terrain
+   normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
+   soles lie flat on slopes.
+3. **Swings** (:func:`wbc.gait.sample_feet` between the 3-D footholds; the height change made by a minimum-jerk
+   blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LAG` going
+   down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves over the next tread and leaves its tread before it descends — plus the
+   clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
+   (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
+   footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
+   by 1 cm, up to ``max_apex``.
+4. **CoM height**: the three-dimensional DCM of Englsberger, Ott & Albu-Schäffer ("Three-dimensional bipedal
+   walking control based on divergent component of motion", IEEE T-RO 31(2), 2015, Sec. III): with the virtual
+   repellent point (VRP) ``v = r_eCMP + (0, 0, Δz)``, ``Δz = g / ω²``, the CoM obeys ``c̈ = ω² (c − v)`` and the DCM
+   ``ξ = c + ċ/ω`` obeys ``ξ̇ = ω (ξ − v)`` in all three axes with one constant ω. The xy part is the plan's LIPM
+   (eCMP = ZMP reference); the z part is solved by the same exact piecewise-linear recursion
+   (:func:`wbc.gait.plan_lipm`) for ``v_z`` = the stance sole's height + ``Δz`` in single support, linear between
+   the two stance heights in double support (the schedule of :mod:`wbc.gait.schedule` applied to heights; before a
+   step down the single support already goes linearly to the lower height, so that the stance leg bends and the
+   swing leg reaches the lower tread), so the
+   CoM stays ``Δz`` (the initial CoM height) above the supporting ground at rest and moves between levels along
+   the DCM plan.
+
+On the flat terrain (:attr:`wbc.terrain.Terrain.is_flat`) the plan is :func:`wbc.gait.plan_walk`'s, unchanged.
+A terrain plan is not meant for :meth:`wbc.gait.WalkPlan.replan` (which keeps a constant CoM height).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbc.exceptions import GaitError
+from wbc.gait.com_plan import plan_lipm
+from wbc.gait.footsteps import Footstep
+from wbc.gait.schedule import zmp_segments
+from wbc.gait.swing import sample_feet
+from wbc.gait.walk import WalkPlan, plan_walk
+from wbc.profiles import min_jerk
+from wbc.terrain import Terrain, parse_terrain
+
+__all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
+
+VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
+HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over which it moves horizontally
+VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
+SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
+_SHIFT_STEP = 0.005  # m: grid of the foothold search
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainWalk:
+    """A walk plan fitted to a terrain.
+
+    Attributes:
+        plan: the :class:`wbc.gait.WalkPlan` (3-D sole poses and CoM).
+        terrain: the terrain it was planned on.
+        footholds: (m, 4, 4) world landing poses of the sole frames, in step order (``plan.footsteps`` order).
+        shifts: (m,) shift (m) of each foothold along the heading from its nominal position.
+        apex: (m,) clearance bump ``h`` (m) of each swing.
+        planned_clearance: (m,) minimum clearance (m) of each planned swing over the terrain
+            (:meth:`wbc.terrain.Terrain.swing_clearance`; inf when the swing is too short to be counted).
+        approach: distance (m) from the footholds within which clearance is not counted.
+    """
+
+    plan: WalkPlan
+    terrain: Terrain
+    footholds: np.ndarray
+    shifts: np.ndarray
+    apex: np.ndarray
+    planned_clearance: np.ndarray
+    approach: float
+
+
+def foothold_pose(terrain: Terrain, x: float, y: float, yaw: float) -> np.ndarray:
+    """(4, 4) world pose of a sole frame standing at ``(x, y)`` with heading ``yaw`` (rad) on the terrain: origin at
+    the terrain height, z axis along the terrain normal (the smallest rotation from ``e_z``), x axis the heading
+    tilted with the surface."""
+    n = terrain.normal(x, y)
+    c, s = math.cos(yaw), math.sin(yaw)
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    axis = np.cross([0.0, 0.0, 1.0], n)
+    sin_a, cos_a = float(np.linalg.norm(axis)), float(n[2])
+    if sin_a < 1e-12:
+        R = Rz
+    else:
+        k = axis / sin_a
+        K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        R = (np.eye(3) + sin_a * K + (1.0 - cos_a) * K @ K) @ Rz
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = (x, y, terrain.height(x, y))
+    return T
+
+
+def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, width: float, margin: float,
+           max_shift: float) -> float | None:
+    """Smallest shift along the heading (m) giving full sole support, or None."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    n = int(max_shift / _SHIFT_STEP)
+    for k in sorted(range(-n, n + 1), key=lambda i: (abs(i), i)):
+        d = k * _SHIFT_STEP
+        if terrain.sole_support(x + c * d, y + s * d, yaw, length, width, margin) <= SUPPORT_TOL:
+            return d
+    return None
+
+
+def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
+                      clearance: float = 0.05, max_apex: float = 0.35, max_shift: float | None = None,
+                      approach: float | None = None, **walk) -> TerrainWalk:
+    """Plan a walk on ``terrain`` (module docstring).
+
+    Args:
+        terrain: a :class:`wbc.terrain.Terrain` or its description (:func:`wbc.terrain.parse_terrain`).
+        left_sole, right_sole, com: as :func:`wbc.gait.plan_walk` (the robot starts on ``z = 0``).
+        edge_margin: distance (m, ≥ 0) between every sole edge and the edge of its tread.
+        clearance: smallest height (m, ≥ 0) of the swing sole above the terrain away from the footholds.
+        max_apex: largest clearance bump (m) tried per swing.
+        max_shift: largest foothold shift (m) along the heading (default: half the step length, at least half the
+            sole length).
+        approach: distance (m) from the footholds within which swing clearance is not counted (default half the
+            sole length).
+        **walk: keywords of :func:`wbc.gait.plan_walk` (``n_steps``, ``step_length``, ``t_ss`` ...); ``turn`` and
+            ``step_lateral`` must be 0 off flat ground.
+
+    Returns:
+        A :class:`TerrainWalk`.
+
+    Raises:
+        GaitError: a bad argument, a step for which no foothold with full sole support exists within
+            ``max_shift`` (the message gives the step and its nominal position), or a swing that cannot clear the
+            terrain by ``clearance`` with an apex up to ``max_apex``.
+        TerrainError: a bad terrain description.
+    """
+    terrain = parse_terrain(terrain)
+    for name, val in (("edge_margin", edge_margin), ("clearance", clearance), ("max_apex", max_apex)):
+        if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
+            raise GaitError(f"{name} must be a finite number >= 0 (m); got {val!r}")
+    plan = plan_walk(left_sole, right_sole, com, **walk)
+    if terrain.is_flat:
+        return TerrainWalk(plan, terrain, np.array([fs.pose() for fs in plan.footsteps]).reshape(-1, 4, 4),
+                           np.zeros(len(plan.footsteps)), np.full(len(plan.footsteps), float(walk.get(
+                               "step_height", 0.05))), np.full(len(plan.footsteps), math.inf), 0.0)
+    if walk.get("turn", 0.0) or walk.get("step_lateral", 0.0):
+        raise GaitError("turn and step_lateral must be 0 on terrain (straight walks only)")
+    length, width = plan.sole_length, plan.sole_width
+    step_length = float(walk.get("step_length", 0.15))
+    if max_shift is None:
+        max_shift = max(0.5 * abs(step_length), 0.5 * length)
+    approach = 0.5 * length if approach is None else float(approach)
+
+    # 1. footholds, one after the other
+    feet = {"left": plan.left_sole[0], "right": plan.right_sole[0]}
+    pos = {s: (float(feet[s][0, 3]), float(feet[s][1, 3])) for s in feet}
+    steps, shifts = [], []
+    for i, fs in enumerate(plan.footsteps):
+        stance = "right" if fs.side == "left" else "left"
+        if i == 0:
+            x, y = fs.x, fs.y
+        else:  # the nominal offset from the (shifted) stance foot
+            prev = plan.footsteps[i - 1]
+            x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
+        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift)
+        if d is None:
+            raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
+                            f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
+                            f"{y:.3f}) m; change step_length (now {step_length} m) or edge_margin")
+        x, y = x + math.cos(fs.yaw) * d, y + math.sin(fs.yaw) * d
+        steps.append(Footstep(fs.side, x, y, fs.yaw))
+        shifts.append(d)
+        pos[fs.side] = (x, y)
+    com = np.asarray(com, dtype=float)
+    vel = np.zeros(3) if walk.get("com_velocity") is None else np.asarray(walk["com_velocity"], dtype=float)
+    plan = plan.replan(0, com, vel, steps, check_start=walk.get("check_start", True))
+
+    # 2. sole poses on the surface; 3. swings over the edges
+    holds = np.array([foothold_pose(terrain, f.x, f.y, f.yaw) for f in steps])
+    swings = [ph for ph in plan.phases if ph.step >= 0]
+    foot = [0 if steps[ph.step].side == "left" else 1 for ph in swings]
+    n, dt = plan.n_samples, plan.dt
+    n_ss = swings[0].count
+    initial = np.array([plan.left_sole[0], plan.right_sole[0]])
+    poses, vels = sample_feet(n, initial, holds[[ph.step for ph in swings]], foot, [ph.first for ph in swings],
+                              n_ss, dt, 0.0)
+    s = np.arange(n_ss) / n_ss
+    sm = s * (1.0 - s)
+    T = n_ss * dt
+    bump, dbump = 64.0 * sm**3, 192.0 * sm**2 * (1.0 - 2.0 * s) / T
+    # height blends: rising over the first VERTICAL_LEAD of the swing, descending over its last VERTICAL_LEAD
+    up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
+    dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
+    fw_b, fw_db, _ = min_jerk(np.minimum(s / HORIZONTAL_LEAD, 1.0))
+    h0 = float(walk.get("step_height", 0.05))
+    apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
+    latest = [initial[0], initial[1]]
+    for ph, f in zip(swings, foot):
+        a, b = ph.first, ph.first + n_ss
+        start, land = latest[f][:3, 3].copy(), holds[ph.step][:3, 3]
+        z0, z1 = float(latest[f][2, 3]), float(holds[ph.step][2, 3])
+        zb, zdb, frac = (up_b, up_db, VERTICAL_LEAD) if z1 >= z0 else (dn_b, dn_db, VERTICAL_LAG)
+        poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
+        vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
+        if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
+            dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
+            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
+            vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
+        base = poses[f, a:b].copy()
+        h = h0
+        while True:
+            seg = base.copy()
+            seg[:, 2, 3] += h * bump
+            c = terrain.swing_clearance(seg, start, land, length, width, approach)
+            if c >= clearance - 1e-12:
+                break
+            if h + 0.01 > max_apex + 1e-12:
+                raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
+                                f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
+            h += 0.01
+        poses[f, a:b, 2, 3] += h * bump
+        vels[f, a:b, 2] += h * dbump
+        apex[ph.step], planned[ph.step] = h, c
+        latest[f] = holds[ph.step]
+
+    # 4. CoM height from the VRP (Englsberger et al. 2015): heights scheduled as the ZMP reference
+    seg = plan.segments
+    zl, zr = float(initial[0][2, 3]), float(initial[1][2, 3])
+    zsteps = [Footstep(f.side, float(H[2, 3]), float(H[2, 3]), f.yaw) for f, H in zip(steps, holds)]
+    zseg = zmp_segments(list(plan.phases), zsteps, (zl, zl), (zr, zr), int(seg.count[-2]))
+    zseg = _lower_before_stepping_down(zseg, list(plan.phases), holds)
+    dz = float(com[2]) - 0.5 * (zl + zr)
+    zstart = zseg.start[:, :1].repeat(2, axis=1) + dz
+    zend = zseg.end[:, :1].repeat(2, axis=1) + dz
+    zl_plan = plan_lipm(zseg.first, zseg.count, zstart, zend, np.full(2, float(com[2])), np.full(2, float(vel[2])),
+                        plan.omega, dt)
+    zs = zl_plan.sample(0.0)
+    buf = np.empty((n, 13))
+    buf[:, 0:3], buf[:, 3:6], buf[:, 6:9] = plan.com, plan.com_vel, plan.com_acc
+    buf[:, 9:11], buf[:, 11:13] = plan.zmp, plan.dcm
+    buf[:, 2], buf[:, 5], buf[:, 8] = zs.com[:, 0], zs.com_vel[:, 0], zs.com_acc[:, 0]
+    buf.flags.writeable = False
+    for a in (poses, vels):
+        a.flags.writeable = False
+    plan = dataclasses.replace(plan, com=buf[:, 0:3], com_vel=buf[:, 3:6], com_acc=buf[:, 6:9], zmp=buf[:, 9:11],
+                               dcm=buf[:, 11:13], left_sole=poses[0], right_sole=poses[1], left_sole_vel=vels[0],
+                               right_sole_vel=vels[1])
+    holds.flags.writeable = False
+    return TerrainWalk(plan, terrain, holds, np.array(shifts), apex, planned, approach)
+
+
+
+def _lower_before_stepping_down(zseg, phases, holds: np.ndarray):
+    """Height schedule with every step down anticipated: in the single support of a swing landing lower than its
+    stance foot, the height reference goes linearly from the stance height to the landing height (the stance leg
+    bends, so that the swing leg reaches the lower tread), and the double support after it stays there."""
+    start, end = zseg.start.copy(), zseg.end.copy()
+    for j in range(len(start)):
+        ph = phases[int(zseg.phase[j])]
+        if ph.step < 0:
+            continue
+        z_land = float(holds[ph.step][2, 3])
+        if z_land < start[j, 0] - 1e-9:
+            end[j] = z_land
+            if j + 1 < len(start):
+                start[j + 1] = z_land
+    return type(zseg)(zseg.first, zseg.count, start, end, zseg.phase)
