@@ -65,9 +65,9 @@ place are caught there); else the tick fails (``TickResult.reason``) and the saf
 
 Tick budget (``budget``, default the tick's dt, in CPU time of the calling thread): past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
-relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the budget
+relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the time
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
-region — and, once it is spent, starts none of them: it keeps the command of the last stage it finished (the last
+region — and, once twice its budget is spent, starts none of them: it keeps the command of the last stage it finished (the last
 solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
 ``message`` names the stages it skipped. ``TickResult.path`` names the route every tick took.
@@ -168,7 +168,7 @@ class TickResult:
         path: the route the tick took: 'compiled' (the compiled tick's kernel), 'compiled+daqp' (its reduced QP
             solved by DAQP), 'general:<backend name>' (the general path's flat QP), 'levels' (strict hierarchy),
             with '+return_rate' when the return rate of joints outside their limits was relaxed and '+budget' when
-            the tick's budget stopped its cascade, contact correction or trust region (``message`` names what was
+            twice the tick's budget stopped its cascade, contact correction or trust region (``message`` names what was
             skipped); on failure 'fallback:<fallback>'.
         reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
@@ -176,8 +176,8 @@ class TickResult:
             bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
         over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished: on a
             failed tick its optional stages (independent confirmation, diagnosis, the safe command's trust regions)
-            were skipped and the safe command returned; on an ok tick ('+budget' path) the remaining strict levels,
-            contact corrections or trust regions were skipped and the last finished stage's command returned.
+            were skipped and the safe command returned; on an ok tick ('+budget' path: twice the budget spent) the
+            remaining strict levels, contact corrections or trust regions were skipped and the last finished stage's command returned.
     """
 
     v: np.ndarray
@@ -224,9 +224,9 @@ class KinematicController:
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
             rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
             then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
-            no further strict level, contact correction or trust region past it and returns the last finished
-            stage's command (module docstring, '+budget' path): its time is the budget plus at most the stage in
-            progress (one QP solve) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
+            no further strict level, contact correction or trust region past twice the budget and returns the last
+            finished stage's command (module docstring, '+budget' path): its time is twice the budget plus at most
+            the stage in progress (one QP solve) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
 
     Raises:
@@ -326,6 +326,10 @@ class KinematicController:
     def _late(self) -> bool:
         """The current tick's budget is spent."""
         return thread_time() > self._deadline
+
+    def _stage_deadline(self) -> float:
+        """The instant (``time.thread_time``) past which a solved tick starts no further stage: twice its budget."""
+        return self._deadline + self._budget_s
 
     def _set_deadline(self, deadline: float, plan=None) -> None:
         """Give every QP backend of the controller the tick's deadline (``QPBackend.deadline``)."""
@@ -1062,7 +1066,9 @@ class KinematicController:
         b0 = self._b.copy()
         try:
             for k in range(3):
-                if self._late():  # the refinement stops at the tick budget (the best command so far is kept)
+                # the refinement stops at the tick budget (the safe command's) or twice it (a solved tick's); the
+                # best command so far is kept
+                if self._late() if bounded else thread_time() > self._stage_deadline():
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
                     break
@@ -1116,7 +1122,9 @@ class KinematicController:
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
                 radii.insert(0, math.inf)  # first the whole box, with consistent contact rows
             for k, radius in enumerate(radii):
-                if self._late():  # the trust region stops at the tick budget (the least drifting command is kept)
+                # the trust region stops at the tick budget (the safe command's) or twice it (a solved tick's); the
+                # least drifting command is kept
+                if self._late() if bounded else thread_time() > self._stage_deadline():
                     if not bounded:
                         self._cut.append(f"trust region after {k} of {len(radii)} radii")
                     break
@@ -1235,7 +1243,7 @@ class KinematicController:
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            deadline=self._deadline if self._in_solve else math.inf)
+            deadline=self._stage_deadline() if self._in_solve else math.inf)
         cut = solve_lexicographic.last_cut
         if cut is not None:
             self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (the last solved level's "
