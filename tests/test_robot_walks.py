@@ -88,3 +88,18 @@ def test_two_step_physics_walk(robot_file, tmp_path, capsys):
     s = json.loads(summary.read_text())
     assert code == 0, out
     assert s["passed"] and s["touchdowns"] == 2 and s["walked_distance_m"] > 0.1
+
+
+def test_mujoco_resolves_package_uri_with_empty_authority(tmp_path):
+    """talos_full_v2.urdf names a mesh ``package:///example-robot-data/...`` (three slashes): Pinocchio loads it, and
+    so must the MuJoCo plant (it looked for /example-robot-data/... at the file-system root)."""
+    from wbc.sim.mujoco_model import build_mujoco_model
+
+    urdf = URDF.parents[2] / "talos_data" / "robots" / "talos_full_v2.urdf"
+    assert "package:///" in urdf.read_text()
+    out = tmp_path / "talos_full.toml"
+    assert main(["robot", "init", str(urdf), "-o", str(out)]) == 0
+    robot = load_robot(str(out))
+    sim = build_mujoco_model(robot)
+    assert sim.model.nmesh > 0
+    assert abs(sim.model.body_mass.sum() - robot.mass) < 1e-6 * robot.mass
