@@ -55,6 +55,8 @@ def robot_file(tmp_path_factory):
 def test_init_and_check(robot_file, capsys):
     text = robot_file.read_text()
     assert 'urdf = "erd:alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf"' in text
+    # the gait bounded by the legs and the assumed drives are said in the file
+    assert "# - gait: nominal step (" in text and "armature = 0.01" in text
     assert main(["robot", "check", str(robot_file)]) == 0
     out = capsys.readouterr().out
     assert "mass_kg" in out and "legs" in out
@@ -87,7 +89,10 @@ def test_two_step_physics_walk(robot_file, tmp_path, capsys):
     out = capsys.readouterr().out
     s = json.loads(summary.read_text())
     assert code == 0, out
-    assert s["passed"] and s["touchdowns"] == 2 and s["walked_distance_m"] > 0.1
+    step = load_robot(str(robot_file)).gait["step_length"]  # 2 steps: the second closes alongside the first
+    assert step > 0.05
+    assert s["passed"] and s["touchdowns"] == 2 and s["walked_distance_m"] > 0.9 * step
+    assert s["joint_speed_exceedances"] == 0
 
 
 def test_mujoco_resolves_package_uri_with_empty_authority(tmp_path):
