@@ -111,3 +111,19 @@ def test_robot_file_armature_reaches_the_realistic_plant(tmp_path):
     assert "robot file" in act.armature_source
     sim = build_mujoco_model(robot, plant="realistic")
     np.testing.assert_allclose(sim.model.dof_armature[sim.state_map.mj_qvel], 0.03)
+
+
+def test_srdf_rotor_data_gaps_take_the_robot_file_armature():
+    """Joints an SRDF's <rotor_params> leave at 0 (Talos's grippers) take the robot file's armature; the others keep
+    rotor inertia × gear ratio² (computed here with Pinocchio's loader)."""
+    import pinocchio as pin
+
+    robot = wbc.load_robot("talos")
+    m = robot.model.copy()
+    pin.loadRotorParameters(m, str(robot.srdf_path), False)
+    srdf = np.asarray(m.rotorInertia[6:]) * np.asarray(m.rotorGearRatio[6:]) ** 2
+    assert np.any(srdf == 0) and np.any(srdf > 0)
+    robot.model.armature[6:] = 0.02
+    arm, source = nominal_armature(robot)
+    np.testing.assert_allclose(arm, np.where(srdf == 0, 0.02, srdf))
+    assert "robot file" in source

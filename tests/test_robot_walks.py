@@ -55,6 +55,8 @@ def robot_file(tmp_path_factory):
 def test_init_and_check(robot_file, capsys):
     text = robot_file.read_text()
     assert 'urdf = "erd:alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf"' in text
+    # the gait bounded by the legs and the assumed drives are said in the file
+    assert "# - gait: nominal step (" in text and "armature = 0.01" in text
     assert main(["robot", "check", str(robot_file)]) == 0
     out = capsys.readouterr().out
     assert "mass_kg" in out and "legs" in out
@@ -87,4 +89,22 @@ def test_two_step_physics_walk(robot_file, tmp_path, capsys):
     out = capsys.readouterr().out
     s = json.loads(summary.read_text())
     assert code == 0, out
-    assert s["passed"] and s["touchdowns"] == 2 and s["walked_distance_m"] > 0.1
+    step = load_robot(str(robot_file)).gait["step_length"]  # 2 steps: the second closes alongside the first
+    assert step > 0.05
+    assert s["passed"] and s["touchdowns"] == 2 and s["walked_distance_m"] > 0.9 * step
+    assert s["joint_speed_exceedances"] == 0
+
+
+def test_mujoco_resolves_package_uri_with_empty_authority(tmp_path):
+    """talos_full_v2.urdf names a mesh ``package:///example-robot-data/...`` (three slashes): Pinocchio loads it, and
+    so must the MuJoCo plant (it looked for /example-robot-data/... at the file-system root)."""
+    from wbc.sim.mujoco_model import build_mujoco_model
+
+    urdf = URDF.parents[2] / "talos_data" / "robots" / "talos_full_v2.urdf"
+    assert "package:///" in urdf.read_text()
+    out = tmp_path / "talos_full.toml"
+    assert main(["robot", "init", str(urdf), "-o", str(out)]) == 0
+    robot = load_robot(str(out))
+    sim = build_mujoco_model(robot)
+    assert sim.model.nmesh > 0
+    assert abs(sim.model.body_mass.sum() - robot.mass) < 1e-6 * robot.mass

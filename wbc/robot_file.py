@@ -495,7 +495,7 @@ def package_roots(urdf: Path, root: ET.Element) -> list[str]:
     for mesh in root.iter("mesh"):
         ref = mesh.get("filename", "")
         if ref.startswith("package://"):
-            names.add(ref[len("package://"):].split("/", 1)[0])
+            names.add(ref[len("package://"):].lstrip("/").split("/", 1)[0])
     out = []
     for parent in Path(urdf).resolve().parents:
         if parent.name in names and str(parent.parent) not in out:

@@ -292,10 +292,12 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
             notes.append(f"reference posture: joints whose zero is outside their limits start 0.05 rad (at most 5 % "
                          f"of their range) inside the nearest limit: {clipped}")
     mujoco = MujocoOptions()
-    if srdf is None or "rotor_params" not in Path(srdf).read_text():
+    missing = _joints_without_rotor_data(model, srdf)
+    if missing:
         mujoco = MujocoOptions(armature=ASSUMED_ARMATURE)
-        notes.append(f"drives: no rotor data (no SRDF <rotor_params>): [mujoco] armature = {ASSUMED_ARMATURE} "
-                     f"kg·m² assumed (MuJoCo Menagerie's G1); set your drives' rotor inertia × gear ratio²")
+        notes.append(f"drives: no rotor data (SRDF <rotor_params>) for {len(missing)} joints (e.g. {missing[0]!r}): "
+                     f"[mujoco] armature = {ASSUMED_ARMATURE} kg·m² assumed for them (MuJoCo Menagerie's G1); set "
+                     f"your drives' rotor inertia × gear ratio²")
     name = urdf.stem if urdf.stem.lower() not in ("model", "robot", "urdf") else urdf.parent.name
     spec = RobotSpec(name=name, base_dir=urdf.parent, urdf=str(urdf), srdf=srdf, reference=reference,
                      reference_joints=clipped,
@@ -315,6 +317,19 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     gait = {k: float(v) for k, v in robot.gait.items()}
     notes.append(f"gait: {gait} (scaled from Talos's by the leg length)")
     return RobotSpec(**{**spec.__dict__, "gait": gait}), notes
+
+
+def _joints_without_rotor_data(model: pin.Model, srdf: str | None) -> list[str]:
+    """Names of the actuated joints whose SRDF ``<rotor_params>`` give no rotor inertia (all of them without an
+    SRDF or without rotor_params)."""
+    names = [model.names[j] for j in range(2, model.njoints) if model.joints[j].nv > 0]
+    if srdf is None or "rotor_params" not in Path(srdf).read_text():
+        return names
+    m = model.copy()
+    pin.loadRotorParameters(m, str(srdf), False)
+    arm = np.asarray(m.rotorInertia) * np.asarray(m.rotorGearRatio) ** 2
+    return [model.names[j] for j in range(2, model.njoints) if model.joints[j].nv > 0
+            and not np.any(arm[model.joints[j].idx_v:model.joints[j].idx_v + model.joints[j].nv] > 0)]
 
 
 def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:

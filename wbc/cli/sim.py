@@ -74,7 +74,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--duration", type=seconds, default=None,
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
     p.add_argument("--force", type=finite(0.0), default=None,
-                   help="push force, N (default: talos 450, g1 120, else half the capture-point bound)")
+                   help="push force, N (push: talos 450, g1 120, else half the capture-point bound; push-step: talos "
+                        "450, else the capture-point bound)")
     p.add_argument("--push-duration", type=seconds, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
@@ -211,7 +212,12 @@ def _scenario(args, robot):
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 
-        force = 450.0 if args.force is None else args.force
+        force = args.force
+        if force is None:  # Talos: 450 N; any other robot: its capture-point bound (Talos's is 449 N for 0.1 s)
+            from wbc.sim.scenarios import capture_point_bound
+
+            force = 450.0 if robot.name == "talos" else round(
+                capture_point_bound(robot, args.push_duration)["f_max_impulse_n"], 1)
         return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario

@@ -106,7 +106,12 @@ def nominal_armature(robot) -> tuple[np.ndarray, str]:
         pin.loadRotorParameters(m, str(robot.srdf_path), False)
         arm = np.asarray(m.rotorInertia[6:]) * np.asarray(m.rotorGearRatio[6:]) ** 2
         if np.any(arm > 0):
-            return arm, f"SRDF rotor_params (rotor inertia × gear ratio²) of {robot.srdf_path.name}"
+            source = f"SRDF rotor_params (rotor inertia × gear ratio²) of {robot.srdf_path.name}"
+            fill = np.asarray(robot.model.armature[6:], dtype=float)
+            if np.any((arm == 0) & (fill > 0)):  # joints the SRDF has no rotor data for: the robot file's value
+                arm = np.where(arm == 0, fill, arm)
+                source += "; joints it has no rotor data for: the robot file's [mujoco] armature"
+            return arm, source
     if np.any(np.asarray(robot.model.armature[6:]) > 0):
         return np.asarray(robot.model.armature[6:], dtype=float).copy(), "the robot file's [mujoco] armature"
     if robot.name in ROTOR_ARMATURE:

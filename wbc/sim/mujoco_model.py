@@ -402,7 +402,7 @@ def _urdf_for_mujoco(robot: Robot) -> str:
     def resolve(match: re.Match) -> str:
         ref = match.group(2)
         if ref.startswith("package://"):
-            rel = ref[len("package://"):]
+            rel = ref[len("package://"):].lstrip("/")  # package:///NAME/... (an empty authority) as package://NAME/...
             candidates = [d / rel for d in dirs]
         elif ref.startswith("file://"):
             candidates = [Path(ref[len("file://"):])]
