@@ -47,3 +47,24 @@ def test_a_body_on_a_step_is_a_non_foot_ground_contact(talos):
     flat.set_state(q, np.zeros(talos.model.nv))
     mujoco.mj_forward(flat.model, flat.data)
     assert flat.non_foot_ground_contacts() == []
+
+
+def test_recording_draws_the_terrain():
+    """meshcat scene commands for a terrain: one box object per terrain box (its size and pose) and one triangle
+    mesh for a heightfield, under /meshcat/terrain."""
+    import meshcat
+
+    from wbc.viz import _scene
+
+    for spec, n_boxes, hf in (("stairs:0.1:0.3:3:updown", 5, False), ("rough:0.02:1", 0, True)):
+        terrain = parse_terrain(spec)
+        rec = _scene.CommandRecorder()
+        _scene.add_terrain(meshcat.Visualizer(window=rec), terrain)
+        objs = [c for c in rec.commands if c["type"] == "set_object" and c["path"].startswith(_scene.TERRAIN_ROOT)]
+        boxes = [c for c in objs if "/box_" in c["path"]]
+        assert len(boxes) == n_boxes == len(terrain.boxes)
+        assert len(objs) - len(boxes) == int(hf)
+        poses = [c for c in rec.commands if c["type"] == "set_transform" and "/box_" in c["path"]]
+        for c, box in zip(poses, terrain.boxes):
+            T = np.array(c["matrix"], dtype=float).reshape(4, 4).T  # column-major
+            assert np.allclose(T[:3, 3], box.center)

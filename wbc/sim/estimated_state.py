@@ -38,6 +38,8 @@ class EstimatedState:
 
     def __init__(self, sim, specs: SensorSpecs | None = None, *, seed: int = 0, **estimator_options):
         self.sensors = PlantSensors(sim, specs, seed=seed)
+        if getattr(sim, "terrain", None) is not None and "ground_height" not in estimator_options:
+            estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
 
     def reset(self, q0, v0=None) -> None:
