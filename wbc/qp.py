@@ -370,10 +370,8 @@ class DaqpBackend(QPBackend):
         self.last_iterations = int(info["iterations"])
         if exitflag < 1:
             self._dual = None
-            self.last_multipliers = None
             return None
         self._dual = np.array(info["lam"])
-        self.last_multipliers = self._dual
         return x
 
 

@@ -16,9 +16,7 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it). The full QP
-always runs (the compiled solve's iterations are capped by the time left in the budget,
-:attr:`~wbc.formulations.acceleration.InverseDynamicsQP.deadline`: a capped solve goes to DAQP, path
-``general:fast+capped``, and keeps the kernel's warm start); the relaxed QP starts only while the budget is not spent (else the safe command of step 2, and
+always runs; the relaxed QP starts only while the budget is not spent (else the safe command of step 2, and
 ``message`` says so); a full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
@@ -53,7 +51,6 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from dataclasses import dataclass, field
 from time import perf_counter, thread_time
@@ -179,7 +176,6 @@ class InverseDynamicsController:
         relaxed = False
         message = ""
         conflicts: list[tuple[str, float]] = []
-        self.qp.deadline = c0 + self.budget  # the compiled solve's iteration cap (InverseDynamicsQP.deadline)
         try:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
@@ -199,8 +195,6 @@ class InverseDynamicsController:
             if lim.dim:
                 sol.tau[lim.joints] = np.clip(sol.tau[lim.joints], -lim.tau_max[lim.joints],
                                               lim.tau_max[lim.joints])
-        finally:
-            self.qp.deadline = math.inf  # only this tick's solves are capped
         self.last_solution = sol
         cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
                         message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,

@@ -66,9 +66,8 @@ then hold to the solver's equality accuracy on rows 0..5 and exactly on the actu
 from __future__ import annotations
 
 import inspect
-import math
 from dataclasses import dataclass, field
-from time import perf_counter, thread_time
+from time import perf_counter
 
 import numpy as np
 
@@ -89,8 +88,8 @@ from wbc.constraints.dynamics import (
     consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (ITERATION_CAP, PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER,
-                                       PAR_SPEED_HORIZON, PROJECT_CONTACT_RHS, R_ACC_FF,
+from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON, PROJECT_CONTACT_RHS,
+                                       R_ACC_FF,
                                        R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
@@ -116,8 +115,7 @@ class IDSolution:
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
         timings: seconds spent in 'assembly' and 'solve'.
         path: the route that produced it: ``kernel`` (the compiled tick), ``general:<backend>`` (the backend on the
-            assembled QP; ``general:<backend>+capped`` when the compiled tick stopped at its iteration cap:
-            ``InverseDynamicsQP.deadline``), ``relaxed:<backend>`` (:meth:`InverseDynamicsQP.solve_relaxed`).
+            assembled QP), ``relaxed:<backend>`` (:meth:`InverseDynamicsQP.solve_relaxed`).
     """
 
     dv: np.ndarray
@@ -132,8 +130,6 @@ class IDSolution:
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
 #: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
-#: bounds of the compiled solve's iteration cap (``InverseDynamicsQP.deadline``).
-MIN_KERNEL_ITERATIONS, MAX_KERNEL_ITERATIONS = 10, 100
 _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
 
@@ -161,12 +157,6 @@ class InverseDynamicsQP:
     Attributes:
         constraints: every named constraint (:mod:`wbc.constraints.dynamics`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
-        deadline: ``time.thread_time()`` instant (CPU time of the calling thread, s) by which the compiled tick's
-            dual active-set loop should stop, or inf (default: no limit); set by the controller to the end of its
-            tick budget. The loop gets at most as many iterations as the time left allows (from its measured CPU
-            time per iteration, at least ``MIN_KERNEL_ITERATIONS``, at most ``MAX_KERNEL_ITERATIONS``); a capped
-            call goes to the backend (DAQP; path ``general:<backend>+capped``), and the kernel's next call starts
-            from the backend's working set (its nonzero multipliers), so the cap does not cost the warm start.
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
@@ -239,8 +229,6 @@ class InverseDynamicsQP:
         self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
         self._spans: dict = {}
         self._kernel = None
-        self.deadline = math.inf
-        self._s_per_iteration = 5e-5  # CPU s per kernel iteration, measured and smoothed (_solve_kernel)
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
@@ -504,14 +492,6 @@ class InverseDynamicsQP:
         self._guard(state, sol, relaxed=True)
         return sol
 
-    def _kernel_cap(self) -> int:
-        """Iteration cap of this tick's compiled solve (``deadline``, class docstring)."""
-        if not math.isfinite(self.deadline):
-            return MAX_KERNEL_ITERATIONS
-        left = self.deadline - thread_time()
-        cap = int(left / self._s_per_iteration) if left > 0 else 0
-        return min(MAX_KERNEL_ITERATIONS, max(MIN_KERNEL_ITERATIONS, cap))
-
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
         """Build and solve the QP at ``state`` for control period ``dt`` (s).
 
@@ -622,9 +602,7 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
-        par[PAR_MAX_ITER] = cap = self._kernel_cap()
         ta = perf_counter()
-        ca = thread_time()
         it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
         self.dependent_contact_rows = 0
         if it == PROJECT_CONTACT_RHS:  # as in InverseDynamicsQP.build
@@ -635,12 +613,6 @@ class InverseDynamicsQP:
             it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 1, *kb.tail)
         self._m = m
         t1 = perf_counter()
-        spent = thread_time() - ca
-        n_it = it if it > 0 else cap if it == ITERATION_CAP else 0
-        if n_it > 0 and spent > 0:  # CPU time per iteration (assembly included), smoothed over ticks
-            self._s_per_iteration += 0.2 * (spent / n_it - self._s_per_iteration)
-        if it == ITERATION_CAP:
-            kb.capped += 1
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
             nv = self.nv
@@ -657,25 +629,11 @@ class InverseDynamicsQP:
         kb.fallbacks += 1
         kb.state[:] = 0
         kb.rstate[:] = 0
-        backend = self.backend
-        if hasattr(backend, "last_multipliers"):
-            backend.last_multipliers = None
-        x = backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
-                          self._ub, **self._confirm_kw)
-        # the kernel's next call starts from the backend's working set: its nonzero multipliers (> 0 at an upper
-        # bound, < 0 at a lower one), else the bounds and rows x touches
-        n, p = x.shape[0], self._C.shape[0]
-        lam = getattr(backend, "last_multipliers", None)
-        if lam is not None and len(lam) == n + m + p:
-            kb.state[:] = np.sign(lam[:n])
-            kb.rstate[:] = np.sign(lam[n + m:])
-        else:
-            kb.state[:] = (x >= self._ub) * 1 - (x <= self._lb)
-            cx = self._C @ x
-            kb.rstate[:] = (cx >= self._u - 1e-12) * 1 - (cx <= self._l + 1e-12)
+        x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
+                               self._ub, **self._confirm_kw)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = f"general:{self.backend.name}" + ("+capped" if it == ITERATION_CAP else "")
+        sol.path = f"general:{self.backend.name}"
         self._guard(state, sol)
         return sol
 
@@ -792,7 +750,6 @@ class _KernelBuffers:
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
-        self.capped = 0  # kernel calls stopped by their iteration cap
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
         dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
