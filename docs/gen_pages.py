@@ -53,7 +53,7 @@ with mkdocs_gen_files.open("reference/cli.md", "w") as f:
 LAYERS = [
     ("Package root", ["wbc"]),
     ("Errors, compiled kernels", ["wbc.exceptions", "wbc.compiled"]),
-    ("Geometry, profiles", ["wbc.geometry", "wbc.profiles"]),
+    ("Geometry, profiles, terrain", ["wbc.geometry", "wbc.profiles", "wbc.terrain"]),
     ("Robot, kinematics", ["wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),
     ("Tasks", ["wbc.tasks"]),
     ("Constraints", ["wbc.constraints"]),

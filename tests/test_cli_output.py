@@ -10,6 +10,12 @@ import pytest
 from wbc.cli.output import compile_notice, format_value, print_summary, uncompiled_kernels
 
 
+@pytest.fixture(autouse=True)
+def fresh_compile_notices(monkeypatch):
+    """compile_notice announces a module once per process; each test starts as a fresh process would."""
+    monkeypatch.setattr("wbc.cli.output._NOTIFIED", set())
+
+
 @pytest.mark.parametrize("value, key, text", [
     (-6.9e-18, "com_drift_m", "0"),  # floating-point noise on a length
     (8.4e-7, "max_stance_slip_m", "0"),  # below 1 µm

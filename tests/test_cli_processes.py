@@ -235,7 +235,8 @@ def test_bench_report_is_moved_into_place_whole(tmp_path):
 
 
 @linux_only
-@pytest.mark.parametrize("command,delay", [(["walk"], 1.5), (["walk"], 6.0), (["sim", "walk"], 6.0)],
+@pytest.mark.parametrize("command,delay", [(["walk", "--steps", "40"], 1.5), (["walk", "--steps", "40"], 6.0),
+                                           (["sim", "walk"], 6.0)],
                          ids=["walk-while-loading", "walk-mid-run", "sim-walk-mid-run"])
 def test_sigint_to_a_running_cli_keeps_the_previous_log(tmp_path, command, delay):
     """SIGINT to a `wbc ... --log X` process (a real one, as Ctrl-C in a terminal sends it), while it loads or
@@ -248,8 +249,11 @@ def test_sigint_to_a_running_cli_keeps_the_previous_log(tmp_path, command, delay
     np.savez(log, t=np.arange(3.0))
     before = log.read_bytes()
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    # a shell that started the test suite in the background leaves SIGINT ignored, and children inherit that:
+    # the child gets the default disposition, as a program started from a terminal has
     proc = subprocess.Popen([sys.executable, "-m", "wbc", *command, "--log", str(log), "--quiet"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
