@@ -332,6 +332,35 @@ def _joints_without_rotor_data(model: pin.Model, srdf: str | None) -> list[str]:
             and not np.any(arm[model.joints[j].idx_v:model.joints[j].idx_v + model.joints[j].nv] > 0)]
 
 
+def reach_frame(model: pin.Model, data: pin.Data, q: np.ndarray, fid: int, chain: list[int], target: pin.SE3, *,
+                iterations: int, tolerance: float, damping: float) -> None:
+    """Move frame ``fid`` towards ``target`` by the joints of ``chain``, in place on ``q``.
+
+    Damped least squares (Levenberg–Marquardt step, Wampler 1986; Buss 2004 eq. 10):
+    Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e with e = log6(oMf⁻¹ · target) (6-D, the frame's LOCAL velocity that reaches the target
+    in unit time) and J Pinocchio's LOCAL frame Jacobian restricted to the chain's columns; each step clipped into
+    the joints' position limits.
+
+    Args:
+        model, data: Pinocchio model and a data of it (its placements are overwritten).
+        q: configuration (nq,), updated in place.
+        fid: frame index; target: its goal placement in the world frame.
+        chain: indices of one-dof joints (nq = nv = 1) that move it.
+        iterations: at most this many steps; tolerance: stop once ‖e‖ < tolerance; damping: λ (≥ 0).
+    """
+    iv = [model.joints[j].idx_v for j in chain]
+    iq = [model.joints[j].idx_q for j in chain]
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    for _ in range(iterations):
+        pin.framesForwardKinematics(model, data, q)
+        err = pin.log6(data.oMf[fid].actInv(target)).vector
+        if np.linalg.norm(err) < tolerance:
+            break
+        jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, iv]
+        dq = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), err)
+        q[iq] = np.clip(q[iq] + dq, lo, hi)
+
+
 def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:
     """Leg joint angles that raise each sole towards the base by ``KNEE_LIFT`` × the leg length, the sole
     orientation kept (damped least squares on Pinocchio's frame Jacobian, joint limits clipped); the knee (the
@@ -356,17 +385,7 @@ def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:
         iq = model.joints[knee].idx_q
         lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
         q[iq] = np.clip(0.3 if hi >= -lo else -0.3, lo, hi)
-        idx_v = [model.joints[j].idx_v for j in chain]
-        for _ in range(200):
-            pin.framesForwardKinematics(model, data, q)
-            err = pin.log6(data.oMf[fid].actInv(target)).vector
-            if np.linalg.norm(err) < 1e-6:
-                break
-            jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, idx_v]
-            dq = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), err)
-            for j, d in zip(chain, dq):
-                k = model.joints[j].idx_q
-                q[k] = np.clip(q[k] + d, model.lowerPositionLimit[k], model.upperPositionLimit[k])
+        reach_frame(model, data, q, fid, chain, target, iterations=200, tolerance=1e-6, damping=1e-4)
         for j in chain:
             out[model.names[j]] = round(float(q[model.joints[j].idx_q]), 4)
     notes.append(f"reference posture: no SRDF found; knees bent (feet {KNEE_LIFT:.0%} of the leg length closer to "

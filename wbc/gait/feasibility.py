@@ -23,6 +23,7 @@ import pinocchio as pin
 from wbc.exceptions import GaitError
 from wbc.gait.walk import plan_walk
 from wbc.robot import Robot
+from wbc.robot_inspect import reach_frame
 
 __all__ = ["GaitDemand", "nominal_step_demand", "feasible_gait", "SPEED_FRACTION", "ACCELERATION_FRACTION",
            "MAX_T_SS", "REACH_TOLERANCE"]
@@ -106,18 +107,10 @@ def nominal_step_demand(robot: Robot, gait: dict[str, float], n_steps: int = 3) 
     for k in range(n):
         q[:3] = base0 + plan.com[k] - com0
         for fid, chain, target in legs:
-            iv = [model.joints[j].idx_v for j in chain]
             iq = [model.joints[j].idx_q for j in chain]
             lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
             goal = pin.SE3(target[k])
-            for _ in range(30):
-                pin.framesForwardKinematics(model, data, q)
-                err = pin.log6(data.oMf[fid].actInv(goal)).vector
-                if np.linalg.norm(err) < 1e-7:
-                    break
-                jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, iv]
-                dq = jac.T @ np.linalg.solve(jac @ jac.T + 1e-6 * np.eye(6), err)
-                q[iq] = np.clip(q[iq] + dq, lo, hi)
+            reach_frame(model, data, q, fid, chain, goal, iterations=30, tolerance=1e-7, damping=1e-6)
             pin.framesForwardKinematics(model, data, q)
             e = float(np.linalg.norm(data.oMf[fid].translation - goal.translation))
             if e > reach:
