@@ -100,7 +100,9 @@ def test_robot_file_armature_reaches_the_realistic_plant(tmp_path):
     """A robot file's [mujoco] armature is the realistic plant's (it was replaced by "none known (0)")."""
     from pathlib import Path
 
-    cat = (Path(wbc.__file__).parent / "robots").resolve()
+    import wbc.robots
+
+    cat = Path(wbc.robots.__path__[0]).resolve()  # the installed catalog (robots/ of the repository)
     text = (cat / "humanoid15.toml").read_text().replace('"humanoid15.urdf"', f'"{cat / "humanoid15.urdf"}"')
     text = text.replace('"humanoid15.srdf"', f'"{cat / "humanoid15.srdf"}"')
     path = tmp_path / "mine.toml"
