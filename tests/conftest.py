@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+import os
+
+# MuJoCo's offscreen renderer (video tests) picks its GL backend when mujoco is first imported: without a display,
+# README's test command gets the same headless EGL backend that .ci/run exports (a full run on Python 3.12 with the
+# default backend aborted in the renderer); a backend the user set is kept.
+if not os.environ.get("DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
 import numpy as np
 import pinocchio as pin
 import pytest
