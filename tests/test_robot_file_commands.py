@@ -25,8 +25,8 @@ LOOPBACK = (
 
 @pytest.fixture(scope="module")
 def robot_file(tmp_path_factory) -> Path:
-    text = (ROOT / "wbc/robots/humanoid15.toml").read_text()
-    cat = (ROOT / "wbc/robots").resolve()
+    cat = (ROOT / "robots").resolve()  # the catalog in the repository (installed as wbc.robots)
+    text = (cat / "humanoid15.toml").read_text()
     text = text.replace('urdf = "humanoid15.urdf"', f'urdf = "{cat / "humanoid15.urdf"}"')
     text = text.replace('srdf = "humanoid15.srdf"', f'srdf = "{cat / "humanoid15.srdf"}"')
     text = "name = \"my_humanoid\"\n" + text
