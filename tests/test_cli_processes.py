@@ -235,8 +235,9 @@ def test_bench_report_is_moved_into_place_whole(tmp_path):
 
 
 @linux_only
-@pytest.mark.parametrize("command,delay", [(["walk", "--steps", "40"], 1.5), (["walk", "--steps", "40"], 6.0),
-                                           (["sim", "walk"], 6.0)],
+# 400 steps is minutes of work on any machine: a quiet one finished a 40-step walk inside the 6 s delay (exit 0)
+@pytest.mark.parametrize("command,delay", [(["walk", "--steps", "400"], 1.5), (["walk", "--steps", "400"], 6.0),
+                                           (["sim", "walk", "--steps", "400"], 6.0)],
                          ids=["walk-while-loading", "walk-mid-run", "sim-walk-mid-run"])
 def test_sigint_to_a_running_cli_keeps_the_previous_log(tmp_path, command, delay):
     """SIGINT to a `wbc ... --log X` process (a real one, as Ctrl-C in a terminal sends it), while it loads or
