@@ -525,8 +525,10 @@ class ControllerNode:
         fb_every = int(round(0.1 / w.dt))
         rep_every = None if report_every is None else max(1, int(round(report_every / w.dt)))
         window = deque(maxlen=rep_every or 1)
+        window_cpu = deque(maxlen=rep_every or 1)  # the tick's thread CPU time: what load on the machine leaves out
         while duration is None or w.t < duration - 1e-9:
             t0 = time.perf_counter()
+            c0 = time.thread_time()
             if self.ticks % poll == 0:
                 if self._clock_w is not None:
                     self._clock_w.write(self.m.Clock(self._time()))
@@ -546,10 +548,13 @@ class ControllerNode:
             self.tick_time.append(dt_tick)
             if rep_every is not None:
                 window.append(dt_tick)
+                window_cpu.append(time.thread_time() - c0)
                 if self.ticks % rep_every == 0:
                     tt = np.asarray(window) * 1e6
+                    tc = np.asarray(window_cpu) * 1e6
                     print(f"stats: node time {w.t:.1f} s, tick p50 {np.percentile(tt, 50):.0f} µs "
-                          f"p99 {np.percentile(tt, 99):.0f} µs, RSS {_rss_mb():.1f} MB, replans {w.replans}, "
+                          f"p99 {np.percentile(tt, 99):.0f} µs (CPU p50 {np.percentile(tc, 50):.0f} µs "
+                          f"p99 {np.percentile(tc, 99):.0f} µs), RSS {_rss_mb():.1f} MB, replans {w.replans}, "
                           f"replan failures {w.replan_failures}", flush=True)
             if pacer is not None:
                 pacer.wait(w.t)
