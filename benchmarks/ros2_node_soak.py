@@ -8,6 +8,7 @@ side-step 0.05 m/s 10 s, stop 6 s — and samples the node's VmRSS (/proc/<pid>/
 With ``--sim`` a fall (the node prints ``sim: FELL``) is answered by a /reset_robot call and counted.
 
     python benchmarks/ros2_node_soak.py --minutes 5
+    python benchmarks/ros2_node_soak.py --sim --minutes 150 --node-minutes 61   # an hour of node time
     nice -n 10 python benchmarks/ros2_node_soak.py --sim --minutes 60 --node-log /tmp/node.log
 
 Prints the RSS after the first minute (wall) and at the end, its growth, and the node's tick p50/p99 of its first
@@ -42,6 +43,8 @@ def rss_mb(pid: int) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=5.0, help="wall-clock minutes (default 5)")
+    ap.add_argument("--node-minutes", type=float, default=None,
+                    help="stop earlier, once the node's clock (/clock) has run this many minutes")
     ap.add_argument("--robot", default="g1", help="a robot whose legs can turn (hip yaw; default g1)")
     ap.add_argument("--sim", action="store_true", help="the MuJoCo closed-loop node (wbc ros2 node --sim)")
     ap.add_argument("--report-every", type=float, default=None,
@@ -92,6 +95,8 @@ def main() -> int:
     next_sample = t0
     try:
         while time.monotonic() - t0 < 60 * args.minutes:
+            if args.node_minutes is not None and t_node is not None and t_node >= 60 * args.node_minutes:
+                break
             for s in clock.take(N=100):
                 if isinstance(s, msgs.Clock):
                     t_node = s.clock.sec + 1e-9 * s.clock.nanosec
