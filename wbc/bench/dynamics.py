@@ -189,8 +189,7 @@ class PlacoDynamicsRunner(_DynamicsRunner):
 def _instructions_child(library: str, n: int, robot_name: str = "talos") -> None:
     """Child of :func:`dynamics_instructions_per_tick`: READY after 30 uninstrumented ticks, HALF after N, DONE
     after 2N, each followed by a line read from stdin."""
-    import sys
-
+    from wbc.bench.instructions import run_marked
     from wbc.bench.stats import limit_blas_threads
     from wbc.robot import load_robot
 
@@ -198,16 +197,7 @@ def _instructions_child(library: str, n: int, robot_name: str = "talos") -> None
     robot = load_robot(robot_name)
     spec = DynamicsSpec(robot=robot_name, ticks=2 * n + 30, warmup=30)
     runner = {"wbc": WbcDynamicsRunner, "placo": PlacoDynamicsRunner}[library](spec, robot)
-    runner.reset()
-    k = 0
-    for marker, ticks in (("READY", 30), ("HALF", n), ("DONE", n)):
-        for _ in range(ticks):
-            runner.tick(k)
-            k += 1
-        print(marker, flush=True)
-        sys.stdin.readline()
-    if runner.failures:
-        raise SystemExit(f"{library}: {runner.failures} failed ticks ({runner.first_error})")
+    run_marked(runner, library, 30, n)
 
 
 def dynamics_instructions_per_tick(n: int = 100, robot_name: str = "talos", log=print) -> dict[str, object]:

@@ -38,9 +38,19 @@ def _child(library: str, n: int, robot_name: str = "talos") -> None:
     robot = load_robot(robot_name)
     spec = KinematicSpec(robot=robot_name, ticks=2 * n, warmup=20)
     runner = {"wbc": WbcRunner, "placo": PlacoRunner}[library](spec, robot)
+    run_marked(runner, library, spec.warmup, n)
+
+
+def run_marked(runner, library: str, warmup: int, n: int) -> None:
+    """A callgrind child's tick loop: ``warmup`` ticks then READY, ``n`` ticks then HALF, ``n`` more then DONE —
+    each marker printed on stdout, then a line awaited on stdin (the parent toggles instrumentation meanwhile).
+
+    Raises:
+        SystemExit: the runner reported failed ticks.
+    """
     runner.reset()
     k = 0
-    for marker, ticks in (("READY", spec.warmup), ("HALF", n), ("DONE", n)):
+    for marker, ticks in (("READY", warmup), ("HALF", n), ("DONE", n)):
         for _ in range(ticks):
             runner.tick(k)
             k += 1
