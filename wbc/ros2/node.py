@@ -172,6 +172,7 @@ class ControllerNode:
             self.walk = CommandedWalk(robot)
         self.sim = bool(sim)
         self._was_walking = False
+        self._fall_reported = False  # --sim: the current fall was printed (cleared when the robot is up again)
         self.robot, self.name, self.time_mode = robot, name, time_mode
         self.params = {"update_rate": float(update_rate), "step_duration": self.walk.step_duration,
                        "max_velocity": self.walk.max_velocity, "cmd_vel_timeout": 0.5,
@@ -567,9 +568,11 @@ class ControllerNode:
         if walking != self._was_walking:
             self._was_walking = walking
             print(f"sim: {'walking' if walking else 'standing'} at t = {w.t:.3f} s; " + self.sim_state(), flush=True)
-        if w.fell and not getattr(self, "_fall_reported", False):
+        if w.fell and not self._fall_reported:
             self._fall_reported = True
             print(f"sim: FELL at t = {w.t:.3f} s ({w.monitor.fall_reason}); /reset_robot to restart", flush=True)
+        elif not w.fell:
+            self._fall_reported = False  # after /reset_robot: the next fall is printed too
 
     def sim_state(self) -> str:
         """--sim: one line with the plant's ground-truth base (x, y, yaw), the estimate's, and the feet's normal
