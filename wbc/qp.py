@@ -143,8 +143,9 @@ class QPBackend(ABC):
             rows, rhs = [A], [b]
             if C.shape[0]:
                 cx = C @ x
-                act_l = cx <= l + 1e-6 * np.maximum(1.0, np.abs(l))
-                act_u = cx >= u - 1e-6 * np.maximum(1.0, np.abs(u))
+                with np.errstate(invalid="ignore"):  # an infinite bound: inf - inf = nan compares False (inactive)
+                    act_l = cx <= l + 1e-6 * np.maximum(1.0, np.abs(l))
+                    act_u = cx >= u - 1e-6 * np.maximum(1.0, np.abs(u))
                 act = act_l | act_u
                 rows.append(C[act])
                 rhs.append(np.where(act_l, l, u)[act])
