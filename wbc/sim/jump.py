@@ -86,6 +86,12 @@ FLIGHT_FOOT_WEIGHT = 1000.0
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 
 SIDES = ("left", "right")
+#: A jump's flight counts while the lowest corner of both soles is at least this high above its start (m).
+FLIGHT_CLEARANCE = 0.05
+#: A jump fails with less flight than this (s) at :data:`FLIGHT_CLEARANCE`.
+MIN_FLIGHT_TIME = 0.1
+#: A jump fails when the pelvis or the torso tilts more than this (deg) from its orientation at t = 0.
+MAX_TILT_DEG = 30.0
 
 
 def limit_landing_torques(controller, cmd):
@@ -135,9 +141,13 @@ class JumpScenario:
             4 m g). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
             task during the jump (module docstring).
 
-    Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
-    over time of the lower sole's rise above the ground), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s``
-    (longest interval with both soles ≥ 5 cm up, per jump / smallest over the jumps), ``flight_time_per_jump_s``
+    Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan; foot heights are those of the
+    lowest corner of each sole rectangle, from the logged plant configuration): ``apex_foot_clearance_m`` /
+    ``max_foot_clearance_per_jump_m`` (max over time of the lower foot's rise above the ground, overall / per
+    jump), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s`` (longest interval with both feet ≥ 5 cm
+    up, per jump / smallest over the jumps), ``max_tilt_per_jump_deg`` (largest pelvis or torso tilt from its
+    orientation at t = 0 during each jump's period), ``failed_jumps`` / ``failed_jump_count`` (jumps, 0-based,
+    with < 0.1 s both feet ≥ 5 cm up, a tilt > 30°, or not completed), ``flight_time_per_jump_s``
     (plant ground force < 1 N), ``peak_grf_n`` (sum over both feet), ``max_torque_over_limit`` (applied |τ| / URDF
     limit, with the joint), ``landing_com_overshoot_m`` (largest drop of the CoM below standing height after a
     touch-down), ``landed`` (every jump landed), ``slide_per_jump_m`` (largest horizontal sole displacement from
@@ -356,20 +366,49 @@ class JumpScenario:
         """:func:`jump_criteria` with this scenario's ``min_hop``."""
         return jump_criteria(self.min_hop)
 
+    def _plant_feet_and_tilt(self, run):
+        """(N, 2) height (m) of the lowest sole corner of each foot above its height at t = 0 and (N,) the
+        larger of the pelvis (root body) and torso tilts (deg) from their orientation at t = 0, both from the
+        logged plant configurations ``run.q`` (MuJoCo's state, Pinocchio forward kinematics)."""
+        robot = self.robot
+        model, data = robot.model, self._data
+        soles = [robot.frame_id(f) for f in (robot.left_sole, robot.right_sole)]
+        torso = robot.frame_id(robot.torso)
+        corners = robot.sole_corners_local().T  # (3, 4) sole frame
+        n = len(run.t)
+        low, tilt = np.empty((n, 2)), np.empty(n)
+        up0 = None
+        for k in range(n):
+            pin.framesForwardKinematics(model, data, run.q[k])
+            for i, f in enumerate(soles):
+                M = data.oMf[f]
+                low[k, i] = (M.rotation[2] @ corners).min() + M.translation[2]
+            r_base = pin.Quaternion(run.q[k, 3:7]).toRotationMatrix()
+            r_torso = data.oMf[torso].rotation
+            if up0 is None:  # body-fixed axes that pointed up at t = 0 (as wbc.sim.outcome)
+                up0 = (r_base[2].copy(), r_torso[2].copy())
+            c = min(r_base[2] @ up0[0], r_torso[2] @ up0[1])
+            tilt[k] = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+        return low - low[0], tilt
+
     def extra_summary(self, run) -> dict:
-        ground = np.array([self.soles0[s].translation[2] for s in SIDES])
-        z = run.sole_pos[:, :, 2] - ground
-        both = z.min(axis=1)
+        low, tilt = self._plant_feet_and_tilt(run)
+        both = low.min(axis=1)  # the lower of the two feet's lowest corners
         fz = run.sim_wrench[:, :, 2].sum(axis=1)
         dt = run.dt
-        per_jump, flight, slide, hop, overshoot = [], [], [], [], []
+        per_jump, flight, slide, hop, overshoot, clear, tilt_jump, failed = [], [], [], [], [], [], [], []
         for k in range(self.count):
             sel = (run.t >= k * self.period) & (run.t < (k + 1) * self.period)
             best = cur = 0
-            for c in both[sel] >= 0.05:  # longest run of consecutive ticks with both feet ≥ 5 cm up
+            for c in both[sel] >= FLIGHT_CLEARANCE:  # longest run of consecutive ticks with both feet ≥ 5 cm up
                 cur = cur + 1 if c else 0
                 best = max(best, cur)
             per_jump.append(best * dt)
+            clear.append(float(both[sel].max()) if sel.any() else 0.0)
+            tilt_jump.append(float(tilt[sel].max()) if sel.any() else 0.0)
+            if best * dt < MIN_FLIGHT_TIME or tilt_jump[-1] > MAX_TILT_DEG or not sel.any() \
+                    or run.t[sel][-1] < (k + 1) * self.period - 2 * dt:
+                failed.append(k)
             air = fz[sel] < 1.0
             air[: int(0.05 / dt)] = False
             flight.append(float(air.sum() * dt))
@@ -395,8 +434,9 @@ class JumpScenario:
         return {"jumps": self.count, "planned_height_m": self.jump_plan.height, "planned_forward_m": self.jump_plan.forward,
                 "takeoff_velocity_plan_mps": [float(x) for x in self.jump_plan.takeoff_velocity],
                 "takeoff_velocity_measured_mps": [[float(x) for x in vv] for vv in self.takeoff_velocity],
-                "apex_foot_clearance_m": float(both.max()),
+                "apex_foot_clearance_m": float(both.max()), "max_foot_clearance_per_jump_m": clear,
                 "time_both_feet_5cm_per_jump_s": per_jump, "time_both_feet_5cm_s": min(per_jump),
+                "max_tilt_per_jump_deg": tilt_jump, "failed_jumps": failed, "failed_jump_count": len(failed),
                 "flight_time_per_jump_s": flight, "peak_grf_n": float(fz.max()),
                 "peak_grf_body_weights": float(fz.max() / (self.robot.mass * G)),
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
@@ -409,14 +449,17 @@ class JumpScenario:
 
 
 def jump_criteria(min_hop: float | None = None) -> list[Criterion]:
-    """Acceptance of a jump series (issue 14): no fall, every jump landed, both soles ≥ 5 cm up for ≥ 0.1 s in
-    every jump, no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop (mean x
+    """Acceptance of a jump series: no fall, every jump landed, both feet (lowest sole corners) ≥ 5 cm up for
+    ≥ 0.1 s in every jump, no failed jump (:class:`JumpScenario`'s ``failed_jumps``: also a pelvis or torso tilt
+    > 30° during the jump), no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop (mean x
     displacement of the soles, take-off to end of the jump) ≥ min_hop, else (vertical jumps) the feet within 2 cm
     per jump of their start at the end."""
     out = [
         NO_FALL,
         Criterion("every jump landed", "landed", "==", True),
-        Criterion("both feet ≥ 5 cm up for ≥ 0.1 s in every jump", "time_both_feet_5cm_s", ">=", 0.1),
+        Criterion("both feet ≥ 5 cm up for ≥ 0.1 s in every jump", "time_both_feet_5cm_s", ">=", MIN_FLIGHT_TIME),
+        Criterion("no failed jump (each: both feet ≥ 5 cm up for ≥ 0.1 s, pelvis/torso tilt ≤ 30°, completed)",
+                  "failed_jump_count", "==", 0),
         Criterion("no sole slid > 2 cm after a touch-down", "max_slide_m", "<=", 0.02),
     ]
     if min_hop is not None:
