@@ -64,6 +64,7 @@ from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import G, JumpPlan
+from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL
 from wbc.tasks import OrientationTask, PostureTask
@@ -71,16 +72,25 @@ from wbc.tasks import OrientationTask, PostureTask
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
 
 #: BalanceController gain overrides used for the jump (module docstring).
-JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
+JUMP_GAINS = {"torso_weight": 10.0, "posture_weight": 0.1, "momentum_weight": 1.0}
 #: Default weight of the centroidal angular-momentum task during the jump (module docstring).
 JUMP_MOMENTUM_WEIGHT = 50.0
 #: Weight of the torso and base (pelvis) orientation tasks in flight and landing (module docstring).
-FLIGHT_ORIENTATION_WEIGHT = 1.0
+FLIGHT_ORIENTATION_WEIGHT = 10.0
 #: Weight of the joint task holding the upper body (every actuated joint not between the base and a sole) at
 #: ``robot.q_ref`` during the whole jump (module docstring).
 UPPER_BODY_WEIGHT = 10.0
 #: Weight of the foot pose tasks in flight (default of the balance controller: 100) (module docstring).
 FLIGHT_FOOT_WEIGHT = 1000.0
+#: Default CoM height below the take-off height at which the feet touch down (m): the feet are raised by this much
+#: relative to the CoM over the first half of the flight (module docstring).
+LANDING_CROUCH = 0.04
+#: After a touch-down, once this long (s) has passed, the landed robot is brought back to its standing posture for
+#: the next jump: posture task weight :data:`RECOVER_POSTURE_WEIGHT`, torso and base orientation weights
+#: :data:`RECOVER_ORIENTATION_WEIGHT` (module docstring).
+RECOVER_DELAY = 0.3
+RECOVER_POSTURE_WEIGHT = 1.0
+RECOVER_ORIENTATION_WEIGHT = 10.0
 #: BalanceController keyword options of the jump: the gains, and a braking acceleration of the joint-limit
 #: viability bound of 150 rad/s² instead of 50 (module docstring).
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
@@ -166,7 +176,7 @@ class JumpScenario:
                  extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.06,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
                  landing_force: float | None = None, min_hop: float | None = None,
-                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
+                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT, landing_crouch: float = LANDING_CROUCH):
         if min_hop is not None and not (np.isfinite(min_hop) and min_hop >= 0):
             raise InvalidInputError(f"jump: min_hop must be None or finite and >= 0 m, got {min_hop!r}")
         self.min_hop = min_hop
@@ -177,6 +187,10 @@ class JumpScenario:
                 raise InvalidInputError(f"jump: {what} must be finite and > 0, got {value!r}")
         if not (np.isfinite(t_start) and t_start >= 0):
             raise InvalidInputError(f"jump: t_start must be finite and >= 0 s, got {t_start!r}")
+        if not (np.isfinite(landing_crouch) and 0 <= landing_crouch <= crouch):
+            raise InvalidInputError(f"jump: landing_crouch must be finite, >= 0 and <= crouch = {crouch!r} m, got "
+                                    f"{landing_crouch!r}")
+        self.landing_crouch = float(landing_crouch)
         self.count = count
         self._plan_args = dict(height=height, forward=forward, crouch=crouch, extension=extension,
                                t_crouch=t_crouch, tuck=tuck, w_land=w_land)
@@ -229,6 +243,8 @@ class JumpScenario:
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
         self.foot_weight = np.array(controller.feet["left"].weight, dtype=float).copy()
+        self.posture_weight = np.array(controller.posture.weight, dtype=float).copy()
+        self._recovering = False
         controller.momentum.weight[:] = self.momentum_weight
         legs = set()
         for f in (robot.left_sole, robot.right_sole):
@@ -273,6 +289,9 @@ class JumpScenario:
             self.phase = "stand"
             self.c_start = self._target.copy()
             ctrl.torso.weight[:] = self.torso_weight
+            ctrl.posture.weight[:] = self.posture_weight
+            self.base_task.weight = FLIGHT_ORIENTATION_WEIGHT
+            self._recovering = False
             for side in SIDES:
                 ctrl.feet[side].weight[:] = self.foot_weight
             if self.base_task in ctrl.qp.tasks:
@@ -298,7 +317,12 @@ class JumpScenario:
             if t - self.t_td < 2 * self.t_ramp:  # until both soles are down and loaded: measured sole positions
                 self._retarget(ctrl)
             ref = p.landing_reference(self.c_td, self.v_td, self._target, t - self.t_td)
-            self._swing_feet(t, ctrl)
+            self._swing_feet(t, ctrl, q, v)
+            if t - self.t_td >= RECOVER_DELAY and not self._recovering:  # landed: back to the standing posture
+                self._recovering = True
+                ctrl.posture.weight[:] = RECOVER_POSTURE_WEIGHT
+                ctrl.torso.weight[:] = RECOVER_ORIENTATION_WEIGHT
+                self.base_task.weight = RECOVER_ORIENTATION_WEIGHT
         self._ref = ref
         ctrl.set_com_reference(*ref)
         return None
@@ -321,16 +345,35 @@ class JumpScenario:
         self.takeoffs.append(t)
         self.takeoff_velocity.append(vc.copy())
 
-    def _swing_feet(self, t, ctrl):
-        """Foot references of the soles still in swing (flight, or landing before their own touch-down)."""
+    def _predict_flight(self, t, c, vc):
+        """Flight duration (s) predicted from the measured CoM state (c, vc) at t: the elapsed flight plus the
+        ballistic time to fall back to the take-off height, (v_z + √(v_z² + 2 g (c_z − c_z,to))) / g. The
+        measured take-off velocity lags the plant's (the estimator's filtered joint velocities lag the push's
+        fast leg extension), so the duration is re-predicted every tick of the flight from the current state."""
+        if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
+            return self.t_flight  # frozen after the first touch-down
+        rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
+        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * G * rise, 0.0))) / G
+        return max(t - self.t_to + rest, 0.05)
+
+    def _swing_feet(self, t, ctrl, q, v):
+        """Foot references of the soles still in swing (flight, or landing before their own touch-down): the
+        take-off foot height plus the measured CoM rise and the tuck profile over the predicted flight."""
         tau = t - self.t_to
-        cref = self.jump_plan.flight_reference(self.c_to, self.v_to, tau)
-        dz = cref[0][2] - self.c_to[2]
+        c, vc = self._com_state(q, v)
+        self.t_flight = self._predict_flight(t, c, vc)
+        dz = c[2] - self.c_to[2]
         for side in SIDES:
             if self.switcher.phase(side) != "swing":
                 continue
-            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
+            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, vc[2],
                                                          -G, tau, self.t_flight)
+            if self.landing_crouch > 0:  # feet raised by landing_crouch relative to the CoM over the first half
+                half = 0.5 * self.t_flight
+                sl, dsl, ddsl = min_jerk(min(tau / half, 1.0))
+                pos[2] += self.landing_crouch * sl
+                vel[2] += self.landing_crouch * dsl / half
+                acc[2] += self.landing_crouch * ddsl / half**2
             if self.phase == "land":  # the other sole is down: this one goes down to the ground
                 pos[2] = min(pos[2], self.foot_target[side][2] - 0.01)
                 vel[2], acc[2] = min(vel[2], -0.3), 0.0
@@ -341,7 +384,7 @@ class JumpScenario:
 
     def _flight(self, t, ctrl, q, v):
         ref = self.jump_plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
-        self._swing_feet(t, ctrl)
+        self._swing_feet(t, ctrl, q, v)
         down = [s for s in SIDES if self.switcher.phase(s) != "swing"]
         if down:  # first touch-down: landing from the measured CoM state
             self.phase = "land"
