@@ -73,3 +73,12 @@ def test_g1_two_jumps_estimated_state_realistic_plant(tmp_path):
     last = t > t[-1] - 0.5
     weight = robot.mass * 9.81
     assert abs(fz[last].mean() - weight) < 0.1 * weight
+
+
+@pytest.mark.parametrize("value", [-0.01, 0.2, float("nan")])
+def test_landing_crouch_out_of_range_is_a_typed_error(value):
+    from wbc.exceptions import InvalidInputError
+    from wbc.sim.jump import JumpScenario
+
+    with pytest.raises(InvalidInputError, match="landing_crouch"):
+        JumpScenario(crouch=0.1, landing_crouch=value)

@@ -16,12 +16,22 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    its acceleration is −g: the only one the QP's floating-base rows admit without contact forces (with no
    contact, M_u v̇ + h_u = 0 fixes the rate of the centroidal momentum: linear m g down, angular 0). The
    controller therefore never asks for a base acceleration gravity cannot give; the joints still move the feet
-   (tuck, landing placement, flat orientation) and the posture, with the centroidal momentum conserved;
+   (tuck, landing placement, flat orientation) and the posture, with the centroidal momentum conserved. The
+   feet follow the take-off sole height plus the **measured** CoM rise (every tick), plus the plan's tuck, plus
+   ``landing_crouch`` (raised over the first half of the flight and held), over a flight duration re-predicted
+   every tick from the measured CoM state as the time to fall to ``landing_crouch`` below the take-off height.
+   So the soles touch down with the CoM ``landing_crouch`` lower than at take-off (bent knees, room to absorb
+   the impact) and later than a landing at the take-off height; and the estimated take-off velocity, which
+   lags the plant's (the estimator's filtered joint velocities lag the fast leg extension of the push), sets
+   no fixed flight duration;
 4. **landing**: touch-down of each sole detected from the state (sole height ≤ ``touchdown_height`` and not
    rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`), the sole's normal-force bound ramped in
    over ``t_ramp`` up to ``landing_force`` (N, then unbounded), the CoM reference critically damped from the
    measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
-5. stance until the end of the jump's period; with ``count`` > 1 the next jump starts from there.
+5. stance until the end of the jump's period; :data:`RECOVER_DELAY` after the touch-down the posture task
+   (weight :data:`RECOVER_POSTURE_WEIGHT`) and the torso and base orientation tasks (weight
+   :data:`RECOVER_ORIENTATION_WEIGHT`) bring the robot back to its standing posture, so that with ``count`` > 1
+   every jump starts from the same stance as the first.
 
 Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
 rows ask to stop the sole at once; measured too in the last ticks of some push-offs), the controller's fallback
@@ -33,8 +43,10 @@ are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``
 first 20 as (time s, phase, how, joint most beyond its limit in the relaxed QP, its |τ|/limit)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
-Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
-10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; during the jump the centroidal
+Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 10 (the default; with 1 the
+trunk, leaning forward in the crouch, rotated back during the push and kept rotating in flight: G1 pelvis tilts
+up to 33°) and posture weight 0.1 (default 1), so the posture task does not hold back the push-off and the leg
+tuck; during the jump the centroidal
 angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1). Measured: G1 0.2 m planned hop,
 with weight 1 the angular momentum grew to 4.9 N·m·s (pitching forward) during the push and the robot fell on
 landing, with 50 it landed (50 only from the push start on: fell); humanoid15 vertical jump, weight 1: take-off
@@ -48,8 +60,9 @@ from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and 
 with 400 the late braking needed more than the hip torque limits (relaxed QP ticks at take-off, pitching kick).
 A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`; without it the arms
 flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
-and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 1 (with 10 they rotated the legs
-and the feet landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
+and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 10 (with 1 the reaction of the leg
+tuck pitched the G1 pelvis past 30° in flight; with 10 and the earlier flight profile the feet of forward hops
+landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
 (default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000). Landing force ramp ``t_ramp``
 0.06 s: with 0.03 s the G1 series of 10 had 2 clipped-torque ticks and Talos at 0.03 m one (hip roll 1.5× its limit
 at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks with 0.03 s, 16 with 0.06 s).
@@ -148,7 +161,8 @@ class JumpScenario:
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
             planned landing (s). t_start: stand before the first crouch (s). touchdown_height: sole height (m,
             world) at or below which a falling sole is in contact. landing_force: end of the ramp (N; default
-            4 m g). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
+            4 m g). landing_crouch: CoM height below the take-off height at touch-down (m, in [0, crouch];
+            module docstring). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
             task during the jump (module docstring).
 
     Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan; foot heights are those of the
@@ -166,7 +180,8 @@ class JumpScenario:
     start).
 
     Raises:
-        InvalidInputError: bad numbers (see :class:`~wbc.gait.jump_plan.JumpPlan`), count not an int ≥ 1.
+        InvalidInputError: bad numbers (see :class:`~wbc.gait.jump_plan.JumpPlan`), count not an int ≥ 1,
+            landing_crouch outside [0, crouch].
     """
 
     name = "jump"
