@@ -27,7 +27,7 @@ JUMP_OPTIONS = (
     ("--count", int, 1, "jump: number of consecutive jumps (default 1)"),
     ("--forward", finite(0.0), 0.0, "jump: planned forward foot displacement per jump, m (default 0: vertical)"),
     ("--momentum-weight", finite(0.0), None,
-     "jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)"),
+     "jump: weight of the angular-momentum task during the jump (default 50)"),
     ("--landing-ramp", seconds, 0.06, "jump: normal-force ramp-in after a touch-down, s (default 0.06)"),
     ("--min-hop", finite(0.0), None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
 )
