@@ -54,6 +54,7 @@ BAD = [
     (["sim", "jump", "--height", "1e6"], "weight"),
     (["sim", "jump", "--height", "-0.1"], "--height"),
     (["sim", "jump", "--count", "0"], "--count"),
+    (["sim", "jump", "--landing-crouch", "0.2"], "--landing-crouch"),
     (["balance", "jump", "--height", "1e6"], "weight"),
     (["balance", "jump", "--height", "nan"], "--height"),
     (["balance", "jump", "--count", "100000"], "GiB"),

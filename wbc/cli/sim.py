@@ -27,8 +27,11 @@ JUMP_OPTIONS = (
     ("--count", int, 1, "jump: number of consecutive jumps (default 1)"),
     ("--forward", finite(0.0), 0.0, "jump: planned forward foot displacement per jump, m (default 0: vertical)"),
     ("--momentum-weight", finite(0.0), None,
-     "jump: weight of the angular-momentum task during the jump (default 50; 1 for G1 series)"),
+     "jump: weight of the angular-momentum task during the jump (default 50)"),
     ("--landing-ramp", seconds, 0.06, "jump: normal-force ramp-in after a touch-down, s (default 0.06)"),
+    ("--landing-crouch", finite(0.0, 0.1, unit=" m"), 0.04,
+     "jump: CoM height below the take-off height at touch-down (feet raised relative to the CoM in flight), m "
+     "(default 0.04; tuned on g1; 0..0.1, the crouch)"),
     ("--min-hop", finite(0.0), None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
 )
 
@@ -230,7 +233,7 @@ def _scenario(args, robot):
 
         w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
         return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop,
-                            momentum_weight=w, t_ramp=args.landing_ramp)
+                            momentum_weight=w, t_ramp=args.landing_ramp, landing_crouch=args.landing_crouch)
     force = args.force
     if force is None:
         force = DEFAULT_PUSH_FORCE.get(robot.name)

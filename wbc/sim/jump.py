@@ -16,12 +16,22 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    its acceleration is −g: the only one the QP's floating-base rows admit without contact forces (with no
    contact, M_u v̇ + h_u = 0 fixes the rate of the centroidal momentum: linear m g down, angular 0). The
    controller therefore never asks for a base acceleration gravity cannot give; the joints still move the feet
-   (tuck, landing placement, flat orientation) and the posture, with the centroidal momentum conserved;
+   (tuck, landing placement, flat orientation) and the posture, with the centroidal momentum conserved. The
+   feet follow the take-off sole height plus the **measured** CoM rise (every tick), plus the plan's tuck, plus
+   ``landing_crouch`` (raised over the first half of the flight and held), over a flight duration re-predicted
+   every tick from the measured CoM state as the time to fall to ``landing_crouch`` below the take-off height.
+   So the soles touch down with the CoM ``landing_crouch`` lower than at take-off (bent knees, room to absorb
+   the impact) and later than a landing at the take-off height; and the estimated take-off velocity, which
+   lags the plant's (the estimator's filtered joint velocities lag the fast leg extension of the push), sets
+   no fixed flight duration;
 4. **landing**: touch-down of each sole detected from the state (sole height ≤ ``touchdown_height`` and not
    rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`), the sole's normal-force bound ramped in
    over ``t_ramp`` up to ``landing_force`` (N, then unbounded), the CoM reference critically damped from the
    measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
-5. stance until the end of the jump's period; with ``count`` > 1 the next jump starts from there.
+5. stance until the end of the jump's period; :data:`RECOVER_DELAY` after the touch-down the posture task
+   (weight :data:`RECOVER_POSTURE_WEIGHT`) and the torso and base orientation tasks (weight
+   :data:`RECOVER_ORIENTATION_WEIGHT`) bring the robot back to its standing posture, so that with ``count`` > 1
+   every jump starts from the same stance as the first.
 
 Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
 rows ask to stop the sole at once; measured too in the last ticks of some push-offs), the controller's fallback
@@ -33,8 +43,10 @@ are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``
 first 20 as (time s, phase, how, joint most beyond its limit in the relaxed QP, its |τ|/limit)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
-Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 1 and posture weight 0.1 (defaults
-10 and 1), so the torso and posture tasks do not hold back the push-off and the leg tuck; during the jump the centroidal
+Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 10 (the default; with 1 the
+trunk, leaning forward in the crouch, rotated back during the push and kept rotating in flight: G1 pelvis tilts
+up to 33°) and posture weight 0.1 (default 1), so the posture task does not hold back the push-off and the leg
+tuck; during the jump the centroidal
 angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1). Measured: G1 0.2 m planned hop,
 with weight 1 the angular momentum grew to 4.9 N·m·s (pitching forward) during the push and the robot fell on
 landing, with 50 it landed (50 only from the push start on: fell); humanoid15 vertical jump, weight 1: take-off
@@ -48,8 +60,9 @@ from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and 
 with 400 the late braking needed more than the hip torque limits (relaxed QP ticks at take-off, pitching kick).
 A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`; without it the arms
 flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
-and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 1 (with 10 they rotated the legs
-and the feet landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
+and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 10 (with 1 the reaction of the leg
+tuck pitched the G1 pelvis past 30° in flight; with 10 and the earlier flight profile the feet of forward hops
+landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
 (default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000). Landing force ramp ``t_ramp``
 0.06 s: with 0.03 s the G1 series of 10 had 2 clipped-torque ticks and Talos at 0.03 m one (hip roll 1.5× its limit
 at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks with 0.03 s, 16 with 0.06 s).
@@ -64,6 +77,7 @@ from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import G, JumpPlan
+from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL
 from wbc.tasks import OrientationTask, PostureTask
@@ -71,21 +85,36 @@ from wbc.tasks import OrientationTask, PostureTask
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
 
 #: BalanceController gain overrides used for the jump (module docstring).
-JUMP_GAINS = {"torso_weight": 1.0, "posture_weight": 0.1, "momentum_weight": 1.0}
+JUMP_GAINS = {"torso_weight": 10.0, "posture_weight": 0.1, "momentum_weight": 1.0}
 #: Default weight of the centroidal angular-momentum task during the jump (module docstring).
 JUMP_MOMENTUM_WEIGHT = 50.0
 #: Weight of the torso and base (pelvis) orientation tasks in flight and landing (module docstring).
-FLIGHT_ORIENTATION_WEIGHT = 1.0
+FLIGHT_ORIENTATION_WEIGHT = 10.0
 #: Weight of the joint task holding the upper body (every actuated joint not between the base and a sole) at
 #: ``robot.q_ref`` during the whole jump (module docstring).
 UPPER_BODY_WEIGHT = 10.0
 #: Weight of the foot pose tasks in flight (default of the balance controller: 100) (module docstring).
 FLIGHT_FOOT_WEIGHT = 1000.0
+#: Default CoM height below the take-off height at which the feet touch down (m): the feet are raised by this much
+#: relative to the CoM over the first half of the flight (module docstring).
+LANDING_CROUCH = 0.04
+#: After a touch-down, once this long (s) has passed, the landed robot is brought back to its standing posture for
+#: the next jump: posture task weight :data:`RECOVER_POSTURE_WEIGHT`, torso and base orientation weights
+#: :data:`RECOVER_ORIENTATION_WEIGHT` (module docstring).
+RECOVER_DELAY = 0.3
+RECOVER_POSTURE_WEIGHT = 1.0
+RECOVER_ORIENTATION_WEIGHT = 10.0
 #: BalanceController keyword options of the jump: the gains, and a braking acceleration of the joint-limit
 #: viability bound of 150 rad/s² instead of 50 (module docstring).
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 
 SIDES = ("left", "right")
+#: A jump's flight counts while the lowest corner of both soles is at least this high above its start (m).
+FLIGHT_CLEARANCE = 0.05
+#: A jump fails with less flight than this (s) at :data:`FLIGHT_CLEARANCE`.
+MIN_FLIGHT_TIME = 0.1
+#: A jump fails when the pelvis or the torso tilts more than this (deg) from its orientation at t = 0.
+MAX_TILT_DEG = 30.0
 
 
 def limit_landing_torques(controller, cmd):
@@ -132,12 +161,17 @@ class JumpScenario:
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
             planned landing (s). t_start: stand before the first crouch (s). touchdown_height: sole height (m,
             world) at or below which a falling sole is in contact. landing_force: end of the ramp (N; default
-            4 m g). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
+            4 m g). landing_crouch: CoM height below the take-off height at touch-down (m, in [0, crouch];
+            module docstring). momentum_weight: weight (scalar or (3,): x, y, z rows, world) of the centroidal angular-momentum
             task during the jump (module docstring).
 
-    Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan): ``apex_foot_clearance_m`` (max
-    over time of the lower sole's rise above the ground), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s``
-    (longest interval with both soles ≥ 5 cm up, per jump / smallest over the jumps), ``flight_time_per_jump_s``
+    Summary keys (:meth:`extra_summary`, all from MuJoCo's state, not the plan; foot heights are those of the
+    lowest corner of each sole rectangle, from the logged plant configuration): ``apex_foot_clearance_m`` /
+    ``max_foot_clearance_per_jump_m`` (max over time of the lower foot's rise above the ground, overall / per
+    jump), ``time_both_feet_5cm_per_jump_s`` / ``time_both_feet_5cm_s`` (longest interval with both feet ≥ 5 cm
+    up, per jump / smallest over the jumps), ``max_tilt_per_jump_deg`` (largest pelvis or torso tilt from its
+    orientation at t = 0 during each jump's period), ``failed_jumps`` / ``failed_jump_count`` (jumps, 0-based,
+    with < 0.1 s both feet ≥ 5 cm up, a tilt > 30°, or not completed), ``flight_time_per_jump_s``
     (plant ground force < 1 N), ``peak_grf_n`` (sum over both feet), ``max_torque_over_limit`` (applied |τ| / URDF
     limit, with the joint), ``landing_com_overshoot_m`` (largest drop of the CoM below standing height after a
     touch-down), ``landed`` (every jump landed), ``slide_per_jump_m`` (largest horizontal sole displacement from
@@ -146,7 +180,8 @@ class JumpScenario:
     start).
 
     Raises:
-        InvalidInputError: bad numbers (see :class:`~wbc.gait.jump_plan.JumpPlan`), count not an int ≥ 1.
+        InvalidInputError: bad numbers (see :class:`~wbc.gait.jump_plan.JumpPlan`), count not an int ≥ 1,
+            landing_crouch outside [0, crouch].
     """
 
     name = "jump"
@@ -156,7 +191,7 @@ class JumpScenario:
                  extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.06,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
                  landing_force: float | None = None, min_hop: float | None = None,
-                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT):
+                 momentum_weight: float = JUMP_MOMENTUM_WEIGHT, landing_crouch: float = LANDING_CROUCH):
         if min_hop is not None and not (np.isfinite(min_hop) and min_hop >= 0):
             raise InvalidInputError(f"jump: min_hop must be None or finite and >= 0 m, got {min_hop!r}")
         self.min_hop = min_hop
@@ -167,6 +202,10 @@ class JumpScenario:
                 raise InvalidInputError(f"jump: {what} must be finite and > 0, got {value!r}")
         if not (np.isfinite(t_start) and t_start >= 0):
             raise InvalidInputError(f"jump: t_start must be finite and >= 0 s, got {t_start!r}")
+        if not (np.isfinite(landing_crouch) and 0 <= landing_crouch <= crouch):
+            raise InvalidInputError(f"jump: landing_crouch must be finite, >= 0 and <= crouch = {crouch!r} m, got "
+                                    f"{landing_crouch!r}")
+        self.landing_crouch = float(landing_crouch)
         self.count = count
         self._plan_args = dict(height=height, forward=forward, crouch=crouch, extension=extension,
                                t_crouch=t_crouch, tuck=tuck, w_land=w_land)
@@ -219,6 +258,8 @@ class JumpScenario:
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
         self.foot_weight = np.array(controller.feet["left"].weight, dtype=float).copy()
+        self.posture_weight = np.array(controller.posture.weight, dtype=float).copy()
+        self._recovering = False
         controller.momentum.weight[:] = self.momentum_weight
         legs = set()
         for f in (robot.left_sole, robot.right_sole):
@@ -263,6 +304,9 @@ class JumpScenario:
             self.phase = "stand"
             self.c_start = self._target.copy()
             ctrl.torso.weight[:] = self.torso_weight
+            ctrl.posture.weight[:] = self.posture_weight
+            self.base_task.weight = FLIGHT_ORIENTATION_WEIGHT
+            self._recovering = False
             for side in SIDES:
                 ctrl.feet[side].weight[:] = self.foot_weight
             if self.base_task in ctrl.qp.tasks:
@@ -288,7 +332,12 @@ class JumpScenario:
             if t - self.t_td < 2 * self.t_ramp:  # until both soles are down and loaded: measured sole positions
                 self._retarget(ctrl)
             ref = p.landing_reference(self.c_td, self.v_td, self._target, t - self.t_td)
-            self._swing_feet(t, ctrl)
+            self._swing_feet(t, ctrl, q, v)
+            if t - self.t_td >= RECOVER_DELAY and not self._recovering:  # landed: back to the standing posture
+                self._recovering = True
+                ctrl.posture.weight[:] = RECOVER_POSTURE_WEIGHT
+                ctrl.torso.weight[:] = RECOVER_ORIENTATION_WEIGHT
+                self.base_task.weight = RECOVER_ORIENTATION_WEIGHT
         self._ref = ref
         ctrl.set_com_reference(*ref)
         return None
@@ -311,16 +360,35 @@ class JumpScenario:
         self.takeoffs.append(t)
         self.takeoff_velocity.append(vc.copy())
 
-    def _swing_feet(self, t, ctrl):
-        """Foot references of the soles still in swing (flight, or landing before their own touch-down)."""
+    def _predict_flight(self, t, c, vc):
+        """Flight duration (s) predicted from the measured CoM state (c, vc) at t: the elapsed flight plus the
+        ballistic time to fall back to the take-off height, (v_z + √(v_z² + 2 g (c_z − c_z,to))) / g. The
+        measured take-off velocity lags the plant's (the estimator's filtered joint velocities lag the push's
+        fast leg extension), so the duration is re-predicted every tick of the flight from the current state."""
+        if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
+            return self.t_flight  # frozen after the first touch-down
+        rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
+        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * G * rise, 0.0))) / G
+        return max(t - self.t_to + rest, 0.05)
+
+    def _swing_feet(self, t, ctrl, q, v):
+        """Foot references of the soles still in swing (flight, or landing before their own touch-down): the
+        take-off foot height plus the measured CoM rise and the tuck profile over the predicted flight."""
         tau = t - self.t_to
-        cref = self.jump_plan.flight_reference(self.c_to, self.v_to, tau)
-        dz = cref[0][2] - self.c_to[2]
+        c, vc = self._com_state(q, v)
+        self.t_flight = self._predict_flight(t, c, vc)
+        dz = c[2] - self.c_to[2]
         for side in SIDES:
             if self.switcher.phase(side) != "swing":
                 continue
-            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, cref[1][2],
+            pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, vc[2],
                                                          -G, tau, self.t_flight)
+            if self.landing_crouch > 0:  # feet raised by landing_crouch relative to the CoM over the first half
+                half = 0.5 * self.t_flight
+                sl, dsl, ddsl = min_jerk(min(tau / half, 1.0))
+                pos[2] += self.landing_crouch * sl
+                vel[2] += self.landing_crouch * dsl / half
+                acc[2] += self.landing_crouch * ddsl / half**2
             if self.phase == "land":  # the other sole is down: this one goes down to the ground
                 pos[2] = min(pos[2], self.foot_target[side][2] - 0.01)
                 vel[2], acc[2] = min(vel[2], -0.3), 0.0
@@ -331,7 +399,7 @@ class JumpScenario:
 
     def _flight(self, t, ctrl, q, v):
         ref = self.jump_plan.flight_reference(self.c_to, self.v_to, t - self.t_to)
-        self._swing_feet(t, ctrl)
+        self._swing_feet(t, ctrl, q, v)
         down = [s for s in SIDES if self.switcher.phase(s) != "swing"]
         if down:  # first touch-down: landing from the measured CoM state
             self.phase = "land"
@@ -356,20 +424,49 @@ class JumpScenario:
         """:func:`jump_criteria` with this scenario's ``min_hop``."""
         return jump_criteria(self.min_hop)
 
+    def _plant_feet_and_tilt(self, run):
+        """(N, 2) height (m) of the lowest sole corner of each foot above its height at t = 0 and (N,) the
+        larger of the pelvis (root body) and torso tilts (deg) from their orientation at t = 0, both from the
+        logged plant configurations ``run.q`` (MuJoCo's state, Pinocchio forward kinematics)."""
+        robot = self.robot
+        model, data = robot.model, self._data
+        soles = [robot.frame_id(f) for f in (robot.left_sole, robot.right_sole)]
+        torso = robot.frame_id(robot.torso)
+        corners = robot.sole_corners_local().T  # (3, 4) sole frame
+        n = len(run.t)
+        low, tilt = np.empty((n, 2)), np.empty(n)
+        up0 = None
+        for k in range(n):
+            pin.framesForwardKinematics(model, data, run.q[k])
+            for i, f in enumerate(soles):
+                M = data.oMf[f]
+                low[k, i] = (M.rotation[2] @ corners).min() + M.translation[2]
+            r_base = pin.Quaternion(run.q[k, 3:7]).toRotationMatrix()
+            r_torso = data.oMf[torso].rotation
+            if up0 is None:  # body-fixed axes that pointed up at t = 0 (as wbc.sim.outcome)
+                up0 = (r_base[2].copy(), r_torso[2].copy())
+            c = min(r_base[2] @ up0[0], r_torso[2] @ up0[1])
+            tilt[k] = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+        return low - low[0], tilt
+
     def extra_summary(self, run) -> dict:
-        ground = np.array([self.soles0[s].translation[2] for s in SIDES])
-        z = run.sole_pos[:, :, 2] - ground
-        both = z.min(axis=1)
+        low, tilt = self._plant_feet_and_tilt(run)
+        both = low.min(axis=1)  # the lower of the two feet's lowest corners
         fz = run.sim_wrench[:, :, 2].sum(axis=1)
         dt = run.dt
-        per_jump, flight, slide, hop, overshoot = [], [], [], [], []
+        per_jump, flight, slide, hop, overshoot, clear, tilt_jump, failed = [], [], [], [], [], [], [], []
         for k in range(self.count):
             sel = (run.t >= k * self.period) & (run.t < (k + 1) * self.period)
             best = cur = 0
-            for c in both[sel] >= 0.05:  # longest run of consecutive ticks with both feet ≥ 5 cm up
+            for c in both[sel] >= FLIGHT_CLEARANCE:  # longest run of consecutive ticks with both feet ≥ 5 cm up
                 cur = cur + 1 if c else 0
                 best = max(best, cur)
             per_jump.append(best * dt)
+            clear.append(float(both[sel].max()) if sel.any() else 0.0)
+            tilt_jump.append(float(tilt[sel].max()) if sel.any() else 0.0)
+            if best * dt < MIN_FLIGHT_TIME or tilt_jump[-1] > MAX_TILT_DEG or not sel.any() \
+                    or run.t[sel][-1] < (k + 1) * self.period - 2 * dt:
+                failed.append(k)
             air = fz[sel] < 1.0
             air[: int(0.05 / dt)] = False
             flight.append(float(air.sum() * dt))
@@ -395,8 +492,9 @@ class JumpScenario:
         return {"jumps": self.count, "planned_height_m": self.jump_plan.height, "planned_forward_m": self.jump_plan.forward,
                 "takeoff_velocity_plan_mps": [float(x) for x in self.jump_plan.takeoff_velocity],
                 "takeoff_velocity_measured_mps": [[float(x) for x in vv] for vv in self.takeoff_velocity],
-                "apex_foot_clearance_m": float(both.max()),
+                "apex_foot_clearance_m": float(both.max()), "max_foot_clearance_per_jump_m": clear,
                 "time_both_feet_5cm_per_jump_s": per_jump, "time_both_feet_5cm_s": min(per_jump),
+                "max_tilt_per_jump_deg": tilt_jump, "failed_jumps": failed, "failed_jump_count": len(failed),
                 "flight_time_per_jump_s": flight, "peak_grf_n": float(fz.max()),
                 "peak_grf_body_weights": float(fz.max() / (self.robot.mass * G)),
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
@@ -409,14 +507,17 @@ class JumpScenario:
 
 
 def jump_criteria(min_hop: float | None = None) -> list[Criterion]:
-    """Acceptance of a jump series (issue 14): no fall, every jump landed, both soles ≥ 5 cm up for ≥ 0.1 s in
-    every jump, no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop (mean x
+    """Acceptance of a jump series: no fall, every jump landed, both feet (lowest sole corners) ≥ 5 cm up for
+    ≥ 0.1 s in every jump, no failed jump (:class:`JumpScenario`'s ``failed_jumps``: also a pelvis or torso tilt
+    > 30° during the jump), no sole slid > 2 cm after a touch-down; with ``min_hop`` (m) every measured hop (mean x
     displacement of the soles, take-off to end of the jump) ≥ min_hop, else (vertical jumps) the feet within 2 cm
     per jump of their start at the end."""
     out = [
         NO_FALL,
         Criterion("every jump landed", "landed", "==", True),
-        Criterion("both feet ≥ 5 cm up for ≥ 0.1 s in every jump", "time_both_feet_5cm_s", ">=", 0.1),
+        Criterion("both feet ≥ 5 cm up for ≥ 0.1 s in every jump", "time_both_feet_5cm_s", ">=", MIN_FLIGHT_TIME),
+        Criterion("no failed jump (each: both feet ≥ 5 cm up for ≥ 0.1 s, pelvis/torso tilt ≤ 30°, completed)",
+                  "failed_jump_count", "==", 0),
         Criterion("no sole slid > 2 cm after a touch-down", "max_slide_m", "<=", 0.02),
     ]
     if min_hop is not None:
