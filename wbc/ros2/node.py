@@ -55,9 +55,10 @@ Behaviour:
   not answered: their request id is the request sample's RTPS identity (writer GUID, sequence number) and they take
   a reply only when its ``related_sample_identity`` inline QoS names them; Cyclone DDS's API (Python binding and C)
   exposes no received sequence number and writes no related sample identity.
-* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (walking segments; a command change, stop or cancel
-  takes effect at the end of the current segment); /joint_states effort is the applied torque, /odom and /tf the
-  estimate; the plant's ground truth is printed at each walk/stand transition.
+* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (re-planned from the measured state in the double
+  support after a touch-down: a command change takes effect at the next touch-down; a stop or cancel ends the
+  walk there with one closing step); /joint_states effort is the applied torque, /odom and /tf the estimate; the
+  plant's ground truth is printed at each walk/stand transition and at each re-plan.
 
 Memory: the node keeps no run log; finished goals are kept in a ring of 16 for get_result.
 """
@@ -567,6 +568,10 @@ class ControllerNode:
         if walking != self._was_walking:
             self._was_walking = walking
             print(f"sim: {'walking' if walking else 'standing'} at t = {w.t:.3f} s; " + self.sim_state(), flush=True)
+        if walking and w.touchdown_replans != getattr(self, "_replans_seen", 0):
+            self._replans_seen = w.touchdown_replans
+            print(f"sim: re-planned at a touch-down at t = {w.t:.3f} s ({w.last_replan}); " + self.sim_state(),
+                  flush=True)
         if w.fell and not getattr(self, "_fall_reported", False):
             self._fall_reported = True
             print(f"sim: FELL at t = {w.t:.3f} s ({w.monitor.fall_reason}); /reset_robot to restart", flush=True)
