@@ -141,6 +141,7 @@ class SimCommandedWalk:
         self.touchdown_replans = 0  # re-plans in a double support between steps (``_replan``)
         self.last_replan = ""  # what the last re-plan at a touch-down planned (for the node's log)
         self._planned = None  # what the current segment walks: a command tuple, "goal" or "close"
+        self._no_replan = None  # a segment whose re-plan failed (walked to its end)
         self.tau = np.zeros(robot.model.nv - 6)
         self.reset()
 
@@ -289,10 +290,11 @@ class SimCommandedWalk:
             self._start_segment()
         elif self.walking and not self.monitor.fell:
             seg = self._segment
-            if seg.steps_done >= 1 and seg.steps_left >= 1 and seg.between_steps():
-                due = self._replan_due(seg.steps_left)
-                if due is not None:
-                    self._replan(due, seg.next_side)
+            due = self._replan_due(seg.steps_left) if seg.steps_done >= 1 and seg.steps_left >= 1 \
+                and seg is not self._no_replan else None
+            seg.hold_next_swing = due is not None  # (a late touch-down: the next swing waits for the re-plan)
+            if due is not None and seg.between_steps():
+                self._replan(due, seg.next_side)
         if self.state is not None:
             mujoco.mj_step1(model, data)
         q, v = sim.get_state()
@@ -351,7 +353,8 @@ class SimCommandedWalk:
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
             self.replan_failures += 1
             self.last_error = str(exc)
-            self._planned = due  # (not retried at every tick: the current plan goes on to its closing step)
+            self._no_replan = self._segment  # (not retried: this plan goes on to its closing step)
+            self._segment.hold_next_swing = False
             return
         self._segment, self._t0, self._planned = seg, self.t, due
         self.replans += 1

@@ -387,6 +387,9 @@ class WalkScenario:
         self.recovery_failures = 0
         self.recovery_swapped = False  # the capture step was taken by the foot away from the DCM (_start_recovery)
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
+        #: True: the next swing is not released (its ramp-out does not begin) — set by a caller about to re-plan
+        #: the walk in this double support (:meth:`between_steps`), for the few ticks until the landed sole is loaded
+        self.hold_next_swing = False
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
@@ -485,7 +488,7 @@ class WalkScenario:
             other = "right" if side == "left" else "left"
             # Never release a foot while the other one is not yet down (late touch-down: the step waits).
             if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
-                    and sw.phase(other) in ("stance", "loading"):
+                    and sw.phase(other) in ("stance", "loading") and not self.hold_next_swing:
                 sw.unload(side, t)
                 if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
                     sw.ground_height[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
