@@ -244,7 +244,7 @@ def test_sim_goal_cancel_stands_in_double_support_within_one_step(sim_node):
           f"standing at t = {t_stand:.3f} s (+{t_stand - t_cancel:.3f} s) with feet {fl:.0f} N, {fr:.0f} N, "
           f"ground-truth base x {gx:.3f} m, y {gy:.3f} m; result {res['error_msg']}")
     assert 0.0 <= t_ds - t_cancel <= step + 0.1  # in double support at the next touch-down (+ late touch-down)
-    assert fl_ds > 50.0 and fr_ds > 50.0  # MuJoCo: both feet loaded there
+    assert fl_ds > 5.0 and fr_ds > 5.0  # MuJoCo: both soles on the floor there (a swinging sole carries 0 N)
     assert lift_offs <= 1  # the closing step only
     # then the closing step (one step) and the plan's final double support (1 s): standing
     assert t_stand - t_ds <= step + 1.0 + 0.1
