@@ -144,7 +144,7 @@ class ControllerNode:
         tf: ``"all"`` or ``"base"`` (:class:`wbc.ros2.publisher.Ros2Publisher`).
         step_duration, max_velocity: initial parameter values (None: the walk's defaults).
         sim: drive the MuJoCo closed loop with the inverse-dynamics controller
-            (:class:`wbc.sim.commanded.SimCommandedWalk`, walking in segments) instead of the kinematic walk:
+            (:class:`wbc.sim.commanded.SimCommandedWalk`, re-planned at each touch-down) instead of the kinematic walk:
             /joint_states carries the applied torques as effort, /odom and /tf the estimated state.
         sim_options: keyword arguments of :class:`~wbc.sim.commanded.SimCommandedWalk` (plant, state, seed, ...).
 
