@@ -344,7 +344,7 @@ class SimCommandedWalk:
             n, length, lateral, turn = 1, 0.0, 0.0, 0.0
         else:
             n = self.segment_steps
-            length, lateral, turn = (float(c) * T for c in due)
+            length, lateral, turn = (float(c) * T + 0.0 for c in due)  # (+ 0.0: no -0.0)
         try:
             seg = WalkScenario(n, length, T, turn=turn, step_lateral=lateral, settle=0.0,
                                zmp_feedback=self.zmp_feedback, first_side=side, from_motion=True,
