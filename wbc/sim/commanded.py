@@ -337,7 +337,9 @@ class SimCommandedWalk:
     def _replan(self, due, side: str) -> None:
         """Replace the current segment, in its double support between steps, by a walk planned from the measured
         CoM state with ``side`` swinging first: one closing step (``due == "close"``) or ``segment_steps`` steps of
-        the command ``due``."""
+        the command ``due``. The step width is the reference stance's (:meth:`reset`), not the current feet's:
+        between steps of a side-step the feet are ``2 vy T`` wider, and re-plans chained on the measured width
+        would widen the stance at each one."""
         q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
         T = self.step_duration
         if due == "close":
@@ -348,7 +350,7 @@ class SimCommandedWalk:
         try:
             seg = WalkScenario(n, length, T, turn=turn, step_lateral=lateral, settle=0.0,
                                zmp_feedback=self.zmp_feedback, first_side=side, from_motion=True,
-                               t_init=max(0.08, 0.2 * T))
+                               t_init=max(0.08, 0.2 * T), step_width=self._width)
             seg.setup(self.controller, self.sim, q, v)
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
             self.replan_failures += 1
