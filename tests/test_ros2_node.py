@@ -56,14 +56,14 @@ def _client(env, *args, timeout=400):
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-def _sole_heights(joint_names, joints, odom):
+def _sole_heights(joint_names, joints, odom, robot_name="humanoid15"):
     """Sole heights (N, 2) m and times from the published /joint_states and /odom (Pinocchio forward kinematics of
     the received q — independent of the node's own bookkeeping)."""
     import pinocchio as pin
 
     from wbc.robot import load_robot
 
-    robot = load_robot("humanoid15")
+    robot = load_robot(robot_name)
     model, data = robot.model, robot.model.createData()
     od = {round(o[0], 6): o[1:] for o in odom}
     idx = [model.joints[model.getJointId(n)].idx_q for n in joint_names]
@@ -140,11 +140,11 @@ def test_cmd_vel_walks_and_stops(node):
     assert np.all(tail[:, 3] == 0.0)  # zero twist for the last second: it stopped
 
 
-def test_sim_cmd_vel_walks_and_stops_in_double_support():
-    """`wbc ros2 node --sim`: /cmd_vel vx 0.3 m/s for 5 s of /clock → the MuJoCo robot (ID controller, realistic
-    plant, estimated state) walks; /odom (the estimate) is checked against the plant's ground truth the node
-    prints, and the robot stands on both feet (MuJoCo contact forces) once the commands stop."""
-    import re
+@pytest.fixture(scope="module")
+def sim_node():
+    """One `wbc ros2 node --robot g1 --sim --time sim` for the module; yields (client environment, the node's stdout
+    lines so far — a list a reader thread appends to)."""
+    import threading
 
     env = dict(os.environ)
     env["CYCLONEDDS_URI"] = LOOPBACK
@@ -152,25 +152,43 @@ def test_sim_cmd_vel_walks_and_stops_in_double_support():
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "g1", "--sim", "--time", "sim"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(HERE.parent))
-    try:
-        first = proc.stdout.readline()
-        assert first.startswith("wbc ros2 node: g1"), first + proc.stderr.read()
-        vx, seconds, settle = 0.3, 5.0, 6.0
-        got = _client(env, "cmdvel-sim", vx, seconds, settle)
-    finally:
-        proc.terminate()
-        out, err = proc.communicate(timeout=120)
-    print(out[-3000:])
+    first = proc.stdout.readline()
+    if not first.startswith("wbc ros2 node: g1"):
+        proc.kill()
+        pytest.fail(first + proc.stderr.read())
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True)
+    reader.start()
+    yield env, lines
+    proc.terminate()
+    proc.communicate(timeout=120)
+    reader.join(timeout=10)
+
+
+NUM = r"(-?\d+\.\d+)"
+
+
+def test_sim_cmd_vel_walks_and_stops_in_double_support(sim_node):
+    """`wbc ros2 node --sim`: /cmd_vel vx 0.3 m/s for 5 s of /clock → the MuJoCo robot (ID controller, realistic
+    plant, estimated state) walks; /odom (the estimate) is checked against the plant's ground truth the node
+    prints, and the robot stands on both feet (MuJoCo contact forces) once the commands stop."""
+    import re
+
+    env, lines_out = sim_node
+    n0 = len(lines_out)
+    vx, seconds, settle = 0.3, 5.0, 4.0
+    got = _client(env, "cmdvel-sim", vx, seconds, settle)
+    out = "".join(lines_out[n0:])
     odom = np.array(got["odom"])
     start = np.array(got["start"])
     walked = math.hypot(odom[-1, 1] - start[1], odom[-1, 2] - start[2])
-    num = r"(-?\d+\.\d+)"
-    lines = re.findall(rf"sim: (walking|standing) at t = {num} s; ground truth base x {num} m, y {num} m, .*?"
-                       rf"estimate x {num} m, y {num} m, .*?feet normal force left {num} N, right {num} N", out)
-    assert lines, out[-2000:] + err[-2000:]
+    lines = re.findall(rf"sim: (walking|standing) at t = {NUM} s; ground truth base x {NUM} m, y {NUM} m, .*?"
+                       rf"estimate x {NUM} m, y {NUM} m, .*?feet normal force left {NUM} N, right {NUM} N", out)
+    assert lines, out[-2000:]
     kind, t_stand, gx, gy, ex, ey, fl, fr = lines[-1]
     t_stand, gx, gy, ex, ey, fl, fr = map(float, (t_stand, gx, gy, ex, ey, fl, fr))
     truth = math.hypot(gx - float(lines[0][2]), gy - float(lines[0][3]))
+    print(out[-3000:])
     print(f"--sim /cmd_vel vx {vx} m/s for {got['t_stop'] - got['t_start']:.2f} s of /clock: /odom walked "
           f"{walked:.3f} m, plant ground truth {truth:.3f} m (from the first segment's start); standing at "
           f"t = {t_stand:.2f} s with feet normal forces {fl:.0f} N, {fr:.0f} N; estimate - truth at the stand "
@@ -180,12 +198,58 @@ def test_sim_cmd_vel_walks_and_stops_in_double_support():
     assert abs(walked - vx * seconds) <= 0.10 * vx * seconds
     assert abs(truth - walked) <= 0.05  # /odom (the estimate) vs the plant's ground truth, 5 cm
     assert kind == "standing" and got["t_stop"] < t_stand < got["t_end"]  # stopped after the commands stopped
+    # the stop (0.5 s /cmd_vel timeout) takes effect at the next touch-down, then one closing step (0.8 s) and the
+    # final double support of 1 s: standing within 0.5 + 0.8 + 0.8 + 1.0 s (+ 0.1 s late touch-downs)
+    assert t_stand - got["t_stop"] <= 3.2
     assert fl > 50.0 and fr > 50.0  # double support: both feet loaded in MuJoCo
     tail = odom[odom[:, 0] > t_stand + 0.2]
     assert len(tail) > 10 and np.ptp(tail[:, 1]) < 0.01 and np.ptp(tail[:, 2]) < 0.01  # standing still
     js = np.array(got["joints"])
     assert len(js) > 100 and np.all(js[:, 1:5] == js[0, 1])  # names, position, velocity, effort all filled
     assert js[:, 5].max() > 1.0  # effort: the applied torques (N·m)
+
+
+def test_sim_goal_cancel_stands_in_double_support_within_one_step(sim_node):
+    """`wbc ros2 node --sim`: a NavigateToPose goal 1.5 m ahead / 0.5 m left, cancelled 3 s into the walk → the
+    walk is re-planned in the double support of the next touch-down (the node's ground-truth print: MuJoCo's
+    contact forces on both feet) within one step duration (0.8 s) of the cancel, at most one step (the closing
+    one) lifts off after it (sole heights from the published /joint_states and /odom), and the robot stands on
+    both feet with no fall."""
+    import re
+
+    env, lines_out = sim_node
+    n0 = len(lines_out)
+    step = 0.8  # s, the node's default step_duration
+    got = _client(env, "goal", 1.5, 0.5, 0.0, 3.0)
+    out = "".join(lines_out[n0:])
+    res = got["result"]
+    print(out[-3000:])
+    assert got["cancel_return_code"] == 0 and res["status"] == 5, res  # ERROR_NONE, CANCELED
+    assert "FELL" not in out
+    t_cancel = float(re.search(rf"canceling at t = {NUM} s", out).group(1))
+    replan = re.search(rf"sim: re-planned at a touch-down at t = {NUM} s \(closing step\);.*?feet normal force "
+                       rf"left {NUM} N, right {NUM} N", out)
+    assert replan, out[-2000:]
+    t_ds, fl_ds, fr_ds = map(float, replan.groups())
+    stand = re.findall(rf"sim: standing at t = {NUM} s; ground truth base x {NUM} m, y {NUM} m, .*?feet normal "
+                       rf"force left {NUM} N, right {NUM} N", out)
+    assert stand, out[-2000:]
+    t_stand, gx, gy, fl, fr = map(float, stand[-1])
+    t, z = _sole_heights(got["joint_names"], got["joints"], got["odom"], "g1")
+    up = np.abs(z[:, 0] - z[:, 1]) > 0.02  # one sole 2 cm above the other (the swing rises 5 cm): single support
+    after = t >= got["cancel_stamp"]
+    lift_offs = int(np.sum(up[after][1:] & ~up[after][:-1]))
+    print(f"--sim cancel at t = {t_cancel:.3f} s (node time): double support re-planned at t = {t_ds:.3f} s "
+          f"(+{t_ds - t_cancel:.3f} s, feet {fl_ds:.0f} N, {fr_ds:.0f} N), lift-offs after the cancel {lift_offs}, "
+          f"standing at t = {t_stand:.3f} s (+{t_stand - t_cancel:.3f} s) with feet {fl:.0f} N, {fr:.0f} N, "
+          f"ground-truth base x {gx:.3f} m, y {gy:.3f} m; result {res['error_msg']}")
+    assert 0.0 <= t_ds - t_cancel <= step + 0.1  # in double support at the next touch-down (+ late touch-down)
+    assert fl_ds > 5.0 and fr_ds > 5.0  # MuJoCo: both soles on the floor there (a swinging sole carries 0 N)
+    assert lift_offs <= 1  # the closing step only
+    # then the closing step (one step) and the plan's final double support (1 s): standing
+    assert t_stand - t_ds <= step + 1.0 + 0.1
+    assert fl > 50.0 and fr > 50.0
+    assert gx < 1.4  # stopped short of the goal
 
 
 def test_parameters_update_rate_and_refusal(node):

@@ -268,3 +268,33 @@ def test_turning_is_refused_for_legs_without_hip_yaw():
     tc = make_controller(talos, "id", dt=tsim.timestep)
     tc.reset(talos.q_ref.copy(), np.zeros(talos.nv))
     WalkScenario(4, 0.0, 0.8, turn=np.radians(8.0)).setup(tc, tsim, talos.q_ref.copy(), np.zeros(talos.nv))
+
+
+def test_from_motion_plans_the_dcm_from_the_measured_com_state():
+    # WalkScenario(from_motion=True) — the re-plan of `wbc ros2 node --sim` in a double support: the footsteps
+    # from the current soles, the plan's DCM starting at the measured one, c + ċ/ω (Englsberger 2015, eq. 3),
+    # computed here with Pinocchio from the same state; and the planned footsteps are those of a plan at rest.
+    import pinocchio as pin
+
+    from wbc.exceptions import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match="exclusive"):
+        WalkScenario(2, 0.1, 0.8, from_state=True, from_motion=True)
+    robot = load_robot("g1")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep, **walk_options_for(robot, "fast"))
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    v[0] = 0.25  # the base (and the whole robot) moving forward at 0.25 m/s
+    controller.reset(q, v)
+    moving = WalkScenario(1, 0.0, 0.8, t_init=0.16, from_motion=True, first_side="right")
+    moving.setup(controller, sim, q, v)
+    rest = WalkScenario(1, 0.0, 0.8, first_side="right")  # (from rest, the CoM shift needs the default t_init)
+    rest.setup(controller, sim, q, np.zeros(robot.nv))
+    data = robot.model.createData()
+    pin.centerOfMass(robot.model, data, q, v)
+    xi = data.com[0][:2] + data.vcom[0][:2] / moving.plan.omega
+    assert data.vcom[0][0] > 0.2
+    np.testing.assert_allclose(moving.plan.dcm[0], xi, atol=1e-9)
+    assert moving.plan.footsteps == rest.plan.footsteps
+    assert moving.steps_left == 1 and moving.steps_done == 0 and moving.next_side == "right"
+    assert moving.between_steps()

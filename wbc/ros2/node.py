@@ -55,9 +55,10 @@ Behaviour:
   not answered: their request id is the request sample's RTPS identity (writer GUID, sequence number) and they take
   a reply only when its ``related_sample_identity`` inline QoS names them; Cyclone DDS's API (Python binding and C)
   exposes no received sequence number and writes no related sample identity.
-* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (walking segments; a command change, stop or cancel
-  takes effect at the end of the current segment); /joint_states effort is the applied torque, /odom and /tf the
-  estimate; the plant's ground truth is printed at each walk/stand transition.
+* ``sim=True``: :class:`wbc.sim.commanded.SimCommandedWalk` (re-planned from the measured state in the double
+  support after a touch-down: a command change takes effect at the next touch-down; a stop or cancel ends the
+  walk there with one closing step); /joint_states effort is the applied torque, /odom and /tf the estimate; the
+  plant's ground truth is printed at each walk/stand transition and at each re-plan.
 
 Memory: the node keeps no run log; finished goals are kept in a ring of 16 for get_result.
 """
@@ -143,7 +144,7 @@ class ControllerNode:
         tf: ``"all"`` or ``"base"`` (:class:`wbc.ros2.publisher.Ros2Publisher`).
         step_duration, max_velocity: initial parameter values (None: the walk's defaults).
         sim: drive the MuJoCo closed loop with the inverse-dynamics controller
-            (:class:`wbc.sim.commanded.SimCommandedWalk`, walking in segments) instead of the kinematic walk:
+            (:class:`wbc.sim.commanded.SimCommandedWalk`, re-planned at each touch-down) instead of the kinematic walk:
             /joint_states carries the applied torques as effort, /odom and /tf the estimated state.
         sim_options: keyword arguments of :class:`~wbc.sim.commanded.SimCommandedWalk` (plant, state, seed, ...).
 
@@ -173,6 +174,7 @@ class ControllerNode:
         self.sim = bool(sim)
         self._was_walking = False
         self._fall_reported = False  # --sim: the current fall was printed (cleared when the robot is up again)
+        self._replans_seen = 0  # --sim: touch-down re-plans already printed
         self.robot, self.name, self.time_mode = robot, name, time_mode
         self.params = {"update_rate": float(update_rate), "step_duration": self.walk.step_duration,
                        "max_velocity": self.walk.max_velocity, "cmd_vel_timeout": 0.5,
@@ -568,6 +570,10 @@ class ControllerNode:
         if walking != self._was_walking:
             self._was_walking = walking
             print(f"sim: {'walking' if walking else 'standing'} at t = {w.t:.3f} s; " + self.sim_state(), flush=True)
+        if walking and w.touchdown_replans != self._replans_seen:
+            self._replans_seen = w.touchdown_replans
+            print(f"sim: re-planned at a touch-down at t = {w.t:.3f} s ({w.last_replan}); " + self.sim_state(),
+                  flush=True)
         if w.fell and not self._fall_reported:
             self._fall_reported = True
             print(f"sim: FELL at t = {w.t:.3f} s ({w.monitor.fall_reason}); /reset_robot to restart", flush=True)

@@ -7,18 +7,25 @@ ZMP feedback 0.5). :meth:`SimCommandedWalk.tick` advances one control period (2 
 iteration of :func:`wbc.sim.closed_loop.run_closed_loop`, without recording the run: memory stays constant
 however long it runs.
 
-Gait (walking **segments**, each a :class:`wbc.sim.walk.WalkScenario` planned from the measured state at rest):
+Gait (walking **segments**, each a :class:`wbc.sim.walk.WalkScenario`; re-planned in the double support after a
+touch-down, so that a command takes effect at the next touch-down):
 
 * **Standing**: the stance is held by the ID controller (CoM over the feet, both soles in contact).
 * **Velocity command** ``(vx, vy, wz)`` (m/s, m/s, rad/s, walking frame): when standing, a segment of
   ``segment_steps`` steps is planned from the measured stance — ``segment_steps − 1`` walking steps of length
   ``vx T``, lateral step ``vy T`` and turn ``wz T`` (``T`` the step duration) and a closing step — and tracked with
-  step adjustment, the DCM stabilizer and state-based touch-down as in ``wbc sim walk``. When it has ended (the
-  plan's final double support is over) and a command is still set, the next segment starts from there: the robot
-  walks in segments of ``segment_steps`` steps, each starting and ending in double support. Backward walking
-  (``vx < 0``) is not planned by :class:`~wbc.sim.walk.WalkScenario`: ``max_backward`` is 0.
-* **Stop** (zero command or :meth:`stop`): no new segment starts; the current one ends with its closing step and
-  the robot stands in double support (at most ``segment_steps`` steps after the stop).
+  step adjustment, the DCM stabilizer and state-based touch-down as in ``wbc sim walk``. In the double support
+  after each touch-down (both soles fully loaded, :meth:`~wbc.sim.walk.WalkScenario.between_steps`) the walk is
+  **re-planned from the measured CoM state** (``WalkScenario(from_motion=True)``: the footsteps from the current
+  soles, the DCM plan from the measured CoM position and velocity) when the command changed, or when the next step
+  would be the closing one and the command is still set: the robot walks on without stopping, and a new command
+  takes effect at the next touch-down. Backward walking (``vx < 0``) is not planned by
+  :class:`~wbc.sim.walk.WalkScenario`: ``max_backward`` is 0.
+* **Stop** (zero command, :meth:`stop`, a cancelled or new goal): at the next touch-down the rest of the walk is
+  replaced by one closing step (the trailing foot set beside the other, the CoM planned from its measured state):
+  the robot is in double support at that touch-down (at most one step duration after the stop) and at most one
+  step starts after it. A stop in the double support before a segment's first step takes effect after that step.
+  A new goal is walked once the robot stands.
 * **Pose goal** ``(x, y, yaw)`` of the base (world): one segment of ``n`` walking steps and a closing step, ``n``
   the smallest count keeping each step within the limits, the turn split equally and the step length and lateral
   step those whose planned final feet mid-point puts the base at the goal
@@ -131,6 +138,10 @@ class SimCommandedWalk:
         self.replan_failures = 0
         self.segments = 0
         self.last_error = ""
+        self.touchdown_replans = 0  # re-plans in a double support between steps (``_replan``)
+        self.last_replan = ""  # what the last re-plan at a touch-down planned (for the node's log)
+        self._planned = None  # what the current segment walks: a command tuple, "goal" or "close"
+        self._no_replan = None  # a segment whose re-plan failed (walked to its end)
         self.tau = np.zeros(robot.model.nv - 6)
         self.reset()
 
@@ -212,7 +223,8 @@ class SimCommandedWalk:
 
     # -- commands ----------------------------------------------------------------------------------------------
     def set_velocity(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
-        """Velocity command (m/s, m/s, rad/s, walking frame); zeros: no further segment.
+        """Velocity command (m/s, m/s, rad/s, walking frame), taking effect at the next touch-down; zeros: stop
+        (the walk ends with a closing step after the next touch-down).
 
         Raises:
             InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
@@ -224,7 +236,8 @@ class SimCommandedWalk:
         self.goal = self._pending_goal = None
 
     def set_goal(self, x: float, y: float, yaw: float) -> None:
-        """Walk the base to ``(x, y, yaw)`` (m, m, rad, world) in one segment, from the next double support.
+        """Walk the base to ``(x, y, yaw)`` (m, m, rad, world) in one segment, once the robot stands (a walk in
+        progress ends with a closing step after its next touch-down).
 
         Raises:
             InvalidInputError: non-finite values.
@@ -233,7 +246,8 @@ class SimCommandedWalk:
         self.command[:] = 0.0
 
     def stop(self) -> None:
-        """No further segment: the current one ends with its closing step; clears the command and goal."""
+        """Stop walking: at the next touch-down the walk ends with one closing step (module docstring); clears the
+        command and goal."""
         self.command[:] = 0.0
         self.goal = self._pending_goal = None
 
@@ -252,6 +266,7 @@ class SimCommandedWalk:
         self._segment.setup(self.controller, sim, q, v)
         self._stand = self._segment
         self._t0 = self.t
+        self._planned = None
         self.monitor = OutcomeMonitor(sim)
         self.command[:] = 0.0
         self.goal = self._pending_goal = None
@@ -273,6 +288,13 @@ class SimCommandedWalk:
         sim, model, data = self.sim, self.sim.model, self.sim.data
         if not self.walking and not self.monitor.fell and (self._pending_goal is not None or np.any(self.command)):
             self._start_segment()
+        elif self.walking and not self.monitor.fell:
+            seg = self._segment
+            due = self._replan_due(seg.steps_left) if seg.steps_done >= 1 and seg.steps_left >= 1 \
+                and seg is not self._no_replan else None
+            seg.hold_next_swing = due is not None  # (a late touch-down: the next swing waits for the re-plan)
+            if due is not None and seg.between_steps():
+                self._replan(due, seg.next_side)
         if self.state is not None:
             mujoco.mj_step1(model, data)
         q, v = sim.get_state()
@@ -300,6 +322,48 @@ class SimCommandedWalk:
             return True
         return self.t - self._t0 >= seg.ends_at - 1e-9  # (after a capture step, when one was started)
 
+    def _replan_due(self, steps_left: int):
+        """What to re-plan in the double support between steps (None: keep the plan): ``"close"`` for a stop, a
+        command tuple for a changed command or to walk on past the plan's closing step."""
+        if self._pending_goal is not None or not np.any(self.command):
+            if self._planned == "goal" and self.goal is not None:
+                return None  # walking to the goal
+            return "close" if steps_left > 1 and self._planned != "close" else None
+        cmd = tuple(float(c) for c in self.command)
+        if cmd != self._planned or steps_left == 1:
+            return cmd
+        return None
+
+    def _replan(self, due, side: str) -> None:
+        """Replace the current segment, in its double support between steps, by a walk planned from the measured
+        CoM state with ``side`` swinging first: one closing step (``due == "close"``) or ``segment_steps`` steps of
+        the command ``due``. The step width is the reference stance's (:meth:`reset`), not the current feet's:
+        between steps of a side-step the feet are ``2 vy T`` wider, and re-plans chained on the measured width
+        would widen the stance at each one."""
+        q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
+        T = self.step_duration
+        if due == "close":
+            n, length, lateral, turn = 1, 0.0, 0.0, 0.0
+        else:
+            n = self.segment_steps
+            length, lateral, turn = (float(c) * T + 0.0 for c in due)  # (+ 0.0: no -0.0)
+        try:
+            seg = WalkScenario(n, length, T, turn=turn, step_lateral=lateral, settle=0.0,
+                               zmp_feedback=self.zmp_feedback, first_side=side, from_motion=True,
+                               t_init=max(0.08, 0.2 * T), step_width=self._width)
+            seg.setup(self.controller, self.sim, q, v)
+        except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
+            self.replan_failures += 1
+            self.last_error = str(exc)
+            self._no_replan = self._segment  # (not retried: this plan goes on to its closing step)
+            self._segment.hold_next_swing = False
+            return
+        self._segment, self._t0, self._planned = seg, self.t, due
+        self.replans += 1
+        self.touchdown_replans += 1
+        self.last_replan = "closing step" if due == "close" else \
+            f"{n} steps of {length:.3f} m, lateral {lateral:.3f} m, turn {math.degrees(turn):.1f} deg"
+
     def _start_segment(self) -> None:
         q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
         T = self.step_duration
@@ -308,10 +372,12 @@ class SimCommandedWalk:
                 goal, self._pending_goal = self._pending_goal, None
                 n, length, lateral, turn, side = self._goal_steps(q, goal)
                 self.goal = goal
+                planned = "goal"
             else:
                 n = self.segment_steps
                 length, lateral, turn = self.command * T
                 side = "right" if lateral < 0 or (lateral == 0 and turn < 0) else "left"
+                planned = tuple(float(c) for c in self.command)
             seg = WalkScenario(n, float(length), T, turn=float(turn), step_lateral=float(lateral), settle=0.0,
                                zmp_feedback=self.zmp_feedback, first_side=side)
             seg.setup(self.controller, self.sim, q, v)
@@ -320,7 +386,7 @@ class SimCommandedWalk:
             self.last_error = str(exc)
             self.command[:] = 0.0
             return
-        self._segment, self._t0 = seg, self.t
+        self._segment, self._t0, self._planned = seg, self.t, planned
         self.replans += 1
         self.segments += 1
 

@@ -229,6 +229,10 @@ class WalkScenario:
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
             DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
             first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
+        from_motion: plan the CoM from the measured CoM position and velocity (:meth:`wbc.gait.WalkPlan.replan` at
+            sample 0, the ZMP start point solved so that the plan's DCM starts at the measured one) and keep the
+            planned footsteps — a walk re-planned in the double support after a touch-down, the robot moving
+            (a closing step, or steps of a new length). Not with ``from_state``.
         first_side: the foot that swings first. step_lateral: lateral displacement of the feet mid-point per
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
 
@@ -248,6 +252,7 @@ class WalkScenario:
                  descent_speed: float = 0.1, cop_margin: float = 0.015, t_init: float = 0.8,
                  step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
+                 from_motion: bool = False,
                  adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
@@ -294,6 +299,10 @@ class WalkScenario:
             first_side = "right" if self.step_lateral < 0 else "left"
         self.first_side = first_side
         self.from_state = bool(from_state)
+        self.from_motion = bool(from_motion)
+        if self.from_state and self.from_motion:
+            raise InvalidInputError("from_state and from_motion are exclusive: from_state also places the first "
+                                    "step from the measured DCM; choose one")
         self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
         self.max_cut = float(max_cut)
         self.max_swing_speed = float(max_swing_speed)
@@ -326,7 +335,7 @@ class WalkScenario:
                        step_width=self.step_width, turn=self.turn, step_height=self.step_height, t_ss=self.t_ss,
                        t_ds=self.t_ds, t_init=self.t_init, t_final=self.t_final, dt=self.dt,
                        sole_length=robot.sole_length, sole_width=robot.sole_width,
-                       first_side=self.first_side, check_start=not self.from_state,
+                       first_side=self.first_side, check_start=not (self.from_state or self.from_motion),
                        **({"step_lateral": self.step_lateral} if self.step_lateral else {}))
         self.terrain_walk = None
         if self.terrain is None:
@@ -349,6 +358,10 @@ class WalkScenario:
                             f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
         if self.from_state:
             plan = self._capture_plan(plan, q, v)
+        elif self.from_motion:
+            data = self._model.createData()
+            pin.centerOfMass(self._model, data, q, v)
+            plan = plan.replan(0, data.com[0].copy(), data.vcom[0].copy(), check_start=False)
         self.plan = plan
         # (the run length was fixed from the estimate of __init__, before setup)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
@@ -374,6 +387,9 @@ class WalkScenario:
         self.recovery_failures = 0
         self.recovery_swapped = False  # the capture step was taken by the foot away from the DCM (_start_recovery)
         self._shift = 0  # samples by which the plan clock runs ahead of the sim clock (step timing adjustment)
+        #: True: the next swing is not released (its ramp-out does not begin) — set by a caller about to re-plan
+        #: the walk in this double support (:meth:`between_steps`), for the few ticks until the landed sole is loaded
+        self.hold_next_swing = False
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
@@ -411,6 +427,28 @@ class WalkScenario:
         new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in plan.footsteps]
         self.capture_landing = (float(d[0]), float(d[1]))
         return plan.replan(0, c, cd, new, check_start=False)
+
+    @property
+    def steps_done(self) -> int:
+        """Swings released so far (a capture step started after the plan not counted)."""
+        return self._next
+
+    @property
+    def steps_left(self) -> int:
+        """Swings of the plan not yet released (the closing step included)."""
+        return len(self.swings) - self._next
+
+    @property
+    def next_side(self) -> str | None:
+        """The foot of the next swing of the plan (``"left"``/``"right"``), None when every swing was released."""
+        return self.swings[self._next][0] if self._next < len(self.swings) else None
+
+    def between_steps(self) -> bool:
+        """True in a double support where both soles are fully loaded (contact ``"stance"``: touch-down and
+        ramp-in over, the next swing's ramp-out not begun) and no capture step runs: the state from which
+        :class:`WalkScenario` ``from_motion`` re-plans a walk."""
+        return self._recovery is None and not self._active and self.switcher.phase("left") == "stance" \
+            and self.switcher.phase("right") == "stance"
 
     def com_reference(self, t):
         return self.plan.com[min(self.plan.index(t) + self._shift, self.plan.n_samples - 1)]
@@ -450,7 +488,7 @@ class WalkScenario:
             other = "right" if side == "left" else "left"
             # Never release a foot while the other one is not yet down (late touch-down: the step waits).
             if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
-                    and sw.phase(other) in ("stance", "loading"):
+                    and sw.phase(other) in ("stance", "loading") and not self.hold_next_swing:
                 sw.unload(side, t)
                 if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
                     sw.ground_height[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
