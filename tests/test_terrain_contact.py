@@ -82,3 +82,15 @@ def test_base_orientation_task(robot):
     assert len(c.qp.tasks) == n and c.base is None
     with pytest.raises(InvalidInputError, match="weight"):
         c.set_base_orientation_weight(float("nan"))
+
+
+def test_blind_needs_terrain_and_estimated_state():
+    import os
+    import subprocess
+    import sys
+
+    for extra in ([], ["--terrain", "rough:0.02:1", "--state", "ground-truth"]):
+        r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--blind", "--steps", "2", *extra],
+                           capture_output=True, text=True, env={**os.environ}, timeout=300)
+        assert r.returncode == 2
+        assert "--blind needs --terrain" in r.stderr and len(r.stderr.strip().splitlines()) == 1

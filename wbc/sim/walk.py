@@ -236,6 +236,11 @@ class WalkScenario:
         base_weight: on terrain, weight (≥ 0; 0: none) of a floating-base (pelvis) orientation task held at the
             start orientation (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`):
             the high, long swings of a stair climb otherwise roll and yaw a pelvis hung below waist joints.
+        blind: the ground is not flat but the walk is planned flat (the plant has the terrain, the planner does
+            not): touch-down is detected from ``measured_normal_force`` ((2,) N, set by the closed loop from the
+            ankle F/T sensors; :class:`wbc.dynamics.contact_switching.ContactSwitcher`'s force rule: a foot meeting
+            a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
+            the air) and a late foot keeps descending up to 5 cm below its planned landing.
 
     Raises:
         InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
@@ -257,7 +262,8 @@ class WalkScenario:
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
-                 stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0):
+                 stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
+                 blind: bool = False):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -267,7 +273,8 @@ class WalkScenario:
         self.base_weight = float(base_weight)
         # late touch-down: how far (m) below its planned landing the swing foot may descend (terrain: the
         # estimated heights drift by centimetres, touch-down is then detected by the F/T force)
-        self.max_descent = 0.02 if self.terrain is None else 0.05
+        self.blind = bool(blind)
+        self.max_descent = 0.02 if self.terrain is None and not self.blind else 0.05
         if self.terrain is not None and self.terrain.is_flat:
             self.terrain = None
         if self.terrain is not None:
@@ -300,6 +307,8 @@ class WalkScenario:
         self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
+        if self.blind:  # a foot over a hole must find the ground before the stance leg gives way
+            self.descent_speed = max(self.descent_speed, 0.3)
         self.t_final = 1.0
         self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
         self.adjust_freeze, self.step_lateral = float(adjust_freeze), float(step_lateral)
@@ -477,6 +486,8 @@ class WalkScenario:
                 self._next += 1
         if self.terrain_walk is not None:
             self._relative_ground(k, q)
+        if self.blind and self.measured_normal_force is not None:  # early / late contact from the F/T force
+            sw.measured_force["left"], sw.measured_force["right"] = map(float, self.measured_normal_force)
         sw.update(t, q, v)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
