@@ -52,6 +52,10 @@ def check_sim_args(args) -> None:
         from wbc.terrain import parse_terrain
 
         args.terrain = parse_terrain(args.terrain)
+    if getattr(args, "blind", False) and (getattr(args, "terrain", None) is None or args.state != "estimated"):
+        raise InvalidInputError("--blind needs --terrain (the plant's ground) and --state estimated (the F/T "
+                                f"touch-down), got --terrain {getattr(getattr(args, 'terrain', None), 'name', None)} "
+                                f"--state {args.state}")
     if args.duration is not None:
         check_ticks(f"--duration {args.duration:g}", args.duration, SIM_DT)
     if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
@@ -120,6 +124,12 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: ground, flat | stairs:RISE:TREAD:N[:up|down|updown] | slope:DEG[:LENGTH] | "
                         "rough:AMPLITUDE:SEED | FILE.json/.toml (see wbc.terrain); built into the MuJoCo plant and "
                         "planned on (no step adjustment off flat ground; default flat)")
+    w.add_argument("--blind", action="store_true",
+                   help="walk: the plant gets --terrain, the planner plans flat ground; touch-down from the ankle F/T "
+                        "force (early contact), a late foot lowered up to 5 cm (needs --state estimated)")
+    w.add_argument("--base-weight", type=finite(0.0), default=3.0,
+                   help="walk on --terrain: weight of the pelvis (floating-base) orientation task, held level "
+                        "(default 3; 0: none)")
     w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,
@@ -211,7 +221,9 @@ def _scenario(args, robot):
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
-                            zmp_feedback=args.zmp_feedback, terrain=getattr(args, "terrain", None))
+                            zmp_feedback=args.zmp_feedback,
+                            terrain=None if args.blind else getattr(args, "terrain", None),
+                            base_weight=args.base_weight, blind=args.blind)
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 

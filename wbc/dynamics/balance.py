@@ -109,6 +109,7 @@ class IDBalanceController:
         self.momentum = AngularMomentumRateTask(gain=gn["momentum_gain"], weight=gn["momentum_weight"])
         self.posture = PostureAccelerationTask(PostureTask(robot), kp=gn["posture_kp"], kd=gn["posture_kd"],
                                                weight=gn["posture_weight"])
+        self.base = None  # floating-base orientation task (set_base_orientation_weight), off by default
         soles = {"left": robot.left_sole, "right": robot.right_sole}
         length, width = robot.sole_length - 2 * sole_margin, robot.sole_width - 2 * sole_margin
         if not (length > 0 and width > 0):
@@ -202,6 +203,43 @@ class IDBalanceController:
         foot.set_target(self.controller.state.data.oMf[foot.task.frame_id].copy())
         if foot not in self.qp.tasks:
             self.qp.add_task(foot)
+
+    def set_base_orientation_weight(self, weight: float, kp: float | None = None, kd: float | None = None,
+                                    q: np.ndarray | None = None) -> None:
+        """Track the floating base's (root body's, e.g. the pelvis) orientation, held at its world orientation at
+        ``q`` (nq,) (default: the last tick's state), with ``weight`` (≥ 0; 0 removes the task) and the torso task's gains unless ``kp`` (1/s²) and
+        ``kd`` (1/s) are given.
+
+        The torso task holds only the body carrying ``robot.torso``; with waist joints between it and the root
+        body, the pelvis is otherwise held by the posture task alone and rolls and yaws with a long swing leg (hip
+        hiking). A robot whose torso frame is on the root body gets no extra task.
+
+        Raises:
+            InvalidInputError: a weight or gain that is not a finite number ≥ 0.
+        """
+        gn = self.gains
+        kp = gn["torso_kp"] if kp is None else kp
+        kd = gn["torso_kd"] if kd is None else kd
+        for name, val in (("weight", weight), ("kp", kp), ("kd", kd)):
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not (math.isfinite(val) and val >= 0):
+                raise InvalidInputError(f"base orientation {name} must be a finite number ≥ 0, got {val!r}")
+        model = self.robot.model
+        if self.base is not None and self.base in self.qp.tasks:
+            self.qp.remove_task(self.base)
+        self.base = None
+        root = next(i for i, f in enumerate(model.frames) if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
+        if weight == 0 or model.frames[root].parentJoint == model.frames[self.torso.task.frame_id].parentJoint:
+            return
+        self.base = FrameAccelerationTask(OrientationTask(self.robot, model.frames[root].name), kp=float(kp),
+                                          kd=float(kd), weight=float(weight), name="base_orientation")
+        if q is None:
+            target = self.controller.state.data.oMf[root].copy()
+        else:
+            data = model.createData()
+            pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
+            target = data.oMf[root].copy()
+        self.base.set_target(target)
+        self.qp.add_task(self.base)
 
     def set_foot_reference(self, side: str, pose: pin.SE3, velocity=None, acceleration=None) -> None:
         """Swing foot reference: pose (world), spatial velocity (6,) and acceleration (6,) feed-forwards

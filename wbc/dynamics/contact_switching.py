@@ -19,6 +19,11 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   This handles early touch-down (the foot meets the floor before the plan says so: the contact is switched on
   at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
   contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
+  **With a measured normal force** (:attr:`~ContactSwitcher.measured_force`, e.g. from ankle F/T sensors), not
+  rising and either the height rule with ``F_n ≥ contact_force`` (the foot set down softly by its task), or
+  ``F_n ≥ touchdown_force`` with the sole within ``touchdown_band`` of the ground height (early, or late with
+  the height estimate off) — a height estimated by odometry drifts by centimetres on uneven ground, and the height
+  rule alone then loads a foot still in the air.
 * **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
   ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
 
@@ -56,10 +61,18 @@ class ContactSwitcher:
             in contact (default 3 mm).
         touchdown_speed: the sole's vertical velocity (m/s) must be ≤ this (not rising) (default 0.05 m/s).
         full_force: F_full (N), end value of the ramp-in (default m g).
+        touchdown_force: measured normal force (N, > 0) at or above which an armed swing foot is in contact, when
+            :attr:`measured_force` gives one (default 0.1 m g).
+        touchdown_band: with a measured force, the sole must also be within this height (m, ≥ 0) of the ground
+            height (default 0.05 m).
+        contact_force: with a measured force, the least normal force (N, ≥ 0) that confirms the height rule
+            (default 0.03 m g).
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
         touchdown_time: side → time (s) of the last touch-down (None before).
+        measured_force: side → measured normal force (N) of the sole, or None (default: the state rule); set by
+            the caller before each :meth:`update`.
 
     Raises:
         InvalidInputError: non-positive ramp_time / full_force, non-finite thresholds.
@@ -68,7 +81,9 @@ class ContactSwitcher:
     SIDES = ("left", "right")
 
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
-                 touchdown_speed: float = 0.05, full_force: float | None = None):
+                 touchdown_speed: float = 0.05, full_force: float | None = None,
+                 touchdown_force: float | None = None, touchdown_band: float = 0.05,
+                 contact_force: float | None = None):
         if not (np.isfinite(ramp_time) and ramp_time > 0):
             raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
         for val, what in ((touchdown_height, "touchdown_height"), (touchdown_speed, "touchdown_speed")):
@@ -80,6 +95,15 @@ class ContactSwitcher:
         if not (np.isfinite(self.full_force) and self.full_force > 0):
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
         self.ramp_time = float(ramp_time)
+        self.touchdown_force = 0.1 * robot.mass * 9.81 if touchdown_force is None else touchdown_force
+        self.contact_force = 0.03 * robot.mass * 9.81 if contact_force is None else contact_force
+        for val, what in ((self.touchdown_force, "touchdown_force"), (touchdown_band, "touchdown_band"),
+                          (self.contact_force, "contact_force")):
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val >= 0):
+                raise InvalidInputError(f"{what} must be a finite number ≥ 0, got {val!r}")
+        self.touchdown_force, self.touchdown_band = float(self.touchdown_force), float(touchdown_band)
+        self.contact_force = float(self.contact_force)
+        self.measured_force: dict[str, float | None] = {"left": None, "right": None}
         self.touchdown_height = float(touchdown_height)
         #: side -> world height (m) of the ground the swing foot lands on (terrain; 0 on flat ground):
         #: touch-down is ``z − ground_height ≤ touchdown_height``
@@ -196,5 +220,9 @@ class ContactSwitcher:
                     c.set_max_normal_force(s, self.full_force * a)
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
-                if z - self.ground_height[s] <= self.touchdown_height and vz <= self.touchdown_speed:
+                f, dz = self.measured_force[s], z - self.ground_height[s]
+                hit = dz <= self.touchdown_height
+                if f is not None:
+                    hit = (hit and f >= self.contact_force) or (f >= self.touchdown_force and dz <= self.touchdown_band)
+                if hit and vz <= self.touchdown_speed:
                     self.touch_down(s, t)

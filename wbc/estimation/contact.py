@@ -109,13 +109,21 @@ class ContactDetector:
         return self.active
 
 
-def zmp_from_wrenches(wrenches: np.ndarray, placements, min_fz: float = 10.0) -> np.ndarray | None:
-    """ZMP (2,) (m, world, floor z = 0) of foot wrenches given in their sole frames (module docstring).
+def zmp_from_wrenches(wrenches: np.ndarray, placements, min_fz: float = 10.0,
+                      height: float = 0.0) -> np.ndarray | None:
+    """ZMP (2,) (m, world, on the plane z = ``height``) of foot wrenches given in their sole frames (module
+    docstring).
+
+    With the total force F and moment M about the world origin, the moment about (0, 0, h) is
+    M_h = M − (0, 0, h) × F, and the point of that plane where the horizontal moment vanishes is
+    p = (−M_h,y / F_z, M_h,x / F_z) (Sardain & Bessonnet 2004). On a stair tread at height h the plane z = 0 puts
+    the ZMP ``h F_xy / F_z`` away from the CoP (6 cm for G1 at 0.6 m): give the tread's height.
 
     Args:
         wrenches: (k, 6) ground reaction per foot at its sole origin, sole axes (force N, moment N·m).
         placements: k ``pin.SE3`` world placements of the soles.
         min_fz: total vertical force (N) below which there is no ZMP (returns None).
+        height: height (m, world) of the plane of the ZMP (default the floor z = 0).
     """
     F = np.zeros(3)
     M = np.zeros(3)
@@ -125,5 +133,8 @@ def zmp_from_wrenches(wrenches: np.ndarray, placements, min_fz: float = 10.0) ->
         M += X.rotation @ w[3:6] + _cross(X.translation, f)
     if F[2] < min_fz:
         return None
+    if height:
+        M[0] += height * F[1]
+        M[1] -= height * F[0]
     return np.array([-M[1] / F[2], M[0] / F[2]])
 

@@ -38,6 +38,7 @@ class EstimatedState:
 
     def __init__(self, sim, specs: SensorSpecs | None = None, *, seed: int = 0, **estimator_options):
         self.sensors = PlantSensors(sim, specs, seed=seed)
+        self.terrain = getattr(sim, "terrain", None)
         if getattr(sim, "terrain", None) is not None and "ground_height" not in estimator_options:
             estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
@@ -53,11 +54,23 @@ class EstimatedState:
         r = self.sensors.read(t, sim.data)
         return self.estimator.update(r.joint_q, r.gyro, r.accel, r.ft)
 
+    def normal_forces(self) -> np.ndarray:
+        """(2,) normal force (N) of the (left, right) sole measured by its ankle F/T sensor at the last sample."""
+        n = self.estimator.normal_force
+        return np.array([n["left"], n["right"]])
+
     def measured_zmp(self, min_fz: float = 10.0) -> np.ndarray | None:
         """ZMP (2,) (m, world) of the last sample's F/T ground reactions at the estimated sole placements
-        (:func:`wbc.estimation.zmp_from_wrenches`), None below ``min_fz`` N of total normal force."""
+        (:func:`wbc.estimation.zmp_from_wrenches`), None below ``min_fz`` N of total normal force. On a terrain
+        plant, on the plane at the force-weighted height of the soles (else z = 0)."""
         est = self.estimator
-        return zmp_from_wrenches(est.wrench, [est.sole["left"], est.sole["right"]], min_fz)
+        soles = [est.sole["left"], est.sole["right"]]
+        h = 0.0
+        if self.terrain is not None:  # on the plane of the loaded soles (force-weighted height)
+            f = np.maximum([est.normal_force["left"], est.normal_force["right"]], 0.0)
+            if f.sum() > 0:
+                h = float(f @ [X.translation[2] for X in soles] / f.sum())
+        return zmp_from_wrenches(est.wrench, soles, min_fz, h)
 
 
 def estimation_errors(q_true: np.ndarray, v_true: np.ndarray, q_est: np.ndarray, v_est: np.ndarray,

@@ -235,6 +235,16 @@ class WalkScenario:
             (a closing step, or steps of a new length). Not with ``from_state``.
         first_side: the foot that swings first. step_lateral: lateral displacement of the feet mid-point per
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
+        terrain: a :class:`wbc.terrain.Terrain` or its description (None / flat: the flat walk, unchanged);
+            the walk is planned by :func:`wbc.gait.terrain_walk.plan_terrain_walk`.
+        base_weight: on terrain, weight (≥ 0; 0: none) of a floating-base (pelvis) orientation task held at the
+            start orientation (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`):
+            the high, long swings of a stair climb otherwise roll and yaw a pelvis hung below waist joints.
+        blind: the ground is not flat but the walk is planned flat (the plant has the terrain, the planner does
+            not): touch-down is detected from ``measured_normal_force`` ((2,) N, set by the closed loop from the
+            ankle F/T sensors; :class:`wbc.dynamics.contact_switching.ContactSwitcher`'s force rule: a foot meeting
+            a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
+            the air) and a late foot keeps descending up to 5 cm below its planned landing.
 
     Raises:
         InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
@@ -257,10 +267,19 @@ class WalkScenario:
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
-                 stabilizer_gains: dict | None = None, terrain=None):
+                 stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
+                 blind: bool = False):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
+        if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
+                or not (math.isfinite(base_weight) and base_weight >= 0):
+            raise InvalidInputError(f"base_weight must be a finite number ≥ 0, got {base_weight!r}")
+        self.base_weight = float(base_weight)
+        # late touch-down: how far (m) below its planned landing the swing foot may descend (terrain: the
+        # estimated heights drift by centimetres, touch-down is then detected by the F/T force)
+        self.blind = bool(blind)
+        self.max_descent = 0.02 if self.terrain is None and not self.blind else 0.05
         if self.terrain is not None and self.terrain.is_flat:
             self.terrain = None
         if self.terrain is not None:
@@ -277,6 +296,7 @@ class WalkScenario:
             raise InvalidInputError(f"zmp_feedback must be finite and ≥ 0, got {zmp_feedback!r}")
         self.zmp_feedback = float(zmp_feedback)
         self.measured_zmp = None  # (2,) m, world: set by the closed loop from the F/T sensors (estimated state)
+        self.measured_normal_force = None  # (2,) N (left, right): set by the closed loop from the F/T sensors
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -292,6 +312,8 @@ class WalkScenario:
         self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
+        if self.blind:  # a foot over a hole must find the ground before the stance leg gives way
+            self.descent_speed = max(self.descent_speed, 0.3)
         self.t_final = 1.0
         self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
         self.adjust_freeze, self.step_lateral = float(adjust_freeze), float(step_lateral)
@@ -393,9 +415,13 @@ class WalkScenario:
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
+        self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
+        self._gdata = self._model.createData()
         self._active: dict[str, tuple] = {}
         self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
         self.controller = controller
+        if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
+            controller.set_base_orientation_weight(self.base_weight, q=q)
         self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
                                   k_z=self.zmp_feedback, **self.stabilizer_gains)
         self._push_body = robot.torso
@@ -491,10 +517,15 @@ class WalkScenario:
                     and sw.phase(other) in ("stance", "loading") and not self.hold_next_swing:
                 sw.unload(side, t)
                 if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
-                    sw.ground_height[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
+                    self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
+                    sw.ground_height[side] = self._land_z[side]
                 self._t_unload[side] = t
                 self._active[side] = self.swings[self._next]
                 self._next += 1
+        if self.terrain_walk is not None:
+            self._relative_ground(k, q)
+        if self.blind and self.measured_normal_force is not None:  # early / late contact from the F/T force
+            sw.measured_force["left"], sw.measured_force["right"] = map(float, self.measured_normal_force)
         sw.update(t, q, v)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
@@ -511,9 +542,10 @@ class WalkScenario:
                 acc = self.acc[side][kk].copy()
                 late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
-                    pose.translation = pose.translation - [0.0, 0.0, min(self.descent_speed * late, 0.02)]
+                    drop = self.max_descent
+                    pose.translation = pose.translation - [0.0, 0.0, min(self.descent_speed * late, drop)]
                     vel[:] = 0.0
-                    vel[2] = -self.descent_speed if self.descent_speed * late < 0.02 else 0.0
+                    vel[2] = -self.descent_speed if self.descent_speed * late < drop else 0.0
                     acc[:] = 0.0
                 controller.set_foot_reference(side, pose, vel, acc)
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
@@ -552,6 +584,21 @@ class WalkScenario:
                 and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
         return self._apply_push(t, sim)
+
+    def _relative_ground(self, k: int, q: np.ndarray) -> None:
+        """Touch-down height of a swinging foot relative to the stance sole: its landing height plus the stance
+        sole's measured height less its planned one. The estimated base height drifts on terrain (odometry of
+        the contact heights, centimetres after ten stairs), the relative height of the two soles (joint encoders)
+        does not: an absolute rule loaded a G1 foot 2.4 cm above its tread and the robot fell."""
+        sw = self.switcher
+        swinging = [s for s in ("left", "right") if sw.phase(s) == "swing"]
+        if len(swinging) != 1:
+            return
+        side = swinging[0]
+        other = "right" if side == "left" else "left"
+        pin.framesForwardKinematics(self._model, self._gdata, q)
+        z_other = float(self._gdata.oMf[self._fid[other]].translation[2])
+        sw.ground_height[side] = self._land_z[side] + z_other - float(self.poses[other][k][2, 3])
 
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step

@@ -1,0 +1,96 @@
+"""Pieces of the terrain walk's contact handling: the ZMP on a raised plane, touch-down from a measured force,
+the floating-base orientation task."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.dynamics import BalanceController
+from wbc.dynamics.contact_switching import ContactSwitcher
+from wbc.estimation import zmp_from_wrenches
+from wbc.exceptions import InvalidInputError
+from wbc.robot import load_robot
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("talos")
+
+
+def test_zmp_on_the_tread_plane():
+    # A pure force through a sole origin at height h: its ZMP on the plane z = h is that origin (closed form);
+    # on the floor z = 0 it is displaced by -h f_xy / f_z.
+    h, f = 0.6, np.array([30.0, -45.0, 300.0])
+    X = pin.SE3(np.eye(3), np.array([0.4, -0.1, h]))
+    w = np.concatenate([f, np.zeros(3)])[None]
+    assert zmp_from_wrenches(w, [X], height=h) == pytest.approx([0.4, -0.1], abs=1e-12)
+    assert zmp_from_wrenches(w, [X]) == pytest.approx([0.4 - h * 30 / 300, -0.1 + h * 45 / 300], abs=1e-12)
+
+
+def _swinging(robot):
+    c = BalanceController(robot)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    c.reset(q, v)
+    sw = ContactSwitcher(c, ramp_time=0.04, full_force=1000.0)
+    sw.unload("right", 0.0)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    return sw, q, v
+
+
+def test_touchdown_with_a_measured_force(robot):
+    weight = robot.mass * 9.81
+    # at the ground height by the state but no force on the sole: the foot is in the air (a drifted estimate)
+    sw, q, v = _swinging(robot)
+    sw.measured_force["right"] = 0.0
+    sw.update(0.05, q, v)
+    assert sw.phase("right") == "swing"
+    sw.measured_force["right"] = 0.05 * weight  # a soft contact confirms the height rule
+    sw.update(0.052, q, v)
+    assert sw.phase("right") == "loading"
+    # 3 cm above the ground by the state (a bump under a blind plan): the force alone, within the band
+    sw, q, v = _swinging(robot)
+    q_up = q.copy()
+    q_up[2] += 0.03
+    sw.measured_force["right"] = 0.05 * weight
+    sw.update(0.05, q_up, v)
+    assert sw.phase("right") == "swing"
+    sw.measured_force["right"] = 0.15 * weight
+    sw.update(0.052, q_up, v)
+    assert sw.phase("right") == "loading"
+    # outside the band (8 cm): no touch-down whatever the force
+    sw, q, v = _swinging(robot)
+    q_up[2] = q[2] + 0.08
+    sw.measured_force["right"] = weight
+    sw.update(0.05, q_up, v)
+    assert sw.phase("right") == "swing"
+    with pytest.raises(InvalidInputError, match="touchdown_force"):
+        ContactSwitcher(sw.controller, touchdown_force=-1.0)
+
+
+def test_base_orientation_task(robot):
+    c = BalanceController(robot)
+    q = robot.q_ref.copy()
+    c.reset(q, np.zeros(robot.nv))
+    n = len(c.qp.tasks)
+    c.set_base_orientation_weight(3.0, q=q)
+    assert len(c.qp.tasks) == n + 1 and c.base in c.qp.tasks
+    # its target is the root body's orientation at q (Pinocchio's free-flyer quaternion, xyzw)
+    R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+    assert c.base.task.target.rotation == pytest.approx(R, abs=1e-12)
+    c.set_base_orientation_weight(0.0)
+    assert len(c.qp.tasks) == n and c.base is None
+    with pytest.raises(InvalidInputError, match="weight"):
+        c.set_base_orientation_weight(float("nan"))
+
+
+def test_blind_needs_terrain_and_estimated_state():
+    import os
+    import subprocess
+    import sys
+
+    for extra in ([], ["--terrain", "rough:0.02:1", "--state", "ground-truth"]):
+        r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--blind", "--steps", "2", *extra],
+                           capture_output=True, text=True, env={**os.environ}, timeout=300)
+        assert r.returncode == 2
+        assert "--blind needs --terrain" in r.stderr and len(r.stderr.strip().splitlines()) == 1
