@@ -11,8 +11,10 @@ from wbc.ros2.node import ControllerNode  # noqa: E402
 
 
 def test_each_fall_after_a_reset_is_printed(capsys):
-    walk = SimpleNamespace(walking=True, fell=False, t=0.0, monitor=SimpleNamespace(fall_reason="tilt"))
-    node = SimpleNamespace(walk=walk, _was_walking=True, _fall_reported=False, sim_state=lambda: "state")
+    walk = SimpleNamespace(walking=True, fell=False, t=0.0, monitor=SimpleNamespace(fall_reason="tilt"),
+                           touchdown_replans=0, last_replan="")
+    node = SimpleNamespace(walk=walk, _was_walking=True, _fall_reported=False, _replans_seen=0,
+                           sim_state=lambda: "state")
     report = ControllerNode._report_sim
     script = [(1.0, False), (2.0, True), (2.002, True), (3.0, False), (4.0, False), (5.0, True), (5.002, True)]
     for t, fell in script:  # up, fall (printed once), /reset_robot (up again), a second fall
