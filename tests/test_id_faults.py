@@ -237,3 +237,28 @@ def test_daqp_solves_recorded_single_support_problem(robots):
     cx = C @ x
     assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
     assert np.all(x >= lb - 1e-9) and np.all(x <= ub + 1e-9)
+
+
+def test_daqp_solves_recorded_large_cost_problem():
+    """Item 6: a QP recorded from the ID fuzz (humanoid15, seed 400 episode 0 tick 32, ``solver="daqp"``: CoM gain
+    and weight near 1e4, |g| ≈ 1e6, Hessian conditioned ≈ 1e11 by the 1e-7 force regularisation) that DAQP called
+    infeasible although HiGHS finds its hard set feasible. DAQP with the ID settings, no independent confirmation
+    (as the controller calls it), now returns a solution; oracles: every row of the recorded problem to 1e-6
+    (scaled by max(1, |rhs|)), and quadprog's optimum (same objective to 1e-9 relative, same x to 1e-6)."""
+    from pathlib import Path
+
+    from wbc.qp import QpsolversBackend
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_large_cost_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb - 1e-9) and np.all(x <= ub + 1e-9)
+    xq = QpsolversBackend("quadprog")._solve(H, g, A, b, C, l, u, lb, ub)
+    obj, obj_q = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+    assert abs(obj - obj_q) <= 1e-9 * abs(obj_q)
+    assert np.abs(x - xq).max() <= 1e-6 * max(1.0, np.abs(xq).max())
