@@ -386,3 +386,51 @@ def test_urdf_limits_inverted_by_round_off_keep_a_position_limit(tmp_path):
         else:
             with pytest.raises(RobotDescriptionError, match="inverted"):
                 wbc.load_robot(path, reference_joints={joint: 0.3}, **kwargs)
+
+
+class _RacingClock:
+    """A CPU clock that jumps 1 s at every read: a machine so loaded that every budget is spent at once."""
+
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        self.t += 1.0
+        return self.t
+
+
+def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
+    """A tick's budget is counted in QP solves (wbc.qp.TickWork), never read from a clock: the same ticks (strict
+    levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths and
+    budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
+    itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
+    from wbc.tasks import FrameTask, PostureTask
+    import wbc.formulations.velocity as velocity
+    import wbc.hierarchy as hierarchy
+    import wbc.qp as qp
+
+    def run():
+        robot = robots("talos")
+        config = Configuration(robot)
+        ctrl, _ = standing_controller(robot, config)
+        hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+        target = config.frame_placement(hand.frame_id).copy()
+        target.translation += [0.05, 0.05, 0.05]
+        hand.set_target(target)
+        ctrl.add_task(hand, level=0)
+        ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+        out = []
+        for _ in range(3):
+            res = ctrl.solve(config, DT)
+            out.append((res.v.copy(), res.path, res.ok, res.over_budget))
+            config.update(pin.integrate(robot.model, config.q, res.v * DT))
+        return out
+
+    steady = run()
+    clock = _RacingClock()
+    for module in (velocity, hierarchy, qp):
+        monkeypatch.setattr(module, "thread_time", clock, raising=False)
+    raced = run()
+    assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]
+    assert all(a[0].tobytes() == b[0].tobytes() and a[2:] == b[2:] for a, b in zip(steady, raced))
+    assert all(p == "levels" for _, p, _, _ in steady)

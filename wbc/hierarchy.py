@@ -31,8 +31,7 @@ residual is checked after the last one.
 
 from __future__ import annotations
 
-import math
-from time import thread_time
+from typing import Callable
 
 import numpy as np
 
@@ -62,7 +61,7 @@ def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
                         dependent_row_tolerance: float = 1e-3, band: float = 1e-9,
-                        deadline: float = math.inf) -> tuple[np.ndarray, list[float]]:
+                        stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, list[float]]:
     """Solve the cascade of the module docstring.
 
     Args:
@@ -74,14 +73,14 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         rank_rtol: relative rank tolerance of the stacked equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
-        deadline: ``time.thread_time()`` instant (CPU time of the calling thread, s) after which no further level is
-            started: the cascade then returns the solution of the last level it solved (a point of the hard set,
-            optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
-            of levels (soft level included) that were solved; None when every level was. The first level is
-            always solved. Default: no deadline.
+        stop: called before each level after the first; when it returns True no further level is started (a
+            controller's counted tick budget, :class:`wbc.qp.TickWork`): the cascade then returns the solution of
+            the last level it solved (a point of the hard set, optimal for that level and every level above it)
+            and ``solve_lexicographic.last_cut`` is the number of levels (soft level included) that were solved;
+            None when every level was. The first level is always solved. Default: every level.
 
     Returns:
-        (v (nv,), residuals): the soft level's solution (or the last solved level's: ``deadline``) and
+        (v (nv,), residuals): the soft level's solution (or the last solved level's: ``stop``) and
         ‖J_k v − v*_k‖ per level.
 
     Raises:
@@ -94,7 +93,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     """
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
-    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, deadline)
+    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop)
     if keep.size < A.shape[0]:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
@@ -105,7 +104,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                                      lb, ub, backends, final_backend, band, deadline)
+                                      lb, ub, backends, final_backend, band, stop)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -113,14 +112,14 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
 
-def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, deadline=math.inf):
+def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None):
     """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
     fixed_J: list[np.ndarray] = []
     v = None
     skipped: list[int] = []
     solve_lexicographic.last_cut = None
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
-        if v is not None and thread_time() > deadline:  # one clock read per level
+        if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
             return v, skipped
         if fixed_J:

@@ -16,16 +16,50 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from time import thread_time
 
 import numpy as np
 import qpsolvers
 
 from wbc.exceptions import InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
+#: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
+#: solve of an infeasible QP runs to its iteration cap (200 outer × 100 inner), ≈ 580 active-set solves of a
+#: humanoid tick's QP; the others count one
+_CONFIRM_WORK = {"proxqp": 580}
+
+
+class TickWork:
+    """Counted work of one control tick: the QP solves done so far, against a cap.
+
+    A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
+    tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
+    one to ``solves``. A tick budget counted in solves keeps a tick's answer a function of its inputs (a budget
+    read from a clock would make it depend on the machine's load).
+
+    Attributes:
+        solves: QP solves of the current tick (int ≥ 0).
+        cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
+            re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
+            budget below ≈ 145 ms).
+    """
+
+    __slots__ = ("solves", "cap")
+
+    def __init__(self, cap: float = math.inf):
+        self.solves = 0
+        self.cap = cap
+
+    def reset(self, cap: float) -> None:
+        """Start a tick: no solve yet, ``cap`` solves allowed."""
+        self.solves = 0
+        self.cap = cap
+
+    def spent(self, factor: float = 1.0) -> bool:
+        """``factor`` × cap solves are done."""
+        return self.solves >= factor * self.cap
 
 
 class QPBackend(ABC):
@@ -42,9 +76,10 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
-    #: ``time.thread_time()`` instant (CPU time of the solving thread) after which a failed solve is not confirmed by the independent solvers
-    #: (:meth:`solve`): set by a controller to the end of its tick budget; inf (default) = no limit.
-    deadline: float = math.inf
+    #: the counted work of the current control tick (:class:`TickWork`, shared by a controller's backends), or None:
+    #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
+    #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
+    work: "TickWork | None" = None
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
@@ -57,8 +92,9 @@ class QPBackend(ABC):
         x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
         backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
         same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
-        unbounded); otherwise, once ``time.thread_time()`` is past ``deadline``, the independent solvers not yet run
-        are skipped (the failure is then reported unconfirmed).
+        unbounded); otherwise, once the tick's counted work (``work``) has reached its cap, the independent solvers
+        not yet run are skipped (the failure is then reported unconfirmed). The limit is a count of solves, not a
+        clock: the answer is a function of the problem alone.
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -69,6 +105,8 @@ class QPBackend(ABC):
         """
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure
         for attempt in (self._solve, self._solve_cold):
+            if self.work is not None:
+                self.work.solves += 1
             x = attempt(H, g, A, b, C, l, u, lb, ub)
             worst = math.inf
             if x is not None and np.isfinite(x).all():
@@ -177,9 +215,12 @@ class QPBackend(ABC):
         for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue
-            if thread_time() > self.deadline:
-                return None, (", ".join(tried) + " (then the tick budget was spent)" if tried else
-                              "no independent solver (tick budget spent: infeasibility not confirmed)")
+            if self.work is not None:
+                cost = _CONFIRM_WORK.get(name, 1)
+                if self.work.solves + cost > self.work.cap:
+                    return None, (", ".join(tried) + " (then the tick's solve count was spent)" if tried else
+                                  "no independent solver (tick budget spent: infeasibility not confirmed)")
+                self.work.solves += cost
             try:
                 if name == "proxqp":
                     backend = ProxQPBackend(tolerance=self.tolerance, max_iter=200)
@@ -360,6 +401,17 @@ class DaqpBackend(QPBackend):
             x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
             if exitflag >= 1:
                 return x2
+        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        if scale < 1.0:
+            # the same minimiser with the cost divided by max(1, |g|∞, |H|max): with |g| ~ 1e6 and a Hessian
+            # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
+            # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
+            # the scaled solve agrees with quadprog to 4e-8 in x)
+            x3, _, exitflag, info = self._daqp.solve(H * scale, g * scale, self._G, self._upper, self._lower,
+                                                     self._sense, **self.settings)
+            if exitflag >= 1:
+                self.last_multipliers = None
+                return x3
         return x
 
     def _solve_dual(self, H, g, G, upper, lower):

@@ -48,6 +48,7 @@ import numpy as np
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.sole_contact import SoleContact
 from wbc.state import DynamicsState
+from wbc.compiled import once_per_process
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 
@@ -380,6 +381,14 @@ def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_accelerati
     return lo, hi
 
 
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`joint_bounds_kernel` (on-disk cache) once per process, at construction of
+    :class:`JointAccelerationLimits`, not inside a controller's first tick."""
+    z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
+    joint_bounds_kernel(z, z, i, i, -np.ones(1), np.ones(1), np.ones(1), 1.0, 1e-3, np.empty(1), np.empty(1), 1.0)
+
+
 class JointAccelerationLimits(IDConstraint):
     """Joint position / velocity / viability bounds on the 1-DoF joint accelerations (eq. 9; rad/s²).
 
@@ -413,6 +422,7 @@ class JointAccelerationLimits(IDConstraint):
         self.speed_horizon = 1.0
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
+        _warm_up()
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""

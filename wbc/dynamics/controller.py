@@ -15,9 +15,10 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 (step 2).
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
-(``time.thread_time``: what the tick computes, not the time other processes take the core from it). The full QP
-always runs; the relaxed QP starts only while the budget is not spent (else the safe command of step 2, and
-``message`` says so); a full or relaxed command that ends past the budget is used and counted (``over_budget``):
+(``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
+reported (``over_budget``), never used to decide: a tick solves at most two QPs — the full QP, and after its
+failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
+of the machine's load. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
@@ -35,7 +36,7 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
    (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
    and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True; the command's torques are clipped
    to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
-2. that fails too, or the budget is spent → the **previous tick's solved command** when the previous tick was
+2. that fails too → the **previous tick's solved command** when the previous tick was
    solved (``fallback:hold``: a zero-order hold for one tick, as a real-time loop does on a missed deadline — the
    damping term below is a torque step at impact velocities that a single landing tick did not survive); a second
    failed tick in a row (or a failure with no solved tick before it) takes
@@ -181,10 +182,6 @@ class InverseDynamicsController:
         except SolverError as exc:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
-            used = thread_time() - c0
-            if used > self.budget:  # the budget is spent: the safe command at once
-                return self._fail(f"{message}; no time left for the relaxed QP ({1e3 * used:.3g} ms of the "
-                                  f"{1e3 * self.budget:.3g} ms budget used)", conflicts, t0, t1, c0)
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
                 sol = self.qp.solve_relaxed(self.state, self.dt)
             except SolverError as exc2:

@@ -242,6 +242,7 @@ class InverseDynamicsQP:
         self.confirm_failures = False
         # a user backend whose solve() predates the confirm keyword is called without it
         self._takes_confirm: tuple = (None, False)
+        self._confirm_kw  # the backend's signature read here, not inside the first tick
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
         jl = self.joint_acceleration_limits

@@ -63,9 +63,12 @@ Output guard: an ok tick's command is finite and within the box and inequality r
 within ``sole_drift_tolerance``, and every number of its QP finite (targets, weights, q, placements written in
 place are caught there); else the tick fails (``TickResult.reason``) and the safe command below is returned.
 
-Tick budget (``budget``, default the tick's dt, in CPU time of the calling thread): past it, a failed tick stops its optional stages (independent
+Tick budget (``budget``, default the tick's dt, seconds of CPU time), counted in QP solves: a tick may do
+⌊budget / ``KinematicController.SOLVE_COST``⌋ solves (every solve attempt, cold retry and independent re-solve
+counts one, :class:`wbc.qp.TickWork`) — a count, not a clock, so a tick's answer is a function of its inputs and
+never of the machine's load. Past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
-relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the time
+relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the count
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
 region — and, once twice its budget is spent, starts none of them: it keeps the command of the last stage it finished (the last
 solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
@@ -112,7 +115,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from time import perf_counter, thread_time
+from time import perf_counter
 
 import numpy as np
 import pinocchio as pin
@@ -128,7 +131,7 @@ from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POS
                          clip_box_into, contact_drift, ensure_compiled, kinematic_finish_packed, kinematic_pack,
                          kinematic_reduced_packed, kinematic_tick_packed, weighted_normal_equations)
 from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DaqpBackend, QPBackend
+from wbc.qp import DaqpBackend, QPBackend, TickWork
 from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
@@ -174,7 +177,8 @@ class TickResult:
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
             'output_guard' (the command was not finite or crossed a
             bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
-        over_budget: the tick's budget (``KinematicController.budget``) was spent before it finished: on a
+        over_budget: the tick's budget (``KinematicController.budget``, counted in QP solves) was spent before it
+            finished: on a
             failed tick its optional stages (independent confirmation, diagnosis, the safe command's trust regions)
             were skipped and the safe command returned; on an ok tick ('+budget' path: twice the budget spent) the
             remaining strict levels, contact corrections or trust regions were skipped and the last finished stage's command returned.
@@ -217,15 +221,15 @@ class KinematicController:
             (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
             drifts more is solved again inside a trust region |v_i| ≤ ρ (ρ halved from max|v| up to 8 times: the
             drift is second order in v dt); if none drifts less, the tick is not ok.
-        budget: CPU time of the calling thread (s, ``time.thread_time``: what the tick computes, not the time other
-            processes take the core from it) a tick may use before its optional stages are skipped, or None (default): the
-            tick's dt. Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
+        budget: CPU time (s) a tick may use before its optional stages are skipped, or None (default): the tick's
+            dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (module docstring: deterministic, never
+            read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
             rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
             then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
             no further strict level, contact correction or trust region past twice the budget and returns the last
-            finished stage's command (module docstring, '+budget' path): its time is twice the budget plus at most
+            finished stage's command (module docstring, '+budget' path): its work is twice the budget plus at most
             the stage in progress (one QP solve) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
 
@@ -234,6 +238,11 @@ class KinematicController:
         InvalidInputError: damping ≤ 0, budget not None nor finite and > 0, or an object that is not a
             Task/Constraint.
     """
+
+    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set solver, one
+    #: core; the median CPU time per counted solve over the kinematic fuzz): the budget becomes a count of
+    #: ⌊budget / SOLVE_COST⌋ solves per tick (constructor, ``budget``).
+    SOLVE_COST = 2.5e-4
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
@@ -255,7 +264,7 @@ class KinematicController:
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
         self.contact_correction = float(contact_correction)
         self.budget = budget
-        self._deadline = math.inf
+        self._work = TickWork()  # the tick's QP solves, shared with every backend of the controller (budget)
         self._cut: list[str] = []
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
@@ -305,7 +314,8 @@ class KinematicController:
 
     @property
     def budget(self) -> float | None:
-        """Wall time (s) of a tick before it falls back (constructor docstring), or None: the tick's dt.
+        """CPU time (s) of a tick before it falls back, counted in QP solves (constructor docstring), or None: the
+        tick's dt.
 
         Raises:
             InvalidInputError: on assignment, not None and not a finite number > 0.
@@ -324,20 +334,20 @@ class KinematicController:
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _late(self) -> bool:
-        """The current tick's budget is spent."""
-        return thread_time() > self._deadline
+        """The current tick's budget (counted in QP solves) is spent."""
+        return self._work.spent()
 
-    def _stage_deadline(self) -> float:
-        """The instant (``time.thread_time``) past which a solved tick starts no further stage: twice its budget."""
-        return self._deadline + self._budget_s
+    def _stage_late(self) -> bool:
+        """A solved tick starts no further stage: twice its budget (in QP solves) is spent."""
+        return self._work.spent(2.0)
 
-    def _set_deadline(self, deadline: float, plan=None) -> None:
-        """Give every QP backend of the controller the tick's deadline (``QPBackend.deadline``)."""
-        self._deadline = deadline
+    def _start_work(self, budget_s: float, plan=None) -> None:
+        """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend."""
+        self._work.reset(math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf)
         for b in (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
                   *self._level_backends, None if plan is None else plan.rescue):
             if b is not None:
-                b.deadline = deadline
+                b.work = self._work
                 b.independent = _CONFIRM_ORDER
 
     @staticmethod
@@ -778,7 +788,7 @@ class KinematicController:
         rescue = plan.rescue
         if rescue is None:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
-            rescue.deadline = self._deadline
+            rescue.work = self._work
         H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(plan.fb, plan.ib)
         try:
             x = rescue.solve(H, g, A, b, C, l, u, lb, ub)
@@ -816,7 +826,7 @@ class KinematicController:
         t0 = perf_counter()
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._budget_s = dt if self._budget is None else self._budget
-        self._set_deadline(thread_time() + self._budget_s)  # CPU time of this thread
+        self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -824,7 +834,7 @@ class KinematicController:
             plan = self._fused_plan(config, dt)
         if plan is not None:
             if plan.rescue is not None:
-                plan.rescue.deadline = self._deadline
+                plan.rescue.work = self._work
             try:
                 result = self._fused_tick(plan, config, dt, t0)
             except InvalidInputError:
@@ -895,7 +905,7 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
-        result.over_budget = result.over_budget or bool(self._cut) or thread_time() > self._deadline
+        result.over_budget = result.over_budget or bool(self._cut) or self._work.solves > self._work.cap
         if self._cut and result.ok:
             result.path += "+budget"
             result.message = f"tick budget spent: {'; '.join(self._cut)} skipped"
@@ -1068,7 +1078,7 @@ class KinematicController:
             for k in range(3):
                 # the refinement stops at the tick budget (the safe command's) or twice it (a solved tick's); the
                 # best command so far is kept
-                if self._late() if bounded else thread_time() > self._stage_deadline():
+                if self._late() if bounded else self._stage_late():
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
                     break
@@ -1124,7 +1134,7 @@ class KinematicController:
             for k, radius in enumerate(radii):
                 # the trust region stops at the tick budget (the safe command's) or twice it (a solved tick's); the
                 # least drifting command is kept
-                if self._late() if bounded else thread_time() > self._stage_deadline():
+                if self._late() if bounded else self._stage_late():
                     if not bounded:
                         self._cut.append(f"trust region after {k} of {len(radii)} radii")
                     break
@@ -1220,7 +1230,7 @@ class KinematicController:
             backend = DaqpBackend(tolerance=self.backend.tolerance, **{**self.backend.settings, **daqp_settings})
         else:
             backend = make_backend(self.backend.name)
-        backend.deadline = self._deadline
+        backend.work = self._work
         backend.independent = _CONFIRM_ORDER
         return backend
 
@@ -1243,7 +1253,7 @@ class KinematicController:
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            deadline=self._stage_deadline() if self._in_solve else math.inf)
+            stop=self._stage_late if self._in_solve else None)
         cut = solve_lexicographic.last_cut
         if cut is not None:
             self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (the last solved level's "
@@ -1270,6 +1280,7 @@ class KinematicController:
                               path="fallback:hold", reason="exception")
         data_fault = self._data_fault()
         if not self._late():
+            self._work.solves += 1  # the diagnosis: one least-squares QP
             try:
                 conflicts = self.diagnose(config, dt, include_relaxable=False)
             except Exception as dexc:  # noqa: BLE001
