@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError, RobotDescriptionError, RobotFileNotFoundError
-from wbc.geometry import convex_hull, polygon_margin, rectangle_in_polygon, support_polygon
+from wbc.geometry import convex_hull, polygon_margin, rectangle_in_polygon, signed_distance, support_polygon
 from wbc.robot import (
     Robot,
     build_robot,
@@ -384,6 +384,19 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     return RobotSpec(**{**spec.__dict__, "gait": gait}), notes
 
 
+def _rectangle_outside(points: np.ndarray, length: float, width: float) -> float | None:
+    """Largest distance (m, rounded to 0.1 mm) of a corner of the ``length`` × ``width`` rectangle centred on the
+    sole frame outside the convex hull of the foot points (sole frame, (k, 3)) within :data:`FLAT_BAND` of the
+    lowest; 0 when all corners are inside, None when those points have no area."""
+    touch = points[points[:, 2] <= points[:, 2].min() + FLAT_BAND, :2]
+    try:
+        poly = convex_hull(touch)
+    except InvalidInputError:
+        return None
+    corners = np.array([[sx * length / 2, sy * width / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    return round(max(0.0, -float(signed_distance(corners, poly).min())), 4)
+
+
 def _joints_without_rotor_data(model: pin.Model, srdf: str | None) -> list[str]:
     """Names of the actuated joints whose SRDF ``<rotor_params>`` give no rotor inertia (all of them without an
     SRDF or without rotor_params)."""
@@ -467,7 +480,10 @@ def check_robot(path_or_name: str | Path) -> dict:
         height of the foot geometry's lowest point in the sole frame in m, contact patch size),
         ``sole_rectangle_m``, ``locked_joints``, ``inertia_fixes``, ``no_velocity_limit`` / ``no_effort_limit``
         (joint names), ``massless_joint_bodies``; per sole, ``patch_minus_rectangle_m``: how far the foot's contact
-        patch reaches beyond the sole rectangle at the front, back, left and right (m).
+        patch (its geometry's lowest 1 cm) reaches beyond the sole rectangle at the front, back, left and right
+        (m), ``rectangle_outside_touch_m``: how far a corner of the sole rectangle lies outside where the foot
+        touches a flat floor (convex hull of its geometry within ``FLAT_BAND`` of the lowest point; 0 inside), and
+        ``plant_foot``: the plant's feet (``[mujoco] foot``).
 
     Raises:
         RobotDescriptionError: also when the reference CoM is less than ``MIN_COM_MARGIN`` inside the support
@@ -485,6 +501,8 @@ def check_robot(path_or_name: str | Path) -> dict:
         chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]
         legs[side] = [model.names[j] for j in chain]
         p = foot_points(robot, frame, robot.collision_model)
+        if p is None and robot.visual_model is not None:  # no collision geometry: the plant uses the visual
+            p = foot_points(robot, frame, robot.visual_model)
         if p is None:
             soles[side] = {"frame": frame, "foot_geometry": None}
         else:
@@ -505,6 +523,10 @@ def check_robot(path_or_name: str | Path) -> dict:
                                                        round(float(-patch[:, 0].min() - a), 3),
                                                        round(float(patch[:, 1].max() - b), 3),
                                                        round(float(-patch[:, 1].min() - b), 3)],
+                           # how far the rectangle's corners reach outside where the foot touches a flat floor
+                           # (convex hull of its geometry within FLAT_BAND of the lowest point; 0: inside)
+                           "rectangle_outside_touch_m": _rectangle_outside(p, robot.sole_length, robot.sole_width),
+                           "plant_foot": robot.spec.mujoco.foot if robot.spec is not None else "box",
                            "patch_x_m": [round(float(patch[:, 0].min()), 3), round(float(patch[:, 0].max()), 3)],
                            "patch_y_m": [round(float(patch[:, 1].min()), 3), round(float(patch[:, 1].max()), 3)]}
     poses = [data.oMf[model.getFrameId(f)] for f in (robot.left_sole, robot.right_sole)]
