@@ -1,6 +1,7 @@
 """A humanoid outside the catalog end to end from its URDF: `wbc robot init` → `wbc robot check` → a 2-step
 kinematic walk (with the joint-acceleration bound checked on the logged q: no chattering) → a 2-step physics walk
-in MuJoCo. Robot: example-robot-data's Alexander (lower body, no collision geometry, Wavefront meshes)."""
+in MuJoCo on the robot's own feet (``[mujoco] foot = "urdf"``: its visual foot meshes, it has no collision geometry).
+Robot: example-robot-data's Alexander (lower body, no collision geometry, Wavefront meshes)."""
 
 from __future__ import annotations
 
@@ -57,6 +58,8 @@ def test_init_and_check(robot_file, capsys):
     assert 'urdf = "erd:alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf"' in text
     # the gait bounded by the legs and the assumed drives are said in the file
     assert "# - gait: nominal step (" in text and "armature = 0.01" in text
+    # the plant's feet are the robot's own (visual: it has no collision geometry), not boxes of the sole
+    assert 'foot = "urdf"' in text
     assert main(["robot", "check", str(robot_file)]) == 0
     out = capsys.readouterr().out
     assert "mass_kg" in out and "legs" in out

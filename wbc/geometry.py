@@ -25,7 +25,7 @@ from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetE
 
 __all__ = [
     "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
-    "signed_distance_point", "signed_distance", "polygons_overlap", "polygon_margin", "closest_point_in_polygon",
+    "rectangle_in_polygon", "signed_distance_point", "signed_distance", "polygons_overlap", "polygon_margin", "closest_point_in_polygon",
     "projected_sole_corners",
 ]
 
@@ -187,6 +187,36 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     if len(vertices) < 3:
         raise InvalidInputError("convex_hull: the points are collinear, their hull has no area")
     return np.array(vertices)
+
+
+def rectangle_in_polygon(polygon: np.ndarray, length: float, width: float) -> tuple[float, float]:
+    """The largest rectangle of the proportions ``length`` : ``width``, centred on the origin and aligned with the
+    axes (x along ``length``), inside a convex polygon: ``(s·length, s·width)`` with s the largest scale that keeps
+    its four corners inside (a convex polygon holds a rectangle when it holds its corners). Each edge, with inward
+    normal n and a vertex v on it (n·p ≥ n·v inside), bounds s ≤ −n·v / (|nₓ| length/2 + |n_y| width/2).
+
+    Args:
+        polygon: (k, 2) vertices of a convex polygon (m), either orientation, containing the origin.
+        length, width: proportions of the rectangle (> 0).
+
+    Returns:
+        (length, width) m of the rectangle; (0, 0) when the origin is on or outside the polygon.
+
+    Raises:
+        InvalidInputError: malformed polygon (see :func:`signed_distance`), non-positive or non-finite size.
+    """
+    poly = _ccw_polygon(polygon)
+    for value, what in ((length, "length"), (width, "width")):
+        if not (math.isfinite(value) and value > 0.0):
+            raise InvalidInputError(f"rectangle_in_polygon: {what} must be finite and > 0, got {value}")
+    edges = np.roll(poly, -1, axis=0) - poly
+    normals = np.column_stack([-edges[:, 1], edges[:, 0]])  # inward for a counter-clockwise polygon
+    offsets = -np.einsum("ij,ij->i", normals, poly)  # n·p ≥ n·v  ⇔  −n·v ≥ −n·p; at p = 0: offsets ≥ 0 inside
+    if np.any(offsets <= 0.0):
+        return 0.0, 0.0
+    reach = 0.5 * (np.abs(normals[:, 0]) * length + np.abs(normals[:, 1]) * width)
+    s = float(np.min(offsets / reach))
+    return s * length, s * width
 
 
 def support_polygon(sole_placements, length: float, width: float) -> np.ndarray:

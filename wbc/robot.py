@@ -543,9 +543,32 @@ def _geometry_points(geo) -> np.ndarray | None:
     return None
 
 
+def _floor_points(geo, placement: pin.SE3, up: np.ndarray) -> np.ndarray | None:
+    """Points (k, 3) m, in the frame of ``placement`` (the geometry's placement in it), of a collision geometry
+    that can touch a floor below it (normal ``up``, unit (3,) in that frame): a sphere's lowest point, a capsule's
+    two lowest points (its segment's ends lowered by the radius), every bounding point of other shapes (mesh
+    vertices, box corners). None for an unsupported shape.
+
+    A sphere or capsule touches a floor at one point (one line); its bounding box's corners would widen the
+    contact patch (and a sole rectangle measured on it) by the radius."""
+    if hasattr(geo, "radius") and not hasattr(geo, "vertices") and not hasattr(geo, "halfSide"):
+        r = float(geo.radius)
+        kind = type(geo).__name__.lower()
+        if "sphere" in kind:
+            return (placement.translation - r * up)[None, :]
+        if "capsule" in kind:
+            axis = placement.rotation[:, 2] * float(getattr(geo, "halfLength", 0.0))
+            return np.array([placement.translation + axis - r * up, placement.translation - axis - r * up])
+    local = _geometry_points(geo)
+    if local is None:
+        return None
+    return local @ placement.rotation.T + placement.translation
+
+
 def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
-    """Points (k, 3) m of the geometry attached to the joint carrying ``frame``, expressed in that frame, or None
-    when that joint has no (supported) geometry."""
+    """Points (k, 3) m of the geometry attached to the joint carrying ``frame`` that can touch a floor under the
+    sole (:func:`_floor_points` with the sole frame's z up), expressed in that frame, or None when that joint has
+    no (supported) geometry."""
     model = robot.model
     fr = model.frames[model.getFrameId(frame)]
     s_m_j = fr.placement.inverse()
@@ -553,16 +576,15 @@ def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
     for g in geometry_model.geometryObjects:
         if g.parentJoint != fr.parentJoint:
             continue
-        local = _geometry_points(g.geometry)
-        if local is None:
-            continue
-        m = s_m_j * g.placement
-        pts.append(local @ m.rotation.T + m.translation)
+        p = _floor_points(g.geometry, s_m_j * g.placement, np.array([0.0, 0.0, 1.0]))
+        if p is not None:
+            pts.append(p)
     return np.vstack(pts) if pts else None
 
 
 #: Public names of the geometry helpers (used by :mod:`wbc.robot_inspect`).
 geometry_points = _geometry_points
+floor_points = _floor_points
 foot_points = _foot_points
 
 

@@ -23,19 +23,21 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
-from wbc.geometry import polygon_margin, support_polygon
+from wbc.exceptions import InvalidInputError, RobotDescriptionError, RobotFileNotFoundError
+from wbc.geometry import convex_hull, polygon_margin, rectangle_in_polygon, signed_distance, support_polygon
 from wbc.robot import (
     Robot,
     build_robot,
     example_robot_data_dir,
+    floor_points,
     foot_points,
     geometry_points,
     load_robot,
 )
 from wbc.robot_file import FrameSpec, MujocoOptions, RobotSpec, check_xml, package_roots
 
-__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE"]
+__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE",
+           "FLAT_BAND", "MIN_FLAT_PATCH"]
 
 #: Rotor armature (kg·m², every actuated joint) written by ``wbc robot init`` when the robot has no drive data
 #: (no SRDF ``<rotor_params>``): the value of MuJoCo Menagerie's Unitree G1 (``unitree_g1/g1.xml``, default class
@@ -45,6 +47,15 @@ ASSUMED_ARMATURE = 0.01
 
 #: Smallest distance (m) of the reference posture's CoM inside the support polygon for `wbc robot check`.
 MIN_COM_MARGIN = 0.01
+
+#: Height band (m) above a foot geometry's lowest point taken as what touches a flat floor (the plant's contacts
+#: are soft: a loaded foot sinks about a millimetre).
+FLAT_BAND = 0.002
+
+#: ``wbc robot init`` writes ``[mujoco] foot = "urdf"`` (the robot's own foot geometry in the plant) when, on each
+#: foot, the geometry within ``FLAT_BAND`` of its lowest point spans at least this fraction of the sole rectangle
+#: in length and in width; otherwise ``"box"`` (a foot that touches on a smaller patch rocks on the floor).
+MIN_FLAT_PATCH = 0.5
 
 #: Feet raised towards the base by this fraction of the leg length in the inferred reference posture (bent knees:
 #: a straight leg is a singular posture for CoM height tracking).
@@ -68,17 +79,55 @@ def _chain(model: pin.Model, j: int) -> list[int]:
     return out[::-1]
 
 
-def _geometry_points_world(model, data, gmodel, joint: int) -> np.ndarray | None:
+def _geometry_points_world(model, data, gmodel, joint: int, up: np.ndarray | None = None) -> np.ndarray | None:
+    """Points (k, 3) m, world frame, of the geometry on ``joint``: bounding points, or with ``up`` (unit (3,),
+    world) the points that can touch a floor of that normal (:func:`wbc.robot.floor_points`)."""
     pts = []
     for g in gmodel.geometryObjects:
         if g.parentJoint != joint:
             continue
-        local = geometry_points(g.geometry)
-        if local is None:
-            continue
         m = data.oMi[joint] * g.placement
-        pts.append(local @ m.rotation.T + m.translation)
+        if up is not None:
+            p = floor_points(g.geometry, m, up)
+        else:
+            local = geometry_points(g.geometry)
+            p = None if local is None else local @ m.rotation.T + m.translation
+        if p is not None:
+            pts.append(p)
     return np.vstack(pts) if pts else None
+
+
+def touch_rectangle(xy: np.ndarray, z: np.ndarray, footprint: np.ndarray,
+                    band: float | None = None) -> np.ndarray:
+    """The largest rectangle centred on the sole frame origin, x along the foot, inside the convex hull of the
+    foot geometry's points within ``band`` of its lowest point (where a flat floor touches it).
+
+    The rectangle's proportions are searched from the footprint's (length, width) to ones narrowed in width (to
+    0.3×, 15 steps), each candidate scaled up to the hull (:func:`wbc.geometry.rectangle_in_polygon`); the
+    largest one at least 80 % of the footprint's length is kept (the sagittal reach of the CoP, which the CoM of
+    a standing robot needs most; a tapered foot, narrow at the heel, would otherwise give a short square), else
+    the longest.
+
+    Args:
+        xy: (k, 2) points in the sole frame (m); z: (k,) their heights above the sole plane (m).
+        footprint: (2,) the footprint's (length, width) (m), the starting proportions.
+        band: height band (m), default :data:`FLAT_BAND`.
+
+    Returns:
+        (2,) (length, width) m; zeros when the touching points have no area around the origin.
+    """
+    band = FLAT_BAND if band is None else band
+    pts = xy[z <= z.min() + band]
+    try:
+        poly = convex_hull(pts)
+    except InvalidInputError:
+        return np.zeros(2)
+    rects = [np.array(rectangle_in_polygon(poly, float(footprint[0]), float(t * footprint[1])))
+             for t in np.linspace(0.3, 1.0, 15)]
+    long = [r for r in rects if r[0] >= 0.8 * footprint[0]]
+    if long:
+        return max(long, key=lambda r: r[0] * r[1])
+    return max(rects, key=lambda r: r[0])
 
 
 def locked_joints(model: pin.Model, tolerance: float = 1e-9) -> list[str]:
@@ -122,7 +171,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     if not len(cmodel.geometryObjects):
         cmodel = vmodel
         notes.append("the URDF has no <collision> geometry: the feet are measured on the visual meshes, and the "
-                     "plant's feet are boxes of the sole rectangle ([mujoco] foot = \"box\")")
+                     "plant's feet touch the ground through them (their convex hulls, [mujoco] foot = \"urdf\")")
     data = model.createData()
     q0 = pin.neutral(model)
     pin.framesForwardKinematics(model, data, q0)
@@ -207,9 +256,9 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     # sole frames: an existing '*sole*' frame on the foot joint, else one at the centre of the contact patch
     frames: list[FrameSpec] = []
     soles = {}
-    patches = []
+    patches, flats = [], []
     for side, j in foot.items():
-        p = _geometry_points_world(model, data, cmodel, j)
+        p = _geometry_points_world(model, data, cmodel, j, up)
         body = next(f for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY)
         if p is None:
             raise RobotDescriptionError(
@@ -220,6 +269,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         c = np.array([0.5 * (low[:, 0].max() + low[:, 0].min()), 0.5 * (low[:, 1].max() + low[:, 1].min()),
                       pw[:, 2].min()])
         patches.append(low.max(axis=0) - low.min(axis=0))
+        flats.append(touch_rectangle(pw[:, :2] - c[:2], pw[:, 2] - c[2], patches[-1][:2]))
         existing = [f for f in model.frames if f.parentJoint == j and "sole" in f.name.lower()
                     and f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
         for f in existing:
@@ -291,10 +341,28 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         if clipped:
             notes.append(f"reference posture: joints whose zero is outside their limits start 0.05 rad (at most 5 % "
                          f"of their range) inside the nearest limit: {clipped}")
-    mujoco = MujocoOptions()
+    flat = min(float(min(f[0] / p[0], f[1] / p[1])) for f, p in zip(flats, patches))
+    if flat >= MIN_FLAT_PATCH:
+        mujoco = MujocoOptions(foot="urdf")
+        length = round(0.95 * min(float(f[0]) for f in flats), 3)
+        width = round(0.95 * min(float(f[1]) for f in flats), 3)
+        how = (f"95 % of the largest rectangle at least 80 % of the footprint's length, centred on the sole frame "
+               f"inside the convex hull of the smaller foot's geometry within {FLAT_BAND * 1000:.0f} mm of its "
+               f"lowest point: where it touches a flat floor")
+        notes.append(f"plant's feet: the robot's own foot geometry ([mujoco] foot = \"urdf\"): it touches a flat "
+                     f"floor on a patch holding a rectangle of ≥ {flat:.0%} of its footprint's length and width")
+    else:
+        mujoco = MujocoOptions(foot="box")
+        length = round(0.95 * min(float(p[0]) for p in patches), 3)
+        width = round(0.95 * min(float(p[1]) for p in patches), 3)
+        how = "95 % of the smaller foot's footprint, the lowest 1 cm of its geometry"
+        notes.append(f"plant's feet: boxes of the sole rectangle ([mujoco] foot = \"box\"), not the robot's own "
+                     f"foot geometry: within {FLAT_BAND * 1000:.0f} mm of its lowest point it touches a flat floor "
+                     f"on a patch holding only {flat:.0%} of its footprint's length or width (a rounded or tilted "
+                     f"foot bottom rocks on the floor; needs ≥ {MIN_FLAT_PATCH:.0%})")
     missing = _joints_without_rotor_data(model, srdf)
     if missing:
-        mujoco = MujocoOptions(armature=ASSUMED_ARMATURE)
+        mujoco = MujocoOptions(foot=mujoco.foot, armature=ASSUMED_ARMATURE)
         notes.append(f"drives: no rotor data (SRDF <rotor_params>) for {len(missing)} joints (e.g. {missing[0]!r}): "
                      f"[mujoco] armature = {ASSUMED_ARMATURE} kg·m² assumed for them (MuJoCo Menagerie's G1); set "
                      f"your drives' rotor inertia × gear ratio²")
@@ -304,10 +372,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
                      left_sole=soles["left"], right_sole=soles["right"], torso=torso, left_hand=hands.get("left"),
                      right_hand=hands.get("right"), frames=tuple(frames), package_dirs=tuple(dirs),
                      base_rpy=base_rpy, mujoco=mujoco)
-    length = round(0.95 * min(float(p[0]) for p in patches), 3)
-    width = round(0.95 * min(float(p[1]) for p in patches), 3)
-    notes.append(f"sole rectangle: {length} x {width} m (95 % of the smaller foot's contact patch, the lowest 1 cm "
-                 f"of its geometry)")
+    notes.append(f"sole rectangle: {length} x {width} m ({how})")
     spec = RobotSpec(**{**spec.__dict__, "sole_length": length, "sole_width": width})
     robot = build_robot(spec)
     if reference is None:
@@ -317,6 +382,19 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     gait = {k: float(v) for k, v in robot.gait.items()}
     notes.append(f"gait: {gait} (scaled from Talos's by the leg length)")
     return RobotSpec(**{**spec.__dict__, "gait": gait}), notes
+
+
+def _rectangle_outside(points: np.ndarray, length: float, width: float) -> float | None:
+    """Largest distance (m, rounded to 0.1 mm) of a corner of the ``length`` × ``width`` rectangle centred on the
+    sole frame outside the convex hull of the foot points (sole frame, (k, 3)) within :data:`FLAT_BAND` of the
+    lowest; 0 when all corners are inside, None when those points have no area."""
+    touch = points[points[:, 2] <= points[:, 2].min() + FLAT_BAND, :2]
+    try:
+        poly = convex_hull(touch)
+    except InvalidInputError:
+        return None
+    corners = np.array([[sx * length / 2, sy * width / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    return round(max(0.0, -float(signed_distance(corners, poly).min())), 4)
 
 
 def _joints_without_rotor_data(model: pin.Model, srdf: str | None) -> list[str]:
@@ -402,7 +480,10 @@ def check_robot(path_or_name: str | Path) -> dict:
         height of the foot geometry's lowest point in the sole frame in m, contact patch size),
         ``sole_rectangle_m``, ``locked_joints``, ``inertia_fixes``, ``no_velocity_limit`` / ``no_effort_limit``
         (joint names), ``massless_joint_bodies``; per sole, ``patch_minus_rectangle_m``: how far the foot's contact
-        patch reaches beyond the sole rectangle at the front, back, left and right (m).
+        patch (its geometry's lowest 1 cm) reaches beyond the sole rectangle at the front, back, left and right
+        (m), ``rectangle_outside_touch_m``: how far a corner of the sole rectangle lies outside where the foot
+        touches a flat floor (convex hull of its geometry within ``FLAT_BAND`` of the lowest point; 0 inside), and
+        ``plant_foot``: the plant's feet (``[mujoco] foot``).
 
     Raises:
         RobotDescriptionError: also when the reference CoM is less than ``MIN_COM_MARGIN`` inside the support
@@ -420,6 +501,8 @@ def check_robot(path_or_name: str | Path) -> dict:
         chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]
         legs[side] = [model.names[j] for j in chain]
         p = foot_points(robot, frame, robot.collision_model)
+        if p is None and robot.visual_model is not None:  # no collision geometry: the plant uses the visual
+            p = foot_points(robot, frame, robot.visual_model)
         if p is None:
             soles[side] = {"frame": frame, "foot_geometry": None}
         else:
@@ -440,6 +523,10 @@ def check_robot(path_or_name: str | Path) -> dict:
                                                        round(float(-patch[:, 0].min() - a), 3),
                                                        round(float(patch[:, 1].max() - b), 3),
                                                        round(float(-patch[:, 1].min() - b), 3)],
+                           # how far the rectangle's corners reach outside where the foot touches a flat floor
+                           # (convex hull of its geometry within FLAT_BAND of the lowest point; 0: inside)
+                           "rectangle_outside_touch_m": _rectangle_outside(p, robot.sole_length, robot.sole_width),
+                           "plant_foot": robot.spec.mujoco.foot if robot.spec is not None else "box",
                            "patch_x_m": [round(float(patch[:, 0].min()), 3), round(float(patch[:, 0].max()), 3)],
                            "patch_y_m": [round(float(patch[:, 1].min()), 3), round(float(patch[:, 1].max()), 3)]}
     poses = [data.oMf[model.getFrameId(f)] for f in (robot.left_sole, robot.right_sole)]

@@ -13,7 +13,9 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
 * feet (``foot_contact="box"``): the collision geoms of every body rigidly attached to a sole frame are removed
   and replaced by one box ``{left,right}_foot_box`` whose bottom face is the sole rectangle
   (``sole_length`` × ``sole_width``) at the sole frame; box-on-plane gives 4 corner contacts per flat foot.
-  ``"urdf"`` keeps the URDF collision geoms instead. Visual geoms (group 1, no collision) are always kept;
+  ``"urdf"`` keeps the URDF collision geoms instead (a foot without any collision geom touches the ground
+  through its visual geoms, convex hulls, with a warning). Visual geoms (group 1, no collision) are otherwise
+  kept without collision;
 * collision bits: robot collision geoms have ``contype=ROBOT_BIT, conaffinity=ENV_BIT``; the floor has
   ``contype=ENV_BIT, conaffinity=ENV_BIT | ROBOT_BIT``. Hence every robot collision geom touches the floor (a
   non-foot body on the ground means a fall) while robot–robot pairs never collide (default: URDF collision
@@ -221,6 +223,8 @@ def build_mujoco_model(
             continue
         geom.contype, geom.conaffinity = ROBOT_BIT, ENV_BIT | self_bits
         geom.margin = geom.gap = 0.0
+    if foot_contact == "urdf":
+        _visual_feet(spec, foot_body_names, ROBOT_BIT, ENV_BIT | self_bits, robot.name)
     if foot_contact == "box":
         h = float(foot_box_thickness)
         for side in _SIDES:
@@ -359,6 +363,26 @@ def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:
     )
     mm.set_state(robot.q_ref, np.zeros(pmodel.nv))
     return mm
+
+
+def _visual_feet(spec: mujoco.MjSpec, foot_body_names: dict[str, set[str]], contype: int, conaffinity: int,
+                 name: str) -> None:
+    """Feet with ``foot_contact="urdf"`` whose bodies carry no collision geom touch the ground through their
+    visual geometry (MuJoCo collides a mesh by its convex hull): its geoms get the robot's collision bits, with a
+    warning. A foot without any geometry raises."""
+    for side, bodies in foot_body_names.items():
+        geoms = [g for g in spec.geoms if g.parent.name in bodies]
+        if any(g.contype or g.conaffinity for g in geoms):
+            continue
+        if not geoms:
+            raise SimulationError(f"{name}: the {side} foot (bodies {sorted(bodies)}) has no collision or visual "
+                                  f"geometry to touch the ground with; use [mujoco] foot = \"box\" (a box of the "
+                                  f"sole rectangle)")
+        for g in geoms:
+            g.contype, g.conaffinity = contype, conaffinity
+            g.margin = g.gap = 0.0
+        warnings.warn(f"{name}: the {side} foot has no collision geometry; its {len(geoms)} visual geoms (convex "
+                      f"hulls) are its ground contact", stacklevel=3)
 
 
 def _foot(robot: Robot, sole: str) -> tuple[str, set[str], pin.SE3]:
