@@ -14,8 +14,13 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 * **swing**: the caller sets the foot reference (pose, velocity and acceleration feed-forward). Touch-down
   detection is armed by :meth:`~ContactSwitcher.arm` (e.g. after mid-swing, so lift-off is not mistaken for
   touch-down).
-* **touch-down** is detected **from the state** (q, v — no force sensing): the sole frame height
-  ``z ≤ touchdown_height`` (m, world) **and** its vertical velocity ``ż ≤ touchdown_speed`` (m/s; not rising).
+* **touch-down** is detected **from the state** (q, v): the sole frame height ``z ≤ touchdown_height`` (m, world)
+  **and** its vertical velocity ``ż ≤ touchdown_speed`` (m/s; not rising) — **or**, when the caller passes the
+  measured normal force of the soles (ankle force/torque sensors) and ``touchdown_force`` is set, from that force:
+  ``f_z ≥ touchdown_force`` with the sole below ``touchdown_force_height`` (a gate against the swinging foot's own
+  inertia, which a static F/T compensation reads as force). The force test does not depend on the estimated base pose: with an estimated state
+  a tilt error of the base of δ rad puts a swing sole that is on the floor ``δ·d`` high (d: its distance to the
+  stance sole), e.g. 3.4 mm for 0.8° over 0.25 m, which alone delays a 3 mm height test.
   This handles early touch-down (the foot meets the floor before the plan says so: the contact is switched on
   at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
   contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
@@ -56,19 +61,24 @@ class ContactSwitcher:
             in contact (default 3 mm).
         touchdown_speed: the sole's vertical velocity (m/s) must be ≤ this (not rising) (default 0.05 m/s).
         full_force: F_full (N), end value of the ramp-in (default m g).
+        touchdown_force: measured normal force (N, > 0) at or above which an armed swing foot is in contact,
+            when :meth:`update` is given the measured forces (default None: the state test alone).
+        touchdown_force_height: sole height (m, ≥ touchdown_height) below which the force test applies (default
+            2 cm).
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
         touchdown_time: side → time (s) of the last touch-down (None before).
 
     Raises:
-        InvalidInputError: non-positive ramp_time / full_force, non-finite thresholds.
+        InvalidInputError: non-positive ramp_time / full_force / touchdown_force, non-finite thresholds.
     """
 
     SIDES = ("left", "right")
 
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
-                 touchdown_speed: float = 0.05, full_force: float | None = None):
+                 touchdown_speed: float = 0.05, full_force: float | None = None,
+                 touchdown_force: float | None = None, touchdown_force_height: float = 0.02):
         if not (np.isfinite(ramp_time) and ramp_time > 0):
             raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
         for val, what in ((touchdown_height, "touchdown_height"), (touchdown_speed, "touchdown_speed")):
@@ -79,6 +89,13 @@ class ContactSwitcher:
         self.full_force = robot.mass * 9.81 if full_force is None else float(full_force)
         if not (np.isfinite(self.full_force) and self.full_force > 0):
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
+        if touchdown_force is not None and not (np.isfinite(touchdown_force) and touchdown_force > 0):
+            raise InvalidInputError(f"touchdown_force must be finite and > 0 N (or None), got {touchdown_force!r}")
+        self.touchdown_force = None if touchdown_force is None else float(touchdown_force)
+        if not (np.isfinite(touchdown_force_height) and touchdown_force_height >= touchdown_height):
+            raise InvalidInputError(f"touchdown_force_height must be finite and ≥ touchdown_height "
+                                    f"({touchdown_height!r} m), got {touchdown_force_height!r}")
+        self.touchdown_force_height = float(touchdown_force_height)
         self.ramp_time = float(ramp_time)
         self.touchdown_height = float(touchdown_height)
         #: side -> world height (m) of the ground the swing foot lands on (terrain; 0 on flat ground):
@@ -167,8 +184,10 @@ class ContactSwitcher:
         vz = float(pin.getFrameVelocity(self._model, self._data, fid, pin.LOCAL_WORLD_ALIGNED).linear[2])
         return z, vz
 
-    def update(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
-        """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)).
+    def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None) -> None:
+        """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)) and, with
+        ``touchdown_force`` set, the measured normal force of each sole ``normal_force`` ((2,) N, (left, right),
+        e.g. from the ankle F/T sensors; None: the state test alone).
 
         Call once per tick before the controller computes.
         """
@@ -197,4 +216,8 @@ class ContactSwitcher:
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
                 if z - self.ground_height[s] <= self.touchdown_height and vz <= self.touchdown_speed:
+                    self.touch_down(s, t)
+                elif self.touchdown_force is not None and normal_force is not None \
+                        and z - self.ground_height[s] <= self.touchdown_force_height \
+                        and normal_force[0 if s == "left" else 1] >= self.touchdown_force:
                     self.touch_down(s, t)
