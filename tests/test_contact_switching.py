@@ -57,3 +57,31 @@ def test_bad_input(robot):
     sw = ContactSwitcher(c)
     with pytest.raises(InvalidInputError, match="side"):
         sw.unload("middle", 0.0)
+
+
+def test_touchdown_from_measured_force(robot):
+    """A sole the state puts 4 mm up (as a 0.9° tilt error of an estimated base does over 0.25 m) touches down when
+    the measured normal force reaches ``touchdown_force``, not before, and not from 5 cm up (the height gate)."""
+    c = BalanceController(robot)
+    q = robot.q_ref.copy()
+    v = np.zeros(robot.nv)
+    c.reset(q, v)
+    sw = ContactSwitcher(c, ramp_time=0.04, touchdown_force=40.0)
+    sw.unload("right", 0.0)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    q_4mm, q_5cm = q.copy(), q.copy()
+    q_4mm[2] += 0.004
+    q_5cm[2] += 0.05
+    sw.update(0.042, q_4mm, v)  # no forces given: the state test alone, 4 mm > 3 mm
+    assert sw.phase("right") == "swing"
+    sw.update(0.044, q_4mm, v, np.array([800.0, 39.0]))  # below the threshold
+    assert sw.phase("right") == "swing"
+    sw.update(0.046, q_5cm, v, np.array([800.0, 60.0]))  # a force read 5 cm up is the foot's inertia, not contact
+    assert sw.phase("right") == "swing"
+    sw.update(0.048, q_4mm, v, np.array([800.0, 40.0]))
+    assert sw.phase("right") == "loading" and c.contacts["right"].active
+    with pytest.raises(InvalidInputError, match="touchdown_force"):
+        ContactSwitcher(c, touchdown_force=0.0)
+    with pytest.raises(InvalidInputError, match="touchdown_force_height"):
+        ContactSwitcher(c, touchdown_force=10.0, touchdown_force_height=0.001)

@@ -121,3 +121,88 @@ def test_ft_static_compensation_and_zmp():
     z = zmp_from_wrenches(w[None], [X])
     assert np.allclose(z, [0.32, 0.09])
     assert zmp_from_wrenches(np.zeros((1, 6)), [X]) is None
+
+
+def test_loaded_sole_normals_reduce_the_tilt_error_of_a_gyro_bias():
+    """Talos standing still (soles level), each sole carrying half the weight (F/T readings built from the static
+    model of wbc.estimation.contact), gyro biased by b (no bias integration, k_I = 0): at equilibrium eq. 32a gives
+    a tilt error |b_xy| / (k_P (1 + k_tilt)) with the sole normals as a reference, |b_xy| / k_P without."""
+    from wbc.estimation import FloatingBaseEstimator
+
+    robot = load_robot("talos")
+    model = robot.model
+    q0 = robot.q_ref.copy()
+    joints = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
+    ft = np.zeros((2, 6))
+    for j, sole in enumerate((robot.left_sole, robot.right_sole)):
+        s = FootForceSensor(robot, sole)
+        mg = s.mass * np.array([0.0, 0.0, -G])
+        Fs = -np.array([0.0, 0.0, 0.5 * robot.mass * G]) - mg  # sole level: sensor axes = world axes
+        ft[j, :3] = Fs
+        ft[j, 3:] = np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]  # 0.1 deg off the base's z in q_ref
+    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
+    q0[3:7] = quat.coeffs()  # the true base orientation: both soles level
+    R0 = quat.toRotationMatrix()
+    accel = R0.T @ np.array([0.0, 0.0, G])
+    bias = np.array([0.004, -0.003, 0.0])
+    k_p = 0.2
+    errors = {}
+    for k_tilt in (0.0, 4.0):
+        est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, tilt_weight=k_tilt, heading_weight=0.0)
+        est.reset(q0)
+        for _ in range(int(40.0 / DT)):
+            q, _ = est.update(joints, bias, accel, ft)
+        assert est.contact["left"] and est.contact["right"]
+        R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        errors[k_tilt] = _tilt_deg(R, R0)
+    b = np.linalg.norm(bias[:2])
+    assert errors[0.0] == pytest.approx(math.degrees(b / k_p), rel=0.05)
+    assert errors[4.0] == pytest.approx(math.degrees(b / (k_p * 5.0)), rel=0.05)
+    with pytest.raises(InvalidInputError, match="tilt_weight"):
+        FloatingBaseEstimator(robot, DT, tilt_weight=-1.0)
+
+
+def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
+    """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
+    and re-anchored 20 times), gyro biased about the vertical by b_z, no bias integration: the heading of each
+    re-anchored sole comes from the other sole through the kinematics, so the yaw error stays at the equilibrium
+    of eq. 32a, b_z / (k_P k_heading), instead of growing as b_z t (2.3° after 20 s)."""
+    from wbc.estimation import FloatingBaseEstimator
+
+    robot = load_robot("talos")
+    model = robot.model
+    q0 = robot.q_ref.copy()
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
+    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
+    q0[3:7] = quat.coeffs()
+    R0 = quat.toRotationMatrix()
+    joints = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
+
+    def reading(sole, load):
+        s = FootForceSensor(robot, sole)
+        mg = s.mass * np.array([0.0, 0.0, -G])
+        Fs = -np.array([0.0, 0.0, load]) - mg
+        return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+
+    W = robot.mass * G
+    both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
+    left = np.array([reading(robot.left_sole, W), reading(robot.right_sole, 0.0)])
+    right = np.array([reading(robot.left_sole, 0.0), reading(robot.right_sole, W)])
+    accel = R0.T @ np.array([0.0, 0.0, G])
+    b_z, k_p = 0.002, 0.2
+    gyro = R0.T @ np.array([0.0, 0.0, b_z])
+    est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0)
+    est.reset(q0)
+    per = int(0.5 / DT)
+    for cycle in range(40):
+        ft = (both, left, both, right)[cycle % 4]
+        for _ in range(per):
+            q, _ = est.update(joints, gyro, accel, ft)
+    R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+    yaw = abs(float(pin.log3(R @ R0.T)[2]))
+    assert yaw <= 1.1 * b_z / k_p, math.degrees(yaw)

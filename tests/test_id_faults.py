@@ -289,3 +289,46 @@ def test_first_tick_loads_no_kernel():
     assert out.returncode == 0, out.stderr[-2000:]
     before, after = map(int, out.stdout.split()[-2:])
     assert before >= 1 and after == before
+
+
+def test_held_command_keeps_the_joint_speed_bounds(robots):
+    """A failed full QP with the budget spent holds the previous tick's command; a wrist whose speed jumped to 99 %
+    of its URDF limit since then (an impact) must still be braked into the speed bounds |v + h dt v̇| ≤ 0.95 q̇_max
+    (h = 4). Reference: Pinocchio's contact-constrained forward dynamics (both soles fixed) of the held torques
+    at the new state. Without the brake the held (standing) torques leave v̇ ≈ 0: 0.99 q̇_max > 0.95 q̇_max."""
+    from wbc.constraints.joint_velocity import JointSpeedBounds
+    from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, PostureAccelerationTask, SoleContact
+    from wbc.tasks import PostureTask
+    import pinocchio as pin
+
+    robot = robots("talos")
+    model = robot.model
+    posture = PostureAccelerationTask(PostureTask(robot), kp=50.0, kd=14.0, name="posture")
+    posture.set_target(robot.q_ref)
+    soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
+    qp = InverseDynamicsQP(robot, [posture], soles, solver="daqp")
+    qp.joint_speed_limits = JointSpeedBounds(robot, margin=0.05, horizon=4.0)  # as BalanceController sets them
+    qp.joint_acceleration_limits.speed_horizon = 4.0
+    qp.joint_acceleration_limits.vmax[:] *= 0.95
+    ctrl = InverseDynamicsController(qp, DT)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    assert ctrl.tick(q, v).ok  # the command to hold
+    frozen = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="frozen")
+    frozen.set_target(robot.q_ref)
+    qp.add_task(frozen, hard=True)  # v̇ = 0 everywhere: against the wrist's speed bound below, infeasible
+    ctrl.budget = 1e-9
+    iw = model.joints[model.getJointId("arm_right_6_joint")].idx_v
+    vmax = float(model.velocityLimit[iw])
+    v[iw] = 0.99 * vmax
+    cmd = ctrl.tick(q, v)
+    assert not cmd.ok and cmd.path == "fallback:hold"
+    data = model.createData()
+    J = np.vstack([pin.computeFrameJacobian(model, data, q, model.getFrameId(f), pin.LOCAL)
+                   for f in (robot.left_sole, robot.right_sole)])
+    tau = np.concatenate([np.zeros(6), cmd.tau])
+    dv = pin.forwardDynamics(model, data, q, v, tau, J, np.zeros(12), 0.0)
+    v_h = v[iw] + 4.0 * DT * dv[iw]
+    assert abs(v_h) <= 0.95 * vmax * 1.01, (v_h / vmax)
+    assert abs(v[iw] + DT * dv[iw]) < v[iw]  # braking
+    effort = float(model.effortLimit[iw])
+    assert abs(cmd.tau[iw - 6]) <= effort

@@ -31,7 +31,9 @@ def _swinging(robot):
     c = BalanceController(robot)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     c.reset(q, v)
-    sw = ContactSwitcher(c, ramp_time=0.04, full_force=1000.0)
+    weight = robot.mass * 9.81  # the thresholds of a blind walk (wbc.sim.walk.WalkScenario with blind=True)
+    sw = ContactSwitcher(c, ramp_time=0.04, full_force=1000.0, touchdown_force=0.1 * weight,
+                         touchdown_force_height=0.05, contact_force=0.03 * weight)
     sw.unload("right", 0.0)
     sw.update(0.04, q, v)
     sw.arm("right")
@@ -42,30 +44,27 @@ def test_touchdown_with_a_measured_force(robot):
     weight = robot.mass * 9.81
     # at the ground height by the state but no force on the sole: the foot is in the air (a drifted estimate)
     sw, q, v = _swinging(robot)
-    sw.measured_force["right"] = 0.0
-    sw.update(0.05, q, v)
+    sw.update(0.05, q, v, np.array([0.0, 0.0]))
     assert sw.phase("right") == "swing"
-    sw.measured_force["right"] = 0.05 * weight  # a soft contact confirms the height rule
-    sw.update(0.052, q, v)
+    sw.update(0.052, q, v, np.array([0.0, 0.05 * weight]))  # a soft contact confirms the height rule
     assert sw.phase("right") == "loading"
     # 3 cm above the ground by the state (a bump under a blind plan): the force alone, within the band
     sw, q, v = _swinging(robot)
     q_up = q.copy()
     q_up[2] += 0.03
-    sw.measured_force["right"] = 0.05 * weight
-    sw.update(0.05, q_up, v)
+    sw.update(0.05, q_up, v, np.array([0.0, 0.05 * weight]))
     assert sw.phase("right") == "swing"
-    sw.measured_force["right"] = 0.15 * weight
-    sw.update(0.052, q_up, v)
+    sw.update(0.052, q_up, v, np.array([0.0, 0.15 * weight]))
     assert sw.phase("right") == "loading"
     # outside the band (8 cm): no touch-down whatever the force
     sw, q, v = _swinging(robot)
     q_up[2] = q[2] + 0.08
-    sw.measured_force["right"] = weight
-    sw.update(0.05, q_up, v)
+    sw.update(0.05, q_up, v, np.array([0.0, weight]))
     assert sw.phase("right") == "swing"
     with pytest.raises(InvalidInputError, match="touchdown_force"):
         ContactSwitcher(sw.controller, touchdown_force=-1.0)
+    with pytest.raises(InvalidInputError, match="contact_force"):
+        ContactSwitcher(sw.controller, contact_force=float("nan"))
 
 
 def test_base_orientation_task(robot):

@@ -14,16 +14,16 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 * **swing**: the caller sets the foot reference (pose, velocity and acceleration feed-forward). Touch-down
   detection is armed by :meth:`~ContactSwitcher.arm` (e.g. after mid-swing, so lift-off is not mistaken for
   touch-down).
-* **touch-down** is detected **from the state** (q, v — no force sensing): the sole frame height
-  ``z ≤ touchdown_height`` (m, world) **and** its vertical velocity ``ż ≤ touchdown_speed`` (m/s; not rising).
+* **touch-down** is detected **from the state** (q, v): the sole frame height ``z ≤ touchdown_height`` (m, world)
+  **and** its vertical velocity ``ż ≤ touchdown_speed`` (m/s; not rising) — **or**, when the caller passes the
+  measured normal force of the soles (ankle force/torque sensors) and ``touchdown_force`` is set, from that force:
+  ``f_z ≥ touchdown_force`` with the sole below ``touchdown_force_height`` (a gate against the swinging foot's own
+  inertia, which a static F/T compensation reads as force). The force test does not depend on the estimated base pose: with an estimated state
+  a tilt error of the base of δ rad puts a swing sole that is on the floor ``δ·d`` high (d: its distance to the
+  stance sole), e.g. 3.4 mm for 0.8° over 0.25 m, which alone delays a 3 mm height test.
   This handles early touch-down (the foot meets the floor before the plan says so: the contact is switched on
   at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
   contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
-  **With a measured normal force** (:attr:`~ContactSwitcher.measured_force`, e.g. from ankle F/T sensors), not
-  rising and either the height rule with ``F_n ≥ contact_force`` (the foot set down softly by its task), or
-  ``F_n ≥ touchdown_force`` with the sole within ``touchdown_band`` of the ground height (early, or late with
-  the height estimate off) — a height estimated by odometry drifts by centimetres on uneven ground, and the height
-  rule alone then loads a foot still in the air.
 * **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
   ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
 
@@ -61,28 +61,27 @@ class ContactSwitcher:
             in contact (default 3 mm).
         touchdown_speed: the sole's vertical velocity (m/s) must be ≤ this (not rising) (default 0.05 m/s).
         full_force: F_full (N), end value of the ramp-in (default m g).
-        touchdown_force: measured normal force (N, > 0) at or above which an armed swing foot is in contact, when
-            :attr:`measured_force` gives one (default 0.1 m g).
-        touchdown_band: with a measured force, the sole must also be within this height (m, ≥ 0) of the ground
-            height (default 0.05 m).
-        contact_force: with a measured force, the least normal force (N, ≥ 0) that confirms the height rule
-            (default 0.03 m g).
+        touchdown_force: measured normal force (N, > 0) at or above which an armed swing foot is in contact,
+            when :meth:`update` is given the measured forces (default None: the state test alone).
+        touchdown_force_height: sole height (m, ≥ touchdown_height) below which the force test applies (default
+            2 cm).
+        contact_force: with a measured force given to :meth:`update`, the least normal force (N, ≥ 0) that must
+            confirm the state test (default None: the state test alone suffices). A blind walk sets it: a sole at
+            its planned height over ground lower than planned is still in the air.
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
         touchdown_time: side → time (s) of the last touch-down (None before).
-        measured_force: side → measured normal force (N) of the sole, or None (default: the state rule); set by
-            the caller before each :meth:`update`.
 
     Raises:
-        InvalidInputError: non-positive ramp_time / full_force, non-finite thresholds.
+        InvalidInputError: non-positive ramp_time / full_force / touchdown_force, non-finite thresholds.
     """
 
     SIDES = ("left", "right")
 
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
                  touchdown_speed: float = 0.05, full_force: float | None = None,
-                 touchdown_force: float | None = None, touchdown_band: float = 0.05,
+                 touchdown_force: float | None = None, touchdown_force_height: float = 0.02,
                  contact_force: float | None = None):
         if not (np.isfinite(ramp_time) and ramp_time > 0):
             raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
@@ -94,16 +93,17 @@ class ContactSwitcher:
         self.full_force = robot.mass * 9.81 if full_force is None else float(full_force)
         if not (np.isfinite(self.full_force) and self.full_force > 0):
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
+        if touchdown_force is not None and not (np.isfinite(touchdown_force) and touchdown_force > 0):
+            raise InvalidInputError(f"touchdown_force must be finite and > 0 N (or None), got {touchdown_force!r}")
+        self.touchdown_force = None if touchdown_force is None else float(touchdown_force)
+        if not (np.isfinite(touchdown_force_height) and touchdown_force_height >= touchdown_height):
+            raise InvalidInputError(f"touchdown_force_height must be finite and ≥ touchdown_height "
+                                    f"({touchdown_height!r} m), got {touchdown_force_height!r}")
+        self.touchdown_force_height = float(touchdown_force_height)
+        if contact_force is not None and not (np.isfinite(contact_force) and contact_force >= 0):
+            raise InvalidInputError(f"contact_force must be finite and ≥ 0 N (or None), got {contact_force!r}")
+        self.contact_force = None if contact_force is None else float(contact_force)
         self.ramp_time = float(ramp_time)
-        self.touchdown_force = 0.1 * robot.mass * 9.81 if touchdown_force is None else touchdown_force
-        self.contact_force = 0.03 * robot.mass * 9.81 if contact_force is None else contact_force
-        for val, what in ((self.touchdown_force, "touchdown_force"), (touchdown_band, "touchdown_band"),
-                          (self.contact_force, "contact_force")):
-            if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val >= 0):
-                raise InvalidInputError(f"{what} must be a finite number ≥ 0, got {val!r}")
-        self.touchdown_force, self.touchdown_band = float(self.touchdown_force), float(touchdown_band)
-        self.contact_force = float(self.contact_force)
-        self.measured_force: dict[str, float | None] = {"left": None, "right": None}
         self.touchdown_height = float(touchdown_height)
         #: side -> world height (m) of the ground the swing foot lands on (terrain; 0 on flat ground):
         #: touch-down is ``z − ground_height ≤ touchdown_height``
@@ -191,8 +191,10 @@ class ContactSwitcher:
         vz = float(pin.getFrameVelocity(self._model, self._data, fid, pin.LOCAL_WORLD_ALIGNED).linear[2])
         return z, vz
 
-    def update(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
-        """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)).
+    def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None) -> None:
+        """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)) and, with
+        ``touchdown_force`` set, the measured normal force of each sole ``normal_force`` ((2,) N, (left, right),
+        e.g. from the ankle F/T sensors; None: the state test alone).
 
         Call once per tick before the controller computes.
         """
@@ -220,9 +222,12 @@ class ContactSwitcher:
                     c.set_max_normal_force(s, self.full_force * a)
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
-                f, dz = self.measured_force[s], z - self.ground_height[s]
-                hit = dz <= self.touchdown_height
-                if f is not None:
-                    hit = (hit and f >= self.contact_force) or (f >= self.touchdown_force and dz <= self.touchdown_band)
-                if hit and vz <= self.touchdown_speed:
+                dz = z - self.ground_height[s]
+                f = None if normal_force is None else float(normal_force[0 if s == "left" else 1])
+                hit = dz <= self.touchdown_height and vz <= self.touchdown_speed
+                if hit and f is not None and self.contact_force is not None:
+                    hit = f >= self.contact_force  # the state test confirmed by a load on the sole
+                if not hit and f is not None and self.touchdown_force is not None:
+                    hit = dz <= self.touchdown_force_height and f >= self.touchdown_force
+                if hit:
                     self.touch_down(s, t)

@@ -46,7 +46,13 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
        τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)
 
    the damping gain being the largest a 1-tick explicit loop keeps stable on light links (see
-   :mod:`wbc.sim.mujoco_model`). ``ok`` is False and the reason is in ``message``; the next tick tries the QP
+   :mod:`wbc.sim.mujoco_model`). The held command keeps the joint speed bounds of the QP
+   (``qp.joint_speed_limits``, :class:`~wbc.constraints.joint_velocity.JointSpeedBounds`) at the **new** state: a
+   joint whose held acceleration v̇ᵢ leaves the bounds [lᵢ, uᵢ] at the current velocity (a velocity that jumped at
+   an impact, or that the held torques keep driving) gets the torque that moves its acceleration to the nearest
+   bound along its own axis, τᵢ += I_eff,i (clip(v̇ᵢ, lᵢ, uᵢ) − v̇ᵢ) (the diagonal of the joint-space inertia,
+   other joints' coupling neglected; clipped to ±τ_max) — a few dozen µs, within the budget the failed full QP
+   left (the relaxed QP that would keep the bounds exactly is skipped once the budget is spent). ``ok`` is False and the reason is in ``message``; the next tick tries the QP
    again (cold-started by the backend).
 """
 
@@ -218,11 +224,35 @@ class InverseDynamicsController:
                             message=f"{message}; the previous tick's command is held for this tick (a second "
                                     "failed tick in a row takes the safe command)",
                             dynamics_residual=float("nan"), path="fallback:hold")
+            self._hold_speed_bounds(cmd)
         else:
             cmd = self.fallback(message)
         cmd.conflicts = conflicts
         cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
         return self._count(cmd, c0)
+
+    def _hold_speed_bounds(self, cmd: IDCommand) -> None:
+        """Move the held command's joint accelerations into the QP's joint speed bounds at the current state
+        (module docstring, step 2), in place on ``cmd.tau`` and ``cmd.dv``."""
+        sb = self.qp.joint_speed_limits
+        if sb is None or not sb.dim:
+            return
+        st = self.state
+        lo, hi = sb.bounds(st.v, self.dt)
+        idx = sb.indices
+        a = cmd.dv[idx]
+        target = np.minimum(np.maximum(a, lo), hi)
+        out = target != a
+        if not out.any():
+            return
+        iv = idx[out]
+        i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[iv]
+        j = iv - 6
+        lim = self.qp.tau_max[j]
+        lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
+        cmd.tau[j] = np.clip(cmd.tau[j] + i_eff * (target[out] - a[out]), -lim, lim)
+        cmd.dv[iv] = target[out]
+        cmd.message += f"; {int(out.sum())} joint(s) braked to the joint speed bounds"
 
     def _conflicts(self) -> list[tuple[str, float]]:
         """Names for a failed full QP: the output check's violations, else the tasks with non-finite inputs, else

@@ -186,8 +186,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         qc, vc = (q, v) if state is None else state.measure(sim, t)
         if state is not None and hasattr(scenario, "measured_zmp"):
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
-        if state is not None and hasattr(scenario, "measured_normal_force") and hasattr(state, "normal_forces"):
-            scenario.measured_normal_force = state.normal_forces()  # (2,) N, ankle F/T sensors
+        if state is not None and hasattr(scenario, "measured_normal_force"):
+            scenario.measured_normal_force = state.measured_normal_force()  # touch-down from the F/T sensors
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
         if is_id:

@@ -302,6 +302,7 @@ class SimCommandedWalk:
             q, v = self.state.measure(sim, self.t)
             if self._segment is not self._stand:
                 self._segment.measured_zmp = self.state.measured_zmp()
+                self._segment.measured_normal_force = self.state.measured_normal_force()
         self._segment.update(self.t - self._t0, self.controller, sim, q, v)
         cmd = self.controller.compute(q, v)
         sim.set_torques(cmd.tau)

@@ -54,10 +54,11 @@ class EstimatedState:
         r = self.sensors.read(t, sim.data)
         return self.estimator.update(r.joint_q, r.gyro, r.accel, r.ft)
 
-    def normal_forces(self) -> np.ndarray:
-        """(2,) normal force (N) of the (left, right) sole measured by its ankle F/T sensor at the last sample."""
-        n = self.estimator.normal_force
-        return np.array([n["left"], n["right"]])
+    def measured_normal_force(self) -> np.ndarray:
+        """(2,) normal force (N) of the (left, right) sole measured by the ankle F/T sensors at the last sample
+        (world vertical component of the foot's ground reaction, :attr:`FloatingBaseEstimator.normal_force`)."""
+        nf = self.estimator.normal_force
+        return np.array([nf["left"], nf["right"]])
 
     def measured_zmp(self, min_fz: float = 10.0) -> np.ndarray | None:
         """ZMP (2,) (m, world) of the last sample's F/T ground reactions at the estimated sole placements

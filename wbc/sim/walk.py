@@ -9,7 +9,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   state-based touch-down, ramp-in) by :class:`wbc.dynamics.contact_switching.ContactSwitcher`. The ramp-out
   starts ``ramp_time`` before the planned lift-off so the foot is released unloaded at the planned time.
   Touch-down is detected **from the measured state: sole height ≤ 3 mm and vertical sole velocity ≤ 0.05 m/s**,
-  armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
+  or, with an estimated state, **from the ankle F/T sensors: measured normal force ≥ 5 % of the weight**
+  (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
   ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor) until the detection fires; early touch-down
   switches the contact on at once.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
@@ -224,6 +225,10 @@ class WalkScenario:
             ZMP is the attribute ``measured_zmp`` ((2,) m, world, or None), which the closed loop sets every tick
             from the ankle F/T sensors when the controller reads an estimated state
             (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
+        touchdown_load: with measured sole forces (attribute ``measured_normal_force``, (2,) N, set by the closed
+            loop from the ankle F/T sensors with an estimated state), an armed swing foot whose measured normal
+            force reaches this fraction of the robot's weight has touched down, whatever its estimated height
+            (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``touchdown_force``; default 0.05).
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -268,7 +273,7 @@ class WalkScenario:
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False):
+                 blind: bool = False, touchdown_load: float = 0.05):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -296,7 +301,13 @@ class WalkScenario:
             raise InvalidInputError(f"zmp_feedback must be finite and ≥ 0, got {zmp_feedback!r}")
         self.zmp_feedback = float(zmp_feedback)
         self.measured_zmp = None  # (2,) m, world: set by the closed loop from the F/T sensors (estimated state)
-        self.measured_normal_force = None  # (2,) N (left, right): set by the closed loop from the F/T sensors
+        if not (np.isfinite(touchdown_load) and 0 < touchdown_load < 1):
+            raise InvalidInputError(f"touchdown_load must be a fraction of the robot weight in (0, 1), "
+                                    f"got {touchdown_load!r}")
+        self.touchdown_load = float(touchdown_load)
+        #: (2,) N, (left, right) normal force measured by the ankle F/T sensors, set by the closed loop every tick
+        #: when the controller reads an estimated state (None: touch-down from the state alone)
+        self.measured_normal_force = None
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -418,7 +429,14 @@ class WalkScenario:
         self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
         self._gdata = self._model.createData()
         self._active: dict[str, tuple] = {}
-        self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time)
+        weight = robot.mass * 9.81
+        if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
+            # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
+            self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
+                                            touchdown_force_height=0.05, contact_force=0.03 * weight)
+        else:
+            self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time,
+                                            touchdown_force=self.touchdown_load * weight)
         self.controller = controller
         if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
@@ -524,9 +542,7 @@ class WalkScenario:
                 self._next += 1
         if self.terrain_walk is not None:
             self._relative_ground(k, q)
-        if self.blind and self.measured_normal_force is not None:  # early / late contact from the F/T force
-            sw.measured_force["left"], sw.measured_force["right"] = map(float, self.measured_normal_force)
-        sw.update(t, q, v)
+        sw.update(t, q, v, self.measured_normal_force)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
@@ -640,6 +656,7 @@ class WalkScenario:
     def _recovery_update(self, t, controller, sim, q, v):
         rec = self._recovery
         rec.measured_zmp = self.measured_zmp
+        rec.measured_normal_force = self.measured_normal_force
         rec.update(t - self._t_recovery, controller, sim, q, v)
         pin.framesForwardKinematics(self._model, self._data, q)
         i = min(self._k, len(self.log["phase"]) - 1)
@@ -889,7 +906,10 @@ class WalkScenario:
             "min_measured_cop_margin_m": float(np.nanmin(margin)) if np.isfinite(margin).any() else float("nan"),
             "max_dcm_error_m": float(np.nanmax(dxi)) if np.isfinite(dxi).any() else float("nan"),
             "stabilizer": self.stabilizer_on,
-            "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s",
+            "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s"
+                                   + ("" if self.measured_normal_force is None else
+                                      f"; or F/T: normal force >= {100 * self.touchdown_load:g} % of the weight with "
+                                      f"the sole below {self.switcher.touchdown_force_height * 1e3:g} mm"),
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
             "step_timing_changes_s": [m for _, _, m in self.timing_changes],
