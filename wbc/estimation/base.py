@@ -11,15 +11,8 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
    and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
    sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
-   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
-   touches down while the other is anchored takes its v₀ from that sole's through the leg kinematics, so the
-   heading passes from foot to foot without the yaw error of R̂); on flat ground of known
-   height (``ground_height``), a third set: the normal (z axis) of each sole in contact, whose world direction is
-   the vertical v₀ = e_z (a loaded sole lies flat on the floor) and whose base-frame direction v comes from the
-   leg kinematics, weighted by the sole's share of the normal force times ``tilt_weight`` — a tilt reference
-   free of the walking accelerations the accelerometer's must subtract, so a gyro bias leaves a steady tilt
-   error |b|/(k_P (1 + k_tilt)) instead of |b|/k_P (eq. 32a at equilibrium). The base angular velocity is the
-   bias-corrected gyro.
+   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading); the base angular velocity
+   is the bias-corrected gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
    uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
@@ -62,7 +55,6 @@ from wbc.geometry import check_scalar
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
 
 _SIDES = ("left", "right")
-_E_Z = np.array([0.0, 0.0, 1.0])
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -177,8 +169,6 @@ class FloatingBaseEstimator:
             acceleration removed from the accelerometer before the tilt correction.
         heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
             alone, yaw then follows the gyro).
-        tilt_weight: weight of the loaded soles' normals (the world vertical on flat ground) in the attitude filter
-            (≥ 0; 0: the accelerometer alone gives the vertical; unused when ``ground_height`` is None).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -196,8 +186,7 @@ class FloatingBaseEstimator:
     def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
-                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
-                 tilt_weight: float = 4.0):
+                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -234,7 +223,6 @@ class FloatingBaseEstimator:
         self.anchor = {s: np.zeros(3) for s in _SIDES}
         self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in _SIDES}
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
-        self.tilt_weight = _nonneg(tilt_weight, "tilt_weight")
         self.contact = {s: False for s in _SIDES}
         self.normal_force = {s: 0.0 for s in _SIDES}
         self.wrench = np.zeros((2, 6))
@@ -327,16 +315,12 @@ class FloatingBaseEstimator:
             self.acc_kin *= 1.0 - self._beta
         self._f_grav[:] = accel - R_prev.T @ self.acc_kin
         dirs = []
-        k_tilt = self.tilt_weight if self.ground_height is not None else 0.0
-        if (self.heading_weight > 0 or k_tilt > 0) and fz_total > 0:  # the loaded soles' axes (leg kinematics)
+        if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
             for s in _SIDES:
                 fz = self.normal_force[s]
                 if self.contact[s] and fz > 0:
-                    Rs = data.oMf[self.ft[s].frame_id].rotation
-                    if self.heading_weight > 0:  # forward axis: held direction since anchoring
-                        dirs.append((self.anchor_axis[s], Rs[:, 0], self.heading_weight * fz / fz_total))
-                    if k_tilt > 0:  # normal: the world vertical on flat ground
-                        dirs.append((_E_Z, Rs[:, 2], k_tilt * fz / fz_total))
+                    dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
+                                 self.heading_weight * fz / fz_total))
         att.update(gyro, self._f_grav, dirs)
         R = att.rotation
         omega = att.omega
@@ -366,22 +350,11 @@ class FloatingBaseEstimator:
             zp /= total
             zvw /= total
             kf.correct(zp, zvw)
-        new_sides = [s for s, _ in newly]
         for s, r in newly:
             self.anchor[s] = p + r
-            X = data.oMf[self.ft[s].frame_id]
-            axis = R @ X.rotation[:, 0]
+            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
-                o = "right" if s == "left" else "left"
-                if self.contact[o] and o not in new_sides:
-                    # Heading handed over from the other anchored sole through the leg kinematics (both soles
-                    # flat: the relative yaw is exact from the encoders), not through R̂: the yaw error the gyro
-                    # bias built up is not locked into the new anchor, so the heading does not drift step by step.
-                    Xo = data.oMf[self.ft[o].frame_id]
-                    rel = Xo.rotation.T @ X.rotation[:, 0]  # new sole's forward axis in the other sole's axes
-                    ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
-                    axis = np.array([ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0])
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for j, s in enumerate(_SIDES):
