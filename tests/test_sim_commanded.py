@@ -45,8 +45,9 @@ def test_command_change_and_stop_take_effect_at_the_next_touch_down():
     assert 0.0 < t1 - t_change <= STEP + 0.1 and what1.startswith("4 steps of 0.120 m")  # the new command
     assert 0.0 < t2 - t_stop <= STEP + 0.1 and what2 == "closing step"  # the stop
     # MuJoCo: both soles on the floor at each re-plan (double support; the DCM plan may already have shifted most
-    # of the weight onto the stance foot, 13.5 N left on the other was seen; a swinging sole carries exactly 0 N)
-    assert f1 > 5.0 and f2 > 5.0
+    # of the weight onto the stance foot: 13.5 N, and with the F/T touch-down 3.7 N, left on the other were seen; a
+    # swinging sole carries exactly 0 N)
+    assert f1 > 1.0 and f2 > 1.0
     assert stood is not None and stood - t2 <= STEP + 1.0 + 0.1  # the closing step and the final double support
     assert all(f[2] > 50.0 for f in forces.values())
     assert turned > 5.0  # one walking step of 0.24 rad (13.8 deg) at most was taken before the stop
