@@ -1,6 +1,8 @@
 """Standalone ROS 2 subscriber/client for tests/test_ros2.py. Does NOT import wbc: it declares ROS 2's IDL itself.
 
-Usage: python ros2_subscriber.py joint_states SECONDS | latched SECONDS | reset SECONDS
+Usage: python ros2_subscriber.py joint_states SECONDS [JOINT] | latched SECONDS | reset SECONDS
+(joint_states with JOINT: only messages naming that joint are counted, others are "foreign" — another process on
+the same random domain id.)
 Prints one JSON line with what it received.
 """
 import json
@@ -116,7 +118,8 @@ def main():
     if mode == "joint_states":
         r = DataReader(dp, Topic(dp, "rt/joint_states", JointState_, qos=stream), qos=stream)
         print("ready", flush=True)
-        lat, names, frames, n = [], None, set(), 0
+        lat, names, frames, n, foreign = [], None, set(), 0, 0
+        joint = sys.argv[3] if len(sys.argv) > 3 else None
         last = time.monotonic()
         while time.monotonic() < t_end and not (n and time.monotonic() - last > 5.0):  # 5 s silence: done
             got = r.take(N=1000)
@@ -125,6 +128,9 @@ def main():
                 last = time.monotonic()
             for s in got:
                 if isinstance(s, JointState_):
+                    if joint is not None and joint not in s.name:
+                        foreign += 1
+                        continue
                     n += 1
                     names = list(s.name)
                     frames.add(s.header.frame_id)
@@ -134,7 +140,7 @@ def main():
             if not got:
                 time.sleep(0.0005)
         lat.sort()
-        out.update(received=n, names=names, frames=sorted(frames),
+        out.update(received=n, foreign=foreign, names=names, frames=sorted(frames),
                    p50_us=1e6 * lat[len(lat) // 2] if lat else None,
                    p99_us=1e6 * lat[min(len(lat) - 1, int(0.99 * len(lat)))] if lat else None)
     elif mode == "latched":
