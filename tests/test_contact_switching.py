@@ -16,13 +16,20 @@ def robot():
     return load_robot("talos")
 
 
-def test_ramp_out_release_touchdown_ramp_in(robot):
+def _unloading_right(robot, **options):
+    """(balance controller, q, v, switcher with ``options``) of a Talos standing at its reference posture whose
+    right sole started unloading at t = 0."""
     c = BalanceController(robot)
     q = robot.q_ref.copy()
     v = np.zeros(robot.nv)
     c.reset(q, v)
-    sw = ContactSwitcher(c, ramp_time=0.04, full_force=1000.0)
+    sw = ContactSwitcher(c, ramp_time=0.04, **options)
     sw.unload("right", 0.0)
+    return c, q, v, sw
+
+
+def test_ramp_out_release_touchdown_ramp_in(robot):
+    c, q, v, sw = _unloading_right(robot, full_force=1000.0)
     sw.update(0.02, q, v)
     assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)  # half way down the linear ramp
     assert c.contacts["right"].active
@@ -62,12 +69,7 @@ def test_bad_input(robot):
 def test_touchdown_from_measured_force(robot):
     """A sole the state puts 4 mm up (as a 0.9° tilt error of an estimated base does over 0.25 m) touches down when
     the measured normal force reaches ``touchdown_force``, not before, and not from 5 cm up (the height gate)."""
-    c = BalanceController(robot)
-    q = robot.q_ref.copy()
-    v = np.zeros(robot.nv)
-    c.reset(q, v)
-    sw = ContactSwitcher(c, ramp_time=0.04, touchdown_force=40.0)
-    sw.unload("right", 0.0)
+    c, q, v, sw = _unloading_right(robot, touchdown_force=40.0)
     sw.update(0.04, q, v)
     sw.arm("right")
     q_4mm, q_5cm = q.copy(), q.copy()

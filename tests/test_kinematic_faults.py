@@ -220,13 +220,10 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
         ctrl.budget = True
 
 
-def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
-    """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
-    level is solved: the cascade starts no further level, no contact correction nor trust region, and the tick
-    returns the first level's command, ok, with path 'levels+budget', over_budget and the skipped stages named.
-    Oracles: the level-0 residual ‖J v − v*‖ equals the full cascade's (budget math.inf; lower levels never
-    change it) while the command differs (the posture level was not solved), and forward kinematics of the soles
-    over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
+
+def _hand_over_posture(robots):
+    """(robot, config, controller, hand task) of a standing Talos with a left-hand position task on level 0 (5 cm
+    off in x, y, z) and a posture task on level 1."""
     from wbc.tasks import FrameTask, PostureTask
 
     robot = robots("talos")
@@ -238,6 +235,17 @@ def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
     hand.set_target(target)
     ctrl.add_task(hand, level=0)
     ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+    return robot, config, ctrl, hand
+
+
+def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
+    """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
+    level is solved: the cascade starts no further level, no contact correction nor trust region, and the tick
+    returns the first level's command, ok, with path 'levels+budget', over_budget and the skipped stages named.
+    Oracles: the level-0 residual ‖J v − v*‖ equals the full cascade's (budget math.inf; lower levels never
+    change it) while the command differs (the posture level was not solved), and forward kinematics of the soles
+    over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
+    robot, config, ctrl, hand = _hand_over_posture(robots)
     ctrl.budget = math.inf
     full = ctrl.solve(config, DT)
     assert full.ok and full.path == "levels" and not full.over_budget
@@ -404,21 +412,12 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths and
     budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
     itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
-    from wbc.tasks import FrameTask, PostureTask
     import wbc.formulations.velocity as velocity
     import wbc.hierarchy as hierarchy
     import wbc.qp as qp
 
     def run():
-        robot = robots("talos")
-        config = Configuration(robot)
-        ctrl, _ = standing_controller(robot, config)
-        hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
-        target = config.frame_placement(hand.frame_id).copy()
-        target.translation += [0.05, 0.05, 0.05]
-        hand.set_target(target)
-        ctrl.add_task(hand, level=0)
-        ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+        robot, config, ctrl, _ = _hand_over_posture(robots)
         out = []
         for _ in range(3):
             res = ctrl.solve(config, DT)

@@ -24,14 +24,6 @@ MAX_TILT_DEG = 30.0
 MAX_BASE_DROP_M = 0.2
 
 
-def _longest(mask) -> int:
-    best = cur = 0
-    for m in mask:
-        cur = cur + 1 if m else 0
-        best = max(best, cur)
-    return best
-
-
 def test_g1_two_jumps_estimated_state_realistic_plant(tmp_path):
     log = tmp_path / "jump.npz"
     main(["sim", "jump", "--robot", "g1", "--count", "2", "--quiet", "--log", str(log)])
