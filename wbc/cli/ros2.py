@@ -338,7 +338,8 @@ def register(subparsers, add_outputs) -> None:
                     help="real: paced to the wall clock (default); sim: as fast as possible, /clock, sim stamps")
     nd.add_argument("--sim", action="store_true",
                     help="MuJoCo closed loop with the inverse-dynamics controller (wbc sim walk's plant and "
-                         "estimator; walks in segments of 4 steps, see wbc.sim.commanded)")
+                         "estimator; re-planned at each touch-down, a stop takes effect within one step; see "
+                         "wbc.sim.commanded)")
     nd.add_argument("--plant", choices=("realistic", "ideal"), default="realistic",
                     help="--sim: plant drives (default realistic, as wbc sim walk)")
     nd.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
