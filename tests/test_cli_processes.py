@@ -302,7 +302,9 @@ def test_ros2_run_binds_dds_to_loopback_only(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
                ROS_DOMAIN_ID=str(random.randint(1, 200)))
     env.pop("CYCLONEDDS_URI", None)
-    proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--robot", "humanoid15", "--ros2", "--quiet"],
+    # a 400-step walk outlasts both reads below (an 8-step walk could end between /proc and ss; SIGINT ends it)
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--robot", "humanoid15", "--steps", "400", "--ros2",
+                             "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
     try:
         deadline = time.monotonic() + 90.0
