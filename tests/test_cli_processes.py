@@ -303,9 +303,12 @@ def test_ros2_run_binds_dds_to_loopback_only(tmp_path):
                ROS_DOMAIN_ID=str(random.randint(1, 200)))
     env.pop("CYCLONEDDS_URI", None)
     # a 400-step walk outlasts both reads below (an 8-step walk could end between /proc and ss; SIGINT ends it)
+    # SIGINT ends it below: the child gets the default disposition (a suite started from a background shell has
+    # SIGINT ignored, and children inherit that)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "walk", "--robot", "humanoid15", "--steps", "400", "--ros2",
                              "--quiet"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 90.0
         udp = {}
