@@ -368,3 +368,46 @@ def test_walk_bag_spans_the_run_time(tmp_path):
     assert abs(span - duration) <= 0.01 * duration
     stamp_s = np.array([s.sec + 1e-9 * s.nanosec for s in stamps])
     np.testing.assert_allclose(stamp_s, times, atol=1e-9)  # header stamps = bag times
+
+
+def test_delete_all_entities_deletes_every_entity_then_dds_works_again(dds_env):
+    """dds.delete_all_entities (registered at exit by the first participant) deletes the participants, readers and
+    writers of the process, as Cyclone itself reports, and a later participant works again."""
+    code = """
+import atexit
+from cyclonedds.core import DDSException
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from wbc.ros2 import dds, msgs
+
+dds.use_loopback()
+part = dds.participant()
+topic = Topic(part, dds.ros_topic("/chatter"), msgs.String)
+reader, writer = DataReader(part, topic), DataWriter(part, topic)
+assert dds.delete_all_entities() == 0
+for entity in (part, reader, writer):
+    try:
+        entity.get_qos()
+    except DDSException as e:
+        print("deleted:", type(entity).__name__, e.code)
+    else:
+        raise SystemExit(f"{entity} still exists")
+assert dds.delete_all_entities() == -4            # nothing left: DDS_RETCODE_PRECONDITION_NOT_MET
+again = dds.participant()
+t2 = Topic(again, dds.ros_topic("/chatter"), msgs.String)
+w2, r2 = DataWriter(again, t2, qos=dds.qos_latched()), DataReader(again, t2, qos=dds.qos_latched())
+w2.write(msgs.String(data="after"))
+import time
+for _ in range(100):
+    got = [s.data for s in r2.take(N=10)]
+    if got:
+        break
+    time.sleep(0.02)
+print("received", got)
+assert got == ["after"]
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=dds_env,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert out.stdout.count("deleted:") == 3, out.stdout

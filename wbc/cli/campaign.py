@@ -25,7 +25,7 @@ def register(subparsers, add_outputs=None) -> None:
     p = subparsers.add_parser(
         "campaign", help="many physics trials (push maps, robustness, gain sweeps), serial or on Ray, to Parquet",
         description="Campaigns of closed-loop physics walks: each trial a pure function of (seed, index), rows "
-                    "streamed to a Parquet folder as trials finish, resumable; survival with Wilson 95 %% "
+                    "streamed to a Parquet folder as trials finish, resumable; survival with Wilson 95 % "
                     "intervals and plots.")
     sub = p.add_subparsers(dest="campaign_command", required=True)
     r = sub.add_parser("run", help="run (or resume) a campaign",
@@ -49,7 +49,7 @@ def register(subparsers, add_outputs=None) -> None:
     r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     r.set_defaults(func=cmd_campaign)
     rep = sub.add_parser("report", help="survival rates and plots of a results folder",
-                         description="Print the survival rate with its Wilson 95 %% interval, overall and per factor, "
+                         description="Print the survival rate with its Wilson 95 % interval, overall and per factor, "
                                      "and (re)make the plots of a campaign's results folder.")
     rep.add_argument("results", type=Path, help="campaign results folder (or a Parquet file)")
     rep.add_argument("--plots", type=Path, default=None, help="plot folder (default RESULTS/plots)")
