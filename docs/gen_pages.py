@@ -52,7 +52,7 @@ with mkdocs_gen_files.open("reference/cli.md", "w") as f:
 #: (title, module prefixes) in the order of docs/architecture.md's layers
 LAYERS = [
     ("Package root", ["wbc"]),
-    ("Errors, compiled kernels", ["wbc.exceptions", "wbc.compiled"]),
+    ("Errors, constants, compiled kernels", ["wbc.exceptions", "wbc.constants", "wbc.compiled"]),
     ("Geometry, profiles, terrain", ["wbc.geometry", "wbc.profiles", "wbc.terrain"]),
     ("Robot, kinematics", ["wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),
     ("Tasks", ["wbc.tasks"]),

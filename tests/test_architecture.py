@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants"),
     ("wbc.geometry", "wbc.profiles", "wbc.terrain"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
@@ -174,6 +174,40 @@ def test_no_private_name_imported_across_modules():
                     if n.startswith("_") and not n.startswith("__"):
                         bad.append(f"{src}:{line} imports {n} from {dst}")
     assert not bad, "private names imported across modules:\n" + "\n".join(bad)
+
+
+def module_constants(path: Path) -> dict[str, int]:
+    """{NAME: line} of the module-level UPPER_CASE names a file assigns (its constants; private ones included)."""
+    out = {}
+    for node in ast.parse(path.read_text(), filename=str(path)).body:
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) \
+            else []
+        for t in targets:
+            if isinstance(t, ast.Name) and t.id.lstrip("_").isupper() and t.id != "__all__":
+                out[t.id.lstrip("_")] = node.lineno
+    return out
+
+
+def test_constants_are_defined_once():
+    """A constant name is assigned in one module only (the others import it), and gravity's 9.81 is typed once,
+    in wbc.constants (models carry their own: Robot.gravity)."""
+    where: dict[str, list[str]] = {}
+    for name, path in all_modules().items():
+        for const, line in module_constants(path).items():
+            where.setdefault(const, []).append(f"{name}:{line}")
+    twice = {c: sites for c, sites in where.items() if len(sites) > 1}
+    assert not twice, "constants defined in more than one module:\n" + "\n".join(
+        f"{c}: {', '.join(s)}" for c, s in sorted(twice.items()))
+    typed = [f"{name}:{node.lineno}" for name, path in all_modules().items() if name != "wbc.constants"
+             for node in ast.walk(ast.parse(path.read_text())) if isinstance(node, ast.Constant)
+             and isinstance(node.value, float) and node.value == 9.81]
+    assert not typed, "gravity typed outside wbc.constants: " + ", ".join(typed)
+
+
+def test_the_constant_checker_sees_private_and_annotated_constants(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text("A = 1\n_B: float = 2.0\nc = 3\n__all__ = []\nclass K:\n    D = 4\n")
+    assert module_constants(src) == {"A": 1, "B": 2}
 
 
 def test_the_checker_sees_lazy_and_string_imports(tmp_path):

@@ -13,7 +13,11 @@ import functools
 from time import perf_counter
 from typing import Callable, TypeVar
 
-__all__ = ["once_per_process", "set_load_listener"]
+__all__ = ["FASTMATH", "once_per_process", "set_load_listener"]
+
+#: LLVM fast-math flags of the compiled kernels: reassociation (vectorised dot products) and fused multiply-add only;
+#: ±inf bounds stay legitimate input (no "no-inf/no-nan" assumption).
+FASTMATH = {"reassoc", "contract"}  # a set: numba takes a bool, dict or set
 
 R = TypeVar("R")
 

@@ -44,8 +44,9 @@ import time
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.qp import DaqpBackend
+from wbc.solver_status import SolverStatus
 
 __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "contact_drift",
            "ensure_compiled", "forward_substitution", "kinematic_finish_packed", "kinematic_pack",
@@ -53,24 +54,22 @@ __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_i
            "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
            "weighted_normal_equations"]
 
-#: exit codes of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
-NOT_POSITIVE_DEFINITE = -1
-DEPENDENT_EQUALITIES = -2
-ITERATION_CAP = -3
+#: exit codes (the shared :class:`~wbc.solver_status.SolverStatus` values as plain ints, frozen by numba at compile
+#: time) of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
+NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
+DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
+ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
 #: exit codes of :func:`kinematic_tick`: the floating base cannot be eliminated (a bound on a base velocity, a
 #: singular eliminating block); the solution's equality or inequality residual is above the tolerance
-NOT_REDUCIBLE = -4
-RESIDUAL = -5
+NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
+RESIDUAL = int(SolverStatus.RESIDUAL)
 #: exit code of the dual active set (:func:`solve_qp_ws`): a violated constraint that no working inequality can
 #: make room for (the constraints admit no solution; the caller's general solver confirms)
-INFEASIBLE = -6
-
-#: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only — no
-#: "no-inf/no-nan" assumptions, since ±inf bounds are legitimate input.
-_FM = {"reassoc", "contract"}
+INFEASIBLE = int(SolverStatus.INFEASIBLE)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def cholesky_lower(M, k, rel_tol=0.0):
     """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not above ``rel_tol`` times
     its diagonal entry (0: not positive; > 0: a numerically dependent row, as the ID kernel's working set uses)."""
@@ -91,7 +90,7 @@ def cholesky_lower(M, k, rel_tol=0.0):
     return True
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def forward_substitution(L, k, v):
     """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
     for i in range(k):
@@ -101,7 +100,7 @@ def forward_substitution(L, k, v):
         v[i] = t / L[i, i]
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def backward_substitution(L, k, v):
     """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled), by rows of L
     (x_i = v_i / L_ii, then v[:i] −= x_i L[i, :i]: contiguous, where the column form reads L with a stride)."""
@@ -113,7 +112,7 @@ def backward_substitution(L, k, v):
             v[p] -= xi * Li[p]
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def primal_from_multipliers(L, n, t, Y, nu, m, x):
     """x[:n] ← −L⁻ᵀ (t[:n] + Σ_k<m nu_k Y[k, :n]): the primal step of a Cholesky/Schur KKT solve (H = L Lᵀ, t = L⁻¹ g,
     Y = L⁻¹ Aᵀ row by row, nu the equality multipliers), compiled; x may be t itself."""
@@ -129,7 +128,7 @@ def primal_from_multipliers(L, n, t, Y, nu, m, x):
     backward_substitution(L, n, x)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_normal_equations(J, w, r, damping, H, g):
     """H = ε I + Jᵀ diag(w) J and g = −Jᵀ diag(w) r: the weighted least-squares cost Σ_k w_k (J_k v − r_k)² + ε‖v‖²
     of stacked task rows (the constant term dropped), written into H and g.
@@ -175,7 +174,7 @@ def clip_box_into(lb, ub, start, lo, hi):
         ub[start + i] = max(min(hi[i], cu), cl)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
     """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
     n, m = H.shape[0], A.shape[0]
@@ -184,7 +183,7 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
                            np.empty(n), np.empty(m), np.empty(1))
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs):
     """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
     set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to the first m rows of ``A x = b``, through
@@ -265,7 +264,7 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
     return nf
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _place_free(free, t, nf, x, lb, ub, primal_tol):
     """Write the free-variable solution ``t[:nf]`` into ``x[free[:nf]]`` and return the bound it violates most
     beyond ``primal_tol``: ``(violation, variable index or −1, −1 lower / +1 upper / 0)``."""
@@ -294,7 +293,7 @@ def _drop_infinite_active(state, lo, hi):
             state[i] = 0
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _clip_eq_residual(x, lb, ub, A, b, n, m):
     """Clip x into [lb, ub] in place (the kernel's KKT point is within rounding of its bounds) and return the
     largest equality residual max_k |A_k x − b_k|."""
@@ -313,7 +312,7 @@ def _clip_eq_residual(x, lb, ub, A, b, n, m):
     return r
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
     """Bound multipliers z = −(H x + g + A[:m]ᵀ nu) on the variables held at a bound (0 on the free ones), and the
     variable whose multiplier has the largest wrong sign above ``worst`` (z > 0 at a lower bound, z < 0 at an upper
@@ -337,7 +336,7 @@ def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
     return worst, worst_i
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
                     free, L, Y, S, t, rhs, eq_residual):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
@@ -381,7 +380,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
 
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _normal_image(L, n, C, q, is_row, out):
     """out = L⁻¹ a: a = C[q] (a row) or the unit vector e_q (a bound; the substitution starts at q)."""
     if is_row:
@@ -399,7 +398,7 @@ def _normal_image(L, n, C, q, is_row, out):
         out[i] = s / L[i, i]
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _ws_add(Yw, Sm, mw, y, n):
     """Append y (n,) as working row mw of Y = L⁻¹Nᵀ and its products to S = Y Yᵀ (unfactored)."""
     for j in range(n):
@@ -428,7 +427,7 @@ def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw, uw):
     return e
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _ws_factor(Sm, Sf, mw, rank_tol):
     """Sf = Cholesky factor of S = Sm[:mw, :mw]; False when S is numerically singular (dependent rows)."""
     smax = 0.0
@@ -445,7 +444,7 @@ def _ws_factor(Sm, Sf, mw, rank_tol):
     return True
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x):
     """Equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
     H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν); ν in nuw[:mw] (Hx + g + Nᵀν = 0)."""
@@ -459,7 +458,7 @@ def _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x):
     primal_from_multipliers(L, n, t0, Yw, nuw, mw, x)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
                 rank_tol, eq_residual):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub (H positive definite) by the dual
@@ -743,7 +742,7 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     return max(steps, 1)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _eliminate_base(A, b, er, nr, Eb, Tc):
     """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the 6 equality rows E = A[er:er + 6] (E_b their
     first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting. Returns False
@@ -789,7 +788,7 @@ def _eliminate_base(A, b, er, nr, Eb, Tc):
     return True
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _reduce_row(src, n0, nr, Tc, out):
     """out[:nr] = src[n0:] − src[:n0] T (a row of the problem in the joint velocities after v_b = c − T v_j) and
     returns src[:n0] · c, the part of the row the base's constant c accounts for (n0 = 0: a copy, 0)."""
@@ -805,7 +804,7 @@ def _reduce_row(src, n0, nr, Tc, out):
     return shift
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _add_row(H, g, row, w, r, nr):
     """H += w row rowᵀ and g −= w r row: one weighted least-squares row w (row·x − r)²/2 (whole rows of H: the
     loops vectorise, where the triangle's ragged ones do not)."""
@@ -831,7 +830,7 @@ def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple
     return np.zeros(size), np.zeros(nr, np.int64)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _tick_views(ws, n, nr, mr, p):
     """Views of :func:`kinematic_tick`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
@@ -886,7 +885,7 @@ def _tick_views(ws, n, nr, mr, p):
     return (pd, ps, H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, pidx, C, cl, cu, dt, damping,
                    tolerance, er, max_iter, state, rstate, ws, iws, v):
     """One kinematic QP tick (:class:`wbc.formulations.velocity.KinematicController`), assembled and solved in one
@@ -1020,7 +1019,7 @@ def kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, p
     return it
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
     """v from the reduced solution x (joint velocities; the base's v_b = c − T v_j when n0 = 6), then the residuals
     of the original rows A v = b, cl ≤ C v ≤ cu: False when one exceeds ``tolerance``, else ws[:nv] = v·dt."""
@@ -1125,7 +1124,7 @@ def _unpack(fb, ib):
     return Js, es, rowp, A, b, C, cl, cu, lb, ub, plim, pw, ws, pidx, prow, iws, er
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_tick_packed(fb, ib, state, rstate, diff, q, v, pgain, dt, damping, tolerance, max_iter):
     """:func:`kinematic_tick` with its persistent arrays packed into ``fb`` (float) and ``ib`` (int64) by
     :func:`kinematic_pack`: 12 arguments instead of 27 (each array argument costs the call ≈ 50 ns to type and
@@ -1150,7 +1149,7 @@ def kinematic_reduced_packed(fb, ib):
     return H, g, Ar, br, Cr, lr, ur, lbr, ubr
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     """Complete a :func:`kinematic_tick_packed` call whose kernel did not solve the reduced QP, from a solution x
     (nr,) of :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; base velocity recovered
@@ -1163,7 +1162,7 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     return _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v)
 
 
-@nb.njit(cache=True, fastmath=_FM, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def contact_drift(logs, b, starts, factors):
     """Largest ‖t(e⁺_i − f_i b_i)‖ over the contacts i: e⁺_i = logs[i] (6,) their errors at the next configuration
     (``pin.log6``), b_i = b[starts[i]:starts[i] + 6] their rows' right-hand sides −K e and f_i = dt − 1/K, so that

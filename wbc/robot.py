@@ -140,6 +140,11 @@ class Robot:
         return float(sum(inertia.mass for inertia in self.model.inertias))
 
     @property
+    def gravity(self) -> float:
+        """Gravity magnitude (m/s²) of the model: the norm of ``model.gravity.linear`` (Pinocchio's default 9.81)."""
+        return float(np.linalg.norm(self.model.gravity.linear))
+
+    @property
     def joint_names(self) -> list[str]:
         """Names of the actuated joints in Pinocchio's order (root joint excluded)."""
         return list(self.model.names[2:])

@@ -27,6 +27,7 @@ import numpy as np
 
 from wbc.bench.stats import pooled_summary_us
 from wbc.configuration import Configuration
+from wbc.constants import GRAVITY
 from wbc.gait import DOUBLE_SUPPORT, plan_walk
 from wbc.geometry import convex_hull, signed_distance, sole_polygon
 from wbc.robot import Robot
@@ -61,7 +62,7 @@ class GaitSpec:
     repeats: int = 200
     placo_repeats: int = 20
     rounds: int = 5
-    gravity: float = 9.81
+    gravity: float = GRAVITY
 
 
 def _initial_state(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -17,11 +17,11 @@ from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, vi
 
 __all__ = ["register", "cmd_sim"]
 
-_SCENARIOS = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
+_SCENARIO_CHOICES = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
 #: ``wbc sim jump`` options: (flag, type, default, help).
-JUMP_OPTIONS = (
+JUMP_FLAGS = (
     ("--height", float, 0.08, "jump: planned apex CoM rise above take-off, m (default 0.08; tuned on g1; at most "
                               "0.9 m: push force <= 10 x weight)"),
     ("--count", int, 1, "jump: number of consecutive jumps (default 1)"),
@@ -76,7 +76,7 @@ def register(subparsers, add_outputs) -> None:
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
                     "state estimated from the simulated sensors (or MuJoCo's ground truth, --state) and applies "
                     "joint torques at 500 Hz (one 2 ms mj_step per tick).")
-    p.add_argument("scenario", choices=_SCENARIOS, help="scenario to run")
+    p.add_argument("scenario", choices=_SCENARIO_CHOICES, help="scenario to run")
     p.add_argument("--robot", default="talos", help="catalog name, robot file (.toml) or URDF path (default talos)")
     p.add_argument("--duration", type=seconds, default=None,
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
@@ -160,7 +160,7 @@ def register(subparsers, add_outputs) -> None:
                    help="plant: MuJoCo friction cone (default elliptic; pyramidal is MuJoCo's default)")
     w.add_argument("--q-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on measured joint positions, deg")
     w.add_argument("--v-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on every measured velocity, SI units of v (base m/s, joints and base turn rate in radians per s)")
-    for flag, kind, default, text in JUMP_OPTIONS:
+    for flag, kind, default, text in JUMP_FLAGS:
         p.add_argument(flag, type=kind, default=default, help=text)
     p.add_argument("--video", type=Path, metavar="FILE", help="write an MP4 rendered offscreen by MuJoCo")
     p.add_argument("--video-size", type=video_size, default=(640, 480), metavar="WxH",

@@ -56,15 +56,15 @@ import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
+from wbc.constants import GRAVITY
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
 
-__all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint", "GRAVITY"]
+__all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint"]
 
 #: Standard gravity (m/s²), the value Pinocchio's default model uses.
-GRAVITY = 9.81
 
 
 @nb.njit(cache=True, nogil=True)
@@ -144,7 +144,7 @@ def _warm_up() -> None:
     CoM Jacobian and centroidal map are)."""
     v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
     _zmp_tick(c, J, np.zeros((6, 1)), True, np.zeros(3), np.zeros((3, 1)), np.zeros((3, 1)), True, c, J, J, v, 0.002,
-              np.zeros((1, 2)), np.zeros(1), 0.0, 1.0, 9.81, 0.002, 0.5, np.zeros((3, 1)), np.zeros((2, 1)),
+              np.zeros((1, 2)), np.zeros(1), 0.0, 1.0, GRAVITY, 0.002, 0.5, np.zeros((3, 1)), np.zeros((2, 1)),
               np.zeros(2))
 
 

@@ -26,6 +26,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import SIDES
 from wbc.constraints.joint_velocity import JointSpeedBounds
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
@@ -88,7 +89,6 @@ class IDBalanceController:
             UnknownSolverError: unknown solver.
     """
 
-    SIDES = ("left", "right")
 
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
@@ -116,11 +116,11 @@ class IDBalanceController:
             raise InvalidInputError(f"sole_margin {sole_margin} m leaves no contact area")
         self.contacts = {
             s: SoleContact(robot, soles[s], length=length, width=width, mu=mu, f_min=f_min, kd=gn["contact_kd"],
-                           name=s) for s in self.SIDES
+                           name=s) for s in SIDES
         }
         self.feet = {
             s: FrameAccelerationTask(FrameTask(robot, soles[s]), kp=gn["foot_kp"], kd=gn["foot_kd"],
-                                     weight=gn["foot_weight"], name=f"{s}_foot") for s in self.SIDES
+                                     weight=gn["foot_weight"], name=f"{s}_foot") for s in SIDES
         }
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
                                     list(self.contacts.values()), solver=solver, **qp_options)
@@ -158,7 +158,7 @@ class IDBalanceController:
         self.set_com_reference(st.com.copy())
         self.torso.set_target(st.data.oMf[self.torso.task.frame_id].copy())
         self.posture.set_target(self.robot.q_ref)
-        for side in self.SIDES:
+        for side in SIDES:
             self.contacts[side].activate(st)
             self.contacts[side].f_max = math.inf
             if self.feet[side] in self.qp.tasks:

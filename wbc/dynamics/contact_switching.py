@@ -43,6 +43,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import SIDES
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["ContactSwitcher", "PHASES"]
@@ -77,7 +78,6 @@ class ContactSwitcher:
         InvalidInputError: non-positive ramp_time / full_force / touchdown_force, non-finite thresholds.
     """
 
-    SIDES = ("left", "right")
 
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
                  touchdown_speed: float = 0.05, full_force: float | None = None,
@@ -90,7 +90,7 @@ class ContactSwitcher:
                 raise InvalidInputError(f"{what} must be finite, got {val!r}")
         self.controller = controller
         robot = controller.robot
-        self.full_force = robot.mass * 9.81 if full_force is None else float(full_force)
+        self.full_force = robot.mass * robot.gravity if full_force is None else float(full_force)
         if not (np.isfinite(self.full_force) and self.full_force > 0):
             raise InvalidInputError(f"full_force must be finite and > 0 N, got {full_force!r}")
         if touchdown_force is not None and not (np.isfinite(touchdown_force) and touchdown_force > 0):
@@ -111,16 +111,16 @@ class ContactSwitcher:
         self.touchdown_speed = float(touchdown_speed)
         self._model = robot.model
         self._data = robot.model.createData()
-        self._fid = {s: robot.frame_id(robot.left_sole if s == "left" else robot.right_sole) for s in self.SIDES}
-        self._phase = {s: "stance" for s in self.SIDES}
-        self._t0 = {s: 0.0 for s in self.SIDES}
-        self._armed = {s: False for s in self.SIDES}
-        self._f0 = {s: self.full_force for s in self.SIDES}
-        self.touchdown_time: dict[str, float | None] = {s: None for s in self.SIDES}
+        self._fid = {s: robot.frame_id(robot.left_sole if s == "left" else robot.right_sole) for s in SIDES}
+        self._phase = {s: "stance" for s in SIDES}
+        self._t0 = {s: 0.0 for s in SIDES}
+        self._armed = {s: False for s in SIDES}
+        self._f0 = {s: self.full_force for s in SIDES}
+        self.touchdown_time: dict[str, float | None] = {s: None for s in SIDES}
         self.events: list[tuple[float, str, str]] = []
 
     def _side(self, side: str) -> str:
-        if side not in self.SIDES:
+        if side not in SIDES:
             raise InvalidInputError(f"side must be 'left' or 'right', got {side!r}")
         return side
 
@@ -200,11 +200,11 @@ class ContactSwitcher:
         """
         if self._armed["left"] or self._armed["right"]:
             pin.forwardKinematics(self._model, self._data, q, v)
-            for s in self.SIDES:
+            for s in SIDES:
                 if self._armed[s]:
                     pin.updateFramePlacement(self._model, self._data, self._fid[s])
         c = self.controller
-        for s in self.SIDES:
+        for s in SIDES:
             ph = self._phase[s]
             if ph == "unloading":
                 a = (t - self._t0[s]) / self.ramp_time

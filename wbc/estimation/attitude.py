@@ -25,12 +25,12 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
-__all__ = ["ComplementaryAttitudeFilter", "GRAVITY"]
+__all__ = ["ComplementaryAttitudeFilter"]
 
-GRAVITY = 9.81  #: m/s², magnitude used for the accelerometer gate
 
 
 def _cross(a, b) -> np.ndarray:

@@ -47,6 +47,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
@@ -54,7 +55,6 @@ from wbc.geometry import check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
 
-_SIDES = ("left", "right")
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -194,9 +194,9 @@ class FloatingBaseEstimator:
         nj = model.nv - 6
         self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz)
         self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate)
-        weight = robot.mass * 9.81
-        self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in _SIDES}
-        self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in _SIDES}
+        weight = robot.mass * robot.gravity
+        self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in SIDES}
+        self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in SIDES}
         if ground_height is not None:
             ground_height = _nonneg(abs(ground_height), "ground_height") * np.sign(ground_height)
         self.ground_height = ground_height
@@ -220,13 +220,13 @@ class FloatingBaseEstimator:
         self._vk = np.zeros(model.nv)
         self.p = self.kf.p
         self.velocity_world = self.kf.velocity
-        self.anchor = {s: np.zeros(3) for s in _SIDES}
-        self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in _SIDES}
+        self.anchor = {s: np.zeros(3) for s in SIDES}
+        self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
-        self.contact = {s: False for s in _SIDES}
-        self.normal_force = {s: 0.0 for s in _SIDES}
+        self.contact = {s: False for s in SIDES}
+        self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
-        self.sole = {s: pin.SE3.Identity() for s in _SIDES}
+        self.sole = {s: pin.SE3.Identity() for s in SIDES}
         self._u = np.zeros((2, 3))
         self._zv, self._zv_prev, self._f_grav = np.zeros(3), np.zeros(3), np.zeros(3)
         self._have_zv = False
@@ -261,7 +261,7 @@ class FloatingBaseEstimator:
         self.joints.reset(angles, v0[6:])
         self._have_zv = False
         self.acc_kin[:] = 0.0
-        for s in _SIDES:
+        for s in SIDES:
             self.detectors[s].active = False
             self.contact[s] = False
 
@@ -289,7 +289,7 @@ class FloatingBaseEstimator:
         R_prev = att.rotation
         fz_total, zv = 0.0, self._zv
         zv[:] = 0.0
-        for j, s in enumerate(_SIDES):
+        for j, s in enumerate(SIDES):
             sensor = self.ft[s]
             X = pin.updateFramePlacement(model, data, sensor.frame_id)
             Rw = R_prev @ X.rotation
@@ -316,7 +316,7 @@ class FloatingBaseEstimator:
         self._f_grav[:] = accel - R_prev.T @ self.acc_kin
         dirs = []
         if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
-            for s in _SIDES:
+            for s in SIDES:
                 fz = self.normal_force[s]
                 if self.contact[s] and fz > 0:
                     dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
@@ -333,7 +333,7 @@ class FloatingBaseEstimator:
         zvw = np.zeros(3)
         total = 0.0
         newly = []
-        for j, s in enumerate(_SIDES):
+        for j, s in enumerate(SIDES):
             fz = self.normal_force[s]
             was = self.contact[s]
             now = self.detectors[s].update(fz)
@@ -357,7 +357,7 @@ class FloatingBaseEstimator:
                 self.anchor[s][2] = self.ground_height
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
-        for j, s in enumerate(_SIDES):
+        for j, s in enumerate(SIDES):
             X = data.oMf[self.ft[s].frame_id]
             self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
         # Outputs.

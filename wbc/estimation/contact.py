@@ -25,11 +25,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["FootForceSensor", "ContactDetector", "zmp_from_wrenches", "GRAVITY_VECTOR"]
 
-GRAVITY_VECTOR = np.array([0.0, 0.0, -9.81])  #: m/s², world
+GRAVITY_VECTOR = np.array([0.0, 0.0, -GRAVITY])  #: m/s², world
 
 
 def _cross(a, b) -> np.ndarray:

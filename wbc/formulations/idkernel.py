@@ -42,16 +42,14 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from wbc.compiled import FASTMATH
 from wbc.constraints.dynamics import joint_bounds_kernel
-from wbc.fastqp import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
-                         weighted_normal_equations)
+from wbc.fastqp import (INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, backward_substitution, cholesky_lower,
+                         forward_substitution, primal_from_multipliers, weighted_normal_equations)
 from wbc.solver_status import SolverStatus
 
 __all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace", "PROJECT_CONTACT_RHS"]
 
-#: LLVM fast-math flags: reassociation (vectorised dot products) and fused multiply-add only; ±inf bounds stay
-#: legitimate input (no "no-inf/no-nan" assumption).
-_FM = {"reassoc", "contract"}
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
 #: dependent on it (:func:`id_solve`)
@@ -60,7 +58,7 @@ DEPENDENCE_TOL = 1e-10
 PRIMAL_TOL = 1e-11
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, S, t, nu, tol, dinv, fnz, vfree,
                    xv, bx):
     """The optimum of the previous tick's working set of bounds (module docstring), written into x: the variables
@@ -197,7 +195,7 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
     return _clip_and_equality_residual(A, b, m, lb, ub, x, n)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
     """Clip x[:n] into [lb, ub] in place and return max_k |A_k x − b_k| over the first m rows."""
     for i in range(n):
@@ -213,20 +211,17 @@ def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
 
 
 #: exit codes of :func:`id_solve`: the shared :class:`~wbc.solver_status.SolverStatus` values (plain ints, frozen by
-#: numba at compile time)
-NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
+#: numba at compile time; NOT_POSITIVE_DEFINITE, ITERATION_CAP and INFEASIBLE are :mod:`wbc.fastqp`'s)
 DEPENDENT_WORKING_SET = int(SolverStatus.DEPENDENT_ROWS)
-ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
-INFEASIBLE = int(SolverStatus.INFEASIBLE)
 NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _row(A, C, m, rk):
     return A[rk] if rk < m else C[rk - m]
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol):
     """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
     from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
@@ -289,7 +284,7 @@ def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, f
     return mw
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
     """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
     force coordinates f (the two terms of a row product through H_FF⁻¹)."""
@@ -302,7 +297,7 @@ def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
     return acc
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, tv):
     """With the factors of :func:`_factor`: y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space,
     Nocedal & Wright 2006 eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
@@ -339,7 +334,7 @@ def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, 
     return q
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, x, lam_b,
          lam_r, nuw, a, c, tv, ra, rc, dx, drho):
     """x = optimum of the working set's equality-constrained QP (fixed variables on their bound), and the
@@ -432,7 +427,7 @@ def _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, 
     return worst, worst_i
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _violation(C, l, u, lb, ub, x, state, rstate, tol):
     """The constraint outside the working set violated most beyond ``tol``: (slack < 0, index — variable i or
     row n + r —, side −1 lower / +1 upper); index −1 when none."""
@@ -461,7 +456,7 @@ def _violation(C, l, u, lb, ub, x, state, rstate, tol):
     return worst, wi, side
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter, primal_tol, dep_tol,
              rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, out):
     """Exact solution of the ID QP  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub,  with
@@ -660,7 +655,7 @@ def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter,
     return it
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
     σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.dynamics.consistent_contact_rhs` would leave the right-hand
@@ -736,7 +731,7 @@ PROJECT_CONTACT_RHS = -10
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=_FM)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc, mode, lim, par, iq, iv, qmin, qmax,
             vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows, ws_Yv,
             ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b,

@@ -44,10 +44,12 @@ from functools import lru_cache
 
 import numpy as np
 
+from wbc.constants import GRAVITY
+
 __all__ = ["lipm_omega", "LipmPlan", "LipmSamples", "plan_lipm"]
 
 
-def lipm_omega(com_height: float, gravity: float = 9.81) -> float:
+def lipm_omega(com_height: float, gravity: float = GRAVITY) -> float:
     """Natural frequency ``ω = sqrt(g / z_c)`` (1/s) of the LIPM for a CoM height ``z_c`` (m) above the ground."""
     return math.sqrt(gravity / com_height)
 

@@ -31,13 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbc.constants import GRAVITY
 from wbc.profiles import min_jerk
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["JumpPlan", "G", "critically_damped"]
-
-G = 9.81  #: gravity (m/s²)
-
+__all__ = ["JumpPlan", "critically_damped"]
 
 def critically_damped(x0: np.ndarray, v0: np.ndarray, w: float, tau: float):
     """(x, ẋ, ẍ) at τ ≥ 0 of ẍ = −2 w ẋ − w² x from (x0, v0) (arrays of any equal shape; module docstring)."""
@@ -93,7 +91,7 @@ class JumpPlan:
     @property
     def vz(self) -> float:
         """Planned vertical take-off velocity √(2 g h) (m/s)."""
-        return math.sqrt(2 * G * self.height)
+        return math.sqrt(2 * GRAVITY * self.height)
 
     @property
     def t_push(self) -> float:
@@ -103,12 +101,12 @@ class JumpPlan:
     @property
     def t_flight(self) -> float:
         """Planned flight time back to the take-off height, 2 v_z / g (s)."""
-        return 2 * self.vz / G
+        return 2 * self.vz / GRAVITY
 
     @property
     def omega(self) -> float:
         """ω = √(g / z_c) (1/s) of the landing capture point, z_c = standing CoM height + extension."""
-        return math.sqrt(G / (self.com_height + self.extension))
+        return math.sqrt(GRAVITY / (self.com_height + self.extension))
 
     @property
     def vx(self) -> float:
@@ -145,7 +143,7 @@ class JumpPlan:
     @staticmethod
     def flight_reference(c_to: np.ndarray, v_to: np.ndarray, tau: float):
         """Ballistic (c, ċ, c̈) τ s after take-off from the CoM state (c_to, v_to)."""
-        g = np.array([0.0, 0.0, -G])
+        g = np.array([0.0, 0.0, -GRAVITY])
         return c_to + v_to * tau + 0.5 * g * tau**2, v_to + g * tau, g
 
     def foot_landing_target(self, foot_to: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.exceptions import GaitError
 from wbc.gait.com_plan import lipm_omega, plan_lipm
 from wbc.gait.footsteps import Footstep, Side, feet_overlap, plan_footsteps, pose_to_xy_yaw
@@ -430,7 +431,7 @@ def plan_walk(
     sole_width: float = 0.13,
     com_velocity: np.ndarray | None = None,
     first_side: Side = "left",
-    gravity: float = 9.81,
+    gravity: float = GRAVITY,
     step_lateral: float = 0.0,
     check_start: bool = True,
 ) -> WalkPlan:

@@ -9,13 +9,14 @@ from __future__ import annotations
 import numpy as np
 
 from wbc.configuration import Configuration
+from wbc.constants import SIDES
 from wbc.constraints.zmp import DcmPolygonConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import support_polygon as sole_support_polygon
 from wbc.profiles import min_jerk_ramp
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
-from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, SIDES, StanceController
+from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 from wbc.tasks import PostureTask
 
 __all__ = [

@@ -36,9 +36,10 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
+from wbc.constants import SIDES
 from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import InvalidInputError
-from wbc.gait.jump_plan import G, JumpPlan
+from wbc.gait.jump_plan import JumpPlan
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import MotionRun
@@ -46,7 +47,6 @@ from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
 __all__ = ["JumpPreviewRun", "preview_jump", "preview_summary"]
 
-SIDES = ("left", "right")
 #: Ticks within this time (s) of a planned take-off or touch-down are left out of the GRF / torque / residual
 #: figures: the kinematic feet follow the reference's velocity step there (0 → the CoM's velocity at take-off,
 #: back to 0 at touch-down), an infinite acceleration that physics (``wbc sim jump``) smooths.
@@ -186,7 +186,7 @@ def preview_summary(robot: Robot, run: JumpPreviewRun) -> dict:
     acc = np.zeros_like(run.com)
     acc[1:-1] = (run.com[2:] - 2 * run.com[1:-1] + run.com[:-2]) / dt**2
     on_ground = run.contact_active.all(axis=1)
-    grf = robot.mass * (acc[:, 2] + G)
+    grf = robot.mass * (acc[:, 2] + robot.gravity)
     lim = np.asarray(model.effortLimit[6:], dtype=float)
     ok = np.isfinite(lim) & (lim > 0)
     worst, worst_j, base_res = 0.0, 0, 0.0
@@ -224,7 +224,7 @@ def preview_summary(robot: Robot, run: JumpPreviewRun) -> dict:
         "takeoff_velocity_plan_mps": [float(x) for x in plan.takeoff_velocity],
         "planned_flight_time_s": plan.t_flight, "push_time_s": plan.t_push,
         "apex_foot_clearance_m": float(both.max()), "flight_time_s": best * dt,
-        "peak_grf_n": float(grf[sel].max()), "peak_grf_body_weights": float(grf[sel].max() / (robot.mass * G)),
+        "peak_grf_n": float(grf[sel].max()), "peak_grf_body_weights": float(grf[sel].max() / (robot.mass * robot.gravity)),
         "max_torque_over_limit": worst, "max_torque_joint": robot.joint_names[worst_j],
         "flight_base_wrench_residual_n": base_res, "switch_window_excluded_s": SWITCH_WINDOW,
         "landing_com_overshoot_m": float(run.com[0, 2] - run.com[after, 2].min()) if after.any() else None,

@@ -27,13 +27,13 @@ import math
 
 import numpy as np
 
+from wbc.constants import GRAVITY
 from wbc.geometry import convex_hull, signed_distance, sole_polygon
 
-__all__ = ["executed_multibody_zmp", "GRAVITY", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
+__all__ = ["executed_multibody_zmp", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
            "support_margin"]
 
 #: Standard gravity (m/s²), the value Pinocchio's default model uses.
-GRAVITY = 9.81
 
 
 def executed_com_acceleration(com: np.ndarray, dt: float) -> np.ndarray:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbc.configuration import Configuration
+from wbc.constants import SIDES
 from wbc.constraints import ContactConstraint, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit
 from wbc.constraints.base import Constraint
 from wbc.constraints.braking import JointBrakingLimit
@@ -28,12 +29,11 @@ from wbc.robot import Robot
 from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "SIDES", "StanceController", "StanceRecorder", "StanceRun"]
+__all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "StanceController", "StanceRecorder", "StanceRun"]
 
 #: Support codes (as in :class:`wbc.gait.WalkPlan`): double support, left stance (right swinging), right stance.
 # The support codes of :class:`wbc.gait.schedule.Support` under the scenarios' names.
 DOUBLE, LEFT_STANCE, RIGHT_STANCE = Support.DOUBLE, Support.LEFT, Support.RIGHT
-SIDES = ("left", "right")
 
 
 class StanceController:

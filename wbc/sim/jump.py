@@ -73,10 +73,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY, SIDES
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.gait.jump_plan import G, JumpPlan
+from wbc.gait.jump_plan import JumpPlan
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL
@@ -108,7 +109,6 @@ RECOVER_ORIENTATION_WEIGHT = 10.0
 #: viability bound of 150 rad/s² instead of 50 (module docstring).
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 
-SIDES = ("left", "right")
 #: A jump's flight counts while the lowest corner of both soles is at least this high above its start (m).
 FLIGHT_CLEARANCE = 0.05
 #: A jump fails with less flight than this (s) at :data:`FLIGHT_CLEARANCE`.
@@ -239,7 +239,7 @@ class JumpScenario:
         self.com_offset = self.com0 - mid  # CoM relative to the mid-sole point when standing
         self.jump_plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
         self._set_period()
-        force = self.landing_force if self.landing_force is not None else 4 * robot.mass * G
+        force = self.landing_force if self.landing_force is not None else 4 * robot.mass * robot.gravity
         self.switcher = ContactSwitcher(controller, ramp_time=self.t_ramp, touchdown_height=self.touchdown_height,
                                         touchdown_speed=0.0, full_force=force)
         self._data = model.createData()
@@ -368,7 +368,7 @@ class JumpScenario:
         if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
             return self.t_flight  # frozen after the first touch-down
         rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
-        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * G * rise, 0.0))) / G
+        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * GRAVITY * rise, 0.0))) / GRAVITY
         return max(t - self.t_to + rest, 0.05)
 
     def _swing_feet(self, t, ctrl, q, v):
@@ -382,7 +382,7 @@ class JumpScenario:
             if self.switcher.phase(side) != "swing":
                 continue
             pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, vc[2],
-                                                         -G, tau, self.t_flight)
+                                                         -GRAVITY, tau, self.t_flight)
             if self.landing_crouch > 0:  # feet raised by landing_crouch relative to the CoM over the first half
                 half = 0.5 * self.t_flight
                 sl, dsl, ddsl = min_jerk(min(tau / half, 1.0))
@@ -496,7 +496,7 @@ class JumpScenario:
                 "time_both_feet_5cm_per_jump_s": per_jump, "time_both_feet_5cm_s": min(per_jump),
                 "max_tilt_per_jump_deg": tilt_jump, "failed_jumps": failed, "failed_jump_count": len(failed),
                 "flight_time_per_jump_s": flight, "peak_grf_n": float(fz.max()),
-                "peak_grf_body_weights": float(fz.max() / (self.robot.mass * G)),
+                "peak_grf_body_weights": float(fz.max() / (self.robot.mass * self.robot.gravity)),
                 "max_torque_over_limit": float(ratio.max()), "max_torque_joint": self.robot.joint_names[j],
                 "push_max_torque_over_limit": float(push_ratio[jp]), "push_max_torque_joint": self.robot.joint_names[jp],
                 "landing_soft_contact_ticks": self.how["soft_contact"], "torque_clipped_ticks": self.how["clipped"],

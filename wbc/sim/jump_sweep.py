@@ -26,12 +26,12 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
 from wbc.sim.scenarios import largest_passing
 
 __all__ = ["static_torques", "pushoff_bound", "jump_height_sweep", "sweep_report"]
 
-G = 9.81
 
 
 def static_torques(robot, q: np.ndarray) -> np.ndarray:
@@ -69,10 +69,10 @@ def pushoff_bound(robot, qs: np.ndarray, stroke: float) -> dict:
         if best is None or ratio[j] > best[0]:
             best = (float(ratio[j]), j)
     r, j = best
-    a = G * (1.0 / r - 1.0) if r > 0 else float("inf")
+    a = GRAVITY * (1.0 / r - 1.0) if r > 0 else float("inf")
     a_pos = max(a, 0.0)
     return {"max_acceleration_mps2": a, "limiting_joint": robot.joint_names[j], "torque_ratio_static": r,
-            "takeoff_velocity_mps": float(np.sqrt(2 * a_pos * stroke)), "apex_rise_m": a_pos * stroke / G}
+            "takeoff_velocity_mps": float(np.sqrt(2 * a_pos * stroke)), "apex_rise_m": a_pos * stroke / GRAVITY}
 
 
 def jump_height_sweep(run_trial, *, start: float = 0.02, max_height: float = 0.32, resolution: float = 0.005,

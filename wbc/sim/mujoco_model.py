@@ -79,6 +79,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import SIDES
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.robot import Robot
 from wbc.sim.actuators import PLANTS, actuator_model, apply_actuators
@@ -91,7 +92,6 @@ __all__ = ["MujocoModel", "build_mujoco_model", "ENV_BIT", "ROBOT_BIT", "MAX_TIM
 ENV_BIT = 1  #: contype/conaffinity bit of the environment (floor, obstacles)
 ROBOT_BIT = 2  #: contype bit of robot collision geoms
 MAX_TIMESTEP = 0.002  #: s
-_SIDES = ("left", "right")
 
 
 def build_mujoco_model(
@@ -211,8 +211,8 @@ def build_mujoco_model(
             act.ctrllimited = act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
 
     # Collision geometry: feet, bits, floor, self-collision exclusions.
-    feet = {side: _foot(robot, getattr(robot, f"{side}_sole")) for side in _SIDES}
-    foot_body_names = {side: feet[side][1] for side in _SIDES}
+    feet = {side: _foot(robot, getattr(robot, f"{side}_sole")) for side in SIDES}
+    foot_body_names = {side: feet[side][1] for side in SIDES}
     self_bits = ROBOT_BIT if self_collision else 0
     for geom in list(spec.geoms):
         if geom.contype == 0 and geom.conaffinity == 0:
@@ -227,7 +227,7 @@ def build_mujoco_model(
         _visual_feet(spec, foot_body_names, ROBOT_BIT, ENV_BIT | self_bits, robot.name)
     if foot_contact == "box":
         h = float(foot_box_thickness)
-        for side in _SIDES:
+        for side in SIDES:
             body_name, _, placement = feet[side]
             center = placement.translation + placement.rotation @ np.array([0.0, 0.0, 0.5 * h])
             quat = pin.Quaternion(placement.rotation)
@@ -343,15 +343,15 @@ def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:
     def body_id(name: str) -> int:
         return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
 
-    foot_bodies = {s: np.array(sorted(body_id(n) for n in feet[s][1]), dtype=int) for s in _SIDES}
+    foot_bodies = {s: np.array(sorted(body_id(n) for n in feet[s][1]), dtype=int) for s in SIDES}
     if foot_contact == "box":
-        foot_geoms = {s: np.array([model.geom(f"{s}_foot_box").id]) for s in _SIDES}
+        foot_geoms = {s: np.array([model.geom(f"{s}_foot_box").id]) for s in SIDES}
     else:
         colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         foot_geoms = {
-            s: np.flatnonzero(colliding & np.isin(model.geom_bodyid, foot_bodies[s])) for s in _SIDES
+            s: np.flatnonzero(colliding & np.isin(model.geom_bodyid, foot_bodies[s])) for s in SIDES
         }
-    sole_placements = {s: (body_id(feet[s][0]), feet[s][2]) for s in _SIDES}
+    sole_placements = {s: (body_id(feet[s][0]), feet[s][2]) for s in SIDES}
     v_idx = [pmodel.joints[i].idx_v for i in range(2, pmodel.njoints)]
     mm = MujocoModel(
         robot=robot, model=model, data=mujoco.MjData(model), state_map=smap,

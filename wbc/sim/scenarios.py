@@ -40,6 +40,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.dynamics.balance import BalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
@@ -204,7 +205,7 @@ class OneLegScenario(_Base):
         controller.set_com_reference(*self._com(t))
         t_unload0 = self.t_start + self.t_shift
         if t_unload0 <= t < self.t_release:
-            total = controller.robot.mass * 9.81
+            total = controller.robot.mass * controller.robot.gravity
             controller.set_max_normal_force(self.swing, total * (1.0 - (t - t_unload0) / self.t_unload))
         elif t >= self.t_release:
             if not self._released:
@@ -281,7 +282,7 @@ class PushScenario(_Base):
 SCENARIOS = {"stand": StandScenario, "sway": SwayScenario, "one-leg": OneLegScenario, "push": PushScenario}
 
 
-def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float = 9.81) -> dict:
+def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float = GRAVITY) -> dict:
     """Capture-point bounds on a horizontal push at ``robot.q_ref`` (module docstring).
 
     Returns:

@@ -47,13 +47,13 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY, SIDES
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["EncoderSpec", "ImuSpec", "ForceTorqueSpec", "SensorSpecs", "add_sensors", "PlantSensors",
            "SensorReadings", "IMU_SITE", "ft_site"]
 
 IMU_SITE = "imu"  #: name of the IMU site on the floating base
-_SIDES = ("left", "right")
 
 
 def ft_site(side: str) -> str:
@@ -116,9 +116,9 @@ class ImuSpec(_Spec):
     gyro_noise_density: float = math.radians(0.005)
     gyro_bias_walk: float = math.radians(8.0 / 3600.0) / 10.0
     gyro_bias_std: float = math.radians(0.05)
-    accel_noise_density: float = 100e-6 * 9.81
-    accel_bias_walk: float = 0.04e-3 * 9.81 / 10.0
-    accel_bias_std: float = 2e-3 * 9.81
+    accel_noise_density: float = 100e-6 * GRAVITY
+    accel_bias_walk: float = 0.04e-3 * GRAVITY / 10.0
+    accel_bias_std: float = 2e-3 * GRAVITY
     rate_hz: float = 500.0
 
 
@@ -178,7 +178,7 @@ def add_sensors(spec: mujoco.MjSpec, robot, specs: SensorSpecs | None = None) ->
                               ("imu_accel", mujoco.mjtSensor.mjSENS_ACCELEROMETER,
                                imu.accel_noise_density * math.sqrt(imu.rate_hz))):
         spec.add_sensor(name=name, type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=IMU_SITE, noise=noise)
-    for side in _SIDES:
+    for side in SIDES:
         body, rot = _ft_body(robot, side)
         quat = pin.Quaternion(rot)
         spec.body(body).add_site(name=ft_site(side), pos=[0.0, 0.0, 0.0], quat=[quat.w, quat.x, quat.y, quat.z],
@@ -261,7 +261,7 @@ class PlantSensors:
         names = sim.robot.model.names[2:]
         self._enc = np.array([adr(f"enc_{n}", 1)[0] for n in names], dtype=int)
         self._gyro, self._acc = adr("imu_gyro", 3), adr("imu_accel", 3)
-        self._ft = np.array([np.r_[adr(f"ft_{s}_f", 3), adr(f"ft_{s}_t", 3)] for s in _SIDES], dtype=int)
+        self._ft = np.array([np.r_[adr(f"ft_{s}_f", 3), adr(f"ft_{s}_t", 3)] for s in SIDES], dtype=int)
         self._every = {}
         for name, s in (("encoder", self.specs.encoder), ("imu", self.specs.imu), ("ft", self.specs.ft)):
             ratio = 1.0 / (s.rate_hz * self.dt)

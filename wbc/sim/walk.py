@@ -429,7 +429,7 @@ class WalkScenario:
         self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
         self._gdata = self._model.createData()
         self._active: dict[str, tuple] = {}
-        weight = robot.mass * 9.81
+        weight = robot.mass * robot.gravity
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,

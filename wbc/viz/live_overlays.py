@@ -25,12 +25,12 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.geometry import convex_hull, sole_polygon
 from wbc.robot import Robot
 
 __all__ = ["LiveOverlays"]
 
-GRAVITY = 9.81  # m/s^2
 _LEFT_DOWN, _RIGHT_DOWN = (0, 1), (0, 2)  # support codes with the left / right foot on the ground
 
 

@@ -25,12 +25,12 @@ import math
 
 import numpy as np
 
+from wbc.constants import GRAVITY
 from wbc.geometry import convex_hull, sole_polygon
 from wbc.scenarios.metrics import executed_multibody_zmp
 
-__all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop", "GRAVITY"]
+__all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop"]
 
-GRAVITY = 9.81  # m/s^2
 
 
 def cart_table_zmp(t: np.ndarray, com: np.ndarray, g: float = GRAVITY) -> np.ndarray:
