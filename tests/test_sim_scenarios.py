@@ -90,6 +90,33 @@ def test_capture_point_bound_talos():
     assert cp["f_max_finite_n"] > cp["f_max_impulse_n"] > 400.0
 
 
+def test_default_push_is_the_bound_along_the_push():
+    """The default push of `sim push` / `sim push-step` is the capture-point impulse bound m ω d / T along the push
+    direction (it was always the lateral bound: a push from behind on a robot with long feet and a narrow stance
+    got a sideways-sized force). Reference: d from Pinocchio's sole placements and the sole rectangle corners."""
+    import math
+
+    import pinocchio as pin
+
+    from wbc.sim.scenarios import default_push_force
+
+    robot = wbc.load_robot("humanoid15")
+    model, data = robot.model, robot.model.createData()
+    com = pin.centerOfMass(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    corners = [data.oMf[model.getFrameId(f)].act(np.array([sx * robot.sole_length / 2, sy * robot.sole_width / 2, 0]))
+               for f in (robot.left_sole, robot.right_sole) for sx in (-1, 1) for sy in (-1, 1)]
+    omega = math.sqrt(9.81 / com[2])
+    for deg, axis in ((0.0, 0), (90.0, 1)):
+        d = max(c[axis] - com[axis] for c in corners)
+        ref = robot.mass * omega * d / 0.1
+        assert default_push_force(robot, "push-step", 0.1, deg) == pytest.approx(ref, abs=0.06)
+        assert default_push_force(robot, "push", 0.1, deg) == pytest.approx(0.5 * ref, rel=1e-9)
+    # the sagittal and lateral bounds differ (so the direction matters)
+    assert abs(default_push_force(robot, "push-step", 0.1, 0.0) - default_push_force(robot, "push-step", 0.1, 90.0)) > 5
+    assert default_push_force(wbc.load_robot("talos"), "push-step", 0.1, 0.0) == 450.0
+
+
 def test_cli_stand_json(tmp_path):
     out = tmp_path / "s.json"
     log = tmp_path / "s.npz"

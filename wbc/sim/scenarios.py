@@ -48,7 +48,7 @@ from wbc.scenarios.framework import Criterion, evaluate
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
     "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
-    "make_controller",
+    "make_controller", "default_push_force",
     "DEFAULT_PUSH_FORCE", "NO_FALL", "JOINT_SPEED", "LANDING_SLIDE", "OUTCOME",
 ]
 
@@ -307,6 +307,27 @@ def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), 
     e = math.exp(w * push_duration)
     return {"omega": w, "com_height_m": float(com[2]), "edge_distance_m": d,
             "f_max_impulse_n": m * w * d / push_duration, "f_max_finite_n": m * w * w * d * e / (e - 1.0)}
+
+
+def default_push_force(robot, scenario: str, push_duration: float, push_dir: float) -> float:
+    """Default push (N) of ``wbc sim push`` / ``wbc sim push-step`` on ``robot``, along the push's own direction.
+
+    Args:
+        robot: the robot (its ``q_ref`` stance is used).
+        scenario: ``"push"`` (standing push: :data:`DEFAULT_PUSH_FORCE` for a catalog robot that has one, else half
+            the capture-point impulse bound) or ``"push-step"`` (Talos 450 N, else the whole bound, rounded to
+            0.1 N: the robot must step).
+        push_duration: s, > 0.
+        push_dir: horizontal push direction, deg (world: 0 = +x, 90 = +y).
+
+    Returns:
+        force (N).
+    """
+    a = math.radians(push_dir)
+    bound = capture_point_bound(robot, push_duration, (math.cos(a), math.sin(a), 0.0))["f_max_impulse_n"]
+    if scenario == "push-step":
+        return 450.0 if robot.name == "talos" else round(bound, 1)
+    return DEFAULT_PUSH_FORCE.get(robot.name, 0.5 * bound)
 
 
 def summarize(run, scenario, controller=None) -> dict:
