@@ -166,3 +166,22 @@ def test_logged_foot_wrenches_match_contact_forces():
     for i, s in enumerate(sides):
         assert np.abs(out_w[i] - ref[s]).max() < 1e-9 * max(1.0, np.abs(ref[s]).max())
         assert np.abs(out_p[i] - sim.sole_pose(s).translation).max() < 1e-12
+
+
+def test_effort_saturation_counts_ticks_at_the_limit_before_the_fall():
+    """Seconds at ≥ 99 % of the effort limit per joint, up to the fall time, longest first (hand-built torques)."""
+    from wbc.sim.scenarios import effort_saturation
+
+    robot = wbc.load_robot("humanoid15")
+    model = robot.model
+    effort = np.asarray(model.effortLimit[6:])
+    names = [model.names[j] for j in range(2, model.njoints)]
+    tau = np.zeros((100, len(effort)))
+    tau[:30, 0] = effort[0]           # 30 ticks at the limit
+    tau[10:20, 3] = -0.995 * effort[3]  # 10 ticks at 99.5 % (negative)
+    tau[:, 5] = 0.98 * effort[5]      # below 99 %: not counted
+    tau[60:, 7] = effort[7]           # only after the fall
+    dt = 0.002
+    assert effort_saturation(model, tau, dt, until=0.1) == {names[0]: 0.06, names[3]: 0.02}
+    assert effort_saturation(model, tau, dt) == {names[7]: 0.08, names[0]: 0.06, names[3]: 0.02}
+    assert effort_saturation(model, np.zeros_like(tau), dt) == {}
