@@ -111,3 +111,33 @@ def test_mujoco_resolves_package_uri_with_empty_authority(tmp_path):
     sim = build_mujoco_model(robot)
     assert sim.model.nmesh > 0
     assert abs(sim.model.body_mass.sum() - robot.mass) < 1e-6 * robot.mass
+
+
+def test_one_leg_puts_the_swing_sole_back(robot_file, tmp_path, capsys):
+    """Alexander's feet are 0.24 m apart: with the CoM over the stance sole at the start height its outer leg is
+    stretched (knee 0.02 rad), so the swing sole held at that height could not come back to the floor (it stopped
+    3.8 mm above it). The single support now holds the CoM height reached at lift-off."""
+    summary = tmp_path / "one_leg.json"
+    code = main(["balance", "one-leg", "--robot", str(robot_file), "--quiet", "--json", str(summary)])
+    out = capsys.readouterr().out
+    s = json.loads(summary.read_text())
+    assert code == 0, out
+    assert s["touchdown_error_m"] <= 0.002
+    assert abs(s["lift_height_m"] - 0.10) <= 0.005 and s["lift_hold_s"] >= 3.0
+    assert s["swing_joints_at_limit"] == "none"
+
+
+def test_one_leg_names_the_joint_that_stops_the_lift(robot_file, tmp_path, capsys):
+    """A lift the legs cannot reach (0.45 m with the sole level) fails on its criterion and names the swing leg's
+    joint at its limit; --height applies to one-leg and jump only and must be a lift in (0, 0.5] m."""
+    summary = tmp_path / "one_leg_high.json"
+    code = main(["balance", "one-leg", "--robot", str(robot_file), "--height", "0.45", "--quiet",
+                 "--json", str(summary)])
+    capsys.readouterr()
+    s = json.loads(summary.read_text())
+    assert code == 1 and not s["passed"]
+    assert s["lift_height_m"] < 0.445
+    assert "limit" in s["swing_joints_at_limit"] and s["swing_joints_at_limit"].split(" at its ")[0].startswith("RIGHT_")
+    for bad in (["one-leg", "--height", "nan"], ["one-leg", "--height", "-0.1"], ["shift", "--height", "0.1"]):
+        assert main(["balance", *bad, "--robot", str(robot_file)]) == 2
+        assert "--height" in capsys.readouterr().err

@@ -90,6 +90,33 @@ def test_capture_point_bound_talos():
     assert cp["f_max_finite_n"] > cp["f_max_impulse_n"] > 400.0
 
 
+def test_default_push_is_the_bound_along_the_push():
+    """The default push of `sim push` / `sim push-step` is the capture-point impulse bound m ω d / T along the push
+    direction (it was always the lateral bound: a push from behind on a robot with long feet and a narrow stance
+    got a sideways-sized force). Reference: d from Pinocchio's sole placements and the sole rectangle corners."""
+    import math
+
+    import pinocchio as pin
+
+    from wbc.sim.scenarios import default_push_force
+
+    robot = wbc.load_robot("humanoid15")
+    model, data = robot.model, robot.model.createData()
+    com = pin.centerOfMass(model, data, robot.q_ref)
+    pin.framesForwardKinematics(model, data, robot.q_ref)
+    corners = [data.oMf[model.getFrameId(f)].act(np.array([sx * robot.sole_length / 2, sy * robot.sole_width / 2, 0]))
+               for f in (robot.left_sole, robot.right_sole) for sx in (-1, 1) for sy in (-1, 1)]
+    omega = math.sqrt(9.81 / com[2])
+    for deg, axis in ((0.0, 0), (90.0, 1)):
+        d = max(c[axis] - com[axis] for c in corners)
+        ref = robot.mass * omega * d / 0.1
+        assert default_push_force(robot, "push-step", 0.1, deg) == pytest.approx(ref, abs=0.06)
+        assert default_push_force(robot, "push", 0.1, deg) == pytest.approx(0.5 * ref, rel=1e-9)
+    # the sagittal and lateral bounds differ (so the direction matters)
+    assert abs(default_push_force(robot, "push-step", 0.1, 0.0) - default_push_force(robot, "push-step", 0.1, 90.0)) > 5
+    assert default_push_force(wbc.load_robot("talos"), "push-step", 0.1, 0.0) == 450.0
+
+
 def test_cli_stand_json(tmp_path):
     out = tmp_path / "s.json"
     log = tmp_path / "s.npz"
@@ -139,3 +166,22 @@ def test_logged_foot_wrenches_match_contact_forces():
     for i, s in enumerate(sides):
         assert np.abs(out_w[i] - ref[s]).max() < 1e-9 * max(1.0, np.abs(ref[s]).max())
         assert np.abs(out_p[i] - sim.sole_pose(s).translation).max() < 1e-12
+
+
+def test_effort_saturation_counts_ticks_at_the_limit_before_the_fall():
+    """Seconds at ≥ 99 % of the effort limit per joint, up to the fall time, longest first (hand-built torques)."""
+    from wbc.sim.scenarios import effort_saturation
+
+    robot = wbc.load_robot("humanoid15")
+    model = robot.model
+    effort = np.asarray(model.effortLimit[6:])
+    names = [model.names[j] for j in range(2, model.njoints)]
+    tau = np.zeros((100, len(effort)))
+    tau[:30, 0] = effort[0]           # 30 ticks at the limit
+    tau[10:20, 3] = -0.995 * effort[3]  # 10 ticks at 99.5 % (negative)
+    tau[:, 5] = 0.98 * effort[5]      # below 99 %: not counted
+    tau[60:, 7] = effort[7]           # only after the fall
+    dt = 0.002
+    assert effort_saturation(model, tau, dt, until=0.1) == {names[0]: 0.06, names[3]: 0.02}
+    assert effort_saturation(model, tau, dt) == {names[7]: 0.08, names[0]: 0.06, names[3]: 0.02}
+    assert effort_saturation(model, np.zeros_like(tau), dt) == {}

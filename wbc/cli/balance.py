@@ -15,6 +15,7 @@ from wbc.cli.output import deadline_misses, open_live, print_summary, progress, 
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, finite
+from wbc.exceptions import InvalidInputError
 
 __all__ = ["register", "cmd_balance"]
 
@@ -29,6 +30,8 @@ def cmd_balance(args) -> int:
     options = {}
     if args.behaviour == "one-leg" and args.stance is not None:
         options["stance"] = args.stance
+    if args.behaviour == "one-leg" and args.height is not None:
+        options["height"] = args.height
     if args.behaviour == "reach" and args.hand is not None:
         options["hand"] = args.hand
     viewer = pacer = None
@@ -65,12 +68,19 @@ def check_balance_args(args) -> None:
     """``wbc balance`` checks before any run (called by :func:`wbc.cli.main`).
 
     Raises:
-        InvalidInputError: ``--dt`` out of range; jump: ``--height``/``--count`` beyond what legs or memory allow.
+        InvalidInputError: ``--dt`` out of range; ``--height`` given to a behaviour other than jump and one-leg,
+            or not in (0, 0.5] m for one-leg; jump: ``--height``/``--count`` beyond what legs or memory allow.
     """
     from wbc.cli.walk import check_dt
 
     check_dt(args.dt)
+    if args.height is not None and args.behaviour not in ("jump", "one-leg"):
+        raise InvalidInputError(f"--height applies to jump and one-leg, not to {args.behaviour}")
+    if args.behaviour == "one-leg" and args.height is not None and not 0.0 < args.height <= 0.5:
+        raise InvalidInputError(f"one-leg --height is the swing sole's lift, valid 0 < height <= 0.5 m, "
+                                f"got {args.height!r}")
     if args.behaviour == "jump":
+        args.height = 0.08 if args.height is None else args.height
         from wbc.gait.jump_plan import JumpPlan
 
         defaults = JumpPlan(height=0.08)  # the preview's plan: default crouch and extension
@@ -125,8 +135,9 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
                    help=f"QP backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002; valid 0.0001..0.02)")
-    p.add_argument("--height", type=float, default=0.08,
-                   help="jump: planned apex CoM rise, m (default 0.08; at most 0.9 m: push force <= 10 x weight)")
+    p.add_argument("--height", type=float, default=None,
+                   help="jump: planned apex CoM rise, m (default 0.08; at most 0.9 m: push force <= 10 x weight); "
+                        "one-leg: lift of the swing sole, m (default 0.10)")
     p.add_argument("--forward", type=finite(0.0), default=0.0, help="jump: planned forward foot displacement, m")
     p.add_argument("--count", type=int, default=1, help="jump: number of jumps (default 1)")
     add_outputs(p)

@@ -81,8 +81,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--duration", type=seconds, default=None,
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
     p.add_argument("--force", type=finite(0.0), default=None,
-                   help="push force, N (push: talos 450, g1 120, else half the capture-point bound; push-step: talos "
-                        "450, else the capture-point bound)")
+                   help="push force, N (push: talos 450, g1 120, else half the capture-point bound along --push-dir; "
+                        "push-step: talos 450, else the capture-point bound along --push-dir)")
     p.add_argument("--push-duration", type=seconds, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "
@@ -194,8 +194,7 @@ def _catalog_dir():
 
 def _scenario(args, robot):
     from wbc.exceptions import InvalidInputError
-    from wbc.sim.scenarios import DEFAULT_PUSH_FORCE, OneLegScenario, PushScenario, StandScenario, SwayScenario
-    from wbc.sim.scenarios import capture_point_bound
+    from wbc.sim.scenarios import OneLegScenario, PushScenario, StandScenario, SwayScenario, default_push_force
 
     if args.scenario == "stand":
         return StandScenario(10.0 if args.duration is None else args.duration)
@@ -229,10 +228,7 @@ def _scenario(args, robot):
 
         force = args.force
         if force is None:  # Talos: 450 N; any other robot: its capture-point bound (Talos's is 449 N for 0.1 s)
-            from wbc.sim.scenarios import capture_point_bound
-
-            force = 450.0 if robot.name == "talos" else round(
-                capture_point_bound(robot, args.push_duration)["f_max_impulse_n"], 1)
+            force = default_push_force(robot, "push-step", args.push_duration, args.push_dir)
         return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
@@ -246,19 +242,17 @@ def _scenario(args, robot):
         w = JUMP_MOMENTUM_WEIGHT if args.momentum_weight is None else args.momentum_weight
         return JumpScenario(height=args.height, forward=args.forward, count=args.count, min_hop=args.min_hop,
                             momentum_weight=w, t_ramp=args.landing_ramp, landing_crouch=args.landing_crouch)
+    import math
+
+    direction = (math.cos(math.radians(args.push_dir)), math.sin(math.radians(args.push_dir)), 0.0)
     force = args.force
     if force is None:
-        force = DEFAULT_PUSH_FORCE.get(robot.name)
-        if force is None:
-            force = 0.5 * capture_point_bound(robot, args.push_duration)["f_max_impulse_n"]
+        force = default_push_force(robot, "push", args.push_duration, args.push_dir)
     settle = 2.5
     if args.duration is not None:
         settle = args.duration - 0.5 - args.push_duration
         if settle <= 0:
             raise InvalidInputError(f"push --duration must exceed 0.5 + push duration = {0.5 + args.push_duration} s")
-    import math
-
-    direction = (math.cos(math.radians(args.push_dir)), math.sin(math.radians(args.push_dir)), 0.0)
     return PushScenario(force, args.push_duration, settle=settle, direction=direction)
 
 

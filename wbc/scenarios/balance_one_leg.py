@@ -9,6 +9,15 @@ During single support the CoM polygon constraint uses the stance sole alone with
 ``stance_margin`` (m, default 12.5 mm): the issue's "≥ 0.01 m over the stance sole" then holds by construction
 with 2.5 mm for the linearisation over one tick and tracking; the planned CoM sits on the sole centre anyway
 (G1's sole is 5 cm wide, so it must stay within ±15 mm laterally).
+
+CoM height over the stance sole: the start height is planned, but whatever height the robot reached at lift-off
+(both soles down, CoM over the stance sole) is held in single support. The outer leg of a robot with wide-apart
+feet can be fully stretched before the CoM reaches the stance sole at the start height (the shift then ends
+lower); holding the start height in single support would leave the swing sole short of the floor at touch-down.
+
+When the lift or its hold fails, the summary's ``swing_joints_at_limit`` names the swing leg's joints within
+1e-3 rad of a position limit at the highest point of the lift (the measured reason a sole held level cannot rise
+further, e.g. an ankle pitch range of −30°).
 """
 
 from __future__ import annotations
@@ -70,9 +79,19 @@ class OneLegBehaviour(Behaviour):
         self.lift_path = MinJerkPath([0.0], [(lift, hold, [height]), (lift, 0.0, [0.0])], t0=self.t_lift)
         self.duration = self.com_path.end_time
         self._vel = np.zeros(6)
+        self._single_height_set = False
+
+    def _hold_lift_off_height(self, com_z: float) -> None:
+        """Re-plan the CoM path from lift-off on at the measured CoM height ``com_z`` (m, world)."""
+        over = np.r_[self.stance0.translation[:2], com_z]
+        settle = self.t_lift - self.t_over
+        self.com_path = MinJerkPath(over, [(self.t_over, settle, self.com0)], t0=self.t_touch + settle)
 
     def update(self, ctrl: BalanceController, t: float, config: Configuration) -> None:
         single = self.t_lift <= t < self.t_touch
+        if single and not self._single_height_set:
+            self._hold_lift_off_height(float(config.com[2]))
+            self._single_height_set = True
         ctrl.set_support(self.stance_code if single else DOUBLE, config)
         com, vel = self.com_path(t)
         ctrl.com.set_target(com, vel)
@@ -90,6 +109,7 @@ class OneLegBehaviour(Behaviour):
         poly = support_polygon(self.robot, [self.stance0])
         stance_margin = signed_distance(run.com[window, :2], poly)
         up = rise >= self.height - self.height_tolerance
+        peak = int(np.argmax(rise))
         return {
             "stance": self.stance,
             "lift_height_m": float(rise.max()),
@@ -98,7 +118,25 @@ class OneLegBehaviour(Behaviour):
             "touchdown_error_m": float(np.linalg.norm(swing[-1, :3, 3] - self.swing0.translation)),
             "max_stance_slip_single_m": float(np.max(np.linalg.norm(
                 stance[:, :3, 3] - self.stance0.translation, axis=1))),
+            "swing_joints_at_limit": self._joints_at_limit(run.q[peak]),
         }
+
+    def _joints_at_limit(self, q: np.ndarray) -> str:
+        """Swing-leg joints within 1e-3 rad of a position limit in configuration ``q`` (nq,), e.g.
+        ``"RAnklePitch at its lower limit -0.5236 rad"``, "; "-separated, or ``"none"``."""
+        model = self.robot.model
+        frame = self.robot.right_sole if self.swing == "right" else self.robot.left_sole
+        out = []
+        for j in model.supports[model.frames[self.robot.frame_id(frame)].parentJoint]:
+            if j == 0 or model.joints[j].nq != 1:
+                continue
+            i = model.joints[j].idx_q
+            lo, hi = model.lowerPositionLimit[i], model.upperPositionLimit[i]
+            if q[i] - lo < 1e-3:
+                out.append(f"{model.names[j]} at its lower limit {lo:.4g} rad")
+            elif hi - q[i] < 1e-3:
+                out.append(f"{model.names[j]} at its upper limit {hi:.4g} rad")
+        return "; ".join(out) or "none"
 
     def criteria(self):
         h, tol = self.height, self.height_tolerance

@@ -49,7 +49,7 @@ from wbc.scenarios.framework import Criterion, evaluate
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
     "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
-    "make_controller",
+    "make_controller", "default_push_force", "effort_saturation",
     "DEFAULT_PUSH_FORCE", "NO_FALL", "JOINT_SPEED", "LANDING_SLIDE", "OUTCOME",
 ]
 
@@ -310,6 +310,47 @@ def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), 
             "f_max_impulse_n": m * w * d / push_duration, "f_max_finite_n": m * w * w * d * e / (e - 1.0)}
 
 
+def default_push_force(robot, scenario: str, push_duration: float, push_dir: float) -> float:
+    """Default push (N) of ``wbc sim push`` / ``wbc sim push-step`` on ``robot``, along the push's own direction.
+
+    Args:
+        robot: the robot (its ``q_ref`` stance is used).
+        scenario: ``"push"`` (standing push: :data:`DEFAULT_PUSH_FORCE` for a catalog robot that has one, else half
+            the capture-point impulse bound) or ``"push-step"`` (Talos 450 N, else the whole bound, rounded to
+            0.1 N: the robot must step).
+        push_duration: s, > 0.
+        push_dir: horizontal push direction, deg (world: 0 = +x, 90 = +y).
+
+    Returns:
+        force (N).
+    """
+    a = math.radians(push_dir)
+    bound = capture_point_bound(robot, push_duration, (math.cos(a), math.sin(a), 0.0))["f_max_impulse_n"]
+    if scenario == "push-step":
+        return 450.0 if robot.name == "talos" else round(bound, 1)
+    return DEFAULT_PUSH_FORCE.get(robot.name, 0.5 * bound)
+
+
+def effort_saturation(model, tau: np.ndarray, dt: float, until: float | None = None, *, fraction: float = 0.99,
+                      top: int = 3) -> dict[str, float]:
+    """The joints longest at their effort limit: ``{joint name: seconds with |τ| ≥ fraction × effortLimit}`` for
+    the ``top`` joints with any such tick, longest first, counted over the ticks before ``until`` (s; the fall time,
+    or None for the whole run).
+
+    Args:
+        model: Pinocchio model (effort limits ``effortLimit[6:]``, N·m; 1-DoF actuated joints after the free flyer).
+        tau: (N, nv − 6) commanded joint torques (N·m), one row per tick of ``dt`` (s).
+    """
+    effort = np.asarray(model.effortLimit[6:], dtype=float)
+    n = len(tau) if until is None else min(len(tau), int(math.floor(until / dt + 1e-9)) + 1)
+    lim = np.isfinite(effort) & (effort > 0)
+    hits = np.zeros(len(effort))
+    hits[lim] = np.sum(np.abs(tau[:n, lim]) >= fraction * effort[lim], axis=0) * dt
+    names = {model.joints[j].idx_v - 6: model.names[j] for j in range(1, model.njoints) if model.joints[j].idx_v >= 6}
+    order = [i for i in np.argsort(-hits, kind="stable")[:top] if hits[i] > 0]
+    return {names[i]: round(float(hits[i]), 4) for i in order}
+
+
 def summarize(run, scenario, controller=None) -> dict:
     """Summary of a :class:`~wbc.sim.closed_loop.SimRun` (keys listed in the CLI help / module docstring)."""
     c = run.com
@@ -371,6 +412,8 @@ def summarize(run, scenario, controller=None) -> dict:
         margin = robot_effort[lim] - np.abs(run.tau[:, lim])
         out["min_torque_margin_nm"] = float(margin.min())
         out["min_torque_margin_fraction"] = float((margin / robot_effort[lim]).min())
+        out["effort_saturation_s"] = effort_saturation(controller.robot.model, run.tau, run.dt,
+                                                       run.fall_time if run.fell else None)
     out["real_time_factor"] = sim_time / run.wall_time if run.wall_time > 0 else float("inf")
     out["tick_time_us"] = {"median": float(np.median(tick_us)), "p99": float(np.percentile(tick_us, 99)),
                            "max": float(tick_us.max())}
