@@ -347,3 +347,35 @@ def test_commanded_walk_typed_errors():
     with pytest.raises(InvalidInputError):
         walk.set_goal(1.0, float("nan"), 0.0)
     assert np.all(walk.command == 0.0) and walk.idle  # nothing applied
+
+
+def test_node_trims_the_heap_periodically(monkeypatch):
+    """spin(trim_every=T) calls malloc_trim once per T s of node time (counted, timed: module docstring "Memory"),
+    and a bad period is refused with a typed error before any tick. glibc's malloc_trim returns 1 when it released
+    memory: after freeing a fragmented heap (every second one of 20,000 small arrays) it must have something to
+    give back."""
+    import ctypes
+    import ctypes.util
+
+    from wbc.exceptions import InvalidInputError
+    from wbc.robot import load_robot
+    from wbc.ros2.node import ControllerNode
+
+    monkeypatch.setenv("CYCLONEDDS_URI", LOOPBACK)
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+    node = ControllerNode(load_robot("humanoid15"), time_mode="sim")
+    try:
+        for bad in (0.0, -1.0, float("nan"), "10", True):
+            with pytest.raises(InvalidInputError):
+                node.spin(0.1, trim_every=bad)
+        assert node.ticks == 0 and node.heap_trims == 0
+        node.spin(0.2, trim_every=0.02)
+        assert node.ticks == 100 and node.heap_trims == 10  # ticks 10, 20, ..., 100 (2 ms each)
+        assert 0.0 < node.last_trim_s < 1.0
+    finally:
+        node.close()
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+    if hasattr(libc, "malloc_trim"):  # glibc (Linux): an independent call of the same function
+        keep = [np.ones(2000) for _ in range(20000)]
+        del keep[::2]
+        assert libc.malloc_trim(0) == 1

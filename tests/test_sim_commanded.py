@@ -51,3 +51,23 @@ def test_command_change_and_stop_take_effect_at_the_next_touch_down():
     assert stood is not None and stood - t2 <= STEP + 1.0 + 0.1  # the closing step and the final double support
     assert all(f[2] > 50.0 for f in forces.values())
     assert turned > 5.0  # one walking step of 0.24 rad (13.8 deg) at most was taken before the stop
+
+
+def test_turning_past_half_a_turn_does_not_fall():
+    """Walking and turning at the soak's command (0.1 m/s, 0.3 rad/s) until the base has turned 200 deg from the
+    stance of the reset. The torso reference must turn with the feet: held at the reset heading, its orientation
+    error flipped sign once the torso had turned half a turn, and the robot fell (pelvis tilt > 30 deg) at a
+    turn of 160-165 deg. Measured: MuJoCo's ground-truth base yaw (unwrapped) and the fall monitor."""
+    walk = SimCommandedWalk(load_robot("g1"))
+    walk.set_velocity(0.1, 0.0, 0.3)
+    prev, turned = _yaw(walk.q_true), 0.0
+    while turned < math.radians(200.0) and walk.t < 20.0 and not walk.fell:
+        walk.tick()
+        y = _yaw(walk.q_true)
+        turned += math.remainder(y - prev, 2 * math.pi)
+        prev = y
+    print(f"t = {walk.t:.3f} s: turned {math.degrees(turned):.1f} deg, fell {walk.fell} "
+          f"({walk.monitor.fall_reason if walk.fell else ''}), replans {walk.replans}")
+    assert not walk.fell
+    assert walk.replan_failures == 0
+    assert turned >= math.radians(200.0)  # (0.24 rad per 0.8 s step: about 12 s of walking)

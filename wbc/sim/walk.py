@@ -46,7 +46,7 @@ import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
-from wbc.geometry import closest_point_in_polygon, convex_hull, polygon_margin, projected_sole_corners
+from wbc.geometry import closest_point_in_polygon, convex_hull, mean_heading, polygon_margin, projected_sole_corners
 from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
@@ -251,6 +251,13 @@ class WalkScenario:
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
             the air) and a late foot keeps descending up to 5 cm below its planned landing.
 
+    Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
+    controller's torso orientation reference turns with the feet: at each tick it is the reference held at
+    :meth:`setup` rotated about the world z axis by the change of the mean heading of the planned soles
+    (:func:`wbc.geometry.mean_heading`) since the plan's start. A reference held at the start heading instead is
+    pulled against by the turning legs, and once the torso has turned half a turn from it the orientation error
+    (SO(3) log) flips sign and the torso task twists the robot the other way (a fall at the pelvis's 160–165 deg).
+
     Raises:
         InvalidInputError / GaitError: bad numbers; GaitError at :meth:`setup` for a turning plan (footstep yaws
             differing by > 0.01 rad) on a robot whose legs cannot yaw one sole relative to the other (no hip yaw
@@ -389,6 +396,14 @@ class WalkScenario:
             raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
                             "relative yaw rate of the soles has a zero Jacobian), so its feet cannot turn; the plan "
                             f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
+        self._torso_turn = None
+        torso = getattr(controller, "torso", None)
+        if torso is not None and yaws and self.terrain is None:
+            h0 = mean_heading(L, R)
+            if max(abs(math.remainder(y - h0, 2 * math.pi)) for y in yaws) > 0.01:
+                # (R0 = the held torso reference, h0 = the start heading, a buffer for the per-tick R*ᵀ, position)
+                tgt = torso.task.target
+                self._torso_turn = (tgt.rotation.copy(), h0, np.empty((3, 3)), np.array(tgt.translation))
         if self.from_state:
             plan = self._capture_plan(plan, q, v)
         elif self.from_motion:
@@ -567,6 +582,8 @@ class WalkScenario:
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
                     and sw.touchdown_time[side] > self._t_unload[side]:
                 del self._active[side]
+        if self._torso_turn is not None:
+            self._turn_torso(controller, k)
         # State quantities (CoM velocity, soles) for the DCM and the log.
         pin.centerOfMass(self._model, self._data, q, v)
         pin.framesForwardKinematics(self._model, self._data, q)
@@ -600,6 +617,20 @@ class WalkScenario:
                 and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
         return self._apply_push(t, sim)
+
+    def _turn_torso(self, controller, k: int) -> None:
+        """Torso orientation reference of sample ``k`` of a turning plan (class docstring, "Torso heading"):
+        ``Rz(h_k − h_0) R_0``, ``h_k`` the mean heading of the planned soles at ``k``."""
+        r0, h0, rot_t, pos = self._torso_turn
+        pl, pr = self.poses["left"][k], self.poses["right"][k]
+        h = math.atan2(pl[1, 0] / math.hypot(pl[0, 0], pl[1, 0]) + pr[1, 0] / math.hypot(pr[0, 0], pr[1, 0]),
+                       pl[0, 0] / math.hypot(pl[0, 0], pl[1, 0]) + pr[0, 0] / math.hypot(pr[0, 0], pr[1, 0]))
+        c, s = math.cos(h - h0), math.sin(h - h0)
+        # R*ᵀ = R_0ᵀ Rz(Δh)ᵀ: row i of R_0ᵀ is column i of R_0
+        for i in range(3):
+            a, b = r0[0, i], r0[1, i]
+            rot_t[i, 0], rot_t[i, 1], rot_t[i, 2] = a * c - b * s, a * s + b * c, r0[2, i]
+        controller.torso.task.set_target_rows(rot_t, pos)
 
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
         """Touch-down height of a swinging foot relative to the stance sole: its landing height plus the stance
