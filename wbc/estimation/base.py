@@ -227,6 +227,7 @@ class FloatingBaseEstimator:
         self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
         self.sole = {s: pin.SE3.Identity() for s in SIDES}
+        self._X = pin.SE3.Identity()  # the estimated base rotation, for its quaternion (update)
         self._u = np.zeros((2, 3))
         self._zv, self._zv_prev, self._f_grav = np.zeros(3), np.zeros(3), np.zeros(3)
         self._have_zv = False
@@ -363,7 +364,11 @@ class FloatingBaseEstimator:
         # Outputs.
         q, v = self.q, self.v
         q[0:3] = p
-        q[3:7] = pin.Quaternion(R).coeffs()
+        # (pin.Quaternion(R), built from a matrix, leaks 80 B of C heap per call with eigenpy 3.12: 2.4 MB per
+        # minute at 500 Hz; SE3ToXYZQUAT gives the same (x, y, z, w) without it)
+        X = self._X
+        X.rotation = R
+        q[3:7] = pin.SE3ToXYZQUAT(X)[3:]
         q[7:] = qk[7:]
         v[0:3] = R.T @ pd
         v[3:6] = omega

@@ -62,10 +62,9 @@ Behaviour:
 
 Memory: the node keeps no run log; finished goals are kept in a ring of 16 for get_result. Every 10 s of node
 time (between two ticks, after the tick's messages are out) the node returns the free memory of glibc's heap to the
-system (``malloc_trim(0)`` through ctypes; nothing on a C library without it): each re-plan of the walk frees
-arrays of about 0.5 MB and each tick small temporaries, and glibc keeps the freed pages of a fragmented heap
-resident — the resident size then grows by about 2.5 MB per minute of walking with no live object growing
-(Python's allocations, numba's and DDS's stay flat), and a trim gives it back. A trim is one call of a few
+system (``malloc_trim(0)`` through ctypes; nothing on a C library without it): start-up, each re-plan of the walk
+(arrays of about 0.5 MB) and each tick's temporaries free memory that glibc keeps resident in a fragmented heap
+(about 100 MB for the ``sim`` node); a trim gives the free pages back. A trim is one call of one or two
 milliseconds; its count and the time of the last one are in the ``report_every`` line.
 """
 

@@ -177,9 +177,8 @@ class Ros2Publisher:
         if q is not None:
             out.append(self._ts(stamp, "odom", self.root, q[:3], q[3:7]))
         for p, c in pairs:
-            rel = oMf[p].actInv(oMf[c])
-            quat = pin.Quaternion(rel.rotation).coeffs()
-            out.append(self._ts(stamp, frames[p].name, frames[c].name, rel.translation, quat))
+            xyzquat = pin.SE3ToXYZQUAT(oMf[p].actInv(oMf[c]))  # (not pin.Quaternion(R): it leaks, estimation.base)
+            out.append(self._ts(stamp, frames[p].name, frames[c].name, xyzquat[:3], xyzquat[3:]))
         return m.TFMessage(out)
 
     def _ts(self, stamp, parent, child, xyz, xyzw):
@@ -245,9 +244,7 @@ class Ros2Publisher:
             pin.framesForwardKinematics(self.robot.model, self._data, q)
             oMf = self._data.oMf
             for i, (p, c) in enumerate(self._moving, start=1):
-                rel = oMf[p].actInv(oMf[c])
-                vals[i, :3] = rel.translation
-                vals[i, 3:] = pin.Quaternion(rel.rotation).coeffs()
+                vals[i] = pin.SE3ToXYZQUAT(oMf[p].actInv(oMf[c]))  # (x, y, z, qx, qy, qz, qw)
         self._send("/tf", m.TFMessage, t, self._tf_packer.encode(stamp.sec, stamp.nanosec, vals))
         self.published += 1
         self.write_time += time.perf_counter() - t0
