@@ -433,3 +433,58 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]
     assert all(a[0].tobytes() == b[0].tobytes() and a[2:] == b[2:] for a, b in zip(steady, raced))
     assert all(p == "levels" for _, p, _, _ in steady)
+
+
+def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
+    """Item 7 at the kinematic level, counted in solver calls (not time): five leg joints of humanoid15 5–50 mrad
+    past their limits, both soles in contact, dt = 2 ms and the default budget (the period). Every tick is ok (no
+    freeze), and no tick calls DAQP more than 16 times (every call counted, through a shim of the ``daqp`` module:
+    workspace solves and one-shot solves). Before, the return-rate ladder tried each scale with cold retries and a
+    'contacts_held' tick made 45 calls."""
+    import daqp
+
+    calls = [0]
+    model_cls, solve_fn = daqp.Model, daqp.solve
+
+    class CountingModel:
+        def __init__(self):
+            self.m = model_cls()
+        settings = property(lambda s: s.m.settings, lambda s, v: setattr(s.m, "settings", v))
+
+        def setup(self, *a):
+            return self.m.setup(*a)
+
+        def update(self, **k):
+            return self.m.update(**k)
+
+        def solve(self):
+            calls[0] += 1
+            return self.m.solve()
+
+    def counting_solve(*a, **k):
+        calls[0] += 1
+        return solve_fn(*a, **k)
+    monkeypatch.setattr(daqp, "Model", CountingModel)
+    monkeypatch.setattr(daqp, "solve", counting_solve)
+    robot = robots("humanoid15")
+    model = robot.model
+    config = Configuration(robot)
+    iq, _ = bounded_joints(model)
+    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
+    rng = np.random.default_rng(0)
+    q = config.q.copy()
+    for k in rng.choice(legs, 5, replace=False):
+        over = rng.uniform(0.005, 0.05)
+        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
+            model.lowerPositionLimit[iq[k]] - over
+    config.update(q)
+    ctrl, _ = standing_controller(robot, config)
+    most = 0
+    for tick in range(40):
+        calls[0] = 0
+        res = ctrl.solve(config, DT)
+        assert res.ok, (tick, res.path, res.message)
+        most = max(most, calls[0])
+        config.update(config.integrate(res.v, DT))
+    assert most <= 16, most
