@@ -80,13 +80,6 @@ class QPBackend(ABC):
     #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
     #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
     work: "TickWork | None" = None
-    def _count(self, solves: float = 1.0) -> None:
-        """Add ``solves`` to the tick's counted work (``work``), if any: every solver call inside a solve attempt
-        beyond the attempt's first (a cold set-up after a failed warm start, DAQP's one-shot, relaxed-tolerance and
-        scaled retries, the projection of :meth:`polish`) counts one, as the attempt itself does."""
-        if self.work is not None:
-            self.work.solves += solves
-
     #: retry a failed solve from a cold start (:meth:`_solve_cold`) before declaring it failed; a caller trying a
     #: sequence of problems where a failure only sends it to the next one may turn it off for those solves.
     cold_retry: bool = True
@@ -172,7 +165,6 @@ class QPBackend(ABC):
     def _project(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """x projected onto the hard set (:meth:`polish`), or None when that fails the check of :meth:`solve`."""
         n = x.shape[0]
-        self._count()
         try:
             y = DaqpBackend(tolerance=self.tolerance)._solve(np.eye(n), -np.where(np.isfinite(x), x, 0.0), A, b, C,
                                                              l, u, lb, ub)
@@ -301,9 +293,6 @@ class QPBackend(ABC):
 
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
-#: DAQP iterations counted as one solve of :class:`TickWork` (beyond the call itself): about the work of one
-#: call's set-up and fixed costs on a humanoid's kinematic QP (n = 22–38: 2–6 µs per iteration, 60–150 µs per call)
-ITERATIONS_PER_SOLVE = 100
 
 
 class DaqpBackend(QPBackend):
@@ -383,12 +372,10 @@ class DaqpBackend(QPBackend):
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             x, _, exitflag, info = self._model.solve()
             self.last_iterations = int(info["iterations"])
-            self._count(self.last_iterations / ITERATIONS_PER_SOLVE)
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
                 return x
             self.warm_failures += 1
-            self._count()  # the cold set-up below is a second solver call of this attempt
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         if self.settings:
@@ -397,17 +384,14 @@ class DaqpBackend(QPBackend):
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, exitflag, info = model.solve()
             self.last_iterations = int(info["iterations"])
-            self._count(self.last_iterations / ITERATIONS_PER_SOLVE)
             if exitflag >= 1:
                 self._model = model
                 self.last_multipliers = info["lam"]
                 return x
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
-        self._count()
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations = int(info["iterations"])
-        self._count(self.last_iterations / ITERATIONS_PER_SOLVE)
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
         return x if exitflag >= 1 else None
 
@@ -424,9 +408,7 @@ class DaqpBackend(QPBackend):
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
             relaxed = {**self.settings, "primal_tol": self.tolerance}
-            self._count()
             x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
-            self._count(int(info["iterations"]) / ITERATIONS_PER_SOLVE)
             if exitflag >= 1:
                 return x2
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
@@ -435,10 +417,8 @@ class DaqpBackend(QPBackend):
             # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
-            self._count()
             x3, _, exitflag, info = self._daqp.solve(H * scale, g * scale, self._G, self._upper, self._lower,
                                                      self._sense, **self.settings)
-            self._count(int(info["iterations"]) / ITERATIONS_PER_SOLVE)
             if exitflag >= 1:
                 self.last_multipliers = None
                 return x3
@@ -447,12 +427,9 @@ class DaqpBackend(QPBackend):
     def _solve_dual(self, H, g, G, upper, lower):
         kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
-        self._count(int(info["iterations"]) / ITERATIONS_PER_SOLVE)
         if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
             self.warm_failures += 1
-            self._count()
             x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-            self._count(int(info["iterations"]) / ITERATIONS_PER_SOLVE)
         self.last_iterations = int(info["iterations"])
         if exitflag < 1:
             self._dual = None

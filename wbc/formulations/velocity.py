@@ -1470,13 +1470,12 @@ _CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 #: share of a tick's budget (counted in QP solves) after which a solved tick starts no further stage (strict level,
-#: contact correction, trust region; :meth:`KinematicController._stage_late`): with the stage in progress when the
-#: count runs out (one solve, its cold retry), a tick ends near 2 × its budget
-_STAGE_SHARE = 1.75
+#: contact correction, trust region; :meth:`KinematicController._stage_late`)
+_STAGE_SHARE = 2.0
 
 #: share of a tick's budget (counted in QP solves) after which the safe command of a failed tick starts no further
 #: solve (:meth:`KinematicController._fallback_late`; then v = 0, 'hold'): the same as a solved tick's stages
-_FALLBACK_SHARE = 1.75
+_FALLBACK_SHARE = 2.0
 
 #: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
 _HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
