@@ -175,14 +175,14 @@ def test_two_processes_joint_states(dds_env, rate):
 
 def test_joint_publisher_late_joiner_echo_and_reset(dds_env):
     pub = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "joint-publisher", "--robot", "humanoid15",
-                            "--rate", "50", "--steps", "2", "--duration", "60"], env=dds_env,
+                            "--rate", "50", "--steps", "2", "--duration", "300"], env=dds_env,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = pub.stdout.readline()
         assert first.startswith("wbc ros2 joint-publisher: humanoid15"), first + pub.stderr.read()
         time.sleep(1.0)  # the subscriber below joins late: the latched samples were written long before
         late = subprocess.run([sys.executable, str(SUBSCRIBER), "latched", "20"], env=dds_env,
-                              capture_output=True, text=True, timeout=60, cwd="/")
+                              capture_output=True, text=True, timeout=180, cwd="/")
         got = json.loads(late.stdout.strip().splitlines()[-1])
         urdf = ET.fromstring(got["description"])
         assert urdf.tag == "robot" and urdf.get("name")
@@ -191,7 +191,7 @@ def test_joint_publisher_late_joiner_echo_and_reset(dds_env):
         assert fixed and {tuple(x) for x in got["tf_static"]} == fixed
 
         echo = subprocess.run([sys.executable, "-m", "wbc", "ros2", "echo-joint", "right_knee", "--count", "20",
-                               "--timeout", "30"], env=dds_env, capture_output=True, text=True, timeout=60)
+                               "--timeout", "60"], env=dds_env, capture_output=True, text=True, timeout=180)
         assert echo.returncode == 0, echo.stderr
         lines = echo.stdout.strip().splitlines()
         assert len(lines) == 20
@@ -205,7 +205,7 @@ def test_joint_publisher_late_joiner_echo_and_reset(dds_env):
         assert all(lo - 1e-9 <= k <= hi + 1e-9 for k in knee)
 
         reset = subprocess.run([sys.executable, str(SUBSCRIBER), "reset", "20"], env=dds_env,
-                               capture_output=True, text=True, timeout=60, cwd="/")
+                               capture_output=True, text=True, timeout=180, cwd="/")
         reply = json.loads(reset.stdout.strip().splitlines()[-1])["reply"]
         assert reply["success"] is True and reply["seq"] >= 1 and "reset" in reply["message"]
     finally:
