@@ -291,30 +291,6 @@ def test_first_tick_loads_no_kernel():
     assert before >= 1 and after == before
 
 
-def test_fast_solver_first_tick_loads_no_kernel():
-    """Item 7 with the default solver: constructing the compiled-tick QP loads ``id_tick`` (one numba signature,
-    the one a tick uses: M column-major as a DynamicsState's), and the first tick adds none. Before, the first tick
-    loaded it (about 350 ms in a warm cache, seconds when it compiles). Counted work, not time."""
-    import os
-    import subprocess
-
-    code = (
-        "import warnings; warnings.simplefilter('ignore')\n"
-        "import numpy as np, wbc\n"
-        "from wbc.formulations import idkernel as k\n"
-        "from wbc.dynamics.balance import IDBalanceController\n"
-        "robot = wbc.load_robot('talos')\n"
-        "ctrl = IDBalanceController(robot, dt=0.002, solver='fast')\n"
-        "before = len(k.id_tick.signatures)\n"
-        "cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))\n"
-        "print(cmd.path, before, len(k.id_tick.signatures))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
-    assert out.returncode == 0, out.stderr[-2000:]
-    path, before, after = out.stdout.split()[-3:]
-    assert path == "kernel" and int(before) == 1 and int(after) == 1, out.stdout
-
-
 def test_held_command_keeps_the_joint_speed_bounds(robots):
     """A failed full QP with the budget spent holds the previous tick's command; a wrist whose speed jumped to 99 %
     of its URDF limit since then (an impact) must still be braked into the speed bounds |v + h dt v̇| ≤ 0.95 q̇_max

@@ -133,9 +133,7 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
         else:
             Hk, gk = J.T @ J, -(J.T @ target)
         try:
-            # below the first level the previous v meets every row: a failure there is numerical, and the
-            # retries below handle it, so only the first level's failure is confirmed by independent solvers
-            v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub, confirm=v is None)
+            v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
             if J is not None:
                 # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
@@ -143,8 +141,7 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                 # (Kanoun et al.'s damped least squares; relative bias ~1e-9)
                 mu = 1e-9 * max(1.0, float(np.max(np.diag(Hk))))
                 try:
-                    v_damped = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub,
-                                             confirm=v is None)
+                    v_damped = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
                 except SolverError:
                     v_damped = None
                 if v_damped is not None:
@@ -171,7 +168,7 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                 wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
                 lk, uk = np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide])
                 try:
-                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub, confirm=False)
+                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
                 except SolverError:
                     v = v_prev
             skipped.append(k)

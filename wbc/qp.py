@@ -80,9 +80,6 @@ class QPBackend(ABC):
     #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
     #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
     work: "TickWork | None" = None
-    #: retry a failed solve from a cold start (:meth:`_solve_cold`) before declaring it failed; a caller trying a
-    #: sequence of problems where a failure only sends it to the next one may turn it off for those solves.
-    cold_retry: bool = True
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
@@ -106,9 +103,8 @@ class QPBackend(ABC):
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
-        # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
-        # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
-        for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
+        # a warm start can mislead an active-set solver: once more from scratch before declaring failure
+        for attempt in (self._solve, self._solve_cold):
             if self.work is not None:
                 self.work.solves += 1
             x = attempt(H, g, A, b, C, l, u, lb, ub)
@@ -291,10 +287,6 @@ class QPBackend(ABC):
         return float(worst)
 
 
-#: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
-ITERATION_LIMIT = 1000
-
-
 class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
@@ -310,7 +302,7 @@ class DaqpBackend(QPBackend):
             the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities — both
             measured side by side).
         **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
-            ``primal_tol``); DAQP's defaults otherwise, except ``iter_limit`` (default :data:`ITERATION_LIMIT`).
+            ``primal_tol``); DAQP's defaults otherwise.
 
     Raises:
         InvalidInputError: unknown ``warm_start``.
@@ -326,9 +318,7 @@ class DaqpBackend(QPBackend):
         self._daqp = daqp
         self.tolerance = tolerance
         self.warm_start = warm_start
-        # an iteration cap, so that one call's work is bounded (DAQP's default, 10 000, was measured to take 24 ms
-        # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
-        self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
+        self.settings = settings
         self._model = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None

@@ -338,12 +338,8 @@ class KinematicController:
         return self._work.spent()
 
     def _stage_late(self) -> bool:
-        """A solved tick starts no further stage: ``_STAGE_SHARE`` × its budget (in QP solves) is spent."""
-        return self._work.spent(_STAGE_SHARE)
-
-    def _fallback_late(self) -> bool:
-        """The safe command of a failed tick starts no further solve: ``_FALLBACK_SHARE`` × its budget is spent."""
-        return self._work.spent(_FALLBACK_SHARE)
+        """A solved tick starts no further stage: twice its budget (in QP solves) is spent."""
+        return self._work.spent(2.0)
 
     def _start_work(self, budget_s: float, plan=None) -> None:
         """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend."""
@@ -960,10 +956,8 @@ class KinematicController:
         A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
         several such joints and both soles in contact that can be impossible while a slower return is not. The
         return rate ranks below every other hard constraint and above the tasks: the required return velocity of
-        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; α = 0 only forbids
-        moving further out). α = 0 is solved first (no solution there: none at any α, the tick fails); then the
-        larger scales from 1/2 down, each started only while the tick's counted budget lasts, and the first that
-        solves is kept (else α = 0's command). Returns (v, α).
+        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; the first that solves is kept;
+        α = 0 only forbids moving further out). Returns (v, α).
 
         Raises:
             SolverError: ``failure`` (the tick's) when no joint is outside its limits, or none of the α solves.
@@ -983,36 +977,20 @@ class KinematicController:
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
         try:
-            for b in backends:  # a failed α needs no independent confirmation nor cold retry: the next α is tried
+            for b in backends:  # a failed α needs no independent confirmation: the next α is tried
                 b.independent = ()
-            # α = 0 first: the feasible set grows as α falls, so when α = 0 has no solution no α has (one solve,
-            # unconfirmed: not cut by the budget); then the largest α in _RETURN_RATE_SCALES that solves, tried
-            # from the top while the tick's counted budget lasts (a count, not a clock: deterministic)
-            self._lb[low] = 0.0
-            self._ub[high] = 0.0
-            try:
-                v0 = self._solve_assembled(config)
-            except SolverError:
-                raise SolverError(f"{failure}; no solution either with the joints outside their limits held where "
-                                  f"they are (return rate 0)") from None
-            for b in backends:
-                b.cold_retry = False
-            for alpha in _RETURN_RATE_SCALES[:-1]:
-                if self._late():
-                    break
+            for alpha in _RETURN_RATE_SCALES:  # (at most 5 solves, unconfirmed: not cut by the budget)
                 self._lb[low] = alpha * lb0
                 self._ub[high] = alpha * ub0
                 try:
                     return self._solve_assembled(config), alpha
                 except SolverError:
                     continue
-            self._lb[low] = 0.0  # the buffers hold the problem of the returned command (output guard, corrections)
-            self._ub[high] = 0.0
-            return v0, 0.0
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
-                b.cold_retry = True
+        raise SolverError(f"{failure}; no solution either with the joints outside their limits held where they "
+                          f"are (return rate 0)")
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
@@ -1100,7 +1078,7 @@ class KinematicController:
             for k in range(3):
                 # the refinement stops at the tick budget (the safe command's) or twice it (a solved tick's); the
                 # best command so far is kept
-                if self._fallback_late() if bounded else self._stage_late():
+                if self._late() if bounded else self._stage_late():
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
                     break
@@ -1156,7 +1134,7 @@ class KinematicController:
             for k, radius in enumerate(radii):
                 # the trust region stops at the tick budget (the safe command's) or twice it (a solved tick's); the
                 # least drifting command is kept
-                if self._fallback_late() if bounded else self._stage_late():
+                if self._late() if bounded else self._stage_late():
                     if not bounded:
                         self._cut.append(f"trust region after {k} of {len(radii)} radii")
                     break
@@ -1315,7 +1293,7 @@ class KinematicController:
                        "conflict off the control path)"
         v, fallback = np.zeros(self.nv), "hold"
         tol = self.sole_drift_tolerance
-        if not data_fault and not self._fallback_late():  # (non-finite QP data, or the budget spent: hold)
+        if not data_fault:  # (non-finite QP data: hold)
             try:
                 v_c = self._solve_constraints_only(config)
                 # the safe command holds the contacts to second order like an ok tick (correction, trust region)
@@ -1340,8 +1318,7 @@ class KinematicController:
             placements = [c.placement for c in self._contacts]
             try:
                 if backend is not None:
-                    backend.independent = ()  # a failed β needs no confirmation nor cold retry: the next is tried
-                    backend.cold_retry = False
+                    backend.independent = ()  # a failed β needs no confirmation: the next one is tried
                 for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
                     c.placement = anchor
                     self._b[r0:r1] = c.compute(config, dt)[1]
@@ -1354,9 +1331,6 @@ class KinematicController:
                 if rank < anchored.size:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
                 for beta in _HELD_CORRECTION_SCALES:
-                    if self._fallback_late():
-                        over_budget = True
-                        break
                     self._b[self._contact_rows] = beta * anchored
                     try:
                         v_h = self._solve_constraints_only(config)
@@ -1382,7 +1356,6 @@ class KinematicController:
                 np.copyto(self._b, b0)
                 if backend is not None:
                     backend.independent = independent
-                    backend.cold_retry = True
         try:
             drift = self.sole_drift(config, v, dt)
         except Exception:  # noqa: BLE001 — never raises (module docstring)
@@ -1468,14 +1441,6 @@ _CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
 #: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
 #: (``KinematicController._relax_return_rate``)
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
-
-#: share of a tick's budget (counted in QP solves) after which a solved tick starts no further stage (strict level,
-#: contact correction, trust region; :meth:`KinematicController._stage_late`)
-_STAGE_SHARE = 2.0
-
-#: share of a tick's budget (counted in QP solves) after which the safe command of a failed tick starts no further
-#: solve (:meth:`KinematicController._fallback_late`; then v = 0, 'hold'): the same as a solved tick's stages
-_FALLBACK_SHARE = 2.0
 
 #: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
 _HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
