@@ -353,7 +353,7 @@ class JumpScenario:
             ctrl.qp.add_task(self.base_task)
         st = ctrl.state
         self.c_to, self.v_to, self.t_to = c, vc, t
-        self.t_flight = 2 * max(vc[2], 0.05) / G  # measured flight time to the take-off height
+        self.t_flight = 2 * max(vc[2], 0.05) / GRAVITY  # measured flight time to the take-off height
         self.feet_to = {s: st.data.oMf[ctrl.feet[s].task.frame_id].translation.copy() for s in SIDES}
         self.foot_target = {s: self.jump_plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
         self.foot_target.update({s: np.r_[self.foot_target[s][:2], self.soles0[s].translation[2]] for s in SIDES})
