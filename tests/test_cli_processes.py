@@ -267,6 +267,62 @@ def test_sigint_to_a_running_cli_keeps_the_previous_log(tmp_path, command, delay
     assert sorted(p.name for p in tmp_path.iterdir()) == ["X.npz"]
 
 
+_SWALLOWING_CHILD = """
+import ctypes, sys, time
+
+import wbc.viz.progress as progress
+
+def in_c_callback():  # Python called back from C, as numba's LLVM engine does while the kernels compile
+    print("in the callback", flush=True)
+    time.sleep(3.0)
+
+callback = ctypes.CFUNCTYPE(None)(in_c_callback)
+update = progress.ProgressViewer.update
+ticks = [0]
+
+def first_tick_calls_back(self, *args, **kwargs):
+    ticks[0] += 1
+    if ticks[0] == 1:
+        callback()
+    return update(self, *args, **kwargs)
+
+progress.ProgressViewer.update = first_tick_calls_back
+from wbc.cli import main
+
+sys.exit(main(["walk", "--robot", "humanoid15", "--steps", "400", "--quiet"]))
+"""
+
+
+@linux_only
+def test_a_ctrl_c_swallowed_by_a_c_callback_still_ends_the_run(tmp_path):
+    """A Ctrl-C landing while Python runs inside a ctypes callback (numba compiling the kernels on a first run; the
+    CI met it as `Exception ignored on calling ctypes callback function: ...KeyboardInterrupt`) is swallowed there:
+    the 400-step walk must still stop at its next tick with 130, not run on for minutes."""
+    import subprocess
+    import time
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-c", _SWALLOWING_CHILD], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        assert proc.stdout.readline().strip() == "in the callback", proc.poll()
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        t0 = time.monotonic()
+        out, err = proc.communicate(timeout=60)
+        waited = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert "Exception ignored on calling ctypes callback" in err, err[-2000:]  # it was swallowed where it landed
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
+    assert "interrupted (Ctrl-C)" in err, err[-2000:]
+    # the callback sleeps 2.5 s more; the walk itself would take minutes (400 steps, ~0.8 s each)
+    assert waited < 30.0, waited
+
+
 def _udp_sockets_of(pid: int) -> dict[int, str]:
     """{inode: local address (hex, as /proc/<pid>/net/udp* writes it)} of the UDP sockets process ``pid`` holds."""
     held = set()

@@ -92,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     # A Ctrl-C while the modules load (seconds; longer on a first run) ends the process at once with 130: nothing has
     # been written yet, and raised inside an import a KeyboardInterrupt can end in a traceback or be swallowed by a
     # library's `except:`.
+    run_sigint = None
     try:
         default_sigint = signal.signal(signal.SIGINT, _exit_while_loading)
     except ValueError:  # not the main thread: leave SIGINT alone
@@ -105,6 +106,11 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGINT, default_sigint)
     args = parser.parse_args(argv)
     previous = None
+    if default_sigint is signal.default_int_handler:  # a run's Ctrl-C: see on_sigint (ignored or the caller's: kept)
+        from wbc.cli.output import clear_sigint, on_sigint
+
+        clear_sigint()
+        run_sigint = signal.signal(signal.SIGINT, on_sigint)
     try:
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:  # not the main thread: leave SIGTERM alone
@@ -140,6 +146,8 @@ def main(argv: list[str] | None = None) -> int:
         close_live()
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if run_sigint is not None:
+            signal.signal(signal.SIGINT, run_sigint)
 
 
 def _exit_while_loading(signum, frame) -> None:

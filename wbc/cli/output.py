@@ -12,6 +12,7 @@ import contextlib
 import io
 import json
 import os
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -304,7 +305,25 @@ def progress(args, total: float | None, viewer=None, desc: str = ""):
         compile_notice(desc, kernels)
     # while the kernels compile (first run), the bar is drawn every second with its elapsed time
     return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None,
-                          heartbeat=1.0 if compiling else None)
+                          heartbeat=1.0 if compiling else None, interrupted=_SIGINT_RECEIVED.is_set)
+
+
+_SIGINT_RECEIVED = threading.Event()
+
+
+def on_sigint(signum, frame) -> None:
+    """SIGINT handler of a run command: remember the Ctrl-C, then raise KeyboardInterrupt.
+
+    Raised inside a ctypes callback (numba's LLVM engine while the kernels compile, on a first run) the
+    KeyboardInterrupt is printed as "Exception ignored" and swallowed, and the run would go on to its end; the run
+    loop's progress viewer (see :func:`progress`) raises it again at the next tick."""
+    _SIGINT_RECEIVED.set()
+    raise KeyboardInterrupt
+
+
+def clear_sigint() -> None:
+    """Forget a Ctrl-C seen by :func:`on_sigint` (a new run in the same process starts clean)."""
+    _SIGINT_RECEIVED.clear()
 
 
 def hold_live(seconds: float | None) -> None:

@@ -8,7 +8,7 @@ comparison) and forwards every call to an optional inner viewer (a live meshcat 
 from __future__ import annotations
 
 import sys
-from typing import Any, TextIO
+from typing import Any, Callable, TextIO
 
 __all__ = ["ProgressViewer"]
 
@@ -26,11 +26,16 @@ class ProgressViewer:
         step: simulated seconds between bar refreshes.
         heartbeat: wall-clock seconds between redraws of the bar (its elapsed time) until the first ``update`` —
             for a run whose first tick waits on something slow (compiling kernels); None: no redraw before it.
+        interrupted: a callable returning True once the run was asked to stop (a Ctrl-C that may have been
+            swallowed where it landed); ``update`` then raises KeyboardInterrupt. None: not checked.
+
+    Raises:
+        KeyboardInterrupt: from ``update``, when ``interrupted()`` is True.
     """
 
     def __init__(self, total: float | None, inner: Any = None, *, desc: str = "", enabled: bool | None = None,
                  stream: TextIO | None = None, delay: float = 2.0, step: float = 0.05,
-                 heartbeat: float | None = None):
+                 heartbeat: float | None = None, interrupted: Callable[[], bool] | None = None):
         from tqdm import tqdm
 
         stream = sys.stderr if stream is None else stream
@@ -38,6 +43,7 @@ class ProgressViewer:
             enabled = bool(getattr(stream, "isatty", lambda: False)())
         self.inner = inner
         self.enabled = enabled
+        self._interrupted = interrupted
         self._step = float(step)
         self._shown = 0.0
         self.bar = tqdm(total=None if total is None else round(float(total), 3), unit="s", desc=desc,
@@ -62,7 +68,10 @@ class ProgressViewer:
             self._beating = None
 
     def update(self, q, t: float | None = None, *args: Any, **kwargs: Any) -> None:
-        """Forward to the inner viewer; advance the bar to simulated time ``t`` (s)."""
+        """Forward to the inner viewer; advance the bar to simulated time ``t`` (s). Raises KeyboardInterrupt once
+        ``interrupted()`` is True."""
+        if self._interrupted is not None and self._interrupted():
+            raise KeyboardInterrupt
         if self._beating is not None:
             self._stop_beat()
         if self.inner is not None:
