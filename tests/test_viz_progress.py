@@ -69,3 +69,17 @@ def test_heartbeat_redraws_the_bar_before_the_first_tick_and_stops_after():
     time.sleep(0.5)
     assert quiet.getvalue().count("s sim") <= 1  # at most tqdm's own first draw
     p.close()
+
+
+def test_update_raises_keyboard_interrupt_once_interrupted():
+    """`interrupted()` True (a Ctrl-C swallowed where it landed): the next update raises before forwarding."""
+    import pytest
+
+    flag, inner = [False], _Inner()
+    p = ProgressViewer(1.0, inner, enabled=False, interrupted=lambda: flag[0])
+    p.update(None, 0.002)
+    flag[0] = True
+    with pytest.raises(KeyboardInterrupt):
+        p.update(None, 0.004)
+    assert [t for t, _ in inner.calls] == [0.002]
+    p.close()
