@@ -82,6 +82,13 @@ def test_measured_cop_and_margin():
     w2 = np.zeros((2, 6))
     w2[0, 2], w2[0, 4] = 400.0, -400.0 * 0.03
     assert measured_cop(w2, np.zeros((2, 3))) == pytest.approx([0.03, 0.0])
+    # On a tread at h = 0.15 m a force (60, 0, 400) N acting at the sole origin (0.3, 0, 0.15): its CoP on the tread
+    # is the origin's xy; on the floor plane z = 0 its line of action lands h F_x / F_z = 22.5 mm behind.
+    w3 = np.zeros((2, 6))
+    w3[0, :3] = [60.0, 0.0, 400.0]
+    pos3 = np.array([[0.3, 0.0, 0.15], [0.3, -0.2, 0.15]])
+    assert measured_cop(w3, pos3, height=0.15) == pytest.approx([0.3, 0.0], abs=1e-12)
+    assert measured_cop(w3, pos3) == pytest.approx([0.3 - 0.15 * 60.0 / 400.0, 0.0], abs=1e-12)
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     assert polygon_margin(np.array([0.5, 0.2]), square) == pytest.approx(0.2)
     assert polygon_margin(np.array([1.3, 0.5]), square) == pytest.approx(-0.3)

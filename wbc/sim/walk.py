@@ -45,6 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.contact_switching import ContactSwitcher
+from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import closest_point_in_polygon, convex_hull, mean_heading, polygon_margin, projected_sole_corners
 from wbc.geometry import hull as hull_vertices
@@ -58,26 +59,24 @@ __all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "walk_acceptance", "
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
 
 
-def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0) -> np.ndarray | None:
-    """CoP (2,) on the floor z = 0 (m, world) of the plant's foot wrenches.
+def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0,
+                 height: float = 0.0) -> np.ndarray | None:
+    """CoP (2,) on the plane z = ``height`` (m, world) of the plant's foot wrenches.
 
     Args:
         wrench: (2, 6) ground reaction per foot: force (N), moment (N·m) about the sole origin, world axes.
         sole_pos: (2, 3) sole origins (m, world).
         min_fz: total normal force (N) below which there is no CoP (None).
+        height: height (m, world) of the plane: 0 on flat ground, the loaded treads' height on terrain (on the plane
+            z = 0 a tread at height h moves the point by h F_xy / F_z).
 
-    With the total force F and the moment about the world origin M = Σ (τ_i + o_i × f_i), a force F at
-    p = (p_x, p_y, 0) has moment p × F, so p_x = −M_y / F_z, p_y = M_x / F_z (Sardain & Bessonnet 2004, ZMP =
-    CoP on flat ground).
+    With the total force F and the moment about (0, 0, h) M = Σ (τ_i + o_i × f_i) − (0, 0, h) × F, a force F at
+    p = (p_x, p_y, h) has moment (p − (0, 0, h)) × F, so p_x = −M_y / F_z, p_y = M_x / F_z (Sardain & Bessonnet 2004,
+    ZMP = CoP on a plane contact); computed by :func:`wbc.estimation.zmp_from_wrenches` with world-aligned sole
+    frames.
     """
-    F = wrench[:, :3].sum(axis=0)
-    if F[2] < min_fz:
-        return None
-    o, f = sole_pos, wrench[:, :3]  # Σ o_i × f_i written out (np.cross costs more than the rest together)
-    M = wrench[:, 3:].sum(axis=0) + np.array([(o[:, 1] * f[:, 2] - o[:, 2] * f[:, 1]).sum(),
-                                              (o[:, 2] * f[:, 0] - o[:, 0] * f[:, 2]).sum(),
-                                              (o[:, 0] * f[:, 1] - o[:, 1] * f[:, 0]).sum()])
-    return np.array([-M[1] / F[2], M[0] / F[2]])
+    eye = np.eye(3)
+    return zmp_from_wrenches(wrench, [pin.SE3(eye, np.asarray(o, dtype=float)) for o in sole_pos], min_fz, height)
 
 
 def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
@@ -864,7 +863,11 @@ class WalkScenario:
         r = self.robot
         for i in range(settle, n):
             wr = run.sim_wrench[i]
-            p = measured_cop(wr, run.sole_pos[i])
+            h = 0.0
+            if self.terrain_walk is not None:  # on the plane of the loaded soles (normal-force-weighted height)
+                fz = np.maximum(wr[:, 2], 0.0)
+                h = float(fz @ run.sole_pos[i, :, 2] / fz.sum()) if fz.sum() > 0 else 0.0
+            p = measured_cop(wr, run.sole_pos[i], height=h)
             if p is None:
                 continue
             cop[i] = p
