@@ -277,6 +277,36 @@ def test_live_viewer_never_blocks_the_caller(talos):
     viewer.close()  # idempotent
 
 
+def test_live_viewer_draws_the_terrain(talos):
+    """`LiveViewer(robot, terrain=...)`: the scene its meshcat server holds (read back by a second client, as a
+    browser gets it) has one box per stair tread at the terrain's sizes and centres, under /meshcat/terrain."""
+    import contextlib
+    import io
+
+    import meshcat
+
+    from wbc.terrain import parse_terrain
+
+    terrain = parse_terrain("stairs:0.1:0.3:3:updown")
+    viewer = LiveViewer(talos, fps=25.0, terrain=terrain)
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            html = meshcat.Visualizer(zmq_url=viewer.zmq_url).static_html()
+    finally:
+        viewer.close()
+    blobs = [base64.b64decode(b) for b in re.findall(r"base64,([A-Za-z0-9+/=]+)", html)]
+    commands = [umsgpack.unpackb(b) for b in blobs if b"/meshcat/terrain/" in b]  # the terrain's scene commands
+    boxes = {c["path"]: c for c in commands if c.get("type") == "set_object" and "/meshcat/terrain/box_" in c["path"]}
+    poses = {c["path"]: c for c in commands if c.get("type") == "set_transform"
+             and "/meshcat/terrain/box_" in c["path"]}
+    assert len(terrain.boxes) == 5 and sorted(boxes) == [f"/meshcat/terrain/box_{i}" for i in range(5)]
+    for i, box in enumerate(terrain.boxes):
+        geom = boxes[f"/meshcat/terrain/box_{i}"]["object"]["geometries"][0]
+        assert [geom["width"], geom["height"], geom["depth"]] == pytest.approx(list(box.size))
+        T = np.array(poses[f"/meshcat/terrain/box_{i}"]["matrix"], dtype=float).reshape(4, 4).T  # column-major
+        assert T[:3, 3] == pytest.approx(list(box.center))
+
+
 def test_connecting_to_a_missing_server_fails_fast(talos):
     with pytest.raises(ConnectionError):
         LiveViewer(talos, zmq_url="tcp://127.0.0.1:1")

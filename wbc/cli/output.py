@@ -190,8 +190,9 @@ class _HeldViewer:
         pass
 
 
-def open_live(robot, start_now: bool = False):
-    """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer.
+def open_live(robot, start_now: bool = False, terrain=None):
+    """(viewer, pacer) for --live: a meshcat server on 127.0.0.1 (every port) and a real-time pacer; ``terrain``
+    (a :class:`wbc.terrain.Terrain`, or None for the floor alone) is drawn under the robot.
 
     The URL is printed before the motion starts; unless ``start_now``, the motion waits for a browser to open it
     (and says so). :func:`wbc.cli.main` keeps the viewer up after the command until Ctrl-C or ``--hold`` seconds
@@ -202,7 +203,7 @@ def open_live(robot, start_now: bool = False):
     from wbc.viz import LiveViewer, RealTimePacer
 
     print("meshcat viewer: starting the server on 127.0.0.1 ...", file=sys.stderr, flush=True)
-    viewer = LiveViewer(robot)
+    viewer = LiveViewer(robot, terrain=terrain)
     _LIVE_VIEWERS.append(viewer)
     if start_now:
         print(f"meshcat viewer: {viewer.url} (open it in a browser; the motion starts now)", flush=True)

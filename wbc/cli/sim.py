@@ -325,8 +325,8 @@ def cmd_sim(args) -> int:
         return make_controller(robot, kind, dt=sim.timestep, mu=args.mu, f_min=args.f_min, **options)
 
     viewer = pacer = None
-    if args.live:
-        viewer, pacer = open_live(robot, args.live_start_now)
+    if args.live:  # the plant's ground (with --blind too: the viewer shows the world, not the plan)
+        viewer, pacer = open_live(robot, args.live_start_now, terrain=getattr(args, "terrain", None))
         if args.scenario == "walk":  # the plan is made when the run starts
             from wbc.viz.live_overlays import LiveOverlays
 

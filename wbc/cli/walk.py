@@ -205,7 +205,7 @@ def cmd_walk(args) -> int:
     if args.live:
         from wbc.viz.live_overlays import LiveOverlays
 
-        viewer, pacer = open_live(robot, args.live_start_now)
+        viewer, pacer = open_live(robot, args.live_start_now, terrain=terrain)
         viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
     viewer = progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag

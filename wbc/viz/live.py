@@ -50,9 +50,12 @@ class LiveViewer:
             projection, executed DCM and ZMP, support polygon, footprints, swing paths). See :meth:`set_overlays`.
         follow_camera: the camera follows the base (its x, y smoothed over ~0.5 s, at mid robot height); the
             page served by the viewer's own server moves the orbit target with ``/Cameras/target``.
+        terrain: a :class:`wbc.terrain.Terrain` drawn with the floor (boxes, heightfield), as in the recordings
+            (:func:`wbc.viz.record_html`); None: the floor alone.
 
     Attributes:
         url: the viewer's web address.
+        zmq_url: the meshcat server's ZMQ address (``tcp://127.0.0.1:PORT``), for another client of the same scene.
         frames_displayed: poses sent to meshcat so far.
         displayed_time: ``t`` of the last pose sent (s), or None.
         error: the exception that stopped the display thread (server gone...), else None. The control loop
@@ -64,7 +67,7 @@ class LiveViewer:
     """
 
     def __init__(self, robot: Robot, *, fps: float = 25.0, zmq_url: str | None = None, open: bool = False,
-                 overlays: LiveOverlays | None = None, follow_camera: bool = True):
+                 overlays: LiveOverlays | None = None, follow_camera: bool = True, terrain=None):
         if not (np.isfinite(fps) and fps > 0):
             raise InvalidInputError(f"fps must be positive, got {fps}")
         self.robot = robot
@@ -81,10 +84,12 @@ class LiveViewer:
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; the caller decides
             self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, 5000)  # a dead server stops the thread, not hangs
-        self._zmq_url = zmq_url
+        self.zmq_url: str = zmq_url
         self.url: str = self._vis.url()
         self._viz = _scene.load_robot_visuals(robot, self._vis)
         _scene.add_floor(self._vis)
+        if terrain is not None:
+            _scene.add_terrain(self._vis, terrain)
         self._height = _scene.robot_height(robot)
         _scene.set_camera_offset(self._vis, _scene.camera_offset(robot))
         self.follow_camera = bool(follow_camera)
@@ -142,7 +147,7 @@ class LiveViewer:
         sock = zmq.Context.instance().socket(zmq.REQ)
         sock.setsockopt(zmq.LINGER, 0)
         try:
-            sock.connect(self._zmq_url)
+            sock.connect(self.zmq_url)
             sock.send(b"wait")
             end = None if timeout is None else time.monotonic() + timeout
             while end is None or time.monotonic() < end:
