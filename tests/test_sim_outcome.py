@@ -127,3 +127,36 @@ def test_landing_slide_is_the_travel_of_the_contact_corners(talos_sim):
     assert monitor.max_landing_slide_m["left"] == pytest.approx(expected, abs=1e-9)
     assert monitor.max_landing_slide_m["right"] == pytest.approx(expected, abs=1e-9)
     assert not monitor.fell
+
+
+def test_a_toe_pressed_into_a_riser_is_a_foot_strike_fall():
+    """Talos standing 3 mm into the riser of a 10 cm stair (its sole fronts 3 mm past x = 0.2): MuJoCo's contact list
+    has foot contacts with a horizontal normal and a normal force > 20 N — a foot strike, reported as a fall. 15 mm
+    before the riser (soles on the floor only) it is not."""
+    from wbc.sim.outcome import OutcomeMonitor
+    from wbc.terrain import parse_terrain
+
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, terrain=parse_terrain("stairs:0.1:0.3:3"))
+    riser_x = 0.2
+    for gap, strike in ((-0.003, True), (0.015, False)):
+        mujoco.mj_resetData(sim.model, sim.data)
+        q = robot.q_ref.copy()
+        q[2] -= 0.0005  # soles 0.5 mm into the floor
+        q[0] += riser_x - gap - 0.5 * robot.sole_length  # sole front edges (x = q[0] + length / 2) at riser - gap
+        sim.set_state(q)
+        monitor = OutcomeMonitor(sim)
+        assert monitor.update(0.0) == strike, monitor.fall_reason
+        # the reference: MuJoCo's contacts of the foot geoms, their normals and normal forces
+        feet = {int(g) for s in ("left", "right") for g in np.atleast_1d(sim.foot_geoms[s])}
+        f6, side_hits = np.zeros(6), 0
+        for i in range(sim.data.ncon):
+            c = sim.data.contact[i]
+            if {int(c.geom1), int(c.geom2)} & feet:
+                mujoco.mj_contactForce(sim.model, sim.data, i, f6)
+                if abs(c.frame[2]) < 0.1 and f6[0] > 20.0:
+                    side_hits += 1
+        assert (side_hits > 0) == strike, side_hits
+        if strike:
+            assert monitor.fall_reason.startswith("foot strike"), monitor.fall_reason
+            assert "90°" in monitor.fall_reason, monitor.fall_reason

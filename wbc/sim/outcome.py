@@ -12,7 +12,11 @@ velocities of the new state) and decides:
     :data:`FALL_TILT_DEG` = 30° from its nominal orientation. The nominal is the body's orientation at the start
     (``robot.q_ref``); tilt is the angle between the body-fixed axis that pointed up (world +z) at the start and
     world +z now — heading changes (yaw, a turning walk) are not a tilt. Read from MuJoCo's ``xmat``;
-  - contact: any robot geom other than the foot contact geoms touching the floor (MuJoCo's ``data.contact``).
+  - contact: any robot geom other than the foot contact geoms touching the floor (MuJoCo's ``data.contact``);
+  - foot strike: a foot contact geom pressing on the ground (normal force > :data:`STRIKE_MIN_FORCE` = 20 N, from
+    ``mj_contactForce``) along a contact normal more than :data:`STRIKE_DEG` = 45° from the sole's normal — a toe,
+    heel or sole edge hitting a step's riser or nosing, not a sole standing on a tread, a slope or a rough patch
+    (whose facets are at most a few tens of degrees from the sole plane).
 * **joint speed** — every tick, every actuated joint whose MuJoCo ``qvel`` exceeds its URDF velocity limit (the
   Pinocchio model's ``velocityLimit``, joints with a positive finite limit) is an exceedance; the count, the
   worst ratio |q̇|/q̇_max and its joint are reported (an operator requires 0 exceedances).
@@ -29,12 +33,16 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 
-__all__ = ["OutcomeMonitor", "FALL_HEIGHT_DROP", "FALL_TILT_DEG", "CORNER_MATCH", "LIFTOFF_TICKS"]
+__all__ = ["OutcomeMonitor", "FALL_HEIGHT_DROP", "FALL_TILT_DEG", "STRIKE_DEG", "STRIKE_MIN_FORCE", "CORNER_MATCH",
+           "LIFTOFF_TICKS"]
 
 FALL_HEIGHT_DROP = 0.2  #: m, base height drop that counts as a fall
 FALL_TILT_DEG = 30.0  #: deg, pelvis or torso tilt from its nominal orientation that counts as a fall
+STRIKE_DEG = 45.0  #: deg, a foot contact normal this far from the sole's normal is a toe/heel/edge strike
+STRIKE_MIN_FORCE = 20.0  #: N, normal force below which such a contact is a graze, not a strike
 CORNER_MATCH = 0.02  #: m, a contact point this close to a sole corner makes that corner a contact point
 LIFTOFF_TICKS = 10  #: consecutive ticks without foot contact that end a support phase
 
@@ -86,6 +94,9 @@ class OutcomeMonitor:
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
         # (3, 4) sole corners in the frame of the body carrying each sole (constant: computed once)
         self._corners_body = [off.rotation @ self.corners_local.T + off.translation[:, None] for off in self.sole_off]
+        self.cos_strike = math.cos(math.radians(STRIKE_DEG))
+        self._sole_normal_body = [off.rotation[:, 2].copy() for off in self.sole_off]  # sole z in its body's frame
+        self._force6 = np.zeros(6)
         self.fell, self.fall_reason, self.fall_time = False, "", None
         self.max_tilt_deg = {"pelvis": 0.0, "torso": 0.0}
         self.speed_exceedances = 0
@@ -133,6 +144,7 @@ class OutcomeMonitor:
         # -- contacts ------------------------------------------------------------------------------------------
         ncon = d.ncon
         bad = ()
+        strike = ""
         touching = np.zeros(2, dtype=bool)
         pts = [None, None]
         if ncon:
@@ -142,6 +154,8 @@ class OutcomeMonitor:
             other = np.where(self.is_ground[g1], g2, np.where(self.is_ground[g2], g1, -1))
             bad = other[(other >= 0) & ~self.is_foot[other]]
             side = np.where(other >= 0, self.geom_side[other], -1)
+            if not self.fell and (side >= 0).any():
+                strike = self._strike(con, ncon, side)
             pos = None
             for s in range(2):
                 on = side == s
@@ -158,6 +172,8 @@ class OutcomeMonitor:
             if len(bad):
                 names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
+            elif strike:
+                self.fall_reason = strike
             elif d.qpos[2] - (self.support_height() if self.on_terrain else 0.0) < self.z0 - self.zf0 - FALL_HEIGHT_DROP:
                 self.fall_reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
             elif tilted:
@@ -166,6 +182,27 @@ class OutcomeMonitor:
                 self.fell, self.fall_time = True, float(t)
         self._first = False
         return self.fell
+
+    def _strike(self, con, ncon: int, side: np.ndarray) -> str:
+        """The foot strike among this tick's foot–ground contacts (module docstring), described, or ""."""
+        d = self.sim.data
+        normals = con.frame[:ncon, 0:3]
+        for s in range(2):
+            idx = np.flatnonzero(side == s)
+            if not len(idx):
+                continue
+            b = self.sole_body[s]
+            z_sole = d.xmat[b].reshape(3, 3) @ self._sole_normal_body[s]
+            cos = np.abs(normals[idx] @ z_sole)
+            for i in idx[cos < self.cos_strike]:
+                mujoco.mj_contactForce(self.sim.model, d, int(i), self._force6)
+                if self._force6[0] > STRIKE_MIN_FORCE:
+                    angle = math.degrees(math.acos(min(1.0, abs(float(normals[i] @ z_sole)))))
+                    x, y, z = (float(c) for c in con.pos[i])
+                    return (f"foot strike: the {('left', 'right')[s]} foot hit the ground along a normal {angle:.0f}° "
+                            f"from its sole's ({self._force6[0]:.0f} N at ({x:.3f}, {y:.3f}, {z:.3f}) m: a toe, heel "
+                            "or sole edge on a riser or nosing)")
+        return ""
 
     def _slide(self, touching, pts) -> None:
         for s in range(2):
