@@ -112,3 +112,19 @@ def test_no_foothold_or_no_clearance_is_a_gait_error():
         _plan("stairs:0.1:0.3:3", edge_margin=-0.01)
     with pytest.raises(GaitError, match="straight"):
         _plan("stairs:0.1:0.3:3", turn=0.1)
+
+
+@pytest.mark.parametrize("spec", ["stairs:0.1:0.3:3", "stairs:0.15:0.3:4:updown"])
+def test_planned_soles_never_dip_into_a_riser(spec):
+    """Every planned pose of both soles, the sole rectangle sampled densely (21 × 7 points): no point below the
+    terrain surface under it by more than 0.1 mm — in particular the toe of a foot stepping up from a tread whose
+    next riser is just ahead (the lift-off neighbourhood used to be skipped by the clearance check)."""
+    tw = _plan(spec, n_steps=8 if "updown" not in spec else 12)
+    terrain = tw.terrain
+    u, w = np.meshgrid(np.linspace(-L / 2, L / 2, 21), np.linspace(-W / 2, W / 2, 7))
+    local = np.stack([u.ravel(), w.ravel(), np.zeros(u.size)])
+    worst = math.inf
+    for poses in (tw.plan.left_sole, tw.plan.right_sole):
+        pts = np.matmul(poses[:, :3, :3], local) + poses[:, :3, 3:4]
+        worst = min(worst, float((pts[:, 2] - terrain.height(pts[:, 0], pts[:, 1])).min()))
+    assert worst >= -1e-4, worst

@@ -276,8 +276,9 @@ class Terrain:
         points (corners, edge midpoints, centre) at every pose of ``poses``; a pose counts when its origin is more
         than ``approach`` m (horizontally) from both ``start_xy`` and ``land_xy``, so the vertical lift-off
         and touch-down near the footholds are not counted, the crossing of step edges in between is. Given a 3-D
-        ``land_xy``, the points of a pose near the landing still count over ground more than :data:`EDGE_HEIGHT`
-        above the plane of the landing surface (the edge of the tread a foot steps down from).
+        ``land_xy`` (``start_xy``), the points of a pose near the landing (lift-off) still count over ground more
+        than :data:`EDGE_HEIGHT` above the plane of the landing (lift-off) surface: the edge of the tread a foot
+        steps down from, the riser just ahead of a toe stepping up.
 
         Args:
             poses: (n, 4, 4) world poses of the sole frame along the swing.
@@ -296,13 +297,13 @@ class Terrain:
         pts = np.matmul(P[:, :3, :3], local) + P[:, :3, 3:4]  # (n, 3, 15)
         ground = self.height(pts[:, 0], pts[:, 1])
         count = np.ones(ground.shape, dtype=bool)
-        count[near_start] = False
-        if len(land) == 3:  # near the landing: ground above the landing surface's plane (an edge) still counts
-            n = self.normal(float(land[0]), float(land[1]))
-            plane = land[2] - (n[0] * (pts[:, 0] - land[0]) + n[1] * (pts[:, 1] - land[1])) / n[2]
-            count[near_land] &= ground[near_land] > plane[near_land] + EDGE_HEIGHT
-        else:
-            count[near_land] = False
+        for foothold, near in ((start, near_start), (land, near_land)):
+            if len(foothold) == 3:  # near the foothold: ground above its surface's plane (an edge) still counts
+                n = self.normal(float(foothold[0]), float(foothold[1]))
+                plane = foothold[2] - (n[0] * (pts[:, 0] - foothold[0]) + n[1] * (pts[:, 1] - foothold[1])) / n[2]
+                count[near] &= ground[near] > plane[near] + EDGE_HEIGHT
+            else:
+                count[near] = False
         if not count.any():
             return math.inf
         return float((pts[:, 2] - ground)[count].min())

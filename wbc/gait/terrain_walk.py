@@ -14,7 +14,10 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    soles lie flat on slopes.
 3. **Swings** (:func:`wbc.gait.sample_feet` between the 3-D footholds; the height change made by a minimum-jerk
    blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LAG` going
-   down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves over the next tread and leaves its tread before it descends — plus the
+   down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves
+   over the next tread and leaves its tread before it descends —, a step up moving horizontally on a minimum-jerk
+   profile that starts after a delay (one of :data:`STEP_UP_DELAYS`, the one needing the lowest apex) while the toe
+   rises above the riser just ahead —, plus the
    clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
@@ -56,6 +59,8 @@ __all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
 
 VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
 HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over which it moves horizontally
+#: delays (fractions of the swing) tried before a step up moves forward; the one needing the lowest apex is kept
+STEP_UP_DELAYS = (0.0, 0.1, 0.2, 0.3)
 VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
 SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
 _SHIFT_STEP = 0.005  # m: grid of the foothold search
@@ -213,22 +218,37 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         zb, zdb, frac = (up_b, up_db, VERTICAL_LEAD) if z1 >= z0 else (dn_b, dn_db, VERTICAL_LAG)
         poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
         vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
+        dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
         if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
-            dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
             poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
             vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
-        base = poses[f, a:b].copy()
-        h = h0
-        while True:
-            seg = base.copy()
-            seg[:, 2, 3] += h * bump
-            c = terrain.swing_clearance(seg, start, land, length, width, approach)
-            if c >= clearance - 1e-12:
-                break
-            if h + 0.01 > max_apex + 1e-12:
-                raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
-                                f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
-            h += 0.01
+            delays = (None,)
+        elif z1 > z0 + 1e-3:  # step up: forward after a delay while the toe rises above the riser ahead
+            delays = STEP_UP_DELAYS
+        else:
+            delays = (None,)
+        best = None
+        for delay in delays:
+            if delay is not None:  # minimum jerk over [delay, 1] of the swing
+                xb, xdb, _ = min_jerk(np.maximum((s - delay) / (1.0 - delay), 0.0))
+                poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(xb, dxy)
+                vels[f, a:b, :2] = np.outer(xdb / ((1.0 - delay) * T), dxy)
+            base = poses[f, a:b].copy()
+            h = h0
+            while True:
+                seg = base.copy()
+                seg[:, 2, 3] += h * bump
+                c = terrain.swing_clearance(seg, start, land, length, width, approach)
+                if c >= clearance - 1e-12 or h + 0.01 > max_apex + 1e-12:
+                    break
+                h += 0.01
+            if best is None or (c >= clearance - 1e-12 and (best[2] < clearance - 1e-12 or h < best[1] - 1e-12)):
+                best = (delay, h, c, poses[f, a:b, :2, 3].copy(), vels[f, a:b, :2].copy())
+        delay, h, c, xy, vxy = best
+        if c < clearance - 1e-12:
+            raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
+                            f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
+        poses[f, a:b, :2, 3], vels[f, a:b, :2] = xy, vxy
         poses[f, a:b, 2, 3] += h * bump
         vels[f, a:b, 2] += h * dbump
         apex[ph.step], planned[ph.step] = h, c
