@@ -140,10 +140,10 @@ def contact_items(t: np.ndarray, support: np.ndarray, left_sole: np.ndarray, rig
 
 
 def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
-    """(N, 3) net CoP on z = 0 from ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world
-    axes) at sole origins (N, 2, 3). Each foot's CoP solves m = (c − p) × f with c on the ground
-    (c_x = p_x − m_y / f_z, c_y = p_y + m_x / f_z); the net CoP is their f_z-weighted mean. nan where the total
-    f_z is below ``min_fz`` N (flight)."""
+    """(N, 3) net CoP from ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world axes) at
+    sole origins (N, 2, 3). Each foot's CoP solves m = (c − p) × f with c at its sole's height
+    (c_x = p_x − m_y / f_z, c_y = p_y + m_x / f_z, c_z = p_z: on its tread on a terrain); the net CoP is their
+    f_z-weighted mean, height included. nan where the total f_z is below ``min_fz`` N (flight)."""
     w, p = sim_wrench, sole_pos
     fz = w[:, :, 2]
     loaded = fz > min_fz
@@ -156,7 +156,8 @@ def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1
     den = np.where(ok, total, 1.0)
     x = np.where(ok, (cx * weight).sum(axis=1) / den, np.nan)
     y = np.where(ok, (cy * weight).sum(axis=1) / den, np.nan)
-    return np.c_[x, y, np.zeros(len(x))]
+    z = np.where(ok, (p[:, :, 2] * weight).sum(axis=1) / den, np.nan)
+    return np.c_[x, y, z]
 
 
 def sim_overlays(run, robot=None, plan=None, min_fz: float = 10.0) -> dict:
