@@ -16,8 +16,8 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    blend over the first :data:`VERTICAL_LEAD` of the swing going up, over its last :data:`VERTICAL_LAG` going
    down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves
    over the next tread and leaves its tread before it descends —, a step up moving horizontally on a minimum-jerk
-   profile that starts after a delay (one of :data:`STEP_UP_DELAYS`, the one needing the lowest apex) while the toe
-   rises above the riser just ahead —, plus the
+   profile that starts after :data:`STEP_UP_DELAY` of the swing, while the toe rises above the riser just ahead —,
+   plus the
    clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
@@ -59,8 +59,9 @@ __all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
 
 VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
 HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over which it moves horizontally
-#: delays (fractions of the swing) tried before a step up moves forward; the one needing the lowest apex is kept
-STEP_UP_DELAYS = (0.0, 0.1, 0.2, 0.3)
+#: fraction of a step-up swing, at its start, before it moves forward: the toe rises first (in the plant the sole
+#: lags its vertical plan early in the swing, so a toe moving forward at once passes the riser ahead too low)
+STEP_UP_DELAY = 0.2
 VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
 SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
 _SHIFT_STEP = 0.005  # m: grid of the foothold search
@@ -208,6 +209,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
     dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
     fw_b, fw_db, _ = min_jerk(np.minimum(s / HORIZONTAL_LEAD, 1.0))
+    up_xy_b, up_xy_db, _ = min_jerk(np.maximum((s - STEP_UP_DELAY) / (1.0 - STEP_UP_DELAY), 0.0))
     h0 = float(walk.get("step_height", 0.05))
     apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
     latest = [initial[0], initial[1]]
@@ -222,33 +224,21 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
             poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
             vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
-            delays = (None,)
-        elif z1 > z0 + 1e-3:  # step up: forward after a delay while the toe rises above the riser ahead
-            delays = STEP_UP_DELAYS
-        else:
-            delays = (None,)
-        best = None
-        for delay in delays:
-            if delay is not None:  # minimum jerk over [delay, 1] of the swing
-                xb, xdb, _ = min_jerk(np.maximum((s - delay) / (1.0 - delay), 0.0))
-                poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(xb, dxy)
-                vels[f, a:b, :2] = np.outer(xdb / ((1.0 - delay) * T), dxy)
-            base = poses[f, a:b].copy()
-            h = h0
-            while True:
-                seg = base.copy()
-                seg[:, 2, 3] += h * bump
-                c = terrain.swing_clearance(seg, start, land, length, width, approach)
-                if c >= clearance - 1e-12 or h + 0.01 > max_apex + 1e-12:
-                    break
-                h += 0.01
-            if best is None or (c >= clearance - 1e-12 and (best[2] < clearance - 1e-12 or h < best[1] - 1e-12)):
-                best = (delay, h, c, poses[f, a:b, :2, 3].copy(), vels[f, a:b, :2].copy())
-        delay, h, c, xy, vxy = best
-        if c < clearance - 1e-12:
-            raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
-                            f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
-        poses[f, a:b, :2, 3], vels[f, a:b, :2] = xy, vxy
+        elif z1 > z0 + 1e-3:  # step up: forward only after STEP_UP_DELAY, while the toe rises above the riser ahead
+            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(up_xy_b, dxy)
+            vels[f, a:b, :2] = np.outer(up_xy_db / ((1.0 - STEP_UP_DELAY) * T), dxy)
+        base = poses[f, a:b].copy()
+        h = h0
+        while True:
+            seg = base.copy()
+            seg[:, 2, 3] += h * bump
+            c = terrain.swing_clearance(seg, start, land, length, width, approach)
+            if c >= clearance - 1e-12:
+                break
+            if h + 0.01 > max_apex + 1e-12:
+                raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
+                                f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
+            h += 0.01
         poses[f, a:b, 2, 3] += h * bump
         vels[f, a:b, 2] += h * dbump
         apex[ph.step], planned[ph.step] = h, c
