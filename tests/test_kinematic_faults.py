@@ -433,3 +433,62 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]
     assert all(a[0].tobytes() == b[0].tobytes() and a[2:] == b[2:] for a, b in zip(steady, raced))
     assert all(p == "levels" for _, p, _, _ in steady)
+
+
+def _count_daqp_calls(monkeypatch) -> list:
+    """Shim of the ``daqp`` module: every solver call (a workspace's ``solve``, the one-shot ``daqp.solve``) appends
+    its iteration count to the returned list."""
+    import daqp
+
+    calls: list = []
+    model_cls, solve_fn = daqp.Model, daqp.solve
+
+    class CountingModel:
+        def __init__(self):
+            self.m = model_cls()
+
+        settings = property(lambda s: s.m.settings, lambda s, v: setattr(s.m, "settings", v))
+
+        def setup(self, *a):
+            return self.m.setup(*a)
+
+        def update(self, **k):
+            return self.m.update(**k)
+
+        def solve(self):
+            out = self.m.solve()
+            calls.append(int(out[3]["iterations"]))
+            return out
+
+    def counting_solve(*a, **k):
+        out = solve_fn(*a, **k)
+        calls.append(int(out[3]["iterations"]))
+        return out
+    monkeypatch.setattr(daqp, "Model", CountingModel)
+    monkeypatch.setattr(daqp, "solve", counting_solve)
+    return calls
+
+
+def test_each_daqp_call_stops_at_its_iteration_cap(monkeypatch):
+    """Item 7: one DAQP call's work is bounded by an iteration cap (1000), in every call the backend makes (warm,
+    cold, one-shot, relaxed and scaled retries). Problem: min ½‖x‖² − 2·1ᵀx on 1200 variables with x ≤ 1, whose
+    optimum has all 1200 bounds active — a dual active-set method adds one per iteration, so it needs ≥ 1200
+    (DAQP's default cap, 10 000, let it finish). Counted iterations (a shim of the daqp module), not time."""
+    from wbc.exceptions import SolverError
+    from wbc.qp import DaqpBackend
+
+    calls = _count_daqp_calls(monkeypatch)
+    n = 1200
+    empty = np.zeros((0, n))
+    backend = DaqpBackend()
+    with pytest.raises(SolverError):
+        backend.solve(np.eye(n), np.full(n, -2.0), empty, np.zeros(0), empty, np.zeros(0), np.zeros(0),
+                      np.full(n, -np.inf), np.ones(n), confirm=False)
+    assert len(calls) >= 2 and max(calls) <= 1000, calls
+    # the same backend still solves what fits under the cap: 300 active bounds
+    calls.clear()
+    ub = np.where(np.arange(n) < 300, 1.0, 3.0)
+    x = backend.solve(np.eye(n), np.full(n, -2.0), empty, np.zeros(0), empty, np.zeros(0), np.zeros(0),
+                      np.full(n, -np.inf), ub, confirm=False)
+    assert np.allclose(x, np.minimum(2.0, ub), atol=1e-9) and max(calls) <= 1000
+
