@@ -492,3 +492,35 @@ def test_each_daqp_call_stops_at_its_iteration_cap(monkeypatch):
                       np.full(n, -np.inf), ub, confirm=False)
     assert np.allclose(x, np.minimum(2.0, ub), atol=1e-9) and max(calls) <= 1000
 
+
+def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
+    """Item 7, the benchmarks' measurement: both fuzz scripts freeze the collector's generations (``gc.freeze``)
+    once their first controller is built, so that a full collection inside a tick does not walk the robots' models
+    and the compiled kernels (objects that live for the whole run). Counted: ``gc.get_freeze_count()`` after one
+    tick of each script (humanoid15 only), from an unfrozen start."""
+    import gc
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import fuzz
+    import fuzz_common
+    import fuzz_id
+
+    robot = robots("humanoid15")
+    iq, _ = bounded_joints(robot.model)
+    vmax = robot.model.velocityLimit[6:]
+    limits = {"humanoid15": (iq, robot.model.lowerPositionLimit[iq], robot.model.upperPositionLimit[iq],
+                             np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))}
+    monkeypatch.setattr(fuzz_common, "_ROBOTS", {"robots": {"humanoid15": robot}, "limits": limits})
+    frozen = []
+    try:
+        for run in (lambda: fuzz.run_chunk({"humanoid15": robot}, limits, 1, 1, 0),
+                    lambda: fuzz_id.run_chunk(2, 0, episode=2)):
+            gc.unfreeze()
+            monkeypatch.setattr(fuzz_common, "_FROZEN", set(), raising=False)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                run()
+            frozen.append(gc.get_freeze_count())
+    finally:
+        gc.unfreeze()
+    assert all(n > 0 for n in frozen), frozen
