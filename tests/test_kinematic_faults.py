@@ -524,3 +524,60 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
     finally:
         gc.unfreeze()
     assert all(n > 0 for n in frozen), frozen
+
+
+def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
+    """Items 3 and 7 at the kinematic level, counted in solver calls (not time): five leg joints of humanoid15 5–50
+    mrad past their limits, both soles in contact, dt = 2 ms and the default budget (the period). From tick 3 on no
+    return rate is feasible with the soles' drift corrections (HiGHS, below), only with the soles held where they are
+    (J_c v = 0) — before, every tick from there failed ('contacts_held', 45 DAQP calls, never ok again). Now every
+    tick is ok (the relaxation named), its soles within 0.05 mm of where their full correction sends them (forward
+    kinematics), no joint moves further out, and no tick calls DAQP more than 16 times (every workspace and one-shot
+    call counted through a shim of the ``daqp`` module)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from fuzz_common import highs_feasible
+
+    calls = _count_daqp_calls(monkeypatch)
+    robot = robots("humanoid15")
+    model = robot.model
+    config = Configuration(robot)
+    iq, _ = bounded_joints(model)
+    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
+    rng = np.random.default_rng(0)
+    q = config.q.copy()
+    for k in rng.choice(legs, 5, replace=False):
+        over = rng.uniform(0.005, 0.05)
+        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
+            model.lowerPositionLimit[iq[k]] - over
+    config.update(q)
+    ctrl, _ = standing_controller(robot, config)
+    contacts = ctrl.constraints[:2]
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    most, held_ticks = 0, 0
+    for tick in range(40):
+        if tick == 3:  # the independent check: no return rate (not even 0) with the full contact corrections
+            _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+            lim = next(c for c in ctrl.constraints if isinstance(c, JointPositionLimit))
+            qq, idx = config.q[lim.idx_q], np.asarray(lim.indices)
+            lb, ub = lb.copy(), ub.copy()
+            lb[idx[(qq < lim.q_min) & (lb[idx] > 0)]] = 0.0
+            ub[idx[(qq > lim.q_max) & (ub[idx] < 0)]] = 0.0
+            assert not highs_feasible(A, b, C, l, u, lb, ub, tol=1e-7)
+        before = [config.frame_placement(c.frame_id).copy() for c in contacts]
+        expected = [c.placement * pin.exp6(pin.log6(c.placement.actInv(p)).vector * (1.0 - min(c.gain, 1 / DT) * DT))
+                    for c, p in zip(contacts, before)]
+        calls.clear()
+        res = ctrl.solve(config, DT)
+        assert res.ok, (tick, res.path, res.message)
+        most = max(most, len(calls))
+        held_ticks += any(r.startswith("contact drift correction × 0") for r in res.relaxed)
+        config.update(config.integrate(res.v, DT))
+        for c, e in zip(contacts, expected):
+            assert np.linalg.norm(config.frame_placement(c.frame_id).translation - e.translation) <= 5e-5
+        now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+        assert np.all(now <= outside + 1e-9)
+        outside = now
+    assert held_ticks > 0 and most <= 16, (held_ticks, most)
+

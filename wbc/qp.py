@@ -80,6 +80,10 @@ class QPBackend(ABC):
     #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
     #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
     work: "TickWork | None" = None
+    #: retry a failed solve (from a cold start, :meth:`_solve_cold`, and a backend's own fallbacks) before declaring
+    #: it failed; a caller trying a sequence of problems where a failure only sends it to the next one (one scale of
+    #: a relaxation ladder) may turn it off for those solves: then one solver call per solve.
+    cold_retry: bool = True
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
@@ -103,8 +107,9 @@ class QPBackend(ABC):
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
-        # a warm start can mislead an active-set solver: once more from scratch before declaring failure
-        for attempt in (self._solve, self._solve_cold):
+        # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
+        # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
+        for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
             if self.work is not None:
                 self.work.solves += 1
             x = attempt(H, g, A, b, C, l, u, lb, ub)
@@ -373,6 +378,9 @@ class DaqpBackend(QPBackend):
                 self.last_multipliers = info["lam"]
                 return x
             self.warm_failures += 1
+            if not self.cold_retry:  # a trial (``cold_retry`` off): one call; the next solve starts cold
+                self._model = None
+                return None
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         if self.settings:
@@ -385,6 +393,8 @@ class DaqpBackend(QPBackend):
                 self._model = model
                 self.last_multipliers = info["lam"]
                 return x
+        if not self.cold_retry:
+            return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
