@@ -581,3 +581,27 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
         outside = now
     assert held_ticks > 0 and most <= 16, (held_ticks, most)
 
+
+def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
+    """Item 7: a DAQP solve that fails (a QP whose rows contradict: x₀ + x₁ = 1 and x₀ + x₁ ≤ 0) after a solved one
+    (warm workspace) tries the warm workspace, a fresh workspace, the one-shot interface, the relaxed primal
+    tolerance and the scaled cost — each once (5 calls). Before, its cold retry ran the fresh workspace and the
+    one-shot solve a second time on the same problem (7 calls, the same answers). Oracle: the count of DAQP calls
+    (shim of the daqp module) and the answer, a SolverError, unchanged; the next solve (feasible) is exact."""
+    from wbc.exceptions import SolverError
+    from wbc.qp import DaqpBackend
+
+    calls = _count_daqp_calls(monkeypatch)
+    H, g = np.diag([2.0, 1.0]), np.array([-4.0, -2.0])  # |g| > 1: the scaled solve is tried too
+    A, b = np.array([[1.0, 1.0]]), np.array([1.0])
+    C = np.array([[1.0, 1.0]])
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    backend = DaqpBackend()
+    x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
+    assert np.allclose(x, [1.0, 0.0], atol=1e-9)  # min (x0 - 2)² + (x1 - 2)²/2 on x0 + x1 = 1: 3 x0 - 3 = 0
+    calls.clear()
+    with pytest.raises(SolverError):
+        backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([0.0]), *free, confirm=False)
+    assert len(calls) == 5, calls
+    x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
+    assert np.allclose(x, [1.0, 0.0], atol=1e-9)

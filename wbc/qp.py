@@ -332,6 +332,7 @@ class DaqpBackend(QPBackend):
         # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
         self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
         self._model = None
+        self._cold_outcome = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve.
@@ -369,6 +370,7 @@ class DaqpBackend(QPBackend):
             lower[e:] = l
         if self.warm_start == "dual":
             return self._solve_dual(H, g, G, upper, lower)
+        self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
         warm = self._model is not None
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
@@ -392,6 +394,7 @@ class DaqpBackend(QPBackend):
             if exitflag >= 1:
                 self._model = model
                 self.last_multipliers = info["lam"]
+                self._cold_outcome = (x, model, info["lam"])
                 return x
         if not self.cold_retry:
             return None
@@ -400,13 +403,21 @@ class DaqpBackend(QPBackend):
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations = int(info["iterations"])
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
-        return x if exitflag >= 1 else None
+        x = x if exitflag >= 1 else None
+        self._cold_outcome = (x, None, self.last_multipliers)
+        return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self.warm_failures += 1
-        self._model = None
         self._dual = None
-        x = self._solve(H, g, A, b, C, l, u, lb, ub)
+        outcome = self._cold_outcome
+        if outcome is not None and self.warm_start != "dual":
+            # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
+            # then the one-shot solve — whose answer is deterministic: reused, not computed twice
+            x, self._model, self.last_multipliers = outcome
+        else:
+            self._model = None
+            x = self._solve(H, g, A, b, C, l, u, lb, ub)
         if x is not None and np.isfinite(x).all():
             xc = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
