@@ -44,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
-from fuzz_common import highs_feasible  # noqa: E402
+from fuzz_common import freeze_after_first, highs_feasible  # noqa: E402
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -178,6 +178,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
         try:
             config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past)
             ctrl.budget = budget
+            freeze_after_first((name, strict))
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")

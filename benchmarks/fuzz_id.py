@@ -32,7 +32,8 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import random_configuration  # noqa: E402
-from fuzz_common import chunk_arguments, highs_feasible, load_robots, run_chunks  # noqa: E402
+from fuzz_common import chunk_arguments, freeze_after_first, highs_feasible, load_robots, run_chunks  # noqa: E402
+from wbc.constants import SIDES  # noqa: E402
 from wbc.dynamics.balance import IDBalanceController  # noqa: E402
 
 DT = 0.002
@@ -85,7 +86,7 @@ def bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort) -> list[str]:
     gen[6:] -= cmd.tau
     pin.computeJointJacobians(robot.model, data, q)
     pin.updateFramePlacements(robot.model, data)
-    for k, side in enumerate(ctrl.SIDES):
+    for k, side in enumerate(SIDES):
         c = ctrl.contacts[side]
         fk = f[12 * k:12 * k + 12].reshape(4, 3)
         lo, hi, mu = bounds[side]
@@ -133,6 +134,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
         c["episodes"] += 1
         try:
             ctrl, q, v, scale = build_episode(robot, rng, solver)
+            freeze_after_first((name, solver))
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")
@@ -140,12 +142,12 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
         data = robot.model.createData()
         effort = np.asarray(robot.model.effortLimit[6:]) * scale  # the URDF effort times the episode's scale
         f_min = ctrl.contacts["left"].f_min
-        bounds = {s: (f_min, np.inf, ctrl.contacts[s].mu) for s in ctrl.SIDES}
-        ramp_side = str(rng.choice(ctrl.SIDES)) if rng.random() < 0.5 else None
+        bounds = {s: (f_min, np.inf, ctrl.contacts[s].mu) for s in SIDES}
+        ramp_side = str(rng.choice(SIDES)) if rng.random() < 0.5 else None
         ramp_start, ramp_len = int(rng.integers(0, episode // 2)), int(rng.integers(1, 25))
         f0 = robot.mass * 9.81 * rng.uniform(0.3, 1.2)
         mu_tick = int(rng.integers(0, episode)) if rng.random() < 0.3 else -1
-        mu_side, mu_new = str(rng.choice(ctrl.SIDES)), log_uniform(rng, 0.02, 1.5)  # drawn up front: replayable
+        mu_side, mu_new = str(rng.choice(SIDES)), log_uniform(rng, 0.02, 1.5)  # drawn up front: replayable
         if replay is not None and ep != replay:
             c["ticks"] += episode
             continue

@@ -291,6 +291,51 @@ def test_first_tick_loads_no_kernel():
     assert before >= 1 and after == before
 
 
+def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
+    """Item 7 with the default solver: constructing the compiled-tick QP loads ``id_tick`` (one numba signature, the
+    one a tick uses: M column-major as a DynamicsState's), and the first tick adds none. A QP with no task (contacts
+    only) ticks through the kernel too, the first and a second one built in the same process (before, the empty
+    task layout was never laid out and its first tick raised). Counted work (signatures), not time; oracle of the
+    ticks: the equations of motion M v̇ + h = Sᵀτ + J_cᵀ f, recomputed with Pinocchio's RNEA (1e-6 N·m)."""
+    import os
+    import subprocess
+
+    code = (
+        "import warnings; warnings.simplefilter('ignore')\n"
+        "import numpy as np, pinocchio as pin, wbc\n"
+        "from wbc.formulations import idkernel as k\n"
+        "from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, SoleContact\n"
+        "robot = wbc.load_robot('talos')\n"
+        "def qp():\n"
+        "    soles = [SoleContact(robot, robot.left_sole, name='l'), SoleContact(robot, robot.right_sole, name='r')]\n"
+        "    return InverseDynamicsQP(robot, [], soles, solver='fast')\n"
+        "first = qp()\n"
+        "before = len(k.id_tick.signatures)\n"
+        "for p in (first, qp()):\n"
+        "    ctrl = InverseDynamicsController(p, 0.002)\n"
+        "    cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))\n"
+        "    m, d = robot.model, robot.model.createData()\n"
+        "    rnea = pin.rnea(m, d, robot.q_ref, np.zeros(robot.nv), cmd.dv)\n"
+        "    pin.computeJointJacobians(m, d, robot.q_ref); pin.framesForwardKinematics(m, d, robot.q_ref)\n"
+        "    gen = np.zeros(robot.nv)\n"
+        "    for name, w in cmd.wrenches.items():\n"
+        "        c = next(c for c in p.contacts if c.name == name)\n"
+        "        J = pin.getFrameJacobian(m, d, c.frame_id, pin.LOCAL_WORLD_ALIGNED)\n"
+        "        gen += J.T @ w\n"
+        "    tau = np.r_[np.zeros(6), cmd.tau]\n"
+        "    print(cmd.ok, cmd.path, float(np.abs(rnea - tau - gen).max()))\n"
+        "print(before, len(k.id_tick.signatures))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert out.returncode == 0, out.stderr[-2000:]
+    lines = out.stdout.split("\n")
+    ticks = [line.split() for line in lines if line.startswith(("True", "False"))]
+    assert len(ticks) == 2 and all(ok == "True" and path == "kernel" and float(res) <= 1e-6
+                                   for ok, path, res in ticks), out.stdout
+    before, after = map(int, out.stdout.split()[-2:])
+    assert before == 1 and after == 1, out.stdout
+
+
 def test_held_command_keeps_the_joint_speed_bounds(robots):
     """A failed full QP with the budget spent holds the previous tick's command; a wrist whose speed jumped to 99 %
     of its URDF limit since then (an impact) must still be braked into the speed bounds |v + h dt v̇| ≤ 0.95 q̇_max

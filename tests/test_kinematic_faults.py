@@ -433,3 +433,175 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]
     assert all(a[0].tobytes() == b[0].tobytes() and a[2:] == b[2:] for a, b in zip(steady, raced))
     assert all(p == "levels" for _, p, _, _ in steady)
+
+
+def _count_daqp_calls(monkeypatch) -> list:
+    """Shim of the ``daqp`` module: every solver call (a workspace's ``solve``, the one-shot ``daqp.solve``) appends
+    its iteration count to the returned list."""
+    import daqp
+
+    calls: list = []
+    model_cls, solve_fn = daqp.Model, daqp.solve
+
+    class CountingModel:
+        def __init__(self):
+            self.m = model_cls()
+
+        settings = property(lambda s: s.m.settings, lambda s, v: setattr(s.m, "settings", v))
+
+        def setup(self, *a):
+            return self.m.setup(*a)
+
+        def update(self, **k):
+            return self.m.update(**k)
+
+        def solve(self):
+            out = self.m.solve()
+            calls.append(int(out[3]["iterations"]))
+            return out
+
+    def counting_solve(*a, **k):
+        out = solve_fn(*a, **k)
+        calls.append(int(out[3]["iterations"]))
+        return out
+    monkeypatch.setattr(daqp, "Model", CountingModel)
+    monkeypatch.setattr(daqp, "solve", counting_solve)
+    return calls
+
+
+def test_each_daqp_call_stops_at_its_iteration_cap(monkeypatch):
+    """Item 7: one DAQP call's work is bounded by an iteration cap (1000), in every call the backend makes (warm,
+    cold, one-shot, relaxed and scaled retries). Problem: min ½‖x‖² − 2·1ᵀx on 1200 variables with x ≤ 1, whose
+    optimum has all 1200 bounds active — a dual active-set method adds one per iteration, so it needs ≥ 1200
+    (DAQP's default cap, 10 000, let it finish). Counted iterations (a shim of the daqp module), not time."""
+    from wbc.exceptions import SolverError
+    from wbc.qp import DaqpBackend
+
+    calls = _count_daqp_calls(monkeypatch)
+    n = 1200
+    empty = np.zeros((0, n))
+    backend = DaqpBackend()
+    with pytest.raises(SolverError):
+        backend.solve(np.eye(n), np.full(n, -2.0), empty, np.zeros(0), empty, np.zeros(0), np.zeros(0),
+                      np.full(n, -np.inf), np.ones(n), confirm=False)
+    assert len(calls) >= 2 and max(calls) <= 1000, calls
+    # the same backend still solves what fits under the cap: 300 active bounds
+    calls.clear()
+    ub = np.where(np.arange(n) < 300, 1.0, 3.0)
+    x = backend.solve(np.eye(n), np.full(n, -2.0), empty, np.zeros(0), empty, np.zeros(0), np.zeros(0),
+                      np.full(n, -np.inf), ub, confirm=False)
+    assert np.allclose(x, np.minimum(2.0, ub), atol=1e-9) and max(calls) <= 1000
+
+
+def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
+    """Item 7, the benchmarks' measurement: both fuzz scripts freeze the collector's generations (``gc.freeze``)
+    once their first controller is built, so that a full collection inside a tick does not walk the robots' models
+    and the compiled kernels (objects that live for the whole run). Counted: ``gc.get_freeze_count()`` after one
+    tick of each script (humanoid15 only), from an unfrozen start."""
+    import gc
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import fuzz
+    import fuzz_common
+    import fuzz_id
+
+    robot = robots("humanoid15")
+    iq, _ = bounded_joints(robot.model)
+    vmax = robot.model.velocityLimit[6:]
+    limits = {"humanoid15": (iq, robot.model.lowerPositionLimit[iq], robot.model.upperPositionLimit[iq],
+                             np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))}
+    monkeypatch.setattr(fuzz_common, "_ROBOTS", {"robots": {"humanoid15": robot}, "limits": limits})
+    frozen = []
+    try:
+        for run in (lambda: fuzz.run_chunk({"humanoid15": robot}, limits, 1, 1, 0),
+                    lambda: fuzz_id.run_chunk(2, 0, episode=2)):
+            gc.unfreeze()
+            monkeypatch.setattr(fuzz_common, "_FROZEN", set(), raising=False)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                run()
+            frozen.append(gc.get_freeze_count())
+    finally:
+        gc.unfreeze()
+    assert all(n > 0 for n in frozen), frozen
+
+
+def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
+    """Items 3 and 7 at the kinematic level, counted in solver calls (not time): five leg joints of humanoid15 5–50
+    mrad past their limits, both soles in contact, dt = 2 ms and the default budget (the period). From tick 3 on no
+    return rate is feasible with the soles' drift corrections (HiGHS, below), only with the soles held where they are
+    (J_c v = 0) — before, every tick from there failed ('contacts_held', 45 DAQP calls, never ok again). Now every
+    tick is ok (the relaxation named), its soles within 0.05 mm of where their full correction sends them (forward
+    kinematics), no joint moves further out, and no tick calls DAQP more than 16 times (every workspace and one-shot
+    call counted through a shim of the ``daqp`` module)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from fuzz_common import highs_feasible
+
+    calls = _count_daqp_calls(monkeypatch)
+    robot = robots("humanoid15")
+    model = robot.model
+    config = Configuration(robot)
+    iq, _ = bounded_joints(model)
+    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
+    rng = np.random.default_rng(0)
+    q = config.q.copy()
+    for k in rng.choice(legs, 5, replace=False):
+        over = rng.uniform(0.005, 0.05)
+        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
+            model.lowerPositionLimit[iq[k]] - over
+    config.update(q)
+    ctrl, _ = standing_controller(robot, config)
+    contacts = ctrl.constraints[:2]
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    most, held_ticks = 0, 0
+    for tick in range(40):
+        if tick == 3:  # the independent check: no return rate (not even 0) with the full contact corrections
+            _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+            lim = next(c for c in ctrl.constraints if isinstance(c, JointPositionLimit))
+            qq, idx = config.q[lim.idx_q], np.asarray(lim.indices)
+            lb, ub = lb.copy(), ub.copy()
+            lb[idx[(qq < lim.q_min) & (lb[idx] > 0)]] = 0.0
+            ub[idx[(qq > lim.q_max) & (ub[idx] < 0)]] = 0.0
+            assert not highs_feasible(A, b, C, l, u, lb, ub, tol=1e-7)
+        before = [config.frame_placement(c.frame_id).copy() for c in contacts]
+        expected = [c.placement * pin.exp6(pin.log6(c.placement.actInv(p)).vector * (1.0 - min(c.gain, 1 / DT) * DT))
+                    for c, p in zip(contacts, before)]
+        calls.clear()
+        res = ctrl.solve(config, DT)
+        assert res.ok, (tick, res.path, res.message)
+        most = max(most, len(calls))
+        held_ticks += any(r.startswith("contact drift correction × 0") for r in res.relaxed)
+        config.update(config.integrate(res.v, DT))
+        for c, e in zip(contacts, expected):
+            assert np.linalg.norm(config.frame_placement(c.frame_id).translation - e.translation) <= 5e-5
+        now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+        assert np.all(now <= outside + 1e-9)
+        outside = now
+    assert held_ticks > 0 and most <= 16, (held_ticks, most)
+
+
+def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
+    """Item 7: a DAQP solve that fails (a QP whose rows contradict: x₀ + x₁ = 1 and x₀ + x₁ ≤ 0) after a solved one
+    (warm workspace) tries the warm workspace, a fresh workspace, the one-shot interface, the relaxed primal
+    tolerance and the scaled cost — each once (5 calls). Before, its cold retry ran the fresh workspace and the
+    one-shot solve a second time on the same problem (7 calls, the same answers). Oracle: the count of DAQP calls
+    (shim of the daqp module) and the answer, a SolverError, unchanged; the next solve (feasible) is exact."""
+    from wbc.exceptions import SolverError
+    from wbc.qp import DaqpBackend
+
+    calls = _count_daqp_calls(monkeypatch)
+    H, g = np.diag([2.0, 1.0]), np.array([-4.0, -2.0])  # |g| > 1: the scaled solve is tried too
+    A, b = np.array([[1.0, 1.0]]), np.array([1.0])
+    C = np.array([[1.0, 1.0]])
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    backend = DaqpBackend()
+    x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
+    assert np.allclose(x, [1.0, 0.0], atol=1e-9)  # min (x0 - 2)² + (x1 - 2)²/2 on x0 + x1 = 1: 3 x0 - 3 = 0
+    calls.clear()
+    with pytest.raises(SolverError):
+        backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([0.0]), *free, confirm=False)
+    assert len(calls) == 5, calls
+    x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
+    assert np.allclose(x, [1.0, 0.0], atol=1e-9)

@@ -80,6 +80,10 @@ class QPBackend(ABC):
     #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
     #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
     work: "TickWork | None" = None
+    #: retry a failed solve (from a cold start, :meth:`_solve_cold`, and a backend's own fallbacks) before declaring
+    #: it failed; a caller trying a sequence of problems where a failure only sends it to the next one (one scale of
+    #: a relaxation ladder) may turn it off for those solves: then one solver call per solve.
+    cold_retry: bool = True
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
 
@@ -103,8 +107,9 @@ class QPBackend(ABC):
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
         """
-        # a warm start can mislead an active-set solver: once more from scratch before declaring failure
-        for attempt in (self._solve, self._solve_cold):
+        # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
+        # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
+        for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
             if self.work is not None:
                 self.work.solves += 1
             x = attempt(H, g, A, b, C, l, u, lb, ub)
@@ -287,6 +292,10 @@ class QPBackend(ABC):
         return float(worst)
 
 
+#: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
+ITERATION_LIMIT = 1000
+
+
 class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
@@ -302,7 +311,8 @@ class DaqpBackend(QPBackend):
             the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities — both
             measured side by side).
         **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
-            ``primal_tol``); DAQP's defaults otherwise.
+            ``primal_tol``); DAQP's defaults otherwise, except ``iter_limit`` (default :data:`ITERATION_LIMIT`: one
+            call's work is bounded; a solve that reaches it is a failed attempt).
 
     Raises:
         InvalidInputError: unknown ``warm_start``.
@@ -318,8 +328,11 @@ class DaqpBackend(QPBackend):
         self._daqp = daqp
         self.tolerance = tolerance
         self.warm_start = warm_start
-        self.settings = settings
+        # an iteration cap, so that one call's work is bounded (DAQP's default, 10 000, was measured to take 24 ms
+        # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
+        self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
         self._model = None
+        self._cold_outcome = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve.
@@ -357,6 +370,7 @@ class DaqpBackend(QPBackend):
             lower[e:] = l
         if self.warm_start == "dual":
             return self._solve_dual(H, g, G, upper, lower)
+        self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
         warm = self._model is not None
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
@@ -366,6 +380,9 @@ class DaqpBackend(QPBackend):
                 self.last_multipliers = info["lam"]
                 return x
             self.warm_failures += 1
+            if not self.cold_retry:  # a trial (``cold_retry`` off): one call; the next solve starts cold
+                self._model = None
+                return None
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         if self.settings:
@@ -377,19 +394,30 @@ class DaqpBackend(QPBackend):
             if exitflag >= 1:
                 self._model = model
                 self.last_multipliers = info["lam"]
+                self._cold_outcome = (x, model, info["lam"])
                 return x
+        if not self.cold_retry:
+            return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations = int(info["iterations"])
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
-        return x if exitflag >= 1 else None
+        x = x if exitflag >= 1 else None
+        self._cold_outcome = (x, None, self.last_multipliers)
+        return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self.warm_failures += 1
-        self._model = None
         self._dual = None
-        x = self._solve(H, g, A, b, C, l, u, lb, ub)
+        outcome = self._cold_outcome
+        if outcome is not None and self.warm_start != "dual":
+            # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
+            # then the one-shot solve — whose answer is deterministic: reused, not computed twice
+            x, self._model, self.last_multipliers = outcome
+        else:
+            self._model = None
+            x = self._solve(H, g, A, b, C, l, u, lb, ub)
         if x is not None and np.isfinite(x).all():
             xc = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:

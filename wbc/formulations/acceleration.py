@@ -132,6 +132,9 @@ class IDSolution:
 #: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
 _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
+#: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
+_ID_TICK_LOADED = False
+
 
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring from its named constraints.
@@ -744,13 +747,34 @@ class _KernelBuffers:
                      qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub, qp._JcT, self.state, self.rstate,
                      self.x, self.nu, self.mu, np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
                      *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
-        self.layout: tuple = ()
+        self.layout: tuple | None = None  # none yet: the first gather lays the task rows out (even with no task)
         self.entries: list = []
         self.head: tuple = ()
         self._rotations: tuple = (None, [])
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
+        self._load_kernel(qp)
+
+    def _load_kernel(self, qp: InverseDynamicsQP) -> None:
+        """Load :func:`~wbc.formulations.idkernel.id_tick` here, at construction, not inside the first tick: once per
+        process, one call on these buffers at a neutral state (M = I in the column-major order of a
+        :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer it writes
+        restored afterwards (the first tick starts exactly as without this call)."""
+        global _ID_TICK_LOADED
+        if _ID_TICK_LOADED:
+            return
+        self._relayout(qp, tuple(map(id, qp.tasks)))
+        nv = qp.nv
+        arrays = [a for a in (*self.head, *self.contact, *self.tail) if isinstance(a, np.ndarray)]
+        saved = [a.copy() for a in arrays]
+        try:
+            id_tick(*self.head, np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(), np.zeros(nv),
+                    0.002, *self.contact, 0, *self.tail)
+            _ID_TICK_LOADED = True
+        finally:
+            for a, a0 in zip(arrays, saved):
+                np.copyto(a, a0)
 
     def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
         dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]

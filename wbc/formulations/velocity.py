@@ -55,8 +55,12 @@ Bounds are intersected in ``BoxConstraint.priority`` order, lower priorities yie
 preference) are left out of a tick whose QP is infeasible with them, and the tick is solved again
 (``TickResult.relaxed`` names them) before anything is declared failed. Then, when joints are outside their
 position limits, their return rate (:class:`~wbc.constraints.JointPositionLimit`: min(distance/dt, v_max) back)
-is relaxed: it ranks below every other hard constraint and above the tasks, and is scaled by α = 1/2, 1/10, 1/100,
-1/1000, 0 until the tick solves (``TickResult.relaxed`` names α; α = 0 only forbids moving further out).
+is relaxed: it ranks below every other hard constraint and above the tasks, and is scaled by α: α = 0 first (it
+only forbids moving further out; no solution there, none at any α), then 1/1000, 1/100, 1/10, 1/2 while they solve
+and the budget lasts, the largest that solved kept (``TickResult.relaxed`` names α). When even α = 0 has no
+solution, the contacts' drift corrections rank below it: their rows become J_c v = 0 (``relaxed`` says so) and
+the same ladder is solved; the tick's sole-drift check still measures from where the full correction would send
+each contact frame.
 
 Output guard: an ok tick's command is finite and within the box and inequality rows to the backend's tolerance
 (checked against the constraint objects' bounds recomputed at the tick, not read from the solver), its contacts
@@ -226,7 +230,8 @@ class KinematicController:
             read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
-            rate: at most 5 unconfirmed solves) are bounded by their counts and always tried. The failure time is
+            rate: α = 0, with and without the contacts' corrections, always tried, unconfirmed; the larger α only
+            while the budget lasts, one solver call each) are bounded by their counts. The failure time is
             then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
             no further strict level, contact correction or trust region past twice the budget and returns the last
             finished stage's command (module docstring, '+budget' path): its work is twice the budget plus at most
@@ -790,8 +795,8 @@ class KinematicController:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
             rescue.work = self._work
         H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(plan.fb, plan.ib)
-        try:
-            x = rescue.solve(H, g, A, b, C, l, u, lb, ub)
+        try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
+            x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
         except SolverError:
             return backend.last_kernel_iterations
         if not kinematic_finish_packed(plan.fb, plan.ib, x, v, float(dt), backend.tolerance):
@@ -847,7 +852,7 @@ class KinematicController:
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
-        return_rate = None
+        return_rate, held = None, False
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
@@ -875,9 +880,11 @@ class KinematicController:
                     except SolverError:
                         v = None
                 if v is None:
-                    v, return_rate = self._relax_return_rate(config, first_failure)  # raises SolverError if not
+                    v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
                     relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
-            if self.contact_correction > 0 and self._contacts:
+                    if held:
+                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
+            if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
             if result.ok:
@@ -950,47 +957,92 @@ class KinematicController:
                 return f"inequality row {k}: C v = {cv[k]:.6g} outside [{l[k]:.6g}, {u[k]:.6g}] (tolerance {tol:.3g})"
         return ""
 
-    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float]:
-        """Solve the tick again with the return rate of the joints outside their position limits relaxed.
-
-        A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
-        several such joints and both soles in contact that can be impossible while a slower return is not. The
-        return rate ranks below every other hard constraint and above the tasks: the required return velocity of
-        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; the first that solves is kept;
-        α = 0 only forbids moving further out). Returns (v, α).
-
-        Raises:
-            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or none of the α solves.
-        """
+    def _outside_limits(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        """(indices into v of the joints below their lower position limit whose box asks a return, the same above
+        the upper limit), from the assembled box (``_relax_return_rate``)."""
         entries = []
         for c in self._box:
             if isinstance(c, JointPositionLimit):
                 q = config.q[c.idx_q]
                 idx = np.asarray(c.indices)
                 entries.append(idx[(q < c.q_min) & (self._lb[idx] > 0)])
-                entries.append(-1 - idx[(q > c.q_max) & (self._ub[idx] < 0)])  # encoded: upper side
-        low = np.concatenate([e for e in entries[0::2]]) if entries else np.zeros(0, int)
-        high = -1 - np.concatenate([e for e in entries[1::2]]) if entries else np.zeros(0, int)
+                entries.append(idx[(q > c.q_max) & (self._ub[idx] < 0)])
+        if not entries:
+            return np.zeros(0, int), np.zeros(0, int)
+        return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+
+    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
+        """Solve the tick again with the return rate of the joints outside their position limits relaxed.
+
+        A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
+        several such joints and both soles in contact that can be impossible while a slower return is not. The
+        return rate ranks below every other hard constraint and above the tasks: the required return velocity of
+        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; α = 0 only forbids
+        moving further out). α = 0 is solved first: the feasible sets are nested (larger as α falls), so when it has
+        no solution no α has. Then the larger scales from 1/1000 up, each started only while the tick's counted
+        budget lasts, until one has no solution (nor has any larger): the largest that solved is kept. These trial
+        solves are unconfirmed and not retried (``QPBackend.cold_retry``): a failure only ends the climb.
+
+        When even α = 0 has no solution and contacts are held, their drift corrections −K e rank below it: the
+        contact rows become J_c v = 0 (each contact frame kept where it is, to first order, instead of pulled back
+        onto its placement; the correction of a stance sole's accumulated drift can ask a joint held at α = 0 to
+        move further out) and the ladder above is solved with them. The tick's sole-drift check still measures the
+        drift from where the full correction would send the frame, so an ok tick keeps its bound.
+
+        Returns:
+            (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
+            buffers hold the problem of the returned command (output guard, trust region).
+
+        Raises:
+            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or α = 0 has no solution
+                (with the contacts held either).
+        """
+        low, high = self._outside_limits(config)
         if not (low.size or high.size):
             raise failure
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
+        held = False
         try:
             for b in backends:  # a failed α needs no independent confirmation: the next α is tried
                 b.independent = ()
-            for alpha in _RETURN_RATE_SCALES:  # (at most 5 solves, unconfirmed: not cut by the budget)
+            self._lb[low] = 0.0
+            self._ub[high] = 0.0
+            try:
+                v0 = self._solve_assembled(config)
+            except SolverError:
+                v0 = None
+            if v0 is None and self._contact_rows.size:
+                self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
+                try:
+                    v0 = self._solve_assembled(config)
+                    held = True
+                except SolverError:
+                    v0 = None
+            if v0 is None:
+                raise SolverError(f"{failure}; no solution either with the joints outside their limits held where "
+                                  f"they are (return rate 0)" + (", nor with the contacts held where they are"
+                                                                  if self._contact_rows.size else ""))
+            for b in backends:  # a failed α only sends the ladder to the next one: no cold retry either
+                b.cold_retry = False
+            v, best = v0, 0.0
+            for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
+                if self._late():
+                    break
                 self._lb[low] = alpha * lb0
                 self._ub[high] = alpha * ub0
                 try:
-                    return self._solve_assembled(config), alpha
+                    v, best = self._solve_assembled(config), alpha
                 except SolverError:
-                    continue
+                    break  # (feasible sets nested: no larger α has a solution)
+            self._lb[low] = best * lb0  # the buffers hold the problem of the returned command
+            self._ub[high] = best * ub0
+            return v, best, held
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
-        raise SolverError(f"{failure}; no solution either with the joints outside their limits held where they "
-                          f"are (return rate 0)")
+                b.cold_retry = True
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
