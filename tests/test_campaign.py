@@ -171,14 +171,15 @@ def test_serial_run_records_every_trial_once_and_resumes(tmp_path):
     assert sum(b["n"] for b in bins) == 30
 
 
-def test_duplicate_files_keep_the_first_and_foreign_folders_are_refused(tmp_path):
+def test_duplicate_rows_keep_the_latest_finished_and_foreign_folders_are_refused(tmp_path):
     spec = default_spec("push", trials=4)
     out = tmp_path / "c"
     store = ResultStore(out, spec.as_dict())
     store.append({**trial_params(spec, 0), "survived": True, "outcome": "survived"})
-    store.append({**trial_params(spec, 0), "survived": False, "outcome": "fell"})  # same trial twice
+    store.append({**trial_params(spec, 0), "survived": False, "outcome": "fell"})  # same trial twice: the later wins
+    store.append({**trial_params(spec, 0), "survived": None, "outcome": "error", "error_kind": "lost"})  # unfinished
     table = read_results(out)
-    assert table.num_rows == 1 and table.column("outcome").to_pylist() == ["survived"]
+    assert table.num_rows == 1 and table.column("outcome").to_pylist() == ["fell"]
     assert not list((out / "trials").glob(".*"))  # no temporary file left
     with pytest.raises(InvalidInputError, match="another campaign"):
         ResultStore(out, default_spec("push", trials=5).as_dict())
@@ -197,6 +198,108 @@ def test_a_trial_that_raises_is_an_error_row_not_a_crash(tmp_path):
     rows = {r["trial"]: r for r in table.to_pylist()}
     assert rows[2]["outcome"] == "error" and rows[2]["error"] == "ValueError: boom"
     assert summarize_campaign(table)["errors"] == 1 and summarize_campaign(table)["trials"] == 4
+
+
+@pytest.mark.parametrize("trial_catches_it", [False, True])
+def test_an_interrupted_serial_campaign_reruns_the_interrupted_trial_only(tmp_path, trial_catches_it):
+    """SIGINT lands while trial 5 runs: the run stops with KeyboardInterrupt, trial 5 is not recorded (also when
+    the trial's code turns the interrupt into its own exception, as a library callback or a Ray task does), and the
+    resumed run runs trials 5–11 once each, not 0–4: every trial exactly once, rows equal an uninterrupted run's."""
+    import signal
+    import time
+
+    spec = default_spec("push", trials=12, seed=3)
+    out = tmp_path / "c"
+    calls = []
+
+    def interrupted_at_5(spec, params):
+        calls.append(params["trial"])
+        if params["trial"] == 5:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)  # the Ctrl-C
+                time.sleep(5.0)  # the handler raises KeyboardInterrupt here
+                raise AssertionError("SIGINT did not interrupt the trial")
+            except KeyboardInterrupt:
+                if trial_catches_it:
+                    raise RuntimeError("walk cut short") from None
+                raise
+        return toy_trial(spec, params)
+
+    with pytest.raises(KeyboardInterrupt):
+        run(spec, out, trial_fn=interrupted_at_5, progress=False)
+    assert calls == list(range(6))
+    assert read_results(out).column("trial").to_pylist() == list(range(5))  # trial 5 left no row
+    assert sorted(ResultStore(out, spec.as_dict()).done()) == list(range(5))
+    calls.clear()
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return toy_trial(spec, params)
+
+    table = run(spec, out, trial_fn=counting, progress=False)
+    assert sorted(calls) == list(range(5, 12))  # the interrupted trial rerun, the finished ones not
+    clean = run(spec, tmp_path / "clean", trial_fn=toy_trial, progress=False)
+    drop = ("wall_s", "worker")
+    assert [{k: v for k, v in r.items() if k not in drop} for r in table.to_pylist()] == \
+        [{k: v for k, v in r.items() if k not in drop} for r in clean.to_pylist()]
+
+
+class _LosingExecutor:
+    """A stand-in for RayExecutor after its raylet died: trials in ``lose`` come back as the executor's lost rows."""
+
+    name, workers = "losing", 1
+
+    def __init__(self, lose):
+        self.lose = set(lose)
+
+    def map(self, fn, spec, indices):
+        from wbc.campaign.executors import lost_row, run_one
+
+        for i in indices:
+            p = trial_params(spec, i)
+            yield i, (lost_row(p, RuntimeError("raylet died")) if i in self.lose else run_one(fn, spec, p))
+
+    def close(self):
+        pass
+
+
+def test_trials_lost_by_the_executor_are_rerun_and_a_trial_exception_is_not(tmp_path):
+    """Rows of trials the executor lost (and the pre-error_kind rows the Ray executor wrote for them, which name no
+    worker) are not finished: a resumed run runs those trials again and the reader keeps their new row only. A
+    trial whose function raised is finished (rerun only with rerun_errors)."""
+    spec = default_spec("push", trials=10, seed=5)
+    out = tmp_path / "c"
+
+    def raising_at_7(spec, params):
+        if params["trial"] == 7:
+            raise ValueError("deterministic")
+        return toy_trial(spec, params)
+
+    first = run(spec, out, executor=_LosingExecutor({2, 3}), trial_fn=raising_at_7, progress=False, indices=range(9))
+    assert first.num_rows == 9
+    ResultStore(out, spec.as_dict()).append({**trial_params(spec, 9), "outcome": "error", "survived": None,
+                                             "error": "RayError: lost"})  # as the Ray executor wrote it before
+    s = summarize_campaign(read_results(out))
+    assert (s["errors"], s["lost"]) == (4, 3)
+    assert "3 lost by the executor" in format_report(read_results(out))
+    assert sorted(ResultStore(out, spec.as_dict()).done()) == [0, 1, 4, 5, 6, 7, 8]
+    calls = []
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return raising_at_7(spec, params)
+
+    table = run(spec, out, trial_fn=counting, progress=False)
+    assert sorted(calls) == [2, 3, 9]
+    assert table.column("trial").to_pylist() == list(range(10))  # one row per trial
+    rows = {r["trial"]: r for r in table.to_pylist()}
+    assert all(rows[t]["outcome"] in ("survived", "fell") for t in (2, 3, 9))
+    assert rows[7]["error"] == "ValueError: deterministic" and rows[7]["error_kind"] == "exception"
+    assert summarize_campaign(table)["lost"] == 0
+    assert {p.name.split("-")[0] for p in (out / "trials").glob("*.parquet")} == {"compact"}  # complete: compacted
+    calls.clear()
+    run(spec, out, trial_fn=counting, progress=False, rerun_errors=True)
+    assert calls == [7]
 
 
 def test_plots_are_written(tmp_path):

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbc.campaign.store import finished_mask
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["wilson_interval", "summarize_campaign", "factor_table", "make_plots", "format_report"]
@@ -52,12 +53,15 @@ def summarize_campaign(table) -> dict:
     """Overall outcome counts of a results table (:func:`wbc.campaign.store.read_results`).
 
     Returns:
-        ``{"trials", "survived", "fell", "failed", "errors", "survival_rate", "wilson95": (lo, hi),
-        "fall_reasons": {reason: count}}``; errors (trials that raised) are left out of the rate.
+        ``{"trials", "survived", "fell", "failed", "errors", "lost", "survival_rate", "wilson95": (lo, hi),
+        "fall_reasons": {reason: count}}``; ``errors`` counts every error row: the trials whose function raised and
+        the ``lost`` ones, not finished (:mod:`wbc.campaign.store`; a resumed run runs them again). Errors are left
+        out of the rate.
     """
     cols = _rows(table)
     outcome = cols.get("outcome", np.array([], dtype=object))
     n_err = int(np.sum(outcome == "error"))
+    n_lost = int(len(outcome) - np.sum(finished_mask(table))) if len(outcome) else 0
     n_surv = int(np.sum(outcome == "survived"))
     n = len(outcome) - n_err
     reasons: dict = {}
@@ -67,7 +71,7 @@ def summarize_campaign(table) -> dict:
             reasons[key] = reasons.get(key, 0) + 1
     lo, hi = wilson_interval(n_surv, n)
     return {"trials": len(outcome), "survived": n_surv, "fell": int(np.sum(outcome == "fell")),
-            "failed": int(np.sum(outcome == "failed")), "errors": n_err,
+            "failed": int(np.sum(outcome == "failed")), "errors": n_err, "lost": n_lost,
             "survival_rate": n_surv / n if n else float("nan"), "wilson95": (lo, hi), "fall_reasons": reasons}
 
 
@@ -117,8 +121,9 @@ def format_report(table, factors=None) -> str:
     """The campaign's text report: overall survival with its Wilson 95 % interval, fall criteria, per factor."""
     s = summarize_campaign(table)
     lo, hi = s["wilson95"]
+    lost = f" (of which {s['lost']} lost by the executor, not finished: rerun on resume)" if s["lost"] else ""
     lines = [f"trials {s['trials']}: survived {s['survived']}, fell {s['fell']}, failed otherwise {s['failed']}, "
-             f"errors {s['errors']}",
+             f"errors {s['errors']}{lost}",
              f"survival rate {s['survival_rate']:.3f} (Wilson 95 % interval {lo:.3f} – {hi:.3f})"]
     if s["fall_reasons"]:
         lines.append("what ended the failed trials: " + ", ".join(f"{k} ×{v}" for k, v in

@@ -45,6 +45,9 @@ def register(subparsers, add_outputs=None) -> None:
                         "network namespace whose only interface is lo)")
     r.add_argument("--workers", type=int, default=None, help="local Ray worker processes (default: all cores)")
     r.add_argument("--ray-address", default=None, metavar="HOST:PORT", help="join an existing Ray cluster")
+    r.add_argument("--rerun-errors", action="store_true",
+                   help="also run again the trials recorded as the trial function's exception (after fixing its "
+                        "cause); trials the executor lost are always run again")
     r.add_argument("--no-plots", action="store_true", help="do not write OUT/plots/*.png at the end")
     r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     r.set_defaults(func=cmd_campaign)
@@ -131,13 +134,11 @@ def cmd_campaign(args) -> int:
     else:
         executor = SerialExecutor()
     try:
-        table = run(spec, args.results, executor=executor, progress=not args.no_progress)
+        table = run(spec, args.results, executor=executor, progress=not args.no_progress,
+                    rerun_errors=args.rerun_errors)
     except KeyboardInterrupt:
-        from wbc.campaign import read_results
-
-        t = read_results(args.results, missing_ok=True)
-        n = 0 if t is None else t.num_rows
-        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials recorded in {args.results} "
+        n = len(ResultStore(args.results, spec.as_dict()).done())
+        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials finished in {args.results} "
               "(run the same command again to resume)", file=sys.stderr)
         return 130
     print(format_report(table))
