@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from wbc.campaign import default_spec, load_spec, read_results, run, trial_params, wilson_interval
-from wbc.campaign.report import factor_table, format_report, make_plots, summarize_campaign
+from wbc.campaign.report import (best_region, factor_table, format_report, make_plots, summarize_campaign,
+                                  sweep_points)
 from wbc.campaign.store import ResultStore
 from wbc.cli import main
 from wbc.exceptions import InvalidInputError
@@ -442,3 +443,49 @@ def test_a_killed_driver_resumes_without_rerunning_finished_trials(tmp_path):
     table = run(default_spec("push", trials=40, seed=2), out, trial_fn=counting, progress=False)
     assert sorted(calls) == sorted(set(range(40)) - set(recorded))
     assert table.column("trial").to_pylist() == list(range(40))
+
+
+def test_sweep_report_maps_a_metric_and_names_the_best_region(tmp_path, capsys):
+    """A synthetic 30-point grid sweep (one trial per point): ``wbc campaign report`` writes the metric's heat map
+    and names the best region — the surviving points whose max DCM error is within 5 % of the lowest among the
+    survivors — as computed here from the table; a point that fell with a lower error is not in it."""
+    spec = default_spec("sweep", sweep={"method": "grid", "points": 30, "trials_per_point": 1,
+                                        "params": {"k_xi": [1.0, 6.0], "k_i": [0.0, 3.0]}})
+    out = tmp_path / "c"
+    store = ResultStore(out, spec.as_dict())
+    rows = []
+    for i in range(spec.trials):
+        p = trial_params(spec, i)
+        err = 0.30 + 0.02 * (p["k_xi"] - 4.0) ** 2 + 0.01 * (p["k_i"] - 1.2) ** 2
+        fell = p["k_xi"] < 1.5 or (math.isclose(p["k_xi"], 4.75) and math.isclose(p["k_i"], 1.2))  # near the best
+        row = {**p, "survived": not fell, "outcome": "fell" if fell else "survived",
+               "fall_reason": "toy" if fell else "", "max_dcm_error_m": err - (0.05 if fell else 0.0)}
+        store.append(row)
+        rows.append(row)
+    # the rule, independently: survivors only, within 5 % of the best survivor's value
+    surv = [r for r in rows if r["survived"]]
+    best = min(r["max_dcm_error_m"] for r in surv)
+    expect = sorted(r["point"] for r in surv if r["max_dcm_error_m"] <= best * 1.05)
+    assert 2 <= len(expect) < len(surv)
+    assert any(not r["survived"] and r["max_dcm_error_m"] < best for r in rows)  # a faller beat every survivor
+    table = read_results(out)
+    pts = sweep_points(table, ["k_i", "k_xi"])
+    region = best_region(pts, tolerance=0.05)
+    assert sorted(pts["point"][region].tolist()) == expect
+    assert main(["campaign", "report", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    text = capsys.readouterr().out
+    ki = [r["k_i"] for r in rows if r["point"] in expect]
+    kx = [r["k_xi"] for r in rows if r["point"] in expect]
+    assert (f"{len(expect)} points, k_i {min(ki):.4g} – {max(ki):.4g}, k_xi {min(kx):.4g} – {max(kx):.4g}"
+            in text), text
+    assert f"survival {len(expect)}/{len(expect)}" in text
+    lo, hi = wilson_interval(len(expect), len(expect))
+    assert f"(Wilson 95 % interval {lo:.3f} – {hi:.3f})" in text
+    import matplotlib.image
+
+    path = tmp_path / "plots" / "sweep_metric.png"
+    assert f"plot written to {path}" in text
+    img = matplotlib.image.imread(path)
+    assert img.shape[0] > 300 and len(np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0)) > 20
+    assert main(["campaign", "report", str(out), "--metric", "walked_distance_m"]) == 2
+    assert main(["campaign", "report", str(out), "--tolerance", "-1"]) == 2

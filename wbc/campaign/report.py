@@ -1,6 +1,6 @@
 """Campaign statistics and plots: survival rates with Wilson score intervals, overall and per factor, the survival
-map of push force against direction (and against gait phase), metric histograms, and a sweep's survival map over its
-two parameters with the best region marked.
+map of push force against direction (and against gait phase), metric histograms, and for a sweep the survival per
+point over its two parameters and a continuous metric's map with the best region marked (:func:`best_region`).
 
 Wilson score interval (Wilson 1927, "Probable inference, the law of succession, and statistical inference", JASA
 22(158); Agresti & Coull 1998, The American Statistician 52(2), eq. 2) for k successes in n trials at confidence
@@ -21,7 +21,14 @@ import numpy as np
 from wbc.campaign.store import finished_mask
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["wilson_interval", "summarize_campaign", "factor_table", "make_plots", "format_report"]
+__all__ = ["wilson_interval", "summarize_campaign", "factor_table", "make_plots", "format_report", "sweep_points",
+           "best_region", "region_summary", "format_sweep_region", "metric_lower_is_better", "SWEEP_METRIC",
+           "SWEEP_TOLERANCE"]
+
+#: A sweep's default metric for its heat map and best region (``walk_trial``'s peak DCM error, m; lower is better).
+SWEEP_METRIC = "max_dcm_error_m"
+#: Default tolerance of the best region, relative to the best value (:func:`best_region`).
+SWEEP_TOLERANCE = 0.05
 
 
 def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -143,16 +150,28 @@ def format_report(table, factors=None) -> str:
     return "\n".join(lines)
 
 
-def make_plots(table, out_dir, *, sweep_params=None) -> list[Path]:
+def make_plots(table, out_dir, *, sweep_params=None, sweep_metric: str | None = None,
+               tolerance: float = SWEEP_TOLERANCE) -> list[Path]:
     """Write the campaign's PNG plots into ``out_dir`` (created): ``survival_map.png`` (force vs direction, and vs
     phase, when those columns vary), ``metrics.png`` (histograms of the numeric metrics, survivors vs the rest) and,
-    for a sweep, ``sweep.png`` (survival rate per point over its two parameters, best points marked).
+    for a sweep, ``sweep.png`` (survival rate per point over its two parameters, best points marked) and
+    ``sweep_metric.png`` (``sweep_metric`` per point as a heat map over the two parameters — one cell per point of a
+    grid — with the best region of :func:`best_region` outlined and the points where a trial fell crossed).
+
+    Args:
+        table: results (:func:`wbc.campaign.store.read_results`).
+        out_dir: plot folder.
+        sweep_params: the sweep's two parameter names, or None (not a sweep).
+        sweep_metric: the heat map's metric (``max_…`` or ``min_…`` column); None: :data:`SWEEP_METRIC` when the
+            results have it (else no ``sweep_metric.png``).
+        tolerance: the best region's tolerance (:func:`best_region`).
 
     Returns:
         The written paths.
 
     Raises:
-        InvalidInputError: ``out_dir`` is a file or cannot be created.
+        InvalidInputError: ``out_dir`` is a file or cannot be created; ``sweep_metric`` given but not a column, or
+            named neither ``max_…`` nor ``min_…``; ``tolerance`` < 0.
     """
     import matplotlib
 
@@ -255,7 +274,192 @@ def make_plots(table, out_dir, *, sweep_params=None) -> list[Path]:
         fig.savefig(path, dpi=110)
         plt.close(fig)
         written.append(path)
+        metric = sweep_metric if sweep_metric is not None else SWEEP_METRIC if SWEEP_METRIC in cols else None
+        if metric is not None:
+            lower = metric_lower_is_better(metric)
+            pts = sweep_points(table, sweep_params, metric)
+            region = best_region(pts, tolerance=tolerance, lower_is_better=lower)
+            path = out_dir / "sweep_metric.png"
+            _plot_sweep_metric(plt, pts, sweep_params, metric, region, lower, tolerance, path)
+            written.append(path)
     return written
+
+
+def metric_lower_is_better(metric: str) -> bool:
+    """Direction of a metric from its name: ``max_…`` (a peak: error, slip, deviation) lower is better, ``min_…`` (a
+    margin) higher is better.
+
+    Raises:
+        InvalidInputError: a name with neither prefix.
+    """
+    if metric.startswith("max_"):
+        return True
+    if metric.startswith("min_"):
+        return False
+    raise InvalidInputError(f"sweep metric {metric!r}: give a max_… (lower is better) or min_… (higher is better) "
+                            "column of the results")
+
+
+def sweep_points(table, params, metric: str = SWEEP_METRIC) -> dict:
+    """Per point of a sweep: its two parameters, its finished trials and survivors, and ``metric`` averaged over its
+    finished trials with a finite value.
+
+    Args:
+        table: results (:func:`wbc.campaign.store.read_results`) with columns ``point``, both params and ``metric``.
+        params: the two swept parameter names (``[a, b]``).
+        metric: a numeric column (default :data:`SWEEP_METRIC`).
+
+    Returns:
+        ``{"point", a, b, "n", "survived", "rate", "metric"}``, arrays of shape (points,) in point order
+        (``metric`` NaN where no trial of the point has a finite value).
+
+    Raises:
+        InvalidInputError: not two params, or a column missing (named, with the columns there are).
+    """
+    if len(params) != 2:
+        raise InvalidInputError(f"a sweep map needs two swept parameters, got {list(params)}")
+    cols = _rows(table)
+    for name in ("point", "outcome", *params, metric):
+        if name not in cols:
+            raise InvalidInputError(f"no column {name!r} in the results (columns: {', '.join(sorted(cols))})")
+    ok = cols["outcome"] != "error"
+    pts = cols["point"][ok].astype(int)
+    surv = cols["outcome"][ok] == "survived"
+    m = np.array([np.nan if v is None else float(v) for v in cols[metric][ok]], dtype=float)
+    ids = np.unique(pts)
+    out = {"point": ids}
+    for name in params:
+        v = cols[name][ok].astype(float)
+        out[name] = np.array([v[pts == p][0] for p in ids])
+    out["n"] = np.array([int((pts == p).sum()) for p in ids])
+    out["survived"] = np.array([int(surv[pts == p].sum()) for p in ids])
+    out["rate"] = out["survived"] / np.maximum(out["n"], 1)
+    out["metric"] = np.array([np.nanmean(m[pts == p]) if np.isfinite(m[pts == p]).any() else np.nan for p in ids])
+    return out
+
+
+def best_region(points: dict, *, tolerance: float = SWEEP_TOLERANCE, lower_is_better: bool = True) -> np.ndarray:
+    """The best region of a sweep (:func:`sweep_points`): among the points with the highest survival rate of the
+    sweep (every trial survived, when any point did), those whose metric is within ``tolerance`` · |best| of the
+    best such point's metric (``best`` the lowest value when ``lower_is_better``, else the highest).
+
+    Returns:
+        Boolean mask of shape (points,); all False when no point has a finite metric.
+
+    Raises:
+        InvalidInputError: ``tolerance`` negative or not finite.
+    """
+    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance >= 0):
+        raise InvalidInputError(f"best-region tolerance must be a finite number ≥ 0, got {tolerance!r}")
+    m, rate = points["metric"], points["rate"]
+    fin = np.isfinite(m)
+    if not fin.any():
+        return np.zeros(len(m), dtype=bool)
+    eligible = fin & (rate >= rate[fin].max() - 1e-12)
+    best = m[eligible].min() if lower_is_better else m[eligible].max()
+    slack = tolerance * abs(best)
+    within = m <= best + slack if lower_is_better else m >= best - slack
+    return eligible & within
+
+
+def region_summary(points: dict, region: np.ndarray, params, metric: str) -> dict:
+    """Numbers of a best region (:func:`best_region`): ``{"points", "trials", "survived", "wilson95", <param>: (lo,
+    hi), "metric": (lo, hi), "box_points", "box_survived_points"}`` — the box is the region's parameter ranges, and
+    its counts say how many sweep points lie in it and how many of those had every trial survive."""
+    a, b = params
+    k, n = int(points["survived"][region].sum()), int(points["n"][region].sum())
+    out = {"points": int(region.sum()), "trials": n, "survived": k, "wilson95": wilson_interval(k, n)}
+    if not region.any():
+        return out
+    box = np.ones(len(region), dtype=bool)
+    for name in params:
+        v = points[name][region]
+        out[name] = (float(v.min()), float(v.max()))
+        box &= (points[name] >= v.min() - 1e-12) & (points[name] <= v.max() + 1e-12)
+    out["metric"] = (float(points["metric"][region].min()), float(points["metric"][region].max()))
+    out["box_points"] = int(box.sum())
+    out["box_survived_points"] = int((box & (points["survived"] == points["n"])).sum())
+    return out
+
+
+def format_sweep_region(table, params, metric: str = SWEEP_METRIC, tolerance: float = SWEEP_TOLERANCE) -> str:
+    """The best region (:func:`best_region`) of a sweep in words: its rule, parameter ranges, points, metric values
+    and survival with its Wilson 95 % interval."""
+    lower = metric_lower_is_better(metric)
+    pts = sweep_points(table, params, metric)
+    region = best_region(pts, tolerance=tolerance, lower_is_better=lower)
+    s = region_summary(pts, region, params, metric)
+    rule = (f"best region: the points with the sweep's highest survival rate ({pts['rate'].max():.2f}) whose "
+            f"{metric} is within {100 * tolerance:g} % of the best of them ({'lowest' if lower else 'highest'})")
+    if not s["points"]:
+        return rule + ": none (no finite value)"
+    a, b = params
+    lo, hi = s["wilson95"]
+    return "\n".join([
+        rule + ":",
+        f"  {s['points']} points, {a} {s[a][0]:.4g} – {s[a][1]:.4g}, {b} {s[b][0]:.4g} – {s[b][1]:.4g}; "
+        f"{metric} {s['metric'][0]:.4g} – {s['metric'][1]:.4g}",
+        f"  survival {s['survived']}/{s['trials']} (Wilson 95 % interval {lo:.3f} – {hi:.3f}); its box holds "
+        f"{s['box_points']} sweep points, {s['box_survived_points']} of them with every trial survived"])
+
+
+def _plot_sweep_metric(plt, pts, params, metric, region, lower, tolerance, path) -> None:
+    """Two heat maps of ``metric`` over the two parameters: every point on one colour scale (left), and the points
+    with the sweep's highest survival rate on their own scale, the others grey (right); best region outlined."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Rectangle
+
+    a, b = params
+    xa, xb, m = pts[a], pts[b], pts["metric"]
+    fell = pts["survived"] < pts["n"]
+    fin = np.isfinite(m)
+    top = fin & (pts["rate"] >= (pts["rate"][fin].max() if fin.any() else 0.0) - 1e-12)
+    ua, ub = np.unique(xa), np.unique(xb)
+    lattice = len(ua) * len(ub) <= 2 * len(xa)  # a grid: one cell per point
+    cmap = "viridis_r" if lower else "viridis"
+    better = "lower" if lower else "higher"
+    fig, axes = plt.subplots(1, 2, figsize=(13.5, 5.5))
+    for ax, shown, title in ((axes[0], np.ones(len(m), dtype=bool), f"{metric} per point, every point"),
+                             (axes[1], top, f"{metric} of the points with the highest survival rate "
+                                            f"({pts['rate'][top].max() if top.any() else 0:.2f}); others grey")):
+        vals = np.where(shown, m, np.nan)
+        if lattice:
+            ea, eb = _edges(ua), _edges(ub)
+            ia, ib = np.searchsorted(ua, xa), np.searchsorted(ub, xb)
+            other = np.full((len(ub), len(ua)), np.nan)
+            other[ib[~shown], ia[~shown]] = 1.0
+            ax.pcolormesh(ea, eb, other, cmap=ListedColormap(["0.8"]), shading="flat")
+            grid = np.full((len(ub), len(ua)), np.nan)
+            grid[ib, ia] = vals
+            im = ax.pcolormesh(ea, eb, grid, cmap=cmap, shading="flat")
+            for i in np.flatnonzero(region):
+                ax.add_patch(Rectangle((ea[ia[i]], eb[ib[i]]), ea[ia[i] + 1] - ea[ia[i]], eb[ib[i] + 1] - eb[ib[i]],
+                                       fill=False, edgecolor="red", linewidth=1.8))
+        else:  # random points
+            ax.scatter(xa[~shown], xb[~shown], c="0.8", s=70)
+            im = ax.scatter(xa[shown], xb[shown], c=m[shown], cmap=cmap, s=70)
+            ax.scatter(xa[region], xb[region], s=220, facecolors="none", edgecolors="red", linewidths=1.8)
+        ax.scatter(xa[fell], xb[fell], marker="x", c="k", s=18, linewidths=0.8)
+        ax.plot([], [], "s", mfc="none", mec="red", label=f"best region ({int(region.sum())} points)")
+        ax.plot([], [], "x", c="k", label="a trial fell / failed")
+        ax.set_xlabel(a)
+        ax.set_ylabel(b)
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=8, loc="upper right", framealpha=0.8)
+        fig.colorbar(im, ax=ax, label=f"{metric} ({better} is better)")
+    fig.suptitle(f"best region: the points with the highest survival rate whose {metric} is within "
+                 f"{100 * tolerance:g} % of the best of them", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _edges(u: np.ndarray) -> np.ndarray:
+    """Cell edges around sorted lattice values (midpoints; half a step beyond the ends)."""
+    if len(u) == 1:
+        return np.array([u[0] - 0.5, u[0] + 0.5])
+    mid = (u[1:] + u[:-1]) / 2
+    return np.concatenate([[u[0] - (mid[0] - u[0])], mid, [u[-1] + (u[-1] - mid[-1])]])
 
 
 def varies_param(name: str) -> bool:

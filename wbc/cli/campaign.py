@@ -56,6 +56,12 @@ def register(subparsers, add_outputs=None) -> None:
                                      "and (re)make the plots of a campaign's results folder.")
     rep.add_argument("results", type=Path, help="campaign results folder (or a Parquet file)")
     rep.add_argument("--plots", type=Path, default=None, help="plot folder (default RESULTS/plots)")
+    rep.add_argument("--metric", default=None,
+                     help="a sweep's per-point metric for its heat map and best region: a max_… (lower is better) "
+                          "or min_… (higher is better) column (default max_dcm_error_m)")
+    rep.add_argument("--tolerance", type=float, default=None,
+                     help="a sweep's best region: the points with the highest survival rate whose metric is within "
+                          "this fraction of the best of them (default 0.05)")
     rep.set_defaults(func=cmd_campaign)
 
 
@@ -104,18 +110,31 @@ def cmd_campaign(args) -> int:
     from wbc.exceptions import InvalidInputError
 
     if args.campaign_command == "report":
-        from wbc.campaign import format_report, make_plots, read_results
+        import math
 
+        from wbc.campaign import format_report, make_plots, read_results
+        from wbc.campaign.report import SWEEP_METRIC, SWEEP_TOLERANCE, format_sweep_region, metric_lower_is_better
+
+        tolerance = SWEEP_TOLERANCE if args.tolerance is None else args.tolerance
+        if not (math.isfinite(tolerance) and tolerance >= 0):
+            raise InvalidInputError(f"--tolerance must be a finite fraction ≥ 0, got {args.tolerance}")
+        if args.metric is not None:
+            metric_lower_is_better(args.metric)
         table = read_results(args.results)
-        print(format_report(table))
+        if args.metric is not None and args.metric not in table.column_names:
+            raise InvalidInputError(f"--metric {args.metric}: no such column in the results")
         meta = Path(args.results) / "campaign.json"
         sweep = None
         if meta.is_file():
             import json
 
             sweep = sorted(json.loads(meta.read_text()).get("sweep", {}).get("params", {})) or None
+        print(format_report(table))
+        metric = args.metric or (SWEEP_METRIC if SWEEP_METRIC in table.column_names else None)
+        if sweep is not None and len(sweep) == 2 and metric is not None:
+            print(format_sweep_region(table, sweep, metric, tolerance))
         plots = args.plots if args.plots is not None else Path(args.results) / "plots"
-        for path in make_plots(table, plots, sweep_params=sweep):
+        for path in make_plots(table, plots, sweep_params=sweep, sweep_metric=args.metric, tolerance=tolerance):
             print(f"plot written to {path}")
         return 0
     if args.workers is not None and args.workers < 1:
