@@ -489,3 +489,23 @@ def test_sweep_report_maps_a_metric_and_names_the_best_region(tmp_path, capsys):
     assert img.shape[0] > 300 and len(np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0)) > 20
     assert main(["campaign", "report", str(out), "--metric", "walked_distance_m"]) == 2
     assert main(["campaign", "report", str(out), "--tolerance", "-1"]) == 2
+
+
+def test_cli_sweep_run_prints_its_best_region(tmp_path, capsys, monkeypatch):
+    """``wbc campaign run`` of a sweep ends with the best region (here with a toy trial in place of the walk): the
+    one point with every trial survived and the lowest error."""
+    import wbc.campaign
+
+    def toy_sweep_trial(spec, params):
+        row = toy_trial(spec, params)
+        return {**row, "max_dcm_error_m": 0.3 + abs(params["k_xi"] - 2.0) + params["k_i"]}
+
+    monkeypatch.setattr(wbc.campaign, "walk_trial", toy_sweep_trial)
+    args = ["campaign", "run", "--kind", "sweep", "--set", "sweep.points=4", "--set", "sweep.trials_per_point=2",
+            "--set", "sweep.params={k_xi=[1.0,3.0],k_i=[0.0,1.0]}", "--set", "factors.force=100",
+            "--no-plots", "--no-progress", "--results", str(tmp_path / "s")]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    # grid 2 x 2: k_i {0, 1} x k_xi {1, 3}; force 100 N survives every push; errors 1.3, 1.3, 2.3, 2.3: two points
+    assert "2 points, k_i 0 – 0, k_xi 1 – 3; max_dcm_error_m 1.3 – 1.3" in text, text
+    assert "survival 4/4" in text

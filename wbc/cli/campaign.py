@@ -145,6 +145,7 @@ def cmd_campaign(args) -> int:
         raise InvalidInputError("--workers only applies with --ray")
     spec = _spec(args)
     from wbc.campaign import (RayExecutor, SerialExecutor, format_report, make_plots, run, summarize_campaign)
+    from wbc.campaign.report import SWEEP_METRIC, format_sweep_region
     from wbc.campaign.store import ResultStore
 
     ResultStore(args.results, spec.as_dict())  # refuse a bad or foreign folder before starting anything
@@ -161,11 +162,13 @@ def cmd_campaign(args) -> int:
               "(run the same command again to resume)", file=sys.stderr)
         return 130
     print(format_report(table))
+    sweep = sorted(spec.sweep["params"]) if spec.sweep else None
+    if sweep is not None and len(sweep) == 2 and SWEEP_METRIC in table.column_names:
+        print(format_sweep_region(table, sweep))
     s = summarize_campaign(table)
     print(f"results: {args.results}/trials ({table.num_rows} rows of {spec.trials}; executor {executor.name}, "
           f"{executor.workers} worker(s)); errors {s['errors']}")
     if not args.no_plots:
-        sweep = sorted(spec.sweep["params"]) if spec.sweep else None
         for path in make_plots(table, Path(args.results) / "plots", sweep_params=sweep):
             print(f"plot written to {path}")
     return 0
