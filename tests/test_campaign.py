@@ -509,3 +509,4 @@ def test_cli_sweep_run_prints_its_best_region(tmp_path, capsys, monkeypatch):
     # grid 2 x 2: k_i {0, 1} x k_xi {1, 3}; force 100 N survives every push; errors 1.3, 1.3, 2.3, 2.3: two points
     assert "2 points, k_i 0 – 0, k_xi 1 – 3; max_dcm_error_m 1.3 – 1.3" in text, text
     assert "survival 4/4" in text
+    assert "by k_xi:" in text and "by k_i:" in text  # survival per swept gain, points pooled

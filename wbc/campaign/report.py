@@ -125,7 +125,8 @@ def factor_table(table, factor: str, bins: int = 5) -> list[dict]:
 
 
 def format_report(table, factors=None) -> str:
-    """The campaign's text report: overall survival with its Wilson 95 % interval, fall criteria, per factor."""
+    """The campaign's text report: overall survival with its Wilson 95 % interval, fall criteria, per factor (and per
+    swept parameter: a sweep's points pooled in bins of one gain)."""
     s = summarize_campaign(table)
     lo, hi = s["wilson95"]
     lost = f" (of which {s['lost']} lost by the executor, not finished: rerun on resume)" if s["lost"] else ""
@@ -137,7 +138,8 @@ def format_report(table, factors=None) -> str:
                                                                  sorted(s["fall_reasons"].items())))
     if factors is None:
         factors = [f for f in ("force", "direction_deg", "phase", "mass_error", "friction", "armature", "delay",
-                               "q_noise_deg", "v_noise", "payload") if f in table.column_names]
+                               "q_noise_deg", "v_noise", "payload", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
+                               "adjust_dead_band") if f in table.column_names]
     for f in factors:
         rows = factor_table(table, f)
         if len({(r["lo"], r["hi"]) for r in rows}) <= 1:
