@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from wbc.campaign import default_spec, load_spec, read_results, run, trial_params, wilson_interval
-from wbc.campaign.report import (best_region, factor_table, format_report, make_plots, summarize_campaign,
-                                  sweep_points)
+from wbc.campaign.report import (best_region, factor_table, format_report, make_plots, pooled_region,
+                                  summarize_campaign, sweep_points)
 from wbc.campaign.store import ResultStore
 from wbc.cli import main
 from wbc.exceptions import InvalidInputError
@@ -510,3 +510,37 @@ def test_cli_sweep_run_prints_its_best_region(tmp_path, capsys, monkeypatch):
     assert "2 points, k_i 0 – 0, k_xi 1 – 3; max_dcm_error_m 1.3 – 1.3" in text, text
     assert "survival 4/4" in text
     assert "by k_xi:" in text and "by k_i:" in text  # survival per swept gain, points pooled
+
+
+def test_pooled_survival_region_on_a_grid(tmp_path, capsys):
+    """Survival pooled over each grid point's 3 × 3 neighbourhood, computed here by grid indices from the table:
+    the top decile the code outlines and prints is the same set of points."""
+    spec = default_spec("sweep", sweep={"method": "grid", "points": 30, "trials_per_point": 2,
+                                        "params": {"k_xi": [1.0, 6.0], "k_i": [0.0, 3.0]}})
+    out = tmp_path / "c"
+    store = ResultStore(out, spec.as_dict())
+    rng = np.random.default_rng(7)
+    for i in range(spec.trials):
+        p = trial_params(spec, i)
+        ok = bool(rng.random() < (0.9 if p["k_xi"] < 3.0 and p["k_i"] < 1.5 else 0.3))  # a better corner
+        store.append({**p, "survived": ok, "outcome": "survived" if ok else "fell", "max_dcm_error_m": 0.3})
+    rows = read_results(out).to_pylist()
+    ki, kx = sorted({r["k_i"] for r in rows}), sorted({r["k_xi"] for r in rows})
+    cell = {}
+    for r in rows:
+        c = cell.setdefault((ki.index(r["k_i"]), kx.index(r["k_xi"])), [0, 0, r["point"]])
+        c[0] += r["survived"]
+        c[1] += 1
+    pooled = {}
+    for (i, j), (_, _, point) in cell.items():
+        near = [cell[(i + di, j + dj)] for di in (-1, 0, 1) for dj in (-1, 0, 1) if (i + di, j + dj) in cell]
+        pooled[point] = sum(c[0] for c in near) / sum(c[1] for c in near)
+    cut = np.quantile(list(pooled.values()), 0.9)
+    expect = sorted(p for p, v in pooled.items() if v >= cut - 1e-12)
+    pts = sweep_points(read_results(out), ["k_i", "k_xi"], None)
+    region = pooled_region(pts, ["k_i", "k_xi"])
+    assert sorted(pts["point"][region].tolist()) == expect
+    assert main(["campaign", "report", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    text = capsys.readouterr().out
+    assert f"(top decile, pooled rate ≥ {min(pooled[p] for p in expect):.2f}): {len(expect)} points" in text, text
+    assert (tmp_path / "plots" / "sweep.png").is_file()

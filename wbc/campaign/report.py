@@ -23,7 +23,7 @@ from wbc.exceptions import InvalidInputError
 
 __all__ = ["wilson_interval", "summarize_campaign", "factor_table", "make_plots", "format_report", "sweep_points",
            "best_region", "region_summary", "format_sweep_region", "metric_lower_is_better", "SWEEP_METRIC",
-           "SWEEP_TOLERANCE"]
+           "SWEEP_TOLERANCE", "pooled_survival", "pooled_region"]
 
 #: A sweep's default metric for its heat map and best region (``walk_trial``'s peak DCM error, m; lower is better).
 SWEEP_METRIC = "max_dcm_error_m"
@@ -156,7 +156,8 @@ def make_plots(table, out_dir, *, sweep_params=None, sweep_metric: str | None = 
                tolerance: float = SWEEP_TOLERANCE) -> list[Path]:
     """Write the campaign's PNG plots into ``out_dir`` (created): ``survival_map.png`` (force vs direction, and vs
     phase, when those columns vary), ``metrics.png`` (histograms of the numeric metrics, survivors vs the rest) and,
-    for a sweep, ``sweep.png`` (survival rate per point over its two parameters, best points marked) and
+    for a sweep, ``sweep.png`` (survival rate per point over its two parameters, best points marked; on a grid also
+    the survival pooled over each point's neighbourhood with its top decile outlined, :func:`pooled_region`) and
     ``sweep_metric.png`` (``sweep_metric`` per point as a heat map over the two parameters — one cell per point of a
     grid — with the best region of :func:`best_region` outlined and the points where a trial fell crossed).
 
@@ -262,7 +263,11 @@ def make_plots(table, out_dir, *, sweep_params=None, sweep_metric: str | None = 
         xb = np.array([float(cols[b][ok][pts == p][0]) for p in ids])
         rate = np.array([surv[pts == p].mean() for p in ids])
         nrep = np.array([(pts == p).sum() for p in ids])
-        fig, ax = plt.subplots(figsize=(6.5, 5))
+        pooled = pooled_survival({a: xa, b: xb, "survived": (rate * nrep).round().astype(int), "n": nrep},
+                                 sweep_params)
+        fig, axes = plt.subplots(1, 1 if pooled is None else 2, figsize=(6.5 if pooled is None else 13.5, 5),
+                                 squeeze=False)
+        ax = axes[0, 0]
         sc = ax.scatter(xa, xb, c=rate, cmap="RdYlGn", vmin=0, vmax=1, s=60, edgecolors="k", linewidths=0.3)
         best = rate >= rate.max() - 1e-12
         ax.scatter(xa[best], xb[best], s=200, facecolors="none", edgecolors="b", linewidths=1.5,
@@ -271,6 +276,27 @@ def make_plots(table, out_dir, *, sweep_params=None, sweep_metric: str | None = 
         ax.set_ylabel(b)
         ax.legend(fontsize=8, loc="upper right")
         fig.colorbar(sc, ax=ax, label="survival rate (same pushes at every point)")
+        if pooled is not None:
+            from matplotlib.patches import Rectangle
+
+            ax = axes[0, 1]
+            ua, ub = np.unique(xa), np.unique(xb)
+            ea, eb = _edges(ua), _edges(ub)
+            ia, ib = np.searchsorted(ua, xa), np.searchsorted(ub, xb)
+            grid = np.full((len(ub), len(ua)), np.nan)
+            grid[ib, ia] = pooled[0] / np.maximum(pooled[1], 1)
+            im = ax.pcolormesh(ea, eb, grid, cmap="RdYlGn", vmin=0, vmax=1, shading="flat")
+            region = pooled_region({a: xa, b: xb, "survived": (rate * nrep).round().astype(int),
+                                    "n": nrep}, sweep_params)
+            for i in np.flatnonzero(region):
+                ax.add_patch(Rectangle((ea[ia[i]], eb[ib[i]]), ea[ia[i] + 1] - ea[ia[i]], eb[ib[i] + 1] - eb[ib[i]],
+                                       fill=False, edgecolor="b", linewidth=1.8))
+            ax.plot([], [], "s", mfc="none", mec="b", label=f"top decile ({int(region.sum())} points)")
+            ax.legend(fontsize=8, loc="upper right", framealpha=0.8)
+            ax.set_xlabel(a)
+            ax.set_ylabel(b)
+            ax.set_title("survival pooled over each point's 3 × 3 grid neighbourhood", fontsize=9)
+            fig.colorbar(im, ax=ax, label="pooled survival rate")
         fig.tight_layout()
         path = out_dir / "sweep.png"
         fig.savefig(path, dpi=110)
@@ -309,7 +335,7 @@ def sweep_points(table, params, metric: str = SWEEP_METRIC) -> dict:
     Args:
         table: results (:func:`wbc.campaign.store.read_results`) with columns ``point``, both params and ``metric``.
         params: the two swept parameter names (``[a, b]``).
-        metric: a numeric column (default :data:`SWEEP_METRIC`).
+        metric: a numeric column (default :data:`SWEEP_METRIC`), or None (``metric`` all NaN).
 
     Returns:
         ``{"point", a, b, "n", "survived", "rate", "metric"}``, arrays of shape (points,) in point order
@@ -321,13 +347,14 @@ def sweep_points(table, params, metric: str = SWEEP_METRIC) -> dict:
     if len(params) != 2:
         raise InvalidInputError(f"a sweep map needs two swept parameters, got {list(params)}")
     cols = _rows(table)
-    for name in ("point", "outcome", *params, metric):
+    for name in ("point", "outcome", *params, *([metric] if metric is not None else [])):
         if name not in cols:
             raise InvalidInputError(f"no column {name!r} in the results (columns: {', '.join(sorted(cols))})")
     ok = cols["outcome"] != "error"
     pts = cols["point"][ok].astype(int)
     surv = cols["outcome"][ok] == "survived"
-    m = np.array([np.nan if v is None else float(v) for v in cols[metric][ok]], dtype=float)
+    m = (np.full(int(ok.sum()), np.nan) if metric is None else
+         np.array([np.nan if v is None else float(v) for v in cols[metric][ok]], dtype=float))
     ids = np.unique(pts)
     out = {"point": ids}
     for name in params:
@@ -364,6 +391,44 @@ def best_region(points: dict, *, tolerance: float = SWEEP_TOLERANCE, lower_is_be
     return eligible & within
 
 
+def pooled_survival(points: dict, params) -> tuple[np.ndarray, np.ndarray] | None:
+    """Survival of each grid point pooled with its lattice neighbours: the trials of the points whose indices along
+    both parameters differ from its own by at most one (its 3 × 3 neighbourhood, fewer at the edges).
+
+    With few trials per point each point's survival is a coarse draw; pooling neighbouring gains trades resolution
+    for trials (a box-kernel smoother of the survival indicator over the grid).
+
+    Returns:
+        ``(survived, trials)``, integer arrays of shape (points,); None when the points are not on a lattice.
+    """
+    a, b = params
+    ua, ub = np.unique(points[a]), np.unique(points[b])
+    if len(ua) * len(ub) > 2 * len(points[a]):
+        return None
+    ia, ib = np.searchsorted(ua, points[a]), np.searchsorted(ub, points[b])
+    k, n = np.zeros(len(ia), dtype=int), np.zeros(len(ia), dtype=int)
+    for i in range(len(ia)):
+        near = (np.abs(ia - ia[i]) <= 1) & (np.abs(ib - ib[i]) <= 1)
+        k[i], n[i] = points["survived"][near].sum(), points["n"][near].sum()
+    return k, n
+
+
+def pooled_region(points: dict, params, quantile: float = 0.9) -> np.ndarray | None:
+    """Best region by pooled survival (:func:`pooled_survival`): the points whose pooled survival rate is at or
+    above its ``quantile`` over the sweep's points (numpy's linear interpolation): the top decile by default. The
+    region is selected on the trials it is then measured on, so its survival is an optimistic estimate; confirm it
+    with new pushes.
+
+    Returns:
+        Boolean mask of shape (points,); None when the points are not on a lattice.
+    """
+    pooled = pooled_survival(points, params)
+    if pooled is None:
+        return None
+    rate = pooled[0] / np.maximum(pooled[1], 1)
+    return rate >= np.quantile(rate, quantile) - 1e-12
+
+
 def region_summary(points: dict, region: np.ndarray, params, metric: str) -> dict:
     """Numbers of a best region (:func:`best_region`): ``{"points", "trials", "survived", "wilson95", <param>: (lo,
     hi), "metric": (lo, hi), "box_points", "box_survived_points"}`` — the box is the region's parameter ranges, and
@@ -397,12 +462,35 @@ def format_sweep_region(table, params, metric: str = SWEEP_METRIC, tolerance: fl
         return rule + ": none (no finite value)"
     a, b = params
     lo, hi = s["wilson95"]
+    lines = _format_pooled(pts, params)
     return "\n".join([
+        *lines,
         rule + ":",
         f"  {s['points']} points, {a} {s[a][0]:.4g} – {s[a][1]:.4g}, {b} {s[b][0]:.4g} – {s[b][1]:.4g}; "
         f"{metric} {s['metric'][0]:.4g} – {s['metric'][1]:.4g}",
         f"  survival {s['survived']}/{s['trials']} (Wilson 95 % interval {lo:.3f} – {hi:.3f}); its box holds "
         f"{s['box_points']} sweep points, {s['box_survived_points']} of them with every trial survived"])
+
+
+def _format_pooled(pts: dict, params) -> list:
+    region = pooled_region(pts, params)
+    if region is None or not region.any():
+        return []
+    a, b = params
+    k, n = pooled_survival(pts, params)
+    rate = k / np.maximum(n, 1)
+    ua, ub = np.unique(pts[a]), np.unique(pts[b])
+    ia, ib = np.searchsorted(ua, pts[a]), np.searchsorted(ub, pts[b])
+    near = np.zeros(len(region), dtype=bool)  # the trials the region's pooled rates rest on, each counted once
+    for i in np.flatnonzero(region):
+        near |= (np.abs(ia - ia[i]) <= 1) & (np.abs(ib - ib[i]) <= 1)
+    kk, nn = int(pts["survived"][near].sum()), int(pts["n"][near].sum())
+    lo, hi = wilson_interval(kk, nn)
+    return [f"best region by survival pooled over each point's 3 × 3 grid neighbourhood (top decile, pooled rate "
+            f"≥ {rate[region].min():.2f}): {int(region.sum())} points, {a} {pts[a][region].min():.4g} – "
+            f"{pts[a][region].max():.4g}, {b} {pts[b][region].min():.4g} – {pts[b][region].max():.4g}; their "
+            f"neighbourhoods' {int(near.sum())} points: survival {kk}/{nn} (Wilson 95 % interval {lo:.3f} – "
+            f"{hi:.3f}; selected on these trials: optimistic)"]
 
 
 def _plot_sweep_metric(plt, pts, params, metric, region, lower, tolerance, path) -> None:
