@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from wbc.campaign import default_spec, load_spec, read_results, run, trial_params, wilson_interval
-from wbc.campaign.report import factor_table, format_report, make_plots, summarize_campaign
+from wbc.campaign.report import (best_region, factor_table, format_report, make_plots, pooled_region,
+                                  summarize_campaign, sweep_points)
 from wbc.campaign.store import ResultStore
 from wbc.cli import main
 from wbc.exceptions import InvalidInputError
@@ -171,14 +172,15 @@ def test_serial_run_records_every_trial_once_and_resumes(tmp_path):
     assert sum(b["n"] for b in bins) == 30
 
 
-def test_duplicate_files_keep_the_first_and_foreign_folders_are_refused(tmp_path):
+def test_duplicate_rows_keep_the_latest_finished_and_foreign_folders_are_refused(tmp_path):
     spec = default_spec("push", trials=4)
     out = tmp_path / "c"
     store = ResultStore(out, spec.as_dict())
     store.append({**trial_params(spec, 0), "survived": True, "outcome": "survived"})
-    store.append({**trial_params(spec, 0), "survived": False, "outcome": "fell"})  # same trial twice
+    store.append({**trial_params(spec, 0), "survived": False, "outcome": "fell"})  # same trial twice: the later wins
+    store.append({**trial_params(spec, 0), "survived": None, "outcome": "error", "error_kind": "lost"})  # unfinished
     table = read_results(out)
-    assert table.num_rows == 1 and table.column("outcome").to_pylist() == ["survived"]
+    assert table.num_rows == 1 and table.column("outcome").to_pylist() == ["fell"]
     assert not list((out / "trials").glob(".*"))  # no temporary file left
     with pytest.raises(InvalidInputError, match="another campaign"):
         ResultStore(out, default_spec("push", trials=5).as_dict())
@@ -197,6 +199,108 @@ def test_a_trial_that_raises_is_an_error_row_not_a_crash(tmp_path):
     rows = {r["trial"]: r for r in table.to_pylist()}
     assert rows[2]["outcome"] == "error" and rows[2]["error"] == "ValueError: boom"
     assert summarize_campaign(table)["errors"] == 1 and summarize_campaign(table)["trials"] == 4
+
+
+@pytest.mark.parametrize("trial_catches_it", [False, True])
+def test_an_interrupted_serial_campaign_reruns_the_interrupted_trial_only(tmp_path, trial_catches_it):
+    """SIGINT lands while trial 5 runs: the run stops with KeyboardInterrupt, trial 5 is not recorded (also when
+    the trial's code turns the interrupt into its own exception, as a library callback or a Ray task does), and the
+    resumed run runs trials 5–11 once each, not 0–4: every trial exactly once, rows equal an uninterrupted run's."""
+    import signal
+    import time
+
+    spec = default_spec("push", trials=12, seed=3)
+    out = tmp_path / "c"
+    calls = []
+
+    def interrupted_at_5(spec, params):
+        calls.append(params["trial"])
+        if params["trial"] == 5:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)  # the Ctrl-C
+                time.sleep(5.0)  # the handler raises KeyboardInterrupt here
+                raise AssertionError("SIGINT did not interrupt the trial")
+            except KeyboardInterrupt:
+                if trial_catches_it:
+                    raise RuntimeError("walk cut short") from None
+                raise
+        return toy_trial(spec, params)
+
+    with pytest.raises(KeyboardInterrupt):
+        run(spec, out, trial_fn=interrupted_at_5, progress=False)
+    assert calls == list(range(6))
+    assert read_results(out).column("trial").to_pylist() == list(range(5))  # trial 5 left no row
+    assert sorted(ResultStore(out, spec.as_dict()).done()) == list(range(5))
+    calls.clear()
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return toy_trial(spec, params)
+
+    table = run(spec, out, trial_fn=counting, progress=False)
+    assert sorted(calls) == list(range(5, 12))  # the interrupted trial rerun, the finished ones not
+    clean = run(spec, tmp_path / "clean", trial_fn=toy_trial, progress=False)
+    drop = ("wall_s", "worker")
+    assert [{k: v for k, v in r.items() if k not in drop} for r in table.to_pylist()] == \
+        [{k: v for k, v in r.items() if k not in drop} for r in clean.to_pylist()]
+
+
+class _LosingExecutor:
+    """A stand-in for RayExecutor after its raylet died: trials in ``lose`` come back as the executor's lost rows."""
+
+    name, workers = "losing", 1
+
+    def __init__(self, lose):
+        self.lose = set(lose)
+
+    def map(self, fn, spec, indices):
+        from wbc.campaign.executors import lost_row, run_one
+
+        for i in indices:
+            p = trial_params(spec, i)
+            yield i, (lost_row(p, RuntimeError("raylet died")) if i in self.lose else run_one(fn, spec, p))
+
+    def close(self):
+        pass
+
+
+def test_trials_lost_by_the_executor_are_rerun_and_a_trial_exception_is_not(tmp_path):
+    """Rows of trials the executor lost (and the pre-error_kind rows the Ray executor wrote for them, which name no
+    worker) are not finished: a resumed run runs those trials again and the reader keeps their new row only. A
+    trial whose function raised is finished (rerun only with rerun_errors)."""
+    spec = default_spec("push", trials=10, seed=5)
+    out = tmp_path / "c"
+
+    def raising_at_7(spec, params):
+        if params["trial"] == 7:
+            raise ValueError("deterministic")
+        return toy_trial(spec, params)
+
+    first = run(spec, out, executor=_LosingExecutor({2, 3}), trial_fn=raising_at_7, progress=False, indices=range(9))
+    assert first.num_rows == 9
+    ResultStore(out, spec.as_dict()).append({**trial_params(spec, 9), "outcome": "error", "survived": None,
+                                             "error": "RayError: lost"})  # as the Ray executor wrote it before
+    s = summarize_campaign(read_results(out))
+    assert (s["errors"], s["lost"]) == (4, 3)
+    assert "3 lost by the executor" in format_report(read_results(out))
+    assert sorted(ResultStore(out, spec.as_dict()).done()) == [0, 1, 4, 5, 6, 7, 8]
+    calls = []
+
+    def counting(spec, params):
+        calls.append(params["trial"])
+        return raising_at_7(spec, params)
+
+    table = run(spec, out, trial_fn=counting, progress=False)
+    assert sorted(calls) == [2, 3, 9]
+    assert table.column("trial").to_pylist() == list(range(10))  # one row per trial
+    rows = {r["trial"]: r for r in table.to_pylist()}
+    assert all(rows[t]["outcome"] in ("survived", "fell") for t in (2, 3, 9))
+    assert rows[7]["error"] == "ValueError: deterministic" and rows[7]["error_kind"] == "exception"
+    assert summarize_campaign(table)["lost"] == 0
+    assert {p.name.split("-")[0] for p in (out / "trials").glob("*.parquet")} == {"compact"}  # complete: compacted
+    calls.clear()
+    run(spec, out, trial_fn=counting, progress=False, rerun_errors=True)
+    assert calls == [7]
 
 
 def test_plots_are_written(tmp_path):
@@ -339,3 +443,104 @@ def test_a_killed_driver_resumes_without_rerunning_finished_trials(tmp_path):
     table = run(default_spec("push", trials=40, seed=2), out, trial_fn=counting, progress=False)
     assert sorted(calls) == sorted(set(range(40)) - set(recorded))
     assert table.column("trial").to_pylist() == list(range(40))
+
+
+def test_sweep_report_maps_a_metric_and_names_the_best_region(tmp_path, capsys):
+    """A synthetic 30-point grid sweep (one trial per point): ``wbc campaign report`` writes the metric's heat map
+    and names the best region — the surviving points whose max DCM error is within 5 % of the lowest among the
+    survivors — as computed here from the table; a point that fell with a lower error is not in it."""
+    spec = default_spec("sweep", sweep={"method": "grid", "points": 30, "trials_per_point": 1,
+                                        "params": {"k_xi": [1.0, 6.0], "k_i": [0.0, 3.0]}})
+    out = tmp_path / "c"
+    store = ResultStore(out, spec.as_dict())
+    rows = []
+    for i in range(spec.trials):
+        p = trial_params(spec, i)
+        err = 0.30 + 0.02 * (p["k_xi"] - 4.0) ** 2 + 0.01 * (p["k_i"] - 1.2) ** 2
+        fell = p["k_xi"] < 1.5 or (math.isclose(p["k_xi"], 4.75) and math.isclose(p["k_i"], 1.2))  # near the best
+        row = {**p, "survived": not fell, "outcome": "fell" if fell else "survived",
+               "fall_reason": "toy" if fell else "", "max_dcm_error_m": err - (0.05 if fell else 0.0)}
+        store.append(row)
+        rows.append(row)
+    # the rule, independently: survivors only, within 5 % of the best survivor's value
+    surv = [r for r in rows if r["survived"]]
+    best = min(r["max_dcm_error_m"] for r in surv)
+    expect = sorted(r["point"] for r in surv if r["max_dcm_error_m"] <= best * 1.05)
+    assert 2 <= len(expect) < len(surv)
+    assert any(not r["survived"] and r["max_dcm_error_m"] < best for r in rows)  # a faller beat every survivor
+    table = read_results(out)
+    pts = sweep_points(table, ["k_i", "k_xi"])
+    region = best_region(pts, tolerance=0.05)
+    assert sorted(pts["point"][region].tolist()) == expect
+    assert main(["campaign", "report", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    text = capsys.readouterr().out
+    ki = [r["k_i"] for r in rows if r["point"] in expect]
+    kx = [r["k_xi"] for r in rows if r["point"] in expect]
+    assert (f"{len(expect)} points, k_i {min(ki):.4g} – {max(ki):.4g}, k_xi {min(kx):.4g} – {max(kx):.4g}"
+            in text), text
+    assert f"survival {len(expect)}/{len(expect)}" in text
+    lo, hi = wilson_interval(len(expect), len(expect))
+    assert f"(Wilson 95 % interval {lo:.3f} – {hi:.3f})" in text
+    import matplotlib.image
+
+    path = tmp_path / "plots" / "sweep_metric.png"
+    assert f"plot written to {path}" in text
+    img = matplotlib.image.imread(path)
+    assert img.shape[0] > 300 and len(np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0)) > 20
+    assert main(["campaign", "report", str(out), "--metric", "walked_distance_m"]) == 2
+    assert main(["campaign", "report", str(out), "--tolerance", "-1"]) == 2
+
+
+def test_cli_sweep_run_prints_its_best_region(tmp_path, capsys, monkeypatch):
+    """``wbc campaign run`` of a sweep ends with the best region (here with a toy trial in place of the walk): the
+    one point with every trial survived and the lowest error."""
+    import wbc.campaign
+
+    def toy_sweep_trial(spec, params):
+        row = toy_trial(spec, params)
+        return {**row, "max_dcm_error_m": 0.3 + abs(params["k_xi"] - 2.0) + params["k_i"]}
+
+    monkeypatch.setattr(wbc.campaign, "walk_trial", toy_sweep_trial)
+    args = ["campaign", "run", "--kind", "sweep", "--set", "sweep.points=4", "--set", "sweep.trials_per_point=2",
+            "--set", "sweep.params={k_xi=[1.0,3.0],k_i=[0.0,1.0]}", "--set", "factors.force=100",
+            "--no-plots", "--no-progress", "--results", str(tmp_path / "s")]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    # grid 2 x 2: k_i {0, 1} x k_xi {1, 3}; force 100 N survives every push; errors 1.3, 1.3, 2.3, 2.3: two points
+    assert "2 points, k_i 0 – 0, k_xi 1 – 3; max_dcm_error_m 1.3 – 1.3" in text, text
+    assert "survival 4/4" in text
+    assert "by k_xi:" in text and "by k_i:" in text  # survival per swept gain, points pooled
+
+
+def test_pooled_survival_region_on_a_grid(tmp_path, capsys):
+    """Survival pooled over each grid point's 3 × 3 neighbourhood, computed here by grid indices from the table:
+    the top decile the code outlines and prints is the same set of points."""
+    spec = default_spec("sweep", sweep={"method": "grid", "points": 30, "trials_per_point": 2,
+                                        "params": {"k_xi": [1.0, 6.0], "k_i": [0.0, 3.0]}})
+    out = tmp_path / "c"
+    store = ResultStore(out, spec.as_dict())
+    rng = np.random.default_rng(7)
+    for i in range(spec.trials):
+        p = trial_params(spec, i)
+        ok = bool(rng.random() < (0.9 if p["k_xi"] < 3.0 and p["k_i"] < 1.5 else 0.3))  # a better corner
+        store.append({**p, "survived": ok, "outcome": "survived" if ok else "fell", "max_dcm_error_m": 0.3})
+    rows = read_results(out).to_pylist()
+    ki, kx = sorted({r["k_i"] for r in rows}), sorted({r["k_xi"] for r in rows})
+    cell = {}
+    for r in rows:
+        c = cell.setdefault((ki.index(r["k_i"]), kx.index(r["k_xi"])), [0, 0, r["point"]])
+        c[0] += r["survived"]
+        c[1] += 1
+    pooled = {}
+    for (i, j), (_, _, point) in cell.items():
+        near = [cell[(i + di, j + dj)] for di in (-1, 0, 1) for dj in (-1, 0, 1) if (i + di, j + dj) in cell]
+        pooled[point] = sum(c[0] for c in near) / sum(c[1] for c in near)
+    cut = np.quantile(list(pooled.values()), 0.9)
+    expect = sorted(p for p, v in pooled.items() if v >= cut - 1e-12)
+    pts = sweep_points(read_results(out), ["k_i", "k_xi"], None)
+    region = pooled_region(pts, ["k_i", "k_xi"])
+    assert sorted(pts["point"][region].tolist()) == expect
+    assert main(["campaign", "report", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    text = capsys.readouterr().out
+    assert f"(top decile, pooled rate ≥ {min(pooled[p] for p in expect):.2f}): {len(expect)} points" in text, text
+    assert (tmp_path / "plots" / "sweep.png").is_file()

@@ -12,29 +12,42 @@ Parquet results folder), :mod:`~wbc.campaign.report` (statistics and plots).
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 
 from wbc.campaign.executors import RayExecutor, SerialExecutor
 from wbc.campaign.report import format_report, make_plots, summarize_campaign, wilson_interval
 from wbc.campaign.spec import CampaignSpec, default_spec, load_spec, trial_params
-from wbc.campaign.store import ResultStore, read_results
+from wbc.campaign.store import ResultStore, is_finished, read_results
 from wbc.campaign.trials import walk_trial
 
 __all__ = ["run", "CampaignSpec", "default_spec", "load_spec", "trial_params", "SerialExecutor", "RayExecutor",
            "read_results", "format_report", "make_plots", "summarize_campaign", "wilson_interval", "walk_trial"]
 
 
-def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indices=None):
+def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indices=None,
+        rerun_errors: bool = False):
     """Run the campaign's unfinished trials and record each row in ``out`` as it finishes.
+
+    Resume: the trials with a finished row in ``out`` are skipped; the others — never run, or lost by the executor
+    (:mod:`wbc.campaign.store`) — are run. A trial whose function raised is finished (its exception is its result:
+    the trial is a pure function of (seed, index), so a rerun would raise again) and is skipped unless
+    ``rerun_errors``.
+
+    Interrupt: while it runs in the main thread, a SIGINT (Ctrl-C) is noted before the handler in place raises
+    KeyboardInterrupt; from then on no row is recorded — not even one the trial function returned after catching the
+    interrupt (as an error, or cut short) — so every trial the interrupt touched is run again on resume.
 
     Args:
         spec: a :class:`CampaignSpec`, a mapping or a TOML path (:func:`load_spec`).
-        out: results folder (:mod:`wbc.campaign.store`); trials already recorded there are skipped (resume).
+        out: results folder (:mod:`wbc.campaign.store`).
         executor: :class:`SerialExecutor` (default) or :class:`RayExecutor`.
         trial_fn: ``fn(spec, params) -> dict`` of scalars (default :func:`walk_trial`); must be importable by the
             workers (a module-level function) when run on Ray.
         progress: a progress bar with ETA on stderr.
         indices: run only these trial indices (default all ``range(spec.trials)``).
+        rerun_errors: also run again the trials whose recorded row is the trial function's exception.
 
     Returns:
         The results table (``pyarrow.Table``, one row per recorded trial, sorted by ``trial``).
@@ -48,7 +61,7 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
     store = ResultStore(out, spec.as_dict())
     executor = SerialExecutor() if executor is None else executor
     fn = walk_trial if trial_fn is None else trial_fn
-    done = store.done()
+    done = store.done(rerun_errors=rerun_errors)
     wanted = range(spec.trials) if indices is None else [int(i) for i in indices]
     todo = [i for i in wanted if i not in done]
     bar = None
@@ -57,19 +70,55 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
 
         bar = tqdm(total=len(wanted), initial=len(wanted) - len(todo), unit="trial", file=sys.stderr,
                    desc=f"campaign {spec.kind} ({executor.name})", dynamic_ncols=True)
-    recorded = set(done)
+    finished = set(done)
+    watch = _InterruptWatch()
     try:
-        for i, row in executor.map(fn, spec, todo):
-            if i in recorded:  # never counted twice
-                continue
-            store.append(row)
-            recorded.add(i)
-            if bar is not None:
-                bar.update(1)
+        with watch:
+            for i, row in executor.map(fn, spec, todo):
+                if watch.seen:  # this trial may have been cut short by the Ctrl-C: not recorded, rerun on resume
+                    raise KeyboardInterrupt
+                if i in finished:  # never counted twice
+                    continue
+                store.append(row)
+                if is_finished(row):
+                    finished.add(i)
+                if bar is not None:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
         executor.close()
-    if all(i in recorded for i in range(spec.trials)):
+    if all(i in finished for i in range(spec.trials)):
         store.compact()
     return read_results(out)
+
+
+class _InterruptWatch:
+    """Notes a SIGINT received while active (main thread only), then hands it to the handler that was in place
+    (Python's default raises KeyboardInterrupt). A SIGINT ignored or left to the system is left alone."""
+
+    def __init__(self):
+        self.seen = False
+        self._previous = None
+
+    def _on_sigint(self, signum, frame):
+        self.seen = True
+        previous = self._previous
+        if callable(previous):
+            previous(signum, frame)
+        else:
+            raise KeyboardInterrupt
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.getsignal(signal.SIGINT)
+            if callable(previous):
+                self._previous = previous
+                signal.signal(signal.SIGINT, self._on_sigint)
+        return self
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+        return False

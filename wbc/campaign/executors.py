@@ -2,9 +2,12 @@
 local Ray on this machine's cores, or an existing cluster).
 
 An executor's ``map(fn, spec, indices)`` yields ``(index, row)`` as trials finish, in any order; ``row`` is the
-trial function's dict plus ``wall_s`` (its run time, s) and ``worker`` (host:pid), or, for a trial that raised,
-``{"outcome": "error", "error": "<type>: <message>"}``. A trial is a pure function of (spec, index), so where it
-ran does not change its row (apart from ``wall_s`` and ``worker``).
+trial function's dict plus ``wall_s`` (its run time, s) and ``worker`` (host:pid); for a trial that raised,
+``{"outcome": "error", "error_kind": "exception", "error": "<type>: <message>", ...}`` (a finished trial: the
+exception is its result); for a trial the executor lost (:func:`lost_row`: its worker died more often than the
+retries allow, the Ray node went away) ``{"outcome": "error", "error_kind": "lost", ...}``, which the results
+folder does not count as finished (:mod:`wbc.campaign.store`: a resumed run runs it again). A trial is a pure
+function of (spec, index), so where it ran does not change its row (apart from ``wall_s`` and ``worker``).
 
 **Ray.** Each trial is a Ray task (``max_retries`` 3: a task whose worker process died — killed, out of memory — is
 run again on another worker; an exception inside the trial is not retried, it is the trial's result). Workers are
@@ -28,7 +31,7 @@ import traceback
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["SerialExecutor", "RayExecutor", "confine_to_loopback", "run_one"]
+__all__ = ["SerialExecutor", "RayExecutor", "confine_to_loopback", "run_one", "lost_row"]
 
 
 def run_one(fn, spec, params: dict) -> dict:
@@ -37,12 +40,19 @@ def run_one(fn, spec, params: dict) -> dict:
     try:
         row = dict(fn(spec, params))
     except Exception as e:  # a trial's failure is its result; the campaign goes on
-        row = {"outcome": "error", "survived": None,
+        row = {"outcome": "error", "survived": None, "error_kind": "exception",
                "error": f"{type(e).__name__}: {e}".splitlines()[0][:500],
                "traceback": traceback.format_exc()[-2000:]}
     row["wall_s"] = time.perf_counter() - t0
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     return {**params, **row}
+
+
+def lost_row(params: dict, exc: BaseException) -> dict:
+    """The row of a trial the executor lost (``exc``: why), marked ``error_kind = "lost"``: not a finished trial,
+    run again on resume (module docstring). It names no ``worker``."""
+    return {**params, "outcome": "error", "survived": None, "error_kind": "lost",
+            "error": f"{type(exc).__name__}: {exc}".splitlines()[0][:500]}
 
 
 class SerialExecutor:
@@ -132,9 +142,10 @@ class RayExecutor:
             i = inflight.pop(ref)
             try:
                 row = ray.get(ref)
-            except ray.exceptions.RayError as e:  # the worker died more than max_retries times
-                row = {**trial_params(spec, i), "outcome": "error", "survived": None,
-                       "error": f"{type(e).__name__}: {e}".splitlines()[0][:500]}
+            except ray.exceptions.RayError as e:
+                # the worker died more than max_retries times, the node or raylet is gone, or the task raised
+                # outside the trial function's guard (a KeyboardInterrupt: Ctrl-C reaches the process group)
+                row = lost_row(trial_params(spec, i), e)
             yield i, row
 
     def close(self) -> None:

@@ -6,11 +6,22 @@ Layout of ``OUT/``::
     trials/part-*.parquet  one file per finished trial, written to a temporary name and renamed (atomic)
     trials/compact-*.parquet  the parts merged once a run completes (then the parts are removed)
 
-Any Parquet reader takes the ``trials/`` folder as one table (``pyarrow.dataset``, ``pandas.read_parquet``).
-A trial is recorded once it finished; a run stopped at any point (Ctrl-C, SIGKILL, a lost machine) leaves only
-complete files, and a run restarted on the same folder skips the recorded trials. Rows are keyed by ``trial``:
-should two files hold the same trial (a crash between compaction and the removal of its parts), the first file
-in name order wins.
+Any Parquet reader takes the ``trials/`` folder as one table (``pyarrow.dataset``, ``pandas.read_parquet``);
+:func:`read_results` also applies the one-row-per-trial rule below.
+
+**Finished and unfinished rows.** A row is *finished* when the trial ran to its end: it survived, fell, failed,
+or its trial function raised (``outcome = "error"``, ``error_kind = "exception"``: a trial is a pure function of
+(seed, index), so the exception is its result and would recur). A row is *unfinished* when the executor lost the
+trial (``outcome = "error"``, ``error_kind = "lost"``): its worker died more often than the retries allow, the Ray
+node or raylet went away, or the driver was being interrupted. Rows written before ``error_kind`` existed are
+classified by ``worker``: a trial function's exception row always names the worker that ran it, the executor's
+own error row does not (:func:`is_finished`). A run stopped at any point (Ctrl-C, SIGKILL, a lost machine) leaves
+only complete files; a run restarted on the same folder skips the trials that have a finished row and runs the
+others again (:meth:`ResultStore.done`).
+
+**One row per trial.** Should several rows hold the same ``trial`` (a rerun of an unfinished trial, a crash
+between compaction and the removal of its parts), the reader keeps one: a finished row over an unfinished one,
+and among those the latest written (file modification time, then file name, then row order).
 """
 
 from __future__ import annotations
@@ -23,7 +34,7 @@ from pathlib import Path
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["ResultStore", "read_results"]
+__all__ = ["ResultStore", "read_results", "is_finished", "finished_mask"]
 
 
 class ResultStore:
@@ -68,10 +79,22 @@ class ResultStore:
         self._seq = 0
         self._tag = f"{socket.gethostname()}-{os.getpid()}-{int(time.time() * 1e3)}"
 
-    def done(self) -> set:
-        """Indices of the trials already recorded."""
+    def done(self, *, rerun_errors: bool = False) -> set:
+        """Indices of the trials with a finished row (module docstring): the trials a resumed run skips.
+
+        Args:
+            rerun_errors: also leave out the trials whose row is a trial function's exception (to run them again
+                after the cause was fixed); unfinished (lost) trials are always left out.
+        """
         table = read_results(self.out, missing_ok=True)
-        return set() if table is None else set(table.column("trial").to_pylist())
+        if table is None:
+            return set()
+        trials = table.column("trial").to_pylist()
+        keep = finished_mask(table)
+        if rerun_errors:
+            outcome = table.column("outcome").to_pylist() if "outcome" in table.column_names else [None] * len(trials)
+            keep = [k and o != "error" for k, o in zip(keep, outcome)]
+        return {t for t, k in zip(trials, keep) if k}
 
     def append(self, row: dict) -> None:
         """Record one finished trial's row (atomically: a temporary file renamed into ``trials/``)."""
@@ -102,8 +125,26 @@ class ResultStore:
         return path
 
 
+def is_finished(row: dict) -> bool:
+    """Whether a row is a finished trial's (module docstring): not an executor's lost-trial error row."""
+    if row.get("outcome") != "error":
+        return True
+    kind = row.get("error_kind")
+    if kind is not None:
+        return kind != "lost"
+    return row.get("worker") is not None  # a row written before error_kind: the executor's own names no worker
+
+
+def finished_mask(table) -> list:
+    """:func:`is_finished` of each row of a results table (``pyarrow.Table``), as a list of bools."""
+    names = [c for c in ("outcome", "error_kind", "worker") if c in table.column_names]
+    cols = {c: table.column(c).to_pylist() for c in names}
+    return [is_finished({c: cols[c][i] for c in names}) for i in range(table.num_rows)]
+
+
 def read_results(out, *, missing_ok: bool = False):
-    """The campaign's rows as a ``pyarrow.Table`` (one row per trial, sorted by ``trial``).
+    """The campaign's rows as a ``pyarrow.Table``: one row per trial (a finished one over an unfinished one, then
+    the latest written: module docstring), sorted by ``trial``.
 
     Args:
         out: the campaign folder (or its ``trials/`` folder, or one Parquet file).
@@ -125,6 +166,7 @@ def read_results(out, *, missing_ok: bool = False):
         if missing_ok:
             return None
         raise InvalidInputError(f"no campaign results in {out} (expected {out}/trials/*.parquet)")
+    files.sort(key=_written_order)  # oldest first
     tables = []
     for f in files:
         try:
@@ -133,13 +175,22 @@ def read_results(out, *, missing_ok: bool = False):
             raise InvalidInputError(f"{f}: not a readable Parquet file ({e})") from None
     table = pa.concat_tables(tables, promote_options="permissive")
     trial = table.column("trial").to_pylist()
-    seen, keep = set(), []
-    for i, t in enumerate(trial):  # first file in name order wins
-        if t not in seen:
-            seen.add(t)
-            keep.append(i)
-    table = table.take(pa.array(keep, type=pa.int64()))
+    finished = finished_mask(table)
+    best: dict = {}
+    for i, t in enumerate(trial):  # rows in written order: a later row of the same rank replaces an earlier one
+        j = best.get(t)
+        if j is None or finished[i] >= finished[j]:
+            best[t] = i
+    table = table.take(pa.array(sorted(best.values()), type=pa.int64()))
     return table.sort_by("trial")
+
+
+def _written_order(path: Path) -> tuple:
+    try:
+        mtime = path.stat().st_mtime_ns
+    except OSError:  # removed meanwhile (a concurrent compaction): its rows are in the compacted file
+        mtime = 0
+    return mtime, path.name
 
 
 def _files(d: Path) -> list:

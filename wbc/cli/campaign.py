@@ -45,6 +45,9 @@ def register(subparsers, add_outputs=None) -> None:
                         "network namespace whose only interface is lo)")
     r.add_argument("--workers", type=int, default=None, help="local Ray worker processes (default: all cores)")
     r.add_argument("--ray-address", default=None, metavar="HOST:PORT", help="join an existing Ray cluster")
+    r.add_argument("--rerun-errors", action="store_true",
+                   help="also run again the trials recorded as the trial function's exception (after fixing its "
+                        "cause); trials the executor lost are always run again")
     r.add_argument("--no-plots", action="store_true", help="do not write OUT/plots/*.png at the end")
     r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     r.set_defaults(func=cmd_campaign)
@@ -53,6 +56,12 @@ def register(subparsers, add_outputs=None) -> None:
                                      "and (re)make the plots of a campaign's results folder.")
     rep.add_argument("results", type=Path, help="campaign results folder (or a Parquet file)")
     rep.add_argument("--plots", type=Path, default=None, help="plot folder (default RESULTS/plots)")
+    rep.add_argument("--metric", default=None,
+                     help="a sweep's per-point metric for its heat map and best region: a max_… (lower is better) "
+                          "or min_… (higher is better) column (default max_dcm_error_m)")
+    rep.add_argument("--tolerance", type=float, default=None,
+                     help="a sweep's best region: the points with the highest survival rate whose metric is within "
+                          "this fraction of the best of them (default 0.05)")
     rep.set_defaults(func=cmd_campaign)
 
 
@@ -101,18 +110,31 @@ def cmd_campaign(args) -> int:
     from wbc.exceptions import InvalidInputError
 
     if args.campaign_command == "report":
-        from wbc.campaign import format_report, make_plots, read_results
+        import math
 
+        from wbc.campaign import format_report, make_plots, read_results
+        from wbc.campaign.report import SWEEP_METRIC, SWEEP_TOLERANCE, format_sweep_region, metric_lower_is_better
+
+        tolerance = SWEEP_TOLERANCE if args.tolerance is None else args.tolerance
+        if not (math.isfinite(tolerance) and tolerance >= 0):
+            raise InvalidInputError(f"--tolerance must be a finite fraction ≥ 0, got {args.tolerance}")
+        if args.metric is not None:
+            metric_lower_is_better(args.metric)
         table = read_results(args.results)
-        print(format_report(table))
+        if args.metric is not None and args.metric not in table.column_names:
+            raise InvalidInputError(f"--metric {args.metric}: no such column in the results")
         meta = Path(args.results) / "campaign.json"
         sweep = None
         if meta.is_file():
             import json
 
             sweep = sorted(json.loads(meta.read_text()).get("sweep", {}).get("params", {})) or None
+        print(format_report(table))
+        metric = args.metric or (SWEEP_METRIC if SWEEP_METRIC in table.column_names else None)
+        if sweep is not None and len(sweep) == 2 and metric is not None:
+            print(format_sweep_region(table, sweep, metric, tolerance))
         plots = args.plots if args.plots is not None else Path(args.results) / "plots"
-        for path in make_plots(table, plots, sweep_params=sweep):
+        for path in make_plots(table, plots, sweep_params=sweep, sweep_metric=args.metric, tolerance=tolerance):
             print(f"plot written to {path}")
         return 0
     if args.workers is not None and args.workers < 1:
@@ -123,6 +145,7 @@ def cmd_campaign(args) -> int:
         raise InvalidInputError("--workers only applies with --ray")
     spec = _spec(args)
     from wbc.campaign import (RayExecutor, SerialExecutor, format_report, make_plots, run, summarize_campaign)
+    from wbc.campaign.report import SWEEP_METRIC, format_sweep_region
     from wbc.campaign.store import ResultStore
 
     ResultStore(args.results, spec.as_dict())  # refuse a bad or foreign folder before starting anything
@@ -131,21 +154,21 @@ def cmd_campaign(args) -> int:
     else:
         executor = SerialExecutor()
     try:
-        table = run(spec, args.results, executor=executor, progress=not args.no_progress)
+        table = run(spec, args.results, executor=executor, progress=not args.no_progress,
+                    rerun_errors=args.rerun_errors)
     except KeyboardInterrupt:
-        from wbc.campaign import read_results
-
-        t = read_results(args.results, missing_ok=True)
-        n = 0 if t is None else t.num_rows
-        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials recorded in {args.results} "
+        n = len(ResultStore(args.results, spec.as_dict()).done())
+        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials finished in {args.results} "
               "(run the same command again to resume)", file=sys.stderr)
         return 130
     print(format_report(table))
+    sweep = sorted(spec.sweep["params"]) if spec.sweep else None
+    if sweep is not None and len(sweep) == 2 and SWEEP_METRIC in table.column_names:
+        print(format_sweep_region(table, sweep))
     s = summarize_campaign(table)
     print(f"results: {args.results}/trials ({table.num_rows} rows of {spec.trials}; executor {executor.name}, "
           f"{executor.workers} worker(s)); errors {s['errors']}")
     if not args.no_plots:
-        sweep = sorted(spec.sweep["params"]) if spec.sweep else None
         for path in make_plots(table, Path(args.results) / "plots", sweep_params=sweep):
             print(f"plot written to {path}")
     return 0
