@@ -108,6 +108,25 @@ class Task(ABC):
     weight = ValidatedAttribute(lambda task, w: as_weight(w, task.dim, f"{task.name} weight"),
                                 "(m,) cost weight of each row, ≥ 0 (raises InvalidInputError like as_weight).")
 
+    def share_weight(self, rows: np.ndarray) -> None:
+        """Keep the weights in ``rows`` from now on: the current (m,) weights are copied into it and it becomes the
+        array :attr:`weight` returns, so that in-place edits of ``task.weight`` reach the owner of ``rows`` (a
+        controller's stacked weight rows) with no copy per tick. Assigning ``task.weight = ...`` replaces it again
+        by a new validated array.
+
+        Args:
+            rows: writable (m,) float64 array (typically a view of a larger buffer).
+
+        Raises:
+            InvalidInputError: ``rows`` is not a writable (m,) float64 array.
+        """
+        if not (isinstance(rows, np.ndarray) and rows.shape == (self.dim,) and rows.dtype == np.float64
+                and rows.flags.writeable):
+            raise InvalidInputError(f"{self.name} weight rows must be a writable ({self.dim},) float64 array, got "
+                                    f"{type(rows).__name__} {getattr(rows, 'shape', '')}")
+        rows[:] = self._weight
+        self._weight = rows
+
     @abstractmethod
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         """Return (e (m,), J (m, nv)) at ``config``."""
