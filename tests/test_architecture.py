@@ -1,5 +1,6 @@
 """The import graph of ``wbc``, derived from the source with ``ast``: no cycle, no import from a higher layer
-into a lower one, no import of another module's private names.
+into a lower one, no import of another module's private names, no access to private attributes defined in another
+module, no constant defined twice.
 
 Every import is counted: module-level, inside functions (lazy), and ``importlib.import_module("wbc...")`` with a
 string literal. The layers are data here (not imported from wbc): a module may import modules of its own layer
@@ -221,6 +222,93 @@ def test_the_checker_sees_lazy_and_string_imports(tmp_path):
     src.write_text("import importlib\n\ndef f():\n    for m in ('wbc.sim.cli', 'x'):\n"
                    "        importlib.import_module(m)\n")
     assert ("wbc.sim.cli", 4, []) in imports_of("wbc.fake", src, {"wbc.sim.cli": src})
+
+
+# Underscore names that the standard library documents as public API (https://docs.python.org/3/library/os.html#os._exit).
+DOCUMENTED_UNDERSCORE_NAMES = {"os._exit"}
+_ATTRIBUTE_FUNCTIONS = ("getattr", "setattr", "hasattr", "delattr")
+
+
+def _is_private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def private_attributes_defined(tree: ast.AST) -> set[str]:
+    """The private attribute names a module defines: ``self._x = ...`` / ``cls._x = ...`` (also augmented, annotated
+    or deleted), ``def _x`` / ``class _X`` at any depth, class-level assignments and ``__slots__`` strings."""
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            out.add(node.name)
+        if isinstance(node, ast.ClassDef):
+            for st in node.body:
+                targets = st.targets if isinstance(st, ast.Assign) else \
+                    [st.target] if isinstance(st, (ast.AnnAssign, ast.AugAssign)) else []
+                for t in targets:
+                    if isinstance(t, ast.Name):
+                        out.add(t.id)
+                        if t.id == "__slots__":
+                            out.update(c.value for c in ast.walk(st.value)
+                                       if isinstance(c, ast.Constant) and isinstance(c.value, str))
+        if isinstance(node, ast.Attribute) and isinstance(node.ctx, (ast.Store, ast.Del)) and \
+                isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
+            out.add(node.attr)
+    return {n for n in out if _is_private(n)}
+
+
+def private_attribute_accesses(path: Path) -> list[tuple[int, str]]:
+    """(line, source) of each access in the file to a private attribute (``_x``, not a dunder) that the file does
+    not define (:func:`private_attributes_defined`): ``X._x`` read, written or deleted where X is not ``self``,
+    ``cls`` or ``super()``, and ``getattr/setattr/hasattr/delattr(X, "_x")`` with a literal name. A module may touch
+    the private attributes of the objects it defines, never those defined elsewhere (another wbc module, a
+    third-party library)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    own = private_attributes_defined(tree)
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute):
+            name, obj = node.attr, node.value
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and \
+                node.func.id in _ATTRIBUTE_FUNCTIONS and len(node.args) >= 2 and \
+                isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str):
+            name, obj = node.args[1].value, node.args[0]
+        else:
+            continue
+        if not _is_private(name) or name in own:
+            continue
+        if isinstance(obj, ast.Name) and obj.id in ("self", "cls"):
+            continue
+        if isinstance(obj, ast.Call) and isinstance(obj.func, ast.Name) and obj.func.id == "super":
+            continue
+        if isinstance(node, ast.Attribute) and ast.unparse(node) in DOCUMENTED_UNDERSCORE_NAMES:
+            continue
+        out.append((node.lineno, ast.unparse(node)))
+    return sorted(out)
+
+
+def test_no_private_attribute_accessed_across_modules():
+    bad = [f"{name}:{line} {src}" for name, path in all_modules().items()
+           for line, src in private_attribute_accesses(path)]
+    assert not bad, f"{len(bad)} accesses to private attributes defined in another module (give the owner a " \
+                    f"public surface):\n" + "\n".join(bad)
+
+
+def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_path):
+    """A mini-package: ``a`` defines ``A._x`` and ``A._m`` and touches them from a module-level function; ``b``
+    reads, writes and getattr's them on an ``A``, and uses its own (``_y``), ``super()``'s and ``os._exit``."""
+    a = tmp_path / "a.py"
+    a.write_text("class A:\n    _k = 1\n    def __init__(self):\n        self._x = 0\n"
+                 "    def _m(self):\n        return self._x\n\n"
+                 "def peek(obj):\n    return obj._x + obj._m() + obj._k\n")
+    b = tmp_path / "b.py"
+    b.write_text("import os\nfrom a import A\n\n"
+                 "class B(A):\n    def __init__(self):\n        super().__init__()\n        self._y = self._x\n"
+                 "    def _n(self):\n        return super()._m() + self.__class__.__name__.__len__()\n\n"
+                 "def poke(obj: A, other: B):\n    obj._x = 2\n    del obj._k\n"
+                 "    f = getattr(obj, '_m')\n    other._y = 1\n    os._exit(0) if f() else None\n"
+                 "    return obj.__dict__, hasattr(obj, 'x')\n")
+    assert private_attribute_accesses(a) == []
+    assert private_attribute_accesses(b) == [(12, "obj._x"), (13, "obj._k"), (14, "getattr(obj, '_m')")]
 
 
 @pytest.mark.parametrize("module", ["wbc.gait.walk", "wbc.cli"])

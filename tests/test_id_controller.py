@@ -274,3 +274,36 @@ def test_wrap_and_typed_errors(robots):
         ctrl.compute(bad, np.zeros(robot.nv))
     with pytest.raises(InvalidInputError):
         ctrl.qp.solve(ctrl.state, -1.0)
+
+
+def test_deprecated_names_warn_and_give_the_current_objects(robots):
+    """The former names still work and each warns DeprecationWarning naming its replacement: the aliases are the
+    current class or function, the constructors return the AccelerationReference that the current name builds
+    (same task, gains, weights and name)."""
+    import wbc.dynamics as dynamics
+    import wbc.dynamics.balance as balance
+    import wbc.formulations.reference as reference
+    from wbc.formulations.reference import AccelerationReference
+    from wbc.tasks import AngularMomentumTask as SharedMomentumTask
+
+    for module, old, current in ((dynamics, "BalanceController", dynamics.IDBalanceController),
+                                 (balance, "BalanceController", balance.IDBalanceController),
+                                 (dynamics, "AccelerationTask", AccelerationReference),
+                                 (reference, "AccelerationTask", AccelerationReference),
+                                 (dynamics, "AngularMomentumTask", reference.AngularMomentumRateTask)):
+        with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated: use {current.__name__}"):
+            assert getattr(module, old) is current
+    with pytest.raises(AttributeError):
+        dynamics.NoSuchName
+    robot = robots("talos")
+    com, frame, posture = ComTask(), FrameTask(robot, robot.left_sole), PostureTask(robot)
+    for old, task in ((reference.ComAccelerationTask, com), (reference.FrameAccelerationTask, frame),
+                      (reference.PostureAccelerationTask, posture)):
+        with pytest.warns(DeprecationWarning, match=rf"{old.__name__} is deprecated: use AccelerationReference"):
+            ref = old(task, kp=40.0, kd=3.0, weight=2.0, name="x")
+        assert type(ref) is AccelerationReference and ref.task is task and (ref.kp, ref.kd, ref.name) == (40.0, 3.0, "x")
+        assert np.array_equal(ref.weight, np.full(task.dim, 2.0))
+    with pytest.warns(DeprecationWarning, match="AngularMomentumRateTask is deprecated"):
+        ref = reference.AngularMomentumRateTask(gain=7.0, weight=0.5)
+    assert type(ref.task) is SharedMomentumTask and (ref.kp, ref.kd, ref.name) == (0.0, 7.0, SharedMomentumTask.name)
+    assert np.array_equal(ref.weight, np.full(3, 0.5)) and np.array_equal(ref.task.weight, np.full(3, 0.5))

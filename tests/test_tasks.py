@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import CATALOG, random_configuration
+from conftest import CATALOG, random_configuration, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint
 from wbc.tasks.base import Task
@@ -142,6 +142,47 @@ def test_damping_task_adds_its_weights_to_the_diagonal(robots):
         H2, g2 = np.zeros((robot.nv, robot.nv)), np.zeros(robot.nv)
         Task.add_cost(task, config, H2, g2)  # the generic Jᵀ W J path gives the same
         np.testing.assert_allclose(H2, H, atol=0)
+
+
+def test_share_weight_keeps_the_weights_in_the_given_rows():
+    """``share_weight`` copies the weights into the rows and makes them the task's weight array: in-place edits
+    reach the rows; an assignment gives a new validated array again; rows of the wrong shape or type, a read-only
+    array or a list raise InvalidInputError."""
+    task = ComTask(weight=[1.0, 2.0, 3.0])
+    buffer = np.zeros(5)
+    task.share_weight(buffer[1:4])
+    assert np.array_equal(buffer, [0.0, 1.0, 2.0, 3.0, 0.0]) and np.shares_memory(task.weight, buffer)
+    task.weight[0] = 7.0
+    assert buffer[1] == 7.0
+    task.weight = 2.0
+    assert not np.shares_memory(task.weight, buffer)
+    assert np.array_equal(task.weight, [2.0, 2.0, 2.0]) and buffer[1] == 7.0
+    read_only = np.zeros(3)
+    read_only.flags.writeable = False
+    for bad in (np.zeros(4), np.zeros(3, dtype=int), read_only, [0.0, 0.0, 0.0]):
+        with pytest.raises(InvalidInputError, match="weight rows"):
+            task.share_weight(bad)
+
+
+def test_a_weight_edited_in_place_reaches_the_compiled_tick(robots):
+    """The compiled tick keeps each task's weights in its stacked rows (``share_weight``): after a first tick, an
+    in-place edit of ``com.weight`` gives the same next command, bit for bit, as assigning the same weights, and a
+    different one from leaving them unchanged."""
+    robot = robots("talos")
+    config = Configuration(robot)
+    ticks = {}
+    for edit in ("in place", "assigned", "unchanged"):
+        ctrl, com = standing_controller(robot, config)
+        com.set_target(config.com + np.array([0.002, 0.001, -0.001]))
+        assert ctrl.solve(config, 0.002).path == "compiled"
+        if edit == "in place":
+            com.weight[:] = [1.0, 100.0, 0.1]
+        elif edit == "assigned":
+            com.weight = [1.0, 100.0, 0.1]
+        ticks[edit] = ctrl.solve(config, 0.002)
+    assert all(t.ok and t.path == "compiled" for t in ticks.values())
+    assert np.array_equal(ticks["in place"].v, ticks["assigned"].v)
+    assert np.abs(ticks["in place"].v - ticks["unchanged"].v).max() > 1e-3
 
 
 @pytest.mark.parametrize("name", CATALOG)

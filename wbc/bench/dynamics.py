@@ -8,12 +8,12 @@ regularises every joint. There is no simulator: each library integrates its own 
 ``v ← v + v̇ dt, q ← q ⊕ v dt``, so the motion is the controller's own model of itself.
 
 One tick = set the CoM references + solve + integrate (+ kinematics update for placo):
-wbc ``BalanceController.set_com_reference`` + ``compute(q, v)`` + integration; placo target setters +
+wbc ``IDBalanceController.set_com_reference`` + ``compute(q, v)`` + integration; placo target setters +
 ``DynamicsSolver.solve(True)`` (integrates) + ``RobotWrapper.update_kinematics()``.
 
 wbc's controller is :mod:`wbc.dynamics` (when it exists): otherwise the wbc row reports "not available".
 Differences that remain: wbc models each sole by 4 corner forces in an inscribed friction pyramid and adds a
-low-weight centroidal angular-momentum task (its ``BalanceController`` default); placo uses its planar-contact
+low-weight centroidal angular-momentum task (its ``IDBalanceController`` default); placo uses its planar-contact
 wrench model.
 """
 
@@ -35,7 +35,7 @@ __all__ = ["DynamicsSpec", "WbcDynamicsRunner", "PlacoDynamicsRunner", "wbc_dyna
 @dataclass(frozen=True)
 class DynamicsSpec(KinematicSpec):
     """Kinematic spec fields (robot, dt, ticks, warmup, sway) plus the ID gains and weights (wbc's
-    ``BalanceController`` defaults, given to placo too).
+    ``IDBalanceController`` defaults, given to placo too).
 
     Attributes:
         mu: friction coefficient.
@@ -67,12 +67,12 @@ class DynamicsSpec(KinematicSpec):
 
 
 def wbc_dynamics_available() -> tuple[bool, str]:
-    """(available, reason): whether ``wbc.dynamics`` provides the ``BalanceController`` used here."""
+    """(available, reason): whether ``wbc.dynamics`` provides the ``IDBalanceController`` used here."""
     try:
-        from wbc.dynamics.balance import BalanceController
+        from wbc.dynamics.balance import IDBalanceController
     except Exception as exc:  # not written yet, or broken mid-edit
         return False, f"wbc.dynamics not available ({type(exc).__name__}: {exc})"
-    return callable(BalanceController), ""
+    return callable(IDBalanceController), ""
 
 
 class _DynamicsRunner(KinematicRunner):
@@ -84,20 +84,20 @@ class _DynamicsRunner(KinematicRunner):
 
 
 class WbcDynamicsRunner(_DynamicsRunner):
-    """wbc :class:`~wbc.dynamics.balance.BalanceController` at ``spec``'s gains, μ and solver."""
+    """wbc :class:`~wbc.dynamics.balance.IDBalanceController` at ``spec``'s gains, μ and solver."""
 
     library = "wbc"
     supports_breakdown = True
     note = "4 corner forces per sole, inscribed friction pyramid; + angular-momentum task (weight 0.1)"
 
     def reset(self) -> None:
-        from wbc.dynamics.balance import BalanceController
+        from wbc.dynamics.balance import IDBalanceController
 
         s, robot = self.spec, self.robot
         gains = {"com_kp": s.com_kp, "com_kd": s.com_kd, "com_weight": s.com_weight, "torso_kp": s.torso_kp,
                  "torso_kd": s.torso_kd, "torso_weight": s.torso_weight, "posture_kp": s.posture_kp,
                  "posture_kd": s.posture_kd, "posture_weight": s.posture_weight}
-        self.ctrl = BalanceController(robot, dt=s.dt, solver=s.solver, mu=s.mu, gains=gains)
+        self.ctrl = IDBalanceController(robot, dt=s.dt, solver=s.solver, mu=s.mu, gains=gains)
         self.q = robot.q_ref.copy()
         self.v = np.zeros(robot.nv)
         self.ctrl.reset(self.q, self.v)

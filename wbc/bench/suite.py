@@ -92,12 +92,6 @@ def _log(msg: str) -> None:
     print(f"[bench {time.strftime('%H:%M:%S')}] {msg}", flush=True)
 
 
-def _run_summary(run: KinematicRun) -> dict[str, object]:
-    return {"library": run.library, "robot": run.robot, "solver": run.solver, "failures": run.failures,
-            "wall_us": summarize_us(run.wall_ns), "cpu_us": summarize_us(run.cpu_ns), "metrics": run.metrics,
-            "note": run.note, "first_error": run.first_error}
-
-
 def _worst_metrics(runs: list[KinematicRun]) -> dict[str, object]:
     """Metrics of a library over its repeats: the worst value of each error, the first run's final CoM."""
     out = dict(runs[0].metrics)

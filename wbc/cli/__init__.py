@@ -72,16 +72,28 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"wbc {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = _Commands(parser.add_subparsers(dest="command", required=True))
     from wbc.cli.output import add_outputs
 
     for module in _commands():
         module.register(sub, add_outputs)
-    helps = {a.dest: a.help for a in sub._choices_actions}
-    for name, p in sub.choices.items():  # every `wbc X --help` starts with a description
-        if not p.description and helps.get(name):
-            p.description = helps[name][0].upper() + helps[name][1:] + "."
     return parser
+
+
+class _Commands:
+    """The top-level sub-commands as handed to each command module's ``register``: argparse's ``add_parser``, with
+    the parser's description defaulting to its one-line help (capitalised, with a full stop), so that every
+    ``wbc X --help`` starts with a description."""
+
+    def __init__(self, subparsers):
+        self.subparsers = subparsers
+
+    def add_parser(self, name: str, **kwargs) -> argparse.ArgumentParser:
+        parser = self.subparsers.add_parser(name, **kwargs)
+        text = kwargs.get("help")
+        if not parser.description and text:
+            parser.description = text[0].upper() + text[1:] + "."
+        return parser
 
 
 def main(argv: list[str] | None = None) -> int:

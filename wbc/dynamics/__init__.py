@@ -15,23 +15,34 @@ Deprecated names kept for callers: ``BalanceController`` (= :class:`IDBalanceCon
 ``acceleration_task``, each returning an ``AccelerationReference`` on a shared task.
 """
 
-from wbc.dynamics.balance import DEFAULT_GAINS, BalanceController, IDBalanceController
+from wbc.dynamics.balance import DEFAULT_GAINS, IDBalanceController
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
 from wbc.state import DynamicsState
 from wbc.formulations.reference import (
     AccelerationReference,
-    AccelerationTask,
     AngularMomentumRateTask,
     ComAccelerationTask,
     FrameAccelerationTask,
     PostureAccelerationTask,
     acceleration_task,
+    deprecated,
 )
 
-#: Former name of :func:`AngularMomentumRateTask` (deprecated; :class:`wbc.tasks.AngularMomentumTask` is the task).
-AngularMomentumTask = AngularMomentumRateTask
+_RENAMED = {"BalanceController": ("IDBalanceController", IDBalanceController),
+            "AccelerationTask": ("AccelerationReference", AccelerationReference),
+            # not to be confused with the shared task wbc.tasks.AngularMomentumTask
+            "AngularMomentumTask": ("AngularMomentumRateTask (itself deprecated: AccelerationReference("
+                                    "wbc.tasks.AngularMomentumTask(), kp=0, kd=gain))", AngularMomentumRateTask)}
+
+
+def __getattr__(name: str):
+    if name in _RENAMED:  # former names (deprecated)
+        new, value = _RENAMED[name]
+        deprecated(f"wbc.dynamics.{name}", new)
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "AccelerationReference", "AccelerationTask", "AngularMomentumRateTask", "AngularMomentumTask", "BalanceController", "ComAccelerationTask",

@@ -32,15 +32,10 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import InverseDynamicsQP
-from wbc.formulations.reference import (
-    AngularMomentumRateTask,
-    ComAccelerationTask,
-    FrameAccelerationTask,
-    PostureAccelerationTask,
-)
+from wbc.formulations.reference import AccelerationReference, deprecated
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
-from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+from wbc.tasks import AngularMomentumTask, ComTask, FrameTask, OrientationTask, PostureTask
 
 __all__ = ["IDBalanceController", "BalanceController", "DEFAULT_GAINS"]
 
@@ -103,12 +98,15 @@ class IDBalanceController:
         gn = self.gains
         self.robot = robot
         self.dt = float(dt)
-        self.com = ComAccelerationTask(ComTask(), kp=gn["com_kp"], kd=gn["com_kd"], weight=gn["com_weight"])
-        self.torso = FrameAccelerationTask(OrientationTask(robot, robot.torso), kp=gn["torso_kp"],
+        self.com = AccelerationReference(ComTask(), kp=gn["com_kp"], kd=gn["com_kd"], weight=gn["com_weight"])
+        self.torso = AccelerationReference(OrientationTask(robot, robot.torso), kp=gn["torso_kp"],
                                            kd=gn["torso_kd"], weight=gn["torso_weight"])
-        self.momentum = AngularMomentumRateTask(gain=gn["momentum_gain"], weight=gn["momentum_weight"])
-        self.posture = PostureAccelerationTask(PostureTask(robot), kp=gn["posture_kp"], kd=gn["posture_kd"],
-                                               weight=gn["posture_weight"])
+        # L̇ = L̇_ff − K (L − L*): Kp = 0 and Kd = K on the momentum task (e ≡ 0, ė_ff = its target L*)
+        self.momentum = AccelerationReference(AngularMomentumTask(weight=gn["momentum_weight"]), kp=0.0,
+                                              kd=gn["momentum_gain"], weight=gn["momentum_weight"],
+                                              name=AngularMomentumTask.name)
+        self.posture = AccelerationReference(PostureTask(robot), kp=gn["posture_kp"], kd=gn["posture_kd"],
+                                             weight=gn["posture_weight"])
         self.base = None  # floating-base orientation task (set_base_orientation_weight), off by default
         soles = {"left": robot.left_sole, "right": robot.right_sole}
         length, width = robot.sole_length - 2 * sole_margin, robot.sole_width - 2 * sole_margin
@@ -119,7 +117,7 @@ class IDBalanceController:
                            name=s) for s in SIDES
         }
         self.feet = {
-            s: FrameAccelerationTask(FrameTask(robot, soles[s]), kp=gn["foot_kp"], kd=gn["foot_kd"],
+            s: AccelerationReference(FrameTask(robot, soles[s]), kp=gn["foot_kp"], kd=gn["foot_kd"],
                                      weight=gn["foot_weight"], name=f"{s}_foot") for s in SIDES
         }
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
@@ -230,7 +228,7 @@ class IDBalanceController:
         root = next(i for i, f in enumerate(model.frames) if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
         if weight == 0 or model.frames[root].parentJoint == model.frames[self.torso.task.frame_id].parentJoint:
             return
-        self.base = FrameAccelerationTask(OrientationTask(self.robot, model.frames[root].name), kp=float(kp),
+        self.base = AccelerationReference(OrientationTask(self.robot, model.frames[root].name), kp=float(kp),
                                           kd=float(kd), weight=float(weight), name="base_orientation")
         if q is None:
             target = self.controller.state.data.oMf[root].copy()
@@ -277,6 +275,10 @@ def _with_armature(robot: Robot, armature) -> Robot:
     return dataclasses.replace(robot, model=model)
 
 
-#: Former name of :class:`IDBalanceController` (kept so existing callers run; the kinematic balance controller of
-#: :mod:`wbc.scenarios.balance` has the same name).
-BalanceController = IDBalanceController
+def __getattr__(name: str):
+    # BalanceController: former name of IDBalanceController (deprecated; kept so existing callers run; the kinematic
+    # balance controller of wbc.scenarios.balance has the same name)
+    if name == "BalanceController":
+        deprecated("wbc.dynamics.balance.BalanceController", "IDBalanceController")
+        return IDBalanceController
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

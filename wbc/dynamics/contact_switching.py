@@ -9,7 +9,7 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   normal force in the controller's last QP solution when the ramp starts) to 0 over ``ramp_time``,
   ``F_max(t) = F₀ (1 − (t − t₀)/T_ramp)``; the QP moves the weight to the other foot
   continuously (no force jump), and when the bound reaches 0 the contact is released (its forces are then
-  bounded to 0 and the foot is tracked by a frame task, :meth:`BalanceController.release_foot`). So no weight is
+  bounded to 0 and the foot is tracked by a frame task, :meth:`IDBalanceController.release_foot`). So no weight is
   left on a released foot: at release the QP's normal force of that sole is 0 by construction.
 * **swing**: the caller sets the foot reference (pose, velocity and acceleration feed-forward). Touch-down
   detection is armed by :meth:`~ContactSwitcher.arm` (e.g. after mid-swing, so lift-off is not mistaken for
@@ -31,7 +31,7 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 ``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
 ``ContactTransition`` made explicit with the sole's corner-force bounds (:mod:`wbc.constraints.sole_contact`).
 
-The switcher works on a :class:`~wbc.dynamics.balance.BalanceController` (its ``contacts``, ``feet``, ``qp``,
+The switcher works on a :class:`~wbc.dynamics.balance.IDBalanceController` (its ``contacts``, ``feet``, ``qp``,
 ``set_max_normal_force`` and ``release_foot``). Call :meth:`~ContactSwitcher.update` once per control tick,
 before the controller's ``compute``.
 """
@@ -56,7 +56,7 @@ class ContactSwitcher:
     """Force ramps and state-based touch-down detection for the two soles of a balance controller.
 
     Args:
-        controller: a :class:`~wbc.dynamics.balance.BalanceController` (both feet in stance after ``reset``).
+        controller: a :class:`~wbc.dynamics.balance.IDBalanceController` (both feet in stance after ``reset``).
         ramp_time: duration of the ramp-out and ramp-in (s, > 0; default 0.04 s = 20 ticks at 500 Hz).
         touchdown_height: sole height (m, world z of the sole frame) at or below which an armed swing foot is
             in contact (default 3 mm).

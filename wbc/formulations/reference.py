@@ -19,6 +19,7 @@ The former acceleration-task classes of ``wbc.dynamics`` are kept as constructor
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -146,8 +147,16 @@ class AccelerationReference:
         return J, r
 
 
-#: Former name of :class:`AccelerationReference` (deprecated).
-AccelerationTask = AccelerationReference
+def deprecated(old: str, new: str, stacklevel: int = 3) -> None:
+    """Warn (DeprecationWarning, at the caller of the deprecated name) that ``old`` is deprecated for ``new``."""
+    warnings.warn(f"{old} is deprecated: use {new}", DeprecationWarning, stacklevel=stacklevel)
+
+
+def __getattr__(name: str):
+    if name == "AccelerationTask":  # former name of AccelerationReference (deprecated)
+        deprecated("AccelerationTask", "AccelerationReference")
+        return AccelerationReference
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _reference_on(kind: type, task, kp, kd, weight, name) -> AccelerationReference:
@@ -159,21 +168,26 @@ def _reference_on(kind: type, task, kp, kd, weight, name) -> AccelerationReferen
 def ComAccelerationTask(task: ComTask | None = None, *, kp: float = 100.0, kd: float | None = None, weight=None,
                         name: str | None = None) -> AccelerationReference:
     """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.ComTask` (a new one with unit
-    weights when ``task`` is None). Raises InvalidInputError for another task type or bad gains."""
+    weights when ``task`` is None). Raises InvalidInputError for another task type or bad gains; warns
+    DeprecationWarning."""
+    deprecated("ComAccelerationTask", "AccelerationReference(ComTask(), kp=..., kd=..., weight=...)")
     return _reference_on(ComTask, ComTask() if task is None else task, kp, kd, weight, name)
 
 
 def FrameAccelerationTask(task: FrameTask, *, kp: float = 100.0, kd: float | None = None, weight=None,
                           name: str | None = None) -> AccelerationReference:
     """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.FrameTask` (or its
-    Position/Orientation/Relative forms). Raises InvalidInputError for another task type or bad gains."""
+    Position/Orientation/Relative forms). Raises InvalidInputError for another task type or bad gains; warns
+    DeprecationWarning."""
+    deprecated("FrameAccelerationTask", "AccelerationReference(frame_task, kp=..., kd=..., weight=...)")
     return _reference_on(FrameTask, task, kp, kd, weight, name)
 
 
 def PostureAccelerationTask(task: PostureTask, *, kp: float = 50.0, kd: float | None = None, weight=None,
                             name: str | None = None) -> AccelerationReference:
     """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.PostureTask`. Raises
-    InvalidInputError for another task type or bad gains."""
+    InvalidInputError for another task type or bad gains; warns DeprecationWarning."""
+    deprecated("PostureAccelerationTask", "AccelerationReference(posture_task, kp=..., kd=..., weight=...)")
     return _reference_on(PostureTask, task, kp, kd, weight, name)
 
 
@@ -181,7 +195,8 @@ def AngularMomentumRateTask(*, gain: float = 10.0, weight=1.0, name: str | None 
     """Deprecated constructor: centroidal angular momentum regulation L̇ = L̇_ff − K (L − L*), i.e. an
     :class:`AccelerationReference` with Kp = 0, Kd = ``gain`` (1/s) on a new :class:`~wbc.tasks.AngularMomentumTask`
     (e ≡ 0, J = Ag[3:6], ė_ff = its target L*, N·m·s); ``set_target(L*)`` sets L*. Raises InvalidInputError for bad
-    gain or weights."""
+    gain or weights; warns DeprecationWarning."""
+    deprecated("AngularMomentumRateTask", "AccelerationReference(wbc.tasks.AngularMomentumTask(), kp=0, kd=gain)")
     return AccelerationReference(AngularMomentumTask(weight=weight), kp=0.0, kd=gain, weight=weight,
                                  name=name or AngularMomentumTask.name)
 

@@ -468,9 +468,6 @@ class KinematicController:
                 raise foreign(f"its frame {fname!r} has id {fid}, which is "
                               + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
                                  f"beyond this model's {model.nframes} frames"))
-        jac = getattr(obj, "_jac", None)
-        if isinstance(jac, np.ndarray) and jac.ndim == 2 and jac.shape[1] != model.nv:
-            raise foreign(f"Jacobian with {jac.shape[1]} columns (nv)")
         if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
             raise foreign(f"nv {obj.nv}")
         indices = getattr(obj, "indices", None)
@@ -697,12 +694,12 @@ class KinematicController:
         gains, has_ff = plan.gains, plan.has_ff
         for task, e, J, w, gain_rows, ff_rows, k in plan.dense:
             task.compute_into(config, e, J)
-            if task._weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
-                w[:] = task._weight
-                task._weight = w
-            if task._gain != gains[k]:
-                gain_rows.fill(task._gain)
-                gains[k] = task._gain
+            if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
+                task.share_weight(w)
+            gain = task.gain
+            if gain != gains[k]:
+                gain_rows.fill(gain)
+                gains[k] = gain
             ff = task.feedforward()
             if ff is not None:
                 ff_rows[:] = ff
@@ -712,10 +709,9 @@ class KinematicController:
                 has_ff[k] = False
         posture = plan.posture
         if posture is not None:
-            diff, pgain = pin.difference(model, posture._target, q), posture._gain
-            if posture._weight is not plan.pw:
-                plan.pw[:] = posture._weight
-                posture._weight = plan.pw
+            diff, pgain = pin.difference(model, posture.target, q), posture.gain
+            if posture.weight is not plan.pw:
+                posture.share_weight(plan.pw)
         else:
             diff, pgain = q, 0.0  # unused (no posture rows)
         factors = plan.factors
@@ -764,7 +760,7 @@ class KinematicController:
             pin.forwardKinematics(model, ddata, pin.integrate(model, q, plan.vdt))
             logs = plan.logs
             for i, (c, _, _) in enumerate(plan.contacts):
-                logs[i] = pin.log6(c._placement.actInv(pin.updateFramePlacement(model, ddata, c.frame_id))).vector
+                logs[i] = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, ddata, c.frame_id))).vector
             drift = contact_drift(logs, b, plan.starts, factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
@@ -1523,7 +1519,7 @@ class _FusedPlan:
         if len(own) > 1 or (own and type(own[0]) is not PostureTask):
             return plan  # a task with its own cost other than one posture task
         for task, *_ in ctrl._soft_dense:
-            if not (isinstance(getattr(task, "_weight", None), np.ndarray) and hasattr(task, "_gain")):
+            if not (isinstance(getattr(task, "weight", None), np.ndarray) and hasattr(task, "gain")):
                 return plan
         if any(type(c) is not ContactConstraint for c in ctrl._contacts):
             return plan  # a contact with rows of its own
@@ -1573,7 +1569,7 @@ class _FusedPlan:
                 cur_lo, cur_hi = plan.lb[idx], plan.ub[idx]
                 plan.lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
                 plan.ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
-            views["plim"][:] = (lim.q_min, lim.q_max, lim.v_max, lim._neg_v_max)
+            views["plim"][:] = (lim.q_min, lim.q_max, lim.v_max, -lim.v_max)
             views["pidx"][:] = (lim.idx_q, lim.indices)
         nr = nv - 6 if plan.er >= 0 else nv
         plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept

@@ -29,7 +29,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.scenarios.framework import RunRecord
 from wbc.sim.mujoco_runtime import MujocoModel
@@ -126,7 +126,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
 
     Args:
         sim: MuJoCo model (its timestep is the control period).
-        controller: a :class:`~wbc.dynamics.balance.BalanceController` or an object with
+        controller: a :class:`~wbc.dynamics.balance.IDBalanceController` or an object with
             ``reset(q, v)`` and ``compute(q, v) -> tau`` (e.g. :class:`~wbc.sim.baseline.JointPDController`).
         scenario: an object with ``duration`` (s), ``name``, ``setup(controller, sim, q, v)``,
             ``update(t, controller, sim, q, v) -> external force (3,) or None`` and ``com_reference(t)`` —
@@ -158,7 +158,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     scenario.setup(controller, sim, q, v)
     if state is not None:
         state.reset(q, v)
-    is_id = isinstance(controller, BalanceController)
+    is_id = isinstance(controller, IDBalanceController)
     pm = robot.model
     pdata = pm.createData()
     nc = 12 * len(controller.qp.contacts) if is_id else 24

@@ -85,7 +85,7 @@ from wbc.tasks import OrientationTask, PostureTask
 
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
 
-#: BalanceController gain overrides used for the jump (module docstring).
+#: IDBalanceController gain overrides used for the jump (module docstring).
 JUMP_GAINS = {"torso_weight": 10.0, "posture_weight": 0.1, "momentum_weight": 1.0}
 #: Default weight of the centroidal angular-momentum task during the jump (module docstring).
 JUMP_MOMENTUM_WEIGHT = 50.0
@@ -105,7 +105,7 @@ LANDING_CROUCH = 0.04
 RECOVER_DELAY = 0.3
 RECOVER_POSTURE_WEIGHT = 1.0
 RECOVER_ORIENTATION_WEIGHT = 10.0
-#: BalanceController keyword options of the jump: the gains, and a braking acceleration of the joint-limit
+#: IDBalanceController keyword options of the jump: the gains, and a braking acceleration of the joint-limit
 #: viability bound of 150 rad/s² instead of 50 (module docstring).
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 

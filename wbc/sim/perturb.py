@@ -6,7 +6,7 @@
   origin (mass added, inertia unchanged, body CoM moved accordingly); joint dry friction (N·m, ``frictionloss``)
   and rotor armature (kg·m², ``armature``) added on every actuated DoF, on top of what the plant's drive model
   (:mod:`wbc.sim.actuators`) already has.
-* :class:`PerturbedController` wraps a :class:`~wbc.dynamics.balance.BalanceController`: Gaussian noise on the
+* :class:`PerturbedController` wraps a :class:`~wbc.dynamics.balance.IDBalanceController`: Gaussian noise on the
   measured q (joints, rad) and v (all DoF, rad/s or m/s) and a control delay of ``delay`` ticks (the torque applied
   at tick k is the one computed at tick k − delay; the first torque before).
 
@@ -19,7 +19,7 @@ from collections import deque
 
 import numpy as np
 
-from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["perturb_plant", "PerturbedController"]
@@ -74,10 +74,10 @@ def perturb_plant(sim, *, mass_error: float = 0.0, payload: float = 0.0, frictio
     return {"plant_mass_kg": float(m.body_mass.sum()), "model_mass_kg": model_mass, "mass_factors": factors}
 
 
-class PerturbedController(BalanceController):
-    """A :class:`BalanceController` that sees noisy measurements and whose torques arrive ``delay`` ticks late.
+class PerturbedController(IDBalanceController):
+    """An :class:`IDBalanceController` that sees noisy measurements and whose torques arrive ``delay`` ticks late.
 
-    Args: as :class:`BalanceController`, plus
+    Args: as :class:`IDBalanceController`, plus
         q_noise: std of the Gaussian noise on the measured joint positions (rad).
         v_noise: std of the Gaussian noise on the measured velocities (every DoF).
         delay: control delay in ticks (integer ≥ 0).

@@ -53,7 +53,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.balance import IDBalanceController
 from wbc.formulations.reference import PostureAccelerationTask
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
@@ -84,7 +84,7 @@ def contacts_rank_deficient(robot, tol: float = 1e-9) -> bool:
 
 
 def id_options_for(robot, solver: str = "fast") -> dict:
-    """Keyword options (``solver``, maybe ``sole_margin``) of :class:`~wbc.dynamics.balance.BalanceController`
+    """Keyword options (``solver``, maybe ``sole_margin``) of :class:`~wbc.dynamics.balance.IDBalanceController`
     for ``robot``: ``{"solver": solver}``, or for near rank-deficient two-sole contacts with DAQP or ``fast`` (whose
     compiled tick would fall back on the dependent contact rows anyway) a DAQP backend
     with ``primal_tol`` 1e-6 and ``sole_margin`` 0.02 m (module docstring)."""
@@ -178,7 +178,7 @@ class WaveScenario:
         self.arm = PostureAccelerationTask(PostureTask(robot, joints=arm), kp=self.arm_kp, kd=2 * math.sqrt(self.arm_kp),
                                            weight=self.arm_weight, name="arms")
         self.arm_iv = self.arm.task.rows
-        if isinstance(controller, BalanceController):
+        if isinstance(controller, IDBalanceController):
             controller.qp.add_task(self.arm)
 
     def com_reference(self, t: float) -> np.ndarray:

@@ -41,7 +41,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.constants import GRAVITY
-from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
@@ -430,14 +430,14 @@ def acceptance(summary: dict, scenario) -> tuple[bool, list[str]]:
 
 
 def make_controller(robot, kind: str = "id", *, dt: float = 0.002, solver: str = "fast", **options):
-    """``"id"`` → :class:`~wbc.dynamics.balance.BalanceController` (``options`` passed on), ``"pd"`` →
+    """``"id"`` → :class:`~wbc.dynamics.balance.IDBalanceController` (``options`` passed on), ``"pd"`` →
     :class:`~wbc.sim.baseline.JointPDController`.
 
     Raises:
         InvalidInputError: unknown kind.
     """
     if kind == "id":
-        return BalanceController(robot, dt=dt, solver=solver, **options)
+        return IDBalanceController(robot, dt=dt, solver=solver, **options)
     if kind == "pd":
         from wbc.sim.baseline import JointPDController
 
@@ -453,7 +453,7 @@ def run_scenario(sim, controller, scenario, **kwargs):
     """
     from wbc.sim.closed_loop import run_closed_loop
 
-    if scenario.needs_id and not isinstance(controller, BalanceController):
+    if scenario.needs_id and not isinstance(controller, IDBalanceController):
         raise InvalidInputError(f"scenario {scenario.name!r} needs the inverse-dynamics controller (--controller id)")
     run = run_closed_loop(sim, controller, scenario, **kwargs)
     summary = summarize(run, scenario, controller)

@@ -14,6 +14,7 @@ formulations use them as they need:
 
 from __future__ import annotations
 
+import operator
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -24,9 +25,10 @@ from wbc.exceptions import InvalidInputError
 __all__ = ["Task", "as_weight", "ValidatedAttribute"]
 
 
-class ValidatedAttribute:
+class ValidatedAttribute(property):
     """A task attribute validated on assignment: ``check(task, value)`` returns the value to store (in
-    ``task._<name>``) or raises; reading returns the stored value.
+    ``task._<name>``) or raises; reading returns the stored value (a property whose getter is
+    :func:`operator.attrgetter`: no Python call per read, as the attribute is read every tick).
 
     Args:
         check: ``(task, value) -> stored value``, raising a typed error from :mod:`wbc.exceptions`.
@@ -34,17 +36,19 @@ class ValidatedAttribute:
     """
 
     def __init__(self, check, doc: str = ""):
+        super().__init__(doc=doc)
+        self.__doc__ = doc  # the attribute's own docstring (a property subclass would show the class's)
         self.check = check
-        self.__doc__ = doc
 
     def __set_name__(self, owner, name: str) -> None:
-        self.attr = "_" + name
+        attr = "_" + name
+        check = self.check
 
-    def __get__(self, obj, owner=None):
-        return self if obj is None else getattr(obj, self.attr)
+        def store(obj, value) -> None:
+            setattr(obj, attr, check(obj, value))
 
-    def __set__(self, obj, value) -> None:
-        setattr(obj, self.attr, self.check(obj, value))
+        property.__init__(self, operator.attrgetter(attr), store, None, self.__doc__)
+        self.attr = attr
 
 
 def as_weight(weight, dim: int, what: str) -> np.ndarray:
@@ -107,6 +111,25 @@ class Task(ABC):
 
     weight = ValidatedAttribute(lambda task, w: as_weight(w, task.dim, f"{task.name} weight"),
                                 "(m,) cost weight of each row, ≥ 0 (raises InvalidInputError like as_weight).")
+
+    def share_weight(self, rows: np.ndarray) -> None:
+        """Keep the weights in ``rows`` from now on: the current (m,) weights are copied into it and it becomes the
+        array :attr:`weight` returns, so that in-place edits of ``task.weight`` reach the owner of ``rows`` (a
+        controller's stacked weight rows) with no copy per tick. Assigning ``task.weight = ...`` replaces it again
+        by a new validated array.
+
+        Args:
+            rows: writable (m,) float64 array (typically a view of a larger buffer).
+
+        Raises:
+            InvalidInputError: ``rows`` is not a writable (m,) float64 array.
+        """
+        if not (isinstance(rows, np.ndarray) and rows.shape == (self.dim,) and rows.dtype == np.float64
+                and rows.flags.writeable):
+            raise InvalidInputError(f"{self.name} weight rows must be a writable ({self.dim},) float64 array, got "
+                                    f"{type(rows).__name__} {getattr(rows, 'shape', '')}")
+        rows[:] = self._weight
+        self._weight = rows
 
     @abstractmethod
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:

@@ -26,6 +26,10 @@ class DampingTask(Task):
             coordinate of v, the floating base too (dim = nv).
         name: label (default ``"damping"``).
 
+    Attributes:
+        nv: size of v of the robot it was built for (a controller of another robot rejects the task).
+        rows: (dim,) indices of the penalised coordinates of v.
+
     Raises:
         InvalidInputError: bad weight.
     """
@@ -34,6 +38,7 @@ class DampingTask(Task):
 
     def __init__(self, robot, *, weight=1e-3, actuated_only: bool = False, name: str | None = None):
         nv = robot.model.nv
+        self.nv = nv
         self.rows = np.arange(6 if actuated_only else 0, nv)
         self.dim = int(self.rows.size)
         super().__init__(gain=0.0, weight=weight, name=name)
