@@ -7,10 +7,11 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    foot, ``step_width`` beside it, :mod:`wbc.gait.footsteps`) is moved along the walking heading by the smallest
    shift (5 mm grid, at most ``max_shift``) for which the sole rectangle grown by ``edge_margin`` on every side
    lies on one planar surface (:meth:`wbc.terrain.Terrain.sole_support` ≤ 2 mm): full sole support, clear of the
-   step edges. When the supported shifts around it are bounded by edges on both sides (a stair tread), the foot
-   goes to the middle of them instead — centred on the tread, the same distance from the riser behind and the
-   nosing ahead —, so that a foot landing a few centimetres short or long (an estimated base that drifts, a
-   stance sole that creeps) still lands wholly on its tread. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
+   step edges. When the supported shifts around it are bounded by edges on both sides (a stair tread), a step
+   down goes to the middle of them instead — centred on the tread, the same distance from the nosing behind and
+   the one ahead —, and a step up halfway there (the toe kept further from the next riser, which the swing
+   clears), so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance sole
+   that creeps) still lands wholly on its tread. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
    (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
 2. **Sole poses.** A foothold's sole origin sits at the terrain height under it; its z axis is the terrain
    normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
@@ -115,10 +116,11 @@ def foothold_pose(terrain: Terrain, x: float, y: float, yaw: float) -> np.ndarra
 
 
 def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, width: float, margin: float,
-           max_shift: float) -> float | None:
-    """Shift along the heading (m) giving full sole support, or None: the middle of the run of supported shifts
-    (5 mm grid, within ``max_shift``) holding the smallest one when edges bound that run on both sides (the sole
-    centred on its tread), else the smallest supported shift."""
+           max_shift: float, below: float | None = None) -> float | None:
+    """Shift along the heading (m) giving full sole support, or None. ``d``: the smallest supported shift (5 mm
+    grid, within ``max_shift``); when edges bound the run of supported shifts holding ``d`` on both sides (a tread),
+    its middle ``m`` (the sole centred on the tread) for a foothold lower than ``below`` (m, the stance sole's
+    height: a step down), else ``(d + m) / 2``; ``d`` when the run is not bounded (a landing, the floor)."""
     c, s = math.cos(yaw), math.sin(yaw)
     n = int(max_shift / _SHIFT_STEP)
     ok = [terrain.sole_support(x + c * k * _SHIFT_STEP, y + s * k * _SHIFT_STEP, yaw, length, width, margin)
@@ -132,9 +134,12 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
         lo -= 1
     while hi + 1 <= n and ok[hi + 1 + n]:
         hi += 1
-    if lo == -n or hi == n:  # not bounded by edges on both sides (a landing, the floor)
+    if lo == -n or hi == n:
         return d
-    return 0.5 * (lo + hi) * _SHIFT_STEP
+    mid = 0.5 * (lo + hi) * _SHIFT_STEP
+    if below is not None and terrain.height(x + c * mid, y + s * mid) >= below - 1e-3:
+        return 0.5 * (d + mid)
+    return mid
 
 
 def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
@@ -192,7 +197,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         else:  # the nominal offset from the (shifted) stance foot
             prev = plan.footsteps[i - 1]
             x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
-        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift)
+        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
         if d is None:
             raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
                             f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
