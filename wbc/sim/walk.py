@@ -11,7 +11,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   Touch-down is detected **from the measured state: sole height ≤ 3 mm and vertical sole velocity ≤ 0.05 m/s**,
   or, with an estimated state, **from the ankle F/T sensors: measured normal force ≥ 5 % of the weight**
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
-  ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor) until the detection fires; early touch-down
+  ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
+  5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
@@ -330,7 +331,8 @@ class WalkScenario:
         self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
-        if self.blind:  # a foot over a hole must find the ground before the stance leg gives way
+        if self.blind or self.terrain is not None:  # a foot over a hole must find the ground before the stance leg
+            # gives way; on planned terrain the estimate's height drifts (a foot stops short of its tread)
             self.descent_speed = max(self.descent_speed, 0.3)
         self.t_final = 1.0
         self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
