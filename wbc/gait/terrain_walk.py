@@ -7,7 +7,11 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    foot, ``step_width`` beside it, :mod:`wbc.gait.footsteps`) is moved along the walking heading by the smallest
    shift (5 mm grid, at most ``max_shift``) for which the sole rectangle grown by ``edge_margin`` on every side
    lies on one planar surface (:meth:`wbc.terrain.Terrain.sole_support` ≤ 2 mm): full sole support, clear of the
-   step edges. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
+   step edges. When the supported shifts around it are bounded by edges on both sides (a stair tread), a step
+   down goes to the middle of them instead — centred on the tread, the same distance from the nosing behind and
+   the one ahead —, and a step up halfway there (the toe kept further from the next riser, which the swing
+   clears), so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance sole
+   that creeps) still lands wholly on its tread. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
    (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
 2. **Sole poses.** A foothold's sole origin sits at the terrain height under it; its z axis is the terrain
    normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
@@ -17,8 +21,11 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves
    over the next tread and leaves its tread before it descends —, a step up moving horizontally on a minimum-jerk
    profile that starts after :data:`STEP_UP_DELAY` of the swing, while the toe rises above the riser just ahead —,
-   plus the
-   clearance bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`): the swing sole's path is checked against the terrain
+   plus a clearance lift of height ``h``: level and up, the bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`;
+   down, a lift by ``h`` over the first :data:`LIFT` of the swing (minimum jerk), held, and set down over its last
+   :data:`LIFT` (the bump rises as ``s³`` while a step down already moves the foot over its own tread, so clearing
+   that tread asked for a bump several times the clearance, and such a swing's momentum tips the robot): the swing
+   sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
    by 1 cm, up to ``max_apex``.
@@ -62,6 +69,7 @@ HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over whic
 #: fraction of a step-up swing, at its start, before it moves forward: the toe rises first (in the plant the sole
 #: lags its vertical plan early in the swing, so a toe moving forward at once passes the riser ahead too low)
 STEP_UP_DELAY = 0.2
+LIFT = 0.3  #: fraction of a swing, at its start and at its end, over which the clearance lift rises and falls
 VERTICAL_LAG = 0.35  #: fraction of a swing, at its end, over which a step down descends (the heel first clears the edge)
 SUPPORT_TOL = 0.002  #: m: largest gap under a sole (grown by the edge margin) that counts as full support
 _SHIFT_STEP = 0.005  # m: grid of the foothold search
@@ -113,15 +121,30 @@ def foothold_pose(terrain: Terrain, x: float, y: float, yaw: float) -> np.ndarra
 
 
 def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, width: float, margin: float,
-           max_shift: float) -> float | None:
-    """Smallest shift along the heading (m) giving full sole support, or None."""
+           max_shift: float, below: float | None = None) -> float | None:
+    """Shift along the heading (m) giving full sole support, or None. ``d``: the smallest supported shift (5 mm
+    grid, within ``max_shift``); when edges bound the run of supported shifts holding ``d`` on both sides (a tread),
+    its middle ``m`` (the sole centred on the tread) for a foothold lower than ``below`` (m, the stance sole's
+    height: a step down), else ``(d + m) / 2``; ``d`` when the run is not bounded (a landing, the floor)."""
     c, s = math.cos(yaw), math.sin(yaw)
     n = int(max_shift / _SHIFT_STEP)
-    for k in sorted(range(-n, n + 1), key=lambda i: (abs(i), i)):
-        d = k * _SHIFT_STEP
-        if terrain.sole_support(x + c * d, y + s * d, yaw, length, width, margin) <= SUPPORT_TOL:
-            return d
-    return None
+    ok = [terrain.sole_support(x + c * k * _SHIFT_STEP, y + s * k * _SHIFT_STEP, yaw, length, width, margin)
+          <= SUPPORT_TOL for k in range(-n, n + 1)]
+    best = min((k for k in range(-n, n + 1) if ok[k + n]), key=lambda i: (abs(i), i), default=None)
+    if best is None:
+        return None
+    d = best * _SHIFT_STEP
+    lo, hi = best, best
+    while lo - 1 >= -n and ok[lo - 1 + n]:
+        lo -= 1
+    while hi + 1 <= n and ok[hi + 1 + n]:
+        hi += 1
+    if lo == -n or hi == n:
+        return d
+    mid = 0.5 * (lo + hi) * _SHIFT_STEP
+    if below is not None and terrain.height(x + c * mid, y + s * mid) >= below - 1e-3:
+        return 0.5 * (d + mid)
+    return mid
 
 
 def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
@@ -179,7 +202,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         else:  # the nominal offset from the (shifted) stance foot
             prev = plan.footsteps[i - 1]
             x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
-        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift)
+        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
         if d is None:
             raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
                             f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
@@ -205,6 +228,10 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     sm = s * (1.0 - s)
     T = n_ss * dt
     bump, dbump = 64.0 * sm**3, 192.0 * sm**2 * (1.0 - 2.0 * s) / T
+    # step down: clearance lift up by h over the first LIFT of the swing, held, set down over its last LIFT
+    r_b, r_db, _ = min_jerk(np.minimum(s / LIFT, 1.0))
+    f_b, f_db, _ = min_jerk(np.minimum((1.0 - s) / LIFT, 1.0))
+    lift, dlift = r_b * f_b, (r_db * f_b - r_b * f_db) / (LIFT * T)
     # height blends: rising over the first VERTICAL_LEAD of the swing, descending over its last VERTICAL_LEAD
     up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
     dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
@@ -221,17 +248,19 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
         vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
         dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
-        if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
+        down = z1 < z0 - 1e-3
+        if down:  # step down: over the lower tread first, then down
             poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
             vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
         elif z1 > z0 + 1e-3:  # step up: forward only after STEP_UP_DELAY, while the toe rises above the riser ahead
             poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(up_xy_b, dxy)
             vels[f, a:b, :2] = np.outer(up_xy_db / ((1.0 - STEP_UP_DELAY) * T), dxy)
+        prof, dprof = (lift, dlift) if down else (bump, dbump)
         base = poses[f, a:b].copy()
         h = h0
         while True:
             seg = base.copy()
-            seg[:, 2, 3] += h * bump
+            seg[:, 2, 3] += h * prof
             c = terrain.swing_clearance(seg, start, land, length, width, approach)
             if c >= clearance - 1e-12:
                 break
@@ -239,8 +268,8 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
                 raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
                                 f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
             h += 0.01
-        poses[f, a:b, 2, 3] += h * bump
-        vels[f, a:b, 2] += h * dbump
+        poses[f, a:b, 2, 3] += h * prof
+        vels[f, a:b, 2] += h * dprof
         apex[ph.step], planned[ph.step] = h, c
         latest[f] = holds[ph.step]
 

@@ -11,7 +11,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   Touch-down is detected **from the measured state: sole height ≤ 3 mm and vertical sole velocity ≤ 0.05 m/s**,
   or, with an estimated state, **from the ankle F/T sensors: measured normal force ≥ 5 % of the weight**
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
-  ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor) until the detection fires; early touch-down
+  ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
+  5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
@@ -51,6 +52,7 @@ from wbc.geometry import closest_point_in_polygon, convex_hull, mean_heading, po
 from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
+from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL, timed_push
 
@@ -329,7 +331,8 @@ class WalkScenario:
         self.push_vec = np.array([math.cos(a), math.sin(a), 0.0])
         self.stabilizer_on, self.ramp_time, self.settle = bool(stabilizer), float(ramp_time), float(settle)
         self.descent_speed, self.cop_margin, self.t_init = float(descent_speed), float(cop_margin), float(t_init)
-        if self.blind:  # a foot over a hole must find the ground before the stance leg gives way
+        if self.blind or self.terrain is not None:  # a foot over a hole must find the ground before the stance leg
+            # gives way; on planned terrain the estimate's height drifts (a foot stops short of its tread)
             self.descent_speed = max(self.descent_speed, 0.3)
         self.t_final = 1.0
         self.step_adjust, self.adjust_dead_band = bool(step_adjust), float(adjust_dead_band)
@@ -441,6 +444,10 @@ class WalkScenario:
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
         self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
+        # terrain: measured − planned height (m) of a swing foot's sole at its release and of the stance sole
+        # (_relative_ground); the swing reference goes from the first to the second (_swing_offset)
+        self._dz_lift = {"left": 0.0, "right": 0.0}
+        self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
         self._active: dict[str, tuple] = {}
         weight = robot.mass * robot.gravity
@@ -551,6 +558,10 @@ class WalkScenario:
                 if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
                     self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
                     sw.ground_height[side] = self._land_z[side]
+                    pin.framesForwardKinematics(self._model, self._gdata, q)
+                    self._dz_lift[side] = float(self._gdata.oMf[self._fid[side]].translation[2]) \
+                        - float(self.poses[side][k][2, 3])
+                    self._dz_stance[side] = self._dz_lift[side]
                 self._t_unload[side] = t
                 self._active[side] = self.swings[self._next]
                 self._next += 1
@@ -568,6 +579,8 @@ class WalkScenario:
                     sw.arm(side)
                 kk = min(k, k_td)
                 pose = pin.SE3(self.poses[side][kk])
+                if self.terrain_walk is not None:
+                    pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
                 vel = self.vels[side][kk].copy()
                 acc = self.acc[side][kk].copy()
                 late = tp - k_td * dt
@@ -644,7 +657,17 @@ class WalkScenario:
         other = "right" if side == "left" else "left"
         pin.framesForwardKinematics(self._model, self._gdata, q)
         z_other = float(self._gdata.oMf[self._fid[other]].translation[2])
-        sw.ground_height[side] = self._land_z[side] + z_other - float(self.poses[other][k][2, 3])
+        self._dz_stance[side] = z_other - float(self.poses[other][k][2, 3])
+        sw.ground_height[side] = self._land_z[side] + self._dz_stance[side]
+
+    def _swing_offset(self, side: str, k: int, k_lift: int, k_td: int) -> float:
+        """Height (m) added to the planned swing sole at plan sample ``k``: the measured − planned height of the
+        swing sole at its release blended (minimum jerk over the swing) into that of the stance sole, so that the
+        foot lands on its tread where the touch-down test expects it (:meth:`_relative_ground`). Otherwise a
+        foot planned onto the tread's height in the estimate's frame, whose height drifts with the contact
+        odometry, stops above or presses into the tread and touch-down comes late or early."""
+        b = min_jerk(min(max((k - k_lift) / max(k_td - k_lift, 1), 0.0), 1.0))[0]
+        return self._dz_lift[side] + b * (self._dz_stance[side] - self._dz_lift[side])
 
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
