@@ -226,8 +226,13 @@ def test_an_interrupted_serial_campaign_reruns_the_interrupted_trial_only(tmp_pa
                 raise
         return toy_trial(spec, params)
 
-    with pytest.raises(KeyboardInterrupt):
-        run(spec, out, trial_fn=interrupted_at_5, progress=False)
+    # Python's own Ctrl-C handler for this test: a suite started from a background shell inherits SIGINT ignored
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run(spec, out, trial_fn=interrupted_at_5, progress=False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert calls == list(range(6))
     assert read_results(out).column("trial").to_pylist() == list(range(5))  # trial 5 left no row
     assert sorted(ResultStore(out, spec.as_dict()).done()) == list(range(5))
