@@ -15,7 +15,7 @@ Scenarios (all start from ``robot.q_ref`` at rest on both feet; the CoM referenc
 
 Every scenario (:data:`OUTCOME`, checked every tick by :mod:`wbc.sim.outcome` from MuJoCo's data, added to the
 scenario's own criteria by :func:`acceptance`): no fall (base drop > 0.2 m, pelvis or torso tilt > 30° from its
-nominal orientation, or a non-foot body touching the floor), no joint above its URDF velocity limit (0
+nominal orientation, a non-foot body touching the floor, or a foot strike on a riser or nosing), no joint above its URDF velocity limit (0
 exceedances), landing slide (travel of the soles' contact points from first contact to lift-off) ≤ 10 mm.
 
 Capture-point bound of a push (linear inverted pendulum of height z_c, ω = √(g/z_c), support polygon edge at
@@ -58,7 +58,8 @@ DEFAULT_PUSH_FORCE = {"talos": 450.0, "g1": 120.0}
 
 
 #: Every physics scenario: the robot did not fall (:mod:`wbc.sim.outcome`).
-NO_FALL = Criterion("no fall (base drop > 0.2 m, pelvis/torso tilt > 30°, or a non-foot body on the floor)",
+NO_FALL = Criterion("no fall (base drop > 0.2 m, pelvis/torso tilt > 30°, a non-foot body on the floor, or a foot "
+                    "strike on a riser or nosing)",
                     "fell", "==", False)
 #: Every physics scenario: no joint of the plant above its URDF velocity limit (MuJoCo qvel, every tick).
 JOINT_SPEED = Criterion("no joint above its URDF velocity limit (0 exceedances)", "joint_speed_exceedances",
