@@ -35,6 +35,18 @@ def _finite_and_within_effort(cmd, robot):
     assert np.all(np.abs(cmd.tau[limited]) <= effort[limited] + 1e-9)
 
 
+def _run_in_a_fresh_process(code: str):
+    """Run ``code`` in a new Python process (this one's path; kernels not loaded yet); its CompletedProcess, after
+    asserting it exited 0."""
+    import os
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out
+
+
 @pytest.mark.parametrize("solver", ["fast", "daqp"])
 def test_force_ramp_to_zero_keeps_bounds_consistent(robots, solver):
     """Item 4: ramping a foot out with f_min = 10 N per corner; every tick's corner normal forces lie in
@@ -270,9 +282,6 @@ def test_first_tick_loads_no_kernel():
     fresh process, once the DAQP-backed ID QP is constructed, the joint-bound kernel is already loaded (numba
     dispatcher signatures) and the first tick adds no compiled signature to any kernel of the constraints module —
     counted work, not time."""
-    import os
-    import subprocess
-
     code = (
         "import warnings; warnings.simplefilter('ignore')\n"
         "import numpy as np, wbc\n"
@@ -284,9 +293,7 @@ def test_first_tick_loads_no_kernel():
         "before = len(d.joint_bounds_kernel.signatures)\n"
         "InverseDynamicsController(qp, 0.002).tick(robot.q_ref, np.zeros(robot.nv))\n"
         "print(before, len(d.joint_bounds_kernel.signatures))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
-    assert out.returncode == 0, out.stderr[-2000:]
+    out = _run_in_a_fresh_process(code)
     before, after = map(int, out.stdout.split()[-2:])
     assert before >= 1 and after == before
 
@@ -297,9 +304,6 @@ def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
     only) ticks through the kernel too, the first and a second one built in the same process (before, the empty
     task layout was never laid out and its first tick raised). Counted work (signatures), not time; oracle of the
     ticks: the equations of motion M v̇ + h = Sᵀτ + J_cᵀ f, recomputed with Pinocchio's RNEA (1e-6 N·m)."""
-    import os
-    import subprocess
-
     code = (
         "import warnings; warnings.simplefilter('ignore')\n"
         "import numpy as np, pinocchio as pin, wbc\n"
@@ -325,9 +329,7 @@ def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
         "    tau = np.r_[np.zeros(6), cmd.tau]\n"
         "    print(cmd.ok, cmd.path, float(np.abs(rnea - tau - gen).max()))\n"
         "print(before, len(k.id_tick.signatures))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
-    assert out.returncode == 0, out.stderr[-2000:]
+    out = _run_in_a_fresh_process(code)
     lines = out.stdout.split("\n")
     ticks = [line.split() for line in lines if line.startswith(("True", "False"))]
     assert len(ticks) == 2 and all(ok == "True" and path == "kernel" and float(res) <= 1e-6

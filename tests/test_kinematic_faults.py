@@ -49,6 +49,24 @@ def _nan_contact_placement(config, ctrl, com):
     ctrl.constraints[0].placement = bad
 
 
+def _legs_past_limits(robot, n: int, seed: int):
+    """(model, configuration, bounded joints' q indices): the robot's reference configuration with ``n`` random leg
+    joints (hip, knee, ankle, leg) 5–50 mrad past a random one of their position limits."""
+    model = robot.model
+    config = Configuration(robot)
+    iq, _ = bounded_joints(model)
+    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
+    rng = np.random.default_rng(seed)
+    q = config.q.copy()
+    for k in rng.choice(legs, n, replace=False):
+        over = rng.uniform(0.005, 0.05)
+        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
+            model.lowerPositionLimit[iq[k]] - over
+    config.update(q)
+    return model, config, iq
+
+
 @pytest.mark.parametrize("fault", [_nan_com_in_place, _nan_q_in_place, _nan_trusted_target, _inf_trusted_target,
                                    _nan_contact_placement])
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])
@@ -149,18 +167,7 @@ def test_recovery_from_leg_joints_past_their_limits(robots, name):
     infeasible it is relaxed (``relaxed`` names the scale α), and α is never below a tenth of the largest uniform
     scale HiGHS finds feasible (zero only when that largest scale is below 1e-3); no joint moves further out."""
     robot = robots(name)
-    model = robot.model
-    config = Configuration(robot)
-    iq, _ = bounded_joints(model)
-    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
-    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
-    rng = np.random.default_rng(1)
-    q = config.q.copy()
-    for k in rng.choice(legs, 4, replace=False):
-        over = rng.uniform(0.005, 0.05)
-        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
-            model.lowerPositionLimit[iq[k]] - over
-    config.update(q)
+    model, config, iq = _legs_past_limits(robot, 4, seed=1)
     ctrl, _ = standing_controller(robot, config)
     ctrl.budget = math.inf  # the relaxation ladder in full, independent of the machine's load
     lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
@@ -539,18 +546,7 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
 
     calls = _count_daqp_calls(monkeypatch)
     robot = robots("humanoid15")
-    model = robot.model
-    config = Configuration(robot)
-    iq, _ = bounded_joints(model)
-    joint_of = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
-    legs = [k for k, i in enumerate(iq) if any(s in joint_of[i] for s in ("hip", "knee", "ankle", "leg"))]
-    rng = np.random.default_rng(0)
-    q = config.q.copy()
-    for k in rng.choice(legs, 5, replace=False):
-        over = rng.uniform(0.005, 0.05)
-        q[iq[k]] = model.upperPositionLimit[iq[k]] + over if rng.random() < 0.5 else \
-            model.lowerPositionLimit[iq[k]] - over
-    config.update(q)
+    model, config, iq = _legs_past_limits(robot, 5, seed=0)
     ctrl, _ = standing_controller(robot, config)
     contacts = ctrl.constraints[:2]
     lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
