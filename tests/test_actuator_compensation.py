@@ -11,7 +11,7 @@ import pytest
 import wbc
 from wbc.constraints.joint_velocity import JointSpeedBounds
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
-from wbc.dynamics.balance import BalanceController
+from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.sim.actuators import actuator_model, compensation_options
 from wbc.sim.mujoco_model import build_mujoco_model
@@ -40,7 +40,7 @@ def _mujoco_mass_matrix(sim):
 def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
     robot = wbc.load_robot("talos")
     sim = build_mujoco_model(robot, plant="realistic")
-    ctrl = BalanceController(robot, **compensation_options(robot, actuator_model(robot)))
+    ctrl = IDBalanceController(robot, **compensation_options(robot, actuator_model(robot)))
     st = DynamicsState(ctrl.robot)
     st.update(robot.q_ref, np.zeros(robot.nv))
     np.testing.assert_allclose(st.M[6:, 6:], _mujoco_mass_matrix(sim), atol=1e-9)
@@ -54,11 +54,11 @@ def test_compensation_leaves_the_shared_robot_unchanged():
     (mass matrices compared with Pinocchio's CRBA on the untouched model and with MuJoCo's)."""
     robot = wbc.load_robot("talos")
     options = compensation_options(robot, actuator_model(robot))
-    compensated = BalanceController(robot, **options)
+    compensated = IDBalanceController(robot, **options)
     assert np.all(np.asarray(robot.model.armature) == 0.0)
     np.testing.assert_array_equal(compensated.robot.model.armature[6:], options["armature"])
     assert np.count_nonzero(options["armature"] == 0.1) == 30  # Talos SRDF rotor_params (grippers: none)
-    plain = BalanceController(robot)
+    plain = IDBalanceController(robot)
     q, v = robot.q_ref, np.zeros(robot.nv)
     for c in (compensated, plain):
         c.reset(q, v)
@@ -69,17 +69,17 @@ def test_compensation_leaves_the_shared_robot_unchanged():
     ideal = build_mujoco_model(robot, plant="ideal")
     np.testing.assert_allclose(_mujoco_mass_matrix(ideal), M0[6:, 6:], atol=1e-9)
     with pytest.raises(InvalidInputError, match="armature"):
-        BalanceController(robot, armature=np.full(3, 0.1))
+        IDBalanceController(robot, armature=np.full(3, 0.1))
     with pytest.raises(InvalidInputError, match="armature"):
-        BalanceController(robot, armature=np.full(robot.nv - 6, -0.1))
+        IDBalanceController(robot, armature=np.full(robot.nv - 6, -0.1))
 
 
 def test_compensation_adds_the_feedforward_at_the_commanded_velocity():
     robot = wbc.load_robot("talos")
     n = robot.nv - 6
     comp = JointFrictionCompensation(np.full(n, 0.5), np.full(n, 1.0))
-    plain = BalanceController(robot)
-    compensated = BalanceController(robot, compensation=comp)
+    plain = IDBalanceController(robot)
+    compensated = IDBalanceController(robot, compensation=comp)
     q = robot.q_ref
     v = np.zeros(robot.nv)
     v[6:] = np.linspace(-0.3, 0.3, n)
@@ -91,7 +91,7 @@ def test_compensation_adds_the_feedforward_at_the_commanded_velocity():
                        robot.model.effortLimit[6:])
     np.testing.assert_allclose(b.tau, expected, atol=1e-8)
     with pytest.raises(InvalidInputError, match="compensation"):
-        BalanceController(robot, compensation=JointFrictionCompensation([1.0], [1.0]))
+        IDBalanceController(robot, compensation=JointFrictionCompensation([1.0], [1.0]))
 
 
 def test_relaxed_qp_keeps_joint_speed_limits():
@@ -100,7 +100,7 @@ def test_relaxed_qp_keeps_joint_speed_limits():
     the relaxed QP (no joint bounds, no torque limits) commands v + v̇ dt beyond the limit without the speed
     bounds, within 95 % of it with them."""
     robot = wbc.load_robot("talos")
-    ctrl = BalanceController(robot, speed_margin=0.05, gains={"posture_kp": 1e4, "posture_weight": 100.0})
+    ctrl = IDBalanceController(robot, speed_margin=0.05, gains={"posture_kp": 1e4, "posture_weight": 100.0})
     arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
     q = robot.q_ref.copy()
     lo, hi = robot.model.lowerPositionLimit[7:], robot.model.upperPositionLimit[7:]
@@ -130,7 +130,7 @@ def test_speed_horizon_bounds_in_both_qps():
     velocity term) and the relaxed QP both command v + 4 v̇ dt within ±0.95 q̇_max, i.e. v̇ ≤ (0.95 q̇_max − v)/(4 dt)."""
     robot = wbc.load_robot("talos")
     h = 4.0
-    ctrl = BalanceController(robot, speed_margin=0.05, speed_horizon=h,
+    ctrl = IDBalanceController(robot, speed_margin=0.05, speed_horizon=h,
                              gains={"posture_kp": 1e4, "posture_weight": 100.0})
     arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
     q = robot.q_ref.copy()

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wbc.dynamics import BalanceController
+from wbc.dynamics import IDBalanceController
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import InvalidInputError
 from wbc.robot import load_robot
@@ -19,7 +19,7 @@ def robot():
 def _unloading_right(robot, **options):
     """(balance controller, q, v, switcher with ``options``) of a Talos standing at its reference posture whose
     right sole started unloading at t = 0."""
-    c = BalanceController(robot)
+    c = IDBalanceController(robot)
     q = robot.q_ref.copy()
     v = np.zeros(robot.nv)
     c.reset(q, v)
@@ -58,7 +58,7 @@ def test_ramp_out_release_touchdown_ramp_in(robot):
 
 
 def test_bad_input(robot):
-    c = BalanceController(robot)
+    c = IDBalanceController(robot)
     with pytest.raises(InvalidInputError, match="ramp_time"):
         ContactSwitcher(c, ramp_time=0.0)
     sw = ContactSwitcher(c)

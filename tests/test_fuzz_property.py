@@ -121,14 +121,14 @@ def test_kinematic_controller_fuzz(robots, robot_name, seed, kind, strict, com_o
 @given(robot_name=st.sampled_from(["humanoid15", "talos", "g1"]), seed=st.integers(0, 2**31 - 1),
        com_offset=st.floats(0.0, 0.5), log_gain_scale=st.floats(-1, 2), speed=st.floats(0.0, 1.0))
 def test_inverse_dynamics_controller_fuzz(robots, robot_name, seed, com_offset, log_gain_scale, speed):
-    from wbc.dynamics import BalanceController
+    from wbc.dynamics import IDBalanceController
     from wbc.dynamics import DEFAULT_GAINS
 
     robot = robots(robot_name)
     rng = np.random.default_rng(seed)
     scale = 10 ** log_gain_scale
     gains = {k: v * scale for k, v in DEFAULT_GAINS.items() if k.endswith("_kp")}
-    ctrl = BalanceController(robot, gains=gains)
+    ctrl = IDBalanceController(robot, gains=gains)
     q = random_configuration(robot, rng, spread=0.05)
     q[:7] = robot.q_ref[:7]
     v = rng.normal(scale=speed, size=robot.nv)

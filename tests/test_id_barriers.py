@@ -15,12 +15,10 @@ import pytest
 
 from wbc.constraints import ComPolygonConstraint, SelfCollisionConstraint
 from wbc.dynamics import (
-    ComAccelerationTask,
+    AccelerationReference,
     DynamicsState,
     InverseDynamicsQP,
-    PostureAccelerationTask,
     SoleContact,
-    FrameAccelerationTask,
 )
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import signed_distance
@@ -95,9 +93,9 @@ def test_com_polygon_holds_under_inverse_dynamics(robots, with_barrier):
     stays inside the polygon shrunk by the margin, without it it leaves (measured: by tick 275)."""
     robot = robots("talos")
     margin = 0.02
-    com = ComAccelerationTask(ComTask(), kp=30.0, weight=10.0)
+    com = AccelerationReference(ComTask(), kp=30.0, weight=10.0)
     com.set_target(_com(robot, robot.q_ref) + [0.0, 0.2, 0.0])
-    qp = InverseDynamicsQP(robot, [com, PostureAccelerationTask(PostureTask(robot), kp=10.0)], _soles(robot))
+    qp = InverseDynamicsQP(robot, [com, AccelerationReference(PostureTask(robot), kp=10.0)], _soles(robot))
     con = _polygon(robot, margin)
     if with_barrier:
         added = qp.add_constraint(con, gain=10.0)
@@ -119,7 +117,7 @@ def _hand_into_torso(robot):
     state = DynamicsState(robot, robot.q_ref)
     torso = state.data.oMf[robot.frame_id(robot.torso)].translation
     hand.set_target(torso + [0.1, -0.05, 0.0])  # inside the torso's front: unreachable without collision
-    return FrameAccelerationTask(hand, kp=60.0, weight=10.0)
+    return AccelerationReference(hand, kp=60.0, weight=10.0)
 
 
 def _pair_distance(robot, con, q):
@@ -165,7 +163,7 @@ def test_self_collision_holds_under_inverse_dynamics(robots, with_barrier):
     con = SelfCollisionConstraint(robot, min_distance=0.02, safety_margin=0.0, max_active=8,
                                   pairs=[(link, robot.torso) for link in hand])
     assert _pair_distance(robot, con, robot.q_ref) > 0.05
-    qp = InverseDynamicsQP(robot, [_hand_into_torso(robot), PostureAccelerationTask(PostureTask(robot), kp=5.0)],
+    qp = InverseDynamicsQP(robot, [_hand_into_torso(robot), AccelerationReference(PostureTask(robot), kp=5.0)],
                            _soles(robot))
     if with_barrier:
         assert qp.add_constraint(con, gain=20.0).name == "self_collision"

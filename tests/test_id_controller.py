@@ -10,16 +10,12 @@ import pytest
 
 import wbc
 from wbc.dynamics import (
-    AngularMomentumTask,
-    BalanceController,
-    ComAccelerationTask,
+    AccelerationReference,
+    IDBalanceController,
     DynamicsState,
-    FrameAccelerationTask,
     InverseDynamicsController,
     InverseDynamicsQP,
-    PostureAccelerationTask,
     SoleContact,
-    acceleration_task,
 )
 from wbc.exceptions import (
     ConfigurationError,
@@ -30,7 +26,7 @@ from wbc.exceptions import (
     UnknownSolverError,
 )
 from wbc.sim.mujoco_model import build_mujoco_model
-from wbc.tasks import ComTask, FrameTask, PositionTask, PostureTask
+from wbc.tasks import AngularMomentumTask, ComTask, FrameTask, PositionTask, PostureTask
 
 TOL = 1e-6
 
@@ -47,7 +43,7 @@ def _independent_contact_jacobian(robot, q, contact: SoleContact) -> np.ndarray:
 def _run_and_check(robot_name: str, ticks: int, push: float):
     robot = wbc.load_robot(robot_name)
     sim = build_mujoco_model(robot)
-    ctrl = BalanceController(robot, dt=sim.timestep, f_min=1.0)
+    ctrl = IDBalanceController(robot, dt=sim.timestep, f_min=1.0)
     q, v = sim.get_state()
     ctrl.reset(q, v)
     model = robot.model
@@ -163,7 +159,7 @@ def test_reference_rows_are_the_shared_task_terms(robots):
     v = rng.normal(scale=0.5, size=robot.nv)
     st = DynamicsState(robot, q, v)
     pos_task = PositionTask(robot, robot.left_sole)
-    pos = FrameAccelerationTask(pos_task, kp=30.0, kd=7.0)
+    pos = AccelerationReference(pos_task, kp=30.0, kd=7.0)
     pos.set_target(pin.SE3.Identity())
     assert pos.task is pos_task
     J, r = pos.compute(st)
@@ -175,7 +171,7 @@ def test_reference_rows_are_the_shared_task_terms(robots):
     acc = pin.getFrameClassicalAcceleration(robot.model, st.data, fid, pin.LOCAL_WORLD_ALIGNED).linear
     assert np.abs(J - J_ref).max() < 1e-12
     assert np.abs(r - (-30.0 * e - 7.0 * (J_ref @ v) - acc)).max() < 1e-9
-    am = AngularMomentumTask(gain=4.0)
+    am = AccelerationReference(AngularMomentumTask(), kp=0.0, kd=4.0)
     am.set_target([0.1, -0.2, 0.3])
     J, r = am.compute(st)
     L = pin.computeCentroidalMomentum(robot.model, robot.model.createData(), q, v).angular
@@ -188,7 +184,7 @@ def test_solvers_agree_and_fallback(robots):
     robot = robots("g1")
     sols = {}
     for name in ("daqp", "proxqp"):
-        ctrl = BalanceController(robot, solver=name)
+        ctrl = IDBalanceController(robot, solver=name)
         ctrl.reset(robot.q_ref)
         cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
         assert cmd.ok
@@ -204,7 +200,7 @@ def test_solvers_agree_and_fallback(robots):
             raise SolverError("broken on purpose")
 
     # the general path (the default compiled tick only reaches its backend on a fallback)
-    ctrl = BalanceController(robot, solver="daqp")
+    ctrl = IDBalanceController(robot, solver="daqp")
     ctrl.reset(robot.q_ref)
     ctrl.qp.backend = Broken()
     cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
@@ -217,7 +213,7 @@ def test_solvers_agree_and_fallback(robots):
 
 def test_joint_acceleration_bounds_keep_limits(robots):
     robot = robots("talos")
-    qp = InverseDynamicsQP(robot, [PostureAccelerationTask(PostureTask(robot))])
+    qp = InverseDynamicsQP(robot, [AccelerationReference(PostureTask(robot), kp=50.0)])
     dt = 0.002
     q = robot.q_ref.copy()
     v = np.zeros(robot.nv)
@@ -238,16 +234,16 @@ def test_joint_acceleration_bounds_keep_limits(robots):
 def test_wrap_and_typed_errors(robots):
     robot = robots("talos")
     for task in (ComTask(), FrameTask(robot, robot.torso), PostureTask(robot)):
-        ref = acceleration_task(task, kp=10.0)
+        ref = AccelerationReference(task, kp=10.0)
         assert ref.task is task and ref.kd == pytest.approx(2 * math.sqrt(10.0))
     with pytest.raises(InvalidInputError):
-        acceleration_task(object(), kp=1.0)
+        AccelerationReference(object(), kp=1.0)
     with pytest.raises(InvalidInputError):
-        ComAccelerationTask(kp=-1.0)
+        AccelerationReference(ComTask(), kp=-1.0)
     with pytest.raises(InvalidInputError):
-        FrameAccelerationTask(ComTask())
+        AccelerationReference(ComTask(), kp=1.0, kd=-1.0)
     with pytest.raises(InvalidTargetError):
-        ComAccelerationTask().set_feedforward_acceleration([0.0, np.nan, 0.0])
+        AccelerationReference(ComTask(), kp=1.0).set_feedforward_acceleration([0.0, np.nan, 0.0])
     with pytest.raises(InvalidInputError):
         SoleContact(robot, robot.left_sole, mu=0.0)
     with pytest.raises(InvalidInputError):
@@ -261,8 +257,8 @@ def test_wrap_and_typed_errors(robots):
     with pytest.raises(InvalidInputError):
         InverseDynamicsController(InverseDynamicsQP(robot), dt=0.0)
     with pytest.raises(InvalidInputError):
-        BalanceController(robot, gains={"no_such_gain": 1.0})
-    ctrl = BalanceController(robot)
+        IDBalanceController(robot, gains={"no_such_gain": 1.0})
+    ctrl = IDBalanceController(robot)
     ctrl.reset(robot.q_ref)
     with pytest.raises(ConfigurationError):
         ctrl.compute(robot.q_ref[:-1], np.zeros(robot.nv))
@@ -276,34 +272,17 @@ def test_wrap_and_typed_errors(robots):
         ctrl.qp.solve(ctrl.state, -1.0)
 
 
-def test_deprecated_names_warn_and_give_the_current_objects(robots):
-    """The former names still work and each warns DeprecationWarning naming its replacement: the aliases are the
-    current class or function, the constructors return the AccelerationReference that the current name builds
-    (same task, gains, weights and name)."""
+def test_former_names_are_gone():
+    """The former aliases and constructors were removed: importing them fails (one name per concept)."""
     import wbc.dynamics as dynamics
     import wbc.dynamics.balance as balance
     import wbc.formulations.reference as reference
-    from wbc.formulations.reference import AccelerationReference
-    from wbc.tasks import AngularMomentumTask as SharedMomentumTask
 
-    for module, old, current in ((dynamics, "BalanceController", dynamics.IDBalanceController),
-                                 (balance, "BalanceController", balance.IDBalanceController),
-                                 (dynamics, "AccelerationTask", AccelerationReference),
-                                 (reference, "AccelerationTask", AccelerationReference),
-                                 (dynamics, "AngularMomentumTask", reference.AngularMomentumRateTask)):
-        with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated: use {current.__name__}"):
-            assert getattr(module, old) is current
-    with pytest.raises(AttributeError):
-        dynamics.NoSuchName
-    robot = robots("talos")
-    com, frame, posture = ComTask(), FrameTask(robot, robot.left_sole), PostureTask(robot)
-    for old, task in ((reference.ComAccelerationTask, com), (reference.FrameAccelerationTask, frame),
-                      (reference.PostureAccelerationTask, posture)):
-        with pytest.warns(DeprecationWarning, match=rf"{old.__name__} is deprecated: use AccelerationReference"):
-            ref = old(task, kp=40.0, kd=3.0, weight=2.0, name="x")
-        assert type(ref) is AccelerationReference and ref.task is task and (ref.kp, ref.kd, ref.name) == (40.0, 3.0, "x")
-        assert np.array_equal(ref.weight, np.full(task.dim, 2.0))
-    with pytest.warns(DeprecationWarning, match="AngularMomentumRateTask is deprecated"):
-        ref = reference.AngularMomentumRateTask(gain=7.0, weight=0.5)
-    assert type(ref.task) is SharedMomentumTask and (ref.kp, ref.kd, ref.name) == (0.0, 7.0, SharedMomentumTask.name)
-    assert np.array_equal(ref.weight, np.full(3, 0.5)) and np.array_equal(ref.task.weight, np.full(3, 0.5))
+    for module, old in ((dynamics, "BalanceController"), (balance, "BalanceController"),
+                        (dynamics, "AccelerationTask"), (reference, "AccelerationTask"),
+                        (dynamics, "AngularMomentumTask"), (dynamics, "ComAccelerationTask"),
+                        (reference, "FrameAccelerationTask"), (reference, "PostureAccelerationTask"),
+                        (reference, "AngularMomentumRateTask"), (dynamics, "acceleration_task")):
+        with pytest.raises(AttributeError):
+            getattr(module, old)
+

@@ -16,10 +16,9 @@ import pytest
 import scipy.optimize as so
 
 from wbc.dynamics import (
-    ComAccelerationTask,
+    AccelerationReference,
     InverseDynamicsController,
     InverseDynamicsQP,
-    PostureAccelerationTask,
     SoleContact,
 )
 from wbc.tasks import ComTask, PostureTask
@@ -63,8 +62,8 @@ def test_hard_com_acceleration_against_friction_pyramids(robots, lateral, feasib
     # closed form: largest lateral CoM acceleration the inscribed pyramids allow with zero vertical acceleration
     a_max = mu / math.sqrt(2.0) * G
     assert (lateral < a_max) == feasible
-    com = ComAccelerationTask(ComTask(), kp=0.0, kd=0.0, name="com")
-    qp = InverseDynamicsQP(robot, [PostureAccelerationTask(PostureTask(robot))], _soles(robot, mu))
+    com = AccelerationReference(ComTask(), kp=0.0, kd=0.0, name="com")
+    qp = InverseDynamicsQP(robot, [AccelerationReference(PostureTask(robot), kp=50.0)], _soles(robot, mu))
     qp.add_task(com, hard=True)
     com.set_target(np.zeros(3))
     com.set_feedforward_acceleration([0.0, lateral, 0.0])
@@ -86,7 +85,7 @@ def test_hard_com_acceleration_against_friction_pyramids(robots, lateral, feasib
 
 def test_hard_posture_against_torque_limits(robots):
     robot = robots("talos")
-    posture = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="posture")  # every joint v̇ = 0
+    posture = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="posture")  # every joint v̇ = 0
     posture.set_target(robot.q_ref)
     qp = InverseDynamicsQP(robot, [], _soles(robot, 0.7), torque_limit_scale=0.2)
     qp.add_task(posture, hard=True)
@@ -107,7 +106,7 @@ def test_hard_posture_against_torque_limits(robots):
 
 def test_feasible_tick_reports_nothing(robots):
     robot = robots("talos")
-    qp = InverseDynamicsQP(robot, [PostureAccelerationTask(PostureTask(robot))], _soles(robot, 0.7))
+    qp = InverseDynamicsQP(robot, [AccelerationReference(PostureTask(robot), kp=50.0)], _soles(robot, 0.7))
     ctrl = InverseDynamicsController(qp, DT, diagnose=True)  # diagnosis mode: conflicts named in the tick
     cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
     assert cmd.ok and not cmd.relaxed and cmd.conflicts == [] and cmd.message == ""

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 
-from wbc.dynamics import BalanceController
+from wbc.dynamics import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.qp import DaqpBackend, QPBackend
 
@@ -22,7 +22,7 @@ DT = 0.002
 
 
 def _standing(robot, **kwargs):
-    ctrl = BalanceController(robot, dt=DT, **kwargs)
+    ctrl = IDBalanceController(robot, dt=DT, **kwargs)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     ctrl.reset(q, v)
     return ctrl, q, v
@@ -153,10 +153,10 @@ def test_nan_written_in_place_is_never_ok(robots, solver):
 def _hard_posture_qp(robot, solver="daqp"):
     """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: infeasible (the static
     torques need more, HiGHS in tests/test_id_diagnosis.py), feasible once the torque limits are relaxed."""
-    from wbc.dynamics import InverseDynamicsQP, PostureAccelerationTask, SoleContact
+    from wbc.dynamics import AccelerationReference, InverseDynamicsQP, SoleContact
     from wbc.tasks import PostureTask
 
-    posture = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
+    posture = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
     posture.set_target(robot.q_ref)
     soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
     qp = InverseDynamicsQP(robot, [], soles, solver=solver, torque_limit_scale=0.2)
@@ -344,23 +344,23 @@ def test_held_command_keeps_the_joint_speed_bounds(robots):
     (h = 4). Reference: Pinocchio's contact-constrained forward dynamics (both soles fixed) of the held torques
     at the new state. Without the brake the held (standing) torques leave v̇ ≈ 0: 0.99 q̇_max > 0.95 q̇_max."""
     from wbc.constraints.joint_velocity import JointSpeedBounds
-    from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, PostureAccelerationTask, SoleContact
+    from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
     from wbc.tasks import PostureTask
     import pinocchio as pin
 
     robot = robots("talos")
     model = robot.model
-    posture = PostureAccelerationTask(PostureTask(robot), kp=50.0, kd=14.0, name="posture")
+    posture = AccelerationReference(PostureTask(robot), kp=50.0, kd=14.0, name="posture")
     posture.set_target(robot.q_ref)
     soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
     qp = InverseDynamicsQP(robot, [posture], soles, solver="daqp")
-    qp.joint_speed_limits = JointSpeedBounds(robot, margin=0.05, horizon=4.0)  # as BalanceController sets them
+    qp.joint_speed_limits = JointSpeedBounds(robot, margin=0.05, horizon=4.0)  # as IDBalanceController sets them
     qp.joint_acceleration_limits.speed_horizon = 4.0
     qp.joint_acceleration_limits.vmax[:] *= 0.95
     ctrl = InverseDynamicsController(qp, DT)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     assert ctrl.tick(q, v).ok  # the command to hold
-    frozen = PostureAccelerationTask(PostureTask(robot), kp=0.0, kd=0.0, name="frozen")
+    frozen = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="frozen")
     frozen.set_target(robot.q_ref)
     qp.add_task(frozen, hard=True)  # v̇ = 0 everywhere: against the wrist's speed bound below, infeasible
     ctrl.budget = 1e-9

@@ -5,7 +5,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.dynamics import BalanceController
+from wbc.dynamics import IDBalanceController
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import InvalidInputError
@@ -28,7 +28,7 @@ def test_zmp_on_the_tread_plane():
 
 
 def _swinging(robot):
-    c = BalanceController(robot)
+    c = IDBalanceController(robot)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     c.reset(q, v)
     weight = robot.mass * 9.81  # the thresholds of a blind walk (wbc.sim.walk.WalkScenario with blind=True)
@@ -68,7 +68,7 @@ def test_touchdown_with_a_measured_force(robot):
 
 
 def test_base_orientation_task(robot):
-    c = BalanceController(robot)
+    c = IDBalanceController(robot)
     q = robot.q_ref.copy()
     c.reset(q, np.zeros(robot.nv))
     n = len(c.qp.tasks)

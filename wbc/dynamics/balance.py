@@ -32,7 +32,7 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import InverseDynamicsQP
-from wbc.formulations.reference import AccelerationReference, deprecated
+from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.tasks import AngularMomentumTask, ComTask, FrameTask, OrientationTask, PostureTask
@@ -274,11 +274,3 @@ def _with_armature(robot: Robot, armature) -> Robot:
     model.armature[6:] = arm
     return dataclasses.replace(robot, model=model)
 
-
-def __getattr__(name: str):
-    # BalanceController: former name of IDBalanceController (deprecated; kept so existing callers run; the kinematic
-    # balance controller of wbc.scenarios.balance has the same name)
-    if name == "BalanceController":
-        deprecated("wbc.dynamics.balance.BalanceController", "IDBalanceController")
-        return IDBalanceController
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -10,16 +10,13 @@ uses), ä_ff an acceleration feed-forward and the gains Kp (1/s²), Kd (1/s; def
 This module holds only those gains, the weight and ä_ff: :class:`AccelerationReference`. It is not a second task
 class (there is no per-task subclass); the velocity formulation uses the same task object with (J, v*).
 
-The former acceleration-task classes of ``wbc.dynamics`` are kept as constructors returning an
-:class:`AccelerationReference` on the given shared task (deprecated names): :func:`ComAccelerationTask`,
-:func:`FrameAccelerationTask`, :func:`PostureAccelerationTask`, :func:`AngularMomentumRateTask` (a
-:class:`~wbc.tasks.AngularMomentumTask`, e ≡ 0, with Kp = 0 and Kd = ``gain``) and :func:`acceleration_task`.
+Centroidal angular-momentum regulation L̇ = L̇_ff − K (L − L*) is an :class:`AccelerationReference` with Kp = 0 and
+Kd = K on a :class:`~wbc.tasks.AngularMomentumTask` (e ≡ 0, J = A_g[3:6], ė_ff = its target L*).
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 
@@ -27,15 +24,8 @@ from wbc.configuration import check_vector
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 from wbc.state import DynamicsState
 from wbc.tasks.base import Task, as_weight
-from wbc.tasks.com import ComTask
-from wbc.tasks.frame import FrameTask
-from wbc.tasks.momentum import AngularMomentumTask
-from wbc.tasks.posture import PostureTask
 
-__all__ = [
-    "AccelerationReference", "AccelerationTask", "ComAccelerationTask", "FrameAccelerationTask",
-    "PostureAccelerationTask", "AngularMomentumRateTask", "acceleration_task",
-]
+__all__ = ["AccelerationReference"]
 
 
 def _gain(value, what: str) -> float:
@@ -62,13 +52,17 @@ class AccelerationReference:
         task: the shared task. dim: rows m. last_error: (m,) error at the last :meth:`compute` (task units).
 
     Raises:
-        InvalidInputError: not a task; negative/non-finite gains or weights (at construction, or on assignment of
-            ``kp``, ``kd``, ``weight``).
+        InvalidInputError: not a task, or a task type without an acceleration-level form (no
+            :meth:`~wbc.tasks.base.Task.drift` of its own); negative/non-finite gains or weights (at construction, or
+            on assignment of ``kp``, ``kd``, ``weight``).
     """
 
     def __init__(self, task: Task, *, kp: float, kd: float | None = None, weight=None, name: str | None = None):
         if not isinstance(task, Task):
             raise InvalidInputError(f"an acceleration reference needs a wbc.tasks Task, got {type(task).__name__}")
+        if type(task).drift is Task.drift:
+            raise InvalidInputError(f"{type(task).__name__} has no acceleration-level form: it defines no drift J̇v "
+                                    "(override Task.drift)")
         self.task = task
         self.dim = task.dim
         self.name = name or task.name
@@ -146,67 +140,3 @@ class AccelerationReference:
             r += self._acc_ff
         return J, r
 
-
-def deprecated(old: str, new: str, stacklevel: int = 3) -> None:
-    """Warn (DeprecationWarning, at the caller of the deprecated name) that ``old`` is deprecated for ``new``."""
-    warnings.warn(f"{old} is deprecated: use {new}", DeprecationWarning, stacklevel=stacklevel)
-
-
-def __getattr__(name: str):
-    if name == "AccelerationTask":  # former name of AccelerationReference (deprecated)
-        deprecated("AccelerationTask", "AccelerationReference")
-        return AccelerationReference
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _reference_on(kind: type, task, kp, kd, weight, name) -> AccelerationReference:
-    if not isinstance(task, kind):
-        raise InvalidInputError(f"expected a {kind.__name__}, got {type(task).__name__}")
-    return AccelerationReference(task, kp=kp, kd=kd, weight=weight, name=name)
-
-
-def ComAccelerationTask(task: ComTask | None = None, *, kp: float = 100.0, kd: float | None = None, weight=None,
-                        name: str | None = None) -> AccelerationReference:
-    """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.ComTask` (a new one with unit
-    weights when ``task`` is None). Raises InvalidInputError for another task type or bad gains; warns
-    DeprecationWarning."""
-    deprecated("ComAccelerationTask", "AccelerationReference(ComTask(), kp=..., kd=..., weight=...)")
-    return _reference_on(ComTask, ComTask() if task is None else task, kp, kd, weight, name)
-
-
-def FrameAccelerationTask(task: FrameTask, *, kp: float = 100.0, kd: float | None = None, weight=None,
-                          name: str | None = None) -> AccelerationReference:
-    """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.FrameTask` (or its
-    Position/Orientation/Relative forms). Raises InvalidInputError for another task type or bad gains; warns
-    DeprecationWarning."""
-    deprecated("FrameAccelerationTask", "AccelerationReference(frame_task, kp=..., kd=..., weight=...)")
-    return _reference_on(FrameTask, task, kp, kd, weight, name)
-
-
-def PostureAccelerationTask(task: PostureTask, *, kp: float = 50.0, kd: float | None = None, weight=None,
-                            name: str | None = None) -> AccelerationReference:
-    """Deprecated constructor: :class:`AccelerationReference` on a :class:`~wbc.tasks.PostureTask`. Raises
-    InvalidInputError for another task type or bad gains; warns DeprecationWarning."""
-    deprecated("PostureAccelerationTask", "AccelerationReference(posture_task, kp=..., kd=..., weight=...)")
-    return _reference_on(PostureTask, task, kp, kd, weight, name)
-
-
-def AngularMomentumRateTask(*, gain: float = 10.0, weight=1.0, name: str | None = None) -> AccelerationReference:
-    """Deprecated constructor: centroidal angular momentum regulation L̇ = L̇_ff − K (L − L*), i.e. an
-    :class:`AccelerationReference` with Kp = 0, Kd = ``gain`` (1/s) on a new :class:`~wbc.tasks.AngularMomentumTask`
-    (e ≡ 0, J = Ag[3:6], ė_ff = its target L*, N·m·s); ``set_target(L*)`` sets L*. Raises InvalidInputError for bad
-    gain or weights; warns DeprecationWarning."""
-    deprecated("AngularMomentumRateTask", "AccelerationReference(wbc.tasks.AngularMomentumTask(), kp=0, kd=gain)")
-    return AccelerationReference(AngularMomentumTask(weight=weight), kp=0.0, kd=gain, weight=weight,
-                                 name=name or AngularMomentumTask.name)
-
-
-def acceleration_task(task: Task, *, kp: float, kd: float | None = None, weight=None) -> AccelerationReference:
-    """:class:`AccelerationReference` on any task with a drift.
-
-    Raises:
-        InvalidInputError: not a task, or a task type without an acceleration-level form (no drift).
-    """
-    if not isinstance(task, Task) or type(task).drift is Task.drift:
-        raise InvalidInputError(f"no acceleration-level form for {type(task).__name__}")
-    return AccelerationReference(task, kp=kp, kd=kd, weight=weight)

@@ -75,7 +75,7 @@ import pinocchio as pin
 
 from wbc.constants import GRAVITY, SIDES
 from wbc.dynamics.contact_switching import ContactSwitcher
-from wbc.formulations.reference import FrameAccelerationTask, PostureAccelerationTask
+from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import JumpPlan
 from wbc.profiles import min_jerk
@@ -253,7 +253,7 @@ class JumpScenario:
         self._ref = (self.com0.copy(), np.zeros(3), np.zeros(3))
         self._wrap(controller)
         base = next(f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
-        self.base_task = FrameAccelerationTask(OrientationTask(robot, base), kp=100.0, kd=20.0,
+        self.base_task = AccelerationReference(OrientationTask(robot, base), kp=100.0, kd=20.0,
                                                weight=FLIGHT_ORIENTATION_WEIGHT, name="base_orientation")
         self.base_task.set_target(data.oMf[robot.frame_id(base)].copy())
         self.torso_weight = np.array(controller.torso.weight, dtype=float).copy()
@@ -265,8 +265,8 @@ class JumpScenario:
         for f in (robot.left_sole, robot.right_sole):
             legs.update(model.supports[model.frames[robot.frame_id(f)].parentJoint])
         upper = [model.names[j] for j in range(2, model.njoints) if j not in legs and model.names[j] in robot.joint_names]
-        self.upper_task = PostureAccelerationTask(PostureTask(robot, joints=upper), kp=100.0, kd=20.0,
-                                                  weight=UPPER_BODY_WEIGHT, name="upper_body")
+        self.upper_task = AccelerationReference(PostureTask(robot, joints=upper), kp=100.0, kd=20.0,
+                                                 weight=UPPER_BODY_WEIGHT, name="upper_body")
         self.upper_task.set_target(robot.q_ref)
         if self.upper_task not in controller.qp.tasks:
             controller.qp.add_task(self.upper_task)

@@ -54,7 +54,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.dynamics.balance import IDBalanceController
-from wbc.formulations.reference import PostureAccelerationTask
+from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
@@ -175,8 +175,8 @@ class WaveScenario:
         self._a = np.zeros(model.nv)
         self.wave_q = []
         arm = sorted(set(raise_) | set(wave), key=robot.joint_names.index)
-        self.arm = PostureAccelerationTask(PostureTask(robot, joints=arm), kp=self.arm_kp, kd=2 * math.sqrt(self.arm_kp),
-                                           weight=self.arm_weight, name="arms")
+        self.arm = AccelerationReference(PostureTask(robot, joints=arm), kp=self.arm_kp, kd=2 * math.sqrt(self.arm_kp),
+                                          weight=self.arm_weight, name="arms")
         self.arm_iv = self.arm.task.rows
         if isinstance(controller, IDBalanceController):
             controller.qp.add_task(self.arm)
