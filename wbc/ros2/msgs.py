@@ -76,16 +76,6 @@ TFMessage = _struct("TFMessage", "tf2_msgs::msg::dds_::TFMessage_",
                     transforms=(sequence[TransformStamped], list))
 String = _struct("String", "std_msgs::msg::dds_::String_",
                  "std_msgs/msg/String (e.g. /robot_description, the URDF text).", data=(str, ""))
-TriggerRequest = _struct(
-    "TriggerRequest", "std_srvs::srv::dds_::Trigger_Request_",
-    "std_srvs/srv/Trigger request with rmw_cyclonedds' request header (client guid, sequence number).",
-    client_guid=(uint64, 0), seq=(int64, 0), structure_needs_at_least_one_member=(uint8, 0))
-TriggerReply = _struct(
-    "TriggerReply", "std_srvs::srv::dds_::Trigger_Response_",
-    "std_srvs/srv/Trigger response with rmw_cyclonedds' header echoing the request's guid and sequence.",
-    client_guid=(uint64, 0), seq=(int64, 0), success=(bool, False), message=(str, ""))
-
-
 
 
 def _service(name: str, typename: str, doc: str, /, **fields) -> type:
@@ -94,6 +84,11 @@ def _service(name: str, typename: str, doc: str, /, **fields) -> type:
                    client_guid=(uint64, 0), seq=(int64, 0), **fields)
 
 
+TriggerRequest = _service("TriggerRequest", "std_srvs::srv::dds_::Trigger_Request_", "std_srvs/srv/Trigger request",
+                          structure_needs_at_least_one_member=(uint8, 0))
+TriggerReply = _service("TriggerReply", "std_srvs::srv::dds_::Trigger_Response_",
+                        "std_srvs/srv/Trigger response (the header echoes the request's guid and sequence)",
+                        success=(bool, False), message=(str, ""))
 Duration = _struct("Duration", "builtin_interfaces::msg::dds_::Duration_", "builtin_interfaces/msg/Duration (s, ns).",
                    sec=(int32, 0), nanosec=(uint32, 0))
 Point = _struct("Point", "geometry_msgs::msg::dds_::Point_", "geometry_msgs/msg/Point (m).",
