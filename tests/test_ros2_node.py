@@ -379,3 +379,27 @@ def test_node_trims_the_heap_periodically(monkeypatch):
         keep = [np.ones(2000) for _ in range(20000)]
         del keep[::2]
         assert libc.malloc_trim(0) == 1
+
+
+def test_node_stops_at_the_tick_after_an_interrupt_it_was_told_of(monkeypatch):
+    """spin(interrupted=f) asks f before every tick and raises KeyboardInterrupt when it says True: a Ctrl-C whose
+    KeyboardInterrupt a C callback swallowed (the CLI's flag, wbc.cli.output.sigint_received) still stops the node
+    after the tick it was in, not at --duration."""
+    from wbc.robot import load_robot
+    from wbc.ros2.node import ControllerNode
+
+    monkeypatch.setenv("CYCLONEDDS_URI", LOOPBACK)
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+    node = ControllerNode(load_robot("humanoid15"), time_mode="sim")
+    asked = []
+
+    def interrupted():
+        asked.append(node.ticks)
+        return node.ticks >= 7  # the Ctrl-C arrives during tick 7
+
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            node.spin(1.0, interrupted=interrupted)
+        assert node.ticks == 7 and asked == list(range(8))  # 1 s would be 500 ticks
+    finally:
+        node.close()

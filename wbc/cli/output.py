@@ -322,6 +322,12 @@ def on_sigint(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def sigint_received() -> bool:
+    """True once :func:`on_sigint` has seen a Ctrl-C in this run (also one whose KeyboardInterrupt was swallowed by a
+    C callback): loops that do not tick a progress viewer (the ROS 2 commands) check it each iteration."""
+    return _SIGINT_RECEIVED.is_set()
+
+
 def clear_sigint() -> None:
     """Forget a Ctrl-C seen by :func:`on_sigint` (a new run in the same process starts clean)."""
     _SIGINT_RECEIVED.clear()

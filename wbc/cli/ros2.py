@@ -122,6 +122,7 @@ def cmd_joint_publisher(args) -> int:
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
 
+    from wbc.cli.output import sigint_received
     from wbc.cli.robots import robot_from_args
     from wbc.ros2 import dds, msgs
     from wbc.ros2.publisher import Ros2Publisher
@@ -145,6 +146,8 @@ def cmd_joint_publisher(args) -> int:
     next_wake = t_start
     try:
         while args.duration is None or time.monotonic() - t_start < args.duration:
+            if sigint_received():  # a Ctrl-C swallowed by a C callback (see wbc.cli.output.on_sigint)
+                break
             for req in req_reader.take(N=10):
                 if not isinstance(req, msgs.TriggerRequest):
                     continue
@@ -173,6 +176,7 @@ def cmd_echo_joint(args) -> int:
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
 
+    from wbc.cli.output import sigint_received
     from wbc.exceptions import UnknownJointError
     from wbc.ros2 import dds, msgs
 
@@ -183,7 +187,8 @@ def cmd_echo_joint(args) -> int:
     got = 0
     t_end = None if args.timeout is None else time.monotonic() + args.timeout
     try:
-        while (args.count is None or got < args.count) and (t_end is None or time.monotonic() < t_end):
+        while ((args.count is None or got < args.count) and (t_end is None or time.monotonic() < t_end)
+               and not sigint_received()):
             samples = reader.take(N=100)
             if not samples:
                 time.sleep(0.005)
@@ -235,6 +240,7 @@ def cmd_node(args) -> int:
     from wbc.robot import load_robot
     from wbc.ros2 import dds
     from wbc.exceptions import InvalidInputError
+    from wbc.cli.output import sigint_received
     from wbc.ros2.node import ControllerNode
 
     if args.duration is not None and not args.duration > 0:
@@ -259,7 +265,7 @@ def cmd_node(args) -> int:
     signal.signal(signal.SIGTERM, _terminate)
     wall0 = time.monotonic()
     try:
-        node.spin(args.duration, report_every=args.report_every)
+        node.spin(args.duration, report_every=args.report_every, interrupted=sigint_received)
     except KeyboardInterrupt:
         pass
     finally:

@@ -74,6 +74,7 @@ import math
 import os
 import time
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
@@ -528,13 +529,15 @@ class ControllerNode:
         self._odom_w.write(odom)
 
     def spin(self, duration: float | None = None, report_every: float | None = None,
-             trim_every: float | None = 10.0) -> None:
+             trim_every: float | None = 10.0, interrupted: Callable[[], bool] | None = None) -> None:
         """Run until ``duration`` s of node time (None: until KeyboardInterrupt).
 
         ``report_every`` (s of node time): print a line with the tick time p50/p99 (µs) of the last
         ``report_every`` s and the resident memory (MB, /proc/self/statm) at that period.
         ``trim_every`` (s of node time, > 0; None: never): period of the heap trim of the module docstring
         ("Memory"), done after a tick's messages are published and timed within that tick.
+        ``interrupted``: called before every tick; True raises KeyboardInterrupt there (a Ctrl-C whose
+        KeyboardInterrupt a C callback swallowed, e.g. during the kernels' first compile, still stops the node).
 
         Raises:
             InvalidInputError: ``trim_every`` not a number > 0 (or None).
@@ -562,6 +565,8 @@ class ControllerNode:
         window = deque(maxlen=rep_every or 1)
         window_cpu = deque(maxlen=rep_every or 1)  # the tick's thread CPU time: what load on the machine leaves out
         while duration is None or w.t < duration - 1e-9:
+            if interrupted is not None and interrupted():
+                raise KeyboardInterrupt
             t0 = time.perf_counter()
             c0 = time.thread_time()
             if self.ticks % poll == 0:
