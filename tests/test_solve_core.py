@@ -13,7 +13,7 @@ import scipy.optimize
 
 from conftest import standing_controller
 from wbc.configuration import Configuration
-from wbc.exceptions import SolverError
+from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.qp import DaqpBackend, QPBackend
 from wbc.backends import make_backend
 
@@ -54,9 +54,12 @@ def test_infeasible_qp_is_confirmed_and_reports_tested_norm():
     A, b = np.array([[1.0, 1.0], [1.0, 1.0 + 1e-12]]), np.array([1.0, 3.0])
     e = np.zeros((0, 2))
     backend = make_backend("daqp")
-    with pytest.raises(SolverError, match="confirmed by proxqp") as info:
+    with pytest.raises(InfeasibleProblemError, match="confirmed by proxqp"):
         backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
-    print(info.value)
+    # unconfirmed, the same failure is only a SolverError: nobody showed that the rows conflict
+    with pytest.raises(SolverError, match="not confirmed") as info:
+        backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10, confirm=False)
+    assert not isinstance(info.value, InfeasibleProblemError)
 
 
 def test_failed_backend_rescued_by_independent_solver():

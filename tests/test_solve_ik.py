@@ -10,7 +10,7 @@ import wbc
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.formulations.velocity import KinematicController
-from wbc.exceptions import ConfigurationError, SolverError
+from wbc.exceptions import ConfigurationError, InfeasibleProblemError
 from wbc.tasks import ComTask, OrientationTask, PostureTask
 
 DT = 0.002
@@ -80,8 +80,10 @@ def test_solve_ik_names_the_conflict_or_returns_the_safe_command(robots):
     com.set_target(config.com)
     # the contradicting contacts are named (whether the core fails on the rows or on the drift left after
     # making the dependent rows consistent)
-    with pytest.raises(SolverError, match="left_here.*left_there|left_there.*left_here"):
+    with pytest.raises(InfeasibleProblemError, match="left_here.*left_there|left_there.*left_here") as info:
         wbc.solve_ik(robot, robot.q_ref, [com], DT, [a, b])
+    assert {"left_here", "left_there"} <= {name for name, _ in info.value.conflicts}
+    assert all(violation > 0 for _, violation in info.value.conflicts)
     v = wbc.solve_ik(robot, robot.q_ref, [com], DT, [a, b], safe_fallback=True)
     assert v.shape == (robot.model.nv,) and np.all(np.isfinite(v))
 

@@ -20,7 +20,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 import qpsolvers
 
-from wbc.exceptions import InvalidInputError, SolverError
+from wbc.exceptions import InfeasibleProblemError, InvalidInputError, SolverError
 
 __all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork"]
 
@@ -133,8 +133,9 @@ class QPBackend(ABC):
         what = ("found no solution" if not math.isfinite(worst) else
                 f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
                 f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
-        raise SolverError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}"
-                          if confirm else f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
+        if confirm:
+            raise InfeasibleProblemError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
+        raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
 
     #: solutions accepted after :meth:`polish` (the solver's answer was within 1e-3 but above ``tolerance``).
     polished: int = 0

@@ -16,7 +16,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.constraints.base import Constraint
 from wbc.formulations.velocity import KinematicController
-from wbc.exceptions import SolverError
+from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.qp import QPBackend
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
@@ -54,9 +54,10 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
         ConfigurationError: q has the wrong size, is not finite, or its quaternion is not unit.
         InvalidInputError: dt not finite and > 0, damping ≤ 0, or an object that is not a Task/Constraint.
         UnknownSolverError: unknown backend name.
-        SolverError: the tick is not ok (infeasible constraints, or contacts that drift beyond the controller's
-            tolerance); the message gives the reason and the conflicting constraints with their violation when the
-            diagnosis names them (:mod:`wbc.diagnosis`). Not raised with ``safe_fallback=True``.
+        InfeasibleProblemError: the hard constraints conflict; ``conflicts`` holds the (constraint name, violation)
+            pairs the diagnosis (:mod:`wbc.diagnosis`) named, largest first, also given in the message.
+        SolverError: any other tick that is not ok (e.g. contacts that drift beyond the controller's tolerance),
+            with the reason. Neither is raised with ``safe_fallback=True``.
     """
     config = Configuration(robot, q)
     # a function call, not a control tick: no tick budget (every failure-handling stage runs, the conflict is named)
@@ -65,5 +66,8 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
     result = controller.solve(config, dt)
     if not result.ok and not safe_fallback:
         conflicts = ", ".join(f"{name} ({violation:.3g})" for name, violation in result.conflicts) or "none named"
-        raise SolverError(f"solve_ik: no solution ({result.message}); conflicting constraints: {conflicts}")
+        message = f"solve_ik: no solution ({result.message}); conflicting constraints: {conflicts}"
+        if result.conflicts:
+            raise InfeasibleProblemError(message, conflicts=list(result.conflicts))
+        raise SolverError(message)
     return result.v
