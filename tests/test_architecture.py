@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants", "wbc.tick"),
     ("wbc.geometry", "wbc.profiles", "wbc.terrain"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
@@ -315,3 +315,4 @@ def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_p
 def test_layers_are_ordered_as_documented(module):
     assert layer_of("wbc.exceptions") < layer_of("wbc.geometry") < layer_of("wbc.robot") < layer_of(
         "wbc.tasks.base") < layer_of("wbc.formulations.velocity") < layer_of("wbc.gait") <= layer_of(module)
+
