@@ -131,7 +131,7 @@ class IDSolution:
 
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
-#: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
+#: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
 _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)

@@ -1162,7 +1162,7 @@ class KinematicController:
 
         When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
         the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask
-        a large v in the nearly singular direction (measured on humanoid15: 25 rad/s, drift 8e-5 m) and their
+        a large v in the nearly singular direction and their
         ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
         the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled

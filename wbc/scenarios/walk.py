@@ -89,7 +89,7 @@ class WalkController(StanceController):
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
         :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks. Called by
         :meth:`set_references` for a plan it has not seen; call it before a real-time loop to keep that work
-        (≈ 1 ms per 5000 samples) out of the first tick.
+        (linear in the number of samples) out of the first tick.
 
         Raises:
             InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
