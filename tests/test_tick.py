@@ -70,6 +70,32 @@ def test_count_paths_sums_routes_over_qualifiers():
                    "ticks_per_path": {"levels": 2, "general:daqp": 1, "general:daqp+return_rate": 1}}
 
 
+def test_both_controllers_return_a_tick_result_with_a_path(robots):
+    """One tick of each controller (Talos standing): the result derives from ``TickResultBase`` and names its
+    route as a ``TickPath`` of its level; a strict level moves the kinematic tick to the ``levels`` route."""
+    from conftest import standing_controller
+    from wbc.configuration import Configuration
+    from wbc.dynamics.balance import IDBalanceController
+    from wbc.tasks import PostureTask
+    from wbc.tick import TickResultBase
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    res = ctrl.solve(config, 0.002)
+    assert isinstance(res, TickResultBase) and isinstance(res.path, TickPath) and res.ok
+    assert res.path.route in KINEMATIC and res.path.fallback == ""
+    ctrl.add_task(PostureTask(robot), level=0)
+    res = ctrl.solve(config, 0.002)
+    assert res.ok and res.path == TickPath("levels")
+
+    idc = IDBalanceController(robot, dt=0.002)
+    idc.reset(robot.q_ref)
+    cmd = idc.compute(robot.q_ref, np.zeros(robot.nv))
+    assert isinstance(cmd, TickResultBase) and isinstance(cmd.path, TickPath) and cmd.ok
+    assert cmd.path.route in INVERSE_DYNAMICS and cmd.path.route != "fallback"
+
+
 @pytest.fixture(scope="module")
 def taken(tmp_path_factory) -> dict[str, dict[str, Counter]]:
     """{level: {scenario: Counter(path string → ticks)}} over the scenarios of the module docstring."""
