@@ -13,7 +13,8 @@ further out, or a joint inside its range leaving it). ``--budget``: the controll
 the tick's dt). Issue 29 lines: holds longer than 50 ticks on a state where a slower return is feasible (HiGHS
 LP on the return-rate scale, checked once per such hold), the largest stance-sole displacement over any run of
 failed ticks (forward kinematics, from where the run began), tick time p50/p99/max and the ticks past their
-budget, the fallback rate, and the count of ticks per route (``TickResult.path``).
+budget, the fallback rate, and the count of ticks per route and per path (``TickResult.path``; a route outside
+``wbc.tick.KINEMATIC_ROUTES`` fails the run).
 
 Chunks of ``--chunk`` ticks use seeds seed, seed + 1, ...; ``--jobs N`` runs them in N processes (each chunk its
 own seed, results summed); with ``--out`` each finished chunk is saved there and skipped when the command is run
@@ -35,6 +36,7 @@ import multiprocessing
 import sys
 import time
 import warnings
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +50,7 @@ from fuzz_common import freeze_after_first, highs_feasible  # noqa: E402
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
+from wbc.tick import KINEMATIC_ROUTES, count_paths  # noqa: E402
 
 DT = 0.002
 HANDS = {"talos": "gripper_left_joint", "g1": "left_wrist_roll_joint", "humanoid15": None}
@@ -211,7 +214,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 c["limit_violations"] += 1
                 event("limit_violations", ep, tick, f"{name} velocity")
             c["contact_corrected_ticks"] += int(ctrl.contact_corrections > 0)
-            c["paths"][res.path] = c["paths"].get(res.path, 0) + 1
+            c["paths"][str(res.path)] = c["paths"].get(str(res.path), 0) + 1
             c["over_budget"] += int(res.over_budget)
             c["return_rate_relaxed_ticks"] += int(any(r.startswith("joint_position_limit return rate")
                                                       for r in res.relaxed))
@@ -307,6 +310,7 @@ def report(total: dict) -> str:
     """FINAL line (every count and maximum) and one line per acceptance item of issue 8: value, PASS/FAIL."""
     w = total["weighted_failed"] / max(total["weighted_ticks"], 1)
     s = total["strict_failed"] / max(total["strict_ticks"], 1)
+    routes = count_paths(Counter(total["paths"]).elements())
     items = [
         ("ticks (talos, g1, humanoid15) >= 1e6", total["ticks"], total["ticks"] >= 1_000_000),
         ("exceptions == 0", total["exceptions"], total["exceptions"] == 0),
@@ -334,6 +338,8 @@ def report(total: dict) -> str:
         ("strict-level failure rate <= weighted failure rate",
          f"strict {s:.3e} ({total['strict_failed']}/{total['strict_ticks']}) vs weighted {w:.3e} "
          f"({total['weighted_failed']}/{total['weighted_ticks']})", s <= w),
+        ("every tick took a declared route (wbc.tick.KINEMATIC_ROUTES)", str(routes["ticks_per_route"]),
+         set(routes["ticks_per_route"]) <= set(KINEMATIC_ROUTES)),
     ]
     lines = ["FINAL " + str({k: total[k] for k in (*COUNTS, *MAXIMA, "seconds")})]
     lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
@@ -350,6 +356,7 @@ def report(total: dict) -> str:
     tc = total["tick_cpu_ms"]
     lines.append(f"info: tick CPU time p50 {tc['p50']:.3f} ms, p99 {tc['p99']:.3f} ms, p99.9 {tc['p999']:.3f} ms, "
                  f"max {tc['max']:.3f} ms (the budget's clock; the wall times above include other processes)")
+    lines.append("info: ticks per route " + ", ".join(f"{k} {n}" for k, n in routes["ticks_per_route"].items()))
     lines.append("info: ticks per path " + ", ".join(f"{k} {n}" for k, n in sorted(total["paths"].items(),
                                                                                    key=lambda kv: -kv[1])))
     lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")

@@ -15,7 +15,8 @@ floating-base rows of M v̇ + h − Sᵀτ − Σ J_kᵀ G_k f_k (RNEA, LOCAL so
 failed full-QP ticks (relaxed or fallback) whose hard set HiGHS finds feasible (checked after the tick, off the
 control path); failed ticks that name no conflicting constraint (the tick's own names, else
 ``InverseDynamicsController.diagnose()`` after the tick); tick CPU time (the budgeted quantity) and wall time,
-p50/p99/max, against the budget (the control period); the route each tick took (``IDCommand.path``).
+p50/p99/max, against the budget (the control period); the route and path each tick took (``IDCommand.path``; a
+route outside ``wbc.tick.ID_ROUTES`` fails the run).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from conftest import random_configuration  # noqa: E402
 from fuzz_common import chunk_arguments, freeze_after_first, highs_feasible, load_robots, run_chunks  # noqa: E402
 from wbc.constants import SIDES  # noqa: E402
 from wbc.dynamics.balance import IDBalanceController  # noqa: E402
+from wbc.tick import ID_ROUTES, count_paths  # noqa: E402
 
 DT = 0.002
 TOL = 1e-6
@@ -172,12 +174,12 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 c["exceptions"] += 1
                 event("exceptions", ep, tick, f"{name} {type(exc).__name__}: {exc}")
                 break
-            paths[cmd.path] += 1
+            paths[str(cmd.path)] += 1
             if verbose:
                 print(f"episode {ep} tick {tick} {name} {cmd.path} ok={cmd.ok} cpu {1e3 * cmd.timings['cpu']:.2f} ms "
                       f"{cmd.message[:300]}", flush=True)
             cpu.append(cmd.timings.get("cpu", np.nan))
-            tick_paths.append(cmd.path)
+            tick_paths.append(str(cmd.path))
             wall.append(cmd.timings.get("total", np.nan))
             if cmd.over_budget:
                 c["over_budget"] += 1
@@ -242,6 +244,7 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
         return (f"p50 {1e3 * np.percentile(x, 50):.3f} ms, p99 {1e3 * np.percentile(x, 99):.3f} ms, "
                 f"max {1e3 * x.max():.3f} ms" if x.size else "none")
     rate = total["fallback_ticks"] / max(total["ticks"], 1)
+    routes = count_paths(Counter(total["paths"]).elements())
     items = [
         ("exceptions == 0", total["exceptions"], total["exceptions"] == 0),
         ("NaN commands == 0", total["nan"], total["nan"] == 0),
@@ -252,6 +255,8 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
          total["failed_unnamed"] == 0),
         (f"max tick CPU time <= 2 x budget ({2e3 * budget:.1f} ms)",
          f"{1e3 * cpu.max():.3f} ms" if cpu.size else "none", bool(cpu.size) and cpu.max() <= 2 * budget),
+        ("every tick took a declared route (wbc.tick.ID_ROUTES)", str(routes["ticks_per_route"]),
+         set(routes["ticks_per_route"]) <= set(ID_ROUTES)),
     ]
     lines = ["FINAL " + str({k: total[k] for k in (*COUNTS, "seconds")})]
     lines.append(f"budget {1e3 * budget:.1f} ms (CPU time of the tick's thread); tick CPU {pct(cpu)}; "
@@ -261,6 +266,7 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
         later = np.arange(cpu.size) % episode != 0  # every episode has its full length: its first tick is i % episode
         lines.append(f"tick CPU without each new controller's first tick (its one-time set-up): {pct(cpu[later])}; "
                      f"first ticks: {pct(cpu[~later])}")
+    lines.append("routes " + str(routes["ticks_per_route"]))
     lines.append("paths " + str(dict(sorted(total["paths"].items(), key=lambda kv: -kv[1]))))
     for path in sorted(total["paths"]):
         sel = total["tick_paths"] == path

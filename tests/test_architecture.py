@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants", "wbc.tick"),
     ("wbc.geometry", "wbc.profiles", "wbc.terrain"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
@@ -315,3 +315,59 @@ def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_p
 def test_layers_are_ordered_as_documented(module):
     assert layer_of("wbc.exceptions") < layer_of("wbc.geometry") < layer_of("wbc.robot") < layer_of(
         "wbc.tasks.base") < layer_of("wbc.formulations.velocity") < layer_of("wbc.gait") <= layer_of(module)
+
+
+
+# Lab notes in docstrings: a measurement record (a CPU time, a dated run, "measured on <robot>", a number followed
+# by "measured", an issue number) belongs in benchmarks/README.md or docs/, never in a docstring, which says what the
+# code does (shapes, units, frames, errors, sources). Domain uses of the word stay: "the measured state", "measured
+# CoP", "the drift measured at q⁺". Written here, not imported from wbc.
+LAB_NOTE_PATTERNS = [
+    r"\d\s*(?:µs|us)\b",  # a time in microseconds: always a measured CPU time in this library
+    r"[~≈]\s*\d[\d.]*\s*ms\b",  # an approximate time in milliseconds ("≈ 4 ms for a message")
+    r"\b(?:median|p50|p99|mean)\b[^.;]{0,40}\d\s*ms\b",  # a timing statistic
+    r"\b(?:19|20)\d\d-\d\d-\d\d\b",  # a date
+    r"\b\d\d:\d\d\s*UTC\b",  # a time of day
+    r"(?<!not )\bmeasured\s*(?::|;|\)|here\b|side by side|too\b|on (?:talos|g1|humanoid15|romeo|h1|this)\b|at \d"
+    r"|for \d|\d)",  # "measured on G1 ...", "Measured: ...", "measured 2.09 s"
+    r"\(measured(?:\)|:|;|, [A-Z]| on\b| here\b| at \d)",  # "(measured)", "(measured: ...", "(measured, Talos ..."
+    r"\d(?:\.\d+)?(?:e-?\d+)?\s*(?:[a-zµ/%°]+\s+)?measured\b",  # "up to 2.2 mm measured"
+    r"\bissues? \d+",  # an issue number
+]
+
+
+def docstring_lab_notes(path: Path) -> list[tuple[int, str]]:
+    """(line, text) of each documentation line of the file matching a lab-note pattern: docstrings (module, class,
+    function, attribute: every string literal standing as a statement) and ``#:`` attribute comments."""
+    import re
+
+    pats = [re.compile(p, re.IGNORECASE) for p in LAB_NOTE_PATTERNS]
+    text = path.read_text()
+    out = []
+    for node in ast.walk(ast.parse(text, filename=str(path))):
+        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            for i, line in enumerate(node.value.value.splitlines()):
+                if any(p.search(line) for p in pats):
+                    out.append((node.value.lineno + i, line.strip()))
+    for i, line in enumerate(text.splitlines(), 1):
+        if line.lstrip().startswith("#:") and any(p.search(line) for p in pats):
+            out.append((i, line.strip()))
+    return sorted(out)
+
+
+def test_no_lab_notes_in_docstrings():
+    bad = [f"{name}:{line} {text}" for name, path in all_modules().items()
+           for line, text in docstring_lab_notes(path)]
+    assert not bad, f"{len(bad)} docstring lines carry lab notes (move them to benchmarks/README.md or docs/):\n" + \
+        "\n".join(bad)
+
+
+def test_the_lab_note_checker_tells_notes_from_domain_words(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text('"""Tick.\n\nThe compiled tick takes 41.2 µs median.\nMeasured on Talos, 2026-11-22: 3 mm.\n'
+                   'The held command (measured: 12 ticks) and ≈ 4 ms per message.\n"""\n\n'
+                   'def f(q):\n    """Torques for the measured state (q (nq,), measured CoP in m), dt = 2 ms.\n\n'
+                   '    Up to 2.2 mm measured (issue 10).\n    """\n\n'
+                   '#: a gain (1/s), 159 vs 191 µs median\nK = 1.0\n"""The period, 2 ms (2026-11-22)."""\n'
+                   '# an ordinary comment: 5 µs\n')
+    assert [line for line, _ in docstring_lab_notes(src)] == [3, 4, 5, 11, 14, 16]

@@ -99,7 +99,7 @@ UNITLESS = {
     "robot", "behaviour", "scenario", "controller", "solver", "state_source", "stabilizer", "touchdown_detection",
     "fall_reason", "passed", "failed_criteria", "nan", "fell", "completed",  # names, flags, text
     "ticks", "steps", "touchdowns", "deadline_misses", "solver_failures", "relaxed_qp_ticks", "relaxed_ticks",
-    "joint_position_violations", "joint_velocity_violations",  # counts
+    "joint_position_violations", "joint_velocity_violations", "ticks_per_route", "ticks_per_path",  # counts
 }
 UNIT_SUFFIXES = ("_m", "_s", "_rad", "_us", "_n", "_nm", "_mps", "_hz", "_kg", "_ratio", "_fraction", "_factor")
 

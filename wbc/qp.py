@@ -43,7 +43,7 @@ class TickWork:
         solves: QP solves of the current tick (int ≥ 0).
         cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
             re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
-            budget below ≈ 145 ms).
+            budget below 580 × ``KinematicController.SOLVE_COST``).
     """
 
     __slots__ = ("solves", "cap")
@@ -149,11 +149,10 @@ class QPBackend(ABC):
         size, so the cost changes at second order.
 
         When that correction cannot hold the rows (the free entries do not span them: the feasible set is thin
-        and some entry must leave the bound the solver put it on — measured on G1 with a 1e6 m hand target, 14
-        bounds active, the free columns of rank 11 < 12 contact rows, every solver 3.2e-5 rad/s past a 32 rad/s
-        bound), x is projected onto the hard set instead: min ½‖y − x‖² subject to every row and bound, a
-        well-conditioned QP (identity Hessian, |gradient| ~ |x|) solved by DAQP's one-shot interface. The
-        projection moves x by about the solver's error, so the answer stays that solution up to its error.
+        and some entry must leave the bound the solver put it on, e.g. under a 1e6 m hand target), x is projected
+        onto the hard set instead: min ½‖y − x‖² subject to every row and bound, a well-conditioned QP (identity
+        Hessian, |gradient| ~ |x|) solved by DAQP's one-shot interface. The projection moves x by about the
+        solver's error, so the answer stays that solution up to its error.
 
         Returns:
             the polished x (within [lb, ub], every row to ``tolerance``), or None.
@@ -309,8 +308,7 @@ class DaqpBackend(QPBackend):
         tolerance: largest constraint violation accepted (constraint units).
         warm_start: ``"workspace"`` (persistent ``daqp.Model``: the factorisations and working set are reused;
             fastest on the kinematic tick, few inequalities) or ``"dual"`` (one-shot ``daqp.solve`` started from
-            the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities — both
-            measured side by side).
+            the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities).
         **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
             ``primal_tol``); DAQP's defaults otherwise, except ``iter_limit`` (default :data:`ITERATION_LIMIT`: one
             call's work is bounded; a solve that reaches it is a failed attempt).

@@ -3,7 +3,7 @@
 The benchmark tick (:mod:`wbc.bench.kinematic`) is run as is and with ``len(EXTRA_FRAMES)`` more soft 6-D frame
 tasks (weight 1 on position and orientation, target = the frame's initial placement ``oMf``, dead-beat gain
 1/dt); the cost of one task is (median tick with the extra tasks − median tick without) / number of tasks, per
-interleaved repeat, then the median over repeats. Issue 10's goal: ≤ 6 µs per task for wbc.
+interleaved repeat, then the median over repeats (the goal is in ``benchmarks/README.md``).
 """
 
 from __future__ import annotations

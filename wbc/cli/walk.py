@@ -16,7 +16,7 @@ __all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "MIN_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
 
-#: Control period range of the kinematic runs (s): below, the period is shorter than one QP tick (p99 ≈ 0.1 ms in
+#: Control period range of the kinematic runs (s): below, the period is shorter than one QP tick (its time:
 #: benchmarks/README.md); above, the gait's phases span too few ticks (the 0.3 s double support of talos: 15).
 DT_RANGE = (1e-4, 0.02)
 

@@ -3,8 +3,8 @@ still stop before it with deceleration a_max.
 
 The plain position bound v ≤ (q_max − q)/dt (:class:`~wbc.constraints.JointPositionLimit`) lets a joint run into
 its limit at full speed and stop within one tick: an unbounded joint acceleration, which shows as a spike of the
-CoM acceleration and of the executed ZMP (measured: Romeo's ankle pitch stopping at −0.5236 rad during a walk, CoM
-acceleration 8.2 m/s²). Moving at v over one tick and then braking at a_max covers v dt + v²/(2 a_max), so
+CoM acceleration and of the executed ZMP. Moving at v over one tick and then braking at a_max covers
+v dt + v²/(2 a_max), so
 
     v ≤ −a_max dt + √((a_max dt)² + 2 a_max (q_max − q)),     v ≥ a_max dt − √((a_max dt)² + 2 a_max (q − q_min))
 

@@ -28,20 +28,20 @@ points of polyhedra jump between faces), instead of letting that error accumulat
 
 d_s = ``min_distance`` + ``safety_margin`` (default 3 mm: the first-order dips described below stay above
 ``min_distance``). Distances come from coal; nothing is re-derived. By default the collision meshes are
-replaced by their convex hulls (coal ``buildConvexHull``, qhull): GJK on hulls costs ~2 µs per pair against
-~250 µs for mesh BVHs, and a hull contains its mesh, so the mesh distance is never smaller than the hull's.
+replaced by their convex hulls (coal ``buildConvexHull``, qhull): GJK on a hull is about a hundred times cheaper
+than on a mesh BVH, and a hull contains its mesh, so the mesh distance is never smaller than the hull's.
 
 Default pairs: every pair of ``robot.collision_model`` minus the SRDF's ``disable_collisions`` (when
 ``robot.srdf_path`` is set) minus pairs on the same or on adjacent joints (parent–child in the kinematic tree).
 The row count is fixed (``max_active``): the closest active pairs fill the rows, unused rows are −inf ≤ 0.
 
-Limits (measured): one witness pair per body pair is a first-order model of a piecewise-smooth distance. When a
-body rotates while sliding along another, a different vertex can become the closest one within a tick; the
-damper then restores the floor over the next ticks. Driving a hand through the torso with the damper at 20 mm
-(no safety margin): Talos min 19.6 mm, g1 (hulls of large non-convex meshes, fast wrist rotation) 18.3 mm; hence
-the default 3 mm safety margin (with 2 mm, g1 still dipped to 19.84 mm).
+Limits: one witness pair per body pair is a first-order model of a piecewise-smooth distance. When a body
+rotates while sliding along another, a different vertex can become the closest one within a tick; the damper then
+restores the floor over the next ticks. Driving a hand through the torso with the damper at 20 mm and no safety
+margin, the distance dips below the floor by up to a few millimetres (``benchmarks/README.md``); hence the
+default 3 mm safety margin.
 
-Broad phase (``broad_phase=True``, issue 10; one compiled pass over the pairs, then coal on the candidates only: the
+Broad phase (``broad_phase=True``; one compiled pass over the pairs, then coal on the candidates only: the
 narrow phase below). Each geometry g has a bounding sphere
 (centre c_g in its joint's frame and radius r_g, from coal's local AABB: the sphere around the box contains the
 geometry). Placements are taken in the root joint's frame (``data.oMi``; a distance does not depend on the frame,
@@ -72,19 +72,8 @@ own memory (:func:`joint_placements_view`, checked when built), not one bound ca
 extension (no C++ compiler at install), with meshes and ``convex=False``, or with ``compiled=False``: Pinocchio's
 ``computeDistances`` on a ``GeometryData`` whose active pairs are the candidates, results read through the bindings.
 
-Measured on Talos (883 pairs, hand driven through the torso; ``python benchmarks/self_collision.py --repeats 3``,
-2-core machine; in the run of ``benchmarks/run_all.py`` of 2026-11-22 09:31 UTC, load 0.95): 38.6 coal distances
-per call (883 without the broad phase); compute() median 120.4 µs; the whole controller tick grows by 158.0 µs
-(thread CPU medians, with vs without the constraint; issue 10's target: ≤ 200). With Pinocchio's narrow phase
-(``compiled=False``) in the same run: compute() 162.8 µs, the tick +203.2 µs, the same trajectory (difference 0.0);
-before the compiled narrow phase, the view of ``data.oMi`` and the compiled rows (07:20 UTC): 181.8 µs, +224.5 µs.
-Of a call inside the controller loop (timers around each step): the compiled narrow phase ~86 µs
-(coal's GJK on ≥ 32 pairs: at least ``max_active`` = 32 pairs are within d_i in this posture and rows of rank
-20–31 by distance do bind in this drive, so fewer rows would change the motion; coal's own timer gives 1.35–1.7 µs
-per pair, the rest is caches the controller evicted), the compiled broad phase ~12 µs, the damper rows ~5 µs.
-Reading the results back through Pinocchio's bindings cost ~45 µs per call (one bound C++ call and one NumPy array
-per value), the joint placements ~14 µs, the rows' arrays ~18 µs of NumPy calls: the compiled narrow phase, the
-view of ``data.oMi`` and one compiled call for the rows replace them.
+Cost per call and of the controller tick, with and without the compiled narrow phase:
+``python benchmarks/self_collision.py`` (results in ``benchmarks/README.md``).
 """
 
 from __future__ import annotations
@@ -473,7 +462,7 @@ class ClosePairs(NamedTuple):
         distance: (m,) coal distances (m; negative when penetrating).
         normal: (m, 3) unit normals from body 1 to body 2, WORLD frame (coal's).
         p1, p2: (m, 3) witness points on body 1 (coal's) / body 2 (p1 + distance · normal: the point of the
-            witness line on body 2; coal's own differs by its GJK tolerance, ≤ 2.3e-16 m measured on Talos),
+            witness line on body 2; coal's own differs by its GJK tolerance),
             WORLD frame (m).
     """
 
@@ -495,7 +484,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         activation_distance: d_i (m, > min_distance): pairs farther apart get no row.
         gain: γ (1/s, > 0), capped at 1/dt.
         safety_margin: m (≥ 0) added to d_s by the damper, so the first-order dips of polyhedral distances
-            (module docstring: up to 2.2 mm measured) stay above ``min_distance``.
+            (module docstring) stay above ``min_distance``.
         recovery_speed: rate (m/s, ≥ 0) at which the floor of a pair already closer than d_s rises towards d_s
             (0: the pair is only kept from coming closer).
         max_active: number of rows (the closest active pairs; ≥ 1).

@@ -67,13 +67,15 @@ import numpy as np
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["InverseDynamicsController", "IDCommand"]
 
 
 @dataclass
-class IDCommand:
-    """Output of one tick.
+class IDCommand(TickResultBase):
+    """Output of one tick (the fields ``ok``, ``message``, ``timings``, ``conflicts``, ``path``, ``over_budget``
+    are those of :class:`wbc.tick.TickResultBase`, shared with the kinematic ``TickResult``).
 
     Attributes:
         tau: (nv − 6,) joint torques (N·m), Pinocchio's actuated order.
@@ -88,8 +90,9 @@ class IDCommand:
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
         timings: seconds in 'pinocchio', 'assembly', 'solve', 'total' (wall clock) and 'cpu' (CPU time of the
             thread, the budgeted quantity).
-        path: the route of the tick (module docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``,
-            ``fallback:hold`` (the previous tick's solved command, held for one failed tick) or ``fallback:gravity``.
+        path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module
+            docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``, ``fallback:hold`` (the previous
+            tick's solved command, held for one failed tick) or ``fallback:gravity`` (its string form).
         over_budget: the tick used more than the controller's budget.
     """
 
@@ -97,14 +100,8 @@ class IDCommand:
     dv: np.ndarray
     forces: np.ndarray
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
-    ok: bool = True
     relaxed: bool = False
-    message: str = ""
     dynamics_residual: float = 0.0
-    conflicts: list[tuple[str, float]] = field(default_factory=list)
-    timings: dict[str, float] = field(default_factory=dict)
-    path: str = ""
-    over_budget: bool = False
 
 
 def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
@@ -125,7 +122,8 @@ class InverseDynamicsController:
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
-        paths: route name → number of ticks that took it.
+        paths: path (string form of :class:`wbc.tick.TickPath`) → number of ticks that took it.
+        routes: route (:data:`wbc.tick.ID_ROUTES`) → number of ticks that took it.
 
     Raises:
         InvalidInputError: dt or budget not finite and > 0 (budget may be inf).
@@ -148,6 +146,7 @@ class InverseDynamicsController:
         self.n_relaxed = 0
         self.n_over_budget = 0
         self.paths: Counter = Counter()
+        self.routes: Counter = Counter()
 
     @property
     def budget(self) -> float:
@@ -212,7 +211,8 @@ class InverseDynamicsController:
         cmd.over_budget = cpu > self.budget
         self.n_ticks += 1
         self.n_over_budget += int(cmd.over_budget)
-        self.paths[cmd.path] += 1
+        self.paths[str(cmd.path)] += 1
+        self.routes[cmd.path.route] += 1
         return cmd
 
     def _fail(self, message: str, conflicts, t0: float, t1: float, c0: float) -> IDCommand:
@@ -223,7 +223,7 @@ class InverseDynamicsController:
                             wrenches={k: w.copy() for k, w in prev.wrenches.items()}, ok=False,
                             message=f"{message}; the previous tick's command is held for this tick (a second "
                                     "failed tick in a row takes the safe command)",
-                            dynamics_residual=float("nan"), path="fallback:hold")
+                            dynamics_residual=float("nan"), path=TickPath("fallback", fallback="hold"))
             self._hold_speed_bounds(cmd)
         else:
             cmd = self.fallback(message)
@@ -279,10 +279,11 @@ class InverseDynamicsController:
 
     def summary(self) -> dict:
         """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``fallback_rate`` (fallback ticks /
-        ticks), ``relaxed``, ``paths`` (route → ticks)."""
+        ticks), ``relaxed``, ``routes`` (route → ticks), ``paths`` (path with its qualifiers → ticks)."""
         n = max(self.n_ticks, 1)
         return {"ticks": self.n_ticks, "budget_ms": 1e3 * self.budget, "over_budget": self.n_over_budget,
-                "fallback_rate": self.n_failures / n, "relaxed": self.n_relaxed, "paths": dict(self.paths)}
+                "fallback_rate": self.n_failures / n, "relaxed": self.n_relaxed, "routes": dict(self.routes),
+                "paths": dict(self.paths)}
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring)."""
@@ -304,5 +305,5 @@ class InverseDynamicsController:
         lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
         tau = np.clip(tau, -lim, lim)
         return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
-                         message=message or "fallback", dynamics_residual=float("nan"), path="fallback:gravity")
+                         message=message or "fallback", dynamics_residual=float("nan"), path=TickPath("fallback", fallback="gravity"))
 

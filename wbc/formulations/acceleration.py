@@ -95,6 +95,7 @@ from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.qp import QPBackend
+from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
@@ -114,8 +115,9 @@ class IDSolution:
         wrenches: contact name → (6,) wrench (N, N·m) at the sole origin, world axes.
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
         timings: seconds spent in 'assembly' and 'solve'.
-        path: the route that produced it: ``kernel`` (the compiled tick), ``general:<backend>`` (the backend on the
-            assembled QP), ``relaxed:<backend>`` (:meth:`InverseDynamicsQP.solve_relaxed`).
+        path: the route that produced it (:class:`wbc.tick.TickPath`): ``kernel`` (the compiled tick),
+            ``general:<backend>`` (the backend on the assembled QP), ``relaxed:<backend>``
+            (:meth:`InverseDynamicsQP.solve_relaxed`); None before a solve.
     """
 
     dv: np.ndarray
@@ -124,12 +126,12 @@ class IDSolution:
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
     dynamics_residual: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
-    path: str = ""
+    path: TickPath | None = None
 
 
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
-#: warm start measured faster than DAQP's persistent workspace on this inequality-heavy QP (159 vs 191 µs median).
+#: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
 _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
@@ -492,7 +494,7 @@ class InverseDynamicsQP:
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = f"relaxed:{self.backend.name}"
+        sol.path = TickPath("relaxed", self.backend.name)
         self._guard(state, sol, relaxed=True)
         return sol
 
@@ -518,7 +520,7 @@ class InverseDynamicsQP:
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = f"general:{self.backend.name}"
+        sol.path = TickPath("general", self.backend.name)
         self._guard(state, sol)
         return sol
 
@@ -624,7 +626,7 @@ class InverseDynamicsQP:
             sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
                              wrenches={name: wrench[k] for k, name in enumerate(kb.names)},
                              dynamics_residual=float(kb.residual[1]),
-                             timings={"assembly": ta - t0, "solve": t1 - ta}, path="kernel")
+                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=TickPath("kernel"))
             self.last_violations = self.verify(state, sol)
             if not self.last_violations:
                 kb.solves += 1
@@ -637,7 +639,7 @@ class InverseDynamicsQP:
                                self._ub, **self._confirm_kw)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = f"general:{self.backend.name}"
+        sol.path = TickPath("general", self.backend.name)
         self._guard(state, sol)
         return sol
 

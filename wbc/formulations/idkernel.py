@@ -30,7 +30,7 @@ every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i is ≥ 0 (σ_i
 condition of the full QP holds and x is its (unique) optimum; otherwise :func:`id_solve` (Goldfarb–Idnani dual
 active set, warm-started from the same working set) takes over.
 
-Accuracy (measured, Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
+Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
 ``daqp`` ID default) stops ≈ 3e-7 from that optimum. Closed-loop trajectories of two exact solvers still part
 after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against

@@ -118,7 +118,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from time import perf_counter
 
 import numpy as np
@@ -140,6 +140,7 @@ from wbc.backends import DEFAULT_SOLVER, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
+from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["KinematicController", "TickResult"]
 
@@ -149,8 +150,9 @@ _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, I
 
 
 @dataclass
-class TickResult:
-    """Outcome of one control tick.
+class TickResult(TickResultBase):
+    """Outcome of one control tick (the fields ``ok``, ``message``, ``timings``, ``conflicts``, ``path``,
+    ``over_budget`` are those of :class:`wbc.tick.TickResultBase`, shared with the inverse-dynamics command).
 
     Attributes:
         v: (nv,) commanded generalized velocity; always finite (the safe command when the solve failed).
@@ -172,11 +174,14 @@ class TickResult:
         sole_drift: largest second-order drift (m) of a contact frame over this tick: ‖t(e⁺) − (1 − K dt) t(e)‖
             with e⁺ the contact error at pin.integrate(q, v dt) and t(·) its translation part (what the
             linearised contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``.
-        path: the route the tick took: 'compiled' (the compiled tick's kernel), 'compiled+daqp' (its reduced QP
-            solved by DAQP), 'general:<backend name>' (the general path's flat QP), 'levels' (strict hierarchy),
-            with '+return_rate' when the return rate of joints outside their limits was relaxed and '+budget' when
-            twice the tick's budget stopped its cascade, contact correction or trust region (``message`` names what was
-            skipped); on failure 'fallback:<fallback>'.
+        path: the route the tick took (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.KINEMATIC_ROUTES`):
+            'compiled' (the compiled tick's kernel; solver 'daqp': its reduced QP solved by DAQP), 'general'
+            (the general path's flat QP; solver: the backend's name), 'levels' (strict hierarchy), with
+            ``return_rate`` when the return rate of joints outside their limits was relaxed and ``budget`` when
+            twice the tick's budget stopped its cascade, contact correction or trust region (``message`` names what
+            was skipped); on failure 'fallback' (``path.fallback`` = ``fallback``). Its string form is
+            ``compiled``, ``compiled+daqp``, ``general:<backend>``, ``levels`` (each of the last two possibly
+            followed by ``+return_rate`` and ``+budget``), ``fallback:<fallback>``.
         reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
             'output_guard' (the command was not finite or crossed a
@@ -189,17 +194,11 @@ class TickResult:
     """
 
     v: np.ndarray
-    ok: bool = True
-    message: str = ""
-    timings: dict[str, float] = field(default_factory=dict)
-    conflicts: list[tuple[str, float]] = field(default_factory=list)
     fallback: str = ""
     relaxed: list[str] = field(default_factory=list)
     consecutive_failures: int = 0
     sole_drift: float = 0.0
-    path: str = ""
     reason: str = ""
-    over_budget: bool = False
 
 
 class KinematicController:
@@ -770,7 +769,7 @@ class KinematicController:
         self.dependent_residual = 0.0
         self.contact_corrections = 0
         result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift,
-                            path="compiled+daqp" if rescued else "compiled")
+                            path=TickPath("compiled", "daqp" if rescued else ""))
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
@@ -887,8 +886,9 @@ class KinematicController:
                 fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
                 if fault:
                     raise SolverError(f"output guard: {fault}")
-                result.path = ("levels" if self._level_order else f"general:{self.backend.name}") + (
-                    "+return_rate" if return_rate is not None else "")
+                result.path = TickPath("levels") if self._level_order else TickPath("general", self.backend.name)
+                if return_rate is not None:
+                    result.path = replace(result.path, return_rate=True)
             else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
                 raise _DriftFailure(result.message)
             if not result.ok and self._projected_contacts:
@@ -910,7 +910,7 @@ class KinematicController:
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         result.over_budget = result.over_budget or bool(self._cut) or self._work.solves > self._work.cap
         if self._cut and result.ok:
-            result.path += "+budget"
+            result.path = result.path.with_budget()
             result.message = f"tick budget spent: {'; '.join(self._cut)} skipped"
         for c in self._feedback:
             c.set_previous(result.v)
@@ -1162,7 +1162,7 @@ class KinematicController:
 
         When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
         the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask
-        a large v in the nearly singular direction (measured on humanoid15: 25 rad/s, drift 8e-5 m) and their
+        a large v in the nearly singular direction and their
         ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
         the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled
@@ -1325,7 +1325,7 @@ class KinematicController:
         conflicts: list[tuple[str, float]] = []
         if not self._assembled:
             return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
-                              path="fallback:hold", reason="exception")
+                              path=TickPath("fallback", fallback="hold"), reason="exception")
         data_fault = self._data_fault()
         if not self._late():
             self._work.solves += 1  # the diagnosis: one least-squares QP
@@ -1409,7 +1409,7 @@ class KinematicController:
         except Exception:  # noqa: BLE001 — never raises (module docstring)
             drift = float("nan")
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
-                          path=f"fallback:{fallback}", reason=reason, over_budget=over_budget)
+                          path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
     def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
         """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor

@@ -38,8 +38,7 @@ is cut by a fixed amount, bounded so that the swing foot can still travel to the
 (:class:`wbc.sim.walk.WalkScenario`, ``max_swing_speed``).
 
 Dead band (Griffin 2017) on the DCM error: ``d = e^{ωτ} max(0, 1 − δ/‖e‖) e`` with ``e = ξ − ξ_ref``: the DCM
-errors of normal walking (≤ 1.7 cm measured on Talos and G1 walks, perturbed ones included) stay with the CoP feedback of the stabilizer, and the adjustment is
-continuous in ``e``.
+errors of normal walking stay with the CoP feedback of the stabilizer, and the adjustment is continuous in ``e``.
 """
 
 from __future__ import annotations

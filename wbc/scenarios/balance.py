@@ -52,6 +52,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.geometry import signed_distance
 from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
+from wbc.tick import count_paths
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.scenarios.stance import StanceRecorder, StanceRun
 from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
@@ -317,7 +318,8 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
     task in other units goes under max_task_error_task), max_stance_slip_m,
     joint_position_violations / joint_velocity_violations ((tick, joint) pairs outside the URDF limits),
     solver_failures (ticks whose command fell back to a safe command), relaxed_ticks (ticks solved without the
-    relaxable constraints — executed-ZMP constraint — reported, not judged), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
+    relaxable constraints — executed-ZMP constraint — reported, not judged), ticks_per_route and ticks_per_path
+    (ticks per route and per path of ``TickResult.path``, :func:`wbc.tick.count_paths`), nan; then the behaviour's own entries; then ``passed`` and ``failed_criteria``.
     """
     model = robot.model
     idx_q, _ = bounded_joints(model)
@@ -347,6 +349,7 @@ def balance_summary(robot: Robot, run: BalanceRun) -> dict:
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
         "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
+        **count_paths(run.path),
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     beh = run.extra.get("behaviour")

@@ -104,9 +104,7 @@ class BalanceController(StanceController):
             σ_min/σ_max ≈ 9e-4 (hip roll ≈ 0.34 rad), and dropping such a row lets that sole yaw.
         joint_acceleration: a_max (rad/s²) of the joint acceleration and braking limits (relaxable, before the
             executed-ZMP constraint: :meth:`~wbc.scenarios.stance.StanceController.solve`; None: none, the
-            default). Without them G1's reach commands joint accelerations up to 1419 rad/s²; with 50 rad/s² every
-            catalog behaviour still met its criteria (measured), but humanoid15's reach then has one tick infeasible
-            with them (a change of rank of its contact rows) where the fast and DAQP backends part by 3.5e-9 rad.
+            default; the catalog runs with and without them are in ``benchmarks/README.md``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,

@@ -16,9 +16,8 @@ at p; Kajita et al., "Introduction to Humanoid Robotics", 2014, ch. 3), h = c_z 
     p_x = c_x − (m h c̈_x + L̇_y) / (m (c̈_z + g)),      p_y = c_y − (m h c̈_y − L̇_x) / (m (c̈_z + g)).
 
 With L̇ = 0 this is the CoM-only ("cart-table") ZMP p = c_xy − h c̈_xy / (c̈_z + g), which a summary reports beside
-(``min_zmp_margin_com_only_m``): it misses the momentum of limbs that move against each other (measured: G1's
-lift-off with the CoM-only ZMP kept 2 mm inside the sole had a multi-body ZMP 63 mm outside), so the verdict uses
-the multi-body ZMP.
+(``min_zmp_margin_com_only_m``): it misses the momentum of limbs that move against each other, so the verdict
+uses the multi-body ZMP.
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ from wbc.backends import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask
+from wbc.tick import PATH_DTYPE
 
 __all__ = ["Support", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "StanceController", "StanceRecorder", "StanceRun"]
 
@@ -150,7 +151,8 @@ class StanceRun(MotionRun):
     t[k] = k dt: ``t`` (N,) s; ``q`` (N, nq); ``v`` (N, nv) the command computed at row k; ``com``, ``com_ref``
     (N, 3) m, world; ``left_sole``, ``right_sole`` (N, 4, 4) world poses; ``support`` (N,) int8
     (:class:`Support`); ``tick_time`` (N,) s; ``solver_ok`` (N,) bool; ``relaxed`` (N,) bool, the tick was solved
-    without its relaxable constraints; ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
+    without its relaxable constraints; ``path`` (N,) text, the route each tick took (string form of
+    :class:`wbc.tick.TickPath`); ``joint_names`` (nv − 6,); ``robot``; ``dt`` s."""
 
     left_sole: np.ndarray
     right_sole: np.ndarray
@@ -158,6 +160,7 @@ class StanceRun(MotionRun):
     tick_time: np.ndarray
     solver_ok: np.ndarray
     relaxed: np.ndarray
+    path: np.ndarray
     joint_names: list[str]
 
 
@@ -177,6 +180,7 @@ class StanceRecorder:
         self.tick_time = np.empty(n)
         self.solver_ok = np.empty(n, dtype=bool)
         self.relaxed = np.zeros(n, dtype=bool)
+        self.path = np.full(n, "", dtype=PATH_DTYPE)
 
     def record_state(self, k: int, config: Configuration) -> None:
         """Row k: q, CoM and sole poses of ``config``."""
@@ -186,13 +190,15 @@ class StanceRecorder:
         self.right_sole[k] = config.data.oMf[self._rf].homogeneous
 
     def record_command(self, k: int, result: TickResult, tick_time: float) -> None:
-        """Row k: the command, whether the QP solved (and without its relaxable constraints), the tick time (s)."""
+        """Row k: the command, whether the QP solved (and without its relaxable constraints), its route, the tick
+        time (s)."""
         self.tick_time[k] = tick_time
         self.solver_ok[k] = result.ok
         self.relaxed[k] = bool(result.relaxed)
+        self.path[k] = str(result.path)
         self.v[k] = result.v
 
     def arrays(self) -> dict:
         """The recorded arrays under their :class:`StanceRun` field names."""
         return {"q": self.q, "v": self.v, "com": self.com, "left_sole": self.left_sole, "right_sole": self.right_sole,
-                "tick_time": self.tick_time, "solver_ok": self.solver_ok, "relaxed": self.relaxed}
+                "tick_time": self.tick_time, "solver_ok": self.solver_ok, "relaxed": self.relaxed, "path": self.path}

@@ -25,6 +25,7 @@ from wbc.backends import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.geometry import mean_heading
 from wbc.robot import Robot
+from wbc.tick import count_paths
 from wbc.scenarios.metrics import executed_angular_momentum, executed_zmp, stance_ground_z, support_margin
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController, StanceRecorder, StanceRun
 
@@ -88,7 +89,7 @@ class WalkController(StanceController):
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
         :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks. Called by
         :meth:`set_references` for a plan it has not seen; call it before a real-time loop to keep that work
-        (≈ 1 ms per 5000 samples) out of the first tick.
+        (linear in the number of samples) out of the first tick.
 
         Raises:
             InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
@@ -237,7 +238,8 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
     distance for the plan's ZMP, reported beside it, not judged),
     joint_position_violations / joint_velocity_violations (number of (tick, joint) pairs outside the URDF limits),
     solver_failures, relaxed_ticks (ticks solved without the relaxable constraints, e.g. the executed-ZMP
-    constraint; reported, not judged: the ZMP margin judges the motion), nan (any non-finite q or v), passed and failed_criteria
+    constraint; reported, not judged: the ZMP margin judges the motion), ticks_per_route and ticks_per_path (ticks per
+    route and per path of ``TickResult.path``, :func:`wbc.tick.count_paths`), nan (any non-finite q or v), passed and failed_criteria
     (:data:`wbc.scenarios.acceptance.WALK_CRITERIA`).
     """
     from wbc.constraints.limits import bounded_joints
@@ -291,6 +293,7 @@ def walk_summary(robot: Robot, plan: WalkPlan, run: WalkRun) -> dict:
         "joint_velocity_violations": vel_viol,
         "solver_failures": int(np.sum(~run.solver_ok)),
         "relaxed_ticks": int(np.sum(run.relaxed)) if run.relaxed is not None else 0,
+        **count_paths(run.path),
         "nan": bool(not (np.isfinite(run.q).all() and np.isfinite(run.v).all())),
     }
     summary["passed"], summary["failed_criteria"] = walk_passes(summary)

@@ -10,8 +10,7 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
 2. **push-off**: constant CoM acceleration to the planned take-off velocity (both soles in contact; the QP keeps
    the corner forces in the friction pyramids and the torques in the URDF limits); take-off — both contacts
    released through :class:`~wbc.dynamics.contact_switching.ContactSwitcher` — when the plan reaches the
-   take-off velocity or, earlier, when the measured CoM vertical velocity reaches it (measured on G1 at the
-   default 0.08 m: 1.18 m/s measured for 1.25 m/s planned);
+   take-off velocity or, earlier, when the measured CoM vertical velocity reaches it;
 3. **flight**: no contact. The CoM reference is the ballistic parabola from the **measured** take-off state, so
    its acceleration is −g: the only one the QP's floating-base rows admit without contact forces (with no
    contact, M_u v̇ + h_u = 0 fixes the rate of the centroidal momentum: linear m g down, angular 0). The
@@ -34,7 +33,7 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    every jump starts from the same stance as the first.
 
 Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
-rows ask to stop the sole at once; measured too in the last ticks of some push-offs), the controller's fallback
+rows ask to stop the sole at once; so can the last ticks of a push-off), the controller's fallback
 drops the torque limits (:mod:`wbc.dynamics.controller`). This
 scenario then re-solves the QP with the torque limits kept and the velocity-damping of the landing contacts
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
@@ -43,29 +42,16 @@ are in the summary (``landing_soft_contact_ticks``, ``torque_clipped_ticks``; ``
 first 20 as (time s, phase, how, joint most beyond its limit in the relaxed QP, its |τ|/limit)), and ``max_torque_over_limit``
 is that of the commanded, i.e. applied, torques.
 
-Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 10 (the default; with 1 the
-trunk, leaning forward in the crouch, rotated back during the push and kept rotating in flight: G1 pelvis tilts
-up to 33°) and posture weight 0.1 (default 1), so the posture task does not hold back the push-off and the leg
-tuck; during the jump the centroidal
-angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1). Measured: G1 0.2 m planned hop,
-with weight 1 the angular momentum grew to 4.9 N·m·s (pitching forward) during the push and the robot fell on
-landing, with 50 it landed (50 only from the push start on: fell); humanoid15 vertical jump, weight 1: take-off
-0.084 m/s sideways and the feet 10 cm away, 50: 3.5 mm. But G1 series of vertical jumps need weight 1
-(``momentum_weight``; ``--momentum-weight``): with 50 the take-off velocity alternated sideways (up to ±0.045
-m/s) and the 4th of 10 jumps fell (settle 2.5 s) / the flight shrank to 0.09 s (settle 1.5 s); with 1, 10 of 10
-jumps passed; braking acceleration of the joint-limit viability bound
-(:mod:`wbc.formulations.acceleration`) 150 rad/s² instead of 50: with 50, G1's knees extending at 9.5 rad/s, 0.95 rad
-from their limit, must start braking (braking distance v²/(2 a) = 0.9 rad) and the QP cut the push-off force from
-700 N to 0 at a take-off velocity of 0.86 m/s instead of the planned 1.53 m/s (measured at 0.12 m planned height);
-with 400 the late braking needed more than the hip torque limits (relaxed QP ticks at take-off, pitching kick).
-A joint task holds the upper body at ``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`; without it the arms
-flailed at their torque limits in flight and the landing QP was infeasible), and in flight and landing the torso
-and base orientation tasks have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 10 (with 1 the reaction of the leg
-tuck pitched the G1 pelvis past 30° in flight; with 10 and the earlier flight profile the feet of forward hops
-landed 9–14 cm behind their take-off point), the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000
-(default 100; G1 0.15 m planned hop: hop 0.114 m with 100, 0.124 m with 1000). Landing force ramp ``t_ramp``
-0.06 s: with 0.03 s the G1 series of 10 had 2 clipped-torque ticks and Talos at 0.03 m one (hip roll 1.5× its limit
-at touch-down), with 0.06 s none; humanoid15 is the exception (6 clipped ticks with 0.03 s, 16 with 0.06 s).
+Controller options for the jump (:data:`JUMP_OPTIONS`): torso orientation weight 10 (the default) and posture
+weight 0.1 (default 1), so the posture task does not hold back the push-off and the leg tuck; during the jump the
+centroidal angular-momentum task has weight :data:`JUMP_MOMENTUM_WEIGHT` = 50 (default 0.1; ``momentum_weight``,
+``--momentum-weight``: a series of G1 vertical jumps needs 1); braking acceleration of the joint-limit viability
+bound (:mod:`wbc.formulations.acceleration`) 150 rad/s² instead of 50 (with 50 a knee extending fast near its limit
+must start braking during the push-off, which cuts the push-off force). A joint task holds the upper body at
+``robot.q_ref`` (weight :data:`UPPER_BODY_WEIGHT`), and in flight and landing the torso and base orientation tasks
+have weight :data:`FLIGHT_ORIENTATION_WEIGHT` = 10, the foot pose tasks :data:`FLIGHT_FOOT_WEIGHT` = 1000 (default
+100). Landing force ramp ``t_ramp`` 0.06 s. The runs that chose each value are in ``benchmarks/README.md``
+("Measurement history moved out of docstrings").
 """
 
 from __future__ import annotations
@@ -410,8 +396,8 @@ class JumpScenario:
         return ref
 
     def _retarget(self, ctrl):
-        """Landing CoM target: standing offset above the mid-point of the soles (measured; a sole still in
-        swing counts with its landing target)."""
+        """Landing CoM target: standing offset above the mid-point of the soles (their current positions; a sole
+        still in swing counts with its landing target)."""
         st = ctrl.state
         pos = [st.data.oMf[ctrl.feet[s].task.frame_id].translation.copy() if self.switcher.phase(s) != "swing"
                else self.foot_target[s] for s in SIDES]

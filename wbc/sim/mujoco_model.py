@@ -43,9 +43,8 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
   actual friction coefficient"; "it is not recommended to use high impratio values with pyramidal cones" (XML
   reference, ``option/impratio``), and "using the Newton solver with elliptic friction cones and large value of
   impratio is the recommended way of reducing slip" (Overview, "Softness and slip"). The normal stiffness and the
-  friction coefficient are unchanged. Measured on G1 walking 20 × 0.24 m at 0.3 m/s (ground truth stance-sole
-  drift, the walk summary's stance slip), with |f_t|/f_z ≤ 0.24 on the stance foot: pyramidal/1 6.3 mm per
-  step (lateral creep during single support), pyramidal/10 2.0 mm, elliptic/10 1.9 mm;
+  friction coefficient are unchanged (stance-sole creep per step on a G1 walk for each cone and impratio:
+  ``benchmarks/README.md``, "Measurement history moved out of docstrings");
 * the foot boxes are in geom group 3 (hidden by default in viewers); URDF collision geoms stay in group 0.
   Joint position limits are enforced by MuJoCo, velocity limits are not.
 

@@ -17,10 +17,8 @@ sole-acceleration equalities are near rank deficient (smallest singular value 2e
 QP's DAQP ``primal_tol`` of 1e-9, DAQP stops with exit flag -6 (overdetermined initial working set) on every
 tick once the robot moves and the controller falls back to gravity compensation (humanoid15 one-leg: 1144 failed
 ticks, fell). :func:`id_options_for` gives such robots DAQP with ``primal_tol`` 1e-6 and a 2 cm sole margin
-(measured on humanoid15 one-leg: 1e-6 alone still tipped over the sole edge at the unload, 1e-6 + 1 cm margin
-passed with 0 failed ticks; removing the dependent rows by a pivoted QR instead was worse: 324 relaxed ticks, fell).
-After the November merges (compiled frame-task errors, equal to Pinocchio's to 1e-15) the 1 cm margin fell again
-(594 relaxed ticks); 2 cm passed with 0 relaxed ticks (0 cm: 355 relaxed, fell) — the margin case is marginal.
+(``primal_tol`` alone tips the robot over the sole edge at the unload; the runs behind the margin, which is
+marginal, are in ``benchmarks/README.md``, "Measurement history moved out of docstrings").
 Walking: at a touch-down the right-hand side of the two soles' rows is inconsistent along the dependent direction
 (a relative foot yaw acceleration the legs cannot produce); the QP was infeasible, the relaxed QP answered with kN
 forces and humanoid15 fell at its first landing. The ID QP now projects that right-hand side onto the

@@ -44,6 +44,7 @@ from wbc.constants import GRAVITY
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
+from wbc.tick import count_paths
 from wbc.scenarios.framework import Criterion, evaluate
 
 __all__ = [
@@ -397,6 +398,7 @@ def summarize(run, scenario, controller=None) -> dict:
             "max_dynamics_residual": float(np.nanmax(run.residual[ok])) if ok.any() else float("nan"),
             "solver_failures": int((~ok).sum()),
             "relaxed_qp_ticks": int(run.relaxed.sum()),
+            **count_paths(run.path),
         })
         tick = getattr(controller, "controller", None)  # the InverseDynamicsController: budget, routes, fallbacks
         if tick is not None and hasattr(tick, "summary"):

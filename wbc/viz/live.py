@@ -1,8 +1,8 @@
 """Live meshcat view of a running controller, off the control loop's critical path.
 
 :class:`LiveViewer` keeps only the latest state given to :meth:`LiveViewer.update` (a copy, microseconds)
-and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transform`` is a blocking
-~0.3 ms round trip, so a Talos pose (52 meshes) takes ~20 ms to send and a 500 Hz loop cannot wait for it.
+and a background thread shows it at about ``fps`` Hz: each meshcat ``set_transform`` is a blocking round
+trip, one per mesh of the pose, which a 500 Hz loop cannot wait for.
 The same thread computes the overlays of each shown pose (:class:`~wbc.viz.live_overlays.LiveOverlays`) and
 moves ``/Cameras/target`` with the base, which the page of wbc's server (:mod:`wbc.viz._server`) follows.
 :class:`RealTimePacer` runs a simulated loop at wall-clock speed.
@@ -266,8 +266,7 @@ class RealTimePacer:
 
     Call :meth:`wait` with the simulated time of each tick; it sleeps until that time has elapsed on the
     wall clock since the first call (divided by ``speed``). Deadlines are absolute, so sleep overshoot does
-    not accumulate (``loop_rate_limiters.RateLimiter`` re-anchors every tick: measured 2.09 s for 1000 ticks
-    of 2 ms here).
+    not accumulate (``loop_rate_limiters.RateLimiter`` re-anchors every tick, so its overshoot does).
 
     Args:
         speed: simulated seconds per wall-clock second (1 = real time, 0.5 = slow motion).

@@ -7,7 +7,7 @@ names and colours as the HTML recordings (:mod:`wbc.viz.overlays`), each under i
 * points: ``com`` (CoM of the displayed q, Pinocchio), ``com_ground`` (its ground projection), ``dcm_executed``
   (ξ = c + ċ/ω, ω = sqrt(g / c_z), Englsberger et al. 2015 eq. 7, ċ by a backward difference over the last two
   displayed poses), ``zmp_executed`` (cart-table ZMP p = c_xy − c_z/g · c̈_xy, Kajita et al. 2003 eq. 3, c̈ by
-  the second difference of the last three displayed poses, so it is one displayed frame, ~40 ms, late); with a
+  the second difference of the last three displayed poses, so it is one displayed frame late); with a
   walk plan also ``zmp_planned`` and ``dcm_planned`` at the displayed time;
 * ``support_polygon``: hull of the soles in contact (from the plan's support phase, or without a plan the
   soles whose origin is within ``contact_height`` of the ground), re-sent when the support changes;

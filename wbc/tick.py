@@ -1,0 +1,168 @@
+"""The route a control tick took, and the result base shared by both controllers.
+
+Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
+
+* kinematic (:class:`wbc.formulations.velocity.KinematicController`, :data:`KINEMATIC_ROUTES`):
+  ``compiled`` (the compiled tick, :func:`wbc.fastqp.kinematic_tick`; ``solver="daqp"`` when DAQP solved its
+  reduced QP), ``general`` (the assembled flat QP on the controller's backend), ``levels`` (the strict hierarchy,
+  :mod:`wbc.hierarchy`), ``fallback`` (a safe command: ``constraints_only``, ``contacts_held``, ``trust_region``
+  or ``hold``);
+* inverse dynamics (:class:`wbc.dynamics.controller.InverseDynamicsController`, :data:`ID_ROUTES`): ``kernel``
+  (the compiled tick, :mod:`wbc.formulations.idkernel`), ``general`` (the assembled QP on the backend),
+  ``relaxed`` (the QP without joint bounds and torque limits), ``fallback`` (``hold`` or ``gravity``).
+
+A route carries qualifiers as fields (:class:`TickPath`): the solver, the fallback kind, ``return_rate`` (the
+return rate of joints outside their limits was relaxed) and ``budget`` (twice the tick's budget stopped its
+optional stages). Its string form (``str(path)``) is the one the logs, summaries and older code read:
+``compiled``, ``compiled+daqp``, ``general:<solver>[+return_rate][+budget]``, ``levels[+return_rate][+budget]``,
+``kernel``, ``relaxed:<solver>``, ``fallback:<kind>``; :meth:`TickPath.parse` reads it back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["KINEMATIC_ROUTES", "ID_ROUTES", "ROUTES", "PATH_DTYPE", "TickPath", "TickResultBase", "count_paths"]
+
+#: The routes of a kinematic tick (``TickResult.path.route``).
+KINEMATIC_ROUTES = ("compiled", "general", "levels", "fallback")
+#: The routes of an inverse-dynamics tick (``IDCommand.path.route``).
+ID_ROUTES = ("kernel", "general", "relaxed", "fallback")
+#: Every route name of either level.
+ROUTES = tuple(dict.fromkeys(KINEMATIC_ROUTES + ID_ROUTES))
+
+#: numpy dtype of a per-tick log of path string forms (run logs: fixed-width text, no pickled objects).
+PATH_DTYPE = "<U48"
+
+_SOLVER_SEP = {"compiled": "+", "kernel": "+", "general": ":", "relaxed": ":"}
+
+
+@dataclass(frozen=True, eq=False)
+class TickPath:
+    """The route of one tick and its qualifiers (module docstring).
+
+    Attributes:
+        route: one of :data:`ROUTES`.
+        solver: the backend that solved the tick's QP (``general``, ``relaxed``: its name, e.g. ``daqp``;
+            ``compiled``/``kernel``: '' for the compiled solver itself, ``daqp`` when DAQP solved its QP);
+            '' for ``levels`` and ``fallback``.
+        fallback: the safe command of a ``fallback`` route (e.g. ``constraints_only``, ``hold``, ``gravity``);
+            '' otherwise.
+        return_rate: the return rate of joints outside their position limits was relaxed (kinematic level).
+        budget: twice the tick's budget stopped its optional stages; the last finished stage's command was kept
+            (kinematic level).
+
+    A path equals its string form and hashes as it (``path == "general:daqp"``), so counters keyed by either agree.
+
+    Raises:
+        InvalidInputError: an unknown route, a ``fallback`` route without its kind or a kind on another route.
+    """
+
+    route: str
+    solver: str = ""
+    fallback: str = ""
+    return_rate: bool = False
+    budget: bool = False
+
+    def __post_init__(self):
+        if self.route not in ROUTES:
+            raise InvalidInputError(f"unknown tick route {self.route!r}; valid: {', '.join(ROUTES)}")
+        if (self.route == "fallback") != bool(self.fallback):
+            raise InvalidInputError(f"a fallback kind is given exactly on the 'fallback' route, got route "
+                                    f"{self.route!r} with fallback {self.fallback!r}")
+        if self.solver and self.route not in _SOLVER_SEP:
+            raise InvalidInputError(f"route {self.route!r} names no solver, got {self.solver!r}")
+
+    def __str__(self) -> str:
+        if self.route == "fallback":
+            return f"fallback:{self.fallback}"
+        s = self.route + (_SOLVER_SEP[self.route] + self.solver if self.solver else "")
+        return s + ("+return_rate" if self.return_rate else "") + ("+budget" if self.budget else "")
+
+    def __format__(self, spec: str) -> str:
+        return format(str(self), spec)
+
+    def __eq__(self, other) -> bool:
+        if isinstance(other, TickPath):
+            return str(self) == str(other)
+        if isinstance(other, str):
+            return str(self) == other
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(str(self))
+
+    @classmethod
+    def parse(cls, text: str) -> TickPath:
+        """The path of a string form (module docstring), e.g. ``"general:daqp+return_rate"``.
+
+        Raises:
+            InvalidInputError: not the string form of a path.
+        """
+        if not isinstance(text, str) or not text:
+            raise InvalidInputError(f"a tick path is a non-empty string such as 'general:daqp', got {text!r}")
+        head, *quals = text.split("+")
+        route, _, arg = head.partition(":")
+        solver = fallback = ""
+        if route == "fallback":
+            fallback = arg
+        else:
+            solver = arg
+        if route in ("compiled", "kernel") and quals and quals[0] not in ("return_rate", "budget"):
+            solver = quals.pop(0)
+        unknown = set(quals) - {"return_rate", "budget"}
+        if unknown:
+            raise InvalidInputError(f"unknown qualifier(s) {sorted(unknown)} in tick path {text!r}; valid: "
+                                    "return_rate, budget")
+        return cls(route, solver, fallback, "return_rate" in quals, "budget" in quals)
+
+    def with_budget(self) -> TickPath:
+        """This path with ``budget`` set."""
+        return TickPath(self.route, self.solver, self.fallback, self.return_rate, True)
+
+
+@dataclass(kw_only=True)
+class TickResultBase:
+    """What every controller's tick result says (the kinematic :class:`~wbc.formulations.velocity.TickResult`, the
+    inverse-dynamics :class:`~wbc.dynamics.controller.IDCommand`).
+
+    Attributes:
+        ok: the tick's QP was solved (else a safe command was returned).
+        message: why the tick failed or what it skipped ('' when ok and complete).
+        timings: seconds per stage of the tick (keys per controller).
+        conflicts: (constraint name, violation in its units) of the conflicting hard constraints, largest first.
+        path: the route the tick took (:class:`TickPath`); None only before a tick set it.
+        over_budget: the tick used more than its budget.
+    """
+
+    ok: bool = True
+    message: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+    conflicts: list[tuple[str, float]] = field(default_factory=list)
+    path: TickPath | None = None
+    over_budget: bool = False
+
+
+def count_paths(paths) -> dict[str, dict[str, int]]:
+    """Ticks per route and per path of a sequence of paths (:class:`TickPath` or their string forms; '' entries,
+    ticks without a QP controller, are skipped).
+
+    Returns:
+        ``{"ticks_per_route": {route: n}, "ticks_per_path": {string form: n}}``, each by decreasing count.
+
+    Raises:
+        InvalidInputError: an entry that is not the string form of a path.
+    """
+    per_path: dict[str, int] = {}
+    for p in paths:
+        key = str(p)
+        if key:
+            per_path[key] = per_path.get(key, 0) + 1
+    per_route: dict[str, int] = {}
+    for key, n in per_path.items():
+        route = TickPath.parse(key).route
+        per_route[route] = per_route.get(route, 0) + n
+    order = lambda d: dict(sorted(d.items(), key=lambda kv: (-kv[1], kv[0])))  # noqa: E731
+    return {"ticks_per_route": order(per_route), "ticks_per_path": order(per_path)}
