@@ -11,8 +11,12 @@ point: a step toward humanoid push recovery", Humanoids 2006) and a two-step wal
 second step closes the feet. The stepping foot is the one on the side the DCM moved to (left when it moved left
 or straight forward/back).
 
+When the recovery walk cannot be planned at the trigger (:class:`~wbc.exceptions.GaitError`, e.g. a sole already
+rolled onto its edge), the robot keeps balancing on its soles, no step is tried again, and the summary's
+``step_refused`` gives the planner's message.
+
 Summary: trigger time (s), stepping side, landing shift of the first step (m, vs a step in place), feet moved (m),
-step adjustments during the swing, completed (no fall, run to the end).
+step adjustments during the swing, why a step was refused (or None), completed (no fall, run to the end).
 """
 
 from __future__ import annotations
@@ -89,6 +93,7 @@ class CaptureStepScenario:
         self._on = False
         self._sim = sim
         self.walk, self.t_trigger = None, None
+        self.step_refused: str | None = None  # why no capture step could be planned (GaitError), once triggered
 
     def com_reference(self, t):
         if self.walk is None:
@@ -96,7 +101,7 @@ class CaptureStepScenario:
         return self.walk.com_reference(t - self.t_trigger)
 
     def update(self, t, controller, sim, q, v):
-        if self.walk is None:
+        if self.walk is None and self.step_refused is None:
             pin.centerOfMass(self._model, self._data, q, v)
             c, cd = self._data.com[0], self._data.vcom[0]
             xi = c[:2] + cd[:2] / self.omega
@@ -110,8 +115,9 @@ class CaptureStepScenario:
                                          adjust_dead_band=0.03, adjust_timing=False)
                 try:
                     self.walk.setup(controller, sim, q, v)
-                except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
-                    self.walk, self._hull = None, np.zeros((0, 2))
+                except GaitError as exc:  # e.g. a sole already tilted off the floor: no step can be planned from
+                    # here; the robot stays on its soles (no second attempt) and the summary says why
+                    self.walk, self.step_refused = None, f"t = {t:.3f} s: {exc}"
                 else:
                     self.t_trigger = float(t)
         if self.walk is not None:
@@ -129,6 +135,7 @@ class CaptureStepScenario:
         moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1)
         out = {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_dir_deg": self.push_dir,
                "stepped": self.walk is not None, "trigger_time_s": self.t_trigger,
+               "step_refused": self.step_refused,
                "feet_moved_m": [float(m) for m in moved],
                "completed": bool(run.t[-1] >= self.duration - 2 * run.dt) and not run.fell}
         if self.walk is not None:
