@@ -16,7 +16,10 @@ rolled onto its edge), the robot keeps balancing on its soles, no step is tried 
 ``step_refused`` gives the planner's message.
 
 Summary: trigger time (s), stepping side, landing shift of the first step (m, vs a step in place), feet moved (m),
-step adjustments during the swing, why a step was refused (or None), completed (no fall, run to the end).
+step adjustments during the swing, why a step was refused (or None), completed (no fall, run to the end); the
+push's angular momentum about the CoM measured just after it (N·m·s, about e_z × push direction), the pushed
+point's height above the CoM (m) and the capture-point bounds on the push (N, linear and with the push's moment:
+:func:`wbc.sim.scenarios.capture_point_bound`) — a push above the second cannot be absorbed by the CoP alone.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ import pinocchio as pin
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
-from wbc.sim.scenarios import NO_FALL, timed_push
+from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push
 from wbc.geometry import polygon_margin
 from wbc.sim.walk import WalkScenario
 
@@ -90,6 +93,7 @@ class CaptureStepScenario:
                                     robot.sole_width - 2 * self.trigger_margin)
         self._body = robot.torso
         sim.body_id(self._body)
+        self._bound = capture_point_bound(robot, max(self.push_duration, 1e-3), self.push_vec, push_body=self._body)
         self._on = False
         self._sim = sim
         self.walk, self.t_trigger = None, None
@@ -138,6 +142,15 @@ class CaptureStepScenario:
                "step_refused": self.step_refused,
                "feet_moved_m": [float(m) for m in moved],
                "completed": bool(run.t[-1] >= self.duration - 2 * run.dt) and not run.fell}
+        # the push's angular momentum about the CoM, measured (Pinocchio, the plant's q, v) just after the push,
+        # about the horizontal axis e_z × push direction (positive: a rotation towards the push)
+        k = min(int(round((self.t_push + self.push_duration) / run.dt)), len(run.t) - 1)
+        h = pin.computeCentroidalMomentum(self._model, self._data, run.q[k], run.v[k])
+        axis = np.cross([0.0, 0.0, 1.0], self.push_vec)
+        out.update({"push_angular_momentum_nms": float(np.asarray(h.angular) @ axis),
+                    "capture_point_bound_n": {"linear": round(self._bound["f_max_impulse_n"], 1),
+                                              "with_push_moment": round(self._bound["f_max_impulse_moment_n"], 1)},
+                    "push_height_above_com_m": self._bound["push_height_above_com_m"]})
         if self.walk is not None:
             out.update({"stepping_side": self.walk.first_side,
                         "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),
