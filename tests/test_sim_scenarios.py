@@ -123,6 +123,21 @@ def test_push_moment_of_the_bound_is_the_angular_momentum_mujoco_gives():
         cp["f_max_impulse_n"] * cp["com_height_m"] / (cp["com_height_m"] + cp["push_height_above_com_m"]))
 
 
+def test_unloaded_contacts_counts_active_soles_the_plant_does_not_load():
+    from wbc.sim.scenarios import unloaded_contacts
+
+    n, dt, weight = 100, 0.002, 400.0
+    ca = np.ones((n, 2), dtype=bool)
+    fz = np.full((n, 2), 200.0)
+    fz[10:40, 1] = 0.0  # right sole unloaded 30 ticks while a contact
+    fz[50:55, 1] = 3.9  # 5 ticks below 1 % of the weight (4 N)
+    fz[60:80, 0] = 0.0
+    ca[60:80, 0] = False  # left sole released (a swing): not counted
+    fz[90:95, 0] = 4.0  # at the threshold: loaded
+    assert unloaded_contacts(ca, fz, dt, weight) == {"left": 0.0, "right": pytest.approx(30 * dt)}
+    assert unloaded_contacts(ca, fz, dt, weight, until=20 * dt)["right"] == pytest.approx(11 * dt)  # ticks 10..20
+
+
 def test_default_push_is_the_bound_along_the_push():
     """The default push of `sim push` / `sim push-step` is the capture-point impulse bound m ω d / T along the push
     direction (it was always the lateral bound: a push from behind on a robot with long feet and a narrow stance

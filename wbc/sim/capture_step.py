@@ -19,7 +19,9 @@ Summary: trigger time (s), stepping side, landing shift of the first step (m, vs
 step adjustments during the swing, why a step was refused (or None), completed (no fall, run to the end); the
 push's angular momentum about the CoM measured just after it (N·m·s, about e_z × push direction), the pushed
 point's height above the CoM (m) and the capture-point bounds on the push (N, linear and with the push's moment:
-:func:`wbc.sim.scenarios.capture_point_bound`) — a push above the second cannot be absorbed by the CoP alone.
+:func:`wbc.sim.scenarios.capture_point_bound`) — a push above the second cannot be absorbed by the CoP alone;
+per sole, the longest time it was a contact of the controller while the plant did not load it
+(:func:`wbc.sim.scenarios.unloaded_contacts`: the robot pivoting on the other sole's edge).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import pinocchio as pin
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
-from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push
+from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push, unloaded_contacts
 from wbc.geometry import polygon_margin
 from wbc.sim.walk import WalkScenario
 
@@ -93,6 +95,7 @@ class CaptureStepScenario:
                                     robot.sole_width - 2 * self.trigger_margin)
         self._body = robot.torso
         sim.body_id(self._body)
+        self._weight = robot.mass * robot.gravity
         self._bound = capture_point_bound(robot, max(self.push_duration, 1e-3), self.push_vec, push_body=self._body)
         self._on = False
         self._sim = sim
@@ -150,7 +153,9 @@ class CaptureStepScenario:
         out.update({"push_angular_momentum_nms": float(np.asarray(h.angular) @ axis),
                     "capture_point_bound_n": {"linear": round(self._bound["f_max_impulse_n"], 1),
                                               "with_push_moment": round(self._bound["f_max_impulse_moment_n"], 1)},
-                    "push_height_above_com_m": self._bound["push_height_above_com_m"]})
+                    "push_height_above_com_m": self._bound["push_height_above_com_m"],
+                    "unloaded_contact_s": unloaded_contacts(run.contact_active, run.sim_wrench[:, :, 2], run.dt,
+                                                            self._weight, run.fall_time if run.fell else None)})
         if self.walk is not None:
             out.update({"stepping_side": self.walk.first_side,
                         "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),

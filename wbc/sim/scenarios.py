@@ -60,7 +60,7 @@ from wbc.scenarios.framework import Criterion, evaluate
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
     "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
-    "make_controller", "default_push_force", "effort_saturation",
+    "make_controller", "default_push_force", "effort_saturation", "unloaded_contacts",
     "DEFAULT_PUSH_FORCE", "NO_FALL", "JOINT_SPEED", "LANDING_SLIDE", "OUTCOME",
 ]
 
@@ -273,6 +273,7 @@ class PushScenario(_Base):
         super().setup(controller, sim, q, v)
         self._body = self.body or sim.robot.torso
         sim.body_id(self._body)
+        self._weight = sim.robot.mass * sim.robot.gravity
         self._on = False
 
     def update(self, t, controller, sim, q, v):
@@ -284,8 +285,11 @@ class PushScenario(_Base):
         moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
         lift = float((run.sole_pos[:, :, 2] - run.sole_pos[0, :, 2]).max())
         impulse = float(np.sum(np.linalg.norm(run.ext_force, axis=1)) * run.dt)
+        weight = self._weight
         return {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_body": self._body,
-                "push_impulse_ns": impulse, "feet_moved_m": float(moved), "max_sole_lift_m": lift}
+                "push_impulse_ns": impulse, "feet_moved_m": float(moved), "max_sole_lift_m": lift,
+                "unloaded_contact_s": unloaded_contacts(run.contact_active, run.sim_wrench[:, :, 2], run.dt, weight,
+                                                        run.fall_time if run.fell else None)}
 
     def criteria(self) -> list[Criterion]:
         return [NO_FALL, FEET_STILL]
@@ -379,6 +383,32 @@ def effort_saturation(model, tau: np.ndarray, dt: float, until: float | None = N
     names = {model.joints[j].idx_v - 6: model.names[j] for j in range(1, model.njoints) if model.joints[j].idx_v >= 6}
     order = [i for i in np.argsort(-hits, kind="stable")[:top] if hits[i] > 0]
     return {names[i]: round(float(hits[i]), 4) for i in order}
+
+
+def unloaded_contacts(contact_active: np.ndarray, normal_force: np.ndarray, dt: float, weight: float,
+                      until: float | None = None, *, fraction: float = 0.01) -> dict[str, float]:
+    """Longest time each sole was a contact of the controller while the plant did not load it: ``{"left": s,
+    "right": s}``, the longest run of consecutive ticks (before ``until``, s; None: all) with the sole's contact
+    active and its plant normal force below ``fraction`` × ``weight`` — e.g. the far sole lifted while a pushed
+    robot pivots on the other sole's edge, which the controller still treats as a flat contact.
+
+    Args:
+        contact_active: (N, 2) bool, (left, right) contact state of the controller per tick.
+        normal_force: (N, 2) N, the plant's (MuJoCo's) normal force on each sole per tick.
+        dt: tick (s). weight: robot weight (N, > 0). fraction: load threshold (fraction of the weight).
+    """
+    ca = np.asarray(contact_active, dtype=bool)
+    fz = np.asarray(normal_force, dtype=float)
+    n = len(ca) if until is None else min(len(ca), int(math.floor(until / dt + 1e-9)) + 1)
+    out = {}
+    for j, side in enumerate(("left", "right")):
+        off = ca[:n, j] & (fz[:n, j] < fraction * weight)
+        best = run = 0
+        for x in off:
+            run = run + 1 if x else 0
+            best = max(best, run)
+        out[side] = round(best * dt, 4)
+    return out
 
 
 def summarize(run, scenario, controller=None) -> dict:
