@@ -90,6 +90,54 @@ def test_capture_point_bound_talos():
     assert cp["f_max_finite_n"] > cp["f_max_impulse_n"] > 400.0
 
 
+def test_push_moment_of_the_bound_is_the_angular_momentum_mujoco_gives():
+    """The push-step bound counts the angular momentum h J a push at the torso gives about the CoM. Reference:
+    MuJoCo — the robot floating (gravity off, 1 m up), pushed at its torso origin for 10 ms, joints passive; the
+    centroidal angular momentum of the resulting state (Pinocchio) about e_z × push direction is h J within 3 %."""
+    import pinocchio as pin
+
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot)
+    sim.model.opt.gravity[:] = 0.0
+    q = robot.q_ref.copy()
+    q[2] += 1.0
+    sim.set_state(q, np.zeros(robot.model.nv))
+    force, t_push = 400.0, 0.01
+    for deg in (90.0, 0.0):
+        u = np.array([np.cos(np.radians(deg)), np.sin(np.radians(deg)), 0.0])
+        cp = capture_point_bound(robot, 0.1, u)
+        sim.set_state(q, np.zeros(robot.model.nv))
+        n = int(round(t_push / sim.timestep))
+        for _ in range(n):
+            sim.apply_external_force(robot.torso, force * u)
+            sim.step()
+        sim.clear_external_forces()
+        qm, vm = sim.get_state()
+        h = pin.computeCentroidalMomentum(robot.model, robot.model.createData(), qm, vm)
+        L = float(np.asarray(h.angular) @ np.cross([0.0, 0.0, 1.0], u))
+        J = force * n * sim.timestep
+        assert np.asarray(h.linear) @ u == pytest.approx(J, rel=1e-3)
+        assert L == pytest.approx(cp["push_height_above_com_m"] * J, rel=0.03)
+    # the bound shrinks by z_c / (z_c + h)
+    assert cp["f_max_impulse_moment_n"] == pytest.approx(
+        cp["f_max_impulse_n"] * cp["com_height_m"] / (cp["com_height_m"] + cp["push_height_above_com_m"]))
+
+
+def test_unloaded_contacts_counts_active_soles_the_plant_does_not_load():
+    from wbc.sim.scenarios import unloaded_contacts
+
+    n, dt, weight = 100, 0.002, 400.0
+    ca = np.ones((n, 2), dtype=bool)
+    fz = np.full((n, 2), 200.0)
+    fz[10:40, 1] = 0.0  # right sole unloaded 30 ticks while a contact
+    fz[50:55, 1] = 3.9  # 5 ticks below 1 % of the weight (4 N)
+    fz[60:80, 0] = 0.0
+    ca[60:80, 0] = False  # left sole released (a swing): not counted
+    fz[90:95, 0] = 4.0  # at the threshold: loaded
+    assert unloaded_contacts(ca, fz, dt, weight) == {"left": 0.0, "right": pytest.approx(30 * dt)}
+    assert unloaded_contacts(ca, fz, dt, weight, until=20 * dt)["right"] == pytest.approx(11 * dt)  # ticks 10..20
+
+
 def test_default_push_is_the_bound_along_the_push():
     """The default push of `sim push` / `sim push-step` is the capture-point impulse bound m ω d / T along the push
     direction (it was always the lateral bound: a push from behind on a robot with long feet and a narrow stance
@@ -107,10 +155,13 @@ def test_default_push_is_the_bound_along_the_push():
     corners = [data.oMf[model.getFrameId(f)].act(np.array([sx * robot.sole_length / 2, sy * robot.sole_width / 2, 0]))
                for f in (robot.left_sole, robot.right_sole) for sx in (-1, 1) for sy in (-1, 1)]
     omega = math.sqrt(9.81 / com[2])
+    # push-step: the pushed torso origin is h above the CoM, its angular impulse h J costs ω h J/(m g) of DCM travel
+    h = data.oMf[model.getFrameId(robot.torso)].translation[2] - com[2]
+    assert h > 0.05
     for deg, axis in ((0.0, 0), (90.0, 1)):
         d = max(c[axis] - com[axis] for c in corners)
         ref = robot.mass * omega * d / 0.1
-        assert default_push_force(robot, "push-step", 0.1, deg) == pytest.approx(ref, abs=0.06)
+        assert default_push_force(robot, "push-step", 0.1, deg) == pytest.approx(ref * com[2] / (com[2] + h), abs=0.06)
         assert default_push_force(robot, "push", 0.1, deg) == pytest.approx(0.5 * ref, rel=1e-9)
     # the sagittal and lateral bounds differ (so the direction matters)
     assert abs(default_push_force(robot, "push-step", 0.1, 0.0) - default_push_force(robot, "push-step", 0.1, 90.0)) > 5

@@ -219,6 +219,52 @@ def test_standing_push_from_the_front_and_behind_is_recovered_by_a_capture_step(
     assert np.abs(run.ext_force[:, 0]).max() == pytest.approx(450.0)
 
 
+def test_a_capture_step_the_planner_refuses_leaves_the_robot_standing_with_the_reason(monkeypatch):
+    # When the recovery walk cannot be planned at the trigger (GaitError, e.g. a sole already rolled onto its edge:
+    # Alexander pushed at its CoM height), the scenario keeps balancing on both soles, does not try again every
+    # tick, and the summary says why no step was taken (it used to test the DCM against an empty hull next tick:
+    # IndexError).
+    import wbc.sim.capture_step as cs
+    from wbc.exceptions import GaitError
+
+    calls = []
+
+    def refuse(self, *args, **kwargs):
+        calls.append(1)
+        raise GaitError("left_sole must lie flat on the ground (test)")
+
+    monkeypatch.setattr(cs.WalkScenario, "setup", refuse)
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    scenario = cs.CaptureStepScenario(450.0, 0.1, t_push=0.1, push_dir=0.0, settle=0.3)
+    run, s = run_scenario(sim, controller, scenario)
+    assert len(calls) == 1
+    assert s["stepped"] is False and s["trigger_time_s"] is None
+    assert "lie flat" in s["step_refused"]
+    # it ran on after the refusal (here until the fall: 450 N from behind needs a step on Talos), no exception
+    assert s["fell"] or s["completed"]
+    assert run.t[-1] > 0.3
+
+
+def test_touchdown_with_force_sensors_waits_for_the_floor(tmp_path, capsys):
+    # `wbc sim walk` (estimated state: encoders, IMU, ankle F/T). Reference: MuJoCo's contact force on the sole.
+    # At every touch-down the controller switched the swing sole to contact, the plant's floor already pushes on
+    # it: the height test alone (sole within 3 mm, not rising) fired 30-40 ms early on this walk, at 0 N.
+    from wbc.cli import main
+
+    log = tmp_path / "walk.npz"
+    assert main(["sim", "walk", "--robot", "g1", "--steps", "2", "--quiet", "--log", str(log)]) == 0
+    capsys.readouterr()
+    d = np.load(log)
+    ca, fz, t = d["contact_active"], d["sim_wrench"][:, :, 2], d["t"]
+    weight = fz[5].sum()
+    switches = [(k, j) for j in range(2) for k in np.flatnonzero(ca[1:, j] & ~ca[:-1, j]) + 1 if t[k] > 0.3]
+    assert len(switches) == 2
+    for k, j in switches:
+        assert fz[k, j] > 0.01 * weight, (t[k], j, fz[k - 5:k + 5, j])
+
+
 def test_dependent_contact_rows_are_made_consistent():
     from wbc.constraints.dynamics import consistent_contact_rhs
 

@@ -82,7 +82,8 @@ def register(subparsers, add_outputs) -> None:
                    help="s (stand/sway: default 10; push: total time, default 0.5 + push + 2.5; one-leg: fixed)")
     p.add_argument("--force", type=finite(0.0), default=None,
                    help="push force, N (push: talos 450, g1 120, else half the capture-point bound along --push-dir; "
-                        "push-step: talos 450, else the capture-point bound along --push-dir)")
+                        "push-step: talos 450, else the capture-point bound along --push-dir with the push's own moment "
+                        "about the CoM counted)")
     p.add_argument("--push-duration", type=seconds, default=0.1, help="push duration, s (default 0.1)")
     p.add_argument("--sweep", action="store_true",
                    help="push: also find the largest force survived by the ID controller and by the joint-PD "

@@ -67,8 +67,9 @@ class ContactSwitcher:
         touchdown_force_height: sole height (m, ≥ touchdown_height) below which the force test applies (default
             2 cm).
         contact_force: with a measured force given to :meth:`update`, the least normal force (N, ≥ 0) that must
-            confirm the state test (default None: the state test alone suffices). A blind walk sets it: a sole at
-            its planned height over ground lower than planned is still in the air.
+            confirm the state test (default None: the state test alone suffices). A walk with measured sole
+            forces sets it: a sole at its planned height over ground lower than planned (blind walk), or a sole
+            following its planned descent within the height threshold, is still in the air.
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.

@@ -11,8 +11,17 @@ point: a step toward humanoid push recovery", Humanoids 2006) and a two-step wal
 second step closes the feet. The stepping foot is the one on the side the DCM moved to (left when it moved left
 or straight forward/back).
 
+When the recovery walk cannot be planned at the trigger (:class:`~wbc.exceptions.GaitError`, e.g. a sole already
+rolled onto its edge), the robot keeps balancing on its soles, no step is tried again, and the summary's
+``step_refused`` gives the planner's message.
+
 Summary: trigger time (s), stepping side, landing shift of the first step (m, vs a step in place), feet moved (m),
-step adjustments during the swing, completed (no fall, run to the end).
+step adjustments during the swing, why a step was refused (or None), completed (no fall, run to the end); the
+push's angular momentum about the CoM measured just after it (N·m·s, about e_z × push direction), the pushed
+point's height above the CoM (m) and the capture-point bounds on the push (N, linear and with the push's moment:
+:func:`wbc.sim.scenarios.capture_point_bound`) — a push above the second cannot be absorbed by the CoP alone;
+per sole, the longest time it was a contact of the controller while the plant did not load it
+(:func:`wbc.sim.scenarios.unloaded_contacts`: the robot pivoting on the other sole's edge).
 """
 
 from __future__ import annotations
@@ -25,7 +34,7 @@ import pinocchio as pin
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import convex_hull, lipm_omega, sole_polygon
 from wbc.scenarios.framework import Criterion
-from wbc.sim.scenarios import NO_FALL, timed_push
+from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push, unloaded_contacts
 from wbc.geometry import polygon_margin
 from wbc.sim.walk import WalkScenario
 
@@ -86,9 +95,12 @@ class CaptureStepScenario:
                                     robot.sole_width - 2 * self.trigger_margin)
         self._body = robot.torso
         sim.body_id(self._body)
+        self._weight = robot.mass * robot.gravity
+        self._bound = capture_point_bound(robot, max(self.push_duration, 1e-3), self.push_vec, push_body=self._body)
         self._on = False
         self._sim = sim
         self.walk, self.t_trigger = None, None
+        self.step_refused: str | None = None  # why no capture step could be planned (GaitError), once triggered
 
     def com_reference(self, t):
         if self.walk is None:
@@ -96,7 +108,7 @@ class CaptureStepScenario:
         return self.walk.com_reference(t - self.t_trigger)
 
     def update(self, t, controller, sim, q, v):
-        if self.walk is None:
+        if self.walk is None and self.step_refused is None:
             pin.centerOfMass(self._model, self._data, q, v)
             c, cd = self._data.com[0], self._data.vcom[0]
             xi = c[:2] + cd[:2] / self.omega
@@ -110,8 +122,9 @@ class CaptureStepScenario:
                                          adjust_dead_band=0.03, adjust_timing=False)
                 try:
                     self.walk.setup(controller, sim, q, v)
-                except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
-                    self.walk, self._hull = None, np.zeros((0, 2))
+                except GaitError as exc:  # e.g. a sole already tilted off the floor: no step can be planned from
+                    # here; the robot stays on its soles (no second attempt) and the summary says why
+                    self.walk, self.step_refused = None, f"t = {t:.3f} s: {exc}"
                 else:
                     self.t_trigger = float(t)
         if self.walk is not None:
@@ -129,8 +142,20 @@ class CaptureStepScenario:
         moved = np.linalg.norm(run.sole_pos[-1, :, :2] - run.sole_pos[0, :, :2], axis=1)
         out = {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_dir_deg": self.push_dir,
                "stepped": self.walk is not None, "trigger_time_s": self.t_trigger,
+               "step_refused": self.step_refused,
                "feet_moved_m": [float(m) for m in moved],
                "completed": bool(run.t[-1] >= self.duration - 2 * run.dt) and not run.fell}
+        # the push's angular momentum about the CoM, measured (Pinocchio, the plant's q, v) just after the push,
+        # about the horizontal axis e_z × push direction (positive: a rotation towards the push)
+        k = min(int(round((self.t_push + self.push_duration) / run.dt)), len(run.t) - 1)
+        h = pin.computeCentroidalMomentum(self._model, self._data, run.q[k], run.v[k])
+        axis = np.cross([0.0, 0.0, 1.0], self.push_vec)
+        out.update({"push_angular_momentum_nms": float(np.asarray(h.angular) @ axis),
+                    "capture_point_bound_n": {"linear": round(self._bound["f_max_impulse_n"], 1),
+                                              "with_push_moment": round(self._bound["f_max_impulse_moment_n"], 1)},
+                    "push_height_above_com_m": self._bound["push_height_above_com_m"],
+                    "unloaded_contact_s": unloaded_contacts(run.contact_active, run.sim_wrench[:, :, 2], run.dt,
+                                                            self._weight, run.fall_time if run.fell else None)})
         if self.walk is not None:
             out.update({"stepping_side": self.walk.first_side,
                         "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),

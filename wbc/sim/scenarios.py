@@ -30,7 +30,18 @@ For a push of finite duration during which the controller already holds the ZMP 
 
     F_max,finite = m ω² d · e^{ωΔt} / (e^{ωΔt} − 1).
 
-Neither accounts for centroidal angular momentum (upper-body rotation), which can add to both.
+Neither accounts for centroidal angular momentum (upper-body rotation), which can add to both — nor for the
+angular momentum the push itself gives: pushed at a point ``h`` above the CoM, the robot also receives
+L = h J about the CoM (a whole-body rotation towards the push, L/I_G rad/s). It cannot keep rotating (the tilt
+criterion), and removing L with the contact forces moves the centroidal moment pivot from the CoP by L̇/(m g)
+towards the push (r_CMP = p − (L̇ × e_z)_xy / F_z; Popovic, Goswami, Herr, "Ground reference points in legged
+locomotion", IJRR 24(12), 2005), which with ξ̇ = ω (ξ − r_CMP) (Englsberger et al. 2015, the CMP in place of the
+CoP) costs at least ω L/(m g) of DCM travel (removal at once; any slower removal costs more). With ω² = g/z_c the
+DCM travel is J/(m ω) · (1 + h/z_c), so
+
+    F_max,moment = m ω d / Δt · z_c / (z_c + h),
+
+the bound ``wbc sim push-step`` uses by default (``f_max_impulse_moment_n`` of :func:`capture_point_bound`).
 """
 
 from __future__ import annotations
@@ -50,7 +61,7 @@ from wbc.scenarios.framework import Criterion, evaluate
 __all__ = [
     "StandScenario", "SwayScenario", "OneLegScenario", "PushScenario", "SCENARIOS", "summarize",
     "acceptance", "capture_point_bound", "min_jerk", "run_scenario", "push_sweep", "largest_passing",
-    "make_controller", "default_push_force", "effort_saturation",
+    "make_controller", "default_push_force", "effort_saturation", "unloaded_contacts",
     "DEFAULT_PUSH_FORCE", "NO_FALL", "JOINT_SPEED", "LANDING_SLIDE", "OUTCOME",
 ]
 
@@ -263,6 +274,7 @@ class PushScenario(_Base):
         super().setup(controller, sim, q, v)
         self._body = self.body or sim.robot.torso
         sim.body_id(self._body)
+        self._weight = sim.robot.mass * sim.robot.gravity
         self._on = False
 
     def update(self, t, controller, sim, q, v):
@@ -274,8 +286,11 @@ class PushScenario(_Base):
         moved = np.linalg.norm(run.sole_pos[:, :, :2] - run.sole_pos[0, :, :2], axis=2).max()
         lift = float((run.sole_pos[:, :, 2] - run.sole_pos[0, :, 2]).max())
         impulse = float(np.sum(np.linalg.norm(run.ext_force, axis=1)) * run.dt)
+        weight = self._weight
         return {"push_force_n": self.force, "push_duration_s": self.push_duration, "push_body": self._body,
-                "push_impulse_ns": impulse, "feet_moved_m": float(moved), "max_sole_lift_m": lift}
+                "push_impulse_ns": impulse, "feet_moved_m": float(moved), "max_sole_lift_m": lift,
+                "unloaded_contact_s": unloaded_contacts(run.contact_active, run.sim_wrench[:, :, 2], run.dt, weight,
+                                                        run.fall_time if run.fell else None)}
 
     def criteria(self) -> list[Criterion]:
         return [NO_FALL, FEET_STILL]
@@ -284,13 +299,24 @@ class PushScenario(_Base):
 SCENARIOS = {"stand": StandScenario, "sway": SwayScenario, "one-leg": OneLegScenario, "push": PushScenario}
 
 
-def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float = GRAVITY) -> dict:
+def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float = GRAVITY, *,
+                        push_body: str | None = None) -> dict:
     """Capture-point bounds on a horizontal push at ``robot.q_ref`` (module docstring).
+
+    Args:
+        robot: the robot. push_duration: Δt (s, > 0). direction: horizontal push direction (3,) or (2,), world.
+        g: gravity (m/s²). push_body: frame whose origin is pushed (default ``robot.torso``), for the push's
+            moment about the CoM.
 
     Returns:
         dict with ``omega`` (1/s), ``com_height_m``, ``edge_distance_m`` (d: CoM projection to the support
         polygon edge along ``direction``, the polygon being the convex hull of both sole rectangles),
-        ``f_max_impulse_n`` and ``f_max_finite_n``.
+        ``f_max_impulse_n``, ``f_max_finite_n``, ``push_height_above_com_m`` (h: the pushed point's height above
+        the CoM) and ``f_max_impulse_moment_n`` (``f_max_impulse_n · z_c / (z_c + h)``: the push's angular
+        momentum h J counted).
+
+    Raises:
+        UnknownFrameError: ``push_body`` is not a frame of the robot.
     """
     model = robot.model
     data = model.createData()
@@ -308,8 +334,13 @@ def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), 
     w = math.sqrt(g / com[2])
     m = robot.mass
     e = math.exp(w * push_duration)
+    h = float(data.oMf[robot.frame_id(push_body or robot.torso)].translation[2] - com[2])
+    f_imp = m * w * d / push_duration
+    # (a push point at or below -z_c/2 would make the factor > 2: a push near the feet, not a torso push)
+    factor = com[2] / max(com[2] + h, 0.5 * com[2])
     return {"omega": w, "com_height_m": float(com[2]), "edge_distance_m": d,
-            "f_max_impulse_n": m * w * d / push_duration, "f_max_finite_n": m * w * w * d * e / (e - 1.0)}
+            "f_max_impulse_n": f_imp, "f_max_finite_n": m * w * w * d * e / (e - 1.0),
+            "push_height_above_com_m": h, "f_max_impulse_moment_n": float(f_imp * factor)}
 
 
 def default_push_force(robot, scenario: str, push_duration: float, push_dir: float) -> float:
@@ -318,8 +349,10 @@ def default_push_force(robot, scenario: str, push_duration: float, push_dir: flo
     Args:
         robot: the robot (its ``q_ref`` stance is used).
         scenario: ``"push"`` (standing push: :data:`DEFAULT_PUSH_FORCE` for a catalog robot that has one, else half
-            the capture-point impulse bound) or ``"push-step"`` (Talos 450 N, else the whole bound, rounded to
-            0.1 N: the robot must step).
+            the capture-point impulse bound) or ``"push-step"`` (Talos 450 N, else the capture-point bound with
+            the push's own moment about the CoM counted, ``f_max_impulse_moment_n``, rounded to 0.1 N: the largest
+            push at the torso the CoP alone can absorb in the linear inverted pendulum; a robot whose DCM then
+            leaves its soles shrunk by the trigger margin steps).
         push_duration: s, > 0.
         push_dir: horizontal push direction, deg (world: 0 = +x, 90 = +y).
 
@@ -327,10 +360,10 @@ def default_push_force(robot, scenario: str, push_duration: float, push_dir: flo
         force (N).
     """
     a = math.radians(push_dir)
-    bound = capture_point_bound(robot, push_duration, (math.cos(a), math.sin(a), 0.0))["f_max_impulse_n"]
+    cp = capture_point_bound(robot, push_duration, (math.cos(a), math.sin(a), 0.0))
     if scenario == "push-step":
-        return 450.0 if robot.name == "talos" else round(bound, 1)
-    return DEFAULT_PUSH_FORCE.get(robot.name, 0.5 * bound)
+        return 450.0 if robot.name == "talos" else round(cp["f_max_impulse_moment_n"], 1)
+    return DEFAULT_PUSH_FORCE.get(robot.name, 0.5 * cp["f_max_impulse_n"])
 
 
 def effort_saturation(model, tau: np.ndarray, dt: float, until: float | None = None, *, fraction: float = 0.99,
@@ -351,6 +384,32 @@ def effort_saturation(model, tau: np.ndarray, dt: float, until: float | None = N
     names = {model.joints[j].idx_v - 6: model.names[j] for j in range(1, model.njoints) if model.joints[j].idx_v >= 6}
     order = [i for i in np.argsort(-hits, kind="stable")[:top] if hits[i] > 0]
     return {names[i]: round(float(hits[i]), 4) for i in order}
+
+
+def unloaded_contacts(contact_active: np.ndarray, normal_force: np.ndarray, dt: float, weight: float,
+                      until: float | None = None, *, fraction: float = 0.01) -> dict[str, float]:
+    """Longest time each sole was a contact of the controller while the plant did not load it: ``{"left": s,
+    "right": s}``, the longest run of consecutive ticks (before ``until``, s; None: all) with the sole's contact
+    active and its plant normal force below ``fraction`` × ``weight`` — e.g. the far sole lifted while a pushed
+    robot pivots on the other sole's edge, which the controller still treats as a flat contact.
+
+    Args:
+        contact_active: (N, 2) bool, (left, right) contact state of the controller per tick.
+        normal_force: (N, 2) N, the plant's (MuJoCo's) normal force on each sole per tick.
+        dt: tick (s). weight: robot weight (N, > 0). fraction: load threshold (fraction of the weight).
+    """
+    ca = np.asarray(contact_active, dtype=bool)
+    fz = np.asarray(normal_force, dtype=float)
+    n = len(ca) if until is None else min(len(ca), int(math.floor(until / dt + 1e-9)) + 1)
+    out = {}
+    for j, side in enumerate(("left", "right")):
+        off = ca[:n, j] & (fz[:n, j] < fraction * weight)
+        best = run = 0
+        for x in off:
+            run = run + 1 if x else 0
+            best = max(best, run)
+        out[side] = round(best * dt, 4)
+    return out
 
 
 def summarize(run, scenario, controller=None) -> dict:

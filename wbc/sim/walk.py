@@ -56,7 +56,7 @@ from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import NO_FALL, timed_push
 
-__all__ = ["WalkScenario", "DcmStabilizer", "measured_cop", "walk_acceptance", "walk_criteria"]
+__all__ = ["WalkScenario", "DcmStabilizer", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
 
@@ -180,6 +180,11 @@ class DcmStabilizer:
         return w * w * (c - r)
 
 
+#: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
+#: touch-down (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``contact_force``; a blind walk's value).
+TOUCHDOWN_CONFIRM_LOAD = 0.03
+
+
 class WalkScenario:
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
@@ -229,7 +234,10 @@ class WalkScenario:
         touchdown_load: with measured sole forces (attribute ``measured_normal_force``, (2,) N, set by the closed
             loop from the ankle F/T sensors with an estimated state), an armed swing foot whose measured normal
             force reaches this fraction of the robot's weight has touched down, whatever its estimated height
-            (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``touchdown_force``; default 0.05).
+            (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``touchdown_force``; default 0.05). With
+            measured sole forces, the height test (sole within 3 mm of the floor, not rising) counts only once the
+            sole carries :data:`TOUCHDOWN_CONFIRM_LOAD` × the weight: a sole following its planned descent is
+            within 3 mm of the floor 30–100 ms before it touches it.
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -455,9 +463,11 @@ class WalkScenario:
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
                                             touchdown_force_height=0.05, contact_force=0.03 * weight)
-        else:
+        else:  # with measured sole forces, a load confirms the height test: the planned descent alone brings the
+            # sole within touchdown_height of the floor 30-100 ms before it touches it (MuJoCo: 0 N on the sole)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time,
-                                            touchdown_force=self.touchdown_load * weight)
+                                            touchdown_force=self.touchdown_load * weight,
+                                            contact_force=TOUCHDOWN_CONFIRM_LOAD * weight)
         self.controller = controller
         if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
