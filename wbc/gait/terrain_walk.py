@@ -39,8 +39,7 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    (:func:`wbc.gait.plan_lipm`) for ``v_z`` = the stance sole's height + ``Δz`` in single support, linear between
    the two stance heights in double support (the schedule of :mod:`wbc.gait.schedule` applied to heights; before a
    step down the single support already goes linearly to the lower height, so that the stance leg bends and the
-   swing leg reaches the lower tread; after a step up the double support stays at the lower foot's height and the
-   next single support goes linearly up, so that the CoM stays within reach of the foot left below), so the
+   swing leg reaches the lower tread), so the
    CoM stays ``Δz`` (the initial CoM height) above the supporting ground at rest and moves between levels along
    the DCM plan.
 
@@ -304,12 +303,9 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
 
 
 def _lower_before_stepping_down(zseg, phases, holds: np.ndarray):
-    """Height schedule with every step down anticipated and every step up deferred: in the single support of a
-    swing landing lower than its stance foot, the height reference goes linearly from the stance height to the
-    landing height (the stance leg bends, so that the swing leg reaches the lower tread), and the double support
-    after it stays there; after a swing landing higher, the double support stays at the height of the foot left
-    below and the next single support (on the higher foot) goes linearly up to the landing height (the CoM does not
-    rise beyond the reach of the lower leg before it lifts off)."""
+    """Height schedule with every step down anticipated: in the single support of a swing landing lower than its
+    stance foot, the height reference goes linearly from the stance height to the landing height (the stance leg
+    bends, so that the swing leg reaches the lower tread), and the double support after it stays there."""
     start, end = zseg.start.copy(), zseg.end.copy()
     for j in range(len(start)):
         ph = phases[int(zseg.phase[j])]
@@ -320,7 +316,4 @@ def _lower_before_stepping_down(zseg, phases, holds: np.ndarray):
             end[j] = z_land
             if j + 1 < len(start):
                 start[j + 1] = z_land
-        elif z_land > end[j, 0] + 1e-9 and j + 2 < len(start) and phases[int(zseg.phase[j + 2])].step >= 0:
-            low = end[j].copy()
-            start[j + 1], end[j + 1], start[j + 2] = low, low, low
     return type(zseg)(zseg.first, zseg.count, start, end, zseg.phase)
