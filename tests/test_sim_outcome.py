@@ -160,3 +160,34 @@ def test_a_toe_pressed_into_a_riser_is_a_foot_strike_fall():
         if strike:
             assert monitor.fall_reason.startswith("foot strike"), monitor.fall_reason
             assert "90°" in monitor.fall_reason, monitor.fall_reason
+
+
+def test_a_heightfield_prism_side_normal_is_not_a_foot_strike():
+    """Talos standing 5 mm into the rough heightfield ``rough:0.02:1`` at x + 1.6 m: MuJoCo (which collides a
+    heightfield as a union of triangular prisms) reports a foot contact pressing > 20 N along a normal more than 45°
+    from the sole's, at a point whose facet (the terrain's own triangle, wbc.terrain) is tilted by less than 30° — a
+    prism side wall, not a riser. The monitor judges the strike by the facet's normal: no fall."""
+    from wbc.terrain import parse_terrain
+
+    robot = wbc.load_robot("talos")
+    terrain = parse_terrain("rough:0.02:1")
+    sim = build_mujoco_model(robot, terrain=terrain)
+    q = robot.q_ref.copy()
+    q[0] += 1.6
+    xs, ys = np.meshgrid(np.linspace(1.45, 1.75, 31), np.linspace(-0.2, 0.2, 41))
+    q[2] += float(terrain.height(xs, ys).max()) - 0.005  # the highest ground under the feet 5 mm into the soles
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(q)
+    feet = {int(g) for s in ("left", "right") for g in np.atleast_1d(sim.foot_geoms[s])}
+    f6, side_hits = np.zeros(6), 0
+    for i in range(sim.data.ncon):
+        c = sim.data.contact[i]
+        if {int(c.geom1), int(c.geom2)} & feet:
+            mujoco.mj_contactForce(sim.model, sim.data, i, f6)
+            if abs(c.frame[2]) < math.cos(math.radians(45.0)) and f6[0] > 20.0:  # soles level: sole normal = +z
+                side_hits += 1
+                n = terrain.normal(float(c.pos[0]), float(c.pos[1]))
+                assert math.degrees(math.acos(n[2])) < 30.0
+    assert side_hits > 0  # the situation under test exists in MuJoCo's contact list
+    monitor = OutcomeMonitor(sim)
+    assert not monitor.update(0.0), monitor.fall_reason

@@ -128,3 +128,36 @@ def test_planned_soles_never_dip_into_a_riser(spec):
         pts = np.matmul(poses[:, :3, :3], local) + poses[:, :3, 3:4]
         worst = min(worst, float((pts[:, 2] - terrain.height(pts[:, 0], pts[:, 1])).min()))
     assert worst >= -1e-4, worst
+
+
+def test_steps_up_clear_the_nosing_without_a_tall_swing():
+    """One foot per tread on 10 cm stairs (each swing rises two treads, 0.2 m, over 0.6 m), G1's 0.17 m sole:
+    every swing going up clears the terrain by 5 cm away from its footholds (21 x 7 underside points), its sole rises
+    at most 0.1 m above its landing tread (a knee-high bump tips a small robot; the set-down is vertical onto the
+    tread), and it lands with no horizontal speed (the sole's planned velocity at touch-down)."""
+    left, right, com = _feet()
+    length, width = 0.17, 0.05
+    tw = plan_terrain_walk("stairs:0.1:0.3:6:up", left, right, com, n_steps=8, step_length=0.3, sole_length=length,
+                           sole_width=width, step_height=0.04, clearance=0.05)
+    p, terrain = tw.plan, tw.terrain
+    u, w = np.meshgrid(np.linspace(-length / 2, length / 2, 21), np.linspace(-width / 2, width / 2, 7))
+    local = np.stack([u.ravel(), w.ravel(), np.zeros(u.size)])
+    ups = 0
+    for ph in p.phases:
+        if ph.step < 0:
+            continue
+        side = tw.plan.footsteps[ph.step].side
+        poses = (p.left_sole if side == "left" else p.right_sole)[ph.first:ph.end + 1]
+        vel = (p.left_sole_vel if side == "left" else p.right_sole_vel)[ph.first:ph.end + 1]
+        z0, z1 = poses[0, 2, 3], tw.footholds[ph.step][2, 3]
+        if z1 < z0 + 0.05:
+            continue
+        ups += 1
+        start, land = poses[0, :2, 3], tw.footholds[ph.step][:2, 3]
+        far = (np.linalg.norm(poses[:, :2, 3] - start, axis=1) > length / 2) & \
+              (np.linalg.norm(poses[:, :2, 3] - land, axis=1) > length / 2)
+        pts = np.matmul(poses[far, :3, :3], local) + poses[far, :3, 3:4]
+        assert (pts[:, 2] - terrain.height(pts[:, 0], pts[:, 1])).min() >= 0.05 - 0.005
+        assert poses[:, 2, 3].max() - z1 <= 0.1
+        assert np.linalg.norm(vel[-1, :2]) <= 1e-6
+    assert ups >= 4

@@ -21,10 +21,12 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    down, a step down moving horizontally over the first :data:`HORIZONTAL_LEAD` only — the foot rises before it moves
    over the next tread and leaves its tread before it descends —, a step up moving horizontally on a minimum-jerk
    profile that starts after :data:`STEP_UP_DELAY` of the swing, while the toe rises above the riser just ahead —,
-   plus a clearance lift of height ``h``: level and up, the bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`;
-   down, a lift by ``h`` over the first :data:`LIFT` of the swing (minimum jerk), held, and set down over its last
-   :data:`LIFT` (the bump rises as ``s³`` while a step down already moves the foot over its own tread, so clearing
-   that tread asked for a bump several times the clearance, and such a swing's momentum tips the robot): the swing
+   plus a clearance lift of height ``h``: level, the bump ``h · 64 s³ (1 − s)³`` of :mod:`wbc.gait.swing`;
+   up or down, a lift by ``h`` over the first :data:`LIFT` of the swing (minimum jerk), held, and set down over its
+   last :data:`LIFT` (the bump rises as ``s³`` while a step down already moves the foot over its own tread, and
+   decays as ``(1 − s)³`` while a step up, moving forward late, brings its heel over the nosing of its tread: in
+   both cases clearing the edge asked for a bump several times the clearance, and such a swing's momentum tips
+   the robot): the swing
    sole's path is checked against the terrain
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
@@ -255,7 +257,7 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
         elif z1 > z0 + 1e-3:  # step up: forward only after STEP_UP_DELAY, while the toe rises above the riser ahead
             poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(up_xy_b, dxy)
             vels[f, a:b, :2] = np.outer(up_xy_db / ((1.0 - STEP_UP_DELAY) * T), dxy)
-        prof, dprof = (lift, dlift) if down else (bump, dbump)
+        prof, dprof = (bump, dbump) if abs(z1 - z0) <= 1e-3 else (lift, dlift)
         base = poses[f, a:b].copy()
         h = h0
         while True:

@@ -16,7 +16,10 @@ velocities of the new state) and decides:
   - foot strike: a foot contact geom pressing on the ground (normal force > :data:`STRIKE_MIN_FORCE` = 20 N, from
     ``mj_contactForce``) along a contact normal more than :data:`STRIKE_DEG` = 45° from the sole's normal — a toe,
     heel or sole edge hitting a step's riser or nosing, not a sole standing on a tread, a slope or a rough patch
-    (whose facets are at most a few tens of degrees from the sole plane).
+    (whose facets are at most a few tens of degrees from the sole plane). On a heightfield the normal is the
+    terrain's (:meth:`wbc.terrain.Terrain.normal` at the contact point: the facet under it), not MuJoCo's: MuJoCo
+    collides a heightfield as a union of triangular prisms, and a sole edge over a facet boundary can get the
+    horizontal normal of a prism's side wall where the surface itself is continuous (google-deepmind/mujoco#236).
 * **joint speed** — every tick, every actuated joint whose MuJoCo ``qvel`` exceeds its URDF velocity limit (the
   Pinocchio model's ``velocityLimit``, joints with a positive finite limit) is an exceedance; the count, the
   worst ratio |q̇|/q̇_max and its joint are reported (an operator requires 0 exceedances).
@@ -89,6 +92,9 @@ class OutcomeMonitor:
         self.floor = sim.floor_geom
         self.is_ground = np.zeros(model.ngeom + 1, dtype=bool)  # the plane and the terrain's geoms
         self.is_ground[sim.floor_geom if sim.ground_geoms is None else sim.ground_geoms] = True
+        self.is_hfield = np.zeros(model.ngeom + 1, dtype=bool)  # heightfield ground geoms (strike normal: terrain's)
+        self.is_hfield[:model.ngeom] = self.is_ground[:model.ngeom] & (model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)
+        self.terrain = getattr(sim, "terrain", None)
         self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
         self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
@@ -187,6 +193,11 @@ class OutcomeMonitor:
         """The foot strike among this tick's foot–ground contacts (module docstring), described, or ""."""
         d = self.sim.data
         normals = con.frame[:ncon, 0:3]
+        hf = (self.is_hfield[con.geom1[:ncon]] | self.is_hfield[con.geom2[:ncon]]) & (side >= 0)
+        if hf.any() and self.terrain is not None:  # the facet's normal, not a prism side wall's (module docstring)
+            normals = normals.copy()
+            for i in np.flatnonzero(hf):
+                normals[i] = self.terrain.normal(float(con.pos[i, 0]), float(con.pos[i, 1]))
         for s in range(2):
             idx = np.flatnonzero(side == s)
             if not len(idx):
