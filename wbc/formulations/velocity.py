@@ -281,6 +281,7 @@ class KinematicController:
         self._hard: dict[int, TaskConstraint] = {}
         self._level_order: list[int] = []
         self._level_backends: list[QPBackend] = []
+        self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
         self._fallback_backend: QPBackend | None = None
         self._final_backend: QPBackend | None = None
         self._band_backend: QPBackend | None = None
@@ -1301,7 +1302,7 @@ class KinematicController:
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            stop=self._stage_late if self._in_solve else None)
+            stop=self._stage_late if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
         cut = solve_lexicographic.last_cut
         if cut is not None:
             self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (the last solved level's "
