@@ -369,6 +369,7 @@ class DaqpBackend(QPBackend):
             upper[e:] = u
             lower[e:] = l
         if self.warm_start == "dual":
+            self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
         self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
         warm = self._model is not None
@@ -411,10 +412,13 @@ class DaqpBackend(QPBackend):
         self.warm_failures += 1
         self._dual = None
         outcome = self._cold_outcome
-        if outcome is not None and self.warm_start != "dual":
+        if outcome is not None:
             # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
-            # then the one-shot solve — whose answer is deterministic: reused, not computed twice
-            x, self._model, self.last_multipliers = outcome
+            # then the one-shot solve (dual warm start: the one-shot solve from no dual start, which failed) —
+            # whose answer is deterministic: reused, not computed twice
+            x, model, multipliers = outcome
+            if self.warm_start != "dual":
+                self._model, self.last_multipliers = model, multipliers
         else:
             self._model = None
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
@@ -451,8 +455,10 @@ class DaqpBackend(QPBackend):
         self.last_iterations = int(info["iterations"])
         if exitflag < 1:
             self._dual = None
+            self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
+        self.last_multipliers = self._dual
         return x
 
 
