@@ -194,7 +194,7 @@ class InverseDynamicsController:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
-                sol = self.qp.solve_relaxed(self.state, self.dt)
+                sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
             relaxed = True

@@ -271,6 +271,7 @@ class InverseDynamicsQP:
         #: (:func:`kernel_iterations`). A tick after one whose compiled call gave up goes to DAQP at once (its
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
+        self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -502,12 +503,21 @@ class InverseDynamicsQP:
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
         return l, u, lb, ub
 
-    def solve_relaxed(self, state: DynamicsState, dt: float) -> IDSolution:
+    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
         a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques); the
-        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`."""
+        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`.
+
+        ``reuse_assembly``: when the last :meth:`solve` assembled the QP at this same ``state`` object and ``dt``
+        (the failed full QP of the same tick, nothing edited since), its arrays are used instead of assembling
+        again; otherwise (or False) the QP is assembled here."""
         t0 = perf_counter()
-        H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        if reuse_assembly and self._assembled == (id(state), dt):
+            m = self._m
+            H, g, A, b, C, l, u, lb, ub = (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                           self._lb, self._ub)
+        else:
+            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         l, u, lb, ub = self._relax(l, u, lb, ub)
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
@@ -533,10 +543,12 @@ class InverseDynamicsQP:
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.last_violations = []
+        self._assembled = None
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
@@ -642,6 +654,7 @@ class InverseDynamicsQP:
             kb.bc[act] = bc.reshape(-1, 6)
             it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 1, *kb.tail)
         self._m = m
+        self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
         t1 = perf_counter()
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
