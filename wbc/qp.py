@@ -31,12 +31,18 @@ _BIG = 1e10  # stands for an infinite bound where a backend needs a finite numbe
 _CONFIRM_WORK = {"proxqp": 580}
 
 
+#: active-set iterations counted as one more :class:`TickWork` solve (a kinematic QP solve without them takes about
+#: as long as this many DAQP iterations)
+ITERATIONS_PER_SOLVE = 150
+
+
 class TickWork:
     """Counted work of one control tick: the QP solves done so far, against a cap.
 
     A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
     tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
-    one to ``solves``. A tick budget counted in solves keeps a tick's answer a function of its inputs (a budget
+    one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took). A tick
+    budget counted in solves keeps a tick's answer a function of its inputs (a budget
     read from a clock would make it depend on the machine's load).
 
     Attributes:
@@ -72,6 +78,8 @@ class QPBackend(ABC):
     def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Raw solution, or None on failure."""
 
+    #: active-set iterations of the last solver call (0 for a backend that does not report them).
+    last_iterations: int = 0
     #: tick solutions rescued by the independent re-solve (the backend's own solve failed or violated a row).
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
@@ -110,9 +118,12 @@ class QPBackend(ABC):
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
         # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
         for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
-            if self.work is not None:
-                self.work.solves += 1
+            self.last_iterations = 0
             x = attempt(H, g, A, b, C, l, u, lb, ub)
+            if self.work is not None:
+                # one, plus one per ITERATIONS_PER_SOLVE iterations the attempt took (a DAQP call that ran to its
+                # iteration cap costs several solves' time: counted so, the tick's later stages stop sooner)
+                self.work.solves += 1 + int(self.last_iterations) // ITERATIONS_PER_SOLVE
             worst = math.inf
             if x is not None and np.isfinite(x).all():
                 xc = np.minimum(np.maximum(x, lb), ub)
@@ -335,7 +346,7 @@ class DaqpBackend(QPBackend):
         self._cold_outcome = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
-        #: DAQP iterations of the last solve.
+        #: DAQP iterations of the last solve attempt (every DAQP call it made; QPBackend.solve resets it).
         self.last_iterations = 0
         #: warm-started solves that failed and were solved again from a cold start.
         self.warm_failures = 0
@@ -376,7 +387,7 @@ class DaqpBackend(QPBackend):
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             x, _, exitflag, info = self._model.solve()
-            self.last_iterations = int(info["iterations"])
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
                 return x
@@ -391,7 +402,7 @@ class DaqpBackend(QPBackend):
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, exitflag, info = model.solve()
-            self.last_iterations = int(info["iterations"])
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
                 self.last_multipliers = info["lam"]
@@ -402,7 +413,7 @@ class DaqpBackend(QPBackend):
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-        self.last_iterations = int(info["iterations"])
+        self.last_iterations += int(info["iterations"])
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
         x = x if exitflag >= 1 else None
         self._cold_outcome = (x, None, self.last_multipliers)
@@ -417,6 +428,7 @@ class DaqpBackend(QPBackend):
             # then the one-shot solve (dual warm start: the one-shot solve from no dual start, which failed) —
             # whose answer is deterministic: reused, not computed twice
             x, model, multipliers = outcome
+            self.last_iterations = 0  # no new solver call
             if self.warm_start != "dual":
                 self._model, self.last_multipliers = model, multipliers
         else:
@@ -452,7 +464,7 @@ class DaqpBackend(QPBackend):
         if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
             self.warm_failures += 1
             x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-        self.last_iterations = int(info["iterations"])
+        self.last_iterations += int(info["iterations"])
         if exitflag < 1:
             self._dual = None
             self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
