@@ -131,6 +131,8 @@ class QPBackend(ABC):
                 if worst <= self.tolerance:
                     return xc
                 if worst <= _POLISH_RANGE:
+                    if self.work is not None:
+                        self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
                     xp = self.polish(x, A, b, C, l, u, lb, ub)
                     if xp is not None:
                         self.polished += 1
@@ -438,11 +440,20 @@ class DaqpBackend(QPBackend):
             xc = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
                 return x
+        # the two retries below get at most the iterations left in the tick's counted work (a controller's
+        # TickWork: ITERATIONS_PER_SOLVE per solve left under twice its cap, at least one solve's worth), so that
+        # one failing solve cannot run two more DAQP calls to their full iteration cap past the tick's budget
+        limit = dict(self.settings)
+        work = self.work
+        if work is not None and math.isfinite(work.cap):
+            left = max(1.0, 2.0 * work.cap - work.solves - self.last_iterations / ITERATIONS_PER_SOLVE)
+            limit["iter_limit"] = int(min(limit.get("iter_limit", ITERATION_LIMIT), left * ITERATIONS_PER_SOLVE))
         if self.settings.get("primal_tol", 0.0) < self.tolerance:
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
-            relaxed = {**self.settings, "primal_tol": self.tolerance}
+            relaxed = {**limit, "primal_tol": self.tolerance}
             x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 return x2
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
@@ -452,7 +463,8 @@ class DaqpBackend(QPBackend):
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
             x3, _, exitflag, info = self._daqp.solve(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **self.settings)
+                                                     self._sense, **limit)
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
                 return x3
