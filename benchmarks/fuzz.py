@@ -161,6 +161,8 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
     c["tick_times"] = []
     c["tick_cpu"] = []  # CPU time of this thread per tick (time.thread_time: the controller's budgeted quantity)
     c["tick_budget"] = []  # each tick's budget (s): --budget, else its dt
+    c["tick_paths"] = []  # each tick's TickResult.path (per-path CPU time in the report)
+    c["worst_ticks"] = []  # (cpu / budget, "seed … episode … tick … path …") of the slowest ticks
 
     def event(kind: str, ep: int, tick: int, detail: str = "") -> None:
         if len(c["events"][kind]) < MAX_EVENTS:
@@ -201,6 +203,13 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 c["tick_cpu"].append(time.thread_time() - cpu_tick)
                 c["tick_times"].append(time.perf_counter() - t_tick)
                 c["tick_budget"].append(dt if budget is None else budget)
+                c["tick_paths"].append(res.path)
+                ratio = c["tick_cpu"][-1] / c["tick_budget"][-1]
+                if len(c["worst_ticks"]) < MAX_EVENTS or ratio > c["worst_ticks"][-1][0]:
+                    c["worst_ticks"].append((ratio, f"seed {seed} episode {ep} tick {tick} {name} {kind} "
+                                                    f"strict={strict} dt {1e3 * dt:g} ms: {res.path}, CPU "
+                                                    f"{1e3 * c['tick_cpu'][-1]:.2f} ms"))
+                    c["worst_ticks"] = sorted(c["worst_ticks"], key=lambda w: -w[0])[:MAX_EVENTS]
             except Exception as exc:  # noqa: BLE001
                 c["exceptions"] += 1
                 event("exceptions", ep, tick, f"{type(exc).__name__}: {exc}")
@@ -300,6 +309,14 @@ def aggregate(chunks: list[dict]) -> dict:
     total["tick_cpu_ms"] = {q: float(1e3 * np.percentile(cpu, p)) if cpu.size else 0.0
                             for q, p in (("p50", 50), ("p99", 99), ("p999", 99.9), ("max", 100))}
     ratio = cpu / budget if cpu.size and cpu.size == budget.size else np.zeros(0)
+    paths = np.array([x for ch in chunks for x in ch.get("tick_paths", [])])
+    total["path_cpu_ms"] = {}
+    if paths.size == cpu.size:
+        for path in sorted(set(paths.tolist())):
+            sel = cpu[paths == path]
+            total["path_cpu_ms"][path] = tuple(float(1e3 * np.percentile(sel, p)) for p in (50, 99, 100))
+    total["worst_ticks"] = sorted((w for ch in chunks for w in ch.get("worst_ticks", [])),
+                                  key=lambda w: -w[0])[:MAX_EVENTS]
     total["tick_cpu_over_budget"] = int(np.sum(ratio > 1.0))
     total["tick_cpu_over_2x_budget"] = int(np.sum(ratio > 2.0))
     total["tick_cpu_max_budget_ratio"] = float(ratio.max()) if ratio.size else float("nan")
@@ -359,6 +376,10 @@ def report(total: dict) -> str:
     lines.append("info: ticks per route " + ", ".join(f"{k} {n}" for k, n in routes["ticks_per_route"].items()))
     lines.append("info: ticks per path " + ", ".join(f"{k} {n}" for k, n in sorted(total["paths"].items(),
                                                                                    key=lambda kv: -kv[1])))
+    for path, (p50, p99, mx) in total.get("path_cpu_ms", {}).items():
+        lines.append(f"info:   {path}: tick CPU p50 {p50:.3f} ms, p99 {p99:.3f} ms, max {mx:.3f} ms")
+    for ratio, where in total.get("worst_ticks", [])[:10]:
+        lines.append(f"info: slow tick {ratio:.2f} x budget: {where}")
     lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")
     for k, evs in total["events"].items():
         for e in evs:

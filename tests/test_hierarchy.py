@@ -221,3 +221,79 @@ def test_infeasible_top_level_met_in_least_squares_lower_level_still_optimised(r
     assert worst_mean < 1e-6
     assert worst_level1 < 1e-6
     assert worst_hard < 1e-9
+
+
+def _random_problem(rng, n=12, m_eq=4, m_level=8):
+    """Hard equalities A v = b (m_eq rows), one full-rank level J v ≈ t (m_level rows, m_eq + m_level = n: the
+    two fix every direction of v), box bounds far away, a random soft level."""
+    A, b = rng.normal(size=(m_eq, n)), rng.normal(size=m_eq)
+    J, t = rng.normal(size=(m_level, n)), rng.normal(size=m_level)
+    M = rng.normal(size=(n, n))
+    H, g = M @ M.T + np.eye(n), rng.normal(size=n)
+    return A, b, J, t, H, g
+
+
+def test_levels_below_a_determined_point_are_not_solved_and_the_answer_is_the_closed_form():
+    """Hard equalities of rank m and a level of rank n − m fix v: the soft level below has nothing left to optimise,
+    is skipped (``last_determined``), and v is the equality-constrained least-squares solution of the level,
+    computed here from the KKT system with numpy (no QP solver): [JᵀJ Aᵀ; A 0] [v; λ] = [Jᵀt; b]."""
+    from wbc.hierarchy import solve_lexicographic
+    from wbc.qp import DaqpBackend
+
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        A, b, J, t, H, g = _random_problem(rng)
+        n, m = A.shape[1], A.shape[0]
+        C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+        lb, ub = np.full(n, -1e3), np.full(n, 1e3)
+        final = DaqpBackend()
+        v, res = solve_lexicographic([(J, t)], H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)], final)
+        assert solve_lexicographic.last_determined == 1  # the soft level (index len(levels)) was not solved
+        K = np.block([[J.T @ J, A.T], [A, np.zeros((m, m))]])
+        ref = np.linalg.solve(K, np.concatenate([J.T @ t, b]))[:n]
+        # the level's own solve (DAQP's proximal-point iterations on the semidefinite JᵀJ) ends ≈ 2e-5 relative from
+        # the exact minimiser on these random problems: the bound is on that, the skip itself adds nothing
+        assert np.max(np.abs(v - ref)) < 1e-4 * max(1.0, np.max(np.abs(ref)))
+        # with one level row fewer v is not determined: the soft level is solved (and nothing is skipped)
+        v2, _ = solve_lexicographic([(J[:-1], t[:-1])], H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)],
+                                    DaqpBackend())
+        assert solve_lexicographic.last_determined is None
+
+
+def test_memo_starts_a_level_with_the_retry_that_solved_it_and_forgets_a_failed_hint():
+    """``memo``: a level recorded as solved by its damped retry starts with that retry (one backend call instead
+    of the failing undamped one first); a hint that fails is dropped and the full sequence runs. Counted with a
+    backend that records the Hessians it is called with; the answers agree with the memo-less cascade."""
+    from wbc.hierarchy import solve_lexicographic
+    from wbc.qp import DaqpBackend
+
+    class Recording(DaqpBackend):
+        def __init__(self, **kw):
+            super().__init__(**kw)
+            self.calls = []
+
+        def solve(self, H, g, *args, **kw):
+            self.calls.append(H.copy())
+            return super().solve(H, g, *args, **kw)
+
+    rng = np.random.default_rng(4)
+    A, b, J, t, H, g = _random_problem(rng, n=12, m_eq=3, m_level=4)
+    n = A.shape[1]
+    C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+    lb, ub = np.full(n, -1e3), np.full(n, 1e3)
+    J2, t2 = rng.normal(size=(2, n)), rng.normal(size=2)
+    levels = [(J, t), (J2, t2)]
+    plain, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
+                                   DaqpBackend())
+    memo = {(1, 2): "damped"}
+    lvl = Recording(eps_prox=1e-3)
+    v, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3), lvl],
+                               DaqpBackend(), memo=memo)
+    mu = 1e-9 * max(1.0, float(np.max(np.diag(J2.T @ J2))))
+    assert len(lvl.calls) == 1 and np.allclose(lvl.calls[0], J2.T @ J2 + mu * np.eye(n), rtol=0, atol=1e-15)
+    assert memo == {(1, 2): "damped"}
+    assert np.max(np.abs(v - plain)) < 1e-6
+    memo = {(1, 2): "wide"}  # level 0 has no band to widen... level 1's wide-band hint is tried, kept if it solves
+    v3, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
+                                DaqpBackend(), memo=memo)
+    assert np.max(np.abs(v3 - plain)) < 1e-5

@@ -379,3 +379,32 @@ def test_held_command_keeps_the_joint_speed_bounds(robots):
     assert abs(v[iw] + DT * dv[iw]) < v[iw]  # braking
     effort = float(model.effortLimit[iw])
     assert abs(cmd.tau[iw - 6]) <= effort
+
+
+@pytest.mark.parametrize("solver", ["fast", "daqp"])
+def test_relaxed_qp_reuses_the_failed_full_qps_assembly_with_the_same_answer(robots, solver):
+    """A full QP that fails (f_min = 1000 N per corner: torque limits cannot hold the pushed-up robot) goes to the
+    relaxed QP on the arrays the failed solve assembled (same state, same tick): the command equals the relaxed QP
+    assembled afresh (``solve_relaxed`` without reuse) to 1e-9, and an assembly left over from another state object
+    is not reused (the relaxed QP is then assembled for the state it is given)."""
+    from wbc.dynamics import IDBalanceController
+    from wbc.state import DynamicsState
+
+    robot = robots("talos")
+    ctrl = IDBalanceController(robot, solver=solver, f_min=1000.0)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    ctrl.reset(q, v)
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok and cmd.relaxed
+    qp, state = ctrl.qp, ctrl.controller.state
+    fresh = qp.solve_relaxed(state, DT)  # assembled again
+    x_cmd = np.concatenate([cmd.dv, cmd.forces])
+    x_fresh = np.concatenate([fresh.dv, fresh.forces])
+    assert np.max(np.abs(x_cmd - x_fresh)) <= 1e-9 * max(1.0, np.max(np.abs(x_fresh)))
+    other = DynamicsState(robot)
+    q2 = q.copy()
+    q2[2] += 0.01
+    other.update(q2, v)
+    a = qp.solve_relaxed(other, DT, reuse_assembly=True)  # not the state of the last solve: assembled for `other`
+    b = qp.solve_relaxed(other, DT)
+    assert np.max(np.abs(a.dv - b.dv)) <= 1e-9 * max(1.0, np.max(np.abs(b.dv)))

@@ -7,6 +7,8 @@ equations of motion M v̇ + h = Sᵀτ + J_cᵀ f recomputed with Pinocchio's RN
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -120,6 +122,10 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
     robot = robots(robot_name)
     dt = 0.002
     fast = IDBalanceController(robot, solver="fast", dt=dt)
+    # the kernel's iteration cap follows the tick budget (4 at the default 2 ms: the kicked and released ticks
+    # need more and go to DAQP); this test compares the kernel's own answers, so its cap is the unbudgeted 100
+    fast.controller.budget = math.inf
+    assert fast.qp.kernel_max_iterations == 100
     ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
     nv = robot.nv
     kick = np.zeros(nv)
@@ -184,3 +190,45 @@ def test_contact_conditioning_certificate_is_sound(robots, robot_name):
             assert s[-1] >= 1e-2 * s[0]
     if robot_name != "humanoid15":
         assert certified == 30
+
+
+def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(robots):
+    """The compiled tick's iteration cap is a count set by the tick budget (4 at 2 ms, 100 unbounded). On Talos'
+    kicked sway loop (the loop of ``test_kernel_equals_daqp_every_tick``) the kick needs more iterations: that tick
+    is answered by DAQP on the same assembly, its answer agrees with the reference DAQP workspace solve to 1e-6
+    (DAQP's dual one-shot stops within its primal tolerance), the next tick goes to DAQP at once, and the kernel
+    answers again within two ticks — started from DAQP's working set."""
+    from wbc.backends import make_backend
+    from wbc.formulations.acceleration import kernel_iterations
+
+    assert kernel_iterations(0.002) == 4 and kernel_iterations(math.inf) == 100 and kernel_iterations(1e-5) == 4
+    robot = robots("talos")
+    dt = 0.002
+    fast = IDBalanceController(robot, solver="fast", dt=dt)
+    assert fast.qp.kernel_max_iterations == 4
+    ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
+    nv = robot.nv
+    kick = np.zeros(nv)
+    kick[6:] = np.random.default_rng(0).normal(0.0, 0.5, nv - 6)
+    q, v = robot.q_ref.copy(), np.zeros(nv)
+    for c in (fast, ref):
+        c.reset(q, v)
+    com0 = fast.state.com.copy()
+    paths = []
+    for k in range(160):
+        if k == 100:
+            v = v + kick
+        for c in (fast, ref):
+            c.set_com_reference(com0 + np.array([0.0, 0.02 * np.sin(np.pi * k * dt), 0.0]))
+        a, b = fast.compute(q, v), ref.compute(q, v)
+        assert a.ok and b.ok and not a.relaxed
+        xa, xb = np.concatenate([a.dv, a.forces]), np.concatenate([b.dv, b.forces])
+        assert np.max(np.abs(xa - xb)) / max(1.0, np.max(np.abs(xb))) < 1e-6
+        paths.append(a.path)
+        v = v + a.dv * dt
+        q = pin.integrate(robot.model, q, v * dt)
+    capped = [k for k, p in enumerate(paths) if p != "kernel"]
+    assert capped and capped[0] == 100, capped  # the kick's tick: past 4 iterations
+    for k in capped:
+        assert paths[k] == "general:fast"
+        assert "kernel" in paths[k + 1:k + 3], (k, paths[k:k + 3])

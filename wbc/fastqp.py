@@ -1188,6 +1188,9 @@ class FastBackend(DaqpBackend):
     Args:
         tolerance: largest constraint violation accepted (constraint units), as for every backend.
         max_iter: working-set iterations before handing the problem to DAQP.
+        kernel_rows: problems with inequality rows go to the kernel first (True) or to DAQP at once (False: the
+            inverse-dynamics QP, whose compiled tick has its own kernel; this one's iterations refactor the working
+            set, which costs more than DAQP on that QP: benchmarks/README.md, "Tick time bounded at both levels").
         **settings: DAQP settings for the fallback (:class:`~wbc.qp.DaqpBackend`).
 
     Attributes:
@@ -1199,9 +1202,10 @@ class FastBackend(DaqpBackend):
 
     name = "fast"
 
-    def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, **settings):
+    def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, kernel_rows: bool = True, **settings):
         super().__init__(tolerance=tolerance, **settings)
         self.max_iter = int(max_iter)
+        self.kernel_rows = bool(kernel_rows)
         self._n = -1
         self._m = -1
         self._p = -1
@@ -1250,6 +1254,8 @@ class FastBackend(DaqpBackend):
             SolverError: the DAQP fallback failed (see :meth:`wbc.qp.QPBackend.solve`).
         """
         p = C.shape[0]
+        if p and not self.kernel_rows:
+            return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
         if p and self._rows_failed:
             # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
             # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held

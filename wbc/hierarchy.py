@@ -61,7 +61,8 @@ def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
                         dependent_row_tolerance: float = 1e-3, band: float = 1e-9,
-                        stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, list[float]]:
+                        stop: Callable[[], bool] | None = None, memo: dict | None = None
+                        ) -> tuple[np.ndarray, list[float]]:
     """Solve the cascade of the module docstring.
 
     Args:
@@ -78,6 +79,16 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             the last level it solved (a point of the hard set, optimal for that level and every level above it)
             and ``solve_lexicographic.last_cut`` is the number of levels (soft level included) that were solved;
             None when every level was. The first level is always solved. Default: every level.
+        memo: a dict the caller keeps across cascades of the same levels (the re-solves of a tick whose hard set
+            changed a little — a contact correction, a trust region — and the next ticks), or None. A level that
+            the last cascade solved only by its damped (or wide-band) retry starts with that retry (one solve
+            instead of the failing ones before it; should the undamped solve now succeed, the answer differs from
+            its by the damping's bias, relative 1e-9); a retry that fails is forgotten and the full sequence runs.
+
+    Levels below the point where the kept equality rows and the rows of the levels above have rank nv (QR with
+    column pivoting, ``rank_rtol``) are not solved: every direction of v is then fixed, so each of them would
+    return the same v (within ±``band``); ``solve_lexicographic.last_determined`` is the first such level (the
+    soft level is ``len(levels)``), None when every level was solved.
 
     Returns:
         (v (nv,), residuals): the soft level's solution (or the last solved level's: ``stop``) and
@@ -93,7 +104,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     """
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
-    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop)
+    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop, memo)
     if keep.size < A.shape[0]:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
@@ -104,7 +115,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                                      lb, ub, backends, final_backend, band, stop)
+                                      lb, ub, backends, final_backend, band, stop, memo)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -112,18 +123,29 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
 
-def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None):
+def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None, memo=None):
     """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
     fixed_J: list[np.ndarray] = []
     v = None
     skipped: list[int] = []
+    n = H.shape[0]
+    determined = None  # first level whose solve is skipped: the levels above determine v
     solve_lexicographic.last_cut = None
+    solve_lexicographic.last_determined = None
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
+        F = np.vstack(fixed_J) if fixed_J else None
+        if F is not None and determined is None:
+            if A_kept.shape[0] + F.shape[0] >= n and independent_rows(np.vstack([A_kept, F])).size == n:
+                # the hard equalities and the levels above fix every direction of v (e.g. a posture level over
+                # every joint under the contacts): the lower levels have nothing left to optimise — v is their
+                # solution too (up to the ±band), and solving them is skipped
+                determined = k
+        if determined is not None:
+            continue
         if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
             return v, skipped
-        if fixed_J:
-            F = np.vstack(fixed_J)
+        if F is not None:
             Fv = F @ v
             Ck, lk, uk = np.vstack([C, F]), np.concatenate([l, Fv - band]), np.concatenate([u, Fv + band])
         else:
@@ -132,10 +154,29 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
             Hk, gk = H, g
         else:
             Hk, gk = J.T @ J, -(J.T @ target)
+        key = (k, len(levels))
+        first = memo.get(key) if memo is not None else None
+        if first is not None:
+            # an earlier cascade of this tick (same levels, e.g. a contact correction: only b or the box changed)
+            # solved this level only by its damped or wide-band retry: that retry first (else the full sequence)
+            try:
+                if first == "damped":
+                    mu = 1e-9 * max(1.0, float(np.max(np.diag(Hk))))
+                    v = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                else:
+                    wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
+                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, np.concatenate([l, Fv - wide]),
+                                      np.concatenate([u, Fv + wide]), lb, ub)
+                    skipped.append(k)
+                if J is not None:
+                    fixed_J.append(J)
+                continue
+            except SolverError:
+                del memo[key]  # the hint failed: the full sequence below (which records what solves now)
         try:
             v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
-            if J is not None:
+            if J is not None and first != "damped":
                 # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
                 # 5e-6 – 2e-3 off the rows: once more damped, JᵀJ + μI with μ = 1e-9 · max(1, max diag)
                 # (Kanoun et al.'s damped least squares; relative bias ~1e-9)
@@ -146,6 +187,8 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                     v_damped = None
                 if v_damped is not None:
                     v = v_damped
+                    if memo is not None:
+                        memo[key] = "damped"
                     if J is not None:
                         fixed_J.append(J)
                     continue
@@ -164,18 +207,22 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
             # a failure is numerical (the ±band is degenerate): once more with a band at the solver's tolerance,
             # else keep the previous level's v (optimal for every level above, feasible for the hard set)
             v_prev = v
-            if fixed_J:
+            if fixed_J and first != "wide":
                 wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
                 lk, uk = np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide])
                 try:
                     v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                    if memo is not None:
+                        memo[key] = "wide"
                 except SolverError:
                     v = v_prev
             skipped.append(k)
         if J is not None:
             fixed_J.append(J)
+    solve_lexicographic.last_determined = determined
     return v, skipped
 
 
 solve_lexicographic.last_skipped = []
+solve_lexicographic.last_determined = None
 solve_lexicographic.last_cut = None

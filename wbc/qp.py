@@ -31,12 +31,18 @@ _BIG = 1e10  # stands for an infinite bound where a backend needs a finite numbe
 _CONFIRM_WORK = {"proxqp": 580}
 
 
+#: active-set iterations counted as one more :class:`TickWork` solve (a kinematic QP solve without them takes about
+#: as long as this many DAQP iterations)
+ITERATIONS_PER_SOLVE = 150
+
+
 class TickWork:
     """Counted work of one control tick: the QP solves done so far, against a cap.
 
     A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
     tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
-    one to ``solves``. A tick budget counted in solves keeps a tick's answer a function of its inputs (a budget
+    one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took). A tick
+    budget counted in solves keeps a tick's answer a function of its inputs (a budget
     read from a clock would make it depend on the machine's load).
 
     Attributes:
@@ -72,6 +78,8 @@ class QPBackend(ABC):
     def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Raw solution, or None on failure."""
 
+    #: active-set iterations of the last solver call (0 for a backend that does not report them).
+    last_iterations: int = 0
     #: tick solutions rescued by the independent re-solve (the backend's own solve failed or violated a row).
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
@@ -110,9 +118,12 @@ class QPBackend(ABC):
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
         # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
         for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
-            if self.work is not None:
-                self.work.solves += 1
+            self.last_iterations = 0
             x = attempt(H, g, A, b, C, l, u, lb, ub)
+            if self.work is not None:
+                # one, plus one per ITERATIONS_PER_SOLVE iterations the attempt took (a DAQP call that ran to its
+                # iteration cap costs several solves' time: counted so, the tick's later stages stop sooner)
+                self.work.solves += 1 + int(self.last_iterations) // ITERATIONS_PER_SOLVE
             worst = math.inf
             if x is not None and np.isfinite(x).all():
                 xc = np.minimum(np.maximum(x, lb), ub)
@@ -120,6 +131,8 @@ class QPBackend(ABC):
                 if worst <= self.tolerance:
                     return xc
                 if worst <= _POLISH_RANGE:
+                    if self.work is not None:
+                        self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
                     xp = self.polish(x, A, b, C, l, u, lb, ub)
                     if xp is not None:
                         self.polished += 1
@@ -334,7 +347,7 @@ class DaqpBackend(QPBackend):
         self._cold_outcome = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
-        #: DAQP iterations of the last solve.
+        #: DAQP iterations of the last solve attempt (every DAQP call it made; QPBackend.solve resets it).
         self.last_iterations = 0
         #: warm-started solves that failed and were solved again from a cold start.
         self.warm_failures = 0
@@ -368,13 +381,14 @@ class DaqpBackend(QPBackend):
             upper[e:] = u
             lower[e:] = l
         if self.warm_start == "dual":
+            self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
         self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
         warm = self._model is not None
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             x, _, exitflag, info = self._model.solve()
-            self.last_iterations = int(info["iterations"])
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
                 return x
@@ -389,7 +403,7 @@ class DaqpBackend(QPBackend):
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, exitflag, info = model.solve()
-            self.last_iterations = int(info["iterations"])
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
                 self.last_multipliers = info["lam"]
@@ -400,7 +414,7 @@ class DaqpBackend(QPBackend):
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-        self.last_iterations = int(info["iterations"])
+        self.last_iterations += int(info["iterations"])
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
         x = x if exitflag >= 1 else None
         self._cold_outcome = (x, None, self.last_multipliers)
@@ -410,10 +424,14 @@ class DaqpBackend(QPBackend):
         self.warm_failures += 1
         self._dual = None
         outcome = self._cold_outcome
-        if outcome is not None and self.warm_start != "dual":
+        if outcome is not None:
             # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
-            # then the one-shot solve — whose answer is deterministic: reused, not computed twice
-            x, self._model, self.last_multipliers = outcome
+            # then the one-shot solve (dual warm start: the one-shot solve from no dual start, which failed) —
+            # whose answer is deterministic: reused, not computed twice
+            x, model, multipliers = outcome
+            self.last_iterations = 0  # no new solver call
+            if self.warm_start != "dual":
+                self._model, self.last_multipliers = model, multipliers
         else:
             self._model = None
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
@@ -421,11 +439,20 @@ class DaqpBackend(QPBackend):
             xc = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
                 return x
+        # the two retries below get at most the iterations left in the tick's counted work (a controller's
+        # TickWork: ITERATIONS_PER_SOLVE per solve left under twice its cap, at least one solve's worth), so that
+        # one failing solve cannot run two more DAQP calls to their full iteration cap past the tick's budget
+        limit = dict(self.settings)
+        work = self.work
+        if work is not None and math.isfinite(work.cap):
+            left = max(1.0, 2.0 * work.cap - work.solves - self.last_iterations / ITERATIONS_PER_SOLVE)
+            limit["iter_limit"] = int(min(limit.get("iter_limit", ITERATION_LIMIT), left * ITERATIONS_PER_SOLVE))
         if self.settings.get("primal_tol", 0.0) < self.tolerance:
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
-            relaxed = {**self.settings, "primal_tol": self.tolerance}
+            relaxed = {**limit, "primal_tol": self.tolerance}
             x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 return x2
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
@@ -435,7 +462,8 @@ class DaqpBackend(QPBackend):
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
             x3, _, exitflag, info = self._daqp.solve(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **self.settings)
+                                                     self._sense, **limit)
+            self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
                 return x3
@@ -447,11 +475,13 @@ class DaqpBackend(QPBackend):
         if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
             self.warm_failures += 1
             x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-        self.last_iterations = int(info["iterations"])
+        self.last_iterations += int(info["iterations"])
         if exitflag < 1:
             self._dual = None
+            self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
+        self.last_multipliers = self._dual
         return x
 
 

@@ -18,7 +18,10 @@ Time budget: a tick has ``budget`` seconds (default the control period dt) of CP
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
 reported (``over_budget``), never used to decide: a tick solves at most two QPs — the full QP, and after its
 failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
-of the machine's load. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
+of the machine's load. The budget sets one count: the compiled tick's iteration cap
+(:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
+:data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
+from the same assembly, and the next tick's compiled call starts from DAQP's working set. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
@@ -64,7 +67,7 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.tick import TickPath, TickResultBase
@@ -116,7 +119,8 @@ class InverseDynamicsController:
     Args:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
-        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring.
+        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
+            the compiled tick's iteration cap (``qp.kernel_max_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
 
@@ -162,6 +166,7 @@ class InverseDynamicsController:
         if not (isinstance(value, (int, float, np.floating)) and not isinstance(value, bool) and value > 0):
             raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {value!r}")
         self._budget = float(value)
+        self.qp.kernel_max_iterations = kernel_iterations(self._budget)
 
     def tick(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.
@@ -188,7 +193,7 @@ class InverseDynamicsController:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
-                sol = self.qp.solve_relaxed(self.state, self.dt)
+                sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
             relaxed = True

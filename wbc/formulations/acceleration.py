@@ -88,7 +88,8 @@ from wbc.constraints.dynamics import (
     consistent_contact_rhs,
 )
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON, PROJECT_CONTACT_RHS,
+from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
+                                       PROJECT_CONTACT_RHS,
                                        R_ACC_FF,
                                        R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
 from wbc.state import DynamicsState
@@ -101,7 +102,7 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "kernel_iterations"]
 
 
 @dataclass
@@ -132,7 +133,24 @@ class IDSolution:
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
 #: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
-_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"}, "fast": {"primal_tol": 1e-6, "warm_start": "dual"}}
+_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
+                "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
+
+#: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.formulations.idkernel.id_solve`
+#: refactors its working set every iteration), taken from the slow kernel ticks of the ID fuzz (G1, 37–39 working
+#: rows; benchmarks/README.md, "Tick time bounded at both levels"). A tick budget becomes an iteration cap of
+#: ⌊budget / (2 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
+KERNEL_ITERATION_COST = 2.2e-4
+
+
+def kernel_iterations(budget: float) -> int:
+    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: half the budget at
+    :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count, not a clock:
+    the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same assembly, in the
+    other half of the budget."""
+    if not np.isfinite(budget):
+        return 100
+    return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
 _ID_TICK_LOADED = False
@@ -250,6 +268,12 @@ class InverseDynamicsQP:
         self._confirm_kw  # the backend's signature read here, not inside the first tick
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
+        #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
+        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: (:func:`kernel_iterations`). A tick after one whose compiled call gave up goes to DAQP at once (its
+        #: working set then warm-starts the next compiled call).
+        self.kernel_max_iterations = 100
+        self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -481,12 +505,21 @@ class InverseDynamicsQP:
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
         return l, u, lb, ub
 
-    def solve_relaxed(self, state: DynamicsState, dt: float) -> IDSolution:
+    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
         a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques); the
-        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`."""
+        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`.
+
+        ``reuse_assembly``: when the last :meth:`solve` assembled the QP at this same ``state`` object and ``dt``
+        (the failed full QP of the same tick, nothing edited since), its arrays are used instead of assembling
+        again; otherwise (or False) the QP is assembled here."""
         t0 = perf_counter()
-        H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        if reuse_assembly and self._assembled == (id(state), dt):
+            m = self._m
+            H, g, A, b, C, l, u, lb, ub = (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                           self._lb, self._ub)
+        else:
+            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         l, u, lb, ub = self._relax(l, u, lb, ub)
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
@@ -512,10 +545,12 @@ class InverseDynamicsQP:
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.last_violations = []
+        self._assembled = None
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
         x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
@@ -608,6 +643,9 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
+        # 0 iterations: the kernel assembles the QP and DAQP solves it (the previous compiled call gave up)
+        par[PAR_MAX_ITER] = 0 if kb.gave_up else self.kernel_max_iterations
+        skipped, kb.gave_up = kb.gave_up, False
         ta = perf_counter()
         it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
         self.dependent_contact_rows = 0
@@ -618,6 +656,7 @@ class InverseDynamicsQP:
             kb.bc[act] = bc.reshape(-1, 6)
             it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 1, *kb.tail)
         self._m = m
+        self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
         t1 = perf_counter()
         if it > 0 and kb.residual[0] <= self.backend.tolerance:
             x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
@@ -633,10 +672,23 @@ class InverseDynamicsQP:
                 return sol
             kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
         kb.fallbacks += 1
+        kb.gave_up = not skipped
         kb.state[:] = 0
         kb.rstate[:] = 0
         x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
                                self._ub, **self._confirm_kw)
+        # the kernel's next call starts from the working set of the backend's solution: DAQP's multipliers (bounds,
+        # equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one), else the active bounds
+        lam = getattr(self.backend, "last_multipliers", None)
+        n, p = self.n, self._C.shape[0]
+        if lam is not None and len(lam) == n + m + p:
+            lam = np.asarray(lam)
+            kb.state[:] = np.sign(lam[:n])
+            kb.rstate[:] = np.sign(lam[n + m:])
+        else:
+            lb, ub = self._lb, self._ub
+            kb.state[x <= lb + 1e-9 * np.maximum(1.0, np.abs(lb))] = -1
+            kb.state[x >= ub - 1e-9 * np.maximum(1.0, np.abs(ub))] = 1
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("general", self.backend.name)
@@ -756,6 +808,7 @@ class _KernelBuffers:
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
+        self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
         self._load_kernel(qp)
 
     def _load_kernel(self, qp: InverseDynamicsQP) -> None:
