@@ -11,7 +11,9 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
    and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
    sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
-   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading); the base angular velocity
+   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
+   touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, so the
+   heading passes from foot to foot without the yaw error of R̂, ``heading_handover``); the base angular velocity
    is the bias-corrected gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
@@ -54,7 +56,6 @@ from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
-
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -169,6 +170,9 @@ class FloatingBaseEstimator:
             acceleration removed from the accelerometer before the tilt correction.
         heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
             alone, yaw then follows the gyro).
+        heading_handover: on flat ground (``ground_height`` not None), a sole touching down while the other is
+            anchored takes its heading (v₀) from that sole's through the leg kinematics (True) or from R̂ (False:
+            R̂'s yaw error, the integral of the gyro's yaw bias, is then locked into each new anchor).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -186,7 +190,8 @@ class FloatingBaseEstimator:
     def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
-                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0):
+                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
+                 heading_handover: bool = True):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -223,6 +228,9 @@ class FloatingBaseEstimator:
         self.anchor = {s: np.zeros(3) for s in SIDES}
         self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
+        if not isinstance(heading_handover, (bool, np.bool_)):
+            raise InvalidInputError(f"heading_handover must be a bool, got {heading_handover!r}")
+        self.heading_handover = bool(heading_handover)
         self.contact = {s: False for s in SIDES}
         self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
@@ -351,11 +359,22 @@ class FloatingBaseEstimator:
             zp /= total
             zvw /= total
             kf.correct(zp, zvw)
+        new_sides = [s for s, _ in newly]
         for s, r in newly:
             self.anchor[s] = p + r
-            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+            X = data.oMf[self.ft[s].frame_id]
+            axis = R @ X.rotation[:, 0]
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
+                o = "right" if s == "left" else "left"
+                if self.heading_handover and self.contact[o] and o not in new_sides:
+                    # Heading handed over from the other anchored sole through the leg kinematics (both soles
+                    # flat: the relative yaw is exact from the encoders), not through R̂: the yaw error the gyro
+                    # bias built up is not locked into the new anchor, so the heading does not drift step by step.
+                    Xo = data.oMf[self.ft[o].frame_id]
+                    rel = Xo.rotation.T @ X.rotation[:, 0]  # new sole's forward axis in the other sole's axes
+                    ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
+                    axis = np.array([ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0])
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for j, s in enumerate(SIDES):
