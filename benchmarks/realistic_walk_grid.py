@@ -5,6 +5,7 @@ the worst ratio, landing slide, stance slip — and the estimator's errors (base
 orientation error, base velocity RMS), all read from the run's JSON summary.
 
 Usage: python benchmarks/realistic_walk_grid.py [--robots talos g1 humanoid15] [--seeds 0 1 ...] [--extra ARGS]
+       [--keep DIR]
 """
 
 from __future__ import annotations
@@ -24,9 +25,9 @@ WALKS = {
 PERTURBATION = ["--delay", "2", "--mass-error", "10"]
 
 
-def run(robot: str, seed: int, extra: list[str]) -> dict:
+def run(robot: str, seed: int, extra: list[str], keep: str | None = None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        out = os.path.join(tmp, "summary.json")
+        out = os.path.join(keep or tmp, f"{robot}_seed{seed}.json")
         cmd = [sys.executable, "-m", "wbc", "sim", "walk", "--robot", robot, *WALKS[robot], *PERTURBATION,
                "--seed", str(seed), *extra, "--json", out, "--quiet"]
         subprocess.run(cmd, check=False, stdout=subprocess.DEVNULL)  # exit 1: the run did not pass (still summarised)
@@ -49,13 +50,17 @@ def main() -> None:
     ap.add_argument("--robots", nargs="+", default=list(WALKS), choices=list(WALKS))
     ap.add_argument("--seeds", type=int, nargs="+", default=list(range(10)))
     ap.add_argument("--extra", default="", help="more `wbc sim walk` options, one string")
+    ap.add_argument("--keep", default=None, metavar="DIR",
+                    help="keep each run's JSON summary as DIR/<robot>_seed<S>.json (default: discarded)")
     args = ap.parse_args()
+    if args.keep:
+        os.makedirs(args.keep, exist_ok=True)
     print("| robot | seed | completed | fell | speed exceedances | worst ratio | landing slide mm | stance slip mm | "
           "solver failures | drift % | orientation ° | base v RMS m/s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for robot in args.robots:
         for seed in args.seeds:
-            print(row(robot, seed, run(robot, seed, args.extra.split())), flush=True)
+            print(row(robot, seed, run(robot, seed, args.extra.split(), args.keep)), flush=True)
 
 
 if __name__ == "__main__":

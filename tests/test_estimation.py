@@ -168,3 +168,52 @@ def test_floating_base_estimator_update_keeps_the_c_heap_flat():
     R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
     assert np.allclose(R, est.attitude.rotation, atol=1e-12)
     assert abs(np.linalg.norm(q[3:7]) - 1.0) < 1e-12
+
+
+def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
+    """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
+    and re-anchored 10 times), gyro biased about the vertical by b_z, no bias integration: with the hand-over the
+    heading of each re-anchored sole comes from the other sole through the kinematics, so the yaw error stays at
+    the equilibrium of eq. 32a, b_z / (k_P k_heading); without it each new anchor takes R̂'s yaw, whose error then
+    grows with the integral of b_z (b_z t = 2.3° after 20 s)."""
+    from wbc.estimation import FloatingBaseEstimator
+
+    robot = load_robot("talos")
+    model = robot.model
+    q0 = robot.q_ref.copy()
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
+    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
+    q0[3:7] = quat.coeffs()  # the true base orientation: both soles level
+    R0 = quat.toRotationMatrix()
+    joints = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
+
+    def reading(sole, load):
+        s = FootForceSensor(robot, sole)
+        mg = s.mass * np.array([0.0, 0.0, -G])
+        Fs = -np.array([0.0, 0.0, load]) - mg  # sole level: sensor axes = world axes
+        return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+
+    W = robot.mass * G
+    both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
+    left = np.array([reading(robot.left_sole, W), reading(robot.right_sole, 0.0)])
+    right = np.array([reading(robot.left_sole, 0.0), reading(robot.right_sole, W)])
+    accel = R0.T @ np.array([0.0, 0.0, G])
+    b_z, k_p = 0.002, 0.2
+    gyro = R0.T @ np.array([0.0, 0.0, b_z])
+    yaw = {}
+    for handover in (True, False):
+        est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0, heading_handover=handover)
+        est.reset(q0)
+        per = int(0.5 / DT)
+        for cycle in range(40):
+            ft = (both, left, both, right)[cycle % 4]
+            for _ in range(per):
+                q, _ = est.update(joints, gyro, accel, ft)
+        R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        yaw[handover] = abs(float(pin.log3(R @ R0.T)[2]))
+    assert yaw[True] <= 1.1 * b_z / k_p, math.degrees(yaw[True])
+    assert yaw[False] >= 2.0 * b_z / k_p, math.degrees(yaw[False])  # the drift the hand-over removes
+    with pytest.raises(InvalidInputError, match="heading_handover"):
+        FloatingBaseEstimator(robot, DT, heading_handover="yes")

@@ -11,7 +11,10 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
    and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
    sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
-   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading); the base angular velocity
+   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
+   touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, on every
+   sample until it carries the larger share of the load (it still turns as it settles), so the heading passes
+   from foot to foot without the yaw error of R̂, ``heading_handover``); the base angular velocity
    is the bias-corrected gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
@@ -54,7 +57,6 @@ from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
-
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -169,6 +171,10 @@ class FloatingBaseEstimator:
             acceleration removed from the accelerometer before the tilt correction.
         heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
             alone, yaw then follows the gyro).
+        heading_handover: on flat ground (``ground_height`` not None), a sole touching down while the other is
+            anchored takes its heading (v₀) from that sole's through the leg kinematics until it carries the larger
+            share of the normal force (True), or from R̂ when it touches down (False:
+            R̂'s yaw error, the integral of the gyro's yaw bias, is then locked into each new anchor).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -186,7 +192,8 @@ class FloatingBaseEstimator:
     def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
-                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0):
+                 accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
+                 heading_handover: bool = True):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -223,7 +230,11 @@ class FloatingBaseEstimator:
         self.anchor = {s: np.zeros(3) for s in SIDES}
         self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
+        if not isinstance(heading_handover, (bool, np.bool_)):
+            raise InvalidInputError(f"heading_handover must be a bool, got {heading_handover!r}")
+        self.heading_handover = bool(heading_handover)
         self.contact = {s: False for s in SIDES}
+        self._handover_from = {s: None for s in SIDES}  # the anchored sole a new sole takes its heading from
         self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
         self.sole = {s: pin.SE3.Identity() for s in SIDES}
@@ -264,6 +275,7 @@ class FloatingBaseEstimator:
         self.acc_kin[:] = 0.0
         for s in SIDES:
             self.detectors[s].active = False
+            self._handover_from[s] = None
             self.contact[s] = False
 
     def update(self, joint_q: np.ndarray, gyro: np.ndarray, accel: np.ndarray, ft: np.ndarray):
@@ -354,10 +366,32 @@ class FloatingBaseEstimator:
         for s, r in newly:
             self.anchor[s] = p + r
             axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+            self._handover_from[s] = None
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
+                o = "right" if s == "left" else "left"
+                if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
+                    self._handover_from[s] = o
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
+        for s in SIDES:
+            o = self._handover_from[s]
+            if o is None:
+                continue
+            if not (self.contact[s] and self.contact[o]):
+                self._handover_from[s] = None
+                continue
+            # Heading handed over from the other anchored sole through the leg kinematics, not through R̂ (the
+            # yaw error the gyro bias built up is then not locked into the new anchor), on every sample from
+            # the first contact until the new sole carries the larger share of the load: a sole still turns as
+            # it settles after its first contact, the one it takes over from is loaded and flat.
+            rel = data.oMf[self.ft[o].frame_id].rotation.T @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+            ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
+            axis = self.anchor_axis[s]
+            axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
+            axis /= np.linalg.norm(axis)
+            if self.normal_force[s] >= self.normal_force[o]:
+                self._handover_from[s] = None  # the new sole carries the larger share: its heading is held
         for j, s in enumerate(SIDES):
             X = data.oMf[self.ft[s].frame_id]
             self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
