@@ -4,12 +4,18 @@ horizontal direction (both drawn from ``numpy.random.default_rng(seed)``). A tri
 fall (base drop, pelvis/torso tilt > 30°, non-foot contact: wbc.sim.outcome), no joint passed its URDF speed
 limit, and it finished the walk (:class:`wbc.sim.walk.WalkScenario` summary). Prints one line per trial and the count.
 
+``--state estimated`` runs each trial as ``wbc sim walk`` with its defaults (a subprocess: encoders, pelvis IMU and
+ankle F/T sensors with noise seeded by the trial's seed, the floating-base estimator, the realistic plant and the
+controller options of ``wbc sim walk``) and reads its JSON summary; the default ``--state ground-truth`` runs the
+trial in this process on MuJoCo's exact state with ``make_controller``'s options (``--cli-options``: those of
+``wbc sim walk``).
+
 Also ``--standing``: pushes from the front (180 deg: towards −x) and from behind (0 deg) on the standing robot,
 recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, same as ``wbc sim push-step``).
 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
-       [--adjust-timing on|off] [--seeds S ...] [--jobs N] [--cli-options]
+       [--adjust-timing on|off] [--seeds S ...] [--jobs N] [--cli-options] [--state ground-truth|estimated]
 """
 
 from __future__ import annotations
@@ -35,7 +41,11 @@ def _plant(robot, plant):
 
 
 def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
-          adjust_timing, cli_options=False, plant="realistic"):
+          adjust_timing, cli_options=False, plant="realistic", state="ground-truth", seed=0):
+    if state == "estimated":
+        return _cli_trial(robot, force=force, duration=duration, push_time=push_time, push_dir=push_dir, steps=steps,
+                          step_length=step_length, step_duration=step_duration, step_adjust=step_adjust,
+                          adjust_timing=adjust_timing, plant=plant, seed=seed)
     sim, comp = _plant(robot, plant)
     options = {}
     if cli_options:  # the controller `wbc sim walk` builds (soles shrunk, angular-momentum weight 1)
@@ -47,6 +57,29 @@ def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, st
                       push_dir=push_dir, step_adjust=step_adjust, adjust_timing=adjust_timing)
     _, s = run_scenario(sim, controller, sc)
     return s
+
+
+def _cli_trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
+               adjust_timing, plant, seed):
+    """The trial as ``wbc sim walk`` runs it (estimated state; module docstring): its JSON summary."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    if not step_adjust or not adjust_timing:
+        raise SystemExit("--state estimated runs wbc sim walk as is: --no-step-adjust / --adjust-timing off do not apply")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = f"{tmp}/summary.json"
+        cmd = [sys.executable, "-m", "wbc", "sim", "walk", "--robot", robot.name, "--steps", str(steps),
+               "--step-length", repr(step_length), "--step-duration", repr(step_duration), "--push", repr(force),
+               "--push-time", repr(push_time), "--push-dir", repr(push_dir), "--push-duration", repr(duration),
+               "--plant", plant, "--state", "estimated", "--seed", str(seed), "--quiet", "--json", out]
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode not in (0, 1):
+            raise RuntimeError(f"{' '.join(cmd)} exited {done.returncode}: {done.stderr[-2000:]}")
+        with open(out) as f:
+            return json.load(f)
 
 
 def main() -> None:
@@ -70,11 +103,14 @@ def main() -> None:
     ap.add_argument("--plant", choices=("ideal", "realistic"), default="realistic",
                     help="plant drives as `wbc sim --plant` (default realistic, with the controller's compensation)")
     ap.add_argument("--standing", action="store_true", help="front and back pushes while standing (see docstring)")
+    ap.add_argument("--state", choices=("ground-truth", "estimated"), default="ground-truth",
+                    help="estimated: each trial is `wbc sim walk` with its defaults, sensor noise seeded by the trial's "
+                         "seed (module docstring)")
     args = ap.parse_args()
     robot = wbc.load_robot(args.robot)
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
                   step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on",
-                  cli_options=args.cli_options, plant=args.plant)
+                  cli_options=args.cli_options, plant=args.plant, state=args.state)
     if args.standing:
         from wbc.sim.capture_step import CaptureStepScenario
 
@@ -107,7 +143,8 @@ def main() -> None:
     print(f"survived {survived} of {len(seeds)} ({args.force:.0f} N x {args.push_duration} s, {args.robot}, "
           f"{args.steps} steps x {args.step_length} m at {args.step_duration} s/step, "
           f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s, controller options "
-          f"{'of wbc sim walk' if args.cli_options else 'default'}); fell: seeds {fell}")
+          f"{'of wbc sim walk' if args.cli_options or args.state == 'estimated' else 'default'}, "
+          f"{args.state} state, {args.plant} plant); fell: seeds {fell}")
 
 
 def _seeded_trial(job, robot=None):
@@ -119,7 +156,7 @@ def _seeded_trial(job, robot=None):
     rng = np.random.default_rng(seed)
     t = float(t_init + rng.uniform(0.0, t_walk - common["duration"]))
     d = float(rng.uniform(0.0, 360.0))
-    s = trial(robot, push_time=t, push_dir=d, steps=steps, step_length=step_length, **common)
+    s = trial(robot, push_time=t, push_dir=d, steps=steps, step_length=step_length, seed=seed, **common)
     ok = bool((not s["fell"]) and s["completed"] and s["joint_speed_exceedances"] == 0)
     line = (f"seed {seed:2d}: push {common['force']:.0f} N at t = {t:.3f} s, dir {d:6.1f} deg: "
             f"{'survived' if ok else 'FELL'}; walked {s['walked_distance_m']:.3f} m, "
