@@ -181,8 +181,12 @@ class DcmStabilizer:
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
-#: touch-down (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``contact_force``; a blind walk's value).
-TOUCHDOWN_CONFIRM_LOAD = 0.03
+#: touch-down on a walk that is not blind (:class:`~wbc.dynamics.contact_switching.ContactSwitcher`
+#: ``contact_force``); 0: the height test alone. Off by default: the height test fires while the sole is still 1–2
+#: mm above the floor (0 N in the plant), but waiting for the load left the planned sole hovering 30–150 ms past its
+#: landing time, and Talos pushed walks and G1 stair climbs that pass with the height test alone fell
+#: (benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % (its ground is unknown).
+TOUCHDOWN_CONFIRM_LOAD = 0.0
 
 
 class WalkScenario:
@@ -235,9 +239,8 @@ class WalkScenario:
             loop from the ankle F/T sensors with an estimated state), an armed swing foot whose measured normal
             force reaches this fraction of the robot's weight has touched down, whatever its estimated height
             (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``touchdown_force``; default 0.05). With
-            measured sole forces, the height test (sole within 3 mm of the floor, not rising) counts only once the
-            sole carries :data:`TOUCHDOWN_CONFIRM_LOAD` × the weight: a sole following its planned descent is
-            within 3 mm of the floor 30–100 ms before it touches it.
+            measured sole forces and :data:`TOUCHDOWN_CONFIRM_LOAD` > 0, the height test (sole within 3 mm of the
+            floor, not rising) counts only once the sole carries that fraction of the weight.
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -463,11 +466,11 @@ class WalkScenario:
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
                                             touchdown_force_height=0.05, contact_force=0.03 * weight)
-        else:  # with measured sole forces, a load confirms the height test: the planned descent alone brings the
-            # sole within touchdown_height of the floor 30-100 ms before it touches it (MuJoCo: 0 N on the sole)
+        else:  # optionally, a load confirms the height test (TOUCHDOWN_CONFIRM_LOAD: off by default)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time,
                                             touchdown_force=self.touchdown_load * weight,
-                                            contact_force=TOUCHDOWN_CONFIRM_LOAD * weight)
+                                            contact_force=(TOUCHDOWN_CONFIRM_LOAD * weight
+                                                           if TOUCHDOWN_CONFIRM_LOAD > 0 else None))
         self.controller = controller
         if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
@@ -974,6 +977,8 @@ class WalkScenario:
             "max_dcm_error_m": float(np.nanmax(dxi)) if np.isfinite(dxi).any() else float("nan"),
             "stabilizer": self.stabilizer_on,
             "touchdown_detection": "state: sole height <= 3 mm and vertical sole velocity <= 0.05 m/s"
+                                   + ("" if self.measured_normal_force is None or self.switcher.contact_force is None
+                                      else f" and a measured normal force >= {self.switcher.contact_force:.1f} N")
                                    + ("" if self.measured_normal_force is None else
                                       f"; or F/T: normal force >= {100 * self.touchdown_load:g} % of the weight with "
                                       f"the sole below {self.switcher.touchdown_force_height * 1e3:g} mm"),
