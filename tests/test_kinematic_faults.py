@@ -191,6 +191,38 @@ def test_recovery_from_leg_joints_past_their_limits(robots, name):
     assert relaxed_ticks > 0
 
 
+@pytest.mark.parametrize("n, seed", [(5, 0), (3, 1), (5, 3)])
+def test_strict_levels_recover_from_leg_joints_past_their_limits_at_dt_20ms(robots, n, seed):
+    """humanoid15 with a posture level under the CoM level (strict hierarchy), 3–5 leg joints past their limits,
+    contact gains 68.7/43.8 1/s, dt = 20 ms (fuzz seed 294003 episode 35). Before: the return-rate ladder kept a
+    return whose own motion drifted a stance sole past sole_drift_tolerance in every trust region, and every later
+    tick held v = 0 (24–25 of 25 ticks 'fallback:hold'). Now a slower return is tried: no tick holds v = 0, at
+    least 20 of 25 ticks are ok, and no joint outside its range moves further out (measured on q)."""
+    from wbc.tasks import PostureTask
+
+    robot = robots("humanoid15")
+    model, config, iq = _legs_past_limits(robot, n, seed=seed)
+    ctrl, _ = standing_controller(robot, config)
+    for contact, gain in zip(ctrl.constraints[:2], (68.7, 43.8)):
+        contact.gain = gain
+    ctrl.add_task(PostureTask(robot, weight=1.0), level=1)
+    ctrl.budget = math.inf  # the whole ladder, independent of the machine's load
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    start = outside.max()
+    ok = 0
+    for tick in range(25):
+        res = ctrl.solve(config, 0.02)
+        assert res.fallback != "hold", (tick, res.message)
+        ok += res.ok
+        config.update(config.integrate(res.v, 0.02))
+        now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+        assert np.all(now <= outside + 1e-9), tick
+        outside = now
+    assert ok >= 20
+    assert start > 0.0
+
+
 # -- item 7: bounded failure time -----------------------------------------------------------------------------------
 def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, monkeypatch):
     """A tick whose hard set conflicts (a hard foot target 1 m away against the contacts) with a budget already

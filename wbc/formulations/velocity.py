@@ -888,6 +888,8 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if not result.ok and return_rate is not None and return_rate > 0.0 and not held:
+                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
             if result.ok:
                 fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
                 if fault:
@@ -1040,11 +1042,53 @@ class KinematicController:
                     break  # (feasible sets nested: no larger α has a solution)
             self._lb[low] = best * lb0  # the buffers hold the problem of the returned command
             self._ub[high] = best * ub0
+            self._return_bounds = (low, high, lb0, ub0)
             return v, best, held
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
                 b.cold_retry = True
+
+    def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
+                       result: TickResult) -> tuple[TickResult, float]:
+        """After the return-rate ladder (``_relax_return_rate``) kept α > 0 but no trust region held the contacts:
+        the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
+        tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
+        motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
+        moving further out, and its trust region can shrink v to 0).
+
+        Returns:
+            (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
+            buffers holding α's problem again.
+        """
+        low, high, lb0, ub0 = self._return_bounds
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        try:
+            for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
+                b.independent = ()
+            for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
+                if self._stage_late():
+                    self._cut.append(f"slower returns below × {alpha:g}")
+                    break
+                self._lb[low] = a * lb0
+                self._ub[high] = a * ub0
+                try:
+                    v = self._solve_assembled(config)
+                except SolverError:
+                    continue
+                if self.contact_correction > 0 and self._contacts:
+                    v = self._correct_contacts(config, dt, v)
+                r = self._hold_contacts(config, dt, v, relaxed)
+                if r.ok:
+                    relaxed[-1] = f"joint_position_limit return rate × {a:g}"
+                    return r, a
+            self._lb[low] = alpha * lb0
+            self._ub[high] = alpha * ub0
+            return result, alpha
+        finally:
+            for b, ind in zip(backends, independent):
+                b.independent = ind
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
