@@ -1055,7 +1055,9 @@ class KinematicController:
         the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
         tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
         motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
-        moving further out, and its trust region can shrink v to 0).
+        moving further out, and its trust region can shrink v to 0); last, α = 0 with the contacts' drift
+        corrections dropped (J_c v = 0, as the ladder's last step), whose drift is still measured from where the full
+        correction would send each frame.
 
         Returns:
             (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
@@ -1083,6 +1085,23 @@ class KinematicController:
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
                     return r, a
+            if self._contact_rows.size and not self._stage_late():
+                # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
+                # from where the full correction would send a frame is then K dt e plus second order in v dt
+                b0 = self._b[self._contact_rows].copy()
+                self._lb[low], self._ub[high] = 0.0, 0.0
+                self._b[self._contact_rows] = 0.0
+                try:
+                    r = self._hold_contacts(config, dt, self._solve_assembled(config), relaxed)
+                except SolverError:
+                    r = None
+                if r is not None and r.ok:
+                    relaxed[-1] = "joint_position_limit return rate × 0"
+                    relaxed.append("contact drift correction × 0 (J_c v = 0)")
+                    return r, 0.0
+                self._b[self._contact_rows] = b0
+            elif self._contact_rows.size:
+                self._cut.append(f"slower returns below × {alpha:g}")
             self._lb[low] = alpha * lb0
             self._ub[high] = alpha * ub0
             return result, alpha
