@@ -191,13 +191,14 @@ def test_recovery_from_leg_joints_past_their_limits(robots, name):
     assert relaxed_ticks > 0
 
 
-@pytest.mark.parametrize("n, seed", [(5, 0), (3, 1), (5, 3)])
+@pytest.mark.parametrize("n, seed", [(5, 0), (3, 1), (5, 3), (2, 4)])
 def test_strict_levels_recover_from_leg_joints_past_their_limits_at_dt_20ms(robots, n, seed):
-    """humanoid15 with a posture level under the CoM level (strict hierarchy), 3–5 leg joints past their limits,
-    contact gains 68.7/43.8 1/s, dt = 20 ms (fuzz seed 294003 episode 35). Before: the return-rate ladder kept a
-    return whose own motion drifted a stance sole past sole_drift_tolerance in every trust region, and every later
-    tick held v = 0 (24–25 of 25 ticks 'fallback:hold'). Now a slower return is tried: no tick holds v = 0, at
-    least 20 of 25 ticks are ok, and no joint outside its range moves further out (measured on q)."""
+    """humanoid15 with a posture level under the CoM level (strict hierarchy), 2–5 leg joints past their limits,
+    contact gains 68.7/43.8 1/s, dt = 20 ms (fuzz seeds 294003 episode 35, 294006 episode 10). Before: the
+    return-rate ladder kept a return whose own motion drifted a stance sole past sole_drift_tolerance in every trust
+    region, and every later tick held v = 0 (23–25 of 25 ticks 'fallback:hold'). Now slower returns are tried (the
+    last with J_c v = 0): no tick holds v = 0, at least 20 of 25 ticks are ok, and no joint outside its range moves
+    further out (measured on q)."""
     from wbc.tasks import PostureTask
 
     robot = robots("humanoid15")

@@ -888,7 +888,7 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
-            if not result.ok and return_rate is not None and return_rate > 0.0 and not held:
+            if not result.ok and return_rate is not None and not held:
                 result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
             if result.ok:
                 fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
@@ -1051,7 +1051,7 @@ class KinematicController:
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
                        result: TickResult) -> tuple[TickResult, float]:
-        """After the return-rate ladder (``_relax_return_rate``) kept α > 0 but no trust region held the contacts:
+        """After the return-rate ladder (``_relax_return_rate``) kept α but no trust region held the contacts:
         the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
         tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
         motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
