@@ -203,7 +203,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 c["tick_cpu"].append(time.thread_time() - cpu_tick)
                 c["tick_times"].append(time.perf_counter() - t_tick)
                 c["tick_budget"].append(dt if budget is None else budget)
-                c["tick_paths"].append(res.path)
+                c["tick_paths"].append(str(res.path))  # (JSON chunk files)
                 ratio = c["tick_cpu"][-1] / c["tick_budget"][-1]
                 if len(c["worst_ticks"]) < MAX_EVENTS or ratio > c["worst_ticks"][-1][0]:
                     c["worst_ticks"].append((ratio, f"seed {seed} episode {ep} tick {tick} {name} {kind} "

@@ -8,6 +8,7 @@ counts of the independent solvers' calls for the failure path.
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import warnings
@@ -189,6 +190,39 @@ def test_recovery_from_leg_joints_past_their_limits(robots, name):
     print(f"\n{name}: {relaxed_ticks} ticks with a relaxed return rate; still outside by up to "
           f"{1e3 * outside.max():.3f} mrad")
     assert relaxed_ticks > 0
+
+
+@pytest.mark.parametrize("n, seed", [(5, 0), (3, 1), (5, 3), (2, 4)])
+def test_strict_levels_recover_from_leg_joints_past_their_limits_at_dt_20ms(robots, n, seed):
+    """humanoid15 with a posture level under the CoM level (strict hierarchy), 2–5 leg joints past their limits,
+    contact gains 68.7/43.8 1/s, dt = 20 ms (fuzz seeds 294003 episode 35, 294006 episode 10). Before: the
+    return-rate ladder kept a return whose own motion drifted a stance sole past sole_drift_tolerance in every trust
+    region, and every later tick held v = 0 (23–25 of 25 ticks 'fallback:hold'). Now slower returns are tried (the
+    last with J_c v = 0): no tick holds v = 0, at least 20 of 25 ticks are ok, and no joint outside its range moves
+    further out (measured on q)."""
+    from wbc.tasks import PostureTask
+
+    robot = robots("humanoid15")
+    model, config, iq = _legs_past_limits(robot, n, seed=seed)
+    ctrl, _ = standing_controller(robot, config)
+    for contact, gain in zip(ctrl.constraints[:2], (68.7, 43.8)):
+        contact.gain = gain
+    ctrl.add_task(PostureTask(robot, weight=1.0), level=1)
+    ctrl.budget = math.inf  # the whole ladder, independent of the machine's load
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    start = outside.max()
+    ok = 0
+    for tick in range(25):
+        res = ctrl.solve(config, 0.02)
+        assert res.fallback != "hold", (tick, res.message)
+        ok += res.ok
+        config.update(config.integrate(res.v, 0.02))
+        now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+        assert np.all(now <= outside + 1e-9), tick
+        outside = now
+    assert ok >= 20
+    assert start > 0.0
 
 
 # -- item 7: bounded failure time -----------------------------------------------------------------------------------
@@ -526,8 +560,9 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
             monkeypatch.setattr(fuzz_common, "_FROZEN", set(), raising=False)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                run()
+                chunk = run()
             frozen.append(gc.get_freeze_count())
+            json.loads(json.dumps(chunk))  # --out writes each chunk as JSON (a TickPath object raised TypeError)
     finally:
         gc.unfreeze()
     assert all(n > 0 for n in frozen), frozen

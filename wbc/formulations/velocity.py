@@ -888,6 +888,8 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if not result.ok and return_rate is not None and not held:
+                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
             if result.ok:
                 fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
                 if fault:
@@ -1040,11 +1042,72 @@ class KinematicController:
                     break  # (feasible sets nested: no larger α has a solution)
             self._lb[low] = best * lb0  # the buffers hold the problem of the returned command
             self._ub[high] = best * ub0
+            self._return_bounds = (low, high, lb0, ub0)
             return v, best, held
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
                 b.cold_retry = True
+
+    def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
+                       result: TickResult) -> tuple[TickResult, float]:
+        """After the return-rate ladder (``_relax_return_rate``) kept α but no trust region held the contacts:
+        the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
+        tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
+        motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
+        moving further out, and its trust region can shrink v to 0); last, α = 0 with the contacts' drift
+        corrections dropped (J_c v = 0, as the ladder's last step), whose drift is still measured from where the full
+        correction would send each frame.
+
+        Returns:
+            (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
+            buffers holding α's problem again.
+        """
+        low, high, lb0, ub0 = self._return_bounds
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        try:
+            for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
+                b.independent = ()
+            for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
+                if self._stage_late():
+                    self._cut.append(f"slower returns below × {alpha:g}")
+                    break
+                self._lb[low] = a * lb0
+                self._ub[high] = a * ub0
+                try:
+                    v = self._solve_assembled(config)
+                except SolverError:
+                    continue
+                if self.contact_correction > 0 and self._contacts:
+                    v = self._correct_contacts(config, dt, v)
+                r = self._hold_contacts(config, dt, v, relaxed)
+                if r.ok:
+                    relaxed[-1] = f"joint_position_limit return rate × {a:g}"
+                    return r, a
+            if self._contact_rows.size and not self._stage_late():
+                # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
+                # from where the full correction would send a frame is then K dt e plus second order in v dt
+                b0 = self._b[self._contact_rows].copy()
+                self._lb[low], self._ub[high] = 0.0, 0.0
+                self._b[self._contact_rows] = 0.0
+                try:
+                    r = self._hold_contacts(config, dt, self._solve_assembled(config), relaxed)
+                except SolverError:
+                    r = None
+                if r is not None and r.ok:
+                    relaxed[-1] = "joint_position_limit return rate × 0"
+                    relaxed.append("contact drift correction × 0 (J_c v = 0)")
+                    return r, 0.0
+                self._b[self._contact_rows] = b0
+            elif self._contact_rows.size:
+                self._cut.append(f"slower returns below × {alpha:g}")
+            self._lb[low] = alpha * lb0
+            self._ub[high] = alpha * ub0
+            return result, alpha
+        finally:
+            for b, ind in zip(backends, independent):
+                b.independent = ind
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
