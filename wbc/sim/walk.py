@@ -13,7 +13,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
   ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
-  switches the contact on at once.
+  switches the contact on at once. Blind (``blind``), the swing sole is over its foothold by ``BLIND_XY_END`` of the
+  swing and descends vertically, aimed at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
