@@ -93,3 +93,25 @@ def test_blind_needs_terrain_and_estimated_state():
                            capture_output=True, text=True, env={**os.environ}, timeout=300)
         assert r.returncode == 2
         assert "--blind needs --terrain" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_blind_walk_lands_on_its_footholds_over_rough_terrain(tmp_path):
+    """Talos, 6 steps of 0.35 m over rough:0.02:9 planned flat: the soles meet bumps up to ~0.15 s early; each
+    landing must still be within 15 mm of its footstep (``landing_error_m``: xy of the sole in the controller's
+    estimated state at touch-down vs the footstep) and the robot must not
+    fall. (Before the vertical final descent and the stance-relative swing height the landings were 27-110 mm
+    short and it fell at the 6th.)"""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "blind.json"
+    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", "rough:0.02:9",
+                        "--blind", "--steps", "6", "--step-length", "0.35", "--quiet", "--json", str(out)],
+                       capture_output=True, text=True, env={**os.environ}, timeout=600)
+    assert r.returncode in (0, 1), r.stderr
+    s = json.loads(out.read_text())
+    assert not s["fell"], s.get("fall_reason")
+    assert s["touchdowns"] == 6 and s["solver_failures"] == 0
+    assert max(s["landing_error_m"]) <= 0.015

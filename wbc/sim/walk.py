@@ -13,7 +13,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
   ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
-  switches the contact on at once.
+  switches the contact on at once. Blind (``blind``), the swing sole is over its foothold by ``BLIND_XY_END`` of the
+  swing and descends vertically, aimed at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
@@ -188,6 +189,10 @@ class DcmStabilizer:
 #: (benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % (its ground is unknown).
 TOUCHDOWN_CONFIRM_LOAD = 0.0
 
+#: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
+#: swing descends vertically; :meth:`WalkScenario._blind_swing`).
+BLIND_XY_END = 0.8
+
 
 class WalkScenario:
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
@@ -261,7 +266,12 @@ class WalkScenario:
             not): touch-down is detected from ``measured_normal_force`` ((2,) N, set by the closed loop from the
             ankle F/T sensors; :class:`wbc.dynamics.contact_switching.ContactSwitcher`'s force rule: a foot meeting
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
-            the air) and a late foot keeps descending up to 5 cm below its planned landing.
+            the air) and a late foot keeps descending up to 5 cm below its planned landing. The swing sole reaches
+            its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
+            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed), and its
+            height follows the stance sole's measured − planned height as on planned terrain
+            (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
+            at, not at the planned flat ground under it).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -568,8 +578,10 @@ class WalkScenario:
             if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
                     and sw.phase(other) in ("stance", "loading") and not self.hold_next_swing:
                 sw.unload(side, t)
-                if self.terrain_walk is not None:  # touch-down is detected above the foothold's ground
-                    self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
+                if self.terrain_walk is not None or self.blind:
+                    # touch-down is detected above the foothold's ground (blind: the planned flat ground)
+                    if self.terrain_walk is not None:
+                        self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
                     sw.ground_height[side] = self._land_z[side]
                     pin.framesForwardKinematics(self._model, self._gdata, q)
                     self._dz_lift[side] = float(self._gdata.oMf[self._fid[side]].translation[2]) \
@@ -578,7 +590,7 @@ class WalkScenario:
                 self._t_unload[side] = t
                 self._active[side] = self.swings[self._next]
                 self._next += 1
-        if self.terrain_walk is not None:
+        if self.terrain_walk is not None or self.blind:
             self._relative_ground(k, q)
         sw.update(t, q, v, self.measured_normal_force)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
@@ -592,10 +604,12 @@ class WalkScenario:
                     sw.arm(side)
                 kk = min(k, k_td)
                 pose = pin.SE3(self.poses[side][kk])
-                if self.terrain_walk is not None:
+                if self.terrain_walk is not None or self.blind:
                     pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
                 vel = self.vels[side][kk].copy()
                 acc = self.acc[side][kk].copy()
+                if self.blind and BLIND_XY_END < 1.0:
+                    self._blind_swing(side, kk, k_lift, k_td, pose, vel, acc)
                 late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
                     drop = self.max_descent
@@ -657,9 +671,29 @@ class WalkScenario:
             rot_t[i, 0], rot_t[i, 1], rot_t[i, 2] = a * c - b * s, a * s + b * c, r0[2, i]
         controller.torso.task.set_target_rows(rot_t, pos)
 
+    def _blind_swing(self, side: str, k: int, k_lift: int, k_td: int, pose: pin.SE3, vel: np.ndarray,
+                     acc: np.ndarray) -> None:
+        """Blind walk: the planned swing's horizontal motion and rotation run ``1 / BLIND_XY_END`` times faster,
+        over the first ``BLIND_XY_END`` of the swing (plan sample ``k`` between lift-off ``k_lift`` and touch-down
+        ``k_td``), its height unchanged; the sole then descends vertically over
+        its foothold, so a touch-down on ground above the planned one (early contact) lands where planned, with no
+        horizontal speed. Modifies ``pose`` (xy, rotation), ``vel`` and ``acc`` (xy linear, angular) in place."""
+        n = max(k_td - k_lift, 1)
+        s = (k - k_lift) / n
+        if s >= BLIND_XY_END:
+            kx, r = k_td, 0.0
+        else:
+            kx, r = k_lift + int(round(s / BLIND_XY_END * n)), 1.0 / BLIND_XY_END
+        P = self.poses[side][min(kx, k_td)]
+        pose.rotation = P[:3, :3]
+        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2]])
+        vx, ax = self.vels[side][kx], self.acc[side][kx]
+        vel[:2], vel[3:] = r * vx[:2], r * vx[3:]
+        acc[:2], acc[3:] = r * r * ax[:2], r * r * ax[3:]
+
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
-        """Touch-down height of a swinging foot relative to the stance sole: its landing height plus the stance
-        sole's measured height less its planned one. The estimated base height drifts on terrain (odometry of
+        """Touch-down height of a swinging foot relative to the stance sole: its landing height (blind: the
+        planned flat ground) plus the stance sole's measured height less its planned one. The estimated base height drifts on terrain (odometry of
         the contact heights, centimetres after ten stairs), the relative height of the two soles (joint encoders)
         does not: an absolute rule loaded a G1 foot 2.4 cm above its tread and the robot fell."""
         sw = self.switcher
