@@ -87,3 +87,28 @@ def test_touchdown_from_measured_force(robot):
         ContactSwitcher(c, touchdown_force=0.0)
     with pytest.raises(InvalidInputError, match="touchdown_force_height"):
         ContactSwitcher(c, touchdown_force=10.0, touchdown_force_height=0.001)
+
+
+@pytest.mark.parametrize("confirm_when_due", [False, True])
+def test_height_test_needs_a_load_before_the_planned_landing_only(robot, confirm_when_due):
+    """With ``contact_force``, a sole the state puts 2 mm up (within the 3 mm test) and the F/T reading 0 N is still
+    in the air before its planned landing time; from that time on the state test alone sets it down, unless
+    ``confirm_when_due`` (blind walks). A load confirms it at any time."""
+    c, q, v, sw = _unloading_right(robot, touchdown_force=200.0, contact_force=30.0,
+                                   confirm_when_due=confirm_when_due)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    q_2mm = q.copy()
+    q_2mm[2] += 0.002
+    unloaded = np.array([800.0, 0.0])
+    sw.set_landing_due("right", False)
+    sw.update(0.042, q_2mm, v, unloaded)
+    assert sw.phase("right") == "swing"
+    sw.set_landing_due("right", True)
+    sw.update(0.044, q_2mm, v, unloaded)
+    assert sw.phase("right") == ("swing" if confirm_when_due else "loading")
+    if confirm_when_due:
+        sw.update(0.046, q_2mm, v, np.array([800.0, 30.0]))
+        assert sw.phase("right") == "loading"
+    with pytest.raises(InvalidInputError, match="side"):
+        sw.set_landing_due("middle", True)

@@ -247,15 +247,11 @@ def test_a_capture_step_the_planner_refuses_leaves_the_robot_standing_with_the_r
     assert run.t[-1] > 0.3
 
 
-def test_touchdown_with_force_sensors_waits_for_the_floor(tmp_path, capsys, monkeypatch):
-    # `wbc sim walk` (estimated state: encoders, IMU, ankle F/T) with the touch-down confirmed by a 3 % load (off by
-    # default, see wbc.sim.walk.TOUCHDOWN_CONFIRM_LOAD). Reference: MuJoCo's contact force on the sole. At every
-    # touch-down the controller switched the swing sole to contact, the plant's floor already pushes on it: the
-    # height test alone (sole within 3 mm, not rising) fired 30-40 ms early on this walk, at 0 N.
-    import wbc.sim.walk
+def test_touchdown_with_force_sensors_waits_for_the_floor(tmp_path, capsys):
+    # `wbc sim walk` (estimated state: encoders, IMU, ankle F/T). Reference: MuJoCo's contact force on the sole.
+    # At every touch-down the controller switched the swing sole to contact, the plant's floor already pushes on
+    # it: the height test alone (sole within 3 mm, not rising) fired 30-40 ms early on this walk, at 0 N.
     from wbc.cli import main
-
-    monkeypatch.setattr(wbc.sim.walk, "TOUCHDOWN_CONFIRM_LOAD", 0.03)
 
     log = tmp_path / "walk.npz"
     assert main(["sim", "walk", "--robot", "g1", "--steps", "2", "--quiet", "--log", str(log)]) == 0

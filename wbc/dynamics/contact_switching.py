@@ -69,7 +69,10 @@ class ContactSwitcher:
         contact_force: with a measured force given to :meth:`update`, the least normal force (N, ≥ 0) that must
             confirm the state test (default None: the state test alone suffices). A walk with measured sole
             forces sets it: a sole at its planned height over ground lower than planned (blind walk), or a sole
-            following its planned descent within the height threshold, is still in the air.
+            following its planned descent within the height threshold, is still in the air. Once the swing's
+            planned landing time has passed (:meth:`set_landing_due`), the state test alone suffices again unless
+            ``confirm_when_due`` (a blind walk, whose ground may be lower than planned).
+        confirm_when_due: keep asking ``contact_force`` after the planned landing time (default False).
 
     Attributes:
         events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
@@ -83,7 +86,7 @@ class ContactSwitcher:
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
                  touchdown_speed: float = 0.05, full_force: float | None = None,
                  touchdown_force: float | None = None, touchdown_force_height: float = 0.02,
-                 contact_force: float | None = None):
+                 contact_force: float | None = None, confirm_when_due: bool = False):
         if not (np.isfinite(ramp_time) and ramp_time > 0):
             raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
         for val, what in ((touchdown_height, "touchdown_height"), (touchdown_speed, "touchdown_speed")):
@@ -104,6 +107,8 @@ class ContactSwitcher:
         if contact_force is not None and not (np.isfinite(contact_force) and contact_force >= 0):
             raise InvalidInputError(f"contact_force must be finite and ≥ 0 N (or None), got {contact_force!r}")
         self.contact_force = None if contact_force is None else float(contact_force)
+        self.confirm_when_due = bool(confirm_when_due)
+        self._due = {s: False for s in SIDES}
         self.ramp_time = float(ramp_time)
         self.touchdown_height = float(touchdown_height)
         #: side -> world height (m) of the ground the swing foot lands on (terrain; 0 on flat ground):
@@ -156,6 +161,13 @@ class ContactSwitcher:
         self._phase[side] = "swing"
         self._armed[side] = False
         self.events.append((float(t), side, "release"))
+
+    def set_landing_due(self, side: str, due: bool) -> None:
+        """Tell the switcher whether the swing of ``side`` has reached its planned landing time (bool). Before it,
+        a state test (sole within ``touchdown_height``) needs the ``contact_force`` confirmation; from it on, a
+        sole still within the height threshold is set down by the state test alone (it would otherwise hover at
+        the end of its planned descent, over ground a few mm lower than its estimated height)."""
+        self._due[self._side(side)] = bool(due)
 
     def arm(self, side: str) -> None:
         """Enable touch-down detection of a swinging foot (call after lift-off, e.g. past mid-swing)."""
@@ -226,7 +238,8 @@ class ContactSwitcher:
                 dz = z - self.ground_height[s]
                 f = None if normal_force is None else float(normal_force[0 if s == "left" else 1])
                 hit = dz <= self.touchdown_height and vz <= self.touchdown_speed
-                if hit and f is not None and self.contact_force is not None:
+                if hit and f is not None and self.contact_force is not None \
+                        and (self.confirm_when_due or not self._due[s]):
                     hit = f >= self.contact_force  # the state test confirmed by a load on the sole
                 if not hit and f is not None and self.touchdown_force is not None:
                     hit = dz <= self.touchdown_force_height and f >= self.touchdown_force

@@ -182,12 +182,12 @@ class DcmStabilizer:
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
-#: touch-down on a walk that is not blind (:class:`~wbc.dynamics.contact_switching.ContactSwitcher`
-#: ``contact_force``); 0: the height test alone. Off by default: the height test fires while the sole is still 1–2
-#: mm above the floor (0 N in the plant), but waiting for the load left the planned sole hovering 30–150 ms past its
-#: landing time, and Talos pushed walks and G1 stair climbs that pass with the height test alone fell
-#: (benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % (its ground is unknown).
-TOUCHDOWN_CONFIRM_LOAD = 0.0
+#: touch-down before the swing's planned landing time, on a walk that is not blind
+#: (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``contact_force``); 0: the height test alone. The
+#: height test alone fires while the sole is still 1–2 mm above the floor (0 N in the plant); from the planned
+#: landing time on, the height test alone sets the sole down (waiting for the load there left it hovering:
+#: benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % throughout.
+TOUCHDOWN_CONFIRM_LOAD = 0.03
 
 #: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
 #: swing descends vertically; :meth:`WalkScenario._blind_swing`).
@@ -245,7 +245,8 @@ class WalkScenario:
             force reaches this fraction of the robot's weight has touched down, whatever its estimated height
             (:class:`~wbc.dynamics.contact_switching.ContactSwitcher` ``touchdown_force``; default 0.05). With
             measured sole forces and :data:`TOUCHDOWN_CONFIRM_LOAD` > 0, the height test (sole within 3 mm of the
-            floor, not rising) counts only once the sole carries that fraction of the weight.
+            floor, not rising) counts before the swing's planned landing time only once the sole carries that
+            fraction of the weight.
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -475,8 +476,9 @@ class WalkScenario:
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
-                                            touchdown_force_height=0.05, contact_force=0.03 * weight)
-        else:  # optionally, a load confirms the height test (TOUCHDOWN_CONFIRM_LOAD: off by default)
+                                            touchdown_force_height=0.05, contact_force=0.03 * weight,
+                                            confirm_when_due=True)
+        else:  # before the planned landing time a load confirms the height test (TOUCHDOWN_CONFIRM_LOAD)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time,
                                             touchdown_force=self.touchdown_load * weight,
                                             contact_force=(TOUCHDOWN_CONFIRM_LOAD * weight
@@ -592,6 +594,8 @@ class WalkScenario:
                 self._next += 1
         if self.terrain_walk is not None or self.blind:
             self._relative_ground(k, q)
+        for side, (_, k_lift, k_td, fs) in self._active.items():
+            sw.set_landing_due(side, tp >= k_td * dt - 1e-9)
         sw.update(t, q, v, self.measured_normal_force)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
