@@ -117,8 +117,6 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
     Closed-loop trajectories of two exact solvers are not compared: this loop amplifies a 1e-15 difference in v
     to 1e-6 within 30 ticks (measured with DAQP against itself), so a trajectory comparison measures the loop,
     not the solver."""
-    from wbc.backends import make_backend
-
     robot = robots(robot_name)
     dt = 0.002
     fast = IDBalanceController(robot, solver="fast", dt=dt)
@@ -126,14 +124,7 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
     # need more and go to DAQP); this test compares the kernel's own answers, so its cap is the unbudgeted 100
     fast.controller.budget = math.inf
     assert fast.qp.kernel_max_iterations == 100
-    ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
-    nv = robot.nv
-    kick = np.zeros(nv)
-    kick[6:] = np.random.default_rng(0).normal(0.0, 0.5, nv - 6)
-    q, v = robot.q_ref.copy(), np.zeros(nv)
-    for c in (fast, ref):
-        c.reset(q, v)
-    com0 = fast.state.com.copy()
+    ref, kick, q, v, com0 = _sway_reference(robot, fast, dt)
     active_ticks = 0
     worst = 0.0
     for k in range(300):
@@ -198,7 +189,6 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
     is answered by DAQP on the same assembly, its answer agrees with the reference DAQP workspace solve to 1e-6
     (DAQP's dual one-shot stops within its primal tolerance), the next tick goes to DAQP at once, and the kernel
     answers again within two ticks — started from DAQP's working set."""
-    from wbc.backends import make_backend
     from wbc.formulations.acceleration import kernel_iterations
 
     assert kernel_iterations(0.002) == 4 and kernel_iterations(math.inf) == 100 and kernel_iterations(1e-5) == 4
@@ -206,14 +196,7 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
     dt = 0.002
     fast = IDBalanceController(robot, solver="fast", dt=dt)
     assert fast.qp.kernel_max_iterations == 4
-    ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
-    nv = robot.nv
-    kick = np.zeros(nv)
-    kick[6:] = np.random.default_rng(0).normal(0.0, 0.5, nv - 6)
-    q, v = robot.q_ref.copy(), np.zeros(nv)
-    for c in (fast, ref):
-        c.reset(q, v)
-    com0 = fast.state.com.copy()
+    ref, kick, q, v, com0 = _sway_reference(robot, fast, dt)
     paths = []
     for k in range(160):
         if k == 100:
@@ -232,3 +215,18 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
     for k in capped:
         assert paths[k] == "general:fast"
         assert "kernel" in paths[k + 1:k + 3], (k, paths[k:k + 3])
+
+
+def _sway_reference(robot, fast, dt):
+    """(reference DAQP controller, joint velocity kick (nv,), q, v, CoM (3,) m) of the kicked sway loop: both
+    controllers reset at the reference posture, at rest."""
+    from wbc.backends import make_backend
+
+    ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
+    nv = robot.nv
+    kick = np.zeros(nv)
+    kick[6:] = np.random.default_rng(0).normal(0.0, 0.5, nv - 6)
+    q, v = robot.q_ref.copy(), np.zeros(nv)
+    for c in (fast, ref):
+        c.reset(q, v)
+    return ref, kick, q, v, fast.state.com.copy()

@@ -148,14 +148,7 @@ def test_a_toe_pressed_into_a_riser_is_a_foot_strike_fall():
         monitor = OutcomeMonitor(sim)
         assert monitor.update(0.0) == strike, monitor.fall_reason
         # the reference: MuJoCo's contacts of the foot geoms, their normals and normal forces
-        feet = {int(g) for s in ("left", "right") for g in np.atleast_1d(sim.foot_geoms[s])}
-        f6, side_hits = np.zeros(6), 0
-        for i in range(sim.data.ncon):
-            c = sim.data.contact[i]
-            if {int(c.geom1), int(c.geom2)} & feet:
-                mujoco.mj_contactForce(sim.model, sim.data, i, f6)
-                if abs(c.frame[2]) < 0.1 and f6[0] > 20.0:
-                    side_hits += 1
+        side_hits = len(_pressing_foot_contacts(sim, 0.1))
         assert (side_hits > 0) == strike, side_hits
         if strike:
             assert monitor.fall_reason.startswith("foot strike"), monitor.fall_reason
@@ -178,16 +171,25 @@ def test_a_heightfield_prism_side_normal_is_not_a_foot_strike():
     q[2] += float(terrain.height(xs, ys).max()) - 0.005  # the highest ground under the feet 5 mm into the soles
     mujoco.mj_resetData(sim.model, sim.data)
     sim.set_state(q)
+    hits = _pressing_foot_contacts(sim, math.cos(math.radians(45.0)))  # soles level: sole normal = +z
+    for c in hits:
+        n = terrain.normal(float(c.pos[0]), float(c.pos[1]))
+        assert math.degrees(math.acos(n[2])) < 30.0
+    side_hits = len(hits)
+    assert side_hits > 0  # the situation under test exists in MuJoCo's contact list
+    monitor = OutcomeMonitor(sim)
+    assert not monitor.update(0.0), monitor.fall_reason
+
+
+def _pressing_foot_contacts(sim, max_normal_z):
+    """MuJoCo's contacts of the foot geoms pressing > 20 N (mj_contactForce) along a normal whose world z component
+    is below ``max_normal_z`` in magnitude (the independent reference of the strike tests)."""
     feet = {int(g) for s in ("left", "right") for g in np.atleast_1d(sim.foot_geoms[s])}
-    f6, side_hits = np.zeros(6), 0
+    f6, hits = np.zeros(6), []
     for i in range(sim.data.ncon):
         c = sim.data.contact[i]
         if {int(c.geom1), int(c.geom2)} & feet:
             mujoco.mj_contactForce(sim.model, sim.data, i, f6)
-            if abs(c.frame[2]) < math.cos(math.radians(45.0)) and f6[0] > 20.0:  # soles level: sole normal = +z
-                side_hits += 1
-                n = terrain.normal(float(c.pos[0]), float(c.pos[1]))
-                assert math.degrees(math.acos(n[2])) < 30.0
-    assert side_hits > 0  # the situation under test exists in MuJoCo's contact list
-    monitor = OutcomeMonitor(sim)
-    assert not monitor.update(0.0), monitor.fall_reason
+            if abs(c.frame[2]) < max_normal_z and f6[0] > 20.0:
+                hits.append(c)
+    return hits
