@@ -247,23 +247,28 @@ def test_a_capture_step_the_planner_refuses_leaves_the_robot_standing_with_the_r
     assert run.t[-1] > 0.3
 
 
-def test_touchdown_with_force_sensors_waits_for_the_floor(tmp_path, capsys):
+def test_touchdown_before_the_planned_landing_waits_for_the_floor(tmp_path, capsys):
     # `wbc sim walk` (estimated state: encoders, IMU, ankle F/T). Reference: MuJoCo's contact force on the sole.
-    # At every touch-down the controller switched the swing sole to contact, the plant's floor already pushes on
-    # it: the height test alone (sole within 3 mm, not rising) fired 30-40 ms early on this walk, at 0 N.
+    # The height test alone (sole within 3 mm, not rising) fired 30-40 ms before the planned landing on this walk,
+    # at 0 N in the plant. Now a switch before the planned landing time needs the plant's floor already pushing on
+    # the sole; from the planned time on, a sole still within 3 mm is set down (it would otherwise hover).
+    import json
+
     from wbc.cli import main
 
-    log = tmp_path / "walk.npz"
-    assert main(["sim", "walk", "--robot", "g1", "--steps", "2", "--quiet", "--log", str(log)]) == 0
+    log, summary = tmp_path / "walk.npz", tmp_path / "walk.json"
+    assert main(["sim", "walk", "--robot", "g1", "--steps", "2", "--quiet", "--log", str(log),
+                 "--json", str(summary)]) == 0
     capsys.readouterr()
     d = np.load(log)
-    ca, fz, t = d["contact_active"], d["sim_wrench"][:, :, 2], d["t"]
+    delays = json.loads(summary.read_text())["touchdown_delay_s"]
+    ca, fz, t, dt = d["contact_active"], d["sim_wrench"][:, :, 2], d["t"], float(d["dt"])
     weight = fz[5].sum()
-    switches = [(k, j) for j in range(2) for k in np.flatnonzero(ca[1:, j] & ~ca[:-1, j]) + 1 if t[k] > 0.3]
-    assert len(switches) == 2
-    for k, j in switches:
-        assert fz[k, j] > 0.01 * weight, (t[k], j, fz[k - 5:k + 5, j])
-
+    switches = sorted((k, j) for j in range(2) for k in np.flatnonzero(ca[1:, j] & ~ca[:-1, j]) + 1 if t[k] > 0.3)
+    assert len(switches) == 2 == len(delays)
+    for (k, j), delay in zip(switches, delays):
+        if delay < -1.5 * dt:  # before the planned landing: the plant must already load the sole
+            assert fz[k, j] > 0.01 * weight, (t[k], j, delay, fz[k - 5:k + 5, j])
 
 def test_dependent_contact_rows_are_made_consistent():
     from wbc.constraints.dynamics import consistent_contact_rhs
