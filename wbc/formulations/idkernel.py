@@ -182,17 +182,25 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
     for i in range(n):
         if state[i] == 0 or lb[i] == ub[i]:
             continue
-        s = g[i]
-        if i < nv:
-            for j in range(nv):
-                s += H[i, j] * x[j]
-        else:
-            s += H[i, i] * x[i]
+        s = _cost_gradient(H, g, x, i, nv)
         for k in range(m):
             s += A[k, i] * nu[k]
         if -state[i] * s < 0.0:
             return -1.0
     return _clip_and_equality_residual(A, b, m, lb, ub, x, n)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _cost_gradient(H, g, x, i, nv):
+    """(H x + g)_i of the ID QP's cost, whose Hessian is dense in its first ``nv`` rows and columns (v̇) and diagonal
+    after them (the contact forces)."""
+    s = g[i]
+    if i < nv:
+        for j in range(nv):
+            s += H[i, j] * x[j]
+    else:
+        s += H[i, i] * x[i]
+    return s
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -413,12 +421,7 @@ def _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, 
     for i in range(n):
         if state[i] == 0:
             continue
-        s = g[i]
-        if i < nv:
-            for j in range(nv):
-                s += H[i, j] * x[j]
-        else:
-            s += H[i, i] * x[i]
+        s = _cost_gradient(H, g, x, i, nv)
         for k in range(mw):
             s += _row(A, C, m, rows[k])[i] * nuw[k]
         lam_b[i] = -state[i] * s
