@@ -687,8 +687,9 @@ class InverseDynamicsQP:
             kb.rstate[:] = np.sign(lam[n + m:])
         else:
             lb, ub = self._lb, self._ub
-            kb.state[x <= lb + 1e-9 * np.maximum(1.0, np.abs(lb))] = -1
-            kb.state[x >= ub - 1e-9 * np.maximum(1.0, np.abs(ub))] = 1
+            lo, hi = np.isfinite(lb), np.isfinite(ub)  # an infinite bound is never active
+            kb.state[lo & (x <= np.where(lo, lb, 0.0) + 1e-9 * np.maximum(1.0, np.abs(np.where(lo, lb, 0.0))))] = -1
+            kb.state[hi & (x >= np.where(hi, ub, 0.0) - 1e-9 * np.maximum(1.0, np.abs(np.where(hi, ub, 0.0))))] = 1
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("general", self.backend.name)
