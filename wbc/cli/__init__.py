@@ -105,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     # been written yet, and raised inside an import a KeyboardInterrupt can end in a traceback or be swallowed by a
     # library's `except:`.
     run_sigint = None
+    previous_unraisable = sys.unraisablehook
     try:
         default_sigint = signal.signal(signal.SIGINT, _exit_while_loading)
     except ValueError:  # not the main thread: leave SIGINT alone
@@ -119,10 +120,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     previous = None
     if default_sigint is signal.default_int_handler:  # a run's Ctrl-C: see on_sigint (ignored or the caller's: kept)
-        from wbc.cli.output import clear_sigint, on_sigint
+        from wbc.cli.output import clear_sigint, on_sigint, quiet_swallowed_interrupt
 
         clear_sigint()
         run_sigint = signal.signal(signal.SIGINT, on_sigint)
+        previous_unraisable = sys.unraisablehook
+        sys.unraisablehook = quiet_swallowed_interrupt
     try:
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:  # not the main thread: leave SIGTERM alone
@@ -160,6 +163,7 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous)
         if run_sigint is not None:
             signal.signal(signal.SIGINT, run_sigint)
+            sys.unraisablehook = previous_unraisable
 
 
 def _exit_while_loading(signum, frame) -> None:

@@ -12,6 +12,7 @@ import contextlib
 import io
 import json
 import os
+import sys
 import threading
 import time
 import uuid
@@ -320,6 +321,16 @@ def on_sigint(signum, frame) -> None:
     loop's progress viewer (see :func:`progress`) raises it again at the next tick."""
     _SIGINT_RECEIVED.set()
     raise KeyboardInterrupt
+
+
+def quiet_swallowed_interrupt(unraisable) -> None:
+    """``sys.unraisablehook`` of a run command: a KeyboardInterrupt that a C callback swallowed after
+    :func:`on_sigint` saw the Ctrl-C is not reported (no "Exception ignored ... Traceback" on stderr: the run stops at
+    its next tick and says so once); anything else goes to Python's default hook."""
+    if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt) \
+            and _SIGINT_RECEIVED.is_set():
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def sigint_received() -> bool:
