@@ -117,3 +117,38 @@ def test_feet_without_collision_geometry_touch_through_their_visual_meshes():
         touch = p[p[:, 2] <= p[:, 2].min() + 0.002]
         assert abs(p[:, 2].min()) < 1e-3  # the sole plane at the foot's bottom
         assert signed_distance(corners, convex_hull(touch[:, :2])).min() >= 0.0
+
+
+ROMEO = ERD / "romeo_description" / "urdf" / "romeo.urdf"
+
+
+def test_flat_mesh_foot_stands_on_its_whole_patch():
+    """Romeo's foot is a collision mesh with a flat bottom. MuJoCo's plane–mesh collider alone gives it the deepest
+    vertex and at most three of its neighbours, a triangle or quad that does not hold the controller's sole
+    rectangle (the foot rocked between such vertex sets while standing). With the pads on its patch corners, the
+    plant's contact points span the foot's flat bottom — read with trimesh from the collision mesh: its vertices
+    within 2 mm of the lowest — and hold the sole rectangle, the foot sunk 3 mm (as under a walk's load)."""
+    trimesh = pytest.importorskip("trimesh")
+    spec, _ = infer_robot_spec(ROMEO)
+    assert spec.mujoco.foot == "urdf"
+    robot = build_robot(spec)
+    sim = build_mujoco_model(robot, foot_contact="urdf")
+    corners = _corners(robot.sole_length, robot.sole_width)
+    model = robot.model
+    for side in ("left", "right"):
+        contacts = _sole_contacts(sim, robot, side, sink=0.003)
+        frame = model.frames[model.getFrameId(getattr(robot, f"{side}_sole"))]
+        pts = []
+        for g in robot.collision_model.geometryObjects:
+            if g.parentJoint != frame.parentJoint:
+                continue
+            mesh = trimesh.load(g.meshPath, force="mesh")
+            v = np.asarray(mesh.vertices) * np.asarray(g.meshScale)
+            m = frame.placement.inverse() * g.placement
+            pts.append(v @ m.rotation.T + m.translation)
+        p = np.vstack(pts)
+        patch = convex_hull(p[p[:, 2] <= p[:, 2].min() + 0.002][:, :2])
+        hull = convex_hull(contacts)
+        # every corner of the mesh's flat patch is a contact point (within 1 mm), and the rectangle is inside
+        assert signed_distance(patch, hull).min() >= -1e-3
+        assert signed_distance(corners, hull).min() >= 0.0

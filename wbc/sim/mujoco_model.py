@@ -80,6 +80,7 @@ import pinocchio as pin
 
 from wbc.constants import SIDES
 from wbc.exceptions import InvalidInputError, SimulationError
+from wbc.geometry import convex_hull
 from wbc.robot import Robot
 from wbc.sim.actuators import PLANTS, actuator_model, apply_actuators
 from wbc.sim.conventions import StateMap
@@ -91,6 +92,9 @@ __all__ = ["MujocoModel", "build_mujoco_model", "ENV_BIT", "ROBOT_BIT", "MAX_TIM
 ENV_BIT = 1  #: contype/conaffinity bit of the environment (floor, obstacles)
 ROBOT_BIT = 2  #: contype bit of robot collision geoms
 MAX_TIMESTEP = 0.002  #: s
+SOLE_PAD_RADIUS = 0.001  #: m, radius of the point contacts on a mesh foot's flat bottom (``_mesh_sole_pads``)
+SOLE_PAD_TOLERANCE = 0.002  #: m, mesh vertices this close to a foot's lowest point form its contact patch (as
+#: for the sole rectangle of ``wbc robot init``: where the foot touches a flat floor)
 
 
 def build_mujoco_model(
@@ -224,6 +228,7 @@ def build_mujoco_model(
         geom.margin = geom.gap = 0.0
     if foot_contact == "urdf":
         _visual_feet(spec, foot_body_names, ROBOT_BIT, ENV_BIT | self_bits, robot.name)
+        _mesh_sole_pads(spec, feet, ROBOT_BIT, ENV_BIT | self_bits, robot.name)
     if foot_contact == "box":
         h = float(foot_box_thickness)
         for side in SIDES:
@@ -382,6 +387,56 @@ def _visual_feet(spec: mujoco.MjSpec, foot_body_names: dict[str, set[str]], cont
             g.margin = g.gap = 0.0
         warnings.warn(f"{name}: the {side} foot has no collision geometry; its {len(geoms)} visual geoms (convex "
                       f"hulls) are its ground contact", stacklevel=3)
+
+
+def _mesh_sole_pads(spec: mujoco.MjSpec, feet: dict, contype: int, conaffinity: int, name: str) -> None:
+    """Point contacts on the flat bottom of mesh feet (``foot_contact="urdf"``): one sphere of radius
+    :data:`SOLE_PAD_RADIUS` on each corner of the foot's contact patch, its lowest point on the corner.
+
+    MuJoCo collides a mesh with a plane at its support point in −n (the deepest vertex) plus at most three
+    vertices connected to it (``mjc_PlaneConvex``, ``maxplanemesh = 3`` in ``engine_collision_convex.c``). A mesh
+    foot whose bottom is flat stands on three or four of its coplanar vertices, chosen anew each step by which one
+    is deepest: a roll or pitch of less than 0.1° moves the whole support from one edge of the sole to the other.
+    Under load the foot rocks between these vertex sets at tens of Hz (Romeo's stance sole: ±2 rad/s in roll,
+    the centre of pressure jumping 3.5 cm across the sole every few ms), where a real flat sole would shift its
+    pressure continuously. The patch is the foot's own geometry: the vertices of its colliding mesh geoms within
+    :data:`SOLE_PAD_TOLERANCE` of the lowest along the sole normal; the pads stand on the corners of that patch's
+    convex hull (at each corner's own height, so a patch that is not flat stays so). The mesh keeps colliding
+    (heel, toe and edges when the foot tilts). Feet without mesh geoms (boxes, spheres, cylinders: MuJoCo gives
+    them their own face or point contacts) get none. The pads are massless (``inertiafromgeom="false"``) geoms of
+    group 3 named ``{side}_sole_pad_{i}`` on the link moved by the ankle joint."""
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)  # the foot bodies are rigid: their relative poses hold at any qpos
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    for side, (link, bodies, sole_in_link) in feet.items():
+        lid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link)
+        world_link = pin.SE3(np.array(data.xmat[lid]).reshape(3, 3), np.array(data.xpos[lid]))
+        world_sole = world_link * sole_in_link
+        pts = []
+        for g in np.flatnonzero(colliding & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)):
+            if model.body(model.geom_bodyid[g]).name not in bodies:
+                continue
+            mid = model.geom_dataid[g]
+            verts = np.array(model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]])
+            world = verts @ np.array(data.geom_xmat[g]).reshape(3, 3).T + np.array(data.geom_xpos[g])
+            pts.append((world - world_sole.translation) @ world_sole.rotation)  # in the sole frame
+        if not pts:
+            continue
+        p = np.vstack(pts)
+        patch = p[p[:, 2] <= p[:, 2].min() + SOLE_PAD_TOLERANCE]
+        try:
+            corners = convex_hull(patch[:, :2])
+        except InvalidInputError:
+            continue  # fewer than three points, or a line: no flat patch to stand on
+        up = sole_in_link.rotation[:, 2]  # sole normal in the link frame
+        body = spec.body(link)
+        for i, c in enumerate(corners):
+            k = int(np.argmin(np.linalg.norm(patch[:, :2] - c, axis=1)))
+            at = sole_in_link.act(patch[k]) + SOLE_PAD_RADIUS * up
+            body.add_geom(name=f"{side}_sole_pad_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=at,
+                          size=[SOLE_PAD_RADIUS, 0.0, 0.0], contype=contype, conaffinity=conaffinity, group=3,
+                          margin=0.0, gap=0.0, rgba=[0.9, 0.5, 0.1, 0.5])
 
 
 def _foot(robot: Robot, sole: str) -> tuple[str, set[str], pin.SE3]:
