@@ -112,3 +112,46 @@ def test_height_test_needs_a_load_before_the_planned_landing_only(robot, confirm
         assert sw.phase("right") == "loading"
     with pytest.raises(InvalidInputError, match="side"):
         sw.set_landing_due("middle", True)
+
+
+def test_a_sole_set_down_without_its_load_waits_for_it(robot):
+    """A sole set down after its planned landing by the state test while the F/T reads 0 N (hovering 2 mm up):
+    the QP may plan at most 2 contact_force on it, however long the load takes; the ramp-in starts at the first
+    reading >= contact_force, from that bound on (no force jump). Without measured forces, or without
+    ``await_load`` (the default), nothing waits."""
+    c, q, v, sw = _unloading_right(robot, full_force=1000.0, touchdown_force=200.0, contact_force=30.0,
+                                   await_load=True)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    q_2mm = q.copy()
+    q_2mm[2] += 0.002
+    sw.set_landing_due("right", True)
+    sw.update(0.044, q_2mm, v, np.array([800.0, 0.0]))
+    assert sw.phase("right") == "loading" and c.contacts["right"].active
+    sw.update(0.046, q_2mm, v, np.array([800.0, 0.0]))
+    assert c.contacts["right"].f_max * 4 == pytest.approx(60.0)
+    sw.update(0.2, q_2mm, v, np.array([800.0, 29.0]))  # 156 ms later, still short of the load: no ramp
+    assert sw.phase("right") == "loading" and c.contacts["right"].f_max * 4 == pytest.approx(60.0)
+    sw.update(0.202, q, v, np.array([800.0, 31.0]))
+    assert (0.202, "right", "load") in sw.events
+    assert c.contacts["right"].f_max * 4 == pytest.approx(60.0)
+    sw.update(0.212, q, v, np.array([800.0, 100.0]))  # 10 ms of a 40 ms ramp to 1000 N
+    assert c.contacts["right"].f_max * 4 == pytest.approx(60.0 + 250.0)
+    sw.update(0.202 + 0.04, q, v, np.array([800.0, 300.0]))
+    assert sw.phase("right") == "stance" and math.isinf(c.contacts["right"].f_max)
+    # the state test alone (no F/T given): set down and ramped as before
+    c, q, v, sw = _unloading_right(robot, full_force=1000.0, touchdown_force=200.0, contact_force=30.0)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    sw.set_landing_due("right", True)
+    sw.update(0.044, q_2mm, v)
+    sw.update(0.064, q_2mm, v)
+    assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)
+    # without await_load: ramped at once, the F/T reading 0 N
+    c, q, v, sw = _unloading_right(robot, full_force=1000.0, touchdown_force=200.0, contact_force=30.0)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    sw.set_landing_due("right", True)
+    sw.update(0.044, q_2mm, v, np.array([800.0, 0.0]))
+    sw.update(0.064, q_2mm, v, np.array([800.0, 0.0]))
+    assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)

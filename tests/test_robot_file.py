@@ -57,6 +57,7 @@ def test_catalog_files_load_as_robot_files():
     ("[mujoco]\narmature = -1.0", ["armature", "out of range"]),
     ("[gait]\nt_ss = inf", ["t_ss", "finite"]),
     ("[sole]\nlength = -0.1", ["[sole] length", "out of range"]),
+    ("touchdown = \"soon\"", ["touchdown = 'soon'", "'state', 'load'"]),
 ])
 def test_robot_file_key_errors_name_the_key(tmp_path, extra, words):
     path = _h15_file(tmp_path)
@@ -233,3 +234,18 @@ def test_nan_in_urdf_is_named(tmp_path):
                                                            '<origin xyz="0 nan 0.3" rpy="0 0 0"/>', 1))
     with pytest.raises(RobotDescriptionError, match="<joint name='neck'> has <origin xyz='0 nan 0.3'>: not finite"):
         load_robot(str(path))
+
+
+def test_touchdown_rule_is_read_and_written(tmp_path):
+    """``touchdown = "load"`` is read, written back by ``spec_to_toml`` and read again (default ``"state"``, not
+    written)."""
+    from wbc.robot_file import load_robot_file, spec_to_toml
+
+    path = _h15_file(tmp_path, extra='touchdown = "load"')
+    spec = load_robot_file(path)
+    assert spec.touchdown == "load"
+    again = tmp_path / "again.toml"
+    again.write_text(spec_to_toml(spec))
+    assert load_robot_file(again).touchdown == "load"
+    assert load_robot_file(_h15_file(tmp_path)).touchdown == "state"
+    assert "touchdown" not in spec_to_toml(load_robot_file(_h15_file(tmp_path)))

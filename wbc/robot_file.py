@@ -25,12 +25,18 @@ from pathlib import Path
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
-           "TOP_KEYS", "GAIT_KEYS", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
+           "TOP_KEYS", "GAIT_KEYS", "TOUCHDOWN_RULES", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
            "INERTIA_RADIUS"]
 
 #: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
 TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand",
-            "package_dirs", "base_rpy", "sole", "frames", "reference_joints", "gait", "mujoco")
+            "package_dirs", "base_rpy", "sole", "frames", "reference_joints", "gait", "touchdown", "mujoco")
+#: ``touchdown``: what a physics walk (``wbc sim walk``, estimated state) does with a swing sole its state test
+#: sets down at the planned landing time while the ankle F/T still reads no load (it hovers a millimetre or two up):
+#: ``"state"`` ramps the sole's load in at once; ``"load"`` holds the load the controller may plan on it at 6 % of
+#: the weight until the measured force reaches 3 %, then ramps it in
+#: (:class:`wbc.dynamics.contact_switching.ContactSwitcher` ``await_load``).
+TOUCHDOWN_RULES = ("state", "load")
 #: Keys of the ``[gait]`` table (keyword arguments of :func:`wbc.gait.plan_walk`) and their valid ranges.
 GAIT_KEYS = {"step_length": (0.0, 1.0), "step_height": (0.0, 0.5), "t_ss": (0.05, 5.0), "t_ds": (0.0, 5.0)}
 #: ``[mujoco] meshes``: how meshes MuJoCo cannot read (Collada, ...) are handled.
@@ -89,6 +95,8 @@ class RobotSpec:
         base_rpy: orientation (rad, roll-pitch-yaw) of the floating base in the reference posture; a Y-up URDF
             stands with ``[1.5707963, 0, 0]``.
         gait: default walk parameters (subset of :data:`GAIT_KEYS`).
+        touchdown: the physics walk's rule for a sole set down without a measured load, one of
+            :data:`TOUCHDOWN_RULES` (default ``"state"``).
         mujoco: plant options.
         source: the file read (None for a spec built in code).
     """
@@ -110,6 +118,7 @@ class RobotSpec:
     package_dirs: tuple[str, ...] = ()
     base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gait: dict[str, float] = field(default_factory=dict)
+    touchdown: str = "state"
     mujoco: MujocoOptions = field(default_factory=MujocoOptions)
     source: Path | None = None
 
@@ -138,6 +147,10 @@ class RobotSpec:
                 value = _vector(value, f"{where} base_rpy")
             elif key == "gait":
                 value = _gait(value, where)
+            elif key == "touchdown":
+                value = _string(value, f"{where} touchdown")
+                if value not in TOUCHDOWN_RULES:
+                    raise _fail(where, f"touchdown = {value!r}; valid: {list(TOUCHDOWN_RULES)}")
             else:
                 value = _string(value, f"{where} {key}")
             clean[key] = value
@@ -262,6 +275,10 @@ def parse_robot_spec(desc: dict, *, base_dir: Path, name: str, where: str, sourc
         kw["reference_joints"] = _joint_table(desc["reference_joints"], where)
     if "gait" in desc:
         kw["gait"] = _gait(desc["gait"], where)
+    if "touchdown" in desc:
+        kw["touchdown"] = _string(desc["touchdown"], f"{where} touchdown")
+        if kw["touchdown"] not in TOUCHDOWN_RULES:
+            raise _fail(where, f"touchdown = {kw['touchdown']!r}; valid: {list(TOUCHDOWN_RULES)}")
     if "mujoco" in desc:
         mj = _table(desc["mujoco"], f"{where} [mujoco]")
         for k in mj:
@@ -338,6 +355,9 @@ def spec_to_toml(spec: RobotSpec, comments: dict[str, str] | None = None) -> str
     if any(spec.base_rpy):
         note("base_rpy")
         lines.append(f"base_rpy = {_toml_value(list(spec.base_rpy))}")
+    if spec.touchdown != "state":
+        note("touchdown")
+        lines.append(f"touchdown = {_toml_value(spec.touchdown)}")
     if spec.sole_length is not None or spec.sole_width is not None:
         lines.append("")
         note("sole")

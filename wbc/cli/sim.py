@@ -223,7 +223,8 @@ def _scenario(args, robot):
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
                             zmp_feedback=args.zmp_feedback,
                             terrain=None if args.blind else getattr(args, "terrain", None),
-                            base_weight=args.base_weight, blind=args.blind)
+                            base_weight=args.base_weight, blind=args.blind,
+                            await_load=robot.spec is not None and robot.spec.touchdown == "load")
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
 

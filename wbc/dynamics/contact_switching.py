@@ -25,7 +25,16 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
   contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
 * **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
-  ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
+  ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch. With
+  ``await_load``, a sole set down by the state test after its planned landing time while its measured normal
+  force is still below ``contact_force`` (:meth:`~ContactSwitcher.set_landing_due`: it hovers a millimetre or two
+  over the floor) is a contact whose bound stays at ``2 contact_force`` until the measured force reaches
+  ``contact_force`` (twice: a sole resting on the floor at the bound reads above the threshold despite the
+  sensor's bias); its ramp starts then. The QP then plans little load the plant does not carry: a ramp run on a
+  sole in the air leaves the QP's forces on it unrealised, and the leg's joints accelerate by M⁻¹Jᵀf (on Romeo,
+  whose hip yaw is limited to 0.32 rad/s, to 1.3 × that limit in the 40 ms before the sole met the floor). Off by
+  default: the unrealised ramp also presses a hovering sole onto the floor, and a G1 stair climb that passes
+  without the wait falls with it.
 
 ``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
 ``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
@@ -73,9 +82,13 @@ class ContactSwitcher:
             planned landing time has passed (:meth:`set_landing_due`), the state test alone suffices again unless
             ``confirm_when_due`` (a blind walk, whose ground may be lower than planned).
         confirm_when_due: keep asking ``contact_force`` after the planned landing time (default False).
+        await_load: a sole the state test sets down after its planned landing time with a measured force below
+            ``contact_force`` waits for that load before its ramp-in (module docstring, **loading**; default
+            False: its ramp starts at once).
 
     Attributes:
-        events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``loaded``.
+        events: list of ``(t, side, event)`` with event in ``unload``, ``release``, ``touchdown``, ``load`` (the
+            measured load of a sole set down without it reached ``contact_force``: its ramp-in starts), ``loaded``.
         touchdown_time: side → time (s) of the last touch-down (None before).
 
     Raises:
@@ -86,7 +99,7 @@ class ContactSwitcher:
     def __init__(self, controller, *, ramp_time: float = 0.04, touchdown_height: float = 0.003,
                  touchdown_speed: float = 0.05, full_force: float | None = None,
                  touchdown_force: float | None = None, touchdown_force_height: float = 0.02,
-                 contact_force: float | None = None, confirm_when_due: bool = False):
+                 contact_force: float | None = None, confirm_when_due: bool = False, await_load: bool = False):
         if not (np.isfinite(ramp_time) and ramp_time > 0):
             raise InvalidInputError(f"ramp_time must be finite and > 0 s, got {ramp_time!r}")
         for val, what in ((touchdown_height, "touchdown_height"), (touchdown_speed, "touchdown_speed")):
@@ -108,6 +121,7 @@ class ContactSwitcher:
             raise InvalidInputError(f"contact_force must be finite and ≥ 0 N (or None), got {contact_force!r}")
         self.contact_force = None if contact_force is None else float(contact_force)
         self.confirm_when_due = bool(confirm_when_due)
+        self.await_load = bool(await_load)
         self._due = {s: False for s in SIDES}
         self.ramp_time = float(ramp_time)
         self.touchdown_height = float(touchdown_height)
@@ -122,6 +136,7 @@ class ContactSwitcher:
         self._t0 = {s: 0.0 for s in SIDES}
         self._armed = {s: False for s in SIDES}
         self._f0 = {s: self.full_force for s in SIDES}
+        self._await_load = {s: False for s in SIDES}
         self.touchdown_time: dict[str, float | None] = {s: None for s in SIDES}
         self.events: list[tuple[float, str, str]] = []
 
@@ -166,16 +181,20 @@ class ContactSwitcher:
         """Tell the switcher whether the swing of ``side`` has reached its planned landing time (bool). Before it,
         a state test (sole within ``touchdown_height``) needs the ``contact_force`` confirmation; from it on, a
         sole still within the height threshold is set down by the state test alone (it would otherwise hover at
-        the end of its planned descent, over ground a few mm lower than its estimated height)."""
+        the end of its planned descent, over ground a few mm lower than its estimated height); its ramp-in then
+        waits for the measured load (module docstring, **loading**)."""
         self._due[self._side(side)] = bool(due)
 
     def arm(self, side: str) -> None:
         """Enable touch-down detection of a swinging foot (call after lift-off, e.g. past mid-swing)."""
         self._armed[self._side(side)] = True
 
-    def touch_down(self, side: str, t: float) -> None:
-        """Switch ``side``'s contact on now and start its ramp-in (called by :meth:`update` on detection)."""
+    def touch_down(self, side: str, t: float, await_load: bool = False) -> None:
+        """Switch ``side``'s contact on now and start its ramp-in (called by :meth:`update` on detection);
+        ``await_load``: the ramp starts when :meth:`update` is given a measured normal force ≥ ``contact_force``
+        (the bound holds at ``2 contact_force`` until then)."""
         self._side(side)
+        self._await_load[side] = bool(await_load) and self.contact_force is not None
         c = self.controller
         c.contacts[side].activate(c.state)
         c.set_max_normal_force(side, 0.0)
@@ -226,6 +245,14 @@ class ContactSwitcher:
                 else:
                     c.set_max_normal_force(s, self._f0[s] * (1.0 - a))
             elif ph == "loading":
+                if self._await_load[s]:
+                    f = None if normal_force is None else float(normal_force[0 if s == "left" else 1])
+                    if f is None or f < self.contact_force:
+                        c.set_max_normal_force(s, 2.0 * self.contact_force)
+                        continue
+                    self._await_load[s] = False  # ramp on from the bound held so far (no force jump)
+                    self._t0[s] = float(t) - self.ramp_time * min(1.0, 2.0 * self.contact_force / self.full_force)
+                    self.events.append((float(t), s, "load"))
                 a = (t - self._t0[s]) / self.ramp_time
                 if a >= 1.0:
                     c.contacts[s].f_max = math.inf
@@ -238,10 +265,11 @@ class ContactSwitcher:
                 dz = z - self.ground_height[s]
                 f = None if normal_force is None else float(normal_force[0 if s == "left" else 1])
                 hit = dz <= self.touchdown_height and vz <= self.touchdown_speed
-                if hit and f is not None and self.contact_force is not None \
-                        and (self.confirm_when_due or not self._due[s]):
-                    hit = f >= self.contact_force  # the state test confirmed by a load on the sole
+                unloaded = hit and f is not None and self.contact_force is not None and f < self.contact_force
+                if unloaded and (self.confirm_when_due or not self._due[s]):
+                    hit = False  # the state test needs the confirmation of a load on the sole
+                    unloaded = False
                 if not hit and f is not None and self.touchdown_force is not None:
                     hit = dz <= self.touchdown_force_height and f >= self.touchdown_force
                 if hit:
-                    self.touch_down(s, t)
+                    self.touch_down(s, t, await_load=unloaded and self.await_load)

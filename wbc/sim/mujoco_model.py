@@ -14,8 +14,10 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
   and replaced by one box ``{left,right}_foot_box`` whose bottom face is the sole rectangle
   (``sole_length`` × ``sole_width``) at the sole frame; box-on-plane gives 4 corner contacts per flat foot.
   ``"urdf"`` keeps the URDF collision geoms instead (a foot without any collision geom touches the ground
-  through its visual geoms, convex hulls, with a warning). Visual geoms (group 1, no collision) are otherwise
-  kept without collision;
+  through its visual geoms, convex hulls, with a warning), and a mesh foot gets massless point contacts (spheres
+  of 1 mm, group 3) on the corners of its flat bottom, its vertices within 2 mm of the lowest: MuJoCo's
+  plane–mesh collision keeps 4 contacts around the deepest vertex, between which a flat mesh sole rocks
+  (``_mesh_sole_pads``). Visual geoms (group 1, no collision) are otherwise kept without collision;
 * collision bits: robot collision geoms have ``contype=ROBOT_BIT, conaffinity=ENV_BIT``; the floor has
   ``contype=ENV_BIT, conaffinity=ENV_BIT | ROBOT_BIT``. Hence every robot collision geom touches the floor (a
   non-foot body on the ground means a fall) while robot–robot pairs never collide (default: URDF collision

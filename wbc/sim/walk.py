@@ -247,6 +247,9 @@ class WalkScenario:
             measured sole forces and :data:`TOUCHDOWN_CONFIRM_LOAD` > 0, the height test (sole within 3 mm of the
             floor, not rising) counts before the swing's planned landing time only once the sole carries that
             fraction of the weight.
+        await_load: a sole the height test sets down after its planned landing time at a measured force below
+            that fraction waits for it before its load ramp starts (``ContactSwitcher`` ``await_load``; the robot
+            file's ``touchdown = "load"``; default False).
         min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
             timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
@@ -303,7 +306,7 @@ class WalkScenario:
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False, touchdown_load: float = 0.05):
+                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -335,6 +338,7 @@ class WalkScenario:
             raise InvalidInputError(f"touchdown_load must be a fraction of the robot weight in (0, 1), "
                                     f"got {touchdown_load!r}")
         self.touchdown_load = float(touchdown_load)
+        self.await_load = bool(await_load)
         #: (2,) N, (left, right) normal force measured by the ankle F/T sensors, set by the closed loop every tick
         #: when the controller reads an estimated state (None: touch-down from the state alone)
         self.measured_normal_force = None
@@ -482,7 +486,8 @@ class WalkScenario:
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time,
                                             touchdown_force=self.touchdown_load * weight,
                                             contact_force=(TOUCHDOWN_CONFIRM_LOAD * weight
-                                                           if TOUCHDOWN_CONFIRM_LOAD > 0 else None))
+                                                           if TOUCHDOWN_CONFIRM_LOAD > 0 else None),
+                                            await_load=self.await_load)
         self.controller = controller
         if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
