@@ -54,6 +54,36 @@ def test_gyro_bias_is_estimated_on_the_tilt_axes():
     assert _tilt_deg(g.rotation, R) == pytest.approx(math.degrees(np.linalg.norm(bias[:2]) / 1.0), rel=0.05)
 
 
+def test_heading_directions_correct_yaw_and_its_bias_only():
+    """A static IMU, level, gyro biased by b about every axis, and one heading direction (world x seen as the IMU's
+    x) that is pitched by 2° — a sole forward axis that disagrees with gravity on tilt. Closed form of the yaw loop
+    (k_H, k_IH): the yaw bias is learnt (b̂_z → b_z) and the yaw error → 0; the heading's pitch disagreement
+    moves nothing: the tilt follows gravity alone, as with no heading at all."""
+    b = np.array([0.004, -0.003, 0.0022])  # rad/s
+    accel = np.array([0.0, 0.0, G])
+    pitched = pin.rpy.rpyToMatrix(0.0, math.radians(2.0), 0.0)[:, 0]  # x pitched 2° (IMU axes)
+    ref = np.array([1.0, 0.0, 0.0])
+    f = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.3, k_heading=1.0, k_heading_bias=0.25)
+    g = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.3, k_heading=0.0, k_heading_bias=0.0)
+    for filt in (f, g):
+        filt.reset(np.eye(3))
+    yaw_peak = 0.0
+    for _ in range(int(60.0 / DT)):
+        f.update(b, accel, heading=[(ref, pitched, 1.0)])
+        g.update(b, accel)
+        yaw_peak = max(yaw_peak, abs(math.atan2(f.rotation[1, 0], f.rotation[0, 0])))
+    yaw = math.atan2(f.rotation[1, 0], f.rotation[0, 0])
+    assert abs(yaw) < 1e-4  # rad, after 60 s (critically damped yaw loop, corner 0.5 rad/s)
+    assert yaw_peak < 1.2 * b[2] / 1.0  # never more than the proportional equilibrium b_z / k_H
+    assert f.bias[2] == pytest.approx(b[2], abs=2e-5)
+    assert _tilt_deg(f.rotation, np.eye(3)) < 0.02  # the 2° pitch of the heading axis is not followed
+    assert np.abs(f.bias[:2] - g.bias[:2]).max() < 1e-6  # tilt and its biases as with no heading
+    # without the heading, yaw integrates the bias: b_z t
+    assert math.atan2(g.rotation[1, 0], g.rotation[0, 0]) == pytest.approx(b[2] * 60.0, rel=1e-3)
+    with pytest.raises(InvalidInputError, match="k_heading"):
+        f.k_heading = -0.5
+
+
 def test_attitude_filter_rejects_bad_gains():
     with pytest.raises(InvalidInputError, match="k_p"):
         ComplementaryAttitudeFilter(DT, k_p=-1.0)
@@ -174,8 +204,8 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
     and re-anchored 10 times), gyro biased about the vertical by b_z, no bias integration: with the hand-over the
     heading of each re-anchored sole comes from the other sole through the kinematics, so the yaw error stays at
-    the equilibrium of eq. 32a, b_z / (k_P k_heading); without it each new anchor takes R̂'s yaw, whose error then
-    grows with the integral of b_z (b_z t = 2.3° after 20 s)."""
+    the equilibrium of eq. 32a, b_z / (k_P k_heading) (the yaw-only heading gains off); without it each new anchor
+    takes R̂'s yaw, whose error then grows with the integral of b_z (b_z t = 2.3° after 20 s)."""
     from wbc.estimation import FloatingBaseEstimator
 
     robot = load_robot("talos")
@@ -204,7 +234,8 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     gyro = R0.T @ np.array([0.0, 0.0, b_z])
     yaw = {}
     for handover in (True, False):
-        est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0, heading_handover=handover)
+        est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0, heading_handover=handover,
+                                    k_heading=0.0, k_heading_bias=0.0)
         est.reset(q0)
         per = int(0.5 / DT)
         for cycle in range(40):

@@ -10,12 +10,20 @@ directions v₀ᵢ (world) measured in B as vᵢ (unit vectors) with weights k�
     dR̂/dt  = R̂ (Ωʸ − b̂ + k_P ω_mes)×               (eq. 32a)
     db̂/dt  = −k_I ω_mes                             (eq. 32b)
 
-integrated once per sample with the exponential map, R̂ ← R̂ exp((Ωʸ − b̂ + k_P ω_mes) Δt) (Pinocchio ``exp3``; R̂
-stays a rotation). The accelerometer gives the "up" direction: its specific force a − g is ``+g e_z`` at rest, so
+integrated once per sample with the exponential map, R̂ ← R̂ exp((Ωʸ − b̂ + k_P ω_mes + k_H ω_yaw) Δt) (Pinocchio
+``exp3``; R̂ stays a rotation).
+
+The accelerometer gives the "up" direction: its specific force a − g is ``+g e_z`` at rest, so
 v = a/‖a‖ with v₀ = e_z. While the robot accelerates, a/‖a‖ is not the vertical; the filter trusts it with a
 small k_P (a low corner frequency) and with the weight k = 0 when ‖a‖ differs from g by more than ``accel_gate``.
 Only the directions given are corrected: with gravity alone, yaw follows the gyro (its bias about the vertical is
 not observable from gravity).
+
+**Heading directions** (optional, e.g. the forward axis of a sole standing on the ground, from the leg kinematics)
+correct yaw only: their error ω_h = Σⱼ kⱼ vⱼ × v̂ⱼ is projected on the estimated vertical u = R̂ᵀ e_z,
+ω_yaw = (ω_h · u) u, with its own gains k_H (rate) and k_IH (bias, db̂/dt = −k_I ω_mes − k_IH ω_yaw). A heading
+reference that is much better than the gyro's integral (a loaded sole does not turn) can then be trusted with a
+high gain without pulling the tilt away from gravity (this projection is wbc's addition to eq. 32).
 """
 
 from __future__ import annotations
@@ -54,7 +62,10 @@ class ComplementaryAttitudeFilter:
         bias_max: bound on each component of the estimated gyro bias (rad/s, > 0).
         bias_gate: the bias is integrated (eq. 32b) only on samples where the accelerometer was used and
             ‖ω_mes‖ ≤ ``bias_gate`` (rad/s, > 0): impacts (a landing) give large, short, wrong corrections that
-            would otherwise be integrated into the bias and then turn into a drift.
+            would otherwise be integrated into the bias and then turn into a drift. The heading's bias term
+            likewise needs ‖ω_yaw‖ ≤ ``bias_gate``.
+        k_heading: k_H, the yaw gain of the heading directions (rad/s, ≥ 0).
+        k_heading_bias: k_IH, their yaw-bias gain (1/s², ≥ 0).
 
     Attributes:
         rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample.
@@ -64,19 +75,22 @@ class ComplementaryAttitudeFilter:
     """
 
     def __init__(self, dt: float, *, k_p: float = 0.2, k_i: float = 0.01, accel_gate: float = 2.0,
-                 bias_max: float = 0.05, bias_gate: float = 0.02):
+                 bias_max: float = 0.05, bias_gate: float = 0.02, k_heading: float = 1.0,
+                 k_heading_bias: float = 0.1):
         self.dt = dt
         self.k_p, self.k_i, self.accel_gate, self.bias_max, self.bias_gate = k_p, k_i, accel_gate, bias_max, bias_gate
+        self.k_heading, self.k_heading_bias = k_heading, k_heading_bias
         self.accel_used = False
         self.rotation = np.eye(3)
         self.bias = np.zeros(3)
         self.omega = np.zeros(3)
         self._wm = np.zeros(3)
+        self._wh = np.zeros(3)
 
     def __setattr__(self, name, value):
         if name in ("dt", "accel_gate", "bias_max", "bias_gate"):
             value = _nonneg(value, name, positive=True)
-        elif name in ("k_p", "k_i"):
+        elif name in ("k_p", "k_i", "k_heading", "k_heading_bias"):
             value = _nonneg(value, name)
         object.__setattr__(self, name, value)
 
@@ -96,9 +110,10 @@ class ComplementaryAttitudeFilter:
             raise InvalidInputError(f"bias must be a finite (3,) vector (rad/s), got {bias!r}")
         self.bias = b.copy()
 
-    def update(self, gyro: np.ndarray, accel: np.ndarray, directions=()) -> np.ndarray:
+    def update(self, gyro: np.ndarray, accel: np.ndarray, directions=(), heading=()) -> np.ndarray:
         """One sample: gyro (3,) rad/s and accelerometer (3,) m/s² in IMU axes, plus optional extra
-        ``directions``: iterable of (v₀ (3,) world unit vector, v (3,) measured IMU-frame unit vector, weight k).
+        ``directions`` (corrected with k_P, all axes) and ``heading`` directions (corrected with k_H about the
+        vertical only): iterables of (v₀ (3,) world unit vector, v (3,) measured IMU-frame unit vector, weight k).
 
         Returns:
             R̂ (3, 3), world ← IMU (the :attr:`rotation` array, updated).
@@ -112,10 +127,19 @@ class ComplementaryAttitudeFilter:
             wm += _cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
         for v0, v, k in directions:
             wm += k * _cross(v, R.T @ v0)
+        wh = self._wh
+        wh[:] = 0.0
+        for v0, v, k in heading:
+            wh += k * _cross(v, R.T @ v0)
+        up = R[2]  # u = R̂ᵀ e_z, the vertical in IMU axes
+        wh[:] = (wh @ up) * up
         omega = self.omega
         np.subtract(gyro, self.bias, out=omega)
-        self.rotation = R @ pin.exp3((omega + self.k_p * wm) * self.dt)
-        if self.k_i and self.accel_used and wm @ wm <= self.bias_gate * self.bias_gate:
+        self.rotation = R @ pin.exp3((omega + self.k_p * wm + self.k_heading * wh) * self.dt)
+        gate = self.bias_gate * self.bias_gate
+        if self.k_i and self.accel_used and wm @ wm <= gate:
             self.bias -= self.k_i * self.dt * wm
-            np.clip(self.bias, -self.bias_max, self.bias_max, out=self.bias)
+        if self.k_heading_bias and wh @ wh <= gate:
+            self.bias -= self.k_heading_bias * self.dt * wh
+        np.clip(self.bias, -self.bias_max, self.bias_max, out=self.bias)
         return self.rotation

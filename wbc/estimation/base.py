@@ -4,18 +4,20 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
 
 1. **Joint velocities** (:class:`JointStateFilter`): backward difference of the encoder angles, then a first-order
    low-pass filter of corner ``f_c``: v̇ⱼ ← vⱼ + α ((qⱼ,k − qⱼ,k−1)/Δt − vⱼ), α = Δt / (Δt + 1/(2π f_c)).
-2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32)
-   on the gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics
-   (the leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the
-   walking accelerations, ~1 m/s², tilt the estimated vertical) and, as a second reference direction of eq. 32,
-   the forward axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3)
-   and held while it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the
-   sole's share of the normal force times ``heading_weight`` — the sole does not turn while it carries load,
-   which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
+2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32) on the
+   gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics (the
+   leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the walking
+   accelerations, ~1 m/s², tilt the estimated vertical) and, as a second reference direction of eq. 32, the forward
+   axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3) and held while
+   it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the sole's share of the
+   normal force times ``heading_weight``, corrected with k_P about every axis and, as a heading direction of the
+   filter, once more about the vertical with its own gains ``k_heading``, ``k_heading_bias`` (yaw has no other
+   reference than the soles, and the gyro's yaw bias is learnt from them) — the sole does not turn while it carries
+   load, which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
    touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, on every
-   sample until it carries the larger share of the load (it still turns as it settles), so the heading passes
-   from foot to foot without the yaw error of R̂, ``heading_handover``); the base angular velocity
-   is the bias-corrected gyro.
+   sample until it carries the larger share of the load (it still turns as it settles), so the heading passes from
+   foot to foot without the yaw error of R̂, ``heading_handover``); the base angular velocity is the bias-corrected
+   gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
    uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
@@ -169,8 +171,10 @@ class FloatingBaseEstimator:
         sigma_pos: leg-odometry position noise σ_p (m). sigma_vel: leg-odometry velocity noise σ_v (m/s).
         accel_cutoff_hz: corner (Hz) of the low-pass on the differenced leg-odometry velocity, the base
             acceleration removed from the accelerometer before the tilt correction.
-        heading_weight: weight k of the anchored soles' forward axes in the attitude filter (≥ 0; 0: gravity
-            alone, yaw then follows the gyro).
+        heading_weight: weight k of the anchored soles' forward axes in the attitude filter, as reference
+            directions and as heading (yaw-only) directions there (≥ 0; 0: gravity alone, yaw then follows the gyro).
+        k_heading, k_heading_bias: the attitude filter's yaw gains for those axes (rad/s and 1/s², ≥ 0;
+            :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
         heading_handover: on flat ground (``ground_height`` not None), a sole touching down while the other is
             anchored takes its heading (v₀) from that sole's through the leg kinematics until it carries the larger
             share of the normal force (True), or from R̂ when it touches down (False:
@@ -193,14 +197,15 @@ class FloatingBaseEstimator:
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
                  accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
-                 heading_handover: bool = True):
+                 heading_handover: bool = True, k_heading: float = 0.5, k_heading_bias: float = 0.1):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
         self.dt = _nonneg(dt, "dt", positive=True)
         nj = model.nv - 6
         self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz)
-        self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate)
+        self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate,
+                                                    k_heading=k_heading, k_heading_bias=k_heading_bias)
         weight = robot.mass * robot.gravity
         self.detectors = {s: ContactDetector(contact_on * weight, contact_off * weight) for s in SIDES}
         self.ft = {s: FootForceSensor(robot, getattr(robot, f"{s}_sole")) for s in SIDES}
@@ -334,7 +339,7 @@ class FloatingBaseEstimator:
                 if self.contact[s] and fz > 0:
                     dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
                                  self.heading_weight * fz / fz_total))
-        att.update(gyro, self._f_grav, dirs)
+        att.update(gyro, self._f_grav, dirs, heading=dirs)
         R = att.rotation
         omega = att.omega
         # Prediction with the IMU acceleration.
