@@ -50,6 +50,24 @@ def test_catalog_files_load_as_robot_files():
     assert (a.sole_length, a.sole_width, a.gait) == (b.sole_length, b.sole_width, b.gait)
 
 
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples" / "robots"
+
+
+@pytest.mark.parametrize("name", ["romeo", "human", "alexander"])
+def test_example_robot_files_load_and_stand_on_their_soles(name):
+    """The robot files of examples/robots (example-robot-data humanoids, written by `wbc robot init`): each loads,
+    and in its reference posture both sole frames are level (z up, within 1°) and 0.2–2 m below the CoM (Pinocchio's
+    forward kinematics, independent of the file's own checks)."""
+    robot = load_robot(str(EXAMPLES / f"{name}.toml"))
+    data = robot.model.createData()
+    pin.centerOfMass(robot.model, data, robot.q_ref)
+    pin.framesForwardKinematics(robot.model, data, robot.q_ref)
+    for frame in (robot.left_sole, robot.right_sole):
+        oMf = data.oMf[robot.model.getFrameId(frame)]
+        assert math.degrees(math.acos(min(1.0, oMf.rotation[2, 2]))) < 1.0, frame
+        assert 0.2 < data.com[0][2] - oMf.translation[2] < 2.0, frame
+
+
 @pytest.mark.parametrize("extra, words", [
     ("torsoo = \"torso\"", ["unknown key 'torsoo'", "did you mean 'torso'"]),
     ("base_rpy = [0, nan, 0]", ["base_rpy[1]", "finite"]),
