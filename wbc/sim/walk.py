@@ -46,6 +46,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
@@ -189,6 +190,14 @@ class DcmStabilizer:
 #: benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % throughout.
 TOUCHDOWN_CONFIRM_LOAD = 0.03
 
+#: Step timing on planned terrain: the swing sole's peak speed is kept at or below ``SWING_FROUDE · √(g z_c)``
+#: (``z_c`` the CoM height at the start, a proxy for the leg length ``l``), longer steps where it would be faster
+#: (:func:`wbc.gait.terrain_walk.plan_terrain_walk` ``max_sole_speed``). The bound is a Froude number
+#: ``v / √(g l)``: under dynamic similarity (Alexander & Jayes, "A dynamic similarity hypothesis for the gaits of
+#: quadrupedal mammals", J. Zool. 201, 1983) robots of different size move alike at equal Froude numbers. The value
+#: is measured, not derived (benchmarks/README.md, "Step timing on stairs").
+SWING_FROUDE = 0.6
+
 #: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
 #: swing descends vertically; :meth:`WalkScenario._blind_swing`).
 BLIND_XY_END = 0.8
@@ -274,6 +283,11 @@ class WalkScenario:
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it).
 
+        swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
+            ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
+            whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
+            ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
+
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
     :meth:`setup` rotated about the world z axis by the change of the mean heading of the planned soles
@@ -303,7 +317,7 @@ class WalkScenario:
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False, touchdown_load: float = 0.05):
+                 blind: bool = False, touchdown_load: float = 0.05, swing_froude: float | None = None):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -311,6 +325,11 @@ class WalkScenario:
                 or not (math.isfinite(base_weight) and base_weight >= 0):
             raise InvalidInputError(f"base_weight must be a finite number ≥ 0, got {base_weight!r}")
         self.base_weight = float(base_weight)
+        swing_froude = SWING_FROUDE if swing_froude is None else swing_froude
+        if isinstance(swing_froude, bool) or not isinstance(swing_froude, (int, float)) \
+                or not (math.isfinite(swing_froude) and swing_froude > 0):
+            raise InvalidInputError(f"swing_froude must be a finite number > 0, got {swing_froude!r}")
+        self.swing_froude = float(swing_froude)
         # late touch-down: how far (m) below its planned landing the swing foot may descend (terrain: the
         # estimated heights drift by centimetres, touch-down is then detected by the F/T force)
         self.blind = bool(blind)
@@ -407,7 +426,9 @@ class WalkScenario:
         else:  # footholds on the treads, 3-D swings, CoM height from the VRP (wbc.gait.terrain_walk)
             from wbc.gait.terrain_walk import plan_terrain_walk
 
-            self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0, **walk_kw)
+            v_max = self.swing_froude * math.sqrt(GRAVITY * float(self.com0[2]))  # step timing (SWING_FROUDE)
+            self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0,
+                                                  max_sole_speed=v_max, **walk_kw)
             plan = self.terrain_walk.plan
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
@@ -435,7 +456,8 @@ class WalkScenario:
             pin.centerOfMass(self._model, data, q, v)
             plan = plan.replan(0, data.com[0].copy(), data.vcom[0].copy(), check_start=False)
         self.plan = plan
-        # (the run length was fixed from the estimate of __init__, before setup)
+        # the run length: the plan's (a terrain plan's step timing may lengthen steps) and the settling time
+        self.duration = max(self.duration, plan.duration + self.settle)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
                     "right": np.gradient(plan.right_sole_vel, self.dt, axis=0)}
         # Writable references (indexed by the original plan's samples; step adjustment rewrites them from the
