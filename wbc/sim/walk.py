@@ -13,8 +13,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
   ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
-  switches the contact on at once. Blind (``blind``), the swing sole is over its foothold by ``BLIND_XY_END`` of the
-  swing and descends vertically, aimed at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
+  switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
+  ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
+  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
@@ -201,6 +202,10 @@ SWING_FROUDE = 0.6
 #: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
 #: swing descends vertically; :meth:`WalkScenario._blind_swing`).
 BLIND_XY_END = 0.8
+#: Blind walk: fraction of a swing over which the sole rises to its clearance height (minimum jerk).
+BLIND_LIFT = 0.3
+#: Blind walk: fraction of a swing from which the sole is set down (minimum jerk to the landing height).
+BLIND_SET_DOWN = 0.6
 
 
 class WalkScenario:
@@ -278,7 +283,9 @@ class WalkScenario:
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
             the air) and a late foot keeps descending up to 5 cm below its planned landing. The swing sole reaches
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
-            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed), and its
+            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
+            ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
+            while it has barely moved forward), and its
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it).
@@ -701,21 +708,35 @@ class WalkScenario:
                      acc: np.ndarray) -> None:
         """Blind walk: the planned swing's horizontal motion and rotation run ``1 / BLIND_XY_END`` times faster,
         over the first ``BLIND_XY_END`` of the swing (plan sample ``k`` between lift-off ``k_lift`` and touch-down
-        ``k_td``), its height unchanged; the sole then descends vertically over
-        its foothold, so a touch-down on ground above the planned one (early contact) lands where planned, with no
-        horizontal speed. Modifies ``pose`` (xy, rotation), ``vel`` and ``acc`` (xy linear, angular) in place."""
+        ``k_td``); the sole then descends vertically over its foothold, so a touch-down on ground above the planned
+        one (early contact) lands where planned, with no horizontal speed. Its clearance bump is replaced by a lift
+        of the same height ``h`` that rises over the first :data:`BLIND_LIFT` of the swing (minimum jerk), is held,
+        and is set down from :data:`BLIND_SET_DOWN` on: the toe clears the bumps ahead while the foot has barely
+        moved forward (the bump ``h · 64 s³ (1 − s)³`` is at 0.26 h when the foot has covered a tenth of its step,
+        and the toe of a sole lifted off rough ground struck the facets ahead). Modifies ``pose``, ``vel`` and
+        ``acc`` in place."""
         n = max(k_td - k_lift, 1)
+        T = n * self.dt
         s = (k - k_lift) / n
         if s >= BLIND_XY_END:
             kx, r = k_td, 0.0
         else:
             kx, r = k_lift + int(round(s / BLIND_XY_END * n)), 1.0 / BLIND_XY_END
         P = self.poses[side][min(kx, k_td)]
+        z_bump = float(self.poses[side][k][2, 3] - self.poses[side][k_td][2, 3])  # the flat plan's bump at k
+        up_b, up_d, up_dd = min_jerk(s / BLIND_LIFT)
+        dn_b, dn_d, dn_dd = min_jerk((1.0 - s) / (1.0 - BLIND_SET_DOWN))
+        a, c, h = BLIND_LIFT, 1.0 - BLIND_SET_DOWN, self.step_height
+        lift = h * up_b * dn_b
+        dlift = h * (up_d / a * dn_b - up_b * dn_d / c) / T
+        ddlift = h * (up_dd / a**2 * dn_b - 2.0 * up_d * dn_d / (a * c) + up_b * dn_dd / c**2) / T**2
         pose.rotation = P[:3, :3]
-        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2]])
+        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2] - z_bump + lift])
         vx, ax = self.vels[side][kx], self.acc[side][kx]
+        vz, az = float(self.vels[side][k][2]), float(self.acc[side][k][2])
         vel[:2], vel[3:] = r * vx[:2], r * vx[3:]
         acc[:2], acc[3:] = r * r * ax[:2], r * r * ax[3:]
+        vel[2], acc[2] = vel[2] - vz + dlift, acc[2] - az + ddlift
 
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
         """Touch-down height of a swinging foot relative to the stance sole: its landing height (blind: the
