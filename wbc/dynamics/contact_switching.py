@@ -25,7 +25,12 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   at once) and late touch-down (the plan's double support began but the foot is still above ``z``: the
   contact stays off — the caller keeps pushing the foot down, see :meth:`~ContactSwitcher.phase`).
 * **loading** (ramp-in): the contact is activated with its total normal-force bound rising linearly from 0 to
-  ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch.
+  ``F_full`` over ``ramp_time``, then unbounded; the foot task is removed. No force jump at the switch. With the
+  measured normal force of the soles given to :meth:`~ContactSwitcher.update`, the bound is never below the
+  sole's measured force ``F_meas``: ``F_max(t) = max(F_full (t − t₀)/T_ramp, F_meas(t))``. A foot that lands
+  under a pushed robot can take most of the weight from the plant in its first tick; a QP holding the sole's
+  force on the ramp meanwhile computes the leg's joint torques for a fraction of that load, and the loaded leg
+  folds (its knee driven past the joint speed limit).
 
 ``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
 ``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
@@ -207,7 +212,8 @@ class ContactSwitcher:
     def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None) -> None:
         """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)) and, with
         ``touchdown_force`` set, the measured normal force of each sole ``normal_force`` ((2,) N, (left, right),
-        e.g. from the ankle F/T sensors; None: the state test alone).
+        e.g. from the ankle F/T sensors; None: the state test alone). The measured force also floors the ramp-in
+        bound of a loading sole (module docstring).
 
         Call once per tick before the controller computes.
         """
@@ -232,7 +238,10 @@ class ContactSwitcher:
                     self._phase[s] = "stance"
                     self.events.append((float(t), s, "loaded"))
                 else:
-                    c.set_max_normal_force(s, self.full_force * a)
+                    f_max = self.full_force * a
+                    if normal_force is not None:  # never below the load the plant already puts on the sole
+                        f_max = max(f_max, float(normal_force[0 if s == "left" else 1]))
+                    c.set_max_normal_force(s, f_max)
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
                 dz = z - self.ground_height[s]
