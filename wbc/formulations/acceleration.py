@@ -56,8 +56,11 @@ Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics`
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. When the QP is infeasible,
-:meth:`InverseDynamicsQP.diagnose` names the conflicting constraints (:mod:`wbc.diagnosis`).
+them in place every tick; the friction rows are constant and written once. When the backend finds no solution
+and some variables are pinned (lb = ub: a released foot's forces), the QP is solved once more with them
+eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog; the path then names ``quadprog``) before the failure
+stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+(:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
 then hold to the solver's equality accuracy on rows 0..5 and exactly on the actuated rows.
@@ -95,7 +98,7 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import QPBackend
+from wbc.qp import QPBackend, solve_pinned_reduced
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -274,6 +277,9 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
+        #: QPs the backend found no solution to that were solved with their pinned variables eliminated
+        #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
+        self.pinned_reduced_solves = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -524,10 +530,10 @@ class InverseDynamicsQP:
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("relaxed", self.backend.name)
+        sol.path = TickPath("relaxed", solver)
         self._guard(state, sol, relaxed=True)
         return sol
 
@@ -552,12 +558,33 @@ class InverseDynamicsQP:
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("general", self.backend.name)
+        sol.path = TickPath("general", solver)
         self._guard(state, sol)
         return sol
+
+    def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
+        """The backend's solve of the assembled QP, and the name of the solver that answered. When the backend
+        finds no solution and some variables are pinned (lb = ub: the forces of a released foot), the QP is
+        solved once more with them eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog) before the failure
+        stands: DAQP was seen to report such QPs infeasible where the reduced QP solves (one Goldfarb–Idnani
+        solve of a problem of at most n variables, the only retry).
+
+        Raises:
+            SolverError: the backend's, when the reduced solve finds no solution either (or nothing is pinned).
+        """
+        try:
+            return self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), self.backend.name
+        except SolverError:
+            if not np.any(np.isfinite(lb) & (lb == ub)):
+                raise
+            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, self.backend.tolerance)
+            if x is None:
+                raise
+            self.pinned_reduced_solves += 1
+            return x, "quadprog"
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
@@ -675,11 +702,11 @@ class InverseDynamicsQP:
         kb.gave_up = not skipped
         kb.state[:] = 0
         kb.rstate[:] = 0
-        x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
-                               self._ub, **self._confirm_kw)
+        x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                        self._lb, self._ub)
         # the kernel's next call starts from the working set of the backend's solution: DAQP's multipliers (bounds,
         # equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one), else the active bounds
-        lam = getattr(self.backend, "last_multipliers", None)
+        lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
         n, p = self.n, self._C.shape[0]
         if lam is not None and len(lam) == n + m + p:
             lam = np.asarray(lam)
@@ -692,7 +719,7 @@ class InverseDynamicsQP:
             kb.state[hi & (x >= np.where(hi, ub, 0.0) - 1e-9 * np.maximum(1.0, np.abs(np.where(hi, ub, 0.0))))] = 1
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("general", self.backend.name)
+        sol.path = TickPath("general", solver)
         self._guard(state, sol)
         return sol
 
