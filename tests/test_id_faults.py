@@ -474,17 +474,27 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     # an infeasible problem stays unsolved (None): a pinned variable against an equality row asking it be 1
     A2, b2 = np.vstack([A, np.eye(62)[pinned][:1]]), np.concatenate([b, [1.0]])
     assert solve_pinned_reduced(H, g, A2, b2, C, l, u, lb, ub, 1e-6) is None
+    assert solve_pinned_reduced(H, g, A2, b2, C, l, u, lb, ub, 1e-6, details=True) == (None, "infeasible")
+    # infeasible with the pinned variables free to move too: quadprog's certificate (inconsistent constraints)
+    l3 = l.copy()
+    l3[np.flatnonzero(np.isfinite(u) & np.any(C[:, ~pinned] != 0, axis=1))[0]] = 1e9  # a row past its upper bound
+    x3, reason = solve_pinned_reduced(H, g, A, b, C, l3, u, lb, ub, 1e-6, details=True)
+    assert x3 is None and reason == "infeasible" and not _highs_feasible(A, b, C, l3, u, lb, ub)
 
 
 def test_id_general_path_retries_a_failed_qp_with_pinned_forces_eliminated(robots):
     """The controller's wiring: a backend that finds no solution on every QP, one foot released (its forces
-    pinned at 0): the full QP is answered by the reduced solve (route 'general', solver 'quadprog'), ok, and the
+    pinned at 0): after one attempt of the backend (its retries off) the full QP is answered by the reduced solve
+    (route 'general', solver 'quadprog'), ok, and the
     command passes the controller's own output check and the bounds computed here (released forces 0, torques
     within the URDF effort). With both feet in contact (nothing pinned) the same backend's failure stands."""
     from wbc.exceptions import SolverError
 
     class Failing(DaqpBackend):
+        retries = []
+
         def solve(self, *args, **kw):
+            self.retries.append(self.cold_retry)
             raise SolverError("no solution (test backend)")
 
     robot = robots("talos")
@@ -492,8 +502,10 @@ def test_id_general_path_retries_a_failed_qp_with_pinned_forces_eliminated(robot
     cmd = ctrl.compute(q, v)
     assert not cmd.ok or cmd.relaxed  # nothing pinned: no retry
     ctrl.release_foot("right")
+    Failing.retries.clear()
     cmd = ctrl.compute(q, v)
     assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)
+    assert Failing.retries == [False]  # one attempt of the backend (no retries), then the reduced solve
     right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
     assert np.all(cmd.forces[right.start - robot.nv:right.stop - robot.nv] == 0.0)
     _finite_and_within_effort(cmd, robot)

@@ -647,7 +647,7 @@ _SETTINGS = {
 
 
 
-def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6) -> np.ndarray | None:
+def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
     """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
     left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
     Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
@@ -660,11 +660,20 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6) -
             the QP (±inf for absent bounds). tolerance: largest scaled violation accepted
             (:meth:`QPBackend.scaled_violation`).
 
+        details: also return why no solution was returned.
+
     Returns:
         x (n,) within [lb, ub] (pinned entries exactly at their value) meeting every row to ``tolerance``, or None
         (a dropped row violated, quadprog's failure — infeasible, dependent equalities, H not positive definite —
-        or a solution that fails the check).
+        or a solution that fails the check). With ``details``: (x or None, reason), reason '' for a solution,
+        ``infeasible`` (a dropped row violated, or quadprog found the constraints inconsistent: the dual
+        unbounded, Goldfarb–Idnani's infeasibility certificate), else ``failed``.
     """
+    x, reason = _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
+    return (x, reason) if details else x
+
+
+def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
     import quadprog
 
     n = H.shape[0]
@@ -679,7 +688,7 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6) -
     empty = ~np.any(Cr != 0.0, axis=1) if C.shape[0] else np.zeros(0, bool)
     if np.any((lr[empty] > tolerance * np.maximum(1.0, np.abs(l[empty])))
               | (ur[empty] < -tolerance * np.maximum(1.0, np.abs(u[empty])))):
-        return None
+        return None, "infeasible"
     Cr, lr, ur = Cr[~empty], lr[~empty], ur[~empty]
     lbr, ubr = lb[free], ub[free]
     eye = np.eye(Hr.shape[0])
@@ -689,14 +698,14 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6) -
     bq = np.concatenate([br, lr[lo], -ur[hi], lbr[blo], -ubr[bhi]])
     try:
         xr = quadprog.solve_qp(Hr, -gr, Cq, bq, Ar.shape[0])[0]
-    except ValueError:
-        return None
+    except ValueError as exc:
+        return None, "infeasible" if "inconsistent" in str(exc) else "failed"
     x = np.empty(n)
     x[pinned] = xp
     x[free] = xr
     if not np.isfinite(x).all():
-        return None
+        return None, "failed"
     xc = np.minimum(np.maximum(x, lb), ub)
     if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
-        return None
-    return xc
+        return None, "failed"
+    return xc, ""

@@ -59,7 +59,7 @@ preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is g
 them in place every tick; the friction rows are constant and written once. When the backend finds no solution
 and some variables are pinned (lb = ub: a released foot's forces), the QP is solved once more with them
 eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog; the path then names ``quadprog``) before the failure
-stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
@@ -566,25 +566,33 @@ class InverseDynamicsQP:
         return sol
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
-        """The backend's solve of the assembled QP, and the name of the solver that answered. When the backend
-        finds no solution and some variables are pinned (lb = ub: the forces of a released foot), the QP is
-        solved once more with them eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog) before the failure
-        stands: DAQP was seen to report such QPs infeasible where the reduced QP solves (one Goldfarb–Idnani
-        solve of a problem of at most n variables, the only retry).
+        """The backend's solve of the assembled QP, and the name of the solver that answered. When some variables
+        are pinned (lb = ub: the forces of a released foot) the backend gets one attempt (``cold_retry`` off),
+        then the QP is solved with them eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog): DAQP was seen
+        to report such QPs infeasible where the reduced QP solves. Quadprog's infeasibility certificate ends the
+        solve; any other failure of it gives the backend its retries.
 
         Raises:
-            SolverError: the backend's, when the reduced solve finds no solution either (or nothing is pinned).
+            SolverError: the backend's, when no solver found a solution.
         """
+        backend = self.backend
+        if not np.any(np.isfinite(lb) & (lb == ub)):
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        retry = getattr(backend, "cold_retry", False)
+        backend.cold_retry = False
         try:
-            return self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), self.backend.name
-        except SolverError:
-            if not np.any(np.isfinite(lb) & (lb == ub)):
-                raise
-            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, self.backend.tolerance)
-            if x is None:
-                raise
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        except SolverError as exc:
+            first = exc
+        finally:
+            backend.cold_retry = retry
+        x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance, details=True)
+        if x is not None:
             self.pinned_reduced_solves += 1
             return x, "quadprog"
+        if reason == "infeasible" or not retry:
+            raise first
+        return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
