@@ -169,3 +169,46 @@ def test_a_workspace_that_failed_where_the_one_shot_solved_is_not_tried_first_on
     x = backend.solve(H, g + 1e-3, A, b, C, l, u, lb, ub, confirm=False)
     assert order == ["oneshot"]
     assert np.max(np.abs(x - _quadprog(H, g + 1e-3, C, l, u, lb, ub))) < 1e-6
+
+
+def test_a_failing_solve_that_starts_with_the_one_shot_runs_each_cold_call_once():
+    """After a solve answered by the one-shot call (the workspace cycling), a problem that neither solves runs the
+    one-shot, the fresh workspace and the scaled one-shot once each (3 DAQP calls), not the workspace and the
+    one-shot a second time in the cold retry (5 calls). Counted with the same shim of the daqp module."""
+    H, g, A, b, C, l, u, lb, ub = _box_qp(seed=2, n=12)
+    order = []
+    oneshot_ok = {"ok": True}
+
+    class CyclingModel:
+        settings = {}
+
+        def setup(self, *args):
+            return (0,)
+
+        def update(self, **kw):
+            pass
+
+        def solve(self):
+            order.append("model")
+            return np.zeros(H.shape[0]), 0.0, -2, {"iterations": 7, "lam": None}
+
+    class Stub:
+        Model = CyclingModel
+
+        @staticmethod
+        def solve(*args, **kw):
+            order.append("oneshot")
+            if oneshot_ok["ok"]:
+                return daqp.solve(*args, **kw)
+            return np.zeros(H.shape[0]), 0.0, -2, {"iterations": 9, "lam": None}
+
+    backend = DaqpBackend()
+    backend._daqp = Stub
+    backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert order == ["model", "oneshot"]
+    order.clear()
+    oneshot_ok["ok"] = False
+    with pytest.raises(SolverError):
+        backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert np.abs(g).max() > 1.0  # so the scaled one-shot is tried
+    assert order == ["oneshot", "model", "oneshot"]

@@ -471,7 +471,10 @@ class DaqpBackend(QPBackend):
                 self._cold_outcome = (x, model, info["lam"])
                 return x
             self._note_exit(exitflag, limit)
-        if not self.cold_retry or self.budget_capped or tried_oneshot:  # (the one-shot call is deterministic)
+        if not self.cold_retry or self.budget_capped:
+            return None
+        if tried_oneshot:  # both cold calls ran and failed (deterministic): _solve_cold does not repeat them
+            self._cold_outcome = (None, None, None)
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
