@@ -530,10 +530,10 @@ class InverseDynamicsQP:
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         t1 = perf_counter()
-        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
+        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("relaxed", solver)
+        sol.path = TickPath("relaxed", self.backend.name)
         self._guard(state, sol, relaxed=True)
         return sol
 
@@ -566,7 +566,8 @@ class InverseDynamicsQP:
         return sol
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
-        """The backend's solve of the assembled QP, and the name of the solver that answered. When some variables
+        """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
+        extra solve), and the name of the solver that answered. When some variables
         are pinned (lb = ub: the forces of a released foot) the backend gets one attempt (``cold_retry`` off),
         then the QP is solved with them eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog): DAQP was seen
         to report such QPs infeasible where the reduced QP solves. Quadprog's infeasibility certificate ends the
