@@ -482,12 +482,12 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     assert x3 is None and reason == "infeasible" and not _highs_feasible(A, b, C, l3, u, lb, ub)
 
 
-def test_id_general_path_retries_a_failed_qp_with_pinned_forces_eliminated(robots):
+def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_eliminated(robots):
     """The controller's wiring: a backend that finds no solution on every QP, one foot released (its forces
     pinned at 0): after one attempt of the backend (its retries off) the full QP is answered by the reduced solve
     (route 'general', solver 'quadprog'), ok, and the
     command passes the controller's own output check and the bounds computed here (released forces 0, torques
-    within the URDF effort). With both feet in contact (nothing pinned) the same backend's failure stands."""
+    within the URDF effort); with both feet in contact (nothing pinned) likewise."""
     from wbc.exceptions import SolverError
 
     class Failing(DaqpBackend):
@@ -500,7 +500,8 @@ def test_id_general_path_retries_a_failed_qp_with_pinned_forces_eliminated(robot
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
     cmd = ctrl.compute(q, v)
-    assert not cmd.ok or cmd.relaxed  # nothing pinned: no retry
+    assert cmd.ok and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)  # nothing pinned: quadprog too
+    _finite_and_within_effort(cmd, robot)
     ctrl.release_foot("right")
     Failing.retries.clear()
     cmd = ctrl.compute(q, v)
@@ -509,3 +510,28 @@ def test_id_general_path_retries_a_failed_qp_with_pinned_forces_eliminated(robot
     right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
     assert np.all(cmd.forces[right.start - robot.nv:right.stop - robot.nv] == 0.0)
     _finite_and_within_effort(cmd, robot)
+
+
+def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retry():
+    """A QP recorded from the ID fuzz (humanoid15, ``solver="daqp"``, seed 297004 episode 1 tick 0: a controller's
+    first tick, both feet in contact, nothing pinned) that DAQP reports infeasible although HiGHS finds its hard set
+    feasible; quadprog (``solve_pinned_reduced``, the controller's retry) solves it. Oracles: every row to 1e-6
+    (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
+    from pathlib import Path
+
+    from wbc.exceptions import SolverError
+    from wbc.qp import solve_pinned_reduced
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_first_tick_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
+    with pytest.raises(SolverError):
+        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6, details=True)
+    assert reason == "" and x is not None
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb) and np.all(x <= ub)
+    assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4

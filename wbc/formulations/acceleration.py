@@ -56,10 +56,10 @@ Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics`
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. When the backend finds no solution
-and some variables are pinned (lb = ub: a released foot's forces), the QP is solved once more with them
-eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog; the path then names ``quadprog``) before the failure
-stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
+solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
+released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
+the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
@@ -98,7 +98,7 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import QPBackend, solve_pinned_reduced
+from wbc.qp import DaqpBackend, QPBackend, solve_pinned_reduced
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -277,7 +277,7 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
-        #: QPs the backend found no solution to that were solved with their pinned variables eliminated
+        #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
         #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
         self.pinned_reduced_solves = 0
         jl = self.joint_acceleration_limits
@@ -567,19 +567,19 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
-        extra solve), and the name of the solver that answered. When some variables
-        are pinned (lb = ub: the forces of a released foot) the backend gets one attempt (``cold_retry`` off),
-        then the QP is solved with them eliminated (:func:`wbc.qp.solve_pinned_reduced`, quadprog): DAQP was seen
-        to report such QPs infeasible where the reduced QP solves. Quadprog's infeasibility certificate ends the
-        solve; any other failure of it gives the backend its retries.
+        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.qp.DaqpBackend`, also
+        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with its pinned variables (lb = ub: the forces of a released foot)
+        eliminated (:func:`wbc.qp.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
+        quadprog solves them (a released foot; a controller's first tick). Quadprog's infeasibility certificate
+        ends the solve; any other failure of it gives the backend its retries.
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
         """
         backend = self.backend
-        if not np.any(np.isfinite(lb) & (lb == ub)):
+        if not isinstance(backend, DaqpBackend):  # another solver's failure stands as it reports it
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-        retry = getattr(backend, "cold_retry", False)
+        retry = backend.cold_retry
         backend.cold_retry = False
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
