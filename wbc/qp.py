@@ -547,7 +547,8 @@ class DaqpBackend(QPBackend):
     def _solve_dual(self, H, g, G, upper, lower):
         kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
-        if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
+        if exitflag < 1 and self._dual is not None and self.cold_retry:  # the warm start may be what failed: once
+            # more, cold (not for a trial with ``cold_retry`` off: one call per solve)
             self.warm_failures += 1
             x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations += int(info["iterations"])
