@@ -5,7 +5,8 @@ slid at ``--vx``) onto ``rough:0.02:SEED`` at ``--drops`` random places in x ∈
 2 ms step (elliptic cones, impratio 10: the plant's settings). Every contact carrying more than 20 N is compared
 with :meth:`wbc.terrain.Terrain.normal` at its point (the facet under it). Variants: the model as built by
 :func:`wbc.sim.mujoco_model.add_terrain`; a stiffer terrain contact (``solref`` 0.004 s); MuJoCo's native CCD or
-its multi-contact CCD disabled; a grid of 5 × 3 spheres of 1 cm radius instead of the box.
+its multi-contact CCD disabled; a grid of 5 × 3 spheres of 1 cm radius instead of the box; the heightfield replaced
+by one convex mesh per facet, grown 5 mm past its edges into its neighbours (``add_slabs``).
 
     nice -n 10 python benchmarks/hfield_contacts.py [--seed 9] [--drops 60] [--vx 0.3]
 """
@@ -24,14 +25,50 @@ from wbc.terrain import parse_terrain
 L, W = 0.21, 0.11  # m, Talos's sole
 
 
-def run(terr, label, drops, vx, solref=None, flags=0, spheres=False):
+def add_slabs(spec, terr, region, grow=0.005, depth=0.03):
+    """Each heightfield triangle in ``region`` (x0, x1, y0, y1) as a convex mesh: the triangle grown in its plane
+    (scaled about its centroid so that its inradius grows by ``grow``), extruded ``depth`` down. Neighbouring slabs
+    overlap by ``grow`` past their shared edge, so a sole crossing an edge is deep inside the slab it leaves
+    horizontally, not a sliver from its side wall; the price is a lip of at most ``grow · tan(Δ slope)`` where a
+    grown slab overhangs a lower neighbour (a ridge)."""
+    hf = terr.heightfield
+    h, d, (ox, oy) = hf.heights, hf.spacing, hf.origin
+    x0, x1, y0, y1 = region
+    j0, j1 = max(int((x0 - ox) / d), 0), min(int((x1 - ox) / d) + 1, h.shape[1] - 1)
+    i0, i1 = max(int((y0 - oy) / d), 0), min(int((y1 - oy) / d) + 1, h.shape[0] - 1)
+    k = 0
+    for i in range(i0, i1):
+        for j in range(j0, j1):
+            P = lambda a, b: np.array([ox + (j + b) * d, oy + (i + a) * d, h[i + a, j + b]])  # noqa: E731
+            for tri in ((P(0, 0), P(0, 1), P(1, 1)), (P(0, 0), P(1, 1), P(1, 0))):
+                t = np.array(tri)
+                c = t.mean(axis=0)
+                e = [np.linalg.norm(t[(q + 1) % 3] - t[(q + 2) % 3]) for q in range(3)]
+                area = 0.5 * np.linalg.norm(np.cross(t[1] - t[0], t[2] - t[0]))
+                r = 2 * area / sum(e)
+                top = c + (t - c) * (r + grow) / r
+                verts = np.vstack([top, top - [0, 0, depth]])
+                name = f"slab_{k}"
+                spec.add_mesh(name=name, uservert=verts.ravel().tolist())
+                spec.worldbody.add_geom(name=name + "_g", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
+                                        contype=ENV_BIT, conaffinity=ENV_BIT | ROBOT_BIT, priority=1,
+                                        friction=[1.0, 0.005, 0.0001])
+                k += 1
+    return k
+
+
+def run(terr, label, drops, vx, solref=None, flags=0, spheres=False, slabs=False):
     spec = mujoco.MjSpec()
     spec.option.timestep = 0.002
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.impratio = 10
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], contype=ENV_BIT,
                             conaffinity=ENV_BIT | ROBOT_BIT)
-    add_terrain(spec, terr)
+    if slabs:
+        spec.geom("floor").pos = [0, 0, -0.2]
+        add_slabs(spec, terr, (0.7, 10.3, -0.8, 0.8))
+    else:
+        add_terrain(spec, terr)
     if solref:
         spec.geom("terrain_hfield").solref = solref
     b = spec.worldbody.add_body(name="foot")
@@ -88,6 +125,7 @@ def main() -> int:
     run(terr, "native CCD off", a.drops, a.vx, flags=int(mujoco.mjtDisableBit.mjDSBL_NATIVECCD))
     run(terr, "multi-CCD off", a.drops, a.vx, flags=int(mujoco.mjtDisableBit.mjDSBL_MULTICCD))
     run(terr, "5 x 3 spheres r 1 cm", a.drops, a.vx, spheres=True)
+    run(terr, "facet slabs (grown 5 mm), no hfield", a.drops, a.vx, slabs=True)
     return 0
 
 

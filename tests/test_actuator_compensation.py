@@ -181,3 +181,46 @@ def test_speed_horizon_keeps_a_lagging_velocity_loop_under_the_limit():
     assert peak(speed_horizon(0), 0) <= 1.0
     assert peak(speed_horizon(0), 2) > 1.0
     assert peak(speed_horizon(2), 2) <= 1.0
+
+
+def test_per_joint_speed_margins_in_both_qps():
+    """compensation_options' margins: 5 % on the leg joints (the chains from the base to the soles), 30 % on the
+    others. Arms moving at 74 % of their URDF speed (above their 70 % bound, well under the legs' 95 %; soles on the
+    floor): the full QP (compiled tick) and the relaxed QP brake them to v + h v̇ dt within 70 % of the URDF limit;
+    the bounds of every joint match ±(1 − margin) q̇_max in closed form."""
+    from wbc.sim.actuators import joint_speed_margins, leg_joints
+
+    robot = wbc.load_robot("talos")
+    names = robot.model.names[2:]
+    np.testing.assert_array_equal(leg_joints(robot), [n.startswith("leg_") for n in names])
+    margins = joint_speed_margins(robot)
+    np.testing.assert_array_equal(margins, np.where([n.startswith("leg_") for n in names], 0.05, 0.3))
+    options = compensation_options(robot, actuator_model(robot))
+    np.testing.assert_array_equal(options["speed_margin"], margins)
+    h = options["speed_horizon"]
+    ctrl = IDBalanceController(robot, speed_margin=options["speed_margin"], speed_horizon=h,
+                               gains={"posture_kp": 1e4, "posture_weight": 100.0})
+    arms = np.array([i for i, n in enumerate(names) if n.startswith("arm_")])
+    vmax = robot.model.velocityLimit[6:]
+    q = robot.q_ref.copy()
+    v = np.zeros(robot.nv)
+    v[6 + arms] = 0.74 * vmax[arms]
+    ctrl.reset(q, v)
+    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
+    st.update(q, v)
+    idx = 6 + arms
+    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
+        assert np.all(v[idx] + h * dt * sol.dv[idx] <= 0.7 * vmax[arms] + 1e-6)
+        assert np.all(sol.dv[idx] < 0)  # braking
+    # the bounds themselves, closed form, on every bounded joint
+    bounds = qp.joint_speed_limits
+    lo, hi = bounds.bounds(v, dt)
+    lim = (1.0 - margins[bounds.indices - 6]) * robot.model.velocityLimit[bounds.indices]
+    np.testing.assert_allclose(hi, (lim - v[bounds.indices]) / (h * dt))
+    np.testing.assert_allclose(lo, (-lim - v[bounds.indices]) / (h * dt))
+    with pytest.raises(InvalidInputError, match="margin"):
+        JointSpeedBounds(robot, np.full(3, 0.05))
+    with pytest.raises(InvalidInputError, match="margin"):
+        JointSpeedBounds(robot, np.r_[1.0, np.zeros(robot.nv - 7)])
+    with pytest.raises(InvalidInputError, match="upper_body_margin"):
+        joint_speed_margins(robot, 0.05, 1.0)

@@ -155,3 +155,20 @@ def test_a_sole_set_down_without_its_load_waits_for_it(robot):
     sw.update(0.044, q_2mm, v, np.array([800.0, 0.0]))
     sw.update(0.064, q_2mm, v, np.array([800.0, 0.0]))
     assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)
+def test_ramp_in_bound_never_below_the_measured_load(robot):
+    """A sole that lands carrying part of the weight in the plant: the ramp-in bound is the larger of the linear
+    ramp and the sole's measured normal force, so the QP never computes the leg's torques for less load than the
+    sole carries; without measured forces the ramp alone."""
+    c, q, v, sw = _unloading_right(robot, full_force=1000.0)
+    sw.update(0.04, q, v)
+    sw.arm("right")
+    sw.update(0.042, q, v, np.array([300.0, 600.0]))  # height test: touch-down at t0 = 0.042 s
+    assert sw.phase("right") == "loading"
+    sw.update(0.046, q, v, np.array([300.0, 600.0]))  # ramp 1000 × 0.004 / 0.04 = 100 N < 600 N measured
+    assert c.contacts["right"].f_max * 4 == pytest.approx(600.0)
+    sw.update(0.062, q, v, np.array([880.0, 20.0]))  # ramp 500 N > 20 N measured
+    assert c.contacts["right"].f_max * 4 == pytest.approx(500.0)
+    sw.update(0.066, q, v)  # no measurement: ramp 600 N
+    assert c.contacts["right"].f_max * 4 == pytest.approx(600.0)
+    sw.update(0.082, q, v, np.array([0.0, 900.0]))
+    assert sw.phase("right") == "stance" and math.isinf(c.contacts["right"].f_max)

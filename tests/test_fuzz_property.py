@@ -152,6 +152,8 @@ def test_inverse_dynamics_controller_fuzz(robots, robot_name, seed, com_offset, 
                     lr[con.rows], ur[con.rows] = -np.inf, np.inf
                 elif con.relaxable and con.kind == "bounds":
                     lbr[con.indices], ubr[con.indices] = -np.inf, np.inf
+            if qp.joint_speed_limits is not None:  # not relaxable: the relaxed QP keeps |v + v̇ dt| ≤ v_max
+                qp.joint_speed_limits.intersect(ctrl.state.v, ctrl.dt, lbr, ubr)
             assert not feasible(H, A, b, C, lr, ur, lbr, ubr), f"false failure: {cmd.message}"
         # semi-implicit Euler on the model itself (no simulator: the QP's acceleration is applied)
         v = v + cmd.dv * ctrl.dt

@@ -408,3 +408,130 @@ def test_relaxed_qp_reuses_the_failed_full_qps_assembly_with_the_same_answer(rob
     a = qp.solve_relaxed(other, DT, reuse_assembly=True)  # not the state of the last solve: assembled for `other`
     b = qp.solve_relaxed(other, DT)
     assert np.max(np.abs(a.dv - b.dv)) <= 1e-9 * max(1.0, np.max(np.abs(b.dv)))
+
+
+def _kkt_residual(x, H, g, A, C, l, u, lb, ub, tol=1e-8) -> float:
+    """Optimality certificate computed here (no QP solver): the least-squares multipliers of the constraints
+    active at x (equalities and pinned variables free, inequalities and bounds signed) and the relative residual
+    of the stationarity condition H x + g = Σ λ_i n_i."""
+    from scipy.optimize import lsq_linear
+
+    r = H @ x + g
+    cols, lo, hi = [], [], []
+    for row in A:
+        cols.append(row)
+        lo.append(-np.inf)
+        hi.append(np.inf)
+    cx = C @ x
+    for i, row in enumerate(C):
+        if np.isfinite(l[i]) and cx[i] - l[i] <= tol * max(1.0, abs(l[i])):
+            cols.append(row), lo.append(0.0), hi.append(np.inf)
+        if np.isfinite(u[i]) and u[i] - cx[i] <= tol * max(1.0, abs(u[i])):
+            cols.append(-row), lo.append(0.0), hi.append(np.inf)
+    eye = np.eye(x.size)
+    for i in range(x.size):
+        if lb[i] == ub[i]:
+            cols.append(eye[i]), lo.append(-np.inf), hi.append(np.inf)
+            continue
+        if np.isfinite(lb[i]) and x[i] - lb[i] <= tol * max(1.0, abs(lb[i])):
+            cols.append(eye[i]), lo.append(0.0), hi.append(np.inf)
+        if np.isfinite(ub[i]) and ub[i] - x[i] <= tol * max(1.0, abs(ub[i])):
+            cols.append(-eye[i]), lo.append(0.0), hi.append(np.inf)
+    N = np.array(cols).T
+    lam = lsq_linear(N, r, bounds=(np.array(lo), np.array(hi)), method="bvls", tol=1e-14).x
+    return float(np.abs(N @ lam - r).max() / max(1.0, np.abs(r).max()))
+
+
+def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pinned_forces_eliminated():
+    """A QP recorded from the ID fuzz (Talos, ``solver="daqp"``, seed 293005 episode 33 tick 29: the right foot
+    released, its 12 forces pinned at 0; 62 variables, 49 constraints active at the optimum on the 50 free ones)
+    that DAQP reports infeasible although HiGHS finds its hard set feasible. ``solve_pinned_reduced`` solves it;
+    oracles: every row of the recorded problem to 1e-6 (scaled by max(1, |rhs|)), the pinned forces exactly 0,
+    and the KKT conditions (signed least-squares multipliers of the active set, computed here) to 1e-4."""
+    from pathlib import Path
+
+    from wbc.exceptions import SolverError
+    from wbc.qp import solve_pinned_reduced
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_released_foot_talos.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    pinned = lb == ub
+    assert pinned.sum() == 12
+    with pytest.raises(SolverError):  # the failure this retry is for (DAQP with the ID settings)
+        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6)
+    assert x is not None
+    assert np.all(x[pinned] == lb[pinned])
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb) and np.all(x <= ub)
+    # stationarity relative to max |H x + g| (≈ 1e3 here; H conditioned ≈ 1e10): 9e-6 measured; a point that
+    # misses an active constraint (active set read at 1e-9) gives 0.87
+    assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4
+    # an infeasible problem stays unsolved (None): a pinned variable against an equality row asking it be 1
+    A2, b2 = np.vstack([A, np.eye(62)[pinned][:1]]), np.concatenate([b, [1.0]])
+    assert solve_pinned_reduced(H, g, A2, b2, C, l, u, lb, ub, 1e-6) is None
+    assert solve_pinned_reduced(H, g, A2, b2, C, l, u, lb, ub, 1e-6, details=True) == (None, "infeasible")
+    # infeasible with the pinned variables free to move too: quadprog's certificate (inconsistent constraints)
+    l3 = l.copy()
+    l3[np.flatnonzero(np.isfinite(u) & np.any(C[:, ~pinned] != 0, axis=1))[0]] = 1e9  # a row past its upper bound
+    x3, reason = solve_pinned_reduced(H, g, A, b, C, l3, u, lb, ub, 1e-6, details=True)
+    assert x3 is None and reason == "infeasible" and not _highs_feasible(A, b, C, l3, u, lb, ub)
+
+
+def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_eliminated(robots):
+    """The controller's wiring: a backend that finds no solution on every QP, one foot released (its forces
+    pinned at 0): after one attempt of the backend (its retries off) the full QP is answered by the reduced solve
+    (route 'general', solver 'quadprog'), ok, and the
+    command passes the controller's own output check and the bounds computed here (released forces 0, torques
+    within the URDF effort); with both feet in contact (nothing pinned) likewise."""
+    from wbc.exceptions import SolverError
+
+    class Failing(DaqpBackend):
+        retries = []
+
+        def solve(self, *args, **kw):
+            self.retries.append(self.cold_retry)
+            raise SolverError("no solution (test backend)")
+
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)  # nothing pinned: quadprog too
+    _finite_and_within_effort(cmd, robot)
+    ctrl.release_foot("right")
+    Failing.retries.clear()
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)
+    assert Failing.retries == [False]  # one attempt of the backend (no retries), then the reduced solve
+    right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
+    assert np.all(cmd.forces[right.start - robot.nv:right.stop - robot.nv] == 0.0)
+    _finite_and_within_effort(cmd, robot)
+
+
+def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retry():
+    """A QP recorded from the ID fuzz (humanoid15, ``solver="daqp"``, seed 297004 episode 1 tick 0: a controller's
+    first tick, both feet in contact, nothing pinned) that DAQP reports infeasible although HiGHS finds its hard set
+    feasible; quadprog (``solve_pinned_reduced``, the controller's retry) solves it. Oracles: every row to 1e-6
+    (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
+    from pathlib import Path
+
+    from wbc.exceptions import SolverError
+    from wbc.qp import solve_pinned_reduced
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_first_tick_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
+    with pytest.raises(SolverError):
+        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6, details=True)
+    assert reason == "" and x is not None
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb) and np.all(x <= ub)
+    assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4

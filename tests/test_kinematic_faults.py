@@ -615,9 +615,10 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
 
 def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
     """Item 7: a DAQP solve that fails (a QP whose rows contradict: x₀ + x₁ = 1 and x₀ + x₁ ≤ 0) after a solved one
-    (warm workspace) tries the warm workspace, a fresh workspace, the one-shot interface, the relaxed primal
-    tolerance and the scaled cost — each once (5 calls). Before, its cold retry ran the fresh workspace and the
-    one-shot solve a second time on the same problem (7 calls, the same answers). Oracle: the count of DAQP calls
+    (warm workspace) tries the warm workspace, a fresh workspace, the one-shot interface and the scaled cost — each
+    once (4 calls; the relaxed primal tolerance is not tried: DAQP's default primal_tol already equals the
+    backend's tolerance). Before, its cold retry ran the fresh workspace and the one-shot solve a second time on
+    the same problem (7 calls, the same answers). Oracle: the count of DAQP calls
     (shim of the daqp module) and the answer, a SolverError, unchanged; the next solve (feasible) is exact."""
     from wbc.exceptions import SolverError
     from wbc.qp import DaqpBackend
@@ -633,6 +634,6 @@ def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
     calls.clear()
     with pytest.raises(SolverError):
         backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([0.0]), *free, confirm=False)
-    assert len(calls) == 5, calls
+    assert len(calls) == 4, calls
     x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
     assert np.allclose(x, [1.0, 0.0], atol=1e-9)

@@ -37,6 +37,10 @@ def test_talos_climbs_three_10cm_stairs():
     steps = 5  # 3 treads, the landing, the closing step
     scenario = WalkScenario(steps, tread, 0.8, terrain=terrain)
     run, s = run_scenario(sim, controller, scenario)
+    # step timing: the stair swings (two treads forward and a rise) last longer than the 0.64 s of a level step,
+    # and the run covers the lengthened plan (completed below)
+    swings = [ph.duration for ph in scenario.plan.phases if ph.step >= 0]
+    assert max(swings) > 0.64 + 0.05
     assert not s["fell"], s.get("fall_reason")
     assert s["completed"] and s["touchdowns"] == steps
     assert s["solver_failures"] == 0

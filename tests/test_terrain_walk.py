@@ -161,3 +161,57 @@ def test_steps_up_clear_the_nosing_without_a_tall_swing():
         assert poses[:, 2, 3].max() - z1 <= 0.1
         assert np.linalg.norm(vel[-1, :2]) <= 1e-6
     assert ups >= 4
+
+
+def _peak_speeds(plan):
+    """Peak speed (m/s) of each swing, from finite differences of the planned sole positions (not the plan's
+    velocities)."""
+    out = []
+    for ph in plan.phases:
+        if ph.step < 0:
+            continue
+        P = (plan.left_sole if plan.footsteps[ph.step].side == "left" else plan.right_sole)[ph.first:ph.end + 1, :3, 3]
+        out.append(float(np.linalg.norm(np.diff(P, axis=0), axis=1).max() / plan.dt))
+    return np.array(out)
+
+
+def test_step_timing_keeps_the_swing_sole_under_its_speed_bound():
+    """Steps whose swing would be faster than max_sole_speed (stairs: 2 treads forward and a rise) last longer,
+    single and double support by the same factor, so that their peak sole speed is the bound; the others keep
+    t_ss. Speeds from finite differences of the planned soles."""
+    spec, v_max, t_ss, t_ds = "stairs:0.15:0.3:4:updown", 1.6, 0.64, 0.16
+    free = _plan(spec, n_steps=12, t_ss=t_ss, t_ds=t_ds).plan
+    timed = _plan(spec, n_steps=12, t_ss=t_ss, t_ds=t_ds, max_sole_speed=v_max).plan
+    v0, v1 = _peak_speeds(free), _peak_speeds(timed)
+    assert v0.max() > 1.5 * v_max  # the bound binds
+    assert v1.max() <= v_max * 1.01
+    ss = [ph.duration for ph in timed.phases if ph.step >= 0]
+    for i, (a, b, T) in enumerate(zip(v0, v1, ss)):
+        if a <= v_max:  # not lengthened
+            assert T == pytest.approx(t_ss) and b == pytest.approx(a, rel=1e-9), i
+        else:  # speed ~ 1/T: the lengthened swing peaks at the bound, within a sample's rounding
+            assert T == pytest.approx(t_ss * a / v_max, abs=timed.dt), i
+            assert b == pytest.approx(v_max, rel=0.01), i
+    # the double support after a lengthened step is lengthened by the same factor
+    phases = list(timed.phases)
+    for j, ph in enumerate(phases[:-2]):
+        if ph.step >= 0 and phases[j + 1] is not phases[-1]:
+            assert phases[j + 1].duration == pytest.approx(t_ds * ph.duration / t_ss, abs=2 * timed.dt)
+    # steps with a height change are the lengthened ones; the feet still land on their footholds
+    assert timed.duration > free.duration + 1.0
+    assert np.allclose(timed.left_sole[-1], free.left_sole[-1]) and np.allclose(timed.right_sole[-1],
+                                                                                  free.right_sole[-1])
+
+
+def test_step_timing_bad_bound_and_per_step_durations_are_gait_errors():
+    for bad in (0.0, -1.0, math.nan, "fast"):
+        with pytest.raises(GaitError, match="max_sole_speed"):
+            _plan("stairs:0.1:0.3:3:up", max_sole_speed=bad)
+    left, right, com = _feet()
+    with pytest.raises(GaitError, match="t_ss must be one duration"):
+        plan_walk(left, right, com, n_steps=3, t_ss=[0.8, 0.8])
+    with pytest.raises(GaitError, match=r"t_ds\[1\]"):
+        plan_walk(left, right, com, n_steps=3, t_ds=[0.3, -0.1, 0.3])
+    p = plan_walk(left, right, com, n_steps=3, t_ss=[0.6, 0.8, 1.0], t_ds=[0.2, 0.4, 0.3], sole_length=L,
+                  sole_width=W)
+    assert [round(ph.duration, 9) for ph in p.phases[1:-1]] == [0.6, 0.2, 0.8, 0.4, 1.0]

@@ -74,11 +74,13 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         rank_rtol: relative rank tolerance of the stacked equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
-        stop: called before each level after the first; when it returns True no further level is started (a
-            controller's counted tick budget, :class:`wbc.qp.TickWork`): the cascade then returns the solution of
-            the last level it solved (a point of the hard set, optimal for that level and every level above it)
-            and ``solve_lexicographic.last_cut`` is the number of levels (soft level included) that were solved;
-            None when every level was. The first level is always solved. Default: every level.
+        stop: called before each level after the first, and after a failed solve of such a level; when it
+            returns True no further level is started and a failed level is not retried (a controller's counted
+            tick budget, :class:`wbc.qp.TickWork`, whose backends bound their solver's iterations by the work
+            left): the cascade then returns the solution of the last level it solved (a point of the hard set,
+            optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
+            of levels (soft level included) that were solved; None when every level was. The first level is
+            always solved. Default: every level.
         memo: a dict the caller keeps across cascades of the same levels (the re-solves of a tick whose hard set
             changed a little — a contact correction, a trust region — and the next ticks), or None. A level that
             the last cascade solved only by its damped (or wide-band) retry starts with that retry (one solve
@@ -173,9 +175,28 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                 continue
             except SolverError:
                 del memo[key]  # the hint failed: the full sequence below (which records what solves now)
+                if v is not None and stop is not None and stop():
+                    solve_lexicographic.last_cut = k  # the budget ran out inside this level's solve
+                    return v, skipped
         try:
             v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
+            if v is not None and stop is not None and stop():
+                # the budget ran out inside this level's solve (a backend bounds its solver's iterations by the
+                # work left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level, with the last
+                # solved level's v (a point of the hard set, optimal for every level above)
+                solve_lexicographic.last_cut = k
+                return v, skipped
+            hard_point = None
+            if v is None:
+                # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned
+                # QP) — asked before the damped retry, so that an infeasible hard set costs two solves, not three
+                try:
+                    hard_point = backend.solve(np.eye(Hk.shape[0]), np.zeros(Hk.shape[0]), A_kept, b_kept, C, l, u,
+                                               lb, ub)
+                except SolverError:
+                    raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
+                                      f"soft level below {len(levels)} priority levels: {exc}") from None
             if J is not None and first != "damped":
                 # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
                 # 5e-6 – 2e-3 off the rows: once more damped, JᵀJ + μI with μ = 1e-9 · max(1, max diag)
@@ -193,13 +214,10 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                         fixed_J.append(J)
                     continue
             if v is None:
-                # the first level failed twice: is the hard set itself infeasible? (min ‖v‖² on it)
-                try:
-                    v = backend.solve(np.eye(Hk.shape[0]), np.zeros(Hk.shape[0]), A_kept, b_kept, C, l, u, lb, ub)
-                except SolverError:
-                    raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
-                                      f"soft level below {len(levels)} priority levels: {exc}") from None
-                skipped.append(k)  # numerical failure of this level: v is a point of the hard set
+                # the first level failed twice on a feasible hard set: numerical failure of this level, v is the
+                # point of the hard set found above
+                v = hard_point
+                skipped.append(k)
                 if J is not None:
                     fixed_J.append(J)
                 continue

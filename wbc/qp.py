@@ -22,7 +22,7 @@ import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork", "solve_pinned_reduced"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 #: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
@@ -308,6 +308,18 @@ class QPBackend(ABC):
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
 
+#: a DAQP call of :class:`DaqpBackend` under a controller's counted tick work (``QPBackend.work`` with a finite cap)
+#: may take at most the iterations that keep the tick's count below WORK_LIMIT_FACTOR × its cap
+#: (:data:`ITERATIONS_PER_SOLVE` iterations per solve, one solve kept for what follows the call), at least
+#: :data:`MIN_CALL_ITERATIONS`: a stage already started cannot run past the budget by a full iteration cap
+WORK_LIMIT_FACTOR = 1.9
+MIN_CALL_ITERATIONS = 10
+
+#: DAQP's exit flag of a call stopped by its iteration limit
+_DAQP_ITERATION_LIMIT = -4
+#: DAQP's default primal tolerance (its settings' ``primal_tol``)
+_DAQP_PRIMAL_TOL = 1e-6
+
 
 class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
@@ -324,7 +336,10 @@ class DaqpBackend(QPBackend):
             the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities).
         **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
             ``primal_tol``); DAQP's defaults otherwise, except ``iter_limit`` (default :data:`ITERATION_LIMIT`: one
-            call's work is bounded; a solve that reaches it is a failed attempt).
+            call's work is bounded; a solve that reaches it is a failed attempt). Under a controller's counted tick
+            work (``work`` with a finite cap) each call's limit is also at most what keeps the count below
+            :data:`WORK_LIMIT_FACTOR` × the cap (:meth:`call_limit`); a call stopped there is a failed attempt
+            (``budget_capped`` True until the next solve), never an unconverged answer.
 
     Raises:
         InvalidInputError: unknown ``warm_start``.
@@ -354,6 +369,34 @@ class DaqpBackend(QPBackend):
         #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
         #: inequality rows; > 0 at an upper bound, < 0 at a lower one, 0 off its working set), else None.
         self.last_multipliers: np.ndarray | None = None
+        #: a DAQP call of the current solve stopped at the tick work's iteration limit (:meth:`call_limit`), below
+        #: the settings' own ``iter_limit``; the solve's remaining calls are then skipped (failed attempts).
+        self.budget_capped = False
+        self._model_limit = None  # the iteration limit set on the persistent workspace
+        self._oneshot_first = False  # the last solve's workspace calls failed and its one-shot call succeeded
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
+        """:meth:`QPBackend.solve` (``budget_capped`` reset first)."""
+        self.budget_capped = False
+        return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
+
+    def call_limit(self) -> int:
+        """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
+        lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
+        ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress counted,
+        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`. A count, not a clock."""
+        limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
+        work = self.work
+        if work is not None and math.isfinite(work.cap):
+            left = ((WORK_LIMIT_FACTOR * work.cap - work.solves - 1.0) * ITERATIONS_PER_SOLVE
+                    - self.last_iterations)
+            limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
+        return limit
+
+    def _note_exit(self, exitflag: int, limit: int) -> None:
+        """Record a call stopped by a budget-lowered iteration limit (``budget_capped``)."""
+        if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
+            self.budget_capped = True
 
     def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
         self._layout = (n, n_eq, n_in)
@@ -384,41 +427,71 @@ class DaqpBackend(QPBackend):
             self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
         self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
+        if self.budget_capped:
+            return None  # the tick's work limit stopped a call of this solve: no further call
+        tried_oneshot = self._oneshot_first and self.cold_retry
+        if tried_oneshot:
+            # the last solve's workspace calls failed where the one-shot solve then succeeded (a strict level whose
+            # ±band rows make the workspace cycle, exit −2, after hundreds of iterations): the one-shot first
+            x = self._solve_oneshot(H, g, G, upper, lower)
+            if x is not None:
+                return x
+            self._oneshot_first = False
+            if self.budget_capped:
+                return None
         warm = self._model is not None
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
+            limit = self.call_limit()
+            if limit != self._model_limit:
+                self._model.settings = {"iter_limit": limit}
+                self._model_limit = limit
             x, _, exitflag, info = self._model.solve()
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
                 return x
+            self._note_exit(exitflag, limit)
             self.warm_failures += 1
-            if not self.cold_retry:  # a trial (``cold_retry`` off): one call; the next solve starts cold
-                self._model = None
+            if not self.cold_retry or self.budget_capped:  # a trial (``cold_retry`` off), or the work limit: one
+                self._model = None                         # call; the next solve starts cold
                 return None
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
-        if self.settings:
-            model.settings = dict(self.settings)
+        limit = self.call_limit()
+        model.settings = {**self.settings, "iter_limit": limit}
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, exitflag, info = model.solve()
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
+                self._model_limit = limit
                 self.last_multipliers = info["lam"]
                 self._cold_outcome = (x, model, info["lam"])
                 return x
-        if not self.cold_retry:
+            self._note_exit(exitflag, limit)
+        if not self.cold_retry or self.budget_capped:
+            return None
+        if tried_oneshot:  # both cold calls ran and failed (deterministic): _solve_cold does not repeat them
+            self._cold_outcome = (None, None, None)
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
-        # cascade) that a Model workspace reports infeasible
-        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
-        self.last_iterations += int(info["iterations"])
-        self.last_multipliers = info["lam"] if exitflag >= 1 else None
-        x = x if exitflag >= 1 else None
+        # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
+        x = self._solve_oneshot(H, g, G, upper, lower)
+        self._oneshot_first = x is not None
         self._cold_outcome = (x, None, self.last_multipliers)
         return x
+
+    def _solve_oneshot(self, H, g, G, upper, lower):
+        """One call of DAQP's one-shot ``daqp.solve`` (iterations bounded by :meth:`call_limit`): x or None."""
+        limit = self.call_limit()
+        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense,
+                                                **{**self.settings, "iter_limit": limit})
+        self.last_iterations += int(info["iterations"])
+        self._note_exit(exitflag, limit)
+        self.last_multipliers = info["lam"] if exitflag >= 1 else None
+        return x if exitflag >= 1 else None
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self.warm_failures += 1
@@ -434,20 +507,18 @@ class DaqpBackend(QPBackend):
                 self._model, self.last_multipliers = model, multipliers
         else:
             self._model = None
+            self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
         if x is not None and np.isfinite(x).all():
             xc = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
                 return x
-        # the two retries below get at most the iterations left in the tick's counted work (a controller's
-        # TickWork: ITERATIONS_PER_SOLVE per solve left under twice its cap, at least one solve's worth), so that
+        if self.budget_capped:
+            return None  # the tick's work limit stopped this problem's cold solve: no retry
+        # the two retries below get at most the iterations left in the tick's counted work (call_limit), so that
         # one failing solve cannot run two more DAQP calls to their full iteration cap past the tick's budget
-        limit = dict(self.settings)
-        work = self.work
-        if work is not None and math.isfinite(work.cap):
-            left = max(1.0, 2.0 * work.cap - work.solves - self.last_iterations / ITERATIONS_PER_SOLVE)
-            limit["iter_limit"] = int(min(limit.get("iter_limit", ITERATION_LIMIT), left * ITERATIONS_PER_SOLVE))
-        if self.settings.get("primal_tol", 0.0) < self.tolerance:
+        limit = {**self.settings, "iter_limit": self.call_limit()}
+        if self.settings.get("primal_tol", _DAQP_PRIMAL_TOL) < self.tolerance:
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
             relaxed = {**limit, "primal_tol": self.tolerance}
@@ -455,6 +526,10 @@ class DaqpBackend(QPBackend):
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 return x2
+            self._note_exit(exitflag, relaxed["iter_limit"])
+            if self.budget_capped:
+                return None
+            limit["iter_limit"] = self.call_limit()
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
         if scale < 1.0:
             # the same minimiser with the cost divided by max(1, |g|∞, |H|max): with |g| ~ 1e6 and a Hessian
@@ -472,7 +547,8 @@ class DaqpBackend(QPBackend):
     def _solve_dual(self, H, g, G, upper, lower):
         kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
-        if exitflag < 1 and self._dual is not None:  # the warm start may be what failed: once more, cold
+        if exitflag < 1 and self._dual is not None and self.cold_retry:  # the warm start may be what failed: once
+            # more, cold (not for a trial with ``cold_retry`` off: one call per solve)
             self.warm_failures += 1
             x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
         self.last_iterations += int(info["iterations"])
@@ -573,3 +649,67 @@ _SETTINGS = {
 }
 
 
+
+
+def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
+    """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
+    left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
+    Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
+    27, 1983): a second solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics
+    QP of a released foot, whose 12 forces are pinned at 0 and whose optimum has nearly as many active
+    constraints as free variables).
+
+    Args:
+        H (n, n) positive definite on the free variables, g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,):
+            the QP (±inf for absent bounds). tolerance: largest scaled violation accepted
+            (:meth:`QPBackend.scaled_violation`).
+
+        details: also return why no solution was returned.
+
+    Returns:
+        x (n,) within [lb, ub] (pinned entries exactly at their value) meeting every row to ``tolerance``, or None
+        (a dropped row violated, quadprog's failure — infeasible, dependent equalities, H not positive definite —
+        or a solution that fails the check). With ``details``: (x or None, reason), reason '' for a solution,
+        ``infeasible`` (a dropped row violated, or quadprog found the constraints inconsistent: the dual
+        unbounded, Goldfarb–Idnani's infeasibility certificate), else ``failed``.
+    """
+    x, reason = _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
+    return (x, reason) if details else x
+
+
+def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
+    import quadprog
+
+    n = H.shape[0]
+    pinned = np.isfinite(lb) & (lb == ub)
+    free = ~pinned
+    xp = lb[pinned]
+    Hr = H[np.ix_(free, free)]
+    gr = g[free] + H[np.ix_(free, pinned)] @ xp
+    Ar, br = A[:, free], b - A[:, pinned] @ xp
+    Cr, shift = C[:, free], C[:, pinned] @ xp
+    lr, ur = l - shift, u - shift
+    empty = ~np.any(Cr != 0.0, axis=1) if C.shape[0] else np.zeros(0, bool)
+    if np.any((lr[empty] > tolerance * np.maximum(1.0, np.abs(l[empty])))
+              | (ur[empty] < -tolerance * np.maximum(1.0, np.abs(u[empty])))):
+        return None, "infeasible"
+    Cr, lr, ur = Cr[~empty], lr[~empty], ur[~empty]
+    lbr, ubr = lb[free], ub[free]
+    eye = np.eye(Hr.shape[0])
+    lo, hi, blo, bhi = np.isfinite(lr), np.isfinite(ur), np.isfinite(lbr), np.isfinite(ubr)
+    # quadprog: min ½xᵀGx − aᵀx s.t. Cᵀx ≥ b, the first meq columns equalities
+    Cq = np.hstack([Ar.T, Cr[lo].T, -Cr[hi].T, eye[:, blo], -eye[:, bhi]])
+    bq = np.concatenate([br, lr[lo], -ur[hi], lbr[blo], -ubr[bhi]])
+    try:
+        xr = quadprog.solve_qp(Hr, -gr, Cq, bq, Ar.shape[0])[0]
+    except ValueError as exc:
+        return None, "infeasible" if "inconsistent" in str(exc) else "failed"
+    x = np.empty(n)
+    x[pinned] = xp
+    x[free] = xr
+    if not np.isfinite(x).all():
+        return None, "failed"
+    xc = np.minimum(np.maximum(x, lb), ub)
+    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
+        return None, "failed"
+    return xc, ""

@@ -263,7 +263,8 @@ def cmd_sim(args) -> int:
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import capture_point_bound, make_controller, push_sweep, run_scenario
 
-    from wbc.sim.actuators import NO_LOAD_SPEED_FACTOR, SPEED_MARGIN, actuator_model, apply_actuators
+    from wbc.sim.actuators import (NO_LOAD_SPEED_FACTOR, SPEED_MARGIN, UPPER_BODY_SPEED_MARGIN, actuator_model,
+                                   apply_actuators)
     from wbc.sim.actuators import compensation_options
 
     status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
@@ -367,7 +368,8 @@ def cmd_sim(args) -> int:
     summary["controller_compensation"] = (
         f"armature in M, URDF damping + dry friction{' + the --friction extra' if args.friction_known else ''} "
         "feed-forward, joint speed limits at "
-        f"{1 - SPEED_MARGIN:.0%} of URDF, reached over {compensation.get('speed_horizon', 1):g} ticks "
+        f"{1 - SPEED_MARGIN:.0%} of URDF on the legs and {1 - UPPER_BODY_SPEED_MARGIN:.0%} elsewhere, reached over "
+        f"{compensation.get('speed_horizon', 1):g} ticks "
         "(also in the relaxed QP)" if compensation and args.controller == "id"
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)

@@ -32,7 +32,32 @@ import numpy as np
 from wbc.constraints.dynamics import IDConstraint
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["JointSpeedBounds"]
+__all__ = ["JointSpeedBounds", "speed_margins"]
+
+
+def speed_margins(robot, margin) -> np.ndarray:
+    """(nv − 6,) per-joint speed margins (fractions of the URDF limit kept free) from ``margin``: a number in
+    [0, 1) for every actuated joint, or an (nv − 6,) array of them (a copy is returned).
+
+    Raises:
+        InvalidInputError: a margin outside [0, 1) or not finite, an array of the wrong size.
+    """
+    n = robot.model.nv - 6
+    if isinstance(margin, bool):
+        raise InvalidInputError(f"margin must be a number or an array of {n} numbers in [0, 1), got {margin!r}")
+    try:
+        m = np.array(margin, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"margin must be a number or an array of {n} numbers in [0, 1), got {margin!r}") \
+            from None
+    if m.ndim == 0:
+        m = np.full(n, float(m))
+    if m.shape != (n,):
+        raise InvalidInputError(f"margin must be a number or an array of {n} numbers (one per actuated joint), got "
+                                f"shape {m.shape}")
+    if not (np.all(np.isfinite(m)) and np.all(m >= 0.0) and np.all(m < 1.0)):
+        raise InvalidInputError(f"margin must be in [0, 1), got {margin!r}")
+    return m
 
 
 class JointSpeedBounds(IDConstraint):
@@ -41,21 +66,21 @@ class JointSpeedBounds(IDConstraint):
     Args:
         robot: the robot (URDF velocity limits of its Pinocchio model; joints without a positive finite limit
             are unbounded).
-        margin: fraction of the limit kept free, in [0, 1) (e.g. 0.05: bound at 95 % of the URDF limit).
+        margin: fraction of the limit kept free, in [0, 1) (e.g. 0.05: bound at 95 % of the URDF limit): one
+            number for every joint, or an (nv − 6,) array, one per actuated joint in Pinocchio's velocity order.
         horizon: h, ticks (≥ 1) over which the commanded acceleration may take a joint to the bound (module
             docstring); 1: the next tick's velocity is bounded.
 
     Raises:
-        InvalidInputError: margin outside [0, 1), horizon not a finite number ≥ 1.
+        InvalidInputError: a margin outside [0, 1) or an array of the wrong size, horizon not a finite number ≥ 1.
     """
 
     name = "joint_speed_limits"
     kind = "bounds"
     relaxable = False
 
-    def __init__(self, robot, margin: float = 0.0, horizon: float = 1.0):
-        if not (np.isfinite(margin) and 0.0 <= margin < 1.0):
-            raise InvalidInputError(f"margin must be in [0, 1), got {margin!r}")
+    def __init__(self, robot, margin=0.0, horizon: float = 1.0):
+        margins = speed_margins(robot, margin)
         if not (np.isfinite(horizon) and horizon >= 1.0):
             raise InvalidInputError(f"horizon must be a finite number of ticks ≥ 1, got {horizon!r}")
         self.horizon = float(horizon)
@@ -64,7 +89,7 @@ class JointSpeedBounds(IDConstraint):
               if model.joints[j].nv == 1 and 0 < model.velocityLimit[model.joints[j].idx_v] < np.inf]
         self.indices = np.array(iv, dtype=np.int64)
         self.dim = int(self.indices.size)
-        self.vmax = (1.0 - float(margin)) * np.asarray(model.velocityLimit, dtype=float)[self.indices]
+        self.vmax = (1.0 - margins[self.indices - 6]) * np.asarray(model.velocityLimit, dtype=float)[self.indices]
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
 

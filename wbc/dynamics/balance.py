@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.constants import SIDES
-from wbc.constraints.joint_velocity import JointSpeedBounds
+from wbc.constraints.joint_velocity import JointSpeedBounds, speed_margins
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 from wbc.dynamics.controller import IDCommand, InverseDynamicsController
@@ -68,7 +68,8 @@ class IDBalanceController:
             (:class:`~wbc.dynamics.actuator_compensation.JointFrictionCompensation`); None: none.
         speed_margin: the joint speed limits the QP enforces on its accelerations, |v + v̇ dt| ≤ (1 − margin)
             q̇_max (URDF), in the full QP (eq. 9 of :mod:`wbc.formulations.acceleration`) and — as the
-            non-relaxable :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` — in the relaxed one; in [0, 1).
+            non-relaxable :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` — in the relaxed one; in [0, 1),
+            one number or an (nv − 6,) array (one per actuated joint, Pinocchio's velocity order).
         speed_horizon: h (ticks, ≥ 1) of those speed bounds, in both QPs: v̇ h dt ≤ (1 − margin) q̇_max − v, so
             a joint approaches its limit as a first-order system of time constant h dt — robust to a lagging
             velocity measurement (:class:`~wbc.constraints.joint_velocity.JointSpeedBounds`); 1: the next tick's
@@ -87,7 +88,7 @@ class IDBalanceController:
 
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
-                 compensation: JointFrictionCompensation | None = None, speed_margin: float = 0.0,
+                 compensation: JointFrictionCompensation | None = None, speed_margin=0.0,
                  speed_horizon: float = 1.0, armature=None, **qp_options):
         if armature is not None:
             robot = _with_armature(robot, armature)
@@ -123,11 +124,13 @@ class IDBalanceController:
         self.qp = InverseDynamicsQP(robot, [self.com, self.torso, self.momentum, self.posture],
                                     list(self.contacts.values()), solver=solver, **qp_options)
         self.controller = InverseDynamicsController(self.qp, dt)
-        speed = JointSpeedBounds(robot, speed_margin, speed_horizon)
+        margins = speed_margins(robot, speed_margin)
+        speed = JointSpeedBounds(robot, margins, speed_horizon)
         self.qp.joint_speed_limits = speed
-        self.qp.joint_acceleration_limits.speed_horizon = speed.horizon
-        if speed_margin > 0:
-            self.qp.joint_acceleration_limits.vmax[:] *= 1.0 - speed_margin  # in place: the compiled tick reads it
+        jl = self.qp.joint_acceleration_limits
+        jl.speed_horizon = speed.horizon
+        if margins.any():
+            jl.vmax[:] *= 1.0 - margins[jl.iv - 6]  # in place: the compiled tick reads it
         if compensation is not None and (not isinstance(compensation, JointFrictionCompensation)
                                          or compensation.damping.size != robot.nv - 6):
             raise InvalidInputError(f"compensation must be a JointFrictionCompensation of size {robot.nv - 6}, "

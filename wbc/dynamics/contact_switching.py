@@ -34,7 +34,12 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   sole in the air leaves the QP's forces on it unrealised, and the leg's joints accelerate by M⁻¹Jᵀf (on Romeo,
   whose hip yaw is limited to 0.32 rad/s, to 1.3 × that limit in the 40 ms before the sole met the floor). Off by
   default: the unrealised ramp also presses a hovering sole onto the floor, and a G1 stair climb that passes
-  without the wait falls with it.
+  without the wait falls with it. With the
+  measured normal force of the soles given to :meth:`~ContactSwitcher.update`, the bound is never below the
+  sole's measured force ``F_meas``: ``F_max(t) = max(F_full (t − t₀)/T_ramp, F_meas(t))``. A foot that lands
+  under a pushed robot can take most of the weight from the plant in its first tick; a QP holding the sole's
+  force on the ramp meanwhile computes the leg's joint torques for a fraction of that load, and the loaded leg
+  folds (its knee driven past the joint speed limit).
 
 ``F_full`` defaults to m g (the robot weight): the QP's normal force of a switching sole changes by at most
 ``F_full dt / ramp_time`` per tick (5 % of the weight per 2 ms tick with the default 0.04 s). This is the force-ramp approach of TSID's ``removeRigidContact(transition_time)`` /
@@ -226,7 +231,8 @@ class ContactSwitcher:
     def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None) -> None:
         """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)) and, with
         ``touchdown_force`` set, the measured normal force of each sole ``normal_force`` ((2,) N, (left, right),
-        e.g. from the ankle F/T sensors; None: the state test alone).
+        e.g. from the ankle F/T sensors; None: the state test alone). The measured force also floors the ramp-in
+        bound of a loading sole (module docstring).
 
         Call once per tick before the controller computes.
         """
@@ -259,7 +265,10 @@ class ContactSwitcher:
                     self._phase[s] = "stance"
                     self.events.append((float(t), s, "loaded"))
                 else:
-                    c.set_max_normal_force(s, self.full_force * a)
+                    f_max = self.full_force * a
+                    if normal_force is not None:  # never below the load the plant already puts on the sole
+                        f_max = max(f_max, float(normal_force[0 if s == "left" else 1]))
+                    c.set_max_normal_force(s, f_max)
             elif ph == "swing" and self._armed[s]:
                 z, vz = self.sole_height_velocity(s)
                 dz = z - self.ground_height[s]

@@ -56,8 +56,11 @@ Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics`
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. When the QP is infeasible,
-:meth:`InverseDynamicsQP.diagnose` names the conflicting constraints (:mod:`wbc.diagnosis`).
+them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
+solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
+released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
+the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+(:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
 then hold to the solver's equality accuracy on rows 0..5 and exactly on the actuated rows.
@@ -95,7 +98,7 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import QPBackend
+from wbc.qp import DaqpBackend, QPBackend, solve_pinned_reduced
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -274,6 +277,9 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
+        #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
+        #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
+        self.pinned_reduced_solves = 0
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -552,12 +558,42 @@ class InverseDynamicsQP:
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("general", self.backend.name)
+        sol.path = TickPath("general", solver)
         self._guard(state, sol)
         return sol
+
+    def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
+        """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
+        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.qp.DaqpBackend`, also
+        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with its pinned variables (lb = ub: the forces of a released foot)
+        eliminated (:func:`wbc.qp.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
+        quadprog solves them (a released foot; a controller's first tick). Quadprog's infeasibility certificate
+        ends the solve; any other failure of it gives the backend its retries.
+
+        Raises:
+            SolverError: the backend's, when no solver found a solution.
+        """
+        backend = self.backend
+        if not isinstance(backend, DaqpBackend):  # another solver's failure stands as it reports it
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        retry = backend.cold_retry
+        backend.cold_retry = False
+        try:
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        except SolverError as exc:
+            first = exc
+        finally:
+            backend.cold_retry = retry
+        x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance, details=True)
+        if x is not None:
+            self.pinned_reduced_solves += 1
+            return x, "quadprog"
+        if reason == "infeasible" or not retry:
+            raise first
+        return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
@@ -675,11 +711,11 @@ class InverseDynamicsQP:
         kb.gave_up = not skipped
         kb.state[:] = 0
         kb.rstate[:] = 0
-        x = self.backend.solve(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb,
-                               self._ub, **self._confirm_kw)
+        x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                        self._lb, self._ub)
         # the kernel's next call starts from the working set of the backend's solution: DAQP's multipliers (bounds,
         # equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one), else the active bounds
-        lam = getattr(self.backend, "last_multipliers", None)
+        lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
         n, p = self.n, self._C.shape[0]
         if lam is not None and len(lam) == n + m + p:
             lam = np.asarray(lam)
@@ -692,7 +728,7 @@ class InverseDynamicsQP:
             kb.state[hi & (x >= np.where(hi, ub, 0.0) - 1e-9 * np.maximum(1.0, np.abs(np.where(hi, ub, 0.0))))] = 1
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("general", self.backend.name)
+        sol.path = TickPath("general", solver)
         self._guard(state, sol)
         return sol
 

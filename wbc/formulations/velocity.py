@@ -77,7 +77,10 @@ between its stages — before each level of the strict cascade, each second-orde
 region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts none of them: it keeps the command of the last stage it finished (the last
 solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
-``message`` names the stages it skipped. ``TickResult.path`` names the route every tick took.
+``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
+count below :data:`wbc.qp.WORK_LIMIT_FACTOR` (1.9) times the budget (:meth:`wbc.qp.DaqpBackend.call_limit`); a call
+stopped there is a failed solve (never an unconverged answer), and a strict level that fails so is cut like a
+level not started. ``TickResult.path`` names the route every tick took.
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:

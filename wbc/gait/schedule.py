@@ -4,6 +4,8 @@ Sequence of phases for ``n`` steps::
 
     DS_init (t_init) | SS_1 (t_ss) DS_1 (t_ds) | SS_2 ... | SS_n (t_ss) | DS_final (t_final)
 
+(the single and double supports may differ in length, one ``t_ss`` and ``t_ds`` per step: step timing on terrain).
+
 Every duration is rounded to a whole number of samples ``dt`` (at least one), so that phase boundaries, lift-off
 and touch-down fall exactly on samples. A phase covers samples ``first .. first + count - 1``; its end sample
 is the first sample of the next phase. The walk has ``sum(count) + 1`` samples; the last one closes DS_final.
@@ -102,18 +104,23 @@ class ZmpSegments:
     phase: np.ndarray
 
 
-def build_phases(n_steps: int, first_side: str, n_init: int, n_ss: int, n_ds: int, n_final: int,
+def build_phases(n_steps: int, first_side: str, n_init: int, n_ss, n_ds, n_final: int,
                  dt: float) -> list[Phase]:
-    """Phases of an ``n_steps`` walk, durations given in samples (each >= 1), ``first_side`` swinging first."""
+    """Phases of an ``n_steps`` walk, durations given in samples (each >= 1), ``first_side`` swinging first.
+    ``n_ss``, ``n_ds``: samples of every single support / double support between two steps (int), or a sequence of
+    ``n_steps`` ints, one per step (``n_ds[i]`` follows step i; the last one is unused: ``n_final`` follows the last
+    step)."""
+    counts = [int(n_ss)] * n_steps if isinstance(n_ss, (int, np.integer)) else [int(c) for c in n_ss]
+    ds = [int(n_ds)] * n_steps if isinstance(n_ds, (int, np.integer)) else [int(c) for c in n_ds]
     phases = [Phase(DOUBLE_SUPPORT, 0, n_init, -1, dt)]
     k = n_init
     swing_left = first_side == "left"
     for i in range(n_steps):
-        phases.append(Phase(RIGHT_SUPPORT if swing_left else LEFT_SUPPORT, k, n_ss, i, dt))
-        k += n_ss
+        phases.append(Phase(RIGHT_SUPPORT if swing_left else LEFT_SUPPORT, k, counts[i], i, dt))
+        k += counts[i]
         last = i == n_steps - 1
-        phases.append(Phase(DOUBLE_SUPPORT, k, n_final if last else n_ds, -1, dt))
-        k += n_final if last else n_ds
+        phases.append(Phase(DOUBLE_SUPPORT, k, n_final if last else ds[i], -1, dt))
+        k += n_final if last else ds[i]
         swing_left = not swing_left
     return phases
 

@@ -58,12 +58,12 @@ def _geodesic_coefficients(R0: np.ndarray, R1: np.ndarray) -> tuple[np.ndarray, 
 
 
 def sample_feet(n_samples: int, initial: np.ndarray, targets: np.ndarray, foot: np.ndarray, lift_off: np.ndarray,
-                n_swing: int, dt: float, height: float) -> tuple[np.ndarray, np.ndarray]:
+                n_swing, dt: float, height: float) -> tuple[np.ndarray, np.ndarray]:
     """World poses and velocities of several soles over a walk, vectorised over all swings.
 
     Foot ``f`` stays at ``initial[f]`` until its first lift-off. Swing ``i`` moves foot ``foot[i]`` from its
     latest pose to ``targets[i]`` from sample ``lift_off[i]`` (``s = 0``) to the touch-down sample
-    ``lift_off[i] + n_swing`` (``s = 1``); the foot then stays there until its next lift-off.
+    ``lift_off[i] + n_swing[i]`` (``s = 1``); the foot then stays there until its next lift-off.
 
     Args:
         n_samples: number of samples N.
@@ -72,7 +72,7 @@ def sample_feet(n_samples: int, initial: np.ndarray, targets: np.ndarray, foot: 
         foot: (m,) int in ``[0, F)``, which sole each swing moves.
         lift_off: (m,) int, lift-off samples; a foot's swings must not overlap and every touch-down must be
             ``< n_samples``.
-        n_swing: samples per swing (>= 1): swing duration ``n_swing * dt``.
+        n_swing: samples per swing (int >= 1, swing duration ``n_swing * dt``), or (m,) ints, one per swing.
         dt: sample period (s).
         height: swing clearance ``h`` (m) added to z at mid-swing.
 
@@ -102,15 +102,23 @@ def sample_feet(n_samples: int, initial: np.ndarray, targets: np.ndarray, foot: 
         # matmul per swing, written straight into the (samples, 4, 4) output. Swing samples are s = 0, 1/n, ...,
         # (n-1)/n; the touch-down sample (s = 1) starts the next rest interval. At s = 0 every basis function
         # except the constant is exactly 0, so the lift-off pose equals the rest pose bit for bit.
-        b, bump, vbasis = _swing_profile(int(n_swing), float(dt), float(height))
-        psi = theta[:, None] * b[None, :]
-        basis = np.empty((m, 5, n_swing))  # rows: 1, sin psi, 1 - cos psi, b, bump
-        basis[:, 0] = 1.0
-        np.sin(psi, out=basis[:, 1])
-        np.cos(psi, out=basis[:, 2])
-        np.subtract(1.0, basis[:, 2], out=basis[:, 2])
-        basis[:, 3] = b
-        basis[:, 4] = bump
+        counts = [int(n_swing)] * m if isinstance(n_swing, (int, np.integer)) else [int(c) for c in n_swing]
+        groups: dict[int, list[int]] = {}
+        for i, c in enumerate(counts):
+            groups.setdefault(c, []).append(i)
+        basis_of, vbasis_of = [None] * m, [None] * m
+        for c, idx in groups.items():  # swings of the same length share their basis functions
+            b, bump, vbasis = _swing_profile(c, float(dt), float(height))
+            psi = theta[idx, None] * b[None, :]
+            basis = np.empty((len(idx), 5, c))  # rows: 1, sin psi, 1 - cos psi, b, bump
+            basis[:, 0] = 1.0
+            np.sin(psi, out=basis[:, 1])
+            np.cos(psi, out=basis[:, 2])
+            np.subtract(1.0, basis[:, 2], out=basis[:, 2])
+            basis[:, 3] = b
+            basis[:, 4] = bump
+            for j, i in enumerate(idx):
+                basis_of[i], vbasis_of[i] = basis[j], vbasis
         coef = np.zeros((m, 5, 4, 4))
         coef[:, 0] = P0
         coef[:, 1, :3, :3] = A1
@@ -127,9 +135,10 @@ def sample_feet(n_samples: int, initial: np.ndarray, targets: np.ndarray, foot: 
     flat = poses.reshape(n_feet, n_samples, 16)
     for i, (f, lo) in enumerate(zip(foot_l, lift_l)):
         poses[f, rest_from[f]:lo] = start_list[i]
-        np.matmul(basis[i].T, coef[i], out=flat[f, lo:lo + n_swing])
-        np.matmul(vbasis.T, vcoef[i], out=vel[f, lo:lo + n_swing])
-        rest_from[f] = lo + n_swing
+        n_i = counts[i]
+        np.matmul(basis_of[i].T, coef[i], out=flat[f, lo:lo + n_i])
+        np.matmul(vbasis_of[i].T, vcoef[i], out=vel[f, lo:lo + n_i])
+        rest_from[f] = lo + n_i
     for f in range(n_feet):
         poses[f, rest_from[f]:] = latest[f]
     return poses, vel

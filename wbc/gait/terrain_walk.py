@@ -31,7 +31,14 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    (:meth:`wbc.terrain.Terrain.swing_clearance`, the underside 5 × 3 points, away from the lift-off and touch-down
    footholds by ``approach``); while its clearance is below ``clearance`` the apex ``h`` of that swing is raised
    by 1 cm, up to ``max_apex``.
-4. **CoM height**: the three-dimensional DCM of Englsberger, Ott & Albu-Schäffer ("Three-dimensional bipedal
+4. **Step timing** (with ``max_sole_speed``): a swing's profiles are functions of its phase ``s = τ / T``, so its
+   sole's peak speed ``v`` scales as ``1 / T``. A step whose swing would peak above ``max_sole_speed`` gets a time
+   scale ``k = v / v_max``: its single support and the double support after it last ``k`` times longer (the
+   swing rounded up to a whole sample), so its sole peaks at the bound. On stairs these are the steps with a height
+   change: a swing from one tread to the tread after next covers two treads and the rise, and moves forward over
+   only part of the swing (:data:`STEP_UP_DELAY`, :data:`HORIZONTAL_LEAD`); level steps keep ``t_ss``. Footholds
+   and apexes do not depend on the timing; the xy plan is re-solved for it.
+5. **CoM height**: the three-dimensional DCM of Englsberger, Ott & Albu-Schäffer ("Three-dimensional bipedal
    walking control based on divergent component of motion", IEEE T-RO 31(2), 2015, Sec. III): with the virtual
    repellent point (VRP) ``v = r_eCMP + (0, 0, Δz)``, ``Δz = g / ω²``, the CoM obeys ``c̈ = ω² (c − v)`` and the DCM
    ``ξ = c + ċ/ω`` obeys ``ξ̇ = ω (ξ − v)`` in all three axes with one constant ω. The xy part is the plan's LIPM
@@ -58,7 +65,7 @@ import numpy as np
 from wbc.exceptions import GaitError
 from wbc.gait.com_plan import plan_lipm
 from wbc.gait.footsteps import Footstep
-from wbc.gait.schedule import zmp_segments
+from wbc.gait.schedule import RIGHT_SUPPORT, zmp_segments
 from wbc.gait.swing import sample_feet
 from wbc.gait.walk import WalkPlan, plan_walk
 from wbc.profiles import min_jerk
@@ -151,7 +158,7 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
 
 def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
                       clearance: float = 0.05, max_apex: float = 0.35, max_shift: float | None = None,
-                      approach: float | None = None, **walk) -> TerrainWalk:
+                      approach: float | None = None, max_sole_speed: float | None = None, **walk) -> TerrainWalk:
     """Plan a walk on ``terrain`` (module docstring).
 
     Args:
@@ -164,6 +171,8 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
             sole length).
         approach: distance (m) from the footholds within which swing clearance is not counted (default half the
             sole length).
+        max_sole_speed: largest speed (m/s, > 0) of a swing sole's origin; a step whose swing would be faster
+            gets a longer single support (step timing, module docstring). None: every step lasts ``t_ss``.
         **walk: keywords of :func:`wbc.gait.plan_walk` (``n_steps``, ``step_length``, ``t_ss`` ...); ``turn`` and
             ``step_lateral`` must be 0 off flat ground.
 
@@ -180,6 +189,9 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     for name, val in (("edge_margin", edge_margin), ("clearance", clearance), ("max_apex", max_apex)):
         if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
             raise GaitError(f"{name} must be a finite number >= 0 (m); got {val!r}")
+    if max_sole_speed is not None and not (isinstance(max_sole_speed, (int, float)) and
+                                            math.isfinite(max_sole_speed) and max_sole_speed > 0):
+        raise GaitError(f"max_sole_speed must be None or a finite number > 0 (m/s); got {max_sole_speed!r}")
     plan = plan_walk(left_sole, right_sole, com, **walk)
     if terrain.is_flat:
         return TerrainWalk(plan, terrain, np.array([fs.pose() for fs in plan.footsteps]).reshape(-1, 4, 4),
@@ -217,65 +229,24 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     vel = np.zeros(3) if walk.get("com_velocity") is None else np.asarray(walk["com_velocity"], dtype=float)
     plan = plan.replan(0, com, vel, steps, check_start=walk.get("check_start", True))
 
-    # 2. sole poses on the surface; 3. swings over the edges
+    # 2. sole poses on the surface; 3. swings over the edges; step timing
     holds = np.array([foothold_pose(terrain, f.x, f.y, f.yaw) for f in steps])
-    swings = [ph for ph in plan.phases if ph.step >= 0]
-    foot = [0 if steps[ph.step].side == "left" else 1 for ph in swings]
-    n, dt = plan.n_samples, plan.dt
-    n_ss = swings[0].count
-    initial = np.array([plan.left_sole[0], plan.right_sole[0]])
-    poses, vels = sample_feet(n, initial, holds[[ph.step for ph in swings]], foot, [ph.first for ph in swings],
-                              n_ss, dt, 0.0)
-    s = np.arange(n_ss) / n_ss
-    sm = s * (1.0 - s)
-    T = n_ss * dt
-    bump, dbump = 64.0 * sm**3, 192.0 * sm**2 * (1.0 - 2.0 * s) / T
-    # step down: clearance lift up by h over the first LIFT of the swing, held, set down over its last LIFT
-    r_b, r_db, _ = min_jerk(np.minimum(s / LIFT, 1.0))
-    f_b, f_db, _ = min_jerk(np.minimum((1.0 - s) / LIFT, 1.0))
-    lift, dlift = r_b * f_b, (r_db * f_b - r_b * f_db) / (LIFT * T)
-    # height blends: rising over the first VERTICAL_LEAD of the swing, descending over its last VERTICAL_LEAD
-    up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
-    dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
-    fw_b, fw_db, _ = min_jerk(np.minimum(s / HORIZONTAL_LEAD, 1.0))
-    up_xy_b, up_xy_db, _ = min_jerk(np.maximum((s - STEP_UP_DELAY) / (1.0 - STEP_UP_DELAY), 0.0))
     h0 = float(walk.get("step_height", 0.05))
-    apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
-    latest = [initial[0], initial[1]]
-    for ph, f in zip(swings, foot):
-        a, b = ph.first, ph.first + n_ss
-        start, land = latest[f][:3, 3].copy(), holds[ph.step][:3, 3]
-        z0, z1 = float(latest[f][2, 3]), float(holds[ph.step][2, 3])
-        zb, zdb, frac = (up_b, up_db, VERTICAL_LEAD) if z1 >= z0 else (dn_b, dn_db, VERTICAL_LAG)
-        poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
-        vels[f, a:b, 2] = (z1 - z0) * zdb / (frac * T)
-        dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
-        down = z1 < z0 - 1e-3
-        if down:  # step down: over the lower tread first, then down
-            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(fw_b, dxy)
-            vels[f, a:b, :2] = np.outer(fw_db / (HORIZONTAL_LEAD * T), dxy)
-        elif z1 > z0 + 1e-3:  # step up: forward only after STEP_UP_DELAY, while the toe rises above the riser ahead
-            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(up_xy_b, dxy)
-            vels[f, a:b, :2] = np.outer(up_xy_db / ((1.0 - STEP_UP_DELAY) * T), dxy)
-        prof, dprof = (bump, dbump) if abs(z1 - z0) <= 1e-3 else (lift, dlift)
-        base = poses[f, a:b].copy()
-        h = h0
-        while True:
-            seg = base.copy()
-            seg[:, 2, 3] += h * prof
-            c = terrain.swing_clearance(seg, start, land, length, width, approach)
-            if c >= clearance - 1e-12:
-                break
-            if h + 0.01 > max_apex + 1e-12:
-                raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
-                                f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
-            h += 0.01
-        poses[f, a:b, 2, 3] += h * prof
-        vels[f, a:b, 2] += h * dprof
-        apex[ph.step], planned[ph.step] = h, c
-        latest[f] = holds[ph.step]
+    args = (terrain, steps, holds, h0, length, width, approach, clearance, max_apex)
+    poses, vels, apex, planned = _fit_swings(plan, *args)
+    if max_sole_speed is not None:
+        scale = _step_timing(plan, vels, max_sole_speed)
+        if max(scale) > 1.0:  # the step (its single support and the double support after it) k times longer
+            t_ss, t_ds = float(walk.get("t_ss", 0.8)), float(walk.get("t_ds", 0.3))
+            up = [math.ceil(t_ss * k / plan.dt - 1e-9) * plan.dt for k in scale]  # (whole samples, not shorter)
+            timing = {"t_ss": up, "t_ds": [t_ds * k for k in scale[:-1]] + [t_ds]}
+            plan = plan_walk(left_sole, right_sole, com, **{**walk, **timing})
+            plan = plan.replan(0, com, vel, steps, check_start=walk.get("check_start", True))
+            poses, vels, apex, planned = _fit_swings(plan, *args)
+    n, dt = plan.n_samples, plan.dt
+    initial = np.array([plan.left_sole[0], plan.right_sole[0]])
 
-    # 4. CoM height from the VRP (Englsberger et al. 2015): heights scheduled as the ZMP reference
+    # 5. CoM height from the VRP (Englsberger et al. 2015): heights scheduled as the ZMP reference
     seg = plan.segments
     zl, zr = float(initial[0][2, 3]), float(initial[1][2, 3])
     zsteps = [Footstep(f.side, float(H[2, 3]), float(H[2, 3]), f.yaw) for f, H in zip(steps, holds)]
@@ -317,3 +288,88 @@ def _lower_before_stepping_down(zseg, phases, holds: np.ndarray):
             if j + 1 < len(start):
                 start[j + 1] = z_land
     return type(zseg)(zseg.first, zseg.count, start, end, zseg.phase)
+
+
+def _swing_profiles(n_ss: int, T: float) -> dict:
+    """Profiles of ``s = 0, 1/n, ..., (n-1)/n`` for a swing of ``n_ss`` samples lasting ``T`` s (steps 2–3 of the
+    module docstring): (value, time derivative in 1/s) pairs."""
+    s = np.arange(n_ss) / n_ss
+    sm = s * (1.0 - s)
+    r_b, r_db, _ = min_jerk(np.minimum(s / LIFT, 1.0))
+    f_b, f_db, _ = min_jerk(np.minimum((1.0 - s) / LIFT, 1.0))
+    up_b, up_db, _ = min_jerk(np.minimum(s / VERTICAL_LEAD, 1.0))
+    dn_b, dn_db, _ = min_jerk(np.maximum((s - 1.0 + VERTICAL_LAG) / VERTICAL_LAG, 0.0))
+    fw_b, fw_db, _ = min_jerk(np.minimum(s / HORIZONTAL_LEAD, 1.0))
+    up_xy_b, up_xy_db, _ = min_jerk(np.maximum((s - STEP_UP_DELAY) / (1.0 - STEP_UP_DELAY), 0.0))
+    return {
+        "bump": (64.0 * sm**3, 192.0 * sm**2 * (1.0 - 2.0 * s) / T),  # level: the bump of wbc.gait.swing
+        # up or down: clearance lift up by h over the first LIFT of the swing, held, set down over its last LIFT
+        "lift": (r_b * f_b, (r_db * f_b - r_b * f_db) / (LIFT * T)),
+        "up": (up_b, up_db / (VERTICAL_LEAD * T)),  # height rising over the first VERTICAL_LEAD
+        "down": (dn_b, dn_db / (VERTICAL_LAG * T)),  # height descending over the last VERTICAL_LAG
+        "forward_down": (fw_b, fw_db / (HORIZONTAL_LEAD * T)),
+        "forward_up": (up_xy_b, up_xy_db / ((1.0 - STEP_UP_DELAY) * T)),
+    }
+
+
+def _fit_swings(plan: WalkPlan, terrain: Terrain, steps: list[Footstep], holds: np.ndarray, h0: float,
+                length: float, width: float, approach: float, clearance: float, max_apex: float):
+    """Steps 2–3 of the module docstring on ``plan``'s timing: (poses (2, N, 4, 4), velocities (2, N, 6), apex (m,),
+    planned clearance (m,))."""
+    swings = [ph for ph in plan.phases if ph.step >= 0]
+    foot = [0 if steps[ph.step].side == "left" else 1 for ph in swings]
+    n, dt = plan.n_samples, plan.dt
+    initial = np.array([plan.left_sole[0], plan.right_sole[0]])
+    poses, vels = sample_feet(n, initial, holds[[ph.step for ph in swings]], foot, [ph.first for ph in swings],
+                              [ph.count for ph in swings], dt, 0.0)
+    apex, planned = np.zeros(len(steps)), np.full(len(steps), math.inf)
+    latest = [initial[0], initial[1]]
+    for ph, f in zip(swings, foot):
+        a, b = ph.first, ph.first + ph.count
+        pr = _swing_profiles(ph.count, ph.count * dt)
+        start, land = latest[f][:3, 3].copy(), holds[ph.step][:3, 3]
+        z0, z1 = float(latest[f][2, 3]), float(holds[ph.step][2, 3])
+        zb, zdb = pr["up"] if z1 >= z0 else pr["down"]
+        poses[f, a:b, 2, 3] = z0 + (z1 - z0) * zb
+        vels[f, a:b, 2] = (z1 - z0) * zdb
+        dxy = holds[ph.step][:2, 3] - latest[f][:2, 3]
+        if z1 < z0 - 1e-3:  # step down: over the lower tread first, then down
+            xb, xdb = pr["forward_down"]
+            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(xb, dxy)
+            vels[f, a:b, :2] = np.outer(xdb, dxy)
+        elif z1 > z0 + 1e-3:  # step up: forward only after STEP_UP_DELAY, while the toe rises above the riser ahead
+            xb, xdb = pr["forward_up"]
+            poses[f, a:b, :2, 3] = latest[f][:2, 3] + np.outer(xb, dxy)
+            vels[f, a:b, :2] = np.outer(xdb, dxy)
+        prof, dprof = pr["bump"] if abs(z1 - z0) <= 1e-3 else pr["lift"]
+        base = poses[f, a:b].copy()
+        h = h0
+        while True:
+            seg = base.copy()
+            seg[:, 2, 3] += h * prof
+            c = terrain.swing_clearance(seg, start, land, length, width, approach)
+            if c >= clearance - 1e-12:
+                break
+            if h + 0.01 > max_apex + 1e-12:
+                raise GaitError(f"step {ph.step + 1} ({steps[ph.step].side}): the swing clears the terrain by only "
+                                f"{c:.3f} m with an apex of {h:.2f} m (needs {clearance} m; max_apex {max_apex} m)")
+            h += 0.01
+        poses[f, a:b, 2, 3] += h * prof
+        vels[f, a:b, 2] += h * dprof
+        apex[ph.step], planned[ph.step] = h, c
+        latest[f] = holds[ph.step]
+    return poses, vels, apex, planned
+
+
+def _step_timing(plan: WalkPlan, vels: np.ndarray, max_sole_speed: float) -> list[float]:
+    """Time scale ``k ≥ 1`` of each step: 1, or ``v_peak / v_max`` when the swing sole's peak speed ``v_peak``
+    (``vels``, the swing of ``plan``) exceeds ``max_sole_speed``. Every profile of a swing is a function of its
+    phase ``s = τ / T``, so the sole's speed scales as ``1 / T``: a swing ``k`` times longer peaks at ``v_max``."""
+    out = []
+    for ph in plan.phases:
+        if ph.step < 0:
+            continue
+        f = 0 if ph.support == RIGHT_SUPPORT else 1
+        v = float(np.linalg.norm(vels[f, ph.first:ph.end, :3], axis=1).max())
+        out.append(max(1.0, v / max_sole_speed))
+    return out

@@ -405,6 +405,16 @@ def _scalar(x, name: str, *, positive: bool = False, nonneg: bool = False) -> fl
     return v
 
 
+def _durations(t, name: str, n_steps: int, dt: float):
+    """Samples of a duration ``t`` (s, > 0), or a list of them for a sequence of ``n_steps`` durations."""
+    if isinstance(t, (list, tuple, np.ndarray)):
+        if len(t) != n_steps:
+            raise GaitError(f"{name} must be one duration (s) or a sequence of n_steps = {n_steps} durations; got "
+                            f"{len(t)} durations")
+        return [_samples(_scalar(x, f"{name}[{i}]", positive=True), dt, f"{name}[{i}]") for i, x in enumerate(t)]
+    return _samples(_scalar(t, name, positive=True), dt, name)
+
+
 def _samples(duration: float, dt: float, name: str, minimum: int = 1) -> int:
     n = round(duration / dt)
     if n < minimum:
@@ -422,8 +432,8 @@ def plan_walk(
     step_width: float | None = None,
     turn: float = 0.0,
     step_height: float = 0.05,
-    t_ss: float = 0.8,
-    t_ds: float = 0.3,
+    t_ss: float | list[float] | tuple[float, ...] = 0.8,
+    t_ds: float | list[float] | tuple[float, ...] = 0.3,
     t_init: float = 1.0,
     t_final: float = 1.2,
     dt: float = 0.002,
@@ -452,7 +462,9 @@ def plan_walk(
         step_width: lateral distance (m) between the feet; default: the current one.
         turn: yaw change (rad) per walking step, ``|turn| < pi/2``; positive turns left.
         step_height: swing clearance (m, >= 0).
-        t_ss, t_ds: single / double support durations (s, > 0).
+        t_ss, t_ds: single / double support durations (s, > 0); either may also be a sequence of ``n_steps``
+            durations, one per step (the swing of step i lasts ``t_ss[i]``, the double support after it ``t_ds[i]``,
+            the last one unused; step timing on terrain, :func:`wbc.gait.terrain_walk.plan_terrain_walk`).
         t_init: initial double support (s, > 0): the CoM shifts towards the first stance foot.
         t_final: final double support (s, >= 2 dt): ZMP back to the feet mid-point, CoM settles.
         dt: sample period (s, > 0).
@@ -492,8 +504,8 @@ def plan_walk(
     width = _scalar(sole_width, "sole_width", positive=True)
     g = _scalar(gravity, "gravity", positive=True)
     n_init = _samples(_scalar(t_init, "t_init", positive=True), dt, "t_init")
-    n_ss = _samples(_scalar(t_ss, "t_ss", positive=True), dt, "t_ss")
-    n_ds = _samples(_scalar(t_ds, "t_ds", positive=True), dt, "t_ds")
+    n_ss = _durations(t_ss, "t_ss", int(n_steps), dt)
+    n_ds = _durations(t_ds, "t_ds", int(n_steps), dt)
     n_final = _samples(_scalar(t_final, "t_final", positive=True), dt, "t_final", minimum=2)
 
     lft, rgt = pose_to_xy_yaw(L), pose_to_xy_yaw(R)
@@ -522,7 +534,8 @@ def plan_walk(
                         f"must exceed the sole width {width} m) or reduce turn (now {turn} rad)")
 
     phases = build_phases(int(n_steps), first_side, n_init, n_ss, n_ds, n_final, dt)
-    seg = zmp_segments(phases, steps, lft[:2], rgt[:2], max(1, min(n_ds, n_final // 2)))
+    n_ramp = n_ds if isinstance(n_ds, int) else n_ds[-1]  # (the last entry follows no step: the nominal one)
+    seg = zmp_segments(phases, steps, lft[:2], rgt[:2], max(1, min(n_ramp, n_final // 2)))
     n = phases[-1].end + 1
 
     swings = [ph for ph in phases if ph.step >= 0]

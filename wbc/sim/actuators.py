@@ -36,12 +36,20 @@ import numpy as np
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
-           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN", "SPEED_HORIZON",
+           "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN", "UPPER_BODY_SPEED_MARGIN",
+           "SPEED_HORIZON", "leg_joints", "joint_speed_margins",
            "SPEED_HORIZON_PER_DELAY_TICK", "speed_horizon"]
 
 PLANTS = ("ideal", "realistic")
-#: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant.
+#: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant, on the leg joints (the
+#: joints that carry the soles).
 SPEED_MARGIN = 0.05
+#: Fraction of the URDF speed limits kept free on the other joints (torso, arms, head): light distal chains that the
+#: body's own accelerations drive as much as their drives do — a touch-down or a stance foot rolling under a pushed
+#: walk accelerates a wrist or shoulder by tens of rad/s² beyond the command, faster than the lagging estimated
+#: velocity reveals (benchmarks/README.md, pushed walks on the realistic plant). They do not carry the robot, so a
+#: lower bound on their speed costs the gait nothing.
+UPPER_BODY_SPEED_MARGIN = 0.3
 #: Ticks over which the controller's joint speed bounds let a joint reach the bound on a realistic plant, with no
 #: control delay (:class:`wbc.constraints.joint_velocity.JointSpeedBounds`: h ≳ e × the ~1.5-tick lag of the
 #: estimated joint velocities); :func:`speed_horizon` adds :data:`SPEED_HORIZON_PER_DELAY_TICK` per tick of delay.
@@ -190,15 +198,50 @@ def speed_horizon(delay: int = 0) -> float:
     return SPEED_HORIZON + SPEED_HORIZON_PER_DELAY_TICK * int(delay)
 
 
-def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN, *, delay: int = 0) -> dict:
+def leg_joints(robot) -> np.ndarray:
+    """(nv − 6,) bool, Pinocchio's actuated velocity order: True for the joints on the kinematic chains from the
+    floating base to the two sole frames (the legs)."""
+    model = robot.model
+    mask = np.zeros(model.nv - 6, dtype=bool)
+    for sole in (robot.left_sole, robot.right_sole):
+        for j in model.supports[model.frames[robot.frame_id(sole)].parentJoint]:
+            jm = model.joints[j]
+            if jm.idx_v >= 6:
+                mask[jm.idx_v - 6:jm.idx_v - 6 + jm.nv] = True
+    return mask
+
+
+def joint_speed_margins(robot, speed_margin: float = SPEED_MARGIN,
+                        upper_body_margin: float = UPPER_BODY_SPEED_MARGIN) -> np.ndarray:
+    """(nv − 6,) speed margins of the controller's joint speed bounds: ``speed_margin`` on the leg joints
+    (:func:`leg_joints`), ``upper_body_margin`` on the others (each in [0, 1)).
+
+    Raises:
+        InvalidInputError: a margin outside [0, 1) or not finite.
+    """
+    for val, what in ((speed_margin, "speed_margin"), (upper_body_margin, "upper_body_margin")):
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating)) \
+                or not (np.isfinite(val) and 0.0 <= val < 1.0):
+            raise InvalidInputError(f"{what} must be a number in [0, 1), got {val!r}")
+    return np.where(leg_joints(robot), float(speed_margin), float(upper_body_margin))
+
+
+def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_MARGIN, *, delay: int = 0,
+                         upper_body_margin: float = UPPER_BODY_SPEED_MARGIN) -> dict:
     """The :class:`~wbc.dynamics.balance.IDBalanceController` options that make the controller know the nominal
     drives ``act``: ``{"armature": (nv − 6,) kg·m² (its mass matrix includes it, on the controller's own copy of the
-    model), "compensation": friction/damping feed-forward, "speed_margin": speed_margin, "speed_horizon":
-    speed_horizon(delay)}`` (``delay``: the control delay in ticks the controller runs with). ``robot`` (used for
-    its size only) is not modified."""
+    model), "compensation": friction/damping feed-forward, "speed_margin": (nv − 6,) per-joint margins
+    (:func:`joint_speed_margins`: ``speed_margin`` on the legs, ``upper_body_margin`` elsewhere), "speed_horizon":
+    speed_horizon(delay)}`` (``delay``: the control delay in ticks the controller runs with). ``robot`` is not
+    modified.
+
+    Raises:
+        InvalidInputError: a drive model of another size, a margin outside [0, 1).
+    """
     from wbc.dynamics.actuator_compensation import JointFrictionCompensation
 
     if act.armature.size != robot.model.nv - 6:
         raise InvalidInputError(f"drive model of {act.armature.size} joints for a robot with {robot.model.nv - 6}")
     return {"armature": act.armature.copy(), "compensation": JointFrictionCompensation(act.damping, act.friction),
-            "speed_margin": float(speed_margin), "speed_horizon": speed_horizon(delay)}
+            "speed_margin": joint_speed_margins(robot, speed_margin, upper_body_margin),
+            "speed_horizon": speed_horizon(delay)}

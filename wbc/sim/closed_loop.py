@@ -154,12 +154,12 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     dt = sim.timestep
     if not scenario.duration > 0:
         raise InvalidInputError(f"scenario duration must be > 0 s, got {scenario.duration!r}")
-    n = int(round(scenario.duration / dt))
     mujoco.mj_resetData(model, data)
     sim.set_state(robot.q_ref)
     q, v = sim.get_state()
     controller.reset(q, v)
     scenario.setup(controller, sim, q, v)
+    n = int(round(scenario.duration / dt))  # (after setup: a walk's plan may set its length, e.g. step timing)
     if state is not None:
         state.reset(q, v)
     is_id = isinstance(controller, IDBalanceController)

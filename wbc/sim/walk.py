@@ -13,8 +13,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (``touchdown_load``), armed from mid-swing. Late touch-down: after the planned landing the foot reference keeps descending at
   ``descent_speed`` (default 0.1 m/s, at most 2 cm below the floor; on terrain and blind at least 0.3 m/s, at most
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
-  switches the contact on at once. Blind (``blind``), the swing sole is over its foothold by ``BLIND_XY_END`` of the
-  swing and descends vertically, aimed at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
+  switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
+  ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
+  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
@@ -46,6 +47,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constants import GRAVITY
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
@@ -189,9 +191,21 @@ class DcmStabilizer:
 #: benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % throughout.
 TOUCHDOWN_CONFIRM_LOAD = 0.03
 
+#: Step timing on planned terrain: the swing sole's peak speed is kept at or below ``SWING_FROUDE · √(g z_c)``
+#: (``z_c`` the CoM height at the start, a proxy for the leg length ``l``), longer steps where it would be faster
+#: (:func:`wbc.gait.terrain_walk.plan_terrain_walk` ``max_sole_speed``). The bound is a Froude number
+#: ``v / √(g l)``: under dynamic similarity (Alexander & Jayes, "A dynamic similarity hypothesis for the gaits of
+#: quadrupedal mammals", J. Zool. 201, 1983) robots of different size move alike at equal Froude numbers. The value
+#: is measured, not derived (benchmarks/README.md, "Step timing on stairs").
+SWING_FROUDE = 0.6
+
 #: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
 #: swing descends vertically; :meth:`WalkScenario._blind_swing`).
 BLIND_XY_END = 0.8
+#: Blind walk: fraction of a swing over which the sole rises to its clearance height (minimum jerk).
+BLIND_LIFT = 0.3
+#: Blind walk: fraction of a swing from which the sole is set down (minimum jerk to the landing height).
+BLIND_SET_DOWN = 0.6
 
 
 class WalkScenario:
@@ -272,10 +286,17 @@ class WalkScenario:
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
             the air) and a late foot keeps descending up to 5 cm below its planned landing. The swing sole reaches
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
-            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed), and its
+            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
+            ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
+            while it has barely moved forward), and its
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it).
+
+        swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
+            ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
+            whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
+            ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -306,7 +327,8 @@ class WalkScenario:
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False):
+                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
+                 swing_froude: float | None = None):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -314,6 +336,11 @@ class WalkScenario:
                 or not (math.isfinite(base_weight) and base_weight >= 0):
             raise InvalidInputError(f"base_weight must be a finite number ≥ 0, got {base_weight!r}")
         self.base_weight = float(base_weight)
+        swing_froude = SWING_FROUDE if swing_froude is None else swing_froude
+        if isinstance(swing_froude, bool) or not isinstance(swing_froude, (int, float)) \
+                or not (math.isfinite(swing_froude) and swing_froude > 0):
+            raise InvalidInputError(f"swing_froude must be a finite number > 0, got {swing_froude!r}")
+        self.swing_froude = float(swing_froude)
         # late touch-down: how far (m) below its planned landing the swing foot may descend (terrain: the
         # estimated heights drift by centimetres, touch-down is then detected by the F/T force)
         self.blind = bool(blind)
@@ -411,7 +438,9 @@ class WalkScenario:
         else:  # footholds on the treads, 3-D swings, CoM height from the VRP (wbc.gait.terrain_walk)
             from wbc.gait.terrain_walk import plan_terrain_walk
 
-            self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0, **walk_kw)
+            v_max = self.swing_froude * math.sqrt(GRAVITY * float(self.com0[2]))  # step timing (SWING_FROUDE)
+            self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0,
+                                                  max_sole_speed=v_max, **walk_kw)
             plan = self.terrain_walk.plan
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
@@ -439,7 +468,8 @@ class WalkScenario:
             pin.centerOfMass(self._model, data, q, v)
             plan = plan.replan(0, data.com[0].copy(), data.vcom[0].copy(), check_start=False)
         self.plan = plan
-        # (the run length was fixed from the estimate of __init__, before setup)
+        # the run length: the plan's (a terrain plan's step timing may lengthen steps) and the settling time
+        self.duration = max(self.duration, plan.duration + self.settle)
         self.acc = {"left": np.gradient(plan.left_sole_vel, self.dt, axis=0),
                     "right": np.gradient(plan.right_sole_vel, self.dt, axis=0)}
         # Writable references (indexed by the original plan's samples; step adjustment rewrites them from the
@@ -684,21 +714,35 @@ class WalkScenario:
                      acc: np.ndarray) -> None:
         """Blind walk: the planned swing's horizontal motion and rotation run ``1 / BLIND_XY_END`` times faster,
         over the first ``BLIND_XY_END`` of the swing (plan sample ``k`` between lift-off ``k_lift`` and touch-down
-        ``k_td``), its height unchanged; the sole then descends vertically over
-        its foothold, so a touch-down on ground above the planned one (early contact) lands where planned, with no
-        horizontal speed. Modifies ``pose`` (xy, rotation), ``vel`` and ``acc`` (xy linear, angular) in place."""
+        ``k_td``); the sole then descends vertically over its foothold, so a touch-down on ground above the planned
+        one (early contact) lands where planned, with no horizontal speed. Its clearance bump is replaced by a lift
+        of the same height ``h`` that rises over the first :data:`BLIND_LIFT` of the swing (minimum jerk), is held,
+        and is set down from :data:`BLIND_SET_DOWN` on: the toe clears the bumps ahead while the foot has barely
+        moved forward (the bump ``h · 64 s³ (1 − s)³`` is at 0.26 h when the foot has covered a tenth of its step,
+        and the toe of a sole lifted off rough ground struck the facets ahead). Modifies ``pose``, ``vel`` and
+        ``acc`` in place."""
         n = max(k_td - k_lift, 1)
+        T = n * self.dt
         s = (k - k_lift) / n
         if s >= BLIND_XY_END:
             kx, r = k_td, 0.0
         else:
             kx, r = k_lift + int(round(s / BLIND_XY_END * n)), 1.0 / BLIND_XY_END
         P = self.poses[side][min(kx, k_td)]
+        z_bump = float(self.poses[side][k][2, 3] - self.poses[side][k_td][2, 3])  # the flat plan's bump at k
+        up_b, up_d, up_dd = min_jerk(s / BLIND_LIFT)
+        dn_b, dn_d, dn_dd = min_jerk((1.0 - s) / (1.0 - BLIND_SET_DOWN))
+        a, c, h = BLIND_LIFT, 1.0 - BLIND_SET_DOWN, self.step_height
+        lift = h * up_b * dn_b
+        dlift = h * (up_d / a * dn_b - up_b * dn_d / c) / T
+        ddlift = h * (up_dd / a**2 * dn_b - 2.0 * up_d * dn_d / (a * c) + up_b * dn_dd / c**2) / T**2
         pose.rotation = P[:3, :3]
-        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2]])
+        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2] - z_bump + lift])
         vx, ax = self.vels[side][kx], self.acc[side][kx]
+        vz, az = float(self.vels[side][k][2]), float(self.acc[side][k][2])
         vel[:2], vel[3:] = r * vx[:2], r * vx[3:]
         acc[:2], acc[3:] = r * r * ax[:2], r * r * ax[3:]
+        vel[2], acc[2] = vel[2] - vz + dlift, acc[2] - az + ddlift
 
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
         """Touch-down height of a swinging foot relative to the stance sole: its landing height (blind: the
