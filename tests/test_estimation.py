@@ -248,3 +248,55 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     assert yaw[False] >= 2.0 * b_z / k_p, math.degrees(yaw[False])  # the drift the hand-over removes
     with pytest.raises(InvalidInputError, match="heading_handover"):
         FloatingBaseEstimator(robot, DT, heading_handover="yes")
+
+
+def test_heading_hand_over_follows_a_sole_settling_under_load():
+    """Talos standing still, base level and fixed, soles level. The left sole lifts off, lands carrying 70 % of the
+    weight from its first sample and then turns by 0.5° about the vertical over 0.1 s (its hip yaw joint turns, the
+    base does not: the gyro reads 0); then the right sole lifts off. The left sole's heading comes from the right
+    sole through the kinematics for as long as both are in contact, so it includes the turn and the base yaw stays
+    right (< 0.05°); a hand-over that ends when the new sole carries the larger share (``handover_end_share=0.5``)
+    locks the first sample's heading, and the filter then turns the base yaw by the 0.5° the sole settled (> 0.3°
+    after 3 s on the left sole alone)."""
+    from wbc.estimation import FloatingBaseEstimator
+
+    robot = load_robot("talos")
+    model = robot.model
+    q0 = robot.q_ref.copy()
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
+    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
+    q0[3:7] = quat.coeffs()
+    R0 = quat.toRotationMatrix()
+    joints0 = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
+    hip_yaw = model.joints[model.getJointId("leg_left_1_joint")].idx_v - 6
+
+    def reading(sole, load):
+        s = FootForceSensor(robot, sole)
+        mg = s.mass * np.array([0.0, 0.0, -G])
+        Fs = -np.array([0.0, 0.0, load]) - mg
+        return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+
+    W = robot.mass * G
+    ft = {(a, b): np.array([reading(robot.left_sole, a * W), reading(robot.right_sole, b * W)])
+          for a, b in ((0.5, 0.5), (0.0, 1.0), (0.7, 0.3), (1.0, 0.0))}
+    accel = R0.T @ np.array([0.0, 0.0, G])
+    turn = math.radians(0.5)
+    yaw = {}
+    for share in (0.0, 0.5):
+        est = FloatingBaseEstimator(robot, DT, handover_end_share=share)
+        est.reset(q0)
+        joints = joints0.copy()
+        plan = [((0.5, 0.5), 0.5), ((0.0, 1.0), 0.5), ((0.7, 0.3), 0.2), ((1.0, 0.0), 3.0)]
+        for loads, duration in plan:
+            for k in range(int(round(duration / DT))):
+                if loads == (0.7, 0.3):  # the landed left sole settles: its hip yaw turns 0.5° over 0.1 s
+                    joints[hip_yaw] = joints0[hip_yaw] + turn * min(1.0, (k + 1) * DT / 0.1)
+                q, _ = est.update(joints, np.zeros(3), accel, ft[loads])
+        R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        yaw[share] = abs(math.degrees(float(pin.log3(R @ R0.T)[2])))
+    assert yaw[0.0] < 0.05, yaw
+    assert yaw[0.5] > 0.3, yaw  # the settling turn locked in by the early end
+    with pytest.raises(InvalidInputError, match="handover_end_share"):
+        FloatingBaseEstimator(robot, DT, handover_end_share=1.0)

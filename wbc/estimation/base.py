@@ -15,8 +15,9 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    reference than the soles, and the gyro's yaw bias is learnt from them) — the sole does not turn while it carries
    load, which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
    touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, on every
-   sample until it carries the larger share of the load (it still turns as it settles), so the heading passes from
-   foot to foot without the yaw error of R̂, ``heading_handover``); the base angular velocity is the bias-corrected
+   sample while both are in contact (it still turns as it settles, up to a few tenths of a degree in the first 0.1 s,
+   while the other stays loaded and flat until it lifts off), so the heading passes from foot to foot without the yaw
+   error of R̂, ``heading_handover``, ``handover_end_share``); the base angular velocity is the bias-corrected
    gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
@@ -176,9 +177,13 @@ class FloatingBaseEstimator:
         k_heading, k_heading_bias: the attitude filter's yaw gains for those axes (rad/s and 1/s², ≥ 0;
             :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
         heading_handover: on flat ground (``ground_height`` not None), a sole touching down while the other is
-            anchored takes its heading (v₀) from that sole's through the leg kinematics until it carries the larger
-            share of the normal force (True), or from R̂ when it touches down (False:
-            R̂'s yaw error, the integral of the gyro's yaw bias, is then locked into each new anchor).
+            anchored takes its heading (v₀) from that sole's through the leg kinematics while both are in contact
+            (True), or from R̂ when it touches down (False: R̂'s yaw error, the integral of the gyro's yaw bias, is
+            then locked into each new anchor).
+        handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
+            two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
+            lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
+            while settling, about 0.1° per step on Talos, into every later anchor).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -197,7 +202,8 @@ class FloatingBaseEstimator:
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
                  accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
-                 heading_handover: bool = True, k_heading: float = 0.5, k_heading_bias: float = 0.1):
+                 heading_handover: bool = True, k_heading: float = 0.5, k_heading_bias: float = 0.1,
+                 handover_end_share: float = 0.0):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -238,6 +244,9 @@ class FloatingBaseEstimator:
         if not isinstance(heading_handover, (bool, np.bool_)):
             raise InvalidInputError(f"heading_handover must be a bool, got {heading_handover!r}")
         self.heading_handover = bool(heading_handover)
+        self.handover_end_share = _nonneg(handover_end_share, "handover_end_share")
+        if self.handover_end_share >= 1.0:
+            raise InvalidInputError(f"handover_end_share must be in [0, 1), got {handover_end_share!r}")
         self.contact = {s: False for s in SIDES}
         self._handover_from = {s: None for s in SIDES}  # the anchored sole a new sole takes its heading from
         self.normal_force = {s: 0.0 for s in SIDES}
@@ -395,8 +404,9 @@ class FloatingBaseEstimator:
             axis = self.anchor_axis[s]
             axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
             axis /= np.linalg.norm(axis)
-            if self.normal_force[s] >= self.normal_force[o]:
-                self._handover_from[s] = None  # the new sole carries the larger share: its heading is held
+            fs, fo = max(self.normal_force[s], 0.0), max(self.normal_force[o], 0.0)
+            if fo <= self.handover_end_share * (fs + fo):
+                self._handover_from[s] = None  # the old sole has handed over its load: the new heading is held
         for j, s in enumerate(SIDES):
             X = data.oMf[self.ft[s].frame_id]
             self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
