@@ -18,6 +18,27 @@ from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.state import DynamicsState
 
 
+def _assert_arms_brake_to(robot, margin, h: float, start: float, bound: float):
+    """The arms moving at ``start`` × their URDF speed limit, the rest at rest: the full and the relaxed ID QP of an
+    IDBalanceController with speed margin ``margin`` and horizon ``h`` both brake them (v̇ < 0) and command
+    v + h v̇ dt ≤ ``bound`` × the limit. Returns (the controller's QP, v (nv,), dt)."""
+    ctrl = IDBalanceController(robot, speed_margin=margin, speed_horizon=h,
+                               gains={"posture_kp": 1e4, "posture_weight": 100.0})
+    arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
+    vmax = robot.model.velocityLimit[6:]
+    q = robot.q_ref.copy()
+    v = np.zeros(robot.nv)
+    v[6 + arms] = start * vmax[arms]
+    ctrl.reset(q, v)
+    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
+    st.update(q, v)
+    idx = 6 + arms
+    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
+        assert np.all(v[idx] + h * dt * sol.dv[idx] <= bound * vmax[arms] + 1e-6)
+        assert np.all(sol.dv[idx] < 0)  # braking: above the bound
+    return qp, v, dt
+
+
 def test_friction_feedforward_closed_form():
     comp = JointFrictionCompensation([0.5, 1.0, 0.0], [1.0, 2.0, 3.0], velocity_scale=0.1)
     v = np.array([0.2, -0.05, 0.0])
@@ -130,20 +151,7 @@ def test_speed_horizon_bounds_in_both_qps():
     velocity term) and the relaxed QP both command v + 4 v̇ dt within ±0.95 q̇_max, i.e. v̇ ≤ (0.95 q̇_max − v)/(4 dt)."""
     robot = wbc.load_robot("talos")
     h = 4.0
-    ctrl = IDBalanceController(robot, speed_margin=0.05, speed_horizon=h,
-                             gains={"posture_kp": 1e4, "posture_weight": 100.0})
-    arms = np.array([i for i, n in enumerate(robot.model.names[2:]) if n.startswith("arm_")])
-    q = robot.q_ref.copy()
-    vmax = robot.model.velocityLimit[6:]
-    v = np.zeros(robot.nv)
-    v[6 + arms] = 0.99 * vmax[arms]
-    ctrl.reset(q, v)
-    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
-    st.update(q, v)
-    idx = 6 + arms
-    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
-        assert np.all(v[idx] + h * dt * sol.dv[idx] <= 0.95 * vmax[arms] + 1e-6)
-        assert np.all(sol.dv[idx] < 0)  # braking: above the bound
+    _assert_arms_brake_to(robot, 0.05, h, 0.99, 0.95)
     with pytest.raises(InvalidInputError, match="horizon"):
         JointSpeedBounds(robot, 0.05, 0.5)
 
@@ -198,20 +206,7 @@ def test_per_joint_speed_margins_in_both_qps():
     options = compensation_options(robot, actuator_model(robot))
     np.testing.assert_array_equal(options["speed_margin"], margins)
     h = options["speed_horizon"]
-    ctrl = IDBalanceController(robot, speed_margin=options["speed_margin"], speed_horizon=h,
-                               gains={"posture_kp": 1e4, "posture_weight": 100.0})
-    arms = np.array([i for i, n in enumerate(names) if n.startswith("arm_")])
-    vmax = robot.model.velocityLimit[6:]
-    q = robot.q_ref.copy()
-    v = np.zeros(robot.nv)
-    v[6 + arms] = 0.74 * vmax[arms]
-    ctrl.reset(q, v)
-    qp, st, dt = ctrl.qp, ctrl.state, ctrl.dt
-    st.update(q, v)
-    idx = 6 + arms
-    for sol in (qp.solve(st, dt), qp.solve_relaxed(st, dt)):
-        assert np.all(v[idx] + h * dt * sol.dv[idx] <= 0.7 * vmax[arms] + 1e-6)
-        assert np.all(sol.dv[idx] < 0)  # braking
+    qp, v, dt = _assert_arms_brake_to(robot, options["speed_margin"], h, 0.74, 0.7)
     # the bounds themselves, closed form, on every bounded joint
     bounds = qp.joint_speed_limits
     lo, hi = bounds.bounds(v, dt)

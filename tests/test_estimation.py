@@ -2,6 +2,7 @@
 without gyro bias), the base Kalman filter on a constant-velocity base, encoder differencing, contact hysteresis,
 the static F/T compensation and the ZMP of known wrenches. Thresholds are written here."""
 
+import functools
 import math
 
 import numpy as np
@@ -200,6 +201,30 @@ def test_floating_base_estimator_update_keeps_the_c_heap_flat():
     assert abs(np.linalg.norm(q[3:7]) - 1.0) < 1e-12
 
 
+def _talos_standing_level():
+    """Talos in its reference posture with the base turned so that both soles are level: (robot, q0 (nq,), R0 (3, 3)
+    the base orientation, joint angles (nv − 6,))."""
+    robot = load_robot("talos")
+    model = robot.model
+    q0 = robot.q_ref.copy()
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
+    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
+    q0[3:7] = quat.coeffs()
+    joints = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
+    return robot, q0, quat.toRotationMatrix(), joints
+
+
+def _ft_reading(robot, sole: str, load: float) -> np.ndarray:
+    """(6,) F/T reading of ``sole``'s ankle sensor with the sole level (sensor axes = world axes) carrying ``load``
+    newtons, the foot below the sensor static (its weight compensated as FootForceSensor assumes)."""
+    s = FootForceSensor(robot, sole)
+    mg = s.mass * np.array([0.0, 0.0, -G])
+    Fs = -np.array([0.0, 0.0, load]) - mg
+    return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+
+
 def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
     and re-anchored 10 times), gyro biased about the vertical by b_z, no bias integration: with the hand-over the
@@ -208,22 +233,8 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     takes R̂'s yaw, whose error then grows with the integral of b_z (b_z t = 2.3° after 20 s)."""
     from wbc.estimation import FloatingBaseEstimator
 
-    robot = load_robot("talos")
-    model = robot.model
-    q0 = robot.q_ref.copy()
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q0)
-    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
-    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
-    q0[3:7] = quat.coeffs()  # the true base orientation: both soles level
-    R0 = quat.toRotationMatrix()
-    joints = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
-
-    def reading(sole, load):
-        s = FootForceSensor(robot, sole)
-        mg = s.mass * np.array([0.0, 0.0, -G])
-        Fs = -np.array([0.0, 0.0, load]) - mg  # sole level: sensor axes = world axes
-        return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+    robot, q0, R0, joints = _talos_standing_level()
+    reading = functools.partial(_ft_reading, robot)
 
     W = robot.mass * G
     both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
@@ -260,23 +271,9 @@ def test_heading_hand_over_follows_a_sole_settling_under_load():
     after 3 s on the left sole alone)."""
     from wbc.estimation import FloatingBaseEstimator
 
-    robot = load_robot("talos")
-    model = robot.model
-    q0 = robot.q_ref.copy()
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q0)
-    n = data.oMf[model.getFrameId(robot.left_sole)].rotation[:, 2]
-    quat = pin.Quaternion.FromTwoVectors(n, np.array([0.0, 0.0, 1.0]))
-    q0[3:7] = quat.coeffs()
-    R0 = quat.toRotationMatrix()
-    joints0 = np.array([q0[model.joints[j].idx_q] for j in range(2, model.njoints)])
-    hip_yaw = model.joints[model.getJointId("leg_left_1_joint")].idx_v - 6
-
-    def reading(sole, load):
-        s = FootForceSensor(robot, sole)
-        mg = s.mass * np.array([0.0, 0.0, -G])
-        Fs = -np.array([0.0, 0.0, load]) - mg
-        return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
+    robot, q0, R0, joints0 = _talos_standing_level()
+    hip_yaw = robot.model.joints[robot.model.getJointId("leg_left_1_joint")].idx_v - 6
+    reading = functools.partial(_ft_reading, robot)
 
     W = robot.mass * G
     ft = {(a, b): np.array([reading(robot.left_sole, a * W), reading(robot.right_sole, b * W)])

@@ -410,6 +410,15 @@ def test_relaxed_qp_reuses_the_failed_full_qps_assembly_with_the_same_answer(rob
     assert np.max(np.abs(a.dv - b.dv)) <= 1e-9 * max(1.0, np.max(np.abs(b.dv)))
 
 
+def _assert_feasible(x, A, b, C, l, u, lb, ub, tol: float = 1e-6) -> None:
+    """x satisfies A x = b, l ≤ C x ≤ u (each to ``tol`` relative to max(1, |bound|)) and lb ≤ x ≤ ub exactly."""
+    assert np.abs(A @ x - b).max() <= tol * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + tol * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - tol * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb) and np.all(x <= ub)
+
+
 def _kkt_residual(x, H, g, A, C, l, u, lb, ub, tol=1e-8) -> float:
     """Optimality certificate computed here (no QP solver): the least-squares multipliers of the constraints
     active at x (equalities and pinned variables free, inequalities and bounds signed) and the relative residual
@@ -463,11 +472,7 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6)
     assert x is not None
     assert np.all(x[pinned] == lb[pinned])
-    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
-    cx = C @ x
-    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
-    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
-    assert np.all(x >= lb) and np.all(x <= ub)
+    _assert_feasible(x, A, b, C, l, u, lb, ub)
     # stationarity relative to max |H x + g| (≈ 1e3 here; H conditioned ≈ 1e10): 9e-6 measured; a point that
     # misses an active constraint (active set read at 1e-9) gives 0.87
     assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4
@@ -529,9 +534,5 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
         DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6, details=True)
     assert reason == "" and x is not None
-    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
-    cx = C @ x
-    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
-    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
-    assert np.all(x >= lb) and np.all(x <= ub)
+    _assert_feasible(x, A, b, C, l, u, lb, ub)
     assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4

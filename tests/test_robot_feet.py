@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 import pytest
+import trimesh
 
 from wbc.geometry import convex_hull, rectangle_in_polygon, signed_distance
 from wbc.robot import build_robot, example_robot_data_dir
@@ -92,31 +93,36 @@ def test_feet_without_collision_geometry_touch_through_their_visual_meshes():
     """Alexander's URDF has no <collision> at all: with ``foot = "urdf"`` the plant's feet are its visual foot
     meshes (before, the feet had no contact geometry and the robot sank through the floor), and the sole rectangle
     lies inside the footprint of those meshes, read with trimesh: their vertices within 2 mm of the lowest."""
-    trimesh = pytest.importorskip("trimesh")
     spec, _ = infer_robot_spec(ALEXANDER)
     assert spec.mujoco.foot == "urdf"
     robot = build_robot(spec)
     with pytest.warns(UserWarning, match="no collision geometry"):
         sim = build_mujoco_model(robot, foot_contact="urdf")
     corners = _corners(robot.sole_length, robot.sole_width)
-    model = robot.model
     for side in ("left", "right"):
         assert len(sim.foot_geoms[side]) > 0
         assert len(_sole_contacts(sim, robot, side)) >= 3
         assert sim.non_foot_ground_contacts() == []
-        frame = model.frames[model.getFrameId(getattr(robot, f"{side}_sole"))]
-        pts = []
-        for g in robot.visual_model.geometryObjects:
-            if g.parentJoint != frame.parentJoint:
-                continue
-            mesh = trimesh.load(g.meshPath, force="mesh")
-            v = np.asarray(mesh.vertices) * np.asarray(g.meshScale)
-            m = frame.placement.inverse() * g.placement
-            pts.append(v @ m.rotation.T + m.translation)
-        p = np.vstack(pts)
+        p = _foot_mesh_points(robot, robot.visual_model, side)
         touch = p[p[:, 2] <= p[:, 2].min() + 0.002]
         assert abs(p[:, 2].min()) < 1e-3  # the sole plane at the foot's bottom
         assert signed_distance(corners, convex_hull(touch[:, :2])).min() >= 0.0
+
+
+def _foot_mesh_points(robot, geometry_model, side: str) -> np.ndarray:
+    """(n, 3) vertices of the meshes of ``geometry_model`` on the joint of ``side``'s sole frame, in the sole frame
+    (m), read with trimesh from the mesh files (scaled as the URDF says)."""
+    model = robot.model
+    frame = model.frames[model.getFrameId(getattr(robot, f"{side}_sole"))]
+    pts = []
+    for g in geometry_model.geometryObjects:
+        if g.parentJoint != frame.parentJoint:
+            continue
+        mesh = trimesh.load(g.meshPath, force="mesh")
+        v = np.asarray(mesh.vertices) * np.asarray(g.meshScale)
+        m = frame.placement.inverse() * g.placement
+        pts.append(v @ m.rotation.T + m.translation)
+    return np.vstack(pts)
 
 
 ROMEO = ERD / "romeo_description" / "urdf" / "romeo.urdf"
@@ -128,25 +134,14 @@ def test_flat_mesh_foot_stands_on_its_whole_patch():
     rectangle (the foot rocked between such vertex sets while standing). With the pads on its patch corners, the
     plant's contact points span the foot's flat bottom — read with trimesh from the collision mesh: its vertices
     within 2 mm of the lowest — and hold the sole rectangle, the foot sunk 3 mm (as under a walk's load)."""
-    trimesh = pytest.importorskip("trimesh")
     spec, _ = infer_robot_spec(ROMEO)
     assert spec.mujoco.foot == "urdf"
     robot = build_robot(spec)
     sim = build_mujoco_model(robot, foot_contact="urdf")
     corners = _corners(robot.sole_length, robot.sole_width)
-    model = robot.model
     for side in ("left", "right"):
         contacts = _sole_contacts(sim, robot, side, sink=0.003)
-        frame = model.frames[model.getFrameId(getattr(robot, f"{side}_sole"))]
-        pts = []
-        for g in robot.collision_model.geometryObjects:
-            if g.parentJoint != frame.parentJoint:
-                continue
-            mesh = trimesh.load(g.meshPath, force="mesh")
-            v = np.asarray(mesh.vertices) * np.asarray(g.meshScale)
-            m = frame.placement.inverse() * g.placement
-            pts.append(v @ m.rotation.T + m.translation)
-        p = np.vstack(pts)
+        p = _foot_mesh_points(robot, robot.collision_model, side)
         patch = convex_hull(p[p[:, 2] <= p[:, 2].min() + 0.002][:, :2])
         hull = convex_hull(contacts)
         # every corner of the mesh's flat patch is a contact point (within 1 mm), and the rectangle is inside

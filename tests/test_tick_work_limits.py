@@ -132,13 +132,9 @@ def test_an_infeasible_hard_set_fails_the_first_level_in_two_solves():
     assert Counting.calls == 1
 
 
-def test_a_workspace_that_failed_where_the_one_shot_solved_is_not_tried_first_on_the_next_solve():
-    """DAQP's workspace (``daqp.Model``) replaced by one that always reports cycling (exit −2): the first solve is
-    answered by the one-shot ``daqp.solve``; the next solve calls the one-shot first (one call), with the same
-    answer as quadprog."""
-    H, g, A, b, C, l, u, lb, ub = _box_qp(seed=1, n=12)
-    ref = _quadprog(H, g, C, l, u, lb, ub)
-    order = []
+def _cycling_daqp(n: int, order: list, oneshot_ok: dict):
+    """A shim of the daqp module: its workspace (``daqp.Model``) always reports cycling (exit −2), its one-shot
+    ``daqp.solve`` is DAQP's while ``oneshot_ok["ok"]`` (else it cycles too); every call is appended to ``order``."""
 
     class CyclingModel:
         settings = {}
@@ -151,7 +147,7 @@ def test_a_workspace_that_failed_where_the_one_shot_solved_is_not_tried_first_on
 
         def solve(self):
             order.append("model")
-            return np.zeros(H.shape[0]), 0.0, -2, {"iterations": 7, "lam": None}
+            return np.zeros(n), 0.0, -2, {"iterations": 7, "lam": None}
 
     class Stub:
         Model = CyclingModel
@@ -159,10 +155,22 @@ def test_a_workspace_that_failed_where_the_one_shot_solved_is_not_tried_first_on
         @staticmethod
         def solve(*args, **kw):
             order.append("oneshot")
-            return daqp.solve(*args, **kw)
+            if oneshot_ok["ok"]:
+                return daqp.solve(*args, **kw)
+            return np.zeros(n), 0.0, -2, {"iterations": 9, "lam": None}
 
+    return Stub
+
+
+def test_a_workspace_that_failed_where_the_one_shot_solved_is_not_tried_first_on_the_next_solve():
+    """DAQP's workspace (``daqp.Model``) replaced by one that always reports cycling (exit −2): the first solve is
+    answered by the one-shot ``daqp.solve``; the next solve calls the one-shot first (one call), with the same
+    answer as quadprog."""
+    H, g, A, b, C, l, u, lb, ub = _box_qp(seed=1, n=12)
+    ref = _quadprog(H, g, C, l, u, lb, ub)
+    order = []
     backend = DaqpBackend()
-    backend._daqp = Stub
+    backend._daqp = _cycling_daqp(H.shape[0], order, {"ok": True})
     x = backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert order == ["model", "oneshot"] and np.max(np.abs(x - ref)) < 1e-6
     order.clear()
@@ -178,32 +186,8 @@ def test_a_failing_solve_that_starts_with_the_one_shot_runs_each_cold_call_once(
     H, g, A, b, C, l, u, lb, ub = _box_qp(seed=2, n=12)
     order = []
     oneshot_ok = {"ok": True}
-
-    class CyclingModel:
-        settings = {}
-
-        def setup(self, *args):
-            return (0,)
-
-        def update(self, **kw):
-            pass
-
-        def solve(self):
-            order.append("model")
-            return np.zeros(H.shape[0]), 0.0, -2, {"iterations": 7, "lam": None}
-
-    class Stub:
-        Model = CyclingModel
-
-        @staticmethod
-        def solve(*args, **kw):
-            order.append("oneshot")
-            if oneshot_ok["ok"]:
-                return daqp.solve(*args, **kw)
-            return np.zeros(H.shape[0]), 0.0, -2, {"iterations": 9, "lam": None}
-
     backend = DaqpBackend()
-    backend._daqp = Stub
+    backend._daqp = _cycling_daqp(H.shape[0], order, oneshot_ok)
     backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert order == ["model", "oneshot"]
     order.clear()
