@@ -254,6 +254,11 @@ class WalkScenario:
             ZMP is the attribute ``measured_zmp`` ((2,) m, world, or None), which the closed loop sets every tick
             from the ankle F/T sensors when the controller reads an estimated state
             (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
+        swing_height_weight: weight of the swing foot task's vertical position row relative to its horizontal
+            rows (> 0; default 3). When the QP cannot track the whole swing reference (a fast adjusted or cut step
+            with the leg joints at their speed bounds), it keeps the sole's clearance and lets the horizontal
+            travel lag, so the foot does not scuff the floor mid-swing (set in :meth:`setup` on the controller's
+            ``feet`` tasks; 1: every position row weighs the same).
         touchdown_load: with measured sole forces (attribute ``measured_normal_force``, (2,) N, set by the closed
             loop from the ankle F/T sensors with an estimated state), an armed swing foot whose measured normal
             force reaches this fraction of the robot's weight has touched down, whatever its estimated height
@@ -328,7 +333,7 @@ class WalkScenario:
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
-                 swing_froude: float | None = None):
+                 swing_froude: float | None = None, swing_height_weight: float = 3.0):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -375,6 +380,10 @@ class WalkScenario:
             raise InvalidInputError(f"max_swing_speed must be finite and > 0 m/s, got {max_swing_speed!r}")
         if not (np.isfinite(push) and push >= 0):
             raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
+        if not (np.isfinite(swing_height_weight) and swing_height_weight > 0):
+            raise InvalidInputError(f"swing_height_weight must be a finite ratio > 0 (1: the swing foot's height "
+                                    f"weighs as its horizontal position), got {swing_height_weight!r}")
+        self.swing_height_weight = float(swing_height_weight)
         self.n_steps, self.step_length, self.step_duration = int(n_steps), float(step_length), float(step_duration)
         self.t_ds = max(0.08, 0.2 * self.step_duration)
         self.t_ss = self.step_duration - self.t_ds
@@ -417,6 +426,11 @@ class WalkScenario:
     # -- setup ---------------------------------------------------------------------------------------------
     def setup(self, controller, sim, q, v):
         robot = sim.robot
+        for foot in (getattr(controller, "feet", None) or {}).values():  # swing clearance first (class docstring)
+            w = np.array(foot.weight, dtype=float)
+            if w.size == 6:
+                w[2] = self.swing_height_weight * w[0]
+                foot.weight = w
         self.com0 = pin.centerOfMass(robot.model, robot.model.createData(), q).copy()
         self.robot = robot
         self.dt = sim.timestep
@@ -798,7 +812,7 @@ class WalkScenario:
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset,
-                           stabilizer_gains=self.stabilizer_gains)
+                           stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
