@@ -16,6 +16,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
   at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
+* **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
+  horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
