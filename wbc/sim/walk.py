@@ -59,6 +59,7 @@ from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.scenarios import NO_FALL, timed_push
 
 __all__ = ["WalkScenario", "DcmStabilizer", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
@@ -193,6 +194,10 @@ class DcmStabilizer:
 #: benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % throughout.
 TOUCHDOWN_CONFIRM_LOAD = 0.03
 
+#: default weight of the swing-foot task's vertical position row relative to its horizontal rows (class docstring,
+#: ``swing_height_weight``)
+SWING_HEIGHT_WEIGHT = 3.0
+
 #: Step timing on planned terrain: the swing sole's peak speed is kept at or below ``SWING_FROUDE · √(g z_c)``
 #: (``z_c`` the CoM height at the start, a proxy for the leg length ``l``), longer steps where it would be faster
 #: (:func:`wbc.gait.terrain_walk.plan_terrain_walk` ``max_sole_speed``). The bound is a Froude number
@@ -257,7 +262,9 @@ class WalkScenario:
             from the ankle F/T sensors when the controller reads an estimated state
             (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
         swing_height_weight: weight of the swing foot task's vertical position row relative to its horizontal
-            rows (> 0; default 3). When the QP cannot track the whole swing reference (a fast adjusted or cut step
+            rows (> 0; None, the default: :data:`SWING_HEIGHT_WEIGHT`, or 1 for a robot whose two-sole contact
+            Jacobian is rank-deficient, :func:`~wbc.sim.physics_scenarios.contacts_rank_deficient`, e.g. legs
+            without hip yaw). When the QP cannot track the whole swing reference (a fast adjusted or cut step
             with the leg joints at their speed bounds), it keeps the sole's clearance and lets the horizontal
             travel lag, so the foot does not scuff the floor mid-swing (set in :meth:`setup` on the controller's
             ``feet`` tasks; 1: every position row weighs the same).
@@ -335,7 +342,7 @@ class WalkScenario:
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
-                 swing_froude: float | None = None, swing_height_weight: float = 3.0):
+                 swing_froude: float | None = None, swing_height_weight: float | None = None):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -382,10 +389,10 @@ class WalkScenario:
             raise InvalidInputError(f"max_swing_speed must be finite and > 0 m/s, got {max_swing_speed!r}")
         if not (np.isfinite(push) and push >= 0):
             raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
-        if not (np.isfinite(swing_height_weight) and swing_height_weight > 0):
+        if swing_height_weight is not None and not (np.isfinite(swing_height_weight) and swing_height_weight > 0):
             raise InvalidInputError(f"swing_height_weight must be a finite ratio > 0 (1: the swing foot's height "
-                                    f"weighs as its horizontal position), got {swing_height_weight!r}")
-        self.swing_height_weight = float(swing_height_weight)
+                                    f"weighs as its horizontal position) or None, got {swing_height_weight!r}")
+        self.swing_height_weight = None if swing_height_weight is None else float(swing_height_weight)
         self.n_steps, self.step_length, self.step_duration = int(n_steps), float(step_length), float(step_duration)
         self.t_ds = max(0.08, 0.2 * self.step_duration)
         self.t_ss = self.step_duration - self.t_ds
@@ -428,10 +435,13 @@ class WalkScenario:
     # -- setup ---------------------------------------------------------------------------------------------
     def setup(self, controller, sim, q, v):
         robot = sim.robot
-        for foot in (getattr(controller, "feet", None) or {}).values():  # swing clearance first (class docstring)
+        ratio = self.swing_height_weight
+        if ratio is None:  # swing clearance first (class docstring)
+            ratio = 1.0 if contacts_rank_deficient(robot) else SWING_HEIGHT_WEIGHT
+        for foot in (getattr(controller, "feet", None) or {}).values():
             w = np.array(foot.weight, dtype=float)
             if w.size == 6:
-                w[2] = self.swing_height_weight * w[0]
+                w[2] = ratio * w[0]
                 foot.weight = w
         self.com0 = pin.centerOfMass(robot.model, robot.model.createData(), q).copy()
         self.robot = robot
