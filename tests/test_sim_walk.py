@@ -185,8 +185,10 @@ def test_push_late_in_a_swing_is_recovered_by_lengthening_the_swing():
     robot = load_robot("talos")
     sim = build_mujoco_model(robot)
     controller = make_controller(robot, "id", dt=sim.timestep)
+    # Every swing-foot position row weighted alike (swing_height_weight=1): with the default clearance-first
+    # weighting the same push is recovered by cutting the swing instead (timing changes [0.17, 0.098] s, measured).
     scenario = WalkScenario(8, 0.25, 0.6, push=300.0, push_time=2.99938388023065, push_duration=0.1,
-                            push_dir=292.3110388691157)
+                            push_dir=292.3110388691157, swing_height_weight=1.0)
     run, s = run_scenario(sim, controller, scenario)
     assert not s["fell"] and s["completed"]
     assert s["solver_failures"] == 0

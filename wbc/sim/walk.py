@@ -16,6 +16,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
   at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
+* **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
+  horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
   With ``stabilizer=True`` (default) the horizontal CoM acceleration comes from a DCM tracking law with CoP
   feedback and integral action (:class:`DcmStabilizer`); the CoM height keeps its PD task.
@@ -57,6 +59,7 @@ from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.scenarios import NO_FALL, timed_push
 
 __all__ = ["WalkScenario", "DcmStabilizer", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
@@ -191,6 +194,10 @@ class DcmStabilizer:
 #: benchmarks/README.md, "Touch-down confirmed by load"). A blind walk confirms with 3 % throughout.
 TOUCHDOWN_CONFIRM_LOAD = 0.03
 
+#: default weight of the swing-foot task's vertical position row relative to its horizontal rows (class docstring,
+#: ``swing_height_weight``)
+SWING_HEIGHT_WEIGHT = 3.0
+
 #: Step timing on planned terrain: the swing sole's peak speed is kept at or below ``SWING_FROUDE · √(g z_c)``
 #: (``z_c`` the CoM height at the start, a proxy for the leg length ``l``), longer steps where it would be faster
 #: (:func:`wbc.gait.terrain_walk.plan_terrain_walk` ``max_sole_speed``). The bound is a Froude number
@@ -254,6 +261,13 @@ class WalkScenario:
             ZMP is the attribute ``measured_zmp`` ((2,) m, world, or None), which the closed loop sets every tick
             from the ankle F/T sensors when the controller reads an estimated state
             (:meth:`wbc.sim.estimated_state.EstimatedState.measured_zmp`).
+        swing_height_weight: weight of the swing foot task's vertical position row relative to its horizontal
+            rows (> 0; None, the default: :data:`SWING_HEIGHT_WEIGHT`, or 1 for a robot whose two-sole contact
+            Jacobian is rank-deficient, :func:`~wbc.sim.physics_scenarios.contacts_rank_deficient`, e.g. legs
+            without hip yaw). When the QP cannot track the whole swing reference (a fast adjusted or cut step
+            with the leg joints at their speed bounds), it keeps the sole's clearance and lets the horizontal
+            travel lag, so the foot does not scuff the floor mid-swing (set in :meth:`setup` on the controller's
+            ``feet`` tasks; 1: every position row weighs the same).
         touchdown_load: with measured sole forces (attribute ``measured_normal_force``, (2,) N, set by the closed
             loop from the ankle F/T sensors with an estimated state), an armed swing foot whose measured normal
             force reaches this fraction of the robot's weight has touched down, whatever its estimated height
@@ -328,7 +342,7 @@ class WalkScenario:
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
-                 swing_froude: float | None = None):
+                 swing_froude: float | None = None, swing_height_weight: float | None = None):
         from wbc.terrain import parse_terrain
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
@@ -375,6 +389,10 @@ class WalkScenario:
             raise InvalidInputError(f"max_swing_speed must be finite and > 0 m/s, got {max_swing_speed!r}")
         if not (np.isfinite(push) and push >= 0):
             raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
+        if swing_height_weight is not None and not (np.isfinite(swing_height_weight) and swing_height_weight > 0):
+            raise InvalidInputError(f"swing_height_weight must be a finite ratio > 0 (1: the swing foot's height "
+                                    f"weighs as its horizontal position) or None, got {swing_height_weight!r}")
+        self.swing_height_weight = None if swing_height_weight is None else float(swing_height_weight)
         self.n_steps, self.step_length, self.step_duration = int(n_steps), float(step_length), float(step_duration)
         self.t_ds = max(0.08, 0.2 * self.step_duration)
         self.t_ss = self.step_duration - self.t_ds
@@ -417,6 +435,14 @@ class WalkScenario:
     # -- setup ---------------------------------------------------------------------------------------------
     def setup(self, controller, sim, q, v):
         robot = sim.robot
+        ratio = self.swing_height_weight
+        if ratio is None:  # swing clearance first (class docstring)
+            ratio = 1.0 if contacts_rank_deficient(robot) else SWING_HEIGHT_WEIGHT
+        for foot in (getattr(controller, "feet", None) or {}).values():
+            w = np.array(foot.weight, dtype=float)
+            if w.size == 6:
+                w[2] = ratio * w[0]
+                foot.weight = w
         self.com0 = pin.centerOfMass(robot.model, robot.model.createData(), q).copy()
         self.robot = robot
         self.dt = sim.timestep
@@ -798,7 +824,7 @@ class WalkScenario:
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset,
-                           stabilizer_gains=self.stabilizer_gains)
+                           stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
