@@ -605,9 +605,10 @@ class InverseDynamicsQP:
         return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
-        """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed); when it reports no
-        solution, two active-set solvers are asked before the failure stands (:attr:`second_opinion_enabled`,
-        :func:`wbc.qp.second_opinion`): quadprog with the pinned variables eliminated, then one cold DAQP call.
+        """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
+        :class:`wbc.qp.QPBackend` reports no solution, two active-set solvers are asked before the failure stands
+        (:attr:`second_opinion_enabled`, :func:`wbc.qp.second_opinion`): quadprog with the pinned variables
+        eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure stands).
         Either answer is returned only when it meets every row to the backend's tolerance (the check of
         :meth:`wbc.qp.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal residual
         that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
@@ -623,7 +624,7 @@ class InverseDynamicsQP:
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
-            if not self.second_opinion_enabled:
+            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
                 raise
             first = exc
         work = backend.work
