@@ -568,7 +568,7 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     assert second_opinion(H, g, A, b, C, l2, u, lb, ub, 1e-6) == (None, "")
 
 
-def test_id_proxqp_failure_gets_a_second_opinion_on_the_full_and_relaxed_qp(robots):
+def test_id_proxqp_failure_gets_a_second_opinion(robots):
     """The controller's wiring: a ProxQP backend that reports every QP infeasible (as ProxQP's infeasibility test
     did on feasible humanoid15 walking QPs): the full QP is answered by the second opinion (route 'general',
     solver quadprog or daqp), ok, within the URDF effort; with the second opinion off the tick is not ok."""
