@@ -59,7 +59,9 @@ preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is g
 them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
 released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
-the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). Any other
+:class:`~wbc.qp.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second opinion
+(:func:`wbc.qp.second_opinion`: the same quadprog solve, then one cold DAQP call) before its failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
