@@ -536,3 +536,55 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
     assert reason == "" and x is not None
     _assert_feasible(x, A, b, C, l, u, lb, ub)
     assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4
+
+
+def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
+    """A QP recorded from the realistic-plant humanoid15 walk (``walk_options_for``: ProxQP, eps_abs 1e-7; seed 7,
+    both soles in contact, nothing pinned, legs without hip yaw: the two soles' rows nearly dependent) that ProxQP
+    reports infeasible from a cold start although HiGHS finds its hard set feasible; the controller's second
+    opinion (``wbc.qp.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6 (scaled by
+    max(1, |rhs|)) and the KKT conditions computed here."""
+    from pathlib import Path
+
+    from wbc.exceptions import SolverError
+    from wbc.qp import ProxQPBackend, second_opinion
+
+    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
+    H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    with pytest.raises(SolverError):
+        ProxQPBackend(eps_abs=1e-7).solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, 1e-6)
+    assert x is not None and solver in ("quadprog", "daqp")
+    assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
+    cx = C @ x
+    assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
+    assert np.all(cx >= l - 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0.0))))
+    assert np.all(x >= lb) and np.all(x <= ub)
+    assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4
+    # an infeasible QP (a friction row's lower bound past everything) gets no answer from either solver
+    l2 = l.copy()
+    l2[np.flatnonzero(np.isfinite(u))[0]] = 1e9
+    assert not _highs_feasible(A, b, C, l2, u, lb, ub)
+    assert second_opinion(H, g, A, b, C, l2, u, lb, ub, 1e-6) == (None, "")
+
+
+def test_id_proxqp_failure_gets_a_second_opinion(robots):
+    """The controller's wiring: a ProxQP backend that reports every QP infeasible (as ProxQP's infeasibility test
+    did on feasible humanoid15 walking QPs): the full QP is answered by the second opinion (route 'general',
+    solver quadprog or daqp), ok, within the URDF effort; with the second opinion off the tick is not ok."""
+    from wbc.exceptions import SolverError
+    from wbc.qp import ProxQPBackend
+
+    class FalseAlarm(ProxQPBackend):
+        def solve(self, *args, **kw):
+            raise SolverError("primal infeasible (test backend)")
+
+    robot = robots("humanoid15")
+    ctrl, q, v = _standing(robot, solver=FalseAlarm(eps_abs=1e-7))
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok and str(cmd.path) in ("general:quadprog", "general:daqp"), (cmd.path, cmd.message)
+    _finite_and_within_effort(cmd, robot)
+    ctrl.controller.qp.second_opinion_enabled = False
+    cmd = ctrl.compute(q, v)
+    assert not cmd.ok, (cmd.path, cmd.message)

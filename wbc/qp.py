@@ -22,7 +22,7 @@ import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork", "solve_pinned_reduced"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork", "solve_pinned_reduced", "second_opinion"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 #: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
@@ -713,3 +713,32 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
     if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
         return None, "failed"
     return xc, ""
+
+
+def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None
+                   ) -> tuple[np.ndarray | None, str]:
+    """Two active-set solvers asked about a QP another backend reported infeasible: quadprog with the pinned
+    variables eliminated (:func:`solve_pinned_reduced`), then one call of ``daqp_backend`` (no confirmation; a
+    cold :class:`DaqpBackend` with the given ``tolerance`` when None). A proximal or ADMM method declares a QP
+    primal infeasible when its primal residual stops decreasing (ProxQP: Bambade et al., "PROX-QP: Yet another
+    quadratic programming solver for robotics and beyond", RSS 2022, its infeasibility criterion with
+    ``eps_primal_inf``); that test can fire on feasible QPs with nearly dependent equality rows, where an
+    active-set solver's factorisation answers exactly.
+
+    Args:
+        H, g, A, b, C, l, u, lb, ub: the QP of the module docstring (shapes as in :meth:`QPBackend.solve`).
+        tolerance: largest scaled row violation accepted (:meth:`QPBackend.scaled_violation`).
+        daqp_backend: the DAQP backend of the second attempt.
+
+    Returns:
+        (x (n,) within [lb, ub] meeting every row to ``tolerance``, name of the solver: ``quadprog`` or ``daqp``),
+        or (None, '') when neither found one.
+    """
+    x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
+    if x is not None:
+        return x, "quadprog"
+    daqp_backend = daqp_backend if daqp_backend is not None else DaqpBackend(tolerance=tolerance)
+    try:
+        return daqp_backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
+    except SolverError:
+        return None, ""

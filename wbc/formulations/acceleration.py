@@ -59,7 +59,9 @@ preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is g
 them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
 released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
-the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). Any other
+:class:`~wbc.qp.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second opinion
+(:func:`wbc.qp.second_opinion`: the same quadprog solve, then one cold DAQP call) before its failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
@@ -98,7 +100,7 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import DaqpBackend, QPBackend, solve_pinned_reduced
+from wbc.qp import DaqpBackend, QPBackend, second_opinion, solve_pinned_reduced
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -280,6 +282,12 @@ class InverseDynamicsQP:
         #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
         #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
         self.pinned_reduced_solves = 0
+        #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
+        #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
+        self.second_opinion_enabled = True
+        #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
+        self.second_opinion_solves = 0
+        self._daqp_check: DaqpBackend | None = None
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -530,10 +538,13 @@ class InverseDynamicsQP:
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         t1 = perf_counter()
-        x = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+        if isinstance(self.backend, DaqpBackend):
+            x, solver = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), self.backend.name
+        else:
+            x, solver = self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("relaxed", self.backend.name)
+        sol.path = TickPath("relaxed", solver)
         self._guard(state, sol, relaxed=True)
         return sol
 
@@ -577,8 +588,8 @@ class InverseDynamicsQP:
             SolverError: the backend's, when no solver found a solution.
         """
         backend = self.backend
-        if not isinstance(backend, DaqpBackend):  # another solver's failure stands as it reports it
-            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        if not isinstance(backend, DaqpBackend):
+            return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         retry = backend.cold_retry
         backend.cold_retry = False
         try:
@@ -594,6 +605,42 @@ class InverseDynamicsQP:
         if reason == "infeasible" or not retry:
             raise first
         return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+
+    def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
+        """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
+        :class:`wbc.qp.QPBackend` reports no solution, two active-set solvers are asked before the failure stands
+        (:attr:`second_opinion_enabled`, :func:`wbc.qp.second_opinion`): quadprog with the pinned variables
+        eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure stands).
+        Either answer is returned only when it meets every row to the backend's tolerance (the check of
+        :meth:`wbc.qp.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal residual
+        that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
+        dependent (two soles on legs without hip yaw); an active-set solver's answer is exact on them.
+
+        Returns:
+            (x (n,), name of the solver that answered).
+
+        Raises:
+            SolverError: the backend's, when no solver found a solution.
+        """
+        backend = self.backend
+        try:
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        except SolverError as exc:
+            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
+                raise
+            first = exc
+        work = backend.work
+        if work is not None:
+            work.solves += 1  # the quadprog solve
+        if self._daqp_check is None:
+            self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **_ID_SETTINGS["daqp"])
+            self._daqp_check.cold_retry = False
+        self._daqp_check.work = work
+        x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, backend.tolerance, daqp_backend=self._daqp_check)
+        if x is None:
+            raise first
+        self.second_opinion_solves += 1
+        return x, solver
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
