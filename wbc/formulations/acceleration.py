@@ -59,7 +59,7 @@ preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is g
 them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
 released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
-the failure stands (the backend's own retries only when quadprog gives no infeasibility certificate). Any other
+the failure stands (then the backend's own retries). Any other
 :class:`~wbc.qp.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second opinion
 (:func:`wbc.qp.second_opinion`: the same quadprog solve, then one cold DAQP call) before its failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.diagnosis`).
@@ -579,10 +579,12 @@ class InverseDynamicsQP:
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
         extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.qp.DaqpBackend`, also
-        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with its pinned variables (lb = ub: the forces of a released foot)
-        eliminated (:func:`wbc.qp.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
-        quadprog solves them (a released foot; a controller's first tick). Quadprog's infeasibility certificate
-        ends the solve; any other failure of it gives the backend its retries.
+        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
+        its pinned variables (lb = ub: the forces of a released foot) eliminated (:func:`wbc.qp.solve_pinned_reduced`):
+        DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
+        tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
+        certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
+        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -598,11 +600,11 @@ class InverseDynamicsQP:
             first = exc
         finally:
             backend.cold_retry = retry
-        x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance, details=True)
+        x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if x is not None:
             self.pinned_reduced_solves += 1
             return x, "quadprog"
-        if reason == "infeasible" or not retry:
+        if not retry:
             raise first
         return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
 
