@@ -346,7 +346,7 @@ def _python(code: str, timeout: float = 600) -> subprocess.CompletedProcess:
 def test_ray_equals_serial_and_a_killed_worker_is_retried(tmp_path):
     """Serial and Ray give the same rows; a worker that dies (os._exit, as SIGKILL would leave it) mid-trial has its
     trial run again elsewhere: every trial recorded exactly once. The workers run in a network namespace other
-    than this one whose only interface is lo."""
+    than this one whose only interface is lo, at the driver's priority."""
     marker, probe = tmp_path / "killed", tmp_path / "probe.json"
     out = _python(f"""
         import json, os
@@ -356,7 +356,8 @@ def test_ray_equals_serial_and_a_killed_worker_is_retried(tmp_path):
         def dying(spec, params):
             if params["trial"] == 0:
                 ifaces = [line.split(":")[0].strip() for line in open("/proc/net/dev").read().splitlines()[2:]]
-                json.dump({{"netns": os.readlink("/proc/self/ns/net"), "ifaces": ifaces}}, open({str(probe)!r}, "w"))
+                json.dump({{"netns": os.readlink("/proc/self/ns/net"), "ifaces": ifaces, "nice": os.nice(0)}},
+                          open({str(probe)!r}, "w"))
             if params["trial"] == 5 and not os.path.exists({str(marker)!r}):
                 open({str(marker)!r}, "w").close()
                 os._exit(9)  # the worker process dies without a word
@@ -379,6 +380,7 @@ def test_ray_equals_serial_and_a_killed_worker_is_retried(tmp_path):
     seen = json.loads(probe.read_text())
     assert seen["ifaces"] == ["lo"]
     assert seen["netns"] != os.readlink("/proc/self/ns/net")
+    assert seen["nice"] == os.nice(0)  # trials at the driver's priority, not Ray's default worker niceness 15
 
 
 @needs_ray

@@ -113,6 +113,9 @@ class RayExecutor:
         if self.address is None:
             if self.loopback:
                 confine_to_loopback()
+            # Ray starts its workers at nice 15 (``worker_niceness``); a campaign's trials are the work itself, and at
+            # nice 15 any other load on the machine starves them
+            os.environ.setdefault("RAY_worker_niceness", "0")
             ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False,
                      configure_logging=False)
         else:
