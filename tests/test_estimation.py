@@ -282,7 +282,8 @@ def test_heading_hand_over_follows_a_sole_settling_under_load():
     turn = math.radians(0.5)
     yaw = {}
     for share in (0.0, 0.5):
-        est = FloatingBaseEstimator(robot, DT, handover_end_share=share)
+        # turn_rate off: the sole's 5°/s settling turn would otherwise re-anchor it from R̂ (the gyro reads 0 here)
+        est = FloatingBaseEstimator(robot, DT, handover_end_share=share, turn_rate=1e3)
         est.reset(q0)
         joints = joints0.copy()
         plan = [((0.5, 0.5), 0.5), ((0.0, 1.0), 0.5), ((0.7, 0.3), 0.2), ((1.0, 0.0), 3.0)]
@@ -297,3 +298,34 @@ def test_heading_hand_over_follows_a_sole_settling_under_load():
     assert yaw[0.5] > 0.3, yaw  # the settling turn locked in by the early end
     with pytest.raises(InvalidInputError, match="handover_end_share"):
         FloatingBaseEstimator(robot, DT, handover_end_share=1.0)
+
+
+def test_soles_pivoting_on_the_ground_are_reanchored_from_the_gyro():
+    """Talos standing on both level soles, the whole robot pivots about the vertical by 3° in 0.3 s (as its soles do
+    on a jump's landing: the impact turns the feet on the ground, no still sole is left to hand the heading over
+    from), then stands still for 3 s. The gyro reads the turn; the encoders and the F/T readings do not change. A
+    sole whose world yaw rate (gyro + leg kinematics) exceeds ``turn_rate`` is re-anchored from R̂ on every sample,
+    so the estimated yaw ends at the true 3° (error < 0.1°); soles anchored once pull the estimate back towards
+    their stale heading (error > 1° after 3 s)."""
+    from wbc.estimation import FloatingBaseEstimator
+
+    robot, q0, R0, joints = _talos_standing_level()
+    W = robot.mass * G
+    both = np.array([_ft_reading(robot, robot.left_sole, W / 2), _ft_reading(robot, robot.right_sole, W / 2)])
+    accel = R0.T @ np.array([0.0, 0.0, G])
+    turn, t_turn = math.radians(3.0), 0.3
+    gyro_turn = R0.T @ np.array([0.0, 0.0, turn / t_turn])  # about the world vertical, in IMU axes
+    R_true = pin.exp3(np.array([0.0, 0.0, turn])) @ R0
+    err = {}
+    for rate in (0.05, 1e3):  # 1e3 rad/s: never turning (the rule off)
+        est = FloatingBaseEstimator(robot, DT, turn_rate=rate)
+        est.reset(q0)
+        for k in range(int(round(3.8 / DT))):
+            moving = 0.5 <= k * DT < 0.5 + t_turn
+            q, _ = est.update(joints, gyro_turn if moving else np.zeros(3), accel, both)
+        R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        err[rate] = abs(math.degrees(float(pin.log3(R @ R_true.T)[2])))
+    assert err[0.05] < 0.1, err
+    assert err[1e3] > 1.0, err  # the stale anchors win without the rule
+    with pytest.raises(InvalidInputError, match="turn_rate"):
+        FloatingBaseEstimator(robot, DT, turn_rate=0.0)

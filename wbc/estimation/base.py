@@ -17,8 +17,11 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, on every
    sample while both are in contact (it still turns as it settles, up to a few tenths of a degree in the first 0.1 s,
    while the other stays loaded and flat until it lifts off), so the heading passes from foot to foot without the yaw
-   error of R̂, ``heading_handover``, ``handover_end_share``); the base angular velocity is the bias-corrected
-   gyro.
+   error of R̂, ``heading_handover``, ``handover_end_share``). A sole that turns on the ground with no still sole to
+   hand over from — its world yaw rate, R̂ (ω + the leg kinematics' rate) low-passed at ``turn_cutoff_hz``, above
+   ``turn_rate``, e.g. both feet pivoting under a jump's landing impact — is re-anchored from R̂ on every sample
+   until it stops turning: its heading then follows the gyro instead of pulling R̂ back to the heading it had at
+   touch-down. The base angular velocity is the bias-corrected gyro.
 3. **Leg kinematics** (Pinocchio, base at the origin with orientation R̂): for each sole i its position rᵢ relative
    to the base (world axes), its orientation, and the velocity it would have if the base did not translate,
    uᵢ = ω × rᵢ + R̂ Jᵢ(q) q̇ (``getFrameVelocity``, ``LOCAL_WORLD_ALIGNED``). The F/T reading gives the foot's
@@ -184,6 +187,9 @@ class FloatingBaseEstimator:
             two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
             lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
             while settling, about 0.1° per step on Talos, into every later anchor).
+        turn_rate: world yaw rate (rad/s, > 0) above which a sole in contact counts as turning on the ground and
+            takes its heading from R̂ (module docstring, step 2).
+        turn_cutoff_hz: corner (Hz, > 0) of the low-pass on that yaw rate (encoder differencing noise).
         ground_height: height (m, world) of flat ground: a sole becoming a contact is anchored at that height
             (its x, y come from the odometry). None: the anchor's height is odometry too (uneven ground) — it then
             drifts by the contact's compression under load at every step (≈ 1 mm per step on MuJoCo's soft
@@ -191,7 +197,9 @@ class FloatingBaseEstimator:
 
     Attributes (after :meth:`update`):
         q: (nq,) estimated configuration. v: (nv,) estimated velocity (Pinocchio conventions).
-        contact: {side: bool}. wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
+        contact: {side: bool}. turning: {side: bool}, the sole turns on the ground (``turn_rate``).
+        sole_yaw_rate: (2,) low-passed world yaw rate of the (left, right) sole (rad/s).
+        wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
         sole: {side: pin.SE3} estimated world placement of each sole. velocity_world: (3,) ṗ̂ (m/s, world).
 
     Raises:
@@ -203,7 +211,7 @@ class FloatingBaseEstimator:
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
                  accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
                  heading_handover: bool = True, k_heading: float = 0.5, k_heading_bias: float = 0.1,
-                 handover_end_share: float = 0.0):
+                 handover_end_share: float = 0.0, turn_rate: float = 0.05, turn_cutoff_hz: float = 10.0):
         self.robot = robot
         model = robot.model
         self.model, self.data = model, model.createData()
@@ -247,6 +255,10 @@ class FloatingBaseEstimator:
         self.handover_end_share = _nonneg(handover_end_share, "handover_end_share")
         if self.handover_end_share >= 1.0:
             raise InvalidInputError(f"handover_end_share must be in [0, 1), got {handover_end_share!r}")
+        self.turn_rate = _nonneg(turn_rate, "turn_rate", positive=True)
+        self._alpha_turn = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(turn_cutoff_hz, "turn_cutoff_hz", True)))
+        self.sole_yaw_rate = np.zeros(2)  # low-passed world yaw rate of each sole (rad/s), gyro + leg kinematics
+        self.turning = {s: False for s in SIDES}
         self.contact = {s: False for s in SIDES}
         self._handover_from = {s: None for s in SIDES}  # the anchored sole a new sole takes its heading from
         self.normal_force = {s: 0.0 for s in SIDES}
@@ -291,6 +303,8 @@ class FloatingBaseEstimator:
             self.detectors[s].active = False
             self._handover_from[s] = None
             self.contact[s] = False
+            self.turning[s] = False
+        self.sole_yaw_rate[:] = 0.0
 
     def update(self, joint_q: np.ndarray, gyro: np.ndarray, accel: np.ndarray, ft: np.ndarray):
         """One sample of the sensors → ``(q, v)`` (the :attr:`q`, :attr:`v` arrays, overwritten next call).
@@ -324,7 +338,11 @@ class FloatingBaseEstimator:
             self.wrench[j] = w
             fz = float(Rw[2] @ w[0:3])
             self.normal_force[s] = fz
-            self._u[j] = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED).linear
+            vel = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED)
+            self._u[j] = vel.linear
+            wz = float(R_prev[2] @ vel.angular)  # the sole's world yaw rate (base angular velocity included)
+            self.sole_yaw_rate[j] += self._alpha_turn * (wz - self.sole_yaw_rate[j])
+            self.turning[s] = abs(self.sole_yaw_rate[j]) > self.turn_rate
             if self.contact[s] and fz > 0:
                 zv -= fz * self._u[j]
                 fz_total += fz
@@ -388,6 +406,14 @@ class FloatingBaseEstimator:
                 if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
                     self._handover_from[s] = o
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
+        for j, s in enumerate(SIDES):
+            if self.contact[s] and self.turning[s] and self._handover_from[s] is None:
+                # A sole turning on the ground (a landing's impact pivots it; no still sole to hand over from):
+                # its heading is re-anchored from R̂ (the gyro's) on every sample until it stops turning.
+                axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+                if self.ground_height is not None:
+                    axis[2] = 0.0
+                self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for s in SIDES:
             o = self._handover_from[s]
             if o is None:
