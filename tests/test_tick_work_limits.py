@@ -294,41 +294,42 @@ def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots)
             ctrl.clock_guard = bad
 
 
-def test_id_clock_guard_skips_the_relaxed_qp_of_a_failed_tick_past_its_budget(robots):
+def test_id_clock_guard_skips_the_retries_of_a_failed_full_qp_past_its_budget(robots):
     """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: the full QP is infeasible
-    (tests/test_id_faults.py), the relaxed one is not. Without the clock guard a spent budget changes nothing
-    (relaxed command, ok). With it, a budget already spent (1 ns) sends the tick to the fallback (gravity
-    compensation: no solved tick before) without solving the relaxed QP, not ok, over budget, saying why; a
-    budget the tick does not reach (10 s) gives bitwise the relaxed command of the unguarded tick."""
+    (tests/test_id_faults.py), the relaxed one is not. Without the clock guard a spent budget (1 ns) changes
+    nothing: DAQP's attempt, quadprog, then the backend's retries, then the relaxed QP. With it, the retries after
+    quadprog's failure are skipped (one backend solve fewer) and the relaxed QP answers, ok; with a budget the tick
+    does not reach (10 s) the retries run. Oracle for the relaxed command: the same within 1e-9 in all three."""
     from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
     from wbc.exceptions import InvalidInputError
     from wbc.tasks import PostureTask
 
     robot = robots("talos")
     q, v = robot.q_ref, np.zeros(robot.nv)
-    posture = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
-    posture.set_target(robot.q_ref)
-    soles = [SoleContact(robot, robot.left_sole, name="left"), SoleContact(robot, robot.right_sole, name="right")]
-    qp = InverseDynamicsQP(robot, [], soles, solver="daqp", torque_limit_scale=0.2)
-    qp.add_task(posture, hard=True)
-    calls = []
-    solve_relaxed = qp.solve_relaxed
-    qp.solve_relaxed = lambda *a, **k: calls.append(1) or solve_relaxed(*a, **k)
 
-    free = InverseDynamicsController(qp, DT, budget=1e-9).tick(q, v)
-    assert free.ok and free.relaxed and free.path == "relaxed:daqp" and len(calls) == 1
+    def run(**options):
+        posture = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
+        posture.set_target(robot.q_ref)
+        soles = [SoleContact(robot, robot.left_sole, name="left"),
+                 SoleContact(robot, robot.right_sole, name="right")]
+        qp = InverseDynamicsQP(robot, [], soles, solver="daqp", torque_limit_scale=0.2)
+        qp.add_task(posture, hard=True)
+        calls = []
+        solve = qp.backend.solve
+        qp.backend.solve = lambda *a, **k: calls.append(1) or solve(*a, **k)
+        ctrl = InverseDynamicsController(qp, DT, **options)
+        return ctrl, ctrl.tick(q, v), len(calls), qp.retries_skipped
 
-    guarded = InverseDynamicsController(qp, DT, budget=1e-9, clock_guard=True)
-    cmd = guarded.tick(q, v)
-    assert not cmd.ok and not cmd.relaxed and cmd.path == "fallback:gravity" and cmd.over_budget
-    assert "clock guard" in cmd.message and len(calls) == 1  # the relaxed QP was not solved
-    assert np.isfinite(cmd.tau).all()
-    assert guarded.summary()["fallback_rate"] == 1.0
-
-    roomy = InverseDynamicsController(qp, DT, budget=10.0, clock_guard=True).tick(q, v)
-    assert roomy.ok and roomy.relaxed and roomy.path == "relaxed:daqp" and len(calls) == 2
-    assert roomy.tau.tobytes() == free.tau.tobytes()
-    assert qp.backend.work is None  # the relaxed solve's work is not left on the backend
+    free, cmd_free, calls_free, skipped_free = run(budget=1e-9)
+    assert free.clock_guard is False
+    assert cmd_free.ok and cmd_free.relaxed and cmd_free.path == "relaxed:daqp" and skipped_free == 0
+    _, cmd_cut, calls_cut, skipped_cut = run(budget=1e-9, clock_guard=True)
+    assert cmd_cut.ok and cmd_cut.relaxed and cmd_cut.path == "relaxed:daqp" and cmd_cut.over_budget
+    assert skipped_cut == 1 and calls_cut == calls_free - 1
+    _, cmd_roomy, calls_roomy, skipped_roomy = run(budget=10.0, clock_guard=True)
+    assert skipped_roomy == 0 and calls_roomy == calls_free and not cmd_roomy.over_budget
+    for cmd in (cmd_cut, cmd_roomy):
+        assert np.max(np.abs(cmd.tau - cmd_free.tau)) <= 1e-9 * max(1.0, np.max(np.abs(cmd_free.tau)))
     for bad in ("yes", 0, None):
         with pytest.raises(InvalidInputError, match="clock_guard"):
-            guarded.clock_guard = bad
+            free.clock_guard = bad

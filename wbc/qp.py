@@ -85,13 +85,13 @@ class TickWork:
         """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
         return self._clock
 
-    def reset(self, cap: float, clock: float = math.inf, start: float | None = None) -> None:
+    def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
-        (``math.inf``: counted solves only); ``start``: the tick's start on ``time.thread_time`` (default now)."""
+        (``math.inf``: counted solves only)."""
         self._solves = 0
         self.cap = cap
         self._clock = clock
-        self._t0 = thread_time() if start is None else start
+        self._t0 = thread_time()
 
     def spent(self, factor: float = 1.0) -> bool:
         """``factor`` × cap solves are done."""

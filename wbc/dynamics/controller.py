@@ -16,9 +16,7 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
-reported (``over_budget``), never used to decide unless ``clock_guard`` is set (constructor; then a failed full QP
-that used the budget goes to the fallback without its relaxed QP, and the relaxed QP's DAQP calls are bounded by
-the CPU time left): a tick solves at most two QPs — the full QP, and after its
+reported (``over_budget``), never used to decide unless ``clock_guard`` is set (constructor): a tick solves at most two QPs — the full QP, and after its
 failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
 of the machine's load. The budget sets one count: the compiled tick's iteration cap
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
@@ -63,6 +61,7 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from time import perf_counter, thread_time
@@ -72,7 +71,6 @@ import numpy as np
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import WORK_LIMIT_FACTOR, TickWork
 from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["InverseDynamicsController", "IDCommand"]
@@ -126,13 +124,13 @@ class InverseDynamicsController:
             the compiled tick's iteration cap (``qp.kernel_max_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
-        clock_guard: bound a failed tick by its CPU time (``time.thread_time`` since the tick began; a robot's
-            real-time loop): the relaxed QP is not started once the failed full QP has used ``RELAX_START`` (1) ×
-            the budget, and its DAQP calls stop at ``RELAX_END`` (1.7) × the budget (:class:`wbc.qp.TickWork`,
-            clock guard); either way the tick takes the fallback of step 2. Default False: nothing is decided by a
-            clock, the answer is a function of the inputs (reproducible simulations and campaigns). The trade-off:
-            with True, whether a slow failed tick gets its relaxed command depends on the machine's speed and load.
-            Settable as an attribute.
+        clock_guard: a full QP that DAQP and quadprog both failed is not retried by the backend once the tick's
+            CPU time (``time.thread_time`` since the tick began) has reached the budget
+            (``InverseDynamicsQP.retry_deadline``): the failure stands and the relaxed QP follows. Default False:
+            nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations and
+            campaigns). True (a robot's real-time loop): the retries (worth ~1–3 ms on a failing humanoid QP) are
+            cut on a slow tick, at the cost of an answer that depends on the machine's speed and load there (a
+            feasible QP that only the retry solves then takes the relaxed QP). Settable as an attribute.
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
@@ -142,11 +140,6 @@ class InverseDynamicsController:
     Raises:
         InvalidInputError: dt or budget not finite and > 0 (budget may be inf).
     """
-
-    #: with ``clock_guard``: the relaxed QP starts only when the failed full QP ended within RELAX_START × the
-    #: budget of CPU time, and its DAQP calls stop at RELAX_END × the budget (a stopped call is a failed solve)
-    RELAX_START = 1.0
-    RELAX_END = 1.7
 
     def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002, *, budget: float | None = None,
                  diagnose: bool = False, clock_guard: bool = False):
@@ -158,7 +151,6 @@ class InverseDynamicsController:
         self.budget = self.dt if budget is None else budget
         self.diagnose_failures = bool(diagnose)
         self.clock_guard = clock_guard
-        self._relax_work = TickWork()
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
         self._last_ok: IDCommand | None = None  # the last solved command, for one tick of zero-order hold
@@ -171,7 +163,7 @@ class InverseDynamicsController:
 
     @property
     def clock_guard(self) -> bool:
-        """The tick's CPU time bounds its relaxed QP (constructor docstring).
+        """A failed full QP past the budget is not retried (constructor docstring).
 
         Raises:
             InvalidInputError: on assignment of anything but True or False.
@@ -214,6 +206,7 @@ class InverseDynamicsController:
         """
         t0 = perf_counter()
         c0 = thread_time()
+        self.qp.retry_deadline = c0 + self._budget if self._clock_guard else math.inf
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False
@@ -225,7 +218,7 @@ class InverseDynamicsController:
             conflicts = self._conflicts()
             message = str(exc) + _conflict_text(conflicts)
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
-                sol = self._solve_relaxed(c0)
+                sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
             relaxed = True
@@ -241,25 +234,6 @@ class InverseDynamicsController:
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
         self._last_ok = cmd
         return self._count(cmd, c0)
-
-    def _solve_relaxed(self, c0: float) -> IDSolution:
-        """The relaxed QP of this tick (its full QP's assembly); with ``clock_guard``, not started past
-        ``RELAX_START`` × the budget of CPU time since ``c0`` (the tick's start, ``time.thread_time``) and its
-        DAQP calls bounded to end by ``RELAX_END`` × the budget (a stopped call is a failed solve)."""
-        if not (self._clock_guard and np.isfinite(self._budget)):
-            return self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
-        spent = thread_time() - c0
-        if spent >= self.RELAX_START * self._budget:
-            raise SolverError(f"not solved: tick budget spent (clock guard: {1e3 * spent:.2f} ms of CPU time, "
-                              f"budget {1e3 * self._budget:.2f} ms)")
-        backend = self.qp.backend
-        cap = 10
-        self._relax_work.reset(cap, self.RELAX_END * self._budget / (WORK_LIMIT_FACTOR * cap), start=c0)
-        previous, backend.work = backend.work, self._relax_work
-        try:
-            return self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
-        finally:
-            backend.work = previous
 
     def _count(self, cmd: IDCommand, c0: float) -> IDCommand:
         cpu = thread_time() - c0
