@@ -261,7 +261,8 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
     ]
     lines = ["FINAL " + str({k: total[k] for k in (*COUNTS, "seconds")})]
     lines.append(f"budget {1e3 * budget:.1f} ms (CPU time of the tick's thread); tick CPU {pct(cpu)}; "
-                 f"tick wall {pct(wall)}; over budget {total['over_budget']} ticks; fallback rate {rate:.3e} "
+                 f"tick wall {pct(wall)}; over budget {total['over_budget']} ticks, over 2 x budget "
+                 f"{int(np.sum(cpu > 2 * budget))} ticks (CPU); fallback rate {rate:.3e} "
                  f"({total['fallback_ticks']}/{total['ticks']}), relaxed {total['relaxed_ticks']}")
     if total["exceptions"] == 0 and total["nan"] == 0 and cpu.size % episode == 0:
         later = np.arange(cpu.size) % episode != 0  # every episode has its full length: its first tick is i % episode

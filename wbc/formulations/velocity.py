@@ -80,7 +80,11 @@ check (else the tick fails and returns the safe command); ``TickResult.path`` th
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
 count below :data:`wbc.qp.WORK_LIMIT_FACTOR` (1.9) times the budget (:meth:`wbc.qp.DaqpBackend.call_limit`); a call
 stopped there is a failed solve (never an unconverged answer), and a strict level that fails so is cut like a
-level not started. ``TickResult.path`` names the route every tick took.
+level not started. ``TickResult.path`` names the route every tick took. With ``clock_guard=True`` (constructor) the
+tick's CPU time also counts as work (one budget of CPU time = ``CLOCK_WEIGHT`` × the cap; :class:`wbc.qp.TickWork`),
+so each of these limits also holds on the clock, whatever a counted solve costs on the machine and problem: the tick
+time is bounded (stages stop at ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that
+reaches a limit by its clock has an answer that depends on the machine's speed and load (off by default).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
