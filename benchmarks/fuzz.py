@@ -5,12 +5,13 @@ feasibility LP of the hard set) finds feasible, holds lasting past a feasible ti
 failure rates of weighted vs strict episodes.
 
     python benchmarks/fuzz.py [--ticks 1000000] [--jobs 2] [--episode 50] [--seed 0] [--chunk 50000] [--out DIR]
-                              [--dts 0.002,0.005,0.01,0.02] [--past-limits 0.2] [--budget SECONDS]
+                              [--dts 0.002,0.005,0.01,0.02] [--past-limits 0.2] [--budget SECONDS] [--clock-guard]
 
 ``--dts``: each episode's control period drawn from this list (default 0.002). ``--past-limits``: fraction of
 episodes that start with 2–5 leg joints 5–50 mrad past their limits (a "limit violation" is then a joint moving
 further out, or a joint inside its range leaving it). ``--budget``: the controller's tick budget (default: None,
-the tick's dt). Issue 29 lines: holds longer than 50 ticks on a state where a slower return is feasible (HiGHS
+the tick's dt). ``--clock-guard``: the controllers' clock guard on (``KinematicController.clock_guard``: the
+tick's CPU time also counts as work). Issue 29 lines: holds longer than 50 ticks on a state where a slower return is feasible (HiGHS
 LP on the return-rate scale, checked once per such hold), the largest stance-sole displacement over any run of
 failed ticks (forward kinematics, from where the run began), tick time p50/p99/max and the ticks past their
 budget, the fallback rate, and the count of ticks per route and per path (``TickResult.path``; a route outside
@@ -151,7 +152,7 @@ def commanded_placement(contact, oMf, dt):
 
 
 def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "", dts=(DT,),
-              past_limits: float = 0.0, budget=None) -> dict:
+              past_limits: float = 0.0, budget=None, clock_guard: bool = False) -> dict:
     """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring)."""
     rng = np.random.default_rng(seed)
     extra = np.random.default_rng(seed + 7_000_000)  # dt and past-limit draws: build_episode's stream unchanged
@@ -183,6 +184,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
         try:
             config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past)
             ctrl.budget = budget
+            ctrl.clock_guard = clock_guard
             freeze_after_first((name, strict))
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
@@ -407,10 +409,13 @@ def _load() -> tuple[dict, dict]:
 
 def _run_job(job: tuple) -> tuple[int, dict]:
     """One chunk in a worker process: (index, result)."""
-    i, ticks, episode, seed, n_chunks, out, dts, past_limits, budget = job
+    i, ticks, episode, seed, n_chunks, out, dts, past_limits, budget, clock_guard = job
+    if isinstance(clock_guard, float):  # --clock-weight
+        from wbc.formulations.velocity import KinematicController
+        KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
     robots, limits = _load()
     ch = run_chunk(robots, limits, ticks, episode, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ",
-                   dts=dts, past_limits=past_limits, budget=budget)
+                   dts=dts, past_limits=past_limits, budget=budget, clock_guard=clock_guard)
     if out is not None:
         Path(out).write_text(json.dumps(ch))
     return i, ch
@@ -429,6 +434,10 @@ def main() -> None:
     p.add_argument("--past-limits", type=float, default=0.0,
                    help="fraction of episodes starting with 2-5 leg joints 5-50 mrad past their limits")
     p.add_argument("--budget", type=float, default=None, help="tick budget (s); default: the tick's dt")
+    p.add_argument("--clock-guard", action="store_true",
+                   help="KinematicController(clock_guard=True): the tick's CPU time also counts as work")
+    p.add_argument("--clock-weight", type=float, default=None,
+                   help="with --clock-guard: KinematicController.CLOCK_WEIGHT (default: the class's)")
     p.add_argument("--aggregate-only", action="store_true",
                    help="run nothing: aggregate every finished chunk file in --out (e.g. of several processes)")
     a = p.parse_args()
@@ -448,13 +457,14 @@ def main() -> None:
         ticks = min(a.chunk, a.ticks - i * a.chunk)
         tag = "" if (dts == (DT,) and not a.past_limits and a.budget is None) else \
             f"_dt{'-'.join(map(str, dts))}_pl{a.past_limits}_b{a.budget}"
+        tag += (f"_clock{a.clock_weight or ''}" if a.clock_guard else "")
         f = a.out / f"chunk_{a.seed + i}_{ticks}_{a.episode}{tag}.json" if a.out is not None else None
         if f is not None and f.exists():
             chunks[i] = json.loads(f.read_text())
             print(f"chunk {i + 1}/{n_chunks} (seed {a.seed + i}) already done: {f}", flush=True)
             continue
         jobs.append((i, ticks, a.episode, a.seed + i, n_chunks, None if f is None else str(f), dts, a.past_limits,
-                     a.budget))
+                     a.budget, a.clock_weight if (a.clock_guard and a.clock_weight) else a.clock_guard))
     if a.jobs <= 1:
         results = map(_run_job, jobs)
     else:
@@ -470,7 +480,7 @@ def main() -> None:
         pool.join()
     print(f"wall time {time.time() - t0:.0f} s with {a.jobs} process(es)", flush=True)
     total = aggregate([chunks[i] for i in sorted(chunks)])
-    total["budget"] = "dt" if a.budget is None else f"{1e3 * a.budget:g} ms"
+    total["budget"] = ("dt" if a.budget is None else f"{1e3 * a.budget:g} ms") + (", clock guard" if a.clock_guard else "")
     print(report(total), flush=True)
 
 

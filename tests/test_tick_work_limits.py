@@ -14,6 +14,8 @@ from wbc.exceptions import SolverError
 from wbc.hierarchy import solve_lexicographic
 from wbc.qp import DaqpBackend, TickWork
 
+DT = 0.002
+
 
 def _box_qp(seed: int = 0, n: int = 40):
     """A strictly convex QP whose optimum has many active bounds (DAQP needs tens of iterations)."""
@@ -196,3 +198,138 @@ def test_a_failing_solve_that_starts_with_the_one_shot_runs_each_cold_call_once(
         backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert np.abs(g).max() > 1.0  # so the scaled one-shot is tried
     assert order == ["oneshot", "model", "oneshot"]
+
+
+# -- clock guard (the tick's CPU time counted as work) ------------------------------------------------------------
+
+def _spin_cpu(seconds: float) -> None:
+    """Use ``seconds`` of this thread's CPU time (time.thread_time)."""
+    import time
+
+    start = time.thread_time()
+    x = 0.0
+    while time.thread_time() - start < seconds:
+        x += 1.0
+
+
+def test_tick_work_counts_cpu_time_only_with_a_clock_and_daqp_calls_follow_it():
+    """Without a clock the work is the count alone, whatever CPU time passes; with one (seconds per solve), CPU
+    time spent without any solve reaches the cap, and DAQP's next call gets the minimum iterations and fails
+    rather than answering unconverged (the oracle for the unbounded call: quadprog)."""
+    H, g, A, b, C, l, u, lb, ub = _box_qp()
+    counted = TickWork(cap=4)
+    clocked = TickWork(cap=4, clock=1e-5)
+    _spin_cpu(2e-4)  # 20 solves' worth at 1e-5 s per solve
+    assert counted.solves == 0 and not counted.spent()
+    assert clocked.solves >= 20 and clocked.spent() and clocked.spent(1.9)
+    backend = DaqpBackend()
+    backend.work = clocked
+    assert backend.call_limit() == 10  # MIN_CALL_ITERATIONS: the work left is none
+    with pytest.raises(SolverError):
+        backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert backend.budget_capped
+    clocked.reset(4, 1e-5)  # a new tick: the clock restarts
+    assert clocked.solves < 4
+    backend.work = counted
+    x = backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
+
+
+def _hand_over_posture(robots, **options):
+    """(robot, config, controller, hand task): standing Talos, a left-hand position task on level 0 (5 cm off in
+    x, y, z), the posture on level 1 (as tests/test_kinematic_faults.py)."""
+    from wbc.configuration import Configuration
+    from wbc.tasks import FrameTask, PostureTask
+    from conftest import standing_controller
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    for name, value in options.items():
+        setattr(ctrl, name, value)
+    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.05, 0.05, 0.05]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+    return robot, config, ctrl, hand
+
+
+def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots):
+    """Strict levels (a hand target at level 0, the posture at level 1) with a budget of 1 s (4000 counted solves:
+    never reached). Without the clock guard the tick solves every level (path 'levels'). With it, and the CPU
+    time weighted so that any time at all exceeds the budget (``CLOCK_WEIGHT`` = 1e12), the cascade starts no
+    level after the first and no contact correction: ok, 'levels+budget', over_budget. Oracles: the level-0
+    residual equals the full cascade's; the soles move ≤ 0.05 mm over the tick by forward kinematics. With the
+    class's weight the 1 s budget is not reached: bitwise the unguarded tick."""
+    import pinocchio as pin
+
+    from wbc.exceptions import InvalidInputError
+
+    robot, config, ctrl, hand = _hand_over_posture(robots, budget=1.0)
+    assert ctrl.clock_guard is False  # the default: nothing decided by a clock
+    full = ctrl.solve(config, DT)
+    assert full.ok and full.path == "levels" and not full.over_budget
+    _, _, guarded, _ = _hand_over_posture(robots, budget=1.0, clock_guard=True)
+    same = guarded.solve(config, DT)
+    assert same.ok and same.path == "levels" and not same.over_budget
+    assert same.v.tobytes() == full.v.tobytes()
+    _, _, cutting, _ = _hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12)
+    cut = cutting.solve(config, DT)
+    assert cut.ok and cut.over_budget and cut.path == "levels+budget", (cut.path, cut.message)
+    assert "priority levels after the first 1 of 3" in cut.message
+    err, jac = hand.compute(config)
+    target_v = hand.velocity_target(err)
+    r_full = np.linalg.norm(jac @ full.v - target_v)
+    assert abs(np.linalg.norm(jac @ cut.v - target_v) - r_full) <= 1e-6 * max(1.0, r_full)
+    assert np.linalg.norm(cut.v - full.v) > 1e-6  # the posture level was not solved
+    model, data = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, cut.v * DT))
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.frame_placement(fid).translation) <= 5e-5
+    for bad in ("yes", 1, None):
+        with pytest.raises(InvalidInputError, match="clock_guard"):
+            ctrl.clock_guard = bad
+
+
+def test_id_clock_guard_skips_the_retries_of_a_failed_full_qp_past_its_budget(robots):
+    """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: the full QP is infeasible
+    (tests/test_id_faults.py), the relaxed one is not. Without the clock guard a spent budget (1 ns) changes
+    nothing: DAQP's attempt, quadprog, then the backend's retries, then the relaxed QP. With it, the retries after
+    quadprog's failure are skipped (one backend solve fewer) and the relaxed QP answers, ok; with a budget the tick
+    does not reach (10 s) the retries run. Oracle for the relaxed command: the same within 1e-9 in all three."""
+    from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
+    from wbc.exceptions import InvalidInputError
+    from wbc.tasks import PostureTask
+
+    robot = robots("talos")
+    q, v = robot.q_ref, np.zeros(robot.nv)
+
+    def run(**options):
+        posture = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="posture")
+        posture.set_target(robot.q_ref)
+        soles = [SoleContact(robot, robot.left_sole, name="left"),
+                 SoleContact(robot, robot.right_sole, name="right")]
+        qp = InverseDynamicsQP(robot, [], soles, solver="daqp", torque_limit_scale=0.2)
+        qp.add_task(posture, hard=True)
+        calls = []
+        solve = qp.backend.solve
+        qp.backend.solve = lambda *a, **k: calls.append(1) or solve(*a, **k)
+        ctrl = InverseDynamicsController(qp, DT, **options)
+        return ctrl, ctrl.tick(q, v), len(calls), qp.retries_skipped
+
+    free, cmd_free, calls_free, skipped_free = run(budget=1e-9)
+    assert free.clock_guard is False
+    assert cmd_free.ok and cmd_free.relaxed and cmd_free.path == "relaxed:daqp" and skipped_free == 0
+    _, cmd_cut, calls_cut, skipped_cut = run(budget=1e-9, clock_guard=True)
+    assert cmd_cut.ok and cmd_cut.relaxed and cmd_cut.path == "relaxed:daqp" and cmd_cut.over_budget
+    assert skipped_cut == 1 and calls_cut == calls_free - 1
+    _, cmd_roomy, calls_roomy, skipped_roomy = run(budget=10.0, clock_guard=True)
+    assert skipped_roomy == 0 and calls_roomy == calls_free and not cmd_roomy.over_budget
+    for cmd in (cmd_cut, cmd_roomy):
+        assert np.max(np.abs(cmd.tau - cmd_free.tau)) <= 1e-9 * max(1.0, np.max(np.abs(cmd_free.tau)))
+    for bad in ("yes", 0, None):
+        with pytest.raises(InvalidInputError, match="clock_guard"):
+            free.clock_guard = bad

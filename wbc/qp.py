@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from time import thread_time
 
 import numpy as np
 import qpsolvers
@@ -37,31 +38,60 @@ ITERATIONS_PER_SOLVE = 150
 
 
 class TickWork:
-    """Counted work of one control tick: the QP solves done so far, against a cap.
+    """Work of one control tick: the QP solves done so far, against a cap.
 
     A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
     tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
     one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took). A tick
-    budget counted in solves keeps a tick's answer a function of its inputs (a budget
-    read from a clock would make it depend on the machine's load).
+    budget counted in solves keeps a tick's answer a function of its inputs (a budget read from a clock would make
+    it depend on the machine).
+
+    Clock guard (``clock``: seconds of CPU time counted as one solve, ``math.inf`` by default: off): ``solves``
+    reads max(counted solves, CPU time of the calling thread since :meth:`reset` / ``clock``)
+    (``time.thread_time``: what the tick computes, not the time other processes take the core from it), so every
+    limit on the count (:meth:`spent`, :meth:`DaqpBackend.call_limit`) also holds on the tick's CPU time. The
+    trade-off: a tick that reaches a limit by its clock before its count has an answer that depends on the
+    machine's speed and load (its optional stages stop earlier on a slower machine); a tick that stays under
+    every limit by its clock answers as without the guard.
 
     Attributes:
-        solves: QP solves of the current tick (int ≥ 0).
+        solves: work of the current tick, in solves (≥ 0; a float once the clock guard counts).
         cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
             re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
             budget below 580 × ``KinematicController.SOLVE_COST``).
     """
 
-    __slots__ = ("solves", "cap")
+    __slots__ = ("_solves", "cap", "_clock", "_t0")
 
-    def __init__(self, cap: float = math.inf):
-        self.solves = 0
+    def __init__(self, cap: float = math.inf, clock: float = math.inf):
+        self._solves = 0
         self.cap = cap
+        self._clock = clock
+        self._t0 = thread_time()
 
-    def reset(self, cap: float) -> None:
-        """Start a tick: no solve yet, ``cap`` solves allowed."""
-        self.solves = 0
+    @property
+    def solves(self) -> float:
+        """Counted solves of the tick, or (clock guard) the tick's CPU time in solves when that is larger."""
+        if self._clock < math.inf:
+            return max(self._solves, (thread_time() - self._t0) / self._clock)
+        return self._solves
+
+    @solves.setter
+    def solves(self, value: float) -> None:
+        self._solves = value
+
+    @property
+    def clock(self) -> float:
+        """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
+        return self._clock
+
+    def reset(self, cap: float, clock: float = math.inf) -> None:
+        """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
+        (``math.inf``: counted solves only)."""
+        self._solves = 0
         self.cap = cap
+        self._clock = clock
+        self._t0 = thread_time()
 
     def spent(self, factor: float = 1.0) -> bool:
         """``factor`` × cap solves are done."""

@@ -16,7 +16,7 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
-reported (``over_budget``), never used to decide: a tick solves at most two QPs — the full QP, and after its
+reported (``over_budget``), never used to decide unless ``clock_guard`` is set (constructor): a tick solves at most two QPs — the full QP, and after its
 failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
 of the machine's load. The budget sets one count: the compiled tick's iteration cap
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
@@ -61,6 +61,7 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from time import perf_counter, thread_time
@@ -123,6 +124,13 @@ class InverseDynamicsController:
             the compiled tick's iteration cap (``qp.kernel_max_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
+        clock_guard: a full QP that DAQP and quadprog both failed is not retried by the backend once the tick's
+            CPU time (``time.thread_time`` since the tick began) has reached the budget
+            (``InverseDynamicsQP.retry_deadline``): the failure stands and the relaxed QP follows. Default False:
+            nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations and
+            campaigns). True (a robot's real-time loop): the retries (worth ~1–3 ms on a failing humanoid QP) are
+            cut on a slow tick, at the cost of an answer that depends on the machine's speed and load there (a
+            feasible QP that only the retry solves then takes the relaxed QP). Settable as an attribute.
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
@@ -134,7 +142,7 @@ class InverseDynamicsController:
     """
 
     def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002, *, budget: float | None = None,
-                 diagnose: bool = False):
+                 diagnose: bool = False, clock_guard: bool = False):
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.qp = qp
@@ -142,6 +150,7 @@ class InverseDynamicsController:
         self.dt = float(dt)
         self.budget = self.dt if budget is None else budget
         self.diagnose_failures = bool(diagnose)
+        self.clock_guard = clock_guard
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
         self._last_ok: IDCommand | None = None  # the last solved command, for one tick of zero-order hold
@@ -151,6 +160,21 @@ class InverseDynamicsController:
         self.n_over_budget = 0
         self.paths: Counter = Counter()
         self.routes: Counter = Counter()
+
+    @property
+    def clock_guard(self) -> bool:
+        """A failed full QP past the budget is not retried (constructor docstring).
+
+        Raises:
+            InvalidInputError: on assignment of anything but True or False.
+        """
+        return self._clock_guard
+
+    @clock_guard.setter
+    def clock_guard(self, value) -> None:
+        if not isinstance(value, (bool, np.bool_)):
+            raise InvalidInputError(f"clock_guard must be True or False, got {value!r}")
+        self._clock_guard = bool(value)
 
     @property
     def budget(self) -> float:
@@ -182,6 +206,7 @@ class InverseDynamicsController:
         """
         t0 = perf_counter()
         c0 = thread_time()
+        self.qp.retry_deadline = c0 + self._budget if self._clock_guard else math.inf
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False

@@ -71,8 +71,9 @@ then hold to the solver's equality accuracy on rows 0..5 and exactly on the actu
 from __future__ import annotations
 
 import inspect
+import math
 from dataclasses import dataclass, field
-from time import perf_counter
+from time import perf_counter, thread_time
 
 import numpy as np
 
@@ -285,6 +286,12 @@ class InverseDynamicsQP:
         #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
         #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
         self.second_opinion_enabled = True
+        #: CPU time (``time.thread_time``) after which a failed full QP whose quadprog solve also failed is not
+        #: retried by the backend (:meth:`_solve_backend`); ``math.inf`` (default): always retried. Set per tick by
+        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``.
+        self.retry_deadline = math.inf
+        #: failed full QPs whose backend retries were skipped past ``retry_deadline``.
+        self.retries_skipped = 0
         #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
         self.second_opinion_solves = 0
         self._daqp_check: DaqpBackend | None = None
@@ -584,7 +591,8 @@ class InverseDynamicsQP:
         DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
         tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
         certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
-        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
+        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped — unless
+        the CPU time has passed :attr:`retry_deadline` (a clock-guarded tick past its budget: the failure stands).
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -606,6 +614,10 @@ class InverseDynamicsQP:
             return x, "quadprog"
         if not retry:
             raise first
+        if thread_time() >= self.retry_deadline:
+            self.retries_skipped += 1
+            raise SolverError(f"{first}; quadprog found no solution either; the backend's retries skipped: tick "
+                              f"budget spent (clock guard)")
         return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:

@@ -80,7 +80,11 @@ check (else the tick fails and returns the safe command); ``TickResult.path`` th
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
 count below :data:`wbc.qp.WORK_LIMIT_FACTOR` (1.9) times the budget (:meth:`wbc.qp.DaqpBackend.call_limit`); a call
 stopped there is a failed solve (never an unconverged answer), and a strict level that fails so is cut like a
-level not started. ``TickResult.path`` names the route every tick took.
+level not started. ``TickResult.path`` names the route every tick took. With ``clock_guard=True`` (constructor) the
+tick's CPU time also counts as work (one budget of CPU time = ``CLOCK_WEIGHT`` × the cap; :class:`wbc.qp.TickWork`),
+so each of these limits also holds on the clock, whatever a counted solve costs on the machine and problem: the tick
+time is bounded (stages stop at ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that
+reaches a limit by its clock has an answer that depends on the machine's speed and load (off by default).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -240,6 +244,16 @@ class KinematicController:
             budget and returns the last finished stage's command (module docstring, '+budget' path): its work is
             1.75 times the budget plus at most the stage in progress (one cascade) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
+        clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` × ⌊budget /
+            ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.qp.TickWork`, clock guard): every limit
+            above then holds on the CPU time too — a solved tick starts no further stage past
+            ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` times its budget of CPU time, a DAQP call stops at
+            ``wbc.qp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
+            1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem. Default
+            False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
+            real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
+            that depends on the machine's speed and load; a tick under every limit answers as with False. Settable
+            as an attribute.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -255,11 +269,15 @@ class KinematicController:
     #: STAGE_FACTOR × its budget (in counted solves) is spent, so that the stage in progress, the output guard and
     #: the drift checks still end within twice the budget (benchmarks/README.md, kinematic fuzz)
     STAGE_FACTOR = 1.75
+    #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
+    #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
+    CLOCK_WEIGHT = 1.4
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
                  dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
-                 contact_correction: float = 1e-6, budget: float | None = None):
+                 contact_correction: float = 1e-6, budget: float | None = None, clock_guard: bool = False):
+        self.clock_guard = clock_guard
         if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
         self.robot = robot
@@ -326,6 +344,21 @@ class KinematicController:
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
+    def clock_guard(self) -> bool:
+        """The tick's CPU time also counts as work (constructor docstring).
+
+        Raises:
+            InvalidInputError: on assignment of anything but True or False.
+        """
+        return self._clock_guard
+
+    @clock_guard.setter
+    def clock_guard(self, value) -> None:
+        if not isinstance(value, (bool, np.bool_)):
+            raise InvalidInputError(f"clock_guard must be True or False, got {value!r}")
+        self._clock_guard = bool(value)
+
+    @property
     def budget(self) -> float | None:
         """CPU time (s) of a tick before it falls back, counted in QP solves (constructor docstring), or None: the
         tick's dt.
@@ -355,8 +388,11 @@ class KinematicController:
         return self._work.spent(self.STAGE_FACTOR)
 
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend."""
-        self._work.reset(math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf)
+        """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend (with
+        ``clock_guard``: budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve)."""
+        cap = math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf
+        clock = budget_s / (self.CLOCK_WEIGHT * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
+        self._work.reset(cap, clock)
         for b in (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
                   *self._level_backends, None if plan is None else plan.rescue):
             if b is not None:
