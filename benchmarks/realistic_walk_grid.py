@@ -1,8 +1,9 @@
 """Walks on the defaults of ``wbc sim`` (estimated state, realistic plant) plus a 2-tick control delay and ±10 %
 link masses, one seeded run after another (one process at a time): Talos 20 × 0.24 m at 0.6 s/step, G1 20 steps at
-0.3 m/s, humanoid15 10 steps. Prints one row per run — completed, fall (reason, time), joint-speed exceedances and
-the worst ratio, landing slide, stance slip — and the estimator's errors (base drift % of the distance walked,
-orientation error, base velocity RMS), all read from the run's JSON summary.
+0.3 m/s, humanoid15 10 steps. Prints one row per run — completed, fall (reason, time), the largest pelvis/torso tilt
+from the start orientation, joint-speed exceedances and the worst ratio, landing slide, stance slip — and the
+estimator's errors (base drift % of the distance walked, orientation error, base velocity RMS), all read from the
+run's JSON summary.
 
 Usage: python benchmarks/realistic_walk_grid.py [--robots talos g1 humanoid15] [--seeds 0 1 ...] [--extra ARGS]
        [--keep DIR]
@@ -38,7 +39,8 @@ def run(robot: str, seed: int, extra: list[str], keep: str | None = None) -> dic
 def row(robot: str, seed: int, s: dict) -> str:
     e = s.get("estimation_error", {})
     fall = f"{s.get('fall_reason')} at {s.get('fall_time_s')} s" if s.get("fell") else "no"
-    return (f"| {robot} | {seed} | {s.get('completed')} | {fall} | {s.get('joint_speed_exceedances')} | "
+    tilt = max((s.get("max_tilt_deg") or {}).values(), default=float("nan"))
+    return (f"| {robot} | {seed} | {s.get('completed')} | {fall} | {tilt:.1f} | {s.get('joint_speed_exceedances')} | "
             f"{s.get('max_joint_speed_ratio', 0):.3f} {s.get('max_joint_speed_joint')} | "
             f"{1e3 * s.get('max_landing_slide_m', float('nan')):.1f} | {1e3 * s.get('max_stance_slip_m', float('nan')):.1f} | "
             f"{s.get('solver_failures')} | {e.get('base_position_drift_percent', float('nan')):.2f} | "
@@ -55,9 +57,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.keep:
         os.makedirs(args.keep, exist_ok=True)
-    print("| robot | seed | completed | fell | speed exceedances | worst ratio | landing slide mm | stance slip mm | "
-          "solver failures | drift % | orientation ° | base v RMS m/s |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| robot | seed | completed | fell | max tilt ° | speed exceedances | worst ratio | landing slide mm | "
+          "stance slip mm | solver failures | drift % | orientation ° | base v RMS m/s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for robot in args.robots:
         for seed in args.seeds:
             print(row(robot, seed, run(robot, seed, args.extra.split(), args.keep)), flush=True)

@@ -588,3 +588,35 @@ def test_id_proxqp_failure_gets_a_second_opinion(robots):
     ctrl.controller.qp.second_opinion_enabled = False
     cmd = ctrl.compute(q, v)
     assert not cmd.ok, (cmd.path, cmd.message)
+
+
+def test_proxqp_iteration_cap_is_a_failed_solve_never_an_unconverged_answer():
+    """ProxQP (humanoid15's walking backend) has an iteration cap: a call that reaches it reports no solution (the
+    controller's fallbacks then answer), the same QP within the default cap is solved (quadprog as the reference, to
+    1e-6), and a cap that is not an integer ≥ 1 is a typed error. A box- and equality-constrained QP whose solution
+    has 6 of its 8 bounds active (ProxQP: 12 iterations measured)."""
+    import qpsolvers
+
+    from wbc.exceptions import InvalidInputError, SolverError
+    from wbc.qp import PROXQP_MAX_ITER, ProxQPBackend
+
+    rng = np.random.default_rng(0)
+    n = 8
+    M = rng.standard_normal((n, n))
+    H = M @ M.T + 1e-2 * np.eye(n)
+    g = 10.0 * rng.standard_normal(n)
+    A = rng.standard_normal((2, n))
+    b = A @ rng.uniform(-0.2, 0.2, n)
+    C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+    lb, ub = np.full(n, -0.3), np.full(n, 0.3)
+    ref = qpsolvers.solve_qp(H, g, None, None, A, b, lb, ub, solver="quadprog")
+    assert np.count_nonzero(np.isclose(np.abs(ref), 0.3)) >= 4
+    assert ProxQPBackend().max_iter == PROXQP_MAX_ITER
+    x = ProxQPBackend().solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert np.abs(x - ref).max() <= 1e-6
+    for cap in (1, 2):
+        with pytest.raises(SolverError):
+            ProxQPBackend(max_iter=cap).solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    for bad in (0, -5, None, 2.5, True, "100"):
+        with pytest.raises(InvalidInputError, match="max_iter"):
+            ProxQPBackend(max_iter=bad)

@@ -23,7 +23,7 @@ import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "QpsolversBackend", "TickWork", "solve_pinned_reduced", "second_opinion"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "PROXQP_MAX_ITER", "QpsolversBackend", "TickWork", "solve_pinned_reduced", "second_opinion"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 #: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
@@ -591,19 +591,33 @@ class DaqpBackend(QPBackend):
         return x
 
 
+#: Default iteration cap of :class:`ProxQPBackend` (proxsuite ``max_iter``; ``max_iter_in`` min(cap, 100)).
+PROXQP_MAX_ITER = 1000
+
+
 class ProxQPBackend(QPBackend):
     """proxsuite's dense ProxQP, warm-started from the previous tick's solution and dual variables.
 
     Args:
         eps_abs: absolute stopping tolerance of ProxQP (primal and dual residuals).
+        tolerance: largest scaled row violation of an accepted answer (:meth:`QPBackend.solve`).
+        max_iter: iteration cap (proxsuite ``max_iter``; its inner loop ``max_iter_in`` is min(max_iter, 100)),
+            an integer ≥ 1, default :data:`PROXQP_MAX_ITER`. A call that reaches it returns no solution (a failed
+            solve: the caller's fallbacks take over), never the unconverged iterate. Without a cap proxsuite's own
+            (10 000 outer × 1 500 inner iterations) let one walking QP run for minutes.
+
+    Raises:
+        InvalidInputError: a ``max_iter`` that is not an integer ≥ 1.
     """
 
     name = "proxqp"
 
-    def __init__(self, eps_abs: float = 1e-9, tolerance: float = 1e-6, max_iter: int | None = None):
+    def __init__(self, eps_abs: float = 1e-9, tolerance: float = 1e-6, max_iter: int = PROXQP_MAX_ITER):
         import proxsuite
 
-        self.max_iter = max_iter
+        if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+            raise InvalidInputError(f"ProxQP max_iter must be an integer ≥ 1 (iterations), got {max_iter!r}")
+        self.max_iter = int(max_iter)
         self._proxsuite = proxsuite
         self.eps_abs = eps_abs
         self.tolerance = tolerance
@@ -623,9 +637,8 @@ class ProxQPBackend(QPBackend):
             qp.settings.eps_abs = self.eps_abs
             qp.settings.eps_rel = 0.0
             qp.settings.verbose = False
-            if self.max_iter is not None:  # bounded work (the independent re-solve on a 500 Hz tick)
-                qp.settings.max_iter = self.max_iter
-                qp.settings.max_iter_in = min(self.max_iter, 100)
+            qp.settings.max_iter = self.max_iter  # bounded work (class docstring)
+            qp.settings.max_iter_in = min(self.max_iter, 100)
             qp.init(H, g, A, b, Cn, lf, uf, lbf, ubf)
             qp.solve()
             # Warm start only once a previous result exists: proxsuite 0.8 segfaults otherwise.

@@ -56,7 +56,7 @@ __all__ = [
     "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "AccelerationBarrier",
     "TorqueLimits",
     "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
-    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs",
+    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs", "independent_contact_rows",
 ]
 
 
@@ -159,8 +159,10 @@ def consistent_contact_rhs(J: np.ndarray, b: np.ndarray, ratio: float = DEPENDEN
     fell back to the relaxed QP with kN forces and the robot fell) or demands an acceleration of order |uᵀb|/σ.
     Here ``b`` is replaced by its projection onto the span of the left singular vectors of ``J`` whose singular
     value is ≥ ``ratio`` σ_max, the least-squares consistent right-hand side of the well-conditioned rows; the rows
-    themselves are kept (a dependent row with a consistent right-hand side is satisfied by the solution of the
-    others up to σ/σ_max). Singular vectors from the eigen-decomposition of the (m, m) Gram matrix J Jᵀ (σ² = λ).
+    themselves are kept. An exactly dependent row with a consistent right-hand side is then satisfied by the
+    solution of the others; a nearly dependent one (σ > 0) is not: it still forbids the motion along its right
+    singular vector, which is why the ID QP drops such directions instead (:func:`independent_contact_rows`).
+    Singular vectors from the eigen-decomposition of the (m, m) Gram matrix J Jᵀ (σ² = λ).
 
     Args:
         J: (m, nv) stacked contact rows. b: (m,) right-hand side, modified in place.
@@ -176,6 +178,40 @@ def consistent_contact_rhs(J: np.ndarray, b: np.ndarray, ratio: float = DEPENDEN
         Uk = U[:, keep]
         b[:] = Uk @ (Uk.T @ b)
     return n_out
+
+
+def independent_contact_rows(A: np.ndarray, b: np.ndarray, ratio: float = DEPENDENT_CONTACT_RATIO) -> int:
+    """Replace the stacked contact equalities ``A x = b`` (eq. 5 of every active contact) by their well-conditioned
+    directions, in place: the rows of ``A`` and ``b`` are rotated onto the left singular vectors u_i of ``A`` with
+    σ_i ≥ ``ratio`` σ_max, ``u_iᵀ A x = u_iᵀ b``, written in the first r rows; the other m − r rows (the dependent
+    directions) are dropped by the caller.
+
+    Keeping a nearly dependent row with a consistent right-hand side (:func:`consistent_contact_rhs`) still forbids
+    the motion along its right singular vector v: the row reads σ vᵀv̇ = 0, a hard constraint whatever σ is. For
+    two flat soles on 5-DoF legs (humanoid15, no hip yaw) that motion is a pitch and roll of the pelvis over the
+    fixed feet (σ / σ_max 1e-4–5e-3 in double support: the second-order relative foot yaw it produces), so the
+    QP could not command any pelvis orientation correction while standing, and a disturbance the plant followed
+    (soft contacts, model errors) tipped the pelvis past 30°. Dropping the direction leaves the pelvis free along
+    v, at the cost of a relative foot yaw acceleration ≤ ``ratio`` σ_max |vᵀv̇| that the contact friction resists.
+    Directions from the eigen-decomposition of the (m, m) Gram matrix A Aᵀ (σ² = λ), as in
+    :func:`consistent_contact_rhs`.
+
+    Args:
+        A: (m, n) stacked contact rows (columns beyond the accelerations, e.g. zero force columns, allowed),
+            modified in place. b: (m,) right-hand side, modified in place.
+        ratio: relative singular-value threshold (dimensionless, in [0, 1)).
+
+    Returns:
+        r, the number of rows kept (m: ``A`` and ``b`` unchanged).
+    """
+    lam, U = np.linalg.eigh(A @ A.T)  # ascending
+    keep = lam >= (ratio * ratio) * lam[-1]
+    r = int(np.count_nonzero(keep))
+    if r < A.shape[0]:
+        Uk = U[:, keep]
+        rows, rhs = Uk.T @ A, Uk.T @ b
+        A[:r], b[:r] = rows, rhs
+    return r
 
 
 class HardTask(IDConstraint):

@@ -25,8 +25,9 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
             r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (wbc.formulations.reference)
     s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
-                (with ≥ 2 active contacts, the stacked right-hand side is projected onto the span of the rows' left
-                singular vectors with σ ≥ 1e-2 σ_max: dependent rows made consistent, constraints.consistent_contact_rhs)
+                (with ≥ 2 active contacts, the stacked rows and right-hand side are replaced by their components along
+                the rows' left singular vectors with σ ≥ 1e-2 σ_max: the nearly dependent directions are dropped,
+                constraints.dynamics.independent_contact_rows; the equality block then has fewer than 6 n_c rows)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
             F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis; active k)  (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
@@ -91,7 +92,7 @@ from wbc.constraints.dynamics import (
     JointAccelerationLimits,
     TorqueLimits,
     Unilaterality,
-    consistent_contact_rhs,
+    independent_contact_rows,
 )
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
@@ -262,8 +263,8 @@ class InverseDynamicsQP:
             self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
-        #: directions of the stacked active contact rows projected out of their right-hand side at the last build
-        #: (:func:`wbc.constraints.dynamics.consistent_contact_rhs`; 0 for legs that can yaw the foot)
+        #: directions of the stacked active contact rows dropped at the last build
+        #: (:func:`wbc.constraints.dynamics.independent_contact_rows`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
         #: run the backend's independent re-solve (:meth:`wbc.qp.QPBackend.confirm`) before declaring a failure;
         #: False by default: it costs many control periods and belongs off the control path
@@ -478,8 +479,16 @@ class InverseDynamicsQP:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
                 i += con.dim
-        # ≥ 2 active contacts: right-hand side of (nearly) dependent contact rows made consistent
-        self.dependent_contact_rows = consistent_contact_rhs(A[6:i, :nv], b[6:i]) if i > 12 else 0
+        # ≥ 2 active contacts: (nearly) dependent directions of the stacked contact rows dropped
+        self.dependent_contact_rows = 0
+        if i > 12:
+            kept = independent_contact_rows(A[6:i], b[6:i])
+            self.dependent_contact_rows = i - 6 - kept
+            if kept < i - 6:
+                i = 6 + kept
+                for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
+                    if con.enabled:
+                        con.rows = slice(min(con.rows.start, i), min(con.rows.stop, i))
         for con in self.hard_tasks:
             if con.enabled:
                 con.rows = slice(i, i + con.dim)
@@ -746,12 +755,17 @@ class InverseDynamicsQP:
         ta = perf_counter()
         it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
         self.dependent_contact_rows = 0
-        if it == PROJECT_CONTACT_RHS:  # as in InverseDynamicsQP.build
-            act = np.flatnonzero(kb.active)
-            bc = kb.bc[act].reshape(-1)
-            self.dependent_contact_rows = consistent_contact_rhs(kb.Jc[act].reshape(-1, self.nv), bc)
-            kb.bc[act] = bc.reshape(-1, 6)
-            it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 1, *kb.tail)
+        if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
+            kb.state[:] = 0
+            kb.rstate[:] = 0
+            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+            self._assembled = (id(state), dt)
+            t1 = perf_counter()
+            x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
+            sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
+            sol.path = TickPath("general", solver)
+            self._guard(state, sol)
+            return sol
         self._m = m
         self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
         t1 = perf_counter()

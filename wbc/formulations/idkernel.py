@@ -661,8 +661,8 @@ def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter,
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
-    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.dynamics.consistent_contact_rhs` would leave the right-hand
-    side unchanged and need not run (its eigen-decomposition is the tick's largest numpy call). With G = J Jᵀ
+    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.dynamics.independent_contact_rows` would keep every row
+    and need not run (its eigen-decomposition is the tick's largest numpy call). With G = J Jᵀ
     (eigenvalues λ = σ²): λ_min ≥ 1 / tr(G⁻¹) and λ_max ≤ tr(G), so 1 / tr(G⁻¹) ≥ ratio² tr(G) implies
     λ_min ≥ ratio² λ_max. tr(G⁻¹) = ‖L⁻¹‖_F² from the Cholesky factor L of G. False (no certificate) when that
     bound does not hold or G is not positive definite.
@@ -723,8 +723,9 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
 
 
 #: :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified well conditioned
-#: (:func:`contact_rows_well_conditioned`); the caller makes their right-hand side consistent
-#: (:func:`wbc.constraints.dynamics.consistent_contact_rhs` on ``bc``) and calls again with ``mode`` 1.
+#: (:func:`contact_rows_well_conditioned`); the caller solves the tick on its general path, which drops the
+#: dependent directions (:func:`wbc.constraints.dynamics.independent_contact_rows`; ``mode`` 1, a given consistent
+#: ``bc``, is not used by :class:`wbc.formulations.acceleration.InverseDynamicsQP`).
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_tick`'s ``par`` vector

@@ -21,10 +21,11 @@ ticks, fell). :func:`id_options_for` gives such robots DAQP with ``primal_tol`` 
 marginal, are in ``benchmarks/README.md``, "Measurement history moved out of docstrings").
 Walking: at a touch-down the right-hand side of the two soles' rows is inconsistent along the dependent direction
 (a relative foot yaw acceleration the legs cannot produce); the QP was infeasible, the relaxed QP answered with kN
-forces and humanoid15 fell at its first landing. The ID QP now projects that right-hand side onto the
-well-conditioned rows (:func:`wbc.constraints.dynamics.consistent_contact_rhs`, σ < 1e-2 σ_max counts as
-dependent); humanoid15 then walks (``wbc sim walk --robot humanoid15 --steps 10``: 1.349 of 1.35 m, 0 failed
-ticks).
+forces and humanoid15 fell at its first landing. The ID QP keeps only the well-conditioned directions of the two
+soles' rows (:func:`wbc.constraints.dynamics.independent_contact_rows`, σ < 1e-2 σ_max counts as dependent). Its
+right-hand side made consistent along the dependent direction was enough for the landings, but a nearly dependent
+row kept as an equality still forbids pitching or rolling the pelvis over the fixed feet (the direction of that
+row), so a standing humanoid15 whose plant pushed it that way (±10 % link masses) tipped its pelvis past 30°.
 
 Walking sole margin (:func:`walk_options_for`): the walk's DCM stabilizer keeps its commanded CoP 1.5 cm inside the
 soles, but it commands a CoM acceleration, and the QP's contact forces also carry the rate of the centroidal
