@@ -341,8 +341,8 @@ class DcmPolygonConstraint(ComPolygonConstraint):
     """The divergent component of motion ξ = c + ċ/ω inside the support polygon shrunk by ``margin`` (module
     docstring): rows n_i·J_com,xy v ≤ max(ω s_i, −recovery_speed), ω = √(g / (c_z − z_ground)).
 
-    Args: those of :class:`~wbc.constraints.ComPolygonConstraint`, plus ``gravity`` (m/s², > 0; default None: ``robot.gravity``). The ground
-    height is the mean z of the soles given to :meth:`set_support`.
+    Args: those of :class:`~wbc.constraints.ComPolygonConstraint`, plus ``gravity`` (m/s², > 0; default None:
+    ``robot.gravity``). The ground height is the mean z of the soles given to :meth:`set_support`.
     """
 
     def __init__(self, robot, *, gravity: float | None = None, name: str = "dcm_polygon", **kwargs):

@@ -304,8 +304,8 @@ def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), 
 
     Args:
         robot: the robot. push_duration: Δt (s, > 0). direction: horizontal push direction (3,) or (2,), world.
-        g: gravity (m/s²; default None: ``robot.gravity``). push_body: frame whose origin is pushed (default ``robot.torso``), for the push's
-            moment about the CoM.
+        g: gravity (m/s²; default None: ``robot.gravity``).
+        push_body: frame whose origin is pushed (default ``robot.torso``), for the push's moment about the CoM.
 
     Returns:
         dict with ``omega`` (1/s), ``com_height_m``, ``edge_distance_m`` (d: CoM projection to the support

@@ -246,7 +246,8 @@ class WalkScenario:
             way). Defaults ``max_cut`` 0.3 s, ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7, ``cmp_offset``
             0.04 m, tuned on the pushed walks of ``benchmarks/walk_push_trials.py`` (``benchmarks/README.md``): a push
             towards the stance leg needs two quick steps (the inner foot, which cannot cross, then the outer one)
-            and the DCM diverges from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by at most
+            and the DCM diverges from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by
+            at most
             ``max_stretch`` s) when, in its last ``stretch_window`` s, the adjusted landing is farther from the foot
             than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
             side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
@@ -460,7 +461,8 @@ class WalkScenario:
         else:  # footholds on the treads, 3-D swings, CoM height from the VRP (wbc.gait.terrain_walk)
             from wbc.gait.terrain_walk import plan_terrain_walk
 
-            v_max = self.swing_froude * math.sqrt(self.robot.gravity * float(self.com0[2]))  # step timing (SWING_FROUDE)
+            # step timing (SWING_FROUDE)
+            v_max = self.swing_froude * math.sqrt(self.robot.gravity * float(self.com0[2]))
             self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0,
                                                   max_sole_speed=v_max, **walk_kw)
             plan = self.terrain_walk.plan
@@ -799,8 +801,8 @@ class WalkScenario:
         The stepping foot is the one on the DCM's side of the feet, unless the DCM lies laterally over that sole or
         beyond it (less than half a sole width inwards of its middle): that sole then carries the CoP the DCM needs
         — lifting it leaves the CoP on the other sole, from which the DCM diverges as ``e^{ωt}`` (Englsberger 2015,
-        eq. 6) out of any reach — and the other foot steps instead, towards it (a closing step: the feet are wide apart after a lateral
-        recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
+        eq. 6) out of any reach — and the other foot steps instead, towards it (a closing step: the feet are wide
+        apart after a lateral recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
         the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk) is
         captured by that foot stepping forward, not by lifting the other one, on which the DCM then nearly stands."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
@@ -939,7 +941,8 @@ class WalkScenario:
         A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
         (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
         foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot cross
-        to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot captures it in one step
+        to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot
+        captures it in one step
         when the landing of eq. 2 of :mod:`wbc.gait.step_adjustment` (``τ' = τ + Δ``, the DCM diverging further
         from the stance CoP ``u_0`` meanwhile) is within the reach.
 
