@@ -264,6 +264,11 @@ def private_attribute_accesses(path: Path) -> list[tuple[int, str]]:
     third-party library)."""
     tree = ast.parse(path.read_text(), filename=str(path))
     own = private_attributes_defined(tree)
+    # Names bound by an import (a module, or a class or function of another module): their private attributes are
+    # never the file's own, even when the file defines an attribute of the same name.
+    imported = {a.asname or a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import)
+                for a in n.names} | {a.asname or a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+                                     for a in n.names}
     out = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute):
@@ -274,7 +279,7 @@ def private_attribute_accesses(path: Path) -> list[tuple[int, str]]:
             name, obj = node.args[1].value, node.args[0]
         else:
             continue
-        if not _is_private(name) or name in own:
+        if not _is_private(name) or (name in own and not (isinstance(obj, ast.Name) and obj.id in imported)):
             continue
         if isinstance(obj, ast.Name) and obj.id in ("self", "cls"):
             continue
@@ -295,7 +300,8 @@ def test_no_private_attribute_accessed_across_modules():
 
 def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_path):
     """A mini-package: ``a`` defines ``A._x`` and ``A._m`` and touches them from a module-level function; ``b``
-    reads, writes and getattr's them on an ``A``, and uses its own (``_y``), ``super()``'s and ``os._exit``."""
+    reads, writes and getattr's them on an ``A``, and uses its own (``_y``), ``super()``'s and ``os._exit``; ``A._y``
+    on the imported class is ``a``'s even though ``b`` defines a ``_y`` too."""
     a = tmp_path / "a.py"
     a.write_text("class A:\n    _k = 1\n    def __init__(self):\n        self._x = 0\n"
                  "    def _m(self):\n        return self._x\n\n"
@@ -306,9 +312,10 @@ def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_p
                  "    def _n(self):\n        return super()._m() + self.__class__.__name__.__len__()\n\n"
                  "def poke(obj: A, other: B):\n    obj._x = 2\n    del obj._k\n"
                  "    f = getattr(obj, '_m')\n    other._y = 1\n    os._exit(0) if f() else None\n"
-                 "    return obj.__dict__, hasattr(obj, 'x')\n")
+                 "    return obj.__dict__, hasattr(obj, 'x'), A._y\n")
     assert private_attribute_accesses(a) == []
-    assert private_attribute_accesses(b) == [(12, "obj._x"), (13, "obj._k"), (14, "getattr(obj, '_m')")]
+    assert private_attribute_accesses(b) == [(12, "obj._x"), (13, "obj._k"), (14, "getattr(obj, '_m')"),
+                                             (17, "A._y")]
 
 
 @pytest.mark.parametrize("module", ["wbc.gait.walk", "wbc.cli"])
@@ -333,6 +340,11 @@ LAB_NOTE_PATTERNS = [
     r"\(measured(?:\)|:|;|, [A-Z]| on\b| here\b| at \d)",  # "(measured)", "(measured: ...", "(measured, Talos ..."
     r"\d(?:\.\d+)?(?:e-?\d+)?\s*(?:[a-zµ/%°]+\s+)?measured\b",  # "up to 2.2 mm measured"
     r"\bissues? \d+",  # an issue number
+    r"\bseeds? \d",  # the seeds of a trial run ("fell on seeds 3 and 38")
+    # a time in milliseconds other than the 2 ms control period and a stated period ("every 10 ms", "dt = 4 ms")
+    r"(?<!every )(?<!multiple of )(?<!knots of )(?<!dt = )\b(?!2\s*ms\b)\d+(?:\.\d+)?\s*ms\b",
+    r"\bmeasured\b.*\b(?:talos|g1|humanoid15|romeo|h1)\b|\b(?:talos|g1|humanoid15|romeo|h1)\b.*\bmeasured\b",
+    r"\bmeasured\b[\w\s()-]{0,30}?\d[\d.]*\s*(?:mm|cm|m|s|N|deg|°)(?!\w)",  # "measured CoP margin 5.0 mm"
 ]
 
 
@@ -350,8 +362,9 @@ def docstring_lab_notes(path: Path) -> list[tuple[int, str]]:
                 if any(p.search(line) for p in pats):
                     out.append((node.value.lineno + i, line.strip()))
     for i, line in enumerate(text.splitlines(), 1):
-        if line.lstrip().startswith("#:") and any(p.search(line) for p in pats):
-            out.append((i, line.strip()))
+        comment = line[line.index("#:"):] if "#:" in line else ""  # a ``#:`` attribute comment, own line or inline
+        if comment and any(p.search(comment) for p in pats):
+            out.append((i, comment))
     return sorted(out)
 
 
@@ -369,5 +382,151 @@ def test_the_lab_note_checker_tells_notes_from_domain_words(tmp_path):
                    'def f(q):\n    """Torques for the measured state (q (nq,), measured CoP in m), dt = 2 ms.\n\n'
                    '    Up to 2.2 mm measured (issue 10).\n    """\n\n'
                    '#: a gain (1/s), 159 vs 191 µs median\nK = 1.0\n"""The period, 2 ms (2026-11-22)."""\n'
-                   '# an ordinary comment: 5 µs\n')
-    assert [line for line, _ in docstring_lab_notes(src)] == [3, 4, 5, 11, 14, 16]
+                   '# an ordinary comment: 5 µs\n'
+                   'def g():\n    """Fell on seeds 3 and 38. A tick every 10 ms, dt = 4 ms, 40 ms before touch-down.\n\n'
+                   '    Talos: the measured CoP. The measured CoP margin 5.0 mm.\n'
+                   '    The measured force reaches 3 % of the weight, every 2 ms.\n    """\n'
+                   'L = 0.3  #: fraction of a swing (seed 7 fell with 0.2)\n')
+    assert [line for line, _ in docstring_lab_notes(src)] == [3, 4, 5, 11, 14, 16, 19, 21, 24]
+
+
+# Numeric constants repeated under related names: two modules assigning the same number to names that share a word
+# (after these synonyms) are one constant typed twice; a generic word alone (TOL, WEIGHT, MAX...) relates nothing.
+# Written here, not imported from wbc.
+CONSTANT_NAME_SYNONYMS = {"TOLERANCE": "TOL", "TIMESTEP": "DT", "PERIOD": "DT"}
+CONSTANT_NAME_GENERIC = {"TOL", "WEIGHT", "MAX", "MIN", "DEG", "M", "S", "N", "RATIO", "FRACTION", "BIT"}
+# Same value, related names, different meanings: (module.NAME, module.NAME) -> why they are two constants.
+DISTINCT_CONSTANTS = {
+    ("wbc.gait.terrain_walk.LIFT", "wbc.sim.walk.BLIND_LIFT"):
+        "two swing profiles tuned apart: the terrain swing's symmetric rise and set-down fraction vs the blind "
+        "swing's rise, whose set-down starts at BLIND_SET_DOWN",
+    ("wbc.robot.LIMIT_TOLERANCE", "wbc.robot_file.LIMIT_INVERSION_TOLERANCE"):
+        "two checks: a reference posture's excess over its joint limits vs a limit pair's inversion taken as "
+        "round-off",
+}
+
+
+def numeric_constants(path: Path) -> list[tuple[str, float, int]]:
+    """(NAME, value, line) of the module-level UPPER_CASE names a file assigns a number literal to (bool excluded;
+    ``A = B`` naming another constant is a reference, not a second definition)."""
+    out = []
+    for node in ast.parse(path.read_text(), filename=str(path)).body:
+        targets = node.targets if isinstance(node, ast.Assign) else \
+            [node.target] if isinstance(node, ast.AnnAssign) and node.value is not None else []
+        for t in targets:
+            if isinstance(t, ast.Name) and t.id.lstrip("_").isupper():
+                try:
+                    v = ast.literal_eval(node.value)
+                except ValueError:
+                    continue
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    out.append((t.id, v, node.lineno))
+    return out
+
+
+def _name_words(name: str) -> set[str]:
+    words = {CONSTANT_NAME_SYNONYMS.get(w, w) for w in name.lstrip("_").split("_") if w}
+    return words - CONSTANT_NAME_GENERIC
+
+
+def repeated_constants(modules: dict[str, Path]) -> list[str]:
+    found = [(name, const, value, line) for name, path in modules.items()
+             for const, value, line in numeric_constants(path)]
+    out = []
+    for i, (ma, a, va, la) in enumerate(found):
+        for mb, b, vb, lb in found[i + 1:]:
+            pair = tuple(sorted((f"{ma}.{a}", f"{mb}.{b}")))
+            if ma != mb and va == vb and _name_words(a) & _name_words(b) and pair not in DISTINCT_CONSTANTS:
+                out.append(f"{ma}:{la} {a} = {mb}:{lb} {b} = {va!r}")
+    return out
+
+
+def test_no_numeric_constant_typed_twice():
+    """The same number under related names in two modules is one constant: define it once, import it."""
+    bad = repeated_constants(all_modules())
+    assert not bad, f"{len(bad)} numeric constants typed in two modules:\n" + "\n".join(bad)
+
+
+def test_the_distinct_constants_allow_list_names_existing_pairs():
+    """Each allow-listed pair still exists with equal values (a stale entry would hide nothing and mislead)."""
+    values = {f"{name}.{c}": v for name, path in all_modules().items() for c, v, _ in numeric_constants(path)}
+    for a, b in DISTINCT_CONSTANTS:
+        assert a in values and b in values and values[a] == values[b], (a, b)
+
+
+def test_the_repeated_constant_checker(tmp_path):
+    (tmp_path / "a.py").write_text("SIM_DT = 0.002\nMAX_TILT_DEG = 30.0\nPUSH_TOL = 0.01\nREF = SIM_DT\n")
+    (tmp_path / "b.py").write_text("MAX_TIMESTEP = 0.002\nFALL_TILT_DEG = 30.0\nFLAT_TOL = 0.01\n"
+                                   "_TILT_DEG = 31.0\nREF = 0.002\n")
+    bad = repeated_constants({"a": tmp_path / "a.py", "b": tmp_path / "b.py"})
+    assert bad == ["a:1 SIM_DT = b:1 MAX_TIMESTEP = 0.002", "a:2 MAX_TILT_DEG = b:2 FALL_TILT_DEG = 30.0"]
+
+
+def gravity_beside_a_robot(path: Path) -> list[tuple[int, str]]:
+    """(line, function) of each use of ``GRAVITY`` (the constant for places with no model) where a robot is at
+    hand, whose model carries gravity (``robot.gravity``): in a function with a ``robot`` argument or variable, or
+    in a class that keeps ``self.robot``."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    out: dict[int, str] = {}  # line -> innermost function or class (ast.walk visits outer scopes first)
+
+    def uses(node):
+        return [n.lineno for n in ast.walk(node) if isinstance(n, ast.Name) and n.id == "GRAVITY"]
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef):
+            keeps = any(isinstance(n, ast.Attribute) and n.attr == "robot" and isinstance(n.value, ast.Name)
+                        and n.value.id == "self" and isinstance(n.ctx, ast.Store) for n in ast.walk(node))
+            if keeps:
+                out.update((line, node.name) for line in uses(node))
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            has = any(isinstance(n, ast.Name) and n.id == "robot" for n in ast.walk(node)) or \
+                any(a.arg == "robot" for a in node.args.args + node.args.kwonlyargs)
+            if has:
+                out.update((line, node.name) for line in uses(node))
+    return sorted(out.items())
+
+
+def test_gravity_comes_from_the_model_where_a_robot_is_at_hand():
+    bad = [f"{name}:{line} in {where}" for name, path in all_modules().items()
+           for line, where in gravity_beside_a_robot(path)]
+    assert not bad, f"{len(bad)} uses of wbc.constants.GRAVITY beside a robot (use robot.gravity):\n" + \
+        "\n".join(bad)
+
+
+def test_the_gravity_checker(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text("from wbc.constants import GRAVITY\n\ndef omega(z, g=GRAVITY):\n    return (g / z) ** 0.5\n\n"
+                   "def bound(robot, g=GRAVITY):\n    return g\n\nclass S:\n    def __init__(self, sim):\n"
+                   "        self.robot = sim.robot\n    def f(self):\n        return GRAVITY\n")
+    assert gravity_beside_a_robot(src) == [(6, "bound"), (13, "S")]
+
+
+def module_aliases(path: Path) -> list[tuple[int, str]]:
+    """(line, source) of each alias: at module level ``a = b`` or ``A = B.c`` where ``b``/``B`` is a function or
+    class the module defines, in a class body ``a = b`` where ``b`` is a method of that class (a second name for one
+    thing; give the thing its public name instead)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    scopes = [tree] + [n for n in ast.walk(tree) if isinstance(n, ast.ClassDef)]
+    out = []
+    for scope in scopes:
+        defined = {n.name for n in scope.body if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))}
+        for node in scope.body:
+            if isinstance(node, ast.Assign) and all(isinstance(t, ast.Name) for t in node.targets):
+                root = node.value
+                while isinstance(root, ast.Attribute) and scope is tree:
+                    root = root.value
+                if isinstance(root, ast.Name) and root.id in defined:
+                    out.append((node.lineno, ast.unparse(node)))
+    return sorted(out)
+
+
+def test_no_alias_names():
+    bad = [f"{name}:{line} {src}" for name, path in all_modules().items() for line, src in module_aliases(path)]
+    assert not bad, f"{len(bad)} module-level aliases:\n" + "\n".join(bad)
+
+
+def test_the_alias_checker(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text("import os\n\ndef _f():\n    pass\n\nclass K:\n    x = 1\n    def solve(self):\n        pass\n"
+                   "    compute = solve\n    y = x\n\nf = _f\nX = K.x\nSEP = os.sep\nk = K()\n")
+    assert module_aliases(src) == [(10, "compute = solve"), (13, "f = _f"), (14, "X = K.x")]

@@ -123,7 +123,7 @@ class QPBackend(ABC):
     #: a relaxation ladder) may turn it off for those solves: then one solver call per solve.
     cold_retry: bool = True
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
-    independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")  # _INDEPENDENT
+    independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
@@ -682,9 +682,6 @@ class QpsolversBackend(QPBackend):
 
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 _POLISH_RANGE = 1e-3
-
-#: Independent solvers of :meth:`QPBackend.confirm`, in order (the default of ``QPBackend.independent``).
-_INDEPENDENT = QPBackend.independent
 
 #: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
 _SETTINGS = {

@@ -532,7 +532,7 @@ def scaled_gait(robot: Robot) -> dict[str, float]:
 SOLE_HEIGHT_TOLERANCE = 0.01
 
 
-def _geometry_points(geo) -> np.ndarray | None:
+def geometry_points(geo) -> np.ndarray | None:
     """Points (k, 3) bounding a collision geometry in its own frame (mesh vertices, box corners, sphere/cylinder
     extremes), or None for an unsupported shape."""
     if hasattr(geo, "vertices"):
@@ -548,7 +548,7 @@ def _geometry_points(geo) -> np.ndarray | None:
     return None
 
 
-def _floor_points(geo, placement: pin.SE3, up: np.ndarray) -> np.ndarray | None:
+def floor_points(geo, placement: pin.SE3, up: np.ndarray) -> np.ndarray | None:
     """Points (k, 3) m, in the frame of ``placement`` (the geometry's placement in it), of a collision geometry
     that can touch a floor below it (normal ``up``, unit (3,) in that frame): a sphere's lowest point, a capsule's
     two lowest points (its segment's ends lowered by the radius), every bounding point of other shapes (mesh
@@ -564,15 +564,15 @@ def _floor_points(geo, placement: pin.SE3, up: np.ndarray) -> np.ndarray | None:
         if "capsule" in kind:
             axis = placement.rotation[:, 2] * float(getattr(geo, "halfLength", 0.0))
             return np.array([placement.translation + axis - r * up, placement.translation - axis - r * up])
-    local = _geometry_points(geo)
+    local = geometry_points(geo)
     if local is None:
         return None
     return local @ placement.rotation.T + placement.translation
 
 
-def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
+def foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
     """Points (k, 3) m of the geometry attached to the joint carrying ``frame`` that can touch a floor under the
-    sole (:func:`_floor_points` with the sole frame's z up), expressed in that frame, or None when that joint has
+    sole (:func:`floor_points` with the sole frame's z up), expressed in that frame, or None when that joint has
     no (supported) geometry."""
     model = robot.model
     fr = model.frames[model.getFrameId(frame)]
@@ -581,16 +581,10 @@ def _foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
     for g in geometry_model.geometryObjects:
         if g.parentJoint != fr.parentJoint:
             continue
-        p = _floor_points(g.geometry, s_m_j * g.placement, np.array([0.0, 0.0, 1.0]))
+        p = floor_points(g.geometry, s_m_j * g.placement, np.array([0.0, 0.0, 1.0]))
         if p is not None:
             pts.append(p)
     return np.vstack(pts) if pts else None
-
-
-#: Public names of the geometry helpers (used by :mod:`wbc.robot_inspect`).
-geometry_points = _geometry_points
-floor_points = _floor_points
-foot_points = _foot_points
 
 
 def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -> None:
@@ -604,7 +598,7 @@ def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -
     """
     for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
         for kind, gm in (("collision", robot.collision_model), ("visual", robot.visual_model)):
-            p = _foot_points(robot, frame, gm) if gm is not None else None
+            p = foot_points(robot, frame, gm) if gm is not None else None
             if p is not None:
                 break
         if p is None:
@@ -634,7 +628,7 @@ def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> t
     """
     sizes = []
     for frame in (robot.left_sole, robot.right_sole):
-        p = _foot_points(robot, frame, robot.collision_model)
+        p = foot_points(robot, frame, robot.collision_model)
         if p is None:
             raise RobotDescriptionError(
                 f"{robot.name}: no collision geometry on the link of sole frame {frame!r}; pass sole_length and "

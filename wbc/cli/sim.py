@@ -35,9 +35,6 @@ JUMP_FLAGS = (
     ("--min-hop", finite(0.0), None, "jump: pass criterion, measured forward hop per jump >= this, m (default: none)"),
 )
 
-#: Control period of ``wbc sim`` (s): one MuJoCo step per tick (:data:`wbc.sim.mujoco_model.MAX_TIMESTEP`).
-SIM_DT = 0.002
-
 
 def check_sim_args(args) -> None:
     """``wbc sim`` checks before any run (called by :func:`wbc.cli.main`): the run's ticks fit in memory, the
@@ -47,6 +44,7 @@ def check_sim_args(args) -> None:
         InvalidInputError: naming the option given.
     """
     from wbc.exceptions import InvalidInputError
+    from wbc.sim.mujoco_model import MAX_TIMESTEP  # wbc sim's control period: one MuJoCo step per tick
 
     if isinstance(getattr(args, "terrain", None), str):
         from wbc.terrain import parse_terrain
@@ -57,14 +55,14 @@ def check_sim_args(args) -> None:
                                 f"touch-down), got --terrain {getattr(getattr(args, 'terrain', None), 'name', None)} "
                                 f"--state {args.state}")
     if args.duration is not None:
-        check_ticks(f"--duration {args.duration:g}", args.duration, SIM_DT)
+        check_ticks(f"--duration {args.duration:g}", args.duration, MAX_TIMESTEP)
     if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
         check_ticks(f"--steps {args.steps} --step-duration {args.step_duration:g}",
-                    (args.steps + 2) * args.step_duration, SIM_DT)
+                    (args.steps + 2) * args.step_duration, MAX_TIMESTEP)
         if args.vx is not None and args.vx < 0:
             raise InvalidInputError(f"--vx {args.vx:g}: walking backwards is not planned (valid: vx >= 0 m/s)")
     if args.scenario == "jump":
-        check_jump(args.height, 0.1, args.count, SIM_DT)  # JumpScenario: crouch 0.1 m, extension 0
+        check_jump(args.height, 0.1, args.count, MAX_TIMESTEP)  # JumpScenario: crouch 0.1 m, extension 0
 
 
 def register(subparsers, add_outputs) -> None:

@@ -143,8 +143,8 @@ class ContactAcceleration(IDConstraint):
 
 
 #: σ/σ_max below which a direction of the stacked rows of the active contacts counts as dependent
-#: (:func:`consistent_contact_rhs`). Measured in double support: Talos and G1 (6-DoF legs) ≥ 0.05 at their
-#: reference stance; humanoid15 (5-DoF legs, no hip yaw) 0 at ``q_ref`` and ≤ 0.005 over a walk.
+#: (:func:`consistent_contact_rhs`): it lies between the double support of 6-DoF legs (well conditioned) and that of
+#: legs without hip yaw, whose relative foot yaw is rank deficient (the ratios per robot: ``benchmarks/README.md``).
 DEPENDENT_CONTACT_RATIO = 1e-2
 
 

@@ -64,8 +64,6 @@ from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, 
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint"]
 
-#: Standard gravity (m/s²), the value Pinocchio's default model uses.
-
 
 @nb.njit(cache=True, nogil=True)
 def _zmp_tick(c, J, Ag, use_momentum, c_now, J_now, A_now, active, c_prev, J_prev, A_prev, v_prev, dt_prev, normals,
@@ -157,7 +155,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         min_normal_ratio: smallest vertical ground force as a fraction of the weight, in [0, 1): row
             c̈_z ≥ −(1 − min_normal_ratio) g.
         max_soles: most soles ever passed to :meth:`set_support` (rows: 4 × max_soles + 1).
-        gravity: g (m/s², > 0).
+        gravity: g (m/s², > 0); default None: the model's (``robot.gravity``).
         angular_momentum: include L̇ (the multi-body ZMP); False: L̇ = 0 (the CoM-only, LIPM-like ZMP).
         name: label in reports.
 
@@ -172,13 +170,13 @@ class ExecutedZmpConstraint(InequalityConstraint):
     relaxable = True
 
     def __init__(self, robot, *, margin: float = 0.002, min_normal_ratio: float = 0.5, max_soles: int = 2,
-                 gravity: float = GRAVITY, angular_momentum: bool = True, name: str = "executed_zmp"):
+                 gravity: float | None = None, angular_momentum: bool = True, name: str = "executed_zmp"):
         self.robot, self.name = robot, name
         self.margin = check_scalar(margin, "margin", "m")
         self.min_normal_ratio = check_scalar(min_normal_ratio, "min_normal_ratio", "fraction of the weight")
         if self.min_normal_ratio >= 1.0:
             raise InvalidInputError(f"min_normal_ratio must be in [0, 1), got {min_normal_ratio!r}")
-        self.gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
+        self.gravity = check_scalar(robot.gravity if gravity is None else gravity, "gravity", "m/s²", strict=True)
         self.max_soles = check_count(max_soles, "max_soles")
         nv = robot.model.nv
         self.dim = 4 * self.max_soles + 1   # last row: the normal-force row
@@ -343,12 +341,12 @@ class DcmPolygonConstraint(ComPolygonConstraint):
     """The divergent component of motion ξ = c + ċ/ω inside the support polygon shrunk by ``margin`` (module
     docstring): rows n_i·J_com,xy v ≤ max(ω s_i, −recovery_speed), ω = √(g / (c_z − z_ground)).
 
-    Args: those of :class:`~wbc.constraints.ComPolygonConstraint`, plus ``gravity`` (m/s², > 0). The ground
-    height is the mean z of the soles given to :meth:`set_support`.
+    Args: those of :class:`~wbc.constraints.ComPolygonConstraint`, plus ``gravity`` (m/s², > 0; default None:
+    ``robot.gravity``). The ground height is the mean z of the soles given to :meth:`set_support`.
     """
 
-    def __init__(self, robot, *, gravity: float = GRAVITY, name: str = "dcm_polygon", **kwargs):
-        gravity = check_scalar(gravity, "gravity", "m/s²", strict=True)
+    def __init__(self, robot, *, gravity: float | None = None, name: str = "dcm_polygon", **kwargs):
+        gravity = check_scalar(robot.gravity if gravity is None else gravity, "gravity", "m/s²", strict=True)
         super().__init__(robot, name=name, **kwargs)
         self.gravity = gravity
         self.ground_z = 0.0

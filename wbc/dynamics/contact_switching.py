@@ -31,8 +31,7 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
   over the floor) is a contact whose bound stays at ``2 contact_force`` until the measured force reaches
   ``contact_force`` (twice: a sole resting on the floor at the bound reads above the threshold despite the
   sensor's bias); its ramp starts then. The QP then plans little load the plant does not carry: a ramp run on a
-  sole in the air leaves the QP's forces on it unrealised, and the leg's joints accelerate by M⁻¹Jᵀf (on Romeo,
-  whose hip yaw is limited to 0.32 rad/s, to 1.3 × that limit in the 40 ms before the sole met the floor). Off by
+  sole in the air leaves the QP's forces on it unrealised, and the leg's joints accelerate by M⁻¹Jᵀf. Off by
   default: the unrealised ramp also presses a hovering sole onto the floor, and a G1 stair climb that passes
   without the wait falls with it. With the
   measured normal force of the soles given to :meth:`~ContactSwitcher.update`, the bound is never below the

@@ -128,7 +128,7 @@ class InverseDynamicsController:
             CPU time (``time.thread_time`` since the tick began) has reached the budget
             (``InverseDynamicsQP.retry_deadline``): the failure stands and the relaxed QP follows. Default False:
             nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations and
-            campaigns). True (a robot's real-time loop): the retries (worth ~1–3 ms on a failing humanoid QP) are
+            campaigns). True (a robot's real-time loop): the retries are
             cut on a slow tick, at the cost of an answer that depends on the machine's speed and load there (a
             feasible QP that only the retry solves then takes the relaxed QP). Settable as an attribute.
 

@@ -8,9 +8,8 @@ sole Jacobians), so the feed-forward torque is τ_ff = (g − J_cᵀ W)_a. The c
 
 with per-joint gains from the joint's effective inertia I_eff = 1 / (M⁻¹)_ii (base free) at q_ref and the
 simulation step dt: K_p = min(10 τ_max, 0.1 I_eff / dt²), K_d = 0.5 I_eff / dt (the stability bounds of an
-explicit PD on light links, see :mod:`wbc.sim.mujoco_model`). This is the baseline of the field notes (stands,
-survives 300 N × 0.1 s lateral pushes on Talos, falls at 400 N); it is measured, not quoted, by
-``wbc sim push --sweep``.
+explicit PD on light links, see :mod:`wbc.sim.mujoco_model`). This is the baseline of the field notes; the pushes
+it survives are found by ``wbc sim push --sweep`` (figures in ``benchmarks/README.md``).
 """
 
 from __future__ import annotations

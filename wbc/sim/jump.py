@@ -59,13 +59,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY, SIDES
+from wbc.constants import SIDES
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.gait.jump_plan import JumpPlan
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
+from wbc.sim.outcome import FALL_TILT_DEG
 from wbc.sim.scenarios import NO_FALL
 from wbc.tasks import OrientationTask, PostureTask
 
@@ -99,8 +100,6 @@ JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 FLIGHT_CLEARANCE = 0.05
 #: A jump fails with less flight than this (s) at :data:`FLIGHT_CLEARANCE`.
 MIN_FLIGHT_TIME = 0.1
-#: A jump fails when the pelvis or the torso tilts more than this (deg) from its orientation at t = 0.
-MAX_TILT_DEG = 30.0
 
 
 def limit_landing_torques(controller, cmd):
@@ -216,6 +215,7 @@ class JumpScenario:
 
     def setup(self, controller, sim, q, v):
         self.robot = robot = sim.robot
+        self.gravity = robot.gravity  # m/s², the model's
         model = robot.model
         data = model.createData()
         self.com0 = pin.centerOfMass(model, data, q).copy()
@@ -339,7 +339,7 @@ class JumpScenario:
             ctrl.qp.add_task(self.base_task)
         st = ctrl.state
         self.c_to, self.v_to, self.t_to = c, vc, t
-        self.t_flight = 2 * max(vc[2], 0.05) / GRAVITY  # measured flight time to the take-off height
+        self.t_flight = 2 * max(vc[2], 0.05) / self.gravity  # measured flight time to the take-off height
         self.feet_to = {s: st.data.oMf[ctrl.feet[s].task.frame_id].translation.copy() for s in SIDES}
         self.foot_target = {s: self.jump_plan.foot_landing_target(self.feet_to[s]) for s in SIDES}
         self.foot_target.update({s: np.r_[self.foot_target[s][:2], self.soles0[s].translation[2]] for s in SIDES})
@@ -354,7 +354,7 @@ class JumpScenario:
         if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
             return self.t_flight  # frozen after the first touch-down
         rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
-        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * GRAVITY * rise, 0.0))) / GRAVITY
+        rest = (vc[2] + np.sqrt(max(vc[2] ** 2 + 2 * self.gravity * rise, 0.0))) / self.gravity
         return max(t - self.t_to + rest, 0.05)
 
     def _swing_feet(self, t, ctrl, q, v):
@@ -368,7 +368,7 @@ class JumpScenario:
             if self.switcher.phase(side) != "swing":
                 continue
             pos, vel, acc = self.jump_plan.foot_flight_offset(self.feet_to[side], self.foot_target[side], dz, vc[2],
-                                                         -GRAVITY, tau, self.t_flight)
+                                                         -self.gravity, tau, self.t_flight)
             if self.landing_crouch > 0:  # feet raised by landing_crouch relative to the CoM over the first half
                 half = 0.5 * self.t_flight
                 sl, dsl, ddsl = min_jerk(min(tau / half, 1.0))
@@ -450,7 +450,7 @@ class JumpScenario:
             per_jump.append(best * dt)
             clear.append(float(both[sel].max()) if sel.any() else 0.0)
             tilt_jump.append(float(tilt[sel].max()) if sel.any() else 0.0)
-            if best * dt < MIN_FLIGHT_TIME or tilt_jump[-1] > MAX_TILT_DEG or not sel.any() \
+            if best * dt < MIN_FLIGHT_TIME or tilt_jump[-1] > FALL_TILT_DEG or not sel.any() \
                     or run.t[sel][-1] < (k + 1) * self.period - 2 * dt:
                 failed.append(k)
             air = fz[sel] < 1.0

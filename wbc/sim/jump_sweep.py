@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
 from wbc.sim.scenarios import largest_passing
 
@@ -69,10 +68,11 @@ def pushoff_bound(robot, qs: np.ndarray, stroke: float) -> dict:
         if best is None or ratio[j] > best[0]:
             best = (float(ratio[j]), j)
     r, j = best
-    a = GRAVITY * (1.0 / r - 1.0) if r > 0 else float("inf")
+    g = robot.gravity
+    a = g * (1.0 / r - 1.0) if r > 0 else float("inf")
     a_pos = max(a, 0.0)
     return {"max_acceleration_mps2": a, "limiting_joint": robot.joint_names[j], "torque_ratio_static": r,
-            "takeoff_velocity_mps": float(np.sqrt(2 * a_pos * stroke)), "apex_rise_m": a_pos * stroke / GRAVITY}
+            "takeoff_velocity_mps": float(np.sqrt(2 * a_pos * stroke)), "apex_rise_m": a_pos * stroke / g}
 
 
 def jump_height_sweep(run_trial, *, start: float = 0.02, max_height: float = 0.32, resolution: float = 0.005,

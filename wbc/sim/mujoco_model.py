@@ -84,6 +84,7 @@ from wbc.constants import SIDES
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.geometry import convex_hull
 from wbc.robot import Robot
+from wbc.robot_inspect import FLAT_BAND
 from wbc.sim.actuators import PLANTS, actuator_model, apply_actuators
 from wbc.sim.conventions import StateMap
 from wbc.sim.meshes import MUJOCO_MESH_SUFFIXES, mujoco_readable
@@ -95,8 +96,6 @@ ENV_BIT = 1  #: contype/conaffinity bit of the environment (floor, obstacles)
 ROBOT_BIT = 2  #: contype bit of robot collision geoms
 MAX_TIMESTEP = 0.002  #: s
 SOLE_PAD_RADIUS = 0.001  #: m, radius of the point contacts on a mesh foot's flat bottom (``_mesh_sole_pads``)
-SOLE_PAD_TOLERANCE = 0.002  #: m, mesh vertices this close to a foot's lowest point form its contact patch (as
-#: for the sole rectangle of ``wbc robot init``: where the foot touches a flat floor)
 
 
 def build_mujoco_model(
@@ -399,10 +398,10 @@ def _mesh_sole_pads(spec: mujoco.MjSpec, feet: dict, contype: int, conaffinity: 
     vertices connected to it (``mjc_PlaneConvex``, ``maxplanemesh = 3`` in ``engine_collision_convex.c``). A mesh
     foot whose bottom is flat stands on three or four of its coplanar vertices, chosen anew each step by which one
     is deepest: a roll or pitch of less than 0.1° moves the whole support from one edge of the sole to the other.
-    Under load the foot rocks between these vertex sets at tens of Hz (Romeo's stance sole: ±2 rad/s in roll,
-    the centre of pressure jumping 3.5 cm across the sole every few ms), where a real flat sole would shift its
+    Under load the foot rocks between these vertex sets at tens of Hz, where a real flat sole would shift its
     pressure continuously. The patch is the foot's own geometry: the vertices of its colliding mesh geoms within
-    :data:`SOLE_PAD_TOLERANCE` of the lowest along the sole normal; the pads stand on the corners of that patch's
+    :data:`wbc.robot_inspect.FLAT_BAND` (as for the sole rectangle of ``wbc robot init``) of the lowest along the
+    sole normal; the pads stand on the corners of that patch's
     convex hull (at each corner's own height, so a patch that is not flat stays so). The mesh keeps colliding
     (heel, toe and edges when the foot tilts). Feet without mesh geoms (boxes, spheres, cylinders: MuJoCo gives
     them their own face or point contacts) get none. The pads are massless (``inertiafromgeom="false"``) geoms of
@@ -426,7 +425,7 @@ def _mesh_sole_pads(spec: mujoco.MjSpec, feet: dict, contype: int, conaffinity: 
         if not pts:
             continue
         p = np.vstack(pts)
-        patch = p[p[:, 2] <= p[:, 2].min() + SOLE_PAD_TOLERANCE]
+        patch = p[p[:, 2] <= p[:, 2].min() + FLAT_BAND]
         try:
             corners = convex_hull(patch[:, :2])
         except InvalidInputError:

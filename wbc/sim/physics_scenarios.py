@@ -15,34 +15,27 @@ Rank-deficient contacts: a robot without hip yaw joints (``humanoid15``) can har
 the vertical relative to the other (only through roll-pitch coupling), so the 12 rows of the two
 sole-acceleration equalities are near rank deficient (smallest singular value 2e-18 at ``q_ref``). With the ID
 QP's DAQP ``primal_tol`` of 1e-9, DAQP stops with exit flag -6 (overdetermined initial working set) on every
-tick once the robot moves and the controller falls back to gravity compensation (humanoid15 one-leg: 1144 failed
-ticks, fell). :func:`id_options_for` gives such robots DAQP with ``primal_tol`` 1e-6 and a 2 cm sole margin
-(``primal_tol`` alone tips the robot over the sole edge at the unload; the runs behind the margin, which is
-marginal, are in ``benchmarks/README.md``, "Measurement history moved out of docstrings").
+tick once the robot moves and the controller falls back to gravity compensation. :func:`id_options_for` gives
+such robots DAQP with ``primal_tol`` 1e-6 and a 2 cm sole margin (``primal_tol`` alone tips the robot over the
+sole edge at the unload; the runs behind the margin, which is marginal, are in ``benchmarks/README.md``,
+"Measurement history moved out of docstrings").
 Walking: at a touch-down the right-hand side of the two soles' rows is inconsistent along the dependent direction
-(a relative foot yaw acceleration the legs cannot produce); the QP was infeasible, the relaxed QP answered with kN
-forces and humanoid15 fell at its first landing. The ID QP keeps only the well-conditioned directions of the two
-soles' rows (:func:`wbc.constraints.dynamics.independent_contact_rows`, σ < 1e-2 σ_max counts as dependent). Its
-right-hand side made consistent along the dependent direction was enough for the landings, but a nearly dependent
-row kept as an equality still forbids pitching or rolling the pelvis over the fixed feet (the direction of that
-row), so a standing humanoid15 whose plant pushed it that way (±10 % link masses) tipped its pelvis past 30°.
+(a relative foot yaw acceleration the legs cannot produce), which makes the QP infeasible. The ID QP keeps only
+the well-conditioned directions of the two soles' rows (:func:`wbc.constraints.dynamics.independent_contact_rows`,
+σ < 1e-2 σ_max counts as dependent): a nearly dependent row kept as an equality, even with a consistent right-hand
+side, forbids pitching or rolling the pelvis over the fixed feet (the direction of that row).
 
 Walking sole margin (:func:`walk_options_for`): the walk's DCM stabilizer keeps its commanded CoP 1.5 cm inside the
 soles, but it commands a CoM acceleration, and the QP's contact forces also carry the rate of the centroidal
 angular momentum (swing leg, torso; the momentum task's weight is low): the CoP of the QP's forces — which the
-plant's contact forces follow — differs from the stabilizer's by up to 5 cm and, with the controller's contact
-rectangle the whole sole, sat on the sole edge (QP CoP margin 0, a corner force at 0: the foot on the verge of
-tipping). Measured (plant contact forces, ``wbc sim walk`` summary ``min_measured_cop_margin_m``): G1 20 × 0.24 m
-at 0.3 m/s 0.08 mm, the CoP on the stance sole's outer edge for 0.2 s of each late single support; Talos
-20 × 0.24 m at 0.4 m/s with the robustness perturbations −0.002 mm to 1.4 mm. The controller's sole rectangle is
-therefore shrunk by ``WALK_SOLE_MARGIN_FRACTION`` × the sole width per side while walking, so the CoP it commands
-keeps that distance from the real sole's edges. That margin alone cost G1 its walk (20 × 0.24 m at 0.3 m/s: 5 mm
-fell at 13.1 s, 2.5 mm fell too; the DCM error grew step after step, 20 and 280 step adjustments): its 5 cm wide
-sole leaves no room for the swing leg's uncompensated angular momentum. With the centroidal angular-momentum
-task's weight raised from 0.1 to ``WALK_MOMENTUM_WEIGHT`` = 1 while walking (the upper body counters the swing
-leg, Lee & Goswami 2012), the realised CoP stays nearer the stabilizer's (single support, median distance
-43 → 33 mm along x, 11.4 → 8.7 mm across) and G1 walked the 20 steps with the
-5 mm margin: 4.557 of 4.56 m, max DCM error 13 mm, no step adjustment, measured CoP margin 5.0 mm.
+plant's contact forces follow — differs from the stabilizer's and, with the controller's contact rectangle the
+whole sole, sits on the sole edge (QP CoP margin 0, a corner force at 0: the foot on the verge of tipping). The
+controller's sole rectangle is therefore shrunk by ``WALK_SOLE_MARGIN_FRACTION`` × the sole width per side while
+walking, so the CoP it commands keeps that distance from the real sole's edges. That margin alone leaves a narrow
+sole (G1's) no room for the swing leg's uncompensated angular momentum, so the centroidal angular-momentum task's
+weight is raised from 0.1 to ``WALK_MOMENTUM_WEIGHT`` = 1 while walking (the upper body counters the swing leg,
+Lee & Goswami 2012), which keeps the realised CoP nearer the stabilizer's. The walks behind both values are in
+``benchmarks/README.md``, "Measurement history moved out of docstrings".
 """
 
 from __future__ import annotations

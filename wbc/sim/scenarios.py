@@ -51,7 +51,6 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
@@ -299,14 +298,14 @@ class PushScenario(_Base):
 SCENARIOS = {"stand": StandScenario, "sway": SwayScenario, "one-leg": OneLegScenario, "push": PushScenario}
 
 
-def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float = GRAVITY, *,
+def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), g: float | None = None, *,
                         push_body: str | None = None) -> dict:
     """Capture-point bounds on a horizontal push at ``robot.q_ref`` (module docstring).
 
     Args:
         robot: the robot. push_duration: Δt (s, > 0). direction: horizontal push direction (3,) or (2,), world.
-        g: gravity (m/s²). push_body: frame whose origin is pushed (default ``robot.torso``), for the push's
-            moment about the CoM.
+        g: gravity (m/s²; default None: ``robot.gravity``).
+        push_body: frame whose origin is pushed (default ``robot.torso``), for the push's moment about the CoM.
 
     Returns:
         dict with ``omega`` (1/s), ``com_height_m``, ``edge_distance_m`` (d: CoM projection to the support
@@ -331,7 +330,7 @@ def capture_point_bound(robot, push_duration: float, direction=(0.0, 1.0, 0.0), 
     u = u / np.linalg.norm(u)
     # Support function of the convex hull along u (the hull's extent in direction u from the CoM).
     d = float(max((p - com[:2]) @ u for p in pts))
-    w = math.sqrt(g / com[2])
+    w = math.sqrt((robot.gravity if g is None else g) / com[2])
     m = robot.mass
     e = math.exp(w * push_duration)
     h = float(data.oMf[robot.frame_id(push_body or robot.torso)].translation[2] - com[2])

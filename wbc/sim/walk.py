@@ -49,7 +49,6 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
@@ -243,14 +242,12 @@ class WalkScenario:
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
             the remaining time is kept ≥ (distance from the foot to its new landing) / ``max_swing_speed`` (m/s,
-            default 2.5; at 2, when touch-down could still be armed by the plan clock at once after a cut, a swing
-            touched down on its way, 43 cm short of its target, and the walk fell — Talos, 300 N, seed 3 of
-            ``benchmarks/walk_push_trials.py``; touch-down is now armed at mid-swing in sim time). Defaults
-            ``max_cut`` 0.3 s, ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7, ``cmp_offset`` 0.04 m: each of
-            them turned falls of seeds 104, 109, 111, 114, 217, 219 (Talos 300 N; the tuning seeds, 100–119 and
-            200–219) into recoveries, where the previous 0.15 s / 2 m/s / 0.6 / 0 did not: a push towards the stance
-            leg needs two quick steps (the inner foot, which cannot cross, then the outer one) and the DCM diverges
-            from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by at most
+            default 2.5; touch-down is armed at mid-swing in sim time, so a hurried swing does not touch down on its
+            way). Defaults ``max_cut`` 0.3 s, ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7, ``cmp_offset``
+            0.04 m, tuned on the pushed walks of ``benchmarks/walk_push_trials.py`` (``benchmarks/README.md``): a push
+            towards the stance leg needs two quick steps (the inner foot, which cannot cross, then the outer one)
+            and the DCM diverges from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by
+            at most
             ``max_stretch`` s) when, in its last ``stretch_window`` s, the adjusted landing is farther from the foot
             than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
             side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
@@ -464,7 +461,8 @@ class WalkScenario:
         else:  # footholds on the treads, 3-D swings, CoM height from the VRP (wbc.gait.terrain_walk)
             from wbc.gait.terrain_walk import plan_terrain_walk
 
-            v_max = self.swing_froude * math.sqrt(GRAVITY * float(self.com0[2]))  # step timing (SWING_FROUDE)
+            # step timing (SWING_FROUDE)
+            v_max = self.swing_froude * math.sqrt(self.robot.gravity * float(self.com0[2]))
             self.terrain_walk = plan_terrain_walk(self.terrain, L.homogeneous, R.homogeneous, self.com0,
                                                   max_sole_speed=v_max, **walk_kw)
             plan = self.terrain_walk.plan
@@ -803,13 +801,10 @@ class WalkScenario:
         The stepping foot is the one on the DCM's side of the feet, unless the DCM lies laterally over that sole or
         beyond it (less than half a sole width inwards of its middle): that sole then carries the CoP the DCM needs
         — lifting it leaves the CoP on the other sole, from which the DCM diverges as ``e^{ωt}`` (Englsberger 2015,
-        eq. 6) out of any reach (Talos, 300 N at the end of a walk, seeds 13 and 28 of
-        ``benchmarks/walk_push_trials.py``: the capture step lifted that sole and the robot fell within 0.2 s) —
-        and the other foot steps instead, towards it (a closing step: the feet are wide apart after a lateral
-        recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
-        the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk,
-        seed 106) is captured by that foot stepping forward, not by lifting the other one, on which the DCM then
-        nearly stands (Talos fell so)."""
+        eq. 6) out of any reach — and the other foot steps instead, towards it (a closing step: the feet are wide
+        apart after a lateral recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
+        the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk) is
+        captured by that foot stepping forward, not by lifting the other one, on which the DCM then nearly stands."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
         lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
         side = "left" if (xi - mid) @ lat >= 0 else "right"
@@ -946,8 +941,8 @@ class WalkScenario:
         A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
         (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
         foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot cross
-        to capture it, and two more steps are needed while the DCM diverges (Talos, 300 N, seeds 104, 109, 204 and
-        219 of ``benchmarks/walk_push_trials.py``). Landing later with the same foot captures it in one step
+        to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot
+        captures it in one step
         when the landing of eq. 2 of :mod:`wbc.gait.step_adjustment` (``τ' = τ + Δ``, the DCM diverging further
         from the stance CoP ``u_0`` meanwhile) is within the reach.
 
@@ -982,8 +977,7 @@ class WalkScenario:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
         DCM the DCM stays put (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6) — the state is 0-step capturable (Pratt et
         al. 2006; Koolen et al., IJRR 31(9), 2012) and landing sooner gains nothing, while the swing, hurried,
-        may land short of its target (seeds 3 and 38 of ``benchmarks/walk_push_trials.py``, after a wide
-        lateral step had put the stance sole under the DCM)."""
+        may land short of its target (after a wide lateral step put the stance sole under the DCM)."""
         r = self.robot
         sole = projected_sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
                                       r.sole_width - 2 * self.cop_margin)

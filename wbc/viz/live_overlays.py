@@ -25,7 +25,6 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY
 from wbc.geometry import convex_hull, sole_polygon
 from wbc.robot import Robot
 
@@ -92,7 +91,8 @@ class LiveOverlays:
             if self._history and t <= self._history[-1][0]:
                 self._history.clear()  # time went back (a new run): restart the differences
             self._history = [*self._history[-2:], (float(t), com)]
-            omega = math.sqrt(GRAVITY / max(com[2], 1e-3))
+            g = robot.gravity
+            omega = math.sqrt(g / max(com[2], 1e-3))
             if len(self._history) >= 2:
                 (t1, c1), (t2, c2) = self._history[-2:]
                 vel = (c2 - c1) / (t2 - t1)
@@ -100,8 +100,8 @@ class LiveOverlays:
             if len(self._history) == 3:
                 (t0, c0), (t1, c1), (t2, c2) = self._history
                 acc = 2.0 * ((c2 - c1) / (t2 - t1) - (c1 - c0) / (t1 - t0)) / (t2 - t0)
-                points["zmp_executed"] = np.array([c1[0] - c1[2] / GRAVITY * acc[0],
-                                                   c1[1] - c1[2] / GRAVITY * acc[1], 0.0])
+                points["zmp_executed"] = np.array([c1[0] - c1[2] / g * acc[0],
+                                                   c1[1] - c1[2] / g * acc[1], 0.0])
         plan = self._plan()
         touches = None  # with a plan: the touch-downs (foot, sample) of every sample since the last frame
         if plan is not None and t is not None:
