@@ -88,6 +88,34 @@ def test_knee_on_the_ground_is_a_fall(talos_sim):
     assert any(sim.body_name(b) in monitor.fall_reason for b in touching & {knee_body, thigh_body})
 
 
+@pytest.mark.parametrize("raised, fell", [(0.21, True), (0.19, False)])
+def test_an_upright_base_lower_than_its_start_by_more_than_0_2_m_is_a_fall(talos_sim, raised, fell):
+    """The base-drop criterion alone: the run starts with the robot held ``raised`` m above the floor (no contact,
+    pelvis and torso level), then stands on its soles upright — a base 0.21 m lower than at the start is a fall,
+    0.19 m lower is not (the 0.2 m of the issue, set by hand; the height read from MuJoCo's qpos, no tilt and no
+    non-foot contact involved)."""
+    sim, robot = talos_sim, talos_sim.robot
+    mujoco.mj_resetData(sim.model, sim.data)
+    q = robot.q_ref.copy()
+    q[2] += raised
+    sim.set_state(q)
+    assert sim.data.ncon == 0  # in the air at the start
+    monitor = OutcomeMonitor(sim)
+    assert not monitor.update(0.0)
+    sim.set_state(robot.q_ref)  # on its soles, upright
+    feet = {int(g) for s in ("left", "right") for g in np.atleast_1d(sim.foot_geoms[s])}
+    touching = {int(sim.data.contact.geom1[i]) for i in range(sim.data.ncon)} | {
+        int(sim.data.contact.geom2[i]) for i in range(sim.data.ncon)}
+    assert touching - {int(sim.floor_geom)} <= feet  # only the soles touch the floor
+    assert monitor.update(0.002) is fell
+    assert monitor.max_tilt_deg["pelvis"] < 1e-3 and monitor.max_tilt_deg["torso"] < 1e-3  # deg
+    if fell:
+        assert monitor.fall_reason == "base height dropped by more than 0.2 m", monitor.fall_reason
+        assert monitor.fall_time == 0.002
+    else:
+        assert monitor.fall_reason == ""
+
+
 def test_upright_stand_is_not_a_fall_and_speeds_are_counted(talos_sim):
     sim, robot = talos_sim, talos_sim.robot
     mujoco.mj_resetData(sim.model, sim.data)
