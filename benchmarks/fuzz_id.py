@@ -289,7 +289,8 @@ def main() -> None:
     p.add_argument("--solver", default="fast", help="the ID QP's solver (fast, daqp, ...)")
     p.add_argument("--episode", type=int, default=50, help="ticks per episode")
     p.add_argument("--clock-guard", action="store_true",
-                   help="InverseDynamicsController(clock_guard=True): a failed full QP past the budget is not retried")
+                   help="InverseDynamicsController(clock_guard=True): the failure path ordered by cost and stopped "
+                        "by the tick's CPU time")
     a = p.parse_args()
     run_chunks(a, run_chunk, aggregate, report, tag=f"id_{a.solver}_{a.episode}{'_clock' if a.clock_guard else ''}",
                solver=a.solver, episode=a.episode, clock_guard=a.clock_guard)

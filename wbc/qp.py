@@ -23,7 +23,8 @@ import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, InvalidInputError, SolverError
 
-__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "PROXQP_MAX_ITER", "QpsolversBackend", "TickWork", "solve_pinned_reduced", "second_opinion"]
+__all__ = ["QPBackend", "DaqpBackend", "ProxQPBackend", "PROXQP_MAX_ITER", "QpsolversBackend", "TickWork",
+           "solve_pinned_reduced", "second_opinion", "hard_set_feasible", "DAQP_ITERATION_COST"]
 
 _BIG = 1e10  # stands for an infinite bound where a backend needs a finite number
 #: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
@@ -345,6 +346,10 @@ ITERATION_LIMIT = 1000
 WORK_LIMIT_FACTOR = 1.9
 MIN_CALL_ITERATIONS = 10
 
+#: CPU time (s) of one DAQP iteration assumed by :attr:`DaqpBackend.deadline` (an inverse-dynamics QP of a humanoid,
+#: 46–62 variables and ~190 constraints; benchmarks/README.md, "The ID failure path ordered by cost")
+DAQP_ITERATION_COST = 3.5e-6
+
 #: DAQP's exit flag of a call stopped by its iteration limit
 _DAQP_ITERATION_LIMIT = -4
 #: DAQP's default primal tolerance (its settings' ``primal_tol``)
@@ -404,6 +409,13 @@ class DaqpBackend(QPBackend):
         self.budget_capped = False
         self._model_limit = None  # the iteration limit set on the persistent workspace
         self._oneshot_first = False  # the last solve's workspace calls failed and its one-shot call succeeded
+        #: CPU time (``time.thread_time`` of the calling thread) by which every DAQP call must end, ``math.inf``
+        #: (default): none. A finite deadline lowers each call's iteration limit to the iterations that fit in the
+        #: time left at ``iteration_cost`` seconds each (:meth:`call_limit`); a clock, so only a caller that accepts
+        #: an answer depending on the machine's speed sets it (the inverse-dynamics clock guard).
+        self.deadline = math.inf
+        #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
+        self.iteration_cost = DAQP_ITERATION_COST
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """:meth:`QPBackend.solve` (``budget_capped`` reset first)."""
@@ -414,13 +426,18 @@ class DaqpBackend(QPBackend):
         """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
         lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
         ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress counted,
-        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`. A count, not a clock."""
+        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`. A count, not a clock — unless
+        ``deadline`` is finite: then also at most (deadline − CPU time now) / ``iteration_cost``, at least
+        :data:`MIN_CALL_ITERATIONS`."""
         limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
         work = self.work
         if work is not None and math.isfinite(work.cap):
             left = ((WORK_LIMIT_FACTOR * work.cap - work.solves - 1.0) * ITERATIONS_PER_SOLVE
                     - self.last_iterations)
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
+        if self.deadline < math.inf:
+            left = (self.deadline - thread_time()) / self.iteration_cost
+            limit = min(limit, MIN_CALL_ITERATIONS if left < MIN_CALL_ITERATIONS else int(min(left, limit)))
         return limit
 
     def _note_exit(self, exitflag: int, limit: int) -> None:
@@ -574,13 +591,62 @@ class DaqpBackend(QPBackend):
                 return x3
         return x
 
+    def solve_scaled(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """One cold DAQP call on the QP with its cost divided by max(1, |g|∞, |H|max) (the same minimiser; the last
+        retry of a failed solve, :meth:`_solve_cold`, asked on its own), its iteration limit from :meth:`call_limit`.
+
+        A solution's multipliers (unscaled) become ``last_multipliers`` and, with ``warm_start="dual"``, the next
+        solve's dual start.
+
+        Returns:
+            x (n,) within [lb, ub] meeting every row to ``tolerance`` (the check of :meth:`QPBackend.solve`), or None.
+        """
+        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
+        if self._layout != (n, n_eq, n_in):
+            self._prepare(n, n_eq, n_in)
+        G, upper, lower = self._G, self._upper, self._lower
+        e = n + n_eq
+        upper[:n], lower[:n] = ub, lb
+        upper[n:e], lower[n:e] = b, b
+        G[:n_eq] = A
+        if n_in:
+            G[n_eq:] = C
+            upper[e:], lower[e:] = u, l
+        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        limit = self.call_limit()
+        x, _, exitflag, info = self._daqp.solve(H * scale, g * scale, G, upper, lower, self._sense,
+                                                **{**self.settings, "iter_limit": limit})
+        self.last_iterations = int(info["iterations"])
+        self._note_exit(exitflag, limit)
+        if exitflag < 1 or not np.isfinite(x).all():
+            return None
+        xc = np.minimum(np.maximum(x, lb), ub)
+        if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > self.tolerance:
+            return None
+        # the multipliers of the unscaled QP (the scaled cost scales them): the next solve's dual warm start
+        self.last_multipliers = np.asarray(info["lam"]) / scale
+        if self.warm_start == "dual":
+            self._dual = self.last_multipliers.copy()
+        return xc
+
     def _solve_dual(self, H, g, G, upper, lower):
-        kwargs = self.settings if self._dual is None else {**self.settings, "dual_start": self._dual}
+        if self.budget_capped:
+            return None  # the tick's work limit stopped a call of this solve: no further call
+        limit = self.call_limit()  # the settings' iter_limit unless a work count or a deadline lowers it
+        settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
+                                                                                   "iter_limit": limit}
+        kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
         x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
-        if exitflag < 1 and self._dual is not None and self.cold_retry:  # the warm start may be what failed: once
-            # more, cold (not for a trial with ``cold_retry`` off: one call per solve)
+        self._note_exit(exitflag, limit)
+        if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
+            # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
+            # per solve)
             self.warm_failures += 1
-            x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **self.settings)
+            limit = self.call_limit()
+            settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
+                                                                                       "iter_limit": limit}
+            x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
+            self._note_exit(exitflag, limit)
         self.last_iterations += int(info["iterations"])
         if exitflag < 1:
             self._dual = None
@@ -782,3 +848,45 @@ def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp
         return daqp_backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
     except SolverError:
         return None, ""
+
+
+def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
+                      iter_limit: int = ITERATION_LIMIT) -> bool | None:
+    """Whether the constraints of a QP (module docstring) have a common point, by one cold DAQP call on the
+    projection of the origin onto them: min ½‖x‖² s.t. A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub. Its Hessian is the
+    identity, so DAQP's dual (whose infeasibility test is a dual ray) is as well conditioned as the rows are, unlike
+    the inverse-dynamics QP's (Hessian eigenvalues 1e-7 to 1e3: the force regularisation against the task weights),
+    where DAQP was seen to report feasible problems infeasible. A cheap question asked before a costly solve whose
+    outcome it decides (:meth:`wbc.formulations.acceleration.InverseDynamicsQP.solve` with a clock guard).
+
+    Args:
+        A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,): the constraints (±inf for absent bounds).
+        tolerance: largest scaled violation (:meth:`QPBackend.scaled_violation`) of a point that shows feasibility.
+        iter_limit: DAQP's iteration limit (an integer ≥ 1).
+
+    Returns:
+        True: a point meeting every row and bound to ``tolerance`` was found; False: DAQP proved the set empty
+        (exit flag −1: infeasible); None: neither (iteration limit, or a point that fails the check).
+
+    Raises:
+        InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
+    """
+    import daqp
+
+    if isinstance(iter_limit, bool) or not isinstance(iter_limit, (int, np.integer)) or iter_limit < 1:
+        raise InvalidInputError(f"iter_limit must be an integer ≥ 1 (iterations), got {iter_limit!r}")
+    n, m, p = lb.shape[0], A.shape[0], C.shape[0]
+    G = np.empty((m + p, n))
+    G[:m], G[m:] = A, C
+    upper = np.concatenate([ub, b, u])
+    lower = np.concatenate([lb, b, l])
+    sense = np.zeros(n + m + p, dtype=np.int32)
+    sense[n:n + m] = 5
+    x, _, exitflag, _ = daqp.solve(np.eye(n), np.zeros(n), G, upper, lower, sense, primal_tol=_DAQP_PRIMAL_TOL,
+                                   iter_limit=int(iter_limit))
+    if exitflag == -1:
+        return False
+    if exitflag < 1 or not np.isfinite(x).all():
+        return None
+    xc = np.minimum(np.maximum(x, lb), ub)
+    return True if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None

@@ -13,9 +13,10 @@ Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
 
 A route carries qualifiers as fields (:class:`TickPath`): the solver, the fallback kind, ``return_rate`` (the
 return rate of joints outside their limits was relaxed) and ``budget`` (twice the tick's budget stopped its
-optional stages). Its string form (``str(path)``) is the one the logs, summaries and older code read:
+optional stages; inverse dynamics: the clock guard cut a check of the failed full QP). Its string form
+(``str(path)``) is the one the logs, summaries and older code read:
 ``compiled``, ``compiled+daqp``, ``general:<solver>[+return_rate][+budget]``, ``levels[+return_rate][+budget]``,
-``kernel``, ``relaxed:<solver>``, ``fallback:<kind>``; :meth:`TickPath.parse` reads it back.
+``kernel``, ``relaxed:<solver>[+budget]``, ``fallback:<kind>``; :meth:`TickPath.parse` reads it back.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ class TickPath:
             '' otherwise.
         return_rate: the return rate of joints outside their position limits was relaxed (kinematic level).
         budget: twice the tick's budget stopped its optional stages; the last finished stage's command was kept
-            (kinematic level).
+            (kinematic level); the clock guard cut a check of the failed full QP before the relaxed QP answered
+            (inverse dynamics, ``relaxed:<solver>+budget``).
 
     A path equals its string form and hashes as it (``path == "general:daqp"``), so counters keyed by either agree.
 

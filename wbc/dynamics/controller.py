@@ -61,7 +61,6 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from dataclasses import dataclass, field
 from time import perf_counter, thread_time
@@ -124,13 +123,16 @@ class InverseDynamicsController:
             the compiled tick's iteration cap (``qp.kernel_max_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
-        clock_guard: a full QP that DAQP and quadprog both failed is not retried by the backend once the tick's
-            CPU time (``time.thread_time`` since the tick began) has reached the budget
-            (``InverseDynamicsQP.retry_deadline``): the failure stands and the relaxed QP follows. Default False:
+        clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
+            (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
+            calls end by 1.25 budgets and the relaxed QP's by 1.75 (iteration limits from the time left); a failed
+            full QP gets its second opinion (quadprog, the backend's retries) only before 1.2 budgets, and only when
+            a cheap check does not prove its hard set empty (``wbc.qp.hard_set_feasible``); a relaxed command whose
+            full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default False:
             nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations and
-            campaigns). True (a robot's real-time loop): the retries are
-            cut on a slow tick, at the cost of an answer that depends on the machine's speed and load there (a
-            feasible QP that only the retry solves then takes the relaxed QP). Settable as an attribute.
+            campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's
+            speed and load on a slow tick (a feasible QP that only a skipped solve would have solved takes the
+            relaxed QP). Settable as an attribute.
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
@@ -206,7 +208,7 @@ class InverseDynamicsController:
         """
         t0 = perf_counter()
         c0 = thread_time()
-        self.qp.retry_deadline = c0 + self._budget if self._clock_guard else math.inf
+        self.qp.tick_clock = (c0, self._budget) if self._clock_guard else None
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False
@@ -223,6 +225,8 @@ class InverseDynamicsController:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
             relaxed = True
             self.n_relaxed += 1
+            if self.qp.budget_cut:  # the clock guard cut a check of the full QP (or one of its DAQP calls)
+                sol.path = sol.path.with_budget()
             lim = self.qp.torque_limits
             if lim.dim:
                 sol.tau[lim.joints] = np.clip(sol.tau[lim.joints], -lim.tau_max[lim.joints],

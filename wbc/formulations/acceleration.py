@@ -102,7 +102,8 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import DaqpBackend, QPBackend, second_opinion, solve_pinned_reduced
+from wbc.qp import (ITERATION_LIMIT, MIN_CALL_ITERATIONS, DaqpBackend, QPBackend, hard_set_feasible,
+                    second_opinion, solve_pinned_reduced)
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -287,18 +288,55 @@ class InverseDynamicsQP:
         #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
         #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
         self.second_opinion_enabled = True
-        #: CPU time (``time.thread_time``) after which a failed full QP whose quadprog solve also failed is not
-        #: retried by the backend (:meth:`_solve_backend`); ``math.inf`` (default): always retried. Set per tick by
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``.
-        self.retry_deadline = math.inf
-        #: failed full QPs whose backend retries were skipped past ``retry_deadline``.
+        #: the clock guard of the current tick: (CPU time ``time.thread_time`` at its start, its budget in s), or
+        #: None (default: nothing decided by a clock). Set per tick by
+        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``; read by
+        #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
+        self.tick_clock: tuple[float, float] | None = None
+        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`.
         self.retries_skipped = 0
+        #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
+        #: because the tick reached :attr:`retry_deadline` first (clock guard).
+        self.checks_skipped = 0
+        #: failed full QPs whose hard set :func:`wbc.qp.hard_set_feasible` found empty (clock guard): quadprog and
+        #: the backend's retries, which could only fail, were skipped.
+        self.infeasible_by_check = 0
+        #: failed full QPs that the cost-scaled DAQP call solved ahead of quadprog (clock guard).
+        self.scaled_solves = 0
+        #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
+        #: at its deadline); reset by :meth:`solve`.
+        self.budget_cut = False
         #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
         self.second_opinion_solves = 0
         self._daqp_check: DaqpBackend | None = None
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
+
+    #: clock guard (:attr:`tick_clock`): the full QP's DAQP attempt ends by this many budgets after the tick's start
+    FULL_QP_DEADLINE = 1.25
+    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.qp.hard_set_feasible`, one cost-scaled DAQP
+    #: call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the time left)
+    CHECK_DEADLINE = 1.4
+    CHECK_END = 1.55
+    #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
+    #: before this many budgets (:attr:`retry_deadline`)
+    QUADPROG_DEADLINE = 1.2
+    #: clock guard: the relaxed QP's DAQP calls end by this many budgets (a call stopped there fails the tick: the
+    #: safe command follows)
+    RELAXED_DEADLINE = 1.75
+
+    @property
+    def retry_deadline(self) -> float:
+        """CPU time (``time.thread_time``) after which a failed full QP gets no quadprog solve or backend retry
+        (:meth:`_solve_backend`): start + ``QUADPROG_DEADLINE`` × budget of :attr:`tick_clock`; ``math.inf`` without
+        a clock guard."""
+        return self._deadline(self.QUADPROG_DEADLINE)
+
+    def _deadline(self, factor: float) -> float:
+        """start + factor × budget of :attr:`tick_clock` (``math.inf`` without a clock guard)."""
+        clock = self.tick_clock
+        return math.inf if clock is None else clock[0] + factor * clock[1]
 
     @property
     def _confirm_kw(self) -> dict:
@@ -555,7 +593,17 @@ class InverseDynamicsQP:
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         t1 = perf_counter()
         if isinstance(self.backend, DaqpBackend):
-            x, solver = self.backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), self.backend.name
+            backend = self.backend
+            backend.deadline = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
+            try:
+                x, solver = backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+            except SolverError as exc:
+                if backend.budget_capped:
+                    self.budget_cut = True
+                    raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
+                raise
+            finally:
+                backend.deadline = math.inf
         else:
             x, solver = self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
@@ -579,6 +627,7 @@ class InverseDynamicsQP:
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.last_violations = []
         self._assembled = None
+        self.budget_cut = False
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
@@ -600,8 +649,17 @@ class InverseDynamicsQP:
         DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
         tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
         certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
-        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped — unless
-        the CPU time has passed :attr:`retry_deadline` (a clock-guarded tick past its budget: the failure stands).
+        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
+
+        With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
+        DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
+        :attr:`wbc.qp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no second
+        opinion, :attr:`budget_cut`); before it, :func:`wbc.qp.hard_set_feasible` (one DAQP call on the projection
+        of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it proves empty ends
+        the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
+        (:meth:`wbc.qp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its deadline
+        rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
+        only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``).
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -609,14 +667,54 @@ class InverseDynamicsQP:
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
+        guarded = self.tick_clock is not None
         retry = backend.cold_retry
         backend.cold_retry = False
+        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
             first = exc
+            if backend.budget_capped:
+                self.budget_cut = True
         finally:
             backend.cold_retry = retry
+            backend.deadline = math.inf
+        if guarded:
+            if thread_time() >= self._deadline(self.CHECK_DEADLINE):
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
+                                  f"tick budget spent (clock guard)")
+            end = self._deadline(self.CHECK_END)
+            # an attempt stopped at its deadline (not a verdict: e.g. a cold solve with |g| ~ 1e6 that needs ~1000
+            # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
+            # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
+            capped = backend.budget_capped
+            for step in (("scaled", "check") if capped else ("check", "scaled")):
+                if step == "check":
+                    left = (end - thread_time()) / backend.iteration_cost
+                    if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
+                                         iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT)))) is False:
+                        self.infeasible_by_check += 1
+                        raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
+                                          f"it): quadprog and the backend's retries skipped (clock guard)")
+                    continue
+                # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
+                # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
+                backend.deadline = end
+                try:
+                    x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
+                finally:
+                    backend.deadline = math.inf
+                if x is not None:
+                    self.scaled_solves += 1
+                    return x, backend.name
+            if thread_time() >= self.retry_deadline:
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
+                                  f"quadprog solve or retry: tick budget spent (clock guard)")
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if x is not None:
             self.pinned_reduced_solves += 1
@@ -625,9 +723,18 @@ class InverseDynamicsQP:
             raise first
         if thread_time() >= self.retry_deadline:
             self.retries_skipped += 1
+            self.budget_cut = True
             raise SolverError(f"{first}; quadprog found no solution either; the backend's retries skipped: tick "
                               f"budget spent (clock guard)")
-        return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
+        try:
+            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+        except SolverError:
+            if backend.budget_capped:
+                self.budget_cut = True
+            raise
+        finally:
+            backend.deadline = math.inf
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
