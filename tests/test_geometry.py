@@ -60,3 +60,25 @@ def test_checks_raise_typed_errors():
         as_se3(np.diag([1.0, 1.0, -1.0, 1.0]))
     M = as_se3(np.eye(4))
     assert isinstance(M, pin.SE3) and as_se3(M) is M
+
+
+def test_a_flag_takes_true_or_false_only_on_every_assignment():
+    from wbc.exceptions import InvalidInputError
+    from wbc.geometry import Flag
+
+    class Holder:
+        switch = Flag("a switch")
+
+        def __init__(self, value):
+            self.switch = value
+
+    h = Holder(np.bool_(True))
+    assert h.switch is True and Holder.switch.__doc__ == "a switch"
+    h.switch = False
+    assert h.switch is False
+    for bad in (0, 1, "yes", None, 1.0):
+        with pytest.raises(InvalidInputError, match="switch must be True or False"):
+            h.switch = bad
+        assert h.switch is False  # the refused value left the attribute as it was
+    with pytest.raises(InvalidInputError, match="switch"):
+        Holder("no")

@@ -65,6 +65,35 @@ def check_scalar(x, what: str, unit: str, *, minimum: float = 0.0, strict: bool 
     return v
 
 
+def check_flag(x, what: str, error=InvalidInputError) -> bool:
+    """Return ``x`` as a bool if it is ``True`` or ``False`` (Python or numpy), else raise ``error``
+    ("<what> must be True or False, got <x>"): 0, 1, "yes" or None are refused, not read as truth values."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise error(f"{what} must be True or False, got {x!r}")
+    return bool(x)
+
+
+class Flag:
+    """A bool attribute checked on every assignment by :func:`check_flag` (a data descriptor): declared in a class
+    body as ``name = Flag("what it switches")``, stored on the instance as ``_name``.
+
+    Raises:
+        InvalidInputError: on assignment of anything but True or False.
+    """
+
+    def __init__(self, doc: str):
+        self.__doc__ = doc
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name, self.slot = name, "_" + name
+
+    def __get__(self, obj, objtype=None):
+        return self if obj is None else getattr(obj, self.slot)
+
+    def __set__(self, obj, value) -> None:
+        setattr(obj, self.slot, check_flag(value, self.name))
+
+
 def check_count(n, what: str, minimum: int = 1, error=InvalidInputError) -> int:
     """Return ``int(n)`` if it is ≥ ``minimum``, else raise ``error`` ("<what> must be ≥ <minimum>, got <n>")."""
     if int(n) < minimum:

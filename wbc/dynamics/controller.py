@@ -70,6 +70,7 @@ import numpy as np
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.geometry import Flag
 from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["InverseDynamicsController", "IDCommand"]
@@ -143,6 +144,8 @@ class InverseDynamicsController:
         InvalidInputError: dt or budget not finite and > 0 (budget may be inf).
     """
 
+    clock_guard = Flag("A failed full QP past the budget is not retried (constructor docstring).")
+
     def __init__(self, qp: InverseDynamicsQP, dt: float = 0.002, *, budget: float | None = None,
                  diagnose: bool = False, clock_guard: bool = False):
         if not (np.isfinite(dt) and dt > 0):
@@ -162,21 +165,6 @@ class InverseDynamicsController:
         self.n_over_budget = 0
         self.paths: Counter = Counter()
         self.routes: Counter = Counter()
-
-    @property
-    def clock_guard(self) -> bool:
-        """A failed full QP past the budget is not retried (constructor docstring).
-
-        Raises:
-            InvalidInputError: on assignment of anything but True or False.
-        """
-        return self._clock_guard
-
-    @clock_guard.setter
-    def clock_guard(self, value) -> None:
-        if not isinstance(value, (bool, np.bool_)):
-            raise InvalidInputError(f"clock_guard must be True or False, got {value!r}")
-        self._clock_guard = bool(value)
 
     @property
     def budget(self) -> float:

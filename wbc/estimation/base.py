@@ -60,7 +60,7 @@ from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import check_scalar
+from wbc.geometry import check_flag, check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
 
@@ -249,9 +249,7 @@ class FloatingBaseEstimator:
         self.anchor = {s: np.zeros(3) for s in SIDES}
         self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
-        if not isinstance(heading_handover, (bool, np.bool_)):
-            raise InvalidInputError(f"heading_handover must be a bool, got {heading_handover!r}")
-        self.heading_handover = bool(heading_handover)
+        self.heading_handover = check_flag(heading_handover, "heading_handover")
         self.handover_end_share = _nonneg(handover_end_share, "handover_end_share")
         if self.handover_end_share >= 1.0:
             raise InvalidInputError(f"handover_end_share must be in [0, 1), got {handover_end_share!r}")

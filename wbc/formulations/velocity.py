@@ -138,6 +138,7 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.geometry import Flag
 from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
                          clip_box_into, contact_drift, ensure_compiled, kinematic_finish_packed, kinematic_pack,
                          kinematic_reduced_packed, kinematic_tick_packed, weighted_normal_equations)
@@ -261,6 +262,8 @@ class KinematicController:
             Task/Constraint.
     """
 
+    clock_guard = Flag("The tick's CPU time also counts as work (constructor docstring).")
+
     #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set solver, one
     #: core; the median CPU time per counted solve over the kinematic fuzz): the budget becomes a count of
     #: ⌊budget / SOLVE_COST⌋ solves per tick (constructor, ``budget``).
@@ -342,21 +345,6 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
-
-    @property
-    def clock_guard(self) -> bool:
-        """The tick's CPU time also counts as work (constructor docstring).
-
-        Raises:
-            InvalidInputError: on assignment of anything but True or False.
-        """
-        return self._clock_guard
-
-    @clock_guard.setter
-    def clock_guard(self, value) -> None:
-        if not isinstance(value, (bool, np.bool_)):
-            raise InvalidInputError(f"clock_guard must be True or False, got {value!r}")
-        self._clock_guard = bool(value)
 
     @property
     def budget(self) -> float | None:
