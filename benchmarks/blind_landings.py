@@ -67,8 +67,6 @@ def main() -> int:
 
     print(f"{'t':>6} {'side':>5} {'gap':>6} {'roll0':>6} {'pit0':>6} {'roll1':>6} {'pit1':>6} {'est r1':>6} "
           f"{'est p1':>6} {'slide':>6} {'dcm':>5} {'speed':>5}  joint")
-    for j, s in enumerate(("left", "right")):
-        pass
     rows = []
     for k in range(1, n):
         for j, s in enumerate(("left", "right")):
