@@ -4,12 +4,14 @@ controller runs on the estimated state and the realistic drives (the ``wbc sim w
 ``wbc sim walk`` process per seed, one after the other; one row per seed from its JSON summary.
 
     nice -n 10 python benchmarks/rough_blind.py [--robot talos] [--amplitude 0.02] [--seeds 1-10]
-        [--steps 30] [--step-length 0.35] [--step-duration D] [--keep DIR]
+        [--steps 41] [--step-length 0.25] [--step-duration D] [--keep DIR] [--log] [--sim-args "..."]
 
-The defaults walk 30 steps of 0.35 m: about 10.2 m, the heightfield spans x ∈ [−1, 12] m with a flat start for
-x ≤ 0.4 m. Columns: fell (and when, why), touch-downs, walked distance (m), solver failures, joint speed
-exceedances and the largest speed ratio to the URDF limit, largest landing slide and stance slip (mm), pelvis tilt,
-and the walk criteria that failed ("-" when all pass).
+The defaults walk 41 steps of 0.25 m at the robot's step duration (Talos 0.8 s): 10.0 m commanded, the
+heightfield spans x ∈ [−1, 12] m with a flat start for x ≤ 0.4 m (the gait chosen for blind rough ground in
+benchmarks/README.md, "Walking on terrain": 0.35 m steps at 0.8 s exceed Talos's joint speed limits). Columns:
+fell (and when, why), touch-downs, walked distance (m), solver failures, joint speed exceedances and the largest
+speed ratio to the URDF limit, largest landing slide and stance slip (mm), pelvis tilt, and the walk criteria that
+failed ("-" when all pass).
 """
 
 from __future__ import annotations
@@ -40,10 +42,14 @@ def main() -> int:
     p.add_argument("--robot", default="talos")
     p.add_argument("--amplitude", type=float, default=0.02, help="height amplitude (m) of the rough terrain")
     p.add_argument("--seeds", default="1-10", help="seeds, e.g. 1-10 or 1,3,5")
-    p.add_argument("--steps", type=int, default=30)
-    p.add_argument("--step-length", type=float, default=0.35)
+    p.add_argument("--steps", type=int, default=41)
+    p.add_argument("--step-length", type=float, default=0.25)
     p.add_argument("--step-duration", type=float, default=None)
     p.add_argument("--keep", default=None, help="directory for the per-seed JSON summaries (default: a temp dir)")
+    p.add_argument("--log", action="store_true", help="also write each seed's time series (wbc sim walk --log) "
+                   "next to its summary, for benchmarks/contact_replay.py")
+    p.add_argument("--sim-args", default="", help="further wbc sim walk options, one string (e.g. "
+                   "\"--sole-margin 0.02\")")
     args = p.parse_args()
     out_dir = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="rough_blind_"))
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -61,6 +67,9 @@ def main() -> int:
                str(args.step_length), "--quiet", "--json", str(js)]
         if args.step_duration is not None:
             cmd += ["--step-duration", str(args.step_duration)]
+        if args.log:
+            cmd += ["--log", str(js.with_suffix(".npz"))]
+        cmd += args.sim_args.split()
         t0 = time.perf_counter()
         r = subprocess.run(cmd, env=env, capture_output=True, text=True)
         wall = time.perf_counter() - t0

@@ -15,7 +15,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
-  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`).
+  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); the planned CoM height is raised by
+  the supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
 * **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
   horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
@@ -212,6 +213,9 @@ BLIND_XY_END = 0.8
 BLIND_LIFT = 0.3
 #: Blind walk: fraction of a swing from which the sole is set down (minimum jerk to the landing height).
 BLIND_SET_DOWN = 0.6
+#: Blind walk: time constant (s) of the low-pass filter on the supporting soles' measured − planned height that is
+#: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
+BLIND_SUPPORT_TAU = 0.2
 
 
 class WalkScenario:
@@ -302,7 +306,8 @@ class WalkScenario:
             while it has barely moved forward), and its
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
-            at, not at the planned flat ground under it).
+            at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
+            the supporting soles' measured − planned height (:meth:`_support_offset`).
 
         swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
@@ -529,6 +534,9 @@ class WalkScenario:
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
+        # blind: measured − planned height (m) of the supporting soles, low-passed, and its rate (m/s); added to the
+        # planned CoM height (_support_offset)
+        self._dz_support, self._dz_support_rate = 0.0, 0.0
         self._active: dict[str, tuple] = {}
         weight = robot.mass * robot.gravity
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
@@ -695,15 +703,17 @@ class WalkScenario:
         if self.step_adjust:
             self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
+        dz, dzd = self._support_offset(k) if self.blind else (0.0, 0.0)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
             a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
-            target = np.array([c[0], c[1], plan.com[k, 2]])
-            vel = np.array([cd[0], cd[1], plan.com_vel[k, 2]])  # (z: 0 on flat ground)
+            target = np.array([c[0], c[1], plan.com[k, 2] + dz])
+            vel = np.array([cd[0], cd[1], plan.com_vel[k, 2] + dzd])  # (z: 0 on flat ground)
             controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], plan.com_acc[k, 2]]))
             self.log["cop_cmd"][i] = self.stab.last_cop
         else:
-            controller.set_com_reference(plan.com[k], plan.com_vel[k], plan.com_acc[k])
+            controller.set_com_reference(plan.com[k] + [0.0, 0.0, dz], plan.com_vel[k] + [0.0, 0.0, dzd],
+                                         plan.com_acc[k])
         lg = self.log
         lg["dcm"][i] = xi
         lg["dcm_ref"][i] = self.ref_dcm[k]
@@ -783,6 +793,32 @@ class WalkScenario:
         z_other = float(self._gdata.oMf[self._fid[other]].translation[2])
         self._dz_stance[side] = z_other - float(self.poses[other][k][2, 3])
         sw.ground_height[side] = self._land_z[side] + self._dz_stance[side]
+
+    def _support_offset(self, k: int) -> tuple[float, float]:
+        """Blind walk: height (m) and rate (m/s) added to the planned CoM height at plan sample ``k``: the measured −
+        planned height of the soles in contact, weighted by their measured normal forces (``measured_normal_force``;
+        equal weights without it), low-passed with the time constant :data:`BLIND_SUPPORT_TAU`. Uses the sole
+        placements of the state given to :meth:`update` (``self._data``, updated before the call).
+
+        The CoM then keeps its planned height above the soles, as the swing sole aims at the stance sole's measured
+        height (:meth:`_relative_ground`): on uneven ground the estimated base height is contact odometry (each
+        sole anchored where it first touches; a sole that then rolls onto the terrain under it moves its anchor point
+        with it), so the soles' estimated heights drift, and a CoM held at the planned absolute height bends the
+        legs by that drift."""
+        f = self.measured_normal_force
+        num = den = 0.0
+        for j, s in enumerate(("left", "right")):
+            if not self.switcher.in_contact(s):
+                continue
+            w = 1.0 if f is None else max(float(f[j]), 0.0)
+            num += w * (float(self._data.oMf[self._fid[s]].translation[2]) - float(self.poses[s][k][2, 3]))
+            den += w
+        if den > 0:
+            a = self.dt / (self.dt + BLIND_SUPPORT_TAU)
+            err = num / den - self._dz_support
+            self._dz_support += a * err
+            self._dz_support_rate = (1.0 - a) * err / BLIND_SUPPORT_TAU  # d/dt of the low-passed value
+        return self._dz_support, self._dz_support_rate
 
     def _swing_offset(self, side: str, k: int, k_lift: int, k_td: int) -> float:
         """Height (m) added to the planned swing sole at plan sample ``k``: the measured − planned height of the
