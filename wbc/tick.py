@@ -64,7 +64,8 @@ class TickPath:
     A path equals its string form and hashes as it (``path == "general:daqp"``), so counters keyed by either agree.
 
     Raises:
-        InvalidInputError: an unknown route, a ``fallback`` route without its kind or a kind on another route.
+        InvalidInputError: an unknown route, a ``fallback`` route without its kind or a kind on another route,
+            ``weighted`` on a route other than ``levels``.
     """
 
     route: str
