@@ -94,6 +94,10 @@ class TickWork:
         self._clock = clock
         self._t0 = thread_time()
 
+    def seconds(self) -> float:
+        """CPU time (s, ``time.thread_time`` of the calling thread) since :meth:`reset`."""
+        return thread_time() - self._t0
+
     def spent(self, factor: float = 1.0) -> bool:
         """``factor`` × cap solves are done."""
         return self.solves >= factor * self.cap

@@ -13,9 +13,11 @@ Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
 
 A route carries qualifiers as fields (:class:`TickPath`): the solver, the fallback kind, ``return_rate`` (the
 return rate of joints outside their limits was relaxed) and ``budget`` (twice the tick's budget stopped its
-optional stages; inverse dynamics: the clock guard cut a check of the failed full QP). Its string form
+optional stages; inverse dynamics: the clock guard cut a check of the failed full QP) and ``weighted`` (the
+kinematic clock guard answered the strict levels with their weighted single-QP formulation). Its string form
 (``str(path)``) is the one the logs, summaries and older code read:
-``compiled``, ``compiled+daqp``, ``general:<solver>[+return_rate][+budget]``, ``levels[+return_rate][+budget]``,
+``compiled``, ``compiled+daqp``, ``general:<solver>[+return_rate][+budget]``,
+``levels[+return_rate][+budget][+weighted]``,
 ``kernel``, ``relaxed:<solver>[+budget]``, ``fallback:<kind>``; :meth:`TickPath.parse` reads it back.
 """
 
@@ -55,11 +57,15 @@ class TickPath:
         budget: twice the tick's budget stopped its optional stages; the last finished stage's command was kept
             (kinematic level); the clock guard cut a check of the failed full QP before the relaxed QP answered
             (inverse dynamics, ``relaxed:<solver>+budget``).
+        weighted: the strict levels were solved as one weighted QP (each level's rows scaled by
+            ``KinematicController.WEIGHTED_LEVEL_RATIO`` per level above the soft level), not as a cascade: the
+            kinematic clock guard's answer when a cascade did not fit the tick's budget (``levels`` only).
 
     A path equals its string form and hashes as it (``path == "general:daqp"``), so counters keyed by either agree.
 
     Raises:
-        InvalidInputError: an unknown route, a ``fallback`` route without its kind or a kind on another route.
+        InvalidInputError: an unknown route, a ``fallback`` route without its kind or a kind on another route,
+            ``weighted`` on a route other than ``levels``.
     """
 
     route: str
@@ -67,6 +73,7 @@ class TickPath:
     fallback: str = ""
     return_rate: bool = False
     budget: bool = False
+    weighted: bool = False
 
     def __post_init__(self):
         if self.route not in ROUTES:
@@ -76,12 +83,15 @@ class TickPath:
                                     f"{self.route!r} with fallback {self.fallback!r}")
         if self.solver and self.route not in _SOLVER_SEP:
             raise InvalidInputError(f"route {self.route!r} names no solver, got {self.solver!r}")
+        if self.weighted and self.route != "levels":
+            raise InvalidInputError(f"only the 'levels' route has a weighted form, got route {self.route!r}")
 
     def __str__(self) -> str:
         if self.route == "fallback":
             return f"fallback:{self.fallback}"
         s = self.route + (_SOLVER_SEP[self.route] + self.solver if self.solver else "")
-        return s + ("+return_rate" if self.return_rate else "") + ("+budget" if self.budget else "")
+        return (s + ("+return_rate" if self.return_rate else "") + ("+budget" if self.budget else "")
+                + ("+weighted" if self.weighted else ""))
 
     def __format__(self, spec: str) -> str:
         return format(str(self), spec)
@@ -112,17 +122,17 @@ class TickPath:
             fallback = arg
         else:
             solver = arg
-        if route in ("compiled", "kernel") and quals and quals[0] not in ("return_rate", "budget"):
+        if route in ("compiled", "kernel") and quals and quals[0] not in ("return_rate", "budget", "weighted"):
             solver = quals.pop(0)
-        unknown = set(quals) - {"return_rate", "budget"}
+        unknown = set(quals) - {"return_rate", "budget", "weighted"}
         if unknown:
             raise InvalidInputError(f"unknown qualifier(s) {sorted(unknown)} in tick path {text!r}; valid: "
-                                    "return_rate, budget")
-        return cls(route, solver, fallback, "return_rate" in quals, "budget" in quals)
+                                    "return_rate, budget, weighted")
+        return cls(route, solver, fallback, "return_rate" in quals, "budget" in quals, "weighted" in quals)
 
     def with_budget(self) -> TickPath:
         """This path with ``budget`` set."""
-        return TickPath(self.route, self.solver, self.fallback, self.return_rate, True)
+        return TickPath(self.route, self.solver, self.fallback, self.return_rate, True, self.weighted)
 
 
 @dataclass(kw_only=True)

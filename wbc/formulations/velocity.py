@@ -84,7 +84,11 @@ level not started. ``TickResult.path`` names the route every tick took. With ``c
 tick's CPU time also counts as work (one budget of CPU time = ``CLOCK_WEIGHT`` × the cap; :class:`wbc.qp.TickWork`),
 so each of these limits also holds on the clock, whatever a counted solve costs on the machine and problem: the tick
 time is bounded (stages stop at ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that
-reaches a limit by its clock has an answer that depends on the machine's speed and load (off by default).
+reaches a limit by its clock has an answer that depends on the machine's speed and load (off by default). With
+the guard, strict levels degrade to one QP when their cascade does not fit: once the budget stops a level or a stage
+after it, the tick answers with the weighted form of the levels (level k of p scaled by ``WEIGHTED_LEVEL_RATIO``
+** (p − k) over the soft level; path ``levels+weighted``), and so do the next ``WEIGHTED_TICKS`` ticks (then the
+cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -253,7 +257,9 @@ class KinematicController:
             1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem. Default
             False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
             real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
-            that depends on the machine's speed and load; a tick under every limit answers as with False. Settable
+            that depends on the machine's speed and load; a tick under every limit answers as with False; strict
+            levels whose cascade does not fit the budget are answered by their weighted form (module docstring,
+            path ``levels+weighted``). Settable
             as an attribute.
 
     Raises:
@@ -275,6 +281,13 @@ class KinematicController:
     #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
     #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
     CLOCK_WEIGHT = 1.4
+    #: with ``clock_guard``: after a tick of the strict cascade that a budget cut (a level, a contact correction or
+    #: a trust region not run), the next WEIGHTED_TICKS ticks solve the strict levels as one weighted QP (path
+    #: ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is tried again
+    WEIGHTED_TICKS = 25
+    #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
+    #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
+    WEIGHTED_LEVEL_RATIO = 100.0
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
@@ -310,6 +323,9 @@ class KinematicController:
         self._level_order: list[int] = []
         self._level_backends: list[QPBackend] = []
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
+        self._weighted_left = 0  # clock guard: ticks still answered by the weighted form of the strict levels
+        self._weighted_tick = False  # the current tick solves the strict levels as one weighted QP
+        self._weighted_qp: tuple | None = None  # (H, g) of that QP at the current tick
         self._fallback_backend: QPBackend | None = None
         self._final_backend: QPBackend | None = None
         self._band_backend: QPBackend | None = None
@@ -880,6 +896,9 @@ class KinematicController:
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
+        weighted_start = bool(self._level_order) and self.clock_guard and self._weighted_left > 0
+        self._weighted_tick = weighted_start
+        self._weighted_qp = None
         return_rate, held = None, False
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -921,7 +940,8 @@ class KinematicController:
                 fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
                 if fault:
                     raise SolverError(f"output guard: {fault}")
-                result.path = TickPath("levels") if self._level_order else TickPath("general", self.backend.name)
+                result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                               else TickPath("general", self.backend.name))
                 if return_rate is not None:
                     result.path = replace(result.path, return_rate=True)
             else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
@@ -941,6 +961,17 @@ class KinematicController:
             self._eq_rows = None  # the rank may have changed: recompute next tick
             result = self._recover(config, dt, exc)
         self._in_solve, self._drift_cache = False, None
+        if self._level_order and self.clock_guard:
+            # a cascade that did not fit (its levels or the stages after it stopped by the budget; clock guard): the
+            # next ticks answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one takes at most 1 / (2 (levels + 1)) of the budget's CPU time
+            # (measured: a cascade of 2 levels took 4-5 times the CPU time of the weighted QP, G1 at dt = 2 ms)
+            if weighted_start:
+                self._weighted_left -= 1
+                if (self._weighted_left <= 0
+                        and 2 * (len(self._level_order) + 1) * self._work.seconds() > self._budget_s):
+                    self._weighted_left = 1
+            elif self._cut:
+                self._weighted_left = self.WEIGHTED_TICKS
         t2 = perf_counter()
         result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
         result.over_budget = result.over_budget or bool(self._cut) or self._work.solves > self._work.cap
@@ -1388,6 +1419,10 @@ class KinematicController:
         return backend
 
     def _solve_levels(self, config, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        if self._weighted_tick and self._in_solve:
+            if self._weighted_qp is None:
+                self._weighted_qp = self._weighted_levels(config, H, g)
+            return self._solve_flat(*self._weighted_qp, A, b, C, l, u, lb, ub)
         levels = []
         for k in self._level_order:
             rows_J, rows_t = [], []
@@ -1409,9 +1444,33 @@ class KinematicController:
             stop=self._stage_late if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
         cut = solve_lexicographic.last_cut
         if cut is not None:
-            self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (the last solved level's "
-                             f"command)")
+            if self.clock_guard and self._in_solve:
+                # clock guard: the cascade does not fit the tick; the weighted form of the levels (one QP) answers
+                # this tick and its re-solves instead of the last solved level's command (which ignores the levels
+                # below it)
+                try:
+                    qp = self._weighted_levels(config, H, g)
+                    v = self._solve_flat(*qp, A, b, C, l, u, lb, ub)
+                    self._weighted_tick, self._weighted_qp = True, qp
+                except SolverError:
+                    pass  # the last solved level's command (a point of the hard set)
+            self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (" + (
+                "their weighted form's command)" if self._weighted_tick else "the last solved level's command)"))
         return v
+
+    def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
+        """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
+        WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
+        Hw, gw = H.copy(), g.copy()
+        p = len(self._level_order)
+        for i, k in enumerate(self._level_order):
+            c = self.WEIGHTED_LEVEL_RATIO ** (p - i)
+            for task in self.levels[k]:
+                error, jac = task.compute(config)
+                w = task.weight
+                Hw += c * (jac.T * w) @ jac
+                gw -= c * jac.T @ (w * task.velocity_target(error))
+        return Hw, gw
 
     # -- failure handling -------------------------------------------------------------------------------------
     def _recover(self, config: Configuration, dt: float, exc: Exception) -> TickResult:

@@ -1,0 +1,112 @@
+"""The kinematic clock guard's graceful degradation of strict levels (``KinematicController(clock_guard=True)``):
+a cascade cut by the tick's budget is answered by the weighted single-QP form of the same levels (path
+``levels+budget+weighted``), and the next ``WEIGHTED_TICKS`` ticks solve that form directly (``levels+weighted``,
+one QP solve). Oracle: the weighted QP written out in the test (closed-form level rows from the tasks' own
+Jacobians) solved by quadprog. No wall-clock assertion: the cuts are forced by a count (a CPU-time weight of
+1e12) and the work checked is QP solves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import quadprog
+
+from wbc.exceptions import InvalidInputError
+from wbc.formulations import velocity
+from wbc.tick import TickPath
+
+DT = 0.002
+
+
+def _hand_over_posture(robots, **options):
+    """Standing Talos, a left-hand position task on level 0 (5 cm off), the posture on level 1."""
+    from conftest import standing_controller
+    from wbc.configuration import Configuration
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    for name, value in options.items():
+        setattr(ctrl, name, value)
+    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.05, 0.05, 0.05]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    posture = PostureTask(robot, weight=1.0, name="posture1")
+    ctrl.add_task(posture, level=1)
+    return robot, config, ctrl, [hand, posture]
+
+
+def _weighted_reference(ctrl, config, level_tasks, ratio=100.0):
+    """The weighted form by hand: soft cost + ratio^(p − k) ‖√w (J_k v − v*_k)‖², under the hard set (quadprog)."""
+    H, g, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+    H, g = H.copy(), g.copy()
+    p = len(level_tasks)
+    for k, task in enumerate(level_tasks):
+        err, jac = task.compute(config)
+        w = np.broadcast_to(np.asarray(task.weight, dtype=float), (jac.shape[0],))
+        J, t = jac * np.sqrt(w)[:, None], task.velocity_target(err) * np.sqrt(w)
+        H += ratio ** (p - k) * J.T @ J
+        g -= ratio ** (p - k) * J.T @ t
+    fin_l, fin_u = np.isfinite(l), np.isfinite(u)
+    fin_lb, fin_ub = np.isfinite(lb), np.isfinite(ub)
+    n = H.shape[0]
+    I = np.eye(n)
+    G = np.hstack([A.T, C[fin_l].T, -C[fin_u].T, I[:, fin_lb], -I[:, fin_ub]])
+    h = np.concatenate([b, l[fin_l], -u[fin_u], lb[fin_lb], -ub[fin_ub]])
+    return quadprog.solve_qp(0.5 * (H + H.T), -g, G, h, A.shape[0])[0]
+
+
+def test_tick_path_declares_the_weighted_qualifier():
+    """'levels+weighted' (and with '+budget') is a declared path; only the 'levels' route has a weighted form."""
+    for text in ("levels+weighted", "levels+budget+weighted", "levels+return_rate+budget+weighted"):
+        path = TickPath.parse(text)
+        assert path.route == "levels" and path.weighted and str(path) == text
+        assert str(path.with_budget()).endswith("+budget+weighted") or path.budget is False
+    assert TickPath("levels", weighted=True).with_budget() == "levels+budget+weighted"
+    with pytest.raises(InvalidInputError, match="weighted"):
+        TickPath("general", "fast", weighted=True)
+    with pytest.raises(InvalidInputError, match="weighted"):
+        TickPath.parse("general:fast+weighted")
+
+
+def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(robots, monkeypatch):
+    """Tick 1: a CPU-time weight of 1e12 cuts the cascade after level 0; the tick answers with the weighted form
+    (quadprog on the QP written out here, to 1e-6 m/s — on the old code: level 0's command, 0.1+ away). Tick 2 (the
+    guard still on, its clock weighted to count nothing): the weighted form again, ``levels+weighted``, one QP solve and no cascade (the
+    cascade of the same tick counts ≥ 2 solves: one per level). Guard off: the cascade, as before."""
+    robot, config, ctrl, tasks = _hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12,
+                                                    contact_correction=0.0, sole_drift_tolerance=None)
+    ref = _weighted_reference(ctrl, config, tasks)
+    cut = ctrl.solve(config, DT)
+    assert cut.ok and cut.path == "levels+budget+weighted", (cut.path, cut.message)
+    assert np.max(np.abs(cut.v - ref)) <= 1e-6, np.max(np.abs(cut.v - ref))
+    ctrl.CLOCK_WEIGHT = 1e-12  # the clock never reaches a limit: the counted solves decide
+    calls = []
+    flat_solve = ctrl.backend.solve
+    ctrl.backend.solve = lambda *a, **k: calls.append("flat") or flat_solve(*a, **k)
+    cascade = velocity.solve_lexicographic
+    monkeypatch.setattr(velocity, "solve_lexicographic", lambda *a, **k: calls.append("cascade") or cascade(*a, **k))
+    nxt = ctrl.solve(config, DT)
+    assert nxt.ok and nxt.path == "levels+weighted" and not nxt.over_budget, (nxt.path, nxt.message)
+    assert np.max(np.abs(nxt.v - ref)) <= 1e-6
+    assert calls == ["flat"]  # one QP solve, no cascade
+    monkeypatch.undo()
+    # the cascade of the same tick (guard off: never degraded) is a different answer and ≥ 2 counted solves
+    _, _, plain, _ = _hand_over_posture(robots, budget=1.0, contact_correction=0.0, sole_drift_tolerance=None)
+    full = plain.solve(config, DT)
+    assert full.ok and full.path == "levels"
+    assert plain._work._solves >= 2
+    assert np.max(np.abs(full.v - ref)) > 1e-4
+
+
+def test_guard_off_never_degrades(robots):
+    """Without the clock guard a cascade cut by its count keeps the last solved level's command ('levels+budget',
+    no weighted form), tick after tick."""
+    _, config, ctrl, tasks = _hand_over_posture(robots, budget=1e-9, contact_correction=0.0,
+                                                sole_drift_tolerance=None)
+    for _ in range(3):
+        res = ctrl.solve(config, DT)
+        assert res.path == "levels+budget" and not res.path.weighted, res.path
