@@ -63,6 +63,28 @@ def standing_controller(robot, config, *extra_constraints, tasks=(), vel_scale=1
     return ctrl, com
 
 
+def hand_over_posture(robots, **options):
+    """(robot, config, controller, [hand, posture]): a standing Talos (:func:`standing_controller`) with a left-hand
+    position task on strict level 0 (5 cm off in x, y, z) and a posture task on level 1; ``options`` are set on the
+    controller (attribute = value) before the levels are added."""
+    from wbc.configuration import Configuration
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("talos")
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    for name, value in options.items():
+        setattr(ctrl, name, value)
+    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.05, 0.05, 0.05]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    posture = PostureTask(robot, weight=1.0, name="posture1")
+    ctrl.add_task(posture, level=1)
+    return robot, config, ctrl, [hand, posture]
+
+
 def centroidal_oracle(model, q: np.ndarray, v: np.ndarray, dt: float):
     """Independent oracle of the executed-ZMP tests, straight from Pinocchio: total mass (kg), CoM (N, 3) of each
     q, its central second differences c̈ (N, 3) (end rows copied), and L̇ (N, 3), the backward difference of the

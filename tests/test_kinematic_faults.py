@@ -19,7 +19,7 @@ import pinocchio as pin
 import pytest
 import scipy.optimize
 
-from conftest import standing_controller
+from conftest import hand_over_posture, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints.limits import JointPositionLimit, bounded_joints
 from wbc.exceptions import ConfigurationError, InvalidInputError, WbcError
@@ -262,23 +262,6 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
 
 
 
-def _hand_over_posture(robots):
-    """(robot, config, controller, hand task) of a standing Talos with a left-hand position task on level 0 (5 cm
-    off in x, y, z) and a posture task on level 1."""
-    from wbc.tasks import FrameTask, PostureTask
-
-    robot = robots("talos")
-    config = Configuration(robot)
-    ctrl, _ = standing_controller(robot, config)
-    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
-    target = config.frame_placement(hand.frame_id).copy()
-    target.translation += [0.05, 0.05, 0.05]
-    hand.set_target(target)
-    ctrl.add_task(hand, level=0)
-    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
-    return robot, config, ctrl, hand
-
-
 def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
     level is solved: the cascade starts no further level, no contact correction nor trust region, and the tick
@@ -286,7 +269,7 @@ def test_ok_tick_past_its_budget_keeps_the_last_solved_level(robots):
     Oracles: the level-0 residual ‖J v − v*‖ equals the full cascade's (budget math.inf; lower levels never
     change it) while the command differs (the posture level was not solved), and forward kinematics of the soles
     over the tick (both placed where they are: each may move ≤ 0.05 mm)."""
-    robot, config, ctrl, hand = _hand_over_posture(robots)
+    robot, config, ctrl, (hand, _) = hand_over_posture(robots)
     ctrl.budget = math.inf
     full = ctrl.solve(config, DT)
     assert full.ok and full.path == "levels" and not full.over_budget
@@ -458,7 +441,7 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     import wbc.qp as qp
 
     def run():
-        robot, config, ctrl, _ = _hand_over_posture(robots)
+        robot, config, ctrl, _ = hand_over_posture(robots)
         out = []
         for _ in range(3):
             res = ctrl.solve(config, DT)

@@ -15,28 +15,9 @@ from wbc.exceptions import InvalidInputError
 from wbc.formulations import velocity
 from wbc.tick import TickPath
 
+from conftest import hand_over_posture
+
 DT = 0.002
-
-
-def _hand_over_posture(robots, **options):
-    """Standing Talos, a left-hand position task on level 0 (5 cm off), the posture on level 1."""
-    from conftest import standing_controller
-    from wbc.configuration import Configuration
-    from wbc.tasks import FrameTask, PostureTask
-
-    robot = robots("talos")
-    config = Configuration(robot)
-    ctrl, _ = standing_controller(robot, config)
-    for name, value in options.items():
-        setattr(ctrl, name, value)
-    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
-    target = config.frame_placement(hand.frame_id).copy()
-    target.translation += [0.05, 0.05, 0.05]
-    hand.set_target(target)
-    ctrl.add_task(hand, level=0)
-    posture = PostureTask(robot, weight=1.0, name="posture1")
-    ctrl.add_task(posture, level=1)
-    return robot, config, ctrl, [hand, posture]
 
 
 def _weighted_reference(ctrl, config, level_tasks, ratio=100.0):
@@ -77,7 +58,7 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
     (quadprog on the QP written out here, to 1e-6 m/s — on the old code: level 0's command, 0.1+ away). Tick 2 (the
     guard still on, its clock weighted to count nothing): the weighted form again, ``levels+weighted``, one QP solve and no cascade (the
     cascade of the same tick counts ≥ 2 solves: one per level). Guard off: the cascade, as before."""
-    robot, config, ctrl, tasks = _hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12,
+    robot, config, ctrl, tasks = hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12,
                                                     contact_correction=0.0, sole_drift_tolerance=None)
     ref = _weighted_reference(ctrl, config, tasks)
     cut = ctrl.solve(config, DT)
@@ -95,7 +76,7 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
     assert calls == ["flat"]  # one QP solve, no cascade
     monkeypatch.undo()
     # the cascade of the same tick (guard off: never degraded) is a different answer and ≥ 2 counted solves
-    _, _, plain, _ = _hand_over_posture(robots, budget=1.0, contact_correction=0.0, sole_drift_tolerance=None)
+    _, _, plain, _ = hand_over_posture(robots, budget=1.0, contact_correction=0.0, sole_drift_tolerance=None)
     full = plain.solve(config, DT)
     assert full.ok and full.path == "levels"
     assert plain._work._solves >= 2
@@ -105,7 +86,7 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
 def test_guard_off_never_degrades(robots):
     """Without the clock guard a cascade cut by its count keeps the last solved level's command ('levels+budget',
     no weighted form), tick after tick."""
-    _, config, ctrl, tasks = _hand_over_posture(robots, budget=1e-9, contact_correction=0.0,
+    _, config, ctrl, tasks = hand_over_posture(robots, budget=1e-9, contact_correction=0.0,
                                                 sole_drift_tolerance=None)
     for _ in range(3):
         res = ctrl.solve(config, DT)

@@ -14,6 +14,8 @@ from wbc.exceptions import SolverError
 from wbc.hierarchy import solve_lexicographic
 from wbc.qp import DaqpBackend, TickWork
 
+from conftest import hand_over_posture
+
 DT = 0.002
 
 
@@ -235,27 +237,6 @@ def test_tick_work_counts_cpu_time_only_with_a_clock_and_daqp_calls_follow_it():
     assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
 
 
-def _hand_over_posture(robots, **options):
-    """(robot, config, controller, hand task): standing Talos, a left-hand position task on level 0 (5 cm off in
-    x, y, z), the posture on level 1 (as tests/test_kinematic_faults.py)."""
-    from wbc.configuration import Configuration
-    from wbc.tasks import FrameTask, PostureTask
-    from conftest import standing_controller
-
-    robot = robots("talos")
-    config = Configuration(robot)
-    ctrl, _ = standing_controller(robot, config)
-    for name, value in options.items():
-        setattr(ctrl, name, value)
-    hand = FrameTask(robot, "gripper_left_joint", gain=10.0, orientation_weight=0.0, name="hand")
-    target = config.frame_placement(hand.frame_id).copy()
-    target.translation += [0.05, 0.05, 0.05]
-    hand.set_target(target)
-    ctrl.add_task(hand, level=0)
-    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
-    return robot, config, ctrl, hand
-
-
 def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots):
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget of 1 s (4000 counted solves:
     never reached). Without the clock guard the tick solves every level (path 'levels'). With it, and the CPU
@@ -268,15 +249,15 @@ def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots)
 
     from wbc.exceptions import InvalidInputError
 
-    robot, config, ctrl, hand = _hand_over_posture(robots, budget=1.0)
+    robot, config, ctrl, (hand, _) = hand_over_posture(robots, budget=1.0)
     assert ctrl.clock_guard is False  # the default: nothing decided by a clock
     full = ctrl.solve(config, DT)
     assert full.ok and full.path == "levels" and not full.over_budget
-    _, _, guarded, _ = _hand_over_posture(robots, budget=1.0, clock_guard=True)
+    _, _, guarded, _ = hand_over_posture(robots, budget=1.0, clock_guard=True)
     same = guarded.solve(config, DT)
     assert same.ok and same.path == "levels" and not same.over_budget
     assert same.v.tobytes() == full.v.tobytes()
-    _, _, cutting, _ = _hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12)
+    _, _, cutting, _ = hand_over_posture(robots, budget=1.0, clock_guard=True, CLOCK_WEIGHT=1e12)
     cut = cutting.solve(config, DT)
     assert cut.ok and cut.over_budget and cut.path == "levels+budget+weighted", (cut.path, cut.message)
     assert "priority levels after the first 1 of 3 (their weighted form's command)" in cut.message
