@@ -26,9 +26,9 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
 4. **landing**: touch-down of each sole detected from the state (sole height ≤ ``touchdown_height`` and not
    rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`) and, when the closed loop gives the
    measured sole forces (attribute ``measured_normal_force``, (2,) N, from the ankle F/T sensors on an estimated
-   state), confirmed by a measured normal force ≥ :data:`TOUCHDOWN_CONFIRM_LOAD` m g, or from a measured force
-   ≥ :data:`TOUCHDOWN_FORCE` m g alone while the estimated sole is within :data:`TOUCHDOWN_FORCE_HEIGHT` of the
-   ground. In flight no sole is in contact, so the estimated height is dead reckoning from the take-off
+   state), confirmed by a measured normal force ≥ :data:`~wbc.sim.walk.TOUCHDOWN_CONFIRM_LOAD` m g, or from a
+   measured force ≥ :data:`TOUCHDOWN_FORCE` m g alone while the estimated sole is within
+   :data:`TOUCHDOWN_FORCE_HEIGHT` of the ground. In flight no sole is in contact, so the estimated height is dead reckoning from the take-off
    velocity; the load, not that height, tells when a sole is on the ground. The sole's normal-force bound is
    then ramped in over ``t_ramp`` up to ``landing_force`` (N, then unbounded), the CoM reference critically
    damped from the measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
@@ -73,6 +73,7 @@ from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.outcome import FALL_TILT_DEG
 from wbc.sim.scenarios import NO_FALL
+from wbc.sim.walk import TOUCHDOWN_CONFIRM_LOAD
 from wbc.tasks import OrientationTask, PostureTask
 
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
@@ -103,9 +104,8 @@ JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
 
 #: Touch-down of a falling sole on an estimated state (measured sole forces given): the height test (sole within
 #: ``touchdown_height`` of the ground by the estimate) needs a measured normal force of at least
-#: TOUCHDOWN_CONFIRM_LOAD m g, and a measured force of TOUCHDOWN_FORCE m g alone is a touch-down while the estimated
-#: sole is within TOUCHDOWN_FORCE_HEIGHT (m) of the ground (module docstring).
-TOUCHDOWN_CONFIRM_LOAD = 0.03
+#: :data:`wbc.sim.walk.TOUCHDOWN_CONFIRM_LOAD` m g (the walk's), and a measured force of TOUCHDOWN_FORCE m g alone is
+#: a touch-down while the estimated sole is within TOUCHDOWN_FORCE_HEIGHT (m) of the ground (module docstring).
 TOUCHDOWN_FORCE = 0.1
 TOUCHDOWN_FORCE_HEIGHT = 0.05
 
