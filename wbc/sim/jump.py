@@ -21,8 +21,8 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    every tick from the measured CoM state as the time to fall to ``landing_crouch`` below the take-off height.
    So the soles touch down with the CoM ``landing_crouch`` lower than at take-off (bent knees, room to absorb
    the impact) and later than a landing at the take-off height; and the estimated take-off velocity, which
-   lags the plant's (the estimator's filtered joint velocities lag the fast leg extension of the push), sets
-   no fixed flight duration;
+   can be off the plant's (the leg odometry counts the soles as still while they unload at the end of the push),
+   sets no fixed flight duration;
 4. **landing**: touch-down of each sole detected from the state (sole height ≤ ``touchdown_height`` and not
    rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`) and, when the closed loop gives the
    measured sole forces (attribute ``measured_normal_force``, (2,) N, from the ankle F/T sensors on an estimated
@@ -370,8 +370,8 @@ class JumpScenario:
     def _predict_flight(self, t, c, vc):
         """Flight duration (s) predicted from the measured CoM state (c, vc) at t: the elapsed flight plus the
         ballistic time to fall back to the take-off height, (v_z + √(v_z² + 2 g (c_z − c_z,to))) / g. The
-        measured take-off velocity lags the plant's (the estimator's filtered joint velocities lag the push's
-        fast leg extension), so the duration is re-predicted every tick of the flight from the current state."""
+        measured take-off velocity can be off the plant's (module docstring, step 3), so the duration is
+        re-predicted every tick of the flight from the current state."""
         if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
             return self.t_flight  # frozen after the first touch-down
         rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
