@@ -9,7 +9,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.estimation import (BaseKalmanFilter, ComplementaryAttitudeFilter, ContactDetector, FootForceSensor,
+from wbc.estimation import (BaseKalmanFilter, ComplementaryAttitudeFilter, ContactDetector, FloatingBaseEstimator,
+                            FootForceSensor,
                             JointStateFilter, zmp_from_wrenches)
 from wbc.exceptions import InvalidInputError
 from wbc.robot import load_robot
@@ -124,6 +125,28 @@ def test_encoder_differencing_gives_the_joint_rate():
         f.update(np.round(w * k * DT / res) * res)
     # quantisation error of a difference ≤ 2 res / dt (≈ 0.012 rad/s), attenuated by the filter
     assert np.abs(f.velocity - w).max() < 2 * res / DT
+
+
+def test_joint_velocity_has_no_lag_at_constant_acceleration():
+    """The estimator's joint velocities (its default filter) track a joint accelerating at 500 rad/s² (a knee at a
+    jump's lift-off): closed form q̇ = a t from 19-bit quantised angles q = ½ a t². A backward difference with an
+    80 Hz low-pass lags it by (Δt/2 + 1/(2π 80 Hz)) a ≈ 1.5 rad/s."""
+    robot = load_robot("g1")
+    est = FloatingBaseEstimator(robot, DT)
+    n = robot.model.nv - 6
+    res = 2 * math.pi / 2**19
+    acc = 500.0 * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    est.joints.reset(np.zeros(n), np.zeros(n))
+    for k in range(1, 41):  # 0.08 s
+        t = k * DT
+        v = est.joints.update(np.round(0.5 * acc * t * t / res) * res)
+    # after 20 samples the start transient is gone; quantisation error of the rate ≲ 2 res / DT ≈ 0.012 rad/s
+    assert np.abs(v - acc * 40 * DT).max() < 0.05
+
+
+def test_joint_velocity_memory_out_of_range():
+    with pytest.raises(InvalidInputError, match="memory"):
+        JointStateFilter(3, DT, memory=1.0)
 
 
 def test_contact_hysteresis():

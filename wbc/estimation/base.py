@@ -2,8 +2,15 @@
 
 Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
 
-1. **Joint velocities** (:class:`JointStateFilter`): backward difference of the encoder angles, then a first-order
-   low-pass filter of corner ``f_c``: v̇ⱼ ← vⱼ + α ((qⱼ,k − qⱼ,k−1)/Δt − vⱼ), α = Δt / (Δt + 1/(2π f_c)).
+1. **Joint velocities** (:class:`JointStateFilter`): by default a fading-memory polynomial filter of degree 2
+   (Morrison 1969, "Introduction to Sequential Smoothing and Prediction", McGraw-Hill; the critically damped
+   g-h-k filter of Brookner 1998, "Tracking and Kalman Filtering Made Easy", Wiley, Ch. 1) on the encoder angles,
+   with a state (q, q̇, q̈) per joint:
+   predict q⁻ = q + q̇ Δt + ½ q̈ Δt², q̇⁻ = q̇ + q̈ Δt; with r = qₖ − q⁻: q = q⁻ + g r, q̇ = q̇⁻ + (h/Δt) r,
+   q̈ = q̈ + (2k/Δt²) r, where g = 1 − θ³, h = 1.5 (1 − θ)² (1 + θ), k = 0.5 (1 − θ)³ for the memory θ ∈ [0, 1)
+   (``velocity_memory``). Its velocity has no steady-state lag while a joint accelerates at a constant rate; a
+   backward difference low-passed at f_c (``velocity_memory=None``: v ← v + α ((qₖ − qₖ₋₁)/Δt − v),
+   α = Δt / (Δt + 1/(2π f_c))) lags it by (½ Δt + 1/(2π f_c)) q̈.
 2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32) on the
    gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics (the
    leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the walking
@@ -71,10 +78,13 @@ def _nonneg(value, what: str, positive: bool = False) -> float:
 
 
 class JointStateFilter:
-    """Joint velocities from encoder angles: backward difference then a first-order low-pass (module docstring).
+    """Joint velocities from encoder angles (module docstring, step 1): a degree-2 fading-memory (g-h-k) filter
+    of memory ``memory``, or with ``memory=None`` a backward difference then a first-order low-pass of corner
+    ``cutoff_hz``.
 
     Args:
-        n: number of joints. dt: sample period (s). cutoff_hz: corner frequency f_c (Hz, > 0).
+        n: number of joints. dt: sample period (s). cutoff_hz: corner frequency f_c (Hz, > 0) of the low-pass
+            (used with ``memory=None``). memory: θ in [0, 1) of the g-h-k filter (None: the low-pass).
 
     Attributes:
         velocity: (n,) filtered velocity (rad/s).
@@ -83,30 +93,52 @@ class JointStateFilter:
         InvalidInputError: bad numbers.
     """
 
-    def __init__(self, n: int, dt: float, cutoff_hz: float = 80.0):
+    def __init__(self, n: int, dt: float, cutoff_hz: float = 80.0, memory: float | None = None):
         self.dt = _nonneg(dt, "dt", positive=True)
         self.cutoff_hz = _nonneg(cutoff_hz, "cutoff_hz", positive=True)
         self.alpha = self.dt / (self.dt + 1.0 / (2.0 * math.pi * self.cutoff_hz))
+        if memory is not None:
+            memory = _nonneg(memory, "memory")
+            if memory >= 1.0:
+                raise InvalidInputError(f"memory must be in [0, 1), got {memory!r}")
+        self.memory = memory
+        th = 0.0 if memory is None else memory
+        self._g, self._h, self._k = 1.0 - th**3, 1.5 * (1.0 - th) ** 2 * (1.0 + th), 0.5 * (1.0 - th) ** 3
         self.velocity = np.zeros(int(n))
-        self._prev = np.zeros(int(n))
+        self._prev = np.zeros(int(n))  # low-pass: last angles; g-h-k: filtered angles
         self._raw = np.zeros(int(n))
+        self._acc = np.zeros(int(n))
         self._started = False
 
     def reset(self, angles=None, velocity=None) -> None:
-        """Start from ``angles`` (n,) rad (default: the next sample) and ``velocity`` (n,) rad/s (default 0)."""
+        """Start from ``angles`` (n,) rad (default: the next sample) and ``velocity`` (n,) rad/s (default 0), at
+        zero acceleration."""
         self.velocity[:] = 0.0 if velocity is None else velocity
+        self._acc[:] = 0.0
         self._started = angles is not None
         if angles is not None:
             self._prev[:] = angles
 
     def update(self, angles: np.ndarray) -> np.ndarray:
         """One sample of encoder angles (n,) rad → filtered velocities (n,) rad/s (the :attr:`velocity` array)."""
-        if self._started:
+        if not self._started:
+            self._prev[:] = angles
+            self._started = True
+            return self.velocity
+        dt = self.dt
+        if self.memory is None:
             np.subtract(angles, self._prev, out=self._raw)
-            self._raw /= self.dt
+            self._raw /= dt
             self.velocity += self.alpha * (self._raw - self.velocity)
-        self._prev[:] = angles
-        self._started = True
+            self._prev[:] = angles
+            return self.velocity
+        x, v, a, r = self._prev, self.velocity, self._acc, self._raw
+        x += v * dt + (0.5 * dt * dt) * a  # prediction
+        v += a * dt
+        np.subtract(angles, x, out=r)  # residual
+        x += self._g * r
+        v += (self._h / dt) * r
+        a += (2.0 * self._k / (dt * dt)) * r
         return self.velocity
 
 
@@ -167,7 +199,9 @@ class FloatingBaseEstimator:
     Args:
         robot: the :class:`~wbc.robot.Robot` (Pinocchio model, sole frames).
         dt: sample period (s).
-        velocity_cutoff_hz: joint-velocity filter corner (Hz).
+        velocity_memory: memory θ in [0, 1) of the joint-velocity g-h-k filter (module docstring, step 1; None:
+            the low-pass of corner ``velocity_cutoff_hz``).
+        velocity_cutoff_hz: joint-velocity low-pass corner (Hz), used with ``velocity_memory=None``.
         k_p, k_i, accel_gate: attitude filter gains (:class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
         contact_on, contact_off: contact hysteresis thresholds as fractions of the robot's weight
             (0 ≤ off < on).
@@ -206,7 +240,8 @@ class FloatingBaseEstimator:
         InvalidInputError: bad numbers (here and on :meth:`reset`).
     """
 
-    def __init__(self, robot, dt: float, *, velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
+    def __init__(self, robot, dt: float, *, velocity_memory: float | None = 0.5,
+                 velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
                  accel_cutoff_hz: float = 10.0, ground_height: float | None = 0.0, heading_weight: float = 1.0,
@@ -217,7 +252,7 @@ class FloatingBaseEstimator:
         self.model, self.data = model, model.createData()
         self.dt = _nonneg(dt, "dt", positive=True)
         nj = model.nv - 6
-        self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz)
+        self.joints = JointStateFilter(nj, self.dt, velocity_cutoff_hz, velocity_memory)
         self.attitude = ComplementaryAttitudeFilter(self.dt, k_p=k_p, k_i=k_i, accel_gate=accel_gate,
                                                     k_heading=k_heading, k_heading_bias=k_heading_bias)
         weight = robot.mass * robot.gravity

@@ -21,12 +21,17 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
    every tick from the measured CoM state as the time to fall to ``landing_crouch`` below the take-off height.
    So the soles touch down with the CoM ``landing_crouch`` lower than at take-off (bent knees, room to absorb
    the impact) and later than a landing at the take-off height; and the estimated take-off velocity, which
-   lags the plant's (the estimator's filtered joint velocities lag the fast leg extension of the push), sets
-   no fixed flight duration;
+   can be off the plant's (the leg odometry counts the soles as still while they unload at the end of the push),
+   sets no fixed flight duration;
 4. **landing**: touch-down of each sole detected from the state (sole height ≤ ``touchdown_height`` and not
-   rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`), the sole's normal-force bound ramped in
-   over ``t_ramp`` up to ``landing_force`` (N, then unbounded), the CoM reference critically damped from the
-   measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
+   rising, :class:`~wbc.dynamics.contact_switching.ContactSwitcher`) and, when the closed loop gives the
+   measured sole forces (attribute ``measured_normal_force``, (2,) N, from the ankle F/T sensors on an estimated
+   state), confirmed by a measured normal force ≥ :data:`~wbc.sim.walk.TOUCHDOWN_CONFIRM_LOAD` m g, or from a
+   measured force ≥ :data:`TOUCHDOWN_FORCE` m g alone while the estimated sole is within
+   :data:`TOUCHDOWN_FORCE_HEIGHT` of the ground. In flight no sole is in contact, so the estimated height is dead reckoning from the take-off
+   velocity; the load, not that height, tells when a sole is on the ground. The sole's normal-force bound is
+   then ramped in over ``t_ramp`` up to ``landing_force`` (N, then unbounded), the CoM reference critically
+   damped from the measured touch-down CoM state to standing height above the landed soles (rate ``w_land``);
 5. stance until the end of the jump's period; :data:`RECOVER_DELAY` after the touch-down the posture task
    (weight :data:`RECOVER_POSTURE_WEIGHT`) and the torso and base orientation tasks (weight
    :data:`RECOVER_ORIENTATION_WEIGHT`) bring the robot back to its standing posture, so that with ``count`` > 1
@@ -68,6 +73,7 @@ from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.outcome import FALL_TILT_DEG
 from wbc.sim.scenarios import NO_FALL
+from wbc.sim.walk import TOUCHDOWN_CONFIRM_LOAD
 from wbc.tasks import OrientationTask, PostureTask
 
 __all__ = ["JumpScenario", "JUMP_GAINS", "JUMP_OPTIONS", "jump_criteria", "jump_acceptance", "limit_landing_torques"]
@@ -95,6 +101,13 @@ RECOVER_ORIENTATION_WEIGHT = 10.0
 #: IDBalanceController keyword options of the jump: the gains, and a braking acceleration of the joint-limit
 #: viability bound of 150 rad/s² instead of 50 (module docstring).
 JUMP_OPTIONS = {"gains": JUMP_GAINS, "braking_acceleration": 150.0}
+
+#: Touch-down of a falling sole on an estimated state (measured sole forces given): the height test (sole within
+#: ``touchdown_height`` of the ground by the estimate) needs a measured normal force of at least
+#: :data:`wbc.sim.walk.TOUCHDOWN_CONFIRM_LOAD` m g (the walk's), and a measured force of TOUCHDOWN_FORCE m g alone is
+#: a touch-down while the estimated sole is within TOUCHDOWN_FORCE_HEIGHT (m) of the ground (module docstring).
+TOUCHDOWN_FORCE = 0.1
+TOUCHDOWN_FORCE_HEIGHT = 0.05
 
 #: A jump's flight counts while the lowest corner of both soles is at least this high above its start (m).
 FLIGHT_CLEARANCE = 0.05
@@ -164,6 +177,9 @@ class JumpScenario:
     of the soles from take-off to the end of the jump), ``feet_moved_m`` (horizontal sole displacement end vs
     start).
 
+    Attribute ``measured_normal_force``: (2,) measured normal force (N) of the (left, right) sole, set by the closed
+    loop every tick on an estimated state (None: touch-down from the state alone; module docstring, step 4).
+
     Raises:
         InvalidInputError: bad numbers (see :class:`~wbc.gait.jump_plan.JumpPlan`), count not an int ≥ 1,
             landing_crouch outside [0, crouch].
@@ -206,6 +222,7 @@ class JumpScenario:
         self.phase = "stand"
         self.com0 = np.zeros(3)
         self._ref = (np.zeros(3), np.zeros(3), np.zeros(3))
+        self.measured_normal_force = None  # (2,) N from the F/T sensors, set by the closed loop on an estimated state
 
     def _set_period(self):
         p = self.jump_plan
@@ -226,8 +243,12 @@ class JumpScenario:
         self.jump_plan = JumpPlan(com_height=float(self.com_offset[2]), **self._plan_args)
         self._set_period()
         force = self.landing_force if self.landing_force is not None else 4 * robot.mass * robot.gravity
+        weight = robot.mass * robot.gravity
         self.switcher = ContactSwitcher(controller, ramp_time=self.t_ramp, touchdown_height=self.touchdown_height,
-                                        touchdown_speed=0.0, full_force=force)
+                                        touchdown_speed=0.0, full_force=force,
+                                        touchdown_force=TOUCHDOWN_FORCE * weight,
+                                        touchdown_force_height=TOUCHDOWN_FORCE_HEIGHT,
+                                        contact_force=TOUCHDOWN_CONFIRM_LOAD * weight, confirm_when_due=True)
         self._data = model.createData()
         self.phase = "stand"
         self.jump = 0
@@ -297,7 +318,7 @@ class JumpScenario:
                 ctrl.feet[side].weight[:] = self.foot_weight
             if self.base_task in ctrl.qp.tasks:
                 ctrl.qp.remove_task(self.base_task)
-        sw.update(t, q, v)
+        sw.update(t, q, v, self.measured_normal_force)
         tau = t - self.t0 - self.t_start  # time since this jump's crouch start
         if self.phase in ("stand", "push"):
             if tau < p.t_push_start:
@@ -349,8 +370,8 @@ class JumpScenario:
     def _predict_flight(self, t, c, vc):
         """Flight duration (s) predicted from the measured CoM state (c, vc) at t: the elapsed flight plus the
         ballistic time to fall back to the take-off height, (v_z + √(v_z² + 2 g (c_z − c_z,to))) / g. The
-        measured take-off velocity lags the plant's (the estimator's filtered joint velocities lag the push's
-        fast leg extension), so the duration is re-predicted every tick of the flight from the current state."""
+        measured take-off velocity can be off the plant's (module docstring, step 3), so the duration is
+        re-predicted every tick of the flight from the current state."""
         if t - self.t_to > 0.5 * self.t_flight and self.phase == "land":
             return self.t_flight  # frozen after the first touch-down
         rise = c[2] - self.c_to[2] + self.landing_crouch  # touch-down with the CoM landing_crouch lower
