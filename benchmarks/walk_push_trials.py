@@ -163,8 +163,15 @@ def _seeded_trial(job, robot=None):
             f"step adjustments {s['step_adjustments']} (max {s['max_step_adjustment_m']:.3f} m), "
             f"timing changes {[round(x, 3) for x in s['step_timing_changes_s']]} s, "
             f"solver failures {s['solver_failures']}, joint-speed exceedances {s['joint_speed_exceedances']}"
+            f"{_worst(s)}"
             f"{' (' + s['fall_reason'] + ')' if s['fell'] else ''}")
     return seed, ok, line
+
+
+def _worst(s: dict) -> str:
+    """`` (worst R× joint)``: the largest joint speed over its URDF limit in the trial, when the summary has it."""
+    r = s.get("max_joint_speed_ratio")
+    return "" if r is None else f" (worst {r:.3f}x {s.get('max_joint_speed_joint', '?')})"
 
 
 if __name__ == "__main__":
