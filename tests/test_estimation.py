@@ -128,11 +128,11 @@ def test_encoder_differencing_gives_the_joint_rate():
 
 
 def test_joint_velocity_has_no_lag_at_constant_acceleration():
-    """The estimator's joint velocities (its default filter) track a joint accelerating at 500 rad/s² (a knee at a
+    """The estimator's joint velocities with the g-h-k filter (``velocity_memory=0.5``) track a joint accelerating at 500 rad/s² (a knee at a
     jump's lift-off): closed form q̇ = a t from 19-bit quantised angles q = ½ a t². A backward difference with an
     80 Hz low-pass lags it by (Δt/2 + 1/(2π 80 Hz)) a ≈ 1.5 rad/s."""
     robot = load_robot("g1")
-    est = FloatingBaseEstimator(robot, DT)
+    est = FloatingBaseEstimator(robot, DT, velocity_memory=0.5)
     n = robot.model.nv - 6
     res = 2 * math.pi / 2**19
     acc = 500.0 * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)

@@ -12,8 +12,8 @@ intersects its bounds back in (a joint above its limit is commanded back under i
 
 **Speed horizon.** The one-tick bound is dead-beat: it lets a joint reach the bound in one tick. When the velocity
 the controller reads lags the plant's (encoder differencing and low-pass filtering: ~1.5 ticks with
-:class:`wbc.estimation.JointStateFilter`'s low-pass at 80 Hz and 2 ms; the estimator's default g-h-k filter lags
-only while the acceleration changes; a control delay of d ticks adds d), a dead-beat bound computed on the lagging
+:class:`wbc.estimation.JointStateFilter`'s low-pass at 80 Hz and 2 ms; its optional g-h-k filter lags only
+while the acceleration changes; a control delay of d ticks adds d), a dead-beat bound computed on the lagging
 velocity overshoots the limit. With a horizon of h ticks the bound becomes
 
     −s q̇_max − v ≤ v̇ h dt ≤ s q̇_max − v,

@@ -2,14 +2,15 @@
 
 Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
 
-1. **Joint velocities** (:class:`JointStateFilter`): by default a fading-memory polynomial filter of degree 2
+1. **Joint velocities** (:class:`JointStateFilter`): a backward difference low-passed at f_c by default, or a
+   fading-memory polynomial filter of degree 2
    (Morrison 1969, "Introduction to Sequential Smoothing and Prediction", McGraw-Hill; the critically damped
    g-h-k filter of Brookner 1998, "Tracking and Kalman Filtering Made Easy", Wiley, Ch. 1) on the encoder angles,
    with a state (q, q̇, q̈) per joint:
    predict q⁻ = q + q̇ Δt + ½ q̈ Δt², q̇⁻ = q̇ + q̈ Δt; with r = qₖ − q⁻: q = q⁻ + g r, q̇ = q̇⁻ + (h/Δt) r,
    q̈ = q̈ + (2k/Δt²) r, where g = 1 − θ³, h = 1.5 (1 − θ)² (1 + θ), k = 0.5 (1 − θ)³ for the memory θ ∈ [0, 1)
    (``velocity_memory``). Its velocity has no steady-state lag while a joint accelerates at a constant rate; a
-   backward difference low-passed at f_c (``velocity_memory=None``: v ← v + α ((qₖ − qₖ₋₁)/Δt − v),
+   backward difference low-passed at f_c (``velocity_memory=None``, the default: v ← v + α ((qₖ − qₖ₋₁)/Δt − v),
    α = Δt / (Δt + 1/(2π f_c))) lags it by (½ Δt + 1/(2π f_c)) q̈.
 2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32) on the
    gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics (the
@@ -200,7 +201,7 @@ class FloatingBaseEstimator:
         robot: the :class:`~wbc.robot.Robot` (Pinocchio model, sole frames).
         dt: sample period (s).
         velocity_memory: memory θ in [0, 1) of the joint-velocity g-h-k filter (module docstring, step 1; None:
-            the low-pass of corner ``velocity_cutoff_hz``).
+            the low-pass of corner ``velocity_cutoff_hz``, the default).
         velocity_cutoff_hz: joint-velocity low-pass corner (Hz), used with ``velocity_memory=None``.
         k_p, k_i, accel_gate: attitude filter gains (:class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
         contact_on, contact_off: contact hysteresis thresholds as fractions of the robot's weight
@@ -240,7 +241,7 @@ class FloatingBaseEstimator:
         InvalidInputError: bad numbers (here and on :meth:`reset`).
     """
 
-    def __init__(self, robot, dt: float, *, velocity_memory: float | None = 0.5,
+    def __init__(self, robot, dt: float, *, velocity_memory: float | None = None,
                  velocity_cutoff_hz: float = 80.0, k_p: float = 0.2, k_i: float = 0.01,
                  accel_gate: float = 2.0, contact_on: float = 0.2, contact_off: float = 0.08,
                  sigma_acc: float = 0.5, sigma_pos: float = 0.002, sigma_vel: float = 0.02,
