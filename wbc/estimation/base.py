@@ -11,7 +11,9 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    q̈ = q̈ + (2k/Δt²) r, where g = 1 − θ³, h = 1.5 (1 − θ)² (1 + θ), k = 0.5 (1 − θ)³ for the memory θ ∈ [0, 1)
    (``velocity_memory``). Its velocity has no steady-state lag while a joint accelerates at a constant rate; a
    backward difference low-passed at f_c (``velocity_memory=None``, the default: v ← v + α ((qₖ − qₖ₋₁)/Δt − v),
-   α = Δt / (Δt + 1/(2π f_c))) lags it by (½ Δt + 1/(2π f_c)) q̈.
+   α = Δt / (Δt + 1/(2π f_c))) lags it by (½ Δt + 1/(2π f_c)) q̈. ``wbc sim jump`` uses θ = 0.5 (its take-off and
+   landing need the lag-free velocity); the other scenarios the low-pass (the blind swing over rough ground lands
+   2-5× farther from its foothold with θ = 0.5).
 2. **Orientation**: :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter` (Mahony et al. 2008, eq. 32) on the
    gyro and on the accelerometer's specific force minus the base acceleration measured by the leg kinematics (the
    leg-odometry velocity of step 3, differenced and low-passed at ``accel_cutoff_hz``; without it the walking
