@@ -17,10 +17,9 @@ from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, vi
 
 __all__ = ["register", "cmd_sim"]
 
-#: ``wbc sim jump --state estimated``: memory θ of the joint-velocity g-h-k filter (wbc.estimation.JointStateFilter).
-#: The 80 Hz low-pass of the other scenarios lags ~3 ms; with it G1's 10 jumps at seeds 1 and 2 land short of 0.1 s
-#: flights (0.082 s at seed 1, ca49f4c). On the blind rough-terrain swing this filter doubles the landing errors,
-#: hence a per-scenario default.
+#: ``wbc sim jump --state estimated``: memory θ of the joint-velocity g-h-k filter (wbc.estimation.JointStateFilter):
+#: take-off and landing need its lag-free velocity, the blind swing over rough ground the smoother low-pass of the
+#: other scenarios (benchmarks/README.md, "The whole acceptance on b2acad8").
 JUMP_VELOCITY_MEMORY = 0.5
 
 _SCENARIO_CHOICES = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
