@@ -806,10 +806,9 @@ class WalkScenario:
         height (:meth:`_relative_ground`): on uneven ground the estimated base height is contact odometry (each
         sole anchored where it first touches; a sole that then rolls onto the terrain under it moves its anchor point
         with it), so the soles' estimated heights drift, and a CoM held at the planned absolute height bends the
-        legs by that drift. On planned terrain the same holds: after the G1's ten stairs up the estimated base was
-        1–2.4 cm above the truth on the descent, the CoM that much lower above its stance sole in the plant, and
-        the pelvis rolled further with each step down, 25° to 30.5° (a fall by tilt at --seed 0;
-        benchmarks/README.md, "Walking on terrain")."""
+        legs by that drift. On planned terrain the same holds after a flight of stairs: the estimated base height
+        drifts by centimetres, the CoM sits that much lower above its stance sole in the plant, and the pelvis rolls
+        further with each step down (benchmarks/README.md, "Walking on terrain")."""
         f = self.measured_normal_force
         num = den = 0.0
         for j, s in enumerate(("left", "right")):
