@@ -15,8 +15,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
-  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); the planned CoM height is raised by
-  the supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
+  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`). Blind and on planned terrain the
+  planned CoM height is raised by the supporting soles' measured − planned height
+  (:meth:`WalkScenario._support_offset`).
 * **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
   horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
@@ -307,7 +308,7 @@ class WalkScenario:
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
-            the supporting soles' measured − planned height (:meth:`_support_offset`).
+            the supporting soles' measured − planned height (:meth:`_support_offset`; also on planned terrain).
 
         swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
@@ -534,8 +535,8 @@ class WalkScenario:
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
-        # blind: measured − planned height (m) of the supporting soles, low-passed, and its rate (m/s); added to the
-        # planned CoM height (_support_offset)
+        # blind and planned terrain: measured − planned height (m) of the supporting soles, low-passed, and its rate
+        # (m/s); added to the planned CoM height (_support_offset)
         self._dz_support, self._dz_support_rate = 0.0, 0.0
         self._active: dict[str, tuple] = {}
         weight = robot.mass * robot.gravity
@@ -703,7 +704,7 @@ class WalkScenario:
         if self.step_adjust:
             self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
-        dz, dzd = self._support_offset(k) if self.blind else (0.0, 0.0)
+        dz, dzd = self._support_offset(k) if self.blind or self.terrain_walk is not None else (0.0, 0.0)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
             a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
@@ -795,7 +796,8 @@ class WalkScenario:
         sw.ground_height[side] = self._land_z[side] + self._dz_stance[side]
 
     def _support_offset(self, k: int) -> tuple[float, float]:
-        """Blind walk: height (m) and rate (m/s) added to the planned CoM height at plan sample ``k``: the measured −
+        """Blind walk and planned terrain: height (m) and rate (m/s) added to the planned CoM height at plan sample
+        ``k``: the measured −
         planned height of the soles in contact, weighted by their measured normal forces (``measured_normal_force``;
         equal weights without it), low-passed with the time constant :data:`BLIND_SUPPORT_TAU`. Uses the sole
         placements of the state given to :meth:`update` (``self._data``, updated before the call).
@@ -804,7 +806,9 @@ class WalkScenario:
         height (:meth:`_relative_ground`): on uneven ground the estimated base height is contact odometry (each
         sole anchored where it first touches; a sole that then rolls onto the terrain under it moves its anchor point
         with it), so the soles' estimated heights drift, and a CoM held at the planned absolute height bends the
-        legs by that drift."""
+        legs by that drift. On planned terrain the same holds after a flight of stairs: the estimated base height
+        drifts by centimetres, the CoM sits that much lower above its stance sole in the plant, and the pelvis rolls
+        further with each step down (benchmarks/README.md, "Walking on terrain")."""
         f = self.measured_normal_force
         num = den = 0.0
         for j, s in enumerate(("left", "right")):
