@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from wbc.dynamics import IDBalanceController
-from wbc.exceptions import InvalidInputError, SolverError
+from wbc.exceptions import InvalidInputError
 from wbc.qp import DaqpBackend, QPBackend
 
 DT = 0.002
@@ -278,25 +278,21 @@ def test_daqp_solves_recorded_large_cost_problem():
 
 
 @pytest.mark.parametrize("name", ["id_landing_qp_g1", "id_landing_qp_g1_b"])
-def test_recorded_g1_landing_problems_daqp_fails_are_answered_by_proxqp(name):
+def test_daqp_dual_solves_recorded_g1_landing_problems(name):
     """Item 6: two QPs recorded at G1 jump touch-downs (``wbc sim jump --robot g1 --seed 2 / 3``, the first tick
-    with one sole in contact; 59 variables, Hessian conditioned ≈ 5e10) that DAQP with the ID settings reports
-    infeasible (warm, cold and cost-scaled calls; quadprog fails too), so the controller held the previous tick's
-    command. HiGHS finds both hard sets feasible. The ID QP's last answer, ProxQP (as
-    ``InverseDynamicsQP._solve_backend`` calls it), returns x meeting every row to 1e-6 (scaled by max(1, |rhs|));
-    its objective equals OSQP's (an independent method, eps 1e-9) to 1e-6 relative."""
+    with one sole in contact; 59 variables, Hessian conditioned ≈ 5e10) that DAQP with the ID settings reported
+    infeasible (warm, cold and cost-scaled calls; quadprog failed too), so the controller held the previous tick's
+    command. HiGHS finds both hard sets feasible. DAQP with the ID settings, no confirmation (as the controller
+    calls it), now returns x meeting every row to 1e-6 (scaled by max(1, |rhs|)) whose objective equals OSQP's
+    (an independent method, eps 1e-9) to 1e-6 relative."""
     from pathlib import Path
 
     import qpsolvers
 
-    from wbc.qp import ProxQPBackend
-
     d = dict(np.load(Path(__file__).parent / "fixtures" / f"{name}.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
-    with pytest.raises(SolverError):
-        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    x = ProxQPBackend().solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
     cx = C @ x
     assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))

@@ -102,8 +102,8 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import (ITERATION_LIMIT, MIN_CALL_ITERATIONS, DaqpBackend, ProxQPBackend, QPBackend,
-                    hard_set_feasible, second_opinion, solve_pinned_reduced)
+from wbc.qp import (ITERATION_LIMIT, MIN_CALL_ITERATIONS, DaqpBackend, QPBackend, hard_set_feasible,
+                    second_opinion, solve_pinned_reduced)
 from wbc.tick import TickPath
 from wbc.backends import make_backend
 from wbc.robot import Robot
@@ -285,10 +285,6 @@ class InverseDynamicsQP:
         #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
         #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
         self.pinned_reduced_solves = 0
-        #: full QPs that every DAQP call and quadprog failed and ProxQP solved (:meth:`_solve_backend`'s last
-        #: answer; ``IDSolution.path`` then names ``proxqp``).
-        self.proxqp_solves = 0
-        self._proxqp = ProxQPBackend(tolerance=getattr(self.backend, "tolerance", 1e-6))
         #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
         #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
         self.second_opinion_enabled = True
@@ -653,9 +649,7 @@ class InverseDynamicsQP:
         DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
         tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
         certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
-        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped. When those
-        fail too, ProxQP (Bambade et al., "PROX-QP: Yet another Quadratic Programming Solver for Robotics and
-        beyond", RSS 2022) answers if its solution meets every row to the tolerance.
+        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -735,26 +729,12 @@ class InverseDynamicsQP:
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-        except SolverError as exc:
+        except SolverError:
             if backend.budget_capped:
                 self.budget_cut = True
-                raise
-            last = exc
+            raise
         finally:
             backend.deadline = math.inf
-        if thread_time() >= self.retry_deadline:
-            self.retries_skipped += 1
-            self.budget_cut = True
-            raise last
-        # the last answer, another method: ProxQP (proximal augmented Lagrangian, iteration-capped, its answer held
-        # to the same row check). Two G1 landing QPs (Hessian conditioned ~5e10, HiGHS: feasible) failed every DAQP
-        # call above and quadprog; ProxQP solved each in ~0.2 ms of CPU
-        try:
-            x = self._proxqp.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-        except SolverError:
-            raise last from None
-        self.proxqp_solves += 1
-        return x, self._proxqp.name
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
