@@ -172,3 +172,31 @@ def test_ramp_in_bound_never_below_the_measured_load(robot):
     assert c.contacts["right"].f_max * 4 == pytest.approx(600.0)
     sw.update(0.082, q, v, np.array([0.0, 900.0]))
     assert sw.phase("right") == "stance" and math.isinf(c.contacts["right"].f_max)
+
+
+def test_partial_foothold_confines_the_qp_cop(robot):
+    """SoleContact.set_support (partial foothold): Talos standing, the CoM asked to accelerate forward at 1.5 m/s²
+    (a CoP 1.5 / ω² ≈ 13 cm behind the CoM); with the left sole's contact cut to x ≤ −0.03 m (sole frame), the QP's
+    corner forces of that sole put its CoP at x ≤ −0.03 m (+ 0.5 mm), on the compiled tick; with the whole sole
+    again (reset_support) the same request puts it further forward."""
+    c = IDBalanceController(robot)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    c.reset(q, v)
+    com = c.state.com.copy()
+    c.set_com_reference(com, np.zeros(3), np.array([-1.5, 0.0, 0.0]))
+    left = c.contacts["left"]
+    k = list(c.contacts).index("left")
+
+    def cop_x():
+        cmd = c.compute(q, v)
+        return float(left.cop(cmd.forces[12 * k:12 * k + 12])[0])
+
+    full = cop_x()
+    left.set_support(-1.0, -0.03, -1.0, 1.0)
+    assert left.support[1] == -0.03 and left.corners[:, 0].max() == -0.03
+    cut = cop_x()
+    left.reset_support()
+    assert cop_x() == pytest.approx(full, abs=1e-6)
+    assert cut <= -0.03 + 5e-4 < full
+    with pytest.raises(InvalidInputError):
+        left.set_support(0.05, 0.04, -1.0, 1.0)

@@ -216,6 +216,20 @@ BLIND_SET_DOWN = 0.6
 #: Blind walk: time constant (s) of the low-pass filter on the supporting soles' measured − planned height that is
 #: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
 BLIND_SUPPORT_TAU = 0.2
+#: Blind walk, partial footholds (:meth:`WalkScenario._partial_footholds`): a loaded sole (measured normal force
+#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rolling faster than this (rad/s, about a sole axis) has its contact
+#: rectangle cut behind the line of rotation through its measured CoP.
+BLIND_ROLL_RATE = 0.6
+#: Blind walk: the cut lies this far (m) behind the measured CoP, on the supported side.
+BLIND_CUT_BEHIND = 0.005
+#: Blind walk: fraction of the weight a sole must carry for its rolling to cut its contact rectangle.
+BLIND_CUT_LOAD = 0.1
+#: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
+BLIND_CUT_MIN = 0.02
+#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's trailing edge for a cut.
+BLIND_CUT_EDGE = 0.02
+#: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
+BLIND_CUT_HOLD = 0.1
 
 
 class WalkScenario:
@@ -385,6 +399,9 @@ class WalkScenario:
         #: (2,) N, (left, right) normal force measured by the ankle F/T sensors, set by the closed loop every tick
         #: when the controller reads an estimated state (None: touch-down from the state alone)
         self.measured_normal_force = None
+        #: (2, 6) ground reactions (N, N·m) of the (left, right) soles at their origins, sole axes, measured by the
+        #: ankle F/T sensors; set by the closed loop every tick on an estimated state (None: not measured)
+        self.measured_wrench = None
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -539,6 +556,13 @@ class WalkScenario:
         self._dz_support, self._dz_support_rate = 0.0, 0.0
         self._active: dict[str, tuple] = {}
         weight = robot.mass * robot.gravity
+        self._weight = weight
+        #: blind: per side, the cut (x_lo, x_hi, y_lo, y_hi) (m, sole frame) of the sole's contact rectangle
+        #: (:meth:`_partial_footholds`; ±inf: not cut), and the number of cuts made
+        self._cut = {"left": None, "right": None}
+        self._cut_until = {"left": [-np.inf, -np.inf], "right": [-np.inf, -np.inf]}  # (x, y) cut expiry (s)
+        self.support_cuts = 0
+        self.cut_events: list = []  # (t, side, ω (3,), measured CoP (2,), cut)
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
@@ -624,8 +648,20 @@ class WalkScenario:
         r = self.robot
         for s in ("left", "right"):
             if self.switcher.in_contact(s):
-                pts.append(projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
-                                         r.sole_width - 2 * shrink))
+                M = self._data.oMf[self._fid[s]]
+                cut = self._cut[s]
+                if cut is None:
+                    pts.append(projected_sole_corners(M, r.sole_length - 2 * shrink, r.sole_width - 2 * shrink))
+                    continue
+                a, b = 0.5 * r.sole_length - shrink, 0.5 * r.sole_width - shrink
+                x0, x1 = max(-a, cut[0]), min(a, cut[1])
+                y0, y1 = max(-b, cut[2]), min(b, cut[3])
+                if x1 - x0 < 0.002:  # cut within the margin: a 2 mm strip about its middle (the hull keeps an area)
+                    x0, x1 = 0.5 * (x0 + x1) - 0.001, 0.5 * (x0 + x1) + 0.001
+                if y1 - y0 < 0.002:
+                    y0, y1 = 0.5 * (y0 + y1) - 0.001, 0.5 * (y0 + y1) + 0.001
+                c = np.array([[x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0], [x1, y0, 0.0]])
+                pts.append((c @ M.rotation.T + M.translation)[:, :2])
         if not pts:
             return np.zeros((0, 2))
         pts = np.vstack(pts)
@@ -704,6 +740,8 @@ class WalkScenario:
             self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
         dz, dzd = self._support_offset(k) if self.blind else (0.0, 0.0)
+        if self.blind:
+            self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
             a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
@@ -793,6 +831,83 @@ class WalkScenario:
         z_other = float(self._gdata.oMf[self._fid[other]].translation[2])
         self._dz_stance[side] = z_other - float(self.poses[other][k][2, 3])
         sw.ground_height[side] = self._land_z[side] + self._dz_stance[side]
+
+    def _partial_footholds(self, controller, q: np.ndarray, v: np.ndarray, t: float = 0.0) -> None:
+        """Blind walk: confine a rolling stance sole's contact to the part of it that is supported (partial
+        footholds, Wiedebach, Grabowski, Pratt, "Walking on partial footholds including line contacts with the
+        humanoid robot Atlas", Humanoids 2016, Sec. III-B: a foot rotating about an edge has its support polygon cut
+        at the line of rotation). On rough ground a sole can rest on one terrain node or edge under it; the QP's
+        contact (the whole rectangle) then lets it ask a CoP beyond that edge, which the ground cannot give, and
+        the ankle torque rolls the sole over the edge.
+
+        Per side in full contact (``switcher.phase`` "stance") whose measured normal force
+        (``measured_normal_force``, N) is at least :data:`BLIND_CUT_LOAD` of the weight: ω (3,) = the sole's
+        angular velocity (rad/s, sole axes) from the state (q, v); p = (−τ_y / f_z, τ_x / f_z) the sole's measured
+        CoP (m, sole frame) from its F/T ground reaction (``measured_wrench``, sole axes). ω_y >
+        :data:`BLIND_ROLL_RATE` (toe going down): x ≤ p_x − d; ω_y < −rate: x ≥ p_x + d; ω_x > rate (the −y edge
+        going down): y ≥ p_y + d; ω_x < −rate: y ≤ p_y − d; d = :data:`BLIND_CUT_BEHIND`. Only about a pivot at
+        least :data:`BLIND_CUT_EDGE` inside the sole's trailing edge (a sole coming down flat about its heel or
+        side edge is settling, not rolling over). One cut per sole axis (a cut the other way replaces it); a cut
+        lasts while the rolling does and :data:`BLIND_CUT_HOLD` s after, and at most until the sole leaves full
+        contact. Cuts bound the QP's corner forces (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`,
+        at least :data:`BLIND_CUT_MIN` a side) and the stabilizer's support area (:meth:`_hull`). Nothing happens
+        without measured wrenches (ground-truth state)."""
+        contacts = getattr(controller, "contacts", None)
+        f, W = self.measured_normal_force, self.measured_wrench
+        A, B = 0.5 * self.robot.sole_length, 0.5 * self.robot.sole_width
+        for j, s in enumerate(("left", "right")):
+            con = None if contacts is None else contacts.get(s)
+            if con is None:
+                continue
+            cut = list(self._cut[s]) if self._cut[s] is not None else [-np.inf, np.inf, -np.inf, np.inf]
+            until = self._cut_until[s]
+            new = list(cut)
+            if self.switcher.phase(s) != "stance":
+                new = [-np.inf, np.inf, -np.inf, np.inf]
+            else:
+                for ax in (0, 1):  # expired cuts
+                    if until[ax] < t:
+                        new[2 * ax], new[2 * ax + 1] = -np.inf, np.inf
+                fz = 0.0 if W is None else float(W[j][2])
+                if f is not None and float(f[j]) >= BLIND_CUT_LOAD * self._weight and fz > 0.0:
+                    pin.forwardKinematics(self._model, self._gdata, q, v)
+                    w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
+                    px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
+                    d, e = BLIND_CUT_BEHIND, BLIND_CUT_EDGE
+                    if w[1] > BLIND_ROLL_RATE and px > -A + e:  # toe down about a pivot ahead of the heel
+                        new[0], new[1] = -np.inf, min(new[1], px - d)
+                        until[0] = t + BLIND_CUT_HOLD
+                    elif w[1] < -BLIND_ROLL_RATE and px < A - e:
+                        new[0], new[1] = max(new[0], px + d), np.inf
+                        until[0] = t + BLIND_CUT_HOLD
+                    if w[0] > BLIND_ROLL_RATE and py < B - e:  # −y edge down about a pivot inside the +y edge
+                        new[2], new[3] = max(new[2], py + d), np.inf
+                        until[1] = t + BLIND_CUT_HOLD
+                    elif w[0] < -BLIND_ROLL_RATE and py > -B + e:
+                        new[2], new[3] = -np.inf, min(new[3], py - d)
+                        until[1] = t + BLIND_CUT_HOLD
+            if new == cut:
+                continue
+            if all(math.isinf(x) for x in new):
+                self._cut[s] = None
+                con.reset_support()
+                continue
+            x1, y1 = con.half_size
+            x0, y0 = -x1, -y1
+            lo_x, hi_x = self._clip_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
+            lo_y, hi_y = self._clip_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
+            self._cut[s] = tuple(new)
+            con.set_support(lo_x, hi_x, lo_y, hi_y)
+            self.support_cuts += 1
+            self.cut_events.append((round(t, 3), s, [round(float(x), 4) for x in con.support]))
+
+    @staticmethod
+    def _clip_range(lo: float, hi: float, a: float, b: float) -> tuple[float, float]:
+        """[lo, hi] widened to :data:`BLIND_CUT_MIN` about its middle and kept inside [a, b]."""
+        if hi - lo < BLIND_CUT_MIN:
+            m = min(max(0.5 * (lo + hi), a + 0.5 * BLIND_CUT_MIN), b - 0.5 * BLIND_CUT_MIN)
+            lo, hi = m - 0.5 * BLIND_CUT_MIN, m + 0.5 * BLIND_CUT_MIN
+        return lo, hi
 
     def _support_offset(self, k: int) -> tuple[float, float]:
         """Blind walk: height (m) and rate (m/s) added to the planned CoM height at plan sample ``k``: the measured −
@@ -1127,6 +1242,8 @@ class WalkScenario:
                                       f"the sole below {self.switcher.touchdown_force_height * 1e3:g} mm"),
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
+            "support_cuts": self.support_cuts,
+            "support_cut_events": self.cut_events,
             "step_timing_changes_s": [m for _, _, m in self.timing_changes],
             "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
             "adjusted_distance_m": float(np.linalg.norm(
