@@ -175,21 +175,22 @@ def test_ramp_in_bound_never_below_the_measured_load(robot):
 
 
 def test_partial_foothold_confines_the_qp_cop(robot):
-    """SoleContact.set_support (partial foothold): Talos standing, the CoM asked to accelerate forward at 1.5 m/s²
-    (a CoP 1.5 / ω² ≈ 13 cm behind the CoM); with the left sole's contact cut to x ≤ −0.03 m (sole frame), the QP's
-    corner forces of that sole put its CoP at x ≤ −0.03 m (+ 0.5 mm), on the compiled tick; with the whole sole
-    again (reset_support) the same request puts it further forward."""
+    """SoleContact.set_support (partial foothold): Talos standing, the CoM asked to accelerate backwards at 0.6 m/s²
+    (a CoP ahead of the CoM, at x = +65 mm in the left sole with the whole sole); with the left sole's contact cut to
+    x ≤ −0.03 m (sole frame) the QP's corner forces of that sole, still carrying ≥ 100 N, put its CoP at
+    x ≤ −0.03 m (+ 0.5 mm); with the whole sole again (reset_support) the first answer comes back."""
     c = IDBalanceController(robot)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     c.reset(q, v)
     com = c.state.com.copy()
-    c.set_com_reference(com, np.zeros(3), np.array([-1.5, 0.0, 0.0]))
+    c.set_com_reference(com, np.zeros(3), np.array([-0.6, 0.0, 0.0]))
     left = c.contacts["left"]
     k = list(c.contacts).index("left")
 
     def cop_x():
-        cmd = c.compute(q, v)
-        return float(left.cop(cmd.forces[12 * k:12 * k + 12])[0])
+        f = c.compute(q, v).forces[12 * k:12 * k + 12]
+        assert f[2::3].sum() >= 100.0
+        return float(left.cop(f)[0])
 
     full = cop_x()
     left.set_support(-1.0, -0.03, -1.0, 1.0)

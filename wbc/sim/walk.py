@@ -847,9 +847,9 @@ class WalkScenario:
         :data:`BLIND_ROLL_RATE` (toe going down): x ≤ p_x − d; ω_y < −rate: x ≥ p_x + d; ω_x > rate (the −y edge
         going down): y ≥ p_y + d; ω_x < −rate: y ≤ p_y − d; d = :data:`BLIND_CUT_BEHIND`. Only about a pivot at
         least :data:`BLIND_CUT_EDGE` inside the sole's trailing edge (a sole coming down flat about its heel or
-        side edge is settling, not rolling over). One cut per sole axis (a cut the other way replaces it); a cut
-        lasts while the rolling does and :data:`BLIND_CUT_HOLD` s after, and at most until the sole leaves full
-        contact. Cuts bound the QP's corner forces (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`,
+        side edge is settling, not rolling over). One cut per sole axis, never the other way while it lasts (the
+        rotation back is the cut's own doing: cutting both ways rocked the sole at 10–30 Hz); a cut lasts while
+        the rolling does and :data:`BLIND_CUT_HOLD` s after, and at most until the sole leaves full contact. Cuts bound the QP's corner forces (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`,
         at least :data:`BLIND_CUT_MIN` a side) and the stabilizer's support area (:meth:`_hull`). Nothing happens
         without measured wrenches (ground-truth state)."""
         contacts = getattr(controller, "contacts", None)
@@ -874,17 +874,18 @@ class WalkScenario:
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
                     px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
                     d, e = BLIND_CUT_BEHIND, BLIND_CUT_EDGE
-                    if w[1] > BLIND_ROLL_RATE and px > -A + e:  # toe down about a pivot ahead of the heel
-                        new[0], new[1] = -np.inf, min(new[1], px - d)
+                    # (a cut axis is not cut the other way before it expires: the rotation back is the cut's own)
+                    if w[1] > BLIND_ROLL_RATE and px > -A + e and new[0] == -np.inf:  # toe down, pivot not the heel
+                        new[1] = min(new[1], px - d)
                         until[0] = t + BLIND_CUT_HOLD
-                    elif w[1] < -BLIND_ROLL_RATE and px < A - e:
-                        new[0], new[1] = max(new[0], px + d), np.inf
+                    elif w[1] < -BLIND_ROLL_RATE and px < A - e and new[1] == np.inf:
+                        new[0] = max(new[0], px + d)
                         until[0] = t + BLIND_CUT_HOLD
-                    if w[0] > BLIND_ROLL_RATE and py < B - e:  # −y edge down about a pivot inside the +y edge
-                        new[2], new[3] = max(new[2], py + d), np.inf
+                    if w[0] > BLIND_ROLL_RATE and py < B - e and new[3] == np.inf:  # −y edge down
+                        new[2] = max(new[2], py + d)
                         until[1] = t + BLIND_CUT_HOLD
-                    elif w[0] < -BLIND_ROLL_RATE and py > -B + e:
-                        new[2], new[3] = -np.inf, min(new[3], py - d)
+                    elif w[0] < -BLIND_ROLL_RATE and py > -B + e and new[2] == -np.inf:
+                        new[3] = min(new[3], py - d)
                         until[1] = t + BLIND_CUT_HOLD
             if new == cut:
                 continue
