@@ -220,8 +220,8 @@ BLIND_SUPPORT_TAU = 0.2
 #: ≥ :data:`BLIND_CUT_LOAD` of the weight) rolling faster than this (rad/s, about a sole axis) has its contact
 #: rectangle cut behind the line of rotation through its measured CoP.
 BLIND_ROLL_RATE = 0.6
-#: Blind walk: the cut lies this far (m) behind the measured CoP, on the supported side.
-BLIND_CUT_BEHIND = 0.005
+#: Blind walk: half width (m) of the band about the measured CoP to which a rolling sole's contact is cut.
+BLIND_CUT_BAND = 0.01
 #: Blind walk: fraction of the weight a sole must carry for its rolling to cut its contact rectangle.
 BLIND_CUT_LOAD = 0.1
 #: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
@@ -873,19 +873,13 @@ class WalkScenario:
                     pin.forwardKinematics(self._model, self._gdata, q, v)
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
                     px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
-                    d, e = BLIND_CUT_BEHIND, BLIND_CUT_EDGE
-                    # (a cut axis is not cut the other way before it expires: the rotation back is the cut's own)
-                    if w[1] > BLIND_ROLL_RATE and px > -A + e and new[0] == -np.inf:  # toe down, pivot not the heel
-                        new[1] = min(new[1], px - d)
+                    e = BLIND_CUT_EDGE
+                    h = BLIND_CUT_BAND
+                    if abs(w[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
+                        new[0], new[1] = px - h, px + h
                         until[0] = t + BLIND_CUT_HOLD
-                    elif w[1] < -BLIND_ROLL_RATE and px < A - e and new[1] == np.inf:
-                        new[0] = max(new[0], px + d)
-                        until[0] = t + BLIND_CUT_HOLD
-                    if w[0] > BLIND_ROLL_RATE and py < B - e and new[3] == np.inf:  # −y edge down
-                        new[2] = max(new[2], py + d)
-                        until[1] = t + BLIND_CUT_HOLD
-                    elif w[0] < -BLIND_ROLL_RATE and py > -B + e and new[2] == -np.inf:
-                        new[3] = min(new[3], py - d)
+                    if abs(w[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about an inner line
+                        new[2], new[3] = py - h, py + h
                         until[1] = t + BLIND_CUT_HOLD
             if new == cut:
                 continue
