@@ -16,7 +16,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
   at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); the planned CoM height is raised by
-  the supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
+  the supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`); a loaded stance sole
+  rotating about a line of its sole has its contact cut to a band about that line (partial footholds,
+  :meth:`WalkScenario._partial_footholds`).
 * **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
   horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
@@ -217,8 +219,8 @@ BLIND_SET_DOWN = 0.6
 #: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
 BLIND_SUPPORT_TAU = 0.2
 #: Blind walk, partial footholds (:meth:`WalkScenario._partial_footholds`): a loaded sole (measured normal force
-#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rolling faster than this (rad/s, about a sole axis) has its contact
-#: rectangle cut behind the line of rotation through its measured CoP.
+#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rotating faster than this (rad/s, about a sole axis) has its contact
+#: rectangle cut to a band about the line of rotation through its measured CoP.
 BLIND_ROLL_RATE = 0.6
 #: Blind walk: half width (m) of the band about the measured CoP to which a rolling sole's contact is cut.
 BLIND_CUT_BAND = 0.01
@@ -321,7 +323,9 @@ class WalkScenario:
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
-            the supporting soles' measured − planned height (:meth:`_support_offset`).
+            the supporting soles' measured − planned height (:meth:`_support_offset`). A loaded stance sole
+            rotating about a line of its sole (measured CoP, angular velocity) has its QP contact and stabilizer
+            support cut to a band about that line (:meth:`_partial_footholds`; ``measured_wrench``).
 
         swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
@@ -843,15 +847,17 @@ class WalkScenario:
         Per side in full contact (``switcher.phase`` "stance") whose measured normal force
         (``measured_normal_force``, N) is at least :data:`BLIND_CUT_LOAD` of the weight: ω (3,) = the sole's
         angular velocity (rad/s, sole axes) from the state (q, v); p = (−τ_y / f_z, τ_x / f_z) the sole's measured
-        CoP (m, sole frame) from its F/T ground reaction (``measured_wrench``, sole axes). ω_y >
-        :data:`BLIND_ROLL_RATE` (toe going down): x ≤ p_x − d; ω_y < −rate: x ≥ p_x + d; ω_x > rate (the −y edge
-        going down): y ≥ p_y + d; ω_x < −rate: y ≤ p_y − d; d = :data:`BLIND_CUT_BEHIND`. Only about a pivot at
-        least :data:`BLIND_CUT_EDGE` inside the sole's trailing edge (a sole coming down flat about its heel or
-        side edge is settling, not rolling over). One cut per sole axis, never the other way while it lasts (the
-        rotation back is the cut's own doing: cutting both ways rocked the sole at 10–30 Hz); a cut lasts while
-        the rolling does and :data:`BLIND_CUT_HOLD` s after, and at most until the sole leaves full contact. Cuts bound the QP's corner forces (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`,
-        at least :data:`BLIND_CUT_MIN` a side) and the stabilizer's support area (:meth:`_hull`). Nothing happens
-        without measured wrenches (ground-truth state)."""
+        CoP (m, sole frame) from its F/T ground reaction (``measured_wrench``, sole axes). |ω_y| >
+        :data:`BLIND_ROLL_RATE` (pitching): the contact's x range becomes [p_x − h, p_x + h]; |ω_x| > rate (rolling):
+        its y range [p_y − h, p_y + h]; h = :data:`BLIND_CUT_BAND` — a line contact through the pivot (the measured
+        CoP of a sole rotating about a line of support lies on that line). Only about a pivot at least
+        :data:`BLIND_CUT_EDGE` inside the sole's edges (a sole coming down flat about its heel or side edge is
+        settling onto the ground, not rolling over it). A band lasts while the rotation does and
+        :data:`BLIND_CUT_HOLD` s after, at most until the sole leaves full contact. It bounds the QP's corner forces
+        (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`, clipped to the sole, at least
+        :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`). Tried and not kept: a one-sided cut
+        behind the pivot (the QP then asked CoPs far behind it and rocked the sole at 10–30 Hz; seeds 1, 2, 3, 6 of
+        ``benchmarks/rough_blind.py`` fell). Nothing happens without measured wrenches (ground-truth state)."""
         contacts = getattr(controller, "contacts", None)
         f, W = self.measured_normal_force, self.measured_wrench
         A, B = 0.5 * self.robot.sole_length, 0.5 * self.robot.sole_width
