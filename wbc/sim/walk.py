@@ -41,8 +41,10 @@ Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) an
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
 displacement of a loaded stance sole from its position when fully loaded until its ramp-out begins), minimum
 measured CoP margin (m, the CoP of the plant's foot contact wrenches to the edge of the convex hull of the
-loaded soles, ≥ 10 N each; negative outside), touch-down times vs plan. Falls, solver failures and the real-time
-factor come from :func:`wbc.sim.scenarios.summarize`.
+loaded soles, ≥ 10 N each; negative outside), touch-down times vs plan, ``support_cuts`` (blind: ticks at which a
+sole's contact band was set or moved, :meth:`WalkScenario._partial_footholds`). Falls, solver failures and the
+real-time factor come from :func:`wbc.sim.scenarios.summarize` (its QP CoP margin uses each contact's rectangle at
+the end of the run, not a band cut meanwhile).
 """
 
 from __future__ import annotations
@@ -566,7 +568,6 @@ class WalkScenario:
         self._cut = {"left": None, "right": None}
         self._cut_until = {"left": [-np.inf, -np.inf], "right": [-np.inf, -np.inf]}  # (x, y) cut expiry (s)
         self.support_cuts = 0
-        self.cut_events: list = []  # (t, side, ω (3,), measured CoP (2,), cut)
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
@@ -900,7 +901,6 @@ class WalkScenario:
             self._cut[s] = tuple(new)
             con.set_support(lo_x, hi_x, lo_y, hi_y)
             self.support_cuts += 1
-            self.cut_events.append((round(t, 3), s, [round(float(x), 4) for x in con.support]))
 
     @staticmethod
     def _clip_range(lo: float, hi: float, a: float, b: float) -> tuple[float, float]:
@@ -1244,7 +1244,6 @@ class WalkScenario:
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
             "support_cuts": self.support_cuts,
-            "support_cut_events": self.cut_events,
             "step_timing_changes_s": [m for _, _, m in self.timing_changes],
             "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
             "adjusted_distance_m": float(np.linalg.norm(
