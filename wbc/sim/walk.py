@@ -230,8 +230,8 @@ BLIND_CUT_BAND = 0.01
 BLIND_CUT_LOAD = 0.1
 #: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
 BLIND_CUT_MIN = 0.02
-#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's trailing edge for a cut.
-BLIND_CUT_EDGE = 0.02
+#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's edges for a cut.
+BLIND_PIVOT_INSET = 0.02
 #: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
 BLIND_CUT_HOLD = 0.1
 
@@ -852,13 +852,12 @@ class WalkScenario:
         :data:`BLIND_ROLL_RATE` (pitching): the contact's x range becomes [p_x − h, p_x + h]; |ω_x| > rate (rolling):
         its y range [p_y − h, p_y + h]; h = :data:`BLIND_CUT_BAND` — a line contact through the pivot (the measured
         CoP of a sole rotating about a line of support lies on that line). Only about a pivot at least
-        :data:`BLIND_CUT_EDGE` inside the sole's edges (a sole coming down flat about its heel or side edge is
+        :data:`BLIND_PIVOT_INSET` inside the sole's edges (a sole coming down flat about its heel or side edge is
         settling onto the ground, not rolling over it). A band lasts while the rotation does and
         :data:`BLIND_CUT_HOLD` s after, at most until the sole leaves full contact. It bounds the QP's corner forces
         (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`, clipped to the sole, at least
-        :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`). Tried and not kept: a one-sided cut
-        behind the pivot (the QP then asked CoPs far behind it and rocked the sole at 10–30 Hz; seeds 1, 2, 3, 6 of
-        ``benchmarks/rough_blind.py`` fell). Nothing happens without measured wrenches (ground-truth state)."""
+        :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`).
+        Nothing happens without measured wrenches (ground-truth state)."""
         contacts = getattr(controller, "contacts", None)
         f, W = self.measured_normal_force, self.measured_wrench
         A, B = 0.5 * self.robot.sole_length, 0.5 * self.robot.sole_width
@@ -880,7 +879,7 @@ class WalkScenario:
                     pin.forwardKinematics(self._model, self._gdata, q, v)
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
                     px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
-                    e = BLIND_CUT_EDGE
+                    e = BLIND_PIVOT_INSET
                     h = BLIND_CUT_BAND
                     if abs(w[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
                         new[0], new[1] = px - h, px + h
