@@ -172,3 +172,32 @@ def test_ramp_in_bound_never_below_the_measured_load(robot):
     assert c.contacts["right"].f_max * 4 == pytest.approx(600.0)
     sw.update(0.082, q, v, np.array([0.0, 900.0]))
     assert sw.phase("right") == "stance" and math.isinf(c.contacts["right"].f_max)
+
+
+def test_partial_foothold_confines_the_qp_cop(robot):
+    """SoleContact.set_support (partial foothold): Talos standing, the CoM asked to accelerate backwards at 0.6 m/s²
+    (a CoP ahead of the CoM, at x = +65 mm in the left sole with the whole sole); with the left sole's contact cut to
+    x ≤ −0.03 m (sole frame) the QP's corner forces of that sole, still carrying ≥ 100 N, put its CoP at
+    x ≤ −0.03 m (+ 0.5 mm); with the whole sole again (reset_support) the first answer comes back."""
+    c = IDBalanceController(robot)
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    c.reset(q, v)
+    com = c.state.com.copy()
+    c.set_com_reference(com, np.zeros(3), np.array([-0.6, 0.0, 0.0]))
+    left = c.contacts["left"]
+    k = list(c.contacts).index("left")
+
+    def cop_x():
+        f = c.compute(q, v).forces[12 * k:12 * k + 12]
+        assert f[2::3].sum() >= 100.0
+        return float(left.cop(f)[0])
+
+    full = cop_x()
+    left.set_support(-1.0, -0.03, -1.0, 1.0)
+    assert left.support[1] == -0.03 and left.corners[:, 0].max() == -0.03
+    cut = cop_x()
+    left.reset_support()
+    assert cop_x() == pytest.approx(full, abs=1e-6)
+    assert cut <= -0.03 + 5e-4 < full
+    with pytest.raises(InvalidInputError):
+        left.set_support(0.05, 0.04, -1.0, 1.0)

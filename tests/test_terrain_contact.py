@@ -147,3 +147,26 @@ def test_blind_walk_keeps_the_com_height_above_its_soles(tmp_path):
 
     assert abs(com_above_soles(lg["q"][-1]) - com_above_soles(lg["q"][0])) <= 0.010
 
+
+
+def test_blind_walk_cuts_a_rolling_sole_to_its_support(tmp_path):
+    """Talos, 8 steps of 0.25 m over rough:0.02:6 planned flat, estimated state + realistic drives: a loaded stance
+    sole rolling over a terrain node has its QP contact cut to a band about its measured CoP
+    (``WalkScenario._partial_footholds``), so it does not roll over: no fall, no joint of the plant above its URDF
+    speed limit (without the band, on b2acad8: 9 exceedances, ``leg_right_5_joint`` at 1.24 × its limit), and the
+    band was set (``support_cuts`` > 0)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "blind.json"
+    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", "rough:0.02:6",
+                        "--blind", "--steps", "8", "--step-length", "0.25", "--quiet", "--json", str(out)],
+                       capture_output=True, text=True, env={**os.environ}, timeout=600)
+    assert r.returncode in (0, 1), r.stderr
+    s = json.loads(out.read_text())
+    assert not s["fell"], s.get("fall_reason")
+    assert s["support_cuts"] > 0
+    assert s["joint_speed_exceedances"] == 0 and s["max_joint_speed_ratio"] <= 1.0, \
+        (s["joint_speed_exceedances"], s["max_joint_speed_ratio"], s["max_joint_speed_joint"])

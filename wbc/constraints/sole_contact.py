@@ -82,9 +82,11 @@ class SoleContact:
             if not (np.isfinite(g) and g >= 0):
                 raise InvalidInputError(f"contact {what} must be finite and ≥ 0, got {g!r}")
         a, b = 0.5 * length, 0.5 * width
+        self._half = (a, b)
         corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
         corners.setflags(write=False)
         self._corners = corners
+        self._support = (-a, a, -b, b)
         #: (16, 12) friction rows: ``friction_matrix @ f ≤ 0`` (rewritten in place when :attr:`mu` is assigned).
         self.friction_matrix = np.zeros((16, 12))
         self._mu = math.nan
@@ -102,8 +104,60 @@ class SoleContact:
     # -- parameters (validated on assignment; the QP reads them every tick) ------------------------------------
     @property
     def corners(self) -> np.ndarray:
-        """(4, 3) sole corners in the sole frame (m), read-only (the sole size is fixed at construction)."""
+        """(4, 3) corners of the contact rectangle in the sole frame (m), read-only: the sole rectangle, or the
+        part of it set by :meth:`set_support`."""
         return self._corners
+
+    @property
+    def half_size(self) -> tuple[float, float]:
+        """(a, b): half length and half width (m) of the whole sole rectangle."""
+        return self._half
+
+    @property
+    def support(self) -> tuple[float, float, float, float]:
+        """(x_lo, x_hi, y_lo, y_hi) (m, sole frame) of the contact rectangle: the whole sole unless cut by
+        :meth:`set_support`."""
+        return self._support
+
+    def set_support(self, x_lo: float, x_hi: float, y_lo: float, y_hi: float) -> None:
+        """Confine the corner forces (and so the CoP) to the rectangle [x_lo, x_hi] × [y_lo, y_hi] (m, sole frame),
+        clipped to the sole: a partial foothold, the sole supported by only a part of its area (Wiedebach et al.,
+        "Walking on partial footholds including line contacts with the humanoid robot Atlas", Humanoids 2016,
+        Sec. III: the contact points of the QP are the vertices of the supported polygon). The 4 corner forces
+        act at that rectangle's corners: :attr:`corners` and :meth:`force_map` change in place (read by the QP on
+        its next tick). :meth:`reset_support` restores the whole sole.
+
+        Raises:
+            InvalidInputError: a bound not finite, or an empty rectangle (x_lo ≥ x_hi or y_lo ≥ y_hi after
+                clipping).
+        """
+        a, b = self._half
+        vals = [float(x_lo), float(x_hi), float(y_lo), float(y_hi)]
+        if not all(math.isfinite(x) for x in vals):
+            raise InvalidInputError(f"support bounds must be finite (m), got {vals!r}")
+        x0, x1 = max(vals[0], -a), min(vals[1], a)
+        y0, y1 = max(vals[2], -b), min(vals[3], b)
+        if not (x0 < x1 and y0 < y1):
+            raise InvalidInputError(f"empty support rectangle [{x0}, {x1}] x [{y0}, {y1}] m")
+        self._set_rectangle(x0, x1, y0, y1)
+
+    def reset_support(self) -> None:
+        """The contact rectangle is the whole sole again (undoes :meth:`set_support`)."""
+        a, b = self._half
+        if self._support != (-a, a, -b, b):
+            self._set_rectangle(-a, a, -b, b)
+
+    def _set_rectangle(self, x0: float, x1: float, y0: float, y1: float) -> None:
+        c = self._corners
+        c.setflags(write=True)
+        c[:, :2] = [[x1, y1], [x0, y1], [x0, y0], [x1, y0]]
+        c.setflags(write=False)
+        G = self._G
+        G.setflags(write=True)
+        for i in range(4):
+            G[3:6, 3 * i:3 * i + 3] = pin.skew(c[i])
+        G.setflags(write=False)
+        self._support = (x0, x1, y0, y1)
 
     @corners.setter
     def corners(self, value) -> None:

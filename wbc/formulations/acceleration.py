@@ -979,8 +979,8 @@ class InverseDynamicsQP:
             out["normal"] = min(out["normal"], float(np.min(f[:, 2] - c.normal_force_bounds[0])))
             cop = c.cop(sol.forces[12 * k:12 * k + 12])
             if cop is not None:
-                a, bw = c.corners[0, 0], c.corners[0, 1]
-                out["cop"] = min(out["cop"], float(min(a - abs(cop[0]), bw - abs(cop[1]))))
+                x0, x1, y0, y1 = c.support
+                out["cop"] = min(out["cop"], float(min(cop[0] - x0, x1 - cop[0], cop[1] - y0, y1 - cop[1])))
         if self.tau_rows.size:
             out["torque"] = float(np.min(self.tau_max[self.tau_rows] - np.abs(sol.tau[self.tau_rows])))
         return out
@@ -1117,3 +1117,4 @@ class _KernelBuffers:
                 self.cdrift[i] = c.acceleration_offset(state)
                 self.ckd[i] = c.kd
                 self.Rc[i] = rotations[i]
+                self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners

@@ -193,6 +193,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
         if state is not None and hasattr(scenario, "measured_normal_force"):
             scenario.measured_normal_force = state.measured_normal_force()  # touch-down from the F/T sensors
+        if state is not None and hasattr(scenario, "measured_wrench"):
+            scenario.measured_wrench = state.estimator.wrench  # (2, 6) F/T wrenches at the soles, sole axes
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
         if is_id:

@@ -15,9 +15,10 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
-  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`). Blind and on planned terrain the
-  planned CoM height is raised by the supporting soles' measured − planned height
-  (:meth:`WalkScenario._support_offset`).
+  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); a loaded stance sole rotating about a
+  line of its sole has its contact cut to a band about that line (partial footholds,
+  :meth:`WalkScenario._partial_footholds`). Blind and on planned terrain the planned CoM height is raised by the
+  supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
 * **Swing tracking**: the swing foot's task weighs the sole's height ``swing_height_weight`` (default 3) times its
   horizontal position, so a swing faster than the legs can follow lags horizontally and keeps its clearance.
 * **CoM / DCM**: with ``stabilizer=False`` the CoM task tracks the planned CoM (PD + acceleration feed-forward).
@@ -40,8 +41,10 @@ Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) an
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
 displacement of a loaded stance sole from its position when fully loaded until its ramp-out begins), minimum
 measured CoP margin (m, the CoP of the plant's foot contact wrenches to the edge of the convex hull of the
-loaded soles, ≥ 10 N each; negative outside), touch-down times vs plan. Falls, solver failures and the real-time
-factor come from :func:`wbc.sim.scenarios.summarize`.
+loaded soles, ≥ 10 N each; negative outside), touch-down times vs plan, ``support_cuts`` (blind: ticks at which a
+sole's contact band was set or moved, :meth:`WalkScenario._partial_footholds`). Falls, solver failures and the
+real-time factor come from :func:`wbc.sim.scenarios.summarize` (its QP CoP margin uses each contact's rectangle at
+the end of the run, not a band cut meanwhile).
 """
 
 from __future__ import annotations
@@ -217,6 +220,20 @@ BLIND_SET_DOWN = 0.6
 #: Blind walk: time constant (s) of the low-pass filter on the supporting soles' measured − planned height that is
 #: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
 BLIND_SUPPORT_TAU = 0.2
+#: Blind walk, partial footholds (:meth:`WalkScenario._partial_footholds`): a loaded sole (measured normal force
+#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rotating faster than this (rad/s, about a sole axis) has its contact
+#: rectangle cut to a band about the line of rotation through its measured CoP.
+BLIND_ROLL_RATE = 0.6
+#: Blind walk: half width (m) of the band about the measured CoP to which a rolling sole's contact is cut.
+BLIND_CUT_BAND = 0.01
+#: Blind walk: fraction of the weight a sole must carry for its rolling to cut its contact rectangle.
+BLIND_CUT_LOAD = 0.1
+#: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
+BLIND_CUT_MIN = 0.02
+#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's edges for a cut.
+BLIND_PIVOT_INSET = 0.02
+#: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
+BLIND_CUT_HOLD = 0.1
 
 
 class WalkScenario:
@@ -308,7 +325,9 @@ class WalkScenario:
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
-            the supporting soles' measured − planned height (:meth:`_support_offset`; also on planned terrain).
+            the supporting soles' measured − planned height (:meth:`_support_offset`; also on planned terrain). A
+            loaded stance sole rotating about a line of its sole (measured CoP, angular velocity) has its QP contact
+            and stabilizer support cut to a band about that line (:meth:`_partial_footholds`; ``measured_wrench``).
 
         swing_froude: step timing on planned terrain: the swing sole's peak speed is kept at or below
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
@@ -386,6 +405,9 @@ class WalkScenario:
         #: (2,) N, (left, right) normal force measured by the ankle F/T sensors, set by the closed loop every tick
         #: when the controller reads an estimated state (None: touch-down from the state alone)
         self.measured_normal_force = None
+        #: (2, 6) ground reactions (N, N·m) of the (left, right) soles at their origins, sole axes, measured by the
+        #: ankle F/T sensors; set by the closed loop every tick on an estimated state (None: not measured)
+        self.measured_wrench = None
         if not (np.isfinite(step_duration) and step_duration > 0.2):
             raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
         if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
@@ -540,6 +562,12 @@ class WalkScenario:
         self._dz_support, self._dz_support_rate = 0.0, 0.0
         self._active: dict[str, tuple] = {}
         weight = robot.mass * robot.gravity
+        self._weight = weight
+        #: blind: per side, the cut (x_lo, x_hi, y_lo, y_hi) (m, sole frame) of the sole's contact rectangle
+        #: (:meth:`_partial_footholds`; ±inf: not cut), and the number of cuts made
+        self._cut = {"left": None, "right": None}
+        self._cut_until = {"left": [-np.inf, -np.inf], "right": [-np.inf, -np.inf]}  # (x, y) cut expiry (s)
+        self.support_cuts = 0
         if self.blind:  # the ground may be higher or lower than planned: a load confirms the height test (late
             # contact) and a load alone within 5 cm of the planned landing is a touch-down (early contact)
             self.switcher = ContactSwitcher(controller, ramp_time=self.ramp_time, touchdown_force=0.1 * weight,
@@ -625,8 +653,20 @@ class WalkScenario:
         r = self.robot
         for s in ("left", "right"):
             if self.switcher.in_contact(s):
-                pts.append(projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * shrink,
-                                         r.sole_width - 2 * shrink))
+                M = self._data.oMf[self._fid[s]]
+                cut = self._cut[s]
+                if cut is None:
+                    pts.append(projected_sole_corners(M, r.sole_length - 2 * shrink, r.sole_width - 2 * shrink))
+                    continue
+                a, b = 0.5 * r.sole_length - shrink, 0.5 * r.sole_width - shrink
+                x0, x1 = max(-a, cut[0]), min(a, cut[1])
+                y0, y1 = max(-b, cut[2]), min(b, cut[3])
+                if x1 - x0 < 0.002:  # cut within the margin: a 2 mm strip about its middle (the hull keeps an area)
+                    x0, x1 = 0.5 * (x0 + x1) - 0.001, 0.5 * (x0 + x1) + 0.001
+                if y1 - y0 < 0.002:
+                    y0, y1 = 0.5 * (y0 + y1) - 0.001, 0.5 * (y0 + y1) + 0.001
+                c = np.array([[x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0], [x1, y0, 0.0]])
+                pts.append((c @ M.rotation.T + M.translation)[:, :2])
         if not pts:
             return np.zeros((0, 2))
         pts = np.vstack(pts)
@@ -705,6 +745,8 @@ class WalkScenario:
             self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
         dz, dzd = self._support_offset(k) if self.blind or self.terrain_walk is not None else (0.0, 0.0)
+        if self.blind:
+            self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
             hull = self._hull(self.cop_margin)
             a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
@@ -794,6 +836,78 @@ class WalkScenario:
         z_other = float(self._gdata.oMf[self._fid[other]].translation[2])
         self._dz_stance[side] = z_other - float(self.poses[other][k][2, 3])
         sw.ground_height[side] = self._land_z[side] + self._dz_stance[side]
+
+    def _partial_footholds(self, controller, q: np.ndarray, v: np.ndarray, t: float = 0.0) -> None:
+        """Blind walk: confine a rolling stance sole's contact to the part of it that is supported (partial
+        footholds, Wiedebach, Grabowski, Pratt, "Walking on partial footholds including line contacts with the
+        humanoid robot Atlas", Humanoids 2016, Sec. III-B: a foot rotating about an edge has its support polygon cut
+        at the line of rotation). On rough ground a sole can rest on one terrain node or edge under it; the QP's
+        contact (the whole rectangle) then lets it ask a CoP beyond that edge, which the ground cannot give, and
+        the ankle torque rolls the sole over the edge.
+
+        Per side in full contact (``switcher.phase`` "stance") whose measured normal force
+        (``measured_normal_force``, N) is at least :data:`BLIND_CUT_LOAD` of the weight: ω (3,) = the sole's
+        angular velocity (rad/s, sole axes) from the state (q, v); p = (−τ_y / f_z, τ_x / f_z) the sole's measured
+        CoP (m, sole frame) from its F/T ground reaction (``measured_wrench``, sole axes). |ω_y| >
+        :data:`BLIND_ROLL_RATE` (pitching): the contact's x range becomes [p_x − h, p_x + h]; |ω_x| > rate (rolling):
+        its y range [p_y − h, p_y + h]; h = :data:`BLIND_CUT_BAND` — a line contact through the pivot (the measured
+        CoP of a sole rotating about a line of support lies on that line). Only about a pivot at least
+        :data:`BLIND_PIVOT_INSET` inside the sole's edges (a sole coming down flat about its heel or side edge is
+        settling onto the ground, not rolling over it). A band lasts while the rotation does and
+        :data:`BLIND_CUT_HOLD` s after, at most until the sole leaves full contact. It bounds the QP's corner forces
+        (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`, clipped to the sole, at least
+        :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`).
+        Nothing happens without measured wrenches (ground-truth state)."""
+        contacts = getattr(controller, "contacts", None)
+        f, W = self.measured_normal_force, self.measured_wrench
+        A, B = 0.5 * self.robot.sole_length, 0.5 * self.robot.sole_width
+        for j, s in enumerate(("left", "right")):
+            con = None if contacts is None else contacts.get(s)
+            if con is None:
+                continue
+            cut = list(self._cut[s]) if self._cut[s] is not None else [-np.inf, np.inf, -np.inf, np.inf]
+            until = self._cut_until[s]
+            new = list(cut)
+            if self.switcher.phase(s) != "stance":
+                new = [-np.inf, np.inf, -np.inf, np.inf]
+            else:
+                for ax in (0, 1):  # expired cuts
+                    if until[ax] < t:
+                        new[2 * ax], new[2 * ax + 1] = -np.inf, np.inf
+                fz = 0.0 if W is None else float(W[j][2])
+                if f is not None and float(f[j]) >= BLIND_CUT_LOAD * self._weight and fz > 0.0:
+                    pin.forwardKinematics(self._model, self._gdata, q, v)
+                    w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
+                    px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
+                    e = BLIND_PIVOT_INSET
+                    h = BLIND_CUT_BAND
+                    if abs(w[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
+                        new[0], new[1] = px - h, px + h
+                        until[0] = t + BLIND_CUT_HOLD
+                    if abs(w[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about an inner line
+                        new[2], new[3] = py - h, py + h
+                        until[1] = t + BLIND_CUT_HOLD
+            if new == cut:
+                continue
+            if all(math.isinf(x) for x in new):
+                self._cut[s] = None
+                con.reset_support()
+                continue
+            x1, y1 = con.half_size
+            x0, y0 = -x1, -y1
+            lo_x, hi_x = self._clip_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
+            lo_y, hi_y = self._clip_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
+            self._cut[s] = tuple(new)
+            con.set_support(lo_x, hi_x, lo_y, hi_y)
+            self.support_cuts += 1
+
+    @staticmethod
+    def _clip_range(lo: float, hi: float, a: float, b: float) -> tuple[float, float]:
+        """[lo, hi] widened to :data:`BLIND_CUT_MIN` about its middle and kept inside [a, b]."""
+        if hi - lo < BLIND_CUT_MIN:
+            m = min(max(0.5 * (lo + hi), a + 0.5 * BLIND_CUT_MIN), b - 0.5 * BLIND_CUT_MIN)
+            lo, hi = m - 0.5 * BLIND_CUT_MIN, m + 0.5 * BLIND_CUT_MIN
+        return lo, hi
 
     def _support_offset(self, k: int) -> tuple[float, float]:
         """Blind walk and planned terrain: height (m) and rate (m/s) added to the planned CoM height at plan sample
@@ -1131,6 +1245,7 @@ class WalkScenario:
                                       f"the sole below {self.switcher.touchdown_force_height * 1e3:g} mm"),
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
+            "support_cuts": self.support_cuts,
             "step_timing_changes_s": [m for _, _, m in self.timing_changes],
             "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
             "adjusted_distance_m": float(np.linalg.norm(
