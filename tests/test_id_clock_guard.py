@@ -44,15 +44,17 @@ def _rows_hold(x, A, b, C, l, u, lb, ub, tol=1e-6):
 
 @pytest.mark.parametrize("name", ["id_released_foot_talos", "id_first_tick_humanoid15"])
 def test_hard_set_check_finds_feasible_the_qps_daqp_calls_infeasible_and_proves_an_empty_set_empty(name):
-    """Two QPs recorded from the ID fuzz that DAQP (the ID settings) reports infeasible although HiGHS finds their
-    hard set feasible: the check (DAQP on the projection of the origin, identity Hessian) finds them feasible. The
+    """Two QPs recorded from the ID fuzz that DAQP (the ID settings, one attempt: ``cold_retry`` off, as the
+    controller's first call) reports infeasible although HiGHS finds their hard set feasible: the check (DAQP on the projection of the origin, identity Hessian) finds them feasible. The
     same set with one inequality row's lower bound moved past its upper one (HiGHS: infeasible) is never called
     feasible: Talos's is proved empty (False); on humanoid15's DAQP returns a point that fails the row check, which
     is reported as unknown (None: the caller goes on to quadprog)."""
     H, g, A, b, C, l, u, lb, ub = _fixture(name)
     assert _highs_feasible(A, b, C, l, u, lb, ub)
+    first = DaqpBackend(primal_tol=1e-6, warm_start="dual")
+    first.cold_retry = False
     with pytest.raises(SolverError):  # the false infeasibility the check must not repeat
-        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+        first.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert hard_set_feasible(A, b, C, l, u, lb, ub) is True
     l2 = l.copy()
     i = np.flatnonzero(np.isfinite(u) & np.any(C != 0, axis=1))[0]

@@ -550,8 +550,10 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
 def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retry():
     """A QP recorded from the ID fuzz (humanoid15, ``solver="daqp"``, seed 297004 episode 1 tick 0: a controller's
     first tick, both feet in contact, nothing pinned) that DAQP reports infeasible although HiGHS finds its hard set
-    feasible; quadprog (``solve_pinned_reduced``, the controller's retry) solves it. Oracles: every row to 1e-6
-    (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
+    feasible in its first attempt (one call, ``cold_retry`` off, as the controller's first attempt);
+    quadprog (``solve_pinned_reduced``, the controller's next step) solves it, and so does DAQP with its retries
+    (the looser primal tolerance of the dual warm start's retry). Oracles: every row to 1e-6 (scaled by
+    max(1, |rhs|)) and the KKT conditions computed here."""
     from pathlib import Path
 
     from wbc.exceptions import SolverError
@@ -560,12 +562,17 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
     d = dict(np.load(Path(__file__).parent / "fixtures" / "id_first_tick_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
+    first = DaqpBackend(primal_tol=1e-6, warm_start="dual")
+    first.cold_retry = False
     with pytest.raises(SolverError):
-        DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+        first.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     x, reason = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, 1e-6, details=True)
     assert reason == "" and x is not None
     _assert_feasible(x, A, b, C, l, u, lb, ub)
     assert _kkt_residual(x, H, g, A, C, l, u, lb, ub) < 1e-4
+    x2 = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    _assert_feasible(x2, A, b, C, l, u, lb, ub)
+    assert _kkt_residual(x2, H, g, A, C, l, u, lb, ub) < 1e-4
 
 
 def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
