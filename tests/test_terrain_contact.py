@@ -101,17 +101,7 @@ def test_blind_walk_lands_on_its_footholds_over_rough_terrain(tmp_path):
     estimated state at touch-down vs the footstep) and the robot must not
     fall. (Before the vertical final descent and the stance-relative swing height the landings were 27-110 mm
     short and it fell at the 6th.)"""
-    import json
-    import os
-    import subprocess
-    import sys
-
-    out = tmp_path / "blind.json"
-    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", "rough:0.02:9",
-                        "--blind", "--steps", "6", "--step-length", "0.35", "--quiet", "--json", str(out)],
-                       capture_output=True, text=True, env={**os.environ}, timeout=600)
-    assert r.returncode in (0, 1), r.stderr
-    s = json.loads(out.read_text())
+    s = _blind_walk_summary(tmp_path, "rough:0.02:9", steps=6, step_length=0.35)
     assert not s["fell"], s.get("fall_reason")
     assert s["touchdowns"] == 6 and s["solver_failures"] == 0
     assert max(s["landing_error_m"]) <= 0.015
@@ -155,18 +145,24 @@ def test_blind_walk_cuts_a_rolling_sole_to_its_support(tmp_path):
     (``WalkScenario._partial_footholds``), so it does not roll over: no fall, no joint of the plant above its URDF
     speed limit (without the band, on b2acad8: 9 exceedances, ``leg_right_5_joint`` at 1.24 × its limit), and the
     band was set (``support_cuts`` > 0)."""
+    s = _blind_walk_summary(tmp_path, "rough:0.02:6", steps=8, step_length=0.25)
+    assert not s["fell"], s.get("fall_reason")
+    assert s["support_cuts"] > 0
+    assert s["joint_speed_exceedances"] == 0 and s["max_joint_speed_ratio"] <= 1.0, \
+        (s["joint_speed_exceedances"], s["max_joint_speed_ratio"], s["max_joint_speed_joint"])
+
+
+def _blind_walk_summary(tmp_path, terrain: str, *, steps: int, step_length: float) -> dict:
+    """JSON summary of ``wbc sim walk --robot talos --terrain TERRAIN --blind`` (a subprocess: the defaults,
+    estimated state and realistic plant), exit code 0 (passed) or 1 (a criterion failed)."""
     import json
     import os
     import subprocess
     import sys
 
     out = tmp_path / "blind.json"
-    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", "rough:0.02:6",
-                        "--blind", "--steps", "8", "--step-length", "0.25", "--quiet", "--json", str(out)],
-                       capture_output=True, text=True, env={**os.environ}, timeout=600)
+    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", terrain,
+                        "--blind", "--steps", str(steps), "--step-length", str(step_length), "--quiet", "--json",
+                        str(out)], capture_output=True, text=True, env={**os.environ}, timeout=600)
     assert r.returncode in (0, 1), r.stderr
-    s = json.loads(out.read_text())
-    assert not s["fell"], s.get("fall_reason")
-    assert s["support_cuts"] > 0
-    assert s["joint_speed_exceedances"] == 0 and s["max_joint_speed_ratio"] <= 1.0, \
-        (s["joint_speed_exceedances"], s["max_joint_speed_ratio"], s["max_joint_speed_joint"])
+    return json.loads(out.read_text())
