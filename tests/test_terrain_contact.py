@@ -107,23 +107,22 @@ def test_blind_walk_lands_on_its_footholds_over_rough_terrain(tmp_path):
     assert max(s["landing_error_m"]) <= 0.015
 
 
-def test_blind_walk_keeps_the_com_height_above_its_soles(tmp_path):
+@pytest.fixture(scope="module")
+def blind_walk_rough6(tmp_path_factory):
+    """One blind walk for the two tests below: Talos, 8 steps of 0.25 m over rough:0.02:6 planned flat, estimated
+    state + realistic drives → (JSON summary, path of its ``--log``)."""
+    tmp = tmp_path_factory.mktemp("blind6")
+    log = tmp / "blind.npz"
+    return _blind_walk_summary(tmp, "rough:0.02:6", steps=8, step_length=0.25, log=log), log
+
+
+def test_blind_walk_keeps_the_com_height_above_its_soles(blind_walk_rough6):
     """Talos, 8 steps of 0.25 m over rough:0.02:6 planned flat, on the estimated state. The plant's ground truth
     (the logged MuJoCo ``q``, Pinocchio): the CoM's height above the mean height of the two soles, both standing
     after the walk, must be within 10 mm of its value at the start. On uneven ground the estimated base height is
     contact odometry and drifts upwards by a few mm per step; a CoM held at the planned absolute height then sank
     by that drift relative to the feet (the legs bending step after step)."""
-    import json
-    import os
-    import subprocess
-    import sys
-
-    out, log = tmp_path / "blind.json", tmp_path / "blind.npz"
-    r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", "rough:0.02:6",
-                        "--blind", "--steps", "8", "--step-length", "0.25", "--quiet", "--json", str(out),
-                        "--log", str(log)], capture_output=True, text=True, env={**os.environ}, timeout=600)
-    assert r.returncode in (0, 1), r.stderr
-    s = json.loads(out.read_text())
+    s, log = blind_walk_rough6
     assert not s["fell"], s.get("fall_reason")
     talos = load_robot("talos")
     data = talos.model.createData()
@@ -139,22 +138,23 @@ def test_blind_walk_keeps_the_com_height_above_its_soles(tmp_path):
 
 
 
-def test_blind_walk_cuts_a_rolling_sole_to_its_support(tmp_path):
+def test_blind_walk_cuts_a_rolling_sole_to_its_support(blind_walk_rough6):
     """Talos, 8 steps of 0.25 m over rough:0.02:6 planned flat, estimated state + realistic drives: a loaded stance
     sole rolling over a terrain node has its QP contact cut to a band about its measured CoP
     (``WalkScenario._partial_footholds``), so it does not roll over: no fall, no joint of the plant above its URDF
     speed limit (without the band, on b2acad8: 9 exceedances, ``leg_right_5_joint`` at 1.24 × its limit), and the
     band was set (``support_cuts`` > 0)."""
-    s = _blind_walk_summary(tmp_path, "rough:0.02:6", steps=8, step_length=0.25)
+    s, _ = blind_walk_rough6
     assert not s["fell"], s.get("fall_reason")
     assert s["support_cuts"] > 0
     assert s["joint_speed_exceedances"] == 0 and s["max_joint_speed_ratio"] <= 1.0, \
         (s["joint_speed_exceedances"], s["max_joint_speed_ratio"], s["max_joint_speed_joint"])
 
 
-def _blind_walk_summary(tmp_path, terrain: str, *, steps: int, step_length: float) -> dict:
+def _blind_walk_summary(tmp_path, terrain: str, *, steps: int, step_length: float, log=None) -> dict:
     """JSON summary of ``wbc sim walk --robot talos --terrain TERRAIN --blind`` (a subprocess: the defaults,
-    estimated state and realistic plant), exit code 0 (passed) or 1 (a criterion failed)."""
+    estimated state and realistic plant; its time series to ``log`` when given), exit code 0 (passed) or 1 (a
+    criterion failed)."""
     import json
     import os
     import subprocess
@@ -163,6 +163,7 @@ def _blind_walk_summary(tmp_path, terrain: str, *, steps: int, step_length: floa
     out = tmp_path / "blind.json"
     r = subprocess.run([sys.executable, "-m", "wbc", "sim", "walk", "--robot", "talos", "--terrain", terrain,
                         "--blind", "--steps", str(steps), "--step-length", str(step_length), "--quiet", "--json",
-                        str(out)], capture_output=True, text=True, env={**os.environ}, timeout=600)
+                        str(out), *(["--log", str(log)] if log is not None else [])],
+                       capture_output=True, text=True, env={**os.environ}, timeout=600)
     assert r.returncode in (0, 1), r.stderr
     return json.loads(out.read_text())
