@@ -291,7 +291,8 @@ class SoleContact:
         return lb, ub
 
     def force_map(self, state: DynamicsState | None = None) -> np.ndarray:
-        """(6, 12) constant G: corner forces (sole frame) → wrench at the sole origin, sole frame."""
+        """(6, 12) G: corner forces (sole frame, N) → wrench at the sole origin (sole frame, N and N·m), read-only;
+        constant unless :meth:`set_support` or :meth:`reset_support` moves the corners (rewritten in place)."""
         return self._G
 
     def jacobian(self, state: DynamicsState) -> np.ndarray:

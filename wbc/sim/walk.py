@@ -861,6 +861,7 @@ class WalkScenario:
         contacts = getattr(controller, "contacts", None)
         f, W = self.measured_normal_force, self.measured_wrench
         A, B = 0.5 * self.robot.sole_length, 0.5 * self.robot.sole_width
+        kinematics = False  # forward kinematics with velocities, once per call, only when a sole needs it
         for j, s in enumerate(("left", "right")):
             con = None if contacts is None else contacts.get(s)
             if con is None:
@@ -876,7 +877,9 @@ class WalkScenario:
                         new[2 * ax], new[2 * ax + 1] = -np.inf, np.inf
                 fz = 0.0 if W is None else float(W[j][2])
                 if f is not None and float(f[j]) >= BLIND_CUT_LOAD * self._weight and fz > 0.0:
-                    pin.forwardKinematics(self._model, self._gdata, q, v)
+                    if not kinematics:
+                        pin.forwardKinematics(self._model, self._gdata, q, v)
+                        kinematics = True
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
                     px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
                     e = BLIND_PIVOT_INSET
@@ -911,8 +914,7 @@ class WalkScenario:
 
     def _support_offset(self, k: int) -> tuple[float, float]:
         """Blind walk and planned terrain: height (m) and rate (m/s) added to the planned CoM height at plan sample
-        ``k``: the measured −
-        planned height of the soles in contact, weighted by their measured normal forces (``measured_normal_force``;
+        ``k``: the measured − planned height of the soles in contact, weighted by their measured normal forces (``measured_normal_force``;
         equal weights without it), low-passed with the time constant :data:`BLIND_SUPPORT_TAU`. Uses the sole
         placements of the state given to :meth:`update` (``self._data``, updated before the call).
 
