@@ -1,6 +1,6 @@
 """Cost of the self-collision constraint per tick (issue 10 target: ≤ 200 µs on Talos), broad phase vs exhaustive.
 
-Scenario (as ``tests/test_self_collision.py``): Talos stands (soles hard), a right-hand position target is driven
+Scenario (as ``tests/constraints/test_self_collision.py``): Talos stands (soles hard), a right-hand position target is driven
 through the torso over 1.2 s at 500 Hz, the default :class:`~wbc.constraints.SelfCollisionConstraint`
 (883 default pairs, min_distance 20 mm) keeps the arm away. Variants, run interleaved ``--repeats`` times in this
 process:

@@ -101,3 +101,47 @@ def centroidal_oracle(model, q: np.ndarray, v: np.ndarray, dt: float):
     ldot[0] = ldot[1]
     return mass, com, acc, ldot
 
+
+EPS = 1e-6
+
+
+def make_tasks(robot, rng):
+    """One task of every position-level type on ``robot``, with random targets (tests of tasks and of the
+    in-place assembly)."""
+    from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask, RelativeFrameTask
+
+    target = pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-0.5, 0.5, 3)), rng.uniform(-0.3, 0.3, 3))
+    frame = FrameTask(robot, robot.left_sole, position_weight=[1, 2, 3], orientation_weight=[0.5, 1, 1])
+    frame.set_target(target)
+    partial = FrameTask(robot, robot.torso, position_weight=[1, 0, 1], orientation_weight=[0, 1, 0])
+    partial.set_target(target)
+    pos = PositionTask(robot, robot.right_sole)
+    pos.set_target(target)
+    ori = OrientationTask(robot, robot.torso)
+    ori.set_target(target)
+    com = ComTask()
+    com.set_target(rng.uniform(-0.2, 0.2, 3))
+    posture = PostureTask(robot)
+    posture.set_target(random_configuration(robot, rng))
+    subset = PostureTask(robot, joints=robot.joint_names[:3])
+    hand = robot.right_hand or robot.right_sole
+    rel = RelativeFrameTask(robot, hand, robot.torso, position_weight=[1, 2, 3], orientation_weight=[1, 0.5, 2])
+    rel.set_target(target)
+    rel_partial = RelativeFrameTask(robot, robot.left_sole, robot.right_sole, position_weight=[0, 1, 1],
+                                    orientation_weight=[1, 0, 0])
+    rel_partial.set_target(target)
+    return [frame, partial, pos, ori, com, posture, subset, rel, rel_partial]
+
+
+def fd_jacobian(task, robot, q):
+    """Central finite-difference Jacobian of ``task``'s error along q ⊕ dq (step ``EPS``), (dim, nv)."""
+    from wbc.configuration import Configuration
+
+    J = np.empty((task.dim, robot.nv))
+    for i in range(robot.nv):
+        dq = np.zeros(robot.nv)
+        dq[i] = EPS
+        ep = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, dq)))
+        em = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, -dq)))
+        J[:, i] = (ep - em) / (2 * EPS)
+    return J

@@ -56,7 +56,7 @@ only on the pairs with L_k < d_i and L_k ≤ τ: any other pair is farther than 
 pairs that are computed. The rows are therefore those of coal on every pair (``broad_phase=False``, the
 reference): same pairs, distances equal to coal's tolerances (GJK 1e-9 m; coal warm-starts a pair from its previous
 call, so a pair computed at fewer calls can end elsewhere within tolerance; EPA 1e-6 m when penetrating) —
-``tests/test_self_collision.py`` checks this against coal on all pairs along the hand-through-torso drive and
+``tests/constraints/test_self_collision.py`` checks this against coal on all pairs along the hand-through-torso drive and
 under random motion and jumps. No static pruning beyond the SRDF and adjacency: a far pair costs a few
 floating-point operations per call.
 
@@ -66,7 +66,7 @@ same shapes; a mesh's hull is rebuilt by coal's ``ConvexBase::convexHull`` from 
 as ``buildConvexHull``), one ``coal::ComputeDistance`` functor, request and result per pair as
 ``pinocchio::GeometryData`` has (coal keeps a pair's GJK guess in its request), and the geometry placements
 oMg = oMi · jMg as ``pin.updateGeometryPlacements`` computes them: one call computes the candidates' distances,
-witness points and normals — bitwise those of Pinocchio's ``computeDistances`` (tests/test_self_collision.py),
+witness points and normals — bitwise those of Pinocchio's ``computeDistances`` (tests/constraints/test_self_collision.py),
 without one bound call per value read back. The joint placements ``data.oMi`` are read as a view of the Data's
 own memory (:func:`joint_placements_view`, checked when built), not one bound call per joint. Without the
 extension (no C++ compiler at install), with meshes and ``convex=False``, or with ``compiled=False``: Pinocchio's

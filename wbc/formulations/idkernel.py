@@ -34,7 +34,7 @@ Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches qua
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
 ``daqp`` ID default) stops ≈ 3e-7 from that optimum. Closed-loop trajectories of two exact solvers still part
 after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against
-itself), so solvers are compared tick by tick at the same state (``tests/test_id_kernel.py``).
+itself), so solvers are compared tick by tick at the same state (``tests/formulations/test_idkernel.py``).
 """
 
 from __future__ import annotations

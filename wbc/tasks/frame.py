@@ -10,7 +10,7 @@ at v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orienta
     ë = Jlog₃(rel) ω̇ + (d/dt Jlog₃(rel)) ω   ⇒   J̇v = Jlog₃(rel) α₀ + Hlog₃(rel, ω) ω
 
 with α₀ the LOCAL angular acceleration at v̇ = 0 (``pin.getFrameAcceleration``) and ``pin.Hlog3(rel, ω)`` the
-derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/test_tasks.py``).
+derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/tasks/test_tasks.py``).
 Position-only and orientation-only forms keep only those rows.
 """
 
@@ -56,7 +56,7 @@ def orientation_drift(rel: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> 
     if theta @ theta < SMALL_ANGLE**2:
         # pin.Hlog3 is NaN at rel = I and loses digits below ~1e-3 rad (measured: 4e-6 error at 1e-4 rad); there
         # (d/dt Jlog₃) ω = −(1/6) ω × (θ × ω) + O(|θ|² |ω|²), from Jlog₃ = I + ½[θ]× + (1/12)[θ]×² + O(|θ|³)
-        # and θ̇ = Jlog₃ ω (checked against pin.Hlog3 at 1e-2 rad and finite differences in tests/test_tasks.py)
+        # and θ̇ = Jlog₃ ω (checked against pin.Hlog3 at 1e-2 rad and finite differences in tests/tasks/test_tasks.py)
         return pin.Jlog3(rel) @ alpha - np.cross(omega, np.cross(theta, omega)) / 6.0
     return pin.Jlog3(rel) @ alpha + pin.Hlog3(rel, omega) @ omega
 

@@ -6,51 +6,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import CATALOG, random_configuration, standing_controller
+from conftest import CATALOG, EPS, fd_jacobian, make_tasks, random_configuration, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint
 from wbc.tasks.base import Task
 from wbc.exceptions import InvalidInputError, InvalidTargetError, UnknownFrameError, UnknownJointError
 from wbc.tasks import (AngularMomentumTask, ComTask, DampingTask, FrameTask, OrientationTask, PositionTask,
                        PostureTask, RelativeFrameTask)
-
-EPS = 1e-6
-
-
-def make_tasks(robot, rng):
-    target = pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-0.5, 0.5, 3)), rng.uniform(-0.3, 0.3, 3))
-    frame = FrameTask(robot, robot.left_sole, position_weight=[1, 2, 3], orientation_weight=[0.5, 1, 1])
-    frame.set_target(target)
-    partial = FrameTask(robot, robot.torso, position_weight=[1, 0, 1], orientation_weight=[0, 1, 0])
-    partial.set_target(target)
-    pos = PositionTask(robot, robot.right_sole)
-    pos.set_target(target)
-    ori = OrientationTask(robot, robot.torso)
-    ori.set_target(target)
-    com = ComTask()
-    com.set_target(rng.uniform(-0.2, 0.2, 3))
-    posture = PostureTask(robot)
-    posture.set_target(random_configuration(robot, rng))
-    subset = PostureTask(robot, joints=robot.joint_names[:3])
-    hand = robot.right_hand or robot.right_sole
-    rel = RelativeFrameTask(robot, hand, robot.torso, position_weight=[1, 2, 3], orientation_weight=[1, 0.5, 2])
-    rel.set_target(target)
-    rel_partial = RelativeFrameTask(robot, robot.left_sole, robot.right_sole, position_weight=[0, 1, 1],
-                                    orientation_weight=[1, 0, 0])
-    rel_partial.set_target(target)
-    return [frame, partial, pos, ori, com, posture, subset, rel, rel_partial]
-
-
-def fd_jacobian(task, robot, q):
-    J = np.empty((task.dim, robot.nv))
-    for i in range(robot.nv):
-        dq = np.zeros(robot.nv)
-        dq[i] = EPS
-        ep = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, dq)))
-        em = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, -dq)))
-        J[:, i] = (ep - em) / (2 * EPS)
-    return J
-
 
 # Tasks with no position error (velocity-level): their Jacobian is checked against another oracle, named here.
 VELOCITY_LEVEL_TASKS = {"AngularMomentumTask": "test_angular_momentum_matrix (Pinocchio and a sum over bodies)",

@@ -16,7 +16,7 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.qp import MIN_CALL_ITERATIONS, DaqpBackend, hard_set_feasible, solve_pinned_reduced
 
 DT = 0.002
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
 
 
 def _highs_feasible(A, b, C, l, u, lb, ub) -> bool:
@@ -126,7 +126,7 @@ def test_daqp_dual_calls_follow_a_cpu_time_deadline_and_fail_rather_than_answer_
 
 def test_cost_scaled_daqp_call_solves_a_qp_daqp_calls_infeasible_to_quadprogs_optimum():
     """A QP recorded from the ID fuzz (humanoid15, |g| ≈ 1e6, Hessian conditioned ≈ 1e11) whose plain DAQP solve
-    was reported infeasible (tests/test_id_faults.py): ``solve_scaled`` (one call, the cost divided by
+    was reported infeasible (tests/formulations/test_acceleration_faults.py): ``solve_scaled`` (one call, the cost divided by
     max(1, |g|∞, |H|max)) returns x meeting every row to 1e-6 and equal to quadprog's optimum to 1e-6 relative."""
     H, g, A, b, C, l, u, lb, ub = _fixture("id_large_cost_humanoid15")
     backend = DaqpBackend(primal_tol=1e-6, warm_start="dual")
@@ -138,7 +138,7 @@ def test_cost_scaled_daqp_call_solves_a_qp_daqp_calls_infeasible_to_quadprogs_op
 
 
 def _infeasible_tick(robots, calls, **options):
-    """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort (tests/test_id_faults.py):
+    """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort (tests/formulations/test_acceleration_faults.py):
     the full QP is infeasible, the relaxed one is not. Counts backend solves and quadprog solves in ``calls``."""
     import wbc.formulations.acceleration as acceleration
     from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact

@@ -26,7 +26,7 @@ from wbc.campaign.store import ResultStore
 from wbc.cli import main
 from wbc.exceptions import InvalidInputError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 try:
     import ray  # noqa: F401

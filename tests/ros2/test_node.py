@@ -1,5 +1,5 @@
 """`wbc ros2 node` as a ROS 2 system: NavigateToPose action, /cmd_vel, parameters, /clock — driven by clients in a
-separate process that does not import wbc (tests/ros2_node_client.py declares the ROS 2 IDL itself).
+separate process that does not import wbc (tests/ros2/ros2_node_client.py declares the ROS 2 IDL itself).
 
 DDS is confined to 127.0.0.1 (CYCLONEDDS_URI: interface lo, multicast off, localhost peer) with a random
 ROS_DOMAIN_ID. The node runs with ``--time sim`` (as fast as it can, /clock, stamps in node time), so rates and
@@ -22,7 +22,7 @@ for _mod in ("cyclonedds", "rosbags"):
     pytest.importorskip(_mod, reason=f"the optional extra wbc[ros2] is not installed ({_mod} missing)")
 
 HERE = Path(__file__).parent
-CLIENT = HERE / "ros2_node_client.py"
+CLIENT = HERE / "tests/ros2/ros2_node_client.py"
 LOOPBACK = (
     '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
@@ -40,7 +40,7 @@ def node():
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", "--time", "sim"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=str(HERE.parent))
+                            cwd=str(HERE.parents[1]))
     first = proc.stdout.readline()
     assert first.startswith("wbc ros2 node: humanoid15"), first + proc.stderr.read()
     yield env
@@ -151,7 +151,7 @@ def sim_node():
     env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "g1", "--sim", "--time", "sim"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(HERE.parent))
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(HERE.parents[1]))
     first = proc.stdout.readline()
     if not first.startswith("wbc ros2 node: g1"):
         proc.kill()
@@ -303,7 +303,7 @@ def test_action_type_hashes_match_ros2():
 def test_node_refuses_bad_options_before_work():
     for extra in (["--duration", "-1"], ["--sim", "--plant", "stiff"]):
         r = subprocess.run([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", *extra],
-                           capture_output=True, text=True, timeout=120, cwd=str(HERE.parent))
+                           capture_output=True, text=True, timeout=120, cwd=str(HERE.parents[1]))
         assert r.returncode == 2, (extra, r.stdout, r.stderr)
         assert "valid" in r.stderr.strip().splitlines()[-1], r.stderr
 

@@ -96,7 +96,7 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
     183 mm over one run of failed ticks before). Measured by forward kinematics: over every run of failed ticks
     each stance sole stays within 1 mm of where the run began, and no failed tick's safe command other than a
     hold moves a sole more than 0.05 mm from where its (scaled) contact row sends it."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import fuzz
 
     robot = robots("humanoid15")
@@ -524,7 +524,7 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
     tick of each script (humanoid15 only), from an unfrozen start."""
     import gc
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import fuzz
     import fuzz_common
     import fuzz_id
@@ -559,7 +559,7 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
     tick is ok (the relaxation named), its soles within 0.05 mm of where their full correction sends them (forward
     kinematics), no joint moves further out, and no tick calls DAQP more than 16 times (every workspace and one-shot
     call counted through a shim of the ``daqp`` module)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from fuzz_common import highs_feasible
 
     calls = _count_daqp_calls(monkeypatch)

@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import CATALOG, random_configuration
-from test_tasks import fd_jacobian, make_tasks
+from conftest import CATALOG, fd_jacobian, make_tasks, random_configuration
 from wbc.configuration import Configuration
 
 

@@ -24,7 +24,7 @@ from rosbags.typesys import Stores, get_typestore  # noqa: E402
 from wbc.ros2 import msgs  # noqa: E402
 
 HERE = Path(__file__).parent
-SUBSCRIBER = HERE / "ros2_subscriber.py"
+SUBSCRIBER = HERE / "tests/ros2/ros2_subscriber.py"
 LOOPBACK = (
     '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
@@ -98,7 +98,7 @@ def test_rihs01_hash_of_joint_state():
     h = msgs.rihs01("sensor_msgs/msg/JointState")
     # Known ROS 2 value (Jazzy's sensor_msgs JointState type hash).
     assert h.startswith("RIHS01_a13ee3a3") and h.endswith("260e") and len(h) == 7 + 64
-    # every type rosbags' store knows (nav2_msgs' action types: tests/test_ros2_node.py registers them first)
+    # every type rosbags' store knows (nav2_msgs' action types: tests/ros2/test_node.py registers them first)
     known = [name for name in msgs.TYPE_DESCRIPTIONS if name in TS.types]
     assert len(known) >= len(msgs.TYPE_DESCRIPTIONS) - 8
     for name in known:
@@ -408,6 +408,6 @@ print("received", got)
 assert got == ["after"]
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=dds_env,
-                         cwd=Path(__file__).resolve().parents[1])
+                         cwd=Path(__file__).resolve().parents[2])
     assert out.returncode == 0, out.stdout + out.stderr
     assert out.stdout.count("deleted:") == 3, out.stdout

@@ -1,6 +1,6 @@
-"""Standalone ROS 2 subscriber/client for tests/test_ros2.py. Does NOT import wbc: it declares ROS 2's IDL itself.
+"""Standalone ROS 2 subscriber/client for tests/ros2/test_ros2.py. Does NOT import wbc: it declares ROS 2's IDL itself.
 
-Usage: python ros2_subscriber.py joint_states SECONDS [JOINT] | latched SECONDS | reset SECONDS
+Usage: python tests/ros2/ros2_subscriber.py joint_states SECONDS [JOINT] | latched SECONDS | reset SECONDS
 (joint_states with JOINT: only messages naming that joint are counted, others are "foreign" — another process on
 the same random domain id.)
 Prints one JSON line with what it received.

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux only)")
 
@@ -47,7 +47,7 @@ def test_ctrl_c_while_waiting_exits_130_and_keeps_the_previous_outputs(tmp_path)
                                extra=["--log", str(log), "--json", str(js)])
     assert r["exit_code"] == 130, r
     # --live waited for a browser: in the 3 s after the URL the motion did not start (nothing more printed);
-    # that a connection starts it is tests/test_viz_browser.py::test_live_page_of_a_running_walk
+    # that a connection starts it is tests/viz/test_recording_browser.py::test_live_page_of_a_running_walk
     assert "starts when it connects" in r["url_line"] and r["stdout_after_url"] == "", r
     assert not r["traceback"] and "interrupted" in r["stderr"], r["stderr"][-2000:]
     assert r["left_pids"] == [] and r["left_ports"] == [], r

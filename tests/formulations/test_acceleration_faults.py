@@ -152,7 +152,7 @@ def test_nan_written_in_place_is_never_ok(robots, solver):
 
 def _hard_posture_qp(robot, solver="daqp"):
     """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort: infeasible (the static
-    torques need more, HiGHS in tests/test_id_diagnosis.py), feasible once the torque limits are relaxed."""
+    torques need more, HiGHS in tests/formulations/test_acceleration_diagnosis.py), feasible once the torque limits are relaxed."""
     from wbc.dynamics import AccelerationReference, InverseDynamicsQP, SoleContact
     from wbc.tasks import PostureTask
 
@@ -235,7 +235,7 @@ def test_daqp_solves_recorded_single_support_problem(robots):
     from wbc.constraints.dynamics import FrictionPyramid
     from wbc.dynamics import SoleContact
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_single_support_humanoid15.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_single_support_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     robot = robots("humanoid15")
@@ -262,7 +262,7 @@ def test_daqp_solves_recorded_large_cost_problem():
 
     from wbc.qp import QpsolversBackend
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_large_cost_humanoid15.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_large_cost_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
@@ -285,7 +285,7 @@ def test_daqp_dual_solves_recorded_g1_landing_problems(name):
 
     import qpsolvers
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / f"{name}.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / f"{name}.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
@@ -484,7 +484,7 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     from wbc.exceptions import SolverError
     from wbc.qp import solve_pinned_reduced
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_released_foot_talos.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_released_foot_talos.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     pinned = lb == ub
@@ -551,7 +551,7 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
     from wbc.exceptions import SolverError
     from wbc.qp import solve_pinned_reduced
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_first_tick_humanoid15.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_first_tick_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
     first = DaqpBackend(primal_tol=1e-6, warm_start="dual")
@@ -578,7 +578,7 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     from wbc.exceptions import SolverError
     from wbc.qp import ProxQPBackend, second_opinion
 
-    d = dict(np.load(Path(__file__).parent / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
+    d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     with pytest.raises(SolverError):

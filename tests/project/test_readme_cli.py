@@ -10,7 +10,7 @@ from pathlib import Path
 
 from wbc.cli import build_parser
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "docs" / "pages" / "reference" / "commands.md").read_text()
 
 

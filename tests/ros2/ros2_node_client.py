@@ -1,13 +1,13 @@
-"""Standalone ROS 2 clients of `wbc ros2 node` for tests/test_ros2_node.py. Does NOT import wbc: it declares the
+"""Standalone ROS 2 clients of `wbc ros2 node` for tests/ros2/test_node.py. Does NOT import wbc: it declares the
 ROS 2 IDL itself (rosidl's DDS names, rmw_cyclonedds' service request header) with cyclonedds.idl.
 
 Usage:
-  python ros2_node_client.py goal X Y YAW_DEG [CANCEL_AFTER_S]   /reset_robot, then NavigateToPose on
+  python tests/ros2/ros2_node_client.py goal X Y YAW_DEG [CANCEL_AFTER_S]   /reset_robot, then NavigateToPose on
                                                                   /navigate_to_pose (cancel after that node time)
-  python ros2_node_client.py preempt                              a second goal while the first one runs
-  python ros2_node_client.py cmdvel VX SECONDS                    /cmd_vel for SECONDS of node time (/clock)
-  python ros2_node_client.py cmdvel-sim VX SECONDS SETTLE         the same, then SETTLE s more (/odom, /joint_states)
-  python ros2_node_client.py params NODE                          parameter services + /joint_states rate
+  python tests/ros2/ros2_node_client.py preempt                              a second goal while the first one runs
+  python tests/ros2/ros2_node_client.py cmdvel VX SECONDS                    /cmd_vel for SECONDS of node time (/clock)
+  python tests/ros2/ros2_node_client.py cmdvel-sim VX SECONDS SETTLE         the same, then SETTLE s more (/odom, /joint_states)
+  python tests/ros2/ros2_node_client.py params NODE                          parameter services + /joint_states rate
 Prints one JSON line with what it measured.
 """
 import json

@@ -153,7 +153,7 @@ def test_balance_summary_keys_carry_units(robots):
 def test_every_npz_key_of_the_walk_log_is_in_the_readme(walk3):
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "docs" / "pages" / "reference" / "commands.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "docs" / "pages" / "reference" / "commands.md").read_text()
     paragraph = re.search(r"`--log` writes an npz with (.*?)Row k", readme, re.S).group(1)
     documented = set(re.findall(r"`([a-z_]+)`", paragraph))
     _, log = walk3

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1] / "wbc"
+ROOT = Path(__file__).resolve().parents[2] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
@@ -42,7 +42,7 @@ def layer_of(module: str) -> int:
             if (module == p or module.startswith(p + ".")) and len(p) > best_len:
                 best, best_len = i, len(p)
     if best is None:
-        raise AssertionError(f"module {module} is in no layer of tests/test_architecture.py: add it to LAYERS")
+        raise AssertionError(f"module {module} is in no layer of tests/project/test_architecture.py: add it to LAYERS")
     return best
 
 

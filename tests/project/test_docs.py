@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 TUTORIAL = sorted((DOCS / "pages" / "tutorial").glob("*.md"))
 # every other hand-written page with Python code runs too (getting started, concepts)
@@ -63,7 +63,7 @@ def test_site_builds_strict_offline(tmp_path):
 
 
 def test_getting_started_shows_the_readme_example():
-    """The first program on the site is README's (which tests/test_readme.py runs and checks)."""
+    """The first program on the site is README's (which tests/project/test_readme.py runs and checks)."""
     readme = (ROOT / "README.md").read_text()
     first = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
     assert python_blocks(GETTING_STARTED).strip() == first.strip()
