@@ -51,6 +51,7 @@ BAD = [
     (["sim", "walk", "--steps", "1000000"], "GiB"),
     (["sim", "walk", "--steps", "1"], "--steps"),
     (["sim", "walk", "--step-duration", "0"], "--step-duration"),
+    (["sim", "walk", "--step-width", "0"], "--step-width"),
     (["sim", "jump", "--height", "1e6"], "weight"),
     (["sim", "jump", "--height", "-0.1"], "--height"),
     (["sim", "jump", "--count", "0"], "--count"),

@@ -117,6 +117,8 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--steps", type=count(2), default=8, help="walk: number of steps (default 8)")
     w.add_argument("--step-length", type=finite(0.0), default=None,
                    help="walk: step length, m (default: the robot's gait, talos 0.15)")
+    w.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
+                   help="walk: lateral distance between the feet, m (default: the current feet distance)")
     w.add_argument("--step-duration", type=seconds, default=None,
                    help="walk: s per step, single + double support (20%%) (default: the robot's gait, talos 0.8)")
     w.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
@@ -229,7 +231,7 @@ def _scenario(args, robot):
                             push=args.push, push_time=args.push_time, push_duration=args.push_duration,
                             push_dir=args.push_dir, stabilizer=not args.no_stabilizer,
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
-                            zmp_feedback=args.zmp_feedback,
+                            step_width=args.step_width, zmp_feedback=args.zmp_feedback,
                             terrain=None if args.blind else getattr(args, "terrain", None),
                             base_weight=args.base_weight, blind=args.blind,
                             await_load=robot.spec is not None and robot.spec.touchdown == "load")
