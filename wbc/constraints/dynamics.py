@@ -152,7 +152,7 @@ class ContactAcceleration(IDConstraint):
         contact_acceleration_rows(J, offset, float(c.kd), ctx.state.v, A, b, 0)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def contact_force_columns(J, G, JcT, col):
     """Write one contact's columns of J_cᵀ: JcT[:, col:col + 12] = Jᵀ G (G = [I; [c_i]×] per corner, the
     corner-force → sole-wrench map: its zero entries are skipped).
@@ -174,7 +174,7 @@ def contact_force_columns(J, G, JcT, col):
                 JcT[i, col + j] += Jk[i] * gk
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def floating_base_rows(M, h, JcT, A, b, row):
     """Rows ``row .. row + 5`` of A x = b: eq. 4, M_u v̇ − (J_cᵀ)_u f = −h_u (N, N·m).
 
@@ -192,7 +192,7 @@ def floating_base_rows(M, h, JcT, A, b, row):
         b[row + r] = -h[r]
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def contact_acceleration_rows(J, offset, kd, v, A, b, row):
     """Rows ``row .. row + 5`` of A x = b: eq. 5 of an active contact, J v̇ = offset − K_d J v (force columns zero;
     offset = −J̇v − K_p e, m/s², rad/s², LOCAL).
@@ -213,7 +213,7 @@ def contact_acceleration_rows(J, offset, kd, v, A, b, row):
         b[row + r] = offset[r] - kd * s
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def torque_limit_rows(M, h, JcT, vrows, limits, C, l, u, row):
     """Rows ``row ..`` of l ≤ C x ≤ u: eq. 6, −τ_max − h_a ≤ M_a v̇ − (J_cᵀ)_a f ≤ τ_max − h_a (N·m) for the
     joints with velocity indices ``vrows`` (k,) int64 and limits ``limits`` (k,)."""

@@ -735,7 +735,7 @@ PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_S
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
     """The cost (3) of the ID QP from the stacked task rows, written into H[:nv, :nv] and g[:nv] (the force block
     H_ff = ε_f I is constant and left as it is):
@@ -772,9 +772,8 @@ def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
             H[i, j] = Hw[i, j]
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_assemble(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-                vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, Hw, gw, gram, gram_y):
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def id_assemble(tasks, contacts, dynamics, limits, qp, work):
     """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
     :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
     cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.dynamics.contact_force_columns`), eq. 4
@@ -782,15 +781,26 @@ def id_assemble(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, cdrift, ckd, active, vr
     (:func:`~wbc.constraints.dynamics.contact_acceleration_rows`), eq. 6
     (:func:`~wbc.constraints.dynamics.torque_limit_rows`) and eq. 9
     (:func:`~wbc.constraints.dynamics.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
-    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints.
+    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints. Inlined into
+    :func:`id_tick` (its arguments grouped in tuples: numba inlines no call with that many arguments).
 
-    Args: those of :func:`id_tick` (Hw (nv, nv), gw (nv,): workspace of :func:`task_cost`).
+    Args (the arrays of :func:`id_tick`, grouped):
+        tasks: (Jt, R, pidx, rt). contacts: (Jc, Gc, cdrift, ckd, active). dynamics: (M, h, q, v, dt).
+        limits: (vrows, lim, par, iq, iv, qmin, qmax, vmax). qp: (H, g, A, b, C, l, u, lb, ub, JcT), out.
+        work: (Hw (nv, nv), gw (nv,): :func:`task_cost`; gram, gram_y: :func:`contact_rows_well_conditioned`;
+        jlo, jhi (k,): joint bounds).
 
     Returns:
         m, the number of equality rows written (6 + 6 per active contact), or PROJECT_CONTACT_RHS when two or more
         active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`; the torque rows
         and bounds are then not written).
     """
+    Jt, R, pidx, rt = tasks
+    Jc, Gc, cdrift, ckd, active = contacts
+    M, h, q, v, dt = dynamics
+    vrows, lim, par, iq, iv, qmin, qmax, vmax = limits
+    H, g, A, b, C, l, u, lb, ub, JcT = qp
+    Hw, gw, gram, gram_y, jlo, jhi = work
     nv = M.shape[0]
     nc = Jc.shape[0]
     task_cost(Jt, R, pidx, rt, v, par[PAR_EPS_A], Hw, gw, H, g)
@@ -843,8 +853,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
     """
     nv = M.shape[0]
     nc = Jc.shape[0]
-    m = id_assemble(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-                    vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, Hw, gw, gram, gram_y)
+    m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
+                    (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
+                    (Hw, gw, gram, gram_y, jlo, jhi))
     if m < 0:
         return m, 0
     nf = H.shape[0] - nv
