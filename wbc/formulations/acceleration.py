@@ -1088,7 +1088,7 @@ class _KernelBuffers:
         k = jl.dim
         self.tail = (tl.velocity_indices, tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax,
                      np.empty(k), np.empty(k), qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub,
-                     qp._JcT, rows.Hw, rows.gw, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
+                     qp._JcT, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
                      rows.gram_y, *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
         self.solves = 0
         self.fallbacks = 0

@@ -825,7 +825,7 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, Hw, gw, state, rstate, x, nu, mu, gram, gram_y, ws_rows,
+            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows,
             ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
             ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
@@ -841,9 +841,10 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
             joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
         iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). Hw (nv, nv), gw (nv,): workspace of :func:`task_cost`. state, rstate, x, mu, ws_*:
-            :func:`id_solve` arguments (workspace from :func:`id_workspace`); nu (≥ m,): equality multipliers of
-            the equality step. gram, gram_y: workspace of :func:`contact_rows_well_conditioned`.
+            contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`;
+            ws_L, ws_tv are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
+            nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
+            :func:`contact_rows_well_conditioned`.
         residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
             unactuated rows). tau (nv − 6,): out, eq. 2. wrench (nc, 6): out, each sole's wrench G_k f_k at its
             origin in world axes (N, N·m), zero for an inactive contact.
@@ -855,7 +856,7 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
     nc = Jc.shape[0]
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
                     (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
-                    (Hw, gw, gram, gram_y, jlo, jhi))
+                    (ws_L, ws_tv, gram, gram_y, jlo, jhi))
     if m < 0:
         return m, 0
     nf = H.shape[0] - nv
