@@ -57,7 +57,11 @@ Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics`
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
+them in place every tick; the friction rows are constant and written once. The task and contact rows are gathered
+once per tick into stacked buffers; the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every
+state-dependent block are written by compiled bodies that :meth:`InverseDynamicsQP.build` (through the constraints'
+``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
+any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
 released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
 the failure stands (then the backend's own retries). Any other
@@ -477,9 +481,13 @@ class InverseDynamicsQP:
         return lo.copy(), hi.copy()
 
     def build(self, state: DynamicsState, dt: float):
-        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: every
-        constraint writes its block in place; the constant blocks (force regularisation, friction rows, force
-        bounds whose contact did not change) are not rewritten."""
+        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: the cost is
+        formed from the gathered task rows by :func:`~wbc.formulations.idkernel.task_cost` and every constraint
+        writes its block in place (the compiled bodies of the compiled tick: the same numbers bit for bit); the
+        constant blocks (force regularisation, friction rows, force bounds whose contact did not change) are not
+        rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
+        (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
+        (:func:`~wbc.constraints.dynamics.independent_contact_rows`)."""
         rows = self._rows
         rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)

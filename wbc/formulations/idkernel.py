@@ -1,20 +1,23 @@
 """Compiled tick of the inverse-dynamics QP: assembly of every block, the exact active-set solve and the torques
 in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration.InverseDynamicsQP`).
 
-The QP is the one of :mod:`wbc.formulations.acceleration` (same rows, same named constraints); only its arithmetic
-moves into compiled code. From Python come, per task row, J (dense rows, stacked) or its v index (posture rows)
+The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies: :func:`id_tick` is
+:func:`id_assemble` — the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
+:mod:`wbc.constraints.dynamics` that the constraints' ``write`` call on the general path
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`) —, then the solve and the torques. From Python
+come the stacked task rows gathered for both paths: per row J (dense rows, stacked) or its v index (posture rows)
 and the numbers e, ė_ff, J̇v, ä_ff, Kp, Kd, w of its reference (eq. 1 of :mod:`wbc.formulations.reference`); M, h;
-the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The kernel forms
+the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The assembly forms
 
     r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v,   H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,
     g_v = −Σ_i J_iᵀ W_i r_i,   J_cᵀ = [J_kᵀ G_k]_k,   A, b (eq. 4, 5),  C, l, u torque rows (eq. 6),
     lb, ub joint bounds (eq. 9),
 
 into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
-force bounds (8) — are already there), solves, and computes τ by eq. 2. Sums are done in the kernel's order, so
-the QP equals the one of the numpy assembly to rounding (not bit for bit); the solver returns its exact optimum
-(KKT conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback
-by the caller.
+force bounds (8) — are already there, written by their constraints), bitwise the arrays :meth:`build` writes at the
+same state (``tests/formulations/test_acceleration_assembly.py``). The solver returns its exact optimum (KKT
+conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback by the
+caller, on the same arrays.
 
 Structure used before the general solve (:func:`_equality_step`): H = blockdiag(H_vv, ε_f I). The bounds held
 at the previous tick's optimum (its working set: e.g. standing Talos holds a gripper joint on its acceleration
@@ -32,7 +35,9 @@ active set, warm-started from the same working set) takes over.
 
 Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
-``daqp`` ID default) stops ≈ 3e-7 from that optimum. Closed-loop trajectories of two exact solvers still part
+``daqp`` ID default) stops ≈ 3e-7 from that optimum. Where H_vv is ill-conditioned (a base or joint direction that no
+task weighs, held by ε_a alone: condition number κ ~ 1e8) the Cholesky factor of H_FF loses as many digits, and v̇
+parts from quadprog's by ~κ · 1e-16 relative along that direction. Closed-loop trajectories of two exact solvers still part
 after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against
 itself), so solvers are compared tick by tick at the same state (``tests/test_id_kernel.py``).
 """
