@@ -102,7 +102,8 @@ from wbc.constraints.dynamics import (
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
-                                       R_WEIGHT, contact_rows_well_conditioned, id_tick, id_workspace, task_cost)
+                                       R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
+                                       id_workspace, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -260,6 +261,7 @@ class InverseDynamicsQP:
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
             con.written = con.key()
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
+        ensure_compiled()
         self._rows = _ProblemRows(self)
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
@@ -931,19 +933,19 @@ class InverseDynamicsQP:
         return conflicts
 
     def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None) -> IDSolution:
-        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1).
+        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1, sole wrenches:
+        :func:`~wbc.formulations.idkernel.id_command`, the compiled tick's).
 
-        Uses the matrices of the last :meth:`build` at this state.
+        Uses the matrices and contact data of the last assembly (:meth:`build`, or a :meth:`solve`) at this state.
         """
         nv = self.nv
-        dv, f = x[:nv], x[nv:]
-        gen = state.M @ dv + state.h - self._JcT @ f
-        tau = gen[6:].copy()
-        residual = float(np.max(np.abs(gen[:6])))
-        wrenches = {}
-        for k, c in enumerate(self.contacts):
-            wrenches[c.name] = c.world_wrench(state, f[12 * k:12 * k + 12]) if c.active else np.zeros(6)
-        return IDSolution(dv=dv.copy(), forces=f.copy(), tau=tau, wrenches=wrenches, dynamics_residual=residual,
+        x = np.array(x, dtype=float)  # a fresh contiguous copy: dv and forces are views of it
+        rows = self._rows
+        tau = np.empty(nv - 6)
+        wrench = np.empty((len(self.contacts), 6))
+        residual = id_command(state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
+        return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
                           timings=timings or {})
 
     @property

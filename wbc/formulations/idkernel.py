@@ -47,14 +47,14 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.dynamics import (contact_acceleration_rows, contact_force_columns, floating_base_rows,
                                       joint_bounds_kernel, torque_limit_rows)
 from wbc.fastqp import (INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, backward_substitution, cholesky_lower,
                          forward_substitution, primal_from_multipliers, weighted_normal_equations)
 from wbc.solver_status import SolverStatus
 
-__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_solve", "id_tick", "id_workspace", "task_cost",
+__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_solve", "id_tick", "id_workspace", "task_cost",
            "PROJECT_CONTACT_RHS"]
 
 
@@ -778,6 +778,43 @@ def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
+    """The command of a QP solution x = [v̇; f] (n,): the torques τ = M_a v̇ + h_a − (J_cᵀ)_a f (eq. 2) into tau
+    (nv − 6,), and each active sole's wrench G_k f_k at its origin in world axes (N, N·m; Rc (nc, 3, 3) world ←
+    sole) into wrench (nc, 6), zero for an inactive contact. Used by the compiled tick and by
+    :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solution_from` alike.
+
+    Returns:
+        ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m), the residual of eq. 1's unactuated rows.
+    """
+    nv = M.shape[0]
+    nf = x.shape[0] - nv
+    worst = 0.0
+    for i in range(nv):
+        s = h[i]
+        for j in range(nv):
+            s += M[i, j] * x[j]
+        for j in range(nf):
+            s -= JcT[i, j] * x[nv + j]
+        if i >= 6:
+            tau[i - 6] = s
+        elif abs(s) > worst:
+            worst = abs(s)
+    for c in range(Gc.shape[0]):
+        for k in range(6):
+            wrench[c, k] = 0.0
+        if not active[c]:
+            continue
+        for k in range(6):
+            s = 0.0
+            for col in range(12):
+                s += Gc[c, k, col] * x[nv + 12 * c + col]
+            for r in range(3):
+                wrench[c, 3 * (k // 3) + r] += Rc[c, r, k % 3] * s
+    return worst
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def id_assemble(tasks, contacts, dynamics, limits, qp, work):
     """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
     :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
@@ -858,13 +895,11 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
         (kernel iterations (negative: exit code of id_solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
-    nc = Jc.shape[0]
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
                     (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
                     (ws_L, ws_tv, gram, gram_y, jlo, jhi))
     if m < 0:
         return m, 0
-    nf = H.shape[0] - nv
     res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12,
                          ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
     if res >= 0.0:
@@ -876,27 +911,21 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
                       ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
         residual[0] = ws_out[0]
     if it > 0:
-        worst = 0.0
-        for i in range(nv):
-            s = h[i]
-            for j in range(nv):
-                s += M[i, j] * x[j]
-            for j in range(nf):
-                s -= JcT[i, j] * x[nv + j]
-            if i >= 6:
-                tau[i - 6] = s
-            elif abs(s) > worst:
-                worst = abs(s)
-        residual[1] = worst
-        for c in range(nc):
-            for k in range(6):
-                wrench[c, k] = 0.0
-            if not active[c]:
-                continue
-            for k in range(6):
-                s = 0.0
-                for col in range(12):
-                    s += Gc[c, k, col] * x[nv + 12 * c + col]
-                for r in range(3):
-                    wrench[c, 3 * (k // 3) + r] += Rc[c, r, k % 3] * s
+        residual[1] = id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench)
     return it, m
+
+
+@once_per_process
+def ensure_compiled() -> None:
+    """Load (on-disk cache) or compile, once per process, the kernels the general path calls from Python —
+    :func:`task_cost`, :func:`id_command`, :func:`contact_rows_well_conditioned` — on arrays of the types of a real
+    call (M column-major as a :class:`~wbc.state.DynamicsState`'s), at construction of an
+    :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
+    nv = 7
+    Jt, R, pidx = np.zeros((1, nv)), np.zeros((7, 2)), np.zeros(1, np.int64)
+    task_cost(Jt, R, pidx, np.zeros(2), np.zeros(nv), 1e-6, np.empty((nv, nv)), np.empty(nv),
+              np.zeros((nv + 12, nv + 12)), np.zeros(nv + 12))
+    active = np.ones(1, np.bool_)
+    id_command(np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros((nv, 12)), np.zeros((1, 6, 12)),
+               np.zeros((1, 3, 3)), active, np.zeros(nv + 12), np.empty(nv - 6), np.empty((1, 6)))
+    contact_rows_well_conditioned(np.ones((1, 6, nv)), active, 1e-2, np.zeros((6, 6)), np.zeros(6))
