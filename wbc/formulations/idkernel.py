@@ -50,6 +50,7 @@ import numpy as np
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.dynamics import (contact_acceleration_rows, contact_force_columns, floating_base_rows,
                                       joint_bounds_kernel, torque_limit_rows)
+from wbc.formulations.reference import reference_rhs
 from wbc.fastqp import (INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, backward_substitution, cholesky_lower,
                          forward_substitution, primal_from_multipliers, weighted_normal_equations)
 from wbc.solver_status import SolverStatus
@@ -764,7 +765,8 @@ def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
                 jv += Jt[k, j] * v[j]
         else:
             jv = v[pidx[k - mt]]
-        rt[k] = R[R_ACC_FF, k] - R[R_KP, k] * R[R_ERROR, k] - R[R_KD, k] * (jv - R[R_ERROR_RATE_FF, k]) - R[R_DRIFT, k]
+        rt[k] = reference_rhs(R[R_ACC_FF, k], R[R_KP, k], R[R_ERROR, k], R[R_KD, k], jv, R[R_ERROR_RATE_FF, k],
+                              R[R_DRIFT, k])
     weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, Hw, gw)
     for k in range(pidx.size):
         i = pidx[k]
