@@ -10,6 +10,12 @@ arrays, so no matrix is rebuilt and a constant block (the friction pyramids) is 
 The per-tick quantities that several constraints share (M, h, the contact Jacobians J_k and J_cᵀ = [J_kᵀ G_k]_k)
 are computed once by the formulation and handed over in an :class:`IDContext`.
 
+The rows that depend on the state are written by one compiled (numba) body each — :func:`floating_base_rows`,
+:func:`contact_acceleration_rows`, :func:`torque_limit_rows`, :func:`joint_bounds_kernel`, and
+:func:`contact_force_columns` for J_cᵀ —, called by the constraint's :meth:`IDConstraint.write` (the general
+assembly, :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`) and by the compiled tick
+(:func:`wbc.formulations.idkernel.id_assemble`) alike: both paths solve one problem, written by one formula.
+
 ============================  ==========  ===============================================================  ===========
 name                          kind        rows                                                             relaxable
 ============================  ==========  ===============================================================  ===========
@@ -40,7 +46,7 @@ barrier functions for enforcing high relative-degree safety-critical constraints
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
@@ -48,7 +54,7 @@ import numpy as np
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.sole_contact import SoleContact
 from wbc.state import DynamicsState
-from wbc.compiled import once_per_process
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 
@@ -56,7 +62,8 @@ __all__ = [
     "IDContext", "IDConstraint", "FloatingBaseDynamics", "ContactAcceleration", "HardTask", "AccelerationBarrier",
     "TorqueLimits",
     "FrictionPyramid", "Unilaterality", "JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel",
-    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs", "independent_contact_rows",
+    "DEPENDENT_CONTACT_RATIO", "consistent_contact_rhs", "independent_contact_rows", "contact_force_columns",
+    "floating_base_rows", "contact_acceleration_rows", "torque_limit_rows",
 ]
 
 
@@ -68,6 +75,9 @@ class IDContext:
         state: the dynamic state. dt: control period (s). nv: velocity dimension.
         JcT: (nv, 12 n_c) J_cᵀ = [J_kᵀ G_k]_k (LOCAL sole Jacobians; inactive contacts included).
         jacobians: contact name → (6, nv) LOCAL sole Jacobian of this tick.
+        offsets: contact name → (6,) velocity-free part −J̇v − K_p e of its eq. 5 right-hand side
+            (:meth:`~wbc.constraints.sole_contact.SoleContact.acceleration_offset`) of this tick; a contact missing
+            here has it computed by its constraint.
     """
 
     state: DynamicsState
@@ -75,6 +85,7 @@ class IDContext:
     nv: int
     JcT: np.ndarray
     jacobians: dict
+    offsets: dict = field(default_factory=dict)
 
 
 class IDConstraint:
@@ -115,10 +126,7 @@ class FloatingBaseDynamics(IDConstraint):
     dim = 6
 
     def write(self, ctx, A, b, _):
-        nv = ctx.nv
-        A[:, :nv] = ctx.state.M[:6]
-        np.negative(ctx.JcT[:6], out=A[:, nv:])
-        np.negative(ctx.state.h[:6], out=b)
+        floating_base_rows(ctx.state.M, ctx.state.h, ctx.JcT, A, b, 0)
 
 
 class ContactAcceleration(IDConstraint):
@@ -136,10 +144,89 @@ class ContactAcceleration(IDConstraint):
         return self.contact.active
 
     def write(self, ctx, A, b, _):
-        J = ctx.jacobians[self.contact.name]
-        A[:, :ctx.nv] = J
-        A[:, ctx.nv:] = 0.0
-        b[:] = self.contact.acceleration_target(ctx.state, J)
+        c = self.contact
+        J = ctx.jacobians[c.name]
+        offset = ctx.offsets.get(c.name)
+        if offset is None:
+            offset = c.acceleration_offset(ctx.state)
+        contact_acceleration_rows(J, offset, float(c.kd), ctx.state.v, A, b, 0)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def contact_force_columns(J, G, JcT, col):
+    """Write one contact's columns of J_cᵀ: JcT[:, col:col + 12] = Jᵀ G (G = [I; [c_i]×] per corner, the
+    corner-force → sole-wrench map: its zero entries are skipped).
+
+    Args:
+        J (6, nv): LOCAL sole Jacobian. G (6, 12): corner map. JcT (nv, ≥ col + 12): out. col: first column.
+    """
+    nv = J.shape[1]
+    for i in range(nv):
+        for j in range(12):
+            JcT[i, col + j] = 0.0
+    for k in range(6):
+        Jk = J[k]
+        for j in range(12):
+            gk = G[k, j]
+            if gk == 0.0:
+                continue
+            for i in range(nv):
+                JcT[i, col + j] += Jk[i] * gk
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def floating_base_rows(M, h, JcT, A, b, row):
+    """Rows ``row .. row + 5`` of A x = b: eq. 4, M_u v̇ − (J_cᵀ)_u f = −h_u (N, N·m).
+
+    Args:
+        M (nv, nv), h (nv,): mass matrix and nonlinear effects. JcT (nv, n − nv): J_cᵀ. A (≥ row + 6, n),
+        b (≥ row + 6,): out.
+    """
+    nv = M.shape[0]
+    nf = A.shape[1] - nv
+    for r in range(6):
+        for j in range(nv):
+            A[row + r, j] = M[r, j]
+        for j in range(nf):
+            A[row + r, nv + j] = -JcT[r, j]
+        b[row + r] = -h[r]
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def contact_acceleration_rows(J, offset, kd, v, A, b, row):
+    """Rows ``row .. row + 5`` of A x = b: eq. 5 of an active contact, J v̇ = offset − K_d J v (force columns zero;
+    offset = −J̇v − K_p e, m/s², rad/s², LOCAL).
+
+    Args:
+        J (6, nv): LOCAL sole Jacobian. offset (6,). kd: K_d (1/s). v (nv,). A (≥ row + 6, n), b: out.
+    """
+    nv = J.shape[1]
+    n = A.shape[1]
+    for r in range(6):
+        s = 0.0
+        for j in range(nv):
+            s += J[r, j] * v[j]
+        for j in range(nv):
+            A[row + r, j] = J[r, j]
+        for j in range(nv, n):
+            A[row + r, j] = 0.0
+        b[row + r] = offset[r] - kd * s
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def torque_limit_rows(M, h, JcT, vrows, limits, C, l, u, row):
+    """Rows ``row ..`` of l ≤ C x ≤ u: eq. 6, −τ_max − h_a ≤ M_a v̇ − (J_cᵀ)_a f ≤ τ_max − h_a (N·m) for the
+    joints with velocity indices ``vrows`` (k,) int64 and limits ``limits`` (k,)."""
+    nv = M.shape[0]
+    nf = C.shape[1] - nv
+    for r in range(vrows.size):
+        vr = vrows[r]
+        for j in range(nv):
+            C[row + r, j] = M[vr, j]
+        for j in range(nf):
+            C[row + r, nv + j] = -JcT[vr, j]
+        l[row + r] = -limits[r] - h[vr]
+        u[row + r] = limits[r] - h[vr]
 
 
 #: σ/σ_max below which a direction of the stacked rows of the active contacts counts as dependent
@@ -281,7 +368,8 @@ class TorqueLimits(IDConstraint):
 
     Attributes:
         tau_max: (nv − 6,) scaled effort limits (all joints). joints: indices (into τ) of the limited joints.
-        limits: (dim,) the limits of those joints. velocity_rows: their indices in v (a slice when contiguous).
+        limits: (dim,) the limits of those joints. velocity_indices: (dim,) int64 their indices in v;
+        velocity_rows: the same, a slice when contiguous.
     """
 
     name = "torque_limits"
@@ -295,21 +383,16 @@ class TorqueLimits(IDConstraint):
         self.tau_max = effort
         self.joints = np.flatnonzero(np.isfinite(effort) & (effort > 0))
         self.dim = int(self.joints.size)
-        self.velocity_rows = 6 + self.joints
+        self.velocity_indices = (6 + self.joints).astype(np.int64)
+        self.velocity_rows = self.velocity_indices
         if self.dim and np.array_equal(self.joints, np.arange(self.joints[0], self.joints[0] + self.dim)):
             self.velocity_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
         self.limits = effort[self.joints]
-        self._neg_lim = -self.limits
 
     def write(self, ctx, C, l, u):
         if not self.dim:
             return
-        nv, rows = ctx.nv, self.velocity_rows
-        C[:, :nv] = ctx.state.M[rows]
-        np.negative(ctx.JcT[rows], out=C[:, nv:])
-        hr = ctx.state.h[rows]
-        np.subtract(self._neg_lim, hr, out=l)
-        np.subtract(self.limits, hr, out=u)
+        torque_limit_rows(ctx.state.M, ctx.state.h, ctx.JcT, self.velocity_indices, self.limits, C, l, u, 0)
 
 
 class FrictionPyramid(IDConstraint):
@@ -419,10 +502,18 @@ def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_accelerati
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`joint_bounds_kernel` (on-disk cache) once per process, at construction of
-    :class:`JointAccelerationLimits`, not inside a controller's first tick."""
+    """Load the compiled row bodies (on-disk cache) once per process, at construction of
+    :class:`JointAccelerationLimits`, not inside a controller's first tick: on arrays of the types of a real call (M
+    column-major as a :class:`~wbc.state.DynamicsState`'s, the rest C-contiguous)."""
     z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
     joint_bounds_kernel(z, z, i, i, -np.ones(1), np.ones(1), np.ones(1), 1.0, 1e-3, np.empty(1), np.empty(1), 1.0)
+    nv = 7
+    M, h, v = np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros(nv)
+    JcT, A, b = np.zeros((nv, 12)), np.zeros((12, nv + 12)), np.zeros(12)
+    contact_force_columns(np.zeros((6, nv)), np.zeros((6, 12)), JcT, 0)
+    floating_base_rows(M, h, JcT, A, b, 0)
+    contact_acceleration_rows(np.zeros((6, nv)), np.zeros(6), 1.0, v, A, b, 6)
+    torque_limit_rows(M, h, JcT, np.full(1, 6, dtype=np.int64), np.ones(1), A, b, b.copy(), 0)
 
 
 class JointAccelerationLimits(IDConstraint):

@@ -299,15 +299,10 @@ class SoleContact:
         """(6, nv) sole frame Jacobian, LOCAL (sole axes)."""
         return state.frame_jacobian(self.frame_id, pin.LOCAL)
 
-    def acceleration_target(self, state: DynamicsState, J: np.ndarray) -> np.ndarray:
-        """(6,) right-hand side b of ``J v̇ = b`` (LOCAL): −J̇v − K_d J v − K_p e (module docstring)."""
-        b = self.acceleration_offset(state)
-        b -= self.kd * (J @ state.v)
-        return b
-
     def acceleration_offset(self, state: DynamicsState) -> np.ndarray:
-        """(6,) the velocity-free part −J̇v − K_p e of :meth:`acceleration_target` (LOCAL; m/s², rad/s²), a new
-        array."""
+        """(6,) the velocity-free part −J̇v − K_p e of the right-hand side b = −J̇v − K_d J v − K_p e of ``J v̇ = b``
+        (module docstring; LOCAL; m/s², rad/s²), a new array; the ID QP adds −K_d J v
+        (:func:`wbc.constraints.dynamics.contact_acceleration_rows`)."""
         b = -pin.getFrameClassicalAcceleration(state.model, state.data, self.frame_id, pin.LOCAL).vector
         if self.kp > 0 and self.reference is not None:
             b -= self.kp * pin.log6(self.reference.actInv(state.data.oMf[self.frame_id])).vector

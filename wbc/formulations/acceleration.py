@@ -57,7 +57,11 @@ Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics`
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. When a DAQP backend finds no
+them in place every tick; the friction rows are constant and written once. The task and contact rows are gathered
+once per tick into stacked buffers; the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every
+state-dependent block are written by compiled bodies that :meth:`InverseDynamicsQP.build` (through the constraints'
+``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
+any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
 released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
 the failure stands (then the backend's own retries). Any other
@@ -92,13 +96,14 @@ from wbc.constraints.dynamics import (
     JointAccelerationLimits,
     TorqueLimits,
     Unilaterality,
+    contact_force_columns,
     independent_contact_rows,
 )
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
-                                       PROJECT_CONTACT_RHS,
-                                       R_ACC_FF,
-                                       R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP, R_WEIGHT, id_tick, id_workspace)
+                                       PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
+                                       R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
+                                       id_workspace, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -255,10 +260,9 @@ class InverseDynamicsQP:
         for con in self.friction:  # constant while μ is: rewritten only when it changes (_refresh_contact_rows)
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
             con.written = con.key()
-        self._reg_v = np.full(nv, self.eps_a)
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
-        self._Hvv, self._gv = self._H[:nv, :nv], self._g[:nv]
-        self._spans: dict = {}
+        ensure_compiled()
+        self._rows = _ProblemRows(self)
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = _KernelBuffers(self)
@@ -479,36 +483,23 @@ class InverseDynamicsQP:
         return lo.copy(), hi.copy()
 
     def build(self, state: DynamicsState, dt: float):
-        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: every
-        constraint writes its block in place; the constant blocks (force regularisation, friction rows, force
-        bounds whose contact did not change) are not rewritten."""
-        nv = self.nv
-        Hvv, gv = self._Hvv, self._gv
-        Hvv.fill(0.0)
-        gv.fill(0.0)
-        for task in self.tasks:
-            J, r = task.compute(state)
-            if isinstance(task.task, PostureTask):  # J is a row selection: diagonal update
-                span = self._posture_span(task)
-                if span is not None:
-                    self._H.ravel()[span] += task.weight
-                    gv[task.task.rows[0]:task.task.rows[0] + task.dim] -= task.weight * r
-                else:
-                    idx = task.task.rows
-                    Hvv[idx, idx] += task.weight
-                    gv[idx] -= task.weight * r
-                continue
-            wJ = J * task.weight[:, None]
-            Hvv += J.T @ wJ
-            gv -= wJ.T @ r
-        self._H.ravel()[:nv * (self.n + 1):self.n + 1] += self._reg_v
+        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: the cost is
+        formed from the gathered task rows by :func:`~wbc.formulations.idkernel.task_cost` and every constraint
+        writes its block in place (the compiled bodies of the compiled tick: the same numbers bit for bit); the
+        constant blocks (force regularisation, friction rows, force bounds whose contact did not change) are not
+        rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
+        (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
+        (:func:`~wbc.constraints.dynamics.independent_contact_rows`)."""
+        rows = self._rows
+        rows.gather(self, state)
+        task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
-        JcT, jac = self._JcT, ctx.jacobians
+        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
         for k, c in enumerate(self.contacts):
-            J = c.jacobian(state)
-            jac[c.name] = J
-            np.matmul(J.T, c.force_map(), out=JcT[:, 12 * k:12 * k + 12])
+            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
+            jac[c.name] = rows.Jc[k]
+            offsets[c.name] = rows.cdrift[k]
         A, b = self._A, self._b
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
@@ -517,9 +508,11 @@ class InverseDynamicsQP:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
                 i += con.dim
-        # ≥ 2 active contacts: (nearly) dependent directions of the stacked contact rows dropped
+        # ≥ 2 active contacts: (nearly) dependent directions of the stacked contact rows dropped (none when the
+        # rows are certified well conditioned, the compiled tick's test)
         self.dependent_contact_rows = 0
-        if i > 12:
+        if i > 12 and not contact_rows_well_conditioned(rows.Jc, rows.active, DEPENDENT_CONTACT_RATIO, rows.gram,
+                                                        rows.gram_y):
             kept = independent_contact_rows(A[6:i], b[6:i])
             self.dependent_contact_rows = i - 6 - kept
             if kept < i - 6:
@@ -549,17 +542,15 @@ class InverseDynamicsQP:
                 lb[jl.iv], ub[jl.iv] = lo, hi
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
 
-    def _posture_span(self, task: AccelerationReference) -> slice | None:
-        """Strided slice of H's flattened diagonal over the task's rows when they are contiguous (cached)."""
-        rows = task.task.rows
-        key = (id(task), rows.size)
-        span = self._spans.get(key, False)
-        if span is False:
-            n = self.n
-            contiguous = rows.size and np.array_equal(rows, np.arange(rows[0], rows[0] + rows.size))
-            span = slice(int(rows[0]) * (n + 1), (int(rows[-1]) + 1) * (n + 1), n + 1) if contiguous else None
-            self._spans[key] = span
-        return span
+    def assembled_qp(self) -> tuple | None:
+        """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or by
+        the compiled tick, :func:`~wbc.formulations.idkernel.id_tick`), the QP its solver received; None when no
+        :meth:`solve` assembled one since."""
+        if self._assembled is None:
+            return None
+        m = self._m
+        return tuple(a.copy() for a in (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                         self._lb, self._ub))
 
     def _relax(self, l, u, lb, ub):
         """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits)."""
@@ -849,7 +840,8 @@ class InverseDynamicsQP:
         a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
         t0 = perf_counter()
         kb = self._kernel
-        kb.gather(self, state)
+        rows = self._rows
+        rows.gather(self, state)
         self._refresh_contact_rows()
         par = kb.par  # settings read every tick, as the general path does
         par[PAR_EPS_A] = self.eps_a
@@ -860,7 +852,7 @@ class InverseDynamicsQP:
         par[PAR_MAX_ITER] = 0 if kb.gave_up else self.kernel_max_iterations
         skipped, kb.gave_up = kb.gave_up, False
         ta = perf_counter()
-        it, m = id_tick(*kb.head, state.M, state.h, state.q, state.v, dt, *kb.contact, 0, *kb.tail)
+        it, m = id_tick(*rows.tasks, state.M, state.h, state.q, state.v, dt, *rows.contacts, *kb.tail)
         self.dependent_contact_rows = 0
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
@@ -881,7 +873,7 @@ class InverseDynamicsQP:
             nv = self.nv
             wrench = kb.wrench.copy()
             sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
-                             wrenches={name: wrench[k] for k, name in enumerate(kb.names)},
+                             wrenches={name: wrench[k] for k, name in enumerate(rows.names)},
                              dynamics_residual=float(kb.residual[1]),
                              timings={"assembly": ta - t0, "solve": t1 - ta}, path=TickPath("kernel"))
             self.last_violations = self.verify(state, sol)
@@ -941,19 +933,19 @@ class InverseDynamicsQP:
         return conflicts
 
     def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None) -> IDSolution:
-        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1).
+        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1, sole wrenches:
+        :func:`~wbc.formulations.idkernel.id_command`, the compiled tick's).
 
-        Uses the matrices of the last :meth:`build` at this state.
+        Uses the matrices and contact data of the last assembly (:meth:`build`, or a :meth:`solve`) at this state.
         """
         nv = self.nv
-        dv, f = x[:nv], x[nv:]
-        gen = state.M @ dv + state.h - self._JcT @ f
-        tau = gen[6:].copy()
-        residual = float(np.max(np.abs(gen[:6])))
-        wrenches = {}
-        for k, c in enumerate(self.contacts):
-            wrenches[c.name] = c.world_wrench(state, f[12 * k:12 * k + 12]) if c.active else np.zeros(6)
-        return IDSolution(dv=dv.copy(), forces=f.copy(), tau=tau, wrenches=wrenches, dynamics_residual=residual,
+        x = np.array(x, dtype=float)  # a fresh contiguous copy: dv and forces are views of it
+        rows = self._rows
+        tau = np.empty(nv - 6)
+        wrench = np.empty((len(self.contacts), 6))
+        residual = id_command(state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
+        return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
                           timings=timings or {})
 
     @property
@@ -986,71 +978,35 @@ class InverseDynamicsQP:
         return out
 
 
-class _KernelBuffers:
-    """Preallocated inputs, solver state and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP, and
-    its argument tuples; the stacked task rows are re-laid out only when the task list changes."""
+class _ProblemRows:
+    """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
+    assemblies read (:meth:`InverseDynamicsQP.build` through the constraints' ``write`` and the compiled tick
+    :func:`~wbc.formulations.idkernel.id_tick`): the task rows of
+    :func:`~wbc.formulations.idkernel.task_cost` (J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w; re-laid out only when the task
+    list changes) and the contact data (LOCAL sole Jacobians, corner maps, −J̇v − K_p e, K_d, activity, sole
+    rotations)."""
 
     def __init__(self, qp: InverseDynamicsQP):
-        nv, n, nc = qp.nv, qp.n, len(qp.contacts)
-        tl = qp.torque_limits
-        jl = qp.joint_acceleration_limits
+        nv, nc = qp.nv, len(qp.contacts)
         self.names = [c.name for c in qp.contacts]
         self.Jc = np.zeros((nc, 6, nv))
         self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.cdrift = np.zeros((nc, 6))
         self.ckd = np.zeros(nc)
-        self.bc = np.zeros((nc, 6))
         self.Rc = np.zeros((nc, 3, 3))
-        self.wrench = np.zeros((nc, 6))
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
-                             DEPENDENT_CONTACT_RATIO, float(tl.velocity_rows.start) if tl.dim else 6.0,
-                             jl.speed_horizon])
-        m_max, p = 6 + 6 * nc, qp._C.shape[0]
-        self.state = np.zeros(n, np.int8)
-        self.rstate = np.zeros(p, np.int8)
-        self.x = np.zeros(n)
-        self.nu = np.zeros(m_max)
-        self.mu = np.zeros(p)
-        self.residual = np.zeros(2)
-        self.tau = np.zeros(nv - 6)
-        k = jl.dim
-        self.contact = (self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd, self.active, self.bc)
-        self.tail = (tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax, np.empty(k), np.empty(k),
-                     qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub, qp._JcT, self.state, self.rstate,
-                     self.x, self.nu, self.mu, np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
-                     *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
+        self.contacts = (self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd, self.active)
+        self.Hw = np.zeros((nv, nv))  # task_cost workspace
+        self.gw = np.zeros(nv)
+        self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
+        self.gram_y = np.zeros(6 * nc)
         self.layout: tuple | None = None  # none yet: the first gather lays the task rows out (even with no task)
         self.entries: list = []
-        self.head: tuple = ()
+        self.tasks: tuple = ()
         self._rotations: tuple = (None, [])
-        self.solves = 0
-        self.fallbacks = 0
-        self.rejected = 0
-        self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
-        self._load_kernel(qp)
 
-    def _load_kernel(self, qp: InverseDynamicsQP) -> None:
-        """Load :func:`~wbc.formulations.idkernel.id_tick` here, at construction, not inside the first tick: once per
-        process, one call on these buffers at a neutral state (M = I in the column-major order of a
-        :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer it writes
-        restored afterwards (the first tick starts exactly as without this call)."""
-        global _ID_TICK_LOADED
-        if _ID_TICK_LOADED:
-            return
-        self._relayout(qp, tuple(map(id, qp.tasks)))
-        nv = qp.nv
-        arrays = [a for a in (*self.head, *self.contact, *self.tail) if isinstance(a, np.ndarray)]
-        saved = [a.copy() for a in arrays]
-        try:
-            id_tick(*self.head, np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(), np.zeros(nv),
-                    0.002, *self.contact, 0, *self.tail)
-            _ID_TICK_LOADED = True
-        finally:
-            for a, a0 in zip(arrays, saved):
-                np.copyto(a, a0)
-
-    def _relayout(self, qp: InverseDynamicsQP, key: tuple) -> None:
+    def relayout(self, qp: InverseDynamicsQP) -> None:
+        """Lay the task rows out for ``qp.tasks`` (dense rows first, then the posture rows)."""
         dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
         posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
         mt = sum(t.dim for t in dense)
@@ -1069,15 +1025,14 @@ class _KernelBuffers:
                                  self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
             ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
             k += ref.dim
-        self.head = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
-        self.layout = key
+        self.tasks = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
+        self.layout = tuple(map(id, qp.tasks))
 
     def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
         """Task rows and contact data of this tick into the buffers (no validation: the tasks and contacts
         validated their targets when they were set)."""
-        key = tuple(map(id, qp.tasks))
-        if key != self.layout:
-            self._relayout(qp, key)
+        if tuple(map(id, qp.tasks)) != self.layout:
+            self.relayout(qp)
         R = self.R
         for ent in self.entries:
             ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
@@ -1111,10 +1066,64 @@ class _KernelBuffers:
         rotations = self._rotations[1]
         for i, c in enumerate(qp.contacts):
             self.Jc[i] = c.jacobian(state)
+            self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
             a = c.active
             self.active[i] = a
             if a:
                 self.cdrift[i] = c.acceleration_offset(state)
                 self.ckd[i] = c.kd
                 self.Rc[i] = rotations[i]
-                self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
+
+
+class _KernelBuffers:
+    """Preallocated solver state, outputs and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP, and
+    its argument tuple after the gathered rows (:class:`_ProblemRows`)."""
+
+    def __init__(self, qp: InverseDynamicsQP):
+        nv, n, nc = qp.nv, qp.n, len(qp.contacts)
+        tl = qp.torque_limits
+        jl = qp.joint_acceleration_limits
+        rows = qp._rows
+        self.wrench = np.zeros((nc, 6))
+        self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
+                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon])
+        m_max, p = 6 + 6 * nc, qp._C.shape[0]
+        self.state = np.zeros(n, np.int8)
+        self.rstate = np.zeros(p, np.int8)
+        self.x = np.zeros(n)
+        self.nu = np.zeros(m_max)
+        self.mu = np.zeros(p)
+        self.residual = np.zeros(2)
+        self.tau = np.zeros(nv - 6)
+        k = jl.dim
+        self.tail = (tl.velocity_indices, tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax,
+                     np.empty(k), np.empty(k), qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub,
+                     qp._JcT, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
+                     rows.gram_y, *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
+        self.solves = 0
+        self.fallbacks = 0
+        self.rejected = 0
+        self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
+        self._load_kernel(qp)
+
+    def _load_kernel(self, qp: InverseDynamicsQP) -> None:
+        """Load :func:`~wbc.formulations.idkernel.id_tick` here, at construction, not inside the first tick: once per
+        process, one call on these buffers at a neutral state (M = I in the column-major order of a
+        :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer it writes
+        restored afterwards (the first tick starts exactly as without this call)."""
+        global _ID_TICK_LOADED
+        if _ID_TICK_LOADED:
+            return
+        rows = qp._rows
+        if rows.layout is None:
+            rows.relayout(qp)
+        nv = qp.nv
+        arrays = [a for a in (*rows.tasks, *rows.contacts, *self.tail) if isinstance(a, np.ndarray)]
+        saved = [a.copy() for a in arrays]
+        try:
+            id_tick(*rows.tasks, np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(), np.zeros(nv),
+                    0.002, *rows.contacts, *self.tail)
+            _ID_TICK_LOADED = True
+        finally:
+            for a, a0 in zip(arrays, saved):
+                np.copyto(a, a0)

@@ -1,20 +1,23 @@
 """Compiled tick of the inverse-dynamics QP: assembly of every block, the exact active-set solve and the torques
 in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration.InverseDynamicsQP`).
 
-The QP is the one of :mod:`wbc.formulations.acceleration` (same rows, same named constraints); only its arithmetic
-moves into compiled code. From Python come, per task row, J (dense rows, stacked) or its v index (posture rows)
+The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies: :func:`id_tick` is
+:func:`id_assemble` — the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
+:mod:`wbc.constraints.dynamics` that the constraints' ``write`` call on the general path
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`) —, then the solve and the torques. From Python
+come the stacked task rows gathered for both paths: per row J (dense rows, stacked) or its v index (posture rows)
 and the numbers e, ė_ff, J̇v, ä_ff, Kp, Kd, w of its reference (eq. 1 of :mod:`wbc.formulations.reference`); M, h;
-the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The kernel forms
+the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The assembly forms
 
     r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v,   H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,
     g_v = −Σ_i J_iᵀ W_i r_i,   J_cᵀ = [J_kᵀ G_k]_k,   A, b (eq. 4, 5),  C, l, u torque rows (eq. 6),
     lb, ub joint bounds (eq. 9),
 
 into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
-force bounds (8) — are already there), solves, and computes τ by eq. 2. Sums are done in the kernel's order, so
-the QP equals the one of the numpy assembly to rounding (not bit for bit); the solver returns its exact optimum
-(KKT conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback
-by the caller.
+force bounds (8) — are already there, written by their constraints), bitwise the arrays :meth:`build` writes at the
+same state (``tests/formulations/test_acceleration_assembly.py``). The solver returns its exact optimum (KKT
+conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback by the
+caller, on the same arrays.
 
 Structure used before the general solve (:func:`_equality_step`): H = blockdiag(H_vv, ε_f I). The bounds held
 at the previous tick's optimum (its working set: e.g. standing Talos holds a gripper joint on its acceleration
@@ -32,7 +35,9 @@ active set, warm-started from the same working set) takes over.
 
 Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
-``daqp`` ID default) stops ≈ 3e-7 from that optimum. Closed-loop trajectories of two exact solvers still part
+``daqp`` ID default) stops ≈ 3e-7 from that optimum. Where H_vv is ill-conditioned (a base or joint direction that no
+task weighs, held by ε_a alone: condition number κ ~ 1e8) the Cholesky factor of H_FF loses as many digits, and v̇
+parts from quadprog's by ~κ · 1e-16 relative along that direction. Closed-loop trajectories of two exact solvers still part
 after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against
 itself), so solvers are compared tick by tick at the same state (``tests/formulations/test_idkernel.py``).
 """
@@ -42,13 +47,16 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH
-from wbc.constraints.dynamics import joint_bounds_kernel
+from wbc.compiled import FASTMATH, once_per_process
+from wbc.constraints.dynamics import (contact_acceleration_rows, contact_force_columns, floating_base_rows,
+                                      joint_bounds_kernel, torque_limit_rows)
+from wbc.formulations.reference import reference_rhs
 from wbc.fastqp import (INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, backward_substitution, cholesky_lower,
                          forward_substitution, primal_from_multipliers, weighted_normal_equations)
 from wbc.solver_status import SolverStatus
 
-__all__ = ["contact_rows_well_conditioned", "id_solve", "id_tick", "id_workspace", "PROJECT_CONTACT_RHS"]
+__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_solve", "id_tick", "id_workspace", "task_cost",
+           "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -722,42 +730,163 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
-#: :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified well conditioned
-#: (:func:`contact_rows_well_conditioned`); the caller solves the tick on its general path, which drops the
-#: dependent directions (:func:`wbc.constraints.dynamics.independent_contact_rows`; ``mode`` 1, a given consistent
-#: ``bc``, is not used by :class:`wbc.formulations.acceleration.InverseDynamicsQP`).
+#: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
+#: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
+#: drops the dependent directions (:func:`wbc.constraints.dynamics.independent_contact_rows`).
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_tick`'s ``par`` vector
-(PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_TORQUE_ROW0,
- PAR_SPEED_HORIZON) = range(7)
-#: rows of :func:`id_tick`'s ``R`` array (one column per task row)
+PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON = range(6)
+#: rows of the ``R`` array of :func:`task_cost` (one column per task row)
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc, mode, lim, par, iq, iv, qmin, qmax,
-            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows, ws_Yv,
-            ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b,
-            ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
-    """One ID tick (module docstring): task right-hand sides, assembly, solve, torques and wrenches.
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
+    """The cost (3) of the ID QP from the stacked task rows, written into H[:nv, :nv] and g[:nv] (the force block
+    H_ff = ε_f I is constant and left as it is):
+
+        r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v   (:mod:`wbc.formulations.reference`, eq. 1),
+        H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,   g_v = −Σ_i J_iᵀ W_i r_i.
 
     Args:
         Jt (mt, nv): stacked Jacobians of the dense task rows. R (7, mt + kp): per task row (dense rows, then the
-            posture rows) its error e, error-rate feed-forward ė_ff, drift J̇v, acceleration feed-forward ä_ff, Kp,
-            Kd and weight (rows ``R_*``); the row asks J v̇ = r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v
-            (:mod:`wbc.formulations.reference`, eq. 1). pidx (kp,) int64: the v index of each posture row (J = e_i).
-            rt (mt + kp,): out, r.
+            posture rows) its e, ė_ff, J̇v, ä_ff, Kp, Kd and weight (rows ``R_*``). pidx (kp,) int64: the v index
+            of each posture row (J = e_i). rt (mt + kp,): out, r. v (nv,): velocity (rad/s, m/s). eps_a: ε_a.
+        Hw (nv, nv), gw (nv,): contiguous workspace (the sums are formed there, vectorised, then copied).
+        H (n, n), g (n,): out.
+    """
+    nv = Hw.shape[0]
+    mt = Jt.shape[0]
+    for k in range(R.shape[1]):
+        if k < mt:
+            jv = 0.0
+            for j in range(nv):
+                jv += Jt[k, j] * v[j]
+        else:
+            jv = v[pidx[k - mt]]
+        rt[k] = reference_rhs(R[R_ACC_FF, k], R[R_KP, k], R[R_ERROR, k], R[R_KD, k], jv, R[R_ERROR_RATE_FF, k],
+                              R[R_DRIFT, k])
+    weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, Hw, gw)
+    for k in range(pidx.size):
+        i = pidx[k]
+        w = R[R_WEIGHT, mt + k]
+        Hw[i, i] += w
+        gw[i] -= w * rt[mt + k]
+    for i in range(nv):
+        g[i] = gw[i]
+        for j in range(nv):
+            H[i, j] = Hw[i, j]
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
+    """The command of a QP solution x = [v̇; f] (n,): the torques τ = M_a v̇ + h_a − (J_cᵀ)_a f (eq. 2) into tau
+    (nv − 6,), and each active sole's wrench G_k f_k at its origin in world axes (N, N·m; Rc (nc, 3, 3) world ←
+    sole) into wrench (nc, 6), zero for an inactive contact. Used by the compiled tick and by
+    :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solution_from` alike.
+
+    Returns:
+        ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m), the residual of eq. 1's unactuated rows.
+    """
+    nv = M.shape[0]
+    nf = x.shape[0] - nv
+    worst = 0.0
+    for i in range(nv):
+        s = h[i]
+        for j in range(nv):
+            s += M[i, j] * x[j]
+        for j in range(nf):
+            s -= JcT[i, j] * x[nv + j]
+        if i >= 6:
+            tau[i - 6] = s
+        elif abs(s) > worst:
+            worst = abs(s)
+    for c in range(Gc.shape[0]):
+        for k in range(6):
+            wrench[c, k] = 0.0
+        if not active[c]:
+            continue
+        for k in range(6):
+            s = 0.0
+            for col in range(12):
+                s += Gc[c, k, col] * x[nv + 12 * c + col]
+            for r in range(3):
+                wrench[c, 3 * (k // 3) + r] += Rc[c, r, k % 3] * s
+    return worst
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def id_assemble(tasks, contacts, dynamics, limits, qp, work):
+    """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
+    :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
+    cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.dynamics.contact_force_columns`), eq. 4
+    (:func:`~wbc.constraints.dynamics.floating_base_rows`), eq. 5 of each active contact
+    (:func:`~wbc.constraints.dynamics.contact_acceleration_rows`), eq. 6
+    (:func:`~wbc.constraints.dynamics.torque_limit_rows`) and eq. 9
+    (:func:`~wbc.constraints.dynamics.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
+    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints. Inlined into
+    :func:`id_tick` (its arguments grouped in tuples: numba inlines no call with that many arguments).
+
+    Args (the arrays of :func:`id_tick`, grouped):
+        tasks: (Jt, R, pidx, rt). contacts: (Jc, Gc, cdrift, ckd, active). dynamics: (M, h, q, v, dt).
+        limits: (vrows, lim, par, iq, iv, qmin, qmax, vmax). qp: (H, g, A, b, C, l, u, lb, ub, JcT), out.
+        work: (Hw (nv, nv), gw (nv,): :func:`task_cost`; gram, gram_y: :func:`contact_rows_well_conditioned`;
+        jlo, jhi (k,): joint bounds).
+
+    Returns:
+        m, the number of equality rows written (6 + 6 per active contact), or PROJECT_CONTACT_RHS when two or more
+        active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`; the torque rows
+        and bounds are then not written).
+    """
+    Jt, R, pidx, rt = tasks
+    Jc, Gc, cdrift, ckd, active = contacts
+    M, h, q, v, dt = dynamics
+    vrows, lim, par, iq, iv, qmin, qmax, vmax = limits
+    H, g, A, b, C, l, u, lb, ub, JcT = qp
+    Hw, gw, gram, gram_y, jlo, jhi = work
+    nv = M.shape[0]
+    nc = Jc.shape[0]
+    task_cost(Jt, R, pidx, rt, v, par[PAR_EPS_A], Hw, gw, H, g)
+    for c in range(nc):
+        contact_force_columns(Jc[c], Gc[c], JcT, 12 * c)
+    floating_base_rows(M, h, JcT, A, b, 0)
+    m = 6
+    for c in range(nc):
+        if active[c]:
+            contact_acceleration_rows(Jc[c], cdrift[c], ckd[c], v, A, b, m)
+            m += 6
+    if m > 12 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
+        return PROJECT_CONTACT_RHS
+    torque_limit_rows(M, h, JcT, vrows, lim, C, l, u, 0)
+    if par[PAR_JOINT_LIMITS] != 0.0:
+        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi, par[PAR_SPEED_HORIZON])
+        for j in range(iv.size):
+            lb[iv[j]] = jlo[j]
+            ub[iv[j]] = jhi[j]
+    return m
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
+            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows,
+            ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
+            ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
+    """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
+    :func:`id_solve`), the torques and the wrenches.
+
+    Args:
+        Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
         M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
         Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
-            ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side bc = cdrift − K_d J v (cdrift = −J̇v − K_p e);
-            active (nc,) bool. bc (nc, 6): out (mode 0: computed here) or in (mode 1: given, already consistent).
-        lim (nt,): limits (N·m) of the contiguous torque-limited joints. par (7,): ε_a, a_brk, joint limits on
-            (≠ 0), iteration cap, contact conditioning ratio, first torque-limited v index, speed horizon in
-            ticks (``PAR_*``).
+            ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e);
+            active (nc,) bool.
+        vrows (nt,) int64, lim (nt,): v indices and limits (N·m) of the torque-limited joints. par (6,): ε_a, a_brk,
+            joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
         iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`);
+            contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`;
+            ws_L, ws_tv are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
             nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
             :func:`contact_rows_well_conditioned`.
         residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
@@ -768,93 +897,11 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
         (kernel iterations (negative: exit code of id_solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
-    n = H.shape[0]
-    nc = Jc.shape[0]
-    mt = Jt.shape[0]
-    eps_a = par[PAR_EPS_A]
-    # task right-hand sides (reference eq. 1)
-    for k in range(R.shape[1]):
-        if k < mt:
-            jv = 0.0
-            for j in range(nv):
-                jv += Jt[k, j] * v[j]
-        else:
-            jv = v[pidx[k - mt]]
-        rt[k] = R[R_ACC_FF, k] - R[R_KP, k] * R[R_ERROR, k] - R[R_KD, k] * (jv - R[R_ERROR_RATE_FF, k]) - R[R_DRIFT, k]
-    # cost: H_vv = ε_a I + Jᵀ W J (+ the posture diagonal), g_v = −Jᵀ W r (+ posture), formed in the contiguous
-    # workspace L (vectorised loops) and copied into H, g; H_ff = ε_f I stays as written
-    weighted_normal_equations(Jt, R[R_WEIGHT, :mt], rt[:mt], eps_a, ws_L, ws_tv)
-    for k in range(pidx.size):
-        i = pidx[k]
-        w = R[R_WEIGHT, mt + k]
-        ws_L[i, i] += w
-        ws_tv[i] -= w * rt[mt + k]
-    for i in range(nv):
-        g[i] = ws_tv[i]
-        for j in range(nv):
-            H[i, j] = ws_L[i, j]
-    # contact right-hand sides (eq. 5), certified consistent or handed back for projection
-    if mode == 0:
-        nact = 0
-        for c in range(nc):
-            if not active[c]:
-                continue
-            nact += 1
-            for r in range(6):
-                s = 0.0
-                for j in range(nv):
-                    s += Jc[c, r, j] * v[j]
-                bc[c, r] = cdrift[c, r] - ckd[c] * s
-        if nact >= 2 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
-            return PROJECT_CONTACT_RHS, 0
-    # J_cᵀ = [J_kᵀ G_k] (G_k = [I; [c_i]×] per corner: 7 of its 18 entries per corner are non-zero)
-    for i in range(nv):
-        for j in range(12 * nc):
-            JcT[i, j] = 0.0
-    for c in range(nc):
-        for k in range(6):
-            Jk = Jc[c, k]
-            for col in range(12):
-                gk = Gc[c, k, col]
-                if gk == 0.0:
-                    continue
-                j = 12 * c + col
-                for i in range(nv):
-                    JcT[i, j] += Jk[i] * gk
-    # equalities: floating-base dynamics (4), active contacts (5)
-    nf = n - nv
-    for r in range(6):
-        for j in range(nv):
-            A[r, j] = M[r, j]
-        for j in range(nf):
-            A[r, nv + j] = -JcT[r, j]
-        b[r] = -h[r]
-    m = 6
-    for c in range(nc):
-        if not active[c]:
-            continue
-        for r in range(6):
-            for j in range(nv):
-                A[m, j] = Jc[c, r, j]
-            for j in range(nf):
-                A[m, nv + j] = 0.0
-            b[m] = bc[c, r]
-            m += 1
-    # torque limits (6)
-    t0 = int(par[PAR_TORQUE_ROW0])
-    for r in range(lim.size):
-        vr = t0 + r
-        for j in range(nv):
-            C[r, j] = M[vr, j]
-        for j in range(nf):
-            C[r, nv + j] = -JcT[vr, j]
-        l[r] = -lim[r] - h[vr]
-        u[r] = lim[r] - h[vr]
-    if par[PAR_JOINT_LIMITS] != 0.0:
-        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi, par[PAR_SPEED_HORIZON])
-        for j in range(iv.size):
-            lb[iv[j]] = jlo[j]
-            ub[iv[j]] = jhi[j]
+    m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
+                    (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
+                    (ws_L, ws_tv, gram, gram_y, jlo, jhi))
+    if m < 0:
+        return m, 0
     res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12,
                          ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
     if res >= 0.0:
@@ -866,27 +913,21 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, bc
                       ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
         residual[0] = ws_out[0]
     if it > 0:
-        worst = 0.0
-        for i in range(nv):
-            s = h[i]
-            for j in range(nv):
-                s += M[i, j] * x[j]
-            for j in range(nf):
-                s -= JcT[i, j] * x[nv + j]
-            if i >= 6:
-                tau[i - 6] = s
-            elif abs(s) > worst:
-                worst = abs(s)
-        residual[1] = worst
-        for c in range(nc):
-            for k in range(6):
-                wrench[c, k] = 0.0
-            if not active[c]:
-                continue
-            for k in range(6):
-                s = 0.0
-                for col in range(12):
-                    s += Gc[c, k, col] * x[nv + 12 * c + col]
-                for r in range(3):
-                    wrench[c, 3 * (k // 3) + r] += Rc[c, r, k % 3] * s
+        residual[1] = id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench)
     return it, m
+
+
+@once_per_process
+def ensure_compiled() -> None:
+    """Load (on-disk cache) or compile, once per process, the kernels the general path calls from Python —
+    :func:`task_cost`, :func:`id_command`, :func:`contact_rows_well_conditioned` — on arrays of the types of a real
+    call (M column-major as a :class:`~wbc.state.DynamicsState`'s), at construction of an
+    :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
+    nv = 7
+    Jt, R, pidx = np.zeros((1, nv)), np.zeros((7, 2)), np.zeros(1, np.int64)
+    task_cost(Jt, R, pidx, np.zeros(2), np.zeros(nv), 1e-6, np.empty((nv, nv)), np.empty(nv),
+              np.zeros((nv + 12, nv + 12)), np.zeros(nv + 12))
+    active = np.ones(1, np.bool_)
+    id_command(np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros((nv, 12)), np.zeros((1, 6, 12)),
+               np.zeros((1, 3, 3)), active, np.zeros(nv + 12), np.empty(nv - 6), np.empty((1, 6)))
+    contact_rows_well_conditioned(np.ones((1, 6, nv)), active, 1e-2, np.zeros((6, 6)), np.zeros(6))

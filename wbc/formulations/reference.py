@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.configuration import check_vector
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 from wbc.state import DynamicsState
@@ -36,6 +38,34 @@ def _gain(value, what: str) -> float:
     if not (math.isfinite(g) and g >= 0):
         raise InvalidInputError(f"{what} must be finite and ≥ 0, got {value!r}")
     return g
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def reference_rhs(acc_ff, kp, e, kd, e_dot, e_dot_ff, drift):
+    """Eq. 1 for one task row: r = ä_ff − Kp e − Kd (ė − ė_ff) − J̇v with ė = J v (task units /s²). The one formula
+    of the right-hand side, used by :meth:`AccelerationReference.compute` (hard tasks) and by
+    :func:`wbc.formulations.idkernel.task_cost` (the weighted tasks of both assemblies)."""
+    return acc_ff - kp * e - kd * (e_dot - e_dot_ff) - drift
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def reference_rows(J, e, e_dot_ff, drift, acc_ff, kp, kd, v, r):
+    """r (m,) of eq. 1 (:func:`reference_rhs`) for the rows J (m, nv), e, ė_ff, J̇v, ä_ff (m,) of one task at
+    velocity v (nv,), written into r."""
+    nv = J.shape[1]
+    for k in range(J.shape[0]):
+        jv = 0.0
+        for j in range(nv):
+            jv += J[k, j] * v[j]
+        r[k] = reference_rhs(acc_ff[k], kp, e[k], kd, jv, e_dot_ff[k], drift[k])
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`reference_rows` (on-disk cache) once per process, at construction of an
+    :class:`AccelerationReference`, not inside a controller's first tick."""
+    z = np.zeros(1)
+    reference_rows(np.zeros((1, 1)), z, z, z, z, 1.0, 1.0, z, np.empty(1))
 
 
 class AccelerationReference:
@@ -71,6 +101,7 @@ class AccelerationReference:
         self.weight = task.weight if weight is None else weight
         self._acc_ff: np.ndarray | None = None
         self.last_error = np.zeros(self.dim)
+        _warm_up()
 
     @property
     def kp(self) -> float:
@@ -129,14 +160,15 @@ class AccelerationReference:
         """
         task = self.task
         e, J = task.compute(state)
-        drift = task.drift(state)
-        e_dot_ff = task.feedforward()
         self.last_error = e
-        e_dot = J @ state.v
-        if e_dot_ff is not None:
-            e_dot = e_dot - e_dot_ff
-        r = -self.kp * e - self.kd * e_dot - drift
-        if self._acc_ff is not None:
-            r += self._acc_ff
+        m = self.dim
+        zero = np.zeros(m)
+        e_dot_ff = task.feedforward()
+        r = np.empty(m)
+        reference_rows(np.ascontiguousarray(J, dtype=float), np.ascontiguousarray(e, dtype=float),
+                       zero if e_dot_ff is None else np.ascontiguousarray(e_dot_ff, dtype=float),
+                       np.ascontiguousarray(task.drift(state), dtype=float),
+                       zero if self._acc_ff is None else self._acc_ff, float(self.kp), float(self.kd),
+                       np.ascontiguousarray(state.v, dtype=float), r)
         return J, r
 
