@@ -814,43 +814,48 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
 
     i.e. ½ vᵀHv + gᵀv = ½ Σ_k w_k (J_k v − v*_k)² + ½ Σ_a d_a (v_{i_a} − s_a)² + ½ ε ‖v‖² up to a constant, with
     v*_k = ff_k − K_k e_k and s_a = −K_p diff[i_a] (a posture task: a selection Jacobian, so its cost is diagonal).
+    Each row enters as (√w_k J_k)ᵀ(√w_k J_k), whole rows of H at a time: H is exactly symmetric without a mirror.
 
     Args:
         Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K (1/s), weight w ≥ 0 and
             feed-forward ė* of each row (a row with w = 0 is skipped).
         diff (nv,): q ⊖ q* of the posture task; pw (kp,): its weights d; prow (kp,) int64: its velocity indices
             i_a (kp = 0: no posture); pgain: its gain K_p (1/s).
-        damping: ε > 0. H (nv, nv), g (nv,): out (H exactly symmetric).
+        damping: ε > 0. H (nv, nv), g (nv,): out.
+
+    Returns:
+        trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
     """
     n = H.shape[0]
-    for i in range(n):
-        Hi = H[i]
-        for j in range(n):
-            Hi[j] = 0.0
-        Hi[i] = damping
-        g[i] = 0.0
+    H[:, :] = 0.0
+    g[:] = 0.0
+    row = np.empty(n)
     for k in range(Js.shape[0]):
         w = rowp[1, k]
         if w == 0.0:
             continue
-        wr = w * (rowp[2, k] - rowp[0, k] * es[k])
+        sw = np.sqrt(w)
+        swr = sw * (rowp[2, k] - rowp[0, k] * es[k])
         Jk = Js[k]
+        for j in range(n):
+            row[j] = sw * Jk[j]
         for i in range(n):
-            a = Jk[i]
+            a = row[i]
             if a == 0.0:
                 continue
-            g[i] -= a * wr
-            wa = w * a
+            g[i] -= a * swr
             Hi = H[i]
-            for j in range(i, n):
-                Hi[j] += wa * Jk[j]
+            for j in range(n):
+                Hi[j] += a * row[j]
     for a in range(prow.shape[0]):
         i = prow[a]
         H[i, i] += pw[a]
         g[i] -= pw[a] * (-pgain * diff[i])
+    check = 0.0
     for i in range(n):
-        for j in range(i + 1, n):
-            H[j, i] = H[i, j]
+        H[i, i] += damping
+        check += H[i, i] + g[i]
+    return check
 
 
 def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple[np.ndarray, np.ndarray]:

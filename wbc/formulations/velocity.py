@@ -163,7 +163,7 @@ from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["KinematicController", "TickResult"]
 
-#: exit codes of :func:`wbc.fastqp.kinematic_tick` after which its reduced QP is handed to DAQP
+#: exit codes of :func:`wbc.fastqp.kinematic_solve` after which its reduced QP is handed to DAQP
 #: (:meth:`KinematicController._fused_rescue`)
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
@@ -700,7 +700,7 @@ class KinematicController:
                 posture.share_weight(soft.pw)
         else:
             diff, pgain = soft.no_diff, 0.0
-        form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+        self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
         for task in soft.own:
             task.add_cost(config, H, g)
         A, b = self._A, self._b
@@ -750,10 +750,15 @@ class KinematicController:
         for c, sel in boxes:
             if skip and id(c) in skip:
                 continue
+            if not first and record is None:
+                if type(c).intersect_into is not BoxConstraint.intersect_into:
+                    c.intersect_into(config, dt, lb, ub)  # the box's own compiled intersection, in place
+                    continue
+                if isinstance(sel, slice):  # the same clip, compiled, in place
+                    lo, hi = c.compute(config, dt)
+                    clip_box_into(lb, ub, sel.start, lo, hi)
+                    continue
             lo, hi = c.compute(config, dt)
-            if not first and record is None and isinstance(sel, slice):  # same clip, compiled, in place
-                clip_box_into(lb, ub, sel.start, lo, hi)
-                continue
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
                 lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
@@ -805,7 +810,7 @@ class KinematicController:
             return None  # dependent equality rows: dropped and checked by the general path
         # every number of the cost and the contact targets is finite (targets, weights, gains written in place, q,
         # placements): NaN and inf propagate into these sums; else the general path meets them and fails the tick
-        if not math.isfinite(float(np.trace(H)) + float(g.sum()) + float(b.sum())):
+        if not math.isfinite(self._cost_check + float(b.sum())):
             return None
         t1 = perf_counter()
         v = np.empty(self.nv)
