@@ -750,14 +750,13 @@ class KinematicController:
         for c, sel in boxes:
             if skip and id(c) in skip:
                 continue
-            if not first and record is None:
-                if type(c).intersect_into is not BoxConstraint.intersect_into:
-                    c.intersect_into(config, dt, lb, ub)  # the box's own compiled intersection, in place
-                    continue
-                if isinstance(sel, slice):  # the same clip, compiled, in place
+            if not first and record is None:  # in place: the box's own intersection (compiled where it has one)
+                if isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
                     lo, hi = c.compute(config, dt)
-                    clip_box_into(lb, ub, sel.start, lo, hi)
-                    continue
+                    clip_box_into(lb, ub, sel.start, lo, hi)  # the generic clip, compiled on a contiguous block
+                else:
+                    c.intersect_into(config, dt, lb, ub)
+                continue
             lo, hi = c.compute(config, dt)
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
