@@ -53,7 +53,7 @@ __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_i
            "ensure_compiled", "form_qp", "forward_substitution", "kinematic_finish_packed", "kinematic_pack",
            "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
            "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
-           "weighted_normal_equations"]
+           "weighted_normal_equations", "weighted_rows"]
 
 #: exit codes (the shared :class:`~wbc.solver_status.SolverStatus` values as plain ints, frozen by numba at compile
 #: time) of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
@@ -806,6 +806,30 @@ def _reduce_row(src, n0, nr, Tc, out):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _weighted_row(Js, es, rowp, k, row):
+    """row ← √w_k J_k and returns √w_k v*_k, v*_k = ff_k − K_k e_k (rowp = (K, w, ff)): one stacked task row with
+    its weight applied, the one formula of :func:`form_qp` and :func:`weighted_rows`."""
+    sw = np.sqrt(rowp[1, k])
+    Jk = Js[k]
+    for j in range(row.shape[0]):
+        row[j] = sw * Jk[j]
+    return sw * (rowp[2, k] - rowp[0, k] * es[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def weighted_rows(Js, es, rowp, out_J, out_r):
+    """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
+    (:func:`wbc.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k − K_k e_k
+    (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+
+    Args:
+        Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
+    """
+    for k in range(Js.shape[0]):
+        out_r[k] = _weighted_row(Js, es, rowp, k, out_J[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     """The cost of the kinematic QP (:mod:`wbc.formulations.velocity`) from its stacked task rows, written into H
     and g (compiled; the one cost formation of every kinematic route):
@@ -831,14 +855,9 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     g[:] = 0.0
     row = np.empty(n)
     for k in range(Js.shape[0]):
-        w = rowp[1, k]
-        if w == 0.0:
+        if rowp[1, k] == 0.0:
             continue
-        sw = np.sqrt(w)
-        swr = sw * (rowp[2, k] - rowp[0, k] * es[k])
-        Jk = Js[k]
-        for j in range(n):
-            row[j] = sw * Jk[j]
+        swr = _weighted_row(Js, es, rowp, k, row)
         for i in range(n):
             a = row[i]
             if a == 0.0:
@@ -1333,6 +1352,7 @@ def warm_up() -> float:
     fb, ib, views = kinematic_pack(7, 6, 0, 0)
     form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
             1e-6, views["H"], views["g"])
+    weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
     views["A"][:, :6] = np.eye(6)
     views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
     views["lb"][6], views["ub"][6] = -1.0, 1.0

@@ -202,3 +202,43 @@ def test_compiled_tick_solves_the_assembled_qp_on_a_standing_set(name):
     qp = ctrl.assemble(config, 0.002)
     ref = _quadprog(*qp)
     assert _distance(qp[0], result.v, ref) <= AGREEMENT * max(1.0, _distance(qp[0], ref, 0.0))
+
+
+@pytest.mark.parametrize("name", ["talos", "g1", "humanoid15"])
+def test_strict_levels_take_the_gathered_rows(name):
+    """The strict levels (route ``levels``) receive the rows that ``assemble`` gathered, with the weights applied by
+    the formula of the soft level's cost (``wbc.fastqp.weighted_rows``): √w J and √w v*, v* = ė* − K e, against the
+    tasks' own ``compute`` and ``velocity_target`` in numpy (to 1e-12 relative: the compiled product may be fused)."""
+    robot = _robot(name)
+    draw = {"seed": 5, "spread": 0.05, "com": False, "com_weight": 1.0, "gain": 2.0, "frame_tasks": [],
+            "posture": True, "posture_weight": 1e-2, "posture_gain": 1.0, "contacts": 2, "contact_gain": 100.0,
+            "offset": 0.0, "position_limit": True, "velocity_limit": True, "velocity_scale": 1.0}
+    ctrl, config = _build(robot, draw, "fast")
+    hand = PositionTask(robot, robot.right_hand or robot.torso, gain=3.0, name="hand")
+    hand.set_target(config.frame_placement(hand.frame_id).translation + np.array([0.05, -0.02, 0.03]))
+    hand.weight = np.array([1.0, 4.0, 0.5])
+    com = ComTask(weight=np.array([2.0, 2.0, 0.1]), gain=5.0)
+    com.set_target(config.com + np.array([0.01, 0.0, -0.01]))
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(com, level=1)
+    seen = []
+    cascade = velocity.solve_lexicographic
+
+    def spy(levels, *args, **kw):
+        seen.append([(J.copy(), t.copy()) for J, t in levels])
+        out = cascade(levels, *args, **kw)
+        spy.last_cut = cascade.last_cut
+        return out
+
+    velocity.solve_lexicographic = spy
+    try:
+        result = ctrl.solve(config, 0.002)
+    finally:
+        velocity.solve_lexicographic = cascade
+    assert result.ok and result.path.route == "levels", (result.path, result.message)
+    for (J, t), task in zip(seen[0], (hand, com)):
+        error, jac = task.compute(config)
+        sw = np.sqrt(task.weight)
+        ref_J, ref_t = jac * sw[:, None], task.velocity_target(error) * sw
+        assert np.abs(J - ref_J).max() <= 1e-12 * max(1.0, np.abs(ref_J).max())
+        assert np.abs(t - ref_t).max() <= 1e-12 * max(1.0, np.abs(ref_t).max())

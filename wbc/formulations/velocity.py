@@ -114,7 +114,9 @@ One assembly. Every route solves the QP that :meth:`KinematicController.assemble
 buffers: the soft tasks' rows gathered into stacked buffers (each task's ``compute_into``: J, e, and per row K, w,
 ė*), the cost (H, g) formed from them by one compiled call (:func:`wbc.fastqp.form_qp`; one plain
 :class:`~wbc.tasks.PostureTask` enters it as a diagonal, other tasks with their own cost add it after), the
-constraint rows written by each constraint, the box intersected from each bound constraint's own bounds.
+constraint rows written by each constraint, the box intersected from each bound constraint's own bounds. The tasks
+of strict levels are gathered the same way, and each level's rows √w J, √w v* formed by the same formula
+(:func:`wbc.fastqp.weighted_rows`) for the cascade and its weighted form.
 
 Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict level,
 that assembled QP — the same arrays, which the solver reads and never writes — is solved by one compiled call,
@@ -152,7 +154,7 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
                          clip_box_into, contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
-                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed)
+                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed, weighted_rows)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend, TickWork
 from wbc.backends import DEFAULT_SOLVER, make_backend
@@ -362,6 +364,8 @@ class KinematicController:
             self.add_constraint(c)
         self.last_result = TickResult(np.zeros(self.nv))
         self._soft_tasks: list[Task] | None = None
+        self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
+        self._level_rows: list[_SoftRows] = []
         self._in_solve, self._drift_cache = False, None
         self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
@@ -626,33 +630,7 @@ class KinematicController:
         if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
             self._soft_tasks, self._soft = cached.tasks, cached
             return
-        soft = _SoftRows()
-        soft.tasks = list(self.tasks)
-        dense, soft.own, soft.posture = [], [], None
-        row = 0
-        for task in self.tasks:
-            if type(task).add_cost is Task.add_cost:
-                dense.append((task, row, row + task.dim, type(task).velocity_target is Task.velocity_target))
-                row += task.dim
-            elif type(task) is PostureTask and soft.posture is None:
-                soft.posture = task
-            else:
-                soft.own.append(task)
-        soft.J = np.zeros((row, self.nv))
-        soft.e = np.zeros(row)
-        soft.rowp = np.zeros((3, row))  # gain, weight, feed-forward of each stacked row
-        soft.rows = []
-        for k, (task, r0, r1, plain) in enumerate(dense):
-            soft.rows.append((task, soft.e[r0:r1], soft.J[r0:r1], soft.rowp[1, r0:r1], soft.rowp[0, r0:r1],
-                              soft.rowp[2, r0:r1], k, plain))
-            if not plain:  # v* written as the error: K = −1, ė* = 0
-                soft.rowp[0, r0:r1] = -1.0
-        soft.gains = [None] * len(dense)
-        soft.has_ff = [True] * len(dense)
-        kp = 0 if soft.posture is None else soft.posture.dim
-        soft.pw = np.zeros(kp)
-        soft.prow = np.zeros(kp, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
-        soft.no_diff = np.zeros(self.nv)
+        soft = _stack_rows(self.tasks, self.nv, own_costs=True)
         self._soft_tasks, self._soft = soft.tasks, soft
         self._soft_layouts[key] = soft
         while len(self._soft_layouts) > 16:
@@ -674,25 +652,7 @@ class KinematicController:
             self._build_soft_layout()
         H, g = self._H, self._g
         soft = self._soft
-        gains, has_ff = soft.gains, soft.has_ff
-        for task, e, J, w, gain_rows, ff_rows, k, plain in soft.rows:
-            task.compute_into(config, e, J)
-            if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
-                task.share_weight(w)
-            if not plain:
-                e[:] = task.velocity_target(e.copy())
-                continue
-            gain = task.gain
-            if gain != gains[k]:
-                gain_rows.fill(gain)
-                gains[k] = gain
-            ff = task.feedforward()
-            if ff is not None:
-                ff_rows[:] = ff
-                has_ff[k] = True
-            elif has_ff[k]:
-                ff_rows.fill(0.0)
-                has_ff[k] = False
+        _gather_rows(soft, config)
         posture = soft.posture
         if posture is not None:
             diff, pgain = pin.difference(self.robot.model, posture.target, config.q), posture.gain
@@ -703,6 +663,14 @@ class KinematicController:
         self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
         for task in soft.own:
             task.add_cost(config, H, g)
+        if self._level_order:  # the strict levels' rows, gathered the same way, weights applied (weighted_rows)
+            key = tuple((k, id(t), t.dim) for k in self._level_order for t in self.levels[k])
+            if key != self._level_key:
+                self._level_key = key
+                self._level_rows = [_stack_rows(self.levels[k], self.nv, own_costs=False) for k in self._level_order]
+            for level in self._level_rows:
+                _gather_rows(level, config)
+                weighted_rows(level.J, level.e, level.rowp, level.wJ, level.wr)
         A, b = self._A, self._b
         factors = self._contact_factors
         for i, (c, r0, r1, in_place, A_rows, b_rows) in enumerate(self._contact_writes):
@@ -1449,15 +1417,7 @@ class KinematicController:
             if self._weighted_qp is None:
                 self._weighted_qp = self._weighted_levels(config, H, g)
             return self._solve_flat(*self._weighted_qp, A, b, C, l, u, lb, ub)
-        levels = []
-        for k in self._level_order:
-            rows_J, rows_t = [], []
-            for task in self.levels[k]:
-                error, jac = task.compute(config)
-                sw = np.sqrt(task.weight)
-                rows_J.append(jac * sw[:, None])
-                rows_t.append(task.velocity_target(error) * sw)
-            levels.append((np.vstack(rows_J), np.concatenate(rows_t)))
+        levels = [(level.wJ, level.wr) for level in self._level_rows]  # gathered by assemble
         while len(self._level_backends) < len(levels):
             # semidefinite J_kᵀJ_k: DAQP's proximal-point iterations; a weight of 1e-3 on the proximal term was
             # reliable where the default (1e-6) reported degenerate feasible levels as infeasible
@@ -1489,13 +1449,10 @@ class KinematicController:
         WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
         Hw, gw = H.copy(), g.copy()
         p = len(self._level_order)
-        for i, k in enumerate(self._level_order):
+        for i, level in enumerate(self._level_rows):  # gathered by assemble, weights applied
             c = self.WEIGHTED_LEVEL_RATIO ** (p - i)
-            for task in self.levels[k]:
-                error, jac = task.compute(config)
-                w = task.weight
-                Hw += c * (jac.T * w) @ jac
-                gw -= c * jac.T @ (w * task.velocity_target(error))
+            Hw += c * (level.wJ.T @ level.wJ)
+            gw -= c * (level.wJ.T @ level.wr)
         return Hw, gw
 
     # -- failure handling -------------------------------------------------------------------------------------
@@ -1689,9 +1646,71 @@ class _DriftFailure(SolverError):
     """The tick's QP solved, but no trust region kept the contact frames within ``sole_drift_tolerance``."""
 
 
+def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
+    """Stacked-row buffers of ``tasks`` (``KinematicController._build_soft_layout``). ``own_costs``: one plain
+    :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.fastqp.form_qp` and the tasks with their
+    own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a strict level)."""
+    soft = _SoftRows()
+    soft.tasks = list(tasks)
+    dense, soft.own, soft.posture = [], [], None
+    row = 0
+    for task in tasks:
+        if not own_costs or type(task).add_cost is Task.add_cost:
+            dense.append((task, row, row + task.dim, type(task).velocity_target is Task.velocity_target))
+            row += task.dim
+        elif type(task) is PostureTask and soft.posture is None:
+            soft.posture = task
+        else:
+            soft.own.append(task)
+    soft.J = np.zeros((row, nv))
+    soft.e = np.zeros(row)
+    soft.rowp = np.zeros((3, row))  # gain, weight, feed-forward of each stacked row
+    soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
+    soft.wr = np.zeros(row)
+    soft.rows = []
+    for k, (task, r0, r1, plain) in enumerate(dense):
+        soft.rows.append((task, soft.e[r0:r1], soft.J[r0:r1], soft.rowp[1, r0:r1], soft.rowp[0, r0:r1],
+                          soft.rowp[2, r0:r1], k, plain))
+        if not plain:  # v* written as the error: K = −1, ė* = 0
+            soft.rowp[0, r0:r1] = -1.0
+    soft.gains = [None] * len(dense)
+    soft.has_ff = [True] * len(dense)
+    kp = 0 if soft.posture is None else soft.posture.dim
+    soft.pw = np.zeros(kp)
+    soft.prow = np.zeros(kp, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
+    soft.no_diff = np.zeros(nv)
+    return soft
+
+
+def _gather_rows(soft: _SoftRows, config: Configuration) -> None:
+    """Write each task's rows at ``config`` into its stacked buffers (``compute_into``: e, J) with, per row, its
+    gain, weight and feed-forward (a task's ``weight`` becomes a view of the stacked weights: in-place changes are
+    seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1)."""
+    gains, has_ff = soft.gains, soft.has_ff
+    for task, e, J, w, gain_rows, ff_rows, k, plain in soft.rows:
+        task.compute_into(config, e, J)
+        if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
+            task.share_weight(w)
+        if not plain:
+            e[:] = task.velocity_target(e.copy())
+            continue
+        gain = task.gain
+        if gain != gains[k]:
+            gain_rows.fill(gain)
+            gains[k] = gain
+        ff = task.feedforward()
+        if ff is not None:
+            ff_rows[:] = ff
+            has_ff[k] = True
+        elif has_ff[k]:
+            ff_rows.fill(0.0)
+            has_ff[k] = False
+
+
 class _SoftRows:
-    """The stacked soft-task rows of one task list (``KinematicController._build_soft_layout``): ``J`` (mt, nv),
-    ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row; ``rows``, per task with the generic cost,
+    """The stacked rows of one task list (:func:`_stack_rows`: the soft level, or a strict level): ``J`` (mt, nv),
+    ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row, ``wJ``, ``wr``: a strict level's rows with the
+    weights applied; ``rows``, per task with the generic cost,
     (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task taken as the
     diagonal of :func:`wbc.fastqp.form_qp` (``posture``, its weights ``pw`` and velocity indices ``prow``); the
     tasks with their own cost (``own``)."""
