@@ -242,11 +242,12 @@ def test_strict_hierarchy_takes_the_general_path(robots):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_compiled_tick_is_the_optimum_of_its_qp(seed):
-    """wbc.fastqp.kinematic_tick (assembly + floating-base elimination + active set) against quadprog on the QP
-    written out here: task rows with gains/weights/feed-forward, a posture diagonal, damping, equality rows whose
-    first 6 are an invertible base block, inequality rows, and position limits clipped into a velocity box. When
-    the kernel gives up (negative code) the full-space kernel must give up on that QP too."""
-    from wbc.fastqp import kinematic_pack, kinematic_tick_packed
+    """wbc.fastqp.form_qp (the cost from task rows with gains/weights/feed-forward, a posture diagonal, damping)
+    against the cost written out here in numpy, and wbc.fastqp.kinematic_solve (floating-base elimination + active
+    set) on that assembled QP — equality rows whose first 6 are an invertible base block, inequality rows, a
+    velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
+    the full-space kernel must give up on that QP too."""
+    from wbc.fastqp import form_qp, kinematic_pack, kinematic_solve_packed
 
     rng = np.random.default_rng(500 + seed)
     nv = int(rng.integers(16, 40))
@@ -256,10 +257,10 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     er = 0 if eliminate else -1
     joints = np.arange(6, nv)
     kl = joints.size
-    fb, ib, x = kinematic_pack(nv, mt, n_eq, n_in, kl, kl, er)
-    x["Js"][:] = rng.standard_normal((mt, nv))
-    x["es"][:] = rng.standard_normal(mt)
-    x["rowp"][:] = (rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt))
+    fb, ib, x = kinematic_pack(nv, n_eq, n_in, er)
+    Js = rng.standard_normal((mt, nv))
+    es = rng.standard_normal(mt)
+    rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt)])
     A = rng.standard_normal((n_eq, nv))
     A[:6, :6] += 3 * np.eye(6)  # invertible base block
     v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
@@ -267,46 +268,48 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     x["b"][:] = A @ v0
     C = rng.standard_normal((n_in, nv))
     x["C"][:] = C
-    x["cl"][:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
-    x["cu"][:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
+    x["l"][:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
+    x["u"][:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
     vmax = np.abs(v0[joints]) + rng.uniform(0.2, 2.0, kl)
-    x["lb"][:], x["ub"][:] = -np.inf, np.inf
-    x["lb"][6:], x["ub"][6:] = -vmax, vmax
     q = rng.uniform(-1, 1, nq)
     idx_q = joints + 1
     dt = 0.01
     # position limits that bind (some tighter than the velocity box), v0 inside them
     qmin = q[idx_q] + dt * (v0[joints] - rng.uniform(0.05, 2.0, kl))
     qmax = q[idx_q] + dt * (v0[joints] + rng.uniform(0.05, 2.0, kl))
-    x["plim"][:] = (qmin, qmax, vmax, -vmax)
-    x["pidx"][:] = (idx_q, joints)
-    x["prow"][:] = joints
-    x["pw"][:] = rng.uniform(0.01, 0.1, kl)
-    diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
-    nr = nv - 6 if eliminate else nv
-    state, rstate, v = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
-    it = kinematic_tick_packed(fb, ib, state, rstate, diff, q, v, pgain, dt, damping, 1e-6, 200)
-    # the same QP in numpy: cost ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
-    gain, w, ff = x["rowp"]
-    target = ff - gain * x["es"]
-    d = np.zeros(nv)
-    d[joints] = x["pw"]
-    s = -pgain * diff
-    H = x["Js"].T @ (w[:, None] * x["Js"]) + np.diag(d + damping)
-    g = -x["Js"].T @ (w * target) - d * s
-    lb, ub = x["lb"].copy(), x["ub"].copy()
+    lb, ub = np.full(nv, -np.inf), np.full(nv, np.inf)
     lo = np.minimum((qmin - q[idx_q]) / dt, vmax)
     hi = np.maximum((qmax - q[idx_q]) / dt, -vmax)
-    lb[joints], ub[joints] = np.minimum(np.maximum(lo, lb[joints]), ub[joints]), \
-        np.maximum(np.minimum(hi, ub[joints]), lb[joints])
-    G, h = np.vstack([C, -C]), np.concatenate([x["cu"], -x["cl"]])
+    lb[joints], ub[joints] = np.minimum(np.maximum(lo, -vmax), vmax), np.maximum(np.minimum(hi, vmax), -vmax)
+    x["lb"][:], x["ub"][:] = lb, ub
+    pw = rng.uniform(0.01, 0.1, kl)
+    diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
+    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x["H"], x["g"])
+    # the same cost in numpy: ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
+    gain, w, ff = rowp
+    target = ff - gain * es
+    d = np.zeros(nv)
+    d[joints] = pw
+    s = -pgain * diff
+    H = Js.T @ (w[:, None] * Js) + np.diag(d + damping)
+    g = -Js.T @ (w * target) - d * s
+    assert np.abs(x["H"] - H).max() < 1e-12 * max(1.0, np.abs(H).max())
+    assert np.abs(x["g"] - g).max() < 1e-12 * max(1.0, np.abs(g).max())
+    assert np.array_equal(x["H"], x["H"].T)
+    before = fb.copy()
+    nr = nv - 6 if eliminate else nv
+    state, rstate, v = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    it = kinematic_solve_packed(fb, ib, state, rstate, v, dt, 1e-6, 200)
+    qp_size = x["ws"].ctypes.data - fb.ctypes.data
+    assert np.array_equal(fb[:qp_size // 8], before[:qp_size // 8])  # the assembled QP is read, never written
+    G, h = np.vstack([C, -C]), np.concatenate([x["u"], -x["l"]])
     ref = qpsolvers.solve_qp(H, g, G=G if n_in else None, h=h if n_in else None, A=A, b=x["b"],
                              lb=np.where(np.isfinite(lb), lb, -1e20), ub=np.where(np.isfinite(ub), ub, 1e20),
                              solver="quadprog")
     assert ref is not None
     if it < 1:  # the single-pivot working set gave up (cold start, many active bounds): so does the full-space
         full = make_backend("fast")  # kernel on the same QP, and both controllers' ticks go to DAQP
-        full.solve(H, g, A, x["b"], C, x["cl"], x["cu"], lb, ub)
+        full.solve(H, g, A, x["b"], C, x["l"], x["u"], lb, ub)
         assert full.kernel_solves == 0 and full.fallbacks == 1
         return
     assert np.abs(v - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())

@@ -26,12 +26,13 @@ complementarity since constraints out of the working set carry no multiplier), s
 optimum; when it does not end within the iteration cap, when H is not positive definite or when the equalities are
 dependent, the call is handed to :class:`wbc.qp.DaqpBackend`.
 
-:func:`kinematic_tick` is the kinematic controller's whole QP tick in one compiled call (assembly from stacked task
-rows, posture diagonal, damping and position limits; floating-base elimination through a contact's 6 rows; the
-methods above on the reduced problem; residuals of the original rows checked), with its persistent arrays
-packed into two by :func:`kinematic_pack` for :func:`kinematic_tick_packed`; when its solver gives up, the reduced
-problem (:func:`kinematic_reduced_packed`) can be solved by another solver and the tick completed from that answer
-(:func:`kinematic_finish_packed`).
+:func:`form_qp` forms the kinematic controller's cost (H, g) from its stacked task rows (posture diagonal, damping):
+the one cost formation of every kinematic route. :func:`kinematic_solve` is the compiled solver of the assembled
+kinematic QP (H, g, A, b, C, l, u, lb, ub): the floating base eliminated through a contact's 6 equality rows (H, g
+and the other rows reduced by the substitution), the methods above on the reduced problem, the residuals of the
+original rows checked; :func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for
+:func:`kinematic_solve_packed`. When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can
+be solved by another solver and the solve completed from that answer (:func:`kinematic_finish_packed`).
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took.
@@ -49,17 +50,17 @@ from wbc.qp import DaqpBackend
 from wbc.solver_status import SolverStatus
 
 __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "contact_drift",
-           "ensure_compiled", "forward_substitution", "kinematic_finish_packed", "kinematic_pack",
-           "kinematic_reduced_packed", "kinematic_tick", "kinematic_tick_packed", "kinematic_workspace",
+           "ensure_compiled", "form_qp", "forward_substitution", "kinematic_finish_packed", "kinematic_pack",
+           "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
            "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
-           "weighted_normal_equations"]
+           "weighted_normal_equations", "weighted_rows"]
 
 #: exit codes (the shared :class:`~wbc.solver_status.SolverStatus` values as plain ints, frozen by numba at compile
 #: time) of :func:`solve_box_eq` (≥ 0: number of working-set iterations)
 NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
 DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
 ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
-#: exit codes of :func:`kinematic_tick`: the floating base cannot be eliminated (a bound on a base velocity, a
+#: exit codes of :func:`kinematic_solve`: the floating base cannot be eliminated (a bound on a base velocity, a
 #: singular eliminating block); the solution's equality or inequality residual is above the tolerance
 NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
 RESIDUAL = int(SolverStatus.RESIDUAL)
@@ -805,40 +806,92 @@ def _reduce_row(src, n0, nr, Tc, out):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _add_row(H, g, row, w, r, nr):
-    """H += w row rowᵀ and g −= w r row: one weighted least-squares row w (row·x − r)²/2 (whole rows of H: the
-    loops vectorise, where the triangle's ragged ones do not)."""
-    wr = w * r
-    for i in range(nr):
-        a = row[i]
-        if a == 0.0:
+def _weighted_row(Js, es, rowp, k, row):
+    """row ← √w_k J_k and returns √w_k v*_k, v*_k = ff_k − K_k e_k (rowp = (K, w, ff)): one stacked task row with
+    its weight applied, the one formula of :func:`form_qp` and :func:`weighted_rows`."""
+    sw = np.sqrt(rowp[1, k])
+    Jk = Js[k]
+    for j in range(row.shape[0]):
+        row[j] = sw * Jk[j]
+    return sw * (rowp[2, k] - rowp[0, k] * es[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def weighted_rows(Js, es, rowp, out_J, out_r):
+    """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
+    (:func:`wbc.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k − K_k e_k
+    (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+
+    Args:
+        Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
+    """
+    for k in range(Js.shape[0]):
+        out_r[k] = _weighted_row(Js, es, rowp, k, out_J[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
+    """The cost of the kinematic QP (:mod:`wbc.formulations.velocity`) from its stacked task rows, written into H
+    and g (compiled; the one cost formation of every kinematic route):
+
+        H = ε I + Σ_k w_k J_kᵀ J_k + Σ_a d_a e_{i_a} e_{i_a}ᵀ,    g = −Σ_k w_k v*_k J_kᵀ − Σ_a d_a s_a e_{i_a}
+
+    i.e. ½ vᵀHv + gᵀv = ½ Σ_k w_k (J_k v − v*_k)² + ½ Σ_a d_a (v_{i_a} − s_a)² + ½ ε ‖v‖² up to a constant, with
+    v*_k = ff_k − K_k e_k and s_a = −K_p diff[i_a] (a posture task: a selection Jacobian, so its cost is diagonal).
+    Each row enters as (√w_k J_k)ᵀ(√w_k J_k), whole rows of H at a time: H is exactly symmetric without a mirror.
+
+    Args:
+        Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K (1/s), weight w ≥ 0 and
+            feed-forward ė* of each row (a row with w = 0 is skipped).
+        diff (nv,): q ⊖ q* of the posture task; pw (kp,): its weights d; prow (kp,) int64: its velocity indices
+            i_a (kp = 0: no posture); pgain: its gain K_p (1/s).
+        damping: ε > 0. H (nv, nv), g (nv,): out.
+
+    Returns:
+        trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
+    """
+    n = H.shape[0]
+    H[:, :] = 0.0
+    g[:] = 0.0
+    row = np.empty(n)
+    for k in range(Js.shape[0]):
+        if rowp[1, k] == 0.0:
             continue
-        g[i] -= a * wr
-        wa = w * a
-        Hi = H[i]
-        for j in range(nr):
-            Hi[j] += wa * row[j]
+        swr = _weighted_row(Js, es, rowp, k, row)
+        for i in range(n):
+            a = row[i]
+            if a == 0.0:
+                continue
+            g[i] -= a * swr
+            Hi = H[i]
+            for j in range(n):
+                Hi[j] += a * row[j]
+    for a in range(prow.shape[0]):
+        i = prow[a]
+        H[i, i] += pw[a]
+        g[i] -= pw[a] * (-pgain * diff[i])
+    check = 0.0
+    for i in range(n):
+        H[i, i] += damping
+        check += H[i, i] + g[i]
+    return check
 
 
 def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Float and integer workspaces of :func:`kinematic_tick` for nv velocities, ``n_eq`` equality and ``n_in``
+    """Float and integer workspaces of :func:`kinematic_solve` for nv velocities, ``n_eq`` equality and ``n_in``
     inequality rows, with or without the floating-base elimination. The float one starts with v·dt (nv,)."""
     nr = nv - 6 if eliminate else nv
     mr = n_eq - 6 if eliminate else n_eq
-    size = (3 * nv + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + n_in * nr + 3 * n_in + mr * nr + 2 * mr
+    size = (nv + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + n_in * nr + 3 * n_in + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
     return np.zeros(size), np.zeros(nr, np.int64)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _tick_views(ws, n, nr, mr, p):
-    """Views of :func:`kinematic_tick`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
+def _solve_views(ws, n, nr, mr, p):
+    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
     o = n
-    pd = ws[o:o + n]
-    o += n
-    ps = ws[o:o + n]
-    o += n
     H = ws[o:o + nr * nr].reshape((nr, nr))
     o += nr * nr
     L = ws[o:o + nr * nr].reshape((nr, nr))
@@ -861,6 +914,10 @@ def _tick_views(ws, n, nr, mr, p):
     o += 6 * (nr + 1)
     Eb = ws[o:o + 36].reshape((6, 6))
     o += 36
+    V = ws[o:o + 6 * nr].reshape((6, nr))
+    o += 6 * nr
+    wb = ws[o:o + 6]
+    o += 6
     Cr = ws[o:o + p * nr].reshape((p, nr))
     o += p * nr
     lr = ws[o:o + p]
@@ -882,112 +939,99 @@ def _tick_views(ws, n, nr, mr, p):
     rhs = ws[o:o + mr]
     o += mr
     eqres = ws[o:o + 1]
-    return (pd, ps, H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
+    return (H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, pidx, C, cl, cu, dt, damping,
-                   tolerance, er, max_iter, state, rstate, ws, iws, v):
-    """One kinematic QP tick (:class:`wbc.formulations.velocity.KinematicController`), assembled and solved in one
-    compiled call: the exact optimum of
+def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
+    """Hr = Zᵀ H Z and gr = Zᵀ (g + H v₀) for v = Z v_j + v₀, Z = [−T; I], v₀ = [c; 0] (the base's v_b = c − T v_j):
+    Hr = H_jj − H_jb T − Tᵀ V with V = H_bj − H_bb T, gr = (g_j + H_jb c) − Tᵀ (g_b + H_bb c); the lower triangle
+    formed, mirrored (Hr exactly symmetric). n0 = 0: a copy."""
+    if n0 == 0:
+        for a in range(nr):
+            gr[a] = g[a]
+            for c in range(nr):
+                Hr[a, c] = H[a, c]
+        return
+    for b in range(n0):
+        Vb = V[b]
+        Hb = H[b]
+        s = g[b]
+        for c in range(nr):
+            Vb[c] = Hb[n0 + c]
+        for b2 in range(n0):
+            h = Hb[b2]
+            s += h * Tc[b2, nr]
+            if h != 0.0:
+                T2 = Tc[b2]
+                for c in range(nr):
+                    Vb[c] -= h * T2[c]
+        wb[b] = s
+    for a in range(nr):
+        Ha = H[n0 + a]
+        Hra = Hr[a]
+        s = g[n0 + a]
+        for c in range(a + 1):
+            Hra[c] = Ha[n0 + c]
+        for b in range(n0):
+            h = Ha[b]
+            tb = Tc[b, a]
+            s += h * Tc[b, nr] - tb * wb[b]
+            Tb = Tc[b]
+            Vb = V[b]
+            for c in range(a + 1):
+                Hra[c] -= h * Tb[c] + tb * Vb[c]
+        gr[a] = s
+    for a in range(nr):
+        for c in range(a + 1, nr):
+            Hr[a, c] = Hr[c, a]
 
-        min_v ½ Σ_k w_k (J_k v − v*_k)² + ½ Σ_i d_i (v_i − s_i)² + ½ ε ‖v‖²
-        s.t.  A v = b,  cl ≤ C v ≤ cu,  lb ≤ v ≤ ub  (∩ the joint position limits over dt)
 
-    with v*_k = ff_k − K_k e_k (dense task rows), d the posture weights on their velocity indices and
-    s = −K_p (q ⊖ q*) there.
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
+    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.KinematicController.assemble`)
+
+        min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
+
+    with the floating base eliminated (compiled; the arguments are read, never written).
 
     Floating-base elimination (``er`` ≥ 0): the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, whose
     base block E_b is invertible) give v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), so the problem is solved exactly
     in the nv − 6 joint velocities with the remaining equality rows (a null-space / variable-elimination method;
-    Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's). The
-    base must be unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no
-    inequality rows) or :func:`solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of the
-    reduced problem holds at exit, and the residuals of all rows of the original one are checked against
-    ``tolerance``.
+    Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
+    g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
+    unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
+    :func:`solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of the reduced problem holds at
+    exit, and the residuals of all rows of the original one are checked against ``tolerance``.
 
     Args:
-        Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K, weight w, feed-forward ė*.
-        diff (nv,): q ⊖ q* of the posture task (``pin.difference``); pw (kp,), prow (kp,) int64: its weights and
-            velocity indices (kp = 0: no posture); pgain: its gain (1/s).
-        A (neq, nv), b (neq,): equality rows. lb/ub (nv,): bounds before the position limits.
-        q (nq,), plim (4, kl): q_min, q_max, v_max, −v_max of the position-limited joints, pidx (2, kl) int64: their
-            q and v indices; their bounds min((q_min − q)/dt, v_max) ≤ v ≤ max((q_max − q)/dt, −v_max) are
-            clipped into [lb, ub] (``JointPositionLimit``; kl = 0: none).
-        C (p, nv), cl/cu (p,): inequality rows. dt (s), damping ε, tolerance: largest residual accepted.
-        er: first row of the eliminating block, or −1 (no elimination). max_iter: working-set iterations.
+        H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,), C (p, nv), l/u (p,), lb/ub (nv,):
+            the assembled QP (a row of C with l = −inf and u = inf is unused).
+        er: first row of the eliminating block, or −1 (no elimination). dt (s): the workspace receives v·dt.
+        tolerance: largest residual accepted. max_iter: working-set iterations.
         state (nr,) int8, rstate (p,) int8: working sets (warm start, in/out). ws, iws: workspaces from
-            :func:`kinematic_workspace`; on success ws[:nv] = v·dt.
-        v (nv,): out.
+            :func:`kinematic_workspace`; on success ws[:nv] = v·dt. v (nv,): out.
 
     Returns:
         working-set iterations (≥ 1), or a negative exit code (the caller solves the tick by the general path).
     """
-    n = Js.shape[1]
-    mt = Js.shape[0]
+    n = H.shape[0]
     n0 = 6 if er >= 0 else 0
     nr = n - n0
     neq = A.shape[0]
     mr = neq - n0
     p = C.shape[0]
-    (pd, ps, H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _tick_views(ws, n, nr, mr, p)
-    # bounds: [lb, ub] on the joint velocities, the position limits clipped into them
+    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
+     eqres) = _solve_views(ws, n, nr, mr, p)
     for i in range(n0):
         if lb[i] > -np.inf or ub[i] < np.inf:
             return NOT_REDUCIBLE
     for j in range(nr):
         lbr[j] = lb[n0 + j]
         ubr[j] = ub[n0 + j]
-    for a in range(pidx.shape[1]):
-        j = pidx[1, a] - n0
-        if j < 0:
-            return NOT_REDUCIBLE
-        qa = q[pidx[0, a]]
-        lo = min((plim[0, a] - qa) / dt, plim[2, a])
-        hi = max((plim[1, a] - qa) / dt, plim[3, a])
-        cur_lo, cur_hi = lbr[j], ubr[j]
-        lbr[j] = min(max(lo, cur_lo), cur_hi)
-        ubr[j] = max(min(hi, cur_hi), cur_lo)
     if n0 and not _eliminate_base(A, b, er, nr, Eb, Tc):
         return NOT_REDUCIBLE
-    # cost: dense task rows, posture (diagonal), damping
-    for i in range(n):
-        pd[i] = 0.0
-        ps[i] = 0.0
-    for a in range(prow.shape[0]):
-        i = prow[a]
-        pd[i] += pw[a]
-        ps[i] = -pgain * diff[i]
-    for i in range(nr):
-        g[i] = 0.0
-        for j in range(nr):
-            H[i, j] = 0.0
-    for r in range(mt):
-        w = rowp[1, r]
-        if w == 0.0:
-            continue
-        target = rowp[2, r] - rowp[0, r] * es[r]
-        target -= _reduce_row(Js[r], n0, nr, Tc, row)
-        _add_row(H, g, row, w, target, nr)
-    for i in range(n0):  # the base's posture and damping terms, through v_b = c − T v_j
-        wd = pd[i] + damping
-        s = pd[i] * ps[i] - wd * Tc[i, nr]
-        Ti = Tc[i]
-        for a in range(nr):
-            ta = Ti[a]
-            if ta == 0.0:
-                continue
-            g[a] += ta * s
-            wta = wd * ta
-            Ha = H[a]
-            for c in range(nr):
-                Ha[c] += wta * Ti[c]
-    for j in range(nr):
-        i = n0 + j
-        H[j, j] += damping + pd[i]
-        g[j] -= pd[i] * ps[i]
-    # constraint rows in the joint velocities
+    _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr)
     kk = 0
     for r in range(neq):
         if n0 and er <= r < er + 6:
@@ -995,24 +1039,24 @@ def kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, p
         br[kk] = b[r] - _reduce_row(A[r], n0, nr, Tc, Ar[kk])
         kk += 1
     for r in range(p):
-        if cl[r] == -np.inf and cu[r] == np.inf:  # an unused row (e.g. self-collision's beyond its close pairs)
+        if l[r] == -np.inf and u[r] == np.inf:  # an unused row (e.g. self-collision's beyond its close pairs)
             lr[r] = -np.inf
             ur[r] = np.inf
             continue
         shift = _reduce_row(C[r], n0, nr, Tc, Cr[r])
-        lr[r] = cl[r] - shift
-        ur[r] = cu[r] - shift
+        lr[r] = l[r] - shift
+        ur[r] = u[r] - shift
     if p == 0:
-        it = solve_box_eq_ws(H, g, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws, L, Y, S,
-                             t, rhs, eqres)
+        it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws, L, Y,
+                             S, t, rhs, eqres)
     else:
-        it = solve_qp_ws(H, g, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12,
+        it = solve_qp_ws(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12,
                          1e-24, eqres)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
         return it
-    if not _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
+    if not _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v):
         state[:] = 0
         rstate[:] = 0
         return RESIDUAL
@@ -1059,107 +1103,90 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
     return True
 
 
-#: fields of the header of :func:`kinematic_tick_packed`'s integer array (offsets into its float array ``fb``)
-_PACK_FIELDS = ("nv", "mt", "neq", "p", "kl", "kp", "er", "Js", "es", "rowp", "A", "b", "C", "cl", "cu", "lb", "ub",
-                "plim", "pw", "ws", "pidx", "prow", "iws")
+#: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
+_PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
 
 
-def kinematic_pack(nv: int, mt: int, n_eq: int, n_in: int, n_limits: int, n_posture: int, er: int
-                   ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """The two arrays :func:`kinematic_tick_packed` reads (one float, one int64) for nv velocities, ``mt`` dense task
-    rows, ``n_eq`` equality and ``n_in`` inequality rows, ``n_limits`` position-limited joints and ``n_posture``
-    posture rows, eliminating the floating base through the equality rows from ``er`` (−1: none), and named views
-    of their parts, the arguments of :func:`kinematic_tick`: ``Js`` (mt, nv), ``es`` (mt,), ``rowp`` (3, mt), ``A``
-    (n_eq, nv), ``b``, ``C`` (n_in, nv), ``cl``, ``cu``, ``lb``, ``ub`` (nv,), ``plim`` (4, n_limits), ``pw``
-    (n_posture,), ``pidx`` (2, n_limits) and ``prow`` (n_posture,) int64, and ``vdt`` (nv,): v·dt after a solve."""
+def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """The two arrays :func:`kinematic_solve_packed` reads (one float, one int64) for a kinematic QP of nv
+    velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base through the equality
+    rows from ``er`` (−1: none), and named views of their parts: the QP's buffers ``H`` (nv, nv), ``g`` (nv,), ``A``
+    (n_eq, nv), ``b``, ``C`` (n_in, nv), ``l``, ``u``, ``lb``, ``ub`` (nv,) — the arrays the controller assembles
+    into, so that the compiled solver reads them where they were written — and ``vdt`` (nv,): v·dt after a solve."""
     ws, iws = kinematic_workspace(nv, n_eq, n_in, er >= 0)
-    shapes = {"Js": (mt, nv), "es": (mt,), "rowp": (3, mt), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv),
-              "cl": (n_in,), "cu": (n_in,), "lb": (nv,), "ub": (nv,), "plim": (4, n_limits), "pw": (n_posture,),
-              "ws": (ws.size,)}
-    ishapes = {"pidx": (2, n_limits), "prow": (n_posture,), "iws": (iws.size,)}
+    shapes = {"H": (nv, nv), "g": (nv,), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv), "l": (n_in,),
+              "u": (n_in,), "lb": (nv,), "ub": (nv,), "ws": (ws.size,)}
     head = len(_PACK_FIELDS)
     offsets, o = {}, 0
     for name, shape in shapes.items():
         offsets[name] = o
         o += int(np.prod(shape))
     fb = np.zeros(o)
-    io = head
-    for name, shape in ishapes.items():
-        offsets[name] = io
-        io += int(np.prod(shape))
-    ib = np.zeros(io, np.int64)
-    ib[:7] = (nv, mt, n_eq, n_in, n_limits, n_posture, er)
-    for i, name in enumerate(_PACK_FIELDS[7:], start=7):
+    ib = np.zeros(head + iws.size, np.int64)
+    ib[:4] = (nv, n_eq, n_in, er)
+    for i, name in enumerate(_PACK_FIELDS[4:-1], start=4):
         ib[i] = offsets[name]
+    ib[head - 1] = head
     views = {name: fb[offsets[name]:offsets[name] + int(np.prod(shape))].reshape(shape)
              for name, shape in shapes.items()}
-    views.update({name: ib[offsets[name]:offsets[name] + int(np.prod(shape))].reshape(shape)
-                  for name, shape in ishapes.items()})
     views["vdt"] = views["ws"][:nv]
     return fb, ib, views
 
 
 @nb.njit(cache=True, nogil=True)
 def _unpack(fb, ib):
-    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (Js, es, rowp, A, b, C, cl, cu, lb, ub,
-    plim, pw, ws, pidx, prow, iws, er)."""
-    nv, mt, neq, p, kl, kp, er = ib[0], ib[1], ib[2], ib[3], ib[4], ib[5], ib[6]
-    o = ib[7:]
-    Js = fb[o[0]:o[0] + mt * nv].reshape((mt, nv))
-    es = fb[o[1]:o[1] + mt]
-    rowp = fb[o[2]:o[2] + 3 * mt].reshape((3, mt))
-    A = fb[o[3]:o[3] + neq * nv].reshape((neq, nv))
-    b = fb[o[4]:o[4] + neq]
-    C = fb[o[5]:o[5] + p * nv].reshape((p, nv))
-    cl = fb[o[6]:o[6] + p]
-    cu = fb[o[7]:o[7] + p]
-    lb = fb[o[8]:o[8] + nv]
-    ub = fb[o[9]:o[9] + nv]
-    plim = fb[o[10]:o[10] + 4 * kl].reshape((4, kl))
-    pw = fb[o[11]:o[11] + kp]
-    ws = fb[o[12]:]
-    pidx = ib[o[13]:o[13] + 2 * kl].reshape((2, kl))
-    prow = ib[o[14]:o[14] + kp]
-    iws = ib[o[15]:]
-    return Js, es, rowp, A, b, C, cl, cu, lb, ub, plim, pw, ws, pidx, prow, iws, er
+    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (H, g, A, b, C, l, u, lb, ub, ws, iws,
+    er)."""
+    nv, neq, p, er = ib[0], ib[1], ib[2], ib[3]
+    o = ib[4:]
+    H = fb[o[0]:o[0] + nv * nv].reshape((nv, nv))
+    g = fb[o[1]:o[1] + nv]
+    A = fb[o[2]:o[2] + neq * nv].reshape((neq, nv))
+    b = fb[o[3]:o[3] + neq]
+    C = fb[o[4]:o[4] + p * nv].reshape((p, nv))
+    l = fb[o[5]:o[5] + p]
+    u = fb[o[6]:o[6] + p]
+    lb = fb[o[7]:o[7] + nv]
+    ub = fb[o[8]:o[8] + nv]
+    ws = fb[o[9]:]
+    iws = ib[o[10]:]
+    return H, g, A, b, C, l, u, lb, ub, ws, iws, er
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick_packed(fb, ib, state, rstate, diff, q, v, pgain, dt, damping, tolerance, max_iter):
-    """:func:`kinematic_tick` with its persistent arrays packed into ``fb`` (float) and ``ib`` (int64) by
-    :func:`kinematic_pack`: 12 arguments instead of 27 (each array argument costs the call ≈ 50 ns to type and
-    unbox). Same returns."""
-    Js, es, rowp, A, b, C, cl, cu, lb, ub, plim, pw, ws, pidx, prow, iws, er = _unpack(fb, ib)
-    return kinematic_tick(Js, es, rowp, diff, pw, prow, pgain, A, b, lb, ub, q, plim, pidx, C, cl, cu, dt, damping,
-                          tolerance, er, max_iter, state, rstate, ws, iws, v)
+def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
+    """:func:`kinematic_solve` on the QP packed into ``fb`` (float) and ``ib`` (int64) by :func:`kinematic_pack`:
+    8 arguments instead of 18 (each array argument costs the call ≈ 50 ns to type and unbox). Same returns."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
 
 
 @nb.njit(cache=True, nogil=True)
 def kinematic_reduced_packed(fb, ib):
-    """The reduced QP assembled by the last :func:`kinematic_tick_packed` call on these arrays (valid after any
-    return but ``NOT_REDUCIBLE``), as views into ``fb``: (H (nr, nr), g (nr,), A (mr, nr), b (mr,), C (p, nr),
-    l (p,), u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the joint
-    velocities x (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution
-    x, given to :func:`kinematic_finish_packed`, completes the tick."""
-    Js, es, rowp, A, b, C, cl, cu, lb, ub, plim, pw, ws, pidx, prow, iws, er = _unpack(fb, ib)
+    """The reduced QP formed by the last :func:`kinematic_solve_packed` call on these arrays (valid after any return
+    but ``NOT_REDUCIBLE``), as views into ``fb``: (H (nr, nr), g (nr,), A (mr, nr), b (mr,), C (p, nr), l (p,),
+    u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the joint velocities x
+    (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution x, given to
+    :func:`kinematic_finish_packed`, completes the tick."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
     n0 = 6 if er >= 0 else 0
     nr = A.shape[1] - n0
-    (pd, ps, H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _tick_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])
-    return H, g, Ar, br, Cr, lr, ur, lbr, ubr
+    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
+     eqres) = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])
+    return Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
-    """Complete a :func:`kinematic_tick_packed` call whose kernel did not solve the reduced QP, from a solution x
+    """Complete a :func:`kinematic_solve_packed` call whose kernel did not solve the reduced QP, from a solution x
     (nr,) of :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; base velocity recovered
     through the eliminating rows) and the check of every original row against ``tolerance`` (True: passed, and
-    the float workspace then holds v·dt as after a successful tick)."""
-    Js, es, rowp, A, b, C, cl, cu, lb, ub, plim, pw, ws, pidx, prow, iws, er = _unpack(fb, ib)
+    the float workspace then holds v·dt as after a successful solve)."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
     n0 = 6 if er >= 0 else 0
     nr = A.shape[1] - n0
-    Tc = _tick_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])[11]
-    return _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v)
+    Tc = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])[9]
+    return _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -1320,15 +1347,16 @@ def warm_up() -> float:
     # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
-    # the kinematic controller's compiled tick (a 7-velocity problem whose base is eliminated through 6 rows)
-    fb, ib, views = kinematic_pack(7, 1, 6, 0, 0, 0, 0)
+    # the kinematic controller's cost formation and compiled solver (a 7-velocity QP whose base is eliminated
+    # through 6 rows)
+    fb, ib, views = kinematic_pack(7, 6, 0, 0)
+    form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
+            1e-6, views["H"], views["g"])
+    weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
     views["A"][:, :6] = np.eye(6)
-    views["rowp"][1] = 1.0
-    views["Js"][0, 6] = 1.0
+    views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
     views["lb"][6], views["ub"][6] = -1.0, 1.0
-    q = np.zeros(7)
-    kinematic_tick_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), q, q, np.empty(7), 0.0, 0.002, 1e-6,
-                          1e-6, 10)
+    kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))

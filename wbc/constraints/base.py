@@ -79,3 +79,14 @@ class BoxConstraint(Constraint):
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Return (lb (k,), ub (k,)) with lb ≤ v[indices] ≤ ub."""
+
+    def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
+        """Intersect this box with the running box lb ≤ v ≤ ub ((nv,) each, in place), clipped into it so that it
+        yields where it would empty it (module docstring): on ``indices``, lb ← min(max(lo, lb), ub) and
+        ub ← max(min(hi, ub), lb), both from the running values, (lo, hi) = :meth:`compute`. Boxes with a compiled
+        form override it (the same numbers)."""
+        lo, hi = self.compute(config, dt)
+        idx = self.indices
+        cur_lo, cur_hi = lb[idx], ub[idx]
+        lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
+        ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)

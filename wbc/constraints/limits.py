@@ -42,11 +42,29 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
         ub[k] = max((q_max[k] - qk) / dt, neg_v_max[k])
 
 
+@nb.njit(cache=True, nogil=True)
+def _intersect_position_bounds(q, idx_q, idx_v, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
+    """The bounds of :func:`_position_bounds` intersected with the running box lb, ub (nv,) at the velocity indices
+    ``idx_v``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled)."""
+    for k in range(idx_q.shape[0]):
+        qk = q[idx_q[k]]
+        lo = min((q_min[k] - qk) / dt, v_max[k])
+        hi = max((q_max[k] - qk) / dt, neg_v_max[k])
+        i = idx_v[k]
+        cl = lb[i]
+        cu = ub[i]
+        lb[i] = min(max(lo, cl), cu)
+        ub[i] = max(min(hi, cu), cl)
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_position_bounds` (on-disk cache) once per process, at construction."""
+    """Load :func:`_position_bounds` and :func:`_intersect_position_bounds` (on-disk cache) once per process, at
+    construction."""
     z = np.zeros(1)
-    _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 1.0, np.empty(1), np.empty(1))
+    i = np.zeros(1, dtype=np.int64)
+    _position_bounds(z, i, z, z, z, z, 1.0, np.empty(1), np.empty(1))
+    _intersect_position_bounds(z, i, i, z, z, z, z, 1.0, np.zeros(1), np.zeros(1))
 
 
 class JointPositionLimit(BoxConstraint):
@@ -89,6 +107,11 @@ class JointPositionLimit(BoxConstraint):
         lb, ub = np.empty(self.dim), np.empty(self.dim)
         _position_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.v_max, self._neg_v_max, float(dt), lb, ub)
         return lb, ub
+
+    def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
+        """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers)."""
+        _intersect_position_bounds(config.q, self.idx_q, self.indices, self.q_min, self.q_max, self.v_max,
+                                   self._neg_v_max, float(dt), lb, ub)
 
 
 class JointVelocityLimit(BoxConstraint):

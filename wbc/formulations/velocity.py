@@ -110,19 +110,28 @@ input error), ``solve`` does not raise and never returns NaN:
 
 ``ok`` is False for such a tick and ``message`` says why.
 
-Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict
-level, a tick is gathered into preallocated stacked buffers (each task's ``compute_into``, each contact's rows, the
-posture task's q ⊖ q*) and assembled and solved by one compiled call, :func:`wbc.fastqp.kinematic_tick`: the same
-QP, with the floating base eliminated through the first contact's rows and the exact optimum of an active set
-warm-started from the previous tick. When the kernel gives up on that QP (iteration cap, dependent equalities),
-DAQP solves the same reduced QP and the tick is completed from its answer (:meth:`KinematicController._fused_rescue`;
-the kernel's next tick starts from DAQP's working set). The tick then goes on as above (contact drift measured at
-q⁺); whenever no solver ends at a KKT point within the backend's tolerance, the equality rows are rank deficient, a
-contact drifts above ``contact_correction``, or anything raises, the tick is solved again by the general path
-described above (DAQP fallback, correction, trust region, diagnosis), so results and failure handling are those of
-the general path. Soft tasks with their own cost or velocity target (other than one plain :class:`~wbc.tasks.PostureTask`)
-take the general path. A task's ``weight`` array becomes a view of the controller's stacked weights on its first
-compiled tick (in-place changes of it are seen, a new array assigned is copied in).
+One assembly. Every route solves the QP that :meth:`KinematicController.assemble` writes into the controller's
+buffers: the soft tasks' rows gathered into stacked buffers (each task's ``compute_into``: J, e, and per row K, w,
+ė*), the cost (H, g) formed from them by one compiled call (:func:`wbc.fastqp.form_qp`; one plain
+:class:`~wbc.tasks.PostureTask` enters it as a diagonal, other tasks with their own cost add it after), the
+constraint rows written by each constraint, the box intersected from each bound constraint's own bounds. The tasks
+of strict levels are gathered the same way, and each level's rows √w J, √w v* formed by the same formula
+(:func:`wbc.fastqp.weighted_rows`) for the cascade and its weighted form.
+
+Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict level,
+that assembled QP — the same arrays, which the solver reads and never writes — is solved by one compiled call,
+:func:`wbc.fastqp.kinematic_solve`: the floating base eliminated through the first contact's 6 equality rows
+(v_b = c − T v_j substituted into H, g and the other rows; a solver strategy, the QP is not changed) and the
+exact optimum of an active set warm-started from the previous tick. When the kernel gives up on the reduced QP
+(iteration cap, dependent equalities), DAQP solves the same reduced QP and the tick is completed from its answer
+(:meth:`KinematicController._fused_rescue`; the kernel's next tick starts from DAQP's working set). The tick then goes
+on as above (contact drift measured at q⁺); whenever no solver ends at a KKT point within the backend's tolerance,
+the equality rows are rank deficient, a contact drifts above ``contact_correction``, or anything raises, the tick is
+solved again by the general path described above (DAQP fallback, correction, trust region, diagnosis), so results
+and failure handling are those of the general path. Soft tasks with their own cost or velocity target (other than
+one plain :class:`~wbc.tasks.PostureTask`) take the general path. A task's ``weight`` array becomes a view of the
+controller's stacked weights on its first assembly (in-place changes of it are seen, a new array assigned is copied
+in).
 """
 
 from __future__ import annotations
@@ -144,8 +153,8 @@ from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
-                         clip_box_into, contact_drift, ensure_compiled, kinematic_finish_packed, kinematic_pack,
-                         kinematic_reduced_packed, kinematic_tick_packed, weighted_normal_equations)
+                         clip_box_into, contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
+                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed, weighted_rows)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend, TickWork
 from wbc.backends import DEFAULT_SOLVER, make_backend
@@ -156,7 +165,7 @@ from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["KinematicController", "TickResult"]
 
-#: exit codes of :func:`wbc.fastqp.kinematic_tick` after which its reduced QP is handed to DAQP
+#: exit codes of :func:`wbc.fastqp.kinematic_solve` after which its reduced QP is handed to DAQP
 #: (:meth:`KinematicController._fused_rescue`)
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
@@ -354,10 +363,9 @@ class KinematicController:
         for c in constraints:
             self.add_constraint(c)
         self.last_result = TickResult(np.zeros(self.nv))
-        self._H = np.empty((self.nv, self.nv))
-        self._g = np.empty(self.nv)
-        self._eye = np.eye(self.nv) * self.damping
         self._soft_tasks: list[Task] | None = None
+        self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
+        self._level_rows: list[_SoftRows] = []
         self._in_solve, self._drift_cache = False, None
         self._contact_expected: list[np.ndarray] | None = None
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
@@ -578,18 +586,32 @@ class KinematicController:
         self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
         self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, n_eq = _row_blocks(eq)
-        self._A = np.zeros((n_eq, self.nv))
-        self._b = np.zeros(n_eq)
         contact_ids = set(map(id, self._contacts))
         self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
         self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
                                        for i in range(r0, r1)], dtype=int)
         self._in_blocks, n_in = _row_blocks(ineq)
-        self._C = np.zeros((n_in, self.nv))
-        self._l = np.zeros(n_in)
-        self._u = np.zeros(n_in)
-        self._lb = np.empty(self.nv)
-        self._ub = np.empty(self.nv)
+        # the floating base is eliminated through the first contact's 6 rows by the compiled solver: a free flyer at
+        # v[0:6] that no box bounds (kinematic_solve)
+        model = self.robot.model
+        free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
+            model.joints[1].idx_v == 0
+        base_bounded = any(np.size(c.indices) and int(np.min(c.indices)) < 6 for c in self._box)
+        first = [r0 for c, r0, _ in self._contact_blocks if type(c) is ContactConstraint]
+        self._eliminating_row = first[0] if first and free_flyer and not base_bounded else -1
+        # the QP's buffers (H, g, A, b, C, l, u, lb, ub), packed with the compiled solver's workspace: every route
+        # reads the QP where assemble wrote it
+        self._qp_pack = kinematic_pack(self.nv, n_eq, n_in, self._eliminating_row)
+        views = self._qp_pack[2]
+        self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
+        self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
+        # each contact's rows written in place (ContactConstraint.compute_into) or from compute, and its factor
+        # dt − 1/K (the contact's expected error (1 − K dt) e = factor · b)
+        self._contact_writes = [(c, r0, r1, type(c) is ContactConstraint, self._A[r0:r1], self._b[r0:r1])
+                                for c, r0, r1 in self._contact_blocks]
+        self._other_eq_blocks = [blk for blk in self._eq_blocks if id(blk[0]) not in contact_ids]
+        self._contact_factors = np.zeros(len(self._contact_blocks))
+        self._contact_starts = np.array([r0 for _, r0, _ in self._contact_blocks], np.int64)
         self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
         for c, r0, r1 in self._eq_blocks:
             if isinstance(c, TaskConstraint):
@@ -597,66 +619,71 @@ class KinematicController:
         self._layout_ok = True
 
     def _build_soft_layout(self) -> None:
-        """Rows of the stacked soft tasks that use the generic cost (``Task.add_cost``); the others (e.g. the
-        posture task's diagonal cost) add their own. Redone when ``tasks`` changes; kept per task list (the same
-        task objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
+        """Stacked rows of the soft tasks, gathered by :meth:`assemble` and turned into the cost by one compiled
+        call (:func:`wbc.fastqp.form_qp`): the Jacobians J, the errors e and, per row, gain K, weight w and
+        feed-forward ė* (v* = ė* − K e; a task with its own velocity target writes v* as e with K = −1, ė* = 0), and
+        one plain :class:`~wbc.tasks.PostureTask` as the diagonal term of ``form_qp``; the other tasks with their own
+        cost (``Task.add_cost``) add it after. Redone when ``tasks`` changes; kept per task list (the same task
+        objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
-        if cached is not None and all(a is b for a, b in zip(cached[0], self.tasks)):
-            (self._soft_tasks, self._soft_dense, self._soft_own, self._soft_J, self._soft_w,
-             self._soft_r) = cached
+        if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
+            self._soft_tasks, self._soft = cached.tasks, cached
             return
-        self._soft_tasks = list(self.tasks)
-        self._soft_dense, self._soft_own = [], []
-        row = 0
-        for task in self.tasks:
-            if type(task).add_cost is Task.add_cost:
-                # v* = ė* − K e computed in place unless the task defines its own velocity_target
-                self._soft_dense.append((task, row, row + task.dim,
-                                         type(task).velocity_target is Task.velocity_target))
-                row += task.dim
-            else:
-                self._soft_own.append(task)
-        self._soft_J = np.zeros((row, self.nv))
-        self._soft_w = np.zeros(row)
-        self._soft_r = np.zeros(row)
-        self._soft_layouts[key] = (self._soft_tasks, self._soft_dense, self._soft_own, self._soft_J, self._soft_w,
-                                   self._soft_r)
+        soft = _stack_rows(self.tasks, self.nv, own_costs=True)
+        self._soft_tasks, self._soft = soft.tasks, soft
+        self._soft_layouts[key] = soft
         while len(self._soft_layouts) > 16:
             self._soft_layouts.pop(next(iter(self._soft_layouts)))
 
     def assemble(self, config: Configuration, dt: float):
-        """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring).
+        """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring): the one assembly that
+        every route solves (the compiled solver reads these very buffers).
 
-        The arrays are buffers owned by the controller, overwritten at the next call.
+        The task rows are gathered into stacked buffers (each task's ``compute_into``) and the cost formed from them
+        by one compiled call (:func:`wbc.fastqp.form_qp`); the constraint rows are written by each constraint
+        (a contact's ``compute_into``, else ``compute``) and the box is the intersection of each bound constraint's
+        own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at the next
+        call.
         """
         if not self._layout_ok:
             self._build_layout()
-        H, g = self._H, self._g
         if self._soft_tasks != self.tasks:
             self._build_soft_layout()
-        # tasks with the generic cost: rows stacked, H = εI + JᵀWJ and g = −JᵀWv* in one compiled call
-        J, w, r = self._soft_J, self._soft_w, self._soft_r
-        for task, r0, r1, plain_target in self._soft_dense:
-            rows = r[r0:r1]
-            task.compute_into(config, rows, J[r0:r1])  # e, then v* = ė* − K e in place
-            if plain_target:
-                rows *= -task.gain
-                ff = task.feedforward()
-                if ff is not None:
-                    rows += ff
-            else:
-                rows[:] = task.velocity_target(rows.copy())
-            w[r0:r1] = task.weight
-        weighted_normal_equations(J, w, r, self.damping, H, g)
-        for task in self._soft_own:
+        H, g = self._H, self._g
+        soft = self._soft
+        _gather_rows(soft, config)
+        posture = soft.posture
+        if posture is not None:
+            diff, pgain = pin.difference(self.robot.model, posture.target, config.q), posture.gain
+            if posture.weight is not soft.pw:
+                posture.share_weight(soft.pw)
+        else:
+            diff, pgain = soft.no_diff, 0.0
+        self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+        for task in soft.own:
             task.add_cost(config, H, g)
+        if self._level_order:  # the strict levels' rows, gathered the same way, weights applied (weighted_rows)
+            key = tuple((k, id(t), t.dim) for k in self._level_order for t in self.levels[k])
+            if key != self._level_key:
+                self._level_key = key
+                self._level_rows = [_stack_rows(self.levels[k], self.nv, own_costs=False) for k in self._level_order]
+            for level in self._level_rows:
+                _gather_rows(level, config)
+                weighted_rows(level.J, level.e, level.rowp, level.wJ, level.wr)
         A, b = self._A, self._b
-        for c, r0, r1 in self._eq_blocks:
+        factors = self._contact_factors
+        for i, (c, r0, r1, in_place, A_rows, b_rows) in enumerate(self._contact_writes):
+            if in_place:
+                k = c.compute_into(config, dt, A_rows, b_rows)
+            else:
+                A[r0:r1], b[r0:r1] = c.compute(config, dt)
+                k = min(c.gain, 1.0 / dt)
+            factors[i] = dt - 1.0 / k
+        for c, r0, r1 in self._other_eq_blocks:
             A[r0:r1], b[r0:r1] = c.compute(config, dt)
         if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
-            self._contact_expected = [b[r0:r1] * (dt - 1.0 / min(c.gain, 1.0 / dt))
-                                      for c, r0, r1 in self._contact_blocks]
+            self._contact_expected = [b[r0:r1] * factors[i] for i, (c, r0, r1) in enumerate(self._contact_blocks)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
@@ -691,10 +718,14 @@ class KinematicController:
         for c, sel in boxes:
             if skip and id(c) in skip:
                 continue
-            lo, hi = c.compute(config, dt)
-            if not first and record is None and isinstance(sel, slice):  # same clip, compiled, in place
-                clip_box_into(lb, ub, sel.start, lo, hi)
+            if not first and record is None:  # in place: the box's own intersection (compiled where it has one)
+                if isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
+                    lo, hi = c.compute(config, dt)
+                    clip_box_into(lb, ub, sel.start, lo, hi)  # the generic clip, compiled on a contiguous block
+                else:
+                    c.intersect_into(config, dt, lb, ub)
                 continue
+            lo, hi = c.compute(config, dt)
             if not first:  # clip into the running box (the first box meets ±inf only)
                 cur_lo, cur_hi = lb[sel], ub[sel]
                 lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
@@ -705,12 +736,12 @@ class KinematicController:
             if record is not None:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
-    # -- compiled tick (wbc.fastqp.kinematic_tick) --------------------------------------------------------------
+    # -- compiled tick (wbc.fastqp.kinematic_solve on the assembled QP) ----------------------------------------
     def _fused_plan(self, config: Configuration, dt: float) -> _FusedPlan | None:
         """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
         with it), or None when the problem is outside what it covers: strict levels, a backend other than
         :class:`~wbc.fastqp.FastBackend`, a soft task with its own cost or velocity target other than one plain
-        :class:`~wbc.tasks.PostureTask`."""
+        :class:`~wbc.tasks.PostureTask`, a contact of a subclass with rows of its own."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
         if not self._layout_ok:
@@ -720,7 +751,7 @@ class KinematicController:
         key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
         plan = self._fused_plans.get(key)
         if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = _FusedPlan.build(self, config, dt)
+            plan = self._fused_plans[key] = _FusedPlan.build(self)
             while len(self._fused_plans) > 16:
                 self._fused_plans.pop(next(iter(self._fused_plans)))
         if plan.supported:
@@ -730,86 +761,48 @@ class KinematicController:
         return None
 
     def _fused_tick(self, plan: _FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
-        """One tick through the compiled kernel (:func:`wbc.fastqp.kinematic_tick`): the same QP as the general
-        path, assembled from the same task and constraint rows and solved exactly. Returns None when the kernel
-        does not end at a KKT point within tolerance, when the equality rows are rank deficient, or when a
-        contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the caller then solves the tick by
-        the general path (DAQP fallback, correction, trust region, diagnosis)."""
-        if self._eq_rows is not None and self._eq_rows.size != plan.A.shape[0]:
+        """One tick through the compiled solver (:func:`wbc.fastqp.kinematic_solve`): the QP assembled by
+        :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and solved
+        exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality rows
+        are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
+        caller then solves the tick by the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        if self._eq_rows is not None and self._eq_rows.size != self._A.shape[0]:
             return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
         q = config.q
-        gains, has_ff = plan.gains, plan.has_ff
-        for task, e, J, w, gain_rows, ff_rows, k in plan.dense:
-            task.compute_into(config, e, J)
-            if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
-                task.share_weight(w)
-            gain = task.gain
-            if gain != gains[k]:
-                gain_rows.fill(gain)
-                gains[k] = gain
-            ff = task.feedforward()
-            if ff is not None:
-                ff_rows[:] = ff
-                has_ff[k] = True
-            elif has_ff[k]:
-                ff_rows.fill(0.0)
-                has_ff[k] = False
-        posture = plan.posture
-        if posture is not None:
-            diff, pgain = pin.difference(model, posture.target, q), posture.gain
-            if posture.weight is not plan.pw:
-                posture.share_weight(plan.pw)
-        else:
-            diff, pgain = q, 0.0  # unused (no posture rows)
-        factors = plan.factors
-        for i, (c, A_rows, b_rows) in enumerate(plan.contacts):
-            factors[i] = dt - 1.0 / c.compute_into(config, dt, A_rows, b_rows)
-        A, b = plan.A, plan.b
-        for c, r0, r1 in plan.equalities:
-            A[r0:r1], b[r0:r1] = c.compute(config, dt)
-        if plan.inequalities:
-            C, cl, cu = plan.C, plan.cl, plan.cu
-            for c, r0, r1 in plan.inequalities:
-                C[r0:r1], cl[r0:r1], cu[r0:r1] = c.compute(config, dt)
-        if plan.python_boxes:
-            self._intersect_boxes(config, dt)
-            plan.lb[:] = self._lb
-            plan.ub[:] = self._ub
+        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
             return None  # dependent equality rows: dropped and checked by the general path
-        # every number the kernel reads is finite (targets, weights, gains written in place, q, placements):
-        # one sum per buffer (NaN and inf propagate into it); else the general path meets them and fails the tick
-        if not math.isfinite(float(plan.es.sum()) + float(plan.rowp.sum()) + float(b.sum()) + float(diff.sum())
-                             + float(plan.pw.sum()) + float(pgain)):
+        # every number of the cost and the contact targets is finite (targets, weights, gains written in place, q,
+        # placements): NaN and inf propagate into these sums; else the general path meets them and fails the tick
+        if not math.isfinite(self._cost_check + float(b.sum())):
             return None
         t1 = perf_counter()
         v = np.empty(self.nv)
         backend = self.backend
-        it = kinematic_tick_packed(plan.fb, plan.ib, plan.state, plan.rstate, diff, q, v, pgain, float(dt),
-                                   self.damping, backend.tolerance, backend.max_iter)
+        fb, ib, _ = self._qp_pack
+        it = kinematic_solve_packed(fb, ib, plan.state, plan.rstate, v, float(dt), backend.tolerance,
+                                    backend.max_iter)
         backend.last_kernel_iterations = it
-        rescued = it in _KERNEL_GAVE_UP and plan.inequalities
+        rescued = it in _KERNEL_GAVE_UP and C.shape[0] > 0
         if rescued:
             it = self._fused_rescue(plan, v, dt)
         if it < 1:
             return None  # the general path: diagnosis, relaxation, safe command
-        # output guard: v finite and inside the box of the constraint objects (recomputed here, not read from the
-        # kernel) and the inequality rows, to the backend's tolerance
-        if not plan.python_boxes:
-            self._intersect_boxes(config, dt)
-        if self._command_fault(v, self._lb, self._ub, plan.C, plan.cl, plan.cu):
+        # output guard: v finite and inside the box of the constraint objects and the inequality rows, to the
+        # backend's tolerance (the assembled bounds: the solver reads them, never writes them)
+        if self._command_fault(v, lb, ub, C, l, u):
             return None
         drift = 0.0
-        if plan.contacts:
+        if self._contacts:
             ddata = self._drift_data
             pin.forwardKinematics(model, ddata, pin.integrate(model, q, plan.vdt))
             logs = plan.logs
-            for i, (c, _, _) in enumerate(plan.contacts):
+            for i, c in enumerate(self._contacts):
                 logs[i] = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, ddata, c.frame_id))).vector
-            drift = contact_drift(logs, b, plan.starts, factors)
+            drift = contact_drift(logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
@@ -826,8 +819,8 @@ class KinematicController:
         return result
 
     def _fused_rescue(self, plan: _FusedPlan, v: np.ndarray, dt: float) -> int:
-        """The compiled tick's kernel gave up on its reduced QP (dependent active rows — e.g. self-collision rows
-        of the thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
+        """The compiled solver gave up on its reduced QP (dependent active rows — e.g. self-collision rows of the
+        thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
         (:func:`wbc.fastqp.kinematic_reduced_packed`) is solved by DAQP, whose dual active set handles dependent
         constraints, and the tick completed from its solution (:func:`wbc.fastqp.kinematic_finish_packed`: base
         velocity, every original row checked). The kernel's next tick is warm-started from DAQP's working set
@@ -838,12 +831,13 @@ class KinematicController:
         if rescue is None:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
             rescue.work = self._work
-        H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(plan.fb, plan.ib)
+        fb, ib, _ = self._qp_pack
+        H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(fb, ib)
         try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
             x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
         except SolverError:
             return backend.last_kernel_iterations
-        if not kinematic_finish_packed(plan.fb, plan.ib, x, v, float(dt), backend.tolerance):
+        if not kinematic_finish_packed(fb, ib, x, v, float(dt), backend.tolerance):
             return backend.last_kernel_iterations
         lam = rescue.last_multipliers
         n, m = H.shape[0], A.shape[0]
@@ -1423,15 +1417,7 @@ class KinematicController:
             if self._weighted_qp is None:
                 self._weighted_qp = self._weighted_levels(config, H, g)
             return self._solve_flat(*self._weighted_qp, A, b, C, l, u, lb, ub)
-        levels = []
-        for k in self._level_order:
-            rows_J, rows_t = [], []
-            for task in self.levels[k]:
-                error, jac = task.compute(config)
-                sw = np.sqrt(task.weight)
-                rows_J.append(jac * sw[:, None])
-                rows_t.append(task.velocity_target(error) * sw)
-            levels.append((np.vstack(rows_J), np.concatenate(rows_t)))
+        levels = [(level.wJ, level.wr) for level in self._level_rows]  # gathered by assemble
         while len(self._level_backends) < len(levels):
             # semidefinite J_kᵀJ_k: DAQP's proximal-point iterations; a weight of 1e-3 on the proximal term was
             # reliable where the default (1e-6) reported degenerate feasible levels as infeasible
@@ -1463,13 +1449,10 @@ class KinematicController:
         WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
         Hw, gw = H.copy(), g.copy()
         p = len(self._level_order)
-        for i, k in enumerate(self._level_order):
+        for i, level in enumerate(self._level_rows):  # gathered by assemble, weights applied
             c = self.WEIGHTED_LEVEL_RATIO ** (p - i)
-            for task in self.levels[k]:
-                error, jac = task.compute(config)
-                w = task.weight
-                Hw += c * (jac.T * w) @ jac
-                gw -= c * jac.T @ (w * task.velocity_target(error))
+            Hw += c * (level.wJ.T @ level.wJ)
+            gw -= c * (level.wJ.T @ level.wr)
         return Hw, gw
 
     # -- failure handling -------------------------------------------------------------------------------------
@@ -1632,7 +1615,8 @@ class KinematicController:
 #: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
 _LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
                  "_const_prefix", "_const_lb", "_const_ub", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
-                 "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task")
+                 "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
+                 "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_starts")
 
 
 def _row_blocks(constraints) -> tuple[list, int]:
@@ -1662,82 +1646,100 @@ class _DriftFailure(SolverError):
     """The tick's QP solved, but no trust region kept the contact frames within ``sole_drift_tolerance``."""
 
 
+def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
+    """Stacked-row buffers of ``tasks`` (``KinematicController._build_soft_layout``). ``own_costs``: one plain
+    :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.fastqp.form_qp` and the tasks with their
+    own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a strict level)."""
+    soft = _SoftRows()
+    soft.tasks = list(tasks)
+    dense, soft.own, soft.posture = [], [], None
+    row = 0
+    for task in tasks:
+        if not own_costs or type(task).add_cost is Task.add_cost:
+            dense.append((task, row, row + task.dim, type(task).velocity_target is Task.velocity_target))
+            row += task.dim
+        elif type(task) is PostureTask and soft.posture is None:
+            soft.posture = task
+        else:
+            soft.own.append(task)
+    soft.J = np.zeros((row, nv))
+    soft.e = np.zeros(row)
+    soft.rowp = np.zeros((3, row))  # gain, weight, feed-forward of each stacked row
+    soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
+    soft.wr = np.zeros(row)
+    soft.rows = []
+    for k, (task, r0, r1, plain) in enumerate(dense):
+        soft.rows.append((task, soft.e[r0:r1], soft.J[r0:r1], soft.rowp[1, r0:r1], soft.rowp[0, r0:r1],
+                          soft.rowp[2, r0:r1], k, plain))
+        if not plain:  # v* written as the error: K = −1, ė* = 0
+            soft.rowp[0, r0:r1] = -1.0
+    soft.gains = [None] * len(dense)
+    soft.has_ff = [True] * len(dense)
+    kp = 0 if soft.posture is None else soft.posture.dim
+    soft.pw = np.zeros(kp)
+    soft.prow = np.zeros(kp, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
+    soft.no_diff = np.zeros(nv)
+    return soft
+
+
+def _gather_rows(soft: _SoftRows, config: Configuration) -> None:
+    """Write each task's rows at ``config`` into its stacked buffers (``compute_into``: e, J) with, per row, its
+    gain, weight and feed-forward (a task's ``weight`` becomes a view of the stacked weights: in-place changes are
+    seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1)."""
+    gains, has_ff = soft.gains, soft.has_ff
+    for task, e, J, w, gain_rows, ff_rows, k, plain in soft.rows:
+        task.compute_into(config, e, J)
+        if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
+            task.share_weight(w)
+        if not plain:
+            e[:] = task.velocity_target(e.copy())
+            continue
+        gain = task.gain
+        if gain != gains[k]:
+            gain_rows.fill(gain)
+            gains[k] = gain
+        ff = task.feedforward()
+        if ff is not None:
+            ff_rows[:] = ff
+            has_ff[k] = True
+        elif has_ff[k]:
+            ff_rows.fill(0.0)
+            has_ff[k] = False
+
+
+class _SoftRows:
+    """The stacked rows of one task list (:func:`_stack_rows`: the soft level, or a strict level): ``J`` (mt, nv),
+    ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row, ``wJ``, ``wr``: a strict level's rows with the
+    weights applied; ``rows``, per task with the generic cost,
+    (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task taken as the
+    diagonal of :func:`wbc.fastqp.form_qp` (``posture``, its weights ``pw`` and velocity indices ``prow``); the
+    tasks with their own cost (``own``)."""
+
+
 class _FusedPlan:
-    """Buffers and bindings of the compiled tick (:meth:`KinematicController._fused_tick`) for one constraint
-    layout and one list of soft tasks: the kernel's two packed arrays (:func:`wbc.fastqp.kinematic_pack`) and, per
-    task and constraint, the views of them its rows are written into; the position-limit data read by the kernel
-    and the floating-base elimination row."""
+    """What the compiled tick (:meth:`KinematicController._fused_tick`) keeps for one constraint layout and one
+    list of soft tasks beyond the assembled QP's buffers: the solver's working sets (warm start), the contacts'
+    log buffer and the DAQP rescue backend."""
 
     supported = False
 
     @classmethod
-    def build(cls, ctrl: KinematicController, config: Configuration, dt: float) -> _FusedPlan:
+    def build(cls, ctrl: KinematicController) -> _FusedPlan:
         plan = cls()
         plan.layout_key = ctrl._layout_key
         plan.soft_tasks = ctrl._soft_tasks
         plan.backend = ctrl.backend
-        nv = ctrl.nv
-        if any(not plain for *_, plain in ctrl._soft_dense):
-            return plan  # a task with its own velocity target
-        own = ctrl._soft_own
-        if len(own) > 1 or (own and type(own[0]) is not PostureTask):
-            return plan  # a task with its own cost other than one posture task
-        for task, *_ in ctrl._soft_dense:
-            if not (isinstance(getattr(task, "weight", None), np.ndarray) and hasattr(task, "gain")):
-                return plan
+        soft = ctrl._soft
+        if soft.own or any(not plain for *_, plain in soft.rows):
+            return plan  # a task with its own cost (other than one posture task) or velocity target
         if any(type(c) is not ContactConstraint for c in ctrl._contacts):
             return plan  # a contact with rows of its own
-        plan.posture = own[0] if own else None
-        # bounds: the constant boxes intersected once; one position limit after them in the kernel, else in Python
-        boxes = ctrl._box
-        n_const = 0
-        while n_const < len(boxes) and boxes[n_const].constant:
-            n_const += 1
-        rest = boxes[n_const:]
-        lim = rest[0] if len(rest) == 1 and type(rest[0]) is JointPositionLimit else None
-        plan.python_boxes = lim is None and bool(boxes)
-        # floating-base elimination through the first contact: a free flyer at v[0:6] that no box bounds
-        model = ctrl.robot.model
-        free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
-            model.joints[1].idx_v == 0
-        base_bounded = any(np.size(c.indices) and int(np.min(c.indices)) < 6 for c in boxes)
-        contact_blocks = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is ContactConstraint]
-        plan.er = contact_blocks[0][1] if contact_blocks and free_flyer and not base_bounded else -1
-        n_eq, n_in = ctrl._A.shape[0], ctrl._C.shape[0]
-        mt = ctrl._soft_J.shape[0]
-        plan.fb, plan.ib, views = kinematic_pack(nv, mt, n_eq, n_in, 0 if lim is None else lim.dim,
-                                                 0 if plan.posture is None else plan.posture.dim, plan.er)
-        for name in ("Js", "es", "A", "b", "C", "cl", "cu", "lb", "ub", "pw", "vdt", "rowp"):
-            setattr(plan, name, views[name])
-        rowp = views["rowp"]  # gain, weight, feed-forward of each stacked row
-        plan.dense, plan.gains, plan.has_ff = [], [], []
-        for k, (task, r0, r1, _) in enumerate(ctrl._soft_dense):
-            plan.dense.append((task, plan.es[r0:r1], plan.Js[r0:r1], rowp[1, r0:r1], rowp[0, r0:r1], rowp[2, r0:r1],
-                               k))
-            plan.gains.append(None)
-            plan.has_ff.append(True)
-        if plan.posture is not None:
-            views["prow"][:] = plan.posture.rows
-        plan.contacts = [(c, plan.A[r0:r1], plan.b[r0:r1]) for c, r0, r1 in contact_blocks]
-        plan.equalities = [(c, r0, r1) for c, r0, r1 in ctrl._eq_blocks if type(c) is not ContactConstraint]
-        plan.inequalities = list(ctrl._in_blocks)
-        plan.starts = np.array([r0 for _, r0, _ in contact_blocks], np.int64)
-        plan.factors = np.zeros(len(contact_blocks))
-        plan.logs = np.zeros((len(contact_blocks), 6))
-        plan.lb.fill(-np.inf)
-        plan.ub.fill(np.inf)
-        if lim is not None:
-            for c in boxes[:n_const]:  # the general path's order and clipping (_intersect_boxes)
-                lo, hi = c.compute(config, dt)
-                idx = np.asarray(c.indices)
-                cur_lo, cur_hi = plan.lb[idx], plan.ub[idx]
-                plan.lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
-                plan.ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
-            views["plim"][:] = (lim.q_min, lim.q_max, lim.v_max, -lim.v_max)
-            views["pidx"][:] = (lim.idx_q, lim.indices)
-        nr = nv - 6 if plan.er >= 0 else nv
+        nv = ctrl.nv
+        nr = nv - 6 if ctrl._eliminating_row >= 0 else nv
         plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
-        plan.rstate = np.zeros(n_in, np.int8)                                 # across support switches
+        plan.rstate = np.zeros(ctrl._C.shape[0], np.int8)                      # across support switches
+        plan.vdt = ctrl._qp_pack[2]["vdt"]
+        plan.logs = np.zeros((len(ctrl._contacts), 6))
         plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
         plan.supported = True
         return plan
