@@ -352,23 +352,3 @@ def test_soles_pivoting_on_the_ground_are_reanchored_from_the_gyro():
     assert err[1e3] > 1.0, err  # the stale anchors win without the rule
     with pytest.raises(InvalidInputError, match="turn_rate"):
         FloatingBaseEstimator(robot, DT, turn_rate=0.0)
-
-
-def test_tilt_on_uneven_ground_comes_from_gravity_not_from_the_anchored_soles():
-    """Talos standing still on both level soles, the estimate started with its base pitched 1° off the truth, the
-    IMU static (gyro 0, accelerometer +g up in the true base axes), ``ground_height=None`` (uneven ground: a sole's
-    tilt in the world is not known). The soles' forward axes are anchored from R̂ at their first contact, so they
-    carry R̂'s 1° error: as tilt references (eq. 32c) they would hold the estimate half-way between gravity and that
-    error. With gravity the only tilt reference, the error decays as exp(−k_P t) (closed form of eq. 32a for a
-    small error): 1° · exp(−0.2 · 20) = 0.018° after 20 s."""
-    robot, q0, R0, joints = _talos_standing_level()
-    W = robot.mass * G
-    ft = np.array([_ft_reading(robot, robot.left_sole, W / 2), _ft_reading(robot, robot.right_sole, W / 2)])
-    accel = R0.T @ np.array([0.0, 0.0, G])
-    q_start = q0.copy()
-    q_start[3:7] = pin.Quaternion(R0 @ pin.rpy.rpyToMatrix(0.0, math.radians(1.0), 0.0)).coeffs()
-    est = FloatingBaseEstimator(robot, DT, k_p=0.2, k_i=0.0, ground_height=None)
-    est.reset(q_start)
-    for _ in range(int(20.0 / DT)):
-        est.update(joints, np.zeros(3), accel, ft)
-    assert _tilt_deg(est.attitude.rotation, R0) < 0.03

@@ -20,11 +20,7 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    accelerations, ~1 m/s², tilt the estimated vertical) and, as a second reference direction of eq. 32, the forward
    axis of each sole in contact: its world direction v₀ is stored when the sole is anchored (step 3) and held while
    it stays in contact, its base-frame direction v comes from the leg kinematics, weighted by the sole's share of the
-   normal force times ``heading_weight``, corrected with k_P about every axis (on flat ground of known height only,
-   where v₀ is horizontal; on uneven ground, ``ground_height=None``, v₀ is R̂'s own forward axis of the sole at
-   touch-down, tilt error included, and is not an inertial reference direction of eq. 32 for the tilt: the tilt
-   then comes from gravity alone, every sole anchored with R̂'s tilt error would otherwise hold it) and, as a
-   heading direction of the
+   normal force times ``heading_weight``, corrected with k_P about every axis and, as a heading direction of the
    filter, once more about the vertical with its own gains ``k_heading``, ``k_heading_bias`` (yaw has no other
    reference than the soles, and the gyro's yaw bias is learnt from them) — the sole does not turn while it carries
    load, which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
@@ -406,9 +402,7 @@ class FloatingBaseEstimator:
                 if self.contact[s] and fz > 0:
                     dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
                                  self.heading_weight * fz / fz_total))
-        # On uneven ground (no ground_height) an anchored sole's tilt is not known in the world: its stored axis is
-        # R̂'s own tilt at touch-down, so it corrects the heading only and the tilt comes from gravity alone.
-        att.update(gyro, self._f_grav, dirs if self.ground_height is not None else (), heading=dirs)
+        att.update(gyro, self._f_grav, dirs, heading=dirs)
         R = att.rotation
         omega = att.omega
         # Prediction with the IMU acceleration.
