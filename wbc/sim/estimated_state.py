@@ -16,12 +16,9 @@ from wbc.estimation import FloatingBaseEstimator, zmp_from_wrenches
 from wbc.exceptions import InvalidInputError
 from wbc.sim.sensors import PlantSensors, SensorSpecs
 
-__all__ = ["EstimatedState", "estimation_errors", "STATE_SOURCES", "TERRAIN_TILT_GAIN"]
+__all__ = ["EstimatedState", "estimation_errors", "STATE_SOURCES"]
 
 STATE_SOURCES = ("estimated", "ground-truth")  #: values of ``wbc sim --state``
-#: k_P (rad/s) of the attitude filter on a terrain plant: there no ground height resets the anchors, each new anchor
-#: is placed through R̂, and a tilt error δ adds −δ·Δx to the height and δ·Δz to the forward position of every step
-TERRAIN_TILT_GAIN = 1.0
 
 
 class EstimatedState:
@@ -31,11 +28,7 @@ class EstimatedState:
         sim: a :class:`~wbc.sim.mujoco_runtime.MujocoModel` built with sensors.
         specs: sensor models (default :class:`~wbc.sim.sensors.SensorSpecs`).
         seed: noise seed.
-        **estimator_options: passed to :class:`~wbc.estimation.FloatingBaseEstimator`. On a terrain plant
-            (``sim.terrain`` set) ``ground_height`` defaults to None and ``k_p`` to :data:`TERRAIN_TILT_GAIN`: the
-            leg odometry's anchors then go through the estimated tilt at every step (module
-            :mod:`wbc.estimation.base`, step 3), so the tilt follows gravity with a 1 rad/s corner instead of the
-            flat-ground 0.2 rad/s.
+        **estimator_options: passed to :class:`~wbc.estimation.FloatingBaseEstimator`.
 
     Raises:
         InvalidInputError: as :class:`~wbc.sim.sensors.PlantSensors` and the estimator.
@@ -48,7 +41,6 @@ class EstimatedState:
         self.terrain = getattr(sim, "terrain", None)
         if getattr(sim, "terrain", None) is not None and "ground_height" not in estimator_options:
             estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
-            estimator_options.setdefault("k_p", TERRAIN_TILT_GAIN)
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
 
     def reset(self, q0, v0=None) -> None:
