@@ -22,7 +22,7 @@ for _mod in ("cyclonedds", "rosbags"):
     pytest.importorskip(_mod, reason=f"the optional extra wbc[ros2] is not installed ({_mod} missing)")
 
 HERE = Path(__file__).parent
-CLIENT = HERE / "tests/ros2/ros2_node_client.py"
+CLIENT = HERE / "ros2_node_client.py"
 LOOPBACK = (
     '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"

@@ -24,7 +24,7 @@ from rosbags.typesys import Stores, get_typestore  # noqa: E402
 from wbc.ros2 import msgs  # noqa: E402
 
 HERE = Path(__file__).parent
-SUBSCRIBER = HERE / "tests/ros2/ros2_subscriber.py"
+SUBSCRIBER = HERE / "ros2_subscriber.py"
 LOOPBACK = (
     '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
