@@ -52,7 +52,7 @@ from wbc.solver_status import SolverStatus
 __all__ = ["FastBackend", "backward_substitution", "cholesky_lower", "clip_box_into", "contact_drift",
            "ensure_compiled", "form_qp", "forward_substitution", "kinematic_finish_packed", "kinematic_pack",
            "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
-           "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "warm_up",
+           "primal_from_multipliers", "solve_box_eq", "solve_box_eq_ws", "solve_qp_ws", "translation_gap", "warm_up",
            "weighted_normal_equations", "weighted_rows"]
 
 #: exit codes (the shared :class:`~wbc.solver_status.SolverStatus` values as plain ints, frozen by numba at compile
@@ -1190,20 +1190,48 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _exp6_translation(xi, s, out):
+    """out ← translation of exp(s ξ) for a 6-D twist ξ = (ν, ω) (Pinocchio's order): V(sω) sν with
+    V(ω) = I + (1 − cos θ)/θ² [ω]× + (θ − sin θ)/θ³ [ω]×², θ = ‖ω‖ (Lynch & Park, Modern Robotics, eq. 3.88)."""
+    nx, ny, nz = s * xi[0], s * xi[1], s * xi[2]
+    wx, wy, wz = s * xi[3], s * xi[4], s * xi[5]
+    t2 = wx * wx + wy * wy + wz * wz
+    if t2 < 1e-12:  # series: 1/2 − θ²/24, 1/6 − θ²/120
+        a, c = 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+    else:
+        t = np.sqrt(t2)
+        a, c = (1.0 - np.cos(t)) / t2, (t - np.sin(t)) / (t2 * t)
+    # w × n and w × (w × n)
+    cx, cy, cz = wy * nz - wz * ny, wz * nx - wx * nz, wx * ny - wy * nx
+    dx, dy, dz = wy * cz - wz * cy, wz * cx - wx * cz, wx * cy - wy * cx
+    out[0] = nx + a * cx + c * dx
+    out[1] = ny + a * cy + c * dy
+    out[2] = nz + a * cz + c * dz
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def translation_gap(xa, sa, xb, sb):
+    """‖t(exp(sa ξa)) − t(exp(sb ξb))‖ (m): the distance between the origins of two frames given by their twists
+    ξa, ξb (6,) from one reference frame (e.g. a contact's placement)."""
+    pa, pb = np.empty(3), np.empty(3)
+    _exp6_translation(xa, sa, pa)
+    _exp6_translation(xb, sb, pb)
+    return np.sqrt((pa[0] - pb[0]) ** 2 + (pa[1] - pb[1]) ** 2 + (pa[2] - pb[2]) ** 2)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def contact_drift(logs, b, starts, factors):
-    """Largest ‖t(e⁺_i − f_i b_i)‖ over the contacts i: e⁺_i = logs[i] (6,) their errors at the next configuration
-    (``pin.log6``), b_i = b[starts[i]:starts[i] + 6] their rows' right-hand sides −K e and f_i = dt − 1/K, so that
-    f_i b_i = (1 − K dt) e_i; t(·) the translation part (m)."""
+    """Largest distance (m) between where a contact frame ends and where its row sent it, over the contacts i:
+    ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ with e⁺_i = logs[i] (6,) its error at the next configuration (``pin.log6`` of
+    placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e and f_i = dt − 1/K, so that
+    f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame in the placement's frame."""
     worst = 0.0
     for i in range(logs.shape[0]):
-        s = 0.0
         r0 = starts[i]
-        for a in range(3):
-            d = logs[i, a] - factors[i] * b[r0 + a]
-            s += d * d
-        if s > worst:
-            worst = s
-    return np.sqrt(worst)
+        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
+        if d > worst:
+            worst = d
+    return worst
 
 
 class FastBackend(DaqpBackend):
@@ -1360,4 +1388,5 @@ def warm_up() -> float:
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0

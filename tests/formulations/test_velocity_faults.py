@@ -133,6 +133,46 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
     assert worst_tick <= 5e-5 + 0.5 * 1e-3
 
 
+def test_a_run_of_safe_commands_does_not_walk_a_sole_away(robots):
+    """Kinematic fuzz seed 410002, episode 150 (humanoid15, a hand target 1e6 m away on strict level 0, dt = 2 ms):
+    47 failed ticks in a row, each 'contacts_held' command moving a stance sole 0.036 mm (within the per-tick drift
+    bound of 0.05 mm) in the same direction, 1.36 mm over the run before. Forward kinematics: over the run of
+    failed ticks each stance sole stays within 1 mm of where the run began (the issue's bound)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import fuzz
+
+    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
+    rng = np.random.default_rng(410002)
+    extra = np.random.default_rng(410002 + 7_000_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(151):  # the episode builder's random stream up to episode 150
+            name = str(rng.choice(list(robots_)))
+            kind = str(rng.choice(["reachable", "absurd", "far"]))
+            strict = bool(rng.random() < 0.5)
+            dt = float(extra.choice((0.002, 0.005, 0.01, 0.02)))
+            past = bool(extra.random() < 0.2)
+            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict, past_limits=past)
+    assert (name, kind, strict, dt) == ("humanoid15", "far", True, 0.002)
+    ctrl.budget = None  # the fuzz's budget: the tick's dt, counted in solves (the same stages at any machine load)
+    contacts = ctrl.constraints[:2]
+    start, failed, worst_run = None, 0, 0.0
+    for _ in range(50):
+        before = [config.frame_placement(c.frame_id).translation.copy() for c in contacts]
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+        if res.ok:
+            start = None
+            continue
+        failed += 1
+        start = before if start is None else start
+        after = [config.frame_placement(c.frame_id).translation for c in contacts]
+        worst_run = max(worst_run, max(np.linalg.norm(a - b) for a, b in zip(after, start)))
+    print(f"\n{failed} failed ticks; max sole displacement over a run of failed ticks {1e3 * worst_run:.4f} mm")
+    assert failed >= 40  # the long run of failed ticks is there (47 before)
+    assert worst_run <= 1e-3
+
+
 # -- item 3: recovery from states outside the joint limits ---------------------------------------------------------
 def _max_uniform_return(ctrl, config, dt) -> float:
     """Largest α ∈ [0, 1] such that some v meets every hard row and bound with the joints outside their limits

@@ -105,6 +105,9 @@ input error), ``solve`` does not raise and never returns NaN:
    sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
    limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
    where its rows send it (forward kinematics; at β = 0 scaled down by halves, up to 8 times, until it does);
+   steps 2 and 3 are taken only when they also leave each contact frame within ``SAFE_COMMAND_RADIUS`` of where
+   the run of failed ticks began (or no farther from there than it is), so that a run of failed ticks never walks
+   a stance sole away one tolerated drift at a time;
 4. else v = 0, hold the current posture: ``fallback="hold"`` (a stop: it may exceed acceleration limits, it moves
    no joint further out).
 
@@ -154,7 +157,8 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
                          clip_box_into, contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
-                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed, weighted_rows)
+                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed, translation_gap,
+                         weighted_rows)
 from wbc.hierarchy import independent_rows, solve_lexicographic
 from wbc.qp import DaqpBackend, QPBackend, TickWork
 from wbc.backends import DEFAULT_SOLVER, make_backend
@@ -297,6 +301,12 @@ class KinematicController:
     #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
     #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
     WEIGHTED_LEVEL_RATIO = 100.0
+    #: a safe command ('constraints_only', 'contacts_held') is taken only when it leaves every contact frame within
+    #: SAFE_COMMAND_RADIUS (m) of where the current run of failed ticks began, or no farther from there than the
+    #: frame already is: the per-tick drift bound alone lets a run of failed ticks walk a sole away (humanoid15,
+    #: 0.036 mm per tick in one direction for 47 ticks); with it a run of failed ticks moves a stance sole at most
+    #: this far (``hold``, v = 0, moves none)
+    SAFE_COMMAND_RADIUS = 5e-4
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
@@ -1162,11 +1172,17 @@ class KinematicController:
                 b.independent = ind
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
-        """Largest second-order drift (m) of the contact frames over one tick with v (``TickResult.sole_drift``)."""
+        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): the distance, by forward
+        kinematics at pin.integrate(q, v dt), from where each frame ends to where its contact row sends it
+        (placement · exp((1 − K dt) e)); ``TickResult.sole_drift``."""
+        if not self._layout_ok:
+            self._build_layout()
         return self._contact_drifts(config, v, dt)[0]
 
     def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray]]:
-        """(largest translation drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v."""
+        """(largest drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v: the drift of a contact
+        frame is the distance from where it ends (placement · exp(e⁺)) to where its row sent it
+        (placement · exp((1 − K dt) e))."""
         if not self._contacts:
             return 0.0, []
         cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
@@ -1178,17 +1194,10 @@ class KinematicController:
         drifts = []
         expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
         for i, c in enumerate(self._contacts):
-            d = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            if expected is None:
-                d -= c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt)
-            else:
-                d -= expected[i]
-            drifts.append(d)
-            t = d[:3]
-            n2 = float(t @ t)
-            if n2 > worst:
-                worst = n2
-        worst = math.sqrt(worst)
+            after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
+            drifts.append(after - target)
+            worst = max(worst, translation_gap(after, 1.0, target, 1.0))  # the distance, not the twists' gap
         if self._in_solve:
             self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts
@@ -1488,6 +1497,11 @@ class KinematicController:
                        "conflict off the control path)"
         v, fallback = np.zeros(self.nv), "hold"
         tol = self.sole_drift_tolerance
+        if self._contacts and (self.consecutive_failures == 0 or self._held_anchors is None
+                               or set(self._held_anchors) != set(map(id, self._contacts))):
+            # where the contact frames were when this run of failed ticks began (their anchors)
+            self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
+        anchors = [self._held_anchors[id(c)] for c in self._contacts]
         if not data_fault:  # (non-finite QP data: hold)
             try:
                 v_c = self._solve_constraints_only(config)
@@ -1496,17 +1510,14 @@ class KinematicController:
                     v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
                 v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
                 if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
-                        tol is None or self.sole_drift(config, v_c, dt) <= tol):
+                        tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
+                        self._within_run_radius(config, v_c, dt, anchors):
                     v, fallback = v_c, "constraints_only"
             except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
                 pass
         if fallback == "hold" and self._contact_rows.size and not data_fault:
             # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
             # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
-            if self.consecutive_failures == 0 or self._held_anchors is None or \
-                    set(self._held_anchors) != set(map(id, self._contacts)):
-                self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
-            anchors = [self._held_anchors[id(c)] for c in self._contacts]
             b0 = self._b.copy()
             backend = self._fallback_backend
             independent = backend.independent if backend is not None else ()
@@ -1534,7 +1545,8 @@ class KinematicController:
                     if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
                         continue
                     for _ in range(9 if beta == 0.0 else 1):
-                        if tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol:
+                        if (tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol) and \
+                                self._within_run_radius(config, v_h, dt, anchors):
                             v, fallback = v_h, "contacts_held"
                             break
                         v_h = 0.5 * v_h  # (β = 0: J_c v = 0 kept, the drift is second order in v dt)
@@ -1558,17 +1570,30 @@ class KinematicController:
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
+    def _within_run_radius(self, config: Configuration, v: np.ndarray, dt: float, anchors) -> bool:
+        """True when one tick with v leaves every contact frame within ``SAFE_COMMAND_RADIUS`` of its anchor (where
+        the run of failed ticks began), or no farther from it than the frame is now (forward kinematics)."""
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        for c, anchor in zip(self._contacts, anchors):
+            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
+                                         - anchor.translation))
+            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
+            if after > max(self.SAFE_COMMAND_RADIUS, before):
+                return False
+        return True
+
     def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
         """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
-        scaled by β sends it: ‖t(e⁺) − (1 − β K dt) t(e)‖, e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) by
-        forward kinematics (β = 0: the frame's displacement)."""
+        scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at
+        pin.integrate(q, v dt) by forward kinematics (β = 0: the frame's displacement)."""
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         worst = 0.0
         for c, anchor in zip(self._contacts, anchors):
             e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
             e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
-            worst = max(worst, float(np.linalg.norm((e1 - (1.0 - beta * min(c.gain, 1.0 / dt) * dt) * e0)[:3])))
+            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
         return worst
 
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
