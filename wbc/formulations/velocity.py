@@ -916,8 +916,11 @@ class KinematicController:
                 relaxed = []
             except SolverError as first_failure:
                 v = None
-                if self._contact_rows.size and not self._late() and self._consistent_contact_rhs():
-                    try:  # dependent contact rows asked contradictory corrections: once more in least squares
+                if self._contact_rows.size and self._consistent_contact_rhs():
+                    # dependent contact rows asked contradictory corrections: once more in least squares (one
+                    # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
+                    # weighted level solves, kinematic fuzz seed 410002)
+                    try:
                         v = self._solve_assembled(config)
                         relaxed = []
                     except SolverError:
@@ -1554,7 +1557,8 @@ class KinematicController:
                         break
                 if fallback == "hold":
                     message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
-                                f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m")
+                                f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m "
+                                f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began")
             except Exception:  # noqa: BLE001 — never raises: hold
                 pass
             finally:
