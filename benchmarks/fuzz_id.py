@@ -10,7 +10,7 @@ Euler, dt = 2 ms; v̇ = 0 on a fallback tick). Prints the counts and one PASS/FA
 Checks, all computed in this script from Pinocchio and the numbers the script chose (not from the controller):
 exceptions; non-finite commands; on ok ticks, bound violations beyond 1e-6 (relative to max(1, |bound|)): corner
 normal force outside [min(f_min, f_max), f_max], corner tangential force outside the inscribed pyramid
-|f_x|, |f_y| ≤ μ/√2 f_z with the μ last assigned, |τ| above the scaled URDF effort (full-QP ticks), and the
+|f_x|, |f_y| ≤ μ/√2 f_z with the μ last assigned (to 1e-6 of max(1, |f_t| + μ/√2 |f_z|), the size of the row's terms), |τ| above the scaled URDF effort (full-QP ticks), and the
 floating-base rows of M v̇ + h − Sᵀτ − Σ J_kᵀ G_k f_k (RNEA, LOCAL sole Jacobians) above 1e-6 max(1, |h_u|);
 failed full-QP ticks (relaxed or fallback) whose hard set HiGHS finds feasible (checked after the tick, off the
 control path); failed ticks that name no conflicting constraint (the tick's own names, else
@@ -99,7 +99,10 @@ def bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort) -> list[str]:
                 out.append(f"inactive {side} force {np.max(np.abs(fk)):.3g}")
         if np.any(fk[:, 2] < lo - TOL * max(1, abs(lo))) or np.any(fk[:, 2] > hi + TOL * max(1, abs(hi))):
             out.append(f"normal {side} {fk[:, 2]} not in [{lo}, {hi}]")
-        if c.active and np.any(np.abs(fk[:, :2]) > mu / np.sqrt(2) * fk[:, 2:3] + TOL * np.maximum(1, mu * fk[:, 2:3])):
+        # each pyramid side |f_t| ≤ μ/√2 f_z to TOL relative to the size of its terms, max(1, |f_t| + μ/√2 |f_z|)
+        # (the row scale every QP solver's tolerance is relative to)
+        cone = mu / np.sqrt(2) * fk[:, 2:3]
+        if c.active and np.any(np.abs(fk[:, :2]) > cone + TOL * np.maximum(1, np.abs(fk[:, :2]) + np.abs(cone))):
             out.append(f"friction {side} mu {mu}")
         J = pin.getFrameJacobian(robot.model, data, c.frame_id, pin.LOCAL)
         gen -= J.T @ (corner_map(c) @ f[12 * k:12 * k + 12])

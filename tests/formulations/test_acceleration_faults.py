@@ -105,6 +105,36 @@ def test_mu_assigned_after_construction_takes_effect(robots, solver):
         assert tangential.max() > 1.0  # the task pulls sideways: the cone is what limits it
 
 
+def test_output_check_measures_friction_on_the_solvers_row_scale(robots):
+    """ID fuzz (``benchmarks/fuzz_id.py``) seed 420034, episode 216, tick 48 (G1, μ = 0.114, corner f_z = 30 N): DAQP's answer put a
+    friction row 3.7e-6 N past its side, 0.76e-6 of the size of the row's terms |f_t| + μ/√2 f_z (the scale every
+    QP solver's tolerance of 1e-6 is relative to), yet the output check divided it by μ f_z only, rejected it
+    (1.08e-6) and the tick went to the relaxed QP although its hard set is feasible. Here a solved tick's corner
+    forces are pushed past a friction side by 0.8e-6 and by 1.2e-6 of the row's term size (written in this test):
+    the first is within the solver's tolerance and passes, the second is named ``friction:<contact>``."""
+    import dataclasses
+
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, mu=0.3)
+    cmd = ctrl.compute(q, v)
+    assert cmd.ok, cmd.message
+    qp = ctrl.controller.qp
+    sol = qp.solve(ctrl.controller.state, DT)  # the assembly verify reads is this one
+    contact = qp.contacts[0]
+    k = 0
+    f = sol.forces.copy()
+    fz = f[12 * k + 2]
+    side = contact.mu / math.sqrt(2.0) * fz
+    assert contact.mu * fz > 1.0  # the old scale max(1, μ f_z) is the corner's force, not 1
+    for ratio, named in ((0.8e-6, False), (1.2e-6, True)):
+        # f_x = side + δ, with δ = ratio · (|f_x| + side): solve for δ
+        delta = ratio * 2.0 * side / (1.0 - ratio)
+        f[12 * k] = side + delta
+        bad = dataclasses.replace(sol, forces=f.copy())
+        names = [n for n, _ in qp.verify(ctrl.controller.state, bad)]
+        assert (f"friction:{contact.name}" in names) == named, (ratio, names)
+
+
 class _WrongForces(QPBackend):
     """A backend whose answers put −50 N on a corner's normal force (a solver bug stand-in)."""
 

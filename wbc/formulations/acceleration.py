@@ -788,8 +788,10 @@ class InverseDynamicsQP:
         (``unilaterality:<c>``, N); the friction pyramids (``friction:<c>``, N); the torque limits
         (``torque_limits``, N·m; skipped when ``relaxed``: the controller clips the relaxed torques); the
         floating-base rows of the equations of motion (``floating_base_dynamics``, N, N·m). Each violation is
-        measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|), the
-        corner's normal force, the largest |h_u| entry), the scaling of :meth:`wbc.qp.QPBackend.scaled_violation`.
+        measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|) for a
+        bound; for a friction row max(1, |f_t| + μ/√2 |f_z|), the size of its terms; the largest |h_u| entry), the
+        scaling of :meth:`wbc.qp.QPBackend.scaled_violation` (a solution the solver accepted is not rejected for
+        a tolerance measured on another scale).
 
         Args:
             state: the state the solution was computed at. sol: the solution. relaxed: the torque limits were
@@ -819,7 +821,7 @@ class InverseDynamicsQP:
                 found.append((worst, f"unilaterality:{c.name}", float(ex.max())))
             if c.active:
                 fr = c.friction_matrix @ fk
-                scale = np.maximum(1.0, np.abs(np.repeat(fk[2::3], 4)) * c.mu)
+                scale = np.maximum(1.0, np.abs(c.friction_matrix) @ np.abs(fk))  # the size of each row's terms
                 worst = float(np.max(fr / scale))
                 if worst > tol:
                     found.append((worst, f"friction:{c.name}", float(fr.max())))
