@@ -76,7 +76,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
         stop: called before each level after the first, and after a failed solve of such a level; when it
             returns True no further level is started and a failed level is not retried (a controller's counted
-            tick budget, :class:`wbc.qp.TickWork`, whose backends bound their solver's iterations by the work
+            tick budget, :class:`wbc.solvers.base.TickWork`, whose backends bound their solver's iterations by the work
             left): the cascade then returns the solution of the last level it solved (a point of the hard set,
             optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
             of levels (soft level included) that were solved; None when every level was. The first level is
