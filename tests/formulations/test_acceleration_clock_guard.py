@@ -1,6 +1,6 @@
 """The inverse-dynamics failure path under the clock guard, ordered by cost: a cheap hard-set check
-(``wbc.solvers.independent.hard_set_feasible``) before quadprog, DAQP calls whose iteration limit follows a CPU-time deadline
-(``DaqpBackend.deadline``), the cost-scaled DAQP call before quadprog. Oracles: HiGHS (scipy ``linprog``) for
+(``wbc.solvers.independent.hard_set_feasible``) before quadprog, DAQP calls whose iteration limit follows a CPU-time
+deadline (``DaqpBackend.deadline``), the cost-scaled DAQP call before quadprog. Oracles: HiGHS (scipy ``linprog``) for
 feasibility, quadprog for optima; counts of solver calls and iterations, never a wall-clock time."""
 
 from __future__ import annotations

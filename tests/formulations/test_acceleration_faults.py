@@ -571,8 +571,8 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     """A QP recorded from the realistic-plant humanoid15 walk (``walk_options_for``: ProxQP, eps_abs 1e-7; seed 7,
     both soles in contact, nothing pinned, legs without hip yaw: the two soles' rows nearly dependent) that ProxQP
     reports infeasible from a cold start although HiGHS finds its hard set feasible; the controller's second
-    opinion (``wbc.solvers.independent.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6 (scaled by
-    max(1, |rhs|)) and the KKT conditions computed here."""
+    opinion (``wbc.solvers.independent.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6
+    (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
     from pathlib import Path
 
     from wbc.exceptions import SolverError

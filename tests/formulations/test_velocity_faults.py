@@ -501,9 +501,9 @@ class _RacingClock:
 
 
 def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
-    """A tick's budget is counted in QP solves (wbc.solvers.base.TickWork), never read from a clock: the same ticks (strict
-    levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths and
-    budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
+    """A tick's budget is counted in QP solves (wbc.solvers.base.TickWork), never read from a clock: the same ticks
+    (strict levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths
+    and budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
     itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
     import wbc.formulations.velocity as velocity
     import wbc.solvers.base as base

@@ -13,10 +13,11 @@ from wbc.solvers import make_backend
 
 @pytest.mark.parametrize("seed", range(30))
 def test_compiled_tick_is_the_optimum_of_its_qp(seed):
-    """wbc.formulations.velocity_kernel.form_qp (the cost from task rows with gains/weights/feed-forward, a posture diagonal, damping)
-    against the cost written out here in numpy, and wbc.formulations.velocity_kernel.kinematic_solve (floating-base elimination + active
-    set) on that assembled QP — equality rows whose first 6 are an invertible base block, inequality rows, a
-    velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
+    """wbc.formulations.velocity_kernel.form_qp (the cost from task rows with gains/weights/feed-forward, a posture
+    diagonal, damping) against the cost written out here in numpy, and wbc.formulations.velocity_kernel.kinematic_solve
+    (floating-base elimination + active set) on that assembled QP — equality rows whose first 6 are an invertible base
+    block, inequality rows, a velocity box with position limits clipped into it — against quadprog. When the kernel
+    gives up (negative code)
     the full-space kernel must give up on that QP too."""
     from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve_packed
 

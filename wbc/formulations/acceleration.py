@@ -63,10 +63,11 @@ state-dependent block are written by compiled bodies that :meth:`InverseDynamics
 ``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
 any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
-released foot's forces) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the path then names ``quadprog``) before
-the failure stands (then the backend's own retries). Any other
-:class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second opinion
-(:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+released foot's forces) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the path then names
+``quadprog``) before the failure stands (then the backend's own retries). Any other
+:class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second
+opinion (:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its
+failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
 (:mod:`wbc.solvers.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
@@ -271,8 +272,8 @@ class InverseDynamicsQP:
         #: directions of the stacked active contact rows dropped at the last build
         #: (:func:`wbc.constraints.dynamics.independent_contact_rows`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
-        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a failure;
-        #: False by default: it costs many control periods and belongs off the control path
+        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
+        #: failure; False by default: it costs many control periods and belongs off the control path
         #: (:meth:`wbc.dynamics.controller.InverseDynamicsController.diagnose`).
         self.confirm_failures = False
         # a user backend whose solve() predates the confirm keyword is called without it
@@ -302,8 +303,8 @@ class InverseDynamicsQP:
         #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
         #: because the tick reached :attr:`retry_deadline` first (clock guard).
         self.checks_skipped = 0
-        #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard): quadprog and
-        #: the backend's retries, which could only fail, were skipped.
+        #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
+        #: quadprog and the backend's retries, which could only fail, were skipped.
         self.infeasible_by_check = 0
         #: failed full QPs that the cost-scaled DAQP call solved ahead of quadprog (clock guard).
         self.scaled_solves = 0
@@ -319,8 +320,9 @@ class InverseDynamicsQP:
 
     #: clock guard (:attr:`tick_clock`): the full QP's DAQP attempt ends by this many budgets after the tick's start
     FULL_QP_DEADLINE = 1.25
-    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one cost-scaled DAQP
-    #: call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the time left)
+    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one
+    #: cost-scaled DAQP call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the
+    #: time left)
     CHECK_DEADLINE = 1.4
     CHECK_END = 1.55
     #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
@@ -634,22 +636,23 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
-        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`, also
-        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
-        its pinned variables (lb = ub: the forces of a released foot) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`):
-        DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
-        tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
-        certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
-        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
+        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
+        also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
+        its pinned variables (lb = ub: the forces of a released foot) eliminated
+        (:func:`wbc.solvers.independent.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
+        quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
+        backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
+        landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
+        relaxed QP with its torques clipped.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
-        :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no second
-        opinion, :attr:`budget_cut`); before it, :func:`wbc.solvers.independent.hard_set_feasible` (one DAQP call on the projection
-        of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it proves empty ends
-        the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
-        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its deadline
-        rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
+        :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no
+        second opinion, :attr:`budget_cut`); before it, :func:`wbc.solvers.independent.hard_set_feasible` (one DAQP call
+        on the projection of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it
+        proves empty ends the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
+        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
+        deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
         only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``).
 
         Raises:
@@ -729,12 +732,12 @@ class InverseDynamicsQP:
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
-        :class:`wbc.solvers.base.QPBackend` reports no solution, two active-set solvers are asked before the failure stands
-        (:attr:`second_opinion_enabled`, :func:`wbc.solvers.independent.second_opinion`): quadprog with the pinned variables
-        eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure stands).
-        Either answer is returned only when it meets every row to the backend's tolerance (the check of
-        :meth:`wbc.solvers.base.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal residual
-        that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
+        :class:`wbc.solvers.base.QPBackend` reports no solution, two active-set solvers are asked before the failure
+        stands (:attr:`second_opinion_enabled`, :func:`wbc.solvers.independent.second_opinion`): quadprog with the
+        pinned variables eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure
+        stands). Either answer is returned only when it meets every row to the backend's tolerance (the check of
+        :meth:`wbc.solvers.base.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal
+        residual that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
         dependent (two soles on legs without hip yaw); an active-set solver's answer is exact on them.
 
         Returns:
@@ -789,7 +792,8 @@ class InverseDynamicsQP:
         (``torque_limits``, N·m; skipped when ``relaxed``: the controller clips the relaxed torques); the
         floating-base rows of the equations of motion (``floating_base_dynamics``, N, N·m). Each violation is
         measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|), the
-        corner's normal force, the largest |h_u| entry), the scaling of :meth:`wbc.solvers.base.QPBackend.scaled_violation`.
+        corner's normal force, the largest |h_u| entry), the scaling of
+        :meth:`wbc.solvers.base.QPBackend.scaled_violation`.
 
         Args:
             state: the state the solution was computed at. sol: the solution. relaxed: the torque limits were

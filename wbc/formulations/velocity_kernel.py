@@ -110,8 +110,8 @@ def _weighted_row(Js, es, rowp, k, row):
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_rows(Js, es, rowp, out_J, out_r):
     """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
-    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k − K_k e_k
-    (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k −
+    K_k e_k (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
 
     Args:
         Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.

@@ -79,8 +79,8 @@ class TickWork:
     Clock guard (``clock``: seconds of CPU time counted as one solve, ``math.inf`` by default: off): ``solves``
     reads max(counted solves, CPU time of the calling thread since :meth:`reset` / ``clock``)
     (``time.thread_time``: what the tick computes, not the time other processes take the core from it), so every
-    limit on the count (:meth:`spent`, :meth:`DaqpBackend.call_limit`) also holds on the tick's CPU time. The
-    trade-off: a tick that reaches a limit by its clock before its count has an answer that depends on the
+    limit on the count (:meth:`spent`, :meth:`wbc.solvers.daqp.DaqpBackend.call_limit`) also holds on the tick's CPU
+    time. The trade-off: a tick that reaches a limit by its clock before its count has an answer that depends on the
     machine's speed and load (its optional stages stop earlier on a slower machine); a tick that stays under
     every limit by its clock answers as without the guard.
 
@@ -164,10 +164,10 @@ class QPBackend(ABC):
 
         Tolerance policy (the same for every backend and both controller levels): the solution is checked row
         by row in the max-norm, each row against ``tolerance · max(1, |rhs|, Σ_j |a_ij x_j|)`` (its own units
-        and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto [lb, ub], so integrating
-        x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an independent
-        backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes the
-        same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
+        and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto
+        [lb, ub], so integrating x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an
+        independent backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes
+        the same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
         unbounded); otherwise, once the tick's counted work (``work``) has reached its cap, the independent solvers
         not yet run are skipped (the failure is then reported unconfirmed). The limit is a count of solves, not a
         clock: the answer is a function of the problem alone.

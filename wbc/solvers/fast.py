@@ -94,9 +94,9 @@ class FastBackend(DaqpBackend):
         return False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
-        """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it satisfies every KKT
-        condition, lies inside the bounds by construction and its equality residual was checked in the kernel
-        against ``tolerance``; anything else goes through DAQP and the general check.
+        """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
+        satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
+        the kernel against ``tolerance``; anything else goes through DAQP and the general check.
 
         Raises:
             SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).

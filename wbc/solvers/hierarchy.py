@@ -12,8 +12,8 @@ optimal set of (P_k) is exactly {v ∈ feasible set of (P_k) : J_k v = J_k v_k}:
 J_k v, so every minimiser has the same image J_k v. Fixing that image therefore optimises each lower level *within*
 the optimal set of the levels above, which is the lexicographic order of Kanoun, Lamiraux, Wieber, "Kinematic
 control of redundant manipulators: generalizing the task-priority framework to inequality tasks", IEEE T-RO
-27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard, Wieber,
-"Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
+27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard,
+Wieber, "Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
 Every level's images are re-read from the latest solution, so the fixed rows are always consistent.
 
 An upper level that cannot be met (a target out of reach, two tasks of one level contradicting each other, a

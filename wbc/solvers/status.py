@@ -42,10 +42,11 @@ class SolverStatus(IntEnum):
 NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
 DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
 ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
-#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base cannot be eliminated (a bound on a base velocity, a
-#: singular eliminating block); the solution's equality or inequality residual is above the tolerance
+#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base cannot be eliminated (a
+#: bound on a base velocity, a singular eliminating block); the solution's equality or inequality residual is above the
+#: tolerance
 NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
 RESIDUAL = int(SolverStatus.RESIDUAL)
-#: exit code of the dual active set (:func:`wbc.solvers.active_set.solve_qp_ws`): a violated constraint that no working inequality can
-#: make room for (the constraints admit no solution; the caller's general solver confirms)
+#: exit code of the dual active set (:func:`wbc.solvers.active_set.solve_qp_ws`): a violated constraint that no working
+#: inequality can make room for (the constraints admit no solution; the caller's general solver confirms)
 INFEASIBLE = int(SolverStatus.INFEASIBLE)
