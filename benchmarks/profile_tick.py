@@ -40,7 +40,7 @@ def _median_us(fn, problems, repeat: int = 1) -> float:
 def main() -> None:
     from wbc.bench.kinematic import KinematicSpec, PlacoRunner, WbcRunner
     from wbc.bench.stats import limit_blas_threads, summarize_us
-    from wbc.backends import make_backend, available_solvers
+    from wbc.solvers import make_backend, available_solvers
     from wbc.robot import load_robot
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

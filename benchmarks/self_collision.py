@@ -16,7 +16,7 @@ distances per tick (``SelfCollisionConstraint.coal_calls``; the test counts them
 distance held (coal on the original meshes of the arm–torso pairs, and the smallest active distance of the
 constraint's hulls), the whole controller tick (median thread CPU µs: wall time on a loaded machine includes
 waiting) and its excess over ``none``, and how the tick's QPs were answered (compiled kernel / DAQP fallback,
-:class:`wbc.fastqp.FastBackend`); then whether the broad phase gave the same active pairs at every tick and the
+:class:`wbc.solvers.fast.FastBackend`); then whether the broad phase gave the same active pairs at every tick and the
 same joint trajectory as the exhaustive variant.
 
 Verdict of the issue-10 target (≤ 200 µs per tick), read as what a user pays for turning self-collision avoidance

@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 import wbc
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
 
 BUDGET_US = 2000.0

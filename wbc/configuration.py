@@ -55,8 +55,8 @@ class Configuration:
             quat_norm = float(quat @ quat)
             if abs(quat_norm - 1.0) > 1e-6:
                 raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
-            # a read-only q is copied: the compiled tick (wbc.fastqp) reads q, and a read-only array is another
-            # argument type for it (one more compilation)
+            # a read-only q is copied: the compiled tick (wbc.formulations.velocity_kernel) reads q, and a read-only
+            # array is another argument type for it (one more compilation)
             self.q = q if q.flags.writeable else q.copy()
         pin.computeJointJacobians(self.model, self.data, self.q)
         pin.updateFramePlacements(self.model, self.data)

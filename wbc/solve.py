@@ -17,8 +17,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.base import Constraint
 from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import InfeasibleProblemError, SolverError
-from wbc.qp import QPBackend
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER, QPBackend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
@@ -41,7 +40,7 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
         tasks: weighted tasks (:mod:`wbc.tasks`), their targets already set.
         dt: period over which v is applied (s, > 0): sets the limits' velocity bounds and the contacts' rows.
         constraints: constraints (:mod:`wbc.constraints`): contacts, joint limits, CoM polygon, ...
-        solver: QP backend name (:func:`wbc.backends.available_solvers`) or a :class:`~wbc.qp.QPBackend`.
+        solver: QP backend name (:func:`wbc.solvers.available_solvers`) or a :class:`~wbc.solvers.base.QPBackend`.
         damping: ε, weight of ‖v‖² (> 0).
         safe_fallback: when the QP cannot be solved, return the controller's safe command (the soft tasks under
             the constraint objects only, or v = 0) instead of raising.
@@ -55,7 +54,7 @@ def solve_ik(robot: Robot, q: np.ndarray, tasks: list[Task], dt: float, constrai
         InvalidInputError: dt not finite and > 0, damping ≤ 0, or an object that is not a Task/Constraint.
         UnknownSolverError: unknown backend name.
         InfeasibleProblemError: the hard constraints conflict; ``conflicts`` holds the (constraint name, violation)
-            pairs the diagnosis (:mod:`wbc.diagnosis`) named, largest first, also given in the message.
+            pairs the diagnosis (:mod:`wbc.solvers.diagnosis`) named, largest first, also given in the message.
         SolverError: any other tick that is not ok (e.g. contacts that drift beyond the controller's tolerance),
             with the reason. Neither is raised with ``safe_fallback=True``.
     """

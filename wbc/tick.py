@@ -3,10 +3,10 @@
 Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
 
 * kinematic (:class:`wbc.formulations.velocity.KinematicController`, :data:`KINEMATIC_ROUTES`):
-  ``compiled`` (the assembled flat QP on the compiled solver, :func:`wbc.fastqp.kinematic_solve`; ``solver="daqp"``
-  when DAQP solved its reduced QP), ``general`` (the assembled flat QP on the controller's backend), ``levels`` (the strict hierarchy,
-  :mod:`wbc.hierarchy`), ``fallback`` (a safe command: ``constraints_only``, ``contacts_held``, ``trust_region``
-  or ``hold``);
+  ``compiled`` (the assembled flat QP on the compiled solver, :func:`wbc.formulations.velocity_kernel.kinematic_solve`;
+  ``solver="daqp"`` when DAQP solved its reduced QP), ``general`` (the assembled flat QP on the controller's backend),
+  ``levels`` (the strict hierarchy, :mod:`wbc.solvers.hierarchy`), ``fallback`` (a safe command: ``constraints_only``,
+  ``contacts_held``, ``trust_region`` or ``hold``);
 * inverse dynamics (:class:`wbc.dynamics.controller.InverseDynamicsController`, :data:`ID_ROUTES`): ``kernel``
   (the compiled tick, :mod:`wbc.formulations.idkernel`), ``general`` (the assembled QP on the backend),
   ``relaxed`` (the QP without joint bounds and torque limits), ``fallback`` (``hold`` or ``gravity``).

@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.backends import make_backend
+from wbc.solvers import make_backend
 from wbc.constraints.dynamics import independent_contact_rows
 from wbc.dynamics.balance import IDBalanceController
 

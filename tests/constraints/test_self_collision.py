@@ -434,8 +434,7 @@ def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(rob
     tick is completed from its answer (every tick tried the compiled path, none was skipped), and the trajectory
     is the DAQP controller's. With the default cap the kernel itself answers every tick of the
     drive (its dual active set handles the dependent rows that defeated the previous primal pivoting)."""
-    from wbc.backends import make_backend
-    from wbc.fastqp import FastBackend
+    from wbc.solvers import FastBackend, make_backend
 
     robot = robots("talos")
     runs = {}

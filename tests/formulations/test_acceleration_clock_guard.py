@@ -1,6 +1,6 @@
 """The inverse-dynamics failure path under the clock guard, ordered by cost: a cheap hard-set check
-(``wbc.qp.hard_set_feasible``) before quadprog, DAQP calls whose iteration limit follows a CPU-time deadline
-(``DaqpBackend.deadline``), the cost-scaled DAQP call before quadprog. Oracles: HiGHS (scipy ``linprog``) for
+(``wbc.solvers.independent.hard_set_feasible``) before quadprog, DAQP calls whose iteration limit follows a CPU-time
+deadline (``DaqpBackend.deadline``), the cost-scaled DAQP call before quadprog. Oracles: HiGHS (scipy ``linprog``) for
 feasibility, quadprog for optima; counts of solver calls and iterations, never a wall-clock time."""
 
 from __future__ import annotations
@@ -13,7 +13,9 @@ import pytest
 import quadprog
 
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import MIN_CALL_ITERATIONS, DaqpBackend, hard_set_feasible, solve_pinned_reduced
+from wbc.solvers import DaqpBackend
+from wbc.solvers.daqp import MIN_CALL_ITERATIONS
+from wbc.solvers.independent import hard_set_feasible, solve_pinned_reduced
 
 DT = 0.002
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"

@@ -16,7 +16,7 @@ import pytest
 
 from wbc.dynamics import IDBalanceController
 from wbc.exceptions import InvalidInputError
-from wbc.qp import DaqpBackend, QPBackend
+from wbc.solvers import DaqpBackend, QPBackend
 
 DT = 0.002
 
@@ -290,7 +290,7 @@ def test_daqp_solves_recorded_large_cost_problem():
     (scaled by max(1, |rhs|)), and quadprog's optimum (same objective to 1e-9 relative, same x to 1e-6)."""
     from pathlib import Path
 
-    from wbc.qp import QpsolversBackend
+    from wbc.solvers import QpsolversBackend
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_large_cost_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
@@ -512,7 +512,7 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     from pathlib import Path
 
     from wbc.exceptions import SolverError
-    from wbc.qp import solve_pinned_reduced
+    from wbc.solvers.independent import solve_pinned_reduced
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_released_foot_talos.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
@@ -579,7 +579,7 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
     from pathlib import Path
 
     from wbc.exceptions import SolverError
-    from wbc.qp import solve_pinned_reduced
+    from wbc.solvers.independent import solve_pinned_reduced
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_first_tick_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
@@ -601,12 +601,13 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     """A QP recorded from the realistic-plant humanoid15 walk (``walk_options_for``: ProxQP, eps_abs 1e-7; seed 7,
     both soles in contact, nothing pinned, legs without hip yaw: the two soles' rows nearly dependent) that ProxQP
     reports infeasible from a cold start although HiGHS finds its hard set feasible; the controller's second
-    opinion (``wbc.qp.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6 (scaled by
-    max(1, |rhs|)) and the KKT conditions computed here."""
+    opinion (``wbc.solvers.independent.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6
+    (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
     from pathlib import Path
 
     from wbc.exceptions import SolverError
-    from wbc.qp import ProxQPBackend, second_opinion
+    from wbc.solvers import ProxQPBackend
+    from wbc.solvers.independent import second_opinion
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
@@ -633,7 +634,7 @@ def test_id_proxqp_failure_gets_a_second_opinion(robots):
     did on feasible humanoid15 walking QPs): the full QP is answered by the second opinion (route 'general',
     solver quadprog or daqp), ok, within the URDF effort; with the second opinion off the tick is not ok."""
     from wbc.exceptions import SolverError
-    from wbc.qp import ProxQPBackend
+    from wbc.solvers import ProxQPBackend
 
     class FalseAlarm(ProxQPBackend):
         def solve(self, *args, **kw):
@@ -657,7 +658,8 @@ def test_proxqp_iteration_cap_is_a_failed_solve_never_an_unconverged_answer():
     import qpsolvers
 
     from wbc.exceptions import InvalidInputError, SolverError
-    from wbc.qp import PROXQP_MAX_ITER, ProxQPBackend
+    from wbc.solvers import ProxQPBackend
+    from wbc.solvers.proxqp import PROXQP_MAX_ITER
 
     rng = np.random.default_rng(0)
     n = 8

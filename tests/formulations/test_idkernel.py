@@ -220,7 +220,7 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
 def _sway_reference(robot, fast, dt):
     """(reference DAQP controller, joint velocity kick (nv,), q, v, CoM (3,) m) of the kicked sway loop: both
     controllers reset at the reference posture, at rest."""
-    from wbc.backends import make_backend
+    from wbc.solvers import make_backend
 
     ref = IDBalanceController(robot, solver=make_backend("daqp", primal_tol=1e-6), dt=dt)
     nv = robot.nv

@@ -6,9 +6,9 @@ posture task; random weights and gains), random constraint sets (contacts on 0, 
 velocity limits), a random configuration near the reference one and dt in [1 ms, 20 ms], on talos, g1 and
 humanoid15:
 
-1. the QP the compiled solver (``wbc.fastqp.kinematic_solve_packed``) receives lies in the very buffers that
-   ``KinematicController.assemble`` returns (the same memory), and it is bitwise the QP that the general path hands
-   its backend (a DAQP controller built from the same draws: its ``backend.solve`` arguments);
+1. the QP the compiled solver (``wbc.formulations.velocity_kernel.kinematic_solve_packed``) receives lies in the very
+   buffers that ``KinematicController.assemble`` returns (the same memory), and it is bitwise the QP that the general
+   path hands its backend (a DAQP controller built from the same draws: its ``backend.solve`` arguments);
 2. where the compiled solver ends at a KKT point and DAQP solves that QP, their answers agree to
    ``AGREEMENT`` = 1e-9 in the metric of the cost, ‖v₁ − v₂‖_H = √((v₁ − v₂)ᵀ H (v₁ − v₂)) ≤ 1e-9 · max(1, ‖v‖_H)
    (H ≥ ε I, so ‖v₁ − v₂‖∞ ≤ 1e-9 / √ε · max(1, ‖v‖_H): the max-norm is not a fair measure here, a soft level
@@ -31,7 +31,7 @@ from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.formulations.velocity import KinematicController
-from wbc.qp import DaqpBackend
+from wbc.solvers import DaqpBackend
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask
 
 #: largest difference between two solvers' answers on the same QP, in the cost's metric relative to max(1, ‖v‖_H)
@@ -207,8 +207,9 @@ def test_compiled_tick_solves_the_assembled_qp_on_a_standing_set(name):
 @pytest.mark.parametrize("name", ["talos", "g1", "humanoid15"])
 def test_strict_levels_take_the_gathered_rows(name):
     """The strict levels (route ``levels``) receive the rows that ``assemble`` gathered, with the weights applied by
-    the formula of the soft level's cost (``wbc.fastqp.weighted_rows``): √w J and √w v*, v* = ė* − K e, against the
-    tasks' own ``compute`` and ``velocity_target`` in numpy (to 1e-12 relative: the compiled product may be fused)."""
+    the formula of the soft level's cost (``wbc.formulations.velocity_kernel.weighted_rows``): √w J and √w v*, v* = ė* −
+    K e, against the tasks' own ``compute`` and ``velocity_target`` in numpy (to 1e-12 relative: the compiled product
+    may be fused)."""
     robot = _robot(name)
     draw = {"seed": 5, "spread": 0.05, "com": False, "com_weight": 1.0, "gain": 2.0, "frame_tasks": [],
             "posture": True, "posture_weight": 1e-2, "posture_gain": 1.0, "contacts": 2, "contact_gain": 100.0,

@@ -300,11 +300,11 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
     spent: no independent solver is called (ProxQP, quadprog and DAQP through qpsolvers counted), the diagnosis
     is skipped and said so, and the safe command is returned (over_budget). With no budget (math.inf) the same
     tick is confirmed (quadprog and DAQP first) and diagnosed as before."""
-    from wbc import qp
+    from wbc import solvers
     from wbc.tasks import FrameTask
 
     calls = []
-    for cls in (qp.ProxQPBackend, qp.QpsolversBackend):
+    for cls in (solvers.ProxQPBackend, solvers.QpsolversBackend):
         orig = cls._solve
         monkeypatch.setattr(cls, "_solve", lambda self, *a, _o=orig: calls.append(self.name) or _o(self, *a))
     robot = robots("talos")
@@ -400,7 +400,7 @@ def test_each_tick_names_its_path(robots):
     ctrl, _ = standing_controller(robot, config)
     assert ctrl.solve(config, DT).path == "compiled"
     ctrl2, _ = standing_controller(robot, config)
-    ctrl2.backend = __import__("wbc.qp", fromlist=["DaqpBackend"]).DaqpBackend()
+    ctrl2.backend = __import__("wbc.solvers", fromlist=["DaqpBackend"]).DaqpBackend()
     assert ctrl2.solve(config, DT).path == "general:daqp"
     hand = FrameTask(robot, robot.right_hand, gain=5.0)
     hand.set_target_from_configuration(config)
@@ -501,13 +501,14 @@ class _RacingClock:
 
 
 def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
-    """A tick's budget is counted in QP solves (wbc.qp.TickWork), never read from a clock: the same ticks (strict
-    levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths and
-    budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
+    """A tick's budget is counted in QP solves (wbc.solvers.base.TickWork), never read from a clock: the same ticks
+    (strict levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths
+    and budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
     itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
     import wbc.formulations.velocity as velocity
-    import wbc.hierarchy as hierarchy
-    import wbc.qp as qp
+    import wbc.solvers.base as base
+    import wbc.solvers.daqp as daqp_backend
+    import wbc.solvers.hierarchy as hierarchy
 
     def run():
         robot, config, ctrl, _ = hand_over_posture(robots)
@@ -520,7 +521,7 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
 
     steady = run()
     clock = _RacingClock()
-    for module in (velocity, hierarchy, qp):
+    for module in (velocity, hierarchy, base, daqp_backend):
         monkeypatch.setattr(module, "thread_time", clock, raising=False)
     raced = run()
     assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]
@@ -568,7 +569,7 @@ def test_each_daqp_call_stops_at_its_iteration_cap(monkeypatch):
     optimum has all 1200 bounds active — a dual active-set method adds one per iteration, so it needs ≥ 1200
     (DAQP's default cap, 10 000, let it finish). Counted iterations (a shim of the daqp module), not time."""
     from wbc.exceptions import SolverError
-    from wbc.qp import DaqpBackend
+    from wbc.solvers import DaqpBackend
 
     calls = _count_daqp_calls(monkeypatch)
     n = 1200
@@ -673,7 +674,7 @@ def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
     the same problem (7 calls, the same answers). Oracle: the count of DAQP calls
     (shim of the daqp module) and the answer, a SolverError, unchanged; the next solve (feasible) is exact."""
     from wbc.exceptions import SolverError
-    from wbc.qp import DaqpBackend
+    from wbc.solvers import DaqpBackend
 
     calls = _count_daqp_calls(monkeypatch)
     H, g = np.diag([2.0, 1.0]), np.array([-4.0, -2.0])  # |g| > 1: the scaled solve is tried too

@@ -18,12 +18,11 @@ ROOT = Path(__file__).resolve().parents[2] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled", "wbc.solver_status", "wbc.constants", "wbc.tick"),
-    ("wbc.geometry", "wbc.profiles", "wbc.terrain"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.constants", "wbc.tick"),
+    ("wbc.geometry", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
-    ("wbc.qp", "wbc.fastqp", "wbc.backends", "wbc.diagnosis", "wbc.hierarchy", "wbc.formulations", "wbc.dynamics",
-     "wbc.solve"),
+    ("wbc.formulations", "wbc.dynamics", "wbc.solve"),
     ("wbc.gait",),
     ("wbc.scenarios", "wbc.sim"),
     ("wbc.viz", "wbc.ros2", "wbc.bench", "wbc.campaign"),

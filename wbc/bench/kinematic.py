@@ -29,7 +29,7 @@ from time import perf_counter_ns, thread_time_ns
 import numpy as np
 import pinocchio as pin
 
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.constraints.limits import bounded_joints
 from wbc.robot import Robot
 
@@ -51,7 +51,7 @@ class KinematicSpec:
         com_weight, torso_weight, posture_weight: weights of the squared residuals of the CoM (m), torso
             orientation (rad) and posture (rad) tasks.
         damping: weight of ‖Δq‖² (Tikhonov regularisation of the step).
-        solver: QP backend (wbc: a :func:`wbc.backends.available_solvers` name; Pink: a qpsolvers name; placo: its
+        solver: QP backend (wbc: a :func:`wbc.solvers.available_solvers` name; Pink: a qpsolvers name; placo: its
             built-in eiquadprog, this field is ignored).
     """
 

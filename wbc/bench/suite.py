@@ -238,7 +238,7 @@ def _kinematic_section(cfg: SuiteConfig, robot, spec: KinematicSpec) -> dict[str
 
 def _solvers_section(cfg: SuiteConfig, robot, spec: KinematicSpec, reference: dict | None) -> dict[str, object]:
     """wbc with every installed backend, interleaved over ``cfg.repeats`` rounds, per-phase timers on."""
-    from wbc.backends import available_solvers
+    from wbc.solvers import available_solvers
 
     rows: dict[str, dict] = {}
     runners: dict[str, object] = {}
@@ -308,11 +308,13 @@ def _dynamics_section(cfg: SuiteConfig, robot) -> dict[str, object]:
 
 def run_suite(cfg: SuiteConfig = SuiteConfig()) -> dict[str, object]:
     """Run the sections of ``cfg`` and return the results (module docstring)."""
-    from wbc.fastqp import ensure_compiled
+    from wbc.formulations import velocity_kernel
+    from wbc.solvers import fast
 
     t_start = time.perf_counter()
     results: dict[str, object] = {"machine": machine_info(), "config": asdict(cfg)}
-    ensure_compiled()  # numba kernels: compiled, or loaded from the on-disk cache
+    fast.ensure_compiled()  # numba kernels: compiled, or loaded from the on-disk cache
+    velocity_kernel.ensure_compiled()
     results["jit_first_call_s"] = time.perf_counter() - t_start
     _log(f"numba kernels first call (compile or on-disk cache load): {results['jit_first_call_s']:.2f} s")
     robot = load_robot(cfg.robot)

@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.bench.stats import pooled_summary_us, summarize_us
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 
 __all__ = ["WalkBenchSpec", "run_walk_benchmark", "walk_ticks"]

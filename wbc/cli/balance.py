@@ -116,7 +116,7 @@ def _jump_preview(args) -> int:
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.backends import DEFAULT_SOLVER, available_solvers
+    from wbc.solvers import DEFAULT_SOLVER, available_solvers
     from wbc.scenarios.balance import BEHAVIOURS
 
     p = subparsers.add_parser(

@@ -72,7 +72,7 @@ def check_sim_args(args) -> None:
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.backends import available_solvers
+    from wbc.solvers import available_solvers
 
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",

@@ -245,7 +245,7 @@ def cmd_walk(args) -> int:
 
 def register(sub, add_outputs=add_outputs) -> None:
     """Add the ``walk`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.backends import DEFAULT_SOLVER, available_solvers
+    from wbc.solvers import DEFAULT_SOLVER, available_solvers
 
     walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller",
                           description="Plan a straight (or turning) walk from the robot's reference stance and track "

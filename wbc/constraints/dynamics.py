@@ -1,6 +1,6 @@
 """Named constraints of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`).
 
-Each constraint is an object with a ``name`` (used in infeasibility reports, :mod:`wbc.diagnosis`), a ``kind``
+Each constraint is an object with a ``name`` (used in infeasibility reports, :mod:`wbc.solvers.diagnosis`), a ``kind``
 (``"equality"`` rows of ``A x = b``, ``"inequality"`` rows of ``l ≤ C x ≤ u``, ``"bounds"`` on entries of x) and a
 fixed number of rows. The decision variable is x = [v̇ ; f] (nv + 12 n_c). The formulation gives each constraint its
 place once (row block or variable indices, :attr:`IDConstraint.rows` / :attr:`IDConstraint.indices`); per tick

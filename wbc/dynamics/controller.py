@@ -24,7 +24,7 @@ of the machine's load. The budget sets one count: the compiled tick's iteration 
 from the same assembly, and the next tick's compiled call starts from DAQP's working set. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
-(:meth:`wbc.qp.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
+(:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
 diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
 
@@ -32,8 +32,8 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 0. diagnosis (``diagnose=True``): the named constraints of :mod:`wbc.constraints.dynamics` that conflict at this
    state, with their violations, are reported in ``IDCommand.conflicts`` (largest first;
-   :meth:`InverseDynamicsQP.diagnose`, a slack-relaxed least-squares solve of the hard set, :mod:`wbc.diagnosis`),
-   and named in ``message``;
+   :meth:`InverseDynamicsQP.diagnose`, a slack-relaxed least-squares solve of the hard set,
+   :mod:`wbc.solvers.diagnosis`), and named in ``message``;
 1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
    the same QP is solved **without joint acceleration bounds and torque limits**
    (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
@@ -128,10 +128,10 @@ class InverseDynamicsController:
             (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
             calls end by 1.25 budgets and the relaxed QP's by 1.75 (iteration limits from the time left); a failed
             full QP gets its second opinion (quadprog, the backend's retries) only before 1.2 budgets, and only when
-            a cheap check does not prove its hard set empty (``wbc.qp.hard_set_feasible``); a relaxed command whose
-            full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default False:
-            nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations and
-            campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's
+            a cheap check does not prove its hard set empty (``wbc.solvers.independent.hard_set_feasible``); a relaxed
+            command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
+            False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations
+            and campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's
             speed and load on a slow tick (a feasible QP that only a skipped solve would have solved takes the
             relaxed QP). Settable as an attribute.
 

@@ -63,11 +63,12 @@ state-dependent block are written by compiled bodies that :meth:`InverseDynamics
 ``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
 any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
-released foot's forces) eliminated (:func:`wbc.qp.solve_pinned_reduced`; the path then names ``quadprog``) before
-the failure stands (then the backend's own retries). Any other
-:class:`~wbc.qp.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second opinion
-(:func:`wbc.qp.second_opinion`: the same quadprog solve, then one cold DAQP call) before its failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
-(:mod:`wbc.diagnosis`).
+released foot's forces) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the path then names
+``quadprog``) before the failure stands (then the backend's own retries). Any other
+:class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second
+opinion (:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its
+failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
+(:mod:`wbc.solvers.diagnosis`).
 
 Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
 then hold to the solver's equality accuracy on rows 0..5 and exactly on the actuated rows.
@@ -82,7 +83,6 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
-from wbc.diagnosis import diagnose
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.dynamics import (
     DEPENDENT_CONTACT_RATIO,
@@ -107,10 +107,11 @@ from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS,
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.qp import (ITERATION_LIMIT, MIN_CALL_ITERATIONS, DaqpBackend, QPBackend, hard_set_feasible,
-                    second_opinion, solve_pinned_reduced)
+from wbc.solvers import DaqpBackend, QPBackend, make_backend
+from wbc.solvers.daqp import ITERATION_LIMIT, MIN_CALL_ITERATIONS
+from wbc.solvers.diagnosis import diagnose
+from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
 from wbc.tick import TickPath
-from wbc.backends import make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
@@ -183,7 +184,7 @@ class InverseDynamicsQP:
             torque-limited joints are not contiguous in v); ``daqp``: the general path, warm-started from the
             previous duals, ``primal_tol`` 1e-6 (DAQP's one-shot dual warm start stops ≈ 3e-7 from the optimum on
             this QP; the compiled tick matches quadprog to ≈ 1e-11); any other qpsolvers backend —
-            :func:`wbc.backends.make_backend`) or a :class:`~wbc.qp.QPBackend`.
+            :func:`wbc.solvers.make_backend`) or a :class:`~wbc.solvers.base.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
         torque_limit_scale: fraction of the URDF effort limit used in (6), in (0, 1].
@@ -271,8 +272,8 @@ class InverseDynamicsQP:
         #: directions of the stacked active contact rows dropped at the last build
         #: (:func:`wbc.constraints.dynamics.independent_contact_rows`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
-        #: run the backend's independent re-solve (:meth:`wbc.qp.QPBackend.confirm`) before declaring a failure;
-        #: False by default: it costs many control periods and belongs off the control path
+        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
+        #: failure; False by default: it costs many control periods and belongs off the control path
         #: (:meth:`wbc.dynamics.controller.InverseDynamicsController.diagnose`).
         self.confirm_failures = False
         # a user backend whose solve() predates the confirm keyword is called without it
@@ -287,7 +288,7 @@ class InverseDynamicsQP:
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
-        #: (:func:`wbc.qp.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
+        #: (:func:`wbc.solvers.independent.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
         self.pinned_reduced_solves = 0
         #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
         #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
@@ -302,8 +303,8 @@ class InverseDynamicsQP:
         #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
         #: because the tick reached :attr:`retry_deadline` first (clock guard).
         self.checks_skipped = 0
-        #: failed full QPs whose hard set :func:`wbc.qp.hard_set_feasible` found empty (clock guard): quadprog and
-        #: the backend's retries, which could only fail, were skipped.
+        #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
+        #: quadprog and the backend's retries, which could only fail, were skipped.
         self.infeasible_by_check = 0
         #: failed full QPs that the cost-scaled DAQP call solved ahead of quadprog (clock guard).
         self.scaled_solves = 0
@@ -319,8 +320,9 @@ class InverseDynamicsQP:
 
     #: clock guard (:attr:`tick_clock`): the full QP's DAQP attempt ends by this many budgets after the tick's start
     FULL_QP_DEADLINE = 1.25
-    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.qp.hard_set_feasible`, one cost-scaled DAQP
-    #: call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the time left)
+    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one
+    #: cost-scaled DAQP call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the
+    #: time left)
     CHECK_DEADLINE = 1.4
     CHECK_END = 1.55
     #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
@@ -634,22 +636,23 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
-        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.qp.DaqpBackend`, also
-        the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
-        its pinned variables (lb = ub: the forces of a released foot) eliminated (:func:`wbc.qp.solve_pinned_reduced`):
-        DAQP was seen to report such QPs infeasible where quadprog solves them (a released foot; a controller's first
-        tick). When quadprog finds no solution either, the backend gets its retries: quadprog's infeasibility
-        certificate is not final, it was seen on a feasible G1 landing QP (Hessian conditioned ~1e10) that DAQP's
-        cold retry solved, and ending there sent the landing to the relaxed QP with its torques clipped.
+        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
+        also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
+        its pinned variables (lb = ub: the forces of a released foot) eliminated
+        (:func:`wbc.solvers.independent.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
+        quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
+        backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
+        landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
+        relaxed QP with its torques clipped.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
-        :attr:`wbc.qp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no second
-        opinion, :attr:`budget_cut`); before it, :func:`wbc.qp.hard_set_feasible` (one DAQP call on the projection
-        of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it proves empty ends
-        the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
-        (:meth:`wbc.qp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its deadline
-        rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
+        :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no
+        second opinion, :attr:`budget_cut`); before it, :func:`wbc.solvers.independent.hard_set_feasible` (one DAQP call
+        on the projection of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it
+        proves empty ends the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
+        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
+        deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
         only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``).
 
         Raises:
@@ -729,12 +732,12 @@ class InverseDynamicsQP:
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
-        :class:`wbc.qp.QPBackend` reports no solution, two active-set solvers are asked before the failure stands
-        (:attr:`second_opinion_enabled`, :func:`wbc.qp.second_opinion`): quadprog with the pinned variables
-        eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure stands).
-        Either answer is returned only when it meets every row to the backend's tolerance (the check of
-        :meth:`wbc.qp.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal residual
-        that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
+        :class:`wbc.solvers.base.QPBackend` reports no solution, two active-set solvers are asked before the failure
+        stands (:attr:`second_opinion_enabled`, :func:`wbc.solvers.independent.second_opinion`): quadprog with the
+        pinned variables eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure
+        stands). Either answer is returned only when it meets every row to the backend's tolerance (the check of
+        :meth:`wbc.solvers.base.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal
+        residual that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
         dependent (two soles on legs without hip yaw); an active-set solver's answer is exact on them.
 
         Returns:
@@ -790,8 +793,8 @@ class InverseDynamicsQP:
         floating-base rows of the equations of motion (``floating_base_dynamics``, N, N·m). Each violation is
         measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|) for a
         bound; for a friction row max(1, |f_t| + μ/√2 |f_z|), the size of its terms; the largest |h_u| entry), the
-        scaling of :meth:`wbc.qp.QPBackend.scaled_violation` (a solution the solver accepted is not rejected for
-        a tolerance measured on another scale).
+        scaling of :meth:`wbc.solvers.base.QPBackend.scaled_violation` (a solution the solver accepted is not
+        rejected for a tolerance measured on another scale).
 
         Args:
             state: the state the solution was computed at. sol: the solution. relaxed: the torque limits were
@@ -911,7 +914,7 @@ class InverseDynamicsQP:
     def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
                  tol: float = 1e-6) -> list[tuple[str, float]]:
         """Names of the hard constraints that conflict at ``state``, with their violation (constraint units),
-        largest first (:func:`wbc.diagnosis.diagnose`: slack-relaxed least-squares solve of the hard set).
+        largest first (:func:`wbc.solvers.diagnosis.diagnose`: slack-relaxed least-squares solve of the hard set).
         Empty when the hard set is feasible.
 
         Args:

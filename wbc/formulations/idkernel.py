@@ -51,9 +51,9 @@ from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.dynamics import (contact_acceleration_rows, contact_force_columns, floating_base_rows,
                                       joint_bounds_kernel, torque_limit_rows)
 from wbc.formulations.reference import reference_rhs
-from wbc.fastqp import (INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, backward_substitution, cholesky_lower,
-                         forward_substitution, primal_from_multipliers, weighted_normal_equations)
-from wbc.solver_status import SolverStatus
+from wbc.solvers.linalg import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
+                                weighted_normal_equations)
+from wbc.solvers.status import INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, SolverStatus
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_solve", "id_tick", "id_workspace", "task_cost",
            "PROJECT_CONTACT_RHS"]
@@ -226,8 +226,8 @@ def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
     return res
 
 
-#: exit codes of :func:`id_solve`: the shared :class:`~wbc.solver_status.SolverStatus` values (plain ints, frozen by
-#: numba at compile time; NOT_POSITIVE_DEFINITE, ITERATION_CAP and INFEASIBLE are :mod:`wbc.fastqp`'s)
+#: exit codes of :func:`id_solve`: the shared :class:`~wbc.solvers.status.SolverStatus` values (plain ints, frozen by
+#: numba at compile time; NOT_POSITIVE_DEFINITE, ITERATION_CAP and INFEASIBLE are :mod:`wbc.solvers.status`'s)
 DEPENDENT_WORKING_SET = int(SolverStatus.DEPENDENT_ROWS)
 NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)
 

@@ -46,7 +46,7 @@ Priorities (``add_task``):
   named after the task in conflict reports).
 * ``level=k`` (int ≥ 0; 0 is the highest priority): strict hierarchy. Levels are optimised in increasing k, each
   only within the optimal set of those above, and the weighted soft level (with ε) comes last — the lexicographic
-  cascade of :mod:`wbc.hierarchy`. That path is taken only when at least one integer level exists; otherwise the
+  cascade of :mod:`wbc.solvers.hierarchy`. That path is taken only when at least one integer level exists; otherwise the
   single QP above is solved as before.
 
 Bounds are intersected in ``BoxConstraint.priority`` order, lower priorities yielding (see
@@ -69,8 +69,8 @@ place are caught there); else the tick fails (``TickResult.reason``) and the saf
 
 Tick budget (``budget``, default the tick's dt, seconds of CPU time), counted in QP solves: a tick may do
 ⌊budget / ``KinematicController.SOLVE_COST``⌋ solves (every solve attempt, cold retry and independent re-solve
-counts one, :class:`wbc.qp.TickWork`) — a count, not a clock, so a tick's answer is a function of its inputs and
-never of the machine's load. Past it, a failed tick stops its optional stages (independent
+counts one, :class:`wbc.solvers.base.TickWork`) — a count, not a clock, so a tick's answer is a function of its inputs
+and never of the machine's load. Past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the count
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
@@ -78,22 +78,22 @@ region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts n
 solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
-count below :data:`wbc.qp.WORK_LIMIT_FACTOR` (1.9) times the budget (:meth:`wbc.qp.DaqpBackend.call_limit`); a call
-stopped there is a failed solve (never an unconverged answer), and a strict level that fails so is cut like a
-level not started. ``TickResult.path`` names the route every tick took. With ``clock_guard=True`` (constructor) the
-tick's CPU time also counts as work (one budget of CPU time = ``CLOCK_WEIGHT`` × the cap; :class:`wbc.qp.TickWork`),
-so each of these limits also holds on the clock, whatever a counted solve costs on the machine and problem: the tick
-time is bounded (stages stop at ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that
-reaches a limit by its clock has an answer that depends on the machine's speed and load (off by default). With
-the guard, strict levels degrade to one QP when their cascade does not fit: once the budget stops a level or a stage
-after it, the tick answers with the weighted form of the levels (level k of p scaled by ``WEIGHTED_LEVEL_RATIO``
-** (p − k) over the soft level; path ``levels+weighted``), and so do the next ``WEIGHTED_TICKS`` ticks (then the
-cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
+count below :data:`wbc.solvers.daqp.WORK_LIMIT_FACTOR` (1.9) times the budget
+(:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); a call stopped there is a failed solve (never an unconverged answer),
+and a strict level that fails so is cut like a level not started. ``TickResult.path`` names the route every tick took.
+With ``clock_guard=True`` (constructor) the tick's CPU time also counts as work (one budget of CPU time =
+``CLOCK_WEIGHT`` × the cap; :class:`wbc.solvers.base.TickWork`), so each of these limits also holds on the clock,
+whatever a counted solve costs on the machine and problem: the tick time is bounded (stages stop at ``STAGE_FACTOR`` /
+``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that reaches a limit by its clock has an answer that depends on
+the machine's speed and load (off by default). With the guard, strict levels degrade to one QP when their cascade does
+not fit: once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level
+k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
+``WEIGHTED_TICKS`` ticks (then the cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
 
-1. diagnosis (:mod:`wbc.diagnosis`): a slack-relaxed solve of the hard set names the conflicting constraints and
+1. diagnosis (:mod:`wbc.solvers.diagnosis`): a slack-relaxed solve of the hard set names the conflicting constraints and
    the violation of each (``TickResult.conflicts``, largest first);
 2. safe command: the weighted soft level (tasks with ``level=None`` + ε) subject to the constraint objects only —
    hard tasks, strict levels and relaxable constraints left out — solved on a fresh backend, its contacts held to
@@ -115,17 +115,17 @@ input error), ``solve`` does not raise and never returns NaN:
 
 One assembly. Every route solves the QP that :meth:`KinematicController.assemble` writes into the controller's
 buffers: the soft tasks' rows gathered into stacked buffers (each task's ``compute_into``: J, e, and per row K, w,
-ė*), the cost (H, g) formed from them by one compiled call (:func:`wbc.fastqp.form_qp`; one plain
+ė*), the cost (H, g) formed from them by one compiled call (:func:`wbc.formulations.velocity_kernel.form_qp`; one plain
 :class:`~wbc.tasks.PostureTask` enters it as a diagonal, other tasks with their own cost add it after), the
 constraint rows written by each constraint, the box intersected from each bound constraint's own bounds. The tasks
 of strict levels are gathered the same way, and each level's rows √w J, √w v* formed by the same formula
-(:func:`wbc.fastqp.weighted_rows`) for the cascade and its weighted form.
+(:func:`wbc.formulations.velocity_kernel.weighted_rows`) for the cascade and its weighted form.
 
-Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.fastqp.FastBackend`) and no strict level,
+Compiled tick. With the default backend (``solver="fast"``, :class:`~wbc.solvers.fast.FastBackend`) and no strict level,
 that assembled QP — the same arrays, which the solver reads and never writes — is solved by one compiled call,
-:func:`wbc.fastqp.kinematic_solve`: the floating base eliminated through the first contact's 6 equality rows
-(v_b = c − T v_j substituted into H, g and the other rows; a solver strategy, the QP is not changed) and the
-exact optimum of an active set warm-started from the previous tick. When the kernel gives up on the reduced QP
+:func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base eliminated through the first contact's 6
+equality rows (v_b = c − T v_j substituted into H, g and the other rows; a solver strategy, the QP is not changed) and
+the exact optimum of an active set warm-started from the previous tick. When the kernel gives up on the reduced QP
 (iteration cap, dependent equalities), DAQP solves the same reduced QP and the tick is completed from its answer
 (:meth:`KinematicController._fused_rescue`; the kernel's next tick starts from DAQP's working set). The tick then goes
 on as above (contact drift measured at q⁺); whenever no solver ends at a KKT point within the backend's tolerance,
@@ -152,16 +152,16 @@ from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, 
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
-from wbc.diagnosis import diagnose
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.fastqp import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, FastBackend,
-                         clip_box_into, contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
-                         kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed, translation_gap,
-                         weighted_rows)
-from wbc.hierarchy import independent_rows, solve_lexicographic
-from wbc.qp import DaqpBackend, QPBackend, TickWork
-from wbc.backends import DEFAULT_SOLVER, make_backend
+from wbc.formulations.velocity_kernel import (contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
+                                              kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
+                                              translation_gap, weighted_rows)
+from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
+from wbc.solvers.diagnosis import diagnose
+from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
+from wbc.solvers.linalg import clip_box_into
+from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
@@ -169,7 +169,7 @@ from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["KinematicController", "TickResult"]
 
-#: exit codes of :func:`wbc.fastqp.kinematic_solve` after which its reduced QP is handed to DAQP
+#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve` after which its reduced QP is handed to DAQP
 #: (:meth:`KinematicController._fused_rescue`)
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
@@ -185,7 +185,7 @@ class TickResult(TickResultBase):
         message: failure reason ('' when ok).
         timings: seconds spent in 'assembly' (tasks + constraints) and 'solve' (including the fallback).
         conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
-            conflict, largest first (:mod:`wbc.diagnosis`); empty when ok.
+            conflict, largest first (:mod:`wbc.solvers.diagnosis`); empty when ok.
         fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
             objects, hard tasks and strict levels left out), 'contacts_held' (the same with each contact frame held
             where it was when the current run of failed ticks began, its correction towards there scaled by 1,
@@ -233,8 +233,8 @@ class KinematicController:
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.backends.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
-            exactly) or a :class:`~wbc.qp.QPBackend`.
+        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+            exactly) or a :class:`~wbc.solvers.base.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
@@ -263,10 +263,10 @@ class KinematicController:
             1.75 times the budget plus at most the stage in progress (one cascade) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
         clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` × ⌊budget /
-            ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.qp.TickWork`, clock guard): every limit
+            ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.solvers.base.TickWork`, clock guard): every limit
             above then holds on the CPU time too — a solved tick starts no further stage past
             ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` times its budget of CPU time, a DAQP call stops at
-            ``wbc.qp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
+            ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
             1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem. Default
             False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
             real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
@@ -630,11 +630,11 @@ class KinematicController:
 
     def _build_soft_layout(self) -> None:
         """Stacked rows of the soft tasks, gathered by :meth:`assemble` and turned into the cost by one compiled
-        call (:func:`wbc.fastqp.form_qp`): the Jacobians J, the errors e and, per row, gain K, weight w and
-        feed-forward ė* (v* = ė* − K e; a task with its own velocity target writes v* as e with K = −1, ė* = 0), and
-        one plain :class:`~wbc.tasks.PostureTask` as the diagonal term of ``form_qp``; the other tasks with their own
-        cost (``Task.add_cost``) add it after. Redone when ``tasks`` changes; kept per task list (the same task
-        objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
+        call (:func:`wbc.formulations.velocity_kernel.form_qp`): the Jacobians J, the errors e and, per row, gain K,
+        weight w and feed-forward ė* (v* = ė* − K e; a task with its own velocity target writes v* as e with K = −1, ė*
+        = 0), and one plain :class:`~wbc.tasks.PostureTask` as the diagonal term of ``form_qp``; the other tasks with
+        their own cost (``Task.add_cost``) add it after. Redone when ``tasks`` changes; kept per task list (the same
+        task objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
         if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
@@ -651,10 +651,10 @@ class KinematicController:
         every route solves (the compiled solver reads these very buffers).
 
         The task rows are gathered into stacked buffers (each task's ``compute_into``) and the cost formed from them
-        by one compiled call (:func:`wbc.fastqp.form_qp`); the constraint rows are written by each constraint
-        (a contact's ``compute_into``, else ``compute``) and the box is the intersection of each bound constraint's
-        own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at the next
-        call.
+        by one compiled call (:func:`wbc.formulations.velocity_kernel.form_qp`); the constraint rows are written by each
+        constraint (a contact's ``compute_into``, else ``compute``) and the box is the intersection of each bound
+        constraint's own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at
+        the next call.
         """
         if not self._layout_ok:
             self._build_layout()
@@ -746,11 +746,11 @@ class KinematicController:
             if record is not None:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
-    # -- compiled tick (wbc.fastqp.kinematic_solve on the assembled QP) ----------------------------------------
+    # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
     def _fused_plan(self, config: Configuration, dt: float) -> _FusedPlan | None:
         """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
         with it), or None when the problem is outside what it covers: strict levels, a backend other than
-        :class:`~wbc.fastqp.FastBackend`, a soft task with its own cost or velocity target other than one plain
+        :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or velocity target other than one plain
         :class:`~wbc.tasks.PostureTask`, a contact of a subclass with rows of its own."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
@@ -771,10 +771,10 @@ class KinematicController:
         return None
 
     def _fused_tick(self, plan: _FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
-        """One tick through the compiled solver (:func:`wbc.fastqp.kinematic_solve`): the QP assembled by
-        :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and solved
-        exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality rows
-        are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
+        """One tick through the compiled solver (:func:`wbc.formulations.velocity_kernel.kinematic_solve`): the QP
+        assembled by :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and
+        solved exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality
+        rows are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
         caller then solves the tick by the general path (DAQP fallback, correction, trust region, diagnosis)."""
         if self._eq_rows is not None and self._eq_rows.size != self._A.shape[0]:
             return None  # dependent equality rows (known since the last rank computation): the general path
@@ -831,11 +831,12 @@ class KinematicController:
     def _fused_rescue(self, plan: _FusedPlan, v: np.ndarray, dt: float) -> int:
         """The compiled solver gave up on its reduced QP (dependent active rows — e.g. self-collision rows of the
         thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
-        (:func:`wbc.fastqp.kinematic_reduced_packed`) is solved by DAQP, whose dual active set handles dependent
-        constraints, and the tick completed from its solution (:func:`wbc.fastqp.kinematic_finish_packed`: base
-        velocity, every original row checked). The kernel's next tick is warm-started from DAQP's working set
-        (its nonzero multipliers: linearly independent rows), from which it converges again. Returns 1 on
-        success, else the kernel's exit code (the general path then solves the tick)."""
+        (:func:`wbc.formulations.velocity_kernel.kinematic_reduced_packed`) is solved by DAQP, whose dual active set
+        handles dependent constraints, and the tick completed from its solution
+        (:func:`wbc.formulations.velocity_kernel.kinematic_finish_packed`: base velocity, every original row checked).
+        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers: linearly independent
+        rows), from which it converges again. Returns 1 on success, else the kernel's exit code (the general path then
+        solves the tick)."""
         backend = self.backend
         rescue = plan.rescue
         if rescue is None:
@@ -1004,7 +1005,7 @@ class KinematicController:
     def _command_fault(self, v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray,
                        u: np.ndarray) -> str:
         """Output guard of an ok tick: '' when v is finite, within [lb, ub] and l ≤ C v ≤ u to the backend's
-        tolerance (each bound or row scaled by max(1, |bound|), as :meth:`wbc.qp.QPBackend.scaled_violation`),
+        tolerance (each bound or row scaled by max(1, |bound|), as :meth:`wbc.solvers.base.QPBackend.scaled_violation`),
         else what it violates. The contact rows are held by the sole-drift check (``sole_drift_tolerance``)."""
         if not math.isfinite(float(v @ v)):
             return "the command v is not finite"
@@ -1622,7 +1623,7 @@ class KinematicController:
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the
-        slack-relaxed solve of :mod:`wbc.diagnosis` (empty when the hard set is feasible). Tasks whose cost
+        slack-relaxed solve of :mod:`wbc.solvers.diagnosis` (empty when the hard set is feasible). Tasks whose cost
         has non-finite numbers are reported with violation nan. ``include_relaxable=False`` leaves out the
         relaxable constraints (as a failed tick does). The controller's buffers are left holding that problem."""
         H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -1677,8 +1678,9 @@ class _DriftFailure(SolverError):
 
 def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
     """Stacked-row buffers of ``tasks`` (``KinematicController._build_soft_layout``). ``own_costs``: one plain
-    :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.fastqp.form_qp` and the tasks with their
-    own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a strict level)."""
+    :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.formulations.velocity_kernel.form_qp` and
+    the tasks with their own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a
+    strict level)."""
     soft = _SoftRows()
     soft.tasks = list(tasks)
     dense, soft.own, soft.posture = [], [], None
@@ -1741,8 +1743,8 @@ class _SoftRows:
     ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row, ``wJ``, ``wr``: a strict level's rows with the
     weights applied; ``rows``, per task with the generic cost,
     (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task taken as the
-    diagonal of :func:`wbc.fastqp.form_qp` (``posture``, its weights ``pw`` and velocity indices ``prow``); the
-    tasks with their own cost (``own``)."""
+    diagonal of :func:`wbc.formulations.velocity_kernel.form_qp` (``posture``, its weights ``pw`` and velocity indices
+    ``prow``); the tasks with their own cost (``own``)."""
 
 
 class _FusedPlan:

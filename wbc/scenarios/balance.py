@@ -50,7 +50,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import signed_distance
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tick import count_paths
 from wbc.scenarios.framework import Criterion, evaluate

@@ -14,7 +14,7 @@ from wbc.constraints.zmp import DcmPolygonConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import support_polygon as sole_support_polygon
 from wbc.profiles import min_jerk_ramp
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.stance import DOUBLE, LEFT_STANCE, RIGHT_STANCE, StanceController
 from wbc.tasks import PostureTask

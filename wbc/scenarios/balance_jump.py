@@ -40,7 +40,7 @@ from wbc.constants import SIDES
 from wbc.formulations.velocity import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.gait.jump_plan import JumpPlan
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask

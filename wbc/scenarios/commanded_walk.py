@@ -36,7 +36,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.configuration import Configuration
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import plan_walk

@@ -24,7 +24,7 @@ from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.formulations.velocity import KinematicController, TickResult
 from wbc.gait.schedule import Support
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.scenarios.framework import MotionRun
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PostureTask

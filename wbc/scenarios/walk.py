@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.exceptions import InvalidInputError, InvalidTargetError
-from wbc.backends import DEFAULT_SOLVER
+from wbc.solvers import DEFAULT_SOLVER
 from wbc.gait import WalkPlan, plan_walk
 from wbc.geometry import mean_heading
 from wbc.robot import Robot

@@ -51,7 +51,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.scenarios import FEET_STILL, NO_FALL
-from wbc.backends import make_backend
+from wbc.solvers import make_backend
 from wbc.scenarios.balance_wave import wave_joints
 from wbc.tasks import PostureTask
 

@@ -1,8 +1,8 @@
 """QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast``.
 
-The one place that knows every backend: the general ones of :mod:`wbc.qp` (DAQP, ProxQP, any qpsolvers backend)
-and the compiled exact kernel of :mod:`wbc.fastqp` (which falls back to DAQP), so neither of those modules imports
-the other's registry.
+The one place that knows every backend: the general ones (:mod:`wbc.solvers.daqp`, :mod:`wbc.solvers.proxqp`, any
+qpsolvers backend by :mod:`wbc.solvers.by_name`) and the compiled exact kernel of :mod:`wbc.solvers.fast` (which falls
+back to DAQP), so none of those modules imports another's registry.
 """
 
 from __future__ import annotations
@@ -10,18 +10,21 @@ from __future__ import annotations
 import qpsolvers
 
 from wbc.exceptions import UnknownSolverError
-from wbc.fastqp import FastBackend
-from wbc.qp import DaqpBackend, ProxQPBackend, QPBackend, QpsolversBackend
+from wbc.solvers.base import QPBackend
+from wbc.solvers.by_name import QpsolversBackend
+from wbc.solvers.daqp import DaqpBackend
+from wbc.solvers.fast import FastBackend
+from wbc.solvers.proxqp import ProxQPBackend
 
 __all__ = ["DEFAULT_SOLVER", "available_solvers", "make_backend"]
 
-#: Backend used when none is named: the compiled exact kernel (wbc.fastqp) with DAQP as fallback — same
+#: Backend used when none is named: the compiled exact kernel (wbc.solvers.fast) with DAQP as fallback — same
 #: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
 DEFAULT_SOLVER = "fast"
 
 
 def available_solvers() -> list[str]:
-    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.fastqp`)."""
+    """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.solvers.fast`)."""
     return sorted([*qpsolvers.available_solvers, "fast"])
 
 

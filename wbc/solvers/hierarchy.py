@@ -12,8 +12,8 @@ optimal set of (P_k) is exactly {v ∈ feasible set of (P_k) : J_k v = J_k v_k}:
 J_k v, so every minimiser has the same image J_k v. Fixing that image therefore optimises each lower level *within*
 the optimal set of the levels above, which is the lexicographic order of Kanoun, Lamiraux, Wieber, "Kinematic
 control of redundant manipulators: generalizing the task-priority framework to inequality tasks", IEEE T-RO
-27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard, Wieber,
-"Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
+27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard,
+Wieber, "Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
 Every level's images are re-read from the latest solution, so the fixed rows are always consistent.
 
 An upper level that cannot be met (a target out of reach, two tasks of one level contradicting each other, a
@@ -76,7 +76,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
         stop: called before each level after the first, and after a failed solve of such a level; when it
             returns True no further level is started and a failed level is not retried (a controller's counted
-            tick budget, :class:`wbc.qp.TickWork`, whose backends bound their solver's iterations by the work
+            tick budget, :class:`wbc.solvers.base.TickWork`, whose backends bound their solver's iterations by the work
             left): the cascade then returns the solution of the last level it solved (a point of the hard set,
             optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
             of levels (soft level included) that were solved; None when every level was. The first level is

@@ -237,8 +237,8 @@ def test_levels_below_a_determined_point_are_not_solved_and_the_answer_is_the_cl
     """Hard equalities of rank m and a level of rank n − m fix v: the soft level below has nothing left to optimise,
     is skipped (``last_determined``), and v is the equality-constrained least-squares solution of the level,
     computed here from the KKT system with numpy (no QP solver): [JᵀJ Aᵀ; A 0] [v; λ] = [Jᵀt; b]."""
-    from wbc.hierarchy import solve_lexicographic
-    from wbc.qp import DaqpBackend
+    from wbc.solvers import DaqpBackend
+    from wbc.solvers.hierarchy import solve_lexicographic
 
     rng = np.random.default_rng(3)
     for _ in range(5):
@@ -264,8 +264,8 @@ def test_memo_starts_a_level_with_the_retry_that_solved_it_and_forgets_a_failed_
     """``memo``: a level recorded as solved by its damped retry starts with that retry (one backend call instead
     of the failing undamped one first); a hint that fails is dropped and the full sequence runs. Counted with a
     backend that records the Hessians it is called with; the answers agree with the memo-less cascade."""
-    from wbc.hierarchy import solve_lexicographic
-    from wbc.qp import DaqpBackend
+    from wbc.solvers import DaqpBackend
+    from wbc.solvers.hierarchy import solve_lexicographic
 
     class Recording(DaqpBackend):
         def __init__(self, **kw):
@@ -297,3 +297,28 @@ def test_memo_starts_a_level_with_the_retry_that_solved_it_and_forgets_a_failed_
     v3, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
                                 DaqpBackend(), memo=memo)
     assert np.max(np.abs(v3 - plain)) < 1e-5
+
+
+def test_conflicting_strict_level_is_least_squares_and_lower_level_still_optimised():
+    """Level 0 asks x0 = 1 and x0 = −1 (conflict) and x1 = 5 beyond its bound |x1| ≤ 1; level 1 asks x2 = 0.5,
+    under the hard row x0 + x3 = 0.2. Level 0's residual equals the bounded least-squares optimum of that level
+    alone under the constraints (scipy.optimize.lsq_linear after eliminating x3), and level 1 is met exactly."""
+    import scipy.optimize
+
+    from wbc.solvers import DaqpBackend
+    from wbc.solvers.hierarchy import solve_lexicographic
+
+    n = 4
+    J0, t0 = np.array([[1.0, 0, 0, 0], [1.0, 0, 0, 0], [0, 1.0, 0, 0]]), np.array([1.0, -1.0, 5.0])
+    J1, t1 = np.array([[0, 0, 1.0, 0]]), np.array([0.5])
+    A, b = np.array([[1.0, 0, 0, 1.0]]), np.array([0.2])
+    lb, ub = -np.ones(n), np.ones(n)
+    e = np.zeros((0, n))
+    v, res = solve_lexicographic([(J0, t0), (J1, t1)], np.eye(n) * 1e-6, np.zeros(n), A, b, e, np.zeros(0),
+                                 np.zeros(0), lb, ub, [DaqpBackend(eps_prox=1e-3), DaqpBackend(eps_prox=1e-3)],
+                                 DaqpBackend())
+    # x3 = 0.2 − x0 ∈ [−1, 1] ⇔ x0 ∈ [−0.8, 1]: level 0 alone as a bounded least-squares problem in (x0, x1, x2)
+    ref = scipy.optimize.lsq_linear(J0[:, :3], t0, bounds=([-0.8, -1, -1], [1, 1, 1]))
+    assert abs(res[0] - np.linalg.norm(ref.fun)) < 1e-6
+    assert abs(v[2] - 0.5) < 1e-6 and res[1] < 1e-6
+    assert abs(A @ v - b)[0] < 1e-9 and np.all(v >= lb) and np.all(v <= ub)

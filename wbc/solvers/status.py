@@ -1,4 +1,5 @@
-"""Exit codes shared by the in-house QP kernels (:mod:`wbc.fastqp`, :mod:`wbc.formulations.idkernel`).
+"""Exit codes shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`, :mod:`wbc.solvers.active_set`,
+:mod:`wbc.formulations.velocity_kernel`, :mod:`wbc.formulations.idkernel`).
 
 A kernel returns a count ≥ 0 (iterations or working rows) on success and one negative :class:`SolverStatus`
 otherwise; one code means one thing in every kernel. Compiled kernels read the plain ``int`` values (module
@@ -9,7 +10,8 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["SolverStatus"]
+__all__ = ["DEPENDENT_EQUALITIES", "INFEASIBLE", "ITERATION_CAP", "NOT_POSITIVE_DEFINITE", "NOT_REDUCIBLE", "RESIDUAL",
+           "SolverStatus"]
 
 
 class SolverStatus(IntEnum):
@@ -33,3 +35,18 @@ class SolverStatus(IntEnum):
     RESIDUAL = -5
     INFEASIBLE = -6
     NOT_VERIFIED = -7
+
+
+#: exit codes (the :class:`SolverStatus` values as plain ints, frozen by numba at compile time) of
+#: :func:`wbc.solvers.box_eq.solve_box_eq` (≥ 0: number of working-set iterations)
+NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
+DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
+ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
+#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base cannot be eliminated (a
+#: bound on a base velocity, a singular eliminating block); the solution's equality or inequality residual is above the
+#: tolerance
+NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
+RESIDUAL = int(SolverStatus.RESIDUAL)
+#: exit code of the dual active set (:func:`wbc.solvers.active_set.solve_qp_ws`): a violated constraint that no working
+#: inequality can make room for (the constraints admit no solution; the caller's general solver confirms)
+INFEASIBLE = int(SolverStatus.INFEASIBLE)

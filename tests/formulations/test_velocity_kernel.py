@@ -1,0 +1,141 @@
+"""The compiled kernels of the kinematic QP (:mod:`wbc.formulations.velocity_kernel`): the cost formation and the
+compiled solver against numpy and quadprog, and the frame distances (``translation_gap``, the controller's sole
+drift) against Pinocchio's exponential and forward kinematics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import qpsolvers
+
+from wbc.solvers import make_backend
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_compiled_tick_is_the_optimum_of_its_qp(seed):
+    """wbc.formulations.velocity_kernel.form_qp (the cost from task rows with gains/weights/feed-forward, a posture
+    diagonal, damping) against the cost written out here in numpy, and wbc.formulations.velocity_kernel.kinematic_solve
+    (floating-base elimination + active set) on that assembled QP — equality rows whose first 6 are an invertible base
+    block, inequality rows, a velocity box with position limits clipped into it — against quadprog. When the kernel
+    gives up (negative code)
+    the full-space kernel must give up on that QP too."""
+    from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve_packed
+
+    rng = np.random.default_rng(500 + seed)
+    nv = int(rng.integers(16, 40))
+    nq = nv + 1
+    mt, n_eq, n_in = int(rng.integers(1, 8)), 6 + 6 * int(rng.integers(0, 2)), int(rng.integers(0, 3))
+    eliminate = seed % 3 != 0
+    er = 0 if eliminate else -1
+    joints = np.arange(6, nv)
+    kl = joints.size
+    fb, ib, x = kinematic_pack(nv, n_eq, n_in, er)
+    Js = rng.standard_normal((mt, nv))
+    es = rng.standard_normal(mt)
+    rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt)])
+    A = rng.standard_normal((n_eq, nv))
+    A[:6, :6] += 3 * np.eye(6)  # invertible base block
+    v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
+    x["A"][:] = A
+    x["b"][:] = A @ v0
+    C = rng.standard_normal((n_in, nv))
+    x["C"][:] = C
+    x["l"][:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
+    x["u"][:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
+    vmax = np.abs(v0[joints]) + rng.uniform(0.2, 2.0, kl)
+    q = rng.uniform(-1, 1, nq)
+    idx_q = joints + 1
+    dt = 0.01
+    # position limits that bind (some tighter than the velocity box), v0 inside them
+    qmin = q[idx_q] + dt * (v0[joints] - rng.uniform(0.05, 2.0, kl))
+    qmax = q[idx_q] + dt * (v0[joints] + rng.uniform(0.05, 2.0, kl))
+    lb, ub = np.full(nv, -np.inf), np.full(nv, np.inf)
+    lo = np.minimum((qmin - q[idx_q]) / dt, vmax)
+    hi = np.maximum((qmax - q[idx_q]) / dt, -vmax)
+    lb[joints], ub[joints] = np.minimum(np.maximum(lo, -vmax), vmax), np.maximum(np.minimum(hi, vmax), -vmax)
+    x["lb"][:], x["ub"][:] = lb, ub
+    pw = rng.uniform(0.01, 0.1, kl)
+    diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
+    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x["H"], x["g"])
+    # the same cost in numpy: ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
+    gain, w, ff = rowp
+    target = ff - gain * es
+    d = np.zeros(nv)
+    d[joints] = pw
+    s = -pgain * diff
+    H = Js.T @ (w[:, None] * Js) + np.diag(d + damping)
+    g = -Js.T @ (w * target) - d * s
+    assert np.abs(x["H"] - H).max() < 1e-12 * max(1.0, np.abs(H).max())
+    assert np.abs(x["g"] - g).max() < 1e-12 * max(1.0, np.abs(g).max())
+    assert np.array_equal(x["H"], x["H"].T)
+    before = fb.copy()
+    nr = nv - 6 if eliminate else nv
+    state, rstate, v = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    it = kinematic_solve_packed(fb, ib, state, rstate, v, dt, 1e-6, 200)
+    qp_size = x["ws"].ctypes.data - fb.ctypes.data
+    assert np.array_equal(fb[:qp_size // 8], before[:qp_size // 8])  # the assembled QP is read, never written
+    G, h = np.vstack([C, -C]), np.concatenate([x["u"], -x["l"]])
+    ref = qpsolvers.solve_qp(H, g, G=G if n_in else None, h=h if n_in else None, A=A, b=x["b"],
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=np.where(np.isfinite(ub), ub, 1e20),
+                             solver="quadprog")
+    assert ref is not None
+    if it < 1:  # the single-pivot working set gave up (cold start, many active bounds): so does the full-space
+        full = make_backend("fast")  # kernel on the same QP, and both controllers' ticks go to DAQP
+        full.solve(H, g, A, x["b"], C, x["l"], x["u"], lb, ub)
+        assert full.kernel_solves == 0 and full.fallbacks == 1
+        return
+    assert np.abs(v - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
+    assert np.abs(A @ v - x["b"]).max() < 1e-7  # the kernel accepts ≤ its tolerance (1e-6 here)
+    assert (v >= lb - 1e-9).all() and (v <= ub + 1e-9).all()
+    assert np.abs(x["vdt"] - v * dt).max() == 0.0
+
+
+def test_translation_gap_is_the_distance_of_the_exponentials():
+    """``translation_gap`` against Pinocchio's exp6: the distance between the origins of exp(sa ξa) and exp(sb ξb),
+    for small (series branch) and large rotations."""
+    import pinocchio as pin
+
+    from wbc.formulations.velocity_kernel import translation_gap
+
+    rng = np.random.default_rng(3)
+    for scale in (1e-9, 1e-4, 0.3, 2.5):
+        for _ in range(50):
+            xa, xb = rng.normal(size=6), rng.normal(size=6)
+            xa[3:] *= scale
+            xb[3:] *= scale
+            sa, sb = rng.uniform(-1.0, 1.0, 2)
+            ref = np.linalg.norm(pin.exp6(sa * xa).translation - pin.exp6(sb * xb).translation)
+            assert abs(translation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+
+
+@pytest.mark.parametrize("name", ["talos", "humanoid15"])
+def test_sole_drift_is_the_distance_from_where_the_contact_row_sends_the_sole(robots, name):
+    """The controller's sole drift of a command v (what its ok-tick bound ``sole_drift_tolerance`` holds) is the
+    distance, by forward kinematics, between where the sole ends after one tick and placement · exp((1 − K dt) e),
+    where its contact row sends it (before: the gap of the two twists' translation parts, which differs from the
+    distance at second order and let a tick of 5.00019e-5 m pass a 5e-5 m bound: kinematic fuzz seed 410013)."""
+    import pinocchio as pin
+
+    from conftest import standing_controller
+    from wbc.configuration import Configuration
+
+    robot = robots(name)
+    config = Configuration(robot)
+    ctrl, _ = standing_controller(robot, config)
+    rng = np.random.default_rng(7)
+    contacts = ctrl.constraints[:2]
+    for k, dt in enumerate((0.002, 0.02)):
+        offset = pin.SE3(pin.exp3(rng.normal(size=3) * 0.05), rng.normal(size=3) * 1e-3)
+        contacts[k % 2].placement = contacts[k % 2].placement * offset  # a sole off its placement
+        for _ in range(5):
+            v = rng.normal(size=robot.model.nv) * 3.0
+            q1 = pin.integrate(robot.model, config.q, v * dt)
+            data = robot.model.createData()
+            pin.framesForwardKinematics(robot.model, data, q1)
+            ref = 0.0
+            for c in contacts:
+                oMf0 = config.frame_placement(c.frame_id)
+                e = pin.log6(c.placement.actInv(oMf0)).vector
+                sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
+                ref = max(ref, np.linalg.norm(data.oMf[c.frame_id].translation - sent.translation))
+            assert abs(ctrl.sole_drift(config, v, dt) - ref) <= 1e-12 + 1e-9 * ref

@@ -1,0 +1,553 @@
+"""Compiled (numba) kernels of the kinematic (velocity-level) QP of :mod:`wbc.formulations.velocity`.
+
+:func:`form_qp` forms the kinematic controller's cost (H, g) from its stacked task rows (posture diagonal, damping):
+the one cost formation of every kinematic route; :func:`weighted_rows` gives a strict level's weighted rows by the
+same formula. :func:`kinematic_solve` is the compiled solver of the assembled kinematic QP
+(H, g, A, b, C, l, u, lb, ub): the floating base eliminated through a contact's 6 equality rows (H, g and the other
+rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.solvers.box_eq` and
+:mod:`wbc.solvers.active_set` on the reduced problem, the residuals of the original rows checked;
+:func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
+When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
+the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift` and
+:func:`translation_gap` measure where a contact frame ends against where its row sent it.
+
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
+them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
+:class:`~wbc.formulations.velocity.KinematicController`, never inside a tick).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numba as nb
+import numpy as np
+
+from wbc.compiled import FASTMATH, once_per_process
+from wbc.solvers.active_set import solve_qp_ws
+from wbc.solvers.box_eq import solve_box_eq_ws
+from wbc.solvers.linalg import clip_box_into
+from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
+
+__all__ = ["contact_drift", "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack",
+           "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
+           "translation_gap", "warm_up", "weighted_rows"]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _eliminate_base(A, b, er, nr, Eb, Tc):
+    """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the 6 equality rows E = A[er:er + 6] (E_b their
+    first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting. Returns False
+    when E_b is singular (a pivot ≤ 1e-12 × its largest entry)."""
+    scale = 0.0
+    for i in range(6):
+        for j in range(6):
+            Eb[i, j] = A[er + i, j]
+            if abs(Eb[i, j]) > scale:
+                scale = abs(Eb[i, j])
+        for j in range(nr):
+            Tc[i, j] = A[er + i, 6 + j]
+        Tc[i, nr] = b[er + i]
+    for k in range(6):
+        piv = k
+        for i in range(k + 1, 6):
+            if abs(Eb[i, k]) > abs(Eb[piv, k]):
+                piv = i
+        if not abs(Eb[piv, k]) > 1e-12 * scale:
+            return False
+        if piv != k:
+            for j in range(6):
+                Eb[k, j], Eb[piv, j] = Eb[piv, j], Eb[k, j]
+            for j in range(nr + 1):
+                Tc[k, j], Tc[piv, j] = Tc[piv, j], Tc[k, j]
+        for i in range(k + 1, 6):
+            f = Eb[i, k] / Eb[k, k]
+            if f == 0.0:
+                continue
+            for j in range(k, 6):
+                Eb[i, j] -= f * Eb[k, j]
+            for j in range(nr + 1):
+                Tc[i, j] -= f * Tc[k, j]
+    for k in range(5, -1, -1):
+        for i in range(k + 1, 6):
+            f = Eb[k, i]
+            if f != 0.0:
+                for j in range(nr + 1):
+                    Tc[k, j] -= f * Tc[i, j]
+        d = Eb[k, k]
+        for j in range(nr + 1):
+            Tc[k, j] /= d
+    return True
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _reduce_row(src, n0, nr, Tc, out):
+    """out[:nr] = src[n0:] − src[:n0] T (a row of the problem in the joint velocities after v_b = c − T v_j) and
+    returns src[:n0] · c, the part of the row the base's constant c accounts for (n0 = 0: a copy, 0)."""
+    for j in range(nr):
+        out[j] = src[n0 + j]
+    shift = 0.0
+    for i in range(n0):
+        a = src[i]
+        if a != 0.0:
+            shift += a * Tc[i, nr]
+            for j in range(nr):
+                out[j] -= a * Tc[i, j]
+    return shift
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _weighted_row(Js, es, rowp, k, row):
+    """row ← √w_k J_k and returns √w_k v*_k, v*_k = ff_k − K_k e_k (rowp = (K, w, ff)): one stacked task row with
+    its weight applied, the one formula of :func:`form_qp` and :func:`weighted_rows`."""
+    sw = np.sqrt(rowp[1, k])
+    Jk = Js[k]
+    for j in range(row.shape[0]):
+        row[j] = sw * Jk[j]
+    return sw * (rowp[2, k] - rowp[0, k] * es[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def weighted_rows(Js, es, rowp, out_J, out_r):
+    """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
+    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k −
+    K_k e_k (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+
+    Args:
+        Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
+    """
+    for k in range(Js.shape[0]):
+        out_r[k] = _weighted_row(Js, es, rowp, k, out_J[k])
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
+    """The cost of the kinematic QP (:mod:`wbc.formulations.velocity`) from its stacked task rows, written into H
+    and g (compiled; the one cost formation of every kinematic route):
+
+        H = ε I + Σ_k w_k J_kᵀ J_k + Σ_a d_a e_{i_a} e_{i_a}ᵀ,    g = −Σ_k w_k v*_k J_kᵀ − Σ_a d_a s_a e_{i_a}
+
+    i.e. ½ vᵀHv + gᵀv = ½ Σ_k w_k (J_k v − v*_k)² + ½ Σ_a d_a (v_{i_a} − s_a)² + ½ ε ‖v‖² up to a constant, with
+    v*_k = ff_k − K_k e_k and s_a = −K_p diff[i_a] (a posture task: a selection Jacobian, so its cost is diagonal).
+    Each row enters as (√w_k J_k)ᵀ(√w_k J_k), whole rows of H at a time: H is exactly symmetric without a mirror.
+
+    Args:
+        Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K (1/s), weight w ≥ 0 and
+            feed-forward ė* of each row (a row with w = 0 is skipped).
+        diff (nv,): q ⊖ q* of the posture task; pw (kp,): its weights d; prow (kp,) int64: its velocity indices
+            i_a (kp = 0: no posture); pgain: its gain K_p (1/s).
+        damping: ε > 0. H (nv, nv), g (nv,): out.
+
+    Returns:
+        trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
+    """
+    n = H.shape[0]
+    H[:, :] = 0.0
+    g[:] = 0.0
+    row = np.empty(n)
+    for k in range(Js.shape[0]):
+        if rowp[1, k] == 0.0:
+            continue
+        swr = _weighted_row(Js, es, rowp, k, row)
+        for i in range(n):
+            a = row[i]
+            if a == 0.0:
+                continue
+            g[i] -= a * swr
+            Hi = H[i]
+            for j in range(n):
+                Hi[j] += a * row[j]
+    for a in range(prow.shape[0]):
+        i = prow[a]
+        H[i, i] += pw[a]
+        g[i] -= pw[a] * (-pgain * diff[i])
+    check = 0.0
+    for i in range(n):
+        H[i, i] += damping
+        check += H[i, i] + g[i]
+    return check
+
+
+def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Float and integer workspaces of :func:`kinematic_solve` for nv velocities, ``n_eq`` equality and ``n_in``
+    inequality rows, with or without the floating-base elimination. The float one starts with v·dt (nv,)."""
+    nr = nv - 6 if eliminate else nv
+    mr = n_eq - 6 if eliminate else n_eq
+    size = (nv + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + n_in * nr + 3 * n_in + mr * nr + 2 * mr
+            + mr * nr + mr * mr + mr + 1)
+    return np.zeros(size), np.zeros(nr, np.int64)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _solve_views(ws, n, nr, mr, p):
+    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
+    velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
+    o = n
+    H = ws[o:o + nr * nr].reshape((nr, nr))
+    o += nr * nr
+    L = ws[o:o + nr * nr].reshape((nr, nr))
+    o += nr * nr
+    g = ws[o:o + nr]
+    o += nr
+    lbr = ws[o:o + nr]
+    o += nr
+    ubr = ws[o:o + nr]
+    o += nr
+    row = ws[o:o + nr]
+    o += nr
+    x = ws[o:o + nr]
+    o += nr
+    z = ws[o:o + nr]
+    o += nr
+    t = ws[o:o + nr]
+    o += nr
+    Tc = ws[o:o + 6 * (nr + 1)].reshape((6, nr + 1))
+    o += 6 * (nr + 1)
+    Eb = ws[o:o + 36].reshape((6, 6))
+    o += 36
+    V = ws[o:o + 6 * nr].reshape((6, nr))
+    o += 6 * nr
+    wb = ws[o:o + 6]
+    o += 6
+    Cr = ws[o:o + p * nr].reshape((p, nr))
+    o += p * nr
+    lr = ws[o:o + p]
+    o += p
+    ur = ws[o:o + p]
+    o += p
+    mu = ws[o:o + p]
+    o += p
+    Ar = ws[o:o + mr * nr].reshape((mr, nr))
+    o += mr * nr
+    br = ws[o:o + mr]
+    o += mr
+    nu = ws[o:o + mr]
+    o += mr
+    Y = ws[o:o + mr * nr].reshape((mr, nr))  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    o += mr * nr
+    S = ws[o:o + mr * mr].reshape((mr, mr))
+    o += mr * mr
+    rhs = ws[o:o + mr]
+    o += mr
+    eqres = ws[o:o + 1]
+    return (H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
+    """Hr = Zᵀ H Z and gr = Zᵀ (g + H v₀) for v = Z v_j + v₀, Z = [−T; I], v₀ = [c; 0] (the base's v_b = c − T v_j):
+    Hr = H_jj − H_jb T − Tᵀ V with V = H_bj − H_bb T, gr = (g_j + H_jb c) − Tᵀ (g_b + H_bb c); the lower triangle
+    formed, mirrored (Hr exactly symmetric). n0 = 0: a copy."""
+    if n0 == 0:
+        for a in range(nr):
+            gr[a] = g[a]
+            for c in range(nr):
+                Hr[a, c] = H[a, c]
+        return
+    for b in range(n0):
+        Vb = V[b]
+        Hb = H[b]
+        s = g[b]
+        for c in range(nr):
+            Vb[c] = Hb[n0 + c]
+        for b2 in range(n0):
+            h = Hb[b2]
+            s += h * Tc[b2, nr]
+            if h != 0.0:
+                T2 = Tc[b2]
+                for c in range(nr):
+                    Vb[c] -= h * T2[c]
+        wb[b] = s
+    for a in range(nr):
+        Ha = H[n0 + a]
+        Hra = Hr[a]
+        s = g[n0 + a]
+        for c in range(a + 1):
+            Hra[c] = Ha[n0 + c]
+        for b in range(n0):
+            h = Ha[b]
+            tb = Tc[b, a]
+            s += h * Tc[b, nr] - tb * wb[b]
+            Tb = Tc[b]
+            Vb = V[b]
+            for c in range(a + 1):
+                Hra[c] -= h * Tb[c] + tb * Vb[c]
+        gr[a] = s
+    for a in range(nr):
+        for c in range(a + 1, nr):
+            Hr[a, c] = Hr[c, a]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
+    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.KinematicController.assemble`)
+
+        min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
+
+    with the floating base eliminated (compiled; the arguments are read, never written).
+
+    Floating-base elimination (``er`` ≥ 0): the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, whose
+    base block E_b is invertible) give v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), so the problem is solved exactly
+    in the nv − 6 joint velocities with the remaining equality rows (a null-space / variable-elimination method;
+    Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
+    g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
+    unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
+    :func:`solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of the reduced problem holds at
+    exit, and the residuals of all rows of the original one are checked against ``tolerance``.
+
+    Args:
+        H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,), C (p, nv), l/u (p,), lb/ub (nv,):
+            the assembled QP (a row of C with l = −inf and u = inf is unused).
+        er: first row of the eliminating block, or −1 (no elimination). dt (s): the workspace receives v·dt.
+        tolerance: largest residual accepted. max_iter: working-set iterations.
+        state (nr,) int8, rstate (p,) int8: working sets (warm start, in/out). ws, iws: workspaces from
+            :func:`kinematic_workspace`; on success ws[:nv] = v·dt. v (nv,): out.
+
+    Returns:
+        working-set iterations (≥ 1), or a negative exit code (the caller solves the tick by the general path).
+    """
+    n = H.shape[0]
+    n0 = 6 if er >= 0 else 0
+    nr = n - n0
+    neq = A.shape[0]
+    mr = neq - n0
+    p = C.shape[0]
+    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
+     eqres) = _solve_views(ws, n, nr, mr, p)
+    for i in range(n0):
+        if lb[i] > -np.inf or ub[i] < np.inf:
+            return NOT_REDUCIBLE
+    for j in range(nr):
+        lbr[j] = lb[n0 + j]
+        ubr[j] = ub[n0 + j]
+    if n0 and not _eliminate_base(A, b, er, nr, Eb, Tc):
+        return NOT_REDUCIBLE
+    _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr)
+    kk = 0
+    for r in range(neq):
+        if n0 and er <= r < er + 6:
+            continue
+        br[kk] = b[r] - _reduce_row(A[r], n0, nr, Tc, Ar[kk])
+        kk += 1
+    for r in range(p):
+        if l[r] == -np.inf and u[r] == np.inf:  # an unused row (e.g. self-collision's beyond its close pairs)
+            lr[r] = -np.inf
+            ur[r] = np.inf
+            continue
+        shift = _reduce_row(C[r], n0, nr, Tc, Cr[r])
+        lr[r] = l[r] - shift
+        ur[r] = u[r] - shift
+    if p == 0:
+        it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws, L, Y,
+                             S, t, rhs, eqres)
+    else:
+        it = solve_qp_ws(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12,
+                         1e-24, eqres)
+    if it < 1:
+        state[:] = 0
+        rstate[:] = 0
+        return it
+    if not _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v):
+        state[:] = 0
+        rstate[:] = 0
+        return RESIDUAL
+    return it
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
+    """v from the reduced solution x (joint velocities; the base's v_b = c − T v_j when n0 = 6), then the residuals
+    of the original rows A v = b, cl ≤ C v ≤ cu: False when one exceeds ``tolerance``, else ws[:nv] = v·dt."""
+    n = v.shape[0]
+    nr = n - n0
+    neq = A.shape[0]
+    p = C.shape[0]
+    for j in range(nr):
+        v[n0 + j] = x[j]
+    for i in range(n0):
+        s = Tc[i, nr]
+        for j in range(nr):
+            s -= Tc[i, j] * x[j]
+        v[i] = s
+    # residuals of the original rows
+    res = 0.0
+    for r in range(neq):
+        s = -b[r]
+        for j in range(n):
+            s += A[r, j] * v[j]
+        if abs(s) > res:
+            res = abs(s)
+    for r in range(p):
+        if cl[r] == -np.inf and cu[r] == np.inf:
+            continue
+        s = 0.0
+        for j in range(n):
+            s += C[r, j] * v[j]
+        if cl[r] - s > res:
+            res = cl[r] - s
+        elif s - cu[r] > res:
+            res = s - cu[r]
+    if not res <= tolerance:
+        return False
+    for i in range(n):
+        ws[i] = v[i] * dt
+    return True
+
+
+#: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
+_PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
+
+
+def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """The two arrays :func:`kinematic_solve_packed` reads (one float, one int64) for a kinematic QP of nv
+    velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base through the equality
+    rows from ``er`` (−1: none), and named views of their parts: the QP's buffers ``H`` (nv, nv), ``g`` (nv,), ``A``
+    (n_eq, nv), ``b``, ``C`` (n_in, nv), ``l``, ``u``, ``lb``, ``ub`` (nv,) — the arrays the controller assembles
+    into, so that the compiled solver reads them where they were written — and ``vdt`` (nv,): v·dt after a solve."""
+    ws, iws = kinematic_workspace(nv, n_eq, n_in, er >= 0)
+    shapes = {"H": (nv, nv), "g": (nv,), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv), "l": (n_in,),
+              "u": (n_in,), "lb": (nv,), "ub": (nv,), "ws": (ws.size,)}
+    head = len(_PACK_FIELDS)
+    offsets, o = {}, 0
+    for name, shape in shapes.items():
+        offsets[name] = o
+        o += int(np.prod(shape))
+    fb = np.zeros(o)
+    ib = np.zeros(head + iws.size, np.int64)
+    ib[:4] = (nv, n_eq, n_in, er)
+    for i, name in enumerate(_PACK_FIELDS[4:-1], start=4):
+        ib[i] = offsets[name]
+    ib[head - 1] = head
+    views = {name: fb[offsets[name]:offsets[name] + int(np.prod(shape))].reshape(shape)
+             for name, shape in shapes.items()}
+    views["vdt"] = views["ws"][:nv]
+    return fb, ib, views
+
+
+@nb.njit(cache=True, nogil=True)
+def _unpack(fb, ib):
+    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (H, g, A, b, C, l, u, lb, ub, ws, iws,
+    er)."""
+    nv, neq, p, er = ib[0], ib[1], ib[2], ib[3]
+    o = ib[4:]
+    H = fb[o[0]:o[0] + nv * nv].reshape((nv, nv))
+    g = fb[o[1]:o[1] + nv]
+    A = fb[o[2]:o[2] + neq * nv].reshape((neq, nv))
+    b = fb[o[3]:o[3] + neq]
+    C = fb[o[4]:o[4] + p * nv].reshape((p, nv))
+    l = fb[o[5]:o[5] + p]
+    u = fb[o[6]:o[6] + p]
+    lb = fb[o[7]:o[7] + nv]
+    ub = fb[o[8]:o[8] + nv]
+    ws = fb[o[9]:]
+    iws = ib[o[10]:]
+    return H, g, A, b, C, l, u, lb, ub, ws, iws, er
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
+    """:func:`kinematic_solve` on the QP packed into ``fb`` (float) and ``ib`` (int64) by :func:`kinematic_pack`:
+    8 arguments instead of 18 (each array argument costs the call ≈ 50 ns to type and unbox). Same returns."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+
+
+@nb.njit(cache=True, nogil=True)
+def kinematic_reduced_packed(fb, ib):
+    """The reduced QP formed by the last :func:`kinematic_solve_packed` call on these arrays (valid after any return
+    but ``NOT_REDUCIBLE``), as views into ``fb``: (H (nr, nr), g (nr,), A (mr, nr), b (mr,), C (p, nr), l (p,),
+    u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the joint velocities x
+    (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution x, given to
+    :func:`kinematic_finish_packed`, completes the tick."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    n0 = 6 if er >= 0 else 0
+    nr = A.shape[1] - n0
+    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
+     eqres) = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])
+    return Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
+    """Complete a :func:`kinematic_solve_packed` call whose kernel did not solve the reduced QP, from a solution x
+    (nr,) of :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; base velocity recovered
+    through the eliminating rows) and the check of every original row against ``tolerance`` (True: passed, and
+    the float workspace then holds v·dt as after a successful solve)."""
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    n0 = 6 if er >= 0 else 0
+    nr = A.shape[1] - n0
+    Tc = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])[9]
+    return _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _exp6_translation(xi, s, out):
+    """out ← translation of exp(s ξ) for a 6-D twist ξ = (ν, ω) (Pinocchio's order): V(sω) sν with
+    V(ω) = I + (1 − cos θ)/θ² [ω]× + (θ − sin θ)/θ³ [ω]×², θ = ‖ω‖ (Lynch & Park, Modern Robotics, eq. 3.88)."""
+    nx, ny, nz = s * xi[0], s * xi[1], s * xi[2]
+    wx, wy, wz = s * xi[3], s * xi[4], s * xi[5]
+    t2 = wx * wx + wy * wy + wz * wz
+    if t2 < 1e-12:  # series: 1/2 − θ²/24, 1/6 − θ²/120
+        a, c = 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+    else:
+        t = np.sqrt(t2)
+        a, c = (1.0 - np.cos(t)) / t2, (t - np.sin(t)) / (t2 * t)
+    # w × n and w × (w × n)
+    cx, cy, cz = wy * nz - wz * ny, wz * nx - wx * nz, wx * ny - wy * nx
+    dx, dy, dz = wy * cz - wz * cy, wz * cx - wx * cz, wx * cy - wy * cx
+    out[0] = nx + a * cx + c * dx
+    out[1] = ny + a * cy + c * dy
+    out[2] = nz + a * cz + c * dz
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def translation_gap(xa, sa, xb, sb):
+    """‖t(exp(sa ξa)) − t(exp(sb ξb))‖ (m): the distance between the origins of two frames given by their twists
+    ξa, ξb (6,) from one reference frame (e.g. a contact's placement)."""
+    pa, pb = np.empty(3), np.empty(3)
+    _exp6_translation(xa, sa, pa)
+    _exp6_translation(xb, sb, pb)
+    return np.sqrt((pa[0] - pb[0]) ** 2 + (pa[1] - pb[1]) ** 2 + (pa[2] - pb[2]) ** 2)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def contact_drift(logs, b, starts, factors):
+    """Largest distance (m) between where a contact frame ends and where its row sent it, over the contacts i:
+    ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ with e⁺_i = logs[i] (6,) its error at the next configuration (``pin.log6`` of
+    placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e and f_i = dt − 1/K, so that
+    f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame in the placement's frame."""
+    worst = 0.0
+    for i in range(logs.shape[0]):
+        r0 = starts[i]
+        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
+        if d > worst:
+            worst = d
+    return worst
+
+
+@once_per_process
+def ensure_compiled() -> float:
+    """Run :func:`warm_up` once per process (later calls return None at once)."""
+    return warm_up()
+
+
+def warm_up() -> float:
+    """Compile (or load from the on-disk cache) the kinematic kernels, and :func:`wbc.solvers.linalg.clip_box_into`
+    that the controller's bound assembly calls; returns the seconds taken."""
+    t0 = time.perf_counter()
+    clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
+    # the kinematic controller's cost formation and compiled solver (a 7-velocity QP whose base is eliminated
+    # through 6 rows)
+    fb, ib, views = kinematic_pack(7, 6, 0, 0)
+    form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
+            1e-6, views["H"], views["g"])
+    weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
+    views["A"][:, :6] = np.eye(6)
+    views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
+    views["lb"][6], views["ub"][6] = -1.0, 1.0
+    kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
+    kinematic_reduced_packed(fb, ib)
+    kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
+    return time.perf_counter() - t0

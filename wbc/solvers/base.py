@@ -1,0 +1,369 @@
+"""The interface every QP backend implements (:class:`QPBackend`) and the counted work of a tick (:class:`TickWork`).
+
+Every backend solves
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+
+and returns x, or raises :class:`~wbc.exceptions.SolverError`. After a solve, the solution is checked against every
+constraint (:meth:`QPBackend.solve`): a violation above the backend's tolerance is a failure; one below it is
+projected onto the bounds so that integrating x never crosses a joint limit. Before a failure is declared, the
+problem is re-solved by independent backends (:meth:`QPBackend.confirm`).
+
+The backends themselves are in the sibling modules (:mod:`wbc.solvers.daqp`, :mod:`wbc.solvers.proxqp`,
+:mod:`wbc.solvers.by_name`, :mod:`wbc.solvers.fast`). :class:`QPBackend` builds three of them itself — ProxQP and
+qpsolvers backends for the independent re-solve, DAQP for the projection of :meth:`QPBackend.polish` — and, as
+their modules import this one, it does not import them: each registers its class here on import
+(:func:`register_backend_class`), and :mod:`wbc.solvers` imports them all.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from time import thread_time
+from typing import Callable
+
+import numpy as np
+import qpsolvers
+
+from wbc.exceptions import InfeasibleProblemError, SolverError
+
+__all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "QPBackend", "TickWork", "register_backend_class"]
+
+#: stands for an infinite bound where a backend needs a finite number
+INFINITE_BOUND = 1e10
+#: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
+#: solve of an infeasible QP runs to its iteration cap (200 outer × 100 inner), ≈ 580 active-set solves of a
+#: humanoid tick's QP; the others count one
+_CONFIRM_WORK = {"proxqp": 580}
+
+
+#: active-set iterations counted as one more :class:`TickWork` solve (a kinematic QP solve without them takes about
+#: as long as this many DAQP iterations)
+ITERATIONS_PER_SOLVE = 150
+
+
+#: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
+_POLISH_RANGE = 1e-3
+
+#: The backend classes :class:`QPBackend` builds, by role: ``"proxqp"`` and ``"qpsolvers"`` (any qpsolvers backend by
+#: name), the independent re-solve of :meth:`QPBackend.confirm`; ``"daqp"``, the projection of
+#: :meth:`QPBackend.polish`. Filled by :func:`register_backend_class` when the modules defining them are imported.
+_BACKEND_CLASSES: dict[str, type] = {}
+
+
+def register_backend_class(role: str) -> Callable[[type], type]:
+    """Class decorator: the decorated :class:`QPBackend` subclass is the one built for ``role`` (``"daqp"``,
+    ``"proxqp"`` or ``"qpsolvers"``) by :meth:`QPBackend.confirm` and :meth:`QPBackend.polish`.
+
+    Returns:
+        The decorator (it returns the class unchanged).
+    """
+
+    def register(cls: type) -> type:
+        _BACKEND_CLASSES[role] = cls
+        return cls
+
+    return register
+
+
+class TickWork:
+    """Work of one control tick: the QP solves done so far, against a cap.
+
+    A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
+    tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
+    one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took). A tick
+    budget counted in solves keeps a tick's answer a function of its inputs (a budget read from a clock would make
+    it depend on the machine).
+
+    Clock guard (``clock``: seconds of CPU time counted as one solve, ``math.inf`` by default: off): ``solves``
+    reads max(counted solves, CPU time of the calling thread since :meth:`reset` / ``clock``)
+    (``time.thread_time``: what the tick computes, not the time other processes take the core from it), so every
+    limit on the count (:meth:`spent`, :meth:`wbc.solvers.daqp.DaqpBackend.call_limit`) also holds on the tick's CPU
+    time. The trade-off: a tick that reaches a limit by its clock before its count has an answer that depends on the
+    machine's speed and load (its optional stages stop earlier on a slower machine); a tick that stays under
+    every limit by its clock answers as without the guard.
+
+    Attributes:
+        solves: work of the current tick, in solves (≥ 0; a float once the clock guard counts).
+        cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
+            re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
+            budget below 580 × ``KinematicController.SOLVE_COST``).
+    """
+
+    __slots__ = ("_solves", "cap", "_clock", "_t0")
+
+    def __init__(self, cap: float = math.inf, clock: float = math.inf):
+        self._solves = 0
+        self.cap = cap
+        self._clock = clock
+        self._t0 = thread_time()
+
+    @property
+    def solves(self) -> float:
+        """Counted solves of the tick, or (clock guard) the tick's CPU time in solves when that is larger."""
+        if self._clock < math.inf:
+            return max(self._solves, (thread_time() - self._t0) / self._clock)
+        return self._solves
+
+    @solves.setter
+    def solves(self, value: float) -> None:
+        self._solves = value
+
+    @property
+    def clock(self) -> float:
+        """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
+        return self._clock
+
+    def reset(self, cap: float, clock: float = math.inf) -> None:
+        """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
+        (``math.inf``: counted solves only)."""
+        self._solves = 0
+        self.cap = cap
+        self._clock = clock
+        self._t0 = thread_time()
+
+    def seconds(self) -> float:
+        """CPU time (s, ``time.thread_time`` of the calling thread) since :meth:`reset`."""
+        return thread_time() - self._t0
+
+    def spent(self, factor: float = 1.0) -> bool:
+        """``factor`` × cap solves are done."""
+        return self.solves >= factor * self.cap
+
+
+class QPBackend(ABC):
+    """Common interface. ``tolerance`` is the largest constraint violation accepted (in constraint units)."""
+
+    name: str = ""
+    tolerance: float = 1e-6
+
+    @abstractmethod
+    def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """Raw solution, or None on failure."""
+
+    #: active-set iterations of the last solver call (0 for a backend that does not report them).
+    last_iterations: int = 0
+    #: tick solutions rescued by the independent re-solve (the backend's own solve failed or violated a row).
+    rescues: int = 0
+    #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
+    last_confirmation: str = ""
+    #: the counted work of the current control tick (:class:`TickWork`, shared by a controller's backends), or None:
+    #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
+    #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
+    work: "TickWork | None" = None
+    #: retry a failed solve (from a cold start, :meth:`_solve_cold`, and a backend's own fallbacks) before declaring
+    #: it failed; a caller trying a sequence of problems where a failure only sends it to the next one (one scale of
+    #: a relaxation ladder) may turn it off for those solves: then one solver call per solve.
+    cold_retry: bool = True
+    #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
+    independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
+        """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
+
+        Tolerance policy (the same for every backend and both controller levels): the solution is checked row
+        by row in the max-norm, each row against ``tolerance · max(1, |rhs|, Σ_j |a_ij x_j|)`` (its own units
+        and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto
+        [lb, ub], so integrating x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an
+        independent backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes
+        the same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
+        unbounded); otherwise, once the tick's counted work (``work``) has reached its cap, the independent solvers
+        not yet run are skipped (the failure is then reported unconfirmed). The limit is a count of solves, not a
+        clock: the answer is a function of the problem alone.
+
+        Returns:
+            x (n,), within [lb, ub] exactly.
+
+        Raises:
+            SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
+                scaled row violation (the number that was tested) and the independent solvers that confirmed.
+        """
+        # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
+        # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
+        for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
+            self.last_iterations = 0
+            x = attempt(H, g, A, b, C, l, u, lb, ub)
+            if self.work is not None:
+                # one, plus one per ITERATIONS_PER_SOLVE iterations the attempt took (a DAQP call that ran to its
+                # iteration cap costs several solves' time: counted so, the tick's later stages stop sooner)
+                self.work.solves += 1 + int(self.last_iterations) // ITERATIONS_PER_SOLVE
+            worst = math.inf
+            if x is not None and np.isfinite(x).all():
+                xc = np.minimum(np.maximum(x, lb), ub)
+                worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
+                if worst <= self.tolerance:
+                    return xc
+                if worst <= _POLISH_RANGE:
+                    if self.work is not None:
+                        self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
+                    xp = self.polish(x, A, b, C, l, u, lb, ub)
+                    if xp is not None:
+                        self.polished += 1
+                        return xp
+        x_ind, confirmed = (self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm
+                            else (None, "nobody (independent re-solve skipped: confirm=False)"))
+        if x_ind is not None:
+            self.rescues += 1
+            return x_ind
+        self.last_confirmation = confirmed
+        what = ("found no solution" if not math.isfinite(worst) else
+                f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
+                f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
+        if confirm:
+            raise InfeasibleProblemError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
+        raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
+
+    #: solutions accepted after :meth:`polish` (the solver's answer was within 1e-3 but above ``tolerance``).
+    polished: int = 0
+
+    def polish(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """Primal polish of a near-feasible solution: bounds within 1e-6 (scaled) of x or crossed are fixed at the
+        bound, violated or active inequality rows at the crossed/active side, and the smallest correction of the
+        free entries (least squares, ``numpy.linalg.lstsq``) makes the equality and those rows hold; then
+        clipped to the bounds and checked like :meth:`solve`. With |g| ~ 1e9 (a 1e6 m target) every solver
+        tried stopped 1.5e-6 – 1.3e-5 off the rows (cancellation in H⁻¹(g + Aᵀλ)); the correction is of that
+        size, so the cost changes at second order.
+
+        When that correction cannot hold the rows (the free entries do not span them: the feasible set is thin
+        and some entry must leave the bound the solver put it on, e.g. under a 1e6 m hand target), x is projected
+        onto the hard set instead: min ½‖y − x‖² subject to every row and bound, a well-conditioned QP (identity
+        Hessian, |gradient| ~ |x|) solved by DAQP's one-shot interface. The projection moves x by about the
+        solver's error, so the answer stays that solution up to its error.
+
+        Returns:
+            the polished x (within [lb, ub], every row to ``tolerance``), or None.
+        """
+        x0 = x
+        x = self._polish_lstsq(x, A, b, C, l, u, lb, ub)
+        if x is not None:
+            return x
+        return self._project(x0, A, b, C, l, u, lb, ub)
+
+    def _project(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """x projected onto the hard set (:meth:`polish`), or None when that fails the check of :meth:`solve`."""
+        n = x.shape[0]
+        try:
+            y = _BACKEND_CLASSES["daqp"](tolerance=self.tolerance)._solve(
+                np.eye(n), -np.where(np.isfinite(x), x, 0.0), A, b, C, l, u, lb, ub)
+        except Exception:  # noqa: BLE001 — a failed projection polishes nothing
+            return None
+        if y is None or not np.isfinite(y).all():
+            return None
+        yc = np.minimum(np.maximum(y, lb), ub)
+        return yc if self.scaled_violation(y, yc, A, b, C, l, u, lb, ub) <= self.tolerance else None
+
+    def _polish_lstsq(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """Least-squares stage of :meth:`polish`."""
+        x = np.minimum(np.maximum(x, lb), ub)
+        for _ in range(2):
+            near = 1e-6 * np.maximum(1.0, np.abs(x))
+            fixed = (x <= lb + near) | (x >= ub - near)
+            free = ~fixed
+            rows, rhs = [A], [b]
+            if C.shape[0]:
+                cx = C @ x
+                with np.errstate(invalid="ignore"):  # an infinite bound: inf - inf = nan compares False (inactive)
+                    act_l = cx <= l + 1e-6 * np.maximum(1.0, np.abs(l))
+                    act_u = cx >= u - 1e-6 * np.maximum(1.0, np.abs(u))
+                act = act_l | act_u
+                rows.append(C[act])
+                rhs.append(np.where(act_l, l, u)[act])
+            M = np.vstack(rows)
+            if M.shape[0] == 0 or not free.any():
+                break
+            r = np.concatenate(rhs) - M @ x
+            dx = np.linalg.lstsq(M[:, free], r, rcond=None)[0]
+            x = x.copy()
+            x[free] += dx
+            x = np.minimum(np.maximum(x, lb), ub)
+            if self.scaled_violation(x, x, A, b, C, l, u, lb, ub) <= self.tolerance:
+                return x
+        return None
+
+    def _solve_cold(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """Solve without any warm start (default: the same as ``_solve``)."""
+        return self._solve(H, g, A, b, C, l, u, lb, ub)
+
+    def confirm(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray | None, str]:
+        """Independent re-solve: ProxQP (cold, eps_abs 1e-9) and one qpsolvers backend that is not this one
+        (quadprog when H is positive definite, else DAQP one-shot with a relaxed primal tolerance).
+
+        Returns:
+            (x, '') with x projected onto the bounds when one of them meets every row to ``tolerance``
+            (the check of :meth:`solve`), else (None, 'names of the solvers that failed').
+        """
+        tried = []
+        for name in self.independent:
+            if name == self.name or name not in qpsolvers.available_solvers:
+                continue
+            if self.work is not None:
+                cost = _CONFIRM_WORK.get(name, 1)
+                if self.work.solves + cost > self.work.cap:
+                    return None, (", ".join(tried) + " (then the tick's solve count was spent)" if tried else
+                                  "no independent solver (tick budget spent: infeasibility not confirmed)")
+                self.work.solves += cost
+            try:
+                if name == "proxqp":
+                    backend = _BACKEND_CLASSES["proxqp"](tolerance=self.tolerance, max_iter=200)
+                elif name == "quadprog":
+                    if np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
+                        continue  # quadprog needs H positive definite
+                    backend = _BACKEND_CLASSES["qpsolvers"]("quadprog", tolerance=self.tolerance)
+                else:
+                    backend = _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance)
+                x = backend._solve(H, g, A, b, C, l, u, lb, ub)
+            except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
+                x = None
+            tried.append(name)
+            if x is not None and np.isfinite(x).all():
+                xc = np.minimum(np.maximum(x, lb), ub)
+                worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
+                if worst <= self.tolerance:
+                    return xc, ""
+                if worst <= _POLISH_RANGE:
+                    xp = self.polish(x, A, b, C, l, u, lb, ub)
+                    if xp is not None:
+                        return xp, ""
+        return None, ", ".join(tried) or "no independent solver installed"
+
+    @staticmethod
+    def scaled_violation(x, xc, A, b, C, l, u, lb=None, ub=None) -> float:
+        """Largest row violation of x in the max-norm, each row divided by max(1, |its right-hand side|,
+        Σ_j |a_ij x_j|) (the row's own scale: the size of the terms whose sum is compared).
+
+        Bounds are measured on x (excess over [lb, ub], scaled by the bound), the equality and inequality rows
+        on its projection ``xc`` onto the bounds (the point that is returned). NaN/inf give inf."""
+        worst = 0.0
+        d = np.abs(x - xc)
+        if d.size and d.max() > 0:
+            ref = np.abs(np.where(x > xc, ub, lb)) if lb is not None else 0.0
+            worst = float(np.max(d / np.maximum(1.0, ref)))
+        if A.shape[0] or C.shape[0]:
+            ax = np.abs(xc)
+        if A.shape[0]:
+            # row scale: max(1, |b_i|, Σ_j |A_ij x_j|) — the magnitude of the terms summed (floating-point error
+            # of a_i·x is relative to it; measured: a 1e6 m target gave |g| 2e9 and every solver 1.7e-6 off)
+            r = np.abs(A @ xc - b) / np.maximum(np.maximum(1.0, np.abs(b)), np.abs(A) @ ax)
+            worst = max(worst, float(r.max()))
+        if C.shape[0]:
+            cx = C @ xc
+            ex = np.maximum(l - cx, cx - u)
+            ref = np.where(l - cx > cx - u, np.abs(l), np.abs(u))
+            ref = np.maximum(np.where(np.isfinite(ref), ref, 1.0), np.abs(C) @ ax)
+            ex = np.where(ex > 0, ex, 0.0) / np.maximum(1.0, ref)
+            worst = max(worst, float(ex.max()))
+        return worst if math.isfinite(worst) else math.inf
+
+    @staticmethod
+    def violation(x, A, b, C, l, u, lb, ub) -> float:
+        """Largest violation of any constraint by x (0 when feasible)."""
+        worst = max((lb - x).max(initial=0.0), (x - ub).max(initial=0.0))
+        if A.shape[0]:
+            r = A @ x
+            r -= b
+            worst = max(worst, r.max(), -r.min())
+        if C.shape[0]:
+            cx = C @ x
+            worst = max(worst, (l - cx).max(), (cx - u).max())
+        return float(worst)

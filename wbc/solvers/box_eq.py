@@ -1,0 +1,230 @@
+"""Compiled (numba) exact solver of a QP with equality rows and bounds only:
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   lb ≤ x ≤ ub
+
+(H symmetric positive definite, A full row rank), warm-started from the previous call's working set (the variables
+held at a bound): :func:`solve_box_eq_ws` (workspace given) and :func:`solve_box_eq` (allocating).
+
+For a fixed working set W the free part F solves the equality-constrained QP through its KKT system, eliminated with
+a Cholesky factor L Lᵀ = H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical
+Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"). The working set is then corrected: the free variable
+furthest outside its bounds is fixed at the violated bound; otherwise the fixed variable whose bound multiplier has
+the wrong sign (most negative) is freed (single-pivot principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5),
+1994). The loop ends only when every KKT condition holds, so the returned x is the exact optimum; otherwise a
+negative exit code (:mod:`wbc.solvers.status`).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from wbc.compiled import FASTMATH
+from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers
+from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
+
+__all__ = ["clip_eq_residual", "drop_infinite_active", "solve_box_eq", "solve_box_eq_ws"]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
+    """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
+    n, m = H.shape[0], A.shape[0]
+    return solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                           np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)),
+                           np.empty(n), np.empty(m), np.empty(1))
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs):
+    """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
+    set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to the first m rows of ``A x = b``, through
+    the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal &
+    Wright 2006, §16.2). On return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the multipliers.
+
+    Returns:
+        nf, the number of free variables (≥ 0), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES.
+    """
+    n = H.shape[0]
+    nf = 0
+    nw = n  # the fixed variables are listed from the end of ``free``: free[nw:]
+    for i in range(n):
+        if state[i] == 0:
+            free[nf] = i
+            nf += 1
+        else:
+            nw -= 1
+            free[nw] = i
+            x[i] = lb[i] if state[i] < 0 else ub[i]
+    if nf < m:
+        return DEPENDENT_EQUALITIES
+    # r = g_F + H_FW x_W ; H_FF
+    for a in range(nf):
+        i = free[a]
+        r = g[i]
+        for c in range(nw, n):
+            j = free[c]
+            r += H[i, j] * x[j]
+        t[a] = r
+    if nf == n:  # nothing fixed: H_FF = H
+        for a in range(n):
+            for c in range(a + 1):
+                L[a, c] = H[a, c]
+    else:
+        for a in range(nf):
+            i = free[a]
+            for c in range(a + 1):
+                L[a, c] = H[i, free[c]]
+    if not cholesky_lower(L, nf):
+        return NOT_POSITIVE_DEFINITE
+    forward_substitution(L, nf, t)
+    # Y = L⁻¹ A_Fᵀ ; rhs = -(b - A_W x_W) - Yᵀ t
+    for k in range(m):
+        bw = b[k]
+        for c in range(nw, n):
+            j = free[c]
+            bw -= A[k, j] * x[j]
+        col = Y[k]
+        for a in range(nf):
+            col[a] = A[k, free[a]]
+        forward_substitution(L, nf, col)
+        s = 0.0
+        for a in range(nf):
+            s += col[a] * t[a]
+        rhs[k] = -bw - s
+    smax = 0.0
+    for k in range(m):
+        for c in range(k + 1):
+            s = 0.0
+            for a in range(nf):
+                s += Y[k, a] * Y[c, a]
+            S[k, c] = s
+        if S[k, k] > smax:
+            smax = S[k, k]
+    if m:
+        if not cholesky_lower(S, m):
+            return DEPENDENT_EQUALITIES
+        for k in range(m):
+            if S[k, k] * S[k, k] <= rank_tol * smax:
+                return DEPENDENT_EQUALITIES
+        for k in range(m):
+            nu[k] = rhs[k]
+        forward_substitution(S, m, nu)
+        backward_substitution(S, m, nu)
+    # x_F = -L⁻ᵀ (t + Y nu)
+    primal_from_multipliers(L, nf, t, Y, nu, m, t)
+    return nf
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _place_free(free, t, nf, x, lb, ub, primal_tol):
+    """Write the free-variable solution ``t[:nf]`` into ``x[free[:nf]]`` and return the bound it violates most
+    beyond ``primal_tol``: ``(violation, variable index or −1, −1 lower / +1 upper / 0)``."""
+    worst = primal_tol
+    worst_i = -1
+    worst_side = 0
+    for a in range(nf):
+        i = free[a]
+        v = t[a]
+        x[i] = v
+        if lb[i] - v > worst:
+            worst, worst_i, worst_side = lb[i] - v, i, -1
+        elif v - ub[i] > worst:
+            worst, worst_i, worst_side = v - ub[i], i, 1
+    return worst, worst_i, worst_side
+
+
+@nb.njit(cache=True, nogil=True)
+def drop_infinite_active(state, lo, hi):
+    """A warm-start state (−1 at the lower, +1 at the upper bound, 0 free) is only valid where that bound is
+    finite: free the others, in place."""
+    for i in range(state.shape[0]):
+        if state[i] == -1 and not np.isfinite(lo[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(hi[i]):
+            state[i] = 0
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def clip_eq_residual(x, lb, ub, A, b, n, m):
+    """Clip x into [lb, ub] in place (the kernel's KKT point is within rounding of its bounds) and return the
+    largest equality residual max_k |A_k x − b_k|."""
+    for i in range(n):
+        if x[i] < lb[i]:
+            x[i] = lb[i]
+        elif x[i] > ub[i]:
+            x[i] = ub[i]
+    r = 0.0
+    for k in range(m):
+        s = -b[k]
+        for j in range(n):
+            s += A[k, j] * x[j]
+        if abs(s) > r:
+            r = abs(s)
+    return r
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
+    """Bound multipliers z = −(H x + g + A[:m]ᵀ nu) on the variables held at a bound (0 on the free ones), and the
+    variable whose multiplier has the largest wrong sign above ``worst`` (z > 0 at a lower bound, z < 0 at an upper
+    one). Returns (that magnitude or ``worst``, its index or −1)."""
+    n = H.shape[0]
+    worst_i = -1
+    for i in range(n):
+        if state[i] == 0:
+            z[i] = 0.0
+            continue
+        s = g[i]
+        for j in range(n):
+            s += H[i, j] * x[j]
+        for k in range(m):
+            s += A[k, i] * nu[k]
+        z[i] = -s
+        wrong = z[i] if state[i] < 0 else -z[i]
+        if wrong > worst:
+            worst = wrong
+            worst_i = i
+    return worst, worst_i
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
+                    free, L, Y, S, t, rhs, eq_residual):
+    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
+
+    Args:
+        H, g, A, b, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (n,), (n,) (±inf for free entries).
+        state (n,) int8, in/out: working set (0 free, -1 held at lb, +1 held at ub); read as the warm start.
+        x (n,), nu (m,), z (n,): out — solution, equality multipliers, bound multipliers
+            (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, z ≥ 0 at an upper bound, 0 when free).
+        max_iter: working-set iterations allowed.
+        primal_tol: bound violation (absolute) that makes a free variable be fixed.
+        dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
+        rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
+        free (n,) int64, L (n, n), Y (m, n), S (m, m), t (n,), rhs (m,): workspace.
+        eq_residual (1,): out — max |A x − b| of the returned x.
+
+    On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
+
+    Returns:
+        iterations (≥ 1) on success, or a negative exit code.
+    """
+    n = H.shape[0]
+    m = A.shape[0]
+    drop_infinite_active(state, lb, ub)
+    for it in range(1, max_iter + 1):
+        nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs)
+        if nf < 0:
+            return nf
+        worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
+        if worst_i >= 0:
+            state[worst_i] = worst_side
+            continue
+        # bound multipliers z = -(H x + g + Aᵀ nu) on the fixed set; the worst wrong sign is freed
+        worst, worst_i = _bound_multipliers(H, g, A, m, nu, state, x, z, dual_tol)
+        if worst_i < 0:
+            eq_residual[0] = clip_eq_residual(x, lb, ub, A, b, n, m)
+            return it
+        state[worst_i] = 0
+    return ITERATION_CAP

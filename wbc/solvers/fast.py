@@ -1,0 +1,172 @@
+"""The compiled exact backend, ``fast``: :class:`FastBackend`, the in-house active-set kernels with DAQP as fallback.
+
+A QP with equality rows and bounds only goes to :func:`wbc.solvers.box_eq.solve_box_eq_ws`, one with inequality
+rows to :func:`wbc.solvers.active_set.solve_qp_ws`, each warm-started from the previous call's working set. Either
+kernel ends only when every KKT condition holds (stationarity by construction, primal feasibility, dual sign,
+complementarity), so the returned x is the exact optimum; when it does not end within the iteration cap, when H is
+not positive definite or when the equalities are dependent, the call is handed to the
+:class:`~wbc.solvers.daqp.DaqpBackend` it extends.
+
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
+them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
+backend).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from wbc.compiled import once_per_process
+from wbc.solvers.active_set import solve_qp_ws
+from wbc.solvers.box_eq import solve_box_eq, solve_box_eq_ws
+from wbc.solvers.daqp import DaqpBackend
+from wbc.solvers.linalg import clip_box_into, weighted_normal_equations
+
+__all__ = ["FastBackend", "ensure_compiled", "warm_up"]
+
+
+class FastBackend(DaqpBackend):
+    """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
+    every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.solvers.daqp.DaqpBackend` it
+    extends (so a controller's hierarchy levels and safe-command fallback, built as fresh DAQP backends of the same
+    settings, take the general path).
+
+    Args:
+        tolerance: largest constraint violation accepted (constraint units), as for every backend.
+        max_iter: working-set iterations before handing the problem to DAQP.
+        kernel_rows: problems with inequality rows go to the kernel first (True) or to DAQP at once (False: the
+            inverse-dynamics QP, whose compiled tick has its own kernel; this one's iterations refactor the working
+            set, which costs more than DAQP on that QP: benchmarks/README.md, "Tick time bounded at both levels").
+        **settings: DAQP settings for the fallback (:class:`~wbc.solvers.daqp.DaqpBackend`).
+
+    Attributes:
+        last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
+        kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
+        reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
+            solved after the kernel gave up (:meth:`wbc.formulations.velocity.KinematicController._fused_rescue`).
+    """
+
+    name = "fast"
+
+    def __init__(self, tolerance: float = 1e-6, max_iter: int = 100, kernel_rows: bool = True, **settings):
+        super().__init__(tolerance=tolerance, **settings)
+        self.max_iter = int(max_iter)
+        self.kernel_rows = bool(kernel_rows)
+        self._n = -1
+        self._m = -1
+        self._p = -1
+        self.last_kernel_iterations = 0
+        self.kernel_solves = 0
+        self.fallbacks = 0
+        self.reduced_fallbacks = 0
+        self._rows_failed = False
+        ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
+
+    def _prepare_kernel(self, n: int, m: int) -> None:
+        if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
+            self._state = np.zeros(n, np.int8)
+            self._x = np.empty(n)
+            self._z = np.zeros(n)
+            self._ws_by_m: dict = {}  # workspaces per number of equality rows (a support switch goes back and
+            #                           forth between a few shapes: no allocation after the first of each)
+            self._p = -1
+        self._n, self._m = n, m
+        cached = self._ws_by_m.get(m)
+        if cached is None:
+            cached = self._ws_by_m[m] = (np.zeros(m), (
+                np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
+                np.empty(m), np.empty(1)))
+        self._nu, self._ws = cached
+
+    def _kernel(self, H, g, A, b, lb, ub) -> bool:
+        n, m = H.shape[0], A.shape[0]
+        if n != self._n or m != self._m:
+            self._prepare_kernel(n, m)
+        it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
+                             self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
+        self.last_kernel_iterations = it
+        if it > 0 and self._ws[6][0] <= self.tolerance:
+            self.kernel_solves += 1
+            return True
+        self._state[:] = 0
+        return False
+
+    def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
+        """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
+        satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
+        the kernel against ``tolerance``; anything else goes through DAQP and the general check.
+
+        Raises:
+            SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
+        """
+        p = C.shape[0]
+        if p and not self.kernel_rows:
+            return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
+        if p and self._rows_failed:
+            # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
+            # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held
+            # at velocity bounds, defeat its pivoting for stretches of ticks: on the Talos hand-through-torso drive
+            # 414 of 605 calls; a failed attempt cost about half a DAQP solve)
+            self._rows_failed = False
+        elif self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub):
+            return self._x.copy()
+        else:
+            self._rows_failed = p > 0
+        self.fallbacks += 1
+        x = super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
+        if H.shape[0] == self._n:
+            # warm start the kernel's next call from the bounds (and rows) DAQP found active
+            self._state[:] = 0
+            self._state[x <= lb + 1e-12] = -1
+            self._state[x >= ub - 1e-12] = 1
+            if p and self._p == p:
+                cx = C @ x
+                self._rstate[:] = 0
+                self._rstate[cx <= l + 1e-12] = -1
+                self._rstate[cx >= u - 1e-12] = 1
+        return x
+
+    def _kernel_rows(self, H, g, A, b, C, l, u, lb, ub) -> bool:
+        n, m, p = H.shape[0], A.shape[0], C.shape[0]
+        if n != self._n or m != self._m:
+            self._prepare_kernel(n, m)
+        if p != self._p:  # the rows' working set is kept when only the equality rows changed
+            self._p = p
+            self._rstate = np.zeros(p, np.int8)
+            self._mu = np.zeros(p)
+        it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
+                         self._z, self.max_iter, 1e-12, 1e-12, 1e-24, self._ws[6])
+        self.last_kernel_iterations = it
+        if it > 0 and self._ws[6][0] <= self.tolerance:
+            self.kernel_solves += 1
+            return True
+        self._state[:] = 0
+        self._rstate[:] = 0
+        return False
+
+
+@once_per_process
+def ensure_compiled() -> float:
+    """Run :func:`warm_up` once per process (later calls return None at once)."""
+    return warm_up()
+
+
+def warm_up() -> float:
+    """Compile (or load from the on-disk cache) the kernels :class:`FastBackend` calls (both its entry points: with
+    and without inequality rows) and the shared ones of :mod:`wbc.solvers.linalg`; returns the seconds taken."""
+    t0 = time.perf_counter()
+    H = np.eye(2)
+    s = np.zeros(2, np.int8)
+    solve_box_eq(H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2), s, np.empty(2),
+                 np.empty(1), np.empty(2), 10, 1e-12, 1e-12, 1e-24)
+    weighted_normal_equations(np.ones((1, 2)), np.ones(1), np.ones(1), 1e-6, np.empty((2, 2)), np.empty(2))
+    clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
+    b = FastBackend()
+    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
+            np.ones(2))
+    # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
+    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
+            np.ones(2))
+    return time.perf_counter() - t0

@@ -1,0 +1,153 @@
+"""Independent re-solves and checks of a QP another backend reported infeasible: quadprog with the pinned variables
+eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers (:func:`second_opinion`) and
+the feasibility of the constraints alone (:func:`hard_set_feasible`).
+
+The QP is that of every backend (:mod:`wbc.solvers.base`):
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.exceptions import InvalidInputError, SolverError
+from wbc.solvers.base import QPBackend
+from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT, DaqpBackend
+
+__all__ = ["hard_set_feasible", "second_opinion", "solve_pinned_reduced"]
+
+
+def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
+    """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
+    left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
+    Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
+    27, 1983): a second solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics
+    QP of a released foot, whose 12 forces are pinned at 0 and whose optimum has nearly as many active
+    constraints as free variables).
+
+    Args:
+        H (n, n) positive definite on the free variables, g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,):
+            the QP (±inf for absent bounds). tolerance: largest scaled violation accepted
+            (:meth:`QPBackend.scaled_violation`).
+
+        details: also return why no solution was returned.
+
+    Returns:
+        x (n,) within [lb, ub] (pinned entries exactly at their value) meeting every row to ``tolerance``, or None
+        (a dropped row violated, quadprog's failure — infeasible, dependent equalities, H not positive definite —
+        or a solution that fails the check). With ``details``: (x or None, reason), reason '' for a solution,
+        ``infeasible`` (a dropped row violated, or quadprog found the constraints inconsistent: the dual
+        unbounded, Goldfarb–Idnani's infeasibility certificate), else ``failed``.
+    """
+    x, reason = _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
+    return (x, reason) if details else x
+
+
+def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
+    import quadprog
+
+    n = H.shape[0]
+    pinned = np.isfinite(lb) & (lb == ub)
+    free = ~pinned
+    xp = lb[pinned]
+    Hr = H[np.ix_(free, free)]
+    gr = g[free] + H[np.ix_(free, pinned)] @ xp
+    Ar, br = A[:, free], b - A[:, pinned] @ xp
+    Cr, shift = C[:, free], C[:, pinned] @ xp
+    lr, ur = l - shift, u - shift
+    empty = ~np.any(Cr != 0.0, axis=1) if C.shape[0] else np.zeros(0, bool)
+    if np.any((lr[empty] > tolerance * np.maximum(1.0, np.abs(l[empty])))
+              | (ur[empty] < -tolerance * np.maximum(1.0, np.abs(u[empty])))):
+        return None, "infeasible"
+    Cr, lr, ur = Cr[~empty], lr[~empty], ur[~empty]
+    lbr, ubr = lb[free], ub[free]
+    eye = np.eye(Hr.shape[0])
+    lo, hi, blo, bhi = np.isfinite(lr), np.isfinite(ur), np.isfinite(lbr), np.isfinite(ubr)
+    # quadprog: min ½xᵀGx − aᵀx s.t. Cᵀx ≥ b, the first meq columns equalities
+    Cq = np.hstack([Ar.T, Cr[lo].T, -Cr[hi].T, eye[:, blo], -eye[:, bhi]])
+    bq = np.concatenate([br, lr[lo], -ur[hi], lbr[blo], -ubr[bhi]])
+    try:
+        xr = quadprog.solve_qp(Hr, -gr, Cq, bq, Ar.shape[0])[0]
+    except ValueError as exc:
+        return None, "infeasible" if "inconsistent" in str(exc) else "failed"
+    x = np.empty(n)
+    x[pinned] = xp
+    x[free] = xr
+    if not np.isfinite(x).all():
+        return None, "failed"
+    xc = np.minimum(np.maximum(x, lb), ub)
+    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
+        return None, "failed"
+    return xc, ""
+
+
+def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None
+                   ) -> tuple[np.ndarray | None, str]:
+    """Two active-set solvers asked about a QP another backend reported infeasible: quadprog with the pinned
+    variables eliminated (:func:`solve_pinned_reduced`), then one call of ``daqp_backend`` (no confirmation; a
+    cold :class:`DaqpBackend` with the given ``tolerance`` when None). A proximal or ADMM method declares a QP
+    primal infeasible when its primal residual stops decreasing (ProxQP: Bambade et al., "PROX-QP: Yet another
+    quadratic programming solver for robotics and beyond", RSS 2022, its infeasibility criterion with
+    ``eps_primal_inf``); that test can fire on feasible QPs with nearly dependent equality rows, where an
+    active-set solver's factorisation answers exactly.
+
+    Args:
+        H, g, A, b, C, l, u, lb, ub: the QP of the module docstring (shapes as in :meth:`QPBackend.solve`).
+        tolerance: largest scaled row violation accepted (:meth:`QPBackend.scaled_violation`).
+        daqp_backend: the DAQP backend of the second attempt.
+
+    Returns:
+        (x (n,) within [lb, ub] meeting every row to ``tolerance``, name of the solver: ``quadprog`` or ``daqp``),
+        or (None, '') when neither found one.
+    """
+    x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
+    if x is not None:
+        return x, "quadprog"
+    daqp_backend = daqp_backend if daqp_backend is not None else DaqpBackend(tolerance=tolerance)
+    try:
+        return daqp_backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
+    except SolverError:
+        return None, ""
+
+
+def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
+                      iter_limit: int = ITERATION_LIMIT) -> bool | None:
+    """Whether the constraints of a QP (module docstring) have a common point, by one cold DAQP call on the
+    projection of the origin onto them: min ½‖x‖² s.t. A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub. Its Hessian is the
+    identity, so DAQP's dual (whose infeasibility test is a dual ray) is as well conditioned as the rows are, unlike
+    the inverse-dynamics QP's (Hessian eigenvalues 1e-7 to 1e3: the force regularisation against the task weights),
+    where DAQP was seen to report feasible problems infeasible. A cheap question asked before a costly solve whose
+    outcome it decides (:meth:`wbc.formulations.acceleration.InverseDynamicsQP.solve` with a clock guard).
+
+    Args:
+        A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,): the constraints (±inf for absent bounds).
+        tolerance: largest scaled violation (:meth:`QPBackend.scaled_violation`) of a point that shows feasibility.
+        iter_limit: DAQP's iteration limit (an integer ≥ 1).
+
+    Returns:
+        True: a point meeting every row and bound to ``tolerance`` was found; False: DAQP proved the set empty
+        (exit flag −1: infeasible); None: neither (iteration limit, or a point that fails the check).
+
+    Raises:
+        InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
+    """
+    import daqp
+
+    if isinstance(iter_limit, bool) or not isinstance(iter_limit, (int, np.integer)) or iter_limit < 1:
+        raise InvalidInputError(f"iter_limit must be an integer ≥ 1 (iterations), got {iter_limit!r}")
+    n, m, p = lb.shape[0], A.shape[0], C.shape[0]
+    G = np.empty((m + p, n))
+    G[:m], G[m:] = A, C
+    upper = np.concatenate([ub, b, u])
+    lower = np.concatenate([lb, b, l])
+    sense = np.zeros(n + m + p, dtype=np.int32)
+    sense[n:n + m] = 5
+    x, _, exitflag, _ = daqp.solve(np.eye(n), np.zeros(n), G, upper, lower, sense, primal_tol=DAQP_PRIMAL_TOL,
+                                   iter_limit=int(iter_limit))
+    if exitflag == -1:
+        return False
+    if exitflag < 1 or not np.isfinite(x).all():
+        return None
+    xc = np.minimum(np.maximum(x, lb), ub)
+    return True if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None

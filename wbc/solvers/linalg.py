@@ -1,0 +1,120 @@
+"""Compiled (numba) dense linear algebra shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`,
+:mod:`wbc.solvers.active_set`, :mod:`wbc.formulations.idkernel`): in-place Cholesky factor, forward and backward
+substitution, the primal step of a Cholesky/Schur KKT solve, weighted normal equations, and the clip of a box into
+another.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from wbc.compiled import FASTMATH
+
+__all__ = ["backward_substitution", "cholesky_lower", "clip_box_into", "forward_substitution",
+           "primal_from_multipliers", "weighted_normal_equations"]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def cholesky_lower(M, k, rel_tol=0.0):
+    """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not above ``rel_tol`` times
+    its diagonal entry (0: not positive; > 0: a numerically dependent row, as the ID kernel's working set uses)."""
+    for j in range(k):
+        d0 = M[j, j]
+        s = d0
+        for p in range(j):
+            s -= M[j, p] * M[j, p]
+        if not s > rel_tol * d0:
+            return False
+        d = np.sqrt(s)
+        M[j, j] = d
+        for i in range(j + 1, k):
+            t = M[i, j]
+            for p in range(j):
+                t -= M[i, p] * M[j, p]
+            M[i, j] = t / d
+    return True
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def forward_substitution(L, k, v):
+    """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
+    for i in range(k):
+        t = v[i]
+        for p in range(i):
+            t -= L[i, p] * v[p]
+        v[i] = t / L[i, i]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def backward_substitution(L, k, v):
+    """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled), by rows of L
+    (x_i = v_i / L_ii, then v[:i] −= x_i L[i, :i]: contiguous, where the column form reads L with a stride)."""
+    for i in range(k - 1, -1, -1):
+        xi = v[i] / L[i, i]
+        v[i] = xi
+        Li = L[i]
+        for p in range(i):
+            v[p] -= xi * Li[p]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def primal_from_multipliers(L, n, t, Y, nu, m, x):
+    """x[:n] ← −L⁻ᵀ (t[:n] + Σ_k<m nu_k Y[k, :n]): the primal step of a Cholesky/Schur KKT solve (H = L Lᵀ, t = L⁻¹ g,
+    Y = L⁻¹ Aᵀ row by row, nu the equality multipliers), compiled; x may be t itself."""
+    for a in range(n):
+        x[a] = t[a]
+    for k in range(m):
+        nk = nu[k]
+        yk = Y[k]
+        for a in range(n):
+            x[a] += yk[a] * nk
+    for a in range(n):
+        x[a] = -x[a]
+    backward_substitution(L, n, x)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def weighted_normal_equations(J, w, r, damping, H, g):
+    """H = ε I + Jᵀ diag(w) J and g = −Jᵀ diag(w) r: the weighted least-squares cost Σ_k w_k (J_k v − r_k)² + ε‖v‖²
+    of stacked task rows (the constant term dropped), written into H and g.
+
+    Args:
+        J (m, n): stacked task Jacobians; w (m,): row weights (≥ 0); r (m,): row velocity targets v*;
+        damping: ε; H (n, n), g (n,): out.
+    """
+    n = H.shape[0]
+    m = J.shape[0]
+    for i in range(n):
+        for j in range(n):
+            H[i, j] = 0.0
+        H[i, i] = damping
+        g[i] = 0.0
+    for k in range(m):
+        wk = w[k]
+        if wk == 0.0:
+            continue
+        rk = wk * r[k]
+        for i in range(n):
+            jki = J[k, i]
+            if jki == 0.0:
+                continue
+            g[i] -= jki * rk
+            a = wk * jki
+            for j in range(i, n):
+                H[i, j] += a * J[k, j]
+    for i in range(n):
+        for j in range(i + 1, n):
+            H[j, i] = H[i, j]
+
+
+@nb.njit(cache=True, nogil=True)
+def clip_box_into(lb, ub, start, lo, hi):
+    """Intersect the box [lo, hi] with the running box lb[start:start+k], ub[start:start+k] (k = lo.size), the
+    new box clipped into the running one so that it yields where it would empty it:
+    lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (both computed from the running values)."""
+    for i in range(lo.shape[0]):
+        cl = lb[start + i]
+        cu = ub[start + i]
+        lb[start + i] = min(max(lo[i], cl), cu)
+        ub[start + i] = max(min(hi[i], cu), cl)
