@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
-from fuzz_common import freeze_after_first, highs_feasible  # noqa: E402
+from fuzz_common import collect_between_episodes, freeze_after_first, highs_feasible  # noqa: E402
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -186,6 +186,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
             ctrl.budget = budget
             ctrl.clock_guard = clock_guard
             freeze_after_first((name, strict))
+            collect_between_episodes()
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")

@@ -33,7 +33,8 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import random_configuration  # noqa: E402
-from fuzz_common import chunk_arguments, freeze_after_first, highs_feasible, load_robots, run_chunks  # noqa: E402
+from fuzz_common import (chunk_arguments, collect_between_episodes, freeze_after_first, highs_feasible,  # noqa: E402
+                         load_robots, run_chunks)
 from wbc.constants import SIDES  # noqa: E402
 from wbc.dynamics.balance import IDBalanceController  # noqa: E402
 from wbc.tick import ID_ROUTES, count_paths  # noqa: E402
@@ -141,6 +142,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
         try:
             ctrl, q, v, scale = build_episode(robot, rng, solver, clock_guard)
             freeze_after_first((name, solver))
+            collect_between_episodes()
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")
