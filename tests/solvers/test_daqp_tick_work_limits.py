@@ -5,6 +5,8 @@ wall-clock assertion: the counts are the behaviour."""
 
 from __future__ import annotations
 
+from time import thread_time
+
 import daqp
 import numpy as np
 import pytest
@@ -12,6 +14,7 @@ import quadprog
 
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend, TickWork
+from wbc.solvers.daqp import SLICE_ITERATIONS
 
 
 def _box_qp(seed: int = 0, n: int = 40):
@@ -160,3 +163,63 @@ def test_tick_work_counts_cpu_time_only_with_a_clock_and_daqp_calls_follow_it():
     backend.work = counted
     x = backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
+
+
+def _count_daqp_calls(monkeypatch) -> list:
+    """Count DAQP's one-shot calls and its workspaces' solve calls (iterations of each), in order."""
+    calls = []
+    one_shot, model_class = daqp.solve, daqp.Model
+
+    class Model(model_class):
+        def solve(self):
+            out = super().solve()
+            calls.append(("model", int(out[3]["iterations"])))
+            return out
+
+    def solve(*args, **kwargs):
+        out = one_shot(*args, **kwargs)
+        calls.append(("oneshot", int(out[3]["iterations"])))
+        return out
+
+    monkeypatch.setattr(daqp, "Model", Model)
+    monkeypatch.setattr(daqp, "solve", solve)
+    return calls
+
+
+@pytest.mark.parametrize("warm_start", ["workspace", "dual"])
+def test_a_call_under_a_deadline_runs_in_slices_that_resume_to_the_unsliced_answer(monkeypatch, warm_start):
+    """Under a deadline (far away here) a DAQP call runs in slices of SLICE_ITERATIONS iterations, each resuming
+    where the last stopped: a QP that needs ~70 iterations takes several calls and ends at the answer of one
+    unsliced call (1e-9) and of quadprog (the independent oracle, 1e-6)."""
+    H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
+    free = DaqpBackend(warm_start=warm_start)
+    x_free = free.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert free.last_iterations > 2 * SLICE_ITERATIONS
+    calls = _count_daqp_calls(monkeypatch)
+    sliced = DaqpBackend(warm_start=warm_start)
+    sliced.deadline = thread_time() + 100.0
+    x = sliced.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert len(calls) >= 3 and max(n for _, n in calls) <= SLICE_ITERATIONS
+    assert np.max(np.abs(x - x_free)) < 1e-9
+    assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
+
+
+@pytest.mark.parametrize("warm_start", ["workspace", "dual"])
+def test_a_call_past_its_deadline_stops_within_one_slice_whatever_an_iteration_costs(monkeypatch, warm_start):
+    """An iteration that costs far more than ``iteration_cost`` assumes (DAQP's proximal iterations on an
+    ill-conditioned Hessian cost five times the nominal) cannot carry a call past its deadline by more than one
+    slice. The CPU clock here advances 1 ms per DAQP iteration done, against the nominal cost's µs; the deadline
+    is 10 ms away, so the call's iteration limit is the full cap: the call stops after its first slice (25 ms),
+    ``budget_capped``, and the solve fails — before slicing it ran the ~70 iterations to the answer, 60 ms late."""
+    import wbc.solvers.daqp as daqp_module
+
+    H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
+    calls = _count_daqp_calls(monkeypatch)
+    monkeypatch.setattr(daqp_module, "thread_time", lambda: 1e-3 * sum(n for _, n in calls))
+    backend = DaqpBackend(warm_start=warm_start)
+    backend.deadline = 10e-3
+    assert backend.call_limit() > 2 * SLICE_ITERATIONS
+    with pytest.raises(SolverError):
+        backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert backend.budget_capped
+    assert sum(n for _, n in calls) <= SLICE_ITERATIONS

@@ -330,7 +330,7 @@ class InverseDynamicsQP:
     QUADPROG_DEADLINE = 1.2
     #: clock guard: the relaxed QP's DAQP calls end by this many budgets (a call stopped there fails the tick: the
     #: safe command follows)
-    RELAXED_DEADLINE = 1.75
+    RELAXED_DEADLINE = 1.5
 
     @property
     def retry_deadline(self) -> float:
@@ -685,7 +685,12 @@ class InverseDynamicsQP:
             # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
             # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
             capped = backend.budget_capped
+            ran = []
             for step in (("scaled", "check") if capped else ("check", "scaled")):
+                if thread_time() >= end:  # the checks' time is spent: the step is not started
+                    self.budget_cut = True
+                    break
+                ran.append(step)
                 if step == "check":
                     left = (end - thread_time()) / backend.iteration_cost
                     if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
@@ -707,8 +712,12 @@ class InverseDynamicsQP:
             if thread_time() >= self.retry_deadline:
                 self.checks_skipped += 1
                 self.budget_cut = True
-                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
-                                  f"quadprog solve or retry: tick budget spent (clock guard)")
+                done = {("check", "scaled"): "the hard set is not empty, the cost-scaled DAQP call failed",
+                        ("scaled", "check"): "the cost-scaled DAQP call failed, the hard set is not empty",
+                        ("check",): "the hard set is not empty, no cost-scaled DAQP call",
+                        ("scaled",): "the cost-scaled DAQP call failed, no hard-set check",
+                        (): "no hard-set check or cost-scaled DAQP call"}[tuple(ran)]
+                raise SolverError(f"{first}; {done}, and no quadprog solve or retry: tick budget spent (clock guard)")
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if x is not None:
             self.pinned_reduced_solves += 1

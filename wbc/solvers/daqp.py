@@ -2,7 +2,9 @@
 
 Equalities are DAQP's sense-5 rows, bounds its simple bounds, and the previous tick's working set (persistent
 ``daqp.Model`` workspace) or dual variables (one-shot ``daqp.solve``) the warm start; each call's iterations are
-bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`).
+bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`). Under a CPU-time
+deadline (:attr:`DaqpBackend.deadline`) every call runs in slices of :data:`SLICE_ITERATIONS` iterations, the clock
+read between them (:meth:`DaqpBackend.call`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.solvers.base import ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
-           "MIN_CALL_ITERATIONS", "WORK_LIMIT_FACTOR"]
+           "MIN_CALL_ITERATIONS", "SLICE_ITERATIONS", "WORK_LIMIT_FACTOR"]
 
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
@@ -34,6 +36,13 @@ DAQP_ITERATION_COST = 3.5e-6
 
 #: DAQP's exit flag of a call stopped by its iteration limit
 _DAQP_ITERATION_LIMIT = -4
+
+#: under a deadline (:attr:`DaqpBackend.deadline` finite) a DAQP call runs in slices of at most this many iterations
+#: on a ``daqp.Model`` workspace, each slice resuming from the working set where the one before stopped, and the
+#: CPU time read between slices: a call ends at most one slice past the deadline, whatever one iteration costs (an
+#: iteration's cost varies fivefold on one inverse-dynamics QP: with DAQP's proximal regularisation of a Hessian
+#: conditioned ~1e10 it is several times the nominal :data:`DAQP_ITERATION_COST` that sizes the first slice)
+SLICE_ITERATIONS = 25
 #: DAQP's default primal tolerance (its settings' ``primal_tol``)
 DAQP_PRIMAL_TOL = 1e-6
 
@@ -132,6 +141,65 @@ class DaqpBackend(QPBackend):
         if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
             self.budget_capped = True
 
+    def call(self, H, g, G, upper, lower, settings: dict) -> tuple:
+        """One DAQP solve of min ½ xᵀ H x + gᵀ x s.t. lower ≤ (x; G x) ≤ upper with this backend's sense array: DAQP's
+        one-shot ``daqp.solve(..., **settings)`` (``settings["iter_limit"]`` its iteration limit). Under a finite
+        :attr:`deadline` the call is sliced: the one-shot call gets :data:`SLICE_ITERATIONS` iterations, and when
+        it stops there with iterations and time left, a ``daqp.Model`` workspace goes on from a cold start in
+        slices of :data:`SLICE_ITERATIONS` (each resuming from the working set where the last stopped), the CPU
+        time read between slices; a call stopped by the deadline sets ``budget_capped``.
+
+        Args:
+            H (n, n), g (n,): the cost. G (m, n): the rows. upper, lower (n + m,): bounds then rows (DAQP's layout).
+            settings: DAQP settings with ``iter_limit``; ``dual_start`` is used by the first (one-shot) call only.
+
+        Returns:
+            DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
+        """
+        if self.deadline == math.inf:
+            return self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
+        limit = int(settings["iter_limit"])
+        first = min(limit, SLICE_ITERATIONS)
+        out = self._daqp.solve(H, g, G, upper, lower, self._sense, **{**settings, "iter_limit": first})
+        done = int(out[3]["iterations"])
+        if out[2] != _DAQP_ITERATION_LIMIT or done >= limit:
+            return out
+        if thread_time() >= self.deadline:
+            self.budget_capped = True
+            return out
+        model = self._daqp.Model()
+        model.settings = {k: v for k, v in settings.items() if k != "dual_start"}
+        if model.setup(H, g, G, upper, lower, self._sense)[0] < 0:
+            return out
+        x, fval, exitflag, info = self.model_solve(model, limit - done)
+        return x, fval, exitflag, {**info, "iterations": int(info["iterations"]) + done}
+
+    def model_solve(self, model, limit: int) -> tuple:
+        """``model.solve()`` of a set-up ``daqp.Model`` with at most ``limit`` iterations (its settings' ``iter_limit``
+        is set here); under a finite :attr:`deadline` in slices of :data:`SLICE_ITERATIONS`, as :meth:`call`.
+
+        Returns:
+            DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
+        """
+        if self.deadline == math.inf:
+            if limit != self._model_limit or model is not self._model:
+                model.settings = {"iter_limit": limit}
+                if model is self._model:
+                    self._model_limit = limit
+            return model.solve()
+        self._model_limit = None  # the slices leave the workspace's limit at theirs
+        done = 0
+        while True:
+            model.settings = {"iter_limit": min(SLICE_ITERATIONS, limit - done)}
+            x, fval, exitflag, info = model.solve()
+            done += int(info["iterations"])
+            if exitflag != _DAQP_ITERATION_LIMIT or done >= limit:
+                break
+            if thread_time() >= self.deadline:
+                self.budget_capped = True
+                break
+        return x, fval, exitflag, {**info, "iterations": done}
+
     def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
         self._layout = (n, n_eq, n_in)
         self._dual = None
@@ -177,10 +245,7 @@ class DaqpBackend(QPBackend):
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
-            if limit != self._model_limit:
-                self._model.settings = {"iter_limit": limit}
-                self._model_limit = limit
-            x, _, exitflag, info = self._model.solve()
+            x, _, exitflag, info = self.model_solve(self._model, limit)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
@@ -196,11 +261,11 @@ class DaqpBackend(QPBackend):
         model.settings = {**self.settings, "iter_limit": limit}
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
-            x, _, exitflag, info = model.solve()
+            self._model_limit = limit
+            x, _, exitflag, info = self.model_solve(model, limit)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
-                self._model_limit = limit
                 self.last_multipliers = info["lam"]
                 self._cold_outcome = (x, model, info["lam"])
                 return x
@@ -220,8 +285,7 @@ class DaqpBackend(QPBackend):
     def _solve_oneshot(self, H, g, G, upper, lower):
         """One call of DAQP's one-shot ``daqp.solve`` (iterations bounded by :meth:`call_limit`): x or None."""
         limit = self.call_limit()
-        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit})
+        x, _, exitflag, info = self.call(H, g, G, upper, lower, {**self.settings, "iter_limit": limit})
         self.last_iterations += int(info["iterations"])
         self._note_exit(exitflag, limit)
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
@@ -256,7 +320,7 @@ class DaqpBackend(QPBackend):
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
             relaxed = {**limit, "primal_tol": self.tolerance}
-            x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
+            x2, _, exitflag, info = self.call(H, g, self._G, self._upper, self._lower, relaxed)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 return x2
@@ -270,7 +334,7 @@ class DaqpBackend(QPBackend):
             # DUAL_RETRY_PRIMAL_FACTOR × tolerance DAQP solves each in 9 iterations, every row met to 1e-12 (the
             # answer is held to ``tolerance`` all the same, QPBackend.solve)
             loose = {**limit, "primal_tol": DUAL_RETRY_PRIMAL_FACTOR * self.tolerance}
-            x2, _, exitflag, info = self._daqp.solve(H, g, self._G, self._upper, self._lower, self._sense, **loose)
+            x2, _, exitflag, info = self.call(H, g, self._G, self._upper, self._lower, loose)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -285,8 +349,7 @@ class DaqpBackend(QPBackend):
             # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
-            x3, _, exitflag, info = self._daqp.solve(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **limit)
+            x3, _, exitflag, info = self.call(H * scale, g * scale, self._G, self._upper, self._lower, limit)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -316,8 +379,7 @@ class DaqpBackend(QPBackend):
             upper[e:], lower[e:] = u, l
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
         limit = self.call_limit()
-        x, _, exitflag, info = self._daqp.solve(H * scale, g * scale, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit})
+        x, _, exitflag, info = self.call(H * scale, g * scale, G, upper, lower, {**self.settings, "iter_limit": limit})
         self.last_iterations = int(info["iterations"])
         self._note_exit(exitflag, limit)
         if exitflag < 1 or not np.isfinite(x).all():
@@ -338,7 +400,7 @@ class DaqpBackend(QPBackend):
         settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
                                                                                    "iter_limit": limit}
         kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
-        x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **kwargs)
+        x, _, exitflag, info = self.call(H, g, G, upper, lower, kwargs)
         self._note_exit(exitflag, limit)
         if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
@@ -347,7 +409,7 @@ class DaqpBackend(QPBackend):
             limit = self.call_limit()
             settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
                                                                                        "iter_limit": limit}
-            x, _, exitflag, info = self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
+            x, _, exitflag, info = self.call(H, g, G, upper, lower, settings)
             self._note_exit(exitflag, limit)
         self.last_iterations += int(info["iterations"])
         if exitflag < 1:
