@@ -9,6 +9,7 @@ import argparse
 import gc
 import json
 import multiprocessing
+import resource
 import time
 import warnings
 from pathlib import Path
@@ -81,6 +82,47 @@ def collect_between_episodes() -> None:
     a measured tick (such collections took up to 41 ms of thread CPU time in a 25 000-tick chunk: the harness's
     garbage, not the tick's work). A real-time loop builds its controller once and collects outside its ticks."""
     gc.collect()
+
+
+class TickProbe:
+    """What a measured tick contained besides its own work, to attribute a slow tick: the garbage collections that
+    ran inside it (``gc.callbacks``: generation, thread CPU time) and the thread's resource usage over it
+    (``getrusage(RUSAGE_THREAD)``: user and system CPU time, minor and major page faults, voluntary and involuntary
+    context switches). ``start()`` before the tick, ``stop()`` after it (outside the tick's own timing)."""
+
+    def __init__(self):
+        self._gc: list = []
+        self._gc_t0 = 0.0
+        self._r0 = None
+        gc.callbacks.append(self._on_gc)
+
+    def _on_gc(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._gc_t0 = time.thread_time()
+        else:
+            self._gc.append((info["generation"], time.thread_time() - self._gc_t0))
+
+    def start(self) -> None:
+        self._gc.clear()
+        self._r0 = resource.getrusage(resource.RUSAGE_THREAD)
+
+    def stop(self) -> str:
+        """The tick's attribution: "user U ms sys S ms minflt F majflt J csw V/I gc [gen: ms, ...]"."""
+        r0, r = self._r0, resource.getrusage(resource.RUSAGE_THREAD)
+        gcs = ", ".join(f"{g}: {1e3 * t:.2f} ms" for g, t in self._gc) or "none"
+        return (f"user {1e3 * (r.ru_utime - r0.ru_utime):.2f} ms sys {1e3 * (r.ru_stime - r0.ru_stime):.2f} ms "
+                f"minflt {r.ru_minflt - r0.ru_minflt} majflt {r.ru_majflt - r0.ru_majflt} "
+                f"csw {r.ru_nvcsw - r0.ru_nvcsw}/{r.ru_nivcsw - r0.ru_nivcsw} gc [{gcs}]")
+
+
+_PROBE: list = []
+
+
+def tick_probe() -> TickProbe:
+    """This process's :class:`TickProbe` (one: its ``gc`` callback is registered once)."""
+    if not _PROBE:
+        _PROBE.append(TickProbe())
+    return _PROBE[0]
 
 
 def _run_job(job: tuple) -> tuple[int, dict]:
