@@ -219,7 +219,8 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 ratio = c["tick_cpu"][-1] / c["tick_budget"][-1]
                 if len(c["worst_ticks"]) < MAX_EVENTS or ratio > c["worst_ticks"][-1][0]:
                     c["worst_ticks"].append((ratio, f"seed {seed} episode {ep} tick {tick} {name} {kind} "
-                                                    f"strict={strict} dt {1e3 * dt:g} ms: {res.path}, CPU "
+                                                    f"strict={strict} dt {1e3 * dt:g} ms at {time.time():.3f} s: "
+                                                    f"{res.path}, CPU "
                                                     f"{1e3 * c['tick_cpu'][-1]:.2f} ms, wall "
                                                     f"{1e3 * c['tick_times'][-1]:.2f} ms; {within}"))
                     c["worst_ticks"] = sorted(c["worst_ticks"], key=lambda w: -w[0])[:MAX_EVENTS]

@@ -194,8 +194,8 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
             cut = ctrl.controller.qp.budget_cut  # the clock guard stopped a stage of this tick
             t_cpu = cmd.timings.get("cpu", np.nan)
             if len(worst) < MAX_EVENTS or t_cpu > worst[-1][0]:
-                worst.append((t_cpu, f"seed {seed} episode {ep} tick {tick} {name} {cmd.path}: CPU "
-                                     f"{1e3 * t_cpu:.2f} ms, wall {1e3 * cmd.timings.get('total', np.nan):.2f} ms; "
+                worst.append((t_cpu, f"seed {seed} episode {ep} tick {tick} {name} {cmd.path} at {time.time():.3f} s: "
+                                     f"CPU {1e3 * t_cpu:.2f} ms, wall {1e3 * cmd.timings.get('total', np.nan):.2f} ms; "
                                      f"{within}"))
                 worst = sorted(worst, key=lambda w: -w[0])[:MAX_EVENTS]
             paths[str(cmd.path)] += 1
