@@ -188,16 +188,17 @@ def _count_daqp_calls(monkeypatch) -> list:
 
 @pytest.mark.parametrize("warm_start", ["workspace", "dual"])
 def test_a_call_under_a_deadline_runs_in_slices_that_resume_to_the_unsliced_answer(monkeypatch, warm_start):
-    """Under a deadline (far away here) a DAQP call runs in slices of SLICE_ITERATIONS iterations, each resuming
-    where the last stopped: a QP that needs ~70 iterations takes several calls and ends at the answer of one
-    unsliced call (1e-9) and of quadprog (the independent oracle, 1e-6)."""
+    """Under a stop (``stop_at``, far away here, iterations assumed to cost 1 s) a DAQP call runs in slices of
+    SLICE_ITERATIONS iterations, each resuming where the last stopped: a QP that needs ~70 iterations takes several
+    calls and ends at the answer of one unsliced call (1e-9) and of quadprog (the independent oracle, 1e-6)."""
     H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
     free = DaqpBackend(warm_start=warm_start)
     x_free = free.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert free.last_iterations > 2 * SLICE_ITERATIONS
     calls = _count_daqp_calls(monkeypatch)
     sliced = DaqpBackend(warm_start=warm_start)
-    sliced.deadline = thread_time() + 100.0
+    sliced.iteration_cost = 1.0  # 150 iterations fit before the stop; the first slice: 150 / SLICE_COST_FACTOR = 25
+    sliced.stop_at = thread_time() + 150.0
     x = sliced.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert len(calls) >= 3 and max(n for _, n in calls) <= SLICE_ITERATIONS
     assert np.max(np.abs(x - x_free)) < 1e-9
@@ -207,17 +208,19 @@ def test_a_call_under_a_deadline_runs_in_slices_that_resume_to_the_unsliced_answ
 @pytest.mark.parametrize("warm_start", ["workspace", "dual"])
 def test_a_call_past_its_deadline_stops_within_one_slice_whatever_an_iteration_costs(monkeypatch, warm_start):
     """An iteration that costs far more than ``iteration_cost`` assumes (DAQP's proximal iterations on an
-    ill-conditioned Hessian cost five times the nominal) cannot carry a call past its deadline by more than one
-    slice. The CPU clock here advances 1 ms per DAQP iteration done, against the nominal cost's µs; the deadline
-    is 10 ms away, so the call's iteration limit is the full cap: the call stops after its first slice (25 ms),
-    ``budget_capped``, and the solve fails — before slicing it ran the ~70 iterations to the answer, 60 ms late."""
+    ill-conditioned Hessian cost ~6 times the nominal) cannot carry a call past its deadline by more than its
+    slices. The CPU clock here advances 1 ms per DAQP iteration done, 100 times the 10 µs assumed; the deadline
+    is 1 ms away, so the call's iteration limit is 100 and its first slice SLICE_ITERATIONS (the iterations that
+    fit at SLICE_COST_FACTOR × the assumed cost, at least SLICE_ITERATIONS): the call stops after that slice,
+    ``budget_capped``, and the solve fails — before slicing it ran the ~70 iterations to the answer, 70 ms late."""
     import wbc.solvers.daqp as daqp_module
 
     H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
     calls = _count_daqp_calls(monkeypatch)
     monkeypatch.setattr(daqp_module, "thread_time", lambda: 1e-3 * sum(n for _, n in calls))
     backend = DaqpBackend(warm_start=warm_start)
-    backend.deadline = 10e-3
+    backend.iteration_cost = 1e-5
+    backend.deadline = backend.stop_at = 1e-3
     assert backend.call_limit() > 2 * SLICE_ITERATIONS
     with pytest.raises(SolverError):
         backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)

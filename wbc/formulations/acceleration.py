@@ -330,7 +330,11 @@ class InverseDynamicsQP:
     QUADPROG_DEADLINE = 1.2
     #: clock guard: the relaxed QP's DAQP calls end by this many budgets (a call stopped there fails the tick: the
     #: safe command follows)
-    RELAXED_DEADLINE = 1.5
+    RELAXED_DEADLINE = 1.75
+    #: clock guard: no DAQP call of the tick goes on past this many budgets, whatever its iterations cost
+    #: (:attr:`wbc.solvers.daqp.DaqpBackend.stop_at`: the calls that could reach it run in slices); a call stopped
+    #: there fails its stage, and the safe command follows
+    STOP_DEADLINE = 1.6
 
     @property
     def retry_deadline(self) -> float:
@@ -588,6 +592,7 @@ class InverseDynamicsQP:
         if isinstance(self.backend, DaqpBackend):
             backend = self.backend
             backend.deadline = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
+            backend.stop_at = self._deadline(self.STOP_DEADLINE)
             try:
                 x, solver = backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
@@ -621,6 +626,8 @@ class InverseDynamicsQP:
         self.last_violations = []
         self._assembled = None
         self.budget_cut = False
+        if isinstance(self.backend, DaqpBackend):
+            self.backend.stop_at = self._deadline(self.STOP_DEADLINE)  # math.inf without a clock guard
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()

@@ -3,8 +3,8 @@
 Equalities are DAQP's sense-5 rows, bounds its simple bounds, and the previous tick's working set (persistent
 ``daqp.Model`` workspace) or dual variables (one-shot ``daqp.solve``) the warm start; each call's iterations are
 bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`). Under a CPU-time
-deadline (:attr:`DaqpBackend.deadline`) every call runs in slices of :data:`SLICE_ITERATIONS` iterations, the clock
-read between them (:meth:`DaqpBackend.call`).
+stop (:attr:`DaqpBackend.stop_at`) a call that could reach it runs in slices, the clock read between them
+(:meth:`DaqpBackend.call`).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.solvers.base import ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
-           "MIN_CALL_ITERATIONS", "SLICE_ITERATIONS", "WORK_LIMIT_FACTOR"]
+           "MIN_CALL_ITERATIONS", "SLICE_COST_FACTOR", "SLICE_ITERATIONS", "WORK_LIMIT_FACTOR"]
 
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
@@ -36,13 +36,19 @@ DAQP_ITERATION_COST = 3.5e-6
 
 #: DAQP's exit flag of a call stopped by its iteration limit
 _DAQP_ITERATION_LIMIT = -4
+#: DAQP's sense bits: a row or bound in the (starting) working set, at its lower side, never removed (equalities)
+_DAQP_ACTIVE, _DAQP_LOWER, _DAQP_IMMUTABLE = 1, 2, 4
 
-#: under a deadline (:attr:`DaqpBackend.deadline` finite) a DAQP call runs in slices of at most this many iterations
-#: on a ``daqp.Model`` workspace, each slice resuming from the working set where the one before stopped, and the
-#: CPU time read between slices: a call ends at most one slice past the deadline, whatever one iteration costs (an
-#: iteration's cost varies fivefold on one inverse-dynamics QP: with DAQP's proximal regularisation of a Hessian
-#: conditioned ~1e10 it is several times the nominal :data:`DAQP_ITERATION_COST` that sizes the first slice)
+#: under a stop (:attr:`DaqpBackend.stop_at` finite) a DAQP call that could reach it runs in slices, after its first
+#: of at most this many iterations on a ``daqp.Model`` workspace, each resuming from the working set where the one
+#: before stopped, and the CPU time read between slices: a call ends at most one slice past the stop, whatever one
+#: iteration costs (an iteration's cost varies fivefold on one inverse-dynamics QP: with DAQP's proximal
+#: regularisation of a Hessian conditioned ~1e10 it is several times the nominal :data:`DAQP_ITERATION_COST`)
 SLICE_ITERATIONS = 25
+#: the first slice of a call under a stop takes the iterations that fit before it at this multiple of the nominal
+#: cost (at least :data:`SLICE_ITERATIONS`): the most one iteration was seen to cost is ~5.7 × the nominal (DAQP's
+#: proximal iterations), so the first slice ends by the stop and most calls need no second
+SLICE_COST_FACTOR = 6.0
 #: DAQP's default primal tolerance (its settings' ``primal_tol``)
 DAQP_PRIMAL_TOL = 1e-6
 
@@ -110,6 +116,11 @@ class DaqpBackend(QPBackend):
         #: time left at ``iteration_cost`` seconds each (:meth:`call_limit`); a clock, so only a caller that accepts
         #: an answer depending on the machine's speed sets it (the inverse-dynamics clock guard).
         self.deadline = math.inf
+        #: CPU time (``time.thread_time``) past which no DAQP call of this backend goes on, ``math.inf`` (default):
+        #: none. A call whose iterations could reach it at :data:`SLICE_COST_FACTOR` × ``iteration_cost`` each runs in
+        #: slices, the clock read between them (:meth:`call`): a bound that holds whatever an iteration costs,
+        #: where ``deadline`` sizes the iteration limits at the nominal cost.
+        self.stop_at = math.inf
         #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
         self.iteration_cost = DAQP_ITERATION_COST
 
@@ -143,45 +154,64 @@ class DaqpBackend(QPBackend):
 
     def call(self, H, g, G, upper, lower, settings: dict) -> tuple:
         """One DAQP solve of min ½ xᵀ H x + gᵀ x s.t. lower ≤ (x; G x) ≤ upper with this backend's sense array: DAQP's
-        one-shot ``daqp.solve(..., **settings)`` (``settings["iter_limit"]`` its iteration limit). Under a finite
-        :attr:`deadline` the call is sliced: the one-shot call gets :data:`SLICE_ITERATIONS` iterations, and when
-        it stops there with iterations and time left, a ``daqp.Model`` workspace goes on from a cold start in
-        slices of :data:`SLICE_ITERATIONS` (each resuming from the working set where the last stopped), the CPU
-        time read between slices; a call stopped by the deadline sets ``budget_capped``.
+        one-shot ``daqp.solve(..., **settings)`` (``settings["iter_limit"]`` its iteration limit, ``dual_start`` its
+        warm start). Under a finite :attr:`stop_at`, a call whose iterations could reach it (at
+        :data:`SLICE_COST_FACTOR` × ``iteration_cost`` each) runs in slices: the one-shot call gets the iterations
+        that fit before :attr:`stop_at` at that cost (at least :data:`SLICE_ITERATIONS`); when it stops there with
+        iterations and time left, a ``daqp.Model`` workspace goes on from the same warm start (the rows and bounds
+        whose ``dual_start`` multiplier is non-zero, at the side of its sign: DAQP's sense flags) in slices of
+        :data:`SLICE_ITERATIONS`, each resuming where the last stopped, the CPU time read between them; a call stopped
+        at :attr:`stop_at` sets ``budget_capped``.
 
         Args:
             H (n, n), g (n,): the cost. G (m, n): the rows. upper, lower (n + m,): bounds then rows (DAQP's layout).
-            settings: DAQP settings with ``iter_limit``; ``dual_start`` is used by the first (one-shot) call only.
+            settings: DAQP settings with ``iter_limit``, optionally ``dual_start`` ((n + m,) multipliers).
 
         Returns:
             DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
         """
-        if self.deadline == math.inf:
-            return self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
         limit = int(settings["iter_limit"])
-        first = min(limit, SLICE_ITERATIONS)
+        first = limit if self.stop_at == math.inf else self._first_slice(limit)
+        if first >= limit:
+            return self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
         out = self._daqp.solve(H, g, G, upper, lower, self._sense, **{**settings, "iter_limit": first})
         done = int(out[3]["iterations"])
         if out[2] != _DAQP_ITERATION_LIMIT or done >= limit:
             return out
-        if thread_time() >= self.deadline:
+        if thread_time() >= self.stop_at:
             self.budget_capped = True
             return out
+        sense = self._sense
+        dual = settings.get("dual_start")
+        if dual is not None:
+            sense = sense.copy()
+            free = (sense & _DAQP_IMMUTABLE) == 0
+            sense[free & (dual > 0)] |= _DAQP_ACTIVE
+            sense[free & (dual < 0)] |= _DAQP_ACTIVE | _DAQP_LOWER
         model = self._daqp.Model()
         model.settings = {k: v for k, v in settings.items() if k != "dual_start"}
-        if model.setup(H, g, G, upper, lower, self._sense)[0] < 0:
+        if model.setup(H, g, G, upper, lower, sense)[0] < 0:
             return out
         x, fval, exitflag, info = self.model_solve(model, limit - done)
         return x, fval, exitflag, {**info, "iterations": int(info["iterations"]) + done}
 
+    def _first_slice(self, limit: int) -> int:
+        """Iterations of a call's first slice: those that fit before :attr:`stop_at` at :data:`SLICE_COST_FACTOR` ×
+        ``iteration_cost``, at least :data:`SLICE_ITERATIONS`, at most ``limit``."""
+        fit = (self.stop_at - thread_time()) / (SLICE_COST_FACTOR * self.iteration_cost)
+        if not fit > SLICE_ITERATIONS:  # (also a stop long past)
+            return min(limit, SLICE_ITERATIONS)
+        return limit if fit >= limit else int(fit)
+
     def model_solve(self, model, limit: int) -> tuple:
         """``model.solve()`` of a set-up ``daqp.Model`` with at most ``limit`` iterations (its settings' ``iter_limit``
-        is set here); under a finite :attr:`deadline` in slices of :data:`SLICE_ITERATIONS`, as :meth:`call`.
+        is set here); under a finite :attr:`stop_at` in slices, as :meth:`call`.
 
         Returns:
             DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
         """
-        if self.deadline == math.inf:
+        first = limit if self.stop_at == math.inf else self._first_slice(limit)
+        if first >= limit:
             if limit != self._model_limit or model is not self._model:
                 model.settings = {"iter_limit": limit}
                 if model is self._model:
@@ -190,12 +220,12 @@ class DaqpBackend(QPBackend):
         self._model_limit = None  # the slices leave the workspace's limit at theirs
         done = 0
         while True:
-            model.settings = {"iter_limit": min(SLICE_ITERATIONS, limit - done)}
+            model.settings = {"iter_limit": first if done == 0 else min(SLICE_ITERATIONS, limit - done)}
             x, fval, exitflag, info = model.solve()
             done += int(info["iterations"])
             if exitflag != _DAQP_ITERATION_LIMIT or done >= limit:
                 break
-            if thread_time() >= self.deadline:
+            if thread_time() >= self.stop_at:
                 self.budget_capped = True
                 break
         return x, fval, exitflag, {**info, "iterations": done}
