@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import daqp
 import numpy as np
 import pytest
 import quadprog
@@ -94,11 +93,10 @@ def test_hard_set_check_agrees_with_highs_on_random_sets_and_reports_an_unfinish
             hard_set_feasible(A, b, C, l, u, lb, ub, iter_limit=bad)
 
 
-def test_daqp_dual_calls_follow_a_cpu_time_deadline_and_fail_rather_than_answer_unconverged(monkeypatch):
+def test_daqp_dual_calls_follow_a_cpu_time_deadline_and_fail_rather_than_answer_unconverged():
     """``DaqpBackend.deadline`` (the ID settings: dual warm start): a deadline already past lowers the call to
     MIN_CALL_ITERATIONS iterations; a QP that needs more fails (``budget_capped``, SolverError, no further call)
-    instead of returning an unconverged x. With no deadline the same backend solves it to quadprog's optimum, in one
-    one-shot call with the settings' limit."""
+    instead of returning an unconverged x. With no deadline the same backend solves it to quadprog's optimum."""
     rng = np.random.default_rng(0)
     n = 40
     M = rng.normal(size=(n, n))
@@ -113,25 +111,19 @@ def test_daqp_dual_calls_follow_a_cpu_time_deadline_and_fail_rather_than_answer_
     x = free.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     assert np.max(np.abs(x - ref)) <= 1e-6 and free.last_iterations > MIN_CALL_ITERATIONS
 
-    calls = []  # (kind, iteration limit) of every DAQP call: one-shot, or a workspace's solve
-    one_shot, model_class = daqp.solve, daqp.Model
-
-    class Model(model_class):
-        def solve(self):
-            calls.append(("model", self.settings["iter_limit"]))
-            return super().solve()
-
-    monkeypatch.setattr(daqp, "solve", lambda *a, **k: calls.append(("oneshot", k["iter_limit"])) or one_shot(*a, **k))
-    monkeypatch.setattr(daqp, "Model", Model)
     capped = DaqpBackend(primal_tol=1e-6, warm_start="dual")
+    calls = []
+    solve = capped._daqp.solve
+    counting = staticmethod(lambda *a, **k: calls.append(k["iter_limit"]) or solve(*a, **k))
+    capped._daqp = type("CountingDaqp", (), {"solve": counting})
     capped.deadline = -math.inf  # long past
     with pytest.raises(SolverError):
         capped.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert capped.budget_capped and [k for _, k in calls] == [MIN_CALL_ITERATIONS]  # one call at the floor, no retry
+    assert capped.budget_capped and calls == [MIN_CALL_ITERATIONS]  # one call, at the floor, then no retry
     capped.deadline = math.inf
     calls.clear()
     x = capped.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert np.max(np.abs(x - ref)) <= 1e-6 and calls[0] == ("oneshot", capped.settings["iter_limit"])
+    assert np.max(np.abs(x - ref)) <= 1e-6 and calls[0] == capped.settings["iter_limit"]
 
 
 def test_cost_scaled_daqp_call_solves_a_qp_daqp_calls_infeasible_to_quadprogs_optimum():

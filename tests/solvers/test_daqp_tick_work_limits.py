@@ -5,8 +5,6 @@ wall-clock assertion: the counts are the behaviour."""
 
 from __future__ import annotations
 
-from time import thread_time
-
 import daqp
 import numpy as np
 import pytest
@@ -14,7 +12,6 @@ import quadprog
 
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend, TickWork
-from wbc.solvers.daqp import SLICE_ITERATIONS
 
 
 def _box_qp(seed: int = 0, n: int = 40):
@@ -165,64 +162,40 @@ def test_tick_work_counts_cpu_time_only_with_a_clock_and_daqp_calls_follow_it():
     assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
 
 
-def _count_daqp_calls(monkeypatch) -> list:
-    """Count DAQP's one-shot calls and its workspaces' solve calls (iterations of each), in order."""
-    calls = []
+@pytest.mark.parametrize("warm_start", ["workspace", "dual"])
+def test_calls_under_a_deadline_are_sized_at_the_measured_cost_per_iteration(monkeypatch, warm_start):
+    """An iteration that costs far more than the nominal ``iteration_cost`` (DAQP's proximal iterations on an
+    ill-conditioned Hessian: ~5 × it) sizes the next calls under a deadline: the CPU clock here advances 1 ms per
+    DAQP iteration done (~300 × the nominal); after one solve of ~70 iterations the measured cost is 1 ms and the
+    next call's limit is the iterations that fit at it, not at the nominal cost. Without a deadline nothing is
+    measured (the calls are those of an unguarded tick)."""
+    import wbc.solvers.daqp as daqp_module
+
+    H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
+    done = [0]
     one_shot, model_class = daqp.solve, daqp.Model
 
     class Model(model_class):
         def solve(self):
             out = super().solve()
-            calls.append(("model", int(out[3]["iterations"])))
+            done[0] += int(out[3]["iterations"])
             return out
 
     def solve(*args, **kwargs):
         out = one_shot(*args, **kwargs)
-        calls.append(("oneshot", int(out[3]["iterations"])))
+        done[0] += int(out[3]["iterations"])
         return out
 
-    monkeypatch.setattr(daqp, "Model", Model)
     monkeypatch.setattr(daqp, "solve", solve)
-    return calls
-
-
-@pytest.mark.parametrize("warm_start", ["workspace", "dual"])
-def test_a_call_under_a_deadline_runs_in_slices_that_resume_to_the_unsliced_answer(monkeypatch, warm_start):
-    """Under a stop (``stop_at``, far away here, iterations assumed to cost 1 s) a DAQP call runs in slices of
-    SLICE_ITERATIONS iterations, each resuming where the last stopped: a QP that needs ~70 iterations takes several
-    calls and ends at the answer of one unsliced call (1e-9) and of quadprog (the independent oracle, 1e-6)."""
-    H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
+    monkeypatch.setattr(daqp, "Model", Model)
+    monkeypatch.setattr(daqp_module, "thread_time", lambda: 1e-3 * done[0])
     free = DaqpBackend(warm_start=warm_start)
-    x_free = free.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert free.last_iterations > 2 * SLICE_ITERATIONS
-    calls = _count_daqp_calls(monkeypatch)
-    sliced = DaqpBackend(warm_start=warm_start)
-    sliced.iteration_cost = 1.0  # 150 iterations fit before the stop; the first slice: 150 / SLICE_COST_FACTOR = 25
-    sliced.stop_at = thread_time() + 150.0
-    x = sliced.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert len(calls) >= 3 and max(n for _, n in calls) <= SLICE_ITERATIONS
-    assert np.max(np.abs(x - x_free)) < 1e-9
-    assert np.max(np.abs(x - _quadprog(H, g, C, l, u, lb, ub))) < 1e-6
-
-
-@pytest.mark.parametrize("warm_start", ["workspace", "dual"])
-def test_a_call_past_its_deadline_stops_within_one_slice_whatever_an_iteration_costs(monkeypatch, warm_start):
-    """An iteration that costs far more than ``iteration_cost`` assumes (DAQP's proximal iterations on an
-    ill-conditioned Hessian cost ~6 times the nominal) cannot carry a call past its deadline by more than its
-    slices. The CPU clock here advances 1 ms per DAQP iteration done, 100 times the 10 µs assumed; the deadline
-    is 1 ms away, so the call's iteration limit is 100 and its first slice SLICE_ITERATIONS (the iterations that
-    fit at SLICE_COST_FACTOR × the assumed cost, at least SLICE_ITERATIONS): the call stops after that slice,
-    ``budget_capped``, and the solve fails — before slicing it ran the ~70 iterations to the answer, 70 ms late."""
-    import wbc.solvers.daqp as daqp_module
-
-    H, g, A, b, C, l, u, lb, ub = _box_qp(n=60)
-    calls = _count_daqp_calls(monkeypatch)
-    monkeypatch.setattr(daqp_module, "thread_time", lambda: 1e-3 * sum(n for _, n in calls))
-    backend = DaqpBackend(warm_start=warm_start)
-    backend.iteration_cost = 1e-5
-    backend.deadline = backend.stop_at = 1e-3
-    assert backend.call_limit() > 2 * SLICE_ITERATIONS
-    with pytest.raises(SolverError):
-        backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert backend.budget_capped
-    assert sum(n for _, n in calls) <= SLICE_ITERATIONS
+    free.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert free.measured_iteration_cost == 0.0
+    guarded = DaqpBackend(warm_start=warm_start)
+    guarded.deadline = daqp_module.thread_time() + 0.5  # 0.5 s of the fake clock: the settings' cap at 3.5 µs
+    assert guarded.call_limit() == guarded.settings["iter_limit"]
+    guarded.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+    assert 0.99e-3 <= guarded.measured_iteration_cost <= 1.01e-3
+    left = guarded.deadline - daqp_module.thread_time()  # ~0.43 s: ~430 iterations at 1 ms
+    assert guarded.call_limit() == int(left / guarded.measured_iteration_cost) < 500

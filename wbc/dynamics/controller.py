@@ -126,9 +126,8 @@ class InverseDynamicsController:
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
             (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
-            calls end by 1.25 budgets and the relaxed QP's by 1.75 (iteration limits from the time left), and none
-            goes on past 1.6 budgets whatever its iterations cost (``STOP_DEADLINE``: sliced calls); a failed full
-            QP gets its second opinion (quadprog, the backend's retries) only before 1.2 budgets, and only when
+            calls end by 1.25 budgets and the relaxed QP's by 1.75 (iteration limits from the time left); a failed
+            full QP gets its second opinion (quadprog, the backend's retries) only before 1.2 budgets, and only when
             a cheap check does not prove its hard set empty (``wbc.solvers.independent.hard_set_feasible``); a relaxed
             command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
             False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations

@@ -331,10 +331,6 @@ class InverseDynamicsQP:
     #: clock guard: the relaxed QP's DAQP calls end by this many budgets (a call stopped there fails the tick: the
     #: safe command follows)
     RELAXED_DEADLINE = 1.75
-    #: clock guard: no DAQP call of the tick goes on past this many budgets, whatever its iterations cost
-    #: (:attr:`wbc.solvers.daqp.DaqpBackend.stop_at`: the calls that could reach it run in slices); a call stopped
-    #: there fails its stage, and the safe command follows
-    STOP_DEADLINE = 1.6
 
     @property
     def retry_deadline(self) -> float:
@@ -592,7 +588,6 @@ class InverseDynamicsQP:
         if isinstance(self.backend, DaqpBackend):
             backend = self.backend
             backend.deadline = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
-            backend.stop_at = self._deadline(self.STOP_DEADLINE)
             try:
                 x, solver = backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
@@ -626,8 +621,6 @@ class InverseDynamicsQP:
         self.last_violations = []
         self._assembled = None
         self.budget_cut = False
-        if isinstance(self.backend, DaqpBackend):
-            self.backend.stop_at = self._deadline(self.STOP_DEADLINE)  # math.inf without a clock guard
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
@@ -692,12 +685,7 @@ class InverseDynamicsQP:
             # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
             # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
             capped = backend.budget_capped
-            ran = []
             for step in (("scaled", "check") if capped else ("check", "scaled")):
-                if thread_time() >= end:  # the checks' time is spent: the step is not started
-                    self.budget_cut = True
-                    break
-                ran.append(step)
                 if step == "check":
                     left = (end - thread_time()) / backend.iteration_cost
                     if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
@@ -719,12 +707,8 @@ class InverseDynamicsQP:
             if thread_time() >= self.retry_deadline:
                 self.checks_skipped += 1
                 self.budget_cut = True
-                done = {("check", "scaled"): "the hard set is not empty, the cost-scaled DAQP call failed",
-                        ("scaled", "check"): "the cost-scaled DAQP call failed, the hard set is not empty",
-                        ("check",): "the hard set is not empty, no cost-scaled DAQP call",
-                        ("scaled",): "the cost-scaled DAQP call failed, no hard-set check",
-                        (): "no hard-set check or cost-scaled DAQP call"}[tuple(ran)]
-                raise SolverError(f"{first}; {done}, and no quadprog solve or retry: tick budget spent (clock guard)")
+                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
+                                  f"quadprog solve or retry: tick budget spent (clock guard)")
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if x is not None:
             self.pinned_reduced_solves += 1

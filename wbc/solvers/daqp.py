@@ -2,9 +2,7 @@
 
 Equalities are DAQP's sense-5 rows, bounds its simple bounds, and the previous tick's working set (persistent
 ``daqp.Model`` workspace) or dual variables (one-shot ``daqp.solve``) the warm start; each call's iterations are
-bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`). Under a CPU-time
-stop (:attr:`DaqpBackend.stop_at`) a call that could reach it runs in slices, the clock read between them
-(:meth:`DaqpBackend.call`).
+bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`).
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.solvers.base import ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
-           "MIN_CALL_ITERATIONS", "SLICE_COST_FACTOR", "SLICE_ITERATIONS", "WORK_LIMIT_FACTOR"]
+           "MEASURED_CALL_ITERATIONS", "MEASURED_COST_DECAY", "MIN_CALL_ITERATIONS", "WORK_LIMIT_FACTOR"]
 
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
@@ -34,21 +32,14 @@ MIN_CALL_ITERATIONS = 10
 #: 46–62 variables and ~190 constraints; benchmarks/README.md, "The ID failure path ordered by cost")
 DAQP_ITERATION_COST = 3.5e-6
 
+#: a DAQP call under a deadline measures its CPU time per iteration when it ran at least this many iterations
+#: (fewer: the call's set-up dominates) — :meth:`DaqpBackend._timed`
+MEASURED_CALL_ITERATIONS = 50
+#: the measured cost per iteration falls by this factor per call that measured less (it rises at once)
+MEASURED_COST_DECAY = 0.97
+
 #: DAQP's exit flag of a call stopped by its iteration limit
 _DAQP_ITERATION_LIMIT = -4
-#: DAQP's sense bits: a row or bound in the (starting) working set, at its lower side, never removed (equalities)
-_DAQP_ACTIVE, _DAQP_LOWER, _DAQP_IMMUTABLE = 1, 2, 4
-
-#: under a stop (:attr:`DaqpBackend.stop_at` finite) a DAQP call that could reach it runs in slices, after its first
-#: of at most this many iterations on a ``daqp.Model`` workspace, each resuming from the working set where the one
-#: before stopped, and the CPU time read between slices: a call ends at most one slice past the stop, whatever one
-#: iteration costs (an iteration's cost varies fivefold on one inverse-dynamics QP: with DAQP's proximal
-#: regularisation of a Hessian conditioned ~1e10 it is several times the nominal :data:`DAQP_ITERATION_COST`)
-SLICE_ITERATIONS = 25
-#: the first slice of a call under a stop takes the iterations that fit before it at this multiple of the nominal
-#: cost (at least :data:`SLICE_ITERATIONS`): the most one iteration was seen to cost is ~5.7 × the nominal (DAQP's
-#: proximal iterations), so the first slice ends by the stop and most calls need no second
-SLICE_COST_FACTOR = 6.0
 #: DAQP's default primal tolerance (its settings' ``primal_tol``)
 DAQP_PRIMAL_TOL = 1e-6
 
@@ -116,11 +107,9 @@ class DaqpBackend(QPBackend):
         #: time left at ``iteration_cost`` seconds each (:meth:`call_limit`); a clock, so only a caller that accepts
         #: an answer depending on the machine's speed sets it (the inverse-dynamics clock guard).
         self.deadline = math.inf
-        #: CPU time (``time.thread_time``) past which no DAQP call of this backend goes on, ``math.inf`` (default):
-        #: none. A call whose iterations could reach it at :data:`SLICE_COST_FACTOR` × ``iteration_cost`` each runs in
-        #: slices, the clock read between them (:meth:`call`): a bound that holds whatever an iteration costs,
-        #: where ``deadline`` sizes the iteration limits at the nominal cost.
-        self.stop_at = math.inf
+        #: the largest CPU time per iteration measured on this backend's recent calls under a deadline (s; 0 until
+        #: one): ``deadline`` sizes the calls at max(``iteration_cost``, this) (:meth:`_timed`)
+        self.measured_iteration_cost = 0.0
         #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
         self.iteration_cost = DAQP_ITERATION_COST
 
@@ -143,92 +132,36 @@ class DaqpBackend(QPBackend):
                     - self.last_iterations)
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
         if self.deadline < math.inf:
-            left = (self.deadline - thread_time()) / self.iteration_cost
+            left = (self.deadline - thread_time()) / max(self.iteration_cost, self.measured_iteration_cost)
             limit = min(limit, MIN_CALL_ITERATIONS if left < MIN_CALL_ITERATIONS else int(min(left, limit)))
         return limit
+
+    def _oneshot(self, *args, **settings) -> tuple:
+        """DAQP's one-shot ``daqp.solve(*args, **settings)``, timed under a deadline (:meth:`_timed`)."""
+        return self._timed(lambda: self._daqp.solve(*args, **settings))
+
+    def _timed(self, call) -> tuple:
+        """``call()`` (a DAQP solve returning (x, fval, exitflag, info)); under a finite ``deadline``, its CPU time
+        per iteration updates ``measured_iteration_cost``: raised at once to a call's cost (of at least
+        :data:`MEASURED_CALL_ITERATIONS` iterations), lowered by :data:`MEASURED_COST_DECAY` per cheaper call. An
+        iteration's cost varies several-fold on one QP (DAQP's proximal iterations on an ill-conditioned Hessian
+        cost ~5 × the nominal): the next calls of the tick and of the ticks after it are sized at what the
+        solver costs now, not at the nominal ``iteration_cost``."""
+        if self.deadline == math.inf:
+            return call()
+        t0 = thread_time()
+        out = call()
+        iterations = int(out[3]["iterations"])
+        if iterations >= MEASURED_CALL_ITERATIONS:
+            cost = (thread_time() - t0) / iterations
+            self.measured_iteration_cost = (cost if cost > self.measured_iteration_cost
+                                            else MEASURED_COST_DECAY * self.measured_iteration_cost)
+        return out
 
     def _note_exit(self, exitflag: int, limit: int) -> None:
         """Record a call stopped by a budget-lowered iteration limit (``budget_capped``)."""
         if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
             self.budget_capped = True
-
-    def call(self, H, g, G, upper, lower, settings: dict) -> tuple:
-        """One DAQP solve of min ½ xᵀ H x + gᵀ x s.t. lower ≤ (x; G x) ≤ upper with this backend's sense array: DAQP's
-        one-shot ``daqp.solve(..., **settings)`` (``settings["iter_limit"]`` its iteration limit, ``dual_start`` its
-        warm start). Under a finite :attr:`stop_at`, a call whose iterations could reach it (at
-        :data:`SLICE_COST_FACTOR` × ``iteration_cost`` each) runs in slices: the one-shot call gets the iterations
-        that fit before :attr:`stop_at` at that cost (at least :data:`SLICE_ITERATIONS`); when it stops there with
-        iterations and time left, a ``daqp.Model`` workspace goes on from the same warm start (the rows and bounds
-        whose ``dual_start`` multiplier is non-zero, at the side of its sign: DAQP's sense flags) in slices of
-        :data:`SLICE_ITERATIONS`, each resuming where the last stopped, the CPU time read between them; a call stopped
-        at :attr:`stop_at` sets ``budget_capped``.
-
-        Args:
-            H (n, n), g (n,): the cost. G (m, n): the rows. upper, lower (n + m,): bounds then rows (DAQP's layout).
-            settings: DAQP settings with ``iter_limit``, optionally ``dual_start`` ((n + m,) multipliers).
-
-        Returns:
-            DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
-        """
-        limit = int(settings["iter_limit"])
-        first = limit if self.stop_at == math.inf else self._first_slice(limit)
-        if first >= limit:
-            return self._daqp.solve(H, g, G, upper, lower, self._sense, **settings)
-        out = self._daqp.solve(H, g, G, upper, lower, self._sense, **{**settings, "iter_limit": first})
-        done = int(out[3]["iterations"])
-        if out[2] != _DAQP_ITERATION_LIMIT or done >= limit:
-            return out
-        if thread_time() >= self.stop_at:
-            self.budget_capped = True
-            return out
-        sense = self._sense
-        dual = settings.get("dual_start")
-        if dual is not None:
-            sense = sense.copy()
-            free = (sense & _DAQP_IMMUTABLE) == 0
-            sense[free & (dual > 0)] |= _DAQP_ACTIVE
-            sense[free & (dual < 0)] |= _DAQP_ACTIVE | _DAQP_LOWER
-        model = self._daqp.Model()
-        model.settings = {k: v for k, v in settings.items() if k != "dual_start"}
-        if model.setup(H, g, G, upper, lower, sense)[0] < 0:
-            return out
-        x, fval, exitflag, info = self.model_solve(model, limit - done)
-        return x, fval, exitflag, {**info, "iterations": int(info["iterations"]) + done}
-
-    def _first_slice(self, limit: int) -> int:
-        """Iterations of a call's first slice: those that fit before :attr:`stop_at` at :data:`SLICE_COST_FACTOR` ×
-        ``iteration_cost``, at least :data:`SLICE_ITERATIONS`, at most ``limit``."""
-        fit = (self.stop_at - thread_time()) / (SLICE_COST_FACTOR * self.iteration_cost)
-        if not fit > SLICE_ITERATIONS:  # (also a stop long past)
-            return min(limit, SLICE_ITERATIONS)
-        return limit if fit >= limit else int(fit)
-
-    def model_solve(self, model, limit: int) -> tuple:
-        """``model.solve()`` of a set-up ``daqp.Model`` with at most ``limit`` iterations (its settings' ``iter_limit``
-        is set here); under a finite :attr:`stop_at` in slices, as :meth:`call`.
-
-        Returns:
-            DAQP's (x, fval, exitflag, info), ``info["iterations"]`` summed over the slices.
-        """
-        first = limit if self.stop_at == math.inf else self._first_slice(limit)
-        if first >= limit:
-            if limit != self._model_limit or model is not self._model:
-                model.settings = {"iter_limit": limit}
-                if model is self._model:
-                    self._model_limit = limit
-            return model.solve()
-        self._model_limit = None  # the slices leave the workspace's limit at theirs
-        done = 0
-        while True:
-            model.settings = {"iter_limit": first if done == 0 else min(SLICE_ITERATIONS, limit - done)}
-            x, fval, exitflag, info = model.solve()
-            done += int(info["iterations"])
-            if exitflag != _DAQP_ITERATION_LIMIT or done >= limit:
-                break
-            if thread_time() >= self.stop_at:
-                self.budget_capped = True
-                break
-        return x, fval, exitflag, {**info, "iterations": done}
 
     def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
         self._layout = (n, n_eq, n_in)
@@ -275,7 +208,10 @@ class DaqpBackend(QPBackend):
         if warm:
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
-            x, _, exitflag, info = self.model_solve(self._model, limit)
+            if limit != self._model_limit:
+                self._model.settings = {"iter_limit": limit}
+                self._model_limit = limit
+            x, _, exitflag, info = self._timed(self._model.solve)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = info["lam"]
@@ -291,11 +227,11 @@ class DaqpBackend(QPBackend):
         model.settings = {**self.settings, "iter_limit": limit}
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
-            self._model_limit = limit
-            x, _, exitflag, info = self.model_solve(model, limit)
+            x, _, exitflag, info = self._timed(model.solve)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self._model = model
+                self._model_limit = limit
                 self.last_multipliers = info["lam"]
                 self._cold_outcome = (x, model, info["lam"])
                 return x
@@ -315,7 +251,8 @@ class DaqpBackend(QPBackend):
     def _solve_oneshot(self, H, g, G, upper, lower):
         """One call of DAQP's one-shot ``daqp.solve`` (iterations bounded by :meth:`call_limit`): x or None."""
         limit = self.call_limit()
-        x, _, exitflag, info = self.call(H, g, G, upper, lower, {**self.settings, "iter_limit": limit})
+        x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense,
+                                                **{**self.settings, "iter_limit": limit})
         self.last_iterations += int(info["iterations"])
         self._note_exit(exitflag, limit)
         self.last_multipliers = info["lam"] if exitflag >= 1 else None
@@ -350,7 +287,7 @@ class DaqpBackend(QPBackend):
             # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
             # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
             relaxed = {**limit, "primal_tol": self.tolerance}
-            x2, _, exitflag, info = self.call(H, g, self._G, self._upper, self._lower, relaxed)
+            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 return x2
@@ -364,7 +301,7 @@ class DaqpBackend(QPBackend):
             # DUAL_RETRY_PRIMAL_FACTOR × tolerance DAQP solves each in 9 iterations, every row met to 1e-12 (the
             # answer is held to ``tolerance`` all the same, QPBackend.solve)
             loose = {**limit, "primal_tol": DUAL_RETRY_PRIMAL_FACTOR * self.tolerance}
-            x2, _, exitflag, info = self.call(H, g, self._G, self._upper, self._lower, loose)
+            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **loose)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -379,7 +316,8 @@ class DaqpBackend(QPBackend):
             # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
-            x3, _, exitflag, info = self.call(H * scale, g * scale, self._G, self._upper, self._lower, limit)
+            x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
+                                                     self._sense, **limit)
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -409,7 +347,8 @@ class DaqpBackend(QPBackend):
             upper[e:], lower[e:] = u, l
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
         limit = self.call_limit()
-        x, _, exitflag, info = self.call(H * scale, g * scale, G, upper, lower, {**self.settings, "iter_limit": limit})
+        x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
+                                                **{**self.settings, "iter_limit": limit})
         self.last_iterations = int(info["iterations"])
         self._note_exit(exitflag, limit)
         if exitflag < 1 or not np.isfinite(x).all():
@@ -430,7 +369,7 @@ class DaqpBackend(QPBackend):
         settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
                                                                                    "iter_limit": limit}
         kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
-        x, _, exitflag, info = self.call(H, g, G, upper, lower, kwargs)
+        x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **kwargs)
         self._note_exit(exitflag, limit)
         if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
@@ -439,7 +378,7 @@ class DaqpBackend(QPBackend):
             limit = self.call_limit()
             settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
                                                                                        "iter_limit": limit}
-            x, _, exitflag, info = self.call(H, g, G, upper, lower, settings)
+            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **settings)
             self._note_exit(exitflag, limit)
         self.last_iterations += int(info["iterations"])
         if exitflag < 1:
