@@ -90,11 +90,12 @@ relaxations, the diagnosis and the safe command of a failed tick, each strict le
 itself: every such stage after the tick's first solve starts only when the tick's CPU time plus the CPU time of the
 longest stage of its kind so far in this tick (a re-solve of the tick's QP, a strict level, a solve of the safe command
 and its checks; the safe command's from the last tick until one is timed) stays within ``STAGE_DEADLINE`` (1.5)
-budgets; a relaxation that does not fit fails the tick, a safe command that does not fit is not tried (``hold``; the
-message says what was skipped), so that a failed tick ends within twice its budget of CPU time however slow its solves
-are on the machine, unless its first solve alone takes that long. With the guard, strict levels degrade to one QP
-when their cascade does not fit: once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level
-k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
+budgets (``RESCUE_DEADLINE``, 1.7, for the least-squares re-solve of dependent contact rows); a relaxation that does
+not fit fails the tick, a safe command that does not fit is not tried (``hold``; the message says what was skipped),
+so that a failed tick ends within twice its budget of CPU time however slow its solves are on the machine, unless its
+first solve alone takes that long. With the guard, strict levels degrade to one QP when their cascade does not fit:
+once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level k of p
+scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
 ``WEIGHTED_TICKS`` ticks (then the cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
@@ -310,6 +311,10 @@ class KinematicController:
     #: timed in this tick (the longest such stage so far) stays within STAGE_DEADLINE × its budget; the
     #: rest of twice the budget is left to the checks that follow it and to ``hold``
     STAGE_DEADLINE = 1.5
+    #: with ``clock_guard``: the one stage that may end later, by RESCUE_DEADLINE × the budget: the re-solve of a
+    #: failed tick with its dependent contact rows' corrections made consistent (least squares), which decides
+    #: whether the hard set has a solution at all (cutting it failed ticks that the weighted levels solve)
+    RESCUE_DEADLINE = 1.7
     #: with ``clock_guard``: after a tick of the strict cascade that a budget cut (a level, a contact correction or
     #: a trust region not run), the next WEIGHTED_TICKS ticks solve the strict levels as one weighted QP (path
     #: ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is tried again
@@ -431,10 +436,11 @@ class KinematicController:
         """A solved tick starts no further stage: STAGE_FACTOR times its budget (in QP solves) is spent."""
         return self._work.spent(self.STAGE_FACTOR)
 
-    def _fits(self, cost: float) -> bool:
-        """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by
-        ``STAGE_DEADLINE`` times the tick's budget (clock guard; always True without it)."""
-        return not self.clock_guard or self._work.seconds() + cost <= self.STAGE_DEADLINE * self._budget_s
+    def _fits(self, cost: float, deadline: float | None = None) -> bool:
+        """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``
+        (default ``STAGE_DEADLINE``) times the tick's budget (clock guard; always True without it)."""
+        factor = self.STAGE_DEADLINE if deadline is None else deadline
+        return not self.clock_guard or self._work.seconds() + cost <= factor * self._budget_s
 
     def _safe_estimate(self) -> float:
         """CPU time (s) expected of one solve of the safe command: this tick's longest, else the last tick's, else
@@ -962,7 +968,9 @@ class KinematicController:
                 relaxed = []
             except SolverError as first_failure:
                 v = None
-                if not self._fits(self._resolve_cost):  # clock guard: no relaxation would end in time
+                # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
+                # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
+                if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
                     raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
                         from None
                 if self._contact_rows.size and self._consistent_contact_rhs():
