@@ -158,8 +158,11 @@ def commanded_placement(contact, oMf, dt):
 
 
 def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "", dts=(DT,),
-              past_limits: float = 0.0, budget=None, clock_guard: bool = False) -> dict:
-    """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring)."""
+              past_limits: float = 0.0, budget=None, clock_guard: bool = False, replay: int | None = None,
+              verbose: bool = False) -> dict:
+    """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring). ``replay``: run only
+    that episode of the chunk (the others are drawn, not run); ``verbose``: print every tick's path, CPU time and
+    message."""
     rng = np.random.default_rng(seed)
     extra = np.random.default_rng(seed + 7_000_000)  # dt and past-limit draws: build_episode's stream unchanged
     c = dict.fromkeys(COUNTS, 0) | dict.fromkeys(MAXIMA, 0.0)
@@ -190,6 +193,9 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
         c["max_dt_ms"] = max(c["max_dt_ms"], 1e3 * dt)
         try:
             config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past)
+            if replay is not None and ep != replay:
+                c["ticks"] += episode
+                continue
             ctrl.budget = budget
             ctrl.clock_guard = clock_guard
             freeze_after_first((name, strict))
@@ -224,6 +230,10 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                                                     f"{1e3 * c['tick_cpu'][-1]:.2f} ms, wall "
                                                     f"{1e3 * c['tick_times'][-1]:.2f} ms; {within}"))
                     c["worst_ticks"] = sorted(c["worst_ticks"], key=lambda w: -w[0])[:MAX_EVENTS]
+                if verbose:
+                    print(f"episode {ep} tick {tick} {name} {kind} strict={strict} dt {1e3 * dt:g} ms {res.path} "
+                          f"ok={res.ok} CPU {1e3 * c['tick_cpu'][-1]:.2f} ms ({ratio:.2f} x budget) "
+                          f"{res.message[:300]}", flush=True)
             except Exception as exc:  # noqa: BLE001
                 c["exceptions"] += 1
                 event("exceptions", ep, tick, f"{type(exc).__name__}: {exc}")
@@ -456,6 +466,8 @@ def main() -> None:
                    help="KinematicController(clock_guard=True): the tick's CPU time also counts as work")
     p.add_argument("--clock-weight", type=float, default=None,
                    help="with --clock-guard: KinematicController.CLOCK_WEIGHT (default: the class's)")
+    p.add_argument("--replay", type=int, default=None,
+                   help="run only this episode of the chunk of --seed (one chunk of --chunk ticks), verbose")
     p.add_argument("--aggregate-only", action="store_true",
                    help="run nothing: aggregate every finished chunk file in --out (e.g. of several processes)")
     a = p.parse_args()
@@ -466,6 +478,14 @@ def main() -> None:
         return
     t0 = time.time()
     dts = tuple(float(x) for x in a.dts.split(","))
+    if a.replay is not None:
+        robots, limits = _load()
+        if a.clock_weight:
+            from wbc.formulations.velocity import KinematicController
+            KinematicController.CLOCK_WEIGHT = a.clock_weight
+        run_chunk(robots, limits, a.chunk, a.episode, a.seed, dts=dts, past_limits=a.past_limits, budget=a.budget,
+                  clock_guard=a.clock_guard, replay=a.replay, verbose=True)
+        return
     n_chunks = max(1, -(-a.ticks // a.chunk))
     if a.out is not None:
         a.out.mkdir(parents=True, exist_ok=True)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import hand_over_posture
+from conftest import hand_over_posture, standing_controller
 
 DT = 0.002
 
@@ -45,3 +45,67 @@ def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots)
     for bad in ("yes", 1, None):
         with pytest.raises(InvalidInputError, match="clock_guard"):
             ctrl.clock_guard = bad
+
+
+def test_kinematic_clock_guard_bounds_a_failed_tick_on_a_slow_machine(robots, monkeypatch):
+    """A failed strict G1 tick whose counted QP solves each cost three times their nominal CPU time
+    (``SOLVE_COST``: a busy loop of twice it in thread time after each counted solve, as on a slower or loaded
+    machine) still ends within twice its budget of thread CPU time with the clock guard: its stages (the
+    return-rate relaxations, the diagnosis, each solve of the safe command) start only when the CPU time measured
+    for them in this tick fits before ``STAGE_DEADLINE`` budgets (without that, every one of them ran after the
+    budget and the tick took over four budgets). G1 with both knees 30 mrad past their lower limits (the
+    return-rate ladder runs), a hand target at level 0, the posture at level 1 and a hard CoM task 0.3 m up at
+    gain 1e6 (infeasible with the soles held: the tick fails). Oracles: ``time.thread_time`` around the tick (a
+    loose bound, twice the budget), and the tick is failed with a safe command within the box."""
+    import time
+
+    from wbc.configuration import Configuration
+    from wbc.constraints.limits import bounded_joints
+    from wbc.formulations.velocity import KinematicController
+    from wbc.solvers.base import TickWork
+    from wbc.tasks import ComTask, FrameTask, PostureTask
+
+    robot = robots("g1")
+    model = robot.model
+    config = Configuration(robot)
+    q = config.q.copy()
+    iq, _ = bounded_joints(model)
+    knees = [i for i in iq if any("knee" in model.names[j] for j in range(1, model.njoints)
+                                  if model.joints[j].idx_q == i)]
+    assert len(knees) == 2
+    q[knees] = model.lowerPositionLimit[knees] - 0.03
+    config.update(q)
+    ctrl, _ = standing_controller(robot, config)
+    ctrl.clock_guard = True
+    hand = FrameTask(robot, "left_wrist_roll_joint", gain=10.0, orientation_weight=0.0, name="hand")
+    target = config.frame_placement(hand.frame_id).copy()
+    target.translation += [0.5, 0.5, 0.5]
+    hand.set_target(target)
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(PostureTask(robot, weight=1.0, name="posture1"), level=1)
+    com = ComTask(weight=1.0, name="com_hard")
+    com.gain = 1e6
+    com.set_target(config.com + [0.0, 0.0, 0.3])
+    ctrl.add_task(com, hard=True)
+    warm = ctrl.solve(config, DT)  # (first calls: lazy imports and allocations, not the tick's work)
+    assert not warm.ok
+    config.update(config.integrate(warm.v, DT))
+
+    counted = TickWork.solves
+
+    def slow(work, value):  # each counted solve costs twice SOLVE_COST more thread CPU time
+        extra = round(value - counted.fget(work))
+        counted.fset(work, value)
+        start = time.thread_time()
+        while time.thread_time() - start < 2.0 * KinematicController.SOLVE_COST * max(extra, 0):
+            pass
+
+    monkeypatch.setattr(TickWork, "solves", property(counted.fget, slow))
+    for _ in range(3):
+        start = time.thread_time()
+        res = ctrl.solve(config, DT)
+        cpu = time.thread_time() - start
+        assert not res.ok and res.fallback in ("constraints_only", "contacts_held", "hold"), res.message
+        assert np.isfinite(res.v).all() and np.all(np.abs(res.v[6:]) <= model.velocityLimit[6:] + 1e-9)
+        assert cpu <= 2.0 * DT, (cpu / DT, res.path, res.message)
+        config.update(config.integrate(res.v, DT))

@@ -85,9 +85,17 @@ With ``clock_guard=True`` (constructor) the tick's CPU time also counts as work 
 ``CLOCK_WEIGHT`` × the cap; :class:`wbc.solvers.base.TickWork`), so each of these limits also holds on the clock,
 whatever a counted solve costs on the machine and problem: the tick time is bounded (stages stop at ``STAGE_FACTOR`` /
 ``CLOCK_WEIGHT`` = 1.25 budgets of CPU time), and a tick that reaches a limit by its clock has an answer that depends on
-the machine's speed and load (off by default). With the guard, strict levels degrade to one QP when their cascade does
-not fit: once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level
-k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
+the machine's speed and load (off by default). The guard also bounds what the count leaves unbounded — the
+relaxations, the diagnosis and the safe command of a failed tick, each strict level — by costs timed in the tick
+itself: every such stage after the tick's first solve starts only when the tick's CPU time plus the CPU time of the
+longest stage of its kind so far in this tick (a re-solve of the tick's QP, a strict level, a solve of the safe command
+and its checks; the safe command's from the last tick until one is timed) stays within ``STAGE_DEADLINE`` (1.5)
+budgets (``RESCUE_DEADLINE``, 1.7, for the least-squares re-solve of dependent contact rows); a relaxation that does
+not fit fails the tick, a safe command that does not fit is not tried (``hold``; the message says what was skipped),
+so that a failed tick ends within twice its budget of CPU time however slow its solves are on the machine, unless its
+first solve alone takes that long. With the guard, strict levels degrade to one QP when their cascade does not fit:
+once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level k of p
+scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
 ``WEIGHTED_TICKS`` ticks (then the cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
@@ -255,7 +263,8 @@ class KinematicController:
             read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
             diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
             safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
-            rate: α = 0, with and without the contacts' corrections, always tried, unconfirmed; the larger α only
+            rate: α = 0, with and without the contacts' corrections, always tried — with the clock guard only
+            when they fit, ``clock_guard`` below —, unconfirmed; the larger α only
             while the budget lasts, one solver call each) are bounded by their counts. The failure time is
             then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
             no further strict level, contact correction or trust region past ``STAGE_FACTOR`` (1.75) times the
@@ -267,7 +276,10 @@ class KinematicController:
             above then holds on the CPU time too — a solved tick starts no further stage past
             ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` times its budget of CPU time, a DAQP call stops at
             ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
-            1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem. Default
+            1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem; and no
+            stage after the first solve (relaxation, strict level, correction, trust region, diagnosis, safe command)
+            starts unless its CPU time, as timed in this tick, ends it by ``STAGE_DEADLINE`` times the budget
+            (module docstring). Default
             False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
             real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
             that depends on the machine's speed and load; a tick under every limit answers as with False; strict
@@ -294,6 +306,15 @@ class KinematicController:
     #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
     #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
     CLOCK_WEIGHT = 1.4
+    #: with ``clock_guard``: a stage (a strict level, a re-solve of a relaxation, correction or trust region, the
+    #: diagnosis, each solve of the safe command) starts only when the tick's CPU time plus that stage's CPU time
+    #: timed in this tick (the longest such stage so far) stays within STAGE_DEADLINE × its budget; the
+    #: rest of twice the budget is left to the checks that follow it and to ``hold``
+    STAGE_DEADLINE = 1.5
+    #: with ``clock_guard``: the one stage that may end later, by RESCUE_DEADLINE × the budget: the re-solve of a
+    #: failed tick with its dependent contact rows' corrections made consistent (least squares), which decides
+    #: whether the hard set has a solution at all (cutting it failed ticks that the weighted levels solve)
+    RESCUE_DEADLINE = 1.7
     #: with ``clock_guard``: after a tick of the strict cascade that a budget cut (a level, a contact correction or
     #: a trust region not run), the next WEIGHTED_TICKS ticks solve the strict levels as one weighted QP (path
     #: ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is tried again
@@ -378,6 +399,12 @@ class KinematicController:
         self._level_rows: list[_SoftRows] = []
         self._in_solve, self._drift_cache = False, None
         self._contact_expected: list[np.ndarray] | None = None
+        # clock guard: CPU time (s) of the longest re-solve of the tick's QP, strict level, check of a held safe
+        # command in the current tick, and of the safe command's solve (this tick's longest, else the last one's)
+        self._resolve_cost = self._level_cost = self._check_cost = self._safe_cost = 0.0
+        self._safe_fresh = False  # _safe_cost was timed in the current tick
+        self._safe_stage_cost = 0.0  # the last 'constraints_only' stage (solve, correction, trust region, checks)
+        self._level_mark = 0.0  # CPU time of the tick at the last level boundary of the cascade
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
@@ -408,6 +435,28 @@ class KinematicController:
     def _stage_late(self) -> bool:
         """A solved tick starts no further stage: STAGE_FACTOR times its budget (in QP solves) is spent."""
         return self._work.spent(self.STAGE_FACTOR)
+
+    def _fits(self, cost: float, deadline: float | None = None) -> bool:
+        """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``
+        (default ``STAGE_DEADLINE``) times the tick's budget (clock guard; always True without it)."""
+        factor = self.STAGE_DEADLINE if deadline is None else deadline
+        return not self.clock_guard or self._work.seconds() + cost <= factor * self._budget_s
+
+    def _safe_estimate(self) -> float:
+        """CPU time (s) expected of one solve of the safe command: this tick's longest, else the last tick's, else
+        the longest re-solve of this tick's QP."""
+        return self._safe_cost or self._resolve_cost
+
+    def _level_stop(self) -> bool:
+        """``stop`` of the strict cascade (``solve_lexicographic``): STAGE_FACTOR times the budget spent (in QP
+        solves), or (clock guard) the next level, at the CPU time of the longest level so far, would not end by
+        ``STAGE_DEADLINE`` times the budget."""
+        if self.clock_guard:
+            now = self._work.seconds()
+            self._level_cost = max(self._level_cost, now - self._level_mark)
+            self._level_mark = now
+            return self._stage_late() or not self._fits(self._level_cost)
+        return self._stage_late()
 
     def _start_work(self, budget_s: float, plan=None) -> None:
         """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend (with
@@ -881,6 +930,8 @@ class KinematicController:
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._budget_s = dt if self._budget is None else self._budget
         self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
+        self._resolve_cost = self._level_cost = self._check_cost = 0.0
+        self._safe_fresh = False
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -917,6 +968,11 @@ class KinematicController:
                 relaxed = []
             except SolverError as first_failure:
                 v = None
+                # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
+                # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
+                if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
+                    raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
+                        from None
                 if self._contact_rows.size and self._consistent_contact_rhs():
                     # dependent contact rows asked contradictory corrections: once more in least squares (one
                     # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
@@ -927,7 +983,9 @@ class KinematicController:
                     except SolverError:
                         v = None
                 relaxed = []
-                if v is None and self._relaxable:  # (one solve: not cut by the budget)
+                if v is None and self._relaxable:  # (one solve: not cut by the count)
+                    if not self._fits(self._resolve_cost):
+                        raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
                     self._relax(config, dt)
                     relaxed = [c.name for c in self._relaxable]
                     try:
@@ -1057,7 +1115,8 @@ class KinematicController:
         contact rows become J_c v = 0 (each contact frame kept where it is, to first order, instead of pulled back
         onto its placement; the correction of a stance sole's accumulated drift can ask a joint held at α = 0 to
         move further out) and the ladder above is solved with them. The tick's sole-drift check still measures the
-        drift from where the full correction would send the frame, so an ok tick keeps its bound.
+        drift from where the full correction would send the frame, so an ok tick keeps its bound. With the clock
+        guard each of these solves starts only when a re-solve of the tick's QP still fits (``_fits``).
 
         Returns:
             (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
@@ -1070,6 +1129,8 @@ class KinematicController:
         low, high = self._outside_limits(config)
         if not (low.size or high.size):
             raise failure
+        if not self._fits(self._resolve_cost):
+            raise SolverError(f"{failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
@@ -1083,7 +1144,7 @@ class KinematicController:
                 v0 = self._solve_assembled(config)
             except SolverError:
                 v0 = None
-            if v0 is None and self._contact_rows.size:
+            if v0 is None and self._contact_rows.size and self._fits(self._resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
                 try:
                     v0 = self._solve_assembled(config)
@@ -1098,7 +1159,7 @@ class KinematicController:
                 b.cold_retry = False
             v, best = v0, 0.0
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
-                if self._late():
+                if self._late() or not self._fits(self._resolve_cost):
                     break
                 self._lb[low] = alpha * lb0
                 self._ub[high] = alpha * ub0
@@ -1136,7 +1197,7 @@ class KinematicController:
             for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
                 b.independent = ()
             for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
-                if self._stage_late():
+                if self._stage_late() or not self._fits(self._resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
                 self._lb[low] = a * lb0
@@ -1151,7 +1212,7 @@ class KinematicController:
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
                     return r, a
-            if self._contact_rows.size and not self._stage_late():
+            if self._contact_rows.size and not self._stage_late() and self._fits(self._resolve_cost):
                 # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
                 # from where the full correction would send a frame is then K dt e plus second order in v dt
                 b0 = self._b[self._contact_rows].copy()
@@ -1248,6 +1309,7 @@ class KinematicController:
         """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
         re-solves the problem in the buffers (default: the tick's QP)."""
         solve = solve or self._solve_assembled
+        cost = self._safe_estimate if solve == self._solve_constraints_only else lambda: self._resolve_cost
         self.contact_corrections = 0
         worst, drifts = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
@@ -1260,7 +1322,7 @@ class KinematicController:
             for k in range(3):
                 # the refinement stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved tick's); the
                 # best command so far is kept
-                if self._late() if bounded else self._stage_late():
+                if (self._late() if bounded else self._stage_late()) or not self._fits(cost()):
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
                     break
@@ -1300,6 +1362,7 @@ class KinematicController:
         ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
         the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled
+        cost = self._safe_estimate if solve == self._solve_constraints_only else lambda: self._resolve_cost
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -1316,7 +1379,7 @@ class KinematicController:
             for k in range(n_radii):
                 # the trust region stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved
                 # tick's); the least drifting command is kept
-                if self._late() if bounded else self._stage_late():
+                if (self._late() if bounded else self._stage_late()) or not self._fits(cost()):
                     if not bounded:
                         self._cut.append(f"trust region after {k} of at most {n_radii} radii")
                     break
@@ -1356,11 +1419,16 @@ class KinematicController:
                                       f" (tick budget spent: {'; '.join(self._cut)} skipped)" if self._cut else ""))
 
     def _solve_assembled(self, config: Configuration) -> np.ndarray:
-        """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist)."""
+        """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist); with the clock
+        guard its CPU time is recorded (the cost of the tick's next re-solve, ``_fits``)."""
         args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
-        if self._level_order:
-            return self._solve_levels(config, *args)
-        return self._solve_flat(*args)
+        if not self.clock_guard:
+            return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
+        t = self._work.seconds()
+        try:
+            return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
+        finally:
+            self._resolve_cost = max(self._resolve_cost, self._work.seconds() - t)
 
     def _relax(self, config: Configuration, dt: float) -> None:
         """Drop the relaxable constraints from the assembled buffers (rows made void, boxes re-intersected)."""
@@ -1437,13 +1505,14 @@ class KinematicController:
             self._level_backends.insert(0, self._new_backend(eps_prox=1e-3))
         if self._final_backend is None:
             self._final_backend = self._new_backend()
+        self._level_mark = self._work.seconds()
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            stop=self._stage_late if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
+            stop=self._level_stop if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
         cut = solve_lexicographic.last_cut
         if cut is not None:
-            if self.clock_guard and self._in_solve:
+            if self.clock_guard and self._in_solve and self._fits(self._level_cost):
                 # clock guard: the cascade does not fit the tick; the weighted form of the levels (one QP) answers
                 # this tick and its re-solves instead of the last solved level's command (which ignores the levels
                 # below it)
@@ -1487,7 +1556,8 @@ class KinematicController:
             return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
                               path=TickPath("fallback", fallback="hold"), reason="exception")
         data_fault = self._data_fault()
-        if not self._late():
+        # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
+        if not self._late() and self._fits(2.0 * max(self._resolve_cost, self._safe_estimate())):
             self._work.solves += 1  # the diagnosis: one least-squares QP
             try:
                 conflicts = self.diagnose(config, dt, include_relaxable=False)
@@ -1506,7 +1576,11 @@ class KinematicController:
             # where the contact frames were when this run of failed ticks began (their anchors)
             self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
         anchors = [self._held_anchors[id(c)] for c in self._contacts]
-        if not data_fault:  # (non-finite QP data: hold)
+        skipped = ""  # clock guard: the safe commands not tried, the tick's budget spent
+        if not data_fault and not self._fits(max(self._safe_stage_cost, self._safe_estimate())):
+            skipped = "constraints_only"
+        elif not data_fault:  # (non-finite QP data: hold)
+            t_stage = self._work.seconds()
             try:
                 v_c = self._solve_constraints_only(config)
                 # the safe command holds the contacts to second order like an ok tick (correction, trust region)
@@ -1519,7 +1593,9 @@ class KinematicController:
                     v, fallback = v_c, "constraints_only"
             except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
                 pass
-        if fallback == "hold" and self._contact_rows.size and not data_fault:
+            if self.clock_guard:
+                self._safe_stage_cost = self._work.seconds() - t_stage
+        if fallback == "hold" and self._contact_rows.size and not data_fault and not skipped:
             # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
             # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
             b0 = self._b.copy()
@@ -1541,6 +1617,9 @@ class KinematicController:
                 if rank < anchored.size:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
                 for beta in _HELD_CORRECTION_SCALES:
+                    if not self._fits(self._safe_estimate() + self._check_cost):
+                        skipped = f"contacts_held from β = {beta:g}"
+                        break
                     self._b[self._contact_rows] = beta * anchored
                     try:
                         v_h = self._solve_constraints_only(config)
@@ -1549,14 +1628,20 @@ class KinematicController:
                     if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
                         continue
                     for _ in range(9 if beta == 0.0 else 1):
-                        if (tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol) and \
-                                self._within_run_radius(config, v_h, dt, anchors):
+                        if not self._fits(self._check_cost):
+                            skipped = "contacts_held (its last scalings)"
+                            break
+                        t = self._work.seconds()
+                        held = (tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol) and \
+                            self._within_run_radius(config, v_h, dt, anchors)
+                        self._check_cost = max(self._check_cost, self._work.seconds() - t)
+                        if held:
                             v, fallback = v_h, "contacts_held"
                             break
                         v_h = 0.5 * v_h  # (β = 0: J_c v = 0 kept, the drift is second order in v dt)
-                    if fallback != "hold":
+                    if fallback != "hold" or skipped:
                         break
-                if fallback == "hold":
+                if fallback == "hold" and not skipped:
                     message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
                                 f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m "
                                 f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began")
@@ -1568,6 +1653,9 @@ class KinematicController:
                 np.copyto(self._b, b0)
                 if backend is not None:
                     backend.independent = independent
+        if skipped:
+            over_budget = True
+            message += f"; {skipped} not tried: tick budget spent (clock guard)"
         try:
             drift = self.sole_drift(config, v, dt)
         except Exception:  # noqa: BLE001 — never raises (module docstring)
@@ -1603,7 +1691,20 @@ class KinematicController:
 
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
         """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
-        objects held in the buffers (hard tasks left out), on the fallback backend. Raises SolverError."""
+        objects held in the buffers (hard tasks left out), on the fallback backend; with the clock guard its CPU
+        time is recorded (``_safe_estimate``). Raises SolverError."""
+        if not self.clock_guard:
+            return self._constraints_only_qp()
+        t = self._work.seconds()
+        try:
+            return self._constraints_only_qp()
+        finally:
+            spent = self._work.seconds() - t
+            self._safe_cost = max(self._safe_cost, spent) if self._safe_fresh else spent
+            self._safe_fresh = True
+
+    def _constraints_only_qp(self) -> np.ndarray:
+        """The QP of :meth:`_solve_constraints_only`, solved (SolverError when it has no solution)."""
         H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
             self._lb, self._ub
         if not self._not_hard_task.all():
