@@ -115,6 +115,21 @@ class TickProbe:
                 f"csw {r.ru_nvcsw - r0.ru_nvcsw}/{r.ru_nivcsw - r0.ru_nivcsw} gc [{gcs}]")
 
 
+def coincident_stalls(worst: list[tuple[float, str]], over: float = 2.0, within: float = 0.02) -> list[str]:
+    """The slow ticks (ratio > ``over`` of their budget) that began within ``within`` seconds (wall clock) of a slow
+    tick of another chunk — run by another process at the same time: a stall of the machine, not of one tick's
+    work. ``worst``: (ratio, "seed S … at T s: …") records of the harnesses' slowest ticks."""
+    import re
+
+    marks = []
+    for ratio, where in worst:
+        t, seed = re.search(r" at ([0-9.]+) s", where), re.search(r"seed (\d+)", where)
+        if t and seed:
+            marks.append((ratio, float(t.group(1)), seed.group(1), where))
+    return [where for ratio, t, seed, where in marks if ratio > over and any(
+        s2 != seed and abs(t2 - t) <= within for _, t2, s2, _ in marks)]
+
+
 _PROBE: list = []
 
 

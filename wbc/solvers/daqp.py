@@ -107,7 +107,7 @@ class DaqpBackend(QPBackend):
         #: time left at ``iteration_cost`` seconds each (:meth:`call_limit`); a clock, so only a caller that accepts
         #: an answer depending on the machine's speed sets it (the inverse-dynamics clock guard).
         self.deadline = math.inf
-        #: the largest CPU time per iteration measured on this backend's recent calls under a deadline (s; 0 until
+        #: the largest CPU time per iteration of this backend's recent calls under a deadline (s; 0 until
         #: one): ``deadline`` sizes the calls at max(``iteration_cost``, this) (:meth:`_timed`)
         self.measured_iteration_cost = 0.0
         #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
