@@ -1,5 +1,5 @@
 """The kinematic CoM-polygon and self-collision constraints held at the acceleration level (inverse dynamics) by
-the same objects, under the same names (wbc.constraints.dynamics.AccelerationBarrier).
+the same objects, under the same names (wbc.constraints.barrier.AccelerationBarrier).
 
 Independent references: Pinocchio's CoM and wbc.geometry's signed distance (CoM polygon), coal distances
 (self-collision), finite differences along the motion for ḣ and ḧ, and closed-loop runs of the ID QP integrated

@@ -262,7 +262,7 @@ def test_daqp_solves_recorded_single_support_problem(robots):
     every row of the recorded problem to 1e-6 (checked here, scaled by max(1, |rhs|))."""
     from pathlib import Path
 
-    from wbc.constraints.dynamics import FrictionPyramid
+    from wbc.constraints.friction import FrictionPyramid
     from wbc.dynamics import SoleContact
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_single_support_humanoid15.npz"))
@@ -337,7 +337,7 @@ def test_first_tick_loads_no_kernel():
     code = (
         "import warnings; warnings.simplefilter('ignore')\n"
         "import numpy as np, wbc\n"
-        "from wbc.constraints import dynamics as d\n"
+        "from wbc.constraints import joint_acceleration_bounds as d\n"
         "from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, SoleContact\n"
         "robot = wbc.load_robot('talos')\n"
         "soles = [SoleContact(robot, robot.left_sole, name='l'), SoleContact(robot, robot.right_sole, name='r')]\n"

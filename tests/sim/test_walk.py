@@ -273,7 +273,7 @@ def test_touchdown_before_the_planned_landing_waits_for_the_floor(tmp_path, caps
             assert fz[k, j] > 0.01 * weight, (t[k], j, delay, fz[k - 5:k + 5, j])
 
 def test_dependent_contact_rows_are_made_consistent():
-    from wbc.constraints.dynamics import consistent_contact_rhs
+    from wbc.constraints.contact_acceleration import consistent_contact_rhs
 
     rng = np.random.default_rng(4)
     # Rank 11 of 12 (a dependent row, as two flat soles of 5-DoF legs): the projected b is the least-squares

@@ -1,46 +1,110 @@
-"""Constraint interfaces: linear equalities, inequalities and bounds on the decision variable v (nv,).
+"""The one constraint protocol of both QP levels.
 
-* :class:`EqualityConstraint`: A v = b.
-* :class:`InequalityConstraint`: l ≤ C v ≤ u.
-* :class:`BoxConstraint`: lb ≤ v[idx] ≤ ub on some velocity coordinates.
+Every constraint, at the kinematic level (decision variable v (nv,), :class:`~wbc.formulations.velocity.
+KinematicController`) and at the inverse-dynamics level (x = [v̇; f] (nv + 12 n_c,), :class:`~wbc.formulations.
+acceleration.InverseDynamicsQP`), is a :class:`Constraint`: a ``name`` (used in infeasibility reports,
+:mod:`wbc.solvers.diagnosis`), a ``kind`` (one of :data:`CONSTRAINT_KINDS`), a number of rows ``dim`` (fixed while the constraint
+is in a QP: the row layout is built from it), ``relaxable`` and one verb, :meth:`Constraint.write`, which writes the
+constraint's numbers of this tick **in place** into views of the QP's preallocated arrays:
 
-Each computes its rows from a :class:`~wbc.configuration.Configuration` and the control period dt (s).
+* ``equality``: ``write(ctx, A_rows, b_rows, None)`` — rows of A x = b;
+* ``inequality``: ``write(ctx, C_rows, l_rows, u_rows)`` — rows of l ≤ C x ≤ u (±inf allowed);
+* ``bounds``: ``write(ctx, None, lb_view, ub_view)`` — lb ≤ x[indices] ≤ ub, the views of length ``dim``.
 
-Bounds never conflict with each other: the controller intersects boxes in increasing ``priority`` (then insertion
-order), each one clipped into the intersection of those before it, so a lower-priority box *yields* where it would
-empty the box (joint velocity limits 0 > recoverable position limits 1 > acceleration limits 2). Inside the
-joint range every box contains 0 and nothing is clipped.
+``ctx`` carries what the constraints of a level share at one tick: a :class:`KinematicContext` (the configuration
+and the control period) or an :class:`IDContext` (the dynamic state, M, h, the contact Jacobians). The level's
+formulation places each constraint once (``rows``, ``indices``); relaxation and diagnosis iterate the one list of
+constraints by ``kind`` and ``relaxable``.
 
-A constraint that needs the command actually sent at the previous tick sets ``needs_previous_command = True`` and
-implements ``set_previous(v)``; the controller calls it with ``TickResult.v`` after every tick (fallbacks included).
+Kinematic level (this module, rows in v):
+
+* :class:`EqualityConstraint`: A v = b (contacts, hard tasks);
+* :class:`InequalityConstraint`: l ≤ C v ≤ u (CoM polygon, self-collision, executed ZMP);
+* :class:`BoxConstraint`: lb ≤ v[idx] ≤ ub on some velocity coordinates (joint position, velocity, acceleration
+  limits), intersected by the controller in increasing ``priority`` (then insertion order), each one clipped into
+  the intersection of those before it, so a lower-priority box *yields* where it would empty the box (joint velocity
+  limits 0 > recoverable position limits 1 > acceleration limits 2). Inside the joint range every box contains 0 and
+  nothing is clipped.
+
+Each computes its rows from a :class:`~wbc.configuration.Configuration` and the control period dt (s) by
+``compute(config, dt)``; its :meth:`~Constraint.write` writes them. A constraint that needs the command actually sent
+at the previous tick sets ``needs_previous_command = True`` and implements ``set_previous(v)``; the controller calls
+it with ``TickResult.v`` after every tick (fallbacks included).
+
+Inverse-dynamics level (rows in [v̇; f]): :class:`IDConstraint`, with one module per concept in
+:mod:`wbc.constraints` (the table of :mod:`wbc.constraints`).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from wbc.configuration import Configuration
+from wbc.state import DynamicsState
 
-__all__ = ["Constraint", "EqualityConstraint", "InequalityConstraint", "BoxConstraint"]
+__all__ = ["CONSTRAINT_KINDS", "Constraint", "KinematicContext", "EqualityConstraint", "InequalityConstraint", "BoxConstraint",
+           "IDContext", "IDConstraint"]
+
+#: The kinds of constraint rows (``Constraint.kind``): A x = b, l ≤ C x ≤ u, lb ≤ x[indices] ≤ ub.
+CONSTRAINT_KINDS = ("equality", "inequality", "bounds")
 
 
 class Constraint(ABC):
-    """Common base: a name (used in infeasibility reports) and a dimension (number of rows, fixed for the
-    constraint's lifetime: the controller's row layout is built from it)."""
+    """The protocol of a constraint of either QP level (module docstring).
+
+    Attributes:
+        name: label in reports. kind: one of :data:`CONSTRAINT_KINDS`. dim: rows (or bounded entries), fixed for the
+            constraint's lifetime in a QP. relaxable: a preference rather than a safety limit — left out of a tick
+            whose QP is infeasible with it (e.g. joint acceleration limits, torque limits).
+        level: ``"velocity"`` (kinematic, x = v) or ``"acceleration"`` (inverse dynamics, x = [v̇; f]): the QP
+            whose context :meth:`write` reads.
+        needs_previous_command: kinematic level: True when the controller must call ``set_previous(v)`` with the
+            command of every tick (module docstring).
+    """
 
     name: str = "constraint"
+    kind: str = "equality"
+    level: str = "velocity"
     dim: int = 0
-    #: True: the controller calls ``set_previous(v)`` with the command of every tick (module docstring).
-    needs_previous_command: bool = False
-    #: True: a preference rather than a safety limit — left out of a tick whose QP is infeasible with it
-    #: (``TickResult.relaxed``), e.g. acceleration limits against a contact + joint-limit recovery.
     relaxable: bool = False
+    needs_previous_command: bool = False
+
+    @property
+    def enabled(self) -> bool:
+        """False while the constraint has no rows in the QP (e.g. an inactive contact's acceleration rows)."""
+        return True
+
+    @abstractmethod
+    def write(self, ctx, M_rows: np.ndarray | None, lo: np.ndarray, hi: np.ndarray | None) -> None:
+        """Write this tick's numbers in place (module docstring): ``equality`` M_rows = A[rows], lo = b[rows]
+        (hi None); ``inequality`` C[rows], l[rows], u[rows]; ``bounds`` (M_rows None) the views lb[indices],
+        ub[indices] of length ``dim``. ``ctx``: the level's :class:`KinematicContext` or :class:`IDContext`."""
+
+
+@dataclass
+class KinematicContext:
+    """Per-tick quantities of the kinematic level, read by :meth:`Constraint.write`.
+
+    Attributes:
+        config: the :class:`~wbc.configuration.Configuration` (kinematics updated). dt: control period (s).
+    """
+
+    config: Configuration | None = None
+    dt: float = 0.0
 
 
 class EqualityConstraint(Constraint):
-    """A :math:`A v = b` block (e.g. contacts, hard tasks)."""
+    """A :math:`A v = b` block (e.g. contacts, hard tasks).
+    """
+
+    kind = "equality"
+
+    def write(self, ctx: KinematicContext, M_rows: np.ndarray, lo: np.ndarray, hi=None) -> None:
+        """A[rows] (dim, nv) and b[rows] (dim,) from :meth:`compute` at ``ctx.config``, ``ctx.dt``."""
+        M_rows[:], lo[:] = self.compute(ctx.config, ctx.dt)
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Return (A (m, nv), b (m,)) such that A v = b must hold."""
@@ -51,8 +115,14 @@ class InequalityConstraint(Constraint):
 
     A constraint that keeps a function h(q) ≥ 0 (a distance, a margin) also gives :meth:`barrier`, the same
     quantity for the acceleration level: h, its Jacobian G = ∂h/∂q and its drift Ġv, so the inverse-dynamics
-    formulation can hold it as the second-order barrier of :class:`wbc.constraints.dynamics.AccelerationBarrier`
+    formulation can hold it as the second-order barrier of :class:`wbc.constraints.barrier.AccelerationBarrier`
     under the same name."""
+
+    kind = "inequality"
+
+    def write(self, ctx: KinematicContext, M_rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """C[rows] (dim, nv), l[rows], u[rows] (dim,) from :meth:`compute` at ``ctx.config``, ``ctx.dt``."""
+        M_rows[:], lo[:], hi[:] = self.compute(ctx.config, ctx.dt)
     @abstractmethod
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return (C (m, nv), l (m,), u (m,)) such that l ≤ C v ≤ u must hold (±inf allowed)."""
@@ -68,7 +138,10 @@ class InequalityConstraint(Constraint):
 
 
 class BoxConstraint(Constraint):
-    """Bounds :math:`lb ≤ v[indices] ≤ ub`, intersected by the controller in ``priority`` order."""
+    """Bounds :math:`lb ≤ v[indices] ≤ ub`, intersected by the controller in ``priority`` order
+    (:meth:`intersect_into`)."""
+
+    kind = "bounds"
     #: (k,) indices of v that are bounded.
     indices: np.ndarray
     #: intersection order; a box with a larger number yields to those before it (module docstring).
@@ -80,6 +153,10 @@ class BoxConstraint(Constraint):
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Return (lb (k,), ub (k,)) with lb ≤ v[indices] ≤ ub."""
 
+    def write(self, ctx: KinematicContext, M_rows, lo: np.ndarray, hi: np.ndarray) -> None:
+        """This box's own bounds (k,) from :meth:`compute`, before any intersection (:meth:`intersect_into`)."""
+        lo[:], hi[:] = self.compute(ctx.config, ctx.dt)
+
     def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
         """Intersect this box with the running box lb ≤ v ≤ ub ((nv,) each, in place), clipped into it so that it
         yields where it would empty it (module docstring): on ``indices``, lb ← min(max(lo, lb), ub) and
@@ -90,3 +167,44 @@ class BoxConstraint(Constraint):
         cur_lo, cur_hi = lb[idx], ub[idx]
         lb[idx] = np.minimum(np.maximum(lo, cur_lo), cur_hi)
         ub[idx] = np.maximum(np.minimum(hi, cur_hi), cur_lo)
+
+
+@dataclass
+class IDContext:
+    """Per-tick quantities shared by the constraints (written by the formulation before they are).
+
+    Attributes:
+        state: the dynamic state. dt: control period (s). nv: velocity dimension.
+        JcT: (nv, 12 n_c) J_cᵀ = [J_kᵀ G_k]_k (LOCAL sole Jacobians; inactive contacts included).
+        jacobians: contact name → (6, nv) LOCAL sole Jacobian of this tick.
+        offsets: contact name → (6,) velocity-free part −J̇v − K_p e of its eq. 5 right-hand side
+            (:meth:`~wbc.constraints.sole_contact.SoleContact.acceleration_offset`) of this tick; a contact missing
+            here has it computed by its constraint.
+    """
+
+    state: DynamicsState
+    dt: float
+    nv: int
+    JcT: np.ndarray
+    jacobians: dict
+    offsets: dict = field(default_factory=dict)
+
+
+class IDConstraint(Constraint):
+    """Base of the constraints of the inverse-dynamics QP (x = [v̇; f]; module docstring and the table of
+    :mod:`wbc.constraints`).
+
+    Attributes:
+        name: label in reports. kind: ``equality``, ``inequality`` or ``bounds``. dim: rows (or bounded entries).
+        relaxable: dropped by the relaxed solve. constant: written once (rows do not depend on the state).
+        rows: slice of the constraint's rows in A (equality) or C (inequality), set by the formulation.
+        indices: (dim,) indices of x bounded by a ``bounds`` constraint.
+
+    :meth:`~Constraint.write` reads an :class:`IDContext`.
+    """
+
+    level = "acceleration"
+    constant: bool = False
+    rows: slice = slice(0, 0)
+    indices: np.ndarray | None = None
+

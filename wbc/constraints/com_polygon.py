@@ -15,7 +15,7 @@ velocity −α (c_xy − x0) with α large enough satisfies all of them at once.
 
 The row count is fixed (4 × ``max_soles``): unused rows are 0 ≤ +inf.
 
-Acceleration level (:meth:`ComPolygonConstraint.barrier`, held by :class:`wbc.constraints.dynamics.AccelerationBarrier`):
+Acceleration level (:meth:`ComPolygonConstraint.barrier`, held by :class:`wbc.constraints.barrier.AccelerationBarrier`):
 h_i = d_i − margin − n_iᵀ c_xy ≥ 0 (m), G_i = −n_iᵀ J_com,xy, drift −n_iᵀ c̈_xy at v̇ = 0 (``DynamicsState.com_drift``).
 """
 

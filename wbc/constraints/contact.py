@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
-from wbc.constraints.base import EqualityConstraint
+from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
 from wbc.tasks.frame import as_se3
 
@@ -61,7 +61,7 @@ class ContactConstraint(EqualityConstraint):
         self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
-        self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): compute_into
+        self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): write
         _warm_up()
 
     @property
@@ -117,14 +117,17 @@ class ContactConstraint(EqualityConstraint):
         b *= -min(self._gain, 1.0 / dt)
         return pin.getFrameJacobian(config.model, config.data, self.frame_id, LOCAL), b
 
-    def compute_into(self, config: Configuration, dt: float, A_out: np.ndarray, b_out: np.ndarray) -> float:
-        """Write the rows of :meth:`compute` into A_out (6, nv) and b_out (6,) (views of a controller's stacked
-        buffers); returns the gain used, min(K, 1/dt) (1/s)."""
+    def write(self, ctx: KinematicContext, A_out: np.ndarray, b_out: np.ndarray, hi=None) -> None:
+        """Write the rows of :meth:`compute` in place into A_out (6, nv) and b_out (6,) (views of a controller's
+        stacked buffers), at ``ctx.config`` and ``ctx.dt``; a subclass that overrides :meth:`compute` is written
+        from it."""
+        if type(self).compute is not ContactConstraint.compute:
+            super().write(ctx, A_out, b_out, hi)
+            return
+        config = ctx.config
         data = config.data
         views = self._oMf_views
         if views is None or views[0] is not data:  # data.oMf[frame] is a reference into Pinocchio's data
             views = self._oMf_views = (data, data.oMf[self.frame_id])
-        k = min(self._gain, 1.0 / dt)
         _write_rows(pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL),
-                    pin.log6(self._placement.actInv(views[1])).vector, -k, A_out, b_out)
-        return k
+                    pin.log6(self._placement.actInv(views[1])).vector, -min(self._gain, 1.0 / ctx.dt), A_out, b_out)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.constraints.dynamics import IDConstraint
+from wbc.constraints.base import IDConstraint
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["JointSpeedBounds", "speed_margins"]

@@ -302,7 +302,7 @@ class SoleContact:
     def acceleration_offset(self, state: DynamicsState) -> np.ndarray:
         """(6,) the velocity-free part −J̇v − K_p e of the right-hand side b = −J̇v − K_d J v − K_p e of ``J v̇ = b``
         (module docstring; LOCAL; m/s², rad/s²), a new array; the ID QP adds −K_d J v
-        (:func:`wbc.constraints.dynamics.contact_acceleration_rows`)."""
+        (:func:`wbc.constraints.contact_acceleration.contact_acceleration_rows`)."""
         b = -pin.getFrameClassicalAcceleration(state.model, state.data, self.frame_id, pin.LOCAL).vector
         if self.kp > 0 and self.reference is not None:
             b -= self.kp * pin.log6(self.reference.actInv(state.data.oMf[self.frame_id])).vector

@@ -2,7 +2,7 @@
 acceleration-level public API.
 
 Layers (TSID's split): tasks (:mod:`wbc.tasks`: each states e(q), J and the drift J̇v once, for both levels) and
-contacts (:mod:`~wbc.constraints.sole_contact`) → named constraints (:mod:`~wbc.constraints.dynamics`) → the
+contacts (:mod:`~wbc.constraints.sole_contact`) → named constraints (:mod:`~wbc.constraints`) → the
 formulation, the QP written once in :mod:`~wbc.formulations.acceleration`'s docstring, with each task's PD
 reference a* (:class:`~wbc.formulations.reference.AccelerationReference`) → solvers (:mod:`wbc.solvers` backends; the
 compiled tick :mod:`~wbc.formulations.idkernel`) → the controller (:mod:`~wbc.dynamics.controller`: diagnosis,

@@ -30,7 +30,7 @@ diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
-0. diagnosis (``diagnose=True``): the named constraints of :mod:`wbc.constraints.dynamics` that conflict at this
+0. diagnosis (``diagnose=True``): the named constraints of :mod:`wbc.constraints` that conflict at this
    state, with their violations, are reported in ``IDCommand.conflicts`` (largest first;
    :meth:`InverseDynamicsQP.diagnose`, a slack-relaxed least-squares solve of the hard set,
    :mod:`wbc.solvers.diagnosis`), and named in ``message``;

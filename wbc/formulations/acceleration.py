@@ -3,7 +3,7 @@
 It assembles the shared task objects of :mod:`wbc.tasks` as (J_i, a*_i − J̇_i v) (their e, J and drift J̇v, with the
 PD reference a*_i of :class:`~wbc.formulations.reference.AccelerationReference`) — the velocity-level formulation
 (:mod:`wbc.formulations.velocity`) uses the same objects as (J_i, v*_i) — and named constraint objects
-(:mod:`wbc.constraints.dynamics`, plus any kinematic constraint of :mod:`wbc.constraints` with a barrier form,
+(:mod:`wbc.constraints`, plus any kinematic constraint of :mod:`wbc.constraints` with a barrier form,
 under its own name: ``com_polygon``, ``self_collision``).
 
 The problem, solved once per control tick of period dt (s), at the measured state (q, v):
@@ -27,7 +27,8 @@ sole-wrench map (sole frame). The actuated rows define the torques, which are th
             J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
                 (with ≥ 2 active contacts, the stacked rows and right-hand side are replaced by their components along
                 the rows' left singular vectors with σ ≥ 1e-2 σ_max: the nearly dependent directions are dropped,
-                constraints.dynamics.independent_contact_rows; the equality block then has fewer than 6 n_c rows)
+                constraints.contact_acceleration.independent_contact_rows; the equality block then has fewer than
+                6 n_c rows)
             −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
             F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis; active k)  (7)
             f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
@@ -53,7 +54,7 @@ q_max), the bounds would demand an arbitrarily large braking acceleration in one
 cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
 best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
 
-Every constraint (4)–(10) is a named object of :mod:`wbc.constraints.dynamics` (``floating_base_dynamics``,
+Every constraint (4)–(10) is a named object of :mod:`wbc.constraints` (``floating_base_dynamics``,
 ``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
 name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
 preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
@@ -83,22 +84,15 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
-from wbc.constraints.base import InequalityConstraint
-from wbc.constraints.dynamics import (
-    DEPENDENT_CONTACT_RATIO,
-    AccelerationBarrier,
-    ContactAcceleration,
-    FloatingBaseDynamics,
-    FrictionPyramid,
-    HardTask,
-    IDConstraint,
-    IDContext,
-    JointAccelerationLimits,
-    TorqueLimits,
-    Unilaterality,
-    contact_force_columns,
-    independent_contact_rows,
-)
+from wbc.constraints.barrier import AccelerationBarrier
+from wbc.constraints.base import IDConstraint, IDContext, InequalityConstraint
+from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO, ContactAcceleration, independent_contact_rows
+from wbc.constraints.floating_base import FloatingBaseDynamics, contact_force_columns
+from wbc.constraints.friction import FrictionPyramid
+from wbc.constraints.hard_task import HardTask
+from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
+from wbc.constraints.torque_limits import TorqueLimits
+from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
@@ -192,7 +186,7 @@ class InverseDynamicsQP:
         joint_limits: apply the joint acceleration bounds (9).
 
     Attributes:
-        constraints: every named constraint (:mod:`wbc.constraints.dynamics`), in row order.
+        constraints: every named constraint (:mod:`wbc.constraints`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
 
     Raises:
@@ -227,7 +221,7 @@ class InverseDynamicsQP:
             self.contacts.append(c)
         nc = len(self.contacts)
         self.n = n = nv + 12 * nc
-        # Named constraints (wbc.constraints.dynamics), each with its place in the preallocated blocks.
+        # Named constraints (wbc.constraints), each with its place in the preallocated blocks.
         self.dynamics = FloatingBaseDynamics()
         self.dynamics.rows = slice(0, 6)
         self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
@@ -246,6 +240,8 @@ class InverseDynamicsQP:
             r += con.dim
         self._r0 = r  # inequality rows before the added constraints (add_constraint)
         self.extra_constraints: list[IDConstraint] = []
+        #: equality constraints added by :meth:`add_constraint` (rows after the hard tasks')
+        self.extra_equalities: list[IDConstraint] = []
         # Preallocated blocks.
         self._H = np.zeros((n, n))
         self._g = np.zeros(n)
@@ -270,7 +266,7 @@ class InverseDynamicsQP:
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._m = 6  # equality rows of the last build
         #: directions of the stacked active contact rows dropped at the last build
-        #: (:func:`wbc.constraints.dynamics.independent_contact_rows`; 0 for legs that can yaw the foot)
+        #: (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`; 0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
         #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
         #: failure; False by default: it costs many control periods and belongs off the control path
@@ -359,29 +355,41 @@ class InverseDynamicsQP:
     @property
     def constraints(self) -> list[IDConstraint]:
         """Every named constraint: equalities (dynamics, active contacts, hard tasks), inequalities, bounds."""
-        return [self.dynamics, *self.contact_accelerations, *self.hard_tasks, self.torque_limits, *self.friction,
-                *self.extra_constraints, *self.unilaterality, self.joint_acceleration_limits]
+        return [self.dynamics, *self.contact_accelerations, *self.hard_tasks, *self.extra_equalities,
+                self.torque_limits, *self.friction, *self.extra_constraints, *self.unilaterality,
+                self.joint_acceleration_limits]
 
     def add_constraint(self, constraint, *, gain: float = 10.0) -> IDConstraint:
-        """Add an inequality constraint under its name: an inequality :class:`~wbc.constraints.dynamics.IDConstraint`,
-        or a kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
-        ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.dynamics.AccelerationBarrier` with γ =
+        """Add a constraint under its name: an equality or inequality :class:`~wbc.constraints.base.IDConstraint`
+        (rows in x = [v̇; f], written by its ``write``; equality rows go after the hard tasks' in A x = b), or a
+        kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
+        ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ =
         ``gain`` (1/s). While one is present the general (DAQP) path solves the QP.
 
         Returns:
             the ID constraint added (remove it with it, or with the kinematic constraint).
 
         Raises:
-            InvalidInputError: another kind of object, no barrier form, bad gain, or a name already in the QP.
+            InvalidInputError: another kind of object (a ``bounds`` constraint, a kinematic constraint without a
+                barrier form), bad gain, or a name already in the QP.
         """
         if isinstance(constraint, InequalityConstraint):
             constraint = AccelerationBarrier(constraint, gain=gain)
-        if not isinstance(constraint, IDConstraint) or constraint.kind != "inequality":
-            raise InvalidInputError(f"add_constraint takes an inequality constraint, got {type(constraint).__name__}")
+        if not isinstance(constraint, IDConstraint) or constraint.kind not in ("equality", "inequality"):
+            what = constraint.kind if isinstance(constraint, IDConstraint) else type(constraint).__name__
+            raise InvalidInputError(f"add_constraint takes an equality or inequality IDConstraint (rows in [v̇; f]) "
+                                    f"or a kinematic inequality constraint with a barrier form, got {what}")
+        if not (isinstance(constraint.dim, (int, np.integer)) and constraint.dim >= 0):
+            raise InvalidInputError(f"constraint {constraint.name!r}: dim must be an integer ≥ 0, got "
+                                    f"{constraint.dim!r}")
         if any(c.name == constraint.name for c in self.constraints):
             raise InvalidInputError(f"a constraint named {constraint.name!r} is already in the QP")
-        self.extra_constraints.append(constraint)
-        self._layout_inequalities()
+        if constraint.kind == "equality":
+            self.extra_equalities.append(constraint)
+            self._grow_equalities()
+        else:
+            self.extra_constraints.append(constraint)
+            self._layout_inequalities()
         return constraint
 
     def remove_constraint(self, constraint) -> None:
@@ -395,6 +403,9 @@ class InverseDynamicsQP:
                 self.extra_constraints.remove(con)
                 self._layout_inequalities()
                 return
+        if constraint in self.extra_equalities:
+            self.extra_equalities.remove(constraint)
+            return
         raise ValueError(f"{constraint!r} is not in the QP")
 
     def _layout_inequalities(self) -> None:
@@ -428,7 +439,7 @@ class InverseDynamicsQP:
     def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
                  kd: float | None = None, weight=None) -> AccelerationReference:
         """Add a task: weighted (default) or, with ``hard=True``, held as the equality constraint ``task:<name>``
-        (:class:`~wbc.constraints.dynamics.HardTask`). ``task`` is an
+        (:class:`~wbc.constraints.hard_task.HardTask`). ``task`` is an
         :class:`~wbc.formulations.reference.AccelerationReference`, or a :class:`wbc.tasks.base.Task` given with
         its reference gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight`` (then wrapped in one).
 
@@ -465,7 +476,7 @@ class InverseDynamicsQP:
         self.tasks.remove(task)
 
     def _grow_equalities(self) -> None:
-        rows = 6 + 6 * len(self.contacts) + sum(h.dim for h in self.hard_tasks)
+        rows = 6 + 6 * len(self.contacts) + sum(h.dim for h in (*self.hard_tasks, *self.extra_equalities))
         if rows > self._A.shape[0]:
             self._A = np.zeros((rows, self.n))
             self._b = np.zeros(rows)
@@ -491,7 +502,7 @@ class InverseDynamicsQP:
         constant blocks (force regularisation, friction rows, force bounds whose contact did not change) are not
         rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
         (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
-        (:func:`~wbc.constraints.dynamics.independent_contact_rows`)."""
+        (:func:`~wbc.constraints.contact_acceleration.independent_contact_rows`)."""
         rows = self._rows
         rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
@@ -522,7 +533,7 @@ class InverseDynamicsQP:
                 for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
                     if con.enabled:
                         con.rows = slice(min(con.rows.start, i), min(con.rows.stop, i))
-        for con in self.hard_tasks:
+        for con in (*self.hard_tasks, *self.extra_equalities):
             if con.enabled:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
@@ -621,7 +632,8 @@ class InverseDynamicsQP:
         self.last_violations = []
         self._assembled = None
         self.budget_cut = False
-        if self._kernel is not None and not self.hard_tasks and not self.extra_constraints:
+        if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
+                and not self.extra_equalities:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)

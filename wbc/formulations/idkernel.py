@@ -3,7 +3,7 @@ in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration
 
 The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies: :func:`id_tick` is
 :func:`id_assemble` — the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
-:mod:`wbc.constraints.dynamics` that the constraints' ``write`` call on the general path
+:mod:`wbc.constraints` that the constraints' ``write`` call on the general path
 (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`) —, then the solve and the torques. From Python
 come the stacked task rows gathered for both paths: per row J (dense rows, stacked) or its v index (posture rows)
 and the numbers e, ė_ff, J̇v, ä_ff, Kp, Kd, w of its reference (eq. 1 of :mod:`wbc.formulations.reference`); M, h;
@@ -48,8 +48,10 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.constraints.dynamics import (contact_acceleration_rows, contact_force_columns, floating_base_rows,
-                                      joint_bounds_kernel, torque_limit_rows)
+from wbc.constraints.contact_acceleration import contact_acceleration_rows
+from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
+from wbc.constraints.joint_acceleration_bounds import joint_bounds_kernel
+from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
                                 weighted_normal_equations)
@@ -669,7 +671,7 @@ def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter,
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
-    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.dynamics.independent_contact_rows` would keep every row
+    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.contact_acceleration.independent_contact_rows` would keep every row
     and need not run (its eigen-decomposition is the tick's largest numpy call). With G = J Jᵀ
     (eigenvalues λ = σ²): λ_min ≥ 1 / tr(G⁻¹) and λ_max ≤ tr(G), so 1 / tr(G⁻¹) ≥ ratio² tr(G) implies
     λ_min ≥ ratio² λ_max. tr(G⁻¹) = ‖L⁻¹‖_F² from the Cholesky factor L of G. False (no certificate) when that
@@ -732,7 +734,7 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
 
 #: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
 #: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
-#: drops the dependent directions (:func:`wbc.constraints.dynamics.independent_contact_rows`).
+#: drops the dependent directions (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`).
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_tick`'s ``par`` vector
@@ -820,11 +822,11 @@ def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
 def id_assemble(tasks, contacts, dynamics, limits, qp, work):
     """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
     :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
-    cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.dynamics.contact_force_columns`), eq. 4
-    (:func:`~wbc.constraints.dynamics.floating_base_rows`), eq. 5 of each active contact
-    (:func:`~wbc.constraints.dynamics.contact_acceleration_rows`), eq. 6
-    (:func:`~wbc.constraints.dynamics.torque_limit_rows`) and eq. 9
-    (:func:`~wbc.constraints.dynamics.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
+    cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.floating_base.contact_force_columns`), eq. 4
+    (:func:`~wbc.constraints.floating_base.floating_base_rows`), eq. 5 of each active contact
+    (:func:`~wbc.constraints.contact_acceleration.contact_acceleration_rows`), eq. 6
+    (:func:`~wbc.constraints.torque_limits.torque_limit_rows`) and eq. 9
+    (:func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
     blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints. Inlined into
     :func:`id_tick` (its arguments grouped in tuples: numba inlines no call with that many arguments).
 

@@ -156,7 +156,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
-from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint
+from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
+                                  KinematicContext)
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
@@ -372,6 +373,7 @@ class KinematicController:
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
         self._layout_ok = False
+        self._context = KinematicContext()  # what Constraint.write reads (assemble)
         self._layout_key: tuple | None = None
         self._layouts: dict[tuple, dict] = {}
         self._soft_layouts: dict[tuple, tuple] = {}
@@ -549,6 +551,11 @@ class KinematicController:
             InvalidInputError: not a wbc Constraint, or built for another robot (other model, frame ids or nv).
         """
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+            if isinstance(constraint, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
+                raise InvalidInputError(
+                    f"{type(constraint).__name__} {constraint.name!r} is a constraint of the {constraint.level} level; "
+                    f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
+                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self._check_robot(constraint, "constraint")
         self.constraints.append(constraint)
@@ -664,10 +671,9 @@ class KinematicController:
         views = self._qp_pack[2]
         self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
         self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
-        # each contact's rows written in place (ContactConstraint.compute_into) or from compute, and its factor
-        # dt − 1/K (the contact's expected error (1 − K dt) e = factor · b)
-        self._contact_writes = [(c, r0, r1, type(c) is ContactConstraint, self._A[r0:r1], self._b[r0:r1])
-                                for c, r0, r1 in self._contact_blocks]
+        # each contact's rows written in place (Constraint.write into views of A, b), and its factor dt − 1/K (the
+        # contact's expected error (1 − K dt) e = factor · b)
+        self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         self._other_eq_blocks = [blk for blk in self._eq_blocks if id(blk[0]) not in contact_ids]
         self._contact_factors = np.zeros(len(self._contact_blocks))
         self._contact_starts = np.array([r0 for _, r0, _ in self._contact_blocks], np.int64)
@@ -701,7 +707,7 @@ class KinematicController:
 
         The task rows are gathered into stacked buffers (each task's ``compute_into``) and the cost formed from them
         by one compiled call (:func:`wbc.formulations.velocity_kernel.form_qp`); the constraint rows are written by each
-        constraint (a contact's ``compute_into``, else ``compute``) and the box is the intersection of each bound
+        constraint (:meth:`~wbc.constraints.base.Constraint.write`, in place) and the box is the intersection of each bound
         constraint's own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at
         the next call.
         """
@@ -731,21 +737,19 @@ class KinematicController:
                 _gather_rows(level, config)
                 weighted_rows(level.J, level.e, level.rowp, level.wJ, level.wr)
         A, b = self._A, self._b
+        ctx = self._context
+        ctx.config, ctx.dt = config, dt
         factors = self._contact_factors
-        for i, (c, r0, r1, in_place, A_rows, b_rows) in enumerate(self._contact_writes):
-            if in_place:
-                k = c.compute_into(config, dt, A_rows, b_rows)
-            else:
-                A[r0:r1], b[r0:r1] = c.compute(config, dt)
-                k = min(c.gain, 1.0 / dt)
-            factors[i] = dt - 1.0 / k
+        for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
+            c.write(ctx, A_rows, b_rows, None)
+            factors[i] = dt - 1.0 / min(c.gain, 1.0 / dt)
         for c, r0, r1 in self._other_eq_blocks:
-            A[r0:r1], b[r0:r1] = c.compute(config, dt)
+            c.write(ctx, A[r0:r1], b[r0:r1], None)
         if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
             self._contact_expected = [b[r0:r1] * factors[i] for i, (c, r0, r1) in enumerate(self._contact_blocks)]
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
-            C[r0:r1], l[r0:r1], u[r0:r1] = c.compute(config, dt)
+            c.write(ctx, C[r0:r1], l[r0:r1], u[r0:r1])
         self._intersect_boxes(config, dt)
         return H, g, A, b, C, l, u, self._lb, self._ub
 

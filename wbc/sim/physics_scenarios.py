@@ -21,7 +21,7 @@ sole edge at the unload; the runs behind the margin, which is marginal, are in `
 "Measurement history moved out of docstrings").
 Walking: at a touch-down the right-hand side of the two soles' rows is inconsistent along the dependent direction
 (a relative foot yaw acceleration the legs cannot produce), which makes the QP infeasible. The ID QP keeps only
-the well-conditioned directions of the two soles' rows (:func:`wbc.constraints.dynamics.independent_contact_rows`,
+the well-conditioned directions of the two soles' rows (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`,
 σ < 1e-2 σ_max counts as dependent): a nearly dependent row kept as an equality, even with a consistent right-hand
 side, forbids pitching or rolling the pelvis over the fixed feet (the direction of that row).
 

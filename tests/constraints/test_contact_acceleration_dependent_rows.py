@@ -1,5 +1,5 @@
 """Two flat soles on 5-DoF legs (humanoid15, no hip yaw): the nearly dependent direction of the stacked contact rows
-is dropped from the ID QP (``wbc.constraints.dynamics.independent_contact_rows``), so the pelvis orientation stays
+is dropped from the ID QP (``wbc.constraints.contact_acceleration.independent_contact_rows``), so the pelvis orientation stays
 controllable while standing.
 
 Independent references: numpy's SVD for the kept rows; the torso orientation task's demand in closed form (at rest,
@@ -12,7 +12,7 @@ import pinocchio as pin
 import pytest
 
 from wbc.solvers import make_backend
-from wbc.constraints.dynamics import independent_contact_rows
+from wbc.constraints.contact_acceleration import independent_contact_rows
 from wbc.dynamics.balance import IDBalanceController
 
 

@@ -1,0 +1,125 @@
+"""Joint position / velocity / viability bounds on the joint accelerations of the inverse-dynamics QP (eq. 9 of
+:mod:`wbc.formulations.acceleration`; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV), relaxable.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from wbc.compiled import once_per_process
+from wbc.constraints.base import IDConstraint
+from wbc.constraints.contact_acceleration import contact_acceleration_rows
+from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
+from wbc.constraints.torque_limits import torque_limit_rows
+from wbc.exceptions import InvalidInputError
+from wbc.robot import Robot
+from wbc.state import DynamicsState
+
+__all__ = ["JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel"]
+
+
+class JointAccelerationLimits(IDConstraint):
+    """Joint position / velocity / viability bounds on the 1-DoF joint accelerations (eq. 9; rad/s²).
+
+    Args:
+        robot: the robot. braking_acceleration: a_brk (rad/s²), > 0.
+    """
+
+    name = "joint_limits"
+    kind = "bounds"
+    relaxable = True
+
+    def __init__(self, robot: Robot, braking_acceleration: float = 50.0):
+        if not (np.isfinite(braking_acceleration) and braking_acceleration > 0):
+            raise InvalidInputError(f"braking_acceleration must be finite and > 0, got {braking_acceleration!r}")
+        model = robot.model
+        iq, iv = [], []
+        for j in range(2, model.njoints):
+            jm = model.joints[j]
+            if jm.nq == 1 and jm.nv == 1:
+                iq.append(jm.idx_q)
+                iv.append(jm.idx_v)
+        self.iq, self.iv = np.array(iq, dtype=np.int64), np.array(iv, dtype=np.int64)
+        self.indices = self.iv
+        self.dim = int(self.iv.size)
+        self.qmin = np.asarray(model.lowerPositionLimit, dtype=float)[self.iq].copy()
+        self.qmax = np.asarray(model.upperPositionLimit, dtype=float)[self.iq].copy()
+        vmax = np.asarray(model.velocityLimit, dtype=float)[self.iv]
+        self.vmax = np.where(vmax > 0, vmax, np.inf)
+        self.braking_acceleration = float(braking_acceleration)
+        #: ticks h over which the velocity term lets a joint reach ±vmax (≥ 1; see joint_acceleration_bounds)
+        self.speed_horizon = 1.0
+        self._lo = np.empty(self.dim)
+        self._hi = np.empty(self.dim)
+        _warm_up()
+
+    def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""
+        return joint_acceleration_bounds(state.q, state.v, self.iq, self.iv, self.qmin, self.qmax, self.vmax,
+                                         self.braking_acceleration, dt, self._lo, self._hi, self.speed_horizon)
+
+    def write(self, ctx, _, lb, ub):
+        lo, hi = self.bounds(ctx.state, ctx.dt)
+        lb[:] = lo
+        ub[:] = hi
+
+
+@nb.njit(cache=True, nogil=True)
+def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out, horizon):
+    """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint), written into lo_out,
+    hi_out (k,); the velocity term approaches ±vmax over ``horizon`` ticks."""
+    dt2 = dt * dt
+    dth = dt * horizon
+    for j in range(iq.size):
+        qj = q[iq[j]]
+        vj = v[iv[j]]
+        q1 = qj + vj * dt
+        d_hi = qmax[j] - q1
+        d_lo = q1 - qmin[j]
+        hi = min((vmax[j] - vj) / dth, 2.0 * d_hi / dt2)
+        lo = max((-vmax[j] - vj) / dth, -2.0 * d_lo / dt2)
+        # viability: larger root of dt² x² + B x + (w² − 2 a d) = 0, mirrored for the lower limit
+        w = vj
+        B = 2.0 * w * dt + a * dt2
+        disc = max(B * B - 4.0 * dt2 * (w * w - 2.0 * a * d_hi), 0.0)
+        hi = min(hi, (-B + np.sqrt(disc)) / (2.0 * dt2))
+        w = -vj
+        B = 2.0 * w * dt + a * dt2
+        disc = max(B * B - 4.0 * dt2 * (w * w - 2.0 * a * d_lo), 0.0)
+        lo = max(lo, -((-B + np.sqrt(disc)) / (2.0 * dt2)))
+        hi = max(hi, -a)
+        lo = min(lo, a)
+        lo_out[j] = min(lo, hi)
+        hi_out[j] = hi
+
+
+def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float,
+                              lo: np.ndarray | None = None, hi: np.ndarray | None = None, speed_horizon: float = 1.0):
+    """(lo, hi) joint acceleration bounds (rad/s²) of eq. 9 (position, velocity and viability with braking
+    acceleration a_brk; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV) for the 1-DoF joints with configuration
+    indices ``iq`` and velocity indices ``iv`` (limits qmin, qmax (rad), vmax (rad/s, inf when unlimited)).
+    The velocity term is (±vmax − v) / (h dt), h = ``speed_horizon`` (ticks, ≥ 1; 1: eq. 9's one-tick bound; see
+    :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` for h > 1). Written into ``lo``/``hi`` when given."""
+    k = len(iq)
+    lo = np.empty(k) if lo is None else lo
+    hi = np.empty(k) if hi is None else hi
+    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi,
+                        float(speed_horizon))
+    return lo, hi
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load the compiled row bodies (on-disk cache) once per process, at construction of
+    :class:`JointAccelerationLimits`, not inside a controller's first tick: on arrays of the types of a real call (M
+    column-major as a :class:`~wbc.state.DynamicsState`'s, the rest C-contiguous)."""
+    z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
+    joint_bounds_kernel(z, z, i, i, -np.ones(1), np.ones(1), np.ones(1), 1.0, 1e-3, np.empty(1), np.empty(1), 1.0)
+    nv = 7
+    M, h, v = np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros(nv)
+    JcT, A, b = np.zeros((nv, 12)), np.zeros((12, nv + 12)), np.zeros(12)
+    contact_force_columns(np.zeros((6, nv)), np.zeros((6, 12)), JcT, 0)
+    floating_base_rows(M, h, JcT, A, b, 0)
+    contact_acceleration_rows(np.zeros((6, nv)), np.zeros(6), 1.0, v, A, b, 6)
+    torque_limit_rows(M, h, JcT, np.full(1, 6, dtype=np.int64), np.ones(1), A, b, b.copy(), 0)
