@@ -32,7 +32,7 @@ def main() -> None:
     q, v = sim.get_state()
     pd.reset(q, v)
     for _ in range(150):
-        sim.set_torques(pd.compute(*sim.get_state()))
+        sim.set_torques(pd.solve(*sim.get_state()))
         mujoco.mj_step(sim.model, sim.data)
     mujoco.mj_forward(sim.model, sim.data)
     state = EstimatedState(sim, seed=0)

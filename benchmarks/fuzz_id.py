@@ -185,7 +185,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 c["mu_changes"] += 1
             probe.start()
             try:
-                cmd = ctrl.compute(q, v)
+                cmd = ctrl.solve(q, v)
             except Exception as exc:  # noqa: BLE001
                 c["exceptions"] += 1
                 event("exceptions", ep, tick, f"{name} {type(exc).__name__}: {exc}")

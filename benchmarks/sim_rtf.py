@@ -13,7 +13,7 @@ MuJoCo model loading, controller construction, numba cache loading — and the s
 
 Issue target: CPU real-time factor ≥ 5. Exit code 0 when met, 1 otherwise. ``--json FILE`` writes the numbers.
 ``--breakdown`` adds the CPU time per tick (``time.thread_time``) of each part of the loop — the controller
-(``IDBalanceController.compute``: ID tick), MuJoCo (``mj_step1`` + ``mj_step2``), the simulated sensors and the state
+(``IDBalanceController.solve``: ID tick), MuJoCo (``mj_step1`` + ``mj_step2``), the simulated sensors and the state
 estimator (``EstimatedState.measure``), the walk scenario (stabilizer, gait, references: ``WalkScenario.update``),
 the outcome checks (``OutcomeMonitor.update``), reading the MuJoCo state (``MujocoModel.get_state``), writing the
 torques (``MujocoModel.set_torques``) — and the rest of the loop (logging, foot wrenches, CoM of the log); the
@@ -66,7 +66,7 @@ def install_timers() -> dict[str, float]:
                 parts[name] += time.thread_time() - t0
         return wrapped
 
-    IDBalanceController.compute = timer("controller (ID tick)", IDBalanceController.compute)
+    IDBalanceController.solve = timer("controller (ID tick)", IDBalanceController.solve)
     EstimatedState.measure = timer("sensors + estimator", EstimatedState.measure)
     WalkScenario.update = timer("walk scenario update", WalkScenario.update)
     OutcomeMonitor.update = timer("outcome checks", OutcomeMonitor.update)

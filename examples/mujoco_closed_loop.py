@@ -40,7 +40,7 @@ for k in range(n):
     ctrl.set_com_reference(c0 + [0.0, amplitude * s, 0.0], velocity=[0.0, amplitude * omega * c, 0.0],
                            acceleration=[0.0, -amplitude * omega**2 * s, 0.0])
     q, v = sim.get_state()                               # ground truth, no estimation
-    cmd = ctrl.compute(q, v)                             # accelerations, sole forces, torques (nv − 6,)
+    cmd = ctrl.solve(q, v)                               # accelerations, sole forces, torques (nv − 6,)
     sim.set_torques(cmd.tau)
     sim.step()
     com = pin.centerOfMass(robot.model, data, q)

@@ -91,7 +91,7 @@ def test_both_controllers_return_a_tick_result_with_a_path(robots):
 
     idc = IDBalanceController(robot, dt=0.002)
     idc.reset(robot.q_ref)
-    cmd = idc.compute(robot.q_ref, np.zeros(robot.nv))
+    cmd = idc.solve(robot.q_ref, np.zeros(robot.nv))
     assert isinstance(cmd, TickResultBase) and isinstance(cmd.path, TickPath) and cmd.ok
     assert cmd.path.route in INVERSE_DYNAMICS and cmd.path.route != "fallback"
 

@@ -73,7 +73,7 @@ def test_humanoid15_standing_qp_turns_the_pelvis_towards_its_target(robots, solv
             rpy = np.zeros(3)
             rpy[axis] = angle
             ctl.torso.set_target(pin.SE3(pin.rpy.rpyToMatrix(*rpy) @ target.rotation, target.translation))
-            cmd = ctl.compute(q, np.zeros(model.nv))
+            cmd = ctl.solve(q, np.zeros(model.nv))
             assert cmd.ok, (draw, axis, cmd.message)
             w = Jt @ cmd.dv  # rad/s², world axes
             assert w[axis] >= 0.4 * demand, (draw, axis, w)

@@ -106,7 +106,7 @@ def test_compensation_adds_the_feedforward_at_the_commanded_velocity():
     v[6:] = np.linspace(-0.3, 0.3, n)
     for c in (plain, compensated):
         c.reset(q, v)
-    a, b = plain.compute(q, v), compensated.compute(q, v)
+    a, b = plain.solve(q, v), compensated.solve(q, v)
     vj = v[6:] + a.dv[6:] * plain.dt
     expected = np.clip(a.tau + 0.5 * vj + 1.0 * np.tanh(vj / 0.05), -robot.model.effortLimit[6:],
                        robot.model.effortLimit[6:])

@@ -188,7 +188,7 @@ def test_partial_foothold_confines_the_qp_cop(robot):
     k = list(c.contacts).index("left")
 
     def cop_x():
-        f = c.compute(q, v).forces[12 * k:12 * k + 12]
+        f = c.solve(q, v).forces[12 * k:12 * k + 12]
         assert f[2::3].sum() >= 100.0
         return float(left.cop(f)[0])
 

@@ -57,7 +57,7 @@ def _run_and_check(robot_name: str, ticks: int, push: float):
         if k == ticks // 3 + 50:
             sim.clear_external_forces()
         q, v = sim.get_state()
-        cmd = ctrl.compute(q, v)
+        cmd = ctrl.solve(q, v)
         assert cmd.ok and not cmd.relaxed, cmd.message
         dv, f, tau = cmd.dv, cmd.forces, cmd.tau
         # Equations of motion with independently computed M, h, J_c.
@@ -186,7 +186,7 @@ def test_solvers_agree_and_fallback(robots):
     for name in ("daqp", "proxqp"):
         ctrl = IDBalanceController(robot, solver=name)
         ctrl.reset(robot.q_ref)
-        cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
+        cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
         assert cmd.ok
         sols[name] = cmd
     assert np.abs(sols["daqp"].tau - sols["proxqp"].tau).max() < 1e-3
@@ -203,7 +203,7 @@ def test_solvers_agree_and_fallback(robots):
     ctrl = IDBalanceController(robot, solver="daqp")
     ctrl.reset(robot.q_ref)
     ctrl.qp.backend = Broken()
-    cmd = ctrl.compute(robot.q_ref, np.zeros(robot.nv))
+    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     assert not cmd.ok and "broken on purpose" in cmd.message
     assert np.all(np.isfinite(cmd.tau)) and np.all(np.abs(cmd.tau) <= robot.model.effortLimit[6:] + 1e-9)
     # The fallback's gravity compensation carries the weight: Σ f_z of its wrenches = m g.
@@ -261,13 +261,13 @@ def test_wrap_and_typed_errors(robots):
     ctrl = IDBalanceController(robot)
     ctrl.reset(robot.q_ref)
     with pytest.raises(ConfigurationError):
-        ctrl.compute(robot.q_ref[:-1], np.zeros(robot.nv))
+        ctrl.solve(robot.q_ref[:-1], np.zeros(robot.nv))
     with pytest.raises(ConfigurationError):
-        ctrl.compute(robot.q_ref, np.full(robot.nv, np.nan))
+        ctrl.solve(robot.q_ref, np.full(robot.nv, np.nan))
     bad = robot.q_ref.copy()
     bad[3:7] = [0.0, 0.0, 0.0, 2.0]
     with pytest.raises(ConfigurationError):
-        ctrl.compute(bad, np.zeros(robot.nv))
+        ctrl.solve(bad, np.zeros(robot.nv))
     with pytest.raises(InvalidInputError):
         ctrl.qp.solve(ctrl.state, -1.0)
 

@@ -158,7 +158,7 @@ def _infeasible_tick(robots, calls, **options):
     acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
     try:
         ctrl = InverseDynamicsController(qp, DT, **options)
-        cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
+        cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     finally:
         acceleration.solve_pinned_reduced = reduced
     H, g, A, b, C, l, u, lb, ub = qp.build(ctrl.state, DT)

@@ -68,7 +68,7 @@ def test_hard_com_acceleration_against_friction_pyramids(robots, lateral, feasib
     com.set_target(np.zeros(3))
     com.set_feedforward_acceleration([0.0, lateral, 0.0])
     ctrl = InverseDynamicsController(qp, DT, diagnose=True)  # diagnosis mode: conflicts named in the tick
-    cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
+    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     _check_safe(cmd, qp)
     if feasible:
         assert cmd.ok and not cmd.conflicts and _lp_status(qp, ctrl.state) == 0
@@ -91,7 +91,7 @@ def test_hard_posture_against_torque_limits(robots):
     qp.add_task(posture, hard=True)
     # diagnosis mode, no time budget: this test is about the names and the relaxed command, not the tick's time
     ctrl = InverseDynamicsController(qp, DT, diagnose=True, budget=math.inf)
-    cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
+    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     _check_safe(cmd, qp)
     names = [n for n, _ in cmd.conflicts]
     assert {"torque_limits", "task:posture"} <= set(names), names
@@ -108,7 +108,7 @@ def test_feasible_tick_reports_nothing(robots):
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [AccelerationReference(PostureTask(robot), kp=50.0)], _soles(robot, 0.7))
     ctrl = InverseDynamicsController(qp, DT, diagnose=True)  # diagnosis mode: conflicts named in the tick
-    cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))
+    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     assert cmd.ok and not cmd.relaxed and cmd.conflicts == [] and cmd.message == ""
     # the diagnosis' ε‖x‖² (ε = 1e-8) against corner forces of ~100 N leaves slacks of order 1e-6 on a feasible
     # set: nothing above 1e-4 may be reported

@@ -56,7 +56,7 @@ def test_force_ramp_to_zero_keeps_bounds_consistent(robots, solver):
     ctrl, q, v = _standing(robot, solver=solver, f_min=f_min)
     for total in (800.0, 400.0, 100.0, 40.0, 20.0, 4.0, 0.0):
         ctrl.set_max_normal_force("left", total)
-        cmd = ctrl.compute(q, v)
+        cmd = ctrl.solve(q, v)
         assert cmd.ok, cmd.message
         fz = cmd.forces[2:12:3]  # left sole's 4 corners (the first contact)
         hi = total / 4.0
@@ -97,7 +97,7 @@ def test_mu_assigned_after_construction_takes_effect(robots, solver):
         contact.mu = mu
     ctrl.set_com_reference(ctrl.com_ref, acceleration=[1.0, 0.5, 0.0])
     for _ in range(3):
-        cmd = ctrl.compute(q, v)
+        cmd = ctrl.solve(q, v)
         assert cmd.ok, cmd.message
         f = cmd.forces.reshape(-1, 3)
         tangential = np.hypot(f[:, 0], f[:, 1])
@@ -116,7 +116,7 @@ def test_output_check_measures_friction_on_the_solvers_row_scale(robots):
 
     robot = robots("talos")
     ctrl, q, v = _standing(robot, mu=0.3)
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok, cmd.message
     qp = ctrl.controller.qp
     sol = qp.solve(ctrl.controller.state, DT)  # the assembly verify reads is this one
@@ -158,7 +158,7 @@ def test_command_violating_a_bound_is_never_ok(robots):
     the sole's unilaterality, and the safe command is finite and within the effort limits."""
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=_WrongForces(robot.nv))
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert not cmd.ok and cmd.path == "fallback:gravity"
     assert "unilaterality:left" in [n for n, _ in cmd.conflicts], cmd.conflicts
     _finite_and_within_effort(cmd, robot)
@@ -171,12 +171,12 @@ def test_nan_written_in_place_is_never_ok(robots, solver):
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=solver)
     ctrl.com.weight[0] = math.nan
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert not cmd.ok and cmd.path == "fallback:gravity"
     assert "task:com" in [n for n, _ in cmd.conflicts], cmd.conflicts
     _finite_and_within_effort(cmd, robot)
     ctrl.com.weight = 1000.0
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and cmd.path == ("kernel" if solver == "fast" else "general:daqp")
 
 
@@ -217,7 +217,7 @@ def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robot
     confirm = qp.backend.confirm = _Spy(qp.backend.confirm)
     relaxed = qp.solve_relaxed = _Spy(qp.solve_relaxed)
     ctrl = InverseDynamicsController(qp, DT, budget=1e-9)
-    spent = ctrl.tick(q, v)
+    spent = ctrl.solve(q, v)
     assert spent.ok and spent.relaxed and spent.path == "relaxed:daqp" and spent.over_budget
     assert confirm.calls == 0 and relaxed.calls == 1
     _finite_and_within_effort(spent, robot)
@@ -227,11 +227,11 @@ def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robot
     assert summary["ticks"] == 1 and summary["fallback_rate"] == 0.0 and summary["paths"] == {"relaxed:daqp": 1}
 
     ctrl = InverseDynamicsController(qp, DT, budget=math.inf)
-    cmd = ctrl.tick(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and cmd.relaxed and cmd.path == "relaxed:daqp" and relaxed.calls == 2 and confirm.calls == 0
     assert cmd.tau.tobytes() == spent.tau.tobytes() and not cmd.over_budget
     qp.remove_task(posture)  # feasible again: the next tick is the full QP
-    cmd = ctrl.tick(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and not cmd.relaxed and cmd.path == "general:daqp"
 
 
@@ -343,7 +343,7 @@ def test_first_tick_loads_no_kernel():
         "soles = [SoleContact(robot, robot.left_sole, name='l'), SoleContact(robot, robot.right_sole, name='r')]\n"
         "qp = InverseDynamicsQP(robot, [], soles, solver='daqp')\n"
         "before = len(d.joint_bounds_kernel.signatures)\n"
-        "InverseDynamicsController(qp, 0.002).tick(robot.q_ref, np.zeros(robot.nv))\n"
+        "InverseDynamicsController(qp, 0.002).solve(robot.q_ref, np.zeros(robot.nv))\n"
         "print(before, len(d.joint_bounds_kernel.signatures))\n")
     out = _run_in_a_fresh_process(code)
     before, after = map(int, out.stdout.split()[-2:])
@@ -369,7 +369,7 @@ def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
         "before = len(k.id_tick.signatures)\n"
         "for p in (first, qp()):\n"
         "    ctrl = InverseDynamicsController(p, 0.002)\n"
-        "    cmd = ctrl.tick(robot.q_ref, np.zeros(robot.nv))\n"
+        "    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))\n"
         "    m, d = robot.model, robot.model.createData()\n"
         "    rnea = pin.rnea(m, d, robot.q_ref, np.zeros(robot.nv), cmd.dv)\n"
         "    pin.computeJointJacobians(m, d, robot.q_ref); pin.framesForwardKinematics(m, d, robot.q_ref)\n"
@@ -411,7 +411,7 @@ def test_held_command_keeps_the_joint_speed_bounds(robots):
     qp.joint_acceleration_limits.vmax[:] *= 0.95
     ctrl = InverseDynamicsController(qp, DT)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
-    assert ctrl.tick(q, v).ok  # the command to hold
+    assert ctrl.solve(q, v).ok  # the command to hold
     frozen = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="frozen")
     frozen.set_target(robot.q_ref)
     qp.add_task(frozen, hard=True)  # v̇ = 0 everywhere: against the wrist's speed bound below, infeasible
@@ -419,7 +419,7 @@ def test_held_command_keeps_the_joint_speed_bounds(robots):
     iw = model.joints[model.getJointId("arm_right_6_joint")].idx_v
     vmax = float(model.velocityLimit[iw])
     v[iw] = 0.99 * vmax
-    cmd = ctrl.tick(q, v)
+    cmd = ctrl.solve(q, v)
     assert not cmd.ok and cmd.path == "fallback:hold"
     data = model.createData()
     J = np.vstack([pin.computeFrameJacobian(model, data, q, model.getFrameId(f), pin.LOCAL)
@@ -446,7 +446,7 @@ def test_relaxed_qp_reuses_the_failed_full_qps_assembly_with_the_same_answer(rob
     ctrl = IDBalanceController(robot, solver=solver, f_min=1000.0)
     q, v = robot.q_ref.copy(), np.zeros(robot.nv)
     ctrl.reset(q, v)
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and cmd.relaxed
     qp, state = ctrl.qp, ctrl.controller.state
     fresh = qp.solve_relaxed(state, DT)  # assembled again
@@ -556,12 +556,12 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
 
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)  # nothing pinned: quadprog too
     _finite_and_within_effort(cmd, robot)
     ctrl.release_foot("right")
     Failing.retries.clear()
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)
     assert Failing.retries == [False]  # one attempt of the backend (no retries), then the reduced solve
     right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
@@ -642,11 +642,11 @@ def test_id_proxqp_failure_gets_a_second_opinion(robots):
 
     robot = robots("humanoid15")
     ctrl, q, v = _standing(robot, solver=FalseAlarm(eps_abs=1e-7))
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert cmd.ok and str(cmd.path) in ("general:quadprog", "general:daqp"), (cmd.path, cmd.message)
     _finite_and_within_effort(cmd, robot)
     ctrl.controller.qp.second_opinion_enabled = False
-    cmd = ctrl.compute(q, v)
+    cmd = ctrl.solve(q, v)
     assert not cmd.ok, (cmd.path, cmd.message)
 
 

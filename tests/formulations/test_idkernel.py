@@ -65,9 +65,9 @@ def test_kernel_matches_general_path(robots, robot_name):
         for c in (fast, ref):
             c.set_com_reference(target)
         solves_before = fast.qp._kernel.solves
-        a = fast.compute(q, v)
+        a = fast.solve(q, v)
         compare = k % 10 == 0
-        b = ref.compute(q, v)  # the same measured state, every tick (release_foot reads the last state)
+        b = ref.solve(q, v)  # the same measured state, every tick (release_foot reads the last state)
         q_meas, v_meas = q.copy(), v.copy()
         v = v + a.dv * dt
         q = pin.integrate(robot.model, q, v * dt)
@@ -136,8 +136,8 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
         target = com0 + np.array([0.0, 0.02 * np.sin(np.pi * k * dt), 0.0])
         for c in (fast, ref):
             c.set_com_reference(target)
-        a = fast.compute(q, v)
-        b = ref.compute(q, v)
+        a = fast.solve(q, v)
+        b = ref.solve(q, v)
         assert a.ok and b.ok and not a.relaxed and not b.relaxed
         xa = np.concatenate([a.dv, a.forces])
         xb = np.concatenate([b.dv, b.forces])
@@ -203,7 +203,7 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
             v = v + kick
         for c in (fast, ref):
             c.set_com_reference(com0 + np.array([0.0, 0.02 * np.sin(np.pi * k * dt), 0.0]))
-        a, b = fast.compute(q, v), ref.compute(q, v)
+        a, b = fast.solve(q, v), ref.solve(q, v)
         assert a.ok and b.ok and not a.relaxed
         xa, xb = np.concatenate([a.dv, a.forces]), np.concatenate([b.dv, b.forces])
         assert np.max(np.abs(xa - xb)) / max(1.0, np.max(np.abs(xb))) < 1e-6

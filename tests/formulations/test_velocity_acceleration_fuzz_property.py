@@ -138,7 +138,7 @@ def test_inverse_dynamics_controller_fuzz(robots, robot_name, seed, com_offset, 
     qp = ctrl.qp
     tau_max = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
     for _ in range(10):
-        cmd = ctrl.compute(q, v)
+        cmd = ctrl.solve(q, v)
         assert np.isfinite(cmd.tau).all() and np.isfinite(cmd.dv).all()
         if cmd.ok:
             assert np.all(np.abs(cmd.tau) <= tau_max + 1e-6) or cmd.relaxed

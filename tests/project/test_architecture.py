@@ -1,6 +1,7 @@
 """The import graph of ``wbc``, derived from the source with ``ast``: no cycle, no import from a higher layer
 into a lower one, no import of another module's private names, no access to private attributes defined in another
-module, no constant defined twice.
+module, no constant defined twice, and every controller class ticks by one verb, ``solve`` (no ``tick``, no
+``compute``).
 
 Every import is counted: module-level, inside functions (lazy), and ``importlib.import_module("wbc...")`` with a
 string literal. The layers are data here (not imported from wbc): a module may import modules of its own layer
@@ -529,3 +530,60 @@ def test_the_alias_checker(tmp_path):
     src.write_text("import os\n\ndef _f():\n    pass\n\nclass K:\n    x = 1\n    def solve(self):\n        pass\n"
                    "    compute = solve\n    y = x\n\nf = _f\nX = K.x\nSEP = os.sep\nk = K()\n")
     assert module_aliases(src) == [(10, "compute = solve"), (13, "f = _f"), (14, "X = K.x")]
+
+
+# -- one verb for a controller's tick ------------------------------------------------------------------------------
+CONTROLLERS = ("KinematicController", "InverseDynamicsController", "IDBalanceController", "StanceController",
+               "WalkController", "BalanceController", "JointPDController", "PerturbedController")
+CONTROLLER_VERB = "solve"
+RETIRED_VERBS = {"tick", "compute"}
+
+
+def controller_methods(root: Path) -> dict[str, set[str]]:
+    """Every class under ``root`` whose name ends in ``Controller`` → the names its body defines (functions and
+    assignments) together with those of its bases among the classes under ``root`` (resolved by class name)."""
+    classes: dict[str, tuple[list[str], set[str]]] = {}
+    for path in sorted(root.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if not isinstance(node, ast.ClassDef):
+                continue
+            bases = [b.id if isinstance(b, ast.Name) else b.attr for b in node.bases
+                     if isinstance(b, (ast.Name, ast.Attribute))]
+            names = {n.name for n in node.body if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))}
+            names |= {t.id for n in node.body if isinstance(n, (ast.Assign, ast.AnnAssign))
+                      for t in (n.targets if isinstance(n, ast.Assign) else [n.target]) if isinstance(t, ast.Name)}
+            classes[node.name] = (bases, names)
+
+    def methods(name: str, seen: frozenset = frozenset()) -> set[str]:
+        bases, names = classes.get(name, ([], set()))
+        return set(names).union(*(methods(b, seen | {name}) for b in bases if b not in seen))
+
+    return {name: methods(name) for name in classes if name.endswith("Controller")}
+
+
+def verb_violations(found: dict[str, set[str]]) -> list[str]:
+    """Controllers without ``solve`` or with a retired verb (``tick``, ``compute``)."""
+    bad = []
+    for name, methods in sorted(found.items()):
+        if CONTROLLER_VERB not in methods:
+            bad.append(f"{name}: no {CONTROLLER_VERB}")
+        bad += [f"{name}: {verb}" for verb in sorted(methods & RETIRED_VERBS)]
+    return bad
+
+
+def test_every_controller_ticks_by_solve_only():
+    found = controller_methods(ROOT)
+    assert set(CONTROLLERS) <= set(found), sorted(set(CONTROLLERS) - set(found))
+    assert verb_violations(found) == []
+
+
+def test_the_controller_verb_checker(tmp_path):
+    (tmp_path / "a.py").write_text("class BaseController:\n    def solve(self, q, v):\n        pass\n\n"
+                                   "class Mixin:\n    compute = None\n")
+    (tmp_path / "b.py").write_text("from a import BaseController, Mixin\n\n"
+                                   "class ChildController(BaseController):\n    pass\n\n"
+                                   "class MixedController(BaseController, Mixin):\n    pass\n\n"
+                                   "class OldController:\n    def tick(self, q, v):\n        pass\n")
+    found = controller_methods(tmp_path)
+    assert set(found) == {"BaseController", "ChildController", "MixedController", "OldController"}
+    assert verb_violations(found) == ["MixedController: compute", "OldController: no solve", "OldController: tick"]

@@ -28,7 +28,7 @@ def standing():
     ctrl.reset(q, v)
     for _ in range(300):
         q, v = sim.get_state()
-        sim.set_torques(ctrl.compute(q, v))
+        sim.set_torques(ctrl.solve(q, v))
         mujoco.mj_step(sim.model, sim.data)
     mujoco.mj_forward(sim.model, sim.data)
     return robot, sim

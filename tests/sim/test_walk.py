@@ -122,8 +122,8 @@ def test_perturb_plant_and_controller():
     for k in range(5):
         vk = v.copy()
         vk[6:] = 0.01 * k  # a different state every tick
-        taus.append(ref.compute(q, vk).tau.copy())
-        outs.append(late.compute(q, vk).tau.copy())
+        taus.append(ref.solve(q, vk).tau.copy())
+        outs.append(late.solve(q, vk).tau.copy())
     np.testing.assert_allclose(outs[4], taus[2], atol=1e-9)
     np.testing.assert_allclose(outs[3], taus[1], atol=1e-9)
     with pytest.raises(InvalidInputError, match="delay"):

@@ -8,7 +8,7 @@ regularises every joint. There is no simulator: each library integrates its own 
 ``v ← v + v̇ dt, q ← q ⊕ v dt``, so the motion is the controller's own model of itself.
 
 One tick = set the CoM references + solve + integrate (+ kinematics update for placo):
-wbc ``IDBalanceController.set_com_reference`` + ``compute(q, v)`` + integration; placo target setters +
+wbc ``IDBalanceController.set_com_reference`` + ``solve(q, v)`` + integration; placo target setters +
 ``DynamicsSolver.solve(True)`` (integrates) + ``RobotWrapper.update_kinematics()``.
 
 wbc's controller is :mod:`wbc.dynamics` (when it exists): otherwise the wbc row reports "not available".
@@ -106,7 +106,7 @@ class WbcDynamicsRunner(_DynamicsRunner):
     def tick(self, k: int) -> np.ndarray:
         dt = self.spec.dt
         self.ctrl.set_com_reference(self.pos[k], self.vel[k], self.acc[k])
-        cmd = self.ctrl.compute(self.q, self.v)
+        cmd = self.ctrl.solve(self.q, self.v)
         if self._breakdown is not None:
             tm = cmd.timings
             self._breakdown["kinematics"][k] = int(tm.get("pinocchio", 0.0) * 1e9)

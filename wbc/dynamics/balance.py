@@ -250,13 +250,13 @@ class IDBalanceController:
         foot.set_feedforward_acceleration(None if acceleration is None else np.asarray(acceleration)[foot.task.rows])
 
     # -- tick ------------------------------------------------------------------------------------------------
-    def compute(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
-        """Torques for the measured state (see :meth:`InverseDynamicsController.tick`).
+    def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
+        """Torques for the measured state (see :meth:`InverseDynamicsController.solve`).
 
         Raises:
             ConfigurationError: bad q / v.
         """
-        cmd = self.controller.tick(q, v)
+        cmd = self.controller.solve(q, v)
         if self.compensation is not None:
             vj = np.asarray(v, dtype=float)[6:] + cmd.dv[6:] * self.dt  # commanded next-tick joint velocity
             cmd.tau = np.clip(cmd.tau + self.compensation.torque(vj), -self._tau_max, self._tau_max)

@@ -46,7 +46,7 @@ A foot goes through four phases, driven by :class:`ContactSwitcher`:
 
 The switcher works on a :class:`~wbc.dynamics.balance.IDBalanceController` (its ``contacts``, ``feet``, ``qp``,
 ``set_max_normal_force`` and ``release_foot``). Call :meth:`~ContactSwitcher.update` once per control tick,
-before the controller's ``compute``.
+before the controller's ``solve``.
 """
 
 from __future__ import annotations

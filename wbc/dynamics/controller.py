@@ -1,7 +1,7 @@
 """Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.formulations.acceleration`) → torques τ.
 
 :class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.formulations.velocity.KinematicController`:
-one :meth:`~InverseDynamicsController.tick` per control period reads the measured state, updates the Pinocchio
+one :meth:`~InverseDynamicsController.solve` per control period reads the measured state, updates the Pinocchio
 quantities once (:class:`~wbc.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
 contact forces.
 
@@ -182,7 +182,7 @@ class InverseDynamicsController:
         self._budget = float(value)
         self.qp.kernel_max_iterations = kernel_iterations(self._budget)
 
-    def tick(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
+    def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.
 
         Args:

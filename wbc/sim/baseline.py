@@ -55,7 +55,7 @@ class JointPDController:
     def reset(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         """Nothing to reset (the reference is ``robot.q_ref``)."""
 
-    def compute(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def solve(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(nv − 6,) torques (N·m) for the state (q, v), clipped to the effort limits."""
         tau = self.tau_ff + self.kp * (self.q_ref[7:] - q[7:]) - self.kd * v[6:]
         return np.clip(tau, -self.effort, self.effort)

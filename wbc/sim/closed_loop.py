@@ -131,7 +131,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     Args:
         sim: MuJoCo model (its timestep is the control period).
         controller: a :class:`~wbc.dynamics.balance.IDBalanceController` or an object with
-            ``reset(q, v)`` and ``compute(q, v) -> tau`` (e.g. :class:`~wbc.sim.baseline.JointPDController`).
+            ``reset(q, v)`` and ``solve(q, v) -> tau`` (e.g. :class:`~wbc.sim.baseline.JointPDController`).
         scenario: an object with ``duration`` (s), ``name``, ``setup(controller, sim, q, v)``,
             ``update(t, controller, sim, q, v) -> external force (3,) or None`` and ``com_reference(t)`` —
             see :mod:`wbc.sim.scenarios`.
@@ -198,10 +198,10 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
         if is_id:
-            cmd = controller.compute(qc, vc)
+            cmd = controller.solve(qc, vc)
             tau = cmd.tau
         else:
-            tau = controller.compute(qc, vc)
+            tau = controller.solve(qc, vc)
         t1 = perf_counter()
         sim.set_torques(tau)
         if state is None:

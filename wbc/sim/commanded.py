@@ -304,7 +304,7 @@ class SimCommandedWalk:
                 self._segment.measured_zmp = self.state.measured_zmp()
                 self._segment.measured_normal_force = self.state.measured_normal_force()
         self._segment.update(self.t - self._t0, self.controller, sim, q, v)
-        cmd = self.controller.compute(q, v)
+        cmd = self.controller.solve(q, v)
         sim.set_torques(cmd.tau)
         if self.state is None:
             mujoco.mj_step(model, data)

@@ -280,18 +280,18 @@ class JumpScenario:
 
     def _wrap(self, controller):
         """Route the controller's commands through :func:`limit_landing_torques` (instance attribute only)."""
-        compute = type(controller).compute.__get__(controller)
+        solve = type(controller).solve.__get__(controller)
         how = self.how
 
         def limited(q, v):
-            cmd, h, worst = limit_landing_torques(controller, compute(q, v))
+            cmd, h, worst = limit_landing_torques(controller, solve(q, v))
             how[h] += 1
             if h != "qp":
                 self.limited_ticks.append((round(self._t_now, 6), self.phase, h, self.robot.joint_names[worst[0]],
                                            round(worst[1], 3)))
             return cmd
 
-        controller.compute = limited
+        controller.solve = limited
 
     def com_reference(self, t):
         return self._ref[0]

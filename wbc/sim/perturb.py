@@ -97,14 +97,14 @@ class PerturbedController(IDBalanceController):
         self.rng = np.random.default_rng(seed)
         self._queue: deque = deque()
 
-    def compute(self, q, v):
+    def solve(self, q, v):
         q = np.array(q, dtype=float)
         v = np.array(v, dtype=float)
         if self.q_noise > 0:
             q[7:] += self.rng.normal(0.0, self.q_noise, q.size - 7)
         if self.v_noise > 0:
             v += self.rng.normal(0.0, self.v_noise, v.size)
-        cmd = super().compute(q, v)
+        cmd = super().solve(q, v)
         if self.delay == 0:
             return cmd
         self._queue.append(cmd.tau.copy())
