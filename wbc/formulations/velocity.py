@@ -657,6 +657,8 @@ class KinematicController:
         self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
                                        for i in range(r0, r1)], dtype=int)
         self._in_blocks, n_in = _row_blocks(ineq)
+        relax = set(map(id, self._relaxable))  # their row blocks, one list (boxes: re-intersected without them)
+        self._relaxable_blocks = [blk for blk in (*self._eq_blocks, *self._in_blocks) if id(blk[0]) in relax]
         # the floating base is eliminated through the first contact's 6 rows by the compiled solver: a free flyer at
         # v[0:6] that no box bounds (kinematic_solve)
         model = self.robot.model
@@ -1435,17 +1437,16 @@ class KinematicController:
             self._resolve_cost = max(self._resolve_cost, self._work.seconds() - t)
 
     def _relax(self, config: Configuration, dt: float) -> None:
-        """Drop the relaxable constraints from the assembled buffers (rows made void, boxes re-intersected)."""
-        relax = set(map(id, self._relaxable))
-        for c, r0, r1 in self._eq_blocks:
-            if id(c) in relax:
+        """Drop the relaxable constraints from the assembled buffers by their kind (equality rows made void,
+        inequality rows unbounded, boxes re-intersected without them), as the ID QP's relaxed solve does."""
+        for c, r0, r1 in self._relaxable_blocks:
+            if c.kind == "equality":
                 self._A[r0:r1] = 0.0
                 self._b[r0:r1] = 0.0
-        for c, r0, r1 in self._in_blocks:
-            if id(c) in relax:
+            elif c.kind == "inequality":
                 self._l[r0:r1] = -np.inf
                 self._u[r0:r1] = np.inf
-        self._intersect_boxes(config, dt, skip=relax)
+        self._intersect_boxes(config, dt, skip=set(map(id, self._relaxable)))
         self._eq_rows = None
 
     def _solve_flat(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
@@ -1751,7 +1752,7 @@ class KinematicController:
 _LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
                  "_const_prefix", "_const_lb", "_const_ub", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
                  "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
-                 "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_starts")
+                 "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_starts", "_relaxable_blocks")
 
 
 def _row_blocks(constraints) -> tuple[list, int]:
