@@ -670,7 +670,8 @@ LEG_ABOVE_BASE_TOLERANCE = 0.02
 BELOW_SOLE_TOLERANCE = 0.03
 
 
-def _chain(model: pin.Model, joint_id: int) -> list[int]:
+def joint_chain(model: pin.Model, joint_id: int) -> list[int]:
+    """Joint ids from the first joint after the universe down to ``joint_id`` (included); [] for the universe."""
     out = []
     while joint_id > 0:
         out.append(joint_id)
@@ -687,7 +688,7 @@ def _check_soles_distinct(robot: Robot) -> None:
             f"sole frame and the right foot's sole frame")
     jl = model.frames[model.getFrameId(robot.left_sole)].parentJoint
     jr = model.frames[model.getFrameId(robot.right_sole)].parentJoint
-    cl, cr = _chain(model, jl), _chain(model, jr)
+    cl, cr = joint_chain(model, jl), joint_chain(model, jr)
     # index 0 is the free-flyer; the legs must split right after it (or after a shared pelvis chain)
     if jl in cr or jr in cl or jl == jr:
         raise RobotDescriptionError(
@@ -712,7 +713,7 @@ def _check_legs(robot: Robot, q: np.ndarray) -> None:
     pin.forwardKinematics(model, data, q)
     base_z = float(data.oMi[1].translation[2])
     for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
-        chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]  # after the free flyer
+        chain = joint_chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]  # after the free flyer
         if not chain:
             raise RobotDescriptionError(
                 f"{robot.name}: {side} sole frame {frame!r} is on the floating base itself, not on a leg; name the "

@@ -32,6 +32,7 @@ from wbc.robot import (
     floor_points,
     foot_points,
     geometry_points,
+    joint_chain,
     load_robot,
 )
 from wbc.robot_file import FrameSpec, MujocoOptions, RobotSpec, check_xml, package_roots
@@ -69,14 +70,6 @@ def _side_from_name(name: str) -> str | None:
     left = bool(tokens & {"l", "left"}) or "left" in low or bool(re.match(r"L[A-Z]", name))
     right = bool(tokens & {"r", "right"}) or "right" in low or bool(re.match(r"R[A-Z]", name))
     return "left" if left and not right else "right" if right and not left else None
-
-
-def _chain(model: pin.Model, j: int) -> list[int]:
-    out = []
-    while j > 0:
-        out.append(j)
-        j = model.parents[j]
-    return out[::-1]
 
 
 def _geometry_points_world(model, data, gmodel, joint: int, up: np.ndarray | None = None) -> np.ndarray | None:
@@ -188,7 +181,7 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         tips = sorted(leaves, key=lambda j: sign * data.oMi[j].translation[axis], reverse=True)
         a = tips[0]
         for b in tips[1:]:
-            ca, cb = _chain(model, a), _chain(model, b)
+            ca, cb = joint_chain(model, a), joint_chain(model, b)
             split = len([x for x, y in zip(ca, cb) if x == y])
             da, db = sign * data.oMi[a].translation[axis], sign * data.oMi[b].translation[axis]
             lat = np.delete(data.oMi[a].translation - data.oMi[b].translation, axis)
@@ -309,8 +302,8 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
         for key in ("hand", "gripper", "palm", "wrist"):
             cands = [n for n in bodies if key in n.lower() and _side_from_name(n) == side]
             if cands:
-                hands[side] = min(cands, key=lambda n: (len(_chain(model, model.frames[model.getFrameId(n)]
-                                                                            .parentJoint)), len(n)))
+                hands[side] = min(cands, key=lambda n: (len(joint_chain(model, model.frames[model.getFrameId(n)]
+                                                                             .parentJoint)), len(n)))
                 break
     if hands:
         notes.append(f"hands: {hands} (by name)")
@@ -449,7 +442,7 @@ def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:
     out = {}
     for frame in (robot.left_sole, robot.right_sole):
         fid = model.getFrameId(frame)
-        chain = [j for j in _chain(model, model.frames[fid].parentJoint)[1:] if model.joints[j].nq == 1]
+        chain = [j for j in joint_chain(model, model.frames[fid].parentJoint)[1:] if model.joints[j].nq == 1]
         if len(chain) < 3:
             continue
         pin.framesForwardKinematics(model, data, q)
@@ -498,7 +491,7 @@ def check_robot(path_or_name: str | Path) -> dict:
     legs, soles = {}, {}
     for side in ("left", "right"):
         frame = getattr(robot, f"{side}_sole")
-        chain = _chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]
+        chain = joint_chain(model, model.frames[model.getFrameId(frame)].parentJoint)[1:]
         legs[side] = [model.names[j] for j in chain]
         p = foot_points(robot, frame, robot.collision_model)
         if p is None and robot.visual_model is not None:  # no collision geometry: the plant uses the visual

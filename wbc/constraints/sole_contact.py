@@ -37,7 +37,9 @@ import pinocchio as pin
 
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_scalar
 from wbc.robot import Robot
+from wbc.tasks.base import ValidatedAttribute
 
 __all__ = ["SoleContact"]
 
@@ -176,12 +178,7 @@ class SoleContact:
 
     @mu.setter
     def mu(self, value) -> None:
-        try:
-            mu = float(value)
-        except (TypeError, ValueError):
-            raise InvalidInputError(f"friction coefficient mu must be a finite number > 0, got {value!r}") from None
-        if not (math.isfinite(mu) and mu > 0):
-            raise InvalidInputError(f"friction coefficient mu must be finite and > 0, got {value!r}")
+        mu = check_scalar(value, "friction coefficient mu", "dimensionless", strict=True)
         mu_in = mu / math.sqrt(2.0)
         F = self.friction_matrix
         F.fill(0.0)
@@ -239,33 +236,12 @@ class SoleContact:
         always, so ramping f_max down to 0 (unloading) never makes the bounds cross."""
         return min(self._f_min, self._f_max), self._f_max
 
-    @property
-    def kp(self) -> float:
-        """Stabilising stiffness of the contact acceleration constraint (1/s², finite, ≥ 0)."""
-        return self._kp
-
-    @kp.setter
-    def kp(self, value) -> None:
-        self._kp = self._gain(value, "kp")
-
-    @property
-    def kd(self) -> float:
-        """Stabilising damping of the contact acceleration constraint (1/s, finite, ≥ 0)."""
-        return self._kd
-
-    @kd.setter
-    def kd(self, value) -> None:
-        self._kd = self._gain(value, "kd")
-
-    @staticmethod
-    def _gain(value, what: str) -> float:
-        try:
-            g = float(value)
-        except (TypeError, ValueError):
-            raise InvalidInputError(f"contact {what} must be a finite number ≥ 0, got {value!r}") from None
-        if not (math.isfinite(g) and g >= 0):
-            raise InvalidInputError(f"contact {what} must be finite and ≥ 0, got {value!r}")
-        return g
+    kp = ValidatedAttribute(lambda contact, kp: check_scalar(kp, "contact kp", "1/s²"),
+                            "Stabilising stiffness of the contact acceleration constraint (1/s², finite, ≥ 0; "
+                            "raises InvalidInputError on assignment of anything else).")
+    kd = ValidatedAttribute(lambda contact, kd: check_scalar(kd, "contact kd", "1/s"),
+                            "Stabilising damping of the contact acceleration constraint (1/s, finite, ≥ 0; "
+                            "raises InvalidInputError on assignment of anything else).")
 
     # -- switching -------------------------------------------------------------------------------------------
     def activate(self, state: DynamicsState | None = None) -> None:

@@ -995,6 +995,17 @@ class InverseDynamicsQP:
         return out
 
 
+def _load_feedforward(ff: np.ndarray | None, out: np.ndarray, zeroed: bool) -> bool:
+    """Copy the feed-forward ``ff`` into its row view ``out``, or with ``ff`` None zero ``out`` (once: ``zeroed``
+    says it holds zeros already); returns whether ``out`` holds zeros now."""
+    if ff is not None:
+        out[:] = ff
+        return False
+    if not zeroed:
+        out.fill(0.0)
+    return True
+
+
 class _ProblemRows:
     """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
     assemblies read (:meth:`InverseDynamicsQP.build` through the constraints' ``write`` and the compiled tick
@@ -1058,20 +1069,8 @@ class _ProblemRows:
             else:
                 e[:] = task.compute(state)[0]
             drift[:] = task.drift(state)
-            ff = task.feedforward()
-            if ff is not None:
-                eff[:] = ff
-                ent[11] = False
-            elif not ent[11]:
-                eff.fill(0.0)
-                ent[11] = True
-            ff = ref.feedforward_acceleration
-            if ff is not None:
-                aff[:] = ff
-                ent[12] = False
-            elif not ent[12]:
-                aff.fill(0.0)
-                ent[12] = True
+            ent[11] = _load_feedforward(task.feedforward(), eff, ent[11])
+            ent[12] = _load_feedforward(ref.feedforward_acceleration, aff, ent[12])
             w[:] = ref.weight
             if gains is None or gains[0] != ref.kp or gains[1] != ref.kd:
                 R[R_KP, s] = ref.kp

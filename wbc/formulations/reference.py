@@ -24,20 +24,11 @@ import numpy as np
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.configuration import check_vector
 from wbc.exceptions import InvalidInputError, InvalidTargetError
+from wbc.geometry import check_scalar
 from wbc.state import DynamicsState
-from wbc.tasks.base import Task, as_weight
+from wbc.tasks.base import Task, ValidatedAttribute, as_weight
 
 __all__ = ["AccelerationReference"]
-
-
-def _gain(value, what: str) -> float:
-    try:
-        g = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"{what} must be a finite number ≥ 0, got {value!r}") from None
-    if not (math.isfinite(g) and g >= 0):
-        raise InvalidInputError(f"{what} must be finite and ≥ 0, got {value!r}")
-    return g
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
@@ -103,23 +94,10 @@ class AccelerationReference:
         self.last_error = np.zeros(self.dim)
         _warm_up()
 
-    @property
-    def kp(self) -> float:
-        """Kp (1/s², finite, ≥ 0). Raises InvalidInputError on assignment of anything else."""
-        return self._kp
-
-    @kp.setter
-    def kp(self, value) -> None:
-        self._kp = _gain(value, f"{self.name} kp")
-
-    @property
-    def kd(self) -> float:
-        """Kd (1/s, finite, ≥ 0). Raises InvalidInputError on assignment of anything else."""
-        return self._kd
-
-    @kd.setter
-    def kd(self, value) -> None:
-        self._kd = _gain(value, f"{self.name} kd")
+    kp = ValidatedAttribute(lambda ref, kp: check_scalar(kp, f"{ref.name} kp", "1/s²"),
+                            "Kp (1/s², finite, ≥ 0). Raises InvalidInputError on assignment of anything else.")
+    kd = ValidatedAttribute(lambda ref, kd: check_scalar(kd, f"{ref.name} kd", "1/s"),
+                            "Kd (1/s, finite, ≥ 0). Raises InvalidInputError on assignment of anything else.")
 
     @property
     def weight(self) -> np.ndarray:

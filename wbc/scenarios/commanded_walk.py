@@ -44,8 +44,9 @@ from wbc.gait.footsteps import plan_footsteps, pose_to_xy_yaw
 from wbc.geometry import mean_heading
 from wbc.robot import Robot
 from wbc.scenarios.walk import WalkController
+from wbc.tasks.base import ValidatedAttribute
 
-__all__ = ["CommandedWalk", "wrap_angle", "steps_to_midpoint"]
+__all__ = ["CommandedWalk", "wrap_angle", "steps_to_midpoint", "check_finite"]
 
 _DOUBLE = 0
 
@@ -55,13 +56,18 @@ def wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _finite(value, name: str, lo: float | None = None, hi: float | None = None) -> float:
+def check_finite(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    """``value`` as a float if it is a finite number (int or float, Python or numpy; not a bool) in [lo, hi].
+
+    Raises:
+        InvalidInputError: not such a number ("<name> must be a finite number"), or out of [lo, hi].
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
             or not math.isfinite(float(value)):
         raise InvalidInputError(f"{name} must be a finite number; got {value!r}")
     v = float(value)
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise InvalidInputError(f"{name} = {v} is out of range: valid is [{lo}, {hi}]")
+    if not lo <= v <= hi:
+        raise InvalidInputError(f"{name} = {v} is out of range: valid is [{lo:g}, {hi:g}]")
     return v
 
 
@@ -88,7 +94,7 @@ class CommandedWalk:
                  step_duration: float | None = None, max_velocity: float = 0.3, max_lateral: float = 0.1,
                  max_turn: float = 0.5):
         self.robot = robot
-        self.dt = _finite(dt, "dt", 1e-4, 0.1)
+        self.dt = check_finite(dt, "dt", 1e-4, 0.1)
         if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 2:
             raise InvalidInputError(f"horizon must be an integer >= 2 (steps); got {horizon!r}")
         self.horizon = int(horizon)
@@ -98,10 +104,10 @@ class CommandedWalk:
         self.step_height = float(gait.get("step_height", 0.05))
         self.step_duration = self._t_ss0 + self._t_ds0 if step_duration is None else step_duration
         self.max_velocity = max_velocity
-        self.max_lateral = _finite(max_lateral, "max_lateral", 1e-3, 2.0)
+        self.max_lateral = check_finite(max_lateral, "max_lateral", 1e-3, 2.0)
         self.config = Configuration(robot)
         self.can_turn = self._feet_can_yaw()
-        self.max_turn = _finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
+        self.max_turn = check_finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
         self._solver = solver
         self.walker = WalkController(robot, self.config, solver=solver)
         self.v = np.zeros(robot.model.nv)
@@ -133,18 +139,12 @@ class CommandedWalk:
 
     @step_duration.setter
     def step_duration(self, value) -> None:
-        T = _finite(value, "step_duration (s)", 0.4, 3.0)
+        T = check_finite(value, "step_duration (s)", 0.4, 3.0)
         scale = T / (self._t_ss0 + self._t_ds0)
         self._t_ss, self._t_ds = self._t_ss0 * scale, self._t_ds0 * scale
 
-    @property
-    def max_velocity(self) -> float:
-        """Forward speed limit, m/s."""
-        return self._max_velocity
-
-    @max_velocity.setter
-    def max_velocity(self, value) -> None:
-        self._max_velocity = _finite(value, "max_velocity (m/s)", 1e-3, 2.0)
+    max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 2.0),
+                                      "Forward speed limit, m/s (in [0.001, 2]; raises InvalidInputError).")
 
     # -- state -------------------------------------------------------------------------------------------------
     @property
@@ -197,9 +197,9 @@ class CommandedWalk:
         if wz and not self.can_turn:
             raise InvalidInputError(f"wz = {wz} rad/s: {self.robot.name}'s legs cannot yaw one sole relative to the "
                                     "other (no hip yaw joint); valid: wz = 0")
-        self.command[:] = (_finite(vx, "vx (m/s)", -self.max_velocity, self.max_velocity),
-                           _finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
-                           _finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
+        self.command[:] = (check_finite(vx, "vx (m/s)", -self.max_velocity, self.max_velocity),
+                           check_finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
+                           check_finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
         self.goal = self._pending_goal = None
         if np.any(self.command):
             self._stop = False
@@ -210,7 +210,8 @@ class CommandedWalk:
         Raises:
             InvalidInputError: non-finite values.
         """
-        self._pending_goal = (_finite(x, "goal x (m)"), _finite(y, "goal y (m)"), _finite(yaw, "goal yaw (rad)"))
+        self._pending_goal = (check_finite(x, "goal x (m)"), check_finite(y, "goal y (m)"),
+                              check_finite(yaw, "goal yaw (rad)"))
         self.command[:] = 0.0
         self._stop = False
 

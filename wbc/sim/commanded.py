@@ -48,11 +48,12 @@ import pinocchio as pin
 
 from wbc.exceptions import GaitError, InvalidInputError, SimulationError
 from wbc.gait.footsteps import pose_to_xy_yaw
-from wbc.scenarios.commanded_walk import steps_to_midpoint
+from wbc.scenarios.commanded_walk import check_finite, steps_to_midpoint
 from wbc.geometry import mean_heading
 from wbc.sim.outcome import OutcomeMonitor
 from wbc.sim.scenarios import StandScenario, make_controller
 from wbc.sim.walk import WalkScenario
+from wbc.tasks.base import ValidatedAttribute
 
 __all__ = ["SimCommandedWalk", "build_walk_loop"]
 
@@ -122,8 +123,8 @@ class SimCommandedWalk:
         self.segment_steps = int(segment_steps)
         self.step_duration = step_duration
         self.max_velocity = max_velocity
-        self.max_lateral = _finite(max_lateral, "max_lateral (m/s)", 1e-3, 2.0)
-        self.max_turn = _finite(max_turn, "max_turn (rad/s)", 1e-3, 3.0)
+        self.max_lateral = check_finite(max_lateral, "max_lateral (m/s)", 1e-3, 2.0)
+        self.max_turn = check_finite(max_turn, "max_turn (rad/s)", 1e-3, 3.0)
         self.can_turn = True
         self.sim, self.controller, self.state, self.zmp_feedback = build_walk_loop(
             robot, plant=plant, state=state, solver=solver, seed=seed)
@@ -146,23 +147,11 @@ class SimCommandedWalk:
         self.reset()
 
     # -- parameters (validated on assignment) ------------------------------------------------------------------
-    @property
-    def step_duration(self) -> float:
-        """Single + double support of a step, s (takes effect at the next segment)."""
-        return self._step_duration
-
-    @step_duration.setter
-    def step_duration(self, value) -> None:
-        self._step_duration = _finite(value, "step_duration (s)", 0.4, 3.0)
-
-    @property
-    def max_velocity(self) -> float:
-        """Forward speed limit, m/s."""
-        return self._max_velocity
-
-    @max_velocity.setter
-    def max_velocity(self, value) -> None:
-        self._max_velocity = _finite(value, "max_velocity (m/s)", 1e-3, 1.0)
+    step_duration = ValidatedAttribute(lambda walk, T: check_finite(T, "step_duration (s)", 0.4, 3.0),
+                                       "Single + double support of a step, s (in [0.4, 3]; takes effect at the next "
+                                       "segment).")
+    max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 1.0),
+                                      "Forward speed limit, m/s (in [0.001, 1]).")
 
     # -- state -------------------------------------------------------------------------------------------------
     @property
@@ -230,9 +219,9 @@ class SimCommandedWalk:
             InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
                 ``max_turn``.
         """
-        self.command[:] = (_finite(vx, "vx (m/s)", 0.0 - self.max_backward, self.max_velocity),
-                           _finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
-                           _finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
+        self.command[:] = (check_finite(vx, "vx (m/s)", 0.0 - self.max_backward, self.max_velocity),
+                           check_finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
+                           check_finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
         self.goal = self._pending_goal = None
 
     def set_goal(self, x: float, y: float, yaw: float) -> None:
@@ -242,7 +231,8 @@ class SimCommandedWalk:
         Raises:
             InvalidInputError: non-finite values.
         """
-        self._pending_goal = (_finite(x, "goal x (m)"), _finite(y, "goal y (m)"), _finite(yaw, "goal yaw (rad)"))
+        self._pending_goal = (check_finite(x, "goal x (m)"), check_finite(y, "goal y (m)"),
+                              check_finite(yaw, "goal yaw (rad)"))
         self.command[:] = 0.0
 
     def stop(self) -> None:
@@ -424,11 +414,3 @@ class SimCommandedWalk:
         return n + 1, length, lateral, turn, side
 
 
-def _finite(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-            or not math.isfinite(float(value)):
-        raise InvalidInputError(f"{name} must be a finite number; got {value!r}")
-    v = float(value)
-    if not lo <= v <= hi:
-        raise InvalidInputError(f"{name} = {v} is out of range: valid is [{lo:g}, {hi:g}]")
-    return v

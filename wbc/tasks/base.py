@@ -26,12 +26,12 @@ __all__ = ["Task", "as_weight", "ValidatedAttribute"]
 
 
 class ValidatedAttribute(property):
-    """A task attribute validated on assignment: ``check(task, value)`` returns the value to store (in
-    ``task._<name>``) or raises; reading returns the stored value (a property whose getter is
-    :func:`operator.attrgetter`: no Python call per read, as the attribute is read every tick).
+    """An attribute validated on assignment (of a task, a contact, an acceleration reference...): ``check(obj,
+    value)`` returns the value to store (in ``obj._<name>``) or raises; reading returns the stored value (a property
+    whose getter is :func:`operator.attrgetter`: no Python call per read, as the attribute is read every tick).
 
     Args:
-        check: ``(task, value) -> stored value``, raising a typed error from :mod:`wbc.exceptions`.
+        check: ``(obj, value) -> stored value``, raising a typed error from :mod:`wbc.exceptions`.
         doc: docstring of the attribute (shape, units, frame, errors).
     """
 
