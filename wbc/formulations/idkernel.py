@@ -260,7 +260,7 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
     """Workspace of the ID tick's :func:`~wbc.solvers.active_set.dual_active_set` on a
     :class:`~wbc.solvers.active_set.BlockSpace` (and of the block equality step) for n variables, nv accelerations, p
     inequality rows and up to w working rows: (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb,
-    lam_b, lam_r, out)."""
+    lam_b, lam_r, ra, rc, dx, drho, out), the ``ws_*`` arguments of :func:`id_tick` in order."""
     return (np.empty(w, np.int64), np.zeros((w, nv)), np.empty((w, w)), np.empty((nv, nv)), np.empty(nv),
             np.zeros(w), np.zeros(w), np.zeros(w, np.bool_), np.empty(nv, np.int64), np.empty(max(n - nv, 1), np.int64),
             np.zeros(3, np.int64), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(p),
