@@ -144,7 +144,7 @@ class IDSolution:
 _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
                 "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
 
-#: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.formulations.idkernel.id_solve`
+#: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
 #: refactors its working set every iteration), taken from the slow kernel ticks of the ID fuzz (G1, 37–39 working
 #: rows; benchmarks/README.md, "Tick time bounded at both levels"). A tick budget becomes an iteration cap of
 #: ⌊budget / (2 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
@@ -173,7 +173,7 @@ class InverseDynamicsQP:
             weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``fast``, the default: the compiled tick of :mod:`wbc.formulations.idkernel` —
-            assembly, Goldfarb–Idnani dual active-set solve (:func:`~wbc.formulations.idkernel.id_solve`) and
+            assembly, Goldfarb–Idnani dual active-set solve (:func:`~wbc.solvers.active_set.dual_active_set`) and
             torques in one call — with DAQP as fallback (the general path while a hard task is present or the
             torque-limited joints are not contiguous in v); ``daqp``: the general path, warm-started from the
             previous duals, ``primal_tol`` 1e-6 (DAQP's one-shot dual warm start stops ≈ 3e-7 from the optimum on

@@ -30,8 +30,9 @@ bound every tick) are held again, and the optimum of the equality-constrained QP
 
 a ≤ 38 × 38 Cholesky for Talos instead of a 62 × 62 one. If that x satisfies every bound and row (to 1e-12) and
 every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i is ≥ 0 (σ_i = −1 at lb, +1 at ub), every KKT
-condition of the full QP holds and x is its (unique) optimum; otherwise :func:`id_solve` (Goldfarb–Idnani dual
-active set, warm-started from the same working set) takes over.
+condition of the full QP holds and x is its (unique) optimum; otherwise the Goldfarb–Idnani dual active set
+(:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`, warm-started
+from the same working set) takes over.
 
 Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
@@ -53,19 +54,22 @@ from wbc.constraints.floating_base import contact_force_columns, floating_base_r
 from wbc.constraints.joint_acceleration_bounds import joint_bounds_kernel
 from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
-from wbc.solvers.linalg import (backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers,
-                                weighted_normal_equations)
-from wbc.solvers.status import INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE, SolverStatus
+from wbc.solvers.active_set import BlockSpace, dual_active_set
+from wbc.solvers.box_eq import clip_eq_residual
+from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
+                                primal_from_multipliers, weighted_normal_equations)
 
-__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_solve", "id_tick", "id_workspace", "task_cost",
+__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace", "task_cost",
            "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
-#: dependent on it (:func:`id_solve`)
+#: dependent on it (the ID tick's :func:`~wbc.solvers.active_set.dual_active_set`)
 DEPENDENCE_TOL = 1e-10
-#: violation (constraint units: m/s², N, N·m) beyond which a bound or row enters the working set (:func:`id_solve`)
+#: violation (constraint units: m/s², N, N·m) beyond which a bound or row enters the working set (the same solve)
 PRIMAL_TOL = 1e-11
+#: largest constraint violation (m/s², N, N·m) of the solve's final KKT check (the same solve)
+VERIFY_TOL = 1e-9
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -192,480 +196,12 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
     for i in range(n):
         if state[i] == 0 or lb[i] == ub[i]:
             continue
-        s = _cost_gradient(H, g, x, i, nv)
+        s = block_cost_gradient(H, g, x, i, nv)
         for k in range(m):
             s += A[k, i] * nu[k]
         if -state[i] * s < 0.0:
             return -1.0
-    return _clip_and_equality_residual(A, b, m, lb, ub, x, n)
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _cost_gradient(H, g, x, i, nv):
-    """(H x + g)_i of the ID QP's cost, whose Hessian is dense in its first ``nv`` rows and columns (v̇) and diagonal
-    after them (the contact forces)."""
-    s = g[i]
-    if i < nv:
-        for j in range(nv):
-            s += H[i, j] * x[j]
-    else:
-        s += H[i, i] * x[i]
-    return s
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _clip_and_equality_residual(A, b, m, lb, ub, x, n):
-    """Clip x[:n] into [lb, ub] in place and return max_k |A_k x − b_k| over the first m rows."""
-    for i in range(n):
-        x[i] = min(max(x[i], lb[i]), ub[i])
-    res = 0.0
-    for k in range(m):
-        acc = -b[k]
-        Ak = A[k]
-        for j in range(n):
-            acc += Ak[j] * x[j]
-        res = max(res, abs(acc))
-    return res
-
-
-#: exit codes of :func:`id_solve`: the shared :class:`~wbc.solvers.status.SolverStatus` values (plain ints, frozen by
-#: numba at compile time; NOT_POSITIVE_DEFINITE, ITERATION_CAP and INFEASIBLE are :mod:`wbc.solvers.status`'s)
-DEPENDENT_WORKING_SET = int(SolverStatus.DEPENDENT_ROWS)
-NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _row(A, C, m, rk):
-    return A[rk] if rk < m else C[rk - m]
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol):
-    """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
-    from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
-    of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ in S. Returns the
-    number of working rows, NOT_POSITIVE_DEFINITE, or DEPENDENT_WORKING_SET when a row is (numerically, squared
-    sine below ``dep_tol``) a combination of the ones before it."""
-    n = H.shape[0]
-    p = C.shape[0]
-    nfv = 0
-    same = fac[0] >= 0
-    for i in range(nv):
-        if state[i] == 0:
-            if same and (nfv >= fac[0] or vfree[nfv] != i):
-                same = False
-            vfree[nfv] = i
-            nfv += 1
-    if nfv != fac[0]:
-        same = False
-    nff = 0
-    for i in range(nv, n):
-        if state[i] == 0:
-            ffree[nff] = i
-            nff += 1
-    fac[1] = nff
-    if not same:
-        for a in range(nfv):
-            i = vfree[a]
-            for c in range(a + 1):
-                L[a, c] = H[i, vfree[c]]
-        if not cholesky_lower(L, nfv):
-            fac[0] = -1
-            return NOT_POSITIVE_DEFINITE
-        fac[0] = nfv
-    mw = 0
-    for k in range(m):
-        rows[mw] = k
-        mw += 1
-    for r in range(p):
-        if rstate[r] != 0:
-            rows[mw] = m + r
-            mw += 1
-    if mw > nfv + nff:
-        return DEPENDENT_WORKING_SET
-    for k in range(mw):
-        R = _row(A, C, m, rows[k])
-        y = Yv[k]
-        nz = False
-        for a in range(nfv):
-            y[a] = R[vfree[a]]
-            if y[a] != 0.0:
-                nz = True
-        vrow[k] = nz
-        if nz:
-            forward_substitution(L, nfv, y)
-        for c in range(k + 1):
-            S[k, c] = _free_dot(0.0, nz and vrow[c], y, Yv[c], nfv, R, _row(A, C, m, rows[c]), ffree, nff, H)
-    if not cholesky_lower(S, mw, dep_tol):
-        return DEPENDENT_WORKING_SET
-    fac[2] = mw
-    return mw
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
-    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
-    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
-    if with_v:
-        for i in range(nfv):
-            acc += y[i] * w[i]
-    for i in range(nff):
-        f = ffree[i]
-        acc += R[f] * X[f] / H[f, f]
-    return acc
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, tv):
-    """With the factors of :func:`_factor`: y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space,
-    Nocedal & Wright 2006 eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
-    nfv, nff = fac[0], fac[1]
-    for i in range(nfv):
-        tv[i] = a[vfree[i]]
-    forward_substitution(L, nfv, tv)
-    q = 0.0
-    for i in range(nfv):
-        q += tv[i] * tv[i]
-    for i in range(nff):
-        f = ffree[i]
-        q += a[f] * a[f] / H[f, f]
-    for k in range(mw):
-        R = _row(A, C, m, rows[k])
-        rho[k] = _free_dot(-c[k], vrow[k], Yv[k], tv, nfv, R, a, ffree, nff, H)
-    forward_substitution(S, mw, rho)
-    backward_substitution(S, mw, rho)
-    for k in range(mw):
-        if vrow[k]:
-            yk = Yv[k]
-            rk = rho[k]
-            for i in range(nfv):
-                tv[i] -= yk[i] * rk
-    backward_substitution(L, nfv, tv)
-    for i in range(nfv):
-        y[vfree[i]] = tv[i]
-    for i in range(nff):
-        f = ffree[i]
-        s = a[f]
-        for k in range(mw):
-            s -= _row(A, C, m, rows[k])[f] * rho[k]
-        y[f] = s / H[f, f]
-    return q
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, x, lam_b,
-         lam_r, nuw, a, c, tv, ra, rc, dx, drho):
-    """x = optimum of the working set's equality-constrained QP (fixed variables on their bound), and the
-    multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j = ±e_i for a bound,
-    ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i for a bound held at its
-    lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r for a row held at l (s = −1) or u (s = +1). Returns the
-    most negative λ (or 0) and its index (variables 0..n−1, rows n..n+p−1; −1 when none)."""
-    n = H.shape[0]
-    for i in range(n):
-        if state[i] < 0:
-            x[i] = lb[i]
-        elif state[i] > 0:
-            x[i] = ub[i]
-    for i in range(n):
-        if state[i] != 0:
-            a[i] = 0.0
-            continue
-        s = -g[i]
-        if i < nv:
-            for j in range(nv):
-                if state[j] != 0:
-                    s -= H[i, j] * x[j]
-        a[i] = s
-    for k in range(mw):
-        rk = rows[k]
-        R = _row(A, C, m, rk)
-        if rk < m:
-            s = b[rk]
-        else:
-            s = l[rk - m] if rstate[rk - m] < 0 else u[rk - m]
-        for j in range(n):
-            if state[j] != 0:
-                s -= R[j] * x[j]
-        c[k] = s
-    _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, x, nuw, tv)
-    # iterative refinement (the Schur complement carries D⁻¹ = 1/ε_f: one correction step restores the digits)
-    for _ in range(2):
-        for i in range(n):
-            if state[i] != 0:
-                dx[i] = 0.0
-                continue
-            s = a[i]
-            if i < nv:
-                for j in range(nv):
-                    if state[j] == 0:
-                        s -= H[i, j] * x[j]
-            else:
-                s -= H[i, i] * x[i]
-            ra[i] = s
-        for i in range(n):
-            if state[i] == 0:
-                for k in range(mw):
-                    ra[i] -= _row(A, C, m, rows[k])[i] * nuw[k]
-            else:
-                ra[i] = 0.0
-        for k in range(mw):
-            R = _row(A, C, m, rows[k])
-            s = c[k]
-            for j in range(n):
-                if state[j] == 0:
-                    s -= R[j] * x[j]
-            rc[k] = s
-        _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, ra, rc, dx, drho, tv)
-        for i in range(n):
-            if state[i] == 0:
-                x[i] += dx[i]
-        for k in range(mw):
-            nuw[k] += drho[k]
-    worst = 0.0
-    worst_i = -1
-    for k in range(m, mw):
-        r = rows[k] - m
-        lam_r[r] = rstate[r] * nuw[k]
-        if lam_r[r] < worst:
-            worst, worst_i = lam_r[r], n + r
-    for i in range(n):
-        if state[i] == 0:
-            continue
-        s = _cost_gradient(H, g, x, i, nv)
-        for k in range(mw):
-            s += _row(A, C, m, rows[k])[i] * nuw[k]
-        lam_b[i] = -state[i] * s
-        if lb[i] != ub[i] and lam_b[i] < worst:
-            worst, worst_i = lam_b[i], i
-    return worst, worst_i
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _violation(C, l, u, lb, ub, x, state, rstate, tol):
-    """The constraint outside the working set violated most beyond ``tol``: (slack < 0, index — variable i or
-    row n + r —, side −1 lower / +1 upper); index −1 when none."""
-    n = x.shape[0]
-    worst = -tol
-    wi = -1
-    side = 0
-    for i in range(n):
-        if state[i] != 0:
-            continue
-        if x[i] - lb[i] < worst:
-            worst, wi, side = x[i] - lb[i], i, -1
-        elif ub[i] - x[i] < worst:
-            worst, wi, side = ub[i] - x[i], i, 1
-    for r in range(C.shape[0]):
-        if rstate[r] != 0:
-            continue
-        s = 0.0
-        Cr = C[r]
-        for j in range(n):
-            s += Cr[j] * x[j]
-        if s - l[r] < worst:
-            worst, wi, side = s - l[r], n + r, -1
-        elif u[r] - s < worst:
-            worst, wi, side = u[r] - s, n + r, 1
-    return worst, wi, side
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, max_iter, primal_tol, dep_tol,
-             rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, out):
-    """Exact solution of the ID QP  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub,  with
-    H = blockdiag(H_vv, D), D diagonal > 0 (the force regularisation ε_f I), by the dual active-set method of
-    Goldfarb & Idnani (1983, "A numerically stable dual method for solving strictly convex quadratic programs",
-    Math. Programming 27:1–33) — the method of quadprog and of placo's qpmad.
-
-    From a dual-feasible working set (the equality-constrained optimum, or the previous tick's working set
-    with any wrong-sign multiplier removed), the most violated bound or row p is added along the step
-    (z, r) solving H z = n_p − Σ_W r_j n_j, z ⟂ W; a multiplier that would turn negative first drops its
-    constraint (partial step). A constraint p linearly dependent on the working set (z = 0: e.g. at a sole corner
-    with f_z = 0 the corner's friction-pyramid rows and its bound are dependent, |f_x|, |f_y| ≤ μ' f_z = 0) only
-    drops constraints, which keeps the working set linearly independent — the degenerate case that stopped the
-    previous primal working-set kernel. Each step is solved with the block structure: L Lᵀ = H_vv on the free
-    accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur complement of the working
-    rows (range-space method, Nocedal & Wright 2006 §16.2).
-
-    After each full step x and λ are recomputed as the working set's equality-constrained optimum (from its
-    factors, with two steps of iterative refinement: the Schur complement carries D⁻¹ = 1/ε_f), so the GI updates
-    only steer; at the end every KKT condition is checked on that x: multipliers ≥ −1e-9 (relative to the
-    largest) and every equality, bound and row satisfied to 1e-9; otherwise NOT_VERIFIED.
-
-    Args:
-        H (n, n), g (n,), A (≥ m, n), b, C (p, n), l, u (p,), lb, ub (n,): the QP (H[:nv, nv:] = 0,
-            H[nv:, nv:] diagonal > 0). nv: number of accelerations.
-        state (n,) int8, rstate (p,) int8: in/out working set (0 free / inactive, −1 at lb or l, +1 at ub or u);
-            read as the warm start.
-        x (n,): out, the solution. mu (p,): out, row multipliers (H x + g + Aᵀν + Cᵀμ + z = 0 convention: μ ≤ 0
-            at l, ≥ 0 at u). primal_tol: violation that makes a constraint enter. dep_tol: squared sine below
-            which a constraint counts as dependent on the working set.
-        rows … lam_r: workspace (:func:`id_workspace`). out (3,): out — largest constraint violation of x (equality
-            residual included), iterations (partial steps included), working rows.
-
-    Returns:
-        iterations (≥ 1), or NOT_POSITIVE_DEFINITE, DEPENDENT_WORKING_SET, ITERATION_CAP, INFEASIBLE, NOT_VERIFIED.
-    """
-    n = H.shape[0]
-    p = C.shape[0]
-    fac[0] = -1
-    for i in range(n):
-        if lb[i] == ub[i]:
-            state[i] = -1
-        elif (state[i] == -1 and not np.isfinite(lb[i])) or (state[i] == 1 and not np.isfinite(ub[i])):
-            state[i] = 0
-    for r in range(p):
-        if (rstate[r] == -1 and not np.isfinite(l[r])) or (rstate[r] == 1 and not np.isfinite(u[r])):
-            rstate[r] = 0
-    # dual-feasible start: the warm working set minus wrong-sign multipliers (cold: the equalities only)
-    it = 0
-    while True:
-        it += 1
-        if it > max_iter:
-            return ITERATION_CAP
-        mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
-        if mw == NOT_POSITIVE_DEFINITE:
-            return mw
-        if mw < 0:
-            cold = True
-            for i in range(n):
-                if state[i] != 0 and lb[i] != ub[i]:
-                    cold = False
-                    state[i] = 0
-            for r in range(p):
-                if rstate[r] != 0:
-                    cold = False
-                    rstate[r] = 0
-            if cold:
-                return mw
-            continue
-        worst, wi = _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow,
-                         fac, x, lam_b, lam_r, nuw, a, c, tv, ra, rc, dx, drho)
-        if wi < 0:
-            break
-        if wi < n:
-            state[wi] = 0
-        else:
-            rstate[wi - n] = 0
-    # Goldfarb–Idnani iterations
-    while True:
-        slack, pi, side = _violation(C, l, u, lb, ub, x, state, rstate, primal_tol)
-        if pi < 0:
-            break
-        for i in range(n):
-            npv[i] = 0.0
-        if pi < n:
-            npv[pi] = -side
-        else:
-            Cr = C[pi - n]
-            for j in range(n):
-                npv[j] = -side * Cr[j]
-        lam_p = 0.0
-        while True:
-            it += 1
-            if it > max_iter:
-                return ITERATION_CAP
-            # direction: a = n_p on F, c = 0
-            for i in range(n):
-                a[i] = npv[i] if state[i] == 0 else 0.0
-                z[i] = 0.0
-            for k in range(mw):
-                c[k] = 0.0
-            q = _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, z, nuw, tv)
-            nz = 0.0
-            for i in range(n):
-                nz += a[i] * z[i]
-            # r of the working inequalities (rows: −s ρ; bounds: σ (n_p − H z − R_wᵀ ρ)_i)
-            t2 = np.inf
-            blk = -1
-            for k in range(m, mw):
-                r = rows[k] - m
-                rr = -rstate[r] * nuw[k]
-                if rr > 0.0 and lam_r[r] / rr < t2:
-                    t2, blk = lam_r[r] / rr, n + r
-                mu[r] = rr  # r of the rows, kept in mu until the step
-            for i in range(n):
-                if state[i] == 0:
-                    continue
-                s = npv[i]
-                if i < nv:
-                    for j in range(nv):
-                        s -= H[i, j] * z[j]
-                for k in range(mw):
-                    s -= _row(A, C, m, rows[k])[i] * nuw[k]
-                rb[i] = -state[i] * s
-                if lb[i] != ub[i] and rb[i] > 0.0 and lam_b[i] / rb[i] < t2:
-                    t2, blk = lam_b[i] / rb[i], i
-            dependent = not nz > dep_tol * q
-            if dependent:
-                if blk < 0:
-                    return INFEASIBLE
-                t = t2
-            else:
-                sl = 0.0
-                for j in range(n):
-                    sl += npv[j] * x[j]
-                sl -= (lb[pi] if side < 0 else -ub[pi]) if pi < n else (l[pi - n] if side < 0 else -u[pi - n])
-                t1 = -sl / nz
-                t = min(t1, t2)
-                for i in range(n):
-                    x[i] += t * z[i]
-            for k in range(m, mw):
-                r = rows[k] - m
-                lam_r[r] -= t * mu[r]
-            for i in range(n):
-                if state[i] != 0:
-                    lam_b[i] -= t * rb[i]
-            lam_p += t
-            if not dependent and t == t1:  # full step: p joins the working set
-                if pi < n:
-                    state[pi] = side
-                    lam_b[pi] = lam_p
-                else:
-                    rstate[pi - n] = side
-                    lam_r[pi - n] = lam_p
-                mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
-                if mw < 0:
-                    return mw
-                # x, λ again from the new working set's factors (exact, refined; the GI updates only steer)
-                _eqp(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, x,
-                     lam_b, lam_r, nuw, a, c, tv, ra, rc, dx, drho)
-                break
-            # partial step: the blocking constraint leaves
-            if blk < n:
-                state[blk] = 0
-                lam_b[blk] = 0.0
-            else:
-                rstate[blk - n] = 0
-                lam_r[blk - n] = 0.0
-            mw = _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol)
-            if mw < 0:
-                return mw
-    # verification: x and λ are the working set's equality-constrained optimum (last _eqp)
-    worst = 0.0
-    big = 1.0
-    for i in range(n):
-        if state[i] != 0 and lb[i] != ub[i]:
-            big = max(big, abs(lam_b[i]))
-            worst = min(worst, lam_b[i])
-    for r in range(p):
-        mu[r] = 0.0
-        if rstate[r] != 0:
-            big = max(big, abs(lam_r[r]))
-            worst = min(worst, lam_r[r])
-            mu[r] = -lam_r[r] if rstate[r] < 0 else lam_r[r]
-    res = _clip_and_equality_residual(A, b, m, lb, ub, x, n)
-    for r in range(p):
-        s = 0.0
-        for j in range(n):
-            s += C[r, j] * x[j]
-        res = max(res, l[r] - s, s - u[r])
-    out[0] = res
-    out[1] = it
-    out[2] = mw
-    if worst < -1e-9 * big or res > 1e-9:
-        return NOT_VERIFIED
-    return it
+    return clip_eq_residual(x, lb, ub, A, b, n, m)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -723,9 +259,10 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
 
 
 def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
-    """Workspace of :func:`id_solve` (and of the block equality step) for n variables, nv accelerations, p
+    """Workspace of the ID tick's :func:`~wbc.solvers.active_set.dual_active_set` on a
+    :class:`~wbc.solvers.active_set.BlockSpace` (and of the block equality step) for n variables, nv accelerations, p
     inequality rows and up to w working rows: (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb,
-    lam_b, lam_r, out)."""
+    lam_b, lam_r, ra, rc, dx, drho, out), the ``ws_*`` arguments of :func:`id_tick` in order."""
     return (np.empty(w, np.int64), np.zeros((w, nv)), np.empty((w, w)), np.empty((nv, nv)), np.empty(nv),
             np.zeros(w), np.zeros(w), np.zeros(w, np.bool_), np.empty(nv, np.int64), np.empty(max(n - nv, 1), np.int64),
             np.zeros(3, np.int64), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(p),
@@ -875,7 +412,8 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
             ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
             ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
-    :func:`id_solve`), the torques and the wrenches.
+    :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
+    torques and the wrenches.
 
     Args:
         Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
@@ -887,7 +425,7 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
             joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
         iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). state, rstate, x, mu, ws_*: :func:`id_solve` arguments (workspace from :func:`id_workspace`;
+            contact). state, rstate, x, mu, ws_*: the solve's arguments (workspace from :func:`id_workspace`;
             ws_L, ws_tv are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
             nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
             :func:`contact_rows_well_conditioned`.
@@ -896,7 +434,7 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
             origin in world axes (N, N·m), zero for an inactive contact.
 
     Returns:
-        (kernel iterations (negative: exit code of id_solve, or PROJECT_CONTACT_RHS), number of equality rows m).
+        (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
@@ -910,9 +448,11 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
         it = 1
         residual[0] = res
     else:
-        it = id_solve(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, mu, int(par[PAR_MAX_ITER]), PRIMAL_TOL,
-                      DEPENDENCE_TOL, ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree,
-                      ws_fac, ws_a, ws_z, ws_npv, ws_rb, ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out)
+        space = BlockSpace(nv, ws_rows, ws_Yv, ws_S, ws_L, ws_vfree, ws_ffree, ws_vrow, ws_fac, ws_a, ws_c, ws_tv,
+                           ws_ra, ws_rc, ws_dx, ws_drho, ws_npv, ws_nuw, DEPENDENCE_TOL)
+        it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, ws_lam_b, ws_lam_r,
+                             ws_z, ws_rb, int(par[PAR_MAX_ITER]), PRIMAL_TOL, 0.0, DEPENDENCE_TOL, 0.0, True, True, 1,
+                             VERIFY_TOL, ws_out)
         residual[0] = ws_out[0]
     if it > 0:
         residual[1] = id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench)

@@ -1,28 +1,63 @@
 """Compiled (numba) exact solver of a QP with equality rows, two-sided inequality rows and bounds:
 
-    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A[:m] x = b[:m],   l ≤ C x ≤ u,   lb ≤ x ≤ ub
 
-(H positive definite): :func:`solve_qp_ws`, the dual active-set method of Goldfarb & Idnani (Math. Program. 27,
-1983) in range-space form, H factored once per call and the working set (equalities, rows and bounds alike) kept
-through L⁻¹Nᵀ and the Cholesky factor of its Gram matrix, warm-started from the previous call's working set. Its
-dual steps drop a working constraint when the one being added is linearly dependent on the working set — the case
-of the self-collision rows (nearly parallel rows of the thighs, which the contacts fix; arm rows on joints held at
-velocity bounds) that make the principal pivoting of :mod:`wbc.solvers.box_eq` stop. The loop ends only when every
-KKT condition holds, so the returned x is the exact optimum; otherwise a negative exit code
-(:mod:`wbc.solvers.status`).
+(H positive definite): :func:`dual_active_set`, the dual active-set method of Goldfarb & Idnani ("A numerically
+stable dual method for solving strictly convex quadratic programs", Math. Program. 27, 1983, §3) — the method of
+quadprog and of placo's qpmad —, warm-started from the previous call's working set. The iteration (the start from a
+dual-feasible working set, the choice of the violated constraint, the step length, the multiplier updates, the
+dependency test, the final KKT check) is written once; the linear algebra of a working set is a strategy chosen
+by the type of the ``space`` argument (numba compiles one specialisation per type):
+
+* :class:`DenseSpace` — any positive definite H, range-space form: H = L Lᵀ factored once per call, the working
+  set (equalities, rows and bounds alike, normals N) kept through Y = L⁻¹Nᵀ and the Cholesky factor of its Gram
+  matrix S = Y Yᵀ (a new member costs one substitution and a row of S, a leaving one a permutation, then S is
+  refactored, |W|³/6). :func:`solve_qp_ws` is the method on this space (the kinematic tick, ``FastBackend``).
+* :class:`BlockSpace` — H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP: accelerations, then
+  forces regularised by ε_f I): the bounds held by the working set are eliminated (the variables fixed on them),
+  L Lᵀ = H_vv on the free accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur
+  complement of the working rows (range-space method, Nocedal & Wright 2006, *Numerical Optimization*, §16.2);
+  each equality-constrained optimum gets two steps of iterative refinement (the Schur complement carries
+  D⁻¹ = 1/ε_f). Used by :func:`wbc.formulations.idkernel.id_tick`.
+
+A constraint linearly dependent on the working set (z = 0: self-collision rows of the thighs that the contacts fix,
+nearly parallel; a sole corner with f_z = 0 whose friction-pyramid rows and bound are dependent) only drops working
+constraints, which keeps the working set linearly independent — the degenerate case that makes the principal
+pivoting of :mod:`wbc.solvers.box_eq` stop. Exit codes: :mod:`wbc.solvers.status`.
 """
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 from wbc.compiled import FASTMATH
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
-from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers
-from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
+from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
+                                primal_from_multipliers)
+from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
+                                NOT_VERIFIED)
 
-__all__ = ["solve_qp_ws"]
+__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "solve_qp_ws"]
+
+#: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
+#: = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r,
+#: bw, nuw (K,): products, step multipliers, right-hand sides, multipliers by slot; kind (0 equality, 1 row of C,
+#: 2 bound), idx, side (K,) int64: the slots; sc (1,): wᵀw; rank_tol: relative pivot of S² below which the working
+#: set counts as dependent. K = n + m + 1.
+DenseSpace = namedtuple("DenseSpace", "L Yw Sm Sf t0 y w tmp r bw nuw kind idx side sc rank_tol")
+#: workspace of the block strategy (H = blockdiag(H[:nv, :nv], diagonal)): nv; rows (w,) int64 the working rows
+#: (A[:m], then held rows of C as m + r); Yv (w, nv); S (w, w); L (nv, nv); vfree (nv,), ffree (n − nv,) int64 free
+#: variables; vrow (w,) bool; fac (3,) int64 (free accelerations factored, free forces, working rows); a, ra, dx,
+#: npv (n,); c, rc, drho, nuw (w,); tv (nv,); dep_tol: squared sine (H⁻¹ metric) below which a working row counts
+#: as dependent on the ones before it. :func:`wbc.formulations.idkernel.id_workspace` allocates the arrays.
+BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c tv ra rc dx drho npv nuw dep_tol")
+#: relative size (to the largest multiplier, at least 1) of a negative working multiplier that fails the final
+#: KKT check of :func:`dual_active_set`
+DUAL_CHECK_TOL = 1e-9
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -57,7 +92,7 @@ def _ws_add(Yw, Sm, mw, y, n):
 
 
 @nb.njit(cache=True, nogil=True)
-def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw, uw):
+def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw):
     """Remove working entry k (the last one takes its place); returns the new size."""
     e = mw - 1
     if k != e:
@@ -68,7 +103,7 @@ def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw, uw):
         for j in range(mw):
             Sm[j, k] = Sm[j, e]
         Sm[k, k] = Sm[e, e]
-        kind[k], idx[k], side[k], bw[k], uw[k] = kind[e], idx[e], side[e], bw[e], uw[e]
+        kind[k], idx[k], side[k], bw[k] = kind[e], idx[e], side[e], bw[e]
     return e
 
 
@@ -104,26 +139,742 @@ def _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_prepare(qp, sp):
+    """L Lᵀ = H, t0 = L⁻¹ g; 0, or NOT_POSITIVE_DEFINITE."""
+    H, g = qp[0], qp[1]
+    n = H.shape[0]
+    L = sp.L
+    for i in range(n):
+        for j in range(i + 1):
+            L[i, j] = H[i, j]
+    if not cholesky_lower(L, n):
+        return NOT_POSITIVE_DEFINITE
+    for i in range(n):
+        sp.t0[i] = g[i]
+    forward_substitution(L, n, sp.t0)
+    return 0
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_start(qp, sp, state, rstate):
+    """The working set from ``state``/``rstate`` (slots: equality rows, held rows of C, held bounds) and its
+    factor; its size, or DEPENDENT_EQUALITIES."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    n = H.shape[0]
+    p = C.shape[0]
+    L, Yw, Sm, y, bw, kind, idx, side = sp.L, sp.Yw, sp.Sm, sp.y, sp.bw, sp.kind, sp.idx, sp.side
+    K = kind.shape[0]
+    mw = 0
+    for k in range(m):
+        for j in range(n):
+            y[j] = A[k, j]
+        forward_substitution(L, n, y)
+        _ws_add(Yw, Sm, mw, y, n)
+        kind[mw], idx[mw], side[mw], bw[mw] = 0, k, 0, b[k]
+        mw += 1
+    for q in range(p):
+        if rstate[q] != 0:
+            _normal_image(L, n, C, q, True, y)
+            _ws_add(Yw, Sm, mw, y, n)
+            kind[mw], idx[mw], side[mw] = 1, q, rstate[q]
+            bw[mw] = l[q] if rstate[q] < 0 else u[q]
+            mw += 1
+            if mw == K:
+                break
+    for i in range(n):
+        if state[i] != 0 and mw < K:
+            _normal_image(L, n, C, i, False, y)
+            _ws_add(Yw, Sm, mw, y, n)
+            kind[mw], idx[mw], side[mw] = 2, i, state[i]
+            bw[mw] = lb[i] if state[i] < 0 else ub[i]
+            mw += 1
+    if mw <= n and _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
+        return mw
+    return DEPENDENT_EQUALITIES
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
+    """Equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
+    H = L Lᵀ, Y = L⁻¹Nᵀ: S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν)), ν of the equality rows in nu[:m] and the
+    oriented multipliers side·ν of the working rows and bounds in lam_r, lam_b."""
+    n = x.shape[0]
+    m = qp[4]
+    nuw, kind, idx, side = sp.nuw, sp.kind, sp.idx, sp.side
+    _ws_eqp(sp.L, sp.t0, sp.Yw, sp.Sf, sp.bw, mw, n, nuw, x)
+    for k in range(m):
+        nu[k] = nuw[k]
+    for k in range(m, mw):
+        if kind[k] == 1:
+            lam_r[idx[k]] = side[k] * nuw[k]
+        else:
+            lam_b[idx[k]] = side[k] * nuw[k]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_target(qp, sp, pi, pside):
+    """y = L⁻¹ a_p and w = −pside · y (the inward normal's image) of constraint ``pi`` (a bound < n, else the row
+    pi − n), wᵀw in sc[0]."""
+    C = qp[5]
+    n = sp.y.shape[0]
+    is_row = pi >= n
+    _normal_image(sp.L, n, C, pi - n if is_row else pi, is_row, sp.y)
+    s = -float(pside)
+    ww = 0.0
+    for j in range(n):
+        sp.w[j] = s * sp.y[j]
+        ww += sp.w[j] * sp.w[j]
+    sp.sc[0] = ww
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
+    """r = S⁻¹ Y w, z = L⁻ᵀ (w − Yᵀ r) (the direction keeping W's constraints at their bounds, n_p = Nᵀr + Hz),
+    the oriented r of the working rows in rr and of the bounds in rb; returns (n_p·z = wᵀw − (Yw)ᵀr, wᵀw)."""
+    n = z.shape[0]
+    m = qp[4]
+    Yw, Sf, w, tmp, r, kind, idx, side = sp.Yw, sp.Sf, sp.w, sp.tmp, sp.r, sp.kind, sp.idx, sp.side
+    ww = sp.sc[0]
+    for k in range(mw):
+        s = 0.0
+        for j in range(n):
+            s += Yw[k, j] * w[j]
+        tmp[k] = s
+        r[k] = s
+    forward_substitution(Sf, mw, r)
+    backward_substitution(Sf, mw, r)
+    nz = ww
+    for k in range(mw):
+        nz -= tmp[k] * r[k]
+    for j in range(n):
+        z[j] = w[j]
+    for k in range(mw):
+        rk = r[k]
+        for j in range(n):
+            z[j] -= Yw[k, j] * rk
+    backward_substitution(sp.L, n, z)
+    for k in range(m, mw):
+        if kind[k] == 1:
+            rr[idx[k]] = -side[k] * r[k]
+        else:
+            rb[idx[k]] = -side[k] * r[k]
+    return nz, ww
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_add(qp, sp, mw, state, rstate, pi, pside):
+    """Append constraint ``pi`` (its image y from :func:`_dense_target`) held at ``pside``; refactor S. The new
+    size, or DEPENDENT_EQUALITIES."""
+    l, u, lb, ub = qp[6], qp[7], qp[8], qp[9]
+    n = sp.y.shape[0]
+    if mw == sp.kind.shape[0]:
+        return DEPENDENT_EQUALITIES
+    _ws_add(sp.Yw, sp.Sm, mw, sp.y, n)
+    if pi >= n:
+        q = pi - n
+        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 1, q, l[q] if pside < 0 else u[q]
+    else:
+        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 2, pi, lb[pi] if pside < 0 else ub[pi]
+    sp.side[mw] = pside
+    mw += 1
+    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
+        return DEPENDENT_EQUALITIES
+    return mw
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_remove(qp, sp, mw, state, rstate, ci):
+    """Remove constraint ``ci`` (a bound < n, else the row ci − n) from the working slots; refactor S. The new
+    size, or DEPENDENT_EQUALITIES."""
+    n = sp.y.shape[0]
+    m = qp[4]
+    kd, q = (1, ci - n) if ci >= n else (2, ci)
+    for k in range(m, mw):
+        if sp.kind[k] == kd and sp.idx[k] == q:
+            mw = _ws_remove(k, mw, n, sp.Yw, sp.Sm, sp.kind, sp.idx, sp.side, sp.bw)
+            break
+    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
+        return DEPENDENT_EQUALITIES
+    return mw
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _row(A, C, m, rk):
+    """Working row rk: A[rk] (an equality) when rk < m, else C[rk − m]."""
+    return A[rk] if rk < m else C[rk - m]
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol):
+    """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
+    from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
+    of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ in S. Returns the
+    number of working rows, NOT_POSITIVE_DEFINITE, or DEPENDENT_EQUALITIES when a row is (numerically, squared
+    sine below ``dep_tol``) a combination of the ones before it."""
+    n = H.shape[0]
+    p = C.shape[0]
+    nfv = 0
+    same = fac[0] >= 0
+    for i in range(nv):
+        if state[i] == 0:
+            if same and (nfv >= fac[0] or vfree[nfv] != i):
+                same = False
+            vfree[nfv] = i
+            nfv += 1
+    if nfv != fac[0]:
+        same = False
+    nff = 0
+    for i in range(nv, n):
+        if state[i] == 0:
+            ffree[nff] = i
+            nff += 1
+    fac[1] = nff
+    if not same:
+        for a in range(nfv):
+            i = vfree[a]
+            for c in range(a + 1):
+                L[a, c] = H[i, vfree[c]]
+        if not cholesky_lower(L, nfv):
+            fac[0] = -1
+            return NOT_POSITIVE_DEFINITE
+        fac[0] = nfv
+    mw = 0
+    for k in range(m):
+        rows[mw] = k
+        mw += 1
+    for r in range(p):
+        if rstate[r] != 0:
+            rows[mw] = m + r
+            mw += 1
+    if mw > nfv + nff:
+        return DEPENDENT_EQUALITIES
+    for k in range(mw):
+        R = _row(A, C, m, rows[k])
+        y = Yv[k]
+        nz = False
+        for a in range(nfv):
+            y[a] = R[vfree[a]]
+            if y[a] != 0.0:
+                nz = True
+        vrow[k] = nz
+        if nz:
+            forward_substitution(L, nfv, y)
+        for c in range(k + 1):
+            S[k, c] = _free_dot(0.0, nz and vrow[c], y, Yv[c], nfv, R, _row(A, C, m, rows[c]), ffree, nff, H)
+    if not cholesky_lower(S, mw, dep_tol):
+        return DEPENDENT_EQUALITIES
+    fac[2] = mw
+    return mw
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
+    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
+    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
+    if with_v:
+        for i in range(nfv):
+            acc += y[i] * w[i]
+    for i in range(nff):
+        f = ffree[i]
+        acc += R[f] * X[f] / H[f, f]
+    return acc
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, tv):
+    """With the factors of :func:`_factor`: y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space,
+    Nocedal & Wright 2006 eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
+    nfv, nff = fac[0], fac[1]
+    for i in range(nfv):
+        tv[i] = a[vfree[i]]
+    forward_substitution(L, nfv, tv)
+    q = 0.0
+    for i in range(nfv):
+        q += tv[i] * tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        q += a[f] * a[f] / H[f, f]
+    for k in range(mw):
+        R = _row(A, C, m, rows[k])
+        rho[k] = _free_dot(-c[k], vrow[k], Yv[k], tv, nfv, R, a, ffree, nff, H)
+    forward_substitution(S, mw, rho)
+    backward_substitution(S, mw, rho)
+    for k in range(mw):
+        if vrow[k]:
+            yk = Yv[k]
+            rk = rho[k]
+            for i in range(nfv):
+                tv[i] -= yk[i] * rk
+    backward_substitution(L, nfv, tv)
+    for i in range(nfv):
+        y[vfree[i]] = tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        s = a[f]
+        for k in range(mw):
+            s -= _row(A, C, m, rows[k])[f] * rho[k]
+        y[f] = s / H[f, f]
+    return q
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
+    """x = optimum of the working set's equality-constrained QP (held variables on their bound), ν of the equality
+    rows in nu[:m], and the multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j =
+    ±e_i for a bound, ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i in lam_b for
+    a bound held at its lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r in lam_r for a row held at l (s = −1)
+    or u (s = +1)."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    nv, rows, Yv, S, L, vfree, ffree, vrow, fac = sp.nv, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac
+    a, c, tv, ra, rc, dx, drho, nuw = sp.a, sp.c, sp.tv, sp.ra, sp.rc, sp.dx, sp.drho, sp.nuw
+    n = H.shape[0]
+    for i in range(n):
+        if state[i] < 0:
+            x[i] = lb[i]
+        elif state[i] > 0:
+            x[i] = ub[i]
+    for i in range(n):
+        if state[i] != 0:
+            a[i] = 0.0
+            continue
+        s = -g[i]
+        if i < nv:
+            for j in range(nv):
+                if state[j] != 0:
+                    s -= H[i, j] * x[j]
+        a[i] = s
+    for k in range(mw):
+        rk = rows[k]
+        R = _row(A, C, m, rk)
+        if rk < m:
+            s = b[rk]
+        else:
+            s = l[rk - m] if rstate[rk - m] < 0 else u[rk - m]
+        for j in range(n):
+            if state[j] != 0:
+                s -= R[j] * x[j]
+        c[k] = s
+    _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, x, nuw, tv)
+    # iterative refinement (the Schur complement carries D⁻¹ = 1/ε_f: one correction step restores the digits)
+    for _ in range(2):
+        for i in range(n):
+            if state[i] != 0:
+                dx[i] = 0.0
+                continue
+            s = a[i]
+            if i < nv:
+                for j in range(nv):
+                    if state[j] == 0:
+                        s -= H[i, j] * x[j]
+            else:
+                s -= H[i, i] * x[i]
+            ra[i] = s
+        for i in range(n):
+            if state[i] == 0:
+                for k in range(mw):
+                    ra[i] -= _row(A, C, m, rows[k])[i] * nuw[k]
+            else:
+                ra[i] = 0.0
+        for k in range(mw):
+            R = _row(A, C, m, rows[k])
+            s = c[k]
+            for j in range(n):
+                if state[j] == 0:
+                    s -= R[j] * x[j]
+            rc[k] = s
+        _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, ra, rc, dx, drho, tv)
+        for i in range(n):
+            if state[i] == 0:
+                x[i] += dx[i]
+        for k in range(mw):
+            nuw[k] += drho[k]
+    for k in range(m):
+        nu[k] = nuw[k]
+    for k in range(m, mw):
+        r = rows[k] - m
+        lam_r[r] = rstate[r] * nuw[k]
+    for i in range(n):
+        if state[i] == 0:
+            continue
+        s = block_cost_gradient(H, g, x, i, nv)
+        for k in range(mw):
+            s += _row(A, C, m, rows[k])[i] * nuw[k]
+        lam_b[i] = -state[i] * s
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_prepare(qp, sp):
+    """A new QP: the factor of H_vv kept by :func:`_factor` is stale."""
+    sp.fac[0] = -1
+    return 0
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_start(qp, sp, state, rstate):
+    """The working set's factors (:func:`_factor`, from ``state``/``rstate``)."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    return _factor(H, A, m, C, sp.nv, state, rstate, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow,
+                   sp.fac, sp.dep_tol)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_add(qp, sp, mw, state, rstate, pi, pside):
+    """Refactor after constraint ``pi`` joined ``state``/``rstate``."""
+    return _block_start(qp, sp, state, rstate)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_remove(qp, sp, mw, state, rstate, ci):
+    """Refactor after constraint ``ci`` left ``state``/``rstate``."""
+    return _block_start(qp, sp, state, rstate)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_target(qp, sp, pi, pside):
+    """npv = the inward normal −pside · a_p of constraint ``pi`` (a bound < n, else the row pi − n)."""
+    C = qp[5]
+    npv = sp.npv
+    n = npv.shape[0]
+    for i in range(n):
+        npv[i] = 0.0
+    if pi < n:
+        npv[pi] = -pside
+    else:
+        Cr = C[pi - n]
+        for j in range(n):
+            npv[j] = -pside * Cr[j]
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _block_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
+    """The step (z, ρ) solving H_FF z_F + R_Fᵀ ρ = (n_p)_F, R_F z_F = 0 (:func:`_kkt`; z = 0 on the held
+    variables), the oriented r of the working rows (−s ρ) in rr and of the held bounds (σ (n_p − H z − R_wᵀ ρ)_i)
+    in rb. Returns (n_p·z, (n_p)_Fᵀ H_FF⁻¹ (n_p)_F)."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    nv, rows, npv, a, c, nuw = sp.nv, sp.rows, sp.npv, sp.a, sp.c, sp.nuw
+    n = z.shape[0]
+    for i in range(n):
+        a[i] = npv[i] if state[i] == 0 else 0.0
+        z[i] = 0.0
+    for k in range(mw):
+        c[k] = 0.0
+    q = _kkt(H, A, m, C, rows, mw, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac, a, c, z, nuw, sp.tv)
+    nz = 0.0
+    for i in range(n):
+        nz += a[i] * z[i]
+    for k in range(m, mw):
+        r = rows[k] - m
+        rr[r] = -rstate[r] * nuw[k]
+    for i in range(n):
+        if state[i] == 0:
+            continue
+        s = npv[i]
+        if i < nv:
+            for j in range(nv):
+                s -= H[i, j] * z[j]
+        for k in range(mw):
+            s -= _row(A, C, m, rows[k])[i] * nuw[k]
+        rb[i] = -state[i] * s
+    return nz, q
+
+
+def _by_space(dense, block):
+    """A function that numba compiles, inside a caller, to ``dense`` on a :class:`DenseSpace` (its second argument)
+    and to ``block`` on a :class:`BlockSpace`: the strategy of :func:`dual_active_set`, chosen at compile time."""
+
+    def op(qp, sp, *args):
+        raise NotImplementedError("compiled only")
+
+    @overload(op, jit_options={"fastmath": FASTMATH, "nogil": True})
+    def _typed(qp, sp, *args):
+        impl = dense if sp.instance_class is DenseSpace else block
+        return lambda qp, sp, *args: impl(qp, sp, *args)
+
+    return op
+
+
+_ls_prepare = _by_space(_dense_prepare, _block_prepare)
+_ls_start = _by_space(_dense_start, _block_start)
+_ls_eqp = _by_space(_dense_eqp, _block_eqp)
+_ls_target = _by_space(_dense_target, _block_target)
+_ls_direction = _by_space(_dense_direction, _block_direction)
+_ls_add = _by_space(_dense_add, _block_add)
+_ls_remove = _by_space(_dense_remove, _block_remove)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _violation(C, l, u, lb, ub, x, state, rstate, tol):
+    """The constraint outside the working set violated most beyond ``tol`` (bounds first, then rows; the first of
+    equal ones): (index — variable i or row n + r —, side −1 lower / +1 upper); index −1 when none."""
+    n = x.shape[0]
+    worst = -tol
+    wi = -1
+    side = 0
+    for i in range(n):
+        if state[i] != 0:
+            continue
+        if x[i] - lb[i] < worst:
+            worst, wi, side = x[i] - lb[i], i, -1
+        elif ub[i] - x[i] < worst:
+            worst, wi, side = ub[i] - x[i], i, 1
+    for r in range(C.shape[0]):
+        if rstate[r] != 0 or (l[r] == -np.inf and u[r] == np.inf):
+            continue
+        s = 0.0
+        Cr = C[r]
+        for j in range(n):
+            s += Cr[j] * x[j]
+        if s - l[r] < worst:
+            worst, wi, side = s - l[r], n + r, -1
+        elif u[r] - s < worst:
+            worst, wi, side = u[r] - s, n + r, 1
+    return wi, side
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, max_iter, primal_tol, dual_tol,
+                    dep_tol, block_tol, hold_fixed, refresh, start_cost, verify_tol, out):
+    """Exact solution of  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub  (H positive definite)
+    by the dual active-set method of Goldfarb & Idnani (1983, §3), warm-started from a working set; the linear
+    algebra is the strategy of ``space`` (module docstring).
+
+    The working set W holds the equality rows, the rows of C and the bounds held at one side. Start: the
+    equality-constrained optimum on the warm start (a dependent one is emptied, the variables with lb = ub kept
+    when ``hold_fixed``), whose inequality with the most negative multiplier (below −``dual_tol``) leaves until
+    none is (a dual-feasible point). Then, while a constraint out of W is violated by more than ``primal_tol``, the
+    most violated, p (inward normal n_p), is approached along the step z with H z = n_p − Σ_W r_j n_j keeping W's
+    constraints at their bounds, the working multipliers λ decreasing by t·r (clamped at 0): the step t is the
+    smaller of the full step (p joins W with multiplier Σt) and the first λ_j / r_j over r_j > ``block_tol``·max|r|
+    (that constraint leaves, the step toward p goes on). When n_p is dependent on W (n_p·z ≤ ``dep_tol`` · n_pᵀH⁻¹n_p
+    in the metric of the free variables) only the second kind exists, x does not move; when no multiplier can
+    decrease either, the constraints admit no solution (INFEASIBLE). With ``refresh`` x and λ are recomputed as the
+    working set's equality-constrained optimum after each full step (the GI updates only steer); otherwise once
+    no constraint is violated, and the method goes on if a multiplier is then below −``dual_tol`` or a constraint
+    violated. At the end every bound held is set exactly, x is clipped into [lb, ub], and the KKT check: every
+    working multiplier ≥ −``DUAL_CHECK_TOL`` (relative to the largest, at least 1), every equality and row
+    satisfied to ``verify_tol``.
+
+    Args:
+        qp: (H (n, n), g (n,), A (≥ m, n), b (≥ m,), m, C (p, n), l, u (p,), lb, ub (n,)), ±inf for absent sides.
+        space: a :class:`DenseSpace` or :class:`BlockSpace` (then H[:nv, nv:] = 0, H[nv:, nv:] diagonal > 0).
+        state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
+            side); read as the warm start.
+        x (n,), nu (≥ m,): out — solution, multipliers of the equality rows. mu (p,): out, row multipliers
+            (H x + g + Aᵀν + Cᵀμ + z_b = 0 convention: μ ≤ 0 at l, ≥ 0 at u, 0 off W); workspace until the end.
+        lam_b (n,), lam_r (p,): out, oriented multipliers (≥ 0) of the held bounds and rows (valid where held).
+        z (n,), rb (n,): workspace (the step, the bounds' r).
+        max_iter: steps allowed (drops and GI steps, plus ``start_cost`` per factorisation of a warm or cold
+            start). primal_tol: violation that makes a constraint enter. dual_tol: negative multiplier that makes
+            one leave at a start. dep_tol: dependency test. block_tol: relative r below which a working constraint
+            does not block. hold_fixed: variables with lb = ub are held from the start and never leave.
+            refresh: see above. verify_tol: largest residual of the final check (inf: not checked).
+        out (3,): out — largest residual of x (equality rows, rows), steps, working-set size.
+
+    Returns:
+        steps (≥ 1), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES (a dependent working set) / ITERATION_CAP /
+        INFEASIBLE / NOT_VERIFIED (:mod:`wbc.solvers.status`).
+    """
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    n = H.shape[0]
+    p = C.shape[0]
+    for i in range(n):
+        if hold_fixed and lb[i] == ub[i]:
+            state[i] = -1
+    drop_infinite_active(state, lb, ub)
+    drop_infinite_active(rstate, l, u)
+    code = _ls_prepare(qp, space)
+    if code < 0:
+        return code
+    steps = start_cost
+    if steps > max_iter:
+        return ITERATION_CAP
+    mw = _ls_start(qp, space, state, rstate)
+    started = False  # a constraint has been approached: a failed factorisation ends the call
+    need_eqp = True
+    exact = False
+    while True:
+        if need_eqp:
+            if mw < 0:
+                if mw == NOT_POSITIVE_DEFINITE or started:
+                    return mw
+                # a dependent warm start: from the equality-constrained optimum (fixed variables held) instead
+                cleared = False
+                for i in range(n):
+                    if state[i] != 0 and not (hold_fixed and lb[i] == ub[i]):
+                        state[i] = 0
+                        cleared = True
+                for r in range(p):
+                    if rstate[r] != 0:
+                        rstate[r] = 0
+                        cleared = True
+                if not cleared:
+                    return mw
+                steps += start_cost
+                if steps > max_iter:
+                    return ITERATION_CAP
+                mw = _ls_start(qp, space, state, rstate)
+                continue
+            # x, multipliers on W; the inequality with the most negative multiplier leaves until none is
+            _ls_eqp(qp, space, mw, state, rstate, x, nu, lam_b, lam_r)
+            worst = -dual_tol
+            kw = -1
+            for r in range(p):
+                if rstate[r] != 0 and lam_r[r] < worst:
+                    worst, kw = lam_r[r], n + r
+            for i in range(n):
+                if state[i] != 0 and lam_b[i] < worst and not (hold_fixed and lb[i] == ub[i]):
+                    worst, kw = lam_b[i], i
+            if kw >= 0:
+                steps += 1
+                if steps > max_iter:
+                    return ITERATION_CAP
+                if kw < n:
+                    state[kw] = 0
+                else:
+                    rstate[kw - n] = 0
+                mw = _ls_remove(qp, space, mw, state, rstate, kw)
+                continue
+            need_eqp = False
+            exact = True
+        pi, pside = _violation(C, l, u, lb, ub, x, state, rstate, primal_tol)
+        if pi < 0:
+            if exact:
+                break  # x and the multipliers are those of the equality-constrained optimum on W
+            need_eqp = True  # after steps: recomputed on the final W and checked again
+            continue
+        started = True
+        for r in range(p):
+            if rstate[r] != 0 and lam_r[r] < 0.0:
+                lam_r[r] = 0.0
+        for i in range(n):
+            if state[i] != 0 and lam_b[i] < 0.0:
+                lam_b[i] = 0.0
+        _ls_target(qp, space, pi, pside)
+        lam_p = 0.0
+        exact = False
+        while True:
+            steps += 1
+            if steps > max_iter:
+                return ITERATION_CAP
+            nz, q = _ls_direction(qp, space, mw, state, rstate, pi, z, rb, mu)
+            thr = 0.0
+            if block_tol > 0.0:
+                for r in range(p):
+                    if rstate[r] != 0 and abs(mu[r]) > thr:
+                        thr = abs(mu[r])
+                for i in range(n):
+                    if state[i] != 0 and abs(rb[i]) > thr:
+                        thr = abs(rb[i])
+                thr *= block_tol
+            # the first working multiplier to reach 0
+            t2 = np.inf
+            blk = -1
+            for r in range(p):
+                if rstate[r] != 0 and mu[r] > thr and lam_r[r] / mu[r] < t2:
+                    t2, blk = lam_r[r] / mu[r], n + r
+            for i in range(n):
+                if state[i] != 0 and rb[i] > thr and lam_b[i] / rb[i] < t2 and not (hold_fixed and lb[i] == ub[i]):
+                    t2, blk = lam_b[i] / rb[i], i
+            full = False
+            if not nz > dep_tol * q:
+                if blk < 0:
+                    return INFEASIBLE
+                t = t2
+            else:
+                if pi < n:
+                    s = x[pi]
+                    t1 = ((lb[pi] - s) if pside < 0 else (s - ub[pi])) / nz
+                else:
+                    s = 0.0
+                    Cr = C[pi - n]
+                    for j in range(n):
+                        s += Cr[j] * x[j]
+                    t1 = ((l[pi - n] - s) if pside < 0 else (s - u[pi - n])) / nz
+                full = t1 <= t2
+                t = t1 if full else t2
+                for j in range(n):
+                    x[j] += t * z[j]
+            for r in range(p):
+                if rstate[r] != 0:
+                    lam_r[r] -= t * mu[r]
+                    if lam_r[r] < 0.0:
+                        lam_r[r] = 0.0
+            for i in range(n):
+                if state[i] != 0:
+                    lam_b[i] -= t * rb[i]
+                    if lam_b[i] < 0.0:
+                        lam_b[i] = 0.0
+            lam_p += t
+            if full:  # p joins the working set
+                if pi < n:
+                    state[pi] = pside
+                    lam_b[pi] = lam_p
+                    x[pi] = lb[pi] if pside < 0 else ub[pi]
+                else:
+                    rstate[pi - n] = pside
+                    lam_r[pi - n] = lam_p
+                mw = _ls_add(qp, space, mw, state, rstate, pi, pside)
+                if mw < 0:
+                    return mw
+                if refresh:
+                    _ls_eqp(qp, space, mw, state, rstate, x, nu, lam_b, lam_r)
+                    exact = True
+                break
+            # partial step: the blocking constraint leaves
+            if blk < n:
+                state[blk] = 0
+                lam_b[blk] = 0.0
+            else:
+                rstate[blk - n] = 0
+                lam_r[blk - n] = 0.0
+            mw = _ls_remove(qp, space, mw, state, rstate, blk)
+            if mw < 0:
+                return mw
+    # outputs: the held bounds exactly, x clipped into the bounds, residuals, multipliers, the KKT check
+    for i in range(n):
+        if state[i] < 0:
+            x[i] = lb[i]
+        elif state[i] > 0:
+            x[i] = ub[i]
+    res = clip_eq_residual(x, lb, ub, A, b, n, m)
+    for r in range(p):
+        if l[r] == -np.inf and u[r] == np.inf:
+            continue
+        s = 0.0
+        for j in range(n):
+            s += C[r, j] * x[j]
+        if l[r] - s > res:
+            res = l[r] - s
+        elif s - u[r] > res:
+            res = s - u[r]
+    worst = 0.0
+    big = 1.0
+    for i in range(n):
+        if state[i] != 0 and not (hold_fixed and lb[i] == ub[i]):
+            big = max(big, abs(lam_b[i]))
+            worst = min(worst, lam_b[i])
+    for r in range(p):
+        mu[r] = 0.0
+        if rstate[r] != 0:
+            big = max(big, abs(lam_r[r]))
+            worst = min(worst, lam_r[r])
+            mu[r] = rstate[r] * lam_r[r]
+    out[0] = res
+    out[1] = steps
+    out[2] = mw
+    if worst < -DUAL_CHECK_TOL * big or res > verify_tol:
+        return NOT_VERIFIED
+    return max(steps, 1)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
                 rank_tol, eq_residual):
-    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub (H positive definite) by the dual
-    active-set method of Goldfarb & Idnani ("A numerically stable dual method for solving strictly convex
-    quadratic programs", Math. Program. 27, 1983, §3) in range-space form, warm-started from a working set.
-
-    H = L Lᵀ is factored once per call. The working set W holds the equality rows, the rows of C and the bounds
-    held at one side (normals N: rows of A, C or unit vectors); it is kept through Y = L⁻¹Nᵀ and the Cholesky
-    factor of S = Y Yᵀ (a new member costs one substitution and a row of S, a leaving one a permutation, then
-    S is refactored, |W|³/6). Start: the equality-constrained optimum on the warm start (a dependent one is
-    emptied), whose inequality with the most negative multiplier leaves until none is negative (a dual-feasible
-    point). Then, while an inequality is violated by more than ``primal_tol``, the most violated, p (inward
-    normal n_p), is approached along z = L⁻ᵀ(w − Yᵀr), w = L⁻¹n_p, r = S⁻¹Yw (the direction keeping W's
-    constraints at their bounds, n_p = Nᵀr + Hz), the working multipliers decreasing by t·r: the step t is the
-    smaller of the full step (p joins W) and the first working multiplier to reach 0 (that one leaves; the step
-    toward p goes on). When n_p is dependent on W (z = 0: e.g. self-collision rows of the thighs, which the
-    contacts fix, nearly parallel) only the second kind exists; when no multiplier can decrease either, the
-    constraints admit no solution (INFEASIBLE). Multipliers stay ≥ 0, so the method ends in finitely many steps
-    in exact arithmetic. At the end x and the multipliers are recomputed on the final W and every KKT condition
-    is checked (a failed check continues the method).
+    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub (H positive definite):
+    :func:`dual_active_set` on a :class:`DenseSpace` (range-space form, warm-started from a working set; x and the
+    multipliers recomputed on the final working set and every KKT condition checked, a failed check continuing
+    the method), the dependency test at 1e-10, a working multiplier blocking when its r exceeds 1e-9 of the
+    largest.
 
     Args:
         H, g, A, b, C, l, u, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (p, n), (p,), (p,), (n,), (n,)
@@ -144,10 +895,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
-    drop_infinite_active(state, lb, ub)
-    drop_infinite_active(rstate, l, u)
     K = n + m + 1  # a working set of independent constraints has at most n members
-    fw = np.empty(n * n + K * n + 2 * K * K + 4 * n + 5 * K)  # one allocation, views below
+    fw = np.empty(n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4)  # one allocation, views below
     iw = np.empty(3 * K, np.int64)
     o = 0
     L = fw[o:o + n * n].reshape((n, n))
@@ -162,226 +911,21 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     y = fw[o + n:o + 2 * n]
     w = fw[o + 2 * n:o + 3 * n]
     zd = fw[o + 3 * n:o + 4 * n]
-    o += 4 * n
-    bw = fw[o:o + K]
-    uw = fw[o + K:o + 2 * K]  # multipliers of the working inequalities on their inward normals (≥ 0)
-    nuw = fw[o + 2 * K:o + 3 * K]
-    r = fw[o + 3 * K:o + 4 * K]
-    tmp = fw[o + 4 * K:o + 5 * K]
-    kind = iw[:K]  # 0 equality, 1 row of C, 2 bound
-    idx = iw[K:2 * K]
-    side = iw[2 * K:]
+    lam_b = fw[o + 4 * n:o + 5 * n]
+    rb = fw[o + 5 * n:o + 6 * n]
+    o += 6 * n
+    tmp = fw[o:o + K]
+    r = fw[o + K:o + 2 * K]
+    bw = fw[o + 2 * K:o + 3 * K]
+    nuw = fw[o + 3 * K:o + 4 * K]
+    o += 4 * K
+    lam_r = fw[o:o + p]
+    sc = fw[o + p:o + p + 1]
+    out = fw[o + p + 1:o + p + 4]
+    space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:], sc, rank_tol)
+    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, zd, rb,
+                         max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf, out)
+    eq_residual[0] = out[0]
     for i in range(n):
-        for j in range(i + 1):
-            L[i, j] = H[i, j]
-    if not cholesky_lower(L, n):
-        return NOT_POSITIVE_DEFINITE
-    for i in range(n):
-        t0[i] = g[i]
-    forward_substitution(L, n, t0)
-    # the warm start: equality rows, rows of C, bounds
-    for attempt in range(2):
-        mw = 0
-        for k in range(m):
-            for j in range(n):
-                y[j] = A[k, j]
-            forward_substitution(L, n, y)
-            _ws_add(Yw, Sm, mw, y, n)
-            kind[mw], idx[mw], side[mw], bw[mw] = 0, k, 0, b[k]
-            mw += 1
-        if attempt == 0:
-            for q in range(p):
-                if rstate[q] != 0:
-                    _normal_image(L, n, C, q, True, y)
-                    _ws_add(Yw, Sm, mw, y, n)
-                    kind[mw], idx[mw], side[mw] = 1, q, rstate[q]
-                    bw[mw] = l[q] if rstate[q] < 0 else u[q]
-                    mw += 1
-                    if mw == K:
-                        break
-            for i in range(n):
-                if state[i] != 0 and mw < K:
-                    _normal_image(L, n, C, i, False, y)
-                    _ws_add(Yw, Sm, mw, y, n)
-                    kind[mw], idx[mw], side[mw] = 2, i, state[i]
-                    bw[mw] = lb[i] if state[i] < 0 else ub[i]
-                    mw += 1
-        if mw <= n and _ws_factor(Sm, Sf, mw, rank_tol):
-            break
-        if attempt == 1:
-            return DEPENDENT_EQUALITIES
-        state[:] = 0  # a dependent warm start: from the equality-constrained optimum instead
-        rstate[:] = 0
-    steps = 0
-    need_eqp = True
-    exact = False
-    while True:
-        if need_eqp:
-            # x, multipliers on W; the inequality with the most negative multiplier leaves until none is
-            _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x)
-            worst = dual_tol
-            kw = -1
-            for k in range(m, mw):
-                uw[k] = side[k] * nuw[k]
-                if -uw[k] > worst:
-                    worst, kw = -uw[k], k
-            if kw >= 0:
-                steps += 1
-                if steps > max_iter:
-                    return ITERATION_CAP
-                if kind[kw] == 1:
-                    rstate[idx[kw]] = 0
-                else:
-                    state[idx[kw]] = 0
-                mw = _ws_remove(kw, mw, n, Yw, Sm, kind, idx, side, bw, uw)
-                if not _ws_factor(Sm, Sf, mw, rank_tol):
-                    return DEPENDENT_EQUALITIES
-                continue
-            for k in range(m, mw):
-                if uw[k] < 0.0:
-                    uw[k] = 0.0
-            need_eqp = False
-            exact = True
-        # the most violated inequality out of W
-        worst = primal_tol
-        pi = -1
-        pside = 0
-        is_row = False
-        for i in range(n):
-            if state[i] == 0:
-                if lb[i] - x[i] > worst:
-                    worst, pi, pside, is_row = lb[i] - x[i], i, -1, False
-                elif x[i] - ub[i] > worst:
-                    worst, pi, pside, is_row = x[i] - ub[i], i, 1, False
-        for q in range(p):
-            if rstate[q] != 0 or (l[q] == -np.inf and u[q] == np.inf):
-                continue
-            s = 0.0
-            for j in range(n):
-                s += C[q, j] * x[j]
-            if l[q] - s > worst:
-                worst, pi, pside, is_row = l[q] - s, q, -1, True
-            elif s - u[q] > worst:
-                worst, pi, pside, is_row = s - u[q], q, 1, True
-        if pi < 0:
-            if exact:
-                break  # x and the multipliers are those of the equality-constrained optimum on W: KKT holds
-            need_eqp = True  # after steps: recomputed on the final W and checked again
-            continue
-        # approach p: n_p = sp · a_p, the constraint n_p·x ≥ bp
-        sp = -float(pside)
-        bp = sp * ((l[pi] if pside < 0 else u[pi]) if is_row else (lb[pi] if pside < 0 else ub[pi]))
-        _normal_image(L, n, C, pi, is_row, y)
-        ww = 0.0
-        for j in range(n):
-            w[j] = sp * y[j]
-            ww += w[j] * w[j]
-        tp = 0.0
-        exact = False
-        while True:
-            steps += 1
-            if steps > max_iter:
-                return ITERATION_CAP
-            # r = S⁻¹ Y w ; z = L⁻ᵀ (w − Yᵀ r) ; n_p·z = wᵀw − (Yw)ᵀr
-            for k in range(mw):
-                s = 0.0
-                for j in range(n):
-                    s += Yw[k, j] * w[j]
-                tmp[k] = s
-                r[k] = s
-            forward_substitution(Sf, mw, r)
-            backward_substitution(Sf, mw, r)
-            nz = ww
-            for k in range(mw):
-                nz -= tmp[k] * r[k]
-            for j in range(n):
-                zd[j] = w[j]
-            for k in range(mw):
-                rk = r[k]
-                for j in range(n):
-                    zd[j] -= Yw[k, j] * rk
-            backward_substitution(L, n, zd)
-            # the first working multiplier to reach 0 (r on the inward normals: −side·r)
-            rmax = 0.0
-            for k in range(m, mw):
-                if abs(r[k]) > rmax:
-                    rmax = abs(r[k])
-            t1 = np.inf
-            kb = -1
-            for k in range(m, mw):
-                rk = -side[k] * r[k]
-                if rk > 1e-9 * rmax and uw[k] / rk < t1:
-                    t1, kb = uw[k] / rk, k
-            full = False
-            if nz > 1e-10 * ww:
-                s = 0.0
-                if is_row:
-                    for j in range(n):
-                        s += C[pi, j] * x[j]
-                else:
-                    s = x[pi]
-                t2 = (bp - sp * s) / nz
-                if t2 <= t1:
-                    full = True
-                    step = max(t2, 0.0)
-                else:
-                    step = t1
-            elif kb < 0:
-                return INFEASIBLE
-            else:
-                step = t1
-            for j in range(n):
-                x[j] += step * zd[j]
-            for k in range(m, mw):
-                uw[k] -= step * (-side[k] * r[k])
-                if uw[k] < 0.0:
-                    uw[k] = 0.0
-            tp += step
-            if full:
-                if mw == K:
-                    return DEPENDENT_EQUALITIES
-                _ws_add(Yw, Sm, mw, y, n)
-                kind[mw], idx[mw], side[mw], uw[mw] = (1 if is_row else 2), pi, pside, tp
-                bw[mw] = (l[pi] if pside < 0 else u[pi]) if is_row else (lb[pi] if pside < 0 else ub[pi])
-                mw += 1
-                if is_row:
-                    rstate[pi] = pside
-                else:
-                    state[pi] = pside
-                    x[pi] = bw[mw - 1]
-                if not _ws_factor(Sm, Sf, mw, rank_tol):
-                    return DEPENDENT_EQUALITIES
-                break
-            if kind[kb] == 1:
-                rstate[idx[kb]] = 0
-            else:
-                state[idx[kb]] = 0
-            mw = _ws_remove(kb, mw, n, Yw, Sm, kind, idx, side, bw, uw)
-            if not _ws_factor(Sm, Sf, mw, rank_tol):
-                return DEPENDENT_EQUALITIES
-    # outputs: multipliers by constraint, x clipped into the bounds, residual of the rows
-    for k in range(m):
-        nu[k] = nuw[k]
-    for q in range(p):
-        mu[q] = 0.0
-    for i in range(n):
-        z[i] = 0.0
-    for k in range(m, mw):
-        if kind[k] == 1:
-            mu[idx[k]] = nuw[k]
-        else:
-            z[idx[k]] = nuw[k]
-            x[idx[k]] = bw[k]
-    res = clip_eq_residual(x, lb, ub, A, b, n, m)
-    for q in range(p):
-        if l[q] == -np.inf and u[q] == np.inf:
-            continue
-        s = 0.0
-        for j in range(n):
-            s += C[q, j] * x[j]
-        if l[q] - s > res:
-            res = l[q] - s
-        elif s - u[q] > res:
-            res = s - u[q]
-    eq_residual[0] = res
-    return max(steps, 1)
+        z[i] = state[i] * lam_b[i] if state[i] != 0 else 0.0
+    return it

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["DEPENDENT_EQUALITIES", "INFEASIBLE", "ITERATION_CAP", "NOT_POSITIVE_DEFINITE", "NOT_REDUCIBLE", "RESIDUAL",
-           "SolverStatus"]
+__all__ = ["DEPENDENT_EQUALITIES", "INFEASIBLE", "ITERATION_CAP", "NOT_POSITIVE_DEFINITE", "NOT_REDUCIBLE",
+           "NOT_VERIFIED", "RESIDUAL", "SolverStatus"]
 
 
 class SolverStatus(IntEnum):
@@ -47,6 +47,8 @@ ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
 #: tolerance
 NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
 RESIDUAL = int(SolverStatus.RESIDUAL)
-#: exit code of the dual active set (:func:`wbc.solvers.active_set.solve_qp_ws`): a violated constraint that no working
-#: inequality can make room for (the constraints admit no solution; the caller's general solver confirms)
+#: exit codes of the dual active set (:func:`wbc.solvers.active_set.dual_active_set`): a violated constraint that no
+#: working inequality can make room for (the constraints admit no solution; the caller's general solver confirms);
+#: the final KKT check did not pass
 INFEASIBLE = int(SolverStatus.INFEASIBLE)
+NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)

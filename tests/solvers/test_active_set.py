@@ -1,0 +1,87 @@
+"""The one Goldfarb–Idnani dual active set (:func:`wbc.solvers.active_set.dual_active_set`) on both of its
+working-set strategies — the dense range space (:class:`~wbc.solvers.active_set.DenseSpace`, through
+:func:`~wbc.solvers.active_set.solve_qp_ws`) and the block-diagonal one of the inverse-dynamics QP
+(:class:`~wbc.solvers.active_set.BlockSpace`) — on the same block-structured QPs, against quadprog (via qpsolvers)
+and the KKT conditions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import qpsolvers
+
+from wbc.formulations.idkernel import id_workspace
+from wbc.solvers.active_set import BlockSpace, dual_active_set, solve_qp_ws
+
+
+def _block_qp(rng, nv, nf, m, p):
+    """H = blockdiag(dense SPD, diagonal > 0), equality rows, two-sided rows and bounds around a feasible x0; a
+    third of the diagonal block's variables fixed (lb = ub = 0, as the forces of an inactive contact)."""
+    n = nv + nf
+    M = rng.standard_normal((nv, nv))
+    H = np.zeros((n, n))
+    H[:nv, :nv] = M @ M.T + 0.1 * np.eye(nv)
+    H[nv:, nv:] = np.diag(rng.uniform(0.5, 2.0, nf))
+    g = rng.standard_normal(n) * 10.0  # an unconstrained optimum far outside: many constraints active
+    lb, ub = -np.ones(n), np.ones(n)
+    lb[rng.random(n) < 0.2] = -np.inf
+    fixed = nv + np.flatnonzero(rng.random(nf) < 0.33)
+    lb[fixed] = ub[fixed] = 0.0
+    x0 = rng.uniform(-0.5, 0.5, n)
+    x0[fixed] = 0.0
+    A = rng.standard_normal((m, n))
+    b = A @ x0
+    C = rng.standard_normal((p, n))
+    l, u = C @ x0 - rng.uniform(0.0, 0.3, p), C @ x0 + rng.uniform(0.0, 0.3, p)
+    l[rng.random(p) < 0.3] = -np.inf
+    return H, g, A, b, C, l, u, lb, ub
+
+
+def _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
+    """dual_active_set on a BlockSpace with the ID tick's settings, warm-started from (state, rstate), in place."""
+    n, m, p = H.shape[0], A.shape[0], C.shape[0]
+    (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho,
+     out) = id_workspace(n, nv, p, m + p)
+    space = BlockSpace(nv, rows, Yv, S, L, vfree, ffree, vrow, fac, a, c, tv, ra, rc, dx, drho, npv, nuw, 1e-10)
+    x, nu, mu = np.zeros(n), np.zeros(max(m, 1)), np.zeros(p)
+    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb,
+                         200, 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9, out)
+    return it, x, nu[:m], mu, lam_b, state, rstate
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_both_strategies_give_the_exact_optimum(seed):
+    rng = np.random.default_rng(7000 + seed)
+    nv, nf = int(rng.integers(4, 14)), int(rng.integers(2, 14))
+    m, p = int(rng.integers(0, 4)), int(rng.integers(1, 12))
+    H, g, A, b, C, l, u, lb, ub = _block_qp(rng, nv, nf, m, p)
+    n = nv + nf
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    fin = np.isfinite(h)
+    ref = qpsolvers.solve_qp(H, g, G=G[fin], h=h[fin], A=A if m else None, b=b if m else None,
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
+    assert ref is not None  # x0 is feasible
+    scale = max(1.0, np.abs(ref).max())
+    # block strategy: the optimum, and every KKT condition (multipliers of the held bounds from lam_b)
+    state, rstate = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
+    it, x, nu, mu, lam_b, state, rstate = _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
+    assert it > 0, it
+    assert np.abs(x - ref).max() < 1e-8 * scale
+    zb = np.where(state != 0, state * lam_b, 0.0)
+    assert np.abs(H @ x + g + A.T @ nu + C.T @ mu + zb).max() < 1e-8 * max(1.0, np.abs(g).max())
+    free_bound = (state != 0) & (lb != ub)
+    assert (lam_b[free_bound] >= -1e-9).all()
+    assert (mu[rstate == -1] <= 1e-9).all() and (mu[rstate == 1] >= -1e-9).all() and (mu[rstate == 0] == 0).all()
+    cx = C @ x
+    assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all() and (x >= lb).all() and (x <= ub).all()
+    # dense strategy on the same QP: the same optimum
+    st, rst = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
+    xd, nud, mud, zd, res = np.zeros(n), np.zeros(m), np.zeros(len(l)), np.zeros(n), np.zeros(1)
+    itd = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, st, rst, xd, nud, mud, zd, 200, 1e-12, 1e-12, 1e-24, res)
+    assert itd > 0, itd
+    assert np.abs(xd - ref).max() < 1e-8 * scale
+    assert np.abs(xd - x).max() < 1e-8 * scale
+    # warm-started from its own working set, the block strategy ends at once with the same x
+    it2, x2, *_ = _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state.copy(), rstate.copy())
+    assert it2 == 1 and np.abs(x2 - x).max() < 1e-12 * scale
+
