@@ -76,3 +76,23 @@ def test_every_test_path_named_in_the_repository_exists():
             if not (REPO / m.group(0)).is_file():
                 missing.append(f"{f}: {m.group(0)}")
     assert missing == []
+
+
+def shared_basenames(tests: Path) -> list[str]:
+    """Test file names that stand in more than one folder of ``tests`` (the test folders are not packages: pytest
+    imports each file under its bare name and refuses the second one at collection)."""
+    seen: dict[str, list[str]] = {}
+    for path in sorted(tests.rglob("test_*.py")):
+        seen.setdefault(path.name, []).append(str(path.relative_to(tests)))
+    return [f"{name}: {', '.join(paths)}" for name, paths in seen.items() if len(paths) > 1]
+
+
+def test_no_two_test_files_share_a_name():
+    assert shared_basenames(TESTS) == []
+
+
+def test_the_name_checker_flags_a_shared_name(tmp_path):
+    for folder in ("constraints", "solvers"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "test_base.py").write_text("")
+    assert shared_basenames(tmp_path) == ["test_base.py: constraints/test_base.py, solvers/test_base.py"]
