@@ -10,7 +10,7 @@ import pytest
 
 import wbc
 from wbc.exceptions import InvalidInputError, UnknownFrameError
-from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model
+from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model, stiff_foot_friction
 
 ROBOTS = ["talos", "g1"] + (["humanoid15"] if "humanoid15" in wbc.catalog() else [])
 TOL = 1e-9
@@ -237,9 +237,10 @@ def test_damping_friction_kept_and_srdf_self_collision():
     assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
 
 
-def _crate_displacement(cone, impratio, force_ratio, robot):
+def _crate_displacement(cone, impratio, force_ratio, robot, friction_timeconst=0.0):
     """x displacement (m) in 1 s of a 10 kg box (0.2 × 0.1 × 0.05 m) resting on the floor of the robot's plant,
-    pushed horizontally at its centre by ``force_ratio`` × its weight."""
+    pushed horizontally at its centre by ``force_ratio`` × its weight; ``friction_timeconst`` > 0: its floor contact
+    made a foot contact by :func:`stiff_foot_friction`."""
 
     def add_crate(spec):
         b = spec.worldbody.add_body(name="crate", pos=[3.0, 0.0, 0.0249], mass=10.0,
@@ -247,6 +248,9 @@ def _crate_displacement(cone, impratio, force_ratio, robot):
         b.add_freejoint(name="crate_joint")
         b.add_geom(name="crate_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.05, 0.025],
                    contype=ROBOT_BIT, conaffinity=ENV_BIT)
+        if friction_timeconst > 0.0:
+            root = spec.worldbody.first_body().name  # the robot's root link, built before the crate
+            assert stiff_foot_friction(spec, root, {"crate": {"crate"}}, friction_timeconst) == 1
 
     kw = {} if cone is None else {"cone": cone, "impratio": impratio}
     sim = build_mujoco_model(robot, customize=add_crate, **kw)
@@ -347,3 +351,11 @@ def test_foot_contact_pairs_are_the_dynamic_contacts_but_for_the_friction_time_c
                if con.geom1[i] in feet or con.geom2[i] in feet) and default.data.ncon == 8
     with pytest.raises(InvalidInputError, match="friction_timeconst"):
         build_mujoco_model(robot, friction_timeconst=0.003)
+
+
+def test_stiff_foot_friction_keeps_the_friction_coefficient():
+    # The friction rows' time constant changes the soft regime only: the crate as a foot (solreffriction 0.004 s)
+    # holds at 0.3 of its weight (< 0.05 mm in 1 s) and slides at 1.2 of it as ½ (0.2 g) t² = 0.98 m (μ = 1).
+    robot = wbc.load_robot("g1")
+    assert 0.0 <= _crate_displacement(None, None, 0.3, robot, 0.004) < 5e-5
+    assert _crate_displacement(None, None, 1.2, robot, 0.004) == pytest.approx(0.5 * 0.2 * 9.81, rel=0.03)
