@@ -10,7 +10,7 @@ import pytest
 
 import wbc
 from wbc.exceptions import InvalidInputError, UnknownFrameError
-from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model
+from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model, stiff_foot_friction
 
 ROBOTS = ["talos", "g1"] + (["humanoid15"] if "humanoid15" in wbc.catalog() else [])
 TOL = 1e-9
@@ -237,9 +237,10 @@ def test_damping_friction_kept_and_srdf_self_collision():
     assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
 
 
-def _crate_displacement(cone, impratio, force_ratio, robot):
+def _crate_displacement(cone, impratio, force_ratio, robot, friction_timeconst=0.0):
     """x displacement (m) in 1 s of a 10 kg box (0.2 × 0.1 × 0.05 m) resting on the floor of the robot's plant,
-    pushed horizontally at its centre by ``force_ratio`` × its weight."""
+    pushed horizontally at its centre by ``force_ratio`` × its weight; ``friction_timeconst`` > 0: its floor contact
+    made a foot contact by :func:`stiff_foot_friction`."""
 
     def add_crate(spec):
         b = spec.worldbody.add_body(name="crate", pos=[3.0, 0.0, 0.0249], mass=10.0,
@@ -247,6 +248,9 @@ def _crate_displacement(cone, impratio, force_ratio, robot):
         b.add_freejoint(name="crate_joint")
         b.add_geom(name="crate_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.05, 0.025],
                    contype=ROBOT_BIT, conaffinity=ENV_BIT)
+        if friction_timeconst > 0.0:
+            root = spec.worldbody.first_body().name  # the robot's root link, built before the crate
+            assert stiff_foot_friction(spec, root, {"crate": {"crate"}}, friction_timeconst) == 1
 
     kw = {} if cone is None else {"cone": cone, "impratio": impratio}
     sim = build_mujoco_model(robot, customize=add_crate, **kw)
@@ -278,3 +282,80 @@ def test_plant_friction_holds_below_the_friction_limit():
         build_mujoco_model(robot, cone="conic")
     with pytest.raises(InvalidInputError, match="impratio"):
         build_mujoco_model(robot, impratio=0.5)
+
+
+def _squat_sole_drift(robot, **build):
+    """Largest horizontal displacement (m) of a sole over 4 s of G1 squatting in double support under a joint PD
+    (hip, knee and ankle pitch at -0.5, 1.5, -1 times 0.3 (1 - cos 2π 1.5 t) / 2 rad about q_ref), and the largest
+    tangential-to-normal force ratio of a foot over the run (realistic plant)."""
+    sim = build_mujoco_model(robot, plant="realistic", **build)  # rotor armature: the PD below is stable
+    m, d = sim.model, sim.data
+    dofs = np.array([m.jnt_dofadr[m.actuator_trnid[i, 0]] for i in range(m.nu)])
+    adr = np.array([m.jnt_qposadr[m.actuator_trnid[i, 0]] for i in range(m.nu)])
+    names = [m.joint(m.actuator_trnid[i, 0]).name for i in range(m.nu)]
+    shape = np.zeros(m.nu)
+    for side in ("left", "right"):
+        for joint, k in (("hip_pitch", -0.5), ("knee", 1.5), ("ankle_pitch", -1.0)):
+            shape[names.index(f"{side}_{joint}_joint")] = k
+    q0, dt, w = d.qpos[adr].copy(), m.opt.timestep, 2.0 * np.pi * 1.5
+    ratio = 0.0
+
+    def pd(q_ref, v_ref):
+        d.ctrl[:] = d.qfrc_bias[dofs] + 300.0 * (q_ref - d.qpos[adr]) + 6.0 * (v_ref - d.qvel[dofs])
+
+    for _ in range(250):  # settle on the floor
+        pd(q0, 0.0)
+        mujoco.mj_step(m, d)
+    start = {s: sim.sole_pose(s).translation.copy() for s in ("left", "right")}
+    for k in range(int(round(4.0 / dt))):
+        t = k * dt
+        ramp = min(1.0, t / 0.5)
+        pd(q0 + ramp * 0.15 * (1.0 - np.cos(w * t)) * shape, ramp * 0.15 * w * np.sin(w * t) * shape)
+        mujoco.mj_step(m, d)
+        for f in sim.foot_contact_forces().values():
+            ratio = max(ratio, np.hypot(f[0], f[1]) / max(f[2], 1e-9))
+    drift = max(np.linalg.norm((sim.sole_pose(s).translation - start[s])[:2]) for s in start)
+    return drift, ratio
+
+
+def test_stance_soles_do_not_creep_while_the_legs_move():
+    # Coulomb: a flat sole loaded at < 0.1 of its normal force stays put. MuJoCo's friction rows have no position
+    # term: the contact solver drives J·qacc to -b·v (b = 2 / (dmax · timeconst)) while the contact point's
+    # acceleration is J·qacc + J̇·q̇, so a leg moving over a stance foot (J̇·q̇ from the joint rates) makes the sole
+    # slide at J̇·q̇ / b. With the contact's own timeconst (0.02 s, b = 105 /s) G1's soles slide 2.2 mm in 4 s of
+    # squats; the friction rows at 2 timesteps (b = 526 /s) keep them within 0.5 mm (0.23 mm).
+    robot = wbc.load_robot("g1")
+    held, ratio = _squat_sole_drift(robot)
+    assert ratio < 0.1 and held < 5e-4
+    soft, _ = _squat_sole_drift(robot, friction_timeconst=0.0)
+    assert soft > 1.5e-3
+
+
+def test_foot_contact_pairs_are_the_dynamic_contacts_but_for_the_friction_time_constant():
+    # friction_timeconst equal to the contact's own timeconst (0.02 s): the explicit pairs reproduce MuJoCo's
+    # dynamic foot contacts (same condim, friction, solref, solimp), so the plant moves the same.
+    robot = wbc.load_robot("g1")
+    a, b = (build_mujoco_model(robot, friction_timeconst=tc) for tc in (0.0, 0.02))
+    assert a.model.npair == 0 and b.model.npair == 2 and b.model.nexclude == 2
+    for sim in (a, b):
+        for _ in range(200):
+            mujoco.mj_step(sim.model, sim.data)
+    np.testing.assert_allclose(a.data.qpos, b.data.qpos, atol=1e-9)
+    default = build_mujoco_model(robot)
+    np.testing.assert_array_equal(default.model.pair_solreffriction, [[0.004, 1.0]] * 2)
+    for _ in range(200):
+        mujoco.mj_step(default.model, default.data)
+    feet = set(np.concatenate(list(default.foot_geoms.values())))
+    con = default.data.contact
+    assert all(con.solreffriction[i][0] == 0.004 for i in range(default.data.ncon)
+               if con.geom1[i] in feet or con.geom2[i] in feet) and default.data.ncon == 8
+    with pytest.raises(InvalidInputError, match="friction_timeconst"):
+        build_mujoco_model(robot, friction_timeconst=0.003)
+
+
+def test_stiff_foot_friction_keeps_the_friction_coefficient():
+    # The friction rows' time constant changes the soft regime only: the crate as a foot (solreffriction 0.004 s)
+    # holds at 0.3 of its weight (< 0.05 mm in 1 s) and slides at 1.2 of it as ½ (0.2 g) t² = 0.98 m (μ = 1).
+    robot = wbc.load_robot("g1")
+    assert 0.0 <= _crate_displacement(None, None, 0.3, robot, 0.004) < 5e-5
+    assert _crate_displacement(None, None, 1.2, robot, 0.004) == pytest.approx(0.5 * 0.2 * 9.81, rel=0.03)

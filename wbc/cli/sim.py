@@ -167,6 +167,10 @@ def register(subparsers, add_outputs) -> None:
                    help="plant: MuJoCo friction-to-normal impedance ratio of the elliptic friction cones (default 10, "
                         "see wbc.sim.mujoco_model; 1, MuJoCo's default, lets a loaded foot creep below the friction "
                         "limit)")
+    w.add_argument("--friction-timeconst", type=finite(0.0), default=None,
+                   help="plant: time constant (s) of the foot contacts' friction rows (default 2 timesteps, see "
+                        "wbc.sim.mujoco_model; 0: the contact's own 0.02 s, MuJoCo's default, lets a stance sole "
+                        "slide under a moving leg)")
     w.add_argument("--cone", choices=("elliptic", "pyramidal"), default="elliptic",
                    help="plant: MuJoCo friction cone (default elliptic; pyramidal is MuJoCo's default)")
     w.add_argument("--q-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on measured joint positions, deg")
@@ -292,6 +296,8 @@ def cmd_sim(args) -> int:
     foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
     sim = build_mujoco_model(robot, cone=args.cone, foot_contact=foot,
                              **({} if args.impratio is None else {"impratio": args.impratio}),
+                             **({} if args.friction_timeconst is None
+                                else {"friction_timeconst": args.friction_timeconst}),
                              **({} if getattr(args, "terrain", None) is None else {"terrain": args.terrain}))
     apply_actuators(sim, drives)
     compensation = {}
@@ -390,6 +396,7 @@ def cmd_sim(args) -> int:
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
+    summary["mujoco_foot_friction_timeconst_s"] = float(sim.model.pair_solreffriction[0, 0]) if sim.model.npair else 0.0
     if args.scenario == "walk" and args.controller == "id":
         walk_opts = walk_options_for(robot, args.solver, args.sole_margin)
         summary["controller_sole_margin_m"] = walk_opts["sole_margin"]

@@ -47,6 +47,19 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
   impratio is the recommended way of reducing slip" (Overview, "Softness and slip"). The normal stiffness and the
   friction coefficient are unchanged (stance-sole creep per step on a G1 walk for each cone and impratio:
   ``benchmarks/README.md``, "Measurement history moved out of docstrings");
+* foot friction time constant (``friction_timeconst``, default 2 timesteps): a second creep comes from the legs
+  moving over a standing foot, and neither impratio nor MuJoCo's noslip solver touch it. A friction row has no
+  position term: the solver sets the contact point's ``J·qacc`` to the reference ``-b·v`` with
+  ``b = 2 / (dmax · timeconst)`` (``mj_makeImpedance``), and noslip solves the same rows with the regulariser
+  removed. The point's acceleration is ``J·qacc + J̇·q̇`` though, and ``J̇·q̇`` (the centripetal and Coriolis
+  terms of the leg's joint rates, of the order of 1 m/s² for a knee extending at 2–3 rad/s) is left out, so the
+  sole slides at ``v = J̇·q̇ / b`` with any tangential load inside the cone: about 1 cm/s with the contact's own
+  0.02 s (b = 105 /s), which a real sole below its friction limit does not do. The foot contacts therefore get
+  their friction rows' time constant separately (``solreffriction``, which MuJoCo accepts on explicit contact
+  pairs only: :func:`stiff_foot_friction`), at 2 timesteps, the smallest MuJoCo accepts (``b·dt`` ≈ 1: a slip
+  velocity is removed within about a step). Their normal rows keep the contact's solref and solimp, the friction
+  coefficient is unchanged (a sole pushed past μ·f_n still slides), and contacts of other robot bodies stay
+  dynamic. Its effect on a squatting G1: ``tests/sim/test_mujoco_model.py``;
 * the foot boxes are in geom group 3 (hidden by default in viewers); URDF collision geoms stay in group 0.
   Joint position limits are enforced by MuJoCo, velocity limits are not.
 
@@ -90,7 +103,7 @@ from wbc.sim.conventions import StateMap
 from wbc.sim.meshes import MUJOCO_MESH_SUFFIXES, mujoco_readable
 from wbc.sim.mujoco_runtime import MujocoModel
 
-__all__ = ["MujocoModel", "build_mujoco_model", "ENV_BIT", "ROBOT_BIT", "MAX_TIMESTEP"]
+__all__ = ["MujocoModel", "build_mujoco_model", "stiff_foot_friction", "ENV_BIT", "ROBOT_BIT", "MAX_TIMESTEP"]
 
 ENV_BIT = 1  #: contype/conaffinity bit of the environment (floor, obstacles)
 ROBOT_BIT = 2  #: contype bit of robot collision geoms
@@ -110,6 +123,7 @@ def build_mujoco_model(
     integrator: str = "implicitfast",
     cone: str = "elliptic",
     impratio: float = 10.0,
+    friction_timeconst: float | None = None,
     customize: Callable[[mujoco.MjSpec], None] | None = None,
     sensors: bool = True,
     plant: str = "ideal",
@@ -129,6 +143,10 @@ def build_mujoco_model(
         integrator: MuJoCo integrator name: ``"euler"``, ``"implicitfast"``, ``"implicit"`` or ``"rk4"``.
         cone: friction cone, ``"elliptic"`` (default) or ``"pyramidal"`` (MuJoCo's default; module docstring).
         impratio: ratio of frictional to normal constraint impedance (≥ 1; default 10, MuJoCo's 1).
+        friction_timeconst: time constant (s) of the friction rows of the foot contacts (``solreffriction`` of
+            explicit contact pairs, :func:`stiff_foot_friction`); None: ``2 * timestep``, the smallest MuJoCo
+            accepts; 0: none (the friction rows share the contact's ``solref``, MuJoCo's default). Otherwise it
+            must be at least ``2 * timestep``.
         customize: called with the ``MjSpec`` just before compilation (add cameras, lights, obstacles...).
         sensors: add the joint encoders, the pelvis IMU and the ankle F/T sensors of :mod:`wbc.sim.sensors`
             (MuJoCo sensors; they do not change the physics).
@@ -163,6 +181,12 @@ def build_mujoco_model(
         raise InvalidInputError(f"cone must be 'elliptic' or 'pyramidal', got {cone!r}")
     if not (np.isfinite(impratio) and impratio >= 1.0):
         raise InvalidInputError(f"impratio must be finite and >= 1, got {impratio!r}")
+    if friction_timeconst is None:
+        friction_timeconst = 2.0 * timestep
+    if not (np.isfinite(friction_timeconst) and (friction_timeconst == 0.0
+                                                 or friction_timeconst >= 2.0 * timestep * (1.0 - 1e-12))):
+        raise InvalidInputError(f"friction_timeconst must be 0 or >= 2 * timestep = {2.0 * timestep} s, got "
+                                f"{friction_timeconst!r}")
     if not (floor_friction > 0 and foot_box_thickness > 0):
         raise InvalidInputError("floor_friction and foot_box_thickness must be positive")
     if plant not in PLANTS:
@@ -264,6 +288,8 @@ def build_mujoco_model(
         add_sensors(spec, robot)
     if customize is not None:
         customize(spec)
+    if friction_timeconst > 0.0:
+        stiff_foot_friction(spec, roots[0].name, foot_body_names, friction_timeconst)
 
     try:
         model = spec.compile()
@@ -318,6 +344,65 @@ def add_terrain(spec: mujoco.MjSpec, terrain, friction: float = 1.0) -> list[str
                                 pos=[0.5 * (x0 + x1), 0.5 * (y0 + y1), lo], rgba=[0.55, 0.5, 0.45, 1.0], **common)
         names.append("terrain_hfield")
     return names
+
+
+def stiff_foot_friction(spec: mujoco.MjSpec, robot_root: str, foot_bodies: dict[str, set[str]],
+                        timeconst: float) -> int:
+    """Give the friction rows of every foot contact the time constant ``timeconst`` (s), the normal rows unchanged.
+
+    MuJoCo sets ``solreffriction`` on explicit contact pairs only, so each pair (foot geom, geom outside the robot
+    that the foot geom collides with by its contype/conaffinity bits) becomes a ``<pair>`` with the parameters
+    MuJoCo would give the dynamic contact (``mj_contactParam``: those of the geom of higher priority, otherwise
+    condim and friction the larger, solref and solimp mixed by solmix; margin and gap the larger) plus
+    ``solreffriction = (timeconst, 1)``, and the dynamic contacts between those bodies are excluded. Unnamed
+    geoms of such pairs get a name (``pair_geom_<i>``). Called by :func:`build_mujoco_model` after ``customize``.
+
+    Args:
+        spec: the model being built. robot_root: name of the robot's root body (its subtree is the robot).
+        foot_bodies: side -> names of the bodies rigidly attached to that sole. timeconst: s (> 0).
+
+    Returns:
+        The number of pairs added.
+    """
+    robot = {b.name for b in spec.body(robot_root).find_all(mujoco.mjtObj.mjOBJ_BODY)} | {robot_root}
+    feet = set().union(*foot_bodies.values())
+    colliding = [g for g in spec.geoms if g.contype or g.conaffinity]
+    foot_geoms = [g for g in colliding if g.parent.name in feet]
+    others = [g for g in colliding if g.parent.name not in robot]
+    for i, g in enumerate(foot_geoms + others):
+        if not g.name:
+            g.name = f"pair_geom_{i}"
+    excluded, n = set(), 0
+    for f in foot_geoms:
+        for g in others:
+            if not (f.contype & g.conaffinity or g.contype & f.conaffinity):
+                continue
+            bodies = (f.parent.name, g.parent.name)
+            if bodies not in excluded:
+                spec.add_exclude(bodyname1=bodies[0], bodyname2=bodies[1])
+                excluded.add(bodies)
+            condim, friction, solref, solimp = _contact_param(f, g)
+            spec.add_pair(geomname1=f.name, geomname2=g.name, condim=condim,
+                          friction=[friction[0], friction[0], friction[1], friction[2], friction[2]],
+                          solref=solref, solimp=solimp, solreffriction=[float(timeconst), 1.0],
+                          margin=max(f.margin, g.margin), gap=max(f.gap, g.gap))
+            n += 1
+    return n
+
+
+def _contact_param(g1, g2) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """(condim, friction (3,), solref (2,), solimp (5,)) of a dynamic contact between two spec geoms, as MuJoCo's
+    ``mj_contactParam`` computes them."""
+    if g1.priority != g2.priority:
+        g = g1 if g1.priority > g2.priority else g2
+        return g.condim, np.array(g.friction), np.array(g.solref), np.array(g.solimp)
+    m1, m2 = g1.solmix, g2.solmix
+    tiny = mujoco.mjMINVAL
+    mix = m1 / (m1 + m2) if m1 >= tiny and m2 >= tiny else 0.5 if m1 < tiny and m2 < tiny else float(m2 < tiny)
+    r1, r2 = np.array(g1.solref), np.array(g2.solref)
+    solref = mix * r1 + (1.0 - mix) * r2 if r1[0] > 0 and r2[0] > 0 else np.minimum(r1, r2)
+    solimp = mix * np.array(g1.solimp) + (1.0 - mix) * np.array(g2.solimp)
+    return max(g1.condim, g2.condim), np.maximum(g1.friction, g2.friction), solref, solimp
 
 
 def _assemble(robot, model, feet, foot_contact, keep_df, effort) -> MujocoModel:
