@@ -26,7 +26,7 @@ import numpy as np
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.active_set import solve_qp_ws
 from wbc.solvers.box_eq import solve_box_eq_ws
-from wbc.solvers.linalg import clip_box_into
+from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["contact_drift", "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack",
@@ -183,24 +183,12 @@ def _solve_views(ws, n, nr, mr, p):
     """Views of :func:`kinematic_solve`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
     o = n
-    H = ws[o:o + nr * nr].reshape((nr, nr))
-    o += nr * nr
-    L = ws[o:o + nr * nr].reshape((nr, nr))
-    o += nr * nr
-    g = ws[o:o + nr]
-    o += nr
-    lbr = ws[o:o + nr]
-    o += nr
-    ubr = ws[o:o + nr]
-    o += nr
-    row = ws[o:o + nr]
-    o += nr
-    x = ws[o:o + nr]
-    o += nr
-    z = ws[o:o + nr]
-    o += nr
-    t = ws[o:o + nr]
-    o += nr
+    HL = ws[o:o + 2 * nr * nr].reshape((2, nr, nr))
+    H, L = HL[0], HL[1]
+    o += 2 * nr * nr
+    vec = ws[o:o + 7 * nr].reshape((7, nr))  # g, lbr, ubr, row, x, z, t: consecutive (nr,) vectors
+    g, lbr, ubr, row, x, z, t = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
+    o += 7 * nr
     Tc = ws[o:o + 6 * (nr + 1)].reshape((6, nr + 1))
     o += 6 * (nr + 1)
     Eb = ws[o:o + 36].reshape((6, 6))
@@ -211,18 +199,14 @@ def _solve_views(ws, n, nr, mr, p):
     o += 6
     Cr = ws[o:o + p * nr].reshape((p, nr))
     o += p * nr
-    lr = ws[o:o + p]
-    o += p
-    ur = ws[o:o + p]
-    o += p
-    mu = ws[o:o + p]
-    o += p
+    rows = ws[o:o + 3 * p].reshape((3, p))  # lr, ur, mu
+    lr, ur, mu = rows[0], rows[1], rows[2]
+    o += 3 * p
     Ar = ws[o:o + mr * nr].reshape((mr, nr))
     o += mr * nr
-    br = ws[o:o + mr]
-    o += mr
-    nu = ws[o:o + mr]
-    o += mr
+    eqs = ws[o:o + 2 * mr].reshape((2, mr))  # br, nu
+    br, nu = eqs[0], eqs[1]
+    o += 2 * mr
     Y = ws[o:o + mr * nr].reshape((mr, nr))  # Y, S, rhs: solve_box_eq_ws (no rows of C)
     o += mr * nr
     S = ws[o:o + mr * mr].reshape((mr, mr))
@@ -370,23 +354,7 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
             s -= Tc[i, j] * x[j]
         v[i] = s
     # residuals of the original rows
-    res = 0.0
-    for r in range(neq):
-        s = -b[r]
-        for j in range(n):
-            s += A[r, j] * v[j]
-        if abs(s) > res:
-            res = abs(s)
-    for r in range(p):
-        if cl[r] == -np.inf and cu[r] == np.inf:
-            continue
-        s = 0.0
-        for j in range(n):
-            s += C[r, j] * v[j]
-        if cl[r] - s > res:
-            res = cl[r] - s
-        elif s - cu[r] > res:
-            res = s - cu[r]
+    res = row_violation(C, cl, cu, v, n, p, equality_residual(A, b, v, n, neq))
     if not res <= tolerance:
         return False
     for i in range(n):

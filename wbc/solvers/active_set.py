@@ -37,7 +37,7 @@ from numba.extending import overload
 from wbc.compiled import FASTMATH
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
 from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
-                                primal_from_multipliers)
+                                primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
@@ -836,17 +836,7 @@ def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, ma
             x[i] = lb[i]
         elif state[i] > 0:
             x[i] = ub[i]
-    res = clip_eq_residual(x, lb, ub, A, b, n, m)
-    for r in range(p):
-        if l[r] == -np.inf and u[r] == np.inf:
-            continue
-        s = 0.0
-        for j in range(n):
-            s += C[r, j] * x[j]
-        if l[r] - s > res:
-            res = l[r] - s
-        elif s - u[r] > res:
-            res = s - u[r]
+    res = row_violation(C, l, u, x, n, p, clip_eq_residual(x, lb, ub, A, b, n, m))
     worst = 0.0
     big = 1.0
     for i in range(n):

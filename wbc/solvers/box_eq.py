@@ -20,7 +20,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH
-from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution, primal_from_multipliers
+from wbc.solvers.linalg import (backward_substitution, cholesky_lower, equality_residual, forward_substitution,
+                                primal_from_multipliers)
 from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 
 __all__ = ["clip_eq_residual", "drop_infinite_active", "solve_box_eq", "solve_box_eq_ws"]
@@ -154,14 +155,7 @@ def clip_eq_residual(x, lb, ub, A, b, n, m):
             x[i] = lb[i]
         elif x[i] > ub[i]:
             x[i] = ub[i]
-    r = 0.0
-    for k in range(m):
-        s = -b[k]
-        for j in range(n):
-            s += A[k, j] * x[j]
-        if abs(s) > r:
-            r = abs(s)
-    return r
+    return equality_residual(A, b, x, n, m)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)

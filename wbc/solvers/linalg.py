@@ -1,7 +1,7 @@
 """Compiled (numba) dense linear algebra shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`,
 :mod:`wbc.solvers.active_set`, :mod:`wbc.formulations.idkernel`): in-place Cholesky factor, forward and backward
-substitution, the primal step of a Cholesky/Schur KKT solve, weighted normal equations, and the clip of a box into
-another.
+substitution, the primal step of a Cholesky/Schur KKT solve, weighted normal equations, the clip of a box into
+another, and the residuals of equality and inequality rows at a point.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 
 from wbc.compiled import FASTMATH
 
-__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "forward_substitution",
-           "primal_from_multipliers", "weighted_normal_equations"]
+__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "equality_residual",
+           "forward_substitution", "primal_from_multipliers", "row_violation", "weighted_normal_equations"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -131,3 +131,33 @@ def clip_box_into(lb, ub, start, lo, hi):
         cu = ub[start + i]
         lb[start + i] = min(max(lo[i], cl), cu)
         ub[start + i] = max(min(hi[i], cu), cl)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def equality_residual(A, b, x, n, m):
+    """Largest equality residual max_k |A_k x − b_k| over the first ``m`` rows of A (n columns used); 0 for m = 0."""
+    r = 0.0
+    for k in range(m):
+        s = -b[k]
+        for j in range(n):
+            s += A[k, j] * x[j]
+        if abs(s) > r:
+            r = abs(s)
+    return r
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def row_violation(C, l, u, x, n, p, res):
+    """max(``res``, the largest violation of l ≤ C x ≤ u over the first ``p`` rows (n columns used)); rows free on
+    both sides are skipped."""
+    for r in range(p):
+        if l[r] == -np.inf and u[r] == np.inf:
+            continue
+        s = 0.0
+        for j in range(n):
+            s += C[r, j] * x[j]
+        if l[r] - s > res:
+            res = l[r] - s
+        elif s - u[r] > res:
+            res = s - u[r]
+    return res
