@@ -44,7 +44,8 @@ from time import perf_counter_ns, thread_time_ns
 import numpy as np
 import pinocchio as pin
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+for _sub in ("tests", "tests/constraints"):  # conftest, and the scenario of tests/constraints/test_self_collision.py
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / _sub))
 
 TARGET_US = 200.0  # issue 10: self-collision on Talos ≤ 200 µs per tick
 MIN_DISTANCE = 0.02  # m, the constraint's min_distance in this scenario
