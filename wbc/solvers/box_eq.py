@@ -7,7 +7,8 @@ held at a bound): :func:`solve_box_eq_ws` (workspace given) and :func:`solve_box
 
 For a fixed working set W the free part F solves the equality-constrained QP through its KKT system, eliminated with
 a Cholesky factor L Lᵀ = H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical
-Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"). The working set is then corrected: the free variable
+Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"), refined once on the equality rows (the Schur
+complement squares their conditioning). The working set is then corrected: the free variable
 furthest outside its bounds is fixed at the violated bound; otherwise the fixed variable whose bound multiplier has
 the wrong sign (most negative) is freed (single-pivot principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5),
 1994). The loop ends only when every KKT condition holds, so the returned x is the exact optimum; otherwise a
