@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import qpsolvers
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 import wbc
@@ -131,8 +131,18 @@ def _quadprog(H, g, A, b, C, l, u, lb, ub):
                               A=A if A.shape[0] else None, b=b if A.shape[0] else None, solver="quadprog")
 
 
+# a draw on which the range-space solve without refinement ended 1.4e-9 off in the H-metric (residual 3.9e-11 on the
+# second contact's rows: the Schur complement squares their conditioning)
+_ILL_CONDITIONED_CONTACTS = {
+    "robot": "humanoid15", "seed": 1, "spread": 0.125, "com": False, "com_weight": 1.0, "gain": 1.0,
+    "frame_tasks": [0, 0, 1], "posture": False, "posture_weight": 1.0, "posture_gain": 1.0, "contacts": 2,
+    "contact_gain": 1.0, "offset": 0.0, "position_limit": False, "velocity_limit": False, "velocity_scale": 1.0,
+    "dt": 0.015625}
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(draw=_draws)
+@example(draw=_ILL_CONDITIONED_CONTACTS)
 def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
     robot = _robot(draw["robot"])
     dt = draw["dt"]

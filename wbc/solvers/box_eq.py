@@ -7,7 +7,8 @@ held at a bound): :func:`solve_box_eq_ws` (workspace given) and :func:`solve_box
 
 For a fixed working set W the free part F solves the equality-constrained QP through its KKT system, eliminated with
 a Cholesky factor L Lᵀ = H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical
-Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"). The working set is then corrected: the free variable
+Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"), refined once on the equality rows (the Schur
+complement squares their conditioning). The working set is then corrected: the free variable
 furthest outside its bounds is fixed at the violated bound; otherwise the fixed variable whose bound multiplier has
 the wrong sign (most negative) is freed (single-pivot principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5),
 1994). The loop ends only when every KKT condition holds, so the returned x is the exact optimum; otherwise a
@@ -37,11 +38,12 @@ def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs):
+def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs, e):
     """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
     set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to the first m rows of ``A x = b``, through
     the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal &
-    Wright 2006, §16.2). On return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the multipliers.
+    Wright 2006, §16.2), refined once on the equality rows (:func:`_refine_equalities`; e (n,) is scratch). On
+    return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the multipliers.
 
     Returns:
         nf, the number of free variables (≥ 0), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES.
@@ -114,7 +116,40 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
         backward_substitution(S, m, nu)
     # x_F = -L⁻ᵀ (t + Y nu)
     primal_from_multipliers(L, nf, t, Y, nu, m, t)
+    if m:
+        _refine_equalities(A, b, m, free, nf, nw, n, x, t, nu, L, Y, S, rhs, e)
     return nf
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _refine_equalities(A, b, m, free, nf, nw, n, x, t, nu, L, Y, S, r, e):
+    """One step of iterative refinement of the range-space solve on its equality rows (Golub & Van Loan, *Matrix
+    Computations*, 4th ed., §3.5.3): the Schur complement S = A_F H_FF⁻¹ A_Fᵀ squares the conditioning of A_F, so
+    A_F x_F = b − A_W x_W holds only to ≈ ε·cond(S) after one solve. With the residual r, the correction
+    d = H_FF⁻¹ A_Fᵀ w, S w = r, is the least-H-norm step onto the rows (A_F d = r); it keeps stationarity with the
+    multipliers nu − w. Reuses the factors L (of H_FF), Y = L⁻¹A_Fᵀ and S's Cholesky factor; r (m,) and e (n,) are
+    scratch."""
+    for k in range(m):
+        s = b[k]
+        for c in range(nw, n):
+            j = free[c]
+            s -= A[k, j] * x[j]
+        for a in range(nf):
+            s -= A[k, free[a]] * t[a]
+        r[k] = s
+    forward_substitution(S, m, r)
+    backward_substitution(S, m, r)
+    for a in range(nf):
+        e[a] = 0.0
+    for k in range(m):
+        wk = r[k]
+        nu[k] -= wk
+        yk = Y[k]
+        for a in range(nf):
+            e[a] += yk[a] * wk
+    backward_substitution(L, nf, e)
+    for a in range(nf):
+        t[a] += e[a]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -208,7 +243,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
     m = A.shape[0]
     drop_infinite_active(state, lb, ub)
     for it in range(1, max_iter + 1):
-        nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs)
+        nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs, z)
         if nf < 0:
             return nf
         worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
