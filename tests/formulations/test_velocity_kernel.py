@@ -139,3 +139,35 @@ def test_sole_drift_is_the_distance_from_where_the_contact_row_sends_the_sole(ro
                 sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
                 ref = max(ref, np.linalg.norm(data.oMf[c.frame_id].translation - sent.translation))
             assert abs(ctrl.sole_drift(config, v, dt) - ref) <= 1e-12 + 1e-9 * ref
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_command_screen_passes_only_where_the_unscaled_box_test_does(seed):
+    """wbc.formulations.velocity_kernel.command_within_box (the output guard's compiled screen) against the numpy test
+    it stands for: v finite, v·v finite and max(lb − v, v − ub) ≤ tolerance; True exactly there (with |v| < 1e100),
+    on boxes with infinite sides, NaN entries and commands just inside and just outside by 1e-7 (tolerance 1e-6)."""
+    from wbc.formulations.velocity_kernel import command_within_box
+
+    rng = np.random.default_rng(900 + seed)
+    n, tol = 30, 1e-6
+    for _ in range(40):
+        lb = -rng.uniform(0.1, 2.0, n)
+        ub = rng.uniform(0.1, 2.0, n)
+        lb[rng.random(n) < 0.2] = -np.inf
+        ub[rng.random(n) < 0.2] = np.inf
+        v = rng.uniform(-0.1, 0.1, n)
+        k = int(rng.integers(n))
+        case = int(rng.integers(6))
+        if case == 1 and np.isfinite(ub[k]):
+            v[k] = ub[k] + tol - 1e-7  # inside the tolerance
+        elif case == 2 and np.isfinite(lb[k]):
+            v[k] = lb[k] - tol - 1e-7  # outside it
+        elif case == 3:
+            v[k] = np.nan
+        elif case == 4:
+            lb[k] = np.nan
+        elif case == 5:
+            v[k] = 1e200 if not np.isfinite(ub[k]) else v[k]
+        with np.errstate(invalid="ignore", over="ignore"):
+            reference = bool(np.isfinite(v @ v) and np.maximum(lb - v, v - ub).max() <= tol)
+        assert command_within_box(v, lb, ub, tol) == (reference and bool(np.all(np.abs(v) < 1e100)))

@@ -163,9 +163,9 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import (contact_drift, ensure_compiled, form_qp, kinematic_finish_packed,
-                                              kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
-                                              translation_gap, weighted_rows)
+from wbc.formulations.velocity_kernel import (command_within_box, contact_drift, ensure_compiled, form_qp,
+                                              kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
+                                              kinematic_solve_packed, translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -773,8 +773,8 @@ class KinematicController:
                 self._intersect_boxes(config, dt, skip={id(c) for c, _ in boxes[n_const:]})
                 self._const_lb, self._const_ub = lb.copy(), ub.copy()
             if self._const_prefix:
-                np.copyto(lb, self._const_lb)
-                np.copyto(ub, self._const_ub)
+                lb[:] = self._const_lb
+                ub[:] = self._const_ub
                 boxes = boxes[self._const_prefix:]
                 first = False
         if first:
@@ -842,7 +842,7 @@ class KinematicController:
             return None  # dependent equality rows: dropped and checked by the general path
         # every number of the cost and the contact targets is finite (targets, weights, gains written in place, q,
         # placements): NaN and inf propagate into these sums; else the general path meets them and fails the tick
-        if not math.isfinite(self._cost_check + float(b.sum())):
+        if not math.isfinite(self._cost_check + float(np.add.reduce(b))):
             return None
         t1 = perf_counter()
         v = np.empty(self.nv)
@@ -858,7 +858,8 @@ class KinematicController:
             return None  # the general path: diagnosis, relaxation, safe command
         # output guard: v finite and inside the box of the constraint objects and the inequality rows, to the
         # backend's tolerance (the assembled bounds: the solver reads them, never writes them)
-        if self._command_fault(v, lb, ub, C, l, u):
+        if not (command_within_box(v, lb, ub, backend.tolerance) and C.shape[0] == 0) and self._command_fault(
+                v, lb, ub, C, l, u):  # the compiled screen passes only where _command_fault returns ''
             return None
         drift = 0.0
         if self._contacts:
@@ -876,7 +877,7 @@ class KinematicController:
         self.dependent_residual = 0.0
         self.contact_corrections = 0
         result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift,
-                            path=TickPath("compiled", "daqp" if rescued else ""))
+                            path=_COMPILED_DAQP if rescued else _COMPILED)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
@@ -1769,6 +1770,9 @@ def _row_blocks(constraints) -> tuple[list, int]:
 #: hundred µs each on a kinematic QP; ProxQP last (its iterations on an infeasible problem take tens of ms, but it
 #: solves the semidefinite levels of a hierarchy that the others refuse)
 _CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
+
+#: the compiled tick's paths (TickPath is frozen: one instance shared by every result)
+_COMPILED, _COMPILED_DAQP = TickPath("compiled"), TickPath("compiled", "daqp")
 
 #: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
 #: (``KinematicController._relax_return_rate``)

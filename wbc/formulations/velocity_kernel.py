@@ -29,7 +29,7 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["contact_drift", "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack",
+__all__ = ["command_within_box", "contact_drift", "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack",
            "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
            "translation_gap", "warm_up", "weighted_rows"]
 
@@ -493,6 +493,24 @@ def contact_drift(logs, b, starts, factors):
     return worst
 
 
+@nb.njit(cache=True, nogil=True)
+def command_within_box(v, lb, ub, tolerance):
+    """True when every v_i is finite with |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance and
+    v_i − ub_i ≤ tolerance (the unscaled box test of the kinematic controller's output guard, the same elementwise
+    numbers); False otherwise, including NaN anywhere (the guard then runs its full scaled test).
+
+    Args:
+        v, lb, ub (n,): command and box (rad/s, m/s; bounds may be ±inf). tolerance: largest excess accepted.
+    """
+    for i in range(v.shape[0]):
+        x = v[i]
+        if not abs(x) < 1e100:
+            return False
+        if not (lb[i] - x <= tolerance and x - ub[i] <= tolerance):
+            return False
+    return True
+
+
 @once_per_process
 def ensure_compiled() -> float:
     """Run :func:`warm_up` once per process (later calls return None at once)."""
@@ -517,5 +535,6 @@ def warm_up() -> float:
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0
