@@ -76,6 +76,8 @@ def test_example_robot_files_load_and_stand_on_their_soles(name):
     ("[gait]\nt_ss = inf", ["t_ss", "finite"]),
     ("[sole]\nlength = -0.1", ["[sole] length", "out of range"]),
     ("touchdown = \"soon\"", ["touchdown = 'soon'", "'state', 'load'"]),
+    ("[stairs]\nstep_width = 0.0", ["[stairs] step_width", "out of range"]),
+    ("[stairs]\nstep_wdth = 0.1", ["unknown key 'step_wdth'", "did you mean 'step_width'"]),
 ])
 def test_robot_file_key_errors_name_the_key(tmp_path, extra, words):
     path = _h15_file(tmp_path)
@@ -267,3 +269,36 @@ def test_touchdown_rule_is_read_and_written(tmp_path):
     assert load_robot_file(again).touchdown == "load"
     assert load_robot_file(_h15_file(tmp_path)).touchdown == "state"
     assert "touchdown" not in spec_to_toml(load_robot_file(_h15_file(tmp_path)))
+
+
+def test_stairs_table_sets_the_step_width_on_stairs_only(tmp_path):
+    """``[stairs] step_width`` is read, written back by ``spec_to_toml`` and read again; a walk planned on stairs
+    (``plan_default_terrain_walk``) sets its feet that far apart, one on flat ground keeps the stance's width, and
+    an explicit ``step_width`` wins. Oracle: the lateral distance of consecutive footholds in the plan, against the
+    soles' distance at the reference posture by Pinocchio's forward kinematics."""
+    from wbc.robot_file import load_robot_file, spec_to_toml
+    from wbc.scenarios.terrain_walk import plan_default_terrain_walk
+
+    path = _h15_file(tmp_path)
+    path.write_text(path.read_text() + "\n[stairs]\nstep_width = 0.15\n")
+    spec = load_robot_file(path)
+    assert spec.stairs == {"step_width": 0.15}
+    again = tmp_path / "again.toml"
+    again.write_text(spec_to_toml(spec))
+    assert load_robot_file(again).stairs == {"step_width": 0.15}
+    robot = load_robot(str(path))
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_ref)
+    stance = abs(data.oMf[robot.model.getFrameId(robot.left_sole)].translation[1]
+                 - data.oMf[robot.model.getFrameId(robot.right_sole)].translation[1])
+    assert abs(stance - 0.15) > 0.02  # the table changes something
+
+    def widths(terrain, **kw):
+        walk = plan_default_terrain_walk(robot, terrain, n_steps=4, **kw)
+        y = [float(f[1, 3]) for f in walk.footholds]
+        return [abs(a - b) for a, b in zip(y, y[1:])]
+
+    assert np.allclose(widths("stairs:0.05:0.3:4:up"), 0.15, atol=1e-9)
+    assert np.allclose(widths("flat", step_length=0.1), stance, atol=1e-6)
+    assert np.allclose(widths("stairs:0.05:0.3:4:up", step_width=0.2), 0.2, atol=1e-9)
+    assert load_robot("humanoid15").stairs == {}

@@ -125,6 +125,12 @@ class Robot:
     locked_joints: list[str] = field(default_factory=list)
 
     @property
+    def stairs(self) -> dict[str, float]:
+        """Walk parameters of this robot on stairs that replace its defaults there (the robot file's ``[stairs]``
+        table, :data:`wbc.robot_file.STAIRS_KEYS`: ``step_width`` in m); empty without one."""
+        return dict(self.spec.stairs) if self.spec is not None else {}
+
+    @property
     def nq(self) -> int:
         """Size of the configuration vector q."""
         return self.model.nq

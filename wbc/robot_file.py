@@ -25,12 +25,13 @@ from pathlib import Path
 from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
-           "TOP_KEYS", "GAIT_KEYS", "TOUCHDOWN_RULES", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
+           "TOP_KEYS", "GAIT_KEYS", "STAIRS_KEYS", "TOUCHDOWN_RULES", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
            "INERTIA_RADIUS"]
 
-#: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, mujoco).
+#: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, stairs, mujoco).
 TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand",
-            "package_dirs", "base_rpy", "sole", "frames", "reference_joints", "gait", "touchdown", "mujoco")
+            "package_dirs", "base_rpy", "sole", "frames", "reference_joints", "gait", "stairs", "touchdown",
+            "mujoco")
 #: ``touchdown``: what a physics walk (``wbc sim walk``, estimated state) does with a swing sole its state test
 #: sets down at the planned landing time while the ankle F/T still reads no load (it hovers a millimetre or two up):
 #: ``"state"`` ramps the sole's load in at once; ``"load"`` holds the load the controller may plan on it at 6 % of
@@ -39,6 +40,9 @@ TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "tor
 TOUCHDOWN_RULES = ("state", "load")
 #: Keys of the ``[gait]`` table (keyword arguments of :func:`wbc.gait.plan_walk`) and their valid ranges.
 GAIT_KEYS = {"step_length": (0.0, 1.0), "step_height": (0.0, 0.5), "t_ss": (0.05, 5.0), "t_ds": (0.0, 5.0)}
+#: Keys of the ``[stairs]`` table (the walk on a terrain of stairs, :func:`wbc.scenarios.terrain_walk.stair_defaults`)
+#: and their valid ranges: ``step_width``, the lateral distance (m) between the feet.
+STAIRS_KEYS = {"step_width": (0.02, 1.0)}
 #: ``[mujoco] meshes``: how meshes MuJoCo cannot read (Collada, ...) are handled.
 MUJOCO_MESHES = ("convert", "collision")
 #: ``[mujoco] foot``: the plant's foot contact geometry.
@@ -95,6 +99,7 @@ class RobotSpec:
         base_rpy: orientation (rad, roll-pitch-yaw) of the floating base in the reference posture; a Y-up URDF
             stands with ``[1.5707963, 0, 0]``.
         gait: default walk parameters (subset of :data:`GAIT_KEYS`).
+        stairs: walk parameters on stairs that replace the default ones there (subset of :data:`STAIRS_KEYS`).
         touchdown: the physics walk's rule for a sole set down without a measured load, one of
             :data:`TOUCHDOWN_RULES` (default ``"state"``).
         mujoco: plant options.
@@ -118,6 +123,7 @@ class RobotSpec:
     package_dirs: tuple[str, ...] = ()
     base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gait: dict[str, float] = field(default_factory=dict)
+    stairs: dict[str, float] = field(default_factory=dict)
     touchdown: str = "state"
     mujoco: MujocoOptions = field(default_factory=MujocoOptions)
     source: Path | None = None
@@ -147,6 +153,8 @@ class RobotSpec:
                 value = _vector(value, f"{where} base_rpy")
             elif key == "gait":
                 value = _gait(value, where)
+            elif key == "stairs":
+                value = _stairs(value, where)
             elif key == "touchdown":
                 value = _string(value, f"{where} touchdown")
                 if value not in TOUCHDOWN_RULES:
@@ -202,15 +210,25 @@ def _joint_table(value, where: str) -> dict[str, float]:
             for k, v in value.items()}
 
 
-def _gait(value, where: str) -> dict[str, float]:
-    value = _table(value, f"{where} [gait]")
+def _number_table(value, where: str, table: str, keys: dict[str, tuple[float, float]],
+                  lo_open: tuple[str, ...] = ()) -> dict[str, float]:
+    """A table of numbers, each key one of ``keys`` and within its range (open below for the keys in ``lo_open``)."""
+    value = _table(value, f"{where} [{table}]")
     out = {}
     for k, v in value.items():
-        if k not in GAIT_KEYS:
-            raise _unknown(where, "[gait]", k, GAIT_KEYS)
-        lo, hi = GAIT_KEYS[k]
-        out[k] = _number(v, f"{where} [gait] {k}", lo=lo, hi=hi, lo_open=k == "t_ss")
+        if k not in keys:
+            raise _unknown(where, f"[{table}]", k, keys)
+        lo, hi = keys[k]
+        out[k] = _number(v, f"{where} [{table}] {k}", lo=lo, hi=hi, lo_open=k in lo_open)
     return out
+
+
+def _gait(value, where: str) -> dict[str, float]:
+    return _number_table(value, where, "gait", GAIT_KEYS, lo_open=("t_ss",))
+
+
+def _stairs(value, where: str) -> dict[str, float]:
+    return _number_table(value, where, "stairs", STAIRS_KEYS, lo_open=("step_width",))
 
 
 def parse_robot_spec(desc: dict, *, base_dir: Path, name: str, where: str, source: Path | None = None) -> RobotSpec:
@@ -275,6 +293,8 @@ def parse_robot_spec(desc: dict, *, base_dir: Path, name: str, where: str, sourc
         kw["reference_joints"] = _joint_table(desc["reference_joints"], where)
     if "gait" in desc:
         kw["gait"] = _gait(desc["gait"], where)
+    if "stairs" in desc:
+        kw["stairs"] = _stairs(desc["stairs"], where)
     if "touchdown" in desc:
         kw["touchdown"] = _string(desc["touchdown"], f"{where} touchdown")
         if kw["touchdown"] not in TOUCHDOWN_RULES:
@@ -379,6 +399,11 @@ def spec_to_toml(spec: RobotSpec, comments: dict[str, str] | None = None) -> str
         note("gait")
         lines.append("[gait]")
         lines += [f"{k} = {_toml_value(float(v))}" for k, v in spec.gait.items()]
+    if spec.stairs:
+        lines.append("")
+        note("stairs")
+        lines.append("[stairs]")
+        lines += [f"{k} = {_toml_value(float(v))}" for k, v in spec.stairs.items()]
     lines.append("")
     note("mujoco")
     lines += ["[mujoco]", f"meshes = {_toml_value(spec.mujoco.meshes)}", f"foot = {_toml_value(spec.mujoco.foot)}",

@@ -118,7 +118,8 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--step-length", type=finite(0.0), default=None,
                    help="walk: step length, m (default: the robot's gait, talos 0.15)")
     w.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
-                   help="walk: lateral distance between the feet, m (default: the current feet distance)")
+                   help="walk: lateral distance between the feet, m (default: the current feet distance; on stairs "
+                        "the robot file's [stairs] step_width when it gives one)")
     w.add_argument("--step-duration", type=seconds, default=None,
                    help="walk: s per step, single + double support (20%%) (default: the robot's gait, talos 0.8)")
     w.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
@@ -284,9 +285,12 @@ def cmd_sim(args) -> int:
     status(args, f"wbc sim {args.scenario}: loading {args.robot} and building its MuJoCo model ...")
     robot = robot_from_args(args)
     terrain = getattr(args, "terrain", None)
-    if terrain is not None and len(terrain.treads) > 2 and getattr(args, "step_length", None) is None \
-            and getattr(args, "vx", None) is None:
-        args.step_length = terrain.treads[1][1] - terrain.treads[1][0]  # stairs: one foot per tread
+    if terrain is not None:  # stairs: one foot per tread, and the robot file's [stairs] values
+        from wbc.scenarios.terrain_walk import stair_defaults
+
+        for key, value in stair_defaults(robot, terrain).items():
+            if getattr(args, key, None) is None and not (key == "step_length" and getattr(args, "vx", None) is not None):
+                setattr(args, key, value)
     _gait_defaults(args, robot)
     if args.scenario == "walk":
         check_sim_args(args)  # again, with the robot's own step duration

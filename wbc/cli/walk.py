@@ -257,7 +257,8 @@ def register(sub, add_outputs=add_outputs) -> None:
     walk.add_argument("--step-length", type=finite(), default=None,
                       help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
-                      help="m (default: current feet distance)")
+                      help="m (default: current feet distance; on stairs the robot file's [stairs] step_width when it "
+                           "gives one)")
     walk.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
                       help="yaw change per step, deg (default 0; every angle option of wbc is in degrees)")
     walk.add_argument("--vx", type=finite(), default=None,

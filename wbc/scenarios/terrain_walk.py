@@ -26,7 +26,7 @@ from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.terrain import Terrain, parse_terrain
 
-__all__ = ["plan_default_terrain_walk", "terrain_summary", "TERRAIN_CRITERIA", "terrain_passes"]
+__all__ = ["plan_default_terrain_walk", "stair_defaults", "terrain_summary", "TERRAIN_CRITERIA", "terrain_passes"]
 
 #: Acceptance on terrain: thresholds on what the robot did.
 TERRAIN_CRITERIA = [
@@ -44,6 +44,22 @@ def terrain_passes(summary: dict) -> tuple[bool, list[str]]:
     return evaluate(s, TERRAIN_CRITERIA)
 
 
+def stair_defaults(robot: Robot, terrain: Terrain) -> dict[str, float]:
+    """The walk parameters that a terrain of stairs (more than two treads) sets in place of the robot's defaults:
+    ``step_length`` (m), one tread, and the robot file's ``[stairs]`` table (``step_width``, m; :attr:`Robot.stairs`).
+    Empty for any other terrain. A value the user gives replaces these in turn.
+
+    Args:
+        robot: the robot. terrain: a parsed :class:`wbc.terrain.Terrain`.
+
+    Returns:
+        dict: keywords of :func:`wbc.gait.plan_walk` (m).
+    """
+    if len(terrain.treads) <= 2:
+        return {}
+    return {"step_length": terrain.treads[1][1] - terrain.treads[1][0], **robot.stairs}
+
+
 def plan_default_terrain_walk(robot: Robot, terrain: Terrain | str, config: Configuration | None = None,
                               dt: float = 0.002, **overrides) -> TerrainWalk:
     """A straight walk on ``terrain`` from the robot's current stance with its descriptor's gait defaults.
@@ -52,7 +68,7 @@ def plan_default_terrain_walk(robot: Robot, terrain: Terrain | str, config: Conf
         robot: the robot (``robot.gait`` holds its defaults). terrain: a :class:`wbc.terrain.Terrain` or its
             description. config: current configuration (default ``robot.q_ref``). dt: sample period (s).
         **overrides: keywords of :func:`wbc.gait.plan_walk` and :func:`wbc.gait.terrain_walk.plan_terrain_walk`;
-            None values are ignored. Without ``step_length``, stairs use their tread.
+            None values are ignored. Without them, stairs use :func:`stair_defaults`.
 
     Raises:
         GaitError, TerrainError: see :func:`wbc.gait.terrain_walk.plan_terrain_walk`.
@@ -60,9 +76,9 @@ def plan_default_terrain_walk(robot: Robot, terrain: Terrain | str, config: Conf
     terrain = parse_terrain(terrain)
     config = config or Configuration(robot)
     kwargs = dict(robot.gait)
-    if terrain.treads and overrides.get("step_length") is None:
-        kwargs["step_length"] = terrain.treads[1][1] - terrain.treads[1][0] if len(terrain.treads) > 2 else \
-            kwargs.get("step_length", 0.15)
+    if terrain.treads:
+        kwargs.setdefault("step_length", 0.15)
+    kwargs.update(stair_defaults(robot, terrain))
     kwargs.update({k: v for k, v in overrides.items() if v is not None})
     return plan_terrain_walk(
         terrain,
