@@ -199,3 +199,32 @@ def test_calls_under_a_deadline_are_sized_at_the_measured_cost_per_iteration(mon
     assert 0.99e-3 <= guarded.measured_iteration_cost <= 1.01e-3
     left = guarded.deadline - daqp_module.thread_time()  # ~0.43 s: ~430 iterations at 1 ms
     assert guarded.call_limit() == int(left / guarded.measured_iteration_cost) < 500
+
+
+def test_tick_work_reads_the_clock_at_reset_only_with_a_clock_guard(monkeypatch):
+    """Without a clock guard a tick's start does not read the CPU clock (a system call); ``seconds`` then measures
+    from its first call in the tick, so the difference of two calls is the CPU time between them, as with a guard."""
+    from wbc.solvers import base as solver_base
+
+    reads = []
+    clock = [10.0]
+
+    def fake_thread_time():
+        reads.append(clock[0])
+        return clock[0]
+
+    monkeypatch.setattr(solver_base, "thread_time", fake_thread_time)
+    counted = TickWork(cap=4)
+    counted.reset(4)
+    assert reads == []  # neither the construction nor the reset read the clock
+    assert counted.solves == 0 and reads == []
+    start = counted.seconds()
+    clock[0] += 0.25
+    assert counted.seconds() - start == pytest.approx(0.25, abs=1e-12)
+    clocked = TickWork(cap=4, clock=0.1)
+    n = len(reads)
+    clocked.reset(4, 0.1)
+    assert len(reads) == n + 1  # the guard's reference time
+    clock[0] += 0.5
+    assert clocked.seconds() == pytest.approx(0.5, abs=1e-12)  # since the reset
+    assert clocked.solves == pytest.approx(5.0, abs=1e-9) and clocked.spent()

@@ -97,7 +97,7 @@ class TickWork:
         self._solves = 0
         self.cap = cap
         self._clock = clock
-        self._t0 = thread_time()
+        self._t0 = thread_time() if clock < math.inf else None
 
     @property
     def solves(self) -> float:
@@ -117,14 +117,19 @@ class TickWork:
 
     def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
-        (``math.inf``: counted solves only)."""
+        (``math.inf``: counted solves only; the clock is then not read here, a system call every tick)."""
         self._solves = 0
         self.cap = cap
         self._clock = clock
-        self._t0 = thread_time()
+        self._t0 = thread_time() if clock < math.inf else None
 
     def seconds(self) -> float:
-        """CPU time (s, ``time.thread_time`` of the calling thread) since :meth:`reset`."""
+        """CPU time (s, ``time.thread_time`` of the calling thread) since :meth:`reset` with the clock guard; without
+        it (``clock`` = ``math.inf``) since the tick's first call of this method (0.0 at that call): only the
+        difference of two calls is meaningful then."""
+        if self._t0 is None:
+            self._t0 = thread_time()
+            return 0.0
         return thread_time() - self._t0
 
     def spent(self, factor: float = 1.0) -> bool:
