@@ -248,12 +248,15 @@ def _ft_reading(robot, sole: str, load: float) -> np.ndarray:
     return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
 
 
-def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
+@pytest.mark.parametrize("ground_height", [0.0, None], ids=["flat", "uneven"])
+def test_heading_passes_from_sole_to_sole_without_the_gyro_drift(ground_height):
     """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
     and re-anchored 10 times), gyro biased about the vertical by b_z, no bias integration: with the hand-over the
     heading of each re-anchored sole comes from the other sole through the kinematics, so the yaw error stays at
     the equilibrium of eq. 32a, b_z / (k_P k_heading) (the yaw-only heading gains off); without it each new anchor
-    takes R̂'s yaw, whose error then grows with the integral of b_z (b_z t = 2.3° after 20 s)."""
+    takes R̂'s yaw, whose error then grows with the integral of b_z (b_z t = 2.3° after 20 s). The same on flat
+    ground of known height (the soles' axes held horizontal) and on uneven ground (``ground_height=None``: the
+    other sole's whole anchored orientation is handed over)."""
     from wbc.estimation import FloatingBaseEstimator
 
     robot, q0, R0, joints = _talos_standing_level()
@@ -269,7 +272,7 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift():
     yaw = {}
     for handover in (True, False):
         est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0, heading_handover=handover,
-                                    k_heading=0.0, k_heading_bias=0.0)
+                                    k_heading=0.0, k_heading_bias=0.0, ground_height=ground_height)
         est.reset(q0)
         per = int(0.5 / DT)
         for cycle in range(40):
