@@ -25,7 +25,7 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    reference than the soles, and the gyro's yaw bias is learnt from them) — the sole does not turn while it carries
    load, which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
    touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics (on uneven
-   ground, the other sole's whole anchored orientation times the two soles' relative orientation), on every
+   ground its heading only, the tilt staying R̂'s), on every
    sample while both are in contact (it still turns as it settles, up to a few tenths of a degree in the first 0.1 s,
    while the other stays loaded and flat until it lifts off), so the heading passes from foot to foot without the yaw
    error of R̂, ``heading_handover``, ``handover_end_share``). A sole that turns on the ground with no still sole to
@@ -221,9 +221,10 @@ class FloatingBaseEstimator:
             sole's through the leg kinematics while both are in contact (True), or from R̂ when it touches down
             (False: R̂'s yaw error, the integral of the gyro's yaw bias, is then locked into each new anchor). On
             flat ground (``ground_height`` not None) the soles' forward axes are horizontal and the hand-over
-            turns the other sole's axis about the vertical; on uneven ground (None) it carries the other sole's
-            whole anchored orientation (world ← sole, R̂'s at its own anchoring, or handed over to it in turn)
-            through the relative orientation of the two soles given by the leg kinematics.
+            turns the other sole's axis about the vertical. On uneven ground (None) the new sole's orientation is
+            R̂'s (world ← sole: its tilt) turned about the vertical to the heading that the other sole's anchored
+            orientation gives it through the two soles' relative orientation from the leg kinematics: the heading
+            passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its roll on).
         handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
             two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
             lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
@@ -477,10 +478,15 @@ class FloatingBaseEstimator:
                 rel = data.oMf[self.ft[o].frame_id].rotation.T @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
                 ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
                 axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
-            else:  # world ← sole s = (world ← sole o, anchored) (sole o ← sole s, leg kinematics)
+            else:  # uneven ground: the tilt of R̂'s world ← sole s, turned about z to the heading of
+                # (world ← sole o, anchored) (sole o ← sole s, leg kinematics)
+                Xs = data.oMf[self.ft[s].frame_id].rotation
+                chain = self._anchor_rotation[o] @ (data.oMf[self.ft[o].frame_id].rotation.T @ Xs[:, 0])
                 Rs = self._anchor_rotation[s]
-                np.matmul(self._anchor_rotation[o], data.oMf[self.ft[o].frame_id].rotation.T
-                          @ data.oMf[self.ft[s].frame_id].rotation, out=Rs)
+                np.matmul(R, Xs, out=Rs)
+                turn = math.atan2(chain[1], chain[0]) - math.atan2(Rs[1, 0], Rs[0, 0])
+                c, sn = math.cos(turn), math.sin(turn)
+                Rs[0], Rs[1] = c * Rs[0] - sn * Rs[1], sn * Rs[0] + c * Rs[1]
                 axis[:] = Rs[:, 0]
             axis /= np.linalg.norm(axis)
             fs, fo = max(self.normal_force[s], 0.0), max(self.normal_force[o], 0.0)
