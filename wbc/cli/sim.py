@@ -365,7 +365,9 @@ def cmd_sim(args) -> int:
         memory = args.velocity_memory
         if memory is None and args.scenario == "jump":
             memory = JUMP_VELOCITY_MEMORY
-        state = EstimatedState(sim, seed=args.seed, velocity_memory=memory)
+        # blind over unknown ground: no heading hand-over between soles (FloatingBaseEstimator heading_handover)
+        blind = {"heading_handover": False} if getattr(args, "blind", False) else {}
+        state = EstimatedState(sim, seed=args.seed, velocity_memory=memory, **blind)
     try:
         run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer,
                                     state=state)

@@ -225,6 +225,8 @@ class FloatingBaseEstimator:
             R̂'s (world ← sole: its tilt) turned about the vertical to the heading that the other sole's anchored
             orientation gives it through the two soles' relative orientation from the leg kinematics: the heading
             passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its roll on).
+            ``wbc sim walk --blind`` turns it off (blind over rough ground, soles landing on unknown bumps:
+            benchmarks/README.md, issue 24).
         handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
             two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
             lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
@@ -440,13 +442,12 @@ class FloatingBaseEstimator:
         for s, r in newly:
             self.anchor[s] = p + r
             self._handover_from[s] = None
+            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
             if self.ground_height is not None:
-                axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
                 self.anchor[s][2] = self.ground_height
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
             else:
                 np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
-                axis = self._anchor_rotation[s][:, 0].copy()
             o = "right" if s == "left" else "left"
             if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
                 self._handover_from[s] = o
@@ -455,12 +456,11 @@ class FloatingBaseEstimator:
             if self.contact[s] and self.turning[s] and self._handover_from[s] is None:
                 # A sole turning on the ground (a landing's impact pivots it; no still sole to hand over from):
                 # its heading is re-anchored from R̂ (the gyro's) on every sample until it stops turning.
+                axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
                 if self.ground_height is not None:
-                    axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
                     axis[2] = 0.0
                 else:
                     np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
-                    axis = self._anchor_rotation[s][:, 0].copy()
                 self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for s in SIDES:
             o = self._handover_from[s]
