@@ -78,6 +78,7 @@ def test_example_robot_files_load_and_stand_on_their_soles(name):
     ("touchdown = \"soon\"", ["touchdown = 'soon'", "'state', 'load'"]),
     ("[stairs]\nstep_width = 0.0", ["[stairs] step_width", "out of range"]),
     ("[stairs]\nstep_wdth = 0.1", ["unknown key 'step_wdth'", "did you mean 'step_width'"]),
+    ("[stairs]\nbase_weight = -1.0", ["[stairs] base_weight", "out of range"]),
 ])
 def test_robot_file_key_errors_name_the_key(tmp_path, extra, words):
     path = _h15_file(tmp_path)
@@ -272,20 +273,26 @@ def test_touchdown_rule_is_read_and_written(tmp_path):
 
 
 def test_stairs_table_sets_the_step_width_on_stairs_only(tmp_path):
-    """``[stairs] step_width`` is read, written back by ``spec_to_toml`` and read again; a walk planned on stairs
-    (``plan_default_terrain_walk``) sets its feet that far apart, one on flat ground keeps the stance's width, and
-    an explicit ``step_width`` wins. Oracle: the lateral distance of consecutive footholds in the plan, against the
-    soles' distance at the reference posture by Pinocchio's forward kinematics."""
+    """``[stairs] step_width`` and ``base_weight`` are read, written back by ``spec_to_toml`` and read again; a walk
+    planned on stairs (``plan_default_terrain_walk``) sets its feet that far apart, one on flat ground keeps the
+    stance's width, and an explicit ``step_width`` wins; the pelvis task's weight is a stair default of the physics
+    walk's controller, not of the plan. Oracle: the lateral distance of consecutive footholds in the plan, against
+    the soles' distance at the reference posture by Pinocchio's forward kinematics."""
     from wbc.robot_file import load_robot_file, spec_to_toml
-    from wbc.scenarios.terrain_walk import plan_default_terrain_walk
+    from wbc.scenarios.terrain_walk import STAIR_CONTROLLER_KEYS, plan_default_terrain_walk, stair_defaults
+    from wbc.terrain import parse_terrain
 
     path = _h15_file(tmp_path)
-    path.write_text(path.read_text() + "\n[stairs]\nstep_width = 0.15\n")
+    path.write_text(path.read_text() + "\n[stairs]\nstep_width = 0.15\nbase_weight = 12.5\n")
     spec = load_robot_file(path)
-    assert spec.stairs == {"step_width": 0.15}
+    assert spec.stairs == {"step_width": 0.15, "base_weight": 12.5}
     again = tmp_path / "again.toml"
     again.write_text(spec_to_toml(spec))
-    assert load_robot_file(again).stairs == {"step_width": 0.15}
+    assert load_robot_file(again).stairs == {"step_width": 0.15, "base_weight": 12.5}
+    assert STAIR_CONTROLLER_KEYS == ("base_weight",)
+    assert stair_defaults(load_robot(str(path)), parse_terrain("stairs:0.05:0.3:4:up")) == {
+        "step_length": pytest.approx(0.3), "step_width": 0.15, "base_weight": 12.5}
+    assert stair_defaults(load_robot(str(path)), parse_terrain("slope:10")) == {}
     robot = load_robot(str(path))
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, robot.q_ref)

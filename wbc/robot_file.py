@@ -41,8 +41,9 @@ TOUCHDOWN_RULES = ("state", "load")
 #: Keys of the ``[gait]`` table (keyword arguments of :func:`wbc.gait.plan_walk`) and their valid ranges.
 GAIT_KEYS = {"step_length": (0.0, 1.0), "step_height": (0.0, 0.5), "t_ss": (0.05, 5.0), "t_ds": (0.0, 5.0)}
 #: Keys of the ``[stairs]`` table (the walk on a terrain of stairs, :func:`wbc.scenarios.terrain_walk.stair_defaults`)
-#: and their valid ranges: ``step_width``, the lateral distance (m) between the feet.
-STAIRS_KEYS = {"step_width": (0.02, 1.0)}
+#: and their valid ranges: ``step_width``, the lateral distance (m) between the feet; ``base_weight``, the weight
+#: (≥ 0) of the physics walk's pelvis orientation task (:class:`wbc.sim.walk.WalkScenario` ``base_weight``).
+STAIRS_KEYS = {"step_width": (0.02, 1.0), "base_weight": (0.0, 1000.0)}
 #: ``[mujoco] meshes``: how meshes MuJoCo cannot read (Collada, ...) are handled.
 MUJOCO_MESHES = ("convert", "collision")
 #: ``[mujoco] foot``: the plant's foot contact geometry.

@@ -139,9 +139,9 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--blind", action="store_true",
                    help="walk: the plant gets --terrain, the planner plans flat ground; touch-down from the ankle F/T "
                         "force (early contact), a late foot lowered up to 5 cm (needs --state estimated)")
-    w.add_argument("--base-weight", type=finite(0.0), default=3.0,
+    w.add_argument("--base-weight", type=finite(0.0), default=None,
                    help="walk on --terrain: weight of the pelvis (floating-base) orientation task, held level "
-                        "(default 3; 0: none)")
+                        "(default: the robot file's [stairs] base_weight on stairs, else 3; 0: none)")
     w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,
@@ -238,7 +238,8 @@ def _scenario(args, robot):
                             step_adjust=not args.no_step_adjust, step_lateral=args.vy * args.step_duration,
                             step_width=args.step_width, zmp_feedback=args.zmp_feedback,
                             terrain=None if args.blind else getattr(args, "terrain", None),
-                            base_weight=args.base_weight, blind=args.blind,
+                            **({} if args.base_weight is None else {"base_weight": args.base_weight}),
+                            blind=args.blind,
                             await_load=robot.spec is not None and robot.spec.touchdown == "load")
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
@@ -364,7 +365,9 @@ def cmd_sim(args) -> int:
         memory = args.velocity_memory
         if memory is None and args.scenario == "jump":
             memory = JUMP_VELOCITY_MEMORY
-        state = EstimatedState(sim, seed=args.seed, velocity_memory=memory)
+        # blind over unknown ground: no heading hand-over between soles (FloatingBaseEstimator heading_handover)
+        blind = {"heading_handover": False} if getattr(args, "blind", False) else {}
+        state = EstimatedState(sim, seed=args.seed, velocity_memory=memory, **blind)
     try:
         run, summary = run_scenario(sim, controller, scenario, after_fall=0.5, viewer=target, pacer=pacer,
                                     state=state)

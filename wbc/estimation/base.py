@@ -24,7 +24,8 @@ Per sample (period Δt), :meth:`FloatingBaseEstimator.update`:
    filter, once more about the vertical with its own gains ``k_heading``, ``k_heading_bias`` (yaw has no other
    reference than the soles, and the gyro's yaw bias is learnt from them) — the sole does not turn while it carries
    load, which makes yaw and the gyro's yaw bias observable (leg odometry of the heading; on flat ground a sole that
-   touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics, on every
+   touches down while the other is anchored takes its v₀ from that sole's v₀ through the leg kinematics (on uneven
+   ground its heading only, the tilt staying R̂'s), on every
    sample while both are in contact (it still turns as it settles, up to a few tenths of a degree in the first 0.1 s,
    while the other stays loaded and flat until it lifts off), so the heading passes from foot to foot without the yaw
    error of R̂, ``heading_handover``, ``handover_end_share``). A sole that turns on the ground with no still sole to
@@ -216,10 +217,16 @@ class FloatingBaseEstimator:
             directions and as heading (yaw-only) directions there (≥ 0; 0: gravity alone, yaw then follows the gyro).
         k_heading, k_heading_bias: the attitude filter's yaw gains for those axes (rad/s and 1/s², ≥ 0;
             :class:`~wbc.estimation.attitude.ComplementaryAttitudeFilter`).
-        heading_handover: on flat ground (``ground_height`` not None), a sole touching down while the other is
-            anchored takes its heading (v₀) from that sole's through the leg kinematics while both are in contact
-            (True), or from R̂ when it touches down (False: R̂'s yaw error, the integral of the gyro's yaw bias, is
-            then locked into each new anchor).
+        heading_handover: a sole touching down while the other is anchored takes its heading (v₀) from that
+            sole's through the leg kinematics while both are in contact (True), or from R̂ when it touches down
+            (False: R̂'s yaw error, the integral of the gyro's yaw bias, is then locked into each new anchor). On
+            flat ground (``ground_height`` not None) the soles' forward axes are horizontal and the hand-over
+            turns the other sole's axis about the vertical. On uneven ground (None) the new sole's orientation is
+            R̂'s (world ← sole: its tilt) turned about the vertical to the heading that the other sole's anchored
+            orientation gives it through the two soles' relative orientation from the leg kinematics: the heading
+            passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its roll on).
+            ``wbc sim walk --blind`` turns it off (blind over rough ground, soles landing on unknown bumps:
+            benchmarks/README.md, issue 24).
         handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
             two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
             lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
@@ -286,6 +293,7 @@ class FloatingBaseEstimator:
         self.velocity_world = self.kf.velocity
         self.anchor = {s: np.zeros(3) for s in SIDES}
         self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
+        self._anchor_rotation = {s: np.eye(3) for s in SIDES}  # uneven ground: world ← sole of each anchor
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
         self.heading_handover = check_flag(heading_handover, "heading_handover")
         self.handover_end_share = _nonneg(handover_end_share, "handover_end_share")
@@ -433,14 +441,16 @@ class FloatingBaseEstimator:
             kf.correct(zp, zvw)
         for s, r in newly:
             self.anchor[s] = p + r
-            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
             self._handover_from[s] = None
+            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
-                o = "right" if s == "left" else "left"
-                if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
-                    self._handover_from[s] = o
+            else:
+                np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
+            o = "right" if s == "left" else "left"
+            if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
+                self._handover_from[s] = o
             self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for j, s in enumerate(SIDES):
             if self.contact[s] and self.turning[s] and self._handover_from[s] is None:
@@ -449,6 +459,8 @@ class FloatingBaseEstimator:
                 axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
                 if self.ground_height is not None:
                     axis[2] = 0.0
+                else:
+                    np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
                 self.anchor_axis[s] = axis / np.linalg.norm(axis)
         for s in SIDES:
             o = self._handover_from[s]
@@ -461,10 +473,21 @@ class FloatingBaseEstimator:
             # yaw error the gyro bias built up is then not locked into the new anchor), on every sample from
             # the first contact until the new sole carries the larger share of the load: a sole still turns as
             # it settles after its first contact, the one it takes over from is loaded and flat.
-            rel = data.oMf[self.ft[o].frame_id].rotation.T @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
-            ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
             axis = self.anchor_axis[s]
-            axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
+            if self.ground_height is not None:  # both soles level: the other's anchored axis turned about z
+                rel = data.oMf[self.ft[o].frame_id].rotation.T @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+                ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
+                axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
+            else:  # uneven ground: the tilt of R̂'s world ← sole s, turned about z to the heading of
+                # (world ← sole o, anchored) (sole o ← sole s, leg kinematics)
+                Xs = data.oMf[self.ft[s].frame_id].rotation
+                chain = self._anchor_rotation[o] @ (data.oMf[self.ft[o].frame_id].rotation.T @ Xs[:, 0])
+                Rs = self._anchor_rotation[s]
+                np.matmul(R, Xs, out=Rs)
+                turn = math.atan2(chain[1], chain[0]) - math.atan2(Rs[1, 0], Rs[0, 0])
+                c, sn = math.cos(turn), math.sin(turn)
+                Rs[0], Rs[1] = c * Rs[0] - sn * Rs[1], sn * Rs[0] + c * Rs[1]
+                axis[:] = Rs[:, 0]
             axis /= np.linalg.norm(axis)
             fs, fo = max(self.normal_force[s], 0.0), max(self.normal_force[o], 0.0)
             if fo <= self.handover_end_share * (fs + fo):

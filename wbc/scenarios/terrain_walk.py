@@ -8,9 +8,11 @@ tread). :func:`terrain_summary` measures, from the soles' executed world poses (
   that follows its touch-down (the sole at rest on its foothold) and the planned foothold;
 * ``max_sole_support_gap_m``: the largest, over the steps, gap between the ground and the plane of the ground under
   the landed sole (:meth:`wbc.terrain.Terrain.sole_support`, no margin): 0 when every sole lies wholly on one tread;
-* ``min_swing_clearance_m``: the smallest height of a swinging sole's underside above the terrain away from its
-  lift-off and landing footholds (:meth:`wbc.terrain.Terrain.swing_clearance`), i.e. over the step edges
-  (``null`` when no swing is long enough to be counted);
+* ``min_swing_clearance_m``: the smallest height of a swinging sole's underside above the terrain away from where
+  it lifted off and where it landed (the executed lift-off and landing positions, not the planned footholds: a sole
+  landing beside its foothold still descends onto the tread, which is no edge crossing;
+  :meth:`wbc.terrain.Terrain.swing_clearance`), i.e. over the step edges (``null`` when no swing is long enough
+  to be counted);
 * ``planned_min_swing_clearance_m`` and ``max_apex_m``: the same clearance of the plan, and its highest apex.
 """
 
@@ -26,7 +28,8 @@ from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.terrain import Terrain, parse_terrain
 
-__all__ = ["plan_default_terrain_walk", "stair_defaults", "terrain_summary", "TERRAIN_CRITERIA", "terrain_passes"]
+__all__ = ["plan_default_terrain_walk", "stair_defaults", "STAIR_CONTROLLER_KEYS", "terrain_summary",
+           "TERRAIN_CRITERIA", "terrain_passes"]
 
 #: Acceptance on terrain: thresholds on what the robot did.
 TERRAIN_CRITERIA = [
@@ -44,16 +47,23 @@ def terrain_passes(summary: dict) -> tuple[bool, list[str]]:
     return evaluate(s, TERRAIN_CRITERIA)
 
 
+#: Keys of :func:`stair_defaults` that set the physics walk's controller (:class:`wbc.sim.walk.WalkScenario`), not
+#: the plan.
+STAIR_CONTROLLER_KEYS = ("base_weight",)
+
+
 def stair_defaults(robot: Robot, terrain: Terrain) -> dict[str, float]:
     """The walk parameters that a terrain of stairs (more than two treads) sets in place of the robot's defaults:
-    ``step_length`` (m), one tread, and the robot file's ``[stairs]`` table (``step_width``, m; :attr:`Robot.stairs`).
-    Empty for any other terrain. A value the user gives replaces these in turn.
+    ``step_length`` (m), one tread, and the robot file's ``[stairs]`` table (``step_width``, m; ``base_weight``, the
+    pelvis orientation task's weight; :attr:`Robot.stairs`). Empty for any other terrain. A value the user gives
+    replaces these in turn.
 
     Args:
         robot: the robot. terrain: a parsed :class:`wbc.terrain.Terrain`.
 
     Returns:
-        dict: keywords of :func:`wbc.gait.plan_walk` (m).
+        dict: keywords of :func:`wbc.gait.plan_walk` (m) and, those of :data:`STAIR_CONTROLLER_KEYS`, of
+        :class:`wbc.sim.walk.WalkScenario`.
     """
     if len(terrain.treads) <= 2:
         return {}
@@ -78,7 +88,7 @@ def plan_default_terrain_walk(robot: Robot, terrain: Terrain | str, config: Conf
     kwargs = dict(robot.gait)
     if terrain.treads:
         kwargs.setdefault("step_length", 0.15)
-    kwargs.update(stair_defaults(robot, terrain))
+    kwargs.update({k: v for k, v in stair_defaults(robot, terrain).items() if k not in STAIR_CONTROLLER_KEYS})
     kwargs.update({k: v for k, v in overrides.items() if v is not None})
     return plan_terrain_walk(
         terrain,
@@ -117,7 +127,7 @@ def terrain_summary(walk: TerrainWalk, left: np.ndarray, right: np.ndarray, leng
         gaps.append(terrain.sole_support(float(P[k, 0, 3]), float(P[k, 1, 3]), yaw, length, width, 0.0))
         a, b = ph.first, min(ph.end, n)
         if b > a:
-            clear.append(terrain.swing_clearance(P[a:b], P[a, :3, 3], hold[:3, 3], length, width, walk.approach))
+            clear.append(terrain.swing_clearance(P[a:b], P[a, :3, 3], P[k, :3, 3], length, width, walk.approach))
     finite = [c for c in clear if math.isfinite(c)]
     planned = [c for c in walk.planned_clearance.tolist() if math.isfinite(c)]
     return {
