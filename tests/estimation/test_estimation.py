@@ -248,6 +248,22 @@ def _ft_reading(robot, sole: str, load: float) -> np.ndarray:
     return np.r_[Fs, np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)]
 
 
+def _shift_weight_foot_to_foot(robot, est, joints, gyro, accel, seconds: float = 20.0) -> np.ndarray:
+    """Run ``est`` on a robot standing still on level soles whose weight moves both → left → both → right, 0.5 s
+    each (each foot unloaded and re-anchored every 2 s), with constant encoder, gyro and accelerometer readings, for
+    ``seconds`` → the last estimated configuration q (nq,)."""
+    reading = functools.partial(_ft_reading, robot)
+    W = robot.mass * G
+    both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
+    left = np.array([reading(robot.left_sole, W), reading(robot.right_sole, 0.0)])
+    right = np.array([reading(robot.left_sole, 0.0), reading(robot.right_sole, W)])
+    for cycle in range(int(round(seconds / 0.5))):
+        ft = (both, left, both, right)[cycle % 4]
+        for _ in range(int(0.5 / DT)):
+            q, _ = est.update(joints, gyro, accel, ft)
+    return q
+
+
 @pytest.mark.parametrize("ground_height", [0.0, None], ids=["flat", "uneven"])
 def test_heading_passes_from_sole_to_sole_without_the_gyro_drift(ground_height):
     """Talos standing still, soles level, the weight shifted from foot to foot every 0.5 s (each foot is unloaded
@@ -256,16 +272,10 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift(ground_height):
     the equilibrium of eq. 32a, b_z / (k_P k_heading) (the yaw-only heading gains off); without it each new anchor
     takes R̂'s yaw, whose error then grows with the integral of b_z (b_z t = 2.3° after 20 s). The same on flat
     ground of known height (the soles' axes held horizontal) and on uneven ground (``ground_height=None``: the
-    other sole's whole anchored orientation is handed over)."""
+    heading is handed over, the tilt stays R̂'s)."""
     from wbc.estimation import FloatingBaseEstimator
 
     robot, q0, R0, joints = _talos_standing_level()
-    reading = functools.partial(_ft_reading, robot)
-
-    W = robot.mass * G
-    both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
-    left = np.array([reading(robot.left_sole, W), reading(robot.right_sole, 0.0)])
-    right = np.array([reading(robot.left_sole, 0.0), reading(robot.right_sole, W)])
     accel = R0.T @ np.array([0.0, 0.0, G])
     b_z, k_p = 0.002, 0.2
     gyro = R0.T @ np.array([0.0, 0.0, b_z])
@@ -274,11 +284,7 @@ def test_heading_passes_from_sole_to_sole_without_the_gyro_drift(ground_height):
         est = FloatingBaseEstimator(robot, DT, k_p=k_p, k_i=0.0, heading_weight=1.0, heading_handover=handover,
                                     k_heading=0.0, k_heading_bias=0.0, ground_height=ground_height)
         est.reset(q0)
-        per = int(0.5 / DT)
-        for cycle in range(40):
-            ft = (both, left, both, right)[cycle % 4]
-            for _ in range(per):
-                q, _ = est.update(joints, gyro, accel, ft)
+        q = _shift_weight_foot_to_foot(robot, est, joints, gyro, accel)
         R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
         yaw[handover] = abs(float(pin.log3(R @ R0.T)[2]))
     assert yaw[True] <= 1.1 * b_z / k_p, math.degrees(yaw[True])
@@ -296,11 +302,6 @@ def test_uneven_ground_hands_over_the_heading_not_the_tilt():
     without the hand-over: after 20 s both are below 0.1° (the accelerometer alone: 2° e^(−0.2·20) = 0.04°;
     a whole-orientation hand-over keeps 1.0°)."""
     robot, q0, R0, joints = _talos_standing_level()
-    reading = functools.partial(_ft_reading, robot)
-    W = robot.mass * G
-    both = np.array([reading(robot.left_sole, W / 2), reading(robot.right_sole, W / 2)])
-    left = np.array([reading(robot.left_sole, W), reading(robot.right_sole, 0.0)])
-    right = np.array([reading(robot.left_sole, 0.0), reading(robot.right_sole, W)])
     accel = R0.T @ np.array([0.0, 0.0, G])
     q_wrong = q0.copy()
     q_wrong[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, math.radians(2.0), 0.0) @ R0).coeffs()
@@ -308,10 +309,7 @@ def test_uneven_ground_hands_over_the_heading_not_the_tilt():
     for handover in (True, False):
         est = FloatingBaseEstimator(robot, DT, k_p=0.2, k_i=0.0, heading_handover=handover, ground_height=None)
         est.reset(q_wrong)
-        for cycle in range(40):
-            ft = (both, left, both, right)[cycle % 4]
-            for _ in range(int(0.5 / DT)):
-                q, _ = est.update(joints, np.zeros(3), accel, ft)
+        q = _shift_weight_foot_to_foot(robot, est, joints, np.zeros(3), accel)
         R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
         tilt[handover] = math.degrees(float(np.linalg.norm(pin.log3(R @ R0.T)[:2])))
     assert tilt[True] < 0.1 and tilt[False] < 0.1, tilt
