@@ -224,7 +224,7 @@ class FloatingBaseEstimator:
             turns the other sole's axis about the vertical. On uneven ground (None) the new sole's orientation is
             R̂'s (world ← sole: its tilt) turned about the vertical to the heading that the other sole's anchored
             orientation gives it through the two soles' relative orientation from the leg kinematics: the heading
-            passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its roll on).
+            passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its tilt on).
             ``wbc sim walk --blind`` turns it off (blind over rough ground, soles landing on unknown bumps:
             benchmarks/README.md, issue 24).
         handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
