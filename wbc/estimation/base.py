@@ -225,8 +225,8 @@ class FloatingBaseEstimator:
             R̂'s (world ← sole: its tilt) turned about the vertical to the heading that the other sole's anchored
             orientation gives it through the two soles' relative orientation from the leg kinematics: the heading
             passes from sole to sole, the tilt does not (a sole rocking on a bump would pass its tilt on).
-            ``wbc sim walk --blind`` turns it off (blind over rough ground, soles landing on unknown bumps:
-            benchmarks/README.md, issue 24).
+            ``wbc sim walk --blind`` turns it off (blind over rough ground the soles land on unknown bumps; the
+            blind walks in benchmarks/README.md).
         handover_end_share: the hand-over also ends once the sole it comes from carries at most this share of the
             two soles' normal force (in [0, 1); default 0: it runs until that sole's contact ends. A sole that
             lands fast takes the larger share in its first sample, and ending there locked the yaw it still turned
