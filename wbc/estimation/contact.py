@@ -64,6 +64,7 @@ class FootForceSensor:
         self.sole_in_sensor = R.T @ frame.placement.translation
         self.com_in_sensor = R.T @ inertia.lever
         self._f = np.zeros(6)
+        self._p, self._cp = self.sole_in_sensor.tolist(), (self.com_in_sensor - self.sole_in_sensor).tolist()
 
     def ground_wrench(self, ft: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Ground reaction (6,) on the foot at the sole origin, sole axes: force (N), moment (N·m).
@@ -75,12 +76,15 @@ class FootForceSensor:
         Returns:
             A preallocated (6,) array, overwritten by the next call.
         """
-        Fs, ts = ft[0:3], ft[3:6]
-        mg = self.mass * (rotation.T @ GRAVITY_VECTOR)
-        p, c = self.sole_in_sensor, self.com_in_sensor
+        f0, f1, f2, t0, t1, t2 = ft.tolist()
+        m0, m1, m2 = (self.mass * (rotation.T @ GRAVITY_VECTOR)).tolist()
+        p0, p1, p2 = self._p  # p
+        d0, d1, d2 = self._cp  # c − p
         out = self._f
-        out[0:3] = -Fs - mg
-        out[3:6] = -ts + _cross(p, Fs) - _cross(c - p, mg)
+        out[:] = (-f0 - m0, -f1 - m1, -f2 - m2,
+                  -t0 + (p1 * f2 - p2 * f1) - (d1 * m2 - d2 * m1),
+                  -t1 + (p2 * f0 - p0 * f2) - (d2 * m0 - d0 * m2),
+                  -t2 + (p0 * f1 - p1 * f0) - (d0 * m1 - d1 * m0))
         return out
 
 
