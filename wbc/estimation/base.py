@@ -321,11 +321,9 @@ class FloatingBaseEstimator:
         self._have_zv = False
         self.acc_kin = np.zeros(3)
         self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
-        # per-sample work arrays and the per-side objects in SIDES order (update)
+        # per-sample work arrays (update)
         self._has_cs = len(self._q_cs) > 0
         self._vk_base, self._vk_joints = self._vk[3:6], self._vk[6:]
-        self._sensors = [self.ft[s] for s in SIDES]
-        self._detectors = [self.detectors[s] for s in SIDES]
         self._sole_rot, self._sole_pos, self._r_world = [None, None], [None, None], [None, None]
         self._zp, self._zvw = np.zeros(3), np.zeros(3)
 
@@ -392,7 +390,7 @@ class FloatingBaseEstimator:
         rot, pos = self._sole_rot, self._sole_pos
         contact, normal_force, yaw_rate = self.contact, self.normal_force, self.sole_yaw_rate
         for j, s in enumerate(SIDES):
-            sensor = self._sensors[j]
+            sensor = self.ft[s]
             X = pin.updateFramePlacement(model, data, sensor.frame_id)
             rot[j], pos[j] = X.rotation, X.translation
             Rw = R_prev @ rot[j]
@@ -449,7 +447,7 @@ class FloatingBaseEstimator:
         for j, s in enumerate(SIDES):
             fz = normal_force[s]
             was = contact[s]
-            now = self._detectors[j].update(fz)
+            now = self.detectors[s].update(fz)
             contact[s] = now
             r = r_world[j] = R @ pos[j]
             if now and not was:

@@ -59,7 +59,6 @@ class FootForceSensor:
         self.sole_in_sensor = R.T @ frame.placement.translation
         self.com_in_sensor = R.T @ inertia.lever
         self._f = np.zeros(6)
-        self._p, self._cp = self.sole_in_sensor.tolist(), (self.com_in_sensor - self.sole_in_sensor).tolist()
 
     def ground_wrench(self, ft: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Ground reaction (6,) on the foot at the sole origin, sole axes: force (N), moment (N·m).
@@ -73,8 +72,9 @@ class FootForceSensor:
         """
         f0, f1, f2, t0, t1, t2 = ft.tolist()
         m0, m1, m2 = (self.mass * (rotation.T @ GRAVITY_VECTOR)).tolist()
-        p0, p1, p2 = self._p  # p
-        d0, d1, d2 = self._cp  # c − p
+        p0, p1, p2 = self.sole_in_sensor.tolist()
+        c0, c1, c2 = self.com_in_sensor.tolist()
+        d0, d1, d2 = c0 - p0, c1 - p1, c2 - p2  # c − p
         out = self._f
         out[:] = (-f0 - m0, -f1 - m1, -f2 - m2,
                   -t0 + (p1 * f2 - p2 * f1) - (d1 * m2 - d2 * m1),
