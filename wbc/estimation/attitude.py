@@ -41,11 +41,11 @@ __all__ = ["ComplementaryAttitudeFilter"]
 
 
 
-def _add_cross(w0: float, w1: float, w2: float, k: float, a, b) -> tuple[float, float, float]:
-    """w + k (a × b) of 3-vectors as Python floats (w: 3 floats, k: float, a, b: (3,) arrays)."""
+def _cross(a, b) -> tuple[float, float, float]:
+    """a × b of two (3,) arrays, as Python floats."""
     a0, a1, a2 = a.tolist()
     b0, b1, b2 = b.tolist()
-    return (w0 + k * (a1 * b2 - a2 * b1), w1 + k * (a2 * b0 - a0 * b2), w2 + k * (a0 * b1 - a1 * b0))
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -130,11 +130,14 @@ class ComplementaryAttitudeFilter:
             a0, a1, a2 = a0 / n, a1 / n, a2 / n
             u0, u1, u2 = R[2].tolist()
             m0, m1, m2 = a1 * u2 - a2 * u1, a2 * u0 - a0 * u2, a0 * u1 - a1 * u0
-        for v0, v, k in directions:
-            m0, m1, m2 = _add_cross(m0, m1, m2, k, v, R.T @ v0)
+        crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in directions]  # kᵢ, vᵢ × v̂ᵢ
+        for k, (c0, c1, c2) in crosses:
+            m0, m1, m2 = m0 + k * c0, m1 + k * c1, m2 + k * c2
+        if heading is not directions:
+            crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in heading]
         h0 = h1 = h2 = 0.0
-        for v0, v, k in heading:
-            h0, h1, h2 = _add_cross(h0, h1, h2, k, v, R.T @ v0)
+        for k, (c0, c1, c2) in crosses:
+            h0, h1, h2 = h0 + k * c0, h1 + k * c1, h2 + k * c2
         wm, wh = self._wm, self._wh
         wm[:] = (m0, m1, m2)
         wh[:] = (h0, h1, h2)
