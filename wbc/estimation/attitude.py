@@ -41,9 +41,11 @@ __all__ = ["ComplementaryAttitudeFilter"]
 
 
 
-def _cross(a, b) -> np.ndarray:
-    """a × b of two 3-vectors (cheaper than ``np.cross`` for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _cross(a, b) -> tuple[float, float, float]:
+    """a × b of two (3,) arrays, as Python floats."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -86,6 +88,7 @@ class ComplementaryAttitudeFilter:
         self.omega = np.zeros(3)
         self._wm = np.zeros(3)
         self._wh = np.zeros(3)
+        self._w = np.zeros(3)
 
     def __setattr__(self, name, value):
         if name in ("dt", "accel_gate", "bias_max", "bias_gate"):
@@ -119,27 +122,41 @@ class ComplementaryAttitudeFilter:
             R̂ (3, 3), world ← IMU (the :attr:`rotation` array, updated).
         """
         R = self.rotation
-        wm = self._wm
-        wm[:] = 0.0
-        n = math.sqrt(accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2])
-        self.accel_used = n > 0 and abs(n - GRAVITY) <= self.accel_gate
-        if self.accel_used:
-            wm += _cross(accel / n, R[2])  # v × v̂ with v̂ = R̂ᵀ e_z (the third row of R̂)
-        for v0, v, k in directions:
-            wm += k * _cross(v, R.T @ v0)
-        wh = self._wh
-        wh[:] = 0.0
-        for v0, v, k in heading:
-            wh += k * _cross(v, R.T @ v0)
+        a0, a1, a2 = accel.tolist()
+        n = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        self.accel_used = used = n > 0 and abs(n - GRAVITY) <= self.accel_gate
+        m0 = m1 = m2 = 0.0  # ω_mes
+        if used:  # v × v̂ with v = a/‖a‖, v̂ = R̂ᵀ e_z (the third row of R̂)
+            a0, a1, a2 = a0 / n, a1 / n, a2 / n
+            u0, u1, u2 = R[2].tolist()
+            m0, m1, m2 = a1 * u2 - a2 * u1, a2 * u0 - a0 * u2, a0 * u1 - a1 * u0
+        crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in directions]  # kᵢ, vᵢ × v̂ᵢ
+        for k, (c0, c1, c2) in crosses:
+            m0, m1, m2 = m0 + k * c0, m1 + k * c1, m2 + k * c2
+        if heading is not directions:
+            crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in heading]
+        h0 = h1 = h2 = 0.0
+        for k, (c0, c1, c2) in crosses:
+            h0, h1, h2 = h0 + k * c0, h1 + k * c1, h2 + k * c2
+        wm, wh = self._wm, self._wh
+        wm[:] = (m0, m1, m2)
+        wh[:] = (h0, h1, h2)
         up = R[2]  # u = R̂ᵀ e_z, the vertical in IMU axes
         wh[:] = (wh @ up) * up
         omega = self.omega
         np.subtract(gyro, self.bias, out=omega)
-        self.rotation = R @ pin.exp3((omega + self.k_p * wm + self.k_heading * wh) * self.dt)
+        w = self._w
+        np.multiply(wm, self.k_p, out=w)
+        w += omega  # (ω + k_P ω_mes + k_H ω_yaw) Δt, summed in that order
+        w += self.k_heading * wh
+        w *= self.dt
+        object.__setattr__(self, "rotation", R @ pin.exp3(w))
         gate = self.bias_gate * self.bias_gate
-        if self.k_i and self.accel_used and wm @ wm <= gate:
-            self.bias -= self.k_i * self.dt * wm
+        bias = self.bias
+        if self.k_i and used and wm @ wm <= gate:
+            bias -= self.k_i * self.dt * wm
         if self.k_heading_bias and wh @ wh <= gate:
-            self.bias -= self.k_heading_bias * self.dt * wh
-        np.clip(self.bias, -self.bias_max, self.bias_max, out=self.bias)
+            bias -= self.k_heading_bias * self.dt * wh
+        np.maximum(bias, -self.bias_max, out=bias)  # clip to ±bias_max
+        np.minimum(bias, self.bias_max, out=bias)
         return self.rotation

@@ -168,6 +168,9 @@ class BaseKalmanFilter:
         self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
         self._R = np.diag([sigma_pos**2, sigma_vel**2])
         self._A = np.array([[1.0, h], [0.0, 1.0]])
+        self._I = np.eye(2)
+        self._Sinv = np.zeros((2, 2))
+        self._half_h2 = 0.5 * h * h
         self.p, self.velocity = np.zeros(3), np.zeros(3)
         self.P = np.diag([1e-6, 1e-4])
 
@@ -180,21 +183,24 @@ class BaseKalmanFilter:
     def predict(self, a: np.ndarray) -> None:
         """Propagate over dt with the world acceleration a (3,) m/s²."""
         h = self.dt
-        self.p += self.velocity * h + 0.5 * h * h * a
+        self.p += self.velocity * h + self._half_h2 * a
         self.velocity += a * h
         A = self._A
         self.P = A @ self.P @ A.T + self._Q
 
     def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
         """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
-        S = self.P + self._R
-        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-        K = self.P @ (np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det)  # P S⁻¹ (2 × 2)
+        (s00, s01), (s10, s11) = (self.P + self._R).tolist()
+        det = s00 * s11 - s01 * s10
+        Si = self._Sinv
+        Si[:] = ((s11 / det, -s01 / det), (-s10 / det, s00 / det))
+        K = self.P @ Si  # P S⁻¹ (2 × 2)
+        (k00, k01), (k10, k11) = K.tolist()
         ep = z_p - self.p
         ev = z_v - self.velocity
-        self.p += K[0, 0] * ep + K[0, 1] * ev
-        self.velocity += K[1, 0] * ep + K[1, 1] * ev
-        self.P = (np.eye(2) - K) @ self.P
+        self.p += k00 * ep + k01 * ev
+        self.velocity += k10 * ep + k11 * ev
+        self.P = (self._I - K) @ self.P
 
 
 class FloatingBaseEstimator:
@@ -244,7 +250,8 @@ class FloatingBaseEstimator:
         contact: {side: bool}. turning: {side: bool}, the sole turns on the ground (``turn_rate``).
         sole_yaw_rate: (2,) low-passed world yaw rate of the (left, right) sole (rad/s).
         wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
-        sole: {side: pin.SE3} estimated world placement of each sole. velocity_world: (3,) ṗ̂ (m/s, world).
+        sole: {side: pin.SE3} estimated world placement of each sole (overwritten by the next update).
+        velocity_world: (3,) ṗ̂ (m/s, world).
 
     Raises:
         InvalidInputError: bad numbers (here and on :meth:`reset`).
@@ -314,6 +321,11 @@ class FloatingBaseEstimator:
         self._have_zv = False
         self.acc_kin = np.zeros(3)
         self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
+        # per-sample work arrays (update)
+        self._has_cs = len(self._q_cs) > 0
+        self._vk_base, self._vk_joints = self._vk[3:6], self._vk[6:]
+        self._sole_rot, self._sole_pos, self._r_world = [None, None], [None, None], [None, None]
+        self._zp, self._zvw = np.zeros(3), np.zeros(3)
 
     def reset(self, q0, v0=None) -> None:
         """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
@@ -363,53 +375,62 @@ class FloatingBaseEstimator:
         att = self.attitude
         # Leg kinematics in the base frame (base at the origin, identity orientation, angular velocity ω of the
         # last sample, no base translation); world axes are R̂ times these.
-        qk, vk = self._qk, self._vk
+        qk = self._qk
         qk[self._q_one] = joint_q[self._j_one]
-        if len(self._q_cs):
+        if self._has_cs:
             qk[self._q_cs] = np.cos(joint_q[self._j_cs])
             qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
-        np.subtract(gyro, att.bias, out=vk[3:6])
-        vk[6:] = vj
-        pin.forwardKinematics(model, data, qk, vk)
+        np.subtract(gyro, att.bias, out=self._vk_base)
+        self._vk_joints[:] = vj
+        pin.forwardKinematics(model, data, qk, self._vk)
         R_prev = att.rotation
         fz_total, zv = 0.0, self._zv
         zv[:] = 0.0
+        # each sole's placement in the base frame (views of data.oMf, valid until the next forwardKinematics)
+        rot, pos = self._sole_rot, self._sole_pos
+        contact, normal_force, yaw_rate = self.contact, self.normal_force, self.sole_yaw_rate
         for j, s in enumerate(SIDES):
             sensor = self.ft[s]
             X = pin.updateFramePlacement(model, data, sensor.frame_id)
-            Rw = R_prev @ X.rotation
+            rot[j], pos[j] = X.rotation, X.translation
+            Rw = R_prev @ rot[j]
             w = sensor.ground_wrench(ft[j], Rw)
             self.wrench[j] = w
             fz = float(Rw[2] @ w[0:3])
-            self.normal_force[s] = fz
+            normal_force[s] = fz
             vel = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED)
-            self._u[j] = vel.linear
+            u = self._u[j]
+            u[:] = vel.linear
             wz = float(R_prev[2] @ vel.angular)  # the sole's world yaw rate (base angular velocity included)
-            self.sole_yaw_rate[j] += self._alpha_turn * (wz - self.sole_yaw_rate[j])
-            self.turning[s] = abs(self.sole_yaw_rate[j]) > self.turn_rate
-            if self.contact[s] and fz > 0:
-                zv -= fz * self._u[j]
+            y = float(yaw_rate[j])
+            y += self._alpha_turn * (wz - y)
+            yaw_rate[j] = y
+            self.turning[s] = abs(y) > self.turn_rate
+            if contact[s] and fz > 0:
+                zv -= fz * u
                 fz_total += fz
         # Base acceleration from the leg kinematics (differenced, low-passed): it is removed from the
         # accelerometer's specific force so that the attitude filter sees gravity alone.
+        acc_kin = self.acc_kin
         if fz_total > 0:
             zv /= fz_total
             zw = R_prev @ zv
             if self._have_zv:
-                self.acc_kin += self._beta * ((zw - self._zv_prev) / dt - self.acc_kin)
+                beta = self._beta
+                acc_kin[:] = [a + beta * ((z - z1) / dt - a)
+                              for a, z, z1 in zip(acc_kin.tolist(), zw.tolist(), self._zv_prev.tolist())]
             self._zv_prev[:] = zw
             self._have_zv = True
         else:
             self._have_zv = False
-            self.acc_kin *= 1.0 - self._beta
-        self._f_grav[:] = accel - R_prev.T @ self.acc_kin
+            acc_kin *= 1.0 - self._beta
+        self._f_grav[:] = accel - R_prev.T @ acc_kin
         dirs = []
         if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
-            for s in SIDES:
-                fz = self.normal_force[s]
-                if self.contact[s] and fz > 0:
-                    dirs.append((self.anchor_axis[s], data.oMf[self.ft[s].frame_id].rotation[:, 0],
-                                 self.heading_weight * fz / fz_total))
+            for j, s in enumerate(SIDES):
+                fz = normal_force[s]
+                if contact[s] and fz > 0:
+                    dirs.append((self.anchor_axis[s], rot[j][:, 0], self.heading_weight * fz / fz_total))
         att.update(gyro, self._f_grav, dirs, heading=dirs)
         R = att.rotation
         omega = att.omega
@@ -418,18 +439,19 @@ class FloatingBaseEstimator:
         kf.predict(R @ accel + GRAVITY_VECTOR)
         p, pd = kf.p, kf.velocity
         # Contacts and leg odometry.
-        zp = np.zeros(3)
-        zvw = np.zeros(3)
+        zp, zvw, r_world = self._zp, self._zvw, self._r_world
+        zp[:] = 0.0
+        zvw[:] = 0.0
         total = 0.0
         newly = []
         for j, s in enumerate(SIDES):
-            fz = self.normal_force[s]
-            was = self.contact[s]
+            fz = normal_force[s]
+            was = contact[s]
             now = self.detectors[s].update(fz)
-            self.contact[s] = now
-            r = R @ data.oMf[self.ft[s].frame_id].translation
+            contact[s] = now
+            r = r_world[j] = R @ pos[j]
             if now and not was:
-                newly.append((s, r))
+                newly.append((s, j, r))
             if now and was:
                 wgt = max(fz, 0.0)
                 zp += wgt * (self.anchor[s] - r)
@@ -439,34 +461,34 @@ class FloatingBaseEstimator:
             zp /= total
             zvw /= total
             kf.correct(zp, zvw)
-        for s, r in newly:
+        for s, j, r in newly:
             self.anchor[s] = p + r
             self._handover_from[s] = None
-            axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+            axis = R @ rot[j][:, 0]
             if self.ground_height is not None:
                 self.anchor[s][2] = self.ground_height
                 axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
             else:
-                np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
+                np.matmul(R, rot[j], out=self._anchor_rotation[s])
             o = "right" if s == "left" else "left"
-            if self.heading_handover and self.contact[o] and self._handover_from[o] is None:
+            if self.heading_handover and contact[o] and self._handover_from[o] is None:
                 self._handover_from[s] = o
-            self.anchor_axis[s] = axis / np.linalg.norm(axis)
+            self.anchor_axis[s] = axis / math.sqrt(axis @ axis)
         for j, s in enumerate(SIDES):
-            if self.contact[s] and self.turning[s] and self._handover_from[s] is None:
+            if contact[s] and self.turning[s] and self._handover_from[s] is None:
                 # A sole turning on the ground (a landing's impact pivots it; no still sole to hand over from):
                 # its heading is re-anchored from R̂ (the gyro's) on every sample until it stops turning.
-                axis = R @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+                axis = R @ rot[j][:, 0]
                 if self.ground_height is not None:
                     axis[2] = 0.0
                 else:
-                    np.matmul(R, data.oMf[self.ft[s].frame_id].rotation, out=self._anchor_rotation[s])
-                self.anchor_axis[s] = axis / np.linalg.norm(axis)
-        for s in SIDES:
+                    np.matmul(R, rot[j], out=self._anchor_rotation[s])
+                self.anchor_axis[s] = axis / math.sqrt(axis @ axis)
+        for j, s in enumerate(SIDES):
             o = self._handover_from[s]
             if o is None:
                 continue
-            if not (self.contact[s] and self.contact[o]):
+            if not (contact[s] and contact[o]):
                 self._handover_from[s] = None
                 continue
             # Heading handed over from the other anchored sole through the leg kinematics, not through R̂ (the
@@ -474,27 +496,29 @@ class FloatingBaseEstimator:
             # the first contact until the new sole carries the larger share of the load: a sole still turns as
             # it settles after its first contact, the one it takes over from is loaded and flat.
             axis = self.anchor_axis[s]
+            Xo = rot[1 - j]  # the other sole o
             if self.ground_height is not None:  # both soles level: the other's anchored axis turned about z
-                rel = data.oMf[self.ft[o].frame_id].rotation.T @ data.oMf[self.ft[s].frame_id].rotation[:, 0]
+                rel = Xo.T @ rot[j][:, 0]
                 ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
                 axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
             else:  # uneven ground: the tilt of R̂'s world ← sole s, turned about z to the heading of
                 # (world ← sole o, anchored) (sole o ← sole s, leg kinematics)
-                Xs = data.oMf[self.ft[s].frame_id].rotation
-                chain = self._anchor_rotation[o] @ (data.oMf[self.ft[o].frame_id].rotation.T @ Xs[:, 0])
+                Xs = rot[j]
+                chain = self._anchor_rotation[o] @ (Xo.T @ Xs[:, 0])
                 Rs = self._anchor_rotation[s]
                 np.matmul(R, Xs, out=Rs)
                 turn = math.atan2(chain[1], chain[0]) - math.atan2(Rs[1, 0], Rs[0, 0])
                 c, sn = math.cos(turn), math.sin(turn)
                 Rs[0], Rs[1] = c * Rs[0] - sn * Rs[1], sn * Rs[0] + c * Rs[1]
                 axis[:] = Rs[:, 0]
-            axis /= np.linalg.norm(axis)
-            fs, fo = max(self.normal_force[s], 0.0), max(self.normal_force[o], 0.0)
+            axis /= math.sqrt(axis @ axis)
+            fs, fo = max(normal_force[s], 0.0), max(normal_force[o], 0.0)
             if fo <= self.handover_end_share * (fs + fo):
                 self._handover_from[s] = None  # the old sole has handed over its load: the new heading is held
         for j, s in enumerate(SIDES):
-            X = data.oMf[self.ft[s].frame_id]
-            self.sole[s] = pin.SE3(R @ X.rotation, R @ X.translation + p)
+            X = self.sole[s]
+            X.rotation = R @ rot[j]
+            X.translation = r_world[j] + p
         # Outputs.
         q, v = self.q, self.v
         q[0:3] = p

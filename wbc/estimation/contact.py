@@ -33,11 +33,6 @@ __all__ = ["FootForceSensor", "ContactDetector", "zmp_from_wrenches", "GRAVITY_V
 GRAVITY_VECTOR = np.array([0.0, 0.0, -GRAVITY])  #: m/s², world
 
 
-def _cross(a, b) -> np.ndarray:
-    """a × b of two 3-vectors (cheaper than ``np.cross`` for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 class FootForceSensor:
     """Converts one ankle F/T reading into the ground reaction at the sole (module docstring).
 
@@ -75,12 +70,16 @@ class FootForceSensor:
         Returns:
             A preallocated (6,) array, overwritten by the next call.
         """
-        Fs, ts = ft[0:3], ft[3:6]
-        mg = self.mass * (rotation.T @ GRAVITY_VECTOR)
-        p, c = self.sole_in_sensor, self.com_in_sensor
+        f0, f1, f2, t0, t1, t2 = ft.tolist()
+        m0, m1, m2 = (self.mass * (rotation.T @ GRAVITY_VECTOR)).tolist()
+        p0, p1, p2 = self.sole_in_sensor.tolist()
+        c0, c1, c2 = self.com_in_sensor.tolist()
+        d0, d1, d2 = c0 - p0, c1 - p1, c2 - p2  # c − p
         out = self._f
-        out[0:3] = -Fs - mg
-        out[3:6] = -ts + _cross(p, Fs) - _cross(c - p, mg)
+        out[:] = (-f0 - m0, -f1 - m1, -f2 - m2,
+                  -t0 + (p1 * f2 - p2 * f1) - (d1 * m2 - d2 * m1),
+                  -t1 + (p2 * f0 - p0 * f2) - (d2 * m0 - d0 * m2),
+                  -t2 + (p0 * f1 - p1 * f0) - (d0 * m1 - d1 * m0))
         return out
 
 
@@ -126,16 +125,20 @@ def zmp_from_wrenches(wrenches: np.ndarray, placements, min_fz: float = 10.0,
         min_fz: total vertical force (N) below which there is no ZMP (returns None).
         height: height (m, world) of the plane of the ZMP (default the floor z = 0).
     """
-    F = np.zeros(3)
-    M = np.zeros(3)
+    F0 = F1 = F2 = M0 = M1 = M2 = 0.0  # F, M
     for w, X in zip(wrenches, placements):
-        f = X.rotation @ w[0:3]
-        F += f
-        M += X.rotation @ w[3:6] + _cross(X.translation, f)
-    if F[2] < min_fz:
+        R = X.rotation
+        f0, f1, f2 = (R @ w[0:3]).tolist()
+        m0, m1, m2 = (R @ w[3:6]).tolist()
+        t0, t1, t2 = X.translation.tolist()
+        F0, F1, F2 = F0 + f0, F1 + f1, F2 + f2
+        M0 += m0 + (t1 * f2 - t2 * f1)
+        M1 += m1 + (t2 * f0 - t0 * f2)
+        M2 += m2 + (t0 * f1 - t1 * f0)
+    if F2 < min_fz:
         return None
     if height:
-        M[0] += height * F[1]
-        M[1] -= height * F[0]
-    return np.array([-M[1] / F[2], M[0] / F[2]])
+        M0 += height * F1
+        M1 -= height * F0
+    return np.array([-M1 / F2, M0 / F2])
 

@@ -270,51 +270,88 @@ class PlantSensors:
                                         "(an integer number of ticks per sample)")
             self._every[name] = int(round(ratio))
         nj = len(names)
-        self.readings = SensorReadings(0.0, np.zeros(nj), np.zeros(3), np.zeros(3), np.zeros((2, 6)))
+        # gyro (3), accel (3), ft (2 × 6) of a sample in one vector: one gather and one add per tick
+        self._imu_ft = np.r_[self._gyro, self._acc, self._ft.ravel()]
+        self._sample = np.zeros(18)
+        self._bias = np.zeros(18)
+        self._z = np.zeros(24)  # the standard normal draws of a tick
+        self._enc_raw = np.zeros(nj)
+        self.readings = SensorReadings(0.0, np.zeros(nj), self._sample[0:3], self._sample[3:6],
+                                       self._sample[6:18].reshape(2, 6))
         self.reset()
 
     def reset(self) -> None:
-        """Restart the noise generator from ``seed`` and draw new initial biases."""
+        """Restart the noise generator from ``seed`` and draw new initial biases. The noise levels of
+        :attr:`specs` are read here (and at construction)."""
         self.rng = np.random.default_rng(self.seed)
         imu, ft = self.specs.imu, self.specs.ft
-        self.gyro_bias = self.rng.normal(0.0, imu.gyro_bias_std, 3) if imu.gyro_bias_std else np.zeros(3)
-        self.accel_bias = self.rng.normal(0.0, imu.accel_bias_std, 3) if imu.accel_bias_std else np.zeros(3)
-        self.ft_bias = np.zeros((2, 6))
-        self.ft_bias[:, :3] = self.rng.normal(0.0, ft.force_bias_std, (2, 3)) if ft.force_bias_std else 0.0
-        self.ft_bias[:, 3:] = self.rng.normal(0.0, ft.torque_bias_std, (2, 3)) if ft.torque_bias_std else 0.0
+        b = self._bias
+        b[:] = 0.0
+        self.gyro_bias, self.accel_bias, self.ft_bias = b[0:3], b[3:6], b[6:18].reshape(2, 6)
+        if imu.gyro_bias_std:
+            self.gyro_bias[:] = self.rng.normal(0.0, imu.gyro_bias_std, 3)
+        if imu.accel_bias_std:
+            self.accel_bias[:] = self.rng.normal(0.0, imu.accel_bias_std, 3)
+        if ft.force_bias_std:
+            self.ft_bias[:, :3] = self.rng.normal(0.0, ft.force_bias_std, (2, 3))
+        if ft.torque_bias_std:
+            self.ft_bias[:, 3:] = self.rng.normal(0.0, ft.torque_bias_std, (2, 3))
         self._k = 0
         enc = self.specs.encoder
         self._res = 2.0 * math.pi / enc.counts_per_rev
+        # Per sample of each group, the draws in their order (bias walks, then white noise; the F/T's (2, 3)
+        # blocks row by row): index in the 18-vector and standard deviation. A draw N(0, σ) is σ z of a
+        # standard normal z, so one ``standard_normal`` of all a tick's draws consumes the generator as the
+        # separate ``normal`` calls would.
+        h = self._every["imu"] * self.dt
+        walk = [(range(0, 3), imu.gyro_bias_walk * math.sqrt(h)), (range(3, 6), imu.accel_bias_walk * math.sqrt(h))]
+        white = [(range(0, 3), imu.gyro_noise_density * math.sqrt(imu.rate_hz)),
+                 (range(3, 6), imu.accel_noise_density * math.sqrt(imu.rate_hz))]
+        ft_white = [((6, 7, 8, 12, 13, 14), ft.force_noise), ((9, 10, 11, 15, 16, 17), ft.torque_noise)]
+
+        def draws(blocks):
+            idx = [i for rows, sd in blocks if sd for i in rows]
+            return np.array(idx, dtype=int), np.array([sd for rows, sd in blocks if sd for _ in rows])
+
+        self._walk_idx, walk_sd = draws(walk)
+        self._imu_idx, imu_sd = draws(white)
+        self._ft_idx, ft_sd = draws(ft_white)
+        self._draw_sd = {(True, True): np.r_[walk_sd, imu_sd, ft_sd], (True, False): np.r_[walk_sd, imu_sd],
+                         (False, True): ft_sd, (False, False): np.zeros(0)}
 
     def read(self, t: float, data: mujoco.MjData | None = None) -> SensorReadings:
         """Sample the sensors at tick time ``t`` (s) from ``data.sensordata`` (call after ``mj_step1``/``mj_forward``)
         and return the (preallocated, overwritten) :class:`SensorReadings`."""
         d = self.sim.data if data is None else data
         sd = d.sensordata
-        r, rng, k = self.readings, self.rng, self._k
+        r, k, every = self.readings, self._k, self._every
         r.t = float(t)
-        if k % self._every["encoder"] == 0:
-            np.round(sd[self._enc] / self._res, out=r.joint_q)
+        if k % every["encoder"] == 0:
+            raw = self._enc_raw
+            np.take(sd, self._enc, out=raw)
+            raw /= self._res
+            np.rint(raw, out=r.joint_q)
             r.joint_q *= self._res
-        imu = self.specs.imu
-        if k % self._every["imu"] == 0:
-            h = self._every["imu"] * self.dt
-            if imu.gyro_bias_walk:
-                self.gyro_bias += rng.normal(0.0, imu.gyro_bias_walk * math.sqrt(h), 3)
-            if imu.accel_bias_walk:
-                self.accel_bias += rng.normal(0.0, imu.accel_bias_walk * math.sqrt(h), 3)
-            r.gyro[:] = sd[self._gyro] + self.gyro_bias
-            r.accel[:] = sd[self._acc] + self.accel_bias
-            if imu.gyro_noise_density:
-                r.gyro += rng.normal(0.0, imu.gyro_noise_density * math.sqrt(imu.rate_hz), 3)
-            if imu.accel_noise_density:
-                r.accel += rng.normal(0.0, imu.accel_noise_density * math.sqrt(imu.rate_hz), 3)
-        ft = self.specs.ft
-        if k % self._every["ft"] == 0:
-            r.ft[:] = sd[self._ft] + self.ft_bias
-            if ft.force_noise:
-                r.ft[:, :3] += rng.normal(0.0, ft.force_noise, (2, 3))
-            if ft.torque_noise:
-                r.ft[:, 3:] += rng.normal(0.0, ft.torque_noise, (2, 3))
+        imu_on, ft_on = k % every["imu"] == 0, k % every["ft"] == 0
         self._k = k + 1
+        if not (imu_on or ft_on):
+            return r
+        scale = self._draw_sd[imu_on, ft_on]
+        z = self._z[:len(scale)]
+        if len(z):
+            self.rng.standard_normal(out=z)
+            z *= scale
+        lo, hi = (0 if imu_on else 6), (18 if ft_on else 6)
+        s, b, n = self._sample, self._bias, 0
+        if imu_on:
+            nw = len(self._walk_idx)
+            if nw:
+                b[self._walk_idx] += z[:nw]
+            n = nw
+        np.add(sd[self._imu_ft[lo:hi]], b[lo:hi], out=s[lo:hi])
+        if imu_on:
+            s[self._imu_idx] += z[n:n + len(self._imu_idx)]
+            n += len(self._imu_idx)
+        if ft_on:
+            s[self._ft_idx] += z[n:]
         return r
