@@ -1062,10 +1062,10 @@ class _ProblemRows:
         for ent in self.entries:
             ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
             if dense:
-                task.compute_into(state, e, J)
+                task.compute_with_drift_into(state, e, J, drift)
             else:
                 e[:] = task.compute(state)[0]
-            drift[:] = task.drift(state)
+                drift[:] = task.drift(state)
             ent[11] = _load_feedforward(task.feedforward(), eff, ent[11])
             ent[12] = _load_feedforward(ref.feedforward_acceleration, aff, ent[12])
             w[:] = ref.weight
