@@ -138,6 +138,8 @@ class IDSolution:
     path: TickPath | None = None
 
 
+_KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
+
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
 #: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
@@ -889,7 +891,7 @@ class InverseDynamicsQP:
             sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
                              wrenches={name: wrench[k] for k, name in enumerate(rows.names)},
                              dynamics_residual=float(kb.residual[1]),
-                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=TickPath("kernel"))
+                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=_KERNEL_PATH)
             self.last_violations = self.verify(state, sol)
             if not self.last_violations:
                 kb.solves += 1
