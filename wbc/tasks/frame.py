@@ -266,18 +266,25 @@ class FrameTask(Task):
         views = self._views(data)
         rot = views[2]
         j_local = pin.getFrameJacobian(model, data, fid, LOCAL)
-        d = self._drift6
+        # the drift rows straight into drift_out when they are whole blocks (all rows; the 3 orientation rows)
+        whole = self._all_rows or (not self._has_pos and self.dim == 3)
+        d = drift_out if self._all_rows else self._drift6
         if self._has_pos:
             d[:3] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
         if self._has_rot:
             rel = self._target_rot_t @ rot
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
-            d[3:] = _orientation_drift(rel, log, jlog, pin.getFrameVelocity(model, data, fid, LOCAL).angular,
-                                       pin.getFrameAcceleration(model, data, fid, LOCAL).angular)
+            od = _orientation_drift(rel, log, jlog, pin.getFrameVelocity(model, data, fid, LOCAL).angular,
+                                    pin.getFrameAcceleration(model, data, fid, LOCAL).angular)
+            if whole:
+                drift_out[-3:] = od
+            else:
+                d[3:] = od
         else:
             log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
         _frame_rows(rot, jlog, j_local, views[3], self._target_pos, log, self.rows, error_out, jac_out)
-        drift_out[:] = d if self._all_rows else d[self.rows]
+        if not whole:
+            drift_out[:] = d[self.rows]
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
