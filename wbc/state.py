@@ -8,7 +8,8 @@
 * ``nonLinearEffects`` → h(q, v) = C(q, v) v + g(q) (nv,);
 * ``forwardKinematics(q, v, 0)`` → body velocities ``data.v`` and accelerations ``data.a`` **with v̇ = 0**, so
   ``pin.getFrameClassicalAcceleration`` / ``pin.getFrameAcceleration`` return the drift terms J̇ v of frames;
-* ``computeJointJacobians`` (``data.J``) and ``updateFramePlacements`` (``data.oMf``);
+* ``computeJointJacobians`` (``data.J``, from the joint placements of that forward pass) and
+  ``updateFramePlacements`` (``data.oMf``);
 
 and the centroidal quantities follow from M's base rows, without another pass over the tree: with a free-flyer
 root, M[0:6, :] v is the whole robot's spatial momentum (base axes, base origin; linear then angular), and its
@@ -85,7 +86,7 @@ class DynamicsState(Configuration):
         pin.crba(model, data, q)
         pin.nonLinearEffects(model, data, q, v)
         pin.forwardKinematics(model, data, q, v, self._zero_a)  # data.v, data.a (v̇ = 0): the frame drifts
-        pin.computeJointJacobians(model, data, q)
+        pin.computeJointJacobians(model, data)  # data.J from the placements forwardKinematics just computed
         pin.updateFramePlacements(model, data)
         views = self._views
         if views is None:

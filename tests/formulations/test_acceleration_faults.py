@@ -681,3 +681,38 @@ def test_proxqp_iteration_cap_is_a_failed_solve_never_an_unconverged_answer():
     for bad in (0, -5, None, 2.5, True, "100"):
         with pytest.raises(InvalidInputError, match="max_iter"):
             ProxQPBackend(max_iter=bad)
+
+
+def test_output_check_names_each_violation_with_its_size(robots):
+    """The output check of a solved tick against values computed here: a torque pushed 0.5 N·m past its limit is named
+    ``torque_limits`` with violation 0.5 (not when ``relaxed``); a corner normal force 2 N below its lower bound
+    ``unilaterality:<contact>`` with 2 N; a floating-base residual of 0.3 N against max(1, |h_u|)
+    ``floating_base_dynamics``; the largest scaled violation first; a NaN torque ``non_finite_command``."""
+    import dataclasses
+
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot)
+    assert ctrl.solve(q, v).ok
+    qp, state = ctrl.controller.qp, ctrl.controller.state
+    sol = qp.solve(state, DT)
+    assert qp.verify(state, sol) == []
+    j = int(qp.torque_limits.joints[0])
+    lim = float(qp.torque_limits.limits[0])
+    tau = sol.tau.copy()
+    tau[j] = lim + 0.5
+    f = sol.forces.copy()
+    lo = float(qp.contacts[0].normal_force_bounds[0])
+    f[2] = lo - 2.0  # the first contact's first corner, normal force
+    h_scale = max(1.0, float(np.abs(state.h[:6]).max()))
+    bad = dataclasses.replace(sol, tau=tau, forces=f, dynamics_residual=0.3 * h_scale)
+    found = dict(qp.verify(state, bad))
+    assert found["torque_limits"] == pytest.approx(0.5, abs=1e-9)
+    assert found[f"unilaterality:{qp.contacts[0].name}"] == pytest.approx(2.0, abs=1e-9)
+    assert found["floating_base_dynamics"] == pytest.approx(0.3 * h_scale, rel=1e-12)
+    scaled = {"torque_limits": 0.5 / max(1.0, lim), f"unilaterality:{qp.contacts[0].name}": 2.0 / max(1.0, abs(lo)),
+              "floating_base_dynamics": 0.3}
+    names = [n for n, _ in qp.verify(state, bad)]
+    assert [n for n in names if n in scaled] == sorted(scaled, key=lambda n: -scaled[n])
+    assert "torque_limits" not in dict(qp.verify(state, bad, relaxed=True))
+    tau[j] = np.nan
+    assert qp.verify(state, dataclasses.replace(sol, tau=tau))[0][0] == "non_finite_command"

@@ -277,3 +277,33 @@ def test_orientation_drift_at_any_error(angle):
     d = orientation_drift(rel0, omega, alpha)
     assert np.all(np.isfinite(d))
     np.testing.assert_allclose(d, num, atol=2e-5 * max(1.0, np.abs(num).max()))
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_compute_with_drift_into_is_compute_into_then_drift(robots, name):
+    """The one-pass error, Jacobian and drift of every task (the inverse-dynamics assembly's call) are the numbers of
+    its separate ``compute_into`` and ``drift``, bit for bit: frame tasks (all rows, partial rows, position only,
+    orientation only, a relative frame) far from their targets (orientation errors ~0.5 rad, pin.Hlog3) and at their
+    targets (|θ| below the small-angle threshold), the CoM and posture tasks."""
+    from wbc.state import DynamicsState
+
+    robot = robots(name)
+    rng = np.random.default_rng(7)
+    q = random_configuration(robot, rng)
+    v = rng.normal(scale=0.7, size=robot.nv)
+    state = DynamicsState(robot, q, v)
+    tasks = make_tasks(robot, rng)
+    at_target = FrameTask(robot, robot.left_sole)
+    at_target.set_target(state.data.oMf[at_target.frame_id])
+    small = OrientationTask(robot, robot.torso)
+    small.set_target(state.data.oMf[small.frame_id] * pin.SE3(pin.exp3(np.array([2e-4, -1e-4, 3e-4])), np.zeros(3)))
+    for task in [*tasks, at_target, small]:
+        k, nv = task.dim, robot.nv
+        e1, j1 = np.full(k, np.nan), np.full((k, nv), np.nan)
+        task.compute_into(state, e1, j1)
+        d1 = np.array(task.drift(state))
+        e2, j2, d2 = np.full(k, np.nan), np.full((k, nv), np.nan), np.full(k, np.nan)
+        task.compute_with_drift_into(state, e2, j2, d2)
+        np.testing.assert_array_equal(e2, e1, err_msg=task.name)
+        np.testing.assert_array_equal(j2, j1, err_msg=task.name)
+        np.testing.assert_array_equal(d2, d1, err_msg=task.name)

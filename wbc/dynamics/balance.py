@@ -137,6 +137,7 @@ class IDBalanceController:
                                     f"got {compensation!r}")
         self.compensation = compensation
         self._tau_max = np.where(np.isfinite(self.qp.tau_max) & (self.qp.tau_max > 0), self.qp.tau_max, np.inf)
+        self._tau_min = -self._tau_max
         self.com_ref = np.zeros(3)
         self.com_vel_ref = np.zeros(3)
         self.com_acc_ref = np.zeros(3)
@@ -259,7 +260,7 @@ class IDBalanceController:
         cmd = self.controller.solve(q, v)
         if self.compensation is not None:
             vj = np.asarray(v, dtype=float)[6:] + cmd.dv[6:] * self.dt  # commanded next-tick joint velocity
-            cmd.tau = np.clip(cmd.tau + self.compensation.torque(vj), -self._tau_max, self._tau_max)
+            cmd.tau = np.minimum(np.maximum(cmd.tau + self.compensation.torque(vj), self._tau_min), self._tau_max)
         return cmd
 
 

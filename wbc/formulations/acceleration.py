@@ -97,7 +97,7 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
-                                       id_workspace, task_cost)
+                                       id_workspace, output_violations, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -137,6 +137,8 @@ class IDSolution:
     timings: dict[str, float] = field(default_factory=dict)
     path: TickPath | None = None
 
+
+_KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
@@ -264,6 +266,9 @@ class InverseDynamicsQP:
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = _KernelBuffers(self)
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
+        # verify's inputs to output_violations: friction rows, activity, results; no limited joint (relaxed)
+        self._verify_buffers = (np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_), np.zeros((2 * nc + 2, 2)))
+        self._no_joints = np.zeros(0, np.int64)
         self._m = 6  # equality rows of the last build
         #: directions of the stacked active contact rows dropped at the last build
         #: (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`; 0 for legs that can yaw the foot)
@@ -818,37 +823,31 @@ class InverseDynamicsQP:
             not finite (``task:<name>``, nan), e.g. a target written in place with a NaN.
         """
         tol = self.backend.tolerance if tol is None else float(tol)
-        dv, f, tau = sol.dv, sol.forces, sol.tau
-        if not (np.isfinite(dv).all() and np.isfinite(f).all() and np.isfinite(tau).all()):
-            return [("non_finite_command", float("nan")), *self.nonfinite_inputs()]
-        found = []  # (scaled, name, violation)
+        contacts = self.contacts
+        friction, active, out = self._verify_buffers
+        for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
+            friction[k] = c.friction_matrix
+            active[k] = c.active
         nv = self.nv
-        lb, ub = self._lb[nv:], self._ub[nv:]
-        for k, c in enumerate(self.contacts):
-            s = slice(12 * k, 12 * k + 12)
-            fk, lo, hi = f[s], lb[s], ub[s]
-            with np.errstate(invalid="ignore"):
-                ex = np.maximum(lo - fk, fk - hi)
-                ref = np.maximum(1.0, np.where(lo - fk > fk - hi, np.abs(lo), np.abs(hi)))
-            ex = np.where(ex > 0, ex, 0.0)
-            worst = float(np.max(ex / ref))
-            if worst > tol:
-                found.append((worst, f"unilaterality:{c.name}", float(ex.max())))
-            if c.active:
-                fr = c.friction_matrix @ fk
-                scale = np.maximum(1.0, np.abs(c.friction_matrix) @ np.abs(fk))  # the size of each row's terms
-                worst = float(np.max(fr / scale))
-                if worst > tol:
-                    found.append((worst, f"friction:{c.name}", float(fr.max())))
-        if not relaxed and self.tau_rows.size:
-            tl = self.torque_limits
-            ex = np.abs(tau[tl.joints]) - tl.limits
-            worst = float(np.max(ex / np.maximum(1.0, tl.limits)))
-            if worst > tol:
-                found.append((worst, "torque_limits", float(ex.max())))
-        scale = max(1.0, float(np.max(np.abs(state.h[:6]))))
-        if sol.dynamics_residual / scale > tol:
-            found.append((sol.dynamics_residual / scale, "floating_base_dynamics", sol.dynamics_residual))
+        tl = self.torque_limits
+        joints = self._no_joints if relaxed or not self.tau_rows.size else tl.joints
+        status = output_violations(sol.dv, sol.forces, sol.tau, self._lb[nv:], self._ub[nv:], friction, active,
+                                   joints, tl.limits, float(sol.dynamics_residual), state.h, tol, out)
+        if status < 0:
+            return [("non_finite_command", float("nan")), *self.nonfinite_inputs()]
+        if status == 0:
+            return []
+        found = []  # (scaled, name, violation)
+        for k, c in enumerate(contacts):
+            if out[2 * k, 0] > tol:
+                found.append((float(out[2 * k, 0]), f"unilaterality:{c.name}", float(out[2 * k, 1])))
+            if out[2 * k + 1, 0] > tol:
+                found.append((float(out[2 * k + 1, 0]), f"friction:{c.name}", float(out[2 * k + 1, 1])))
+        nc = len(contacts)
+        if out[2 * nc, 0] > tol:
+            found.append((float(out[2 * nc, 0]), "torque_limits", float(out[2 * nc, 1])))
+        if out[2 * nc + 1, 0] > tol:
+            found.append((float(out[2 * nc + 1, 0]), "floating_base_dynamics", float(out[2 * nc + 1, 1])))
         found.sort(key=lambda item: -item[0])
         return [(name, v) for _, name, v in found]
 
@@ -892,7 +891,7 @@ class InverseDynamicsQP:
             sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
                              wrenches={name: wrench[k] for k, name in enumerate(rows.names)},
                              dynamics_residual=float(kb.residual[1]),
-                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=TickPath("kernel"))
+                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=_KERNEL_PATH)
             self.last_violations = self.verify(state, sol)
             if not self.last_violations:
                 kb.solves += 1
@@ -1065,10 +1064,10 @@ class _ProblemRows:
         for ent in self.entries:
             ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
             if dense:
-                task.compute_into(state, e, J)
+                task.compute_with_drift_into(state, e, J, drift)
             else:
                 e[:] = task.compute(state)[0]
-            drift[:] = task.drift(state)
+                drift[:] = task.drift(state)
             ent[11] = _load_feedforward(task.feedforward(), eff, ent[11])
             ent[12] = _load_feedforward(ref.feedforward_acceleration, aff, ent[12])
             w[:] = ref.weight

@@ -59,8 +59,8 @@ from wbc.solvers.box_eq import clip_eq_residual
 from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
                                 primal_from_multipliers, weighted_normal_equations)
 
-__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace", "task_cost",
-           "PROJECT_CONTACT_RHS"]
+__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
+           "output_violations", "task_cost", "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -459,6 +459,77 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
     return it, m
 
 
+@nb.njit(cache=True, nogil=True)
+def output_violations(dv, f, tau, lbf, ubf, friction, active, joints, limits, residual, h, tol, out):
+    """The output check of a command (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) in one call:
+    dv (nv,), corner forces f (12 n_c,) with their bounds lbf, ubf (12 n_c,), torques tau (nv − 6,), the contacts'
+    (n_c, 16, 12) friction rows and (n_c,) activity, the limited joints (k,) int64 (into τ) and their limits (k,)
+    (k = 0: no torque check), the dynamics residual (N, N·m) and h (nv,). Writes (scaled violation, violation in
+    the constraint's units) into out (2 n_c + 2, 2): row 2i the force bounds of contact i, row 2i + 1 its friction
+    rows (−inf when inactive), row 2 n_c the torque limits (−inf without a check), the last the floating-base rows.
+
+    Returns:
+        -1 when an entry of dv, f or tau is not finite (out not written), 1 when a scaled violation exceeds tol, else 0.
+    """
+    for a in (dv, f, tau):
+        for i in range(a.shape[0]):
+            if not np.isfinite(a[i]):
+                return -1
+    nc = active.shape[0]
+    status = 0
+    for k in range(nc):
+        worst = 0.0
+        viol = 0.0
+        for i in range(12 * k, 12 * k + 12):
+            lo, hi, fi = lbf[i], ubf[i], f[i]
+            below, above = lo - fi, fi - hi
+            ex = below if below > above else above
+            ref = max(1.0, abs(lo) if below > above else abs(hi))
+            if not ex > 0:
+                ex = 0.0
+            worst = max(worst, ex / ref)
+            viol = max(viol, ex)
+        out[2 * k, 0] = worst
+        out[2 * k, 1] = viol
+        if worst > tol:
+            status = 1
+        if active[k]:
+            F = friction[k]
+            worst = -np.inf
+            viol = -np.inf
+            for r in range(F.shape[0]):
+                fr = 0.0
+                size = 0.0
+                for j in range(12):
+                    fr += F[r, j] * f[12 * k + j]
+                    size += abs(F[r, j]) * abs(f[12 * k + j])
+                worst = max(worst, fr / max(1.0, size))
+                viol = max(viol, fr)
+            if worst > tol:
+                status = 1
+        else:
+            worst = viol = -np.inf
+        out[2 * k + 1, 0] = worst
+        out[2 * k + 1, 1] = viol
+    worst = viol = -np.inf
+    for r in range(joints.shape[0]):
+        ex = abs(tau[joints[r]]) - limits[r]
+        worst = max(worst, ex / max(1.0, limits[r]))
+        viol = max(viol, ex)
+    if worst > tol:
+        status = 1
+    out[2 * nc, 0] = worst
+    out[2 * nc, 1] = viol
+    scale = 1.0
+    for i in range(6):
+        scale = max(scale, abs(h[i]))
+    out[2 * nc + 1, 0] = residual / scale
+    out[2 * nc + 1, 1] = residual
+    if residual / scale > tol:
+        status = 1
+    return status
+
+
 @once_per_process
 def ensure_compiled() -> None:
     """Load (on-disk cache) or compile, once per process, the kernels the general path calls from Python —
@@ -473,3 +544,5 @@ def ensure_compiled() -> None:
     id_command(np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros((nv, 12)), np.zeros((1, 6, 12)),
                np.zeros((1, 3, 3)), active, np.zeros(nv + 12), np.empty(nv - 6), np.empty((1, 6)))
     contact_rows_well_conditioned(np.ones((1, 6, nv)), active, 1e-2, np.zeros((6, 6)), np.zeros(6))
+    output_violations(np.zeros(nv), np.zeros(12), np.zeros(nv - 6), np.zeros(12), np.zeros(12), np.zeros((1, 16, 12)),
+                      active, np.zeros(1, np.int64), np.ones(1), 0.0, np.zeros(nv), 1e-6, np.zeros((4, 2)))

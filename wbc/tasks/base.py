@@ -151,6 +151,17 @@ class Task(ABC):
         error_out[:] = error
         jac_out[:] = jac
 
+    def compute_with_drift_into(self, state, error_out: np.ndarray, jac_out: np.ndarray,
+                                drift_out: np.ndarray) -> None:
+        """:meth:`compute_into`, then :meth:`drift` written into drift_out (m,), at ``state`` (a
+        :class:`~wbc.state.DynamicsState`). Tasks that share work between the two override it.
+
+        Raises:
+            NotImplementedError: a task without an acceleration-level form.
+        """
+        self.compute_into(state, error_out, jac_out)
+        drift_out[:] = self.drift(state)
+
     def feedforward(self) -> np.ndarray | None:
         """(m,) desired rate of the error ė* (None: zero)."""
         return None
