@@ -189,7 +189,7 @@ def _chain(pts: list[Point]) -> list[Point]:
         while n >= 2:
             ox, oy = out[-2]
             ax, ay = out[-1]
-            if (ax - ox) * (py - oy) - (ay - oy) * (px - ox) > 0.0:
+            if not (ax - ox) * (py - oy) - (ay - oy) * (px - ox) <= 0.0:
                 break
             out.pop()
             n -= 1

@@ -51,9 +51,11 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
@@ -175,21 +177,25 @@ class DcmStabilizer:
         support hull (m, 2) (already shrunk by the margin; an array or a list of ``(x, y)`` vertices, CCW)."""
         if isinstance(hull, np.ndarray):
             hull = hull.tolist()
+
+        def project(px: float, py: float) -> tuple[float, float]:
+            return _closest_point(px, py, hull) if len(hull) >= 3 else (px, py)
+
         ax, ay = self._accel(float(c[0]), float(c[1]), float(cd[0]), float(cd[1]), float(xi_ref[0]),
-                             float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), hull, p_meas)
+                             float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), project, p_meas)
         return np.array([ax, ay])
 
     def _accel(self, cx: float, cy: float, cdx: float, cdy: float, xrx: float, xry: float, prx: float, pry: float,
-               hull: list, p_meas) -> tuple[float, float]:
-        """:meth:`__call__` on floats (the same arithmetic, element by element): (c̈_x, c̈_y) m/s²; ``hull`` a list of
-        ``(x, y)`` vertices (CCW)."""
+               project, p_meas) -> tuple[float, float]:
+        """:meth:`__call__` on floats (the same arithmetic, element by element): (c̈_x, c̈_y) m/s²; ``project(x, y)``
+        returns the closest point ``(x, y)`` of the support area."""
         w = self.omega
         ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
         ix, iy = self.integral.tolist()
         px, py = prx + self.k_p * ex + self.k_i * ix, pry + self.k_p * ey + self.k_i * iy
         if self.k_z > 0 and p_meas is not None:
             px, py = px + self.k_z * (px - float(p_meas[0])), py + self.k_z * (py - float(p_meas[1]))
-        qx, qy = _closest_point(px, py, hull) if len(hull) >= 3 else (px, py)
+        qx, qy = project(px, py)
         dx, dy = px - qx, py - qy
         out = math.sqrt(dx * dx + dy * dy)
         self.saturated = out > 1e-9
@@ -224,6 +230,85 @@ def _closest_point(px: float, py: float, poly: list) -> tuple[float, float]:
         if dd < dbest:
             best, dbest = (qx, qy), dd
     return best
+
+
+@nb.njit(cache=True, nogil=True)
+def _support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
+    """Hull of the ``ns`` (1 or 2) soles' corners and the point (px, py) (m, world xy) against it: ``xy`` (4, 3 ns) the
+    corners in the soles' rotated frames (:meth:`WalkScenario._support`), (tx_j, ty_j) the soles' positions.
+    Returns (number of hull vertices m, :func:`~wbc.geometry.polygon_margin`, closest point x, y) with the arithmetic
+    of :func:`wbc.geometry.hull`, :func:`~wbc.geometry.polygon_margin` and :func:`_closest_point` (m < 3: the margin
+    NaN and the point itself)."""
+    n = 4 * ns
+    pts = np.empty((n, 2))
+    for r in range(4):
+        pts[r, 0] = xy[r, 0] + tx0
+        pts[r, 1] = xy[r, 1] + ty0
+        if ns == 2:
+            pts[4 + r, 0] = xy[r, 3] + tx1
+            pts[4 + r, 1] = xy[r, 4] + ty1
+    order = np.arange(n)
+    for i in range(1, n):  # insertion sort, lexicographic (x, y) as Python's sort of tuples
+        j = i
+        while j > 0:
+            a, b = order[j - 1], order[j]
+            if pts[b, 0] < pts[a, 0] or (pts[b, 0] == pts[a, 0] and pts[b, 1] < pts[a, 1]):
+                order[j - 1], order[j] = b, a
+                j -= 1
+            else:
+                break
+    hv = np.empty((2 * n, 2))
+    m = 0
+    for half in range(2):  # lower then upper chain (the sorted points reversed), each without its last point
+        start = m
+        for ii in range(n):
+            p = order[ii] if half == 0 else order[n - 1 - ii]
+            qx, qy = pts[p, 0], pts[p, 1]
+            while m - start >= 2:
+                ox, oy = hv[m - 2, 0], hv[m - 2, 1]
+                ax, ay = hv[m - 1, 0], hv[m - 1, 1]
+                if not (ax - ox) * (qy - oy) - (ay - oy) * (qx - ox) <= 0.0:
+                    break
+                m -= 1
+            hv[m, 0], hv[m, 1] = qx, qy
+            m += 1
+        m -= 1
+    if m < 3:
+        return m, np.nan, px, py
+    d = np.inf
+    ax, ay = hv[m - 1, 0], hv[m - 1, 1]
+    for i in range(m):
+        bx, by = hv[i, 0], hv[i, 1]
+        ex, ey = bx - ax, by - ay
+        val = (ex * (py - ay) - ey * (px - ax)) / math.sqrt(ex * ex + ey * ey)
+        if val < d:
+            d = val
+        ax, ay = bx, by
+    if d >= 0:
+        return m, d, px, py
+    bestx, besty, dbest = px, py, np.inf
+    for i in range(m):
+        ax, ay = hv[i, 0], hv[i, 1]
+        j = (i + 1) % m
+        ex, ey = hv[j, 0] - ax, hv[j, 1] - ay
+        s = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey)
+        if 0.0 > s:
+            s = 0.0
+        if 1.0 < s:
+            s = 1.0
+        qx, qy = ax + s * ex, ay + s * ey
+        dx, dy = px - qx, py - qy
+        dd = math.sqrt(dx * dx + dy * dy)
+        if dd < dbest:
+            bestx, besty, dbest = qx, qy, dd
+    return m, d, bestx, besty
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_support_kernel` (on-disk cache) once per process, at :meth:`WalkScenario.setup`."""
+    _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
+
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
@@ -593,9 +678,15 @@ class WalkScenario:
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
+        # Views into self._data (eigenpy: they follow every update of it): the CoM and its velocity, and the soles'
+        # rotation and translation (the placements updated in update)
+        self._com_view, self._vcom_view = self._data.com[0], self._data.vcom[0]
+        oMf = {s: self._data.oMf[self._fid[s]] for s in ("left", "right")}
+        self._sole_views = {s: (oMf[s], oMf[s].rotation, oMf[s].translation) for s in ("left", "right")}
         # _hull: the shrunk sole corners per shrink, and a buffer of the transposed sole rotations per sole count
         self._corners: dict[float, np.ndarray] = {}
         self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
+        _warm_up()
         # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'
         # samples never change, only their footsteps)
         swing_at = np.full(plan.n_samples + 1, -1, dtype=int)
@@ -701,11 +792,11 @@ class WalkScenario:
         The corners are :func:`wbc.geometry.projected_sole_corners` (``C Rᵀ + p``): the two uncut soles' in one
         matrix product ``C [R_leftᵀ R_rightᵀ]``, which gives each element the same sum as the product per sole."""
         r = self.robot
-        oMf, fid, cuts = self._data.oMf, self._fid, self._cut
+        views, cuts = self._sole_views, self._cut
         sides = [s for s in ("left", "right") if self.switcher.in_contact(s)]
         if not sides:
             return []
-        plain = [oMf[fid[s]] for s in sides if cuts[s] is None]
+        plain = [views[s] for s in sides if cuts[s] is None]
         pts: list = []
         if plain:
             corners = self._corners.get(shrink)
@@ -713,18 +804,18 @@ class WalkScenario:
                 a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
                 corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
             rt = self._rot_t[len(plain)]
-            for j, M in enumerate(plain):
-                rt[:, 3 * j:3 * j + 3] = M.rotation.T
+            for j, (_, rot, _) in enumerate(plain):
+                rt[:, 3 * j:3 * j + 3] = rot.T
             xy = (corners @ rt).tolist()
-            for j, M in enumerate(plain):
-                tx, ty, _ = M.translation.tolist()
+            for j, (_, _, pos) in enumerate(plain):
+                tx, ty, _ = pos.tolist()
                 u = 3 * j
                 pts += [(row[u] + tx, row[u + 1] + ty) for row in xy]
         for s in sides:
             cut = cuts[s]
             if cut is None:
                 continue
-            M = oMf[fid[s]]
+            M = views[s][0]
             a, b = 0.5 * r.sole_length - shrink, 0.5 * r.sole_width - shrink
             x0, x1 = max(-a, cut[0]), min(a, cut[1])
             y0, y1 = max(-b, cut[2]), min(b, cut[3])
@@ -738,6 +829,41 @@ class WalkScenario:
         if len(vertices) < 3:
             convex_hull(np.array(pts))  # raises InvalidInputError (collinear)
         return vertices
+
+    def _support(self, shrink: float, px: float, py: float) -> tuple[float, float, float]:
+        """(margin, x, y) of the point (px, py) (m, world xy) in :meth:`_hull` ``(shrink)``: its
+        :func:`~wbc.geometry.polygon_margin` (m, NaN when no sole is in contact) and the closest point of the hull
+        (:func:`_closest_point`; the point itself when no sole is in contact). Uncut soles: :func:`_support_kernel` on
+        the corners of :meth:`_hull`'s matrix product, the same numbers.
+
+        Raises:
+            InvalidInputError: the soles' corners are collinear (as :meth:`_hull`).
+        """
+        views, cuts = self._sole_views, self._cut
+        sides = [s for s in ("left", "right") if self.switcher.in_contact(s)]
+        if not sides:
+            return math.nan, px, py
+        if cuts["left"] is not None or cuts["right"] is not None:
+            hull = self._hull(shrink)
+            return (polygon_margin((px, py), hull),) + _closest_point(px, py, hull)
+        corners = self._corners.get(shrink)
+        if corners is None:  # (4, 3) sole-frame corners of the shrunk rectangle (projected_sole_corners)
+            r = self.robot
+            a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
+            corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+        ns = len(sides)
+        rt = self._rot_t[ns]
+        _, rot, pos0 = views[sides[0]]
+        rt[:, :3] = rot.T
+        tx1 = ty1 = 0.0
+        if ns == 2:
+            _, rot, pos1 = views[sides[1]]
+            rt[:, 3:] = rot.T
+            tx1, ty1 = float(pos1[0]), float(pos1[1])
+        m, d, qx, qy = _support_kernel(corners @ rt, float(pos0[0]), float(pos0[1]), tx1, ty1, ns, px, py)
+        if m < 3:
+            self._hull(shrink)  # raises InvalidInputError (collinear)
+        return d, qx, qy
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
@@ -819,7 +945,7 @@ class WalkScenario:
         pin.centerOfMass(model, data, q, v)
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
-        c, cd = data.com[0], data.vcom[0]
+        c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
         cx, cy, cz = c.tolist()
         cdx, cdy, cdz = cd.tolist()
@@ -832,10 +958,14 @@ class WalkScenario:
         if self.blind:
             self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
-            hull = self._hull(self.cop_margin)
             xrx, xry = self.ref_dcm[k].tolist()
             prx, pry = self.ref_zmp[k].tolist()
-            ax, ay = self.stab._accel(cx, cy, cdx, cdy, xrx, xry, prx, pry, hull, self.measured_zmp)
+            margin = self.cop_margin
+
+            def project(px: float, py: float) -> tuple[float, float]:
+                return self._support(margin, px, py)[1:]
+
+            ax, ay = self.stab._accel(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
             z, zd, zdd = float(plan.com[k, 2] + dz), float(plan.com_vel[k, 2] + dzd), float(plan.com_acc[k, 2])
             target = np.array([cx, cy, z])
             vel = np.array([cdx, cdy, zd])  # (z: 0 on flat ground)
@@ -851,17 +981,17 @@ class WalkScenario:
         lg = self.log
         lg["dcm"][i] = xi
         lg["dcm_ref"][i] = self.ref_dcm[k]
+        views = self._sole_views
         for j, s in enumerate(("left", "right")):
             lg["phase"][i, j] = _PHASE_CODE[sw.phase(s)]
-            M = data.oMf[fid[s]]
-            lg["sole_xy"][i, j] = M.translation[:2]
-            R = M.rotation
+            _, R, pos = views[s]
+            lg["sole_xy"][i, j] = pos[:2]
             lg["sole_yaw"][i, j] = math.atan2(R[1, 0], R[0, 0])
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
                 and not self.recovery_failures \
                 and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
-                and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
+                and self._support(self.recovery_margin, xix, xiy)[0] < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
         return self._apply_push(t, sim)
 
@@ -1116,6 +1246,10 @@ class WalkScenario:
                            and time_left >= 0.02):
             return
         _, fs0, dcm0 = self._base
+        if fs.x == fs0.x and fs.y == fs0.y:  # (StepAdjuster.correction's dead band: no correction, nothing to do)
+            ex, ey = float(xi[0]) - float(dcm0[k, 0]), float(xi[1]) - float(dcm0[k, 1])
+            if math.sqrt(ex * ex + ey * ey) <= self.adjuster.dead_band:
+                return
         other = "right" if side == "left" else "left"
         M = self._data.oMf[self._fid[other]]
         stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
