@@ -784,6 +784,16 @@ class WalkScenario:
             end = max(end, self._t_recovery + self._recovery.ends_at)
         return end
 
+    def _sole_corners(self, shrink: float) -> np.ndarray:
+        """(4, 3) corners (m, sole frame) of the sole rectangle shrunk by ``shrink``, in the order of
+        :func:`~wbc.geometry.projected_sole_corners` (cached per shrink)."""
+        corners = self._corners.get(shrink)
+        if corners is None:
+            r = self.robot
+            a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
+            corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+        return corners
+
     def _hull(self, shrink: float) -> list:
         """CCW vertices ``(x, y)`` (m, world) of the convex hull of the soles in contact (their rectangles shrunk by
         ``shrink``, cut to their bands (:meth:`_partial_footholds`)), projected on the ground, at the state of
@@ -799,10 +809,7 @@ class WalkScenario:
         plain = [views[s] for s in sides if cuts[s] is None]
         pts: list = []
         if plain:
-            corners = self._corners.get(shrink)
-            if corners is None:  # (4, 3) sole-frame corners of the shrunk rectangle (projected_sole_corners)
-                a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
-                corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+            corners = self._sole_corners(shrink)
             rt = self._rot_t[len(plain)]
             for j, (_, rot, _) in enumerate(plain):
                 rt[:, 3 * j:3 * j + 3] = rot.T
@@ -846,11 +853,7 @@ class WalkScenario:
         if cuts["left"] is not None or cuts["right"] is not None:
             hull = self._hull(shrink)
             return (polygon_margin((px, py), hull),) + _closest_point(px, py, hull)
-        corners = self._corners.get(shrink)
-        if corners is None:  # (4, 3) sole-frame corners of the shrunk rectangle (projected_sole_corners)
-            r = self.robot
-            a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
-            corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+        corners = self._sole_corners(shrink)
         ns = len(sides)
         rt = self._rot_t[ns]
         _, rot, pos0 = views[sides[0]]
@@ -947,8 +950,8 @@ class WalkScenario:
         pin.updateFramePlacement(model, data, fid["right"])
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
-        cx, cy, cz = c.tolist()
-        cdx, cdy, cdz = cd.tolist()
+        cx, cy, _ = c.tolist()
+        cdx, cdy, _ = cd.tolist()
         xix, xiy = cx + cdx / w, cy + cdy / w
         xi = np.array([xix, xiy])
         if self.step_adjust:
