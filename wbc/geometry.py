@@ -173,25 +173,29 @@ def sole_polygon(x: float, y: float, yaw: float, length: float, width: float) ->
     return np.array(sole_corners(x, y, yaw, length, width))
 
 
-def _cross(o: Point, a: Point, b: Point) -> float:
-    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-
 def hull(points: list[Point]) -> list[Point]:
     """Plain-Python :func:`convex_hull` without validation: CCW hull vertices of ``(x, y)`` tuples (m); fewer
     than 3 vertices when the points are collinear."""
     pts = sorted(points)
-    lower: list[Point] = []
+    return _chain(pts)[:-1] + _chain(pts[::-1])[:-1]
+
+
+def _chain(pts: list[Point]) -> list[Point]:
+    """One half of Andrew's monotone chain over sorted ``pts``: the turn (a − o) × (p − o) ≤ 0 pops ``a``."""
+    out: list[Point] = []
+    n = 0
     for p in pts:
-        while len(lower) >= 2 and _cross(lower[-2], lower[-1], p) <= 0.0:
-            lower.pop()
-        lower.append(p)
-    upper: list[Point] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and _cross(upper[-2], upper[-1], p) <= 0.0:
-            upper.pop()
-        upper.append(p)
-    return lower[:-1] + upper[:-1]
+        px, py = p
+        while n >= 2:
+            ox, oy = out[-2]
+            ax, ay = out[-1]
+            if not (ax - ox) * (py - oy) - (ay - oy) * (px - ox) <= 0.0:
+                break
+            out.pop()
+            n -= 1
+        out.append(p)
+        n += 1
+    return out
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:

@@ -286,3 +286,37 @@ def test_former_names_are_gone():
         with pytest.raises(AttributeError):
             getattr(module, old)
 
+
+
+def test_trusted_references_set_what_the_validated_setters_set(robots):
+    """set_com_reference_trusted / set_foot_reference_rows give the tasks the targets, velocity and acceleration
+    feed-forwards that the validated set_com_reference / set_foot_reference give them (an identical second
+    controller as the reference); the validated setters keep raising InvalidTargetError on NaN."""
+    robot = robots("talos")
+    q = robot.q_ref.copy()
+    a, b = (IDBalanceController(robot, dt=0.002) for _ in range(2))
+    for c in (a, b):
+        c.reset(q)
+    rng = np.random.default_rng(3)
+    com, com_vel, com_acc = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
+    a.set_com_reference(com, com_vel, com_acc)
+    b.set_com_reference_trusted(com.copy(), com_vel.copy(), com_acc.copy())
+    for x, y in ((a.com.task.target, b.com.task.target), (a.com.task.feedforward(), b.com.task.feedforward()),
+                 (a.com.feedforward_acceleration, b.com.feedforward_acceleration), (a.com_ref, b.com_ref),
+                 (a.com_vel_ref, b.com_vel_ref), (a.com_acc_ref, b.com_acc_ref)):
+        assert np.array_equal(x, y)
+    pose = pin.SE3(pin.rpy.rpyToMatrix(*rng.normal(scale=0.3, size=3)), rng.normal(size=3))
+    vel, acc = rng.normal(size=6), rng.normal(size=6)
+    for side in ("left", "right"):
+        a.release_foot(side)
+        b.release_foot(side)
+        a.set_foot_reference(side, pose, vel, acc)
+        b.set_foot_reference_rows(side, pose.rotation.T.copy(), pose.translation.copy(), vel.copy(), acc.copy())
+        fa, fb = a.feet[side], b.feet[side]
+        assert np.array_equal(fa.task.target.homogeneous, fb.task.target.homogeneous)
+        assert np.array_equal(fa.task.feedforward(), fb.task.feedforward())
+        assert np.array_equal(fa.feedforward_acceleration, fb.feedforward_acceleration)
+    with pytest.raises(InvalidTargetError):
+        a.set_com_reference(np.array([0.0, np.nan, 0.9]))
+    with pytest.raises(InvalidTargetError):
+        a.set_foot_reference("left", pose, np.full(6, np.nan), acc)

@@ -358,3 +358,31 @@ def test_from_motion_plans_the_dcm_from_the_measured_com_state():
     assert moving.plan.footsteps == rest.plan.footsteps
     assert moving.steps_left == 1 and moving.steps_done == 0 and moving.next_side == "right"
     assert moving.between_steps()
+
+
+def test_support_kernel_matches_the_geometry_helpers():
+    """The walk's support-area kernel (hull of the soles' corners, margin and closest point of a CoP) gives the
+    numbers of wbc.geometry's convex_hull / polygon_margin / closest_point_in_polygon on the soles'
+    projected_sole_corners, for one and two slightly tilted soles and points inside and outside."""
+    from wbc.geometry import closest_point_in_polygon, convex_hull, polygon_margin, projected_sole_corners
+    import pinocchio as pin
+
+    from wbc.sim.walk import _support_kernel
+
+    rng = np.random.default_rng(7)
+    length, width = 0.2, 0.1
+    corners = np.array([[0.1, 0.05, 0.0], [-0.1, 0.05, 0.0], [-0.1, -0.05, 0.0], [0.1, -0.05, 0.0]])
+    n_out = 0
+    for _ in range(300):
+        soles = [pin.SE3(pin.rpy.rpyToMatrix(*rng.normal(scale=[0.05, 0.05, 0.5])),
+                         np.r_[rng.normal(scale=0.2, size=2), 0.0]) for _ in range(rng.integers(1, 3))]
+        hull = convex_hull(np.vstack([projected_sole_corners(M, length, width) for M in soles]))
+        xy = corners @ np.hstack([M.rotation.T for M in soles])
+        t = [M.translation for M in soles] + [np.zeros(3)]
+        p = rng.normal(scale=0.25, size=2)
+        m, margin, qx, qy = _support_kernel(xy, t[0][0], t[0][1], t[1][0], t[1][1], len(soles), p[0], p[1])
+        assert m == len(hull)
+        assert margin == polygon_margin(p, hull)
+        assert (qx, qy) == tuple(closest_point_in_polygon(p, hull))
+        n_out += margin < 0
+    assert 10 < n_out < 290  # both branches exercised

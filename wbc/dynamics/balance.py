@@ -178,6 +178,15 @@ class IDBalanceController:
         self.com_vel_ref = np.zeros(3) if velocity is None else np.array(velocity, dtype=float)
         self.com_acc_ref = np.zeros(3) if acceleration is None else np.array(acceleration, dtype=float)
 
+    def set_com_reference_trusted(self, position: np.ndarray, velocity: np.ndarray,
+                                  acceleration: np.ndarray) -> None:
+        """:meth:`set_com_reference` without validation or copies, for a scenario's own loop feeding references it
+        built and checked: (3,) float arrays, finite, world (m, m/s, m/s²), kept by reference until the next ones
+        are set (the caller must not modify them). Malformed input is not detected here."""
+        self.com.task.set_target_trusted(position, velocity)
+        self.com.set_feedforward_acceleration_trusted(acceleration)
+        self.com_ref, self.com_vel_ref, self.com_acc_ref = position, velocity, acceleration
+
     def set_max_normal_force(self, side: str, total: float) -> None:
         """Bound the total normal force of a sole (N, ≥ 0) — ramp it to 0 to unload a foot before lifting it.
 
@@ -249,6 +258,21 @@ class IDBalanceController:
         foot = self.feet[side]
         foot.set_target(pose, velocity)
         foot.set_feedforward_acceleration(None if acceleration is None else np.asarray(acceleration)[foot.task.rows])
+
+    def set_foot_reference_rows(self, side: str, rotation_t: np.ndarray, position: np.ndarray,
+                                velocity: np.ndarray, acceleration: np.ndarray) -> None:
+        """:meth:`set_foot_reference` without validation or copies, for a scenario's own loop feeding references
+        it built and checked (e.g. the rows of a walk plan): ``rotation_t`` (3, 3) C-contiguous float array, the
+        TRANSPOSED target rotation R*ᵀ (a rotation); ``position`` (3,) m; ``velocity`` and ``acceleration`` (6,)
+        (linear then angular, world axes); all finite, world, kept by reference until the next reference is set (the
+        caller must not modify them). Malformed input is not detected here."""
+        foot = self.feet[side]
+        task = foot.task
+        ff = np.empty(6)
+        ff[:3] = velocity[:3]
+        ff[3:] = rotation_t @ velocity[3:]
+        task.set_target_rows(rotation_t, position, ff)
+        foot.set_feedforward_acceleration_trusted(acceleration if task.rows.size == 6 else acceleration[task.rows])
 
     # -- tick ------------------------------------------------------------------------------------------------
     def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:

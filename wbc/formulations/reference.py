@@ -126,6 +126,12 @@ class AccelerationReference:
         self._acc_ff = None if acceleration is None else check_vector(
             acceleration, self.dim, f"{self.name} feed-forward acceleration", InvalidTargetError).copy()
 
+    def set_feedforward_acceleration_trusted(self, acceleration: np.ndarray | None) -> None:
+        """:meth:`set_feedforward_acceleration` without validation or copy, for a controller's own loop feeding
+        accelerations it built and checked: ``acceleration`` None or a finite (m,) float array, kept by reference
+        until the next one is set (the caller must not modify it). Malformed input is not detected here."""
+        self._acc_ff = acceleration
+
     @property
     def feedforward_acceleration(self) -> np.ndarray | None:
         """(m,) ä_ff of eq. 1 (None: zero); set by :meth:`set_feedforward_acceleration`."""

@@ -51,13 +51,15 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.estimation import zmp_from_wrenches
 from wbc.exceptions import GaitError, InvalidInputError
-from wbc.geometry import closest_point_in_polygon, convex_hull, mean_heading, polygon_margin, projected_sole_corners
+from wbc.geometry import convex_hull, mean_heading, polygon_margin, projected_sole_corners
 from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.step_adjustment import StepAdjuster
@@ -69,6 +71,7 @@ from wbc.sim.scenarios import NO_FALL, timed_push
 __all__ = ["WalkScenario", "DcmStabilizer", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
+_PHASE_CODE = {"stance": 0, "unloading": 1, "swing": 2, "loading": 3}  # contact phase → its code in the log
 
 
 def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0,
@@ -169,25 +172,143 @@ class DcmStabilizer:
         self.saturated = False
 
     def __call__(self, c: np.ndarray, cd: np.ndarray, xi_ref: np.ndarray, p_ref: np.ndarray,
-                 hull: np.ndarray, p_meas: np.ndarray | None = None) -> np.ndarray:
+                 hull, p_meas: np.ndarray | None = None) -> np.ndarray:
         """Horizontal CoM acceleration (2,) (m/s²) from CoM c (2,), ċ (2,), references ξ_ref, p_ref (2,) and the
-        support hull (m, 2) (already shrunk by the margin)."""
+        support hull (m, 2) (already shrunk by the margin; an array or a list of ``(x, y)`` vertices, CCW)."""
+        if isinstance(hull, np.ndarray):
+            hull = hull.tolist()
+
+        def project(px: float, py: float) -> tuple[float, float]:
+            return _closest_point(px, py, hull) if len(hull) >= 3 else (px, py)
+
+        ax, ay = self._accel(float(c[0]), float(c[1]), float(cd[0]), float(cd[1]), float(xi_ref[0]),
+                             float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), project, p_meas)
+        return np.array([ax, ay])
+
+    def _accel(self, cx: float, cy: float, cdx: float, cdy: float, xrx: float, xry: float, prx: float, pry: float,
+               project, p_meas) -> tuple[float, float]:
+        """:meth:`__call__` on floats (the same arithmetic, element by element): (c̈_x, c̈_y) m/s²; ``project(x, y)``
+        returns the closest point ``(x, y)`` of the support area."""
         w = self.omega
-        e = c + cd / w - xi_ref
-        p = p_ref + self.k_p * e + self.k_i * self.integral
+        ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
+        ix, iy = self.integral.tolist()
+        px, py = prx + self.k_p * ex + self.k_i * ix, pry + self.k_p * ey + self.k_i * iy
         if self.k_z > 0 and p_meas is not None:
-            p = p + self.k_z * (p - p_meas)
-        pc = closest_point_in_polygon(p, hull) if len(hull) >= 3 else p
-        out = float(np.linalg.norm(p - pc))
+            px, py = px + self.k_z * (px - float(p_meas[0])), py + self.k_z * (py - float(p_meas[1]))
+        qx, qy = project(px, py)
+        dx, dy = px - qx, py - qy
+        out = math.sqrt(dx * dx + dy * dy)
         self.saturated = out > 1e-9
         if not self.saturated:
-            self.integral = np.clip(self.integral + e * self.dt, -self.i_max, self.i_max)
-        self.last_cop = pc
-        r = pc
+            i_max = self.i_max
+            self.integral = np.array([min(max(ix + ex * self.dt, -i_max), i_max),
+                                      min(max(iy + ey * self.dt, -i_max), i_max)])
+        self.last_cop = np.array([qx, qy])
+        rx, ry = qx, qy
         if self.saturated and self.cmp_offset > 0:  # CMP beyond the CoP's reach: angular momentum (hip strategy)
-            r = pc + (min(out, self.cmp_offset) / out) * (p - pc)
-        self.last_cmp = r
-        return w * w * (c - r)
+            f = min(out, self.cmp_offset) / out
+            rx, ry = qx + f * dx, qy + f * dy
+        self.last_cmp = np.array([rx, ry])
+        return w * w * (cx - rx), w * w * (cy - ry)
+
+
+def _closest_point(px: float, py: float, poly: list) -> tuple[float, float]:
+    """:func:`wbc.geometry.closest_point_in_polygon` on floats: the closest point of a CCW convex polygon (list of
+    ``(x, y)`` vertices, m) to ``(px, py)`` (m): the point itself inside, else its projection on the nearest edge."""
+    if polygon_margin((px, py), poly) >= 0:
+        return px, py
+    best, dbest = (px, py), math.inf
+    m = len(poly)
+    for i in range(m):
+        ax, ay = poly[i]
+        bx, by = poly[(i + 1) % m]
+        ex, ey = bx - ax, by - ay
+        s = min(max(((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        qx, qy = ax + s * ex, ay + s * ey
+        dx, dy = px - qx, py - qy
+        dd = math.sqrt(dx * dx + dy * dy)
+        if dd < dbest:
+            best, dbest = (qx, qy), dd
+    return best
+
+
+@nb.njit(cache=True, nogil=True)
+def _support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
+    """Hull of the ``ns`` (1 or 2) soles' corners and the point (px, py) (m, world xy) against it: ``xy`` (4, 3 ns) the
+    corners in the soles' rotated frames (:meth:`WalkScenario._support`), (tx_j, ty_j) the soles' positions.
+    Returns (number of hull vertices m, :func:`~wbc.geometry.polygon_margin`, closest point x, y) with the arithmetic
+    of :func:`wbc.geometry.hull`, :func:`~wbc.geometry.polygon_margin` and :func:`_closest_point` (m < 3: the margin
+    NaN and the point itself)."""
+    n = 4 * ns
+    pts = np.empty((n, 2))
+    for r in range(4):
+        pts[r, 0] = xy[r, 0] + tx0
+        pts[r, 1] = xy[r, 1] + ty0
+        if ns == 2:
+            pts[4 + r, 0] = xy[r, 3] + tx1
+            pts[4 + r, 1] = xy[r, 4] + ty1
+    order = np.arange(n)
+    for i in range(1, n):  # insertion sort, lexicographic (x, y) as Python's sort of tuples
+        j = i
+        while j > 0:
+            a, b = order[j - 1], order[j]
+            if pts[b, 0] < pts[a, 0] or (pts[b, 0] == pts[a, 0] and pts[b, 1] < pts[a, 1]):
+                order[j - 1], order[j] = b, a
+                j -= 1
+            else:
+                break
+    hv = np.empty((2 * n, 2))
+    m = 0
+    for half in range(2):  # lower then upper chain (the sorted points reversed), each without its last point
+        start = m
+        for ii in range(n):
+            p = order[ii] if half == 0 else order[n - 1 - ii]
+            qx, qy = pts[p, 0], pts[p, 1]
+            while m - start >= 2:
+                ox, oy = hv[m - 2, 0], hv[m - 2, 1]
+                ax, ay = hv[m - 1, 0], hv[m - 1, 1]
+                if not (ax - ox) * (qy - oy) - (ay - oy) * (qx - ox) <= 0.0:
+                    break
+                m -= 1
+            hv[m, 0], hv[m, 1] = qx, qy
+            m += 1
+        m -= 1
+    if m < 3:
+        return m, np.nan, px, py
+    d = np.inf
+    ax, ay = hv[m - 1, 0], hv[m - 1, 1]
+    for i in range(m):
+        bx, by = hv[i, 0], hv[i, 1]
+        ex, ey = bx - ax, by - ay
+        val = (ex * (py - ay) - ey * (px - ax)) / math.sqrt(ex * ex + ey * ey)
+        if val < d:
+            d = val
+        ax, ay = bx, by
+    if d >= 0:
+        return m, d, px, py
+    bestx, besty, dbest = px, py, np.inf
+    for i in range(m):
+        ax, ay = hv[i, 0], hv[i, 1]
+        j = (i + 1) % m
+        ex, ey = hv[j, 0] - ax, hv[j, 1] - ay
+        s = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey)
+        if 0.0 > s:
+            s = 0.0
+        if 1.0 < s:
+            s = 1.0
+        qx, qy = ax + s * ex, ay + s * ey
+        dx, dy = px - qx, py - qy
+        dd = math.sqrt(dx * dx + dy * dy)
+        if dd < dbest:
+            bestx, besty, dbest = qx, qy, dd
+    return m, d, bestx, besty
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_support_kernel` (on-disk cache) once per process, at :meth:`WalkScenario.setup`."""
+    _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
+
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
@@ -557,6 +678,21 @@ class WalkScenario:
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
+        # Views into self._data (eigenpy: they follow every update of it): the CoM and its velocity, and the soles'
+        # rotation and translation (the placements updated in update)
+        self._com_view, self._vcom_view = self._data.com[0], self._data.vcom[0]
+        oMf = {s: self._data.oMf[self._fid[s]] for s in ("left", "right")}
+        self._sole_views = {s: (oMf[s], oMf[s].rotation, oMf[s].translation) for s in ("left", "right")}
+        # _hull: the shrunk sole corners per shrink, and a buffer of the transposed sole rotations per sole count
+        self._corners: dict[float, np.ndarray] = {}
+        self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
+        _warm_up()
+        # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'
+        # samples never change, only their footsteps)
+        swing_at = np.full(plan.n_samples + 1, -1, dtype=int)
+        for i in range(len(self.swings) - 1, -1, -1):  # the first swing holding a sample wins
+            swing_at[max(self.swings[i][1], 0):max(self.swings[i][2], 0)] = i
+        self._swing_at = swing_at.tolist()
         # blind and planned terrain: measured − planned height (m) of the supporting soles, low-passed, and its rate
         # (m/s); added to the planned CoM height (_support_offset)
         self._dz_support, self._dz_support_rate = 0.0, 0.0
@@ -648,37 +784,100 @@ class WalkScenario:
             end = max(end, self._t_recovery + self._recovery.ends_at)
         return end
 
-    def _hull(self, shrink: float) -> np.ndarray:
-        pts = []
+    def _sole_corners(self, shrink: float) -> np.ndarray:
+        """(4, 3) corners (m, sole frame) of the sole rectangle shrunk by ``shrink``, in the order of
+        :func:`~wbc.geometry.projected_sole_corners` (cached per shrink)."""
+        corners = self._corners.get(shrink)
+        if corners is None:
+            r = self.robot
+            a, b = 0.5 * (r.sole_length - 2 * shrink), 0.5 * (r.sole_width - 2 * shrink)
+            corners = self._corners[shrink] = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
+        return corners
+
+    def _hull(self, shrink: float) -> list:
+        """CCW vertices ``(x, y)`` (m, world) of the convex hull of the soles in contact (their rectangles shrunk by
+        ``shrink``, cut to their bands (:meth:`_partial_footholds`)), projected on the ground, at the state of
+        ``self._data``; [] when no sole is in contact.
+
+        The corners are :func:`wbc.geometry.projected_sole_corners` (``C Rᵀ + p``): the two uncut soles' in one
+        matrix product ``C [R_leftᵀ R_rightᵀ]``, which gives each element the same sum as the product per sole."""
         r = self.robot
-        for s in ("left", "right"):
-            if self.switcher.in_contact(s):
-                M = self._data.oMf[self._fid[s]]
-                cut = self._cut[s]
-                if cut is None:
-                    pts.append(projected_sole_corners(M, r.sole_length - 2 * shrink, r.sole_width - 2 * shrink))
-                    continue
-                a, b = 0.5 * r.sole_length - shrink, 0.5 * r.sole_width - shrink
-                x0, x1 = max(-a, cut[0]), min(a, cut[1])
-                y0, y1 = max(-b, cut[2]), min(b, cut[3])
-                if x1 - x0 < 0.002:  # cut within the margin: a 2 mm strip about its middle (the hull keeps an area)
-                    x0, x1 = 0.5 * (x0 + x1) - 0.001, 0.5 * (x0 + x1) + 0.001
-                if y1 - y0 < 0.002:
-                    y0, y1 = 0.5 * (y0 + y1) - 0.001, 0.5 * (y0 + y1) + 0.001
-                c = np.array([[x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0], [x1, y0, 0.0]])
-                pts.append((c @ M.rotation.T + M.translation)[:, :2])
-        if not pts:
-            return np.zeros((0, 2))
-        pts = np.vstack(pts)
-        vertices = hull_vertices([(x, y) for x, y in pts.tolist()])  # the soles' corners are finite: no validation
-        return np.array(vertices) if len(vertices) >= 3 else convex_hull(pts)  # (convex_hull raises)
+        views, cuts = self._sole_views, self._cut
+        sides = [s for s in ("left", "right") if self.switcher.in_contact(s)]
+        if not sides:
+            return []
+        plain = [views[s] for s in sides if cuts[s] is None]
+        pts: list = []
+        if plain:
+            corners = self._sole_corners(shrink)
+            rt = self._rot_t[len(plain)]
+            for j, (_, rot, _) in enumerate(plain):
+                rt[:, 3 * j:3 * j + 3] = rot.T
+            xy = (corners @ rt).tolist()
+            for j, (_, _, pos) in enumerate(plain):
+                tx, ty, _ = pos.tolist()
+                u = 3 * j
+                pts += [(row[u] + tx, row[u + 1] + ty) for row in xy]
+        for s in sides:
+            cut = cuts[s]
+            if cut is None:
+                continue
+            M = views[s][0]
+            a, b = 0.5 * r.sole_length - shrink, 0.5 * r.sole_width - shrink
+            x0, x1 = max(-a, cut[0]), min(a, cut[1])
+            y0, y1 = max(-b, cut[2]), min(b, cut[3])
+            if x1 - x0 < 0.002:  # cut within the margin: a 2 mm strip about its middle (the hull keeps an area)
+                x0, x1 = 0.5 * (x0 + x1) - 0.001, 0.5 * (x0 + x1) + 0.001
+            if y1 - y0 < 0.002:
+                y0, y1 = 0.5 * (y0 + y1) - 0.001, 0.5 * (y0 + y1) + 0.001
+            c = np.array([[x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0], [x1, y0, 0.0]])
+            pts += [(x, y) for x, y in (c @ M.rotation.T + M.translation)[:, :2].tolist()]
+        vertices = hull_vertices(pts)  # the soles' corners are finite: no validation
+        if len(vertices) < 3:
+            convex_hull(np.array(pts))  # raises InvalidInputError (collinear)
+        return vertices
+
+    def _support(self, shrink: float, px: float, py: float) -> tuple[float, float, float]:
+        """(margin, x, y) of the point (px, py) (m, world xy) in :meth:`_hull` ``(shrink)``: its
+        :func:`~wbc.geometry.polygon_margin` (m, NaN when no sole is in contact) and the closest point of the hull
+        (:func:`_closest_point`; the point itself when no sole is in contact). Uncut soles: :func:`_support_kernel` on
+        the corners of :meth:`_hull`'s matrix product, the same numbers.
+
+        Raises:
+            InvalidInputError: the soles' corners are collinear (as :meth:`_hull`).
+        """
+        views, cuts = self._sole_views, self._cut
+        sides = [s for s in ("left", "right") if self.switcher.in_contact(s)]
+        if not sides:
+            return math.nan, px, py
+        if cuts["left"] is not None or cuts["right"] is not None:
+            hull = self._hull(shrink)
+            return (polygon_margin((px, py), hull),) + _closest_point(px, py, hull)
+        corners = self._sole_corners(shrink)
+        ns = len(sides)
+        rt = self._rot_t[ns]
+        _, rot, pos0 = views[sides[0]]
+        rt[:, :3] = rot.T
+        tx1 = ty1 = 0.0
+        if ns == 2:
+            _, rot, pos1 = views[sides[1]]
+            rt[:, 3:] = rot.T
+            tx1, ty1 = float(pos1[0]), float(pos1[1])
+        m, d, qx, qy = _support_kernel(corners @ rt, float(pos0[0]), float(pos0[1]), tx1, ty1, ns, px, py)
+        if m < 3:
+            self._hull(shrink)  # raises InvalidInputError (collinear)
+        return d, qx, qy
 
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
         if self._recovery is not None:
             return self._recovery_update(t, controller, sim, q, v)
         plan, dt, sw = self.plan, self.dt, self.switcher
-        k = min(plan.index(t) + self._shift, plan.n_samples - 1)
+        n_samples = plan.n_samples
+        tf = float(t)
+        # plan.index(t) (which raises GaitError for a time that is not finite)
+        k = int(min(max(round(tf / plan.dt), 0), n_samples - 1)) if math.isfinite(tf) else plan.index(t)
+        k = min(k + self._shift, n_samples - 1)
         tp = k * dt  # plan clock
         # Start the ramp-out of the next swing so that the foot is released at the planned lift-off.
         if self._next < len(self.swings):
@@ -715,32 +914,46 @@ class WalkScenario:
                 if t >= t_rel + 0.5 * (k_td * dt - self._shift * dt - t_rel) - 1e-9:
                     sw.arm(side)
                 kk = min(k, k_td)
-                pose = pin.SE3(self.poses[side][kk])
-                if self.terrain_walk is not None or self.blind:
-                    pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
+                P = self.poses[side][kk]
                 vel = self.vels[side][kk].copy()
                 acc = self.acc[side][kk].copy()
                 if self.blind and BLIND_XY_END < 1.0:
+                    pose = pin.SE3(P)
+                    pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
                     self._blind_swing(side, kk, k_lift, k_td, pose, vel, acc)
+                    rot_t, pos = pose.rotation.T.copy(), np.array(pose.translation)
+                else:  # (the plan's rotations are rotations: only the numbers added here need checking)
+                    rot_t, pos = P[:3, :3].T.copy(), P[:3, 3].copy()
+                    if self.terrain_walk is not None or self.blind:
+                        pos[2] += self._swing_offset(side, kk, k_lift, k_td)
                 late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
                     drop = self.max_descent
-                    pose.translation = pose.translation - [0.0, 0.0, min(self.descent_speed * late, drop)]
+                    pos[2] -= min(self.descent_speed * late, drop)
                     vel[:] = 0.0
                     vel[2] = -self.descent_speed if self.descent_speed * late < drop else 0.0
                     acc[:] = 0.0
-                controller.set_foot_reference(side, pose, vel, acc)
+                if math.isfinite(pos @ pos + vel @ vel + acc @ acc):
+                    controller.set_foot_reference_rows(side, rot_t, pos, vel, acc)
+                else:  # the validated setter raises its typed error
+                    controller.set_foot_reference(side, pin.SE3(rot_t.T, pos), vel, acc)
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
                     and sw.touchdown_time[side] > self._t_unload[side]:
                 del self._active[side]
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
         # State quantities (CoM velocity, soles) for the DCM and the log.
-        pin.centerOfMass(self._model, self._data, q, v)
-        pin.framesForwardKinematics(self._model, self._data, q)
-        c, cd = self._data.com[0], self._data.vcom[0]
+        # (centerOfMass with v runs the forward kinematics: only the soles' placements are then updated)
+        model, data, fid = self._model, self._data, self._fid
+        pin.centerOfMass(model, data, q, v)
+        pin.updateFramePlacement(model, data, fid["left"])
+        pin.updateFramePlacement(model, data, fid["right"])
+        c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
-        xi = c[:2] + cd[:2] / w
+        cx, cy, _ = c.tolist()
+        cdx, cdy, _ = cd.tolist()
+        xix, xiy = cx + cdx / w, cy + cdy / w
+        xi = np.array([xix, xiy])
         if self.step_adjust:
             self._adjust_step(t, k, c, cd, xi)
         i = min(self._k, len(self.log["phase"]) - 1)
@@ -748,11 +961,22 @@ class WalkScenario:
         if self.blind:
             self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
-            hull = self._hull(self.cop_margin)
-            a_xy = self.stab(c[:2], cd[:2], self.ref_dcm[k], self.ref_zmp[k], hull, self.measured_zmp)
-            target = np.array([c[0], c[1], plan.com[k, 2] + dz])
-            vel = np.array([cd[0], cd[1], plan.com_vel[k, 2] + dzd])  # (z: 0 on flat ground)
-            controller.set_com_reference(target, vel, np.array([a_xy[0], a_xy[1], plan.com_acc[k, 2]]))
+            xrx, xry = self.ref_dcm[k].tolist()
+            prx, pry = self.ref_zmp[k].tolist()
+            margin = self.cop_margin
+
+            def project(px: float, py: float) -> tuple[float, float]:
+                return self._support(margin, px, py)[1:]
+
+            ax, ay = self.stab._accel(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
+            z, zd, zdd = float(plan.com[k, 2] + dz), float(plan.com_vel[k, 2] + dzd), float(plan.com_acc[k, 2])
+            target = np.array([cx, cy, z])
+            vel = np.array([cdx, cdy, zd])  # (z: 0 on flat ground)
+            acc = np.array([ax, ay, zdd])
+            if math.isfinite(cx + cy + z + cdx + cdy + zd + ax + ay + zdd):
+                controller.set_com_reference_trusted(target, vel, acc)
+            else:  # the validated setter raises its typed error
+                controller.set_com_reference(target, vel, acc)
             self.log["cop_cmd"][i] = self.stab.last_cop
         else:
             controller.set_com_reference(plan.com[k] + [0.0, 0.0, dz], plan.com_vel[k] + [0.0, 0.0, dzd],
@@ -760,16 +984,17 @@ class WalkScenario:
         lg = self.log
         lg["dcm"][i] = xi
         lg["dcm_ref"][i] = self.ref_dcm[k]
+        views = self._sole_views
         for j, s in enumerate(("left", "right")):
-            lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(sw.phase(s))
-            M = self._data.oMf[self._fid[s]]
-            lg["sole_xy"][i, j] = M.translation[:2]
-            lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+            lg["phase"][i, j] = _PHASE_CODE[sw.phase(s)]
+            _, R, pos = views[s]
+            lg["sole_xy"][i, j] = pos[:2]
+            lg["sole_yaw"][i, j] = math.atan2(R[1, 0], R[0, 0])
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
                 and not self.recovery_failures \
                 and sw.phase("left") == "stance" and sw.phase("right") == "stance" \
-                and polygon_margin(xi, self._hull(self.recovery_margin)) < 0.0:
+                and self._support(self.recovery_margin, xix, xiy)[0] < 0.0:
             self._start_recovery(t, controller, sim, q, v, xi)
         return self._apply_push(t, sim)
 
@@ -1009,12 +1234,8 @@ class WalkScenario:
         """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
         the measured DCM vs the DCM plan held at the swing's start (eq. 1 of :mod:`wbc.gait.step_adjustment`);
         when it moved by more than 1 cm, replan the DCM and the swing from it (measured CoM state)."""
-        idx = None
-        for i, (side, k_lift, k_td, fs) in enumerate(self.swings):
-            if k_lift <= k < k_td:
-                idx = i
-                break
-        if idx is None:
+        idx = self._swing_at[k]  # the first swing with k_lift <= k < k_td
+        if idx < 0:
             self._base = None
             return
         side, k_lift, k_td, fs = self.swings[idx]
@@ -1028,6 +1249,10 @@ class WalkScenario:
                            and time_left >= 0.02):
             return
         _, fs0, dcm0 = self._base
+        if fs.x == fs0.x and fs.y == fs0.y:  # (StepAdjuster.correction's dead band: no correction, nothing to do)
+            ex, ey = float(xi[0]) - float(dcm0[k, 0]), float(xi[1]) - float(dcm0[k, 1])
+            if math.sqrt(ex * ex + ey * ey) <= self.adjuster.dead_band:
+                return
         other = "right" if side == "left" else "left"
         M = self._data.oMf[self._fid[other]]
         stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
