@@ -7,6 +7,7 @@ generalized forces both ways.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,8 @@ _QUAT_NORM_TOL = 1e-3
 
 def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
     """(3, 3) rotation matrix of a unit quaternion given as (x, y, z, w) (normalized first)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
+    quat = np.asarray(quat_xyzw, dtype=float).ravel()
+    x, y, z, w = (quat / math.sqrt(quat.dot(quat))).tolist()  # (the norm as numpy.linalg.norm computes it)
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -86,6 +88,16 @@ class StateMap:
             q[self.pin_q_cs[:, 1]] = np.sin(qpos[self.mj_qpos_cs])
         return q
 
+    def state_from_mj(self, qpos, qvel) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo (qpos (nq_mj,), qvel (nv,)) -> Pinocchio (q (nq,), v (nv,)): :meth:`q_from_mj` and
+        :meth:`v_from_mj` at that q, each input checked once.
+
+        Raises:
+            ConfigurationError: wrong shapes or NaN/inf. InvalidInputError: a base quaternion far from unit norm.
+        """
+        q = self.q_from_mj(qpos)
+        return q, self._v_from_mj(q, check_vector(qvel, self.nv, "qvel"))
+
     # -- velocity, acceleration, force ----------------------------------------------------------------------
     def v_to_mj(self, q, v) -> np.ndarray:
         """Pinocchio v (nv,) at configuration q -> MuJoCo qvel (nv,): ``qvel = T(q) v``."""
@@ -100,7 +112,11 @@ class StateMap:
     def v_from_mj(self, q, qvel) -> np.ndarray:
         """MuJoCo qvel (nv,) -> Pinocchio v (nv,) at Pinocchio configuration q: ``v = T(q)⁻¹ qvel``."""
         qvel = check_vector(qvel, self.nv, "qvel")
-        rot = self.base_rotation(check_vector(q, self.nq, "q"))
+        return self._v_from_mj(check_vector(q, self.nq, "q"), qvel)
+
+    def _v_from_mj(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        """:meth:`v_from_mj` of checked (nq,) q and (nv,) qvel."""
+        rot = self.base_rotation(q)
         v = np.empty(self.nv)
         v[0:3] = rot.T @ qvel[0:3]
         v[3:6] = qvel[3:6]
@@ -136,8 +152,8 @@ class StateMap:
         return self.velocity_transform(q).T @ f_mj
 
     def _check_quat(self, quat: np.ndarray) -> np.ndarray:
-        n = float(np.linalg.norm(quat))
-        if not np.isfinite(n) or abs(n - 1.0) > _QUAT_NORM_TOL:
+        n = math.sqrt(quat.dot(quat))  # (the norm as numpy.linalg.norm computes it)
+        if not math.isfinite(n) or abs(n - 1.0) > _QUAT_NORM_TOL:
             raise InvalidInputError(
                 f"base quaternion q[3:7] (x, y, z, w) = {quat} has norm {n:.6g}; expected a unit quaternion"
             )
