@@ -53,6 +53,17 @@ class StateMap:
     mj_qpos_cs: np.ndarray
     mj_qvel: np.ndarray
 
+    def __post_init__(self) -> None:
+        # gathers of the entries copied from MuJoCo in one take: q[i] = qpos[q_gather[i]], v[i] = qvel[v_gather[i]]
+        # (the continuous joints' cos/sin and v[0:3] are computed over their placeholders)
+        q_gather = np.zeros(self.nq, dtype=np.intp)
+        q_gather[0:7] = (0, 1, 2, 4, 5, 6, 3)
+        q_gather[self.pin_q] = self.mj_qpos
+        v_gather = np.arange(self.nv, dtype=np.intp)
+        v_gather[6:] = self.mj_qvel
+        object.__setattr__(self, "_q_gather", q_gather)
+        object.__setattr__(self, "_v_gather", v_gather)
+
     # -- configuration ---------------------------------------------------------------------------------------
     def base_rotation(self, q) -> np.ndarray:
         """(3, 3) world rotation of the base from a Pinocchio q (quaternion x, y, z, w at q[3:7])."""
@@ -78,11 +89,7 @@ class StateMap:
     def q_from_mj(self, qpos) -> np.ndarray:
         """MuJoCo qpos (nq_mj,) -> Pinocchio q (nq,)."""
         qpos = check_vector(qpos, self.nq_mj, "qpos")
-        q = np.empty(self.nq)
-        q[0:3] = qpos[0:3]
-        q[3:6] = qpos[4:7]
-        q[6] = qpos[3]
-        q[self.pin_q] = qpos[self.mj_qpos]
+        q = qpos[self._q_gather]
         if len(self.mj_qpos_cs):
             q[self.pin_q_cs[:, 0]] = np.cos(qpos[self.mj_qpos_cs])
             q[self.pin_q_cs[:, 1]] = np.sin(qpos[self.mj_qpos_cs])
@@ -116,11 +123,8 @@ class StateMap:
 
     def _v_from_mj(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
         """:meth:`v_from_mj` of checked (nq,) q and (nv,) qvel."""
-        rot = self.base_rotation(q)
-        v = np.empty(self.nv)
-        v[0:3] = rot.T @ qvel[0:3]
-        v[3:6] = qvel[3:6]
-        v[6:] = qvel[self.mj_qvel]
+        v = qvel[self._v_gather]
+        v[0:3] = self.base_rotation(q).T @ qvel[0:3]
         return v
 
     def velocity_transform(self, q) -> np.ndarray:
