@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 import wbc
-from wbc.exceptions import InvalidInputError, UnknownFrameError
+from wbc.exceptions import ConfigurationError, InvalidInputError, UnknownFrameError
 from wbc.sim.mujoco_model import ENV_BIT, ROBOT_BIT, build_mujoco_model, stiff_foot_friction
 
 ROBOTS = ["talos", "g1"] + (["humanoid15"] if "humanoid15" in wbc.catalog() else [])
@@ -104,6 +104,21 @@ def test_velocity_round_trip_and_body_velocities(sim):
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, b, res, 0)  # (ang, lin) at xpos, world
             vp = pin.getFrameVelocity(pm, pd, _body_frame(pm, m.body(b).name), pin.LOCAL_WORLD_ALIGNED)
             assert np.abs(res[3:6] - vp.linear).max() < TOL and np.abs(res[0:3] - vp.angular).max() < TOL
+
+
+def test_state_from_mj_is_q_from_mj_then_v_from_mj(sim):
+    """One-pass conversion of a MuJoCo state: the same arrays as the two conversions, the state it came from."""
+    sm = sim.state_map
+    for q, v in _random_states(sim.robot, seed=2):
+        qpos, qvel = sm.q_to_mj(q), sm.v_to_mj(q, v)
+        q1, v1 = sm.state_from_mj(qpos, qvel)
+        np.testing.assert_array_equal(q1, sm.q_from_mj(qpos))
+        np.testing.assert_array_equal(v1, sm.v_from_mj(q1, qvel))
+        assert np.abs(q1 - q).max() < 1e-15 and np.abs(v1 - v).max() < 1e-13
+    with pytest.raises(ConfigurationError):
+        sm.state_from_mj(qpos, np.full(sm.nv, np.nan))
+    with pytest.raises(ConfigurationError):
+        sm.state_from_mj(qpos[:-1], qvel)
 
 
 def test_bias_forces_and_forward_dynamics(sim):

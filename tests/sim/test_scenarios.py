@@ -200,7 +200,7 @@ def test_logged_foot_wrenches_match_contact_forces():
     """The closed loop's cfrc_ext-based foot wrenches equal MujocoModel.foot_contact_wrenches (contact by contact)."""
     import mujoco
 
-    from wbc.sim.closed_loop import _foot_wrenches
+    from wbc.sim.closed_loop import _FootWrenches
 
     sim = _sim("talos")
     mujoco.mj_resetData(sim.model, sim.data)
@@ -211,8 +211,7 @@ def test_logged_foot_wrenches_match_contact_forces():
     sim.clear_external_forces()
     sides = ("left", "right")
     out_w, out_p = np.zeros((2, 6)), np.zeros((2, 3))
-    _foot_wrenches(sim, [sim.foot_bodies[s] for s in sides], [sim.sole_placements[s][0] for s in sides],
-                   [sim.sole_placements[s][1] for s in sides], out_w, out_p)
+    _FootWrenches(sim)(out_w, out_p)
     ref = sim.foot_contact_wrenches()
     for i, s in enumerate(sides):
         assert np.abs(out_w[i] - ref[s]).max() < 1e-9 * max(1.0, np.abs(ref[s]).max())

@@ -87,9 +87,9 @@ class ActuatorModel:
         """The torque the drives deliver for the command ``tau`` (nv − 6,) N·m at joint speeds ``qdot`` (nv − 6,)
         rad/s: clamped to ±τ_max, and while motoring (τ q̇ > 0) to τ_max (1 − |q̇|/ω₀)⁺ (module docstring)."""
         out = np.empty_like(tau) if out is None else out
-        cap = self.effort_limit * np.clip(1.0 - np.abs(qdot) / self.no_load_speed, 0.0, 1.0)
+        cap = self.effort_limit * np.minimum(np.maximum(1.0 - np.abs(qdot) / self.no_load_speed, 0.0), 1.0)
         cap = np.where(tau * qdot > 0, cap, self.effort_limit)
-        np.clip(tau, -cap, cap, out=out)
+        np.minimum(np.maximum(tau, -cap), cap, out=out)  # (numpy.clip's bounds, without its Python-level wrapper)
         return out
 
     def summary(self) -> dict:

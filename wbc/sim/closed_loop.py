@@ -22,6 +22,7 @@ The real-time factor is simulated time / wall time of the whole loop (controller
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from time import perf_counter
 
@@ -96,32 +97,46 @@ class SimRun(RunRecord):
     not_logged = ("wall_time", "fall_time", "outcome")  # wall time is measured, not computed; fall_time is in the summary
 
 
-def _foot_wrenches(sim, foot_bodies, sole_body, sole_off, out_wrench, out_pos) -> None:
-    """Ground-truth ground reaction on each foot and the sole positions, written into ``out_wrench`` (2, 6:
-    force N, moment N·m about the sole origin, world axes) and ``out_pos`` (2, 3).
+class _FootWrenches:
+    """Ground-truth ground reaction on each foot and the sole positions of ``sim``, for the log.
 
-    Uses ``mj_rnePostConstraint``'s ``cfrc_ext`` (the constraint/contact wrench on each body, about the
-    subtree CoM, world axes) summed over the bodies rigidly attached to each sole; without self-collision and
-    external forces on the feet this is exactly the sum of the foot–floor contact forces that
-    ``MujocoModel.foot_contact_wrenches`` computes contact by contact (checked equal to 1e-12 in the tests),
-    with one MuJoCo call instead of a loop over the contacts. Valid after ``mj_step`` for the state at the start
-    of that step.
+    Calling it writes ``out_wrench`` (2, 6: force N, moment N·m about the sole origin, world axes; left, right)
+    and ``out_pos`` (2, 3: sole origins, m, world). Uses ``mj_rnePostConstraint``'s ``cfrc_ext`` (the
+    constraint/contact wrench on each body, about the subtree CoM, world axes) summed over the bodies rigidly
+    attached to each sole; without self-collision and external forces on the feet this is exactly the sum of the
+    foot–floor contact forces that ``MujocoModel.foot_contact_wrenches`` computes contact by contact (checked
+    equal to 1e-12 in the tests), with one MuJoCo call instead of a loop over the contacts. Valid after
+    ``mj_step`` for the state at the start of that step.
     """
-    model, d = sim.model, sim.data
-    mujoco.mj_rnePostConstraint(model, d)
-    for i in range(2):
-        b = sole_body[i]
-        R = d.xmat[b].reshape(3, 3)
-        p = d.xpos[b] + R @ sole_off[i].translation
-        out_pos[i] = p
-        cf = d.cfrc_ext[foot_bodies[i]].sum(axis=0)  # (torque, force) about the subtree CoM
-        com = d.subtree_com[model.body_rootid[b]]
-        f = cf[3:6]
-        r = com - p
-        out_wrench[i, 0:3] = f
-        out_wrench[i, 3] = cf[0] + r[1] * f[2] - r[2] * f[1]  # τ_p = τ_com + (com − p) × f
-        out_wrench[i, 4] = cf[1] + r[2] * f[0] - r[0] * f[2]
-        out_wrench[i, 5] = cf[2] + r[0] * f[1] - r[1] * f[0]
+
+    def __init__(self, sim: MujocoModel):
+        sides = ("left", "right")
+        self.sim = sim
+        self.rows = np.concatenate([np.asarray(sim.foot_bodies[s], dtype=int) for s in sides])  # both feet's bodies
+        self.starts = np.array([0, len(sim.foot_bodies["left"])])  # where each foot's bodies start in ``rows``
+        self.sole_body = [int(sim.sole_placements[s][0]) for s in sides]
+        self.sole_offset = [sim.sole_placements[s][1].translation.tolist() for s in sides]  # in the body's frame
+        self.root = [int(sim.model.body_rootid[b]) for b in self.sole_body]  # subtree whose CoM cfrc_ext is about
+
+    def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
+        model, d = self.sim.model, self.sim.data
+        mujoco.mj_rnePostConstraint(model, d)
+        xmat, xpos, subtree_com = d.xmat, d.xpos, d.subtree_com
+        cf = np.add.reduceat(d.cfrc_ext[self.rows], self.starts).tolist()  # (torque, force) about the subtree CoM
+        for i in range(2):  # (scalar arithmetic: three-vectors)
+            b = self.sole_body[i]
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = xmat[b].tolist()
+            o0, o1, o2 = self.sole_offset[i]
+            x0, x1, x2 = xpos[b].tolist()
+            p0 = x0 + (r00 * o0 + r01 * o1 + r02 * o2)  # sole origin p = x_body + R_body o
+            p1 = x1 + (r10 * o0 + r11 * o1 + r12 * o2)
+            p2 = x2 + (r20 * o0 + r21 * o1 + r22 * o2)
+            c0, c1, c2 = subtree_com[self.root[i]].tolist()
+            t0, t1, t2, f0, f1, f2 = cf[i]
+            d0, d1, d2 = c0 - p0, c1 - p1, c2 - p2
+            out_pos[i] = (p0, p1, p2)
+            # τ_p = τ_com + (com − p) × f
+            out_wrench[i] = (f0, f1, f2, t0 + d1 * f2 - d2 * f1, t1 + d2 * f0 - d0 * f2, t2 + d0 * f1 - d1 * f0)
 
 
 def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float = 0.0, viewer=None,
@@ -176,9 +191,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     }
     est = {"q_est": np.empty((n, pm.nq)), "v_est": np.empty((n, pm.nv))} if state is not None else {}
     monitor = OutcomeMonitor(sim)
-    foot_bodies = [sim.foot_bodies[s] for s in ("left", "right")]
-    sole_body = np.array([sim.sole_placements[s][0] for s in ("left", "right")])
-    sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
+    foot_wrenches = _FootWrenches(sim)
     fell, stop_at = False, n
     sides = ("left", "right")
     k_end = n
@@ -209,7 +222,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         else:
             mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
-        if not np.all(np.isfinite(data.qpos)):
+        qpos = data.qpos
+        if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
         log["t"][k] = t
@@ -219,8 +233,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             est["q_est"][k] = qc
             est["v_est"][k] = vc
         log["tau"][k] = tau
-        pin.centerOfMass(pm, pdata, q, False)
-        log["com"][k] = pdata.com[0]
+        log["com"][k] = pin.centerOfMass(pm, pdata, q, False)
         log["com_ref"][k] = scenario.com_reference(t)
         if is_id:
             log["qp_forces"][k] = cmd.forces
@@ -229,7 +242,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             log["relaxed"][k] = cmd.relaxed
             log["path"][k] = str(cmd.path)
             log["contact_active"][k] = [controller.contacts[s].active for s in sides]
-        _foot_wrenches(sim, foot_bodies, sole_body, sole_off, log["sim_wrench"][k], log["sole_pos"][k])
+        foot_wrenches(log["sim_wrench"][k], log["sole_pos"][k])
         if f_ext is not None:
             log["ext_force"][k] = f_ext
         log["tick_time"][k] = t1 - t0

@@ -7,6 +7,7 @@ generalized forces both ways.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,8 @@ _QUAT_NORM_TOL = 1e-3
 
 def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
     """(3, 3) rotation matrix of a unit quaternion given as (x, y, z, w) (normalized first)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
+    quat = np.asarray(quat_xyzw, dtype=float).ravel()
+    x, y, z, w = (quat / math.sqrt(quat.dot(quat))).tolist()  # (the norm as numpy.linalg.norm computes it)
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -51,6 +53,17 @@ class StateMap:
     mj_qpos_cs: np.ndarray
     mj_qvel: np.ndarray
 
+    def __post_init__(self) -> None:
+        # gathers of the entries copied from MuJoCo in one take: q[i] = qpos[q_gather[i]], v[i] = qvel[v_gather[i]]
+        # (the continuous joints' cos/sin and v[0:3] are computed over their placeholders)
+        q_gather = np.zeros(self.nq, dtype=np.intp)
+        q_gather[0:7] = (0, 1, 2, 4, 5, 6, 3)
+        q_gather[self.pin_q] = self.mj_qpos
+        v_gather = np.arange(self.nv, dtype=np.intp)
+        v_gather[6:] = self.mj_qvel
+        object.__setattr__(self, "_q_gather", q_gather)
+        object.__setattr__(self, "_v_gather", v_gather)
+
     # -- configuration ---------------------------------------------------------------------------------------
     def base_rotation(self, q) -> np.ndarray:
         """(3, 3) world rotation of the base from a Pinocchio q (quaternion x, y, z, w at q[3:7])."""
@@ -76,15 +89,21 @@ class StateMap:
     def q_from_mj(self, qpos) -> np.ndarray:
         """MuJoCo qpos (nq_mj,) -> Pinocchio q (nq,)."""
         qpos = check_vector(qpos, self.nq_mj, "qpos")
-        q = np.empty(self.nq)
-        q[0:3] = qpos[0:3]
-        q[3:6] = qpos[4:7]
-        q[6] = qpos[3]
-        q[self.pin_q] = qpos[self.mj_qpos]
+        q = qpos[self._q_gather]
         if len(self.mj_qpos_cs):
             q[self.pin_q_cs[:, 0]] = np.cos(qpos[self.mj_qpos_cs])
             q[self.pin_q_cs[:, 1]] = np.sin(qpos[self.mj_qpos_cs])
         return q
+
+    def state_from_mj(self, qpos, qvel) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo (qpos (nq_mj,), qvel (nv,)) -> Pinocchio (q (nq,), v (nv,)): :meth:`q_from_mj` and
+        :meth:`v_from_mj` at that q, each input checked once.
+
+        Raises:
+            ConfigurationError: wrong shapes or NaN/inf. InvalidInputError: a base quaternion far from unit norm.
+        """
+        q = self.q_from_mj(qpos)
+        return q, self._v_from_mj(q, check_vector(qvel, self.nv, "qvel"))
 
     # -- velocity, acceleration, force ----------------------------------------------------------------------
     def v_to_mj(self, q, v) -> np.ndarray:
@@ -100,11 +119,12 @@ class StateMap:
     def v_from_mj(self, q, qvel) -> np.ndarray:
         """MuJoCo qvel (nv,) -> Pinocchio v (nv,) at Pinocchio configuration q: ``v = T(q)⁻¹ qvel``."""
         qvel = check_vector(qvel, self.nv, "qvel")
-        rot = self.base_rotation(check_vector(q, self.nq, "q"))
-        v = np.empty(self.nv)
-        v[0:3] = rot.T @ qvel[0:3]
-        v[3:6] = qvel[3:6]
-        v[6:] = qvel[self.mj_qvel]
+        return self._v_from_mj(check_vector(q, self.nq, "q"), qvel)
+
+    def _v_from_mj(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        """:meth:`v_from_mj` of checked (nq,) q and (nv,) qvel."""
+        v = qvel[self._v_gather]
+        v[0:3] = self.base_rotation(q).T @ qvel[0:3]
         return v
 
     def velocity_transform(self, q) -> np.ndarray:
@@ -136,8 +156,8 @@ class StateMap:
         return self.velocity_transform(q).T @ f_mj
 
     def _check_quat(self, quat: np.ndarray) -> np.ndarray:
-        n = float(np.linalg.norm(quat))
-        if not np.isfinite(n) or abs(n - 1.0) > _QUAT_NORM_TOL:
+        n = math.sqrt(quat.dot(quat))  # (the norm as numpy.linalg.norm computes it)
+        if not math.isfinite(n) or abs(n - 1.0) > _QUAT_NORM_TOL:
             raise InvalidInputError(
                 f"base quaternion q[3:7] (x, y, z, w) = {quat} has norm {n:.6g}; expected a unit quaternion"
             )

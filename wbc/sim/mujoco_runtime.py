@@ -106,8 +106,7 @@ class MujocoModel:
         """Current state in Pinocchio conventions: ``(q (nq,), v (nv,))``."""
         d = self.data if data is None else data
         sm = self.state_map
-        q = sm.q_from_mj(d.qpos[: sm.nq_mj])
-        return q, sm.v_from_mj(q, d.qvel[: sm.nv])
+        return sm.state_from_mj(d.qpos[: sm.nq_mj], d.qvel[: sm.nv])
 
     def get_acceleration(self, data: mujoco.MjData | None = None) -> np.ndarray:
         """(nv,) Pinocchio acceleration ``dv/dt`` from ``data.qacc`` (valid after ``mj_forward``/``mj_step``)."""

@@ -95,6 +95,10 @@ class OutcomeMonitor:
         self.is_hfield = np.zeros(model.ngeom + 1, dtype=bool)  # heightfield ground geoms (strike normal: terrain's)
         self.is_hfield[:model.ngeom] = self.is_ground[:model.ngeom] & (model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)
         self.terrain = getattr(sim, "terrain", None)
+        # the same lookups as Python lists, indexed by geom id (the per-tick contact pass reads them per contact)
+        self._ground_list = self.is_ground.tolist()
+        self._side_list = self.geom_side.tolist()
+        self._hfield_list = self.is_hfield.tolist()
         self.corners_local = np.asarray(robot.sole_corners_local(), dtype=float)  # (4, 3) sole frame
         self.sole_body = [sim.sole_placements[s][0] for s in ("left", "right")]
         self.sole_off = [sim.sole_placements[s][1] for s in ("left", "right")]
@@ -111,6 +115,7 @@ class OutcomeMonitor:
         self.touchdowns = {"left": 0, "right": 0}
         self._ref = np.full((2, 4, 2), np.nan)  # corner reference positions (xy) of the current support phase
         self._in_support = np.zeros(2, dtype=bool)
+        self._n_known = [0, 0]  # corners of the current support phase with a reference position
         self._off_ticks = np.zeros(2, dtype=int)
         self._first = True
         # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
@@ -132,50 +137,48 @@ class OutcomeMonitor:
         d = self.sim.data
         # -- joint speed ---------------------------------------------------------------------------------------
         ratio = np.abs(d.qvel[self.qvel_idx]) / self.vlim
-        over = ratio > 1.0
-        if over.any():
-            self.speed_exceedances += int(over.sum())
-        j = int(np.argmax(ratio))
-        if ratio[j] > self.max_speed_ratio:
-            self.max_speed_ratio, self.max_speed_joint = float(ratio[j]), self.joint_names[j]
+        j = int(ratio.argmax())
+        worst = ratio[j]
+        if not worst <= 1.0:  # some |q̇| above its limit (or NaN): count them
+            self.speed_exceedances += int(np.count_nonzero(ratio > 1.0))
+        if worst > self.max_speed_ratio:
+            self.max_speed_ratio, self.max_speed_joint = float(worst), self.joint_names[j]
         # -- tilt ----------------------------------------------------------------------------------------------
         tilted = []
+        xmat = d.xmat
         for i, key in enumerate(("pelvis", "torso")):
-            c = min(max(float(d.xmat[self.tilt_body_ids[i], 6:9] @ self.up_local[i]), -1.0), 1.0)  # e_zᵀ R u0
+            c = min(max(float(xmat[self.tilt_body_ids[i], 6:9] @ self.up_local[i]), -1.0), 1.0)  # e_zᵀ R u0
             deg = math.degrees(math.acos(c))
             if deg > self.max_tilt_deg[key]:
                 self.max_tilt_deg[key] = deg
             if c < self.cos_tilt:
                 tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
-        # -- contacts ------------------------------------------------------------------------------------------
+        # -- contacts: one pass sorts the ground contacts into foot contacts (per side) and non-foot geoms -------
         ncon = d.ncon
-        bad = ()
-        strike = ""
-        touching = np.zeros(2, dtype=bool)
-        pts = [None, None]
+        bad = []
+        feet = ([], [])  # contact indices of each side's foot–ground contacts
+        on_hfield = []  # foot–ground contacts on a heightfield
+        con = d.contact
         if ncon:
-            con = d.contact
-            g1 = con.geom1[:ncon]
-            g2 = con.geom2[:ncon]
-            other = np.where(self.is_ground[g1], g2, np.where(self.is_ground[g2], g1, -1))
-            bad = other[(other >= 0) & ~self.is_foot[other]]
-            side = np.where(other >= 0, self.geom_side[other], -1)
-            if not self.fell and (side >= 0).any():
-                strike = self._strike(con, ncon, side)
-            pos = None
-            for s in range(2):
-                on = side == s
-                if on.any():
-                    touching[s] = True
-                    # contact points matter until every corner of the support phase has one (a phase starts now
-                    # when the foot was not in support: _slide then forgets the corners)
-                    if not self._in_support[s] or np.isnan(self._ref[s, :, 0]).any():
-                        if pos is None:
-                            pos = con.pos[:ncon]
-                        pts[s] = pos[on]
-        self._slide(touching, pts)
+            ground, side_of, hfield = self._ground_list, self._side_list, self._hfield_list
+            for i, (g1, g2) in enumerate(zip(con.geom1[:ncon].tolist(), con.geom2[:ncon].tolist())):
+                if ground[g1]:
+                    g, other = g1, g2
+                elif ground[g2]:
+                    g, other = g2, g1
+                else:
+                    continue
+                s = side_of[other]
+                if s < 0:
+                    bad.append(other)
+                else:
+                    feet[s].append(i)
+                    if hfield[g]:
+                        on_hfield.append(i)
+        strike = self._strike(con, feet, on_hfield) if not self.fell and (feet[0] or feet[1]) else ""
+        self._slide(con, feet)
         if not self.fell:
-            if len(bad):
+            if bad:
                 names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
             elif strike:
@@ -189,53 +192,59 @@ class OutcomeMonitor:
         self._first = False
         return self.fell
 
-    def _strike(self, con, ncon: int, side: np.ndarray) -> str:
-        """The foot strike among this tick's foot–ground contacts (module docstring), described, or ""."""
+    def _strike(self, con, feet, on_hfield) -> str:
+        """The foot strike among this tick's foot–ground contacts ``feet`` (contact indices per side; those in
+        ``on_hfield`` on a heightfield) (module docstring), described, or ""."""
         d = self.sim.data
-        normals = con.frame[:ncon, 0:3]
-        hf = (self.is_hfield[con.geom1[:ncon]] | self.is_hfield[con.geom2[:ncon]]) & (side >= 0)
-        if hf.any() and self.terrain is not None:  # the facet's normal, not a prism side wall's (module docstring)
-            normals = normals.copy()
-            for i in np.flatnonzero(hf):
-                normals[i] = self.terrain.normal(float(con.pos[i, 0]), float(con.pos[i, 1]))
+        frame = con.frame
         for s in range(2):
-            idx = np.flatnonzero(side == s)
-            if not len(idx):
+            if not feet[s]:
                 continue
-            b = self.sole_body[s]
-            z_sole = d.xmat[b].reshape(3, 3) @ self._sole_normal_body[s]
-            cos = np.abs(normals[idx] @ z_sole)
-            for i in idx[cos < self.cos_strike]:
-                mujoco.mj_contactForce(self.sim.model, d, int(i), self._force6)
-                if self._force6[0] > STRIKE_MIN_FORCE:
-                    angle = math.degrees(math.acos(min(1.0, abs(float(normals[i] @ z_sole)))))
-                    x, y, z = (float(c) for c in con.pos[i])
-                    return (f"foot strike: the {('left', 'right')[s]} foot hit the ground along a normal {angle:.0f}° "
-                            f"from its sole's ({self._force6[0]:.0f} N at ({x:.3f}, {y:.3f}, {z:.3f}) m: a toe, heel "
-                            "or sole edge on a riser or nosing)")
+            z0, z1, z2 = (d.xmat[self.sole_body[s]].reshape(3, 3) @ self._sole_normal_body[s]).tolist()  # sole z
+            for i in feet[s]:
+                if on_hfield and i in on_hfield and self.terrain is not None:
+                    # the facet's normal, not a prism side wall's (module docstring)
+                    n0, n1, n2 = self.terrain.normal(float(con.pos[i, 0]), float(con.pos[i, 1])).tolist()
+                else:
+                    n0, n1, n2 = frame[i, 0:3].tolist()
+                cos = abs(n0 * z0 + n1 * z1 + n2 * z2)
+                if cos < self.cos_strike:
+                    mujoco.mj_contactForce(self.sim.model, d, i, self._force6)
+                    if self._force6[0] > STRIKE_MIN_FORCE:
+                        angle = math.degrees(math.acos(min(1.0, cos)))
+                        x, y, z = (float(c) for c in con.pos[i])
+                        return (f"foot strike: the {('left', 'right')[s]} foot hit the ground along a normal "
+                                f"{angle:.0f}° from its sole's ({self._force6[0]:.0f} N at ({x:.3f}, {y:.3f}, "
+                                f"{z:.3f}) m: a toe, heel or sole edge on a riser or nosing)")
         return ""
 
-    def _slide(self, touching, pts) -> None:
+    def _slide(self, con, feet) -> None:
         for s in range(2):
             key = ("left", "right")[s]
-            if touching[s]:
+            if feet[s]:
                 self._off_ticks[s] = 0
                 if not self._in_support[s]:
                     self._in_support[s] = True
                     self._ref[s] = np.nan
+                    self._n_known[s] = 0
                     if not self._first:
                         self.touchdowns[key] += 1
                 corners = self.corners_world(s)
-                if pts[s] is not None:  # (n, 3) contact points: each makes its nearest corner (≤ CORNER_MATCH) known
-                    diff = corners[None, :, :] - pts[s][:, None, :]
+                ref = self._ref[s]
+                if self._n_known[s] < len(ref):
+                    # (n, 3) contact points: each makes its nearest corner (≤ CORNER_MATCH) known
+                    pts = con.pos[feet[s]]
+                    diff = corners[None, :, :] - pts[:, None, :]
                     dist = np.sqrt(np.add.reduce(diff * diff, axis=2))
                     k = np.argmin(dist, axis=1)
                     near = k[dist[np.arange(len(k)), k] <= CORNER_MATCH]
-                    new = near[np.isnan(self._ref[s, near, 0])]
-                    self._ref[s, new] = corners[new, :2]
-                known = ~np.isnan(self._ref[s, :, 0])
-                if known.any():
-                    travel = float(np.linalg.norm(corners[known, :2] - self._ref[s, known], axis=1).max())
+                    new = near[np.isnan(ref[near, 0])]
+                    ref[new] = corners[new, :2]
+                    self._n_known[s] = int(np.count_nonzero(~np.isnan(ref[:, 0])))
+                if self._n_known[s]:
+                    # largest corner travel: the unknown corners (NaN) are skipped by fmax
+                    diff = corners[:, :2] - ref
+                    travel = math.sqrt(np.fmax.reduce(np.add.reduce(diff * diff, axis=1)))
                     if travel > self.max_landing_slide_m[key]:
                         self.max_landing_slide_m[key] = travel
             elif self._in_support[s]:
