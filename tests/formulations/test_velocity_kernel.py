@@ -171,3 +171,47 @@ def test_command_screen_passes_only_where_the_unscaled_box_test_does(seed):
         with np.errstate(invalid="ignore", over="ignore"):
             reference = bool(np.isfinite(v @ v) and np.maximum(lb - v, v - ub).max() <= tol)
         assert command_within_box(v, lb, ub, tol) == (reference and bool(np.all(np.abs(v) < 1e100)))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_row_screen_passes_only_where_the_scaled_row_test_does(seed):
+    """wbc.formulations.velocity_kernel.command_within_rows (the output guard's compiled screen of the inequality
+    rows) against the numpy test of the kinematic controller's output guard it stands for, written out here:
+    max(l − Cv, Cv − u) / max(1, |C||v|, |l|, |u|) ≤ tolerance (finite bounds in the scale). Whenever the screen
+    passes, that test passes; and it passes whenever the test holds with 1e-9 to spare — on rows with infinite sides,
+    NaN entries and commands putting one row just inside / just outside its bounds by 1e-7 (tolerance 1e-6)."""
+    from wbc.formulations.velocity_kernel import command_within_rows
+
+    rng = np.random.default_rng(950 + seed)
+    p, n, tol = 12, 30, 1e-6
+    for _ in range(60):
+        C = rng.normal(size=(p, n)) * rng.choice([1e-3, 1.0, 50.0], size=(p, 1))
+        v = rng.uniform(-0.5, 0.5, n)
+        cv = C @ v
+        l = cv - rng.uniform(0.0, 2.0, p)
+        u = cv + rng.uniform(0.0, 2.0, p)
+        l[rng.random(p) < 0.2] = -np.inf
+        u[rng.random(p) < 0.2] = np.inf
+        k = int(rng.integers(p))
+        scale = max(1.0, float(np.abs(C[k]) @ np.abs(v)))
+        case = int(rng.integers(6))
+        if case == 1:
+            u[k] = cv[k] - (tol - 1e-7) * max(scale, abs(cv[k]))  # inside the tolerance
+        elif case == 2:
+            l[k] = cv[k] + (tol + 1e-7) * max(scale, abs(cv[k]))  # outside it
+        elif case == 3:
+            v[int(rng.integers(n))] = np.nan
+        elif case == 4:
+            l[k] = np.nan
+        elif case == 5:
+            u[k] = cv[k]  # active row
+        with np.errstate(invalid="ignore", over="ignore"):
+            cv = C @ v
+            bound = np.maximum(np.abs(np.where(np.isfinite(l), l, 0.0)), np.abs(np.where(np.isfinite(u), u, 0.0)))
+            d = np.maximum(np.maximum(1.0, np.abs(C) @ np.abs(v)), bound)
+            over = np.maximum(l - cv, cv - u) / d
+            reference = bool(over.max() <= tol)
+            spare = bool(over.max() <= tol - 1e-9)
+        screen = command_within_rows(v, C, l, u, tol)
+        assert not screen or reference
+        assert screen or not spare

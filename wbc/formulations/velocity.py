@@ -163,8 +163,8 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import (command_within_box, contact_drift, ensure_compiled, form_qp,
-                                              kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
+from wbc.formulations.velocity_kernel import (command_within_box, command_within_rows, contact_drift, ensure_compiled,
+                                              form_qp, kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
                                               kinematic_solve_packed, translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
@@ -858,8 +858,9 @@ class KinematicController:
             return None  # the general path: diagnosis, relaxation, safe command
         # output guard: v finite and inside the box of the constraint objects and the inequality rows, to the
         # backend's tolerance (the assembled bounds: the solver reads them, never writes them)
-        if not (command_within_box(v, lb, ub, backend.tolerance) and C.shape[0] == 0) and self._command_fault(
-                v, lb, ub, C, l, u):  # the compiled screen passes only where _command_fault returns ''
+        tol = backend.tolerance
+        if not (command_within_box(v, lb, ub, tol) and (C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))) \
+                and self._command_fault(v, lb, ub, C, l, u):  # the compiled screens pass only where it returns ''
             return None
         drift = 0.0
         if self._contacts:

@@ -29,9 +29,9 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["command_within_box", "contact_drift", "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack",
-           "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_workspace",
-           "translation_gap", "warm_up", "weighted_rows"]
+__all__ = ["command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
+           "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
+           "kinematic_solve_packed", "kinematic_workspace", "translation_gap", "warm_up", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -511,6 +511,36 @@ def command_within_box(v, lb, ub, tolerance):
     return True
 
 
+@nb.njit(cache=True, nogil=True)
+def command_within_rows(v, C, l, u, tolerance):
+    """True when every inequality row i holds with a rounding margin: max(l_i − c_i, c_i − u_i) / d_i + 1e-12 ≤
+    tolerance, c_i = C_i v summed here, d_i = max(1, |C_i| |v|, |l_i|, |u_i|) (finite bounds only) — the scaled row
+    test of the kinematic controller's output guard, whose sums (another summation order) differ from these by far
+    less than the margin; False otherwise, including NaN or inf anywhere (the guard then runs its full test).
+
+    Args:
+        v (n,): command. C (p, n), l (p,), u (p,): rows and bounds (bounds may be ±inf). tolerance: largest scaled
+            excess accepted.
+    """
+    for i in range(C.shape[0]):
+        c = 0.0
+        s = 0.0
+        for j in range(C.shape[1]):
+            t = C[i, j] * v[j]
+            c += t
+            s += abs(t)
+        d = max(1.0, s)
+        lo, hi = l[i], u[i]
+        if abs(lo) < np.inf:
+            d = max(d, abs(lo))
+        if abs(hi) < np.inf:
+            d = max(d, abs(hi))
+        over = max(lo - c, c - hi)
+        if not (over / d + 1e-12 <= tolerance):
+            return False
+    return True
+
+
 @once_per_process
 def ensure_compiled() -> float:
     """Run :func:`warm_up` once per process (later calls return None at once)."""
@@ -536,5 +566,6 @@ def warm_up() -> float:
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
+    command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0
