@@ -18,6 +18,7 @@ every acceptance criterion of every part is met, 1 otherwise (each part says whi
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -33,7 +34,10 @@ from wbc.cli import main  # noqa: E402
 
 if __name__ == "__main__":
     here = Path(__file__).resolve().parent
-    out_dir = here / "results"
+    # the folder of every part's results: --out-dir when given (wbc bench reads the same option), else results/
+    out_parser = argparse.ArgumentParser(add_help=False)
+    out_parser.add_argument("--out-dir", type=Path, default=here / "results")
+    out_dir = out_parser.parse_known_args(sys.argv[1:])[0].out_dir.resolve()
     argv = ["bench", "--out-dir", str(out_dir), *sys.argv[1:]]
     code = main(argv)
     repeats = "1" if "--quick" in sys.argv[1:] else "3"
