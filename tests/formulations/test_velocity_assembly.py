@@ -14,6 +14,8 @@ humanoid15:
    (H ≥ ε I, so ‖v₁ − v₂‖∞ ≤ 1e-9 / √ε · max(1, ‖v‖_H): the max-norm is not a fair measure here, a soft level
    with no contact leaves directions weighted by the damping ε = 1e-6 alone, where two exact solvers differ by
    ≈ 1e-9 in v); the compiled answer also against an independent oracle, quadprog on the same arrays, to ``ORACLE``.
+   Each side is allowed the H-metric offset its own equality residual accounts for (``_equality_offset``): DAQP ends
+   some draws with a residual ≈ 1e-9 on the equalities, which alone moves it ≈ 3e-7 along ε-weighted directions.
 """
 
 from __future__ import annotations
@@ -120,6 +122,18 @@ def _distance(H, a, b) -> float:
     return float(np.sqrt(d @ H @ d))
 
 
+def _equality_offset(H, A, b, v) -> float:
+    """How far in the H-metric an answer's equality residual r = A v − b alone moves it: √(rᵀ (A H⁻¹ Aᵀ)⁺ r), the
+    H-norm of the smallest correction that removes r. DAQP ends some ill-conditioned draws (H = ε I on most
+    variables) with r ≈ 1e-9, which moves its answer ≈ 3e-7 along the ε-weighted directions; the comparison allows
+    each solver its own offset, so a solver that is exact on its own rows gets no slack from the other's."""
+    if A.shape[0] == 0:
+        return 0.0
+    r = A @ v - b
+    S = A @ np.linalg.solve(H, A.T)
+    return float(np.sqrt(max(0.0, r @ np.linalg.pinv(S) @ r)))
+
+
 def _quadprog(H, g, A, b, C, l, u, lb, ub):
     """quadprog on the QP, its inequalities and bounds as rows G v ≤ h, the infinite sides left out (large finite
     stand-ins for them spoil its answer by ≈ 1e-6)."""
@@ -139,10 +153,16 @@ _ILL_CONDITIONED_CONTACTS = {
     "contact_gain": 1.0, "offset": 0.0, "position_limit": False, "velocity_limit": False, "velocity_scale": 1.0,
     "dt": 0.015625}
 
+# a draw where DAQP ends with an equality residual of 8.7e-10 and 3.05e-7 from the compiled answer in the H-metric,
+# all of it explained by that residual (its H-metric projection onto the equalities lands 3.8e-12 from the compiled
+# answer; quadprog agrees with the compiled answer to 8.6e-15)
+_DAQP_EQUALITY_RESIDUAL = {**_ILL_CONDITIONED_CONTACTS, "spread": 0.015625, "frame_tasks": []}
+
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(draw=_draws)
 @example(draw=_ILL_CONDITIONED_CONTACTS)
+@example(draw=_DAQP_EQUALITY_RESIDUAL)
 def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
     robot = _robot(draw["robot"])
     dt = draw["dt"]
@@ -195,7 +215,9 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
         assert ref is not None
         assert _distance(H, v_compiled, ref) <= ORACLE * max(1.0, _distance(H, ref, 0.0))
         if v_daqp is not None:
-            assert _distance(H, v_compiled, v_daqp) <= AGREEMENT * max(1.0, _distance(H, v_daqp, 0.0))
+            H, A, b = seen[0], seen[2], seen[3]
+            slack = _equality_offset(H, A, b, v_compiled) + _equality_offset(H, A, b, v_daqp)
+            assert _distance(H, v_compiled, v_daqp) <= AGREEMENT * max(1.0, _distance(H, v_daqp, 0.0)) + slack
 
 
 @pytest.mark.parametrize("name", ["talos", "g1", "humanoid15"])
