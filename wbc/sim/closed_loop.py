@@ -229,8 +229,17 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     monitor = OutcomeMonitor(sim)
     foot_wrenches = _FootWrenches(sim)
     fell, stop_at = False, n
-    sides = ("left", "right")
     k_end = n
+    # (per run, not per tick: what the scenario reads from the sensors, and the log's arrays)
+    give_zmp = state is not None and hasattr(scenario, "measured_zmp")
+    give_normal_force = state is not None and hasattr(scenario, "measured_normal_force")
+    give_wrench = state is not None and hasattr(scenario, "measured_wrench")
+    log_t, log_q, log_v, log_tau, log_com, log_com_ref = (log[key] for key in ("t", "q", "v", "tau", "com", "com_ref"))
+    log_forces, log_residual, log_ok, log_relaxed, log_path, log_active = (
+        log[key] for key in ("qp_forces", "residual", "ok", "relaxed", "path", "contact_active"))
+    log_wrench, log_sole, log_ext, log_tick, log_step = (
+        log[key] for key in ("sim_wrench", "sole_pos", "ext_force", "tick_time", "step_time"))
+    q_est, v_est = (est["q_est"], est["v_est"]) if state is not None else (None, None)
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
@@ -238,11 +247,11 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
         q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
-        if state is not None and hasattr(scenario, "measured_zmp"):
+        if give_zmp:
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
-        if state is not None and hasattr(scenario, "measured_normal_force"):
+        if give_normal_force:
             scenario.measured_normal_force = state.measured_normal_force()  # touch-down from the F/T sensors
-        if state is not None and hasattr(scenario, "measured_wrench"):
+        if give_wrench:
             scenario.measured_wrench = state.estimator.wrench  # (2, 6) F/T wrenches at the soles, sole axes
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
@@ -262,27 +271,29 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
-        log["t"][k] = t
-        log["q"][k] = q
-        log["v"][k] = v
+        log_t[k] = t
+        log_q[k] = q
+        log_v[k] = v
         if state is not None:
-            est["q_est"][k] = qc
-            est["v_est"][k] = vc
-        log["tau"][k] = tau
-        log["com"][k] = pin.centerOfMass(pm, pdata, q, False)
-        log["com_ref"][k] = scenario.com_reference(t)
+            q_est[k] = qc
+            v_est[k] = vc
+        log_tau[k] = tau
+        log_com[k] = pin.centerOfMass(pm, pdata, q, False)
+        log_com_ref[k] = scenario.com_reference(t)
         if is_id:
-            log["qp_forces"][k] = cmd.forces
-            log["residual"][k] = cmd.dynamics_residual
-            log["ok"][k] = cmd.ok
-            log["relaxed"][k] = cmd.relaxed
-            log["path"][k] = str(cmd.path)
-            log["contact_active"][k] = [controller.contacts[s].active for s in sides]
-        foot_wrenches(log["sim_wrench"][k], log["sole_pos"][k])
+            log_forces[k] = cmd.forces
+            log_residual[k] = cmd.dynamics_residual
+            log_ok[k] = cmd.ok
+            log_relaxed[k] = cmd.relaxed
+            log_path[k] = str(cmd.path)
+            contacts = controller.contacts
+            log_active[k, 0] = contacts["left"].active
+            log_active[k, 1] = contacts["right"].active
+        foot_wrenches(log_wrench[k], log_sole[k])
         if f_ext is not None:
-            log["ext_force"][k] = f_ext
-        log["tick_time"][k] = t1 - t0
-        log["step_time"][k] = t2 - t1
+            log_ext[k] = f_ext
+        log_tick[k] = t1 - t0
+        log_step[k] = t2 - t1
         # -- outcome (fall, joint speed, landing slide) of the new state ------------------------------------
         if monitor.update(t + dt) and not fell:
             fell = True
