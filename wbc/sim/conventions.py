@@ -1,8 +1,8 @@
 """State conversion between Pinocchio (free-flyer) and MuJoCo (free joint) vectors.
 
 Numpy (the per-tick MuJoCo → Pinocchio state conversion: one compiled kernel); the conventions themselves are
-documented once, in :mod:`wbc.sim.mujoco_model`. A :class:`StateMap` holds the index maps (joints matched by name) and converts configurations, velocities, accelerations and
-generalized forces both ways.
+documented once, in :mod:`wbc.sim.mujoco_model`. A :class:`StateMap` holds the index maps (joints matched by name)
+and converts configurations, velocities, accelerations and generalized forces both ways.
 """
 
 from __future__ import annotations
