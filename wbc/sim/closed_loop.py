@@ -137,10 +137,10 @@ class _FootWrenches:
 @nb.njit(cache=True)
 def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, rows, ends, sole_body, sole_offset, root, out_wrench,
                         out_pos):
-    """:class:`_FootWrenches`' arithmetic after ``mj_rnePostConstraint``: per side i (bodies ``rows[ends[i-1]:ends[i]]``,
-    sole on body ``sole_body[i]`` at ``sole_offset[i]`` in its frame, ``cfrc_ext`` about the CoM of the subtree of
-    ``root[i]``), the summed (torque, force) moved to the sole origin → ``out_wrench[i]`` (force, moment), the sole
-    origin → ``out_pos[i]``."""
+    """:class:`_FootWrenches`' arithmetic after ``mj_rnePostConstraint``: per side i (bodies
+    ``rows[ends[i-1]:ends[i]]``, sole on body ``sole_body[i]`` at ``sole_offset[i]`` in its frame, ``cfrc_ext`` about
+    the CoM of the subtree of ``root[i]``), the summed (torque, force) moved to the sole origin → ``out_wrench[i]``
+    (force, moment), the sole origin → ``out_pos[i]``."""
     start = 0
     for i in range(2):
         t0 = t1 = t2 = f0 = f1 = f2 = 0.0
@@ -171,8 +171,8 @@ def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, rows, ends, sole_body
 def _warm_up() -> None:
     """Load :func:`_foot_wrench_kernel` (on-disk cache) once per process."""
     i2 = np.zeros(2, dtype=np.int64)
-    _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)), i2, np.ones(2, np.int64),
-                        i2, np.zeros((2, 3)), i2, np.zeros((2, 6)), np.zeros((2, 3)))
+    _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)), i2,
+                        np.ones(2, np.int64), i2, np.zeros((2, 3)), i2, np.zeros((2, 6)), np.zeros((2, 3)))
 
 
 def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float = 0.0, viewer=None,
