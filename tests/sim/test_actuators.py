@@ -129,3 +129,29 @@ def test_srdf_rotor_data_gaps_take_the_robot_file_armature():
     arm, source = nominal_armature(robot)
     np.testing.assert_allclose(arm, np.where(srdf == 0, 0.02, srdf))
     assert "robot file" in source
+
+
+def test_set_torques_writes_the_envelope_of_the_numpy_reference(talos):
+    """MuJoCo's ctrl after set_torques with a drive equals the drive envelope computed here with numpy (clamp to
+    ±τ_max, motoring torque capped by τ_max (1 − |q̇|/ω₀)⁺), bit for bit, NaN speeds included; bad torques still
+    raise the typed error."""
+    from wbc.exceptions import ConfigurationError
+
+    sim = build_mujoco_model(talos)
+    act = actuator_model(talos, "realistic")
+    apply_actuators(sim, act)
+    rng = np.random.default_rng(3)
+    n, d = talos.model.nv - 6, sim.data
+    for k in range(200):
+        tau = rng.normal(size=n) * act.effort_limit * 1.5
+        d.qvel[:] = rng.normal(size=d.qvel.size) * 8.0
+        if k % 5 == 0:
+            d.qvel[rng.integers(0, d.qvel.size)] = np.nan
+        sim.set_torques(tau)
+        qd = np.array(d.qvel)[sim.state_map.mj_qvel]
+        cap = np.where(tau * qd > 0, act.effort_limit * np.clip(1.0 - np.abs(qd) / act.no_load_speed, 0.0, 1.0),
+                       act.effort_limit)
+        np.testing.assert_array_equal(np.array(d.ctrl)[sim.actuator_ids], np.minimum(np.maximum(tau, -cap), cap))
+    for bad in (np.full(n, np.nan), np.zeros(n - 1), [0.0] * (n + 1)):
+        with pytest.raises(ConfigurationError):
+            sim.set_torques(bad)

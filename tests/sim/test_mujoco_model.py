@@ -119,6 +119,10 @@ def test_state_from_mj_is_q_from_mj_then_v_from_mj(sim):
         sm.state_from_mj(qpos, np.full(sm.nv, np.nan))
     with pytest.raises(ConfigurationError):
         sm.state_from_mj(qpos[:-1], qvel)
+    bad = qpos.copy()
+    bad[3] *= 1.01  # base quaternion 1 % off unit norm
+    with pytest.raises(InvalidInputError):
+        sm.state_from_mj(bad, qvel)
 
 
 def test_bias_forces_and_forward_dynamics(sim):

@@ -221,3 +221,53 @@ def _pressing_foot_contacts(sim, max_normal_z):
             if abs(c.frame[2]) < max_normal_z and f6[0] > 20.0:
                 hits.append(c)
     return hits
+
+
+def test_compiled_tick_matches_a_numpy_reference_on_random_states(talos_sim):
+    """Every tick's numbers of OutcomeMonitor.update (worst joint speed ratio and its joint, exceedances, tilts,
+    landing slide of the corners) equal a plain numpy reference written here, on random states with both feet
+    pressed into the floor and random joint speeds (some above the limits): exactly for the speeds and the counts,
+    to 1e-12 m for the slide (the corner placement's products may be summed in another order), 1e-6° for the tilts."""
+    sim, robot = talos_sim, talos_sim.robot
+    m = robot.model
+    rng = np.random.default_rng(7)
+    mujoco.mj_resetData(sim.model, sim.data)
+    q = robot.q_ref.copy()
+    q[2] -= 0.0005  # all 8 sole corners in contact
+    sim.set_state(q)
+    monitor = OutcomeMonitor(sim)
+    d = sim.data
+    idx = [m.joints[j].idx_v for j in range(2, m.njoints)]
+    vlim = np.array([m.velocityLimit[i] for i in idx])
+    ups = [np.array(d.xmat[b]).reshape(3, 3)[2] for b in monitor.tilt_body_ids]
+    start = [None, None]  # the reference's corner positions at the start of the support phase (xy)
+    exceed, worst_seen, slide = 0, 0.0, [0.0, 0.0]
+    tilt_max = {"pelvis": 0.0, "torso": 0.0}
+    for k in range(40):
+        qk = q.copy()
+        qk[0:2] += 1e-4 * k * np.array([1.0, -0.5])  # the robot slides: the corners travel
+        v = np.zeros(m.nv)
+        v[6:] = rng.uniform(-1.3, 1.3, m.nv - 6) * vlim
+        sim.set_state(qk, v)
+        monitor.update(0.002 * k)
+        # -- reference
+        ratio = np.abs(v[6:]) / vlim
+        exceed += int(np.sum(ratio > 1.0))
+        if ratio.max() > worst_seen:
+            worst_seen = ratio.max()
+            assert monitor.max_speed_joint == m.names[2 + int(np.argmax(ratio))]
+        assert monitor.speed_exceedances == exceed and monitor.max_speed_ratio == worst_seen
+        for key, b, up in zip(("pelvis", "torso"), monitor.tilt_body_ids, ups):
+            tilt = math.degrees(math.acos(np.clip(np.array(d.xmat[b]).reshape(3, 3)[2] @ up, -1, 1)))
+            tilt_max[key] = max(tilt_max[key], tilt)
+            # (acos near 1 turns a last-bit difference of the cosine into 1e-8 rad)
+            assert monitor.max_tilt_deg[key] == pytest.approx(tilt_max[key], abs=1e-6)
+        for s, side in enumerate(("left", "right")):
+            bid, off = sim.sole_placements[side]
+            X = pin.SE3(np.array(d.xmat[bid]).reshape(3, 3), np.array(d.xpos[bid])) * off
+            corners = np.array([X.act(c) for c in robot.sole_corners_local()])
+            if start[s] is None:
+                start[s] = corners[:, :2].copy()
+            slide[s] = max(slide[s], float(np.max(np.linalg.norm(corners[:, :2] - start[s], axis=1))))
+            assert monitor.max_landing_slide_m[side] == pytest.approx(slide[s], rel=1e-12, abs=1e-12)
+    assert exceed > 0 and slide[0] > 1e-3

@@ -29,10 +29,13 @@ The controller's compensation of these effects is :mod:`wbc.dynamics.actuator_co
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
@@ -66,6 +69,42 @@ ROTOR_ARMATURE = {
 }
 
 
+@nb.njit(cache=True)
+def _drive_kernel(tau, qvel, qvel_idx, effort_limit, no_load_speed, ctrl, ctrl_idx):
+    """``ctrl[ctrl_idx] =`` :meth:`ActuatorModel.available_torque` ``(tau, qvel[qvel_idx])``, the same arithmetic
+    (numpy's NaN-propagating minimum/maximum). Returns False, writing nothing, when an entry of ``tau`` is not
+    finite."""
+    n = tau.size
+    for i in range(n):
+        if not math.isfinite(tau[i]):
+            return False
+    for i in range(n):
+        qd, t, lim = qvel[qvel_idx[i]], tau[i], effort_limit[i]
+        if t * qd > 0:
+            f = 1.0 - abs(qd) / no_load_speed[i]
+            f = f if (f >= 0.0 or f != f) else 0.0  # numpy.maximum(f, 0)
+            f = f if (f <= 1.0 or f != f) else 1.0  # numpy.minimum(f, 1)
+            cap = lim * f
+        else:
+            cap = lim
+        lo = -cap
+        x = t if (t >= lo or t != t) else lo  # numpy.maximum(tau, -cap): NaN propagates
+        if lo != lo:
+            x = lo
+        y = x if (x <= cap or x != x) else cap  # numpy.minimum(x, cap)
+        if cap != cap:
+            y = cap
+        ctrl[ctrl_idx[i]] = y
+    return True
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_drive_kernel` (on-disk cache) once per process."""
+    idx = np.zeros(1, dtype=np.intp)
+    _drive_kernel(np.zeros(1), np.zeros(1), idx, np.ones(1), np.ones(1), np.zeros(1), idx)
+
+
 @dataclass
 class ActuatorModel:
     """Per-joint drive parameters, (nv − 6,) arrays in Pinocchio's actuated order (module docstring).
@@ -91,6 +130,23 @@ class ActuatorModel:
         cap = np.where(tau * qdot > 0, cap, self.effort_limit)
         np.minimum(np.maximum(tau, -cap), cap, out=out)  # (numpy.clip's bounds, without its Python-level wrapper)
         return out
+
+    def write_available_torque(self, tau: np.ndarray, qvel: np.ndarray, qvel_idx: np.ndarray, ctrl: np.ndarray,
+                               ctrl_idx: np.ndarray) -> bool:
+        """``ctrl[ctrl_idx] = available_torque(tau, qvel[qvel_idx])`` in one compiled pass: ``tau`` (nv − 6,) float
+        array (N·m), ``qvel`` and ``ctrl`` float arrays (e.g. MuJoCo's ``qvel`` and ``ctrl``), the index arrays
+        (nv − 6,) ints. Returns False, writing nothing, when an entry of ``tau`` is not finite (the caller's checked
+        path raises).
+
+        Raises:
+            InvalidInputError: ``tau`` not a float array of this model's size.
+        """
+        if not (type(tau) is np.ndarray and tau.dtype == float and tau.shape == self.effort_limit.shape):
+            raise InvalidInputError(f"tau must be a float array of shape {self.effort_limit.shape}, got {tau!r}")
+        return _drive_kernel(tau, qvel, qvel_idx, self.effort_limit, self.no_load_speed, ctrl, ctrl_idx)
+
+    def __post_init__(self) -> None:
+        _warm_up()
 
     def summary(self) -> dict:
         """Ranges of the parameters (for run summaries)."""

@@ -27,9 +27,11 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import mujoco
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.scenarios.framework import RunRecord
@@ -117,26 +119,60 @@ class _FootWrenches:
         self.sole_body = [int(sim.sole_placements[s][0]) for s in sides]
         self.sole_offset = [sim.sole_placements[s][1].translation.tolist() for s in sides]  # in the body's frame
         self.root = [int(sim.model.body_rootid[b]) for b in self.sole_body]  # subtree whose CoM cfrc_ext is about
+        # the same as arrays for the kernel (``ends``: where each foot's bodies end in ``rows``)
+        self.rows = self.rows.astype(np.int64)
+        self.ends = np.array([len(sim.foot_bodies["left"]), len(self.rows)], dtype=np.int64)
+        self.sole_body_arr = np.array(self.sole_body, dtype=np.int64)
+        self.sole_offset_arr = np.array(self.sole_offset, dtype=float)
+        self.root_arr = np.array(self.root, dtype=np.int64)
+        _warm_up()
 
     def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
         model, d = self.sim.model, self.sim.data
         mujoco.mj_rnePostConstraint(model, d)
-        xmat, xpos, subtree_com = d.xmat, d.xpos, d.subtree_com
-        cf = np.add.reduceat(d.cfrc_ext[self.rows], self.starts).tolist()  # (torque, force) about the subtree CoM
-        for i in range(2):  # (scalar arithmetic: three-vectors)
-            b = self.sole_body[i]
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = xmat[b].tolist()
-            o0, o1, o2 = self.sole_offset[i]
-            x0, x1, x2 = xpos[b].tolist()
-            p0 = x0 + (r00 * o0 + r01 * o1 + r02 * o2)  # sole origin p = x_body + R_body o
-            p1 = x1 + (r10 * o0 + r11 * o1 + r12 * o2)
-            p2 = x2 + (r20 * o0 + r21 * o1 + r22 * o2)
-            c0, c1, c2 = subtree_com[self.root[i]].tolist()
-            t0, t1, t2, f0, f1, f2 = cf[i]
-            d0, d1, d2 = c0 - p0, c1 - p1, c2 - p2
-            out_pos[i] = (p0, p1, p2)
-            # τ_p = τ_com + (com − p) × f
-            out_wrench[i] = (f0, f1, f2, t0 + d1 * f2 - d2 * f1, t1 + d2 * f0 - d0 * f2, t2 + d0 * f1 - d1 * f0)
+        _foot_wrench_kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.rows, self.ends, self.sole_body_arr,
+                            self.sole_offset_arr, self.root_arr, out_wrench, out_pos)
+
+
+@nb.njit(cache=True)
+def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, rows, ends, sole_body, sole_offset, root, out_wrench,
+                        out_pos):
+    """:class:`_FootWrenches`' arithmetic after ``mj_rnePostConstraint``: per side i (bodies
+    ``rows[ends[i-1]:ends[i]]``, sole on body ``sole_body[i]`` at ``sole_offset[i]`` in its frame, ``cfrc_ext`` about
+    the CoM of the subtree of ``root[i]``), the summed (torque, force) moved to the sole origin → ``out_wrench[i]``
+    (force, moment), the sole origin → ``out_pos[i]``."""
+    start = 0
+    for i in range(2):
+        t0 = t1 = t2 = f0 = f1 = f2 = 0.0
+        for r in range(start, ends[i]):  # numpy.add.reduceat: the rows summed in order
+            row = cfrc_ext[rows[r]]
+            if r == start:
+                t0, t1, t2, f0, f1, f2 = row[0], row[1], row[2], row[3], row[4], row[5]
+            else:
+                t0, t1, t2, f0, f1, f2 = t0 + row[0], t1 + row[1], t2 + row[2], f0 + row[3], f1 + row[4], f2 + row[5]
+        start = ends[i]
+        b = sole_body[i]
+        o0, o1, o2 = sole_offset[i, 0], sole_offset[i, 1], sole_offset[i, 2]
+        m = xmat[b]
+        p0 = xpos[b, 0] + (m[0] * o0 + m[1] * o1 + m[2] * o2)  # sole origin p = x_body + R_body o
+        p1 = xpos[b, 1] + (m[3] * o0 + m[4] * o1 + m[5] * o2)
+        p2 = xpos[b, 2] + (m[6] * o0 + m[7] * o1 + m[8] * o2)
+        c = subtree_com[root[i]]
+        d0, d1, d2 = c[0] - p0, c[1] - p1, c[2] - p2
+        out_pos[i, 0], out_pos[i, 1], out_pos[i, 2] = p0, p1, p2
+        # τ_p = τ_com + (com − p) × f
+        out_wrench[i, 0], out_wrench[i, 1], out_wrench[i, 2] = f0, f1, f2
+        out_wrench[i, 3] = t0 + d1 * f2 - d2 * f1
+        out_wrench[i, 4] = t1 + d2 * f0 - d0 * f2
+        out_wrench[i, 5] = t2 + d0 * f1 - d1 * f0
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_foot_wrench_kernel` (on-disk cache) once per process."""
+    i2 = np.zeros(2, dtype=np.int64)
+    _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)), i2,
+                        np.ones(2, np.int64), i2, np.zeros((2, 3)), i2, np.zeros((2, 6)), np.zeros((2, 3)))
 
 
 def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float = 0.0, viewer=None,
@@ -193,8 +229,17 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     monitor = OutcomeMonitor(sim)
     foot_wrenches = _FootWrenches(sim)
     fell, stop_at = False, n
-    sides = ("left", "right")
     k_end = n
+    # (per run, not per tick: what the scenario reads from the sensors, and the log's arrays)
+    give_zmp = state is not None and hasattr(scenario, "measured_zmp")
+    give_normal_force = state is not None and hasattr(scenario, "measured_normal_force")
+    give_wrench = state is not None and hasattr(scenario, "measured_wrench")
+    log_t, log_q, log_v, log_tau, log_com, log_com_ref = (log[key] for key in ("t", "q", "v", "tau", "com", "com_ref"))
+    log_forces, log_residual, log_ok, log_relaxed, log_path, log_active = (
+        log[key] for key in ("qp_forces", "residual", "ok", "relaxed", "path", "contact_active"))
+    log_wrench, log_sole, log_ext, log_tick, log_step = (
+        log[key] for key in ("sim_wrench", "sole_pos", "ext_force", "tick_time", "step_time"))
+    q_est, v_est = (est["q_est"], est["v_est"]) if state is not None else (None, None)
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
@@ -202,11 +247,11 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
         q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
-        if state is not None and hasattr(scenario, "measured_zmp"):
+        if give_zmp:
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
-        if state is not None and hasattr(scenario, "measured_normal_force"):
+        if give_normal_force:
             scenario.measured_normal_force = state.measured_normal_force()  # touch-down from the F/T sensors
-        if state is not None and hasattr(scenario, "measured_wrench"):
+        if give_wrench:
             scenario.measured_wrench = state.estimator.wrench  # (2, 6) F/T wrenches at the soles, sole axes
         f_ext = scenario.update(t, controller, sim, qc, vc)
         t0 = perf_counter()
@@ -226,27 +271,29 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
-        log["t"][k] = t
-        log["q"][k] = q
-        log["v"][k] = v
+        log_t[k] = t
+        log_q[k] = q
+        log_v[k] = v
         if state is not None:
-            est["q_est"][k] = qc
-            est["v_est"][k] = vc
-        log["tau"][k] = tau
-        log["com"][k] = pin.centerOfMass(pm, pdata, q, False)
-        log["com_ref"][k] = scenario.com_reference(t)
+            q_est[k] = qc
+            v_est[k] = vc
+        log_tau[k] = tau
+        log_com[k] = pin.centerOfMass(pm, pdata, q, False)
+        log_com_ref[k] = scenario.com_reference(t)
         if is_id:
-            log["qp_forces"][k] = cmd.forces
-            log["residual"][k] = cmd.dynamics_residual
-            log["ok"][k] = cmd.ok
-            log["relaxed"][k] = cmd.relaxed
-            log["path"][k] = str(cmd.path)
-            log["contact_active"][k] = [controller.contacts[s].active for s in sides]
-        foot_wrenches(log["sim_wrench"][k], log["sole_pos"][k])
+            log_forces[k] = cmd.forces
+            log_residual[k] = cmd.dynamics_residual
+            log_ok[k] = cmd.ok
+            log_relaxed[k] = cmd.relaxed
+            log_path[k] = str(cmd.path)
+            contacts = controller.contacts
+            log_active[k, 0] = contacts["left"].active
+            log_active[k, 1] = contacts["right"].active
+        foot_wrenches(log_wrench[k], log_sole[k])
         if f_ext is not None:
-            log["ext_force"][k] = f_ext
-        log["tick_time"][k] = t1 - t0
-        log["step_time"][k] = t2 - t1
+            log_ext[k] = f_ext
+        log_tick[k] = t1 - t0
+        log_step[k] = t2 - t1
         # -- outcome (fall, joint speed, landing slide) of the new state ------------------------------------
         if monitor.update(t + dt) and not fell:
             fell = True

@@ -1,8 +1,8 @@
 """State conversion between Pinocchio (free-flyer) and MuJoCo (free joint) vectors.
 
-Pure numpy; the conventions themselves are documented once, in :mod:`wbc.sim.mujoco_model`. A :class:`StateMap`
-holds the index maps (joints matched by name) and converts configurations, velocities, accelerations and
-generalized forces both ways.
+Numpy (the per-tick MuJoCo → Pinocchio state conversion: one compiled kernel); the conventions themselves are
+documented once, in :mod:`wbc.sim.mujoco_model`. A :class:`StateMap` holds the index maps (joints matched by name)
+and converts configurations, velocities, accelerations and generalized forces both ways.
 """
 
 from __future__ import annotations
@@ -10,8 +10,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_vector
 
@@ -29,6 +31,48 @@ def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
     ])
+
+
+@nb.njit(cache=True)
+def _state_kernel(qpos, qvel, q_gather, v_gather, tol):
+    """:meth:`StateMap.state_from_mj` of a model without continuous joints, the same arithmetic: ``(q, v, status)``,
+    status 0 done, 1 an entry of ``qpos``/``qvel`` not finite or a base quaternion not within ``tol`` of unit norm
+    (q, v then unset: the checked path raises)."""
+    nq, nv = q_gather.size, v_gather.size
+    q, v = np.empty(nq), np.empty(nv)
+    for i in range(qpos.size):
+        if not math.isfinite(qpos[i]):
+            return q, v, 1
+    for i in range(nv):
+        if not math.isfinite(qvel[i]):
+            return q, v, 1
+    for i in range(nq):
+        q[i] = qpos[q_gather[i]]
+    for i in range(nv):
+        v[i] = qvel[v_gather[i]]
+    x, y, z, w = q[3], q[4], q[5], q[6]
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if not math.isfinite(n) or abs(n - 1.0) > tol:
+        return q, v, 1
+    x, y, z, w = x / n, y / n, z / n, w / n  # _check_quat
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n  # quat_xyzw_to_matrix
+    r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    r10, r11, r12 = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    r20, r21, r22 = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    a0, a1, a2 = qvel[0], qvel[1], qvel[2]
+    v[0] = r00 * a0 + r10 * a1 + r20 * a2  # Rᵀ qvel[0:3]
+    v[1] = r01 * a0 + r11 * a1 + r21 * a2
+    v[2] = r02 * a0 + r12 * a1 + r22 * a2
+    return q, v, 0
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_state_kernel` (on-disk cache) once per process."""
+    q_gather = np.array([0, 1, 2, 4, 5, 6, 3], dtype=np.intp)
+    qpos = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    _state_kernel(qpos, np.zeros(6), q_gather, np.arange(6, dtype=np.intp), _QUAT_NORM_TOL)
 
 
 @dataclass(frozen=True)
@@ -63,6 +107,7 @@ class StateMap:
         v_gather[6:] = self.mj_qvel
         object.__setattr__(self, "_q_gather", q_gather)
         object.__setattr__(self, "_v_gather", v_gather)
+        _warm_up()
 
     # -- configuration ---------------------------------------------------------------------------------------
     def base_rotation(self, q) -> np.ndarray:
@@ -102,7 +147,12 @@ class StateMap:
         Raises:
             ConfigurationError: wrong shapes or NaN/inf. InvalidInputError: a base quaternion far from unit norm.
         """
-        q = self.q_from_mj(qpos)
+        if not len(self.mj_qpos_cs) and type(qpos) is np.ndarray and type(qvel) is np.ndarray \
+                and qpos.shape == (self.nq_mj,) and qvel.shape == (self.nv,) and qpos.dtype == qvel.dtype == float:
+            q, v, status = _state_kernel(qpos, qvel, self._q_gather, self._v_gather, _QUAT_NORM_TOL)
+            if status == 0:
+                return q, v
+        q = self.q_from_mj(qpos)  # (the checked path: raises on bad input)
         return q, self._v_from_mj(q, check_vector(qvel, self.nv, "qvel"))
 
     # -- velocity, acceleration, force ----------------------------------------------------------------------

@@ -124,7 +124,12 @@ class MujocoModel:
             InvalidInputError: wrong shape or NaN/inf.
         """
         d = self.data if data is None else data
-        tau = check_vector(tau, self.state_map.nv - 6, "tau")
+        drive = self.drive
+        if drive is not None and type(tau) is np.ndarray and tau.dtype == float \
+                and tau.shape == (self.state_map.nv - 6,) and hasattr(drive, "write_available_torque") \
+                and drive.write_available_torque(tau, d.qvel, self.state_map.mj_qvel, d.ctrl, self.actuator_ids):
+            return
+        tau = check_vector(tau, self.state_map.nv - 6, "tau")  # (the checked path: raises on bad input)
         if self.drive is not None:
             tau = self.drive.available_torque(tau, d.qvel[self.state_map.mj_qvel])
         d.ctrl[self.actuator_ids] = tau

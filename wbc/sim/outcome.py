@@ -37,7 +37,10 @@ from __future__ import annotations
 import math
 
 import mujoco
+import numba as nb
 import numpy as np
+
+from wbc.compiled import once_per_process
 
 __all__ = ["OutcomeMonitor", "FALL_HEIGHT_DROP", "FALL_TILT_DEG", "STRIKE_DEG", "STRIKE_MIN_FORCE", "CORNER_MATCH",
            "LIFTOFF_TICKS"]
@@ -48,6 +51,146 @@ STRIKE_DEG = 45.0  #: deg, a foot contact normal this far from the sole's normal
 STRIKE_MIN_FORCE = 20.0  #: N, normal force below which such a contact is a graze, not a strike
 CORNER_MATCH = 0.02  #: m, a contact point this close to a sole corner makes that corner a contact point
 LIFTOFF_TICKS = 10  #: consecutive ticks without foot contact that end a support phase
+
+
+@nb.njit(cache=True)
+def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos, frame, is_ground, geom_side,
+                 is_hfield, sole_body, corners_body, sole_normal_body, cos_strike, ref, state):
+    """One tick of :meth:`OutcomeMonitor.update`'s arithmetic (the checks' numbers; the verdicts stay in Python).
+
+    ``geom`` (ncon, 2), ``pos`` (ncon, 3), ``frame`` (ncon, 9): MuJoCo's contacts. ``ref`` (2, 4, 2) and ``state``
+    [n_known (2), in_support (2), off_ticks (2)] (the landing slide's per-side state) are updated in place.
+    Returns ``(f, i)``: f = [worst |q̇|/q̇_max, cos tilt pelvis, cos tilt torso, slide travel left, right (NaN: none)];
+    i = [worst joint, exceedances, n bad, on a heightfield, n strike candidates, new support left, right,
+    foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates)].
+    """
+    ncon = geom.shape[0]
+    fo = np.empty(5)
+    io = np.zeros(8 + 2 * ncon, dtype=np.int64)
+    # -- joint speed (numpy's argmax: the first maximum, or the first NaN)
+    n = qvel_idx.size
+    j = 0
+    worst = abs(qvel[qvel_idx[0]]) / vlim[0]
+    if worst == worst:
+        for i in range(1, n):
+            r = abs(qvel[qvel_idx[i]]) / vlim[i]
+            if r != r:
+                j, worst = i, r
+                break
+            if r > worst:
+                j, worst = i, r
+    count = 0
+    if not worst <= 1.0:
+        for i in range(n):
+            if abs(qvel[qvel_idx[i]]) / vlim[i] > 1.0:
+                count += 1
+    fo[0] = worst
+    io[0], io[1] = j, count
+    # -- tilt: e_zᵀ R u0, clamped to [-1, 1]
+    for i in range(2):
+        b = tilt_ids[i]
+        c = xmat[b, 6] * up_local[i, 0] + xmat[b, 7] * up_local[i, 1] + xmat[b, 8] * up_local[i, 2]
+        c = -1.0 if -1.0 > c else c  # Python's max(c, -1.0), min(c, 1.0) (a NaN stays)
+        fo[1 + i] = 1.0 if 1.0 < c else c
+    # -- contacts: ground contacts sorted into foot contacts per side and non-foot geoms
+    side_of = np.full(ncon, -1, dtype=np.int64)
+    n_bad = 0
+    n_feet = np.zeros(2, dtype=np.int64)
+    for i in range(ncon):
+        g1, g2 = geom[i, 0], geom[i, 1]
+        if is_ground[g1]:
+            g, other = g1, g2
+        elif is_ground[g2]:
+            g, other = g2, g1
+        else:
+            continue
+        s = geom_side[other]
+        if s < 0:
+            io[8 + n_bad] = other
+            n_bad += 1
+        else:
+            side_of[i] = s
+            n_feet[s] += 1
+            if is_hfield[g]:
+                io[3] = 1
+    io[2] = n_bad
+    io[7] = n_feet[0] + n_feet[1]
+    # -- strike candidates: foot contacts whose normal is far from the sole's (side order, then contact order)
+    n_cand = 0
+    for s in range(2):
+        if n_feet[s] == 0:
+            continue
+        b = sole_body[s]
+        nb0, nb1, nb2 = sole_normal_body[s, 0], sole_normal_body[s, 1], sole_normal_body[s, 2]
+        z0 = xmat[b, 0] * nb0 + xmat[b, 1] * nb1 + xmat[b, 2] * nb2
+        z1 = xmat[b, 3] * nb0 + xmat[b, 4] * nb1 + xmat[b, 5] * nb2
+        z2 = xmat[b, 6] * nb0 + xmat[b, 7] * nb1 + xmat[b, 8] * nb2
+        for i in range(ncon):
+            if side_of[i] == s:
+                c = abs(frame[i, 0] * z0 + frame[i, 1] * z1 + frame[i, 2] * z2)
+                if c < cos_strike:
+                    io[8 + n_bad + n_cand] = i
+                    n_cand += 1
+    io[4] = n_cand
+    # -- landing slide
+    corners = np.empty((4, 3))
+    for s in range(2):
+        fo[3 + s] = np.nan
+        if n_feet[s] == 0:
+            if state[2 + s]:
+                state[4 + s] += 1
+                if state[4 + s] >= LIFTOFF_TICKS:
+                    state[2 + s] = 0
+            continue
+        state[4 + s] = 0
+        if not state[2 + s]:
+            state[2 + s] = 1
+            ref[s, :, :] = np.nan
+            state[s] = 0
+            io[5 + s] = 1
+        b = sole_body[s]
+        for c in range(4):  # R Cb + x
+            for r in range(3):
+                corners[c, r] = (xmat[b, 3 * r] * corners_body[s, 0, c] + xmat[b, 3 * r + 1] * corners_body[s, 1, c]
+                                 + xmat[b, 3 * r + 2] * corners_body[s, 2, c]) + xpos[b, r]
+        if state[s] < 4:
+            for i in range(ncon):
+                if side_of[i] != s:
+                    continue
+                k, dk = 0, 0.0
+                for c in range(4):  # numpy's argmin: the first minimum, or the first NaN
+                    e0, e1, e2 = corners[c, 0] - pos[i, 0], corners[c, 1] - pos[i, 1], corners[c, 2] - pos[i, 2]
+                    dc = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+                    if c == 0 or dc < dk or (dc != dc and dk == dk):
+                        k, dk = c, dc
+                    if dc != dc:
+                        break
+                if dk <= CORNER_MATCH and ref[s, k, 0] != ref[s, k, 0]:
+                    ref[s, k, 0], ref[s, k, 1] = corners[k, 0], corners[k, 1]
+            known = 0
+            for c in range(4):
+                if ref[s, c, 0] == ref[s, c, 0]:
+                    known += 1
+            state[s] = known
+        if state[s]:
+            m = np.nan
+            for c in range(4):  # numpy.fmax: NaN (unknown corner) skipped
+                e0, e1 = corners[c, 0] - ref[s, c, 0], corners[c, 1] - ref[s, c, 1]
+                dd = e0 * e0 + e1 * e1
+                if dd == dd and not dd <= m:
+                    m = dd
+            fo[3 + s] = math.sqrt(m)
+    return fo, io
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_tick_kernel` (on-disk cache) once per process."""
+    i1 = np.zeros(2, dtype=np.intp)
+    _tick_kernel(np.zeros(3), i1, np.ones(2), np.zeros((3, 9)), np.zeros((3, 3)), i1, np.zeros((2, 3)),
+                 np.zeros((1, 2), dtype=np.int32), np.zeros((1, 3)), np.zeros((1, 9)), np.zeros(3, dtype=bool),
+                 np.full(3, -1, dtype=np.int64), np.zeros(3, dtype=bool), np.zeros(2, dtype=np.int64),
+                 np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5, np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64))
 
 
 class OutcomeMonitor:
@@ -114,10 +257,16 @@ class OutcomeMonitor:
         self.max_landing_slide_m = {"left": 0.0, "right": 0.0}
         self.touchdowns = {"left": 0, "right": 0}
         self._ref = np.full((2, 4, 2), np.nan)  # corner reference positions (xy) of the current support phase
-        self._in_support = np.zeros(2, dtype=bool)
-        self._n_known = [0, 0]  # corners of the current support phase with a reference position
-        self._off_ticks = np.zeros(2, dtype=int)
         self._first = True
+        # the kernel's view of the above: [n_known (2), in_support (2), off_ticks (2)], and the soles' constants
+        self._state = np.zeros(6, dtype=np.int64)
+        self._sole_body_arr = np.array(self.sole_body, dtype=np.int64)
+        self._corners_body_arr = np.ascontiguousarray(self._corners_body, dtype=float)  # (2, 3, 4)
+        self._sole_normal_arr = np.ascontiguousarray(self._sole_normal_body, dtype=float)  # (2, 3)
+        self.tilt_body_ids = np.asarray(self.tilt_body_ids, dtype=np.int64)
+        self.geom_side = self.geom_side.astype(np.int64)
+        self.qvel_idx = np.asarray(self.qvel_idx, dtype=np.int64)
+        _warm_up()
         # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
         self.on_terrain = getattr(sim, "terrain", None) is not None
         self.zf0 = self.support_height() if self.on_terrain else 0.0
@@ -135,50 +284,41 @@ class OutcomeMonitor:
     def update(self, t: float) -> bool:
         """Check the state in ``sim.data`` (time ``t``, s). Returns whether the robot has fallen (so far)."""
         d = self.sim.data
+        con = d.contact
+        f, ints = _tick_kernel(d.qvel, self.qvel_idx, self.vlim, d.xmat, d.xpos, self.tilt_body_ids, self.up_local,
+                               con.geom, con.pos, con.frame, self.is_ground, self.geom_side, self.is_hfield,
+                               self._sole_body_arr, self._corners_body_arr, self._sole_normal_arr, self.cos_strike,
+                               self._ref, self._state)
+        j, n_over, n_bad, hfield, n_cand, new_left, new_right, n_feet = ints[:8].tolist()
+        worst, c_pelvis, c_torso, travel_left, travel_right = f.tolist()
         # -- joint speed ---------------------------------------------------------------------------------------
-        ratio = np.abs(d.qvel[self.qvel_idx]) / self.vlim
-        j = int(ratio.argmax())
-        worst = ratio[j]
-        if not worst <= 1.0:  # some |q̇| above its limit (or NaN): count them
-            self.speed_exceedances += int(np.count_nonzero(ratio > 1.0))
+        self.speed_exceedances += n_over
         if worst > self.max_speed_ratio:
-            self.max_speed_ratio, self.max_speed_joint = float(worst), self.joint_names[j]
+            self.max_speed_ratio, self.max_speed_joint = worst, self.joint_names[j]
         # -- tilt ----------------------------------------------------------------------------------------------
         tilted = []
-        xmat = d.xmat
-        for i, key in enumerate(("pelvis", "torso")):
-            c = min(max(float(xmat[self.tilt_body_ids[i], 6:9] @ self.up_local[i]), -1.0), 1.0)  # e_zᵀ R u0
+        for key, c in (("pelvis", c_pelvis), ("torso", c_torso)):
             deg = math.degrees(math.acos(c))
             if deg > self.max_tilt_deg[key]:
                 self.max_tilt_deg[key] = deg
             if c < self.cos_tilt:
                 tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
-        # -- contacts: one pass sorts the ground contacts into foot contacts (per side) and non-foot geoms -------
-        ncon = d.ncon
-        bad = []
-        feet = ([], [])  # contact indices of each side's foot–ground contacts
-        on_hfield = []  # foot–ground contacts on a heightfield
-        con = d.contact
-        if ncon:
-            ground, side_of, hfield = self._ground_list, self._side_list, self._hfield_list
-            for i, (g1, g2) in enumerate(zip(con.geom1[:ncon].tolist(), con.geom2[:ncon].tolist())):
-                if ground[g1]:
-                    g, other = g1, g2
-                elif ground[g2]:
-                    g, other = g2, g1
-                else:
-                    continue
-                s = side_of[other]
-                if s < 0:
-                    bad.append(other)
-                else:
-                    feet[s].append(i)
-                    if hfield[g]:
-                        on_hfield.append(i)
-        strike = self._strike(con, feet, on_hfield) if not self.fell and (feet[0] or feet[1]) else ""
-        self._slide(con, feet)
+        # -- landing slide (its state advanced by the kernel) --------------------------------------------------
+        for key, new, travel in (("left", new_left, travel_left), ("right", new_right, travel_right)):
+            if new and not self._first:
+                self.touchdowns[key] += 1
+            if travel > self.max_landing_slide_m[key]:
+                self.max_landing_slide_m[key] = travel
+        # -- contacts: non-foot geoms on the ground, foot strikes ----------------------------------------------
+        strike = ""
+        if not self.fell and n_feet:
+            if hfield and self.terrain is not None:  # the facets' normals: the contact-by-contact pass
+                strike = self._strike(con, *self._foot_contacts(con))
+            elif n_cand:
+                strike = self._strike_candidates(con, ints[8 + n_bad:8 + n_bad + n_cand].tolist())
         if not self.fell:
-            if bad:
+            if n_bad:
+                bad = ints[8:8 + n_bad].tolist()
                 names = sorted({self.sim.body_name(self.sim.model.geom_bodyid[g]) for g in bad})
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
             elif strike:
@@ -191,6 +331,47 @@ class OutcomeMonitor:
                 self.fell, self.fall_time = True, float(t)
         self._first = False
         return self.fell
+
+    def _foot_contacts(self, con) -> tuple[tuple[list, list], list]:
+        """This tick's foot–ground contacts: (contact indices per side, those on a heightfield)."""
+        feet, on_hfield = ([], []), []
+        ncon = self.sim.data.ncon
+        ground, side_of, hfield = self._ground_list, self._side_list, self._hfield_list
+        for i, (g1, g2) in enumerate(zip(con.geom1[:ncon].tolist(), con.geom2[:ncon].tolist())):
+            if ground[g1]:
+                g, other = g1, g2
+            elif ground[g2]:
+                g, other = g2, g1
+            else:
+                continue
+            s = side_of[other]
+            if s >= 0:
+                feet[s].append(i)
+                if hfield[g]:
+                    on_hfield.append(i)
+        return feet, on_hfield
+
+    def _strike_candidates(self, con, candidates: list) -> str:
+        """The first foot strike among the contacts ``candidates`` (foot contacts whose normal is more than
+        :data:`STRIKE_DEG` from the sole's, in :meth:`_strike`'s order): the one pressing harder than
+        :data:`STRIKE_MIN_FORCE`, described, or ""."""
+        d = self.sim.data
+        for i in candidates:
+            mujoco.mj_contactForce(self.sim.model, d, i, self._force6)
+            if self._force6[0] > STRIKE_MIN_FORCE:
+                g1, g2 = int(con.geom1[i]), int(con.geom2[i])
+                s = self._side_list[g2 if self._ground_list[g1] else g1]
+                z0, z1, z2 = (d.xmat[self.sole_body[s]].reshape(3, 3) @ self._sole_normal_body[s]).tolist()
+                n0, n1, n2 = con.frame[i, 0:3].tolist()
+                return self._strike_text(s, abs(n0 * z0 + n1 * z1 + n2 * z2), con.pos[i])
+        return ""
+
+    def _strike_text(self, s: int, cos: float, p) -> str:
+        angle = math.degrees(math.acos(min(1.0, cos)))
+        x, y, z = (float(c) for c in p)
+        return (f"foot strike: the {('left', 'right')[s]} foot hit the ground along a normal "
+                f"{angle:.0f}° from its sole's ({self._force6[0]:.0f} N at ({x:.3f}, {y:.3f}, "
+                f"{z:.3f}) m: a toe, heel or sole edge on a riser or nosing)")
 
     def _strike(self, con, feet, on_hfield) -> str:
         """The foot strike among this tick's foot–ground contacts ``feet`` (contact indices per side; those in
@@ -211,46 +392,8 @@ class OutcomeMonitor:
                 if cos < self.cos_strike:
                     mujoco.mj_contactForce(self.sim.model, d, i, self._force6)
                     if self._force6[0] > STRIKE_MIN_FORCE:
-                        angle = math.degrees(math.acos(min(1.0, cos)))
-                        x, y, z = (float(c) for c in con.pos[i])
-                        return (f"foot strike: the {('left', 'right')[s]} foot hit the ground along a normal "
-                                f"{angle:.0f}° from its sole's ({self._force6[0]:.0f} N at ({x:.3f}, {y:.3f}, "
-                                f"{z:.3f}) m: a toe, heel or sole edge on a riser or nosing)")
+                        return self._strike_text(s, cos, con.pos[i])
         return ""
-
-    def _slide(self, con, feet) -> None:
-        for s in range(2):
-            key = ("left", "right")[s]
-            if feet[s]:
-                self._off_ticks[s] = 0
-                if not self._in_support[s]:
-                    self._in_support[s] = True
-                    self._ref[s] = np.nan
-                    self._n_known[s] = 0
-                    if not self._first:
-                        self.touchdowns[key] += 1
-                corners = self.corners_world(s)
-                ref = self._ref[s]
-                if self._n_known[s] < len(ref):
-                    # (n, 3) contact points: each makes its nearest corner (≤ CORNER_MATCH) known
-                    pts = con.pos[feet[s]]
-                    diff = corners[None, :, :] - pts[:, None, :]
-                    dist = np.sqrt(np.add.reduce(diff * diff, axis=2))
-                    k = np.argmin(dist, axis=1)
-                    near = k[dist[np.arange(len(k)), k] <= CORNER_MATCH]
-                    new = near[np.isnan(ref[near, 0])]
-                    ref[new] = corners[new, :2]
-                    self._n_known[s] = int(np.count_nonzero(~np.isnan(ref[:, 0])))
-                if self._n_known[s]:
-                    # largest corner travel: the unknown corners (NaN) are skipped by fmax
-                    diff = corners[:, :2] - ref
-                    travel = math.sqrt(np.fmax.reduce(np.add.reduce(diff * diff, axis=1)))
-                    if travel > self.max_landing_slide_m[key]:
-                        self.max_landing_slide_m[key] = travel
-            elif self._in_support[s]:
-                self._off_ticks[s] += 1
-                if self._off_ticks[s] >= LIFTOFF_TICKS:
-                    self._in_support[s] = False
 
     def summary(self) -> dict:
         """The summary entries of the outcome (module docstring)."""

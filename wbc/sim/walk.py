@@ -773,7 +773,11 @@ class WalkScenario:
             and self.switcher.phase("right") == "stance"
 
     def com_reference(self, t):
-        return self.plan.com[min(self.plan.index(t) + self._shift, self.plan.n_samples - 1)]
+        plan = self.plan
+        n = plan.n_samples
+        # plan.index(t) (which raises GaitError for a time that is not a finite number)
+        k = int(min(max(round(t / plan.dt), 0), n - 1)) if type(t) is float and math.isfinite(t) else plan.index(t)
+        return plan.com[min(k + self._shift, n - 1)]
 
     @property
     def ends_at(self) -> float:
