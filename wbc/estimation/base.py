@@ -286,7 +286,6 @@ class FloatingBaseEstimator:
             self.anchor_axis[s][0] = 1.0
             self._anchor_rotation[s][:] = np.eye(3)
         self._sole_rot, self._sole_pos = ws[40:58].reshape(2, 3, 3), ws[58:64].reshape(2, 3)
-        self._kin = np.zeros((2, 6, 3))  # per sole: rotation, position, linear and angular velocity (base frame)
         self._frame_ids = [self.ft[s].frame_id for s in SIDES]
         n = max(len(self._q_one), len(self._q_cs), 1)
         idx = self._idx = -np.ones((4, n), dtype=np.int64)
@@ -359,27 +358,25 @@ class FloatingBaseEstimator:
             ft: (2, 6) (left, right) ankle F/T readings (:mod:`wbc.estimation.contact` convention).
         """
         model, data = self.model, self.data
-        joints, att, kf, kin = self.joints, self.attitude, self.kf, self._kin
+        joints, att, kf = self.joints, self.attitude, self.kf
         # joint velocities and the kinematic configuration: base at the origin, identity orientation, angular
         # velocity ω of the last sample, no base translation; world axes are R̂ times these
         estimator_prepare(joint_q, gyro, att._state, joints._state, joints._params, joints._started, self._qk,
                           self._vk, self._idx)
         joints._started = True
         pin.forwardKinematics(model, data, self._qk, self._vk)
-        for j, fid in enumerate(self._frame_ids):  # each sole in the base frame (Pinocchio)
-            X = pin.updateFramePlacement(model, data, fid)
-            kin[j, 0:3] = X.rotation
-            kin[j, 3] = X.translation
-            vel = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-            kin[j, 4] = vel.linear
-            kin[j, 5] = vel.angular
+        fl, fr = self._frame_ids  # each sole in the base frame (Pinocchio): placement and velocity
+        Hl = pin.updateFramePlacement(model, data, fl).homogeneous
+        Vl = pin.getFrameVelocity(model, data, fl, pin.LOCAL_WORLD_ALIGNED).vector
+        Hr = pin.updateFramePlacement(model, data, fr).homogeneous
+        Vr = pin.getFrameVelocity(model, data, fr, pin.LOCAL_WORLD_ALIGNED).vector
         det = self.detectors
         gh = self.ground_height
         self._prm[0:13] = (self.dt, self._beta, self._alpha_turn, self.turn_rate, self.heading_weight,
                            self.handover_end_share, gh is not None, 0.0 if gh is None else gh, self.heading_handover,
                            det["left"].on, det["left"].off, det["right"].on, det["right"].off)
         q, v, ist = self.q, self.v, self._ist
-        estimator_step(accel, gyro, ft, kin, att._state, att._params, kf._state, kf._params, self._prm, self._ws,
+        estimator_step(accel, gyro, ft, Hl, Vl, Hr, Vr, att._state, att._params, kf._state, kf._params, self._prm, self._ws,
                        ist, self.wrench, q, v, self._qk, joints._state)
         object.__setattr__(att, "accel_used", bool(ist[7]))
         nf = self._ws[8:10].tolist()

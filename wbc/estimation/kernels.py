@@ -24,6 +24,7 @@ import math
 
 import numba as nb
 import numpy as np
+import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.constants import GRAVITY
@@ -258,13 +259,14 @@ def _unit(x):
 
 
 @nb.njit(cache=True)
-def estimator_step(accel, gyro, ft, kin, att, aprm, kfs, kprm, prm, ws, ist, wrench, q, v, qk, js):
+def estimator_step(accel, gyro, ft, H0, V0, H1, V1, att, aprm, kfs, kprm, prm, ws, ist, wrench, q, v, qk, js):
     """The rest of a sample of :meth:`~wbc.estimation.base.FloatingBaseEstimator.update` after Pinocchio's leg
     kinematics.
 
     Args:
-        accel, gyro: (3,) IMU. ft: (2, 6) F/T readings. kin: (2, 6, 3) per sole (left, right), from Pinocchio in
-            the base frame: rotation (3 rows), position, linear and angular velocity (``LOCAL_WORLD_ALIGNED``). att, aprm, kfs, kprm, js: module docstring. prm: :data:`ESTIMATOR_PARAMS`.
+        accel, gyro: (3,) IMU. ft: (2, 6) F/T readings. H0, V0, H1, V1: the (left, right) sole's placement (4, 4)
+            (homogeneous matrix) and velocity (6,) (linear, angular; ``LOCAL_WORLD_ALIGNED``) in the base frame,
+            from Pinocchio. att, aprm, kfs, kprm, js: module docstring. prm: :data:`ESTIMATOR_PARAMS`.
         ws: (64,) estimator state: base acceleration of the leg kinematics (3), last odometry velocity (3), sole yaw
             rates (2), normal forces (2), anchors (2 × 3), anchor axes (2 × 3), anchor rotations (2 × 9), sole
             world rotations (2 × 9), sole world positions (2 × 3) — written.
@@ -281,8 +283,15 @@ def estimator_step(accel, gyro, ft, kin, att, aprm, kfs, kprm, prm, ws, ist, wre
     anchor_rot, sole_rot, sole_pos = ws[22:40].reshape(2, 3, 3), ws[40:58].reshape(2, 3, 3), ws[58:64].reshape(2, 3)
     R_prev = att[0:9].reshape(3, 3).copy()
     rot = np.empty((2, 3, 3))
+    kin = np.empty((2, 6, 3))  # per sole: rotation, position, linear and angular velocity
     for j in range(2):
-        rot[j] = kin[j, 0:3]
+        H, V = (H0, V0) if j == 0 else (H1, V1)
+        for i in range(3):
+            for c in range(3):
+                rot[j, i, c] = kin[j, i, c] = H[i, c]
+            kin[j, 3, i] = H[i, 3]
+            kin[j, 4, i] = V[i]
+            kin[j, 5, i] = V[3 + i]
     fz_total = 0.0
     zv, x3, y3, Rw = np.zeros(3), np.empty(3), np.empty(3), np.empty((3, 3))
     for j in range(2):
@@ -460,11 +469,10 @@ def warm_up() -> None:
     kalman_correct(kfs, kprm, g, g)
     qk, vk, idx = np.zeros(8), np.zeros(7), -np.ones((4, 1), dtype=np.int64)
     estimator_prepare(np.zeros(1), g, att, js, jprm, True, qk, vk, idx)
-    kin = np.zeros((2, 6, 3))
-    kin[:, 0:3] = np.eye(3)
+    H, V = pin.SE3.Identity().homogeneous, pin.Motion.Zero().vector  # the array types Pinocchio returns
     prm = np.zeros(len(ESTIMATOR_PARAMS))
     prm[9:13] = (1.0, 0.5, 1.0, 0.5)
-    estimator_step(a3, g, np.zeros((2, 6)), kin, att, aprm, kfs, kprm, prm, np.zeros(64),
+    estimator_step(a3, g, np.zeros((2, 6)), H, V, H, V, att, aprm, kfs, kprm, prm, np.zeros(64),
                    np.zeros(9, dtype=np.int64), np.zeros((2, 6)), np.zeros(8), np.zeros(7), qk, js)
     E, quat = np.empty((3, 3)), np.empty(4)
     exp3(g, E)
