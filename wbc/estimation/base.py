@@ -70,8 +70,8 @@ import pinocchio as pin
 from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import ContactDetector, FootForceSensor
-from wbc.estimation.kernels import (ESTIMATOR_PARAMS, estimator_prepare, estimator_step, joint_filter_step,
-                                    kalman_correct, kalman_predict, warm_up)
+from wbc.estimation.kernels import (ESTIMATOR_PARAMS, PACKED_BLOCKS, estimator_prepare_packed, estimator_step_packed,
+                                    joint_filter_step, kalman_correct, kalman_predict, warm_up)
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_flag, check_scalar
 
@@ -268,15 +268,37 @@ class FloatingBaseEstimator:
         self._j_one = np.array([model.joints[i].idx_v - 6 for i in range(2, model.njoints)
                                 if model.joints[i].nq == 1], dtype=int)
         self._q_cs, self._j_cs = np.array(cs_q, dtype=int), np.array(cs_j, dtype=int)
-        self.q = pin.neutral(model)
-        self.v = np.zeros(model.nv)
-        self._qk = pin.neutral(model)  # kinematic configuration: base at the origin, identity orientation
-        self._vk = np.zeros(model.nv)
+        # the compiled update's state (wbc.estimation.kernels, PACKED_BLOCKS): one float buffer, whose blocks the
+        # filters' arrays (attitude, joints, Kalman) are moved into, and one int buffer
+        att, kf, joints = self.attitude, self.kf, self.joints
+        nq, nv, n = model.nq, model.nv, max(len(self._q_one), len(self._q_cs), 1)
+        blocks = {"att": att._state, "js": joints._state.ravel(), "jprm": joints._params, "qk": pin.neutral(model),
+                  "vk": np.zeros(nv), "aprm": att._params, "kfs": kf._state, "kprm": kf._params,
+                  "prm": np.zeros(len(ESTIMATOR_PARAMS)), "ws": np.zeros(64), "wrench": np.zeros(12),
+                  "q": pin.neutral(model), "v": np.zeros(nv)}
+        sizes = [len(blocks[b]) for b in PACKED_BLOCKS]
+        offsets = np.cumsum([0] + sizes[:-1])
+        buf = self._buf = np.concatenate([blocks[b] for b in PACKED_BLOCKS])
+        view = {b: buf[o:o + k] for b, o, k in zip(PACKED_BLOCKS, offsets, sizes)}
+        ib = self._ib = np.concatenate([offsets, [nq, nv, nj, 0], np.zeros(9), [n], -np.ones(4 * n)]).astype(np.int64)
+        nb_ = len(PACKED_BLOCKS)
+        idx = ib[nb_ + 14:].reshape(4, n)
+        idx[0, :len(self._q_one)], idx[1, :len(self._q_one)] = self._q_one, self._j_one
+        idx[2, :len(self._q_cs)], idx[3, :len(self._q_cs)] = self._q_cs, self._j_cs
+        object.__setattr__(att, "_state", view["att"])
+        object.__setattr__(att, "_params", view["aprm"])
+        st = att._state
+        att.rotation, att.bias, att.omega = st[0:9].reshape(3, 3), st[9:12], st[12:15]
+        kf._state, kf._params = view["kfs"], view["kprm"]
+        kf.p, kf.velocity, kf.P = kf._state[0:3], kf._state[3:6], kf._state[6:10].reshape(2, 2)
+        joints._state, joints._params = view["js"].reshape(4, nj), view["jprm"]
+        joints._prev, joints.velocity, joints._raw, joints._acc = joints._state
+        self._ist = ib[nb_ + 4:nb_ + 13]
+        self.q, self.v, self._qk, self._vk = view["q"], view["v"], view["qk"], view["vk"]
+        self._prm, self.wrench = view["prm"], view["wrench"].reshape(2, 6)
         self.p = self.kf.p
         self.velocity_world = self.kf.velocity
-        # the compiled update's state (wbc.estimation.kernels.estimator_step): floats and ints
-        ws = self._ws = np.zeros(64)
-        self._ist = np.zeros(9, dtype=np.int64)
+        ws = self._ws = view["ws"]
         self._ist[4:6] = -1  # no hand-over
         self.anchor = {s: ws[10 + 3 * j:13 + 3 * j] for j, s in enumerate(SIDES)}
         self.anchor_axis = {s: ws[16 + 3 * j:19 + 3 * j] for j, s in enumerate(SIDES)}
@@ -287,11 +309,6 @@ class FloatingBaseEstimator:
             self._anchor_rotation[s][:] = np.eye(3)
         self._sole_rot, self._sole_pos = ws[40:58].reshape(2, 3, 3), ws[58:64].reshape(2, 3)
         self._frame_ids = [self.ft[s].frame_id for s in SIDES]
-        n = max(len(self._q_one), len(self._q_cs), 1)
-        idx = self._idx = -np.ones((4, n), dtype=np.int64)
-        idx[0, :len(self._q_one)], idx[1, :len(self._q_one)] = self._q_one, self._j_one
-        idx[2, :len(self._q_cs)], idx[3, :len(self._q_cs)] = self._q_cs, self._j_cs
-        self._prm = np.zeros(len(ESTIMATOR_PARAMS))
         for j, s in enumerate(SIDES):
             f = self.ft[s]
             self._prm[13 + j] = f.mass
@@ -308,7 +325,6 @@ class FloatingBaseEstimator:
         self.turning = {s: False for s in SIDES}
         self.contact = {s: False for s in SIDES}
         self.normal_force = {s: 0.0 for s in SIDES}
-        self.wrench = np.zeros((2, 6))
         self.sole = {s: pin.SE3.Identity() for s in SIDES}
         self.acc_kin = ws[0:3]
         self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
@@ -361,8 +377,9 @@ class FloatingBaseEstimator:
         joints, att, kf = self.joints, self.attitude, self.kf
         # joint velocities and the kinematic configuration: base at the origin, identity orientation, angular
         # velocity ω of the last sample, no base translation; world axes are R̂ times these
-        estimator_prepare(joint_q, gyro, att._state, joints._state, joints._params, joints._started, self._qk,
-                          self._vk, self._idx)
+        ib = self._ib
+        ib[len(PACKED_BLOCKS) + 3] = joints._started
+        estimator_prepare_packed(joint_q, gyro, self._buf, ib)
         joints._started = True
         pin.forwardKinematics(model, data, self._qk, self._vk)
         fl, fr = self._frame_ids  # each sole in the base frame (Pinocchio): placement and velocity
@@ -376,8 +393,7 @@ class FloatingBaseEstimator:
                            self.handover_end_share, gh is not None, 0.0 if gh is None else gh, self.heading_handover,
                            det["left"].on, det["left"].off, det["right"].on, det["right"].off)
         q, v, ist = self.q, self.v, self._ist
-        estimator_step(accel, gyro, ft, Hl, Vl, Hr, Vr, att._state, att._params, kf._state, kf._params, self._prm, self._ws,
-                       ist, self.wrench, q, v, self._qk, joints._state)
+        estimator_step_packed(accel, gyro, ft, Hl, Vl, Hr, Vr, self._buf, ib)
         object.__setattr__(att, "accel_used", bool(ist[7]))
         nf = self._ws[8:10].tolist()
         for j, s in enumerate(SIDES):

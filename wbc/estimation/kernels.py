@@ -30,7 +30,8 @@ from wbc.compiled import once_per_process
 from wbc.constants import GRAVITY
 
 __all__ = ["exp3", "rotation_quaternion", "attitude_step", "kalman_predict", "kalman_correct", "joint_filter_step",
-           "estimator_prepare", "estimator_step", "ESTIMATOR_PARAMS", "warm_up"]
+           "estimator_prepare", "estimator_step", "estimator_prepare_packed", "estimator_step_packed",
+           "ESTIMATOR_PARAMS", "PACKED_BLOCKS", "warm_up"]
 
 #: names of the entries of the estimator parameter vector ``prm`` of :func:`estimator_step`, in order
 ESTIMATOR_PARAMS = ("dt", "beta", "alpha_turn", "turn_rate", "heading_weight", "handover_end_share",
@@ -38,6 +39,11 @@ ESTIMATOR_PARAMS = ("dt", "beta", "alpha_turn", "turn_rate", "heading_weight", "
                     "off_right", "mass_left", "mass_right", "sole_left_x", "sole_left_y", "sole_left_z",
                     "sole_right_x", "sole_right_y", "sole_right_z", "com_left_x", "com_left_y", "com_left_z",
                     "com_right_x", "com_right_y", "com_right_z")
+
+#: blocks of the packed float buffer of :func:`estimator_prepare_packed` / :func:`estimator_step_packed`, in order;
+#: the int buffer holds their offsets (then nq, nv, nj), the joint filter's started flag, ``ist`` and ``idx``
+PACKED_BLOCKS = ("att", "js", "jprm", "qk", "vk", "aprm", "kfs", "kprm", "prm", "ws", "wrench", "q", "v")
+_NB = len(PACKED_BLOCKS)
 
 _EPS3 = np.finfo(np.float64).eps ** (1.0 / 3.0)  # Pinocchio's TaylorSeriesExpansion<double>::precision<3>()
 _G = -GRAVITY  # z of the gravity vector (world)
@@ -453,6 +459,29 @@ def estimator_step(accel, gyro, ft, H0, V0, H1, V1, att, aprm, kfs, kprm, prm, w
     v[6:] = js[1]
 
 
+@nb.njit(cache=True)
+def estimator_prepare_packed(joint_q, gyro, buf, ib):
+    """:func:`estimator_prepare` on the blocks of ``buf`` (:data:`PACKED_BLOCKS`; offsets, sizes and int state in
+    ``ib``): one call with few arguments."""
+    nq, nv, nj = ib[_NB], ib[_NB + 1], ib[_NB + 2]
+    n = ib[_NB + 13]
+    idx = ib[_NB + 14:_NB + 14 + 4 * n].reshape(4, n)
+    estimator_prepare(joint_q, gyro, buf[ib[0]:ib[0] + 24], buf[ib[1]:ib[1] + 4 * nj].reshape(4, nj),
+                      buf[ib[2]:ib[2] + 6], ib[_NB + 3] != 0, buf[ib[3]:ib[3] + nq], buf[ib[4]:ib[4] + nv], idx)
+    ib[_NB + 3] = 1
+
+
+@nb.njit(cache=True)
+def estimator_step_packed(accel, gyro, ft, H0, V0, H1, V1, buf, ib):
+    """:func:`estimator_step` on the blocks of ``buf`` (see :func:`estimator_prepare_packed`)."""
+    nq, nv, nj = ib[_NB], ib[_NB + 1], ib[_NB + 2]
+    estimator_step(accel, gyro, ft, H0, V0, H1, V1, buf[ib[0]:ib[0] + 24], buf[ib[5]:ib[5] + 8],
+                   buf[ib[6]:ib[6] + 10], buf[ib[7]:ib[7] + 8], buf[ib[8]:ib[8] + len(ESTIMATOR_PARAMS)],
+                   buf[ib[9]:ib[9] + 64], ib[_NB + 4:_NB + 13], buf[ib[10]:ib[10] + 12].reshape(2, 6),
+                   buf[ib[11]:ib[11] + nq], buf[ib[12]:ib[12] + nv], buf[ib[3]:ib[3] + nq],
+                   buf[ib[1]:ib[1] + 4 * nj].reshape(4, nj))
+
+
 @once_per_process
 def warm_up() -> None:
     """Load every kernel (on-disk cache) once per process on small example arrays of the real calls' types."""
@@ -474,6 +503,15 @@ def warm_up() -> None:
     prm[9:13] = (1.0, 0.5, 1.0, 0.5)
     estimator_step(a3, g, np.zeros((2, 6)), H, V, H, V, att, aprm, kfs, kprm, prm, np.zeros(64),
                    np.zeros(9, dtype=np.int64), np.zeros((2, 6)), np.zeros(8), np.zeros(7), qk, js)
+    sizes = (24, 4, 6, 8, 7, 8, 10, 8, len(ESTIMATOR_PARAMS), 64, 12, 8, 7)
+    offsets = np.cumsum((0,) + sizes[:-1])
+    buf = np.zeros(sum(sizes))
+    buf[0:9] = np.eye(3).ravel()
+    buf[offsets[2]:offsets[2] + 6] = jprm
+    buf[offsets[7]:offsets[7] + 8] = kprm
+    ib = np.r_[offsets, 8, 7, 1, 1, np.zeros(9), 1, -np.ones(4)].astype(np.int64)
+    estimator_prepare_packed(np.zeros(1), g, buf, ib)
+    estimator_step_packed(a3, g, np.zeros((2, 6)), H, V, H, V, buf, ib)
     E, quat = np.empty((3, 3)), np.empty(4)
     exp3(g, E)
     rotation_quaternion(E, quat)
