@@ -9,8 +9,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.estimation import FloatingBaseEstimator, FootForceSensor
+from wbc.estimation import (BaseKalmanFilter, ComplementaryAttitudeFilter, FloatingBaseEstimator, FootForceSensor,
+                            JointStateFilter)
 from wbc.estimation.kernels import exp3, rotation_quaternion
+from wbc.exceptions import InvalidInputError
 from wbc.robot import load_robot
 
 DT = 0.002
@@ -245,3 +247,25 @@ def test_exp3_and_quaternion_match_pinocchio():
             assert np.abs(out - pin.exp3(w)).max() <= 1e-15
             rotation_quaternion(out, quat)
             assert np.abs(quat - pin.SE3ToXYZQUAT(pin.SE3(out, np.zeros(3)))[3:]).max() <= 1e-15
+
+
+@pytest.mark.parametrize("make", [lambda: ComplementaryAttitudeFilter(0.002), lambda: BaseKalmanFilter(0.002),
+                                  lambda: JointStateFilter(5, 0.002)], ids=["attitude", "kalman", "joints"])
+def test_use_storage_moves_the_state_and_refuses_arrays_that_cannot_hold_it(make):
+    """A filter moved into a caller's arrays keeps its values there and keeps working on them; arrays of another
+    shape or dtype, or read-only ones, raise InvalidInputError and leave the filter as it was."""
+    f = make()
+    f.storage[0][...] += np.arange(f.storage[0].size).reshape(f.storage[0].shape) * 1e-3  # distinct values
+    state, params = (a.copy() for a in f.storage)
+    new_state, new_params = np.zeros_like(state), np.zeros_like(params)
+    f.use_storage(new_state, new_params)
+    assert np.array_equal(new_state, state) and np.array_equal(new_params, params)
+    assert f.storage[0] is new_state and f.storage[1] is new_params
+    readonly = np.zeros_like(state)
+    readonly.flags.writeable = False
+    for bad in (np.zeros(state.size + 1), state.astype(np.float32), readonly, list(state.ravel())):
+        with pytest.raises(InvalidInputError, match="state must be a writable float64 array"):
+            f.use_storage(bad, np.zeros_like(params))
+    assert f.storage[0] is new_state
+    with pytest.raises(InvalidInputError, match="params must be"):
+        f.use_storage(np.zeros_like(state), np.zeros(params.size + 2))

@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from wbc.constants import GRAVITY
-from wbc.estimation.kernels import attitude_step, warm_up
+from wbc.estimation.kernels import attitude_step, check_storage, warm_up
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
@@ -95,6 +95,26 @@ class ComplementaryAttitudeFilter:
         if name in self._PARAMS:
             self._params[self._PARAMS.index(name)] = value
         object.__setattr__(self, name, value)
+
+    @property
+    def storage(self) -> tuple[np.ndarray, np.ndarray]:
+        """(state (24,), parameters (8,)): the arrays the compiled update (``wbc.estimation.kernels.attitude_step``)
+        reads and writes; :attr:`rotation`, :attr:`bias` and :attr:`omega` are views of the state."""
+        return self._state, self._params
+
+    def use_storage(self, state: np.ndarray, params: np.ndarray) -> None:
+        """Move the filter's state and parameters into ``state`` (24,) and ``params`` (8,) float arrays (e.g. views
+        of a caller's buffer that one compiled update reads in place): their values are copied there and
+        :attr:`rotation`, :attr:`bias`, :attr:`omega` become views of ``state``.
+
+        Raises:
+            InvalidInputError: not float64 arrays of those shapes.
+        """
+        check_storage(state, params, self._state, self._params)
+        state[:], params[:] = self._state, self._params
+        object.__setattr__(self, "_state", state)
+        object.__setattr__(self, "_params", params)
+        self.rotation, self.bias, self.omega = state[0:9].reshape(3, 3), state[9:12], state[12:15]
 
     def reset(self, rotation, bias=None) -> None:
         """Start from ``rotation`` (3, 3, world ← IMU) and ``bias`` (3,) rad/s (default zeros).

@@ -70,8 +70,8 @@ import pinocchio as pin
 from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import ContactDetector, FootForceSensor
-from wbc.estimation.kernels import (ESTIMATOR_PARAMS, PACKED_BLOCKS, estimator_prepare_packed, estimator_step_packed,
-                                    joint_filter_step, kalman_correct, kalman_predict, warm_up)
+from wbc.estimation.kernels import (ESTIMATOR_PARAMS, PACKED_BLOCKS, check_storage, estimator_prepare_packed,
+                                    estimator_step_packed, joint_filter_step, kalman_correct, kalman_predict, warm_up)
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_flag, check_scalar
 
@@ -94,6 +94,8 @@ class JointStateFilter:
 
     Attributes:
         velocity: (n,) filtered velocity (rad/s).
+        started: True once a sample (or :meth:`reset` with angles) has given the filter its previous angles; the
+            next sample then updates the velocity (until then a sample only sets those angles).
 
     Raises:
         InvalidInputError: bad numbers.
@@ -115,23 +117,42 @@ class JointStateFilter:
         self._state = np.zeros((4, int(n)))
         self._prev, self.velocity, self._raw, self._acc = self._state
         self._params = np.array([self.dt, self.alpha, self._g, self._h, self._k, 0.0 if memory is None else 1.0])
-        self._started = False
+        self.started = False
         warm_up()
+
+    @property
+    def storage(self) -> tuple[np.ndarray, np.ndarray]:
+        """(state (4, n), parameters (6,)): the arrays the compiled update
+        (``wbc.estimation.kernels.joint_filter_step``) reads and writes; :attr:`velocity` is the state's row 1."""
+        return self._state, self._params
+
+    def use_storage(self, state: np.ndarray, params: np.ndarray) -> None:
+        """Move the filter's state and parameters into ``state`` (4, n) and ``params`` (6,) float arrays (e.g. views
+        of a caller's buffer that one compiled update reads in place); their values are copied there and
+        :attr:`velocity` becomes a view of ``state``.
+
+        Raises:
+            InvalidInputError: not writable float64 arrays of those shapes.
+        """
+        check_storage(state, params, self._state, self._params)
+        state[:], params[:] = self._state, self._params
+        self._state, self._params = state, params
+        self._prev, self.velocity, self._raw, self._acc = state
 
     def reset(self, angles=None, velocity=None) -> None:
         """Start from ``angles`` (n,) rad (default: the next sample) and ``velocity`` (n,) rad/s (default 0), at
         zero acceleration."""
         self.velocity[:] = 0.0 if velocity is None else velocity
         self._acc[:] = 0.0
-        self._started = angles is not None
+        self.started = angles is not None
         if angles is not None:
             self._prev[:] = angles
 
     def update(self, angles: np.ndarray) -> np.ndarray:
         """One sample of encoder angles (n,) rad → filtered velocities (n,) rad/s (the :attr:`velocity` array)."""
-        if not self._started:
+        if not self.started:
             self._prev[:] = angles
-            self._started = True
+            self.started = True
             return self.velocity
         joint_filter_step(self._state, self._params, np.asarray(angles, dtype=float))
         return self.velocity
@@ -163,6 +184,25 @@ class BaseKalmanFilter:
         self.p, self.velocity, self.P = self._state[0:3], self._state[3:6], self._state[6:10].reshape(2, 2)
         self.P[:] = np.diag([1e-6, 1e-4])
         warm_up()
+
+    @property
+    def storage(self) -> tuple[np.ndarray, np.ndarray]:
+        """(state (10,): p, ṗ, P row-major; parameters (10,)): the arrays the compiled predict and correct
+        (``wbc.estimation.kernels``) read and write; :attr:`p`, :attr:`velocity`, :attr:`P` are views of the state."""
+        return self._state, self._params
+
+    def use_storage(self, state: np.ndarray, params: np.ndarray) -> None:
+        """Move the filter's state and parameters into ``state`` (10,) and ``params`` (10,) float arrays (e.g. views
+        of a caller's buffer that one compiled update reads in place); their values are copied there and
+        :attr:`p`, :attr:`velocity`, :attr:`P` become views of ``state``.
+
+        Raises:
+            InvalidInputError: not writable float64 arrays of those shapes.
+        """
+        check_storage(state, params, self._state, self._params)
+        state[:], params[:] = self._state, self._params
+        self._state, self._params = state, params
+        self.p, self.velocity, self.P = state[0:3], state[3:6], state[6:10].reshape(2, 2)
 
     def reset(self, p, velocity, P=None) -> None:
         """Start at p (3,) m, ṗ (3,) m/s with covariance P (2, 2) (default diag(1e-6 m², 1e-4 m²/s²))."""
@@ -272,8 +312,9 @@ class FloatingBaseEstimator:
         # filters' arrays (attitude, joints, Kalman) are moved into, and one int buffer
         att, kf, joints = self.attitude, self.kf, self.joints
         nq, nv, n = model.nq, model.nv, max(len(self._q_one), len(self._q_cs), 1)
-        blocks = {"att": att._state, "js": joints._state.ravel(), "jprm": joints._params, "qk": pin.neutral(model),
-                  "vk": np.zeros(nv), "aprm": att._params, "kfs": kf._state, "kprm": kf._params,
+        (att_state, att_params), (js, jprm), (kfs, kprm) = att.storage, joints.storage, kf.storage
+        blocks = {"att": att_state, "js": js.ravel(), "jprm": jprm, "qk": pin.neutral(model),
+                  "vk": np.zeros(nv), "aprm": att_params, "kfs": kfs, "kprm": kprm,
                   "prm": np.zeros(len(ESTIMATOR_PARAMS)), "ws": np.zeros(64), "wrench": np.zeros(12),
                   "q": pin.neutral(model), "v": np.zeros(nv)}
         sizes = [len(blocks[b]) for b in PACKED_BLOCKS]
@@ -285,14 +326,9 @@ class FloatingBaseEstimator:
         idx = ib[nb_ + 14:].reshape(4, n)
         idx[0, :len(self._q_one)], idx[1, :len(self._q_one)] = self._q_one, self._j_one
         idx[2, :len(self._q_cs)], idx[3, :len(self._q_cs)] = self._q_cs, self._j_cs
-        object.__setattr__(att, "_state", view["att"])
-        object.__setattr__(att, "_params", view["aprm"])
-        st = att._state
-        att.rotation, att.bias, att.omega = st[0:9].reshape(3, 3), st[9:12], st[12:15]
-        kf._state, kf._params = view["kfs"], view["kprm"]
-        kf.p, kf.velocity, kf.P = kf._state[0:3], kf._state[3:6], kf._state[6:10].reshape(2, 2)
-        joints._state, joints._params = view["js"].reshape(4, nj), view["jprm"]
-        joints._prev, joints.velocity, joints._raw, joints._acc = joints._state
+        att.use_storage(view["att"], view["aprm"])
+        kf.use_storage(view["kfs"], view["kprm"])
+        joints.use_storage(view["js"].reshape(4, nj), view["jprm"])
         self._ist = ib[nb_ + 4:nb_ + 13]
         self.q, self.v, self._qk, self._vk = view["q"], view["v"], view["qk"], view["vk"]
         self._prm, self.wrench = view["prm"], view["wrench"].reshape(2, 6)
@@ -378,9 +414,9 @@ class FloatingBaseEstimator:
         # joint velocities and the kinematic configuration: base at the origin, identity orientation, angular
         # velocity ω of the last sample, no base translation; world axes are R̂ times these
         ib = self._ib
-        ib[len(PACKED_BLOCKS) + 3] = joints._started
+        ib[len(PACKED_BLOCKS) + 3] = joints.started
         estimator_prepare_packed(joint_q, gyro, self._buf, ib)
-        joints._started = True
+        joints.started = True
         pin.forwardKinematics(model, data, self._qk, self._vk)
         fl, fr = self._frame_ids  # each sole in the base frame (Pinocchio): placement and velocity
         Hl = pin.updateFramePlacement(model, data, fl).homogeneous

@@ -28,10 +28,25 @@ import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.constants import GRAVITY
+from wbc.exceptions import InvalidInputError
 
-__all__ = ["exp3", "rotation_quaternion", "attitude_step", "kalman_predict", "kalman_correct", "joint_filter_step",
-           "estimator_prepare", "estimator_step", "estimator_prepare_packed", "estimator_step_packed",
+__all__ = ["check_storage", "exp3", "rotation_quaternion", "attitude_step", "kalman_predict", "kalman_correct",
+           "joint_filter_step", "estimator_prepare", "estimator_step", "estimator_prepare_packed", "estimator_step_packed",
            "ESTIMATOR_PARAMS", "PACKED_BLOCKS", "warm_up"]
+
+
+def check_storage(state: np.ndarray, params: np.ndarray, like_state: np.ndarray, like_params: np.ndarray) -> None:
+    """Check that ``state`` and ``params`` can hold a filter's compiled state and parameters: writable float64
+    arrays of the shapes of ``like_state`` and ``like_params``.
+
+    Raises:
+        InvalidInputError: another dtype or shape, or a read-only array.
+    """
+    for arr, like, what in ((state, like_state, "state"), (params, like_params, "params")):
+        if not isinstance(arr, np.ndarray) or arr.dtype != np.float64 or arr.shape != like.shape \
+                or not arr.flags.writeable:
+            raise InvalidInputError(f"{what} must be a writable float64 array of shape {like.shape}, got "
+                                    f"{getattr(arr, 'dtype', type(arr).__name__)} {getattr(arr, 'shape', '')}")
 
 #: names of the entries of the estimator parameter vector ``prm`` of :func:`estimator_step`, in order
 ESTIMATOR_PARAMS = ("dt", "beta", "alpha_turn", "turn_rate", "heading_weight", "handover_end_share",
