@@ -64,6 +64,7 @@ class DynamicsState(Configuration):
         self._gravity = np.array(robot.model.gravity.linear, dtype=float)
         self._views: tuple | None = None
         super().__init__(robot, q)
+        _state_inputs_ok(self.q, self.v, robot.model.nq, nv)  # loaded here, not inside the first tick
 
     def update(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> None:  # type: ignore[override]
         """Set (q, v) when given and recompute every quantity (module docstring).
@@ -71,14 +72,20 @@ class DynamicsState(Configuration):
         Raises:
             ConfigurationError: see the class docstring.
         """
-        if q is not None:
-            q = check_vector(q, self.model.nq, "configuration q")
-            quat_norm = float(np.dot(q[3:7], q[3:7]))
-            if abs(quat_norm - 1.0) > 1e-6:
-                raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
-            self.q = q
-        if v is not None:
-            self.v = check_vector(v, self.model.nv, "velocity v")
+        if type(q) is np.ndarray and type(v) is np.ndarray and q.dtype == _F64 and v.dtype == _F64 \
+                and q.ndim == 1 and v.ndim == 1 and q.flags.c_contiguous and v.flags.c_contiguous \
+                and _state_inputs_ok(q, v, self.model.nq, self.model.nv):
+            self.q = q  # float (nq,) and (nv,) arrays, finite, unit base quaternion: the checks below, in one call
+            self.v = v
+        else:
+            if q is not None:
+                q = check_vector(q, self.model.nq, "configuration q")
+                quat_norm = float(np.dot(q[3:7], q[3:7]))
+                if abs(quat_norm - 1.0) > 1e-6:
+                    raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
+                self.q = q
+            if v is not None:
+                self.v = check_vector(v, self.model.nv, "velocity v")
         model, data, q, v = self.model, self.data, self.q, self.v
         if not self._free_flyer:
             self._update_all_terms()
@@ -162,6 +169,27 @@ class DynamicsState(Configuration):
         return pin.getFrameClassicalAcceleration(
             self.model, self.data, frame_id, pin.LOCAL_WORLD_ALIGNED
         ).vector
+
+
+_F64 = np.dtype(np.float64)
+
+
+@nb.njit(cache=True, nogil=True)
+def _state_inputs_ok(q, v, nq, nv):
+    """True when q is (nq,) and v (nv,), every entry finite, and the base quaternion q[3:7] has |‖q[3:7]‖² − 1| ≤
+    1e-6 (the checks of :meth:`DynamicsState.update`, whose full checks name what fails)."""
+    if q.shape[0] != nq or v.shape[0] != nv or nq < 7:
+        return False
+    for i in range(nq):
+        if not np.isfinite(q[i]):
+            return False
+    for i in range(nv):
+        if not np.isfinite(v[i]):
+            return False
+    s = 0.0
+    for i in range(3, 7):
+        s += q[i] * q[i]
+    return abs(s - 1.0) <= 1e-6
 
 
 @nb.njit(cache=True, nogil=True)

@@ -164,6 +164,7 @@ class InverseDynamicsController:
         self.n_relaxed = 0
         self.n_over_budget = 0
         self.paths: Counter = Counter()
+        self._path_key: tuple = (None, "")  # (path object, its string form) of the last tick
         self.routes: Counter = Counter()
 
     @property
@@ -233,8 +234,11 @@ class InverseDynamicsController:
         cmd.over_budget = cpu > self.budget
         self.n_ticks += 1
         self.n_over_budget += int(cmd.over_budget)
-        self.paths[str(cmd.path)] += 1
-        self.routes[cmd.path.route] += 1
+        path = cmd.path
+        if path is not self._path_key[0]:  # the string form of the last path (the compiled tick's is one object)
+            self._path_key = (path, str(path))
+        self.paths[self._path_key[1]] += 1
+        self.routes[path.route] += 1
         return cmd
 
     def _fail(self, message: str, conflicts, t0: float, t1: float, c0: float) -> IDCommand:

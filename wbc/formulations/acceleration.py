@@ -994,17 +994,6 @@ class InverseDynamicsQP:
         return out
 
 
-def _load_feedforward(ff: np.ndarray | None, out: np.ndarray, zeroed: bool) -> bool:
-    """Copy the feed-forward ``ff`` into its row view ``out``, or with ``ff`` None zero ``out`` (once: ``zeroed``
-    says it holds zeros already); returns whether ``out`` holds zeros now."""
-    if ff is not None:
-        out[:] = ff
-        return False
-    if not zeroed:
-        out.fill(0.0)
-    return True
-
-
 class _ProblemRows:
     """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
     assemblies read (:meth:`InverseDynamicsQP.build` through the constraints' ``write`` and the compiled tick
@@ -1062,19 +1051,32 @@ class _ProblemRows:
             self.relayout(qp)
         R = self.R
         for ent in self.entries:
-            ref, task, dense, J, e, eff, drift, aff, w, s, gains = ent[:11]
+            ref, task, dense, J, e, eff, drift, aff, w, s, gains, eff_zero, aff_zero = ent
             if dense:
                 task.compute_with_drift_into(state, e, J, drift)
             else:
                 e[:] = task.compute(state)[0]
                 drift[:] = task.drift(state)
-            ent[11] = _load_feedforward(task.feedforward(), eff, ent[11])
-            ent[12] = _load_feedforward(ref.feedforward_acceleration, aff, ent[12])
+            ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
+            if ff is not None:
+                eff[:] = ff
+                ent[11] = False
+            elif not eff_zero:
+                eff.fill(0.0)
+                ent[11] = True
+            ff = ref.feedforward_acceleration
+            if ff is not None:
+                aff[:] = ff
+                ent[12] = False
+            elif not aff_zero:
+                aff.fill(0.0)
+                ent[12] = True
             w[:] = ref.weight
-            if gains is None or gains[0] != ref.kp or gains[1] != ref.kd:
-                R[R_KP, s] = ref.kp
-                R[R_KD, s] = ref.kd
-                ent[10] = (ref.kp, ref.kd)
+            kp, kd = ref.kp, ref.kd
+            if gains is None or gains[0] != kp or gains[1] != kd:
+                R[R_KP, s] = kp
+                R[R_KD, s] = kd
+                ent[10] = (kp, kd)
         data = state.data
         if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
             self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
