@@ -84,3 +84,47 @@ def test_configuration_rejects_bad_vectors(robots):
     q[3:7] = [0, 0, 0, 2.0]
     with pytest.raises(ConfigurationError, match="unit norm"):
         config.update(q)
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_kept_centroidal_map_leaves_the_kinematics_unchanged(robots, name):
+    """keep_centroidal_map swaps computeJointJacobians for computeCentroidalMap in the update: the joint placements,
+    Jacobians, frame placements, CoM and CoM Jacobian must stay the same numbers (bit for bit), and the kept Ag must
+    be Pinocchio's computeCentroidalMap at q on a fresh Data."""
+    robot = robots(name)
+    rng = np.random.default_rng(3)
+    plain, kept = Configuration(robot), Configuration(robot)
+    kept.keep_centroidal_map()
+    assert kept.keeps_centroidal_map and not plain.keeps_centroidal_map
+    for _ in range(4):
+        q = random_configuration(robot, rng)
+        plain.update(q.copy())
+        kept.update(q.copy())
+        v = rng.standard_normal(robot.nv)
+        for config in (plain, kept):
+            config.step(v, 0.002)
+        assert np.array_equal(plain.q, kept.q)
+        assert np.array_equal(plain.data.J, kept.data.J)
+        assert np.array_equal(plain.com, kept.com) and np.array_equal(plain.com_jacobian, kept.com_jacobian)
+        for a, b in zip(plain.data.oMf, kept.data.oMf):
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        reference = pin.computeCentroidalMap(robot.model, robot.model.createData(), kept.q)
+        assert np.array_equal(kept.centroidal_momentum_matrix, reference)
+        np.testing.assert_allclose(plain.centroidal_momentum_matrix, reference, rtol=0, atol=1e-12)
+
+
+def test_step_rejects_non_finite_velocity_and_keeps_q(robots):
+    robot = robots("talos")
+    config = Configuration(robot)
+    q0 = config.q.copy()
+    v = np.zeros(robot.nv)
+    v[7] = np.nan
+    with pytest.raises(ConfigurationError):
+        config.step(v, 0.002)
+    assert np.array_equal(config.q, q0)
+    v[7] = 0.3
+    config.step(v, 0.002)
+    np.testing.assert_array_equal(config.q, pin.integrate(robot.model, q0, v * 0.002))
+    config.step(list(v), 0.002)  # a list is converted (check_vector), the same step
+    np.testing.assert_array_equal(config.q, pin.integrate(robot.model, pin.integrate(robot.model, q0, v * 0.002),
+                                                          v * 0.002))

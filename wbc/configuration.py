@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import check_vector
 from wbc.robot import Robot
@@ -21,6 +23,24 @@ __all__ = ["Configuration", "check_vector"]
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 WORLD = pin.ReferenceFrame.WORLD
+
+
+@nb.njit(cache=True, nogil=True)
+def _scaled_if_finite(v, dt, out):
+    """out = v dt and True when every entry of v is finite, else False with out untouched (compiled: one call
+    instead of a finiteness check and a product)."""
+    for i in range(v.shape[0]):
+        if not np.isfinite(v[i]):
+            return False
+    for i in range(v.shape[0]):
+        out[i] = v[i] * dt
+    return True
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_scaled_if_finite` (on-disk cache) once per process, at construction."""
+    _scaled_if_finite(np.zeros(1), 0.002, np.zeros(1))
 
 
 class Configuration:
@@ -39,9 +59,14 @@ class Configuration:
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
+        self._nv = robot.model.nv
+        self._vdt = np.zeros(self._nv)  # v dt of step
+        self._keep_ag = False
+        self._ag = None
         self.q = np.array(robot.q_ref if q is None else q, dtype=float)
         self.update(self.q)
         self._com = self.data.com[0]  # a view of Pinocchio's data.com[0] (eigenpy): follows every update
+        _warm_up()
 
     def update(self, q: np.ndarray | None = None) -> None:
         """Set q (if given) and recompute joint Jacobians, frame placements, CoM and CoM Jacobian.
@@ -58,7 +83,10 @@ class Configuration:
             # a read-only q is copied: the compiled tick (wbc.formulations.velocity_kernel) reads q, and a read-only
             # array is another argument type for it (one more compilation)
             self.q = q if q.flags.writeable else q.copy()
-        pin.computeJointJacobians(self.model, self.data, self.q)
+        if self._keep_ag:  # the joint placements and Jacobians of computeJointJacobians (the same numbers), and Ag
+            self._ag = pin.computeCentroidalMap(self.model, self.data, self.q)
+        else:
+            pin.computeJointJacobians(self.model, self.data, self.q)
         pin.updateFramePlacements(self.model, self.data)
         self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
 
@@ -87,9 +115,26 @@ class Configuration:
     def centroidal_momentum_matrix(self) -> np.ndarray:
         """(6, nv) centroidal momentum matrix Ag(q): ``[m ċ ; L] = Ag v`` (linear N·s, angular N·m·s about the CoM,
         world axes). Computed on demand (``pin.computeCentroidalMap``, which rewrites the joint placements, joint
-        Jacobians and CoM of ``data`` with the values they already hold);
+        Jacobians and CoM of ``data`` with the values they already hold), or, after :meth:`keep_centroidal_map`, the
+        one of the last update (do not modify it);
         :class:`~wbc.state.DynamicsState` returns the one of its ``computeAllTerms``."""
+        if self._keep_ag:
+            return self._ag
         return pin.computeCentroidalMap(self.model, self.data, self.q)
+
+    @property
+    def keeps_centroidal_map(self) -> bool:
+        """Whether every update computes the centroidal momentum matrix (:meth:`keep_centroidal_map`)."""
+        return self._keep_ag
+
+    def keep_centroidal_map(self) -> None:
+        """From now on, compute the centroidal momentum matrix in every update: ``pin.computeCentroidalMap`` in place
+        of ``pin.computeJointJacobians`` (its forward pass writes the same joint placements and joint Jacobians, the
+        CoM and its Jacobian are computed after it as before), so :attr:`centroidal_momentum_matrix` is read without
+        another pass over the model (e.g. by :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` every tick)."""
+        if not self._keep_ag:
+            self._keep_ag = True
+            self.update()
 
     def step(self, v: np.ndarray, dt: float) -> None:
         """Apply the generalized velocity v (nv,) for dt seconds (q ← ``pin.integrate(q, v dt)``) and update the
@@ -104,10 +149,12 @@ class Configuration:
             dt_ok = False
         if not dt_ok:
             raise ConfigurationError(f"dt must be a finite number > 0 (s), got {dt!r}")
-        if not isinstance(v, np.ndarray) or v.shape != (self.model.nv,) or v.dtype != np.float64 \
-                or not math.isfinite(v @ v):
-            v = check_vector(v, self.model.nv, "velocity v")  # raises with the details, else a float array
-        self.q = pin.integrate(self.model, self.q, v * dt)
+        vdt = self._vdt
+        if not (type(v) is np.ndarray and v.shape == (self._nv,) and v.dtype == np.float64
+                and _scaled_if_finite(v, float(dt), vdt)):
+            v = check_vector(v, self._nv, "velocity v")  # raises with the details, else a finite float array
+            np.multiply(v, dt, out=vdt)
+        self.q = pin.integrate(self.model, self.q, vdt)
         self.update()
 
     def integrate(self, v: np.ndarray, dt: float) -> np.ndarray:

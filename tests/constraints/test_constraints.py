@@ -127,6 +127,36 @@ def test_acceleration_limit_inputs(robots):
         acc.set_previous(np.zeros(3))
 
 
+@pytest.mark.parametrize("name", CATALOG)
+def test_compiled_box_intersections_match_the_generic_clip(robots, name):
+    """The compiled intersect_into of the acceleration and braking limits give the numbers of the generic
+    BoxConstraint.intersect_into (compute, then the clip into the running box), bit for bit, on random running boxes
+    (some emptying the box, some infinite) and random configurations and previous commands; their compute buffers
+    hold the box's own bounds."""
+    from wbc.constraints.base import BoxConstraint
+    from wbc.constraints.braking import JointBrakingLimit
+
+    robot = robots(name)
+    rng = np.random.default_rng(11)
+    nv = robot.nv
+    boxes = [JointAccelerationLimit(robot, a_max=rng.uniform(5.0, 80.0, nv - 6)), JointBrakingLimit(robot, a_max=40.0)]
+    for trial in range(20):
+        config = Configuration(robot, random_configuration(robot, rng, spread=0.6 if trial % 2 else 0.05))
+        boxes[0].set_previous(rng.uniform(-3.0, 3.0, nv))
+        lb0 = rng.uniform(-4.0, 1.0, nv)
+        ub0 = lb0 + rng.uniform(0.0, 5.0, nv)
+        lb0[rng.random(nv) < 0.2], ub0[rng.random(nv) < 0.2] = -np.inf, np.inf
+        for box in boxes:
+            lb, ub = lb0.copy(), ub0.copy()
+            box.intersect_into(config, 0.002, lb, ub)
+            own_lb, own_ub = box._lb.copy(), box._ub.copy()
+            ref_lb, ref_ub = lb0.copy(), ub0.copy()
+            BoxConstraint.intersect_into(box, config, 0.002, ref_lb, ref_ub)
+            assert np.array_equal(lb, ref_lb) and np.array_equal(ub, ref_ub)
+            lo, hi = box.compute(config, 0.002)
+            assert np.array_equal(own_lb, lo) and np.array_equal(own_ub, hi)
+
+
 # -- CoM polygon ----------------------------------------------------------------------------------------------
 def _support(robot, config, sides):
     frames = {"left": robot.left_sole, "right": robot.right_sole}

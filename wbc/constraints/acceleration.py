@@ -19,8 +19,6 @@ Acceleration limits yield to position safety, in two ways:
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
@@ -41,11 +39,43 @@ def _acceleration_bounds(v_prev, a_max, dt, lb, ub):
         ub[j] = v_prev[j] + step
 
 
+@nb.njit(cache=True, nogil=True)
+def _intersect_acceleration_bounds(v_prev, a_max, dt, lb, ub, start, box_lb, box_ub):
+    """:func:`_acceleration_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) from index
+    ``start`` on, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
+    box_lb) (compiled: the arithmetic of :func:`wbc.solvers.linalg.clip_box_into`, in the same call)."""
+    for j in range(v_prev.shape[0]):
+        step = a_max[j] * dt
+        lo = v_prev[j] - step
+        hi = v_prev[j] + step
+        lb[j] = lo
+        ub[j] = hi
+        cl = box_lb[start + j]
+        cu = box_ub[start + j]
+        box_lb[start + j] = min(max(lo, cl), cu)
+        box_ub[start + j] = max(min(hi, cu), cl)
+
+
+@nb.njit(cache=True, nogil=True)
+def _copy_if_finite(v, out):
+    """out = v and True when every entry of v is finite, else False with out untouched (compiled: one call instead
+    of a finiteness check and a copy)."""
+    for j in range(v.shape[0]):
+        if not np.isfinite(v[j]):
+            return False
+    for j in range(v.shape[0]):
+        out[j] = v[j]
+    return True
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_acceleration_bounds` (on-disk cache) once per process, at construction."""
+    """Load :func:`_acceleration_bounds` and :func:`_copy_if_finite` (on-disk cache) once per process, at
+    construction."""
     z = np.zeros(1)
     _acceleration_bounds(z, np.ones(1), 0.002, np.empty(1), np.empty(1))
+    _copy_if_finite(z, np.zeros(1))
+    _intersect_acceleration_bounds(z, np.ones(1), 0.002, np.empty(1), np.empty(1), 0, np.zeros(1), np.zeros(1))
 
 
 class JointAccelerationLimit(BoxConstraint):
@@ -90,11 +120,12 @@ class JointAccelerationLimit(BoxConstraint):
         Raises:
             ConfigurationError: wrong shape or NaN.
         """
-        if not (type(v) is np.ndarray and v.shape == (self.nv,) and v.dtype == np.float64 and math.isfinite(v @ v)):
+        if not (type(v) is np.ndarray and v.shape == (self.nv,) and v.dtype == np.float64
+                and _copy_if_finite(v, self._v)):
             v = check_vector(v, self.nv, "previous command v")  # raises with the details (or converts)
+            np.copyto(self._v, v)
         if self.v_prev.base is not self._v:  # v_prev was assigned: a view of the buffer again
             self.v_prev = self._v[6:]
-        np.copyto(self._v, v)
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lb, ub) of the module docstring, buffers owned by the constraint (overwritten at the next call)."""
@@ -103,3 +134,11 @@ class JointAccelerationLimit(BoxConstraint):
             v_prev = self.v_prev = check_vector(v_prev, self.dim, "v_prev (actuated velocities)")
         _acceleration_bounds(v_prev, self.a_max, float(dt), self._lb, self._ub)
         return self._lb, self._ub
+
+    def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
+        """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers; the
+        bounds of :meth:`compute` are left in its buffers as well)."""
+        v_prev = self.v_prev
+        if not (type(v_prev) is np.ndarray and v_prev.dtype == np.float64 and v_prev.shape == (self.dim,)):
+            v_prev = self.v_prev = check_vector(v_prev, self.dim, "v_prev (actuated velocities)")
+        _intersect_acceleration_bounds(v_prev, self.a_max, float(dt), self._lb, self._ub, 6, lb, ub)

@@ -43,11 +43,35 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
         lb[k] = adt - math.sqrt(adt * adt + 2.0 * a * down)
 
 
+@nb.njit(cache=True, nogil=True)
+def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_lb, box_ub):
+    """:func:`_braking_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) at the velocity
+    indices ``idx_v``, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
+    box_lb) (compiled: the arithmetic of :func:`wbc.solvers.linalg.clip_box_into`, in the same call)."""
+    adt = a * dt
+    for k in range(idx_q.shape[0]):
+        qk = q[idx_q[k]]
+        up = max(q_max[k] - qk, 0.0)
+        down = max(qk - q_min[k], 0.0)
+        hi = math.sqrt(adt * adt + 2.0 * a * up) - adt
+        lo = adt - math.sqrt(adt * adt + 2.0 * a * down)
+        ub[k] = hi
+        lb[k] = lo
+        i = idx_v[k]
+        cl = box_lb[i]
+        cu = box_ub[i]
+        box_lb[i] = min(max(lo, cl), cu)
+        box_ub[i] = max(min(hi, cu), cl)
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_braking_bounds` (on-disk cache) once per process, at construction."""
+    """Load :func:`_braking_bounds` and :func:`_intersect_braking_bounds` (on-disk cache) once per process, at
+    construction."""
     z = np.zeros(1)
-    _braking_bounds(z, np.zeros(1, dtype=np.int64), z, z, 1.0, 1.0, np.empty(1), np.empty(1))
+    i = np.zeros(1, dtype=np.int64)
+    _braking_bounds(z, i, z, z, 1.0, 1.0, np.empty(1), np.empty(1))
+    _intersect_braking_bounds(z, i, i, z, z, 1.0, 1.0, np.empty(1), np.empty(1), np.zeros(1), np.zeros(1))
 
 
 class JointBrakingLimit(BoxConstraint):
@@ -84,3 +108,9 @@ class JointBrakingLimit(BoxConstraint):
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         _braking_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.a_max, float(dt), self._lb, self._ub)
         return self._lb, self._ub
+
+    def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
+        """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers; the
+        bounds of :meth:`compute` are left in its buffers as well)."""
+        _intersect_braking_bounds(config.q, self.idx_q, self.indices, self.q_min, self.q_max, self.a_max, float(dt),
+                                  self._lb, self._ub, lb, ub)

@@ -321,7 +321,12 @@ class ExecutedZmpConstraint(InequalityConstraint):
     def compute(self, config: Configuration, dt: float):
         """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
         J = config.com_jacobian
-        Ag = pin.computeCentroidalMap(self._model, self._data, config.q) if self.angular_momentum else J
+        if not self.angular_momentum:
+            Ag = J
+        elif config.keeps_centroidal_map:  # computed by the configuration's update (the same numbers)
+            Ag = config.centroidal_momentum_matrix
+        else:  # on a Data of its own: computeCentroidalMap rewrites the CoM the configuration's data holds
+            Ag = pin.computeCentroidalMap(self._model, self._data, config.q)
         # Δc = c_k − c_{k−1}; second-order part of this step, r(v) ≈ r_{k−1} + dt (J_k − J_{k−1})(v − v_{k−1})
         # (module docstring): c_{k+1} ≈ c_k + (2 J_k − J_{k−1}) v dt + r_{k−1} − dt (J_k − J_{k−1}) v_{k−1};
         # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on

@@ -163,7 +163,7 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import (command_within_box, command_within_rows, contact_drift, ensure_compiled,
+from wbc.formulations.velocity_kernel import (all_finite, command_within_box, command_within_rows, contact_drift, ensure_compiled,
                                               form_qp, kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
                                               kinematic_solve_packed, translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
@@ -842,7 +842,7 @@ class KinematicController:
             return None  # dependent equality rows: dropped and checked by the general path
         # every number of the cost and the contact targets is finite (targets, weights, gains written in place, q,
         # placements): NaN and inf propagate into these sums; else the general path meets them and fails the tick
-        if not math.isfinite(self._cost_check + float(np.add.reduce(b))):
+        if not (math.isfinite(self._cost_check) and all_finite(b)):
             return None
         t1 = perf_counter()
         v = np.empty(self.nv)

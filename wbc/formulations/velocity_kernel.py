@@ -29,7 +29,7 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
+__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
            "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
            "kinematic_solve_packed", "kinematic_workspace", "translation_gap", "warm_up", "weighted_rows"]
 
@@ -494,6 +494,15 @@ def contact_drift(logs, b, starts, factors):
 
 
 @nb.njit(cache=True, nogil=True)
+def all_finite(x):
+    """True when every entry of the vector x is finite (no NaN, no ±inf)."""
+    for i in range(x.shape[0]):
+        if not np.isfinite(x[i]):
+            return False
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
 def command_within_box(v, lb, ub, tolerance):
     """True when every v_i is finite with |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance and
     v_i − ub_i ≤ tolerance (the unscaled box test of the kinematic controller's output guard, the same elementwise
@@ -565,6 +574,7 @@ def warm_up() -> float:
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)

@@ -77,6 +77,7 @@ class StanceController:
         if self.zmp is not None:
             self.zmp.set_support([self.contact[s].placement for s in SIDES])
             extra_constraints = (*extra_constraints, self.zmp)
+            config.keep_centroidal_map()  # the ZMP rows read Ag every tick: computed in the kinematics update
         smooth = () if joint_acceleration is None else (
             JointAccelerationLimit(robot, a_max=joint_acceleration), JointBrakingLimit(robot, a_max=joint_acceleration))
         self.smoothness = smooth
