@@ -15,7 +15,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.robot import load_robot
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.scenarios import make_controller
-from wbc.sim.sensors import EncoderSpec, ForceTorqueSpec, ImuSpec, PlantSensors, SensorSpecs
+from wbc.sim.sensors import EncoderSpec, ImuSpec, PlantSensors, SensorSpecs
 
 
 @pytest.fixture(scope="module")
@@ -125,49 +125,3 @@ def test_measured_zmp_equals_the_cop_of_the_contact_forces(standing):
     pos = np.array([sim.sole_pose(s).translation for s in ("left", "right")])
     cop = measured_cop(wrench, pos)  # from mj_contactForce, world
     assert np.linalg.norm(zmp - cop) < 1e-3
-
-
-@pytest.mark.parametrize("imu_hz, ft_hz", [(500.0, 500.0), (250.0, 125.0)], ids=["every-tick", "slower-imu-ft"])
-def test_read_matches_a_numpy_reference_of_the_noise_model(standing, imu_hz, ft_hz):
-    """PlantSensors.read (compiled sample) against the module docstring's model written here with one
-    ``rng.normal`` per block in the documented order (initial biases; per IMU sample the bias walks then the white
-    noise; per F/T sample the force then the torque noise, left then right) on a fresh generator of the same seed,
-    over 40 ticks of varying sensordata and sample-and-hold rates: equal to 1e-12 (the random stream is the same)."""
-    robot, sim = standing
-    specs = SensorSpecs(imu=ImuSpec(rate_hz=imu_hz), ft=ForceTorqueSpec(rate_hz=ft_hz))
-    sensors = PlantSensors(sim, specs, seed=5)
-    m, dt = sim.model, sim.timestep
-    rng = np.random.default_rng(5)
-    imu, ft = specs.imu, specs.ft
-
-    def adr(name, dim):
-        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name)
-        return m.sensor_adr[i] + np.arange(dim)
-
-    enc = np.array([adr(f"enc_{n}", 1)[0] for n in robot.model.names[2:]])
-    gb, ab = rng.normal(0, imu.gyro_bias_std, 3), rng.normal(0, imu.accel_bias_std, 3)
-    fb, tb = rng.normal(0, ft.force_bias_std, (2, 3)), rng.normal(0, ft.torque_bias_std, (2, 3))
-    res = 2 * math.pi / specs.encoder.counts_per_rev
-    held = {}
-    sd0 = sim.data.sensordata.copy()
-    data_rng = np.random.default_rng(11)
-    for k in range(40):
-        sd = sd0 + data_rng.normal(0, 0.1, sd0.shape)
-
-        class D:
-            sensordata = sd
-
-        r = sensors.read(k * dt, D)
-        held["q"] = np.round(sd[enc] / res) * res
-        if k % round(1 / (imu_hz * dt)) == 0:
-            gb = gb + rng.normal(0, imu.gyro_bias_walk * math.sqrt(1 / imu_hz), 3)
-            ab = ab + rng.normal(0, imu.accel_bias_walk * math.sqrt(1 / imu_hz), 3)
-            held["gyro"] = sd[adr("imu_gyro", 3)] + gb + rng.normal(0, imu.gyro_noise_density * math.sqrt(imu_hz), 3)
-            held["accel"] = sd[adr("imu_accel", 3)] + ab + rng.normal(0, imu.accel_noise_density * math.sqrt(imu_hz), 3)
-        if k % round(1 / (ft_hz * dt)) == 0:
-            fn, tn = rng.normal(0, ft.force_noise, (2, 3)), rng.normal(0, ft.torque_noise, (2, 3))
-            held["ft"] = np.array([np.r_[sd[adr(f"ft_{s}_f", 3)] + fb[j] + fn[j], sd[adr(f"ft_{s}_t", 3)] + tb[j] + tn[j]]
-                                   for j, s in enumerate(("left", "right"))])
-        for name in ("gyro", "accel", "ft"):
-            assert np.allclose(getattr(r, name), held[name], rtol=1e-12, atol=1e-12), (k, name)
-        assert np.array_equal(r.joint_q, held["q"]), k

@@ -10,8 +10,8 @@ directions v₀ᵢ (world) measured in B as vᵢ (unit vectors) with weights k�
     dR̂/dt  = R̂ (Ωʸ − b̂ + k_P ω_mes)×               (eq. 32a)
     db̂/dt  = −k_I ω_mes                             (eq. 32b)
 
-integrated once per sample with the exponential map, R̂ ← R̂ exp((Ωʸ − b̂ + k_P ω_mes + k_H ω_yaw) Δt) (Pinocchio's
-``exp3`` formula, :func:`wbc.estimation.kernels.exp3`; R̂ stays a rotation).
+integrated once per sample with the exponential map, R̂ ← R̂ exp((Ωʸ − b̂ + k_P ω_mes + k_H ω_yaw) Δt) (Pinocchio
+``exp3``; R̂ stays a rotation).
 
 The accelerometer gives the "up" direction: its specific force a − g is ``+g e_z`` at rest, so
 v = a/‖a‖ with v₀ = e_z. While the robot accelerates, a/‖a‖ is not the vertical; the filter trusts it with a
@@ -31,13 +31,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 
 from wbc.constants import GRAVITY
-from wbc.estimation.kernels import attitude_step, check_storage, warm_up
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
 __all__ = ["ComplementaryAttitudeFilter"]
+
+
+
+def _cross(a, b) -> tuple[float, float, float]:
+    """a × b of two (3,) arrays, as Python floats."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -62,59 +70,32 @@ class ComplementaryAttitudeFilter:
         k_heading_bias: k_IH, their yaw-bias gain (1/s², ≥ 0).
 
     Attributes:
-        rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample
-            (arrays updated in place).
+        rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample.
 
     Raises:
         InvalidInputError: bad gains or period, at construction and on assignment.
     """
 
-    _PARAMS = ("dt", "k_p", "k_i", "accel_gate", "bias_max", "bias_gate", "k_heading", "k_heading_bias")
-
     def __init__(self, dt: float, *, k_p: float = 0.2, k_i: float = 0.01, accel_gate: float = 2.0,
                  bias_max: float = 0.05, bias_gate: float = 0.02, k_heading: float = 1.0,
                  k_heading_bias: float = 0.1):
-        # the compiled filter's state and parameters (wbc.estimation.kernels layouts)
-        object.__setattr__(self, "_params", np.zeros(len(self._PARAMS)))
-        object.__setattr__(self, "_state", np.zeros(24))
         self.dt = dt
         self.k_p, self.k_i, self.accel_gate, self.bias_max, self.bias_gate = k_p, k_i, accel_gate, bias_max, bias_gate
         self.k_heading, self.k_heading_bias = k_heading, k_heading_bias
         self.accel_used = False
-        st = self._state
-        self.rotation, self.bias, self.omega = st[0:9].reshape(3, 3), st[9:12], st[12:15]
-        self.rotation[:] = np.eye(3)
-        self._no_dirs = np.zeros((0, 7))
-        warm_up()
+        self.rotation = np.eye(3)
+        self.bias = np.zeros(3)
+        self.omega = np.zeros(3)
+        self._wm = np.zeros(3)
+        self._wh = np.zeros(3)
+        self._w = np.zeros(3)
 
     def __setattr__(self, name, value):
         if name in ("dt", "accel_gate", "bias_max", "bias_gate"):
             value = _nonneg(value, name, positive=True)
         elif name in ("k_p", "k_i", "k_heading", "k_heading_bias"):
             value = _nonneg(value, name)
-        if name in self._PARAMS:
-            self._params[self._PARAMS.index(name)] = value
         object.__setattr__(self, name, value)
-
-    @property
-    def storage(self) -> tuple[np.ndarray, np.ndarray]:
-        """(state (24,), parameters (8,)): the arrays the compiled update (``wbc.estimation.kernels.attitude_step``)
-        reads and writes; :attr:`rotation`, :attr:`bias` and :attr:`omega` are views of the state."""
-        return self._state, self._params
-
-    def use_storage(self, state: np.ndarray, params: np.ndarray) -> None:
-        """Move the filter's state and parameters into ``state`` (24,) and ``params`` (8,) float arrays (e.g. views
-        of a caller's buffer that one compiled update reads in place): their values are copied there and
-        :attr:`rotation`, :attr:`bias`, :attr:`omega` become views of ``state``.
-
-        Raises:
-            InvalidInputError: not float64 arrays of those shapes.
-        """
-        check_storage(state, params, self._state, self._params)
-        state[:], params[:] = self._state, self._params
-        object.__setattr__(self, "_state", state)
-        object.__setattr__(self, "_params", params)
-        self.rotation, self.bias, self.omega = state[0:9].reshape(3, 3), state[9:12], state[12:15]
 
     def reset(self, rotation, bias=None) -> None:
         """Start from ``rotation`` (3, 3, world ← IMU) and ``bias`` (3,) rad/s (default zeros).
@@ -126,11 +107,11 @@ class ComplementaryAttitudeFilter:
         if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 \
                 or np.linalg.det(R) < 0:
             raise InvalidInputError(f"rotation must be a (3, 3) rotation matrix, got {R!r}")
+        self.rotation = R.copy()
         b = np.zeros(3) if bias is None else np.asarray(bias, dtype=float)
         if b.shape != (3,) or not np.all(np.isfinite(b)):
             raise InvalidInputError(f"bias must be a finite (3,) vector (rad/s), got {bias!r}")
-        self.rotation[:] = R
-        self.bias[:] = b
+        self.bias = b.copy()
 
     def update(self, gyro: np.ndarray, accel: np.ndarray, directions=(), heading=()) -> np.ndarray:
         """One sample: gyro (3,) rad/s and accelerometer (3,) m/s² in IMU axes, plus optional extra
@@ -140,13 +121,42 @@ class ComplementaryAttitudeFilter:
         Returns:
             R̂ (3, 3), world ← IMU (the :attr:`rotation` array, updated).
         """
-        dirs = self._rows(directions)
-        heads = dirs if heading is directions else self._rows(heading)
-        self.accel_used = attitude_step(self._state, self._params, np.asarray(gyro, dtype=float),
-                                        np.asarray(accel, dtype=float), dirs, heads)
+        R = self.rotation
+        a0, a1, a2 = accel.tolist()
+        n = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        self.accel_used = used = n > 0 and abs(n - GRAVITY) <= self.accel_gate
+        m0 = m1 = m2 = 0.0  # ω_mes
+        if used:  # v × v̂ with v = a/‖a‖, v̂ = R̂ᵀ e_z (the third row of R̂)
+            a0, a1, a2 = a0 / n, a1 / n, a2 / n
+            u0, u1, u2 = R[2].tolist()
+            m0, m1, m2 = a1 * u2 - a2 * u1, a2 * u0 - a0 * u2, a0 * u1 - a1 * u0
+        crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in directions]  # kᵢ, vᵢ × v̂ᵢ
+        for k, (c0, c1, c2) in crosses:
+            m0, m1, m2 = m0 + k * c0, m1 + k * c1, m2 + k * c2
+        if heading is not directions:
+            crosses = [(k, _cross(v, R.T @ v0)) for v0, v, k in heading]
+        h0 = h1 = h2 = 0.0
+        for k, (c0, c1, c2) in crosses:
+            h0, h1, h2 = h0 + k * c0, h1 + k * c1, h2 + k * c2
+        wm, wh = self._wm, self._wh
+        wm[:] = (m0, m1, m2)
+        wh[:] = (h0, h1, h2)
+        up = R[2]  # u = R̂ᵀ e_z, the vertical in IMU axes
+        wh[:] = (wh @ up) * up
+        omega = self.omega
+        np.subtract(gyro, self.bias, out=omega)
+        w = self._w
+        np.multiply(wm, self.k_p, out=w)
+        w += omega  # (ω + k_P ω_mes + k_H ω_yaw) Δt, summed in that order
+        w += self.k_heading * wh
+        w *= self.dt
+        object.__setattr__(self, "rotation", R @ pin.exp3(w))
+        gate = self.bias_gate * self.bias_gate
+        bias = self.bias
+        if self.k_i and used and wm @ wm <= gate:
+            bias -= self.k_i * self.dt * wm
+        if self.k_heading_bias and wh @ wh <= gate:
+            bias -= self.k_heading_bias * self.dt * wh
+        np.maximum(bias, -self.bias_max, out=bias)  # clip to ±bias_max
+        np.minimum(bias, self.bias_max, out=bias)
         return self.rotation
-
-    def _rows(self, directions) -> np.ndarray:
-        """(k, 7) rows (v₀, v, weight) of an iterable of (v₀, v, k)."""
-        rows = [np.r_[v0, v, k] for v0, v, k in directions]
-        return np.array(rows, dtype=float) if rows else self._no_dirs

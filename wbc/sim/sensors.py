@@ -44,11 +44,9 @@ import math
 from dataclasses import dataclass, field
 
 import mujoco
-import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
 from wbc.constants import GRAVITY, SIDES
 from wbc.exceptions import InvalidInputError
 
@@ -209,48 +207,6 @@ def _child_link(pmodel: pin.Model, joint: int) -> str:
     return next(f.name for f in pmodel.frames if f.type == pin.FrameType.BODY and f.parentFrame == jframe)
 
 
-@nb.njit(cache=True)
-def _sample(sd, idx, out, bias, z, scale, res, enc_on, imu_on, ft_on):
-    """One tick of :meth:`PlantSensors.read` from ``sd`` (MuJoCo's ``sensordata``) into ``out`` (encoder angles
-    (nj) then gyro, accel, F/T (18)): quantised encoders (if ``enc_on``); the standard normal draws z scaled by
-    ``scale``; the IMU's bias walks, then sensor + bias + white noise of the groups sampled. ``idx``: nj, nw, ni, nf,
-    then the encoders' addresses (nj), the 18 IMU and F/T addresses, the bias-walk, IMU-noise and F/T-noise
-    indices into the 18 (nw, ni, nf)."""
-    nj, nw, ni, nf = idx[0], idx[1], idx[2], idx[3]
-    o = 4
-    if enc_on:
-        for i in range(nj):
-            out[i] = np.rint(sd[idx[o + i]] / res) * res
-    if not (imu_on or ft_on):
-        return
-    o += nj
-    for i in range(z.shape[0]):
-        z[i] *= scale[i]
-    n = 0
-    if imu_on:
-        for i in range(nw):
-            bias[idx[o + 18 + i]] += z[i]
-        n = nw
-    lo, hi = (0 if imu_on else 6), (18 if ft_on else 6)
-    for i in range(lo, hi):
-        out[nj + i] = sd[idx[o + i]] + bias[i]
-    if imu_on:
-        for i in range(ni):
-            out[nj + idx[o + 18 + nw + i]] += z[n + i]
-        n += ni
-    if ft_on:
-        for i in range(nf):
-            out[nj + idx[o + 18 + nw + ni + i]] += z[n + i]
-
-
-@once_per_process
-def _warm_up() -> None:
-    """Load :func:`_sample` (on-disk cache) once per process, at construction."""
-    idx = np.zeros(4 + 18 + 3, dtype=np.int64)
-    idx[3] = 3
-    _sample(np.zeros(18), idx, np.zeros(18), np.zeros(18), np.zeros(3), np.ones(3), 1.0, True, True, True)
-
-
 @dataclass
 class SensorReadings:
     """One tick of sensor outputs (arrays preallocated, overwritten by :meth:`PlantSensors.read`).
@@ -316,14 +272,12 @@ class PlantSensors:
         nj = len(names)
         # gyro (3), accel (3), ft (2 × 6) of a sample in one vector: one gather and one add per tick
         self._imu_ft = np.r_[self._gyro, self._acc, self._ft.ravel()]
-        self._out = np.zeros(nj + 18)  # encoder angles, then the sample: gyro, accel, F/T
-        self._sample = self._out[nj:]
+        self._sample = np.zeros(18)
         self._bias = np.zeros(18)
         self._z = np.zeros(24)  # the standard normal draws of a tick
-        self.readings = SensorReadings(0.0, self._out[:nj], self._sample[0:3], self._sample[3:6],
+        self._enc_raw = np.zeros(nj)
+        self.readings = SensorReadings(0.0, np.zeros(nj), self._sample[0:3], self._sample[3:6],
                                        self._sample[6:18].reshape(2, 6))
-        self._every_enc, self._every_imu, self._every_ft = self._every["encoder"], self._every["imu"], self._every["ft"]
-        _warm_up()
         self.reset()
 
     def reset(self) -> None:
@@ -364,24 +318,40 @@ class PlantSensors:
         self._ft_idx, ft_sd = draws(ft_white)
         self._draw_sd = {(True, True): np.r_[walk_sd, imu_sd, ft_sd], (True, False): np.r_[walk_sd, imu_sd],
                          (False, True): ft_sd, (False, False): np.zeros(0)}
-        self._draw_z = {key: self._z[:len(sd)] for key, sd in self._draw_sd.items()}
-        self._idx = np.r_[len(self._enc), len(self._walk_idx), len(self._imu_idx), len(self._ft_idx), self._enc,
-                          self._imu_ft, self._walk_idx, self._imu_idx, self._ft_idx].astype(np.int64)
 
     def read(self, t: float, data: mujoco.MjData | None = None) -> SensorReadings:
         """Sample the sensors at tick time ``t`` (s) from ``data.sensordata`` (call after ``mj_step1``/``mj_forward``)
         and return the (preallocated, overwritten) :class:`SensorReadings`."""
         d = self.sim.data if data is None else data
-        r, k = self.readings, self._k
+        sd = d.sensordata
+        r, k, every = self.readings, self._k, self._every
         r.t = float(t)
-        enc_on = k % self._every_enc == 0
-        imu_on, ft_on = k % self._every_imu == 0, k % self._every_ft == 0
+        if k % every["encoder"] == 0:
+            raw = self._enc_raw
+            np.take(sd, self._enc, out=raw)
+            raw /= self._res
+            np.rint(raw, out=r.joint_q)
+            r.joint_q *= self._res
+        imu_on, ft_on = k % every["imu"] == 0, k % every["ft"] == 0
         self._k = k + 1
-        if not (enc_on or imu_on or ft_on):
+        if not (imu_on or ft_on):
             return r
-        z = self._draw_z[imu_on, ft_on]
+        scale = self._draw_sd[imu_on, ft_on]
+        z = self._z[:len(scale)]
         if len(z):
             self.rng.standard_normal(out=z)
-        _sample(d.sensordata, self._idx, self._out, self._bias, z, self._draw_sd[imu_on, ft_on], self._res, enc_on,
-                imu_on, ft_on)
+            z *= scale
+        lo, hi = (0 if imu_on else 6), (18 if ft_on else 6)
+        s, b, n = self._sample, self._bias, 0
+        if imu_on:
+            nw = len(self._walk_idx)
+            if nw:
+                b[self._walk_idx] += z[:nw]
+            n = nw
+        np.add(sd[self._imu_ft[lo:hi]], b[lo:hi], out=s[lo:hi])
+        if imu_on:
+            s[self._imu_idx] += z[n:n + len(self._imu_idx)]
+            n += len(self._imu_idx)
+        if ft_on:
+            s[self._ft_idx] += z[n:]
         return r
