@@ -16,6 +16,26 @@ import pytest
 
 import wbc
 
+
+_DDS_DOMAINS = {"next": None}
+
+
+def dds_domain_id() -> int:
+    """A ROS_DOMAIN_ID for one DDS test that no test running at the same time uses. Each pytest-xdist worker draws
+    from its own range of 1–230 (cyclonedds' port formula allows up to 232), one test at a time per worker, cycling
+    from a random start; a run without xdist uses the whole range. (Two workers drawing at random from 1–200 met on
+    one domain once: a tutorial's subscriber then received a ROS 2 node test's /joint_states.)"""
+    import random
+
+    count = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0")[2:] or 0)
+    size = 230 // count
+    if _DDS_DOMAINS["next"] is None:
+        _DDS_DOMAINS["next"] = random.randrange(size)
+    k = _DDS_DOMAINS["next"]
+    _DDS_DOMAINS["next"] = (k + 1) % size
+    return 1 + worker * size + k
+
 CATALOG = ["talos", "g1", "humanoid15"]
 
 

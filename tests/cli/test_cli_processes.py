@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import dds_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -359,7 +360,7 @@ def test_ros2_run_binds_dds_to_loopback_only(tmp_path):
     ss = shutil.which("ss")
     assert ss is not None, "iproute2's ss is needed to read the device a socket is bound to"
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
-               ROS_DOMAIN_ID=str(random.randint(1, 200)))
+               ROS_DOMAIN_ID=str(dds_domain_id()))
     env.pop("CYCLONEDDS_URI", None)
     # a 400-step walk outlasts both reads below (an 8-step walk could end between /proc and ss; SIGINT ends it)
     # SIGINT ends it below: the child gets the default disposition (a suite started from a background shell has

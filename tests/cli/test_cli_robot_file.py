@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from conftest import dds_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 LOOPBACK = (
@@ -47,7 +47,7 @@ def _env(dds: bool = False) -> dict:
     env["PYTHONPATH"] = str(ROOT)
     if dds:
         env["CYCLONEDDS_URI"] = LOOPBACK
-        env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+        env["ROS_DOMAIN_ID"] = str(dds_domain_id())
     return env
 
 

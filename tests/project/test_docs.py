@@ -5,13 +5,13 @@ Python blocks of the other pages)."""
 from __future__ import annotations
 
 import os
-import random
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from conftest import dds_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
@@ -27,7 +27,7 @@ def _env() -> dict:
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
     env["NO_MKDOCS_2_WARNING"] = env["DISABLE_MKDOCS_2_WARNING"] = "true"
     env["MPLBACKEND"] = "Agg"
-    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))  # DDS: a random domain, loopback (the pages call
+    env["ROS_DOMAIN_ID"] = str(dds_domain_id())  # DDS: a random domain, loopback (the pages call
     from wbc.ros2.dds import loopback_uri                 # use_loopback; set here too for any child process)
 
     env["CYCLONEDDS_URI"] = loopback_uri()

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import random
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from conftest import dds_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
@@ -35,7 +35,7 @@ def test_example_runs_quick(example, tmp_path):
     from wbc.ros2.dds import loopback_uri
 
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-               MPLBACKEND="Agg", CYCLONEDDS_URI=loopback_uri(), ROS_DOMAIN_ID=str(random.randint(1, 200)),
+               MPLBACKEND="Agg", CYCLONEDDS_URI=loopback_uri(), ROS_DOMAIN_ID=str(dds_domain_id()),
                TMPDIR=str(tmp_path))
     out = subprocess.run([sys.executable, str(example), "--quick"], capture_output=True, text=True, timeout=300,
                          env=env, cwd=tmp_path)

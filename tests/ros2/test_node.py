@@ -10,13 +10,13 @@ durations are measured in node time from the messages' stamps and /clock. Skippe
 import json
 import math
 import os
-import random
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import dds_domain_id
 
 for _mod in ("cyclonedds", "rosbags"):
     pytest.importorskip(_mod, reason=f"the optional extra wbc[ros2] is not installed ({_mod} missing)")
@@ -36,7 +36,7 @@ def node():
     """One `wbc ros2 node --time sim` for the module; yields the environment of its clients."""
     env = dict(os.environ)
     env["CYCLONEDDS_URI"] = LOOPBACK
-    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    env["ROS_DOMAIN_ID"] = str(dds_domain_id())
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "humanoid15", "--time", "sim"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -148,7 +148,7 @@ def sim_node():
 
     env = dict(os.environ)
     env["CYCLONEDDS_URI"] = LOOPBACK
-    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    env["ROS_DOMAIN_ID"] = str(dds_domain_id())
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--robot", "g1", "--sim", "--time", "sim"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(HERE.parents[1]))
@@ -362,7 +362,7 @@ def test_node_trims_the_heap_periodically(monkeypatch):
     from wbc.ros2.node import ControllerNode
 
     monkeypatch.setenv("CYCLONEDDS_URI", LOOPBACK)
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(dds_domain_id()))
     node = ControllerNode(load_robot("humanoid15"), time_mode="sim")
     try:
         for bad in (0.0, -1.0, float("nan"), "10", True):
@@ -389,7 +389,7 @@ def test_node_stops_at_the_tick_after_an_interrupt_it_was_told_of(monkeypatch):
     from wbc.ros2.node import ControllerNode
 
     monkeypatch.setenv("CYCLONEDDS_URI", LOOPBACK)
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(dds_domain_id()))
     node = ControllerNode(load_robot("humanoid15"), time_mode="sim")
     asked = []
 

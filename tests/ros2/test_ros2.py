@@ -6,7 +6,6 @@ ROS_DOMAIN_ID per test. Skipped only when the extra wbc[ros2] (cyclonedds, rosba
 
 import json
 import os
-import random
 import subprocess
 import sys
 import time
@@ -22,6 +21,7 @@ for _mod in ("cyclonedds", "rosbags", "mcap", "mcap_ros2"):
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 from wbc.ros2 import msgs  # noqa: E402
+from conftest import dds_domain_id
 
 HERE = Path(__file__).parent
 SUBSCRIBER = HERE / "ros2_subscriber.py"
@@ -39,7 +39,7 @@ def dds_env():
     """Environment of the child processes: loopback-only DDS on a random domain."""
     env = dict(os.environ)
     env["CYCLONEDDS_URI"] = LOOPBACK
-    env["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
+    env["ROS_DOMAIN_ID"] = str(dds_domain_id())
     env.pop("PYTHONPATH", None)
     return env
 
