@@ -322,8 +322,9 @@ def test_no_private_attribute_accessed_across_modules():
 def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_path):
     """A mini-package: ``a`` defines ``A._x``, ``A._m``, ``A._k`` and compares ``_x`` across instances in ``A``
     (passes); its module-level function touching them on an ``obj`` is flagged (not inside the class); ``b``
-    reads, writes and getattr's them on an ``A``, and uses its own (``_y``), ``super()``'s and ``os._exit``; ``A._y``
-    on the imported class is ``a``'s even though ``b`` defines a ``_y`` too."""
+    reads, writes and getattr's them on an ``A``, writes its own ``_y`` on a ``B`` outside the class (flagged), and
+    uses ``self``'s, ``super()``'s and ``os._exit``; ``A._y`` on the imported class is ``a``'s even though ``b``
+    defines a ``_y`` too."""
     a = tmp_path / "a.py"
     a.write_text("class A:\n    _k = 1\n    def __init__(self):\n        self._x = 0\n"
                  "    def _m(self):\n        return self._x\n"
