@@ -102,8 +102,9 @@ class Configuration:
 
     @property
     def com(self) -> np.ndarray:
-        """(3,) centre of mass in world (m): a view of Pinocchio's ``data.com[0]``, updated in place by
-        :meth:`update` (copy it to keep a value)."""
+        """(3,) centre of mass in world (m), updated in place by :meth:`update` (copy it to keep a value): a view of
+        Pinocchio's ``data.com[0]``; a :class:`~wbc.state.DynamicsState`'s own array, computed with its centroidal
+        quantities."""
         return self._com
 
     @property

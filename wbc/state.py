@@ -64,6 +64,7 @@ class DynamicsState(Configuration):
         self._gravity = np.array(robot.model.gravity.linear, dtype=float)
         self._views: tuple | None = None
         super().__init__(robot, q)
+        self._com = self._com_buf  # com: this array, rewritten by update with the centroidal quantities
         _state_inputs_ok(self.q, self.v, robot.model.nq, nv)  # loaded here, not inside the first tick
 
     def update(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> None:  # type: ignore[override]
@@ -132,11 +133,6 @@ class DynamicsState(Configuration):
         return self._views[1]
 
     # -- centroidal ------------------------------------------------------------------------------------------
-    @property
-    def com(self) -> np.ndarray:
-        """(3,) centre of mass in world (m) (an array rewritten by :meth:`update`)."""
-        return self._com_buf
-
     @property
     def com_velocity(self) -> np.ndarray:
         """(3,) CoM velocity in world (m/s): ``Ag[0:3] v / m``."""

@@ -297,7 +297,7 @@ def test_daqp_solves_recorded_large_cost_problem():
     assert _highs_feasible(A, b, C, l, u, lb, ub)
     x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     _assert_feasible(x, A, b, C, l, u, lb, ub)
-    xq = QpsolversBackend("quadprog")._solve(H, g, A, b, C, l, u, lb, ub)
+    xq = QpsolversBackend("quadprog").raw_solve(H, g, A, b, C, l, u, lb, ub)
     obj, obj_q = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
     assert abs(obj - obj_q) <= 1e-9 * abs(obj_q)
     assert np.abs(x - xq).max() <= 1e-6 * max(1.0, np.abs(xq).max())

@@ -256,21 +256,32 @@ def private_attributes_defined(tree: ast.AST) -> set[str]:
     return {n for n in out if _is_private(n)}
 
 
-def private_attribute_accesses(path: Path) -> list[tuple[int, str]]:
-    """(line, source) of each access in the file to a private attribute (``_x``, not a dunder) that the file does
-    not define (:func:`private_attributes_defined`): ``X._x`` read, written or deleted where X is not ``self``,
-    ``cls`` or ``super()``, and ``getattr/setattr/hasattr/delattr(X, "_x")`` with a literal name. A module may touch
+def private_attribute_accesses(path: Path, elsewhere: set[str] = frozenset()) -> list[tuple[int, str]]:
+    """(line, source) of each access in the file to a private attribute (``_x``, not a dunder) on an object other
+    than ``self``, ``cls`` or ``super()``: ``X._x`` read, written or deleted, and ``getattr/setattr/hasattr/delattr(X,
+    "_x")`` with a literal name. ``elsewhere``: the private names the other modules define
+    (:func:`private_attributes_defined`).
+
+    Such an access passes only when both hold:
+
+    - it sits inside a class whose own body defines ``_x`` (:func:`private_attributes_defined` of the innermost
+      enclosing class): a class's private members on another instance of it, as in ``__eq__(self, other)``; not a
+      module-level function, nor another class of the same module (a helper gets what it needs from its owner);
+    - no other module defines an attribute named ``_x`` (``elsewhere``): X could be that module's object, so a name
+      two modules define is touched through ``self``/``cls`` only;
+
+    and X is not a name bound by an import (a module, another module's class or function). A module may touch
     the private attributes of the objects it defines, never those defined elsewhere (another wbc module, a
     third-party library)."""
     tree = ast.parse(path.read_text(), filename=str(path))
-    own = private_attributes_defined(tree)
     # Names bound by an import (a module, or a class or function of another module): their private attributes are
     # never the file's own, even when the file defines an attribute of the same name.
     imported = {a.asname or a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import)
                 for a in n.names} | {a.asname or a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
                                      for a in n.names}
     out = []
-    for node in ast.walk(tree):
+
+    def visit(node: ast.AST, own: set[str]) -> None:
         if isinstance(node, ast.Attribute):
             name, obj = node.attr, node.value
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and \
@@ -278,33 +289,46 @@ def private_attribute_accesses(path: Path) -> list[tuple[int, str]]:
                 isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str):
             name, obj = node.args[1].value, node.args[0]
         else:
-            continue
-        if not _is_private(name) or (name in own and not (isinstance(obj, ast.Name) and obj.id in imported)):
-            continue
-        if isinstance(obj, ast.Name) and obj.id in ("self", "cls"):
-            continue
-        if isinstance(obj, ast.Call) and isinstance(obj.func, ast.Name) and obj.func.id == "super":
-            continue
-        if isinstance(node, ast.Attribute) and ast.unparse(node) in DOCUMENTED_UNDERSCORE_NAMES:
-            continue
-        out.append((node.lineno, ast.unparse(node)))
+            name = obj = None
+        if name is not None and _is_private(name) and not (
+                isinstance(obj, ast.Name) and obj.id in ("self", "cls")
+                or isinstance(obj, ast.Call) and isinstance(obj.func, ast.Name) and obj.func.id == "super"
+                or isinstance(node, ast.Attribute) and ast.unparse(node) in DOCUMENTED_UNDERSCORE_NAMES
+                or name in own and name not in elsewhere and not (isinstance(obj, ast.Name) and obj.id in imported)):
+            out.append((node.lineno, ast.unparse(node)))
+        for child in ast.iter_child_nodes(node):
+            visit(child, private_attributes_defined(child) if isinstance(child, ast.ClassDef) else own)
+
+    visit(tree, set())
     return sorted(out)
 
 
+def private_attribute_violations(modules: dict[str, Path]) -> list[str]:
+    """``module:line source`` of each access :func:`private_attribute_accesses` flags, every module checked against
+    the private names the others define."""
+    defined = {name: private_attributes_defined(ast.parse(path.read_text(), filename=str(path)))
+               for name, path in modules.items()}
+    return [f"{name}:{line} {src}" for name, path in modules.items()
+            for line, src in private_attribute_accesses(
+                path, set().union(*(d for other, d in defined.items() if other != name)))]
+
+
 def test_no_private_attribute_accessed_across_modules():
-    bad = [f"{name}:{line} {src}" for name, path in all_modules().items()
-           for line, src in private_attribute_accesses(path)]
+    bad = private_attribute_violations(all_modules())
     assert not bad, f"{len(bad)} accesses to private attributes defined in another module (give the owner a " \
                     f"public surface):\n" + "\n".join(bad)
 
 
 def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_path):
-    """A mini-package: ``a`` defines ``A._x`` and ``A._m`` and touches them from a module-level function; ``b``
-    reads, writes and getattr's them on an ``A``, and uses its own (``_y``), ``super()``'s and ``os._exit``; ``A._y``
-    on the imported class is ``a``'s even though ``b`` defines a ``_y`` too."""
+    """A mini-package: ``a`` defines ``A._x``, ``A._m``, ``A._k`` and compares ``_x`` across instances in ``A``
+    (passes); its module-level function touching them on an ``obj`` is flagged (not inside the class); ``b``
+    reads, writes and getattr's them on an ``A``, writes its own ``_y`` on a ``B`` outside the class (flagged), and
+    uses ``self``'s, ``super()``'s and ``os._exit``; ``A._y`` on the imported class is ``a``'s even though ``b``
+    defines a ``_y`` too."""
     a = tmp_path / "a.py"
     a.write_text("class A:\n    _k = 1\n    def __init__(self):\n        self._x = 0\n"
-                 "    def _m(self):\n        return self._x\n\n"
+                 "    def _m(self):\n        return self._x\n"
+                 "    def __eq__(self, other):\n        return self._x == other._x and other._m() == self._k\n\n"
                  "def peek(obj):\n    return obj._x + obj._m() + obj._k\n")
     b = tmp_path / "b.py"
     b.write_text("import os\nfrom a import A\n\n"
@@ -313,9 +337,24 @@ def test_the_private_attribute_checker_flags_other_modules_attributes_only(tmp_p
                  "def poke(obj: A, other: B):\n    obj._x = 2\n    del obj._k\n"
                  "    f = getattr(obj, '_m')\n    other._y = 1\n    os._exit(0) if f() else None\n"
                  "    return obj.__dict__, hasattr(obj, 'x'), A._y\n")
-    assert private_attribute_accesses(a) == []
-    assert private_attribute_accesses(b) == [(12, "obj._x"), (13, "obj._k"), (14, "getattr(obj, '_m')"),
-                                             (17, "A._y")]
+    assert private_attribute_violations({"a": a, "b": b}) == [
+        "a:11 obj._k", "a:11 obj._m", "a:11 obj._x",
+        "b:12 obj._x", "b:13 obj._k", "b:14 getattr(obj, '_m')", "b:15 other._y", "b:17 A._y"]
+
+
+def test_the_private_attribute_checker_flags_a_name_two_modules_define(tmp_path):
+    """Two modules each keep a ``self._state``: ``Sim`` reading ``plant._state`` of a ``Plant`` (another module's
+    object) is flagged although ``Sim`` defines a ``_state`` of its own; ``Pose.__eq__`` comparing ``other._x``,
+    a name only its module defines, passes."""
+    plant = tmp_path / "plant.py"
+    plant.write_text("class Plant:\n    def __init__(self):\n        self._state = 0.0\n")
+    sim = tmp_path / "sim.py"
+    sim.write_text("class Sim:\n    def __init__(self, plant):\n        self._state = plant._state\n"
+                   "        self.plant = plant\n    def step(self):\n        self._state = self.plant._state\n\n"
+                   "class Pose:\n    def __init__(self, x):\n        self._x = x\n"
+                   "    def __eq__(self, other):\n        return self._x == other._x\n")
+    assert private_attribute_violations({"plant": plant, "sim": sim}) == [
+        "sim:3 plant._state", "sim:6 self.plant._state"]
 
 
 @pytest.mark.parametrize("module", ["wbc.gait.walk", "wbc.cli"])

@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-__all__ = ["register", "add_robot_options", "robot_from_args", "cmd_robots", "cmd_robot_init", "cmd_robot_check"]
+__all__ = ["register", "add_robot_options", "add_plant_options", "robot_from_args", "cmd_robots", "cmd_robot_init",
+           "cmd_robot_check"]
 
 
 def add_robot_options(p: argparse.ArgumentParser) -> None:
@@ -26,6 +27,20 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sole-length", type=float, default=None, help="m (default: from the foot's collision geometry)")
     g.add_argument("--sole-width", type=float, default=None, help="m (default: from the foot's collision geometry)")
     g.add_argument("--package-dir", action="append", default=[], help="folder searched for package:// meshes")
+
+
+def add_plant_options(p: argparse.ArgumentParser, scope: str = "") -> None:
+    """``--plant`` (the simulated robot's drives) and ``--state`` (what the controller reads), as ``wbc sim`` and
+    ``wbc ros2 node --sim`` take them; ``scope`` opens their help (e.g. ``"--sim: "``)."""
+    p.add_argument("--plant", choices=("realistic", "ideal"), default="realistic",
+                   help=scope + "plant drives (wbc.sim.actuators): realistic (default: URDF joint damping and dry "
+                                "friction, rotor armature, torque-speed envelope) or ideal (torque sources; "
+                                "plant = model)")
+    p.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
+                   help=scope + "what the controller reads: estimated (default: encoders, pelvis IMU and ankle F/T "
+                                "sensors with noise and bias, wbc.sim.sensors, fused by "
+                                "wbc.estimation.FloatingBaseEstimator; noise seeded by --seed) or ground-truth "
+                                "(MuJoCo's qpos/qvel)")
 
 
 def robot_from_args(args: argparse.Namespace):

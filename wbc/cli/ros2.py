@@ -326,7 +326,7 @@ def register(subparsers, add_outputs) -> None:
     jp.add_argument("--steps", type=count(2, 1000), default=4, help="walking steps in the looped motion (default 4)")
     jp.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")
     jp.add_argument("--duration", type=seconds, default=None, help="stop after this many seconds (default: Ctrl-C)")
-    from wbc.cli.robots import add_robot_options
+    from wbc.cli.robots import add_plant_options, add_robot_options
 
     add_robot_options(jp)
     jp.set_defaults(func=cmd_joint_publisher)
@@ -344,12 +344,10 @@ def register(subparsers, add_outputs) -> None:
                     help="real: paced to the wall clock (default); sim: as fast as possible, /clock, sim stamps")
     nd.add_argument("--sim", action="store_true",
                     help="MuJoCo closed loop with the inverse-dynamics controller (wbc sim walk's plant and "
-                         "estimator; re-planned at each touch-down, a stop takes effect within one step; see "
+                         "estimator, --plant and --state as there, /odom and /tf from the state the controller "
+                         "reads; re-planned at each touch-down, a stop takes effect within one step; see "
                          "wbc.sim.commanded)")
-    nd.add_argument("--plant", choices=("realistic", "ideal"), default="realistic",
-                    help="--sim: plant drives (default realistic, as wbc sim walk)")
-    nd.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
-                    help="--sim: what the controller, /odom and /tf read (default estimated, as wbc sim walk)")
+    add_plant_options(nd, scope="--sim: ")
     nd.add_argument("--seed", type=int, default=0, help="--sim: sensor noise seed (default 0)")
     nd.add_argument("--name", default="wbc_node", help="node name (parameter services /NAME/...; default wbc_node)")
     nd.add_argument("--tf", choices=("base", "all"), default="all", help="/tf content (default all)")

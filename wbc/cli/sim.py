@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
-from wbc.cli.robots import add_robot_options, robot_from_args
+from wbc.cli.robots import add_plant_options, add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, video_size
 
@@ -96,19 +96,12 @@ def register(subparsers, add_outputs) -> None:
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", choices=available_solvers(),
                    help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
-    p.add_argument("--state", choices=("estimated", "ground-truth"), default="estimated",
-                   help="what the controller reads: estimated (default: encoders, pelvis IMU and ankle F/T sensors "
-                        "with noise and bias, wbc.sim.sensors, fused by wbc.estimation.FloatingBaseEstimator; "
-                        "noise seeded by --seed) or ground-truth (MuJoCo's qpos/qvel)")
+    add_plant_options(p)
     p.add_argument("--velocity-memory", type=finite(0.0, 0.99), default=None,
                    help="--state estimated: joint velocities from the encoders by the g-h-k fading-memory filter of "
                         "this memory θ in [0, 0.99] (no lag at constant joint acceleration; default for jump: 0.5) "
                         "instead of the backward difference low-passed at 80 Hz (default for every other scenario: "
                         "smoother, ~3 ms of lag); see wbc.estimation.JointStateFilter")
-    p.add_argument("--plant", choices=("ideal", "realistic"), default="realistic",
-                   help="plant drives (wbc.sim.actuators): realistic (default: URDF joint damping and dry friction, "
-                        "rotor armature, torque-speed envelope) or ideal (torque sources; plant = model). "
-                        "--friction/--armature/--mass-error/... add on top")
     p.add_argument("--no-load-factor", type=finite(0.0, 100.0, lo_open=True), default=None,
                    help="realistic plant: drive no-load speed / URDF velocity limit (default 1.2)")
     p.add_argument("--mu", type=finite(0.0, 10.0, lo_open=True), default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")

@@ -26,6 +26,7 @@ from wbc.compiled import once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
+from wbc.solvers.linalg import clip_entry_into
 
 __all__ = ["JointAccelerationLimit"]
 
@@ -43,17 +44,14 @@ def _acceleration_bounds(v_prev, a_max, dt, lb, ub):
 def _intersect_acceleration_bounds(v_prev, a_max, dt, lb, ub, start, box_lb, box_ub):
     """:func:`_acceleration_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) from index
     ``start`` on, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
-    box_lb) (compiled: the arithmetic of :func:`wbc.solvers.linalg.clip_box_into`, in the same call)."""
+    box_lb) (compiled: :func:`wbc.solvers.linalg.clip_entry_into` inlined)."""
     for j in range(v_prev.shape[0]):
         step = a_max[j] * dt
         lo = v_prev[j] - step
         hi = v_prev[j] + step
         lb[j] = lo
         ub[j] = hi
-        cl = box_lb[start + j]
-        cu = box_ub[start + j]
-        box_lb[start + j] = min(max(lo, cl), cu)
-        box_ub[start + j] = max(min(hi, cu), cl)
+        clip_entry_into(box_lb, box_ub, start + j, lo, hi)
 
 
 @nb.njit(cache=True, nogil=True)

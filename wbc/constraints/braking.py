@@ -27,6 +27,7 @@ from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
+from wbc.solvers.linalg import clip_entry_into
 
 __all__ = ["JointBrakingLimit"]
 
@@ -47,7 +48,7 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
 def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_lb, box_ub):
     """:func:`_braking_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) at the velocity
     indices ``idx_v``, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
-    box_lb) (compiled: the arithmetic of :func:`wbc.solvers.linalg.clip_box_into`, in the same call)."""
+    box_lb) (compiled: :func:`wbc.solvers.linalg.clip_entry_into` inlined)."""
     adt = a * dt
     for k in range(idx_q.shape[0]):
         qk = q[idx_q[k]]
@@ -57,11 +58,7 @@ def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_
         lo = adt - math.sqrt(adt * adt + 2.0 * a * down)
         ub[k] = hi
         lb[k] = lo
-        i = idx_v[k]
-        cl = box_lb[i]
-        cu = box_ub[i]
-        box_lb[i] = min(max(lo, cl), cu)
-        box_ub[i] = max(min(hi, cu), cl)
+        clip_entry_into(box_lb, box_ub, idx_v[k], lo, hi)
 
 
 @once_per_process

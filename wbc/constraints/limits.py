@@ -16,6 +16,7 @@ from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
+from wbc.solvers.linalg import clip_entry_into
 
 __all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints"]
 
@@ -50,11 +51,7 @@ def _intersect_position_bounds(q, idx_q, idx_v, q_min, q_max, v_max, neg_v_max, 
         qk = q[idx_q[k]]
         lo = min((q_min[k] - qk) / dt, v_max[k])
         hi = max((q_max[k] - qk) / dt, neg_v_max[k])
-        i = idx_v[k]
-        cl = lb[i]
-        cu = ub[i]
-        lb[i] = min(max(lo, cl), cu)
-        ub[i] = max(min(hi, cu), cl)
+        clip_entry_into(lb, ub, idx_v[k], lo, hi)
 
 
 @once_per_process

@@ -264,7 +264,7 @@ class InverseDynamicsQP:
         self._rows = _ProblemRows(self)
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
-            self._kernel = _KernelBuffers(self)
+            self._kernel = self._new_kernel()
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         # verify's inputs to output_violations: friction rows, activity, results; no limited joint (relaxed)
         self._verify_buffers = (np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_), np.zeros((2 * nc + 2, 2)))
@@ -413,6 +413,11 @@ class InverseDynamicsQP:
             return
         raise ValueError(f"{constraint!r} is not in the QP")
 
+    def _new_kernel(self) -> _KernelBuffers:
+        """The compiled tick's buffers (:class:`_KernelBuffers`) over this QP's gathered rows and current blocks."""
+        return _KernelBuffers(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l, self._u,
+                                                 self._lb, self._ub, self._JcT))
+
     def _layout_inequalities(self) -> None:
         r = self._r0
         for con in self.extra_constraints:
@@ -423,7 +428,7 @@ class InverseDynamicsQP:
         C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
         self._C, self._l, self._u = C, l, u
         if self._kernel is not None:  # its argument tuples hold the blocks: new blocks, new buffers
-            self._kernel = _KernelBuffers(self)
+            self._kernel = self._new_kernel()
 
     def _refresh_contact_rows(self) -> None:
         """Rewrite the contact blocks whose parameters were assigned since they were written: the force bounds
@@ -1094,17 +1099,17 @@ class _ProblemRows:
 
 class _KernelBuffers:
     """Preallocated solver state, outputs and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP, and
-    its argument tuple after the gathered rows (:class:`_ProblemRows`)."""
+    its argument tuple after the gathered rows (:class:`_ProblemRows`): ``rows`` the QP's gathered rows, ``blocks``
+    its (H, g, A, b, C, l, u, lb, ub, JcT) arrays (:meth:`InverseDynamicsQP._new_kernel`)."""
 
-    def __init__(self, qp: InverseDynamicsQP):
+    def __init__(self, qp: InverseDynamicsQP, rows: _ProblemRows, blocks: tuple[np.ndarray, ...]):
         nv, n, nc = qp.nv, qp.n, len(qp.contacts)
         tl = qp.torque_limits
         jl = qp.joint_acceleration_limits
-        rows = qp._rows
         self.wrench = np.zeros((nc, 6))
         self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
                              DEPENDENT_CONTACT_RATIO, jl.speed_horizon])
-        m_max, p = 6 + 6 * nc, qp._C.shape[0]
+        m_max, p = 6 + 6 * nc, blocks[4].shape[0]  # C (p, n): the inequality rows
         self.state = np.zeros(n, np.int8)
         self.rstate = np.zeros(p, np.int8)
         self.x = np.zeros(n)
@@ -1114,16 +1119,15 @@ class _KernelBuffers:
         self.tau = np.zeros(nv - 6)
         k = jl.dim
         self.tail = (tl.velocity_indices, tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax,
-                     np.empty(k), np.empty(k), qp._H, qp._g, qp._A, qp._b, qp._C, qp._l, qp._u, qp._lb, qp._ub,
-                     qp._JcT, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
+                     np.empty(k), np.empty(k), *blocks, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
                      rows.gram_y, *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
         self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
-        self._load_kernel(qp)
+        self._load_kernel(qp, rows)
 
-    def _load_kernel(self, qp: InverseDynamicsQP) -> None:
+    def _load_kernel(self, qp: InverseDynamicsQP, rows: _ProblemRows) -> None:
         """Load :func:`~wbc.formulations.idkernel.id_tick` here, at construction, not inside the first tick: once per
         process, one call on these buffers at a neutral state (M = I in the column-major order of a
         :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer it writes
@@ -1131,7 +1135,6 @@ class _KernelBuffers:
         global _ID_TICK_LOADED
         if _ID_TICK_LOADED:
             return
-        rows = qp._rows
         if rows.layout is None:
             rows.relayout(qp)
         nv = qp.nv

@@ -816,7 +816,7 @@ class KinematicController:
         key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
         plan = self._fused_plans.get(key)
         if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = _FusedPlan.build(self)
+            plan = self._fused_plans[key] = self._build_fused_plan()
             while len(self._fused_plans) > 16:
                 self._fused_plans.pop(next(iter(self._fused_plans)))
         if plan.supported:
@@ -824,6 +824,28 @@ class KinematicController:
             self._fused = plan
             return plan
         return None
+
+    def _build_fused_plan(self) -> _FusedPlan:
+        """A new :class:`_FusedPlan` for the current layouts (``supported`` False when the compiled tick does not
+        cover them, :meth:`_fused_plan`)."""
+        plan = _FusedPlan()
+        plan.layout_key = self._layout_key
+        plan.soft_tasks = self._soft_tasks
+        plan.backend = self.backend
+        soft = self._soft
+        if soft.own or any(not plain for *_, plain in soft.rows):
+            return plan  # a task with its own cost (other than one posture task) or velocity target
+        if any(type(c) is not ContactConstraint for c in self._contacts):
+            return plan  # a contact with rows of its own
+        nv = self.nv
+        nr = nv - 6 if self._eliminating_row >= 0 else nv
+        plan.state = self._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
+        plan.rstate = np.zeros(self._C.shape[0], np.int8)                      # across support switches
+        plan.vdt = self._qp_pack[2]["vdt"]
+        plan.logs = np.zeros((len(self._contacts), 6))
+        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
+        plan.supported = True
+        return plan
 
     def _fused_tick(self, plan: _FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
         """One tick through the compiled solver (:func:`wbc.formulations.velocity_kernel.kinematic_solve`): the QP
@@ -1864,24 +1886,3 @@ class _FusedPlan:
     log buffer and the DAQP rescue backend."""
 
     supported = False
-
-    @classmethod
-    def build(cls, ctrl: KinematicController) -> _FusedPlan:
-        plan = cls()
-        plan.layout_key = ctrl._layout_key
-        plan.soft_tasks = ctrl._soft_tasks
-        plan.backend = ctrl.backend
-        soft = ctrl._soft
-        if soft.own or any(not plain for *_, plain in soft.rows):
-            return plan  # a task with its own cost (other than one posture task) or velocity target
-        if any(type(c) is not ContactConstraint for c in ctrl._contacts):
-            return plan  # a contact with rows of its own
-        nv = ctrl.nv
-        nr = nv - 6 if ctrl._eliminating_row >= 0 else nv
-        plan.state = ctrl._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
-        plan.rstate = np.zeros(ctrl._C.shape[0], np.int8)                      # across support switches
-        plan.vdt = ctrl._qp_pack[2]["vdt"]
-        plan.logs = np.zeros((len(ctrl._contacts), 6))
-        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
-        plan.supported = True
-        return plan

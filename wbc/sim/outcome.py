@@ -62,11 +62,12 @@ def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos
     [n_known (2), in_support (2), off_ticks (2)] (the landing slide's per-side state) are updated in place.
     Returns ``(f, i)``: f = [worst |q̇|/q̇_max, cos tilt pelvis, cos tilt torso, slide travel left, right (NaN: none)];
     i = [worst joint, exceedances, n bad, on a heightfield, n strike candidates, new support left, right,
-    foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates)].
+    foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates), then from index
+    8 + 2 ncon the side of each contact (ncon): 0 left or 1 right (a foot on the ground), else -1].
     """
     ncon = geom.shape[0]
     fo = np.empty(5)
-    io = np.zeros(8 + 2 * ncon, dtype=np.int64)
+    io = np.zeros(8 + 3 * ncon, dtype=np.int64)
     # -- joint speed (numpy's argmax: the first maximum, or the first NaN)
     n = qvel_idx.size
     j = 0
@@ -93,7 +94,8 @@ def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos
         c = -1.0 if -1.0 > c else c  # Python's max(c, -1.0), min(c, 1.0) (a NaN stays)
         fo[1 + i] = 1.0 if 1.0 < c else c
     # -- contacts: ground contacts sorted into foot contacts per side and non-foot geoms
-    side_of = np.full(ncon, -1, dtype=np.int64)
+    side_of = io[8 + 2 * ncon:]
+    side_of[:] = -1
     n_bad = 0
     n_feet = np.zeros(2, dtype=np.int64)
     for i in range(ncon):
@@ -313,7 +315,7 @@ class OutcomeMonitor:
         strike = ""
         if not self.fell and n_feet:
             if hfield and self.terrain is not None:  # the facets' normals: the contact-by-contact pass
-                strike = self._strike(con, *self._foot_contacts(con))
+                strike = self._strike(con, *self._foot_contacts(con, ints[8 + 2 * d.ncon:].tolist()))
             elif n_cand:
                 strike = self._strike_candidates(con, ints[8 + n_bad:8 + n_bad + n_cand].tolist())
         if not self.fell:
@@ -332,22 +334,16 @@ class OutcomeMonitor:
         self._first = False
         return self.fell
 
-    def _foot_contacts(self, con) -> tuple[tuple[list, list], list]:
-        """This tick's foot–ground contacts: (contact indices per side, those on a heightfield)."""
+    def _foot_contacts(self, con, side_of: list) -> tuple[tuple[list, list], list]:
+        """This tick's foot–ground contacts from the side of each contact that :func:`_tick_kernel` sorted
+        (``side_of``: 0 left, 1 right, -1 not a foot on the ground): (contact indices per side, those on a
+        heightfield: the ground geom of a foot contact is the one of its two geoms that can be a heightfield)."""
         feet, on_hfield = ([], []), []
-        ncon = self.sim.data.ncon
-        ground, side_of, hfield = self._ground_list, self._side_list, self._hfield_list
-        for i, (g1, g2) in enumerate(zip(con.geom1[:ncon].tolist(), con.geom2[:ncon].tolist())):
-            if ground[g1]:
-                g, other = g1, g2
-            elif ground[g2]:
-                g, other = g2, g1
-            else:
-                continue
-            s = side_of[other]
+        hfield = self._hfield_list
+        for i, (s, g1, g2) in enumerate(zip(side_of, con.geom1.tolist(), con.geom2.tolist())):
             if s >= 0:
                 feet[s].append(i)
-                if hfield[g]:
+                if hfield[g1] or hfield[g2]:
                     on_hfield.append(i)
         return feet, on_hfield
 

@@ -181,14 +181,16 @@ class DcmStabilizer:
         def project(px: float, py: float) -> tuple[float, float]:
             return _closest_point(px, py, hull) if len(hull) >= 3 else (px, py)
 
-        ax, ay = self._accel(float(c[0]), float(c[1]), float(cd[0]), float(cd[1]), float(xi_ref[0]),
-                             float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), project, p_meas)
+        ax, ay = self.acceleration(float(c[0]), float(c[1]), float(cd[0]), float(cd[1]), float(xi_ref[0]),
+                                   float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), project, p_meas)
         return np.array([ax, ay])
 
-    def _accel(self, cx: float, cy: float, cdx: float, cdy: float, xrx: float, xry: float, prx: float, pry: float,
-               project, p_meas) -> tuple[float, float]:
-        """:meth:`__call__` on floats (the same arithmetic, element by element): (c̈_x, c̈_y) m/s²; ``project(x, y)``
-        returns the closest point ``(x, y)`` of the support area."""
+    def acceleration(self, cx: float, cy: float, cdx: float, cdy: float, xrx: float, xry: float, prx: float,
+                     pry: float, project, p_meas) -> tuple[float, float]:
+        """:meth:`__call__` on floats (the same arithmetic, element by element; no array made for the inputs):
+        (c̈_x, c̈_y) m/s² from the CoM (cx, cy) m, its velocity (cdx, cdy) m/s, the references ξ_ref (xrx, xry) m and
+        p_ref (prx, pry) m, world frame; ``project(x, y)`` returns the closest point ``(x, y)`` of the support area;
+        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp``, ``saturated``."""
         w = self.omega
         ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
         ix, iy = self.integral.tolist()
@@ -972,7 +974,7 @@ class WalkScenario:
             def project(px: float, py: float) -> tuple[float, float]:
                 return self._support(margin, px, py)[1:]
 
-            ax, ay = self.stab._accel(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
+            ax, ay = self.stab.acceleration(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
             z, zd, zdd = float(plan.com[k, 2] + dz), float(plan.com_vel[k, 2] + dzd), float(plan.com_acc[k, 2])
             target = np.array([cx, cy, z])
             vel = np.array([cdx, cdy, zd])  # (z: 0 on flat ground)

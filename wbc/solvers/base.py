@@ -249,7 +249,7 @@ class QPBackend(ABC):
         """x projected onto the hard set (:meth:`polish`), or None when that fails the check of :meth:`solve`."""
         n = x.shape[0]
         try:
-            y = _BACKEND_CLASSES["daqp"](tolerance=self.tolerance)._solve(
+            y = _BACKEND_CLASSES["daqp"](tolerance=self.tolerance).raw_solve(
                 np.eye(n), -np.where(np.isfinite(x), x, 0.0), A, b, C, l, u, lb, ub)
         except Exception:  # noqa: BLE001 — a failed projection polishes nothing
             return None
@@ -286,6 +286,12 @@ class QPBackend(ABC):
                 return x
         return None
 
+    def raw_solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """One call of this backend's solver on the QP (module docstring; warm start kept): its raw x (n,),
+        unchecked (no row check, no bound projection, no retry, no count in ``work``), or None on failure. The
+        independent re-solves of :meth:`confirm` and the projection of :meth:`polish` check it themselves."""
+        return self._solve(H, g, A, b, C, l, u, lb, ub)
+
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Solve without any warm start (default: the same as ``_solve``)."""
         return self._solve(H, g, A, b, C, l, u, lb, ub)
@@ -317,7 +323,7 @@ class QPBackend(ABC):
                     backend = _BACKEND_CLASSES["qpsolvers"]("quadprog", tolerance=self.tolerance)
                 else:
                     backend = _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance)
-                x = backend._solve(H, g, A, b, C, l, u, lb, ub)
+                x = backend.raw_solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None
             tried.append(name)

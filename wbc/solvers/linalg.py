@@ -11,8 +11,9 @@ import numpy as np
 
 from wbc.compiled import FASTMATH
 
-__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "equality_residual",
-           "forward_substitution", "primal_from_multipliers", "row_violation", "weighted_normal_equations"]
+__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "clip_entry_into",
+           "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
+           "weighted_normal_equations"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -121,16 +122,25 @@ def weighted_normal_equations(J, w, r, damping, H, g):
             H[j, i] = H[i, j]
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def clip_entry_into(lb, ub, i, lo, hi):
+    """Intersect the interval [lo, hi] (floats) with the running box entry lb[i], ub[i], in place, the new interval
+    clipped into the running one so that it yields where it would empty it: lb[i] ← min(max(lo, lb[i]), ub[i]),
+    ub[i] ← max(min(hi, ub[i]), lb[i]) (both computed from the running values; compiled, inlined into the compiled
+    callers: :func:`clip_box_into` and the joint-limit kernels of :mod:`wbc.constraints`)."""
+    cl = lb[i]
+    cu = ub[i]
+    lb[i] = min(max(lo, cl), cu)
+    ub[i] = max(min(hi, cu), cl)
+
+
 @nb.njit(cache=True, nogil=True)
 def clip_box_into(lb, ub, start, lo, hi):
     """Intersect the box [lo, hi] with the running box lb[start:start+k], ub[start:start+k] (k = lo.size), the
     new box clipped into the running one so that it yields where it would empty it:
     lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (both computed from the running values)."""
     for i in range(lo.shape[0]):
-        cl = lb[start + i]
-        cu = ub[start + i]
-        lb[start + i] = min(max(lo[i], cl), cu)
-        ub[start + i] = max(min(hi[i], cu), cl)
+        clip_entry_into(lb, ub, start + i, lo[i], hi[i])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
