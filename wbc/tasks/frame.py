@@ -12,6 +12,12 @@ at v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orienta
 with α₀ the LOCAL angular acceleration at v̇ = 0 (``pin.getFrameAcceleration``) and ``pin.Hlog3(rel, ω)`` the
 derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/tasks/test_tasks.py``).
 Position-only and orientation-only forms keep only those rows.
+
+:meth:`FrameTask.compute_with_drift_into` (the inverse-dynamics assembly's call) evaluates the same formulas in one
+compiled pass on Pinocchio's frame placement, LOCAL Jacobian, LOCAL velocity and acceleration: log₃, Jlog₃ and
+Hlog₃ as Pinocchio writes them (``pinocchio/spatial/log.hxx``, ``explog.hpp``) and the classical acceleration
+R (a + ω × v); within Pinocchio's tolerance of a half turn it calls Pinocchio's functions instead
+(``tests/tasks/test_tasks.py`` compares both with :meth:`FrameTask.compute_into` and :meth:`FrameTask.drift`).
 """
 
 from __future__ import annotations
