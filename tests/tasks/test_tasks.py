@@ -282,9 +282,13 @@ def test_orientation_drift_at_any_error(angle):
 @pytest.mark.parametrize("name", CATALOG)
 def test_compute_with_drift_into_is_compute_into_then_drift(robots, name):
     """The one-pass error, Jacobian and drift of every task (the inverse-dynamics assembly's call) are the numbers of
-    its separate ``compute_into`` and ``drift``, bit for bit: frame tasks (all rows, partial rows, position only,
-    orientation only, a relative frame) far from their targets (orientation errors ~0.5 rad, pin.Hlog3) and at their
-    targets (|θ| below the small-angle threshold), the CoM and posture tasks."""
+    its separate ``compute_into`` and ``drift`` (for frame tasks: Pinocchio's log3, Jlog3, Hlog3 and
+    getFrameClassicalAcceleration, the reference of the compiled pass): frame tasks (all rows, partial rows, position
+    only, orientation only, a relative frame) far from their targets (orientation errors ~0.5 rad, pin.Hlog3), at
+    their targets (|θ| below the small-angle threshold), just above that threshold and near a half turn (Pinocchio's
+    singular branch of log3), the CoM and posture tasks. Equal to 1e-12 times each block's largest entry (at least 1),
+    except where the reference is ill-conditioned: Hlog3 at |θ| ≳ 1e-3 rad forms (1 − θ sin θ / (2 (1 − cos θ))) / θ²,
+    whose result carries a relative error ≈ ε/θ² whatever the summation order, so the drift rows get 1e-12 + 4 ε/θ²."""
     from wbc.state import DynamicsState
 
     robot = robots(name)
@@ -297,13 +301,27 @@ def test_compute_with_drift_into_is_compute_into_then_drift(robots, name):
     at_target.set_target(state.data.oMf[at_target.frame_id])
     small = OrientationTask(robot, robot.torso)
     small.set_target(state.data.oMf[small.frame_id] * pin.SE3(pin.exp3(np.array([2e-4, -1e-4, 3e-4])), np.zeros(3)))
-    for task in [*tasks, at_target, small]:
+    tasks += [at_target, small]
+    for angle in (1.2e-3, 3e-3, 3.0, np.pi - 1e-8):
+        for cls in (FrameTask, OrientationTask):
+            task = cls(robot, robot.right_sole)
+            axis = rng.normal(size=3)
+            task.set_target(state.data.oMf[task.frame_id]
+                            * pin.SE3(pin.exp3(angle * axis / np.linalg.norm(axis)), rng.normal(scale=0.1, size=3)))
+            tasks.append(task)
+    eps = np.finfo(float).eps
+    for task in tasks:
         k, nv = task.dim, robot.nv
         e1, j1 = np.full(k, np.nan), np.full((k, nv), np.nan)
         task.compute_into(state, e1, j1)
         d1 = np.array(task.drift(state))
         e2, j2, d2 = np.full(k, np.nan), np.full((k, nv), np.nan), np.full(k, np.nan)
         task.compute_with_drift_into(state, e2, j2, d2)
-        np.testing.assert_array_equal(e2, e1, err_msg=task.name)
-        np.testing.assert_array_equal(j2, j1, err_msg=task.name)
-        np.testing.assert_array_equal(d2, d1, err_msg=task.name)
+        theta = 1.0
+        if isinstance(task, FrameTask) and task.dim > 0:
+            rel = task.target.rotation.T @ state.data.oMf[task.frame_id].rotation
+            theta = max(float(np.linalg.norm(pin.log3(rel))), 1e-3)
+        for got, ref, rtol in ((e2, e1, 1e-12), (j2, j1, 1e-12), (d2, d1, 1e-12 + 4 * eps / theta**2)):
+            assert np.all(np.isfinite(got)), task.name
+            np.testing.assert_allclose(got, ref, rtol=0, atol=rtol * max(np.abs(ref).max(), 1.0),
+                                       err_msg=task.name)

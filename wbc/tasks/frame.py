@@ -12,6 +12,12 @@ at v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orienta
 with α₀ the LOCAL angular acceleration at v̇ = 0 (``pin.getFrameAcceleration``) and ``pin.Hlog3(rel, ω)`` the
 derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/tasks/test_tasks.py``).
 Position-only and orientation-only forms keep only those rows.
+
+:meth:`FrameTask.compute_with_drift_into` (the inverse-dynamics assembly's call) evaluates the same formulas in one
+compiled pass on Pinocchio's frame placement, LOCAL Jacobian, LOCAL velocity and acceleration: log₃, Jlog₃ and
+Hlog₃ as Pinocchio writes them (``pinocchio/spatial/log.hxx``, ``explog.hpp``) and the classical acceleration
+R (a + ω × v); within Pinocchio's tolerance of a half turn it calls Pinocchio's functions instead
+(``tests/tasks/test_tasks.py`` compares both with :meth:`FrameTask.compute_into` and :meth:`FrameTask.drift`).
 """
 
 from __future__ import annotations
@@ -87,6 +93,145 @@ def _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_o
             jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
 
 
+#: Pinocchio's Taylor-expansion thresholds ε^(1/3) and ε^(1/4) (``TaylorSeriesExpansion::precision<2>``, ``<3>``) of
+#: log₃, Jlog₃ (:func:`_frame_rows_drift` follows ``pinocchio/spatial/log.hxx`` and ``explog.hpp``).
+_PREC2 = float(np.finfo(float).eps ** (1.0 / 3.0))
+_PREC3 = float(np.finfo(float).eps ** (1.0 / 4.0))
+_EPS = float(np.finfo(float).eps)
+
+
+@nb.njit(cache=True, nogil=True)
+def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, rows, error_out, jac_out, drift_out):
+    """:meth:`FrameTask.compute_with_drift_into` in one compiled pass (module docstring): the selected rows of the
+    error, Jacobian and drift J̇v into error_out (k,), jac_out (k, nv), drift_out (k,), from Pinocchio's frame
+    rotation ``rot`` (3, 3) and position ``pos`` (3,) (world), LOCAL Jacobian ``j_local`` (6, nv), LOCAL velocity
+    ``vel`` and acceleration at v̇ = 0 ``acc`` (6,) (linear then angular), and the target (R*ᵀ (3, 3), p* (3,)).
+
+    Only SO(3) algebra is done here: log₃, Jlog₃ and the derivative of Jlog₃ along ω (Pinocchio's ``log3``,
+    ``Jlog3``, ``Hlog3`` formulas, or the small-angle form of :func:`_orientation_drift`), and the classical
+    acceleration of the origin R (a + ω × v) (what ``pin.getFrameClassicalAcceleration`` returns in
+    LOCAL_WORLD_ALIGNED).
+
+    Returns:
+        0; 1 when R*ᵀR is within Pinocchio's tolerance of a half turn (log₃'s singular branch, not done here):
+        nothing written.
+    """
+    has_rot = False
+    has_pos = False
+    for a in range(rows.shape[0]):
+        if rows[a] < 3:
+            has_pos = True
+        else:
+            has_rot = True
+    d6 = np.zeros(6)
+    log = np.zeros(3)
+    jlog = np.zeros((3, 3))
+    if has_rot:
+        rel = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                rel[i, j] = target_rot_t[i, 0] * rot[0, j] + target_rot_t[i, 1] * rot[1, j] \
+                    + target_rot_t[i, 2] * rot[2, j]
+        # log3 (pinocchio log3_impl): renormalized rotation, θ from the trace, log = θ / sin θ · unskew
+        rn = np.empty((3, 3))
+        n0 = np.sqrt(rel[0, 0] * rel[0, 0] + rel[1, 0] * rel[1, 0] + rel[2, 0] * rel[2, 0])
+        n1 = np.sqrt(rel[0, 1] * rel[0, 1] + rel[1, 1] * rel[1, 1] + rel[2, 1] * rel[2, 1])
+        c0x, c0y, c0z = rel[0, 0] / n0, rel[1, 0] / n0, rel[2, 0] / n0
+        c1x, c1y, c1z = rel[0, 1] / n1, rel[1, 1] / n1, rel[2, 1] / n1
+        c2x, c2y, c2z = c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x
+        c0x, c0y, c0z = c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x
+        rn[0, 0], rn[1, 0], rn[2, 0] = c0x, c0y, c0z
+        rn[0, 1], rn[1, 1], rn[2, 1] = c1x, c1y, c1z
+        rn[0, 2], rn[1, 2], rn[2, 2] = c2x, c2y, c2z
+        tr = rn[0, 0] + rn[1, 1] + rn[2, 2]
+        cos_value = (tr - 1.0) / 2.0
+        if not cos_value >= -1.0 + _PREC2:
+            return 1
+        acos_expansion = np.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+        if tr <= 3.0 - _PREC2:
+            theta = np.arccos(cos_value) if tr >= -1.0 + _PREC2 else np.pi - acos_expansion
+        else:
+            theta = acos_expansion
+        u0 = 0.5 * (rn[2, 1] - rn[1, 2])
+        u1 = 0.5 * (rn[0, 2] - rn[2, 0])
+        u2 = 0.5 * (rn[1, 0] - rn[0, 1])
+        nu2 = u0 * u0 + u1 * u1 + u2 * u2
+        if theta >= _PREC2:
+            t = theta / np.sin(theta)
+        else:
+            t = 1.0 + nu2 / 6.0 + nu2 * nu2 * 3.0 / 40.0
+        log[0], log[1], log[2] = t * u0, t * u1, t * u2
+        # Jlog3 (pinocchio Jlog3_impl)
+        st, ct = np.sin(theta), np.cos(theta)
+        if theta < _PREC3:
+            alpha_j = 1.0 / 12.0 + theta * theta / 720.0
+            diag = 0.5 * (2.0 - theta * theta / 6.0)
+        else:
+            st_1mct = st / (1.0 - ct)
+            alpha_j = 1.0 / (theta * theta) - st_1mct / (2.0 * theta)
+            diag = 0.5 * (theta * st_1mct)
+        for i in range(3):
+            for j in range(3):
+                jlog[i, j] = alpha_j * log[i] * log[j]
+            jlog[i, i] += diag
+        jlog[0, 1] -= 0.5 * log[2]
+        jlog[0, 2] += 0.5 * log[1]
+        jlog[1, 0] += 0.5 * log[2]
+        jlog[1, 2] -= 0.5 * log[0]
+        jlog[2, 0] -= 0.5 * log[1]
+        jlog[2, 1] += 0.5 * log[0]
+        # drift: Jlog3 α₀ + (d/dt Jlog3) ω (_orientation_drift)
+        w0, w1, w2 = vel[3], vel[4], vel[5]
+        for i in range(3):
+            d6[3 + i] = jlog[i, 0] * acc[3] + jlog[i, 1] * acc[4] + jlog[i, 2] * acc[5]
+        t0, t1, t2 = log[0], log[1], log[2]
+        if t0 * t0 + t1 * t1 + t2 * t2 < SMALL_ANGLE ** 2:
+            c0, c1, c2 = t1 * w2 - t2 * w1, t2 * w0 - t0 * w2, t0 * w1 - t1 * w0
+            d6[3] -= (w1 * c2 - w2 * c1) / 6.0
+            d6[4] -= (w2 * c0 - w0 * c2) / 6.0
+            d6[5] -= (w0 * c1 - w1 * c0) / 6.0
+        else:  # pinocchio Hlog3(θ, log, ω), then times ω
+            denom = 0.5 / (1.0 - ct)
+            a_h = theta * st * denom
+            da_dt = (st - theta) * denom
+            b_h = (1.0 - a_h) / (theta * theta)
+            db_dt = -(2.0 / theta - (theta + st) * denom) / (theta * theta)
+            lw = t0 * w0 + t1 * w1 + t2 * w2
+            dl0 = a_h * w0 + 0.5 * (t1 * w2 - t2 * w1) + b_h * t0 * lw
+            dl1 = a_h * w1 + 0.5 * (t2 * w0 - t0 * w2) + b_h * t1 * lw
+            dl2 = a_h * w2 + 0.5 * (t0 * w1 - t1 * w0) + b_h * t2 * lw
+            dt_dv_v = (t0 * dl0 + t1 * dl1 + t2 * dl2) / theta
+            s = db_dt * dt_dv_v
+            # H ω = s log (log·ω) + b dl (log·ω) + b log (dl·ω) + ½ dl × ω + da_dt dt_dv_v ω
+            dlw = dl0 * w0 + dl1 * w1 + dl2 * w2
+            k_log = s * lw + b_h * dlw
+            k_dl = b_h * lw
+            k_w = da_dt * dt_dv_v
+            d6[3] += k_log * t0 + k_dl * dl0 + 0.5 * (dl1 * w2 - dl2 * w1) + k_w * w0
+            d6[4] += k_log * t1 + k_dl * dl1 + 0.5 * (dl2 * w0 - dl0 * w2) + k_w * w1
+            d6[5] += k_log * t2 + k_dl * dl2 + 0.5 * (dl0 * w1 - dl1 * w0) + k_w * w2
+    if has_pos:  # classical acceleration of the origin, world axes: R (a + ω × v)
+        wx, wy, wz = vel[3], vel[4], vel[5]
+        cx = acc[0] + wy * vel[2] - wz * vel[1]
+        cy = acc[1] + wz * vel[0] - wx * vel[2]
+        cz = acc[2] + wx * vel[1] - wy * vel[0]
+        for i in range(3):
+            d6[i] = rot[i, 0] * cx + rot[i, 1] * cy + rot[i, 2] * cz
+    nv = j_local.shape[1]
+    for a in range(rows.shape[0]):
+        r = rows[a]
+        drift_out[a] = d6[r]
+        if r < 3:
+            error_out[a] = pos[r] - target_pos[r]
+            m0, m1, m2, off = rot[r, 0], rot[r, 1], rot[r, 2], 0
+        else:
+            error_out[a] = log[r - 3]
+            m0, m1, m2, off = jlog[r - 3, 0], jlog[r - 3, 1], jlog[r - 3, 2], 3
+        for j in range(nv):
+            jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
+    return 0
+
+
 @once_per_process
 def _warm_up() -> None:
     """Load :func:`_frame_rows` for the array types of a real call (Pinocchio's F-ordered rotation, C-ordered
@@ -95,6 +240,8 @@ def _warm_up() -> None:
     e, j = np.empty(6), np.empty((6, 1))
     _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows
     _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
+    # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors
+    _frame_rows_drift(rot, np.eye(3), np.zeros(3), np.zeros(3), jac, np.zeros(6), np.zeros(6), rows, e, j, np.empty(6))
 
 
 def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -257,11 +404,25 @@ class FrameTask(Task):
 
     def compute_with_drift_into(self, state, error_out: np.ndarray, jac_out: np.ndarray,
                                 drift_out: np.ndarray) -> None:
-        """:meth:`compute_into` and :meth:`drift` (into drift_out (dim,)) in one pass: R*ᵀR, log₃ and Jlog₃ once."""
+        """:meth:`compute_into` and :meth:`drift` (into drift_out (dim,)) in one compiled pass
+        (:func:`_frame_rows_drift`) on Pinocchio's placement, LOCAL Jacobian, velocity and acceleration of the
+        frame; near a half-turn orientation error, :meth:`_compute_with_drift_pinocchio`."""
         cls = type(self)
         if cls.compute is not FrameTask.compute or cls.drift is not FrameTask.drift:
             Task.compute_with_drift_into(self, state, error_out, jac_out, drift_out)
             return
+        model, data, fid = state.model, state.data, self.frame_id
+        views = self._views(data)
+        if _frame_rows_drift(views[2], self._target_rot_t, views[3], self._target_pos,
+                             pin.getFrameJacobian(model, data, fid, LOCAL),
+                             pin.getFrameVelocity(model, data, fid, LOCAL).vector,
+                             pin.getFrameAcceleration(model, data, fid, LOCAL).vector, self.rows, error_out, jac_out,
+                             drift_out):
+            self._compute_with_drift_pinocchio(state, error_out, jac_out, drift_out)
+
+    def _compute_with_drift_pinocchio(self, state, error_out: np.ndarray, jac_out: np.ndarray,
+                                      drift_out: np.ndarray) -> None:
+        """:meth:`compute_with_drift_into` with Pinocchio's log₃, Jlog₃ and Hlog₃ (any orientation error)."""
         model, data, fid = state.model, state.data, self.frame_id
         views = self._views(data)
         rot = views[2]
