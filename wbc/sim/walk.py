@@ -753,6 +753,12 @@ class WalkScenario:
         return plan.replan(0, c, cd, new, check_start=False)
 
     @property
+    def reads_measured_zmp(self) -> bool:
+        """Whether :meth:`update` reads ``measured_zmp``: only for the stabilizer's ZMP feedback (``zmp_feedback``
+        > 0, also passed to a capture step); the closed loop does not compute the measured ZMP otherwise."""
+        return self.zmp_feedback > 0
+
+    @property
     def steps_done(self) -> int:
         """Swings released so far (a capture step started after the plan not counted)."""
         return self._next
