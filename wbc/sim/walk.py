@@ -190,7 +190,8 @@ class DcmStabilizer:
         """:meth:`__call__` on floats (the same arithmetic, element by element; no array made for the inputs):
         (c̈_x, c̈_y) m/s² from the CoM (cx, cy) m, its velocity (cdx, cdy) m/s, the references ξ_ref (xrx, xry) m and
         p_ref (prx, pry) m, world frame; ``project(x, y)`` returns the closest point ``(x, y)`` of the support area;
-        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp`` (written in place, (2,) float arrays), ``saturated``."""
+        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp`` (written in
+        place, (2,) float arrays) and ``saturated``."""
         w = self.omega
         ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
         ix, iy = self.integral.tolist()
@@ -307,18 +308,21 @@ def _support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
 
 
 @nb.njit(cache=True)
-def _stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_p, k_i, i_max, dt, cmp_offset,
-                       integral, last_cop, last_cmp):
-    """:meth:`DcmStabilizer.acceleration` without CoP feedback, its support area the hull of :func:`_support_kernel` (the
+def _stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_p, k_i, k_z, p_meas, i_max, dt,
+                       cmp_offset, integral, last_cop, last_cmp):
+    """:meth:`DcmStabilizer.acceleration`, its support area the hull of :func:`_support_kernel` (the
     ``ns`` soles' corners ``xy`` (4, 3 ns) in their rotated frames, the soles at ``pos0``, ``pos1`` (3,); ``ns`` = 0:
     no projection), on the CoM ``c`` and its velocity ``cd`` (3,) and the references ``ref_dcm[k]``, ``ref_zmp[k]``
-    (2,), with the same arithmetic element by element. Writes ``integral``, ``last_cop``, ``last_cmp`` (2,) in place.
+    (2,), the measured CoP ``p_meas`` (2,) fed back with gain ``k_z`` (none when k_z ≤ 0 or ``p_meas`` is NaN), with
+    the same arithmetic element by element. Writes ``integral``, ``last_cop``, ``last_cmp`` (2,) in place.
     Returns (number of hull vertices m (3 when ns = 0; m < 3: nothing written), c̈_x, c̈_y (m/s²), saturated)."""
     cx, cy, cdx, cdy = c[0], c[1], cd[0], cd[1]
     w = omega
     ex, ey = cx + cdx / w - ref_dcm[k, 0], cy + cdy / w - ref_dcm[k, 1]
     ix, iy = integral[0], integral[1]
     px, py = ref_zmp[k, 0] + k_p * ex + k_i * ix, ref_zmp[k, 1] + k_p * ey + k_i * iy
+    if k_z > 0 and p_meas[0] == p_meas[0]:
+        px, py = px + k_z * (px - p_meas[0]), py + k_z * (py - p_meas[1])
     m = 3
     qx, qy = px, py
     if ns > 0:
@@ -357,8 +361,8 @@ def _warm_up() -> None:
     :meth:`WalkScenario.setup`."""
     _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
-    _stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, z2.copy(),
-                       z2.copy(), z2.copy())
+    _stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
+                       z2.copy(), z2.copy(), z2.copy())
 
 
 
@@ -738,6 +742,7 @@ class WalkScenario:
         self._corners: dict[float, np.ndarray] = {}
         self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
         self._xy0 = np.zeros((4, 6))  # (_stabilize's corners when no sole is in contact: not read)
+        self._no_cop = np.full(2, np.nan)  # (_stabilize's measured CoP when there is none)
         _warm_up()
         # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'
         # samples never change, only their footsteps)
@@ -930,8 +935,9 @@ class WalkScenario:
             self._hull(shrink)  # raises InvalidInputError (collinear)
         return d, qx, qy
 
-    def _stabilize(self, k: int) -> tuple[float, float]:
-        """``self.stab.acceleration`` at plan sample ``k`` (no cut sole, no CoP feedback), the support area that of
+    def _stabilize(self, k: int, p_meas: np.ndarray) -> tuple[float, float]:
+        """``self.stab.acceleration`` at plan sample ``k`` (no cut sole; measured CoP ``p_meas`` (2,) m, NaN: none), the
+        support area that of
         :meth:`_support` ``(cop_margin)``, in one :func:`_stabilizer_kernel` call: (c̈_x, c̈_y) m/s², the same numbers
         (the soles' corners from :meth:`_support`'s matrix product).
 
@@ -953,7 +959,8 @@ class WalkScenario:
             xy = self._sole_corners(self.cop_margin) @ rt
         m, ax, ay, stab.saturated = _stabilizer_kernel(
             xy, ns, pos0, pos1, self._com_view, self._vcom_view, self.ref_dcm, self.ref_zmp, k, stab.omega, stab.k_p,
-            stab.k_i, stab.i_max, stab.dt, stab.cmp_offset, stab.integral, stab.last_cop, stab.last_cmp)
+            stab.k_i, stab.k_z, p_meas, stab.i_max, stab.dt, stab.cmp_offset, stab.integral, stab.last_cop,
+            stab.last_cmp)
         if m < 3:
             self._hull(self.cop_margin)  # raises InvalidInputError (collinear)
         return ax, ay
@@ -1052,9 +1059,11 @@ class WalkScenario:
             self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
             stab = self.stab
-            if self._cut["left"] is None and self._cut["right"] is None \
-                    and not (stab.k_z > 0 and self.measured_zmp is not None):
-                ax, ay = self._stabilize(k)
+            p_meas = self.measured_zmp
+            if self._cut["left"] is None and self._cut["right"] is None and (p_meas is None or (
+                    type(p_meas) is np.ndarray and p_meas.shape == (2,) and p_meas.dtype == np.float64
+                    and p_meas[0] == p_meas[0])):
+                ax, ay = self._stabilize(k, self._no_cop if p_meas is None else p_meas)
             else:
                 xrx, xry = self.ref_dcm[k].tolist()
                 prx, pry = self.ref_zmp[k].tolist()
