@@ -81,7 +81,7 @@ class EstimatedState:
             estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
         self._soles = None  # (left, right) placements of the estimator whose rotation/translation views are kept
-        self._sole_views = ()
+        self._zmp_views = ()
         _warm_up()
 
     def reset(self, q0, v0=None) -> None:
@@ -114,9 +114,9 @@ class EstimatedState:
                 h = float(f @ [X.translation[2] for X in (left, right)] / f.sum())
         if self._soles is None or self._soles[0] is not left or self._soles[1] is not right:
             # (eigenpy: the views follow every later assignment of the placements' rotation and translation)
-            self._soles, self._sole_views = (left, right), (left.rotation, left.translation, right.rotation,
+            self._soles, self._zmp_views = (left, right), (left.rotation, left.translation, right.rotation,
                                                             right.translation)
-        found, x, y = _zmp_kernel(est.wrench, *self._sole_views, float(min_fz), h)
+        found, x, y = _zmp_kernel(est.wrench, *self._zmp_views, float(min_fz), h)
         return np.array([x, y]) if found else None
 
 
