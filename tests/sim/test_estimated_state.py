@@ -54,3 +54,28 @@ def test_cli_state_options_are_checked():
     with pytest.raises(SystemExit) as exc:  # refused while parsing
         main(["sim", "walk", "--zmp-feedback", "-1"])
     assert exc.value.code == 2
+
+
+def test_compiled_measured_zmp_matches_a_numpy_reference():
+    """The compiled ZMP of EstimatedState.measured_zmp equals the plane-of-zero-horizontal-moment point written here
+    with numpy (sum of R f, R m + t × R f over the two soles, moved to the plane z = h) to 1e-12 m, on random
+    wrenches and sole placements, on flat ground (h = 0) and at a tread height; below min_fz of total normal force
+    there is none."""
+    from wbc.sim.estimated_state import _zmp_kernel
+
+    rng = np.random.default_rng(5)
+    n_none = 0
+    for it in range(500):
+        X = [pin.SE3(pin.rpy.rpyToMatrix(*rng.normal(scale=0.2, size=3)), rng.normal(scale=0.3, size=3))
+             for _ in range(2)]
+        w = rng.normal(scale=[30, 30, 200, 10, 10, 5], size=(2, 6))
+        h = (0.0, 0.12)[it % 2]
+        F = sum(Xi.rotation @ wi[:3] for Xi, wi in zip(X, w))
+        M = sum(Xi.rotation @ wi[3:] + np.cross(Xi.translation, Xi.rotation @ wi[:3]) for Xi, wi in zip(X, w))
+        M = M - np.cross([0.0, 0.0, h], F)
+        found, x, y = _zmp_kernel(w, X[0].rotation, X[0].translation, X[1].rotation, X[1].translation, 10.0, h)
+        assert found == (F[2] >= 10.0)
+        if found:
+            np.testing.assert_allclose([x, y], [-M[1] / F[2], M[0] / F[2]], rtol=1e-12, atol=1e-12)
+        n_none += not found
+    assert 10 < n_none < 490

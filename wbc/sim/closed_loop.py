@@ -191,7 +191,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         state: what the controller and the scenario read: None for MuJoCo's ground truth, or an estimator of the
             state from the plant's sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: ``reset(q, v)``,
             ``measure(sim, t) -> (q, v)``, called after ``mj_step1`` so the sensors see the state at t). The log's
-            ``q``, ``v`` stay the ground truth; the estimate goes to ``extra["q_est"]``, ``extra["v_est"]``.
+            ``q``, ``v`` stay the ground truth; the estimate goes to ``extra["q_est"]``, ``extra["v_est"]``. A
+            scenario with the attributes ``measured_zmp``, ``measured_normal_force`` or ``measured_wrench`` gets
+            them from the sensors every tick (``measured_zmp`` not when its ``reads_measured_zmp`` is False).
 
     Returns:
         :class:`SimRun`.
@@ -231,7 +233,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     fell, stop_at = False, n
     k_end = n
     # (per run, not per tick: what the scenario reads from the sensors, and the log's arrays)
-    give_zmp = state is not None and hasattr(scenario, "measured_zmp")
+    give_zmp = state is not None and hasattr(scenario, "measured_zmp") and getattr(scenario, "reads_measured_zmp", True)
     give_normal_force = state is not None and hasattr(scenario, "measured_normal_force")
     give_wrench = state is not None and hasattr(scenario, "measured_wrench")
     log_t, log_q, log_v, log_tau, log_com, log_com_ref = (log[key] for key in ("t", "q", "v", "tau", "com", "com_ref"))

@@ -9,16 +9,54 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.estimation import FloatingBaseEstimator, zmp_from_wrenches
+from wbc.compiled import once_per_process
+from wbc.estimation import FloatingBaseEstimator
 from wbc.exceptions import InvalidInputError
 from wbc.sim.sensors import PlantSensors, SensorSpecs
 
 __all__ = ["EstimatedState", "estimation_errors", "STATE_SOURCES"]
 
 STATE_SOURCES = ("estimated", "ground-truth")  #: values of ``wbc sim --state``
+
+
+@nb.njit(cache=True)
+def _zmp_kernel(wrench, rot_left, pos_left, rot_right, pos_right, min_fz, height):
+    """:func:`wbc.estimation.zmp_from_wrenches` of the two soles' wrenches ``wrench`` (2, 6) (sole axes) at the
+    placements (``rot_*`` (3, 3), ``pos_*`` (3,)), element by element in its order: (found, x, y) (m, world), found
+    False below ``min_fz`` N of total normal force."""
+    F0 = F1 = F2 = M0 = M1 = M2 = 0.0
+    for j in range(2):
+        R = rot_left if j == 0 else rot_right
+        t = pos_left if j == 0 else pos_right
+        w = wrench[j]
+        f0 = R[0, 0] * w[0] + R[0, 1] * w[1] + R[0, 2] * w[2]  # R f
+        f1 = R[1, 0] * w[0] + R[1, 1] * w[1] + R[1, 2] * w[2]
+        f2 = R[2, 0] * w[0] + R[2, 1] * w[1] + R[2, 2] * w[2]
+        m0 = R[0, 0] * w[3] + R[0, 1] * w[4] + R[0, 2] * w[5]  # R m
+        m1 = R[1, 0] * w[3] + R[1, 1] * w[4] + R[1, 2] * w[5]
+        m2 = R[2, 0] * w[3] + R[2, 1] * w[4] + R[2, 2] * w[5]
+        t0, t1, t2 = t[0], t[1], t[2]
+        F0, F1, F2 = F0 + f0, F1 + f1, F2 + f2
+        M0 += m0 + (t1 * f2 - t2 * f1)
+        M1 += m1 + (t2 * f0 - t0 * f2)
+        M2 += m2 + (t0 * f1 - t1 * f0)
+    if F2 < min_fz:
+        return False, 0.0, 0.0
+    if height != 0.0:
+        M0 += height * F1
+        M1 -= height * F0
+    return True, -M1 / F2, M0 / F2
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_zmp_kernel` (on-disk cache) once per process, for the soles' (Fortran-ordered) rotations."""
+    r = np.asfortranarray(np.eye(3))
+    _zmp_kernel(np.zeros((2, 6)), r, np.zeros(3), r, np.zeros(3), 10.0, 0.0)
 
 
 class EstimatedState:
@@ -42,6 +80,9 @@ class EstimatedState:
         if getattr(sim, "terrain", None) is not None and "ground_height" not in estimator_options:
             estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
+        self._soles = None  # (left, right) placements of the estimator whose rotation/translation views are kept
+        self._zmp_views = ()
+        _warm_up()
 
     def reset(self, q0, v0=None) -> None:
         """Restart the sensors' noise and the estimator at the known initial state (q0, v0)."""
@@ -65,13 +106,18 @@ class EstimatedState:
         (:func:`wbc.estimation.zmp_from_wrenches`), None below ``min_fz`` N of total normal force. On a terrain
         plant, on the plane at the force-weighted height of the soles (else z = 0)."""
         est = self.estimator
-        soles = [est.sole["left"], est.sole["right"]]
+        left, right = est.sole["left"], est.sole["right"]
         h = 0.0
         if self.terrain is not None:  # on the plane of the loaded soles (force-weighted height)
             f = np.maximum([est.normal_force["left"], est.normal_force["right"]], 0.0)
             if f.sum() > 0:
-                h = float(f @ [X.translation[2] for X in soles] / f.sum())
-        return zmp_from_wrenches(est.wrench, soles, min_fz, h)
+                h = float(f @ [X.translation[2] for X in (left, right)] / f.sum())
+        if self._soles is None or self._soles[0] is not left or self._soles[1] is not right:
+            # (eigenpy: the views follow every later assignment of the placements' rotation and translation)
+            self._soles, self._zmp_views = (left, right), (left.rotation, left.translation, right.rotation,
+                                                            right.translation)
+        found, x, y = _zmp_kernel(est.wrench, *self._zmp_views, float(min_fz), h)
+        return np.array([x, y]) if found else None
 
 
 def estimation_errors(q_true: np.ndarray, v_true: np.ndarray, q_est: np.ndarray, v_est: np.ndarray,

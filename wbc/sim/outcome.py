@@ -55,19 +55,18 @@ LIFTOFF_TICKS = 10  #: consecutive ticks without foot contact that end a support
 
 @nb.njit(cache=True)
 def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos, frame, is_ground, geom_side,
-                 is_hfield, sole_body, corners_body, sole_normal_body, cos_strike, ref, state):
+                 is_hfield, sole_body, corners_body, sole_normal_body, cos_strike, ref, state, fo, io):
     """One tick of :meth:`OutcomeMonitor.update`'s arithmetic (the checks' numbers; the verdicts stay in Python).
 
     ``geom`` (ncon, 2), ``pos`` (ncon, 3), ``frame`` (ncon, 9): MuJoCo's contacts. ``ref`` (2, 4, 2) and ``state``
     [n_known (2), in_support (2), off_ticks (2)] (the landing slide's per-side state) are updated in place.
-    Returns ``(f, i)``: f = [worst |q̇|/q̇_max, cos tilt pelvis, cos tilt torso, slide travel left, right (NaN: none)];
-    i = [worst joint, exceedances, n bad, on a heightfield, n strike candidates, new support left, right,
-    foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates), then from index
-    8 + 2 ncon the side of each contact (ncon): 0 left or 1 right (a foot on the ground), else -1].
+    Writes ``fo`` (5,) = [worst |q̇|/q̇_max, cos tilt pelvis, cos tilt torso, slide travel left, right (NaN: none)]
+    and ``io`` (≥ 8 + 3 ncon, int64) = [worst joint, exceedances, n bad, on a heightfield, n strike candidates, new
+    support left, right, foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates), then
+    from index 8 + 2 ncon the side of each contact (ncon): 0 left or 1 right (a foot on the ground), else -1].
     """
     ncon = geom.shape[0]
-    fo = np.empty(5)
-    io = np.zeros(8 + 3 * ncon, dtype=np.int64)
+    io[:8] = 0
     # -- joint speed (numpy's argmax: the first maximum, or the first NaN)
     n = qvel_idx.size
     j = 0
@@ -94,7 +93,7 @@ def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos
         c = -1.0 if -1.0 > c else c  # Python's max(c, -1.0), min(c, 1.0) (a NaN stays)
         fo[1 + i] = 1.0 if 1.0 < c else c
     # -- contacts: ground contacts sorted into foot contacts per side and non-foot geoms
-    side_of = io[8 + 2 * ncon:]
+    side_of = io[8 + 2 * ncon:8 + 3 * ncon]
     side_of[:] = -1
     n_bad = 0
     n_feet = np.zeros(2, dtype=np.int64)
@@ -192,7 +191,8 @@ def _warm_up() -> None:
     _tick_kernel(np.zeros(3), i1, np.ones(2), np.zeros((3, 9)), np.zeros((3, 3)), i1, np.zeros((2, 3)),
                  np.zeros((1, 2), dtype=np.int32), np.zeros((1, 3)), np.zeros((1, 9)), np.zeros(3, dtype=bool),
                  np.full(3, -1, dtype=np.int64), np.zeros(3, dtype=bool), np.zeros(2, dtype=np.int64),
-                 np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5, np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64))
+                 np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5, np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64),
+                 np.zeros(5), np.zeros(11, dtype=np.int64))
 
 
 class OutcomeMonitor:
@@ -268,6 +268,9 @@ class OutcomeMonitor:
         self.tilt_body_ids = np.asarray(self.tilt_body_ids, dtype=np.int64)
         self.geom_side = self.geom_side.astype(np.int64)
         self.qvel_idx = np.asarray(self.qvel_idx, dtype=np.int64)
+        self._fo = np.empty(5)  # the kernel's outputs (io grows with the contact count)
+        self._io = np.zeros(8 + 3 * 64, dtype=np.int64)
+        self._views_of = None  # the MjData whose qvel, xmat, xpos views are kept in _qvel, _xmat, _xpos
         _warm_up()
         # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
         self.on_terrain = getattr(sim, "terrain", None) is not None
@@ -287,35 +290,48 @@ class OutcomeMonitor:
         """Check the state in ``sim.data`` (time ``t``, s). Returns whether the robot has fallen (so far)."""
         d = self.sim.data
         con = d.contact
-        f, ints = _tick_kernel(d.qvel, self.qvel_idx, self.vlim, d.xmat, d.xpos, self.tilt_body_ids, self.up_local,
-                               con.geom, con.pos, con.frame, self.is_ground, self.geom_side, self.is_hfield,
-                               self._sole_body_arr, self._corners_body_arr, self._sole_normal_arr, self.cos_strike,
-                               self._ref, self._state)
+        if d is not self._views_of:  # views of MuJoCo's arrays (fixed buffers of that MjData)
+            self._qvel, self._xmat, self._xpos, self._views_of = d.qvel, d.xmat, d.xpos, d
+        ints = self._io
+        ncon = d.ncon
+        if ints.shape[0] < 8 + 3 * ncon:
+            ints = self._io = np.zeros(8 + 6 * ncon, dtype=np.int64)
+        _tick_kernel(self._qvel, self.qvel_idx, self.vlim, self._xmat, self._xpos, self.tilt_body_ids, self.up_local,
+                     con.geom, con.pos, con.frame, self.is_ground, self.geom_side, self.is_hfield, self._sole_body_arr,
+                     self._corners_body_arr, self._sole_normal_arr, self.cos_strike, self._ref, self._state, self._fo,
+                     ints)
         j, n_over, n_bad, hfield, n_cand, new_left, new_right, n_feet = ints[:8].tolist()
-        worst, c_pelvis, c_torso, travel_left, travel_right = f.tolist()
+        worst, c_pelvis, c_torso, travel_left, travel_right = self._fo.tolist()
         # -- joint speed ---------------------------------------------------------------------------------------
         self.speed_exceedances += n_over
         if worst > self.max_speed_ratio:
             self.max_speed_ratio, self.max_speed_joint = worst, self.joint_names[j]
         # -- tilt ----------------------------------------------------------------------------------------------
+        max_tilt = self.max_tilt_deg
+        deg_pelvis, deg_torso = math.degrees(math.acos(c_pelvis)), math.degrees(math.acos(c_torso))
+        if deg_pelvis > max_tilt["pelvis"]:
+            max_tilt["pelvis"] = deg_pelvis
+        if deg_torso > max_tilt["torso"]:
+            max_tilt["torso"] = deg_torso
         tilted = []
-        for key, c in (("pelvis", c_pelvis), ("torso", c_torso)):
-            deg = math.degrees(math.acos(c))
-            if deg > self.max_tilt_deg[key]:
-                self.max_tilt_deg[key] = deg
-            if c < self.cos_tilt:
-                tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
+        if c_pelvis < self.cos_tilt or c_torso < self.cos_tilt:
+            for key, c, deg in (("pelvis", c_pelvis, deg_pelvis), ("torso", c_torso, deg_torso)):
+                if c < self.cos_tilt:
+                    tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
         # -- landing slide (its state advanced by the kernel) --------------------------------------------------
-        for key, new, travel in (("left", new_left, travel_left), ("right", new_right, travel_right)):
-            if new and not self._first:
-                self.touchdowns[key] += 1
-            if travel > self.max_landing_slide_m[key]:
-                self.max_landing_slide_m[key] = travel
+        if (new_left or new_right) and not self._first:
+            self.touchdowns["left"] += new_left
+            self.touchdowns["right"] += new_right
+        slide = self.max_landing_slide_m
+        if travel_left > slide["left"]:
+            slide["left"] = travel_left
+        if travel_right > slide["right"]:
+            slide["right"] = travel_right
         # -- contacts: non-foot geoms on the ground, foot strikes ----------------------------------------------
         strike = ""
         if not self.fell and n_feet:
             if hfield and self.terrain is not None:  # the facets' normals: the contact-by-contact pass
-                strike = self._strike(con, *self._foot_contacts(con, ints[8 + 2 * d.ncon:].tolist()))
+                strike = self._strike(con, *self._foot_contacts(con, ints[8 + 2 * ncon:8 + 3 * ncon].tolist()))
             elif n_cand:
                 strike = self._strike_candidates(con, ints[8 + n_bad:8 + n_bad + n_cand].tolist())
         if not self.fell:

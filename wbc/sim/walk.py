@@ -190,7 +190,8 @@ class DcmStabilizer:
         """:meth:`__call__` on floats (the same arithmetic, element by element; no array made for the inputs):
         (c̈_x, c̈_y) m/s² from the CoM (cx, cy) m, its velocity (cdx, cdy) m/s, the references ξ_ref (xrx, xry) m and
         p_ref (prx, pry) m, world frame; ``project(x, y)`` returns the closest point ``(x, y)`` of the support area;
-        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp``, ``saturated``."""
+        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp`` (written in
+        place, (2,) float arrays) and ``saturated``."""
         w = self.omega
         ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
         ix, iy = self.integral.tolist()
@@ -203,14 +204,14 @@ class DcmStabilizer:
         self.saturated = out > 1e-9
         if not self.saturated:
             i_max = self.i_max
-            self.integral = np.array([min(max(ix + ex * self.dt, -i_max), i_max),
-                                      min(max(iy + ey * self.dt, -i_max), i_max)])
-        self.last_cop = np.array([qx, qy])
+            self.integral[0] = min(max(ix + ex * self.dt, -i_max), i_max)
+            self.integral[1] = min(max(iy + ey * self.dt, -i_max), i_max)
+        self.last_cop[0], self.last_cop[1] = qx, qy
         rx, ry = qx, qy
         if self.saturated and self.cmp_offset > 0:  # CMP beyond the CoP's reach: angular momentum (hip strategy)
             f = min(out, self.cmp_offset) / out
             rx, ry = qx + f * dx, qy + f * dy
-        self.last_cmp = np.array([rx, ry])
+        self.last_cmp[0], self.last_cmp[1] = rx, ry
         return w * w * (cx - rx), w * w * (cy - ry)
 
 
@@ -306,10 +307,62 @@ def _support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
     return m, d, bestx, besty
 
 
+@nb.njit(cache=True)
+def _stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_p, k_i, k_z, p_meas, i_max, dt,
+                       cmp_offset, integral, last_cop, last_cmp):
+    """:meth:`DcmStabilizer.acceleration`, its support area the hull of :func:`_support_kernel` (the
+    ``ns`` soles' corners ``xy`` (4, 3 ns) in their rotated frames, the soles at ``pos0``, ``pos1`` (3,); ``ns`` = 0:
+    no projection), on the CoM ``c`` and its velocity ``cd`` (3,) and the references ``ref_dcm[k]``, ``ref_zmp[k]``
+    (2,), the measured CoP ``p_meas`` (2,) fed back with gain ``k_z`` (none when k_z ≤ 0 or ``p_meas`` is NaN), with
+    the same arithmetic element by element. Writes ``integral``, ``last_cop``, ``last_cmp`` (2,) in place.
+    Returns (number of hull vertices m (3 when ns = 0; m < 3: nothing written), c̈_x, c̈_y (m/s²), saturated)."""
+    cx, cy, cdx, cdy = c[0], c[1], cd[0], cd[1]
+    w = omega
+    ex, ey = cx + cdx / w - ref_dcm[k, 0], cy + cdy / w - ref_dcm[k, 1]
+    ix, iy = integral[0], integral[1]
+    px, py = ref_zmp[k, 0] + k_p * ex + k_i * ix, ref_zmp[k, 1] + k_p * ey + k_i * iy
+    if k_z > 0 and p_meas[0] == p_meas[0]:
+        px, py = px + k_z * (px - p_meas[0]), py + k_z * (py - p_meas[1])
+    m = 3
+    qx, qy = px, py
+    if ns > 0:
+        m, _, qx, qy = _support_kernel(xy, pos0[0], pos0[1], pos1[0], pos1[1], ns, px, py)
+        if m < 3:
+            return m, 0.0, 0.0, False
+    dx, dy = px - qx, py - qy
+    out = math.sqrt(dx * dx + dy * dy)
+    saturated = out > 1e-9
+    if not saturated:  # min(max(a, -i_max), i_max) as Python's min and max
+        a, b = ix + ex * dt, iy + ey * dt
+        if -i_max > a:
+            a = -i_max
+        if i_max < a:
+            a = i_max
+        if -i_max > b:
+            b = -i_max
+        if i_max < b:
+            b = i_max
+        integral[0], integral[1] = a, b
+    last_cop[0], last_cop[1] = qx, qy
+    rx, ry = qx, qy
+    if saturated and cmp_offset > 0:
+        f = out
+        if cmp_offset < f:
+            f = cmp_offset
+        f = f / out
+        rx, ry = qx + f * dx, qy + f * dy
+    last_cmp[0], last_cmp[1] = rx, ry
+    return m, w * w * (cx - rx), w * w * (cy - ry), saturated
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_support_kernel` (on-disk cache) once per process, at :meth:`WalkScenario.setup`."""
+    """Load :func:`_support_kernel` and :func:`_stabilizer_kernel` (on-disk cache) once per process, at
+    :meth:`WalkScenario.setup`."""
     _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
+    z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
+    _stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
+                       z2.copy(), z2.copy(), z2.copy())
 
 
 
@@ -688,6 +741,8 @@ class WalkScenario:
         # _hull: the shrunk sole corners per shrink, and a buffer of the transposed sole rotations per sole count
         self._corners: dict[float, np.ndarray] = {}
         self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
+        self._xy0 = np.zeros((4, 6))  # (_stabilize's corners when no sole is in contact: not read)
+        self._no_cop = np.full(2, np.nan)  # (_stabilize's measured CoP when there is none)
         _warm_up()
         # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'
         # samples never change, only their footsteps)
@@ -751,6 +806,12 @@ class WalkScenario:
         new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in plan.footsteps]
         self.capture_landing = (float(d[0]), float(d[1]))
         return plan.replan(0, c, cd, new, check_start=False)
+
+    @property
+    def reads_measured_zmp(self) -> bool:
+        """Whether :meth:`update` reads ``measured_zmp``: only for the stabilizer's ZMP feedback (``zmp_feedback``
+        > 0, also passed to a capture step); the closed loop does not compute the measured ZMP otherwise."""
+        return self.zmp_feedback > 0
 
     @property
     def steps_done(self) -> int:
@@ -874,6 +935,36 @@ class WalkScenario:
             self._hull(shrink)  # raises InvalidInputError (collinear)
         return d, qx, qy
 
+    def _stabilize(self, k: int, p_meas: np.ndarray) -> tuple[float, float]:
+        """``self.stab.acceleration`` at plan sample ``k`` (no cut sole; measured CoP ``p_meas`` (2,) m, NaN: none), the
+        support area that of
+        :meth:`_support` ``(cop_margin)``, in one :func:`_stabilizer_kernel` call: (c̈_x, c̈_y) m/s², the same numbers
+        (the soles' corners from :meth:`_support`'s matrix product).
+
+        Raises:
+            InvalidInputError: the soles' corners are collinear (as :meth:`_hull`).
+        """
+        sw, views, stab = self.switcher, self._sole_views, self.stab
+        left, right = sw.in_contact("left"), sw.in_contact("right")
+        ns = int(left) + int(right)
+        _, rot, pos0 = views["left" if left else "right"]
+        pos1 = pos0
+        xy = self._xy0
+        if ns:
+            rt = self._rot_t[ns]
+            rt[:, :3] = rot.T
+            if ns == 2:
+                _, rot, pos1 = views["right"]
+                rt[:, 3:] = rot.T
+            xy = self._sole_corners(self.cop_margin) @ rt
+        m, ax, ay, stab.saturated = _stabilizer_kernel(
+            xy, ns, pos0, pos1, self._com_view, self._vcom_view, self.ref_dcm, self.ref_zmp, k, stab.omega, stab.k_p,
+            stab.k_i, stab.k_z, p_meas, stab.i_max, stab.dt, stab.cmp_offset, stab.integral, stab.last_cop,
+            stab.last_cmp)
+        if m < 3:
+            self._hull(self.cop_margin)  # raises InvalidInputError (collinear)
+        return ax, ay
+
     # -- per tick ------------------------------------------------------------------------------------------
     def update(self, t, controller, sim, q, v):
         if self._recovery is not None:
@@ -967,14 +1058,21 @@ class WalkScenario:
         if self.blind:
             self._partial_footholds(controller, q, v, t)
         if self.stabilizer_on:
-            xrx, xry = self.ref_dcm[k].tolist()
-            prx, pry = self.ref_zmp[k].tolist()
-            margin = self.cop_margin
+            stab = self.stab
+            p_meas = self.measured_zmp
+            if self._cut["left"] is None and self._cut["right"] is None and (p_meas is None or (
+                    type(p_meas) is np.ndarray and p_meas.shape == (2,) and p_meas.dtype == np.float64
+                    and p_meas[0] == p_meas[0])):
+                ax, ay = self._stabilize(k, self._no_cop if p_meas is None else p_meas)
+            else:
+                xrx, xry = self.ref_dcm[k].tolist()
+                prx, pry = self.ref_zmp[k].tolist()
+                margin = self.cop_margin
 
-            def project(px: float, py: float) -> tuple[float, float]:
-                return self._support(margin, px, py)[1:]
+                def project(px: float, py: float) -> tuple[float, float]:
+                    return self._support(margin, px, py)[1:]
 
-            ax, ay = self.stab.acceleration(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
+                ax, ay = stab.acceleration(cx, cy, cdx, cdy, xrx, xry, prx, pry, project, self.measured_zmp)
             z, zd, zdd = float(plan.com[k, 2] + dz), float(plan.com_vel[k, 2] + dzd), float(plan.com_acc[k, 2])
             target = np.array([cx, cy, z])
             vel = np.array([cdx, cdy, zd])  # (z: 0 on flat ground)
