@@ -217,18 +217,9 @@ def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, row
         cz = acc[2] + wx * vel[1] - wy * vel[0]
         for i in range(3):
             d6[i] = rot[i, 0] * cx + rot[i, 1] * cy + rot[i, 2] * cz
-    nv = j_local.shape[1]
     for a in range(rows.shape[0]):
-        r = rows[a]
-        drift_out[a] = d6[r]
-        if r < 3:
-            error_out[a] = pos[r] - target_pos[r]
-            m0, m1, m2, off = rot[r, 0], rot[r, 1], rot[r, 2], 0
-        else:
-            error_out[a] = log[r - 3]
-            m0, m1, m2, off = jlog[r - 3, 0], jlog[r - 3, 1], jlog[r - 3, 2], 3
-        for j in range(nv):
-            jac_out[a, j] = m0 * j_local[off, j] + m1 * j_local[off + 1, j] + m2 * j_local[off + 2, j]
+        drift_out[a] = d6[rows[a]]
+    _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out)
     return 0
 
 
