@@ -130,9 +130,9 @@ class InverseDynamicsController:
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
             (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
-            calls end by 1.25 budgets, its checks start before 1.35 and end by 1.4, and the relaxed QP's calls end by
-            1.55 (iteration limits from the time left), leaving the rest of two budgets to the safe command; a failed
-            full QP gets quadprog only when it is expected to end by 1.4 budgets (its recent CPU time,
+            calls end by 1.25 budgets, its checks start before 1.4 and end by 1.55, and the relaxed QP's calls end by
+            1.75 (iteration limits from the time left); a failed
+            full QP gets quadprog only when it is expected to end by 1.55 budgets (its recent CPU time,
             ``InverseDynamicsQP.quadprog_cost``) and the backend's retries only before 1.2 budgets; a relaxed
             command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
             False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations

@@ -339,17 +339,17 @@ class InverseDynamicsQP:
     #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one
     #: cost-scaled DAQP call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the
     #: time left)
-    CHECK_DEADLINE = 1.35
-    CHECK_END = 1.4
+    CHECK_DEADLINE = 1.4
+    CHECK_END = 1.55
     #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
     #: before this many budgets (:attr:`retry_deadline`)
     QUADPROG_DEADLINE = 1.2
     #: clock guard: quadprog's solve starts only when it is expected to end by this many budgets (start + the
     #: CPU time of its recent solves, :attr:`quadprog_cost`)
-    QUADPROG_END = 1.4
+    QUADPROG_END = 1.55
     #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
     #: stopped there fails the tick: the safe command follows, in the budget left)
-    RELAXED_DEADLINE = 1.55
+    RELAXED_DEADLINE = 1.75
 
     @property
     def retry_deadline(self) -> float:
@@ -767,7 +767,7 @@ class InverseDynamicsQP:
         finally:
             backend.cold_retry = retry
             backend.deadline = math.inf
-        if state is not None and not backend.budget_capped and thread_time() < self._deadline(self.CHECK_DEADLINE):
+        if state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
             left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
