@@ -166,16 +166,16 @@ def _infeasible_tick(robots, calls, **options):
 
 
 def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_empty(robots):
-    """Without the clock guard (any budget): DAQP's attempt, quadprog, the backend's retries, then the relaxed QP.
-    With it and a budget the tick does not reach (10 s): the hard-set check proves the set empty (HiGHS agrees,
-    computed here), so quadprog and the retries are skipped — one backend solve for the full QP, then the relaxed
-    QP — and the command is the same relaxed command (1e-9), path ``relaxed:daqp``. With a spent budget (1 ns) no
-    check runs at all: the relaxed QP answers at once, path ``relaxed:daqp+budget``."""
+    """Without the clock guard (any budget) and with it and a budget the tick does not reach (10 s): the hard-set
+    check proves the set empty (HiGHS agrees, computed here), so quadprog and the retries are skipped — one backend
+    solve for the full QP, then the relaxed QP — path ``relaxed:daqp``. With a spent budget (1 ns) no check runs at
+    all: the relaxed QP answers at once, path ``relaxed:daqp+budget``, the same relaxed command (1e-9)."""
     calls_free = []
-    _, cmd_free, hard = _infeasible_tick(robots, calls_free, budget=1e-9)
+    ctrl, cmd_free, hard = _infeasible_tick(robots, calls_free, budget=1e-9)
     assert not _highs_feasible(*hard)
     assert cmd_free.ok and cmd_free.relaxed and cmd_free.path == "relaxed:daqp"
-    assert calls_free == ["backend", "quadprog", "backend", "backend"]  # attempt, quadprog, retries, relaxed QP
+    assert calls_free == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 1  # attempt, relaxed QP
+    assert "hard set is empty" in cmd_free.message and ctrl.qp.relaxed_set_feasible is True
     calls_roomy = []
     ctrl, cmd_roomy, _ = _infeasible_tick(robots, calls_roomy, budget=10.0, clock_guard=True)
     assert cmd_roomy.ok and cmd_roomy.relaxed and cmd_roomy.path == "relaxed:daqp" and not cmd_roomy.over_budget
@@ -191,3 +191,47 @@ def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_e
     for bad in ("yes", 0, None):
         with pytest.raises(InvalidInputError, match="clock_guard"):
             ctrl.clock_guard = bad
+
+
+@pytest.mark.parametrize("clock_guard", [False, True])
+def test_id_empty_relaxed_set_ends_the_failed_tick_after_one_check(robots, clock_guard):
+    """A hard CoM task asking 1000 m/s² sideways on soles with μ = 0.01: no contact force can push the CoM that hard,
+    so the relaxed hard set (torque and joint acceleration limits dropped, built here) is empty as well (HiGHS).
+    After the full QP's one DAQP attempt the check of the relaxed set proves it empty: no quadprog, no retries and no
+    relaxed solve (one backend call in the tick), the safe command (``fallback:gravity``, ok False) naming it."""
+    import pinocchio as pin
+    import wbc.formulations.acceleration as acceleration
+    from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
+    from wbc.tasks import ComTask, PostureTask
+
+    robot = robots("talos")
+    com = AccelerationReference(ComTask(), kp=1000.0, kd=0.0, name="com")
+    soles = [SoleContact(robot, robot.left_sole, name="left", mu=0.01),
+             SoleContact(robot, robot.right_sole, name="right", mu=0.01)]
+    qp = InverseDynamicsQP(robot, [], soles, solver="daqp")
+    qp.add_task(com, hard=True)
+    posture = AccelerationReference(PostureTask(robot), kp=10.0, kd=1.0, name="posture")
+    posture.set_target(robot.q_ref)
+    qp.add_task(posture)
+    com.set_target(pin.centerOfMass(robot.model, robot.model.createData(), robot.q_ref) + np.array([0.0, 1.0, 0.0]))
+    calls = []
+    solve = qp.backend.solve
+    qp.backend.solve = lambda *a, **k: calls.append("backend") or solve(*a, **k)
+    reduced = acceleration.solve_pinned_reduced
+    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    try:
+        ctrl = InverseDynamicsController(qp, DT, budget=10.0, clock_guard=clock_guard)
+        cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
+    finally:
+        acceleration.solve_pinned_reduced = reduced
+    _, _, A, b, C, l, u, lb, ub = qp.build(ctrl.state, DT)
+    keep = np.ones(C.shape[0], bool)
+    keep[qp.torque_limits.rows] = False  # the torque limit rows, dropped in the relaxed QP
+    lb, ub = lb.copy(), ub.copy()
+    lb[qp.joint_acceleration_limits.iv], ub[qp.joint_acceleration_limits.iv] = -np.inf, np.inf
+    assert qp.joint_speed_limits is None
+    assert not _highs_feasible(A, b, C[keep], l[keep], u[keep], lb, ub)
+    assert not cmd.ok and cmd.path == "fallback:gravity"
+    assert calls == ["backend"]
+    assert qp.relaxed_set_feasible is False and qp.infeasible_by_check == 1 and qp.relaxed_infeasible_by_check == 1
+    assert "relaxed hard set is empty" in cmd.message

@@ -18,7 +18,11 @@ Time budget: a tick has ``budget`` seconds (default the control period dt) of CP
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
 reported (``over_budget``), never used to decide unless ``clock_guard`` is set (constructor): a tick solves at most two QPs — the full QP, and after its
 failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
-of the machine's load. The budget sets one count: the compiled tick's iteration cap
+of the machine's load. A failed full QP's costly second opinions (quadprog, the backend's retries) and the relaxed
+QP run only when a cheap check does not prove their set empty (:func:`wbc.solvers.independent.hard_set_feasible`,
+one DAQP call on the projection of the origin onto the hard set, a fraction of quadprog's cost): the relaxed hard set
+first — empty, the full one is empty too and the tick goes to step 2 at once —, then the full one; the relaxed QP
+gets its backend's retries only when its set was not proved empty. The budget sets one count: the compiled tick's iteration cap
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
 from the same assembly, and the next tick's compiled call starts from DAQP's working set. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
@@ -126,9 +130,10 @@ class InverseDynamicsController:
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
             (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
-            calls end by 1.25 budgets and the relaxed QP's by 1.75 (iteration limits from the time left); a failed
-            full QP gets its second opinion (quadprog, the backend's retries) only before 1.2 budgets, and only when
-            a cheap check does not prove its hard set empty (``wbc.solvers.independent.hard_set_feasible``); a relaxed
+            calls end by 1.25 budgets, its checks start before 1.4 and end by 1.55, and the relaxed QP's calls end by
+            1.75 (iteration limits from the time left); a failed
+            full QP gets quadprog only when it is expected to end by 1.55 budgets (its recent CPU time,
+            ``InverseDynamicsQP.quadprog_cost``) and the backend's retries only before 1.2 budgets; a relaxed
             command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
             False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations
             and campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's

@@ -102,7 +102,7 @@ from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
-from wbc.solvers.daqp import ITERATION_LIMIT, MIN_CALL_ITERATIONS
+from wbc.solvers.daqp import ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
 from wbc.tick import TickPath
@@ -110,7 +110,7 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "kernel_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "QUADPROG_COST", "kernel_iterations"]
 
 
 @dataclass
@@ -161,6 +161,10 @@ def kernel_iterations(budget: float) -> int:
     if not np.isfinite(budget):
         return 100
     return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
+
+#: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
+#: ``InverseDynamicsQP.quadprog_cost``; a humanoid's QP, ~60 variables; benchmarks/README.md)
+QUADPROG_COST = 2.5e-3
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
 _ID_TICK_LOADED = False
@@ -312,6 +316,17 @@ class InverseDynamicsQP:
         #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
         #: at its deadline); reset by :meth:`solve`.
         self.budget_cut = False
+        #: CPU time (s) quadprog's solve of a failed full QP is expected to take (clock guard, :attr:`QUADPROG_END`):
+        #: :data:`QUADPROG_COST` until one ran, then raised at once to a solve's CPU time, lowered by
+        #: :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per cheaper solve.
+        self.quadprog_cost = QUADPROG_COST
+        #: relaxed QPs whose DAQP attempt failed and whose relaxed hard set
+        #: :func:`wbc.solvers.independent.hard_set_feasible` proved empty (the backend's retries skipped).
+        self.relaxed_infeasible_by_check = 0
+        #: the current tick's check of the relaxed hard set after its full QP failed (:meth:`_solve_backend`):
+        #: True (a point found), False (proved empty: so is the full set, and the relaxed QP is not solved), None
+        #: (not checked, or the check did not finish); reset by :meth:`solve`.
+        self.relaxed_set_feasible: bool | None = None
         #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
         self.second_opinion_solves = 0
         self._daqp_check: DaqpBackend | None = None
@@ -329,8 +344,11 @@ class InverseDynamicsQP:
     #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
     #: before this many budgets (:attr:`retry_deadline`)
     QUADPROG_DEADLINE = 1.2
-    #: clock guard: the relaxed QP's DAQP calls end by this many budgets (a call stopped there fails the tick: the
-    #: safe command follows)
+    #: clock guard: quadprog's solve starts only when it is expected to end by this many budgets (start + the
+    #: CPU time of its recent solves, :attr:`quadprog_cost`)
+    QUADPROG_END = 1.55
+    #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
+    #: stopped there fails the tick: the safe command follows, in the budget left)
     RELAXED_DEADLINE = 1.75
 
     @property
@@ -575,6 +593,14 @@ class InverseDynamicsQP:
         return tuple(a.copy() for a in (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                          self._lb, self._ub))
 
+    def _relaxed_set(self, state: DynamicsState, dt: float, l, u, lb, ub):
+        """Copies of (l, u, lb, ub) of the relaxed QP (:meth:`solve_relaxed`): without the relaxable constraints,
+        with the :attr:`joint_speed_limits` bounds at ``state``."""
+        l, u, lb, ub = self._relax(l, u, lb, ub)
+        if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
+            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
+        return l, u, lb, ub
+
     def _relax(self, l, u, lb, ub):
         """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits)."""
         l, u, lb, ub = l.copy(), u.copy(), lb.copy(), ub.copy()
@@ -594,7 +620,8 @@ class InverseDynamicsQP:
 
         ``reuse_assembly``: when the last :meth:`solve` assembled the QP at this same ``state`` object and ``dt``
         (the failed full QP of the same tick, nothing edited since), its arrays are used instead of assembling
-        again; otherwise (or False) the QP is assembled here."""
+        again; otherwise (or False) the QP is assembled here. With ``reuse_assembly``, a relaxed hard set that this
+        tick's failed full QP proved empty (:attr:`relaxed_set_feasible` False) raises SolverError at once."""
         t0 = perf_counter()
         if reuse_assembly and self._assembled == (id(state), dt):
             m = self._m
@@ -602,22 +629,14 @@ class InverseDynamicsQP:
                                            self._lb, self._ub)
         else:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        l, u, lb, ub = self._relax(l, u, lb, ub)
-        if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
-            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
+        l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
         t1 = perf_counter()
+        if self.relaxed_set_feasible is False and reuse_assembly and self._assembled == (id(state), dt):
+            self.relaxed_infeasible_by_check += 1
+            raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
+                              "after the full QP failed): no relaxed solve")
         if isinstance(self.backend, DaqpBackend):
-            backend = self.backend
-            backend.deadline = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
-            try:
-                x, solver = backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-            except SolverError as exc:
-                if backend.budget_capped:
-                    self.budget_cut = True
-                    raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
-                raise
-            finally:
-                backend.deadline = math.inf
+            x, solver = self._solve_relaxed_daqp(H, g, A, b, C, l, u, lb, ub), self.backend.name
         else:
             x, solver = self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
@@ -625,6 +644,51 @@ class InverseDynamicsQP:
         sol.path = TickPath("relaxed", solver)
         self._guard(state, sol, relaxed=True)
         return sol
+
+    def _solve_relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+        """The relaxed QP by a DAQP backend: one attempt (``cold_retry`` off); when it fails, the relaxed hard set
+        is checked (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin
+        onto it): a set proved empty ends the solve, otherwise the backend's retries run (the calls of
+        :meth:`wbc.solvers.base.QPBackend.solve` after its first). With a clock guard every call ends by
+        ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left).
+
+        Raises:
+            SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
+                call stopped at the tick's deadline).
+        """
+        backend = self.backend
+        end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
+        retry = backend.cold_retry
+        backend.deadline = end
+        try:
+            backend.cold_retry = False
+            try:
+                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+            except SolverError as exc:
+                first = exc
+            finally:
+                backend.cold_retry = retry
+            left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
+            if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
+                # the relaxed hard set, unless the full QP's failure already found it not empty
+                if self.relaxed_set_feasible is None and hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
+                                     iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT)))) is False:
+                    self.relaxed_infeasible_by_check += 1
+                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
+                                      f"onto it): the backend's retries skipped")
+                if not retry:
+                    raise first
+                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+        except SolverError as exc:
+            if backend.budget_capped:
+                self.budget_cut = True
+                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
+            raise
+        finally:
+            backend.deadline = math.inf
+        self.budget_cut = True  # the first call stopped at the deadline, or no time left for the check
+        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time left for the relaxed "
+                          f"hard-set check and the backend's retries: clock guard)")
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
         """Build and solve the QP at ``state`` for control period ``dt`` (s).
@@ -642,6 +706,7 @@ class InverseDynamicsQP:
         self.last_violations = []
         self._assembled = None
         self.budget_cut = False
+        self.relaxed_set_feasible = None
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
                 and not self.extra_equalities:
             return self._solve_kernel(state, dt)
@@ -649,14 +714,15 @@ class InverseDynamicsQP:
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
-        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
+        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("general", solver)
         self._guard(state, sol)
         return sol
 
-    def _solve_backend(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
+    def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
+                       dt: float = 0.0) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
         extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
         also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
@@ -665,7 +731,11 @@ class InverseDynamicsQP:
         quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
         backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
         landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
-        relaxed QP with its torques clipped.
+        relaxed QP with its torques clipped. Before quadprog (with or without a clock guard), given the tick's
+        ``state`` and ``dt``, :func:`wbc.solvers.independent.hard_set_feasible` checks the relaxed hard set
+        (:meth:`solve_relaxed`'s, :attr:`relaxed_set_feasible`): empty, it proves the full set empty too and the
+        failure stands (the relaxed QP is then not solved); then, without a clock guard, the full hard set: empty,
+        quadprog and the retries, which could only fail, are skipped.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -675,7 +745,8 @@ class InverseDynamicsQP:
         proves empty ends the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
         deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
-        only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``).
+        only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``;
+        quadprog only when start + :attr:`quadprog_cost` ≤ ``QUADPROG_END`` budgets).
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -696,6 +767,18 @@ class InverseDynamicsQP:
         finally:
             backend.cold_retry = retry
             backend.deadline = math.inf
+        if state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
+            # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
+            # failing tick's one check); not empty, the full set is checked next (below)
+            left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
+            self.relaxed_set_feasible = hard_set_feasible(
+                A, b, C, *self._relaxed_set(state, dt, l, u, lb, ub), backend.tolerance,
+                iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
+            if self.relaxed_set_feasible is False:
+                self.infeasible_by_check += 1
+                raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the "
+                                  f"projection of the origin onto it): quadprog, the backend's retries and the "
+                                  f"relaxed QP skipped")
         if guarded:
             if thread_time() >= self._deadline(self.CHECK_DEADLINE):
                 self.checks_skipped += 1
@@ -708,6 +791,8 @@ class InverseDynamicsQP:
             # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
             capped = backend.budget_capped
             for step in (("scaled", "check") if capped else ("check", "scaled")):
+                if thread_time() >= self._deadline(self.CHECK_DEADLINE):
+                    break  # no time for the second step: the failure stands (below)
                 if step == "check":
                     left = (end - thread_time()) / backend.iteration_cost
                     if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
@@ -731,7 +816,23 @@ class InverseDynamicsQP:
                 self.budget_cut = True
                 raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
                                   f"quadprog solve or retry: tick budget spent (clock guard)")
+            if thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
+                                  f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
+                                  f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
+        elif hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance) is False:
+            # the cheap proof first (one DAQP call on the projection of the origin, a fraction of quadprog's
+            # cost): quadprog and the retries could only fail on an empty hard set
+            self.infeasible_by_check += 1
+            raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
+                              f"quadprog and the backend's retries skipped")
+        c0 = thread_time()
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        if guarded:
+            cost = thread_time() - c0
+            self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
         if x is not None:
             self.pinned_reduced_solves += 1
             return x, "quadprog"
@@ -881,7 +982,7 @@ class InverseDynamicsQP:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
             self._assembled = (id(state), dt)
             t1 = perf_counter()
-            x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub)
+            x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
             sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
             sol.path = TickPath("general", solver)
             self._guard(state, sol)
@@ -907,7 +1008,7 @@ class InverseDynamicsQP:
         kb.state[:] = 0
         kb.rstate[:] = 0
         x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                        self._lb, self._ub)
+                                        self._lb, self._ub, state, dt)
         # the kernel's next call starts from the working set of the backend's solution: DAQP's multipliers (bounds,
         # equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one), else the active bounds
         lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
