@@ -81,3 +81,48 @@ def test_an_infeasible_hard_set_fails_the_first_level_in_two_solves():
     solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [Counting(eps_prox=1e-3), DaqpBackend()],
                         DaqpBackend())
     assert Counting.calls == 1
+
+
+def test_independent_rows_reuses_a_factorisation_only_for_an_equal_matrix(monkeypatch):
+    """The memo of independent_rows: an entry-for-entry equal matrix is not factorised again, and returns the rows
+    an uncached QR with column pivoting (scipy.linalg.qr, written here) picks; a matrix that differs in one entry
+    is factorised again."""
+    import scipy.linalg
+    from scipy.linalg import lapack
+
+    from wbc.solvers.hierarchy import independent_rows
+
+    calls = {"n": 0}
+    real = lapack.dgeqp3
+
+    def counting(*args, **kwargs):
+        if kwargs.get("lwork", 0) != -1:
+            calls["n"] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(lapack, "dgeqp3", counting)
+
+    def reference(M, rtol=1e-3):
+        _, R, piv = scipy.linalg.qr(M.T, mode="economic", pivoting=True)
+        d = np.abs(np.diag(R))
+        return np.sort(piv[:int(np.sum(d > rtol * max(d[0], 1.0)))])
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(6, 9))
+    A[4] = A[0] + A[1]  # a dependent row
+    first = independent_rows(A)
+    np.testing.assert_array_equal(first, reference(A))
+    n = calls["n"]
+    again = independent_rows(A.copy())  # equal entries, another array
+    assert calls["n"] == n
+    np.testing.assert_array_equal(again, reference(A))
+    B = A.copy()
+    B[4, 2] += 0.5  # the row becomes independent
+    rows = independent_rows(B)
+    assert calls["n"] == n + 1
+    np.testing.assert_array_equal(rows, reference(B))
+    assert rows.size == 6 and first.size == 5
+    assert independent_rows(A, 0.5).size <= first.size and calls["n"] == n + 2  # another rtol: factorised
+    with pytest.raises(ValueError):
+        first[0] = 1  # the shared result is read-only
+
