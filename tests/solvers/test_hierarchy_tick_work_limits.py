@@ -126,3 +126,41 @@ def test_independent_rows_reuses_a_factorisation_only_for_an_equal_matrix(monkey
     with pytest.raises(ValueError):
         first[0] = 1  # the shared result is read-only
 
+
+
+def test_band_memo_starts_with_the_bands_on_equal_rows_only():
+    """A cascade whose dropped (nearly dependent) equality row had to be held as a band row: with a memo, the next
+    cascade on equal equality rows (a re-solve of the same tick: only b changed) starts with that band — one
+    cascade, one solve per level, not two — and its answer meets the kept row, holds the dropped one within
+    ±tolerance/2 and meets the level (checked on the rows); on other rows the full sequence runs again."""
+
+    class Counting(DaqpBackend):
+        solves = 0
+
+        def solve(self, *args, **kwargs):
+            Counting.solves += 1
+            return super().solve(*args, **kwargs)
+
+    n = 4
+    H, g = np.eye(n), np.zeros(n)
+    # row 1 = row 0 + 1e-5 e_1: one of them dropped at rank_rtol 1e-3; together they ask v_0 = 0, v_1 = 5
+    A = np.array([[1.0, 0.0, 0.0, 0.0], [1.0, 1e-5, 0.0, 0.0]])
+    C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+    lb, ub = -np.full(n, 10.0), np.full(n, 10.0)
+    levels = [(np.array([[0.0, 0.0, 1.0, 0.0]]), np.array([2.0]))]
+    tol = 1e-5
+    memo: dict = {}
+    backends, final = [Counting(eps_prox=1e-3)], Counting()
+    counts = []
+    for A_k, b_k in ((A, np.array([0.0, 5e-5])), (A.copy(), np.array([0.0, 4e-5])),
+                     (A + np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 1e-6, 0.0, 0.0]]), np.array([0.0, 5e-5]))):
+        Counting.solves = 0
+        v, _ = solve_lexicographic(levels, H, g, A_k, b_k, C, l, u, lb, ub, backends, final,
+                                   dependent_row_tolerance=tol, memo=memo)
+        counts.append(Counting.solves)
+        r = np.abs(A_k @ v - b_k)
+        assert r.min() <= 1e-9  # the kept row (QR with pivoting keeps one of the two)
+        assert r.max() <= 0.5 * tol + 1e-9  # the dropped one, held as a band
+        assert abs(v[2] - 2.0) <= 1e-6  # the level
+    # the cascade without the band, then with it; equal rows: only with it; other rows: both again
+    assert counts == [4, 2, 4]

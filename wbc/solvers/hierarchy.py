@@ -45,6 +45,9 @@ __all__ = ["solve_lexicographic", "independent_rows"]
 _RANK_MEMO: list = []
 #: results kept in ``_RANK_MEMO``
 RANK_MEMO_SIZE = 6
+#: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
+#: its dropped rows as band rows
+BAND_KEY = "band"
 
 
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
@@ -110,6 +113,11 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             the last cascade solved only by its damped (or wide-band) retry starts with that retry (one solve
             instead of the failing ones before it; should the undamped solve now succeed, the answer differs from
             its by the damping's bias, relative 1e-9); a retry that fails is forgotten and the full sequence runs.
+            Under :data:`BAND_KEY` it keeps the equality rows A of the last cascade that had to be solved again
+            with its dropped (nearly dependent) rows as band rows: a cascade on an equal A starts with those bands
+            (one cascade instead of two; its answer then holds them within ±tolerance/2 even where the cascade
+            without them would have met them within the tolerance). Within a tick the re-solves (contact corrections,
+            trust regions) keep A; the next tick's A differs (unless the configuration did not move).
 
     Levels below the point where the kept equality rows and the rows of the levels above have rank nv (QR with
     column pivoting, ``rank_rtol``) are not solved: every direction of v is then fixed, so each of them would
@@ -130,14 +138,30 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     """
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
-    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop, memo)
-    if keep.size < A.shape[0]:
+    dropped = np.setdiff1d(np.arange(A.shape[0]), keep) if keep.size < A.shape[0] else None
+    half = 0.5 * dependent_row_tolerance
+    banded = None
+    if dropped is not None and memo is not None and memo.get(BAND_KEY) is not None \
+            and np.array_equal(memo[BAND_KEY], A):
+        # an earlier cascade on these equality rows (the same tick's: only b or the box changed since) needed the
+        # dropped rows as band rows (below): those bands first, one cascade instead of two; a band cascade that
+        # fails is forgotten and the full sequence runs
+        try:
+            banded = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
+                              np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
+                              lb, ub, backends, final_backend, band, stop, memo)
+        except SolverError:
+            del memo[BAND_KEY]
+    if banded is not None:
+        v, skipped = banded
+    else:
+        v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop,
+                              memo)
+    if dropped is not None and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
-            dropped = np.setdiff1d(np.arange(A.shape[0]), keep)
-            half = 0.5 * dependent_row_tolerance
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
@@ -145,6 +169,8 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
+            if memo is not None:
+                memo[BAND_KEY] = np.array(A, dtype=float)
     solve_lexicographic.last_skipped = skipped
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
