@@ -81,3 +81,86 @@ def test_an_infeasible_hard_set_fails_the_first_level_in_two_solves():
     solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [Counting(eps_prox=1e-3), DaqpBackend()],
                         DaqpBackend())
     assert Counting.calls == 1
+
+
+def test_independent_rows_reuses_a_factorisation_only_for_an_equal_matrix(monkeypatch):
+    """The memo of independent_rows: an entry-for-entry equal matrix is not factorised again, and returns the rows
+    an uncached QR with column pivoting (scipy.linalg.qr, written here) picks; a matrix that differs in one entry
+    is factorised again."""
+    import scipy.linalg
+    from scipy.linalg import lapack
+
+    from wbc.solvers.hierarchy import independent_rows
+
+    calls = {"n": 0}
+    real = lapack.dgeqp3
+
+    def counting(*args, **kwargs):
+        if kwargs.get("lwork", 0) != -1:
+            calls["n"] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(lapack, "dgeqp3", counting)
+
+    def reference(M, rtol=1e-3):
+        _, R, piv = scipy.linalg.qr(M.T, mode="economic", pivoting=True)
+        d = np.abs(np.diag(R))
+        return np.sort(piv[:int(np.sum(d > rtol * max(d[0], 1.0)))])
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(6, 9))
+    A[4] = A[0] + A[1]  # a dependent row
+    first = independent_rows(A)
+    np.testing.assert_array_equal(first, reference(A))
+    n = calls["n"]
+    again = independent_rows(A.copy())  # equal entries, another array
+    assert calls["n"] == n
+    np.testing.assert_array_equal(again, reference(A))
+    B = A.copy()
+    B[4, 2] += 0.5  # the row becomes independent
+    rows = independent_rows(B)
+    assert calls["n"] == n + 1
+    np.testing.assert_array_equal(rows, reference(B))
+    assert rows.size == 6 and first.size == 5
+    assert independent_rows(A, 0.5).size <= first.size and calls["n"] == n + 2  # another rtol: factorised
+    with pytest.raises(ValueError):
+        first[0] = 1  # the shared result is read-only
+
+
+
+def test_band_memo_starts_with_the_bands_on_equal_rows_only():
+    """A cascade whose dropped (nearly dependent) equality row had to be held as a band row: with a memo, the next
+    cascade on equal equality rows (a re-solve of the same tick: only b changed) starts with that band — one
+    cascade, one solve per level, not two — and its answer meets the kept row, holds the dropped one within
+    ±tolerance/2 and meets the level (checked on the rows); on other rows the full sequence runs again."""
+
+    class Counting(DaqpBackend):
+        solves = 0
+
+        def solve(self, *args, **kwargs):
+            Counting.solves += 1
+            return super().solve(*args, **kwargs)
+
+    n = 4
+    H, g = np.eye(n), np.zeros(n)
+    # row 1 = row 0 + 1e-5 e_1: one of them dropped at rank_rtol 1e-3; together they ask v_0 = 0, v_1 = 5
+    A = np.array([[1.0, 0.0, 0.0, 0.0], [1.0, 1e-5, 0.0, 0.0]])
+    C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+    lb, ub = -np.full(n, 10.0), np.full(n, 10.0)
+    levels = [(np.array([[0.0, 0.0, 1.0, 0.0]]), np.array([2.0]))]
+    tol = 1e-5
+    memo: dict = {}
+    backends, final = [Counting(eps_prox=1e-3)], Counting()
+    counts = []
+    for A_k, b_k in ((A, np.array([0.0, 5e-5])), (A.copy(), np.array([0.0, 4e-5])),
+                     (A + np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 1e-6, 0.0, 0.0]]), np.array([0.0, 5e-5]))):
+        Counting.solves = 0
+        v, _ = solve_lexicographic(levels, H, g, A_k, b_k, C, l, u, lb, ub, backends, final,
+                                   dependent_row_tolerance=tol, memo=memo)
+        counts.append(Counting.solves)
+        r = np.abs(A_k @ v - b_k)
+        assert r.min() <= 1e-9  # the kept row (QR with pivoting keeps one of the two)
+        assert r.max() <= 0.5 * tol + 1e-9  # the dropped one, held as a band
+        assert abs(v[2] - 2.0) <= 1e-6  # the level
+    # the cascade without the band, then with it; equal rows: only with it; other rows: both again
+    assert counts == [4, 2, 4]

@@ -40,13 +40,40 @@ from wbc.exceptions import SolverError
 __all__ = ["solve_lexicographic", "independent_rows"]
 
 
+#: the last results of :func:`independent_rows` ((A copied, rtol, rows) newest last): a cascade and the re-solves of
+#: its tick (contact corrections, trust regions: only b or the box change) ask the same matrices again
+_RANK_MEMO: list = []
+#: results kept in ``_RANK_MEMO``
+RANK_MEMO_SIZE = 6
+#: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
+#: its dropped rows as band rows
+BAND_KEY = "band"
+
+
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
-    numerical rank: |R_ii| > rtol · max(|R_00|, 1))."""
-    from scipy.linalg import lapack
+    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only.
 
+    The last :data:`RANK_MEMO_SIZE` results are kept: a matrix equal entry for entry to one of them (and the same
+    ``rtol``) returns that result without a new factorisation (the same rows: the factorisation is a function of
+    the entries)."""
     if A.shape[0] == 0:
         return np.zeros(0, dtype=int)
+    for M, tol, rows in reversed(_RANK_MEMO):
+        if tol == rtol and M.shape == A.shape and np.array_equal(M, A):
+            return rows
+    rows = _independent_rows(A, rtol)
+    rows.setflags(write=False)
+    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
+        del _RANK_MEMO[0]
+    _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
+    return rows
+
+
+def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
+    """:func:`independent_rows` computed (no memo)."""
+    from scipy.linalg import lapack
+
     # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls, with the same workspace query), without
     # forming Q: only |R_ii| and the pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
     At = np.array(A.T, dtype=float, order="F")  # a copy: dgeqp3 overwrites it
@@ -86,6 +113,11 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             the last cascade solved only by its damped (or wide-band) retry starts with that retry (one solve
             instead of the failing ones before it; should the undamped solve now succeed, the answer differs from
             its by the damping's bias, relative 1e-9); a retry that fails is forgotten and the full sequence runs.
+            Under :data:`BAND_KEY` it keeps the equality rows A of the last cascade that had to be solved again
+            with its dropped (nearly dependent) rows as band rows: a cascade on an equal A starts with those bands
+            (one cascade instead of two; its answer then holds them within ±tolerance/2 even where the cascade
+            without them would have met them within the tolerance). Within a tick the re-solves (contact corrections,
+            trust regions) keep A; the next tick's A differs (unless the configuration did not move).
 
     Levels below the point where the kept equality rows and the rows of the levels above have rank nv (QR with
     column pivoting, ``rank_rtol``) are not solved: every direction of v is then fixed, so each of them would
@@ -106,14 +138,30 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     """
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
-    v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop, memo)
-    if keep.size < A.shape[0]:
+    dropped = np.setdiff1d(np.arange(A.shape[0]), keep) if keep.size < A.shape[0] else None
+    half = 0.5 * dependent_row_tolerance
+    banded = None
+    if dropped is not None and memo is not None and memo.get(BAND_KEY) is not None \
+            and np.array_equal(memo[BAND_KEY], A):
+        # an earlier cascade on these equality rows (the same tick's: only b or the box changed since) needed the
+        # dropped rows as band rows (below): those bands first, one cascade instead of two; a band cascade that
+        # fails is forgotten and the full sequence runs
+        try:
+            banded = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
+                              np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
+                              lb, ub, backends, final_backend, band, stop, memo)
+        except SolverError:
+            del memo[BAND_KEY]
+    if banded is not None:
+        v, skipped = banded
+    else:
+        v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop,
+                              memo)
+    if dropped is not None and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
-            dropped = np.setdiff1d(np.arange(A.shape[0]), keep)
-            half = 0.5 * dependent_row_tolerance
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
@@ -121,6 +169,8 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
+            if memo is not None:
+                memo[BAND_KEY] = np.array(A, dtype=float)
     solve_lexicographic.last_skipped = skipped
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
