@@ -690,3 +690,64 @@ def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
     assert len(calls) == 4, calls
     x = backend.solve(H, g, A, b, C, np.array([-np.inf]), np.array([5.0]), *free, confirm=False)
     assert np.allclose(x, [1.0, 0.0], atol=1e-9)
+
+
+# a strict-level G1 stance (kinematic fuzz seed 5019, chunk 1000, episode 3, its first ticks): a wrist target 1e6 m
+# away on level 0 (gain 5848 1/s), posture on level 1, the standing set's CoM and torso tasks in the soft level
+_G1_FAR_Q = [
+    -0.04580960691154036, 0.0, 0.7634313918848016, 0.0, 0.0, 0.0, 1.0, -0.399786772242337, 0.06409679266736079,
+    0.08522220350733595, 0.6825894709264781, -0.4097973319721929, -0.09824619627635829, -0.37440835600971595,
+    0.15203422792654214, 0.1332785263222333, 0.43475481096367036, -0.11090138308257602, 0.17799944760937586,
+    0.05390820525391382, 0.19523513175647517, 0.1787830957907876, 0.009923477937303332, 0.3120633765312708,
+    0.0649137463194348, 0.613111677175372, 0.056926337142345906, -0.13314251489452694, -0.0872060496771467,
+    -0.13563256593233536, -0.39112430243436314, -0.0025304236055440354, 0.5925408784397301, -0.03930682671385313,
+    0.1577010113127767, -0.024735122054345776]
+_G1_FAR_SOLES = (  # (drift-correction gain 1/s, position m, rotation) of the left and right sole contacts
+    (54.40674211236123, [0.04413651423261985, 0.12579375094144907, 0.015234190197285835],
+     [[0.9860462459885242, -0.09304524914995764, -0.13804123435612012],
+      [0.10430053316216782, 0.9915866628710184, 0.07666347760442943],
+      [0.1297466745393751, -0.08999150863798001, 0.9874549755908032]]),
+    (3.1927698142144973, [0.09672442366316406, -0.05210982886752191, 0.0010006525236203254],
+     [[0.9799720155641491, -0.1982177580988274, -0.019093692293886202],
+      [0.18779306619602204, 0.9517951532075988, -0.24252783473081974],
+      [0.06624660745906419, 0.23408482801069808, 0.9699565352609191]]))
+_G1_FAR_HAND = ([634239.6133855258, -764004.7319059717, 118476.86747969517],
+                [[0.6814427097956139, -0.014000835937781682, 0.7317375279835348],
+                 [0.39307151625905645, 0.8503800983909193, -0.34978346354059836],
+                 [-0.6173577701561852, 0.5259825708649425, 0.584988648414727]])
+
+
+def test_strict_far_target_keeps_the_soles_within_the_budget(robots):
+    """A strict cascade whose command steps far outside the linear range of the contact rows (a wrist target 1e6 m
+    away on level 0): the second-order correction contracts slowly on the whole box, and the trust region's smaller
+    steps meet ``sole_drift_tolerance`` (0.05 mm) in two re-solves. Within the default budget (dt = 2 ms: 8 counted
+    solves, optional stages to 14) each of the episode's first 8 ticks must still reach the trust region and be ok.
+    Oracle: forward kinematics (Pinocchio) of both soles at pin.integrate(q, v dt), each within 0.05 mm of where its
+    contact row sends it (placement · exp6((1 − K dt) e), e = log6 of the sole's offset before the tick)."""
+    from wbc.tasks import FrameTask, PostureTask
+
+    robot = robots("g1")
+    config = Configuration(robot, np.array(_G1_FAR_Q))
+    ctrl, com = standing_controller(robot, config)
+    com.gain, com.weight = 14.722105618142011, 8.241837187502735
+    com.set_target(np.array([0.8346628245523546, 0.37785285624669873, 1.4105801038314705]))
+    for contact, (gain, p, R) in zip(ctrl.constraints[:2], _G1_FAR_SOLES):
+        contact.gain = gain
+        assert np.allclose(contact.placement.translation, p, atol=1e-12, rtol=0.0)
+    hand = FrameTask(robot, "left_wrist_roll_joint", gain=5848.021127461259, position_weight=0.34783249635142627,
+                     orientation_weight=0.0, name="hand")
+    hand.set_target(pin.SE3(np.array(_G1_FAR_HAND[1]), np.array(_G1_FAR_HAND[0])))
+    ctrl.add_task(hand, level=0)
+    ctrl.add_task(PostureTask(robot, weight=0.4019969148927351), level=1)
+    assert ctrl.budget is None and ctrl.sole_drift_tolerance == 5e-5
+    model, data = robot.model, robot.model.createData()
+    for tick in range(8):
+        res = ctrl.solve(config, DT)
+        assert res.ok and res.path.route == "levels", (tick, res.message)
+        pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * DT))
+        for contact, (gain, p, R) in zip(ctrl.constraints[:2], _G1_FAR_SOLES):
+            placement = pin.SE3(np.array(R), np.array(p))
+            e = pin.log6(placement.actInv(config.frame_placement(contact.frame_id))).vector
+            sent = placement * pin.exp6(e * (1.0 - min(gain, 1.0 / DT) * DT))
+            assert np.linalg.norm(data.oMf[contact.frame_id].translation - sent.translation) <= 5e-5, tick
+        config.update(config.integrate(res.v, DT))

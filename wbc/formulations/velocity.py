@@ -1374,8 +1374,15 @@ class KinematicController:
                 new_worst, new_drifts = self._contact_drifts(config, v_new, dt)
                 if new_worst >= worst:
                     break  # not converging (e.g. a dropped dependent row): keep the better solution
+                ratio = new_worst / worst
                 v, worst, drifts = v_new, new_worst, new_drifts
                 if worst <= self.contact_correction:
+                    break
+                tol = self.sole_drift_tolerance
+                if tol is not None and worst * ratio ** (2 - k) > tol:
+                    # contracting too slowly to end within sole_drift_tolerance in the re-solves left (a large
+                    # step, far outside the linear range of J_c): the trust region's smaller steps take over, with
+                    # the budget these re-solves would spend (a strict cascade's re-solve costs one solve per level)
                     break
         finally:
             np.copyto(self._b, b0)
