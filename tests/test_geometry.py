@@ -62,6 +62,27 @@ def test_checks_raise_typed_errors():
     assert isinstance(M, pin.SE3) and as_se3(M) is M
 
 
+def test_a_read_only_attribute_returns_its_store_and_refuses_assignment():
+    from wbc.geometry import ReadOnly
+
+    class Holder:
+        value = ReadOnly("(3,) a buffer (m)")
+        other = ReadOnly("a renamed buffer", "_buffer")
+
+        def __init__(self):
+            self._value, self._buffer = np.zeros(3), [1, 2]
+
+    h = Holder()
+    assert h.value is h._value and h.other is h._buffer
+    h._value = np.ones(3)  # the attribute follows its store
+    assert h.value is h._value
+    assert Holder.value.__doc__ == "(3,) a buffer (m)" and Holder.other.__doc__ == "a renamed buffer"
+    for name in ("value", "other"):
+        with pytest.raises(AttributeError):
+            setattr(h, name, 1.0)
+    assert isinstance(Holder.__dict__["value"], property)
+
+
 def test_a_flag_takes_true_or_false_only_on_every_assignment():
     from wbc.exceptions import InvalidInputError
     from wbc.geometry import Flag

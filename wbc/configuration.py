@@ -15,7 +15,7 @@ import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.exceptions import ConfigurationError
-from wbc.geometry import check_vector
+from wbc.geometry import ReadOnly, check_vector
 from wbc.robot import Robot
 
 __all__ = ["Configuration", "check_vector"]
@@ -100,17 +100,10 @@ class Configuration:
         (``LOCAL``: frame axes; ``LOCAL_WORLD_ALIGNED``: world axes at the frame origin; ``WORLD``)."""
         return pin.getFrameJacobian(self.model, self.data, frame_id, reference)
 
-    @property
-    def com(self) -> np.ndarray:
-        """(3,) centre of mass in world (m), updated in place by :meth:`update` (copy it to keep a value): a view of
-        Pinocchio's ``data.com[0]``; a :class:`~wbc.state.DynamicsState`'s own array, computed with its centroidal
-        quantities."""
-        return self._com
-
-    @property
-    def com_jacobian(self) -> np.ndarray:
-        """(3, nv) CoM Jacobian in world axes (m/s per unit of v)."""
-        return self._com_jacobian
+    com = ReadOnly("""(3,) centre of mass in world (m), updated in place by :meth:`update` (copy it to keep a value): a
+        view of Pinocchio's ``data.com[0]``; a :class:`~wbc.state.DynamicsState`'s own array, computed with its
+        centroidal quantities.""")
+    com_jacobian = ReadOnly("(3, nv) CoM Jacobian in world axes (m/s per unit of v).")
 
     @property
     def centroidal_momentum_matrix(self) -> np.ndarray:

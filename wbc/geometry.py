@@ -17,6 +17,7 @@ themselves): numpy's per-call overhead would dominate.
 from __future__ import annotations
 
 import math
+import operator
 
 import numpy as np
 import pinocchio as pin
@@ -92,6 +93,22 @@ class Flag:
 
     def __set__(self, obj, value) -> None:
         setattr(obj, self.slot, check_flag(value, self.name))
+
+
+class ReadOnly(property):
+    """A read-only attribute (a property whose getter is :func:`operator.attrgetter`: no Python call per read),
+    declared in a class body as ``name = ReadOnly("docstring")``: reading returns the instance's ``_name``, or the
+    attribute named by ``attr`` (e.g. ``ReadOnly("docstring", "_buffer")``). Assigning raises ``AttributeError``."""
+
+    def __init__(self, doc: str, attr: str | None = None):
+        super().__init__(doc=doc)
+        self.__doc__ = doc  # the attribute's own docstring (a property subclass would show the class's)
+        self.attr = attr
+
+    def __set_name__(self, owner, name: str) -> None:
+        if self.attr is None:
+            self.attr = "_" + name
+        property.__init__(self, operator.attrgetter(self.attr), None, None, self.__doc__)
 
 
 def check_count(n, what: str, minimum: int = 1, error=InvalidInputError) -> int:

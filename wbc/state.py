@@ -33,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration, check_vector
+from wbc.geometry import ReadOnly
 from wbc.exceptions import ConfigurationError
 from wbc.robot import Robot
 
@@ -138,20 +139,11 @@ class DynamicsState(Configuration):
         """(3,) CoM velocity in world (m/s): ``Ag[0:3] v / m``."""
         return self._hg[0:3] / self.mass
 
-    @property
-    def com_drift(self) -> np.ndarray:
-        """(3,) CoM acceleration at v̇ = 0 (m/s²): ``(dAg v)[0:3] / m`` (an array rewritten by :meth:`update`)."""
-        return self._com_drift
-
-    @property
-    def centroidal_momentum_matrix(self) -> np.ndarray:
-        """(6, nv) Ag: ``[m ċ ; L] = Ag v`` (linear N·s, angular N·m·s about the CoM, world axes)."""
-        return self._Ag
-
-    @property
-    def centroidal_drift(self) -> np.ndarray:
-        """(6,) dAg v: centroidal momentum rate at v̇ = 0 (N, N·m)."""
-        return self._dAg_v
+    com_drift = ReadOnly("(3,) CoM acceleration at v̇ = 0 (m/s²): ``(dAg v)[0:3] / m`` (an array rewritten by "
+                         ":meth:`update`).")
+    centroidal_momentum_matrix = ReadOnly("(6, nv) Ag: ``[m ċ ; L] = Ag v`` (linear N·s, angular N·m·s about the "
+                                          "CoM, world axes).", "_Ag")
+    centroidal_drift = ReadOnly("(6,) dAg v: centroidal momentum rate at v̇ = 0 (N, N·m).", "_dAg_v")
 
     @property
     def angular_momentum(self) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 from wbc.compiled import once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
-from wbc.constraints.limits import bounded_joints
+from wbc.constraints.limits import bounded_joints, load_limit_kernels
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.linalg import clip_entry_into
 
@@ -65,10 +65,7 @@ def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_
 def _warm_up() -> None:
     """Load :func:`_braking_bounds` and :func:`_intersect_braking_bounds` (on-disk cache) once per process, at
     construction."""
-    z = np.zeros(1)
-    i = np.zeros(1, dtype=np.int64)
-    _braking_bounds(z, i, z, z, 1.0, 1.0, np.empty(1), np.empty(1))
-    _intersect_braking_bounds(z, i, i, z, z, 1.0, 1.0, np.empty(1), np.empty(1), np.zeros(1), np.zeros(1))
+    load_limit_kernels(_braking_bounds, _intersect_braking_bounds, 1.0, 1.0, buffers=4)
 
 
 class JointBrakingLimit(BoxConstraint):

@@ -18,7 +18,7 @@ from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.linalg import clip_entry_into
 
-__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints"]
+__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints", "load_limit_kernels"]
 
 
 def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
@@ -54,14 +54,26 @@ def _intersect_position_bounds(q, idx_q, idx_v, q_min, q_max, v_max, neg_v_max, 
         clip_entry_into(lb, ub, idx_v[k], lo, hi)
 
 
+def load_limit_kernels(bounds, intersect, *params, buffers: int = 2) -> None:
+    """Load (on-disk cache) the two compiled kernels of a joint-limit box constraint for the argument types of a
+    real call, by calling them on one joint: ``bounds(q, idx_q, q_min, q_max, *params, lb, ub)`` and
+    ``intersect(q, idx_q, idx_v, q_min, q_max, *params, *out)``, ``out`` being ``buffers`` (n,) float arrays.
+
+    Args:
+        bounds, intersect: the compiled kernels (``bounds`` writes the bounds, ``intersect`` clips them into a box).
+        params: example values of the kernels' parameters between q_max and the outputs (floats or (1,) arrays).
+        buffers: how many output arrays ``intersect`` takes.
+    """
+    z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
+    bounds(z, i, z, z, *params, np.empty(1), np.empty(1))
+    intersect(z, i, i, z, z, *params, *[np.zeros(1) for _ in range(buffers)])
+
+
 @once_per_process
 def _warm_up() -> None:
     """Load :func:`_position_bounds` and :func:`_intersect_position_bounds` (on-disk cache) once per process, at
     construction."""
-    z = np.zeros(1)
-    i = np.zeros(1, dtype=np.int64)
-    _position_bounds(z, i, z, z, z, z, 1.0, np.empty(1), np.empty(1))
-    _intersect_position_bounds(z, i, i, z, z, z, z, 1.0, np.zeros(1), np.zeros(1))
+    load_limit_kernels(_position_bounds, _intersect_position_bounds, np.zeros(1), np.zeros(1), 1.0)
 
 
 class JointPositionLimit(BoxConstraint):

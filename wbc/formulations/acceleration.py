@@ -1100,6 +1100,16 @@ class InverseDynamicsQP:
         return out
 
 
+def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
+    """Write a feed-forward term (ė_ff or ä_ff, (m,)) into its row of R: ``ff``, or zeros if None. Returns whether
+    the row now holds zeros."""
+    if ff is None:
+        row.fill(0.0)
+        return True
+    row[:] = ff
+    return False
+
+
 class _ProblemRows:
     """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
     assemblies read (:meth:`InverseDynamicsQP.build` through the constraints' ``write`` and the compiled tick
@@ -1164,19 +1174,11 @@ class _ProblemRows:
                 e[:] = task.compute(state)[0]
                 drift[:] = task.drift(state)
             ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
-            if ff is not None:
-                eff[:] = ff
-                ent[11] = False
-            elif not eff_zero:
-                eff.fill(0.0)
-                ent[11] = True
+            if ff is not None or not eff_zero:
+                ent[11] = _write_feedforward(eff, ff)
             ff = ref.feedforward_acceleration
-            if ff is not None:
-                aff[:] = ff
-                ent[12] = False
-            elif not aff_zero:
-                aff.fill(0.0)
-                ent[12] = True
+            if ff is not None or not aff_zero:
+                ent[12] = _write_feedforward(aff, ff)
             w[:] = ref.weight
             kp, kd = ref.kp, ref.kd
             if gains is None or gains[0] != kp or gains[1] != kd:

@@ -17,6 +17,7 @@ Actions (ROS 2 design article "Actions"; ``rcl_action`` names): action ``/a`` is
 import hashlib
 import json
 import types
+import typing
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
@@ -38,190 +39,191 @@ __all__ = [
 ]
 
 
-def _struct(name: str, typename: str, doc: str, /, **fields) -> type:
-    """A ``@final`` IDL struct dataclass ``name`` with DDS type ``typename``; ``fields``: field name →
-    ``(IDL type, default)`` in rosidl's order, a class or ``list`` as default meaning a fresh instance each."""
+def _default(idl_type):
+    """The ROS default of a field of ``idl_type``: 0, 0.0, False, "", an empty list, a zero-filled array, or a fresh
+    nested struct (a class or a zero-argument function: called for each instance)."""
+    if idl_type is str:
+        return ""
+    if idl_type is bool:
+        return False
+    if isinstance(idl_type, type):  # a nested struct
+        return idl_type
+    base, holder = typing.get_args(idl_type)
+    if isinstance(holder, sequence):
+        return list
+    if isinstance(holder, array):
+        item = _default(holder.subtype)
+        return lambda: [item] * holder.length
+    return base()  # int or float: 0 or 0.0
+
+
+def _struct(name: str, ros_type: str, doc: str, /, **fields) -> type:
+    """A ``@final`` IDL struct dataclass ``name`` for the ROS 2 type ``ros_type`` (``pkg/msg/Name``; DDS type
+    ``pkg::msg::dds_::Name_``); ``fields``: field name → IDL type (default from :func:`_default`) or ``(IDL type,
+    default)``, in rosidl's order, a class or ``list`` as default meaning a fresh instance each."""
+    fields = {k: f if isinstance(f, tuple) else (f, _default(f)) for k, f in fields.items()}
     namespace = {"__annotations__": {k: t for k, (t, _) in fields.items()}, "__doc__": doc, "__module__": __name__,
                  "__qualname__": name}
     for k, (_, default) in fields.items():
         namespace[k] = field(default_factory=default) if callable(default) else default
+    pkg, kind, base = ros_type.split("/")
+    typename = f"{pkg}::{kind}::dds_::{base}_"
     cls = types.new_class(name, (IdlStruct,), {"typename": typename}, lambda ns: ns.update(namespace))
     return dataclass(final(cls))
 
 
-Time = _struct("Time", "builtin_interfaces::msg::dds_::Time_",
-               "builtin_interfaces/msg/Time: seconds and nanoseconds since the epoch.",
-               sec=(int32, 0), nanosec=(uint32, 0))
-Header = _struct("Header", "std_msgs::msg::dds_::Header_", "std_msgs/msg/Header: stamp and frame id.",
-                 stamp=(Time, Time), frame_id=(str, ""))
-JointState = _struct(
-    "JointState", "sensor_msgs::msg::dds_::JointState_",
-    "sensor_msgs/msg/JointState: names, positions (rad or m), velocities (rad/s), efforts (N·m).",
-    header=(Header, Header), name=(sequence[str], list), position=(sequence[float64], list),
-    velocity=(sequence[float64], list), effort=(sequence[float64], list))
-Vector3 = _struct("Vector3", "geometry_msgs::msg::dds_::Vector3_", "geometry_msgs/msg/Vector3 (m).",
-                  x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0))
-Quaternion = _struct("Quaternion", "geometry_msgs::msg::dds_::Quaternion_",
-                     "geometry_msgs/msg/Quaternion (x, y, z, w; ROS default w = 1).",
-                     x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0), w=(float64, 1.0))
-Transform = _struct("Transform", "geometry_msgs::msg::dds_::Transform_",
-                    "geometry_msgs/msg/Transform: pose of the child frame in the parent frame.",
-                    translation=(Vector3, Vector3), rotation=(Quaternion, Quaternion))
-TransformStamped = _struct(
-    "TransformStamped", "geometry_msgs::msg::dds_::TransformStamped_",
-    "geometry_msgs/msg/TransformStamped: header.frame_id is the parent, child_frame_id the child.",
-    header=(Header, Header), child_frame_id=(str, ""), transform=(Transform, Transform))
-TFMessage = _struct("TFMessage", "tf2_msgs::msg::dds_::TFMessage_",
-                    "tf2_msgs/msg/TFMessage: a list of stamped transforms (/tf, /tf_static).",
-                    transforms=(sequence[TransformStamped], list))
-String = _struct("String", "std_msgs::msg::dds_::String_",
-                 "std_msgs/msg/String (e.g. /robot_description, the URDF text).", data=(str, ""))
-
-
-def _service(name: str, typename: str, doc: str, /, **fields) -> type:
+def _service(name: str, ros_type: str, doc: str, /, **fields) -> type:
     """A service request/reply struct: rmw_cyclonedds' header (client guid, sequence number) then ``fields``."""
-    return _struct(name, typename, doc + " (with rmw_cyclonedds' request header)",
-                   client_guid=(uint64, 0), seq=(int64, 0), **fields)
+    return _struct(name, ros_type, doc + " (with rmw_cyclonedds' request header)", client_guid=uint64, seq=int64,
+                   **fields)
 
 
-TriggerRequest = _service("TriggerRequest", "std_srvs::srv::dds_::Trigger_Request_", "std_srvs/srv/Trigger request",
-                          structure_needs_at_least_one_member=(uint8, 0))
-TriggerReply = _service("TriggerReply", "std_srvs::srv::dds_::Trigger_Response_",
+Time = _struct("Time", "builtin_interfaces/msg/Time",
+               "builtin_interfaces/msg/Time: seconds and nanoseconds since the epoch.", sec=int32, nanosec=uint32)
+Header = _struct("Header", "std_msgs/msg/Header", "std_msgs/msg/Header: stamp and frame id.", stamp=Time, frame_id=str)
+JointState = _struct("JointState", "sensor_msgs/msg/JointState",
+                     "sensor_msgs/msg/JointState: names, positions (rad or m), velocities (rad/s), efforts (N·m).",
+                     header=Header, name=sequence[str], position=sequence[float64], velocity=sequence[float64],
+                     effort=sequence[float64])
+Vector3 = _struct("Vector3", "geometry_msgs/msg/Vector3", "geometry_msgs/msg/Vector3 (m).", x=float64, y=float64,
+                  z=float64)
+Quaternion = _struct("Quaternion", "geometry_msgs/msg/Quaternion",
+                     "geometry_msgs/msg/Quaternion (x, y, z, w; ROS default w = 1).", x=float64, y=float64, z=float64,
+                     w=(float64, 1.0))
+Transform = _struct("Transform", "geometry_msgs/msg/Transform",
+                    "geometry_msgs/msg/Transform: pose of the child frame in the parent frame.", translation=Vector3,
+                    rotation=Quaternion)
+TransformStamped = _struct("TransformStamped", "geometry_msgs/msg/TransformStamped",
+                           "geometry_msgs/msg/TransformStamped: header.frame_id is the parent, child_frame_id the "
+                           "child.", header=Header, child_frame_id=str, transform=Transform)
+TFMessage = _struct("TFMessage", "tf2_msgs/msg/TFMessage",
+                    "tf2_msgs/msg/TFMessage: a list of stamped transforms (/tf, /tf_static).",
+                    transforms=sequence[TransformStamped])
+String = _struct("String", "std_msgs/msg/String", "std_msgs/msg/String (e.g. /robot_description, the URDF text).",
+                 data=str)
+TriggerRequest = _service("TriggerRequest", "std_srvs/srv/Trigger_Request", "std_srvs/srv/Trigger request",
+                          structure_needs_at_least_one_member=uint8)
+TriggerReply = _service("TriggerReply", "std_srvs/srv/Trigger_Response",
                         "std_srvs/srv/Trigger response (the header echoes the request's guid and sequence)",
-                        success=(bool, False), message=(str, ""))
-Duration = _struct("Duration", "builtin_interfaces::msg::dds_::Duration_", "builtin_interfaces/msg/Duration (s, ns).",
-                   sec=(int32, 0), nanosec=(uint32, 0))
-Point = _struct("Point", "geometry_msgs::msg::dds_::Point_", "geometry_msgs/msg/Point (m).",
-                x=(float64, 0.0), y=(float64, 0.0), z=(float64, 0.0))
-Pose = _struct("Pose", "geometry_msgs::msg::dds_::Pose_", "geometry_msgs/msg/Pose: position (m), orientation.",
-               position=(Point, Point), orientation=(Quaternion, Quaternion))
-PoseStamped = _struct("PoseStamped", "geometry_msgs::msg::dds_::PoseStamped_", "geometry_msgs/msg/PoseStamped.",
-                      header=(Header, Header), pose=(Pose, Pose))
-Twist = _struct("Twist", "geometry_msgs::msg::dds_::Twist_",
-                "geometry_msgs/msg/Twist: linear (m/s) and angular (rad/s) velocity.",
-                linear=(Vector3, Vector3), angular=(Vector3, Vector3))
-PoseWithCovariance = _struct(
-    "PoseWithCovariance", "geometry_msgs::msg::dds_::PoseWithCovariance_",
-    "geometry_msgs/msg/PoseWithCovariance: pose and its 6x6 row-major covariance.",
-    pose=(Pose, Pose), covariance=(array[float64, 36], lambda: [0.0] * 36))
-TwistWithCovariance = _struct(
-    "TwistWithCovariance", "geometry_msgs::msg::dds_::TwistWithCovariance_",
-    "geometry_msgs/msg/TwistWithCovariance: twist and its 6x6 row-major covariance.",
-    twist=(Twist, Twist), covariance=(array[float64, 36], lambda: [0.0] * 36))
-Odometry = _struct(
-    "Odometry", "nav_msgs::msg::dds_::Odometry_",
-    "nav_msgs/msg/Odometry: pose in header.frame_id, twist in child_frame_id.",
-    header=(Header, Header), child_frame_id=(str, ""), pose=(PoseWithCovariance, PoseWithCovariance),
-    twist=(TwistWithCovariance, TwistWithCovariance))
-Clock = _struct("Clock", "rosgraph_msgs::msg::dds_::Clock_", "rosgraph_msgs/msg/Clock (/clock, sim time).",
-                clock=(Time, Time))
+                        success=bool, message=str)
+Duration = _struct("Duration", "builtin_interfaces/msg/Duration", "builtin_interfaces/msg/Duration (s, ns).",
+                   sec=int32, nanosec=uint32)
+Point = _struct("Point", "geometry_msgs/msg/Point", "geometry_msgs/msg/Point (m).", x=float64, y=float64, z=float64)
+Pose = _struct("Pose", "geometry_msgs/msg/Pose", "geometry_msgs/msg/Pose: position (m), orientation.", position=Point,
+               orientation=Quaternion)
+PoseStamped = _struct("PoseStamped", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseStamped.", header=Header,
+                      pose=Pose)
+Twist = _struct("Twist", "geometry_msgs/msg/Twist", "geometry_msgs/msg/Twist: linear (m/s) and angular (rad/s) "
+                "velocity.", linear=Vector3, angular=Vector3)
+PoseWithCovariance = _struct("PoseWithCovariance", "geometry_msgs/msg/PoseWithCovariance",
+                             "geometry_msgs/msg/PoseWithCovariance: pose and its 6x6 row-major covariance.", pose=Pose,
+                             covariance=array[float64, 36])
+TwistWithCovariance = _struct("TwistWithCovariance", "geometry_msgs/msg/TwistWithCovariance",
+                              "geometry_msgs/msg/TwistWithCovariance: twist and its 6x6 row-major covariance.",
+                              twist=Twist, covariance=array[float64, 36])
+Odometry = _struct("Odometry", "nav_msgs/msg/Odometry",
+                   "nav_msgs/msg/Odometry: pose in header.frame_id, twist in child_frame_id.", header=Header,
+                   child_frame_id=str, pose=PoseWithCovariance, twist=TwistWithCovariance)
+Clock = _struct("Clock", "rosgraph_msgs/msg/Clock", "rosgraph_msgs/msg/Clock (/clock, sim time).", clock=Time)
 
 # -- actions: action_msgs, unique_identifier_msgs, nav2_msgs/action/NavigateToPose (Jazzy) -------------------------
-UUID = _struct("UUID", "unique_identifier_msgs::msg::dds_::UUID_", "unique_identifier_msgs/msg/UUID (16 bytes).",
-               uuid=(array[uint8, 16], lambda: [0] * 16))
-GoalInfo = _struct("GoalInfo", "action_msgs::msg::dds_::GoalInfo_", "action_msgs/msg/GoalInfo: goal id, accept time.",
-                   goal_id=(UUID, UUID), stamp=(Time, Time))
-GoalStatus = _struct(
-    "GoalStatus", "action_msgs::msg::dds_::GoalStatus_",
-    "action_msgs/msg/GoalStatus: status 0 unknown, 1 accepted, 2 executing, 3 canceling, 4 succeeded, 5 canceled, "
-    "6 aborted.", goal_info=(GoalInfo, GoalInfo), status=(int8, 0))
-GoalStatusArray = _struct("GoalStatusArray", "action_msgs::msg::dds_::GoalStatusArray_",
+UUID = _struct("UUID", "unique_identifier_msgs/msg/UUID", "unique_identifier_msgs/msg/UUID (16 bytes).",
+               uuid=array[uint8, 16])
+GoalInfo = _struct("GoalInfo", "action_msgs/msg/GoalInfo", "action_msgs/msg/GoalInfo: goal id, accept time.",
+                   goal_id=UUID, stamp=Time)
+GoalStatus = _struct("GoalStatus", "action_msgs/msg/GoalStatus",
+                     "action_msgs/msg/GoalStatus: status 0 unknown, 1 accepted, 2 executing, 3 canceling, 4 "
+                     "succeeded, 5 canceled, 6 aborted.", goal_info=GoalInfo, status=int8)
+GoalStatusArray = _struct("GoalStatusArray", "action_msgs/msg/GoalStatusArray",
                           "action_msgs/msg/GoalStatusArray (the action's status topic).",
-                          status_list=(sequence[GoalStatus], list))
-CancelGoalRequest = _service("CancelGoalRequest", "action_msgs::srv::dds_::CancelGoal_Request_",
-                             "action_msgs/srv/CancelGoal request", goal_info=(GoalInfo, GoalInfo))
-CancelGoalReply = _service(
-    "CancelGoalReply", "action_msgs::srv::dds_::CancelGoal_Response_",
-    "action_msgs/srv/CancelGoal response: return_code 0 none, 1 rejected, 2 unknown goal id, 3 goal terminated",
-    return_code=(int8, 0), goals_canceling=(sequence[GoalInfo], list))
-NavigateToPoseGoal = _struct("NavigateToPoseGoal", "nav2_msgs::action::dds_::NavigateToPose_Goal_",
-                             "nav2_msgs/action/NavigateToPose goal (Jazzy).",
-                             pose=(PoseStamped, PoseStamped), behavior_tree=(str, ""))
-NavigateToPoseResult = _struct(
-    "NavigateToPoseResult", "nav2_msgs::action::dds_::NavigateToPose_Result_",
-    "nav2_msgs/action/NavigateToPose result (Jazzy): error_code 0 NONE, 9000 UNKNOWN, 9001 "
-    "FAILED_TO_LOAD_BEHAVIOR_TREE, 9002 TF_ERROR, 9003 TIMEOUT; error_msg.", error_code=(uint16, 0),
-    error_msg=(str, ""))
-NavigateToPoseFeedback = _struct(
-    "NavigateToPoseFeedback", "nav2_msgs::action::dds_::NavigateToPose_Feedback_",
-    "nav2_msgs/action/NavigateToPose feedback (Jazzy).", current_pose=(PoseStamped, PoseStamped),
-    navigation_time=(Duration, Duration), estimated_time_remaining=(Duration, Duration),
-    number_of_recoveries=(int16, 0), distance_remaining=(float32, 0.0))
-NavigateToPoseFeedbackMessage = _struct(
-    "NavigateToPoseFeedbackMessage", "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_",
-    "NavigateToPose feedback message: goal id and feedback.", goal_id=(UUID, UUID),
-    feedback=(NavigateToPoseFeedback, NavigateToPoseFeedback))
-NavigateToPoseSendGoalRequest = _service(
-    "NavigateToPoseSendGoalRequest", "nav2_msgs::action::dds_::NavigateToPose_SendGoal_Request_",
-    "NavigateToPose send_goal request", goal_id=(UUID, UUID), goal=(NavigateToPoseGoal, NavigateToPoseGoal))
-NavigateToPoseSendGoalReply = _service(
-    "NavigateToPoseSendGoalReply", "nav2_msgs::action::dds_::NavigateToPose_SendGoal_Response_",
-    "NavigateToPose send_goal response", accepted=(bool, False), stamp=(Time, Time))
-NavigateToPoseGetResultRequest = _service(
-    "NavigateToPoseGetResultRequest", "nav2_msgs::action::dds_::NavigateToPose_GetResult_Request_",
-    "NavigateToPose get_result request", goal_id=(UUID, UUID))
-NavigateToPoseGetResultReply = _service(
-    "NavigateToPoseGetResultReply", "nav2_msgs::action::dds_::NavigateToPose_GetResult_Response_",
-    "NavigateToPose get_result response: the goal's final status and result", status=(int8, 0),
-    result=(NavigateToPoseResult, NavigateToPoseResult))
+                          status_list=sequence[GoalStatus])
+CancelGoalRequest = _service("CancelGoalRequest", "action_msgs/srv/CancelGoal_Request",
+                             "action_msgs/srv/CancelGoal request", goal_info=GoalInfo)
+CancelGoalReply = _service("CancelGoalReply", "action_msgs/srv/CancelGoal_Response",
+                           "action_msgs/srv/CancelGoal response: return_code 0 none, 1 rejected, 2 unknown goal id, 3 "
+                           "goal terminated", return_code=int8, goals_canceling=sequence[GoalInfo])
+NavigateToPoseGoal = _struct("NavigateToPoseGoal", "nav2_msgs/action/NavigateToPose_Goal",
+                             "nav2_msgs/action/NavigateToPose goal (Jazzy).", pose=PoseStamped, behavior_tree=str)
+NavigateToPoseResult = _struct("NavigateToPoseResult", "nav2_msgs/action/NavigateToPose_Result",
+                               "nav2_msgs/action/NavigateToPose result (Jazzy): error_code 0 NONE, 9000 UNKNOWN, 9001 "
+                               "FAILED_TO_LOAD_BEHAVIOR_TREE, 9002 TF_ERROR, 9003 TIMEOUT; error_msg.",
+                               error_code=uint16, error_msg=str)
+NavigateToPoseFeedback = _struct("NavigateToPoseFeedback", "nav2_msgs/action/NavigateToPose_Feedback",
+                                 "nav2_msgs/action/NavigateToPose feedback (Jazzy).", current_pose=PoseStamped,
+                                 navigation_time=Duration, estimated_time_remaining=Duration,
+                                 number_of_recoveries=int16, distance_remaining=float32)
+NavigateToPoseFeedbackMessage = _struct("NavigateToPoseFeedbackMessage",
+                                        "nav2_msgs/action/NavigateToPose_FeedbackMessage",
+                                        "NavigateToPose feedback message: goal id and feedback.", goal_id=UUID,
+                                        feedback=NavigateToPoseFeedback)
+NavigateToPoseSendGoalRequest = _service("NavigateToPoseSendGoalRequest",
+                                         "nav2_msgs/action/NavigateToPose_SendGoal_Request",
+                                         "NavigateToPose send_goal request", goal_id=UUID, goal=NavigateToPoseGoal)
+NavigateToPoseSendGoalReply = _service("NavigateToPoseSendGoalReply",
+                                       "nav2_msgs/action/NavigateToPose_SendGoal_Response",
+                                       "NavigateToPose send_goal response", accepted=bool, stamp=Time)
+NavigateToPoseGetResultRequest = _service("NavigateToPoseGetResultRequest",
+                                          "nav2_msgs/action/NavigateToPose_GetResult_Request",
+                                          "NavigateToPose get_result request", goal_id=UUID)
+NavigateToPoseGetResultReply = _service("NavigateToPoseGetResultReply",
+                                        "nav2_msgs/action/NavigateToPose_GetResult_Response",
+                                        "NavigateToPose get_result response: the goal's final status and result",
+                                        status=int8, result=NavigateToPoseResult)
 
 # -- rcl_interfaces: parameters --------------------------------------------------------------------------------
-ParameterValue = _struct(
-    "ParameterValue", "rcl_interfaces::msg::dds_::ParameterValue_",
-    "rcl_interfaces/msg/ParameterValue: type 0 not set, 1 bool, 2 integer, 3 double, 4 string, 5 byte[], 6 bool[], "
-    "7 integer[], 8 double[], 9 string[].", type=(uint8, 0), bool_value=(bool, False), integer_value=(int64, 0),
-    double_value=(float64, 0.0), string_value=(str, ""), byte_array_value=(sequence[uint8], list),
-    bool_array_value=(sequence[bool], list), integer_array_value=(sequence[int64], list),
-    double_array_value=(sequence[float64], list), string_array_value=(sequence[str], list))
-Parameter = _struct("Parameter", "rcl_interfaces::msg::dds_::Parameter_", "rcl_interfaces/msg/Parameter.",
-                    name=(str, ""), value=(ParameterValue, ParameterValue))
-SetParametersResult = _struct("SetParametersResult", "rcl_interfaces::msg::dds_::SetParametersResult_",
-                              "rcl_interfaces/msg/SetParametersResult.", successful=(bool, False), reason=(str, ""))
-FloatingPointRange = _struct("FloatingPointRange", "rcl_interfaces::msg::dds_::FloatingPointRange_",
-                             "rcl_interfaces/msg/FloatingPointRange.", from_value=(float64, 0.0),
-                             to_value=(float64, 0.0), step=(float64, 0.0))
-IntegerRange = _struct("IntegerRange", "rcl_interfaces::msg::dds_::IntegerRange_", "rcl_interfaces/msg/IntegerRange.",
-                       from_value=(int64, 0), to_value=(int64, 0), step=(uint64, 0))
-ParameterDescriptor = _struct(
-    "ParameterDescriptor", "rcl_interfaces::msg::dds_::ParameterDescriptor_", "rcl_interfaces/msg/ParameterDescriptor.",
-    name=(str, ""), type=(uint8, 0), description=(str, ""), additional_constraints=(str, ""),
-    read_only=(bool, False), dynamic_typing=(bool, False),
-    floating_point_range=(sequence[FloatingPointRange, 1], list), integer_range=(sequence[IntegerRange, 1], list))
-ListParametersResult = _struct("ListParametersResult", "rcl_interfaces::msg::dds_::ListParametersResult_",
-                               "rcl_interfaces/msg/ListParametersResult.", names=(sequence[str], list),
-                               prefixes=(sequence[str], list))
-GetParametersRequest = _service("GetParametersRequest", "rcl_interfaces::srv::dds_::GetParameters_Request_",
-                                "rcl_interfaces/srv/GetParameters request", names=(sequence[str], list))
-GetParametersReply = _service("GetParametersReply", "rcl_interfaces::srv::dds_::GetParameters_Response_",
-                              "rcl_interfaces/srv/GetParameters response", values=(sequence[ParameterValue], list))
-SetParametersRequest = _service("SetParametersRequest", "rcl_interfaces::srv::dds_::SetParameters_Request_",
-                                "rcl_interfaces/srv/SetParameters request", parameters=(sequence[Parameter], list))
-SetParametersReply = _service("SetParametersReply", "rcl_interfaces::srv::dds_::SetParameters_Response_",
-                              "rcl_interfaces/srv/SetParameters response", results=(sequence[SetParametersResult], list))
-SetParametersAtomicallyRequest = _service(
-    "SetParametersAtomicallyRequest", "rcl_interfaces::srv::dds_::SetParametersAtomically_Request_",
-    "rcl_interfaces/srv/SetParametersAtomically request", parameters=(sequence[Parameter], list))
-SetParametersAtomicallyReply = _service(
-    "SetParametersAtomicallyReply", "rcl_interfaces::srv::dds_::SetParametersAtomically_Response_",
-    "rcl_interfaces/srv/SetParametersAtomically response", result=(SetParametersResult, SetParametersResult))
-ListParametersRequest = _service("ListParametersRequest", "rcl_interfaces::srv::dds_::ListParameters_Request_",
-                                 "rcl_interfaces/srv/ListParameters request", prefixes=(sequence[str], list),
-                                 depth=(uint64, 0))
-ListParametersReply = _service("ListParametersReply", "rcl_interfaces::srv::dds_::ListParameters_Response_",
-                               "rcl_interfaces/srv/ListParameters response",
-                               result=(ListParametersResult, ListParametersResult))
-DescribeParametersRequest = _service(
-    "DescribeParametersRequest", "rcl_interfaces::srv::dds_::DescribeParameters_Request_",
-    "rcl_interfaces/srv/DescribeParameters request", names=(sequence[str], list))
-DescribeParametersReply = _service(
-    "DescribeParametersReply", "rcl_interfaces::srv::dds_::DescribeParameters_Response_",
-    "rcl_interfaces/srv/DescribeParameters response", descriptors=(sequence[ParameterDescriptor], list))
-GetParameterTypesRequest = _service(
-    "GetParameterTypesRequest", "rcl_interfaces::srv::dds_::GetParameterTypes_Request_",
-    "rcl_interfaces/srv/GetParameterTypes request", names=(sequence[str], list))
-GetParameterTypesReply = _service(
-    "GetParameterTypesReply", "rcl_interfaces::srv::dds_::GetParameterTypes_Response_",
-    "rcl_interfaces/srv/GetParameterTypes response", types=(sequence[uint8], list))
+ParameterValue = _struct("ParameterValue", "rcl_interfaces/msg/ParameterValue",
+                         "rcl_interfaces/msg/ParameterValue: type 0 not set, 1 bool, 2 integer, 3 double, 4 string, "
+                         "5 byte[], 6 bool[], 7 integer[], 8 double[], 9 string[].", type=uint8, bool_value=bool,
+                         integer_value=int64, double_value=float64, string_value=str,
+                         byte_array_value=sequence[uint8], bool_array_value=sequence[bool],
+                         integer_array_value=sequence[int64], double_array_value=sequence[float64],
+                         string_array_value=sequence[str])
+Parameter = _struct("Parameter", "rcl_interfaces/msg/Parameter", "rcl_interfaces/msg/Parameter.", name=str,
+                    value=ParameterValue)
+SetParametersResult = _struct("SetParametersResult", "rcl_interfaces/msg/SetParametersResult",
+                              "rcl_interfaces/msg/SetParametersResult.", successful=bool, reason=str)
+FloatingPointRange = _struct("FloatingPointRange", "rcl_interfaces/msg/FloatingPointRange",
+                             "rcl_interfaces/msg/FloatingPointRange.", from_value=float64, to_value=float64,
+                             step=float64)
+IntegerRange = _struct("IntegerRange", "rcl_interfaces/msg/IntegerRange", "rcl_interfaces/msg/IntegerRange.",
+                       from_value=int64, to_value=int64, step=uint64)
+ParameterDescriptor = _struct("ParameterDescriptor", "rcl_interfaces/msg/ParameterDescriptor",
+                              "rcl_interfaces/msg/ParameterDescriptor.", name=str, type=uint8, description=str,
+                              additional_constraints=str, read_only=bool, dynamic_typing=bool,
+                              floating_point_range=sequence[FloatingPointRange, 1],
+                              integer_range=sequence[IntegerRange, 1])
+ListParametersResult = _struct("ListParametersResult", "rcl_interfaces/msg/ListParametersResult",
+                               "rcl_interfaces/msg/ListParametersResult.", names=sequence[str],
+                               prefixes=sequence[str])
+GetParametersRequest = _service("GetParametersRequest", "rcl_interfaces/srv/GetParameters_Request",
+                                "rcl_interfaces/srv/GetParameters request", names=sequence[str])
+GetParametersReply = _service("GetParametersReply", "rcl_interfaces/srv/GetParameters_Response",
+                              "rcl_interfaces/srv/GetParameters response", values=sequence[ParameterValue])
+SetParametersRequest = _service("SetParametersRequest", "rcl_interfaces/srv/SetParameters_Request",
+                                "rcl_interfaces/srv/SetParameters request", parameters=sequence[Parameter])
+SetParametersReply = _service("SetParametersReply", "rcl_interfaces/srv/SetParameters_Response",
+                              "rcl_interfaces/srv/SetParameters response", results=sequence[SetParametersResult])
+SetParametersAtomicallyRequest = _service("SetParametersAtomicallyRequest",
+                                          "rcl_interfaces/srv/SetParametersAtomically_Request",
+                                          "rcl_interfaces/srv/SetParametersAtomically request",
+                                          parameters=sequence[Parameter])
+SetParametersAtomicallyReply = _service("SetParametersAtomicallyReply",
+                                        "rcl_interfaces/srv/SetParametersAtomically_Response",
+                                        "rcl_interfaces/srv/SetParametersAtomically response",
+                                        result=SetParametersResult)
+ListParametersRequest = _service("ListParametersRequest", "rcl_interfaces/srv/ListParameters_Request",
+                                 "rcl_interfaces/srv/ListParameters request", prefixes=sequence[str], depth=uint64)
+ListParametersReply = _service("ListParametersReply", "rcl_interfaces/srv/ListParameters_Response",
+                               "rcl_interfaces/srv/ListParameters response", result=ListParametersResult)
+DescribeParametersRequest = _service("DescribeParametersRequest", "rcl_interfaces/srv/DescribeParameters_Request",
+                                     "rcl_interfaces/srv/DescribeParameters request", names=sequence[str])
+DescribeParametersReply = _service("DescribeParametersReply", "rcl_interfaces/srv/DescribeParameters_Response",
+                                   "rcl_interfaces/srv/DescribeParameters response",
+                                   descriptors=sequence[ParameterDescriptor])
+GetParameterTypesRequest = _service("GetParameterTypesRequest", "rcl_interfaces/srv/GetParameterTypes_Request",
+                                    "rcl_interfaces/srv/GetParameterTypes request", names=sequence[str])
+GetParameterTypesReply = _service("GetParameterTypesReply", "rcl_interfaces/srv/GetParameterTypes_Response",
+                                  "rcl_interfaces/srv/GetParameterTypes response", types=sequence[uint8])
 
 
 def to_bytes(msg: IdlStruct) -> bytes:

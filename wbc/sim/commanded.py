@@ -49,7 +49,7 @@ import pinocchio as pin
 from wbc.exceptions import GaitError, InvalidInputError, SimulationError
 from wbc.gait.footsteps import pose_to_xy_yaw
 from wbc.scenarios.commanded_walk import check_finite, steps_to_midpoint
-from wbc.geometry import mean_heading
+from wbc.geometry import ReadOnly, mean_heading
 from wbc.sim.outcome import OutcomeMonitor
 from wbc.sim.scenarios import StandScenario, make_controller
 from wbc.sim.walk import WalkScenario
@@ -154,15 +154,9 @@ class SimCommandedWalk:
                                       "Forward speed limit, m/s (in [0.001, 1]).")
 
     # -- state -------------------------------------------------------------------------------------------------
-    @property
-    def q(self) -> np.ndarray:
-        """(nq,) the configuration the controller reads (estimate, or ground truth with ``state="ground-truth"``)."""
-        return self._q
-
-    @property
-    def v(self) -> np.ndarray:
-        """(nv,) the velocity the controller reads."""
-        return self._v
+    q = ReadOnly("""(nq,) the configuration the controller reads (estimate, or ground truth with
+        ``state="ground-truth"``).""")
+    v = ReadOnly("(nv,) the velocity the controller reads.")
 
     @property
     def q_true(self) -> np.ndarray:
