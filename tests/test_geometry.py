@@ -77,9 +77,13 @@ def test_a_read_only_attribute_returns_its_store_and_refuses_assignment():
     h._value = np.ones(3)  # the attribute follows its store
     assert h.value is h._value
     assert Holder.value.__doc__ == "(3,) a buffer (m)" and Holder.other.__doc__ == "a renamed buffer"
+    from wbc.exceptions import InvalidInputError, ReadOnlyAttributeError
+
     for name in ("value", "other"):
-        with pytest.raises(AttributeError):
+        with pytest.raises(ReadOnlyAttributeError, match=f"Holder.{name} is read-only") as raised:
             setattr(h, name, 1.0)
+        assert isinstance(raised.value, AttributeError) and isinstance(raised.value, InvalidInputError)
+    assert h.value is h._value and h.other is h._buffer  # the refused assignment left the store alone
     assert isinstance(Holder.__dict__["value"], property)
 
 

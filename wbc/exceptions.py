@@ -50,6 +50,11 @@ class InvalidTargetError(InvalidInputError):
     """A task target has the wrong shape or contains NaN/inf."""
 
 
+class ReadOnlyAttributeError(InvalidInputError, AttributeError):
+    """An assignment to a read-only attribute (an ``AttributeError`` too, as Python raises for a property without a
+    setter)."""
+
+
 class ConfigurationError(InvalidInputError):
     """A configuration vector q (or velocity v) has the wrong size or is not finite."""
 

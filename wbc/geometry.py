@@ -22,7 +22,7 @@ import operator
 import numpy as np
 import pinocchio as pin
 
-from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError
+from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError, ReadOnlyAttributeError
 
 __all__ = [
     "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
@@ -98,7 +98,12 @@ class Flag:
 class ReadOnly(property):
     """A read-only attribute (a property whose getter is :func:`operator.attrgetter`: no Python call per read),
     declared in a class body as ``name = ReadOnly("docstring")``: reading returns the instance's ``_name``, or the
-    attribute named by ``attr`` (e.g. ``ReadOnly("docstring", "_buffer")``). Assigning raises ``AttributeError``."""
+    attribute named by ``attr`` (e.g. ``ReadOnly("docstring", "_buffer")``).
+
+    Raises:
+        ReadOnlyAttributeError: on assignment (a :class:`~wbc.exceptions.InvalidInputError` and an
+            ``AttributeError``), naming the attribute; the object updates it itself.
+    """
 
     def __init__(self, doc: str, attr: str | None = None):
         super().__init__(doc=doc)
@@ -108,7 +113,13 @@ class ReadOnly(property):
     def __set_name__(self, owner, name: str) -> None:
         if self.attr is None:
             self.attr = "_" + name
-        property.__init__(self, operator.attrgetter(self.attr), None, None, self.__doc__)
+        what = f"{owner.__name__}.{name}"
+
+        def refuse(obj, value) -> None:
+            raise ReadOnlyAttributeError(f"{what} is read-only: the object updates it itself; read it (copy it to "
+                                         "keep a value), or change the inputs it is computed from")
+
+        property.__init__(self, operator.attrgetter(self.attr), refuse, None, self.__doc__)
 
 
 def check_count(n, what: str, minimum: int = 1, error=InvalidInputError) -> int:
