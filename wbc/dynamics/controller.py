@@ -121,10 +121,20 @@ def gravity_torques(M, h, v, J, k, dt, tau_max, L, y, dinv, N, w, W, tau) -> int
     solution of (J_cᵀ)_u W = h_u by the normal equations.
 
     Args:
-        M (nv, nv), h (nv,), v (nv,): the state's inertia matrix, non-linear effects and velocity. J (≥ k, nv): the
-        stacked active sole Jacobians in its first k rows (LOCAL). dt: control period (s). tau_max (nv − 6,).
-        L (nv, nv), y (nv,), dinv (nv,) ← diag(M⁻¹), N (6, 6), w (6,): workspace. W (≥ k,) ← the sole wrenches
-        (first k). tau (nv − 6,) ← τ.
+        M: (nv, nv) the state's joint-space inertia matrix.
+        h: (nv,) its non-linear effects (N, N·m).
+        v: (nv,) its velocity.
+        J: (≥ k, nv) the stacked active sole Jacobians (LOCAL) in its first k rows.
+        k: 6 × the number of active soles.
+        dt: control period (s).
+        tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
+        L: (nv, nv) workspace.
+        y: (nv,) workspace.
+        dinv: (nv,) ← diag(M⁻¹).
+        N: (6, 6) workspace.
+        w: (6,) workspace.
+        W: (≥ k,) ← the sole wrenches in its first k entries (LOCAL, 6 per sole).
+        tau: (nv − 6,) ← τ (N·m).
 
     Returns:
         0; 1: M is not positive definite; 2: the normal equations are not well conditioned
