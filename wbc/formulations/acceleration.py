@@ -537,8 +537,14 @@ class InverseDynamicsQP:
         rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
         (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
         (:func:`~wbc.constraints.contact_acceleration.independent_contact_rows`)."""
+        return self._build(state, dt)
+
+    def _build(self, state: DynamicsState, dt: float, gathered: bool = False):
+        """:meth:`build`; ``gathered``: this tick's task rows and contact data are already in the buffers (gathered at
+        this ``state`` by the compiled tick that handed the QP over), not gathered again."""
         rows = self._rows
-        rows.gather(self, state)
+        if not gathered:
+            rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
@@ -992,7 +998,7 @@ class InverseDynamicsQP:
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
             kb.rstate[:] = 0
-            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+            H, g, A, b, C, l, u, lb, ub = self._build(state, dt, gathered=True)  # the rows gathered above
             self._assembled = (id(state), dt)
             t1 = perf_counter()
             x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
