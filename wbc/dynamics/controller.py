@@ -67,17 +67,125 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+import math
 from time import perf_counter, thread_time
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
+from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution
 from wbc.tick import TickPath, TickResultBase
 
-__all__ = ["InverseDynamicsController", "IDCommand"]
+__all__ = ["InverseDynamicsController", "IDCommand", "gravity_torques", "inverse_diagonal"]
+
+#: the safe command's least-norm sole wrenches come from the normal equations (BᵀB) w = h_u, W = B w, when each
+#: Cholesky pivot of BᵀB is above this fraction of its diagonal entry (B = (J_c)_u, the base columns of the
+#: stacked active sole Jacobians: a 6 × 6 system conditioned ~10 for soles within a few metres of the base);
+#: otherwise numpy's SVD least squares answers (:meth:`InverseDynamicsController.fallback`)
+NORMAL_EQUATION_PIVOT = 1e-8
+
+
+@nb.njit(cache=True, fastmath=FASTMATH)
+def inverse_diagonal(M, L, y, out) -> bool:
+    """out (n,) ← diag(M⁻¹) of a symmetric positive definite M (n, n): (M⁻¹)_ii = ‖L⁻¹ e_i‖² with M = L Lᵀ
+    (Cholesky, from M's lower triangle). L (n, n) and y (n,) are workspace. Returns False (out not written) when M
+    is not positive definite."""
+    n = M.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            L[i, j] = M[i, j]
+    if not cholesky_lower(L, n):
+        return False
+    for i in range(n):  # column i of L⁻¹: zero above i, forward substitution from row i
+        y[i] = 1.0 / L[i, i]
+        s = y[i] * y[i]
+        for r in range(i + 1, n):
+            t = 0.0
+            for p in range(i, r):
+                t -= L[r, p] * y[p]
+            y[r] = t / L[r, r]
+            s += y[r] * y[r]
+        out[i] = s
+    return True
+
+
+@nb.njit(cache=True, fastmath=FASTMATH)
+def gravity_torques(M, h, v, J, k, dt, tau_max, L, y, dinv, N, w, W, tau) -> int:
+    """Joint torques of the gravity fallback (module docstring, step 2): τ = h_a − (J_cᵀ)_a W − K_d v_a with
+    K_d,i = 0.5 I_eff,i / dt, I_eff,i = 1 / (M⁻¹)_ii, clipped to ±τ_max where τ_max is finite and > 0; W the least-norm
+    solution of (J_cᵀ)_u W = h_u by the normal equations.
+
+    Args:
+        M: (nv, nv) the state's joint-space inertia matrix.
+        h: (nv,) its non-linear effects (N, N·m).
+        v: (nv,) its velocity.
+        J: (≥ k, nv) the stacked active sole Jacobians (LOCAL) in its first k rows.
+        k: 6 × the number of active soles.
+        dt: control period (s).
+        tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
+        L: (nv, nv) workspace.
+        y: (nv,) workspace.
+        dinv: (nv,) ← diag(M⁻¹).
+        N: (6, 6) workspace.
+        w: (6,) workspace.
+        W: (≥ k,) ← the sole wrenches in its first k entries (LOCAL, 6 per sole).
+        tau: (nv − 6,) ← τ (N·m).
+
+    Returns:
+        0; 1: M is not positive definite; 2: the normal equations are not well conditioned
+        (:data:`NORMAL_EQUATION_PIVOT`). Nothing is written to tau on 1 or 2.
+    """
+    nv = M.shape[0]
+    if not inverse_diagonal(M, L, y, dinv):
+        return 1
+    if k > 0:
+        for a in range(6):
+            for b in range(a + 1):
+                t = 0.0
+                for r in range(k):
+                    t += J[r, a] * J[r, b]
+                N[a, b] = t
+            w[a] = h[a]
+        if not cholesky_lower(N, 6, NORMAL_EQUATION_PIVOT):
+            return 2
+        forward_substitution(N, 6, w)
+        backward_substitution(N, 6, w)
+        for r in range(k):
+            t = 0.0
+            for a in range(6):
+                t += J[r, a] * w[a]
+            W[r] = t
+    for j in range(nv - 6):
+        c = 6 + j
+        t = 0.0
+        for r in range(k):
+            t += J[r, c] * W[r]
+        t = h[c] - t
+        t -= 0.5 * (1.0 / dinv[c]) / dt * v[c]
+        lim = tau_max[j]
+        if math.isfinite(lim) and lim > 0:
+            if t > lim:
+                t = lim
+            elif t < -lim:
+                t = -lim
+        tau[j] = t
+    return 0
+
+
+@once_per_process
+def _load_kernels() -> None:
+    """Load :func:`gravity_torques` and :func:`inverse_diagonal` for the array types of a real call (M column-major
+    as a :class:`~wbc.state.DynamicsState`'s), once per process: at construction, not inside a failed tick."""
+    nv = 7
+    M = np.asfortranarray(np.eye(nv))
+    gravity_torques(M, np.zeros(nv), np.zeros(nv), np.zeros((6, nv)), 6, 0.002, np.ones(nv - 6), np.empty((nv, nv)),
+                    np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6), np.empty(6), np.empty(nv - 6))
+    inverse_diagonal(M, np.empty((nv, nv)), np.empty(nv), np.empty(nv))
 
 
 @dataclass
@@ -171,6 +279,12 @@ class InverseDynamicsController:
         self.paths: Counter = Counter()
         self._path_key: tuple = (None, "")  # (path object, its string form) of the last tick
         self.routes: Counter = Counter()
+        nv, nc = qp.nv, len(qp.contacts)
+        # the safe command's buffers (gravity_torques): stacked active sole Jacobians, sole wrenches, diag(M⁻¹),
+        # workspace
+        self._safe = (np.zeros((6 * nc, nv)), np.zeros(6 * nc), np.empty(nv), np.empty((nv, nv)), np.empty(nv),
+                      np.empty((6, 6)), np.empty(6))
+        _load_kernels()
 
     @property
     def budget(self) -> float:
@@ -277,7 +391,11 @@ class InverseDynamicsController:
         if not out.any():
             return
         iv = idx[out]
-        i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[iv]
+        _, _, dinv, L, y, _, _ = self._safe
+        if inverse_diagonal(st.M, L, y, dinv):
+            i_eff = 1.0 / dinv[iv]
+        else:  # M not positive definite (Cholesky): numpy's inverse
+            i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[iv]
         j = iv - 6
         lim = self.qp.tau_max[j]
         lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
@@ -317,24 +435,37 @@ class InverseDynamicsController:
                 "paths": dict(self.paths)}
 
     def fallback(self, message: str = "") -> IDCommand:
-        """Contact-consistent gravity compensation at the current state (module docstring)."""
+        """Contact-consistent gravity compensation at the current state (module docstring): :func:`gravity_torques`
+        on preallocated buffers (numpy's inverse and SVD least squares when it declines)."""
         qp, st = self.qp, self.state
         nv = qp.nv
-        h = st.h
-        Js = [c.jacobian(st) for c in qp.contacts if c.active]
-        tau = h[6:].copy()
+        active = [c for c in qp.contacts if c.active]
+        J, W, dinv, L, y, N, w = self._safe
+        k = 6 * len(active)
+        for i, c in enumerate(active):
+            J[6 * i:6 * i + 6] = c.jacobian(st)
+        tau = np.empty(nv - 6)
+        if gravity_torques(st.M, st.h, st.v, J, k, self.dt, qp.tau_max, L, y, dinv, N, w, W, tau) != 0:
+            tau, W = self._gravity_torques_numpy(J[:k])
         wrenches = {c.name: np.zeros(6) for c in qp.contacts}
-        if Js:
-            Jc = np.vstack(Js)
+        for i, c in enumerate(active):
+            R = st.data.oMf[c.frame_id].rotation  # LOCAL sole wrench -> world axes
+            wrenches[c.name] = np.concatenate([R @ W[6 * i:6 * i + 3], R @ W[6 * i + 3:6 * i + 6]])
+        return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
+                         message=message or "fallback", dynamics_residual=float("nan"),
+                         path=TickPath("fallback", fallback="gravity"))
+
+    def _gravity_torques_numpy(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(τ, W) of :func:`gravity_torques` by numpy's inverse and SVD least squares (M not positive definite, or
+        the base columns of the stacked active sole Jacobians ``Jc`` (k, nv) nearly dependent)."""
+        st, qp = self.state, self.qp
+        h = st.h
+        tau = h[6:].copy()
+        W = np.zeros(0)
+        if Jc.shape[0]:
             W = np.linalg.lstsq(Jc[:, :6].T, h[:6], rcond=None)[0]
             tau -= (Jc.T @ W)[6:]
-            for i, c in enumerate(c for c in qp.contacts if c.active):
-                R = st.data.oMf[c.frame_id].rotation  # LOCAL sole wrench -> world axes
-                wrenches[c.name] = np.concatenate([R @ W[6 * i:6 * i + 3], R @ W[6 * i + 3:6 * i + 6]])
         i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[6:]
         tau -= 0.5 * i_eff / self.dt * st.v[6:]
         lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
-        tau = np.clip(tau, -lim, lim)
-        return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
-                         message=message or "fallback", dynamics_residual=float("nan"), path=TickPath("fallback", fallback="gravity"))
-
+        return np.clip(tau, -lim, lim), W

@@ -266,6 +266,7 @@ class InverseDynamicsQP:
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         ensure_compiled()
         self._rows = _ProblemRows(self)
+        self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = self._new_kernel()
@@ -292,6 +293,8 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
+        # ((id(state), dt), (l, u, lb, ub)) of the relaxed QP formed by the current solve()'s failed full QP, else None
+        self._relaxed_bounds = None
         #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
         #: (:func:`wbc.solvers.independent.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
         self.pinned_reduced_solves = 0
@@ -489,6 +492,8 @@ class InverseDynamicsQP:
                 self._grow_equalities()
         else:
             self.tasks.append(task)
+            if hasattr(self, "_rows"):
+                self._rows.relayout(self)
         return task
 
     def remove_task(self, task: AccelerationReference) -> None:
@@ -502,6 +507,7 @@ class InverseDynamicsQP:
                 self.hard_tasks.remove(h)
                 return
         self.tasks.remove(task)
+        self._rows.relayout(self)
 
     def _grow_equalities(self) -> None:
         rows = 6 + 6 * len(self.contacts) + sum(h.dim for h in (*self.hard_tasks, *self.extra_equalities))
@@ -531,8 +537,14 @@ class InverseDynamicsQP:
         rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
         (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
         (:func:`~wbc.constraints.contact_acceleration.independent_contact_rows`)."""
+        return self._build(state, dt)
+
+    def _build(self, state: DynamicsState, dt: float, gathered: bool = False):
+        """:meth:`build`; ``gathered``: this tick's task rows and contact data are already in the buffers (gathered at
+        this ``state`` by the compiled tick that handed the QP over), not gathered again."""
         rows = self._rows
-        rows.gather(self, state)
+        if not gathered:
+            rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
@@ -629,7 +641,11 @@ class InverseDynamicsQP:
                                            self._lb, self._ub)
         else:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
+        reused = self._relaxed_bounds
+        if reuse_assembly and reused is not None and reused[0] == (id(state), dt) == self._assembled:
+            l, u, lb, ub = reused[1]  # this tick's failed full QP formed them for its check of the relaxed hard set
+        else:
+            l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
         t1 = perf_counter()
         if self.relaxed_set_feasible is False and reuse_assembly and self._assembled == (id(state), dt):
             self.relaxed_infeasible_by_check += 1
@@ -705,6 +721,7 @@ class InverseDynamicsQP:
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.last_violations = []
         self._assembled = None
+        self._relaxed_bounds = None
         self.budget_cut = False
         self.relaxed_set_feasible = None
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
@@ -771,9 +788,11 @@ class InverseDynamicsQP:
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
             left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
-            self.relaxed_set_feasible = hard_set_feasible(
-                A, b, C, *self._relaxed_set(state, dt, l, u, lb, ub), backend.tolerance,
-                iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
+            relaxed = self._relaxed_set(state, dt, l, u, lb, ub)
+            self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
+            self.relaxed_set_feasible = hard_set_feasible(A, b, C, *relaxed, backend.tolerance,
+                                                          iter_limit=max(MIN_CALL_ITERATIONS,
+                                                                         int(min(left, ITERATION_LIMIT))))
             if self.relaxed_set_feasible is False:
                 self.infeasible_by_check += 1
                 raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the "
@@ -979,7 +998,7 @@ class InverseDynamicsQP:
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
             kb.rstate[:] = 0
-            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+            H, g, A, b, C, l, u, lb, ub = self._build(state, dt, gathered=True)  # the rows gathered above
             self._assembled = (id(state), dt)
             t1 = perf_counter()
             x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
@@ -1132,7 +1151,7 @@ class _ProblemRows:
         self.gw = np.zeros(nv)
         self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
         self.gram_y = np.zeros(6 * nc)
-        self.layout: tuple | None = None  # none yet: the first gather lays the task rows out (even with no task)
+        self.layout: tuple | None = None  # none yet: InverseDynamicsQP lays the task rows out at construction
         self.entries: list = []
         self.tasks: tuple = ()
         self._rotations: tuple = (None, [])
