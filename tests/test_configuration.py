@@ -88,7 +88,7 @@ def test_configuration_rejects_bad_vectors(robots):
 
 @pytest.mark.parametrize("name", CATALOG)
 def test_kept_centroidal_map_leaves_the_kinematics_unchanged(robots, name):
-    """keep_centroidal_map swaps computeJointJacobians for computeCentroidalMap in the update: the joint placements,
+    """keep_centroidal_map swaps the forward kinematics of the update for computeCentroidalMap: the joint placements,
     Jacobians, frame placements, CoM and CoM Jacobian must stay the same numbers (bit for bit), and the kept Ag must
     be Pinocchio's computeCentroidalMap at q on a fresh Data."""
     robot = robots(name)
@@ -111,6 +111,32 @@ def test_kept_centroidal_map_leaves_the_kinematics_unchanged(robots, name):
         reference = pin.computeCentroidalMap(robot.model, robot.model.createData(), kept.q)
         assert np.array_equal(kept.centroidal_momentum_matrix, reference)
         np.testing.assert_allclose(plain.centroidal_momentum_matrix, reference, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_update_gives_the_numbers_of_pinocchios_separate_passes(robots, name):
+    """The update's single pass (jacobianCenterOfMass at q, then the frame placements) gives bit for bit what
+    Pinocchio's separate passes give on a fresh Data: computeJointJacobians, updateFramePlacements,
+    jacobianCenterOfMass."""
+    robot = robots(name)
+    model = robot.model
+    rng = np.random.default_rng(11)
+    config = Configuration(robot)
+    for _ in range(4):
+        q = random_configuration(robot, rng)
+        config.update(q.copy())
+        ref = model.createData()
+        pin.computeJointJacobians(model, ref, q)
+        pin.updateFramePlacements(model, ref)
+        jcom = pin.jacobianCenterOfMass(model, ref, False)
+        assert np.array_equal(config.data.J, ref.J)
+        assert np.array_equal(config.com, ref.com[0]) and np.array_equal(config.com_jacobian, jcom)
+        for a, b in zip(config.data.oMi, ref.oMi):
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        for a, b in zip(config.data.oMf, ref.oMf):
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        for fid in (robot.frame_id(robot.left_sole), robot.frame_id(robot.torso)):
+            assert np.array_equal(config.frame_jacobian(fid, LOCAL), pin.getFrameJacobian(model, ref, fid, LOCAL))
 
 
 def test_step_rejects_non_finite_velocity_and_keeps_q(robots):

@@ -85,10 +85,11 @@ class Configuration:
             self.q = q if q.flags.writeable else q.copy()
         if self._keep_ag:  # the joint placements and Jacobians of computeJointJacobians (the same numbers), and Ag
             self._ag = pin.computeCentroidalMap(self.model, self.data, self.q)
-        else:
-            pin.computeJointJacobians(self.model, self.data, self.q)
-        pin.updateFramePlacements(self.model, self.data)
-        self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
+            pin.updateFramePlacements(self.model, self.data)
+            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
+        else:  # forward kinematics, then the joint Jacobians data.J, the CoM and its Jacobian in one backward pass
+            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, self.q, False)
+            pin.updateFramePlacements(self.model, self.data)
 
     # -- queries (all from the cache filled by update) -------------------------------------------------------
     def frame_placement(self, frame_id: int) -> pin.SE3:
@@ -123,9 +124,10 @@ class Configuration:
 
     def keep_centroidal_map(self) -> None:
         """From now on, compute the centroidal momentum matrix in every update: ``pin.computeCentroidalMap`` in place
-        of ``pin.computeJointJacobians`` (its forward pass writes the same joint placements and joint Jacobians, the
-        CoM and its Jacobian are computed after it as before), so :attr:`centroidal_momentum_matrix` is read without
-        another pass over the model (e.g. by :class:`~wbc.constraints.zmp.ExecutedZmpConstraint` every tick)."""
+        of the forward kinematics of ``pin.jacobianCenterOfMass`` (its forward pass writes the same joint placements
+        and joint Jacobians, the CoM and its Jacobian are computed after it), so :attr:`centroidal_momentum_matrix`
+        is read without another pass over the model (e.g. by :class:`~wbc.constraints.zmp.ExecutedZmpConstraint`
+        every tick)."""
         if not self._keep_ag:
             self._keep_ag = True
             self.update()

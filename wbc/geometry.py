@@ -46,7 +46,8 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
         raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
     if arr.shape != (size,):
         raise error(f"{what} must have shape ({size},), got {arr.shape}")
-    if not math.isfinite(arr @ arr):  # one BLAS call; NaN/inf propagate (an overflow also lands here)
+    if not math.isfinite(arr.dot(arr)):  # one BLAS call (ndarray.dot: no ufunc dispatch); NaN/inf propagate (an
+        # overflow also lands here)
         bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
         if bad:
             raise error(f"{what} must be finite; NaN/inf at indices {bad}")
