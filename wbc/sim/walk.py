@@ -32,7 +32,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
   capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
-  on): a swing whose adjusted landing the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
+  on): a swing whose landing correction the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
   can still travel at ``max_swing_speed``; late in a swing, a landing the foot can no longer reach in time lengthens
   the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
   ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
@@ -435,7 +435,8 @@ class WalkScenario:
             reach, the step time is the remaining means of capture; default on). The swing in progress is cut
             short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            adjusted landing by more than 5 cm: landing sooner, the DCM has diverged less when the new stance
+            landing's DCM correction by more than 5 cm (``_correction_clipped``: the nominal landing's own clip not
+            counted): landing sooner, the DCM has diverged less when the new stance
             starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
@@ -1374,9 +1375,9 @@ class WalkScenario:
             target = self.adjuster.landing(fs0, stance, corr)
         elif frozen:
             return
-        clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
-        if not skip and self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
-                and self._skipped != idx and self._stretched != idx and not self._capturable(xi, other):
+        if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
+                and self._skipped != idx and self._stretched != idx \
+                and self._correction_clipped(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
@@ -1416,6 +1417,17 @@ class WalkScenario:
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _correction_clipped(self, fs0: Footstep, stance: tuple[float, float, float], corr: np.ndarray,
+                            target: Footstep) -> float:
+        """How far (m) the reach clips the DCM correction ``corr`` (2,) (m, world xy): the distance from the nominal
+        landing ``fs0`` projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (``StepAdjuster.landing``
+        with no correction), moved by ``corr``, to the adjusted landing ``target``. The reach's clip of the nominal
+        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that
+        rolls or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the
+        turned reach, asked for a timing cut with no DCM error)."""
+        n0 = self.adjuster.landing(fs0, stance, np.zeros(2))
+        return math.hypot(n0.x + float(corr[0]) - target.x, n0.y + float(corr[1]) - target.y)
 
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
         """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
