@@ -487,9 +487,11 @@ class WalkScenario:
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
         terrain: a :class:`wbc.terrain.Terrain` or its description (None / flat: the flat walk, unchanged);
             the walk is planned by :func:`wbc.gait.terrain_walk.plan_terrain_walk`.
-        base_weight: on terrain, weight (≥ 0; 0: none) of a floating-base (pelvis) orientation task held at the
-            start orientation (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`):
-            the high, long swings of a stair climb otherwise roll and yaw a pelvis hung below waist joints.
+        base_weight: on terrain (planned, or ``blind``), weight (≥ 0; 0: none) of a floating-base (pelvis)
+            orientation task held at the start orientation
+            (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`): the high, long swings of
+            a stair climb otherwise roll and yaw a pelvis hung below waist joints, and a blind walk's pelvis rolls
+            and pitches with a stance sole rocking on a bump (the CoM and the swing foot's reach move with it).
         blind: the ground is not flat but the walk is planned flat (the plant has the terrain, the planner does
             not): touch-down is detected from ``measured_normal_force`` ((2,) N, set by the closed loop from the
             ankle F/T sensors; :class:`wbc.dynamics.contact_switching.ContactSwitcher`'s force rule: a foot meeting
@@ -774,7 +776,8 @@ class WalkScenario:
                                                            if TOUCHDOWN_CONFIRM_LOAD > 0 else None),
                                             await_load=self.await_load)
         self.controller = controller
-        if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
+        if (self.terrain is not None or self.blind) and self.base_weight > 0 \
+                and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
         self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
                                   k_z=self.zmp_feedback, **self.stabilizer_gains)
