@@ -500,7 +500,10 @@ class WalkScenario:
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
             (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
             ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
-            while it has barely moved forward), and its
+            while it has barely moved forward). The step adjustment leaves the foothold of the vertical descent alone
+            (frozen over the last ``1 − BLIND_XY_END`` of the swing, which may end on a bump at any tick), and a
+            timing cut keeps the foot's travel to its landing at ``max_swing_speed`` or less within the part of the
+            swing before that descent. Its
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
@@ -1352,7 +1355,10 @@ class WalkScenario:
         if self._base is None or self._base[0] != idx:
             self._base = (idx, fs, self.ref_dcm.copy())
         time_left = (k_td - k) * self.dt
-        frozen = time_left < self.adjust_freeze
+        # blind: the vertical descent (the last 1 - BLIND_XY_END of the swing) may end on a bump at any tick, so its
+        # foothold no longer moves; before it, the foot must reach the foothold by the descent's start
+        descent = (1.0 - BLIND_XY_END) * (k_td - k_lift) * self.dt if self.blind else 0.0
+        frozen = time_left < max(self.adjust_freeze, descent)
         if frozen and not (self.adjust_timing and self.max_stretch > 0 and self._stretched != idx
                            and time_left >= 0.02):
             return
@@ -1384,7 +1390,7 @@ class WalkScenario:
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
-            cut = min(time_left - self.min_time_left, self.max_cut, time_left - dist / self.max_swing_speed)
+            cut = min(time_left - self.min_time_left, self.max_cut, time_left - descent - dist / self.max_swing_speed)
             skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
             if skip:
                 u0 = np.array(stance[:2])
