@@ -133,8 +133,8 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: the plant gets --terrain, the planner plans flat ground; touch-down from the ankle F/T "
                         "force (early contact), a late foot lowered up to 5 cm (needs --state estimated)")
     w.add_argument("--base-weight", type=finite(0.0), default=None,
-                   help="walk on --terrain: weight of the pelvis (floating-base) orientation task, held level "
-                        "(default: the robot file's [stairs] base_weight on stairs, else 3; 0: none)")
+                   help="walk on --terrain (planned or --blind): weight of the pelvis (floating-base) orientation task, "
+                        "held level (default: the robot file's [stairs] base_weight on stairs, else 3; 0: none)")
     w.add_argument("--push", type=finite(), default=0.0, help="walk: push force at the torso, N (default 0: none)")
     w.add_argument("--push-time", type=finite(), default=0.0, help="walk: push start, s (sim clock)")
     w.add_argument("--push-dir", type=finite(), default=90.0,

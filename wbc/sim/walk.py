@@ -32,7 +32,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
   capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
-  on): a swing whose adjusted landing the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
+  on): a swing whose landing correction the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
   can still travel at ``max_swing_speed``; late in a swing, a landing the foot can no longer reach in time lengthens
   the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
   ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
@@ -435,7 +435,8 @@ class WalkScenario:
             reach, the step time is the remaining means of capture; default on). The swing in progress is cut
             short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            adjusted landing by more than 5 cm: landing sooner, the DCM has diverged less when the new stance
+            landing's DCM correction by more than 5 cm (``_correction_clipped``: the nominal landing's own clip not
+            counted): landing sooner, the DCM has diverged less when the new stance
             starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
@@ -486,9 +487,11 @@ class WalkScenario:
             step (m, + left; :func:`wbc.gait.plan_footsteps`).
         terrain: a :class:`wbc.terrain.Terrain` or its description (None / flat: the flat walk, unchanged);
             the walk is planned by :func:`wbc.gait.terrain_walk.plan_terrain_walk`.
-        base_weight: on terrain, weight (≥ 0; 0: none) of a floating-base (pelvis) orientation task held at the
-            start orientation (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`):
-            the high, long swings of a stair climb otherwise roll and yaw a pelvis hung below waist joints.
+        base_weight: on terrain (planned, or ``blind``), weight (≥ 0; 0: none) of a floating-base (pelvis)
+            orientation task held at the start orientation
+            (:meth:`wbc.dynamics.balance.IDBalanceController.set_base_orientation_weight`): the high, long swings of
+            a stair climb otherwise roll and yaw a pelvis hung below waist joints, and a blind walk's pelvis rolls
+            and pitches with a stance sole rocking on a bump (the CoM and the swing foot's reach move with it).
         blind: the ground is not flat but the walk is planned flat (the plant has the terrain, the planner does
             not): touch-down is detected from ``measured_normal_force`` ((2,) N, set by the closed loop from the
             ankle F/T sensors; :class:`wbc.dynamics.contact_switching.ContactSwitcher`'s force rule: a foot meeting
@@ -497,7 +500,10 @@ class WalkScenario:
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
             (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
             ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
-            while it has barely moved forward), and its
+            while it has barely moved forward). The step adjustment leaves the foothold of the vertical descent alone
+            (frozen over the last ``1 − BLIND_XY_END`` of the swing, which may end on a bump at any tick), and a
+            timing cut keeps the foot's travel to its landing at ``max_swing_speed`` or less within the part of the
+            swing before that descent. Its
             height follows the stance sole's measured − planned height as on planned terrain
             (:meth:`_relative_ground`, :meth:`_swing_offset`: the foot aims at the height the stance sole stands
             at, not at the planned flat ground under it). The CoM height reference is likewise the planned one plus
@@ -773,7 +779,8 @@ class WalkScenario:
                                                            if TOUCHDOWN_CONFIRM_LOAD > 0 else None),
                                             await_load=self.await_load)
         self.controller = controller
-        if self.terrain is not None and self.base_weight > 0 and hasattr(controller, "set_base_orientation_weight"):
+        if (self.terrain is not None or self.blind) and self.base_weight > 0 \
+                and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
         self.stab = DcmStabilizer(plan.omega, margin=self.cop_margin, dt=self.dt, cmp_offset=self.cmp_offset,
                                   k_z=self.zmp_feedback, **self.stabilizer_gains)
@@ -1348,7 +1355,10 @@ class WalkScenario:
         if self._base is None or self._base[0] != idx:
             self._base = (idx, fs, self.ref_dcm.copy())
         time_left = (k_td - k) * self.dt
-        frozen = time_left < self.adjust_freeze
+        # blind: the vertical descent (the last 1 - BLIND_XY_END of the swing) may end on a bump at any tick, so its
+        # foothold no longer moves; before it, the foot must reach the foothold by the descent's start
+        descent = (1.0 - BLIND_XY_END) * (k_td - k_lift) * self.dt if self.blind else 0.0
+        frozen = time_left < max(self.adjust_freeze, descent)
         if frozen and not (self.adjust_timing and self.max_stretch > 0 and self._stretched != idx
                            and time_left >= 0.02):
             return
@@ -1374,13 +1384,13 @@ class WalkScenario:
             target = self.adjuster.landing(fs0, stance, corr)
         elif frozen:
             return
-        clipped = math.hypot(fs0.x + corr[0] - target.x, fs0.y + corr[1] - target.y)
-        if not skip and self.adjust_timing and clipped > 0.05 and time_left > self.min_time_left + 0.02 \
-                and self._skipped != idx and self._stretched != idx and not self._capturable(xi, other):
+        if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
+                and self._skipped != idx and self._stretched != idx \
+                and self._correction_clipped(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
-            cut = min(time_left - self.min_time_left, self.max_cut, time_left - dist / self.max_swing_speed)
+            cut = min(time_left - self.min_time_left, self.max_cut, time_left - descent - dist / self.max_swing_speed)
             skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
             if skip:
                 u0 = np.array(stance[:2])
@@ -1416,6 +1426,17 @@ class WalkScenario:
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _correction_clipped(self, fs0: Footstep, stance: tuple[float, float, float], corr: np.ndarray,
+                            target: Footstep) -> float:
+        """How far (m) the reach clips the DCM correction ``corr`` (2,) (m, world xy): the distance from the nominal
+        landing ``fs0`` projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (``StepAdjuster.landing``
+        with no correction), moved by ``corr``, to the adjusted landing ``target``. The reach's clip of the nominal
+        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that
+        rolls or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the
+        turned reach, asked for a timing cut with no DCM error)."""
+        n0 = self.adjuster.landing(fs0, stance, np.zeros(2))
+        return math.hypot(n0.x + float(corr[0]) - target.x, n0.y + float(corr[1]) - target.y)
 
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
         """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
