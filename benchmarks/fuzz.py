@@ -53,7 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
-from fuzz_common import (coincident_stalls, collect_between_episodes, freeze_after_first,  # noqa: E402
+from fuzz_common import (acceptance_verdict, coincident_stalls, collect_between_episodes, freeze_after_first,  # noqa: E402
                          highs_feasible, tick_probe)
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
@@ -417,7 +417,7 @@ def report(total: dict) -> str:
     stalls = coincident_stalls(total.get("worst_ticks", []))
     lines.append(f"info: ticks over 2 x budget that began within 20 ms of a slow tick of another process (a stall of "
                  f"the machine): {len(stalls)} of {total['tick_cpu_over_2x_budget']}")
-    lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")
+    lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():
         for e in evs:
             lines.append(f"event {k}: {e}")

@@ -24,6 +24,14 @@ from wbc.constraints.limits import bounded_joints
 ROBOTS = ("talos", "g1", "humanoid15")
 
 
+def acceptance_verdict(items: list[tuple[str, object, bool]]) -> str:
+    """The last acceptance line: "ACCEPTANCE: all <n> items PASS", or "ACCEPTANCE: <k> of <n> items FAIL (<names>)"."""
+    failed = [what for what, _, ok in items if not ok]
+    if not failed:
+        return f"ACCEPTANCE: all {len(items)} items PASS"
+    return f"ACCEPTANCE: {len(failed)} of {len(items)} items FAIL ({'; '.join(failed)})"
+
+
 def highs_feasible(A, b, C, l, u, lb, ub, tol: float = 1e-7) -> bool:
     """Independent check (scipy HiGHS LP, primal feasibility tolerance ``tol``): does any x meet A x = b,
     l ≤ C x ≤ u, lb ≤ x ≤ ub? (±inf entries are absent bounds.)"""

@@ -39,8 +39,8 @@ import pinocchio as pin  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import random_configuration  # noqa: E402
-from fuzz_common import (chunk_arguments, collect_between_episodes, freeze_after_first, highs_feasible,  # noqa: E402
-                         load_robots, run_chunks, tick_probe)
+from fuzz_common import (acceptance_verdict, chunk_arguments, collect_between_episodes,  # noqa: E402
+                         freeze_after_first, highs_feasible, load_robots, run_chunks, tick_probe)
 from wbc.constants import SIDES  # noqa: E402
 from wbc.dynamics.balance import IDBalanceController  # noqa: E402
 from wbc.tick import ID_ROUTES, count_paths  # noqa: E402
@@ -308,7 +308,7 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
     for t_cpu, where in total.get("worst_ticks", [])[:10]:
         lines.append(f"slow tick {t_cpu / budget:.2f} x budget: {where}")
     lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
-    lines.append(f"ALL ACCEPTANCE ITEMS {'PASS' if all(ok for _, _, ok in items) else 'FAIL'}")
+    lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():
         for e in evs:
             lines.append(f"event {k}: {e}")
