@@ -772,11 +772,12 @@ class InverseDynamicsQP:
         quadprog and the retries, which could only fail, are skipped.
 
         Without a clock guard the first attempt gets at most :attr:`daqp_attempt_iterations` iterations (the
-        controller's budget as a count, :func:`daqp_attempt_iterations`), and a failed attempt (stopped there or
-        not) whose hard sets the checks did not prove empty gets one cost-scaled DAQP call
+        controller's budget as a count, :func:`daqp_attempt_iterations`), and one cost-scaled DAQP call
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
-        max(1, |g|∞, |H|max); same cap) before quadprog. The backend's retries after quadprog keep the backend's own
-        iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
+        max(1, |g|∞, |H|max); same cap) follows: at once after an attempt stopped there, else (DAQP's verdict) after
+        the checks when they did not prove the hard sets empty, before quadprog. The backend's retries after quadprog
+        keep the backend's own iteration limit: a QP that the capped calls do not solve takes the route it took
+        without the cap.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -812,6 +813,14 @@ class InverseDynamicsQP:
             backend.cold_retry = retry
             backend.deadline = math.inf
             backend.call_iterations = None
+        scaled_tried = cap is not None and backend.iterations_capped
+        if scaled_tried:
+            # the attempt reached the count, not a verdict (mostly a feasible QP with an ill-scaled cost: |g| ~ 1e5
+            # – 1e6 against a Hessian conditioned ~1e10, hundreds of DAQP iterations; ~30 – 140 with the cost
+            # scaled): the cost-scaled call first, within the same count, then the checks
+            x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
+            if x is not None:
+                return x, backend.name
         if state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
@@ -876,11 +885,9 @@ class InverseDynamicsQP:
                 self.infeasible_by_check += 1
                 raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
                                   f"quadprog and the backend's retries skipped")
-            if cap is not None:
-                # a set not proved empty: an attempt stopped at the count, or DAQP's false verdict, on an ill-scaled
-                # cost (|g| ~ 1e5 – 1e6 against a Hessian conditioned ~1e10: hundreds of iterations, cycling or
-                # "infeasible"; ~30 – 140 with the cost scaled) — the cost-scaled call, within the count, before
-                # quadprog's dense solve
+            if cap is not None and not scaled_tried:
+                # a set not proved empty after DAQP's verdict (cycling or "infeasible", seen on ill-scaled costs):
+                # the cost-scaled call, within the count, before quadprog's dense solve
                 x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
                 if x is not None:
                     return x, backend.name
