@@ -163,6 +163,7 @@ def kernel_iterations(budget: float) -> int:
         return 100
     return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
 
+
 def daqp_attempt_iterations(budget: float) -> int:
     """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a capped
     or failed one (:meth:`InverseDynamicsQP._solve_backend`), for a tick budget of ``budget`` seconds of CPU time: a
