@@ -541,7 +541,8 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
 
 def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_eliminated(robots):
     """The controller's wiring: a backend that finds no solution on every QP, one foot released (its forces
-    pinned at 0): after one attempt of the backend (its retries off) the full QP is answered by the reduced solve
+    pinned at 0): after one attempt of the backend (its retries off) and its cost-scaled call (which finds none
+    either) the full QP is answered by the reduced solve
     (route 'general', solver 'quadprog'), ok, and the
     command passes the controller's own output check and the bounds computed here (released forces 0, torques
     within the URDF effort); with both feet in contact (nothing pinned) likewise."""
@@ -554,6 +555,10 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
             self.retries.append(self.cold_retry)
             raise SolverError("no solution (test backend)")
 
+        def solve_scaled(self, *args, **kw):  # the cost-scaled call before quadprog finds none either
+            self.retries.append("scaled")
+            return None
+
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
     cmd = ctrl.solve(q, v)
@@ -563,7 +568,8 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
     Failing.retries.clear()
     cmd = ctrl.solve(q, v)
     assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)
-    assert Failing.retries == [False]  # one attempt of the backend (no retries), then the reduced solve
+    # one attempt of the backend (no retries), its cost-scaled call, then the reduced solve
+    assert Failing.retries == [False, "scaled"]
     right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
     assert np.all(cmd.forces[right.start - robot.nv:right.stop - robot.nv] == 0.0)
     _finite_and_within_effort(cmd, robot)

@@ -74,7 +74,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -233,7 +233,8 @@ class InverseDynamicsController:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
         budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
-            the compiled tick's iteration cap (``qp.kernel_max_iterations``).
+            the compiled tick's iteration cap (``qp.kernel_max_iterations``) and the first DAQP attempt's
+            (``qp.daqp_attempt_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
@@ -301,6 +302,7 @@ class InverseDynamicsController:
             raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {value!r}")
         self._budget = float(value)
         self.qp.kernel_max_iterations = kernel_iterations(self._budget)
+        self.qp.daqp_attempt_iterations = daqp_attempt_iterations(self._budget)
 
     def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.

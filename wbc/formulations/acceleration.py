@@ -102,7 +102,7 @@ from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
-from wbc.solvers.daqp import ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
+from wbc.solvers.daqp import DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
 from wbc.tick import TickPath
@@ -110,7 +110,8 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "QUADPROG_COST", "kernel_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "QUADPROG_COST", "daqp_attempt_iterations",
+           "kernel_iterations"]
 
 
 @dataclass
@@ -161,6 +162,18 @@ def kernel_iterations(budget: float) -> int:
     if not np.isfinite(budget):
         return 100
     return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
+
+
+def daqp_attempt_iterations(budget: float) -> int:
+    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a capped
+    or failed one (:meth:`InverseDynamicsQP._solve_backend`), for a tick budget of ``budget`` seconds of CPU time: a
+    third of the budget at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between
+    :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an
+    unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
+    if not np.isfinite(budget):
+        return ITERATION_LIMIT
+    return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
+
 
 #: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
 #: ``InverseDynamicsQP.quadprog_cost``; a humanoid's QP, ~60 variables; benchmarks/README.md)
@@ -292,6 +305,11 @@ class InverseDynamicsQP:
         #: (:func:`kernel_iterations`). A tick after one whose compiled call gave up goes to DAQP at once (its
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
+        #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
+        #: (:meth:`_solve_backend`, without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the
+        #: backend's own); :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: (:func:`daqp_attempt_iterations`).
+        self.daqp_attempt_iterations = ITERATION_LIMIT
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         # ((id(state), dt), (l, u, lb, ub)) of the relaxed QP formed by the current solve()'s failed full QP, else None
         self._relaxed_bounds = None
@@ -314,7 +332,7 @@ class InverseDynamicsQP:
         #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
         #: quadprog and the backend's retries, which could only fail, were skipped.
         self.infeasible_by_check = 0
-        #: failed full QPs that the cost-scaled DAQP call solved ahead of quadprog (clock guard).
+        #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
         #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
         #: at its deadline); reset by :meth:`solve`.
@@ -754,6 +772,14 @@ class InverseDynamicsQP:
         failure stands (the relaxed QP is then not solved); then, without a clock guard, the full hard set: empty,
         quadprog and the retries, which could only fail, are skipped.
 
+        Without a clock guard the first attempt gets at most :attr:`daqp_attempt_iterations` iterations (the
+        controller's budget as a count, :func:`daqp_attempt_iterations`), and one cost-scaled DAQP call
+        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
+        max(1, |g|∞, |H|max); same cap) follows: at once after an attempt stopped there, else (DAQP's verdict) after
+        the checks when they did not prove the hard sets empty, before quadprog. The backend's retries after quadprog
+        keep the backend's own iteration limit: a QP that the capped calls do not solve takes the route it took
+        without the cap.
+
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
         :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no
@@ -775,6 +801,9 @@ class InverseDynamicsQP:
         retry = backend.cold_retry
         backend.cold_retry = False
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
+        # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
+        cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
+        backend.call_iterations = cap
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
@@ -784,6 +813,15 @@ class InverseDynamicsQP:
         finally:
             backend.cold_retry = retry
             backend.deadline = math.inf
+            backend.call_iterations = None
+        scaled_tried = cap is not None and backend.iterations_capped
+        if scaled_tried:
+            # the attempt reached the count, not a verdict (mostly a feasible QP with an ill-scaled cost: |g| ~ 1e5
+            # – 1e6 against a Hessian conditioned ~1e10, hundreds of DAQP iterations; ~30 – 140 with the cost
+            # scaled): the cost-scaled call first, within the same count, then the checks
+            x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
+            if x is not None:
+                return x, backend.name
         if state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
@@ -841,12 +879,19 @@ class InverseDynamicsQP:
                 raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
                                   f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
                                   f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
-        elif hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance) is False:
-            # the cheap proof first (one DAQP call on the projection of the origin, a fraction of quadprog's
-            # cost): quadprog and the retries could only fail on an empty hard set
-            self.infeasible_by_check += 1
-            raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
-                              f"quadprog and the backend's retries skipped")
+        else:
+            if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance) is False:
+                # the cheap proof first (one DAQP call on the projection of the origin, a fraction of quadprog's
+                # cost): quadprog and the retries could only fail on an empty hard set
+                self.infeasible_by_check += 1
+                raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
+                                  f"quadprog and the backend's retries skipped")
+            if cap is not None and not scaled_tried:
+                # a set not proved empty after DAQP's verdict (cycling or "infeasible", seen on ill-scaled costs):
+                # the cost-scaled call, within the count, before quadprog's dense solve
+                x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
+                if x is not None:
+                    return x, backend.name
         c0 = thread_time()
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if guarded:
@@ -871,6 +916,18 @@ class InverseDynamicsQP:
             raise
         finally:
             backend.deadline = math.inf
+
+    def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
+        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
+        backend.call_iterations = cap
+        try:
+            x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
+        finally:
+            backend.call_iterations = None
+        if x is not None:
+            self.scaled_solves += 1
+        return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a

@@ -27,6 +27,7 @@ import numpy as np
 import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, SolverError
+from wbc.solvers.linalg import scaled_row_violation
 
 __all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "QPBackend", "TickWork", "register_backend_class"]
 
@@ -344,7 +345,15 @@ class QPBackend(ABC):
         Σ_j |a_ij x_j|) (the row's own scale: the size of the terms whose sum is compared).
 
         Bounds are measured on x (excess over [lb, ub], scaled by the bound), the equality and inequality rows
-        on its projection ``xc`` onto the bounds (the point that is returned). NaN/inf give inf."""
+        on its projection ``xc`` onto the bounds (the point that is returned). NaN/inf give inf. Float64 arrays with
+        both bounds given go to the compiled body (:func:`wbc.solvers.linalg.scaled_row_violation`)."""
+        if lb is not None and ub is not None:
+            try:
+                worst = scaled_row_violation(x, xc, A, b, C, l, u, lb, ub)
+            except TypeError:  # not float64 arrays of the compiled signature: the numpy body below
+                pass
+            else:
+                return worst if math.isfinite(worst) else math.inf
         worst = 0.0
         d = np.abs(x - xc)
         if d.size and d.max() > 0:

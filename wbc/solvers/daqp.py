@@ -112,20 +112,29 @@ class DaqpBackend(QPBackend):
         self.measured_iteration_cost = 0.0
         #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
         self.iteration_cost = DAQP_ITERATION_COST
+        #: a caller's cap on the iterations of each DAQP call (an integer ≥ 1), or None (default): none. A count, not
+        #: a clock; a call stopped there is a failed attempt that sets ``iterations_capped`` (not ``budget_capped``:
+        #: the solve's remaining calls still run).
+        self.call_iterations: int | None = None
+        #: a DAQP call of the current solve (:meth:`solve`, :meth:`solve_scaled`) stopped at ``call_iterations``.
+        self.iterations_capped = False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
-        """:meth:`QPBackend.solve` (``budget_capped`` reset first)."""
+        """:meth:`QPBackend.solve` (``budget_capped`` and ``iterations_capped`` reset first)."""
         self.budget_capped = False
+        self.iterations_capped = False
         return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
 
     def call_limit(self) -> int:
         """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
         lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
         ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress counted,
-        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`. A count, not a clock — unless
-        ``deadline`` is finite: then also at most (deadline − CPU time now) / ``iteration_cost``, at least
-        :data:`MIN_CALL_ITERATIONS`."""
+        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`; at most ``call_iterations`` when
+        set. A count, not a clock — unless ``deadline`` is finite: then also at most (deadline − CPU time now) /
+        ``iteration_cost``, at least :data:`MIN_CALL_ITERATIONS`."""
         limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
+        if self.call_iterations is not None:
+            limit = min(limit, int(self.call_iterations))
         work = self.work
         if work is not None and math.isfinite(work.cap):
             left = ((WORK_LIMIT_FACTOR * work.cap - work.solves - 1.0) * ITERATIONS_PER_SOLVE
@@ -159,9 +168,13 @@ class DaqpBackend(QPBackend):
         return out
 
     def _note_exit(self, exitflag: int, limit: int) -> None:
-        """Record a call stopped by a budget-lowered iteration limit (``budget_capped``)."""
+        """Record a call stopped by a lowered iteration limit: ``iterations_capped`` when the limit is the caller's
+        ``call_iterations``, else ``budget_capped`` (the tick's counted work or its deadline)."""
         if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
-            self.budget_capped = True
+            if self.call_iterations is not None and limit == int(self.call_iterations):
+                self.iterations_capped = True
+            else:
+                self.budget_capped = True
 
     def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
         self._layout = (n, n_eq, n_in)

@@ -1,10 +1,12 @@
 """Compiled (numba) dense linear algebra shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`,
 :mod:`wbc.solvers.active_set`, :mod:`wbc.formulations.idkernel`): in-place Cholesky factor, forward and backward
 substitution, the primal step of a Cholesky/Schur KKT solve, weighted normal equations, the clip of a box into
-another, and the residuals of equality and inequality rows at a point.
+another, the residuals of equality and inequality rows at a point, and their scaled violations.
 """
 
 from __future__ import annotations
+
+import math
 
 import numba as nb
 import numpy as np
@@ -13,7 +15,7 @@ from wbc.compiled import FASTMATH
 
 __all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "clip_entry_into",
            "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
-           "weighted_normal_equations"]
+           "scaled_row_violation", "weighted_normal_equations"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -171,3 +173,55 @@ def row_violation(C, l, u, x, n, p, res):
         elif s - u[r] > res:
             res = s - u[r]
     return res
+
+
+@nb.njit("f8(f8[:], f8[:], f8[:, :], f8[:], f8[:, :], f8[:], f8[:], f8[:], f8[:])", cache=True, fastmath=FASTMATH,
+         nogil=True)
+def scaled_row_violation(x, xc, A, b, C, l, u, lb, ub):
+    """Largest scaled violation of a QP's bounds and rows (:meth:`wbc.solvers.base.QPBackend.scaled_violation`, its
+    compiled body): the bound excess |x_j − xc_j| / max(1, |the crossed bound|), each equality row
+    |A_i xc − b_i| / max(1, |b_i|, Σ_j |A_ij xc_j|) and each inequality row's excess over [l_i, u_i] divided by
+    max(1, |the nearer bound| (1 when infinite), Σ_j |C_ij xc_j|), all at ``xc`` (x projected onto [lb, ub]).
+
+    Args:
+        x (n,): the point; xc (n,): its projection onto [lb, ub]. A (m, n), b (m,): equality rows. C (p, n),
+            l, u (p,): inequality rows (±inf for absent sides). lb, ub (n,): bounds.
+
+    Returns:
+        the largest scaled violation (0 when x meets everything; a NaN entry is skipped: callers pass finite x)."""
+    worst = 0.0
+    n = x.shape[0]
+    for j in range(n):
+        d = abs(x[j] - xc[j])
+        if d > 0.0:
+            ref = abs(ub[j]) if x[j] > xc[j] else abs(lb[j])
+            v = d / max(1.0, ref)
+            if v > worst:
+                worst = v
+    for i in range(A.shape[0]):
+        s = 0.0
+        t = 0.0
+        for j in range(n):
+            s += A[i, j] * xc[j]
+            t += abs(A[i, j]) * abs(xc[j])
+        v = abs(s - b[i]) / max(max(1.0, abs(b[i])), t)
+        if v > worst:
+            worst = v
+    for i in range(C.shape[0]):
+        s = 0.0
+        t = 0.0
+        for j in range(n):
+            s += C[i, j] * xc[j]
+            t += abs(C[i, j]) * abs(xc[j])
+        lo = l[i] - s
+        hi = s - u[i]
+        ex = max(lo, hi)
+        if not ex > 0.0:
+            continue
+        ref = abs(l[i]) if lo > hi else abs(u[i])
+        if not math.isfinite(ref):
+            ref = 1.0
+        v = ex / max(1.0, max(ref, t))
+        if v > worst:
+            worst = v
+    return worst
