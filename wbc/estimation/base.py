@@ -374,6 +374,16 @@ def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, 
 
 
 
+@nb.njit(cache=True)
+def _lowpass_kernel(angles, prev, velocity, alpha, dt):
+    """:class:`JointStateFilter`'s low-pass step, element by element: v ← v + α ((angles − prev)/Δt − v), then
+    prev ← angles (all (n,))."""
+    for i in range(angles.size):
+        raw = (angles[i] - prev[i]) / dt
+        velocity[i] += alpha * (raw - velocity[i])
+        prev[i] = angles[i]
+
+
 def _nonneg(value, what: str, positive: bool = False) -> float:
     """``value`` as a float, finite and ≥ 0 (> 0 with ``positive``) (:func:`wbc.geometry.check_scalar`)."""
     return check_scalar(value, what, "SI units, see the docstring", strict=positive)
@@ -429,10 +439,7 @@ class JointStateFilter:
             return self.velocity
         dt = self.dt
         if self.memory is None:
-            np.subtract(angles, self._prev, out=self._raw)
-            self._raw /= dt
-            self.velocity += self.alpha * (self._raw - self.velocity)
-            self._prev[:] = angles
+            _lowpass_kernel(angles, self._prev, self.velocity, self.alpha, dt)
             return self.velocity
         x, v, a, r = self._prev, self.velocity, self._acc, self._raw
         x += v * dt + (0.5 * dt * dt) * a  # prediction
@@ -674,6 +681,7 @@ class FloatingBaseEstimator:
                      np.zeros(3), np.eye(2), self._st.copy(), self._anchor.copy(), self._axis.copy(),
                      self._arot.copy(), np.zeros((2, 6)), np.zeros((2, 3, 3)), np.zeros((2, 3)), self._prm.copy(),
                      self.q.copy(), self.v.copy())
+        _lowpass_kernel(np.zeros(1), np.zeros(1), np.zeros(1), 0.5, 1.0)
         _LOADED.append(True)
 
     def reset(self, q0, v0=None) -> None:
@@ -748,7 +756,7 @@ class FloatingBaseEstimator:
                      att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P, st, self._anchor,
                      self._axis, self._arot, self.wrench, self._sole_rot, self._sole_pos, self._prm, q, v)
         s = st.tolist()
-        att.accel_used = s[_ST_ACCEL_USED] != 0.0
+        object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
         contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors
         for j, side in enumerate(SIDES):
             c = s[_ST_CONTACT + j] != 0.0
