@@ -68,7 +68,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.constants import GRAVITY, SIDES
+from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
@@ -119,7 +119,7 @@ def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, 
     """:meth:`FloatingBaseEstimator.update` after the leg kinematics (module docstring, steps 2-4, in its order):
     the soles' base-frame placements ``rot0``/``pos0`` (left), ``rot1``/``pos1`` (right) and their
     ``LOCAL_WORLD_ALIGNED`` velocities ``vel0``, ``vel1`` (6,: linear, angular) from Pinocchio; updates in place the
-    attitude (``R``, ``bias``, ``omega``; ``gains`` as :data:`wbc.estimation.attitude.GAIN_NAMES`), the Kalman
+    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`), the Kalman
     filter (``kf_p``, ``kf_v``, ``kf_P``), the state ``st`` (``_ST_*`` slots), the anchors (``anchor``, ``axis``,
     ``arot``: (2, 3), (2, 3), (2, 3, 3)), the wrenches ``wrench`` (2, 6), the soles' world placements
     (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: :meth:`FloatingBaseEstimator._pack`."""
@@ -185,7 +185,7 @@ def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, 
         gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7])
     a0, a1, a2 = fg[0], fg[1], fg[2]
     n = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-    used = n > 0 and abs(n - prm[18]) <= accel_gate
+    used = n > 0 and abs(n - gains[8]) <= accel_gate
     st[_ST_ACCEL_USED] = 1.0 if used else 0.0
     m0 = m1 = m2 = 0.0
     if used:
@@ -459,7 +459,8 @@ class BaseKalmanFilter:
         dt: period (s). sigma_acc: input noise σ_a (m/s²). sigma_pos: σ_p (m). sigma_vel: σ_v (m/s).
 
     Attributes:
-        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis.
+        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis. Q: (2, 2) process noise
+            covariance (σ_a² [[Δt⁴/4, Δt³/2], [Δt³/2, Δt²]]). R: (2, 2) measurement noise covariance diag(σ_p², σ_v²).
 
     Raises:
         InvalidInputError: bad numbers.
@@ -470,8 +471,8 @@ class BaseKalmanFilter:
         for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
             _nonneg(val, what, positive=True)
         self.dt = h
-        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
-        self._R = np.diag([sigma_pos**2, sigma_vel**2])
+        self.Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
+        self.R = np.diag([sigma_pos**2, sigma_vel**2])
         self._A = np.array([[1.0, h], [0.0, 1.0]])
         self._I = np.eye(2)
         self._Sinv = np.zeros((2, 2))
@@ -491,11 +492,11 @@ class BaseKalmanFilter:
         self.p += self.velocity * h + self._half_h2 * a
         self.velocity += a * h
         A = self._A
-        self.P = A @ self.P @ A.T + self._Q
+        self.P = A @ self.P @ A.T + self.Q
 
     def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
         """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
-        (s00, s01), (s10, s11) = (self.P + self._R).tolist()
+        (s00, s01), (s10, s11) = (self.P + self.R).tolist()
         det = s00 * s11 - s01 * s10
         Si = self._Sinv
         Si[:] = ((s11 / det, -s01 / det), (-s10 / det, s00 / det))
@@ -657,9 +658,9 @@ class FloatingBaseEstimator:
         prm[0:11] = (self.dt, self._beta, self._alpha_turn, self.turn_rate, self.heading_weight,
                      0.0 if gh is None else 1.0, 0.0 if gh is None else gh, float(self.heading_handover),
                      self.handover_end_share, kf.dt, 0.5 * kf.dt * kf.dt)
-        prm[11:15] = kf._Q.ravel()
-        prm[15], prm[16] = kf._R[0, 0], kf._R[1, 1]
-        prm[18], prm[19] = GRAVITY, GRAVITY_VECTOR[2]
+        prm[11:15] = kf.Q.ravel()
+        prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
+        prm[19] = GRAVITY_VECTOR[2]
         for j, s in enumerate(SIDES):
             sensor, det = self.ft[s], self.detectors[s]
             prm[20 + 7 * j] = sensor.mass
