@@ -122,7 +122,8 @@ def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, 
     attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`), the Kalman
     filter (``kf_p``, ``kf_v``, ``kf_P``), the state ``st`` (``_ST_*`` slots), the anchors (``anchor``, ``axis``,
     ``arot``: (2, 3), (2, 3), (2, 3, 3)), the wrenches ``wrench`` (2, 6), the soles' world placements
-    (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: :meth:`FloatingBaseEstimator._pack`."""
+    (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: the estimator's numbers
+    (:meth:`FloatingBaseEstimator._pack`)."""
     dt, beta, alpha_turn, turn_rate, heading_weight = prm[0], prm[1], prm[2], prm[3], prm[4]
     has_ground, ground_height, handover, end_share = prm[5] != 0.0, prm[6], prm[7] != 0.0, prm[8]
     g_z = prm[19]

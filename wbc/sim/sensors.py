@@ -209,6 +209,9 @@ def _child_link(pmodel: pin.Model, joint: int) -> str:
     return next(f.name for f in pmodel.frames if f.type == pin.FrameType.BODY and f.parentFrame == jframe)
 
 
+_DRAWS_BUFFER = 4096  #: standard normal draws taken from the generator at once (≈ 170 ticks of all sensors)
+
+
 @nb.njit(cache=True)
 def _read_kernel(sd, enc, res, joint_q, imu_on, ft_on, z, scale, walk_idx, imu_idx, ft_idx, imu_ft, sample, bias):
     """:meth:`PlantSensors.read`'s arithmetic after the tick's standard normal draws ``z`` (``len(scale)`` of them),
@@ -278,6 +281,10 @@ class PlantSensors:
         specs: sensor models (default :class:`SensorSpecs`).
         seed: seed of the noise generator (the same seed gives the same noise).
 
+    Attributes:
+        rng: the noise generator (:meth:`read` takes its standard normal draws from it in blocks of
+            ``_DRAWS_BUFFER``, used in order: the same noise as one draw per reading).
+
     Raises:
         InvalidInputError: ``sim`` has no such sensors, a rate that does not divide the control rate.
     """
@@ -315,7 +322,6 @@ class PlantSensors:
         self._imu_ft = np.r_[self._gyro, self._acc, self._ft.ravel()].astype(np.int64)
         self._sample = np.zeros(18)
         self._bias = np.zeros(18)
-        self._z = np.zeros(24)  # the standard normal draws of a tick
         self.readings = SensorReadings(0.0, np.zeros(nj), self._sample[0:3], self._sample[3:6],
                                        self._sample[6:18].reshape(2, 6))
         self.reset()
@@ -359,7 +365,8 @@ class PlantSensors:
         self._ft_idx, ft_sd = draws(ft_white)
         self._draw_sd = {(True, True): np.r_[walk_sd, imu_sd, ft_sd], (True, False): np.r_[walk_sd, imu_sd],
                          (False, True): ft_sd, (False, False): np.zeros(0)}
-        self._z_views = {key: self._z[:len(sd)] for key, sd in self._draw_sd.items()}  # this many draws per tick
+        # standard normal draws of the generator not used yet: _draws[_drawn:] (drawn in bulk by read)
+        self._draws, self._drawn = np.zeros(_DRAWS_BUFFER), _DRAWS_BUFFER
 
     def read(self, t: float, data: mujoco.MjData | None = None) -> SensorReadings:
         """Sample the sensors at tick time ``t`` (s) from ``data.sensordata`` (call after ``mj_step1``/``mj_forward``)
@@ -373,13 +380,19 @@ class PlantSensors:
         self._k = k + 1
         if not (imu_on or ft_on):
             if enc_on:
-                _read_kernel(sd, self._enc, self._res, r.joint_q, False, False, self._z, self._draw_sd[False, False],
-                             self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft, self._sample, self._bias)
+                _read_kernel(sd, self._enc, self._res, r.joint_q, False, False, self._draws,
+                             self._draw_sd[False, False], self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft,
+                             self._sample, self._bias)
             return r
         scale = self._draw_sd[imu_on, ft_on]
-        z = self._z_views[imu_on, ft_on]
-        if len(z):
-            self.rng.standard_normal(out=z)
+        nz, pos, buf = len(scale), self._drawn, self._draws
+        if pos + nz > len(buf):  # the next draws of the generator, many ticks' at once (the same stream)
+            rest = len(buf) - pos
+            buf[:rest] = buf[pos:]
+            self.rng.standard_normal(out=buf[rest:])
+            pos = 0
+        z = buf[pos:pos + nz]
+        self._drawn = pos + nz
         _read_kernel(sd, self._enc, self._res, r.joint_q if enc_on else None, imu_on, ft_on, z, scale,
                      self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft, self._sample, self._bias)
         return r
