@@ -549,3 +549,36 @@ def test_compiled_update_matches_the_plain_numpy_pinocchio_steps(ground_height):
                         float(np.max(np.abs(est.sole[side].translation - rs[j][1]))))
     assert n_contact_changes >= 4, n_contact_changes
     assert worst < 1e-12, worst
+
+
+def test_detector_thresholds_and_kalman_noise_changed_after_construction_take_effect():
+    """The compiled update reads the contact detectors' thresholds and the Kalman filter's Q and R every sample: a
+    left detector whose ``on`` is raised above the load after construction never closes its contact (the right one,
+    unchanged, does), and a filter given another R after construction follows the plain steps' filter given it at
+    once (1e-12)."""
+    robot, q0, _R0, joints = _talos_standing_level()
+    W = robot.mass * G
+    ft = np.array([_ft_reading(robot, robot.left_sole, W / 2), _ft_reading(robot, robot.right_sole, W / 2)])
+    gyro, accel = np.zeros(3), np.array([0.0, 0.0, G])
+    est = FloatingBaseEstimator(robot, DT)
+    est.reset(q0)
+    est.detectors["left"].on = 2.0 * W  # more than the foot ever carries
+    for _ in range(50):
+        est.update(joints, gyro, accel, ft)
+    assert est.contact == {"left": False, "right": True}
+    # R changed after construction: the same answer as an estimator built with it
+    other = FloatingBaseEstimator(robot, DT)
+    a, b = FloatingBaseEstimator(robot, DT), FloatingBaseEstimator(robot, DT)
+    R_new = np.diag([1e-2, 4e-2])
+    a.kf.R = R_new.copy()
+    b.kf.R[:] = R_new
+    for e in (a, b, other):
+        e.reset(q0)
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        acc = accel + rng.normal(0.0, 0.3, 3)
+        qa, va = (x.copy() for x in a.update(joints, gyro, acc, ft))
+        qb, vb = (x.copy() for x in b.update(joints, gyro, acc, ft))
+        qo, _ = other.update(joints, gyro, acc, ft)
+        assert np.allclose(qa, qb, rtol=0, atol=1e-12) and np.allclose(va, vb, rtol=0, atol=1e-12)
+    assert np.max(np.abs(qa[:3] - qo[:3])) > 1e-9  # the new R changed the estimate

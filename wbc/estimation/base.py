@@ -753,6 +753,12 @@ class FloatingBaseEstimator:
         vl = pin.getFrameVelocity(model, data, fl, pin.LOCAL_WORLD_ALIGNED).vector
         vr = pin.getFrameVelocity(model, data, fr, pin.LOCAL_WORLD_ALIGNED).vector
         q, v = self.q, self.v
+        # numbers a caller may change between samples without an attribute of this object (the detectors'
+        # thresholds, the Kalman filter's noise covariances): read every sample, not only at construction
+        prm, dl, dr = self._prm, self.detectors["left"], self.detectors["right"]
+        prm[34], prm[35], prm[36], prm[37] = dl.on, dl.off, dr.on, dr.off
+        prm[11:15] = kf.Q.ravel()
+        prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
         # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
         _fuse_kernel(ft, accel, gyro, Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr,
                      att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P, st, self._anchor,
