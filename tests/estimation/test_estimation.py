@@ -383,3 +383,202 @@ def test_soles_pivoting_on_the_ground_are_reanchored_from_the_gyro():
     assert err[1e3] > 1.0, err  # the stale anchors win without the rule
     with pytest.raises(InvalidInputError, match="turn_rate"):
         FloatingBaseEstimator(robot, DT, turn_rate=0.0)
+
+
+class _PlainEstimator:
+    """FloatingBaseEstimator.update written with numpy and Pinocchio one step at a time (the module docstring's
+    steps 1-4, the building blocks' Python methods: ComplementaryAttitudeFilter.update with pin.exp3,
+    BaseKalmanFilter.predict/correct, FootForceSensor.ground_wrench, ContactDetector), the reference of the
+    compiled update."""
+
+    def __init__(self, robot, dt, q0, ground_height, handover, turn_rate, **gains):
+        self.model, self.data, self.dt = robot.model, robot.model.createData(), dt
+        est = FloatingBaseEstimator(robot, dt, ground_height=ground_height, heading_handover=handover,
+                                    turn_rate=turn_rate, **gains)  # its numbers (gains, thresholds, corners)
+        self.att = ComplementaryAttitudeFilter(dt, k_p=est.attitude.k_p, k_i=est.attitude.k_i,
+                                               accel_gate=est.attitude.accel_gate, k_heading=est.attitude.k_heading,
+                                               k_heading_bias=est.attitude.k_heading_bias)
+        self.kf = BaseKalmanFilter(dt)
+        self.det = [ContactDetector(est.detectors[s].on, est.detectors[s].off) for s in ("left", "right")]
+        self.ft = [FootForceSensor(robot, robot.left_sole), FootForceSensor(robot, robot.right_sole)]
+        self.alpha, self.beta, self.alpha_turn = est.joints.alpha, est._beta, est._alpha_turn
+        self.gh, self.handover, self.turn_rate, self.hw = ground_height, handover, turn_rate, est.heading_weight
+        R = pin.Quaternion(q0[6], q0[3], q0[4], q0[5]).toRotationMatrix()
+        self.att.reset(R)
+        self.kf.reset(q0[0:3], np.zeros(3))
+        self.prev, self.vj = q0[7:].copy(), np.zeros(self.model.nv - 6)
+        self.qk = pin.neutral(self.model)
+        self.contact, self.turning, self.frm = [False, False], [False, False], [None, None]
+        self.yaw, self.acc, self.zv_prev, self.have_zv = np.zeros(2), np.zeros(3), np.zeros(3), False
+        self.anchor, self.axis = np.zeros((2, 3)), np.tile([1.0, 0.0, 0.0], (2, 1))
+        self.arot = np.array([np.eye(3), np.eye(3)])
+
+    def update(self, joint_q, gyro, accel, ft):
+        model, data, dt, att, kf = self.model, self.data, self.dt, self.att, self.kf
+        self.vj = self.vj + self.alpha * ((joint_q - self.prev) / dt - self.vj)
+        self.prev = joint_q.copy()
+        self.qk[7:] = joint_q
+        pin.forwardKinematics(model, data, self.qk, np.r_[np.zeros(3), gyro - att.bias, self.vj])
+        Rp = att.rotation.copy()
+        rot, pos, u, fz = [], [], [], [0.0, 0.0]
+        wrench = np.zeros((2, 6))
+        zv, fz_total = np.zeros(3), 0.0
+        for j in range(2):
+            X = pin.updateFramePlacement(model, data, self.ft[j].frame_id).copy()
+            rot.append(X.rotation)
+            pos.append(X.translation)
+            Rw = Rp @ X.rotation
+            wrench[j] = self.ft[j].ground_wrench(ft[j], Rw)
+            fz[j] = float(Rw[2] @ wrench[j, 0:3])
+            vel = pin.getFrameVelocity(model, data, self.ft[j].frame_id, pin.LOCAL_WORLD_ALIGNED)
+            u.append(vel.linear.copy())
+            self.yaw[j] += self.alpha_turn * (float(Rp[2] @ vel.angular) - self.yaw[j])
+            self.turning[j] = abs(self.yaw[j]) > self.turn_rate
+            if self.contact[j] and fz[j] > 0:
+                zv -= fz[j] * u[j]
+                fz_total += fz[j]
+        if fz_total > 0:
+            zw = Rp @ (zv / fz_total)
+            if self.have_zv:
+                self.acc = self.acc + self.beta * ((zw - self.zv_prev) / dt - self.acc)
+            self.zv_prev, self.have_zv = zw, True
+        else:
+            self.have_zv = False
+            self.acc = self.acc * (1.0 - self.beta)
+        dirs = [(self.axis[j].copy(), rot[j][:, 0], self.hw * fz[j] / fz_total) for j in range(2)
+                if self.hw > 0 and fz_total > 0 and self.contact[j] and fz[j] > 0]
+        att.update(gyro, accel - Rp.T @ self.acc, dirs, heading=dirs)
+        R = att.rotation
+        kf.predict(R @ accel + np.array([0.0, 0.0, -9.81]))
+        zp, zvw, total, newly, r = np.zeros(3), np.zeros(3), 0.0, [], [R @ pos[0], R @ pos[1]]
+        for j in range(2):
+            was, now = self.contact[j], self.det[j].update(fz[j])
+            self.contact[j] = now
+            if now and not was:
+                newly.append(j)
+            if now and was:
+                w = max(fz[j], 0.0)
+                zp += w * (self.anchor[j] - r[j])
+                zvw -= w * (R @ u[j])
+                total += w
+        if total > 0:
+            kf.correct(zp / total, zvw / total)
+        for j in newly:
+            self.anchor[j] = kf.p + r[j]
+            self.frm[j] = None
+            axis = R @ rot[j][:, 0]
+            if self.gh is not None:
+                self.anchor[j, 2], axis[2] = self.gh, 0.0
+            else:
+                self.arot[j] = R @ rot[j]
+            if self.handover and self.contact[1 - j] and self.frm[1 - j] is None:
+                self.frm[j] = 1 - j
+            self.axis[j] = axis / np.linalg.norm(axis)
+        for j in range(2):
+            if self.contact[j] and self.turning[j] and self.frm[j] is None:
+                axis = R @ rot[j][:, 0]
+                if self.gh is not None:
+                    axis[2] = 0.0
+                else:
+                    self.arot[j] = R @ rot[j]
+                self.axis[j] = axis / np.linalg.norm(axis)
+        for j in range(2):
+            o = self.frm[j]
+            if o is None:
+                continue
+            if not (self.contact[j] and self.contact[o]):
+                self.frm[j] = None
+                continue
+            rel = rot[o].T @ rot[j][:, 0]
+            if self.gh is not None:
+                ca, sa = self.axis[o, 0], self.axis[o, 1]
+                axis = np.array([ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0])
+            else:
+                chain = self.arot[o] @ rel
+                Rs = R @ rot[j]
+                turn = math.atan2(chain[1], chain[0]) - math.atan2(Rs[1, 0], Rs[0, 0])
+                Rs = pin.rpy.rpyToMatrix(0.0, 0.0, turn) @ Rs
+                self.arot[j] = Rs
+                axis = Rs[:, 0].copy()
+            self.axis[j] = axis / np.linalg.norm(axis)
+            if max(fz[o], 0.0) <= 0.0:
+                self.frm[j] = None
+        q = np.r_[kf.p, pin.Quaternion(R).coeffs(), joint_q]
+        v = np.r_[R.T @ kf.velocity, att.omega, self.vj]
+        soles = [(R @ rot[j], r[j] + kf.p) for j in range(2)]
+        return q, v, wrench, fz, list(self.contact), soles
+
+
+@pytest.mark.parametrize("ground_height", [0.0, None], ids=["flat", "uneven"])
+def test_compiled_update_matches_the_plain_numpy_pinocchio_steps(ground_height):
+    """FloatingBaseEstimator.update (one compiled kernel after Pinocchio's leg kinematics) against
+    :class:`_PlainEstimator` on 1.6 s of Talos shifting its weight from foot to foot (contacts made and broken,
+    the heading handed over) with swaying joints, noisy gyro and accelerometer readings and a yaw rate that makes
+    the soles count as turning: q, v, the wrenches, normal forces, contacts and sole placements agree to 1e-12
+    (relative to values above 1) on every sample."""
+    robot, q0, R0, joints0 = _talos_standing_level()
+    rng = np.random.default_rng(3)
+    gains = dict(k_i=0.02, k_heading=0.5, k_heading_bias=0.1)
+    est = FloatingBaseEstimator(robot, DT, ground_height=ground_height, turn_rate=0.02, **gains)
+    est.reset(q0)
+    ref = _PlainEstimator(robot, DT, q0, ground_height, True, 0.02, **gains)
+    W = robot.mass * G
+    worst, n_contact_changes, last = 0.0, 0, None
+    for k in range(800):
+        phase = (k // 100) % 4
+        share = (0.5, 0.9, 0.5, 0.1)[phase]
+        ft = np.array([_ft_reading(robot, robot.left_sole, share * W), _ft_reading(robot, robot.right_sole,
+                                                                                  (1 - share) * W)])
+        ft[:, 2] *= (phase in (1, 3)) * np.array([share > 0.5, share < 0.5]) + (phase in (0, 2))  # unload a foot
+        ft += rng.normal(0.0, 0.5, ft.shape)
+        joints = joints0 + 0.02 * np.sin(0.01 * k + np.arange(len(joints0)))
+        gyro = R0.T @ np.array([0.0, 0.0, 0.05]) + rng.normal(0.0, 1e-3, 3)
+        accel = R0.T @ np.array([0.0, 0.0, G]) + rng.normal(0.0, 0.05, 3)
+        q, v = est.update(joints, gyro, accel, ft)
+        rq, rv, rw, rfz, rc, rs = ref.update(joints, gyro, accel, ft)
+        if rq[6] * q[6] < 0:
+            rq[3:7] *= -1.0
+        assert [est.contact["left"], est.contact["right"]] == rc
+        n_contact_changes += last is not None and rc != last
+        last = rc
+        for a, b in ((q, rq), (v, rv), (est.wrench, rw), (np.array([est.normal_force["left"],
+                                                                     est.normal_force["right"]]), np.array(rfz))):
+            worst = max(worst, float(np.max(np.abs(a - b) / np.maximum(1.0, np.abs(b)))))
+        for j, side in enumerate(("left", "right")):
+            worst = max(worst, float(np.max(np.abs(est.sole[side].rotation - rs[j][0]))),
+                        float(np.max(np.abs(est.sole[side].translation - rs[j][1]))))
+    assert n_contact_changes >= 4, n_contact_changes
+    assert worst < 1e-12, worst
+
+
+def test_detector_thresholds_and_kalman_noise_changed_after_construction_take_effect():
+    """The compiled update reads the contact detectors' thresholds and the Kalman filter's Q and R every sample: a
+    left detector whose ``on`` is raised above the load after construction never closes its contact (the right one,
+    unchanged, does), and a filter given another R after construction follows the plain steps' filter given it at
+    once (1e-12)."""
+    robot, q0, _R0, joints = _talos_standing_level()
+    W = robot.mass * G
+    ft = np.array([_ft_reading(robot, robot.left_sole, W / 2), _ft_reading(robot, robot.right_sole, W / 2)])
+    gyro, accel = np.zeros(3), np.array([0.0, 0.0, G])
+    est = FloatingBaseEstimator(robot, DT)
+    est.reset(q0)
+    est.detectors["left"].on = 2.0 * W  # more than the foot ever carries
+    for _ in range(50):
+        est.update(joints, gyro, accel, ft)
+    assert est.contact == {"left": False, "right": True}
+    # R changed after construction: the same answer as an estimator built with it
+    other = FloatingBaseEstimator(robot, DT)
+    a, b = FloatingBaseEstimator(robot, DT), FloatingBaseEstimator(robot, DT)
+    R_new = np.diag([1e-2, 4e-2])
+    a.kf.R = R_new.copy()
+    b.kf.R[:] = R_new
+    for e in (a, b, other):
+        e.reset(q0)
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        acc = accel + rng.normal(0.0, 0.3, 3)
+        qa, va = (x.copy() for x in a.update(joints, gyro, acc, ft))
+        qb, vb = (x.copy() for x in b.update(joints, gyro, acc, ft))
+        qo, _ = other.update(joints, gyro, acc, ft)
+        assert np.allclose(qa, qb, rtol=0, atol=1e-12) and np.allclose(va, vb, rtol=0, atol=1e-12)
+    assert np.max(np.abs(qa[:3] - qo[:3])) > 1e-9  # the new R changed the estimate

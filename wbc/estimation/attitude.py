@@ -37,7 +37,10 @@ from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 
-__all__ = ["ComplementaryAttitudeFilter"]
+__all__ = ["ComplementaryAttitudeFilter", "GAIN_NAMES"]
+
+#: the filter's numbers in the order of :attr:`ComplementaryAttitudeFilter.gains`
+GAIN_NAMES = ("dt", "k_p", "k_i", "k_heading", "k_heading_bias", "accel_gate", "bias_gate", "bias_max")
 
 
 
@@ -71,6 +74,8 @@ class ComplementaryAttitudeFilter:
 
     Attributes:
         rotation: (3, 3) R̂, world ← IMU. bias: (3,) b̂ (rad/s, IMU axes). omega: (3,) Ωʸ − b̂ of the last sample.
+        gains: (9,) the numbers named in :data:`GAIN_NAMES`, in that order, kept equal to the attributes, then
+            the gravity g (m/s²) that ``accel_gate`` compares ‖a‖ with.
 
     Raises:
         InvalidInputError: bad gains or period, at construction and on assignment.
@@ -79,6 +84,8 @@ class ComplementaryAttitudeFilter:
     def __init__(self, dt: float, *, k_p: float = 0.2, k_i: float = 0.01, accel_gate: float = 2.0,
                  bias_max: float = 0.05, bias_gate: float = 0.02, k_heading: float = 1.0,
                  k_heading_bias: float = 0.1):
+        object.__setattr__(self, "gains", np.zeros(len(GAIN_NAMES) + 1))
+        self.gains[-1] = GRAVITY
         self.dt = dt
         self.k_p, self.k_i, self.accel_gate, self.bias_max, self.bias_gate = k_p, k_i, accel_gate, bias_max, bias_gate
         self.k_heading, self.k_heading_bias = k_heading, k_heading_bias
@@ -96,6 +103,8 @@ class ComplementaryAttitudeFilter:
         elif name in ("k_p", "k_i", "k_heading", "k_heading_bias"):
             value = _nonneg(value, name)
         object.__setattr__(self, name, value)
+        if name in GAIN_NAMES:
+            self.gains[GAIN_NAMES.index(name)] = value
 
     def reset(self, rotation, bias=None) -> None:
         """Start from ``rotation`` (3, 3, world ← IMU) and ``bias`` (3,) rad/s (default zeros).

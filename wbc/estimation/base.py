@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -74,6 +75,314 @@ from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_flag, check_scalar
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
+
+#: Taylor-branch threshold of Pinocchio's ``exp3`` (``TaylorSeriesExpansion<double>::precision<3>()``: ε^(1/4))
+EXP3_TAYLOR = float(np.finfo(float).eps) ** 0.25
+_EPS2 = float(np.finfo(float).eps) ** 2
+
+# Indices of the estimator's compiled state (``FloatingBaseEstimator.state``) and parameters (``_prm``).
+_ST_ACC, _ST_ZV, _ST_HAVE_ZV, _ST_YAW, _ST_FZ, _ST_CONTACT, _ST_TURNING, _ST_FROM, _ST_ACCEL_USED = (
+    0, 3, 6, 7, 9, 11, 13, 15, 17)
+_ST_SIZE = 18
+_PRM_SIZE = 38
+_LOADED: list = []  # [True] once _fuse_kernel is loaded in this process
+
+
+@nb.njit(cache=True)
+def _exp3_into(w0, w1, w2, out):
+    """Pinocchio's ``exp3`` of (w0, w1, w2) (``pinocchio/spatial/explog.hpp``, its Taylor branches) → ``out`` (3, 3)."""
+    t2 = (w0 * w0 + w1 * w1) + w2 * w2 + _EPS2
+    t = math.sqrt(t2)
+    st, ct = math.sin(t), math.cos(t)
+    if t > EXP3_TAYLOR:
+        a_xx, a_x = (1.0 - ct) / t2, st / t
+    else:
+        a_xx, a_x = 0.5 - t2 / 24.0, 1.0 - t2 / 6.0
+        ct = 1.0 - t2 / 2.0
+    w = (w0, w1, w2)
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a_xx * w[i] * w[j]
+    out[0, 1] -= a_x * w2
+    out[1, 0] += a_x * w2
+    out[0, 2] += a_x * w1
+    out[2, 0] -= a_x * w1
+    out[1, 2] -= a_x * w0
+    out[2, 1] += a_x * w0
+    for i in range(3):
+        out[i, i] += ct
+
+
+@nb.njit(cache=True)
+def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, bias, omega, kf_p, kf_v, kf_P, st,
+                 anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v):
+    """:meth:`FloatingBaseEstimator.update` after the leg kinematics (module docstring, steps 2-4, in its order):
+    the soles' base-frame placements ``rot0``/``pos0`` (left), ``rot1``/``pos1`` (right) and their
+    ``LOCAL_WORLD_ALIGNED`` velocities ``vel0``, ``vel1`` (6,: linear, angular) from Pinocchio; updates in place the
+    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`), the Kalman
+    filter (``kf_p``, ``kf_v``, ``kf_P``), the state ``st`` (``_ST_*`` slots), the anchors (``anchor``, ``axis``,
+    ``arot``: (2, 3), (2, 3), (2, 3, 3)), the wrenches ``wrench`` (2, 6), the soles' world placements
+    (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: the estimator's numbers
+    (:meth:`FloatingBaseEstimator._pack`)."""
+    dt, beta, alpha_turn, turn_rate, heading_weight = prm[0], prm[1], prm[2], prm[3], prm[4]
+    has_ground, ground_height, handover, end_share = prm[5] != 0.0, prm[6], prm[7] != 0.0, prm[8]
+    g_z = prm[19]
+    Rp = np.empty((3, 3))  # R̂ of the last sample
+    Rp[:, :] = R
+    u = np.empty((2, 3))
+    fz_total = 0.0
+    zv0 = zv1 = zv2 = 0.0
+    nf = st[_ST_FZ:_ST_FZ + 2]
+    for j in range(2):
+        rot = rot0 if j == 0 else rot1
+        vel = vel0 if j == 0 else vel1
+        f = ft[j]
+        # the sole's world orientation Rw = R̂_prev rot; the sensor's ground wrench (FootForceSensor.ground_wrench)
+        Rw = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                Rw[a, b] = (Rp[a, 0] * rot[0, b] + Rp[a, 1] * rot[1, b]) + Rp[a, 2] * rot[2, b]
+        o = 20 + 7 * j
+        mass = prm[o]
+        p0, p1, p2 = prm[o + 1], prm[o + 2], prm[o + 3]
+        d0, d1, d2 = prm[o + 4] - p0, prm[o + 5] - p1, prm[o + 6] - p2
+        m0, m1, m2 = mass * (Rw[2, 0] * g_z), mass * (Rw[2, 1] * g_z), mass * (Rw[2, 2] * g_z)
+        f0, f1, f2, t0, t1, t2 = f[0], f[1], f[2], f[3], f[4], f[5]
+        w = wrench[j]
+        w[0], w[1], w[2] = -f0 - m0, -f1 - m1, -f2 - m2
+        w[3] = -t0 + (p1 * f2 - p2 * f1) - (d1 * m2 - d2 * m1)
+        w[4] = -t1 + (p2 * f0 - p0 * f2) - (d2 * m0 - d0 * m2)
+        w[5] = -t2 + (p0 * f1 - p1 * f0) - (d0 * m1 - d1 * m0)
+        fz = (Rw[2, 0] * w[0] + Rw[2, 1] * w[1]) + Rw[2, 2] * w[2]
+        nf[j] = fz
+        u[j, 0], u[j, 1], u[j, 2] = vel[0], vel[1], vel[2]
+        wz = (Rp[2, 0] * vel[3] + Rp[2, 1] * vel[4]) + Rp[2, 2] * vel[5]  # world yaw rate of the sole
+        y = st[_ST_YAW + j]
+        y += alpha_turn * (wz - y)
+        st[_ST_YAW + j] = y
+        st[_ST_TURNING + j] = 1.0 if abs(y) > turn_rate else 0.0
+        if st[_ST_CONTACT + j] != 0.0 and fz > 0:
+            zv0, zv1, zv2 = zv0 - fz * u[j, 0], zv1 - fz * u[j, 1], zv2 - fz * u[j, 2]
+            fz_total += fz
+    # base acceleration from the leg kinematics, low-passed
+    acc = st[_ST_ACC:_ST_ACC + 3]
+    if fz_total > 0:
+        zv0, zv1, zv2 = zv0 / fz_total, zv1 / fz_total, zv2 / fz_total
+        for a in range(3):
+            z = (Rp[a, 0] * zv0 + Rp[a, 1] * zv1) + Rp[a, 2] * zv2
+            if st[_ST_HAVE_ZV] != 0.0:
+                acc[a] = acc[a] + beta * ((z - st[_ST_ZV + a]) / dt - acc[a])
+            st[_ST_ZV + a] = z
+        st[_ST_HAVE_ZV] = 1.0
+    else:
+        st[_ST_HAVE_ZV] = 0.0
+        for a in range(3):
+            acc[a] *= 1.0 - beta
+    fg = np.empty(3)  # accel − R̂_prevᵀ acc_kin
+    for a in range(3):
+        fg[a] = accel[a] - ((Rp[0, a] * acc[0] + Rp[1, a] * acc[1]) + Rp[2, a] * acc[2])
+    # attitude filter (ComplementaryAttitudeFilter.update with the soles' forward axes as directions and heading)
+    att_dt, k_p, k_i, k_heading, k_hb, accel_gate, bias_gate, bias_max = (
+        gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7])
+    a0, a1, a2 = fg[0], fg[1], fg[2]
+    n = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    used = n > 0 and abs(n - gains[8]) <= accel_gate
+    st[_ST_ACCEL_USED] = 1.0 if used else 0.0
+    m0 = m1 = m2 = 0.0
+    if used:
+        a0, a1, a2 = a0 / n, a1 / n, a2 / n
+        u0, u1, u2 = Rp[2, 0], Rp[2, 1], Rp[2, 2]
+        m0, m1, m2 = a1 * u2 - a2 * u1, a2 * u0 - a0 * u2, a0 * u1 - a1 * u0
+    h0 = h1 = h2 = 0.0
+    if heading_weight > 0 and fz_total > 0:
+        for j in range(2):
+            fz = nf[j]
+            if st[_ST_CONTACT + j] != 0.0 and fz > 0:
+                k = heading_weight * fz / fz_total
+                rot = rot0 if j == 0 else rot1
+                x0, x1, x2 = rot[0, 0], rot[1, 0], rot[2, 0]  # the sole's forward axis, base frame
+                v0 = axis[j]
+                e0 = (Rp[0, 0] * v0[0] + Rp[1, 0] * v0[1]) + Rp[2, 0] * v0[2]  # R̂ᵀ v₀
+                e1 = (Rp[0, 1] * v0[0] + Rp[1, 1] * v0[1]) + Rp[2, 1] * v0[2]
+                e2 = (Rp[0, 2] * v0[0] + Rp[1, 2] * v0[1]) + Rp[2, 2] * v0[2]
+                c0, c1, c2 = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
+                m0, m1, m2 = m0 + k * c0, m1 + k * c1, m2 + k * c2
+                h0, h1, h2 = h0 + k * c0, h1 + k * c1, h2 + k * c2
+    up0, up1, up2 = Rp[2, 0], Rp[2, 1], Rp[2, 2]
+    hu = (h0 * up0 + h1 * up1) + h2 * up2
+    h0, h1, h2 = hu * up0, hu * up1, hu * up2
+    for a in range(3):
+        omega[a] = gyro[a] - bias[a]
+    w0 = ((m0 * k_p + omega[0]) + k_heading * h0) * att_dt
+    w1 = ((m1 * k_p + omega[1]) + k_heading * h1) * att_dt
+    w2 = ((m2 * k_p + omega[2]) + k_heading * h2) * att_dt
+    E = np.empty((3, 3))
+    _exp3_into(w0, w1, w2, E)
+    for a in range(3):
+        for b in range(3):
+            R[a, b] = (Rp[a, 0] * E[0, b] + Rp[a, 1] * E[1, b]) + Rp[a, 2] * E[2, b]
+    gate = bias_gate * bias_gate
+    if k_i != 0.0 and used and (m0 * m0 + m1 * m1) + m2 * m2 <= gate:
+        c = k_i * att_dt
+        bias[0], bias[1], bias[2] = bias[0] - c * m0, bias[1] - c * m1, bias[2] - c * m2
+    if k_hb != 0.0 and (h0 * h0 + h1 * h1) + h2 * h2 <= gate:
+        c = k_hb * att_dt
+        bias[0], bias[1], bias[2] = bias[0] - c * h0, bias[1] - c * h1, bias[2] - c * h2
+    for a in range(3):
+        bias[a] = min(max(bias[a], -bias_max), bias_max)
+    # Kalman prediction with the IMU acceleration
+    h, half_h2 = prm[9], prm[10]
+    for a in range(3):
+        acc_w = ((R[a, 0] * accel[0] + R[a, 1] * accel[1]) + R[a, 2] * accel[2]) + (g_z if a == 2 else 0.0)
+        kf_p[a] += kf_v[a] * h + half_h2 * acc_w
+        kf_v[a] += acc_w * h
+    P00, P01, P10, P11 = kf_P[0, 0], kf_P[0, 1], kf_P[1, 0], kf_P[1, 1]
+    A00, A01, A10, A11 = P00 + h * P10, P01 + h * P11, P10, P11  # A P
+    kf_P[0, 0] = (A00 + A01 * h) + prm[11]
+    kf_P[0, 1] = A01 + prm[12]
+    kf_P[1, 0] = (A10 + A11 * h) + prm[13]
+    kf_P[1, 1] = A11 + prm[14]
+    # contacts and leg odometry
+    r_world = np.empty((2, 3))
+    newly0 = newly1 = False
+    zp0 = zp1 = zp2 = zw0 = zw1 = zw2 = 0.0
+    total = 0.0
+    for j in range(2):
+        fz = nf[j]
+        was = st[_ST_CONTACT + j] != 0.0
+        if was:
+            now = fz >= prm[35 + 2 * j]
+        else:
+            now = fz > prm[34 + 2 * j]
+        st[_ST_CONTACT + j] = 1.0 if now else 0.0
+        pos = pos0 if j == 0 else pos1
+        for a in range(3):
+            r_world[j, a] = (R[a, 0] * pos[0] + R[a, 1] * pos[1]) + R[a, 2] * pos[2]
+        if now and not was:
+            if j == 0:
+                newly0 = True
+            else:
+                newly1 = True
+        if now and was:
+            wgt = max(fz, 0.0)
+            zp0 += wgt * (anchor[j, 0] - r_world[j, 0])
+            zp1 += wgt * (anchor[j, 1] - r_world[j, 1])
+            zp2 += wgt * (anchor[j, 2] - r_world[j, 2])
+            uw0 = (R[0, 0] * u[j, 0] + R[0, 1] * u[j, 1]) + R[0, 2] * u[j, 2]
+            uw1 = (R[1, 0] * u[j, 0] + R[1, 1] * u[j, 1]) + R[1, 2] * u[j, 2]
+            uw2 = (R[2, 0] * u[j, 0] + R[2, 1] * u[j, 1]) + R[2, 2] * u[j, 2]
+            zw0 -= wgt * uw0
+            zw1 -= wgt * uw1
+            zw2 -= wgt * uw2
+            total += wgt
+    if total > 0:
+        zp = (zp0 / total, zp1 / total, zp2 / total)
+        zw = (zw0 / total, zw1 / total, zw2 / total)
+        s00, s01, s10, s11 = kf_P[0, 0] + prm[15], kf_P[0, 1], kf_P[1, 0], kf_P[1, 1] + prm[16]
+        det = s00 * s11 - s01 * s10
+        i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        P00, P01, P10, P11 = kf_P[0, 0], kf_P[0, 1], kf_P[1, 0], kf_P[1, 1]
+        k00, k01 = P00 * i00 + P01 * i10, P00 * i01 + P01 * i11  # K = P S⁻¹
+        k10, k11 = P10 * i00 + P11 * i10, P10 * i01 + P11 * i11
+        for a in range(3):
+            ep = zp[a] - kf_p[a]
+            ev = zw[a] - kf_v[a]
+            kf_p[a] += k00 * ep + k01 * ev
+            kf_v[a] += k10 * ep + k11 * ev
+        kf_P[0, 0] = (1.0 - k00) * P00 + (-k01) * P10  # (I − K) P
+        kf_P[0, 1] = (1.0 - k00) * P01 + (-k01) * P11
+        kf_P[1, 0] = (-k10) * P00 + (1.0 - k11) * P10
+        kf_P[1, 1] = (-k10) * P01 + (1.0 - k11) * P11
+    # new contacts: anchored at p̂ + r, forward axis from R̂ (or handed over, below)
+    for j in range(2):
+        if not (newly0 if j == 0 else newly1):
+            continue
+        rot = rot0 if j == 0 else rot1
+        for a in range(3):
+            anchor[j, a] = kf_p[a] + r_world[j, a]
+        st[_ST_FROM + j] = -1.0
+        for a in range(3):
+            axis[j, a] = (R[a, 0] * rot[0, 0] + R[a, 1] * rot[1, 0]) + R[a, 2] * rot[2, 0]
+        if has_ground:
+            anchor[j, 2] = ground_height
+            axis[j, 2] = 0.0
+        else:
+            for a in range(3):
+                for b in range(3):
+                    arot[j, a, b] = (R[a, 0] * rot[0, b] + R[a, 1] * rot[1, b]) + R[a, 2] * rot[2, b]
+        if handover and st[_ST_CONTACT + 1 - j] != 0.0 and st[_ST_FROM + 1 - j] < 0.0:
+            st[_ST_FROM + j] = 1.0 - j
+        nrm = math.sqrt((axis[j, 0] * axis[j, 0] + axis[j, 1] * axis[j, 1]) + axis[j, 2] * axis[j, 2])
+        axis[j, 0], axis[j, 1], axis[j, 2] = axis[j, 0] / nrm, axis[j, 1] / nrm, axis[j, 2] / nrm
+    # a sole turning on the ground with no hand-over: re-anchored from R̂
+    for j in range(2):
+        if st[_ST_CONTACT + j] != 0.0 and st[_ST_TURNING + j] != 0.0 and st[_ST_FROM + j] < 0.0:
+            rot = rot0 if j == 0 else rot1
+            for a in range(3):
+                axis[j, a] = (R[a, 0] * rot[0, 0] + R[a, 1] * rot[1, 0]) + R[a, 2] * rot[2, 0]
+            if has_ground:
+                axis[j, 2] = 0.0
+            else:
+                for a in range(3):
+                    for b in range(3):
+                        arot[j, a, b] = (R[a, 0] * rot[0, b] + R[a, 1] * rot[1, b]) + R[a, 2] * rot[2, b]
+            nrm = math.sqrt((axis[j, 0] * axis[j, 0] + axis[j, 1] * axis[j, 1]) + axis[j, 2] * axis[j, 2])
+            axis[j, 0], axis[j, 1], axis[j, 2] = axis[j, 0] / nrm, axis[j, 1] / nrm, axis[j, 2] / nrm
+    # heading handed over from the other anchored sole through the leg kinematics
+    for j in range(2):
+        if st[_ST_FROM + j] < 0.0:
+            continue
+        o = 1 - j
+        if not (st[_ST_CONTACT + j] != 0.0 and st[_ST_CONTACT + o] != 0.0):
+            st[_ST_FROM + j] = -1.0
+            continue
+        Xs = rot0 if j == 0 else rot1
+        Xo = rot1 if j == 0 else rot0
+        r0 = (Xo[0, 0] * Xs[0, 0] + Xo[1, 0] * Xs[1, 0]) + Xo[2, 0] * Xs[2, 0]  # Xoᵀ (Xs e_x)
+        r1 = (Xo[0, 1] * Xs[0, 0] + Xo[1, 1] * Xs[1, 0]) + Xo[2, 1] * Xs[2, 0]
+        r2 = (Xo[0, 2] * Xs[0, 0] + Xo[1, 2] * Xs[1, 0]) + Xo[2, 2] * Xs[2, 0]
+        if has_ground:
+            ca, sa = axis[o, 0], axis[o, 1]
+            axis[j, 0], axis[j, 1], axis[j, 2] = ca * r0 - sa * r1, sa * r0 + ca * r1, 0.0
+        else:
+            ch0 = (arot[o, 0, 0] * r0 + arot[o, 0, 1] * r1) + arot[o, 0, 2] * r2
+            ch1 = (arot[o, 1, 0] * r0 + arot[o, 1, 1] * r1) + arot[o, 1, 2] * r2
+            for a in range(3):
+                for b in range(3):
+                    arot[j, a, b] = (R[a, 0] * Xs[0, b] + R[a, 1] * Xs[1, b]) + R[a, 2] * Xs[2, b]
+            turn = math.atan2(ch1, ch0) - math.atan2(arot[j, 1, 0], arot[j, 0, 0])
+            c, sn = math.cos(turn), math.sin(turn)
+            for b in range(3):
+                x, y = arot[j, 0, b], arot[j, 1, b]
+                arot[j, 0, b], arot[j, 1, b] = c * x - sn * y, sn * x + c * y
+            axis[j, 0], axis[j, 1], axis[j, 2] = arot[j, 0, 0], arot[j, 1, 0], arot[j, 2, 0]
+        nrm = math.sqrt((axis[j, 0] * axis[j, 0] + axis[j, 1] * axis[j, 1]) + axis[j, 2] * axis[j, 2])
+        axis[j, 0], axis[j, 1], axis[j, 2] = axis[j, 0] / nrm, axis[j, 1] / nrm, axis[j, 2] / nrm
+        fs, fo = max(nf[j], 0.0), max(nf[o], 0.0)
+        if fo <= end_share * (fs + fo):
+            st[_ST_FROM + j] = -1.0
+    # the soles' world placements and the outputs
+    for j in range(2):
+        rot = rot0 if j == 0 else rot1
+        for a in range(3):
+            for b in range(3):
+                sole_rot[j, a, b] = (R[a, 0] * rot[0, b] + R[a, 1] * rot[1, b]) + R[a, 2] * rot[2, b]
+            sole_pos[j, a] = r_world[j, a] + kf_p[a]
+    for a in range(3):
+        q[a] = kf_p[a]
+        v[a] = (R[0, a] * kf_v[0] + R[1, a] * kf_v[1]) + R[2, a] * kf_v[2]
+        v[3 + a] = omega[a]
+
+
+
+@nb.njit(cache=True)
+def _lowpass_kernel(angles, prev, velocity, alpha, dt):
+    """:class:`JointStateFilter`'s low-pass step, element by element: v ← v + α ((angles − prev)/Δt − v), then
+    prev ← angles (all (n,))."""
+    for i in range(angles.size):
+        raw = (angles[i] - prev[i]) / dt
+        velocity[i] += alpha * (raw - velocity[i])
+        prev[i] = angles[i]
 
 
 def _nonneg(value, what: str, positive: bool = False) -> float:
@@ -131,10 +440,7 @@ class JointStateFilter:
             return self.velocity
         dt = self.dt
         if self.memory is None:
-            np.subtract(angles, self._prev, out=self._raw)
-            self._raw /= dt
-            self.velocity += self.alpha * (self._raw - self.velocity)
-            self._prev[:] = angles
+            _lowpass_kernel(angles, self._prev, self.velocity, self.alpha, dt)
             return self.velocity
         x, v, a, r = self._prev, self.velocity, self._acc, self._raw
         x += v * dt + (0.5 * dt * dt) * a  # prediction
@@ -154,7 +460,8 @@ class BaseKalmanFilter:
         dt: period (s). sigma_acc: input noise σ_a (m/s²). sigma_pos: σ_p (m). sigma_vel: σ_v (m/s).
 
     Attributes:
-        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis.
+        p: (3,) position. velocity: (3,) ṗ. P: (2, 2) covariance of (p, ṗ) of each axis. Q: (2, 2) process noise
+            covariance (σ_a² [[Δt⁴/4, Δt³/2], [Δt³/2, Δt²]]). R: (2, 2) measurement noise covariance diag(σ_p², σ_v²).
 
     Raises:
         InvalidInputError: bad numbers.
@@ -165,8 +472,8 @@ class BaseKalmanFilter:
         for val, what in ((sigma_acc, "sigma_acc"), (sigma_pos, "sigma_pos"), (sigma_vel, "sigma_vel")):
             _nonneg(val, what, positive=True)
         self.dt = h
-        self._Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
-        self._R = np.diag([sigma_pos**2, sigma_vel**2])
+        self.Q = sigma_acc**2 * np.array([[h**4 / 4, h**3 / 2], [h**3 / 2, h**2]])
+        self.R = np.diag([sigma_pos**2, sigma_vel**2])
         self._A = np.array([[1.0, h], [0.0, 1.0]])
         self._I = np.eye(2)
         self._Sinv = np.zeros((2, 2))
@@ -186,11 +493,11 @@ class BaseKalmanFilter:
         self.p += self.velocity * h + self._half_h2 * a
         self.velocity += a * h
         A = self._A
-        self.P = A @ self.P @ A.T + self._Q
+        self.P = A @ self.P @ A.T + self.Q
 
     def correct(self, z_p: np.ndarray, z_v: np.ndarray) -> None:
         """Update with a measured position z_p (3,) m and velocity z_v (3,) m/s."""
-        (s00, s01), (s10, s11) = (self.P + self._R).tolist()
+        (s00, s01), (s10, s11) = (self.P + self.R).tolist()
         det = s00 * s11 - s01 * s10
         Si = self._Sinv
         Si[:] = ((s11 / det, -s01 / det), (-s10 / det, s00 / det))
@@ -298,9 +605,16 @@ class FloatingBaseEstimator:
         self._vk = np.zeros(model.nv)
         self.p = self.kf.p
         self.velocity_world = self.kf.velocity
-        self.anchor = {s: np.zeros(3) for s in SIDES}
-        self.anchor_axis = {s: np.array([1.0, 0.0, 0.0]) for s in SIDES}
-        self._anchor_rotation = {s: np.eye(3) for s in SIDES}  # uneven ground: world ← sole of each anchor
+        # the compiled update's state (``_ST_*`` slots) and the anchors, of which the dicts below hold views
+        self._st = np.zeros(_ST_SIZE)
+        self._st[_ST_FROM:_ST_FROM + 2] = -1.0  # no hand-over
+        self._anchor, self._axis = np.zeros((2, 3)), np.zeros((2, 3))
+        self._axis[:, 0] = 1.0
+        self._arot = np.zeros((2, 3, 3))
+        self._arot[:] = np.eye(3)
+        self.anchor = {s: self._anchor[j] for j, s in enumerate(SIDES)}
+        self.anchor_axis = {s: self._axis[j] for j, s in enumerate(SIDES)}
+        self._anchor_rotation = {s: self._arot[j] for j, s in enumerate(SIDES)}  # uneven ground: world ← sole
         self.heading_weight = _nonneg(heading_weight, "heading_weight")
         self.heading_handover = check_flag(heading_handover, "heading_handover")
         self.handover_end_share = _nonneg(handover_end_share, "handover_end_share")
@@ -308,24 +622,69 @@ class FloatingBaseEstimator:
             raise InvalidInputError(f"handover_end_share must be in [0, 1), got {handover_end_share!r}")
         self.turn_rate = _nonneg(turn_rate, "turn_rate", positive=True)
         self._alpha_turn = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(turn_cutoff_hz, "turn_cutoff_hz", True)))
-        self.sole_yaw_rate = np.zeros(2)  # low-passed world yaw rate of each sole (rad/s), gyro + leg kinematics
+        # low-passed world yaw rate of each sole (rad/s), gyro + leg kinematics
+        self.sole_yaw_rate = self._st[_ST_YAW:_ST_YAW + 2]
         self.turning = {s: False for s in SIDES}
         self.contact = {s: False for s in SIDES}
-        self._handover_from = {s: None for s in SIDES}  # the anchored sole a new sole takes its heading from
         self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
         self.sole = {s: pin.SE3.Identity() for s in SIDES}
         self._X = pin.SE3.Identity()  # the estimated base rotation, for its quaternion (update)
-        self._u = np.zeros((2, 3))
-        self._zv, self._zv_prev, self._f_grav = np.zeros(3), np.zeros(3), np.zeros(3)
-        self._have_zv = False
-        self.acc_kin = np.zeros(3)
+        self.acc_kin = self._st[_ST_ACC:_ST_ACC + 3]
         self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
         # per-sample work arrays (update)
         self._has_cs = len(self._q_cs) > 0
+        # encoder angles → q[7:] as one slice when every joint has nq = 1 in v order (Talos, G1)
+        self._q_slice = not self._has_cs and np.array_equal(self._q_one, np.arange(7, model.nq)) \
+            and np.array_equal(self._j_one, np.arange(nj))
         self._vk_base, self._vk_joints = self._vk[3:6], self._vk[6:]
-        self._sole_rot, self._sole_pos, self._r_world = [None, None], [None, None], [None, None]
-        self._zp, self._zvw = np.zeros(3), np.zeros(3)
+        self._frame_ids = tuple(self.ft[s].frame_id for s in SIDES)
+        self._sole_rot, self._sole_pos = np.zeros((2, 3, 3)), np.zeros((2, 3))
+        self._prm = np.zeros(_PRM_SIZE)
+        self._pack()
+        self._warm_up()
+
+    _PACKED = ("dt", "_beta", "_alpha_turn", "turn_rate", "heading_weight", "ground_height", "heading_handover",
+               "handover_end_share")  #: attributes copied into the compiled update's parameters
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+        if name in self._PACKED and "_prm" in self.__dict__:
+            self._pack()
+
+    def _pack(self) -> None:
+        """Copy the estimator's numbers into :func:`_fuse_kernel`'s ``prm`` (layout in its code)."""
+        prm, kf = self._prm, self.kf
+        gh = self.ground_height
+        prm[0:11] = (self.dt, self._beta, self._alpha_turn, self.turn_rate, self.heading_weight,
+                     0.0 if gh is None else 1.0, 0.0 if gh is None else gh, float(self.heading_handover),
+                     self.handover_end_share, kf.dt, 0.5 * kf.dt * kf.dt)
+        prm[11:15] = kf.Q.ravel()
+        prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
+        prm[19] = GRAVITY_VECTOR[2]
+        for j, s in enumerate(SIDES):
+            sensor, det = self.ft[s], self.detectors[s]
+            prm[20 + 7 * j] = sensor.mass
+            prm[21 + 7 * j:24 + 7 * j] = sensor.sole_in_sensor
+            prm[24 + 7 * j:27 + 7 * j] = sensor.com_in_sensor
+            prm[34 + 2 * j], prm[35 + 2 * j] = det.on, det.off
+
+    def _warm_up(self) -> None:
+        """Load :func:`_fuse_kernel` (on-disk cache) for the argument types of :meth:`update`, on copies."""
+        if _LOADED:
+            return
+        model, data = self.model, self.model.createData()
+        pin.forwardKinematics(model, data, self._qk, self._vk)
+        X = [pin.updateFramePlacement(model, data, f) for f in self._frame_ids]
+        vel = [pin.getFrameVelocity(model, data, f, pin.LOCAL_WORLD_ALIGNED).vector for f in self._frame_ids]
+        z3 = np.zeros(3)
+        _fuse_kernel(np.zeros((2, 6)), z3, z3, X[0].rotation, X[0].translation, X[1].rotation, X[1].translation,
+                     vel[0], vel[1], np.eye(3), self.attitude.gains.copy(), np.zeros(3), np.zeros(3), np.zeros(3),
+                     np.zeros(3), np.eye(2), self._st.copy(), self._anchor.copy(), self._axis.copy(),
+                     self._arot.copy(), np.zeros((2, 6)), np.zeros((2, 3, 3)), np.zeros((2, 3)), self._prm.copy(),
+                     self.q.copy(), self.v.copy())
+        _lowpass_kernel(np.zeros(1), np.zeros(1), np.zeros(1), 0.5, 1.0)
+        _LOADED.append(True)
 
     def reset(self, q0, v0=None) -> None:
         """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
@@ -353,11 +712,13 @@ class FloatingBaseEstimator:
         if len(self._q_cs):
             angles[self._j_cs] = np.arctan2(q0[self._q_cs + 1], q0[self._q_cs])
         self.joints.reset(angles, v0[6:])
-        self._have_zv = False
+        st = self._st
+        st[_ST_HAVE_ZV] = 0.0
         self.acc_kin[:] = 0.0
-        for s in SIDES:
+        for j, s in enumerate(SIDES):
             self.detectors[s].active = False
-            self._handover_from[s] = None
+            st[_ST_FROM + j] = -1.0
+            st[_ST_CONTACT + j] = st[_ST_TURNING + j] = 0.0
             self.contact[s] = False
             self.turning[s] = False
         self.sole_yaw_rate[:] = 0.0
@@ -370,165 +731,55 @@ class FloatingBaseEstimator:
             gyro: (3,) rad/s and accel: (3,) m/s² (specific force), base axes.
             ft: (2, 6) (left, right) ankle F/T readings (:mod:`wbc.estimation.contact` convention).
         """
-        model, data, dt = self.model, self.data, self.dt
+        model, data = self.model, self.data
         vj = self.joints.update(joint_q)
-        att = self.attitude
+        att, kf, st = self.attitude, self.kf, self._st
         # Leg kinematics in the base frame (base at the origin, identity orientation, angular velocity ω of the
         # last sample, no base translation); world axes are R̂ times these.
         qk = self._qk
-        qk[self._q_one] = joint_q[self._j_one]
-        if self._has_cs:
-            qk[self._q_cs] = np.cos(joint_q[self._j_cs])
-            qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
+        if self._q_slice:
+            qk[7:] = joint_q
+        else:
+            qk[self._q_one] = joint_q[self._j_one]
+            if self._has_cs:
+                qk[self._q_cs] = np.cos(joint_q[self._j_cs])
+                qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
         np.subtract(gyro, att.bias, out=self._vk_base)
         self._vk_joints[:] = vj
         pin.forwardKinematics(model, data, qk, self._vk)
-        R_prev = att.rotation
-        fz_total, zv = 0.0, self._zv
-        zv[:] = 0.0
-        # each sole's placement in the base frame (views of data.oMf, valid until the next forwardKinematics)
-        rot, pos = self._sole_rot, self._sole_pos
-        contact, normal_force, yaw_rate = self.contact, self.normal_force, self.sole_yaw_rate
-        for j, s in enumerate(SIDES):
-            sensor = self.ft[s]
-            X = pin.updateFramePlacement(model, data, sensor.frame_id)
-            rot[j], pos[j] = X.rotation, X.translation
-            Rw = R_prev @ rot[j]
-            w = sensor.ground_wrench(ft[j], Rw)
-            self.wrench[j] = w
-            fz = float(Rw[2] @ w[0:3])
-            normal_force[s] = fz
-            vel = pin.getFrameVelocity(model, data, sensor.frame_id, pin.LOCAL_WORLD_ALIGNED)
-            u = self._u[j]
-            u[:] = vel.linear
-            wz = float(R_prev[2] @ vel.angular)  # the sole's world yaw rate (base angular velocity included)
-            y = float(yaw_rate[j])
-            y += self._alpha_turn * (wz - y)
-            yaw_rate[j] = y
-            self.turning[s] = abs(y) > self.turn_rate
-            if contact[s] and fz > 0:
-                zv -= fz * u
-                fz_total += fz
-        # Base acceleration from the leg kinematics (differenced, low-passed): it is removed from the
-        # accelerometer's specific force so that the attitude filter sees gravity alone.
-        acc_kin = self.acc_kin
-        if fz_total > 0:
-            zv /= fz_total
-            zw = R_prev @ zv
-            if self._have_zv:
-                beta = self._beta
-                acc_kin[:] = [a + beta * ((z - z1) / dt - a)
-                              for a, z, z1 in zip(acc_kin.tolist(), zw.tolist(), self._zv_prev.tolist())]
-            self._zv_prev[:] = zw
-            self._have_zv = True
-        else:
-            self._have_zv = False
-            acc_kin *= 1.0 - self._beta
-        self._f_grav[:] = accel - R_prev.T @ acc_kin
-        dirs = []
-        if self.heading_weight > 0 and fz_total > 0:  # the anchored soles' forward axes (leg kinematics)
-            for j, s in enumerate(SIDES):
-                fz = normal_force[s]
-                if contact[s] and fz > 0:
-                    dirs.append((self.anchor_axis[s], rot[j][:, 0], self.heading_weight * fz / fz_total))
-        att.update(gyro, self._f_grav, dirs, heading=dirs)
-        R = att.rotation
-        omega = att.omega
-        # Prediction with the IMU acceleration.
-        kf = self.kf
-        kf.predict(R @ accel + GRAVITY_VECTOR)
-        p, pd = kf.p, kf.velocity
-        # Contacts and leg odometry.
-        zp, zvw, r_world = self._zp, self._zvw, self._r_world
-        zp[:] = 0.0
-        zvw[:] = 0.0
-        total = 0.0
-        newly = []
-        for j, s in enumerate(SIDES):
-            fz = normal_force[s]
-            was = contact[s]
-            now = self.detectors[s].update(fz)
-            contact[s] = now
-            r = r_world[j] = R @ pos[j]
-            if now and not was:
-                newly.append((s, j, r))
-            if now and was:
-                wgt = max(fz, 0.0)
-                zp += wgt * (self.anchor[s] - r)
-                zvw -= wgt * (R @ self._u[j])
-                total += wgt
-        if total > 0:
-            zp /= total
-            zvw /= total
-            kf.correct(zp, zvw)
-        for s, j, r in newly:
-            self.anchor[s] = p + r
-            self._handover_from[s] = None
-            axis = R @ rot[j][:, 0]
-            if self.ground_height is not None:
-                self.anchor[s][2] = self.ground_height
-                axis[2] = 0.0  # a sole flat on flat ground: its forward axis is horizontal
-            else:
-                np.matmul(R, rot[j], out=self._anchor_rotation[s])
-            o = "right" if s == "left" else "left"
-            if self.heading_handover and contact[o] and self._handover_from[o] is None:
-                self._handover_from[s] = o
-            self.anchor_axis[s] = axis / math.sqrt(axis @ axis)
-        for j, s in enumerate(SIDES):
-            if contact[s] and self.turning[s] and self._handover_from[s] is None:
-                # A sole turning on the ground (a landing's impact pivots it; no still sole to hand over from):
-                # its heading is re-anchored from R̂ (the gyro's) on every sample until it stops turning.
-                axis = R @ rot[j][:, 0]
-                if self.ground_height is not None:
-                    axis[2] = 0.0
-                else:
-                    np.matmul(R, rot[j], out=self._anchor_rotation[s])
-                self.anchor_axis[s] = axis / math.sqrt(axis @ axis)
-        for j, s in enumerate(SIDES):
-            o = self._handover_from[s]
-            if o is None:
-                continue
-            if not (contact[s] and contact[o]):
-                self._handover_from[s] = None
-                continue
-            # Heading handed over from the other anchored sole through the leg kinematics, not through R̂ (the
-            # yaw error the gyro bias built up is then not locked into the new anchor), on every sample from
-            # the first contact until the new sole carries the larger share of the load: a sole still turns as
-            # it settles after its first contact, the one it takes over from is loaded and flat.
-            axis = self.anchor_axis[s]
-            Xo = rot[1 - j]  # the other sole o
-            if self.ground_height is not None:  # both soles level: the other's anchored axis turned about z
-                rel = Xo.T @ rot[j][:, 0]
-                ca, sa = self.anchor_axis[o][0], self.anchor_axis[o][1]
-                axis[0], axis[1], axis[2] = ca * rel[0] - sa * rel[1], sa * rel[0] + ca * rel[1], 0.0
-            else:  # uneven ground: the tilt of R̂'s world ← sole s, turned about z to the heading of
-                # (world ← sole o, anchored) (sole o ← sole s, leg kinematics)
-                Xs = rot[j]
-                chain = self._anchor_rotation[o] @ (Xo.T @ Xs[:, 0])
-                Rs = self._anchor_rotation[s]
-                np.matmul(R, Xs, out=Rs)
-                turn = math.atan2(chain[1], chain[0]) - math.atan2(Rs[1, 0], Rs[0, 0])
-                c, sn = math.cos(turn), math.sin(turn)
-                Rs[0], Rs[1] = c * Rs[0] - sn * Rs[1], sn * Rs[0] + c * Rs[1]
-                axis[:] = Rs[:, 0]
-            axis /= math.sqrt(axis @ axis)
-            fs, fo = max(normal_force[s], 0.0), max(normal_force[o], 0.0)
-            if fo <= self.handover_end_share * (fs + fo):
-                self._handover_from[s] = None  # the old sole has handed over its load: the new heading is held
-        for j, s in enumerate(SIDES):
-            X = self.sole[s]
-            X.rotation = R @ rot[j]
-            X.translation = r_world[j] + p
-        # Outputs.
+        fl, fr = self._frame_ids
+        Xl = pin.updateFramePlacement(model, data, fl)  # (views of data.oMf, valid until the next forwardKinematics)
+        Xr = pin.updateFramePlacement(model, data, fr)
+        vl = pin.getFrameVelocity(model, data, fl, pin.LOCAL_WORLD_ALIGNED).vector
+        vr = pin.getFrameVelocity(model, data, fr, pin.LOCAL_WORLD_ALIGNED).vector
         q, v = self.q, self.v
-        q[0:3] = p
+        # numbers a caller may change between samples without an attribute of this object (the detectors'
+        # thresholds, the Kalman filter's noise covariances): read every sample, not only at construction
+        prm, dl, dr = self._prm, self.detectors["left"], self.detectors["right"]
+        prm[34], prm[35], prm[36], prm[37] = dl.on, dl.off, dr.on, dr.off
+        prm[11:15] = kf.Q.ravel()
+        prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
+        # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
+        _fuse_kernel(ft, accel, gyro, Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr,
+                     att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P, st, self._anchor,
+                     self._axis, self._arot, self.wrench, self._sole_rot, self._sole_pos, self._prm, q, v)
+        s = st.tolist()
+        object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
+        contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors
+        for j, side in enumerate(SIDES):
+            c = s[_ST_CONTACT + j] != 0.0
+            contact[side] = c
+            detectors[side].active = c
+            turning[side] = s[_ST_TURNING + j] != 0.0
+            normal_force[side] = s[_ST_FZ + j]
+            X = self.sole[side]
+            X.rotation = self._sole_rot[j]
+            X.translation = self._sole_pos[j]
         # (pin.Quaternion(R), built from a matrix, leaks 80 B of C heap per call with eigenpy 3.12: 2.4 MB per
         # minute at 500 Hz; SE3ToXYZQUAT gives the same (x, y, z, w) without it)
         X = self._X
-        X.rotation = R
+        X.rotation = att.rotation
         q[3:7] = pin.SE3ToXYZQUAT(X)[3:]
         q[7:] = qk[7:]
-        v[0:3] = R.T @ pd
-        v[3:6] = omega
         v[6:] = vj
         return q, v

@@ -242,6 +242,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     log_wrench, log_sole, log_ext, log_tick, log_step = (
         log[key] for key in ("sim_wrench", "sole_pos", "ext_force", "tick_time", "step_time"))
     q_est, v_est = (est["q_est"], est["v_est"]) if state is not None else (None, None)
+    last_path, last_text = None, ""
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
@@ -287,7 +288,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             log_residual[k] = cmd.dynamics_residual
             log_ok[k] = cmd.ok
             log_relaxed[k] = cmd.relaxed
-            log_path[k] = str(cmd.path)
+            if cmd.path is not last_path:  # (the compiled ticks share one frozen path object: its text once)
+                last_path, last_text = cmd.path, str(cmd.path)
+            log_path[k] = last_text
             contacts = controller.contacts
             log_active[k, 0] = contacts["left"].active
             log_active[k, 1] = contacts["right"].active

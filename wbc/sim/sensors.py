@@ -44,9 +44,11 @@ import math
 from dataclasses import dataclass, field
 
 import mujoco
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import once_per_process
 from wbc.constants import GRAVITY, SIDES
 from wbc.exceptions import InvalidInputError
 
@@ -207,6 +209,48 @@ def _child_link(pmodel: pin.Model, joint: int) -> str:
     return next(f.name for f in pmodel.frames if f.type == pin.FrameType.BODY and f.parentFrame == jframe)
 
 
+_DRAWS_BUFFER = 4096  #: standard normal draws taken from the generator at once (≈ 170 ticks of all sensors)
+
+
+@nb.njit(cache=True)
+def _read_kernel(sd, enc, res, joint_q, imu_on, ft_on, z, scale, walk_idx, imu_idx, ft_idx, imu_ft, sample, bias):
+    """:meth:`PlantSensors.read`'s arithmetic after the tick's standard normal draws ``z`` (``len(scale)`` of them),
+    element by element in its order: the encoders quantised (``enc`` (nj,) indices in ``sd``, ``res`` rad per count;
+    ``joint_q`` None: not sampled this tick), the draws scaled by ``scale``, the bias walks added to ``bias`` (18,),
+    the IMU and/or F/T readings ``sd[imu_ft] + bias`` plus their white noise written to ``sample`` (18,)."""
+    if joint_q is not None:
+        for i in range(enc.size):
+            joint_q[i] = np.rint(sd[enc[i]] / res) * res
+    nz = scale.size
+    for i in range(nz):
+        z[i] *= scale[i]
+    lo = 0 if imu_on else 6
+    hi = 18 if ft_on else 6
+    n = 0
+    if imu_on:
+        for i in range(walk_idx.size):
+            bias[walk_idx[i]] += z[i]
+        n = walk_idx.size
+    for i in range(lo, hi):
+        sample[i] = sd[imu_ft[i]] + bias[i]
+    if imu_on:
+        for i in range(imu_idx.size):
+            sample[imu_idx[i]] += z[n + i]
+        n += imu_idx.size
+    if ft_on:
+        for i in range(nz - n):
+            sample[ft_idx[i]] += z[n + i]
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load :func:`_read_kernel` (on-disk cache) once per process, with and without the encoder sample."""
+    i1, f18 = np.zeros(1, dtype=np.int64), np.zeros(18)
+    for joint_q in (np.zeros(1), None):
+        _read_kernel(f18, i1, 1.0, joint_q, True, True, np.zeros(24), np.zeros(0), i1[:0], i1[:0], i1[:0],
+                     np.zeros(18, dtype=np.int64), np.zeros(18), np.zeros(18))
+
+
 @dataclass
 class SensorReadings:
     """One tick of sensor outputs (arrays preallocated, overwritten by :meth:`PlantSensors.read`).
@@ -236,6 +280,10 @@ class PlantSensors:
         sim: a :class:`~wbc.sim.mujoco_runtime.MujocoModel` built with sensors.
         specs: sensor models (default :class:`SensorSpecs`).
         seed: seed of the noise generator (the same seed gives the same noise).
+
+    Attributes:
+        rng: the noise generator (:meth:`read` takes its standard normal draws from it in blocks of
+            ``_DRAWS_BUFFER``, used in order: the same noise as one draw per reading).
 
     Raises:
         InvalidInputError: ``sim`` has no such sensors, a rate that does not divide the control rate.
@@ -271,14 +319,13 @@ class PlantSensors:
             self._every[name] = int(round(ratio))
         nj = len(names)
         # gyro (3), accel (3), ft (2 × 6) of a sample in one vector: one gather and one add per tick
-        self._imu_ft = np.r_[self._gyro, self._acc, self._ft.ravel()]
+        self._imu_ft = np.r_[self._gyro, self._acc, self._ft.ravel()].astype(np.int64)
         self._sample = np.zeros(18)
         self._bias = np.zeros(18)
-        self._z = np.zeros(24)  # the standard normal draws of a tick
-        self._enc_raw = np.zeros(nj)
         self.readings = SensorReadings(0.0, np.zeros(nj), self._sample[0:3], self._sample[3:6],
                                        self._sample[6:18].reshape(2, 6))
         self.reset()
+        _warm_up()
 
     def reset(self) -> None:
         """Restart the noise generator from ``seed`` and draw new initial biases. The noise levels of
@@ -318,6 +365,8 @@ class PlantSensors:
         self._ft_idx, ft_sd = draws(ft_white)
         self._draw_sd = {(True, True): np.r_[walk_sd, imu_sd, ft_sd], (True, False): np.r_[walk_sd, imu_sd],
                          (False, True): ft_sd, (False, False): np.zeros(0)}
+        # standard normal draws of the generator not used yet: _draws[_drawn:] (drawn in bulk by read)
+        self._draws, self._drawn = np.zeros(_DRAWS_BUFFER), _DRAWS_BUFFER
 
     def read(self, t: float, data: mujoco.MjData | None = None) -> SensorReadings:
         """Sample the sensors at tick time ``t`` (s) from ``data.sensordata`` (call after ``mj_step1``/``mj_forward``)
@@ -326,32 +375,24 @@ class PlantSensors:
         sd = d.sensordata
         r, k, every = self.readings, self._k, self._every
         r.t = float(t)
-        if k % every["encoder"] == 0:
-            raw = self._enc_raw
-            np.take(sd, self._enc, out=raw)
-            raw /= self._res
-            np.rint(raw, out=r.joint_q)
-            r.joint_q *= self._res
+        enc_on = k % every["encoder"] == 0
         imu_on, ft_on = k % every["imu"] == 0, k % every["ft"] == 0
         self._k = k + 1
         if not (imu_on or ft_on):
+            if enc_on:
+                _read_kernel(sd, self._enc, self._res, r.joint_q, False, False, self._draws,
+                             self._draw_sd[False, False], self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft,
+                             self._sample, self._bias)
             return r
         scale = self._draw_sd[imu_on, ft_on]
-        z = self._z[:len(scale)]
-        if len(z):
-            self.rng.standard_normal(out=z)
-            z *= scale
-        lo, hi = (0 if imu_on else 6), (18 if ft_on else 6)
-        s, b, n = self._sample, self._bias, 0
-        if imu_on:
-            nw = len(self._walk_idx)
-            if nw:
-                b[self._walk_idx] += z[:nw]
-            n = nw
-        np.add(sd[self._imu_ft[lo:hi]], b[lo:hi], out=s[lo:hi])
-        if imu_on:
-            s[self._imu_idx] += z[n:n + len(self._imu_idx)]
-            n += len(self._imu_idx)
-        if ft_on:
-            s[self._ft_idx] += z[n:]
+        nz, pos, buf = len(scale), self._drawn, self._draws
+        if pos + nz > len(buf):  # the next draws of the generator, many ticks' at once (the same stream)
+            rest = len(buf) - pos
+            buf[:rest] = buf[pos:]
+            self.rng.standard_normal(out=buf[rest:])
+            pos = 0
+        z = buf[pos:pos + nz]
+        self._drawn = pos + nz
+        _read_kernel(sd, self._enc, self._res, r.joint_q if enc_on else None, imu_on, ft_on, z, scale,
+                     self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft, self._sample, self._bias)
         return r
