@@ -323,6 +323,11 @@ class KinematicController:
     #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
     #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
     WEIGHTED_LEVEL_RATIO = 100.0
+    #: a tick of the strict cascade keeps WEIGHTED_RESERVE × its budget (in counted solves) for the weighted form of
+    #: its levels: the cascade's levels, contact corrections and trust regions stop at (STAGE_FACTOR −
+    #: WEIGHTED_RESERVE) budgets and its DAQP calls at (``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` − WEIGHTED_RESERVE)
+    #: budgets (``TickWork.reserve``); a cascade stopped there is answered by the weighted form within the rest
+    WEIGHTED_RESERVE = 0.75
     #: a safe command ('constraints_only', 'contacts_held') is taken only when it leaves every contact frame within
     #: SAFE_COMMAND_RADIUS (m) of where the current run of failed ticks began, or no farther from there than the
     #: frame already is: the per-tick drift bound alone lets a run of failed ticks walk a sole away (humanoid15,
@@ -982,9 +987,12 @@ class KinematicController:
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
-        weighted_start = bool(self._level_order) and self.clock_guard and self._weighted_left > 0
+        weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
         self._weighted_qp = None
+        if self._level_order and not weighted_start and math.isfinite(self._work.cap):
+            # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
+            self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
         return_rate, held = None, False
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -998,6 +1006,7 @@ class KinematicController:
                 relaxed = []
             except SolverError as first_failure:
                 v = None
+                self._work.reserve = 0.0  # the relaxations count as before
                 # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
                 # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
                 if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
@@ -1030,6 +1039,9 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if (not result.ok and self._cut and self._level_order and not self._weighted_tick
+                    and return_rate is None and not held):
+                result = self._weighted_answer(config, dt, relaxed) or result
             if not result.ok and return_rate is not None and not held:
                 result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
             if result.ok:
@@ -1055,16 +1067,16 @@ class KinematicController:
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
+            self._work.reserve = 0.0
             result = self._recover(config, dt, exc)
         self._in_solve, self._drift_cache = False, None
-        if self._level_order and self.clock_guard:
-            # a cascade that did not fit (its levels or the stages after it stopped by the budget; clock guard): the
-            # next ticks answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one takes at most 1 / (2 (levels + 1)) of the budget's CPU time
-            # (measured: a cascade of 2 levels took 4-5 times the CPU time of the weighted QP, G1 at dt = 2 ms)
+        if self._level_order:
+            # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
+            # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
+            # for the cascade (_cascade_fits)
             if weighted_start:
                 self._weighted_left -= 1
-                if (self._weighted_left <= 0
-                        and 2 * (len(self._level_order) + 1) * self._work.seconds() > self._budget_s):
+                if self._weighted_left <= 0 and not self._cascade_fits():
                     self._weighted_left = 1
             elif self._cut:
                 self._weighted_left = self.WEIGHTED_TICKS
@@ -1548,10 +1560,11 @@ class KinematicController:
             stop=self._level_stop if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
         cut = solve_lexicographic.last_cut
         if cut is not None:
-            if self.clock_guard and self._in_solve and self._fits(self._level_cost):
-                # clock guard: the cascade does not fit the tick; the weighted form of the levels (one QP) answers
-                # this tick and its re-solves instead of the last solved level's command (which ignores the levels
-                # below it)
+            if self._in_solve and self._fits(self._level_cost):
+                # the cascade does not fit the tick (its count, or the clock guard's CPU time); the weighted form of
+                # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
+                # re-solves instead of the last solved level's command (which ignores the levels below it)
+                self._work.reserve = 0.0
                 try:
                     qp = self._weighted_levels(config, H, g)
                     v = self._solve_flat(*qp, A, b, C, l, u, lb, ub)
@@ -1561,6 +1574,39 @@ class KinematicController:
             self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (" + (
                 "their weighted form's command)" if self._weighted_tick else "the last solved level's command)"))
         return v
+
+    def _weighted_answer(self, config: Configuration, dt: float, relaxed: list) -> TickResult | None:
+        """The tick answered again by the weighted form of its strict levels (one QP, its contact correction and
+        trust region, with the solves the cascade left: ``WEIGHTED_RESERVE``), after the cascade's command kept a
+        contact frame past ``sole_drift_tolerance`` because the budget stopped its correction or trust region;
+        None when that answer drifts too (or its QP fails): the cascade's failure stands."""
+        if not self._fits(self._resolve_cost):
+            return None
+        self._work.reserve = 0.0
+        self._weighted_tick, self._weighted_qp = True, None
+        cascade_cut, self._cut = self._cut, []
+        try:
+            v = self._solve_assembled(config)
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v)
+            result = self._hold_contacts(config, dt, v, relaxed)
+        except SolverError:
+            result = None
+        if result is not None and result.ok:
+            self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
+            return result
+        self._weighted_tick, self._cut = False, cascade_cut
+        return None
+
+    def _cascade_fits(self) -> bool:
+        """After a tick answered by the weighted form of p strict levels: is it cheap enough to try the cascade
+        again? Its counted solves times p + 1 (one QP per level instead of one) fit in the cascade's share of the
+        budget, (``STAGE_FACTOR`` − ``WEIGHTED_RESERVE``) budgets; with the clock guard also its CPU time times
+        2 (p + 1) in one budget."""
+        n = len(self._level_order) + 1
+        if n * self._work.solves > (self.STAGE_FACTOR - self.WEIGHTED_RESERVE) * self._work.cap:
+            return False
+        return not self.clock_guard or 2 * n * self._work.seconds() <= self._budget_s
 
     def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
         """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
