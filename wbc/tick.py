@@ -59,7 +59,8 @@ class TickPath:
             (inverse dynamics, ``relaxed:<solver>+budget``).
         weighted: the strict levels were solved as one weighted QP (each level's rows scaled by
             ``KinematicController.WEIGHTED_LEVEL_RATIO`` per level above the soft level), not as a cascade: the
-            kinematic clock guard's answer when a cascade did not fit the tick's budget (``levels`` only).
+            kinematic controller's answer when a cascade did not fit the tick's counted budget (or the clock
+            guard's CPU time), and for the ticks after it (``levels`` only).
 
     A path equals its string form and hashes as it (``path == "general:daqp"``), so counters keyed by either agree.
 

@@ -1,9 +1,10 @@
-"""The kinematic clock guard's graceful degradation of strict levels (``KinematicController(clock_guard=True)``):
-a cascade cut by the tick's budget is answered by the weighted single-QP form of the same levels (path
-``levels+budget+weighted``), and the next ``WEIGHTED_TICKS`` ticks solve that form directly (``levels+weighted``,
-one QP solve). Oracle: the weighted QP written out in the test (closed-form level rows from the tasks' own
-Jacobians) solved by quadprog. No wall-clock assertion: the cuts are forced by a count (a CPU-time weight of
-1e12) and the work checked is QP solves."""
+"""Graceful degradation of strict levels: a cascade that does not fit the tick's counted budget (its levels, contact
+corrections and trust regions stop ``WEIGHTED_RESERVE`` budgets early) is answered by the weighted single-QP form of
+the same levels (path ``levels+budget+weighted``), with or without the clock guard, and the next
+``WEIGHTED_TICKS`` ticks solve that form directly (``levels+weighted``, one QP solve). Oracle: the weighted QP
+written out in the test (closed-form level rows from the tasks' own Jacobians) solved by quadprog; the soles by
+Pinocchio forward kinematics. No wall-clock assertion: the cuts are forced by a count (a tiny budget, or a CPU-time
+weight of 1e12) and the work checked is QP solves."""
 
 from __future__ import annotations
 
@@ -83,11 +84,54 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
     assert np.max(np.abs(full.v - ref)) > 1e-4
 
 
-def test_guard_off_never_degrades(robots):
-    """Without the clock guard a cascade cut by its count keeps the last solved level's command ('levels+budget',
-    no weighted form), tick after tick."""
+def test_count_cut_cascade_answers_with_its_weighted_form_without_the_clock_guard(robots):
+    """Guard off, a budget of 1e-9 s (0 counted solves): the count cuts the cascade after level 0 and the tick
+    answers with the weighted form of its levels, 'levels+budget+weighted' (quadprog on the QP written out here, to
+    1e-6 m/s; the cut cascade's level-0 command was 0.1+ away); a second controller fed the same inputs answers
+    bitwise the same (a count, no clock); the next tick is 'levels+weighted'."""
     _, config, ctrl, tasks = hand_over_posture(robots, budget=1e-9, contact_correction=0.0,
                                                 sole_drift_tolerance=None)
-    for _ in range(3):
-        res = ctrl.solve(config, DT)
-        assert res.path == "levels+budget" and not res.path.weighted, res.path
+    assert ctrl.clock_guard is False
+    ref = _weighted_reference(ctrl, config, tasks)
+    cut = ctrl.solve(config, DT)
+    assert cut.ok and cut.over_budget and cut.path == "levels+budget+weighted", (cut.path, cut.message)
+    assert "priority levels after the first 1 of 3 (their weighted form's command)" in cut.message
+    assert np.max(np.abs(cut.v - ref)) <= 1e-6, np.max(np.abs(cut.v - ref))
+    _, _, twin, _ = hand_over_posture(robots, budget=1e-9, contact_correction=0.0, sole_drift_tolerance=None)
+    assert twin.solve(config, DT).v.tobytes() == cut.v.tobytes()
+    nxt = ctrl.solve(config, DT)
+    assert nxt.ok and nxt.path.weighted, nxt.path
+    assert np.max(np.abs(nxt.v - ref)) <= 1e-6
+
+
+def test_count_cut_cascade_keeps_the_soles_and_returns_to_the_cascade_by_count(robots):
+    """Guard off, default contact handling (correction, trust region, sole_drift_tolerance 0.05 mm), a budget of
+    1e-9 s: the degraded tick is ok and each sole ends within 0.05 mm of where it was (both placed where they stand;
+    Pinocchio forward kinematics at pin.integrate(q, v dt)). Then with a budget of 1 s the next WEIGHTED_TICKS
+    ticks (3 here) are 'levels+weighted' with at most 1 counted solve each, and the tick after them, its weighted
+    predecessor cheap by count, solves the cascade again ('levels'); the same sequence twice gives the same paths
+    and bitwise the same commands."""
+    import pinocchio as pin
+
+    def run():
+        robot, config, ctrl, _ = hand_over_posture(robots, budget=1e-9)
+        ctrl.WEIGHTED_TICKS = 3
+        out = [ctrl.solve(config, DT)]
+        ctrl.budget = 1.0
+        for _ in range(4):
+            out.append(ctrl.solve(config, DT))
+            assert ctrl._work.solves <= 1 or not out[-1].path.weighted
+        return robot, config, out
+
+    robot, config, out = run()
+    first = out[0]
+    assert first.ok and first.path == "levels+budget+weighted", (first.path, first.message)
+    model, data = robot.model, robot.model.createData()
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, first.v * DT))
+    for frame in (robot.left_sole, robot.right_sole):
+        fid = model.getFrameId(frame)
+        assert np.linalg.norm(data.oMf[fid].translation - config.frame_placement(fid).translation) <= 5e-5
+    assert [str(r.path) for r in out[1:]] == ["levels+weighted"] * 3 + ["levels"]
+    assert all(r.ok for r in out)
+    _, _, again = run()
+    assert [r.v.tobytes() for r in again] == [r.v.tobytes() for r in out]

@@ -327,8 +327,10 @@ def test_conflicting_strict_level_is_least_squares_and_lower_level_still_optimis
 def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(robots):
     """G1 standing on both soles, CoM on level 0, a hand target 1e6 m away (gain 1e4: |g| ~ 1e11 on level 1) and
     the posture on level 1 — the kinematic fuzz's episode whose level-1 DAQP calls cycled unscaled. With the
-    default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok and not over its
-    budget (no level, contact correction or trust region cut); each stance sole ends where its contact row sends
+    default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok, the first with
+    every level of its cascade solved (no level cut, no weighted form; its contact correction may stop at the
+    cascade's share of the budget, ``KinematicController.WEIGHTED_RESERVE``, after which the next ticks may answer
+    with the weighted form, ``levels+weighted``); each stance sole ends where its contact row sends
     it to 5e-5 m (Pinocchio forward kinematics); the CoM level's residual equals its optimum under the contacts and
     bounds computed by an independent solver (scipy SLSQP) to 1e-4 m/s."""
     from wbc.constraints import JointPositionLimit
@@ -352,7 +354,8 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
     data = robot.model.createData()
     for k in range(12):
         res = ctrl.solve(config, DT)
-        assert res.ok and not res.over_budget, (k, str(res.path), res.message)
+        assert res.ok and "priority levels" not in res.message, (k, str(res.path), res.message)
+        assert k > 0 or not res.path.weighted
         # level 0 against SLSQP on the tick's assembled hard set; the tick's second-order contact correction
         # re-solves with the contact rows' right-hand sides moved by the soles' drift / dt, which shifts the CoM
         # level's reachable optimum by up to ~3e-5 m/s here: compared to 1e-4 m/s absolute (+ 1e-6 relative)
@@ -360,7 +363,8 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
         e0, J0 = com.compute(config)
         t0 = com.velocity_target(e0)
         ref = level_optimum(J0, t0, A, b, lb, ub, np.zeros(robot.model.nv))
-        assert abs(float(np.linalg.norm(J0 @ res.v - t0)) - ref) <= 1e-6 * max(1.0, ref) + 1e-4, (k, ref)
+        if not res.path.weighted:  # the cascade's level 0 (the weighted form trades it against the levels below)
+            assert abs(float(np.linalg.norm(J0 @ res.v - t0)) - ref) <= 1e-6 * max(1.0, ref) + 1e-4, (k, ref)
         # the soles by forward kinematics: where each ends vs placement · exp((1 − K dt) e)
         q_next = pin.integrate(robot.model, config.q, res.v * DT)
         pin.forwardKinematics(robot.model, data, q_next)

@@ -164,3 +164,42 @@ def test_band_memo_starts_with_the_bands_on_equal_rows_only():
         assert abs(v[2] - 2.0) <= 1e-6  # the level
     # the cascade without the band, then with it; equal rows: only with it; other rows: both again
     assert counts == [4, 2, 4]
+
+
+def test_level_work_is_counted_per_level_started_and_reserve_stops_the_cascade_earlier():
+    """``level_work``: each level started adds it to the backends' shared TickWork on top of the counts of its QP
+    solves (the same cascade with level_work 0 is the oracle: the difference is level_work × 3 levels, the soft
+    level included; the answer is bitwise the same). ``TickWork.reserve``: counted as done by ``spent``, so a stop at
+    ``spent(factor)`` cuts the cascade that many solves earlier."""
+    from wbc.solvers.base import TickWork
+
+    def run(level_work, reserve=0.0, factor=None):
+        work = TickWork(cap=100.0)
+        work.reserve = reserve
+        backends = [DaqpBackend(eps_prox=1e-3), DaqpBackend(eps_prox=1e-3)]
+        final = DaqpBackend()
+        for backend in (*backends, final):
+            backend.work = work
+        stop = None if factor is None else (lambda: work.spent(factor))
+        levels, H, g, A, b, C, l, u, lb, ub = _levels_problem()
+        v, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final, stop=stop,
+                                   level_work=level_work)
+        return v, work.solves, solve_lexicographic.last_cut
+
+    v0, n0, cut0 = run(0.0)
+    v1, n1, cut1 = run(0.5)
+    assert cut0 is None and cut1 is None
+    assert n1 - n0 == pytest.approx(0.5 * 3)
+    assert v0.tobytes() == v1.tobytes()
+    # stop once n0 + 1 solves are counted: without a reserve every level starts (the cascade counts n0 in all);
+    # with a reserve of n0 + 1 solves the stop holds before level 1, and the cascade returns level 0's answer
+    _, _, cut_free = run(0.0, reserve=0.0, factor=(n0 + 1) / 100.0)
+    _, _, cut_reserved = run(0.0, reserve=n0 + 1.0, factor=(n0 + 1) / 100.0)
+    assert cut_free is None and cut_reserved == 1
+    work = TickWork(cap=8.0)
+    work.reserve = 6.0
+    assert not work.spent(1.75)  # 0 + 6 < 14
+    work.solves = 8  # 8 + 6 ≥ 14
+    assert work.spent(1.75)
+    work.reset(8.0)
+    assert work.reserve == 0.0 and not work.spent(1.75)

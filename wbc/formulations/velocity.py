@@ -74,13 +74,29 @@ and never of the machine's load. Past it, a failed tick stops its optional stage
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the count
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
-region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts none of them: it keeps the command of the last stage it finished (the last
-solved level's, the least-drifting correction's), which must still pass the output guard and the sole-drift
+region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts none of them: it keeps the command of the last stage it finished (the
+least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
 count below :data:`wbc.solvers.daqp.WORK_LIMIT_FACTOR` (1.9) times the budget
 (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); a call stopped there is a failed solve (never an unconverged answer),
 and a strict level that fails so is cut like a level not started. ``TickResult.path`` names the route every tick took.
+
+Strict levels degrade to one QP when their cascade does not fit the count. Each level of the cascade counts
+``LEVEL_WORK`` (0.5) solves besides its QP's (the work around it: the rows of the levels above, their rank check
+and bands). A tick of the cascade holds
+``WEIGHTED_RESERVE`` (0.75) budgets back (:attr:`wbc.solvers.base.TickWork.reserve`): its levels, contact corrections
+and trust regions stop at ``STAGE_FACTOR`` − 0.75 = 1 budget, its DAQP calls at ``WORK_LIMIT_FACTOR`` − 0.75 = 1.15
+budgets. Once the count stops a level, the tick answers with the weighted form of the levels (level k of p scaled by
+``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level: one QP, then its contact correction and trust region within
+the reserve, to ``STAGE_FACTOR`` budgets); when it stops the cascade's correction or trust region and the cascade's
+command leaves a contact frame past ``sole_drift_tolerance``, the tick is answered again by the weighted form
+(taken when it keeps the contacts; else the tick fails as before). Either way the path is ``levels+budget+weighted``
+and the next ``WEIGHTED_TICKS`` ticks solve the weighted form directly (``levels+weighted``, one QP per re-solve), then
+the cascade again once a weighted tick's counted solves times p + 1 fit in the cascade's 1 budget (with the clock
+guard also its CPU time times 2 (p + 1) in one budget). The trigger and the exit are counts (and the same inputs give
+the same answers); a command of a cut cascade that keeps the contacts is kept (``levels+budget``).
+
 With ``clock_guard=True`` (constructor) the tick's CPU time also counts as work (one budget of CPU time =
 ``CLOCK_WEIGHT`` × the cap; :class:`wbc.solvers.base.TickWork`), so each of these limits also holds on the clock,
 whatever a counted solve costs on the machine and problem: the tick time is bounded (stages stop at ``STAGE_FACTOR`` /
@@ -93,10 +109,8 @@ and its checks; the safe command's from the last tick until one is timed) stays 
 budgets (``RESCUE_DEADLINE``, 1.7, for the least-squares re-solve of dependent contact rows); a relaxation that does
 not fit fails the tick, a safe command that does not fit is not tried (``hold``; the message says what was skipped),
 so that a failed tick ends within twice its budget of CPU time however slow its solves are on the machine, unless its
-first solve alone takes that long. With the guard, strict levels degrade to one QP when their cascade does not fit:
-once the budget stops a level or a stage after it, the tick answers with the weighted form of the levels (level k of p
-scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k) over the soft level; path ``levels+weighted``), and so do the next
-``WEIGHTED_TICKS`` ticks (then the cascade again, once a weighted tick took at most 1 / (2 (p + 1)) of the budget).
+first solve alone takes that long. With the guard, a strict level that its clock stops also degrades the tick to
+the weighted form (above), when that QP, at the CPU time of the longest level so far, fits.
 
 When the tick cannot be solved (infeasible hard constraints, numerical failure, any exception other than a typed
 input error), ``solve`` does not raise and never returns NaN:
@@ -270,7 +284,8 @@ class KinematicController:
             then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
             no further strict level, contact correction or trust region past ``STAGE_FACTOR`` (1.75) times the
             budget and returns the last finished stage's command (module docstring, '+budget' path): its work is
-            1.75 times the budget plus at most the stage in progress (one cascade) and its checks. ``math.inf``: no budget (every failure-handling stage runs,
+            1.75 times the budget plus at most the stage in progress (one cascade) and its checks. Strict levels
+            stop at 1 budget (``WEIGHTED_RESERVE``) and degrade to their weighted form (module docstring). ``math.inf``: no budget (every failure-handling stage runs,
             independent of the machine's load: offline analysis and tests).
         clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` × ⌊budget /
             ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.solvers.base.TickWork`, clock guard): every limit
@@ -284,8 +299,8 @@ class KinematicController:
             False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
             real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
             that depends on the machine's speed and load; a tick under every limit answers as with False; strict
-            levels whose cascade does not fit the budget are answered by their weighted form (module docstring,
-            path ``levels+weighted``). Settable
+            levels whose cascade does not fit the budget's CPU time are answered by their weighted form (module
+            docstring, path ``levels+weighted``). Settable
             as an attribute.
 
     Raises:
@@ -316,13 +331,23 @@ class KinematicController:
     #: failed tick with its dependent contact rows' corrections made consistent (least squares), which decides
     #: whether the hard set has a solution at all (cutting it failed ticks that the weighted levels solve)
     RESCUE_DEADLINE = 1.7
-    #: with ``clock_guard``: after a tick of the strict cascade that a budget cut (a level, a contact correction or
-    #: a trust region not run), the next WEIGHTED_TICKS ticks solve the strict levels as one weighted QP (path
-    #: ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is tried again
+    #: after a tick of the strict cascade that a budget cut (a level, a contact correction or a trust region not run;
+    #: by the count, or the clock guard's clock), the next WEIGHTED_TICKS ticks solve the strict levels as one
+    #: weighted QP (path ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is
+    #: tried again (module docstring)
     WEIGHTED_TICKS = 25
     #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
     #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
     WEIGHTED_LEVEL_RATIO = 100.0
+    #: a tick of the strict cascade keeps WEIGHTED_RESERVE × its budget (in counted solves) for the weighted form of
+    #: its levels: the cascade's levels, contact corrections and trust regions stop at (STAGE_FACTOR −
+    #: WEIGHTED_RESERVE) budgets and its DAQP calls at (``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` − WEIGHTED_RESERVE)
+    #: budgets (``TickWork.reserve``); a cascade stopped there is answered by the weighted form within the rest
+    WEIGHTED_RESERVE = 0.75
+    #: counted solves added per level of the strict cascade for the work around its QP (the fixed rows of the
+    #: levels above, their rank check and bands, the cost's scaling: uncounted otherwise, it makes a cascade
+    #: level cost more CPU time than a flat solve), ``solve_lexicographic(level_work=…)``
+    LEVEL_WORK = 0.5
     #: a safe command ('constraints_only', 'contacts_held') is taken only when it leaves every contact frame within
     #: SAFE_COMMAND_RADIUS (m) of where the current run of failed ticks began, or no farther from there than the
     #: frame already is: the per-tick drift bound alone lets a run of failed ticks walk a sole away (humanoid15,
@@ -982,9 +1007,12 @@ class KinematicController:
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
         self._projected_contacts = []
-        weighted_start = bool(self._level_order) and self.clock_guard and self._weighted_left > 0
+        weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
         self._weighted_qp = None
+        if self._level_order and not weighted_start and math.isfinite(self._work.cap):
+            # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
+            self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
         return_rate, held = None, False
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
@@ -998,6 +1026,7 @@ class KinematicController:
                 relaxed = []
             except SolverError as first_failure:
                 v = None
+                self._work.reserve = 0.0  # the relaxations count as before
                 # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
                 # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
                 if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
@@ -1030,6 +1059,9 @@ class KinematicController:
             if self.contact_correction > 0 and self._contacts and not held:
                 v = self._correct_contacts(config, dt, v)
             result = self._hold_contacts(config, dt, v, relaxed)
+            if (not result.ok and self._cut and self._level_order and not self._weighted_tick
+                    and return_rate is None and not held):
+                result = self._weighted_answer(config, dt, relaxed) or result
             if not result.ok and return_rate is not None and not held:
                 result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
             if result.ok:
@@ -1055,16 +1087,16 @@ class KinematicController:
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
+            self._work.reserve = 0.0
             result = self._recover(config, dt, exc)
         self._in_solve, self._drift_cache = False, None
-        if self._level_order and self.clock_guard:
-            # a cascade that did not fit (its levels or the stages after it stopped by the budget; clock guard): the
-            # next ticks answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one takes at most 1 / (2 (levels + 1)) of the budget's CPU time
-            # (measured: a cascade of 2 levels took 4-5 times the CPU time of the weighted QP, G1 at dt = 2 ms)
+        if self._level_order:
+            # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
+            # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
+            # for the cascade (_cascade_fits)
             if weighted_start:
                 self._weighted_left -= 1
-                if (self._weighted_left <= 0
-                        and 2 * (len(self._level_order) + 1) * self._work.seconds() > self._budget_s):
+                if self._weighted_left <= 0 and not self._cascade_fits():
                     self._weighted_left = 1
             elif self._cut:
                 self._weighted_left = self.WEIGHTED_TICKS
@@ -1545,13 +1577,15 @@ class KinematicController:
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            stop=self._level_stop if self._in_solve else None, memo=self._level_memo if self._in_solve else None)
+            stop=self._level_stop if self._in_solve else None, memo=self._level_memo if self._in_solve else None,
+            level_work=self.LEVEL_WORK)
         cut = solve_lexicographic.last_cut
         if cut is not None:
-            if self.clock_guard and self._in_solve and self._fits(self._level_cost):
-                # clock guard: the cascade does not fit the tick; the weighted form of the levels (one QP) answers
-                # this tick and its re-solves instead of the last solved level's command (which ignores the levels
-                # below it)
+            if self._in_solve and self._fits(self._level_cost):
+                # the cascade does not fit the tick (its count, or the clock guard's CPU time); the weighted form of
+                # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
+                # re-solves instead of the last solved level's command (which ignores the levels below it)
+                self._work.reserve = 0.0
                 try:
                     qp = self._weighted_levels(config, H, g)
                     v = self._solve_flat(*qp, A, b, C, l, u, lb, ub)
@@ -1561,6 +1595,39 @@ class KinematicController:
             self._cut.append(f"priority levels after the first {cut} of {len(levels) + 1} (" + (
                 "their weighted form's command)" if self._weighted_tick else "the last solved level's command)"))
         return v
+
+    def _weighted_answer(self, config: Configuration, dt: float, relaxed: list) -> TickResult | None:
+        """The tick answered again by the weighted form of its strict levels (one QP, its contact correction and
+        trust region, with the solves the cascade left: ``WEIGHTED_RESERVE``), after the cascade's command kept a
+        contact frame past ``sole_drift_tolerance`` because the budget stopped its correction or trust region;
+        None when that answer drifts too (or its QP fails): the cascade's failure stands."""
+        if not self._fits(self._resolve_cost):
+            return None
+        self._work.reserve = 0.0
+        self._weighted_tick, self._weighted_qp = True, None
+        cascade_cut, self._cut = self._cut, []
+        try:
+            v = self._solve_assembled(config)
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v)
+            result = self._hold_contacts(config, dt, v, relaxed)
+        except SolverError:
+            result = None
+        if result is not None and result.ok:
+            self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
+            return result
+        self._weighted_tick, self._cut = False, cascade_cut
+        return None
+
+    def _cascade_fits(self) -> bool:
+        """After a tick answered by the weighted form of p strict levels: is it cheap enough to try the cascade
+        again? Its counted solves times p + 1 (one QP per level instead of one) fit in the cascade's share of the
+        budget, (``STAGE_FACTOR`` − ``WEIGHTED_RESERVE``) budgets; with the clock guard also its CPU time times
+        2 (p + 1) in one budget."""
+        n = len(self._level_order) + 1
+        if n * self._work.solves > (self.STAGE_FACTOR - self.WEIGHTED_RESERVE) * self._work.cap:
+            return False
+        return not self.clock_guard or 2 * n * self._work.seconds() <= self._budget_s
 
     def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
         """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),

@@ -90,15 +90,20 @@ class TickWork:
         cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
             re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
             budget below 580 × ``KinematicController.SOLVE_COST``).
+        reserve: solves held back for a later stage of the tick (≥ 0, finite; 0 after :meth:`reset`): :meth:`spent`
+            and :meth:`wbc.solvers.daqp.DaqpBackend.call_limit` count them as done, so the stages in progress stop
+            that many solves earlier (a strict cascade keeps them for its weighted form,
+            ``KinematicController.WEIGHTED_RESERVE``).
     """
 
-    __slots__ = ("_solves", "cap", "_clock", "_t0")
+    __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve")
 
     def __init__(self, cap: float = math.inf, clock: float = math.inf):
         self._solves = 0
         self.cap = cap
         self._clock = clock
         self._t0 = thread_time() if clock < math.inf else None
+        self.reserve = 0.0
 
     @property
     def solves(self) -> float:
@@ -123,6 +128,7 @@ class TickWork:
         self.cap = cap
         self._clock = clock
         self._t0 = thread_time() if clock < math.inf else None
+        self.reserve = 0.0
 
     def seconds(self) -> float:
         """CPU time (s, ``time.thread_time`` of the calling thread) since :meth:`reset` with the clock guard; without
@@ -134,8 +140,8 @@ class TickWork:
         return thread_time() - self._t0
 
     def spent(self, factor: float = 1.0) -> bool:
-        """``factor`` × cap solves are done."""
-        return self.solves >= factor * self.cap
+        """``factor`` × cap solves are done (``reserve`` counted as done)."""
+        return self.solves + self.reserve >= factor * self.cap
 
 
 class QPBackend(ABC):

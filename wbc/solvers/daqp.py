@@ -128,16 +128,16 @@ class DaqpBackend(QPBackend):
     def call_limit(self) -> int:
         """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
         lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
-        ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress counted,
-        one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`; at most ``call_iterations`` when
-        set. A count, not a clock — unless ``deadline`` is finite: then also at most (deadline − CPU time now) /
-        ``iteration_cost``, at least :data:`MIN_CALL_ITERATIONS`."""
+        ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress and the
+        work's ``reserve`` counted, one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`; at most
+        ``call_iterations`` when set. A count, not a clock — unless ``deadline`` is finite: then also at most
+        (deadline − CPU time now) / ``iteration_cost``, at least :data:`MIN_CALL_ITERATIONS`."""
         limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
         if self.call_iterations is not None:
             limit = min(limit, int(self.call_iterations))
         work = self.work
         if work is not None and math.isfinite(work.cap):
-            left = ((WORK_LIMIT_FACTOR * work.cap - work.solves - 1.0) * ITERATIONS_PER_SOLVE
+            left = ((WORK_LIMIT_FACTOR * work.cap - work.reserve - work.solves - 1.0) * ITERATIONS_PER_SOLVE
                     - self.last_iterations)
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
         if self.deadline < math.inf:

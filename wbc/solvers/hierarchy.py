@@ -88,8 +88,8 @@ def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
                         dependent_row_tolerance: float = 1e-3, band: float = 1e-9,
-                        stop: Callable[[], bool] | None = None, memo: dict | None = None
-                        ) -> tuple[np.ndarray, list[float]]:
+                        stop: Callable[[], bool] | None = None, memo: dict | None = None,
+                        level_work: float = 0.0) -> tuple[np.ndarray, list[float]]:
     """Solve the cascade of the module docstring.
 
     Args:
@@ -118,6 +118,10 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             (one cascade instead of two; its answer then holds them within ±tolerance/2 even where the cascade
             without them would have met them within the tolerance). Within a tick the re-solves (contact corrections,
             trust regions) keep A; the next tick's A differs (unless the configuration did not move).
+        level_work: solves added to the backends' counted tick work (``QPBackend.work``, when set) for each level
+            started, besides those its QP solves count: the work of the cascade around a level's QP (the fixed
+            rows of the levels above, their rank check and band rows, the cost's scaling), so that ``stop`` and
+            the backends' work limits see it. Default 0.
 
     Levels below the point where the kept equality rows and the rows of the levels above have rank nv (QR with
     column pivoting, ``rank_rtol``) are not solved: every direction of v is then fixed, so each of them would
@@ -149,14 +153,14 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         try:
             banded = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                               np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                              lb, ub, backends, final_backend, band, stop, memo)
+                              lb, ub, backends, final_backend, band, stop, memo, level_work)
         except SolverError:
             del memo[BAND_KEY]
     if banded is not None:
         v, skipped = banded
     else:
         v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop,
-                              memo)
+                              memo, level_work)
     if dropped is not None and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
@@ -165,7 +169,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             try:
                 v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
                                       np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                                      lb, ub, backends, final_backend, band, stop, memo)
+                                      lb, ub, backends, final_backend, band, stop, memo, level_work)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -189,7 +193,8 @@ def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.nda
     return H * s, g * s, s
 
 
-def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None, memo=None):
+def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None, memo=None,
+             level_work=0.0):
     """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
     fixed_J: list[np.ndarray] = []
     v = None
@@ -211,6 +216,8 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
         if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
             return v, skipped
+        if level_work and backend.work is not None:
+            backend.work.solves += level_work  # the level's rows, rank and band set-up around its QP
         if F is not None:
             Fv = F @ v
             Ck, lk, uk = np.vstack([C, F]), np.concatenate([l, Fv - band]), np.concatenate([u, Fv + band])
