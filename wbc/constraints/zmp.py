@@ -65,27 +65,44 @@ from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint"]
 
 
+#: rows of one tick slot of :class:`ExecutedZmpConstraint`'s memory array: CoM (first 3 entries), CoM Jacobian (3),
+#: angular rows of the centroidal map (3), command; two slots, then J_eff (3 rows) and a scratch row
+_SLOT = 8
+_J_EFF = 2 * _SLOT
+_SCRATCH = _J_EFF + 3
+
+
 @nb.njit(cache=True, nogil=True)
-def _zmp_tick(c, J, Ag, use_momentum, c_now, J_now, A_now, active, c_prev, J_prev, A_prev, v_prev, dt_prev, normals,
-              offsets, ground_z, mass, gravity, dt, min_normal_ratio, J_eff, C, u):
+def _zmp_tick(c, J, Ag, W, now, active, dt_prev, edges, ground_z, mass, gravity, dt, min_normal_ratio, use_momentum,
+              C, l, u):
     """:meth:`ExecutedZmpConstraint.compute` in one compiled call: keep this tick's CoM c, CoM Jacobian J and
-    (use_momentum) the angular rows of the centroidal map Ag (6, nv) in c_now, J_now, A_now; then, when the previous
-    tick is known (``active``: its CoM c_prev, Jacobians J_prev, A_prev, command v_prev over dt_prev, all finite), write
-    the rows of the module docstring into C (k + 1 used rows) and u, else make them inactive (0 ≤ +inf). All
-    kinematic quantities come from Pinocchio; this is assembly arithmetic only."""
+    (use_momentum) the angular rows of the centroidal map Ag (6, nv) in slot ``now`` of the memory W; then, when the
+    previous tick is known (``active``: the other slot's CoM c_prev, Jacobians J_prev, A_prev and command v_prev
+    over dt_prev, all finite), write the rows of the module docstring into C (rows 0..k−1 and the last one; the
+    rows between are unused: 0 ≤ +inf) and u, l = −inf, else make every row inactive (0 ≤ +inf). ``edges`` (k, 3):
+    per edge of the shrunk polygon, the outward normal (x, y) and the offset. All kinematic quantities come from
+    Pinocchio; this is assembly arithmetic only."""
     nv = J.shape[1]
+    s0 = now * 8
+    p0 = (1 - now) * 8
     for i in range(3):
-        c_now[i] = c[i]
+        W[s0, i] = c[i]
         for j in range(nv):
-            J_now[i, j] = J[i, j]
+            W[s0 + 1 + i, j] = J[i, j]
             if use_momentum:
-                A_now[i, j] = Ag[3 + i, j]
-    k = offsets.shape[0]
+                W[s0 + 4 + i, j] = Ag[3 + i, j]
+    k = edges.shape[0]
     last = C.shape[0] - 1
+    for e in range(C.shape[0]):
+        l[e] = -np.inf
+    for e in range(k, last):
+        for j in range(nv):
+            C[e, j] = 0.0
+        u[e] = np.inf
     h = c[2] - ground_z
     if active:
         for j in range(nv):
-            if not np.isfinite(v_prev[j]):
+            if not np.isfinite(W[p0 + 7, j]):
                 active = False
                 break
     if k == 0 or not active or h <= 0.0:
@@ -98,52 +115,50 @@ def _zmp_tick(c, J, Ag, use_momentum, c_now, J_now, A_now, active, c_prev, J_pre
         u[last] = np.inf
         return
     # the previous tick: c_pred = c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k), L_{k−1} = A_{k−1} v_{k−1}
-    c_pred = np.empty(3)
-    L_prev = np.empty(3)
+    sc = _SCRATCH  # c_pred [0:3], L_prev [3:6], r [6:9], dc [9:12]
     for i in range(3):
         s = 0.0
         m = 0.0
         for j in range(nv):
-            s += J_prev[i, j] * v_prev[j]
-            m += A_prev[i, j] * v_prev[j]
-        c_pred[i] = c_prev[i] + s * dt_prev
-        L_prev[i] = m
+            s += W[p0 + 1 + i, j] * W[p0 + 7, j]
+            m += W[p0 + 4 + i, j] * W[p0 + 7, j]
+        W[sc, i] = W[p0, i] + s * dt_prev
+        W[sc, 3 + i] = m
     inv_mh = 1.0 / (mass * h)
-    r = np.empty(3)
-    dc = np.empty(3)
     for i in range(3):
         s = 0.0
         for j in range(nv):
-            dj = J[i, j] - J_prev[i, j]
-            s += dj * v_prev[j]
-            J_eff[i, j] = J[i, j] + dj
-        r[i] = (c[i] - c_pred[i]) - dt * s
-        dc[i] = c[i] - c_prev[i]
+            dj = J[i, j] - W[p0 + 1 + i, j]
+            s += dj * W[p0 + 7, j]
+            W[_J_EFF + i, j] = J[i, j] + dj
+        W[sc, 6 + i] = (c[i] - W[sc, i]) - dt * s
+        W[sc, 9 + i] = c[i] - W[p0, i]
+    r0, r1, r2 = W[sc, 6], W[sc, 7], W[sc, 8]
+    d0, d1, d2 = W[sc, 9], W[sc, 10], W[sc, 11]
     for e in range(k):
-        nx, ny = normals[e, 0], normals[e, 1]
-        se = offsets[e] - (nx * c[0] + ny * c[1])
+        nx, ny = edges[e, 0], edges[e, 1]
+        se = edges[e, 2] - (nx * c[0] + ny * c[1])
         a0, a1, a2 = -nx, -ny, se / -h
-        u[e] = (se * gravity * dt * dt / h - (a0 * (r[0] - dc[0]) + a1 * (r[1] - dc[1]) + a2 * (r[2] - dc[2]))) / dt
+        u[e] = (se * gravity * dt * dt / h - (a0 * (r0 - d0) + a1 * (r1 - d1) + a2 * (r2 - d2))) / dt
         for j in range(nv):
-            C[e, j] = a0 * J_eff[0, j] + a1 * J_eff[1, j] + a2 * J_eff[2, j]
+            C[e, j] = a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]
         if use_momentum:
             e0, e1 = ny * inv_mh, -nx * inv_mh
             for j in range(nv):
-                C[e, j] += e0 * A_now[0, j] + e1 * A_now[1, j]
-            u[e] += e0 * L_prev[0] + e1 * L_prev[1]
+                C[e, j] += e0 * W[s0 + 4, j] + e1 * W[s0 + 5, j]
+            u[e] += e0 * W[sc, 3] + e1 * W[sc, 4]
     for j in range(nv):
-        C[last, j] = -J_eff[2, j]
-    u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r[2] - dc[2]) / dt
+        C[last, j] = -W[_J_EFF + 2, j]
+    u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r2 - d2) / dt
 
 
 @once_per_process
 def _warm_up() -> None:
     """Load :func:`_zmp_tick` (on-disk cache) once per process, at construction (C-ordered arrays, as Pinocchio's
     CoM Jacobian and centroidal map are)."""
-    v, c, J = np.zeros(1), np.zeros(3), np.zeros((3, 1))
-    _zmp_tick(c, J, np.zeros((6, 1)), True, np.zeros(3), np.zeros((3, 1)), np.zeros((3, 1)), True, c, J, J, v, 0.002,
-              np.zeros((1, 2)), np.zeros(1), 0.0, 1.0, GRAVITY, 0.002, 0.5, np.zeros((3, 1)), np.zeros((2, 1)),
-              np.zeros(2))
+    c, J = np.zeros(3), np.zeros((3, 1))
+    _zmp_tick(c, J, np.zeros((6, 1)), np.zeros((_SCRATCH + 1, 12)), 0, True, 0.002, np.zeros((1, 3)), 0.0, 1.0,
+              GRAVITY, 0.002, 0.5, True, np.zeros((2, 1)), np.zeros(2), np.zeros(2))
 
 
 class ExecutedZmpConstraint(InequalityConstraint):
@@ -191,18 +206,19 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._model = robot.model
         self._data = robot.model.createData()
         self.mass = float(sum(i.mass for i in robot.model.inertias))
-        self._J_eff = np.zeros((3, nv))
-        # tick memory: "now" = c, J_com, A_G,ang of the last compute (its dt); "rec" = those of the tick whose command
-        # set_previous recorded (c_{k−1}, J_{k−1}, A_{k−1}, v_{k−1} over dt_{k−1}). set_previous hands the now
-        # buffers over to rec and takes rec's old ones as the next now buffers: no copy but the command's
-        self._now = (np.zeros(3), np.zeros((3, nv)), np.zeros((3, nv)))
+        # tick memory (:func:`_zmp_tick`): two slots of c, J_com, A_G,ang and a command; "now" = those of the last
+        # compute (its dt), "rec" = the other slot, those of the tick whose command set_previous recorded (c_{k−1},
+        # J_{k−1}, A_{k−1}, v_{k−1} over dt_{k−1}). set_previous writes the command into the now slot, which becomes
+        # rec: no copy but the command's
+        self._mem = np.zeros((_SCRATCH + 1, max(nv, 12)))
+        self._v_rows = (self._mem[7, :nv], self._mem[_SLOT + 7, :nv])
+        self._edges = np.zeros((0, 3))
+        self._slot = 0             # index of the now slot (rec: 1 − slot)
         self._dt_now = 0.0
         self._have_now = False
         self._now_in_rec = False   # set_previous since the last compute: its values are in rec
-        self._rec = (np.zeros(3), np.zeros((3, nv)), np.zeros((3, nv)), np.zeros(nv))
         self._rec_dt = 0.0
         self._rec_valid = False
-        self._spare_v = np.zeros(nv)
         self._undo: tuple | None = None
         _warm_up()
 
@@ -251,9 +267,8 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if inner <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
         self.normals, self.offsets = np.array(normals), np.array(offsets)
+        self._edges = np.column_stack([self.normals, self.offsets])
         self.ground_z = ground / len(sole_placements)
-        self._C[k:-1] = 0.0
-        self._u[k:-1] = np.inf
 
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
@@ -262,11 +277,16 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._have_now = False
         self._undo = None
 
+    def _slot_arrays(self, slot: int) -> tuple:
+        """Views (c (3,), J (3, nv), A (3, nv), v (nv,)) of a memory slot."""
+        m, nv, r = self._mem, self.nv, slot * _SLOT
+        return m[r, :3], m[r + 1:r + 4, :nv], m[r + 4:r + 7, :nv], m[r + 7, :nv]
+
     def state(self) -> tuple:
         """Snapshot of the tick memory (previous tick's CoM, CoM Jacobian, centroidal rows, command, period) for
         :meth:`restore`: to solve the same tick again after :meth:`set_previous` has been called with a command that
         is not sent (:meth:`undo_previous` does the same without copies)."""
-        c, J, A, v = self._rec
+        c, J, A, v = self._slot_arrays(1 - self._slot)
         return c.copy(), J.copy(), A.copy(), v.copy(), self._rec_dt, self._rec_valid
 
     def restore(self, state: tuple) -> None:
@@ -274,9 +294,10 @@ class ExecutedZmpConstraint(InequalityConstraint):
         the last :meth:`compute`."""
         c, J, A, v, dt, valid = state
         if self._now_in_rec:  # the last compute's values went to rec with set_previous: take them back
-            self._now = self._rec[:3]
+            self._slot = 1 - self._slot
             self._now_in_rec = False
-        self._rec = (c.copy(), J.copy(), A.copy(), v.copy())
+        for dst, src in zip(self._slot_arrays(1 - self._slot), (c, J, A, v)):
+            dst[...] = src
         self._rec_dt, self._rec_valid = dt, valid
         self._have_now = True
         self._undo = None
@@ -287,17 +308,15 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if not self._have_now:
             self._undo = None
             return
-        self._undo = (self._rec, self._rec_dt, self._rec_valid, self._now)
+        self._undo = (self._rec_dt, self._rec_valid)
         v = np.asarray(v, dtype=float)
         if v.shape != (self.nv,):
             self._rec_valid = False
             self._have_now = False
             return
-        spare = self._spare_v
-        np.copyto(spare, v)
-        c, J, A, self._spare_v = self._rec
-        self._rec = (*self._now, spare)
-        self._now = (c, J, A)
+        slot = self._slot
+        np.copyto(self._v_rows[slot], v)
+        self._slot = 1 - slot  # the now slot becomes rec, the old rec slot the next now
         self._rec_dt = self._dt_now
         self._rec_valid = True
         self._now_in_rec = True
@@ -312,14 +331,15 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if undo is None:
             return
         self._undo = None
-        if self._now_in_rec:  # the command buffer it wrote becomes the spare one again
-            self._spare_v = self._rec[3]
-        self._rec, self._rec_dt, self._rec_valid, self._now = undo
+        if self._now_in_rec:  # the slots back: the last compute's values are the now slot again
+            self._slot = 1 - self._slot
+        self._rec_dt, self._rec_valid = undo
         self._now_in_rec = False
         self._have_now = True
 
-    def compute(self, config: Configuration, dt: float):
-        """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
+    def _rows_into(self, config: Configuration, dt: float, C: np.ndarray, l: np.ndarray, u: np.ndarray) -> None:
+        """The rows of :meth:`compute` at ``config`` written into C (dim, nv), l, u (dim,) (its own buffers or a
+        controller's rows), this tick's kinematics kept in the memory."""
         J = config.com_jacobian
         if not self.angular_momentum:
             Ag = J
@@ -332,14 +352,25 @@ class ExecutedZmpConstraint(InequalityConstraint):
         # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on
         # A_G,ang; last row −c̈_z ≤ (1 − ρ) g ⇔ −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt (compiled, one call)
         dt = float(dt)
-        _zmp_tick(config.com, J, Ag, self.angular_momentum, *self._now, self._rec_valid, *self._rec, self._rec_dt,
-                  self.normals, self.offsets, self.ground_z, self.mass, self.gravity, dt, self.min_normal_ratio,
-                  self._J_eff, self._C, self._u)
+        _zmp_tick(config.com, J, Ag, self._mem, self._slot, self._rec_valid, self._rec_dt, self._edges, self.ground_z,
+                  self.mass, self.gravity, dt, self.min_normal_ratio, self.angular_momentum, C, l, u)
         self._dt_now = dt
         self._have_now = True
         self._now_in_rec = False
         self._undo = None
+
+    def compute(self, config: Configuration, dt: float):
+        """(C (dim, nv), l, u) of the module docstring; inactive rows are 0 ≤ +inf."""
+        self._rows_into(config, dt, self._C, self._l, self._u)
         return self._C, self._l, self._u
+
+    def write(self, ctx, M_rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """The rows of :meth:`compute` written in place into C[rows] (dim, nv), l[rows], u[rows] (dim,) (a controller's
+        stacked buffers) at ``ctx.config``, ``ctx.dt``; a subclass that overrides :meth:`compute` is written from it."""
+        if type(self).compute is not ExecutedZmpConstraint.compute:
+            super().write(ctx, M_rows, lo, hi)
+            return
+        self._rows_into(ctx.config, ctx.dt, M_rows, lo, hi)
 
 
 class DcmPolygonConstraint(ComPolygonConstraint):

@@ -117,12 +117,13 @@ class WalkController(StanceController):
         support = rows.support[k]
         if support != self.support:
             self.set_support(support, config)
-        self.com.set_target_trusted(rows.com[k], rows.com_vel[k])
+        self.com.set_target_trusted(rows.com_rows[k], rows.com_vel_rows[k])
         if not self.stance["left"]:
-            self.swing["left"].set_target_rows(rows.left_rot_t[k], rows.left_pos[k], rows.left_ff[k])
+            self.swing["left"].set_target_rows(rows.left_rot_t_rows[k], rows.left_pos_rows[k], rows.left_ff_rows[k])
         if not self.stance["right"]:
-            self.swing["right"].set_target_rows(rows.right_rot_t[k], rows.right_pos[k], rows.right_ff[k])
-        self.torso.set_target_rows(rows.torso_rot_t[k], rows.zero3)
+            self.swing["right"].set_target_rows(rows.right_rot_t_rows[k], rows.right_pos_rows[k],
+                                                rows.right_ff_rows[k])
+        self.torso.set_target_rows(rows.torso_rot_t_rows[k], rows.zero3)
 
 
 class _PlanRows:
@@ -132,7 +133,9 @@ class _PlanRows:
     ``*_pos`` (N, 3) the position (m, world) and ``*_ff`` (N, 6) the error rate [ṗ* (world); R*ᵀ ω*], each row
     C-contiguous (:meth:`wbc.tasks.FrameTask.set_target_rows`); ``torso_rot_t`` (N, 3, 3): the torso target,
     yaw = mean heading of the soles (:func:`wbc.geometry.mean_heading`) applied to the torso's initial rotation;
-    ``support``: the support codes as a list of ints.
+    ``support``: the support codes as a list of ints. Each array also as a list of its rows (``*_rows``: the row
+    views made once, so that a tick hands them over without indexing the arrays; the torso rows of equal targets
+    are one view).
 
     Raises:
         InvalidTargetError: non-finite samples or a sole rotation block that is not a rotation.
@@ -170,6 +173,10 @@ class _PlanRows:
             yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
             rots[i] = (pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ torso_ref_rot).T
         self.torso_rot_t = rots[inverse.reshape(-1)]
+        unique_rows = list(rots)
+        self.torso_rot_t_rows = [unique_rows[i] for i in inverse.reshape(-1).tolist()]
+        for name in ("com", "com_vel", "left_rot_t", "left_pos", "left_ff", "right_rot_t", "right_pos", "right_ff"):
+            setattr(self, f"{name}_rows", list(getattr(self, name)))
         # (left writeable: a read-only array is another type for the compiled task kernels, i.e. a recompile)
 
 
