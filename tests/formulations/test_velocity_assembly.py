@@ -6,7 +6,7 @@ posture task; random weights and gains), random constraint sets (contacts on 0, 
 velocity limits), a random configuration near the reference one and dt in [1 ms, 20 ms], on talos, g1 and
 humanoid15:
 
-1. the QP the compiled solver (``wbc.formulations.velocity_kernel.kinematic_solve_packed``) receives lies in the very
+1. the QP the compiled solver (``wbc.formulations.velocity_kernel.kinematic_tick_packed``) receives lies in the very
    buffers that ``KinematicController.assemble`` returns (the same memory), and it is bitwise the QP that the general
    path hands its backend (a DAQP controller built from the same draws: its ``backend.solve`` arguments);
 2. where the compiled solver ends at a KKT point and DAQP solves that QP, their answers agree to
@@ -168,20 +168,19 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
     dt = draw["dt"]
     fast, config = _build(robot, draw, "fast")
     general, config_g = _build(robot, draw, "daqp")
-    received = []  # (the compiled solver's QP as its buffers held it at the call, its exit code, its v)
-    solve_packed = velocity.kinematic_solve_packed
+    received = []  # (the compiled solver's QP as its buffers held it when solved, its exit code, its v)
+    tick_packed = velocity.kinematic_tick_packed
 
-    def spy(fb, ib, state, rstate, v, dt_, tolerance, max_iter):
-        snapshot = fb.copy()
-        it = solve_packed(fb, ib, state, rstate, v, dt_, tolerance, max_iter)
-        received.append((fb, snapshot, it, v.copy()))
-        return it
+    def spy(fb, ib, *args):  # the kernel forms H, g, then solves reading (never writing) the QP: read after it
+        it, guard = tick_packed(fb, ib, *args)
+        received.append((fb, fb.copy(), it, args[10].copy()))
+        return it, guard
 
-    velocity.kinematic_solve_packed = spy
+    velocity.kinematic_tick_packed = spy
     try:
         fast.solve(config, dt)
     finally:
-        velocity.kinematic_solve_packed = solve_packed
+        velocity.kinematic_tick_packed = tick_packed
     handed = []  # what the general path hands its backend
 
     def backend_spy(*qp, _solve=general.backend.solve, **kw):

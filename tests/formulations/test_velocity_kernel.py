@@ -215,3 +215,51 @@ def test_row_screen_passes_only_where_the_scaled_row_test_does(seed):
         screen = command_within_rows(v, C, l, u, tol)
         assert not screen or reference
         assert screen or not spare
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
+    """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve_packed, command_within_box and
+    command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
+    cost or right-hand side before solving."""
+    from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, form_qp,
+                                                  kinematic_pack, kinematic_solve_packed, kinematic_tick_packed)
+
+    rng = np.random.default_rng(900 + seed)
+    nv, mt, n_eq, n_in = 20, 5, 6, seed % 3
+    packs = [kinematic_pack(nv, n_eq, n_in, 0) for _ in range(2)]
+    Js, es = rng.standard_normal((mt, nv)), rng.standard_normal(mt)
+    rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), rng.standard_normal(mt)])
+    prow = np.arange(6, nv, dtype=np.int64)
+    pw, diff = rng.uniform(0.01, 0.1, prow.size), rng.standard_normal(nv)
+    A = rng.standard_normal((n_eq, nv))
+    A[:, :6] += 3 * np.eye(6)
+    v0 = rng.uniform(-0.3, 0.3, nv)
+    C = rng.standard_normal((n_in, nv))
+    for fb, ib, x in packs:
+        x["A"][:], x["b"][:], x["C"][:] = A, A @ v0, C
+        x["l"][:], x["u"][:] = C @ v0 - 0.2, C @ v0 + 0.2
+        x["lb"][:6], x["ub"][:6] = -np.inf, np.inf
+        x["lb"][6:], x["ub"][6:] = -1.0, 1.0
+    (fb1, ib1, x1), (fb2, ib2, x2) = packs
+    nr = nv - 6
+    s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    s2, r2, v2 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1["H"], x1["g"])
+    it1 = kinematic_solve_packed(fb1, ib1, s1, r1, v1, 0.002, 1e-6, 200)
+    guard1 = it1 >= 1 and command_within_box(v1, x1["lb"], x1["ub"], 1e-6) and (
+        n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
+    it2, guard2 = kinematic_tick_packed(fb2, ib2, Js, es, rowp, diff, pw, prow, 10.0, 1e-6, s2, r2, v2, 0.002, 1e-6,
+                                        200)
+    assert it1 >= 1 and (it2, guard2) == (it1, guard1)
+    assert np.array_equal(fb1, fb2) and np.array_equal(v1, v2) and np.array_equal(s1, s2)
+    for bad in ("b", "cost"):
+        fb, ib, x = packs[1]
+        state = s2.copy()
+        x["b"][0] = np.nan if bad == "b" else A[0] @ v0
+        es_bad = es.copy()
+        if bad == "cost":
+            es_bad[0] = np.inf
+        code, guard = kinematic_tick_packed(fb, ib, Js, es_bad, rowp, diff, pw, prow, 10.0, 1e-6, state, r2, v2,
+                                            0.002, 1e-6, 200)
+        assert code == NONFINITE_RHS and not guard and np.array_equal(state, s2)

@@ -19,7 +19,7 @@ from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
-from wbc.tasks.frame import as_se3
+from wbc.tasks.frame import as_se3, placement_log6_into
 
 __all__ = ["ContactConstraint"]
 
@@ -33,10 +33,26 @@ def _write_rows(jac, error, scale, A_out, b_out):
             A_out[i, j] = jac[i, j]
 
 
+@nb.njit(cache=True, nogil=True)
+def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
+    """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.tasks.frame.placement_log6_into`: P = ``pose`` (4, 3),
+    M = (``rot``, ``pos``)) in one compiled call. Returns False (nothing written) near a half-turn error."""
+    if not placement_log6_into(pose, rot, pos, b_out):
+        return False
+    for i in range(jac.shape[0]):
+        b_out[i] = scale * b_out[i]
+        for j in range(jac.shape[1]):
+            A_out[i, j] = jac[i, j]
+    return True
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_write_rows` (on-disk cache) once per process, at construction."""
+    """Load :func:`_write_rows` and :func:`_write_contact_rows` (on-disk cache) once per process, at construction,
+    for Pinocchio's array types (F-ordered rotation)."""
     _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
+    _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
+                        np.zeros((6, 1)), np.zeros(6))
 
 
 class ContactConstraint(EqualityConstraint):
@@ -61,7 +77,7 @@ class ContactConstraint(EqualityConstraint):
         self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
-        self._oMf_views: tuple | None = None  # (data, data.oMf[frame]): write
+        self._oMf_views: dict[int, tuple] = {}  # per Data object: (data, oMf, rotation, translation), _views
         _warm_up()
 
     @property
@@ -95,6 +111,7 @@ class ContactConstraint(EqualityConstraint):
         self._rot = pose.rotation.copy()
         self._rot_t = self._rot.T.copy()
         self._pos = pose.translation.copy()
+        self._pose = np.vstack([self._rot, self._pos])  # (4, 3) [R; pᵀ]: placement_log6_into
 
     def set_placement(self, pose) -> None:
         """Contact placement (pin.SE3 or (4,4), world) the frame must hold.
@@ -126,8 +143,27 @@ class ContactConstraint(EqualityConstraint):
             return
         config = ctx.config
         data = config.data
-        views = self._oMf_views
-        if views is None or views[0] is not data:  # data.oMf[frame] is a reference into Pinocchio's data
-            views = self._oMf_views = (data, data.oMf[self.frame_id])
-        _write_rows(pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL),
-                    pin.log6(self._placement.actInv(views[1])).vector, -min(self._gain, 1.0 / ctx.dt), A_out, b_out)
+        views = self._views(data)
+        jac = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
+        scale = -min(self._gain, 1.0 / ctx.dt)
+        if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
+            _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
+
+    def _views(self, data) -> tuple:
+        """(data, oMf, its rotation, its translation) of the contact frame: data.oMf[frame] is a reference into
+        Pinocchio's data and its rotation/translation are views of it (eigenpy), kept per Data object (a few)."""
+        views = self._oMf_views.get(id(data))
+        if views is None or views[0] is not data:
+            if len(self._oMf_views) >= 4:  # a controller's configuration and drift data, kept; others replaced
+                self._oMf_views.clear()
+            oMf = data.oMf[self.frame_id]
+            views = self._oMf_views[id(data)] = (data, oMf, oMf.rotation, oMf.translation)
+        return views
+
+    def error_into(self, data: pin.Data, out: np.ndarray) -> None:
+        """out (6,) ← log₆(P⁻¹ oMf), the error of :meth:`compute_error`, read from ``data.oMf`` of the contact frame
+        (placed by the caller, e.g. ``pin.updateFramePlacement``), in one compiled call (Pinocchio's ``log6`` near
+        a half-turn error)."""
+        views = self._views(data)
+        if not placement_log6_into(self._pose, views[2], views[3], out):
+            out[:] = pin.log6(self._placement.actInv(views[1])).vector

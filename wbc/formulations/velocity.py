@@ -177,9 +177,10 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import (all_finite, command_within_box, command_within_rows, contact_drift, ensure_compiled,
-                                              form_qp, kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
-                                              kinematic_solve_packed, translation_gap, weighted_rows)
+from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
+                                              ensure_compiled, form_qp, kinematic_finish_packed, kinematic_pack,
+                                              kinematic_reduced_packed, kinematic_tick_packed, translation_gap,
+                                              weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -738,6 +739,12 @@ class KinematicController:
         constraint's own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at
         the next call.
         """
+        return self._assemble(config, dt, True)
+
+    def _assemble(self, config: Configuration, dt: float, form_cost: bool):
+        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
+        are kept in ``_posture_diff``, ``_posture_gain`` for :func:`~wbc.formulations.velocity_kernel.form_qp` (the
+        compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`)."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
@@ -752,7 +759,10 @@ class KinematicController:
                 posture.share_weight(soft.pw)
         else:
             diff, pgain = soft.no_diff, 0.0
-        self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+        if form_cost:
+            self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+        else:
+            self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:
             task.add_cost(config, H, g)
         if self._level_order:  # the strict levels' rows, gathered the same way, weights applied (weighted_rows)
@@ -868,6 +878,7 @@ class KinematicController:
         plan.rstate = np.zeros(self._C.shape[0], np.int8)                      # across support switches
         plan.vdt = self._qp_pack[2]["vdt"]
         plan.logs = np.zeros((len(self._contacts), 6))
+        plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
         plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
         plan.supported = True
         return plan
@@ -882,41 +893,45 @@ class KinematicController:
             return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
         q = config.q
-        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False)  # the cost is formed by the kernel below
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
             return None  # dependent equality rows: dropped and checked by the general path
-        # every number of the cost and the contact targets is finite (targets, weights, gains written in place, q,
-        # placements): NaN and inf propagate into these sums; else the general path meets them and fails the tick
-        if not (math.isfinite(self._cost_check) and all_finite(b)):
-            return None
         t1 = perf_counter()
         v = np.empty(self.nv)
         backend = self.backend
         fb, ib, _ = self._qp_pack
-        it = kinematic_solve_packed(fb, ib, plan.state, plan.rstate, v, float(dt), backend.tolerance,
-                                    backend.max_iter)
+        tol = backend.tolerance
+        soft = self._soft
+        # one compiled call: the cost (form_qp); every number of the cost and the contact targets finite (targets,
+        # weights, gains written in place, q, placements: NaN and inf propagate into these sums; else None, the
+        # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
+        # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
+        # bounds: the solver reads them, never writes them)
+        it, guard = kinematic_tick_packed(fb, ib, soft.J, soft.e, soft.rowp, self._posture_diff, soft.pw, soft.prow,
+                                          self._posture_gain, self.damping, plan.state, plan.rstate, v, float(dt), tol,
+                                          backend.max_iter)
+        if it == NONFINITE_RHS:
+            return None
         backend.last_kernel_iterations = it
         rescued = it in _KERNEL_GAVE_UP and C.shape[0] > 0
         if rescued:
             it = self._fused_rescue(plan, v, dt)
+            guard = it >= 1 and command_within_box(v, lb, ub, tol) and (
+                C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))
         if it < 1:
             return None  # the general path: diagnosis, relaxation, safe command
-        # output guard: v finite and inside the box of the constraint objects and the inequality rows, to the
-        # backend's tolerance (the assembled bounds: the solver reads them, never writes them)
-        tol = backend.tolerance
-        if not (command_within_box(v, lb, ub, tol) and (C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))) \
-                and self._command_fault(v, lb, ub, C, l, u):  # the compiled screens pass only where it returns ''
+        if not guard and self._command_fault(v, lb, ub, C, l, u):  # the compiled screens pass only where it returns ''
             return None
         drift = 0.0
         if self._contacts:
             ddata = self._drift_data
             pin.forwardKinematics(model, ddata, pin.integrate(model, q, plan.vdt))
-            logs = plan.logs
-            for i, c in enumerate(self._contacts):
-                logs[i] = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, ddata, c.frame_id))).vector
-            drift = contact_drift(logs, b, self._contact_starts, self._contact_factors)
+            for c, log in plan.contact_logs:
+                pin.updateFramePlacement(model, ddata, c.frame_id)
+                c.error_into(ddata, log)
+            drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path

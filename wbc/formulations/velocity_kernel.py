@@ -31,7 +31,7 @@ from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
            "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
-           "kinematic_solve_packed", "kinematic_workspace", "translation_gap", "warm_up", "weighted_rows"]
+           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "translation_gap", "warm_up", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -362,6 +362,10 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
     return True
 
 
+#: :func:`kinematic_tick_packed`'s code when the equality right-hand side is not finite (nothing solved); below every
+#: exit code of :mod:`wbc.solvers.status`
+NONFINITE_RHS = -1000
+
 #: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
 _PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
 
@@ -418,6 +422,30 @@ def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
     8 arguments instead of 18 (each array argument costs the call ≈ 50 ns to type and unbox). Same returns."""
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
     return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def kinematic_tick_packed(fb, ib, Js, es, rowp, diff, pw, prow, pgain, damping, state, rstate, v, dt, tolerance,
+                          max_iter):
+    """The compiled tick in one call: :func:`form_qp` into the packed H, g (``Js`` … ``damping`` as there); its
+    check and :func:`all_finite` on the equality right-hand side b; :func:`kinematic_solve_packed`; the output guard's
+    screens :func:`command_within_box` and :func:`command_within_rows` on v — the same numbers as those calls made
+    one after the other.
+
+    Returns:
+        (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
+        ``state`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
+        passed both screens.
+    """
+    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    check = form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g)
+    if not (np.isfinite(check) and all_finite(b)):
+        return NONFINITE_RHS, False
+    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+    if it < 1:
+        return it, False
+    return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
+                                                             command_within_rows(v, C, l, u, tolerance))
 
 
 @nb.njit(cache=True, nogil=True)
@@ -571,6 +599,9 @@ def warm_up() -> float:
     views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
     views["lb"][6], views["ub"][6] = -1.0, 1.0
     kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
+    kinematic_tick_packed(fb, ib, np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0),
+                          np.zeros(0, np.int64), 0.0, 1e-6, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7),
+                          0.002, 1e-6, 10)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))

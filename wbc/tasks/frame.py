@@ -33,7 +33,7 @@ from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
-           "orientation_drift", "as_se3"]
+           "orientation_drift", "as_se3", "log3_into", "jlog3_into", "placement_log6_into"]
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -101,6 +101,130 @@ _EPS = float(np.finfo(float).eps)
 
 
 @nb.njit(cache=True, nogil=True)
+def log3_into(rel, log):
+    """log (3,) ← log₃(rel) for a rotation matrix rel (3, 3), as Pinocchio's ``log3`` computes it
+    (``pinocchio/spatial/log.hxx``: the renormalized rotation, θ from its trace, θ / sin θ times its antisymmetric
+    part, the series below ε^(1/3)); compiled, SO(3) algebra only.
+
+    Returns:
+        θ ∈ [0, π) (rad); −1 when rel is within Pinocchio's tolerance of a half turn (its singular branch, not done
+        here: ``log`` untouched, call ``pin.log3``).
+    """
+    n0 = np.sqrt(rel[0, 0] * rel[0, 0] + rel[1, 0] * rel[1, 0] + rel[2, 0] * rel[2, 0])
+    n1 = np.sqrt(rel[0, 1] * rel[0, 1] + rel[1, 1] * rel[1, 1] + rel[2, 1] * rel[2, 1])
+    c0x, c0y, c0z = rel[0, 0] / n0, rel[1, 0] / n0, rel[2, 0] / n0
+    c1x, c1y, c1z = rel[0, 1] / n1, rel[1, 1] / n1, rel[2, 1] / n1
+    c2x, c2y, c2z = c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x
+    c0x, c0y, c0z = c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x
+    tr = c0x + c1y + c2z
+    cos_value = (tr - 1.0) / 2.0
+    if not cos_value >= -1.0 + _PREC2:
+        return -1.0
+    acos_expansion = np.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if tr <= 3.0 - _PREC2:
+        theta = np.arccos(cos_value) if tr >= -1.0 + _PREC2 else np.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    u0 = 0.5 * (c1z - c2y)
+    u1 = 0.5 * (c2x - c0z)
+    u2 = 0.5 * (c0y - c1x)
+    nu2 = u0 * u0 + u1 * u1 + u2 * u2
+    if theta >= _PREC2:
+        t = theta / np.sin(theta)
+    else:
+        t = 1.0 + nu2 / 6.0 + nu2 * nu2 * 3.0 / 40.0
+    log[0], log[1], log[2] = t * u0, t * u1, t * u2
+    return theta
+
+
+@nb.njit(cache=True, nogil=True)
+def jlog3_into(theta, log, jlog):
+    """jlog (3, 3) ← Jlog₃ at log = log₃(R) (3,), θ = ‖log‖ (rad), as Pinocchio's ``Jlog3`` computes it (its series
+    below ε^(1/4)); compiled. Returns (sin θ, cos θ)."""
+    st, ct = np.sin(theta), np.cos(theta)
+    if theta < _PREC3:
+        alpha_j = 1.0 / 12.0 + theta * theta / 720.0
+        diag = 0.5 * (2.0 - theta * theta / 6.0)
+    else:
+        st_1mct = st / (1.0 - ct)
+        alpha_j = 1.0 / (theta * theta) - st_1mct / (2.0 * theta)
+        diag = 0.5 * (theta * st_1mct)
+    for i in range(3):
+        for j in range(3):
+            jlog[i, j] = alpha_j * log[i] * log[j]
+        jlog[i, i] += diag
+    jlog[0, 1] -= 0.5 * log[2]
+    jlog[0, 2] += 0.5 * log[1]
+    jlog[1, 0] += 0.5 * log[2]
+    jlog[1, 2] -= 0.5 * log[0]
+    jlog[2, 0] -= 0.5 * log[1]
+    jlog[2, 1] += 0.5 * log[0]
+    return st, ct
+
+
+@nb.njit(cache=True, nogil=True)
+def placement_log6_into(pose, rot, pos, out):
+    """out (6,) ← log₆(P⁻¹ M) = (linear, angular) of a placement M (``rot`` (3, 3), ``pos`` (3,), world) relative to
+    P given as ``pose`` (4, 3) = [R_P; p_Pᵀ] (world): what ``pin.log6(P.actInv(M)).vector`` returns, computed
+    with Pinocchio's formulas (``SE3.actInv``; ``log6`` of ``pinocchio/spatial/log.hxx``) in one compiled call
+    (m, rad; P's axes).
+
+    Returns:
+        False when P⁻¹M's rotation is within Pinocchio's tolerance of a half turn (``out`` then not fully written:
+        call ``pin.log6``), else True.
+    """
+    rel = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            rel[i, j] = pose[0, i] * rot[0, j] + pose[1, i] * rot[1, j] + pose[2, i] * rot[2, j]
+    d0, d1, d2 = pos[0] - pose[3, 0], pos[1] - pose[3, 1], pos[2] - pose[3, 2]
+    p0 = pose[0, 0] * d0 + pose[1, 0] * d1 + pose[2, 0] * d2
+    p1 = pose[0, 1] * d0 + pose[1, 1] * d1 + pose[2, 1] * d2
+    p2 = pose[0, 2] * d0 + pose[1, 2] * d1 + pose[2, 2] * d2
+    a0 = 0.5 * (rel[2, 1] - rel[1, 2])
+    a1 = 0.5 * (rel[0, 2] - rel[2, 0])
+    a2 = 0.5 * (rel[1, 0] - rel[0, 1])
+    t2 = a0 * a0 + a1 * a1 + a2 * a2
+    tr = rel[0, 0] + rel[1, 1] + rel[2, 2]
+    theta = log3_into(rel, out[3:])
+    if theta < 0.0:
+        return False
+    st, ct = np.sin(theta), np.cos(theta)
+    if tr >= 3.0 - _PREC2:
+        alpha = 1.0 - t2 / 12.0 - t2 * t2 / 720.0
+        beta = 1.0 / 12.0 + t2 / 720.0
+    else:
+        alpha = theta * st / (2.0 * (1.0 - ct))
+        beta = 1.0 / (theta * theta) - st / (2.0 * theta * (1.0 - ct))
+    w0, w1, w2 = out[3], out[4], out[5]
+    bd = beta * (w0 * p0 + w1 * p1 + w2 * p2)
+    out[0] = alpha * p0 - 0.5 * (w1 * p2 - w2 * p1) + bd * w0
+    out[1] = alpha * p1 - 0.5 * (w2 * p0 - w0 * p2) + bd * w1
+    out[2] = alpha * p2 - 0.5 * (w0 * p1 - w1 * p0) + bd * w2
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out):
+    """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
+    instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
+    of a half turn, else 0."""
+    rel = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            rel[i, j] = target_rot_t[i, 0] * rot[0, j] + target_rot_t[i, 1] * rot[1, j] \
+                + target_rot_t[i, 2] * rot[2, j]
+    log = np.empty(3)
+    theta = log3_into(rel, log)
+    if theta < 0.0:
+        return 1
+    jlog = np.empty((3, 3))
+    jlog3_into(theta, log, jlog)
+    _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out)
+    return 0
+
+
+@nb.njit(cache=True, nogil=True)
 def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, rows, error_out, jac_out, drift_out):
     """:meth:`FrameTask.compute_with_drift_into` in one compiled pass (module docstring): the selected rows of the
     error, Jacobian and drift J̇v into error_out (k,), jac_out (k, nv), drift_out (k,), from Pinocchio's frame
@@ -132,54 +256,10 @@ def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, row
             for j in range(3):
                 rel[i, j] = target_rot_t[i, 0] * rot[0, j] + target_rot_t[i, 1] * rot[1, j] \
                     + target_rot_t[i, 2] * rot[2, j]
-        # log3 (pinocchio log3_impl): renormalized rotation, θ from the trace, log = θ / sin θ · unskew
-        rn = np.empty((3, 3))
-        n0 = np.sqrt(rel[0, 0] * rel[0, 0] + rel[1, 0] * rel[1, 0] + rel[2, 0] * rel[2, 0])
-        n1 = np.sqrt(rel[0, 1] * rel[0, 1] + rel[1, 1] * rel[1, 1] + rel[2, 1] * rel[2, 1])
-        c0x, c0y, c0z = rel[0, 0] / n0, rel[1, 0] / n0, rel[2, 0] / n0
-        c1x, c1y, c1z = rel[0, 1] / n1, rel[1, 1] / n1, rel[2, 1] / n1
-        c2x, c2y, c2z = c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x
-        c0x, c0y, c0z = c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x
-        rn[0, 0], rn[1, 0], rn[2, 0] = c0x, c0y, c0z
-        rn[0, 1], rn[1, 1], rn[2, 1] = c1x, c1y, c1z
-        rn[0, 2], rn[1, 2], rn[2, 2] = c2x, c2y, c2z
-        tr = rn[0, 0] + rn[1, 1] + rn[2, 2]
-        cos_value = (tr - 1.0) / 2.0
-        if not cos_value >= -1.0 + _PREC2:
+        theta = log3_into(rel, log)
+        if theta < 0.0:
             return 1
-        acos_expansion = np.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
-        if tr <= 3.0 - _PREC2:
-            theta = np.arccos(cos_value) if tr >= -1.0 + _PREC2 else np.pi - acos_expansion
-        else:
-            theta = acos_expansion
-        u0 = 0.5 * (rn[2, 1] - rn[1, 2])
-        u1 = 0.5 * (rn[0, 2] - rn[2, 0])
-        u2 = 0.5 * (rn[1, 0] - rn[0, 1])
-        nu2 = u0 * u0 + u1 * u1 + u2 * u2
-        if theta >= _PREC2:
-            t = theta / np.sin(theta)
-        else:
-            t = 1.0 + nu2 / 6.0 + nu2 * nu2 * 3.0 / 40.0
-        log[0], log[1], log[2] = t * u0, t * u1, t * u2
-        # Jlog3 (pinocchio Jlog3_impl)
-        st, ct = np.sin(theta), np.cos(theta)
-        if theta < _PREC3:
-            alpha_j = 1.0 / 12.0 + theta * theta / 720.0
-            diag = 0.5 * (2.0 - theta * theta / 6.0)
-        else:
-            st_1mct = st / (1.0 - ct)
-            alpha_j = 1.0 / (theta * theta) - st_1mct / (2.0 * theta)
-            diag = 0.5 * (theta * st_1mct)
-        for i in range(3):
-            for j in range(3):
-                jlog[i, j] = alpha_j * log[i] * log[j]
-            jlog[i, i] += diag
-        jlog[0, 1] -= 0.5 * log[2]
-        jlog[0, 2] += 0.5 * log[1]
-        jlog[1, 0] += 0.5 * log[2]
-        jlog[1, 2] -= 0.5 * log[0]
-        jlog[2, 0] -= 0.5 * log[1]
-        jlog[2, 1] += 0.5 * log[0]
+        st, ct = jlog3_into(theta, log, jlog)
         # drift: Jlog3 α₀ + (d/dt Jlog3) ω (_orientation_drift)
         w0, w1, w2 = vel[3], vel[4], vel[5]
         for i in range(3):
@@ -231,6 +311,8 @@ def _warm_up() -> None:
     e, j = np.empty(6), np.empty((6, 1))
     _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows
     _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
+    _frame_rows_log(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j)  # orientation rows, compiled log₃
+    placement_log6_into(np.eye(4, 3), rot, np.zeros(3), np.empty(6))  # a contact's error (Pinocchio's views)
     # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors
     _frame_rows_drift(rot, np.eye(3), np.zeros(3), np.zeros(3), jac, np.zeros(6), np.zeros(6), rows, e, j, np.empty(6))
 
@@ -387,7 +469,10 @@ class FrameTask(Task):
         rot = views[2]
         j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         if self._has_rot:
-            rel = self._target_rot_t.dot(rot)
+            if not _frame_rows_log(rot, self._target_rot_t, j_local, views[3], self._target_pos, self.rows,
+                                   error_out, jac_out):
+                return
+            rel = self._target_rot_t.dot(rot)  # within Pinocchio's tolerance of a half turn: its log₃
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
         else:
             log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
