@@ -165,3 +165,15 @@ def fd_jacobian(task, robot, q):
         em = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, -dq)))
         J[:, i] = (ep - em) / (2 * EPS)
     return J
+
+
+def highs_feasible(A, b, C, l, u, lb, ub) -> bool:
+    """Whether {x : A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub} is non-empty, by HiGHS's LP (scipy): the independent oracle of
+    the QP tests' feasibility claims."""
+    import scipy.optimize as so
+
+    fu, fl = np.isfinite(u), np.isfinite(l)
+    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
+    r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
+                   A_eq=A, b_eq=b, bounds=bounds, method="highs")
+    return r.status == 0

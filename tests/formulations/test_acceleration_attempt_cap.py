@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import quadprog
 
+from conftest import highs_feasible
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend
 from wbc.solvers.daqp import ITERATION_LIMIT
@@ -39,16 +40,6 @@ def _quadprog(H, g, A, b, C, l, u, lb, ub):
     return quadprog.solve_qp(H, -g, Cq, bq, E.shape[0])[0]
 
 
-def _highs_feasible(A, b, C, l, u, lb, ub) -> bool:
-    import scipy.optimize as so
-
-    fu, fl = np.isfinite(u), np.isfinite(l)
-    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
-    r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
-                   A_eq=A, b_eq=b, bounds=bounds, method="highs")
-    return r.status == 0
-
-
 def test_daqp_call_iterations_caps_each_call_and_is_told_apart_from_the_budget():
     """``DaqpBackend.call_iterations`` = 20 on a QP recorded from the ID fuzz (humanoid15, |g| ≈ 1e6; HiGHS:
     feasible) that DAQP's plain call needs ~100 iterations for: the attempt stops after at most 20 iterations,
@@ -56,7 +47,7 @@ def test_daqp_call_iterations_caps_each_call_and_is_told_apart_from_the_budget()
     (None). With a cap of 190 the plain attempt ends by itself (its false infeasibility verdict: not capped) and
     the cost-scaled call returns quadprog's optimum to 1e-6 relative in at most 190 iterations."""
     H, g, A, b, C, l, u, lb, ub = _qp()
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     ref = _quadprog(H, g, A, b, C, l, u, lb, ub)
     backend = DaqpBackend(primal_tol=1e-6, warm_start="dual")
     backend.cold_retry = False

@@ -14,6 +14,7 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import highs_feasible
 from wbc.dynamics import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.solvers import DaqpBackend, QPBackend
@@ -244,16 +245,6 @@ def test_budget_is_validated(robots):
             InverseDynamicsController(qp, DT, budget=bad)
 
 
-def _highs_feasible(A, b, C, l, u, lb, ub) -> bool:
-    import scipy.optimize as so
-
-    fu, fl = np.isfinite(u), np.isfinite(l)
-    bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None) for lo, hi in zip(lb, ub)]
-    r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
-                   A_eq=A, b_eq=b, bounds=bounds, method="highs")
-    return r.status == 0
-
-
 def test_daqp_solves_recorded_single_support_problem(robots):
     """Item 6: a QP recorded from the ID fuzz (humanoid15, left foot released, ``solver="daqp"``) that DAQP
     reported infeasible although HiGHS finds its hard set feasible. Its released contact's friction rows were
@@ -267,7 +258,7 @@ def test_daqp_solves_recorded_single_support_problem(robots):
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_single_support_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     robot = robots("humanoid15")
     released = SoleContact(robot, robot.left_sole, name="left")
     released.deactivate()
@@ -294,7 +285,7 @@ def test_daqp_solves_recorded_large_cost_problem():
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_large_cost_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     _assert_feasible(x, A, b, C, l, u, lb, ub)
     xq = QpsolversBackend("quadprog").raw_solve(H, g, A, b, C, l, u, lb, ub)
@@ -317,7 +308,7 @@ def test_daqp_dual_solves_recorded_g1_landing_problems(name):
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / f"{name}.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     x = DaqpBackend(primal_tol=1e-6, warm_start="dual").solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     _assert_feasible(x, A, b, C, l, u, lb, ub)
     fu, fl = np.isfinite(u), np.isfinite(l)
@@ -516,7 +507,7 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_released_foot_talos.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     pinned = lb == ub
     assert pinned.sum() == 12
     with pytest.raises(SolverError):  # the failure this retry is for (DAQP with the ID settings)
@@ -536,7 +527,7 @@ def test_qp_of_a_released_foot_that_daqp_calls_infeasible_is_solved_with_its_pin
     l3 = l.copy()
     l3[np.flatnonzero(np.isfinite(u) & np.any(C[:, ~pinned] != 0, axis=1))[0]] = 1e9  # a row past its upper bound
     x3, reason = solve_pinned_reduced(H, g, A, b, C, l3, u, lb, ub, 1e-6, details=True)
-    assert x3 is None and reason == "infeasible" and not _highs_feasible(A, b, C, l3, u, lb, ub)
+    assert x3 is None and reason == "infeasible" and not highs_feasible(A, b, C, l3, u, lb, ub)
 
 
 def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_eliminated(robots):
@@ -589,7 +580,7 @@ def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retr
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_first_tick_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub) and not np.any(lb == ub)
     first = DaqpBackend(primal_tol=1e-6, warm_start="dual")
     first.cold_retry = False
     with pytest.raises(SolverError):
@@ -617,7 +608,7 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
-    assert _highs_feasible(A, b, C, l, u, lb, ub)
+    assert highs_feasible(A, b, C, l, u, lb, ub)
     with pytest.raises(SolverError):
         ProxQPBackend(eps_abs=1e-7).solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
     x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, 1e-6)
@@ -631,7 +622,7 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     # an infeasible QP (a friction row's lower bound past everything) gets no answer from either solver
     l2 = l.copy()
     l2[np.flatnonzero(np.isfinite(u))[0]] = 1e9
-    assert not _highs_feasible(A, b, C, l2, u, lb, ub)
+    assert not highs_feasible(A, b, C, l2, u, lb, ub)
     assert second_opinion(H, g, A, b, C, l2, u, lb, ub, 1e-6) == (None, "")
 
 

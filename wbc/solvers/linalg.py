@@ -175,6 +175,17 @@ def row_violation(C, l, u, x, n, p, res):
     return res
 
 
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True, inline="always")
+def _row_value_and_scale(M, i, x):
+    """(M_i x, Σ_j |M_ij x_j|) of row i of M (m, n) at x (n,)."""
+    s = 0.0
+    t = 0.0
+    for j in range(x.shape[0]):
+        s += M[i, j] * x[j]
+        t += abs(M[i, j]) * abs(x[j])
+    return s, t
+
+
 @nb.njit("f8(f8[:], f8[:], f8[:, :], f8[:], f8[:, :], f8[:], f8[:], f8[:], f8[:])", cache=True, fastmath=FASTMATH,
          nogil=True)
 def scaled_row_violation(x, xc, A, b, C, l, u, lb, ub):
@@ -199,20 +210,12 @@ def scaled_row_violation(x, xc, A, b, C, l, u, lb, ub):
             if v > worst:
                 worst = v
     for i in range(A.shape[0]):
-        s = 0.0
-        t = 0.0
-        for j in range(n):
-            s += A[i, j] * xc[j]
-            t += abs(A[i, j]) * abs(xc[j])
+        s, t = _row_value_and_scale(A, i, xc)
         v = abs(s - b[i]) / max(max(1.0, abs(b[i])), t)
         if v > worst:
             worst = v
     for i in range(C.shape[0]):
-        s = 0.0
-        t = 0.0
-        for j in range(n):
-            s += C[i, j] * xc[j]
-            t += abs(C[i, j]) * abs(xc[j])
+        s, t = _row_value_and_scale(C, i, xc)
         lo = l[i] - s
         hi = s - u[i]
         ex = max(lo, hi)
