@@ -752,3 +752,57 @@ def test_strict_far_target_keeps_the_soles_within_the_budget(robots):
             sent = placement * pin.exp6(e * (1.0 - min(gain, 1.0 / DT) * DT))
             assert np.linalg.norm(data.oMf[contact.frame_id].translation - sent.translation) <= 5e-5, tick
         config.update(config.integrate(res.v, DT))
+
+
+def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
+    """Kinematic fuzz seed 100011, episode 154 (humanoid15, a hand target 1e6 m away, 3 strict levels, dt = 2 ms,
+    the fuzz's budget): from tick 8 the contacts' corrections contradict each other in a dependent direction, so no
+    trust region keeps the soles within sole_drift_tolerance (its drift does not fall with the radius), and the
+    stages before the safe command spend the tick's count. The 'contacts_held' QP at β = 0 (J_c v = 0) then got the
+    10 DAQP iterations a spent count leaves and failed, so every tick held v = 0 on an unchanged state: 42 failed
+    ticks of 50 on the parent commit. Now that QP gets its solver's iteration limit: the soles stay put to second
+    order (forward kinematics: each failed tick moves each stance sole at most sole_drift_tolerance, a run of failed
+    ticks at most 1 mm) and the episode recovers."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import fuzz
+
+    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
+    rng = np.random.default_rng(100011)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(155):
+            name = str(rng.choice(list(robots_)))
+            kind = str(rng.choice(["reachable", "absurd", "far"]))
+            strict = bool(rng.random() < 0.5)
+            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    dt, tol = 0.002, 5e-5
+    assert ctrl.sole_drift_tolerance == tol
+    model = ctrl.robot.model
+    data = model.createData()
+    contacts = ctrl.constraints[:2]
+
+    def soles(q):
+        pin.framesForwardKinematics(model, data, q)
+        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
+
+    failed, fallbacks, worst_tick, worst_run, start = 0, set(), 0.0, 0.0, None
+    for _ in range(50):
+        before = soles(config.q)
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+        if res.ok:
+            start = None
+            continue
+        failed += 1
+        fallbacks.add(res.fallback)
+        after = soles(config.q)
+        start = before if start is None else start
+        worst_tick = max(worst_tick, max(np.linalg.norm(a - b) for a, b in zip(after, before)))
+        worst_run = max(worst_run, max(np.linalg.norm(a - s) for a, s in zip(after, start)))
+    print(f"\n{failed} failed ticks {sorted(fallbacks)}; max sole displacement per failed tick {1e3 * worst_tick:.4f} mm, "
+          f"over a run {1e3 * worst_run:.4f} mm")
+    assert 1 <= failed <= 3  # the contradictory corrections are met (tick 8); 42 failed ticks before
+    assert fallbacks == {"contacts_held"}
+    assert worst_tick <= tol
+    assert worst_run <= 1e-3

@@ -126,7 +126,9 @@ input error), ``solve`` does not raise and never returns NaN:
    (J_c v = 0: kept where it is rather than pulled back onto its placement; e.g. a
    sub-millimetre sole drift whose correction, near a singular leg posture, needs joint velocities past their
    limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
-   where its rows send it (forward kinematics; at β = 0 scaled down by halves, up to 8 times, until it does);
+   where its rows send it (forward kinematics; at β = 0, solved to its solver's own iteration limit however much of
+   the tick's count is spent, then scaled down by 0.9 √(tolerance / drift), at most 1/2, up to 8 times, until it
+   does);
    steps 2 and 3 are taken only when they also leave each contact frame within ``SAFE_COMMAND_RADIUS`` of where
    the run of failed ticks began (or no farther from there than it is), so that a run of failed ticks never walks
    a stance sole away one tolerated drift at a time;
@@ -1661,8 +1663,9 @@ class KinematicController:
 
         Every safe command other than v = 0 is taken only when it is finite and within the box, and when it keeps
         the contact frames as an ok tick must (sole drift ≤ ``sole_drift_tolerance``; for 'contacts_held', whose
-        rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (×1/2, up to
-        8 times: the displacement is second order in v dt, and J_c v = 0 is kept) until it does, else v = 0."""
+        rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (by
+        0.9 √(tolerance / drift), at most 1/2, up to 8 times: the displacement is second order in v dt, and J_c v = 0
+        is kept) until it does, else v = 0."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
         over_budget = False
         reason = ("sole_drift" if isinstance(exc, _DriftFailure) else
@@ -1734,35 +1737,47 @@ class KinematicController:
                 rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
                 if rank < anchored.size:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
+                tried = []  # (β, what became of its command) for the message
                 for beta in _HELD_CORRECTION_SCALES:
                     if not self._fits(self._safe_estimate() + self._check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
                         break
                     self._b[self._contact_rows] = beta * anchored
                     try:
-                        v_h = self._solve_constraints_only(config)
-                    except Exception:  # noqa: BLE001 — they conflict even so: next β, then hold
+                        # β = 0 (J_c v = 0; v = 0 is a solution when the box holds it): the last command before a
+                        # hold gets its solver's own iteration limit, not the few iterations a spent tick count
+                        # leaves (its solves still counted)
+                        v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config)
+                    except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
+                        tried.append(f"β = {beta:g}: {type(qexc).__name__}")
                         continue
                     if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
+                        tried.append(f"β = {beta:g}: outside the constraints")
                         continue
+                    d = math.nan
                     for _ in range(9 if beta == 0.0 else 1):
                         if not self._fits(self._check_cost):
                             skipped = "contacts_held (its last scalings)"
                             break
                         t = self._work.seconds()
-                        held = (tol is None or self._held_drift(config, v_h, dt, beta, anchors) <= tol) and \
-                            self._within_run_radius(config, v_h, dt, anchors)
+                        d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
+                        held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
                         self._check_cost = max(self._check_cost, self._work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
                             break
-                        v_h = 0.5 * v_h  # (β = 0: J_c v = 0 kept, the drift is second order in v dt)
+                        # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)
+                        # (at most 1/2; 1/2 when the frames left the run's radius instead)
+                        scale = 0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))
+                        v_h = scale * v_h
+                    tried.append(f"β = {beta:g}: drift {d:.3g} m")
                     if fallback != "hold" or skipped:
                         break
                 if fallback == "hold" and not skipped:
                     message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
                                 f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m "
-                                f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began")
+                                f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began "
+                                f"({'; '.join(tried)})")
             except Exception:  # noqa: BLE001 — never raises: hold
                 pass
             finally:
@@ -1820,6 +1835,17 @@ class KinematicController:
             spent = self._work.seconds() - t
             self._safe_cost = max(self._safe_cost, spent) if self._safe_fresh else spent
             self._safe_fresh = True
+
+    def _solve_uncapped(self, config: Configuration) -> np.ndarray:
+        """:meth:`_solve_constraints_only` with the QP backends' iteration limit not lowered by the tick's spent
+        count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); its solves are counted as usual. Raises
+        SolverError."""
+        cap = self._work.cap
+        self._work.cap = math.inf
+        try:
+            return self._solve_constraints_only(config)
+        finally:
+            self._work.cap = cap
 
     def _constraints_only_qp(self) -> np.ndarray:
         """The QP of :meth:`_solve_constraints_only`, solved (SolverError when it has no solution)."""
