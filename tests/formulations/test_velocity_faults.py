@@ -155,23 +155,34 @@ def _fuzz_episode(robots, seed: int, episode: int):
     return name, kind, strict, dt, config, ctrl
 
 
-def _run_failed_ticks(config, ctrl, dt, ticks: int = 50) -> tuple[int, float]:
-    """(failed ticks, largest stance-sole displacement (m) over a run of failed ticks, by forward kinematics)."""
+def _run_failed_ticks(config, ctrl, dt, ticks: int = 50) -> tuple[int, float, float, set]:
+    """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
+    over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data."""
     contacts = ctrl.constraints[:2]
-    start, failed, worst_run = None, 0, 0.0
+    model = ctrl.robot.model
+    data = model.createData()
+
+    def soles(q):
+        pin.framesForwardKinematics(model, data, q)
+        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
+
+    start, failed, worst_run, worst_tick, fallbacks = None, 0, 0.0, 0.0, set()
     for _ in range(ticks):
-        before = [config.frame_placement(c.frame_id).translation.copy() for c in contacts]
+        before = soles(config.q)
         res = ctrl.solve(config, dt)
         config.update(config.integrate(res.v, dt))
         if res.ok:
             start = None
             continue
         failed += 1
+        fallbacks.add(res.fallback)
         start = before if start is None else start
-        after = [config.frame_placement(c.frame_id).translation for c in contacts]
+        after = soles(config.q)
+        worst_tick = max(worst_tick, max(np.linalg.norm(a - b) for a, b in zip(after, before)))
         worst_run = max(worst_run, max(np.linalg.norm(a - b) for a, b in zip(after, start)))
-    print(f"\n{failed} failed ticks; max sole displacement over a run of failed ticks {1e3 * worst_run:.4f} mm")
-    return failed, worst_run
+    print(f"\n{failed} failed ticks {sorted(fallbacks)}; max sole displacement per failed tick "
+          f"{1e3 * worst_tick:.4f} mm, over a run of failed ticks {1e3 * worst_run:.4f} mm")
+    return failed, worst_run, worst_tick, fallbacks
 
 
 def test_a_run_of_safe_commands_does_not_walk_a_sole_away(robots, monkeypatch):
@@ -186,7 +197,7 @@ def test_a_run_of_safe_commands_does_not_walk_a_sole_away(robots, monkeypatch):
     monkeypatch.setattr(KinematicController, "_consistent_contact_rhs", lambda self: False)
     name, kind, strict, dt, config, ctrl = _fuzz_episode(robots, 410002, 150)
     assert (name, kind, strict, dt) == ("humanoid15", "far", True, 0.002)
-    failed, worst_run = _run_failed_ticks(config, ctrl, dt)
+    failed, worst_run, _, _ = _run_failed_ticks(config, ctrl, dt)
     assert failed >= 40  # the long run of failed ticks is there (47 before)
     assert worst_run <= 1e-3
 
@@ -197,7 +208,7 @@ def test_dependent_contact_rows_get_their_least_squares_retry_within_the_budget(
     equality rows violated") where the weighted path's retry solves them; the retry is now one solve not cut by the
     budget (HiGHS confirms the raw rows infeasible: the retry is what makes them solvable)."""
     name, kind, strict, dt, config, ctrl = _fuzz_episode(robots, 410002, 150)
-    failed, worst_run = _run_failed_ticks(config, ctrl, dt)
+    failed, worst_run, _, _ = _run_failed_ticks(config, ctrl, dt)
     assert failed <= 5
     assert worst_run <= 1e-3
 
@@ -778,30 +789,7 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     assert (name, kind, strict) == ("humanoid15", "far", True)
     dt, tol = 0.002, 5e-5
     assert ctrl.sole_drift_tolerance == tol
-    model = ctrl.robot.model
-    data = model.createData()
-    contacts = ctrl.constraints[:2]
-
-    def soles(q):
-        pin.framesForwardKinematics(model, data, q)
-        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
-
-    failed, fallbacks, worst_tick, worst_run, start = 0, set(), 0.0, 0.0, None
-    for _ in range(50):
-        before = soles(config.q)
-        res = ctrl.solve(config, dt)
-        config.update(config.integrate(res.v, dt))
-        if res.ok:
-            start = None
-            continue
-        failed += 1
-        fallbacks.add(res.fallback)
-        after = soles(config.q)
-        start = before if start is None else start
-        worst_tick = max(worst_tick, max(np.linalg.norm(a - b) for a, b in zip(after, before)))
-        worst_run = max(worst_run, max(np.linalg.norm(a - s) for a, s in zip(after, start)))
-    print(f"\n{failed} failed ticks {sorted(fallbacks)}; max sole displacement per failed tick {1e3 * worst_tick:.4f} mm, "
-          f"over a run {1e3 * worst_run:.4f} mm")
+    failed, worst_run, worst_tick, fallbacks = _run_failed_ticks(config, ctrl, dt)
     assert 1 <= failed <= 3  # the contradictory corrections are met (tick 8); 42 failed ticks before
     assert fallbacks == {"contacts_held"}
     assert worst_tick <= tol
