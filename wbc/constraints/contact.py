@@ -126,8 +126,11 @@ class ContactConstraint(EqualityConstraint):
         self.placement = config.data.oMf[self.frame_id]
 
     def compute_error(self, config: Configuration) -> np.ndarray:
-        """(6,) pose error log₆(P⁻¹ oMf) of the frame w.r.t. its contact placement (m, rad; contact axes)."""
-        return pin.log6(self._placement.actInv(config.data.oMf[self.frame_id])).vector
+        """(6,) pose error log₆(P⁻¹ oMf) of the frame w.r.t. its contact placement (m, rad; contact axes), by the
+        compiled formula that :meth:`write` and :meth:`error_into` use (so that their rows equal this bit for bit)."""
+        out = np.empty(6)
+        self.error_into(config.data, out)
+        return out
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         b = self.compute_error(config)
