@@ -187,7 +187,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             ``update(t, controller, sim, q, v) -> external force (3,) or None`` and ``com_reference(t)`` —
             see :mod:`wbc.sim.scenarios`.
         after_fall: keep simulating this long (s) after a fall is detected (0: stop at once).
-        viewer, pacer: optional live viewer (``update(q, t)``) and real-time pacer (``wait(t)``).
+        viewer, pacer: optional live viewer (``update(q, t)``) and real-time pacer (``wait(t)``). A viewer whose
+            ``reads_configuration`` is False gets ``q = None`` when ``state`` is given.
         state: what the controller and the scenario read: None for MuJoCo's ground truth, or an estimator of the
             state from the plant's sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: ``reset(q, v)``,
             ``measure(sim, t) -> (q, v)``, called after ``mj_step1`` so the sensors see the state at t). The log's
@@ -242,13 +243,23 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     log_wrench, log_sole, log_ext, log_tick, log_step = (
         log[key] for key in ("sim_wrench", "sole_pos", "ext_force", "tick_time", "step_time"))
     q_est, v_est = (est["q_est"], est["v_est"]) if state is not None else (None, None)
+    # With an estimated state and a viewer that does not read the configuration, the ground truth only feeds the
+    # log: MuJoCo's qpos/qvel rows are copied in the loop and converted (with the log's CoM) after it.
+    deferred = state is not None and (viewer is None or not getattr(viewer, "reads_configuration", True))
+    sm = sim.state_map
+    raw_qpos = np.empty((n, sm.nq_mj)) if deferred else None
+    raw_qvel = np.empty((n, sm.nv)) if deferred else None
     last_path, last_text = None, ""
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
         if state is not None:
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
-        q, v = sim.get_state()
+        if deferred:
+            raw_qpos[k] = data.qpos[: sm.nq_mj]
+            raw_qvel[k] = data.qvel[: sm.nv]
+        else:
+            q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
         if give_zmp:
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
@@ -275,13 +286,14 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
         log_t[k] = t
-        log_q[k] = q
-        log_v[k] = v
+        if not deferred:
+            log_q[k] = q
+            log_v[k] = v
+            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
         if state is not None:
             q_est[k] = qc
             v_est[k] = vc
         log_tau[k] = tau
-        log_com[k] = pin.centerOfMass(pm, pdata, q, False)
         log_com_ref[k] = scenario.com_reference(t)
         if is_id:
             log_forces[k] = cmd.forces
@@ -304,7 +316,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             fell = True
             stop_at = min(n, k + 1 + int(round(after_fall / dt)))
         if viewer is not None:
-            viewer.update(q, t)
+            viewer.update(None if deferred else q, t)
         if pacer is not None:
             pacer.wait(t + dt)
         if k + 1 >= stop_at:
@@ -312,6 +324,12 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             break
     wall = perf_counter() - wall0
     sim.clear_external_forces()
+    if deferred:
+        for k in range(k_end):
+            q, v = sm.state_from_mj(raw_qpos[k], raw_qvel[k])
+            log_q[k] = q
+            log_v[k] = v
+            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
                   scenario=scenario.name, dt=dt, wall_time=wall, fell=monitor.fell,
