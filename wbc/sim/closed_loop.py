@@ -249,6 +249,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     sm = sim.state_map
     raw_qpos = np.empty((n, sm.nq_mj)) if deferred else None
     raw_qvel = np.empty((n, sm.nv)) if deferred else None
+    qpos = data.qpos  # (views of the fixed buffers of ``data``: one binding call each, not one per tick)
+    qpos_mj, qvel_mj = qpos[: sm.nq_mj], data.qvel[: sm.nv]
     last_path, last_text = None, ""
     wall0 = perf_counter()
     for k in range(n):
@@ -256,8 +258,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         if state is not None:
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
         if deferred:
-            raw_qpos[k] = data.qpos[: sm.nq_mj]
-            raw_qvel[k] = data.qvel[: sm.nv]
+            raw_qpos[k] = qpos_mj
+            raw_qvel[k] = qvel_mj
         else:
             q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
@@ -281,7 +283,6 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         else:
             mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
-        qpos = data.qpos
         if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
