@@ -108,7 +108,10 @@ class _FootWrenches:
     attached to each sole; without self-collision and external forces on the feet this is exactly the sum of the
     foot–floor contact forces that ``MujocoModel.foot_contact_wrenches`` computes contact by contact (checked
     equal to 1e-12 in the tests), with one MuJoCo call instead of a loop over the contacts. Valid after
-    ``mj_step`` for the state at the start of that step.
+    ``mj_step`` for the state at the start of that step. When that step already computed ``cfrc_ext`` (MuJoCo's
+    ``flg_rnepost``: a force/torque or accelerometer sensor's acceleration stage) and the integrator evaluates the
+    dynamics once per step (not RK4), those numbers are used as they are: ``mj_rnePostConstraint`` on the same
+    inputs gives them again.
     """
 
     def __init__(self, sim: MujocoModel):
@@ -125,11 +128,13 @@ class _FootWrenches:
         self.sole_body_arr = np.array(self.sole_body, dtype=np.int64)
         self.sole_offset_arr = np.array(self.sole_offset, dtype=float)
         self.root_arr = np.array(self.root, dtype=np.int64)
+        self.single_stage = int(sim.model.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4)
         _warm_up()
 
     def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
         model, d = self.sim.model, self.sim.data
-        mujoco.mj_rnePostConstraint(model, d)
+        if not (self.single_stage and d.flg_rnepost):
+            mujoco.mj_rnePostConstraint(model, d)
         _foot_wrench_kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.rows, self.ends, self.sole_body_arr,
                             self.sole_offset_arr, self.root_arr, out_wrench, out_pos)
 
