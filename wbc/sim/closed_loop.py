@@ -12,7 +12,9 @@ Every control tick k (period dt = the MuJoCo timestep, 2 ms → 500 Hz, one ``mj
 3. the controller computes τ (timed: this is the "tick time");
 4. τ is written to the actuators (MuJoCo clamps it to the URDF effort limits) and ``mj_step`` advances dt;
 5. the log records t, q, v, τ, the CoM and its reference, the controller's contact forces and the ground-truth foot
-   wrenches (contact forces summed per foot, valid for the state at t);
+   wrenches (contact forces summed per foot, valid for the state at t); on an estimated state (and a viewer that
+   does not read q) the ground truth is copied as MuJoCo's qpos/qvel rows and converted, with the CoM, after the
+   loop;
 6. :class:`~wbc.sim.outcome.OutcomeMonitor` checks the new state (t + dt) from MuJoCo's data: a fall (base drop
    > 0.2 m, pelvis or torso tilt > 30° from nominal, or a non-foot body touching the floor), joint speeds above
    the URDF limits, and the landing slide of the soles' contact points.
