@@ -15,8 +15,9 @@ Issue target: CPU real-time factor ≥ 5. Exit code 0 when met, 1 otherwise. ``-
 ``--breakdown`` adds the CPU time per tick (``time.thread_time``) of each part of the loop — the controller
 (``IDBalanceController.solve``: ID tick), MuJoCo (``mj_step1`` + ``mj_step2``), the simulated sensors and the state
 estimator (``EstimatedState.measure``), the walk scenario (stabilizer, gait, references: ``WalkScenario.update``),
-the outcome checks (``OutcomeMonitor.update``), reading the MuJoCo state (``MujocoModel.get_state``), writing the
-torques (``MujocoModel.set_torques``) — and the rest of the loop (logging, foot wrenches, CoM of the log); the
+the outcome checks (``OutcomeMonitor.update``), reading the MuJoCo state (``MujocoModel.get_state``; on the estimated
+state the log's ground truth is converted after the loop instead, inside the timed ``run_closed_loop``), writing the
+torques (``MujocoModel.set_torques``) — and the rest (logging, foot wrenches, CoM of the log, that conversion); the
 wrappers add about a microsecond per call.
 """
 

@@ -79,3 +79,44 @@ def test_compiled_measured_zmp_matches_a_numpy_reference():
             np.testing.assert_allclose([x, y], [-M[1] / F[2], M[0] / F[2]], rtol=1e-12, atol=1e-12)
         n_none += not found
     assert 10 < n_none < 490
+
+
+class _RecordingViewer:
+    """A viewer that reads the configuration: keeps every q it is given, with MuJoCo's state at that call."""
+
+    def __init__(self, sim):
+        self.sim, self.q, self.qpos = sim, [], []
+
+    def update(self, q, t):
+        self.q.append(np.array(q))
+        self.qpos.append(self.sim.data.qpos.copy())
+
+
+def test_ground_truth_log_is_the_same_whether_or_not_a_viewer_reads_it():
+    """With an estimated state the loop reads MuJoCo's ground truth only for the log (converted after the loop)
+    unless the viewer reads the configuration: both runs log the same q, v and CoM, bit for bit, and the CoM is
+    Pinocchio's ``centerOfMass`` of the logged q."""
+    from wbc.sim.scenarios import StandScenario
+    from wbc.viz.progress import ProgressViewer
+
+    robot = load_robot("talos")
+    runs = []
+    viewer = None
+    for reads in (False, True):
+        sim = build_mujoco_model(robot)
+        controller = make_controller(robot, "id", dt=sim.timestep)
+        viewer = _RecordingViewer(sim) if reads else ProgressViewer(0.1, None, enabled=False)
+        assert getattr(viewer, "reads_configuration", True) is reads
+        run, _ = run_scenario(sim, controller, StandScenario(duration=0.1), state=EstimatedState(sim, seed=1),
+                              viewer=viewer)
+        runs.append(run)
+    a, b = runs
+    for key in ("q", "v", "com", "tau", "sim_wrench"):
+        assert np.array_equal(getattr(a, key), getattr(b, key)), key
+    assert np.array_equal(np.array(viewer.q), b.q)
+    # the viewer is called after the step: MuJoCo then holds the state of log row k + 1 (base position)
+    assert np.array_equal(np.array(viewer.qpos)[:-1, :3], b.q[1:, :3])
+    model = robot.model
+    data = model.createData()
+    for k in (0, len(b.t) // 2, len(b.t) - 1):
+        assert np.array_equal(pin.centerOfMass(model, data, b.q[k], False), b.com[k])

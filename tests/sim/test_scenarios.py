@@ -218,6 +218,35 @@ def test_logged_foot_wrenches_match_contact_forces():
         assert np.abs(out_p[i] - sim.sole_pose(s).translation).max() < 1e-12
 
 
+def test_foot_wrenches_reuse_the_steps_cfrc_ext_only_when_it_is_mj_rnePostConstraints():
+    """On the plant with F/T sensors (implicitfast: MuJoCo's step already ran ``mj_rnePostConstraint`` for its
+    sensors), the logged foot wrenches equal, bit for bit, those after a fresh ``mj_rnePostConstraint`` call; with
+    RK4 (several dynamics stages per step) the call is made."""
+    import mujoco
+
+    from wbc.sim.closed_loop import _FootWrenches
+
+    sim = build_mujoco_model(wbc.load_robot("talos"), sensors=True)
+    assert int(sim.model.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(sim.robot.q_ref)
+    fw = _FootWrenches(sim)
+    calls = []
+    for k in range(30):
+        mujoco.mj_step(sim.model, sim.data)
+        assert sim.data.flg_rnepost
+        out_w, out_p = np.zeros((2, 6)), np.zeros((2, 3))
+        fw(out_w, out_p)
+        mujoco.mj_rnePostConstraint(sim.model, sim.data)
+        ref_w, ref_p = np.zeros((2, 6)), np.zeros((2, 3))
+        fw(ref_w, ref_p)
+        assert np.array_equal(out_w, ref_w) and np.array_equal(out_p, ref_p)
+        calls.append(out_w[:, 2].sum())
+    assert calls[-1] > 0.0  # the feet are loaded: the compared wrenches are not zeros
+    sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    assert not _FootWrenches(sim).single_stage
+
+
 def test_effort_saturation_counts_ticks_at_the_limit_before_the_fall():
     """Seconds at ≥ 99 % of the effort limit per joint, up to the fall time, longest first (hand-built torques)."""
     from wbc.sim.scenarios import effort_saturation

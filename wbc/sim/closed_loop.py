@@ -12,7 +12,9 @@ Every control tick k (period dt = the MuJoCo timestep, 2 ms → 500 Hz, one ``mj
 3. the controller computes τ (timed: this is the "tick time");
 4. τ is written to the actuators (MuJoCo clamps it to the URDF effort limits) and ``mj_step`` advances dt;
 5. the log records t, q, v, τ, the CoM and its reference, the controller's contact forces and the ground-truth foot
-   wrenches (contact forces summed per foot, valid for the state at t);
+   wrenches (contact forces summed per foot, valid for the state at t); on an estimated state (and a viewer that
+   does not read q) the ground truth is copied as MuJoCo's qpos/qvel rows and converted, with the CoM, after the
+   loop;
 6. :class:`~wbc.sim.outcome.OutcomeMonitor` checks the new state (t + dt) from MuJoCo's data: a fall (base drop
    > 0.2 m, pelvis or torso tilt > 30° from nominal, or a non-foot body touching the floor), joint speeds above
    the URDF limits, and the landing slide of the soles' contact points.
@@ -108,7 +110,10 @@ class _FootWrenches:
     attached to each sole; without self-collision and external forces on the feet this is exactly the sum of the
     foot–floor contact forces that ``MujocoModel.foot_contact_wrenches`` computes contact by contact (checked
     equal to 1e-12 in the tests), with one MuJoCo call instead of a loop over the contacts. Valid after
-    ``mj_step`` for the state at the start of that step.
+    ``mj_step`` for the state at the start of that step. When that step already computed ``cfrc_ext`` (MuJoCo's
+    ``flg_rnepost``: a force/torque or accelerometer sensor's acceleration stage) and the integrator evaluates the
+    dynamics once per step (not RK4), those numbers are used as they are: ``mj_rnePostConstraint`` on the same
+    inputs gives them again.
     """
 
     def __init__(self, sim: MujocoModel):
@@ -125,11 +130,13 @@ class _FootWrenches:
         self.sole_body_arr = np.array(self.sole_body, dtype=np.int64)
         self.sole_offset_arr = np.array(self.sole_offset, dtype=float)
         self.root_arr = np.array(self.root, dtype=np.int64)
+        self.single_stage = int(sim.model.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4)
         _warm_up()
 
     def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
         model, d = self.sim.model, self.sim.data
-        mujoco.mj_rnePostConstraint(model, d)
+        if not (self.single_stage and d.flg_rnepost):
+            mujoco.mj_rnePostConstraint(model, d)
         _foot_wrench_kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.rows, self.ends, self.sole_body_arr,
                             self.sole_offset_arr, self.root_arr, out_wrench, out_pos)
 
@@ -187,7 +194,8 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             ``update(t, controller, sim, q, v) -> external force (3,) or None`` and ``com_reference(t)`` —
             see :mod:`wbc.sim.scenarios`.
         after_fall: keep simulating this long (s) after a fall is detected (0: stop at once).
-        viewer, pacer: optional live viewer (``update(q, t)``) and real-time pacer (``wait(t)``).
+        viewer, pacer: optional live viewer (``update(q, t)``) and real-time pacer (``wait(t)``). A viewer whose
+            ``reads_configuration`` is False gets ``q = None`` when ``state`` is given.
         state: what the controller and the scenario read: None for MuJoCo's ground truth, or an estimator of the
             state from the plant's sensors (:class:`~wbc.sim.estimated_state.EstimatedState`: ``reset(q, v)``,
             ``measure(sim, t) -> (q, v)``, called after ``mj_step1`` so the sensors see the state at t). The log's
@@ -242,13 +250,25 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     log_wrench, log_sole, log_ext, log_tick, log_step = (
         log[key] for key in ("sim_wrench", "sole_pos", "ext_force", "tick_time", "step_time"))
     q_est, v_est = (est["q_est"], est["v_est"]) if state is not None else (None, None)
+    # With an estimated state and a viewer that does not read the configuration, the ground truth only feeds the
+    # log: MuJoCo's qpos/qvel rows are copied in the loop and converted (with the log's CoM) after it.
+    deferred = state is not None and (viewer is None or not getattr(viewer, "reads_configuration", True))
+    sm = sim.state_map
+    raw_qpos = np.empty((n, sm.nq_mj)) if deferred else None
+    raw_qvel = np.empty((n, sm.nv)) if deferred else None
+    qpos = data.qpos  # (views of the fixed buffers of ``data``: one binding call each, not one per tick)
+    qpos_mj, qvel_mj = qpos[: sm.nq_mj], data.qvel[: sm.nv]
     last_path, last_text = None, ""
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
         if state is not None:
             mujoco.mj_step1(model, data)  # positions, velocities and their sensors at t
-        q, v = sim.get_state()
+        if deferred:
+            raw_qpos[k] = qpos_mj
+            raw_qvel[k] = qvel_mj
+        else:
+            q, v = sim.get_state()
         qc, vc = (q, v) if state is None else state.measure(sim, t)
         if give_zmp:
             scenario.measured_zmp = state.measured_zmp()  # ZMP from the ankle F/T sensors
@@ -270,18 +290,18 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         else:
             mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
-        qpos = data.qpos
         if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
         log_t[k] = t
-        log_q[k] = q
-        log_v[k] = v
+        if not deferred:
+            log_q[k] = q
+            log_v[k] = v
+            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
         if state is not None:
             q_est[k] = qc
             v_est[k] = vc
         log_tau[k] = tau
-        log_com[k] = pin.centerOfMass(pm, pdata, q, False)
         log_com_ref[k] = scenario.com_reference(t)
         if is_id:
             log_forces[k] = cmd.forces
@@ -304,7 +324,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             fell = True
             stop_at = min(n, k + 1 + int(round(after_fall / dt)))
         if viewer is not None:
-            viewer.update(q, t)
+            viewer.update(None if deferred else q, t)
         if pacer is not None:
             pacer.wait(t + dt)
         if k + 1 >= stop_at:
@@ -312,6 +332,12 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
             break
     wall = perf_counter() - wall0
     sim.clear_external_forces()
+    if deferred:
+        for k in range(k_end):
+            q, v = sm.state_from_mj(raw_qpos[k], raw_qvel[k])
+            log_q[k] = q
+            log_v[k] = v
+            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
                   scenario=scenario.name, dt=dt, wall_time=wall, fell=monitor.fell,

@@ -80,6 +80,13 @@ class ProgressViewer:
             self.bar.update(t - self._shown)
             self._shown = t
 
+    @property
+    def reads_configuration(self) -> bool:
+        """Whether :meth:`update` uses its ``q``: only to forward it to an inner viewer (one whose own
+        ``reads_configuration`` is False, or absent, is taken at its word / as reading it)."""
+        inner = self.inner
+        return inner is not None and getattr(inner, "reads_configuration", True)
+
     def close(self) -> None:
         """Close the bar and the inner viewer."""
         self._stop_beat()
