@@ -1,8 +1,8 @@
 """Kinematic state of a robot: a configuration q and every Pinocchio quantity derived from it.
 
-:class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, frame placements, CoM and its
-Jacobian) and then answers frame placement / Jacobian / CoM queries from that cache. Nothing here re-derives
-kinematics: every number comes from Pinocchio.
+:class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, CoM and its Jacobian; the frame
+placements on the first read of ``data`` after it) and then answers frame placement / Jacobian / CoM queries from that
+cache. Nothing here re-derives kinematics: every number comes from Pinocchio.
 """
 
 from __future__ import annotations
