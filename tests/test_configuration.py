@@ -139,6 +139,28 @@ def test_update_gives_the_numbers_of_pinocchios_separate_passes(robots, name):
             assert np.array_equal(config.frame_jacobian(fid, LOCAL), pin.getFrameJacobian(model, ref, fid, LOCAL))
 
 
+@pytest.mark.parametrize("name", CATALOG)
+def test_every_frame_is_current_when_data_is_read_after_a_step(robots, name):
+    """Frames are placed on the first read of ``data`` after an update: after steps in which only the rows' own frames
+    were placed (frame_jacobian on kinematics_data), every frame of ``data.oMf`` equals Pinocchio's
+    framesForwardKinematics at the new q on a fresh Data, bit for bit."""
+    robot = robots(name)
+    model = robot.model
+    rng = np.random.default_rng(12)
+    config = Configuration(robot, random_configuration(robot, rng))
+    torso = robot.frame_id(robot.torso)
+    for _ in range(3):
+        config.step(0.5 * rng.standard_normal(robot.nv), 0.01)
+        config.frame_jacobian(torso, LOCAL)  # places the torso frame only
+        assert config.kinematics_data is config.data
+        ref = model.createData()
+        pin.framesForwardKinematics(model, ref, config.q)
+        for a, b in zip(config.data.oMf, ref.oMf):
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        assert np.array_equal(config.frame_placement(robot.frame_id(robot.left_sole)).homogeneous,
+                              ref.oMf[robot.frame_id(robot.left_sole)].homogeneous)
+
+
 def test_step_rejects_non_finite_velocity_and_keeps_q(robots):
     robot = robots("talos")
     config = Configuration(robot)

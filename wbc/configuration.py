@@ -1,8 +1,8 @@
 """Kinematic state of a robot: a configuration q and every Pinocchio quantity derived from it.
 
-:class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, frame placements, CoM and its
-Jacobian) and then answers frame placement / Jacobian / CoM queries from that cache. Nothing here re-derives
-kinematics: every number comes from Pinocchio.
+:class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, CoM and its Jacobian; the frame
+placements on the first read of ``data`` after it) and then answers frame placement / Jacobian / CoM queries from that
+cache. Nothing here re-derives kinematics: every number comes from Pinocchio.
 """
 
 from __future__ import annotations
@@ -58,18 +58,20 @@ class Configuration:
     def __init__(self, robot: Robot, q: np.ndarray | None = None):
         self.robot = robot
         self.model = robot.model
-        self.data = robot.model.createData()
+        self._data = robot.model.createData()
+        self._frames_stale = False
         self._nv = robot.model.nv
         self._vdt = np.zeros(self._nv)  # v dt of step
         self._keep_ag = False
         self._ag = None
         self.q = np.array(robot.q_ref if q is None else q, dtype=float)
         self.update(self.q)
-        self._com = self.data.com[0]  # a view of Pinocchio's data.com[0] (eigenpy): follows every update
+        self._com = self._data.com[0]  # a view of Pinocchio's data.com[0] (eigenpy): follows every update
         _warm_up()
 
     def update(self, q: np.ndarray | None = None) -> None:
-        """Set q (if given) and recompute joint Jacobians, frame placements, CoM and CoM Jacobian.
+        """Set q (if given) and recompute joint Jacobians, CoM and CoM Jacobian; the frame placements are placed on
+        the next read of :attr:`data` (or :meth:`frame_placement`).
 
         Raises:
             ConfigurationError: see the class docstring.
@@ -84,12 +86,26 @@ class Configuration:
             # array is another argument type for it (one more compilation)
             self.q = q if q.flags.writeable else q.copy()
         if self._keep_ag:  # the joint placements and Jacobians of computeJointJacobians (the same numbers), and Ag
-            self._ag = pin.computeCentroidalMap(self.model, self.data, self.q)
-            pin.updateFramePlacements(self.model, self.data)
-            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
+            self._ag = pin.computeCentroidalMap(self.model, self._data, self.q)
+            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self._data, False)
         else:  # forward kinematics, then the joint Jacobians data.J, the CoM and its Jacobian in one backward pass
-            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, self.q, False)
-            pin.updateFramePlacements(self.model, self.data)
+            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self._data, self.q, False)
+        self._frames_stale = True  # data.oMf: every frame placed on the next read of data
+
+    @property
+    def data(self) -> pin.Data:
+        """Pinocchio Data at q: joint placements ``oMi`` and Jacobians ``J``, CoM and its Jacobian, and every frame's
+        placement ``oMf`` (the frames are placed, ``pin.updateFramePlacements``, on the first read after an update).
+        A Data kept from an earlier read has its ``oMf`` current only once :attr:`data` has been read again."""
+        if self._frames_stale:
+            pin.updateFramePlacements(self.model, self._data)
+            self._frames_stale = False
+        return self._data
+
+    kinematics_data = ReadOnly("""The Pinocchio Data of :attr:`data`, read without placing the frames: joint
+        placements, joint Jacobians and CoM at q; a frame's ``oMf`` is current only after ``pin.getFrameJacobian`` or
+        ``pin.updateFramePlacement`` of that frame (or a read of :attr:`data`). For per-tick readers that call one of
+        them before reading the frame's placement (the tasks' and contacts' rows).""", "_data")
 
     # -- queries (all from the cache filled by update) -------------------------------------------------------
     def frame_placement(self, frame_id: int) -> pin.SE3:
@@ -99,7 +115,7 @@ class Configuration:
     def frame_jacobian(self, frame_id: int, reference: pin.ReferenceFrame = LOCAL_WORLD_ALIGNED) -> np.ndarray:
         """(6, nv) frame Jacobian: rows (linear m/s, angular rad/s) per unit of v, in ``reference``
         (``LOCAL``: frame axes; ``LOCAL_WORLD_ALIGNED``: world axes at the frame origin; ``WORLD``)."""
-        return pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+        return pin.getFrameJacobian(self.model, self._data, frame_id, reference)
 
     com = ReadOnly("""(3,) centre of mass in world (m), updated in place by :meth:`update` (copy it to keep a value): a
         view of Pinocchio's ``data.com[0]``; a :class:`~wbc.state.DynamicsState`'s own array, computed with its
@@ -115,7 +131,7 @@ class Configuration:
         :class:`~wbc.state.DynamicsState` returns the one of its ``computeAllTerms``."""
         if self._keep_ag:
             return self._ag
-        return pin.computeCentroidalMap(self.model, self.data, self.q)
+        return pin.computeCentroidalMap(self.model, self._data, self.q)
 
     @property
     def keeps_centroidal_map(self) -> bool:

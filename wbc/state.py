@@ -88,7 +88,7 @@ class DynamicsState(Configuration):
                 self.q = q
             if v is not None:
                 self.v = check_vector(v, self.model.nv, "velocity v")
-        model, data, q, v = self.model, self.data, self.q, self.v
+        model, data, q, v = self.model, self.kinematics_data, self.q, self.v
         if not self._free_flyer:
             self._update_all_terms()
             return
@@ -109,7 +109,7 @@ class DynamicsState(Configuration):
 
     def _update_all_terms(self) -> None:
         """Every quantity from ``pin.computeAllTerms`` (a robot without a free-flyer root)."""
-        model, data = self.model, self.data
+        model, data = self.model, self.kinematics_data
         pin.computeAllTerms(model, data, self.q, self.v)
         pin.updateFramePlacements(model, data)
         if self._views is None:

@@ -145,7 +145,7 @@ class ContactConstraint(EqualityConstraint):
             super().write(ctx, A_out, b_out, hi)
             return
         config = ctx.config
-        data = config.data
+        data = config.kinematics_data  # its frame placed by getFrameJacobian below
         views = self._views(data)
         jac = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         scale = -min(self._gain, 1.0 / ctx.dt)

@@ -44,14 +44,15 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
 
 
 @nb.njit(cache=True, nogil=True)
-def _intersect_position_bounds(q, idx_q, idx_v, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
+def _intersect_position_bounds(q, idx, limits, dt, lb, ub):
     """The bounds of :func:`_position_bounds` intersected with the running box lb, ub (nv,) at the velocity indices
-    ``idx_v``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled)."""
-    for k in range(idx_q.shape[0]):
-        qk = q[idx_q[k]]
-        lo = min((q_min[k] - qk) / dt, v_max[k])
-        hi = max((q_max[k] - qk) / dt, neg_v_max[k])
-        clip_entry_into(lb, ub, idx_v[k], lo, hi)
+    ``idx[1]``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled). ``idx`` (2, n)
+    = (idx_q, idx_v), ``limits`` (4, n) = (q_min, q_max, v_max, −v_max): packed, fewer arguments to unbox per call."""
+    for k in range(idx.shape[1]):
+        qk = q[idx[0, k]]
+        lo = min((limits[0, k] - qk) / dt, limits[2, k])
+        hi = max((limits[1, k] - qk) / dt, limits[3, k])
+        clip_entry_into(lb, ub, idx[1, k], lo, hi)
 
 
 def load_limit_kernels(bounds, intersect, *params, buffers: int = 2) -> None:
@@ -73,7 +74,9 @@ def load_limit_kernels(bounds, intersect, *params, buffers: int = 2) -> None:
 def _warm_up() -> None:
     """Load :func:`_position_bounds` and :func:`_intersect_position_bounds` (on-disk cache) once per process, at
     construction."""
-    load_limit_kernels(_position_bounds, _intersect_position_bounds, np.zeros(1), np.zeros(1), 1.0)
+    z = np.zeros(1)
+    _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 0.002, np.empty(1), np.empty(1))
+    _intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((4, 1)), 0.002, np.zeros(1), np.zeros(1))
 
 
 class JointPositionLimit(BoxConstraint):
@@ -106,8 +109,11 @@ class JointPositionLimit(BoxConstraint):
         self.q_min = np.where(crossed, mid, self.q_min)
         self.q_max = np.where(crossed, mid, self.q_max)
         vmax = model.velocityLimit[self.indices]
-        self.v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
-        self._neg_v_max = -self.v_max
+        v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
+        # the compiled kernels' packed arguments; q_min, q_max, v_max are views of its rows
+        self._limits = np.ascontiguousarray([self.q_min, self.q_max, v_max, -v_max])
+        self._idx = np.ascontiguousarray([self.idx_q, self.indices], dtype=np.int64)
+        self.q_min, self.q_max, self.v_max, self._neg_v_max = self._limits
         _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -119,8 +125,7 @@ class JointPositionLimit(BoxConstraint):
 
     def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
         """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers)."""
-        _intersect_position_bounds(config.q, self.idx_q, self.indices, self.q_min, self.q_max, self.v_max,
-                                   self._neg_v_max, float(dt), lb, ub)
+        _intersect_position_bounds(config.q, self._idx, self._limits, float(dt), lb, ub)
 
 
 class JointVelocityLimit(BoxConstraint):

@@ -171,7 +171,7 @@ from time import perf_counter
 import numpy as np
 import pinocchio as pin
 
-from wbc.configuration import Configuration
+from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
                                   KinematicContext)
 from wbc.constraints.contact import ContactConstraint
@@ -929,9 +929,11 @@ class KinematicController:
         drift = 0.0
         if self._contacts:
             ddata = self._drift_data
-            pin.forwardKinematics(model, ddata, pin.integrate(model, q, plan.vdt))
+            q_next = pin.integrate(model, q, plan.vdt)
             for c, log in plan.contact_logs:
-                pin.updateFramePlacement(model, ddata, c.frame_id)
+                # the forward kinematics of the frame's supporting joints only (root to frame; the same steps as
+                # pin.forwardKinematics), then its placement data.oMf: what error_into reads
+                pin.computeFrameJacobian(model, ddata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
                 c.error_into(ddata, log)
             drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (

@@ -464,7 +464,7 @@ class FrameTask(Task):
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
-        data = config.data
+        data = config.kinematics_data  # its frame placed by getFrameJacobian below
         views = self._views(data)
         rot = views[2]
         j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
