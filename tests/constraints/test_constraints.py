@@ -157,6 +157,37 @@ def test_compiled_box_intersections_match_the_generic_clip(robots, name):
             assert np.array_equal(own_lb, lo) and np.array_equal(own_ub, hi)
 
 
+def test_position_limit_assignment_reaches_the_compiled_bounds(robots):
+    """JointPositionLimit.q_min / q_max / v_max, assigned or changed in place after construction, are what the
+    compiled intersect_into and compute use: bounds equal a numpy reference written here, lb = min((q_min − q)/dt,
+    v_max), ub = max((q_max − q)/dt, −v_max) clipped into the running box; bad assignments raise."""
+    robot = robots("talos")
+    lim = JointPositionLimit(robot)
+    rng = np.random.default_rng(3)
+    config = Configuration(robot, random_configuration(robot, rng, spread=0.3))
+    q = config.q[lim.idx_q]
+    lim.q_min = q - rng.uniform(-0.01, 0.05, lim.dim)  # some joints outside their new range
+    lim.q_max = np.maximum(lim.q_min, q + rng.uniform(-0.01, 0.05, lim.dim))
+    lim.v_max = rng.uniform(0.5, 3.0, lim.dim)
+    lim.v_max[:3] = 7.0  # in place
+    dt = 0.002
+    lo = np.minimum((lim.q_min - q) / dt, lim.v_max)
+    hi = np.maximum((lim.q_max - q) / dt, -lim.v_max)
+    got_lo, got_hi = lim.compute(config, dt)
+    assert np.array_equal(got_lo, lo) and np.array_equal(got_hi, hi)
+    lb, ub = np.full(robot.nv, -np.inf), np.full(robot.nv, np.inf)
+    lim.intersect_into(config, dt, lb, ub)
+    assert np.array_equal(lb[lim.indices], lo) and np.array_equal(ub[lim.indices], hi)
+    with pytest.raises(InvalidInputError, match="q_min"):
+        lim.q_min = np.zeros(3)
+    with pytest.raises(InvalidInputError, match="q_min must be ≤ q_max"):
+        lim.q_max = lim.q_min - 1.0
+    with pytest.raises(InvalidInputError, match="v_max"):
+        lim.v_max = np.zeros(lim.dim)
+    with pytest.raises(InvalidInputError):
+        lim.q_min = np.full(lim.dim, np.nan)
+
+
 # -- CoM polygon ----------------------------------------------------------------------------------------------
 def _support(robot, config, sides):
     frames = {"left": robot.left_sole, "right": robot.right_sole}

@@ -47,11 +47,11 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
 def _intersect_position_bounds(q, idx, limits, dt, lb, ub):
     """The bounds of :func:`_position_bounds` intersected with the running box lb, ub (nv,) at the velocity indices
     ``idx[1]``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled). ``idx`` (2, n)
-    = (idx_q, idx_v), ``limits`` (4, n) = (q_min, q_max, v_max, −v_max): packed, fewer arguments to unbox per call."""
+    = (idx_q, idx_v), ``limits`` (3, n) = (q_min, q_max, v_max): packed, fewer arguments to unbox per call."""
     for k in range(idx.shape[1]):
         qk = q[idx[0, k]]
         lo = min((limits[0, k] - qk) / dt, limits[2, k])
-        hi = max((limits[1, k] - qk) / dt, limits[3, k])
+        hi = max((limits[1, k] - qk) / dt, -limits[2, k])
         clip_entry_into(lb, ub, idx[1, k], lo, hi)
 
 
@@ -76,7 +76,7 @@ def _warm_up() -> None:
     construction."""
     z = np.zeros(1)
     _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 0.002, np.empty(1), np.empty(1))
-    _intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((4, 1)), 0.002, np.zeros(1), np.zeros(1))
+    _intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((3, 1)), 0.002, np.zeros(1), np.zeros(1))
 
 
 class JointPositionLimit(BoxConstraint):
@@ -100,27 +100,71 @@ class JointPositionLimit(BoxConstraint):
         model = robot.model
         self.idx_q, self.indices = bounded_joints(model)
         self.dim = int(self.indices.size)
-        self.q_min = model.lowerPositionLimit[self.idx_q] + margin
-        self.q_max = model.upperPositionLimit[self.idx_q] - margin
+        q_min = model.lowerPositionLimit[self.idx_q] + margin
+        q_max = model.upperPositionLimit[self.idx_q] - margin
         # a zero-width range (lower = upper: a locked joint) would cross under the margin (lb > ub by 2·margin/dt,
         # measured 5e-7 per joint): pin such joints at the middle of their range instead
-        crossed = self.q_min > self.q_max
+        crossed = q_min > q_max
         mid = 0.5 * (model.lowerPositionLimit[self.idx_q] + model.upperPositionLimit[self.idx_q])
-        self.q_min = np.where(crossed, mid, self.q_min)
-        self.q_max = np.where(crossed, mid, self.q_max)
         vmax = model.velocityLimit[self.indices]
-        v_max = np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)
-        # the compiled kernels' packed arguments; q_min, q_max, v_max are views of its rows
-        self._limits = np.ascontiguousarray([self.q_min, self.q_max, v_max, -v_max])
+        # the compiled kernels' packed arguments (3, dim): q_min, q_max, v_max are views of its rows
+        self._limits = np.ascontiguousarray([np.where(crossed, mid, q_min), np.where(crossed, mid, q_max),
+                                             np.where(np.isfinite(vmax) & (vmax > 0), vmax, np.inf)])
         self._idx = np.ascontiguousarray([self.idx_q, self.indices], dtype=np.int64)
-        self.q_min, self.q_max, self.v_max, self._neg_v_max = self._limits
         _warm_up()
+
+    def _set_row(self, row: int, what: str, value) -> None:
+        """Validate ``value`` (dim,) and write it into row ``row`` of the packed limits (what the kernels read)."""
+        arr = np.asarray(value, dtype=float)
+        if arr.shape != (self.dim,) or np.isnan(arr).any():
+            raise InvalidInputError(f"JointPositionLimit.{what} must be a ({self.dim},) array without NaN (one entry "
+                                    f"per bounded joint), got shape {arr.shape}")
+        if row == 2 and not (arr > 0).all():
+            raise InvalidInputError(f"JointPositionLimit.v_max must be > 0 (rad/s or m/s; inf: no cap), got "
+                                    f"{arr[~(arr > 0)][:3]}")
+        lo = arr if row == 0 else self._limits[0]
+        hi = arr if row == 1 else self._limits[1]
+        if row < 2 and not (lo <= hi).all():
+            raise InvalidInputError(f"JointPositionLimit.{what}: q_min must be ≤ q_max for every joint (rad or m); "
+                                    f"violated at {int(np.argmax(~(lo <= hi)))} of the bounded joints")
+        self._limits[row] = arr
+
+    @property
+    def q_min(self) -> np.ndarray:
+        """(dim,) lower position limits of the bounded joints (rad or m), margin included; a view of what the
+        compiled kernels read, so an in-place change is seen. Assigning validates (shape, no NaN, ≤ q_max) and raises
+        :class:`~wbc.exceptions.InvalidInputError`."""
+        return self._limits[0]
+
+    @q_min.setter
+    def q_min(self, value) -> None:
+        self._set_row(0, "q_min", value)
+
+    @property
+    def q_max(self) -> np.ndarray:
+        """(dim,) upper position limits (rad or m), as :attr:`q_min`."""
+        return self._limits[1]
+
+    @q_max.setter
+    def q_max(self, value) -> None:
+        self._set_row(1, "q_max", value)
+
+    @property
+    def v_max(self) -> np.ndarray:
+        """(dim,) speed cap of a joint returning from outside its range (rad/s or m/s, > 0, inf: none), as
+        :attr:`q_min` (velocity-space order of ``indices``)."""
+        return self._limits[2]
+
+    @v_max.setter
+    def v_max(self, value) -> None:
+        self._set_row(2, "v_max", value)
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         # lb = min((q_min − q)/dt, v_max), ub = max((q_max − q)/dt, −v_max): only the recovery side is capped (a
         # joint outside its range returns at ≤ v_max, and lb ≤ ub always); the other side is the velocity limit's
         lb, ub = np.empty(self.dim), np.empty(self.dim)
-        _position_bounds(config.q, self.idx_q, self.q_min, self.q_max, self.v_max, self._neg_v_max, float(dt), lb, ub)
+        lim = self._limits
+        _position_bounds(config.q, self.idx_q, lim[0], lim[1], lim[2], -lim[2], float(dt), lb, ub)
         return lb, ub
 
     def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
