@@ -54,7 +54,9 @@ def counted_qp(robots, monkeypatch):
         monkeypatch.setattr(acceleration, name,
                             lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
     scaled = DaqpBackend.solve_scaled
+    solve = DaqpBackend.solve
     iterations = []
+    monkeypatch.setattr(DaqpBackend, "solve", lambda self, *a, **k: calls.append("daqp") or solve(self, *a, **k))
 
     def solve_scaled(self, *a, **k):
         calls.append("solve_scaled")
@@ -78,7 +80,7 @@ def test_capped_attempt_on_an_empty_hard_set_ends_at_the_check(counted_qp):
     with pytest.raises(SolverError, match="the hard set is empty"):
         qp._solve_backend(*problem)
     assert qp.backend.iterations_capped and qp.backend.last_iterations == 190  # the attempt: stopped at its count
-    assert calls == ["hard_set_feasible"]
+    assert calls == ["daqp", "hard_set_feasible"]
     assert qp.infeasible_by_check == 1 and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 0
 
 
@@ -91,7 +93,30 @@ def test_capped_attempt_on_a_feasible_set_is_answered_by_the_cost_scaled_call(co
     assert highs_feasible(*problem[2:])
     ref = _quadprog(*problem)
     x, who = qp._solve_backend(*problem)
-    assert calls == ["hard_set_feasible", "solve_scaled"]
+    assert calls == ["daqp", "hard_set_feasible", "solve_scaled"]
     assert 190 < iterations[0] <= 380
     assert who == qp.backend.name and qp.scaled_solves == 1 and qp.pinned_reduced_solves == 0
+    assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
+
+
+def test_a_failing_run_checks_the_hard_set_before_the_attempt(counted_qp):
+    """After a full QP whose hard set was proved empty, the next full QP's hard set is checked first: the same empty
+    set (HiGHS: empty) fails at that check with no DAQP call; then the feasible QP (HiGHS: feasible) is checked once,
+    before the attempt (not again after it), and answered by the cost-scaled call at quadprog's optimum to 1e-6
+    relative."""
+    qp, calls, _ = counted_qp
+    empty, _ = _load("id_capped_infeasible_talos.npz")
+    feasible, _ = _load("id_capped_feasible_talos.npz")
+    assert not highs_feasible(*empty[2:]) and highs_feasible(*feasible[2:])
+    with pytest.raises(SolverError):
+        qp._solve_backend(*empty)
+    assert calls == ["daqp", "hard_set_feasible"] and qp.last_set_empty
+    calls.clear()
+    with pytest.raises(SolverError, match="DAQP not asked"):
+        qp._solve_backend(*empty)
+    assert calls == ["hard_set_feasible"] and qp.infeasible_by_check == 2
+    calls.clear()
+    x, _ = qp._solve_backend(*feasible)
+    assert calls == ["hard_set_feasible", "daqp", "solve_scaled"] and not qp.last_set_empty
+    ref = _quadprog(*feasible)
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))

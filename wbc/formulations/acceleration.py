@@ -333,6 +333,9 @@ class InverseDynamicsQP:
         #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
         #: quadprog and the backend's retries, which could only fail, were skipped.
         self.infeasible_by_check = 0
+        #: the last failed full QP's hard set was proved empty (without a clock guard: :meth:`_solve_backend` checks
+        #: the next full QP's hard set before DAQP's attempt, and skips the attempt when it is empty too).
+        self.last_set_empty = False
         #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
         #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
@@ -804,6 +807,15 @@ class InverseDynamicsQP:
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         guarded = self.tick_clock is not None
+        known = None  # the full hard set's check before DAQP's attempt, when made
+        if not guarded and self.last_set_empty:
+            # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
+            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
+            self.last_set_empty = False
+            known = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+            if known is False:
+                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
+                                      backend, A, b, C, l, u, lb, ub, state, dt, known)
         retry = backend.cold_retry
         backend.cold_retry = False
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
@@ -821,7 +833,7 @@ class InverseDynamicsQP:
             backend.deadline = math.inf
             backend.call_iterations = None
         if not guarded:
-            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt)
+            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known)
             if cap is not None:
                 # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
                 # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's dense solve; on a set
@@ -905,12 +917,14 @@ class InverseDynamicsQP:
             backend.deadline = math.inf
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                         state: DynamicsState | None, dt: float) -> bool:
+                         state: DynamicsState | None, dt: float, full: bool | None = None) -> bool:
         """The hard-set checks of a failed full QP without a clock guard
         (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin onto a set):
         the full hard set first — a point found, the relaxed set is not checked (the QP has a minimiser: the relaxed
         QP is needed only if every solver misses it, and :meth:`solve_relaxed` checks its set then) — else, given the
-        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`).
+        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``full``: the full set's verdict when
+        it was checked already this tick (not checked again), else None. A set proved empty sets
+        :attr:`last_set_empty`.
 
         Returns:
             True when a point of the full hard set was found, else False (not proved empty).
@@ -918,11 +932,17 @@ class InverseDynamicsQP:
         Raises:
             SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
         """
-        full = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+        if full is None:
+            full = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
         if full is True:
             return True
+        self.last_set_empty = full is False
         if state is not None:
-            self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt, ITERATION_LIMIT)
+            try:
+                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt, ITERATION_LIMIT)
+            except SolverError:
+                self.last_set_empty = True
+                raise
         if full is False:
             self.infeasible_by_check += 1
             raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
