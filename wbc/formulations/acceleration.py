@@ -165,11 +165,11 @@ def kernel_iterations(budget: float) -> int:
 
 
 def daqp_attempt_iterations(budget: float) -> int:
-    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a capped
-    or failed one (:meth:`InverseDynamicsQP._solve_backend`), for a tick budget of ``budget`` seconds of CPU time: a
-    third of the budget at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between
-    :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an
-    unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
+    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
+    one (:meth:`InverseDynamicsQP._solve_backend`; ``InverseDynamicsQP.SCALED_FEASIBLE_FACTOR`` times it when the
+    hard set was found not empty), for a tick budget of ``budget`` seconds of CPU time: a third of the budget at
+    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
+    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
     if not np.isfinite(budget):
         return ITERATION_LIMIT
     return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
@@ -306,8 +306,9 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
-        #: (:meth:`_solve_backend`, without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the
-        #: backend's own); :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: (``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`, without a clock
+        #: guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
+        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
         #: (:func:`daqp_attempt_iterations`).
         self.daqp_attempt_iterations = ITERATION_LIMIT
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
@@ -332,6 +333,9 @@ class InverseDynamicsQP:
         #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
         #: quadprog and the backend's retries, which could only fail, were skipped.
         self.infeasible_by_check = 0
+        #: the last failed full QP's hard set was proved empty (without a clock guard: :meth:`_solve_backend` checks
+        #: the next full QP's hard set before DAQP's attempt, and skips the attempt when it is empty too).
+        self.last_set_empty = False
         #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
         #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
@@ -371,6 +375,10 @@ class InverseDynamicsQP:
     #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
     #: stopped there fails the tick: the safe command follows, in the budget left)
     RELAXED_DEADLINE = 1.75
+    #: without a clock guard: the cost-scaled DAQP call on a failed full QP whose hard set was found not empty takes at
+    #: most this many times :attr:`daqp_attempt_iterations` (the first attempt and this call: one budget of DAQP
+    #: iterations)
+    SCALED_FEASIBLE_FACTOR = 2
 
     @property
     def retry_deadline(self) -> float:
@@ -766,19 +774,19 @@ class InverseDynamicsQP:
         quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
         backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
         landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
-        relaxed QP with its torques clipped. Before quadprog (with or without a clock guard), given the tick's
-        ``state`` and ``dt``, :func:`wbc.solvers.independent.hard_set_feasible` checks the relaxed hard set
-        (:meth:`solve_relaxed`'s, :attr:`relaxed_set_feasible`): empty, it proves the full set empty too and the
-        failure stands (the relaxed QP is then not solved); then, without a clock guard, the full hard set: empty,
-        quadprog and the retries, which could only fail, are skipped.
+        relaxed QP with its torques clipped.
 
         Without a clock guard the first attempt gets at most :attr:`daqp_attempt_iterations` iterations (the
-        controller's budget as a count, :func:`daqp_attempt_iterations`), and one cost-scaled DAQP call
+        controller's budget as a count, :func:`daqp_attempt_iterations`); when it fails (a verdict or the count),
+        :func:`wbc.solvers.independent.hard_set_feasible` checks the full hard set (:meth:`_check_hard_sets`): a point
+        found, the relaxed set is not checked; otherwise, given the tick's ``state`` and ``dt``, the relaxed hard set
+        (:meth:`solve_relaxed`'s, :attr:`relaxed_set_feasible`) is checked — empty, it proves the full set empty too
+        and the failure stands (the relaxed QP is then not solved) — and a full set proved empty ends the solve
+        (quadprog and the retries could only fail). Then one cost-scaled DAQP call
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
-        max(1, |g|∞, |H|max); same cap) follows: at once after an attempt stopped there, else (DAQP's verdict) after
-        the checks when they did not prove the hard sets empty, before quadprog. The backend's retries after quadprog
-        keep the backend's own iteration limit: a QP that the capped calls do not solve takes the route it took
-        without the cap.
+        max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations, ``SCALED_FEASIBLE_FACTOR`` times
+        that on a set found not empty, before quadprog. The backend's retries after quadprog keep the backend's own
+        iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -789,7 +797,8 @@ class InverseDynamicsQP:
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
         deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
         only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``;
-        quadprog only when start + :attr:`quadprog_cost` ≤ ``QUADPROG_END`` budgets).
+        quadprog only when start + :attr:`quadprog_cost` ≤ ``QUADPROG_END`` budgets); given ``state``, the relaxed
+        hard set is checked first (:meth:`_check_relaxed_set`), before ``CHECK_DEADLINE`` budgets.
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -798,6 +807,15 @@ class InverseDynamicsQP:
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         guarded = self.tick_clock is not None
+        known = None  # the full hard set's check before DAQP's attempt, when made
+        if not guarded and self.last_set_empty:
+            # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
+            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
+            self.last_set_empty = False
+            known = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+            if known is False:
+                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
+                                      backend, A, b, C, l, u, lb, ub, state, dt, known)
         retry = backend.cold_retry
         backend.cold_retry = False
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
@@ -814,28 +832,22 @@ class InverseDynamicsQP:
             backend.cold_retry = retry
             backend.deadline = math.inf
             backend.call_iterations = None
-        scaled_tried = cap is not None and backend.iterations_capped
-        if scaled_tried:
-            # the attempt reached the count, not a verdict (mostly a feasible QP with an ill-scaled cost: |g| ~ 1e5
-            # – 1e6 against a Hessian conditioned ~1e10, hundreds of DAQP iterations; ~30 – 140 with the cost
-            # scaled): the cost-scaled call first, within the same count, then the checks
-            x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
-            if x is not None:
-                return x, backend.name
-        if state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
+        if not guarded:
+            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known)
+            if cap is not None:
+                # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
+                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's dense solve; on a set
+                # proved not empty (a minimiser exists) with the rest of one budget's iterations
+                x = self._solve_scaled(backend, cap * (self.SCALED_FEASIBLE_FACTOR if feasible else 1),
+                                       H, g, A, b, C, l, u, lb, ub)
+                if x is not None:
+                    return x, backend.name
+        elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
             left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
-            relaxed = self._relaxed_set(state, dt, l, u, lb, ub)
-            self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
-            self.relaxed_set_feasible = hard_set_feasible(A, b, C, *relaxed, backend.tolerance,
-                                                          iter_limit=max(MIN_CALL_ITERATIONS,
-                                                                         int(min(left, ITERATION_LIMIT))))
-            if self.relaxed_set_feasible is False:
-                self.infeasible_by_check += 1
-                raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the "
-                                  f"projection of the origin onto it): quadprog, the backend's retries and the "
-                                  f"relaxed QP skipped")
+            self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt,
+                                    max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
         if guarded:
             if thread_time() >= self._deadline(self.CHECK_DEADLINE):
                 self.checks_skipped += 1
@@ -879,19 +891,6 @@ class InverseDynamicsQP:
                 raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
                                   f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
                                   f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
-        else:
-            if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance) is False:
-                # the cheap proof first (one DAQP call on the projection of the origin, a fraction of quadprog's
-                # cost): quadprog and the retries could only fail on an empty hard set
-                self.infeasible_by_check += 1
-                raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
-                                  f"quadprog and the backend's retries skipped")
-            if cap is not None and not scaled_tried:
-                # a set not proved empty after DAQP's verdict (cycling or "infeasible", seen on ill-scaled costs):
-                # the cost-scaled call, within the count, before quadprog's dense solve
-                x = self._solve_scaled(backend, cap, H, g, A, b, C, l, u, lb, ub)
-                if x is not None:
-                    return x, backend.name
         c0 = thread_time()
         x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
         if guarded:
@@ -916,6 +915,57 @@ class InverseDynamicsQP:
             raise
         finally:
             backend.deadline = math.inf
+
+    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
+                         state: DynamicsState | None, dt: float, full: bool | None = None) -> bool:
+        """The hard-set checks of a failed full QP without a clock guard
+        (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin onto a set):
+        the full hard set first — a point found, the relaxed set is not checked (the QP has a minimiser: the relaxed
+        QP is needed only if every solver misses it, and :meth:`solve_relaxed` checks its set then) — else, given the
+        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``full``: the full set's verdict when
+        it was checked already this tick (not checked again), else None. A set proved empty sets
+        :attr:`last_set_empty`.
+
+        Returns:
+            True when a point of the full hard set was found, else False (not proved empty).
+
+        Raises:
+            SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
+        """
+        if full is None:
+            full = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+        if full is True:
+            return True
+        self.last_set_empty = full is False
+        if state is not None:
+            try:
+                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt, ITERATION_LIMIT)
+            except SolverError:
+                self.last_set_empty = True
+                raise
+        if full is False:
+            self.infeasible_by_check += 1
+            raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
+                              f"quadprog and the backend's retries skipped")
+        return False
+
+    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
+                           state: DynamicsState, dt: float, iter_limit: int) -> None:
+        """Check the relaxed hard set of a failed full QP (:meth:`solve_relaxed`'s, at most ``iter_limit`` DAQP
+        iterations): sets :attr:`relaxed_set_feasible` and keeps the relaxed bounds for
+        ``solve_relaxed(reuse_assembly=True)``.
+
+        Raises:
+            SolverError: ``first`` extended, when the relaxed set is proved empty: so is the full one, and the relaxed
+                QP is not solved.
+        """
+        relaxed = self._relaxed_set(state, dt, l, u, lb, ub)
+        self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
+        self.relaxed_set_feasible = hard_set_feasible(A, b, C, *relaxed, backend.tolerance, iter_limit=iter_limit)
+        if self.relaxed_set_feasible is False:
+            self.infeasible_by_check += 1
+            raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
+                              f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
     def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``

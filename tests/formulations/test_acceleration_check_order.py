@@ -1,0 +1,122 @@
+"""The failure path of the inverse-dynamics full QP without a clock guard, after its first DAQP attempt stopped at its
+count (``InverseDynamicsQP.daqp_attempt_iterations``): the full hard set is checked first
+(:func:`wbc.solvers.independent.hard_set_feasible`) — proved empty, no cost-scaled DAQP call; found not empty, the
+cost-scaled call gets ``SCALED_FEASIBLE_FACTOR`` × the attempt's count before quadprog. Two QPs recorded from
+``benchmarks/fuzz_id.py`` (Talos, 62 variables, the attempt capped at 190 iterations): seed 7002 episode 108 tick 2
+(full hard set empty, relaxed set not: a relaxed tick) and seed 7002 episode 158 tick 0 (feasible; DAQP's cost-scaled
+call needs 271 iterations). Oracles: HiGHS (scipy ``linprog``) for feasibility, quadprog (dense Goldfarb–Idnani) for
+the optimum; counts of solver calls, never a wall-clock time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import quadprog
+
+from conftest import highs_feasible
+from wbc.exceptions import SolverError
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
+KEYS = ("H", "g", "A", "b", "C", "l", "u", "lb", "ub")
+
+
+def _load(name):
+    d = dict(np.load(FIXTURES / name))
+    return tuple(d[k] for k in KEYS), (d["rl"], d["ru"], d["rlb"], d["rub"])
+
+
+def _quadprog(H, g, A, b, C, l, u, lb, ub):
+    """quadprog's optimum of the QP (no pinned variable in these QPs), built here."""
+    n = H.shape[0]
+    fl, fu, bl, bu = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
+    eye = np.eye(n)
+    Cq = np.hstack([A.T, C[fl].T, -C[fu].T, eye[:, bl], -eye[:, bu]])
+    bq = np.concatenate([b, l[fl], -u[fu], lb[bl], -ub[bu]])
+    return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
+
+
+@pytest.fixture
+def counted_qp(robots, monkeypatch):
+    """An ``InverseDynamicsQP`` (DAQP backend, attempt cap 190 as a 2 ms budget gives) and a call log of its
+    hard-set checks, cost-scaled DAQP calls and quadprog solves."""
+    import wbc.formulations.acceleration as acceleration
+    from wbc.dynamics import InverseDynamicsQP, SoleContact
+    from wbc.solvers import DaqpBackend
+
+    robot = robots("talos")
+    qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
+    qp.daqp_attempt_iterations = 190
+    calls = []
+    for name in ("hard_set_feasible", "solve_pinned_reduced"):
+        real = getattr(acceleration, name)
+        monkeypatch.setattr(acceleration, name,
+                            lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
+    scaled = DaqpBackend.solve_scaled
+    solve = DaqpBackend.solve
+    iterations = []
+    monkeypatch.setattr(DaqpBackend, "solve", lambda self, *a, **k: calls.append("daqp") or solve(self, *a, **k))
+
+    def solve_scaled(self, *a, **k):
+        calls.append("solve_scaled")
+        x = scaled(self, *a, **k)
+        iterations.append(self.last_iterations)
+        return x
+
+    monkeypatch.setattr(DaqpBackend, "solve_scaled", solve_scaled)
+    return qp, calls, iterations
+
+
+def test_capped_attempt_on_an_empty_hard_set_ends_at_the_check(counted_qp):
+    """HiGHS: the full hard set is empty, the relaxed one is not. The attempt stops at its 190 iterations (a count,
+    not a verdict); the check proves the set empty: the failure stands after one hard-set check, with no cost-scaled
+    DAQP call (190 more iterations before the check, before) and no quadprog solve."""
+    qp, calls, _ = counted_qp
+    problem, relaxed = _load("id_capped_infeasible_talos.npz")
+    A, b, C = problem[2:5]
+    assert not highs_feasible(*problem[2:])
+    assert highs_feasible(A, b, C, *relaxed)
+    with pytest.raises(SolverError, match="the hard set is empty"):
+        qp._solve_backend(*problem)
+    assert qp.backend.iterations_capped and qp.backend.last_iterations == 190  # the attempt: stopped at its count
+    assert calls == ["daqp", "hard_set_feasible"]
+    assert qp.infeasible_by_check == 1 and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 0
+
+
+def test_capped_attempt_on_a_feasible_set_is_answered_by_the_cost_scaled_call(counted_qp):
+    """HiGHS: the hard set is not empty. The attempt stops at 190 iterations; the check finds a point; the
+    cost-scaled call (its count 2 × 190) answers within 380 iterations — quadprog's optimum to 1e-6 relative — and
+    quadprog is not called (it answered before, after a cost-scaled call stopped at 190)."""
+    qp, calls, iterations = counted_qp
+    problem, _ = _load("id_capped_feasible_talos.npz")
+    assert highs_feasible(*problem[2:])
+    ref = _quadprog(*problem)
+    x, who = qp._solve_backend(*problem)
+    assert calls == ["daqp", "hard_set_feasible", "solve_scaled"]
+    assert 190 < iterations[0] <= 380
+    assert who == qp.backend.name and qp.scaled_solves == 1 and qp.pinned_reduced_solves == 0
+    assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
+
+
+def test_a_failing_run_checks_the_hard_set_before_the_attempt(counted_qp):
+    """After a full QP whose hard set was proved empty, the next full QP's hard set is checked first: the same empty
+    set (HiGHS: empty) fails at that check with no DAQP call; then the feasible QP (HiGHS: feasible) is checked once,
+    before the attempt (not again after it), and answered by the cost-scaled call at quadprog's optimum to 1e-6
+    relative."""
+    qp, calls, _ = counted_qp
+    empty, _ = _load("id_capped_infeasible_talos.npz")
+    feasible, _ = _load("id_capped_feasible_talos.npz")
+    assert not highs_feasible(*empty[2:]) and highs_feasible(*feasible[2:])
+    with pytest.raises(SolverError):
+        qp._solve_backend(*empty)
+    assert calls == ["daqp", "hard_set_feasible"] and qp.last_set_empty
+    calls.clear()
+    with pytest.raises(SolverError, match="DAQP not asked"):
+        qp._solve_backend(*empty)
+    assert calls == ["hard_set_feasible"] and qp.infeasible_by_check == 2
+    calls.clear()
+    x, _ = qp._solve_backend(*feasible)
+    assert calls == ["hard_set_feasible", "daqp", "solve_scaled"] and not qp.last_set_empty
+    ref = _quadprog(*feasible)
+    assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
