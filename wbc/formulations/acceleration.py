@@ -97,7 +97,7 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
-                                       id_workspace, output_violations, task_cost)
+                                       id_workspace_buffers, output_violations, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -1299,7 +1299,7 @@ class _KernelBuffers:
         k = jl.dim
         self.tail = (tl.velocity_indices, tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax,
                      np.empty(k), np.empty(k), *blocks, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
-                     rows.gram_y, *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
+                     rows.gram_y, *id_workspace_buffers(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0

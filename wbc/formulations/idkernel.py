@@ -60,7 +60,7 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, chol
                                 primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "output_violations", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_workspace_buffers", "output_violations", "task_cost", "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -269,6 +269,61 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
+def id_workspace_buffers(n: int, nv: int, p: int, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The workspace of :func:`id_workspace` as three zeroed flat buffers — float64, int64, bool — that
+    :func:`id_tick` carves into the same arrays (:func:`_carve_workspace`): three arguments to unbox per call
+    instead of twenty-two."""
+    nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3
+    return (np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64), np.zeros(w, np.bool_))
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _carve_workspace(wf, wi, wb, n, nv, p):
+    """The arrays of :func:`id_workspace` (same shapes, C order, disjoint) as views of the buffers of
+    :func:`id_workspace_buffers`; w = the bool buffer's size."""
+    w = wb.shape[0]
+    o = 0
+    Yv = wf[o:o + w * nv].reshape((w, nv))
+    o += w * nv
+    S = wf[o:o + w * w].reshape((w, w))
+    o += w * w
+    L = wf[o:o + nv * nv].reshape((nv, nv))
+    o += nv * nv
+    tv = wf[o:o + nv]
+    o += nv
+    c = wf[o:o + w]
+    o += w
+    nuw = wf[o:o + w]
+    o += w
+    a = wf[o:o + n]
+    o += n
+    z = wf[o:o + n]
+    o += n
+    npv = wf[o:o + n]
+    o += n
+    rb = wf[o:o + n]
+    o += n
+    lam_b = wf[o:o + n]
+    o += n
+    lam_r = wf[o:o + p]
+    o += p
+    ra = wf[o:o + n]
+    o += n
+    rc = wf[o:o + w]
+    o += w
+    dx = wf[o:o + n]
+    o += n
+    drho = wf[o:o + w]
+    o += w
+    out = wf[o:o + 3]
+    nff = wi.shape[0] - w - nv - 3
+    rows = wi[0:w]
+    vfree = wi[w:w + nv]
+    ffree = wi[w + nv:w + nv + nff]
+    fac = wi[w + nv + nff:w + nv + nff + 3]
+    return (rows, Yv, S, L, tv, c, nuw, wb, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, out)
+
+
 #: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
 #: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
 #: drops the dependent directions (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`).
@@ -408,9 +463,8 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows,
-            ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
-            ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
+            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_f, ws_i,
+            ws_b, residual, tau, wrench):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
@@ -425,8 +479,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
             joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
         iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). state, rstate, x, mu, ws_*: the solve's arguments (workspace from :func:`id_workspace`;
-            ws_L, ws_tv are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
+            contact). state, rstate, x, mu: the solve's arguments. ws_f, ws_i, ws_b: its workspace, the flat buffers
+            of :func:`id_workspace_buffers` (carved into the arrays of :func:`id_workspace`; its L and tv are also
+            the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
             nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
             :func:`contact_rows_well_conditioned`.
         residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
@@ -437,6 +492,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
         (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
+    (ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
+     ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = _carve_workspace(ws_f, ws_i, ws_b, H.shape[0], nv,
+                                                                                  C.shape[0])
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
                     (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
                     (ws_L, ws_tv, gram, gram_y, jlo, jhi))
