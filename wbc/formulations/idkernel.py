@@ -60,7 +60,7 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, chol
                                 primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "id_workspace_buffers", "output_violations", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_tick_buffers", "output_violations", "tick_outputs", "task_cost", "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -269,19 +269,40 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
-def id_workspace_buffers(n: int, nv: int, p: int, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The workspace of :func:`id_workspace` as three zeroed flat buffers — float64, int64, bool — that
-    :func:`id_tick` carves into the same arrays (:func:`_carve_workspace`): three arguments to unbox per call
-    instead of twenty-two."""
+def id_tick_buffers(n: int, nv: int, p: int, nc: int, k: int) -> tuple[np.ndarray, ...]:
+    """The solver state, outputs and workspace of :func:`id_tick` for n variables, nv accelerations, p inequality
+    rows, nc contacts and k joint-bounded joints, as five zeroed flat buffers (:func:`_carve_tick`, a handful of
+    arguments to unbox per call instead of thirty):
+
+    * ``ws_s`` int8 (n + p,): the working set, ``state`` (n,) then ``rstate`` (p,);
+    * ``ws_f`` float64: the arrays of :func:`id_workspace` (w = 6 + 6 nc + p working rows) that are float, then
+      jlo, jhi (k,), nu (6 + 6 nc,), mu (p,), gram (6 nc, 6 nc), gram_y (6 nc,);
+    * ``ws_i`` int64 and ``ws_b`` bool (w,): the integer and boolean arrays of :func:`id_workspace`;
+    * ``out`` float64: residual (2,), tau (nv − 6,), wrench (nc, 6), x (n,) — the outputs the caller reads.
+    """
+    w = 6 + 6 * nc + p
     nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3
-    return (np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64), np.zeros(w, np.bool_))
+    nf += 2 * k + (6 + 6 * nc) + p + 36 * nc * nc + 6 * nc
+    return (np.zeros(n + p, np.int8), np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64),
+            np.zeros(w, np.bool_), np.zeros(2 + nv - 6 + 6 * nc + n))
+
+
+def tick_outputs(out: np.ndarray, nv: int, nc: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(residual (2,), tau (nv − 6,), wrench (nc, 6), x) views of :func:`id_tick_buffers`' ``out`` buffer."""
+    return out[:2], out[2:nv - 4], out[nv - 4:nv - 4 + 6 * nc].reshape(nc, 6), out[nv - 4 + 6 * nc:]
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
-def _carve_workspace(wf, wi, wb, n, nv, p):
-    """The arrays of :func:`id_workspace` (same shapes, C order, disjoint) as views of the buffers of
-    :func:`id_workspace_buffers`; w = the bool buffer's size."""
+def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
+    """The arrays of :func:`id_tick_buffers` (same shapes, C order, disjoint views): (state, rstate, residual, tau,
+    wrench, x, jlo, jhi, nu, mu, gram, gram_y, the arrays of :func:`id_workspace` in its order)."""
     w = wb.shape[0]
+    state = ws_s[0:n]
+    rstate = ws_s[n:n + p]
+    residual = out[0:2]
+    tau = out[2:nv - 4]
+    wrench = out[nv - 4:nv - 4 + 6 * nc].reshape((nc, 6))
+    x = out[nv - 4 + 6 * nc:nv - 4 + 6 * nc + n]
     o = 0
     Yv = wf[o:o + w * nv].reshape((w, nv))
     o += w * nv
@@ -315,13 +336,27 @@ def _carve_workspace(wf, wi, wb, n, nv, p):
     o += n
     drho = wf[o:o + w]
     o += w
-    out = wf[o:o + 3]
+    wout = wf[o:o + 3]
+    o += 3
+    jlo = wf[o:o + k]
+    o += k
+    jhi = wf[o:o + k]
+    o += k
+    mm = 6 + 6 * nc
+    nu = wf[o:o + mm]
+    o += mm
+    mu = wf[o:o + p]
+    o += p
+    gram = wf[o:o + 36 * nc * nc].reshape((6 * nc, 6 * nc))
+    o += 36 * nc * nc
+    gram_y = wf[o:o + 6 * nc]
     nff = wi.shape[0] - w - nv - 3
     rows = wi[0:w]
     vfree = wi[w:w + nv]
     ffree = wi[w + nv:w + nv + nff]
     fac = wi[w + nv + nff:w + nv + nff + 3]
-    return (rows, Yv, S, L, tv, c, nuw, wb, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, out)
+    return (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y,
+            (rows, Yv, S, L, tv, c, nuw, wb, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, wout))
 
 
 #: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
@@ -462,9 +497,8 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_f, ws_i,
-            ws_b, residual, tau, wrench):
+def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, idx, lim, par, qmin, qmax, vmax, H, g,
+            A, b, C, l, u, lb, ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
@@ -475,26 +509,34 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
         Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
             ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e);
             active (nc,) bool.
-        vrows (nt,) int64, lim (nt,): v indices and limits (N·m) of the torque-limited joints. par (6,): ε_a, a_brk,
-            joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
-        iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
+        idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
+            indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (6,): ε_a, a_brk, joint
+            limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``). qmin,
+            qmax, vmax (k,): joint-limit data (eq. 9).
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). state, rstate, x, mu: the solve's arguments. ws_f, ws_i, ws_b: its workspace, the flat buffers
-            of :func:`id_workspace_buffers` (carved into the arrays of :func:`id_workspace`; its L and tv are also
-            the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
-            nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
-            :func:`contact_rows_well_conditioned`.
-        residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
-            unactuated rows). tau (nv − 6,): out, eq. 2. wrench (nc, 6): out, each sole's wrench G_k f_k at its
-            origin in world axes (N, N·m), zero for an inactive contact.
+            contact).
+        ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
+            as the warm start, written), the solve's workspace (the arrays of :func:`id_workspace` — its L and tv
+            are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them —, the joint
+            bounds jlo, jhi, the equality step's multipliers nu, the workspace gram, gram_y of
+            :func:`contact_rows_well_conditioned`), and the outputs (:func:`tick_outputs`): residual (2,), the
+            largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's unactuated rows); tau
+            (nv − 6,), eq. 2; wrench (nc, 6), each sole's wrench G_k f_k at its origin in world axes (N, N·m), zero
+            for an inactive contact; x (n,), the solution.
 
     Returns:
         (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
+    nt = lim.shape[0]
+    k = qmin.shape[0]
+    vrows = idx[0:nt]
+    iq = idx[nt:nt + k]
+    iv = idx[nt + k:nt + 2 * k]
+    (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y, ws) = _carve_tick(
+        ws_s, ws_f, ws_i, ws_b, out, H.shape[0], nv, C.shape[0], Jc.shape[0], k)
     (ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
-     ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = _carve_workspace(ws_f, ws_i, ws_b, H.shape[0], nv,
-                                                                                  C.shape[0])
+     ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = ws
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
                     (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
                     (ws_L, ws_tv, gram, gram_y, jlo, jhi))
