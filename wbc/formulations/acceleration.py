@@ -97,8 +97,8 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
-                                       id_tick_buffers, output_violations, task_cost,
-                                       tick_outputs)
+                                       contact_views, id_tick_buffers, output_violations,
+                                       task_cost, tick_outputs)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -1198,13 +1198,12 @@ class _ProblemRows:
     def __init__(self, qp: InverseDynamicsQP):
         nv, nc = qp.nv, len(qp.contacts)
         self.names = [c.name for c in qp.contacts]
-        self.Jc = np.zeros((nc, 6, nv))
-        self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
-        self.cdrift = np.zeros((nc, 6))
-        self.ckd = np.zeros(nc)
-        self.Rc = np.zeros((nc, 3, 3))
+        # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
+        self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
+        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
+        self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = (self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd, self.active)
+        self.contacts = (self.cbuf, self.active)
         self.Hw = np.zeros((nv, nv))  # task_cost workspace
         self.gw = np.zeros(nv)
         self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace

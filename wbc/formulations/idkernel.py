@@ -60,7 +60,7 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, chol
                                 primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "id_tick_buffers", "output_violations", "tick_outputs", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -293,6 +293,23 @@ def tick_outputs(out: np.ndarray, nv: int, nc: int) -> tuple[np.ndarray, np.ndar
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
+def contact_views(cbuf, nc, nv):
+    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of :func:`id_tick`
+    as C-ordered disjoint views of one float64 buffer cbuf (nc (6 nv + 88),), in that order. Compiled (inlined in
+    :func:`id_tick`) and callable from Python alike."""
+    o = 6 * nv * nc
+    Jc = cbuf[0:o].reshape((nc, 6, nv))
+    Gc = cbuf[o:o + 72 * nc].reshape((nc, 6, 12))
+    o += 72 * nc
+    Rc = cbuf[o:o + 9 * nc].reshape((nc, 3, 3))
+    o += 9 * nc
+    cdrift = cbuf[o:o + 6 * nc].reshape((nc, 6))
+    o += 6 * nc
+    ckd = cbuf[o:o + nc]
+    return Jc, Gc, Rc, cdrift, ckd
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
 def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
     """The arrays of :func:`id_tick_buffers` (same shapes, C order, disjoint views): (state, rstate, residual, tau,
     wrench, x, jlo, jhi, nu, mu, gram, gram_y, the arrays of :func:`id_workspace` in its order)."""
@@ -497,8 +514,8 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, idx, lim, par, qmin, qmax, vmax, H, g,
-            A, b, C, l, u, lb, ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
+def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, qmax, vmax, H, g, A, b, C, l, u, lb,
+            ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
@@ -506,9 +523,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, id
     Args:
         Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
         M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
-        Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
-            ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e);
-            active (nc,) bool.
+        cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
+            corner maps; Rc (nc, 3, 3): sole rotations (world ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand
+            side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,) bool.
         idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
             indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (6,): ε_a, a_brk, joint
             limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``). qmin,
@@ -528,6 +545,7 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, id
         (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
+    Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
     nt = lim.shape[0]
     k = qmin.shape[0]
     vrows = idx[0:nt]
