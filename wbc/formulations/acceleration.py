@@ -97,7 +97,8 @@ from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
-                                       id_workspace, output_violations, task_cost)
+                                       contact_views, id_tick_buffers, output_violations,
+                                       task_cost, tick_outputs)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -1247,13 +1248,12 @@ class _ProblemRows:
     def __init__(self, qp: InverseDynamicsQP):
         nv, nc = qp.nv, len(qp.contacts)
         self.names = [c.name for c in qp.contacts]
-        self.Jc = np.zeros((nc, 6, nv))
-        self.Gc = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
-        self.cdrift = np.zeros((nc, 6))
-        self.ckd = np.zeros(nc)
-        self.Rc = np.zeros((nc, 3, 3))
+        # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
+        self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
+        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
+        self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = (self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd, self.active)
+        self.contacts = (self.cbuf, self.active)
         self.Hw = np.zeros((nv, nv))  # task_cost workspace
         self.gw = np.zeros(nv)
         self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
@@ -1335,21 +1335,14 @@ class _KernelBuffers:
         nv, n, nc = qp.nv, qp.n, len(qp.contacts)
         tl = qp.torque_limits
         jl = qp.joint_acceleration_limits
-        self.wrench = np.zeros((nc, 6))
         self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
                              DEPENDENT_CONTACT_RATIO, jl.speed_horizon])
-        m_max, p = 6 + 6 * nc, blocks[4].shape[0]  # C (p, n): the inequality rows
-        self.state = np.zeros(n, np.int8)
-        self.rstate = np.zeros(p, np.int8)
-        self.x = np.zeros(n)
-        self.nu = np.zeros(m_max)
-        self.mu = np.zeros(p)
-        self.residual = np.zeros(2)
-        self.tau = np.zeros(nv - 6)
-        k = jl.dim
-        self.tail = (tl.velocity_indices, tl.limits.copy(), self.par, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax,
-                     np.empty(k), np.empty(k), *blocks, self.state, self.rstate, self.x, self.nu, self.mu, rows.gram,
-                     rows.gram_y, *id_workspace(n, nv, p, m_max + p), self.residual, self.tau, self.wrench)
+        p = blocks[4].shape[0]  # C (p, n): the inequality rows
+        buffers = id_tick_buffers(n, nv, p, nc, jl.dim)
+        self.state, self.rstate = buffers[0][:n], buffers[0][n:]  # the working set, views of the kernel's buffer
+        self.residual, self.tau, self.wrench, self.x = tick_outputs(buffers[-1], nv, nc)
+        idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
+        self.tail = (idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax, *blocks, *buffers)
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0

@@ -60,7 +60,7 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, chol
                                 primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "output_violations", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS"]
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -269,6 +269,113 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
+def id_tick_buffers(n: int, nv: int, p: int, nc: int, k: int) -> tuple[np.ndarray, ...]:
+    """The solver state, outputs and workspace of :func:`id_tick` for n variables, nv accelerations, p inequality
+    rows, nc contacts and k joint-bounded joints, as five zeroed flat buffers (:func:`_carve_tick`, a handful of
+    arguments to unbox per call instead of thirty):
+
+    * ``ws_s`` int8 (n + p,): the working set, ``state`` (n,) then ``rstate`` (p,);
+    * ``ws_f`` float64: the arrays of :func:`id_workspace` (w = 6 + 6 nc + p working rows) that are float, then
+      jlo, jhi (k,), nu (6 + 6 nc,), mu (p,), gram (6 nc, 6 nc), gram_y (6 nc,);
+    * ``ws_i`` int64 and ``ws_b`` bool (w,): the integer and boolean arrays of :func:`id_workspace`;
+    * ``out`` float64: residual (2,), tau (nv − 6,), wrench (nc, 6), x (n,) — the outputs the caller reads.
+    """
+    w = 6 + 6 * nc + p
+    nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3
+    nf += 2 * k + (6 + 6 * nc) + p + 36 * nc * nc + 6 * nc
+    return (np.zeros(n + p, np.int8), np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64),
+            np.zeros(w, np.bool_), np.zeros(2 + nv - 6 + 6 * nc + n))
+
+
+def tick_outputs(out: np.ndarray, nv: int, nc: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(residual (2,), tau (nv − 6,), wrench (nc, 6), x) views of :func:`id_tick_buffers`' ``out`` buffer."""
+    return out[:2], out[2:nv - 4], out[nv - 4:nv - 4 + 6 * nc].reshape(nc, 6), out[nv - 4 + 6 * nc:]
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def contact_views(cbuf, nc, nv):
+    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of :func:`id_tick`
+    as C-ordered disjoint views of one float64 buffer cbuf (nc (6 nv + 88),), in that order. Compiled (inlined in
+    :func:`id_tick`) and callable from Python alike."""
+    o = 6 * nv * nc
+    Jc = cbuf[0:o].reshape((nc, 6, nv))
+    Gc = cbuf[o:o + 72 * nc].reshape((nc, 6, 12))
+    o += 72 * nc
+    Rc = cbuf[o:o + 9 * nc].reshape((nc, 3, 3))
+    o += 9 * nc
+    cdrift = cbuf[o:o + 6 * nc].reshape((nc, 6))
+    o += 6 * nc
+    ckd = cbuf[o:o + nc]
+    return Jc, Gc, Rc, cdrift, ckd
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
+    """The arrays of :func:`id_tick_buffers` (same shapes, C order, disjoint views): (state, rstate, residual, tau,
+    wrench, x, jlo, jhi, nu, mu, gram, gram_y, the arrays of :func:`id_workspace` in its order)."""
+    w = wb.shape[0]
+    state = ws_s[0:n]
+    rstate = ws_s[n:n + p]
+    residual = out[0:2]
+    tau = out[2:nv - 4]
+    wrench = out[nv - 4:nv - 4 + 6 * nc].reshape((nc, 6))
+    x = out[nv - 4 + 6 * nc:nv - 4 + 6 * nc + n]
+    o = 0
+    Yv = wf[o:o + w * nv].reshape((w, nv))
+    o += w * nv
+    S = wf[o:o + w * w].reshape((w, w))
+    o += w * w
+    L = wf[o:o + nv * nv].reshape((nv, nv))
+    o += nv * nv
+    tv = wf[o:o + nv]
+    o += nv
+    c = wf[o:o + w]
+    o += w
+    nuw = wf[o:o + w]
+    o += w
+    a = wf[o:o + n]
+    o += n
+    z = wf[o:o + n]
+    o += n
+    npv = wf[o:o + n]
+    o += n
+    rb = wf[o:o + n]
+    o += n
+    lam_b = wf[o:o + n]
+    o += n
+    lam_r = wf[o:o + p]
+    o += p
+    ra = wf[o:o + n]
+    o += n
+    rc = wf[o:o + w]
+    o += w
+    dx = wf[o:o + n]
+    o += n
+    drho = wf[o:o + w]
+    o += w
+    wout = wf[o:o + 3]
+    o += 3
+    jlo = wf[o:o + k]
+    o += k
+    jhi = wf[o:o + k]
+    o += k
+    mm = 6 + 6 * nc
+    nu = wf[o:o + mm]
+    o += mm
+    mu = wf[o:o + p]
+    o += p
+    gram = wf[o:o + 36 * nc * nc].reshape((6 * nc, 6 * nc))
+    o += 36 * nc * nc
+    gram_y = wf[o:o + 6 * nc]
+    nff = wi.shape[0] - w - nv - 3
+    rows = wi[0:w]
+    vfree = wi[w:w + nv]
+    ffree = wi[w + nv:w + nv + nff]
+    fac = wi[w + nv + nff:w + nv + nff + 3]
+    return (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y,
+            (rows, Yv, S, L, tv, c, nuw, wb, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, wout))
+
+
 #: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
 #: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
 #: drops the dependent directions (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`).
@@ -407,10 +514,8 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vrows, lim, par, iq, iv, qmin, qmax,
-            vmax, jlo, jhi, H, g, A, b, C, l, u, lb, ub, JcT, state, rstate, x, nu, mu, gram, gram_y, ws_rows,
-            ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
-            ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out, residual, tau, wrench):
+def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, qmax, vmax, H, g, A, b, C, l, u, lb,
+            ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
@@ -418,25 +523,38 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, Jc, Gc, Rc, cdrift, ckd, active, vr
     Args:
         Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
         M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
-        Jc (nc, 6, nv), Gc (nc, 6, 12): LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world
-            ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e);
-            active (nc,) bool.
-        vrows (nt,) int64, lim (nt,): v indices and limits (N·m) of the torque-limited joints. par (6,): ε_a, a_brk,
-            joint limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``).
-        iq, iv, qmin, qmax, vmax: joint-limit data (eq. 9); jlo, jhi (k,): workspace.
+        cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
+            corner maps; Rc (nc, 3, 3): sole rotations (world ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand
+            side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,) bool.
+        idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
+            indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (6,): ε_a, a_brk, joint
+            limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``). qmin,
+            qmax, vmax (k,): joint-limit data (eq. 9).
         H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact). state, rstate, x, mu, ws_*: the solve's arguments (workspace from :func:`id_workspace`;
-            ws_L, ws_tv are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them);
-            nu (≥ m,): equality multipliers of the equality step. gram, gram_y: workspace of
-            :func:`contact_rows_well_conditioned`.
-        residual (2,): out, largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's
-            unactuated rows). tau (nv − 6,): out, eq. 2. wrench (nc, 6): out, each sole's wrench G_k f_k at its
-            origin in world axes (N, N·m), zero for an inactive contact.
+            contact).
+        ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
+            as the warm start, written), the solve's workspace (the arrays of :func:`id_workspace` — its L and tv
+            are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them —, the joint
+            bounds jlo, jhi, the equality step's multipliers nu, the workspace gram, gram_y of
+            :func:`contact_rows_well_conditioned`), and the outputs (:func:`tick_outputs`): residual (2,), the
+            largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's unactuated rows); tau
+            (nv − 6,), eq. 2; wrench (nc, 6), each sole's wrench G_k f_k at its origin in world axes (N, N·m), zero
+            for an inactive contact; x (n,), the solution.
 
     Returns:
         (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
     """
     nv = M.shape[0]
+    Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
+    nt = lim.shape[0]
+    k = qmin.shape[0]
+    vrows = idx[0:nt]
+    iq = idx[nt:nt + k]
+    iv = idx[nt + k:nt + 2 * k]
+    (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y, ws) = _carve_tick(
+        ws_s, ws_f, ws_i, ws_b, out, H.shape[0], nv, C.shape[0], Jc.shape[0], k)
+    (ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
+     ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = ws
     m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
                     (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
                     (ws_L, ws_tv, gram, gram_y, jlo, jhi))
