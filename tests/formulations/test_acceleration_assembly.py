@@ -176,3 +176,27 @@ def test_the_property_test_reached_the_compiled_tick_on_every_robot():
     if sum(_kernel_assemblies.values()) == 0:
         pytest.skip("run with the property test")
     assert all(_kernel_solves[name] > 0 for name in ROBOTS), _kernel_solves
+
+
+def test_compiled_tick_and_its_fallback_share_the_equality_rows_after_a_hard_task_came_and_went():
+    """A hard task that grows the equality block, then removed: the compiled tick's next QP (assembled by the kernel,
+    solved by DAQP with ``kernel_max_iterations = 0``, the path of a kernel that gives up) is the QP a fresh
+    controller with the same tasks solves on the same state — the same command to 1e-12 (before the fix the kernel
+    kept writing the old equality block while DAQP read the new one, which held the other state's rows)."""
+    robot = _robot("talos")
+    rng = np.random.default_rng(5)
+    tasks, contacts, state = _problem(robot, rng, [True, False, True], [True, True], [False, False])
+    fresh = InverseDynamicsQP(robot, tasks, contacts, solver="fast")
+    qp = InverseDynamicsQP(robot, tasks, contacts, solver="fast")
+    com = ComTask()
+    com.set_target(DynamicsState(robot).com)
+    hard = AccelerationReference(com, kp=10.0, kd=1.0, name="hard_com")
+    qp.add_task(hard, hard=True)  # 3 more equality rows: the block grows
+    qp.solve(DynamicsState(robot), DT)  # the general path on another state (half-sitting, at rest)
+    qp.remove_task(hard)
+    for ctrl in (qp, fresh):
+        ctrl.kernel_max_iterations = 0
+    got, want = qp.solve(state, DT), fresh.solve(state, DT)
+    assert got.path.route == want.path.route
+    x_got, x_want = np.concatenate([got.dv, got.forces]), np.concatenate([want.dv, want.forces])
+    assert np.max(np.abs(x_got - x_want)) <= 1e-12 * max(1.0, float(np.max(np.abs(x_want))))

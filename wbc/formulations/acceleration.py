@@ -541,6 +541,8 @@ class InverseDynamicsQP:
         if rows > self._A.shape[0]:
             self._A = np.zeros((rows, self.n))
             self._b = np.zeros(rows)
+            if self._kernel is not None:  # its argument tuples hold the blocks: new blocks, new buffers
+                self._kernel = self._new_kernel()
 
     def contact(self, name: str) -> SoleContact:
         """The contact called ``name``. Raises InvalidInputError (listing the names) when there is none."""
