@@ -226,6 +226,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         self._v_rows = (self._mem[7, :nv], self._mem[_SLOT + 7, :nv])
         self._v_shape = (nv,)
         self._own_compute = type(self).compute is ExecutedZmpConstraint.compute
+        self._ag_kept = None  # the last configuration seen keeping its centroidal map (keep_centroidal_map)
         self._slot = 0             # index of the now slot (rec: 1 − slot)
         self._dt_now = 0.0
         self._have_now = False
@@ -360,7 +361,8 @@ class ExecutedZmpConstraint(InequalityConstraint):
         J = config.com_jacobian
         if not self._angular_momentum:
             Ag = J
-        elif config.keeps_centroidal_map:  # computed by the configuration's update (the same numbers)
+        elif config is self._ag_kept or config.keeps_centroidal_map:  # computed by the configuration's update
+            self._ag_kept = config  # (keep_centroidal_map is for good: asked once per configuration)
             Ag = config.centroidal_momentum_matrix
         else:  # on a Data of its own: computeCentroidalMap rewrites the CoM the configuration's data holds
             Ag = pin.computeCentroidalMap(self._model, self._data, config.q)
