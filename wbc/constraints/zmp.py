@@ -121,22 +121,22 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
         return
     # the previous tick: c_pred = c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k), L_{k−1} = A_{k−1} v_{k−1}
     sc = _SCRATCH  # c_pred [0:3], L_prev [3:6], r [6:9], dc [9:12]
-    for i in range(3):
+    inv_mh = 1.0 / (mass * h)
+    for i in range(3):  # one pass per row: the previous tick's products and J_eff = J + (J − J_{k−1})
         s = 0.0
         m = 0.0
+        sd = 0.0
         for j in range(nv):
-            s += W[p0 + 1 + i, j] * W[p0 + 7, j]
-            m += W[p0 + 4 + i, j] * W[p0 + 7, j]
+            vj = W[p0 + 7, j]
+            jp = W[p0 + 1 + i, j]
+            s += jp * vj
+            m += W[p0 + 4 + i, j] * vj
+            dj = J[i, j] - jp
+            sd += dj * vj
+            W[_J_EFF + i, j] = J[i, j] + dj
         W[sc, i] = W[p0, i] + s * dt_prev
         W[sc, 3 + i] = m
-    inv_mh = 1.0 / (mass * h)
-    for i in range(3):
-        s = 0.0
-        for j in range(nv):
-            dj = J[i, j] - W[p0 + 1 + i, j]
-            s += dj * W[p0 + 7, j]
-            W[_J_EFF + i, j] = J[i, j] + dj
-        W[sc, 6 + i] = (c[i] - W[sc, i]) - dt * s
+        W[sc, 6 + i] = (c[i] - W[sc, i]) - dt * sd
         W[sc, 9 + i] = c[i] - W[p0, i]
     r0, r1, r2 = W[sc, 6], W[sc, 7], W[sc, 8]
     d0, d1, d2 = W[sc, 9], W[sc, 10], W[sc, 11]
@@ -145,13 +145,15 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
         se = W[_EDGES + 2, e] - (nx * c[0] + ny * c[1])
         a0, a1, a2 = -nx, -ny, se / -h
         u[e] = (se * gravity * dt * dt / h - (a0 * (r0 - d0) + a1 * (r1 - d1) + a2 * (r2 - d2))) / dt
-        for j in range(nv):
-            C[e, j] = a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]
         if use_momentum:
             e0, e1 = ny * inv_mh, -nx * inv_mh
             for j in range(nv):
-                C[e, j] += e0 * W[s0 + 4, j] + e1 * W[s0 + 5, j]
+                C[e, j] = (a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]) + (
+                    e0 * W[s0 + 4, j] + e1 * W[s0 + 5, j])
             u[e] += e0 * W[sc, 3] + e1 * W[sc, 4]
+        else:
+            for j in range(nv):
+                C[e, j] = a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]
     for j in range(nv):
         C[last, j] = -W[_J_EFF + 2, j]
     u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r2 - d2) / dt
