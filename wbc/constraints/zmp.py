@@ -60,28 +60,34 @@ from wbc.constants import GRAVITY
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
+from wbc.geometry import ReadOnly, as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint"]
 
 
 #: rows of one tick slot of :class:`ExecutedZmpConstraint`'s memory array: CoM (first 3 entries), CoM Jacobian (3),
-#: angular rows of the centroidal map (3), command; two slots, then J_eff (3 rows) and a scratch row
+#: angular rows of the centroidal map (3), command; two slots, then J_eff (3 rows), a scratch row, the shrunk support
+#: polygon's edges (3 rows: outward normal x, y and offset, one edge per column) and a row of constants (_PARAMS:
+#: ground height, mass, gravity, min_normal_ratio, use_momentum, edge count), read by the compiled tick from that one array
 _SLOT = 8
 _J_EFF = 2 * _SLOT
 _SCRATCH = _J_EFF + 3
+_EDGES = _SCRATCH + 1
+_PARAMS = _EDGES + 3
 
 
 @nb.njit(cache=True, nogil=True)
-def _zmp_tick(c, J, Ag, W, now, active, dt_prev, edges, ground_z, mass, gravity, dt, min_normal_ratio, use_momentum,
-              C, l, u):
+def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
     """:meth:`ExecutedZmpConstraint.compute` in one compiled call: keep this tick's CoM c, CoM Jacobian J and
     (use_momentum) the angular rows of the centroidal map Ag (6, nv) in slot ``now`` of the memory W; then, when the
     previous tick is known (``active``: the other slot's CoM c_prev, Jacobians J_prev, A_prev and command v_prev
     over dt_prev, all finite), write the rows of the module docstring into C (rows 0..k−1 and the last one; the
-    rows between are unused: 0 ≤ +inf) and u, l = −inf, else make every row inactive (0 ≤ +inf). ``edges`` (k, 3):
-    per edge of the shrunk polygon, the outward normal (x, y) and the offset. All kinematic quantities come from
+    rows between are unused: 0 ≤ +inf) and u, l = −inf, else make every row inactive (0 ≤ +inf). Edge e of the
+    shrunk polygon (outward normal (x, y), offset) is column e of rows _EDGES.._EDGES+2 of W, the constants (ground
+    height z_g, mass, g, min_normal_ratio, use_momentum, edge count k) row _PARAMS. All kinematic quantities come from
     Pinocchio; this is assembly arithmetic only."""
+    ground_z, mass, gravity = W[_PARAMS, 0], W[_PARAMS, 1], W[_PARAMS, 2]
+    min_normal_ratio, use_momentum, k = W[_PARAMS, 3], W[_PARAMS, 4] != 0.0, int(W[_PARAMS, 5])
     nv = J.shape[1]
     s0 = now * 8
     p0 = (1 - now) * 8
@@ -91,7 +97,6 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, edges, ground_z, mass, gravity,
             W[s0 + 1 + i, j] = J[i, j]
             if use_momentum:
                 W[s0 + 4 + i, j] = Ag[3 + i, j]
-    k = edges.shape[0]
     last = C.shape[0] - 1
     for e in range(C.shape[0]):
         l[e] = -np.inf
@@ -116,37 +121,39 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, edges, ground_z, mass, gravity,
         return
     # the previous tick: c_pred = c_{k−1} + J_{k−1} v_{k−1} dt (first-order prediction of c_k), L_{k−1} = A_{k−1} v_{k−1}
     sc = _SCRATCH  # c_pred [0:3], L_prev [3:6], r [6:9], dc [9:12]
-    for i in range(3):
+    inv_mh = 1.0 / (mass * h)
+    for i in range(3):  # one pass per row: the previous tick's products and J_eff = J + (J − J_{k−1})
         s = 0.0
         m = 0.0
+        sd = 0.0
         for j in range(nv):
-            s += W[p0 + 1 + i, j] * W[p0 + 7, j]
-            m += W[p0 + 4 + i, j] * W[p0 + 7, j]
+            vj = W[p0 + 7, j]
+            jp = W[p0 + 1 + i, j]
+            s += jp * vj
+            m += W[p0 + 4 + i, j] * vj
+            dj = J[i, j] - jp
+            sd += dj * vj
+            W[_J_EFF + i, j] = J[i, j] + dj
         W[sc, i] = W[p0, i] + s * dt_prev
         W[sc, 3 + i] = m
-    inv_mh = 1.0 / (mass * h)
-    for i in range(3):
-        s = 0.0
-        for j in range(nv):
-            dj = J[i, j] - W[p0 + 1 + i, j]
-            s += dj * W[p0 + 7, j]
-            W[_J_EFF + i, j] = J[i, j] + dj
-        W[sc, 6 + i] = (c[i] - W[sc, i]) - dt * s
+        W[sc, 6 + i] = (c[i] - W[sc, i]) - dt * sd
         W[sc, 9 + i] = c[i] - W[p0, i]
     r0, r1, r2 = W[sc, 6], W[sc, 7], W[sc, 8]
     d0, d1, d2 = W[sc, 9], W[sc, 10], W[sc, 11]
     for e in range(k):
-        nx, ny = edges[e, 0], edges[e, 1]
-        se = edges[e, 2] - (nx * c[0] + ny * c[1])
+        nx, ny = W[_EDGES, e], W[_EDGES + 1, e]
+        se = W[_EDGES + 2, e] - (nx * c[0] + ny * c[1])
         a0, a1, a2 = -nx, -ny, se / -h
         u[e] = (se * gravity * dt * dt / h - (a0 * (r0 - d0) + a1 * (r1 - d1) + a2 * (r2 - d2))) / dt
-        for j in range(nv):
-            C[e, j] = a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]
         if use_momentum:
             e0, e1 = ny * inv_mh, -nx * inv_mh
             for j in range(nv):
-                C[e, j] += e0 * W[s0 + 4, j] + e1 * W[s0 + 5, j]
+                C[e, j] = (a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]) + (
+                    e0 * W[s0 + 4, j] + e1 * W[s0 + 5, j])
             u[e] += e0 * W[sc, 3] + e1 * W[sc, 4]
+        else:
+            for j in range(nv):
+                C[e, j] = a0 * W[_J_EFF, j] + a1 * W[_J_EFF + 1, j] + a2 * W[_J_EFF + 2, j]
     for j in range(nv):
         C[last, j] = -W[_J_EFF + 2, j]
     u[last] = (1.0 - min_normal_ratio) * gravity * dt + (r2 - d2) / dt
@@ -156,9 +163,9 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, edges, ground_z, mass, gravity,
 def _warm_up() -> None:
     """Load :func:`_zmp_tick` (on-disk cache) once per process, at construction (C-ordered arrays, as Pinocchio's
     CoM Jacobian and centroidal map are)."""
-    c, J = np.zeros(3), np.zeros((3, 1))
-    _zmp_tick(c, J, np.zeros((6, 1)), np.zeros((_SCRATCH + 1, 12)), 0, True, 0.002, np.zeros((1, 3)), 0.0, 1.0,
-              GRAVITY, 0.002, 0.5, True, np.zeros((2, 1)), np.zeros(2), np.zeros(2))
+    c, J, W = np.zeros(3), np.zeros((3, 1)), np.zeros((_PARAMS + 1, 12))
+    W[_PARAMS, :6] = 0.0, 1.0, GRAVITY, 0.5, 1.0, 1.0
+    _zmp_tick(c, J, np.zeros((6, 1)), W, 0, True, 0.002, 0.002, np.zeros((2, 1)), np.zeros(2), np.zeros(2))
 
 
 class ExecutedZmpConstraint(InequalityConstraint):
@@ -183,36 +190,45 @@ class ExecutedZmpConstraint(InequalityConstraint):
 
     needs_previous_command = True
     relaxable = True
+    # constants of the compiled tick, kept in its memory array (row _PARAMS): read-only after construction
+    min_normal_ratio = ReadOnly("Smallest vertical ground force as a fraction of the weight, in [0, 1).")
+    gravity = ReadOnly("g (m/s², > 0).")
+    mass = ReadOnly("Total mass m of the model (kg).")
+    angular_momentum = ReadOnly("Whether the rows include L̇ (the multi-body ZMP); False: the CoM-only ZMP.")
+    ground_z = ReadOnly("Ground height z_g (m, world): the mean z of the soles of the last :meth:`set_support`.")
 
     def __init__(self, robot, *, margin: float = 0.002, min_normal_ratio: float = 0.5, max_soles: int = 2,
                  gravity: float | None = None, angular_momentum: bool = True, name: str = "executed_zmp"):
         self.robot, self.name = robot, name
         self.margin = check_scalar(margin, "margin", "m")
-        self.min_normal_ratio = check_scalar(min_normal_ratio, "min_normal_ratio", "fraction of the weight")
-        if self.min_normal_ratio >= 1.0:
+        self._min_normal_ratio = check_scalar(min_normal_ratio, "min_normal_ratio", "fraction of the weight")
+        if self._min_normal_ratio >= 1.0:
             raise InvalidInputError(f"min_normal_ratio must be in [0, 1), got {min_normal_ratio!r}")
-        self.gravity = check_scalar(robot.gravity if gravity is None else gravity, "gravity", "m/s²", strict=True)
+        self._gravity = check_scalar(robot.gravity if gravity is None else gravity, "gravity", "m/s²", strict=True)
         self.max_soles = check_count(max_soles, "max_soles")
         nv = robot.model.nv
         self.dim = 4 * self.max_soles + 1   # last row: the normal-force row
         self.nv = nv
         self.normals = np.zeros((0, 2))
         self.offsets = np.zeros(0)
-        self.ground_z = 0.0
+        self._ground_z = 0.0
         self._C = np.zeros((self.dim, nv))
         self._l = np.full(self.dim, -np.inf)
         self._u = np.full(self.dim, np.inf)
-        self.angular_momentum = bool(angular_momentum)
+        self._angular_momentum = bool(angular_momentum)
         self._model = robot.model
         self._data = robot.model.createData()
-        self.mass = float(sum(i.mass for i in robot.model.inertias))
+        self._mass = float(sum(i.mass for i in robot.model.inertias))
         # tick memory (:func:`_zmp_tick`): two slots of c, J_com, A_G,ang and a command; "now" = those of the last
         # compute (its dt), "rec" = the other slot, those of the tick whose command set_previous recorded (c_{k−1},
         # J_{k−1}, A_{k−1}, v_{k−1} over dt_{k−1}). set_previous writes the command into the now slot, which becomes
-        # rec: no copy but the command's
-        self._mem = np.zeros((_SCRATCH + 1, max(nv, 12)))
+        # rec: no copy but the command's. Then the edges and constants rows (set by set_support)
+        self._mem = np.zeros((_PARAMS + 1, max(nv, 12, self.dim)))
+        self._mem[_PARAMS, :5] = 0.0, self._mass, self._gravity, self._min_normal_ratio, float(self._angular_momentum)
         self._v_rows = (self._mem[7, :nv], self._mem[_SLOT + 7, :nv])
-        self._edges = np.zeros((0, 3))
+        self._v_shape = (nv,)
+        self._own_compute = type(self).compute is ExecutedZmpConstraint.compute
+        self._ag_kept = None  # the last configuration seen keeping its centroidal map (keep_centroidal_map)
         self._slot = 0             # index of the now slot (rec: 1 − slot)
         self._dt_now = 0.0
         self._have_now = False
@@ -267,8 +283,11 @@ class ExecutedZmpConstraint(InequalityConstraint):
         if inner <= self.margin:
             raise InvalidInputError(f"{self.name}: support polygon is too small for margin {self.margin} m")
         self.normals, self.offsets = np.array(normals), np.array(offsets)
-        self._edges = np.column_stack([self.normals, self.offsets])
-        self.ground_z = ground / len(sole_placements)
+        self._ground_z = ground / len(sole_placements)
+        mem = self._mem
+        mem[_EDGES:_EDGES + 2, :k] = self.normals.T
+        mem[_EDGES + 2, :k] = self.offsets
+        mem[_PARAMS, 0], mem[_PARAMS, 5] = self._ground_z, k
 
     def reset(self) -> None:
         """Forget the previous tick (rows inactive until one tick has been solved): call after moving the robot
@@ -309,13 +328,14 @@ class ExecutedZmpConstraint(InequalityConstraint):
             self._undo = None
             return
         self._undo = (self._rec_dt, self._rec_valid)
-        v = np.asarray(v, dtype=float)
-        if v.shape != (self.nv,):
-            self._rec_valid = False
-            self._have_now = False
-            return
+        if not (type(v) is np.ndarray and v.shape == self._v_shape):
+            v = np.asarray(v, dtype=float)
+            if v.shape != self._v_shape:
+                self._rec_valid = False
+                self._have_now = False
+                return
         slot = self._slot
-        np.copyto(self._v_rows[slot], v)
+        self._v_rows[slot][...] = v
         self._slot = 1 - slot  # the now slot becomes rec, the old rec slot the next now
         self._rec_dt = self._dt_now
         self._rec_valid = True
@@ -341,9 +361,10 @@ class ExecutedZmpConstraint(InequalityConstraint):
         """The rows of :meth:`compute` at ``config`` written into C (dim, nv), l, u (dim,) (its own buffers or a
         controller's rows), this tick's kinematics kept in the memory."""
         J = config.com_jacobian
-        if not self.angular_momentum:
+        if not self._angular_momentum:
             Ag = J
-        elif config.keeps_centroidal_map:  # computed by the configuration's update (the same numbers)
+        elif config is self._ag_kept or config.keeps_centroidal_map:  # computed by the configuration's update
+            self._ag_kept = config  # (keep_centroidal_map is for good: asked once per configuration)
             Ag = config.centroidal_momentum_matrix
         else:  # on a Data of its own: computeCentroidalMap rewrites the CoM the configuration's data holds
             Ag = pin.computeCentroidalMap(self._model, self._data, config.q)
@@ -352,8 +373,7 @@ class ExecutedZmpConstraint(InequalityConstraint):
         # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on
         # A_G,ang; last row −c̈_z ≤ (1 − ρ) g ⇔ −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt (compiled, one call)
         dt = float(dt)
-        _zmp_tick(config.com, J, Ag, self._mem, self._slot, self._rec_valid, self._rec_dt, self._edges, self.ground_z,
-                  self.mass, self.gravity, dt, self.min_normal_ratio, self.angular_momentum, C, l, u)
+        _zmp_tick(config.com, J, Ag, self._mem, self._slot, self._rec_valid, self._rec_dt, dt, C, l, u)
         self._dt_now = dt
         self._have_now = True
         self._now_in_rec = False
@@ -367,10 +387,10 @@ class ExecutedZmpConstraint(InequalityConstraint):
     def write(self, ctx, M_rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
         """The rows of :meth:`compute` written in place into C[rows] (dim, nv), l[rows], u[rows] (dim,) (a controller's
         stacked buffers) at ``ctx.config``, ``ctx.dt``; a subclass that overrides :meth:`compute` is written from it."""
-        if type(self).compute is not ExecutedZmpConstraint.compute:
+        if self._own_compute:
+            self._rows_into(ctx.config, ctx.dt, M_rows, lo, hi)
+        else:
             super().write(ctx, M_rows, lo, hi)
-            return
-        self._rows_into(ctx.config, ctx.dt, M_rows, lo, hi)
 
 
 class DcmPolygonConstraint(ComPolygonConstraint):

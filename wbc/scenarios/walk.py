@@ -84,6 +84,7 @@ class WalkController(StanceController):
         self._torso_ref_rot = config.data.oMf[self.torso.frame_id].rotation.copy()
         self._plan: WalkPlan | None = None
         self._rows: _PlanRows | None = None
+        self._swing_rows: dict = {}
 
     def set_plan(self, plan: WalkPlan) -> None:
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
@@ -96,8 +97,14 @@ class WalkController(StanceController):
         """
         if not isinstance(plan, WalkPlan):
             raise InvalidTargetError(f"expected a wbc.gait.WalkPlan, got {type(plan).__name__}")
-        self._rows = _PlanRows(plan, self._torso_ref_rot)
+        rows = self._rows = _PlanRows(plan, self._torso_ref_rot)
         self._plan = plan
+        # the swing sole's task and target rows of each support code (None: double support, no swing)
+        self._swing_rows = {int(DOUBLE): None,
+                            int(LEFT_STANCE): (self.swing["right"].set_target_rows, rows.right_rot_t_rows,
+                                               rows.right_pos_rows, rows.right_ff_rows),
+                            int(RIGHT_STANCE): (self.swing["left"].set_target_rows, rows.left_rot_t_rows,
+                                                rows.left_pos_rows, rows.left_ff_rows)}
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
         """Targets of sample k of the plan, at the current configuration.
@@ -112,17 +119,17 @@ class WalkController(StanceController):
         if self._plan is not plan:
             self.set_plan(plan)
         rows = self._rows
-        if not (type(k) is int or isinstance(k, (int, np.integer))) or isinstance(k, bool) or not 0 <= k < rows.n:
-            raise InvalidInputError(f"walk sample index k must be an integer in [0, {rows.n - 1}], got {k!r}")
+        if type(k) is not int or not 0 <= k < rows.n:
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < rows.n:
+                raise InvalidInputError(f"walk sample index k must be an integer in [0, {rows.n - 1}], got {k!r}")
         support = rows.support[k]
         if support != self.support:
             self.set_support(support, config)
         self.com.set_target_trusted(rows.com_rows[k], rows.com_vel_rows[k])
-        if not self.stance["left"]:
-            self.swing["left"].set_target_rows(rows.left_rot_t_rows[k], rows.left_pos_rows[k], rows.left_ff_rows[k])
-        if not self.stance["right"]:
-            self.swing["right"].set_target_rows(rows.right_rot_t_rows[k], rows.right_pos_rows[k],
-                                                rows.right_ff_rows[k])
+        swing = self._swing_rows[support]  # the plan's support is the controller's (set_support above)
+        if swing is not None:
+            set_rows, rot_t, pos, ff = swing
+            set_rows(rot_t[k], pos[k], ff[k])
         self.torso.set_target_rows(rows.torso_rot_t_rows[k], rows.zero3)
 
 
