@@ -1053,6 +1053,12 @@ class KinematicController:
                 if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
                     raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
                         from None
+                if self._level_order and not self._weighted_tick and self._late():
+                    # the failed cascade spent the tick's count: its retries below are answered by the weighted
+                    # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
+                    # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
+                    self._weighted_tick, self._weighted_qp = True, None
+                    self._cut.append("priority levels of the retries (their weighted form's command)")
                 if self._contact_rows.size and self._consistent_contact_rhs():
                     # dependent contact rows asked contradictory corrections: once more in least squares (one
                     # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
