@@ -1658,20 +1658,13 @@ class KinematicController:
 
     def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
         """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
-        WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied), divided by max(1, |g|∞, |H|max)
-        (the same minimiser); (nv, nv), (nv,)."""
+        WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
         Hw, gw = H.copy(), g.copy()
         p = len(self._level_order)
         for i, level in enumerate(self._level_rows):  # gathered by assemble, weights applied
             c = self.WEIGHTED_LEVEL_RATIO ** (p - i)
             Hw += c * (level.wJ.T @ level.wJ)
             gw -= c * (level.wJ.T @ level.wr)
-        # the level ratios make |H| up to ~1e6 against the damping's 1e-6: DAQP's absolute tolerances then took
-        # 1016 iterations on one such QP (fuzz seed 100012 episode 58 tick 6, humanoid15), 16 on the scaled one
-        scale = 1.0 / max(1.0, float(np.max(np.abs(Hw), initial=0.0)))
-        if scale < 1.0:
-            Hw *= scale
-            gw *= scale
         return Hw, gw
 
     # -- failure handling -------------------------------------------------------------------------------------
