@@ -834,3 +834,32 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     assert ctrl._work.cap == 8  # ⌊2 ms / 0.25 ms⌋: the fuzz's budget
     assert ctrl._work.solves <= 2 * 8  # 23 before
     assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+
+
+def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
+    """Kinematic fuzz seed 100014, episode 176 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
+    fuzz's budget of 8 counted solves): at tick 39 the cascade failed (dependent contact rows with contradictory
+    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so no
+    contact correction or trust region was left and the tick failed on its sole drift. Now a failed cascade that
+    spent the count retries with the weighted form of its levels (one QP): the tick is solved, and its command
+    keeps each stance sole within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward
+    kinematics on its own Data)."""
+    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100014, 176)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    dt, tol = 0.002, 5e-5
+    model = ctrl.robot.model
+    data = model.createData()
+    for _ in range(39):
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+    sent = []
+    for c in ctrl.constraints[:2]:
+        e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        sent.append((c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))).translation)
+    res = ctrl.solve(config, dt)
+    print(f"\ntick 39: {res.path} ok={res.ok}; {res.message[:200]}")
+    assert res.ok  # a 'contacts_held' failure before
+    assert res.path.weighted and res.path.budget
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * dt))
+    for c, target in zip(ctrl.constraints[:2], sent):
+        assert np.linalg.norm(data.oMf[c.frame_id].translation - target) <= tol
