@@ -838,12 +838,14 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
 
 def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
     """Kinematic fuzz seed 100014, episode 176 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
-    fuzz's budget of 8 counted solves): at tick 39 the cascade failed (dependent contact rows with contradictory
-    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so no
-    contact correction or trust region was left and the tick failed on its sole drift. Now a failed cascade that
-    spent the count retries with the weighted form of its levels (one QP): the tick is solved, and its command
-    keeps each stance sole within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward
-    kinematics on its own Data)."""
+    fuzz's budget of 8 counted solves): at tick 39 the cascade fails (dependent contact rows with contradictory
+    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so once the
+    compiled kernel's solves are counted (FastBackend) no contact correction or trust region was left and the tick
+    failed on its sole drift ('contacts_held'; main, where the kernel's re-solves go uncounted, solves it as
+    'levels' past its count). Now a failed cascade that spent the count retries with the weighted form of its
+    levels (one QP, path 'levels+budget+weighted'): the tick is solved, and its command keeps each stance sole
+    within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward kinematics on its own
+    Data)."""
     name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100014, 176)
     assert (name, kind, strict) == ("humanoid15", "far", True)
     dt, tol = 0.002, 5e-5
