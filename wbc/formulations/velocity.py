@@ -94,7 +94,9 @@ command leaves a contact frame past ``sole_drift_tolerance``, the tick is answer
 (taken when it keeps the contacts; else the tick fails as before). Either way the path is ``levels+budget+weighted``
 and the next ``WEIGHTED_TICKS`` ticks solve the weighted form directly (``levels+weighted``, one QP per re-solve), then
 the cascade again once a weighted tick's counted solves times p + 1 fit in the cascade's 1 budget (with the clock
-guard also its CPU time times 2 (p + 1) in one budget). The trigger and the exit are counts (and the same inputs give
+guard also its CPU time times 2 (p + 1) in one budget). A cascade that fails after the count is spent is retried
+(the least-squares retry of dependent contact rows, the relaxations below) with the weighted form as well
+(``levels+budget+weighted``). The trigger and the exit are counts (and the same inputs give
 the same answers); a command of a cut cascade that keeps the contacts is kept (``levels+budget``).
 
 With ``clock_guard=True`` (constructor) the tick's CPU time also counts as work (one budget of CPU time =
