@@ -765,6 +765,24 @@ def test_strict_far_target_keeps_the_soles_within_the_budget(robots):
         config.update(config.integrate(res.v, DT))
 
 
+def _default_fuzz_episode(robots, seed: int, episode: int):
+    """(name, kind, strict, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed`` with
+    its default flags (dt = 2 ms, no episode past the limits; the fuzz's budget: the tick's dt)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import fuzz
+
+    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
+    rng = np.random.default_rng(seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(episode + 1):
+            name = str(rng.choice(list(robots_)))
+            kind = str(rng.choice(["reachable", "absurd", "far"]))
+            strict = bool(rng.random() < 0.5)
+            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict)
+    return name, kind, strict, config, ctrl
+
+
 def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     """Kinematic fuzz seed 100011, episode 154 (humanoid15, a hand target 1e6 m away, 3 strict levels, dt = 2 ms,
     the fuzz's budget): from tick 8 the contacts' corrections contradict each other in a dependent direction, so no
@@ -774,18 +792,7 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     ticks of 50 on the parent commit. Now that QP gets its solver's iteration limit: the soles stay put to second
     order (forward kinematics: each failed tick moves each stance sole at most sole_drift_tolerance, a run of failed
     ticks at most 1 mm) and the episode recovers."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    import fuzz
-
-    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
-    rng = np.random.default_rng(100011)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for _ in range(155):
-            name = str(rng.choice(list(robots_)))
-            kind = str(rng.choice(["reachable", "absurd", "far"]))
-            strict = bool(rng.random() < 0.5)
-            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict)
+    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100011, 154)
     assert (name, kind, strict) == ("humanoid15", "far", True)
     dt, tol = 0.002, 5e-5
     assert ctrl.sole_drift_tolerance == tol
@@ -794,3 +801,67 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     assert fallbacks == {"contacts_held"}
     assert worst_tick <= tol
     assert worst_run <= 1e-3
+
+
+def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
+    """Kinematic fuzz seed 100011, episode 14 (humanoid15, an absurd hand target, strict levels answered by their
+    weighted form, dt = 2 ms, the fuzz's budget of 8 counted solves): at tick 40 the contacts' corrections contradict
+    each other in a dependent direction, the trust region's radii (kernel solves, uncounted before) spend the count
+    and the tick fails. Its safe commands then ran anyway: 'constraints_only' with its checks, 'contacts_held' at
+    β = 1 and 1/10 (infeasible), then β = 0 — 23 counted solves (6.3 ms of CPU in the fuzz). Now the trust region
+    stops at its count and the late tick solves 'contacts_held' at β = 0 first: the tick's counted work stays within
+    twice its cap, and the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's
+    forward kinematics on its own Data)."""
+    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100011, 14)
+    assert (name, kind, strict) == ("humanoid15", "absurd", True)
+    dt, tol = 0.002, 5e-5
+    model = ctrl.robot.model
+    data = model.createData()
+    contacts = ctrl.constraints[:2]
+
+    def soles(q):
+        pin.framesForwardKinematics(model, data, q)
+        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
+
+    for _ in range(40):
+        ctrl.solve(config, dt)
+        config.update(config.integrate(ctrl.last_result.v, dt))
+    before = soles(config.q)
+    res = ctrl.solve(config, dt)
+    after = soles(pin.integrate(model, config.q, res.v * dt))
+    print(f"\ntick 40: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    assert not res.ok and res.fallback == "contacts_held"
+    assert ctrl._work.cap == 8  # ⌊2 ms / 0.25 ms⌋: the fuzz's budget
+    assert ctrl._work.solves <= 2 * 8  # 23 before
+    assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+
+
+def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
+    """Kinematic fuzz seed 100014, episode 176 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
+    fuzz's budget of 8 counted solves): at tick 39 the cascade fails (dependent contact rows with contradictory
+    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so once the
+    compiled kernel's solves are counted (FastBackend) no contact correction or trust region was left and the tick
+    failed on its sole drift ('contacts_held'; main, where the kernel's re-solves go uncounted, solves it as
+    'levels' past its count). Now a failed cascade that spent the count retries with the weighted form of its
+    levels (one QP, path 'levels+budget+weighted'): the tick is solved, and its command keeps each stance sole
+    within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward kinematics on its own
+    Data)."""
+    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100014, 176)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    dt, tol = 0.002, 5e-5
+    model = ctrl.robot.model
+    data = model.createData()
+    for _ in range(39):
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+    sent = []
+    for c in ctrl.constraints[:2]:
+        e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        sent.append((c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))).translation)
+    res = ctrl.solve(config, dt)
+    print(f"\ntick 39: {res.path} ok={res.ok}; {res.message[:200]}")
+    assert res.ok  # a 'contacts_held' failure before
+    assert res.path.weighted and res.path.budget
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * dt))
+    for c, target in zip(ctrl.constraints[:2], sent):
+        assert np.linalg.norm(data.oMf[c.frame_id].translation - target) <= tol

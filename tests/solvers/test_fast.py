@@ -266,3 +266,22 @@ def test_after_a_failed_kernel_call_with_rows_the_next_goes_to_daqp():
     assert seen[0][0] < 0 and seen[0][2] == 1  # the kernel ran out of iterations: DAQP
     assert seen[1] == (0, 0, 2)  # kernel not run: DAQP
     assert seen[2][0] != 0  # the kernel ran again
+
+
+def test_a_kernel_solve_counts_one_solve_of_the_tick_work():
+    """Every solve attempt adds one to the tick's counted work (``TickWork``), the kernel's too: uncounted, a re-solve
+    loop on the kernel (a kinematic tick's contact corrections and trust regions, each a kernel solve) never reached
+    the count that stops it (kinematic fuzz seed 100011 episode 14 tick 40: 9 trust-region radii, 3.5 ms)."""
+    from wbc.solvers.base import TickWork
+
+    rng = np.random.default_rng(3)
+    H, g, A, b, lb, ub = _random_qp(rng, 12, 2, box_scale=0.5)
+    backend = FastBackend()
+    backend.work = TickWork(cap=8)
+    C, l, u = np.zeros((0, 12)), np.zeros(0), np.zeros(0)
+    for k in range(1, 4):
+        x = backend.solve(H, g, A, b, C, l, u, lb, ub)
+        assert backend.fallbacks == 0  # the kernel answered
+        assert backend.work.solves == k
+    ref = qpsolvers.solve_qp(H, g, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+    assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())

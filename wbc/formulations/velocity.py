@@ -94,7 +94,9 @@ command leaves a contact frame past ``sole_drift_tolerance``, the tick is answer
 (taken when it keeps the contacts; else the tick fails as before). Either way the path is ``levels+budget+weighted``
 and the next ``WEIGHTED_TICKS`` ticks solve the weighted form directly (``levels+weighted``, one QP per re-solve), then
 the cascade again once a weighted tick's counted solves times p + 1 fit in the cascade's 1 budget (with the clock
-guard also its CPU time times 2 (p + 1) in one budget). The trigger and the exit are counts (and the same inputs give
+guard also its CPU time times 2 (p + 1) in one budget). A cascade that fails after the count is spent is retried
+(the least-squares retry of dependent contact rows, the relaxations below) with the weighted form as well
+(``levels+budget+weighted``). The trigger and the exit are counts (and the same inputs give
 the same answers); a command of a cut cascade that keeps the contacts is kept (``levels+budget``).
 
 With ``clock_guard=True`` (constructor) the tick's CPU time also counts as work (one budget of CPU time =
@@ -128,7 +130,8 @@ input error), ``solve`` does not raise and never returns NaN:
    limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
    where its rows send it (forward kinematics; at β = 0, solved to its solver's own iteration limit however much of
    the tick's count is spent, then scaled down by 0.9 √(tolerance / drift), at most 1/2, up to 8 times, until it
-   does);
+   does); when the tick's count was spent before its failure handling began, step 3 comes first and with β = 0
+   only, each of its DAQP calls at most ``HELD_ITERATIONS`` iterations, and step 2 only after it;
    steps 2 and 3 are taken only when they also leave each contact frame within ``SAFE_COMMAND_RADIUS`` of where
    the run of failed ticks began (or no farther from there than it is), so that a run of failed ticks never walks
    a stance sole away one tolerated drift at a time;
@@ -357,6 +360,9 @@ class KinematicController:
     #: 0.036 mm per tick in one direction for 47 ticks); with it a run of failed ticks moves a stance sole at most
     #: this far (``hold``, v = 0, moves none)
     SAFE_COMMAND_RADIUS = 5e-4
+    #: DAQP iterations of each call of the 'contacts_held' QP at β = 0 when the tick's count was spent before its
+    #: failure handling began (``_recover``: then that QP is the first safe command tried, β = 1 and 1/10 are not)
+    HELD_ITERATIONS = 150
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
@@ -1051,6 +1057,12 @@ class KinematicController:
                 if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
                     raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
                         from None
+                if self._level_order and not self._weighted_tick and self._late():
+                    # the failed cascade spent the tick's count: its retries below are answered by the weighted
+                    # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
+                    # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
+                    self._weighted_tick, self._weighted_qp = True, None
+                    self._cut.append("priority levels of the retries (their weighted form's command)")
                 if self._contact_rows.size and self._consistent_contact_rhs():
                     # dependent contact rows asked contradictory corrections: once more in least squares (one
                     # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
@@ -1679,6 +1691,7 @@ class KinematicController:
             return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
                               path=TickPath("fallback", fallback="hold"), reason="exception")
         data_fault = self._data_fault()
+        late = self._late()  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
         if not self._late() and self._fits(2.0 * max(self._resolve_cost, self._safe_estimate())):
             self._work.solves += 1  # the diagnosis: one least-squares QP
@@ -1700,28 +1713,20 @@ class KinematicController:
             self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
         anchors = [self._held_anchors[id(c)] for c in self._contacts]
         skipped = ""  # clock guard: the safe commands not tried, the tick's budget spent
-        if not data_fault and not self._fits(max(self._safe_stage_cost, self._safe_estimate())):
+        # the tick's count spent before its safe command (late): J_c v = 0 first, the cheapest command that keeps the
+        # contacts (β = 0 only, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
+        held_first = late and bool(self._contact_rows.size) and not data_fault
+        if not held_first and not data_fault and not self._fits(max(self._safe_stage_cost, self._safe_estimate())):
             skipped = "constraints_only"
-        elif not data_fault:  # (non-finite QP data: hold)
-            t_stage = self._work.seconds()
-            try:
-                v_c = self._solve_constraints_only(config)
-                # the safe command holds the contacts to second order like an ok tick (correction, trust region)
-                if self.contact_correction > 0 and self._contacts:
-                    v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
-                v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
-                if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
-                        tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
-                        self._within_run_radius(config, v_c, dt, anchors):
-                    v, fallback = v_c, "constraints_only"
-            except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
-                pass
-            if self.clock_guard:
-                self._safe_stage_cost = self._work.seconds() - t_stage
+        elif not held_first and not data_fault:  # (non-finite QP data: hold)
+            v, fallback = self._safe_constraints_only(config, dt, anchors)
         if fallback == "hold" and self._contact_rows.size and not data_fault and not skipped:
+            scales = (0.0,) if held_first else _HELD_CORRECTION_SCALES
             # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
             # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
             b0 = self._b.copy()
+            if held_first and self._fallback_backend is None:
+                self._fallback_backend = self._new_backend()
             backend = self._fallback_backend
             independent = backend.independent if backend is not None else ()
             placements = [c.placement for c in self._contacts]
@@ -1740,7 +1745,7 @@ class KinematicController:
                 if rank < anchored.size:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
                 tried = []  # (β, what became of its command) for the message
-                for beta in _HELD_CORRECTION_SCALES:
+                for beta in scales:
                     if not self._fits(self._safe_estimate() + self._check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
                         break
@@ -1749,7 +1754,7 @@ class KinematicController:
                         # β = 0 (J_c v = 0; v = 0 is a solution when the box holds it): the last command before a
                         # hold gets its solver's own iteration limit, not the few iterations a spent tick count
                         # leaves (its solves still counted)
-                        v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config)
+                        v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config, held_first)
                     except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
                         tried.append(f"β = {beta:g}: {type(qexc).__name__}")
                         continue
@@ -1777,7 +1782,7 @@ class KinematicController:
                         break
                 if fallback == "hold" and not skipped:
                     message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
-                                f"{_HELD_CORRECTION_SCALES} keeps them within sole_drift_tolerance {tol:.3g} m "
+                                f"{scales} keeps them within sole_drift_tolerance {tol:.3g} m "
                                 f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began "
                                 f"({'; '.join(tried)})")
             except Exception:  # noqa: BLE001 — never raises: hold
@@ -1788,6 +1793,8 @@ class KinematicController:
                 np.copyto(self._b, b0)
                 if backend is not None:
                     backend.independent = independent
+        if held_first and fallback == "hold":
+            v, fallback = self._safe_constraints_only(config, dt, anchors)
         if skipped:
             over_budget = True
             message += f"; {skipped} not tried: tick budget spent (clock guard)"
@@ -1838,16 +1845,47 @@ class KinematicController:
             self._safe_cost = max(self._safe_cost, spent) if self._safe_fresh else spent
             self._safe_fresh = True
 
-    def _solve_uncapped(self, config: Configuration) -> np.ndarray:
+    def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
+        """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
+        the constraint objects' QP, its contacts held to second order like an ok tick's (correction, trust region,
+        bounded by the tick's count), taken when finite, within the constraints, within ``sole_drift_tolerance`` and
+        within the run's radius (:meth:`_within_run_radius`). Never raises."""
+        tol = self.sole_drift_tolerance
+        t_stage = self._work.seconds()
+        v, fallback = np.zeros(self.nv), "hold"
+        try:
+            v_c = self._solve_constraints_only(config)
+            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
+            if self.contact_correction > 0 and self._contacts:
+                v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
+            v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
+            if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
+                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
+                    self._within_run_radius(config, v_c, dt, anchors):
+                v, fallback = v_c, "constraints_only"
+        except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
+            pass
+        if self.clock_guard:
+            self._safe_stage_cost = self._work.seconds() - t_stage
+        return v, fallback
+
+    def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:
         """:meth:`_solve_constraints_only` with the QP backends' iteration limit not lowered by the tick's spent
-        count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); its solves are counted as usual. Raises
-        SolverError."""
+        count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); its solves are counted as usual. ``bounded``: each
+        DAQP call of the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
+        load) instead of its solver's own limit. Raises SolverError."""
         cap = self._work.cap
         self._work.cap = math.inf
+        backend = self._fallback_backend
+        calls = getattr(backend, "call_iterations", None)
+        if bounded and isinstance(backend, DaqpBackend):
+            backend.call_iterations = self.HELD_ITERATIONS
         try:
             return self._solve_constraints_only(config)
         finally:
             self._work.cap = cap
+            if bounded and isinstance(backend, DaqpBackend):
+                backend.call_iterations = calls
 
     def _constraints_only_qp(self) -> np.ndarray:
         """The QP of :meth:`_solve_constraints_only`, solved (SolverError when it has no solution)."""

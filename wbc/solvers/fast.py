@@ -96,7 +96,8 @@ class FastBackend(DaqpBackend):
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
         satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
-        the kernel against ``tolerance``; anything else goes through DAQP and the general check.
+        the kernel against ``tolerance``; anything else goes through DAQP and the general check. A kernel solution
+        adds one solve to the tick's counted work (``work``, when set), as every solve attempt does.
 
         Raises:
             SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
@@ -111,6 +112,8 @@ class FastBackend(DaqpBackend):
             # 414 of 605 calls; a failed attempt cost about half a DAQP solve)
             self._rows_failed = False
         elif self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub):
+            if self.work is not None:
+                self.work.solves += 1  # a solve attempt like any other (TickWork): a re-solve loop is counted
             return self._x.copy()
         else:
             self._rows_failed = p > 0
