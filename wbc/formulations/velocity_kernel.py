@@ -148,20 +148,30 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
 def _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row):
     """:func:`form_qp` with its row buffer row (nv,) given (scratch: no allocation)."""
     n = H.shape[0]
-    H[:, :] = 0.0
     g[:] = 0.0
+    first = True  # H not yet written: the first weighted row's products are added to 0.0 row by row (no memset)
     for k in range(Js.shape[0]):
         if rowp[1, k] == 0.0:
             continue
         swr = _weighted_row(Js, es, rowp, k, row)
         for i in range(n):
             a = row[i]
+            Hi = H[i]
             if a == 0.0:
+                if first:
+                    for j in range(n):
+                        Hi[j] = 0.0
                 continue
             g[i] -= a * swr
-            Hi = H[i]
-            for j in range(n):
-                Hi[j] += a * row[j]
+            if first:
+                for j in range(n):
+                    Hi[j] = 0.0 + a * row[j]
+            else:
+                for j in range(n):
+                    Hi[j] += a * row[j]
+        first = False
+    if first:
+        H[:, :] = 0.0
     for a in range(prow.shape[0]):
         i = prow[a]
         H[i, i] += pw[a]
