@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.solvers.active_set import solve_qp_ws
+from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
@@ -141,22 +141,37 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     Returns:
         trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
     """
+    return _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, np.empty(H.shape[0]))
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row):
+    """:func:`form_qp` with its row buffer row (nv,) given (scratch: no allocation)."""
     n = H.shape[0]
-    H[:, :] = 0.0
     g[:] = 0.0
-    row = np.empty(n)
+    first = True  # H not yet written: the first weighted row's products are added to 0.0 row by row (no memset)
     for k in range(Js.shape[0]):
         if rowp[1, k] == 0.0:
             continue
         swr = _weighted_row(Js, es, rowp, k, row)
         for i in range(n):
             a = row[i]
+            Hi = H[i]
             if a == 0.0:
+                if first:
+                    for j in range(n):
+                        Hi[j] = 0.0
                 continue
             g[i] -= a * swr
-            Hi = H[i]
-            for j in range(n):
-                Hi[j] += a * row[j]
+            if first:
+                for j in range(n):
+                    Hi[j] = 0.0 + a * row[j]
+            else:
+                for j in range(n):
+                    Hi[j] += a * row[j]
+        first = False
+    if first:
+        H[:, :] = 0.0
     for a in range(prow.shape[0]):
         i = prow[a]
         H[i, i] += pw[a]
@@ -173,9 +188,23 @@ def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple
     inequality rows, with or without the floating-base elimination. The float one starts with v·dt (nv,)."""
     nr = nv - 6 if eliminate else nv
     mr = n_eq - 6 if eliminate else n_eq
-    size = (nv + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + n_in * nr + 3 * n_in + mr * nr + 2 * mr
+    size = _views_size(nv, nr, mr, n_in) + nv + qp_ws_float_size(nr, mr, n_in)
+    return np.zeros(size), np.zeros(max(nr, qp_ws_int_size(nr, mr)), np.int64)
+
+
+@nb.njit(cache=True, nogil=True)
+def _views_size(n, nr, mr, p):
+    """Length of the part of the float workspace that :func:`_solve_views` lays out."""
+    return (n + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
-    return np.zeros(size), np.zeros(nr, np.int64)
+
+
+@nb.njit(cache=True, nogil=True)
+def _scratch_views(ws, n, nr, mr, p):
+    """The float workspace's scratch after :func:`_solve_views`' part: the row buffer (n,) of the cost formation
+    and :func:`wbc.solvers.active_set.solve_qp_into`'s workspace."""
+    o = _views_size(n, nr, mr, p)
+    return ws[o:o + n], ws[o + n:]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -276,7 +305,7 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
     Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
     g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
     unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
-    :func:`solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of the reduced problem holds at
+    :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; every KKT condition of the reduced problem holds at
     exit, and the residuals of all rows of the original one are checked against ``tolerance``.
 
     Args:
@@ -322,11 +351,11 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
         lr[r] = l[r] - shift
         ur[r] = u[r] - shift
     if p == 0:
-        it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws, L, Y,
+        it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws[:nr], L, Y,
                              S, t, rhs, eqres)
     else:
-        it = solve_qp_ws(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12,
-                         1e-24, eqres)
+        it = solve_qp_into(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12,
+                           1e-12, 1e-24, eqres, _scratch_views(ws, n, nr, mr, p)[1], iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
@@ -438,7 +467,9 @@ def kinematic_tick_packed(fb, ib, Js, es, rowp, diff, pw, prow, pgain, damping, 
         passed both screens.
     """
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
-    check = form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g)
+    n0 = 6 if er >= 0 else 0
+    row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
+    check = _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
     it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
@@ -477,8 +508,8 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _exp6_translation(xi, s, out):
-    """out ← translation of exp(s ξ) for a 6-D twist ξ = (ν, ω) (Pinocchio's order): V(sω) sν with
+def _exp6_translation(xi, s):
+    """The translation of exp(s ξ) for a 6-D twist ξ = (ν, ω) (Pinocchio's order): V(sω) sν with
     V(ω) = I + (1 − cos θ)/θ² [ω]× + (θ − sin θ)/θ³ [ω]×², θ = ‖ω‖ (Lynch & Park, Modern Robotics, eq. 3.88)."""
     nx, ny, nz = s * xi[0], s * xi[1], s * xi[2]
     wx, wy, wz = s * xi[3], s * xi[4], s * xi[5]
@@ -491,18 +522,15 @@ def _exp6_translation(xi, s, out):
     # w × n and w × (w × n)
     cx, cy, cz = wy * nz - wz * ny, wz * nx - wx * nz, wx * ny - wy * nx
     dx, dy, dz = wy * cz - wz * cy, wz * cx - wx * cz, wx * cy - wy * cx
-    out[0] = nx + a * cx + c * dx
-    out[1] = ny + a * cy + c * dy
-    out[2] = nz + a * cz + c * dz
+    return nx + a * cx + c * dx, ny + a * cy + c * dy, nz + a * cz + c * dz
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def translation_gap(xa, sa, xb, sb):
     """‖t(exp(sa ξa)) − t(exp(sb ξb))‖ (m): the distance between the origins of two frames given by their twists
     ξa, ξb (6,) from one reference frame (e.g. a contact's placement)."""
-    pa, pb = np.empty(3), np.empty(3)
-    _exp6_translation(xa, sa, pa)
-    _exp6_translation(xb, sb, pb)
+    pa = _exp6_translation(xa, sa)
+    pb = _exp6_translation(xb, sb)
     return np.sqrt((pa[0] - pb[0]) ** 2 + (pa[1] - pb[1]) ** 2 + (pa[2] - pb[2]) ** 2)
 
 

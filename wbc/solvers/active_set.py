@@ -41,7 +41,8 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, chol
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "solve_qp_ws"]
+__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "qp_ws_float_size", "qp_ws_int_size", "solve_qp_into",
+           "solve_qp_ws"]
 
 #: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
 #: = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r,
@@ -885,9 +886,34 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
+    fw = np.empty(qp_ws_float_size(n, m, p))  # one allocation, views in solve_qp_into
+    iw = np.empty(qp_ws_int_size(n, m), np.int64)
+    return solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
+                         rank_tol, eq_residual, fw, iw)
+
+
+@nb.njit(cache=True, nogil=True)
+def qp_ws_float_size(n, m, p):
+    """Length of the float workspace of :func:`solve_qp_into` for n variables, m equality and p inequality rows."""
+    K = n + m + 1
+    return n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4
+
+
+@nb.njit(cache=True, nogil=True)
+def qp_ws_int_size(n, m):
+    """Length of the int64 workspace of :func:`solve_qp_into` for n variables and m equality rows."""
+    return 3 * (n + m + 1)
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
+                  rank_tol, eq_residual, fw, iw):
+    """:func:`solve_qp_ws` in the caller's workspaces: fw (≥ :func:`qp_ws_float_size` (n, m, p),) float64 and
+    iw (≥ :func:`qp_ws_int_size` (n, m),) int64 (no allocation). Same arguments otherwise, same returns."""
+    n = H.shape[0]
+    m = A.shape[0]
+    p = C.shape[0]
     K = n + m + 1  # a working set of independent constraints has at most n members
-    fw = np.empty(n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4)  # one allocation, views below
-    iw = np.empty(3 * K, np.int64)
     o = 0
     L = fw[o:o + n * n].reshape((n, n))
     o += n * n
@@ -912,7 +938,7 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     lam_r = fw[o:o + p]
     sc = fw[o + p:o + p + 1]
     out = fw[o + p + 1:o + p + 4]
-    space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:], sc, rank_tol)
+    space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, zd, rb,
                          max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf, out)
     eq_residual[0] = out[0]
