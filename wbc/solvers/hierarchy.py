@@ -87,9 +87,11 @@ def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
     qr, jpvt, _, _, info = lapack.dgeqp3(At, lwork=max(lwork, 1), overwrite_a=True)
     if info != 0:
         raise SolverError(f"QR with column pivoting of the equality rows failed (LAPACK dgeqp3 info {info})")
-    diag = np.abs(np.diagonal(qr)[:min(qr.shape)])
-    rank = int(np.sum(diag > rtol * max(diag[0], 1.0)))
-    return np.sort(jpvt[:rank] - 1)
+    # |R_ii| and the rank in plain floats (a few numbers: fewer numpy calls, the same float64 comparisons)
+    diag = [abs(x) for x in qr.diagonal().tolist()]
+    tol = rtol * max(diag[0], 1.0)
+    rank = sum(1 for x in diag if x > tol)
+    return np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
 
 
 def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
