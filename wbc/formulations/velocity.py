@@ -533,11 +533,7 @@ class KinematicController:
         """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        if self._checked.get(id(task)) is not task:
-            self._check_robot(task, "task")
-            if len(self._checked) >= _CHECKED_SIZE:
-                self._checked.clear()
-            self._checked[id(task)] = task
+        self._check_once(task, "task")
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -592,15 +588,20 @@ class KinematicController:
                     f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
                     f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
-        if self._checked.get(id(constraint)) is not constraint:
-            self._check_robot(constraint, "constraint")
-            if len(self._checked) >= _CHECKED_SIZE:
-                self._checked.clear()
-            self._checked[id(constraint)] = constraint
+        self._check_once(constraint, "constraint")
         self.constraints.append(constraint)
         self._eq_rows = None
         self._layout_ok = False
         return constraint
+
+    def _check_once(self, obj, what: str) -> None:
+        """:meth:`_check_robot` for an object not already checked by this controller (a contact or swing task added
+        back at a support switch is the same object, checked when first added)."""
+        if self._checked.get(id(obj)) is not obj:
+            self._check_robot(obj, what)
+            if len(self._checked) >= _CHECKED_SIZE:
+                self._checked.clear()
+            self._checked[id(obj)] = obj
 
     def _check_robot(self, obj, what: str) -> None:
         """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
