@@ -395,6 +395,9 @@ class KinematicController:
         self.levels: dict[int, list[Task]] = {}
         self.constraints: list[Constraint] = []
         self._hard: dict[int, TaskConstraint] = {}
+        # tasks and constraints already checked against this robot (_check_robot), by id: a support switch that
+        # adds back a sole's contact or swing task does not check it again (at most _CHECKED_SIZE kept)
+        self._checked: dict[int, object] = {}
         self._level_order: list[int] = []
         self._level_backends: list[QPBackend] = []
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
@@ -536,7 +539,7 @@ class KinematicController:
         """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        self._check_robot(task, "task")
+        self._check_once(task, "task")
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -591,11 +594,20 @@ class KinematicController:
                     f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
                     f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
-        self._check_robot(constraint, "constraint")
+        self._check_once(constraint, "constraint")
         self.constraints.append(constraint)
         self._eq_rows = None
         self._layout_ok = False
         return constraint
+
+    def _check_once(self, obj, what: str) -> None:
+        """:meth:`_check_robot` for an object not already checked by this controller (a contact or swing task added
+        back at a support switch is the same object, checked when first added)."""
+        if self._checked.get(id(obj)) is not obj:
+            self._check_robot(obj, what)
+            if len(self._checked) >= _CHECKED_SIZE:
+                self._checked.clear()
+            self._checked[id(obj)] = obj
 
     def _check_robot(self, obj, what: str) -> None:
         """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
@@ -657,15 +669,15 @@ class KinematicController:
         that a support switch that returns to an earlier set of contacts reuses its layout, buffers and the
         intersection of its constant boxes instead of building them again."""
         key = tuple((id(c), c.dim) for c in self.constraints)
+        state = self.__dict__
         if self._layout_key is not None:  # keep the current layout (with what _intersect_boxes cached since)
-            self._layouts[self._layout_key] = {a: getattr(self, a) for a in _LAYOUT_ATTRS if hasattr(self, a)}
+            self._layouts[self._layout_key] = {a: state[a] for a in _LAYOUT_ATTRS if a in state}
             while len(self._layouts) > 16:
                 self._layouts.pop(next(iter(self._layouts)))
         cached = self._layouts.get(key)
         if cached is not None and len(cached["_constraints"]) == len(self.constraints) and all(
                 a is b for a, b in zip(cached["_constraints"], self.constraints)):
-            for a, value in cached.items():
-                setattr(self, a, value)
+            state.update(cached)
             self._layout_key = key
             self._layout_ok = True
             return
@@ -1926,6 +1938,9 @@ class KinematicController:
                           if not all(np.isfinite(x).all() for x in t.compute(config))]
         return conflicts
 
+
+#: most tasks and constraints a controller remembers as checked against its robot (``_check_robot``)
+_CHECKED_SIZE = 64
 
 #: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
 _LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",

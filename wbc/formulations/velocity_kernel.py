@@ -18,6 +18,7 @@ them eagerly and returns the seconds it took, :func:`ensure_compiled` once per p
 
 from __future__ import annotations
 
+import math
 import time
 
 import numba as nb
@@ -412,14 +413,14 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     offsets, o = {}, 0
     for name, shape in shapes.items():
         offsets[name] = o
-        o += int(np.prod(shape))
+        o += math.prod(shape)
     fb = np.zeros(o)
     ib = np.zeros(head + iws.size, np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     for i, name in enumerate(_PACK_FIELDS[4:-1], start=4):
         ib[i] = offsets[name]
     ib[head - 1] = head
-    views = {name: fb[offsets[name]:offsets[name] + int(np.prod(shape))].reshape(shape)
+    views = {name: fb[offsets[name]:offsets[name] + math.prod(shape)].reshape(shape)
              for name, shape in shapes.items()}
     views["vdt"] = views["ws"][:nv]
     return fb, ib, views
