@@ -107,13 +107,18 @@ def test_velocity_round_trip_and_body_velocities(sim):
 
 
 def test_state_from_mj_is_q_from_mj_then_v_from_mj(sim):
-    """One-pass conversion of a MuJoCo state: the same arrays as the two conversions, the state it came from."""
+    """One-pass conversion of a MuJoCo state: the arrays of the two conversions, the state it came from. q is
+    gathered (bit for bit); v's base rows are R_baseᵀ qvel, a 3 × 3 product whose sum order differs between the
+    compiled pass and numpy's matmul (whose kernel depends on the CPU: 1-ulp differences on an AVX-512 host), so they
+    agree to 4 ulp of |qvel|."""
     sm = sim.state_map
     for q, v in _random_states(sim.robot, seed=2):
         qpos, qvel = sm.q_to_mj(q), sm.v_to_mj(q, v)
         q1, v1 = sm.state_from_mj(qpos, qvel)
         np.testing.assert_array_equal(q1, sm.q_from_mj(qpos))
-        np.testing.assert_array_equal(v1, sm.v_from_mj(q1, qvel))
+        v_ref = sm.v_from_mj(q1, qvel)
+        np.testing.assert_array_equal(v1[3:], v_ref[3:])
+        assert np.abs(v1[:3] - v_ref[:3]).max() <= 4 * np.finfo(float).eps * np.abs(qvel[:3]).max()
         assert np.abs(q1 - q).max() < 1e-15 and np.abs(v1 - v).max() < 1e-13
     with pytest.raises(ConfigurationError):
         sm.state_from_mj(qpos, np.full(sm.nv, np.nan))
