@@ -79,6 +79,12 @@ def _warm_up() -> None:
     _intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((3, 1)), 0.002, np.zeros(1), np.zeros(1))
 
 
+def _limit_row(row: int, name: str, doc: str) -> property:
+    """Property ``name`` of :class:`JointPositionLimit`: row ``row`` of its packed (3, dim) limits, validated on
+    assignment by ``JointPositionLimit._set_row``."""
+    return property(lambda self: self._limits[row], lambda self, value: self._set_row(row, name, value), doc=doc)
+
+
 class JointPositionLimit(BoxConstraint):
     """Keep every bounded joint inside [lowerPositionLimit, upperPositionLimit] after the step.
 
@@ -129,35 +135,12 @@ class JointPositionLimit(BoxConstraint):
                                     f"violated at {int(np.argmax(~(lo <= hi)))} of the bounded joints")
         self._limits[row] = arr
 
-    @property
-    def q_min(self) -> np.ndarray:
-        """(dim,) lower position limits of the bounded joints (rad or m), margin included; a view of what the
-        compiled kernels read, so an in-place change is seen. Assigning validates (shape, no NaN, ≤ q_max) and raises
-        :class:`~wbc.exceptions.InvalidInputError`."""
-        return self._limits[0]
-
-    @q_min.setter
-    def q_min(self, value) -> None:
-        self._set_row(0, "q_min", value)
-
-    @property
-    def q_max(self) -> np.ndarray:
-        """(dim,) upper position limits (rad or m), as :attr:`q_min`."""
-        return self._limits[1]
-
-    @q_max.setter
-    def q_max(self, value) -> None:
-        self._set_row(1, "q_max", value)
-
-    @property
-    def v_max(self) -> np.ndarray:
-        """(dim,) speed cap of a joint returning from outside its range (rad/s or m/s, > 0, inf: none), as
-        :attr:`q_min` (velocity-space order of ``indices``)."""
-        return self._limits[2]
-
-    @v_max.setter
-    def v_max(self, value) -> None:
-        self._set_row(2, "v_max", value)
+    q_min = _limit_row(0, "q_min", """(dim,) lower position limits of the bounded joints (rad or m), margin included; a
+        view of what the compiled kernels read, so an in-place change is seen. Assigning validates (shape, no NaN,
+        ≤ q_max) and raises :class:`~wbc.exceptions.InvalidInputError`.""")
+    q_max = _limit_row(1, "q_max", """(dim,) upper position limits (rad or m), as :attr:`q_min`.""")
+    v_max = _limit_row(2, "v_max", """(dim,) speed cap of a joint returning from outside its range (rad/s or m/s,
+        > 0, inf: none), as :attr:`q_min` (velocity-space order of ``indices``).""")
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
         # lb = min((q_min − q)/dt, v_max), ub = max((q_max − q)/dt, −v_max): only the recovery side is capped (a
