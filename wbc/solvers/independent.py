@@ -123,15 +123,15 @@ def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
         return None
     Z = Q[:, m:]
     x0 = Q[:, :m] @ np.linalg.solve(R[:m].T, b)
-    blo, bhi = np.isfinite(lb), np.isfinite(ub)
-    rows = np.vstack([C, np.eye(n)[blo | bhi]])
-    lo = np.concatenate([l, lb[blo | bhi]])
-    hi = np.concatenate([u, ub[blo | bhi]])
-    shift = rows @ x0
-    Ry = rows @ Z
-    fixed = np.linalg.norm(Ry, axis=1) <= 1e-12 * np.maximum(1.0, np.linalg.norm(rows, axis=1))
-    if np.any((shift[fixed] < lo[fixed] - tolerance * np.maximum(1.0, np.abs(lo[fixed])))
-              | (shift[fixed] > hi[fixed] + tolerance * np.maximum(1.0, np.abs(hi[fixed])))):
+    bounded = np.isfinite(lb) | np.isfinite(ub)
+    Ry = np.vstack([C @ Z, Z[bounded]])  # the rows of C, then the unit rows of the bounds, in y
+    shift = np.concatenate([C @ x0, x0[bounded]])
+    lo = np.concatenate([l, lb[bounded]])
+    hi = np.concatenate([u, ub[bounded]])
+    norms = np.concatenate([np.linalg.norm(C, axis=1), np.ones(int(bounded.sum()))])
+    fixed = np.linalg.norm(Ry, axis=1) <= 1e-12 * np.maximum(1.0, norms)
+    if fixed.any() and np.any((shift[fixed] < lo[fixed] - tolerance * np.maximum(1.0, np.abs(lo[fixed])))
+                              | (shift[fixed] > hi[fixed] + tolerance * np.maximum(1.0, np.abs(hi[fixed])))):
         return None
     keep = ~fixed
     Ry, lo, hi = Ry[keep], lo[keep] - shift[keep], hi[keep] - shift[keep]
