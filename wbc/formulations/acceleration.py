@@ -64,8 +64,9 @@ state-dependent block are written by compiled bodies that :meth:`InverseDynamics
 ``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
 any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
-released foot's forces) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the path then names
-``quadprog``) before the failure stands (then the backend's own retries). Any other
+released foot's forces) and its equality rows eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the
+path then names ``quadprog``) before the failure stands (then the backend's own retries); the relaxed QP gets the same
+quadprog solve when the backend's calls miss the minimiser of a relaxed set found not empty. Any other
 :class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second
 opinion (:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its
 failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints

@@ -1,6 +1,6 @@
 """Independent re-solves and checks of a QP another backend reported infeasible: quadprog with the pinned variables
-eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers (:func:`second_opinion`) and
-the feasibility of the constraints alone (:func:`hard_set_feasible`).
+and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers
+(:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_feasible`).
 
 The QP is that of every backend (:mod:`wbc.solvers.base`):
 
@@ -22,9 +22,10 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *
     """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
     left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
     Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
-    27, 1983): a second solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics
-    QP of a released foot, whose 12 forces are pinned at 0 and whose optimum has nearly as many active
-    constraints as free variables).
+    27, 1983) on the null space of the (independent) equality rows, else — no equality row, dependent ones, or no
+    checked answer there — on the free variables with the equalities as quadprog's first constraints: a second
+    solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics QP of a released foot,
+    whose 12 forces are pinned at 0 and whose optimum has nearly as many active constraints as free variables).
 
     Args:
         H (n, n) positive definite on the free variables, g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,):
