@@ -64,8 +64,9 @@ state-dependent block are written by compiled bodies that :meth:`InverseDynamics
 ``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
 any backend read the same arrays. When a DAQP backend finds no
 solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
-released foot's forces) eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the path then names
-``quadprog``) before the failure stands (then the backend's own retries). Any other
+released foot's forces) and its equality rows eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the
+path then names ``quadprog``) before the failure stands (then the backend's own retries); the relaxed QP gets the same
+quadprog solve when the backend's calls miss the minimiser of a relaxed set found not empty. Any other
 :class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second
 opinion (:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its
 failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
@@ -167,8 +168,9 @@ def kernel_iterations(budget: float) -> int:
 
 def daqp_attempt_iterations(budget: float) -> int:
     """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
-    one (:meth:`InverseDynamicsQP._solve_backend`; ``InverseDynamicsQP.SCALED_FEASIBLE_FACTOR`` times it when the
-    hard set was found not empty), for a tick budget of ``budget`` seconds of CPU time: a third of the budget at
+    one (:meth:`InverseDynamicsQP._solve_backend`; when the hard set was found not empty, the attempt and that call
+    together take at most ``InverseDynamicsQP.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
+    seconds of CPU time: a third of the budget at
     :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
     and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
     if not np.isfinite(budget):
@@ -307,8 +309,8 @@ class InverseDynamicsQP:
         #: working set then warm-starts the next compiled call).
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
-        #: (``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`, without a clock
-        #: guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
+        #: (both together ``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`,
+        #: without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
         #: (:func:`daqp_attempt_iterations`).
         self.daqp_attempt_iterations = ITERATION_LIMIT
@@ -353,6 +355,8 @@ class InverseDynamicsQP:
         #: True (a point found), False (proved empty: so is the full set, and the relaxed QP is not solved), None
         #: (not checked, or the check did not finish); reset by :meth:`solve`.
         self.relaxed_set_feasible: bool | None = None
+        #: relaxed QPs whose DAQP calls failed on a set with a point that quadprog solved (:meth:`solve_relaxed`).
+        self.relaxed_quadprog_solves = 0
         #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
         self.second_opinion_solves = 0
         self._daqp_check: DaqpBackend | None = None
@@ -376,9 +380,10 @@ class InverseDynamicsQP:
     #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
     #: stopped there fails the tick: the safe command follows, in the budget left)
     RELAXED_DEADLINE = 1.75
-    #: without a clock guard: the cost-scaled DAQP call on a failed full QP whose hard set was found not empty takes at
-    #: most this many times :attr:`daqp_attempt_iterations` (the first attempt and this call: one budget of DAQP
-    #: iterations)
+    #: without a clock guard: on a failed full QP whose hard set was found not empty, the first attempt and the
+    #: cost-scaled DAQP call after it take at most this many times :attr:`daqp_attempt_iterations` together (the call
+    #: gets what the attempt left of that count, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`), so that
+    #: quadprog's solve after them still ends by about twice the budget
     SCALED_FEASIBLE_FACTOR = 2
 
     @property
@@ -681,7 +686,7 @@ class InverseDynamicsQP:
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
         if isinstance(self.backend, DaqpBackend):
-            x, solver = self._solve_relaxed_daqp(H, g, A, b, C, l, u, lb, ub), self.backend.name
+            x, solver = self._solve_relaxed_daqp(H, g, A, b, C, l, u, lb, ub)
         else:
             x, solver = self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         t2 = perf_counter()
@@ -690,12 +695,18 @@ class InverseDynamicsQP:
         self._guard(state, sol, relaxed=True)
         return sol
 
-    def _solve_relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+    def _solve_relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
         """The relaxed QP by a DAQP backend: one attempt (``cold_retry`` off); when it fails, the relaxed hard set
         is checked (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin
-        onto it): a set proved empty ends the solve, otherwise the backend's retries run (the calls of
-        :meth:`wbc.solvers.base.QPBackend.solve` after its first). With a clock guard every call ends by
-        ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left).
+        onto it; not again when the full QP's failure checked it): a set proved empty ends the solve, otherwise the
+        backend's retries run (the calls of :meth:`wbc.solvers.base.QPBackend.solve` after its first), and when they
+        fail on a set in which the check found a point, quadprog with the pinned variables and the equalities
+        eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`). With a clock guard every DAQP call ends by
+        ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left) and quadprog starts only when
+        :attr:`quadprog_cost` ends by then.
+
+        Returns:
+            (x (n,), name of the solver that answered: the backend's or ``quadprog``).
 
         Raises:
             SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
@@ -708,7 +719,7 @@ class InverseDynamicsQP:
         try:
             backend.cold_retry = False
             try:
-                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
                 first = exc
             finally:
@@ -716,14 +727,32 @@ class InverseDynamicsQP:
             left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
             if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
                 # the relaxed hard set, unless the full QP's failure already found it not empty
-                if self.relaxed_set_feasible is None and hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
-                                     iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT)))) is False:
+                feasible = self.relaxed_set_feasible
+                if feasible is None:
+                    feasible = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
+                                                 iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
+                if feasible is False:
                     self.relaxed_infeasible_by_check += 1
                     raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
                                       f"onto it): the backend's retries skipped")
                 if not retry:
                     raise first
-                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw)
+                try:
+                    return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
+                except SolverError as exc:
+                    if backend.budget_capped or feasible is not True:
+                        raise
+                    first = exc
+                # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
+                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end``
+                if thread_time() + self.quadprog_cost > end:
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
+                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                if x is None:
+                    raise SolverError(f"{first}; quadprog found no solution either")
+                self.relaxed_quadprog_solves += 1
+                return x, "quadprog"
         except SolverError as exc:
             if backend.budget_capped:
                 self.budget_cut = True
@@ -787,9 +816,10 @@ class InverseDynamicsQP:
         and the failure stands (the relaxed QP is then not solved) — and a full set proved empty ends the solve
         (quadprog and the retries could only fail). Then one cost-scaled DAQP call
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
-        max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations, ``SCALED_FEASIBLE_FACTOR`` times
-        that on a set found not empty, before quadprog. The backend's retries after quadprog keep the backend's own
-        iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
+        max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
+        the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
+        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`). The backend's retries after quadprog keep the
+        backend's own iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -829,6 +859,7 @@ class InverseDynamicsQP:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
             first = exc
+            attempted = backend.last_iterations  # the attempt's DAQP iterations
             if backend.budget_capped:
                 self.budget_cut = True
         finally:
@@ -839,10 +870,11 @@ class InverseDynamicsQP:
             feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known)
             if cap is not None:
                 # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
-                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's dense solve; on a set
-                # proved not empty (a minimiser exists) with the rest of one budget's iterations
-                x = self._solve_scaled(backend, cap * (self.SCALED_FEASIBLE_FACTOR if feasible else 1),
-                                       H, g, A, b, C, l, u, lb, ub)
+                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
+                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap
+                scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
+                              else cap)
+                x = self._solve_scaled(backend, scaled_cap, H, g, A, b, C, l, u, lb, ub)
                 if x is not None:
                     return x, backend.name
         elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):

@@ -1,6 +1,6 @@
 """Independent re-solves and checks of a QP another backend reported infeasible: quadprog with the pinned variables
-eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers (:func:`second_opinion`) and
-the feasibility of the constraints alone (:func:`hard_set_feasible`).
+and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers
+(:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_feasible`).
 
 The QP is that of every backend (:mod:`wbc.solvers.base`):
 
@@ -22,9 +22,10 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *
     """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
     left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
     Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
-    27, 1983): a second solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics
-    QP of a released foot, whose 12 forces are pinned at 0 and whose optimum has nearly as many active
-    constraints as free variables).
+    27, 1983) on the null space of the (independent) equality rows, else — no equality row, dependent ones, or no
+    checked answer there — on the free variables with the equalities as quadprog's first constraints: a second
+    solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics QP of a released foot,
+    whose 12 forces are pinned at 0 and whose optimum has nearly as many active constraints as free variables).
 
     Args:
         H (n, n) positive definite on the free variables, g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,):
@@ -45,8 +46,6 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *
 
 
 def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
-    import quadprog
-
     n = H.shape[0]
     pinned = np.isfinite(lb) & (lb == ub)
     free = ~pinned
@@ -62,24 +61,90 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
         return None, "infeasible"
     Cr, lr, ur = Cr[~empty], lr[~empty], ur[~empty]
     lbr, ubr = lb[free], ub[free]
-    eye = np.eye(Hr.shape[0])
-    lo, hi, blo, bhi = np.isfinite(lr), np.isfinite(ur), np.isfinite(lbr), np.isfinite(ubr)
-    # quadprog: min ½xᵀGx − aᵀx s.t. Cᵀx ≥ b, the first meq columns equalities
-    Cq = np.hstack([Ar.T, Cr[lo].T, -Cr[hi].T, eye[:, blo], -eye[:, bhi]])
-    bq = np.concatenate([br, lr[lo], -ur[hi], lbr[blo], -ubr[bhi]])
-    try:
-        xr = quadprog.solve_qp(Hr, -gr, Cq, bq, Ar.shape[0])[0]
-    except ValueError as exc:
-        return None, "infeasible" if "inconsistent" in str(exc) else "failed"
+    # the equalities eliminated first (about half quadprog's work on a humanoid's ID QP); the QP as it is when that
+    # finds no checked answer
+    xr = _nullspace_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, tolerance)
+    if xr is not None:
+        x, reason = _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance)
+        if x is not None:
+            return x, reason
+    xr, reason = _dense_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
+    if xr is None:
+        return None, reason
+    return _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance)
+
+
+def _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance):
+    """The full x from its pinned and free parts, clipped to [lb, ub], when it meets every row to ``tolerance``."""
     x = np.empty(n)
     x[pinned] = xp
-    x[free] = xr
+    x[~pinned] = xr
     if not np.isfinite(x).all():
         return None, "failed"
     xc = np.minimum(np.maximum(x, lb), ub)
     if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
         return None, "failed"
     return xc, ""
+
+
+def _dense_solve(H, g, A, b, C, l, u, lb, ub):
+    """quadprog on the QP as given (equalities as its first constraints): (x, '') or (None, reason)."""
+    import quadprog
+
+    eye = np.eye(H.shape[0])
+    lo, hi, blo, bhi = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
+    # quadprog: min ½xᵀGx − aᵀx s.t. Cᵀx ≥ b, the first meq columns equalities
+    Cq = np.hstack([A.T, C[lo].T, -C[hi].T, eye[:, blo], -eye[:, bhi]])
+    bq = np.concatenate([b, l[lo], -u[hi], lb[blo], -ub[bhi]])
+    try:
+        return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0], ""
+    except ValueError as exc:
+        return None, "infeasible" if "inconsistent" in str(exc) else "failed"
+
+
+#: relative size (to the largest) of a diagonal entry of R in Aᵀ = QR below which the equality rows count as
+#: dependent (:func:`_nullspace_solve` then leaves the QP to the dense solve)
+_RANK_TOL = 1e-10
+
+
+def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
+    """quadprog on the QP with its equality rows eliminated (null-space method, Nocedal & Wright 2006, *Numerical
+    Optimization*, §16.2: x = x₀ + Z y with Aᵀ = [Y Z] [R; 0], A x₀ = b), the bounds becoming rows in y: each of
+    Goldfarb–Idnani's steps works on n − m variables instead of n, and the m steps that add the equalities are gone.
+    A row that the equalities fix (its image under Z ≈ 0) is dropped. Returns x (n,), or None when there is no
+    equality row, they are dependent, a dropped row is violated or quadprog fails (the dense solve decides then)."""
+    import quadprog
+
+    n, m = H.shape[0], A.shape[0]
+    if m == 0 or m >= n:
+        return None
+    Q, R = np.linalg.qr(A.T, mode="complete")
+    d = np.abs(np.diag(R))
+    if not np.isfinite(d).all() or d.min() <= _RANK_TOL * d.max():
+        return None
+    Z = Q[:, m:]
+    x0 = Q[:, :m] @ np.linalg.solve(R[:m].T, b)
+    bounded = np.isfinite(lb) | np.isfinite(ub)
+    Ry = np.vstack([C @ Z, Z[bounded]])  # the rows of C, then the unit rows of the bounds, in y
+    shift = np.concatenate([C @ x0, x0[bounded]])
+    lo = np.concatenate([l, lb[bounded]])
+    hi = np.concatenate([u, ub[bounded]])
+    norms = np.concatenate([np.linalg.norm(C, axis=1), np.ones(int(bounded.sum()))])
+    fixed = np.linalg.norm(Ry, axis=1) <= 1e-12 * np.maximum(1.0, norms)
+    if fixed.any() and np.any((shift[fixed] < lo[fixed] - tolerance * np.maximum(1.0, np.abs(lo[fixed])))
+                              | (shift[fixed] > hi[fixed] + tolerance * np.maximum(1.0, np.abs(hi[fixed])))):
+        return None
+    keep = ~fixed
+    Ry, lo, hi = Ry[keep], lo[keep] - shift[keep], hi[keep] - shift[keep]
+    fl, fh = np.isfinite(lo), np.isfinite(hi)
+    Hz = Z.T @ H @ Z
+    gz = Z.T @ (g + H @ x0)
+    try:
+        y = quadprog.solve_qp(0.5 * (Hz + Hz.T), -gz, np.hstack([Ry[fl].T, -Ry[fh].T]),
+                              np.concatenate([lo[fl], -hi[fh]]), 0)[0]
+    except ValueError:
+        return None
+    return x0 + Z @ y
 
 
 def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None
