@@ -1399,13 +1399,11 @@ class KinematicController:
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
 
-    def _contact_range_basis(self, fresh: bool = False) -> np.ndarray | None:
+    def _contact_range_basis(self) -> np.ndarray | None:
         """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
-        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None. Unless
-        ``fresh``, rows that the tick's solve kept all independent (a rank computed at an earlier tick, kept while
-        it holds) are taken as full rank without the SVD."""
+        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
         rows = self._contact_rows
-        if not fresh and self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+        if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None  # every equality row independent (rank computed on this constraint set)
         U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
@@ -1483,10 +1481,7 @@ class KinematicController:
         lb0, ub0, b0 = self._lb.copy(), self._ub.copy(), self._b.copy()
         best_v, best = v, drift
         rho = float(np.max(np.abs(v)))
-        # the rank at this tick's J_c (not the solve's kept rows, whose rank may date from an earlier tick: fuzz seed
-        # 100022 episode 195 tick 9, humanoid15, σ_min / σ_max of J_c 1.9e-4 after 9 ticks with all 12 rows kept;
-        # unprojected, the near-dependent row's correction asked 10 rad/s and no region inside it was feasible)
-        basis = self._contact_range_basis(fresh=True) if self._contact_rows.size else None
+        basis = self._contact_range_basis() if self._contact_rows.size else None
         n_radii = 8 + (basis is not None)
         radius, last = rho, drift  # the last region's radius and the drift of its solution
         try:
