@@ -5,38 +5,16 @@ Data, quadprog on the QP the solver received), not against the controller's own 
 from __future__ import annotations
 
 import sys
-import warnings
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
+from conftest import fuzz_episode
 from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
 SOLE_DRIFT = 5e-5  # m: the fuzz's bound on an ok tick's stance-sole drift (issue 8)
-
-
-def _default_fuzz_episode(robots, seed: int, episode: int):
-    """(name, kind, strict, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed``
-    (its random streams replayed; default flags: every episode at dt = 2 ms, none past the limits)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    import fuzz
-
-    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
-    rng = np.random.default_rng(seed)
-    extra = np.random.default_rng(seed + 7_000_000)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for _ in range(episode + 1):
-            name = str(rng.choice(list(robots_)))
-            kind = str(rng.choice(["reachable", "absurd", "far"]))
-            strict = bool(rng.random() < 0.5)
-            extra.choice((DT,))
-            past = bool(extra.random() < 0.0)
-            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict, past_limits=past)
-    return name, kind, strict, config, ctrl
 
 
 def _sole_drift_fk(ctrl, config, v) -> float:
@@ -82,7 +60,7 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     were skipped and the tick failed (sole drift 7.5e-5 m, ``fallback:contacts_held``). Now the one-shot call follows
     the warm workspace's stop: the tick is ok, its first QP's solution agrees with quadprog's and the soles stay
     within the drift bound by forward kinematics."""
-    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100012, 58)
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100012, 58)
     assert (name, strict) == ("humanoid15", True)
     _run_to(ctrl, config, 6)
     calls = []
@@ -102,30 +80,6 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     assert np.linalg.cond(H) > 1e5 and np.abs(g).max() > 1e7  # the ill-conditioned weighted form of the fuzz tick
     ref = _quadprog(H, g, A, b, lb, ub)
     assert np.abs(x - ref).max() <= 1e-6 * max(1.0, np.abs(ref).max())
-
-
-def test_trust_region_projects_contact_rows_that_became_dependent_since_the_rank_was_computed(robots):
-    """Fuzz seed 100022 episode 195 tick 9 (humanoid15, hand on strict level 0): the solve kept all 12 contact rows
-    (their rank computed at an earlier tick, kept while the rows stay met), but at this tick J_c has σ_min / σ_max
-    < 1e-3 (rank_rtol): the near-dependent row's drift correction asked ~10 rad/s, no trust region inside that was
-    feasible and the tick failed (5.66e-5 m). The trust region now takes the rank of this tick's J_c (the rows'
-    corrections projected onto its range): the tick is ok and each sole stays within the drift bound by forward
-    kinematics."""
-    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100022, 195)
-    assert (name, strict) == ("humanoid15", True)
-    _run_to(ctrl, config, 9)
-    model = ctrl.robot.model
-    data = model.createData()
-    pin.computeJointJacobians(model, data, config.q)
-    pin.updateFramePlacements(model, data)
-    J = np.vstack([pin.getFrameJacobian(model, data, c.frame_id, pin.LOCAL) for c in ctrl.constraints[:2]])
-    s = np.linalg.svd(J, compute_uv=False)
-    assert s[-1] / s[0] < 1e-3  # the contact rows are (numerically) dependent at this tick
-    res = ctrl.solve(config, DT)
-    assert res.ok, res.message
-    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
-    _, _, _, _, _, _, _, lb, ub = ctrl.assemble(config, DT)
-    assert np.all(res.v >= lb - 1e-9) and np.all(res.v <= ub + 1e-9)
 
 
 if __name__ == "__main__":
