@@ -54,8 +54,10 @@ class DaqpBackend(QPBackend):
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
     per problem size, then ``update`` + ``solve`` every tick, warm-started from the previous tick's working set;
     a warm-started solve that fails, or whose solution fails the independent constraint check, is repeated from a
-    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed.
-    Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities two-sided rows.
+    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed; a warm-started call
+    stopped by the settings' whole ``iter_limit`` (the workspace cycling) is repeated with the one-shot call first,
+    the cold workspace only if that fails. Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities
+    two-sided rows.
 
     Args:
         tolerance: largest constraint violation accepted (constraint units).
