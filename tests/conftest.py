@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import sys
+import warnings
+from pathlib import Path
 
 # MuJoCo's offscreen renderer (video tests) picks its GL backend when mujoco is first imported: without a display,
 # README's test command gets the same headless EGL backend that .ci/run exports (a full run on Python 3.12 with the
@@ -177,3 +180,26 @@ def highs_feasible(A, b, C, l, u, lb, ub) -> bool:
     r = so.linprog(np.zeros(A.shape[1]), A_ub=np.vstack([C[fu], -C[fl]]), b_ub=np.concatenate([u[fu], -l[fl]]),
                    A_eq=A, b_eq=b, bounds=bounds, method="highs")
     return r.status == 0
+
+
+def fuzz_episode(robots, seed: int, episode: int, dts=(0.002,), past_limits: float = 0.0):
+    """(name, kind, strict, dt, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed``
+    (its random streams replayed) run with ``--dts`` and ``--past-limits`` (default: the fuzz's defaults, dt = 2 ms
+    and no episode past the limits); the fuzz's budget: the tick's dt, counted in solves."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import fuzz
+
+    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
+    rng = np.random.default_rng(seed)
+    extra = np.random.default_rng(seed + 7_000_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(episode + 1):
+            name = str(rng.choice(list(robots_)))
+            kind = str(rng.choice(["reachable", "absurd", "far"]))
+            strict = bool(rng.random() < 0.5)
+            dt = float(extra.choice(dts))
+            past = bool(extra.random() < past_limits)
+            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict, past_limits=past)
+    ctrl.budget = None
+    return name, kind, strict, dt, config, ctrl

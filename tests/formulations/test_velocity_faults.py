@@ -19,7 +19,7 @@ import pinocchio as pin
 import pytest
 import scipy.optimize
 
-from conftest import hand_over_posture, standing_controller
+from conftest import fuzz_episode, hand_over_posture, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints.limits import JointPositionLimit, bounded_joints
 from wbc.exceptions import ConfigurationError, InvalidInputError, WbcError
@@ -133,28 +133,6 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
     assert worst_tick <= 5e-5 + 0.5 * 1e-3
 
 
-def _fuzz_episode(robots, seed: int, episode: int):
-    """(name, kind, strict, dt, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed``
-    (its random streams replayed; --dts 0.002,0.005,0.01,0.02 --past-limits 0.2)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    import fuzz
-
-    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
-    rng = np.random.default_rng(seed)
-    extra = np.random.default_rng(seed + 7_000_000)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for _ in range(episode + 1):
-            name = str(rng.choice(list(robots_)))
-            kind = str(rng.choice(["reachable", "absurd", "far"]))
-            strict = bool(rng.random() < 0.5)
-            dt = float(extra.choice((0.002, 0.005, 0.01, 0.02)))
-            past = bool(extra.random() < 0.2)
-            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict, past_limits=past)
-    ctrl.budget = None  # the fuzz's budget: the tick's dt, counted in solves (the same stages at any machine load)
-    return name, kind, strict, dt, config, ctrl
-
-
 def _run_failed_ticks(config, ctrl, dt, ticks: int = 50) -> tuple[int, float, float, set]:
     """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
     over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data."""
@@ -195,7 +173,7 @@ def test_a_run_of_safe_commands_does_not_walk_a_sole_away(robots, monkeypatch):
     from wbc.formulations.velocity import KinematicController
 
     monkeypatch.setattr(KinematicController, "_consistent_contact_rhs", lambda self: False)
-    name, kind, strict, dt, config, ctrl = _fuzz_episode(robots, 410002, 150)
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 410002, 150, (0.002, 0.005, 0.01, 0.02), 0.2)
     assert (name, kind, strict, dt) == ("humanoid15", "far", True, 0.002)
     failed, worst_run, _, _ = _run_failed_ticks(config, ctrl, dt)
     assert failed >= 40  # the long run of failed ticks is there (47 before)
@@ -207,7 +185,7 @@ def test_dependent_contact_rows_get_their_least_squares_retry_within_the_budget(
     retry with the dependent contact rows' corrections made consistent, so 47 of its 50 ticks failed ("dependent
     equality rows violated") where the weighted path's retry solves them; the retry is now one solve not cut by the
     budget (HiGHS confirms the raw rows infeasible: the retry is what makes them solvable)."""
-    name, kind, strict, dt, config, ctrl = _fuzz_episode(robots, 410002, 150)
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 410002, 150, (0.002, 0.005, 0.01, 0.02), 0.2)
     failed, worst_run, _, _ = _run_failed_ticks(config, ctrl, dt)
     assert failed <= 5
     assert worst_run <= 1e-3
@@ -765,24 +743,6 @@ def test_strict_far_target_keeps_the_soles_within_the_budget(robots):
         config.update(config.integrate(res.v, DT))
 
 
-def _default_fuzz_episode(robots, seed: int, episode: int):
-    """(name, kind, strict, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed`` with
-    its default flags (dt = 2 ms, no episode past the limits; the fuzz's budget: the tick's dt)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    import fuzz
-
-    robots_ = {n: robots(n) for n in ("talos", "g1", "humanoid15")}
-    rng = np.random.default_rng(seed)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for _ in range(episode + 1):
-            name = str(rng.choice(list(robots_)))
-            kind = str(rng.choice(["reachable", "absurd", "far"]))
-            strict = bool(rng.random() < 0.5)
-            config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict)
-    return name, kind, strict, config, ctrl
-
-
 def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     """Kinematic fuzz seed 100011, episode 154 (humanoid15, a hand target 1e6 m away, 3 strict levels, dt = 2 ms,
     the fuzz's budget): from tick 8 the contacts' corrections contradict each other in a dependent direction, so no
@@ -792,7 +752,7 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     ticks of 50 on the parent commit. Now that QP gets its solver's iteration limit: the soles stay put to second
     order (forward kinematics: each failed tick moves each stance sole at most sole_drift_tolerance, a run of failed
     ticks at most 1 mm) and the episode recovers."""
-    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100011, 154)
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 154)
     assert (name, kind, strict) == ("humanoid15", "far", True)
     dt, tol = 0.002, 5e-5
     assert ctrl.sole_drift_tolerance == tol
@@ -812,7 +772,7 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     stops at its count and the late tick solves 'contacts_held' at β = 0 first: the tick's counted work stays within
     twice its cap, and the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's
     forward kinematics on its own Data)."""
-    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100011, 14)
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
     assert (name, kind, strict) == ("humanoid15", "absurd", True)
     dt, tol = 0.002, 5e-5
     model = ctrl.robot.model
@@ -846,7 +806,7 @@ def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(ro
     levels (one QP, path 'levels+budget+weighted'): the tick is solved, and its command keeps each stance sole
     within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward kinematics on its own
     Data)."""
-    name, kind, strict, config, ctrl = _default_fuzz_episode(robots, 100014, 176)
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100014, 176)
     assert (name, kind, strict) == ("humanoid15", "far", True)
     dt, tol = 0.002, 5e-5
     model = ctrl.robot.model

@@ -54,8 +54,10 @@ class DaqpBackend(QPBackend):
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
     per problem size, then ``update`` + ``solve`` every tick, warm-started from the previous tick's working set;
     a warm-started solve that fails, or whose solution fails the independent constraint check, is repeated from a
-    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed.
-    Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities two-sided rows.
+    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed; a warm-started call
+    stopped by the settings' whole ``iter_limit`` (the workspace cycling) is repeated with the one-shot call first,
+    the cold workspace only if that fails. Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities
+    two-sided rows.
 
     Args:
         tolerance: largest constraint violation accepted (constraint units).
@@ -234,6 +236,19 @@ class DaqpBackend(QPBackend):
             if not self.cold_retry or self.budget_capped:  # a trial (``cold_retry`` off), or the work limit: one
                 self._model = None                         # call; the next solve starts cold
                 return None
+            if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
+                # the workspace ran its whole iteration limit (cycling): the one-shot call first, the cold workspace
+                # after it only if it fails (a kinematic weighted-form QP, Hessian conditioned 1e6, ‖g‖ 3e8: the warm
+                # and the cold workspace each stopped at 1000 iterations, the one-shot call solved it in 16)
+                self._model = None
+                x = self._solve_oneshot(H, g, G, upper, lower)
+                if x is not None:
+                    self._oneshot_first = True
+                    self._cold_outcome = (x, None, self.last_multipliers)
+                    return x
+                if self.budget_capped:
+                    return None
+                tried_oneshot = True
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         limit = self.call_limit()
