@@ -25,7 +25,8 @@ first â€” empty, the full one is empty too and the tick goes to step 2 at once â
 gets its backend's retries only when its set was not proved empty. The budget sets one count: the compiled tick's iteration cap
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
-from the same assembly, and the next tick's compiled call starts from DAQP's working set. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
+from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
+:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default

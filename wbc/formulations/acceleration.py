@@ -111,8 +111,8 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "QUADPROG_COST", "daqp_attempt_iterations",
-           "kernel_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
+           "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
 
 
 @dataclass
@@ -149,10 +149,16 @@ _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
                 "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
 
 #: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
-#: refactors its working set every iteration), taken from the slow kernel ticks of the ID fuzz (G1, 37–39 working
-#: rows; benchmarks/README.md, "Tick time bounded at both levels"). A tick budget becomes an iteration cap of
-#: ⌊budget / (2 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
-KERNEL_ITERATION_COST = 2.2e-4
+#: refactors its working set every iteration), the whole compiled call divided by its iterations on the ID fuzz's
+#: Talos ticks that need 8–10 of them, on a loaded machine (benchmarks/README.md, "ID kernel cap from its measured
+#: iteration cost"). A tick budget becomes an iteration cap of ⌊budget / (2 · KERNEL_ITERATION_COST)⌋
+#: (:func:`kernel_iterations`).
+KERNEL_ITERATION_COST = 1.2e-4
+
+#: iteration cap of the compiled ID tick on the tick after one whose compiled call gave up (DAQP answered it): the
+#: call starts from DAQP's working set, so a tick one working-set change away from the last answer stays in the
+#: compiled tick; one that needs more is as hard as the last and goes to DAQP after this short attempt.
+KERNEL_ITERATIONS_AFTER_GIVE_UP = 2
 
 
 def kernel_iterations(budget: float) -> int:
@@ -303,8 +309,8 @@ class InverseDynamicsQP:
         self.last_violations: list[tuple[str, float]] = []
         #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
-        #: (:func:`kernel_iterations`). A tick after one whose compiled call gave up goes to DAQP at once (its
-        #: working set then warm-starts the next compiled call).
+        #: (:func:`kernel_iterations`). A tick whose compiled call gave up is answered by DAQP, whose working set
+        #: warm-starts the next tick's compiled call, capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
         #: (``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`, without a clock
@@ -1099,9 +1105,10 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
-        # 0 iterations: the kernel assembles the QP and DAQP solves it (the previous compiled call gave up)
-        par[PAR_MAX_ITER] = 0 if kb.gave_up else self.kernel_max_iterations
-        skipped, kb.gave_up = kb.gave_up, False
+        # after a give-up the call starts from DAQP's working set, one answer away: a short attempt
+        cap = self.kernel_max_iterations
+        par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
+        kb.gave_up = False
         ta = perf_counter()
         it, m = id_tick(*rows.tasks, state.M, state.h, state.q, state.v, dt, *rows.contacts, *kb.tail)
         self.dependent_contact_rows = 0
@@ -1133,7 +1140,7 @@ class InverseDynamicsQP:
                 return sol
             kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
         kb.fallbacks += 1
-        kb.gave_up = not skipped
+        kb.gave_up = True
         kb.state[:] = 0
         kb.rstate[:] = 0
         x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
@@ -1348,7 +1355,8 @@ class _KernelBuffers:
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
-        self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
+        #: the last call did not end in a solution: the next one is capped at KERNEL_ITERATIONS_AFTER_GIVE_UP
+        self.gave_up = False
         self._load_kernel(qp, rows)
 
     def _load_kernel(self, qp: InverseDynamicsQP, rows: _ProblemRows) -> None:
