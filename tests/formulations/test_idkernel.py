@@ -120,7 +120,7 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
     robot = robots(robot_name)
     dt = 0.002
     fast = IDBalanceController(robot, solver="fast", dt=dt)
-    # the kernel's iteration cap follows the tick budget (8 at the default 2 ms: ticks that need more go to
+    # the kernel's iteration cap follows the tick budget (4 at the default 2 ms: ticks that need more go to
     # DAQP); this test compares the kernel's own answers, so its cap is the unbudgeted 100
     fast.controller.budget = math.inf
     assert fast.qp.kernel_max_iterations == 100
@@ -184,19 +184,19 @@ def test_contact_conditioning_certificate_is_sound(robots, robot_name):
 
 
 def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(robots):
-    """The compiled tick's iteration cap is a count set by the tick budget (8 at 2 ms, 4 at 1 ms and below, 100
+    """The compiled tick's iteration cap is a count set by the tick budget (8 at 4 ms, 4 at 2 ms and below, 100
     unbounded). On Talos' kicked sway loop (the loop of ``test_kernel_equals_daqp_every_tick``) the kick's tick needs
-    5 iterations: at the 2 ms budget the kernel answers it; at 1 ms (cap 4) that tick is answered by DAQP on the same
+    5 iterations: at a 4 ms budget the kernel answers it; at 2 ms (cap 4) that tick is answered by DAQP on the same
     assembly, and the next tick by the kernel again, started from DAQP's working set (no tick skips the kernel).
     Every answer agrees with the reference DAQP workspace solve to 1e-6 (DAQP's dual one-shot stops within its
     primal tolerance)."""
     from wbc.formulations.acceleration import kernel_iterations
 
-    assert kernel_iterations(0.002) == 8 and kernel_iterations(0.001) == 4 and kernel_iterations(1e-5) == 4
+    assert kernel_iterations(0.004) == 8 and kernel_iterations(0.002) == 4 and kernel_iterations(1e-5) == 4
     assert kernel_iterations(math.inf) == 100
     robot = robots("talos")
     dt = 0.002
-    for budget, expected in ((0.002, []), (0.001, [100])):
+    for budget, expected in ((0.004, []), (0.002, [100])):
         fast = IDBalanceController(robot, solver="fast", dt=dt)
         fast.controller.budget = budget
         ref, kick, q, v, com0 = _sway_reference(robot, fast, dt)

@@ -149,10 +149,9 @@ _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
                 "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
 
 #: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
-#: refactors its working set every iteration), the whole compiled call divided by its iterations on the ID fuzz's
-#: Talos ticks that need 8–10 of them, on a loaded machine (benchmarks/README.md, "ID kernel cap from its measured
-#: iteration cost"). A tick budget becomes an iteration cap of ⌊budget / (2 · KERNEL_ITERATION_COST)⌋
-#: (:func:`kernel_iterations`).
+#: refactors its working set every iteration), with its share of the call's set-up, on the slow ticks of the ID fuzz
+#: (benchmarks/README.md, "ID kernel cap from its measured iteration cost"). A tick budget becomes an iteration cap
+#: of ⌊budget / (4 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
 KERNEL_ITERATION_COST = 1.2e-4
 
 #: iteration cap of the compiled ID tick on the tick after one whose compiled call gave up (DAQP answered it): the
@@ -162,13 +161,13 @@ KERNEL_ITERATIONS_AFTER_GIVE_UP = 2
 
 
 def kernel_iterations(budget: float) -> int:
-    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: half the budget at
-    :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count, not a clock:
-    the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same assembly, in the
-    other half of the budget."""
+    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: a quarter of the
+    budget at :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count,
+    not a clock: the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same
+    assembly, and a failed full QP's checks and relaxed QP come after it, in the rest of the budget."""
     if not np.isfinite(budget):
         return 100
-    return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
+    return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
 
 
 def daqp_attempt_iterations(budget: float) -> int:
