@@ -24,9 +24,10 @@ one DAQP call on the projection of the origin onto the hard set, a fraction of q
 first — empty, the full one is empty too and the tick goes to step 2 at once —, then the full one; the relaxed QP
 gets its backend's retries only when its set was not proved empty, and quadprog when those miss the minimiser of a
 set found not empty. The budget sets one count: the compiled tick's iteration cap
-(:func:`~wbc.formulations.acceleration.kernel_iterations`, half the budget at
+(:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
-from the same assembly, and the next tick's compiled call starts from DAQP's working set. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
+from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
+:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default

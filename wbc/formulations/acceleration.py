@@ -112,8 +112,8 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "QUADPROG_COST", "daqp_attempt_iterations",
-           "kernel_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
+           "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
 
 
 @dataclass
@@ -150,20 +150,25 @@ _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
                 "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
 
 #: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
-#: refactors its working set every iteration), taken from the slow kernel ticks of the ID fuzz (G1, 37–39 working
-#: rows; benchmarks/README.md, "Tick time bounded at both levels"). A tick budget becomes an iteration cap of
-#: ⌊budget / (2 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
-KERNEL_ITERATION_COST = 2.2e-4
+#: refactors its working set every iteration), with its share of the call's set-up, on the slow ticks of the ID fuzz
+#: (benchmarks/README.md, "ID kernel cap from its measured iteration cost"). A tick budget becomes an iteration cap
+#: of ⌊budget / (4 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
+KERNEL_ITERATION_COST = 1.2e-4
+
+#: iteration cap of the compiled ID tick on the tick after one whose compiled call gave up (DAQP answered it): the
+#: call starts from DAQP's working set, so a tick one working-set change away from the last answer stays in the
+#: compiled tick; one that needs more is as hard as the last and goes to DAQP after this short attempt.
+KERNEL_ITERATIONS_AFTER_GIVE_UP = 2
 
 
 def kernel_iterations(budget: float) -> int:
-    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: half the budget at
-    :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count, not a clock:
-    the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same assembly, in the
-    other half of the budget."""
+    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: a quarter of the
+    budget at :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count,
+    not a clock: the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same
+    assembly, and a failed full QP's checks and relaxed QP come after it, in the rest of the budget."""
     if not np.isfinite(budget):
         return 100
-    return int(min(100, max(4, budget / (2.0 * KERNEL_ITERATION_COST))))
+    return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
 
 
 def daqp_attempt_iterations(budget: float) -> int:
@@ -305,8 +310,8 @@ class InverseDynamicsQP:
         self.last_violations: list[tuple[str, float]] = []
         #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
-        #: (:func:`kernel_iterations`). A tick after one whose compiled call gave up goes to DAQP at once (its
-        #: working set then warm-starts the next compiled call).
+        #: (:func:`kernel_iterations`). A tick whose compiled call gave up is answered by DAQP, whose working set
+        #: warm-starts the next tick's compiled call, capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
         #: (both together ``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`,
@@ -1131,9 +1136,10 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
-        # 0 iterations: the kernel assembles the QP and DAQP solves it (the previous compiled call gave up)
-        par[PAR_MAX_ITER] = 0 if kb.gave_up else self.kernel_max_iterations
-        skipped, kb.gave_up = kb.gave_up, False
+        # after a give-up the call starts from DAQP's working set, one answer away: a short attempt
+        cap = self.kernel_max_iterations
+        par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
+        kb.gave_up = False
         ta = perf_counter()
         it, m = id_tick(*rows.tasks, state.M, state.h, state.q, state.v, dt, *rows.contacts, *kb.tail)
         self.dependent_contact_rows = 0
@@ -1165,7 +1171,7 @@ class InverseDynamicsQP:
                 return sol
             kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
         kb.fallbacks += 1
-        kb.gave_up = not skipped
+        kb.gave_up = True
         kb.state[:] = 0
         kb.rstate[:] = 0
         x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
@@ -1380,7 +1386,8 @@ class _KernelBuffers:
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
-        self.gave_up = False  # the last call did not end in a solution: the next one goes to DAQP at once
+        #: the last call did not end in a solution: the next one is capped at KERNEL_ITERATIONS_AFTER_GIVE_UP
+        self.gave_up = False
         self._load_kernel(qp, rows)
 
     def _load_kernel(self, qp: InverseDynamicsQP, rows: _ProblemRows) -> None:

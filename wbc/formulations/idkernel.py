@@ -30,9 +30,12 @@ bound every tick) are held again, and the optimum of the equality-constrained QP
 
 a ≤ 38 × 38 Cholesky for Talos instead of a 62 × 62 one. If that x satisfies every bound and row (to 1e-12) and
 every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i is ≥ 0 (σ_i = −1 at lb, +1 at ub), every KKT
-condition of the full QP holds and x is its (unique) optimum; otherwise the Goldfarb–Idnani dual active set
-(:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`, warm-started
-from the same working set) takes over.
+condition of the full QP holds and x is its (unique) optimum. When it fails on one bound — the most violated free
+variable, else the held bound with the most negative multiplier — that bound enters (or leaves) the working set and
+the step runs once more (a bound that alternates between ticks, as one joint's acceleration bound does while the
+robot sways, costs two equality steps; the answer is checked as before). Otherwise the Goldfarb–Idnani dual active
+set (:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`,
+warm-started from the previous tick's working set) takes over.
 
 Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
 dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
@@ -75,21 +78,24 @@ VERIFY_TOL = 1e-9
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, S, t, nu, tol, dinv, fnz, vfree,
                    xv, bx):
-    """The optimum of the previous tick's working set of bounds (module docstring), written into x: the variables
+    """The optimum of a working set of bounds (``state``; module docstring), written into x: the variables
     with ``state`` ≠ 0 (and the forces with lb = ub) held on their bound, the equality-constrained QP solved over
-    the others. Returns the largest equality residual, or −1 — ``state`` untouched — when that x is not the
-    optimum of the full QP or the step does not apply: a working inequality row (``rstate`` ≠ 0), a joint
-    variable with lb = ub, H_FF or S not positive definite, a free variable or a row violated by more than
-    ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative. dinv (n,), fnz (≥ m,)
-    bool, vfree (nv,) int, xv (nv,), bx (≥ m,): workspace."""
+    the others. Returns (residual, i, side): residual the largest equality residual, or −1 — ``state`` untouched —
+    when that x is not the optimum of the full QP or the step does not apply: a working inequality row
+    (``rstate`` ≠ 0), a joint variable with lb = ub, H_FF or S not positive definite, a free variable or a row
+    violated by more than ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative.
+    On a failure that one bound explains, (i, side) is the working-set change it points to: the most violated
+    free variable (side −1: held at lb, +1: at ub) when no row is checked yet, else the held bound with the most
+    negative multiplier (side 0: released); otherwise i = −1. dinv (n,), fnz (≥ m,) bool, vfree (nv,) int,
+    xv (nv,), bx (≥ m,): workspace."""
     n = H.shape[0]
     for r in range(rstate.size):
         if rstate[r] != 0:
-            return -1.0
+            return -1.0, -1, 0
     nfv = 0
     for i in range(nv):
         if lb[i] == ub[i]:
-            return -1.0
+            return -1.0, -1, 0
         s = state[i]
         if s == 0:
             vfree[nfv] = i
@@ -97,13 +103,13 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
         else:
             bound = lb[i] if s < 0 else ub[i]
             if not np.isfinite(bound):
-                return -1.0
+                return -1.0, -1, 0
             x[i] = bound
     for f in range(nv, n):
         if lb[f] == ub[f] or state[f] != 0:
             bound = ub[f] if (state[f] > 0 and lb[f] != ub[f]) else lb[f]
             if not np.isfinite(bound):
-                return -1.0
+                return -1.0, -1, 0
             x[f] = bound
             dinv[f] = 0.0
         else:
@@ -120,7 +126,7 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
         for c in range(a + 1):
             L[a, c] = H[i, vfree[c]]
     if not cholesky_lower(L, nfv):
-        return -1.0
+        return -1.0, -1, 0
     forward_substitution(L, nfv, t)
     for k in range(m):
         Ak = A[k]
@@ -168,7 +174,7 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
             acc += Yk[a] * t[a]
         nu[k] = -acc
     if not cholesky_lower(S, m):
-        return -1.0
+        return -1.0, -1, 0
     forward_substitution(S, m, nu)
     backward_substitution(S, m, nu)
     primal_from_multipliers(L, nfv, t, Yt, nu, m, xv)
@@ -182,26 +188,38 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
                     s += A[k, f] * nu[k]
             x[f] = -s * dinv[f]
     # primal feasibility of the free variables and of every row
+    worst = tol
+    wi = -1
+    ws = 0
     for i in range(n):
-        if state[i] == 0 and lb[i] != ub[i] and (x[i] < lb[i] - tol or x[i] > ub[i] + tol):
-            return -1.0
+        if state[i] == 0 and lb[i] != ub[i]:
+            if lb[i] - x[i] > worst:
+                worst, wi, ws = lb[i] - x[i], i, -1
+            elif x[i] - ub[i] > worst:
+                worst, wi, ws = x[i] - ub[i], i, 1
+    if wi >= 0:
+        return -1.0, wi, ws
     for r in range(C.shape[0]):
         acc = 0.0
         Cr = C[r]
         for j in range(n):
             acc += Cr[j] * x[j]
         if acc < l[r] - tol or acc > u[r] + tol:
-            return -1.0
+            return -1.0, -1, 0
     # dual feasibility of the held bounds
+    worst = 0.0
+    wi = -1
     for i in range(n):
         if state[i] == 0 or lb[i] == ub[i]:
             continue
         s = block_cost_gradient(H, g, x, i, nv)
         for k in range(m):
             s += A[k, i] * nu[k]
-        if -state[i] * s < 0.0:
-            return -1.0
-    return clip_eq_residual(x, lb, ub, A, b, n, m)
+        if -state[i] * s < worst:
+            worst, wi = -state[i] * s, i
+    if wi >= 0:
+        return -1.0, wi, 0
+    return clip_eq_residual(x, lb, ub, A, b, n, m), -1, 0
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -542,7 +560,9 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, 
             for an inactive contact; x (n,), the solution.
 
     Returns:
-        (kernel iterations (negative: exit code of the solve, or PROJECT_CONTACT_RHS), number of equality rows m).
+        (kernel iterations — 1: the equality step; 2: the step after one working-set change, when the cap
+        ``par[PAR_MAX_ITER]`` is ≥ 2; else the dual active set's steps; negative: exit code of the solve, or
+        PROJECT_CONTACT_RHS —, number of equality rows m).
     """
     nv = M.shape[0]
     Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
@@ -560,10 +580,20 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, 
                     (ws_L, ws_tv, gram, gram_y, jlo, jhi))
     if m < 0:
         return m, 0
-    res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu, 1e-12,
-                         ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
+    res, i, side = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv,
+                                  nu, 1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
+    it = 1
+    if res < 0.0 and i >= 0 and int(par[PAR_MAX_ITER]) >= 2:
+        # one working-set change (a bound entering or leaving), the step again: a bound that alternates between
+        # ticks costs a second equality step instead of the general solve
+        held = state[i]
+        state[i] = side
+        res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu,
+                             1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)[0]
+        it = 2
+        if res < 0.0:
+            state[i] = held  # the general solve starts from the previous tick's working set
     if res >= 0.0:
-        it = 1
         residual[0] = res
     else:
         space = BlockSpace(nv, ws_rows, ws_Yv, ws_S, ws_L, ws_vfree, ws_ffree, ws_vrow, ws_fac, ws_a, ws_c, ws_tv,
