@@ -946,13 +946,20 @@ class KinematicController:
             return None
         drift = 0.0
         if self._contacts:
-            ddata = self._drift_data
-            q_next = pin.integrate(model, q, plan.vdt)
-            for c, log in plan.contact_logs:
-                # the forward kinematics of the frame's supporting joints only (root to frame; the same steps as
-                # pin.forwardKinematics), then its placement data.oMf: what error_into reads
-                pin.computeFrameJacobian(model, ddata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
-                c.error_into(ddata, log)
+            # the kinematics at the next configuration, computed once: the configuration's lookahead, which its
+            # step with this v adopts (Configuration.lookahead); each contact frame placed (data.oMf), what
+            # error_into reads
+            ndata = config.lookahead(plan.vdt)
+            if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
+                ndata = self._drift_data
+                q_next = pin.integrate(model, q, plan.vdt)
+                for c, log in plan.contact_logs:
+                    pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
+                    c.error_into(ndata, log)
+            else:
+                for c, log in plan.contact_logs:
+                    pin.updateFramePlacement(model, ndata, c.frame_id)
+                    c.error_into(ndata, log)
             drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):

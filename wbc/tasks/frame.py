@@ -358,6 +358,7 @@ class FrameTask(Task):
         self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
         self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
+        self._oMf_other: tuple | None = None  # the same for the Data read before it
         _warm_up()
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -456,8 +457,13 @@ class FrameTask(Task):
         objects that own them), they follow every update."""
         views = self._oMf_views
         if views is None or views[0] is not data:
-            oMf = data.oMf[self.frame_id]
-            views = self._oMf_views = (data, oMf, oMf.rotation, oMf.translation)
+            other = self._oMf_other  # the other Data of a configuration that alternates two (Configuration.lookahead)
+            if other is not None and other[0] is data:
+                self._oMf_other, views = views, other
+            else:
+                oMf = data.oMf[self.frame_id]
+                self._oMf_other, views = views, (data, oMf, oMf.rotation, oMf.translation)
+            self._oMf_views = views
         return views
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
