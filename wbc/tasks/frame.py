@@ -110,10 +110,17 @@ def log3_into(rel, log):
         θ ∈ [0, π) (rad); −1 when rel is within Pinocchio's tolerance of a half turn (its singular branch, not done
         here: ``log`` untouched, call ``pin.log3``).
     """
-    n0 = np.sqrt(rel[0, 0] * rel[0, 0] + rel[1, 0] * rel[1, 0] + rel[2, 0] * rel[2, 0])
-    n1 = np.sqrt(rel[0, 1] * rel[0, 1] + rel[1, 1] * rel[1, 1] + rel[2, 1] * rel[2, 1])
-    c0x, c0y, c0z = rel[0, 0] / n0, rel[1, 0] / n0, rel[2, 0] / n0
-    c1x, c1y, c1z = rel[0, 1] / n1, rel[1, 1] / n1, rel[2, 1] / n1
+    return _log3_columns(rel[0, 0], rel[1, 0], rel[2, 0], rel[0, 1], rel[1, 1], rel[2, 1], log)
+
+
+@nb.njit(cache=True, nogil=True)
+def _log3_columns(r00, r10, r20, r01, r11, r21, log):
+    """:func:`log3_into` given the first two columns of rel (its third is rebuilt from them): scalars, so that a
+    caller that forms rel entry by entry needs no (3, 3) array (no allocation)."""
+    n0 = np.sqrt(r00 * r00 + r10 * r10 + r20 * r20)
+    n1 = np.sqrt(r01 * r01 + r11 * r11 + r21 * r21)
+    c0x, c0y, c0z = r00 / n0, r10 / n0, r20 / n0
+    c1x, c1y, c1z = r01 / n1, r11 / n1, r21 / n1
     c2x, c2y, c2z = c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x
     c0x, c0y, c0z = c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x
     tr = c0x + c1y + c2z
@@ -173,20 +180,26 @@ def placement_log6_into(pose, rot, pos, out):
         False when P⁻¹M's rotation is within Pinocchio's tolerance of a half turn (``out`` then not fully written:
         call ``pin.log6``), else True.
     """
-    rel = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            rel[i, j] = pose[0, i] * rot[0, j] + pose[1, i] * rot[1, j] + pose[2, i] * rot[2, j]
+    # rel = R_Pᵀ R entry by entry (scalars: no (3, 3) array allocated)
+    r00 = pose[0, 0] * rot[0, 0] + pose[1, 0] * rot[1, 0] + pose[2, 0] * rot[2, 0]
+    r01 = pose[0, 0] * rot[0, 1] + pose[1, 0] * rot[1, 1] + pose[2, 0] * rot[2, 1]
+    r02 = pose[0, 0] * rot[0, 2] + pose[1, 0] * rot[1, 2] + pose[2, 0] * rot[2, 2]
+    r10 = pose[0, 1] * rot[0, 0] + pose[1, 1] * rot[1, 0] + pose[2, 1] * rot[2, 0]
+    r11 = pose[0, 1] * rot[0, 1] + pose[1, 1] * rot[1, 1] + pose[2, 1] * rot[2, 1]
+    r12 = pose[0, 1] * rot[0, 2] + pose[1, 1] * rot[1, 2] + pose[2, 1] * rot[2, 2]
+    r20 = pose[0, 2] * rot[0, 0] + pose[1, 2] * rot[1, 0] + pose[2, 2] * rot[2, 0]
+    r21 = pose[0, 2] * rot[0, 1] + pose[1, 2] * rot[1, 1] + pose[2, 2] * rot[2, 1]
+    r22 = pose[0, 2] * rot[0, 2] + pose[1, 2] * rot[1, 2] + pose[2, 2] * rot[2, 2]
     d0, d1, d2 = pos[0] - pose[3, 0], pos[1] - pose[3, 1], pos[2] - pose[3, 2]
     p0 = pose[0, 0] * d0 + pose[1, 0] * d1 + pose[2, 0] * d2
     p1 = pose[0, 1] * d0 + pose[1, 1] * d1 + pose[2, 1] * d2
     p2 = pose[0, 2] * d0 + pose[1, 2] * d1 + pose[2, 2] * d2
-    a0 = 0.5 * (rel[2, 1] - rel[1, 2])
-    a1 = 0.5 * (rel[0, 2] - rel[2, 0])
-    a2 = 0.5 * (rel[1, 0] - rel[0, 1])
+    a0 = 0.5 * (r21 - r12)
+    a1 = 0.5 * (r02 - r20)
+    a2 = 0.5 * (r10 - r01)
     t2 = a0 * a0 + a1 * a1 + a2 * a2
-    tr = rel[0, 0] + rel[1, 1] + rel[2, 2]
-    theta = log3_into(rel, out[3:])
+    tr = r00 + r11 + r22
+    theta = _log3_columns(r00, r10, r20, r01, r11, r21, out[3:])
     if theta < 0.0:
         return False
     st, ct = np.sin(theta), np.cos(theta)
@@ -209,13 +222,15 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
     """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
     instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
     of a half turn, else 0."""
-    rel = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            rel[i, j] = target_rot_t[i, 0] * rot[0, j] + target_rot_t[i, 1] * rot[1, j] \
-                + target_rot_t[i, 2] * rot[2, j]
+    # the first two columns of rel = R*ᵀ R (what log₃ reads; scalars: no (3, 3) array allocated)
+    r00 = target_rot_t[0, 0] * rot[0, 0] + target_rot_t[0, 1] * rot[1, 0] + target_rot_t[0, 2] * rot[2, 0]
+    r10 = target_rot_t[1, 0] * rot[0, 0] + target_rot_t[1, 1] * rot[1, 0] + target_rot_t[1, 2] * rot[2, 0]
+    r20 = target_rot_t[2, 0] * rot[0, 0] + target_rot_t[2, 1] * rot[1, 0] + target_rot_t[2, 2] * rot[2, 0]
+    r01 = target_rot_t[0, 0] * rot[0, 1] + target_rot_t[0, 1] * rot[1, 1] + target_rot_t[0, 2] * rot[2, 1]
+    r11 = target_rot_t[1, 0] * rot[0, 1] + target_rot_t[1, 1] * rot[1, 1] + target_rot_t[1, 2] * rot[2, 1]
+    r21 = target_rot_t[2, 0] * rot[0, 1] + target_rot_t[2, 1] * rot[1, 1] + target_rot_t[2, 2] * rot[2, 1]
     log = np.empty(3)
-    theta = log3_into(rel, log)
+    theta = _log3_columns(r00, r10, r20, r01, r11, r21, log)
     if theta < 0.0:
         return 1
     jlog = np.empty((3, 3))
