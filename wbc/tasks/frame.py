@@ -170,6 +170,18 @@ def jlog3_into(theta, log, jlog):
 
 
 @nb.njit(cache=True, nogil=True)
+def _col_dot(a, i, b, j):
+    """(aᵀ b)[i, j] = a[0, i] b[0, j] + a[1, i] b[1, j] + a[2, i] b[2, j] (3 rows of a and b; in this order)."""
+    return a[0, i] * b[0, j] + a[1, i] * b[1, j] + a[2, i] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True)
+def _row_dot(a, i, b, j):
+    """(a b)[i, j] = a[i, 0] b[0, j] + a[i, 1] b[1, j] + a[i, 2] b[2, j] (a 3-column, b 3-row; in this order)."""
+    return a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True)
 def placement_log6_into(pose, rot, pos, out):
     """out (6,) ← log₆(P⁻¹ M) = (linear, angular) of a placement M (``rot`` (3, 3), ``pos`` (3,), world) relative to
     P given as ``pose`` (4, 3) = [R_P; p_Pᵀ] (world): what ``pin.log6(P.actInv(M)).vector`` returns, computed
@@ -181,15 +193,9 @@ def placement_log6_into(pose, rot, pos, out):
         call ``pin.log6``), else True.
     """
     # rel = R_Pᵀ R entry by entry (scalars: no (3, 3) array allocated)
-    r00 = pose[0, 0] * rot[0, 0] + pose[1, 0] * rot[1, 0] + pose[2, 0] * rot[2, 0]
-    r01 = pose[0, 0] * rot[0, 1] + pose[1, 0] * rot[1, 1] + pose[2, 0] * rot[2, 1]
-    r02 = pose[0, 0] * rot[0, 2] + pose[1, 0] * rot[1, 2] + pose[2, 0] * rot[2, 2]
-    r10 = pose[0, 1] * rot[0, 0] + pose[1, 1] * rot[1, 0] + pose[2, 1] * rot[2, 0]
-    r11 = pose[0, 1] * rot[0, 1] + pose[1, 1] * rot[1, 1] + pose[2, 1] * rot[2, 1]
-    r12 = pose[0, 1] * rot[0, 2] + pose[1, 1] * rot[1, 2] + pose[2, 1] * rot[2, 2]
-    r20 = pose[0, 2] * rot[0, 0] + pose[1, 2] * rot[1, 0] + pose[2, 2] * rot[2, 0]
-    r21 = pose[0, 2] * rot[0, 1] + pose[1, 2] * rot[1, 1] + pose[2, 2] * rot[2, 1]
-    r22 = pose[0, 2] * rot[0, 2] + pose[1, 2] * rot[1, 2] + pose[2, 2] * rot[2, 2]
+    r00, r01, r02 = _col_dot(pose, 0, rot, 0), _col_dot(pose, 0, rot, 1), _col_dot(pose, 0, rot, 2)
+    r10, r11, r12 = _col_dot(pose, 1, rot, 0), _col_dot(pose, 1, rot, 1), _col_dot(pose, 1, rot, 2)
+    r20, r21, r22 = _col_dot(pose, 2, rot, 0), _col_dot(pose, 2, rot, 1), _col_dot(pose, 2, rot, 2)
     d0, d1, d2 = pos[0] - pose[3, 0], pos[1] - pose[3, 1], pos[2] - pose[3, 2]
     p0 = pose[0, 0] * d0 + pose[1, 0] * d1 + pose[2, 0] * d2
     p1 = pose[0, 1] * d0 + pose[1, 1] * d1 + pose[2, 1] * d2
@@ -223,12 +229,9 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
     instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
     of a half turn, else 0."""
     # the first two columns of rel = R*ᵀ R (what log₃ reads; scalars: no (3, 3) array allocated)
-    r00 = target_rot_t[0, 0] * rot[0, 0] + target_rot_t[0, 1] * rot[1, 0] + target_rot_t[0, 2] * rot[2, 0]
-    r10 = target_rot_t[1, 0] * rot[0, 0] + target_rot_t[1, 1] * rot[1, 0] + target_rot_t[1, 2] * rot[2, 0]
-    r20 = target_rot_t[2, 0] * rot[0, 0] + target_rot_t[2, 1] * rot[1, 0] + target_rot_t[2, 2] * rot[2, 0]
-    r01 = target_rot_t[0, 0] * rot[0, 1] + target_rot_t[0, 1] * rot[1, 1] + target_rot_t[0, 2] * rot[2, 1]
-    r11 = target_rot_t[1, 0] * rot[0, 1] + target_rot_t[1, 1] * rot[1, 1] + target_rot_t[1, 2] * rot[2, 1]
-    r21 = target_rot_t[2, 0] * rot[0, 1] + target_rot_t[2, 1] * rot[1, 1] + target_rot_t[2, 2] * rot[2, 1]
+    t = target_rot_t
+    r00, r10, r20 = _row_dot(t, 0, rot, 0), _row_dot(t, 1, rot, 0), _row_dot(t, 2, rot, 0)
+    r01, r11, r21 = _row_dot(t, 0, rot, 1), _row_dot(t, 1, rot, 1), _row_dot(t, 2, rot, 1)
     log = np.empty(3)
     theta = _log3_columns(r00, r10, r20, r01, r11, r21, log)
     if theta < 0.0:
