@@ -169,13 +169,13 @@ def jlog3_into(theta, log, jlog):
     return st, ct
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def _col_dot(a, i, b, j):
     """(aᵀ b)[i, j] = a[0, i] b[0, j] + a[1, i] b[1, j] + a[2, i] b[2, j] (3 rows of a and b; in this order)."""
     return a[0, i] * b[0, j] + a[1, i] * b[1, j] + a[2, i] * b[2, j]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def _row_dot(a, i, b, j):
     """(a b)[i, j] = a[i, 0] b[0, j] + a[i, 1] b[1, j] + a[i, 2] b[2, j] (a 3-column, b 3-row; in this order)."""
     return a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
