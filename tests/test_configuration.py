@@ -176,3 +176,54 @@ def test_step_rejects_non_finite_velocity_and_keeps_q(robots):
     config.step(list(v), 0.002)  # a list is converted (check_vector), the same step
     np.testing.assert_array_equal(config.q, pin.integrate(robot.model, pin.integrate(robot.model, q0, v * 0.002),
                                                           v * 0.002))
+
+
+@pytest.mark.parametrize("keep_ag", [False, True])
+def test_step_adopts_a_matching_lookahead_with_pinocchios_numbers(robots, keep_ag):
+    """lookahead(v·dt) leaves the configuration at q and gives Pinocchio's kinematics at q ⊕ v·dt; a step with that
+    v·dt adopts it: q, joint placements and Jacobians, every frame, CoM and its Jacobian (and Ag) equal, bit for bit,
+    Pinocchio's passes at pin.integrate(q, v·dt) on a fresh Data. A step with another v, or after q was updated,
+    computes its own kinematics (the same comparison)."""
+    robot = robots("talos")
+    model = robot.model
+    rng = np.random.default_rng(21)
+    config = Configuration(robot, random_configuration(robot, rng))
+    if keep_ag:
+        config.keep_centroidal_map()
+    sole = robot.frame_id(robot.left_sole)
+
+    def check(q):
+        ref = model.createData()
+        pin.computeJointJacobians(model, ref, q)
+        pin.updateFramePlacements(model, ref)
+        jcom = pin.jacobianCenterOfMass(model, ref, False)
+        assert np.array_equal(config.q, q)
+        assert np.array_equal(config.data.J, ref.J)
+        assert np.array_equal(config.com, ref.com[0]) and np.array_equal(config.com_jacobian, jcom)
+        for a, b in zip(config.data.oMf, ref.oMf):
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        if keep_ag:
+            assert np.array_equal(config.centroidal_momentum_matrix,
+                                  pin.computeCentroidalMap(model, model.createData(), q))
+
+    for case in ("adopt", "other v", "updated", "adopt"):
+        q0 = config.q.copy()
+        v = 0.5 * rng.standard_normal(robot.nv)
+        dt = 0.01
+        ahead = config.lookahead(v * dt)
+        assert np.array_equal(config.q, q0) and ahead is not config.kinematics_data
+        pin.updateFramePlacement(model, ahead, sole)
+        q1 = pin.integrate(model, q0, v * dt)
+        ref = model.createData()
+        pin.framesForwardKinematics(model, ref, q1)
+        assert np.array_equal(ahead.oMf[sole].homogeneous, ref.oMf[sole].homogeneous)
+        if case == "other v":
+            v = v.copy()
+            v[10] += 1e-3
+            q1 = pin.integrate(model, q0, v * dt)
+        elif case == "updated":
+            q0 = random_configuration(robot, rng)
+            config.update(q0.copy())
+            q1 = pin.integrate(model, q0, v * dt)
+        config.step(v, dt)
+        check(q1)

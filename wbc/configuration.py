@@ -37,10 +37,27 @@ def _scaled_if_finite(v, dt, out):
     return True
 
 
+@nb.njit(cache=True, nogil=True)
+def _scaled_matches(v, dt, out, q, ahead):
+    """:func:`_scaled_if_finite` (0: v not finite, out untouched; else out = v dt) that also says whether out and q
+    equal, bit for bit, the v·dt and q of a lookahead (``ahead`` = [v·dt (nv,), q (nq,)]): 2 when they do, else 1."""
+    if not _scaled_if_finite(v, dt, out):
+        return 0
+    n = out.shape[0]
+    for i in range(n):
+        if out[i] != ahead[i]:
+            return 1
+    for i in range(q.shape[0]):
+        if q[i] != ahead[n + i]:
+            return 1
+    return 2
+
+
 @once_per_process
 def _warm_up() -> None:
     """Load :func:`_scaled_if_finite` (on-disk cache) once per process, at construction."""
     _scaled_if_finite(np.zeros(1), 0.002, np.zeros(1))
+    _scaled_matches(np.zeros(1), 0.002, np.zeros(1), np.zeros(2), np.zeros(3))
 
 
 class Configuration:
@@ -64,6 +81,11 @@ class Configuration:
         self._vdt = np.zeros(self._nv)  # v dt of step
         self._keep_ag = False
         self._ag = None
+        # lookahead: a second Data computed at q ⊕ v·dt, adopted by a step with that v·dt (swapped with _data);
+        # _ahead = [v·dt, q] it was computed from, _ahead_out = (Data, its data.com[0], q ⊕ v·dt, CoM Jacobian, Ag)
+        self._spare = None
+        self._ahead = np.full(self._nv + robot.model.nq, np.nan)
+        self._ahead_out = None
         self.q = np.array(robot.q_ref if q is None else q, dtype=float)
         self.update(self.q)
         self._com = self._data.com[0]  # a view of Pinocchio's data.com[0] (eigenpy): follows every update
@@ -85,12 +107,45 @@ class Configuration:
             # a read-only q is copied: the compiled tick (wbc.formulations.velocity_kernel) reads q, and a read-only
             # array is another argument type for it (one more compilation)
             self.q = q if q.flags.writeable else q.copy()
-        if self._keep_ag:  # the joint placements and Jacobians of computeJointJacobians (the same numbers), and Ag
-            self._ag = pin.computeCentroidalMap(self.model, self._data, self.q)
-            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self._data, False)
-        else:  # forward kinematics, then the joint Jacobians data.J, the CoM and its Jacobian in one backward pass
-            self._com_jacobian = pin.jacobianCenterOfMass(self.model, self._data, self.q, False)
+        self._ahead_out = None
+        self._com_jacobian, self._ag = self._kinematics(self._data, self.q)
         self._frames_stale = True  # data.oMf: every frame placed on the next read of data
+
+    def _kinematics(self, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Pinocchio's pass of :meth:`update` into ``data`` at q: (CoM Jacobian, Ag or None)."""
+        if self._keep_ag:  # the joint placements and Jacobians of computeJointJacobians (the same numbers), and Ag
+            ag = pin.computeCentroidalMap(self.model, data, q)
+            return pin.jacobianCenterOfMass(self.model, data, False), ag
+        # forward kinematics, then the joint Jacobians data.J, the CoM and its Jacobian in one backward pass
+        return pin.jacobianCenterOfMass(self.model, data, q, False), None
+
+    def lookahead(self, vdt: np.ndarray) -> pin.Data | None:
+        """Pinocchio Data at q ⊕ vdt (``pin.integrate``), computed as :meth:`update` computes :attr:`kinematics_data`
+        (joint placements and Jacobians, CoM and its Jacobian; no frame placed: ``pin.updateFramePlacement`` a frame
+        before reading its ``oMf``), without changing this configuration. The next :meth:`step` whose v·dt equals
+        ``vdt`` bit for bit, from the same q, adopts it instead of computing it again (the two Data objects are
+        swapped: a Data read before that step then holds the lookahead's numbers no longer).
+
+        Args:
+            vdt: (nv,) float array, the displacement v·dt (rad, m); trusted (the caller's solver output).
+
+        Returns:
+            the Data, owned by this configuration (overwritten by the next lookahead); None for a subclass with its
+            own :meth:`update` (nothing computed).
+        """
+        if type(self).update is not Configuration.update:
+            return None
+        spare = self._spare
+        if spare is None:
+            data = self.model.createData()
+            spare = self._spare = (data, data.com[0])
+        q_next = pin.integrate(self.model, self.q, vdt)
+        jcom, ag = self._kinematics(spare[0], q_next)
+        nv = self._nv
+        self._ahead[:nv] = vdt
+        self._ahead[nv:] = self.q
+        self._ahead_out = (spare, q_next, jcom, ag)
+        return spare[0]
 
     @property
     def data(self) -> pin.Data:
@@ -162,10 +217,23 @@ class Configuration:
         if not dt_ok:
             raise ConfigurationError(f"dt must be a finite number > 0 (s), got {dt!r}")
         vdt = self._vdt
-        if not (type(v) is np.ndarray and v.shape == (self._nv,) and v.dtype == np.float64
-                and _scaled_if_finite(v, float(dt), vdt)):
+        ahead = self._ahead_out
+        match = 0
+        if type(v) is np.ndarray and v.shape == (self._nv,) and v.dtype == np.float64:
+            if ahead is None:
+                match = int(_scaled_if_finite(v, float(dt), vdt))
+            else:
+                match = _scaled_matches(v, float(dt), vdt, self.q, self._ahead)
+        if not match:
             v = check_vector(v, self._nv, "velocity v")  # raises with the details, else a finite float array
             np.multiply(v, dt, out=vdt)
+        if match == 2:  # the lookahead's v·dt from this q: its Data becomes this configuration's (swapped)
+            spare, self.q, self._com_jacobian, self._ag = ahead
+            self._spare = (self._data, self._com)
+            self._data, self._com = spare
+            self._ahead_out = None
+            self._frames_stale = True
+            return
         self.q = pin.integrate(self.model, self.q, vdt)
         self.update()
 

@@ -46,8 +46,9 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
         raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
     if arr.shape != (size,):
         raise error(f"{what} must have shape ({size},), got {arr.shape}")
-    if not math.isfinite(arr.dot(arr)):  # one BLAS call (ndarray.dot: no ufunc dispatch); NaN/inf propagate (an
-        # overflow also lands here)
+    # NaN/inf propagate into the sum (an overflow also lands here; the test below then finds no bad entry): a sum
+    # of Python floats for a short vector, one BLAS call (ndarray.dot: no ufunc dispatch) for a long one
+    if not math.isfinite(sum(arr.tolist()) if size <= 64 else arr.dot(arr)):
         bad = np.flatnonzero(~np.isfinite(arr))[:5].tolist()
         if bad:
             raise error(f"{what} must be finite; NaN/inf at indices {bad}")

@@ -36,7 +36,8 @@ def _write_rows(jac, error, scale, A_out, b_out):
 @nb.njit(cache=True, nogil=True)
 def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.tasks.frame.placement_log6_into`: P = ``pose`` (4, 3),
-    M = (``rot``, ``pos``)) in one compiled call. Returns False (nothing written) near a half-turn error."""
+    M = (``rot``, ``pos``)) in one compiled call, no array allocated. Returns False (nothing written) near a
+    half-turn error."""
     if not placement_log6_into(pose, rot, pos, b_out):
         return False
     for i in range(jac.shape[0]):

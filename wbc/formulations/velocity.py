@@ -724,6 +724,7 @@ class KinematicController:
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         self._other_eq_blocks = [blk for blk in self._eq_blocks if id(blk[0]) not in contact_ids]
         self._contact_factors = np.zeros(len(self._contact_blocks))
+        self._contact_factor_values = [math.nan] * len(self._contact_blocks)  # the same as floats: written on change
         self._contact_starts = np.array([r0 for _, r0, _ in self._contact_blocks], np.int64)
         self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
         for c, r0, r1 in self._eq_blocks:
@@ -796,10 +797,12 @@ class KinematicController:
         A, b = self._A, self._b
         ctx = self._context
         ctx.config, ctx.dt = config, dt
-        factors = self._contact_factors
+        factors, values = self._contact_factors, self._contact_factor_values
         for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
             c.write(ctx, A_rows, b_rows, None)
-            factors[i] = dt - 1.0 / min(c.gain, 1.0 / dt)
+            f = dt - 1.0 / min(c.gain, 1.0 / dt)
+            if f != values[i]:
+                factors[i] = values[i] = f
         for c, r0, r1 in self._other_eq_blocks:
             c.write(ctx, A[r0:r1], b[r0:r1], None)
         if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
@@ -946,13 +949,20 @@ class KinematicController:
             return None
         drift = 0.0
         if self._contacts:
-            ddata = self._drift_data
-            q_next = pin.integrate(model, q, plan.vdt)
-            for c, log in plan.contact_logs:
-                # the forward kinematics of the frame's supporting joints only (root to frame; the same steps as
-                # pin.forwardKinematics), then its placement data.oMf: what error_into reads
-                pin.computeFrameJacobian(model, ddata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
-                c.error_into(ddata, log)
+            # the kinematics at the next configuration, computed once: the configuration's lookahead, which its
+            # step with this v adopts (Configuration.lookahead); each contact frame placed (data.oMf), what
+            # error_into reads
+            ndata = config.lookahead(plan.vdt)
+            if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
+                ndata = self._drift_data
+                q_next = pin.integrate(model, q, plan.vdt)
+                for c, log in plan.contact_logs:
+                    pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
+                    c.error_into(ndata, log)
+            else:
+                for c, log in plan.contact_logs:
+                    pin.updateFramePlacement(model, ndata, c.frame_id)
+                    c.error_into(ndata, log)
             drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
@@ -1946,7 +1956,8 @@ _CHECKED_SIZE = 64
 _LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
                  "_const_prefix", "_const_lb", "_const_ub", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
                  "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
-                 "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_starts", "_relaxable_blocks")
+                 "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_factor_values", "_contact_starts",
+                 "_relaxable_blocks")
 
 
 def _row_blocks(constraints) -> tuple[list, int]:

@@ -110,10 +110,17 @@ def log3_into(rel, log):
         θ ∈ [0, π) (rad); −1 when rel is within Pinocchio's tolerance of a half turn (its singular branch, not done
         here: ``log`` untouched, call ``pin.log3``).
     """
-    n0 = np.sqrt(rel[0, 0] * rel[0, 0] + rel[1, 0] * rel[1, 0] + rel[2, 0] * rel[2, 0])
-    n1 = np.sqrt(rel[0, 1] * rel[0, 1] + rel[1, 1] * rel[1, 1] + rel[2, 1] * rel[2, 1])
-    c0x, c0y, c0z = rel[0, 0] / n0, rel[1, 0] / n0, rel[2, 0] / n0
-    c1x, c1y, c1z = rel[0, 1] / n1, rel[1, 1] / n1, rel[2, 1] / n1
+    return _log3_columns(rel[0, 0], rel[1, 0], rel[2, 0], rel[0, 1], rel[1, 1], rel[2, 1], log)
+
+
+@nb.njit(cache=True, nogil=True)
+def _log3_columns(r00, r10, r20, r01, r11, r21, log):
+    """:func:`log3_into` given the first two columns of rel (its third is rebuilt from them): scalars, so that a
+    caller that forms rel entry by entry needs no (3, 3) array (no allocation)."""
+    n0 = np.sqrt(r00 * r00 + r10 * r10 + r20 * r20)
+    n1 = np.sqrt(r01 * r01 + r11 * r11 + r21 * r21)
+    c0x, c0y, c0z = r00 / n0, r10 / n0, r20 / n0
+    c1x, c1y, c1z = r01 / n1, r11 / n1, r21 / n1
     c2x, c2y, c2z = c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x
     c0x, c0y, c0z = c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x
     tr = c0x + c1y + c2z
@@ -162,6 +169,18 @@ def jlog3_into(theta, log, jlog):
     return st, ct
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _col_dot(a, i, b, j):
+    """(aᵀ b)[i, j] = a[0, i] b[0, j] + a[1, i] b[1, j] + a[2, i] b[2, j] (3 rows of a and b; in this order)."""
+    return a[0, i] * b[0, j] + a[1, i] * b[1, j] + a[2, i] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _row_dot(a, i, b, j):
+    """(a b)[i, j] = a[i, 0] b[0, j] + a[i, 1] b[1, j] + a[i, 2] b[2, j] (a 3-column, b 3-row; in this order)."""
+    return a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
 @nb.njit(cache=True, nogil=True)
 def placement_log6_into(pose, rot, pos, out):
     """out (6,) ← log₆(P⁻¹ M) = (linear, angular) of a placement M (``rot`` (3, 3), ``pos`` (3,), world) relative to
@@ -173,20 +192,20 @@ def placement_log6_into(pose, rot, pos, out):
         False when P⁻¹M's rotation is within Pinocchio's tolerance of a half turn (``out`` then not fully written:
         call ``pin.log6``), else True.
     """
-    rel = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            rel[i, j] = pose[0, i] * rot[0, j] + pose[1, i] * rot[1, j] + pose[2, i] * rot[2, j]
+    # rel = R_Pᵀ R entry by entry (scalars: no (3, 3) array allocated)
+    r00, r01, r02 = _col_dot(pose, 0, rot, 0), _col_dot(pose, 0, rot, 1), _col_dot(pose, 0, rot, 2)
+    r10, r11, r12 = _col_dot(pose, 1, rot, 0), _col_dot(pose, 1, rot, 1), _col_dot(pose, 1, rot, 2)
+    r20, r21, r22 = _col_dot(pose, 2, rot, 0), _col_dot(pose, 2, rot, 1), _col_dot(pose, 2, rot, 2)
     d0, d1, d2 = pos[0] - pose[3, 0], pos[1] - pose[3, 1], pos[2] - pose[3, 2]
     p0 = pose[0, 0] * d0 + pose[1, 0] * d1 + pose[2, 0] * d2
     p1 = pose[0, 1] * d0 + pose[1, 1] * d1 + pose[2, 1] * d2
     p2 = pose[0, 2] * d0 + pose[1, 2] * d1 + pose[2, 2] * d2
-    a0 = 0.5 * (rel[2, 1] - rel[1, 2])
-    a1 = 0.5 * (rel[0, 2] - rel[2, 0])
-    a2 = 0.5 * (rel[1, 0] - rel[0, 1])
+    a0 = 0.5 * (r21 - r12)
+    a1 = 0.5 * (r02 - r20)
+    a2 = 0.5 * (r10 - r01)
     t2 = a0 * a0 + a1 * a1 + a2 * a2
-    tr = rel[0, 0] + rel[1, 1] + rel[2, 2]
-    theta = log3_into(rel, out[3:])
+    tr = r00 + r11 + r22
+    theta = _log3_columns(r00, r10, r20, r01, r11, r21, out[3:])
     if theta < 0.0:
         return False
     st, ct = np.sin(theta), np.cos(theta)
@@ -209,13 +228,12 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
     """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
     instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
     of a half turn, else 0."""
-    rel = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            rel[i, j] = target_rot_t[i, 0] * rot[0, j] + target_rot_t[i, 1] * rot[1, j] \
-                + target_rot_t[i, 2] * rot[2, j]
+    # the first two columns of rel = R*ᵀ R (what log₃ reads; scalars: no (3, 3) array allocated)
+    t = target_rot_t
+    r00, r10, r20 = _row_dot(t, 0, rot, 0), _row_dot(t, 1, rot, 0), _row_dot(t, 2, rot, 0)
+    r01, r11, r21 = _row_dot(t, 0, rot, 1), _row_dot(t, 1, rot, 1), _row_dot(t, 2, rot, 1)
     log = np.empty(3)
-    theta = log3_into(rel, log)
+    theta = _log3_columns(r00, r10, r20, r01, r11, r21, log)
     if theta < 0.0:
         return 1
     jlog = np.empty((3, 3))
@@ -358,6 +376,7 @@ class FrameTask(Task):
         self._drift6 = np.empty(6)
         self._ff: np.ndarray | None = None
         self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
+        self._oMf_other: tuple | None = None  # the same for the Data read before it
         _warm_up()
 
     def set_target(self, pose, velocity: np.ndarray | None = None) -> None:
@@ -456,8 +475,13 @@ class FrameTask(Task):
         objects that own them), they follow every update."""
         views = self._oMf_views
         if views is None or views[0] is not data:
-            oMf = data.oMf[self.frame_id]
-            views = self._oMf_views = (data, oMf, oMf.rotation, oMf.translation)
+            other = self._oMf_other  # the other Data of a configuration that alternates two (Configuration.lookahead)
+            if other is not None and other[0] is data:
+                self._oMf_other, views = views, other
+            else:
+                oMf = data.oMf[self.frame_id]
+                self._oMf_other, views = views, (data, oMf, oMf.rotation, oMf.translation)
+            self._oMf_views = views
         return views
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
