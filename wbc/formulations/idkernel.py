@@ -59,8 +59,8 @@ from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.active_set import BlockSpace, dual_active_set
 from wbc.solvers.box_eq import clip_eq_residual
-from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
-                                primal_from_multipliers, weighted_normal_equations)
+from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve, carve2, cholesky_lower,
+                                forward_substitution, primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
            "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS"]
@@ -338,52 +338,25 @@ def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
     tau = out[2:nv - 4]
     wrench = out[nv - 4:nv - 4 + 6 * nc].reshape((nc, 6))
     x = out[nv - 4 + 6 * nc:nv - 4 + 6 * nc + n]
-    o = 0
-    Yv = wf[o:o + w * nv].reshape((w, nv))
-    o += w * nv
-    S = wf[o:o + w * w].reshape((w, w))
-    o += w * w
-    L = wf[o:o + nv * nv].reshape((nv, nv))
-    o += nv * nv
-    tv = wf[o:o + nv]
-    o += nv
-    c = wf[o:o + w]
-    o += w
-    nuw = wf[o:o + w]
-    o += w
-    a = wf[o:o + n]
-    o += n
-    z = wf[o:o + n]
-    o += n
-    npv = wf[o:o + n]
-    o += n
-    rb = wf[o:o + n]
-    o += n
-    lam_b = wf[o:o + n]
-    o += n
-    lam_r = wf[o:o + p]
-    o += p
-    ra = wf[o:o + n]
-    o += n
-    rc = wf[o:o + w]
-    o += w
-    dx = wf[o:o + n]
-    o += n
-    drho = wf[o:o + w]
-    o += w
-    wout = wf[o:o + 3]
-    o += 3
-    jlo = wf[o:o + k]
-    o += k
-    jhi = wf[o:o + k]
-    o += k
-    mm = 6 + 6 * nc
-    nu = wf[o:o + mm]
-    o += mm
-    mu = wf[o:o + p]
-    o += p
-    gram = wf[o:o + 36 * nc * nc].reshape((6 * nc, 6 * nc))
-    o += 36 * nc * nc
+    Yv, o = carve2(wf, 0, w, nv)
+    S, o = carve2(wf, o, w, w)
+    L, o = carve2(wf, o, nv, nv)
+    tv, o = carve(wf, o, nv)
+    rows_w, o = carve2(wf, o, 2, w)  # c, nuw
+    c, nuw = rows_w[0], rows_w[1]
+    rows_n, o = carve2(wf, o, 5, n)  # a, z, npv, rb, lam_b
+    a, z, npv, rb, lam_b = rows_n[0], rows_n[1], rows_n[2], rows_n[3], rows_n[4]
+    lam_r, o = carve(wf, o, p)
+    ra, o = carve(wf, o, n)
+    rc, o = carve(wf, o, w)
+    dx, o = carve(wf, o, n)
+    drho, o = carve(wf, o, w)
+    wout, o = carve(wf, o, 3)
+    bounds, o = carve2(wf, o, 2, k)  # jlo, jhi
+    jlo, jhi = bounds[0], bounds[1]
+    nu, o = carve(wf, o, 6 + 6 * nc)
+    mu, o = carve(wf, o, p)
+    gram, o = carve2(wf, o, 6 * nc, 6 * nc)
     gram_y = wf[o:o + 6 * nc]
     nff = wi.shape[0] - w - nv - 3
     rows = wi[0:w]

@@ -36,8 +36,8 @@ from numba.extending import overload
 
 from wbc.compiled import FASTMATH
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
-from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution,
-                                primal_from_multipliers, row_violation)
+from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve2, cholesky_lower,
+                                forward_substitution, primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
@@ -914,15 +914,10 @@ def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_
     m = A.shape[0]
     p = C.shape[0]
     K = n + m + 1  # a working set of independent constraints has at most n members
-    o = 0
-    L = fw[o:o + n * n].reshape((n, n))
-    o += n * n
-    Yw = fw[o:o + K * n].reshape((K, n))
-    o += K * n
-    Sm = fw[o:o + K * K].reshape((K, K))
-    o += K * K
-    Sf = fw[o:o + K * K].reshape((K, K))
-    o += K * K
+    L, o = carve2(fw, 0, n, n)
+    Yw, o = carve2(fw, o, K, n)
+    Sm, o = carve2(fw, o, K, K)
+    Sf, o = carve2(fw, o, K, K)
     t0 = fw[o:o + n]
     y = fw[o + n:o + 2 * n]
     w = fw[o + 2 * n:o + 3 * n]

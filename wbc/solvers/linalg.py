@@ -18,6 +18,18 @@ __all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "cl
            "scaled_row_violation", "weighted_normal_equations"]
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def carve(buf, o, n):
+    """The (n,) view buf[o:o + n] of a flat workspace and the next offset o + n (no copy)."""
+    return buf[o:o + n], o + n
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def carve2(buf, o, rows, cols):
+    """The (rows, cols) C-order view of buf[o:o + rows · cols] of a flat workspace and the next offset (no copy)."""
+    return buf[o:o + rows * cols].reshape((rows, cols)), o + rows * cols
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def cholesky_lower(M, k, rel_tol=0.0):
     """In-place lower Cholesky of the leading k×k block of M; False when a pivot is not above ``rel_tol`` times
