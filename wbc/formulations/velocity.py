@@ -581,12 +581,25 @@ class KinematicController:
         """Tasks added with ``hard=True``."""
         return [w.task for w in self._hard.values()]
 
-    def add_constraint(self, constraint: Constraint) -> Constraint:
+    def add_constraint(self, constraint: Constraint, index: int | None = None) -> Constraint:
         """Add an equality, inequality or box constraint.
 
+        Args:
+            constraint: the constraint.
+            index: its position in :attr:`constraints` (``list.insert``: 0 first, ``len(constraints)`` last);
+                None (default): appended. The order of the constraints is the order of their rows in the QP:
+                a caller that removes and adds back the same constraints (e.g. contacts at support switches)
+                keeps one order per set of constraints by inserting them where they were, so that the set's
+                row layout is built once and reused (:meth:`_build_layout`).
+
         Raises:
-            InvalidInputError: not a wbc Constraint, or built for another robot (other model, frame ids or nv).
+            InvalidInputError: not a wbc Constraint, built for another robot (other model, frame ids or nv), or
+                ``index`` not an integer in [0, len(constraints)].
         """
+        if index is not None and (isinstance(index, bool) or not isinstance(index, (int, np.integer))
+                                  or not 0 <= index <= len(self.constraints)):
+            raise InvalidInputError(f"constraint index must be an integer in [0, {len(self.constraints)}], "
+                                    f"got {index!r}")
         if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
             if isinstance(constraint, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
                 raise InvalidInputError(
@@ -595,7 +608,10 @@ class KinematicController:
                     f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self._check_once(constraint, "constraint")
-        self.constraints.append(constraint)
+        if index is None:
+            self.constraints.append(constraint)
+        else:
+            self.constraints.insert(int(index), constraint)
         self._eq_rows = None
         self._layout_ok = False
         return constraint

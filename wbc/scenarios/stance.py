@@ -98,10 +98,12 @@ class StanceController:
         for side in SIDES:
             if wanted[side] == self.stance[side]:
                 continue
-            if wanted[side]:  # touch-down: held where it landed
+            if wanted[side]:  # touch-down: held where it landed, at its place among the contacts (first, in SIDES
+                # order): one constraint order per support, so each support's QP layout is built once and reused
                 self.controller.remove_task(self.swing[side])
                 self.contact[side].set_placement_from_configuration(config)
-                self.controller.add_constraint(self.contact[side])
+                before = sum(self.stance[s] for s in SIDES[:SIDES.index(side)])
+                self.controller.add_constraint(self.contact[side], index=before)
             else:  # lift-off
                 self.controller.remove_constraint(self.contact[side])
                 self.swing[side].set_target_from_configuration(config)
