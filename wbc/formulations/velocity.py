@@ -184,8 +184,8 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
                                               ensure_compiled, form_qp, kinematic_finish_packed, kinematic_pack,
-                                              kinematic_reduced_packed, kinematic_tick_packed, translation_gap,
-                                              weighted_rows)
+                                              frame_gap, kinematic_reduced_packed, kinematic_tick_packed,
+                                              translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -200,6 +200,9 @@ __all__ = ["KinematicController", "TickResult"]
 
 #: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve` after which its reduced QP is handed to DAQP
 #: (:meth:`KinematicController._fused_rescue`)
+#: the default largest angle (rad) a contact frame may turn per tick away from where its row sends it on an ok tick
+#: (``KinematicController(sole_rotation_tolerance=…)``)
+SOLE_ROTATION_TOLERANCE = 2e-4
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
 
@@ -367,7 +370,7 @@ class KinematicController:
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
                  dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
-                 contact_correction: float = 1e-6, budget: float | None = None, clock_guard: bool = False):
+                 sole_rotation_tolerance: float | None = SOLE_ROTATION_TOLERANCE, contact_correction: float = 1e-6, budget: float | None = None, clock_guard: bool = False):
         self.clock_guard = clock_guard
         if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
@@ -380,6 +383,15 @@ class KinematicController:
             raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
                                     f"{sole_drift_tolerance!r}")
         self.sole_drift_tolerance = sole_drift_tolerance
+        if sole_rotation_tolerance is not None and not (math.isfinite(sole_rotation_tolerance)
+                                                        and sole_rotation_tolerance > 0):
+            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 2e-4), got "
+                                    f"{sole_rotation_tolerance!r}")
+        self.sole_rotation_tolerance = sole_rotation_tolerance
+        #: m per rad: a contact frame's drift is the larger of its distance and this times its angle (0: distance
+        #: alone), so that an angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance
+        self._drift_lever = (0.0 if sole_drift_tolerance is None or sole_rotation_tolerance is None
+                             else float(sole_drift_tolerance) / float(sole_rotation_tolerance))
         if not (math.isfinite(contact_correction) and contact_correction >= 0):
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
@@ -963,7 +975,7 @@ class KinematicController:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
                     c.error_into(ndata, log)
-            drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
+            drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, self._drift_lever)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
@@ -1377,7 +1389,7 @@ class KinematicController:
             after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
             target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
             drifts.append(after - target)
-            worst = max(worst, translation_gap(after, 1.0, target, 1.0))  # the distance, not the twists' gap
+            worst = max(worst, frame_gap(after, 1.0, target, 1.0, self._drift_lever))  # distance/angle, not the twists' gap
         if self._in_solve:
             self._drift_cache = (v, config.q, dt, (worst, drifts))
         return worst, drifts

@@ -8,8 +8,8 @@ rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.sol
 :mod:`wbc.solvers.active_set` on the reduced problem, the residuals of the original rows checked;
 :func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
 When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
-the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift` and
-:func:`translation_gap` measure where a contact frame ends against where its row sent it.
+the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift`,
+:func:`frame_gap`, :func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends against where its row sent it.
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
@@ -30,9 +30,9 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
+__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "frame_gap", "form_qp",
            "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
-           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "translation_gap", "warm_up", "weighted_rows"]
+           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "rotation_gap", "translation_gap", "warm_up", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -536,15 +536,58 @@ def translation_gap(xa, sa, xb, sb):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def contact_drift(logs, b, starts, factors):
-    """Largest distance (m) between where a contact frame ends and where its row sent it, over the contacts i:
-    ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ with e⁺_i = logs[i] (6,) its error at the next configuration (``pin.log6`` of
-    placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e and f_i = dt − 1/K, so that
-    f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame in the placement's frame."""
+def _exp3(wx, wy, wz):
+    """The rotation matrix exp([ω]×) (3, 3) of a rotation vector ω (rad), Rodrigues' formula."""
+    t2 = wx * wx + wy * wy + wz * wz
+    if t2 < 1e-12:  # series: 1 − θ²/6, 1/2 − θ²/24
+        a, c = 1.0 - t2 / 6.0, 0.5 - t2 / 24.0
+    else:
+        t = np.sqrt(t2)
+        a, c = np.sin(t) / t, (1.0 - np.cos(t)) / t2
+    R = np.empty((3, 3))
+    R[0, 0], R[1, 1], R[2, 2] = 1.0 - c * (wy * wy + wz * wz), 1.0 - c * (wx * wx + wz * wz), 1.0 - c * (wx * wx + wy * wy)
+    R[0, 1], R[1, 0] = c * wx * wy - a * wz, c * wx * wy + a * wz
+    R[0, 2], R[2, 0] = c * wx * wz + a * wy, c * wx * wz - a * wy
+    R[1, 2], R[2, 1] = c * wy * wz - a * wx, c * wy * wz + a * wx
+    return R
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def rotation_gap(xa, sa, xb, sb):
+    """The angle (rad, in [0, π]) of the rotation between the frames exp(sa ξa) and exp(sb ξb) given by their
+    twists ξa, ξb (6,) (Pinocchio's order ν, ω) from one reference frame: ‖log₃(R(sa ωa)ᵀ R(sb ωb))‖."""
+    Ra = _exp3(sa * xa[3], sa * xa[4], sa * xa[5])
+    Rb = _exp3(sb * xb[3], sb * xb[4], sb * xb[5])
+    M = Ra.T @ Rb
+    sx, sy, sz = M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]  # 2 sin θ × the axis
+    return np.arctan2(0.5 * np.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0))
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def frame_gap(xa, sa, xb, sb, lever):
+    """max(‖t(exp(sa ξa)) − t(exp(sb ξb))‖, lever · θ) (m): the larger of the distance between the origins of two
+    frames given by their twists ξa, ξb (6,) from one reference frame and the angle θ (rad) between them
+    (:func:`rotation_gap`) times ``lever`` (m; 0: the distance alone)."""
+    d = translation_gap(xa, sa, xb, sb)
+    if lever > 0.0:
+        r = lever * rotation_gap(xa, sa, xb, sb)
+        if r > d:
+            d = r
+    return d
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def contact_drift(logs, b, starts, factors, lever):
+    """Largest drift (m) of a contact frame from where its row sent it, over the contacts i:
+    ``frame_gap(e⁺_i, 1, b_i, f_i, lever)``, the larger of the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and
+    ``lever`` (m) times the angle between the two frames, with e⁺_i = logs[i] (6,) its error at the next
+    configuration (``pin.log6`` of placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e
+    and f_i = dt − 1/K, so that f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame
+    in the placement's frame."""
     worst = 0.0
     for i in range(logs.shape[0]):
         r0 = starts[i]
-        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
+        d = frame_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i], lever)
         if d > worst:
             worst = d
     return worst
@@ -633,9 +676,10 @@ def warm_up() -> float:
                           0.002, 1e-6, 10)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
-    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
+    frame_gap(np.zeros(6), 1.0, np.zeros(6), 1.0, 0.1)
     return time.perf_counter() - t0
