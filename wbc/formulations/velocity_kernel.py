@@ -9,7 +9,7 @@ rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.sol
 :func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
 When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
 the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift`,
-:func:`frame_gap`, :func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends against where its row sent it.
+:func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends against where its row sent it.
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
@@ -30,9 +30,10 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "frame_gap", "form_qp",
+__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
            "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
-           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "rotation_gap", "translation_gap", "warm_up", "weighted_rows"]
+           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "rotation_gap",
+           "translation_gap", "warm_up", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -545,7 +546,9 @@ def _exp3(wx, wy, wz):
         t = np.sqrt(t2)
         a, c = np.sin(t) / t, (1.0 - np.cos(t)) / t2
     R = np.empty((3, 3))
-    R[0, 0], R[1, 1], R[2, 2] = 1.0 - c * (wy * wy + wz * wz), 1.0 - c * (wx * wx + wz * wz), 1.0 - c * (wx * wx + wy * wy)
+    R[0, 0] = 1.0 - c * (wy * wy + wz * wz)
+    R[1, 1] = 1.0 - c * (wx * wx + wz * wz)
+    R[2, 2] = 1.0 - c * (wx * wx + wy * wy)
     R[0, 1], R[1, 0] = c * wx * wy - a * wz, c * wx * wy + a * wz
     R[0, 2], R[2, 0] = c * wx * wz + a * wy, c * wx * wz - a * wy
     R[1, 2], R[2, 1] = c * wy * wz - a * wx, c * wy * wz + a * wx
@@ -564,33 +567,25 @@ def rotation_gap(xa, sa, xb, sb):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def frame_gap(xa, sa, xb, sb, lever):
-    """max(‖t(exp(sa ξa)) − t(exp(sb ξb))‖, lever · θ) (m): the larger of the distance between the origins of two
-    frames given by their twists ξa, ξb (6,) from one reference frame and the angle θ (rad) between them
-    (:func:`rotation_gap`) times ``lever`` (m; 0: the distance alone)."""
-    d = translation_gap(xa, sa, xb, sb)
-    if lever > 0.0:
-        r = lever * rotation_gap(xa, sa, xb, sb)
-        if r > d:
-            d = r
-    return d
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def contact_drift(logs, b, starts, factors, lever):
-    """Largest drift (m) of a contact frame from where its row sent it, over the contacts i:
-    ``frame_gap(e⁺_i, 1, b_i, f_i, lever)``, the larger of the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and
-    ``lever`` (m) times the angle between the two frames, with e⁺_i = logs[i] (6,) its error at the next
-    configuration (``pin.log6`` of placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e
-    and f_i = dt − 1/K, so that f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame
-    in the placement's frame."""
+    """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
+    i: the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and the drift, the larger of that distance and ``lever``
+    (m) times the angle between the two frames (:func:`rotation_gap`; ``lever`` 0: the distance), with e⁺_i = logs[i]
+    (6,) its error at the next configuration (``pin.log6`` of placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6]
+    its rows' right-hand side −K e and f_i = dt − 1/K, so that f_i b_i = (1 − K dt) e_i (the row's target);
+    t(exp(·)) the translation of the frame in the placement's frame."""
+    far = 0.0
     worst = 0.0
     for i in range(logs.shape[0]):
         r0 = starts[i]
-        d = frame_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i], lever)
+        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
+        if d > far:
+            far = d
+        if lever > 0.0:
+            d = max(d, lever * rotation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i]))
         if d > worst:
             worst = d
-    return worst
+    return far, worst
 
 
 @nb.njit(cache=True, nogil=True)
@@ -681,5 +676,5 @@ def warm_up() -> float:
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
-    frame_gap(np.zeros(6), 1.0, np.zeros(6), 1.0, 0.1)
+    rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0
