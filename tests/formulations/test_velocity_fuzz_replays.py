@@ -15,7 +15,7 @@ from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
 SOLE_DRIFT = 5e-5  # m: the fuzz's bound on an ok tick's stance-sole drift (issue 8)
-SOLE_TURN = 2.5e-4  # rad: an ok tick's stance-sole rotation away from its row's target (0.025 mm at a 0.1 m lever)
+SOLE_TURN = 3e-4  # rad: an ok tick's stance-sole rotation away from its row's target (0.05 mm at a 1/6 m lever)
 
 
 def _sole_gaps_fk(ctrl, config, v) -> tuple[float, float]:

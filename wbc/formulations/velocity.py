@@ -202,7 +202,7 @@ __all__ = ["KinematicController", "TickResult"]
 #: (:meth:`KinematicController._fused_rescue`)
 #: the default largest angle (rad) a contact frame may turn per tick away from where its row sends it on an ok tick
 #: (``KinematicController(sole_rotation_tolerance=…)``)
-SOLE_ROTATION_TOLERANCE = 2e-4
+SOLE_ROTATION_TOLERANCE = 3e-4
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
 
@@ -285,8 +285,8 @@ class KinematicController:
             drifts more is solved again inside a trust region |v_i| ≤ ρ, up to 8 regions, each ρ the last one's
             times clip(0.8 · tolerance / its drift, 1/16, 1/2) starting from max|v| (the drift taken linear in ρ:
             one region where halving needed four); if none drifts less, the tick is not ok.
-        sole_rotation_tolerance: the largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 2e-4: at a lever of
-            0.25 m, sole_drift_tolerance's 5e-5 m) a contact frame may turn per tick away from where its row sends
+        sole_rotation_tolerance: the largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of
+            1/6 m, sole_drift_tolerance's 5e-5 m) a contact frame may turn per tick away from where its row sends
             it on an ok tick, or None (the distance alone); enforced with sole_drift_tolerance, as part of the same
             drift (``TickResult.sole_drift``: the angle times sole_drift_tolerance / sole_rotation_tolerance when
             that is larger than the distance), by the same trust region. Both soles of a stance turned alike on an
@@ -397,7 +397,7 @@ class KinematicController:
         self.sole_drift_tolerance = sole_drift_tolerance
         if sole_rotation_tolerance is not None and not (math.isfinite(sole_rotation_tolerance)
                                                         and sole_rotation_tolerance > 0):
-            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 2e-4), got "
+            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 3e-4), got "
                                     f"{sole_rotation_tolerance!r}")
         self.sole_rotation_tolerance = sole_rotation_tolerance
         #: m per rad: a contact frame's drift is the larger of its distance and this times its angle (0: distance
