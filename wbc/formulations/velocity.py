@@ -400,10 +400,6 @@ class KinematicController:
             raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 3e-4), got "
                                     f"{sole_rotation_tolerance!r}")
         self.sole_rotation_tolerance = sole_rotation_tolerance
-        #: m per rad: a contact frame's drift is the larger of its distance and this times its angle (0: distance
-        #: alone), so that an angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance
-        self._drift_lever = (0.0 if sole_drift_tolerance is None or sole_rotation_tolerance is None
-                             else float(sole_drift_tolerance) / float(sole_rotation_tolerance))
         if not (math.isfinite(contact_correction) and contact_correction >= 0):
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
@@ -987,7 +983,7 @@ class KinematicController:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
                     c.error_into(ndata, log)
-            far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, self._drift_lever)
+            far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, self._drift_lever())
             if (self.contact_correction > 0 and far > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
@@ -1399,6 +1395,7 @@ class KinematicController:
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
         far = worst = 0.0
+        lever = self._drift_lever()
         drifts = []
         expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
         for i, c in enumerate(self._contacts):
@@ -1407,12 +1404,19 @@ class KinematicController:
             drifts.append(after - target)
             d = translation_gap(after, 1.0, target, 1.0)  # the distance, not the twists' gap
             far = max(far, d)
-            if self._drift_lever > 0:
-                d = max(d, self._drift_lever * rotation_gap(after, 1.0, target, 1.0))
+            if lever > 0:
+                d = max(d, lever * rotation_gap(after, 1.0, target, 1.0))
             worst = max(worst, d)
         if self._in_solve:
             self._drift_cache = (v, config.q, dt, (far, drifts, worst))
         return far, drifts, worst
+
+    def _drift_lever(self) -> float:
+        """m per rad: a contact frame's drift is the larger of its distance and this times its angle, so that an
+        angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance (0, the distance alone, when
+        either is None)."""
+        tol, turn = self.sole_drift_tolerance, self.sole_rotation_tolerance
+        return 0.0 if tol is None or turn is None else tol / turn
 
     def _consistent_contact_rhs(self) -> bool:
         """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
