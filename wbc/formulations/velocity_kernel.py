@@ -537,33 +537,30 @@ def translation_gap(xa, sa, xb, sb):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _exp3(wx, wy, wz):
-    """The rotation matrix exp([ω]×) (3, 3) of a rotation vector ω (rad), Rodrigues' formula."""
+def _quaternion(wx, wy, wz):
+    """The unit quaternion (w, x, y, z) of the rotation exp([ω]×) of a rotation vector ω (rad):
+    (cos(θ/2), sin(θ/2)/θ · ω), θ = ‖ω‖."""
     t2 = wx * wx + wy * wy + wz * wz
-    if t2 < 1e-12:  # series: 1 − θ²/6, 1/2 − θ²/24
-        a, c = 1.0 - t2 / 6.0, 0.5 - t2 / 24.0
+    if t2 < 1e-12:  # series: 1 − θ²/8, 1/2 − θ²/48
+        c, s = 1.0 - t2 / 8.0, 0.5 - t2 / 48.0
     else:
         t = np.sqrt(t2)
-        a, c = np.sin(t) / t, (1.0 - np.cos(t)) / t2
-    R = np.empty((3, 3))
-    R[0, 0] = 1.0 - c * (wy * wy + wz * wz)
-    R[1, 1] = 1.0 - c * (wx * wx + wz * wz)
-    R[2, 2] = 1.0 - c * (wx * wx + wy * wy)
-    R[0, 1], R[1, 0] = c * wx * wy - a * wz, c * wx * wy + a * wz
-    R[0, 2], R[2, 0] = c * wx * wz + a * wy, c * wx * wz - a * wy
-    R[1, 2], R[2, 1] = c * wy * wz - a * wx, c * wy * wz + a * wx
-    return R
+        c, s = np.cos(0.5 * t), np.sin(0.5 * t) / t
+    return c, s * wx, s * wy, s * wz
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def rotation_gap(xa, sa, xb, sb):
     """The angle (rad, in [0, π]) of the rotation between the frames exp(sa ξa) and exp(sb ξb) given by their
-    twists ξa, ξb (6,) (Pinocchio's order ν, ω) from one reference frame: ‖log₃(R(sa ωa)ᵀ R(sb ωb))‖."""
-    Ra = _exp3(sa * xa[3], sa * xa[4], sa * xa[5])
-    Rb = _exp3(sb * xb[3], sb * xb[4], sb * xb[5])
-    M = Ra.T @ Rb
-    sx, sy, sz = M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]  # 2 sin θ × the axis
-    return np.arctan2(0.5 * np.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0))
+    twists ξa, ξb (6,) (Pinocchio's order ν, ω) from one reference frame: ‖log₃(R(sa ωa)ᵀ R(sb ωb))‖, from the
+    quaternion q̄_a q_b = (w, v) as 2 atan2(‖v‖, |w|)."""
+    aw, ax, ay, az = _quaternion(sa * xa[3], sa * xa[4], sa * xa[5])
+    bw, bx, by, bz = _quaternion(sb * xb[3], sb * xb[4], sb * xb[5])
+    w = aw * bw + ax * bx + ay * by + az * bz
+    vx = aw * bx - bw * ax - (ay * bz - az * by)
+    vy = aw * by - bw * ay - (az * bx - ax * bz)
+    vz = aw * bz - bw * az - (ax * by - ay * bx)
+    return 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), abs(w))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
