@@ -97,15 +97,22 @@ def test_translation_gap_is_the_distance_of_the_exponentials():
 
     from wbc.formulations.velocity_kernel import translation_gap
 
-    rng = np.random.default_rng(3)
-    for scale in (1e-9, 1e-4, 0.3, 2.5):
+    for xa, sa, xb, sb in _twist_pairs(3, (1e-9, 1e-4, 0.3, 2.5)):
+        ref = np.linalg.norm(pin.exp6(sa * xa).translation - pin.exp6(sb * xb).translation)
+        assert abs(translation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+
+
+def _twist_pairs(seed: int, scales):
+    """50 random (ξa, sa, ξb, sb) per rotation scale: twists (6,) whose rotation parts are scaled by it, sa, sb in
+    [−1, 1)."""
+    rng = np.random.default_rng(seed)
+    for scale in scales:
         for _ in range(50):
             xa, xb = rng.normal(size=6), rng.normal(size=6)
             xa[3:] *= scale
             xb[3:] *= scale
             sa, sb = rng.uniform(-1.0, 1.0, 2)
-            ref = np.linalg.norm(pin.exp6(sa * xa).translation - pin.exp6(sb * xb).translation)
-            assert abs(translation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+            yield xa, sa, xb, sb
 
 
 def test_rotation_gap_and_contact_drift_against_pinocchio():
@@ -116,15 +123,10 @@ def test_rotation_gap_and_contact_drift_against_pinocchio():
 
     from wbc.formulations.velocity_kernel import contact_drift, rotation_gap
 
+    for xa, sa, xb, sb in _twist_pairs(4, (1e-9, 1e-4, 0.3, 1.2)):
+        ref = np.linalg.norm(pin.log3(pin.exp6(sa * xa).rotation.T @ pin.exp6(sb * xb).rotation))
+        assert abs(rotation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
     rng = np.random.default_rng(4)
-    for scale in (1e-9, 1e-4, 0.3, 1.2):
-        for _ in range(50):
-            xa, xb = rng.normal(size=6), rng.normal(size=6)
-            xa[3:] *= scale
-            xb[3:] *= scale
-            sa, sb = rng.uniform(-1.0, 1.0, 2)
-            ref = np.linalg.norm(pin.log3(pin.exp6(sa * xa).rotation.T @ pin.exp6(sb * xb).rotation))
-            assert abs(rotation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
     logs = rng.normal(size=(2, 6)) * 1e-3
     b = rng.normal(size=12) * 1e-2
     factors = np.array([0.9e-3, -0.1])
