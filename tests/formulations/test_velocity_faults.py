@@ -754,6 +754,7 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     ticks at most 1 mm) and the episode recovers."""
     name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 154)
     assert (name, kind, strict) == ("humanoid15", "far", True)
+    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok ticks turn them 0.34 mrad (tick 7)
     dt, tol = 0.002, 5e-5
     assert ctrl.sole_drift_tolerance == tol
     failed, worst_run, worst_tick, fallbacks = _run_failed_ticks(config, ctrl, dt)
@@ -774,6 +775,7 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     forward kinematics on its own Data)."""
     name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
     assert (name, kind, strict) == ("humanoid15", "absurd", True)
+    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok tick 39 turns them 0.41 mrad
     dt, tol = 0.002, 5e-5
     model = ctrl.robot.model
     data = model.createData()

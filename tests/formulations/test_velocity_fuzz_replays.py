@@ -15,22 +15,31 @@ from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
 SOLE_DRIFT = 5e-5  # m: the fuzz's bound on an ok tick's stance-sole drift (issue 8)
+SOLE_TURN = 3e-4  # rad: an ok tick's stance-sole rotation away from its row's target (0.05 mm at a 1/6 m lever)
 
 
-def _sole_drift_fk(ctrl, config, v) -> float:
-    """Largest distance (m) between where a stance sole ends after one tick with v (Pinocchio, own Data) and where
-    its contact row sends it: placement · exp((1 − K dt) e), e the sole's error before the tick."""
+def _sole_gaps_fk(ctrl, config, v) -> tuple[float, float]:
+    """(largest distance (m), largest angle (rad)) between where a stance sole ends after one tick with v
+    (Pinocchio, own Data) and where its contact row sends it: placement · exp((1 − K dt) e), e the sole's error
+    before the tick."""
     model = ctrl.robot.model
     data = model.createData()
     pin.framesForwardKinematics(model, data, config.q)
     before = [data.oMf[c.frame_id].copy() for c in ctrl.constraints[:2]]
     pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, v * DT))
-    worst = 0.0
+    worst, turn = 0.0, 0.0
     for c, oMf in zip(ctrl.constraints[:2], before):
         e = pin.log6(c.placement.actInv(oMf)).vector
         sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / DT) * DT))
-        worst = max(worst, float(np.linalg.norm(data.oMf[c.frame_id].translation - sent.translation)))
-    return worst
+        end = data.oMf[c.frame_id]
+        worst = max(worst, float(np.linalg.norm(end.translation - sent.translation)))
+        turn = max(turn, float(np.linalg.norm(pin.log3(sent.rotation.T @ end.rotation))))
+    return worst, turn
+
+
+def _sole_drift_fk(ctrl, config, v) -> float:
+    """Largest distance (m) between where a stance sole ends after one tick with v and where its row sends it."""
+    return _sole_gaps_fk(ctrl, config, v)[0]
 
 
 def _run_to(ctrl, config, tick: int):
@@ -80,6 +89,26 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     assert np.linalg.cond(H) > 1e5 and np.abs(g).max() > 1e7  # the ill-conditioned weighted form of the fuzz tick
     ref = _quadprog(H, g, A, b, lb, ub)
     assert np.abs(x - ref).max() <= 1e-6 * max(1.0, np.abs(ref).max())
+
+
+def test_soles_turning_on_an_ok_tick_do_not_make_the_next_ticks_corrections_contradict(robots):
+    """Fuzz seed 100010 episode 75 (humanoid15, strict levels; the soles' drift-correction gains 18.5 and 196 1/s on
+    contact rows that are dependent): ok tick 5 turned both soles 0.61 mrad from where their rows sent them (its
+    translation drift 0.03 mm, within the bound), and tick 8's corrections −K e of that common error contradicted
+    each other: no trust region held the soles and the tick failed (``fallback:contacts_held``). The sole-drift
+    check now bounds the angle too: every tick of 0–11 is ok and turns the soles ≤ SOLE_TURN and moves them
+    ≤ SOLE_DRIFT, both by forward kinematics."""
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100010, 75)
+    assert (name, strict) == ("humanoid15", True)
+    gains = sorted(c.gain for c in ctrl.constraints[:2])
+    assert gains[1] > 5 * gains[0]  # unequal gains: the contradiction needs them
+    for tick in range(12):
+        res = ctrl.solve(config, DT)
+        assert res.ok, (tick, res.message)
+        drift, turn = _sole_gaps_fk(ctrl, config, res.v)
+        assert drift <= SOLE_DRIFT, (tick, drift)
+        assert turn <= SOLE_TURN, (tick, turn)
+        config.update(config.integrate(res.v, DT))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """The compiled kernels of the kinematic QP (:mod:`wbc.formulations.velocity_kernel`): the cost formation and the
-compiled solver against numpy and quadprog, and the frame distances (``translation_gap``, the controller's sole
-drift) against Pinocchio's exponential and forward kinematics."""
+compiled solver against numpy and quadprog, and the frame distances (``translation_gap``, ``rotation_gap``, the
+controller's sole drift) against Pinocchio's exponential and forward kinematics."""
 
 from __future__ import annotations
 
@@ -97,15 +97,49 @@ def test_translation_gap_is_the_distance_of_the_exponentials():
 
     from wbc.formulations.velocity_kernel import translation_gap
 
-    rng = np.random.default_rng(3)
-    for scale in (1e-9, 1e-4, 0.3, 2.5):
+    for xa, sa, xb, sb in _twist_pairs(3, (1e-9, 1e-4, 0.3, 2.5)):
+        ref = np.linalg.norm(pin.exp6(sa * xa).translation - pin.exp6(sb * xb).translation)
+        assert abs(translation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+
+
+def _twist_pairs(seed: int, scales):
+    """50 random (ξa, sa, ξb, sb) per rotation scale: twists (6,) whose rotation parts are scaled by it, sa, sb in
+    [−1, 1)."""
+    rng = np.random.default_rng(seed)
+    for scale in scales:
         for _ in range(50):
             xa, xb = rng.normal(size=6), rng.normal(size=6)
             xa[3:] *= scale
             xb[3:] *= scale
             sa, sb = rng.uniform(-1.0, 1.0, 2)
-            ref = np.linalg.norm(pin.exp6(sa * xa).translation - pin.exp6(sb * xb).translation)
-            assert abs(translation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+            yield xa, sa, xb, sb
+
+
+def test_rotation_gap_and_contact_drift_against_pinocchio():
+    """``rotation_gap`` against Pinocchio's exp6 and log3: the angle between exp(sa ξa) and exp(sb ξb) for small
+    (series branch) and large rotations; ``contact_drift`` returns the largest distance and the largest of
+    max(distance, lever × angle) over the contacts."""
+    import pinocchio as pin
+
+    from wbc.formulations.velocity_kernel import contact_drift, rotation_gap
+
+    for xa, sa, xb, sb in _twist_pairs(4, (1e-9, 1e-4, 0.3, 1.2)):
+        ref = np.linalg.norm(pin.log3(pin.exp6(sa * xa).rotation.T @ pin.exp6(sb * xb).rotation))
+        assert abs(rotation_gap(xa, sa, xb, sb) - ref) <= 1e-12 * max(1.0, ref)
+    rng = np.random.default_rng(4)
+    logs = rng.normal(size=(2, 6)) * 1e-3
+    b = rng.normal(size=12) * 1e-2
+    factors = np.array([0.9e-3, -0.1])
+    starts = np.array([0, 6])
+    dist, ang = [], []
+    for i in range(2):
+        ea, eb = pin.exp6(logs[i]), pin.exp6(factors[i] * b[6 * i:6 * i + 6])
+        dist.append(np.linalg.norm(ea.translation - eb.translation))
+        ang.append(np.linalg.norm(pin.log3(ea.rotation.T @ eb.rotation)))
+    for lever in (0.0, 0.1, 10.0):
+        far, worst = contact_drift(logs, b, starts, factors, lever)
+        assert abs(far - max(dist)) <= 1e-15
+        assert abs(worst - max(max(d, lever * a) for d, a in zip(dist, ang))) <= 1e-15 * max(1.0, lever)
 
 
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])

@@ -184,8 +184,8 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
                                               ensure_compiled, form_qp, kinematic_finish_packed, kinematic_pack,
-                                              kinematic_reduced_packed, kinematic_tick_packed, translation_gap,
-                                              weighted_rows)
+                                              kinematic_reduced_packed, kinematic_tick_packed, rotation_gap,
+                                              translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -200,6 +200,9 @@ __all__ = ["KinematicController", "TickResult"]
 
 #: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve` after which its reduced QP is handed to DAQP
 #: (:meth:`KinematicController._fused_rescue`)
+#: the default largest angle (rad) a contact frame may turn per tick away from where its row sends it on an ok tick
+#: (``KinematicController(sole_rotation_tolerance=…)``)
+SOLE_ROTATION_TOLERANCE = 3e-4
 _KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
 
 
@@ -225,9 +228,12 @@ class TickResult(TickResultBase):
             then solved).
         consecutive_failures: failed ticks in a row ending with this one (0 when ok). A failure never latches:
             every tick is solved afresh, so the first feasible tick after failures is ok again.
-        sole_drift: largest second-order drift (m) of a contact frame over this tick: ‖t(e⁺) − (1 − K dt) t(e)‖
-            with e⁺ the contact error at pin.integrate(q, v dt) and t(·) its translation part (what the
-            linearised contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``.
+        sole_drift: largest second-order drift (m) of a contact frame over this tick: the larger of the distance
+            ‖t(e⁺) − (1 − K dt) t(e)‖ and L times the angle (rad) between where the frame ends and where its
+            row sends it, with e⁺ the contact error at pin.integrate(q, v dt), t(·) its translation part and
+            L = sole_drift_tolerance / sole_rotation_tolerance (m; 0 when either is None) (what the linearised
+            contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``: its contact
+            frames move ≤ sole_drift_tolerance and turn ≤ sole_rotation_tolerance from where their rows send them.
         path: the route the tick took (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.KINEMATIC_ROUTES`):
             'compiled' (the compiled tick's kernel; solver 'daqp': its reduced QP solved by DAQP), 'general'
             (the general path's flat QP; solver: the backend's name), 'levels' (strict hierarchy), with
@@ -269,8 +275,8 @@ class KinematicController:
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
         contact_correction: second-order contact correction threshold (m; default 1e-6, 0 = off). The contact
-            rows J v = −K e hold the sole to first order in v dt only; when the drift of a contact frame at
-            q⁺ = pin.integrate(q, v dt) (``TickResult.sole_drift``) exceeds this threshold, the contact rows'
+            rows J v = −K e hold the sole to first order in v dt only; when the distance a contact frame at
+            q⁺ = pin.integrate(q, v dt) is from where its row sends it exceeds this threshold, the contact rows'
             right-hand sides are corrected by the measured drift, b ← b − (e⁺ − (1 − K dt) e)/dt, and the tick
             is solved again (a Newton step on the exact contact condition e⁺(v) = (1 − K dt) e; at most 3
             iterations). This keeps every objective and priority of the QP: only the contact target moves.
@@ -279,6 +285,14 @@ class KinematicController:
             drifts more is solved again inside a trust region |v_i| ≤ ρ, up to 8 regions, each ρ the last one's
             times clip(0.8 · tolerance / its drift, 1/16, 1/2) starting from max|v| (the drift taken linear in ρ:
             one region where halving needed four); if none drifts less, the tick is not ok.
+        sole_rotation_tolerance: the largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of
+            1/6 m, sole_drift_tolerance's 5e-5 m) a contact frame may turn per tick away from where its row sends
+            it on an ok tick, or None (the distance alone); enforced with sole_drift_tolerance, as part of the same
+            drift (``TickResult.sole_drift``: the angle times sole_drift_tolerance / sole_rotation_tolerance when
+            that is larger than the distance), by the same trust region. Both soles of a stance turned alike on an
+            ok tick leave a common error that dependent contact rows with unequal gains K correct in contradicting
+            ways on the next tick. The second-order correction (``contact_correction``) is started and judged on the
+            distance alone. Raises InvalidInputError unless None or finite and > 0.
         budget: CPU time (s) a tick may use before its optional stages are skipped, or None (default): the tick's
             dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (module docstring: deterministic, never
             read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
@@ -367,7 +381,8 @@ class KinematicController:
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
                  dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
-                 contact_correction: float = 1e-6, budget: float | None = None, clock_guard: bool = False):
+                 sole_rotation_tolerance: float | None = SOLE_ROTATION_TOLERANCE, contact_correction: float = 1e-6,
+                 budget: float | None = None, clock_guard: bool = False):
         self.clock_guard = clock_guard
         if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
@@ -380,6 +395,11 @@ class KinematicController:
             raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
                                     f"{sole_drift_tolerance!r}")
         self.sole_drift_tolerance = sole_drift_tolerance
+        if sole_rotation_tolerance is not None and not (math.isfinite(sole_rotation_tolerance)
+                                                        and sole_rotation_tolerance > 0):
+            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 3e-4), got "
+                                    f"{sole_rotation_tolerance!r}")
+        self.sole_rotation_tolerance = sole_rotation_tolerance
         if not (math.isfinite(contact_correction) and contact_correction >= 0):
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
@@ -979,8 +999,8 @@ class KinematicController:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
                     c.error_into(ndata, log)
-            drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
-            if (self.contact_correction > 0 and drift > self.contact_correction) or (
+            far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, self._drift_lever())
+            if (self.contact_correction > 0 and far > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
         if not rescued:
@@ -1368,35 +1388,51 @@ class KinematicController:
                 b.independent = ind
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
-        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): the distance, by forward
-        kinematics at pin.integrate(q, v dt), from where each frame ends to where its contact row sends it
-        (placement · exp((1 − K dt) e)); ``TickResult.sole_drift``."""
+        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): by forward kinematics at
+        pin.integrate(q, v dt), the larger of the distance from where each frame ends to where its contact row
+        sends it (placement · exp((1 − K dt) e)) and the angle between the two (rad) times
+        sole_drift_tolerance / sole_rotation_tolerance (constructor; the distance alone when either is None);
+        ``TickResult.sole_drift``."""
         if not self._layout_ok:
             self._build_layout()
-        return self._contact_drifts(config, v, dt)[0]
+        return self._contact_drifts(config, v, dt)[2]
 
-    def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray]]:
-        """(largest drift (m), [(6,) e⁺ − (1 − K dt) e per contact]) over one tick with v: the drift of a contact
-        frame is the distance from where it ends (placement · exp(e⁺)) to where its row sent it
-        (placement · exp((1 − K dt) e))."""
+    def _contact_drifts(self, config: Configuration, v: np.ndarray,
+                        dt: float) -> tuple[float, list[np.ndarray], float]:
+        """(largest distance (m), [(6,) e⁺ − (1 − K dt) e per contact], largest drift (m)) over one tick with v:
+        the distance of a contact frame from where it ends (placement · exp(e⁺)) to where its row sent it
+        (placement · exp((1 − K dt) e)); its drift the larger of that distance and the lever times their angle
+        (:meth:`sole_drift`)."""
         if not self._contacts:
-            return 0.0, []
+            return 0.0, [], 0.0
         cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
         if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
             return cache[3]
         model, data = self.robot.model, self._drift_data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        worst = 0.0
+        far = worst = 0.0
+        lever = self._drift_lever()
         drifts = []
         expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
         for i, c in enumerate(self._contacts):
             after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
             target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
             drifts.append(after - target)
-            worst = max(worst, translation_gap(after, 1.0, target, 1.0))  # the distance, not the twists' gap
+            d = translation_gap(after, 1.0, target, 1.0)  # the distance, not the twists' gap
+            far = max(far, d)
+            if lever > 0:
+                d = max(d, lever * rotation_gap(after, 1.0, target, 1.0))
+            worst = max(worst, d)
         if self._in_solve:
-            self._drift_cache = (v, config.q, dt, (worst, drifts))
-        return worst, drifts
+            self._drift_cache = (v, config.q, dt, (far, drifts, worst))
+        return far, drifts, worst
+
+    def _drift_lever(self) -> float:
+        """m per rad: a contact frame's drift is the larger of its distance and this times its angle, so that an
+        angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance (0, the distance alone, when
+        either is None)."""
+        tol, turn = self.sole_drift_tolerance, self.sole_rotation_tolerance
+        return 0.0 if tol is None or turn is None else tol / turn
 
     def _consistent_contact_rhs(self) -> bool:
         """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
@@ -1442,7 +1478,7 @@ class KinematicController:
         solve = solve or self._solve_assembled
         cost = self._safe_estimate if solve == self._solve_constraints_only else lambda: self._resolve_cost
         self.contact_corrections = 0
-        worst, drifts = self._contact_drifts(config, v, dt)
+        worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
             return v
         blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
@@ -1472,7 +1508,7 @@ class KinematicController:
                 except SolverError:
                     break  # keep the last solution (the trust region of _hold_contacts takes over)
                 self.contact_corrections += 1
-                new_worst, new_drifts = self._contact_drifts(config, v_new, dt)
+                new_worst, new_drifts, _ = self._contact_drifts(config, v_new, dt)
                 if new_worst >= worst:
                     break  # not converging (e.g. a dropped dependent row): keep the better solution
                 ratio = new_worst / worst

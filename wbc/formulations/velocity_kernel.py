@@ -8,8 +8,8 @@ rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.sol
 :mod:`wbc.solvers.active_set` on the reduced problem, the residuals of the original rows checked;
 :func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
 When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
-the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift` and
-:func:`translation_gap` measure where a contact frame ends against where its row sent it.
+the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift`,
+:func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends against where its row sent it.
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
@@ -32,7 +32,8 @@ from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
            "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
-           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "translation_gap", "warm_up", "weighted_rows"]
+           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "rotation_gap",
+           "translation_gap", "warm_up", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -536,18 +537,52 @@ def translation_gap(xa, sa, xb, sb):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def contact_drift(logs, b, starts, factors):
-    """Largest distance (m) between where a contact frame ends and where its row sent it, over the contacts i:
-    ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ with e⁺_i = logs[i] (6,) its error at the next configuration (``pin.log6`` of
-    placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6] its rows' right-hand side −K e and f_i = dt − 1/K, so that
-    f_i b_i = (1 − K dt) e_i (the row's target); t(exp(·)) the translation of the frame in the placement's frame."""
+def _quaternion(wx, wy, wz):
+    """The unit quaternion (w, x, y, z) of the rotation exp([ω]×) of a rotation vector ω (rad):
+    (cos(θ/2), sin(θ/2)/θ · ω), θ = ‖ω‖."""
+    t2 = wx * wx + wy * wy + wz * wz
+    if t2 < 1e-12:  # series: 1 − θ²/8, 1/2 − θ²/48
+        c, s = 1.0 - t2 / 8.0, 0.5 - t2 / 48.0
+    else:
+        t = np.sqrt(t2)
+        c, s = np.cos(0.5 * t), np.sin(0.5 * t) / t
+    return c, s * wx, s * wy, s * wz
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def rotation_gap(xa, sa, xb, sb):
+    """The angle (rad, in [0, π]) of the rotation between the frames exp(sa ξa) and exp(sb ξb) given by their
+    twists ξa, ξb (6,) (Pinocchio's order ν, ω) from one reference frame: ‖log₃(R(sa ωa)ᵀ R(sb ωb))‖, from the
+    quaternion q̄_a q_b = (w, v) as 2 atan2(‖v‖, |w|)."""
+    aw, ax, ay, az = _quaternion(sa * xa[3], sa * xa[4], sa * xa[5])
+    bw, bx, by, bz = _quaternion(sb * xb[3], sb * xb[4], sb * xb[5])
+    w = aw * bw + ax * bx + ay * by + az * bz
+    vx = aw * bx - bw * ax - (ay * bz - az * by)
+    vy = aw * by - bw * ay - (az * bx - ax * bz)
+    vz = aw * bz - bw * az - (ax * by - ay * bx)
+    return 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), abs(w))
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def contact_drift(logs, b, starts, factors, lever):
+    """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
+    i: the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and the drift, the larger of that distance and ``lever``
+    (m) times the angle between the two frames (:func:`rotation_gap`; ``lever`` 0: the distance), with e⁺_i = logs[i]
+    (6,) its error at the next configuration (``pin.log6`` of placement⁻¹ oMf), b_i = b[starts[i]:starts[i] + 6]
+    its rows' right-hand side −K e and f_i = dt − 1/K, so that f_i b_i = (1 − K dt) e_i (the row's target);
+    t(exp(·)) the translation of the frame in the placement's frame."""
+    far = 0.0
     worst = 0.0
     for i in range(logs.shape[0]):
         r0 = starts[i]
         d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
+        if d > far:
+            far = d
+        if lever > 0.0:
+            d = max(d, lever * rotation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i]))
         if d > worst:
             worst = d
-    return worst
+    return far, worst
 
 
 @nb.njit(cache=True, nogil=True)
@@ -633,9 +668,10 @@ def warm_up() -> float:
                           0.002, 1e-6, 10)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
-    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1))
+    contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
+    rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0
