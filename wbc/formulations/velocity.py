@@ -437,6 +437,7 @@ class KinematicController:
         self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
         self._level_rows: list[_SoftRows] = []
         self._in_solve, self._drift_cache = False, None
+        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
         # clock guard: CPU time (s) of the longest re-solve of the tick's QP, strict level, check of a held safe
         # command in the current tick, and of the safe command's solve (this tick's longest, else the last one's)
@@ -502,12 +503,18 @@ class KinematicController:
         ``clock_guard``: budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve)."""
         cap = math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf
         clock = budget_s / (self.CLOCK_WEIGHT * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
-        self._work.reset(cap, clock)
-        for b in (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                  *self._level_backends, None if plan is None else plan.rescue):
-            if b is not None:
-                b.work = self._work
-                b.independent = _CONFIRM_ORDER
+        work = self._work
+        work.reset(cap, clock)
+        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
+                 *self._level_backends, None if plan is None else plan.rescue)
+        # written only when the backends changed since the last tick that wrote them, or when that tick (or a
+        # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
+        if stamp != self._work_stamp or self.backend.work is not work:
+            for b in stamp:
+                if b is not None:
+                    b.work = work
+                    b.independent = _CONFIRM_ORDER
+            self._work_stamp = stamp
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -1066,6 +1073,7 @@ class KinematicController:
                 result = None
             if result is not None:
                 return result
+        self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
