@@ -154,6 +154,13 @@ class ContactConstraint(EqualityConstraint):
         if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
             _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
 
+    def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position
+        (world; views of ``data.oMf``, placed by the caller) from which :meth:`error_into` computes log₆(P⁻¹ M) with
+        :func:`~wbc.tasks.frame.placement_log6_into`. Read-only use: they are this constraint's and Pinocchio's."""
+        views = self._views(data)
+        return self._pose, views[2], views[3]
+
     def _views(self, data) -> tuple:
         """(data, oMf, its rotation, its translation) of the contact frame: data.oMf[frame] is a reference into
         Pinocchio's data and its rotation/translation are views of it (eigenpy), kept per Data object (a few)."""

@@ -183,9 +183,9 @@ from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
-                                              ensure_compiled, form_qp, kinematic_finish_packed, kinematic_pack,
-                                              kinematic_reduced_packed, kinematic_tick_packed, translation_gap,
-                                              weighted_rows)
+                                              contact_pair_drift, ensure_compiled, form_qp, kinematic_finish_packed,
+                                              kinematic_pack, kinematic_reduced_packed, kinematic_tick_packed,
+                                              translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -982,11 +982,22 @@ class KinematicController:
                 for c, log in plan.contact_logs:
                     pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
                     c.error_into(ndata, log)
+                drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
+            elif len(plan.contact_logs) == 2:  # a biped's two soles: one compiled call (contact_pair_drift)
+                (ca, _), (cb, _) = plan.contact_logs
+                pin.updateFramePlacement(model, ndata, ca.frame_id)
+                pin.updateFramePlacement(model, ndata, cb.frame_id)
+                drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b,
+                                           self._contact_starts, self._contact_factors)
+                if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
+                    ca.error_into(ndata, plan.logs[0])
+                    cb.error_into(ndata, plan.logs[1])
+                    drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             else:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
                     c.error_into(ndata, log)
-            drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
+                drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors)
             if (self.contact_correction > 0 and drift > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
