@@ -142,6 +142,40 @@ def test_rotation_gap_and_contact_drift_against_pinocchio():
         assert abs(worst - max(max(d, lever * a) for d, a in zip(dist, ang))) <= 1e-15 * max(1.0, lever)
 
 
+def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
+    """``contact_pair_drift`` writes each contact's error log₆(P⁻¹ M) (against Pinocchio's log6) and returns the
+    (distance, drift) of ``contact_drift`` on them (the same numbers: one compiled call instead of three), with and
+    without the rotation lever, and (−1, −1) with an error at a half turn (Pinocchio's log6 then needed)."""
+    import pinocchio as pin
+
+    from wbc.formulations.velocity_kernel import contact_drift, contact_pair_drift
+
+    rng = np.random.default_rng(11)
+    starts = np.array([3, 11])
+    for scale in (1e-6, 0.05, 3.0):
+        for _ in range(30):
+            places = [pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3)) for _ in range(2)]
+            axes = rng.normal(size=(2, 3))
+            turns = (axes.T / np.linalg.norm(axes, axis=1) * rng.uniform(0.0, min(scale, 3.0), 2)).T  # < a half turn
+            frames = [p * pin.SE3(pin.exp3(w), rng.normal(size=3) * scale) for p, w in zip(places, turns)]
+            b, factors = rng.normal(size=17), rng.uniform(-0.01, 0.0, 2)
+            args = []
+            for p, m in zip(places, frames):
+                args += [np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy()]
+            for lever in (0.0, 0.1):
+                logs = np.full((2, 6), np.nan)
+                d = contact_pair_drift(*args, logs, b, starts, factors, lever)
+                for p, m, log in zip(places, frames, logs):
+                    ref = pin.log6(p.actInv(m)).vector
+                    assert np.abs(log - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max())
+                assert d == contact_drift(logs, b, starts, factors, lever)
+    p = pin.SE3.Identity()
+    half = pin.SE3(pin.exp3(np.array([0.0, 0.0, np.pi])), np.zeros(3))
+    ops = [np.vstack([p.rotation, p.translation]), np.asfortranarray(half.rotation), np.zeros(3)]
+    assert contact_pair_drift(*ops, *ops, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2),
+                              0.1) == (-1.0, -1.0)
+
+
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])
 def test_sole_drift_is_the_distance_from_where_the_contact_row_sends_the_sole(robots, name):
     """The controller's sole drift of a command v (what its ok-tick bound ``sole_drift_tolerance`` holds) is the

@@ -19,6 +19,7 @@ from wbc.compiled import once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
+from wbc.tasks.base import ValidatedAttribute
 from wbc.tasks.frame import as_se3, placement_log6_into
 
 __all__ = ["ContactConstraint"]
@@ -45,6 +46,22 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
         for j in range(jac.shape[1]):
             A_out[i, j] = jac[i, j]
     return True
+
+
+def _as_contact_gain(value) -> float:
+    """A contact's drift-correction gain K (1/s) as a float.
+
+    Raises:
+        InvalidInputError: not a finite number > 0.
+    """
+    try:
+        ok = not isinstance(value, bool) and bool(np.isfinite(value) and value > 0)
+    except TypeError:
+        ok = False
+    if not ok:
+        raise InvalidInputError(f"contact gain must be a finite number > 0 (1/s; 0 lets drift accumulate, "
+                                f"e.g. 100), got {value!r}")
+    return float(value)
 
 
 @once_per_process
@@ -81,25 +98,9 @@ class ContactConstraint(EqualityConstraint):
         self._oMf_views: dict[int, tuple] = {}  # per Data object: (data, oMf, rotation, translation), _views
         _warm_up()
 
-    @property
-    def gain(self) -> float:
-        """Drift-correction gain K (1/s), finite and > 0; validated on assignment.
-
-        Raises:
-            InvalidInputError: not a finite number > 0.
-        """
-        return self._gain
-
-    @gain.setter
-    def gain(self, value: float) -> None:
-        try:
-            ok = not isinstance(value, bool) and bool(np.isfinite(value) and value > 0)
-        except TypeError:
-            ok = False
-        if not ok:
-            raise InvalidInputError(f"contact gain must be a finite number > 0 (1/s; 0 lets drift accumulate, "
-                                    f"e.g. 100), got {value!r}")
-        self._gain = float(value)
+    gain = ValidatedAttribute(lambda contact, k: _as_contact_gain(k),
+                              "Drift-correction gain K (1/s), finite and > 0; validated on assignment (raises "
+                              "InvalidInputError: not a finite number > 0).")
 
     @property
     def placement(self) -> pin.SE3:
@@ -152,6 +153,13 @@ class ContactConstraint(EqualityConstraint):
         scale = -min(self._gain, 1.0 / ctx.dt)
         if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
             _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
+
+    def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position
+        (world; views of ``data.oMf``, placed by the caller) from which :meth:`error_into` computes log₆(P⁻¹ M) with
+        :func:`~wbc.tasks.frame.placement_log6_into`. Read-only use: they are this constraint's and Pinocchio's."""
+        views = self._views(data)
+        return self._pose, views[2], views[3]
 
     def _views(self, data) -> tuple:
         """(data, oMf, its rotation, its translation) of the contact frame: data.oMf[frame] is a reference into

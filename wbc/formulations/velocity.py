@@ -183,9 +183,9 @@ from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
-                                              ensure_compiled, form_qp, kinematic_finish_packed, kinematic_pack,
-                                              kinematic_reduced_packed, kinematic_tick_packed, rotation_gap,
-                                              translation_gap, weighted_rows)
+                                              contact_pair_drift, ensure_compiled, form_qp, kinematic_finish_packed,
+                                              kinematic_pack, kinematic_reduced_packed, kinematic_tick_packed,
+                                              rotation_gap, translation_gap, weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -457,6 +457,7 @@ class KinematicController:
         self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
         self._level_rows: list[_SoftRows] = []
         self._in_solve, self._drift_cache = False, None
+        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
         # clock guard: CPU time (s) of the longest re-solve of the tick's QP, strict level, check of a held safe
         # command in the current tick, and of the safe command's solve (this tick's longest, else the last one's)
@@ -522,12 +523,18 @@ class KinematicController:
         ``clock_guard``: budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve)."""
         cap = math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf
         clock = budget_s / (self.CLOCK_WEIGHT * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
-        self._work.reset(cap, clock)
-        for b in (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                  *self._level_backends, None if plan is None else plan.rescue):
-            if b is not None:
-                b.work = self._work
-                b.independent = _CONFIRM_ORDER
+        work = self._work
+        work.reset(cap, clock)
+        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
+                 *self._level_backends, None if plan is None else plan.rescue)
+        # written only when the backends changed since the last tick that wrote them, or when that tick (or a
+        # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
+        if stamp != self._work_stamp or self.backend.work is not work:
+            for b in stamp:
+                if b is not None:
+                    b.work = work
+                    b.independent = _CONFIRM_ORDER
+            self._work_stamp = stamp
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -989,17 +996,29 @@ class KinematicController:
             # step with this v adopts (Configuration.lookahead); each contact frame placed (data.oMf), what
             # error_into reads
             ndata = config.lookahead(plan.vdt)
+            lever = self._drift_lever()
             if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
                 ndata = self._drift_data
                 q_next = pin.integrate(model, q, plan.vdt)
                 for c, log in plan.contact_logs:
                     pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
                     c.error_into(ndata, log)
+                far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
+            elif len(plan.contact_logs) == 2:  # a biped's two soles: one compiled call (contact_pair_drift)
+                (ca, _), (cb, _) = plan.contact_logs
+                pin.updateFramePlacement(model, ndata, ca.frame_id)
+                pin.updateFramePlacement(model, ndata, cb.frame_id)
+                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b,
+                                                self._contact_starts, self._contact_factors, lever)
+                if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
+                    ca.error_into(ndata, plan.logs[0])
+                    cb.error_into(ndata, plan.logs[1])
+                    far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
             else:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
                     c.error_into(ndata, log)
-            far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, self._drift_lever())
+                far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
             if (self.contact_correction > 0 and far > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
@@ -1086,6 +1105,7 @@ class KinematicController:
                 result = None
             if result is not None:
                 return result
+        self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None

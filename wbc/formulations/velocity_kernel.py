@@ -8,8 +8,9 @@ rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.sol
 :mod:`wbc.solvers.active_set` on the reduced problem, the residuals of the original rows checked;
 :func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
 When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
-the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift`,
-:func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends against where its row sent it.
+the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift` (with two
+contacts' errors: :func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact
+frame ends against where its row sent it.
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
@@ -29,10 +30,12 @@ from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_in
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
+from wbc.tasks.frame import placement_log6_into
 
-__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "ensure_compiled", "form_qp",
-           "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed", "kinematic_solve",
-           "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS", "rotation_gap",
+__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
+           "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
+           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS",
+           "rotation_gap",
            "translation_gap", "warm_up", "weighted_rows"]
 
 
@@ -586,6 +589,24 @@ def contact_drift(logs, b, starts, factors, lever):
 
 
 @nb.njit(cache=True, nogil=True)
+def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, starts, factors, lever):
+    """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of
+    :func:`wbc.tasks.frame.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
+    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (2,), factors (2,), ``lever`` (m))
+    — the same numbers as those calls made one after the other.
+
+    Returns:
+        :func:`contact_drift`'s (distance (m), drift (m)), or (−1.0, −1.0) when an error is within Pinocchio's
+        tolerance of a half turn (``logs`` then not fully written: the caller computes them with ``pin.log6``).
+    """
+    if not placement_log6_into(pose_a, rot_a, pos_a, logs[0]):
+        return -1.0, -1.0
+    if not placement_log6_into(pose_b, rot_b, pos_b, logs[1]):
+        return -1.0, -1.0
+    return contact_drift(logs, b, starts, factors, lever)
+
+
+@nb.njit(cache=True, nogil=True)
 def all_finite(x):
     """True when every entry of the vector x is finite (no NaN, no ±inf)."""
     for i in range(x.shape[0]):
@@ -669,6 +690,8 @@ def warm_up() -> float:
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
+    frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
+    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2), 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)

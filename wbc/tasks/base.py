@@ -51,6 +51,21 @@ class ValidatedAttribute(property):
         self.attr = attr
 
 
+def _as_gain(task, value) -> float:
+    """A task's gain K (1/s) as a float, finite and ≥ 0.
+
+    Raises:
+        InvalidInputError: negative, NaN/inf or not a number.
+    """
+    try:
+        k = float(value)
+    except (TypeError, ValueError):
+        k = float("nan")
+    if isinstance(value, bool) or not (np.isfinite(k) and k >= 0):
+        raise InvalidInputError(f"{task.name} gain must be a finite number ≥ 0 (1/s), got {value!r}")
+    return k
+
+
 def as_weight(weight, dim: int, what: str) -> np.ndarray:
     """Broadcast a scalar or (dim,) weight to a non-negative finite (dim,) array.
 
@@ -90,24 +105,9 @@ class Task(ABC):
         self.gain = gain
         self._weight = as_weight(weight, self.dim, f"{self.name} weight")
 
-    @property
-    def gain(self) -> float:
-        """K (1/s), finite and ≥ 0; validated on assignment.
-
-        Raises:
-            InvalidInputError: negative, NaN/inf or not a number.
-        """
-        return self._gain
-
-    @gain.setter
-    def gain(self, value) -> None:
-        try:
-            k = float(value)
-        except (TypeError, ValueError):
-            k = float("nan")
-        if isinstance(value, bool) or not (np.isfinite(k) and k >= 0):
-            raise InvalidInputError(f"{self.name} gain must be a finite number ≥ 0 (1/s), got {value!r}")
-        self._gain = k
+    gain = ValidatedAttribute(lambda task, k: _as_gain(task, k),
+                              "K (1/s), finite and ≥ 0; validated on assignment (raises InvalidInputError: negative, "
+                              "NaN/inf or not a number).")
 
     weight = ValidatedAttribute(lambda task, w: as_weight(w, task.dim, f"{task.name} weight"),
                                 "(m,) cost weight of each row, ≥ 0 (raises InvalidInputError like as_weight).")
