@@ -227,3 +227,27 @@ def test_step_adopts_a_matching_lookahead_with_pinocchios_numbers(robots, keep_a
             q1 = pin.integrate(model, q0, v * dt)
         config.step(v, dt)
         check(q1)
+
+
+@pytest.mark.parametrize("vdt", [np.zeros(5), np.full(38, np.nan), [0.0] * 37 + [np.inf], "x"])
+def test_lookahead_rejects_bad_displacement(robots, vdt):
+    """lookahead raises ConfigurationError (not a Pinocchio error, not a NaN Data) on a displacement of the wrong size
+    or not finite, leaves q as it was, and a later step computes its own kinematics (Pinocchio's at q ⊕ v·dt)."""
+    robot = robots("talos")
+    config = Configuration(robot, random_configuration(robot, np.random.default_rng(5)))
+    q0 = config.q.copy()
+    with pytest.raises(ConfigurationError, match="displacement vdt"):
+        config.lookahead(vdt)
+    assert np.array_equal(config.q, q0)
+    v = np.full(robot.nv, 0.1)
+    config.step(v, 0.01)
+    assert np.array_equal(config.q, pin.integrate(robot.model, q0, v * 0.01))
+
+
+def test_lookahead_accepts_a_list_as_the_same_displacement(robots):
+    """A finite list of nv floats is converted (check_vector): the Data equals the array's lookahead bit for bit."""
+    robot = robots("talos")
+    config = Configuration(robot, random_configuration(robot, np.random.default_rng(6)))
+    vdt = 0.01 * np.random.default_rng(7).standard_normal(robot.nv)
+    ref = config.lookahead(vdt).J.copy()
+    assert np.array_equal(config.lookahead(list(vdt)).J, ref)

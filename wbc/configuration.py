@@ -127,22 +127,29 @@ class Configuration:
         swapped: a Data read before that step then holds the lookahead's numbers no longer).
 
         Args:
-            vdt: (nv,) float array, the displacement v·dt (rad, m); trusted (the caller's solver output).
+            vdt: (nv,) float array, the displacement v·dt (rad, m).
 
         Returns:
             the Data, owned by this configuration (overwritten by the next lookahead); None for a subclass with its
             own :meth:`update` (nothing computed).
+
+        Raises:
+            ConfigurationError: vdt has the wrong size or is not finite.
         """
         if type(self).update is not Configuration.update:
             return None
+        nv = self._nv
+        head = self._ahead[:nv]
+        if not (type(vdt) is np.ndarray and vdt.shape == (nv,) and vdt.dtype == np.float64
+                and _scaled_if_finite(vdt, 1.0, head)):  # head = vdt when it is finite (x · 1.0 = x)
+            vdt = check_vector(vdt, nv, "displacement vdt")  # raises with the details, else a finite float array
+            head[:] = vdt
         spare = self._spare
         if spare is None:
             data = self.model.createData()
             spare = self._spare = (data, data.com[0])
         q_next = pin.integrate(self.model, self.q, vdt)
         jcom, ag = self._kinematics(spare[0], q_next)
-        nv = self._nv
-        self._ahead[:nv] = vdt
         self._ahead[nv:] = self.q
         self._ahead_out = (spare, q_next, jcom, ag)
         return spare[0]
