@@ -1,0 +1,90 @@
+"""A full-QP answer that fails the inverse-dynamics output check by the solver's precision is refined (polished on its
+active set, else quadprog's solve), not relaxed, when the hard set has a point.
+
+The replayed tick is ``benchmarks/fuzz_id.py --seed 540002 --chunk 25000 --replay 185`` tick 33 (Talos, torque limits
+at 0.229 of the URDF effort, CoM gain 8.7e3 and weight 9.6e3: a cost with |g| ~ 1.4e7 and a Hessian conditioned
+~1e11): DAQP's answer meets a 1.83 N·m torque limit to 2.2e-6 N·m, within its own check (the row's terms sum to
+~75 N·m) and outside the output check's 1e-6 × max(1, |limit|). The fixture holds the episode's settings and the
+states of ticks 32 and 33 (tick 32's solve gives tick 33 its warm start). Oracles built here: HiGHS (scipy
+``linprog``) for the hard set's feasibility, Pinocchio (RNEA, LOCAL sole Jacobians, corner maps built here) for the
+torques and the floating-base rows, the URDF effort for the limits, quadprog (dense Goldfarb–Idnani) for the
+optimum."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import quadprog
+
+from conftest import highs_feasible
+from wbc.constants import SIDES
+from wbc.dynamics.balance import IDBalanceController
+
+FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_output_check_talos.npz"
+TOL = 1e-6  # the fuzz's bound tolerance, relative to max(1, |bound|)
+
+
+def _replayed(robots):
+    """The controller after ticks 32 and 33 of the replayed episode, the fixture, and tick 33's command."""
+    d = np.load(FIXTURE)
+    robot = robots("talos")
+    gains = {str(k): float(v) for k, v in zip(d["gain_names"], d["gain_values"])}
+    ctrl = IDBalanceController(robot, dt=float(d["dt"]), solver="fast", mu=float(d["mu"]), f_min=float(d["f_min"]),
+                               gains=gains, torque_limit_scale=float(d["torque_limit_scale"]))
+    ctrl.reset(d["q0"], d["v0"])
+    ctrl.set_com_reference(d["com_position"], acceleration=d["com_acceleration"])
+    for t in range(2):
+        ctrl.contacts["left"].mu = float(d["mu_left"][t])
+        ctrl.contacts["right"].mu = float(d["mu_right"][t])
+        cmd = ctrl.solve(d["q"][t], d["v"][t])
+    return ctrl, d, cmd
+
+
+def _dense_quadprog(H, g, A, b, C, l, u, lb, ub):
+    """quadprog's optimum of the QP as given (pinned variables: both bounds kept as two inequalities), built here."""
+    fl, fu, bl, bu = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
+    eye = np.eye(H.shape[0])
+    Cq = np.hstack([A.T, C[fl].T, -C[fu].T, eye[:, bl], -eye[:, bu]])
+    bq = np.concatenate([b, l[fl], -u[fu], lb[bl], -ub[bu]])
+    return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
+
+
+def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_relaxed(robots):
+    ctrl, d, cmd = _replayed(robots)
+    robot = robots("talos")
+    q, v = d["q"][1], d["v"][1]
+    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
+    assert highs_feasible(A, b, C, l, u, lb, ub)  # the full hard set has a point: no reason to relax
+    assert cmd.ok and not cmd.relaxed, cmd.message
+    assert cmd.path.route == "general"
+    # torques from Pinocchio: M v̇ + h − Σ J_kᵀ G_k f_k (RNEA, LOCAL sole Jacobians), against the scaled URDF effort
+    data = robot.model.createData()
+    gen = pin.rnea(robot.model, data, q, v, cmd.dv).copy()
+    pin.computeJointJacobians(robot.model, data, q)
+    pin.updateFramePlacements(robot.model, data)
+    for k, side in enumerate(SIDES):
+        c = ctrl.contacts[side]
+        G = np.zeros((6, 12))
+        for i, corner in enumerate(c.corners):
+            G[:3, 3 * i:3 * i + 3] = np.eye(3)
+            G[3:, 3 * i:3 * i + 3] = pin.skew(corner)
+        J = pin.getFrameJacobian(robot.model, data, c.frame_id, pin.LOCAL)
+        gen -= J.T @ (G @ cmd.forces[12 * k:12 * k + 12])
+    h_u = np.max(np.abs(pin.rnea(robot.model, data, q, v, np.zeros(robot.nv))[:6]))
+    assert np.max(np.abs(gen[:6])) <= TOL * max(1.0, h_u)
+    tau = gen[6:]
+    np.testing.assert_allclose(cmd.tau, tau, rtol=0, atol=1e-8)
+    effort = np.asarray(robot.model.effortLimit[6:]) * float(d["torque_limit_scale"])
+    lim = np.isfinite(effort) & (effort > 0)
+    assert np.all(np.abs(tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
+    # the replayed limit is met: the tightest limited joint of this tick is the 1.83 N·m one, at its bound
+    small = lim & (effort < 2.0)
+    assert small.any() and np.min(effort[small] - np.abs(tau[small])) <= 1e-3
+    # the command is the QP's minimiser up to the solver's precision: its cost within 2e-5 (relative) of quadprog's
+    x = np.concatenate([cmd.dv, cmd.forces])
+    xq = _dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+    assert fx - fq <= 2e-5 * abs(fq)
+    assert np.max(np.abs(x - xq)) <= 1e-2  # rad/s², N
