@@ -3,8 +3,9 @@ active set, else quadprog's solve), not relaxed, when the hard set has a point.
 
 The replayed tick is ``benchmarks/fuzz_id.py --seed 540002 --chunk 25000 --replay 185`` tick 33 (Talos, torque limits
 at 0.229 of the URDF effort, CoM gain 8.7e3 and weight 9.6e3: a cost with |g| ~ 1.4e7 and a Hessian conditioned
-~1e11): DAQP's answer meets a 1.83 N·m torque limit to 2.2e-6 N·m, within its own check (the row's terms sum to
-~75 N·m) and outside the output check's 1e-6 × max(1, |limit|). The fixture holds the episode's settings and the
+~1e11): DAQP's answer crosses a 1.83 N·m torque limit by 1.8e-4 N·m (its own check, relative to the row's terms,
+~75 N·m: 2.4e-6 > 1e-6), the backend's polish leaves it 2.2e-6 N·m past, within that check (7.3e-7) and outside the
+output check's 1e-6 × max(1, |limit|). The fixture holds the episode's settings and the
 states of ticks 32 and 33 (tick 32's solve gives tick 33 its warm start). Oracles built here: HiGHS (scipy
 ``linprog``) for the hard set's feasibility, Pinocchio (RNEA, LOCAL sole Jacobians, corner maps built here) for the
 torques and the floating-base rows, the URDF effort for the limits, quadprog (dense Goldfarb–Idnani) for the

@@ -776,15 +776,17 @@ class InverseDynamicsQP:
                           f"hard-set check and the backend's retries: clock guard)")
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Build and solve the QP at ``state`` for control period ``dt`` (s).
+        """Build and solve the QP at ``state`` for control period ``dt`` (s). The solution passes the output check
+        (:meth:`verify`); a backend's answer that fails it is first polished on its active set, else replaced by
+        quadprog's solve of the same QP (path ``general:quadprog``), and the first that passes is returned.
 
         Returns:
             :class:`IDSolution`.
 
         Raises:
             InvalidInputError: dt not finite and > 0.
-            SolverError: the backend failed or returned a solution violating a constraint by more than its
-                tolerance (1e-6 in constraint units for the default backends).
+            SolverError: the backend failed, or no answer passes the output check (each row and bound to the backend's
+                tolerance, 1e-6 for the default backends, times max(1, |bound|); :meth:`verify`).
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
