@@ -17,9 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import quadprog
 
-from conftest import highs_feasible
+from conftest import dense_quadprog, highs_feasible
 from wbc.constants import SIDES
 from wbc.dynamics.balance import IDBalanceController
 
@@ -61,15 +60,6 @@ def _refinement_polish_fails(monkeypatch):
     monkeypatch.setattr(DaqpBackend, "polish", second_fails)
 
 
-def _dense_quadprog(H, g, A, b, C, l, u, lb, ub):
-    """quadprog's optimum of the QP as given (pinned variables: both bounds kept as two inequalities), built here."""
-    fl, fu, bl, bu = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
-    eye = np.eye(H.shape[0])
-    Cq = np.hstack([A.T, C[fl].T, -C[fu].T, eye[:, bl], -eye[:, bu]])
-    bq = np.concatenate([b, l[fl], -u[fu], lb[bl], -ub[bu]])
-    return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
-
-
 def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_relaxed(robots):
     ctrl, d, cmd = _replayed(robots)
     robot = robots("talos")
@@ -103,7 +93,7 @@ def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_rel
     assert small.any() and np.min(effort[small] - np.abs(tau[small])) <= 1e-3
     # the command is the QP's minimiser up to the solver's precision: its cost within 2e-5 (relative) of quadprog's
     x = np.concatenate([cmd.dv, cmd.forces])
-    xq = _dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
     fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
     assert fx - fq <= 2e-5 * abs(fq)
     assert np.max(np.abs(x - xq)) <= 1e-2  # rad/s², N
@@ -121,7 +111,7 @@ def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
     lim = np.isfinite(effort) & (effort > 0)
     assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
     x = np.concatenate([cmd.dv, cmd.forces])
-    xq = _dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
     fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
     assert abs(fx - fq) <= 1e-9 * abs(fq)
 
