@@ -113,7 +113,7 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 __all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
-           "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
+           "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
 
 
 @dataclass
@@ -140,6 +140,11 @@ class IDSolution:
     timings: dict[str, float] = field(default_factory=dict)
     path: TickPath | None = None
 
+
+#: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
+#: quadprog's solve: :meth:`InverseDynamicsQP.solve`) only when it passes the check at this relative tolerance: off by
+#: the solver's precision, as the backends' own polish range (:meth:`wbc.solvers.base.QPBackend.polish`)
+OUTPUT_REFINE_RANGE = 1e-3
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
@@ -777,8 +782,9 @@ class InverseDynamicsQP:
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
         """Build and solve the QP at ``state`` for control period ``dt`` (s). The solution passes the output check
-        (:meth:`verify`); a backend's answer that fails it is first polished on its active set, else replaced by
-        quadprog's solve of the same QP (path ``general:quadprog``), and the first that passes is returned.
+        (:meth:`verify`); a backend's answer that fails it by at most :data:`OUTPUT_REFINE_RANGE` (relative) is first
+        polished on its active set, else replaced by quadprog's solve of the same QP (path ``general:quadprog``), and
+        the first that passes is returned.
 
         Returns:
             :class:`IDSolution`.
@@ -1088,8 +1094,11 @@ class InverseDynamicsQP:
         first candidate that passes :meth:`verify` is returned. The backend's check measures a row against the size
         of its terms (:meth:`wbc.solvers.base.QPBackend.scaled_violation`), the output check a bound against
         max(1, |bound|): a torque row whose terms are large against its limit (an ill-conditioned cost's error in the
-        solver's answer) can pass the first and fail the second. With a clock guard (:attr:`tick_clock`) the refinement starts only before
-        :attr:`retry_deadline`, quadprog only when it is expected to end by ``QUADPROG_END`` budgets.
+        solver's answer) can pass the first and fail the second. Only an answer within :data:`OUTPUT_REFINE_RANGE`
+        of the output check (every violation at most that times its scale) is refined: one further off is not an
+        error of the solver's precision (a solver's bug), and its tick fails. With a clock guard (:attr:`tick_clock`)
+        the refinement starts only before :attr:`retry_deadline`, quadprog only when it is expected to end by
+        ``QUADPROG_END`` budgets.
 
         Returns:
             ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
@@ -1099,7 +1108,8 @@ class InverseDynamicsQP:
                 of ``sol``).
         """
         viol = self.verify(state, sol)
-        if viol and viol[0][0] != "non_finite_command" and thread_time() < self.retry_deadline:
+        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=OUTPUT_REFINE_RANGE)
+                and thread_time() < self.retry_deadline):
             refined = self._refined(state, sol, qp)
             if refined is not None:
                 self.last_violations = []
