@@ -104,6 +104,7 @@ from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
+from wbc.solvers.base import POLISH_RANGE
 from wbc.solvers.daqp import DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
@@ -143,8 +144,8 @@ class IDSolution:
 
 #: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
 #: quadprog's solve: :meth:`InverseDynamicsQP.solve`) only when it passes the check at this relative tolerance: off by
-#: the solver's precision, as the backends' own polish range (:meth:`wbc.solvers.base.QPBackend.polish`)
-OUTPUT_REFINE_RANGE = 1e-3
+#: the solver's precision, the backends' own polish range (:data:`wbc.solvers.base.POLISH_RANGE`)
+OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
