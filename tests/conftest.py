@@ -170,6 +170,18 @@ def fd_jacobian(task, robot, q):
     return J
 
 
+def dense_quadprog(H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+    """quadprog's optimum (dense Goldfarb–Idnani) of min ½ xᵀHx + gᵀx s.t. A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub, the QP as
+    given (a pinned variable lb = ub: two inequalities): the independent oracle of the QP tests' optimum claims."""
+    import quadprog
+
+    fl, fu, bl, bu = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
+    eye = np.eye(H.shape[0])
+    Cq = np.hstack([A.T, C[fl].T, -C[fu].T, eye[:, bl], -eye[:, bu]])
+    bq = np.concatenate([b, l[fl], -u[fu], lb[bl], -ub[bu]])
+    return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
+
+
 def highs_feasible(A, b, C, l, u, lb, ub) -> bool:
     """Whether {x : A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub} is non-empty, by HiGHS's LP (scipy): the independent oracle of
     the QP tests' feasibility claims."""

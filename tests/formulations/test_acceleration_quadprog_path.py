@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import quadprog
 
-from conftest import highs_feasible
+from conftest import dense_quadprog, highs_feasible
 from wbc.exceptions import SolverError
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_scaled_fails_talos.npz"
@@ -28,15 +28,6 @@ CAP = 190  # daqp_attempt_iterations at a 2 ms budget
 def _load():
     d = dict(np.load(FIXTURE))
     return tuple(d[k] for k in KEYS), (d["rl"], d["ru"], d["rlb"], d["rub"])
-
-
-def _dense_quadprog(H, g, A, b, C, l, u, lb, ub):
-    """quadprog's optimum of the QP as given (no pinned variable here), built here."""
-    fl, fu, bl, bu = np.isfinite(l), np.isfinite(u), np.isfinite(lb), np.isfinite(ub)
-    eye = np.eye(H.shape[0])
-    Cq = np.hstack([A.T, C[fl].T, -C[fu].T, eye[:, bl], -eye[:, bu]])
-    bq = np.concatenate([b, l[fl], -u[fu], lb[bl], -ub[bu]])
-    return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
 
 
 def _largest_violation(x, A, b, C, l, u, lb, ub):
@@ -91,7 +82,7 @@ def test_the_slow_tick_is_answered_by_quadprog_at_the_optimum(counted_qp):
     qp, calls, _, _ = counted_qp
     problem, _ = _load()
     assert highs_feasible(*problem[2:])
-    ref = _dense_quadprog(*problem)
+    ref = dense_quadprog(*problem)
     x, who = qp._solve_backend(*problem)
     assert who == "quadprog" and qp.pinned_reduced_solves == 1 and qp.scaled_solves == 0
     assert calls == ["daqp", "hard_set_feasible", "solve_scaled", "solve_pinned_reduced"]
@@ -139,7 +130,7 @@ def test_the_relaxed_qp_gets_quadprog_when_daqp_misses_a_minimiser(counted_qp, m
     assert who == "quadprog" and qp.relaxed_quadprog_solves == 1
     assert calls == ["daqp", "hard_set_feasible", "daqp", "solve_pinned_reduced"]
     assert _largest_violation(x, A, b, C, *relaxed) <= 1e-6
-    ref = _dense_quadprog(H, g, A, b, C, *relaxed)
+    ref = dense_quadprog(H, g, A, b, C, *relaxed)
     assert abs(_objective(H, g, x) - _objective(H, g, ref)) <= 1e-7 * max(1.0, abs(_objective(H, g, ref)))
 
 

@@ -7,8 +7,11 @@ contact forces.
 
 Every command a QP returns passes an output check before it is used
 (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`: finite; corner forces within their bounds and
-friction pyramids; torques within their limits; the floating-base rows of the equations of motion): a command that
-fails it counts as a failed solve, with the violated constraints in ``IDCommand.conflicts``.
+friction pyramids; torques within their limits; the floating-base rows of the equations of motion): a full-QP command
+that fails it by the solver's precision (at most :data:`~wbc.formulations.acceleration.OUTPUT_REFINE_RANGE`
+relative) is first refined (polished on its active set, else quadprog's solve of the same QP:
+:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve`); one that still fails counts as a failed solve, with
+the violated constraints in ``IDCommand.conflicts``.
 
 Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
 (the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold`` or ``fallback:gravity``

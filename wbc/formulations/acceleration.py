@@ -104,6 +104,7 @@ from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
+from wbc.solvers.base import POLISH_RANGE
 from wbc.solvers.daqp import DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
@@ -113,7 +114,7 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 __all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
-           "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
+           "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
 
 
 @dataclass
@@ -140,6 +141,11 @@ class IDSolution:
     timings: dict[str, float] = field(default_factory=dict)
     path: TickPath | None = None
 
+
+#: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
+#: quadprog's solve: :meth:`InverseDynamicsQP.solve`) only when it passes the check at this relative tolerance: off by
+#: the solver's precision, the backends' own polish range (:data:`wbc.solvers.base.POLISH_RANGE`)
+OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
@@ -346,6 +352,12 @@ class InverseDynamicsQP:
         self.last_set_empty = False
         #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
+        #: full-QP answers that failed the output check (:meth:`verify`) and passed it once polished on their active
+        #: set (:meth:`wbc.solvers.base.QPBackend.polish`; :meth:`_guard_full`).
+        self.output_polished = 0
+        #: full-QP answers that failed the output check, polished or not, replaced by quadprog's (pinned variables
+        #: eliminated), which passed it (:meth:`_guard_full`; ``IDSolution.path`` then names ``quadprog``).
+        self.output_quadprog = 0
         #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
         #: at its deadline); reset by :meth:`solve`.
         self.budget_cut = False
@@ -770,15 +782,18 @@ class InverseDynamicsQP:
                           f"hard-set check and the backend's retries: clock guard)")
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Build and solve the QP at ``state`` for control period ``dt`` (s).
+        """Build and solve the QP at ``state`` for control period ``dt`` (s). The solution passes the output check
+        (:meth:`verify`); a backend's answer that fails it by at most :data:`OUTPUT_REFINE_RANGE` (relative) is first
+        polished on its active set, else replaced by quadprog's solve of the same QP (path ``general:quadprog``), and
+        the first that passes is returned.
 
         Returns:
             :class:`IDSolution`.
 
         Raises:
             InvalidInputError: dt not finite and > 0.
-            SolverError: the backend failed or returned a solution violating a constraint by more than its
-                tolerance (1e-6 in constraint units for the default backends).
+            SolverError: the backend failed, or no answer passes the output check (each row and bound to the backend's
+                tolerance, 1e-6 for the default backends, times max(1, |bound|); :meth:`verify`).
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
@@ -798,8 +813,7 @@ class InverseDynamicsQP:
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("general", solver)
-        self._guard(state, sol)
-        return sol
+        return self._guard_full(state, sol, (H, g, A, b, C, l, u, lb, ub))
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
                        dt: float = 0.0) -> tuple[np.ndarray, str]:
@@ -1070,8 +1084,68 @@ class InverseDynamicsQP:
         """Raise SolverError (naming the constraints, :attr:`last_violations`) when :meth:`verify` finds any."""
         self.last_violations = viol = self.verify(state, sol, relaxed=relaxed)
         if viol:
-            raise SolverError(f"{sol.path} returned a command that fails the output check: "
-                              + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
+            raise _output_check_error(sol, viol)
+
+    def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
+        """:meth:`_guard` of a full-QP answer of the backend (route ``general``), given the QP it solved
+        ``qp`` = (H, g, A, b, C, l, u, lb, ub): an answer that fails the output check is first refined — polished on
+        its active set (:meth:`wbc.solvers.base.QPBackend.polish`: the bounds and rows it meets or crosses held
+        exactly, the smallest correction of the other entries), then, failing that, replaced by quadprog's solve
+        (pinned variables eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`; the next route) — and the
+        first candidate that passes :meth:`verify` is returned. The backend's check measures a row against the size
+        of its terms (:meth:`wbc.solvers.base.QPBackend.scaled_violation`), the output check a bound against
+        max(1, |bound|): a torque row whose terms are large against its limit (an ill-conditioned cost's error in the
+        solver's answer) can pass the first and fail the second. Only an answer within :data:`OUTPUT_REFINE_RANGE`
+        of the output check (every violation at most that times its scale) is refined: one further off is not an
+        error of the solver's precision (a solver's bug), and its tick fails. With a clock guard (:attr:`tick_clock`)
+        the refinement starts only before :attr:`retry_deadline`, quadprog only when it is expected to end by
+        ``QUADPROG_END`` budgets.
+
+        Returns:
+            ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
+
+        Raises:
+            SolverError: no candidate passes the output check (the message and :attr:`last_violations` are those
+                of ``sol``).
+        """
+        viol = self.verify(state, sol)
+        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=OUTPUT_REFINE_RANGE)
+                and thread_time() < self.retry_deadline):
+            refined = self._refined(state, sol, qp)
+            if refined is not None:
+                self.last_violations = []
+                return refined
+        self.last_violations = viol
+        if viol:
+            raise _output_check_error(sol, viol)
+        return sol
+
+    def _refined(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution | None:
+        """The candidates of :meth:`_guard_full` in turn: the first that passes :meth:`verify`, or None."""
+        H, g, A, b, C, l, u, lb, ub = qp
+        x = np.concatenate((sol.dv, sol.forces))
+        backend = self.backend
+        if isinstance(backend, QPBackend):
+            if backend.work is not None:
+                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
+            xp = backend.polish(x, A, b, C, l, u, lb, ub)
+            if xp is not None:
+                cand = self.solution_from(state, xp, timings=sol.timings)
+                cand.path = sol.path
+                if not self.verify(state, cand):
+                    self.output_polished += 1
+                    return cand
+        if sol.path.solver == "quadprog" or thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
+            return None
+        xq = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        if xq is None:
+            return None
+        cand = self.solution_from(state, xq, timings=sol.timings)
+        cand.path = TickPath("general", "quadprog")
+        if self.verify(state, cand):
+            return None
+        self.output_quadprog += 1
+        return cand
 
     def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
@@ -1152,8 +1226,7 @@ class InverseDynamicsQP:
             x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
             sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
             sol.path = TickPath("general", solver)
-            self._guard(state, sol)
-            return sol
+            return self._guard_full(state, sol, (H, g, A, b, C, l, u, lb, ub))
         self._m = m
         self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
         t1 = perf_counter()
@@ -1192,8 +1265,8 @@ class InverseDynamicsQP:
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("general", solver)
-        self._guard(state, sol)
-        return sol
+        return self._guard_full(state, sol, (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                             self._lb, self._ub))
 
     def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
                  tol: float = 1e-6) -> list[tuple[str, float]]:
@@ -1265,6 +1338,12 @@ class InverseDynamicsQP:
         if self.tau_rows.size:
             out["torque"] = float(np.min(self.tau_max[self.tau_rows] - np.abs(sol.tau[self.tau_rows])))
         return out
+
+
+def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> SolverError:
+    """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
+    return SolverError(f"{sol.path} returned a command that fails the output check: "
+                       + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
 
 
 def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:

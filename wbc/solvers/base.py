@@ -29,7 +29,7 @@ import qpsolvers
 from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers.linalg import scaled_row_violation
 
-__all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "QPBackend", "TickWork", "register_backend_class"]
+__all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "QPBackend", "TickWork", "register_backend_class"]
 
 #: stands for an infinite bound where a backend needs a finite number
 INFINITE_BOUND = 1e10
@@ -45,7 +45,7 @@ ITERATIONS_PER_SOLVE = 150
 
 
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
-_POLISH_RANGE = 1e-3
+POLISH_RANGE = 1e-3
 
 #: The backend classes :class:`QPBackend` builds, by role: ``"proxqp"`` and ``"qpsolvers"`` (any qpsolvers backend by
 #: name), the independent re-solve of :meth:`QPBackend.confirm`; ``"daqp"``, the projection of
@@ -206,7 +206,7 @@ class QPBackend(ABC):
                 worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
                 if worst <= self.tolerance:
                     return xc
-                if worst <= _POLISH_RANGE:
+                if worst <= POLISH_RANGE:
                     if self.work is not None:
                         self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
                     xp = self.polish(x, A, b, C, l, u, lb, ub)
@@ -339,7 +339,7 @@ class QPBackend(ABC):
                 worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
                 if worst <= self.tolerance:
                     return xc, ""
-                if worst <= _POLISH_RANGE:
+                if worst <= POLISH_RANGE:
                     xp = self.polish(x, A, b, C, l, u, lb, ub)
                     if xp is not None:
                         return xp, ""
