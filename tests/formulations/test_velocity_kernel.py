@@ -290,9 +290,10 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve_packed, command_within_box and
     command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
-    from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, form_qp,
+    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, command_within_box,
+                                                  command_within_rows, form_qp,
                                                   kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
-                                                  kinematic_tick_packed)
+                                                  kinematic_tick_packed, rows_pack)
 
     rng = np.random.default_rng(900 + seed)
     nv, mt, n_eq, n_in = 20, 5, 6, seed % 3
@@ -318,8 +319,10 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     it1 = kinematic_solve_packed(fb1, ib1, s1, r1, v1, 0.002, 1e-6, 200)
     guard1 = it1 >= 1 and command_within_box(v1, x1["lb"], x1["ub"], 1e-6) and (
         n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
-    it2, guard2 = kinematic_tick_packed(fb2, ib2, Js, es, rowp, diff, pw, prow, 10.0, 1e-6, s2, r2, v2, 0.002, 1e-6,
-                                        200)
+    sfb, sib, rows = rows_pack(mt, nv, prow)
+    rows["J"][:], rows["e"][:], rows["rowp"][:], rows["pw"][:] = Js, es, rowp, pw
+    it2, guard2 = kinematic_tick_packed(fb2, ib2, sfb, sib, diff, 10.0, 1e-6, s2, r2, v2, 0.002, 1e-6, 200,
+                                        *NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
     # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
     assert all(np.array_equal(x1[k], x2[k]) for k in x1 if k != "ws")
@@ -330,9 +333,9 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
         fb, ib, x = packs[1]
         state = s2.copy()
         x["b"][0] = np.nan if bad == "b" else A[0] @ v0
-        es_bad = es.copy()
+        rows["e"][:] = es
         if bad == "cost":
-            es_bad[0] = np.inf
-        code, guard = kinematic_tick_packed(fb, ib, Js, es_bad, rowp, diff, pw, prow, 10.0, 1e-6, state, r2, v2,
-                                            0.002, 1e-6, 200)
+            rows["e"][0] = np.inf
+        code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, state, r2, v2, 0.002, 1e-6, 200,
+                                            *NO_KERNEL_BOX)
         assert code == NONFINITE_RHS and not guard and np.array_equal(state, s2)

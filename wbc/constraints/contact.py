@@ -22,7 +22,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.tasks.base import ValidatedAttribute
 from wbc.tasks.frame import as_se3, placement_log6_into
 
-__all__ = ["ContactConstraint"]
+__all__ = ["ContactConstraint", "write_contact_pair"]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -48,6 +48,41 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     return True
 
 
+@nb.njit(cache=True, nogil=True)
+def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
+    """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
+    … ``rb + 6`` of A (m, nv) and b (m,). Returns False near a half-turn error of either (the second's rows then not
+    written)."""
+    if not _write_contact_rows(jac_a, pose_a, rot_a, pos_a, scale_a, A[ra:ra + 6], b[ra:ra + 6]):
+        return False
+    return _write_contact_rows(jac_b, pose_b, rot_b, pos_b, scale_b, A[rb:rb + 6], b[rb:rb + 6])
+
+
+def write_contact_pair(ctx: KinematicContext, first: ContactConstraint, second: ContactConstraint, A: np.ndarray,
+                       b: np.ndarray, first_row: int, second_row: int) -> None:
+    """Two contacts' :meth:`ContactConstraint.write` in one compiled call (the same numbers): the rows of ``first``
+    into A[first_row:first_row + 6] (6, nv) and b[first_row:first_row + 6], those of ``second`` at ``second_row``, at
+    ``ctx.config`` and ``ctx.dt``. For a biped's two soles, written every tick.
+
+    Args:
+        ctx: the tick's :class:`~wbc.constraints.base.KinematicContext`.
+        first, second: contacts of class :class:`ContactConstraint` itself (a subclass's own rows are written by its
+            own :meth:`~ContactConstraint.write`).
+        A (m, nv), b (m,): the stacked equality rows (out).
+        first_row, second_row: where each contact's 6 rows start.
+    """
+    config = ctx.config
+    model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
+    va, vb = first._views(data), second._views(data)
+    ja = pin.getFrameJacobian(model, data, first.frame_id, LOCAL)
+    jb = pin.getFrameJacobian(model, data, second.frame_id, LOCAL)
+    k = 1.0 / ctx.dt
+    if not _write_contact_pair_rows(ja, first._pose, va[2], va[3], -min(first._gain, k), jb, second._pose, vb[2],
+                                    vb[3], -min(second._gain, k), A, b, first_row, second_row):
+        first.write(ctx, A[first_row:first_row + 6], b[first_row:first_row + 6])  # a half-turn error: log6
+        second.write(ctx, A[second_row:second_row + 6], b[second_row:second_row + 6])
+
+
 def _as_contact_gain(value) -> float:
     """A contact's drift-correction gain K (1/s) as a float.
 
@@ -66,11 +101,14 @@ def _as_contact_gain(value) -> float:
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_write_rows` and :func:`_write_contact_rows` (on-disk cache) once per process, at construction,
+    """Load :func:`_write_rows`, :func:`_write_contact_rows` and :func:`_write_contact_pair_rows` (on-disk cache) once
+    per process, at construction,
     for Pinocchio's array types (F-ordered rotation)."""
     _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
     _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
                         np.zeros((6, 1)), np.zeros(6))
+    frame = (np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0)
+    _write_contact_pair_rows(*frame, *frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
 
 
 class ContactConstraint(EqualityConstraint):

@@ -26,6 +26,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
+from wbc.constraints.limits import intersect_position_bounds
 from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
@@ -34,8 +35,8 @@ from wbc.tasks.frame import placement_log6_into
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
-           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS",
-           "rotation_gap",
+           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
+           "NONFINITE_RHS", "rotation_gap", "rows_pack",
            "translation_gap", "warm_up", "weighted_rows"]
 
 
@@ -400,6 +401,10 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
 #: exit code of :mod:`wbc.solvers.status`
 NONFINITE_RHS = -1000
 
+#: the last four arguments of :func:`kinematic_tick_packed` (q, box_idx, box_limits, const_box) when it leaves the
+#: box as assembled
+NO_KERNEL_BOX = (np.zeros(0), np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
+
 #: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
 _PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
 
@@ -409,7 +414,8 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base through the equality
     rows from ``er`` (−1: none), and named views of their parts: the QP's buffers ``H`` (nv, nv), ``g`` (nv,), ``A``
     (n_eq, nv), ``b``, ``C`` (n_in, nv), ``l``, ``u``, ``lb``, ``ub`` (nv,) — the arrays the controller assembles
-    into, so that the compiled solver reads them where they were written — and ``vdt`` (nv,): v·dt after a solve."""
+    into, so that the compiled solver reads them where they were written — ``box`` (2, nv): lb and ub as the rows of
+    one array, and ``vdt`` (nv,): v·dt after a solve."""
     ws, iws = kinematic_workspace(nv, n_eq, n_in, er >= 0)
     shapes = {"H": (nv, nv), "g": (nv,), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv), "l": (n_in,),
               "u": (n_in,), "lb": (nv,), "ub": (nv,), "ws": (ws.size,)}
@@ -427,6 +433,7 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     views = {name: fb[offsets[name]:offsets[name] + math.prod(shape)].reshape(shape)
              for name, shape in shapes.items()}
     views["vdt"] = views["ws"][:nv]
+    views["box"] = fb[offsets["lb"]:offsets["lb"] + 2 * nv].reshape((2, nv))  # lb and ub, consecutive
     return fb, ib, views
 
 
@@ -458,13 +465,41 @@ def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
     return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
 
 
+def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """The two arrays of stacked task rows that :func:`kinematic_tick_packed` reads (one float, one int64) for ``mt``
+    task rows of nv velocities and a posture diagonal at the velocity indices ``prow`` (kp,) (kp = 0: no posture),
+    and named views of their parts, the arguments of :func:`form_qp`: ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt),
+    ``pw`` (kp,) (zeros) and ``prow`` (kp,) int64 (a copy of ``prow``)."""
+    kp = int(np.size(prow))
+    sfb = np.zeros(mt * nv + 4 * mt + kp)
+    sib = np.zeros(3 + kp, np.int64)
+    sib[:3] = (mt, nv, kp)
+    sib[3:] = prow
+    o = mt * nv
+    views = {"J": sfb[:o].reshape((mt, nv)), "e": sfb[o:o + mt], "rowp": sfb[o + mt:o + 4 * mt].reshape((3, mt)),
+             "pw": sfb[o + 4 * mt:], "prow": sib[3:]}
+    return sfb, sib, views
+
+
+@nb.njit(cache=True, nogil=True)
+def _unpack_rows(sfb, sib):
+    """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: (J, e, rowp, pw, prow)."""
+    mt, nv, kp = sib[0], sib[1], sib[2]
+    o = mt * nv
+    return (sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
+            sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick_packed(fb, ib, Js, es, rowp, diff, pw, prow, pgain, damping, state, rstate, v, dt, tolerance,
-                          max_iter):
-    """The compiled tick in one call: :func:`form_qp` into the packed H, g (``Js`` … ``damping`` as there); its
-    check and :func:`all_finite` on the equality right-hand side b; :func:`kinematic_solve_packed`; the output guard's
-    screens :func:`command_within_box` and :func:`command_within_rows` on v — the same numbers as those calls made
-    one after the other.
+def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, state, rstate, v, dt, tolerance, max_iter, q,
+                          box_idx, box_limits, const_box):
+    """The compiled tick in one call: the box, when ``const_box`` is (2, nv): lb, ub ← its rows (the intersection of
+    the constant bounds), then :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box_idx``,
+    ``box_limits``, dt) of a joint position limit (``const_box`` (0, 0): lb, ub as assembled); :func:`form_qp` into
+    the packed H, g (the task rows ``Js``, ``es``, ``rowp``, ``pw``, ``prow`` packed into ``sfb``/``sib`` by
+    :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and :func:`all_finite` on the equality right-hand
+    side b; :func:`kinematic_solve_packed`; the output guard's screens :func:`command_within_box` and
+    :func:`command_within_rows` on v — the same numbers as those calls made one after the other.
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
@@ -472,6 +507,12 @@ def kinematic_tick_packed(fb, ib, Js, es, rowp, diff, pw, prow, pgain, damping, 
         passed both screens.
     """
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    Js, es, rowp, pw, prow = _unpack_rows(sfb, sib)
+    if const_box.shape[0] == 2:
+        for i in range(lb.shape[0]):
+            lb[i] = const_box[0, i]
+            ub[i] = const_box[1, i]
+        intersect_position_bounds(q, box_idx, box_limits, dt, lb, ub)
     n0 = 6 if er >= 0 else 0
     row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
     check = _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row)
@@ -684,9 +725,10 @@ def warm_up() -> float:
     views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
     views["lb"][6], views["ub"][6] = -1.0, 1.0
     kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
-    kinematic_tick_packed(fb, ib, np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0),
-                          np.zeros(0, np.int64), 0.0, 1e-6, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7),
-                          0.002, 1e-6, 10)
+    sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
+    rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
+    kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.zeros(0, np.int8),
+                          np.empty(7), 0.002, 1e-6, 10, *NO_KERNEL_BOX)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
