@@ -339,3 +339,39 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
         code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, state, r2, v2, 0.002, 1e-6, 200,
                                             *NO_KERNEL_BOX)
         assert code == NONFINITE_RHS and not guard and np.array_equal(state, s2)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limits(seed):
+    """kinematic_tick_packed given a constant box and a joint position limit's packed arrays writes lb, ub = the
+    constant box clipped by the position bounds lo = min((q_min − q)/dt, v_max), hi = max((q_max − q)/dt, −v_max)
+    (numpy formula, each bound clipped into the constant one), before anything else: also when it then
+    refuses a non-finite right-hand side; the other entries keep the constant box."""
+    from wbc.formulations.velocity_kernel import NONFINITE_RHS, kinematic_pack, kinematic_tick_packed, rows_pack
+
+    rng = np.random.default_rng(40 + seed)
+    nv, nq, dt = 14, 15, 0.002
+    fb, ib, x = kinematic_pack(nv, 6, 0, 0)
+    x["A"][:] = rng.standard_normal((6, nv))
+    x["A"][:, :6] += 3 * np.eye(6)
+    sfb, sib, rows = rows_pack(2, nv, np.zeros(0, np.int64))
+    rows["J"][:], rows["rowp"][:] = rng.standard_normal((2, nv)), 1.0
+    const = np.array([np.r_[np.full(6, -np.inf), -rng.uniform(0.5, 2, nv - 6)],
+                      np.r_[np.full(6, np.inf), rng.uniform(0.5, 2, nv - 6)]])
+    idx_v = np.sort(rng.choice(np.arange(6, nv), 5, replace=False))
+    idx = np.array([idx_v + 1, idx_v], np.int64)
+    q = rng.uniform(-1, 1, nq)
+    q_min = q[idx[0]] + rng.uniform(-0.01, 0.003, 5)  # some joints outside their range: the recovery bound
+    q_max = q_min + rng.uniform(0.0, 0.01, 5)
+    limits = np.array([q_min, q_max, rng.uniform(0.5, 3, 5)])
+    lo = np.minimum((q_min - q[idx[0]]) / dt, limits[2])
+    hi = np.maximum((q_max - q[idx[0]]) / dt, -limits[2])
+    lb, ub = const[0].copy(), const[1].copy()
+    lb[idx_v] = np.minimum(np.maximum(lo, const[0, idx_v]), const[1, idx_v])
+    ub[idx_v] = np.maximum(np.minimum(hi, const[1, idx_v]), const[0, idx_v])
+    for b_value in (0.0, np.nan):
+        x["lb"][:], x["ub"][:], x["b"][:] = 9.0, 9.0, b_value
+        code, _ = kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(nv), 0.0, 1e-6, np.zeros(nv - 6, np.int8),
+                                        np.zeros(0, np.int8), np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
+        assert (code == NONFINITE_RHS) == np.isnan(b_value)
+        assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)

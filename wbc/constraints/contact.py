@@ -22,7 +22,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.tasks.base import ValidatedAttribute
 from wbc.tasks.frame import as_se3, placement_log6_into
 
-__all__ = ["ContactConstraint", "write_contact_pair"]
+__all__ = ["ContactConstraint"]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -56,31 +56,6 @@ def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b
     if not _write_contact_rows(jac_a, pose_a, rot_a, pos_a, scale_a, A[ra:ra + 6], b[ra:ra + 6]):
         return False
     return _write_contact_rows(jac_b, pose_b, rot_b, pos_b, scale_b, A[rb:rb + 6], b[rb:rb + 6])
-
-
-def write_contact_pair(ctx: KinematicContext, first: ContactConstraint, second: ContactConstraint, A: np.ndarray,
-                       b: np.ndarray, first_row: int, second_row: int) -> None:
-    """Two contacts' :meth:`ContactConstraint.write` in one compiled call (the same numbers): the rows of ``first``
-    into A[first_row:first_row + 6] (6, nv) and b[first_row:first_row + 6], those of ``second`` at ``second_row``, at
-    ``ctx.config`` and ``ctx.dt``. For a biped's two soles, written every tick.
-
-    Args:
-        ctx: the tick's :class:`~wbc.constraints.base.KinematicContext`.
-        first, second: contacts of class :class:`ContactConstraint` itself (a subclass's own rows are written by its
-            own :meth:`~ContactConstraint.write`).
-        A (m, nv), b (m,): the stacked equality rows (out).
-        first_row, second_row: where each contact's 6 rows start.
-    """
-    config = ctx.config
-    model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
-    va, vb = first._views(data), second._views(data)
-    ja = pin.getFrameJacobian(model, data, first.frame_id, LOCAL)
-    jb = pin.getFrameJacobian(model, data, second.frame_id, LOCAL)
-    k = 1.0 / ctx.dt
-    if not _write_contact_pair_rows(ja, first._pose, va[2], va[3], -min(first._gain, k), jb, second._pose, vb[2],
-                                    vb[3], -min(second._gain, k), A, b, first_row, second_row):
-        first.write(ctx, A[first_row:first_row + 6], b[first_row:first_row + 6])  # a half-turn error: log6
-        second.write(ctx, A[second_row:second_row + 6], b[second_row:second_row + 6])
 
 
 def _as_contact_gain(value) -> float:
@@ -191,6 +166,31 @@ class ContactConstraint(EqualityConstraint):
         scale = -min(self._gain, 1.0 / ctx.dt)
         if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
             _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
+
+    def write_pair(self, other: ContactConstraint, ctx: KinematicContext, A: np.ndarray, b: np.ndarray, row: int,
+                   other_row: int) -> None:
+        """:meth:`write` of this contact and of ``other`` in one compiled call (the same numbers): this one's rows
+        into A[row:row + 6] (6, nv) and b[row:row + 6], those of ``other`` at ``other_row``, at ``ctx.config`` and
+        ``ctx.dt`` (a biped's two soles, written every tick). Both must be of class :class:`ContactConstraint` itself
+        (a subclass's own rows are written by its :meth:`write`).
+
+        Args:
+            other: the second contact.
+            ctx: the tick's :class:`~wbc.constraints.base.KinematicContext`.
+            A (m, nv), b (m,): the stacked equality rows (out).
+            row, other_row: where each contact's 6 rows start.
+        """
+        config = ctx.config
+        model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
+        views = self._views(data)
+        pose_b, rot_b, pos_b = other.log_operands(data)
+        ja = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
+        jb = pin.getFrameJacobian(model, data, other.frame_id, LOCAL)
+        k = 1.0 / ctx.dt
+        if not _write_contact_pair_rows(ja, self._pose, views[2], views[3], -min(self._gain, k), jb, pose_b, rot_b,
+                                        pos_b, -min(other.gain, k), A, b, row, other_row):
+            self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
+            other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
 
     def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position

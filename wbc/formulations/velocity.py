@@ -177,7 +177,7 @@ import pinocchio as pin
 from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
                                   KinematicContext)
-from wbc.constraints.contact import ContactConstraint, write_contact_pair
+from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
@@ -767,11 +767,11 @@ class KinematicController:
         # each contact's rows written in place (Constraint.write into views of A, b), and its factor dt − 1/K (the
         # contact's expected error (1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
-        # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_contact_pair)
+        # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
         self._contact_pair = None
         if len(self._contact_blocks) == 2 and all(type(c) is ContactConstraint for c, _, _ in self._contact_blocks):
             (ca, ra, _), (cb, rb, _) = self._contact_blocks
-            self._contact_pair = (ca, cb, self._A, self._b, ra, rb)
+            self._contact_pair = (ca, cb, ra, rb)
         self._other_eq_blocks = [blk for blk in self._eq_blocks if id(blk[0]) not in contact_ids]
         self._contact_factors = np.zeros(len(self._contact_blocks))
         self._contact_factor_values = [math.nan] * len(self._contact_blocks)  # the same as floats: written on change
@@ -851,7 +851,8 @@ class KinematicController:
         factors, values = self._contact_factors, self._contact_factor_values
         pair = self._contact_pair
         if pair is not None:
-            write_contact_pair(ctx, *pair)
+            first, second, row, second_row = pair
+            first.write_pair(second, ctx, A, b, row, second_row)
         for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
             if pair is None:
                 c.write(ctx, A_rows, b_rows, None)
@@ -1109,8 +1110,9 @@ class KinematicController:
         Raises:
             InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
         """
-        if isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
-                                                    and math.isfinite(dt) and dt > 0):
+        if not (type(dt) is float and 0.0 < dt < math.inf) and (
+                isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
+                                                         and math.isfinite(dt) and dt > 0)):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
