@@ -164,7 +164,7 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
                 args += [np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy()]
             for lever in (0.0, 0.1):
                 logs = np.full((2, 6), np.nan)
-                d = contact_pair_drift(*args, logs, b, starts, factors, lever)
+                d = contact_pair_drift(*args, logs, b, *starts.tolist(), *factors.tolist(), lever)
                 for p, m, log in zip(places, frames, logs):
                     ref = pin.log6(p.actInv(m)).vector
                     assert np.abs(log - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max())
@@ -172,8 +172,7 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
     p = pin.SE3.Identity()
     half = pin.SE3(pin.exp3(np.array([0.0, 0.0, np.pi])), np.zeros(3))
     ops = [np.vstack([p.rotation, p.translation]), np.asfortranarray(half.rotation), np.zeros(3)]
-    assert contact_pair_drift(*ops, *ops, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2),
-                              0.1) == (-1.0, -1.0)
+    assert contact_pair_drift(*ops, *ops, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1) == (-1.0, -1.0)
 
 
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])

@@ -970,6 +970,7 @@ class KinematicController:
         plan.vdt = self._qp_pack[2]["vdt"]
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
+        plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
         plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
         plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
         plan.supported = True
@@ -1038,8 +1039,9 @@ class KinematicController:
                 (ca, _), (cb, _) = plan.contact_logs
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
-                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b,
-                                                self._contact_starts, self._contact_factors, lever)
+                (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
+                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb,
+                                                f_a, f_b, lever)
                 if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
                     ca.error_into(ndata, plan.logs[0])
                     cb.error_into(ndata, plan.logs[1])

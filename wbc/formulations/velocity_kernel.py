@@ -619,22 +619,30 @@ def contact_drift(logs, b, starts, factors, lever):
     worst = 0.0
     for i in range(logs.shape[0]):
         r0 = starts[i]
-        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
-        if d > far:
-            far = d
-        if lever > 0.0:
-            d = max(d, lever * rotation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i]))
-        if d > worst:
-            worst = d
+        far, worst = _contact_gaps(logs[i], b[r0:r0 + 6], factors[i], lever, far, worst)
     return far, worst
 
 
 @nb.njit(cache=True, nogil=True)
-def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, starts, factors, lever):
+def _contact_gaps(log, b_rows, factor, lever, far, worst):
+    """One contact's term of :func:`contact_drift`: (far, worst) raised to its distance and its drift."""
+    d = translation_gap(log, 1.0, b_rows, factor)
+    if d > far:
+        far = d
+    if lever > 0.0:
+        d = max(d, lever * rotation_gap(log, 1.0, b_rows, factor))
+    if d > worst:
+        worst = d
+    return far, worst
+
+
+@nb.njit(cache=True, nogil=True)
+def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
+                       lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of
     :func:`wbc.tasks.frame.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
-    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (2,), factors (2,), ``lever`` (m))
-    — the same numbers as those calls made one after the other.
+    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (``start_a``, ``start_b``), factors
+    (``factor_a``, ``factor_b``), ``lever`` (m)) — the same numbers as those calls made one after the other.
 
     Returns:
         :func:`contact_drift`'s (distance (m), drift (m)), or (−1.0, −1.0) when an error is within Pinocchio's
@@ -644,7 +652,8 @@ def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, star
         return -1.0, -1.0
     if not placement_log6_into(pose_b, rot_b, pos_b, logs[1]):
         return -1.0, -1.0
-    return contact_drift(logs, b, starts, factors, lever)
+    far, worst = _contact_gaps(logs[0], b[start_a:start_a + 6], factor_a, lever, 0.0, 0.0)
+    return _contact_gaps(logs[1], b[start_b:start_b + 6], factor_b, lever, far, worst)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -733,7 +742,7 @@ def warm_up() -> float:
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
-    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2), 0.1)
+    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
