@@ -313,31 +313,32 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     (fb1, ib1, x1), (fb2, ib2, x2) = packs
     nr = nv - 6
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
-    s2, r2, v2 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
+    s2 = states2[:nr]
     form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1["H"], x1["g"])
     it1 = kinematic_solve_packed(fb1, ib1, s1, r1, v1, 0.002, 1e-6, 200)
     guard1 = it1 >= 1 and command_within_box(v1, x1["lb"], x1["ub"], 1e-6) and (
         n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
     sfb, sib, rows = rows_pack(mt, nv, prow)
     rows["J"][:], rows["e"][:], rows["rowp"][:], rows["pw"][:] = Js, es, rowp, pw
-    it2, guard2 = kinematic_tick_packed(fb2, ib2, sfb, sib, diff, 10.0, 1e-6, s2, r2, v2, 0.002, 1e-6, 200,
+    it2, guard2 = kinematic_tick_packed(fb2, ib2, sfb, sib, diff, 10.0, 1e-6, states2, v2, 0.002, 1e-6, 200,
                                         *NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
     # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
     assert all(np.array_equal(x1[k], x2[k]) for k in x1 if k != "ws")
     assert all(np.array_equal(a, b) for a, b in zip(kinematic_reduced_packed(fb1, ib1),
                                                    kinematic_reduced_packed(fb2, ib2)))
-    assert np.array_equal(v1, v2) and np.array_equal(s1, s2)
+    assert np.array_equal(v1, v2) and np.array_equal(s1, s2) and np.array_equal(r1, states2[nr:])
     for bad in ("b", "cost"):
         fb, ib, x = packs[1]
-        state = s2.copy()
+        states = states2.copy()
         x["b"][0] = np.nan if bad == "b" else A[0] @ v0
         rows["e"][:] = es
         if bad == "cost":
             rows["e"][0] = np.inf
-        code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, state, r2, v2, 0.002, 1e-6, 200,
+        code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, states, v2, 0.002, 1e-6, 200,
                                             *NO_KERNEL_BOX)
-        assert code == NONFINITE_RHS and not guard and np.array_equal(state, s2)
+        assert code == NONFINITE_RHS and not guard and np.array_equal(states, states2)
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -371,6 +372,6 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
     for b_value in (0.0, np.nan):
         x["lb"][:], x["ub"][:], x["b"][:] = 9.0, 9.0, b_value
         code, _ = kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(nv), 0.0, 1e-6, np.zeros(nv - 6, np.int8),
-                                        np.zeros(0, np.int8), np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
+                                        np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
         assert (code == NONFINITE_RHS) == np.isnan(b_value)
         assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)

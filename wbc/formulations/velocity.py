@@ -437,7 +437,7 @@ class KinematicController:
         self._soft_layouts: dict[tuple, tuple] = {}
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
-        self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
+        self._fused_states: dict[int, _FusedPlan] = {}  # the last plan per number of variables (its working set)
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -946,6 +946,12 @@ class KinematicController:
             while len(self._fused_plans) > 16:
                 self._fused_plans.pop(next(iter(self._fused_plans)))
         if plan.supported:
+            nr = plan.state.shape[0]
+            owner = self._fused_states.get(nr)  # the plan of nr variables that solved last
+            if owner is not plan:
+                if owner is not None:
+                    plan.state[:] = owner.state  # the joint working set, kept across support switches
+                self._fused_states[nr] = plan
             plan.layout_key = self._layout_key  # the identity checked every tick
             self._fused = plan
             return plan
@@ -965,8 +971,9 @@ class KinematicController:
             return plan  # a contact with rows of its own
         nv = self.nv
         nr = nv - 6 if self._eliminating_row >= 0 else nv
-        plan.state = self._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
-        plan.rstate = np.zeros(self._C.shape[0], np.int8)                      # across support switches
+        # the joint working set (kept across support switches: _fused_plan) then the rows', one array for the kernel
+        plan.states = np.zeros(nr + self._C.shape[0], np.int8)
+        plan.state, plan.rstate = plan.states[:nr], plan.states[nr:]
         plan.vdt = self._qp_pack[2]["vdt"]
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
@@ -1007,8 +1014,8 @@ class KinematicController:
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
         it, guard = kinematic_tick_packed(fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain,
-                                          self.damping, plan.state, plan.rstate, v, float(dt), tol, backend.max_iter,
-                                          config.q, *box)
+                                          self.damping, plan.states, v, float(dt), tol, backend.max_iter, config.q,
+                                          *box)
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it

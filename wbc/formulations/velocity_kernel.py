@@ -491,19 +491,21 @@ def _unpack_rows(sfb, sib):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, state, rstate, v, dt, tolerance, max_iter, q,
-                          box_idx, box_limits, const_box):
+def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt, tolerance, max_iter, q, box_idx,
+                          box_limits, const_box):
     """The compiled tick in one call: the box, when ``const_box`` is (2, nv): lb, ub ← its rows (the intersection of
     the constant bounds), then :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box_idx``,
     ``box_limits``, dt) of a joint position limit (``const_box`` (0, 0): lb, ub as assembled); :func:`form_qp` into
     the packed H, g (the task rows ``Js``, ``es``, ``rowp``, ``pw``, ``prow`` packed into ``sfb``/``sib`` by
     :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and :func:`all_finite` on the equality right-hand
     side b; :func:`kinematic_solve_packed`; the output guard's screens :func:`command_within_box` and
-    :func:`command_within_rows` on v — the same numbers as those calls made one after the other.
+    :func:`command_within_rows` on v — the same numbers as those calls made one after the other. ``states`` (nr +
+    p,) int8: the working sets ``state`` (nr,) and ``rstate`` (p,) of :func:`kinematic_solve_packed` one after the
+    other (nr = nv − 6 with the floating-base elimination, else nv; p inequality rows).
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
-        ``state`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
+        ``states`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
         passed both screens.
     """
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
@@ -518,7 +520,9 @@ def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, state, rstate,
     check = _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
-    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+    nr = H.shape[0] - n0
+    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws,
+                         v)
     if it < 1:
         return it, False
     return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
@@ -736,8 +740,8 @@ def warm_up() -> float:
     kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
     sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
     rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
-    kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.zeros(0, np.int8),
-                          np.empty(7), 0.002, 1e-6, 10, *NO_KERNEL_BOX)
+    kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.empty(7), 0.002, 1e-6,
+                          10, *NO_KERNEL_BOX)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
