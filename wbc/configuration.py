@@ -15,7 +15,7 @@ import pinocchio as pin
 
 from wbc.compiled import once_per_process
 from wbc.exceptions import ConfigurationError
-from wbc.geometry import ReadOnly, check_vector
+from wbc.geometry import FLOAT64, ReadOnly, check_vector
 from wbc.robot import Robot
 
 __all__ = ["Configuration", "check_vector"]
@@ -53,11 +53,28 @@ def _scaled_matches(v, dt, out, q, ahead):
     return 2
 
 
+@nb.njit(cache=True, nogil=True)
+def _record_ahead(vdt, q, ahead):
+    """ahead = [vdt, q] and True when every entry of vdt is finite, else False with ahead untouched (compiled: one
+    call for the check and both copies)."""
+    n = vdt.shape[0]
+    for i in range(n):
+        if not np.isfinite(vdt[i]):
+            return False
+    for i in range(n):
+        ahead[i] = vdt[i]
+    for i in range(q.shape[0]):
+        ahead[n + i] = q[i]
+    return True
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_scaled_if_finite` (on-disk cache) once per process, at construction."""
+    """Load :func:`_scaled_if_finite`, :func:`_scaled_matches` and :func:`_record_ahead` (on-disk cache) once per
+    process, at construction."""
     _scaled_if_finite(np.zeros(1), 0.002, np.zeros(1))
     _scaled_matches(np.zeros(1), 0.002, np.zeros(1), np.zeros(2), np.zeros(3))
+    _record_ahead(np.zeros(1), np.zeros(2), np.zeros(3))
 
 
 class Configuration:
@@ -78,6 +95,7 @@ class Configuration:
         self._data = robot.model.createData()
         self._frames_stale = False
         self._nv = robot.model.nv
+        self._v_shape = (self._nv,)
         self._vdt = np.zeros(self._nv)  # v dt of step
         self._keep_ag = False
         self._ag = None
@@ -138,19 +156,19 @@ class Configuration:
         """
         if type(self).update is not Configuration.update:
             return None
-        nv = self._nv
-        head = self._ahead[:nv]
-        if not (type(vdt) is np.ndarray and vdt.shape == (nv,) and vdt.dtype == np.float64
-                and _scaled_if_finite(vdt, 1.0, head)):  # head = vdt when it is finite (x · 1.0 = x)
-            vdt = check_vector(vdt, nv, "displacement vdt")  # raises with the details, else a finite float array
-            head[:] = vdt
+        self._ahead_out = None  # until this lookahead's Data is computed
+        q = self.q
+        if not (type(vdt) is np.ndarray and vdt.shape == self._v_shape and vdt.dtype is FLOAT64
+                and _record_ahead(vdt, q, self._ahead)):  # _ahead = [vdt, q] when vdt is finite
+            vdt = check_vector(vdt, self._nv, "displacement vdt")  # raises with the details, else a finite array
+            self._ahead[:self._nv] = vdt
+            self._ahead[self._nv:] = q
         spare = self._spare
         if spare is None:
             data = self.model.createData()
             spare = self._spare = (data, data.com[0])
-        q_next = pin.integrate(self.model, self.q, vdt)
+        q_next = pin.integrate(self.model, q, vdt)
         jcom, ag = self._kinematics(spare[0], q_next)
-        self._ahead[nv:] = self.q
         self._ahead_out = (spare, q_next, jcom, ag)
         return spare[0]
 
@@ -226,7 +244,7 @@ class Configuration:
         vdt = self._vdt
         ahead = self._ahead_out
         match = 0
-        if type(v) is np.ndarray and v.shape == (self._nv,) and v.dtype == np.float64:
+        if type(v) is np.ndarray and v.shape == self._v_shape and v.dtype is FLOAT64:
             if ahead is None:
                 match = int(_scaled_if_finite(v, float(dt), vdt))
             else:

@@ -25,12 +25,16 @@ import pinocchio as pin
 from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError, ReadOnlyAttributeError
 
 __all__ = [
-    "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "FLOAT64", "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
     "rectangle_in_polygon", "signed_distance_point", "signed_distance", "polygons_overlap", "polygon_margin", "closest_point_in_polygon",
     "projected_sole_corners",
 ]
 
 Point = tuple[float, float]
+
+#: numpy's float64 dtype, native byte order: ``x.dtype is FLOAT64`` is the cheap test of a float array that
+#: ``np.asarray(x, dtype=float)`` returns unchanged and that the compiled kernels take
+FLOAT64 = np.dtype(np.float64)
 
 
 def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarray:
@@ -40,10 +44,13 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
     Raises:
         error (default ConfigurationError): not numeric, wrong shape, or NaN/inf entries.
     """
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
+    if type(x) is np.ndarray and x.dtype is FLOAT64:
+        arr = x  # already a float array (np.asarray would return it)
+    else:
+        try:
+            arr = np.asarray(x, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise error(f"{what} must be a ({size},) array of finite numbers, got {x!r} ({exc})") from exc
     if arr.shape != (size,):
         raise error(f"{what} must have shape ({size},), got {arr.shape}")
     # NaN/inf propagate into the sum (an overflow also lands here; the test below then finds no bad entry): a sum
@@ -76,25 +83,27 @@ def check_flag(x, what: str, error=InvalidInputError) -> bool:
     return bool(x)
 
 
-class Flag:
-    """A bool attribute checked on every assignment by :func:`check_flag` (a data descriptor): declared in a class
-    body as ``name = Flag("what it switches")``, stored on the instance as ``_name``.
+class Flag(property):
+    """A bool attribute checked on every assignment by :func:`check_flag` (a property whose getter is
+    :func:`operator.attrgetter`: no Python call per read): declared in a class body as
+    ``name = Flag("what it switches")``, stored on the instance as ``_name``.
 
     Raises:
         InvalidInputError: on assignment of anything but True or False.
     """
 
     def __init__(self, doc: str):
-        self.__doc__ = doc
+        super().__init__(doc=doc)
+        self.__doc__ = doc  # the attribute's own docstring (a property subclass would show the class's)
 
     def __set_name__(self, owner, name: str) -> None:
         self.name, self.slot = name, "_" + name
+        slot = self.slot
 
-    def __get__(self, obj, objtype=None):
-        return self if obj is None else getattr(obj, self.slot)
+        def store(obj, value) -> None:
+            setattr(obj, slot, check_flag(value, name))
 
-    def __set__(self, obj, value) -> None:
-        setattr(obj, self.slot, check_flag(value, self.name))
+        property.__init__(self, operator.attrgetter(slot), store, None, self.__doc__)
 
 
 class ReadOnly(property):

@@ -57,3 +57,40 @@ def test_contact_rows_are_the_frame_jacobian_and_the_scaled_log6(robots, name):
         assert np.abs(err - ref).max() <= 1e-12 * scale
         assert np.array_equal(err, contact.compute_error(config)) or \
             np.abs(err - contact.compute_error(config)).max() <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("name", ["talos", "humanoid15"])
+def test_two_contacts_written_in_one_call_are_each_contacts_rows(robots, name):
+    """ContactConstraint.write_pair (both soles in one compiled call) writes the rows of the two contacts' own
+    write bit for bit, where each lands in the stacked rows, including a half-turn error of either (Pinocchio's
+    log6 then); rows of other blocks are left untouched."""
+    import numpy as np
+    import pinocchio as pin
+
+    from conftest import random_configuration
+    from wbc.configuration import Configuration
+    from wbc.constraints import ContactConstraint
+    from wbc.constraints.base import KinematicContext
+
+    robot = robots(name)
+    rng = np.random.default_rng(11)
+    config = Configuration(robot)
+    left = ContactConstraint(robot, robot.left_sole, gain=80.0)
+    right = ContactConstraint(robot, robot.right_sole, gain=1e6)  # capped at 1/dt
+    ctx = KinematicContext()
+    half_turn = pin.SE3(pin.exp3(np.array([np.pi - 1e-8, 0.0, 0.0])), np.zeros(3))
+    for k in range(12):
+        config.update(random_configuration(robot, rng))
+        for contact in (left, right):
+            offset = pin.exp6(pin.Motion(rng.standard_normal(6) * 10.0 ** rng.uniform(-9, 0)))
+            if (k, contact) in ((10, left), (11, right)):
+                offset = half_turn
+            contact.set_placement(config.data.oMf[contact.frame_id] * offset)
+        ctx.config, ctx.dt = config, 0.002
+        A, b = np.full((15, robot.nv), 7.0), np.full(15, 7.0)
+        left.write_pair(right, ctx, A, b, 8, 1)
+        ref_A, ref_b = np.empty((6, robot.nv)), np.empty(6)
+        for contact, row in ((left, 8), (right, 1)):
+            contact.write(ctx, ref_A, ref_b)
+            assert np.array_equal(A[row:row + 6], ref_A) and np.array_equal(b[row:row + 6], ref_b)
+        assert (A[[0, 7, 14]] == 7.0).all() and (b[[0, 7, 14]] == 7.0).all()

@@ -214,7 +214,7 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
 
     def spy(fb, ib, *args):  # the kernel forms H, g, then solves reading (never writing) the QP: read after it
         it, guard = tick_packed(fb, ib, *args)
-        received.append((fb, fb.copy(), it, args[10].copy()))
+        received.append((fb, fb.copy(), it, args[6].copy()))
         return it, guard
 
     velocity.kinematic_tick_packed = spy

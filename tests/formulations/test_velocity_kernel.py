@@ -164,7 +164,7 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
                 args += [np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy()]
             for lever in (0.0, 0.1):
                 logs = np.full((2, 6), np.nan)
-                d = contact_pair_drift(*args, logs, b, starts, factors, lever)
+                d = contact_pair_drift(*args, logs, b, *starts.tolist(), *factors.tolist(), lever)
                 for p, m, log in zip(places, frames, logs):
                     ref = pin.log6(p.actInv(m)).vector
                     assert np.abs(log - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max())
@@ -172,8 +172,7 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
     p = pin.SE3.Identity()
     half = pin.SE3(pin.exp3(np.array([0.0, 0.0, np.pi])), np.zeros(3))
     ops = [np.vstack([p.rotation, p.translation]), np.asfortranarray(half.rotation), np.zeros(3)]
-    assert contact_pair_drift(*ops, *ops, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2),
-                              0.1) == (-1.0, -1.0)
+    assert contact_pair_drift(*ops, *ops, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1) == (-1.0, -1.0)
 
 
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])
@@ -290,9 +289,10 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve_packed, command_within_box and
     command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
-    from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, form_qp,
+    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, command_within_box,
+                                                  command_within_rows, form_qp,
                                                   kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
-                                                  kinematic_tick_packed)
+                                                  kinematic_tick_packed, rows_pack)
 
     rng = np.random.default_rng(900 + seed)
     nv, mt, n_eq, n_in = 20, 5, 6, seed % 3
@@ -313,26 +313,65 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     (fb1, ib1, x1), (fb2, ib2, x2) = packs
     nr = nv - 6
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
-    s2, r2, v2 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
+    states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
+    s2 = states2[:nr]
     form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1["H"], x1["g"])
     it1 = kinematic_solve_packed(fb1, ib1, s1, r1, v1, 0.002, 1e-6, 200)
     guard1 = it1 >= 1 and command_within_box(v1, x1["lb"], x1["ub"], 1e-6) and (
         n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
-    it2, guard2 = kinematic_tick_packed(fb2, ib2, Js, es, rowp, diff, pw, prow, 10.0, 1e-6, s2, r2, v2, 0.002, 1e-6,
-                                        200)
+    sfb, sib, rows = rows_pack(mt, nv, prow)
+    rows["J"][:], rows["e"][:], rows["rowp"][:], rows["pw"][:] = Js, es, rowp, pw
+    it2, guard2 = kinematic_tick_packed(fb2, ib2, sfb, sib, diff, 10.0, 1e-6, states2, v2, 0.002, 1e-6, 200,
+                                        *NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
     # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
     assert all(np.array_equal(x1[k], x2[k]) for k in x1 if k != "ws")
     assert all(np.array_equal(a, b) for a, b in zip(kinematic_reduced_packed(fb1, ib1),
                                                    kinematic_reduced_packed(fb2, ib2)))
-    assert np.array_equal(v1, v2) and np.array_equal(s1, s2)
+    assert np.array_equal(v1, v2) and np.array_equal(s1, s2) and np.array_equal(r1, states2[nr:])
     for bad in ("b", "cost"):
         fb, ib, x = packs[1]
-        state = s2.copy()
+        states = states2.copy()
         x["b"][0] = np.nan if bad == "b" else A[0] @ v0
-        es_bad = es.copy()
+        rows["e"][:] = es
         if bad == "cost":
-            es_bad[0] = np.inf
-        code, guard = kinematic_tick_packed(fb, ib, Js, es_bad, rowp, diff, pw, prow, 10.0, 1e-6, state, r2, v2,
-                                            0.002, 1e-6, 200)
-        assert code == NONFINITE_RHS and not guard and np.array_equal(state, s2)
+            rows["e"][0] = np.inf
+        code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, states, v2, 0.002, 1e-6, 200,
+                                            *NO_KERNEL_BOX)
+        assert code == NONFINITE_RHS and not guard and np.array_equal(states, states2)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limits(seed):
+    """kinematic_tick_packed given a constant box and a joint position limit's packed arrays writes lb, ub = the
+    constant box clipped by the position bounds lo = min((q_min − q)/dt, v_max), hi = max((q_max − q)/dt, −v_max)
+    (numpy formula, each bound clipped into the constant one), before anything else: also when it then
+    refuses a non-finite right-hand side; the other entries keep the constant box."""
+    from wbc.formulations.velocity_kernel import NONFINITE_RHS, kinematic_pack, kinematic_tick_packed, rows_pack
+
+    rng = np.random.default_rng(40 + seed)
+    nv, nq, dt = 14, 15, 0.002
+    fb, ib, x = kinematic_pack(nv, 6, 0, 0)
+    x["A"][:] = rng.standard_normal((6, nv))
+    x["A"][:, :6] += 3 * np.eye(6)
+    sfb, sib, rows = rows_pack(2, nv, np.zeros(0, np.int64))
+    rows["J"][:], rows["rowp"][:] = rng.standard_normal((2, nv)), 1.0
+    const = np.array([np.r_[np.full(6, -np.inf), -rng.uniform(0.5, 2, nv - 6)],
+                      np.r_[np.full(6, np.inf), rng.uniform(0.5, 2, nv - 6)]])
+    idx_v = np.sort(rng.choice(np.arange(6, nv), 5, replace=False))
+    idx = np.array([idx_v + 1, idx_v], np.int64)
+    q = rng.uniform(-1, 1, nq)
+    q_min = q[idx[0]] + rng.uniform(-0.01, 0.003, 5)  # some joints outside their range: the recovery bound
+    q_max = q_min + rng.uniform(0.0, 0.01, 5)
+    limits = np.array([q_min, q_max, rng.uniform(0.5, 3, 5)])
+    lo = np.minimum((q_min - q[idx[0]]) / dt, limits[2])
+    hi = np.maximum((q_max - q[idx[0]]) / dt, -limits[2])
+    lb, ub = const[0].copy(), const[1].copy()
+    lb[idx_v] = np.minimum(np.maximum(lo, const[0, idx_v]), const[1, idx_v])
+    ub[idx_v] = np.maximum(np.minimum(hi, const[1, idx_v]), const[0, idx_v])
+    for b_value in (0.0, np.nan):
+        x["lb"][:], x["ub"][:], x["b"][:] = 9.0, 9.0, b_value
+        code, _ = kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(nv), 0.0, 1e-6, np.zeros(nv - 6, np.int8),
+                                        np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
+        assert (code == NONFINITE_RHS) == np.isnan(b_value)
+        assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)

@@ -48,6 +48,16 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     return True
 
 
+@nb.njit(cache=True, nogil=True)
+def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
+    """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
+    … ``rb + 6`` of A (m, nv) and b (m,). Returns False near a half-turn error of either (the second's rows then not
+    written)."""
+    if not _write_contact_rows(jac_a, pose_a, rot_a, pos_a, scale_a, A[ra:ra + 6], b[ra:ra + 6]):
+        return False
+    return _write_contact_rows(jac_b, pose_b, rot_b, pos_b, scale_b, A[rb:rb + 6], b[rb:rb + 6])
+
+
 def _as_contact_gain(value) -> float:
     """A contact's drift-correction gain K (1/s) as a float.
 
@@ -66,11 +76,14 @@ def _as_contact_gain(value) -> float:
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_write_rows` and :func:`_write_contact_rows` (on-disk cache) once per process, at construction,
+    """Load :func:`_write_rows`, :func:`_write_contact_rows` and :func:`_write_contact_pair_rows` (on-disk cache) once
+    per process, at construction,
     for Pinocchio's array types (F-ordered rotation)."""
     _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
     _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
                         np.zeros((6, 1)), np.zeros(6))
+    frame = (np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0)
+    _write_contact_pair_rows(*frame, *frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
 
 
 class ContactConstraint(EqualityConstraint):
@@ -153,6 +166,31 @@ class ContactConstraint(EqualityConstraint):
         scale = -min(self._gain, 1.0 / ctx.dt)
         if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
             _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
+
+    def write_pair(self, other: ContactConstraint, ctx: KinematicContext, A: np.ndarray, b: np.ndarray, row: int,
+                   other_row: int) -> None:
+        """:meth:`write` of this contact and of ``other`` in one compiled call (the same numbers): this one's rows
+        into A[row:row + 6] (6, nv) and b[row:row + 6], those of ``other`` at ``other_row``, at ``ctx.config`` and
+        ``ctx.dt`` (a biped's two soles, written every tick). Both must be of class :class:`ContactConstraint` itself
+        (a subclass's own rows are written by its :meth:`write`).
+
+        Args:
+            other: the second contact.
+            ctx: the tick's :class:`~wbc.constraints.base.KinematicContext`.
+            A (m, nv), b (m,): the stacked equality rows (out).
+            row, other_row: where each contact's 6 rows start.
+        """
+        config = ctx.config
+        model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
+        views = self._views(data)
+        pose_b, rot_b, pos_b = other.log_operands(data)
+        ja = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
+        jb = pin.getFrameJacobian(model, data, other.frame_id, LOCAL)
+        k = 1.0 / ctx.dt
+        if not _write_contact_pair_rows(ja, self._pose, views[2], views[3], -min(self._gain, k), jb, pose_b, rot_b,
+                                        pos_b, -min(other.gain, k), A, b, row, other_row):
+            self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
+            other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
 
     def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position

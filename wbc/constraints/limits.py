@@ -18,7 +18,8 @@ from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.linalg import clip_entry_into
 
-__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints", "load_limit_kernels"]
+__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints", "intersect_position_bounds",
+           "load_limit_kernels"]
 
 
 def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
@@ -44,7 +45,7 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
 
 
 @nb.njit(cache=True, nogil=True)
-def _intersect_position_bounds(q, idx, limits, dt, lb, ub):
+def intersect_position_bounds(q, idx, limits, dt, lb, ub):
     """The bounds of :func:`_position_bounds` intersected with the running box lb, ub (nv,) at the velocity indices
     ``idx[1]``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled). ``idx`` (2, n)
     = (idx_q, idx_v), ``limits`` (3, n) = (q_min, q_max, v_max): packed, fewer arguments to unbox per call."""
@@ -72,11 +73,11 @@ def load_limit_kernels(bounds, intersect, *params, buffers: int = 2) -> None:
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_position_bounds` and :func:`_intersect_position_bounds` (on-disk cache) once per process, at
+    """Load :func:`_position_bounds` and :func:`intersect_position_bounds` (on-disk cache) once per process, at
     construction."""
     z = np.zeros(1)
     _position_bounds(z, np.zeros(1, dtype=np.int64), z, z, z, z, 0.002, np.empty(1), np.empty(1))
-    _intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((3, 1)), 0.002, np.zeros(1), np.zeros(1))
+    intersect_position_bounds(z, np.zeros((2, 1), dtype=np.int64), np.zeros((3, 1)), 0.002, np.zeros(1), np.zeros(1))
 
 
 def _limit_row(row: int, name: str, doc: str) -> property:
@@ -152,7 +153,14 @@ class JointPositionLimit(BoxConstraint):
 
     def intersect_into(self, config: Configuration, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
         """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers)."""
-        _intersect_position_bounds(config.q, self._idx, self._limits, float(dt), lb, ub)
+        intersect_position_bounds(config.q, self._idx, self._limits, float(dt), lb, ub)
+
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arrays :meth:`intersect_into` hands :func:`intersect_position_bounds`: (idx (2, dim) int64 = (idx_q,
+        indices), limits (3, dim) = (q_min, q_max, v_max)), for a caller that intersects the bounds inside a
+        compiled call of its own. The constraint's own arrays (read-only use): an in-place change of :attr:`q_min`,
+        :attr:`q_max` or :attr:`v_max` is seen in them."""
+        return self._idx, self._limits
 
 
 class JointVelocityLimit(BoxConstraint):

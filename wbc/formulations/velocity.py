@@ -182,10 +182,11 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
-                                              contact_pair_drift, ensure_compiled, form_qp, kinematic_finish_packed,
-                                              kinematic_pack, kinematic_reduced_packed, kinematic_tick_packed,
-                                              rotation_gap, translation_gap, weighted_rows)
+from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, command_within_box, command_within_rows,
+                                              contact_drift, contact_pair_drift, ensure_compiled, form_qp,
+                                              kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
+                                              kinematic_tick_packed, rotation_gap, rows_pack, translation_gap,
+                                              weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -436,7 +437,7 @@ class KinematicController:
         self._soft_layouts: dict[tuple, tuple] = {}
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
-        self._fused_states: dict[int, np.ndarray] = {}  # working sets of the compiled tick, per number of variables
+        self._fused_states: dict[int, _FusedPlan] = {}  # the last plan per number of variables (its working set)
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -726,7 +727,7 @@ class KinematicController:
             return
         self._layout_key = key
         self._constraints = list(self.constraints)
-        self._const_lb = self._const_ub = None
+        self._const_box = None
         eq = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
         ineq = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
         self._box = sorted((c for c in self.constraints if isinstance(c, BoxConstraint)), key=lambda c: c.priority)
@@ -762,9 +763,15 @@ class KinematicController:
         views = self._qp_pack[2]
         self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
         self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
+        self._box_rows = views["box"]  # (lb, ub)
         # each contact's rows written in place (Constraint.write into views of A, b), and its factor dt − 1/K (the
         # contact's expected error (1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
+        # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
+        self._contact_pair = None
+        if len(self._contact_blocks) == 2 and all(type(c) is ContactConstraint for c, _, _ in self._contact_blocks):
+            (ca, ra, _), (cb, rb, _) = self._contact_blocks
+            self._contact_pair = (ca, cb, ra, rb)
         self._other_eq_blocks = [blk for blk in self._eq_blocks if id(blk[0]) not in contact_ids]
         self._contact_factors = np.zeros(len(self._contact_blocks))
         self._contact_factor_values = [math.nan] * len(self._contact_blocks)  # the same as floats: written on change
@@ -805,10 +812,11 @@ class KinematicController:
         """
         return self._assemble(config, dt, True)
 
-    def _assemble(self, config: Configuration, dt: float, form_cost: bool):
+    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
         """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
         are kept in ``_posture_diff``, ``_posture_gain`` for :func:`~wbc.formulations.velocity_kernel.form_qp` (the
-        compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`)."""
+        compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`); with
+        ``boxes`` False, lb and ub are left to the caller too (the compiled tick's box, :meth:`_kernel_box`)."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
@@ -841,8 +849,13 @@ class KinematicController:
         ctx = self._context
         ctx.config, ctx.dt = config, dt
         factors, values = self._contact_factors, self._contact_factor_values
+        pair = self._contact_pair
+        if pair is not None:
+            first, second, row, second_row = pair
+            first.write_pair(second, ctx, A, b, row, second_row)
         for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
-            c.write(ctx, A_rows, b_rows, None)
+            if pair is None:
+                c.write(ctx, A_rows, b_rows, None)
             f = dt - 1.0 / min(c.gain, 1.0 / dt)
             if f != values[i]:
                 factors[i] = values[i] = f
@@ -853,8 +866,21 @@ class KinematicController:
         C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             c.write(ctx, C[r0:r1], l[r0:r1], u[r0:r1])
-        self._intersect_boxes(config, dt)
+        if boxes:
+            self._intersect_boxes(config, dt)
         return H, g, A, b, C, l, u, self._lb, self._ub
+
+    def _kernel_box(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The box arguments of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
+        layout: (idx, limits, constant box (2, nv)) when the boxes are constant ones followed by one
+        :class:`~wbc.constraints.JointPositionLimit` (the kernel then writes lb, ub as :meth:`_intersect_boxes`
+        does), else empty arrays (lb, ub assembled here)."""
+        if self._const_prefix is None:
+            self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
+        rest = self._box_sel[self._const_prefix:]
+        if self._const_prefix and len(rest) == 1 and type(rest[0][0]) is JointPositionLimit:
+            return (*rest[0][0].packed(), self._const_box)
+        return NO_KERNEL_BOX[1:]
 
     def _intersect_boxes(self, config: Configuration, dt: float, record: list | None = None,
                          skip: set | None = None) -> None:
@@ -872,10 +898,9 @@ class KinematicController:
                     n_const += 1
                 self._const_prefix = n_const
                 self._intersect_boxes(config, dt, skip={id(c) for c, _ in boxes[n_const:]})
-                self._const_lb, self._const_ub = lb.copy(), ub.copy()
+                self._const_box = self._box_rows.copy()  # (lb, ub)
             if self._const_prefix:
-                lb[:] = self._const_lb
-                ub[:] = self._const_ub
+                self._box_rows[:] = self._const_box  # lb and ub in one copy
                 boxes = boxes[self._const_prefix:]
                 first = False
         if first:
@@ -921,6 +946,12 @@ class KinematicController:
             while len(self._fused_plans) > 16:
                 self._fused_plans.pop(next(iter(self._fused_plans)))
         if plan.supported:
+            nr = plan.state.shape[0]
+            owner = self._fused_states.get(nr)  # the plan of nr variables that solved last
+            if owner is not plan:
+                if owner is not None:
+                    plan.state[:] = owner.state  # the joint working set, kept across support switches
+                self._fused_states[nr] = plan
             plan.layout_key = self._layout_key  # the identity checked every tick
             self._fused = plan
             return plan
@@ -940,12 +971,15 @@ class KinematicController:
             return plan  # a contact with rows of its own
         nv = self.nv
         nr = nv - 6 if self._eliminating_row >= 0 else nv
-        plan.state = self._fused_states.setdefault(nr, np.zeros(nr, np.int8))  # joint working set: kept
-        plan.rstate = np.zeros(self._C.shape[0], np.int8)                      # across support switches
+        # the joint working set (kept across support switches: _fused_plan) then the rows', one array for the kernel
+        plan.states = np.zeros(nr + self._C.shape[0], np.int8)
+        plan.state, plan.rstate = plan.states[:nr], plan.states[nr:]
         plan.vdt = self._qp_pack[2]["vdt"]
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
+        plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
         plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
+        plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
         plan.supported = True
         return plan
 
@@ -959,7 +993,11 @@ class KinematicController:
             return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
         q = config.q
-        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False)  # the cost is formed by the kernel below
+        box = plan.box
+        if box is None:  # the plan's first tick
+            box = plan.box = self._kernel_box(config, dt)
+        # the cost (and the box, when the kernel writes it) are formed by the kernel below
+        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box[2].shape[0] == 0)
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
@@ -975,9 +1013,9 @@ class KinematicController:
         # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
-        it, guard = kinematic_tick_packed(fb, ib, soft.J, soft.e, soft.rowp, self._posture_diff, soft.pw, soft.prow,
-                                          self._posture_gain, self.damping, plan.state, plan.rstate, v, float(dt), tol,
-                                          backend.max_iter)
+        it, guard = kinematic_tick_packed(fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain,
+                                          self.damping, plan.states, v, float(dt), tol, backend.max_iter, config.q,
+                                          *box)
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it
@@ -1008,8 +1046,9 @@ class KinematicController:
                 (ca, _), (cb, _) = plan.contact_logs
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
-                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b,
-                                                self._contact_starts, self._contact_factors, lever)
+                (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
+                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb,
+                                                f_a, f_b, lever)
                 if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
                     ca.error_into(ndata, plan.logs[0])
                     cb.error_into(ndata, plan.logs[1])
@@ -1080,8 +1119,9 @@ class KinematicController:
         Raises:
             InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
         """
-        if isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
-                                                    and math.isfinite(dt) and dt > 0):
+        if not (type(dt) is float and 0.0 < dt < math.inf) and (
+                isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
+                                                         and math.isfinite(dt) and dt > 0)):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
@@ -2026,10 +2066,10 @@ _CHECKED_SIZE = 64
 
 #: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
 _LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
-                 "_const_prefix", "_const_lb", "_const_ub", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
+                 "_const_prefix", "_const_box", "_box_rows", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
                  "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
                  "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_factor_values", "_contact_starts",
-                 "_relaxable_blocks")
+                 "_relaxable_blocks", "_contact_pair")
 
 
 def _row_blocks(constraints) -> tuple[list, int]:
@@ -2079,9 +2119,11 @@ def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
             soft.posture = task
         else:
             soft.own.append(task)
-    soft.J = np.zeros((row, nv))
-    soft.e = np.zeros(row)
-    soft.rowp = np.zeros((3, row))  # gain, weight, feed-forward of each stacked row
+    prow = np.zeros(0, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
+    # J, e, rowp (gain, weight, feed-forward of each stacked row), the posture's weights and indices: packed into two
+    # arrays, what the compiled tick reads (kinematic_tick_packed)
+    soft.fb, soft.ib, views = rows_pack(row, nv, prow)
+    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = views["J"], views["e"], views["rowp"], views["pw"], views["prow"]
     soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
     soft.wr = np.zeros(row)
     soft.rows = []
@@ -2092,9 +2134,6 @@ def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
             soft.rowp[0, r0:r1] = -1.0
     soft.gains = [None] * len(dense)
     soft.has_ff = [True] * len(dense)
-    kp = 0 if soft.posture is None else soft.posture.dim
-    soft.pw = np.zeros(kp)
-    soft.prow = np.zeros(kp, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
     soft.no_diff = np.zeros(nv)
     return soft
 

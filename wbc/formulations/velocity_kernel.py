@@ -26,6 +26,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
+from wbc.constraints.limits import intersect_position_bounds
 from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
@@ -34,8 +35,8 @@ from wbc.tasks.frame import placement_log6_into
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
-           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NONFINITE_RHS",
-           "rotation_gap",
+           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
+           "NONFINITE_RHS", "rotation_gap", "rows_pack",
            "translation_gap", "warm_up", "weighted_rows"]
 
 
@@ -400,6 +401,10 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
 #: exit code of :mod:`wbc.solvers.status`
 NONFINITE_RHS = -1000
 
+#: the last four arguments of :func:`kinematic_tick_packed` (q, box_idx, box_limits, const_box) when it leaves the
+#: box as assembled
+NO_KERNEL_BOX = (np.zeros(0), np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
+
 #: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
 _PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
 
@@ -409,7 +414,8 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base through the equality
     rows from ``er`` (−1: none), and named views of their parts: the QP's buffers ``H`` (nv, nv), ``g`` (nv,), ``A``
     (n_eq, nv), ``b``, ``C`` (n_in, nv), ``l``, ``u``, ``lb``, ``ub`` (nv,) — the arrays the controller assembles
-    into, so that the compiled solver reads them where they were written — and ``vdt`` (nv,): v·dt after a solve."""
+    into, so that the compiled solver reads them where they were written — ``box`` (2, nv): lb and ub as the rows of
+    one array, and ``vdt`` (nv,): v·dt after a solve."""
     ws, iws = kinematic_workspace(nv, n_eq, n_in, er >= 0)
     shapes = {"H": (nv, nv), "g": (nv,), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv), "l": (n_in,),
               "u": (n_in,), "lb": (nv,), "ub": (nv,), "ws": (ws.size,)}
@@ -427,6 +433,7 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     views = {name: fb[offsets[name]:offsets[name] + math.prod(shape)].reshape(shape)
              for name, shape in shapes.items()}
     views["vdt"] = views["ws"][:nv]
+    views["box"] = fb[offsets["lb"]:offsets["lb"] + 2 * nv].reshape((2, nv))  # lb and ub, consecutive
     return fb, ib, views
 
 
@@ -458,26 +465,64 @@ def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
     return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
 
 
+def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """The two arrays of stacked task rows that :func:`kinematic_tick_packed` reads (one float, one int64) for ``mt``
+    task rows of nv velocities and a posture diagonal at the velocity indices ``prow`` (kp,) (kp = 0: no posture),
+    and named views of their parts, the arguments of :func:`form_qp`: ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt),
+    ``pw`` (kp,) (zeros) and ``prow`` (kp,) int64 (a copy of ``prow``)."""
+    kp = int(np.size(prow))
+    sfb = np.zeros(mt * nv + 4 * mt + kp)
+    sib = np.zeros(3 + kp, np.int64)
+    sib[:3] = (mt, nv, kp)
+    sib[3:] = prow
+    o = mt * nv
+    views = {"J": sfb[:o].reshape((mt, nv)), "e": sfb[o:o + mt], "rowp": sfb[o + mt:o + 4 * mt].reshape((3, mt)),
+             "pw": sfb[o + 4 * mt:], "prow": sib[3:]}
+    return sfb, sib, views
+
+
+@nb.njit(cache=True, nogil=True)
+def _unpack_rows(sfb, sib):
+    """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: (J, e, rowp, pw, prow)."""
+    mt, nv, kp = sib[0], sib[1], sib[2]
+    o = mt * nv
+    return (sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
+            sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick_packed(fb, ib, Js, es, rowp, diff, pw, prow, pgain, damping, state, rstate, v, dt, tolerance,
-                          max_iter):
-    """The compiled tick in one call: :func:`form_qp` into the packed H, g (``Js`` … ``damping`` as there); its
-    check and :func:`all_finite` on the equality right-hand side b; :func:`kinematic_solve_packed`; the output guard's
-    screens :func:`command_within_box` and :func:`command_within_rows` on v — the same numbers as those calls made
-    one after the other.
+def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt, tolerance, max_iter, q, box_idx,
+                          box_limits, const_box):
+    """The compiled tick in one call: the box, when ``const_box`` is (2, nv): lb, ub ← its rows (the intersection of
+    the constant bounds), then :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box_idx``,
+    ``box_limits``, dt) of a joint position limit (``const_box`` (0, 0): lb, ub as assembled); :func:`form_qp` into
+    the packed H, g (the task rows ``Js``, ``es``, ``rowp``, ``pw``, ``prow`` packed into ``sfb``/``sib`` by
+    :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and :func:`all_finite` on the equality right-hand
+    side b; :func:`kinematic_solve_packed`; the output guard's screens :func:`command_within_box` and
+    :func:`command_within_rows` on v — the same numbers as those calls made one after the other. ``states`` (nr +
+    p,) int8: the working sets ``state`` (nr,) and ``rstate`` (p,) of :func:`kinematic_solve_packed` one after the
+    other (nr = nv − 6 with the floating-base elimination, else nv; p inequality rows).
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
-        ``state`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
+        ``states`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
         passed both screens.
     """
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    Js, es, rowp, pw, prow = _unpack_rows(sfb, sib)
+    if const_box.shape[0] == 2:
+        for i in range(lb.shape[0]):
+            lb[i] = const_box[0, i]
+            ub[i] = const_box[1, i]
+        intersect_position_bounds(q, box_idx, box_limits, dt, lb, ub)
     n0 = 6 if er >= 0 else 0
     row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
     check = _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
-    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+    nr = H.shape[0] - n0
+    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws,
+                         v)
     if it < 1:
         return it, False
     return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
@@ -578,22 +623,30 @@ def contact_drift(logs, b, starts, factors, lever):
     worst = 0.0
     for i in range(logs.shape[0]):
         r0 = starts[i]
-        d = translation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i])
-        if d > far:
-            far = d
-        if lever > 0.0:
-            d = max(d, lever * rotation_gap(logs[i], 1.0, b[r0:r0 + 6], factors[i]))
-        if d > worst:
-            worst = d
+        far, worst = _contact_gaps(logs[i], b[r0:r0 + 6], factors[i], lever, far, worst)
     return far, worst
 
 
 @nb.njit(cache=True, nogil=True)
-def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, starts, factors, lever):
+def _contact_gaps(log, b_rows, factor, lever, far, worst):
+    """One contact's term of :func:`contact_drift`: (far, worst) raised to its distance and its drift."""
+    d = translation_gap(log, 1.0, b_rows, factor)
+    if d > far:
+        far = d
+    if lever > 0.0:
+        d = max(d, lever * rotation_gap(log, 1.0, b_rows, factor))
+    if d > worst:
+        worst = d
+    return far, worst
+
+
+@nb.njit(cache=True, nogil=True)
+def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
+                       lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of
     :func:`wbc.tasks.frame.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
-    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (2,), factors (2,), ``lever`` (m))
-    — the same numbers as those calls made one after the other.
+    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (``start_a``, ``start_b``), factors
+    (``factor_a``, ``factor_b``), ``lever`` (m)) — the same numbers as those calls made one after the other.
 
     Returns:
         :func:`contact_drift`'s (distance (m), drift (m)), or (−1.0, −1.0) when an error is within Pinocchio's
@@ -603,7 +656,8 @@ def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, star
         return -1.0, -1.0
     if not placement_log6_into(pose_b, rot_b, pos_b, logs[1]):
         return -1.0, -1.0
-    return contact_drift(logs, b, starts, factors, lever)
+    far, worst = _contact_gaps(logs[0], b[start_a:start_a + 6], factor_a, lever, 0.0, 0.0)
+    return _contact_gaps(logs[1], b[start_b:start_b + 6], factor_b, lever, far, worst)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -684,14 +738,15 @@ def warm_up() -> float:
     views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
     views["lb"][6], views["ub"][6] = -1.0, 1.0
     kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
-    kinematic_tick_packed(fb, ib, np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0),
-                          np.zeros(0, np.int64), 0.0, 1e-6, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7),
-                          0.002, 1e-6, 10)
+    sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
+    rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
+    kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.empty(7), 0.002, 1e-6,
+                          10, *NO_KERNEL_BOX)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
-    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), np.array([0, 6]), np.zeros(2), 0.1)
+    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)

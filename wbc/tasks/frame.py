@@ -232,11 +232,11 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
     t = target_rot_t
     r00, r10, r20 = _row_dot(t, 0, rot, 0), _row_dot(t, 1, rot, 0), _row_dot(t, 2, rot, 0)
     r01, r11, r21 = _row_dot(t, 0, rot, 1), _row_dot(t, 1, rot, 1), _row_dot(t, 2, rot, 1)
-    log = np.empty(3)
+    scratch = np.empty(12)  # log (3,) and Jlog₃ (3, 3): one allocation
+    log, jlog = scratch[:3], scratch[3:].reshape((3, 3))
     theta = _log3_columns(r00, r10, r20, r01, r11, r21, log)
     if theta < 0.0:
         return 1
-    jlog = np.empty((3, 3))
     jlog3_into(theta, log, jlog)
     _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out)
     return 0
