@@ -6,20 +6,17 @@ would break the tick budget. Each module with kernels therefore has one loader, 
 calls its kernels on small example arrays of the types a real call uses, decorated with :func:`once_per_process` and
 called when a task, constraint or backend is constructed.
 
-:func:`compile_all` runs every loader of :data:`LOADER_MODULES` ahead of time (``wbc compile``, after an install),
-so that the first run finds every kernel in the on-disk cache.
+``wbc compile`` (:mod:`wbc.cli.kernels`) imports every module with a loader and runs it (:func:`run_loaders`) ahead
+of the first run, after an install, so that the first run finds every kernel in the on-disk cache.
 """
 
 from __future__ import annotations
 
 import functools
-import importlib
 from time import perf_counter
-from typing import Callable, Iterable, TypeVar
+from typing import Callable, TypeVar
 
-from wbc.exceptions import InvalidInputError
-
-__all__ = ["FASTMATH", "LOADER_MODULES", "compile_all", "loader_modules", "once_per_process", "set_load_listener"]
+__all__ = ["FASTMATH", "once_per_process", "run_loaders", "set_load_listener"]
 
 #: LLVM fast-math flags of the compiled kernels: reassociation (vectorised dot products) and fused multiply-add only;
 #: ±inf bounds stay legitimate input (no "no-inf/no-nan" assumption).
@@ -29,18 +26,6 @@ R = TypeVar("R")
 
 _listener: Callable[[str, float], None] | None = None
 _loaders: dict[str, list[Callable[[], object]]] = {}  # module name -> its once_per_process loaders (once imported)
-
-#: Every module with a :func:`once_per_process` loader, the kinematic controller's first (what ``wbc walk`` loads),
-#: then the inverse-dynamics controller's and the simulation's (``wbc sim``).
-LOADER_MODULES = (
-    "wbc.formulations.velocity_kernel", "wbc.solvers.fast", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
-    "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
-    "wbc.constraints.braking", "wbc.constraints.limits", "wbc.formulations.reference",
-    "wbc.formulations.idkernel", "wbc.dynamics.controller", "wbc.constraints.joint_acceleration_bounds",
-    "wbc.sim.actuators", "wbc.sim.closed_loop", "wbc.sim.conventions", "wbc.sim.estimated_state",
-    "wbc.sim.outcome", "wbc.sim.sensors", "wbc.sim.walk",
-)
-
 
 def set_load_listener(listener: Callable[[str, float], None] | None) -> Callable[[str, float], None] | None:
     """Install ``listener(module, seconds)``, called after each loader of :func:`once_per_process` has run (the
@@ -84,39 +69,16 @@ def once_per_process(load: Callable[[], R]) -> Callable[[], R | None]:
     return wrapper
 
 
-def loader_modules(names: Iterable[str] = ()) -> list[str]:
-    """The kernel modules ``names`` checked against :data:`LOADER_MODULES` (all of them when ``names`` is empty).
-
-    Raises:
-        InvalidInputError: a name is not in :data:`LOADER_MODULES`.
-    """
-    names = list(names)
-    unknown = [m for m in names if m not in LOADER_MODULES]
-    if unknown:
-        raise InvalidInputError(f"no numba kernel loader in {', '.join(unknown)}; the modules with one: "
-                                f"{', '.join(LOADER_MODULES)}")
-    return names or list(LOADER_MODULES)
-
-
-def compile_all(modules: Iterable[str] = ()) -> dict[str, float]:
-    """Import each module and run its loaders: every kernel they call is compiled and written to numba's on-disk
-    cache (``__pycache__`` next to the source, or under ``NUMBA_CACHE_DIR``), or loaded from it when already there.
-    Loaders that already ran in this process are not run again.
-
-    Args:
-        modules: names among :data:`LOADER_MODULES` (default, or empty: all of them), loaded in this order.
+def run_loaders(module: str) -> int:
+    """Run the :func:`once_per_process` loaders defined in the module named ``module`` (imported beforehand; none
+    if it defines none): their kernels are compiled and written to numba's on-disk cache (``__pycache__`` next to
+    the source, or under ``NUMBA_CACHE_DIR``), or loaded from it. Loaders that already ran in this process do not
+    run again.
 
     Returns:
-        The wall time in seconds each module took (import and loaders), by name.
-
-    Raises:
-        InvalidInputError: a name is not in :data:`LOADER_MODULES` (before any module is imported).
+        The number of loaders the module defines.
     """
-    seconds = {}
-    for name in loader_modules(modules):
-        t0 = perf_counter()
-        importlib.import_module(name)
-        for load in _loaders.get(name, ()):
-            load()
-        seconds[name] = perf_counter() - t0
-    return seconds
+    loaders = _loaders.get(module, ())
+    for load in loaders:
+        load()
+    return len(loaders)

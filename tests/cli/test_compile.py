@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from wbc.compiled import LOADER_MODULES
+from wbc.cli.kernels import LOADER_MODULES
 
 ROOT = Path(__file__).resolve().parents[2]
 

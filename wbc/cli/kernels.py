@@ -2,7 +2,7 @@
 
 wbc's kernels are compiled on first use and cached on disk (``__pycache__`` next to each source file, or under
 ``NUMBA_CACHE_DIR``); the first run after an install would otherwise spend a minute or more compiling them before
-its first tick. ``wbc compile`` runs every kernel loader (:func:`wbc.compiled.compile_all`) with a progress bar on a
+its first tick. ``wbc compile`` runs every kernel loader (:func:`compile_all`) with a progress bar on a
 terminal (one line per module otherwise); run again, it loads the cached kernels and takes seconds.
 """
 
@@ -10,14 +10,66 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Iterable
 
-__all__ = ["register", "check_compile_args", "cmd_compile"]
+from wbc.exceptions import InvalidInputError
+
+__all__ = ["LOADER_MODULES", "register", "check_compile_args", "cmd_compile", "compile_all", "loader_modules"]
+
+#: Every module with a :func:`wbc.compiled.once_per_process` loader, the kinematic controller's first (what
+#: ``wbc walk`` loads), then the inverse-dynamics controller's and the simulation's (``wbc sim``).
+LOADER_MODULES = (
+    "wbc.formulations.velocity_kernel", "wbc.solvers.fast", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
+    "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
+    "wbc.constraints.braking", "wbc.constraints.limits", "wbc.formulations.reference",
+    "wbc.formulations.idkernel", "wbc.dynamics.controller", "wbc.constraints.joint_acceleration_bounds",
+    "wbc.sim.actuators", "wbc.sim.closed_loop", "wbc.sim.conventions", "wbc.sim.estimated_state",
+    "wbc.sim.outcome", "wbc.sim.sensors", "wbc.sim.walk",
+)
+
+
+def loader_modules(names: Iterable[str] = ()) -> list[str]:
+    """The kernel modules ``names`` checked against :data:`LOADER_MODULES` (all of them when ``names`` is empty).
+
+    Raises:
+        InvalidInputError: a name is not in :data:`LOADER_MODULES`.
+    """
+    names = list(names)
+    unknown = [m for m in names if m not in LOADER_MODULES]
+    if unknown:
+        raise InvalidInputError(f"no numba kernel loader in {', '.join(unknown)}; the modules with one: "
+                                f"{', '.join(LOADER_MODULES)}")
+    return names or list(LOADER_MODULES)
+
+
+def compile_all(modules: Iterable[str] = ()) -> dict[str, float]:
+    """Import each module and run its loaders (:func:`wbc.compiled.run_loaders`): every kernel they call is compiled
+    and written to numba's on-disk cache, or loaded from it when already there.
+
+    Args:
+        modules: names among :data:`LOADER_MODULES` (default, or empty: all of them), loaded in this order.
+
+    Returns:
+        The wall time in seconds each module took (import and loaders), by name.
+
+    Raises:
+        InvalidInputError: a name is not in :data:`LOADER_MODULES` (before any module is imported).
+    """
+    import importlib
+
+    from wbc.compiled import run_loaders
+
+    seconds = {}
+    for name in loader_modules(modules):
+        t0 = time.perf_counter()
+        importlib.import_module(name)
+        run_loaders(name)
+        seconds[name] = time.perf_counter() - t0
+    return seconds
 
 
 def register(sub, add_outputs=None) -> None:
     """Add the ``compile`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` is not used)."""
-    from wbc.compiled import LOADER_MODULES
-
     p = sub.add_parser("compile", help="compile every numba kernel now and cache it on disk (run once after install)",
                        description="Compile wbc's numba kernels ahead of the first run and cache them on disk, so "
                                    "that the first `wbc walk` (or sim, balance...) starts at once; a second "
@@ -30,9 +82,7 @@ def register(sub, add_outputs=None) -> None:
 
 
 def check_compile_args(args) -> None:
-    """Raises InvalidInputError: a module without kernel loader (see :data:`wbc.compiled.LOADER_MODULES`)."""
-    from wbc.compiled import loader_modules
-
+    """Raises InvalidInputError: a module without kernel loader (see :data:`LOADER_MODULES`)."""
     loader_modules(args.modules)
 
 
@@ -43,7 +93,6 @@ def cmd_compile(args) -> int:
     import threading
 
     from wbc.cli.output import sigint_received, uncompiled_kernels
-    from wbc.compiled import compile_all, loader_modules
 
     modules = loader_modules(args.modules)
     t0 = time.perf_counter()
