@@ -98,14 +98,15 @@ def cmd_compile(args) -> int:
     t0 = time.perf_counter()
     bar = beat = None
     if not args.quiet:
-        print(f"wbc compile: compiling the numba kernels of {len(modules)} modules "
-              f"({len(uncompiled_kernels())} without on-disk cache; a minute or two once) ...", file=sys.stderr,
-              flush=True)
+        missing = len(uncompiled_kernels(modules))
+        print(f"wbc compile: compiling the numba kernels of {len(modules)} modules ({missing} without on-disk cache; "
+              "a minute or two once) ..." if missing else
+              f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...", file=sys.stderr, flush=True)
         if getattr(sys.stderr, "isatty", lambda: False)():
             from tqdm import tqdm
 
             bar = tqdm(total=len(modules), desc="wbc compile", unit="module", file=sys.stderr,
-                       bar_format="{desc}: {n_fmt}/{total_fmt} modules |{bar}| {elapsed} {postfix}")
+                       bar_format="{desc}: {n_fmt}/{total_fmt} modules |{bar}| {elapsed}{postfix}")  # postfix: ", module"
             beat = threading.Event()
 
             def redraw() -> None:  # the elapsed time moves while a module compiles
