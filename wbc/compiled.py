@@ -5,6 +5,9 @@ That first call takes from milliseconds (cache) to seconds (compilation); paid i
 would break the tick budget. Each module with kernels therefore has one loader, a function without arguments that
 calls its kernels on small example arrays of the types a real call uses, decorated with :func:`once_per_process` and
 called when a task, constraint or backend is constructed.
+
+``wbc compile`` (:mod:`wbc.cli.kernels`) imports every module with a loader and runs it (:func:`run_loaders`) ahead
+of the first run, after an install, so that the first run finds every kernel in the on-disk cache.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import functools
 from time import perf_counter
 from typing import Callable, TypeVar
 
-__all__ = ["FASTMATH", "once_per_process", "set_load_listener"]
+__all__ = ["FASTMATH", "once_per_process", "run_loaders", "set_load_listener"]
 
 #: LLVM fast-math flags of the compiled kernels: reassociation (vectorised dot products) and fused multiply-add only;
 #: ±inf bounds stay legitimate input (no "no-inf/no-nan" assumption).
@@ -22,7 +25,7 @@ FASTMATH = {"reassoc", "contract"}  # a set: numba takes a bool, dict or set
 R = TypeVar("R")
 
 _listener: Callable[[str, float], None] | None = None
-
+_loaders: dict[str, list[Callable[[], object]]] = {}  # module name -> its once_per_process loaders (once imported)
 
 def set_load_listener(listener: Callable[[str, float], None] | None) -> Callable[[str, float], None] | None:
     """Install ``listener(module, seconds)``, called after each loader of :func:`once_per_process` has run (the
@@ -62,4 +65,20 @@ def once_per_process(load: Callable[[], R]) -> Callable[[], R | None]:
         _listener(load.__module__, perf_counter() - t0)
         return value
 
+    _loaders.setdefault(load.__module__, []).append(wrapper)
     return wrapper
+
+
+def run_loaders(module: str) -> int:
+    """Run the :func:`once_per_process` loaders defined in the module named ``module`` (imported beforehand; none
+    if it defines none): their kernels are compiled and written to numba's on-disk cache (``__pycache__`` next to
+    the source, or under ``NUMBA_CACHE_DIR``), or loaded from it. Loaders that already ran in this process do not
+    run again.
+
+    Returns:
+        The number of loaders the module defines.
+    """
+    loaders = _loaders.get(module, ())
+    for load in loaders:
+        load()
+    return len(loaders)

@@ -21,6 +21,6 @@ def test_readme_python_example_runs_and_tracks():
 def test_readme_commands_match_ci():
     text = README.read_text()
     ci = (README.parent / ".ci" / "run").read_text()
-    test_cmd = 'pip install -e ".[test,bench]" && python -m pytest -q -n 2 --dist loadfile'
+    test_cmd = 'pip install -e ".[test,bench]" && wbc compile && python -m pytest -q -n 2 --dist loadfile'
     assert test_cmd in text and test_cmd in ci
-    assert "pip install -e . && wbc walk" in text
+    assert "pip install -e . && wbc compile && wbc walk" in text

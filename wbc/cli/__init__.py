@@ -1,4 +1,5 @@
-"""Command line: ``wbc walk``, ``wbc balance``, ``wbc sim``, ``wbc bench``, ``wbc plot`` (also ``python -m wbc``).
+"""Command line: ``wbc walk``, ``wbc balance``, ``wbc sim``, ``wbc bench``, ``wbc plot``, ``wbc compile`` (also
+``python -m wbc``).
 
 Each run command (walk, balance, sim) prints a summary, and can write it as JSON (``--json``), a log (``--log``,
 npz), plots (``--plot``, PNG), a self-contained meshcat HTML recording (``--out``), or show the motion live in
@@ -10,7 +11,8 @@ renamed when complete (:func:`wbc.cli.output.atomic_output`): an interrupted run
 Angles on the command line are in degrees.
 
 One module per command group (:mod:`wbc.cli.walk`, :mod:`~wbc.cli.plot`, :mod:`~wbc.cli.balance`,
-:mod:`~wbc.cli.sim`, :mod:`~wbc.cli.campaign`, :mod:`~wbc.cli.bench`, :mod:`~wbc.cli.robots`, :mod:`~wbc.cli.ros2`), each with
+:mod:`~wbc.cli.sim`, :mod:`~wbc.cli.campaign`, :mod:`~wbc.cli.bench`, :mod:`~wbc.cli.robots`, :mod:`~wbc.cli.ros2`,
+:mod:`~wbc.cli.kernels` for ``wbc compile``), each with
 ``register(subparsers, add_outputs)``; what they share (summary printer, output writers, live viewer, progress)
 is :mod:`wbc.cli.output`. The CLI is the top layer: nothing else in wbc imports it.
 """
@@ -32,9 +34,9 @@ __all__ = ["main", "build_parser", "deadline_misses", "leg_reach"]
 
 def _commands() -> tuple:
     """The command modules, in the order of ``wbc --help``."""
-    from wbc.cli import balance, bench, campaign, plot, robots, ros2, sim, walk
+    from wbc.cli import balance, bench, campaign, kernels, plot, robots, ros2, sim, walk
 
-    return (walk, plot, balance, sim, campaign, bench, robots, ros2)
+    return (walk, plot, balance, sim, campaign, bench, robots, ros2, kernels)
 
 
 def __getattr__(name: str):
@@ -175,7 +177,10 @@ def _exit_while_loading(signum, frame) -> None:
 def _preload(argv: list[str]) -> None:
     """Import, while a Ctrl-C still exits at once, the third-party modules a run command loads later that catch
     BaseException around their optional imports (trimesh, via meshcat/pinocchio.visualize and wbc.sim.meshes):
-    a Ctrl-C landing inside them would be swallowed and the run would go on."""
+    a Ctrl-C landing inside them would be swallowed and the run would go on. A `wbc walk` imports them only for
+    a meshcat output (``--out``, ``--live``)."""
+    if argv and argv[0] == "walk" and not any(a.startswith(("--out", "--live")) for a in argv):
+        return
     if argv and argv[0] in ("walk", "balance", "sim") and not {"-h", "--help"} & set(argv):
         try:
             import trimesh  # noqa: F401

@@ -273,7 +273,7 @@ def compile_notice(desc: str, modules=None, stream=None) -> bool:
     if missing:
         out = stream or sys.stderr
         print(f"{desc}: compiling the numba kernels on first use ({len(missing)} modules; 30–80 s once, cached for "
-              "later runs) ...", file=out, flush=True)
+              "later runs; `wbc compile` does it ahead of time) ...", file=out, flush=True)
         from wbc.compiled import set_load_listener
 
         def report(module: str, seconds: float) -> None:  # one line per module as its kernels become ready

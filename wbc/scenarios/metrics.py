@@ -27,7 +27,8 @@ import math
 import numpy as np
 
 from wbc.constants import GRAVITY
-from wbc.geometry import convex_hull, signed_distance, sole_polygon
+from wbc.exceptions import InvalidInputError
+from wbc.geometry import hull, signed_distance_point, sole_corners
 
 __all__ = ["executed_multibody_zmp", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
            "support_margin"]
@@ -86,15 +87,39 @@ def support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, supp
     """Signed distance (N,) m, > 0 inside, of each point ``points`` (N, 2) to the support polygon of tick k: the
     ``length`` × ``width`` rectangles of the sole poses ``left[k]`` / ``right[k]`` (4×4, world) that are in stance
     (``support[k]`` equal to ``double`` or to that side's code), convex hull of both in double support."""
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise InvalidInputError(f"points must have shape (N, 2); got {points.shape}")
+    if not (math.isfinite(length) and math.isfinite(width) and length > 0 and width > 0):
+        raise InvalidInputError(f"sole length and width must be finite and > 0 m; got length={length}, width={width}")
     out = np.empty(len(points))
-    for k in range(len(points)):
-        polys = []
-        for side, pose in ((left_stance, left[k]), (right_stance, right[k])):
-            if support[k] in (double, side):
-                polys.append(sole_polygon(pose[0, 3], pose[1, 3], math.atan2(pose[1, 0], pose[0, 0]), length, width))
-        poly = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
-        out[k] = float(signed_distance(points[k], poly))
+    # plain Python floats per tick: the same arithmetic as sole_polygon, convex_hull and signed_distance on one point,
+    # without their array round trips
+    xy = points.tolist()
+    soles = ((left_stance, *_ground_pose_columns(left)), (right_stance, *_ground_pose_columns(right)))
+    codes = np.asarray(support).tolist()
+    for k in range(len(xy)):
+        corners = []
+        for side, xs, ys, r10, r00 in soles:
+            if codes[k] in (double, side):
+                x, y, yaw = xs[k], ys[k], math.atan2(r10[k], r00[k])
+                if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+                    raise InvalidInputError(f"the stance sole pose of tick {k} is not finite")
+                corners.append(sole_corners(x, y, yaw, length, width))  # counter-clockwise
+        poly = corners[0] if len(corners) == 1 else hull([c for cs in corners for c in cs])  # counter-clockwise
+        if len(poly) < 3:
+            raise InvalidInputError(f"no stance sole at tick {k} (support code {codes[k]})")
+        px, py = xy[k]
+        if not (math.isfinite(px) and math.isfinite(py)):
+            raise InvalidInputError("points must be finite; got NaN or inf")
+        out[k] = signed_distance_point(px, py, poly)
     return out
+
+
+def _ground_pose_columns(poses: np.ndarray) -> tuple[list[float], ...]:
+    """x, y, R[1, 0] and R[0, 0] of each (4, 4) pose of ``poses`` (N, 4, 4), as four lists of N Python floats."""
+    m = np.asarray(poses, dtype=float)
+    return m[:, 0, 3].tolist(), m[:, 1, 3].tolist(), m[:, 1, 0].tolist(), m[:, 0, 0].tolist()
 
 
 def stance_ground_z(left: np.ndarray, right: np.ndarray, support: np.ndarray, double: int,

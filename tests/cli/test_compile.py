@@ -1,0 +1,69 @@
+"""`wbc compile` (the step after `pip install`): it writes numba's on-disk cache of every kernel a later process
+needs, so that the next process, and the first `wbc walk`, load every kernel without compiling any. Checked with
+numba's own cache log (NUMBA_DEBUG_CACHE=1: "[cache] data saved to ..." when a kernel was compiled and written,
+"[cache] data loaded from ..." when read), in a fresh cache folder (NUMBA_CACHE_DIR) per test."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from wbc.cli.kernels import LOADER_MODULES
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _run(args: list[str], cache: Path, cwd: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), NUMBA_DEBUG_CACHE="1",
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env, cwd=cwd, timeout=900)
+
+
+def test_loader_modules_lists_every_module_with_a_loader():
+    """Every source file that decorates a loader with once_per_process is in LOADER_MODULES, and nothing else."""
+    pkg = ROOT / "wbc"
+    found = {".".join(p.relative_to(ROOT).with_suffix("").parts) for p in pkg.rglob("*.py")
+             if re.search(r"^@once_per_process\b", p.read_text(encoding="utf-8"), re.M)}
+    assert found == set(LOADER_MODULES)
+    assert len(LOADER_MODULES) == len(set(LOADER_MODULES))
+
+
+def test_compile_writes_the_cache_the_next_process_loads(tmp_path):
+    modules = ["wbc.tasks.com", "wbc.tasks.posture"]
+    cache = tmp_path / "cache"
+    first = _run(["-m", "wbc", "compile", *modules], cache, tmp_path)
+    assert first.returncode == 0, first.stderr[-2000:]
+    assert "data saved to" in first.stdout, first.stdout[-2000:]  # compiled here
+    assert f"the numba kernels of {len(modules)} modules compiled and cached" in first.stdout
+    for name in modules:  # one line per module on stderr when not on a terminal
+        assert f"wbc compile: {name} (" in first.stderr
+    assert list(cache.rglob("com.*.nbi")) and list(cache.rglob("posture.*.nbc"))
+    # a new process constructing the tasks (their loaders run at construction) reads every kernel from the cache
+    second = _run(["-c", "import wbc\nfrom wbc.tasks import ComTask, PostureTask\n"
+                         "robot = wbc.load_robot('talos')\nComTask(weight=1.0, gain=1.0)\nPostureTask(robot)\n"],
+                  cache, tmp_path)
+    assert second.returncode == 0, second.stderr[-2000:]
+    assert "data loaded from" in second.stdout and "data saved" not in second.stdout, second.stdout[-2000:]
+
+
+def test_compile_refuses_a_module_without_kernels(tmp_path):
+    out = _run(["-m", "wbc", "compile", "wbc.geometry"], tmp_path / "cache", tmp_path)
+    assert out.returncode == 2
+    assert out.stderr.startswith("wbc compile: error: no numba kernel loader in wbc.geometry")
+    assert "compiled and cached" not in out.stdout
+
+
+def test_first_walk_after_compile_compiles_nothing(tmp_path):
+    """The install step `wbc compile` covers every kernel `wbc walk` calls: the walk saves no kernel to the cache."""
+    cache = tmp_path / "cache"
+    first = _run(["-m", "wbc", "compile", "--quiet"], cache, tmp_path)
+    assert first.returncode == 0, first.stderr[-2000:]
+    walk = _run(["-m", "wbc", "walk", "--steps", "2", "--quiet"], cache, tmp_path)
+    assert walk.returncode == 0, walk.stderr[-2000:]
+    assert "data loaded from" in walk.stdout
+    saved = [line for line in walk.stdout.splitlines() if "data saved" in line]
+    assert saved == []
+    assert re.search(r"ticks_per_route +compiled \d+\n", walk.stdout), walk.stdout[-3000:]
