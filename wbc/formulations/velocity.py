@@ -978,6 +978,9 @@ class KinematicController:
         it, guard = kinematic_tick_packed(fb, ib, soft.J, soft.e, soft.rowp, self._posture_diff, soft.pw, soft.prow,
                                           self._posture_gain, self.damping, plan.state, plan.rstate, v, float(dt), tol,
                                           backend.max_iter)
+        # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
+        # has it in its count (its CPU time is about one solve's)
+        self._work.solves += 1
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it
