@@ -158,7 +158,9 @@ the exact optimum of an active set warm-started from the previous tick. When the
 on as above (contact drift measured at q⁺); whenever no solver ends at a KKT point within the backend's tolerance,
 the equality rows are rank deficient, a contact drifts above ``contact_correction``, or anything raises, the tick is
 solved again by the general path described above (DAQP fallback, correction, trust region, diagnosis), so results
-and failure handling are those of the general path. Soft tasks with their own cost or velocity target (other than
+and failure handling are those of the general path; the compiled call counts one solve of that tick's budget, and on
+every tick without strict levels a kernel attempt of :class:`~wbc.solvers.fast.FastBackend` that gives up counts one
+too (``FastBackend.count_give_ups``). Soft tasks with their own cost or velocity target (other than
 one plain :class:`~wbc.tasks.PostureTask`) take the general path. A task's ``weight`` array becomes a view of the
 controller's stacked weights on its first assembly (in-place changes of it are seen, a new array assigned is copied
 in).
