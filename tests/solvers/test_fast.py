@@ -285,3 +285,45 @@ def test_a_kernel_solve_counts_one_solve_of_the_tick_work():
         assert backend.work.solves == k
     ref = qpsolvers.solve_qp(H, g, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
     assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
+
+
+def test_a_kernel_that_gives_up_counts_one_solve_and_its_shape_goes_to_daqp_for_the_rest_of_the_tick():
+    """With ``count_give_ups``, under a tick's counted work (``TickWork``) a kernel attempt that gives up (dependent
+    equality rows) counts one solve like any other attempt, and the tick's later problems of that shape go to DAQP at
+    once (the kernel is not run again); a problem of another shape still tries the kernel, and so does the same
+    problem on the next tick (``TickWork.reset``). Without it (the default) the give-up is not counted and the kernel
+    is tried on every call. Every answer is the optimum of the independent rows (quadprog)."""
+    from wbc.solvers.base import TickWork
+
+    rng = np.random.default_rng(3)
+    n = 6
+    H, g, A, b, lb, ub = _random_qp(rng, n, 2, 1.0)
+    A2, b2 = np.vstack([A, A[:1]]), np.concatenate([b, b[:1]])  # a repeated row: the kernel gives up
+    empty, none = np.zeros((0, n)), np.zeros(0)
+    ref = qpsolvers.solve_qp(H, g, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+    plain = FastBackend()
+    plain.work = TickWork()
+    plain.work.reset(8)
+    for k in (1, 2):
+        plain.last_kernel_iterations = 0
+        plain.solve(H, g, A2, b2, empty, none, none, lb, ub)
+        assert plain.last_kernel_iterations < 0 and plain.work.solves == k  # DAQP's attempts only
+    fast = FastBackend()
+    fast.count_give_ups = True
+    fast.work = work = TickWork()
+    work.reset(8)
+    x = fast.solve(H, g, A2, b2, empty, none, none, lb, ub)
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 1
+    assert work.solves == 2  # the kernel's attempt and DAQP's
+    assert np.abs(x - ref).max() < 1e-6 * max(1.0, np.abs(ref).max())
+    fast.last_kernel_iterations = 0
+    x = fast.solve(H, g + 1e-3, A2, b2, empty, none, none, lb, ub)  # the same tick, the same shape
+    assert fast.last_kernel_iterations == 0 and fast.fallbacks == 2 and work.solves == 3  # DAQP only
+    ref2 = qpsolvers.solve_qp(H, g + 1e-3, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+    assert np.abs(x - ref2).max() < 1e-6 * max(1.0, np.abs(ref2).max())
+    x = fast.solve(H, g, A, b, empty, none, none, lb, ub)  # another shape: the kernel answers
+    assert fast.kernel_solves == 1 and fast.fallbacks == 2
+    assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
+    work.reset(8)  # the next tick: the kernel is tried again
+    fast.solve(H, g, A2, b2, empty, none, none, lb, ub)
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 3 and work.solves == 2

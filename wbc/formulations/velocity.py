@@ -158,7 +158,9 @@ the exact optimum of an active set warm-started from the previous tick. When the
 on as above (contact drift measured at q⁺); whenever no solver ends at a KKT point within the backend's tolerance,
 the equality rows are rank deficient, a contact drifts above ``contact_correction``, or anything raises, the tick is
 solved again by the general path described above (DAQP fallback, correction, trust region, diagnosis), so results
-and failure handling are those of the general path. Soft tasks with their own cost or velocity target (other than
+and failure handling are those of the general path; the compiled call counts one solve of that tick's budget, and on
+every tick without strict levels a kernel attempt of :class:`~wbc.solvers.fast.FastBackend` that gives up counts one
+too (``FastBackend.count_give_ups``). Soft tasks with their own cost or velocity target (other than
 one plain :class:`~wbc.tasks.PostureTask`) take the general path. A task's ``weight`` array becomes a view of the
 controller's stacked weights on its first assembly (in-place changes of it are seen, a new array assigned is copied
 in).
@@ -1016,6 +1018,9 @@ class KinematicController:
         it, guard = kinematic_tick_packed(fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain,
                                           self.damping, plan.states, v, float(dt), tol, backend.max_iter, config.q,
                                           *box)
+        # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
+        # has it in its count (its CPU time is about one solve's)
+        self._work.solves += 1
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it
@@ -1127,6 +1132,12 @@ class KinematicController:
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._budget_s = dt if self._budget is None else self._budget
         self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
+        if isinstance(self.backend, FastBackend):
+            # a flat QP's tick counts the kernel attempts that give up (and skips the kernel on its later problems of
+            # that shape): uncounted, a return-rate ladder and trust region on joints held at their limits spent
+            # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
+            # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
+            self.backend.count_give_ups = not self._level_order
         self._resolve_cost = self._level_cost = self._check_cost = 0.0
         self._safe_fresh = False
         plan = self._fused

@@ -94,11 +94,15 @@ class TickWork:
             and :meth:`wbc.solvers.daqp.DaqpBackend.call_limit` count them as done, so the stages in progress stop
             that many solves earlier (a strict cascade keeps them for its weighted form,
             ``KinematicController.WEIGHTED_RESERVE``).
+        ticks: calls of :meth:`reset` so far (a backend tells the ticks apart by it, e.g.
+            :class:`wbc.solvers.fast.FastBackend`: a kernel that gave up on a problem is not tried again on the same
+            tick's problems of its shape).
     """
 
-    __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve")
+    __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve", "ticks")
 
     def __init__(self, cap: float = math.inf, clock: float = math.inf):
+        self.ticks = 0
         self._solves = 0
         self.cap = cap
         self._clock = clock
@@ -124,6 +128,7 @@ class TickWork:
     def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
         (``math.inf``: counted solves only; the clock is then not read here, a system call every tick)."""
+        self.ticks += 1
         self._solves = 0
         self.cap = cap
         self._clock = clock

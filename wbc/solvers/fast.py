@@ -42,6 +42,9 @@ class FastBackend(DaqpBackend):
         **settings: DAQP settings for the fallback (:class:`~wbc.solvers.daqp.DaqpBackend`).
 
     Attributes:
+        count_give_ups: under a tick's counted work (``work``), a kernel attempt that gives up counts one solve and
+            the tick's later problems of its shape skip the kernel (:meth:`solve`); False (default): uncounted, the
+            kernel tried on every call. The kinematic controller sets it on ticks without strict levels.
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
@@ -62,6 +65,8 @@ class FastBackend(DaqpBackend):
         self.fallbacks = 0
         self.reduced_fallbacks = 0
         self._rows_failed = False
+        self.count_give_ups = False
+        self._gave_up: tuple | None = None  # (the tick's work, its tick, the problem's shape) of the last give-up
         ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
     def _prepare_kernel(self, n: int, m: int) -> None:
@@ -97,7 +102,10 @@ class FastBackend(DaqpBackend):
         """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
         satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
         the kernel against ``tolerance``; anything else goes through DAQP and the general check. A kernel solution
-        adds one solve to the tick's counted work (``work``, when set), as every solve attempt does.
+        adds one solve to the tick's counted work (``work``, when set), as every solve attempt does. With
+        ``count_give_ups`` and a tick's work (``work`` set), a kernel attempt that gives up counts one solve too, and
+        the tick's later problems of that shape (variables, equality rows, inequality rows) go to DAQP at once (the
+        tick is told apart by ``work.ticks``: a count, so the route is a function of the tick's inputs).
 
         Raises:
             SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
@@ -105,7 +113,17 @@ class FastBackend(DaqpBackend):
         p = C.shape[0]
         if p and not self.kernel_rows:
             return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
-        if p and self._rows_failed:
+        work = self.work
+        shape = (H.shape[0], A.shape[0], p)
+        gave_up = self._gave_up
+        if self.count_give_ups and work is not None and gave_up is not None and gave_up[0] is work \
+                and gave_up[1] == work.ticks and gave_up[2] == shape:
+            # the kernel gave up on a problem of this shape earlier in this tick: the tick's re-solves of it (a
+            # relaxation ladder, a trust region, bounds pinned at 0 that make the working set dependent on the
+            # contact rows) go to DAQP at once (a kernel attempt that gives up is not counted as a solve, and on
+            # the Talos fuzz episode of seed 550037 cost as much as one)
+            pass
+        elif p and self._rows_failed:
             # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
             # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held
             # at velocity bounds, defeat its pivoting for stretches of ticks: on the Talos hand-through-torso drive
@@ -117,6 +135,9 @@ class FastBackend(DaqpBackend):
             return self._x.copy()
         else:
             self._rows_failed = p > 0
+            if self.count_give_ups and work is not None:
+                work.solves += 1  # the attempt that gave up: a solve attempt like any other (TickWork)
+                self._gave_up = (work, work.ticks, shape)
         self.fallbacks += 1
         x = super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
         if H.shape[0] == self._n:
