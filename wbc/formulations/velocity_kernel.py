@@ -308,23 +308,19 @@ def _reduce_cost(H, g, n0, nr, Tc, cols, ns, V, wb, Hr, gr):
         s = g[n0 + a]
         for c in range(a + 1):
             Hra[c] = Ha[n0 + c]
-        if q0 < ns and cols[q0] == a:  # a column of T: the whole row
+        dense = q0 < ns and cols[q0] == a  # a column of T: the whole row; else T[:, a] = 0: T's columns < a only
+        if dense:
             q0 += 1
-            for b in range(n0):
-                h = Ha[b]
-                tb = Tc[b, a]
-                s += h * Tc[b, nr] - tb * wb[b]
-                Tb = Tc[b]
-                Vb = V[b]
+        for b in range(n0):
+            h = Ha[b]
+            tb = Tc[b, a]
+            s += h * Tc[b, nr] - tb * wb[b]
+            Tb = Tc[b]
+            Vb = V[b]
+            if dense:
                 for c in range(a + 1):
                     Hra[c] -= h * Tb[c] + tb * Vb[c]
-        else:  # T[:, a] = 0: the columns of T up to a only
-            for b in range(n0):
-                h = Ha[b]
-                tb = Tc[b, a]
-                s += h * Tc[b, nr] - tb * wb[b]
-                Tb = Tc[b]
-                Vb = V[b]
+            else:
                 for q in range(q0):
                     c = cols[q]
                     Hra[c] -= h * Tb[c] + tb * Vb[c]
