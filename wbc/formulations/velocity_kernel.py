@@ -40,12 +40,10 @@ __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_d
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _eliminate_base(A, b, er, nr, Eb, Tc, cols):
+def _eliminate_base(A, b, er, nr, Eb, Tc):
     """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the 6 equality rows E = A[er:er + 6] (E_b their
-    first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting, on the columns
-    of E_j that hold a nonzero only (a contact's Jacobian is zero on the joints outside its chain, and so is that
-    column of T: cols[:ns] ← those columns, ascending). Returns ns, or −1 when E_b is singular (a pivot ≤ 1e-12 ×
-    its largest entry)."""
+    first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting. Returns False
+    when E_b is singular (a pivot ≤ 1e-12 × its largest entry)."""
     scale = 0.0
     for i in range(6):
         for j in range(6):
@@ -55,20 +53,13 @@ def _eliminate_base(A, b, er, nr, Eb, Tc, cols):
         for j in range(nr):
             Tc[i, j] = A[er + i, 6 + j]
         Tc[i, nr] = b[er + i]
-    ns = 0
-    for j in range(nr):
-        for i in range(6):
-            if Tc[i, j] != 0.0:  # NaN included
-                cols[ns] = j
-                ns += 1
-                break
     for k in range(6):
         piv = k
         for i in range(k + 1, 6):
             if abs(Eb[i, k]) > abs(Eb[piv, k]):
                 piv = i
         if not abs(Eb[piv, k]) > 1e-12 * scale:
-            return -1
+            return False
         if piv != k:
             for j in range(6):
                 Eb[k, j], Eb[piv, j] = Eb[piv, j], Eb[k, j]
@@ -80,34 +71,24 @@ def _eliminate_base(A, b, er, nr, Eb, Tc, cols):
                 continue
             for j in range(k, 6):
                 Eb[i, j] -= f * Eb[k, j]
-            Ti, Tk = Tc[i], Tc[k]
-            for q in range(ns):
-                j = cols[q]
-                Ti[j] -= f * Tk[j]
-            Ti[nr] -= f * Tk[nr]
+            for j in range(nr + 1):
+                Tc[i, j] -= f * Tc[k, j]
     for k in range(5, -1, -1):
-        Tk = Tc[k]
         for i in range(k + 1, 6):
             f = Eb[k, i]
             if f != 0.0:
-                Ti = Tc[i]
-                for q in range(ns):
-                    j = cols[q]
-                    Tk[j] -= f * Ti[j]
-                Tk[nr] -= f * Ti[nr]
+                for j in range(nr + 1):
+                    Tc[k, j] -= f * Tc[i, j]
         d = Eb[k, k]
-        for q in range(ns):
-            j = cols[q]
-            Tk[j] /= d
-        Tk[nr] /= d
-    return ns
+        for j in range(nr + 1):
+            Tc[k, j] /= d
+    return True
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _reduce_row(src, n0, nr, Tc, cols, ns, out):
+def _reduce_row(src, n0, nr, Tc, out):
     """out[:nr] = src[n0:] − src[:n0] T (a row of the problem in the joint velocities after v_b = c − T v_j) and
-    returns src[:n0] · c, the part of the row the base's constant c accounts for (n0 = 0: a copy, 0); T is zero
-    outside its columns cols[:ns] (:func:`_eliminate_base`)."""
+    returns src[:n0] · c, the part of the row the base's constant c accounts for (n0 = 0: a copy, 0)."""
     for j in range(nr):
         out[j] = src[n0 + j]
     shift = 0.0
@@ -115,10 +96,8 @@ def _reduce_row(src, n0, nr, Tc, cols, ns, out):
         a = src[i]
         if a != 0.0:
             shift += a * Tc[i, nr]
-            Ti = Tc[i]
-            for q in range(ns):
-                j = cols[q]
-                out[j] -= a * Ti[j]
+            for j in range(nr):
+                out[j] -= a * Tc[i, j]
     return shift
 
 
@@ -215,8 +194,7 @@ def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple
     nr = nv - 6 if eliminate else nv
     mr = n_eq - 6 if eliminate else n_eq
     size = _views_size(nv, nr, mr, n_in) + nv + qp_ws_float_size(nr, mr, n_in)
-    # the integer one: the solvers' part, then the nonzero columns of T (nr,)
-    return np.zeros(size), np.zeros(max(nr, qp_ws_int_size(nr, mr)) + nr, np.int64)
+    return np.zeros(size), np.zeros(max(nr, qp_ws_int_size(nr, mr)), np.int64)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -274,12 +252,10 @@ def _solve_views(ws, n, nr, mr, p):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _reduce_cost(H, g, n0, nr, Tc, cols, ns, V, wb, Hr, gr):
+def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
     """Hr = Zᵀ H Z and gr = Zᵀ (g + H v₀) for v = Z v_j + v₀, Z = [−T; I], v₀ = [c; 0] (the base's v_b = c − T v_j):
     Hr = H_jj − H_jb T − Tᵀ V with V = H_bj − H_bb T, gr = (g_j + H_jb c) − Tᵀ (g_b + H_bb c); the lower triangle
-    formed, mirrored (Hr exactly symmetric). T is zero outside its columns cols[:ns] (:func:`_eliminate_base`): a
-    row a of Hr outside them takes the products of those columns only (its terms of T's zero entries vanish).
-    n0 = 0: a copy."""
+    formed, mirrored (Hr exactly symmetric). n0 = 0: a copy."""
     if n0 == 0:
         for a in range(nr):
             gr[a] = g[a]
@@ -297,33 +273,23 @@ def _reduce_cost(H, g, n0, nr, Tc, cols, ns, V, wb, Hr, gr):
             s += h * Tc[b2, nr]
             if h != 0.0:
                 T2 = Tc[b2]
-                for q in range(ns):
-                    c = cols[q]
+                for c in range(nr):
                     Vb[c] -= h * T2[c]
         wb[b] = s
-    q0 = 0  # cols[q0] is the first column of T ≥ a
     for a in range(nr):
         Ha = H[n0 + a]
         Hra = Hr[a]
         s = g[n0 + a]
         for c in range(a + 1):
             Hra[c] = Ha[n0 + c]
-        dense = q0 < ns and cols[q0] == a  # a column of T: the whole row; else T[:, a] = 0: T's columns < a only
-        if dense:
-            q0 += 1
         for b in range(n0):
             h = Ha[b]
             tb = Tc[b, a]
             s += h * Tc[b, nr] - tb * wb[b]
             Tb = Tc[b]
             Vb = V[b]
-            if dense:
-                for c in range(a + 1):
-                    Hra[c] -= h * Tb[c] + tb * Vb[c]
-            else:
-                for q in range(q0):
-                    c = cols[q]
-                    Hra[c] -= h * Tb[c] + tb * Vb[c]
+            for c in range(a + 1):
+                Hra[c] -= h * Tb[c] + tb * Vb[c]
         gr[a] = s
     for a in range(nr):
         for c in range(a + 1, nr):
@@ -372,25 +338,21 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
     for j in range(nr):
         lbr[j] = lb[n0 + j]
         ubr[j] = ub[n0 + j]
-    cols = iws[iws.shape[0] - nr:]  # the nonzero columns of T (after the solvers' part)
-    ns = 0
-    if n0:
-        ns = _eliminate_base(A, b, er, nr, Eb, Tc, cols)
-        if ns < 0:
-            return NOT_REDUCIBLE
-    _reduce_cost(H, g, n0, nr, Tc, cols, ns, V, wb, Hr, gr)
+    if n0 and not _eliminate_base(A, b, er, nr, Eb, Tc):
+        return NOT_REDUCIBLE
+    _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr)
     kk = 0
     for r in range(neq):
         if n0 and er <= r < er + 6:
             continue
-        br[kk] = b[r] - _reduce_row(A[r], n0, nr, Tc, cols, ns, Ar[kk])
+        br[kk] = b[r] - _reduce_row(A[r], n0, nr, Tc, Ar[kk])
         kk += 1
     for r in range(p):
         if l[r] == -np.inf and u[r] == np.inf:  # an unused row (e.g. self-collision's beyond its close pairs)
             lr[r] = -np.inf
             ur[r] = np.inf
             continue
-        shift = _reduce_row(C[r], n0, nr, Tc, cols, ns, Cr[r])
+        shift = _reduce_row(C[r], n0, nr, Tc, Cr[r])
         lr[r] = l[r] - shift
         ur[r] = u[r] - shift
     if p == 0:

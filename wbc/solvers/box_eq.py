@@ -69,24 +69,15 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             j = free[c]
             r += H[i, j] * x[j]
         t[a] = r
-    k0 = nf  # nothing fixed: free = 0 … n − 1
     if nf == n:  # nothing fixed: H_FF = H
         for a in range(n):
             for c in range(a + 1):
                 L[a, c] = H[a, c]
     else:
-        k0 = 0  # free[:k0] = 0 … k0 − 1 (no fixed variable before them): their entries copied by contiguous runs
-        while k0 < nf and free[k0] == k0:
-            k0 += 1
         for a in range(nf):
             i = free[a]
-            Hi = H[i]
-            La = L[a]
-            ce = min(a + 1, k0)
-            for c in range(ce):
-                La[c] = Hi[c]
-            for c in range(ce, a + 1):
-                La[c] = Hi[free[c]]
+            for c in range(a + 1):
+                L[a, c] = H[i, free[c]]
     if not cholesky_lower(L, nf):
         return NOT_POSITIVE_DEFINITE
     forward_substitution(L, nf, t)
@@ -97,11 +88,8 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
             j = free[c]
             bw -= A[k, j] * x[j]
         col = Y[k]
-        Ak = A[k]
-        for a in range(k0):
-            col[a] = Ak[a]
-        for a in range(k0, nf):
-            col[a] = Ak[free[a]]
+        for a in range(nf):
+            col[a] = A[k, free[a]]
         forward_substitution(L, nf, col)
         s = 0.0
         for a in range(nf):
