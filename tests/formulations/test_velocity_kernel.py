@@ -35,7 +35,7 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt)])
     A = rng.standard_normal((n_eq, nv))
     A[:6, :6] += 3 * np.eye(6)  # invertible base block
-    if seed % 2:  # like a contact's Jacobian: zero on the joints outside its chain (columns the elimination skips)
+    if seed % 2:  # like a contact's Jacobian: zero on the joints outside its chain
         A[:6, 6:][:, rng.random(nv - 6) < 0.7] = 0.0
     v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
     x["A"][:] = A
