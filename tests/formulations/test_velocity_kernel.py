@@ -16,8 +16,8 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     """wbc.formulations.velocity_kernel.form_qp (the cost from task rows with gains/weights/feed-forward, a posture
     diagonal, damping) against the cost written out here in numpy, and wbc.formulations.velocity_kernel.kinematic_solve
     (floating-base elimination + active set) on that assembled QP — equality rows whose first 6 are an invertible base
-    block, inequality rows, a velocity box with position limits clipped into it — against quadprog. When the kernel
-    gives up (negative code)
+    block (on odd seeds zero on most joint columns, as a contact's Jacobian outside its chain), inequality rows, a
+    velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
     the full-space kernel must give up on that QP too."""
     from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve_packed
 
@@ -35,6 +35,8 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt)])
     A = rng.standard_normal((n_eq, nv))
     A[:6, :6] += 3 * np.eye(6)  # invertible base block
+    if seed % 2:  # like a contact's Jacobian: zero on the joints outside its chain
+        A[:6, 6:][:, rng.random(nv - 6) < 0.7] = 0.0
     v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
     x["A"][:] = A
     x["b"][:] = A @ v0
