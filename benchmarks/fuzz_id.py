@@ -5,7 +5,7 @@ states (joints spread inside their limits, random velocities). The state advance
 Euler, dt = 2 ms; v̇ = 0 on a fallback tick). Prints the counts and one PASS/FAIL line per acceptance item:
 
     python benchmarks/fuzz_id.py [--solver fast|daqp] [--ticks 1000000] [--jobs 2] [--episode 50] [--seed 0]
-                                 [--chunk 50000] [--out DIR] [--clock-guard]
+                                 [--chunk 50000] [--out DIR] [--clock-guard] [--replay EPISODE]
 
 Checks, all computed in this script from Pinocchio and the numbers the script chose (not from the controller):
 exceptions; non-finite commands; on ok ticks, bound violations beyond 1e-6 (relative to max(1, |bound|)): corner
@@ -323,7 +323,13 @@ def main() -> None:
     p.add_argument("--clock-guard", action="store_true",
                    help="InverseDynamicsController(clock_guard=True): the failure path ordered by cost and stopped "
                         "by the tick's CPU time")
+    p.add_argument("--replay", type=int, default=None,
+                   help="run only this episode of the chunk of --seed (one chunk of --chunk ticks), verbose")
     a = p.parse_args()
+    if a.replay is not None:
+        run_chunk(a.chunk, a.seed, solver=a.solver, episode=a.episode, replay=a.replay, verbose=True,
+                  clock_guard=a.clock_guard)
+        return
     run_chunks(a, run_chunk, aggregate, report, tag=f"id_{a.solver}_{a.episode}{'_clock' if a.clock_guard else ''}",
                solver=a.solver, episode=a.episode, clock_guard=a.clock_guard)
 

@@ -76,7 +76,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations
+from wbc.formulations.acceleration import (IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations,
+                                         tick_work_iterations)
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -305,6 +306,7 @@ class InverseDynamicsController:
         self._budget = float(value)
         self.qp.kernel_max_iterations = kernel_iterations(self._budget)
         self.qp.daqp_attempt_iterations = daqp_attempt_iterations(self._budget)
+        self.qp.tick_work_iterations = tick_work_iterations(self._budget)
 
     def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.
