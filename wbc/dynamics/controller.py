@@ -27,7 +27,13 @@ set found not empty. The budget sets one count: the compiled tick's iteration ca
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
 from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
-:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). A full or relaxed command that ends past the budget is used and counted (``over_budget``):
+:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
+(:func:`~wbc.formulations.acceleration.tick_work_iterations`, the budget in DAQP iterations;
+``InverseDynamicsQP.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
+get what is left of one budget, quadprog's solve runs only when its count
+(:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
+relaxed QP's stages after its first attempt share what is left of 1.5; a stage skipped so adds ``+budget`` to the
+path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
 the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
 starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
@@ -236,8 +242,9 @@ class InverseDynamicsController:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
         budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
-            the compiled tick's iteration cap (``qp.kernel_max_iterations``) and the first DAQP attempt's
-            (``qp.daqp_attempt_iterations``).
+            the compiled tick's iteration cap (``qp.kernel_max_iterations``), the first DAQP attempt's
+            (``qp.daqp_attempt_iterations``) and the counted work of a failed tick's later stages
+            (``qp.tick_work_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time

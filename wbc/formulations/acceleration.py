@@ -192,7 +192,7 @@ QUADPROG_SIZE = 60
 
 #: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
 #: in iterations (:attr:`InverseDynamicsQP.tick_work`)
-DAQP_CALL_WORK = 20
+DAQP_CALL_WORK = 30
 
 
 def tick_work_iterations(budget: float) -> float:
@@ -366,7 +366,8 @@ class InverseDynamicsQP:
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``; read by
         #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
         self.tick_clock: tuple[float, float] | None = None
-        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`.
+        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`, or by the tick's counted work
+        #: (:attr:`tick_work`).
         self.retries_skipped = 0
         #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
         #: because the tick reached :attr:`retry_deadline` first (clock guard).
@@ -932,8 +933,13 @@ class InverseDynamicsQP:
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
         max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
         the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
-        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`). The backend's retries after quadprog keep the
-        backend's own iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
+        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after the
+        attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks, the
+        cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
+        ``FAILURE_WORK`` budgets (not asked when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left);
+        quadprog's solve, which cannot be stopped once started, runs only when its count (:func:`quadprog_work`) fits
+        below ``QUADPROG_WORK`` budgets, else it and the retries after it are skipped (:attr:`budget_cut`,
+        :attr:`quadprog_skipped`). A count, not a clock: the tick's answer stays a function of its inputs and budget.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -1069,8 +1075,13 @@ class InverseDynamicsQP:
                 self.pinned_reduced_solves += 1
                 return x, "quadprog"
             quadprog = "quadprog found no solution either"
+        if skipped:
+            # the backend's retries (up to RETRY_CALLS DAQP calls) come after quadprog: the count that had no room for
+            # quadprog has none for them (they answer a quadprog failure: its certificate is not final)
+            self.retries_skipped += int(retry)
+            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
         if not retry:
-            raise SolverError(f"{first}; {quadprog}") if skipped else first
+            raise first
         if thread_time() >= self.retry_deadline:
             self.retries_skipped += 1
             self.budget_cut = True
