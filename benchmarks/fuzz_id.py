@@ -227,9 +227,9 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                     c["failed_feasible_cut" if cut else "failed_feasible"] += 1
                     event("failed_feasible", ep, tick, f"{name} {cmd.path}{' (budget cut)' if cut else ''}: "
                                                        f"{cmd.message[:200]}")
-                # a tick the clock guard cut names its budget when the hard set has no conflict to name
-                names = cmd.conflicts or ctrl.controller.diagnose() or ([("tick budget (count or clock guard)", 0.0)] if cut
-                                                                        else [])
+                # a tick the budget cut names its budget when the hard set has no conflict to name
+                budget = [("tick budget (count or clock guard)", 0.0)] if cut else []
+                names = cmd.conflicts or ctrl.controller.diagnose() or budget
                 for n, _ in names[:3]:
                     conflicts[n.split(":")[0]] += 1
                 if not names:
