@@ -33,9 +33,9 @@ from the same assembly, and the next tick's compiled call starts from DAQP's wor
 get what is left of one budget, quadprog's solve runs only when its count
 (:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
 relaxed QP's stages after its first attempt share what is left of 1.5; a stage skipped so adds ``+budget`` to the
-path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted (``over_budget``):
-the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
-starts again from the full QP. The independent re-solve that would confirm an infeasibility
+path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
+(``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. Nothing
+latches: the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
 diagnosis mode, not for real time) runs the diagnosis inside every failed tick.

@@ -933,9 +933,9 @@ class InverseDynamicsQP:
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
         max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
         the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
-        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after the
-        attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks, the
-        cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
+        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after
+        the attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks,
+        the cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
         ``FAILURE_WORK`` budgets (not asked when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left);
         quadprog's solve, which cannot be stopped once started, runs only when its count (:func:`quadprog_work`) fits
         below ``QUADPROG_WORK`` budgets, else it and the retries after it are skipped (:attr:`budget_cut`,
