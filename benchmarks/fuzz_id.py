@@ -191,7 +191,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 event("exceptions", ep, tick, f"{name} {type(exc).__name__}: {exc}")
                 break
             within = probe.stop()
-            cut = ctrl.controller.qp.budget_cut  # the clock guard stopped a stage of this tick
+            cut = ctrl.controller.qp.budget_cut  # the tick's counted work or its clock guard stopped a stage
             t_cpu = cmd.timings.get("cpu", np.nan)
             if len(worst) < MAX_EVENTS or t_cpu > worst[-1][0]:
                 worst.append((t_cpu, f"seed {seed} episode {ep} tick {tick} {name} {cmd.path} at {time.time():.3f} s: "
@@ -223,13 +223,13 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 c["relaxed_ticks" if cmd.ok else "fallback_ticks"] += 1
                 _, _, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, DT)
                 if highs_feasible(A, b, C, l, u, lb, ub):
-                    # past the budget the clock guard takes the safe command, feasible or not: counted apart
+                    # a stage skipped by the budget (count or clock guard): the safe command, feasible or not, apart
                     c["failed_feasible_cut" if cut else "failed_feasible"] += 1
                     event("failed_feasible", ep, tick, f"{name} {cmd.path}{' (budget cut)' if cut else ''}: "
                                                        f"{cmd.message[:200]}")
-                # a tick the clock guard cut names its budget when the hard set has no conflict to name
-                names = cmd.conflicts or ctrl.controller.diagnose() or ([("tick budget (clock guard)", 0.0)] if cut
-                                                                        else [])
+                # a tick the budget cut names its budget when the hard set has no conflict to name
+                budget = [("tick budget (count or clock guard)", 0.0)] if cut else []
+                names = cmd.conflicts or ctrl.controller.diagnose() or budget
                 for n, _ in names[:3]:
                     conflicts[n.split(":")[0]] += 1
                 if not names:
@@ -281,7 +281,8 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
         ("bound violations beyond 1e-6 on ok ticks == 0", total["bound_violations"], total["bound_violations"] == 0),
         ("failed full-QP ticks HiGHS finds feasible, the tick budget not spent == 0",
          f"{total['failed_feasible']} of {total['failed_full_qp']} ({total.get('failed_feasible_cut', 0)} more whose "
-         f"budget the clock guard spent: the safe command past the budget)", total["failed_feasible"] == 0),
+         f"budget was spent, by count or clock guard: a stage skipped, the relaxed or safe command)",
+         total["failed_feasible"] == 0),
         ("every failure names its conflict (failed ticks naming none == 0)", total["failed_unnamed"],
          total["failed_unnamed"] == 0),
         (f"max tick CPU time <= 2 x budget ({2e3 * budget:.1f} ms)",

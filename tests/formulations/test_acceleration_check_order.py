@@ -49,7 +49,7 @@ def counted_qp(robots, monkeypatch):
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
     qp.daqp_attempt_iterations = 190
     calls = []
-    for name in ("hard_set_feasible", "solve_pinned_reduced"):
+    for name in ("hard_set_check", "solve_pinned_reduced"):
         real = getattr(acceleration, name)
         monkeypatch.setattr(acceleration, name,
                             lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
@@ -80,7 +80,7 @@ def test_capped_attempt_on_an_empty_hard_set_ends_at_the_check(counted_qp):
     with pytest.raises(SolverError, match="the hard set is empty"):
         qp._solve_backend(*problem)
     assert qp.backend.iterations_capped and qp.backend.last_iterations == 190  # the attempt: stopped at its count
-    assert calls == ["daqp", "hard_set_feasible"]
+    assert calls == ["daqp", "hard_set_check"]
     assert qp.infeasible_by_check == 1 and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 0
 
 
@@ -93,7 +93,7 @@ def test_capped_attempt_on_a_feasible_set_leaves_the_scaled_call_the_rest_of_one
     assert highs_feasible(*problem[2:])
     ref = _quadprog(*problem)
     x, who = qp._solve_backend(*problem)
-    assert calls == ["daqp", "hard_set_feasible", "solve_scaled", "solve_pinned_reduced"]
+    assert calls == ["daqp", "hard_set_check", "solve_scaled", "solve_pinned_reduced"]
     assert iterations[0] == 190
     assert who == "quadprog" and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 1
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
@@ -109,13 +109,13 @@ def test_a_failing_run_checks_the_hard_set_before_the_attempt(counted_qp):
     assert not highs_feasible(*empty[2:]) and highs_feasible(*feasible[2:])
     with pytest.raises(SolverError):
         qp._solve_backend(*empty)
-    assert calls == ["daqp", "hard_set_feasible"] and qp.last_set_empty
+    assert calls == ["daqp", "hard_set_check"] and qp.last_set_empty
     calls.clear()
     with pytest.raises(SolverError, match="DAQP not asked"):
         qp._solve_backend(*empty)
-    assert calls == ["hard_set_feasible"] and qp.infeasible_by_check == 2
+    assert calls == ["hard_set_check"] and qp.infeasible_by_check == 2
     calls.clear()
     x, _ = qp._solve_backend(*feasible)
-    assert calls == ["hard_set_feasible", "daqp", "solve_scaled", "solve_pinned_reduced"] and not qp.last_set_empty
+    assert calls == ["hard_set_check", "daqp", "solve_scaled", "solve_pinned_reduced"] and not qp.last_set_empty
     ref = _quadprog(*feasible)
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))

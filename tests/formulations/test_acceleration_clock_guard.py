@@ -166,16 +166,24 @@ def _infeasible_tick(robots, calls, **options):
 
 
 def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_empty(robots):
-    """Without the clock guard (any budget) and with it and a budget the tick does not reach (10 s): the hard-set
-    check proves the set empty (HiGHS agrees, computed here), so quadprog and the retries are skipped — one backend
-    solve for the full QP, then the relaxed QP — path ``relaxed:daqp``. With a spent budget (1 ns) no check runs at
-    all: the relaxed QP answers at once, path ``relaxed:daqp+budget``, the same relaxed command (1e-9)."""
+    """Without the clock guard (the default budget, the period) and with it and a budget the tick does not reach
+    (10 s): the hard-set check proves the set empty (HiGHS agrees, computed here), so quadprog and the retries are
+    skipped — one backend solve for the full QP, then the relaxed QP — path ``relaxed:daqp``. With a spent budget
+    (1 ns) no check runs at all, with the clock guard (its clock) and without it (the tick's counted work,
+    ``InverseDynamicsQP.tick_work``): the relaxed QP answers at once, path ``relaxed:daqp+budget``, the same relaxed
+    command (1e-9)."""
     calls_free = []
-    ctrl, cmd_free, hard = _infeasible_tick(robots, calls_free, budget=1e-9)
+    ctrl, cmd_free, hard = _infeasible_tick(robots, calls_free)
     assert not _highs_feasible(*hard)
     assert cmd_free.ok and cmd_free.relaxed and cmd_free.path == "relaxed:daqp"
     assert calls_free == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 1  # attempt, relaxed QP
     assert "hard set is empty" in cmd_free.message and ctrl.qp.relaxed_set_feasible is True
+    calls_counted = []
+    ctrl, cmd_counted, _ = _infeasible_tick(robots, calls_counted, budget=1e-9)
+    assert cmd_counted.ok and cmd_counted.relaxed and cmd_counted.path == "relaxed:daqp+budget"
+    assert calls_counted == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 0
+    assert ctrl.qp.relaxed_set_feasible is None
+    np.testing.assert_allclose(cmd_counted.tau, cmd_free.tau, rtol=0, atol=1e-9)
     calls_roomy = []
     ctrl, cmd_roomy, _ = _infeasible_tick(robots, calls_roomy, budget=10.0, clock_guard=True)
     assert cmd_roomy.ok and cmd_roomy.relaxed and cmd_roomy.path == "relaxed:daqp" and not cmd_roomy.over_budget

@@ -206,10 +206,11 @@ class _Spy:
 
 def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robots):
     """Item 7: a failing tick runs no independent re-solve (the backend's confirm is never called on the control
-    path) and at most the relaxed QP after the full one; the budget is reported (over_budget), never used to decide,
-    so a budget already spent gives bitwise the same command as an unbounded one (a tick's answer is a function of
-    its inputs, not of the machine's load); the controller does not latch (the next feasible tick is ok on the full
-    QP); the names of the conflict are available off the path (diagnose())."""
+    path) and at most the relaxed QP after the full one; the budget is reported (over_budget) and read as counts,
+    never as a clock: a budget already spent skips the counted checks of the failed full QP (path
+    ``relaxed:daqp+budget``) and gives bitwise the same relaxed command as an unbounded one (a tick's answer is a
+    function of its inputs, not of the machine's load); the controller does not latch (the next feasible tick is ok
+    on the full QP); the names of the conflict are available off the path (diagnose())."""
     from wbc.dynamics import InverseDynamicsController
 
     robot = robots("talos")
@@ -219,13 +220,13 @@ def test_failed_tick_confirms_off_the_control_path_and_respects_its_budget(robot
     relaxed = qp.solve_relaxed = _Spy(qp.solve_relaxed)
     ctrl = InverseDynamicsController(qp, DT, budget=1e-9)
     spent = ctrl.solve(q, v)
-    assert spent.ok and spent.relaxed and spent.path == "relaxed:daqp" and spent.over_budget
+    assert spent.ok and spent.relaxed and spent.path == "relaxed:daqp+budget" and spent.over_budget
     assert confirm.calls == 0 and relaxed.calls == 1
     _finite_and_within_effort(spent, robot)
     names = [n for n, _ in ctrl.diagnose()]
     assert "torque_limits" in names and "task:posture" in names, names
     summary = ctrl.summary()
-    assert summary["ticks"] == 1 and summary["fallback_rate"] == 0.0 and summary["paths"] == {"relaxed:daqp": 1}
+    assert summary["ticks"] == 1 and summary["fallback_rate"] == 0.0 and summary["paths"] == {"relaxed:daqp+budget": 1}
 
     ctrl = InverseDynamicsController(qp, DT, budget=math.inf)
     cmd = ctrl.solve(q, v)
@@ -552,6 +553,9 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
 
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
+    # quadprog's solve of this QP (62 variables) is counted as ~790 DAQP iterations, 1.4 budgets of 2 ms: a 10 ms
+    # budget leaves room for it (test_id_quadprog_past_the_counted_work_is_skipped: the 2 ms budget)
+    ctrl.controller.budget = 0.01
     cmd = ctrl.solve(q, v)
     assert cmd.ok and str(cmd.path) == "general:quadprog", (cmd.path, cmd.message)  # nothing pinned: quadprog too
     _finite_and_within_effort(cmd, robot)
@@ -563,6 +567,39 @@ def test_id_general_path_retries_a_failed_qp_with_quadprog_pinned_forces_elimina
     assert Failing.retries == [False, "scaled"]
     right = ctrl.controller.qp._force_slices[[c.name for c in ctrl.controller.qp.contacts].index("right")]
     assert np.all(cmd.forces[right.start - robot.nv:right.stop - robot.nv] == 0.0)
+    _finite_and_within_effort(cmd, robot)
+
+
+def test_id_quadprog_past_the_counted_work_is_skipped(robots):
+    """Talos (62 variables) with a backend that finds no solution on any QP, at the default budget (the 2 ms
+    period): quadprog's solve of the full QP and of the relaxed one (~3 ms each on talos) would take the tick past
+    twice the budget, so both are skipped by the tick's counted work — no quadprog call —, the tick takes the safe
+    command (``fallback:gravity``, nothing latched: ok False, then the full QP again next tick) with the reason in its
+    message, and the counted work stays within twice the budget (2 × 2 ms at 3.5 µs per DAQP iteration)."""
+    import wbc.formulations.acceleration as acceleration
+    from wbc.exceptions import SolverError
+
+    class Failing(DaqpBackend):
+        def solve(self, *args, **kw):
+            raise SolverError("no solution (test backend)")
+
+        def solve_scaled(self, *args, **kw):
+            return None
+
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
+    calls = []
+    reduced = acceleration.solve_pinned_reduced
+    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    try:
+        cmd = ctrl.solve(q, v)
+    finally:
+        acceleration.solve_pinned_reduced = reduced
+    qp = ctrl.controller.qp
+    assert not cmd.ok and str(cmd.path) == "fallback:gravity", (cmd.path, cmd.message)
+    assert calls == [] and qp.quadprog_skipped == 2 and qp.budget_cut
+    assert "no quadprog solve" in cmd.message and "no quadprog solve of the relaxed QP" in cmd.message
+    assert qp.tick_work <= 2 * 0.002 / 3.5e-6
     _finite_and_within_effort(cmd, robot)
 
 

@@ -13,6 +13,7 @@ optimum."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -26,15 +27,18 @@ FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_output_check_ta
 TOL = 1e-6  # the fuzz's bound tolerance, relative to max(1, |bound|)
 
 
-def _replayed(robots, before_last=None):
+def _replayed(robots, before_last=None, tick_work_iterations=None):
     """The controller after ticks 32 and 33 of the replayed episode, the fixture, and tick 33's command;
-    ``before_last()`` is called between the two ticks."""
+    ``before_last()`` is called between the two ticks; ``tick_work_iterations`` replaces the counted work a tick may
+    spend (the 2 ms budget's otherwise; the DAQP attempt's cap stays that of 2 ms)."""
     d = np.load(FIXTURE)
     robot = robots("talos")
     gains = {str(k): float(v) for k, v in zip(d["gain_names"], d["gain_values"])}
     ctrl = IDBalanceController(robot, dt=float(d["dt"]), solver="fast", mu=float(d["mu"]), f_min=float(d["f_min"]),
                                gains=gains, torque_limit_scale=float(d["torque_limit_scale"]))
     ctrl.reset(d["q0"], d["v0"])
+    if tick_work_iterations is not None:
+        ctrl.qp.tick_work_iterations = tick_work_iterations
     ctrl.set_com_reference(d["com_position"], acceleration=d["com_acceleration"])
     for t in range(2):
         if t == 1 and before_last is not None:
@@ -100,9 +104,9 @@ def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_rel
 
 
 def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
-    """The refinement's polish finding nothing (forced), quadprog's solve of the same QP is the command (path
-    ``general:quadprog``): within the limits, at quadprog's optimum."""
-    ctrl, d, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch))
+    """The refinement's polish finding nothing (forced) and the tick's counted work unbounded, quadprog's solve of the
+    same QP is the command (path ``general:quadprog``): within the limits, at quadprog's optimum."""
+    ctrl, d, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch), tick_work_iterations=math.inf)
     assert cmd.ok and not cmd.relaxed, cmd.message
     assert cmd.path == "general:quadprog"
     assert ctrl.qp.output_quadprog == 1 and ctrl.qp.output_polished == 0
@@ -125,5 +129,15 @@ def test_answer_no_refinement_fixes_still_fails_the_output_check(robots, monkeyp
         _refinement_polish_fails(monkeypatch)
         monkeypatch.setattr(acceleration, "solve_pinned_reduced", lambda *args: None)
     _, _, cmd = _replayed(robots, unrefinable)
+    assert cmd.relaxed
+    assert "fails the output check: torque_limits" in cmd.message
+
+
+def test_refinements_quadprog_is_skipped_past_the_counted_work(robots, monkeypatch):
+    """At the 2 ms budget's counted work, quadprog's solve of Talos's QP (its count, 2.5 ms × (62/60)³, past 1.25
+    budgets) does not fit: the refinement skips it like the failure path does, and the output check's verdict stands
+    (relaxed, the torque limit named)."""
+    ctrl, _, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch))
+    assert ctrl.qp.output_quadprog == 0 and ctrl.qp.quadprog_skipped >= 1
     assert cmd.relaxed
     assert "fails the output check: torque_limits" in cmd.message

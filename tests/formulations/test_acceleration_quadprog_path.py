@@ -56,7 +56,7 @@ def counted_qp(robots, monkeypatch):
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
     qp.daqp_attempt_iterations = CAP
     calls, iterations, hessians = [], [], []
-    for name in ("hard_set_feasible", "solve_pinned_reduced"):
+    for name in ("hard_set_check", "solve_pinned_reduced"):
         real = getattr(acceleration, name)
         monkeypatch.setattr(acceleration, name,
                             lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
@@ -85,7 +85,7 @@ def test_the_slow_tick_is_answered_by_quadprog_at_the_optimum(counted_qp):
     ref = dense_quadprog(*problem)
     x, who = qp._solve_backend(*problem)
     assert who == "quadprog" and qp.pinned_reduced_solves == 1 and qp.scaled_solves == 0
-    assert calls == ["daqp", "hard_set_feasible", "solve_scaled", "solve_pinned_reduced"]
+    assert calls == ["daqp", "hard_set_check", "solve_scaled", "solve_pinned_reduced"]
     assert _largest_violation(x, *problem[2:]) <= 1e-6
     H, g = problem[:2]
     assert abs(_objective(H, g, x) - _objective(H, g, ref)) <= 1e-7 * max(1.0, abs(_objective(H, g, ref)))
@@ -128,7 +128,7 @@ def test_the_relaxed_qp_gets_quadprog_when_daqp_misses_a_minimiser(counted_qp, m
     monkeypatch.setattr(DaqpBackend, "solve", fail)
     x, who = qp._solve_relaxed_daqp(H, g, A, b, C, *relaxed)
     assert who == "quadprog" and qp.relaxed_quadprog_solves == 1
-    assert calls == ["daqp", "hard_set_feasible", "daqp", "solve_pinned_reduced"]
+    assert calls == ["daqp", "hard_set_check", "daqp", "solve_pinned_reduced"]
     assert _largest_violation(x, A, b, C, *relaxed) <= 1e-6
     ref = dense_quadprog(H, g, A, b, C, *relaxed)
     assert abs(_objective(H, g, x) - _objective(H, g, ref)) <= 1e-7 * max(1.0, abs(_objective(H, g, ref)))

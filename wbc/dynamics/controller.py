@@ -30,9 +30,15 @@ set found not empty. The budget sets one count: the compiled tick's iteration ca
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
 from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
-:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). A full or relaxed command that ends past the budget is used and counted (``over_budget``):
-the safe command is a last resort, a solved QP one tick late is the better command. Nothing latches: the next tick
-starts again from the full QP. The independent re-solve that would confirm an infeasibility
+:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
+(:func:`~wbc.formulations.acceleration.tick_work_iterations`, the budget in DAQP iterations;
+``InverseDynamicsQP.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
+get what is left of one budget, quadprog's solve runs only when its count
+(:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
+relaxed QP's stages after its first attempt share what is left of 1.5; a stage skipped so adds ``+budget`` to the
+path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
+(``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. Nothing
+latches: the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
 diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
@@ -79,7 +85,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations
+from wbc.formulations.acceleration import (IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations,
+                                         tick_work_iterations)
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -238,8 +245,9 @@ class InverseDynamicsController:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
         budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
-            the compiled tick's iteration cap (``qp.kernel_max_iterations``) and the first DAQP attempt's
-            (``qp.daqp_attempt_iterations``).
+            the compiled tick's iteration cap (``qp.kernel_max_iterations``), the first DAQP attempt's
+            (``qp.daqp_attempt_iterations``) and the counted work of a failed tick's later stages
+            (``qp.tick_work_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
@@ -308,6 +316,7 @@ class InverseDynamicsController:
         self._budget = float(value)
         self.qp.kernel_max_iterations = kernel_iterations(self._budget)
         self.qp.daqp_attempt_iterations = daqp_attempt_iterations(self._budget)
+        self.qp.tick_work_iterations = tick_work_iterations(self._budget)
 
     def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.

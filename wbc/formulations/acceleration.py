@@ -107,14 +107,15 @@ from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.base import POLISH_RANGE
 from wbc.solvers.daqp import DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
 from wbc.solvers.diagnosis import diagnose
-from wbc.solvers.independent import hard_set_feasible, second_opinion, solve_pinned_reduced
+from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
 from wbc.tick import TickPath
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
-           "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "daqp_attempt_iterations", "kernel_iterations"]
+__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST",
+           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
+           "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
 
 @dataclass
@@ -192,6 +193,25 @@ def daqp_attempt_iterations(budget: float) -> int:
 #: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
 #: ``InverseDynamicsQP.quadprog_cost``; a humanoid's QP, ~60 variables; benchmarks/README.md)
 QUADPROG_COST = 2.5e-3
+#: variables of the QP whose quadprog solve costs :data:`QUADPROG_COST` (:func:`quadprog_work`)
+QUADPROG_SIZE = 60
+
+#: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
+#: in iterations (:attr:`InverseDynamicsQP.tick_work`)
+DAQP_CALL_WORK = 30
+
+
+def tick_work_iterations(budget: float) -> float:
+    """The work of a tick budget of ``budget`` seconds of CPU time counted in DAQP iterations (at
+    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` each): the unit of :attr:`InverseDynamicsQP.tick_work`;
+    ``math.inf`` for an unbounded budget (nothing counted stops a stage)."""
+    return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
+
+
+def quadprog_work(n: int) -> float:
+    """Work counted for quadprog's solve of a failed ID QP of ``n`` variables, in DAQP iterations: :data:`QUADPROG_COST`
+    scaled by (n / :data:`QUADPROG_SIZE`)³ (its factorisations' order; a count from the QP's size, not a clock)."""
+    return QUADPROG_COST * (n / QUADPROG_SIZE) ** 3 / DAQP_ITERATION_COST
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
 _ID_TICK_LOADED = False
@@ -325,6 +345,19 @@ class InverseDynamicsQP:
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
         #: (:func:`daqp_attempt_iterations`).
         self.daqp_attempt_iterations = ITERATION_LIMIT
+        #: the work of one tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``: nothing
+        #: counted stops a stage); :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget.
+        #: Without a clock guard the stages after a failed full QP's first attempt start only while
+        #: :attr:`tick_work` is below their share of it (``FAILURE_WORK``, ``QUADPROG_WORK``, ``RELAXED_WORK``), each
+        #: DAQP call capped at what is left.
+        self.tick_work_iterations = math.inf
+        #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
+        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`),
+        #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
+        self.tick_work = 0.0
+        #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,
+        #: :meth:`solve_relaxed`).
+        self.quadprog_skipped = 0
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         # ((id(state), dt), (l, u, lb, ub)) of the relaxed QP formed by the current solve()'s failed full QP, else None
         self._relaxed_bounds = None
@@ -339,7 +372,8 @@ class InverseDynamicsQP:
         #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``; read by
         #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
         self.tick_clock: tuple[float, float] | None = None
-        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`.
+        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`, or by the tick's counted work
+        #: (:attr:`tick_work`).
         self.retries_skipped = 0
         #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
         #: because the tick reached :attr:`retry_deadline` first (clock guard).
@@ -402,6 +436,48 @@ class InverseDynamicsQP:
     #: gets what the attempt left of that count, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`), so that
     #: quadprog's solve after them still ends by about twice the budget
     SCALED_FEASIBLE_FACTOR = 2
+    #: without a clock guard: a failed full QP's checks, cost-scaled call and backend retries (each DAQP call capped at
+    #: what is left) run while :attr:`tick_work` is below this many :attr:`tick_work_iterations`
+    FAILURE_WORK = 1.0
+    #: without a clock guard: quadprog's solve of a failed full QP runs only when :attr:`tick_work` plus its count
+    #: (:func:`quadprog_work`) stays within this many :attr:`tick_work_iterations`
+    QUADPROG_WORK = 1.25
+    #: without a clock guard: the relaxed QP's calls after its first attempt (the check of its set, the backend's
+    #: retries, quadprog) run within this many :attr:`tick_work_iterations`; its first attempt gets at least
+    #: :attr:`daqp_attempt_iterations`
+    RELAXED_WORK = 1.5
+    #: DAQP calls the backend's retries can make (:meth:`wbc.solvers.daqp.DaqpBackend.solve` with ``cold_retry``: the
+    #: dual-started call, the cold one, the two of its cold path): each is capped at this fraction of the work left
+    RETRY_CALLS = 4
+
+    def _counting(self) -> bool:
+        """The tick's stages are stopped by its counted work (:attr:`tick_work`): no clock guard, a finite
+        :attr:`tick_work_iterations`."""
+        return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
+
+    def _work_left(self, factor: float) -> float:
+        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` × :attr:`tick_work_iterations`
+        (``math.inf`` when nothing is counted)."""
+        return factor * self.tick_work_iterations - self.tick_work
+
+    def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
+        """:func:`wbc.solvers.independent.hard_set_check` with at most the iterations left below ``factor``
+        (:meth:`_work_left`, at most :data:`~wbc.solvers.daqp.ITERATION_LIMIT`), counted in :attr:`tick_work`;
+        None (not asked) when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left."""
+        left = self._work_left(factor)
+        if left < MIN_CALL_ITERATIONS:
+            return None
+        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
+                                             iter_limit=int(min(left, ITERATION_LIMIT)))
+        self.tick_work += iterations + DAQP_CALL_WORK
+        return verdict
+
+    def _retry_iterations(self, factor: float) -> int | None:
+        """Iteration cap of each DAQP call of the backend's retries when the work is counted: the work left below
+        ``factor`` shared by :attr:`RETRY_CALLS` calls (at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`);
+        None (no cap) when nothing is counted."""
+        left = self._work_left(factor)
+        return None if not math.isfinite(left) else max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS)
 
     @property
     def retry_deadline(self) -> float:
@@ -720,7 +796,10 @@ class InverseDynamicsQP:
         fail on a set in which the check found a point, quadprog with the pinned variables and the equalities
         eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`). With a clock guard every DAQP call ends by
         ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left) and quadprog starts only when
-        :attr:`quadprog_cost` ends by then.
+        :attr:`quadprog_cost` ends by then. Without one, under a finite :attr:`tick_work_iterations`, the first
+        attempt gets at most max(:attr:`daqp_attempt_iterations`, the work left below ``RELAXED_WORK``) iterations
+        and the stages after it share that work left (:attr:`tick_work`: the check at most what is left, each retry
+        call a ``RETRY_CALLS``-th of it, quadprog only when :func:`quadprog_work` fits).
 
         Returns:
             (x (n,), name of the solver that answered: the backend's or ``quadprog``).
@@ -731,41 +810,71 @@ class InverseDynamicsQP:
         """
         backend = self.backend
         end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
+        counting = self._counting()
         retry = backend.cold_retry
         backend.deadline = end
         try:
             backend.cold_retry = False
+            if counting:
+                backend.call_iterations = max(self.daqp_attempt_iterations,
+                                              int(min(self._work_left(self.RELAXED_WORK), ITERATION_LIMIT)))
             try:
                 return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
                 first = exc
+                self.tick_work += backend.last_iterations + DAQP_CALL_WORK
             finally:
                 backend.cold_retry = retry
-            left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
+                backend.call_iterations = None
+            if counting:
+                left = self._work_left(self.RELAXED_WORK)
+            else:
+                left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
             if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
                 # the relaxed hard set, unless the full QP's failure already found it not empty
                 feasible = self.relaxed_set_feasible
-                if feasible is None:
-                    feasible = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
-                                                 iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
+                if feasible is None and counting:
+                    feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
+                elif feasible is None:
+                    feasible = hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
+                                              iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0]
                 if feasible is False:
                     self.relaxed_infeasible_by_check += 1
                     raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
                                       f"onto it): the backend's retries skipped")
                 if not retry:
                     raise first
+                calls = self._retry_iterations(self.RELAXED_WORK) if counting else None
+                if calls is not None and self._work_left(self.RELAXED_WORK) < MIN_CALL_ITERATIONS:
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
+                                      f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
+                backend.call_iterations = calls
                 try:
                     return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
                 except SolverError as exc:
                     if backend.budget_capped or feasible is not True:
                         raise
                     first = exc
+                finally:
+                    backend.call_iterations = None
+                    if calls is not None:
+                        self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
                 # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
-                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end``
+                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
+                # counted, its work fits below RELAXED_WORK
                 if thread_time() + self.quadprog_cost > end:
                     self.budget_cut = True
                     raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
+                work = quadprog_work(H.shape[0])
+                if counting and work > self._work_left(self.RELAXED_WORK):
+                    self.quadprog_skipped += 1
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: the tick's counted work "
+                                      f"({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) would "
+                                      f"pass {self.RELAXED_WORK} budgets")
                 x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                self.tick_work += work
                 if x is None:
                     raise SolverError(f"{first}; quadprog found no solution either")
                 self.relaxed_quadprog_solves += 1
@@ -777,9 +886,9 @@ class InverseDynamicsQP:
             raise
         finally:
             backend.deadline = math.inf
-        self.budget_cut = True  # the first call stopped at the deadline, or no time left for the check
-        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time left for the relaxed "
-                          f"hard-set check and the backend's retries: clock guard)")
+        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
+        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
+                          f"the relaxed hard-set check and the backend's retries)")
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
         """Build and solve the QP at ``state`` for control period ``dt`` (s). The solution passes the output check
@@ -802,6 +911,7 @@ class InverseDynamicsQP:
         self._relaxed_bounds = None
         self.budget_cut = False
         self.relaxed_set_feasible = None
+        self.tick_work = 0.0
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
                 and not self.extra_equalities:
             return self._solve_kernel(state, dt)
@@ -837,8 +947,13 @@ class InverseDynamicsQP:
         (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
         max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
         the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
-        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`). The backend's retries after quadprog keep the
-        backend's own iteration limit: a QP that the capped calls do not solve takes the route it took without the cap.
+        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after
+        the attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks,
+        the cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
+        ``FAILURE_WORK`` budgets (not asked when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left);
+        quadprog's solve, which cannot be stopped once started, runs only when its count (:func:`quadprog_work`) fits
+        below ``QUADPROG_WORK`` budgets, else it and the retries after it are skipped (:attr:`budget_cut`,
+        :attr:`quadprog_skipped`). A count, not a clock: the tick's answer stays a function of its inputs and budget.
 
         With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
         DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
@@ -860,14 +975,16 @@ class InverseDynamicsQP:
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
         guarded = self.tick_clock is not None
         known = None  # the full hard set's check before DAQP's attempt, when made
+        checked = False
         if not guarded and self.last_set_empty:
             # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
             # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
             self.last_set_empty = False
-            known = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+            known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
+            checked = True
             if known is False:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
-                                      backend, A, b, C, l, u, lb, ub, state, dt, known)
+                                      backend, A, b, C, l, u, lb, ub, state, dt, known, checked=True)
         retry = backend.cold_retry
         backend.cold_retry = False
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
@@ -879,6 +996,7 @@ class InverseDynamicsQP:
         except SolverError as exc:
             first = exc
             attempted = backend.last_iterations  # the attempt's DAQP iterations
+            self.tick_work += attempted + DAQP_CALL_WORK
             if backend.budget_capped:
                 self.budget_cut = True
         finally:
@@ -886,16 +1004,23 @@ class InverseDynamicsQP:
             backend.deadline = math.inf
             backend.call_iterations = None
         if not guarded:
-            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known)
+            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known,
+                                             checked=checked)
             if cap is not None:
                 # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
                 # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
-                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap
+                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap;
+                # at most the tick's counted work left
                 scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
                               else cap)
-                x = self._solve_scaled(backend, scaled_cap, H, g, A, b, C, l, u, lb, ub)
-                if x is not None:
-                    return x, backend.name
+                left = self._work_left(self.FAILURE_WORK)
+                if left < MIN_CALL_ITERATIONS:
+                    self.budget_cut = True
+                else:
+                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
+                    self.tick_work += backend.last_iterations + DAQP_CALL_WORK
+                    if x is not None:
+                        return x, backend.name
         elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
@@ -918,8 +1043,8 @@ class InverseDynamicsQP:
                     break  # no time for the second step: the failure stands (below)
                 if step == "check":
                     left = (end - thread_time()) / backend.iteration_cost
-                    if hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance,
-                                         iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT)))) is False:
+                    if hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
+                                      iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0] is False:
                         self.infeasible_by_check += 1
                         raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
                                           f"it): quadprog and the backend's retries skipped (clock guard)")
@@ -945,40 +1070,67 @@ class InverseDynamicsQP:
                 raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
                                   f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
                                   f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
-        c0 = thread_time()
-        x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-        if guarded:
-            cost = thread_time() - c0
-            self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-        if x is not None:
-            self.pinned_reduced_solves += 1
-            return x, "quadprog"
+        work = quadprog_work(H.shape[0])
+        skipped = not guarded and work > self._work_left(self.QUADPROG_WORK)
+        if skipped:
+            # the tick's counted work leaves too little for quadprog's solve (which cannot be stopped once started)
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            quadprog = (f"no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP iterations) and "
+                        f"quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets")
+        else:
+            c0 = thread_time()
+            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+            self.tick_work += work
+            if guarded:
+                cost = thread_time() - c0
+                self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+            if x is not None:
+                self.pinned_reduced_solves += 1
+                return x, "quadprog"
+            quadprog = "quadprog found no solution either"
+        if skipped:
+            # the backend's retries (up to RETRY_CALLS DAQP calls) come after quadprog: the count that had no room for
+            # quadprog has none for them (they answer a quadprog failure: its certificate is not final)
+            self.retries_skipped += int(retry)
+            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
         if not retry:
             raise first
         if thread_time() >= self.retry_deadline:
             self.retries_skipped += 1
             self.budget_cut = True
-            raise SolverError(f"{first}; quadprog found no solution either; the backend's retries skipped: tick "
-                              f"budget spent (clock guard)")
+            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: tick budget spent (clock guard)")
+        calls = None if guarded else self._retry_iterations(self.FAILURE_WORK)
+        if calls is not None and self._work_left(self.FAILURE_WORK) < MIN_CALL_ITERATIONS:
+            self.retries_skipped += 1
+            self.budget_cut = True
+            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
+                              f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
+        backend.call_iterations = calls
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError:
-            if backend.budget_capped:
+            if backend.budget_capped or backend.iterations_capped:
                 self.budget_cut = True
             raise
         finally:
             backend.deadline = math.inf
+            backend.call_iterations = None
+            if calls is not None:
+                self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                         state: DynamicsState | None, dt: float, full: bool | None = None) -> bool:
+                         state: DynamicsState | None, dt: float, full: bool | None = None, *,
+                         checked: bool = False) -> bool:
         """The hard-set checks of a failed full QP without a clock guard
         (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin onto a set):
         the full hard set first — a point found, the relaxed set is not checked (the QP has a minimiser: the relaxed
         QP is needed only if every solver misses it, and :meth:`solve_relaxed` checks its set then) — else, given the
-        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``full``: the full set's verdict when
-        it was checked already this tick (not checked again), else None. A set proved empty sets
-        :attr:`last_set_empty`.
+        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``checked``: the full set was checked
+        already this tick, its verdict ``full`` (True, False or None: not checked again). Each check gets at most the
+        iterations left below ``FAILURE_WORK`` (:meth:`_set_check`; not asked when too few are left). A set proved
+        empty sets :attr:`last_set_empty`.
 
         Returns:
             True when a point of the full hard set was found, else False (not proved empty).
@@ -986,14 +1138,16 @@ class InverseDynamicsQP:
         Raises:
             SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
         """
-        if full is None:
-            full = hard_set_feasible(A, b, C, l, u, lb, ub, backend.tolerance)
+        if not checked:
+            full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
         if full is True:
             return True
         self.last_set_empty = full is False
-        if state is not None:
+        left = self._work_left(self.FAILURE_WORK)
+        if state is not None and left >= MIN_CALL_ITERATIONS:
             try:
-                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt, ITERATION_LIMIT)
+                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt,
+                                        int(min(left, ITERATION_LIMIT)))
             except SolverError:
                 self.last_set_empty = True
                 raise
@@ -1015,7 +1169,9 @@ class InverseDynamicsQP:
         """
         relaxed = self._relaxed_set(state, dt, l, u, lb, ub)
         self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
-        self.relaxed_set_feasible = hard_set_feasible(A, b, C, *relaxed, backend.tolerance, iter_limit=iter_limit)
+        self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
+                                                               iter_limit=iter_limit)
+        self.tick_work += iterations + DAQP_CALL_WORK
         if self.relaxed_set_feasible is False:
             self.infeasible_by_check += 1
             raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
@@ -1099,7 +1255,8 @@ class InverseDynamicsQP:
         of the output check (every violation at most that times its scale) is refined: one further off is not an
         error of the solver's precision (a solver's bug), and its tick fails. With a clock guard (:attr:`tick_clock`)
         the refinement starts only before :attr:`retry_deadline`, quadprog only when it is expected to end by
-        ``QUADPROG_END`` budgets.
+        ``QUADPROG_END`` budgets; without one, quadprog only when its count (:func:`quadprog_work`) fits below
+        ``QUADPROG_WORK`` budgets of :attr:`tick_work`, as in the failure path.
 
         Returns:
             ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
@@ -1137,7 +1294,14 @@ class InverseDynamicsQP:
                     return cand
         if sol.path.solver == "quadprog" or thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
             return None
+        work = quadprog_work(H.shape[0])
+        if self._counting() and work > self._work_left(self.QUADPROG_WORK):
+            # the same counted gate as the failure path's quadprog (:meth:`_solve_backend`)
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            return None
         xq = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        self.tick_work += work
         if xq is None:
             return None
         cand = self.solution_from(state, xq, timings=sol.timings)
@@ -1245,6 +1409,8 @@ class InverseDynamicsQP:
             kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
         kb.fallbacks += 1
         kb.gave_up = True
+        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
+        self.tick_work += par[PAR_MAX_ITER] * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
         kb.state[:] = 0
         kb.rstate[:] = 0
         x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,

@@ -15,7 +15,7 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers.base import QPBackend
 from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT, DaqpBackend
 
-__all__ = ["hard_set_feasible", "second_opinion", "solve_pinned_reduced"]
+__all__ = ["hard_set_check", "hard_set_feasible", "second_opinion", "solve_pinned_reduced"]
 
 
 def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
@@ -197,6 +197,17 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
     Raises:
         InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
     """
+    return hard_set_check(A, b, C, l, u, lb, ub, tolerance, iter_limit=iter_limit)[0]
+
+
+def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
+                   iter_limit: int = ITERATION_LIMIT) -> tuple[bool | None, int]:
+    """:func:`hard_set_feasible` with the work it took: (its verdict, the DAQP call's iterations ≥ 0), for a caller
+    that counts a tick's work in iterations (:class:`wbc.formulations.acceleration.InverseDynamicsQP`).
+
+    Raises:
+        InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
+    """
     import daqp
 
     if isinstance(iter_limit, bool) or not isinstance(iter_limit, (int, np.integer)) or iter_limit < 1:
@@ -208,11 +219,12 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
     lower = np.concatenate([lb, b, l])
     sense = np.zeros(n + m + p, dtype=np.int32)
     sense[n:n + m] = 5
-    x, _, exitflag, _ = daqp.solve(np.eye(n), np.zeros(n), G, upper, lower, sense, primal_tol=DAQP_PRIMAL_TOL,
-                                   iter_limit=int(iter_limit))
+    x, _, exitflag, info = daqp.solve(np.eye(n), np.zeros(n), G, upper, lower, sense, primal_tol=DAQP_PRIMAL_TOL,
+                                      iter_limit=int(iter_limit))
+    iterations = int(info["iterations"])
     if exitflag == -1:
-        return False
+        return False, iterations
     if exitflag < 1 or not np.isfinite(x).all():
-        return None
+        return None, iterations
     xc = np.minimum(np.maximum(x, lb), ub)
-    return True if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None
+    return (True if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None), iterations
