@@ -1132,12 +1132,6 @@ class KinematicController:
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._budget_s = dt if self._budget is None else self._budget
         self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
-        if isinstance(self.backend, FastBackend):
-            # a flat QP's tick counts the kernel attempts that give up (and skips the kernel on its later problems of
-            # that shape): uncounted, a return-rate ladder and trust region on joints held at their limits spent
-            # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
-            # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
-            self.backend.count_give_ups = not self._level_order
         self._resolve_cost = self._level_cost = self._check_cost = 0.0
         self._safe_fresh = False
         plan = self._fused
@@ -1157,6 +1151,12 @@ class KinematicController:
             if result is not None:
                 return result
         self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
+        if isinstance(self.backend, FastBackend):
+            # the general path of a flat QP's tick counts the kernel attempts that give up (and skips the kernel on
+            # its later problems of that shape; the compiled tick above uses no FastBackend): uncounted, a return-rate ladder and trust region on joints held at their limits spent
+            # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
+            # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
+            self.backend.count_give_ups = not self._level_order
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
