@@ -113,7 +113,7 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST",
+__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "IDSolution", "KERNEL_ITERATION_COST",
            "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
            "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
@@ -199,6 +199,12 @@ QUADPROG_SIZE = 60
 #: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
 #: in iterations (:attr:`InverseDynamicsQP.tick_work`)
 DAQP_CALL_WORK = 30
+#: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
+#: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
+#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), and each outer iteration
+#: redoes the work of several iterations. A call on the cost-scaled QP whose work share is w iterations is capped
+#: at w / (1 + PROXIMAL_ITERATION_WORK) iterations (a call has at most one outer iteration per iteration).
+PROXIMAL_ITERATION_WORK = 5
 
 
 def tick_work_iterations(budget: float) -> float:
@@ -478,6 +484,27 @@ class InverseDynamicsQP:
         None (no cap) when nothing is counted."""
         left = self._work_left(factor)
         return None if not math.isfinite(left) else max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS)
+
+    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
+        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer iterations
+        (those counted past ``proximal``, :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`) at
+        :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
+                + DAQP_CALL_WORK)
+
+    @staticmethod
+    def _scaled_iterations(work: int) -> int:
+        """Iteration cap of a DAQP call on the cost-scaled QP given a work share of ``work`` iterations: each of its
+        iterations may bring a proximal outer iteration (:data:`PROXIMAL_ITERATION_WORK`); at least
+        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`."""
+        return max(MIN_CALL_ITERATIONS, int(work) // (1 + PROXIMAL_ITERATION_WORK))
+
+    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
+        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations (its cost-scaled
+        call at :meth:`_scaled_iterations` of it): ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the
+        proximal outer iterations counted past ``proximal`` beyond those the scaled call's share covers."""
+        extra = backend.proximal_iterations - proximal - self._scaled_iterations(calls)
+        return self.RETRY_CALLS * (calls + DAQP_CALL_WORK) + PROXIMAL_ITERATION_WORK * max(0, extra)
 
     @property
     def retry_deadline(self) -> float:
@@ -818,11 +845,12 @@ class InverseDynamicsQP:
             if counting:
                 backend.call_iterations = max(self.daqp_attempt_iterations,
                                               int(min(self._work_left(self.RELAXED_WORK), ITERATION_LIMIT)))
+            proximal = backend.proximal_iterations
             try:
                 return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
                 first = exc
-                self.tick_work += backend.last_iterations + DAQP_CALL_WORK
+                self.tick_work += self._call_work(backend, proximal)
             finally:
                 backend.cold_retry = retry
                 backend.call_iterations = None
@@ -850,6 +878,8 @@ class InverseDynamicsQP:
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
                 backend.call_iterations = calls
+                backend.scaled_call_iterations = None if calls is None else self._scaled_iterations(calls)
+                proximal = backend.proximal_iterations
                 try:
                     return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
                 except SolverError as exc:
@@ -857,9 +887,9 @@ class InverseDynamicsQP:
                         raise
                     first = exc
                 finally:
-                    backend.call_iterations = None
+                    backend.call_iterations = backend.scaled_call_iterations = None
                     if calls is not None:
-                        self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                        self.tick_work += self._retry_work(backend, calls, proximal)
                 # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
                 # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
                 # counted, its work fits below RELAXED_WORK
@@ -991,12 +1021,13 @@ class InverseDynamicsQP:
         # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
         backend.call_iterations = cap
+        proximal = backend.proximal_iterations
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
             first = exc
             attempted = backend.last_iterations  # the attempt's DAQP iterations
-            self.tick_work += attempted + DAQP_CALL_WORK
+            self.tick_work += self._call_work(backend, proximal)
             if backend.budget_capped:
                 self.budget_cut = True
         finally:
@@ -1017,8 +1048,9 @@ class InverseDynamicsQP:
                 if left < MIN_CALL_ITERATIONS:
                     self.budget_cut = True
                 else:
+                    proximal = backend.proximal_iterations
                     x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
-                    self.tick_work += backend.last_iterations + DAQP_CALL_WORK
+                    self.tick_work += self._call_work(backend, proximal)
                     if x is not None:
                         return x, backend.name
         elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
@@ -1108,6 +1140,8 @@ class InverseDynamicsQP:
                               f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
         backend.call_iterations = calls
+        backend.scaled_call_iterations = None if calls is None else self._scaled_iterations(calls)
+        proximal = backend.proximal_iterations
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError:
@@ -1116,9 +1150,9 @@ class InverseDynamicsQP:
             raise
         finally:
             backend.deadline = math.inf
-            backend.call_iterations = None
+            backend.call_iterations = backend.scaled_call_iterations = None
             if calls is not None:
-                self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                self.tick_work += self._retry_work(backend, calls, proximal)
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                          state: DynamicsState | None, dt: float, full: bool | None = None, *,
@@ -1178,13 +1212,15 @@ class InverseDynamicsQP:
                               f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
     def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
-        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
+        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) with a work share of ``cap``
+        iterations (at most :meth:`_scaled_iterations` of it: its proximal outer iterations priced in); its checked
+        x (counted in :attr:`scaled_solves`), or None."""
         backend.call_iterations = cap
+        backend.scaled_call_iterations = self._scaled_iterations(cap)
         try:
             x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
         finally:
-            backend.call_iterations = None
+            backend.call_iterations = backend.scaled_call_iterations = None
         if x is not None:
             self.scaled_solves += 1
         return x
