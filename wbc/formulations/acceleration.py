@@ -113,7 +113,8 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "IDSolution", "KERNEL_ITERATION_COST",
+__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "SCALED_EPS_PROX",
+           "SCALED_ITERATION_WORK", "IDSolution", "KERNEL_ITERATION_COST",
            "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
            "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
@@ -201,10 +202,18 @@ QUADPROG_SIZE = 60
 DAQP_CALL_WORK = 30
 #: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
 #: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
-#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), and each outer iteration
-#: redoes the work of several iterations. A call on the cost-scaled QP whose work share is w iterations is capped
-#: at w / (1 + PROXIMAL_ITERATION_WORK) iterations (a call has at most one outer iteration per iteration).
+#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
+#: several iterations.
 PROXIMAL_ITERATION_WORK = 5
+#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``,
+#: :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): its Hessian's smallest entries are ~1e-13 after the
+#: scaling, and at DAQP's default (1e-6) the regularisation dominates them, so that the outer iterations number up to
+#: two thirds of the call's iterations; at 1e-8 at most a twentieth on the QPs of the ID fuzz.
+SCALED_EPS_PROX = -1e-8
+#: work counted per iteration of a DAQP call on the cost-scaled QP, in iterations (the call's iteration cap is its
+#: work share divided by it): the iteration itself and a bound on its share of outer iterations
+#: (:data:`PROXIMAL_ITERATION_WORK` each, one per five iterations).
+SCALED_ITERATION_WORK = 2
 
 
 def tick_work_iterations(budget: float) -> float:
@@ -320,6 +329,8 @@ class InverseDynamicsQP:
         ensure_compiled()
         self._rows = _ProblemRows(self)
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
+        if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
+            self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = self._new_kernel()
@@ -480,10 +491,14 @@ class InverseDynamicsQP:
 
     def _retry_iterations(self, factor: float) -> int | None:
         """Iteration cap of each DAQP call of the backend's retries when the work is counted: the work left below
-        ``factor`` shared by :attr:`RETRY_CALLS` calls (at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`);
-        None (no cap) when nothing is counted."""
+        ``factor`` shared by :attr:`RETRY_CALLS` calls, less each call's :data:`DAQP_CALL_WORK` (the retries are
+        counted as ``RETRY_CALLS`` × (cap + ``DAQP_CALL_WORK``), :meth:`_retry_work`, so that they end within the
+        work left), at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is
+        counted."""
         left = self._work_left(factor)
-        return None if not math.isfinite(left) else max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS)
+        if not math.isfinite(left):
+            return None
+        return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
 
     def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
         """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer iterations
@@ -494,16 +509,16 @@ class InverseDynamicsQP:
 
     @staticmethod
     def _scaled_iterations(work: int) -> int:
-        """Iteration cap of a DAQP call on the cost-scaled QP given a work share of ``work`` iterations: each of its
-        iterations may bring a proximal outer iteration (:data:`PROXIMAL_ITERATION_WORK`); at least
-        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`."""
-        return max(MIN_CALL_ITERATIONS, int(work) // (1 + PROXIMAL_ITERATION_WORK))
+        """Iteration cap of a DAQP call on the cost-scaled QP given a work share of ``work`` iterations: the share at
+        :data:`SCALED_ITERATION_WORK` per iteration, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`."""
+        return max(MIN_CALL_ITERATIONS, int(work) // SCALED_ITERATION_WORK)
 
     def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
         """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations (its cost-scaled
         call at :meth:`_scaled_iterations` of it): ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the
         proximal outer iterations counted past ``proximal`` beyond those the scaled call's share covers."""
-        extra = backend.proximal_iterations - proximal - self._scaled_iterations(calls)
+        covered = (calls - self._scaled_iterations(calls)) // PROXIMAL_ITERATION_WORK
+        extra = backend.proximal_iterations - proximal - covered
         return self.RETRY_CALLS * (calls + DAQP_CALL_WORK) + PROXIMAL_ITERATION_WORK * max(0, extra)
 
     @property

@@ -126,6 +126,11 @@ class DaqpBackend(QPBackend):
         #: DAQP's proximal outer iterations beyond each call's first (its ``nodes`` − 1), summed over every call since
         #: construction (a count: a caller takes the difference across the calls it counts).
         self.proximal_iterations = 0
+        #: DAQP settings of the calls on the cost-scaled QP (:meth:`solve_scaled`, the last retry of a failed solve)
+        #: over the backend's own (default: none). E.g. a smaller automatic proximal regularisation
+        #: (``{"eps_prox": -1e-8}``): the scaled Hessian is near singular, and at DAQP's default the proximal outer
+        #: iterations can outnumber half the call's iterations.
+        self.scaled_settings: dict = {}
         #: a DAQP call of the current solve (:meth:`solve`, :meth:`solve_scaled`) stopped at ``call_iterations``.
         self.iterations_capped = False
 
@@ -361,7 +366,7 @@ class DaqpBackend(QPBackend):
             # the scaled solve agrees with quadprog to 4e-8 in x)
             limit["iter_limit"] = min(limit["iter_limit"], self.call_limit(scaled=True))
             x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **limit)
+                                                     self._sense, **{**limit, **self.scaled_settings})
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -393,7 +398,7 @@ class DaqpBackend(QPBackend):
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
         limit = self.call_limit(scaled=True)
         x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit})
+                                                **{**self.settings, "iter_limit": limit, **self.scaled_settings})
         self.last_iterations = int(info["iterations"])
         self._note_exit(exitflag, limit, scaled=True)
         if exitflag < 1 or not np.isfinite(x).all():
