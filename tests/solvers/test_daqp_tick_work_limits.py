@@ -279,13 +279,3 @@ def test_proximal_outer_iterations_are_counted_and_the_scaled_settings_reach_the
     assert outer == ref8[3]["nodes"] - 1 and 5 * outer <= backend.last_iterations
     assert _max_row_violation(x8, *qp[2:]) <= 1e-6
 
-
-def test_scaled_call_iterations_cap_only_the_scaled_call():
-    """``scaled_call_iterations`` caps the cost-scaled call (a capped call fails, ``iterations_capped``, not
-    ``budget_capped``) and leaves an unscaled call's limit alone."""
-    qp = _scaled_qp_of_the_id_fuzz()
-    backend = DaqpBackend(primal_tol=1e-6, warm_start="dual")
-    backend.scaled_call_iterations = 20
-    assert backend.solve_scaled(*qp) is None
-    assert backend.last_iterations == 20 and backend.iterations_capped and not backend.budget_capped
-    assert backend.call_limit() == 1000 and backend.call_limit(scaled=True) == 20

@@ -113,8 +113,7 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "SCALED_EPS_PROX",
-           "SCALED_ITERATION_WORK", "IDSolution", "KERNEL_ITERATION_COST",
+__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "SCALED_EPS_PROX", "IDSolution", "KERNEL_ITERATION_COST",
            "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
            "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
@@ -208,12 +207,8 @@ PROXIMAL_ITERATION_WORK = 5
 #: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``,
 #: :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): its Hessian's smallest entries are ~1e-13 after the
 #: scaling, and at DAQP's default (1e-6) the regularisation dominates them, so that the outer iterations number up to
-#: two thirds of the call's iterations; at 1e-8 at most a twentieth on the QPs of the ID fuzz.
+#: two thirds of the call's iterations; at 1e-8 at most a twentieth on the QPs of the ID fuzz (benchmarks/README.md).
 SCALED_EPS_PROX = -1e-8
-#: work counted per iteration of a DAQP call on the cost-scaled QP, in iterations (the call's iteration cap is its
-#: work share divided by it): the iteration itself and a bound on its share of outer iterations
-#: (:data:`PROXIMAL_ITERATION_WORK` each, one per five iterations).
-SCALED_ITERATION_WORK = 2
 
 
 def tick_work_iterations(budget: float) -> float:
@@ -507,19 +502,12 @@ class InverseDynamicsQP:
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
-    @staticmethod
-    def _scaled_iterations(work: int) -> int:
-        """Iteration cap of a DAQP call on the cost-scaled QP given a work share of ``work`` iterations: the share at
-        :data:`SCALED_ITERATION_WORK` per iteration, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`."""
-        return max(MIN_CALL_ITERATIONS, int(work) // SCALED_ITERATION_WORK)
-
     def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations (its cost-scaled
-        call at :meth:`_scaled_iterations` of it): ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the
-        proximal outer iterations counted past ``proximal`` beyond those the scaled call's share covers."""
-        covered = (calls - self._scaled_iterations(calls)) // PROXIMAL_ITERATION_WORK
-        extra = backend.proximal_iterations - proximal - covered
-        return self.RETRY_CALLS * (calls + DAQP_CALL_WORK) + PROXIMAL_ITERATION_WORK * max(0, extra)
+        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations:
+        ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the proximal outer iterations counted past
+        ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each."""
+        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
     @property
     def retry_deadline(self) -> float:
@@ -893,7 +881,6 @@ class InverseDynamicsQP:
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
                 backend.call_iterations = calls
-                backend.scaled_call_iterations = None if calls is None else self._scaled_iterations(calls)
                 proximal = backend.proximal_iterations
                 try:
                     return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
@@ -902,7 +889,7 @@ class InverseDynamicsQP:
                         raise
                     first = exc
                 finally:
-                    backend.call_iterations = backend.scaled_call_iterations = None
+                    backend.call_iterations = None
                     if calls is not None:
                         self.tick_work += self._retry_work(backend, calls, proximal)
                 # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
@@ -1155,7 +1142,6 @@ class InverseDynamicsQP:
                               f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
         backend.call_iterations = calls
-        backend.scaled_call_iterations = None if calls is None else self._scaled_iterations(calls)
         proximal = backend.proximal_iterations
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
@@ -1165,7 +1151,7 @@ class InverseDynamicsQP:
             raise
         finally:
             backend.deadline = math.inf
-            backend.call_iterations = backend.scaled_call_iterations = None
+            backend.call_iterations = None
             if calls is not None:
                 self.tick_work += self._retry_work(backend, calls, proximal)
 
@@ -1227,15 +1213,13 @@ class InverseDynamicsQP:
                               f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
     def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) with a work share of ``cap``
-        iterations (at most :meth:`_scaled_iterations` of it: its proximal outer iterations priced in); its checked
-        x (counted in :attr:`scaled_solves`), or None."""
+        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
+        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
         backend.call_iterations = cap
-        backend.scaled_call_iterations = self._scaled_iterations(cap)
         try:
             x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
         finally:
-            backend.call_iterations = backend.scaled_call_iterations = None
+            backend.call_iterations = None
         if x is not None:
             self.scaled_solves += 1
         return x

@@ -118,11 +118,6 @@ class DaqpBackend(QPBackend):
         #: a clock; a call stopped there is a failed attempt that sets ``iterations_capped`` (not ``budget_capped``:
         #: the solve's remaining calls still run).
         self.call_iterations: int | None = None
-        #: a caller's cap on the iterations of each DAQP call on the cost-scaled QP (:meth:`solve_scaled`, the last
-        #: retry of a failed solve), an integer ≥ 1, or None (default): only ``call_iterations``. The scaled cost makes
-        #: the Hessian near singular, and DAQP then runs proximal outer iterations (``proximal_iterations``), each
-        #: several iterations' work: a caller that counts work prices such a call's iterations higher.
-        self.scaled_call_iterations: int | None = None
         #: DAQP's proximal outer iterations beyond each call's first (its ``nodes`` − 1), summed over every call since
         #: construction (a count: a caller takes the difference across the calls it counts).
         self.proximal_iterations = 0
@@ -140,19 +135,16 @@ class DaqpBackend(QPBackend):
         self.iterations_capped = False
         return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
 
-    def call_limit(self, scaled: bool = False) -> int:
+    def call_limit(self) -> int:
         """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
         lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
         ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress and the
         work's ``reserve`` counted, one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`; at most
-        ``call_iterations`` when set, and for a call on the cost-scaled QP (``scaled``) at most
-        ``scaled_call_iterations`` when set. A count, not a clock — unless ``deadline`` is finite: then also at most
+        ``call_iterations`` when set. A count, not a clock — unless ``deadline`` is finite: then also at most
         (deadline − CPU time now) / ``iteration_cost``, at least :data:`MIN_CALL_ITERATIONS`."""
         limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
         if self.call_iterations is not None:
             limit = min(limit, int(self.call_iterations))
-        if scaled and self.scaled_call_iterations is not None:
-            limit = min(limit, int(self.scaled_call_iterations))
         work = self.work
         if work is not None and math.isfinite(work.cap):
             left = ((WORK_LIMIT_FACTOR * work.cap - work.reserve - work.solves - 1.0) * ITERATIONS_PER_SOLVE
@@ -188,12 +180,11 @@ class DaqpBackend(QPBackend):
                                             else MEASURED_COST_DECAY * self.measured_iteration_cost)
         return out
 
-    def _note_exit(self, exitflag: int, limit: int, scaled: bool = False) -> None:
+    def _note_exit(self, exitflag: int, limit: int) -> None:
         """Record a call stopped by a lowered iteration limit: ``iterations_capped`` when the limit is the caller's
-        ``call_iterations`` (or, for a call on the cost-scaled QP, ``scaled_call_iterations``), else
-        ``budget_capped`` (the tick's counted work or its deadline)."""
+        ``call_iterations``, else ``budget_capped`` (the tick's counted work or its deadline)."""
         if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
-            if limit == self.call_iterations or (scaled and limit == self.scaled_call_iterations):
+            if self.call_iterations is not None and limit == int(self.call_iterations):
                 self.iterations_capped = True
             else:
                 self.budget_capped = True
@@ -364,7 +355,6 @@ class DaqpBackend(QPBackend):
             # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
-            limit["iter_limit"] = min(limit["iter_limit"], self.call_limit(scaled=True))
             x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
                                                      self._sense, **{**limit, **self.scaled_settings})
             self.last_iterations += int(info["iterations"])
@@ -376,7 +366,7 @@ class DaqpBackend(QPBackend):
     def solve_scaled(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """One cold DAQP call on the QP with its cost divided by max(1, |g|∞, |H|max) (the same minimiser; the last
         retry of a failed solve, :meth:`_solve_cold`, asked on its own), its iteration limit from :meth:`call_limit`
-        (``scaled_call_iterations`` applies).
+        (``scaled_settings`` over the backend's settings).
 
         A solution's multipliers (unscaled) become ``last_multipliers`` and, with ``warm_start="dual"``, the next
         solve's dual start.
@@ -396,11 +386,11 @@ class DaqpBackend(QPBackend):
             G[n_eq:] = C
             upper[e:], lower[e:] = u, l
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
-        limit = self.call_limit(scaled=True)
+        limit = self.call_limit()
         x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
                                                 **{**self.settings, "iter_limit": limit, **self.scaled_settings})
         self.last_iterations = int(info["iterations"])
-        self._note_exit(exitflag, limit, scaled=True)
+        self._note_exit(exitflag, limit)
         if exitflag < 1 or not np.isfinite(x).all():
             return None
         xc = np.minimum(np.maximum(x, lb), ub)
