@@ -67,6 +67,17 @@ def _refinement_polish_fails(monkeypatch):
     monkeypatch.setattr(DaqpBackend, "polish", second_fails)
 
 
+def _within_effort_and_costs(robots, ctrl, d, cmd):
+    """Assert tick 33's torques within the scaled URDF effort (1e-6 relative); (its QP cost, quadprog's optimum's)."""
+    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
+    effort = np.asarray(robots("talos").model.effortLimit[6:]) * float(d["torque_limit_scale"])
+    lim = np.isfinite(effort) & (effort > 0)
+    assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
+    x = np.concatenate([cmd.dv, cmd.forces])
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    return 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+
+
 def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_relaxed(robots):
     ctrl, d, cmd = _replayed(robots)
     robot = robots("talos")
@@ -116,13 +127,7 @@ def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
     assert cmd.ok and not cmd.relaxed, cmd.message
     assert cmd.path == "general:quadprog"
     assert ctrl.qp.output_quadprog == 1 and ctrl.qp.output_polished == 0
-    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
-    effort = np.asarray(robots("talos").model.effortLimit[6:]) * float(d["torque_limit_scale"])
-    lim = np.isfinite(effort) & (effort > 0)
-    assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
-    x = np.concatenate([cmd.dv, cmd.forces])
-    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
-    fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+    fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert abs(fx - fq) <= 1e-9 * abs(fq)
 
 
@@ -158,11 +163,5 @@ def test_scaled_call_with_the_ids_regularisation_needs_no_refinement(robots):
     assert cmd.ok and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
     assert ctrl.qp.scaled_solves == 1 and ctrl.qp.output_polished == 0 and ctrl.qp.output_quadprog == 0
     assert ctrl.qp.backend.polished == 0
-    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
-    effort = np.asarray(robots("talos").model.effortLimit[6:]) * float(d["torque_limit_scale"])
-    lim = np.isfinite(effort) & (effort > 0)
-    assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
-    x = np.concatenate([cmd.dv, cmd.forces])
-    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
-    fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+    fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert fx - fq <= 2e-5 * abs(fq)

@@ -204,10 +204,11 @@ DAQP_CALL_WORK = 30
 #: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
 #: several iterations.
 PROXIMAL_ITERATION_WORK = 5
-#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``,
-#: :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): its Hessian's smallest entries are ~1e-13 after the
-#: scaling, and at DAQP's default (1e-6) the regularisation dominates them, so that the outer iterations number up to
-#: two thirds of the call's iterations; at 1e-8 at most a twentieth on the QPs of the ID fuzz (benchmarks/README.md).
+#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``, negative: used only when
+#: the Hessian is found singular; :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): after the scaling the
+#: Hessian's force-regularisation entries are ~1e-13, and DAQP's default (1e-6) dominates them, so that its proximal
+#: outer iterations (:data:`PROXIMAL_ITERATION_WORK` each) can number a large share of the call's iterations; a
+#: smaller regularisation keeps them few. The answer is checked to the backend's tolerance either way.
 SCALED_EPS_PROX = -1e-8
 
 
