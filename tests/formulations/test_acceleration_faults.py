@@ -608,7 +608,7 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
     """Talos at the default budget (2 ms, 571.4 DAQP iterations at 3.5 µs) with a backend that finds no solution
     (each call 0 iterations, counted at its 30-iteration set-up): the full QP fails, its hard set has a point, so the
     relaxed QP's attempt fails and the backend's retries run, each of their ``RETRY_CALLS`` calls capped so that the
-    counted retries end within ``RELAXED_WORK`` budgets — not past them by the calls' set-up — and quadprog's solve of
+    counted retries end within ``RELAXED_WORK`` budgets (not past them by the calls' set-up) and quadprog's solve of
     the relaxed QP (788 iterations on talos) is skipped. Deterministic counts: the tick's counted work ends in
     (RELAXED_WORK × 571.4 − 4, RELAXED_WORK × 571.4] (the retries' share rounded down per call), the path is
     ``fallback:gravity``, and the message names the relaxed factor."""

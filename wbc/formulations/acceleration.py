@@ -113,8 +113,9 @@ from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
-__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "PROXIMAL_ITERATION_WORK", "SCALED_EPS_PROX", "IDSolution", "KERNEL_ITERATION_COST",
-           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
+__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST",
+           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST",
+           "QUADPROG_SIZE", "SCALED_EPS_PROX",
            "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
 
@@ -365,7 +366,8 @@ class InverseDynamicsQP:
         #: DAQP call capped at what is left.
         self.tick_work_iterations = math.inf
         #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
-        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`),
+        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`,
+        #: + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration),
         #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
         self.tick_work = 0.0
         #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,

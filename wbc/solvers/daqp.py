@@ -165,14 +165,14 @@ class DaqpBackend(QPBackend):
         :data:`MEASURED_CALL_ITERATIONS` iterations), lowered by :data:`MEASURED_COST_DECAY` per cheaper call. An
         iteration's cost varies several-fold on one QP (DAQP's proximal iterations on an ill-conditioned Hessian
         cost ~5 × the nominal): the next calls of the tick and of the ticks after it are sized at what the
-        solver costs now, not at the nominal ``iteration_cost``."""
-        if self.deadline == math.inf:
-            out = call()
-            self.proximal_iterations += max(0, int(out[3].get("nodes", 1)) - 1)
-            return out
-        t0 = thread_time()
+        solver costs now, not at the nominal ``iteration_cost``. Every call adds its proximal outer iterations to
+        ``proximal_iterations``."""
+        timed = self.deadline != math.inf
+        t0 = thread_time() if timed else 0.0
         out = call()
         self.proximal_iterations += max(0, int(out[3].get("nodes", 1)) - 1)
+        if not timed:
+            return out
         iterations = int(out[3]["iterations"])
         if iterations >= MEASURED_CALL_ITERATIONS:
             cost = (thread_time() - t0) / iterations
