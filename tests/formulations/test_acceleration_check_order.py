@@ -119,3 +119,41 @@ def test_a_failing_run_checks_the_hard_set_before_the_attempt(counted_qp):
     assert calls == ["hard_set_check", "daqp", "solve_scaled", "solve_pinned_reduced"] and not qp.last_set_empty
     ref = _quadprog(*feasible)
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
+
+
+@pytest.mark.parametrize("scaled_settings", [None, {}])
+def test_counted_work_includes_the_scaled_calls_proximal_iterations(counted_qp, monkeypatch, scaled_settings):
+    """The cost-scaled call's QP of a G1 fuzz tick (``id_scaled_proximal_g1.npz``; HiGHS: feasible), counted at a
+    2 ms budget: the attempt fails, the check finds a point, the cost-scaled call answers. The tick's counted work is,
+    per DAQP call, its iterations + 5 per proximal outer iteration beyond the first + 30 — read here from DAQP's own
+    report of each call (``iterations``, ``nodes``). With DAQP's default regularisation on the scaled call
+    (``scaled_settings={}``) that call runs > 100 outer iterations (main counted none of them); with the ID's own
+    (-1e-8) it runs fewer than one per five iterations."""
+    import daqp
+
+    qp, calls, _ = counted_qp
+    qp.tick_work_iterations = 0.002 / 3.5e-6
+    if scaled_settings is not None:
+        qp.backend.scaled_settings = scaled_settings
+    d = dict(np.load(FIXTURES / "id_scaled_proximal_g1.npz"))
+    problem = tuple(d[k] for k in KEYS)
+    assert highs_feasible(*problem[2:])
+    reports = []
+    real = daqp.solve
+
+    def recorded(*a, **k):
+        out = real(*a, **k)
+        reports.append(out[2:])
+        return out
+
+    monkeypatch.setattr(daqp, "solve", recorded)
+    x, who = qp._solve_backend(*problem)
+    assert who == "daqp" and calls == ["daqp", "hard_set_check", "solve_scaled"] and qp.scaled_solves == 1
+    assert len(reports) == 3 and reports[0][0] < 1 and reports[2][0] == 1
+    expected = sum(info["iterations"] + 5 * (info["nodes"] - 1) + 30 for _, info in reports)
+    assert qp.tick_work == expected
+    scaled = reports[2][1]
+    if scaled_settings == {}:
+        assert scaled["nodes"] - 1 > 100
+    else:
+        assert 5 * (scaled["nodes"] - 1) <= scaled["iterations"]

@@ -603,6 +603,45 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
     _finite_and_within_effort(cmd, robot)
 
 
+@pytest.mark.parametrize("relaxed_work", [1.5, 1.25, 2.5])
+def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, relaxed_work):
+    """Talos at the default budget (2 ms, 571.4 DAQP iterations at 3.5 µs) with a backend that finds no solution
+    (each call 0 iterations, counted at its 30-iteration set-up): the full QP fails, its hard set has a point, so the
+    relaxed QP's attempt fails and the backend's retries run, each of their ``RETRY_CALLS`` calls capped so that the
+    counted retries end within ``RELAXED_WORK`` budgets (not past them by the calls' set-up) and quadprog's solve of
+    the relaxed QP (788 iterations on talos) is skipped. Deterministic counts: the tick's counted work ends in
+    (RELAXED_WORK × 571.4 − 4, RELAXED_WORK × 571.4] (the retries' share rounded down per call), the path is
+    ``fallback:gravity``, and the message names the relaxed factor."""
+    import wbc.formulations.acceleration as acceleration
+    from wbc.exceptions import SolverError
+
+    caps = []
+
+    class Failing(DaqpBackend):
+        def solve(self, *args, **kw):
+            caps.append(self.call_iterations)
+            self.last_iterations = 0
+            raise SolverError("no solution (test backend)")
+
+        def solve_scaled(self, *args, **kw):
+            self.last_iterations = 0
+            return None
+
+    monkeypatch.setattr(acceleration.InverseDynamicsQP, "RELAXED_WORK", relaxed_work)
+    robot = robots("talos")
+    ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
+    cmd = ctrl.solve(q, v)
+    qp = ctrl.controller.qp
+    budget_iterations = 0.002 / 3.5e-6
+    assert not cmd.ok and str(cmd.path) == "fallback:gravity", (cmd.path, cmd.message)
+    assert qp.quadprog_skipped == 2 and qp.budget_cut
+    assert f"would pass {relaxed_work} budgets" in cmd.message
+    assert relaxed_work * budget_iterations - 4 < qp.tick_work <= relaxed_work * budget_iterations
+    # the full QP's attempt (its cap: a third of the budget), the relaxed QP's attempt (at least that), its retries
+    assert len(caps) == 3 and caps[0] == 190 and caps[1] >= 190 and 10 <= caps[2] < caps[1]
+    _finite_and_within_effort(cmd, robot)
+
+
 def test_first_tick_qp_that_daqp_calls_infeasible_is_solved_by_the_quadprog_retry():
     """A QP recorded from the ID fuzz (humanoid15, ``solver="daqp"``, seed 297004 episode 1 tick 0: a controller's
     first tick, both feet in contact, nothing pinned) that DAQP reports infeasible although HiGHS finds its hard set

@@ -27,10 +27,11 @@ FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_output_check_ta
 TOL = 1e-6  # the fuzz's bound tolerance, relative to max(1, |bound|)
 
 
-def _replayed(robots, before_last=None, tick_work_iterations=None):
+def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settings=None):
     """The controller after ticks 32 and 33 of the replayed episode, the fixture, and tick 33's command;
     ``before_last()`` is called between the two ticks; ``tick_work_iterations`` replaces the counted work a tick may
-    spend (the 2 ms budget's otherwise; the DAQP attempt's cap stays that of 2 ms)."""
+    spend (the 2 ms budget's otherwise; the DAQP attempt's cap stays that of 2 ms); ``scaled_settings`` replaces the
+    DAQP settings of the cost-scaled calls (``DaqpBackend.scaled_settings``)."""
     d = np.load(FIXTURE)
     robot = robots("talos")
     gains = {str(k): float(v) for k, v in zip(d["gain_names"], d["gain_values"])}
@@ -39,6 +40,8 @@ def _replayed(robots, before_last=None, tick_work_iterations=None):
     ctrl.reset(d["q0"], d["v0"])
     if tick_work_iterations is not None:
         ctrl.qp.tick_work_iterations = tick_work_iterations
+    if scaled_settings is not None:
+        ctrl.qp.backend.scaled_settings = scaled_settings
     ctrl.set_com_reference(d["com_position"], acceleration=d["com_acceleration"])
     for t in range(2):
         if t == 1 and before_last is not None:
@@ -62,6 +65,17 @@ def _refinement_polish_fails(monkeypatch):
         calls.append(1)
         return None if len(calls) == 2 else polish(self, *args)
     monkeypatch.setattr(DaqpBackend, "polish", second_fails)
+
+
+def _within_effort_and_costs(robots, ctrl, d, cmd):
+    """Assert tick 33's torques within the scaled URDF effort (1e-6 relative); (its QP cost, quadprog's optimum's)."""
+    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
+    effort = np.asarray(robots("talos").model.effortLimit[6:]) * float(d["torque_limit_scale"])
+    lim = np.isfinite(effort) & (effort > 0)
+    assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
+    x = np.concatenate([cmd.dv, cmd.forces])
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    return 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
 
 
 def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_relaxed(robots):
@@ -106,17 +120,14 @@ def test_answer_past_a_small_torque_limit_by_solver_precision_is_refined_not_rel
 def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
     """The refinement's polish finding nothing (forced) and the tick's counted work unbounded, quadprog's solve of the
     same QP is the command (path ``general:quadprog``): within the limits, at quadprog's optimum."""
-    ctrl, d, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch), tick_work_iterations=math.inf)
+    # DAQP's default proximal regularisation on the cost-scaled call (the ID's own, -1e-8, gives an answer that
+    # passes the output check unrefined: test below)
+    ctrl, d, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch), tick_work_iterations=math.inf,
+                             scaled_settings={})
     assert cmd.ok and not cmd.relaxed, cmd.message
     assert cmd.path == "general:quadprog"
     assert ctrl.qp.output_quadprog == 1 and ctrl.qp.output_polished == 0
-    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, float(d["dt"]))
-    effort = np.asarray(robots("talos").model.effortLimit[6:]) * float(d["torque_limit_scale"])
-    lim = np.isfinite(effort) & (effort > 0)
-    assert np.all(np.abs(cmd.tau[lim]) <= effort[lim] + TOL * np.maximum(1.0, effort[lim]))
-    x = np.concatenate([cmd.dv, cmd.forces])
-    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
-    fx, fq = 0.5 * x @ H @ x + g @ x, 0.5 * xq @ H @ xq + g @ xq
+    fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert abs(fx - fq) <= 1e-9 * abs(fq)
 
 
@@ -141,3 +152,16 @@ def test_refinements_quadprog_is_skipped_past_the_counted_work(robots, monkeypat
     assert ctrl.qp.output_quadprog == 0 and ctrl.qp.quadprog_skipped >= 1
     assert cmd.relaxed
     assert "fails the output check: torque_limits" in cmd.message
+
+
+def test_scaled_call_with_the_ids_regularisation_needs_no_refinement(robots):
+    """With the ID's proximal regularisation on the cost-scaled call (``SCALED_EPS_PROX``, -1e-8), tick 33's answer
+    comes from that call and passes the output check unrefined (no polish, no quadprog), where DAQP's default (1e-6)
+    gave one that only a polish brought within it: within the scaled URDF effort (1e-6 relative), its cost within
+    2e-5 (relative) of quadprog's optimum."""
+    ctrl, d, cmd = _replayed(robots, tick_work_iterations=math.inf)
+    assert cmd.ok and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
+    assert ctrl.qp.scaled_solves == 1 and ctrl.qp.output_polished == 0 and ctrl.qp.output_quadprog == 0
+    assert ctrl.qp.backend.polished == 0
+    fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
+    assert fx - fq <= 2e-5 * abs(fq)

@@ -228,3 +228,54 @@ def test_tick_work_reads_the_clock_at_reset_only_with_a_clock_guard(monkeypatch)
     clock[0] += 0.5
     assert clocked.seconds() == pytest.approx(0.5, abs=1e-12)  # since the reset
     assert clocked.solves == pytest.approx(5.0, abs=1e-9) and clocked.spent()
+
+
+def _scaled_qp_of_the_id_fuzz():
+    """The cost-scaled call's QP of a G1 tick of the ID fuzz (seed 540009 episode 331, 59 variables, |g|∞ 8e5:
+    the scaled Hessian's smallest entries ~1e-13), on which DAQP's default proximal regularisation ran 108 outer
+    iterations besides its 165 iterations."""
+    from pathlib import Path
+
+    d = np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_scaled_proximal_g1.npz")
+    return tuple(d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
+
+
+def _daqp_direct(H, g, A, b, C, l, u, lb, ub, **settings):
+    """DAQP's one-shot solve of the cost-scaled QP, called here (the reference for the backend's counts)."""
+    n, m = H.shape[0], A.shape[0]
+    scale = 1.0 / max(1.0, float(np.abs(g).max()), float(np.abs(H).max()))
+    sense = np.zeros(n + m + C.shape[0], dtype=np.int32)
+    sense[n:n + m] = 5
+    return daqp.solve(H * scale, g * scale, np.vstack([A, C]), np.concatenate([ub, b, u]),
+                      np.concatenate([lb, b, l]), sense, primal_tol=1e-6, **settings)
+
+
+def _max_row_violation(x, A, b, C, l, u, lb, ub):
+    r = [np.abs(A @ x - b) / np.maximum(1.0, np.abs(b)),
+         np.maximum(C @ x - u, 0) / np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0))),
+         np.maximum(l - C @ x, 0) / np.maximum(1.0, np.abs(np.where(np.isfinite(l), l, 0))),
+         np.maximum(x - ub, 0), np.maximum(lb - x, 0)]
+    return max(float(v.max(initial=0.0)) for v in r)
+
+
+def test_proximal_outer_iterations_are_counted_and_the_scaled_settings_reach_the_scaled_call():
+    """``DaqpBackend.proximal_iterations`` adds DAQP's outer iterations beyond the first (its ``nodes`` − 1, read
+    here from DAQP called directly on the same scaled QP); ``scaled_settings`` reach the cost-scaled call: with
+    ``eps_prox`` −1e-8 the call has at most one outer iteration per five iterations (the share the inverse-dynamics
+    count assumes) and its answer meets every row to 1e-6."""
+    qp = _scaled_qp_of_the_id_fuzz()
+    ref = _daqp_direct(*qp, iter_limit=1000)
+    assert ref[2] == 1 and ref[3]["nodes"] > 50  # DAQP's default regularisation: many outer iterations
+    backend = DaqpBackend(primal_tol=1e-6, warm_start="dual")
+    x = backend.solve_scaled(*qp)
+    assert x is not None and backend.last_iterations == ref[3]["iterations"]
+    assert backend.proximal_iterations == ref[3]["nodes"] - 1
+    ref8 = _daqp_direct(*qp, iter_limit=1000, eps_prox=-1e-8)
+    backend.scaled_settings = {"eps_prox": -1e-8}
+    before = backend.proximal_iterations
+    x8 = backend.solve_scaled(*qp)
+    assert x8 is not None and backend.last_iterations == ref8[3]["iterations"]
+    outer = backend.proximal_iterations - before
+    assert outer == ref8[3]["nodes"] - 1 and 5 * outer <= backend.last_iterations
+    assert _max_row_violation(x8, *qp[2:]) <= 1e-6
+

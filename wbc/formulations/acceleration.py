@@ -114,7 +114,8 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 __all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST",
-           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "QUADPROG_COST", "QUADPROG_SIZE",
+           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST",
+           "QUADPROG_SIZE", "SCALED_EPS_PROX",
            "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
 
 
@@ -199,6 +200,17 @@ QUADPROG_SIZE = 60
 #: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
 #: in iterations (:attr:`InverseDynamicsQP.tick_work`)
 DAQP_CALL_WORK = 30
+#: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
+#: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
+#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
+#: several iterations.
+PROXIMAL_ITERATION_WORK = 5
+#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``, negative: used only when
+#: the Hessian is found singular; :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): after the scaling the
+#: Hessian's force-regularisation entries are ~1e-13, and DAQP's default (1e-6) dominates them, so that its proximal
+#: outer iterations (:data:`PROXIMAL_ITERATION_WORK` each) can number a large share of the call's iterations; a
+#: smaller regularisation keeps them few. The answer is checked to the backend's tolerance either way.
+SCALED_EPS_PROX = -1e-8
 
 
 def tick_work_iterations(budget: float) -> float:
@@ -314,6 +326,8 @@ class InverseDynamicsQP:
         ensure_compiled()
         self._rows = _ProblemRows(self)
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
+        if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
+            self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = self._new_kernel()
@@ -352,7 +366,8 @@ class InverseDynamicsQP:
         #: DAQP call capped at what is left.
         self.tick_work_iterations = math.inf
         #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
-        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`),
+        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`,
+        #: + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration),
         #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
         self.tick_work = 0.0
         #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,
@@ -474,10 +489,28 @@ class InverseDynamicsQP:
 
     def _retry_iterations(self, factor: float) -> int | None:
         """Iteration cap of each DAQP call of the backend's retries when the work is counted: the work left below
-        ``factor`` shared by :attr:`RETRY_CALLS` calls (at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`);
-        None (no cap) when nothing is counted."""
+        ``factor`` shared by :attr:`RETRY_CALLS` calls, less each call's :data:`DAQP_CALL_WORK` (the retries are
+        counted as ``RETRY_CALLS`` × (cap + ``DAQP_CALL_WORK``), :meth:`_retry_work`, so that they end within the
+        work left), at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is
+        counted."""
         left = self._work_left(factor)
-        return None if not math.isfinite(left) else max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS)
+        if not math.isfinite(left):
+            return None
+        return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
+
+    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
+        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer iterations
+        (those counted past ``proximal``, :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`) at
+        :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
+                + DAQP_CALL_WORK)
+
+    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
+        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations:
+        ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the proximal outer iterations counted past
+        ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each."""
+        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
     @property
     def retry_deadline(self) -> float:
@@ -818,11 +851,12 @@ class InverseDynamicsQP:
             if counting:
                 backend.call_iterations = max(self.daqp_attempt_iterations,
                                               int(min(self._work_left(self.RELAXED_WORK), ITERATION_LIMIT)))
+            proximal = backend.proximal_iterations
             try:
                 return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
                 first = exc
-                self.tick_work += backend.last_iterations + DAQP_CALL_WORK
+                self.tick_work += self._call_work(backend, proximal)
             finally:
                 backend.cold_retry = retry
                 backend.call_iterations = None
@@ -850,6 +884,7 @@ class InverseDynamicsQP:
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
                 backend.call_iterations = calls
+                proximal = backend.proximal_iterations
                 try:
                     return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
                 except SolverError as exc:
@@ -859,7 +894,7 @@ class InverseDynamicsQP:
                 finally:
                     backend.call_iterations = None
                     if calls is not None:
-                        self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                        self.tick_work += self._retry_work(backend, calls, proximal)
                 # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
                 # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
                 # counted, its work fits below RELAXED_WORK
@@ -991,12 +1026,13 @@ class InverseDynamicsQP:
         # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
         backend.call_iterations = cap
+        proximal = backend.proximal_iterations
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError as exc:
             first = exc
             attempted = backend.last_iterations  # the attempt's DAQP iterations
-            self.tick_work += attempted + DAQP_CALL_WORK
+            self.tick_work += self._call_work(backend, proximal)
             if backend.budget_capped:
                 self.budget_cut = True
         finally:
@@ -1017,8 +1053,9 @@ class InverseDynamicsQP:
                 if left < MIN_CALL_ITERATIONS:
                     self.budget_cut = True
                 else:
+                    proximal = backend.proximal_iterations
                     x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
-                    self.tick_work += backend.last_iterations + DAQP_CALL_WORK
+                    self.tick_work += self._call_work(backend, proximal)
                     if x is not None:
                         return x, backend.name
         elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
@@ -1108,6 +1145,7 @@ class InverseDynamicsQP:
                               f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
         backend.call_iterations = calls
+        proximal = backend.proximal_iterations
         try:
             return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
         except SolverError:
@@ -1118,7 +1156,7 @@ class InverseDynamicsQP:
             backend.deadline = math.inf
             backend.call_iterations = None
             if calls is not None:
-                self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                self.tick_work += self._retry_work(backend, calls, proximal)
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                          state: DynamicsState | None, dt: float, full: bool | None = None, *,

@@ -118,6 +118,14 @@ class DaqpBackend(QPBackend):
         #: a clock; a call stopped there is a failed attempt that sets ``iterations_capped`` (not ``budget_capped``:
         #: the solve's remaining calls still run).
         self.call_iterations: int | None = None
+        #: DAQP's proximal outer iterations beyond each call's first (its ``nodes`` − 1), summed over every call since
+        #: construction (a count: a caller takes the difference across the calls it counts).
+        self.proximal_iterations = 0
+        #: DAQP settings of the calls on the cost-scaled QP (:meth:`solve_scaled`, the last retry of a failed solve)
+        #: over the backend's own (default: none). E.g. a smaller automatic proximal regularisation
+        #: (``{"eps_prox": -1e-8}``): the scaled Hessian is near singular, and at DAQP's default the proximal outer
+        #: iterations can outnumber half the call's iterations.
+        self.scaled_settings: dict = {}
         #: a DAQP call of the current solve (:meth:`solve`, :meth:`solve_scaled`) stopped at ``call_iterations``.
         self.iterations_capped = False
 
@@ -157,11 +165,14 @@ class DaqpBackend(QPBackend):
         :data:`MEASURED_CALL_ITERATIONS` iterations), lowered by :data:`MEASURED_COST_DECAY` per cheaper call. An
         iteration's cost varies several-fold on one QP (DAQP's proximal iterations on an ill-conditioned Hessian
         cost ~5 × the nominal): the next calls of the tick and of the ticks after it are sized at what the
-        solver costs now, not at the nominal ``iteration_cost``."""
-        if self.deadline == math.inf:
-            return call()
-        t0 = thread_time()
+        solver costs now, not at the nominal ``iteration_cost``. Every call adds its proximal outer iterations to
+        ``proximal_iterations``."""
+        timed = self.deadline != math.inf
+        t0 = thread_time() if timed else 0.0
         out = call()
+        self.proximal_iterations += max(0, int(out[3].get("nodes", 1)) - 1)
+        if not timed:
+            return out
         iterations = int(out[3]["iterations"])
         if iterations >= MEASURED_CALL_ITERATIONS:
             cost = (thread_time() - t0) / iterations
@@ -345,7 +356,7 @@ class DaqpBackend(QPBackend):
             # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
             # the scaled solve agrees with quadprog to 4e-8 in x)
             x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **limit)
+                                                     self._sense, **{**limit, **self.scaled_settings})
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
                 self.last_multipliers = None
@@ -354,7 +365,8 @@ class DaqpBackend(QPBackend):
 
     def solve_scaled(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """One cold DAQP call on the QP with its cost divided by max(1, |g|∞, |H|max) (the same minimiser; the last
-        retry of a failed solve, :meth:`_solve_cold`, asked on its own), its iteration limit from :meth:`call_limit`.
+        retry of a failed solve, :meth:`_solve_cold`, asked on its own), its iteration limit from :meth:`call_limit`
+        (``scaled_settings`` over the backend's settings).
 
         A solution's multipliers (unscaled) become ``last_multipliers`` and, with ``warm_start="dual"``, the next
         solve's dual start.
@@ -376,7 +388,7 @@ class DaqpBackend(QPBackend):
         scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
         limit = self.call_limit()
         x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit})
+                                                **{**self.settings, "iter_limit": limit, **self.scaled_settings})
         self.last_iterations = int(info["iterations"])
         self._note_exit(exitflag, limit)
         if exitflag < 1 or not np.isfinite(x).all():
