@@ -69,12 +69,18 @@ place are caught there); else the tick fails (``TickResult.reason``) and the saf
 
 Tick budget (``budget``, default the tick's dt, seconds of CPU time), counted in QP solves: a tick may do
 ⌊budget / ``KinematicController.SOLVE_COST``⌋ solves (every solve attempt, cold retry and independent re-solve
-counts one, :class:`wbc.solvers.base.TickWork`) — a count, not a clock, so a tick's answer is a function of its inputs
-and never of the machine's load. Past it, a failed tick stops its optional stages (independent
+counts one, plus one per ``QPBackend.iterations_per_solve`` active-set iterations of its solver — 150, 75 for DAQP's
+proximal-point iterations of a strict level —, and a tick that builds a new row layout counts ``LAYOUT_WORK`` (4)
+more for the build and its first solves on fresh workspaces, :class:`wbc.solvers.base.TickWork`) — a count, not a
+clock, so a tick's answer is a function of its inputs (and of the controller's history: its layouts and warm
+starts) and never of the machine's load. A stage starts only when it fits: at the counted work of the largest
+re-solve of the tick's QP so far (of the largest strict level, for the next level) it would end within its limit
+(one budget for a failed tick's optional stages and the return-rate ladder, ``STAGE_FACTOR`` budgets for a solved
+tick's stages). Past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the count
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
-region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts none of them: it keeps the command of the last stage it finished (the
+region — and starts none of them that would end past ``STAGE_FACTOR`` (1.75) times its budget (above): it keeps the command of the last stage it finished (the
 least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
