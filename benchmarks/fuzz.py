@@ -268,8 +268,9 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                     c["drift_failed"] += 1
                 else:
                     feasible = hard_set_feasible(ctrl, config, dt)  # independent check, failed QP ticks only
-                    # the controller's own word that its budget stopped a stage (clock guard: past the budget the
-                    # tick takes the safe command, feasible or not): counted apart from a solver's wrong verdict
+                    # the controller's own word that its budget stopped a stage (by count or clock guard: past the
+                    # budget the tick takes the safe command, feasible or not): counted apart from a solver's wrong
+                    # verdict
                     cut = "tick budget spent" in res.message
                     c["failed_feasible"] += int(feasible and not cut)
                     c["failed_feasible_cut"] += int(feasible and cut)
@@ -365,11 +366,11 @@ def report(total: dict) -> str:
         ("NaN commands == 0", total["nan"], total["nan"] == 0),
         ("limit violations beyond 1e-9 == 0", total["limit_violations"], total["limit_violations"] == 0),
         ("failed ticks the independent solver (HiGHS) finds feasible, the tick budget not spent == 0",
-         f"{total['failed_feasible']} ({total.get('failed_feasible_cut', 0)} more whose budget the clock guard "
-         f"spent: the safe command past the budget)", total["failed_feasible"] == 0),
+         f"{total['failed_feasible']} ({total.get('failed_feasible_cut', 0)} more whose budget was spent, by count "
+         f"or clock guard: a stage skipped, the safe command)", total["failed_feasible"] == 0),
         ("holds lasting past a feasible tick, the tick budget not spent == 0",
-         f"{total['holds_past_feasible']} ({total.get('holds_past_feasible_cut', 0)} more whose budget the clock "
-         f"guard spent)", total["holds_past_feasible"] == 0),
+         f"{total['holds_past_feasible']} ({total.get('holds_past_feasible_cut', 0)} more whose budget was spent, "
+         f"by count or clock guard)", total["holds_past_feasible"] == 0),
         ("max stance-sole drift per ok tick (forward kinematics) <= 0.05 mm",
          f"{total['max_ok_sole_drift_fk_mm']:.4f} mm ({total['ok_sole_drift_over_0_05mm']} ticks over)",
          total["ok_sole_drift_over_0_05mm"] == 0),

@@ -328,9 +328,9 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
     """G1 standing on both soles, CoM on level 0, a hand target 1e6 m away (gain 1e4: |g| ~ 1e11 on level 1) and
     the posture on level 1 — the kinematic fuzz's episode whose level-1 DAQP calls cycled unscaled. With the
     default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok, the first with
-    every level of its cascade solved (no level cut, no weighted form; its contact correction may stop at the
-    cascade's share of the budget, ``KinematicController.WEIGHTED_RESERVE``, after which the next ticks may answer
-    with the weighted form, ``levels+weighted``); each stance sole ends where its contact row sends
+    every level of its cascade solved (no level cut; its contact correction may stop at the cascade's share of the
+    budget, ``KinematicController.WEIGHTED_RESERVE``, after which that tick is answered by the weighted form and the
+    next ticks may be too, ``levels+weighted``); each stance sole ends where its contact row sends
     it to 5e-5 m (Pinocchio forward kinematics); the CoM level's residual equals its optimum under the contacts and
     bounds computed by an independent solver (scipy SLSQP) to 1e-4 m/s."""
     from wbc.constraints import JointPositionLimit
@@ -355,7 +355,9 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
     for k in range(12):
         res = ctrl.solve(config, DT)
         assert res.ok and "priority levels" not in res.message, (k, str(res.path), res.message)
-        assert k > 0 or not res.path.weighted
+        # the first tick solves every level; its answer may be the weighted form's only after the count stopped the
+        # cascade's contact correction (a stage that would end past the cascade's share of the budget)
+        assert k > 0 or not res.path.weighted or "the cascade's contact correction" in res.message, res.message
         # level 0 against SLSQP on the tick's assembled hard set; the tick's second-order contact correction
         # re-solves with the contact rows' right-hand sides moved by the soles' drift / dt, which shifts the CoM
         # level's reachable optimum by up to ~3e-5 m/s here: compared to 1e-4 m/s absolute (+ 1e-6 relative)

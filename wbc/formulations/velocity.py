@@ -69,12 +69,18 @@ place are caught there); else the tick fails (``TickResult.reason``) and the saf
 
 Tick budget (``budget``, default the tick's dt, seconds of CPU time), counted in QP solves: a tick may do
 ⌊budget / ``KinematicController.SOLVE_COST``⌋ solves (every solve attempt, cold retry and independent re-solve
-counts one, :class:`wbc.solvers.base.TickWork`) — a count, not a clock, so a tick's answer is a function of its inputs
-and never of the machine's load. Past it, a failed tick stops its optional stages (independent
+counts one, plus one per ``QPBackend.iterations_per_solve`` active-set iterations of its solver — 150, 75 for DAQP's
+proximal-point iterations of a strict level —, and a tick that builds a new row layout counts ``LAYOUT_WORK`` (4)
+more for the build and its first solves on fresh workspaces, :class:`wbc.solvers.base.TickWork`) — a count, not a
+clock, so a tick's answer is a function of its inputs (and of the controller's history: its layouts and warm
+starts) and never of the machine's load. A stage starts only when it fits: at the counted work of the largest
+re-solve of the tick's QP so far (of the largest strict level, for the next level) it would end within its limit
+(one budget for a failed tick's optional stages and the return-rate ladder, ``STAGE_FACTOR`` budgets for a solved
+tick's stages). Past it, a failed tick stops its optional stages (independent
 confirmation — inside a tick the active-set solvers quadprog and DAQP first, ProxQP last —,
 relaxations, diagnosis) and returns the safe command (``TickResult.over_budget``). A solved tick checks the count
 between its stages — before each level of the strict cascade, each second-order contact correction and each trust
-region — and, once ``STAGE_FACTOR`` (1.75) times its budget is spent, starts none of them: it keeps the command of the last stage it finished (the
+region — and starts none of them that would end past ``STAGE_FACTOR`` (1.75) times its budget (above): it keeps the command of the last stage it finished (the
 least-drifting correction's), which must still pass the output guard and the sole-drift
 check (else the tick fails and returns the safe command); ``TickResult.path`` then ends in '+budget' and
 ``message`` names the stages it skipped. Inside a stage, each DAQP call may take only the iterations that keep the
@@ -377,6 +383,10 @@ class KinematicController:
     #: 0.036 mm per tick in one direction for 47 ticks); with it a run of failed ticks moves a stance sole at most
     #: this far (``hold``, v = 0, moves none)
     SAFE_COMMAND_RADIUS = 5e-4
+    #: counted solves added to a tick that builds a new row layout (the controller's first tick, or the first after
+    #: a change of its constraints that no earlier layout matches): the build and the tick's first solves on fresh
+    #: buffers and solver workspaces, uncounted otherwise (module docstring, tick budget)
+    LAYOUT_WORK = 4
     #: DAQP iterations of each call of the 'contacts_held' QP at β = 0 when the tick's count was spent before its
     #: failure handling began (``_recover``: then that QP is the first safe command tried, β = 1 and 1/10 are not)
     HELD_ITERATIONS = 150
@@ -468,6 +478,8 @@ class KinematicController:
         self._safe_fresh = False  # _safe_cost was timed in the current tick
         self._safe_stage_cost = 0.0  # the last 'constraints_only' stage (solve, correction, trust region, checks)
         self._level_mark = 0.0  # CPU time of the tick at the last level boundary of the cascade
+        self._level_count = 0.0  # counted solves of the tick at the last level boundary of the cascade
+        self._resolve_work = self._level_work = 0.0
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
@@ -492,12 +504,14 @@ class KinematicController:
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _late(self) -> bool:
-        """The current tick's budget (counted in QP solves) is spent."""
-        return self._work.spent()
+        """The current tick's budget (counted in QP solves) is spent, or would be by one more re-solve of the
+        tick's QP at the counted work of the largest so far (``_resolve_work``)."""
+        return self._work.spent() or self._work.spent(1.0, self._resolve_work)
 
     def _stage_late(self) -> bool:
-        """A solved tick starts no further stage: STAGE_FACTOR times its budget (in QP solves) is spent."""
-        return self._work.spent(self.STAGE_FACTOR)
+        """A solved tick starts no further stage: STAGE_FACTOR times its budget (in QP solves) is spent, or would
+        be by the stage's re-solve at the counted work of the tick's largest re-solve so far (``_resolve_work``)."""
+        return self._work.spent(self.STAGE_FACTOR, self._resolve_work)
 
     def _fits(self, cost: float, deadline: float | None = None) -> bool:
         """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``
@@ -514,12 +528,16 @@ class KinematicController:
         """``stop`` of the strict cascade (``solve_lexicographic``): STAGE_FACTOR times the budget spent (in QP
         solves), or (clock guard) the next level, at the CPU time of the longest level so far, would not end by
         ``STAGE_DEADLINE`` times the budget."""
+        solves = self._work.solves
+        self._level_work = max(self._level_work, solves - self._level_count)
+        self._level_count = solves
+        late = self._work.spent(self.STAGE_FACTOR, self._level_work)  # the next level ends past STAGE_FACTOR
         if self.clock_guard:
             now = self._work.seconds()
             self._level_cost = max(self._level_cost, now - self._level_mark)
             self._level_mark = now
-            return self._stage_late() or not self._fits(self._level_cost)
-        return self._stage_late()
+            return late or not self._fits(self._level_cost)
+        return late
 
     def _start_work(self, budget_s: float, plan=None) -> None:
         """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend (with
@@ -727,6 +745,9 @@ class KinematicController:
             self._layout_key = key
             self._layout_ok = True
             return
+        # a new layout (a controller's first tick, new constraints): its build and the first solves on its fresh
+        # buffers and solver workspaces count LAYOUT_WORK solves of the tick's budget
+        self._work.solves += self.LAYOUT_WORK
         self._layout_key = key
         self._constraints = list(self.constraints)
         self._const_box = None
@@ -1133,6 +1154,7 @@ class KinematicController:
         self._budget_s = dt if self._budget is None else self._budget
         self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
         self._resolve_cost = self._level_cost = self._check_cost = 0.0
+        self._resolve_work = self._level_work = 0.0  # counted solves of the largest re-solve / strict level so far
         self._safe_fresh = False
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
@@ -1667,13 +1689,15 @@ class KinematicController:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist); with the clock
         guard its CPU time is recorded (the cost of the tick's next re-solve, ``_fits``)."""
         args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
-        if not self.clock_guard:
-            return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
-        t = self._work.seconds()
+        solves = self._work.solves
+        t = self._work.seconds() if self.clock_guard else 0.0
         try:
             return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
         finally:
-            self._resolve_cost = max(self._resolve_cost, self._work.seconds() - t)
+            # the counted work of the largest re-solve so far: the stages after it start only when one more fits
+            self._resolve_work = max(self._resolve_work, self._work.solves - solves)
+            if self.clock_guard:
+                self._resolve_cost = max(self._resolve_cost, self._work.seconds() - t)
 
     def _relax(self, config: Configuration, dt: float) -> None:
         """Drop the relaxable constraints from the assembled buffers by their kind (equality rows made void,
@@ -1750,6 +1774,7 @@ class KinematicController:
         if self._final_backend is None:
             self._final_backend = self._new_backend()
         self._level_mark = self._work.seconds()
+        self._level_count = self._work.solves
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,

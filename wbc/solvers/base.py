@@ -29,7 +29,8 @@ import qpsolvers
 from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers.linalg import scaled_row_violation
 
-__all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "QPBackend", "TickWork", "register_backend_class"]
+__all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "PROX_ITERATIONS_PER_SOLVE", "QPBackend", "TickWork",
+           "register_backend_class"]
 
 #: stands for an infinite bound where a backend needs a finite number
 INFINITE_BOUND = 1e10
@@ -42,6 +43,9 @@ _CONFIRM_WORK = {"proxqp": 580}
 #: active-set iterations counted as one more :class:`TickWork` solve (a kinematic QP solve without them takes about
 #: as long as this many DAQP iterations)
 ITERATIONS_PER_SOLVE = 150
+#: the same for DAQP's proximal-point iterations (``eps_prox`` > 0, the strict cascade's levels): each costs about
+#: twice an iteration without the proximal term on a humanoid's kinematic QP
+PROX_ITERATIONS_PER_SOLVE = 75
 
 
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
@@ -144,8 +148,11 @@ class TickWork:
             return 0.0
         return thread_time() - self._t0
 
-    def spent(self, factor: float = 1.0) -> bool:
-        """``factor`` × cap solves are done (``reserve`` counted as done)."""
+    def spent(self, factor: float = 1.0, ahead: float = 0.0) -> bool:
+        """``factor`` × cap solves are done (``reserve`` counted as done), or would be after ``ahead`` more (≥ 0:
+        the counted work of a stage about to start, as the largest such stage so far counted; 0: none)."""
+        if ahead:
+            return self.solves + self.reserve + ahead > factor * self.cap
         return self.solves + self.reserve >= factor * self.cap
 
 
@@ -161,6 +168,9 @@ class QPBackend(ABC):
 
     #: active-set iterations of the last solver call (0 for a backend that does not report them).
     last_iterations: int = 0
+    #: iterations of this backend's solver counted as one more :class:`TickWork` solve (:data:`ITERATIONS_PER_SOLVE`;
+    #: :data:`PROX_ITERATIONS_PER_SOLVE` for DAQP with a proximal term)
+    iterations_per_solve: int = ITERATIONS_PER_SOLVE
     #: tick solutions rescued by the independent re-solve (the backend's own solve failed or violated a row).
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
@@ -202,9 +212,9 @@ class QPBackend(ABC):
             self.last_iterations = 0
             x = attempt(H, g, A, b, C, l, u, lb, ub)
             if self.work is not None:
-                # one, plus one per ITERATIONS_PER_SOLVE iterations the attempt took (a DAQP call that ran to its
+                # one, plus one per iterations_per_solve iterations the attempt took (a DAQP call that ran to its
                 # iteration cap costs several solves' time: counted so, the tick's later stages stop sooner)
-                self.work.solves += 1 + int(self.last_iterations) // ITERATIONS_PER_SOLVE
+                self.work.solves += 1 + int(self.last_iterations) // self.iterations_per_solve
             worst = math.inf
             if x is not None and np.isfinite(x).all():
                 xc = np.minimum(np.maximum(x, lb), ub)

@@ -13,7 +13,7 @@ from time import thread_time
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.solvers.base import ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
+from wbc.solvers.base import PROX_ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
            "MEASURED_CALL_ITERATIONS", "MEASURED_COST_DECAY", "MIN_CALL_ITERATIONS", "WORK_LIMIT_FACTOR"]
@@ -23,7 +23,7 @@ ITERATION_LIMIT = 1000
 
 #: a DAQP call of :class:`DaqpBackend` under a controller's counted tick work (``QPBackend.work`` with a finite cap)
 #: may take at most the iterations that keep the tick's count below WORK_LIMIT_FACTOR × its cap
-#: (:data:`ITERATIONS_PER_SOLVE` iterations per solve, one solve kept for what follows the call), at least
+#: (``QPBackend.iterations_per_solve`` iterations per solve, one solve kept for what follows the call), at least
 #: :data:`MIN_CALL_ITERATIONS`: a stage already started cannot run past the budget by a full iteration cap
 WORK_LIMIT_FACTOR = 1.9
 MIN_CALL_ITERATIONS = 10
@@ -88,6 +88,8 @@ class DaqpBackend(QPBackend):
         # an iteration cap, so that one call's work is bounded (DAQP's default, 10 000, was measured to take 24 ms
         # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
         self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
+        if self.settings.get("eps_prox", 0.0) > 0.0:
+            self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
         self._model = None
         self._cold_outcome = None
         self._dual: np.ndarray | None = None
@@ -147,7 +149,7 @@ class DaqpBackend(QPBackend):
             limit = min(limit, int(self.call_iterations))
         work = self.work
         if work is not None and math.isfinite(work.cap):
-            left = ((WORK_LIMIT_FACTOR * work.cap - work.reserve - work.solves - 1.0) * ITERATIONS_PER_SOLVE
+            left = ((WORK_LIMIT_FACTOR * work.cap - work.reserve - work.solves - 1.0) * self.iterations_per_solve
                     - self.last_iterations)
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
         if self.deadline < math.inf:
