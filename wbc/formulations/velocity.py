@@ -1020,7 +1020,7 @@ class KinematicController:
                                           *box)
         # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
         # has it in its count (its CPU time is about one solve's)
-        self._work.solves += 1
+        self._work.add(1)
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it
