@@ -24,7 +24,6 @@ import time
 
 import numba as nb
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
@@ -39,15 +38,6 @@ __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_d
            "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
            "NONFINITE_RHS", "rotation_gap", "rows_pack",
            "translation_gap", "warm_up", "weighted_rows"]
-
-
-@nb.njit(cache=True, nogil=True)
-def _matrix(a, o, rows, cols):
-    """a[o:o + rows·cols] of the contiguous vector ``a`` as a (rows, cols) C-ordered view: the reshape of that
-    slice, built in the compiled code itself (a reshape calls numba's run-time reshape helper); its strides are
-    those of ``a`` (read at run time, as the reshape's, so the loops over it compile as they did)."""
-    step = a.strides[0]
-    return as_strided(a[o:o + rows * cols], shape=(rows, cols), strides=(cols * step, step))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -228,14 +218,12 @@ def _solve_views(ws, n, nr, mr, p):
     """Views of :func:`kinematic_solve`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
     o = n
-    H = _matrix(ws, o, nr, nr)
-    L = _matrix(ws, o + nr * nr, nr, nr)
+    HL = ws[o:o + 2 * nr * nr].reshape((2, nr, nr))
+    H, L = HL[0], HL[1]
     o += 2 * nr * nr
-    g, lbr, ubr, row = ws[o:o + nr], ws[o + nr:o + 2 * nr], ws[o + 2 * nr:o + 3 * nr], ws[o + 3 * nr:o + 4 * nr]
-    x, z, t = ws[o + 4 * nr:o + 5 * nr], ws[o + 5 * nr:o + 6 * nr], ws[o + 6 * nr:o + 7 * nr]  # consecutive (nr,)
+    vec = ws[o:o + 7 * nr].reshape((7, nr))  # g, lbr, ubr, row, x, z, t: consecutive (nr,) vectors
+    g, lbr, ubr, row, x, z, t = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
     o += 7 * nr
-    # Tc, Eb, V keep the reshape: built with _matrix, the elimination and the reduced cost compile to other
-    # floating-point sums (walk logs off by 4e-13 in v)
     Tc = ws[o:o + 6 * (nr + 1)].reshape((6, nr + 1))
     o += 6 * (nr + 1)
     Eb = ws[o:o + 36].reshape((6, 6))
@@ -244,17 +232,19 @@ def _solve_views(ws, n, nr, mr, p):
     o += 6 * nr
     wb = ws[o:o + 6]
     o += 6
-    Cr = _matrix(ws, o, p, nr)
+    Cr = ws[o:o + p * nr].reshape((p, nr))
     o += p * nr
-    lr, ur, mu = ws[o:o + p], ws[o + p:o + 2 * p], ws[o + 2 * p:o + 3 * p]
+    rows = ws[o:o + 3 * p].reshape((3, p))  # lr, ur, mu
+    lr, ur, mu = rows[0], rows[1], rows[2]
     o += 3 * p
-    Ar = _matrix(ws, o, mr, nr)
+    Ar = ws[o:o + mr * nr].reshape((mr, nr))
     o += mr * nr
-    br, nu = ws[o:o + mr], ws[o + mr:o + 2 * mr]
+    eqs = ws[o:o + 2 * mr].reshape((2, mr))  # br, nu
+    br, nu = eqs[0], eqs[1]
     o += 2 * mr
-    Y = _matrix(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    Y = ws[o:o + mr * nr].reshape((mr, nr))  # Y, S, rhs: solve_box_eq_ws (no rows of C)
     o += mr * nr
-    S = _matrix(ws, o, mr, mr)
+    S = ws[o:o + mr * mr].reshape((mr, mr))
     o += mr * mr
     rhs = ws[o:o + mr]
     o += mr
@@ -453,11 +443,11 @@ def _unpack(fb, ib):
     er)."""
     nv, neq, p, er = ib[0], ib[1], ib[2], ib[3]
     o = ib[4:]
-    H = _matrix(fb, o[0], nv, nv)
+    H = fb[o[0]:o[0] + nv * nv].reshape((nv, nv))
     g = fb[o[1]:o[1] + nv]
-    A = _matrix(fb, o[2], neq, nv)
+    A = fb[o[2]:o[2] + neq * nv].reshape((neq, nv))
     b = fb[o[3]:o[3] + neq]
-    C = _matrix(fb, o[4], p, nv)
+    C = fb[o[4]:o[4] + p * nv].reshape((p, nv))
     l = fb[o[5]:o[5] + p]
     u = fb[o[6]:o[6] + p]
     lb = fb[o[7]:o[7] + nv]
@@ -496,7 +486,7 @@ def _unpack_rows(sfb, sib):
     """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: (J, e, rowp, pw, prow)."""
     mt, nv, kp = sib[0], sib[1], sib[2]
     o = mt * nv
-    return (_matrix(sfb, 0, mt, nv), sfb[o:o + mt], _matrix(sfb, o + mt, 3, mt),
+    return (sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
             sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
 
 
