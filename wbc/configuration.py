@@ -38,12 +38,14 @@ def _scaled_if_finite(v, dt, out):
 
 
 @nb.njit(cache=True, nogil=True)
-def _scaled_matches(v, dt, out, q, ahead):
-    """:func:`_scaled_if_finite` (0: v not finite, out untouched; else out = v dt) that also says whether out and q
-    equal, bit for bit, the v·dt and q of a lookahead (``ahead`` = [v·dt (nv,), q (nq,)]): 2 when they do, else 1."""
+def _scaled_matches(v, dt, q, steps):
+    """:func:`_scaled_if_finite` into out = steps[:nv] (0: v not finite, out untouched; else out = v dt) that also
+    says whether out and q equal, bit for bit, the v·dt and q of a lookahead (ahead = steps[nv:] = [v·dt (nv,),
+    q (nq,)]): 2 when they do, else 1. One array for both (one argument fewer)."""
+    n = v.shape[0]
+    out, ahead = steps[:n], steps[n:]
     if not _scaled_if_finite(v, dt, out):
         return 0
-    n = out.shape[0]
     for i in range(n):
         if out[i] != ahead[i]:
             return 1
@@ -54,17 +56,17 @@ def _scaled_matches(v, dt, out, q, ahead):
 
 
 @nb.njit(cache=True, nogil=True)
-def _record_ahead(vdt, q, ahead):
-    """ahead = [vdt, q] and True when every entry of vdt is finite, else False with ahead untouched (compiled: one
-    call for the check and both copies)."""
+def _record_ahead(vdt, q, steps):
+    """steps[nv:] = [vdt, q] (the ahead part of :func:`_scaled_matches`' array) and True when every entry of vdt
+    is finite, else False with steps untouched (compiled: one call for the check and both copies)."""
     n = vdt.shape[0]
     for i in range(n):
         if not np.isfinite(vdt[i]):
             return False
     for i in range(n):
-        ahead[i] = vdt[i]
+        steps[n + i] = vdt[i]
     for i in range(q.shape[0]):
-        ahead[n + i] = q[i]
+        steps[2 * n + i] = q[i]
     return True
 
 
@@ -73,8 +75,8 @@ def _warm_up() -> None:
     """Load :func:`_scaled_if_finite`, :func:`_scaled_matches` and :func:`_record_ahead` (on-disk cache) once per
     process, at construction."""
     _scaled_if_finite(np.zeros(1), 0.002, np.zeros(1))
-    _scaled_matches(np.zeros(1), 0.002, np.zeros(1), np.zeros(2), np.zeros(3))
-    _record_ahead(np.zeros(1), np.zeros(2), np.zeros(3))
+    _scaled_matches(np.zeros(1), 0.002, np.zeros(2), np.zeros(4))
+    _record_ahead(np.zeros(1), np.zeros(2), np.zeros(4))
 
 
 class Configuration:
@@ -96,13 +98,14 @@ class Configuration:
         self._frames_stale = False
         self._nv = robot.model.nv
         self._v_shape = (self._nv,)
-        self._vdt = np.zeros(self._nv)  # v dt of step
         self._keep_ag = False
         self._ag = None
         # lookahead: a second Data computed at q ⊕ v·dt, adopted by a step with that v·dt (swapped with _data);
-        # _ahead = [v·dt, q] it was computed from, _ahead_out = (Data, its data.com[0], q ⊕ v·dt, CoM Jacobian, Ag)
+        # [v·dt, q] it was computed from (_steps[nv:]), _ahead_out = (Data, its data.com[0], q ⊕ v·dt, CoM Jacobian, Ag)
         self._spare = None
-        self._ahead = np.full(self._nv + robot.model.nq, np.nan)
+        # one array [v·dt of step (nv,), ahead (nv + nq,)]: a single argument of the step's compiled check
+        self._steps = np.full(2 * self._nv + robot.model.nq, np.nan)
+        self._steps[:self._nv] = 0.0
         self._ahead_out = None
         self.q = np.array(robot.q_ref if q is None else q, dtype=float)
         self.update(self.q)
@@ -159,10 +162,10 @@ class Configuration:
         self._ahead_out = None  # until this lookahead's Data is computed
         q = self.q
         if not (type(vdt) is np.ndarray and vdt.shape == self._v_shape and vdt.dtype is FLOAT64
-                and _record_ahead(vdt, q, self._ahead)):  # _ahead = [vdt, q] when vdt is finite
+                and _record_ahead(vdt, q, self._steps)):  # ahead = [vdt, q] when vdt is finite
             vdt = check_vector(vdt, self._nv, "displacement vdt")  # raises with the details, else a finite array
-            self._ahead[:self._nv] = vdt
-            self._ahead[self._nv:] = q
+            self._steps[self._nv:2 * self._nv] = vdt
+            self._steps[2 * self._nv:] = q
         spare = self._spare
         if spare is None:
             data = self.model.createData()
@@ -241,17 +244,13 @@ class Configuration:
             dt_ok = False
         if not dt_ok:
             raise ConfigurationError(f"dt must be a finite number > 0 (s), got {dt!r}")
-        vdt = self._vdt
         ahead = self._ahead_out
         match = 0
         if type(v) is np.ndarray and v.shape == self._v_shape and v.dtype is FLOAT64:
             if ahead is None:
-                match = int(_scaled_if_finite(v, float(dt), vdt))
+                match = int(_scaled_if_finite(v, float(dt), self._steps[:self._nv]))
             else:
-                match = _scaled_matches(v, float(dt), vdt, self.q, self._ahead)
-        if not match:
-            v = check_vector(v, self._nv, "velocity v")  # raises with the details, else a finite float array
-            np.multiply(v, dt, out=vdt)
+                match = _scaled_matches(v, float(dt), self.q, self._steps)
         if match == 2:  # the lookahead's v·dt from this q: its Data becomes this configuration's (swapped)
             spare, self.q, self._com_jacobian, self._ag = ahead
             self._spare = (self._data, self._com)
@@ -259,6 +258,10 @@ class Configuration:
             self._ahead_out = None
             self._frames_stale = True
             return
+        vdt = self._steps[:self._nv]  # v dt, written by the check above when v passed it
+        if not match:
+            v = check_vector(v, self._nv, "velocity v")  # raises with the details, else a finite float array
+            np.multiply(v, dt, out=vdt)
         self.q = pin.integrate(self.model, self.q, vdt)
         self.update()
 

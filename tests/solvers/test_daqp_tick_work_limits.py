@@ -304,3 +304,24 @@ def test_proximal_iterations_count_twice_the_work_of_plain_ones():
     fresh_prox.work, fresh_plain.work = TickWork(cap=4), TickWork(cap=4)
     assert fresh_prox.call_limit() == 495
     assert fresh_plain.call_limit() == 990
+
+
+def test_tick_work_add_counts_as_solves_plus_n_with_and_without_a_clock_guard(monkeypatch):
+    """``add(n)`` leaves the count where ``solves += n`` leaves it: without a clock guard the count plus n; with one
+    the larger of the count and the CPU time in solves, plus n (a fake CPU clock: 0.35 s at 0.1 s per solve)."""
+    from wbc.solvers import base as solver_base
+
+    clock = [0.0]
+    monkeypatch.setattr(solver_base, "thread_time", lambda: clock[0])
+    counted = TickWork(cap=8)
+    counted.add(1)
+    counted.add(2.5)
+    assert counted.solves == 3.5
+    clocked, reference = TickWork(cap=8, clock=0.1), TickWork(cap=8, clock=0.1)
+    clock[0] = 0.35  # 3.5 solves of CPU time, none counted
+    clocked.add(1)
+    reference.solves += 1
+    assert clocked.solves == reference.solves == pytest.approx(4.5, abs=1e-12)
+    clock[0] = 0.2  # a clock below the count: the count stands
+    clocked.add(1)
+    assert clocked.solves == pytest.approx(5.5, abs=1e-12)

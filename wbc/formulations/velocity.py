@@ -747,7 +747,7 @@ class KinematicController:
             return
         # a new layout (a controller's first tick, new constraints): its build and the first solves on its fresh
         # buffers and solver workspaces count LAYOUT_WORK solves of the tick's budget
-        self._work.solves += self.LAYOUT_WORK
+        self._work.add(self.LAYOUT_WORK)
         self._layout_key = key
         self._constraints = list(self.constraints)
         self._const_box = None
@@ -1041,7 +1041,7 @@ class KinematicController:
                                           *box)
         # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
         # has it in its count (its CPU time is about one solve's)
-        self._work.solves += 1
+        self._work.add(1)
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it

@@ -124,6 +124,14 @@ class TickWork:
     def solves(self, value: float) -> None:
         self._solves = value
 
+    def add(self, n: float = 1) -> None:
+        """``solves += n`` (the same number) in one method call: with the clock guard on, the counted solves become
+        :attr:`solves` (the larger of the count and the CPU time in solves) plus n; without it, the count plus n."""
+        if self._clock < math.inf:
+            self._solves = self.solves + n
+        else:
+            self._solves += n
+
     @property
     def clock(self) -> float:
         """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
