@@ -772,46 +772,68 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
     assert worst_run <= 1e-3
 
 
-def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
-    """Kinematic fuzz seed 100011, episode 14 (humanoid15, an absurd hand target, strict levels answered by their
-    weighted form, dt = 2 ms, the fuzz's budget of 8 counted solves): at tick 40 the contacts' corrections contradict
-    each other in a dependent direction, the trust region's radii (kernel solves, uncounted before) spend the count
-    and the tick fails. Its safe commands then ran anyway: 'constraints_only' with its checks, 'contacts_held' at
-    β = 1 and 1/10 (infeasible), then β = 0 — 23 counted solves (6.3 ms of CPU in the fuzz). Now the trust region
-    stops at its count and the late tick solves 'contacts_held' at β = 0 first: the tick's counted work stays within
-    twice its cap, and the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's
-    forward kinematics on its own Data)."""
-    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
-    assert (name, kind, strict) == ("humanoid15", "absurd", True)
-    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok tick 39 turns them 0.41 mrad
-    dt, tol = 0.002, 5e-5
-    model = ctrl.robot.model
+def _soles_at(model, contacts):
+    """q ↦ the contact frames' positions (m, world frame) by Pinocchio's forward kinematics on its own Data."""
     data = model.createData()
-    contacts = ctrl.constraints[:2]
 
     def soles(q):
         pin.framesForwardKinematics(model, data, q)
         return [data.oMf[c.frame_id].translation.copy() for c in contacts]
 
-    for _ in range(40):
-        ctrl.solve(config, dt)
+    return soles
+
+
+def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
+    """Kinematic fuzz seed 100014, episode 175 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
+    fuzz's budget of 8 counted solves): at tick 4 a sole drifts 0.13 mm (> sole_drift_tolerance) even inside a
+    trust region, the count is spent before the contact correction and the trust region start, and the tick fails
+    (its diagnosis skipped: the count spent). Its safe commands once ran anyway: 'constraints_only' with its checks,
+    'contacts_held' at β = 1 and 1/10, then β = 0 — 23 counted solves on seed 100011 episode 14's tick 40 (6.3 ms
+    of CPU in the fuzz). Now a failed tick past its count solves 'contacts_held' at β = 0 first: one QP past the spent
+    count (at most 2 counted solves over the cap), and the command keeps each stance sole within sole_drift_tolerance of where it
+    was (Pinocchio's forward kinematics on its own Data).
+
+    Seed 100011, episode 14's tick 40 (that failure before the stages started only when their counted work fits) is
+    now answered by the weighted form: ok, within the same count, each sole within sole_drift_tolerance of where its
+    contact row sends it."""
+    dt, tol = 0.002, 5e-5
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100014, 175)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    model = ctrl.robot.model
+    contacts = ctrl.constraints[:2]
+    soles = _soles_at(model, contacts)
+    for _ in range(4):
+        assert ctrl.solve(config, dt).ok
         config.update(config.integrate(ctrl.last_result.v, dt))
     before = soles(config.q)
     res = ctrl.solve(config, dt)
     after = soles(pin.integrate(model, config.q, res.v * dt))
-    print(f"\ntick 40: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    print(f"\ntick 4: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:300]}")
     assert ctrl._work.cap == 8  # ⌊2 ms / 0.25 ms⌋: the fuzz's budget
+    assert not res.ok and "diagnosis skipped: tick budget spent" in res.message  # failed past its count
+    assert res.fallback == "contacts_held" and res.path == "fallback:contacts_held"
+    # the held command's QP (β = 0) is its only work past the spent count: 9 counted solves; 12 when
+    # 'constraints_only' and 'contacts_held' at β = 1, 1/10 run first
+    assert ctrl._work.solves <= 8 + 2
+    assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
+    assert (name, kind, strict) == ("humanoid15", "absurd", True)
+    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok tick 39 turns them 0.41 mrad
+    contacts = ctrl.constraints[:2]
+    soles = _soles_at(model, contacts)
+    for _ in range(40):
+        ctrl.solve(config, dt)
+        config.update(config.integrate(ctrl.last_result.v, dt))
+    res = ctrl.solve(config, dt)
+    after = soles(pin.integrate(model, config.q, res.v * dt))
+    print(f"tick 40: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    assert res.ok and res.path.weighted, (res.path, res.message)  # a 'contacts_held' failure before
     assert ctrl._work.solves <= 2 * 8  # 23 before
-    if res.ok:
-        # since the stages start only when their counted work fits, the weighted form answers this tick: ok, each
-        # sole within sole_drift_tolerance of where its contact row sends it
-        for c, a in zip(contacts, after):
-            e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
-            sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
-            assert np.linalg.norm(a - sent.translation) <= tol
-    else:
-        assert res.fallback == "contacts_held"
-        assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+    for c, a in zip(contacts, after):
+        e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
+        assert np.linalg.norm(a - sent.translation) <= tol
 
 
 def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
