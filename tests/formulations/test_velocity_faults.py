@@ -614,7 +614,8 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
     assert all(n > 0 for n in frozen), frozen
 
 
-def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
+@pytest.mark.parametrize("seed, holds", [(0, False), (6, True)])
+def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch, seed, holds):
     """Items 3 and 7 at the kinematic level, counted in solver calls (not time): five leg joints of humanoid15 5–50
     mrad past their limits, both soles in contact, dt = 2 ms and the default budget (the period). From a few ticks
     in (tick 5; tick 3 while the budget did not count the compiled call and the kernel's give-ups, and the first ticks
@@ -623,13 +624,17 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
     there failed ('contacts_held', 45 DAQP calls, never ok again). Now every
     tick is ok (the relaxation named), its soles within 0.05 mm of where their full correction sends them (forward
     kinematics), no joint moves further out, and no tick calls DAQP more than 16 times (every workspace and one-shot
-    call counted through a shim of the ``daqp`` module)."""
+    call counted through a shim of the ``daqp`` module).
+
+    Since the stages start only when their counted work fits, the cascade's retries are its weighted form and on
+    seed 0's joints the return rate's α = 0 solves without holding the soles (no held tick); seed 6's joints still
+    need them held (J_c v = 0) on most ticks from tick 1, the first such tick's hard set infeasible without it."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from fuzz_common import highs_feasible
 
     calls = _count_daqp_calls(monkeypatch)
     robot = robots("humanoid15")
-    model, config, iq = _legs_past_limits(robot, 5, seed=0)
+    model, config, iq = _legs_past_limits(robot, 5, seed=seed)
     ctrl, _ = standing_controller(robot, config)
     contacts = ctrl.constraints[:2]
     lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
@@ -660,9 +665,7 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
         now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
         assert np.all(now <= outside + 1e-9)
         outside = now
-    # (since the stages start only when their counted work fits, the cascade's retries are its weighted form and the
-    # ladder's α = 0 solves without holding the contacts: held_ticks is 0 then; when held, HiGHS confirmed it above)
-    assert most <= 16, (held_ticks, most)
+    assert (held_ticks > 0) == holds and most <= 16, (held_ticks, most)  # seed 6: 28 held ticks of 40
 
 
 def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
