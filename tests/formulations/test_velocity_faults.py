@@ -849,32 +849,57 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
 
 
 def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
-    """Kinematic fuzz seed 100014, episode 176 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
-    fuzz's budget of 8 counted solves): at tick 39 the cascade fails (dependent contact rows with contradictory
-    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so once the
-    compiled kernel's solves are counted (FastBackend) no contact correction or trust region was left and the tick
-    failed on its sole drift ('contacts_held'; main, where the kernel's re-solves go uncounted, solves it as
-    'levels' past its count). Now a failed cascade that spent the count retries with the weighted form of its
-    levels (one QP, path 'levels+budget+weighted'): the tick is solved, and its command keeps each stance sole
-    within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward kinematics on its own
-    Data)."""
-    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100014, 176)
-    assert (name, kind, strict) == ("humanoid15", "far", True)
-    ctrl.LAYOUT_WORK = 0  # the episode as recorded: tick 0's layout uncounted (its count cuts tick 0's cascade)
-    dt, tol = 0.002, 5e-5
+    """Kinematic fuzz seed 550000, episode 93 of the fuzz's run with ``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``
+    (humanoid15, a reachable hand target, strict levels, dt = 2 ms, four leg joints 7–36 mrad past their limits, the
+    fuzz's budget of 8 counted solves): tick 0's cascade fails (no return rate of those joints is feasible) after
+    spending the count (its new layout counted too). A failed cascade that spent the count retries with the weighted
+    form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode 176 tick 39 before
+    the layouts were counted: the least-squares retry's cascade took 6 more solves and no contact correction was
+    left): the tick is solved, path 'levels+return_rate+budget+weighted', its return rate relaxed to 0. Oracles: no
+    joint moves further outside its position limits (the model's limits), no joint speed exceeds the model's velocity
+    limit, and each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's
+    forward kinematics on its own Data).
+
+    Seed 100014, episode 176, tick 39 (whose cascade failed after spending the count while tick 0's layout went
+    uncounted) now fails past its count and is answered by 'contacts_held': the soles stay within
+    sole_drift_tolerance of where they were."""
+    from wbc.constraints.limits import bounded_joints
+
+    tol = 5e-5
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550000, 93, dts=(0.002, 0.005, 0.01, 0.02),
+                                                        past_limits=0.2)
+    assert (name, kind, strict, dt) == ("humanoid15", "reachable", True, 0.002)
     model = ctrl.robot.model
     data = model.createData()
-    for _ in range(39):
-        res = ctrl.solve(config, dt)
-        config.update(config.integrate(res.v, dt))
+    iq, _ = bounded_joints(model)
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    assert np.count_nonzero(outside) == 4
     sent = []
     for c in ctrl.constraints[:2]:
         e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
         sent.append((c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))).translation)
     res = ctrl.solve(config, dt)
-    print(f"\ntick 39: {res.path} ok={res.ok}; {res.message[:200]}")
-    assert res.ok  # a 'contacts_held' failure before
-    assert res.path.weighted  # (the weighted form: '+budget' when this tick's cascade was cut, not after earlier cuts)
-    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * dt))
+    print(f"\ntick 0: {res.path} ok={res.ok}; {res.relaxed}; {res.message[:200]}")
+    assert res.ok and res.path == "levels+return_rate+budget+weighted", (res.path, res.message)
+    assert "priority levels of the retries" in res.message  # the retries cut to the weighted form
+    assert ctrl._work.solves <= 2 * 8  # 10.5 counted solves (12.5 when the retries are a cascade again)
+    q1 = pin.integrate(model, config.q, res.v * dt)
+    assert np.all(np.maximum(0.0, np.maximum(lo - q1[iq], q1[iq] - hi)) <= outside + 1e-9)
+    assert np.all(np.abs(res.v[6:]) <= model.velocityLimit[6:] * (1.0 + 1e-9))
+    pin.framesForwardKinematics(model, data, q1)
     for c, target in zip(ctrl.constraints[:2], sent):
         assert np.linalg.norm(data.oMf[c.frame_id].translation - target) <= tol
+
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 176)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    for _ in range(39):
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+    soles = _soles_at(model, ctrl.constraints[:2])
+    before = soles(config.q)
+    res = ctrl.solve(config, dt)
+    print(f"tick 39: {res.path} ok={res.ok}; {res.message[:200]}")
+    assert not res.ok and res.fallback == "contacts_held" and "diagnosis skipped: tick budget spent" in res.message
+    after = soles(pin.integrate(model, config.q, res.v * dt))
+    assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
