@@ -133,18 +133,22 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
     assert worst_tick <= 5e-5 + 0.5 * 1e-3
 
 
-def _run_failed_ticks(config, ctrl, dt, ticks: int = 50, messages: list | None = None) -> tuple[int, float, float, set]:
-    """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
-    over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data;
-    each failed tick's message appended to ``messages`` when given."""
-    contacts = ctrl.constraints[:2]
-    model = ctrl.robot.model
+def _soles_at(model, contacts):
+    """q ↦ the contact frames' positions (m, world frame) by Pinocchio's forward kinematics on its own Data."""
     data = model.createData()
 
     def soles(q):
         pin.framesForwardKinematics(model, data, q)
         return [data.oMf[c.frame_id].translation.copy() for c in contacts]
 
+    return soles
+
+
+def _run_failed_ticks(config, ctrl, dt, ticks: int = 50, messages: list | None = None) -> tuple[int, float, float, set]:
+    """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
+    over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data;
+    each failed tick's message appended to ``messages`` when given."""
+    soles = _soles_at(ctrl.robot.model, ctrl.constraints[:2])
     start, failed, worst_run, worst_tick, fallbacks = None, 0, 0.0, 0.0, set()
     for _ in range(ticks):
         before = soles(config.q)
@@ -782,17 +786,6 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots, seed, epi
     assert all("diagnosis skipped: tick budget spent" in m for m in messages)  # each failed past its count
     assert worst_tick <= tol
     assert worst_run <= 1e-3
-
-
-def _soles_at(model, contacts):
-    """q ↦ the contact frames' positions (m, world frame) by Pinocchio's forward kinematics on its own Data."""
-    data = model.createData()
-
-    def soles(q):
-        pin.framesForwardKinematics(model, data, q)
-        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
-
-    return soles
 
 
 def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
