@@ -794,9 +794,10 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     trust region, the count is spent before the contact correction and the trust region start, and the tick fails
     (its diagnosis skipped: the count spent). Its safe commands once ran anyway: 'constraints_only' with its checks,
     'contacts_held' at β = 1 and 1/10, then β = 0 — 23 counted solves on seed 100011 episode 14's tick 40 (6.3 ms
-    of CPU in the fuzz). Now a failed tick past its count solves 'contacts_held' at β = 0 first: one QP past the spent
-    count (at most 2 counted solves over the cap), and the command keeps each stance sole within sole_drift_tolerance of where it
-    was (Pinocchio's forward kinematics on its own Data).
+    of CPU in the fuzz). Now a failed tick past its count solves 'contacts_held' at β = 0 first: one QP past the
+    spent count (at most 2 counted solves over the cap; 12 on this tick when the other safe commands run first), and
+    the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's forward kinematics on
+    its own Data).
 
     Seed 100011, episode 14's tick 40 (that failure before the stages started only when their counted work fits) is
     now answered by the weighted form: ok, within the same count, each sole within sole_drift_tolerance of where its
