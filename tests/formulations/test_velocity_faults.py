@@ -133,17 +133,22 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
     assert worst_tick <= 5e-5 + 0.5 * 1e-3
 
 
-def _run_failed_ticks(config, ctrl, dt, ticks: int = 50) -> tuple[int, float, float, set]:
-    """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
-    over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data."""
-    contacts = ctrl.constraints[:2]
-    model = ctrl.robot.model
+def _soles_at(model, contacts):
+    """q ↦ the contact frames' positions (m, world frame) by Pinocchio's forward kinematics on its own Data."""
     data = model.createData()
 
     def soles(q):
         pin.framesForwardKinematics(model, data, q)
         return [data.oMf[c.frame_id].translation.copy() for c in contacts]
 
+    return soles
+
+
+def _run_failed_ticks(config, ctrl, dt, ticks: int = 50, messages: list | None = None) -> tuple[int, float, float, set]:
+    """Run ``ticks`` ticks → (failed ticks, largest stance-sole displacement (m) over a run of failed ticks, largest
+    over one failed tick, the fallbacks taken), the soles placed by Pinocchio's forward kinematics on its own Data;
+    each failed tick's message appended to ``messages`` when given."""
+    soles = _soles_at(ctrl.robot.model, ctrl.constraints[:2])
     start, failed, worst_run, worst_tick, fallbacks = None, 0, 0.0, 0.0, set()
     for _ in range(ticks):
         before = soles(config.q)
@@ -154,6 +159,8 @@ def _run_failed_ticks(config, ctrl, dt, ticks: int = 50) -> tuple[int, float, fl
             continue
         failed += 1
         fallbacks.add(res.fallback)
+        if messages is not None:
+            messages.append(res.message)
         start = before if start is None else start
         after = soles(config.q)
         worst_tick = max(worst_tick, max(np.linalg.norm(a - b) for a, b in zip(after, before)))
@@ -611,7 +618,8 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
     assert all(n > 0 for n in frozen), frozen
 
 
-def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
+@pytest.mark.parametrize("seed, holds", [(0, False), (6, True)])
+def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch, seed, holds):
     """Items 3 and 7 at the kinematic level, counted in solver calls (not time): five leg joints of humanoid15 5–50
     mrad past their limits, both soles in contact, dt = 2 ms and the default budget (the period). From a few ticks
     in (tick 5; tick 3 while the budget did not count the compiled call and the kernel's give-ups, and the first ticks
@@ -620,13 +628,17 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
     there failed ('contacts_held', 45 DAQP calls, never ok again). Now every
     tick is ok (the relaxation named), its soles within 0.05 mm of where their full correction sends them (forward
     kinematics), no joint moves further out, and no tick calls DAQP more than 16 times (every workspace and one-shot
-    call counted through a shim of the ``daqp`` module)."""
+    call counted through a shim of the ``daqp`` module).
+
+    Since the stages start only when their counted work fits, the cascade's retries are its weighted form and on
+    seed 0's joints the return rate's α = 0 solves without holding the soles (no held tick); seed 6's joints still
+    need them held (J_c v = 0) on most ticks from tick 1, the first such tick's hard set infeasible without it."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from fuzz_common import highs_feasible
 
     calls = _count_daqp_calls(monkeypatch)
     robot = robots("humanoid15")
-    model, config, iq = _legs_past_limits(robot, 5, seed=0)
+    model, config, iq = _legs_past_limits(robot, 5, seed=seed)
     ctrl, _ = standing_controller(robot, config)
     contacts = ctrl.constraints[:2]
     lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
@@ -657,9 +669,7 @@ def test_past_limit_recovery_work_per_tick_is_bounded(robots, monkeypatch):
         now = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
         assert np.all(now <= outside + 1e-9)
         outside = now
-    # (since the stages start only when their counted work fits, the cascade's retries are its weighted form and the
-    # ladder's α = 0 solves without holding the contacts: held_ticks is 0 then; when held, HiGHS confirmed it above)
-    assert most <= 16, (held_ticks, most)
+    assert (held_ticks > 0) == holds and most <= 16, (held_ticks, most)  # seed 6: 28 held ticks of 40
 
 
 def test_failed_daqp_solve_runs_each_fallback_once(monkeypatch):
@@ -749,98 +759,141 @@ def test_strict_far_target_keeps_the_soles_within_the_budget(robots):
         config.update(config.integrate(res.v, DT))
 
 
-def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots):
+@pytest.mark.parametrize("seed, episode, failing", [(100011, 154, False), (100011, 123, True)])
+def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots, seed, episode, failing):
     """Kinematic fuzz seed 100011, episode 154 (humanoid15, a hand target 1e6 m away, 3 strict levels, dt = 2 ms,
     the fuzz's budget): from tick 8 the contacts' corrections contradict each other in a dependent direction, so no
     trust region keeps the soles within sole_drift_tolerance (its drift does not fall with the radius), and the
-    stages before the safe command spend the tick's count. The 'contacts_held' QP at β = 0 (J_c v = 0) then got the
+    stages before the safe command spent the tick's count. The 'contacts_held' QP at β = 0 (J_c v = 0) then got the
     10 DAQP iterations a spent count leaves and failed, so every tick held v = 0 on an unchanged state: 42 failed
-    ticks of 50 on the parent commit. Now that QP gets its solver's iteration limit: the soles stay put to second
-    order (forward kinematics: each failed tick moves each stance sole at most sole_drift_tolerance, a run of failed
-    ticks at most 1 mm) and the episode recovers."""
-    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 154)
+    ticks of 50 on the parent commit; 1–3 while its safe command ran past the count; none since the stages start
+    only when their counted work fits (the weighted form answers those ticks).
+
+    Episode 123 (humanoid15, a hand target 1e6 m away, strict levels) fails at tick 32 past its count (its diagnosis
+    skipped): that tick is answered by 'contacts_held', not 'hold', and the episode recovers. In both the soles stay
+    put to second order (forward kinematics: each failed tick moves each stance sole at most sole_drift_tolerance, a
+    run of failed ticks at most 1 mm)."""
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, kind, strict) == ("humanoid15", "far", True)
-    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok ticks turn them 0.34 mrad (tick 7)
+    if not failing:
+        ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok ticks turn them 0.34 mrad (tick 7)
     dt, tol = 0.002, 5e-5
     assert ctrl.sole_drift_tolerance == tol
-    failed, worst_run, worst_tick, fallbacks = _run_failed_ticks(config, ctrl, dt)
-    # the contradictory corrections are met (tick 8): 1–3 failed ticks, 0 since the stages start only when their
-    # counted work fits (the retries answered by the weighted form); 42 failed ticks before
+    messages = []
+    failed, worst_run, worst_tick, fallbacks = _run_failed_ticks(config, ctrl, dt, messages=messages)
     assert failed <= 3
-    assert fallbacks <= {"contacts_held"}
+    assert fallbacks == ({"contacts_held"} if failing else set())  # episode 123: 1 failed tick, 'contacts_held'
+    assert all("diagnosis skipped: tick budget spent" in m for m in messages)  # each failed past its count
     assert worst_tick <= tol
     assert worst_run <= 1e-3
 
 
 def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
-    """Kinematic fuzz seed 100011, episode 14 (humanoid15, an absurd hand target, strict levels answered by their
-    weighted form, dt = 2 ms, the fuzz's budget of 8 counted solves): at tick 40 the contacts' corrections contradict
-    each other in a dependent direction, the trust region's radii (kernel solves, uncounted before) spend the count
-    and the tick fails. Its safe commands then ran anyway: 'constraints_only' with its checks, 'contacts_held' at
-    β = 1 and 1/10 (infeasible), then β = 0 — 23 counted solves (6.3 ms of CPU in the fuzz). Now the trust region
-    stops at its count and the late tick solves 'contacts_held' at β = 0 first: the tick's counted work stays within
-    twice its cap, and the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's
-    forward kinematics on its own Data)."""
-    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
-    assert (name, kind, strict) == ("humanoid15", "absurd", True)
-    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok tick 39 turns them 0.41 mrad
+    """Kinematic fuzz seed 100014, episode 175 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
+    fuzz's budget of 8 counted solves): at tick 4 a sole drifts 0.13 mm (> sole_drift_tolerance) even inside a
+    trust region, the count is spent before the contact correction and the trust region start, and the tick fails
+    (its diagnosis skipped: the count spent). Its safe commands once ran anyway: 'constraints_only' with its checks,
+    'contacts_held' at β = 1 and 1/10, then β = 0 — 23 counted solves on seed 100011 episode 14's tick 40 (6.3 ms
+    of CPU in the fuzz). Now a failed tick past its count solves 'contacts_held' at β = 0 first: one QP past the
+    spent count (at most 2 counted solves over the cap; 12 on this tick when the other safe commands run first), and
+    the command keeps each stance sole within sole_drift_tolerance of where it was (Pinocchio's forward kinematics on
+    its own Data).
+
+    Seed 100011, episode 14's tick 40 (that failure before the stages started only when their counted work fits) is
+    now answered by the weighted form: ok, within the same count, each sole within sole_drift_tolerance of where its
+    contact row sends it."""
     dt, tol = 0.002, 5e-5
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100014, 175)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
     model = ctrl.robot.model
-    data = model.createData()
     contacts = ctrl.constraints[:2]
-
-    def soles(q):
-        pin.framesForwardKinematics(model, data, q)
-        return [data.oMf[c.frame_id].translation.copy() for c in contacts]
-
-    for _ in range(40):
-        ctrl.solve(config, dt)
+    soles = _soles_at(model, contacts)
+    for _ in range(4):
+        assert ctrl.solve(config, dt).ok
         config.update(config.integrate(ctrl.last_result.v, dt))
     before = soles(config.q)
     res = ctrl.solve(config, dt)
     after = soles(pin.integrate(model, config.q, res.v * dt))
-    print(f"\ntick 40: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    print(f"\ntick 4: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:300]}")
     assert ctrl._work.cap == 8  # ⌊2 ms / 0.25 ms⌋: the fuzz's budget
+    assert not res.ok and "diagnosis skipped: tick budget spent" in res.message  # failed past its count
+    assert res.fallback == "contacts_held" and res.path == "fallback:contacts_held"
+    # the held command's QP (β = 0) is its only work past the spent count: 9 counted solves; 12 when
+    # 'constraints_only' and 'contacts_held' at β = 1, 1/10 run first
+    assert ctrl._work.solves <= 8 + 2
+    assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+
+    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100011, 14)
+    assert (name, kind, strict) == ("humanoid15", "absurd", True)
+    ctrl.sole_rotation_tolerance = None  # the soles' turn unbounded, as then: ok tick 39 turns them 0.41 mrad
+    contacts = ctrl.constraints[:2]
+    soles = _soles_at(model, contacts)
+    for _ in range(40):
+        ctrl.solve(config, dt)
+        config.update(config.integrate(ctrl.last_result.v, dt))
+    res = ctrl.solve(config, dt)
+    after = soles(pin.integrate(model, config.q, res.v * dt))
+    print(f"tick 40: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    assert res.ok and res.path.weighted, (res.path, res.message)  # a 'contacts_held' failure before
     assert ctrl._work.solves <= 2 * 8  # 23 before
-    if res.ok:
-        # since the stages start only when their counted work fits, the weighted form answers this tick: ok, each
-        # sole within sole_drift_tolerance of where its contact row sends it
-        for c, a in zip(contacts, after):
-            e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
-            sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
-            assert np.linalg.norm(a - sent.translation) <= tol
-    else:
-        assert res.fallback == "contacts_held"
-        assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+    for c, a in zip(contacts, after):
+        e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        sent = c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))
+        assert np.linalg.norm(a - sent.translation) <= tol
 
 
 def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
-    """Kinematic fuzz seed 100014, episode 176 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
-    fuzz's budget of 8 counted solves): at tick 39 the cascade fails (dependent contact rows with contradictory
-    corrections) after 8.5 counted solves; its least-squares retry was a cascade again (6 more solves), so once the
-    compiled kernel's solves are counted (FastBackend) no contact correction or trust region was left and the tick
-    failed on its sole drift ('contacts_held'; main, where the kernel's re-solves go uncounted, solves it as
-    'levels' past its count). Now a failed cascade that spent the count retries with the weighted form of its
-    levels (one QP, path 'levels+budget+weighted'): the tick is solved, and its command keeps each stance sole
-    within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward kinematics on its own
-    Data)."""
-    name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100014, 176)
-    assert (name, kind, strict) == ("humanoid15", "far", True)
-    ctrl.LAYOUT_WORK = 0  # the episode as recorded: tick 0's layout uncounted (its count cuts tick 0's cascade)
-    dt, tol = 0.002, 5e-5
+    """Kinematic fuzz seed 550000, episode 93 of the fuzz's run with ``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``
+    (humanoid15, a reachable hand target, strict levels, dt = 2 ms, four leg joints 7–36 mrad past their limits, the
+    fuzz's budget of 8 counted solves): tick 0's cascade fails (no return rate of those joints is feasible) after
+    spending the count (its new layout counted too). A failed cascade that spent the count retries with the weighted
+    form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode 176 tick 39 before
+    the layouts were counted: the least-squares retry's cascade took 6 more solves and no contact correction was
+    left): the tick is solved, path 'levels+return_rate+budget+weighted', its return rate relaxed to 0. Oracles: no
+    joint moves further outside its position limits (the model's limits), no joint speed exceeds the model's velocity
+    limit, and each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's
+    forward kinematics on its own Data).
+
+    Seed 100014, episode 176, tick 39 (whose cascade failed after spending the count while tick 0's layout went
+    uncounted) now fails past its count and is answered by 'contacts_held': the soles stay within
+    sole_drift_tolerance of where they were."""
+    from wbc.constraints.limits import bounded_joints
+
+    tol = 5e-5
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550000, 93, dts=(0.002, 0.005, 0.01, 0.02),
+                                                        past_limits=0.2)
+    assert (name, kind, strict, dt) == ("humanoid15", "reachable", True, 0.002)
     model = ctrl.robot.model
     data = model.createData()
-    for _ in range(39):
-        res = ctrl.solve(config, dt)
-        config.update(config.integrate(res.v, dt))
+    iq, _ = bounded_joints(model)
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    outside = np.maximum(0.0, np.maximum(lo - config.q[iq], config.q[iq] - hi))
+    assert np.count_nonzero(outside) == 4
     sent = []
     for c in ctrl.constraints[:2]:
         e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
         sent.append((c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))).translation)
     res = ctrl.solve(config, dt)
-    print(f"\ntick 39: {res.path} ok={res.ok}; {res.message[:200]}")
-    assert res.ok  # a 'contacts_held' failure before
-    assert res.path.weighted  # (the weighted form: '+budget' when this tick's cascade was cut, not after earlier cuts)
-    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * dt))
+    print(f"\ntick 0: {res.path} ok={res.ok}; {res.relaxed}; {res.message[:200]}")
+    assert res.ok and res.path == "levels+return_rate+budget+weighted", (res.path, res.message)
+    assert "priority levels of the retries" in res.message  # the retries cut to the weighted form
+    assert ctrl._work.solves <= 2 * 8  # 10.5 counted solves (12.5 when the retries are a cascade again)
+    q1 = pin.integrate(model, config.q, res.v * dt)
+    assert np.all(np.maximum(0.0, np.maximum(lo - q1[iq], q1[iq] - hi)) <= outside + 1e-9)
+    assert np.all(np.abs(res.v[6:]) <= model.velocityLimit[6:] * (1.0 + 1e-9))
+    pin.framesForwardKinematics(model, data, q1)
     for c, target in zip(ctrl.constraints[:2], sent):
         assert np.linalg.norm(data.oMf[c.frame_id].translation - target) <= tol
+
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 176)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    for _ in range(39):
+        res = ctrl.solve(config, dt)
+        config.update(config.integrate(res.v, dt))
+    soles = _soles_at(model, ctrl.constraints[:2])
+    before = soles(config.q)
+    res = ctrl.solve(config, dt)
+    print(f"tick 39: {res.path} ok={res.ok}; {res.message[:200]}")
+    assert not res.ok and res.fallback == "contacts_held" and "diagnosis skipped: tick budget spent" in res.message
+    after = soles(pin.integrate(model, config.q, res.v * dt))
+    assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
