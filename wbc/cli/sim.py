@@ -93,7 +93,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
     p.add_argument("--solver", default="fast", type=solver_name, metavar="SOLVER",
-                   help="QP backend: fast, daqp, proxqp or an installed qpsolvers backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
+                   help="QP backend: fast, daqp, proxqp or an installed qpsolvers backend (default fast: the compiled "
+                        "ID tick, DAQP as its fallback; daqp: the general path)")
     add_plant_options(p)
     p.add_argument("--velocity-memory", type=finite(0.0, 0.99), default=None,
                    help="--state estimated: joint velocities from the encoders by the g-h-k fading-memory filter of "

@@ -272,7 +272,8 @@ def register(sub, add_outputs=add_outputs) -> None:
                            "rough:AMPLITUDE:SEED | FILE.json/.toml (boxes, heightfield); m and degrees, see "
                            "wbc.terrain (default flat; on stairs the step length defaults to the tread)")
     walk.add_argument("--solver", default=DEFAULT_SOLVER, type=solver_name, metavar="SOLVER",
-                      help=f"QP backend: fast, daqp, proxqp or an installed qpsolvers backend (default {DEFAULT_SOLVER})")
+                      help="QP backend: fast, daqp, proxqp or an installed qpsolvers backend "
+                           f"(default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002,
                       help=f"control period, s (default 0.002; valid {DT_RANGE[0]:g}..{DT_RANGE[1]:g})")
     add_outputs(walk)
