@@ -143,17 +143,23 @@ def test_missing_mesh_and_unknown_frame_parent(tmp_path):
     path.write_text(body + '\n[[frames]]\nname = "extra"\nparent = "no_such_link"\n')
     with pytest.raises(UnknownFrameError, match="no_such_link"):
         load_robot(str(path))
-    (tmp_path / "humanoid15.urdf").write_text(_with_missing_mesh((ROBOTS / "humanoid15.urdf").read_text()))
     path.write_text(body)
+    # a missing collision mesh: at load; a missing visual mesh: when the visual model is first read (built then)
+    (tmp_path / "humanoid15.urdf").write_text(_with_missing_mesh((ROBOTS / "humanoid15.urdf").read_text(),
+                                                                 "collision"))
     with pytest.raises(RobotFileNotFoundError, match="foot_missing.stl"):
         load_robot(str(path))
+    (tmp_path / "humanoid15.urdf").write_text(_with_missing_mesh((ROBOTS / "humanoid15.urdf").read_text()))
+    robot = load_robot(str(path))
+    with pytest.raises(RobotFileNotFoundError, match="foot_missing.stl"):
+        robot.visual_model
 
 
-def _with_missing_mesh(urdf: str) -> str:
-    i = urdf.index("<visual>")
-    j = urdf.index("</visual>", i)
-    return urdf[:i] + ('<visual><geometry><mesh filename="package://nowhere/foot_missing.stl"/></geometry>'
-                       '</visual>') + urdf[j + len("</visual>"):]
+def _with_missing_mesh(urdf: str, kind: str = "visual") -> str:
+    i = urdf.index(f"<{kind}>")
+    j = urdf.index(f"</{kind}>", i)
+    return urdf[:i] + (f'<{kind}><geometry><mesh filename="package://nowhere/foot_missing.stl"/></geometry>'
+                       f'</{kind}>') + urdf[j + len(f"</{kind}>"):]
 
 
 def test_y_up_model_is_diagnosed_with_the_fix(tmp_path):
@@ -309,3 +315,26 @@ def test_stairs_table_sets_the_step_width_on_stairs_only(tmp_path):
     assert np.allclose(widths("flat", step_length=0.1), stance, atol=1e-6)
     assert np.allclose(widths("stairs:0.05:0.3:4:up", step_width=0.2), 0.2, atol=1e-9)
     assert load_robot("humanoid15").stairs == {}
+
+
+def test_visual_model_is_built_on_first_read(monkeypatch):
+    """load_robot leaves the visual meshes unread (a controller run never draws the robot); the first read of
+    ``visual_model`` builds the same model as Pinocchio's buildModelsFromUrdf, once."""
+    built = []
+    build = pin.buildGeomFromUrdf
+
+    def counting(model, urdf, kind, *args):
+        built.append(kind)
+        return build(model, urdf, kind, *args)
+
+    monkeypatch.setattr(pin, "buildGeomFromUrdf", counting)
+    robot = load_robot("talos")
+    assert pin.GeometryType.VISUAL not in built and built.count(pin.GeometryType.COLLISION) == 1
+    visual = robot.visual_model
+    assert robot.visual_model is visual and built.count(pin.GeometryType.VISUAL) == 1
+    _, _, ref = pin.buildModelsFromUrdf(str(robot.urdf_path), robot.package_dirs, pin.JointModelFreeFlyer())
+    assert visual.ngeoms == ref.ngeoms > 0
+    for a, b in zip(visual.geometryObjects, ref.geometryObjects):
+        assert (a.name, a.parentJoint, a.parentFrame, a.meshPath) == (b.name, b.parentJoint, b.parentFrame, b.meshPath)
+        assert np.array_equal(a.placement.homogeneous, b.placement.homogeneous)
+        assert np.array_equal(a.meshScale, b.meshScale)

@@ -75,8 +75,11 @@ def run_loaders(module: str) -> int:
     the source, or under ``NUMBA_CACHE_DIR``), or loaded from it. Loaders that already ran in this process do not
     run again.
 
+    Args:
+        module: a dotted module name (e.g. ``"wbc.tasks.frame"``); one not imported yet has no loaders registered.
+
     Returns:
-        The number of loaders the module defines.
+        The number of loaders the module defines (0 for a module without loaders or not imported).
     """
     loaders = _loaders.get(module, ())
     for load in loaders:

@@ -16,6 +16,7 @@ import importlib.resources
 import math
 import warnings
 import xml.etree.ElementTree as ET
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -73,6 +74,35 @@ def catalog() -> list[str]:
     return sorted(p.stem for p in _robots_dir().glob("*.toml"))
 
 
+class _GeometryBuilder:
+    """Builds one geometry model of a URDF for a Pinocchio model when called (:class:`_LazyGeometry`)."""
+
+    def __init__(self, model: pin.Model, urdf: Path, urdf_xml: str | None, kind: pin.GeometryType, dirs: list[str]):
+        self.model, self.urdf, self.urdf_xml, self.kind, self.dirs = model, urdf, urdf_xml, kind, dirs
+
+    def __call__(self) -> pin.GeometryModel:
+        return _build_geometry(self.model, self.urdf, self.urdf_xml, self.kind, self.dirs)
+
+
+class _LazyGeometry:
+    """Data descriptor of :attr:`Robot.visual_model`: the instance holds a GeometryModel, or a
+    :class:`_GeometryBuilder` replaced by the model it builds on the first read."""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self._key = "_built_" + name
+
+    def __get__(self, robot, owner=None):
+        if robot is None:  # no class-level value: the dataclass field stays a required one
+            raise AttributeError(self._key)
+        value = robot.__dict__[self._key]
+        if isinstance(value, _GeometryBuilder):
+            value = robot.__dict__[self._key] = value()
+        return value
+
+    def __set__(self, robot, value) -> None:
+        robot.__dict__[self._key] = value
+
+
 @dataclass
 class Robot:
     """A humanoid model ready for whole-body control.
@@ -82,7 +112,10 @@ class Robot:
         model: Pinocchio model with a free-flyer root joint (``nq = 7 + n``, ``nv = 6 + n`` for revolute joints).
             ``q[0:3]`` base position in world (m), ``q[3:7]`` base quaternion (x, y, z, w); ``v[0:6]`` base
             spatial velocity in the base frame (LOCAL).
-        collision_model, visual_model: Pinocchio geometry models (meshes resolved).
+        collision_model, visual_model: Pinocchio geometry models (meshes resolved). ``visual_model`` is built on
+            its first read (its meshes are only needed to draw the robot; a controller run never reads it): a
+            visual mesh that cannot be found raises :class:`~wbc.exceptions.RobotFileNotFoundError` there, not in
+            :func:`load_robot`. A GeometryModel assigned or passed to the constructor is kept as is.
         q_ref: (nq,) reference standing configuration, soles on z = 0, mid-point of the soles at x = y = 0.
         left_sole, right_sole: frame names at the centre of each sole, z axis up out of the ground.
         torso: frame name of the upper body (orientation task target).
@@ -105,7 +138,7 @@ class Robot:
     name: str
     model: pin.Model
     collision_model: pin.GeometryModel
-    visual_model: pin.GeometryModel
+    visual_model: pin.GeometryModel = _LazyGeometry()
     q_ref: np.ndarray
     left_sole: str
     right_sole: str
@@ -364,6 +397,40 @@ def _check_upright(robot: Robot, q: np.ndarray) -> None:
         f"sole frames whose z axis points up in that posture")
 
 
+@contextmanager
+def _urdf_errors(urdf: Path, dirs: list[str]):
+    """Turn urdfdom's / Pinocchio's errors while reading ``urdf`` into wbc's (their message carries the reason).
+
+    Raises:
+        RobotFileNotFoundError: a mesh file not found in ``dirs``.
+        RobotDescriptionError: any other parse error.
+    """
+    try:
+        yield
+    except (ValueError, RuntimeError) as exc:
+        text = str(exc)
+        if "mesh" in text.lower() and ("not found" in text.lower() or "could not" in text.lower()):
+            raise RobotFileNotFoundError(
+                f"URDF {urdf}: a mesh file is missing ({text.strip()}); searched package folders {dirs} — add the "
+                f"folder containing the package to package_dirs in the robot file (--package-dir)") from exc
+        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {text} (fix the URDF: it must be well-formed XML "
+                                    f"with one root link and valid joints/links)") from exc
+
+
+def _build_geometry(model: pin.Model, urdf: Path, urdf_xml: str | None, kind: pin.GeometryType,
+                    dirs: list[str]) -> pin.GeometryModel:
+    """The geometry model of type ``kind`` of ``urdf`` (of ``urdf_xml``, its corrected text, when not None) for
+    ``model``, its meshes resolved in ``dirs``.
+
+    Raises:
+        RobotFileNotFoundError, RobotDescriptionError: as :func:`_urdf_errors`.
+    """
+    with _urdf_errors(urdf, dirs):
+        if urdf_xml is None:
+            return pin.buildGeomFromUrdf(model, str(urdf), kind, None, dirs)
+        return pin.buildGeomFromUrdfString(model, urdf_xml, kind, None, dirs)
+
+
 def _build(
     *,
     name: str,
@@ -407,23 +474,13 @@ def _build(
             if ref and "://" not in ref and not Path(ref).is_absolute():
                 mesh.set("filename", str((urdf.parent / ref).resolve()))
         urdf_xml = ET.tostring(urdf_tree.getroot(), encoding="unicode")
-    try:
+    with _urdf_errors(urdf, dirs):
         if urdf_xml is None:
-            model, collision_model, visual_model = pin.buildModelsFromUrdf(
-                str(urdf), dirs, pin.JointModelFreeFlyer()
-            )
+            model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
         else:
             model = pin.buildModelFromXML(urdf_xml, pin.JointModelFreeFlyer())
-            collision_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.COLLISION, None, dirs)
-            visual_model = pin.buildGeomFromUrdfString(model, urdf_xml, pin.GeometryType.VISUAL, None, dirs)
-    except (ValueError, RuntimeError) as exc:  # urdfdom/Pinocchio parse errors carry the reason in the message
-        text = str(exc)
-        if "mesh" in text.lower() and ("not found" in text.lower() or "could not" in text.lower()):
-            raise RobotFileNotFoundError(
-                f"URDF {urdf}: a mesh file is missing ({text.strip()}); searched package folders {dirs} — add the "
-                f"folder containing the package to package_dirs in the robot file (--package-dir)") from exc
-        raise RobotDescriptionError(f"cannot parse URDF {urdf}: {text} (fix the URDF: it must be well-formed XML "
-                                    f"with one root link and valid joints/links)") from exc
+    collision_model = _build_geometry(model, urdf, urdf_xml, pin.GeometryType.COLLISION, dirs)
+    visual_model = _GeometryBuilder(model, urdf, urdf_xml, pin.GeometryType.VISUAL, dirs)  # built on first read
     if armature:
         model.armature[6:] = float(armature)
     model.name = name
@@ -603,7 +660,8 @@ def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -
             the frame is put on it, e.g. an ankle frame named as the sole) or below it (the foot floats).
     """
     for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
-        for kind, gm in (("collision", robot.collision_model), ("visual", robot.visual_model)):
+        for kind in ("collision", "visual"):  # the visual model read (built) only when the collision one has no foot
+            gm = robot.collision_model if kind == "collision" else robot.visual_model
             p = foot_points(robot, frame, gm) if gm is not None else None
             if p is not None:
                 break

@@ -11,7 +11,9 @@ import pytest
 import qpsolvers
 
 from wbc.formulations.idkernel import id_workspace
-from wbc.solvers.active_set import BlockSpace, dual_active_set, solve_qp_ws
+from wbc.solvers.active_set import (BlockSpace, dual_active_set, qp_ws_float_size, qp_ws_int_size, solve_qp_into,
+                                    solve_qp_ws)
+from wbc.solvers.status import ITERATION_CAP
 
 
 def _block_qp(rng, nv, nf, m, p):
@@ -85,3 +87,50 @@ def test_both_strategies_give_the_exact_optimum(seed):
     it2, x2, *_ = _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state.copy(), rstate.copy())
     assert it2 == 1 and np.abs(x2 - x).max() < 1e-12 * scale
 
+
+
+def _into(qp, fw, iw, max_iter):
+    """solve_qp_into from a cold working set in the given workspaces: every output, copied."""
+    H, g, A, b, C, l, u, lb, ub = qp
+    n, m, p = H.shape[0], A.shape[0], C.shape[0]
+    state, rstate = np.zeros(n, np.int8), np.zeros(p, np.int8)
+    x, nu, mu, z, res = np.zeros(n), np.zeros(m), np.zeros(p), np.zeros(n), np.zeros(1)
+    it = solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12, 1e-24, res,
+                       fw, iw)
+    return it, x, nu, mu, z, state, rstate, res
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
+    """The answer (every output, the residual of an exit code included) is a function of the QP: the same bits from
+    a fresh (zeroed) workspace, from one dirtied by solving a different QP of the same size, and from one filled
+    with arbitrary numbers; on success it is quadprog's optimum."""
+    rng = np.random.default_rng(9100 + seed)
+    nv, nf = int(rng.integers(4, 14)), int(rng.integers(2, 14))
+    m, p = int(rng.integers(0, 4)), int(rng.integers(1, 12))
+    qp = _block_qp(rng, nv, nf, m, p)
+    other = _block_qp(rng, nv, nf, m, p)
+    n = nv + nf
+    fsize, isize = qp_ws_float_size(n, m, p), qp_ws_int_size(n, m)
+    answers = {}
+    for max_iter in (200, 1):  # 1: an exit on the iteration cap (the QPs need more steps)
+        fresh = answers[max_iter] = _into(qp, np.zeros(fsize), np.zeros(isize, np.int64), max_iter)
+        fw, iw = np.zeros(fsize), np.zeros(isize, np.int64)
+        assert _into(other, fw, iw, 200)[0] > 0
+        dirtied = _into(qp, fw, iw, max_iter)
+        garbage = _into(qp, rng.uniform(-1e3, 1e3, fsize), rng.integers(0, n, isize), max_iter)
+        for out in (dirtied, garbage):
+            assert out[0] == fresh[0]
+            for a, b in zip(out[1:], fresh[1:]):
+                assert np.array_equal(a, b)
+        if max_iter == 1:
+            assert fresh[0] == ITERATION_CAP and fresh[-1][0] == np.inf
+    H, g, A, b, C, l, u, lb, ub = qp
+    it, x = answers[200][:2]
+    assert it > 0, it
+    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
+    fin = np.isfinite(h)
+    ref = qpsolvers.solve_qp(H, g, G=G[fin], h=h[fin], A=A if m else None, b=b if m else None,
+                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
+    assert ref is not None  # x0 is feasible
+    assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())

@@ -14,7 +14,7 @@ import argparse
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
-from wbc.cli.validate import check_jump, finite
+from wbc.cli.validate import check_jump, finite, solver_name
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["register", "cmd_balance"]
@@ -116,7 +116,7 @@ def _jump_preview(args) -> int:
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``balance`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.solvers import DEFAULT_SOLVER, available_solvers
+    from wbc.solvers import DEFAULT_SOLVER
     from wbc.scenarios.balance import BEHAVIOURS
 
     p = subparsers.add_parser(
@@ -132,8 +132,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--stance", choices=["left", "right"], default=None,
                    help="one-leg: the foot that stays on the ground (default left)")
     p.add_argument("--hand", choices=["left", "right"], default=None, help="reach: the reaching hand (default right)")
-    p.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(),
-                   help=f"QP backend (default {DEFAULT_SOLVER})")
+    p.add_argument("--solver", default=DEFAULT_SOLVER, type=solver_name, metavar="SOLVER",
+                   help=f"QP backend: fast, daqp, proxqp or an installed qpsolvers backend (default {DEFAULT_SOLVER})")
     p.add_argument("--dt", type=float, default=0.002, help="control period, s (default 0.002; valid 0.0001..0.02)")
     p.add_argument("--height", type=float, default=None,
                    help="jump: planned apex CoM rise, m (default 0.08; at most 0.9 m: push force <= 10 x weight); "

@@ -13,7 +13,7 @@ from pathlib import Path
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_plant_options, add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
-from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, video_size
+from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, solver_name, video_size
 
 __all__ = ["register", "cmd_sim"]
 
@@ -72,8 +72,6 @@ def check_sim_args(args) -> None:
 
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.solvers import available_solvers
-
     p = subparsers.add_parser(
         "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
@@ -94,8 +92,9 @@ def register(subparsers, add_outputs) -> None:
                         "planned height within the torque limits (see wbc.sim.jump_sweep)")
     p.add_argument("--controller", choices=("id", "pd"), default="id",
                    help="id: inverse-dynamics QP (default); pd: joint PD + weight-sharing gravity compensation")
-    p.add_argument("--solver", default="fast", choices=available_solvers(),
-                   help="QP backend (default fast: the compiled ID tick, DAQP as its fallback; daqp: the general path)")
+    p.add_argument("--solver", default="fast", type=solver_name, metavar="SOLVER",
+                   help="QP backend: fast, daqp, proxqp or an installed qpsolvers backend (default fast: the compiled "
+                        "ID tick, DAQP as its fallback; daqp: the general path)")
     add_plant_options(p)
     p.add_argument("--velocity-memory", type=finite(0.0, 0.99), default=None,
                    help="--state estimated: joint velocities from the encoders by the g-h-k fading-memory filter of "

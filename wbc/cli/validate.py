@@ -20,7 +20,7 @@ from wbc.exceptions import InvalidInputError
 
 __all__ = [
     "OUTPUT_SUFFIXES", "check_outputs", "output_path", "available_memory", "check_ticks", "check_range",
-    "video_size", "count", "seconds", "finite", "BYTES_PER_TICK",
+    "video_size", "count", "seconds", "finite", "solver_name", "BYTES_PER_TICK",
 ]
 
 #: Output option -> the file suffix it writes (``--bag`` is a folder: no suffix).
@@ -219,6 +219,20 @@ def finite(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
 def seconds(text: str) -> float:
     """An argparse type: a finite duration > 0 s."""
     return finite(0.0, lo_open=True, unit=" s")(text)
+
+
+def solver_name(text: str) -> str:
+    """An argparse type: a QP backend name of :func:`wbc.solvers.available_solvers` (``fast``, ``daqp``, ``proxqp``
+    or any installed qpsolvers backend). The list is read only for a name other than ``fast`` (the default), so that
+    building the parser does not import qpsolvers."""
+    if text == "fast":
+        return text
+    from wbc.solvers import available_solvers
+
+    names = available_solvers()
+    if text not in names:
+        raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(names)})")
+    return text
 
 
 #: Largest mean vertical ground force of a jump's push, in body weights (m g). A planned CoM rise h over a push

@@ -9,7 +9,7 @@ import numpy as np
 from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
-from wbc.cli.validate import check_range, check_ticks, finite
+from wbc.cli.validate import check_range, check_ticks, finite, solver_name
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "MIN_STEPS"]
@@ -245,7 +245,7 @@ def cmd_walk(args) -> int:
 
 def register(sub, add_outputs=add_outputs) -> None:
     """Add the ``walk`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` adds --json/--log/--out/--live)."""
-    from wbc.solvers import DEFAULT_SOLVER, available_solvers
+    from wbc.solvers import DEFAULT_SOLVER
 
     walk = sub.add_parser("walk", help="walk a humanoid under the 500 Hz kinematic QP controller",
                           description="Plan a straight (or turning) walk from the robot's reference stance and track "
@@ -271,7 +271,9 @@ def register(sub, add_outputs=add_outputs) -> None:
                       help="ground: flat | stairs:RISE:TREAD:N[:up|down|updown] | slope:DEG[:LENGTH] | "
                            "rough:AMPLITUDE:SEED | FILE.json/.toml (boxes, heightfield); m and degrees, see "
                            "wbc.terrain (default flat; on stairs the step length defaults to the tread)")
-    walk.add_argument("--solver", default=DEFAULT_SOLVER, choices=available_solvers(), help=f"QP backend (default {DEFAULT_SOLVER})")
+    walk.add_argument("--solver", default=DEFAULT_SOLVER, type=solver_name, metavar="SOLVER",
+                      help="QP backend: fast, daqp, proxqp or an installed qpsolvers backend "
+                           f"(default {DEFAULT_SOLVER})")
     walk.add_argument("--dt", type=float, default=0.002,
                       help=f"control period, s (default 0.002; valid {DT_RANGE[0]:g}..{DT_RANGE[1]:g})")
     add_outputs(walk)

@@ -171,14 +171,20 @@ class ContactConstraint(EqualityConstraint):
                    other_row: int) -> None:
         """:meth:`write` of this contact and of ``other`` in one compiled call (the same numbers): this one's rows
         into A[row:row + 6] (6, nv) and b[row:row + 6], those of ``other`` at ``other_row``, at ``ctx.config`` and
-        ``ctx.dt`` (a biped's two soles, written every tick). Both must be of class :class:`ContactConstraint` itself
-        (a subclass's own rows are written by its :meth:`write`).
+        ``ctx.dt`` (a biped's two soles, written every tick). Each contact's rows are the module docstring's
+        J v = −K e: A ← its frame Jacobian J (``LOCAL``: linear then angular velocity in the contact frame's axes,
+        per unit of v), b ← −min(K, 1/dt) · log₆(P⁻¹ oMf) (m/s, then rad/s; contact frame axes). Near a half-turn
+        pose error both are written by :meth:`write` (Pinocchio's ``log6``). Both contacts must be of class
+        :class:`ContactConstraint` itself (not checked here, a per-tick call: the caller selects them; a subclass's
+        own rows are written by its :meth:`write`).
 
         Args:
             other: the second contact.
-            ctx: the tick's :class:`~wbc.constraints.base.KinematicContext`.
-            A (m, nv), b (m,): the stacked equality rows (out).
-            row, other_row: where each contact's 6 rows start.
+            ctx: the tick's :class:`~wbc.constraints.base.KinematicContext` (``config`` with its kinematics computed
+                at q, ``dt`` > 0 in s).
+            A (m, nv), b (m,): the stacked equality rows (out, float64); only the two blocks of 6
+                rows are written.
+            row, other_row: where each contact's 6 rows start (0 ≤ row, other_row ≤ m − 6; the blocks disjoint).
         """
         config = ctx.config
         model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below

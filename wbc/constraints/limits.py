@@ -46,9 +46,21 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
 
 @nb.njit(cache=True, nogil=True)
 def intersect_position_bounds(q, idx, limits, dt, lb, ub):
-    """The bounds of :func:`_position_bounds` intersected with the running box lb, ub (nv,) at the velocity indices
-    ``idx[1]``, each clipped into it: lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (compiled). ``idx`` (2, n)
-    = (idx_q, idx_v), ``limits`` (3, n) = (q_min, q_max, v_max): packed, fewer arguments to unbox per call."""
+    """The velocity bounds of :class:`JointPositionLimit` (module docstring) intersected with a running box, in place
+    (compiled): for each bounded joint k, lo = min((q_min − q)/dt, v_max), hi = max((q_max − q)/dt, −v_max), and at
+    its velocity index i = ``idx[1, k]``: lb[i] ← min(max(lo, lb[i]), ub[i]), ub[i] ← max(min(hi, ub[i]), lb[i]),
+    both from the running values (clipped into the running box: a non-empty box stays non-empty;
+    :func:`~wbc.solvers.linalg.clip_entry_into`).
+
+    Args:
+        q (nq,): configuration (Pinocchio's order; rad or m at the bounded joints).
+        idx (2, n) int64: (idx_q, idx_v) of the n bounded joints (:meth:`JointPositionLimit.packed`).
+        limits (3, n): (q_min (rad or m), q_max (rad or m), v_max (rad/s or m/s, > 0, inf: no cap)).
+        dt: period (s), > 0.
+        lb, ub (nv,): the running box (rad/s or m/s), updated in place.
+
+    Nothing is checked here (a per-tick kernel): the arrays come validated from :class:`JointPositionLimit`.
+    """
     for k in range(idx.shape[1]):
         qk = q[idx[0, k]]
         lo = min((limits[0, k] - qk) / dt, limits[2, k])
@@ -157,9 +169,9 @@ class JointPositionLimit(BoxConstraint):
 
     def packed(self) -> tuple[np.ndarray, np.ndarray]:
         """The arrays :meth:`intersect_into` hands :func:`intersect_position_bounds`: (idx (2, dim) int64 = (idx_q,
-        indices), limits (3, dim) = (q_min, q_max, v_max)), for a caller that intersects the bounds inside a
-        compiled call of its own. The constraint's own arrays (read-only use): an in-place change of :attr:`q_min`,
-        :attr:`q_max` or :attr:`v_max` is seen in them."""
+        indices), limits (3, dim) float64 = (q_min (rad or m), q_max (rad or m), v_max (rad/s or m/s))), for a
+        caller that intersects the bounds inside a compiled call of its own. The constraint's own arrays
+        (read-only use): an in-place change of :attr:`q_min`, :attr:`q_max` or :attr:`v_max` is seen in them."""
         return self._idx, self._limits
 
 

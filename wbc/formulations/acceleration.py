@@ -214,15 +214,19 @@ SCALED_EPS_PROX = -1e-8
 
 
 def tick_work_iterations(budget: float) -> float:
-    """The work of a tick budget of ``budget`` seconds of CPU time counted in DAQP iterations (at
-    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` each): the unit of :attr:`InverseDynamicsQP.tick_work`;
-    ``math.inf`` for an unbounded budget (nothing counted stops a stage)."""
+    """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
+    :attr:`wbc.dynamics.controller.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
+    iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
+    :attr:`InverseDynamicsQP.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
+    budget (nothing counted stops a stage)."""
     return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
 
 
 def quadprog_work(n: int) -> float:
-    """Work counted for quadprog's solve of a failed ID QP of ``n`` variables, in DAQP iterations: :data:`QUADPROG_COST`
-    scaled by (n / :data:`QUADPROG_SIZE`)³ (its factorisations' order; a count from the QP's size, not a clock)."""
+    """Work counted for quadprog's solve of a failed ID QP of ``n`` ≥ 0 variables, in DAQP iterations (a float ≥ 0):
+    :data:`QUADPROG_COST` (s) scaled by (n / :data:`QUADPROG_SIZE`)³ (the order of its dense factorisations,
+    Goldfarb & Idnani 1983), divided by :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` (s). A count from the QP's
+    size, not a clock."""
     return QUADPROG_COST * (n / QUADPROG_SIZE) ** 3 / DAQP_ITERATION_COST
 
 #: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)

@@ -2211,6 +2211,9 @@ class _SoftRows:
 class _FusedPlan:
     """What the compiled tick (:meth:`KinematicController._fused_tick`) keeps for one constraint layout and one
     list of soft tasks beyond the assembled QP's buffers: the solver's working sets (warm start), the contacts'
-    log buffer and the DAQP rescue backend."""
+    log buffer and the DAQP rescue backend. ``states`` (nr + p,) int8: the working sets of the nr reduced variables
+    (``state``, a view) and of the p inequality rows (``rstate``, a view), one array for the kernel
+    (:func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`; −1 / 0 / 1: at its lower bound / free / at
+    its upper bound)."""
 
     supported = False

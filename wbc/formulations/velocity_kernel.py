@@ -466,10 +466,19 @@ def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """The two arrays of stacked task rows that :func:`kinematic_tick_packed` reads (one float, one int64) for ``mt``
-    task rows of nv velocities and a posture diagonal at the velocity indices ``prow`` (kp,) (kp = 0: no posture),
-    and named views of their parts, the arguments of :func:`form_qp`: ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt),
-    ``pw`` (kp,) (zeros) and ``prow`` (kp,) int64 (a copy of ``prow``)."""
+    """The two arrays of stacked task rows that :func:`kinematic_tick_packed` reads, allocated zeroed, and named views
+    of their parts (the caller writes the rows into the views each tick).
+
+    Args:
+        mt: number of stacked task rows (≥ 0). nv: number of velocity variables.
+        prow (kp,): velocity indices of a posture diagonal (integers in [0, nv); kp = 0: no posture).
+
+    Returns:
+        (sfb, sib, views): ``sfb`` (mt·nv + 4·mt + kp,) float64 and ``sib`` (3 + kp,) int64 = [mt, nv, kp, prow…];
+        ``views`` maps the arguments of :func:`form_qp` to views of them (units as there): ``J`` (mt, nv) the task
+        Jacobians, ``e`` (mt,) the task errors, ``rowp`` (3, mt) gain K (1/s), weight w and feed-forward of each
+        row, ``pw`` (kp,) the posture weights (zeros) and ``prow`` (kp,) int64 (a copy of ``prow``).
+    """
     kp = int(np.size(prow))
     sfb = np.zeros(mt * nv + 4 * mt + kp)
     sib = np.zeros(3 + kp, np.int64)

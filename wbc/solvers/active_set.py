@@ -669,7 +669,8 @@ def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, ma
             one leave at a start. dep_tol: dependency test. block_tol: relative r below which a working constraint
             does not block. hold_fixed: variables with lb = ub are held from the start and never leave.
             refresh: see above. verify_tol: largest residual of the final check (inf: not checked).
-        out (3,): out — largest residual of x (equality rows, rows), steps, working-set size.
+        out (3,): out — largest residual of x (equality rows, rows), steps, working-set size; (inf, 0, 0) after an
+            exit code other than NOT_VERIFIED (no checked point: every entry is written on every call).
 
     Returns:
         steps (≥ 1), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES (a dependent working set) / ITERATION_CAP /
@@ -678,6 +679,9 @@ def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, ma
     H, g, A, b, m, C, l, u, lb, ub = qp
     n = H.shape[0]
     p = C.shape[0]
+    out[0] = np.inf  # an exit before the final check reports no residual, not the workspace's last one
+    out[1] = 0.0
+    out[2] = 0.0
     for i in range(n):
         if hold_fixed and lb[i] == ub[i]:
             state[i] = -1
@@ -876,7 +880,8 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
             mu, z ≤ 0 at a lower side, ≥ 0 at an upper one, 0 out of the working set).
         max_iter: steps allowed (drops and GI steps). primal_tol: violation that counts. dual_tol: negative
             multiplier that counts. rank_tol: relative pivot of S² below which W counts as dependent.
-        eq_residual (1,): out — largest residual of the rows (equalities, inequalities) at the returned x.
+        eq_residual (1,): out — largest residual of the rows (equalities, inequalities) at the returned x; inf
+            after an exit code other than NOT_VERIFIED.
 
     On success x lies inside [lb, ub] exactly (clipped: it is within rounding of them).
 

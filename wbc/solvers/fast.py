@@ -42,9 +42,9 @@ class FastBackend(DaqpBackend):
         **settings: DAQP settings for the fallback (:class:`~wbc.solvers.daqp.DaqpBackend`).
 
     Attributes:
-        count_give_ups: under a tick's counted work (``work``), a kernel attempt that gives up counts one solve and
-            the tick's later problems of its shape skip the kernel (:meth:`solve`); False (default): uncounted, the
-            kernel tried on every call. The kinematic controller sets it on ticks without strict levels.
+        count_give_ups (bool): under a tick's counted work (``work``), a kernel attempt that gives up counts one
+            solve and the tick's later problems of its shape skip the kernel (:meth:`solve`); False (default):
+            uncounted, the kernel tried on every call. The kinematic controller sets it on ticks without strict levels.
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP

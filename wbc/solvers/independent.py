@@ -202,8 +202,15 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
 
 def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
                    iter_limit: int = ITERATION_LIMIT) -> tuple[bool | None, int]:
-    """:func:`hard_set_feasible` with the work it took: (its verdict, the DAQP call's iterations ≥ 0), for a caller
-    that counts a tick's work in iterations (:class:`wbc.formulations.acceleration.InverseDynamicsQP`).
+    """:func:`hard_set_feasible` with the work it took, for a caller that counts a tick's work in iterations
+    (:class:`wbc.formulations.acceleration.InverseDynamicsQP`).
+
+    Args:
+        A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,), tolerance, iter_limit: as :func:`hard_set_feasible`.
+
+    Returns:
+        (verdict, iterations): the return of :func:`hard_set_feasible` (True, False or None) and the DAQP call's
+        iteration count (an int ≥ 0).
 
     Raises:
         InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
