@@ -61,11 +61,13 @@ def _cache_files(stdout: str) -> set[str]:
     return {Path(m).name for m in re.findall(r"\[cache\] data (?:loaded from|saved to) (\S+)", stdout)}
 
 
-def test_first_walk_after_compile_compiles_nothing(tmp_path):
+def test_first_walk_and_sim_after_compile_compile_nothing(tmp_path):
     """The install step `wbc compile` covers every kernel `wbc walk` calls: every cache file the walk reads or writes
-    is one `wbc compile` read or wrote, and the walk writes none. Run on the project's own cache (the one the install
-    step fills; a kernel missing there is compiled here once and cached), so that the test costs a cache load, not a
-    full compile: the subset check holds whether or not the cache was warm before."""
+    is one `wbc compile` read or wrote, and the walk writes none; `wbc sim walk` (its kernels reached by compile's
+    warm-up run, whose cache log is not in compile's output) reads its kernels from the cache and writes none. Run on
+    the project's own cache (the one the install step fills; a kernel missing there is compiled here once and
+    cached), so that the test costs a cache load, not a full compile: the checks hold whether or not the cache was
+    warm before."""
     env = dict(os.environ, NUMBA_DEBUG_CACHE="1", PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     env.pop("NUMBA_CACHE_DIR", None)
 
@@ -82,3 +84,7 @@ def test_first_walk_after_compile_compiles_nothing(tmp_path):
     assert walked <= compiled, sorted(walked - compiled)
     assert [line for line in walk.stdout.splitlines() if "data saved" in line] == []
     assert re.search(r"ticks_per_route +compiled \d+\n", walk.stdout), walk.stdout[-3000:]
+    sim = run("sim", "walk", "--steps", "2", "--quiet")
+    assert len(_cache_files(sim.stdout)) > len(walked), sim.stdout[-2000:]  # the ID and MuJoCo-side kernels too
+    assert [line for line in sim.stdout.splitlines() if "data saved" in line] == [], \
+        sorted(_cache_files("\n".join(line for line in sim.stdout.splitlines() if "data saved" in line)))

@@ -24,6 +24,7 @@ from time import thread_time
 from typing import Callable
 
 import numpy as np
+import qpsolvers
 
 from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers.linalg import scaled_row_violation
@@ -333,8 +334,6 @@ class QPBackend(ABC):
             (x, '') with x projected onto the bounds when one of them meets every row to ``tolerance``
             (the check of :meth:`solve`), else (None, 'names of the solvers that failed').
         """
-        import qpsolvers  # on first need (module docstring of wbc.solvers.registry)
-
         tried = []
         for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:

@@ -5,6 +5,7 @@ cold-started each call; the bounds and two-sided rows converted to qpsolvers' fo
 from __future__ import annotations
 
 import numpy as np
+import qpsolvers
 
 from wbc.solvers.base import INFINITE_BOUND, QPBackend, register_backend_class
 
@@ -32,8 +33,6 @@ class QpsolversBackend(QPBackend):
         self.settings = {**_SETTINGS.get(solver, {}), **settings}
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
-        import qpsolvers  # on first need (module docstring of wbc.solvers.registry)
-
         G = h = None
         if C.shape[0]:
             lo, hi = np.isfinite(l), np.isfinite(u)

@@ -4,13 +4,14 @@ The one place that knows every backend: the general ones (:mod:`wbc.solvers.daqp
 qpsolvers backend by :mod:`wbc.solvers.by_name`) and the compiled exact kernel of :mod:`wbc.solvers.fast` (which falls
 back to DAQP), so none of those modules imports another's registry.
 
-qpsolvers is imported on first need (:func:`available_solvers`, a
-:class:`~wbc.solvers.by_name.QpsolversBackend`'s solve, :meth:`~wbc.solvers.base.QPBackend.confirm`), not with
-:mod:`wbc.solvers`: it imports scipy.sparse and every installed backend, which a run on ``fast`` or ``daqp`` that
-never re-solves does not use.
+qpsolvers is imported with :mod:`wbc.solvers`, not on first need: its import (scipy.sparse and every installed
+backend, tens of milliseconds) would otherwise land inside the control tick whose failed solve is first re-solved
+by :meth:`~wbc.solvers.base.QPBackend.confirm`.
 """
 
 from __future__ import annotations
+
+import qpsolvers
 
 from wbc.exceptions import UnknownSolverError
 from wbc.solvers.base import QPBackend
@@ -28,8 +29,6 @@ DEFAULT_SOLVER = "fast"
 
 def available_solvers() -> list[str]:
     """Names accepted by :func:`make_backend` (installed qpsolvers backends, and ``fast``: :mod:`wbc.solvers.fast`)."""
-    import qpsolvers  # imported on first need: qpsolvers imports scipy.sparse and each installed backend
-
     return sorted([*qpsolvers.available_solvers, "fast"])
 
 
