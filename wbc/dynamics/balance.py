@@ -20,7 +20,7 @@ bound in ``wbc sim push --sweep``).
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import math
 
 import numpy as np
@@ -300,5 +300,7 @@ def _with_armature(robot: Robot, armature) -> Robot:
                                 f"got shape {arm.shape} with min {arm.min() if arm.size else None}")
     model = robot.model.copy()
     model.armature[6:] = arm
-    return dataclasses.replace(robot, model=model)
+    out = copy.copy(robot)  # not dataclasses.replace: it would read (and so build) the lazy visual_model
+    out.model = model
+    return out
 
