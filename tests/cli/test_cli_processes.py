@@ -327,6 +327,87 @@ def test_a_ctrl_c_swallowed_by_a_c_callback_still_ends_the_run(tmp_path):
     assert waited < 30.0, waited
 
 
+
+_CACHED_KERNEL = """
+import numba
+
+@numba.njit(cache=True)
+def add(a, b):
+    return a + b
+"""
+
+# A Ctrl-C landing while LLVM asks numba, through a ctypes callback, for a kernel's cached object code: the signal
+# is sent from inside numba's hook (the interpreter runs the Python handler at the hook's next bytecode), at each
+# kernel load.
+_CTRL_C_IN_THE_OBJECT_CACHE = """
+import os, signal, sys
+
+import numba.core.codegen as codegen
+
+hook = codegen.JITCodeLibrary._object_getbuffer_hook.__func__
+sent = []
+
+def ctrl_c_then_hook(cls, ll_module):  # at every kernel load: the first ones may have no cached object to hand over
+    if RUN_PHASE():
+        if not sent:
+            sent.append(True)
+            print("sent", flush=True)
+        os.kill(os.getpid(), signal.SIGINT)
+        sum(range(1000))  # bytecodes: the handler runs here, inside the callback
+    return hook(cls, ll_module)
+
+codegen.JITCodeLibrary._object_getbuffer_hook = classmethod(ctrl_c_then_hook)
+"""
+
+
+@linux_only
+def test_a_ctrl_c_inside_the_object_cache_callback_does_not_crash_the_kernel_load(tmp_path):
+    """numba loads a cached kernel through a ctypes callback from LLVM (the object cache); a KeyboardInterrupt raised
+    inside it leaves LLVM without the kernel's code and the next call jumps to a null pointer (SIGSEGV, exit -11: a
+    `wbc walk` Ctrl-C'd 1.5 s in died so in CI, with nothing on stderr). With the run commands' SIGINT handler the
+    Ctrl-C is remembered there, the kernel loads and returns the right value, and nothing is printed."""
+    import subprocess
+
+    (tmp_path / "kmod.py").write_text(_CACHED_KERNEL)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    first = subprocess.run([sys.executable, "-c", "import kmod; print(kmod.add(1.0, 2.0))"], capture_output=True,
+                           text=True, env=env, cwd=tmp_path, timeout=120)
+    assert first.stdout.strip() == "3.0", first.stderr[-2000:]
+    assert list((tmp_path / "__pycache__").glob("kmod.add-*.nbc")), "the kernel was not cached"
+    child = _CTRL_C_IN_THE_OBJECT_CACHE.replace("RUN_PHASE()", "True") + (
+        "from wbc.cli.output import on_sigint, sigint_received\n"
+        "signal.signal(signal.SIGINT, on_sigint)\n"
+        "import kmod\n"
+        "print('result', kmod.add(1.0, 2.0), flush=True)\n"
+        "print('remembered', sigint_received(), flush=True)\n")
+    proc = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, env=env, cwd=tmp_path,
+                          timeout=120)
+    assert proc.returncode == 0, (proc.returncode, proc.stdout, proc.stderr[-2000:])
+    assert proc.stdout.split("\n")[:3] == ["sent", "result 3.0", "remembered True"], proc.stdout
+    assert proc.stderr == "", proc.stderr[-2000:]
+
+
+@linux_only
+def test_a_ctrl_c_while_a_run_loads_its_kernels_ends_it_with_130(tmp_path):
+    """The same Ctrl-C in a real `wbc walk`: sent from inside the object-cache callback at the first kernel the run
+    loads after its loading phase (the run's SIGINT handler installed): exit 130 and one line on stderr, not a
+    segfault, and the 400-step walk does not run on."""
+    import subprocess
+
+    child = _CTRL_C_IN_THE_OBJECT_CACHE.replace(
+        "RUN_PHASE()", "signal.getsignal(signal.SIGINT) is output.on_sigint") + (
+        "import wbc.cli.output as output\n"
+        "from wbc.cli import main\n"
+        "sys.exit(main(['walk', '--robot', 'humanoid15', '--steps', '400', '--quiet']))\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, env=env, cwd=tmp_path,
+                          timeout=300, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.stdout.startswith("sent"), (proc.returncode, proc.stdout[-500:], proc.stderr[-2000:])
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-2000:])
+    assert "Traceback" not in proc.stderr and "interrupted (Ctrl-C)" in proc.stderr, proc.stderr[-2000:]
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
 def _udp_sockets_of(pid: int) -> dict[int, str]:
     """{inode: local address (hex, as /proc/<pid>/net/udp* writes it)} of the UDP sockets process ``pid`` holds."""
     held = set()

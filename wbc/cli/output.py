@@ -314,13 +314,31 @@ def progress(args, total: float | None, viewer=None, desc: str = ""):
 _SIGINT_RECEIVED = threading.Event()
 
 
-def on_sigint(signum, frame) -> None:
-    """SIGINT handler of a run command: remember the Ctrl-C, then raise KeyboardInterrupt.
+_LLVM_CALLBACK_DIR = f"{os.sep}llvmlite{os.sep}"  # llvmlite's Python code: the callbacks LLVM makes into Python
 
-    Raised inside a ctypes callback (numba's LLVM engine while the kernels compile, on a first run) the
-    KeyboardInterrupt is printed as "Exception ignored" and swallowed, and the run would go on to its end; the run
-    loop's progress viewer (see :func:`progress`) raises it again at the next tick."""
+
+def on_sigint(signum, frame) -> None:
+    """SIGINT handler of a run command: remember the Ctrl-C, then raise KeyboardInterrupt, except inside a callback
+    that LLVM makes into Python (any frame of llvmlite on the stack ``frame`` heads).
+
+    There the Ctrl-C is only remembered; the run loop's progress viewer (see :func:`progress`) raises the
+    KeyboardInterrupt at its next tick. Raised inside such a ctypes callback the KeyboardInterrupt would be
+    swallowed ("Exception ignored"), and in the object-cache callback through which numba hands LLVM a cached
+    kernel it leaves LLVM without the kernel's code: numba then calls a null function pointer and the process dies
+    of SIGSEGV (numba 0.68, llvmlite 0.50: ``CPUCodeLibrary._object_getbuffer_hook``).
+
+    Args:
+        signum: the signal number (SIGINT).
+        frame: the Python frame that was running when the signal arrived (None outside Python code).
+
+    Raises:
+        KeyboardInterrupt: outside LLVM's callbacks.
+    """
     _SIGINT_RECEIVED.set()
+    while frame is not None:
+        if _LLVM_CALLBACK_DIR in frame.f_code.co_filename:
+            return
+        frame = frame.f_back
     raise KeyboardInterrupt
 
 
