@@ -190,3 +190,49 @@ def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, mon
         assert C.shape[0] == 0
         assert _kkt_gap(H, g, A, b, lb, ub, x) <= 1e-6
     assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
+
+
+def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(robots, monkeypatch):
+    """Fuzz seed 550036 episode 4 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
+    dt 2 ms, joints started past their limits): the tick fails and its safe command holds the contacts (J_c v = 0).
+    Each check of that command (forward kinematics of its tick) now counts ``CHECK_WORK`` solves: against the same
+    tick with CHECK_WORK = 0 (the same command), the count is 0.25 higher per check started. With checks that cost more than the tick's work limit leaves
+    (CHECK_WORK = 8 solves at a cap of 8), none is started and the tick holds (v = 0), its message naming the count.
+    The held command keeps the soles within the drift bound (forward kinematics, from where the tick began)."""
+    from wbc.formulations.velocity import KinematicController
+
+    def replay(check_work: float):
+        monkeypatch.setattr(KinematicController, "CHECK_WORK", check_work)
+        name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550036, 4, dts=(0.002, 0.005, 0.01, 0.02),
+                                                            past_limits=0.2)
+        assert (name, strict, dt) == ("talos", True, DT)
+        counts = []
+        held_drift = KinematicController._held_drift
+
+        def recorded(self, *args):
+            counts.append(self._work.solves)
+            return held_drift(self, *args)
+
+        monkeypatch.setattr(KinematicController, "_held_drift", recorded)
+        res = ctrl.solve(config, DT)
+        monkeypatch.setattr(KinematicController, "_held_drift", held_drift)
+        return config, ctrl, res, counts
+
+    _, ctrl0, res0, counts0 = replay(0.0)
+    config, ctrl, res, counts = replay(0.25)
+    assert not res.ok and res.fallback == "contacts_held", res.message
+    assert np.array_equal(res.v, res0.v) and len(counts) == len(counts0) >= 1
+    # each check counted: 0.25 more per check started so far (main: the checks uncounted)
+    assert [c - c0 for c, c0 in zip(counts, counts0)] == [0.25 * (k + 1) for k in range(len(counts))]
+    assert ctrl._work.solves - ctrl0._work.solves == 0.25 * len(counts)
+    model = ctrl.robot.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, config.q)
+    before = [data.oMf[c.frame_id].copy() for c in ctrl.constraints[:2]]
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * DT))
+    assert max(np.linalg.norm(data.oMf[c.frame_id].translation - b.translation)
+               for c, b in zip(ctrl.constraints[:2], before)) <= SOLE_DRIFT
+    config, ctrl, res, counts = replay(8.0)
+    assert not res.ok and res.fallback == "hold" and not counts
+    assert np.array_equal(res.v, np.zeros(ctrl.nv))
+    assert "not tried: tick budget spent (count)" in res.message
