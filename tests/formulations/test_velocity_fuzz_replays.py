@@ -133,3 +133,106 @@ def test_a_return_to_the_limits_under_the_count_keeps_the_soles_instead_of_a_run
         drift, turn = _sole_gaps_fk(ctrl, config, res.v)
         assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (tick, drift, turn)
         config.update(config.integrate(res.v, DT))
+
+
+def _kkt_gap(H, g, A, b, lb, ub, x, active_tol: float = 1e-9) -> float:
+    """Largest violation of the KKT conditions of min ½ xᵀHx + gᵀx, A x = b, lb ≤ x ≤ ub at x, in closed form (numpy
+    least squares, relative to max(1, ‖g‖∞, ‖b‖∞)): bounds and rows, and with the multipliers λ of the rows fitted
+    on the free variables, the gradient H x + g − Aᵀλ zero on them, ≥ 0 at a lower bound and ≤ 0 at an upper one (either sign where lb = ub)."""
+    scale = max(1.0, float(np.abs(g).max()), float(np.abs(b).max(initial=0.0)))
+    at_lo, at_hi = x <= lb + active_tol, x >= ub - active_tol
+    free = ~(at_lo | at_hi)
+    at_lo, at_hi = at_lo & ~at_hi, at_hi & ~at_lo  # (lb = ub: fixed, its multiplier of either sign)
+    grad = H @ x + g
+    lam = np.linalg.lstsq(A[:, free].T, grad[free], rcond=None)[0] if A.shape[0] else np.zeros(0)
+    r = grad - A.T @ lam
+    gaps = [np.abs(r[free]).max(initial=0.0), np.maximum(-r[at_lo], 0.0).max(initial=0.0),
+            np.maximum(r[at_hi], 0.0).max(initial=0.0), np.abs(A @ x - b).max(initial=0.0),
+            np.maximum(lb - x, 0.0).max(), np.maximum(x - ub, 0.0).max()]
+    return float(max(gaps)) / scale
+
+
+def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, monkeypatch):
+    """Fuzz seed 550004 episode 366 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
+    dt 2 ms): the cascade is cut by the count and its weighted form answers, with a contact correction whose
+    re-solves have the same shape. The compiled kernel gave up on the first of them and was tried again, uncounted, on
+    each re-solve (three give-ups, a third of the tick's CPU time). Now a give-up sends the tick's later problems of
+    that shape to DAQP at once: one kernel attempt per shape, the tick's counted solves unchanged (13), each
+    solution a KKT point (closed form) and the soles within the drift bound by forward kinematics."""
+    from wbc.solvers.fast import FastBackend
+
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550004, 366, dts=(0.002, 0.005, 0.01, 0.02),
+                                                        past_limits=0.2)
+    assert (name, strict, dt) == ("talos", True, DT)
+    attempts, calls = [], []
+    kernel, solve = FastBackend._kernel, FastBackend.solve
+
+    def counted_kernel(self, H, g, A, b, lb, ub):
+        ok = kernel(self, H, g, A, b, lb, ub)
+        attempts.append(((H.shape[0], A.shape[0]), ok))
+        return ok
+
+    def recorded(self, H, g, A, b, C, l, u, lb, ub, **kw):
+        x = solve(self, H, g, A, b, C, l, u, lb, ub, **kw)
+        calls.append(([np.array(a, copy=True) for a in (H, g, A, b, C, lb, ub)], x.copy()))
+        return x
+
+    monkeypatch.setattr(FastBackend, "_kernel", counted_kernel)
+    monkeypatch.setattr(FastBackend, "solve", recorded)
+    res = ctrl.solve(config, DT)
+    assert res.ok and str(res.path) == "levels+budget+weighted", res.message
+    assert len(calls) == 3  # the weighted form's QP and its contact correction's two re-solves
+    gave_up = [shape for shape, ok in attempts if not ok]
+    assert gave_up and all(shape not in gave_up[:i] for i, shape in enumerate(gave_up))  # once per shape
+    assert len(attempts) == 1  # (main: 3, each a give-up)
+    assert ctrl._work.solves == 13
+    for (H, g, A, b, C, lb, ub), x in calls:
+        assert C.shape[0] == 0
+        assert _kkt_gap(H, g, A, b, lb, ub, x) <= 1e-6
+    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
+
+
+def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(robots, monkeypatch):
+    """Fuzz seed 550036 episode 4 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
+    dt 2 ms, joints started past their limits): the tick fails and its safe command holds the contacts (J_c v = 0).
+    Each check of that command (forward kinematics of its tick) now counts ``CHECK_WORK`` solves: against the same
+    tick with CHECK_WORK = 0 (the same command), the count is 0.25 higher per check started. With checks that cost more than the tick's work limit leaves
+    (CHECK_WORK = 8 solves at a cap of 8), none is started and the tick holds (v = 0), its message naming the count.
+    The held command keeps the soles within the drift bound (forward kinematics, from where the tick began)."""
+    from wbc.formulations.velocity import KinematicController
+
+    def replay(check_work: float):
+        monkeypatch.setattr(KinematicController, "CHECK_WORK", check_work)
+        name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550036, 4, dts=(0.002, 0.005, 0.01, 0.02),
+                                                            past_limits=0.2)
+        assert (name, strict, dt) == ("talos", True, DT)
+        counts = []
+        held_drift = KinematicController._held_drift
+
+        def recorded(self, *args):
+            counts.append(self._work.solves)
+            return held_drift(self, *args)
+
+        monkeypatch.setattr(KinematicController, "_held_drift", recorded)
+        res = ctrl.solve(config, DT)
+        monkeypatch.setattr(KinematicController, "_held_drift", held_drift)
+        return config, ctrl, res, counts
+
+    _, ctrl0, res0, counts0 = replay(0.0)
+    config, ctrl, res, counts = replay(0.25)
+    assert not res.ok and res.fallback == "contacts_held", res.message
+    assert np.array_equal(res.v, res0.v) and len(counts) == len(counts0) >= 1
+    # each check counted: 0.25 more per check started so far (main: the checks uncounted)
+    assert [c - c0 for c, c0 in zip(counts, counts0)] == [0.25 * (k + 1) for k in range(len(counts))]
+    assert ctrl._work.solves - ctrl0._work.solves == 0.25 * len(counts)
+    model = ctrl.robot.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, config.q)
+    before = [data.oMf[c.frame_id].copy() for c in ctrl.constraints[:2]]
+    pin.framesForwardKinematics(model, data, pin.integrate(model, config.q, res.v * DT))
+    assert max(np.linalg.norm(data.oMf[c.frame_id].translation - b.translation)
+               for c, b in zip(ctrl.constraints[:2], before)) <= SOLE_DRIFT
+    config, ctrl, res, counts = replay(8.0)
+    assert not res.ok and res.fallback == "hold" and not counts
+    assert np.array_equal(res.v, np.zeros(ctrl.nv))
+    assert "not tried: tick budget spent (count)" in res.message

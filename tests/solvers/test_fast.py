@@ -310,20 +310,46 @@ def test_a_kernel_that_gives_up_counts_one_solve_and_its_shape_goes_to_daqp_for_
         assert plain.last_kernel_iterations < 0 and plain.work.solves == k  # DAQP's attempts only
     fast = FastBackend()
     fast.count_give_ups = True
-    fast.work = work = TickWork()
-    work.reset(8)
-    x = fast.solve(H, g, A2, b2, empty, none, none, lb, ub)
-    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 1
-    assert work.solves == 2  # the kernel's attempt and DAQP's
-    assert np.abs(x - ref).max() < 1e-6 * max(1.0, np.abs(ref).max())
-    fast.last_kernel_iterations = 0
-    x = fast.solve(H, g + 1e-3, A2, b2, empty, none, none, lb, ub)  # the same tick, the same shape
-    assert fast.last_kernel_iterations == 0 and fast.fallbacks == 2 and work.solves == 3  # DAQP only
-    ref2 = qpsolvers.solve_qp(H, g + 1e-3, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
-    assert np.abs(x - ref2).max() < 1e-6 * max(1.0, np.abs(ref2).max())
+    work = _same_shape_after_a_give_up(fast, (H, g, A, b, lb, ub), A2, b2, counted=1)
     x = fast.solve(H, g, A, b, empty, none, none, lb, ub)  # another shape: the kernel answers
     assert fast.kernel_solves == 1 and fast.fallbacks == 2
     assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
     work.reset(8)  # the next tick: the kernel is tried again
     fast.solve(H, g, A2, b2, empty, none, none, lb, ub)
     assert fast.last_kernel_iterations < 0 and fast.fallbacks == 3 and work.solves == 2
+
+
+def _same_shape_after_a_give_up(fast, qp, A2, b2, counted: int):
+    """Under a fresh tick's work: ``fast`` solves the QP with the repeated rows (A2, b2; the kernel gives up), then
+    the same shape again; checks that the kernel ran once, the counted solves (``counted``: 1 when the give-up is
+    counted, else 0, plus DAQP's) and each answer against quadprog on the independent rows. Returns the work."""
+    from wbc.solvers.base import TickWork
+
+    H, g, A, b, lb, ub = qp
+    empty, none = np.zeros((0, H.shape[0])), np.zeros(0)
+    fast.work = work = TickWork()
+    work.reset(8)
+    for k, gk in enumerate((g, g + 1e-3)):  # the second: the same tick, the same shape
+        fast.last_kernel_iterations = 0
+        x = fast.solve(H, gk, A2, b2, empty, none, none, lb, ub)
+        assert (fast.last_kernel_iterations < 0) == (k == 0)  # the kernel not run again
+        assert fast.fallbacks == k + 1 and work.solves == counted + k + 1  # DAQP's attempts (+ the give-up)
+        ref = qpsolvers.solve_qp(H, gk, A=A, b=b, lb=lb, ub=ub, solver="quadprog")
+        assert np.abs(x - ref).max() < 1e-6 * max(1.0, np.abs(ref).max())
+    return work
+
+
+def test_skip_give_ups_sends_the_shape_to_daqp_for_the_rest_of_the_tick_uncounted():
+    """With ``skip_give_ups`` (``count_give_ups`` off), under a tick's counted work a kernel attempt that gives up
+    is not counted, and the tick's later problems of that shape go to DAQP at once (the kernel not run again); the
+    next tick tries the kernel again. Every answer is the optimum of the independent rows (quadprog)."""
+    rng = np.random.default_rng(3)
+    n = 6
+    H, g, A, b, lb, ub = _random_qp(rng, n, 2, 1.0)
+    A2, b2 = np.vstack([A, A[:1]]), np.concatenate([b, b[:1]])  # a repeated row: the kernel gives up
+    fast = FastBackend()
+    fast.skip_give_ups = True
+    work = _same_shape_after_a_give_up(fast, (H, g, A, b, lb, ub), A2, b2, counted=0)
+    work.reset(8)  # the next tick: the kernel is tried again
+    fast.solve(H, g, A2, b2, np.zeros((0, n)), np.zeros(0), np.zeros(0), lb, ub)
+    assert fast.last_kernel_iterations < 0 and fast.fallbacks == 3 and work.solves == 1

@@ -136,7 +136,8 @@ input error), ``solve`` does not raise and never returns NaN:
    limits): ``fallback="contacts_held"``, taken only when it keeps each frame within ``sole_drift_tolerance`` of
    where its rows send it (forward kinematics; at β = 0, solved to its solver's own iteration limit however much of
    the tick's count is spent, then scaled down by 0.9 √(tolerance / drift), at most 1/2, up to 8 times, until it
-   does); when the tick's count was spent before its failure handling began, step 3 comes first and with β = 0
+   does; each check counts ``CHECK_WORK`` solves and starts only while the count stays below
+   ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times its cap, else v = 0); when the tick's count was spent before its failure handling began, step 3 comes first and with β = 0
    only, each of its DAQP calls at most ``HELD_ITERATIONS`` iterations, and step 2 only after it;
    steps 2 and 3 are taken only when they also leave each contact frame within ``SAFE_COMMAND_RADIUS`` of where
    the run of failed ticks began (or no farther from there than it is), so that a run of failed ticks never walks
@@ -196,6 +197,7 @@ from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, comm
                                               kinematic_tick_packed, rotation_gap, rows_pack, translation_gap,
                                               weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
+from wbc.solvers.daqp import WORK_LIMIT_FACTOR
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
 from wbc.solvers.linalg import clip_box_into
@@ -387,6 +389,10 @@ class KinematicController:
     #: a change of its constraints that no earlier layout matches): the build and the tick's first solves on fresh
     #: buffers and solver workspaces, uncounted otherwise (module docstring, tick budget)
     LAYOUT_WORK = 4
+    #: counted solves added per check of a 'contacts_held' command (forward kinematics of the command's tick, the
+    #: frames' drift and run radius: uncounted otherwise, up to 9 of them as β = 0 is scaled down); a check starts
+    #: only while the tick's count stays below ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times its cap (else: hold)
+    CHECK_WORK = 0.25
     #: DAQP iterations of each call of the 'contacts_held' QP at β = 0 when the tick's count was spent before its
     #: failure handling began (``_recover``: then that QP is the first safe command tried, β = 1 and 1/10 are not)
     HELD_ITERATIONS = 150
@@ -472,6 +478,7 @@ class KinematicController:
         self._in_solve, self._drift_cache = False, None
         self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
+        self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
         # clock guard: CPU time (s) of the longest re-solve of the tick's QP, strict level, check of a held safe
         # command in the current tick, and of the safe command's solve (this tick's longest, else the last one's)
         self._resolve_cost = self._level_cost = self._check_cost = self._safe_cost = 0.0
@@ -1179,6 +1186,10 @@ class KinematicController:
             # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
             # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
             self.backend.count_give_ups = not self._level_order
+            # the weighted form of strict levels (self.backend's only QP on their ticks) skips the kernel on the
+            # tick's later problems of a shape it gave up on, uncounted: its contact correction repeated a give-up
+            # of up to 100 iterations on each re-solve (kinematic fuzz seed 550004 episode 366 tick 0)
+            self.backend.skip_give_ups = bool(self._level_order)
         t1 = None
         self._assembled = False
         self._in_solve, self._drift_cache, self._contact_expected = True, None, None
@@ -1536,7 +1547,7 @@ class KinematicController:
         U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
         corrections are averaged where the contacts are dependent and unchanged where they are not."""
         rows = self._contact_rows
-        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        U, S = self._contact_svd()
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
         if rank == rows.size:
             return False
@@ -1554,13 +1565,26 @@ class KinematicController:
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
 
+    def _contact_svd(self) -> tuple[np.ndarray, np.ndarray]:
+        """(U, S) of the thin SVD of the contact rows J_c in the assembled buffers, kept while J_c is unchanged: a
+        failed tick asks it of the same rows several times (its retry, contact corrections, trust regions and safe
+        command), each an SVD otherwise uncounted."""
+        Jc = self._A[self._contact_rows]
+        cached = self._svd_cache
+        if cached is None or cached[0].shape != Jc.shape or not np.array_equal(cached[0], Jc):
+            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+            U.setflags(write=False)
+            S.setflags(write=False)
+            cached = self._svd_cache = (Jc, U, S)
+        return cached[1], cached[2]
+
     def _contact_range_basis(self) -> np.ndarray | None:
         """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
         rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
         rows = self._contact_rows
         if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None  # every equality row independent (rank computed on this constraint set)
-        U, S, _ = np.linalg.svd(self._A[rows], full_matrices=False)
+        U, S = self._contact_svd()
         rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
         return None if rank == rows.size else U[:, :rank]
 
@@ -1849,7 +1873,8 @@ class KinematicController:
         the contact frames as an ok tick must (sole drift ≤ ``sole_drift_tolerance``; for 'contacts_held', whose
         rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (by
         0.9 √(tolerance / drift), at most 1/2, up to 8 times: the displacement is second order in v dt, and J_c v = 0
-        is kept) until it does, else v = 0."""
+        is kept) until it does, each check counted (``CHECK_WORK``) and started only below
+        ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times the tick's cap, else v = 0."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
         over_budget = False
         reason = ("sole_drift" if isinstance(exc, _DriftFailure) else
@@ -1883,6 +1908,7 @@ class KinematicController:
             self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
         anchors = [self._held_anchors[id(c)] for c in self._contacts]
         skipped = ""  # clock guard: the safe commands not tried, the tick's budget spent
+        count_stop = False  # the count stopped the checks of 'contacts_held' (hold, nothing more tried)
         # the tick's count spent before its safe command (late): J_c v = 0 first, the cheapest command that keeps the
         # contacts (β = 0 only, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
         held_first = late and bool(self._contact_rows.size) and not data_fault
@@ -1910,7 +1936,7 @@ class KinematicController:
                 # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
                 # their corrections are made consistent (least squares onto the range of J_c, as after a failed
                 # solve: _consistent_contact_rhs)
-                U, S, _ = np.linalg.svd(self._A[self._contact_rows], full_matrices=False)
+                U, S = self._contact_svd()
                 rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
                 if rank < anchored.size:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
@@ -1933,9 +1959,12 @@ class KinematicController:
                         continue
                     d = math.nan
                     for _ in range(9 if beta == 0.0 else 1):
-                        if not self._fits(self._check_cost):
+                        counted_out = self._work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
+                        if counted_out or not self._fits(self._check_cost):
                             skipped = "contacts_held (its last scalings)"
+                            count_stop = counted_out
                             break
+                        self._work.add(self.CHECK_WORK)
                         t = self._work.seconds()
                         d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
                         held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
@@ -1963,11 +1992,11 @@ class KinematicController:
                 np.copyto(self._b, b0)
                 if backend is not None:
                     backend.independent = independent
-        if held_first and fallback == "hold":
+        if held_first and fallback == "hold" and not count_stop:
             v, fallback = self._safe_constraints_only(config, dt, anchors)
         if skipped:
             over_budget = True
-            message += f"; {skipped} not tried: tick budget spent (clock guard)"
+            message += f"; {skipped} not tried: tick budget spent ({'count' if count_stop else 'clock guard'})"
         try:
             drift = self.sole_drift(config, v, dt)
         except Exception:  # noqa: BLE001 — never raises (module docstring)

@@ -45,6 +45,11 @@ class FastBackend(DaqpBackend):
         count_give_ups (bool): under a tick's counted work (``work``), a kernel attempt that gives up counts one
             solve and the tick's later problems of its shape skip the kernel (:meth:`solve`); False (default):
             uncounted, the kernel tried on every call. The kinematic controller sets it on ticks without strict levels.
+        skip_give_ups (bool): under a tick's counted work (``work``), after a kernel attempt that gives up the tick's
+            later problems of its shape skip the kernel, as with ``count_give_ups``, but the attempt is not counted
+            (False, default: the kernel tried on every call unless ``count_give_ups``). The kinematic controller
+            sets it on ticks of strict levels, whose weighted form's re-solves (contact correction, trust region)
+            would each repeat the attempt.
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
@@ -66,6 +71,7 @@ class FastBackend(DaqpBackend):
         self.reduced_fallbacks = 0
         self._rows_failed = False
         self.count_give_ups = False
+        self.skip_give_ups = False
         self._gave_up: tuple | None = None  # (the tick's work, its tick, the problem's shape) of the last give-up
         ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
@@ -105,7 +111,8 @@ class FastBackend(DaqpBackend):
         adds one solve to the tick's counted work (``work``, when set), as every solve attempt does. With
         ``count_give_ups`` and a tick's work (``work`` set), a kernel attempt that gives up counts one solve too, and
         the tick's later problems of that shape (variables, equality rows, inequality rows) go to DAQP at once (the
-        tick is told apart by ``work.ticks``: a count, so the route is a function of the tick's inputs).
+        tick is told apart by ``work.ticks``: a count, so the route is a function of the tick's inputs); with
+        ``skip_give_ups`` they go to DAQP at once too, the attempt not counted.
 
         Raises:
             SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
@@ -116,8 +123,8 @@ class FastBackend(DaqpBackend):
         work = self.work
         shape = (H.shape[0], A.shape[0], p)
         gave_up = self._gave_up
-        if self.count_give_ups and work is not None and gave_up is not None and gave_up[0] is work \
-                and gave_up[1] == work.ticks and gave_up[2] == shape:
+        if (self.count_give_ups or self.skip_give_ups) and work is not None and gave_up is not None \
+                and gave_up[0] is work and gave_up[1] == work.ticks and gave_up[2] == shape:
             # the kernel gave up on a problem of this shape earlier in this tick: the tick's re-solves of it (a
             # relaxation ladder, a trust region, bounds pinned at 0 that make the working set dependent on the
             # contact rows) go to DAQP at once (a kernel attempt that gives up is not counted as a solve, and on
@@ -135,8 +142,9 @@ class FastBackend(DaqpBackend):
             return self._x.copy()
         else:
             self._rows_failed = p > 0
-            if self.count_give_ups and work is not None:
-                work.solves += 1  # the attempt that gave up: a solve attempt like any other (TickWork)
+            if (self.count_give_ups or self.skip_give_ups) and work is not None:
+                if self.count_give_ups:
+                    work.solves += 1  # the attempt that gave up: a solve attempt like any other (TickWork)
                 self._gave_up = (work, work.ticks, shape)
         self.fallbacks += 1
         x = super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
