@@ -13,6 +13,10 @@ from pathlib import Path
 if not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
+# every wbc.compiled.specialise function checks its array arguments' types on each call in the tests (set before wbc
+# is imported; child processes inherit it)
+os.environ["WBC_CHECK_KERNEL_TYPES"] = "1"
+
 import numpy as np
 import pinocchio as pin
 import pytest

@@ -8,21 +8,33 @@ called when a task, constraint or backend is constructed.
 
 ``wbc compile`` (:mod:`wbc.cli.kernels`) imports every module with a loader and runs it (:func:`run_loaders`) ahead
 of the first run, after an install, so that the first run finds every kernel in the on-disk cache.
+
+A call through a numba dispatcher first finds the compiled version for its arguments' types (their numba types,
+then a lookup); a control tick's hot calls, whose arguments are their caller's own buffers of fixed types, call that
+version directly (:func:`specialise`), once the caller has it.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 from time import perf_counter
 from typing import Callable, TypeVar
 
-__all__ = ["FASTMATH", "once_per_process", "run_loaders", "set_load_listener"]
+import numba as nb
+import numpy as np
+
+__all__ = ["FASTMATH", "CHECK_TYPES", "once_per_process", "run_loaders", "set_load_listener", "specialise"]
 
 #: LLVM fast-math flags of the compiled kernels: reassociation (vectorised dot products) and fused multiply-add only;
 #: ±inf bounds stay legitimate input (no "no-inf/no-nan" assumption).
 FASTMATH = {"reassoc", "contract"}  # a set: numba takes a bool, dict or set
 
 R = TypeVar("R")
+
+#: When true (environment variable ``WBC_CHECK_KERNEL_TYPES=1`` at import; the test suite sets it), every call of a
+#: :func:`specialise` function first checks that its arguments have the numba types it was specialised for.
+CHECK_TYPES: bool = os.environ.get("WBC_CHECK_KERNEL_TYPES", "") == "1"
 
 _listener: Callable[[str, float], None] | None = None
 _loaders: dict[str, list[Callable[[], object]]] = {}  # module name -> its once_per_process loaders (once imported)
@@ -85,3 +97,37 @@ def run_loaders(module: str) -> int:
     for load in loaders:
         load()
     return len(loaders)
+
+
+def specialise(kernel, *args) -> Callable:
+    """The compiled version of the numba dispatcher ``kernel`` for the numba types of ``args`` (loaded from the
+    on-disk cache, or compiled, now; the same version a call ``kernel(*args)`` would run), callable without the
+    dispatcher's per-call type resolution.
+
+    The returned function does not check its arguments: a number is converted to the specialised type (as
+    ``float(x)`` / ``int(x)``) and an array of another dtype raises TypeError, but an array of another layout
+    (strided instead of contiguous) or number of dimensions is read as if it had the specialised one. Use it only where every argument is of a fixed type by construction: the caller's own preallocated buffers,
+    Pinocchio's views of its Data, or inputs checked for dtype, shape and contiguity just before the call. With
+    :data:`CHECK_TYPES` each call checks its array arguments' numba types and raises TypeError on a difference.
+
+    Args:
+        kernel: a numba dispatcher (``numba.njit`` function).
+        *args: arguments of a real call (their numba types select the version).
+
+    Returns:
+        The compiled function, called with arguments of the same types as ``args``.
+    """
+    types = tuple(nb.typeof(a) for a in args)
+    entry = kernel.compile(types)
+    if not CHECK_TYPES:
+        return entry
+
+    arrays = [i for i, a in enumerate(args) if isinstance(a, np.ndarray)]
+
+    def checked(*call_args):
+        got = tuple(nb.typeof(a) for a in call_args)
+        if len(got) != len(types) or any(got[i] != types[i] for i in arrays):
+            raise TypeError(f"{kernel.__name__} specialised for {types}, called with {got}")
+        return entry(*call_args)
+
+    return checked

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import once_per_process, specialise
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import FLOAT64, ReadOnly, check_vector
 from wbc.robot import Robot
@@ -70,13 +70,19 @@ def _record_ahead(vdt, q, steps):
     return True
 
 
+# _scaled_matches and _record_ahead specialised (wbc.compiled.specialise) to their one argument type, contiguous
+# float64 vectors (a Configuration's q and steps; v and vdt checked by the caller), by _warm_up
+_scaled_matches_fixed, _record_ahead_fixed = _scaled_matches, _record_ahead
+
+
 @once_per_process
 def _warm_up() -> None:
     """Load :func:`_scaled_if_finite`, :func:`_scaled_matches` and :func:`_record_ahead` (on-disk cache) once per
-    process, at construction."""
+    process, at construction, and specialise the last two."""
+    global _scaled_matches_fixed, _record_ahead_fixed
     _scaled_if_finite(np.zeros(1), 0.002, np.zeros(1))
-    _scaled_matches(np.zeros(1), 0.002, np.zeros(2), np.zeros(4))
-    _record_ahead(np.zeros(1), np.zeros(2), np.zeros(4))
+    _scaled_matches_fixed = specialise(_scaled_matches, np.zeros(1), 0.002, np.zeros(2), np.zeros(4))
+    _record_ahead_fixed = specialise(_record_ahead, np.zeros(1), np.zeros(2), np.zeros(4))
 
 
 class Configuration:
@@ -125,9 +131,10 @@ class Configuration:
             quat_norm = float(quat @ quat)
             if abs(quat_norm - 1.0) > 1e-6:
                 raise ConfigurationError(f"base quaternion q[3:7] must have unit norm, got norm² {quat_norm:.6g}")
-            # a read-only q is copied: the compiled tick (wbc.formulations.velocity_kernel) reads q, and a read-only
-            # array is another argument type for it (one more compilation)
-            self.q = q if q.flags.writeable else q.copy()
+            # a read-only or strided q is copied: the compiled tick (wbc.formulations.velocity_kernel) and this
+            # module's kernels read q, and such an array is another argument type for them (one more compilation;
+            # their specialised versions, wbc.compiled.specialise, take a writeable contiguous q)
+            self.q = q if q.flags.writeable and q.flags.c_contiguous else q.copy()
         self._ahead_out = None
         self._com_jacobian, self._ag = self._kinematics(self._data, self.q)
         self._frames_stale = True  # data.oMf: every frame placed on the next read of data
@@ -162,7 +169,7 @@ class Configuration:
         self._ahead_out = None  # until this lookahead's Data is computed
         q = self.q
         if not (type(vdt) is np.ndarray and vdt.shape == self._v_shape and vdt.dtype is FLOAT64
-                and _record_ahead(vdt, q, self._steps)):  # ahead = [vdt, q] when vdt is finite
+                and vdt.flags.c_contiguous and _record_ahead_fixed(vdt, q, self._steps)):  # ahead = [vdt, q] when vdt is finite
             vdt = check_vector(vdt, self._nv, "displacement vdt")  # raises with the details, else a finite array
             self._steps[self._nv:2 * self._nv] = vdt
             self._steps[2 * self._nv:] = q
@@ -249,6 +256,8 @@ class Configuration:
         if type(v) is np.ndarray and v.shape == self._v_shape and v.dtype is FLOAT64:
             if ahead is None:
                 match = int(_scaled_if_finite(v, float(dt), self._steps[:self._nv]))
+            elif v.flags.c_contiguous:
+                match = _scaled_matches_fixed(v, float(dt), self.q, self._steps)
             else:
                 match = _scaled_matches(v, float(dt), self.q, self._steps)
         if match == 2:  # the lookahead's v·dt from this q: its Data becomes this configuration's (swapped)

@@ -183,6 +183,7 @@ from time import perf_counter
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import specialise
 from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
                                   KinematicContext)
@@ -1043,9 +1044,14 @@ class KinematicController:
         # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
-        it, guard = kinematic_tick_packed(fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain,
-                                          self.damping, plan.states, v, float(dt), tol, backend.max_iter, config.q,
-                                          *box)
+        args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
+                float(dt), tol, backend.max_iter, q, *box)
+        kernel = plan.tick_kernel
+        if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
+            kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
+        elif kernel is None:  # the plan's first tick: the types of its buffers (and of q, checked above) are fixed
+            kernel = plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+        it, guard = kernel(*args)
         # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
         # has it in its count (its CPU time is about one solve's)
         self._work.add(1)
@@ -1080,8 +1086,10 @@ class KinematicController:
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
                 (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
-                far, drift = contact_pair_drift(*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb,
-                                                f_a, f_b, lever)
+                args = (*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb, f_a, f_b, lever)
+                if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
+                    plan.drift_kernel = specialise(contact_pair_drift, *args)
+                far, drift = plan.drift_kernel(*args)
                 if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
                     ca.error_into(ndata, plan.logs[0])
                     cb.error_into(ndata, plan.logs[1])
@@ -2246,3 +2254,5 @@ class _FusedPlan:
     its upper bound)."""
 
     supported = False
+    tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
+    drift_kernel = None  # contact_pair_drift, likewise
