@@ -370,8 +370,9 @@ class InverseDynamicsQP:
         #: DAQP call capped at what is left.
         self.tick_work_iterations = math.inf
         #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
-        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`,
-        #: + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration),
+        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it, the one that answers included (its
+        #: iterations + :data:`DAQP_CALL_WORK`, + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration; the
+        #: backend's retries at their caps, :meth:`_retry_work`),
         #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
         self.tick_work = 0.0
         #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,
