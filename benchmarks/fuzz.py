@@ -482,8 +482,8 @@ def report(total: dict) -> str:
     for ratio, where in total.get("worst_ticks", [])[:10]:
         lines.append(f"info: slow tick {ratio:.2f} x budget: {where}")
     stalls = coincident_stalls(total.get("worst_ticks", []))
-    lines.append(f"info: ticks over 2 x budget that began within 20 ms of a slow tick of another process (a stall of "
-                 f"the machine): {len(stalls)} of {total['tick_cpu_over_2x_budget']}")
+    lines.append(f"info: ticks over 2 x budget that overlap a slow tick of another process in wall-clock time (a "
+                 f"stall of the machine): {len(stalls)} of {total['tick_cpu_over_2x_budget']}")
     lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():
         for e in evs:

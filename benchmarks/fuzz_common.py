@@ -123,19 +123,24 @@ class TickProbe:
                 f"csw {r.ru_nvcsw - r0.ru_nvcsw}/{r.ru_nivcsw - r0.ru_nivcsw} gc [{gcs}]")
 
 
-def coincident_stalls(worst: list[tuple[float, str]], over: float = 2.0, within: float = 0.02) -> list[str]:
-    """The slow ticks (ratio > ``over`` of their budget) that began within ``within`` seconds (wall clock) of a slow
-    tick of another chunk — run by another process at the same time: a stall of the machine, not of one tick's
-    work. ``worst``: (ratio, "seed S … at T s: …") records of the harnesses' slowest ticks."""
+def coincident_stalls(worst: list[tuple[float, str]], over: float = 2.0, within: float = 0.002) -> list[str]:
+    """The slow ticks (ratio > ``over`` of their budget) whose wall-clock interval overlaps that of a slow tick of
+    another chunk — run by another process at the same time: a stall of the machine, not of one tick's work.
+    ``worst``: (ratio, "seed S … at T s … wall W ms …") records of the harnesses' slowest ticks, T the wall-clock
+    time (s) at the tick's end, W its wall time: the tick ran over [T − W, T]; each interval is widened by
+    ``within`` (s) at both ends (the 1 ms rounding of T); a record without its wall time is the instant T."""
     import re
 
     marks = []
     for ratio, where in worst:
         t, seed = re.search(r" at ([0-9.]+) s", where), re.search(r"seed (\d+)", where)
+        wall = re.search(r"wall ([0-9.]+) ms", where)
         if t and seed:
-            marks.append((ratio, float(t.group(1)), seed.group(1), where))
-    return [where for ratio, t, seed, where in marks if ratio > over and any(
-        s2 != seed and abs(t2 - t) <= within for _, t2, s2, _ in marks)]
+            end = float(t.group(1))
+            start = end - (1e-3 * float(wall.group(1)) if wall else 0.0)
+            marks.append((ratio, start - within, end + within, seed.group(1), where))
+    return [where for ratio, s0, s1, seed, where in marks if ratio > over and any(
+        s2 != seed and a0 <= s1 and s0 <= a1 for _, a0, a1, s2, _ in marks)]
 
 
 _PROBE: list = []

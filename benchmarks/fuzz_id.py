@@ -17,6 +17,14 @@ control path); failed ticks that name no conflicting constraint (the tick's own 
 ``InverseDynamicsController.diagnose()`` after the tick); tick CPU time (the budgeted quantity) and wall time,
 p50/p99/max, against the budget (the control period); the route and path each tick took (``IDCommand.path``; a
 route outside ``wbc.tick.ID_ROUTES`` fails the run).
+
+Each slow tick is printed with the work the controller counted in it (``InverseDynamicsQP.tick_work``, in budgets)
+and what else it contained (garbage collections, page faults, context switches: ``fuzz_common.TickProbe``); an info
+line counts the ticks over 2 x budget whose wall-clock interval overlaps a slow tick of the other process (a stall of
+the machine, ``fuzz_common.coincident_stalls``). Before its first measured tick every process runs a warm-up, printed
+and not counted: ``WARMUP_TICKS`` ticks of episodes drawn from ``WARMUP_SEED`` (the process's one-time costs — page
+faults of the first allocations, the compiled kernels' first calls, the solvers' first set-ups — land there, as they
+would in a real-time loop's start-up rather than in its ticks).
 """
 
 from __future__ import annotations
@@ -39,8 +47,9 @@ import pinocchio as pin  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import random_configuration  # noqa: E402
-from fuzz_common import (acceptance_verdict, chunk_arguments, collect_between_episodes,  # noqa: E402
-                         freeze_after_first, highs_feasible, load_robots, run_chunks, tick_probe)
+from fuzz_common import (acceptance_verdict, chunk_arguments, coincident_stalls,  # noqa: E402
+                         collect_between_episodes, freeze_after_first, highs_feasible, load_robots, run_chunks,
+                         tick_probe)
 from wbc.constants import SIDES  # noqa: E402
 from wbc.dynamics.balance import IDBalanceController  # noqa: E402
 from wbc.tick import ID_ROUTES, count_paths  # noqa: E402
@@ -52,6 +61,10 @@ COUNTS = ("ticks", "episodes", "exceptions", "nan", "bound_violations", "failed_
           "mu_changes")
 EVENTS = ("exceptions", "nan", "bound_violations", "failed_feasible", "failed_unnamed", "over_budget")
 MAX_EVENTS = 20
+#: the per-process warm-up (module docstring): ticks, and the seed of its episodes (not a chunk's seed)
+WARMUP_TICKS = 1000
+WARMUP_SEED = 999_999_999
+_WARMED: list = []  # the warm-up's line, once this process ran it
 
 
 def log_uniform(rng, lo, hi):
@@ -124,10 +137,28 @@ def bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort) -> list[str]:
     return out
 
 
+def warm_up(solver: str, episode: int, clock_guard: bool) -> str:
+    """The process's warm-up (module docstring), run once per process: its line ("warm-up of process P: …"), printed
+    by the caller and kept in each chunk's result (``warmup``)."""
+    if not _WARMED:
+        w = run_chunk(WARMUP_TICKS, WARMUP_SEED, solver=solver, episode=episode, clock_guard=clock_guard,
+                      warm=False, quiet=True)
+        cpu = np.array(w["cpu"])
+        _WARMED.append(f"warm-up of process {os.getpid()} (not counted): {w['ticks']} ticks of seed {WARMUP_SEED}, "
+                       f"paths {w['paths']}, tick CPU p50 {1e3 * np.median(cpu):.3f} ms, max {1e3 * cpu.max():.3f} ms "
+                       f"(first tick {1e3 * cpu[0]:.3f} ms)")
+    return _WARMED[0]
+
+
 def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", episode: int = 50,
-              replay: int | None = None, verbose: bool = False, clock_guard: bool = False) -> dict:
+              replay: int | None = None, verbose: bool = False, clock_guard: bool = False, warm: bool = True,
+              quiet: bool = False) -> dict:
     """Fuzz ``ticks`` ticks from ``seed`` (module docstring); returns counts, timings and events. ``replay``: run
-    only that episode (the others are drawn, not run); ``verbose``: print every tick's path, time and message."""
+    only that episode (the others are drawn, not run); ``verbose``: print every tick's path, time and message;
+    ``warm``: run the process's warm-up first (:func:`warm_up`); ``quiet``: no progress lines."""
+    warmup = warm_up(solver, episode, clock_guard) if warm else ""
+    if warmup:
+        print(progress + warmup, flush=True)
     robots, _ = load_robots()
     rng = np.random.default_rng(seed)
     c = dict.fromkeys(COUNTS, 0)
@@ -191,12 +222,13 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 event("exceptions", ep, tick, f"{name} {type(exc).__name__}: {exc}")
                 break
             within = probe.stop()
-            cut = ctrl.controller.qp.budget_cut  # the tick's counted work or its clock guard stopped a stage
+            qp = ctrl.controller.qp
+            cut = qp.budget_cut  # the tick's counted work or its clock guard stopped a stage
             t_cpu = cmd.timings.get("cpu", np.nan)
             if len(worst) < MAX_EVENTS or t_cpu > worst[-1][0]:
                 worst.append((t_cpu, f"seed {seed} episode {ep} tick {tick} {name} {cmd.path} at {time.time():.3f} s: "
                                      f"CPU {1e3 * t_cpu:.2f} ms, wall {1e3 * cmd.timings.get('total', np.nan):.2f} ms; "
-                                     f"{within}"))
+                                     f"counted work {qp.tick_work / qp.tick_work_iterations:.2f} budgets; {within}"))
                 worst = sorted(worst, key=lambda w: -w[0])[:MAX_EVENTS]
             paths[str(cmd.path)] += 1
             if verbose:
@@ -238,7 +270,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
             dv = cmd.dv if cmd.ok else np.zeros(robot.nv)
             v = v + dv * DT
             q = pin.integrate(robot.model, q, v * DT)
-        if c["ticks"] >= next_print:
+        if c["ticks"] >= next_print and not quiet:
             next_print += 5_000
             print(f"{progress}[{time.time() - t0:.0f} s] " + str({k: c[k] for k in COUNTS}), flush=True)
     c["seconds"] = time.time() - t0
@@ -248,6 +280,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
     c["wall"] = [float(x) for x in wall]
     c["tick_paths"] = tick_paths
     c["worst_ticks"] = worst
+    c["warmup"] = warmup
     return c
 
 
@@ -264,6 +297,7 @@ def aggregate(chunks: list[dict]) -> dict:
     total["tick_paths"] = np.array([x for ch in chunks for x in ch.get("tick_paths", [])])
     total["worst_ticks"] = sorted((w for ch in chunks for w in ch.get("worst_ticks", [])), key=lambda w: -w[0])
     total["events"] = {k: [e for ch in chunks for e in ch.get("events", {}).get(k, [])][:MAX_EVENTS] for k in EVENTS}
+    total["warmup"] = sorted({ch["warmup"] for ch in chunks if ch.get("warmup")})
     return total
 
 
@@ -308,6 +342,11 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
     lines.append("conflicts named (kind: count, first 3 per failed tick) " + str(total["conflicts"]))
     for t_cpu, where in total.get("worst_ticks", [])[:10]:
         lines.append(f"slow tick {t_cpu / budget:.2f} x budget: {where}")
+    stalls = coincident_stalls([(t_cpu / budget, where) for t_cpu, where in total.get("worst_ticks", [])])
+    lines.append(f"info: ticks over 2 x budget that overlap a slow tick of another process in wall-clock time (a stall "
+                 f"of the machine): {len(stalls)} of {int(np.sum(cpu > 2 * budget))}" + "".join(
+                     f"\n  stall: {w}" for w in stalls))
+    lines += total.get("warmup", []) or ["no warm-up recorded in these chunks"]
     lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
     lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():

@@ -35,7 +35,7 @@ from the same assembly, and the next tick's compiled call starts from DAQP's wor
 ``InverseDynamicsQP.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
 get what is left of one budget, quadprog's solve runs only when its count
 (:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
-relaxed QP's stages after its first attempt share what is left of 1.5; a stage skipped so adds ``+budget`` to the
+relaxed QP's calls, its first attempt included, share what is left of 1.2; a stage skipped so adds ``+budget`` to the
 path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
 (``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. Nothing
 latches: the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility

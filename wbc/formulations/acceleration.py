@@ -370,8 +370,9 @@ class InverseDynamicsQP:
         #: DAQP call capped at what is left.
         self.tick_work_iterations = math.inf
         #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
-        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it (its iterations + :data:`DAQP_CALL_WORK`,
-        #: + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration),
+        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it, the one that answers included (its
+        #: iterations + :data:`DAQP_CALL_WORK`, + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration; the
+        #: backend's retries at their caps, :meth:`_retry_work`),
         #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
         self.tick_work = 0.0
         #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,
@@ -425,6 +426,9 @@ class InverseDynamicsQP:
         #: True (a point found), False (proved empty: so is the full set, and the relaxed QP is not solved), None
         #: (not checked, or the check did not finish); reset by :meth:`solve`.
         self.relaxed_set_feasible: bool | None = None
+        # this tick's check of the relaxed hard set ended before its iteration limit (its verdict, None included, is
+        # what the same DAQP call on the same set gives again: solve_relaxed does not repeat it); reset by solve()
+        self._relaxed_check_final = False
         #: relaxed QPs whose DAQP calls failed on a set with a point that quadprog solved (:meth:`solve_relaxed`).
         self.relaxed_quadprog_solves = 0
         #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
@@ -461,10 +465,10 @@ class InverseDynamicsQP:
     #: without a clock guard: quadprog's solve of a failed full QP runs only when :attr:`tick_work` plus its count
     #: (:func:`quadprog_work`) stays within this many :attr:`tick_work_iterations`
     QUADPROG_WORK = 1.25
-    #: without a clock guard: the relaxed QP's calls after its first attempt (the check of its set, the backend's
-    #: retries, quadprog) run within this many :attr:`tick_work_iterations`; its first attempt gets at least
-    #: :attr:`daqp_attempt_iterations`
-    RELAXED_WORK = 1.5
+    #: without a clock guard: the relaxed QP's calls (its first attempt, the check of its set, the backend's retries,
+    #: quadprog) run within this many :attr:`tick_work_iterations`, the first attempt with at least
+    #: :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`: the counted work of a tick stays within about this many budgets
+    RELAXED_WORK = 1.2
     #: DAQP calls the backend's retries can make (:meth:`wbc.solvers.daqp.DaqpBackend.solve` with ``cold_retry``: the
     #: dual-started call, the cold one, the two of its cold path): each is capped at this fraction of the work left
     RETRY_CALLS = 4
@@ -810,6 +814,7 @@ class InverseDynamicsQP:
             l, u, lb, ub = reused[1]  # this tick's failed full QP formed them for its check of the relaxed hard set
         else:
             l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
+            self._relaxed_check_final = False  # a set formed here: the full QP's check was not of it
         t1 = perf_counter()
         if self.relaxed_set_feasible is False and reuse_assembly and self._assembled == (id(state), dt):
             self.relaxed_infeasible_by_check += 1
@@ -834,9 +839,10 @@ class InverseDynamicsQP:
         eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`). With a clock guard every DAQP call ends by
         ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left) and quadprog starts only when
         :attr:`quadprog_cost` ends by then. Without one, under a finite :attr:`tick_work_iterations`, the first
-        attempt gets at most max(:attr:`daqp_attempt_iterations`, the work left below ``RELAXED_WORK``) iterations
-        and the stages after it share that work left (:attr:`tick_work`: the check at most what is left, each retry
-        call a ``RETRY_CALLS``-th of it, quadprog only when :func:`quadprog_work` fits).
+        attempt gets at most the work left below ``RELAXED_WORK`` (less its :data:`DAQP_CALL_WORK`; at least
+        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`) iterations and the stages after it share what it leaves
+        (:attr:`tick_work`: the check at most what is left, each retry call a ``RETRY_CALLS``-th of it, quadprog only
+        when :func:`quadprog_work` fits).
 
         Returns:
             (x (n,), name of the solver that answered: the backend's or ``quadprog``).
@@ -852,28 +858,29 @@ class InverseDynamicsQP:
         backend.deadline = end
         try:
             backend.cold_retry = False
-            if counting:
-                backend.call_iterations = max(self.daqp_attempt_iterations,
-                                              int(min(self._work_left(self.RELAXED_WORK), ITERATION_LIMIT)))
+            if counting:  # the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
+                backend.call_iterations = max(MIN_CALL_ITERATIONS, int(min(
+                    self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
             proximal = backend.proximal_iterations
             try:
                 return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
             except SolverError as exc:
                 first = exc
-                self.tick_work += self._call_work(backend, proximal)
             finally:
                 backend.cold_retry = retry
                 backend.call_iterations = None
+                self.tick_work += self._call_work(backend, proximal)
             if counting:
                 left = self._work_left(self.RELAXED_WORK)
             else:
                 left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
             if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless the full QP's failure already found it not empty
+                # the relaxed hard set, unless the full QP's failure already checked it to a verdict (a check that
+                # ended undecided before its iteration limit is not asked again: the same call gives the same)
                 feasible = self.relaxed_set_feasible
-                if feasible is None and counting:
+                if feasible is None and not self._relaxed_check_final and counting:
                     feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
-                elif feasible is None:
+                elif feasible is None and not self._relaxed_check_final:
                     feasible = hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
                                               iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0]
                 if feasible is False:
@@ -950,6 +957,7 @@ class InverseDynamicsQP:
         self._relaxed_bounds = None
         self.budget_cut = False
         self.relaxed_set_feasible = None
+        self._relaxed_check_final = False
         self.tick_work = 0.0
         if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
                 and not self.extra_equalities:
@@ -1036,13 +1044,13 @@ class InverseDynamicsQP:
         except SolverError as exc:
             first = exc
             attempted = backend.last_iterations  # the attempt's DAQP iterations
-            self.tick_work += self._call_work(backend, proximal)
             if backend.budget_capped:
                 self.budget_cut = True
         finally:
             backend.cold_retry = retry
             backend.deadline = math.inf
             backend.call_iterations = None
+            self.tick_work += self._call_work(backend, proximal)
         if not guarded:
             feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known,
                                              checked=checked)
@@ -1213,6 +1221,7 @@ class InverseDynamicsQP:
         self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
         self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
                                                                iter_limit=iter_limit)
+        self._relaxed_check_final = iterations < iter_limit
         self.tick_work += iterations + DAQP_CALL_WORK
         if self.relaxed_set_feasible is False:
             self.infeasible_by_check += 1
