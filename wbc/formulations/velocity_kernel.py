@@ -649,7 +649,7 @@ def _contact_gaps(log, b_rows, factor, lever, far, worst):
     return far, worst
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
 def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
                        lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of

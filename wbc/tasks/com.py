@@ -15,7 +15,7 @@ from wbc.tasks.base import Task, ValidatedAttribute
 __all__ = ["ComTask"]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
 def _com_rows(com, target, jac, error_out, jac_out):
     """error_out = com − target, jac_out = jac (one compiled call instead of two numpy ones)."""
     for i in range(jac.shape[0]):

@@ -223,7 +223,7 @@ def placement_log6_into(pose, rot, pos, out):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
 def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out):
     """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
     instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
