@@ -377,3 +377,70 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
                                         np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
         assert (code == NONFINITE_RHS) == np.isnan(b_value)
         assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_tick_kernel_that_writes_the_rows_is_the_row_functions_then_the_tick(seed):
+    """kinematic_tick_rows given a CoM task's, an orientation task's and a contact pair's kernel operands gives bit
+    for bit the rows those objects write themselves (compute_into, write_pair) and the tick of kinematic_tick_packed
+    on them; a half-turn orientation error declines before anything is solved (working sets untouched)."""
+    import pinocchio as pin
+
+    from wbc.configuration import Configuration
+    from wbc.constraints import ContactConstraint
+    from wbc.constraints.base import KinematicContext
+    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, ROWS_NOT_WRITTEN, kinematic_pack,
+                                                  kinematic_tick_packed, kinematic_tick_rows, rows_pack)
+    from wbc.robot import load_robot
+    from wbc.tasks import ComTask, OrientationTask
+
+    robot = load_robot("talos")
+    rng = np.random.default_rng(40 + seed)
+    config = Configuration(robot)
+    contacts = [ContactConstraint(robot, f, gain=100.0) for f in (robot.left_sole, robot.right_sole)]
+    for c in contacts:
+        c.set_placement_from_configuration(config)
+    q = pin.integrate(robot.model, robot.q_ref, rng.uniform(-0.05, 0.05, robot.model.nv))
+    config.update(q)
+    com = ComTask(weight=1.0, gain=50.0)
+    com.set_target(config.com + rng.uniform(-0.02, 0.02, 3))
+    torso = OrientationTask(robot, robot.torso, weight=1.0, gain=50.0)
+    torso.set_target(pin.SE3(pin.exp3(rng.uniform(-0.2, 0.2, 3)), np.zeros(3)))
+    nv, dt = robot.model.nv, 0.002
+    prow = np.arange(6, nv, dtype=np.int64)
+    ctx = KinematicContext()
+    ctx.config, ctx.dt = config, dt
+    outs = []
+    for in_kernel in (False, True):
+        fb, ib, x = kinematic_pack(nv, 12, 0, 0)
+        x["lb"][:6], x["ub"][:6] = -np.inf, np.inf
+        x["lb"][6:], x["ub"][6:] = -5.0, 5.0
+        sfb, sib, rows = rows_pack(6, nv, prow)
+        rows["rowp"][0], rows["rowp"][1], rows["pw"][:] = 50.0, 1.0, 1e-3
+        states, v = np.zeros(nv - 6, np.int8), np.empty(nv)
+        args = (fb, ib, sfb, sib, np.zeros(nv), 1.0, 1e-6, states, v, dt, 1e-6, 200, *NO_KERNEL_BOX)
+        if in_kernel:
+            tasks = ((0, 3, com.kernel_operands(config)), (3, 6, torso.kernel_operands(config)))
+            pair = (contacts[0].pair_operands(contacts[1], ctx), 0, 6)
+            out = kinematic_tick_rows(*args, tasks, pair)
+        else:
+            com.compute_into(config, rows["e"][:3], rows["J"][:3])
+            torso.compute_into(config, rows["e"][3:], rows["J"][3:])
+            contacts[0].write_pair(contacts[1], ctx, x["A"], x["b"], 0, 6)
+            out = kinematic_tick_packed(*args)
+        outs.append((out, fb.copy(), sfb.copy(), v.copy(), states.copy()))
+    (out1, fb1, sfb1, v1, s1), (out2, fb2, sfb2, v2, s2) = outs
+    assert out1[0] >= 1 and out1 == out2
+    assert np.array_equal(sfb1, sfb2) and np.array_equal(v1, v2) and np.array_equal(s1, s2)
+    assert np.array_equal(fb1, fb2)
+    # a half-turn orientation error (target turned by π about z): declined, nothing solved
+    torso.set_target(pin.SE3(config.data.oMf[torso.frame_id].rotation @ pin.exp3(np.array([0.0, 0.0, np.pi])),
+                             np.zeros(3)))
+    states = np.ones(nv - 6, np.int8)
+    fb, ib, x = kinematic_pack(nv, 12, 0, 0)
+    sfb, sib, rows = rows_pack(6, nv, prow)
+    code, guard = kinematic_tick_rows(fb, ib, sfb, sib, np.zeros(nv), 1.0, 1e-6, states, np.empty(nv), dt, 1e-6, 200,
+                                      *NO_KERNEL_BOX, ((0, 3, com.kernel_operands(config)),
+                                                       (3, 6, torso.kernel_operands(config))),
+                                      (contacts[0].pair_operands(contacts[1], ctx), 0, 6))
+    assert (code, guard) == (ROWS_NOT_WRITTEN, False) and (states == 1).all()
