@@ -22,7 +22,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.tasks.base import ValidatedAttribute
 from wbc.tasks.frame import as_se3, placement_log6_into
 
-__all__ = ["ContactConstraint", "write_contact_pair_rows"]
+__all__ = ["ContactConstraint"]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -49,7 +49,7 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
 
 
 @nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
-def write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
+def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
     """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
     … ``rb + 6`` of A (m, nv) and b (m,). Returns False near a half-turn error of either (the second's rows then not
     written)."""
@@ -76,14 +76,14 @@ def _as_contact_gain(value) -> float:
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_write_rows`, :func:`_write_contact_rows` and :func:`write_contact_pair_rows` (on-disk cache) once
+    """Load :func:`_write_rows`, :func:`_write_contact_rows` and :func:`_write_contact_pair_rows` (on-disk cache) once
     per process, at construction,
     for Pinocchio's array types (F-ordered rotation)."""
     _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
     _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
                         np.zeros((6, 1)), np.zeros(6))
     frame = (np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0)
-    write_contact_pair_rows(*frame, *frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
+    _write_contact_pair_rows(*frame, *frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
 
 
 class ContactConstraint(EqualityConstraint):
@@ -186,17 +186,6 @@ class ContactConstraint(EqualityConstraint):
                 rows are written.
             row, other_row: where each contact's 6 rows start (0 ≤ row, other_row ≤ m − 6; the blocks disjoint).
         """
-        operands = self.pair_operands(other, ctx)
-        if not write_contact_pair_rows(*operands, A, b, row, other_row):
-            self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
-            other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
-
-    def pair_operands(self, other: ContactConstraint, ctx: KinematicContext) -> tuple:
-        """The arguments of :func:`write_contact_pair_rows` before A, b and the rows, for :meth:`write_pair` and for
-        a compiled caller that writes the pair's rows itself: (J, P, R, p, −min(K, 1/dt)) of this contact then of
-        ``other`` — J (6, nv) the LOCAL frame Jacobian, P (4, 3) = [R_P; p_Pᵀ] the contact placement, R (3, 3) and
-        p (3,) the frame's placement (world, m), at ``ctx.config`` (each frame placed by Pinocchio here). Pinocchio's
-        and the constraints' arrays: read-only use."""
         config = ctx.config
         model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
         views = self._views(data)
@@ -204,8 +193,10 @@ class ContactConstraint(EqualityConstraint):
         ja = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
         jb = pin.getFrameJacobian(model, data, other.frame_id, LOCAL)
         k = 1.0 / ctx.dt
-        return (ja, self._pose, views[2], views[3], -min(self._gain, k), jb, pose_b, rot_b, pos_b,
-                -min(other.gain, k))
+        if not _write_contact_pair_rows(ja, self._pose, views[2], views[3], -min(self._gain, k), jb, pose_b, rot_b,
+                                        pos_b, -min(other.gain, k), A, b, row, other_row):
+            self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
+            other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
 
     def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position

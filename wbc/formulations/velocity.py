@@ -193,8 +193,8 @@ from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, command_within_box, command_within_rows,
                                               contact_drift, contact_pair_drift, ensure_compiled, form_qp,
                                               kinematic_finish_packed, kinematic_pack, kinematic_reduced_packed,
-                                              kinematic_tick_packed, kinematic_tick_rows, ROWS_NOT_WRITTEN,
-                                              rotation_gap, rows_pack, translation_gap, weighted_rows)
+                                              kinematic_tick_packed, rotation_gap, rows_pack, translation_gap,
+                                              weighted_rows)
 from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
@@ -835,22 +835,18 @@ class KinematicController:
         """
         return self._assemble(config, dt, True)
 
-    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True,
-                  operands: list | None = None):
+    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
         """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
         are kept in ``_posture_diff``, ``_posture_gain`` for :func:`~wbc.formulations.velocity_kernel.form_qp` (the
         compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`); with
-        ``boxes`` False, lb and ub are left to the caller too (the compiled tick's box, :meth:`_kernel_box`). With
-        ``operands`` ([[], None]), the rows that :func:`~wbc.formulations.velocity_kernel.kinematic_tick_rows` writes
-        are left to it: operands[0] receives its ``tasks`` (:func:`_gather_rows`) and, when it is not empty,
-        operands[1] its ``pair`` (the contact pair's rows)."""
+        ``boxes`` False, lb and ub are left to the caller too (the compiled tick's box, :meth:`_kernel_box`)."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
             self._build_soft_layout()
         H, g = self._H, self._g
         soft = self._soft
-        _gather_rows(soft, config, None if operands is None else operands[0])
+        _gather_rows(soft, config)
         posture = soft.posture
         if posture is not None:
             diff, pgain = pin.difference(self.robot.model, posture.target, config.q), posture.gain
@@ -879,10 +875,7 @@ class KinematicController:
         pair = self._contact_pair
         if pair is not None:
             first, second, row, second_row = pair
-            if operands is not None and operands[0]:
-                operands[1] = (first.pair_operands(second, ctx), row, second_row)
-            else:
-                first.write_pair(second, ctx, A, b, row, second_row)
+            first.write_pair(second, ctx, A, b, row, second_row)
         for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
             if pair is None:
                 c.write(ctx, A_rows, b_rows, None)
@@ -995,7 +988,7 @@ class KinematicController:
         plan.soft_tasks = self._soft_tasks
         plan.backend = self.backend
         soft = self._soft
-        if soft.own or any(not row[7] for row in soft.rows):
+        if soft.own or any(not plain for *_, plain in soft.rows):
             return plan  # a task with its own cost (other than one posture task) or velocity target
         if any(type(c) is not ContactConstraint for c in self._contacts):
             return plan  # a contact with rows of its own
@@ -1010,7 +1003,6 @@ class KinematicController:
         plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
         plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
         plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
-        plan.rows_in_kernel = self._contact_pair is not None  # kinematic_tick_rows writes task and contact rows
         plan.supported = True
         return plan
 
@@ -1027,10 +1019,8 @@ class KinematicController:
         box = plan.box
         if box is None:  # the plan's first tick
             box = plan.box = self._kernel_box(config, dt)
-        # the cost (and the box, when the kernel writes it) are formed by the kernel below, and so are the rows of
-        # the tasks and contacts with kernel operands when the equality rows' rank is known (kinematic_tick_rows)
-        operands = [[], None] if plan.rows_in_kernel and self._eq_rows is not None else None
-        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box[2].shape[0] == 0, operands)
+        # the cost (and the box, when the kernel writes it) are formed by the kernel below
+        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box[2].shape[0] == 0)
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
@@ -1046,15 +1036,9 @@ class KinematicController:
         # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
-        args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
-                float(dt), tol, backend.max_iter, config.q, *box)
-        if operands is not None and operands[1] is not None:
-            it, guard = kinematic_tick_rows(*args, tuple(operands[0]), operands[1])
-            if it == ROWS_NOT_WRITTEN:  # a half-turn error: rows written by the tasks and contacts (Pinocchio's log)
-                self._assemble(config, dt, False, box[2].shape[0] == 0)
-                it, guard = kinematic_tick_packed(*args)
-        else:
-            it, guard = kinematic_tick_packed(*args)
+        it, guard = kinematic_tick_packed(fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain,
+                                          self.damping, plan.states, v, float(dt), tol, backend.max_iter, config.q,
+                                          *box)
         # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
         # has it in its count (its CPU time is about one solve's)
         self._work.add(1)
@@ -2181,7 +2165,7 @@ def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
     soft.rows = []
     for k, (task, r0, r1, plain) in enumerate(dense):
         soft.rows.append((task, soft.e[r0:r1], soft.J[r0:r1], soft.rowp[1, r0:r1], soft.rowp[0, r0:r1],
-                          soft.rowp[2, r0:r1], k, plain, r0, r1))
+                          soft.rowp[2, r0:r1], k, plain))
         if not plain:  # v* written as the error: K = −1, ė* = 0
             soft.rowp[0, r0:r1] = -1.0
     soft.gains = [None] * len(dense)
@@ -2190,19 +2174,13 @@ def _stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> _SoftRows:
     return soft
 
 
-def _gather_rows(soft: _SoftRows, config: Configuration, operands: list | None = None) -> None:
+def _gather_rows(soft: _SoftRows, config: Configuration) -> None:
     """Write each task's rows at ``config`` into its stacked buffers (``compute_into``: e, J) with, per row, its
     gain, weight and feed-forward (a task's ``weight`` becomes a view of the stacked weights: in-place changes are
-    seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1). With
-    ``operands`` (a list), a task with the generic velocity target and ``Task.kernel_operands`` has its e, J left
-    unwritten and (r0, r1, its operands) appended there instead (:func:`kinematic_tick_rows` writes them)."""
+    seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1)."""
     gains, has_ff = soft.gains, soft.has_ff
-    for task, e, J, w, gain_rows, ff_rows, k, plain, r0, r1 in soft.rows:
-        ops = None if operands is None or not plain else task.kernel_operands(config)
-        if ops is None:
-            task.compute_into(config, e, J)
-        else:
-            operands.append((r0, r1, ops))
+    for task, e, J, w, gain_rows, ff_rows, k, plain in soft.rows:
+        task.compute_into(config, e, J)
         if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
             task.share_weight(w)
         if not plain:
@@ -2239,4 +2217,3 @@ class _FusedPlan:
     its upper bound)."""
 
     supported = False
-    rows_in_kernel = False

@@ -24,8 +24,6 @@ import time
 
 import numba as nb
 import numpy as np
-from numba import literal_unroll
-from numba.extending import overload
 
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
@@ -33,14 +31,11 @@ from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_in
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
-from wbc.constraints.contact import write_contact_pair_rows
-from wbc.tasks.com import com_rows_into
-from wbc.tasks.frame import frame_rows_log_into, placement_log6_into
+from wbc.tasks.frame import placement_log6_into
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
-           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_tick_rows",
-           "ROWS_NOT_WRITTEN", "kinematic_workspace", "NO_KERNEL_BOX",
+           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
            "NONFINITE_RHS", "rotation_gap", "rows_pack",
            "translation_gap", "warm_up", "weighted_rows"]
 
@@ -406,11 +401,6 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
 #: exit code of :mod:`wbc.solvers.status`
 NONFINITE_RHS = -1000
 
-#: :func:`kinematic_tick_rows`' code when a task's or contact's rows were not written (an orientation error within
-#: Pinocchio's tolerance of a half turn: nothing solved, ``states`` untouched; the caller writes the rows with
-#: Pinocchio's log and calls :func:`kinematic_tick_packed`)
-ROWS_NOT_WRITTEN = -1001
-
 #: the last four arguments of :func:`kinematic_tick_packed` (q, box_idx, box_limits, const_box) when it leaves the
 #: box as assembled
 NO_KERNEL_BOX = (np.zeros(0), np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
@@ -528,65 +518,7 @@ def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt,
         passed both screens.
     """
     H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
-    return _tick(H, g, A, b, C, l, u, lb, ub, ws, iws, er, *_unpack_rows(sfb, sib), diff, pgain, damping, states, v,
-                 dt, tolerance, max_iter, q, box_idx, box_limits, const_box)
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_tick_rows(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt, tolerance, max_iter, q, box_idx,
-                        box_limits, const_box, tasks, pair):
-    """:func:`kinematic_tick_packed` that first writes the task and contact rows itself, with the tasks' and the
-    contacts' own compiled row functions, instead of the caller writing them before the call (one call and fewer
-    array arguments): ``tasks`` a tuple of (r0, r1, operands) per task, whose rows r0 … r1 − 1 of the packed task
-    rows ``sfb`` are written by :func:`wbc.tasks.com.com_rows_into` (operands of
-    :meth:`wbc.tasks.ComTask.kernel_operands`, 3 arrays) or :func:`wbc.tasks.frame.frame_rows_log_into` (operands
-    of :meth:`wbc.tasks.FrameTask.kernel_operands`, 6 arrays); ``pair`` (the operands of
-    :meth:`wbc.constraints.ContactConstraint.pair_operands`, row, other row): two contacts' rows of the packed A, b
-    by :func:`wbc.constraints.contact.write_contact_pair_rows`. The rows of other tasks and constraints are written
-    by the caller before the call, as for :func:`kinematic_tick_packed`.
-
-    Returns:
-        (``ROWS_NOT_WRITTEN``, False) when a row function declined (a half-turn orientation error: nothing solved,
-        ``states`` untouched), else what :func:`kinematic_tick_packed` returns on the rows written.
-    """
-    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
     Js, es, rowp, pw, prow = _unpack_rows(sfb, sib)
-    for task in literal_unroll(tasks):
-        r0, r1 = task[0], task[1]
-        if not _task_rows_into(task[2], es[r0:r1], Js[r0:r1]):
-            return ROWS_NOT_WRITTEN, False
-    if not write_contact_pair_rows(*pair[0], A, b, pair[1], pair[2]):
-        return ROWS_NOT_WRITTEN, False
-    return _tick(H, g, A, b, C, l, u, lb, ub, ws, iws, er, Js, es, rowp, pw, prow, diff, pgain, damping, states, v,
-                 dt, tolerance, max_iter, q, box_idx, box_limits, const_box)
-
-
-def _task_rows_into(operands, error_out, jac_out):
-    """One task's rows (``kinematic_tick_rows``), compiled only (its ``overload`` below): True when written."""
-    raise NotImplementedError("compiled only")
-
-
-@overload(_task_rows_into, jit_options={"nogil": True})
-def _task_rows_into_impl(operands, error_out, jac_out):
-    """The row function of a task's operands, chosen by their number: 3, :func:`wbc.tasks.com.com_rows_into`; 6,
-    :func:`wbc.tasks.frame.frame_rows_log_into`."""
-    if len(operands) == 3:
-        def com_impl(operands, error_out, jac_out):
-            com_rows_into(operands[0], operands[1], operands[2], error_out, jac_out)
-            return True
-        return com_impl
-    if len(operands) == 6:
-        def frame_impl(operands, error_out, jac_out):
-            return frame_rows_log_into(operands[0], operands[1], operands[2], operands[3], operands[4], operands[5],
-                                       error_out, jac_out) == 0
-        return frame_impl
-    return None
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _tick(H, g, A, b, C, l, u, lb, ub, ws, iws, er, Js, es, rowp, pw, prow, diff, pgain, damping, states, v, dt,
-          tolerance, max_iter, q, box_idx, box_limits, const_box):
-    """The body of :func:`kinematic_tick_packed` on the unpacked arrays."""
     if const_box.shape[0] == 2:
         for i in range(lb.shape[0]):
             lb[i] = const_box[0, i]
@@ -819,20 +751,6 @@ def warm_up() -> float:
     rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
     kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.empty(7), 0.002, 1e-6,
                           10, *NO_KERNEL_BOX)
-    # with the rows of a CoM task, an orientation task and a contact pair written inside (Pinocchio's array types:
-    # F-ordered rotations; the orientation error a half turn, so that nothing is solved on these rows), for a
-    # writeable CoM target and a read-only one (a WalkPlan row, ComTask.set_target_trusted)
-    sfb, sib, rows = rows_pack(6, 7, np.zeros(0, np.int64))
-    rot, half = np.asfortranarray(np.eye(3)), np.diag([1.0, -1.0, -1.0])
-    frozen = np.zeros(3)
-    frozen.flags.writeable = False
-    contact = (np.zeros((6, 7)), np.eye(4, 3), rot, np.zeros(3), -1.0)
-    fb12, ib12, _ = kinematic_pack(7, 12, 0, 0)
-    for target in (np.zeros(3), frozen):
-        tasks = ((0, 3, (np.zeros(3), target, np.zeros((3, 7)))),
-                 (3, 6, (rot, half, np.zeros((6, 7)), np.zeros(3), np.zeros(3), np.arange(3, 6))))
-        kinematic_tick_rows(fb12, ib12, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.empty(7), 0.002,
-                            1e-6, 10, *NO_KERNEL_BOX, tasks, (contact + contact, 0, 6))
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)

@@ -151,12 +151,6 @@ class Task(ABC):
         error_out[:] = error
         jac_out[:] = jac
 
-    def kernel_operands(self, config: Configuration) -> tuple | None:
-        """The arrays from which a compiled row function writes this task's rows at ``config``
-        (:func:`wbc.tasks.com.com_rows_into`, :func:`wbc.tasks.frame.frame_rows_log_into`), for a compiled caller
-        that writes them itself; None (this default): the rows come from :meth:`compute_into`."""
-        return None
-
     def compute_with_drift_into(self, state, error_out: np.ndarray, jac_out: np.ndarray,
                                 drift_out: np.ndarray) -> None:
         """:meth:`compute_into`, then :meth:`drift` written into drift_out (m,), at ``state`` (a

@@ -12,11 +12,11 @@ from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
 
-__all__ = ["ComTask", "com_rows_into"]
+__all__ = ["ComTask"]
 
 
 @nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
-def com_rows_into(com, target, jac, error_out, jac_out):
+def _com_rows(com, target, jac, error_out, jac_out):
     """error_out = com − target, jac_out = jac (one compiled call instead of two numpy ones)."""
     for i in range(jac.shape[0]):
         error_out[i] = com[i] - target[i]
@@ -26,12 +26,12 @@ def com_rows_into(com, target, jac, error_out, jac_out):
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`com_rows_into` (on-disk cache) once per process, at construction: for a writeable target and for a
+    """Load :func:`_com_rows` (on-disk cache) once per process, at construction: for a writeable target and for a
     read-only one (a :class:`~wbc.gait.WalkPlan` row given to :meth:`ComTask.set_target_trusted`)."""
     frozen = np.zeros(3)
     frozen.flags.writeable = False
     for target in (np.zeros(3), frozen):
-        com_rows_into(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
+        _com_rows(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
 
 
 class ComTask(Task):
@@ -75,13 +75,7 @@ class ComTask(Task):
         return config.com - self._target, config.com_jacobian
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
-        com_rows_into(*self.kernel_operands(config), error_out, jac_out)
-
-    def kernel_operands(self, config: Configuration) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(c (3,) m, c* (3,) m, CoM Jacobian (3, nv)): the arguments of :func:`com_rows_into` before its outputs,
-        for a compiled caller that writes this task's rows itself (Pinocchio's and this task's arrays: read-only
-        use)."""
-        return config.com, self._target, config.com_jacobian
+        _com_rows(config.com, self._target, config.com_jacobian, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff

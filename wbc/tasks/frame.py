@@ -33,7 +33,7 @@ from wbc.geometry import as_se3
 from wbc.tasks.base import Task, as_weight
 
 __all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_error_and_jacobian", "pose_error_and_jacobian",
-           "orientation_drift", "as_se3", "log3_into", "jlog3_into", "placement_log6_into", "frame_rows_log_into"]
+           "orientation_drift", "as_se3", "log3_into", "jlog3_into", "placement_log6_into"]
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -224,7 +224,7 @@ def placement_log6_into(pose, rot, pos, out):
 
 
 @nb.njit(cache=True)  # GIL kept: releasing it costs more than this call's work
-def frame_rows_log_into(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out):
+def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out):
     """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
     instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
     of a half turn, else 0."""
@@ -329,7 +329,7 @@ def _warm_up() -> None:
     e, j = np.empty(6), np.empty((6, 1))
     _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows
     _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
-    frame_rows_log_into(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j)  # orientation rows, compiled log₃
+    _frame_rows_log(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j)  # orientation rows, compiled log₃
     placement_log6_into(np.eye(4, 3), rot, np.zeros(3), np.empty(6))  # a contact's error (Pinocchio's views)
     # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors
     _frame_rows_drift(rot, np.eye(3), np.zeros(3), np.zeros(3), jac, np.zeros(6), np.zeros(6), rows, e, j, np.empty(6))
@@ -488,32 +488,19 @@ class FrameTask(Task):
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
+        data = config.kinematics_data  # its frame placed by getFrameJacobian below
+        views = self._views(data)
+        rot = views[2]
+        j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         if self._has_rot:
-            operands = self.kernel_operands(config)
-            if not frame_rows_log_into(*operands, error_out, jac_out):
+            if not _frame_rows_log(rot, self._target_rot_t, j_local, views[3], self._target_pos, self.rows,
+                                   error_out, jac_out):
                 return
-            rot, j_local, pos = operands[0], operands[2], operands[3]
             rel = self._target_rot_t.dot(rot)  # within Pinocchio's tolerance of a half turn: its log₃
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
         else:
-            data = config.kinematics_data  # its frame placed by getFrameJacobian below
-            j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
-            _, _, rot, pos = self._views(data)
             log, jlog = self._target_pos, rot  # unused (no orientation row): any (3,) and (3, 3) arrays
-        _frame_rows(rot, jlog, j_local, pos, self._target_pos, log, self.rows, error_out, jac_out)
-
-    def kernel_operands(self, config: Configuration) -> tuple | None:
-        """(R (3, 3), R*ᵀ (3, 3), LOCAL Jacobian (6, nv), p (3,) m, p* (3,) m, rows (dim,) int64): the arguments of
-        :func:`frame_rows_log_into` before its outputs, at ``config`` (the frame placed and its Jacobian computed by
-        Pinocchio here), for a compiled caller that writes this task's rows itself; None for a task without an
-        orientation row or a subclass with its own error (its rows come from :meth:`compute_into`). Pinocchio's and
-        this task's arrays: read-only use."""
-        if not self._has_rot or type(self).compute is not FrameTask.compute:
-            return None
-        data = config.kinematics_data  # its frame placed by getFrameJacobian below
-        views = self._views(data)
-        j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
-        return views[2], self._target_rot_t, j_local, views[3], self._target_pos, self.rows
+        _frame_rows(rot, jlog, j_local, views[3], self._target_pos, log, self.rows, error_out, jac_out)
 
     def compute_with_drift_into(self, state, error_out: np.ndarray, jac_out: np.ndarray,
                                 drift_out: np.ndarray) -> None:
