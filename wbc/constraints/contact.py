@@ -34,7 +34,7 @@ def _write_rows(jac, error, scale, A_out, b_out):
             A_out[i, j] = jac[i, j]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.tasks.frame.placement_log6_into`: P = ``pose`` (4, 3),
     M = (``rot``, ``pos``)) in one compiled call, no array allocated. Returns False (nothing written) near a

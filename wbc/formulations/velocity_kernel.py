@@ -620,7 +620,7 @@ def rotation_gap(xa, sa, xb, sb):
     return 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), abs(w))
 
 
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
 def contact_drift(logs, b, starts, factors, lever):
     """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
     i: the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and the drift, the larger of that distance and ``lever``

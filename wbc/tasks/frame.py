@@ -181,7 +181,7 @@ def _row_dot(a, i, b, j):
     return a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def placement_log6_into(pose, rot, pos, out):
     """out (6,) ← log₆(P⁻¹ M) = (linear, angular) of a placement M (``rot`` (3, 3), ``pos`` (3,), world) relative to
     P given as ``pose`` (4, 3) = [R_P; p_Pᵀ] (world): what ``pin.log6(P.actInv(M)).vector`` returns, computed
