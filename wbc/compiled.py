@@ -24,11 +24,16 @@ from typing import Callable, TypeVar
 import numba as nb
 import numpy as np
 
-__all__ = ["FASTMATH", "CHECK_TYPES", "once_per_process", "run_loaders", "set_load_listener", "specialise"]
+__all__ = ["FASTMATH", "NO_NRT", "CHECK_TYPES", "once_per_process", "run_loaders", "set_load_listener", "specialise"]
 
 #: LLVM fast-math flags of the compiled kernels: reassociation (vectorised dot products) and fused multiply-add only;
 #: ±inf bounds stay legitimate input (no "no-inf/no-nan" assumption).
 FASTMATH = {"reassoc", "contract"}  # a set: numba takes a bool, dict or set
+
+#: jit options of the per-tick kernels that allocate no array: numba's reference-counting runtime (NRT) off, so that
+#: an array argument is unboxed without the MemInfo that NRT creates and frees around every call (an allocation in
+#: such a kernel is a compile-time error)
+NO_NRT = {"_nrt": False}
 
 R = TypeVar("R")
 

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process, specialise
+from wbc.compiled import NO_NRT, once_per_process, specialise
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import FLOAT64, ReadOnly, check_vector
 from wbc.robot import Robot
@@ -37,7 +37,7 @@ def _scaled_if_finite(v, dt, out):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def _scaled_matches(v, dt, q, steps):
     """:func:`_scaled_if_finite` into out = steps[:nv] (0: v not finite, out untouched; else out = v dt) that also
     says whether out and q equal, bit for bit, the v·dt and q of a lookahead (ahead = steps[nv:] = [v·dt (nv,),
@@ -55,7 +55,7 @@ def _scaled_matches(v, dt, q, steps):
     return 2
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def _record_ahead(vdt, q, steps):
     """steps[nv:] = [vdt, q] (the ahead part of :func:`_scaled_matches`' array) and True when every entry of vdt
     is finite, else False with steps untouched (compiled: one call for the check and both copies)."""

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
@@ -40,7 +40,7 @@ def _acceleration_bounds(v_prev, a_max, dt, lb, ub):
         ub[j] = v_prev[j] + step
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _intersect_acceleration_bounds(v_prev, a_max, dt, lb, ub, start, box_lb, box_ub):
     """:func:`_acceleration_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) from index
     ``start`` on, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
@@ -54,7 +54,7 @@ def _intersect_acceleration_bounds(v_prev, a_max, dt, lb, ub, start, box_lb, box
         clip_entry_into(box_lb, box_ub, start + j, lo, hi)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _copy_if_finite(v, out):
     """out = v and True when every entry of v is finite, else False with out untouched (compiled: one call instead
     of a finiteness check and a copy)."""

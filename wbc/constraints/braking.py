@@ -22,7 +22,7 @@ import math
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.constraints.limits import bounded_joints, load_limit_kernels
@@ -44,7 +44,7 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
         lb[k] = adt - math.sqrt(adt * adt + 2.0 * a * down)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_lb, box_ub):
     """:func:`_braking_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) at the velocity
     indices ``idx_v``, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),

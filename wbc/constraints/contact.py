@@ -15,7 +15,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
@@ -34,7 +34,7 @@ def _write_rows(jac, error, scale, A_out, b_out):
             A_out[i, j] = jac[i, j]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.tasks.frame.placement_log6_into`: P = ``pose`` (4, 3),
     M = (``rot``, ``pos``)) in one compiled call, no array allocated. Returns False (nothing written) near a
@@ -48,7 +48,7 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
     """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
     … ``rb + 6`` of A (m, nv) and b (m,). Returns False near a half-turn error of either (the second's rows then not

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
@@ -44,7 +44,7 @@ def _position_bounds(q, idx_q, q_min, q_max, v_max, neg_v_max, dt, lb, ub):
         ub[k] = max((q_max[k] - qk) / dt, neg_v_max[k])
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def intersect_position_bounds(q, idx, limits, dt, lb, ub):
     """The velocity bounds of :class:`JointPositionLimit` (module docstring) intersected with a running box, in place
     (compiled): for each bounded joint k, lo = min((q_min − q)/dt, v_max), hi = max((q_max − q)/dt, −v_max), and at

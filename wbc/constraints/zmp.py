@@ -54,7 +54,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration
 from wbc.constants import GRAVITY
 from wbc.constraints.base import InequalityConstraint
@@ -76,7 +76,7 @@ _EDGES = _SCRATCH + 1
 _PARAMS = _EDGES + 3
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
     """:meth:`ExecutedZmpConstraint.compute` in one compiled call: keep this tick's CoM c, CoM Jacobian J and
     (use_momentum) the angular rows of the centroidal map Ag (6, nv) in slot ``now`` of the memory W; then, when the

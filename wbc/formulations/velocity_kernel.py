@@ -25,7 +25,7 @@ import time
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH, once_per_process
+from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
@@ -499,7 +499,7 @@ def _unpack_rows(sfb, sib):
             sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
 
 
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
 def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt, tolerance, max_iter, q, box_idx,
                           box_limits, const_box):
     """The compiled tick in one call: the box, when ``const_box`` is (2, nv): lb, ub ← its rows (the intersection of
@@ -620,7 +620,7 @@ def rotation_gap(xa, sa, xb, sb):
     return 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), abs(w))
 
 
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
 def contact_drift(logs, b, starts, factors, lever):
     """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
     i: the distance ‖t(exp(e⁺_i)) − t(exp(f_i b_i))‖ and the drift, the larger of that distance and ``lever``
@@ -649,7 +649,7 @@ def _contact_gaps(log, b_rows, factor, lever, far, worst):
     return far, worst
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
                        lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of

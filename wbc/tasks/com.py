@@ -7,7 +7,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
@@ -15,7 +15,7 @@ from wbc.tasks.base import Task, ValidatedAttribute
 __all__ = ["ComTask"]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def _com_rows(com, target, jac, error_out, jac_out):
     """error_out = com − target, jac_out = jac (one compiled call instead of two numpy ones)."""
     for i in range(jac.shape[0]):

@@ -26,7 +26,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
 from wbc.geometry import as_se3
@@ -181,7 +181,7 @@ def _row_dot(a, i, b, j):
     return a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, **NO_NRT)
 def placement_log6_into(pose, rot, pos, out):
     """out (6,) ← log₆(P⁻¹ M) = (linear, angular) of a placement M (``rot`` (3, 3), ``pos`` (3,), world) relative to
     P given as ``pose`` (4, 3) = [R_P; p_Pᵀ] (world): what ``pin.log6(P.actInv(M)).vector`` returns, computed
@@ -223,16 +223,15 @@ def placement_log6_into(pose, rot, pos, out):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
-def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out):
-    """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`)
-    instead of by three calls into Pinocchio's bindings. Returns 1 (nothing written) within Pinocchio's tolerance
-    of a half turn, else 0."""
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
+def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out, scratch):
+    """:func:`_frame_rows` with log₃(R*ᵀR) and Jlog₃ computed here (:func:`log3_into`, :func:`jlog3_into`, into
+    ``scratch`` (12,) float64, overwritten) instead of by three calls into Pinocchio's bindings. Returns 1 (nothing
+    written) within Pinocchio's tolerance of a half turn, else 0."""
     # the first two columns of rel = R*ᵀ R (what log₃ reads; scalars: no (3, 3) array allocated)
     t = target_rot_t
     r00, r10, r20 = _row_dot(t, 0, rot, 0), _row_dot(t, 1, rot, 0), _row_dot(t, 2, rot, 0)
     r01, r11, r21 = _row_dot(t, 0, rot, 1), _row_dot(t, 1, rot, 1), _row_dot(t, 2, rot, 1)
-    scratch = np.empty(12)  # log (3,) and Jlog₃ (3, 3): one allocation
     log, jlog = scratch[:3], scratch[3:].reshape((3, 3))
     theta = _log3_columns(r00, r10, r20, r01, r11, r21, log)
     if theta < 0.0:
@@ -329,7 +328,7 @@ def _warm_up() -> None:
     e, j = np.empty(6), np.empty((6, 1))
     _frame_rows(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), np.zeros(3), rows, e, j)  # pose rows
     _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
-    _frame_rows_log(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j)  # orientation rows, compiled log₃
+    _frame_rows_log(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j, np.empty(12))  # compiled log₃
     placement_log6_into(np.eye(4, 3), rot, np.zeros(3), np.empty(6))  # a contact's error (Pinocchio's views)
     # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors
     _frame_rows_drift(rot, np.eye(3), np.zeros(3), np.zeros(3), jac, np.zeros(6), np.zeros(6), rows, e, j, np.empty(6))
@@ -374,6 +373,7 @@ class FrameTask(Task):
         self.target = pin.SE3.Identity()
         self._ff6 = np.zeros(6)
         self._drift6 = np.empty(6)
+        self._log_scratch = np.empty(12)  # log₃ and Jlog₃ of compute_into (_frame_rows_log)
         self._ff: np.ndarray | None = None
         self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
         self._oMf_other: tuple | None = None  # the same for the Data read before it
@@ -494,7 +494,7 @@ class FrameTask(Task):
         j_local = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
         if self._has_rot:
             if not _frame_rows_log(rot, self._target_rot_t, j_local, views[3], self._target_pos, self.rows,
-                                   error_out, jac_out):
+                                   error_out, jac_out, self._log_scratch):
                 return
             rel = self._target_rot_t.dot(rot)  # within Pinocchio's tolerance of a half turn: its log₃
             log, jlog = pin.log3(rel), pin.Jlog3(rel)
