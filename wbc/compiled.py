@@ -121,6 +121,12 @@ def specialise(kernel, *args) -> Callable:
 
     Returns:
         The compiled function, called with arguments of the same types as ``args``.
+
+    Raises:
+        AttributeError: ``kernel`` is not a numba dispatcher (it has no ``compile``).
+        numba.core.errors.TypingError: the kernel does not compile for these argument types (as a call would).
+        TypeError: (from the returned function) an array argument of another dtype; with :data:`CHECK_TYPES`, any
+            array argument of another numba type, or another number of arguments.
     """
     types = tuple(nb.typeof(a) for a in args)
     entry = kernel.compile(types)
