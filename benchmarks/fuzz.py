@@ -26,7 +26,10 @@ ok tick is the distance between where the sole ends and where its contact row se
 with exp((1 − K dt) e), e the sole's 6-D error before the tick: the commanded drift correction is not drift);
 "tick displacement" is the sole's whole motion over the tick (drift + commanded correction, reported for
 information). The last lines print every acceptance item of issue 8 with its measured value and PASS/FAIL, and
-the (seed, episode, tick) of every tick that broke one (first 20 of each kind).
+the (seed, episode, tick) of every tick that broke one (first 20 of each kind). Each slow tick's record carries what
+ran beside it (``fuzz_common.TickProbe``: collections, page faults, switches, and a fixed-work canary timed just
+before and after it, as a ratio to its median: the machine's speed at that moment); the ticks over 2 x their
+budget with a canary over 1.5 x are counted on an info line.
 
 Start-up: each process (a ``--jobs`` worker, or the main process) runs a warm-up before its first chunk: one episode
 of ``WARMUP_TICKS`` ticks per robot and per kind (weighted, strict), from its own seed (``WARMUP_SEED``: the chunks'
@@ -61,7 +64,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
 from fuzz_common import (acceptance_verdict, coincident_stalls, collect_between_episodes, freeze_after_first,  # noqa: E402
-                         highs_feasible, tick_probe)
+                         highs_feasible, slow_canary_ticks, tick_probe)
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -484,6 +487,9 @@ def report(total: dict) -> str:
     stalls = coincident_stalls(total.get("worst_ticks", []))
     lines.append(f"info: ticks over 2 x budget that overlap a slow tick of another process in wall-clock time (a "
                  f"stall of the machine): {len(stalls)} of {total['tick_cpu_over_2x_budget']}")
+    slow = slow_canary_ticks(total.get("worst_ticks", []))
+    lines.append(f"info: ticks over 2 x budget beside a slow machine (a canary before or after the tick over 1.5 x its "
+                 f"median, fuzz_common.TickProbe): {len(slow)} of {total['tick_cpu_over_2x_budget']}")
     lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():
         for e in evs:

@@ -15,6 +15,7 @@ import warnings
 from pathlib import Path
 from typing import Callable
 
+import numba
 import numpy as np
 import scipy.optimize
 
@@ -92,16 +93,40 @@ def collect_between_episodes() -> None:
     gc.collect()
 
 
+@numba.njit(cache=True)
+def _canary_work(buf: np.ndarray, rounds: int) -> float:
+    """A fixed amount of work: ``rounds`` passes of a dependent multiply-add chain over ``buf`` (L1-resident)."""
+    s = 0.0
+    for _ in range(rounds):
+        for i in range(buf.shape[0]):
+            s = s * 0.999999 + buf[i]
+    return s
+
+
 class TickProbe:
     """What a measured tick contained besides its own work, to attribute a slow tick: the garbage collections that
-    ran inside it (``gc.callbacks``: generation, thread CPU time) and the thread's resource usage over it
+    ran inside it (``gc.callbacks``: generation, thread CPU time), the thread's resource usage over it
     (``getrusage(RUSAGE_THREAD)``: user and system CPU time, minor and major page faults, voluntary and involuntary
-    context switches). ``start()`` before the tick, ``stop()`` after it (outside the tick's own timing)."""
+    context switches), and the machine's speed next to it: a canary, the same fixed work (:func:`_canary_work`,
+    about 8 us) timed by ``time.thread_time`` just before the tick (after an untimed run that warms its code and data) and just after it, as a ratio to the canary's median
+    over this process's previous ``CANARY_WINDOW`` ticks. A canary that runs slow beside a slow tick says the
+    machine ran slow then (the CPU time a VM's host takes without reporting it as steal, another tenant on the
+    core); a normal canary says nothing about the tick's inside. ``start()`` before the tick, ``stop()`` after it
+    (outside the tick's own timing)."""
+
+    CANARY_WINDOW = 1024
+    CANARY_ROUNDS = 48  # over 128 values (1 kB), about 8 us
 
     def __init__(self):
         self._gc: list = []
         self._gc_t0 = 0.0
         self._r0 = None
+        self._canary_buf = np.linspace(0.0, 1.0, 128)
+        self._canary = np.zeros(self.CANARY_WINDOW)
+        self._canary_n = 0
+        self._canary_ref = 0.0
+        self._canary_before = 0.0
+        _canary_work(self._canary_buf, self.CANARY_ROUNDS)  # compiled before any timing
         gc.callbacks.append(self._on_gc)
 
     def _on_gc(self, phase: str, info: dict) -> None:
@@ -110,17 +135,49 @@ class TickProbe:
         else:
             self._gc.append((info["generation"], time.thread_time() - self._gc_t0))
 
+    def _time_canary(self) -> float:
+        """One canary's thread CPU time (s), kept in the window; the reference median is renewed after the
+        first 64 and each time the window fills."""
+        t = time.thread_time()
+        _canary_work(self._canary_buf, self.CANARY_ROUNDS)
+        t = time.thread_time() - t
+        self._canary[self._canary_n % self.CANARY_WINDOW] = t
+        self._canary_n += 1
+        if self._canary_n % self.CANARY_WINDOW == 0 or self._canary_n == 64 or self._canary_ref == 0.0:
+            self._canary_ref = float(np.median(self._canary[:min(self._canary_n, self.CANARY_WINDOW)]))
+        return t
+
     def start(self) -> None:
+        _canary_work(self._canary_buf, self.CANARY_ROUNDS)  # warms the canary's code and data after the harness's work
+        self._canary_before = self._time_canary()
         self._gc.clear()
         self._r0 = resource.getrusage(resource.RUSAGE_THREAD)
 
     def stop(self) -> str:
-        """The tick's attribution: "user U ms sys S ms minflt F majflt J csw V/I gc [gen: ms, ...]"."""
+        """The tick's attribution: "user U ms sys S ms minflt F majflt J csw V/I gc [gen: ms, ...] canary B/A x"
+        (B, A: the canaries before and after the tick over their median)."""
         r0, r = self._r0, resource.getrusage(resource.RUSAGE_THREAD)
+        after = self._time_canary()
+        ref = self._canary_ref
         gcs = ", ".join(f"{g}: {1e3 * t:.2f} ms" for g, t in self._gc) or "none"
         return (f"user {1e3 * (r.ru_utime - r0.ru_utime):.2f} ms sys {1e3 * (r.ru_stime - r0.ru_stime):.2f} ms "
                 f"minflt {r.ru_minflt - r0.ru_minflt} majflt {r.ru_majflt - r0.ru_majflt} "
-                f"csw {r.ru_nvcsw - r0.ru_nvcsw}/{r.ru_nivcsw - r0.ru_nivcsw} gc [{gcs}]")
+                f"csw {r.ru_nvcsw - r0.ru_nvcsw}/{r.ru_nivcsw - r0.ru_nivcsw} gc [{gcs}] "
+                f"canary {self._canary_before / ref:.2f}/{after / ref:.2f} x")
+
+
+def slow_canary_ticks(worst: list[tuple[float, str]], over: float = 2.0, slow: float = 1.5) -> list[str]:
+    """The slow ticks (ratio > ``over`` of their budget) with a canary (:class:`TickProbe`) before or after them
+    at more than ``slow`` times its median: the machine ran slow beside the tick. ``worst``: (ratio, "… canary B/A
+    x") records of the harnesses' slowest ticks."""
+    import re
+
+    out = []
+    for ratio, where in worst:
+        m = re.search(r"canary ([0-9.]+)/([0-9.]+) x", where)
+        if ratio > over and m and max(float(m.group(1)), float(m.group(2))) > slow:
+            out.append(where)
+    return out
 
 
 def coincident_stalls(worst: list[tuple[float, str]], over: float = 2.0, within: float = 0.002) -> list[str]:

@@ -19,9 +19,10 @@ p50/p99/max, against the budget (the control period); the route and path each ti
 route outside ``wbc.tick.ID_ROUTES`` fails the run).
 
 Each slow tick is printed with the work the controller counted in it (``InverseDynamicsQP.tick_work``, in budgets)
-and what else it contained (garbage collections, page faults, context switches: ``fuzz_common.TickProbe``); an info
-line counts the ticks over 2 x budget whose wall-clock interval overlaps a slow tick of the other process (a stall of
-the machine, ``fuzz_common.coincident_stalls``). Before its first measured tick every process runs a warm-up, printed
+and what else it contained (garbage collections, page faults, context switches, and a fixed-work canary timed just
+before and after it as a ratio to its median: ``fuzz_common.TickProbe``); info lines count the ticks over 2 x budget
+whose wall-clock interval overlaps a slow tick of the other process (a stall of the machine,
+``fuzz_common.coincident_stalls``) and those with a canary over 1.5 x (``fuzz_common.slow_canary_ticks``). Before its first measured tick every process runs a warm-up, printed
 and not counted: ``WARMUP_TICKS`` ticks of episodes drawn from ``WARMUP_SEED`` (the process's one-time costs — page
 faults of the first allocations, the compiled kernels' first calls, the solvers' first set-ups — land there, as they
 would in a real-time loop's start-up rather than in its ticks).
@@ -47,7 +48,7 @@ import pinocchio as pin  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import random_configuration  # noqa: E402
-from fuzz_common import (acceptance_verdict, chunk_arguments, coincident_stalls,  # noqa: E402
+from fuzz_common import (acceptance_verdict, chunk_arguments, coincident_stalls, slow_canary_ticks,  # noqa: E402
                          collect_between_episodes, freeze_after_first, highs_feasible, load_robots, run_chunks,
                          tick_probe)
 from wbc.constants import SIDES  # noqa: E402
@@ -346,6 +347,9 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
     lines.append(f"info: ticks over 2 x budget that overlap a slow tick of another process in wall-clock time (a stall "
                  f"of the machine): {len(stalls)} of {int(np.sum(cpu > 2 * budget))}" + "".join(
                      f"\n  stall: {w}" for w in stalls))
+    slow = slow_canary_ticks([(t_cpu / budget, where) for t_cpu, where in total.get("worst_ticks", [])])
+    lines.append(f"info: ticks over 2 x budget beside a slow machine (a canary before or after the tick over 1.5 x its "
+                 f"median, fuzz_common.TickProbe): {len(slow)} of {int(np.sum(cpu > 2 * budget))}")
     lines += total.get("warmup", []) or ["no warm-up recorded in these chunks"]
     lines += [f"ACCEPTANCE {'PASS' if ok else 'FAIL'}: {what}: {value}" for what, value, ok in items]
     lines.append(acceptance_verdict(items))
