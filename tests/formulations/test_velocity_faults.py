@@ -22,7 +22,7 @@ import scipy.optimize
 from conftest import dense_quadprog, fuzz_episode, hand_over_posture, highs_feasible, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints.limits import JointPositionLimit, bounded_joints
-from wbc.exceptions import ConfigurationError, InvalidInputError, WbcError
+from wbc.exceptions import ConfigurationError, InfeasibleProblemError, InvalidInputError, SolverError, WbcError
 
 DT = 0.002
 
@@ -984,3 +984,71 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
     soles = _soles_at(model, ctrl.constraints[:2])(q1)
     for target, sole in zip(sent, soles):
         assert np.linalg.norm(sole - target) <= 5e-5
+
+
+def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documented_safe_commands(robots):
+    """The held command of a failed tick past its count (``_solve_uncapped`` at β = 0, bounded: each DAQP call of
+    the fallback backend at most ``HELD_ITERATIONS`` iterations) run to that limit. Kinematic fuzz seed 100014,
+    episode 175, tick 4 (the tick of ``test_a_failed_tick_past_its_count_takes_the_held_command_first``: its held QP
+    converges in 15 DAQP iterations, 'contacts_held'), with ``HELD_ITERATIONS`` = 5 on the instance: every DAQP call
+    of that solve stops at 5 iterations and the solve fails (the QP is feasible: HiGHS's LP of its hard set, and
+    quadprog solves it), so, as the module docstring orders it, 'constraints_only' is tried after it (its drift too
+    large here) and the tick holds: path 'fallback:hold', v = 0, the message names the β = 0 failure. Oracles: the
+    spied DAQP calls' iteration counts and flags, HiGHS, quadprog. The held solve's failure, which no independent
+    solver confirmed, is a SolverError, not an InfeasibleProblemError (on bdc0e1e it was one, "infeasibility
+    confirmed by no independent solver installed", on this feasible QP)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 175)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    for _ in range(4):
+        assert ctrl.solve(config, dt).ok
+        config.update(config.integrate(ctrl.last_result.v, dt))
+    ctrl.HELD_ITERATIONS = 5
+    held, safe_calls = [], []  # per _solve_uncapped call: (bounded, QPs solved, DAQP's state after, error)
+    solve_uncapped, safe_constraints_only = ctrl._solve_uncapped, ctrl._safe_constraints_only
+
+    def uncapped_spy(config_, bounded=False):
+        backend = ctrl._fallback_backend
+        qps, solve = [], backend.solve
+
+        def solve_spy(*qp, **kw):
+            qps.append([np.array(x, copy=True) for x in qp])
+            return solve(*qp, **kw)
+
+        backend.solve = solve_spy
+        error = None
+        try:
+            return solve_uncapped(config_, bounded)
+        except Exception as exc:
+            error = exc
+            raise
+        finally:
+            del backend.solve
+            held.append((bounded, qps, backend.iterations_capped, backend.last_iterations, backend.call_iterations,
+                         error))
+
+    def safe_spy(*args):
+        out = safe_constraints_only(*args)
+        safe_calls.append((len(held), out[1]))
+        return out
+
+    ctrl._solve_uncapped, ctrl._safe_constraints_only = uncapped_spy, safe_spy
+    res = ctrl.solve(config, dt)
+    print(f"\ntick 4: {res.path}; held solves {[(b, len(q), c, it, e) for b, q, c, it, _, e in held]}; "
+          f"constraints_only {safe_calls}; {res.message[-400:]}")
+    assert len(held) == 1
+    bounded, qps, capped, iterations, call_iterations, error = held[0]
+    assert bounded and error is not None  # the held command's bounded solve failed ...
+    assert capped and iterations == 5  # ... its DAQP call stopped at the instance's limit (DAQP's own count)
+    assert call_iterations is None  # the limit restored after the call
+    assert len(qps) == 1 and highs_feasible(*qps[0][2:])  # ... on a QP with a solution
+    # a failure that no independent solver was asked to confirm (``_recover`` empties ``independent`` for it) is not
+    # reported as infeasibility (it was: "infeasibility confirmed by no independent solver installed")
+    assert isinstance(error, SolverError) and not isinstance(error, InfeasibleProblemError), repr(error)
+    x = dense_quadprog(*qps[0])
+    assert np.isfinite(x).all()
+    # the documented order: 'constraints_only' after the held command (not taken here), then hold
+    assert safe_calls == [(1, "hold")]
+    assert not res.ok and res.fallback == "hold" and res.path == "fallback:hold", (res.path, res.message)
+    assert "contacts_held not taken" in res.message and "β = 0: " in res.message
+    assert "diagnosis skipped: tick budget spent" in res.message  # failed past its count (held first)
+    assert np.isfinite(res.v).all() and not np.any(res.v)
