@@ -139,15 +139,17 @@ def bound_violations(robot, data, ctrl, q, v, cmd, bounds, effort) -> list[str]:
 
 
 def warm_up(solver: str, episode: int, clock_guard: bool) -> str:
-    """The process's warm-up (module docstring), run once per process: its line ("warm-up of process P: …"), printed
-    by the caller and kept in each chunk's result (``warmup``)."""
-    if not _WARMED:
-        w = run_chunk(WARMUP_TICKS, WARMUP_SEED, solver=solver, episode=episode, clock_guard=clock_guard,
-                      warm=False, quiet=True)
-        cpu = np.array(w["cpu"])
-        _WARMED.append(f"warm-up of process {os.getpid()} (not counted): {w['ticks']} ticks of seed {WARMUP_SEED}, "
-                       f"paths {w['paths']}, tick CPU p50 {1e3 * np.median(cpu):.3f} ms, max {1e3 * cpu.max():.3f} ms "
-                       f"(first tick {1e3 * cpu[0]:.3f} ms)")
+    """The process's warm-up (module docstring), run once per process: its line ("warm-up of process P: …") when it
+    ran in this call, printed by the caller and kept in that chunk's result (``warmup``); '' on the process's later
+    calls (the line is printed and reported once per process)."""
+    if _WARMED:
+        return ""
+    w = run_chunk(WARMUP_TICKS, WARMUP_SEED, solver=solver, episode=episode, clock_guard=clock_guard,
+                  warm=False, quiet=True)
+    cpu = np.array(w["cpu"])
+    _WARMED.append(f"warm-up of process {os.getpid()} (not counted): {w['ticks']} ticks of seed {WARMUP_SEED}, "
+                   f"paths {w['paths']}, tick CPU p50 {1e3 * np.median(cpu):.3f} ms, max {1e3 * cpu.max():.3f} ms "
+                   f"(first tick {1e3 * cpu[0]:.3f} ms)")
     return _WARMED[0]
 
 

@@ -19,10 +19,10 @@ import pinocchio as pin
 import pytest
 import scipy.optimize
 
-from conftest import fuzz_episode, hand_over_posture, standing_controller
+from conftest import dense_quadprog, fuzz_episode, hand_over_posture, highs_feasible, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints.limits import JointPositionLimit, bounded_joints
-from wbc.exceptions import ConfigurationError, InvalidInputError, WbcError
+from wbc.exceptions import ConfigurationError, InfeasibleProblemError, InvalidInputError, SolverError, WbcError
 
 DT = 0.002
 
@@ -898,3 +898,157 @@ def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(ro
     assert not res.ok and res.fallback == "contacts_held" and "diagnosis skipped: tick budget spent" in res.message
     after = soles(pin.integrate(model, config.q, res.v * dt))
     assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
+
+
+def _quadprog_independent_rows(H, g, A, b, C, l, u, lb, ub, rtol: float = 1e-5) -> tuple[np.ndarray, float]:
+    """(quadprog's optimum of the QP, its equality rows' residual): the equality rows reduced to an independent
+    subset first (scipy's pivoted QR of Aᵀ, rank at ``rtol`` of the largest pivot: quadprog declares nearly
+    dependent rows inconsistent), the residual of every row (dropped ones too) at that optimum (max-norm)."""
+    import scipy.linalg
+
+    _, R, piv = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    keep = np.sort(piv[:int(np.sum(d > rtol * d[0]))])
+    x = dense_quadprog(H, g, A[keep], b[keep], C, l, u, lb, ub)
+    return x, float(np.max(np.abs(A @ x - b)))
+
+
+def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighted_optimum(robots):
+    """Kinematic fuzz seed 550001, episode 281, tick 7 of the fuzz's run with ``--dts 0.002,0.005,0.01,0.02
+    --past-limits 0.2`` (humanoid15, a reachable hand target, strict levels {0: CoM, 1: posture + frame}, dt = 2 ms,
+    no joint past its limits, the fuzz's budget of 8 counted solves): the strict cascade fails (the two soles' dependent
+    contact rows ask contradictory corrections: the hard set is empty, HiGHS's LP), after spending the count; its
+    least-squares retry of the contact rows is answered by the weighted form of the levels (one QP) and succeeds, with
+    no relaxation and no return rate: path 'levels+budget+weighted' (the route that 'levels+return_rate+budget+weighted'
+    of the test above shares up to the relaxations). Oracles: the retry's hard set is non-empty (HiGHS); the command
+    is the optimum of the weighted QP the retry solved (quadprog on the same cost, constraints and bounds, to 1e-6 of
+    its size); finite; within the model's joint velocity limits; no joint leaves its position range (the model's
+    limits); each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward
+    kinematics on its own Data)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550001, 281, dts=(0.002, 0.005, 0.01, 0.02),
+                                                        past_limits=0.2)
+    assert (name, kind, strict, dt) == ("humanoid15", "reachable", True, 0.002)
+    model = ctrl.robot.model
+    iq, _ = bounded_joints(model)
+    lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+    for _ in range(7):
+        res = ctrl.solve(config, dt)
+        assert res.ok and res.path == "levels", (res.path, res.message)
+        config.update(config.integrate(res.v, dt))
+    assert np.all((config.q[iq] >= lo) & (config.q[iq] <= hi))
+    cascades, flats = [], []  # the QPs the tick solved: strict cascades, single weighted QPs
+    solve_levels, solve_flat = ctrl._solve_levels, ctrl._solve_flat
+
+    def levels_spy(config_, *qp):
+        cascades.append([np.array(x, copy=True) for x in qp])
+        return solve_levels(config_, *qp)
+
+    def flat_spy(*qp):
+        v = solve_flat(*qp)
+        flats.append(([np.array(x, copy=True) for x in qp], v.copy()))
+        return v
+
+    ctrl._solve_levels, ctrl._solve_flat = levels_spy, flat_spy
+    sent = []
+    for c in ctrl.constraints[:2]:
+        e = pin.log6(c.placement.actInv(config.frame_placement(c.frame_id))).vector
+        sent.append((c.placement * pin.exp6(e * (1.0 - min(c.gain, 1.0 / dt) * dt))).translation)
+    res = ctrl.solve(config, dt)
+    print(f"\ntick 7: {res.path} ok={res.ok}; relaxed {res.relaxed}; {len(cascades)} cascade(s), {len(flats)} weighted "
+          f"QP(s); {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:200]}")
+    assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
+    assert not res.path.return_rate and res.relaxed == []
+    assert "priority levels of the retries" in res.message  # the retry answered by the weighted form
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 2 * 8
+    # the route: the strict cascade (its hard set empty), then the retry (its contact rows made consistent), which
+    # the levels' solve hands to one weighted QP (its hard set not empty) whose optimum is the command
+    assert len(cascades) == 2 and len(flats) == 1
+    assert not highs_feasible(*cascades[0][2:])
+    (qp, v_retry) = flats[0]
+    assert highs_feasible(*qp[2:])
+    np.testing.assert_array_equal(res.v, v_retry)  # (the contact correction kept it: no re-solve)
+    x, residual = _quadprog_independent_rows(*qp)
+    H, g = qp[0], qp[1]
+    scale = max(1.0, float(np.abs(x).max()))
+    print(f"quadprog: equality residual {residual:.3g}, command's {np.max(np.abs(qp[2] @ res.v - qp[3])):.3g}, "
+          f"|v - x| {np.max(np.abs(res.v - x)):.3g}, |x| {np.abs(x).max():.3g}")
+    assert residual <= 1e-5 * scale  # the dropped row is met as far as its dependence allows
+    assert np.max(np.abs(res.v - x)) <= 1e-8 * scale
+    cost = lambda z: 0.5 * z @ H @ z + g @ z  # noqa: E731
+    assert cost(res.v) <= cost(x) + 1e-9 * max(1.0, abs(cost(x)))
+    # safe: finite, within the velocity limits and position range, the soles where their rows send them
+    assert np.isfinite(res.v).all()
+    assert np.all(np.abs(res.v[6:]) <= model.velocityLimit[6:] * (1.0 + 1e-9))
+    q1 = pin.integrate(model, config.q, res.v * dt)
+    assert np.all((q1[iq] >= lo - 1e-9) & (q1[iq] <= hi + 1e-9))
+    soles = _soles_at(model, ctrl.constraints[:2])(q1)
+    for target, sole in zip(sent, soles):
+        assert np.linalg.norm(sole - target) <= 5e-5
+
+
+def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documented_safe_commands(robots):
+    """The held command of a failed tick past its count (``_solve_uncapped`` at β = 0, bounded: each DAQP call of
+    the fallback backend at most ``HELD_ITERATIONS`` iterations) run to that limit. Kinematic fuzz seed 100014,
+    episode 175, tick 4 (the tick of ``test_a_failed_tick_past_its_count_takes_the_held_command_first``: its held QP
+    converges in 15 DAQP iterations, 'contacts_held'), with ``HELD_ITERATIONS`` = 5 on the instance: every DAQP call
+    of that solve stops at 5 iterations and the solve fails (the QP is feasible: HiGHS's LP of its hard set, and
+    quadprog solves it), so, as the module docstring orders it, 'constraints_only' is tried after it (its drift too
+    large here) and the tick holds: path 'fallback:hold', v = 0, the message names the β = 0 failure. Oracles: the
+    spied DAQP calls' iteration counts and flags, HiGHS, quadprog. The held solve's failure, which no independent
+    solver confirmed, is a SolverError, not an InfeasibleProblemError (on bdc0e1e it was one, "infeasibility
+    confirmed by no independent solver installed", on this feasible QP)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 175)
+    assert (name, kind, strict) == ("humanoid15", "far", True)
+    for _ in range(4):
+        assert ctrl.solve(config, dt).ok
+        config.update(config.integrate(ctrl.last_result.v, dt))
+    ctrl.HELD_ITERATIONS = 5
+    held, safe_calls = [], []  # per _solve_uncapped call: (bounded, QPs solved, DAQP's state after, error)
+    solve_uncapped, safe_constraints_only = ctrl._solve_uncapped, ctrl._safe_constraints_only
+
+    def uncapped_spy(config_, bounded=False):
+        backend = ctrl._fallback_backend
+        qps, solve = [], backend.solve
+
+        def solve_spy(*qp, **kw):
+            qps.append([np.array(x, copy=True) for x in qp])
+            return solve(*qp, **kw)
+
+        backend.solve = solve_spy
+        error = None
+        try:
+            return solve_uncapped(config_, bounded)
+        except Exception as exc:
+            error = exc
+            raise
+        finally:
+            del backend.solve
+            held.append((bounded, qps, backend.iterations_capped, backend.last_iterations, backend.call_iterations,
+                         error))
+
+    def safe_spy(*args):
+        out = safe_constraints_only(*args)
+        safe_calls.append((len(held), out[1]))
+        return out
+
+    ctrl._solve_uncapped, ctrl._safe_constraints_only = uncapped_spy, safe_spy
+    res = ctrl.solve(config, dt)
+    print(f"\ntick 4: {res.path}; held solves {[(b, len(q), c, it, e) for b, q, c, it, _, e in held]}; "
+          f"constraints_only {safe_calls}; {res.message[-400:]}")
+    assert len(held) == 1
+    bounded, qps, capped, iterations, call_iterations, error = held[0]
+    assert bounded and error is not None  # the held command's bounded solve failed ...
+    assert capped and iterations == 5  # ... its DAQP call stopped at the instance's limit (DAQP's own count)
+    assert call_iterations is None  # the limit restored after the call
+    assert len(qps) == 1 and highs_feasible(*qps[0][2:])  # ... on a QP with a solution
+    # a failure that no independent solver was asked to confirm (``_recover`` empties ``independent`` for it) is not
+    # reported as infeasibility (it was: "infeasibility confirmed by no independent solver installed")
+    assert isinstance(error, SolverError) and not isinstance(error, InfeasibleProblemError), repr(error)
+    x = dense_quadprog(*qps[0])
+    assert np.isfinite(x).all()
+    # the documented order: 'constraints_only' after the held command (not taken here), then hold
+    assert safe_calls == [(1, "hold")]
+    assert not res.ok and res.fallback == "hold" and res.path == "fallback:hold", (res.path, res.message)
+    assert "contacts_held not taken" in res.message and "β = 0: " in res.message
+    assert "diagnosis skipped: tick budget spent" in res.message  # failed past its count (held first)
+    assert np.isfinite(res.v).all() and not np.any(res.v)

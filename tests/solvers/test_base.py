@@ -52,6 +52,13 @@ def test_infeasible_qp_is_confirmed_and_reports_tested_norm():
     with pytest.raises(SolverError, match="not confirmed") as info:
         backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10, confirm=False)
     assert not isinstance(info.value, InfeasibleProblemError)
+    # no independent solver asked (``independent`` empty, as the controllers' relaxation ladders and held command
+    # set it): unconfirmed too (it was an InfeasibleProblemError "confirmed by no independent solver installed")
+    backend.independent = ()
+    with pytest.raises(SolverError, match="not confirmed") as info:
+        backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
+    assert not isinstance(info.value, InfeasibleProblemError)
+    assert backend.last_confirmation.startswith("nobody")
 
 
 def test_failed_backend_rescued_by_independent_solver():

@@ -213,6 +213,8 @@ class QPBackend(ABC):
         Raises:
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
+                It is an InfeasibleProblemError only when ``confirm`` is True and ``independent`` names solvers to
+                ask (empty ``independent``: unconfirmed, as with ``confirm=False``).
         """
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
         # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
@@ -245,7 +247,7 @@ class QPBackend(ABC):
         what = ("found no solution" if not math.isfinite(worst) else
                 f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
                 f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
-        if confirm:
+        if confirm and self.independent:  # (none asked: unconfirmed, as with confirm=False)
             raise InfeasibleProblemError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
         raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
 
@@ -366,7 +368,8 @@ class QPBackend(ABC):
                     xp = self.polish(x, A, b, C, l, u, lb, ub)
                     if xp is not None:
                         return xp, ""
-        return None, ", ".join(tried) or "no independent solver installed"
+        return None, ", ".join(tried) or ("no independent solver installed" if self.independent else
+                                          "nobody (no independent solver asked: ``independent`` is empty)")
 
     @staticmethod
     def scaled_violation(x, xc, A, b, C, l, u, lb=None, ub=None) -> float:
