@@ -10,6 +10,7 @@ import scipy.optimize
 
 from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
+from wbc.solvers.base import TickWork
 
 
 class _Offset(DaqpBackend):
@@ -59,6 +60,18 @@ def test_infeasible_qp_is_confirmed_and_reports_tested_norm():
         backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
     assert not isinstance(info.value, InfeasibleProblemError)
     assert backend.last_confirmation.startswith("nobody")
+    # the tick's count spent before the first independent solver could run: unconfirmed as well (it was an
+    # InfeasibleProblemError "confirmed by no independent solver (tick budget spent: infeasibility not confirmed)")
+    backend.independent = ("proxqp", "quadprog")
+    backend.work = TickWork(cap=1.0)
+    with pytest.raises(SolverError, match="not confirmed") as info:
+        backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
+    assert not isinstance(info.value, InfeasibleProblemError)
+    assert "budget spent" in backend.last_confirmation and backend.last_confirmers == []
+    # within the count, proxqp runs and fails too: confirmed
+    backend.work = TickWork()
+    with pytest.raises(InfeasibleProblemError, match="confirmed by proxqp"):
+        backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
 
 
 def test_failed_backend_rescued_by_independent_solver():

@@ -183,6 +183,8 @@ class QPBackend(ABC):
     rescues: int = 0
     #: how the last failure was confirmed ('' until one): the independent solvers that also found no solution.
     last_confirmation: str = ""
+    #: the independent solvers that ran in the last :meth:`confirm` (names; empty when none ran)
+    last_confirmers: tuple | list = ()
     #: the counted work of the current control tick (:class:`TickWork`, shared by a controller's backends), or None:
     #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
     #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
@@ -213,8 +215,9 @@ class QPBackend(ABC):
         Raises:
             SolverError: no backend found an x meeting every row to tolerance; the message gives the largest
                 scaled row violation (the number that was tested) and the independent solvers that confirmed.
-                It is an InfeasibleProblemError only when ``confirm`` is True and ``independent`` names solvers to
-                ask (empty ``independent``: unconfirmed, as with ``confirm=False``).
+                It is an InfeasibleProblemError only when ``confirm`` is True and at least one independent solver
+                ran and failed too (``last_confirmers``); none run — ``independent`` empty, none installed, or the
+                tick's count spent before the first — leaves it unconfirmed, as with ``confirm=False``.
         """
         # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
         # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
@@ -238,6 +241,7 @@ class QPBackend(ABC):
                     if xp is not None:
                         self.polished += 1
                         return xp
+        self.last_confirmers = ()
         x_ind, confirmed = (self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm
                             else (None, "nobody (independent re-solve skipped: confirm=False)"))
         if x_ind is not None:
@@ -247,7 +251,7 @@ class QPBackend(ABC):
         what = ("found no solution" if not math.isfinite(worst) else
                 f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
                 f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
-        if confirm and self.independent:  # (none asked: unconfirmed, as with confirm=False)
+        if confirm and self.last_confirmers:  # (none ran — none asked, installed or within the count: unconfirmed)
             raise InfeasibleProblemError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
         raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
 
@@ -337,6 +341,7 @@ class QPBackend(ABC):
             (the check of :meth:`solve`), else (None, 'names of the solvers that failed').
         """
         tried = []
+        self.last_confirmers = tried  # the independent solvers that ran (read by solve: confirmed or not)
         for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue
