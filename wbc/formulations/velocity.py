@@ -1960,7 +1960,9 @@ class KinematicController:
                         # leaves (its solves still counted)
                         v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config, held_first)
                     except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
-                        tried.append(f"β = {beta:g}: {type(qexc).__name__}")
+                        capped = getattr(self._fallback_backend, "iterations_capped", False)
+                        tried.append(f"β = {beta:g}: {type(qexc).__name__}"
+                                     + (" (DAQP stopped at its iteration limit)" if capped else ""))
                         continue
                     if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
                         tried.append(f"β = {beta:g}: outside the constraints")
