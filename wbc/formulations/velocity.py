@@ -273,6 +273,29 @@ class TickResult(TickResultBase):
     reason: str = ""
 
 
+_new_instance = object.__new__
+
+
+def _solved_result(v: np.ndarray, timings: dict[str, float], sole_drift: float, path: TickPath) -> TickResult:
+    """``TickResult(v, timings=timings, sole_drift=sole_drift, path=path)`` (an ok tick: every other field at its
+    default) with the fields stored one by one, without the dataclass constructor's keyword and default-factory
+    handling (the compiled tick's result, built every tick)."""
+    r = _new_instance(TickResult)
+    r.ok = True
+    r.message = ""
+    r.timings = timings
+    r.conflicts = []
+    r.path = path
+    r.over_budget = False
+    r.v = v
+    r.fallback = ""
+    r.relaxed = []
+    r.consecutive_failures = 0
+    r.sole_drift = sole_drift
+    r.reason = ""
+    return r
+
+
 class KinematicController:
     """Velocity-level whole-body QP (see module docstring).
 
@@ -1106,8 +1129,8 @@ class KinematicController:
             backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift,
-                            path=_COMPILED_DAQP if rescued else _COMPILED)
+        result = _solved_result(v, {"assembly": t1 - t0, "solve": perf_counter() - t1}, drift,
+                                _COMPILED_DAQP if rescued else _COMPILED)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
