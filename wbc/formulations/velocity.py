@@ -578,7 +578,9 @@ class KinematicController:
         work = self._work
         work.reset(cap, clock)
         stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                 *self._level_backends, None if plan is None else plan.rescue)
+                 None if plan is None else plan.rescue)
+        if self._level_backends:
+            stamp += tuple(self._level_backends)
         # written only when the backends changed since the last tick that wrote them, or when that tick (or a
         # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
         if stamp != self._work_stamp or self.backend.work is not work:
@@ -1068,7 +1070,7 @@ class KinematicController:
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
         args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
-                float(dt), tol, backend.max_iter, q, *box)
+                float(dt), tol, backend.max_iter, q) + box  # box: a tuple (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
@@ -1109,7 +1111,7 @@ class KinematicController:
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
                 (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
-                args = (*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb, f_a, f_b, lever)
+                args = ca.log_operands(ndata) + cb.log_operands(ndata) + (plan.logs, b, ra, rb, f_a, f_b, lever)
                 if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
                     plan.drift_kernel = specialise(contact_pair_drift, *args)
                 far, drift = plan.drift_kernel(*args)
