@@ -25,6 +25,8 @@ humanoid15:
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -279,6 +281,24 @@ def test_compiled_tick_solves_the_assembled_qp_on_a_standing_set(name):
     qp = ctrl.assemble(config, 0.002)
     ref = _quadprog(*qp)
     assert _distance(qp[0], result.v, ref) <= AGREEMENT * max(1.0, _distance(qp[0], ref, 0.0))
+
+
+def test_compiled_tick_result_is_the_dataclass_result():
+    """The compiled tick's TickResult has every field of the dataclass, equal to the one its constructor gives for the
+    same v, timings, sole_drift and path (the others at their defaults), and lists of its own on each tick."""
+    robot = _robot("talos")
+    draw = {"seed": 3, "spread": 0.05, "com": True, "com_weight": 10.0, "gain": 2.0, "frame_tasks": [2],
+            "posture": True, "posture_weight": 1e-2, "posture_gain": 1.0, "contacts": 2, "contact_gain": 100.0,
+            "offset": 0.0, "position_limit": True, "velocity_limit": True, "velocity_scale": 1.0}
+    ctrl, config = _build(robot, draw, "fast")
+    first, second = ctrl.solve(config, 0.002), ctrl.solve(config, 0.002)
+    for result in (first, second):
+        assert str(result.path) == "compiled", (result.path, result.message)
+        built = velocity.TickResult(result.v, timings=result.timings, sole_drift=result.sole_drift, path=result.path)
+        assert list(vars(result)) == [f.name for f in dataclasses.fields(velocity.TickResult)]
+        assert vars(result) == vars(built) and result == built
+        assert result.ok and result.conflicts == [] and result.relaxed == [] and result.fallback == ""
+    assert first.conflicts is not second.conflicts and first.relaxed is not second.relaxed
 
 
 @pytest.mark.parametrize("name", ["talos", "g1", "humanoid15"])

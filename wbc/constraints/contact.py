@@ -109,6 +109,7 @@ class ContactConstraint(EqualityConstraint):
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
         self._oMf_views: dict[int, tuple] = {}  # per Data object: (data, oMf, rotation, translation), _views
+        self._recent_views = self._older_views = (None,)  # those of the last two Data objects read, looked at first
         _warm_up()
 
     gain = ValidatedAttribute(lambda contact, k: _as_contact_gain(k),
@@ -208,12 +209,19 @@ class ContactConstraint(EqualityConstraint):
     def _views(self, data) -> tuple:
         """(data, oMf, its rotation, its translation) of the contact frame: data.oMf[frame] is a reference into
         Pinocchio's data and its rotation/translation are views of it (eigenpy), kept per Data object (a few)."""
+        views = self._recent_views
+        if views[0] is data:
+            return views
+        views = self._older_views  # a tick reads two Data objects (its configuration's and the lookahead's)
+        if views[0] is data:
+            return views
         views = self._oMf_views.get(id(data))
         if views is None or views[0] is not data:
             if len(self._oMf_views) >= 4:  # a controller's configuration and drift data, kept; others replaced
                 self._oMf_views.clear()
             oMf = data.oMf[self.frame_id]
             views = self._oMf_views[id(data)] = (data, oMf, oMf.rotation, oMf.translation)
+        self._older_views, self._recent_views = self._recent_views, views
         return views
 
     def error_into(self, data: pin.Data, out: np.ndarray) -> None:

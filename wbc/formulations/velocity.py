@@ -273,6 +273,29 @@ class TickResult(TickResultBase):
     reason: str = ""
 
 
+_new_instance = object.__new__
+
+
+def _solved_result(v: np.ndarray, timings: dict[str, float], sole_drift: float, path: TickPath) -> TickResult:
+    """``TickResult(v, timings=timings, sole_drift=sole_drift, path=path)`` (an ok tick: every other field at its
+    default) with the fields stored one by one, without the dataclass constructor's keyword and default-factory
+    handling (the compiled tick's result, built every tick)."""
+    r = _new_instance(TickResult)
+    r.ok = True
+    r.message = ""
+    r.timings = timings
+    r.conflicts = []
+    r.path = path
+    r.over_budget = False
+    r.v = v
+    r.fallback = ""
+    r.relaxed = []
+    r.consecutive_failures = 0
+    r.sole_drift = sole_drift
+    r.reason = ""
+    return r
+
+
 class KinematicController:
     """Velocity-level whole-body QP (see module docstring).
 
@@ -555,7 +578,9 @@ class KinematicController:
         work = self._work
         work.reset(cap, clock)
         stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                 *self._level_backends, None if plan is None else plan.rescue)
+                 None if plan is None else plan.rescue)
+        if self._level_backends:
+            stamp += tuple(self._level_backends)
         # written only when the backends changed since the last tick that wrote them, or when that tick (or a
         # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
         if stamp != self._work_stamp or self.backend.work is not work:
@@ -1045,7 +1070,7 @@ class KinematicController:
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
         args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
-                float(dt), tol, backend.max_iter, q, *box)
+                float(dt), tol, backend.max_iter, q) + box  # box: a tuple (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
@@ -1086,7 +1111,7 @@ class KinematicController:
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
                 (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
-                args = (*ca.log_operands(ndata), *cb.log_operands(ndata), plan.logs, b, ra, rb, f_a, f_b, lever)
+                args = ca.log_operands(ndata) + cb.log_operands(ndata) + (plan.logs, b, ra, rb, f_a, f_b, lever)
                 if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
                     plan.drift_kernel = specialise(contact_pair_drift, *args)
                 far, drift = plan.drift_kernel(*args)
@@ -1106,8 +1131,8 @@ class KinematicController:
             backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = TickResult(v, timings={"assembly": t1 - t0, "solve": perf_counter() - t1}, sole_drift=drift,
-                            path=_COMPILED_DAQP if rescued else _COMPILED)
+        result = _solved_result(v, {"assembly": t1 - t0, "solve": perf_counter() - t1}, drift,
+                                _COMPILED_DAQP if rescued else _COMPILED)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0

@@ -34,6 +34,15 @@ def _warm_up() -> None:
         _com_rows(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
 
 
+def _checked_target(task, com) -> np.ndarray:
+    """A copy of ``com`` as a finite float (3,) array: the stored CoM target.
+
+    Raises:
+        InvalidTargetError: wrong shape, not numeric, or NaN/inf entries.
+    """
+    return check_vector(com, 3, "CoM target", InvalidTargetError).copy()
+
+
 class ComTask(Task):
     """Track a CoM position (and velocity feed-forward) in world.
 
@@ -57,12 +66,11 @@ class ComTask(Task):
         Raises:
             InvalidTargetError: wrong shape or NaN.
         """
-        self.target = com
+        self._target = _checked_target(self, com)  # what assigning ``target`` stores, without the property's calls
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
-    target = ValidatedAttribute(lambda task, com: check_vector(com, 3, "CoM target", InvalidTargetError).copy(),
-                                "Target CoM (3,) m, world; validated on assignment (raises InvalidTargetError: "
-                                "wrong shape or NaN).")
+    target = ValidatedAttribute(_checked_target, "Target CoM (3,) m, world; validated on assignment (raises "
+                                "InvalidTargetError: wrong shape or NaN).")
 
     def set_target_trusted(self, com: np.ndarray, velocity: np.ndarray | None = None) -> None:
         """:meth:`set_target` without validation or copies, for a controller's own loop feeding targets it built
