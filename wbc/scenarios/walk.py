@@ -99,6 +99,8 @@ class WalkController(StanceController):
             raise InvalidTargetError(f"expected a wbc.gait.WalkPlan, got {type(plan).__name__}")
         rows = self._rows = _PlanRows(plan, self._torso_ref_rot)
         self._plan = plan
+        # the layouts of the plan's support phases, built now rather than in the first tick of each
+        self.prepare_supports(set(rows.support), Configuration(self.robot), plan.dt)
         # the swing sole's task and target rows of each support code (None: double support, no swing)
         self._swing_rows = {int(DOUBLE): None,
                             int(LEFT_STANCE): (self.swing["right"].set_target_rows, rows.right_rot_t_rows,
