@@ -1004,8 +1004,8 @@ class KinematicController:
             dt: the control period (s) of the coming ticks.
 
         Raises:
-            InvalidInputError: a task or constraint not already in the controller at some time (checked by
-                :meth:`add_task` / :meth:`add_constraint`), or a non-finite ``dt``.
+            InvalidInputError: an object that is not a task or a velocity-level constraint, one built for another
+                robot (the checks of :meth:`add_task` / :meth:`add_constraint`), or ``dt`` not finite and > 0.
         """
         if not (math.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0, got {dt!r}")
@@ -1047,12 +1047,7 @@ class KinematicController:
         kept where :meth:`_fused_plan` finds it; the working-set hand-over is left to the tick."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return
-        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
-        plan = self._fused_plans.get(key)
-        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = self._build_fused_plan()
-            while len(self._fused_plans) > 16:
-                self._fused_plans.pop(next(iter(self._fused_plans)))
+        plan = self._kept_fused_plan()
         if not plan.supported:
             return
         if plan.box is None:
@@ -1079,12 +1074,7 @@ class KinematicController:
             self._build_layout()
         if self._soft_tasks != self.tasks:
             self._build_soft_layout()
-        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
-        plan = self._fused_plans.get(key)
-        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = self._build_fused_plan()
-            while len(self._fused_plans) > 16:
-                self._fused_plans.pop(next(iter(self._fused_plans)))
+        plan = self._kept_fused_plan()
         if plan.supported:
             nr = plan.state.shape[0]
             owner = self._fused_states.get(nr)  # the plan of nr variables that solved last
@@ -1096,6 +1086,17 @@ class KinematicController:
             self._fused = plan
             return plan
         return None
+
+    def _kept_fused_plan(self) -> _FusedPlan:
+        """The :class:`_FusedPlan` kept for the current layouts, built (:meth:`_build_fused_plan`) when there is
+        none (at most 16 kept)."""
+        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
+        plan = self._fused_plans.get(key)
+        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
+            plan = self._fused_plans[key] = self._build_fused_plan()
+            while len(self._fused_plans) > 16:
+                self._fused_plans.pop(next(iter(self._fused_plans)))
+        return plan
 
     def _build_fused_plan(self) -> _FusedPlan:
         """A new :class:`_FusedPlan` for the current layouts (``supported`` False when the compiled tick does not

@@ -124,6 +124,9 @@ class StanceController:
             supports: iterable of support codes.
             config: a configuration of the robot (argument types and constant bounds are taken at it).
             dt: the control period (s).
+
+        Raises:
+            InvalidInputError: ``dt`` not finite and > 0.
         """
         ctrl = self.controller
         arrangements = []

@@ -88,7 +88,8 @@ class WalkController(StanceController):
 
     def set_plan(self, plan: WalkPlan) -> None:
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
-        :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks. Called by
+        :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks, and build the QP layouts of
+        the plan's support phases (:meth:`prepare_supports`), so that no support switch builds one. Called by
         :meth:`set_references` for a plan it has not seen; call it before a real-time loop to keep that work
         (linear in the number of samples) out of the first tick.
 
