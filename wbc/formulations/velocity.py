@@ -480,6 +480,7 @@ class KinematicController:
         self._fused: _FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, _FusedPlan] = {}
         self._fused_states: dict[int, _FusedPlan] = {}  # the last plan per number of variables (its working set)
+        self._prepared: set[tuple] = set()  # layouts built by prepare_layouts, not yet used by a tick
         self._eq_rows: np.ndarray | None = None
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
@@ -777,10 +778,14 @@ class KinematicController:
             state.update(cached)
             self._layout_key = key
             self._layout_ok = True
+            if key in self._prepared:  # built ahead by prepare_layouts: its first tick counts it as built there
+                self._prepared.discard(key)
+                self._work.add(self.LAYOUT_WORK)
             return
         # a new layout (a controller's first tick, new constraints): its build and the first solves on its fresh
         # buffers and solver workspaces count LAYOUT_WORK solves of the tick's budget
         self._work.add(self.LAYOUT_WORK)
+        self._prepared.discard(key)
         self._layout_key = key
         self._constraints = list(self.constraints)
         self._const_box = None
@@ -983,6 +988,80 @@ class KinematicController:
             if record is not None:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
+    def prepare_layouts(self, arrangements, config: Configuration, dt: float) -> None:
+        """Build ahead, outside the ticks, what the first tick of each arrangement of tasks and constraints would
+        build: its row layout and buffers, its soft tasks' stacked rows and, for the compiled tick, its plan, box and
+        specialised kernel; the controller's own tasks, constraints and rank decision are left as they were. A
+        later tick whose tasks and constraints are one of these arrangements (the same objects in the same order)
+        then reuses them (e.g. the support phases of a walk plan, each switch otherwise building its phase's
+        layout on the first switch to it). The answers of the ticks are unchanged.
+
+        Args:
+            arrangements: iterable of (tasks, constraints) lists, each a list of the controller's own task and
+                constraint objects (soft tasks; constraints in QP row order).
+            config: a configuration of the controller's robot (the argument types of the compiled kernel and the
+                constant boxes are taken at it).
+            dt: the control period (s) of the coming ticks.
+
+        Raises:
+            InvalidInputError: an object that is not a task or a velocity-level constraint, one built for another
+                robot (the checks of :meth:`add_task` / :meth:`add_constraint`), or ``dt`` not finite and > 0.
+        """
+        if not (math.isfinite(dt) and dt > 0):
+            raise InvalidInputError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+        saved = (list(self.tasks), list(self.constraints), self._eq_rows, self._layout_ok, self._layout_key)
+        try:
+            for tasks, constraints in arrangements:
+                for t in tasks:
+                    if not isinstance(t, Task):
+                        raise InvalidInputError(f"expected a wbc Task, got {type(t).__name__}")
+                    self._check_once(t, "task")
+                for c in constraints:
+                    if not isinstance(c, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+                        raise InvalidInputError(f"expected a velocity-level wbc Constraint, got {type(c).__name__}")
+                    self._check_once(c, "constraint")
+                self.tasks[:], self.constraints[:] = tasks, constraints
+                key = tuple((id(c), c.dim) for c in self.constraints)
+                if key != self._layout_key or not self._layout_ok:
+                    known = key in self._layouts
+                    self._layout_ok = False
+                    self._build_layout()
+                    if not known:
+                        self._prepared.add(key)
+                if self._soft_tasks != self.tasks:
+                    self._build_soft_layout()
+                self._prepare_fused(config, float(dt))
+        finally:
+            self.tasks[:], self.constraints[:] = saved[0], saved[1]
+            if saved[4] is not None and saved[3]:
+                self._layout_ok = False
+                self._build_layout()  # back to the controller's layout (kept: no build)
+                if self._soft_tasks != self.tasks:
+                    self._build_soft_layout()
+            else:
+                self._layout_ok = False
+            self._eq_rows = saved[2]
+
+    def _prepare_fused(self, config: Configuration, dt: float) -> None:
+        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts),
+        kept where :meth:`_fused_plan` finds it; the working-set hand-over is left to the tick."""
+        if self._level_order or not isinstance(self.backend, FastBackend):
+            return
+        plan = self._kept_fused_plan()
+        if not plan.supported:
+            return
+        if plan.box is None:
+            plan.box = self._kernel_box(config, dt)
+        q = config.q
+        if plan.tick_kernel is None and type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous \
+                and q.flags.writeable:
+            soft, backend = self._soft, self.backend
+            fb, ib, _ = self._qp_pack
+            pgain = 0.0 if soft.posture is None else soft.posture.gain
+            args = (fb, ib, soft.fb, soft.ib, soft.no_diff, pgain, self.damping, plan.states, np.empty(self.nv),
+                    float(dt), backend.tolerance, backend.max_iter, q) + plan.box
+            plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+
     # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
     def _fused_plan(self, config: Configuration, dt: float) -> _FusedPlan | None:
         """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
@@ -995,12 +1074,7 @@ class KinematicController:
             self._build_layout()
         if self._soft_tasks != self.tasks:
             self._build_soft_layout()
-        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
-        plan = self._fused_plans.get(key)
-        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = self._build_fused_plan()
-            while len(self._fused_plans) > 16:
-                self._fused_plans.pop(next(iter(self._fused_plans)))
+        plan = self._kept_fused_plan()
         if plan.supported:
             nr = plan.state.shape[0]
             owner = self._fused_states.get(nr)  # the plan of nr variables that solved last
@@ -1012,6 +1086,17 @@ class KinematicController:
             self._fused = plan
             return plan
         return None
+
+    def _kept_fused_plan(self) -> _FusedPlan:
+        """The :class:`_FusedPlan` kept for the current layouts, built (:meth:`_build_fused_plan`) when there is
+        none (at most 16 kept)."""
+        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
+        plan = self._fused_plans.get(key)
+        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
+            plan = self._fused_plans[key] = self._build_fused_plan()
+            while len(self._fused_plans) > 16:
+                self._fused_plans.pop(next(iter(self._fused_plans)))
+        return plan
 
     def _build_fused_plan(self) -> _FusedPlan:
         """A new :class:`_FusedPlan` for the current layouts (``supported`` False when the compiled tick does not

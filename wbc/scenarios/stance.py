@@ -114,6 +114,38 @@ class StanceController:
             self.zmp.set_support_trusted([self.contact[s].placement for s in SIDES if self.stance[s]])
         self.support_changed()
 
+    def prepare_supports(self, supports, config: Configuration, dt: float) -> None:
+        """Build ahead what the first switch to each of ``supports`` (codes 0, 1, 2) would build in its tick: the
+        controller's layout of that phase's contacts and swing tasks
+        (:meth:`~wbc.formulations.velocity.KinematicController.prepare_layouts`). Nothing else changes: the current
+        support, placements and targets stay, and the ticks' answers are the same.
+
+        Args:
+            supports: iterable of support codes.
+            config: a configuration of the robot (argument types and constant bounds are taken at it).
+            dt: the control period (s).
+
+        Raises:
+            InvalidInputError: ``dt`` not finite and > 0.
+        """
+        ctrl = self.controller
+        arrangements = []
+        for support in sorted({int(s) for s in supports}):
+            wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
+            tasks, constraints, stance = list(ctrl.tasks), list(ctrl.constraints), dict(self.stance)
+            for side in SIDES:  # the list operations of set_support
+                if wanted[side] == stance[side]:
+                    continue
+                if wanted[side]:
+                    tasks.remove(self.swing[side])
+                    constraints.insert(sum(stance[s] for s in SIDES[:SIDES.index(side)]), self.contact[side])
+                else:
+                    constraints.remove(self.contact[side])
+                    tasks.append(self.swing[side])
+                stance[side] = wanted[side]
+            arrangements.append((tasks, constraints))
+        ctrl.prepare_layouts(arrangements, config, dt)
+
     def support_changed(self) -> None:
         """Hook called after every support switch (default: nothing)."""
 

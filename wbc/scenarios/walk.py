@@ -88,7 +88,8 @@ class WalkController(StanceController):
 
     def set_plan(self, plan: WalkPlan) -> None:
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
-        :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks. Called by
+        :class:`_PlanRows`), so that :meth:`set_references` only hands rows to the tasks, and build the QP layouts of
+        the plan's support phases (:meth:`prepare_supports`), so that no support switch builds one. Called by
         :meth:`set_references` for a plan it has not seen; call it before a real-time loop to keep that work
         (linear in the number of samples) out of the first tick.
 
@@ -99,6 +100,8 @@ class WalkController(StanceController):
             raise InvalidTargetError(f"expected a wbc.gait.WalkPlan, got {type(plan).__name__}")
         rows = self._rows = _PlanRows(plan, self._torso_ref_rot)
         self._plan = plan
+        # the layouts of the plan's support phases, built now rather than in the first tick of each
+        self.prepare_supports(set(rows.support), Configuration(self.robot), plan.dt)
         # the swing sole's task and target rows of each support code (None: double support, no swing)
         self._swing_rows = {int(DOUBLE): None,
                             int(LEFT_STANCE): (self.swing["right"].set_target_rows, rows.right_rot_t_rows,
