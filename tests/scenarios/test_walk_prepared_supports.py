@@ -69,3 +69,18 @@ def test_prepare_layouts_rejects_a_bad_period(talos):
     walker = WalkController(talos, Configuration(talos), solver="fast")
     with pytest.raises(wbc.exceptions.InvalidInputError):
         walker.controller.prepare_layouts([], Configuration(talos), float("nan"))
+
+
+@pytest.mark.parametrize("codes, dt", [([0, 3], 0.002), ([1, -1], 0.002), ([0, 1.5], 0.002), ([0, 1], 0.0),
+                                       ([2], float("nan"))])
+def test_prepare_supports_rejects_unknown_support_codes_and_bad_dt(talos, codes, dt):
+    """A code other than 0, 1, 2 (it would build a layout with no sole in contact) or a dt not finite and > 0 is a
+    typed error naming what is valid; the controller's tasks and constraints stay as they were."""
+    from wbc.exceptions import InvalidInputError
+
+    config = Configuration(talos)
+    walker = WalkController(talos, config, solver="fast")
+    before = (list(walker.controller.tasks), list(walker.controller.constraints))
+    with pytest.raises(InvalidInputError, match="support codes must be|dt must be"):
+        walker.prepare_supports(codes, config, dt)
+    assert (list(walker.controller.tasks), list(walker.controller.constraints)) == before

@@ -22,6 +22,7 @@ from wbc.constraints import ContactConstraint, JointAccelerationLimit, JointPosi
 from wbc.constraints.base import Constraint
 from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
+from wbc.exceptions import InvalidInputError
 from wbc.formulations.velocity import KinematicController, TickResult
 from wbc.gait.schedule import Support
 from wbc.solvers import DEFAULT_SOLVER
@@ -126,11 +127,17 @@ class StanceController:
             dt: the control period (s).
 
         Raises:
-            InvalidInputError: ``dt`` not finite and > 0.
+            InvalidInputError: a support code other than 0 (double), 1 (left) or 2 (right); ``dt`` not finite
+                and > 0.
         """
         ctrl = self.controller
         arrangements = []
-        for support in sorted({int(s) for s in supports}):
+        codes = list(supports)
+        valid = {int(DOUBLE), int(LEFT_STANCE), int(RIGHT_STANCE)}
+        bad = [c for c in codes if not isinstance(c, (int, np.integer)) or int(c) not in valid]
+        if bad:
+            raise InvalidInputError(f"support codes must be {sorted(valid)} (double, left, right), got {bad[:5]!r}")
+        for support in sorted({int(s) for s in codes}):
             wanted = {"left": support in (DOUBLE, LEFT_STANCE), "right": support in (DOUBLE, RIGHT_STANCE)}
             tasks, constraints, stance = list(ctrl.tasks), list(ctrl.constraints), dict(self.stance)
             for side in SIDES:  # the list operations of set_support
