@@ -31,6 +31,13 @@ ran beside it (``fuzz_common.TickProbe``: collections, page faults, switches, an
 before and after it, as a ratio to its median: the machine's speed at that moment); the ticks over 2 x their
 budget with a canary over 1.5 x are counted on an info line.
 
+Every tick over 2 x its budget is re-measured after the run, in the main process: its episode is replayed
+``fuzz_common.REPLAYS`` times (the same draws give the same ticks; episodes interleaved) and the tick-CPU acceptance
+item passes when the median of each such tick's replays is at most 2 x (``fuzz_common.replay_over``). The run's
+own maximum and counts stay on that line: a tick slow in the run and not in its replays was slowed by the machine
+(a VM's stall, another process), one slow again is slow by its work. ``--aggregate-only`` replays too: give it the
+run's options.
+
 Start-up: each process (a ``--jobs`` worker, or the main process) runs a warm-up before its first chunk: one episode
 of ``WARMUP_TICKS`` ticks per robot and per kind (weighted, strict), from its own seed (``WARMUP_SEED``: the chunks'
 draws are unchanged), not counted in any line. A process's first ticks pay the first use of its memory and code
@@ -64,7 +71,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
 from fuzz_common import (acceptance_verdict, coincident_stalls, collect_between_episodes, freeze_after_first,  # noqa: E402
-                         highs_feasible, slow_canary_ticks, tick_probe)
+                         highs_feasible, over_line, record_over, replay_over, slow_canary_ticks, tick_probe)
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -214,11 +221,11 @@ def warm_up(robots, dt: float = DT, budget=None, clock_guard: bool = False) -> d
 
 def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str = "", dts=(DT,),
               past_limits: float = 0.0, budget=None, clock_guard: bool = False, replay: int | None = None,
-              verbose: bool = False, warm: bool = False) -> dict:
+              verbose: bool = False, warm: bool = False, quiet: bool = False) -> dict:
     """Fuzz ``ticks`` ticks from ``seed``; returns the counts and maxima (module docstring). ``replay``: run only
     that episode of the chunk (the others are drawn, not run); ``verbose``: print every tick's path, CPU time and
     message; ``warm``: run this process's warm-up first (:func:`warm_up`; its record in the result's "warmup"
-    when it ran here)."""
+    when it ran here); ``quiet``: no progress lines."""
     warmup = warm_up(robots, dts[0], budget, clock_guard) if warm else None
     rng = np.random.default_rng(seed)
     extra = np.random.default_rng(seed + 7_000_000)  # dt and past-limit draws: build_episode's stream unchanged
@@ -281,6 +288,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                 c["tick_budget"].append(dt if budget is None else budget)
                 c["tick_paths"].append(str(res.path))  # (JSON chunk files)
                 ratio = c["tick_cpu"][-1] / c["tick_budget"][-1]
+                record_over(c, seed, ticks, ep, tick, ratio)
                 if len(c["worst_ticks"]) < MAX_EVENTS or ratio > c["worst_ticks"][-1][0]:
                     c["worst_ticks"].append((ratio, f"seed {seed} episode {ep} tick {tick} {name} {kind} "
                                                     f"strict={strict} dt {1e3 * dt:g} ms at {time.time():.3f} s: "
@@ -371,7 +379,7 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
                     event("ok_sole_drift_over_0_05mm", ep, tick, f"{name} {1e3 * drift:.4f} mm")
                 if offset > 1e-3:
                     event("stance_offset_over_1mm", ep, tick, f"{name} {1e3 * offset:.4f} mm")
-        if c["ticks"] >= next_print:
+        if c["ticks"] >= next_print and not quiet:
             next_print += 10_000
             print(f"{progress}[{time.time() - t0:.0f} s] " + str({k: c[k] for k in (*COUNTS, *MAXIMA)}), flush=True)
     c["seconds"] = time.time() - t0
@@ -409,6 +417,8 @@ def aggregate(chunks: list[dict]) -> dict:
     total["tick_cpu_over_2x_budget"] = int(np.sum(ratio > 2.0))
     total["tick_cpu_max_budget_ratio"] = float(ratio.max()) if ratio.size else float("nan")
     total["warmups"] = [ch["warmup"] for ch in chunks if ch.get("warmup")]
+    total["over_2x"] = [o for ch in chunks for o in ch.get("over_2x", [])]
+    total["over_2x_unkept"] = sum(ch.get("over_2x_unkept", 0) for ch in chunks)
     return total
 
 
@@ -441,9 +451,8 @@ def report(total: dict) -> str:
         ("max stance-sole displacement over any run of failed ticks <= 1 mm (forward kinematics)",
          f"{total['max_failed_run_displacement_mm']:.4f} mm ({total['failed_runs_over_1mm']} ticks over)",
          total["failed_runs_over_1mm"] == 0),
-        ("max tick CPU time (time.thread_time) <= 2 x its budget",
-         f"{total['tick_cpu_max_budget_ratio']:.3f} x budget ({total['tick_cpu_over_2x_budget']} ticks over 2 x, "
-         f"{total['tick_cpu_over_budget']} over 1 x)", total["tick_cpu_over_2x_budget"] == 0),
+        over_line(total, total["tick_cpu_max_budget_ratio"], total["tick_cpu_over_2x_budget"],
+                  total["tick_cpu_over_budget"]),
         ("strict-level failure rate <= weighted failure rate",
          f"strict {s:.3e} ({total['strict_failed']}/{total['strict_ticks']}) vs weighted {w:.3e} "
          f"({total['weighted_failed']}/{total['weighted_ticks']})", s <= w),
@@ -490,6 +499,8 @@ def report(total: dict) -> str:
     slow = slow_canary_ticks(total.get("worst_ticks", []))
     lines.append(f"info: ticks over 2 x budget beside a slow machine (a canary before or after the tick over 1.5 x its "
                  f"median, fuzz_common.TickProbe): {len(slow)} of {total['tick_cpu_over_2x_budget']}")
+    for record in total.get("replayed", {}).get("records", []):
+        lines.append(f"info: replayed: {record}")
     lines.append(acceptance_verdict(items))
     for k, evs in total["events"].items():
         for e in evs:
@@ -529,6 +540,30 @@ def _run_job(job: tuple) -> tuple[int, dict]:
     return i, ch
 
 
+def replay_ratios(seed: int, chunk_ticks: int, ep: int, episode: int, dts: tuple, past_limits: float, budget,
+                  clock_guard) -> list[float]:
+    """Episode ``ep`` of the chunk (``seed``, ``chunk_ticks``) run again in this process: CPU / budget per tick."""
+    robots, limits = _load()
+    if isinstance(clock_guard, float):  # --clock-weight
+        from wbc.formulations.velocity import KinematicController
+        KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
+    c = run_chunk(robots, limits, chunk_ticks, episode, seed, dts=dts, past_limits=past_limits, budget=budget,
+                  clock_guard=clock_guard, replay=ep, warm=True, quiet=True)
+    return [cpu / b for cpu, b in zip(c["tick_cpu"], c["tick_budget"])]
+
+
+def confirm_over(total: dict, a: argparse.Namespace, dts: tuple) -> None:
+    """The run's ticks over 2 x budget re-measured (``fuzz_common.replay_over``) into ``total["replayed"]``."""
+    if not total["over_2x"]:
+        return
+    guard = a.clock_weight if (a.clock_guard and a.clock_weight) else a.clock_guard
+    t0 = time.time()
+    total["replayed"] = replay_over(total["over_2x"], lambda seed, n, ep: replay_ratios(
+        seed, n, ep, a.episode, dts, a.past_limits, a.budget, guard))
+    print(f"replayed the {len(total['over_2x'])} ticks over 2 x budget in {time.time() - t0:.0f} s (load "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())})", flush=True)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--ticks", type=int, default=1_000_000, help="total ticks")
@@ -554,7 +589,9 @@ def main() -> None:
     if a.aggregate_only:
         files = sorted(a.out.glob("chunk_*.json"))
         print(f"{len(files)} chunk files in {a.out}", flush=True)
-        print(report(aggregate([json.loads(f.read_text()) for f in files])), flush=True)
+        total = aggregate([json.loads(f.read_text()) for f in files])
+        confirm_over(total, a, tuple(float(x) for x in a.dts.split(",")))
+        print(report(total), flush=True)
         return
     t0 = time.time()
     dts = tuple(float(x) for x in a.dts.split(","))
@@ -599,6 +636,7 @@ def main() -> None:
     print(f"wall time {time.time() - t0:.0f} s with {a.jobs} process(es)", flush=True)
     total = aggregate([chunks[i] for i in sorted(chunks)])
     total["budget"] = ("dt" if a.budget is None else f"{1e3 * a.budget:g} ms") + (", clock guard" if a.clock_guard else "")
+    confirm_over(total, a, dts)
     print(report(total), flush=True)
 
 

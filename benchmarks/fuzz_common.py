@@ -200,6 +200,64 @@ def coincident_stalls(worst: list[tuple[float, str]], over: float = 2.0, within:
         s2 != seed and a0 <= s1 and s0 <= a1 for _, a0, a1, s2, _ in marks)]
 
 
+REPLAYS = 3  #: times a tick over 2 x its budget is re-run (its episode replayed) for the tick-CPU line
+MAX_OVER = 200  #: ticks over 2 x budget recorded per chunk for replay; more fail the tick-CPU line unreplayed
+
+
+def record_over(c: dict, seed: int, chunk_ticks: int, ep: int, tick: int, ratio: float, over: float = 2.0) -> None:
+    """Keep in ``c["over_2x"]`` the tick (seed, chunk ticks, episode, tick, CPU / budget) when its ratio is over
+    ``over``: what :func:`replay_over` needs to run its episode again. At most :data:`MAX_OVER` per chunk; the
+    count of the others is ``c["over_2x_unkept"]``."""
+    if ratio > over:
+        if len(c.setdefault("over_2x", [])) < MAX_OVER:
+            c["over_2x"].append([int(seed), int(chunk_ticks), int(ep), int(tick), float(ratio)])
+        else:
+            c["over_2x_unkept"] = c.get("over_2x_unkept", 0) + 1
+
+
+def replay_over(over: list, replay: Callable[[int, int, int], list], repeats: int = REPLAYS,
+                limit: float = 2.0) -> dict:
+    """Re-measure the ticks over ``limit`` x their budget: each one's episode is run again ``repeats`` times in this
+    process (``replay(seed, chunk_ticks, episode)`` -> that episode's CPU / budget per tick, in tick order; the
+    episodes interleaved: A B A B), and a tick's figure is the median of its replays. The same draws give the same
+    ticks: a tick that is slow again is slow by its own work; one that is not was slowed by the machine (a VM's
+    stall, another tenant) while the run measured it. A tick its replay did not reach counts as slow.
+
+    Returns {"over": ticks given, "slow": ticks whose median is over ``limit``, "max_median": the largest median,
+    "records": ["seed S episode E tick T: R x in the run, replays a/b/c x (median m x)", ...]}."""
+    episodes: dict = {}
+    for seed, chunk_ticks, ep, tick, ratio in over:
+        episodes.setdefault((seed, chunk_ticks, ep), []).append((tick, ratio))
+    runs: dict = {key: [] for key in episodes}
+    for _ in range(repeats):
+        for key in episodes:
+            runs[key].append(replay(*key))
+    records, slow, max_median = [], 0, 0.0
+    for (seed, chunk_ticks, ep), ticks in episodes.items():
+        for tick, ratio in ticks:
+            again = [run[tick] if tick < len(run) else float("inf") for run in runs[(seed, chunk_ticks, ep)]]
+            median = float(np.median(again))
+            slow += int(median > limit)
+            max_median = max(max_median, median)
+            records.append(f"seed {seed} episode {ep} tick {tick}: {ratio:.2f} x in the run, replays "
+                           f"{'/'.join(f'{x:.2f}' for x in again)} x (median {median:.2f} x)")
+    return {"over": len(over), "slow": slow, "max_median": max_median, "records": records}
+
+
+def over_line(total: dict, max_ratio: float, n_over: int, n_over_1: int) -> tuple[str, str, bool]:
+    """The tick-CPU acceptance item (what, value, ok): every tick over 2 x its budget in the run re-measured by
+    :func:`replay_over` (``total["replayed"]``) at or under 2 x; without replays, no tick over 2 x."""
+    what = (f"max tick CPU time (time.thread_time) <= 2 x its budget; a tick over it in the run is re-measured: its "
+            f"episode replayed {REPLAYS} x in one process after the run, the median")
+    value = f"{max_ratio:.3f} x budget in the run ({n_over} ticks over 2 x, {n_over_1} over 1 x)"
+    rep, unkept = total.get("replayed"), total.get("over_2x_unkept", 0)
+    if rep is None:
+        return what, value + "; not replayed", n_over == 0
+    value += (f"; replayed {rep['over']} of them: {rep['slow']} over 2 x (medians up to {rep['max_median']:.2f} x)"
+              + (f"; {unkept} not kept for replay" if unkept else ""))
+    return what, value, rep["slow"] == 0 and unkept == 0 and rep["over"] == n_over
+
+
 _PROBE: list = []
 
 
@@ -233,14 +291,18 @@ def chunk_arguments(p: argparse.ArgumentParser, ticks: int) -> None:
 
 
 def run_chunks(a: argparse.Namespace, run_chunk: Callable, aggregate: Callable, report: Callable, tag: str,
-               **options) -> None:
+               confirm: Callable | None = None, **options) -> None:
     """Run ``run_chunk(ticks, seed, progress=..., **options) -> dict`` over the chunks of ``a`` (see
     :func:`chunk_arguments`), in ``a.jobs`` processes, saving/resuming per-chunk files ``<tag>_<seed>_<ticks>.json``
-    in ``a.out``; print ``report(aggregate(chunks))``."""
+    in ``a.out``; print ``report(total)``, ``total = aggregate(chunks)`` after ``confirm(total)`` (when given: the
+    re-measurements that run in this process after the chunks, e.g. :func:`replay_over`)."""
     if a.aggregate_only:
         files = sorted(a.out.glob(f"{tag}_*.json"))
         print(f"{len(files)} chunk files in {a.out}", flush=True)
-        print(report(aggregate([json.loads(f.read_text()) for f in files])), flush=True)
+        total = aggregate([json.loads(f.read_text()) for f in files])
+        if confirm is not None:
+            confirm(total)
+        print(report(total), flush=True)
         return
     t0 = time.time()
     n_chunks = max(1, -(-a.ticks // a.chunk))
@@ -268,4 +330,7 @@ def run_chunks(a: argparse.Namespace, run_chunk: Callable, aggregate: Callable, 
         pool.close()
         pool.join()
     print(f"wall time {time.time() - t0:.0f} s with {a.jobs} process(es)", flush=True)
-    print(report(aggregate([chunks[i] for i in sorted(chunks)])), flush=True)
+    total = aggregate([chunks[i] for i in sorted(chunks)])
+    if confirm is not None:
+        confirm(total)
+    print(report(total), flush=True)
