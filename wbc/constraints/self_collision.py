@@ -51,7 +51,12 @@ is 1-Lipschitz in each body's displacement, so for a pair (a, b) last computed b
 
     L_k = max(|c_a − c_b| − r_a − r_b,  d_k − (moved_a + moved_b − moved_at_k))  ≤  d  ≤  U_k = d_k + (...)
 
-(U = ∞ for a pair never computed). With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
+(U = ∞ for a pair never computed). The summed motions bound the pair's relative motion loosely (both bodies moving
+with the floating base's correction, or back and forth): where that bound leaves a computed pair in question, the
+displacement since d_k of the points of one body in the other's frame bounds it instead, from the pair's relative
+placement kept when coal computed it (the smaller-radius geometry m in the other's frame f: sphere centre
+R_fᵀ(c_m − c_f) and rotation R_fᵀR_m; |Δc| + ‖ΔR‖_F r_m), and the smaller of the two bounds is used in L_k and U_k.
+With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
 only on the pairs with L_k < d_i and L_k ≤ τ: any other pair is farther than d_i, or farther than ``max_active``
 pairs that are computed. The rows are therefore those of coal on every pair (``broad_phase=False``, the
 reference): same pairs, distances equal to coal's tolerances (GJK 1e-9 m; coal warm-starts a pair from its previous
@@ -111,9 +116,44 @@ BOUND_SLACK = 1e-6
 GJK_TOLERANCE = 1e-9
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _relative(rot, centre, joint, radius, a, b, out):
+    """The relative placement of pair (a, b) in the root joint's frame written to ``out`` (12,): the rotation
+    R_fᵀR_m (row-major) and the sphere centre Rᵀ_f (c_m − c_f) of the moving geometry m in the frame of the fixed one
+    f, where m is the one of a, b with the smaller bounding radius; returns that radius."""
+    f, m = (b, a) if radius[a] < radius[b] else (a, b)
+    jf, jm = joint[f], joint[m]
+    for i in range(3):
+        for j in range(3):
+            x = 0.0
+            for k in range(3):
+                x += rot[jf, k, i] * rot[jm, k, j]
+            out[3 * i + j] = x
+        x = 0.0
+        for k in range(3):
+            x += rot[jf, k, i] * (centre[m, k] - centre[f, k])
+        out[9 + i] = x
+    return radius[m]
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _relative_bound(rot, centre, joint, radius, a, b, then, now):
+    """Bound (m) on the displacement of any point of the pair's moving geometry (``_relative``) in the fixed one's
+    frame since the relative placement ``then`` (12,): |Δc| + ‖ΔR‖_F r (‖ΔR‖₂ ≤ ‖ΔR‖_F). A distance is 1-Lipschitz
+    in that displacement (it does not change under a motion common to both bodies). ``now`` (12,): scratch."""
+    r = _relative(rot, centre, joint, radius, a, b, now)
+    dr = 0.0
+    for i in range(9):
+        dr += (now[i] - then[i]) ** 2
+    dc = 0.0
+    for i in range(9, 12):
+        dc += (now[i] - then[i]) ** 2
+    return np.sqrt(dc) + np.sqrt(dr) * r
+
+
 @nb.njit(cache=True, nogil=True)
 def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, on, toggle, cand, buf):
+                 d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch):
     """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
     ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
     out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
@@ -126,9 +166,11 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
     each geometry's displacement (|Δc| + ‖ΔR‖_F r per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
     computed the pair, ``d_known`` its distance then, ``exact`` whether it was ever computed.
-    Per pair: lower bound L = max(sphere gap, d_known − (moved_a + moved_b − moved_at)), upper bound
-    U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th smallest U below
-    ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ."""
+    ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it.
+    Per pair: the motion bound δ = min(moved_a + moved_b − moved_at, ``_relative_bound`` since ``rel``; the second
+    only where the first leaves the pair in question), lower bound L = max(sphere gap, d_known − δ), upper bound
+    U = d_known + δ (inf if not ``exact``); τ = the k_max-th smallest U below ``activation`` (``activation`` if
+    fewer); candidates: L < activation and L ≤ τ. ``scratch`` (12,): work space."""
     nj = placements.shape[0]
     ng = joint.shape[0]
     rot = np.empty((nj, 3, 3))
@@ -165,8 +207,9 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     npairs = pairs.shape[0]
     nu = 0
     for k in range(npairs):
-        if exact[k]:
-            u = d_known[k] + (moved[pairs[k, 0]] + moved[pairs[k, 1]] - moved_at[k])
+        if exact[k] and d_known[k] < activation:
+            u = d_known[k] + min(moved[pairs[k, 0]] + moved[pairs[k, 1]] - moved_at[k],
+                                 _relative_bound(rot, centre, joint, radius, pairs[k, 0], pairs[k, 1], rel[k], scratch))
             if u < activation:
                 buf[nu] = u
                 nu += 1
@@ -190,6 +233,9 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
             low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
             if low >= activation or low > tau:
                 continue
+            low = d_known[k] - _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch) - BOUND_SLACK
+            if low >= activation or low > tau:
+                continue
         d2 = 0.0
         for i in range(3):
             d2 += (centre[a, i] - centre[b, i]) ** 2
@@ -208,16 +254,19 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
 
 
 @nb.njit(cache=True, nogil=True)
-def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows):
-    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state) and write to ``rows`` the
-    positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first (ties: lower pair
-    index first); returns their count."""
+def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, rot, centre,
+                       joint, radius, rel):
+    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state; ``rot``, ``centre``: the
+    placements of its last call, at which they were computed) and write to ``rows`` the positions in ``cand`` of
+    the (at most k_max) closest below ``activation``, closest first (ties: lower pair index first); returns their
+    count."""
     n = cand.shape[0]
     for i in range(n):
         k = cand[i]
         d_known[k] = dist[i]
         exact[k] = True
         moved_at[k] = moved[pairs[k, 0]] + moved[pairs[k, 1]]
+        _relative(rot, centre, joint, radius, pairs[k, 0], pairs[k, 1], rel[k])
     order = np.argsort(dist, kind="mergesort")
     m = 0
     for i in order:
@@ -261,6 +310,9 @@ def _unpack(fpack, ipack, bpack):
     d_known = fpack[o:o + npairs]
     moved_at = fpack[o + npairs:o + 2 * npairs]
     buf = fpack[o + 2 * npairs:o + 3 * npairs]
+    o += 3 * npairs
+    rel = fpack[o:o + 12 * npairs].reshape((npairs, 12))
+    scratch = fpack[o + 12 * npairs:o + 12 * npairs + 12]
     o = _HEADER
     joint = ipack[o:o + ng]
     o += ng
@@ -272,24 +324,25 @@ def _unpack(fpack, ipack, bpack):
     exact = bpack[:npairs]
     on = bpack[npairs:2 * npairs]
     return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
-            toggle, cand, buf, rows)
+            toggle, cand, buf, rows, rel, scratch)
 
 
 @nb.njit(cache=True, nogil=True)
 def _broad_phase_packed(placements, first, activation, fpack, ipack, bpack):
     """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+     cand, buf, rows, rel, scratch) = _unpack(fpack, ipack, bpack)
     return _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
-                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf)
+                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch)
 
 
 @nb.njit(cache=True, nogil=True)
 def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
     """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
-    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+     cand, buf, rows, rel, scratch) = _unpack(fpack, ipack, bpack)
+    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, prev_r,
+                              prev_c, joint, radius, rel)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -298,9 +351,10 @@ def _close_pairs_packed(n, found, activation, fpack, ipack, bpack):
     compiled narrow phase's output: n distances, then n witness points p1, then n normals), and the rows' arrays of
     :class:`ClosePairs` (fresh): pair indices, distances, normals, p1, p2 = p1 + d n."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+     cand, buf, rows, rel, scratch) = _unpack(fpack, ipack, bpack)
     dist = found[:n]
-    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, prev_r,
+                           prev_c, joint, radius, rel)
     k = np.empty(m, dtype=np.int64)
     d = np.empty(m)
     normal = np.empty((m, 3))
@@ -612,8 +666,9 @@ class SelfCollisionConstraint(InequalityConstraint):
         # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
         header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
         self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
-                      self._moved_at, self._buf) = _pack(self._centre_local, self._radius, self._prev_c, self._moved,
-                                                         self._prev_r, self._d_known, self._moved_at, self._buf)
+                      self._moved_at, self._buf, self._rel, _) = _pack(
+            self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known, self._moved_at,
+            self._buf, np.zeros((npairs, 12)), np.zeros(12))
         self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = _pack(
             np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
         self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
