@@ -172,7 +172,8 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
     each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
     computed the pair, ``d_known`` its distance then, ``exact`` whether it was ever computed.
-    ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it.
+    ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it (recorded, from
+    ``prev_c``/``prev_r``, by the call at which a pair computed at the previous call is no longer a candidate).
     Per pair: lower bound L = max(sphere gap, d_known − δ) with the motion bound δ = moved_a + moved_b − moved_at,
     or the smaller ``_relative_bound`` since ``rel`` where δ leaves a pair that was no candidate at the previous call
     in question; upper bound U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th
@@ -210,8 +211,6 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
                 for j in range(3):
                     dr += (rot[s, i, j] - prev_r[s, i, j]) ** 2
             moved[g] += np.sqrt(dc) + np.sqrt(0.5 * dr) * radius[g]
-    prev_c[:] = centre
-    prev_r[:] = rot
     npairs = pairs.shape[0]
     nu = 0
     for k in range(npairs):
@@ -237,25 +236,31 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
         # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
         # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
         # the two bounds: either one at or above the cut-off excludes the pair (the cheaper one first)
-        if exact[k]:
-            low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
-            if low >= activation or low > tau:
-                continue
-            if not was_on:  # (a pair computed at the previous call: its summed motions are one call's)
-                low = d_known[k] - _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch) - BOUND_SLACK
+        keep = False
+        while True:  # one pass: break when a bound excludes the pair
+            if exact[k]:
+                low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
                 if low >= activation or low > tau:
-                    continue
-        low = gap_known[k] - (moved[a] + moved[b] - gap_at[k]) - BOUND_SLACK
-        if low >= activation or low > tau:
-            continue
-        d2 = 0.0
-        for i in range(3):
-            d2 += (centre[a, i] - centre[b, i]) ** 2
-        gap = np.sqrt(d2) - radius[a] - radius[b]
-        gap_known[k] = gap
-        gap_at[k] = moved[a] + moved[b]
-        low = gap - BOUND_SLACK
-        if low >= activation or low > tau:
+                    break
+                if not was_on:  # (a pair computed at the previous call: its summed motions are one call's)
+                    low = d_known[k] - _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch) - BOUND_SLACK
+                    if low >= activation or low > tau:
+                        break
+            low = gap_known[k] - (moved[a] + moved[b] - gap_at[k]) - BOUND_SLACK
+            if low >= activation or low > tau:
+                break
+            d2 = 0.0
+            for i in range(3):
+                d2 += (centre[a, i] - centre[b, i]) ** 2
+            gap = np.sqrt(d2) - radius[a] - radius[b]
+            gap_known[k] = gap
+            gap_at[k] = moved[a] + moved[b]
+            low = gap - BOUND_SLACK
+            keep = low < activation and low <= tau
+            break
+        if not keep:
+            if was_on and exact[k]:  # computed by coal at the previous call, at its placements: kept for rel
+                _relative(prev_r, prev_c, joint, radius, a, b, rel[k])
             continue
         cand[n] = k
         n += 1
@@ -265,23 +270,22 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
             toggle[nt] = k
             nt += 1
         on[k] = True
+    prev_c[:] = centre
+    prev_r[:] = rot
     return n, nt
 
 
 @nb.njit(cache=True, nogil=True)
-def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, rot, centre,
-                       joint, radius, rel):
-    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state; ``rot``, ``centre``: the
-    placements of its last call, at which they were computed) and write to ``rows`` the positions in ``cand`` of
-    the (at most k_max) closest below ``activation``, closest first (ties: lower pair index first); returns their
-    count."""
+def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows):
+    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state) and write to ``rows`` the
+    positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first (ties: lower pair
+    index first); returns their count."""
     n = cand.shape[0]
     for i in range(n):
         k = cand[i]
         d_known[k] = dist[i]
         exact[k] = True
         moved_at[k] = moved[pairs[k, 0]] + moved[pairs[k, 1]]
-        _relative(rot, centre, joint, radius, pairs[k, 0], pairs[k, 1], rel[k])
     order = np.argsort(dist, kind="mergesort")
     m = 0
     for i in order:
@@ -360,8 +364,7 @@ def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
     """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
      cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, prev_r,
-                              prev_c, joint, radius, rel)
+    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -372,8 +375,7 @@ def _close_pairs_packed(n, found, activation, fpack, ipack, bpack):
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
      cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
     dist = found[:n]
-    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows, prev_r,
-                           prev_c, joint, radius, rel)
+    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
     k = np.empty(m, dtype=np.int64)
     d = np.empty(m)
     normal = np.empty((m, 3))
