@@ -58,7 +58,8 @@ with the floating base's correction, or back and forth): where that bound leaves
 displacement since d_k of the points of one body in the other's frame bounds it instead, from the pair's relative
 placement kept when coal computed it (the smaller-radius geometry m in the other's frame f: sphere centre
 R_fᵀ(c_m − c_f) and rotation R_fᵀR_m; |Δc| + ‖ΔR‖_F r_m / √2), and the smaller of the two bounds is used in L_k
-(for a pair that was no candidate at the previous call: one that was has one call's motion summed).
+(for a pair that was no candidate at the previous call: one that was has one call's motion summed). When it is the
+relative one, it replaces the summed motions in L_k and U_k, which then count on from it.
 The sphere gap is kept likewise: recomputed only when its value at its last computation minus the summed motions
 since then is below the cut-offs (a far pair costs one comparison per call).
 With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
@@ -171,7 +172,9 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
     (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
     each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
-    computed the pair, ``d_known`` its distance then, ``exact`` whether it was ever computed.
+    computed the pair (raised to moved_a + moved_b − δ when the relative bound δ is the smaller: d_known ±
+    (moved_a + moved_b − moved_at) then bounds the distance from there on), ``d_known`` its distance then,
+    ``exact`` whether it was ever computed.
     ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it (recorded, from
     ``prev_c``/``prev_r``, by the call at which a pair computed at the previous call is no longer a candidate).
     Per pair: lower bound L = max(sphere gap, d_known − δ) with the motion bound δ = moved_a + moved_b − moved_at,
@@ -243,7 +246,10 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
                 if low >= activation or low > tau:
                     break
                 if not was_on:  # (a pair computed at the previous call: its summed motions are one call's)
-                    low = d_known[k] - _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch) - BOUND_SLACK
+                    delta = _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch)
+                    if delta < moved[a] + moved[b] - moved_at[k]:  # the summed motions count from here on
+                        moved_at[k] = moved[a] + moved[b] - delta
+                    low = d_known[k] - delta - BOUND_SLACK
                     if low >= activation or low > tau:
                         break
             low = gap_known[k] - (moved[a] + moved[b] - gap_at[k]) - BOUND_SLACK
