@@ -146,8 +146,8 @@ def _relative(rot, centre, joint, radius, a, b, out):
 def _relative_bound(rot, centre, joint, radius, a, b, then, now):
     """Bound (m) on the displacement of any point of the pair's moving geometry (``_relative``) in the fixed one's
     frame since the relative placement ``then`` (12,): |Δc| + ‖ΔR‖₂ r with ‖ΔR‖₂ = ‖ΔR‖_F / √2 (the difference of two
-    rotations; module docstring). A distance is 1-Lipschitz
-    in that displacement (it does not change under a motion common to both bodies). ``now`` (12,): scratch."""
+    rotations; module docstring). A distance is 1-Lipschitz in that displacement (it does not change under a motion
+    common to both bodies). ``now`` (12,): scratch."""
     r = _relative(rot, centre, joint, radius, a, b, now)
     dr = 0.0
     for i in range(9):
@@ -171,8 +171,8 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     ``joint`` (ngeoms,) parent joint of each geometry, ``centre_local`` (ngeoms, 3) / ``radius`` (ngeoms,) its
     bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
     (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
-    each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
-    computed the pair (raised to moved_a + moved_b − δ when the relative bound δ is the smaller: d_known ±
+    each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when
+    coal last computed the pair (raised to moved_a + moved_b − δ when the relative bound δ is the smaller: d_known ±
     (moved_a + moved_b − moved_at) then bounds the distance from there on), ``d_known`` its distance then,
     ``exact`` whether it was ever computed.
     ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it (recorded, from
@@ -180,9 +180,10 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     Per pair: lower bound L = max(sphere gap, d_known − δ) with the motion bound δ = moved_a + moved_b − moved_at,
     or the smaller ``_relative_bound`` since ``rel`` where δ leaves a pair that was no candidate at the previous call
     in question; upper bound U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th
-    smallest U below ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ. ``scratch`` (12,): work space. The sphere gap is kept as a bound
-    too: ``gap_known`` (npairs,) the pair's gap when last computed (−inf: none), ``gap_at`` moved_a + moved_b then;
-    it is recomputed only when gap_known − (moved_a + moved_b − gap_at) leaves the pair in question."""
+    smallest U below ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ. The sphere gap
+    is kept as a bound too: ``gap_known`` (npairs,) the pair's gap when last computed (−inf: none), ``gap_at``
+    moved_a + moved_b then; it is recomputed only when gap_known − (moved_a + moved_b − gap_at) leaves the pair in
+    question. ``scratch`` (12,): work space."""
     nj = placements.shape[0]
     ng = joint.shape[0]
     rot = np.empty((nj, 3, 3))
@@ -691,7 +692,8 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._rows = np.empty(self.dim, dtype=np.int64)
         # row of each active pair (compute; −1: none), pair of each row (−1: unused), row of each close pair
         self._slots, (self._slot_of, self._in_slot, self._slot) = _pack(
-            np.full(npairs, -1, dtype=np.int64), np.full(self.dim, -1, dtype=np.int64), np.empty(self.dim, dtype=np.int64))
+            np.full(npairs, -1, dtype=np.int64), np.full(self.dim, -1, dtype=np.int64),
+            np.empty(self.dim, dtype=np.int64))
         self._identity = np.arange(self.dim, dtype=np.int64)
         self._rows_at = None  # (config, dt) of the rows in _C/_l (compute), with _rows_q its q; None: stale
         self._rows_q = np.empty(model.nq)
