@@ -165,9 +165,9 @@ def test_broad_phase_keeps_the_rows_hand_through_torso(robots, monkeypatch):
         qs, rows, active, d_min = [], [], [], np.inf
         narrow, computed = sc._narrow, [0]
 
-        def counted(config, narrow=narrow, computed=computed):  # distances and rows actually computed
+        def counted(config, *rows, narrow=narrow, computed=computed):  # distances and rows actually computed
             computed[0] += 1
-            return narrow(config)
+            return narrow(config, *rows)
 
         sc._narrow = counted
         c0 = calls[0]

@@ -46,12 +46,23 @@ narrow phase below). Each geometry g has a bounding sphere
 (centre c_g in its joint's frame and radius r_g, from coal's local AABB: the sphere around the box contains the
 geometry). Placements are taken in the root joint's frame (``data.oMi``; a distance does not depend on the frame,
 and this one leaves out the floating base's motion). Per call and geometry, every point p = c_g + R (p_loc − c_loc)
-moves by at most |Δc_g| + ‖ΔR‖₂ r_g ≤ |Δc_g| + ‖ΔR‖_F r_g; these are summed since the start (``moved_g``). A distance
+moves by at most |Δc_g| + ‖ΔR‖₂ r_g = |Δc_g| + ‖ΔR‖_F r_g / √2 (ΔR = R₁ − R₀ = R₀(R₀ᵀR₁ − I), whose singular values
+are 2 sin(θ/2) twice and 0 for a rotation by θ; rotations orthonormal to rounding, which BOUND_SLACK covers); these
+are summed since the start (``moved_g``). A distance
 is 1-Lipschitz in each body's displacement, so for a pair (a, b) last computed by coal at distance d_k:
 
     L_k = max(|c_a − c_b| − r_a − r_b,  d_k − (moved_a + moved_b − moved_at_k))  ≤  d  ≤  U_k = d_k + (...)
 
-(U = ∞ for a pair never computed). With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
+(U = ∞ for a pair never computed). The summed motions bound the pair's relative motion loosely (both bodies moving
+with the floating base's correction, or back and forth): where that bound leaves a computed pair in question, the
+displacement since d_k of the points of one body in the other's frame bounds it instead, from the pair's relative
+placement kept when coal computed it (the smaller-radius geometry m in the other's frame f: sphere centre
+R_fᵀ(c_m − c_f) and rotation R_fᵀR_m; |Δc| + ‖ΔR‖_F r_m / √2), and the smaller of the two bounds is used in L_k
+(for a pair that was no candidate at the previous call: one that was has one call's motion summed). When it is the
+relative one, it replaces the summed motions in L_k and U_k, which then count on from it.
+The sphere gap is kept likewise: recomputed only when its value at its last computation minus the summed motions
+since then is below the cut-offs (a far pair costs one comparison per call).
+With τ = the ``max_active``-th smallest U_k below d_i (d_i if fewer), coal runs
 only on the pairs with L_k < d_i and L_k ≤ τ: any other pair is farther than d_i, or farther than ``max_active``
 pairs that are computed. The rows are therefore those of coal on every pair (``broad_phase=False``, the
 reference): same pairs, distances equal to coal's tolerances (GJK 1e-9 m; coal warm-starts a pair from its previous
@@ -111,9 +122,45 @@ BOUND_SLACK = 1e-6
 GJK_TOLERANCE = 1e-9
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _relative(rot, centre, joint, radius, a, b, out):
+    """The relative placement of pair (a, b) in the root joint's frame written to ``out`` (12,): the rotation
+    R_fᵀR_m (row-major) and the sphere centre Rᵀ_f (c_m − c_f) of the moving geometry m in the frame of the fixed one
+    f, where m is the one of a, b with the smaller bounding radius; returns that radius."""
+    f, m = (b, a) if radius[a] < radius[b] else (a, b)
+    jf, jm = joint[f], joint[m]
+    for i in range(3):
+        for j in range(3):
+            x = 0.0
+            for k in range(3):
+                x += rot[jf, k, i] * rot[jm, k, j]
+            out[3 * i + j] = x
+        x = 0.0
+        for k in range(3):
+            x += rot[jf, k, i] * (centre[m, k] - centre[f, k])
+        out[9 + i] = x
+    return radius[m]
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _relative_bound(rot, centre, joint, radius, a, b, then, now):
+    """Bound (m) on the displacement of any point of the pair's moving geometry (``_relative``) in the fixed one's
+    frame since the relative placement ``then`` (12,): |Δc| + ‖ΔR‖₂ r with ‖ΔR‖₂ = ‖ΔR‖_F / √2 (the difference of two
+    rotations; module docstring). A distance is 1-Lipschitz in that displacement (it does not change under a motion
+    common to both bodies). ``now`` (12,): scratch."""
+    r = _relative(rot, centre, joint, radius, a, b, now)
+    dr = 0.0
+    for i in range(9):
+        dr += (now[i] - then[i]) ** 2
+    dc = 0.0
+    for i in range(9, 12):
+        dc += (now[i] - then[i]) ** 2
+    return np.sqrt(dc) + np.sqrt(0.5 * dr) * r
+
+
 @nb.njit(cache=True, nogil=True)
 def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, on, toggle, cand, buf):
+                 d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known, gap_at):
     """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
     ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
     out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
@@ -124,11 +171,19 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     ``joint`` (ngeoms,) parent joint of each geometry, ``centre_local`` (ngeoms, 3) / ``radius`` (ngeoms,) its
     bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
     (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
-    each geometry's displacement (|Δc| + ‖ΔR‖_F r per call), ``moved_at`` (npairs,) moved_a + moved_b when coal last
-    computed the pair, ``d_known`` its distance then, ``exact`` whether it was ever computed.
-    Per pair: lower bound L = max(sphere gap, d_known − (moved_a + moved_b − moved_at)), upper bound
-    U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th smallest U below
-    ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ."""
+    each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when
+    coal last computed the pair (raised to moved_a + moved_b − δ when the relative bound δ is the smaller: d_known ±
+    (moved_a + moved_b − moved_at) then bounds the distance from there on), ``d_known`` its distance then,
+    ``exact`` whether it was ever computed.
+    ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it (recorded, from
+    ``prev_c``/``prev_r``, by the call at which a pair computed at the previous call is no longer a candidate).
+    Per pair: lower bound L = max(sphere gap, d_known − δ) with the motion bound δ = moved_a + moved_b − moved_at,
+    or the smaller ``_relative_bound`` since ``rel`` where δ leaves a pair that was no candidate at the previous call
+    in question; upper bound U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th
+    smallest U below ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ. The sphere gap
+    is kept as a bound too: ``gap_known`` (npairs,) the pair's gap when last computed (−inf: none), ``gap_at``
+    moved_a + moved_b then; it is recomputed only when gap_known − (moved_a + moved_b − gap_at) leaves the pair in
+    question. ``scratch`` (12,): work space."""
     nj = placements.shape[0]
     ng = joint.shape[0]
     rot = np.empty((nj, 3, 3))
@@ -159,9 +214,7 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
             for i in range(3):
                 for j in range(3):
                     dr += (rot[s, i, j] - prev_r[s, i, j]) ** 2
-            moved[g] += np.sqrt(dc) + np.sqrt(dr) * radius[g]
-    prev_c[:] = centre
-    prev_r[:] = rot
+            moved[g] += np.sqrt(dc) + np.sqrt(0.5 * dr) * radius[g]
     npairs = pairs.shape[0]
     nu = 0
     for k in range(npairs):
@@ -178,7 +231,8 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     for k in range(npairs):
         a = pairs[k, 0]
         b = pairs[k, 1]
-        if on[k]:  # assumed dropped; switched back on below if it is a candidate
+        was_on = on[k]
+        if was_on:  # assumed dropped; switched back on below if it is a candidate
             toggle[nt] = ~k
             nt += 1
             on[k] = False
@@ -186,15 +240,34 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
         # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
         # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
         # the two bounds: either one at or above the cut-off excludes the pair (the cheaper one first)
-        if exact[k]:
-            low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
+        keep = False
+        while True:  # one pass: break when a bound excludes the pair
+            if exact[k]:
+                low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
+                if low >= activation or low > tau:
+                    break
+                if not was_on:  # (a pair computed at the previous call: its summed motions are one call's)
+                    delta = _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch)
+                    if delta < moved[a] + moved[b] - moved_at[k]:  # the summed motions count from here on
+                        moved_at[k] = moved[a] + moved[b] - delta
+                    low = d_known[k] - delta - BOUND_SLACK
+                    if low >= activation or low > tau:
+                        break
+            low = gap_known[k] - (moved[a] + moved[b] - gap_at[k]) - BOUND_SLACK
             if low >= activation or low > tau:
-                continue
-        d2 = 0.0
-        for i in range(3):
-            d2 += (centre[a, i] - centre[b, i]) ** 2
-        low = np.sqrt(d2) - radius[a] - radius[b] - BOUND_SLACK
-        if low >= activation or low > tau:
+                break
+            d2 = 0.0
+            for i in range(3):
+                d2 += (centre[a, i] - centre[b, i]) ** 2
+            gap = np.sqrt(d2) - radius[a] - radius[b]
+            gap_known[k] = gap
+            gap_at[k] = moved[a] + moved[b]
+            low = gap - BOUND_SLACK
+            keep = low < activation and low <= tau
+            break
+        if not keep:
+            if was_on and exact[k]:  # computed by coal at the previous call, at its placements: kept for rel
+                _relative(prev_r, prev_c, joint, radius, a, b, rel[k])
             continue
         cand[n] = k
         n += 1
@@ -204,6 +277,8 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
             toggle[nt] = k
             nt += 1
         on[k] = True
+    prev_c[:] = centre
+    prev_r[:] = rot
     return n, nt
 
 
@@ -261,6 +336,12 @@ def _unpack(fpack, ipack, bpack):
     d_known = fpack[o:o + npairs]
     moved_at = fpack[o + npairs:o + 2 * npairs]
     buf = fpack[o + 2 * npairs:o + 3 * npairs]
+    o += 3 * npairs
+    rel = fpack[o:o + 12 * npairs].reshape((npairs, 12))
+    scratch = fpack[o + 12 * npairs:o + 12 * npairs + 12]
+    o += 12 * npairs + 12
+    gap_known = fpack[o:o + npairs]
+    gap_at = fpack[o + npairs:o + 2 * npairs]
     o = _HEADER
     joint = ipack[o:o + ng]
     o += ng
@@ -272,23 +353,24 @@ def _unpack(fpack, ipack, bpack):
     exact = bpack[:npairs]
     on = bpack[npairs:2 * npairs]
     return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
-            toggle, cand, buf, rows)
+            toggle, cand, buf, rows, rel, scratch, gap_known, gap_at)
 
 
 @nb.njit(cache=True, nogil=True)
 def _broad_phase_packed(placements, first, activation, fpack, ipack, bpack):
     """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
     return _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
-                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf)
+                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known,
+                        gap_at)
 
 
 @nb.njit(cache=True, nogil=True)
 def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
     """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
     return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
 
 
@@ -298,7 +380,7 @@ def _close_pairs_packed(n, found, activation, fpack, ipack, bpack):
     compiled narrow phase's output: n distances, then n witness points p1, then n normals), and the rows' arrays of
     :class:`ClosePairs` (fresh): pair indices, distances, normals, p1, p2 = p1 + d n."""
     (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows) = _unpack(fpack, ipack, bpack)
+     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
     dist = found[:n]
     m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
     k = np.empty(m, dtype=np.int64)
@@ -379,6 +461,20 @@ def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds
         f = min(ds, f)
         floor[k[i]] = f
         l[slot[i]] = -gamma * (d[i] - f)
+
+
+@nb.njit(cache=True, nogil=True)
+def _close_pairs_damper(n, found, activation, fpack, ipack, bpack, pair_joint, J, support, C, l, floor, gamma, ds,
+                        rise, slots):
+    """``_close_pairs_packed`` then ``_damper`` on its rows in one compiled call (one dispatch of the arguments);
+    ``slots``: ``_damper``'s slot_of (npairs,), in_slot (rows,) and slot (rows,) one after the other. Returns the
+    rows' arrays of :class:`ClosePairs`."""
+    k, d, normal, p1, p2 = _close_pairs_packed(n, found, activation, fpack, ipack, bpack)
+    npairs = pair_joint.shape[0]
+    rows = C.shape[0]
+    _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slots[:npairs],
+            slots[npairs:npairs + rows], slots[npairs + rows:npairs + 2 * rows])
+    return k, d, normal, p1, p2
 
 
 def _shape(geometry, convex: bool):
@@ -594,9 +690,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._cand = np.empty(npairs, dtype=np.int64)
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
-        self._slot_of = np.full(npairs, -1, dtype=np.int64)  # row of each active pair (compute), −1: none
-        self._in_slot = np.full(self.dim, -1, dtype=np.int64)  # pair of each row, −1: unused
-        self._slot = np.empty(self.dim, dtype=np.int64)
+        # row of each active pair (compute; −1: none), pair of each row (−1: unused), row of each close pair
+        self._slots, (self._slot_of, self._in_slot, self._slot) = _pack(
+            np.full(npairs, -1, dtype=np.int64), np.full(self.dim, -1, dtype=np.int64),
+            np.empty(self.dim, dtype=np.int64))
         self._identity = np.arange(self.dim, dtype=np.int64)
         self._rows_at = None  # (config, dt) of the rows in _C/_l (compute), with _rows_q its q; None: stale
         self._rows_q = np.empty(model.nq)
@@ -612,8 +709,9 @@ class SelfCollisionConstraint(InequalityConstraint):
         # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
         header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
         self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
-                      self._moved_at, self._buf) = _pack(self._centre_local, self._radius, self._prev_c, self._moved,
-                                                         self._prev_r, self._d_known, self._moved_at, self._buf)
+                      self._moved_at, self._buf, self._rel, _, self._gap_known, _) = _pack(
+            self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known, self._moved_at,
+            self._buf, np.zeros((npairs, 12)), np.zeros(12), np.full(npairs, -np.inf), np.zeros(npairs))
         self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = _pack(
             np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
         self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
@@ -679,9 +777,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._narrow(config)
         return self._found
 
-    def _narrow(self, config: Configuration) -> int:
-        """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``;
-        returns the number of rows m."""
+    def _narrow(self, config: Configuration, damper: tuple | None = None) -> bool:
+        """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``. With
+        ``damper`` (``_damper``'s arguments after the close pairs' and pair_joint: J, support, C, l, floor, gamma, ds,
+        rise), the compiled narrow phase also writes the damper rows; returns whether it did."""
         self._rows_at = None  # compute's rows (and the barrier's, which share _C) are recomputed
         data = config.data
         gm, gd = self.geometry_model, self.geometry_data
@@ -710,9 +809,14 @@ class SelfCollisionConstraint(InequalityConstraint):
             # one call: geometry placements, coal on the candidates, distances / witness points / normals written;
             # then one compiled call for the rows
             compiled_narrow_phase.distances(pair_set, placements, cand, self._wit)
-            self._found = ClosePairs(*_close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
-                                                          self._ipack, self._bpack))
-            return len(self._found.pairs)
+            if damper is None:
+                self._found = ClosePairs(*_close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
+                                                              self._ipack, self._bpack))
+                return False
+            self._found = ClosePairs(*_close_pairs_damper(n, self._wit, self.activation_distance, self._fpack,
+                                                          self._ipack, self._bpack, self._pair_joint, *damper,
+                                                          self._slots))
+            return True
         pin.computeDistances(gm, gd)
         res = self._results
         dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
@@ -730,7 +834,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         else:
             p1 = p2 = normal = self._empty
         self._found = ClosePairs(k, d, normal, p1, p2)
-        return m
+        return False
 
     def _joint_placements(self, data: pin.Data) -> np.ndarray:
         """(njoints, 12) joint placements ``data.oMi`` of ``data``: per joint the rotation column-major, then the
@@ -772,11 +876,12 @@ class SelfCollisionConstraint(InequalityConstraint):
         at = self._rows_at
         if at is not None and at[0] is config and at[1] == dt and np.array_equal(self._rows_q, config.q):
             return self._C, self._l, self._u
-        self._narrow(config)
-        f = self._found
-        _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, config.data.J, self._support, self._C,
-                self._l, self._floor, min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin,
-                self.recovery_speed * dt, self._slot_of, self._in_slot, self._slot)
+        damper = (config.data.J, self._support, self._C, self._l, self._floor, min(self.gain, 1.0 / dt),
+                  self.min_distance + self.safety_margin, self.recovery_speed * dt)
+        if not self._narrow(config, damper):
+            f = self._found
+            _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, *damper, self._slot_of,
+                    self._in_slot, self._slot)
         self._rows_at = (config, dt)
         self._rows_q[:] = config.q
         return self._C, self._l, self._u
@@ -819,6 +924,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._floor[:] = np.nan
         self._first = True
         self._exact[:] = False
+        self._gap_known[:] = -np.inf
         self._slot_of[:] = -1
         self._in_slot[:] = -1
         self._rows_at = None
