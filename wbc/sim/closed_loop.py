@@ -333,11 +333,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     wall = perf_counter() - wall0
     sim.clear_external_forces()
     if deferred:
+        sm.states_from_mj(raw_qpos[:k_end], raw_qvel[:k_end], log_q[:k_end], log_v[:k_end])
         for k in range(k_end):
-            q, v = sm.state_from_mj(raw_qpos[k], raw_qvel[k])
-            log_q[k] = q
-            log_v[k] = v
-            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
+            log_com[k] = pin.centerOfMass(pm, pdata, log_q[k], False)
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
                   scenario=scenario.name, dt=dt, wall_time=wall, fell=monitor.fell,
