@@ -47,3 +47,26 @@ def test_update_accepts_and_refuses_the_same_inputs_on_every_input_form(robots):
         for qf, vf in forms(q, v):
             with pytest.raises(ConfigurationError, match=text.replace("[", r"\[").replace("]", r"\]")):
                 st.update(qf, vf)
+
+
+def test_frames_placed_on_read_after_every_update(robots):
+    """After each update, every frame placement read through ``data`` (or ``frame_placement``) is Pinocchio's
+    ``updateFramePlacements`` at that q, also when per-tick readers placed some frames through ``getFrameJacobian``
+    on ``kinematics_data`` in between (a frame placed then must not stop the others from being placed)."""
+    import pinocchio as pin
+
+    for name in ("talos", "g1"):
+        robot = robots(name)
+        model = robot.model
+        ref = model.createData()
+        rng = np.random.default_rng(5)
+        state = DynamicsState(robot)
+        for step in range(3):
+            q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq)) if step else robot.q_ref.copy()
+            v = rng.normal(size=model.nv)
+            state.update(q, v)
+            pin.getFrameJacobian(model, state.kinematics_data, model.nframes - 1, pin.LOCAL)
+            pin.framesForwardKinematics(model, ref, q)
+            for f in range(model.nframes):
+                np.testing.assert_array_equal(state.data.oMf[f].homogeneous, ref.oMf[f].homogeneous)
+                np.testing.assert_array_equal(state.frame_placement(f).homogeneous, ref.oMf[f].homogeneous)

@@ -8,8 +8,9 @@
 * ``nonLinearEffects`` → h(q, v) = C(q, v) v + g(q) (nv,);
 * ``forwardKinematics(q, v, 0)`` → body velocities ``data.v`` and accelerations ``data.a`` **with v̇ = 0**, so
   ``pin.getFrameClassicalAcceleration`` / ``pin.getFrameAcceleration`` return the drift terms J̇ v of frames;
-* ``computeJointJacobians`` (``data.J``, from the joint placements of that forward pass) and
-  ``updateFramePlacements`` (``data.oMf``);
+* ``computeJointJacobians`` (``data.J``, from the joint placements of that forward pass); the frames' placements
+  ``data.oMf`` follow on the first read of :attr:`data` after an update (``updateFramePlacements``), as for a
+  :class:`~wbc.configuration.Configuration`;
 
 and the centroidal quantities follow from M's base rows, without another pass over the tree: with a free-flyer
 root, M[0:6, :] v is the whole robot's spatial momentum (base axes, base origin; linear then angular), and its
@@ -96,7 +97,7 @@ class DynamicsState(Configuration):
         pin.nonLinearEffects(model, data, q, v)
         pin.forwardKinematics(model, data, q, v, self._zero_a)  # data.v, data.a (v̇ = 0): the frame drifts
         pin.computeJointJacobians(model, data)  # data.J from the placements forwardKinematics just computed
-        pin.updateFramePlacements(model, data)
+        self._frames_stale = True  # data.oMf: every frame placed on the next read of data (Configuration.data)
         views = self._views
         if views is None:
             # numpy views of Data's fixed-size storage, which Pinocchio overwrites in place: fetched once (each

@@ -50,6 +50,23 @@ def test_friction_feedforward_closed_form():
         JointFrictionCompensation([1.0], [1.0], velocity_scale=0.0)
 
 
+def test_compensated_is_torque_then_numpy_clip():
+    """compensated(τ, v, v̇, dt, lo, hi) = numpy's minimum(maximum(τ + torque(v[6:] + v̇[6:] dt), lo), hi), bit for bit
+    (the same elementwise operations), over random commands that reach both bounds; bad shapes raise."""
+    rng = np.random.default_rng(4)
+    n = 30
+    comp = JointFrictionCompensation(rng.uniform(0.0, 2.0, n), rng.uniform(0.0, 5.0, n), velocity_scale=0.05)
+    hi = np.where(np.arange(n) % 7 == 0, np.inf, rng.uniform(20.0, 60.0, n))
+    for _ in range(50):
+        tau, v, dv = rng.normal(0.0, 40.0, n), rng.normal(0.0, 1.0, n + 6), rng.normal(0.0, 50.0, n + 6)
+        expected = np.minimum(np.maximum(tau + comp.torque(v[6:] + dv[6:] * 0.002).copy(), -hi), hi)
+        np.testing.assert_array_equal(comp.compensated(tau, v, dv, 0.002, -hi, hi), expected)
+    with pytest.raises(InvalidInputError):
+        comp.compensated(tau[:-1], v, dv, 0.002, -hi, hi)
+    with pytest.raises(InvalidInputError):
+        comp.compensated(tau, v[6:], dv, 0.002, -hi, hi)
+
+
 def _mujoco_mass_matrix(sim):
     mujoco.mj_forward(sim.model, sim.data)
     M = np.zeros((sim.model.nv, sim.model.nv))

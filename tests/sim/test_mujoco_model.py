@@ -130,6 +130,33 @@ def test_state_from_mj_is_q_from_mj_then_v_from_mj(sim):
         sm.state_from_mj(bad, qvel)
 
 
+def test_states_from_mj_is_state_from_mj_row_by_row(sim):
+    """The batch conversion writes, row by row, the arrays of the one-state conversion bit for bit (the same
+    arithmetic), and the states they came from; a bad row raises the one-state conversion's error; wrong output
+    arrays raise InvalidInputError."""
+    sm = sim.state_map
+    states = list(_random_states(sim.robot, n=6, seed=3))
+    qpos = np.array([sm.q_to_mj(q) for q, _ in states])
+    qvel = np.array([sm.v_to_mj(q, v) for q, v in states])
+    q_out, v_out = np.empty((len(states), sm.nq)), np.empty((len(states), sm.nv))
+    sm.states_from_mj(qpos, qvel, q_out, v_out)
+    for k, (q, v) in enumerate(states):
+        q1, v1 = sm.state_from_mj(qpos[k], qvel[k])
+        np.testing.assert_array_equal(q_out[k], q1)
+        np.testing.assert_array_equal(v_out[k], v1)
+        assert np.abs(q_out[k] - q).max() < 1e-15 and np.abs(v_out[k] - v).max() < 1e-13
+    bad = qvel.copy()
+    bad[4, 7] = np.nan
+    with pytest.raises(ConfigurationError):
+        sm.states_from_mj(qpos, bad, q_out, v_out)
+    off = qpos.copy()
+    off[2, 3:7] *= 1.01  # base quaternion 1 % off unit norm
+    with pytest.raises(InvalidInputError):
+        sm.states_from_mj(off, qvel, q_out, v_out)
+    with pytest.raises(InvalidInputError):
+        sm.states_from_mj(qpos, qvel, q_out[:-1], v_out)
+
+
 def test_bias_forces_and_forward_dynamics(sim):
     robot, m, d = sim.robot, sim.model, sim.data
     pm = robot.model

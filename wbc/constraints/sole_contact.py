@@ -279,9 +279,10 @@ class SoleContact:
         """(6,) the velocity-free part −J̇v − K_p e of the right-hand side b = −J̇v − K_d J v − K_p e of ``J v̇ = b``
         (module docstring; LOCAL; m/s², rad/s²), a new array; the ID QP adds −K_d J v
         (:func:`wbc.constraints.contact_acceleration.contact_acceleration_rows`)."""
-        b = -pin.getFrameClassicalAcceleration(state.model, state.data, self.frame_id, pin.LOCAL).vector
+        model, data = state.model, state.kinematics_data  # (LOCAL: from the joint's motion, no frame placement)
+        b = -pin.getFrameClassicalAcceleration(model, data, self.frame_id, pin.LOCAL).vector
         if self.kp > 0 and self.reference is not None:
-            b -= self.kp * pin.log6(self.reference.actInv(state.data.oMf[self.frame_id])).vector
+            b -= self.kp * pin.log6(self.reference.actInv(pin.updateFramePlacement(model, data, self.frame_id))).vector
         return b
 
     def world_wrench(self, state: DynamicsState, forces: np.ndarray) -> np.ndarray:

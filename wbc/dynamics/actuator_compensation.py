@@ -15,8 +15,10 @@ for control systems design", IEEE/ASME AIM 2005, eq. 1, its Coulomb term). Stati
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
+from wbc.compiled import once_per_process
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["JointFrictionCompensation"]
@@ -45,6 +47,8 @@ class JointFrictionCompensation:
             raise InvalidInputError(f"velocity_scale must be finite and > 0 rad/s, got {velocity_scale!r}")
         self.damping, self.friction, self.velocity_scale = d, f, float(velocity_scale)
         self._out = np.empty_like(d)
+        self._vj, self._x = np.empty_like(d), np.empty_like(d)
+        _warm_up()
 
     def torque(self, joint_velocity: np.ndarray) -> np.ndarray:
         """(n,) compensation torque (N·m) for the joint velocities q̇* (n,) rad/s (a reused array)."""
@@ -52,3 +56,53 @@ class JointFrictionCompensation:
         self._out *= self.friction
         self._out += self.damping * joint_velocity
         return self._out
+
+    def compensated(self, tau: np.ndarray, v: np.ndarray, dv: np.ndarray, dt: float, tau_min: np.ndarray,
+                    tau_max: np.ndarray) -> np.ndarray:
+        """``min(max(tau + torque(q̇*), tau_min), tau_max)`` with q̇* = v[6:] + dv[6:] dt (a new (n,) array, N·m):
+        the commanded torques ``tau`` (n,) with the compensation added and clipped, for the measured velocity
+        ``v`` (n + 6,) and the QP's acceleration ``dv`` (n + 6,) over the period ``dt`` (s); the same numbers as
+        :meth:`torque` followed by numpy's ``maximum`` and ``minimum``.
+
+        Raises:
+            InvalidInputError: arrays of the wrong shape.
+        """
+        n = self.damping.shape[0]
+        arrays = (tau, v, dv, tau_min, tau_max)
+        if not all(type(a) is np.ndarray and a.dtype == float and a.ndim == 1 for a in arrays) \
+                or tau.shape[0] != n or v.shape[0] != n + 6 or dv.shape[0] != n + 6 \
+                or tau_min.shape[0] != n or tau_max.shape[0] != n:
+            raise InvalidInputError(f"compensated needs float arrays tau ({n},), v and dv ({n + 6},), tau_min and "
+                                    f"tau_max ({n},)")
+        vj, x = self._vj, self._x
+        _commanded_velocity(v, dv, float(dt), self.velocity_scale, vj, x)
+        np.tanh(x, out=x)  # (numpy's tanh, as torque: its CPU-dispatched kernel may differ from libm in the last bit)
+        out = np.empty(n)
+        _add_clipped(tau, x, self.friction, self.damping, vj, tau_min, tau_max, out)
+        return out
+
+
+@nb.njit(cache=True)
+def _commanded_velocity(v, dv, dt, eps, vj, x):
+    """vj = v[6:] + dv[6:] dt and x = vj / eps, elementwise (the operations of numpy's expressions)."""
+    off = v.shape[0] - vj.shape[0]
+    for i in range(vj.shape[0]):
+        vj[i] = v[off + i] + dv[off + i] * dt
+        x[i] = vj[i] / eps
+
+
+@nb.njit(cache=True)
+def _add_clipped(tau, th, friction, damping, vj, lo, hi, out):
+    """out = minimum(maximum(tau + (th f + d vj), lo), hi) elementwise, NaN propagated as numpy's maximum/minimum."""
+    for i in range(tau.shape[0]):
+        t = tau[i] + (th[i] * friction[i] + damping[i] * vj[i])
+        a = lo[i] if t < lo[i] else t
+        out[i] = hi[i] if a > hi[i] else a
+
+
+@once_per_process
+def _warm_up() -> None:
+    """Load the kernels of :meth:`JointFrictionCompensation.compensated` (on-disk cache) once per process."""
+    z = np.zeros(1)
+    _commanded_velocity(np.zeros(7), np.zeros(7), 0.002, 0.05, z, z.copy())
+    _add_clipped(z, z, z, z, z, z, z, z.copy())

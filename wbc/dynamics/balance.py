@@ -283,8 +283,9 @@ class IDBalanceController:
         """
         cmd = self.controller.solve(q, v)
         if self.compensation is not None:
-            vj = np.asarray(v, dtype=float)[6:] + cmd.dv[6:] * self.dt  # commanded next-tick joint velocity
-            cmd.tau = np.minimum(np.maximum(cmd.tau + self.compensation.torque(vj), self._tau_min), self._tau_max)
+            # (at the commanded next-tick joint velocity v[6:] + v̇[6:] dt; v validated by the solve above)
+            cmd.tau = self.compensation.compensated(cmd.tau, np.asarray(v, dtype=float), cmd.dv, self.dt,
+                                                    self._tau_min, self._tau_max)
         return cmd
 
 

@@ -510,6 +510,30 @@ class BaseKalmanFilter:
         self.P = (self._I - K) @ self.P
 
 
+def _sole_chains(model: pin.Model, frame_ids: tuple[int, int]) -> tuple | None:
+    """The model of the joints that carry the two sole frames (``pin.buildReducedModel``, every other joint locked
+    at its neutral position: the soles' placements and velocities in the base frame are those of the whole model,
+    the same arithmetic over fewer joints) with its Data, the soles' frame ids in it, the slice of the encoder vector
+    (v[6:] order) its joints take, and its (q, v) buffers with their base angular velocity and joint views. None
+    when those joints are not one contiguous block of the encoder vector in the same order, or are all the joints."""
+    keep = set()
+    for f in frame_ids:
+        j = model.frames[f].parentJoint
+        while j > 1:
+            keep.add(j)
+            j = model.parents[j]
+    kept = sorted(keep)
+    cols = [model.joints[j].idx_v - 6 for j in kept]
+    if not kept or len(kept) == model.njoints - 2 or cols != list(range(cols[0], cols[0] + len(cols))):
+        return None
+    chains = pin.buildReducedModel(model, [j for j in range(2, model.njoints) if j not in keep], pin.neutral(model))
+    if [chains.names[j] for j in range(2, chains.njoints)] != [model.names[j] for j in kept]:
+        return None
+    frames = tuple(chains.getFrameId(model.frames[f].name, model.frames[f].type) for f in frame_ids)
+    q, v = pin.neutral(chains), np.zeros(chains.nv)
+    return chains, chains.createData(), frames, slice(cols[0], cols[0] + len(cols)), q, v, v[3:6], q[7:], v[6:]
+
+
 class FloatingBaseEstimator:
     """Base pose and velocity of a humanoid from its encoders, IMU and ankle F/T sensors (module docstring).
 
@@ -639,6 +663,7 @@ class FloatingBaseEstimator:
             and np.array_equal(self._j_one, np.arange(nj))
         self._vk_base, self._vk_joints = self._vk[3:6], self._vk[6:]
         self._frame_ids = tuple(self.ft[s].frame_id for s in SIDES)
+        self._chains = _sole_chains(model, self._frame_ids) if self._q_slice else None
         self._sole_rot, self._sole_pos = np.zeros((2, 3, 3)), np.zeros((2, 3))
         self._prm = np.zeros(_PRM_SIZE)
         self._pack()
@@ -744,10 +769,18 @@ class FloatingBaseEstimator:
             if self._has_cs:
                 qk[self._q_cs] = np.cos(joint_q[self._j_cs])
                 qk[self._q_cs + 1] = np.sin(joint_q[self._j_cs])
-        np.subtract(gyro, att.bias, out=self._vk_base)
-        self._vk_joints[:] = vj
-        pin.forwardKinematics(model, data, qk, self._vk)
-        fl, fr = self._frame_ids
+        chains = self._chains
+        if chains is None:
+            np.subtract(gyro, att.bias, out=self._vk_base)
+            self._vk_joints[:] = vj
+            pin.forwardKinematics(model, data, qk, self._vk)
+            fl, fr = self._frame_ids
+        else:  # the same pass on the soles' chains alone (the other joints do not move the soles)
+            model, data, (fl, fr), cols, qc, vc, vc_base, qc_joints, vc_joints = chains
+            qc_joints[:] = joint_q[cols]
+            np.subtract(gyro, att.bias, out=vc_base)
+            vc_joints[:] = vj[cols]
+            pin.forwardKinematics(model, data, qc, vc)
         Xl = pin.updateFramePlacement(model, data, fl)  # (views of data.oMf, valid until the next forwardKinematics)
         Xr = pin.updateFramePlacement(model, data, fr)
         vl = pin.getFrameVelocity(model, data, fl, pin.LOCAL_WORLD_ALIGNED).vector

@@ -1647,7 +1647,7 @@ class _ProblemRows:
                 R[R_KP, s] = kp
                 R[R_KD, s] = kd
                 ent[10] = (kp, kd)
-        data = state.data
+        data = state.kinematics_data  # each contact's frame placed by its jacobian below, before its rotation is read
         if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
             self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
         rotations = self._rotations[1]

@@ -24,7 +24,6 @@ The real-time factor is simulated time / wall time of the whole loop (controller
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from time import perf_counter
 
@@ -36,6 +35,7 @@ import pinocchio as pin
 from wbc.compiled import once_per_process
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
+from wbc.formulations.velocity_kernel import all_finite
 from wbc.scenarios.framework import RunRecord
 from wbc.sim.mujoco_runtime import MujocoModel
 from wbc.sim.outcome import FALL_HEIGHT_DROP, OutcomeMonitor
@@ -176,7 +176,8 @@ def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, rows, ends, sole_body
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_foot_wrench_kernel` (on-disk cache) once per process."""
+    """Load :func:`_foot_wrench_kernel` and the finiteness test of the state (on-disk cache) once per process."""
+    all_finite(np.zeros(2))
     i2 = np.zeros(2, dtype=np.int64)
     _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)), i2,
                         np.ones(2, np.int64), i2, np.zeros((2, 3)), i2, np.zeros((2, 6)), np.zeros((2, 3)))
@@ -290,7 +291,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         else:
             mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
-        if not math.isfinite(qpos @ qpos) and not np.isfinite(qpos).all():  # (the dot product: one BLAS call)
+        if not all_finite(qpos):
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
         log_t[k] = t
@@ -333,11 +334,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     wall = perf_counter() - wall0
     sim.clear_external_forces()
     if deferred:
+        sm.states_from_mj(raw_qpos[:k_end], raw_qvel[:k_end], log_q[:k_end], log_v[:k_end])
         for k in range(k_end):
-            q, v = sm.state_from_mj(raw_qpos[k], raw_qvel[k])
-            log_q[k] = q
-            log_v[k] = v
-            log_com[k] = pin.centerOfMass(pm, pdata, q, False)
+            log_com[k] = pin.centerOfMass(pm, pdata, log_q[k], False)
     cut = {key: val[:k_end] for key, val in log.items()}
     return SimRun(robot=robot.name, controller="id" if is_id else getattr(controller, "name", "custom"),
                   scenario=scenario.name, dt=dt, wall_time=wall, fell=monitor.fell,

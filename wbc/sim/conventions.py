@@ -33,19 +33,18 @@ def quat_xyzw_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
     ])
 
 
-@nb.njit(cache=True)
-def _state_kernel(qpos, qvel, q_gather, v_gather, tol):
-    """:meth:`StateMap.state_from_mj` of a model without continuous joints, the same arithmetic: ``(q, v, status)``,
-    status 0 done, 1 an entry of ``qpos``/``qvel`` not finite or a base quaternion not within ``tol`` of unit norm
-    (q, v then unset: the checked path raises)."""
+@nb.njit(cache=True, inline="always")
+def _state_into(qpos, qvel, q_gather, v_gather, tol, q, v):
+    """:meth:`StateMap.state_from_mj` of a model without continuous joints, written into ``q``, ``v``: status 0
+    done, 1 an entry of ``qpos``/``qvel`` not finite or a base quaternion not within ``tol`` of unit norm (q, v then
+    not all written: the checked path raises)."""
     nq, nv = q_gather.size, v_gather.size
-    q, v = np.empty(nq), np.empty(nv)
     for i in range(qpos.size):
         if not math.isfinite(qpos[i]):
-            return q, v, 1
+            return 1
     for i in range(nv):
         if not math.isfinite(qvel[i]):
-            return q, v, 1
+            return 1
     for i in range(nq):
         q[i] = qpos[q_gather[i]]
     for i in range(nv):
@@ -53,7 +52,7 @@ def _state_kernel(qpos, qvel, q_gather, v_gather, tol):
     x, y, z, w = q[3], q[4], q[5], q[6]
     n = math.sqrt(x * x + y * y + z * z + w * w)
     if not math.isfinite(n) or abs(n - 1.0) > tol:
-        return q, v, 1
+        return 1
     x, y, z, w = x / n, y / n, z / n, w / n  # _check_quat
     n = math.sqrt(x * x + y * y + z * z + w * w)
     x, y, z, w = x / n, y / n, z / n, w / n  # quat_xyzw_to_matrix
@@ -64,15 +63,35 @@ def _state_kernel(qpos, qvel, q_gather, v_gather, tol):
     v[0] = r00 * a0 + r10 * a1 + r20 * a2  # Rᵀ qvel[0:3]
     v[1] = r01 * a0 + r11 * a1 + r21 * a2
     v[2] = r02 * a0 + r12 * a1 + r22 * a2
-    return q, v, 0
+    return 0
+
+
+@nb.njit(cache=True)
+def _state_kernel(qpos, qvel, q_gather, v_gather, tol):
+    """:func:`_state_into` into new arrays: ``(q, v, status)``."""
+    q, v = np.empty(q_gather.size), np.empty(v_gather.size)
+    return q, v, _state_into(qpos, qvel, q_gather, v_gather, tol, q, v)
+
+
+@nb.njit(cache=True)
+def _states_kernel(qpos, qvel, q_gather, v_gather, tol, q, v):
+    """:func:`_state_into` row by row (rows of qpos (N, nq_mj), qvel (N, nv) into q (N, nq), v (N, nv)): the
+    number of rows converted before the first that is not (N when all are)."""
+    for k in range(qpos.shape[0]):
+        if _state_into(qpos[k], qvel[k], q_gather, v_gather, tol, q[k], v[k]) != 0:
+            return k
+    return qpos.shape[0]
 
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_state_kernel` (on-disk cache) once per process."""
+    """Load :func:`_state_kernel` and :func:`_states_kernel` (on-disk cache) once per process."""
     q_gather = np.array([0, 1, 2, 4, 5, 6, 3], dtype=np.intp)
     qpos = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
-    _state_kernel(qpos, np.zeros(6), q_gather, np.arange(6, dtype=np.intp), _QUAT_NORM_TOL)
+    v_gather = np.arange(6, dtype=np.intp)
+    _state_kernel(qpos, np.zeros(6), q_gather, v_gather, _QUAT_NORM_TOL)
+    _states_kernel(qpos[None], np.zeros((1, 6)), q_gather, v_gather, _QUAT_NORM_TOL, np.empty((1, 7)),
+                   np.empty((1, 6)))
 
 
 @dataclass(frozen=True)
@@ -154,6 +173,24 @@ class StateMap:
                 return q, v
         q = self.q_from_mj(qpos)  # (the checked path: raises on bad input)
         return q, self._v_from_mj(q, check_vector(qvel, self.nv, "qvel"))
+
+    def states_from_mj(self, qpos, qvel, q_out: np.ndarray, v_out: np.ndarray) -> None:
+        """:meth:`state_from_mj` of every row: MuJoCo qpos (N, nq_mj) and qvel (N, nv) → Pinocchio rows written
+        into ``q_out`` (N, nq) and ``v_out`` (N, nv) (float arrays), the same numbers row by row.
+
+        Raises:
+            ConfigurationError: wrong shapes or NaN/inf. InvalidInputError: a base quaternion far from unit norm.
+        """
+        n = len(qpos)
+        if not (isinstance(q_out, np.ndarray) and isinstance(v_out, np.ndarray) and q_out.dtype == v_out.dtype == float
+                and q_out.shape == (n, self.nq) and v_out.shape == (n, self.nv)):
+            raise InvalidInputError(f"q_out, v_out must be float arrays of shapes ({n}, {self.nq}) and ({n}, {self.nv})")
+        done = 0
+        if not len(self.mj_qpos_cs) and type(qpos) is np.ndarray and type(qvel) is np.ndarray \
+                and qpos.shape == (n, self.nq_mj) and qvel.shape == (n, self.nv) and qpos.dtype == qvel.dtype == float:
+            done = _states_kernel(qpos, qvel, self._q_gather, self._v_gather, _QUAT_NORM_TOL, q_out, v_out)
+        for k in range(done, n):  # (the per-row path: raises on a bad row)
+            q_out[k], v_out[k] = self.state_from_mj(qpos[k], qvel[k])
 
     # -- velocity, acceleration, force ----------------------------------------------------------------------
     def v_to_mj(self, q, v) -> np.ndarray:

@@ -355,11 +355,26 @@ def _stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_
     return m, w * w * (cx - rx), w * w * (cy - ry), saturated
 
 
+@nb.njit(cache=True, nogil=True)
+def _squares_finite(pos, vel, acc):
+    """Whether pos · pos + vel · vel + acc · acc is finite (every entry finite and none so large its square
+    overflows): the test of a swing reference before its trusted setter."""
+    total = 0.0
+    for i in range(pos.shape[0]):
+        total += pos[i] * pos[i]
+    for i in range(vel.shape[0]):
+        total += vel[i] * vel[i]
+    for i in range(acc.shape[0]):
+        total += acc[i] * acc[i]
+    return math.isfinite(total)
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_support_kernel` and :func:`_stabilizer_kernel` (on-disk cache) once per process, at
-    :meth:`WalkScenario.setup`."""
+    """Load :func:`_support_kernel`, :func:`_stabilizer_kernel` and :func:`_squares_finite` (on-disk cache) once per
+    process, at :meth:`WalkScenario.setup`."""
     _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
+    _squares_finite(np.zeros(3), np.zeros(6), np.zeros(6))
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
     _stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
                        z2.copy(), z2.copy(), z2.copy())
@@ -1037,7 +1052,7 @@ class WalkScenario:
                     vel[:] = 0.0
                     vel[2] = -self.descent_speed if self.descent_speed * late < drop else 0.0
                     acc[:] = 0.0
-                if math.isfinite(pos @ pos + vel @ vel + acc @ acc):
+                if _squares_finite(pos, vel, acc):
                     controller.set_foot_reference_rows(side, rot_t, pos, vel, acc)
                 else:  # the validated setter raises its typed error
                     controller.set_foot_reference(side, pin.SE3(rot_t.T, pos), vel, acc)

@@ -511,7 +511,7 @@ class FrameTask(Task):
         if cls.compute is not FrameTask.compute or cls.drift is not FrameTask.drift:
             Task.compute_with_drift_into(self, state, error_out, jac_out, drift_out)
             return
-        model, data, fid = state.model, state.data, self.frame_id
+        model, data, fid = state.model, state.kinematics_data, self.frame_id  # its frame placed by getFrameJacobian
         views = self._views(data)
         if _frame_rows_drift(views[2], self._target_rot_t, views[3], self._target_pos,
                              pin.getFrameJacobian(model, data, fid, LOCAL),
