@@ -54,7 +54,6 @@ import multiprocessing
 import os
 import sys
 import time
-import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -68,10 +67,10 @@ import pinocchio as pin  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import wbc  # noqa: E402
 from conftest import random_configuration, standing_controller  # noqa: E402
 from fuzz_common import (acceptance_verdict, coincident_stalls, collect_between_episodes, freeze_after_first,  # noqa: E402
-                         highs_feasible, over_line, record_over, replay_over, slow_canary_ticks, tick_probe)
+                         highs_feasible, load_robots, over_line, record_over, replay_over, slow_canary_ticks,
+                         tick_probe)
 from wbc.configuration import Configuration  # noqa: E402
 from wbc.constraints.limits import bounded_joints  # noqa: E402
 from wbc.tasks import FrameTask, PostureTask  # noqa: E402
@@ -508,31 +507,13 @@ def report(total: dict) -> str:
     return "\n".join(lines)
 
 
-_ROBOTS: dict = {}
-
-
-def _load() -> tuple[dict, dict]:
-    """Robots and their limits, loaded once per process."""
-    if not _ROBOTS:
-        warnings.simplefilter("ignore")
-        robots = {n: wbc.load_robot(n) for n in ("talos", "g1", "humanoid15")}
-        limits = {}
-        for n, r in robots.items():
-            iq, iv = bounded_joints(r.model)
-            vmax = r.model.velocityLimit[6:]
-            limits[n] = (iq, r.model.lowerPositionLimit[iq], r.model.upperPositionLimit[iq],
-                         np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
-        _ROBOTS.update(robots=robots, limits=limits)
-    return _ROBOTS["robots"], _ROBOTS["limits"]
-
-
 def _run_job(job: tuple) -> tuple[int, dict]:
     """One chunk in a worker process: (index, result)."""
     i, ticks, episode, seed, n_chunks, out, dts, past_limits, budget, clock_guard = job
     if isinstance(clock_guard, float):  # --clock-weight
         from wbc.formulations.velocity import KinematicController
         KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
-    robots, limits = _load()
+    robots, limits = load_robots()
     ch = run_chunk(robots, limits, ticks, episode, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ",
                    dts=dts, past_limits=past_limits, budget=budget, clock_guard=clock_guard, warm=True)
     if out is not None:
@@ -543,7 +524,7 @@ def _run_job(job: tuple) -> tuple[int, dict]:
 def replay_ratios(seed: int, chunk_ticks: int, ep: int, episode: int, dts: tuple, past_limits: float, budget,
                   clock_guard) -> list[float]:
     """Episode ``ep`` of the chunk (``seed``, ``chunk_ticks``) run again in this process: CPU / budget per tick."""
-    robots, limits = _load()
+    robots, limits = load_robots()
     if isinstance(clock_guard, float):  # --clock-weight
         from wbc.formulations.velocity import KinematicController
         KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
@@ -596,7 +577,7 @@ def main() -> None:
     t0 = time.time()
     dts = tuple(float(x) for x in a.dts.split(","))
     if a.replay is not None:
-        robots, limits = _load()
+        robots, limits = load_robots()
         if a.clock_weight:
             from wbc.formulations.velocity import KinematicController
             KinematicController.CLOCK_WEIGHT = a.clock_weight

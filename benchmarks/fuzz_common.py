@@ -55,18 +55,21 @@ def highs_feasible(A, b, C, l, u, lb, ub, tol: float = 1e-7) -> bool:
 _ROBOTS: dict = {}
 
 
+def joint_limits(robot) -> tuple:
+    """(iq, q_lo, q_hi, v_max) of ``robot``'s bounded joints: their indices in q, position limits (rad or m) and
+    velocity limits (inf where the model gives none)."""
+    iq, _ = bounded_joints(robot.model)
+    vmax = robot.model.velocityLimit[6:]
+    return (iq, robot.model.lowerPositionLimit[iq], robot.model.upperPositionLimit[iq],
+            np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
+
+
 def load_robots() -> tuple[dict, dict]:
-    """({name: Robot}, {name: (iq, q_lo, q_hi, v_max)}) for :data:`ROBOTS`, loaded once per process."""
+    """({name: Robot}, {name: :func:`joint_limits`}) for :data:`ROBOTS`, loaded once per process."""
     if not _ROBOTS:
         warnings.simplefilter("ignore")
         robots = {n: wbc.load_robot(n) for n in ROBOTS}
-        limits = {}
-        for n, r in robots.items():
-            iq, iv = bounded_joints(r.model)
-            vmax = r.model.velocityLimit[6:]
-            limits[n] = (iq, r.model.lowerPositionLimit[iq], r.model.upperPositionLimit[iq],
-                         np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))
-        _ROBOTS.update(robots=robots, limits=limits)
+        _ROBOTS.update(robots=robots, limits={n: joint_limits(r) for n, r in robots.items()})
     return _ROBOTS["robots"], _ROBOTS["limits"]
 
 

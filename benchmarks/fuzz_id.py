@@ -27,12 +27,8 @@ and not counted: ``WARMUP_TICKS`` ticks of episodes drawn from ``WARMUP_SEED`` (
 faults of the first allocations, the compiled kernels' first calls, the solvers' first set-ups — land there, as they
 would in a real-time loop's start-up rather than in its ticks).
 
-Every tick over 2 x its budget is re-measured after the run, in the main process: its episode is replayed
-``fuzz_common.REPLAYS`` times (the same draws give the same ticks; episodes interleaved) and the tick-CPU acceptance
-item passes when the median of each such tick's replays is at most 2 x (``fuzz_common.replay_over``). The run's
-own maximum and counts stay on that line: a tick slow in the run and not in its replays was slowed by the machine
-(a VM's stall, another process), one slow again is slow by its work. ``--aggregate-only`` replays too: give it the
-run's options.
+The ticks over 2 x budget are re-measured by replaying their episodes after the run, as in ``fuzz.py`` (its module
+docstring; ``fuzz_common.replay_over``).
 """
 
 from __future__ import annotations

@@ -597,10 +597,7 @@ def test_fuzz_scripts_freeze_what_the_run_keeps(robots, monkeypatch):
     import fuzz_id
 
     robot = robots("humanoid15")
-    iq, _ = bounded_joints(robot.model)
-    vmax = robot.model.velocityLimit[6:]
-    limits = {"humanoid15": (iq, robot.model.lowerPositionLimit[iq], robot.model.upperPositionLimit[iq],
-                             np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))}
+    limits = {"humanoid15": fuzz_common.joint_limits(robot)}
     monkeypatch.setattr(fuzz_common, "_ROBOTS", {"robots": {"humanoid15": robot}, "limits": limits})
     frozen = []
     try:

@@ -13,7 +13,6 @@ import fuzz  # noqa: E402
 import fuzz_common  # noqa: E402
 import fuzz_id  # noqa: E402
 
-from wbc.constraints.limits import bounded_joints  # noqa: E402
 
 
 def test_replay_over_takes_the_median_of_interleaved_replays():
@@ -44,10 +43,7 @@ def test_the_tick_cpu_line_passes_only_on_replays_of_every_slow_tick(n_over, rep
 
 def test_a_replayed_episode_runs_the_same_ticks_as_the_run(robots, monkeypatch):
     robot = robots("humanoid15")
-    iq, _ = bounded_joints(robot.model)
-    vmax = robot.model.velocityLimit[6:]
-    limits = {"humanoid15": (iq, robot.model.lowerPositionLimit[iq], robot.model.upperPositionLimit[iq],
-                             np.where(np.isfinite(vmax) & (vmax >= 0), vmax, np.inf))}
+    limits = {"humanoid15": fuzz_common.joint_limits(robot)}
     monkeypatch.setattr(fuzz_common, "_ROBOTS", {"robots": {"humanoid15": robot}, "limits": limits})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
