@@ -118,7 +118,7 @@ def taken(tmp_path_factory) -> dict[str, dict[str, Counter]]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            robots, limits = fuzz._load()
+            robots, limits = fuzz.load_robots()
             kin_fuzz = fuzz.run_chunk(robots, limits, 300, 50, 5, past_limits=0.5)["paths"]
             id_fuzz = Counter(fuzz_id.run_chunk(200, 4)["paths"])
             id_fuzz.update(fuzz_id.run_chunk(100, 4, solver="daqp")["paths"])
