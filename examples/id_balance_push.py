@@ -10,6 +10,7 @@ Run: python examples/id_balance_push.py [--robot talos] [--force 300] [--quick]
 import argparse
 
 import wbc
+from wbc.cli.output import format_value
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.physics_scenarios import id_options_for
 from wbc.sim.scenarios import PushScenario, make_controller, run_scenario
@@ -29,7 +30,9 @@ run, summary = run_scenario(sim, controller, scenario)   # closed loop at 500 Hz
 
 print(f"{robot.name}: pushed {force:.0f} N for 0.1 s, {len(run.t)} ticks")
 for key in ("fell", "fall_reason", "max_com_deviation_m", "min_cop_margin_m", "min_friction_margin_n",
-            "solver_failures", "passed", "failed_criteria"):
-    if key in summary:
-        print(f"  {key}: {summary[key]}")
+            "joint_speed_exceedances", "max_joint_speed_ratio", "max_joint_speed_joint", "solver_failures", "passed"):
+    if summary.get(key) is not None:
+        print(f"  {key}: {format_value(summary[key], key)}")  # rounded to the unit's resolution
+for failed in summary["failed_criteria"]:  # the requirement, then what the run measured
+    print(f"  failed: {failed}")
 raise SystemExit(0 if summary["passed"] else 1)

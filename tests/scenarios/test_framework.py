@@ -18,7 +18,22 @@ def test_criterion_number_and_missing_entry():
     c = Criterion("slip ≤ 1 mm", "slip", "<=", 1e-3)
     assert c.holds({"slip": 1e-3}) and not c.holds({"slip": 1.0001e-3})
     assert not c.holds({})  # an entry the run did not measure fails
-    assert evaluate({"slip": 2e-3}, [c]) == (False, ["slip ≤ 1 mm"])
+    assert evaluate({"slip": 2e-3}, [c]) == (False, ["slip ≤ 1 mm: measured 0.002 (required <= 0.001)"])
+    assert evaluate({}, [c]) == (False, ["slip ≤ 1 mm: not measured (no summary entry 'slip')"])
+
+
+def test_failed_criterion_prints_the_measurement_beside_the_requirement():
+    speed = Criterion("no joint above its URDF velocity limit", "n", "==", 0,
+                      detail="worst {joint} at {ratio:.5g}× its limit")
+    summary = {"n": 1, "joint": "arm_left_5_joint", "ratio": 1.000812}
+    assert evaluate(summary, [speed])[1] == [
+        "no joint above its URDF velocity limit: measured 1, worst arm_left_5_joint at 1.0008× its limit "
+        "(required == 0)"]
+    margin = Criterion("ZMP inside", "margin", ">=", 0.0)
+    assert margin.report({"margin": -1.3877787807814457e-17}) == "ZMP inside: measured -1.388e-17 (required >= 0)"
+    scaled = Criterion("distance", "walked", "<=", 0.05, minus="planned", scale_by="planned", floor=0.01)
+    assert scaled.report({"walked": 0.07, "planned": 1.05}) == "distance: measured 0.98 (required <= 0.0525)"
+    assert str(scaled) == "distance (|walked − planned| <= 0.05 × |planned|)"
 
 
 def test_criterion_relative_difference_with_floor():

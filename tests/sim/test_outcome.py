@@ -271,3 +271,21 @@ def test_compiled_tick_matches_a_numpy_reference_on_random_states(talos_sim):
             slide[s] = max(slide[s], float(np.max(np.linalg.norm(corners[:, :2] - start[s], axis=1))))
             assert monitor.max_landing_slide_m[side] == pytest.approx(slide[s], rel=1e-12, abs=1e-12)
     assert exceed > 0 and slide[0] > 1e-3
+
+
+def test_mujoco_warnings_reach_python_not_a_log_file_in_the_cwd(tmp_path, monkeypatch):
+    """An unstable simulation (a body thrown by 1e30 N): MuJoCo's warning is routed to Python, and no
+    MUJOCO_LOG.TXT appears in the current folder (MuJoCo's default handler appends to it)."""
+    from wbc.sim.outcome import MUJOCO_WARNINGS, route_mujoco_warnings
+
+    monkeypatch.chdir(tmp_path)
+    route_mujoco_warnings()
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    data.xfrc_applied[1, 0] = 1e30
+    before = len(MUJOCO_WARNINGS)
+    with pytest.warns(RuntimeWarning, match="MuJoCo: Nan, Inf or huge value in QACC"):
+        mujoco.mj_step(model, data)
+    assert len(MUJOCO_WARNINGS) == before + 1
+    assert list(tmp_path.iterdir()) == []

@@ -13,7 +13,7 @@ from pathlib import Path
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_plant_options, add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
-from wbc.cli.validate import check_jump, check_ticks, count, finite, seconds, solver_name, video_size
+from wbc.cli.validate import check_jump, check_ticks, count, finite, real, seconds, solver_name, video_size
 
 __all__ = ["register", "cmd_sim"]
 
@@ -21,6 +21,10 @@ __all__ = ["register", "cmd_sim"]
 #: take-off and landing need its lag-free velocity, the blind swing over rough ground the smoother low-pass of the
 #: other scenarios (benchmarks/README.md, "The whole acceptance on b2acad8").
 JUMP_VELOCITY_MEMORY = 0.5
+
+#: What ``--mass-error`` accepts: the magnitude of a ± bound (a link keeps a positive mass below 100 %).
+MASS_ERROR_VALID = ("0 <= value < 100: a ± bound in %, each link's mass scaled by 1 + e with e uniform in "
+                    "[-value, +value] %; give its magnitude, e.g. --mass-error 10 for ±10 %")
 
 _SCENARIO_CHOICES = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
@@ -66,6 +70,12 @@ def check_sim_args(args) -> None:
                     (args.steps + 2) * args.step_duration, MAX_TIMESTEP)
         if args.vx is not None and args.vx < 0:
             raise InvalidInputError(f"--vx {args.vx:g}: walking backwards is not planned (valid: vx >= 0 m/s)")
+    if args.scenario != "walk":  # (a walk's are checked with the robot's range, _check_walk_reach)
+        for option in ("vx", "vy", "wz"):
+            value = getattr(args, option, None)
+            if value is not None and not math.isfinite(value):
+                raise InvalidInputError(f"--{option} {value:g} is not a finite number (valid: a finite number; "
+                                        "it commands a walk: wbc sim walk)")
     if args.scenario == "jump":
         check_jump(args.height, 0.1, args.count, MAX_TIMESTEP)  # JumpScenario: crouch 0.1 m, extension 0
 
@@ -116,11 +126,11 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: s per step, single + double support (20%%) (default: the robot's gait, talos 0.8)")
     w.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
                    help="walk: yaw per step, deg (default 0; every angle option of wbc is in degrees)")
-    w.add_argument("--vx", type=finite(), default=None,
+    w.add_argument("--vx", type=real, default=None,
                    help="walk: forward velocity command, m/s (sets --step-length = vx · step duration; with --vy/--wz alone: 0)")
-    w.add_argument("--wz", type=finite(), default=None,
+    w.add_argument("--wz", type=real, default=None,
                    help="walk: turning velocity command, deg/s (sets --turn = wz · step duration)")
-    w.add_argument("--vy", type=finite(), default=0.0,
+    w.add_argument("--vy", type=real, default=0.0,
                    help="walk: lateral velocity command, m/s, + left (side-steps of vy · step duration)")
     w.add_argument("--no-step-adjust", action="store_true",
                    help="walk: keep the planned footsteps (no step adjustment from the measured DCM)")
@@ -147,7 +157,9 @@ def register(subparsers, add_outputs) -> None:
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
                         "wbc.sim.physics_scenarios.walk_options_for)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
-    w.add_argument("--mass-error", type=finite(0.0), default=0.0, help="walk: plant link-mass error bound, %% (uniform ±)")
+    w.add_argument("--mass-error", type=finite(0.0, 100.0, valid=MASS_ERROR_VALID), default=0.0,
+                   help="walk: plant link-mass error bound, %%: each link's mass scaled by 1 + e, e uniform in "
+                        "±mass-error %% (a ± bound: give its magnitude, 0 <= mass-error < 100)")
     w.add_argument("--payload", type=finite(0.0), default=0.0, help="walk: unmodelled torso payload on the plant, kg")
     w.add_argument("--friction", type=finite(0.0), default=0.0,
                    help="walk: extra plant joint dry friction, N·m (unknown to the controller unless --friction-known)")
@@ -288,6 +300,7 @@ def cmd_sim(args) -> int:
     if args.scenario == "walk":
         check_sim_args(args)  # again, with the robot's own step duration
         _check_walk_reach(args, robot)
+    _check_push_force(args, robot)
     factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
     drives = actuator_model(robot, args.plant, no_load_factor=factor)
     foot = robot.spec.mujoco.foot if robot.spec is not None else "box"
@@ -449,6 +462,38 @@ def cmd_sim(args) -> int:
     return 0 if summary["passed"] else 1
 
 
+#: Largest push accepted, as a multiple of the robot's capture-point bound for a finite push of the same duration
+#: and direction (:func:`wbc.sim.scenarios.capture_point_bound`, ``f_max_finite_n``): beyond the bound a standing
+#: robot cannot stay on its soles whatever its controller does, and a capture step gains a few times it; a trial
+#: ten times beyond it only measures how far the robot is thrown.
+MAX_PUSH_BOUND_FACTOR = 10.0
+
+
+def _check_push_force(args, robot) -> None:
+    """Refuse a push (``--force`` of push and push-step, ``--push`` of walk) beyond :data:`MAX_PUSH_BOUND_FACTOR`
+    times the robot's capture-point bound, before the model is built; the message gives the bound.
+
+    Raises:
+        InvalidInputError: naming the option, the force and the largest accepted force.
+    """
+    from wbc.exceptions import InvalidInputError
+    from wbc.sim.scenarios import capture_point_bound
+
+    option, force = {"push": ("--force", args.force), "push-step": ("--force", args.force),
+                     "walk": ("--push", abs(args.push))}.get(args.scenario, (None, None))
+    if not force:
+        return
+    a = math.radians(args.push_dir)
+    cp = capture_point_bound(robot, args.push_duration, (math.cos(a), math.sin(a), 0.0))
+    limit = MAX_PUSH_BOUND_FACTOR * cp["f_max_finite_n"]
+    if force > limit:
+        raise InvalidInputError(
+            f"{option} {force:g} N for {args.push_duration:g} s is beyond what a trial can mean (valid: <= "
+            f"{limit:.0f} N, {MAX_PUSH_BOUND_FACTOR:g} × {robot.name}'s capture-point bound of "
+            f"{cp['f_max_finite_n']:.0f} N for this duration and direction, beyond which it falls whatever the "
+            "controller does)")
+
+
 def _check_walk_reach(args, robot) -> None:
     """``wbc sim walk``: the per-step command (from ``--step-length``/``--turn`` or ``--vx/--vy/--wz``) within the
     legs' reach, before the model is built; messages name the option given.
@@ -456,16 +501,17 @@ def _check_walk_reach(args, robot) -> None:
     Raises:
         InvalidInputError: see :func:`wbc.cli.walk.check_step_command`; a step length beyond the reach.
     """
-    from wbc.cli.walk import check_step_command, leg_reach
+    from wbc.cli.walk import check_command_values, check_step_command, leg_reach
     from wbc.exceptions import InvalidInputError
 
     period = args.step_duration
+    reach = leg_reach(robot)
+    check_command_values(args, robot.name, reach, period)
     turn, length = args.turn, args.step_length
     if args.vx is not None or args.vy or args.wz is not None:  # what _scenario will command
         length = (args.vx or 0.0) * period
         if args.wz is not None:
             turn = args.wz * period
-    reach = leg_reach(robot)
     saved = args.turn
     args.turn = turn
     try:

@@ -20,7 +20,7 @@ from wbc.exceptions import InvalidInputError
 
 __all__ = [
     "OUTPUT_SUFFIXES", "check_outputs", "output_path", "available_memory", "check_ticks", "check_range",
-    "video_size", "count", "seconds", "finite", "solver_name", "BYTES_PER_TICK",
+    "video_size", "count", "seconds", "finite", "real", "solver_name", "BYTES_PER_TICK",
 ]
 
 #: Output option -> the file suffix it writes (``--bag`` is a folder: no suffix).
@@ -197,8 +197,14 @@ def count(lo: int = 1, hi: int | None = None):
     return convert
 
 
-def finite(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, unit: str = ""):
-    """An argparse type: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+def finite(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, unit: str = "",
+           valid: str | None = None):
+    """An argparse type: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``).
+
+    Args:
+        valid: what the message names as valid, when the bounds alone do not say it (e.g. a ± bound given as its
+            magnitude); default: the range, or "a finite number" without bounds.
+    """
     def convert(text: str) -> float:
         try:
             value = float(text)
@@ -209,11 +215,23 @@ def finite(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
         if not ok:
             left = "" if lo is None else f"{lo:g}{unit} {'<' if lo_open else '<='} "
             right = "" if hi is None else f" <= {hi:g}{unit}"
-            raise argparse.ArgumentTypeError(f"{text} is out of range (valid: {left}value{right})")
+            what = valid or (f"{left}value{right}" if left or right else "a finite number")
+            problem = "is out of range" if math.isfinite(value) else "is not a finite number"
+            raise argparse.ArgumentTypeError(f"{text} {problem} (valid: {what})")
         return value
 
     convert.__name__ = "number"
     return convert
+
+
+def real(text: str) -> float:
+    """An argparse type: any float, NaN and ±inf included, for an option whose valid range depends on the robot
+    (``--step-length``, ``--vx``...): the command refuses a value outside it once the robot is loaded, with the
+    robot's range in the message (:func:`wbc.cli.walk.check_command_values`)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
 def seconds(text: str) -> float:

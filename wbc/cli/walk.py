@@ -9,10 +9,10 @@ import numpy as np
 from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
-from wbc.cli.validate import check_range, check_ticks, finite, solver_name
+from wbc.cli.validate import check_range, check_ticks, finite, real, solver_name
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "MIN_STEPS"]
+__all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "check_command_values", "MIN_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
 
@@ -117,6 +117,7 @@ def check_walk_args(args, robot) -> None:
     period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
     check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
     reach = leg_reach(robot)
+    check_command_values(args, robot.name, reach, period)
     check_step_command(args, reach, period)
     if args.step_length is not None:
         if not (0.0 <= args.step_length <= reach):
@@ -129,8 +130,36 @@ def check_walk_args(args, robot) -> None:
                     f"{source} gives a step length of {args.step_length:.3g} m, beyond the reach of {robot.name}'s "
                     f"legs (valid: 0 <= vx <= {reach / period:.3f} m/s, i.e. step length <= {reach:.3f} m per "
                     f"{period:g} s step)")
-            raise InvalidInputError(f"--step-length {args.step_length} m is beyond the reach of {robot.name}'s legs "
+            if args.step_length < 0:
+                raise InvalidInputError(f"--step-length {args.step_length:g} m: walking backwards is not planned "
+                                        f"(valid: 0 <= step length <= {reach:.3f} m, {robot.name}'s leg reach)")
+            raise InvalidInputError(f"--step-length {args.step_length:g} m is beyond the reach of {robot.name}'s legs "
                                     f"(valid: 0 <= step length <= {reach:.3f} m)")
+
+
+def check_command_values(args, name: str, reach: float, period: float) -> None:
+    """Refuse a NaN or infinite ``--step-length``, ``--vx``, ``--vy`` or ``--wz`` (parsed by
+    :func:`wbc.cli.validate.real`) with the range valid for this robot.
+
+    Args:
+        name: the robot's name. reach: its legs' reach (m, :func:`leg_reach`). period: step duration (s).
+
+    Raises:
+        InvalidInputError: naming the option, its value and the robot's valid range.
+    """
+    ranges = {
+        "vx": f"0 <= vx <= {reach / period:.3f} m/s: {name}'s leg reach {reach:.3f} m per {period:g} s step",
+        "vy": f"|vy| <= {reach / period:.3f} m/s: {name}'s leg reach {reach:.3f} m per {period:g} s step",
+        "wz": f"|wz| < {MAX_TURN_DEG / period:.4g} deg/s: {MAX_TURN_DEG:g} deg per {period:g} s step",
+        "step_length": f"0 <= step length <= {reach:.3f} m, {name}'s leg reach",
+    }
+    for dest, valid in ranges.items():
+        value = getattr(args, dest, None)
+        if dest == "step_length" and getattr(args, "step_length_source", None) is not None:
+            continue  # computed from --vx, checked as --vx
+        if value is not None and not math.isfinite(value):
+            option = "--" + dest.replace("_", "-")
+            raise InvalidInputError(f"{option} {value:g} is not a finite number (valid: {valid})")
 
 
 #: Largest yaw change per step (deg): the planner's bound, |turn| < 90° per step (:func:`wbc.gait.plan_walk`).
@@ -254,18 +283,18 @@ def register(sub, add_outputs=add_outputs) -> None:
     walk.add_argument("--steps", type=int, default=8,
                       help=f"number of steps, >= {MIN_STEPS}, the last one bringing the feet side by side: the feet "
                            "advance (steps - 1) x step length (default 8)")
-    walk.add_argument("--step-length", type=finite(), default=None,
+    walk.add_argument("--step-length", type=real, default=None,
                       help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
                       help="m (default: current feet distance; on stairs the robot file's [stairs] step_width when it "
                            "gives one)")
     walk.add_argument("--turn", type=finite(-90.0, 90.0), default=0.0,
                       help="yaw change per step, deg (default 0; every angle option of wbc is in degrees)")
-    walk.add_argument("--vx", type=finite(), default=None,
+    walk.add_argument("--vx", type=real, default=None,
                       help="forward velocity command, m/s (sets --step-length = vx x step duration t_ss + t_ds)")
-    walk.add_argument("--vy", type=finite(), default=0.0,
+    walk.add_argument("--vy", type=real, default=0.0,
                       help="lateral velocity command, m/s, + left (side-steps of vy x step duration)")
-    walk.add_argument("--wz", type=finite(), default=None,
+    walk.add_argument("--wz", type=real, default=None,
                       help="turning velocity command, deg/s (sets --turn = wz x step duration)")
     walk.add_argument("--terrain", default="flat",
                       help="ground: flat | stairs:RISE:TREAD:N[:up|down|updown] | slope:DEG[:LENGTH] | "

@@ -47,6 +47,12 @@ class Criterion:
         reduce: ``max``/``min``/``len``/``all`` of a list entry (of the values of a dict entry) before comparing.
         threshold_key: another list entry: compare element-wise against its magnitudes (every element must hold).
         either: alternatives: the criterion also holds when one of them holds.
+        detail: a format string over the summary entries, printed beside the measurement when the criterion
+            fails (e.g. ``"{max_joint_speed_joint} at {max_joint_speed_ratio:.5g}×"``); left out when an entry
+            it names is missing.
+
+    ``str(criterion)`` is the requirement in words and symbols (``description (key op threshold)``);
+    :meth:`report` is the failed-criterion line: the requirement, then what the run measured.
 
     Raises:
         InvalidInputError: unknown ``op`` or ``reduce``.
@@ -63,6 +69,7 @@ class Criterion:
     reduce: str | None = None
     threshold_key: str | None = None
     either: tuple[Criterion, ...] = field(default=())
+    detail: str = ""
 
     def __post_init__(self):
         if self.op not in _OPS:
@@ -79,7 +86,44 @@ class Criterion:
             ok = False
         return ok or any(alt.holds(summary) for alt in self.either)
 
-    def _holds(self, summary: dict) -> bool:
+    def __str__(self) -> str:
+        return f"{self.description} ({self._requirement()})"
+
+    def _requirement(self) -> str:
+        """``key op bound`` in symbols, e.g. ``walked_distance_m <= 0.05 × planned_distance_m``."""
+        left = self.key if self.minus is None else f"|{self.key} − {self.minus}|"
+        if self.reduce is not None:
+            left = f"{self.reduce}({left})"
+        bound = f"|{self.threshold_key}|" if self.threshold_key is not None else _text(self.threshold)
+        if self.scale_by is not None:
+            bound = f"{bound} × |{self.scale_by}|"
+        return f"{left} {self.op} {bound}"
+
+    def measured(self, summary: dict):
+        """The value the criterion compares (after ``minus`` and ``reduce``), or None when the summary lacks an
+        entry it needs; ``(value, bound)`` are what :meth:`report` prints."""
+        try:
+            return self._value(summary), self._bound(summary)
+        except (KeyError, TypeError, ValueError):
+            return None
+
+    def report(self, summary: dict) -> str:
+        """The line of a failed criterion: ``description: measured <value>[, details] (required <op> <bound>)``;
+        ``description: not measured (...)`` when the summary lacks an entry it needs. Numbers to 4 significant
+        digits."""
+        got = self.measured(summary)
+        if got is None:
+            return f"{self.description}: not measured (no summary entry {self.key!r})"
+        value, bound = got
+        shown = _text(value)
+        if self.detail:
+            try:
+                shown += ", " + self.detail.format_map(summary)
+            except (KeyError, TypeError, ValueError, IndexError):
+                pass
+        return f"{self.description}: measured {shown} (required {self.op} {_text(bound)})"
+
+    def _value(self, summary: dict):
         value = _get(summary, self.key)
         if isinstance(value, dict):
             value = list(value.values())
@@ -92,14 +136,21 @@ class Criterion:
                 value = abs(math.remainder(value, self.period) if self.period is not None else value)
         if self.reduce is not None:
             value = _REDUCE[self.reduce](value)
+        return value
+
+    def _bound(self, summary: dict):
+        if self.threshold_key is not None:
+            return [abs(float(b)) for b in _get(summary, self.threshold_key)]
+        if self.scale_by is not None:
+            return max(self.threshold * abs(_get(summary, self.scale_by)), self.floor)
+        return self.threshold
+
+    def _holds(self, summary: dict) -> bool:
+        value, bound = self._value(summary), self._bound(summary)
         compare = _OPS[self.op]
         if self.threshold_key is not None:
-            bounds = np.abs(np.asarray(_get(summary, self.threshold_key), dtype=float))
-            values = np.asarray(value, dtype=float)
+            bounds, values = np.asarray(bound, dtype=float), np.asarray(value, dtype=float)
             return values.shape == bounds.shape and bool(np.all(compare(values, bounds)))
-        bound = self.threshold
-        if self.scale_by is not None:
-            bound = max(self.threshold * abs(_get(summary, self.scale_by)), self.floor)
         return bool(compare(value, bound))
 
 
@@ -110,9 +161,21 @@ def _get(summary: dict, key: str):
     return value
 
 
+def _text(value) -> str:
+    """A measurement or bound as printed beside a verdict: floats (and lists of them) to 4 significant digits."""
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value))
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value):.4g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_text(v) for v in value) + "]"
+    return str(value)
+
+
 def evaluate(summary: dict, criteria) -> tuple[bool, list[str]]:
-    """(every criterion holds, descriptions of the failed ones, in order)."""
-    failed = [c.description for c in criteria if not c.holds(summary)]
+    """(every criterion holds, the failed ones in order, each as :meth:`Criterion.report`: the requirement and
+    the measurement beside it)."""
+    failed = [c.report(summary) for c in criteria if not c.holds(summary)]
     return not failed, failed
 
 

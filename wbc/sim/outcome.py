@@ -30,6 +30,10 @@ velocities of the new state) and decides:
   consecutive ticks without any foot–floor contact. The feet standing at t = 0 start a support phase too (their
   slide is measured from t = 0). Corners are the sole rectangle's (``robot.sole_corners_local``) in the sole
   frame, placed by MuJoCo's body pose.
+* **MuJoCo warnings** — MuJoCo's own warnings (an unstable simulation, a contact buffer full...) are routed to
+  Python from the first monitor on (:func:`route_mujoco_warnings`): reported as ``mujoco_warnings`` in the summary
+  and as a :class:`RuntimeWarning`, instead of MuJoCo's default of printing them and appending them to
+  ``MUJOCO_LOG.TXT`` in the current folder.
 """
 
 from __future__ import annotations
@@ -42,8 +46,8 @@ import numpy as np
 
 from wbc.compiled import once_per_process
 
-__all__ = ["OutcomeMonitor", "FALL_HEIGHT_DROP", "FALL_TILT_DEG", "STRIKE_DEG", "STRIKE_MIN_FORCE", "CORNER_MATCH",
-           "LIFTOFF_TICKS"]
+__all__ = ["OutcomeMonitor", "route_mujoco_warnings", "MUJOCO_WARNINGS", "FALL_HEIGHT_DROP", "FALL_TILT_DEG",
+           "STRIKE_DEG", "STRIKE_MIN_FORCE", "CORNER_MATCH", "LIFTOFF_TICKS"]
 
 FALL_HEIGHT_DROP = 0.2  #: m, base height drop that counts as a fall
 FALL_TILT_DEG = 30.0  #: deg, pelvis or torso tilt from its nominal orientation that counts as a fall
@@ -51,6 +55,24 @@ STRIKE_DEG = 45.0  #: deg, a foot contact normal this far from the sole's normal
 STRIKE_MIN_FORCE = 20.0  #: N, normal force below which such a contact is a graze, not a strike
 CORNER_MATCH = 0.02  #: m, a contact point this close to a sole corner makes that corner a contact point
 LIFTOFF_TICKS = 10  #: consecutive ticks without foot contact that end a support phase
+
+
+#: Every MuJoCo warning text of this process since :func:`route_mujoco_warnings` was called, in order.
+MUJOCO_WARNINGS: list[str] = []
+
+
+def _on_mujoco_warning(text: str) -> None:
+    MUJOCO_WARNINGS.append(text)
+    import warnings
+
+    warnings.warn(f"MuJoCo: {text}", RuntimeWarning, stacklevel=2)
+
+
+def route_mujoco_warnings() -> None:
+    """Make MuJoCo hand its warnings to Python (appended to :data:`MUJOCO_WARNINGS` and issued as a
+    :class:`RuntimeWarning`) instead of writing ``MUJOCO_LOG.TXT`` in the current folder; process-wide, idempotent."""
+    if mujoco.get_mju_user_warning() is not _on_mujoco_warning:
+        mujoco.set_mju_user_warning(_on_mujoco_warning)
 
 
 @nb.njit(cache=True)
@@ -213,6 +235,8 @@ class OutcomeMonitor:
     """
 
     def __init__(self, sim):
+        route_mujoco_warnings()
+        self._warnings_from = len(MUJOCO_WARNINGS)
         robot = sim.robot
         model, d = sim.model, sim.data
         self.sim = sim
@@ -416,6 +440,7 @@ class OutcomeMonitor:
             "max_joint_speed_ratio": self.max_speed_ratio, "max_joint_speed_joint": self.max_speed_joint,
             "max_landing_slide_m": max(self.max_landing_slide_m.values()),
             "landing_slide_m": dict(self.max_landing_slide_m), "touchdowns": dict(self.touchdowns),
+            "mujoco_warnings": MUJOCO_WARNINGS[self._warnings_from:] or None,
         }
 
 

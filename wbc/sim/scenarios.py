@@ -73,8 +73,8 @@ NO_FALL = Criterion("no fall (base drop > 0.2 m, pelvis/torso tilt > 30°, a non
                     "strike on a riser or nosing)",
                     "fell", "==", False)
 #: Every physics scenario: no joint of the plant above its URDF velocity limit (MuJoCo qvel, every tick).
-JOINT_SPEED = Criterion("no joint above its URDF velocity limit (0 exceedances)", "joint_speed_exceedances",
-                        "==", 0)
+JOINT_SPEED = Criterion("no joint above its URDF velocity limit", "joint_speed_exceedances", "==", 0,
+                        detail="worst {max_joint_speed_joint} at {max_joint_speed_ratio:.5g}× its limit")
 #: Every physics scenario: the soles' contact points travel ≤ 10 mm from first contact to lift-off.
 LANDING_SLIDE = Criterion("landing slide ≤ 10 mm", "max_landing_slide_m", "<=", 0.010)
 #: The operator's outcome criteria, added to every scenario's own (:func:`acceptance`).
