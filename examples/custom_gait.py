@@ -13,7 +13,7 @@ import wbc
 from wbc.gait import plan_walk
 from wbc.scenarios.walk import run_walk, walk_summary
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--steps", type=int, default=6, help="number of steps (default 6)")
 parser.add_argument("--quick", action="store_true", help="3 steps (CI)")

@@ -11,7 +11,7 @@ from pathlib import Path
 import wbc
 from wbc.scenarios.walk import plan_default_walk, run_walk, walk_summary
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--payload", type=float, default=3.0, help="backpack mass, kg (default 3)")
 parser.add_argument("--quick", action="store_true", help="2 steps (CI)")
 args = parser.parse_args()

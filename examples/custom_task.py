@@ -30,7 +30,7 @@ class HandsLevelTask(Task):
         return np.array([z]), jac[None, :]
 
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--quick", action="store_true", help="humanoid15, 0.5 s (CI)")
 args = parser.parse_args()

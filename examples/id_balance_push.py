@@ -15,7 +15,7 @@ from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.physics_scenarios import id_options_for
 from wbc.sim.scenarios import PushScenario, make_controller, run_scenario
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--force", type=float, default=300.0, help="lateral push on the torso, N (default 300)")
 parser.add_argument("--quick", action="store_true", help="humanoid15, 1 s of settling after the push (CI)")

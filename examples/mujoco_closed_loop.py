@@ -16,7 +16,7 @@ from wbc.dynamics import IDBalanceController
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.physics_scenarios import id_options_for
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--seconds", type=float, default=4.0, help="simulated time, s (default 4)")
 parser.add_argument("--quick", action="store_true", help="humanoid15, 1 s (CI)")

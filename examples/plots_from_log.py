@@ -18,7 +18,7 @@ import wbc  # noqa: E402
 from wbc.scenarios.balance import run_balance  # noqa: E402
 from wbc.viz.plots import load_log, plot_log  # noqa: E402
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--behaviour", default="squat", help="shift, one-leg, wave, squat or reach (default squat)")
 parser.add_argument("--out-dir", type=Path, default=Path(tempfile.gettempdir()), help="where the npz and PNG go")

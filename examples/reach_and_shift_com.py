@@ -10,7 +10,7 @@ import wbc
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.tasks import ComTask, PositionTask, PostureTask
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--quick", action="store_true", help="0.5 s instead of 2 s (CI)")
 args = parser.parse_args()
 

@@ -16,7 +16,7 @@ from wbc.gait import convex_hull, pose_to_xy_yaw, sole_polygon
 from wbc.scenarios.walk import plan_default_walk, run_walk
 from wbc.viz import record_html
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="talos", help="catalog robot (default talos)")
 parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "wbc_walk_overlays.html")
 parser.add_argument("--quick", action="store_true", help="humanoid15, 2 steps (CI)")

@@ -13,7 +13,7 @@ from wbc.ros2.dds import domain_id, use_loopback
 from wbc.ros2.publisher import Ros2Publisher
 from wbc.scenarios.walk import plan_default_walk, run_walk
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="humanoid15", help="catalog robot (default humanoid15)")
 parser.add_argument("--bag", type=Path, default=None, help="rosbag2 folder to create (default: a temporary one)")
 parser.add_argument("--quick", action="store_true", help="2 steps (CI)")

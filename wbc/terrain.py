@@ -189,6 +189,9 @@ class Terrain:
         heightfield: a :class:`Heightfield` or None.
         treads: for stairs, ``(x_start, x_end, z)`` of each flat tread along +x in walking order (m); empty for
             other terrains (informative: the planner works from :meth:`height` and :meth:`normal` alone).
+        end_x: x (m) from which a walk along +x has crossed the terrain's features (stairs up: the top landing;
+            down and updown: the floor after the last step; slope: the foot of the ramp down); None when the
+            terrain has no such end (flat, rough, a file).
     """
 
     name: str = "flat"
@@ -196,6 +199,7 @@ class Terrain:
     boxes: tuple[Box, ...] = ()
     heightfield: Heightfield | None = None
     treads: tuple[tuple[float, float, float], ...] = ()
+    end_x: float | None = None
 
     def __post_init__(self):
         if not (isinstance(self.floor_z, (int, float)) and math.isfinite(self.floor_z)):
@@ -360,7 +364,7 @@ def stairs(rise: float, tread: float, n: int, direction: str = "up") -> Terrain:
             boxes.append(_flat_box(a, a + tread, floor, -i * rise))
             treads.append((a, a + tread, -i * rise))
         treads.append((x0 + (n - 1) * tread, math.inf, floor))
-        return Terrain(name, floor, tuple(boxes), None, tuple(treads))
+        return Terrain(name, floor, tuple(boxes), None, tuple(treads), end_x=treads[-1][0])
     top_len = landing if direction == "up" else 3.0 * tread
     for i in range(1, n + 1):
         a = x0 + (i - 1) * tread
@@ -374,9 +378,11 @@ def stairs(rise: float, tread: float, n: int, direction: str = "up") -> Terrain:
             treads.append((a, a + tread, i * rise))
             a += tread
         treads.append((a, math.inf, 0.0))
+        end = a
     else:
+        end = treads[-1][0]  # the top landing
         treads.append((treads[-1][1], math.inf, 0.0))  # beyond the landing: the floor
-    return Terrain(name, 0.0, tuple(boxes), None, tuple(treads))
+    return Terrain(name, 0.0, tuple(boxes), None, tuple(treads), end_x=end)
 
 
 def slope(degrees: float, length: float = 2.0) -> Terrain:
@@ -398,7 +404,7 @@ def slope(degrees: float, length: float = 2.0) -> Terrain:
         center = np.array([x_mid, 0.0, z_mid]) - 0.5 * thick * rot[:, 2]
         boxes.append(Box(center, [2 * half_face, _WIDTH, thick], rot))
     boxes.insert(1, _flat_box(x0 + length, x0 + length + plateau, 0.0, top))
-    return Terrain(f"slope:{degrees:g}:{length:g}", 0.0, tuple(boxes))
+    return Terrain(f"slope:{degrees:g}:{length:g}", 0.0, tuple(boxes), end_x=x0 + 2 * length + plateau)
 
 
 def rough(amplitude: float, seed: int) -> Terrain:

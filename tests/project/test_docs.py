@@ -87,3 +87,10 @@ def test_tutorial_page_runs(page):
                          cwd=ROOT)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-4000:]
     assert out.stdout.strip(), "the page prints what it shows"
+
+
+def test_navigation_has_a_top_level_api_reference_item():
+    """The site's top navigation (the tabs) names the API reference, not only a sub-item of Reference."""
+    nav = (DOCS / "mkdocs.yml").read_text().split("\nnav:\n", 1)[1]
+    top = [line[4:].split(":")[0] for line in nav.splitlines() if line.startswith("  - ")]
+    assert "API reference" in top, top

@@ -53,6 +53,10 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'wbc.cli' has no attribute {name!r}")
 
 
+#: ``wbc --help``'s description: the module docstring's first paragraph, without its reST markup.
+DESCRIPTION = " ".join(__doc__.split("\n\n")[0].replace("``", "").split())
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with a one-line error (``wbc walk: error: argument --steps: ...``), exit code 2."""
 
@@ -72,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The `wbc` argument parser with every sub-command (one module of :mod:`wbc.cli` per command group)."""
     from wbc import __version__
 
-    parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="wbc", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = _Commands(parser.add_subparsers(dest="command", required=True))
     from wbc.cli.output import add_outputs

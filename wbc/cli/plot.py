@@ -16,8 +16,16 @@ def check_plot_args(args) -> None:
     from wbc.cli.validate import output_path
     from wbc.viz.plots import load_log
 
+    import zipfile
+
+    from wbc.exceptions import InvalidInputError
+
     args.out = output_path("--out", args.out or Path(args.log_file).with_suffix(".png"), ".png")
-    args.log = load_log(args.log_file)
+    path = Path(args.log_file)
+    if path.is_file() and not zipfile.is_zipfile(path):  # an npz is a zip archive of .npy arrays
+        raise InvalidInputError(f"{str(path)!r} is not an npz log (not a zip archive of arrays; a run writes one with "
+                                "--log FILE.npz)")
+    args.log = load_log(path)
 
 
 def cmd_plot(args) -> int:

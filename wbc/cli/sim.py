@@ -83,7 +83,7 @@ def check_sim_args(args) -> None:
 def register(subparsers, add_outputs) -> None:
     """Add the ``sim`` sub-command (``add_outputs`` adds --json/--log/--out/--live)."""
     p = subparsers.add_parser(
-        "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): stand, sway, one-leg, push, wave",
+        "sim", help="closed-loop MuJoCo simulation (inverse-dynamics QP at 500 Hz): " + ", ".join(_SCENARIO_CHOICES),
         description="Closed-loop MuJoCo simulation of a robot built from its URDF; the controller reads the "
                     "state estimated from the simulated sensors (or MuJoCo's ground truth, --state) and applies "
                     "joint torques at 500 Hz (one 2 ms mj_step per tick).")
@@ -300,6 +300,10 @@ def cmd_sim(args) -> int:
     if args.scenario == "walk":
         check_sim_args(args)  # again, with the robot's own step duration
         _check_walk_reach(args, robot)
+        if terrain is not None:
+            from wbc.cli.walk import check_terrain_for_robot
+
+            check_terrain_for_robot(terrain, robot)
     _check_push_force(args, robot)
     factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
     drives = actuator_model(robot, args.plant, no_load_factor=factor)
@@ -381,6 +385,8 @@ def cmd_sim(args) -> int:
             viewer.close()
         finish(ros2_pub)
     summary["solver"] = args.solver if args.controller == "id" else None
+    if args.scenario == "walk" and terrain is not None and getattr(scenario, "poses", None) is not None:
+        _check_crossing(summary, terrain, scenario.poses, robot.sole_length)
     if state is None:
         summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     else:
@@ -489,9 +495,23 @@ def _check_push_force(args, robot) -> None:
     if force > limit:
         raise InvalidInputError(
             f"{option} {force:g} N for {args.push_duration:g} s is beyond what a trial can mean (valid: <= "
-            f"{limit:.0f} N, {MAX_PUSH_BOUND_FACTOR:g} × {robot.name}'s capture-point bound of "
+            f"{math.floor(limit):.0f} N, {MAX_PUSH_BOUND_FACTOR:g} × {robot.name}'s capture-point bound of "
             f"{cp['f_max_finite_n']:.0f} N for this duration and direction, beyond which it falls whatever the "
             "controller does)")
+
+
+def _check_crossing(summary: dict, terrain, poses: dict, sole_length: float) -> None:
+    """A walk on a terrain with an end: whether the commanded footsteps (the last planned or adjusted sole poses)
+    end past it (:func:`wbc.cli.walk.terrain_crossing`); a failed criterion when not, ``passed`` updated."""
+    from wbc.cli.walk import crossing_criterion, terrain_crossing
+    from wbc.scenarios.framework import evaluate
+
+    summary.update(terrain_crossing(terrain, float(poses["left"][-1][0, 3]), float(poses["right"][-1][0, 3]),
+                                    sole_length))
+    if "terrain_shortfall_m" in summary:
+        ok, failed = evaluate(summary, [crossing_criterion()])
+        summary["failed_criteria"] = list(summary["failed_criteria"]) + failed
+        summary["passed"] = bool(summary["passed"]) and ok
 
 
 def _check_walk_reach(args, robot) -> None:

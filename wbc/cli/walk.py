@@ -12,7 +12,8 @@ from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_range, check_ticks, finite, real, solver_name
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["register", "cmd_walk", "leg_reach", "velocity_command", "check_command_values", "MIN_STEPS"]
+__all__ = ["register", "cmd_walk", "leg_reach", "leg_rise", "velocity_command", "check_command_values",
+           "check_terrain_for_robot", "terrain_crossing", "crossing_criterion", "MIN_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
 
@@ -21,14 +22,8 @@ MIN_STEPS = 2  # one step forward and the closing step
 DT_RANGE = (1e-4, 0.02)
 
 
-def leg_reach(robot) -> float:
-    """Largest fore-aft distance (m) between the two soles in double support that the legs can span.
-
-    Geometric bound: leg length l (sum of the distances between the joint origins from the hip to the sole
-    frame, ``q_ref``) and hip height h above the sole at ``q_ref``; with the hips above the mid-point the
-    soles are at most ``2 sqrt(l^2 - h^2)`` apart. A step moves the feet mid-point by the step length, so
-    the soles are one step length apart in double support.
-    """
+def _leg_chain(robot):
+    """(model, data at ``q_ref``, left sole frame id, leg joint ids from the sole up to the hip)."""
     import pinocchio as pin  # here, not at the top: `wbc --help` and the first-run notice stay instant
 
     model = robot.model
@@ -40,10 +35,100 @@ def leg_reach(robot) -> float:
     while j > 0 and model.joints[j].nq != 7:  # up to the joint under the free flyer (the hip)
         chain.append(j)
         j = model.parents[j]
+    return model, data, fid, chain
+
+
+def leg_reach(robot) -> float:
+    """Largest fore-aft distance (m) between the two soles in double support that the legs can span.
+
+    Geometric bound: leg length l (sum of the distances between the joint origins from the hip to the sole
+    frame, ``q_ref``) and hip height h above the sole at ``q_ref``; with the hips above the mid-point the
+    soles are at most ``2 sqrt(l^2 - h^2)`` apart. A step moves the feet mid-point by the step length, so
+    the soles are one step length apart in double support.
+    """
+    model, data, fid, chain = _leg_chain(robot)
     points = [data.oMf[fid].translation] + [data.oMi[j].translation for j in chain]
     length = float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:])))
     height = float(points[-1][2] - points[0][2])
     return 2.0 * float(np.sqrt(max(length**2 - height**2, 0.0)))
+
+
+def leg_rise(robot) -> float:
+    """Largest step up or down (m) a leg can take: the hip's height above the sole at ``q_ref`` minus the shortest
+    hip-to-sole distance the leg folds to, one leg joint at a time moved from ``q_ref`` to either of its URDF
+    position limits (the knee's flexion limit, for a humanoid).
+
+    Geometric upper bound: with the hip kept at its standing height over the lower tread, the other sole, beneath
+    the hip, can be at most this much higher (the leg folded to its shortest); stepping down, the stance leg folds
+    the same way.
+    """
+    import pinocchio as pin
+
+    model, data, fid, chain = _leg_chain(robot)
+    hip = chain[-1]
+    height = float(data.oMi[hip].translation[2] - data.oMf[fid].translation[2])
+    shortest = math.inf
+    for j in chain:
+        i = model.joints[j].idx_q
+        for limit in (model.lowerPositionLimit[i], model.upperPositionLimit[i]):
+            if not math.isfinite(limit):
+                continue
+            q = robot.q_ref.copy()
+            q[i] = limit
+            pin.framesForwardKinematics(model, data, q)
+            shortest = min(shortest, float(np.linalg.norm(data.oMi[hip].translation - data.oMf[fid].translation)))
+    return max(height - shortest, 0.0) if math.isfinite(shortest) else height
+
+
+def check_terrain_for_robot(terrain, robot, option: str = "--terrain") -> None:
+    """Refuse, before any work, stairs the robot cannot walk: a tread shorter than its sole (the whole sole
+    stands on each tread) or a rise beyond :func:`leg_rise`.
+
+    Args:
+        terrain: a :class:`wbc.terrain.Terrain` (only stairs, with ``treads``, are checked). robot: the robot.
+        option: the option as typed, for the message.
+
+    Raises:
+        InvalidInputError: naming the terrain, the tread or rise, and the robot's bound.
+    """
+    treads = getattr(terrain, "treads", ())
+    if not treads:
+        return
+    sole = float(robot.sole_length)
+    short = [b - a for a, b, _ in treads if math.isfinite(a) and math.isfinite(b) and b - a < sole]
+    if short:
+        raise InvalidInputError(f"{option} {terrain.name}: a {min(short):.3g} m tread is shorter than {robot.name}'s "
+                                f"{sole:.3g} m sole (valid: TREAD >= {sole:.3g} m: the whole sole stands on each tread)")
+    end = terrain.end_x if terrain.end_x is not None else math.inf  # (not the drop beyond an up flight's landing)
+    rise = max((abs(z1 - z0) for (_, _, z0), (a1, _, z1) in zip(treads[:-1], treads[1:]) if a1 <= end), default=0.0)
+    bound = leg_rise(robot)
+    if rise > bound:
+        raise InvalidInputError(f"{option} {terrain.name}: a {rise:.3g} m rise is beyond the reach of {robot.name}'s "
+                                f"legs (valid: RISE <= {bound:.3f} m: hip height above the sole minus the leg folded "
+                                "to its shortest at the knee's limit)")
+
+
+def terrain_crossing(terrain, left_x: float, right_x: float, sole_length: float) -> dict:
+    """Summary entries of whether a walk ends past its terrain: ``terrain_end_x_m`` (:attr:`wbc.terrain.Terrain.end_x`)
+    and ``terrain_shortfall_m``, the distance (m) the rear sole's heel still lacks to pass it (<= 0: crossed).
+    Empty for a terrain without an end.
+
+    Args:
+        left_x, right_x: final x (m, world) of the two sole frames. sole_length: m.
+    """
+    end = getattr(terrain, "end_x", None)
+    if end is None:
+        return {}
+    return {"terrain_end_x_m": float(end),
+            "terrain_shortfall_m": float(end - (min(left_x, right_x) - 0.5 * sole_length))}
+
+
+def crossing_criterion():
+    """The :class:`~wbc.scenarios.framework.Criterion` "the walk crosses its terrain" (``terrain_shortfall_m`` <= 0)."""
+    from wbc.scenarios.framework import Criterion
+
+    return Criterion("the walk crosses its terrain (both heels past its end, terrain_shortfall_m)",
+                     "terrain_shortfall_m", "<=", 0.0)
 
 
 def check_dt(dt: float) -> None:
@@ -219,6 +304,8 @@ def cmd_walk(args) -> int:
     status(args, f"wbc walk: planning {args.steps} steps ...")
     check_terrain(args)
     terrain = getattr(args, "terrain", None)
+    if terrain is not None:
+        check_terrain_for_robot(terrain, robot)
     terrain_walk = None
     if terrain is None or terrain.is_flat:
         plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
@@ -230,6 +317,12 @@ def cmd_walk(args) -> int:
                                                  step_width=args.step_width, turn=math.radians(args.turn),
                                                  dt=args.dt, **velocity)
         plan = terrain_walk.plan
+        planned = terrain_crossing(terrain, terrain_walk.footholds[-1][0, 3], terrain_walk.footholds[-2][0, 3],
+                                   robot.sole_length) if len(terrain_walk.footholds) >= 2 else {}
+        if planned.get("terrain_shortfall_m", 0.0) > 0:
+            print(f"wbc walk: note: the {args.steps} planned steps end {planned['terrain_shortfall_m']:.3f} m before "
+                  f"the end of {terrain.name} (x = {planned['terrain_end_x_m']:.3f} m): the walk will not cross it "
+                  "(more --steps would)", flush=True)
     viewer = pacer = None
     if args.live:
         from wbc.viz.live_overlays import LiveOverlays
@@ -255,6 +348,13 @@ def cmd_walk(args) -> int:
                                        robot.sole_width))
         ok, more = terrain_passes(summary)
         passed, failures = passed and ok, failures + more
+        summary.update(terrain_crossing(terrain, float(run.left_sole[-1][0, 3]), float(run.right_sole[-1][0, 3]),
+                                        robot.sole_length))
+        if "terrain_shortfall_m" in summary:
+            from wbc.scenarios.framework import evaluate
+
+            ok, more = evaluate(summary, [crossing_criterion()])
+            passed, failures = passed and ok, failures + more
     summary["passed"] = passed
     summary["failed_criteria"] = failures
     print(f"wbc walk: {robot.name}, {summary['steps']} steps, {summary['ticks']} ticks at "

@@ -69,8 +69,10 @@ def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
         with np.load(path, allow_pickle=False) as z:
             log = {k: z[k] for k in z.files}
     except Exception as exc:  # noqa: BLE001 - zipfile.BadZipFile, EOFError, ValueError...: not a readable npz
-        raise InvalidInputError(f"{str(path)!r} is not a readable npz log ({type(exc).__name__}: "
-                                f"{str(exc).splitlines()[0] if str(exc) else 'truncated'})") from exc
+        reason = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'truncated'}"
+        if "pickle" in str(exc).lower():  # numpy's advice to load it unsafely is not passed on
+            reason = "it holds pickled Python objects, which wbc never loads; a wbc log holds arrays only"
+        raise InvalidInputError(f"{str(path)!r} is not a readable npz log ({reason})") from exc
     missing = [k for k in ("t", "q", "com") if k not in log]
     if missing:
         raise InvalidInputError(f"log {str(path)!r} lacks {missing} (not a wbc walk/balance/sim log)")
