@@ -166,3 +166,21 @@ def test_bench_quick_exits_0(tmp_path, capsys):
     out = capsys.readouterr()
     assert code == 0, out.out[-2000:] + out.err[-2000:]
     assert (tmp_path / "results.md").is_file()
+
+
+def test_top_level_help_is_whole_sentences_and_lists_every_sim_scenario(capsys):
+    """`wbc --help`: the description ends its sentence (not "... wbc compile (also"), and the sim line names all 8
+    scenarios the sim command accepts."""
+    import argparse
+
+    from wbc.cli import build_parser
+
+    parser = build_parser()
+    assert parser.description == ("Command line: wbc walk, wbc balance, wbc sim, wbc bench, wbc plot, wbc compile "
+                                  "(also python -m wbc).")
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    sim_help = next(c.help for c in sub._choices_actions if c.dest == "sim")
+    scenarios = next(a for a in sub.choices["sim"]._actions if a.dest == "scenario").choices
+    assert sim_help.endswith(": " + ", ".join(scenarios)) and len(scenarios) == 8
+    for name in ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step"):
+        assert name in scenarios

@@ -41,3 +41,15 @@ def test_example_runs_quick(example, tmp_path):
                          env=env, cwd=tmp_path)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     assert out.stdout.strip()
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.stem)
+def test_example_help_is_its_whole_first_paragraph(example):
+    """`--help` shows the docstring's whole first paragraph, not its first line cut mid-sentence."""
+    out = subprocess.run([sys.executable, str(example), "--help"], capture_output=True, text=True, timeout=120,
+                         env=dict(os.environ, COLUMNS="2000"), cwd=ROOT)
+    assert out.returncode == 0, out.stderr[-2000:]
+    doc = example.read_text().split('"""')[1]
+    first = " ".join(doc.split("\n\n")[0].split())
+    assert first in out.stdout, out.stdout
+    assert first.endswith((".", ")")), first
