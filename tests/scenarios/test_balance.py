@@ -44,7 +44,8 @@ def runs(robots):
 def test_behaviour_meets_acceptance(runs, behaviour, name):
     """Every criterion but the executed-motion ZMP (tested on its own below, with the known failures)."""
     robot, run, s = runs(behaviour, name)
-    assert set(s["failed_criteria"]) <= {ZMP_CRITERION}, (s["failed_criteria"], s)
+    failed = {line.split(": measured ")[0] for line in s["failed_criteria"]}  # the requirement, before its measurement
+    assert failed <= {ZMP_CRITERION}, (s["failed_criteria"], s)
     assert s["joint_position_violations"] == 0 and s["joint_velocity_violations"] == 0
     assert s["solver_failures"] == 0 and not s["nan"]
     assert np.all(run.com_margin >= 0.0) and s["min_com_margin_m"] >= 0.0
