@@ -31,7 +31,7 @@ run, summary = run_scenario(sim, controller, scenario)   # closed loop at 500 Hz
 print(f"{robot.name}: pushed {force:.0f} N for 0.1 s, {len(run.t)} ticks")
 for key in ("fell", "fall_reason", "max_com_deviation_m", "min_cop_margin_m", "min_friction_margin_n",
             "joint_speed_exceedances", "max_joint_speed_ratio", "max_joint_speed_joint", "solver_failures", "passed"):
-    if summary.get(key) is not None:
+    if summary.get(key) not in (None, ""):
         print(f"  {key}: {format_value(summary[key], key)}")  # rounded to the unit's resolution
 for failed in summary["failed_criteria"]:  # the requirement, then what the run measured
     print(f"  failed: {failed}")

@@ -8,7 +8,6 @@ import math
 import pytest
 
 import wbc
-from wbc.cli import main
 from wbc.sim.scenarios import capture_point_bound
 
 REFUSED = [
@@ -29,14 +28,9 @@ REFUSED = [
 
 
 @pytest.mark.parametrize("argv, line", REFUSED, ids=[" ".join(a) for a, _ in REFUSED])
-def test_refused_before_any_run(argv, line, capsys, tmp_path, monkeypatch):
+def test_refused_before_any_run(argv, line, cli, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    try:
-        code = main(argv)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    assert (code, err.strip(), out) == (2, line, "")
+    assert cli(argv) == (2, line, "")
     assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT, nothing else
 
 

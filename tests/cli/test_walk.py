@@ -10,7 +10,6 @@ import pinocchio as pin
 import pytest
 
 import wbc
-from wbc.cli import main
 from wbc.cli.walk import leg_rise, terrain_crossing
 from wbc.terrain import parse_terrain
 
@@ -35,13 +34,8 @@ REFUSED = [
 
 
 @pytest.mark.parametrize("argv, line", REFUSED, ids=[" ".join(a) for a, _ in REFUSED])
-def test_refused_with_the_robots_range(argv, line, capsys):
-    try:
-        code = main(argv)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    assert (code, err.strip(), out) == (2, line, "")
+def test_refused_with_the_robots_range(argv, line, cli):
+    assert cli(argv) == (2, line, "")
 
 
 def test_leg_rise_is_the_hip_height_minus_the_knee_folded_to_its_limit():
@@ -72,11 +66,10 @@ def test_terrain_crossing_shortfall():
     assert terrain_crossing(parse_terrain("flat"), 0.0, 0.0, 0.21) == {}
 
 
-def test_a_walk_that_ends_before_crossing_its_terrain_fails(capsys):
+def test_a_walk_that_ends_before_crossing_its_terrain_fails(cli):
     """Two steps down 0.3 m treads: the feet end on the first tread, far from the floor below: exit 1, a note before
     the run and the failed criterion with its measurement."""
-    code = main(["walk", "--terrain", "stairs:0.1:0.3:3:down", "--steps", "2"])
-    out = capsys.readouterr().out
+    code, _, out = cli(["walk", "--terrain", "stairs:0.1:0.3:3:down", "--steps", "2"])
     assert code == 1
     note = next(line for line in out.splitlines() if line.startswith("wbc walk: note:"))
     assert "before the end of stairs:0.1:0.3:3:down (x = 0.800 m): the walk will not cross it" in note
