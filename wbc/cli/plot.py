@@ -23,8 +23,8 @@ def check_plot_args(args) -> None:
     args.out = output_path("--out", args.out or Path(args.log_file).with_suffix(".png"), ".png")
     path = Path(args.log_file)
     if path.is_file() and not zipfile.is_zipfile(path):  # an npz is a zip archive of .npy arrays
-        raise InvalidInputError(f"{str(path)!r} is not an npz log (not a zip archive of arrays; a run writes one with "
-                                "--log FILE.npz)")
+        raise InvalidInputError(f"{str(path)!r} is not a readable npz log (not a zip archive of arrays; a run writes "
+                                "one with --log FILE.npz)")
     args.log = load_log(path)
 
 
