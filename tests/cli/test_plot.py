@@ -10,8 +10,8 @@ import numpy as np
 def test_a_text_file_is_not_an_npz_log(cli, tmp_path):
     code, err, out = cli(["plot", "/etc/passwd", "--out", str(tmp_path / "p.png")])
     assert (code, out) == (2, "")
-    assert err == ("wbc plot: error: '/etc/passwd' is not a readable npz log (not a zip archive of arrays; a run writes "
-                   "one with --log FILE.npz)")
+    assert err == ("wbc plot: error: '/etc/passwd' is not a readable npz log (not a zip archive of arrays; a run "
+                   "writes one with --log FILE.npz)")
     assert list(tmp_path.iterdir()) == []  # no PNG written
 
 

@@ -15,7 +15,8 @@ from wbc.terrain import parse_terrain
 
 REFUSED = [
     (["walk", "--step-length", "nan"],
-     "wbc walk: error: --step-length nan is not a finite number (valid: 0 <= step length <= 0.631 m, talos's leg reach)"),
+     "wbc walk: error: --step-length nan is not a finite number (valid: 0 <= step length <= 0.631 m, talos's leg "
+     "reach)"),
     (["walk", "--vx", "nan"],
      "wbc walk: error: --vx nan is not a finite number (valid: 0 <= vx <= 0.574 m/s: talos's leg reach 0.631 m per "
      "1.1 s step)"),

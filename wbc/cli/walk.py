@@ -98,7 +98,8 @@ def check_terrain_for_robot(terrain, robot, option: str = "--terrain") -> None:
     short = [b - a for a, b, _ in treads if math.isfinite(a) and math.isfinite(b) and b - a < sole]
     if short:
         raise InvalidInputError(f"{option} {terrain.name}: a {min(short):.3g} m tread is shorter than {robot.name}'s "
-                                f"{sole:.3g} m sole (valid: TREAD >= {sole:.3g} m: the whole sole stands on each tread)")
+                                f"{sole:.3g} m sole (valid: TREAD >= {sole:.3g} m: the whole sole stands on each "
+                                "tread)")
     end = terrain.end_x if terrain.end_x is not None else math.inf  # (not the drop beyond an up flight's landing)
     rise = max((abs(z1 - z0) for (_, _, z0), (a1, _, z1) in zip(treads[:-1], treads[1:]) if a1 <= end), default=0.0)
     bound = leg_rise(robot)
