@@ -472,11 +472,11 @@ def cmd_sim(args) -> int:
 #: and direction (:func:`wbc.sim.scenarios.capture_point_bound`, ``f_max_finite_n``): beyond the bound a standing
 #: robot cannot stay on its soles whatever its controller does, and a capture step gains a few times it; a trial
 #: ten times beyond it only measures how far the robot is thrown.
-MAX_PUSH_BOUND_FACTOR = 10.0
+TRIAL_LIMIT_IN_CAPTURE_BOUNDS = 10
 
 
 def _check_push_force(args, robot) -> None:
-    """Refuse a push (``--force`` of push and push-step, ``--push`` of walk) beyond :data:`MAX_PUSH_BOUND_FACTOR`
+    """Refuse a push (``--force`` of push and push-step, ``--push`` of walk) beyond :data:`TRIAL_LIMIT_IN_CAPTURE_BOUNDS`
     times the robot's capture-point bound, before the model is built; the message gives the bound.
 
     Raises:
@@ -491,11 +491,11 @@ def _check_push_force(args, robot) -> None:
         return
     a = math.radians(args.push_dir)
     cp = capture_point_bound(robot, args.push_duration, (math.cos(a), math.sin(a), 0.0))
-    limit = MAX_PUSH_BOUND_FACTOR * cp["f_max_finite_n"]
+    limit = TRIAL_LIMIT_IN_CAPTURE_BOUNDS * cp["f_max_finite_n"]
     if force > limit:
         raise InvalidInputError(
             f"{option} {force:g} N for {args.push_duration:g} s is beyond what a trial can mean (valid: <= "
-            f"{math.floor(limit):.0f} N, {MAX_PUSH_BOUND_FACTOR:g} × {robot.name}'s capture-point bound of "
+            f"{math.floor(limit):.0f} N, {TRIAL_LIMIT_IN_CAPTURE_BOUNDS:g} × {robot.name}'s capture-point bound of "
             f"{cp['f_max_finite_n']:.0f} N for this duration and direction, beyond which it falls whatever the "
             "controller does)")
 
