@@ -117,7 +117,8 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
     w.add_argument("--steps", type=count(2), default=8, help="walk: number of steps (default 8)")
-    w.add_argument("--step-length", type=finite(0.0), default=None,
+    w.add_argument("--step-length", type=finite(0.0, unit=" m", valid="0 m <= value (walking backwards is not "
+                                                                     "planned), at most the legs' reach"), default=None,
                    help="walk: step length, m (default: the robot's gait, talos 0.15)")
     w.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,
                    help="walk: lateral distance between the feet, m (default: the current feet distance; on stairs "
