@@ -219,3 +219,19 @@ def fuzz_episode(robots, seed: int, episode: int, dts=(0.002,), past_limits: flo
             config, ctrl = fuzz.build_episode(robots_[name], name, rng, kind, strict, past_limits=past)
     ctrl.budget = None
     return name, kind, strict, dt, config, ctrl
+
+
+@pytest.fixture
+def cli(capsys):
+    """Run ``wbc ARGV`` in-process: returns (exit code, stderr stripped, stdout); argparse's own exits included."""
+    from wbc.cli import main
+
+    def run(argv):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
+        out, err = capsys.readouterr()
+        return code, err.strip(), out
+
+    return run
