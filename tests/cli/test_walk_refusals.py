@@ -13,30 +13,31 @@ import wbc
 from wbc.cli.walk import leg_rise, terrain_crossing
 from wbc.terrain import parse_terrain
 
-REFUSED = [
-    (["walk", "--step-length", "nan"],
-     "wbc walk: error: --step-length nan is not a finite number (valid: 0 <= step length <= 0.631 m, talos's leg "
-     "reach)"),
-    (["walk", "--vx", "nan"],
-     "wbc walk: error: --vx nan is not a finite number (valid: 0 <= vx <= 0.574 m/s: talos's leg reach 0.631 m per "
-     "1.1 s step)"),
-    (["walk", "--wz", "nan"],
-     "wbc walk: error: --wz nan is not a finite number (valid: |wz| < 81.82 deg/s: 90 deg per 1.1 s step)"),
-    (["walk", "--step-length", "-0.1"],
-     "wbc walk: error: --step-length -0.1 m: walking backwards is not planned (valid: 0 <= step length <= 0.631 m, "
-     "talos's leg reach)"),
-    (["walk", "--terrain", "stairs:0.5:0.1:3"],
-     "wbc walk: error: --terrain stairs:0.5:0.1:3:up: a 0.1 m tread is shorter than talos's 0.21 m sole (valid: "
-     "TREAD >= 0.21 m: the whole sole stands on each tread)"),
-    (["walk", "--terrain", "stairs:0.5:0.3:3"],
-     "wbc walk: error: --terrain stairs:0.5:0.3:3:up: a 0.5 m rise is beyond the reach of talos's legs (valid: "
-     "RISE <= 0.494 m: hip height above the sole minus the leg folded to its shortest at the knee's limit)"),
-]
+#: Each case: the command line, then the exact line on stderr (exit 2, nothing on stdout).
+REFUSED_TEXT = """\
+walk --step-length nan
+wbc walk: error: --step-length nan is not a finite number (valid: 0 <= step length <= 0.631 m, talos's leg reach)
+walk --vx nan
+wbc walk: error: --vx nan is not a finite number (valid: 0 <= vx <= 0.574 m/s: talos's leg reach 0.631 m \
+per 1.1 s step)
+walk --wz nan
+wbc walk: error: --wz nan is not a finite number (valid: |wz| < 81.82 deg/s: 90 deg per 1.1 s step)
+walk --step-length -0.1
+wbc walk: error: --step-length -0.1 m: walking backwards is not planned (valid: 0 <= step length <= 0.631 m, talos's \
+leg reach)
+walk --terrain stairs:0.5:0.1:3
+wbc walk: error: --terrain stairs:0.5:0.1:3:up: a 0.1 m tread is shorter than talos's 0.21 m sole (valid: TREAD >= \
+0.21 m: the whole sole stands on each tread)
+walk --terrain stairs:0.5:0.3:3
+wbc walk: error: --terrain stairs:0.5:0.3:3:up: a 0.5 m rise is beyond the reach of talos's legs (valid: RISE <= \
+0.494 m: hip height above the sole minus the leg folded to its shortest at the knee's limit)
+"""
+REFUSED = list(zip(*[iter(REFUSED_TEXT.splitlines())] * 2))
 
 
-@pytest.mark.parametrize("argv, line", REFUSED, ids=[" ".join(a) for a, _ in REFUSED])
-def test_refused_with_the_robots_range(argv, line, cli):
-    assert cli(argv) == (2, line, "")
+@pytest.mark.parametrize("command, line", REFUSED, ids=[c for c, _ in REFUSED])
+def test_refused_with_the_robots_range(command, line, cli):
+    assert cli(command.split()) == (2, line, "")
 
 
 def test_leg_rise_is_the_hip_height_minus_the_knee_folded_to_its_limit():
