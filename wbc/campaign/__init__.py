@@ -53,7 +53,8 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
         The results table (``pyarrow.Table``, one row per recorded trial, sorted by ``trial``).
 
     Raises:
-        InvalidInputError: a bad spec, output folder (or one holding another campaign), or executor.
+        InvalidInputError: a bad spec, output folder (one holding another campaign, or in use by another
+            process's campaign: the folder is locked while ``run`` runs, :mod:`wbc.campaign.store`), or executor.
         KeyboardInterrupt: passed on after the executor is closed; every finished trial is already recorded.
     """
     if not isinstance(spec, CampaignSpec):
@@ -88,8 +89,13 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
         if bar is not None:
             bar.close()
         executor.close()
+        if not all(i in finished for i in range(spec.trials)):
+            store.close()
     if all(i in finished for i in range(spec.trials)):
-        store.compact()
+        try:
+            store.compact()
+        finally:
+            store.close()
     return read_results(out)
 
 
