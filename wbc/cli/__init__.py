@@ -60,14 +60,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-class _Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that the run unwinds (temporary files removed, viewers closed)."""
-
-
-def _on_sigterm(signum, frame):
-    raise _Terminated()
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The `wbc` argument parser with every sub-command (one module of :mod:`wbc.cli` per command group)."""
     from wbc import __version__
@@ -128,8 +120,11 @@ def main(argv: list[str] | None = None) -> int:
         run_sigint = signal.signal(signal.SIGINT, on_sigint)
         previous_unraisable = sys.unraisablehook
         sys.unraisablehook = quiet_swallowed_interrupt
+    from wbc.cli.output import Terminated, clear_sigint, on_sigterm, sigterm_received
+
+    clear_sigint()
     try:
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, on_sigterm)
     except ValueError:  # not the main thread: leave SIGTERM alone
         pass
     try:
@@ -145,9 +140,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wbc {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        if sigterm_received():  # a SIGTERM swallowed by a C callback, raised at the run's next tick
+            print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
+            return 143
         print(f"wbc {args.command}: interrupted (Ctrl-C); no output written for the unfinished step", file=sys.stderr)
         return 130
-    except _Terminated:
+    except Terminated:
         print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
         return 143
     except BrokenPipeError:  # `wbc ... | head`: the reader has gone; stop quietly
