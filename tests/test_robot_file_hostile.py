@@ -166,7 +166,7 @@ def test_urdf_of_200_megabytes_is_not_read(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("edit, words", [
-    (("step_length = 0.10", "step_length = 0.9"), ["[gait] step_length = 0.9 m is beyond the legs' reach"]),
+    (("step_length = 0.10", "step_length = 0.9"), ["'step_length': 0.9", "misses a sole target by"]),
     (("step_height = 0.04", "step_height = 0.45"), ["the legs cannot follow the gait", "misses a sole target by"]),
     (("t_ss = 0.7\nt_ds = 0.25", "t_ss = 0.1\nt_ds = 0.05"), ["x its URDF speed limit in a nominal walk"]),
 ])

@@ -81,27 +81,29 @@ def test_sigterm_between_the_two_renames_still_replaces_the_pair(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run.npz"]
 
 
+def _killed_while_writing(folder: Path, sig: int) -> subprocess.Popen:
+    """A writer of a second pair into ``folder`` (holding 1.0), sent ``sig`` while it writes the log; waited for."""
+    _first_pair(folder)
+    proc = _writer(folder, 2.0, "sleep")
+    assert proc.stdout.readline().strip() == "writing"
+    proc.send_signal(sig)
+    proc.wait(timeout=120)
+    assert _pair(folder) == (1.0, 1.0)  # the previous pair, untouched
+    return proc
+
+
 @linux_only
 def test_sigterm_while_writing_keeps_the_previous_pair_and_leaves_no_partial(tmp_path):
-    _first_pair(tmp_path)
-    proc = _writer(tmp_path, 2.0, "sleep")
-    assert proc.stdout.readline().strip() == "writing"
-    proc.send_signal(signal.SIGTERM)
-    assert proc.wait(timeout=120) == 143, proc.stderr.read()[-2000:]
-    assert _pair(tmp_path) == (1.0, 1.0)
+    proc = _killed_while_writing(tmp_path, signal.SIGTERM)
+    assert proc.returncode == 143, proc.stderr.read()[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run.npz"]
 
 
 @linux_only
 def test_partials_left_by_a_sigkill_are_removed_by_the_next_write(tmp_path):
-    _first_pair(tmp_path)
-    proc = _writer(tmp_path, 2.0, "sleep")
-    assert proc.stdout.readline().strip() == "writing"
-    proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=120)
+    proc = _killed_while_writing(tmp_path, signal.SIGKILL)
     left = sorted(p.name for p in tmp_path.iterdir() if ".partial" in p.name)
-    assert len(left) == 2 and all(n.startswith((f".run.{proc.pid}-",)) for n in left), left  # json and npz temps
-    assert _pair(tmp_path) == (1.0, 1.0)  # the previous pair, untouched
+    assert len(left) == 2 and all(n.startswith(f".run.{proc.pid}-") for n in left), left  # json and npz temps
     proc = _writer(tmp_path, 3.0, "none")
     assert proc.wait(timeout=120) == 0, proc.stderr.read()[-2000:]
     assert _pair(tmp_path) == (3.0, 3.0)

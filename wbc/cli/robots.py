@@ -138,23 +138,19 @@ def cmd_robot_init(args: argparse.Namespace) -> int:
 
 def check_gait(robot) -> None:
     """The robot's gait (its ``[gait]`` table, or the one scaled from Talos's) and ``[stairs]`` step width against
-    its legs: the step length within :func:`wbc.cli.walk.leg_reach`, the stairs' step width wider than the sole
-    (the feet side by side without overlapping), and a nominal walk (:func:`wbc.gait.feasibility.nominal_step_demand`,
-    inverse kinematics of each leg, joint ranges clipped) reaching every sole target within
-    :data:`~wbc.gait.feasibility.REACH_TOLERANCE` with joint speeds within the URDF limits.
+    its legs: the stairs' step width wider than the sole (the feet side by side without overlapping), and a nominal
+    walk (:func:`wbc.gait.feasibility.nominal_step_demand`, inverse kinematics of each leg, joint ranges clipped)
+    reaching every sole target within :data:`~wbc.gait.feasibility.REACH_TOLERANCE` (a step longer or higher than
+    the legs reach misses) with joint speeds within the URDF limits.
 
     Raises:
-        RobotDescriptionError: names the gait value, the bound of the legs, and the joint that limits it.
+        RobotDescriptionError: names the gait, how far the legs miss it or how fast it drives a joint, and that
+            joint.
     """
-    from wbc.cli.walk import leg_reach
     from wbc.exceptions import RobotDescriptionError
     from wbc.gait.feasibility import REACH_TOLERANCE, nominal_step_demand
 
     gait, name = robot.gait, robot.name
-    reach = leg_reach(robot)
-    if gait.get("step_length", 0.0) > reach:
-        raise RobotDescriptionError(f"{name}: [gait] step_length = {gait['step_length']} m is beyond the legs' reach "
-                                    f"{reach:.3f} m (valid: 0 <= step_length <= {reach:.3f})")
     width = robot.stairs.get("step_width")
     if width is not None and width <= robot.sole_width:
         raise RobotDescriptionError(f"{name}: [stairs] step_width = {width} m puts the feet over each other (sole "
