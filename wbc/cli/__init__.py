@@ -7,7 +7,8 @@ meshcat (``--live``, 127.0.0.1 only, held after the motion until Ctrl-C or ``--h
 Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input (a one-line error on
 stderr, before any work: every value is checked first, :mod:`wbc.cli.validate`) or an output that could not be
 written, 130 on Ctrl-C (SIGINT) and 143 on SIGTERM. Every file is written under a temporary name in its folder and
-renamed when complete (:func:`wbc.cli.output.atomic_output`): an interrupted run leaves the previous file as it was.
+renamed when complete, a run's files together (:func:`wbc.cli.output.atomic_outputs`): an interrupted run leaves
+the previous files as they were.
 Angles on the command line are in degrees.
 
 One module per command group (:mod:`wbc.cli.walk`, :mod:`~wbc.cli.plot`, :mod:`~wbc.cli.balance`,
