@@ -31,8 +31,8 @@ from wbc.exceptions import (
     UnknownJointError,
     UnknownRobotError,
 )
-from wbc.robot_file import (LIMIT_INVERSION_TOLERANCE, RobotSpec, check_xml, lock_zero_range_joints, load_robot_file,
-                            package_roots, physical_inertials)
+from wbc.robot_file import (LIMIT_INVERSION_TOLERANCE, RobotSpec, check_urdf_values, check_xml, lock_zero_range_joints,
+                            load_robot_file, package_roots, physical_inertials)
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
@@ -463,6 +463,7 @@ def _build(
                for x in (sole_length, sole_width)):
         raise RobotDescriptionError(f"sole size must be finite and positive (m), got {sole_length} x {sole_width}")
     urdf_tree = check_xml(urdf, "URDF")
+    check_urdf_values(urdf, urdf_tree.getroot())
     srdf_tree = check_xml(srdf, "SRDF") if srdf is not None else None
     dirs = [*package_dirs, str(urdf.parent), *package_roots(urdf, urdf_tree.getroot()), str(example_robot_data_dir())]
     locked = lock_zero_range_joints(urdf_tree.getroot())
@@ -494,6 +495,11 @@ def _build(
     for fname, (parent, placement) in frames.items():
         if not model.existFrame(parent):
             raise UnknownFrameError(f"descriptor of {name!r}: parent frame {parent!r} of {fname!r} not in URDF")
+        if model.existFrame(fname):
+            kind = model.frames[model.getFrameId(fname)].type.name.lower().replace("_", " ")
+            raise RobotDescriptionError(
+                f"descriptor of {name!r}: [[frames]] name {fname!r} is already a frame of the URDF (a {kind}); "
+                f"give the added frame a name of its own")
         pid = model.getFrameId(parent)
         pframe = model.frames[pid]
         model.addFrame(
@@ -651,13 +657,16 @@ def foot_points(robot: Robot, frame: str, geometry_model) -> np.ndarray | None:
 
 
 def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -> None:
-    """Each sole frame is at the bottom of its foot: the lowest point of the foot's collision geometry (its visual
-    geometry when it has none) is within ``tolerance`` m of the sole plane z = 0 of the sole frame. A robot whose
-    feet carry no geometry at all is not checked.
+    """Each sole frame is at the bottom of its foot and over it: the lowest point of the foot's collision geometry
+    (its visual geometry when it has none) is within ``tolerance`` m of the sole plane z = 0 of the sole frame, and
+    the frame's origin is within ``tolerance`` m of the foot's contact patch (the geometry's points within 1 cm of
+    its lowest one; their x-y bounding box in the sole frame), whatever sole rectangle the robot file gives. A robot
+    whose feet carry no geometry at all is not checked.
 
     Raises:
         RobotDescriptionError: a sole frame above the bottom of its foot (the foot would sink into the ground when
-            the frame is put on it, e.g. an ankle frame named as the sole) or below it (the foot floats).
+            the frame is put on it, e.g. an ankle frame named as the sole) or below it (the foot floats), or beside
+            its foot's contact patch (the distance from the patch's centre and how far outside it, in m).
     """
     for side, frame in (("left", robot.left_sole), ("right", robot.right_sole)):
         for kind in ("collision", "visual"):  # the visual model read (built) only when the collision one has no foot
@@ -676,6 +685,17 @@ def check_sole_heights(robot: Robot, tolerance: float = SOLE_HEIGHT_TOLERANCE) -
                 f"{'into' if z < 0 else 'above'} the ground. Name the frame at the bottom of the foot, or add one "
                 f"to the URDF (a fixed joint from the foot link, origin at the centre of the foot's underside, "
                 f"x forward, z up)")
+        patch = p[p[:, 2] <= z + 0.01, :2]
+        lo, hi = patch.min(axis=0), patch.max(axis=0)
+        outside = float(np.linalg.norm(np.maximum(np.maximum(lo, -hi), 0.0)))
+        if outside > tolerance:
+            centre = 0.5 * (lo + hi)
+            raise RobotDescriptionError(
+                f"{robot.name}: {side} sole frame {frame!r} is {float(np.linalg.norm(centre)):.3f} m from the centre "
+                f"of its foot's contact patch (centre at ({centre[0]:.3f}, {centre[1]:.3f}) m in the sole frame, x "
+                f"forward) and {outside:.3f} m outside the patch (at most {tolerance} m, patch "
+                f"{hi[0] - lo[0]:.3f} x {hi[1] - lo[1]:.3f} m from its {kind} geometry): the robot would stand beside "
+                f"its foot. Name a frame at the centre of the foot's underside")
 
 
 def sole_rectangle_from_collision(robot: Robot, contact_band: float = 0.01) -> tuple[float, float]:

@@ -26,7 +26,21 @@ from wbc.exceptions import RobotDescriptionError, RobotFileNotFoundError
 
 __all__ = ["RobotSpec", "FrameSpec", "MujocoOptions", "load_robot_file", "spec_to_toml", "check_xml",
            "TOP_KEYS", "GAIT_KEYS", "STAIRS_KEYS", "TOUCHDOWN_RULES", "MUJOCO_MESHES", "MUJOCO_FEET", "physical_inertials", "package_roots", "lock_zero_range_joints", "LOCKED_RANGE", "MIN_LINK_MASS",
-           "INERTIA_RADIUS"]
+           "INERTIA_RADIUS", "MAX_ROBOT_FILE_BYTES", "MAX_URDF_BYTES", "MAX_URDF_LINKS",
+           "MAX_URDF_MOVING_JOINTS", "check_urdf_values"]
+
+#: Largest robot file (TOML) read, in bytes: a robot file is a page of keys (the catalog's are < 2 kB).
+MAX_ROBOT_FILE_BYTES = 1_000_000
+#: Largest URDF or SRDF read, in bytes (the largest of example-robot-data 6.0.0, tiago_dual.urdf, is 0.21 MB): a
+#: larger file is refused before it is parsed.
+MAX_URDF_BYTES = 20_000_000
+#: Most ``<link>`` elements in a URDF (a humanoid has fewer than 200; example-robot-data's largest, tiago_dual, 130):
+#: a URDF with more is refused before Pinocchio parses it.
+MAX_URDF_LINKS = 500
+#: Most moving (not ``fixed``) joints in a URDF (Talos has 32, G1 with its hands 43): a URDF with more is refused
+#: before Pinocchio parses it. The memory of one ``pinocchio.Data`` grows as nv² × the joint count (measured with
+#: pinocchio 3 on chains of revolute joints: 87 MB at 104 joints, 261 MB at 154, 587 MB at 204, 1.8 GB at 302).
+MAX_URDF_MOVING_JOINTS = 150
 
 #: Top-level keys of a robot file (tables: sole, frames, reference_joints, gait, stairs, mujoco).
 TOP_KEYS = ("name", "urdf", "srdf", "reference", "left_sole", "right_sole", "torso", "left_hand", "right_hand",
@@ -335,11 +349,24 @@ def load_robot_file(path: str | Path) -> RobotSpec:
     path = Path(path)
     if not path.is_file():
         raise RobotFileNotFoundError(f"robot file not found: {path}")
+    size = path.stat().st_size
+    if size > MAX_ROBOT_FILE_BYTES:
+        raise RobotDescriptionError(f"{path}: {size} bytes; a robot file is at most {MAX_ROBOT_FILE_BYTES} bytes "
+                                    f"(a page of keys: docs/pages/how-to/robot-file.md)")
+    data = path.read_bytes()
     try:
-        with path.open("rb") as f:
-            desc = tomllib.load(f)
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise RobotDescriptionError(f"{path}:{line}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                                    f"{exc.start}); save the robot file as UTF-8") from None
+    try:
+        desc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RobotDescriptionError(f"{path}: malformed TOML: {exc}") from exc
+    except RecursionError:
+        raise RobotDescriptionError(f"{path}: arrays or tables nested too deeply for the TOML parser; a robot file "
+                                    f"nests at most 2 levels (docs/pages/how-to/robot-file.md)") from None
     return parse_robot_spec(desc, base_dir=path.resolve().parent, name=path.stem, where=str(path), source=path)
 
 
@@ -423,8 +450,12 @@ def check_xml(path: Path, kind: str) -> ET.ElementTree:
         RobotDescriptionError: not well-formed XML (the message gives the parser's line and column), or a root
             element other than ``<robot>``.
     """
+    size = path.stat().st_size
+    if size > MAX_URDF_BYTES:
+        raise RobotDescriptionError(f"{kind} {path}: {size / 1e6:.1f} MB; at most {MAX_URDF_BYTES / 1e6:g} MB is read "
+                                    f"(a humanoid's {kind} is well under 1 MB)")
     try:
-        tree = ET.parse(path)
+        tree = _parse_bounded(path, kind)
     except ET.ParseError as exc:
         line, col = exc.position
         raise RobotDescriptionError(
@@ -436,12 +467,102 @@ def check_xml(path: Path, kind: str) -> ET.ElementTree:
     for owner in list(root.iter("link")) + list(root.iter("joint")) + list(root.iter("group_state")):
         for el in owner.iter():
             for attr, text in el.attrib.items():
-                if attr in _NUMERIC_ATTRIBUTES and any(t.lower().lstrip("+-") in ("nan", "inf", "infinity")
-                                                       for t in text.split()):
+                if attr in _NUMERIC_ATTRIBUTES and not all(math.isfinite(x) for x in _numbers(text)):
                     raise RobotDescriptionError(
                         f"{kind} {path}: <{owner.tag} name={owner.get('name')!r}> has <{el.tag} {attr}="
-                        f"{text!r}>: not finite; give finite numbers")
+                        f"{text!r}>: not finite; give finite numbers (|x| < 1.8e308)")
     return tree
+
+
+def _parse_bounded(path: Path, kind: str) -> ET.ElementTree:
+    """Parse ``path`` incrementally, stopping at the ``MAX_URDF_LINKS`` + 1-th ``<link>`` or the
+    ``MAX_URDF_MOVING_JOINTS`` + 1-th moving ``<joint>`` (time and memory bounded by that many, not by the file).
+
+    Raises:
+        ET.ParseError: not well-formed XML.
+        RobotDescriptionError: more than ``MAX_URDF_LINKS`` links or ``MAX_URDF_MOVING_JOINTS`` moving joints.
+    """
+    links = moving = 0
+    events = ET.iterparse(path, events=("end",))
+    for _, el in events:
+        if el.tag == "link":
+            links += 1
+            if links > MAX_URDF_LINKS:
+                raise RobotDescriptionError(f"{kind} {path}: more than {MAX_URDF_LINKS} <link> elements; at most "
+                                            f"{MAX_URDF_LINKS} are loaded (a humanoid has fewer than 200)")
+        elif el.tag == "joint" and el.get("type", "fixed") != "fixed" and el.find("child") is not None:
+            moving += 1
+            if moving > MAX_URDF_MOVING_JOINTS:
+                raise RobotDescriptionError(f"{kind} {path}: more than {MAX_URDF_MOVING_JOINTS} moving joints; at "
+                                            f"most {MAX_URDF_MOVING_JOINTS} are loaded (a humanoid has fewer than 80)")
+    return ET.ElementTree(events.root)
+
+
+def _numbers(text: str) -> list[float]:
+    """The numbers of a space-separated attribute (tokens that are not numbers are left to urdfdom's parser)."""
+    out = []
+    for token in text.split():
+        try:
+            out.append(float(token))
+        except ValueError:
+            pass
+    return out
+
+
+#: Relative tolerance on a negative principal moment of inertia (round-off of a matrix written with few digits;
+#: 1e-12 kg·m² is tolerated on top).
+INERTIA_EIGEN_TOLERANCE = 1e-9
+
+
+def check_urdf_values(path: Path, root: ET.Element) -> None:
+    """Refuse the physical values of a URDF that no robot can have, before they are loaded: a negative mass, an
+    inertia matrix with a negative principal moment (not positive semi-definite), a negative speed or effort limit,
+    a revolute, continuous or prismatic joint with a zero axis. (Non-finite numbers: :func:`check_xml`; a zero mass
+    or moment on a moving link is made physical by :func:`physical_inertials`.)
+
+    Args:
+        path: the URDF (for the message).
+        root: its ``<robot>`` element.
+
+    Raises:
+        RobotDescriptionError: names the link or joint, the value and what is valid.
+    """
+    import numpy as np
+
+    for link in root.iter("link"):
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        where = f"URDF {path}: link {link.get('name')!r}"
+        mass_el = inertial.find("mass")
+        mass = _numbers(mass_el.get("value", "")) if mass_el is not None else []
+        if mass and mass[0] < 0:
+            raise RobotDescriptionError(f"{where}: mass {mass[0]:g} kg is negative; valid: a mass >= 0 kg")
+        el = inertial.find("inertia")
+        if el is None:
+            continue
+        v = {k: (_numbers(el.get(k, "0")) or [0.0])[0] for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        lam = np.linalg.eigvalsh(np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                                           [v["ixz"], v["iyz"], v["izz"]]]))
+        if lam[0] < -(INERTIA_EIGEN_TOLERANCE * float(np.abs(lam).max()) + 1e-12):
+            raise RobotDescriptionError(
+                f"{where}: inertia matrix {[v[k] for k in v]} (ixx ixy ixz iyy iyz izz) has a negative principal "
+                f"moment {lam[0]:.6g} kg·m²; valid: a positive semi-definite matrix")
+    for joint in root.iter("joint"):
+        where = f"URDF {path}: joint {joint.get('name')!r}"
+        limit = joint.find("limit")
+        for attr, valid in (("velocity", "a speed limit >= 0 rad/s or m/s (0 locks the joint)"),
+                            ("effort", "an effort limit >= 0 N·m or N")):
+            value = _numbers(limit.get(attr, "")) if limit is not None else []
+            if value and value[0] < 0:
+                raise RobotDescriptionError(f"{where}: <limit {attr}=\"{limit.get(attr)}\"> is negative; valid: "
+                                            f"{valid}")
+        axis = joint.find("axis")
+        if joint.get("type") in ("revolute", "continuous", "prismatic") and axis is not None:
+            xyz = _numbers(axis.get("xyz", "1 0 0"))
+            if len(xyz) == 3 and math.hypot(*xyz) < 1e-9:
+                raise RobotDescriptionError(f"{where}: <axis xyz=\"{axis.get('xyz')}\"> has no direction (a joint "
+                                            f"that moves nothing); valid: a non-zero vector")
 
 
 _NUMERIC_ATTRIBUTES = {"xyz", "rpy", "value", "lower", "upper", "effort", "velocity", "ixx", "ixy", "ixz", "iyy",
@@ -460,8 +581,8 @@ def physical_inertials(root: ET.Element) -> list[str]:
 
     * a link moved by a non-fixed joint with no ``<inertial>`` or a mass ≤ 0 gets ``MIN_LINK_MASS`` kg at its
       origin;
-    * for a link moved by a joint, a principal moment below 2/5 · m · ``INERTIA_RADIUS``² (a point mass, a zero or non-positive-definite
-      matrix) is raised to it, and a moment larger than the sum of the other two (triangle inequality) is lowered
+    * for a link moved by a joint, a principal moment below 2/5 · m · ``INERTIA_RADIUS``² (a point mass, a zero matrix; a negative moment is
+      refused before, by :func:`check_urdf_values`) is raised to it, and a moment larger than the sum of the other two (triangle inequality) is lowered
       to that sum; the principal axes are kept.
 
     Args:

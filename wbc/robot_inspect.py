@@ -464,8 +464,9 @@ def _bent_knees(robot: Robot, notes: list[str]) -> dict[str, float]:
     return out
 
 
-def check_robot(path_or_name: str | Path) -> dict:
-    """Load a robot (file, catalog name or URDF) and measure it; any failure is the loader's typed error.
+def check_robot(path_or_name: str | Path | Robot) -> dict:
+    """Load a robot (file, catalog name or URDF; or take a loaded one) and measure it; any failure is the loader's
+    typed error.
 
     Returns:
         a report: ``name``, ``nq``, ``nv``, ``mass_kg``, ``com_height_m`` (above the soles in ``q_ref``),
@@ -483,7 +484,7 @@ def check_robot(path_or_name: str | Path) -> dict:
             polygon, or a foot's contact patch is turned across the walking direction; otherwise the typed errors
             of :func:`wbc.robot.load_robot`.
     """
-    robot = load_robot(path_or_name)
+    robot = path_or_name if isinstance(path_or_name, Robot) else load_robot(path_or_name)
     model = robot.model
     data = model.createData()
     pin.centerOfMass(model, data, robot.q_ref)

@@ -53,7 +53,8 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
         The results table (``pyarrow.Table``, one row per recorded trial, sorted by ``trial``).
 
     Raises:
-        InvalidInputError: a bad spec, output folder (or one holding another campaign), or executor.
+        InvalidInputError: a bad spec, output folder (one holding another campaign, or in use by another
+            process's campaign: the folder is locked while ``run`` runs, :mod:`wbc.campaign.store`), or executor.
         KeyboardInterrupt: passed on after the executor is closed; every finished trial is already recorded.
     """
     if not isinstance(spec, CampaignSpec):
@@ -75,8 +76,8 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
     try:
         with watch:
             for i, row in executor.map(fn, spec, todo):
-                if watch.seen:  # this trial may have been cut short by the Ctrl-C: not recorded, rerun on resume
-                    raise KeyboardInterrupt
+                if watch.seen_any:  # this trial may have been cut short by the signal: not recorded, rerun on resume
+                    watch.raise_again()
                 if i in finished:  # never counted twice
                     continue
                 store.append(row)
@@ -88,37 +89,55 @@ def run(spec, out, *, executor=None, trial_fn=None, progress: bool = True, indic
         if bar is not None:
             bar.close()
         executor.close()
+        if not all(i in finished for i in range(spec.trials)):
+            store.close()
     if all(i in finished for i in range(spec.trials)):
-        store.compact()
+        try:
+            store.compact()
+        finally:
+            store.close()
     return read_results(out)
 
 
 class _InterruptWatch:
-    """Notes a SIGINT received while active (main thread only), then hands it to the handler that was in place
-    (Python's default raises KeyboardInterrupt). A SIGINT ignored or left to the system is left alone."""
+    """Notes a SIGINT or SIGTERM received while active (main thread only), then hands it to the handler that was in
+    place (Python's default SIGINT handler raises KeyboardInterrupt). A signal ignored or left to the system is left
+    alone. A handler that did not raise (a command's handler inside a C callback, where an exception would be
+    swallowed) is called again by :meth:`raise_again` between two trials."""
+
+    _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
-        self.seen = False
-        self._previous = None
+        self.seen = None
+        self._previous: dict = {}
 
-    def _on_sigint(self, signum, frame):
-        self.seen = True
-        previous = self._previous
-        if callable(previous):
-            previous(signum, frame)
-        else:
-            raise KeyboardInterrupt
+    @property
+    def seen_any(self) -> bool:
+        return self.seen is not None
+
+    def _on_signal(self, signum, frame):
+        self.seen = signum
+        self._previous[signum](signum, frame)
+
+    def raise_again(self) -> None:
+        """Call the handler of the signal seen again, outside any callback (it raises: KeyboardInterrupt for a
+        SIGINT; a SIGTERM handler's own exception); KeyboardInterrupt if it does not."""
+        handler = self._previous.get(self.seen)
+        if handler is not None:
+            handler(self.seen, None)
+        raise KeyboardInterrupt
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            previous = signal.getsignal(signal.SIGINT)
-            if callable(previous):
-                self._previous = previous
-                signal.signal(signal.SIGINT, self._on_sigint)
+            for n in self._SIGNALS:
+                previous = signal.getsignal(n)
+                if callable(previous):
+                    self._previous[n] = previous
+                    signal.signal(n, self._on_signal)
         return self
 
     def __exit__(self, *exc):
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
+        for n, previous in self._previous.items():
+            signal.signal(n, previous)
+        self._previous = {}
         return False

@@ -20,6 +20,9 @@ GCS, raylet and worker servers listen on every interface whatever ``node_ip_addr
 :func:`confine_to_loopback` first moves this process into a private network namespace whose only interface is
 ``lo`` (Linux ``unshare(CLONE_NEWNET)``; root, or an unprivileged user namespace before any thread is started).
 Where that is not possible the executor refuses with the reason, unless ``loopback=False``.
+
+**No Ray process outlives its driver.** A local Ray is watched by :mod:`wbc.campaign.reaper`, which kills the
+processes the driver started (Ray's agents survive it otherwise) when the driver dies without closing Ray (SIGKILL).
 """
 
 from __future__ import annotations
@@ -104,6 +107,7 @@ class RayExecutor:
         self.address, self.loopback, self.max_retries = address, bool(loopback), int(max_retries)
         self.workers = workers or (os.cpu_count() or 1)
         self._started = False
+        self._reaper = None
 
     def _start(self) -> None:
         import ray
@@ -116,8 +120,14 @@ class RayExecutor:
             # Ray starts its workers at nice 15 (``worker_niceness``); a campaign's trials are the work itself, and at
             # nice 15 any other load on the machine starves them
             os.environ.setdefault("RAY_worker_niceness", "0")
-            ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False,
-                     configure_logging=False)
+            self._reaper = _start_reaper()  # before Ray starts anything: a driver killed while Ray starts is covered
+            try:
+                ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False,
+                         configure_logging=False)
+            except BaseException:
+                self._started = True  # close() shuts down what started and stops the reaper
+                self.close()
+                raise
         else:
             ray.init(address=self.address, log_to_driver=False, configure_logging=False)
             self.workers = int(ray.cluster_resources().get("CPU", 1))
@@ -158,6 +168,23 @@ class RayExecutor:
 
             ray.shutdown()
             self._started = False
+        if self._reaper is not None:
+            self._reaper.terminate()
+            self._reaper.wait()
+            self._reaper = None
+
+
+def _start_reaper():
+    """Start :mod:`wbc.campaign.reaper` on this process (Linux; None elsewhere): it kills the local Ray's processes
+    should this process die without closing Ray."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    if not os.path.isdir(f"/proc/{os.getpid()}/task"):
+        return None
+    return subprocess.Popen([sys.executable, str(Path(__file__).with_name("reaper.py")), str(os.getpid())],
+                            stdin=subprocess.DEVNULL, close_fds=True)
 
 
 _CLONE_NEWNET = 0x40000000

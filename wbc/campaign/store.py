@@ -19,6 +19,10 @@ own error row does not (:func:`is_finished`). A run stopped at any point (Ctrl-C
 only complete files; a run restarted on the same folder skips the trials that have a finished row and runs the
 others again (:meth:`ResultStore.done`).
 
+**One campaign per folder at a time.** A store holds an exclusive lock (``flock``) on ``OUT/campaign.lock``, which
+names the holder's pid, until :meth:`ResultStore.close` or the end of its process (the kernel releases it even
+after a SIGKILL); a second campaign on the folder is refused with that pid instead of running every trial again.
+
 **One row per trial.** Should several rows hold the same ``trial`` (a rerun of an unfinished trial, a crash
 between compaction and the removal of its parts), the reader keeps one: a finished row over an unfinished one,
 and among those the latest written (file modification time, then file name, then row order).
@@ -34,7 +38,8 @@ from pathlib import Path
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["ResultStore", "read_results", "is_finished", "finished_mask"]
+__all__ = ["ResultStore", "read_results", "is_finished", "finished_mask", "lock_folder", "unlock_folder",
+           "LOCK_NAME"]
 
 
 class ResultStore:
@@ -64,6 +69,7 @@ class ResultStore:
             raise InvalidInputError(f"campaign output {self.out}: cannot create it ({e.strerror or e})") from None
         if not os.access(self.trials_dir, os.W_OK):
             raise InvalidInputError(f"campaign output {self.out}: not writable")
+        lock_folder(self.out)
         meta = self.out / "campaign.json"
         text = json.dumps(spec_dict, indent=2, sort_keys=True)
         if meta.exists():
@@ -78,6 +84,10 @@ class ResultStore:
             _atomic_write_text(meta, text)
         self._seq = 0
         self._tag = f"{socket.gethostname()}-{os.getpid()}-{int(time.time() * 1e3)}"
+
+    def close(self) -> None:
+        """Release the folder's lock (:func:`unlock_folder`); the store writes no more rows."""
+        unlock_folder(self.out)
 
     def done(self, *, rerun_errors: bool = False) -> set:
         """Indices of the trials with a finished row (module docstring): the trials a resumed run skips.
@@ -123,6 +133,42 @@ class ResultStore:
             if f != path:
                 f.unlink(missing_ok=True)
         return path
+
+
+#: The lock file of a campaign folder (module docstring).
+LOCK_NAME = "campaign.lock"
+_LOCKS: dict[str, int] = {}  # resolved folder -> descriptor of its lock file, for the folders this process holds
+
+
+def lock_folder(out) -> None:
+    """Hold the exclusive lock of campaign folder ``out`` for this process (again: nothing to do).
+
+    Raises:
+        InvalidInputError: another process holds it (the message names its pid).
+    """
+    import fcntl
+
+    key = str(Path(out).resolve())
+    if key in _LOCKS:
+        return
+    fd = os.open(Path(out) / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "unknown"
+        os.close(fd)
+        raise InvalidInputError(f"campaign output {out} is in use by another campaign ({holder}); wait for it to "
+                                f"end, or choose another --results") from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+    _LOCKS[key] = fd
+
+
+def unlock_folder(out) -> None:
+    """Release this process's lock of campaign folder ``out`` (not held: nothing to do)."""
+    fd = _LOCKS.pop(str(Path(out).resolve()), None)
+    if fd is not None:
+        os.close(fd)
 
 
 def is_finished(row: dict) -> bool:

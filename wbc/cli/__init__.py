@@ -7,7 +7,8 @@ meshcat (``--live``, 127.0.0.1 only, held after the motion until Ctrl-C or ``--h
 Exit code 0 when the run met its acceptance criteria, 1 when it did not, 2 on bad input (a one-line error on
 stderr, before any work: every value is checked first, :mod:`wbc.cli.validate`) or an output that could not be
 written, 130 on Ctrl-C (SIGINT) and 143 on SIGTERM. Every file is written under a temporary name in its folder and
-renamed when complete (:func:`wbc.cli.output.atomic_output`): an interrupted run leaves the previous file as it was.
+renamed when complete, a run's files together (:func:`wbc.cli.output.atomic_outputs`): an interrupted run leaves
+the previous files as they were.
 Angles on the command line are in degrees.
 
 One module per command group (:mod:`wbc.cli.walk`, :mod:`~wbc.cli.plot`, :mod:`~wbc.cli.balance`,
@@ -62,14 +63,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-class _Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that the run unwinds (temporary files removed, viewers closed)."""
-
-
-def _on_sigterm(signum, frame):
-    raise _Terminated()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -132,8 +125,11 @@ def main(argv: list[str] | None = None) -> int:
         run_sigint = signal.signal(signal.SIGINT, on_sigint)
         previous_unraisable = sys.unraisablehook
         sys.unraisablehook = quiet_swallowed_interrupt
+    from wbc.cli.output import Terminated, clear_sigint, on_sigterm, sigterm_received
+
+    clear_sigint()
     try:
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, on_sigterm)
     except ValueError:  # not the main thread: leave SIGTERM alone
         pass
     try:
@@ -149,9 +145,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wbc {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        if sigterm_received():  # a SIGTERM swallowed by a C callback, raised at the run's next tick
+            print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
+            return 143
         print(f"wbc {args.command}: interrupted (Ctrl-C); no output written for the unfinished step", file=sys.stderr)
         return 130
-    except _Terminated:
+    except Terminated:
         print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
         return 143
     except BrokenPipeError:  # `wbc ... | head`: the reader has gone; stop quietly

@@ -157,7 +157,9 @@ def cmd_campaign(args) -> int:
         table = run(spec, args.results, executor=executor, progress=not args.no_progress,
                     rerun_errors=args.rerun_errors)
     except KeyboardInterrupt:
-        n = len(ResultStore(args.results, spec.as_dict()).done())
+        store = ResultStore(args.results, spec.as_dict())
+        n = len(store.done())
+        store.close()
         print(f"wbc campaign: interrupted; {n} of {spec.trials} trials finished in {args.results} "
               "(run the same command again to resume)", file=sys.stderr)
         return 130

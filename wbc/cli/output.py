@@ -22,8 +22,8 @@ import numpy as np
 
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
-    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "write_log",
-    "compile_notice", "uncompiled_kernels", "status",
+    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "atomic_outputs", "write_log",
+    "compile_notice", "uncompiled_kernels", "status", "on_sigterm", "sigterm_received", "Terminated",
 ]
 
 
@@ -97,72 +97,108 @@ def atomic_output(path):
     When the block ends normally the temporary is flushed to disk and renamed over ``path`` in one
     ``os.replace`` (atomic on POSIX), so a reader sees either the previous file or the complete new one, and
     concurrent writers leave the complete file of one of them. When the block raises (including Ctrl-C), the
-    temporary is removed and ``path`` is left as it was.
+    temporary is removed and ``path`` is left as it was. (:func:`atomic_outputs` with one path.)
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial{path.suffix}")
-    try:
+    with atomic_outputs([path]) as (tmp,):
         yield tmp
-        if tmp.is_file():
-            with open(tmp, "rb+") as f:
-                os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            if tmp.is_dir():
-                import shutil
 
-                shutil.rmtree(tmp)
-            else:
-                tmp.unlink()
+
+@contextlib.contextmanager
+def atomic_outputs(paths):
+    """Write several files (or folders) as one set: :func:`atomic_output` for each, renamed together.
+
+    Yields their temporary paths, in order. When the block ends normally every temporary is flushed, then all are
+    renamed into place with SIGINT and SIGTERM held back (a signal that arrives meanwhile is handled after the last
+    rename, :func:`_signals_held`), so that an interrupt leaves either the previous set or the new one, never a new JSON summary beside an
+    old npz log. When the block raises, every temporary is removed and the paths are left as they were. A process
+    killed without a chance to clean up (SIGKILL) leaves its temporaries (``.NAME.PID-XXXXXXXX.partial.SUFFIX``):
+    the next write of the same path removes those whose process no longer runs.
+    """
+    paths = [Path(p) for p in paths]
+    for path in paths:
+        _remove_stale_temporaries(path)
+    tmps = [p.with_name(f".{p.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial{p.suffix}") for p in paths]
+    try:
+        yield tmps
+        for tmp in tmps:
+            if tmp.is_file():
+                with open(tmp, "rb+") as f:
+                    os.fsync(f.fileno())
+        with _signals_held():
+            for tmp, path in zip(tmps, paths):
+                os.replace(tmp, path)
+    except BaseException:
+        for tmp in tmps:
+            _remove(tmp)
         raise
 
 
-def write_json(path: Path, summary: dict) -> None:
-    """Write the summary as indented JSON to ``path`` (atomically: :func:`atomic_output`)."""
-    text = json.dumps(summary, indent=2, default=jsonable) + "\n"
-    with atomic_output(path) as tmp:
-        tmp.write_text(text)
-    print(f"summary written to {path}")
+def _remove(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        if path.is_dir():
+            import shutil
+
+            shutil.rmtree(path)
+        else:
+            path.unlink()
 
 
-def write_log(path: Path, run) -> None:
-    """Write ``run``'s npz log (``run.save``) to ``path`` (atomically: :func:`atomic_output`)."""
-    with atomic_output(path) as tmp:
-        with open(tmp, "wb") as f:
-            run.save(f)
-    print(f"log written to {path}")
+def _remove_stale_temporaries(path: Path) -> None:
+    """Remove the temporaries of ``path`` (:func:`atomic_outputs`) left by processes that no longer run."""
+    for tmp in path.parent.glob(f".{path.stem}.*-*.partial{path.suffix}"):
+        pid = tmp.name[len(path.stem) + 2:].partition("-")[0]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            _remove(tmp)
+        except OSError:  # another user's process: running
+            pass
 
 
-def write_recording(robot, run, path: Path, **scene) -> None:
-    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path`` (atomically);
-    ``scene`` goes to :func:`wbc.viz.record_html` (overlays, arrows, polygons, paths, outlines)."""
+@contextlib.contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM back: a signal that arrives in the block is raised again, to the handler that was in
+    place, when the block ends. In the main thread only (elsewhere, and for a handler not set from Python: nothing
+    held). A thread mask would not do: the kernel hands a process's signal to any thread that does not block it
+    (numpy's BLAS threads), and Python runs its handler in the main thread at once."""
+    import signal
+
+    numbers = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, numbers):
+        yield
+        return
+    pending: list[int] = []
+    previous = {n: signal.signal(n, lambda signum, frame: pending.append(signum)) for n in numbers}
+    try:
+        yield
+    finally:
+        for n, handler in previous.items():
+            signal.signal(n, handler)
+        for n in dict.fromkeys(pending):
+            signal.raise_signal(n)
+
+
+def _json_into(tmp: Path, summary: dict) -> str:
+    tmp.write_text(json.dumps(summary, indent=2, default=jsonable) + "\n")
+    return "summary written to {}"
+
+
+def _log_into(tmp: Path, run) -> str:
+    with open(tmp, "wb") as f:
+        run.save(f)
+    return "log written to {}"
+
+
+def _recording_into(tmp: Path, robot, run, **scene) -> str:
     from wbc.viz import record_html
 
-    with atomic_output(path) as tmp:
-        record_html(robot, run.t, run.q, tmp, **scene)
-    print(f"meshcat recording written to {path} ({Path(path).stat().st_size / 1e6:.1f} MB)")
+    record_html(robot, run.t, run.q, tmp, **scene)
+    return "meshcat recording written to {} (" + f"{tmp.stat().st_size / 1e6:.1f} MB)"
 
 
-#: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
-SCENE_KEYS = ("polygons", "paths", "outlines", "arrows", "terrain")
-
-
-def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:
-    """Write what ``args`` asks for (``--json``, ``--log``, ``--plot``, ``--out``) for a finished run."""
-    if args.json:
-        write_json(args.json, summary)
-    if args.log:
-        write_log(args.log, run)
-    if getattr(args, "plot", None):
-        write_plot(args.plot, run)
-    if args.out:
-        extra = {} if scene is None else {k: scene[k] for k in SCENE_KEYS if k in scene}
-        write_recording(robot, run, args.out, overlays=overlays, **extra)
-
-
-def write_plot(path, run) -> None:
-    """Plot a run (anything with ``save(file)`` writing an npz log) to the PNG ``path``."""
+def _plot_into(tmp: Path, run) -> str:
     from wbc.viz.plots import plot_log
 
     buf = io.BytesIO()
@@ -170,9 +206,60 @@ def write_plot(path, run) -> None:
     buf.seek(0)
     with np.load(buf, allow_pickle=False) as z:
         log = {k: z[k] for k in z.files}
+    plot_log(log, tmp)
+    return "plots written to {}"
+
+
+def _write(path, into, *args, **kwargs) -> None:
     with atomic_output(path) as tmp:
-        plot_log(log, tmp)
-    print(f"plots written to {path}")
+        line = into(tmp, *args, **kwargs)
+    print(line.format(path))
+
+
+def write_json(path: Path, summary: dict) -> None:
+    """Write the summary as indented JSON to ``path`` (atomically: :func:`atomic_output`)."""
+    _write(path, _json_into, summary)
+
+
+def write_log(path: Path, run) -> None:
+    """Write ``run``'s npz log (``run.save``) to ``path`` (atomically: :func:`atomic_output`)."""
+    _write(path, _log_into, run)
+
+
+def write_recording(robot, run, path: Path, **scene) -> None:
+    """Write the self-contained meshcat HTML recording of ``run`` (``run.t``, ``run.q``) to ``path`` (atomically);
+    ``scene`` goes to :func:`wbc.viz.record_html` (overlays, arrows, polygons, paths, outlines)."""
+    _write(path, _recording_into, robot, run, **scene)
+
+
+#: Entries of a run's scene (:mod:`wbc.viz.overlays`) passed on to :func:`wbc.viz.record_html`.
+SCENE_KEYS = ("polygons", "paths", "outlines", "arrows", "terrain")
+
+
+def write_outputs(args, summary: dict, run, robot, overlays: dict | None = None, scene: dict | None = None) -> None:
+    """Write what ``args`` asks for (``--json``, ``--log``, ``--plot``, ``--out``) for a finished run, as one set
+    (:func:`atomic_outputs`: an interrupt leaves all the previous files or all the new ones)."""
+    jobs = []
+    if args.json:
+        jobs.append((args.json, _json_into, (summary,), {}))
+    if args.log:
+        jobs.append((args.log, _log_into, (run,), {}))
+    if getattr(args, "plot", None):
+        jobs.append((args.plot, _plot_into, (run,), {}))
+    if args.out:
+        extra = {} if scene is None else {k: scene[k] for k in SCENE_KEYS if k in scene}
+        jobs.append((args.out, _recording_into, (robot, run), {"overlays": overlays, **extra}))
+    if not jobs:
+        return
+    with atomic_outputs([path for path, *_ in jobs]) as tmps:
+        lines = [into(tmp, *a, **kw) for tmp, (_, into, a, kw) in zip(tmps, jobs)]
+    for line, (path, *_) in zip(lines, jobs):
+        print(line.format(path))
+
+
+def write_plot(path, run) -> None:
+    """Plot a run (anything with ``save(file)`` writing an npz log) to the PNG ``path``."""
+    _write(path, _plot_into, run)
 
 
 _LIVE_VIEWERS: list = []  # viewers opened by open_live, closed by close_live() after the hold
@@ -308,10 +395,47 @@ def progress(args, total: float | None, viewer=None, desc: str = ""):
         compile_notice(desc, kernels)
     # while the kernels compile (first run), the bar is drawn every second with its elapsed time
     return ProgressViewer(total, viewer, desc=desc, enabled=False if getattr(args, "quiet", False) else None,
-                          heartbeat=1.0 if compiling else None, interrupted=_SIGINT_RECEIVED.is_set)
+                          heartbeat=1.0 if compiling else None, interrupted=_stop_requested)
 
 
 _SIGINT_RECEIVED = threading.Event()
+_SIGTERM_RECEIVED = threading.Event()
+
+
+def _stop_requested() -> bool:
+    return _SIGINT_RECEIVED.is_set() or _SIGTERM_RECEIVED.is_set()
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread by :func:`on_sigterm` so that the run unwinds (temporary files removed,
+    viewers closed); ``wbc`` then exits with 143."""
+
+
+def _in_llvm_callback(frame) -> bool:
+    while frame is not None:
+        if _LLVM_CALLBACK_DIR in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def on_sigterm(signum, frame) -> None:
+    """SIGTERM handler of every command: remember it, then raise :class:`Terminated`, except inside a callback that
+    LLVM makes into Python, where it would be swallowed (see :func:`on_sigint`): there the run stops at its next
+    progress tick (``KeyboardInterrupt``, reported as SIGTERM since :func:`sigterm_received` is True) or, in a
+    campaign, before its next trial.
+
+    Raises:
+        Terminated: outside LLVM's callbacks.
+    """
+    _SIGTERM_RECEIVED.set()
+    if not _in_llvm_callback(frame):
+        raise Terminated()
+
+
+def sigterm_received() -> bool:
+    """True once :func:`on_sigterm` has seen a SIGTERM in this run."""
+    return _SIGTERM_RECEIVED.is_set()
 
 
 _LLVM_CALLBACK_DIR = f"{os.sep}llvmlite{os.sep}"  # llvmlite's Python code: the callbacks LLVM makes into Python
@@ -335,19 +459,16 @@ def on_sigint(signum, frame) -> None:
         KeyboardInterrupt: outside LLVM's callbacks.
     """
     _SIGINT_RECEIVED.set()
-    while frame is not None:
-        if _LLVM_CALLBACK_DIR in frame.f_code.co_filename:
-            return
-        frame = frame.f_back
-    raise KeyboardInterrupt
+    if not _in_llvm_callback(frame):
+        raise KeyboardInterrupt
 
 
 def quiet_swallowed_interrupt(unraisable) -> None:
     """``sys.unraisablehook`` of a run command: a KeyboardInterrupt that a C callback swallowed after
     :func:`on_sigint` saw the Ctrl-C is not reported (no "Exception ignored ... Traceback" on stderr: the run stops at
     its next tick and says so once); anything else goes to Python's default hook."""
-    if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt) \
-            and _SIGINT_RECEIVED.is_set():
+    if unraisable.exc_type is not None and issubclass(unraisable.exc_type, (KeyboardInterrupt, Terminated)) \
+            and _stop_requested():
         return
     sys.__unraisablehook__(unraisable)
 
@@ -359,8 +480,10 @@ def sigint_received() -> bool:
 
 
 def clear_sigint() -> None:
-    """Forget a Ctrl-C seen by :func:`on_sigint` (a new run in the same process starts clean)."""
+    """Forget a Ctrl-C seen by :func:`on_sigint` and a SIGTERM seen by :func:`on_sigterm` (a new run in the same
+    process starts clean)."""
     _SIGINT_RECEIVED.clear()
+    _SIGTERM_RECEIVED.clear()
 
 
 def hold_live(seconds: float | None) -> None:

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 
 __all__ = ["register", "add_robot_options", "add_plant_options", "robot_from_args", "cmd_robots", "cmd_robot_init",
-           "cmd_robot_check"]
+           "cmd_robot_check", "check_gait"]
 
 
 def add_robot_options(p: argparse.ArgumentParser) -> None:
@@ -136,11 +136,46 @@ def cmd_robot_init(args: argparse.Namespace) -> int:
     return 0
 
 
+def check_gait(robot) -> None:
+    """The robot's gait (its ``[gait]`` table, or the one scaled from Talos's) and ``[stairs]`` step width against
+    its legs: the stairs' step width wider than the sole (the feet side by side without overlapping), and a nominal
+    walk (:func:`wbc.gait.feasibility.nominal_step_demand`, inverse kinematics of each leg, joint ranges clipped)
+    reaching every sole target within :data:`~wbc.gait.feasibility.REACH_TOLERANCE` (a step longer or higher than
+    the legs reach misses) with joint speeds within the URDF limits.
+
+    Raises:
+        RobotDescriptionError: names the gait, how far the legs miss it or how fast it drives a joint, and that
+            joint.
+    """
+    from wbc.exceptions import RobotDescriptionError
+    from wbc.gait.feasibility import REACH_TOLERANCE, nominal_step_demand
+
+    gait, name = robot.gait, robot.name
+    width = robot.stairs.get("step_width")
+    if width is not None and width <= robot.sole_width:
+        raise RobotDescriptionError(f"{name}: [stairs] step_width = {width} m puts the feet over each other (sole "
+                                    f"width {robot.sole_width:.3f} m); valid: step_width > {robot.sole_width:.3f} m")
+    demand = nominal_step_demand(robot, gait)
+    if demand.reach_error > REACH_TOLERANCE:
+        raise RobotDescriptionError(
+            f"{name}: the legs cannot follow the gait {gait}: a nominal walk misses a sole target by "
+            f"{demand.reach_error:.3f} m (at most {REACH_TOLERANCE} m) with joint {demand.reach_joint!r} at its "
+            f"limit; shorten [gait] step_length or step_height")
+    if demand.speed_ratio > 1.0:
+        raise RobotDescriptionError(
+            f"{name}: the gait {gait} asks joint {demand.speed_joint!r} for {demand.speed_ratio:.2f} x its URDF "
+            f"speed limit in a nominal walk (valid: <= 1); lengthen [gait] t_ss / t_ds or shorten the step")
+
+
 def cmd_robot_check(args: argparse.Namespace) -> int:
-    """``wbc robot check my_robot.toml``: load it with every validation and print the report."""
+    """``wbc robot check my_robot.toml``: load it with every validation, check its gait against its legs
+    (:func:`check_gait`) and print the report."""
+    from wbc.robot import load_robot
     from wbc.robot_inspect import check_robot
 
-    report = check_robot(args.robot_file)
+    robot = load_robot(args.robot_file)
+    report = check_robot(robot)
+    check_gait(robot)
     print(f"wbc robot check: {args.robot_file}: ok")
     for k, v in report.items():
         print(f"  {k}: {v}")

@@ -1,0 +1,68 @@
+"""Signal exit codes of the CLI commands: SIGTERM ends a run with 143 and SIGINT with 130, one line on stderr, no
+traceback, no temporary file left (the signal sent once the command's handlers are installed, as read from
+/proc/PID/status)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _catches(pid: int, sig: int) -> bool:
+    """Whether process ``pid`` has a handler for ``sig`` (bit sig − 1 of SigCgt in /proc/PID/status)."""
+    try:
+        text = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    mask = int(next(line.split()[1] for line in text.splitlines() if line.startswith("SigCgt:")), 16)
+    return bool(mask >> (sig - 1) & 1)
+
+
+def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> subprocess.CompletedProcess:
+    """Run `wbc args`, send ``sig`` ``settle`` s after its SIGTERM handler is installed (the command runs), return
+    the finished process."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.Popen([sys.executable, "-m", "wbc", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=env, cwd=cwd, preexec_fn=lambda: signal.signal(signal.SIGINT,
+                                                                                           signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 300
+        while not _catches(proc.pid, signal.SIGTERM):
+            assert proc.poll() is None, proc.communicate()[1][-2000:]
+            assert time.monotonic() < deadline, "the command did not start within 300 s"
+            time.sleep(0.01)
+        time.sleep(settle)
+        assert proc.poll() is None, "the command ended before the signal"
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return subprocess.CompletedProcess(args, proc.returncode, out, err)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux only)")
+@pytest.mark.parametrize("sig, code, words", [(signal.SIGTERM, 143, "terminated (SIGTERM)"),
+                                              (signal.SIGINT, 130, "interrupted")])
+@pytest.mark.parametrize("command", [
+    ["walk", "--robot", "humanoid15", "--steps", "400", "--quiet", "--log", "run.npz", "--json", "run.json"],
+    ["campaign", "run", "--kind", "push", "--trials", "50", "--no-plots", "--no-progress", "--results", "c",
+     "--set", "scenario.robot=humanoid15", "--set", "scenario.steps=2"],
+], ids=["walk", "campaign"])
+def test_a_signal_ends_a_command_with_its_exit_code(tmp_path, command, sig, code, words):
+    r = _signalled(command, sig, tmp_path)
+    assert r.returncode == code, (r.returncode, r.stderr[-2000:])
+    err = r.stderr.strip()
+    assert "Traceback" not in err and words in err, err[-2000:]
+    assert len(err.splitlines()) == 1, err
+    left = [p.name for p in tmp_path.rglob("*") if ".partial" in p.name or p.name.endswith(".tmp")]
+    assert left == [], left
