@@ -11,6 +11,7 @@ import argparse
 
 import wbc
 from wbc.cli.output import format_value
+from wbc.sim.actuators import joint_speed_margins
 from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.physics_scenarios import id_options_for
 from wbc.sim.scenarios import PushScenario, make_controller, run_scenario
@@ -23,7 +24,10 @@ args = parser.parse_args()
 
 robot = wbc.load_robot("humanoid15" if args.quick else args.robot)
 sim = build_mujoco_model(robot)                          # the same URDF in MuJoCo, sole boxes, elliptic cones
-controller = make_controller(robot, "id", dt=sim.timestep, **id_options_for(robot))
+# the joint speed bounds with `wbc sim`'s margins (legs 5 %, upper body 30 % below the URDF limits): the QP bounds
+# the predicted next-tick speed, and the push it does not know of adds to it
+controller = make_controller(robot, "id", dt=sim.timestep, speed_margin=joint_speed_margins(robot),
+                             **id_options_for(robot))
 force = 60.0 if args.quick else args.force
 scenario = PushScenario(force, push_duration=0.1, settle=1.0 if args.quick else 2.5)
 run, summary = run_scenario(sim, controller, scenario)   # closed loop at 500 Hz, one mj_step per tick
