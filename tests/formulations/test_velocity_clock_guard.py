@@ -95,7 +95,7 @@ def test_kinematic_clock_guard_bounds_a_failed_tick_on_a_slow_machine(robots, mo
     control that shows the bound is the guard's doing. Oracles: the virtual clock (a loose bound, twice the budget),
     and each tick is failed with a finite safe command within the joint velocity limits."""
     import wbc.solvers.base as solver_base
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.solvers.base import TickWork
 
     model, config, ctrl = _failing_g1_tick(robots, clock_guard)
