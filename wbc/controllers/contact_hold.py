@@ -133,7 +133,8 @@ class ContactHold:
         """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
         re-solves the problem in the buffers (default: the tick's QP)."""
         solve = solve or self._solve_assembled
-        cost = self._safe_estimate if solve == self._solve_constraints_only else lambda: self._resolve_cost
+        budget = self.tick_budget
+        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
         self.contact_corrections = 0
         worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
@@ -146,7 +147,7 @@ class ContactHold:
             for k in range(3):
                 # the refinement stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved tick's); the
                 # best command so far is kept
-                if (self._late() if bounded else self._stage_late()) or not self._fits(cost()):
+                if not budget.may_start("retry" if bounded else "stage", cost()):
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
                     break
@@ -193,7 +194,8 @@ class ContactHold:
         ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
         the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled
-        cost = self._safe_estimate if solve == self._solve_constraints_only else lambda: self._resolve_cost
+        budget = self.tick_budget
+        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -210,7 +212,7 @@ class ContactHold:
             for k in range(n_radii):
                 # the trust region stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved
                 # tick's); the least drifting command is kept
-                if (self._late() if bounded else self._stage_late()) or not self._fits(cost()):
+                if not budget.may_start("retry" if bounded else "stage", cost()):
                     if not bounded:
                         self._cut.append(f"trust region after {k} of at most {n_radii} radii")
                     break

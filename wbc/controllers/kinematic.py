@@ -28,11 +28,12 @@ from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.formulations.velocity_kernel import ensure_compiled
-from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, TickWork, make_backend
+from wbc.solvers import DEFAULT_SOLVER, DaqpBackend, FastBackend, QPBackend, make_backend
 from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult
+from wbc.controllers.budget import TickBudget
 from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
 from wbc.controllers.contact_hold import ContactHold, DriftFailure
 from wbc.controllers.recovery import Recovery
@@ -203,8 +204,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
         self.contact_correction = float(contact_correction)
+        #: the tick's counted work, clock guard and stage costs (:class:`wbc.controllers.budget.TickBudget`)
+        self.tick_budget = TickBudget()
+        self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
+        self._configure_budget()
         self.budget = budget
-        self._work = TickWork()  # the tick's QP solves, shared with every backend of the controller (budget)
         self._cut: list[str] = []
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
@@ -260,14 +264,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
         self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
         self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
-        # clock guard: CPU time (s) of the longest re-solve of the tick's QP, strict level, check of a held safe
-        # command in the current tick, and of the safe command's solve (this tick's longest, else the last one's)
-        self._resolve_cost = self._level_cost = self._check_cost = self._safe_cost = 0.0
-        self._safe_fresh = False  # _safe_cost was timed in the current tick
-        self._safe_stage_cost = 0.0  # the last 'constraints_only' stage (solve, correction, trust region, checks)
-        self._level_mark = 0.0  # CPU time of the tick at the last level boundary of the cascade
-        self._level_count = 0.0  # counted solves of the tick at the last level boundary of the cascade
-        self._resolve_work = self._level_work = 0.0
         ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
@@ -288,52 +284,16 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
             raise InvalidInputError(f"budget must be None (the tick's dt) or a number of seconds > 0 (math.inf: "
                                     f"no budget), got {value!r}")
         self._budget = None if value is None else float(value)
-        self._budget_s = math.nan
+        self.tick_budget.seconds = math.nan
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
-    def _late(self) -> bool:
-        """The current tick's budget (counted in QP solves) is spent, or would be by one more re-solve of the
-        tick's QP at the counted work of the largest so far (``_resolve_work``)."""
-        return self._work.spent() or self._work.spent(1.0, self._resolve_work)
-
-    def _stage_late(self) -> bool:
-        """A solved tick starts no further stage: STAGE_FACTOR times its budget (in QP solves) is spent, or would
-        be by the stage's re-solve at the counted work of the tick's largest re-solve so far (``_resolve_work``)."""
-        return self._work.spent(self.STAGE_FACTOR, self._resolve_work)
-
-    def _fits(self, cost: float, deadline: float | None = None) -> bool:
-        """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``
-        (default ``STAGE_DEADLINE``) times the tick's budget (clock guard; always True without it)."""
-        factor = self.STAGE_DEADLINE if deadline is None else deadline
-        return not self.clock_guard or self._work.seconds() + cost <= factor * self._budget_s
-
-    def _safe_estimate(self) -> float:
-        """CPU time (s) expected of one solve of the safe command: this tick's longest, else the last tick's, else
-        the longest re-solve of this tick's QP."""
-        return self._safe_cost or self._resolve_cost
-
-    def _level_stop(self) -> bool:
-        """``stop`` of the strict cascade (``solve_lexicographic``): STAGE_FACTOR times the budget spent (in QP
-        solves), or (clock guard) the next level, at the CPU time of the longest level so far, would not end by
-        ``STAGE_DEADLINE`` times the budget."""
-        solves = self._work.solves
-        self._level_work = max(self._level_work, solves - self._level_count)
-        self._level_count = solves
-        late = self._work.spent(self.STAGE_FACTOR, self._level_work)  # the next level ends past STAGE_FACTOR
-        if self.clock_guard:
-            now = self._work.seconds()
-            self._level_cost = max(self._level_cost, now - self._level_mark)
-            self._level_mark = now
-            return late or not self._fits(self._level_cost)
-        return late
-
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Reset the tick's solve count, cap ⌊budget / ``SOLVE_COST``⌋, shared with every QP backend (with
-        ``clock_guard``: budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve)."""
-        cap = math.floor(budget_s / self.SOLVE_COST) if math.isfinite(budget_s) else math.inf
-        clock = budget_s / (self.CLOCK_WEIGHT * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`: cap ⌊budget / ``SOLVE_COST``⌋
+        solves; with ``clock_guard``, budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve) and share
+        its work with every QP backend."""
+        self._configure_budget()
+        self.tick_budget.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
-        work.reset(cap, clock)
         stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
                  None if plan is None else plan.rescue)
         if self._level_backends:
@@ -346,6 +306,13 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
                     b.work = work
                     b.independent = CONFIRM_ORDER
             self._work_stamp = stamp
+
+    def _configure_budget(self) -> None:
+        """The controller's numbers into its :class:`~wbc.controllers.budget.TickBudget` (they may be changed
+        between ticks: attributes of the class or of the instance)."""
+        tb = self.tick_budget
+        tb.clock_guard = self.clock_guard
+        tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
 
     @staticmethod
     def _find_locked_joints(robot: Robot) -> list[str]:
@@ -534,11 +501,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
-        self._budget_s = dt if self._budget is None else self._budget
-        self._start_work(self._budget_s, self._fused)  # counted in QP solves: deterministic
-        self._resolve_cost = self._level_cost = self._check_cost = 0.0
-        self._resolve_work = self._level_work = 0.0  # counted solves of the largest re-solve / strict level so far
-        self._safe_fresh = False
+        # counted in QP solves: deterministic
+        self._start_work(dt if self._budget is None else self._budget, self._fused)
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -592,10 +556,10 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
                 self._work.reserve = 0.0  # the relaxations count as before
                 # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
                 # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
-                if not self._fits(self._resolve_cost, self.RESCUE_DEADLINE):
+                if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
                     raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
                         from None
-                if self._level_order and not self._weighted_tick and self._late():
+                if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
                     # the failed cascade spent the tick's count: its retries below are answered by the weighted
                     # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
                     # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
@@ -612,7 +576,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
                         v = None
                 relaxed = []
                 if v is None and self._relaxable:  # (one solve: not cut by the count)
-                    if not self._fits(self._resolve_cost):
+                    if not self.tick_budget.fits(self.tick_budget.resolve_cost):
                         raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
                     self._relax(config, dt)
                     relaxed = [c.name for c in self._relaxable]
@@ -662,10 +626,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
         if self._level_order:
             # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
             # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
-            # for the cascade (_cascade_fits)
+            # for the cascade (TickBudget.cascade_fits)
             if weighted_start:
                 self._weighted_left -= 1
-                if self._weighted_left <= 0 and not self._cascade_fits():
+                if self._weighted_left <= 0 and not self.tick_budget.cascade_fits(
+                        len(self._level_order), self.STAGE_FACTOR - self.WEIGHTED_RESERVE):
                     self._weighted_left = 1
             elif self._cut:
                 self._weighted_left = self.WEIGHTED_TICKS
@@ -719,7 +684,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
 
     def _solve_assembled(self, config: Configuration) -> np.ndarray:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist); with the clock
-        guard its CPU time is recorded (the cost of the tick's next re-solve, ``_fits``)."""
+        guard its CPU time is recorded (the cost of the tick's next re-solve, ``TickBudget.fits``)."""
         args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         solves = self._work.solves
         t = self._work.seconds() if self.clock_guard else 0.0
@@ -727,9 +692,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
             return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
         finally:
             # the counted work of the largest re-solve so far: the stages after it start only when one more fits
-            self._resolve_work = max(self._resolve_work, self._work.solves - solves)
+            self.tick_budget.resolve_work = max(self.tick_budget.resolve_work, self._work.solves - solves)
             if self.clock_guard:
-                self._resolve_cost = max(self._resolve_cost, self._work.seconds() - t)
+                self.tick_budget.resolve_cost = max(self.tick_budget.resolve_cost, self._work.seconds() - t)
 
 
     def _solve_flat(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
@@ -793,16 +758,17 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Veloc
             self._level_backends.insert(0, self._new_backend(eps_prox=1e-3))
         if self._final_backend is None:
             self._final_backend = self._new_backend()
-        self._level_mark = self._work.seconds()
-        self._level_count = self._work.solves
+        self.tick_budget.level_mark = self._work.seconds()
+        self.tick_budget.level_count = self._work.solves
         v, self.level_residuals = solve_lexicographic(
             levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
-            stop=self._level_stop if self._in_solve else None, memo=self._level_memo if self._in_solve else None,
+            stop=self.tick_budget.level_stop if self._in_solve else None,
+            memo=self._level_memo if self._in_solve else None,
             level_work=self.LEVEL_WORK)
         cut = solve_lexicographic.last_cut
         if cut is not None:
-            if self._in_solve and self._fits(self._level_cost):
+            if self._in_solve and self.tick_budget.fits(self.tick_budget.level_cost):
                 # the cascade does not fit the tick (its count, or the clock guard's CPU time); the weighted form of
                 # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
                 # re-solves instead of the last solved level's command (which ignores the levels below it)

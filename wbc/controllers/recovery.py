@@ -53,9 +53,10 @@ class Recovery:
             return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
                               path=TickPath("fallback", fallback="hold"), reason="exception")
         data_fault = self._data_fault()
-        late = self._late()  # the tick's count spent before its failure handling
+        late = not self.tick_budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
-        if not self._late() and self._fits(2.0 * max(self._resolve_cost, self._safe_estimate())):
+        budget = self.tick_budget
+        if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
             self._work.solves += 1  # the diagnosis: one least-squares QP
             try:
                 conflicts = self.diagnose(config, dt, include_relaxable=False)
@@ -79,7 +80,7 @@ class Recovery:
         # the tick's count spent before its safe command (late): J_c v = 0 first, the cheapest command that keeps the
         # contacts (β = 0 only, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
         held_first = late and bool(self._contact_rows.size) and not data_fault
-        if not held_first and not data_fault and not self._fits(max(self._safe_stage_cost, self._safe_estimate())):
+        if not held_first and not data_fault and not budget.fits(max(budget.safe_stage_cost, budget.safe_estimate())):
             skipped = "constraints_only"
         elif not held_first and not data_fault:  # (non-finite QP data: hold)
             v, fallback = self._safe_constraints_only(config, dt, anchors)
@@ -109,7 +110,7 @@ class Recovery:
                     anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
                 tried = []  # (β, what became of its command) for the message
                 for beta in scales:
-                    if not self._fits(self._safe_estimate() + self._check_cost):
+                    if not self.tick_budget.fits(self.tick_budget.safe_estimate() + self.tick_budget.check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
                         break
                     self._b[self._contact_rows] = beta * anchored
@@ -129,7 +130,7 @@ class Recovery:
                     d = math.nan
                     for _ in range(9 if beta == 0.0 else 1):
                         counted_out = self._work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
-                        if counted_out or not self._fits(self._check_cost):
+                        if counted_out or not self.tick_budget.fits(self.tick_budget.check_cost):
                             skipped = "contacts_held (its last scalings)"
                             count_stop = counted_out
                             break
@@ -137,7 +138,7 @@ class Recovery:
                         t = self._work.seconds()
                         d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
                         held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
-                        self._check_cost = max(self._check_cost, self._work.seconds() - t)
+                        self.tick_budget.check_cost = max(self.tick_budget.check_cost, self._work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
                             break
@@ -176,7 +177,7 @@ class Recovery:
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
         """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
         objects held in the buffers (hard tasks left out), on the fallback backend; with the clock guard its CPU
-        time is recorded (``_safe_estimate``). Raises SolverError."""
+        time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
         if not self.clock_guard:
             return self._constraints_only_qp()
         t = self._work.seconds()
@@ -184,8 +185,9 @@ class Recovery:
             return self._constraints_only_qp()
         finally:
             spent = self._work.seconds() - t
-            self._safe_cost = max(self._safe_cost, spent) if self._safe_fresh else spent
-            self._safe_fresh = True
+            budget = self.tick_budget
+            budget.safe_cost = max(budget.safe_cost, spent) if budget.safe_fresh else spent
+            budget.safe_fresh = True
 
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
         """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
@@ -208,7 +210,7 @@ class Recovery:
         except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
             pass
         if self.clock_guard:
-            self._safe_stage_cost = self._work.seconds() - t_stage
+            self.tick_budget.safe_stage_cost = self._work.seconds() - t_stage
         return v, fallback
 
     def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:

@@ -58,7 +58,7 @@ class Relaxation:
         onto its placement; the correction of a stance sole's accumulated drift can ask a joint held at α = 0 to
         move further out) and the ladder above is solved with them. The tick's sole-drift check still measures the
         drift from where the full correction would send the frame, so an ok tick keeps its bound. With the clock
-        guard each of these solves starts only when a re-solve of the tick's QP still fits (``_fits``).
+        guard each of these solves starts only when a re-solve of the tick's QP still fits (``TickBudget.fits``).
 
         Returns:
             (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
@@ -71,7 +71,7 @@ class Relaxation:
         low, high = self._outside_limits(config)
         if not (low.size or high.size):
             raise failure
-        if not self._fits(self._resolve_cost):
+        if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             raise SolverError(f"{failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
@@ -86,7 +86,7 @@ class Relaxation:
                 v0 = self._solve_assembled(config)
             except SolverError:
                 v0 = None
-            if v0 is None and self._contact_rows.size and self._fits(self._resolve_cost):
+            if v0 is None and self._contact_rows.size and self.tick_budget.fits(self.tick_budget.resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
                 try:
                     v0 = self._solve_assembled(config)
@@ -101,7 +101,7 @@ class Relaxation:
                 b.cold_retry = False
             v, best = v0, 0.0
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
-                if self._late() or not self._fits(self._resolve_cost):
+                if not self.tick_budget.may_start("retry", self.tick_budget.resolve_cost):
                     break
                 self._lb[low] = alpha * lb0
                 self._ub[high] = alpha * ub0
@@ -139,7 +139,7 @@ class Relaxation:
             for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
                 b.independent = ()
             for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
-                if self._stage_late() or not self._fits(self._resolve_cost):
+                if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
                 self._lb[low] = a * lb0
@@ -154,7 +154,7 @@ class Relaxation:
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
                     return r, a
-            if self._contact_rows.size and not self._stage_late() and self._fits(self._resolve_cost):
+            if self._contact_rows.size and self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                 # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
                 # from where the full correction would send a frame is then K dt e plus second order in v dt
                 b0 = self._b[self._contact_rows].copy()
@@ -196,7 +196,7 @@ class Relaxation:
         trust region, with the solves the cascade left: ``WEIGHTED_RESERVE``), after the cascade's command kept a
         contact frame past ``sole_drift_tolerance`` because the budget stopped its correction or trust region;
         None when that answer drifts too (or its QP fails): the cascade's failure stands."""
-        if not self._fits(self._resolve_cost):
+        if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             return None
         self._work.reserve = 0.0
         self._weighted_tick, self._weighted_qp = True, None
@@ -213,16 +213,6 @@ class Relaxation:
             return result
         self._weighted_tick, self._cut = False, cascade_cut
         return None
-
-    def _cascade_fits(self) -> bool:
-        """After a tick answered by the weighted form of p strict levels: is it cheap enough to try the cascade
-        again? Its counted solves times p + 1 (one QP per level instead of one) fit in the cascade's share of the
-        budget, (``STAGE_FACTOR`` − ``WEIGHTED_RESERVE``) budgets; with the clock guard also its CPU time times
-        2 (p + 1) in one budget."""
-        n = len(self._level_order) + 1
-        if n * self._work.solves > (self.STAGE_FACTOR - self.WEIGHTED_RESERVE) * self._work.cap:
-            return False
-        return not self.clock_guard or 2 * n * self._work.seconds() <= self._budget_s
 
     def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
         """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
