@@ -36,7 +36,7 @@ from hypothesis import strategies as st
 
 import wbc
 import wbc.controllers.compiled_tick as compiled_tick
-import wbc.controllers.kinematic as kinematic
+import wbc.controllers.general_route as general_route
 import wbc.tick as tick
 from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
@@ -322,7 +322,7 @@ def test_strict_levels_take_the_gathered_rows(name):
     ctrl.add_task(hand, level=0)
     ctrl.add_task(com, level=1)
     seen = []
-    cascade = kinematic.solve_lexicographic
+    cascade = general_route.solve_lexicographic
 
     def spy(levels, *args, **kw):
         seen.append([(J.copy(), t.copy()) for J, t in levels])
@@ -330,11 +330,11 @@ def test_strict_levels_take_the_gathered_rows(name):
         spy.last_cut = cascade.last_cut
         return out
 
-    kinematic.solve_lexicographic = spy
+    general_route.solve_lexicographic = spy
     try:
         result = ctrl.solve(config, 0.002)
     finally:
-        kinematic.solve_lexicographic = cascade
+        general_route.solve_lexicographic = cascade
     assert result.ok and result.path.route == "levels", (result.path, result.message)
     for (J, t), task in zip(seen[0], (hand, com)):
         error, jac = task.compute(config)

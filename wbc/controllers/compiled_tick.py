@@ -9,7 +9,6 @@ solves the same reduced QP and the tick is completed from its answer (:meth:`Com
 Whenever no solver ends at a KKT point, a contact drifts above ``contact_correction`` or anything raises, the tick
 is solved again by the general path (``docs/kinematic-controller.md``)."""
 
-
 from __future__ import annotations
 
 import math

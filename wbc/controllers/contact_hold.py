@@ -7,7 +7,6 @@ on e⁺(v) = (1 − K dt) e, ≤ 3 iterations); dependent contact rows get right
 J_c (least squares). A tick whose drift still exceeds ``sole_drift_tolerance`` is solved inside trust regions
 |v_i| ≤ ρ (``_hold_contacts``), else it fails with :class:`DriftFailure`."""
 
-
 from __future__ import annotations
 
 import math

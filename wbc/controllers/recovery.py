@@ -8,7 +8,6 @@
 Steps 2 and 3 are taken only when they keep each contact frame within ``sole_drift_tolerance`` of where its rows
 send it and within ``SAFE_COMMAND_RADIUS`` of where the run of failed ticks began (``docs/kinematic-controller.md``)."""
 
-
 from __future__ import annotations
 
 import math

@@ -7,9 +7,7 @@ when even α = 0 has no solution the contacts' drift corrections rank below it (
 weighted form (level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) answers a cascade the budget cut
 (``_weighted_answer``)."""
 
-
 from __future__ import annotations
-
 
 import numpy as np
 

@@ -20,7 +20,6 @@ task's ``weight`` becomes a view of the stacked weights on its first assembly. T
 decoding). What the controller does around this QP (contact hold, relaxations, budget, safe command, compiled
 tick) is in :mod:`wbc.controllers.kinematic` and ``docs/kinematic-controller.md``."""
 
-
 from __future__ import annotations
 
 import math

@@ -330,7 +330,7 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
 def test_ok_tick_past_its_budget_answers_with_the_weighted_levels(robots):
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
     level is solved: the cascade starts no further level and the tick answers with the weighted form of its levels
-    (one QP; its command checked against quadprog in tests/formulations/test_velocity_weighted_levels.py), ok,
+    (one QP; its command checked against quadprog in tests/controllers/test_kinematic_weighted_levels.py), ok,
     with path 'levels+budget+weighted', over_budget and the skipped stages named. Oracles: the command differs from
     the full cascade's (budget math.inf), whose level-0 hand residual is the least possible (the weighted form's is
     not smaller), and forward kinematics of the soles over the tick (both placed where they are: each may move
