@@ -35,6 +35,7 @@ from wbc.constraints.task import TaskConstraint
 from wbc.formulations.velocity_kernel import NO_KERNEL_BOX, form_qp, kinematic_pack, rows_pack, weighted_rows
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.linalg import clip_box_into
+from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
@@ -175,9 +176,10 @@ class VelocityQP:
         while len(self._soft_layouts) > 16:
             self._soft_layouts.pop(next(iter(self._soft_layouts)))
 
-    def assemble(self, config: Configuration, dt: float):
-        """Build (H, g, A, b, C, l, u, lb, ub) of the QP at ``config`` (module docstring): the one assembly that
-        every route solves (the compiled solver reads these very buffers).
+    def assemble(self, config: Configuration, dt: float) -> QPData:
+        """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
+        route solves (the compiled solver reads these very buffers). Returns :class:`~wbc.solvers.qp_data.QPData`
+        (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)): views of the buffers, no copies.
 
         The task rows are gathered into stacked buffers (each task's ``compute_into``) and the cost formed from them
         by one compiled call (:func:`wbc.formulations.velocity_kernel.form_qp`); the constraint rows are written by each
@@ -185,7 +187,7 @@ class VelocityQP:
         constraint's own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at
         the next call.
         """
-        return self._assemble(config, dt, True)
+        return QPData(*self._assemble(config, dt, True))
 
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
         """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
