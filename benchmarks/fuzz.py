@@ -511,7 +511,7 @@ def _run_job(job: tuple) -> tuple[int, dict]:
     """One chunk in a worker process: (index, result)."""
     i, ticks, episode, seed, n_chunks, out, dts, past_limits, budget, clock_guard = job
     if isinstance(clock_guard, float):  # --clock-weight
-        from wbc.formulations.velocity import KinematicController
+        from wbc.controllers.kinematic import KinematicController
         KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
     robots, limits = load_robots()
     ch = run_chunk(robots, limits, ticks, episode, seed, progress=f"chunk {i + 1}/{n_chunks} (seed {seed}) ",
@@ -526,7 +526,7 @@ def replay_ratios(seed: int, chunk_ticks: int, ep: int, episode: int, dts: tuple
     """Episode ``ep`` of the chunk (``seed``, ``chunk_ticks``) run again in this process: CPU / budget per tick."""
     robots, limits = load_robots()
     if isinstance(clock_guard, float):  # --clock-weight
-        from wbc.formulations.velocity import KinematicController
+        from wbc.controllers.kinematic import KinematicController
         KinematicController.CLOCK_WEIGHT, clock_guard = clock_guard, True
     c = run_chunk(robots, limits, chunk_ticks, episode, seed, dts=dts, past_limits=past_limits, budget=budget,
                   clock_guard=clock_guard, replay=ep, warm=True, quiet=True)
@@ -579,7 +579,7 @@ def main() -> None:
     if a.replay is not None:
         robots, limits = load_robots()
         if a.clock_weight:
-            from wbc.formulations.velocity import KinematicController
+            from wbc.controllers.kinematic import KinematicController
             KinematicController.CLOCK_WEIGHT = a.clock_weight
         run_chunk(robots, limits, a.chunk, a.episode, a.seed, dts=dts, past_limits=a.past_limits, budget=a.budget,
                   clock_guard=a.clock_guard, replay=a.replay, verbose=True, warm=True)

@@ -26,7 +26,7 @@ DT = 0.002
 
 
 def run(robot, ticks: int, options: dict, seed: int = 0):
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
 
     rng = np.random.default_rng(seed)
     config = Configuration(robot)

@@ -74,7 +74,7 @@ def standing_controller(robot, config, *extra_constraints, tasks=(), vel_scale=1
     posture on every DoF, joint position + velocity limits; plus ``extra_constraints`` and ``tasks``.
     Returns (controller, CoM task)."""
     from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.tasks import ComTask, OrientationTask, PostureTask
 
     contacts = [ContactConstraint(robot, f) for f in (robot.left_sole, robot.right_sole)]

@@ -138,7 +138,7 @@ def test_task_or_constraint_of_another_robot_rejected(talos):
     """Each object built for G1 and added to a Talos controller raises InvalidInputError naming the object, the
     other robot's mismatch and this robot (before the fix it became a silent freeze or wrong rows)."""
     from wbc.constraints import ComPolygonConstraint, ContactConstraint, JointAccelerationLimit
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.tasks import DampingTask
 
     g1 = wbc.load_robot("g1")

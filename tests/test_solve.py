@@ -9,7 +9,7 @@ import pytest
 import wbc
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import ConfigurationError, InfeasibleProblemError
 from wbc.tasks import ComTask, OrientationTask, PostureTask
 

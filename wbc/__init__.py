@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the names below are imported on first use (PEP 562): `import wbc` itself stays instant
     from wbc.configuration import Configuration
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.robot import Robot, catalog, load_robot
     from wbc.solve import solve_ik
 
@@ -21,7 +21,7 @@ __version__ = "0.1.0"
 
 # Loading these modules loads (or, on the first run after an install, compiles) wbc's numba kernels: seconds to a
 # minute. Deferring them lets `wbc ...` say so and handle Ctrl-C before that work starts.
-_LAZY = {"Configuration": "wbc.configuration", "KinematicController": "wbc.formulations.velocity",
+_LAZY = {"Configuration": "wbc.configuration", "KinematicController": "wbc.controllers.kinematic",
          "Robot": "wbc.robot", "catalog": "wbc.robot", "load_robot": "wbc.robot", "solve_ik": "wbc.solve"}
 
 

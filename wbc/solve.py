@@ -1,5 +1,5 @@
 """Stateless one-call entry point for scripting: :func:`solve_ik` (as Pink's ``solve_ik`` and mink's
-``solve_ik``), beside the stateful :class:`~wbc.formulations.velocity.KinematicController`.
+``solve_ik``), beside the stateful :class:`~wbc.controllers.kinematic.KinematicController`.
 
 One call builds the kinematics at ``q``, the velocity-level QP of :mod:`wbc.formulations.velocity` from the given tasks and
 constraints, solves it once and returns the generalized velocity. Nothing is kept between calls (no warm start,
@@ -15,7 +15,7 @@ import numpy as np
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import Constraint
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers import DEFAULT_SOLVER, QPBackend
 from wbc.robot import Robot

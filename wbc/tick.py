@@ -2,7 +2,7 @@
 
 Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
 
-* kinematic (:class:`wbc.formulations.velocity.KinematicController`, :data:`KINEMATIC_ROUTES`):
+* kinematic (:class:`wbc.controllers.kinematic.KinematicController`, :data:`KINEMATIC_ROUTES`):
   ``compiled`` (the assembled flat QP on the compiled solver, :func:`wbc.formulations.velocity_kernel.kinematic_solve`;
   ``solver="daqp"`` when DAQP solved its reduced QP), ``general`` (the assembled flat QP on the controller's backend),
   ``levels`` (the strict hierarchy, :mod:`wbc.solvers.hierarchy`), ``fallback`` (a safe command: ``constraints_only``,
@@ -25,9 +25,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["KINEMATIC_ROUTES", "ID_ROUTES", "ROUTES", "PATH_DTYPE", "TickPath", "TickResultBase", "count_paths"]
+__all__ = ["KINEMATIC_ROUTES", "ID_ROUTES", "ROUTES", "PATH_DTYPE", "TickPath", "TickResult", "TickResultBase",
+           "count_paths", "solved_result"]
 
 #: The routes of a kinematic tick (``TickResult.path.route``).
 KINEMATIC_ROUTES = ("compiled", "general", "levels", "fallback")
@@ -138,7 +141,7 @@ class TickPath:
 
 @dataclass(kw_only=True)
 class TickResultBase:
-    """What every controller's tick result says (the kinematic :class:`~wbc.formulations.velocity.TickResult`, the
+    """What every controller's tick result says (the kinematic :class:`~wbc.tick.TickResult`, the
     inverse-dynamics :class:`~wbc.dynamics.controller.IDCommand`).
 
     Attributes:
@@ -179,3 +182,81 @@ def count_paths(paths) -> dict[str, dict[str, int]]:
         per_route[route] = per_route.get(route, 0) + n
     order = lambda d: dict(sorted(d.items(), key=lambda kv: (-kv[1], kv[0])))  # noqa: E731
     return {"ticks_per_route": order(per_route), "ticks_per_path": order(per_path)}
+
+
+@dataclass
+class TickResult(TickResultBase):
+    """Outcome of one control tick (the fields ``ok``, ``message``, ``timings``, ``conflicts``, ``path``,
+    ``over_budget`` are those of :class:`wbc.tick.TickResultBase`, shared with the inverse-dynamics command).
+
+    Attributes:
+        v: (nv,) commanded generalized velocity; always finite (the safe command when the solve failed).
+        ok: the QP was solved.
+        message: failure reason ('' when ok).
+        timings: seconds spent in 'assembly' (tasks + constraints) and 'solve' (including the fallback).
+        conflicts: after a failed solve, (constraint name, violation in its units) of the hard constraints that
+            conflict, largest first (:mod:`wbc.solvers.diagnosis`); empty when ok.
+        fallback: '' when ok, else the safe command returned: 'constraints_only' (soft level under the constraint
+            objects, hard tasks and strict levels left out), 'contacts_held' (the same with each contact frame held
+            where it was when the current run of failed ticks began, its correction towards there scaled by 1,
+            1/10 or 0: J_c v = 0) or 'hold' (v = 0). Every safe command other than 'hold' keeps the contact frames
+            within ``sole_drift_tolerance`` of where its rows send them over the tick.
+        relaxed: names of the relaxable constraints (``Constraint.relaxable``, e.g. acceleration limits) that were
+            left out of this tick because the hard set was infeasible with them (``ok`` stays True when the tick
+            then solved).
+        consecutive_failures: failed ticks in a row ending with this one (0 when ok). A failure never latches:
+            every tick is solved afresh, so the first feasible tick after failures is ok again.
+        sole_drift: largest second-order drift (m) of a contact frame over this tick: the larger of the distance
+            ‖t(e⁺) − (1 − K dt) t(e)‖ and L times the angle (rad) between where the frame ends and where its
+            row sends it, with e⁺ the contact error at pin.integrate(q, v dt), t(·) its translation part and
+            L = sole_drift_tolerance / sole_rotation_tolerance (m; 0 when either is None) (what the linearised
+            contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``: its contact
+            frames move ≤ sole_drift_tolerance and turn ≤ sole_rotation_tolerance from where their rows send them.
+        path: the route the tick took (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.KINEMATIC_ROUTES`):
+            'compiled' (the compiled tick's kernel; solver 'daqp': its reduced QP solved by DAQP), 'general'
+            (the general path's flat QP; solver: the backend's name), 'levels' (strict hierarchy), with
+            ``return_rate`` when the return rate of joints outside their limits was relaxed and ``budget`` when
+            1.75 times the tick's budget stopped its cascade, contact correction or trust region (``message`` names what
+            was skipped); on failure 'fallback' (``path.fallback`` = ``fallback``). Its string form is
+            ``compiled``, ``compiled+daqp``, ``general:<backend>``, ``levels`` (each of the last two possibly
+            followed by ``+return_rate`` and ``+budget``), ``fallback:<fallback>``.
+        reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
+            'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),
+            'output_guard' (the command was not finite or crossed a
+            bound), 'nonfinite' (non-finite numbers in the QP), 'exception' (anything else raised).
+        over_budget: the tick's budget (``KinematicController.budget``, counted in QP solves) was spent before it
+            finished: on a
+            failed tick its optional stages (independent confirmation, diagnosis, the safe command's trust regions)
+            were skipped and the safe command returned; on an ok tick ('+budget' path: 1.75 × the budget spent) the
+            remaining strict levels, contact corrections or trust regions were skipped and the last finished stage's command returned.
+    """
+
+    v: np.ndarray
+    fallback: str = ""
+    relaxed: list[str] = field(default_factory=list)
+    consecutive_failures: int = 0
+    sole_drift: float = 0.0
+    reason: str = ""
+
+
+_new_instance = object.__new__
+
+
+def solved_result(v: np.ndarray, timings: dict[str, float], sole_drift: float, path: TickPath) -> TickResult:
+    """``TickResult(v, timings=timings, sole_drift=sole_drift, path=path)`` (an ok tick: every other field at its
+    default) with the fields stored one by one, without the dataclass constructor's keyword and default-factory
+    handling (the compiled tick's result, built every tick)."""
+    r = _new_instance(TickResult)
+    r.ok = True
+    r.message = ""
+    r.timings = timings
+    r.conflicts = []
+    r.path = path
+    r.over_budget = False
+    r.v = v
+    r.fallback = ""
+    r.relaxed = []
+    r.consecutive_failures = 0
+    r.sole_drift = sole_drift
+    r.reason = ""
+    return r

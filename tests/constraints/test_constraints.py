@@ -14,7 +14,7 @@ from wbc.constraints import (ComPolygonConstraint, ContactConstraint, JointAccel
                              JointVelocityLimit, SelfCollisionConstraint, TaskConstraint)
 from wbc.constraints.limits import bounded_joints
 from wbc.constraints.self_collision import default_collision_pairs
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import convex_hull, signed_distance, sole_polygon
 from wbc.tasks import ComTask, PostureTask

@@ -35,11 +35,13 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 import wbc
-import wbc.formulations.velocity as velocity
+import wbc.controllers.compiled_tick as compiled_tick
+import wbc.controllers.general_route as general_route
+import wbc.tick as tick
 from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
 from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.solvers import DaqpBackend
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask
 
@@ -212,21 +214,21 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
     fast, config = _build(robot, draw, "fast")
     general, config_g = _build(robot, draw, "daqp")
     received = []  # (the compiled solver's QP as its buffers held it when solved, its exit code, its v)
-    tick_packed = velocity.kinematic_tick_packed
+    tick_packed = compiled_tick.kinematic_tick_packed
 
     def spy(fb, ib, *args):  # the kernel forms H, g, then solves reading (never writing) the QP: read after it
         it, guard = tick_packed(fb, ib, *args)
         received.append((fb, fb.copy(), it, args[6].copy()))
         return it, guard
 
-    specialise = velocity.specialise
-    velocity.kinematic_tick_packed = spy
-    velocity.specialise = lambda kernel, *args: kernel  # the spy is called as is (not a numba kernel)
+    specialise = compiled_tick.specialise
+    compiled_tick.kinematic_tick_packed = spy
+    compiled_tick.specialise = lambda kernel, *args: kernel  # the spy is called as is (not a numba kernel)
     try:
         fast.solve(config, dt)
     finally:
-        velocity.kinematic_tick_packed = tick_packed
-        velocity.specialise = specialise
+        compiled_tick.kinematic_tick_packed = tick_packed
+        compiled_tick.specialise = specialise
     handed = []  # what the general path hands its backend
 
     def backend_spy(*qp, _solve=general.backend.solve, **kw):
@@ -294,8 +296,8 @@ def test_compiled_tick_result_is_the_dataclass_result():
     first, second = ctrl.solve(config, 0.002), ctrl.solve(config, 0.002)
     for result in (first, second):
         assert str(result.path) == "compiled", (result.path, result.message)
-        built = velocity.TickResult(result.v, timings=result.timings, sole_drift=result.sole_drift, path=result.path)
-        assert list(vars(result)) == [f.name for f in dataclasses.fields(velocity.TickResult)]
+        built = tick.TickResult(result.v, timings=result.timings, sole_drift=result.sole_drift, path=result.path)
+        assert list(vars(result)) == [f.name for f in dataclasses.fields(tick.TickResult)]
         assert vars(result) == vars(built) and result == built
         assert result.ok and result.conflicts == [] and result.relaxed == [] and result.fallback == ""
     assert first.conflicts is not second.conflicts and first.relaxed is not second.relaxed
@@ -320,7 +322,7 @@ def test_strict_levels_take_the_gathered_rows(name):
     ctrl.add_task(hand, level=0)
     ctrl.add_task(com, level=1)
     seen = []
-    cascade = velocity.solve_lexicographic
+    cascade = general_route.solve_lexicographic
 
     def spy(levels, *args, **kw):
         seen.append([(J.copy(), t.copy()) for J, t in levels])
@@ -328,11 +330,11 @@ def test_strict_levels_take_the_gathered_rows(name):
         spy.last_cut = cascade.last_cut
         return out
 
-    velocity.solve_lexicographic = spy
+    general_route.solve_lexicographic = spy
     try:
         result = ctrl.solve(config, 0.002)
     finally:
-        velocity.solve_lexicographic = cascade
+        general_route.solve_lexicographic = cascade
     assert result.ok and result.path.route == "levels", (result.path, result.message)
     for (J, t), task in zip(seen[0], (hand, com)):
         error, jac = task.compute(config)

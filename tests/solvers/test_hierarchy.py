@@ -12,7 +12,7 @@ from scipy.optimize import minimize
 
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointVelocityLimit
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import ComTask, DampingTask, FrameTask, PositionTask, PostureTask
 

@@ -182,7 +182,7 @@ class KinematicRunner(ABC):
 
 # -- wbc ------------------------------------------------------------------------------------------------------
 class WbcRunner(KinematicRunner):
-    """wbc :class:`~wbc.formulations.velocity.KinematicController`: soles as :class:`~wbc.constraints.ContactConstraint`."""
+    """wbc :class:`~wbc.controllers.kinematic.KinematicController`: soles as :class:`~wbc.constraints.ContactConstraint`."""
 
     library = "wbc"
     supports_breakdown = True
@@ -190,7 +190,7 @@ class WbcRunner(KinematicRunner):
     def reset(self) -> None:
         from wbc.configuration import Configuration
         from wbc.constraints import ContactConstraint, JointPositionLimit, JointVelocityLimit
-        from wbc.formulations.velocity import KinematicController
+        from wbc.controllers.kinematic import KinematicController
         from wbc.tasks import ComTask, OrientationTask, PostureTask
 
         s, robot = self.spec, self.robot

@@ -3,7 +3,7 @@
     v_prev − a_max dt ≤ v[6:] ≤ v_prev + a_max dt          (rad/s; a_max in rad/s²)
 
 v_prev is the command of the previous tick. The controller feeds it: the constraint declares
-``needs_previous_command`` and :class:`~wbc.formulations.velocity.KinematicController` calls :meth:`set_previous` with
+``needs_previous_command`` and :class:`~wbc.controllers.kinematic.KinematicController` calls :meth:`set_previous` with
 ``TickResult.v`` after every tick (a fallback command included). Before the first tick v_prev = 0 (robot at
 rest); call :meth:`set_previous` yourself when starting from motion or when integrating another velocity.
 

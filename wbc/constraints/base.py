@@ -1,6 +1,6 @@
 """The one constraint protocol of both QP levels.
 
-Every constraint, at the kinematic level (decision variable v (nv,), :class:`~wbc.formulations.velocity.
+Every constraint, at the kinematic level (decision variable v (nv,), :class:`~wbc.controllers.kinematic.
 KinematicController`) and at the inverse-dynamics level (x = [v̇; f] (nv + 12 n_c,), :class:`~wbc.formulations.
 acceleration.InverseDynamicsQP`), is a :class:`Constraint`: a ``name`` (used in infeasibility reports,
 :mod:`wbc.solvers.diagnosis`), a ``kind`` (one of :data:`CONSTRAINT_KINDS`), a number of rows ``dim`` (fixed while the constraint

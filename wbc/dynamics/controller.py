@@ -1,6 +1,6 @@
 """Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.formulations.acceleration`) → torques τ.
 
-:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.formulations.velocity.KinematicController`:
+:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.controllers.kinematic.KinematicController`:
 one :meth:`~InverseDynamicsController.solve` per control period reads the measured state, updates the Pinocchio
 quantities once (:class:`~wbc.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
 contact forces.

@@ -14,7 +14,7 @@ frame ends against where its row sent it.
 
 The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
 them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
-:class:`~wbc.formulations.velocity.KinematicController`, never inside a tick).
+:class:`~wbc.controllers.kinematic.KinematicController`, never inside a tick).
 """
 
 from __future__ import annotations
@@ -299,7 +299,7 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
-    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.KinematicController.assemble`)
+    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`)
 
         min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
 

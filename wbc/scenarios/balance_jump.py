@@ -5,7 +5,7 @@ The references are those of :class:`~wbc.gait.jump_plan.JumpPlan` on the **plann
 planned velocity after the push, touch-down after the planned flight time T_f = 2 v_z / g with the planned
 velocity (v_x, 0, −v_z); method and sources in :mod:`wbc.gait.jump_plan`: ballistic SLIP flight, Wensing & Orin
 2013; capture-point landing, Pratt et al. 2006). A velocity-level kinematic QP
-(:class:`~wbc.formulations.velocity.KinematicController`, floating base free, no contact constraint) tracks them at period
+(:class:`~wbc.controllers.kinematic.KinematicController`, floating base free, no contact constraint) tracks them at period
 dt: CoM (weight 1000), both sole poses (weight 100: held on the ground in stance, the flight profile in the air),
 torso orientation (1), posture (1e-2, gain 2/s); q ← pin.integrate(q, v dt).
 
@@ -37,7 +37,7 @@ import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constants import SIDES
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.gait.jump_plan import JumpPlan
 from wbc.solvers import DEFAULT_SOLVER

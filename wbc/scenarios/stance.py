@@ -23,7 +23,8 @@ from wbc.constraints.base import Constraint
 from wbc.constraints.braking import JointBrakingLimit
 from wbc.constraints.zmp import ExecutedZmpConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.formulations.velocity import KinematicController, TickResult
+from wbc.controllers.kinematic import KinematicController
+from wbc.tick import TickResult
 from wbc.gait.schedule import Support
 from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
@@ -39,7 +40,7 @@ DOUBLE, LEFT_STANCE, RIGHT_STANCE = Support.DOUBLE, Support.LEFT, Support.RIGHT
 
 
 class StanceController:
-    """The stance wiring of the module docstring around a :class:`~wbc.formulations.velocity.KinematicController`.
+    """The stance wiring of the module docstring around a :class:`~wbc.controllers.kinematic.KinematicController`.
 
     Args:
         robot: the robot.
@@ -54,7 +55,7 @@ class StanceController:
         joint_acceleration: a_max (rad/s²) of a :class:`~wbc.constraints.JointAccelerationLimit` on every actuated
             joint and of a :class:`~wbc.constraints.braking.JointBrakingLimit` (joints approach their position
             limits no faster than they can stop at a_max); both relaxable; None: neither.
-        **controller_options: passed to :class:`~wbc.formulations.velocity.KinematicController` (e.g. ``rank_rtol``).
+        **controller_options: passed to :class:`~wbc.controllers.kinematic.KinematicController` (e.g. ``rank_rtol``).
     """
 
     def __init__(self, robot: Robot, config: Configuration, *, solver: str = DEFAULT_SOLVER,
@@ -118,7 +119,7 @@ class StanceController:
     def prepare_supports(self, supports, config: Configuration, dt: float) -> None:
         """Build ahead what the first switch to each of ``supports`` (codes 0, 1, 2) would build in its tick: the
         controller's layout of that phase's contacts and swing tasks
-        (:meth:`~wbc.formulations.velocity.KinematicController.prepare_layouts`). Nothing else changes: the current
+        (:meth:`~wbc.controllers.kinematic.KinematicController.prepare_layouts`). Nothing else changes: the current
         support, placements and targets stay, and the ticks' answers are the same.
 
         Args:

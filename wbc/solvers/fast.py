@@ -53,7 +53,7 @@ class FastBackend(DaqpBackend):
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
-            solved after the kernel gave up (:meth:`wbc.formulations.velocity.KinematicController._fused_rescue`).
+            solved after the kernel gave up (:meth:`wbc.controllers.compiled_tick.CompiledTick._fused_rescue`).
     """
 
     name = "fast"

@@ -199,7 +199,7 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
     tick with CHECK_WORK = 0 (the same command), the count is 0.25 higher per check started. With checks that cost more than the tick's work limit leaves
     (CHECK_WORK = 8 solves at a cap of 8), none is started and the tick holds (v = 0), its message naming the count.
     The held command keeps the soles within the drift bound (forward kinematics, from where the tick began)."""
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
 
     def replay(check_work: float):
         monkeypatch.setattr(KinematicController, "CHECK_WORK", check_work)

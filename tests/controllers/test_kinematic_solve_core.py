@@ -111,7 +111,7 @@ def _g1_reach_run(robots, **controller_options):
     (ok ticks, largest sole displacement over one ok tick (m), largest sole offset from its contact placement
     (m), final offset (m)) measured by forward kinematics of the integrated configuration (independent of the
     controller's own drift estimate)."""
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.tasks import FrameTask
 
     robot = robots("g1")

@@ -11,7 +11,7 @@ import pytest
 from conftest import CATALOG
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, EqualityConstraint, JointPositionLimit, JointVelocityLimit
-from wbc.formulations.velocity import KinematicController
+from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import ComTask, FrameTask, PostureTask
 from wbc.tasks.base import Task

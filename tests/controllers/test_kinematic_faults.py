@@ -177,7 +177,7 @@ def test_a_run_of_safe_commands_does_not_walk_a_sole_away(robots, monkeypatch):
     0.036 mm (within the per-tick drift bound of 0.05 mm) in the same direction, 1.36 mm over the run before.
     Forward kinematics: over the run of failed ticks each stance sole stays within 1 mm of where the run began (the
     issue's bound)."""
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
 
     monkeypatch.setattr(KinematicController, "_consistent_contact_rhs", lambda self: False)
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 410002, 150, (0.002, 0.005, 0.01, 0.02), 0.2)
@@ -330,7 +330,7 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
 def test_ok_tick_past_its_budget_answers_with_the_weighted_levels(robots):
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
     level is solved: the cascade starts no further level and the tick answers with the weighted form of its levels
-    (one QP; its command checked against quadprog in tests/formulations/test_velocity_weighted_levels.py), ok,
+    (one QP; its command checked against quadprog in tests/controllers/test_kinematic_weighted_levels.py), ok,
     with path 'levels+budget+weighted', over_budget and the skipped stages named. Oracles: the command differs from
     the full cascade's (budget math.inf), whose level-0 hand residual is the least possible (the weighted form's is
     not smaller), and forward kinematics of the soles over the tick (both placed where they are: each may move
@@ -502,7 +502,7 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     (strict levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths
     and budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
     itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
-    import wbc.formulations.velocity as velocity
+    import wbc.controllers.kinematic as kinematic
     import wbc.solvers.base as base
     import wbc.solvers.daqp as daqp_backend
     import wbc.solvers.hierarchy as hierarchy
@@ -518,7 +518,7 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
 
     steady = run()
     clock = _RacingClock()
-    for module in (velocity, hierarchy, base, daqp_backend):
+    for module in (kinematic, hierarchy, base, daqp_backend):
         monkeypatch.setattr(module, "thread_time", clock, raising=False)
     raced = run()
     assert [p for _, p, _, _ in steady] == [p for _, p, _, _ in raced]

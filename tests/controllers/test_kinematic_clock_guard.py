@@ -17,7 +17,7 @@ def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots)
     never reached). Without the clock guard the tick solves every level (path 'levels'). With it, and the CPU
     time weighted so that any time at all exceeds the budget (``CLOCK_WEIGHT`` = 1e12), the cascade starts no
     level after the first and no contact correction, and the weighted form of the levels answers (one QP; its
-    command checked against quadprog in tests/formulations/test_velocity_weighted_levels.py): ok,
+    command checked against quadprog in tests/controllers/test_kinematic_weighted_levels.py): ok,
     'levels+budget+weighted', over_budget. Oracles: the soles move ≤ 0.05 mm over the tick by forward kinematics; the
     command is not the cascade's. With the class's weight the 1 s budget is not reached: bitwise the unguarded tick."""
     import pinocchio as pin
@@ -95,7 +95,7 @@ def test_kinematic_clock_guard_bounds_a_failed_tick_on_a_slow_machine(robots, mo
     control that shows the bound is the guard's doing. Oracles: the virtual clock (a loose bound, twice the budget),
     and each tick is failed with a finite safe command within the joint velocity limits."""
     import wbc.solvers.base as solver_base
-    from wbc.formulations.velocity import KinematicController
+    from wbc.controllers.kinematic import KinematicController
     from wbc.solvers.base import TickWork
 
     model, config, ctrl = _failing_g1_tick(robots, clock_guard)

@@ -13,7 +13,7 @@ import pytest
 import quadprog
 
 from wbc.exceptions import InvalidInputError
-from wbc.formulations import velocity
+from wbc.controllers import general_route
 from wbc.tick import TickPath
 
 from conftest import hand_over_posture
@@ -69,8 +69,8 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
     calls = []
     flat_solve = ctrl.backend.solve
     ctrl.backend.solve = lambda *a, **k: calls.append("flat") or flat_solve(*a, **k)
-    cascade = velocity.solve_lexicographic
-    monkeypatch.setattr(velocity, "solve_lexicographic", lambda *a, **k: calls.append("cascade") or cascade(*a, **k))
+    cascade = general_route.solve_lexicographic
+    monkeypatch.setattr(general_route, "solve_lexicographic", lambda *a, **k: calls.append("cascade") or cascade(*a, **k))
     nxt = ctrl.solve(config, DT)
     assert nxt.ok and nxt.path == "levels+weighted" and not nxt.over_budget, (nxt.path, nxt.message)
     assert np.max(np.abs(nxt.v - ref)) <= 1e-6

@@ -1,0 +1,131 @@
+"""The tick budget of a controller: one object that owns the tick's counted work, its clock guard and the stage
+factors, and answers whether a stage may start (:class:`TickBudget`).
+
+A tick of budget B seconds (CPU time; default the tick's dt) may do cap = ⌊B / solve_cost⌋ QP solves, counted by
+the :class:`wbc.solvers.base.TickWork` it shares with the controller's backends (a count, not a clock: the same
+inputs give the same answers). With the clock guard on, one budget of the tick's CPU time also counts as
+clock_weight × cap solves, so every limit on the count also holds on the clock. The stages of a tick ask
+:meth:`TickBudget.may_start` before they start:
+
+* ``"retry"`` — an optional stage of a failed tick (confirmation, relaxation, diagnosis): the count is below one
+  cap, also after one more re-solve of the tick's QP at the counted work of its largest re-solve so far;
+* ``"stage"`` — a further stage of a solved tick (a strict level, a contact correction, a trust region): it ends
+  within ``stage_factor`` caps at the work of the largest re-solve so far;
+* ``"timed"`` — a stage bounded by the clock guard only.
+
+With a ``cost`` (CPU time in s of that stage as timed in this tick), the stage must also end by ``deadline``
+(default ``stage_deadline``) budgets of CPU time when the clock guard is on (:meth:`TickBudget.fits`). The
+controller owns the numbers (its class constants, read at each :meth:`TickBudget.start`); the decisions are these
+methods'. The same object serves a controller of either level: it needs a :class:`~wbc.solvers.base.TickWork`
+and the numbers, nothing of the formulation.
+"""
+
+from __future__ import annotations
+
+import math
+
+from wbc.exceptions import InvalidInputError
+from wbc.solvers import TickWork
+
+__all__ = ["STAGES", "TickBudget"]
+
+#: the stages :meth:`TickBudget.may_start` answers for (module docstring)
+STAGES = ("retry", "stage", "timed")
+
+
+class TickBudget:
+    """Counted work, clock guard and stage factors of one controller's ticks (module docstring).
+
+    Attributes:
+        work: the tick's :class:`~wbc.solvers.base.TickWork` (shared with the controller's backends).
+        clock_guard: the tick's CPU time also counts as work (set by the controller).
+        seconds: the current tick's budget (s of CPU time; NaN before the first tick).
+        stage_factor: a solved tick starts no stage past stage_factor × cap counted solves.
+        stage_deadline: with the clock guard, a timed stage ends by stage_deadline budgets of CPU time.
+        resolve_work, level_work: counted solves of the tick's largest re-solve of its QP / strict level so far.
+        resolve_cost, level_cost, check_cost: CPU time (s) of the tick's longest re-solve, strict level and check
+            of a held safe command so far (clock guard).
+        safe_cost: CPU time (s) of the longest solve of the safe command in this tick, else the last tick's;
+            ``safe_fresh``: it was timed in this tick; ``safe_stage_cost``: the last 'constraints_only' stage.
+        level_mark, level_count: CPU time and counted solves of the tick at the last level boundary of a cascade.
+    """
+
+    def __init__(self) -> None:
+        self.work = TickWork()
+        self.clock_guard = False
+        self.seconds = math.nan
+        self.stage_factor = 1.0
+        self.stage_deadline = 1.0
+        self.resolve_cost = self.level_cost = self.check_cost = self.safe_cost = 0.0
+        self.safe_fresh = False
+        self.safe_stage_cost = 0.0
+        self.level_mark = 0.0
+        self.level_count = 0.0
+        self.resolve_work = self.level_work = 0.0
+
+    def start(self, seconds: float, solve_cost: float, clock_weight: float) -> None:
+        """Start a tick of ``seconds`` of budget: cap ⌊seconds / solve_cost⌋ counted solves (``math.inf`` when
+        ``seconds`` is), with the clock guard seconds / (clock_weight × cap) of CPU time counted as one solve; the
+        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh)."""
+        self.seconds = seconds
+        cap = math.floor(seconds / solve_cost) if math.isfinite(seconds) else math.inf
+        clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
+        self.work.reset(cap, clock)
+        self.resolve_cost = self.level_cost = self.check_cost = 0.0
+        self.resolve_work = self.level_work = 0.0
+        self.safe_fresh = False
+
+    def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None) -> bool:
+        """May a stage of kind ``stage`` (one of :data:`STAGES`) start now; with ``cost`` (s of CPU time), also
+        :meth:`fits` (cost, deadline).
+
+        Raises:
+            InvalidInputError: ``stage`` not one of :data:`STAGES`.
+        """
+        work = self.work
+        if stage == "retry":
+            late = work.spent() or work.spent(1.0, self.resolve_work)
+        elif stage == "stage":
+            late = work.spent(self.stage_factor, self.resolve_work)
+        elif stage == "timed":
+            late = False
+        else:
+            raise InvalidInputError(f"stage must be one of {', '.join(STAGES)}, got {stage!r}")
+        return not late and (cost is None or self.fits(cost, deadline))
+
+    def fits(self, cost: float, deadline: float | None = None) -> bool:
+        """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``
+        (default ``stage_deadline``) times the tick's budget (clock guard; always True without it)."""
+        factor = self.stage_deadline if deadline is None else deadline
+        return not self.clock_guard or self.work.seconds() + cost <= factor * self.seconds
+
+    def safe_estimate(self) -> float:
+        """CPU time (s) expected of one solve of the safe command: this tick's longest, else the last tick's, else
+        the longest re-solve of this tick's QP."""
+        return self.safe_cost or self.resolve_cost
+
+    def level_stop(self) -> bool:
+        """``stop`` of a strict cascade (:func:`wbc.solvers.hierarchy.solve_lexicographic`): stage_factor × cap
+        counted solves spent, or would be by the next level at the counted work of the largest level so far, or
+        (clock guard) the next level, at the CPU time of the longest level so far, would not end by
+        ``stage_deadline`` budgets."""
+        work = self.work
+        solves = work.solves
+        self.level_work = max(self.level_work, solves - self.level_count)
+        self.level_count = solves
+        late = work.spent(self.stage_factor, self.level_work)
+        if self.clock_guard:
+            now = work.seconds()
+            self.level_cost = max(self.level_cost, now - self.level_mark)
+            self.level_mark = now
+            return late or not self.fits(self.level_cost)
+        return late
+
+    def cascade_fits(self, levels: int, share: float) -> bool:
+        """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times
+        levels + 1 fit in ``share`` caps, and (clock guard) its CPU time times 2 (levels + 1) in one budget."""
+        n = levels + 1
+        work = self.work
+        if n * work.solves > share * work.cap:
+            return False
+        return not self.clock_guard or 2 * n * work.seconds() <= self.seconds

@@ -1,0 +1,329 @@
+"""The compiled tick of the kinematic controller: the assembled flat QP solved by one compiled call.
+
+With the default backend (``solver="fast"``) and no strict level, the QP that
+:meth:`wbc.formulations.velocity.VelocityQP.assemble` writes is solved by
+:func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base eliminated through the first contact's
+6 equality rows (a solver strategy, the QP is not changed) and the exact optimum of an active set warm-started
+from the previous tick. When the kernel gives up on the reduced QP (iteration cap, dependent equalities), DAQP
+solves the same reduced QP and the tick is completed from its answer (:meth:`CompiledTick._fused_rescue`).
+Whenever no solver ends at a KKT point, a contact drifts above ``contact_correction`` or anything raises, the tick
+is solved again by the general path (``docs/kinematic-controller.md``)."""
+
+from __future__ import annotations
+
+import math
+from time import perf_counter
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.compiled import specialise
+from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
+from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityConstraint
+from wbc.constraints.contact import ContactConstraint
+from wbc.exceptions import InvalidInputError, SolverError
+from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
+                                              contact_pair_drift, kinematic_finish_packed, kinematic_reduced_packed,
+                                              kinematic_tick_packed)
+from wbc.solvers import DaqpBackend, FastBackend
+from wbc.solvers.hierarchy import independent_rows
+from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
+from wbc.tasks.base import Task
+from wbc.tick import TickPath, TickResult, solved_result
+
+
+#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve` after which its reduced QP is handed to DAQP
+#: (:meth:`CompiledTick._fused_rescue`)
+_KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
+
+
+#: the compiled tick's paths (TickPath is frozen: one instance shared by every result)
+_COMPILED, _COMPILED_DAQP = TickPath("compiled"), TickPath("compiled", "daqp")
+
+
+class CompiledTick:
+    """The compiled-tick part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring): its
+    plans per layout (:class:`FusedPlan`), ``prepare_layouts`` and the tick itself (``_fused_tick``)."""
+
+    def prepare_layouts(self, arrangements, config: Configuration, dt: float) -> None:
+        """Build ahead, outside the ticks, what the first tick of each arrangement of tasks and constraints would
+        build: its row layout and buffers, its soft tasks' stacked rows and, for the compiled tick, its plan, box and
+        specialised kernel; the controller's own tasks, constraints and rank decision are left as they were. A
+        later tick whose tasks and constraints are one of these arrangements (the same objects in the same order)
+        then reuses them (e.g. the support phases of a walk plan, each switch otherwise building its phase's
+        layout on the first switch to it). The answers of the ticks are unchanged.
+
+        Args:
+            arrangements: iterable of (tasks, constraints) lists, each a list of the controller's own task and
+                constraint objects (soft tasks; constraints in QP row order).
+            config: a configuration of the controller's robot (the argument types of the compiled kernel and the
+                constant boxes are taken at it).
+            dt: the control period (s) of the coming ticks.
+
+        Raises:
+            InvalidInputError: an object that is not a task or a velocity-level constraint, one built for another
+                robot (the checks of :meth:`add_task` / :meth:`add_constraint`), or ``dt`` not finite and > 0.
+        """
+        if not (math.isfinite(dt) and dt > 0):
+            raise InvalidInputError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+        saved = (list(self.tasks), list(self.constraints), self._eq_rows, self._layout_ok, self._layout_key)
+        try:
+            for tasks, constraints in arrangements:
+                for t in tasks:
+                    if not isinstance(t, Task):
+                        raise InvalidInputError(f"expected a wbc Task, got {type(t).__name__}")
+                    self._check_once(t, "task")
+                for c in constraints:
+                    if not isinstance(c, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+                        raise InvalidInputError(f"expected a velocity-level wbc Constraint, got {type(c).__name__}")
+                    self._check_once(c, "constraint")
+                self.tasks[:], self.constraints[:] = tasks, constraints
+                key = tuple((id(c), c.dim) for c in self.constraints)
+                if key != self._layout_key or not self._layout_ok:
+                    known = key in self._layouts
+                    self._layout_ok = False
+                    self._build_layout()
+                    if not known:
+                        self._prepared.add(key)
+                if self._soft_tasks != self.tasks:
+                    self._build_soft_layout()
+                self._prepare_fused(config, float(dt))
+        finally:
+            self.tasks[:], self.constraints[:] = saved[0], saved[1]
+            if saved[4] is not None and saved[3]:
+                self._layout_ok = False
+                self._build_layout()  # back to the controller's layout (kept: no build)
+                if self._soft_tasks != self.tasks:
+                    self._build_soft_layout()
+            else:
+                self._layout_ok = False
+            self._eq_rows = saved[2]
+
+    def _prepare_fused(self, config: Configuration, dt: float) -> None:
+        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts),
+        kept where :meth:`_fused_plan` finds it; the working-set hand-over is left to the tick."""
+        if self._level_order or not isinstance(self.backend, FastBackend):
+            return
+        plan = self._kept_fused_plan()
+        if not plan.supported:
+            return
+        if plan.box is None:
+            plan.box = self._kernel_box(config, dt)
+        q = config.q
+        if plan.tick_kernel is None and type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous \
+                and q.flags.writeable:
+            soft, backend = self._soft, self.backend
+            fb, ib, _ = self._qp_pack
+            pgain = 0.0 if soft.posture is None else soft.posture.gain
+            args = (fb, ib, soft.fb, soft.ib, soft.no_diff, pgain, self.damping, plan.states, np.empty(self.nv),
+                    float(dt), backend.tolerance, backend.max_iter, q) + plan.box
+            plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+
+    def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
+        """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
+        with it), or None when the problem is outside what it covers: strict levels, a backend other than
+        :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or velocity target other than one plain
+        :class:`~wbc.tasks.PostureTask`, a contact of a subclass with rows of its own."""
+        if self._level_order or not isinstance(self.backend, FastBackend):
+            return None
+        if not self._layout_ok:
+            self._build_layout()
+        if self._soft_tasks != self.tasks:
+            self._build_soft_layout()
+        plan = self._kept_fused_plan()
+        if plan.supported:
+            nr = plan.state.shape[0]
+            owner = self._fused_states.get(nr)  # the plan of nr variables that solved last
+            if owner is not plan:
+                if owner is not None:
+                    plan.state[:] = owner.state  # the joint working set, kept across support switches
+                self._fused_states[nr] = plan
+            plan.layout_key = self._layout_key  # the identity checked every tick
+            self._fused = plan
+            return plan
+        return None
+
+    def _kept_fused_plan(self) -> FusedPlan:
+        """The :class:`FusedPlan` kept for the current layouts, built (:meth:`_build_fused_plan`) when there is
+        none (at most 16 kept)."""
+        key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
+        plan = self._fused_plans.get(key)
+        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
+            plan = self._fused_plans[key] = self._build_fused_plan()
+            while len(self._fused_plans) > 16:
+                self._fused_plans.pop(next(iter(self._fused_plans)))
+        return plan
+
+    def _build_fused_plan(self) -> FusedPlan:
+        """A new :class:`FusedPlan` for the current layouts (``supported`` False when the compiled tick does not
+        cover them, :meth:`_fused_plan`)."""
+        plan = FusedPlan()
+        plan.layout_key = self._layout_key
+        plan.soft_tasks = self._soft_tasks
+        plan.backend = self.backend
+        soft = self._soft
+        if soft.own or any(not plain for *_, plain in soft.rows):
+            return plan  # a task with its own cost (other than one posture task) or velocity target
+        if any(type(c) is not ContactConstraint for c in self._contacts):
+            return plan  # a contact with rows of its own
+        nv = self.nv
+        nr = nv - 6 if self._eliminating_row >= 0 else nv
+        # the joint working set (kept across support switches: _fused_plan) then the rows', one array for the kernel
+        plan.states = np.zeros(nr + self._C.shape[0], np.int8)
+        plan.state, plan.rstate = plan.states[:nr], plan.states[nr:]
+        plan.vdt = self._qp_pack[2]["vdt"]
+        plan.logs = np.zeros((len(self._contacts), 6))
+        plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
+        plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
+        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
+        plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
+        plan.supported = True
+        return plan
+
+    def _fused_tick(self, plan: FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
+        """One tick through the compiled solver (:func:`wbc.formulations.velocity_kernel.kinematic_solve`): the QP
+        assembled by :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and
+        solved exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality
+        rows are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
+        caller then solves the tick by the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        if self._eq_rows is not None and self._eq_rows.size != self._A.shape[0]:
+            return None  # dependent equality rows (known since the last rank computation): the general path
+        model = self.robot.model
+        q = config.q
+        box = plan.box
+        if box is None:  # the plan's first tick
+            box = plan.box = self._kernel_box(config, dt)
+        # the cost (and the box, when the kernel writes it) are formed by the kernel below
+        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box[2].shape[0] == 0)
+        if self._eq_rows is None:
+            self._eq_rows = independent_rows(A, self.rank_rtol)
+        if self._eq_rows.size != A.shape[0]:
+            return None  # dependent equality rows: dropped and checked by the general path
+        t1 = perf_counter()
+        v = np.empty(self.nv)
+        backend = self.backend
+        fb, ib, _ = self._qp_pack
+        tol = backend.tolerance
+        soft = self._soft
+        # one compiled call: the cost (form_qp); every number of the cost and the contact targets finite (targets,
+        # weights, gains written in place, q, placements: NaN and inf propagate into these sums; else None, the
+        # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
+        # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
+        # bounds: the solver reads them, never writes them)
+        args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
+                float(dt), tol, backend.max_iter, q) + box  # box: a tuple (_kernel_box)
+        kernel = plan.tick_kernel
+        if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
+            kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
+        elif kernel is None:  # the plan's first tick: the types of its buffers (and of q, checked above) are fixed
+            kernel = plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+        it, guard = kernel(*args)
+        # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
+        # has it in its count (its CPU time is about one solve's)
+        self._work.add(1)
+        if it == NONFINITE_RHS:
+            return None
+        backend.last_kernel_iterations = it
+        rescued = it in _KERNEL_GAVE_UP and C.shape[0] > 0
+        if rescued:
+            it = self._fused_rescue(plan, v, dt)
+            guard = it >= 1 and command_within_box(v, lb, ub, tol) and (
+                C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))
+        if it < 1:
+            return None  # the general path: diagnosis, relaxation, safe command
+        if not guard and self._command_fault(v, lb, ub, C, l, u):  # the compiled screens pass only where it returns ''
+            return None
+        drift = 0.0
+        if self._contacts:
+            # the kinematics at the next configuration, computed once: the configuration's lookahead, which its
+            # step with this v adopts (Configuration.lookahead); each contact frame placed (data.oMf), what
+            # error_into reads
+            ndata = config.lookahead(plan.vdt)
+            lever = self._drift_lever()
+            if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
+                ndata = self._drift_data
+                q_next = pin.integrate(model, q, plan.vdt)
+                for c, log in plan.contact_logs:
+                    pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
+                    c.error_into(ndata, log)
+                far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
+            elif len(plan.contact_logs) == 2:  # a biped's two soles: one compiled call (contact_pair_drift)
+                (ca, _), (cb, _) = plan.contact_logs
+                pin.updateFramePlacement(model, ndata, ca.frame_id)
+                pin.updateFramePlacement(model, ndata, cb.frame_id)
+                (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
+                args = ca.log_operands(ndata) + cb.log_operands(ndata) + (plan.logs, b, ra, rb, f_a, f_b, lever)
+                if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
+                    plan.drift_kernel = specialise(contact_pair_drift, *args)
+                far, drift = plan.drift_kernel(*args)
+                if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
+                    ca.error_into(ndata, plan.logs[0])
+                    cb.error_into(ndata, plan.logs[1])
+                    far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
+            else:
+                for c, log in plan.contact_logs:
+                    pin.updateFramePlacement(model, ndata, c.frame_id)
+                    c.error_into(ndata, log)
+                far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
+            if (self.contact_correction > 0 and far > self.contact_correction) or (
+                    self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
+                return None  # second-order correction / trust region: the general path
+        if not rescued:
+            backend.kernel_solves += 1
+        self.dependent_residual = 0.0
+        self.contact_corrections = 0
+        result = solved_result(v, {"assembly": t1 - t0, "solve": perf_counter() - t1}, drift,
+                                _COMPILED_DAQP if rescued else _COMPILED)
+        for c in self._feedback:
+            c.set_previous(v)
+        self.consecutive_failures = 0
+        self.last_result = result
+        return result
+
+    def _fused_rescue(self, plan: FusedPlan, v: np.ndarray, dt: float) -> int:
+        """The compiled solver gave up on its reduced QP (dependent active rows — e.g. self-collision rows of the
+        thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
+        (:func:`wbc.formulations.velocity_kernel.kinematic_reduced_packed`) is solved by DAQP, whose dual active set
+        handles dependent constraints, and the tick completed from its solution
+        (:func:`wbc.formulations.velocity_kernel.kinematic_finish_packed`: base velocity, every original row checked).
+        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers: linearly independent
+        rows), from which it converges again. Returns 1 on success, else the kernel's exit code (the general path then
+        solves the tick)."""
+        backend = self.backend
+        rescue = plan.rescue
+        if rescue is None:
+            rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
+            rescue.work = self._work
+        fb, ib, _ = self._qp_pack
+        H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(fb, ib)
+        try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
+            x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
+        except SolverError:
+            return backend.last_kernel_iterations
+        if not kinematic_finish_packed(fb, ib, x, v, float(dt), backend.tolerance):
+            return backend.last_kernel_iterations
+        lam = rescue.last_multipliers
+        n, m = H.shape[0], A.shape[0]
+        if lam is not None and lam.shape[0] == n + m + C.shape[0]:
+            plan.state[:] = np.sign(lam[:n])
+            plan.rstate[:] = np.sign(lam[n + m:])
+        else:  # no multipliers (an independent solver answered): the bounds and rows x touches
+            plan.state[:] = (x >= ub) * 1 - (x <= lb)
+            cx = C @ x
+            plan.rstate[:] = (cx >= u - 1e-12) * 1 - (cx <= l + 1e-12)
+        backend.fallbacks += 1
+        backend.reduced_fallbacks += 1
+        return 1
+
+
+class FusedPlan:
+    """What the compiled tick (:meth:`KinematicController._fused_tick`) keeps for one constraint layout and one
+    list of soft tasks beyond the assembled QP's buffers: the solver's working sets (warm start), the contacts'
+    log buffer and the DAQP rescue backend. ``states`` (nr + p,) int8: the working sets of the nr reduced variables
+    (``state``, a view) and of the p inequality rows (``rstate``, a view), one array for the kernel
+    (:func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`; −1 / 0 / 1: at its lower bound / free / at
+    its upper bound)."""
+
+    supported = False
+    tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
+    drift_kernel = None  # contact_pair_drift, likewise

@@ -1,0 +1,277 @@
+"""Second-order contact hold of the kinematic controller.
+
+Contact rows J_c v = −K e hold a contact frame to first order in v dt only. After a solve the frames are placed at
+q⁺ = pin.integrate(q, v dt); when one drifts from where its row sends it by more than ``contact_correction`` (m),
+the contact rows' right-hand sides are corrected by the measured drift and the tick is solved again (a Newton step
+on e⁺(v) = (1 − K dt) e, ≤ 3 iterations); dependent contact rows get right-hand sides projected onto the range of
+J_c (least squares). A tick whose drift still exceeds ``sole_drift_tolerance`` is solved inside trust regions
+|v_i| ≤ ρ (``_hold_contacts``), else it fails with :class:`DriftFailure`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.configuration import Configuration
+from wbc.constraints.contact import ContactConstraint
+from wbc.exceptions import SolverError
+from wbc.formulations.velocity_kernel import rotation_gap, translation_gap
+from wbc.tick import TickResult
+
+
+class DriftFailure(SolverError):
+    """The tick's QP solved, but no trust region kept the contact frames within ``sole_drift_tolerance``."""
+
+
+class ContactHold:
+    """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring):
+    drift measurement (:meth:`sole_drift`), correction (``_correct_contacts``) and trust regions
+    (``_hold_contacts``), and the run radius of held safe commands."""
+
+    def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
+        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): by forward kinematics at
+        pin.integrate(q, v dt), the larger of the distance from where each frame ends to where its contact row
+        sends it (placement · exp((1 − K dt) e)) and the angle between the two (rad) times
+        sole_drift_tolerance / sole_rotation_tolerance (constructor; the distance alone when either is None);
+        ``TickResult.sole_drift``."""
+        if not self._layout_ok:
+            self._build_layout()
+        return self._contact_drifts(config, v, dt)[2]
+
+    def _contact_drifts(self, config: Configuration, v: np.ndarray,
+                        dt: float) -> tuple[float, list[np.ndarray], float]:
+        """(largest distance (m), [(6,) e⁺ − (1 − K dt) e per contact], largest drift (m)) over one tick with v:
+        the distance of a contact frame from where it ends (placement · exp(e⁺)) to where its row sent it
+        (placement · exp((1 − K dt) e)); its drift the larger of that distance and the lever times their angle
+        (:meth:`sole_drift`)."""
+        if not self._contacts:
+            return 0.0, [], 0.0
+        cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
+        if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
+            return cache[3]
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        far = worst = 0.0
+        lever = self._drift_lever()
+        drifts = []
+        expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
+        for i, c in enumerate(self._contacts):
+            after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
+            drifts.append(after - target)
+            d = translation_gap(after, 1.0, target, 1.0)  # the distance, not the twists' gap
+            far = max(far, d)
+            if lever > 0:
+                d = max(d, lever * rotation_gap(after, 1.0, target, 1.0))
+            worst = max(worst, d)
+        if self._in_solve:
+            self._drift_cache = (v, config.q, dt, (far, drifts, worst))
+        return far, drifts, worst
+
+    def _drift_lever(self) -> float:
+        """m per rad: a contact frame's drift is the larger of its distance and this times its angle, so that an
+        angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance (0, the distance alone, when
+        either is None)."""
+        tol, turn = self.sole_drift_tolerance, self.sole_rotation_tolerance
+        return 0.0 if tol is None or turn is None else tol / turn
+
+    def _consistent_contact_rhs(self) -> bool:
+        """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
+
+        When the contact rows J_c are rank deficient (two flat 5-DoF legs in gimbal lock both fix the base yaw),
+        their drift corrections −K e may disagree in the dependent directions (the feet's yaw errors differ after
+        a finite step), which no v can meet. After such a failed solve, b_c is replaced by its projection
+        U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
+        corrections are averaged where the contacts are dependent and unchanged where they are not."""
+        rows = self._contact_rows
+        U, S = self._contact_svd()
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        if rank == rows.size:
+            return False
+        Ur = U[:, :rank]
+        projected = Ur @ (Ur.T @ self._b[rows])
+        changed = not np.array_equal(projected, self._b[rows])
+        change = np.abs(projected - self._b[rows])
+        self._projected_contacts = []  # (contact name, largest change of its rows' rhs) for the report
+        for c, r0, r1 in self._eq_blocks:
+            if isinstance(c, ContactConstraint):
+                sel = (rows >= r0) & (rows < r1)
+                if sel.any() and change[sel].max() > 1e-9:
+                    self._projected_contacts.append((c.name, float(change[sel].max())))
+        self._b[rows] = projected
+        self._eq_rows = None  # recompute the independent rows for the retry
+        return changed
+
+    def _contact_svd(self) -> tuple[np.ndarray, np.ndarray]:
+        """(U, S) of the thin SVD of the contact rows J_c in the assembled buffers, kept while J_c is unchanged: a
+        failed tick asks it of the same rows several times (its retry, contact corrections, trust regions and safe
+        command), each an SVD otherwise uncounted."""
+        Jc = self._A[self._contact_rows]
+        cached = self._svd_cache
+        if cached is None or cached[0].shape != Jc.shape or not np.array_equal(cached[0], Jc):
+            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+            U.setflags(write=False)
+            S.setflags(write=False)
+            cached = self._svd_cache = (Jc, U, S)
+        return cached[1], cached[2]
+
+    def _contact_range_basis(self) -> np.ndarray | None:
+        """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
+        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
+        rows = self._contact_rows
+        if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+            return None  # every equality row independent (rank computed on this constraint set)
+        U, S = self._contact_svd()
+        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+        return None if rank == rows.size else U[:, :rank]
+
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
+                          bounded: bool = False) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
+        re-solves the problem in the buffers (default: the tick's QP)."""
+        solve = solve or self._solve_assembled
+        budget = self.tick_budget
+        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
+        self.contact_corrections = 0
+        worst, drifts, _ = self._contact_drifts(config, v, dt)
+        if worst <= self.contact_correction:
+            return v
+        blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
+        rows = [blocks[id(c)] for c in self._contacts]
+        range_basis = self._contact_range_basis()
+        b0 = self._b.copy()
+        try:
+            for k in range(3):
+                # the refinement stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved tick's); the
+                # best command so far is kept
+                if not budget.may_start("retry" if bounded else "stage", cost()):
+                    if not bounded:
+                        self._cut.append(f"contact correction after {k} of 3 re-solves")
+                    break
+                for (r0, r1), d in zip(rows, drifts):
+                    self._b[r0:r1] -= d / dt
+                if range_basis is not None:
+                    # dependent contact rows (two flat feet both fixing the base yaw): the feet's second-order
+                    # drifts differ in the dependent directions, so the corrected right-hand sides would contradict
+                    # each other (measured on humanoid15: the corrected solve failed or was not better, the
+                    # correction was dropped and the soles slid 0.03 mm per ok tick, > 1 mm over a stance).
+                    # Least squares instead: the corrections projected onto the range of J_c.
+                    cr = self._contact_rows
+                    self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
+                try:
+                    v_new = solve(config)
+                except SolverError:
+                    break  # keep the last solution (the trust region of _hold_contacts takes over)
+                self.contact_corrections += 1
+                new_worst, new_drifts, _ = self._contact_drifts(config, v_new, dt)
+                if new_worst >= worst:
+                    break  # not converging (e.g. a dropped dependent row): keep the better solution
+                ratio = new_worst / worst
+                v, worst, drifts = v_new, new_worst, new_drifts
+                if worst <= self.contact_correction:
+                    break
+                tol = self.sole_drift_tolerance
+                if tol is not None and worst * ratio ** (2 - k) > tol:
+                    # contracting too slowly to end within sole_drift_tolerance in the re-solves left (a large
+                    # step, far outside the linear range of J_c): the trust region's smaller steps take over, with
+                    # the budget these re-solves would spend (a strict cascade's re-solve costs one solve per level)
+                    break
+        finally:
+            np.copyto(self._b, b0)
+        return v
+
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
+                       bounded: bool = False) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
+        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
+
+        When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
+        the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask
+        a large v in the nearly singular direction and their
+        ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
+        the second-order correction (``contact_correction``) before its drift is measured."""
+        solve = solve or self._solve_assembled
+        budget = self.tick_budget
+        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
+        drift = self.sole_drift(config, v, dt)
+        if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
+            return TickResult(v, relaxed=relaxed, sole_drift=drift)
+        lb0, ub0, b0 = self._lb.copy(), self._ub.copy(), self._b.copy()
+        best_v, best = v, drift
+        rho = float(np.max(np.abs(v)))
+        basis = self._contact_range_basis() if self._contact_rows.size else None
+        n_radii = 8 + (basis is not None)
+        radius, last = rho, drift  # the last region's radius and the drift of its solution
+        try:
+            if basis is not None:
+                cr = self._contact_rows
+                self._b[cr] = basis @ (basis.T @ self._b[cr])
+            for k in range(n_radii):
+                # the trust region stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved
+                # tick's); the least drifting command is kept
+                if not budget.may_start("retry" if bounded else "stage", cost()):
+                    if not bounded:
+                        self._cut.append(f"trust region after {k} of at most {n_radii} radii")
+                    break
+                if basis is not None and k == 0:
+                    radius = math.inf  # first the whole box, with consistent contact rows
+                else:
+                    # the next radius from the last drift, taken linear in the radius (measured: the drift of a
+                    # region's corrected solution fell about in proportion to its radius, G1 at dt = 5 ms), with a
+                    # 0.8 margin: ρ ← ρ · clip(0.8 · tolerance / drift, 1/16, 1/2) — halving when the drift is
+                    # near the tolerance, one region instead of four when it is ten times over
+                    radius = (rho if math.isinf(radius) else radius) * min(
+                        0.5, max(1.0 / 16.0, 0.8 * self.sole_drift_tolerance / max(last, 1e-300)))
+                np.clip(lb0, -radius, radius, out=self._lb)
+                np.clip(ub0, -radius, radius, out=self._ub)
+                np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
+                np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
+                try:
+                    v_tr = solve(config)
+                except SolverError:
+                    break  # the contact rows cannot be met inside this region: keep the best so far
+                if self.contact_correction > 0:
+                    v_tr = self._correct_contacts(config, dt, v_tr, solve, bounded)
+                d = last = self.sole_drift(config, v_tr, dt)
+                if d < best:
+                    best_v, best = v_tr, d
+                if best <= self.sole_drift_tolerance:
+                    break
+        finally:
+            np.copyto(self._lb, lb0)
+            np.copyto(self._ub, ub0)
+            np.copyto(self._b, b0)
+        if best <= self.sole_drift_tolerance:
+            return TickResult(best_v, relaxed=relaxed, sole_drift=best)
+        return TickResult(best_v, ok=False, relaxed=relaxed, sole_drift=best, fallback="trust_region",
+                          message=f"contact frame drifts {best:.3g} m over the tick (> sole_drift_tolerance "
+                                  f"{self.sole_drift_tolerance:.3g} m) even inside a trust region" + (
+                                      f" (tick budget spent: {'; '.join(self._cut)} skipped)" if self._cut else ""))
+
+    def _within_run_radius(self, config: Configuration, v: np.ndarray, dt: float, anchors) -> bool:
+        """True when one tick with v leaves every contact frame within ``SAFE_COMMAND_RADIUS`` of its anchor (where
+        the run of failed ticks began), or no farther from it than the frame is now (forward kinematics)."""
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        for c, anchor in zip(self._contacts, anchors):
+            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
+                                         - anchor.translation))
+            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
+            if after > max(self.SAFE_COMMAND_RADIUS, before):
+                return False
+        return True
+
+    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
+        """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
+        scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at
+        pin.integrate(q, v dt) by forward kinematics (β = 0: the frame's displacement)."""
+        model, data = self.robot.model, self._drift_data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        worst = 0.0
+        for c, anchor in zip(self._contacts, anchors):
+            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
+        return worst

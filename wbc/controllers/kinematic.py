@@ -1,0 +1,645 @@
+"""The kinematic whole-body controller: targets → the velocity QP (:class:`wbc.formulations.velocity.VelocityQP`)
+→ solver route → safe command, once per control tick (:class:`KinematicController`, result
+:class:`wbc.tick.TickResult`).
+
+Its parts, one module each: the compiled tick (:mod:`wbc.controllers.compiled_tick`), the second-order contact hold
+(:mod:`wbc.controllers.contact_hold`), the relaxation ladder (:mod:`wbc.controllers.relaxation`) and the recovery of
+a failed tick (:mod:`wbc.controllers.recovery`). Priorities (``add_task``): ``level=None`` (default) joins the
+weighted soft level; ``hard=True`` makes the task an equality constraint; ``level=k`` (0 highest) a strict
+hierarchy solved lexicographically. Dependent equality rows, the output guard, the tick budget and the route of
+each tick (``TickResult.path``) are described in ``docs/kinematic-controller.md``."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+from time import perf_counter
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.configuration import Configuration
+from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
+                                  KinematicContext)
+from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
+from wbc.constraints.task import TaskConstraint
+from wbc.exceptions import InvalidInputError, SolverError
+from wbc.geometry import Flag
+from wbc.formulations.velocity_kernel import ensure_compiled
+from wbc.solvers import DEFAULT_SOLVER, FastBackend, QPBackend, make_backend
+from wbc.robot import Robot
+from wbc.tasks.base import Task
+from wbc.tick import TickPath, TickResult
+from wbc.controllers.budget import TickBudget
+from wbc.controllers.general_route import CONFIRM_ORDER, GeneralRoute
+from wbc.controllers.output_guard import OutputGuard
+from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
+from wbc.controllers.contact_hold import ContactHold, DriftFailure
+from wbc.controllers.recovery import Recovery
+from wbc.controllers.relaxation import Relaxation
+from wbc.formulations.velocity import SoftRows, VelocityQP
+
+
+#: the default largest angle (rad) a contact frame may turn per tick away from where its row sends it on an ok tick
+#: (``KinematicController(sole_rotation_tolerance=…)``)
+SOLE_ROTATION_TOLERANCE = 3e-4
+
+
+#: most tasks and constraints a controller remembers as checked against its robot (``_check_robot``)
+_CHECKED_SIZE = 64
+
+
+
+
+class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, OutputGuard, VelocityQP):
+    """Velocity-level whole-body QP (see module docstring).
+
+    Args:
+        robot: the robot.
+        tasks: weighted tasks (order irrelevant).
+        constraints: equality, inequality and bound constraints.
+        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
+            exactly) or a :class:`~wbc.solvers.base.QPBackend`.
+        damping: ε, weight of ‖v‖² (s²·task units), > 0.
+        rank_rtol: relative tolerance of the numerical rank of the equality rows.
+        dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
+            without recomputing the rank within the tick.
+        contact_correction: second-order contact correction threshold (m; default 1e-6, 0 = off). The contact
+            rows J v = −K e hold the sole to first order in v dt only; when the distance a contact frame at
+            q⁺ = pin.integrate(q, v dt) is from where its row sends it exceeds this threshold, the contact rows'
+            right-hand sides are corrected by the measured drift, b ← b − (e⁺ − (1 − K dt) e)/dt, and the tick
+            is solved again (a Newton step on the exact contact condition e⁺(v) = (1 − K dt) e; at most 3
+            iterations). This keeps every objective and priority of the QP: only the contact target moves.
+        sole_drift_tolerance: the largest contact-frame drift per tick (m, default 5e-5) on an ok tick, or None
+            (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
+            drifts more is solved again inside a trust region |v_i| ≤ ρ, up to 8 regions, each ρ the last one's
+            times clip(0.8 · tolerance / its drift, 1/16, 1/2) starting from max|v| (the drift taken linear in ρ:
+            one region where halving needed four); if none drifts less, the tick is not ok.
+        sole_rotation_tolerance: the largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of
+            1/6 m, sole_drift_tolerance's 5e-5 m) a contact frame may turn per tick away from where its row sends
+            it on an ok tick, or None (the distance alone); enforced with sole_drift_tolerance, as part of the same
+            drift (``TickResult.sole_drift``: the angle times sole_drift_tolerance / sole_rotation_tolerance when
+            that is larger than the distance), by the same trust region. Both soles of a stance turned alike on an
+            ok tick leave a common error that dependent contact rows with unequal gains K correct in contradicting
+            ways on the next tick. The second-order correction (``contact_correction``) is started and judged on the
+            distance alone. Raises InvalidInputError unless None or finite and > 0.
+        budget: CPU time (s) a tick may use before its optional stages are skipped, or None (default): the tick's
+            dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (module docstring: deterministic, never
+            read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
+            diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
+            safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
+            rate: α = 0, with and without the contacts' corrections, always tried — with the clock guard only
+            when they fit, ``clock_guard`` below —, unconfirmed; the larger α only
+            while the budget lasts, one solver call each) are bounded by their counts. The failure time is
+            then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
+            no further strict level, contact correction or trust region past ``STAGE_FACTOR`` (1.75) times the
+            budget and returns the last finished stage's command (module docstring, '+budget' path): its work is
+            1.75 times the budget plus at most the stage in progress (one cascade) and its checks. Strict levels
+            stop at 1 budget (``WEIGHTED_RESERVE``) and degrade to their weighted form (module docstring). ``math.inf``: no budget (every failure-handling stage runs,
+            independent of the machine's load: offline analysis and tests).
+        clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` × ⌊budget /
+            ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.solvers.base.TickWork`, clock guard): every limit
+            above then holds on the CPU time too — a solved tick starts no further stage past
+            ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` times its budget of CPU time, a DAQP call stops at
+            ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
+            1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem; and no
+            stage after the first solve (relaxation, strict level, correction, trust region, diagnosis, safe command)
+            starts unless its CPU time, as timed in this tick, ends it by ``STAGE_DEADLINE`` times the budget
+            (module docstring). Default
+            False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
+            real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
+            that depends on the machine's speed and load; a tick under every limit answers as with False; strict
+            levels whose cascade does not fit the budget's CPU time are answered by their weighted form (module
+            docstring, path ``levels+weighted``). Settable
+            as an attribute.
+
+    Raises:
+        UnknownSolverError: unknown backend name.
+        InvalidInputError: damping ≤ 0, budget not None nor finite and > 0, or an object that is not a
+            Task/Constraint.
+    """
+
+    clock_guard = Flag("The tick's CPU time also counts as work (constructor docstring).")
+
+    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set solver, one
+    #: core; the median CPU time per counted solve over the kinematic fuzz): the budget becomes a count of
+    #: ⌊budget / SOLVE_COST⌋ solves per tick (constructor, ``budget``).
+    SOLVE_COST = 2.5e-4
+    #: a solved tick starts no further optional stage (strict level, contact correction, trust region) once
+    #: STAGE_FACTOR × its budget (in counted solves) is spent, so that the stage in progress, the output guard and
+    #: the drift checks still end within twice the budget (benchmarks/README.md, kinematic fuzz)
+    STAGE_FACTOR = 1.75
+    #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
+    #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
+    CLOCK_WEIGHT = 1.4
+    #: with ``clock_guard``: a stage (a strict level, a re-solve of a relaxation, correction or trust region, the
+    #: diagnosis, each solve of the safe command) starts only when the tick's CPU time plus that stage's CPU time
+    #: timed in this tick (the longest such stage so far) stays within STAGE_DEADLINE × its budget; the
+    #: rest of twice the budget is left to the checks that follow it and to ``hold``
+    STAGE_DEADLINE = 1.5
+    #: with ``clock_guard``: the one stage that may end later, by RESCUE_DEADLINE × the budget: the re-solve of a
+    #: failed tick with its dependent contact rows' corrections made consistent (least squares), which decides
+    #: whether the hard set has a solution at all (cutting it failed ticks that the weighted levels solve)
+    RESCUE_DEADLINE = 1.7
+    #: after a tick of the strict cascade that a budget cut (a level, a contact correction or a trust region not run;
+    #: by the count, or the clock guard's clock), the next WEIGHTED_TICKS ticks solve the strict levels as one
+    #: weighted QP (path ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is
+    #: tried again (module docstring)
+    WEIGHTED_TICKS = 25
+    #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
+    #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
+    WEIGHTED_LEVEL_RATIO = 100.0
+    #: a tick of the strict cascade keeps WEIGHTED_RESERVE × its budget (in counted solves) for the weighted form of
+    #: its levels: the cascade's levels, contact corrections and trust regions stop at (STAGE_FACTOR −
+    #: WEIGHTED_RESERVE) budgets and its DAQP calls at (``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` − WEIGHTED_RESERVE)
+    #: budgets (``TickWork.reserve``); a cascade stopped there is answered by the weighted form within the rest
+    WEIGHTED_RESERVE = 0.75
+    #: counted solves added per level of the strict cascade for the work around its QP (the fixed rows of the
+    #: levels above, their rank check and bands, the cost's scaling: uncounted otherwise, it makes a cascade
+    #: level cost more CPU time than a flat solve), ``solve_lexicographic(level_work=…)``
+    LEVEL_WORK = 0.5
+    #: a safe command ('constraints_only', 'contacts_held') is taken only when it leaves every contact frame within
+    #: SAFE_COMMAND_RADIUS (m) of where the current run of failed ticks began, or no farther from there than the
+    #: frame already is: the per-tick drift bound alone lets a run of failed ticks walk a sole away (humanoid15,
+    #: 0.036 mm per tick in one direction for 47 ticks); with it a run of failed ticks moves a stance sole at most
+    #: this far (``hold``, v = 0, moves none)
+    SAFE_COMMAND_RADIUS = 5e-4
+    #: counted solves added per check of a 'contacts_held' command (forward kinematics of the command's tick, the
+    #: frames' drift and run radius: uncounted otherwise, up to 9 of them as β = 0 is scaled down); a check starts
+    #: only while the tick's count stays below ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times its cap (else: hold)
+    CHECK_WORK = 0.25
+    #: DAQP iterations of each call of the 'contacts_held' QP at β = 0 when the tick's count was spent before its
+    #: failure handling began (``_recover``: then that QP is the first safe command tried, β = 1 and 1/10 are not)
+    HELD_ITERATIONS = 150
+
+    def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
+                 solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
+                 dependent_row_tolerance: float = 1e-3, sole_drift_tolerance: float | None = 5e-5,
+                 sole_rotation_tolerance: float | None = SOLE_ROTATION_TOLERANCE, contact_correction: float = 1e-6,
+                 budget: float | None = None, clock_guard: bool = False):
+        self.clock_guard = clock_guard
+        if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
+            raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
+        self.robot = robot
+        self.nv = robot.model.nv
+        self.damping = float(damping)
+        self.rank_rtol = float(rank_rtol)
+        self.dependent_row_tolerance = float(dependent_row_tolerance)
+        if sole_drift_tolerance is not None and not (math.isfinite(sole_drift_tolerance) and sole_drift_tolerance > 0):
+            raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
+                                    f"{sole_drift_tolerance!r}")
+        self.sole_drift_tolerance = sole_drift_tolerance
+        if sole_rotation_tolerance is not None and not (math.isfinite(sole_rotation_tolerance)
+                                                        and sole_rotation_tolerance > 0):
+            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 3e-4), got "
+                                    f"{sole_rotation_tolerance!r}")
+        self.sole_rotation_tolerance = sole_rotation_tolerance
+        if not (math.isfinite(contact_correction) and contact_correction >= 0):
+            raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
+                                    f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
+        self.contact_correction = float(contact_correction)
+        #: the tick's counted work, clock guard and stage costs (:class:`wbc.controllers.budget.TickBudget`)
+        self.tick_budget = TickBudget()
+        self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
+        self._configure_budget()
+        self.budget = budget
+        self._cut: list[str] = []
+        #: second-order contact corrections (re-solves) done by the last tick.
+        self.contact_corrections = 0
+        self._drift_data = robot.model.createData()
+        self.backend = make_backend(solver) if isinstance(solver, str) else solver
+        self.tasks: list[Task] = []
+        self.levels: dict[int, list[Task]] = {}
+        self.constraints: list[Constraint] = []
+        self._hard: dict[int, TaskConstraint] = {}
+        # tasks and constraints already checked against this robot (_check_robot), by id: a support switch that
+        # adds back a sole's contact or swing task does not check it again (at most _CHECKED_SIZE kept)
+        self._checked: dict[int, object] = {}
+        self._level_order: list[int] = []
+        self._level_backends: list[QPBackend] = []
+        self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
+        self._weighted_left = 0  # clock guard: ticks still answered by the weighted form of the strict levels
+        self._weighted_tick = False  # the current tick solves the strict levels as one weighted QP
+        self._weighted_qp: tuple | None = None  # (H, g) of that QP at the current tick
+        self._fallback_backend: QPBackend | None = None
+        self._final_backend: QPBackend | None = None
+        self._band_backend: QPBackend | None = None
+        #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
+        self.level_residuals: list[float] = []
+        self._layout_ok = False
+        self._context = KinematicContext()  # what Constraint.write reads (assemble)
+        self._layout_key: tuple | None = None
+        self._layouts: dict[tuple, dict] = {}
+        self._soft_layouts: dict[tuple, tuple] = {}
+        self._fused: FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
+        self._fused_plans: dict[tuple, FusedPlan] = {}
+        self._fused_states: dict[int, FusedPlan] = {}  # the last plan per number of variables (its working set)
+        self._prepared: set[tuple] = set()  # layouts built by prepare_layouts, not yet used by a tick
+        self._eq_rows: np.ndarray | None = None
+        #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
+        self.dependent_residual = 0.0
+        #: failed ticks in a row up to the last tick (0 after an ok tick).
+        self.consecutive_failures = 0
+        #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
+        #: found at build and reported once with a warning.
+        self.locked_joints = self._find_locked_joints(robot)
+        if self.locked_joints:
+            warnings.warn(f"{len(self.locked_joints)} joint(s) have a zero-width position or velocity range and "
+                          f"are treated as locked: {', '.join(self.locked_joints)}", stacklevel=2)
+        for t in tasks:
+            self.add_task(t)
+        for c in constraints:
+            self.add_constraint(c)
+        self.last_result = TickResult(np.zeros(self.nv))
+        self._soft_tasks: list[Task] | None = None
+        self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
+        self._level_rows: list[SoftRows] = []
+        self._in_solve, self._drift_cache = False, None
+        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
+        self._contact_expected: list[np.ndarray] | None = None
+        self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
+        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
+
+    @property
+    def budget(self) -> float | None:
+        """CPU time (s) of a tick before it falls back, counted in QP solves (constructor docstring), or None: the
+        tick's dt.
+
+        Raises:
+            InvalidInputError: on assignment, not None and not a finite number > 0.
+        """
+        return self._budget
+
+    @budget.setter
+    def budget(self, value) -> None:
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, np.floating,
+                                                                                        np.integer))
+                                  or not (value > 0)):
+            raise InvalidInputError(f"budget must be None (the tick's dt) or a number of seconds > 0 (math.inf: "
+                                    f"no budget), got {value!r}")
+        self._budget = None if value is None else float(value)
+        self.tick_budget.seconds = math.nan
+        self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
+
+    def _start_work(self, budget_s: float, plan=None) -> None:
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`: cap ⌊budget / ``SOLVE_COST``⌋
+        solves; with ``clock_guard``, budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve) and share
+        its work with every QP backend."""
+        self._configure_budget()
+        self.tick_budget.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
+        work = self._work
+        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
+                 None if plan is None else plan.rescue)
+        if self._level_backends:
+            stamp += tuple(self._level_backends)
+        # written only when the backends changed since the last tick that wrote them, or when that tick (or a
+        # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
+        if stamp != self._work_stamp or self.backend.work is not work:
+            for b in stamp:
+                if b is not None:
+                    b.work = work
+                    b.independent = CONFIRM_ORDER
+            self._work_stamp = stamp
+
+    def _configure_budget(self) -> None:
+        """The controller's numbers into its :class:`~wbc.controllers.budget.TickBudget` (they may be changed
+        between ticks: attributes of the class or of the instance)."""
+        tb = self.tick_budget
+        tb.clock_guard = self.clock_guard
+        tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
+
+    @staticmethod
+    def _find_locked_joints(robot: Robot) -> list[str]:
+        model = robot.model
+        locked = []
+        for j in range(1, model.njoints):
+            joint = model.joints[j]
+            if joint.nv == 0 or joint.shortname() == "JointModelFreeFlyer":
+                continue
+            iq, iv = joint.idx_q, joint.idx_v
+            lo, hi = model.lowerPositionLimit[iq:iq + joint.nq], model.upperPositionLimit[iq:iq + joint.nq]
+            vmax = model.velocityLimit[iv:iv + joint.nv]
+            if np.any(np.isfinite(lo) & (hi - lo <= 0)) or np.any(vmax <= 0):
+                locked.append(model.names[j])
+        return locked
+
+    # -- problem definition -------------------------------------------------------------------------------
+    def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
+        """Add a task (module docstring: priorities).
+
+        Args:
+            task: the task.
+            level: None (default): weighted soft level; int ≥ 0: strict priority level (0 highest).
+            hard: hold the task as an equality constraint J v = v* (not with ``level``).
+
+        Raises:
+            InvalidInputError: not a Task, a negative/non-integer level, both ``level`` and ``hard``, or a task
+                built for another robot (other model, frame ids or nv).
+        """
+        if not isinstance(task, Task):
+            raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
+        self._check_once(task, "task")
+        if hard:
+            if level is not None:
+                raise InvalidInputError("a task is either hard or on a priority level, not both")
+            wrapper = TaskConstraint(task)
+            self._hard[id(task)] = wrapper
+            self.add_constraint(wrapper)
+        elif level is None:
+            self.tasks.append(task)
+        else:
+            if isinstance(level, bool) or not isinstance(level, (int, np.integer)) or level < 0:
+                raise InvalidInputError(f"priority level must be an int ≥ 0 (0 = highest), got {level!r}")
+            self.levels.setdefault(int(level), []).append(task)
+            self._level_order = sorted(self.levels)
+        return task
+
+    def remove_task(self, task: Task) -> None:
+        """Remove a task from wherever it was added.
+
+        Raises:
+            ValueError: the task is not in the controller.
+        """
+        if task in self.tasks:
+            self.tasks.remove(task)
+            return
+        if id(task) in self._hard:
+            self.remove_constraint(self._hard.pop(id(task)))
+            return
+        for k, tasks in self.levels.items():
+            if task in tasks:
+                tasks.remove(task)
+                if not tasks:
+                    del self.levels[k]
+                    self._level_order = sorted(self.levels)
+                return
+        raise ValueError(f"task {getattr(task, 'name', task)!r} is not in the controller")
+
+    @property
+    def hard_tasks(self) -> list[Task]:
+        """Tasks added with ``hard=True``."""
+        return [w.task for w in self._hard.values()]
+
+    def add_constraint(self, constraint: Constraint, index: int | None = None) -> Constraint:
+        """Add an equality, inequality or box constraint.
+
+        Args:
+            constraint: the constraint.
+            index: its position in :attr:`constraints` (``list.insert``: 0 first, ``len(constraints)`` last);
+                None (default): appended. The order of the constraints is the order of their rows in the QP:
+                a caller that removes and adds back the same constraints (e.g. contacts at support switches)
+                keeps one order per set of constraints by inserting them where they were, so that the set's
+                row layout is built once and reused (:meth:`_build_layout`).
+
+        Raises:
+            InvalidInputError: not a wbc Constraint, built for another robot (other model, frame ids or nv), or
+                ``index`` not an integer in [0, len(constraints)].
+        """
+        if index is not None and (isinstance(index, bool) or not isinstance(index, (int, np.integer))
+                                  or not 0 <= index <= len(self.constraints)):
+            raise InvalidInputError(f"constraint index must be an integer in [0, {len(self.constraints)}], "
+                                    f"got {index!r}")
+        if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+            if isinstance(constraint, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
+                raise InvalidInputError(
+                    f"{type(constraint).__name__} {constraint.name!r} is a constraint of the {constraint.level} level; "
+                    f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
+                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
+            raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
+        self._check_once(constraint, "constraint")
+        if index is None:
+            self.constraints.append(constraint)
+        else:
+            self.constraints.insert(int(index), constraint)
+        self._eq_rows = None
+        self._layout_ok = False
+        return constraint
+
+    def _check_once(self, obj, what: str) -> None:
+        """:meth:`_check_robot` for an object not already checked by this controller (a contact or swing task added
+        back at a support switch is the same object, checked when first added)."""
+        if self._checked.get(id(obj)) is not obj:
+            self._check_robot(obj, what)
+            if len(self._checked) >= _CHECKED_SIZE:
+                self._checked.clear()
+            self._checked[id(obj)] = obj
+
+    def _check_robot(self, obj, what: str) -> None:
+        """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
+        not this robot's (other nq, nv or joint names), a frame id whose name differs in this model, a Jacobian
+        or an index set sized for another nv."""
+        model = self.robot.model
+        name = getattr(obj, "name", type(obj).__name__)
+        here = f"this controller's robot is {model.name!r} (nq {model.nq}, nv {model.nv})"
+
+        def foreign(why: str) -> InvalidInputError:
+            return InvalidInputError(f"{what} {name!r} was built for another robot ({why}); {here}: build it "
+                                     f"with the controller's robot")
+
+        if isinstance(obj, TaskConstraint):
+            self._check_robot(obj.task, what)
+        other = getattr(obj, "model", None)
+        if other is None and getattr(obj, "robot", None) is not None:
+            other = getattr(obj.robot, "model", None)
+        if isinstance(other, pin.Model) and other is not model and (
+                other.nq != model.nq or other.nv != model.nv or list(other.names) != list(model.names)):
+            raise foreign(f"model {other.name!r}, nq {other.nq}, nv {other.nv}")
+        for id_attr, name_attr in (("frame_id", "frame"), ("reference_id", "reference_frame")):
+            fid, fname = getattr(obj, id_attr, None), getattr(obj, name_attr, None)
+            if isinstance(fid, (int, np.integer)) and isinstance(fname, str) and (
+                    not 0 <= fid < model.nframes or model.frames[fid].name != fname):
+                raise foreign(f"its frame {fname!r} has id {fid}, which is "
+                              + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
+                                 f"beyond this model's {model.nframes} frames"))
+        if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
+            raise foreign(f"nv {obj.nv}")
+        indices = getattr(obj, "indices", None)
+        if indices is not None and np.size(indices) and int(np.max(indices)) >= model.nv:
+            raise foreign(f"velocity index {int(np.max(indices))} ≥ nv")
+        if isinstance(obj, (JointPositionLimit, JointVelocityLimit)):
+            expected = bounded_joints(model)[1] if isinstance(obj, JointPositionLimit) else np.arange(6, model.nv)
+            if not np.array_equal(np.asarray(obj.indices), expected):
+                raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
+
+    def remove_constraint(self, constraint: Constraint) -> None:
+        """Remove a constraint added with :meth:`add_constraint`.
+
+        Raises:
+            ValueError: the constraint is not in the controller.
+        """
+        self.constraints.remove(constraint)
+        self._eq_rows = None
+        self._layout_ok = False
+
+
+    # -- assembly -------------------------------------------------------------------------------------------
+
+
+    # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
+
+
+    # -- one tick -------------------------------------------------------------------------------------------
+    def solve(self, config: Configuration, dt: float) -> TickResult:
+        """Solve one tick at ``config`` with control period ``dt`` (s).
+
+        Returns:
+            :class:`TickResult`; on failure ``ok`` is False, ``v`` is the safe command (``fallback``) and
+            ``conflicts`` names the conflicting hard constraints (module docstring).
+
+        Raises:
+            InvalidInputError: dt not finite and > 0 (or another typed input error raised by a task/constraint).
+        """
+        if not (type(dt) is float and 0.0 < dt < math.inf) and (
+                isinstance(dt, (bool, np.bool_)) or not (isinstance(dt, (float, int, np.floating, np.integer))
+                                                         and math.isfinite(dt) and dt > 0)):
+            raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
+        t0 = perf_counter()
+        self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
+        # counted in QP solves: deterministic
+        self._start_work(dt if self._budget is None else self._budget, self._fused)
+        plan = self._fused
+        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
+                                and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
+                                and not self._level_order):
+            plan = self._fused_plan(config, dt)
+        if plan is not None:
+            if plan.rescue is not None:
+                plan.rescue.work = self._work
+            try:
+                result = self._fused_tick(plan, config, dt, t0)
+            except InvalidInputError:
+                raise
+            except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
+                result = None
+            if result is not None:
+                return result
+        self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
+        if isinstance(self.backend, FastBackend):
+            # the general path of a flat QP's tick counts the kernel attempts that give up (and skips the kernel on
+            # its later problems of that shape; the compiled tick above uses no FastBackend): uncounted, a return-rate ladder and trust region on joints held at their limits spent
+            # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
+            # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
+            self.backend.count_give_ups = not self._level_order
+            # the weighted form of strict levels (self.backend's only QP on their ticks) skips the kernel on the
+            # tick's later problems of a shape it gave up on, uncounted: its contact correction repeated a give-up
+            # of up to 100 iterations on each re-solve (kinematic fuzz seed 550004 episode 366 tick 0)
+            self.backend.skip_give_ups = bool(self._level_order)
+        t1 = None
+        self._assembled = False
+        self._in_solve, self._drift_cache, self._contact_expected = True, None, None
+        self._projected_contacts = []
+        weighted_start = bool(self._level_order) and self._weighted_left > 0
+        self._weighted_tick = weighted_start
+        self._weighted_qp = None
+        if self._level_order and not weighted_start and math.isfinite(self._work.cap):
+            # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
+            self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
+        return_rate, held = None, False
+        try:
+            H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+            self._assembled = True
+            fault = self._data_fault()
+            if fault:
+                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
+            t1 = perf_counter()
+            try:
+                v = self._solve_assembled(config)
+                relaxed = []
+            except SolverError as first_failure:
+                v = None
+                self._work.reserve = 0.0  # the relaxations count as before
+                # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
+                # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
+                if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
+                    raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
+                        from None
+                if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
+                    # the failed cascade spent the tick's count: its retries below are answered by the weighted
+                    # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
+                    # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
+                    self._weighted_tick, self._weighted_qp = True, None
+                    self._cut.append("priority levels of the retries (their weighted form's command)")
+                if self._contact_rows.size and self._consistent_contact_rhs():
+                    # dependent contact rows asked contradictory corrections: once more in least squares (one
+                    # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
+                    # weighted level solves, kinematic fuzz seed 410002)
+                    try:
+                        v = self._solve_assembled(config)
+                        relaxed = []
+                    except SolverError:
+                        v = None
+                relaxed = []
+                if v is None and self._relaxable:  # (one solve: not cut by the count)
+                    if not self.tick_budget.fits(self.tick_budget.resolve_cost):
+                        raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
+                    self._relax(config, dt)
+                    relaxed = [c.name for c in self._relaxable]
+                    try:
+                        v = self._solve_assembled(config)
+                    except SolverError:
+                        v = None
+                if v is None:
+                    v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
+                    relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
+                    if held:
+                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
+            if self.contact_correction > 0 and self._contacts and not held:
+                v = self._correct_contacts(config, dt, v)
+            result = self._hold_contacts(config, dt, v, relaxed)
+            if (not result.ok and self._cut and self._level_order and not self._weighted_tick
+                    and return_rate is None and not held):
+                result = self._weighted_answer(config, dt, relaxed) or result
+            if not result.ok and return_rate is not None and not held:
+                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+            if result.ok:
+                fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
+                if fault:
+                    raise SolverError(f"output guard: {fault}")
+                result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                               else TickPath("general", self.backend.name))
+                if return_rate is not None:
+                    result.path = replace(result.path, return_rate=True)
+            else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
+                raise DriftFailure(result.message)
+            if not result.ok and self._projected_contacts:
+                # the hard set had no solution until the dependent contact rows were made consistent: name them
+                result.conflicts = list(self._projected_contacts)
+                worst = max(d for _, d in self._projected_contacts)
+                names = [name for name, _ in self._projected_contacts]
+                result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
+                                   f"directions (projected by up to {worst:.3g} in their rows' units)")
+        except InvalidInputError:
+            self._in_solve, self._drift_cache = False, None
+            raise
+        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
+            t1 = t1 or perf_counter()
+            self._eq_rows = None  # the rank may have changed: recompute next tick
+            self._work.reserve = 0.0
+            result = self._recover(config, dt, exc)
+        self._in_solve, self._drift_cache = False, None
+        if self._level_order:
+            # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
+            # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
+            # for the cascade (TickBudget.cascade_fits)
+            if weighted_start:
+                self._weighted_left -= 1
+                if self._weighted_left <= 0 and not self.tick_budget.cascade_fits(
+                        len(self._level_order), self.STAGE_FACTOR - self.WEIGHTED_RESERVE):
+                    self._weighted_left = 1
+            elif self._cut:
+                self._weighted_left = self.WEIGHTED_TICKS
+        t2 = perf_counter()
+        result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
+        result.over_budget = result.over_budget or bool(self._cut) or self._work.solves > self._work.cap
+        if self._cut and result.ok:
+            result.path = result.path.with_budget()
+            result.message = f"tick budget spent: {'; '.join(self._cut)} skipped"
+        for c in self._feedback:
+            c.set_previous(result.v)
+        self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
+        result.consecutive_failures = self.consecutive_failures
+        self.last_result = result
+        return result
+
+    # -- failure handling -------------------------------------------------------------------------------------

@@ -1,0 +1,270 @@
+"""Recovery of a failed kinematic tick: diagnosis and the safe command (never a raise, never NaN).
+
+1. diagnosis (:mod:`wbc.solvers.diagnosis`): the conflicting hard constraints, largest violation first;
+2. ``constraints_only``: the soft level under the constraint objects only, its contacts held to second order;
+3. ``contacts_held``: the same with each contact frame held where the run of failed ticks began, its correction
+   scaled by 1, 1/10 or 0;
+4. ``hold``: v = 0.
+Steps 2 and 3 are taken only when they keep each contact frame within ``sole_drift_tolerance`` of where its rows
+send it and within ``SAFE_COMMAND_RADIUS`` of where the run of failed ticks began (``docs/kinematic-controller.md``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.exceptions import SolverError
+from wbc.solvers import DaqpBackend
+from wbc.solvers.daqp import WORK_LIMIT_FACTOR
+from wbc.solvers.diagnosis import diagnose
+from wbc.solvers.hierarchy import independent_rows
+from wbc.controllers.contact_hold import DriftFailure
+from wbc.tick import TickPath, TickResult
+
+
+#: scales β of the contacts' drift correction tried in turn by the 'contacts_held' safe command
+_HELD_CORRECTION_SCALES = (1.0, 0.1, 0.0)
+
+
+class Recovery:
+    """The recovery part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring):
+    ``_recover`` and the safe commands it tries, and :meth:`diagnose`."""
+
+    def _recover(self, config: Configuration, dt: float, exc: Exception) -> TickResult:
+        """Diagnosis + safe command after a failed tick (module docstring). Never raises.
+
+        Every safe command other than v = 0 is taken only when it is finite and within the box, and when it keeps
+        the contact frames as an ok tick must (sole drift ≤ ``sole_drift_tolerance``; for 'contacts_held', whose
+        rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (by
+        0.9 √(tolerance / drift), at most 1/2, up to 8 times: the displacement is second order in v dt, and J_c v = 0
+        is kept) until it does, each check counted (``CHECK_WORK``) and started only below
+        ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times the tick's cap, else v = 0."""
+        message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
+        over_budget = False
+        reason = ("sole_drift" if isinstance(exc, DriftFailure) else
+                  "output_guard" if message.startswith("output guard") else
+                  "nonfinite" if message.startswith("non-finite") else
+                  "infeasible" if isinstance(exc, SolverError) else "exception")
+        conflicts: list[tuple[str, float]] = []
+        if not self._assembled:
+            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
+                              path=TickPath("fallback", fallback="hold"), reason="exception")
+        data_fault = self._data_fault()
+        late = not self.tick_budget.may_start("retry")  # the tick's count spent before its failure handling
+        # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
+        budget = self.tick_budget
+        if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
+            self._work.solves += 1  # the diagnosis: one least-squares QP
+            try:
+                conflicts = self.diagnose(config, dt, include_relaxable=False)
+            except Exception as dexc:  # noqa: BLE001
+                message += f"; diagnosis failed: {type(dexc).__name__}: {dexc}"
+            if conflicts:
+                message += "; conflicting hard constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+        else:
+            over_budget = True
+            message += "; diagnosis skipped: tick budget spent (KinematicController.diagnose(config, dt) names the " \
+                       "conflict off the control path)"
+        v, fallback = np.zeros(self.nv), "hold"
+        tol = self.sole_drift_tolerance
+        if self._contacts and (self.consecutive_failures == 0 or self._held_anchors is None
+                               or set(self._held_anchors) != set(map(id, self._contacts))):
+            # where the contact frames were when this run of failed ticks began (their anchors)
+            self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
+        anchors = [self._held_anchors[id(c)] for c in self._contacts]
+        skipped = ""  # clock guard: the safe commands not tried, the tick's budget spent
+        count_stop = False  # the count stopped the checks of 'contacts_held' (hold, nothing more tried)
+        # the tick's count spent before its safe command (late): J_c v = 0 first, the cheapest command that keeps the
+        # contacts (β = 0 only, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
+        held_first = late and bool(self._contact_rows.size) and not data_fault
+        if not held_first and not data_fault and not budget.fits(max(budget.safe_stage_cost, budget.safe_estimate())):
+            skipped = "constraints_only"
+        elif not held_first and not data_fault:  # (non-finite QP data: hold)
+            v, fallback = self._safe_constraints_only(config, dt, anchors)
+        if fallback == "hold" and self._contact_rows.size and not data_fault and not skipped:
+            scales = (0.0,) if held_first else _HELD_CORRECTION_SCALES
+            # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
+            # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
+            b0 = self._b.copy()
+            if held_first and self._fallback_backend is None:
+                self._fallback_backend = self._new_backend()
+            backend = self._fallback_backend
+            independent = backend.independent if backend is not None else ()
+            placements = [c.placement for c in self._contacts]
+            try:
+                if backend is not None:
+                    backend.independent = ()  # a failed β needs no confirmation: the next one is tried
+                for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
+                    c.placement = anchor
+                    self._b[r0:r1] = c.compute(config, dt)[1]
+                anchored = self._b[self._contact_rows].copy()
+                # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
+                # their corrections are made consistent (least squares onto the range of J_c, as after a failed
+                # solve: _consistent_contact_rhs)
+                U, S = self._contact_svd()
+                rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
+                if rank < anchored.size:
+                    anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
+                tried = []  # (β, what became of its command) for the message
+                for beta in scales:
+                    if not self.tick_budget.fits(self.tick_budget.safe_estimate() + self.tick_budget.check_cost):
+                        skipped = f"contacts_held from β = {beta:g}"
+                        break
+                    self._b[self._contact_rows] = beta * anchored
+                    try:
+                        # β = 0 (J_c v = 0; v = 0 is a solution when the box holds it): the last command before a
+                        # hold gets its solver's own iteration limit, not the few iterations a spent tick count
+                        # leaves (its solves still counted)
+                        v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config, held_first)
+                    except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
+                        capped = getattr(self._fallback_backend, "iterations_capped", False)
+                        tried.append(f"β = {beta:g}: {type(qexc).__name__}"
+                                     + (" (DAQP stopped at its iteration limit)" if capped else ""))
+                        continue
+                    if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
+                        tried.append(f"β = {beta:g}: outside the constraints")
+                        continue
+                    d = math.nan
+                    for _ in range(9 if beta == 0.0 else 1):
+                        counted_out = self._work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
+                        if counted_out or not self.tick_budget.fits(self.tick_budget.check_cost):
+                            skipped = "contacts_held (its last scalings)"
+                            count_stop = counted_out
+                            break
+                        self._work.add(self.CHECK_WORK)
+                        t = self._work.seconds()
+                        d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
+                        held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
+                        self.tick_budget.check_cost = max(self.tick_budget.check_cost, self._work.seconds() - t)
+                        if held:
+                            v, fallback = v_h, "contacts_held"
+                            break
+                        # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)
+                        # (at most 1/2; 1/2 when the frames left the run's radius instead)
+                        scale = 0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))
+                        v_h = scale * v_h
+                    tried.append(f"β = {beta:g}: drift {d:.3g} m")
+                    if fallback != "hold" or skipped:
+                        break
+                if fallback == "hold" and not skipped:
+                    message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
+                                f"{scales} keeps them within sole_drift_tolerance {tol:.3g} m "
+                                f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began "
+                                f"({'; '.join(tried)})")
+            except Exception:  # noqa: BLE001 — never raises: hold
+                pass
+            finally:
+                for c, placement in zip(self._contacts, placements):
+                    c.placement = placement
+                np.copyto(self._b, b0)
+                if backend is not None:
+                    backend.independent = independent
+        if held_first and fallback == "hold" and not count_stop:
+            v, fallback = self._safe_constraints_only(config, dt, anchors)
+        if skipped:
+            over_budget = True
+            message += f"; {skipped} not tried: tick budget spent ({'count' if count_stop else 'clock guard'})"
+        try:
+            drift = self.sole_drift(config, v, dt)
+        except Exception:  # noqa: BLE001 — never raises (module docstring)
+            drift = float("nan")
+        return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
+                          path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
+
+    def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
+        """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
+        objects held in the buffers (hard tasks left out), on the fallback backend; with the clock guard its CPU
+        time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        if not self.clock_guard:
+            return self._constraints_only_qp()
+        t = self._work.seconds()
+        try:
+            return self._constraints_only_qp()
+        finally:
+            spent = self._work.seconds() - t
+            budget = self.tick_budget
+            budget.safe_cost = max(budget.safe_cost, spent) if budget.safe_fresh else spent
+            budget.safe_fresh = True
+
+    def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
+        """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
+        the constraint objects' QP, its contacts held to second order like an ok tick's (correction, trust region,
+        bounded by the tick's count), taken when finite, within the constraints, within ``sole_drift_tolerance`` and
+        within the run's radius (:meth:`_within_run_radius`). Never raises."""
+        tol = self.sole_drift_tolerance
+        t_stage = self._work.seconds()
+        v, fallback = np.zeros(self.nv), "hold"
+        try:
+            v_c = self._solve_constraints_only(config)
+            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
+            if self.contact_correction > 0 and self._contacts:
+                v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
+            v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
+            if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
+                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
+                    self._within_run_radius(config, v_c, dt, anchors):
+                v, fallback = v_c, "constraints_only"
+        except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
+            pass
+        if self.clock_guard:
+            self.tick_budget.safe_stage_cost = self._work.seconds() - t_stage
+        return v, fallback
+
+    def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:
+        """:meth:`_solve_constraints_only` with the QP backends' iteration limit not lowered by the tick's spent
+        count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); its solves are counted as usual. ``bounded``: each
+        DAQP call of the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
+        load) instead of its solver's own limit. Raises SolverError."""
+        cap = self._work.cap
+        self._work.cap = math.inf
+        backend = self._fallback_backend
+        calls = getattr(backend, "call_iterations", None)
+        if bounded and isinstance(backend, DaqpBackend):
+            backend.call_iterations = self.HELD_ITERATIONS
+        try:
+            return self._solve_constraints_only(config)
+        finally:
+            self._work.cap = cap
+            if bounded and isinstance(backend, DaqpBackend):
+                backend.call_iterations = calls
+
+    def _constraints_only_qp(self) -> np.ndarray:
+        """The QP of :meth:`_solve_constraints_only`, solved (SolverError when it has no solution)."""
+        H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
+            self._lb, self._ub
+        if not self._not_hard_task.all():
+            A, b = A[self._not_hard_task], b[self._not_hard_task]
+        keep = independent_rows(A, self.rank_rtol)
+        if self._fallback_backend is None:
+            self._fallback_backend = self._new_backend()
+        v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
+        if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
+            # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
+            drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+            half = 0.5 * self.dependent_row_tolerance
+            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
+                                                  np.concatenate([l, b[drop] - half]),
+                                                  np.concatenate([u, b[drop] + half]), lb, ub)
+        return v_safe
+
+    def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
+        """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the
+        slack-relaxed solve of :mod:`wbc.solvers.diagnosis` (empty when the hard set is feasible). Tasks whose cost
+        has non-finite numbers are reported with violation nan. ``include_relaxable=False`` leaves out the
+        relaxable constraints (as a failed tick does). The controller's buffers are left holding that problem."""
+        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
+        skip = set() if include_relaxable else set(map(id, self._relaxable))
+        if skip:
+            self._relax(config, dt)
+        record: list = []
+        self._intersect_boxes(config, dt, record, skip)
+        conflicts, _ = diagnose(
+            A, b, C, l, u, lb, ub, [(c.name, r0, r1) for c, r0, r1 in self._eq_blocks if id(c) not in skip],
+            [(c.name, r0, r1) for c, r0, r1 in self._in_blocks if id(c) not in skip], record)
+        if not (np.isfinite(H).all() and np.isfinite(g).all()):
+            tasks = [*self.tasks, *(t for k in self._level_order for t in self.levels[k])]
+            conflicts += [(t.name, float("nan")) for t in tasks
+                          if not all(np.isfinite(x).all() for x in t.compute(config))]
+        return conflicts

@@ -1,0 +1,224 @@
+"""The relaxation ladder of the kinematic controller, tried before a tick is declared failed.
+
+Relaxable constraints (joint acceleration limits) are left out of a tick that is infeasible with them
+(``_relax``). Then, when joints are outside their position limits, their return rate is scaled by α: α = 0 first,
+then 1/1000, 1/100, 1/10, 1/2 while they solve and the budget lasts (``_relax_return_rate``, ``_slower_return``);
+when even α = 0 has no solution the contacts' drift corrections rank below it (J_c v = 0). The strict levels'
+weighted form (level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) answers a cascade the budget cut
+(``_weighted_answer``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.configuration import Configuration
+from wbc.constraints.limits import JointPositionLimit
+from wbc.exceptions import SolverError
+from wbc.tick import TickResult
+
+
+#: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
+#: (``KinematicController._relax_return_rate``)
+_RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
+
+
+class Relaxation:
+    """The relaxation part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring)."""
+
+    def _outside_limits(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+        """(indices into v of the joints below their lower position limit whose box asks a return, the same above
+        the upper limit), from the assembled box (``_relax_return_rate``)."""
+        entries = []
+        for c in self._box:
+            if isinstance(c, JointPositionLimit):
+                q = config.q[c.idx_q]
+                idx = np.asarray(c.indices)
+                entries.append(idx[(q < c.q_min) & (self._lb[idx] > 0)])
+                entries.append(idx[(q > c.q_max) & (self._ub[idx] < 0)])
+        if not entries:
+            return np.zeros(0, int), np.zeros(0, int)
+        return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+
+    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
+        """Solve the tick again with the return rate of the joints outside their position limits relaxed.
+
+        A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
+        several such joints and both soles in contact that can be impossible while a slower return is not. The
+        return rate ranks below every other hard constraint and above the tasks: the required return velocity of
+        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; α = 0 only forbids
+        moving further out). α = 0 is solved first: the feasible sets are nested (larger as α falls), so when it has
+        no solution no α has. Then the larger scales from 1/1000 up, each started only while the tick's counted
+        budget lasts, until one has no solution (nor has any larger): the largest that solved is kept. These trial
+        solves are unconfirmed and not retried (``QPBackend.cold_retry``): a failure only ends the climb.
+
+        When even α = 0 has no solution and contacts are held, their drift corrections −K e rank below it: the
+        contact rows become J_c v = 0 (each contact frame kept where it is, to first order, instead of pulled back
+        onto its placement; the correction of a stance sole's accumulated drift can ask a joint held at α = 0 to
+        move further out) and the ladder above is solved with them. The tick's sole-drift check still measures the
+        drift from where the full correction would send the frame, so an ok tick keeps its bound. With the clock
+        guard each of these solves starts only when a re-solve of the tick's QP still fits (``TickBudget.fits``).
+
+        Returns:
+            (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
+            buffers hold the problem of the returned command (output guard, trust region).
+
+        Raises:
+            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or α = 0 has no solution
+                (with the contacts held either).
+        """
+        low, high = self._outside_limits(config)
+        if not (low.size or high.size):
+            raise failure
+        if not self.tick_budget.fits(self.tick_budget.resolve_cost):
+            raise SolverError(f"{failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
+        lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        held = False
+        try:
+            for b in backends:  # a failed α needs no independent confirmation: the next α is tried
+                b.independent = ()
+            self._lb[low] = 0.0
+            self._ub[high] = 0.0
+            try:
+                v0 = self._solve_assembled(config)
+            except SolverError:
+                v0 = None
+            if v0 is None and self._contact_rows.size and self.tick_budget.fits(self.tick_budget.resolve_cost):
+                self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
+                try:
+                    v0 = self._solve_assembled(config)
+                    held = True
+                except SolverError:
+                    v0 = None
+            if v0 is None:
+                raise SolverError(f"{failure}; no solution either with the joints outside their limits held where "
+                                  f"they are (return rate 0)" + (", nor with the contacts held where they are"
+                                                                  if self._contact_rows.size else ""))
+            for b in backends:  # a failed α only sends the ladder to the next one: no cold retry either
+                b.cold_retry = False
+            v, best = v0, 0.0
+            for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
+                if not self.tick_budget.may_start("retry", self.tick_budget.resolve_cost):
+                    break
+                self._lb[low] = alpha * lb0
+                self._ub[high] = alpha * ub0
+                try:
+                    v, best = self._solve_assembled(config), alpha
+                except SolverError:
+                    break  # (feasible sets nested: no larger α has a solution)
+            self._lb[low] = best * lb0  # the buffers hold the problem of the returned command
+            self._ub[high] = best * ub0
+            self._return_bounds = (low, high, lb0, ub0)
+            return v, best, held
+        finally:
+            for b, ind in zip(backends, independent):
+                b.independent = ind
+                b.cold_retry = True
+
+    def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
+                       result: TickResult) -> tuple[TickResult, float]:
+        """After the return-rate ladder (``_relax_return_rate``) kept α but no trust region held the contacts:
+        the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
+        tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
+        motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
+        moving further out, and its trust region can shrink v to 0); last, α = 0 with the contacts' drift
+        corrections dropped (J_c v = 0, as the ladder's last step), whose drift is still measured from where the full
+        correction would send each frame.
+
+        Returns:
+            (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
+            buffers holding α's problem again.
+        """
+        low, high, lb0, ub0 = self._return_bounds
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        try:
+            for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
+                b.independent = ()
+            for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
+                if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
+                    self._cut.append(f"slower returns below × {alpha:g}")
+                    break
+                self._lb[low] = a * lb0
+                self._ub[high] = a * ub0
+                try:
+                    v = self._solve_assembled(config)
+                except SolverError:
+                    continue
+                if self.contact_correction > 0 and self._contacts:
+                    v = self._correct_contacts(config, dt, v)
+                r = self._hold_contacts(config, dt, v, relaxed)
+                if r.ok:
+                    relaxed[-1] = f"joint_position_limit return rate × {a:g}"
+                    return r, a
+            if self._contact_rows.size and self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
+                # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
+                # from where the full correction would send a frame is then K dt e plus second order in v dt
+                b0 = self._b[self._contact_rows].copy()
+                self._lb[low], self._ub[high] = 0.0, 0.0
+                self._b[self._contact_rows] = 0.0
+                try:
+                    r = self._hold_contacts(config, dt, self._solve_assembled(config), relaxed)
+                except SolverError:
+                    r = None
+                if r is not None and r.ok:
+                    relaxed[-1] = "joint_position_limit return rate × 0"
+                    relaxed.append("contact drift correction × 0 (J_c v = 0)")
+                    return r, 0.0
+                self._b[self._contact_rows] = b0
+            elif self._contact_rows.size:
+                self._cut.append(f"slower returns below × {alpha:g}")
+            self._lb[low] = alpha * lb0
+            self._ub[high] = alpha * ub0
+            return result, alpha
+        finally:
+            for b, ind in zip(backends, independent):
+                b.independent = ind
+
+    def _relax(self, config: Configuration, dt: float) -> None:
+        """Drop the relaxable constraints from the assembled buffers by their kind (equality rows made void,
+        inequality rows unbounded, boxes re-intersected without them), as the ID QP's relaxed solve does."""
+        for c, r0, r1 in self._relaxable_blocks:
+            if c.kind == "equality":
+                self._A[r0:r1] = 0.0
+                self._b[r0:r1] = 0.0
+            elif c.kind == "inequality":
+                self._l[r0:r1] = -np.inf
+                self._u[r0:r1] = np.inf
+        self._intersect_boxes(config, dt, skip=set(map(id, self._relaxable)))
+        self._eq_rows = None
+
+    def _weighted_answer(self, config: Configuration, dt: float, relaxed: list) -> TickResult | None:
+        """The tick answered again by the weighted form of its strict levels (one QP, its contact correction and
+        trust region, with the solves the cascade left: ``WEIGHTED_RESERVE``), after the cascade's command kept a
+        contact frame past ``sole_drift_tolerance`` because the budget stopped its correction or trust region;
+        None when that answer drifts too (or its QP fails): the cascade's failure stands."""
+        if not self.tick_budget.fits(self.tick_budget.resolve_cost):
+            return None
+        self._work.reserve = 0.0
+        self._weighted_tick, self._weighted_qp = True, None
+        cascade_cut, self._cut = self._cut, []
+        try:
+            v = self._solve_assembled(config)
+            if self.contact_correction > 0 and self._contacts:
+                v = self._correct_contacts(config, dt, v)
+            result = self._hold_contacts(config, dt, v, relaxed)
+        except SolverError:
+            result = None
+        if result is not None and result.ok:
+            self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
+            return result
+        self._weighted_tick, self._cut = False, cascade_cut
+        return None
+
+    def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
+        """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
+        WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
+        Hw, gw = H.copy(), g.copy()
+        p = len(self._level_order)
+        for i, level in enumerate(self._level_rows):  # gathered by assemble, weights applied
+            c = self.WEIGHTED_LEVEL_RATIO ** (p - i)
+            Hw += c * (level.wJ.T @ level.wJ)
+            gw -= c * (level.wJ.T @ level.wr)
+        return Hw, gw

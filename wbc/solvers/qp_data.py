@@ -1,0 +1,37 @@
+"""The data of one QP as a formulation hands it to a solver (:class:`QPData`):
+
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+
+with x ∈ R^n. The arrays are the formulation's own buffers (views, no copies), overwritten at its next assembly;
+a solver reads them and never writes them.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["QPData"]
+
+
+class QPData(NamedTuple):
+    """One QP (module docstring); unpacks as ``H, g, A, b, C, l, u, lb, ub``.
+
+    Attributes:
+        H: (n, n) symmetric positive (semi)definite cost matrix.
+        g: (n,) cost vector.
+        A: (m_eq, n) equality rows; b: (m_eq,) their right-hand sides.
+        C: (m_in, n) inequality rows; l, u: (m_in,) their lower and upper bounds (±inf for a free side).
+        lb, ub: (n,) box on x (±inf for a free entry).
+    """
+
+    H: np.ndarray
+    g: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    l: np.ndarray  # noqa: E741 (the QP's own name for the lower row bounds)
+    u: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
