@@ -118,13 +118,9 @@ def _loopback(args) -> None:
 
 def cmd_joint_publisher(args) -> int:
     """Loop the walking motion on ROS 2 until Ctrl-C (or ``--duration`` s); serve /reset_robot."""
-    from cyclonedds.pub import DataWriter
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-
     from wbc.cli.output import sigint_received
     from wbc.cli.robots import robot_from_args
-    from wbc.ros2 import dds, msgs
+    from wbc.ros2 import dds, endpoints, msgs
     from wbc.ros2.publisher import Ros2Publisher
     from wbc.scenarios.walk import plan_default_walk, run_walk
 
@@ -135,8 +131,8 @@ def cmd_joint_publisher(args) -> int:
     pub = Ros2Publisher(robot, rate=args.rate, tf=args.tf, dt=run.dt)
     part = pub.participant
     qos = dds.qos_stream(10)
-    req_reader = DataReader(part, Topic(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos=qos), qos=qos)
-    rep_writer = DataWriter(part, Topic(part, "rr/reset_robotReply", msgs.TriggerReply, qos=qos), qos=qos)
+    req_reader = endpoints.reader(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos)
+    rep_writer = endpoints.writer(part, "rr/reset_robotReply", msgs.TriggerReply, qos)
     stride = max(1, int(round(1.0 / (args.rate * run.dt))))
     print(f"wbc ros2 joint-publisher: {robot.name}, {len(run.t)} ticks looped at {args.rate:g} Hz "
           f"(domain {dds.domain_id()}); Ctrl-C to stop", flush=True)
@@ -173,17 +169,14 @@ def cmd_joint_publisher(args) -> int:
 
 def cmd_echo_joint(args) -> int:
     """Print ``<stamp> <joint> <position>`` for every /joint_states sample carrying the joint."""
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-
     from wbc.cli.output import sigint_received
     from wbc.exceptions import UnknownJointError
-    from wbc.ros2 import dds, msgs
+    from wbc.ros2 import dds, endpoints, msgs
 
     _loopback(args)
     part = dds.participant()
     qos = dds.qos_stream(100)
-    reader = DataReader(part, Topic(part, dds.ros_topic("/joint_states"), msgs.JointState, qos=qos), qos=qos)
+    reader = endpoints.reader(part, dds.ros_topic("/joint_states"), msgs.JointState, qos)
     got = 0
     t_end = None if args.timeout is None else time.monotonic() + args.timeout
     try:

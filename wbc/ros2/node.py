@@ -129,13 +129,11 @@ class _Service:
     """A Cyclone-RMW service: reader of ``rq/<name>Request``, writer of ``rr/<name>Reply``."""
 
     def __init__(self, part, name: str, req_type, rep_type, qos):
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
+        from wbc.ros2.endpoints import reader, writer
 
         base = name.lstrip("/")
-        self.reader = DataReader(part, Topic(part, f"rq/{base}Request", req_type, qos=qos), qos=qos)
-        self.writer = DataWriter(part, Topic(part, f"rr/{base}Reply", rep_type, qos=qos), qos=qos)
+        self.reader = reader(part, f"rq/{base}Request", req_type, qos)
+        self.writer = writer(part, f"rr/{base}Reply", rep_type, qos)
         self.req_type, self.rep_type = req_type, rep_type
 
     def requests(self):
@@ -221,12 +219,10 @@ class ControllerNode:
     # -- DDS ---------------------------------------------------------------------------------------------------
     def _setup_dds(self, tf: str) -> None:
         from cyclonedds.core import Policy, Qos
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
         from cyclonedds.util import duration
 
         from wbc.ros2 import dds, msgs
+        from wbc.ros2.endpoints import reader, writer
         from wbc.ros2.publisher import Ros2Publisher
 
         self.m = msgs
@@ -235,15 +231,14 @@ class ControllerNode:
                                  epoch=self.epoch)
         part = self.part = self.pub.participant
         depth = max(10, int(self.params["update_rate"]))
-        self._odom_w = DataWriter(part, Topic(part, "rt/odom", msgs.Odometry, qos=dds.qos_stream(depth)),
-                                  qos=dds.qos_stream(depth))
+        self._odom_w = writer(part, "rt/odom", msgs.Odometry, dds.qos_stream(depth))
         self._clock_w = None
         if self.time_mode == "sim":
             q1 = dds.qos_stream(1)
-            self._clock_w = DataWriter(part, Topic(part, "rt/clock", msgs.Clock, qos=q1), qos=q1)
+            self._clock_w = writer(part, "rt/clock", msgs.Clock, q1)
         be = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10), Policy.Durability.Volatile)
-        self._cmd_r = DataReader(part, Topic(part, "rt/cmd_vel", msgs.Twist, qos=be), qos=be)
-        self._goal_pose_r = DataReader(part, Topic(part, "rt/goal_pose", msgs.PoseStamped, qos=be), qos=be)
+        self._cmd_r = reader(part, "rt/cmd_vel", msgs.Twist, be)
+        self._goal_pose_r = reader(part, "rt/goal_pose", msgs.PoseStamped, be)
         srv = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(10),
                   Policy.Durability.Volatile)
         self._reset = _Service(part, "reset_robot", msgs.TriggerRequest, msgs.TriggerReply, srv)
@@ -269,11 +264,12 @@ class ControllerNode:
                 "result": _Service(part, f"{a}/get_result", msgs.NavigateToPoseGetResultRequest,
                                    msgs.NavigateToPoseGetResultReply, srv),
                 "cancel": _Service(part, f"{a}/cancel_goal", msgs.CancelGoalRequest, msgs.CancelGoalReply, srv),
-                "feedback": DataWriter(part, Topic(part, f"rt/{a}/feedback", msgs.NavigateToPoseFeedbackMessage,
-                                                   qos=srv), qos=srv),
-                "status": DataWriter(part, Topic(part, f"rt/{a}/status", msgs.GoalStatusArray, qos=latched),
-                                     qos=latched),
+                "feedback": writer(part, f"rt/{a}/feedback", msgs.NavigateToPoseFeedbackMessage, srv),
+                "status": writer(part, f"rt/{a}/status", msgs.GoalStatusArray, latched),
             }
+        from wbc.ros2.discovery import GraphAnnouncement
+
+        self.graph = GraphAnnouncement(part, self.name)  # in `ros2 node list`, with every reader and writer above
 
     # -- time --------------------------------------------------------------------------------------------------
     def _time(self, t: float | None = None):
