@@ -84,7 +84,7 @@ def run_warm_up(argv: tuple[str, ...]) -> float:
 
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, "-m", "wbc", *argv, "--quiet"], stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)  # Ctrl-C stops the run
     if out.returncode not in (0, 1):  # 1: the run's acceptance failed, its kernels ran all the same
         raise SimulationError(f"`wbc {' '.join(argv)}` (run by wbc compile to compile its kernels) exited with "
                               f"{out.returncode}: {out.stderr.strip()[-500:]}")
@@ -151,28 +151,48 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
         return seconds
 
     import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    import queue
 
     waiting = {label: {m for m in AFTER.get(label, ()) if m in items} for label in items}
-    running = {}
-    # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads)
-    pool = ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=multiprocessing.get_context("spawn"))
+    running: set[str] = set()
+    results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
+    # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
+    # ignore Ctrl-C (inside numba's compiler it would be swallowed, with a traceback): this process stops them
+    pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(items)), initializer=_ignore_sigint)
     try:
         while waiting or running:
             for label in [n for n, deps in waiting.items() if not deps][:max(0, jobs - len(running))]:
                 del waiting[label]
-                running[pool.submit(_compile_item, items[label])] = label
+                running.add(label)
+                pool.apply_async(_compile_item, (items[label],),
+                                 callback=lambda result, label=label: results.put((label, result, None)),
+                                 error_callback=lambda error, label=label: results.put((label, None, error)))
                 if on_start is not None:
                     on_start(label)
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                label = running.pop(future)
-                finished(*future.result())
-                for deps in waiting.values():
-                    deps.discard(label)
+            label, result, error = results.get()
+            running.discard(label)
+            if error is not None:
+                raise error
+            finished(*result)
+            for deps in waiting.values():
+                deps.discard(label)
+        pool.close()
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        pool.terminate()  # nothing left to run, or stopped early (an error, Ctrl-C): the workers end now
+        pool.join()
     return seconds
+
+
+def _default_sigint() -> None:  # in a child process: Ctrl-C stops it (a compile worker ignores it)
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run_label(argv: tuple[str, ...]) -> str:
