@@ -273,7 +273,7 @@ def cmd_compile(args) -> int:
         missing = len(uncompiled_kernels(modules))
         where = f"in {jobs} processes" if jobs > 1 else "in this process"
         print(f"wbc compile: compiling the numba kernels of {len(modules)} modules {where} ({missing} without on-disk "
-              "cache; about a minute once on 2 cores) ..." if missing else
+              "cache; a minute or two once on 2 cores) ..." if missing else
               f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...", file=sys.stderr,
               flush=True)
         if getattr(sys.stderr, "isatty", lambda: False)():
