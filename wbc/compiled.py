@@ -6,8 +6,10 @@ would break the tick budget. Each module with kernels therefore has one loader, 
 calls its kernels on small example arrays of the types a real call uses, decorated with :func:`once_per_process` and
 called when a task, constraint or backend is constructed.
 
-``wbc compile`` (:mod:`wbc.cli.kernels`) imports every module with a loader and runs it (:func:`run_loaders`) ahead
-of the first run, after an install, so that the first run finds every kernel in the on-disk cache.
+A process's first construction of such an object therefore compiles, or loads, the kernels of that object's module,
+and only those: a command compiles what it needs when it first needs it (:func:`set_load_listener` reports each
+module as it becomes ready). ``wbc compile`` (:mod:`wbc.cli.kernels`) runs every loader (:func:`run_loaders`) ahead
+of time, in parallel worker processes that share numba's on-disk cache, so that no later run compiles any.
 
 A call through a numba dispatcher first finds the compiled version for its arguments' types (their numba types,
 then a lookup); a control tick's hot calls, whose arguments are their caller's own buffers of fixed types, call that

@@ -5,13 +5,20 @@ numba's own cache log (NUMBA_DEBUG_CACHE=1: "[cache] data saved to ..." when a k
 
 from __future__ import annotations
 
+import ast
+import importlib
 import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
-from wbc.cli.kernels import LOADER_MODULES
+import pytest
+from numba.core.dispatcher import Dispatcher
+
+from wbc.cli import kernels
+from wbc.cli.kernels import AFTER, LOADER_MODULES, WARM_UP_RUNS, compile_all
+from wbc.exceptions import InvalidInputError
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -31,12 +38,49 @@ def test_loader_modules_lists_every_module_with_a_loader():
     assert len(LOADER_MODULES) == len(set(LOADER_MODULES))
 
 
-def test_compile_writes_the_cache_the_next_process_loads(tmp_path):
+def test_after_lists_every_kernel_a_loader_module_imports_from_another():
+    """A loader module that imports a numba kernel from another loader module (its kernels call it, compiled by that
+    module's loader too) waits for that module in a parallel compile: read from the modules' own import lines."""
+    for name in LOADER_MODULES:
+        tree = ast.parse((ROOT / Path(*name.split("."))).with_suffix(".py").read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module in LOADER_MODULES and node.module != name:
+                source = importlib.import_module(node.module)
+                if any(isinstance(getattr(source, a.name, None), Dispatcher) for a in node.names):
+                    assert node.module in AFTER.get(name, ()), (name, node.module)
+    runs = {"wbc " + " ".join(argv) for argv in WARM_UP_RUNS}
+    assert all((m in LOADER_MODULES or m in runs) and set(deps) <= set(LOADER_MODULES) for m, deps in AFTER.items())
+
+
+def test_a_parallel_compile_starts_a_module_after_the_modules_it_waits_for(tmp_path, monkeypatch):
+    """Two worker processes, posture made to wait for com: com is done before posture starts, and each module's
+    kernels are written to the cache once (numba's cache files, counted on disk)."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))  # the spawned workers inherit it
+    monkeypatch.setattr(kernels, "AFTER", {"wbc.tasks.posture": ("wbc.tasks.com",)})
+    events = []
+    seconds = compile_all(["wbc.tasks.posture", "wbc.tasks.com"], jobs=2,
+                          on_start=lambda m: events.append(("start", m)),
+                          on_done=lambda m, wall, cpu: events.append(("done", m)))
+    assert events == [("start", "wbc.tasks.com"), ("done", "wbc.tasks.com"), ("start", "wbc.tasks.posture"),
+                      ("done", "wbc.tasks.posture")]
+    assert sorted(seconds) == ["wbc.tasks.com", "wbc.tasks.posture"] and min(seconds.values()) > 0
+    assert list((tmp_path / "cache").rglob("com.*.nbi")) and list((tmp_path / "cache").rglob("posture.*.nbi"))
+
+
+def test_compile_all_refuses_no_process():
+    with pytest.raises(InvalidInputError, match="jobs must be at least 1, got 0"):
+        compile_all(["wbc.tasks.com"], jobs=0)
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_compile_writes_the_cache_the_next_process_loads(tmp_path, jobs):
     modules = ["wbc.tasks.com", "wbc.tasks.posture"]
     cache = tmp_path / "cache"
-    first = _run(["-m", "wbc", "compile", *modules], cache, tmp_path)
+    first = _run(["-m", "wbc", "compile", "--jobs", jobs, *modules], cache, tmp_path)
     assert first.returncode == 0, first.stderr[-2000:]
-    assert "data saved to" in first.stdout, first.stdout[-2000:]  # compiled here
+    saved = re.findall(r"\[cache\] data saved to (\S+)", first.stdout)
+    assert saved, first.stdout[-2000:]  # compiled here (in the worker processes with --jobs 2)
+    assert len(saved) == len(set(saved)), saved  # each kernel compiled by one process
     assert f"the numba kernels of {len(modules)} modules compiled and cached" in first.stdout
     for name in modules:  # one line per module on stderr when not on a terminal
         assert f"wbc compile: {name} (" in first.stderr
@@ -54,6 +98,12 @@ def test_compile_refuses_a_module_without_kernels(tmp_path):
     assert out.returncode == 2
     assert out.stderr.startswith("wbc compile: error: no numba kernel loader in wbc.geometry")
     assert "compiled and cached" not in out.stdout
+
+
+def test_compile_refuses_zero_processes(tmp_path):
+    out = _run(["-m", "wbc", "compile", "--jobs", "0"], tmp_path / "cache", tmp_path)
+    assert out.returncode == 2
+    assert out.stderr.strip() == "wbc compile: error: --jobs must be a whole number of processes >= 1, got 0"
 
 
 def _cache_files(stdout: str) -> set[str]:

@@ -1,29 +1,35 @@
-"""``wbc compile``: compile every numba kernel ahead of the first run (the step after ``pip install``).
+"""``wbc compile``: compile every numba kernel ahead of time, in parallel over the cores.
 
 wbc's kernels are compiled on first use and cached on disk (``__pycache__`` next to each source file, or under
-``NUMBA_CACHE_DIR``); the first run after an install would otherwise spend a minute or more compiling them before
-its first tick. ``wbc compile`` runs every kernel loader (:func:`compile_all`) with a progress bar on a
-terminal (one line per module otherwise), then runs each command of :data:`WARM_UP_RUNS` for two steps in a
-child process (:func:`run_warm_up`): a kernel a command calls with array types or layouts no loader used (a MuJoCo
-contact slice, a column-major mass matrix, the inverse-dynamics tick) is compiled and cached there, not inside the
-user's first run. Run again, it loads the cached kernels and takes seconds.
+``NUMBA_CACHE_DIR``): a command's first run compiles the kernels it needs (the loaders its objects call at
+construction, one line per module on stderr) and later runs load them. ``wbc compile`` compiles all of them at once:
+it runs every kernel loader (:func:`compile_all`) in worker processes, one module per process at a time and as many
+processes as cores (numba compiles in one thread under a process-wide lock; its cache is written file by file,
+atomically, so processes share it), a module only after the modules of :data:`AFTER` whose kernels it calls; then it
+runs each command of :data:`WARM_UP_RUNS` for two steps in a child process (:func:`run_warm_up`): a kernel a command
+calls with array types or layouts no loader used (a MuJoCo contact slice, a column-major mass matrix, the
+inverse-dynamics tick) is compiled and cached there. A progress bar on a terminal, one line per module otherwise.
+Run again, it loads the cached kernels and takes seconds.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
-from typing import Iterable
+from typing import Callable, Iterable
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["LOADER_MODULES", "WARM_UP_RUNS", "register", "check_compile_args", "cmd_compile", "compile_all",
+__all__ = ["AFTER", "LOADER_MODULES", "WARM_UP_RUNS", "register", "check_compile_args", "cmd_compile", "compile_all",
+           "default_jobs",
            "loader_modules", "run_warm_up"]
 
 #: Every module with a :func:`wbc.compiled.once_per_process` loader, the kinematic controller's first (what
-#: ``wbc walk`` loads), then the inverse-dynamics controller's and the simulation's (``wbc sim``).
+#: ``wbc walk`` loads; the longest compilations first), then the inverse-dynamics controller's and the simulation's
+#: (``wbc sim``).
 LOADER_MODULES = (
-    "wbc.formulations.velocity_kernel", "wbc.solvers.fast", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
+    "wbc.solvers.fast", "wbc.formulations.velocity_kernel", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
     "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
     "wbc.constraints.braking", "wbc.constraints.limits", "wbc.formulations.reference",
     "wbc.formulations.idkernel", "wbc.dynamics.controller", "wbc.dynamics.actuator_compensation",
@@ -32,10 +38,29 @@ LOADER_MODULES = (
     "wbc.sim.outcome", "wbc.sim.sensors", "wbc.sim.walk",
 )
 
+#: Loader modules whose kernels call kernels that other loader modules compile (module -> those modules; a warm-up
+#: run of :data:`WARM_UP_RUNS` too, as ``"wbc sim walk --steps 2"``): ``wbc compile`` starts a module's loaders only
+#: once those modules' loaders have finished, so that the shared kernels are compiled by one process and loaded from
+#: the cache by the others (two processes compiling the same kernel do the work twice). Every loader module that
+#: imports a kernel of another loader module lists it; the kinematic solver's kernels also wait for
+#: :mod:`wbc.solvers.fast`, whose loader compiles the active-set and box/equality kernels
+#: (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`, modules without a loader) that both call.
+AFTER = {
+    "wbc.formulations.velocity_kernel": ("wbc.solvers.fast", "wbc.tasks.frame", "wbc.constraints.limits"),
+    "wbc.constraints.contact": ("wbc.tasks.frame",),
+    "wbc.formulations.idkernel": ("wbc.formulations.reference", "wbc.constraints.joint_acceleration_bounds"),
+    "wbc.sim.closed_loop": ("wbc.formulations.velocity_kernel",),
+}
+
 #: ``wbc`` commands ``wbc compile`` runs (two steps each, ``--quiet``) after the loaders: they call kernels no loader
 #: reaches with their real argument types (the closed loop on MuJoCo: inverse-dynamics tick, state estimator,
 #: outcome checks on MuJoCo's contact arrays).
 WARM_UP_RUNS = (("sim", "walk", "--steps", "2"),)
+
+# the closed-loop walk runs the inverse-dynamics controller: it waits for every loader but the kinematic solver's (and
+# closed_loop's, which waits for that), so that it runs beside the kinematic solver's compilation
+AFTER["wbc sim walk --steps 2"] = tuple(m for m in LOADER_MODULES
+                                        if m not in ("wbc.formulations.velocity_kernel", "wbc.sim.closed_loop"))
 
 
 def run_warm_up(argv: tuple[str, ...]) -> float:
@@ -59,7 +84,7 @@ def run_warm_up(argv: tuple[str, ...]) -> float:
 
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, "-m", "wbc", *argv, "--quiet"], stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)  # Ctrl-C stops the run
     if out.returncode not in (0, 1):  # 1: the run's acceptance failed, its kernels ran all the same
         raise SimulationError(f"`wbc {' '.join(argv)}` (run by wbc compile to compile its kernels) exited with "
                               f"{out.returncode}: {out.stderr.strip()[-500:]}")
@@ -80,54 +105,157 @@ def loader_modules(names: Iterable[str] = ()) -> list[str]:
     return names or list(LOADER_MODULES)
 
 
-def compile_all(modules: Iterable[str] = ()) -> dict[str, float]:
+def compile_all(modules: Iterable[str] = (), jobs: int = 1,
+                on_done: Callable[[str, float, float], None] | None = None,
+                on_start: Callable[[str], None] | None = None,
+                runs: Iterable[tuple[str, ...]] = ()) -> dict[str, float]:
     """Import each module and run its loaders (:func:`wbc.compiled.run_loaders`): every kernel they call is compiled
-    and written to numba's on-disk cache, or loaded from it when already there.
+    and written to numba's on-disk cache, or loaded from it when already there; then run each command of ``runs``
+    (:func:`run_warm_up`).
+
+    With ``jobs`` > 1 the modules and runs are done in that many worker processes (same interpreter and environment,
+    so the same cache), each once the items :data:`AFTER` lists for it (among those given) are done, the ready ones in
+    the order given; the kernels are then in the on-disk cache, not in this process.
 
     Args:
-        modules: names among :data:`LOADER_MODULES` (default, or empty: all of them), loaded in this order.
+        modules: names among :data:`LOADER_MODULES` (default, or empty: all of them).
+        jobs: the number of processes (1: in this process, one item after the other).
+        on_done: called ``on_done(item, wall_seconds, cpu_seconds)`` in this process as each item finishes (a module
+            name, or a run as ``"wbc sim walk --steps 2"``; CPU: of the worker, or of a run's child process).
+        on_start: called ``on_start(item)`` in this process as each item starts.
+        runs: ``wbc`` command lines without the program name (e.g. :data:`WARM_UP_RUNS`).
 
     Returns:
-        The wall time in seconds each module took (import and loaders), by name.
+        The wall time in seconds each item took (import and loaders; a run: the whole command), by item.
 
     Raises:
-        InvalidInputError: a name is not in :data:`LOADER_MODULES` (before any module is imported).
+        InvalidInputError: a name is not in :data:`LOADER_MODULES` (before any module is imported), or ``jobs`` < 1.
+        SimulationError: a run failed (see :func:`run_warm_up`).
     """
+    items = {name: name for name in loader_modules(modules)}
+    items.update({_run_label(argv): tuple(argv) for argv in runs})
+    if jobs < 1:
+        raise InvalidInputError(f"jobs must be at least 1, got {jobs}")
+    seconds = {}
+
+    def finished(label: str, wall: float, cpu: float) -> None:
+        seconds[label] = wall
+        if on_done is not None:
+            on_done(label, wall, cpu)
+
+    if jobs == 1 or len(items) == 1:
+        for label, item in items.items():
+            if on_start is not None:
+                on_start(label)
+            finished(*_compile_item(item))
+        return seconds
+
+    import multiprocessing
+    import queue
+
+    waiting = {label: {m for m in AFTER.get(label, ()) if m in items} for label in items}
+    running: set[str] = set()
+    results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
+    # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
+    # ignore Ctrl-C (inside numba's compiler it would be swallowed, with a traceback): this process stops them
+    pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(items)), initializer=_ignore_sigint)
+    try:
+        while waiting or running:
+            for label in [n for n, deps in waiting.items() if not deps][:max(0, jobs - len(running))]:
+                del waiting[label]
+                running.add(label)
+                pool.apply_async(_compile_item, (items[label],),
+                                 callback=lambda result, label=label: results.put((label, result, None)),
+                                 error_callback=lambda error, label=label: results.put((label, None, error)))
+                if on_start is not None:
+                    on_start(label)
+            label, result, error = results.get()
+            running.discard(label)
+            if error is not None:
+                raise error
+            finished(*result)
+            for deps in waiting.values():
+                deps.discard(label)
+        pool.close()
+    finally:
+        pool.terminate()  # nothing left to run, or stopped early (an error, Ctrl-C): the workers end now
+        pool.join()
+    return seconds
+
+
+def _default_sigint() -> None:  # in a child process: Ctrl-C stops it (a compile worker ignores it)
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run_label(argv: tuple[str, ...]) -> str:
+    return "wbc " + " ".join(argv)
+
+
+def _compile_item(item: str | tuple[str, ...]) -> tuple[str, float, float]:
+    """Import the module ``item`` and run its loaders, or run the ``wbc`` command line ``item`` (a tuple); returns
+    (its label, wall seconds, CPU seconds of this process or of the command's child process)."""
+    import resource
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    if isinstance(item, tuple):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        run_warm_up(item)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+        return _run_label(item), time.perf_counter() - t0, cpu
     import importlib
 
     from wbc.compiled import run_loaders
 
-    seconds = {}
-    for name in loader_modules(modules):
-        t0 = time.perf_counter()
-        importlib.import_module(name)
-        run_loaders(name)
-        seconds[name] = time.perf_counter() - t0
-    return seconds
+    importlib.import_module(item)
+    run_loaders(item)
+    return item, time.perf_counter() - t0, time.process_time() - c0
+
+
+def default_jobs() -> int:
+    """The number of cores this process may run on (its CPU affinity): ``wbc compile``'s default ``--jobs``."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def register(sub, add_outputs=None) -> None:
     """Add the ``compile`` sub-command to ``wbc``'s sub-parsers (``add_outputs`` is not used)."""
-    p = sub.add_parser("compile", help="compile every numba kernel now and cache it on disk (run once after install)",
-                       description="Compile wbc's numba kernels ahead of the first run and cache them on disk, so "
-                                   "that the first `wbc walk` (or sim, balance...) starts at once; a second "
-                                   "`wbc compile` only loads the cached kernels.")
+    p = sub.add_parser("compile", help="compile every numba kernel now, in parallel, and cache it on disk",
+                       description="Compile all of wbc's numba kernels now, in parallel over the cores, and cache "
+                                   "them on disk, so that no later run (walk, sim, balance...) compiles any; "
+                                   "without it each command compiles the kernels it needs on its first run. A "
+                                   "second `wbc compile` only loads the cached kernels.")
     p.add_argument("modules", nargs="*", metavar="MODULE",
                    help=f"only these modules' kernels (default: all {len(LOADER_MODULES)}: "
                         f"{', '.join(LOADER_MODULES)})")
+    p.add_argument("--jobs", "-j", type=int, default=default_jobs(), metavar="N",
+                   help="compile in N processes (default: the cores available, %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or per-module lines, only the final line")
     p.set_defaults(func=cmd_compile, check=check_compile_args)
 
 
 def check_compile_args(args) -> None:
-    """Raises InvalidInputError: a module without kernel loader (see :data:`LOADER_MODULES`)."""
+    """Raises InvalidInputError: a module without kernel loader (see :data:`LOADER_MODULES`), or ``--jobs`` < 1."""
     loader_modules(args.modules)
+    if args.jobs < 1:
+        raise InvalidInputError(f"--jobs must be a whole number of processes >= 1, got {args.jobs}")
 
 
 def cmd_compile(args) -> int:
-    """`wbc compile`: run the loaders of every (or each given) kernel module, one module at a time, then (all modules
-    only) the commands of :data:`WARM_UP_RUNS`, with a progress bar on a terminal naming the module or command being
-    compiled (redrawn every second), one line per item otherwise; prints the total time. Exit code 0.
+    """`wbc compile`: run the loaders of every (or each given) kernel module in ``--jobs`` processes
+    (:func:`compile_all`), then (all modules only) the commands of :data:`WARM_UP_RUNS`; with a progress bar on a
+    terminal naming the modules or command being compiled (redrawn every second from the start), one line per
+    module otherwise (its wall and CPU seconds, as each finishes); prints the total time. Exit code 0.
 
     Raises:
         SimulationError: a command of :data:`WARM_UP_RUNS` failed.
@@ -138,18 +266,22 @@ def cmd_compile(args) -> int:
 
     modules = loader_modules(args.modules)
     runs = () if args.modules else WARM_UP_RUNS
+    jobs = min(args.jobs, len(modules) + len(runs))
     t0 = time.perf_counter()
     bar = beat = None
     if not args.quiet:
         missing = len(uncompiled_kernels(modules))
-        print(f"wbc compile: compiling the numba kernels of {len(modules)} modules ({missing} without on-disk cache; "
-              "a minute or two once) ..." if missing else
-              f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...", file=sys.stderr, flush=True)
+        where = f"in {jobs} processes" if jobs > 1 else "in this process"
+        print(f"wbc compile: compiling the numba kernels of {len(modules)} modules {where} ({missing} without on-disk "
+              "cache; a minute or two once on 2 cores) ..." if missing else
+              f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...", file=sys.stderr,
+              flush=True)
         if getattr(sys.stderr, "isatty", lambda: False)():
             from tqdm import tqdm
 
             bar = tqdm(total=len(modules) + len(runs), desc="wbc compile", unit="item", file=sys.stderr,
-                       bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed}{postfix}")  # postfix: ", module"
+                       bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed}{postfix}")  # postfix: the modules
+            bar.refresh()
             beat = threading.Event()
 
             def redraw() -> None:  # the elapsed time moves while a module compiles
@@ -157,26 +289,25 @@ def cmd_compile(args) -> int:
                     bar.refresh()
 
             threading.Thread(target=redraw, daemon=True, name="wbc-compile-heartbeat").start()
+    busy: list[str] = []
+
+    def started(name: str) -> None:
+        busy.append(name)
+        if bar is not None:
+            bar.set_postfix_str(", ".join(busy))
+
+    def finished(name: str, wall: float, cpu: float) -> None:
+        busy.remove(name)
+        if sigint_received():  # a Ctrl-C swallowed inside numba's compiler (a C callback): stop here
+            raise KeyboardInterrupt
+        if bar is not None:
+            bar.set_postfix_str(", ".join(busy))
+            bar.update()
+        elif not args.quiet:
+            print(f"wbc compile: {name} ({wall:.1f} s, {cpu:.1f} s CPU)", file=sys.stderr, flush=True)
+
     try:
-        for name in modules:
-            if bar is not None:
-                bar.set_postfix_str(name)
-            seconds = compile_all([name])[name]
-            if sigint_received():  # a Ctrl-C swallowed inside numba's compiler (a C callback): stop here
-                raise KeyboardInterrupt
-            if bar is not None:
-                bar.update()
-            elif not args.quiet:
-                print(f"wbc compile: {name} ({seconds:.1f} s)", file=sys.stderr, flush=True)
-        for argv in runs:
-            command = "wbc " + " ".join(argv)
-            if bar is not None:
-                bar.set_postfix_str(command)
-            seconds = run_warm_up(argv)
-            if bar is not None:
-                bar.update()
-            elif not args.quiet:
-                print(f"wbc compile: {command} ({seconds:.1f} s)", file=sys.stderr, flush=True)
+        compile_all(modules, jobs=jobs, on_done=finished, on_start=started, runs=runs)
     finally:
         if bar is not None:
             beat.set()
