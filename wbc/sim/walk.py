@@ -15,7 +15,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
-  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); a loaded stance sole rotating about a
+  at the stance sole's measured height (:func:`wbc.gait.blind.blind_swing_into`); a loaded stance sole rotating about a
   line of its sole has its contact cut to a band about that line (partial footholds,
   :meth:`WalkScenario._partial_footholds`). Blind and on planned terrain the planned CoM height is raised by the
   supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
@@ -62,6 +62,7 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import convex_hull, mean_heading, polygon_margin, projected_sole_corners
 from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
+from wbc.gait.blind import BLIND_CUT_LOAD, BLIND_XY_END, blind_swing_into, clip_band_range, roll_band
 from wbc.gait.commands import feet_can_yaw
 from wbc.gait.stabilizer import DcmStabilizer, closest_point_xy, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
@@ -155,30 +156,9 @@ SWING_HEIGHT_WEIGHT = 3.0
 #: is measured, not derived (benchmarks/README.md, "Step timing on stairs").
 SWING_FROUDE = 0.6
 
-#: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
-#: swing descends vertically; :meth:`WalkScenario._blind_swing`).
-BLIND_XY_END = 0.8
-#: Blind walk: fraction of a swing over which the sole rises to its clearance height (minimum jerk).
-BLIND_LIFT = 0.3
-#: Blind walk: fraction of a swing from which the sole is set down (minimum jerk to the landing height).
-BLIND_SET_DOWN = 0.6
 #: Blind walk: time constant (s) of the low-pass filter on the supporting soles' measured − planned height that is
 #: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
 BLIND_SUPPORT_TAU = 0.2
-#: Blind walk, partial footholds (:meth:`WalkScenario._partial_footholds`): a loaded sole (measured normal force
-#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rotating faster than this (rad/s, about a sole axis) has its contact
-#: rectangle cut to a band about the line of rotation through its measured CoP.
-BLIND_ROLL_RATE = 0.6
-#: Blind walk: half width (m) of the band about the measured CoP to which a rolling sole's contact is cut.
-BLIND_CUT_BAND = 0.01
-#: Blind walk: fraction of the weight a sole must carry for its rolling to cut its contact rectangle.
-BLIND_CUT_LOAD = 0.1
-#: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
-BLIND_CUT_MIN = 0.02
-#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's edges for a cut.
-BLIND_PIVOT_INSET = 0.02
-#: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
-BLIND_CUT_HOLD = 0.1
 
 
 class WalkScenario:
@@ -267,7 +247,7 @@ class WalkScenario:
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
             the air) and a late foot keeps descending up to 5 cm below its planned landing. The swing sole reaches
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
-            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
+            (:func:`wbc.gait.blind.blind_swing_into`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
             ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
             while it has barely moved forward). The step adjustment leaves the foothold of the vertical descent alone
             (frozen over the last ``1 − BLIND_XY_END`` of the swing, which may end on a bump at any tick), and a
@@ -793,7 +773,8 @@ class WalkScenario:
                 if self.blind and BLIND_XY_END < 1.0:
                     pose = pin.SE3(P)
                     pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
-                    self._blind_swing(side, kk, k_lift, k_td, pose, vel, acc)
+                    blind_swing_into((self.poses[side], self.vels[side], self.acc[side]), kk, k_lift, k_td, self.step_height,
+                                     self.dt, pose, vel, acc)
                     rot_t, pos = pose.rotation.T.copy(), np.array(pose.translation)
                 else:  # (the plan's rotations are rotations: only the numbers added here need checking)
                     rot_t, pos = P[:3, :3].T.copy(), P[:3, 3].copy()
@@ -892,40 +873,6 @@ class WalkScenario:
             rot_t[i, 0], rot_t[i, 1], rot_t[i, 2] = a * c - b * s, a * s + b * c, r0[2, i]
         controller.torso.task.set_target_rows(rot_t, pos)
 
-    def _blind_swing(self, side: str, k: int, k_lift: int, k_td: int, pose: pin.SE3, vel: np.ndarray,
-                     acc: np.ndarray) -> None:
-        """Blind walk: the planned swing's horizontal motion and rotation run ``1 / BLIND_XY_END`` times faster,
-        over the first ``BLIND_XY_END`` of the swing (plan sample ``k`` between lift-off ``k_lift`` and touch-down
-        ``k_td``); the sole then descends vertically over its foothold, so a touch-down on ground above the planned
-        one (early contact) lands where planned, with no horizontal speed. Its clearance bump is replaced by a lift
-        of the same height ``h`` that rises over the first :data:`BLIND_LIFT` of the swing (minimum jerk), is held,
-        and is set down from :data:`BLIND_SET_DOWN` on: the toe clears the bumps ahead while the foot has barely
-        moved forward (the bump ``h · 64 s³ (1 − s)³`` is at 0.26 h when the foot has covered a tenth of its step,
-        and the toe of a sole lifted off rough ground struck the facets ahead). Modifies ``pose``, ``vel`` and
-        ``acc`` in place."""
-        n = max(k_td - k_lift, 1)
-        T = n * self.dt
-        s = (k - k_lift) / n
-        if s >= BLIND_XY_END:
-            kx, r = k_td, 0.0
-        else:
-            kx, r = k_lift + int(round(s / BLIND_XY_END * n)), 1.0 / BLIND_XY_END
-        P = self.poses[side][min(kx, k_td)]
-        z_bump = float(self.poses[side][k][2, 3] - self.poses[side][k_td][2, 3])  # the flat plan's bump at k
-        up_b, up_d, up_dd = min_jerk(s / BLIND_LIFT)
-        dn_b, dn_d, dn_dd = min_jerk((1.0 - s) / (1.0 - BLIND_SET_DOWN))
-        a, c, h = BLIND_LIFT, 1.0 - BLIND_SET_DOWN, self.step_height
-        lift = h * up_b * dn_b
-        dlift = h * (up_d / a * dn_b - up_b * dn_d / c) / T
-        ddlift = h * (up_dd / a**2 * dn_b - 2.0 * up_d * dn_d / (a * c) + up_b * dn_dd / c**2) / T**2
-        pose.rotation = P[:3, :3]
-        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2] - z_bump + lift])
-        vx, ax = self.vels[side][kx], self.acc[side][kx]
-        vz, az = float(self.vels[side][k][2]), float(self.acc[side][k][2])
-        vel[:2], vel[3:] = r * vx[:2], r * vx[3:]
-        acc[:2], acc[3:] = r * r * ax[:2], r * r * ax[3:]
-        vel[2], acc[2] = vel[2] - vz + dlift, acc[2] - az + ddlift
-
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
         """Touch-down height of a swinging foot relative to the stance sole: its landing height (blind: the
         planned flat ground) plus the stance sole's measured height less its planned one. The estimated base height drifts on terrain (odometry of
@@ -986,15 +933,7 @@ class WalkScenario:
                         pin.forwardKinematics(self._model, self._gdata, q, v)
                         kinematics = True
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
-                    px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
-                    e = BLIND_PIVOT_INSET
-                    h = BLIND_CUT_BAND
-                    if abs(w[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
-                        new[0], new[1] = px - h, px + h
-                        until[0] = t + BLIND_CUT_HOLD
-                    if abs(w[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about an inner line
-                        new[2], new[3] = py - h, py + h
-                        until[1] = t + BLIND_CUT_HOLD
+                    roll_band(new, until, t, w, (-float(W[j][4]) / fz, float(W[j][3]) / fz), (A, B))
             if new == cut:
                 continue
             if all(math.isinf(x) for x in new):
@@ -1003,19 +942,11 @@ class WalkScenario:
                 continue
             x1, y1 = con.half_size
             x0, y0 = -x1, -y1
-            lo_x, hi_x = self._clip_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
-            lo_y, hi_y = self._clip_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
+            lo_x, hi_x = clip_band_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
+            lo_y, hi_y = clip_band_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
             self._cut[s] = tuple(new)
             con.set_support(lo_x, hi_x, lo_y, hi_y)
             self.support_cuts += 1
-
-    @staticmethod
-    def _clip_range(lo: float, hi: float, a: float, b: float) -> tuple[float, float]:
-        """[lo, hi] widened to :data:`BLIND_CUT_MIN` about its middle and kept inside [a, b]."""
-        if hi - lo < BLIND_CUT_MIN:
-            m = min(max(0.5 * (lo + hi), a + 0.5 * BLIND_CUT_MIN), b - 0.5 * BLIND_CUT_MIN)
-            lo, hi = m - 0.5 * BLIND_CUT_MIN, m + 0.5 * BLIND_CUT_MIN
-        return lo, hi
 
     def _support_offset(self, k: int) -> tuple[float, float]:
         """Blind walk and planned terrain: height (m) and rate (m/s) added to the planned CoM height at plan sample

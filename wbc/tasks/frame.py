@@ -33,8 +33,7 @@ from wbc.geometry import as_se3
 from wbc.lie import jlog3_into, log3_columns, log3_into, log3_rate_into, placement_log6_into
 from wbc.tasks.base import Task, as_weight
 
-__all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_drift", "frame_error_and_jacobian", "pose_error_and_jacobian",
-           "orientation_drift", "as_se3"]
+__all__ = ["FrameTask", "PositionTask", "OrientationTask", "frame_drift", "pose_error_and_jacobian"]
 
 
 def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -46,26 +45,7 @@ def pose_error_and_jacobian(placement: pin.SE3, j_local: np.ndarray, target: pin
     return error, jac
 
 
-def orientation_drift(rel: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """(3,) J̇v of the orientation error log₃(rel) (module docstring): Jlog₃(rel) α₀ + Hlog₃(rel, ω) ω, for
-    rel (3, 3) = R*ᵀR, ω (3,) the LOCAL angular velocity (rad/s) and α₀ (3,) the LOCAL angular acceleration at
-    v̇ = 0 (rad/s²) (:func:`wbc.lie.log3_rate_into`)."""
-    out = np.empty(3)
-    _orientation_drift(np.asarray(rel, dtype=float), np.asarray(omega, dtype=float),
-                       np.asarray(alpha, dtype=float), out)
-    return out
-
-
 _ALL_ROWS = np.arange(6)
-
-
-@nb.njit(cache=True, nogil=True)
-def _orientation_drift(rel, omega, alpha, out):
-    """:func:`orientation_drift` into out (3,)."""
-    log, jlog = np.empty(3), np.empty((3, 3))
-    theta = log3_into(rel, log)
-    st, ct = jlog3_into(theta, log, jlog)
-    log3_rate_into(theta, st, ct, log, jlog, omega, alpha, out)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -177,11 +157,6 @@ def frame_drift(rot: np.ndarray, target_rot_t: np.ndarray, velocity: pin.Motion,
 
 _NO_COLUMNS = np.zeros((6, 0))  # a Jacobian without columns: frame_drift writes no Jacobian entry
 _NO_POSITION = np.zeros(3)  # frame_drift's error rows are discarded
-
-
-def frame_error_and_jacobian(config: Configuration, frame_id: int, target: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
-    """(6,) error and (6, nv) Jacobian of frame ``frame_id`` w.r.t. ``target`` (see module docstring)."""
-    return pose_error_and_jacobian(config.data.oMf[frame_id], config.frame_jacobian(frame_id, LOCAL), target)
 
 
 class FrameTask(Task):
