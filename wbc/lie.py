@@ -141,7 +141,7 @@ def log3_rate_into(theta, st, ct, log, jlog, omega, alpha, out):
     rad/s, rad/s²), given θ, sin θ, cos θ, log = log₃(R) (3,) and jlog = Jlog₃ (3, 3) (:func:`jlog3_into`).
 
     (d/dt Jlog₃) ω is ``pin.Hlog3(R, ω) ω`` (Pinocchio's formula) for θ ≥ :data:`SMALL_ANGLE`; below, where that
-    formula loses digits (4e-6 at 1e-4 rad) and is NaN at R = I, −(1/6) ω × (θ × ω), from Jlog₃ = I + ½[θ]× +
+    formula loses digits (its terms cancel as θ → 0) and is NaN at R = I, −(1/6) ω × (θ × ω), from Jlog₃ = I + ½[θ]× +
     (1/12)[θ]×² + O(|θ|³) and θ̇ = Jlog₃ ω (error O(|θ|² |ω|²))."""
     w0, w1, w2 = omega[0], omega[1], omega[2]
     for i in range(3):
