@@ -436,7 +436,7 @@ CONSTANT_NAME_SYNONYMS = {"TOLERANCE": "TOL", "TIMESTEP": "DT", "PERIOD": "DT"}
 CONSTANT_NAME_GENERIC = {"TOL", "WEIGHT", "MAX", "MIN", "DEG", "M", "S", "N", "RATIO", "FRACTION", "BIT"}
 # Same value, related names, different meanings: (module.NAME, module.NAME) -> why they are two constants.
 DISTINCT_CONSTANTS = {
-    ("wbc.gait.terrain_walk.LIFT", "wbc.gait.blind.BLIND_LIFT"):
+    ("wbc.gait.blind.BLIND_LIFT", "wbc.gait.terrain_walk.LIFT"):
         "two swing profiles tuned apart: the terrain swing's symmetric rise and set-down fraction vs the blind "
         "swing's rise, whose set-down starts at BLIND_SET_DOWN",
     ("wbc.robot.LIMIT_TOLERANCE", "wbc.robot_file.LIMIT_INVERSION_TOLERANCE"):
