@@ -65,7 +65,7 @@ from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_CUT_LOAD, BLIND_XY_END, blind_swing_into, clip_band_range, roll_band
 from wbc.gait.commands import feet_can_yaw
 from wbc.gait.stabilizer import DcmStabilizer, closest_point_xy, stabilizer_kernel, support_kernel
-from wbc.gait.step_adjustment import StepAdjuster
+from wbc.gait.step_adjustment import StepAdjuster, StretchLimits
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.physics_scenarios import contacts_rank_deficient
@@ -184,8 +184,8 @@ class WalkScenario:
             reach, the step time is the remaining means of capture; default on). The swing in progress is cut
             short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            landing's DCM correction by more than 5 cm (``_correction_clipped``: the nominal landing's own clip not
-            counted): landing sooner, the DCM has diverged less when the new stance
+            landing's DCM correction by more than 5 cm (``StepAdjuster.correction_clip``: the nominal landing's own
+            clip not counted): landing sooner, the DCM has diverged less when the new stance
             starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
@@ -1086,7 +1086,7 @@ class WalkScenario:
             return
         if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
                 and self._skipped != idx and self._stretched != idx \
-                and self._correction_clipped(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
+                and self.adjuster.correction_clip(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
@@ -1127,57 +1127,16 @@ class WalkScenario:
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
-    def _correction_clipped(self, fs0: Footstep, stance: tuple[float, float, float], corr: np.ndarray,
-                            target: Footstep) -> float:
-        """How far (m) the reach clips the DCM correction ``corr`` (2,) (m, world xy): the distance from the nominal
-        landing ``fs0`` projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (``StepAdjuster.landing``
-        with no correction), moved by ``corr``, to the adjusted landing ``target``. The reach's clip of the nominal
-        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that
-        rolls or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the
-        turned reach, asked for a timing cut with no DCM error)."""
-        n0 = self.adjuster.landing(fs0, stance, np.zeros(2))
-        return math.hypot(n0.x + float(corr[0]) - target.x, n0.y + float(corr[1]) - target.y)
-
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
-        """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
-        landing (Khadiv, Herzog, Moosavian, Righetti 2020, "Walking control based on step timing adaptation",
-        IEEE T-RO 36(3): the step duration ``T`` is a decision variable bounded to ``[T_min, T_max]``, here
-        ``T_max`` = planned + ``max_stretch``).
-
-        A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
-        (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
-        foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot cross
-        to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot
-        captures it in one step
-        when the landing of eq. 2 of :mod:`wbc.gait.step_adjustment` (``τ' = τ + Δ``, the DCM diverging further
-        from the stance CoP ``u_0`` meanwhile) is within the reach.
-
-        Trigger: in the last ``stretch_window`` s of the swing (earlier, a cut is better: the foot can still
-        travel and landing sooner lets the DCM diverge less), the swing not yet stretched or cut, the landing moved by more than ``stretch_min`` from the
-        current plan's, the move not inwards of ``min_width`` (that landing needs the other foot: the step is cut
-        short instead) and the foot more than ``stretch_speed · τ`` from it. ``Δ``: the least multiple of 10 ms
-        up to ``max_stretch`` with ``‖u(τ + Δ) − foot‖ ≤ stretch_speed · (τ + Δ)``, else ``max_stretch``."""
+        """Samples by which to lengthen the swing ``idx`` in progress (0: none): in the last ``stretch_window`` s of
+        a swing not yet stretched or cut, with timing adaptation on, :meth:`StepAdjuster.stretch_samples
+        <wbc.gait.step_adjustment.StepAdjuster.stretch_samples>` (earlier in the swing, a cut is better: the foot
+        can still travel and landing sooner lets the DCM diverge less)."""
         if not self.adjust_timing or self.max_stretch <= 0 or self._stretched == idx or self._skipped == idx \
                 or time_left > self.stretch_window:
             return 0
-        if math.hypot(target.x - fs.x, target.y - fs.y) < self.stretch_min:
-            return 0
-        if self.adjuster.lateral_offset(fs0, stance, corr) < self.adjuster.min_width:
-            return 0
-        v = self.stretch_speed
-        if math.hypot(target.x - foot[0], target.y - foot[1]) <= v * time_left:
-            return 0
-        u0 = np.array(stance[:2])
-        n_max = int(round(self.max_stretch / self.dt))
-        step = max(1, int(round(0.01 / self.dt)))
-        for n in range(step, n_max + step, step):
-            n = min(n, n_max)
-            tl = time_left + n * self.dt
-            c2 = self.adjuster.correction(xi, xi_ref, time_left, tl, u0)
-            t2 = self.adjuster.landing(fs0, stance, c2)
-            if math.hypot(t2.x - foot[0], t2.y - foot[1]) <= v * tl:
-                return n
-        return n_max
+        limits = StretchLimits(self.max_stretch, self.stretch_speed, self.stretch_min, self.dt)
+        return self.adjuster.stretch_samples(limits, fs0, fs, stance, corr, target, foot, (xi, xi_ref), time_left)
 
     def _capturable(self, xi: np.ndarray, stance: str) -> bool:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
