@@ -53,7 +53,8 @@ with mkdocs_gen_files.open("reference/cli.md", "w") as f:
 LAYERS = [
     ("Package root", ["wbc"]),
     ("Errors, constants, compiled kernels", ["wbc.exceptions", "wbc.constants", "wbc.compiled"]),
-    ("Geometry, profiles, terrain, solvers", ["wbc.geometry", "wbc.profiles", "wbc.terrain", "wbc.solvers"]),
+    ("Geometry, Lie groups, profiles, terrain, solvers",
+     ["wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"]),
     ("Robot, kinematics", ["wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),
     ("Tasks", ["wbc.tasks"]),
     ("Constraints", ["wbc.constraints"]),

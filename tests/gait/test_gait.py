@@ -388,9 +388,9 @@ def test_plan_structure_and_immutability():
     assert plan.index(0.0) == 0 and plan.index(1.0) == 500 and plan.index(1e9) == n - 1 and plan.index(-3) == 0
     with pytest.raises(GaitError):
         plan.index(float("nan"))
-    poly = plan.support_polygon(plan.phases[1].first + 3)
+    poly = plan.support_polygon_at(plan.phases[1].first + 3)
     assert poly.shape == (4, 2)
-    assert plan.support_polygon(0).shape[0] >= 4
+    assert plan.support_polygon_at(0).shape[0] >= 4
 
 
 def test_talos_robot_feet():

@@ -9,7 +9,7 @@ import pytest
 
 from wbc.exceptions import GaitError
 from wbc.gait import Footstep, plan_footsteps, plan_walk
-from wbc.gait.step_adjustment import StepAdjuster
+from wbc.gait.step_adjustment import StepAdjuster, StretchLimits
 
 OMEGA = math.sqrt(9.81 / 0.87)
 
@@ -70,6 +70,46 @@ def _plan():
     L[1, 3], R[1, 3] = 0.1, -0.1
     return plan_walk(L, R, np.array([0.0, 0.0, 0.87]), n_steps=6, step_length=0.2, t_ss=0.5, t_ds=0.1,
                      t_init=0.6, t_final=0.8)
+
+
+def test_correction_clip_is_the_part_of_the_correction_the_reach_removes():
+    """Inside the reach nothing is clipped; a correction towards the stance leg is clipped by its excess over
+    min_width (numbers worked here: nominal 0.2 m to the left of the stance sole, min_width 0.18 m)."""
+    adj = _adjuster()
+    stance, nominal = (0.0, 0.0, 0.0), Footstep("left", 0.1, 0.2, 0.0)
+    d = np.array([0.05, 0.1])
+    assert adj.correction_clip(nominal, stance, d, adj.landing(nominal, stance, d)) == pytest.approx(0.0, abs=1e-12)
+    d = np.array([0.0, -0.1])  # wants y = 0.1 < min_width 0.18: clipped by 0.08 m
+    assert adj.correction_clip(nominal, stance, d, adj.landing(nominal, stance, d)) == pytest.approx(0.08, abs=1e-12)
+
+
+def test_stretch_samples_lengthen_a_late_swing_until_the_landing_is_in_reach():
+    """The lengthening returned makes the landing of eq. 2 reachable at the foot's speed (checked here with the
+    adjuster's own correction and landing, and that one 10 ms step less would not); none when the foot is close
+    enough or the landing barely moved."""
+    adj = _adjuster()
+    limits = StretchLimits(max_stretch=0.15, stretch_speed=1.0, stretch_min=0.02, dt=0.002)
+    stance, nominal = (0.0, 0.0, 0.0), Footstep("left", 0.25, 0.2, 0.0)
+    xi_ref = np.array([0.1, 0.02])
+    xi = xi_ref + np.array([0.0, 0.06])  # pushed towards the swing side
+    tau = 0.05
+    corr = adj.correction(xi, xi_ref, tau)
+    target = adj.landing(nominal, stance, corr)
+    far = (0.25, 0.05)  # no lengthening up to 0.15 s brings the landing within reach: the longest
+    assert adj.stretch_samples(limits, nominal, nominal, stance, corr, target, far, (xi, xi_ref), tau) == 75
+    foot = (0.25, 0.18)  # 9 cm from the landing, more than 1 m/s × 0.05 s
+    n = adj.stretch_samples(limits, nominal, nominal, stance, corr, target, foot, (xi, xi_ref), tau)
+    assert 0 < n < 75
+
+    def reachable(m):
+        tl = tau + m * limits.dt
+        t2 = adj.landing(nominal, stance, adj.correction(xi, xi_ref, tau, tl, np.array(stance[:2])))
+        return math.hypot(t2.x - foot[0], t2.y - foot[1]) <= limits.stretch_speed * tl
+
+    assert reachable(n) and not reachable(n - 5)
+    near = (target.x, target.y - 0.01)
+    assert adj.stretch_samples(limits, nominal, nominal, stance, corr, target, near, (xi, xi_ref), tau) == 0
+    assert adj.stretch_samples(limits, nominal, target, stance, corr, target, foot, (xi, xi_ref), tau) == 0
 
 
 def test_replan_with_moved_footsteps():

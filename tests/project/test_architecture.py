@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2] / "wbc"
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions", "wbc.compiled", "wbc.constants", "wbc.tick"),
-    ("wbc.geometry", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
+    ("wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.formulations", "wbc.controllers", "wbc.dynamics", "wbc.solve"),
@@ -436,7 +436,7 @@ CONSTANT_NAME_SYNONYMS = {"TOLERANCE": "TOL", "TIMESTEP": "DT", "PERIOD": "DT"}
 CONSTANT_NAME_GENERIC = {"TOL", "WEIGHT", "MAX", "MIN", "DEG", "M", "S", "N", "RATIO", "FRACTION", "BIT"}
 # Same value, related names, different meanings: (module.NAME, module.NAME) -> why they are two constants.
 DISTINCT_CONSTANTS = {
-    ("wbc.gait.terrain_walk.LIFT", "wbc.sim.walk.BLIND_LIFT"):
+    ("wbc.gait.blind.BLIND_LIFT", "wbc.gait.terrain_walk.LIFT"):
         "two swing profiles tuned apart: the terrain swing's symmetric rise and set-down fraction vs the blind "
         "swing's rise, whose set-down starts at BLIND_SET_DOWN",
     ("wbc.robot.LIMIT_TOLERANCE", "wbc.robot_file.LIMIT_INVERSION_TOLERANCE"):

@@ -3,8 +3,8 @@
 ``tests/test_<module>[_<topic>].py``; a package's public API, its ``__init__``, in
 ``tests/<package>/test_<package>[_<topic>].py``; a catalog robot of ``robots/`` in
 ``tests/robots/test_<robot>.py``). Tests of the project as a whole (architecture, docs, README, examples, install)
-live in ``tests/project/``. Every test-file path the repository's code and documentation name exists (the run
-record ``benchmarks/README.md`` keeps the paths of its day)."""
+live in ``tests/project/``. Every test-file path the repository's code and documentation name exists (the dated
+run records in ``benchmarks/records/`` keep the paths of their day)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parents[2]
 TESTS = REPO / "tests"
 PROJECT_DIR = "project"
 ROBOTS_DIR = "robots"
-RUN_RECORD = "benchmarks/README.md"
+RUN_RECORDS = "benchmarks/records/"
 
 
 def misplaced_tests(tests: Path, package: Path, robots: Path) -> list[str]:
@@ -70,7 +70,7 @@ def test_every_test_path_named_in_the_repository_exists():
     missing = []
     for f in files:
         path = REPO / f
-        if path.suffix not in (".py", ".md", ".toml", ".yml") or not path.is_file() or f == RUN_RECORD:
+        if path.suffix not in (".py", ".md", ".toml", ".yml") or not path.is_file() or f.startswith(RUN_RECORDS):
             continue
         for m in named.finditer(path.read_text(encoding="utf-8", errors="replace")):
             if not (REPO / m.group(0)).is_file():

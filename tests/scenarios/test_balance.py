@@ -17,8 +17,9 @@ from wbc.exceptions import InvalidInputError
 from wbc.profiles import min_jerk_ramp as min_jerk
 from wbc.scenarios.balance import (
     BEHAVIOURS, COMMON_CRITERIA, DOUBLE, LEFT_STANCE, BalanceController, MinJerkPath, balance_summary,
-    run_balance, support_polygon,
+    run_balance,
 )
+from wbc.geometry import support_polygon
 
 CASES = [(b, r) for b in BEHAVIOURS for r in CATALOG]
 
@@ -196,10 +197,11 @@ def test_polygon_constraint_follows_the_support(robots):
     ctrl = BalanceController(robot, config, polygon_margin=0.0125)
     assert isinstance(ctrl.com_polygon, wbc.constraints.ComPolygonConstraint)
     assert any(c is ctrl.com_polygon for c in ctrl.controller.constraints)
-    np.testing.assert_allclose(ctrl.com_polygon.polygon, support_polygon(robot, [ctrl.contact[s].placement
-                                                                                 for s in ("left", "right")]))
+    size = robot.sole_length, robot.sole_width
+    np.testing.assert_allclose(ctrl.com_polygon.polygon, support_polygon([ctrl.contact[s].placement
+                                                                          for s in ("left", "right")], *size))
     ctrl.set_support(LEFT_STANCE, config)
-    np.testing.assert_allclose(ctrl.com_polygon.polygon, support_polygon(robot, [ctrl.contact["left"].placement]))
+    np.testing.assert_allclose(ctrl.com_polygon.polygon, support_polygon([ctrl.contact["left"].placement], *size))
     assert not any(c is ctrl.contact["right"] for c in ctrl.controller.constraints)
     assert ctrl.has_task(ctrl.swing["right"])
     ctrl.set_support(DOUBLE, config)

@@ -257,38 +257,14 @@ def test_task_drifts_match_finite_differences(robots, name):
         np.testing.assert_allclose(drift, num, atol=1e-5 * max(1.0, np.abs(num).max()), err_msg=task.name)
 
 
-@pytest.mark.parametrize("angle", [0.0, 1e-6, 5e-4, 2e-3, 0.3, 2.5])
-def test_orientation_drift_at_any_error(angle):
-    """J̇v of log₃(R*ᵀR) for a body rotating at constant ω with angular acceleration α: finite differences of
-    d/dt log₃(R*ᵀR(t)) with R(t) = R exp(t ω + ½ t² α)-like motion, i.e. ë at t = 0, for errors from 0 (the target
-    itself, where pin.Hlog3 is NaN) to 2.5 rad."""
-    from wbc.tasks.frame import orientation_drift
-
-    rng = np.random.default_rng(4)
-    axis = rng.normal(size=3)
-    rel0 = pin.exp3(angle * axis / np.linalg.norm(axis))
-    omega, alpha = rng.normal(size=3), rng.normal(size=3)
-    h = 1e-4
-
-    def err(t):  # body angular velocity ω + α t: R(t) = R exp(∫) to second order, exact for ë at t = 0
-        return pin.log3(rel0 @ pin.exp3(omega * t + 0.5 * alpha * t * t))
-
-    num = (err(h) - 2 * err(0.0) + err(-h)) / h**2
-    d = orientation_drift(rel0, omega, alpha)
-    assert np.all(np.isfinite(d))
-    np.testing.assert_allclose(d, num, atol=2e-5 * max(1.0, np.abs(num).max()))
-
-
 @pytest.mark.parametrize("name", CATALOG)
 def test_compute_with_drift_into_is_compute_into_then_drift(robots, name):
     """The one-pass error, Jacobian and drift of every task (the inverse-dynamics assembly's call) are the numbers of
-    its separate ``compute_into`` and ``drift`` (for frame tasks: Pinocchio's log3, Jlog3, Hlog3 and
-    getFrameClassicalAcceleration, the reference of the compiled pass): frame tasks (all rows, partial rows, position
-    only, orientation only, a relative frame) far from their targets (orientation errors ~0.5 rad, pin.Hlog3), at
-    their targets (|θ| below the small-angle threshold), just above that threshold and near a half turn (Pinocchio's
-    singular branch of log3), the CoM and posture tasks. Equal to 1e-12 times each block's largest entry (at least 1),
-    except where the reference is ill-conditioned: Hlog3 at |θ| ≳ 1e-3 rad forms (1 − θ sin θ / (2 (1 − cos θ))) / θ²,
-    whose result carries a relative error ≈ ε/θ² whatever the summation order, so the drift rows get 1e-12 + 4 ε/θ²."""
+    its separate ``compute_into`` and ``drift``: frame tasks (all rows, partial rows, position only, orientation
+    only, a relative frame, whose drift comes from Pinocchio's frame velocities of the two frames) far from their
+    targets, at their targets, just above the small-angle threshold and near a half turn, the CoM and posture tasks.
+    Frame tasks' rows against Pinocchio's log3, Jlog3, Hlog3: tests/tasks/test_frame.py. Equal to 1e-12 times each
+    block's largest entry (at least 1), the drift rows to 1e-12 + 4 ε/θ² (the Hlog₃ form's relative error ≈ ε/θ²)."""
     from wbc.state import DynamicsState
 
     robot = robots(name)

@@ -88,7 +88,7 @@ def wbc_plan_margins(plan, gravity: float) -> np.ndarray:
     bounds = [(ph.first, ph.end) for ph in plan.phases]
     bounds[-1] = (bounds[-1][0], plan.n_samples)
     for k0, k1 in bounds:
-        out[k0:k1] = signed_distance(zmp[k0:k1], plan.support_polygon(k0))
+        out[k0:k1] = signed_distance(zmp[k0:k1], plan.support_polygon_at(k0))
     return out
 
 

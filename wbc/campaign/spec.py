@@ -67,7 +67,7 @@ FACTOR_KEYS = {
     "q_noise_deg": ("deg", (0.0, 5.0)), "v_noise": ("rad/s", (0.0, 1.0)),
 }
 
-#: Sweepable options: DCM stabilizer gains (``wbc.sim.walk.DcmStabilizer``) and walk options.
+#: Sweepable options: DCM stabilizer gains (``wbc.gait.stabilizer.DcmStabilizer``) and walk options.
 SWEEP_KEYS = {"k_xi": (0.0, 50.0), "k_i": (0.0, 50.0), "k_z": (0.0, 10.0), "cop_margin": (0.0, 0.05),
               "cmp_offset": (0.0, 0.1), "adjust_dead_band": (0.0, 0.2)}
 

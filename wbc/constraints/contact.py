@@ -19,8 +19,9 @@ from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import as_se3
+from wbc.lie import placement_log6_into
 from wbc.tasks.base import ValidatedAttribute
-from wbc.tasks.frame import as_se3, placement_log6_into
 
 __all__ = ["ContactConstraint"]
 
@@ -36,7 +37,7 @@ def _write_rows(jac, error, scale, A_out, b_out):
 
 @nb.njit(cache=True, nogil=True, **NO_NRT)
 def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
-    """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.tasks.frame.placement_log6_into`: P = ``pose`` (4, 3),
+    """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.lie.placement_log6_into`: P = ``pose`` (4, 3),
     M = (``rot``, ``pos``)) in one compiled call, no array allocated. Returns False (nothing written) near a
     half-turn error."""
     if not placement_log6_into(pose, rot, pos, b_out):
@@ -202,7 +203,7 @@ class ContactConstraint(EqualityConstraint):
     def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position
         (world; views of ``data.oMf``, placed by the caller) from which :meth:`error_into` computes log₆(P⁻¹ M) with
-        :func:`~wbc.tasks.frame.placement_log6_into`. Read-only use: they are this constraint's and Pinocchio's."""
+        :func:`~wbc.lie.placement_log6_into`. Read-only use: they are this constraint's and Pinocchio's."""
         views = self._views(data)
         return self._pose, views[2], views[3]
 

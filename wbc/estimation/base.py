@@ -73,12 +73,9 @@ from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_flag, check_scalar
+from wbc.lie import exp3_into
 
 __all__ = ["JointStateFilter", "BaseKalmanFilter", "FloatingBaseEstimator"]
-
-#: Taylor-branch threshold of Pinocchio's ``exp3`` (``TaylorSeriesExpansion<double>::precision<3>()``: ε^(1/4))
-EXP3_TAYLOR = float(np.finfo(float).eps) ** 0.25
-_EPS2 = float(np.finfo(float).eps) ** 2
 
 # Indices of the estimator's compiled state (``FloatingBaseEstimator.state``) and parameters (``_prm``).
 _ST_ACC, _ST_ZV, _ST_HAVE_ZV, _ST_YAW, _ST_FZ, _ST_CONTACT, _ST_TURNING, _ST_FROM, _ST_ACCEL_USED = (
@@ -86,31 +83,6 @@ _ST_ACC, _ST_ZV, _ST_HAVE_ZV, _ST_YAW, _ST_FZ, _ST_CONTACT, _ST_TURNING, _ST_FRO
 _ST_SIZE = 18
 _PRM_SIZE = 38
 _LOADED: list = []  # [True] once _fuse_kernel is loaded in this process
-
-
-@nb.njit(cache=True)
-def _exp3_into(w0, w1, w2, out):
-    """Pinocchio's ``exp3`` of (w0, w1, w2) (``pinocchio/spatial/explog.hpp``, its Taylor branches) → ``out`` (3, 3)."""
-    t2 = (w0 * w0 + w1 * w1) + w2 * w2 + _EPS2
-    t = math.sqrt(t2)
-    st, ct = math.sin(t), math.cos(t)
-    if t > EXP3_TAYLOR:
-        a_xx, a_x = (1.0 - ct) / t2, st / t
-    else:
-        a_xx, a_x = 0.5 - t2 / 24.0, 1.0 - t2 / 6.0
-        ct = 1.0 - t2 / 2.0
-    w = (w0, w1, w2)
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a_xx * w[i] * w[j]
-    out[0, 1] -= a_x * w2
-    out[1, 0] += a_x * w2
-    out[0, 2] += a_x * w1
-    out[2, 0] -= a_x * w1
-    out[1, 2] -= a_x * w0
-    out[2, 1] += a_x * w0
-    for i in range(3):
-        out[i, i] += ct
 
 
 @nb.njit(cache=True)
@@ -217,7 +189,7 @@ def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, 
     w1 = ((m1 * k_p + omega[1]) + k_heading * h1) * att_dt
     w2 = ((m2 * k_p + omega[2]) + k_heading * h2) * att_dt
     E = np.empty((3, 3))
-    _exp3_into(w0, w1, w2, E)
+    exp3_into(w0, w1, w2, E)
     for a in range(3):
         for b in range(3):
             R[a, b] = (Rp[a, 0] * E[0, b] + Rp[a, 1] * E[1, b]) + Rp[a, 2] * E[2, b]

@@ -27,11 +27,11 @@ import numpy as np
 
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
+from wbc.lie import placement_log6_into, rotation_gap, translation_gap
 from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
-from wbc.tasks.frame import placement_log6_into
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
@@ -566,60 +566,6 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     return _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v)
 
 
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _exp6_translation(xi, s):
-    """The translation of exp(s ξ) for a 6-D twist ξ = (ν, ω) (Pinocchio's order): V(sω) sν with
-    V(ω) = I + (1 − cos θ)/θ² [ω]× + (θ − sin θ)/θ³ [ω]×², θ = ‖ω‖ (Lynch & Park, Modern Robotics, eq. 3.88)."""
-    nx, ny, nz = s * xi[0], s * xi[1], s * xi[2]
-    wx, wy, wz = s * xi[3], s * xi[4], s * xi[5]
-    t2 = wx * wx + wy * wy + wz * wz
-    if t2 < 1e-12:  # series: 1/2 − θ²/24, 1/6 − θ²/120
-        a, c = 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
-    else:
-        t = np.sqrt(t2)
-        a, c = (1.0 - np.cos(t)) / t2, (t - np.sin(t)) / (t2 * t)
-    # w × n and w × (w × n)
-    cx, cy, cz = wy * nz - wz * ny, wz * nx - wx * nz, wx * ny - wy * nx
-    dx, dy, dz = wy * cz - wz * cy, wz * cx - wx * cz, wx * cy - wy * cx
-    return nx + a * cx + c * dx, ny + a * cy + c * dy, nz + a * cz + c * dz
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def translation_gap(xa, sa, xb, sb):
-    """‖t(exp(sa ξa)) − t(exp(sb ξb))‖ (m): the distance between the origins of two frames given by their twists
-    ξa, ξb (6,) from one reference frame (e.g. a contact's placement)."""
-    pa = _exp6_translation(xa, sa)
-    pb = _exp6_translation(xb, sb)
-    return np.sqrt((pa[0] - pb[0]) ** 2 + (pa[1] - pb[1]) ** 2 + (pa[2] - pb[2]) ** 2)
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _quaternion(wx, wy, wz):
-    """The unit quaternion (w, x, y, z) of the rotation exp([ω]×) of a rotation vector ω (rad):
-    (cos(θ/2), sin(θ/2)/θ · ω), θ = ‖ω‖."""
-    t2 = wx * wx + wy * wy + wz * wz
-    if t2 < 1e-12:  # series: 1 − θ²/8, 1/2 − θ²/48
-        c, s = 1.0 - t2 / 8.0, 0.5 - t2 / 48.0
-    else:
-        t = np.sqrt(t2)
-        c, s = np.cos(0.5 * t), np.sin(0.5 * t) / t
-    return c, s * wx, s * wy, s * wz
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def rotation_gap(xa, sa, xb, sb):
-    """The angle (rad, in [0, π]) of the rotation between the frames exp(sa ξa) and exp(sb ξb) given by their
-    twists ξa, ξb (6,) (Pinocchio's order ν, ω) from one reference frame: ‖log₃(R(sa ωa)ᵀ R(sb ωb))‖, from the
-    quaternion q̄_a q_b = (w, v) as 2 atan2(‖v‖, |w|)."""
-    aw, ax, ay, az = _quaternion(sa * xa[3], sa * xa[4], sa * xa[5])
-    bw, bx, by, bz = _quaternion(sb * xb[3], sb * xb[4], sb * xb[5])
-    w = aw * bw + ax * bx + ay * by + az * bz
-    vx = aw * bx - bw * ax - (ay * bz - az * by)
-    vy = aw * by - bw * ay - (az * bx - ax * bz)
-    vz = aw * bz - bw * az - (ax * by - ay * bx)
-    return 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), abs(w))
-
-
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
 def contact_drift(logs, b, starts, factors, lever):
     """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
@@ -653,18 +599,15 @@ def _contact_gaps(log, b_rows, factor, lever, far, worst):
 def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
                        lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of
-    :func:`wbc.tasks.frame.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
+    :func:`wbc.lie.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
     ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (``start_a``, ``start_b``), factors
     (``factor_a``, ``factor_b``), ``lever`` (m)) — the same numbers as those calls made one after the other.
 
     Returns:
-        :func:`contact_drift`'s (distance (m), drift (m)), or (−1.0, −1.0) when an error is within Pinocchio's
-        tolerance of a half turn (``logs`` then not fully written: the caller computes them with ``pin.log6``).
+        :func:`contact_drift`'s (distance (m), drift (m)).
     """
-    if not placement_log6_into(pose_a, rot_a, pos_a, logs[0]):
-        return -1.0, -1.0
-    if not placement_log6_into(pose_b, rot_b, pos_b, logs[1]):
-        return -1.0, -1.0
+    placement_log6_into(pose_a, rot_a, pos_a, logs[0])
+    placement_log6_into(pose_b, rot_b, pos_b, logs[1])
     far, worst = _contact_gaps(logs[0], b[start_a:start_a + 6], factor_a, lever, 0.0, 0.0)
     return _contact_gaps(logs[1], b[start_b:start_b + 6], factor_b, lever, far, worst)
 

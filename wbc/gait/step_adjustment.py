@@ -44,13 +44,29 @@ errors of normal walking stay with the CoP feedback of the stabilizer, and the a
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from wbc.exceptions import GaitError
 from wbc.gait.footsteps import Footstep, feet_overlap
 
-__all__ = ["StepAdjuster"]
+__all__ = ["StepAdjuster", "StretchLimits"]
+
+
+class StretchLimits(NamedTuple):
+    """Bounds of a swing lengthened towards a later landing (:meth:`StepAdjuster.stretch_samples`).
+
+    Attributes:
+        max_stretch: longest lengthening (s). stretch_speed: the foot's speed to its landing (m/s) below which no
+            lengthening is needed. stretch_min: smallest move of the landing (m) that lengthens a swing. dt: control
+            period (s).
+    """
+
+    max_stretch: float
+    stretch_speed: float
+    stretch_min: float
+    dt: float
 
 
 class StepAdjuster:
@@ -140,3 +156,57 @@ class StepAdjuster:
                 break
             fy = min(fy + 0.01, self.max_width)
         return Footstep(nominal.side, x, y, nominal.yaw)
+
+    def correction_clip(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray,
+                        target: Footstep) -> float:
+        """How far (m) the reach clips the DCM correction ``correction`` (2,) (m, world xy): the distance from the
+        ``nominal`` landing projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (:meth:`landing` with no
+        correction), moved by the correction, to the adjusted landing ``target``. The reach's clip of the nominal
+        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that rolls
+        or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the turned
+        reach, asked for a timing cut with no DCM error)."""
+        n0 = self.landing(nominal, stance, np.zeros(2))
+        return math.hypot(n0.x + float(correction[0]) - target.x, n0.y + float(correction[1]) - target.y)
+
+    def stretch_samples(self, limits: StretchLimits, nominal: Footstep, current: Footstep,
+                        stance: tuple[float, float, float], correction: np.ndarray, target: Footstep, foot,
+                        dcm: tuple[np.ndarray, np.ndarray], time_left: float) -> int:
+        """Control samples by which to lengthen the swing in progress (0: none): step timing adaptation towards a
+        later landing (Khadiv, Herzog, Moosavian, Righetti 2020, "Walking control based on step timing adaptation",
+        IEEE T-RO 36(3): the step duration ``T`` is a decision variable bounded to ``[T_min, T_max]``, here
+        ``T_max`` = planned + ``limits.max_stretch``).
+
+        A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left:
+        the foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot
+        cross to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot
+        captures it in one step when the landing of eq. 2 (``τ' = τ + Δ``, the DCM diverging further from the stance
+        CoP ``u_0`` meanwhile) is within the reach.
+
+        None when the ``target`` landing moved by less than ``stretch_min`` from the ``current`` plan's, moved
+        inwards of ``min_width`` (that landing needs the other foot: the step is cut short instead) or is within
+        ``stretch_speed · τ`` of the ``foot`` (x, y) (m, world). Else ``Δ``: the least multiple of 10 ms up to
+        ``max_stretch`` with ``‖u(τ + Δ) − foot‖ ≤ stretch_speed · (τ + Δ)``, or ``max_stretch``.
+
+        Args:
+            nominal: the swing's landing before adjustment. stance: the stance sole ``(x, y, yaw)``. correction: the
+                DCM correction (2,) (m). dcm: (ξ measured, ξ_ref planned) (2,) (m). time_left: τ (s).
+        """
+        if math.hypot(target.x - current.x, target.y - current.y) < limits.stretch_min:
+            return 0
+        if self.lateral_offset(nominal, stance, correction) < self.min_width:
+            return 0
+        v = limits.stretch_speed
+        if math.hypot(target.x - foot[0], target.y - foot[1]) <= v * time_left:
+            return 0
+        xi, xi_ref = dcm
+        u0 = np.array(stance[:2])
+        n_max = int(round(limits.max_stretch / limits.dt))
+        step = max(1, int(round(0.01 / limits.dt)))
+        for n in range(step, n_max + step, step):
+            n = min(n, n_max)
+            tl = time_left + n * limits.dt
+            c2 = self.correction(xi, xi_ref, time_left, tl, u0)
+            t2 = self.landing(nominal, stance, c2)
+            if math.hypot(t2.x - foot[0], t2.y - foot[1]) <= v * tl:
+                return n
+        return n_max

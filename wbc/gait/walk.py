@@ -108,7 +108,7 @@ class WalkPlan:
         tf = _scalar(t, "index(t): the time t (s)")
         return int(min(max(round(tf / self.dt), 0), self.n_samples - 1))
 
-    def support_polygon(self, k: int) -> np.ndarray:
+    def support_polygon_at(self, k: int) -> np.ndarray:
         """(m, 2) support polygon (CCW, world xy, m) at sample ``k``: the stance sole rectangle in single
         support, the convex hull of both sole rectangles in double support.
 
@@ -130,7 +130,7 @@ class WalkPlan:
         bounds = [(ph.first, ph.end) for ph in self.phases]
         bounds[-1] = (bounds[-1][0], self.n_samples)
         for (k0, k1) in bounds:
-            out[k0:k1] = signed_distance(p[k0:k1], self.support_polygon(k0))
+            out[k0:k1] = signed_distance(p[k0:k1], self.support_polygon_at(k0))
         return out
 
     def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray,

@@ -49,7 +49,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import signed_distance
+from wbc.geometry import signed_distance, support_polygon
 from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
 from wbc.tick import count_paths
@@ -61,13 +61,12 @@ from wbc.tasks.frame import FrameTask
 from wbc.tasks.posture import PostureTask
 from wbc.scenarios.balance_control import (  # noqa: F401  (re-exported for the behaviour modules)
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, BalanceController, JointTrackingTask, MinJerkPath, min_jerk_ramp,
-    support_polygon,
 )
 
 __all__ = [
     "BEHAVIOURS", "COMMON_CRITERIA", "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "Behaviour", "BalanceController",
     "BalanceRun", "Criterion", "JointTrackingTask", "MinJerkPath", "balance_passes", "balance_summary",
-    "make_behaviour", "min_jerk_ramp", "run_balance", "side_option", "support_polygon",
+    "make_behaviour", "min_jerk_ramp", "run_balance", "side_option",
 ]
 
 #: behaviour name → "module:class" (imported on demand: the behaviour modules import this one).
@@ -167,7 +166,7 @@ class BalanceRun(StanceRun):
         for a, b in zip(starts, ends):
             soles = [p[a] for s, p in ((LEFT_STANCE, self.left_sole), (RIGHT_STANCE, self.right_sole))
                      if self.support[a] in (DOUBLE, s)]
-            poly = support_polygon(robot, soles)
+            poly = support_polygon(soles, robot.sole_length, robot.sole_width)
             t_end = self.t[b] if b < len(self.t) else self.t[-1] + self.dt
             out.append((float(self.t[a]), float(t_end), np.c_[poly, np.zeros(len(poly))]))
         return out
@@ -176,7 +175,7 @@ class BalanceRun(StanceRun):
 def _com_margin(robot: Robot, com_xy: np.ndarray, left: np.ndarray, right: np.ndarray,
                 support: int) -> float:
     soles = [p for s, p in ((LEFT_STANCE, left), (RIGHT_STANCE, right)) if support in (DOUBLE, s)]
-    return float(signed_distance(com_xy, support_polygon(robot, soles)))
+    return float(signed_distance(com_xy, support_polygon(soles, robot.sole_length, robot.sole_width)))
 
 
 def run_balance(robot: Robot, behaviour: str | Behaviour, *, dt: float = 0.002, solver: str = DEFAULT_SOLVER,

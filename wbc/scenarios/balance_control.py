@@ -12,7 +12,6 @@ from wbc.configuration import Configuration
 from wbc.constants import SIDES
 from wbc.constraints.zmp import DcmPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import support_polygon as sole_support_polygon
 from wbc.profiles import min_jerk_ramp
 from wbc.solvers import DEFAULT_SOLVER
 from wbc.robot import Robot
@@ -22,7 +21,6 @@ from wbc.tasks import PostureTask
 __all__ = [
     "DOUBLE", "LEFT_STANCE", "RIGHT_STANCE", "BalanceController", "JointTrackingTask", "MinJerkPath",
     "min_jerk_ramp",
-    "support_polygon",
 ]
 
 
@@ -62,13 +60,6 @@ class MinJerkPath:
                 s, ds = min_jerk_ramp(t, t0, move)
                 return a + s * (b - a), ds * (b - a)
         return self.start.copy(), np.zeros_like(self.start)
-
-
-# -- support polygon --------------------------------------------------------------------------------------------
-def support_polygon(robot: Robot, soles) -> np.ndarray:
-    """(k, 2) CCW support polygon (m, world xy) of the given sole placements (pin.SE3 or (4, 4), world):
-    the sole rectangle for one sole, the convex hull of the rectangles for several."""
-    return sole_support_polygon(soles, robot.sole_length, robot.sole_width)
 
 
 # -- controller wiring ------------------------------------------------------------------------------------------

@@ -31,9 +31,8 @@ from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion
 from wbc.scenarios.balance import (
     DOUBLE, LEFT_STANCE, RIGHT_STANCE, Behaviour, BalanceController, BalanceRun, MinJerkPath, side_option,
-    support_polygon,
 )
-from wbc.geometry import signed_distance
+from wbc.geometry import signed_distance, support_polygon
 
 __all__ = ["OneLegBehaviour"]
 
@@ -106,7 +105,7 @@ class OneLegBehaviour(Behaviour):
         stance = run.left_sole if self.stance == "left" else run.right_sole
         rise = swing[:, 2, 3] - self.swing0.translation[2]
         window = (run.t >= self.t_over) & (run.t <= self.t_touch)
-        poly = support_polygon(self.robot, [self.stance0])
+        poly = support_polygon([self.stance0], self.robot.sole_length, self.robot.sole_width)
         stance_margin = signed_distance(run.com[window, :2], poly)
         up = rise >= self.height - self.height_tolerance
         peak = int(np.argmax(rise))

@@ -15,13 +15,9 @@ Gait (a receding horizon of :func:`wbc.gait.plan_walk` plans):
   (feet where they landed, the plan's CoM position and velocity, the next foot swinging first, initial double
   support the plan's ``t_ds``): a new command takes effect at the next touch-down, and a zero command replans a
   single closing step (the swing foot lands beside the stance foot; the CoM comes to rest over the feet).
-* **Pose goal** ``(x, y, yaw)`` of the base (world): the footsteps reaching it are planned at once (from the
-  standing stance, or from the next touch-down when walking): ``n`` walking steps with equal turn ``dyaw / n``
-  and the step length and lateral step that put the feet mid-point at the goal exactly (solved from
-  :func:`wbc.gait.plan_footsteps`, which is affine in both for a fixed turn), then a closing step. ``n`` is the
-  smallest count keeping the step within ``max_velocity T`` forward, ``max_lateral T`` sideways and
-  ``max_turn T`` in yaw. The base pose is the free flyer's (x, y, yaw); its offset from the feet mid-point at
-  rest (``q_ref``, heading frame) is kept.
+* **Pose goal** ``(x, y, yaw)`` of the base (world): the footsteps reaching it (:func:`wbc.gait.commands.goal_steps`:
+  ``n`` walking steps and a closing step, within the speed limits) are planned at once (from the standing stance,
+  or from the next touch-down when walking). Backward steps are planned (``max_backward = max_velocity``).
 * **Stop** (:meth:`stop`): in a double support before a step (at least 0.1 s of it left) the closing step is
   planned at once, the remaining double support as its initial one; during a swing, at its touch-down. Standing
   once the closing step has settled: at most one step starts after a stop.
@@ -31,8 +27,6 @@ Frames and units: world frame (``odom``), z up, flat ground; m, s, rad.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pinocchio as pin
 
@@ -40,35 +34,15 @@ from wbc.solvers import DEFAULT_SOLVER
 from wbc.configuration import Configuration
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import plan_walk
-from wbc.gait.footsteps import plan_footsteps, pose_to_xy_yaw
-from wbc.geometry import mean_heading
+from wbc.gait.commands import CommandLimits, Stance, check_finite, check_velocity, feet_can_yaw, goal_steps
+from wbc.gait.footsteps import pose_to_xy_yaw
 from wbc.robot import Robot
 from wbc.scenarios.walk import WalkController
 from wbc.tasks.base import ValidatedAttribute
 
-__all__ = ["CommandedWalk", "wrap_angle", "steps_to_midpoint", "check_finite"]
+__all__ = ["CommandedWalk"]
 
 _DOUBLE = 0
-
-
-def wrap_angle(a: float) -> float:
-    """``a`` (rad) wrapped to [−π, π)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def check_finite(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
-    """``value`` as a float if it is a finite number (int or float, Python or numpy; not a bool) in [lo, hi].
-
-    Raises:
-        InvalidInputError: not such a number ("<name> must be a finite number"), or out of [lo, hi].
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-            or not math.isfinite(float(value)):
-        raise InvalidInputError(f"{name} must be a finite number; got {value!r}")
-    v = float(value)
-    if not lo <= v <= hi:
-        raise InvalidInputError(f"{name} = {v} is out of range: valid is [{lo:g}, {hi:g}]")
-    return v
 
 
 class CommandedWalk:
@@ -106,7 +80,7 @@ class CommandedWalk:
         self.max_velocity = max_velocity
         self.max_lateral = check_finite(max_lateral, "max_lateral", 1e-3, 2.0)
         self.config = Configuration(robot)
-        self.can_turn = self._feet_can_yaw()
+        self.can_turn = feet_can_yaw(robot, self.config.q)
         self.max_turn = check_finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
         self._solver = solver
         self.walker = WalkController(robot, self.config, solver=solver)
@@ -124,12 +98,9 @@ class CommandedWalk:
         self.replan_failures = 0
         self.touchdowns = 0
         self.last_error = ""
-        lf, rf = self._soles()
-        mx, my, yaw = self._midpoint(lf, rf)
-        c, s = math.cos(yaw), math.sin(yaw)
-        dx, dy = self.config.q[0] - mx, self.config.q[1] - my
-        self._base_offset = (c * dx + s * dy, -s * dx + c * dy)  # base - feet mid-point, heading frame
-        self._step_width = self._width(lf, rf)  # nominal, at q_ref (side steps widen the stance only transiently)
+        # the base's offset from the feet mid-point and the nominal step width, at q_ref (side steps widen the
+        # stance only transiently)
+        self._stance = Stance.of(self.config.q[:2], *self._soles())
 
     # -- parameters --------------------------------------------------------------------------------------------
     @property
@@ -145,6 +116,12 @@ class CommandedWalk:
 
     max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 2.0),
                                       "Forward speed limit, m/s (in [0.001, 2]; raises InvalidInputError).")
+
+    @property
+    def limits(self) -> CommandLimits:
+        """The command limits now (backward as fast as forward)."""
+        return CommandLimits(self.max_velocity, self.max_velocity, self.max_lateral, self.max_turn, self.can_turn,
+                             self.robot.name)
 
     # -- state -------------------------------------------------------------------------------------------------
     @property
@@ -177,11 +154,7 @@ class CommandedWalk:
         """(x, y, yaw) where the base would stand at rest over the current soles (m, m, rad, world): the feet
         mid-point and mean heading plus the base's offset from them at ``q_ref``. It moves only while a foot
         swings, so its distance to a goal does not sway with the CoM."""
-        lf, rf = self._soles()
-        mx, my, yaw = self._midpoint(lf, rf)
-        ox, oy = self._base_offset
-        c, s = math.cos(yaw), math.sin(yaw)
-        return mx + c * ox - s * oy, my + s * ox + c * oy, yaw
+        return self._stance.footprint_pose(*self._soles())
 
     def time_remaining(self) -> float:
         """Time (s) until the current plan ends (0 when standing)."""
@@ -194,12 +167,7 @@ class CommandedWalk:
         Raises:
             InvalidInputError: non-finite or beyond ``max_velocity`` / ``max_lateral`` / ``max_turn``.
         """
-        if wz and not self.can_turn:
-            raise InvalidInputError(f"wz = {wz} rad/s: {self.robot.name}'s legs cannot yaw one sole relative to the "
-                                    "other (no hip yaw joint); valid: wz = 0")
-        self.command[:] = (check_finite(vx, "vx (m/s)", -self.max_velocity, self.max_velocity),
-                           check_finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
-                           check_finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
+        self.command[:] = check_velocity(vx, vy, wz, self.limits)
         self.goal = self._pending_goal = None
         if np.any(self.command):
             self._stop = False
@@ -316,11 +284,11 @@ class CommandedWalk:
             kwargs["t_init"] = t_init
         if com_vel is not None:
             kwargs["com_velocity"] = com_vel
-        width = self._step_width
+        width = self._stance.width
         try:
             if self._pending_goal is not None:
                 goal, self._pending_goal = self._pending_goal, None
-                n, L, d, turn, side = self._goal_steps(lf, rf, goal, first, width)
+                n, L, d, turn, side = goal_steps(lf, rf, goal, self.step_duration, self.limits, self._stance, first)
                 plan = plan_walk(lf, rf, com, n_steps=n, step_length=L, step_lateral=d, turn=turn,
                                  first_side=side, step_width=width, **kwargs)
                 self.goal = goal
@@ -341,83 +309,7 @@ class CommandedWalk:
             return None
 
     # -- geometry ----------------------------------------------------------------------------------------------
-    def _feet_can_yaw(self) -> bool:
-        """Whether the joints can change the relative yaw of the soles at the current q: the z row of the Jacobian
-        of ω_left − ω_right (world axes; the floating base cancels) is non-zero. False for legs without a hip yaw
-        joint, whose feet cannot turn relative to each other."""
-        model, data, q = self.robot.model, self.robot.model.createData(), self.config.q
-        pin.computeJointJacobians(model, data, q)
-        pin.framesForwardKinematics(model, data, q)
-        jl, jr = (pin.getFrameJacobian(model, data, self.robot.frame_id(f), pin.LOCAL_WORLD_ALIGNED)
-                  for f in (self.robot.left_sole, self.robot.right_sole))
-        return bool(np.abs(jl[5] - jr[5]).max() > 1e-6)
-
     def _soles(self):
         d = self.config.data
         return (d.oMf[self.robot.frame_id(self.robot.left_sole)].homogeneous.copy(),
                 d.oMf[self.robot.frame_id(self.robot.right_sole)].homogeneous.copy())
-
-    @staticmethod
-    def _midpoint(lf, rf) -> tuple[float, float, float]:
-        return 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
-
-    def _width(self, lf, rf) -> float:
-        """Lateral distance (m) between the soles across their mean heading."""
-        yaw = mean_heading(lf, rf)
-        dx, dy = lf[0, 3] - rf[0, 3], lf[1, 3] - rf[1, 3]
-        return abs(-math.sin(yaw) * dx + math.cos(yaw) * dy)
-
-    def _goal_steps(self, lf, rf, goal, first, width):
-        """(n_steps, step_length, step_lateral, turn, first side) whose final feet mid-point and heading put the
-        base at ``goal`` (module docstring)."""
-        gx, gy, gyaw = goal
-        ox, oy = self._base_offset
-        c, s = math.cos(gyaw), math.sin(gyaw)
-        tx, ty = gx - (c * ox - s * oy), gy - (s * ox + c * oy)  # feet mid-point target
-        mx, my, yaw0 = self._midpoint(lf, rf)
-        dyaw = wrap_angle(gyaw - yaw0)
-        c0, s0 = math.cos(yaw0), math.sin(yaw0)
-        fwd, lat = c0 * (tx - mx) + s0 * (ty - my), -s0 * (tx - mx) + c0 * (ty - my)
-        T = self.step_duration
-        if not self.can_turn and abs(dyaw) > math.radians(0.5):
-            raise GaitError(f"{self.robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint): "
-                            f"a goal heading change of {math.degrees(dyaw):.1f} deg cannot be walked; valid: the "
-                            "current heading")
-        n_walk = max(1, math.ceil(max(abs(fwd) / (self.max_velocity * T), abs(lat) / (self.max_lateral * T),
-                                      abs(dyaw) / (self.max_turn * T) if self.can_turn else 0.0) - 1e-9))
-        if not self.can_turn:
-            dyaw = 0.0
-        turn = dyaw / n_walk
-        side = first or ("right" if lat < 0 else "left")
-        L, d = steps_to_midpoint(pose_to_xy_yaw(lf), pose_to_xy_yaw(rf), (tx, ty), n_walk, width, turn, side,
-                                 lat >= 0)
-        return n_walk + 1, L, d, float(turn), side
-
-
-def steps_to_midpoint(left, right, target, n_walk: int, width: float, turn: float, side: str,
-                      to_the_left: bool) -> tuple[float, float]:
-    """(step_length, step_lateral) (m) of a walk of ``n_walk`` walking steps and a closing step
-    (:func:`wbc.gait.footsteps.plan_footsteps` with ``turn`` rad per step, ``width`` m, ``side`` swinging first)
-    whose final feet mid-point is ``target`` (x, y) (m, world) exactly, from the soles ``left``, ``right``
-    ``(x, y, yaw)``: the mid-point is affine in both for a fixed turn, solved from three evaluations.
-    ``to_the_left``: whether the target lies left of the current heading (the side of the leading foot tried first;
-    the other is tried when the solve gives a negative lateral step).
-
-    Raises:
-        numpy.linalg.LinAlgError: a singular solve (no such steps).
-    """
-    def end(L, d):
-        steps = plan_footsteps(left, right, n_walk + 1, L, width, turn, side, d)
-        a, b = steps[-1], steps[-2]
-        return np.array([0.5 * (a.x + b.x), 0.5 * (a.y + b.y)])
-
-    goal = np.asarray(target, dtype=float)
-    e0 = end(0.0, 0.0)
-    sign = 1.0 if to_the_left else -1.0
-    J = np.column_stack([end(1.0, 0.0) - e0, end(0.0, sign) - e0])
-    L, dd = np.linalg.solve(J, goal - e0)
-    if dd < 0:  # the lateral step's sign flipped: solve with the other leading foot
-        sign = -sign
-        J[:, 1] = end(0.0, sign) - e0
-        L, dd = np.linalg.solve(J, goal - e0)
-    return float(L), float(sign * dd)

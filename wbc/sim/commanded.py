@@ -29,7 +29,7 @@ touch-down, so that a command takes effect at the next touch-down):
 * **Pose goal** ``(x, y, yaw)`` of the base (world): one segment of ``n`` walking steps and a closing step, ``n``
   the smallest count keeping each step within the limits, the turn split equally and the step length and lateral
   step those whose planned final feet mid-point puts the base at the goal
-  (:func:`wbc.scenarios.commanded_walk.steps_to_midpoint`); where the robot ends is what the plant did.
+  (:func:`wbc.gait.commands.goal_steps`, no backward steps); where the robot ends is what the plant did.
 
 State: :attr:`q`, :attr:`v` are what the controller reads (the estimate by default); :attr:`q_true`,
 :attr:`v_true` MuJoCo's ground truth (Pinocchio conventions); :attr:`tau` the torques applied in the last tick
@@ -47,9 +47,9 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import GaitError, InvalidInputError, SimulationError
+from wbc.gait.commands import CommandLimits, Stance, check_finite, check_velocity, goal_steps
 from wbc.gait.footsteps import pose_to_xy_yaw
-from wbc.scenarios.commanded_walk import check_finite, steps_to_midpoint
-from wbc.geometry import ReadOnly, mean_heading
+from wbc.geometry import ReadOnly
 from wbc.sim.outcome import OutcomeMonitor
 from wbc.sim.scenarios import StandScenario, make_controller
 from wbc.sim.walk import WalkScenario
@@ -153,6 +153,12 @@ class SimCommandedWalk:
     max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 1.0),
                                       "Forward speed limit, m/s (in [0.001, 1]).")
 
+    @property
+    def limits(self) -> CommandLimits:
+        """The command limits now (no backward steps: :attr:`max_backward`)."""
+        return CommandLimits(self.max_velocity, self.max_backward, self.max_lateral, self.max_turn, self.can_turn,
+                             self.robot.name)
+
     # -- state -------------------------------------------------------------------------------------------------
     q = ReadOnly("""(nq,) the configuration the controller reads (estimate, or ground truth with
         ``state="ground-truth"``).""")
@@ -192,11 +198,7 @@ class SimCommandedWalk:
     def footprint_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) where the base would stand at rest over the soles of :attr:`q` (m, m, rad, world): the feet
         mid-point and mean heading plus the base's offset from them at ``q_ref``."""
-        lf, rf = self._soles(self._q)
-        mx, my, yaw = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
-        ox, oy = self._base_offset
-        c, s = math.cos(yaw), math.sin(yaw)
-        return mx + c * ox - s * oy, my + s * ox + c * oy, yaw
+        return self._stance.footprint_pose(*self._soles(self._q))
 
     def time_remaining(self) -> float:
         """Time (s) until the current segment's plan ends (0 when standing)."""
@@ -213,9 +215,7 @@ class SimCommandedWalk:
             InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
                 ``max_turn``.
         """
-        self.command[:] = (check_finite(vx, "vx (m/s)", 0.0 - self.max_backward, self.max_velocity),
-                           check_finite(vy, "vy (m/s)", -self.max_lateral, self.max_lateral),
-                           check_finite(wz, "wz (rad/s)", -self.max_turn, self.max_turn))
+        self.command[:] = check_velocity(vx, vy, wz, self.limits)
         self.goal = self._pending_goal = None
 
     def set_goal(self, x: float, y: float, yaw: float) -> None:
@@ -254,12 +254,7 @@ class SimCommandedWalk:
         self.monitor = OutcomeMonitor(sim)
         self.command[:] = 0.0
         self.goal = self._pending_goal = None
-        lf, rf = self._soles(q)
-        mx, my, yaw = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
-        c, s = math.cos(yaw), math.sin(yaw)
-        dx, dy = q[0] - mx, q[1] - my
-        self._base_offset = (c * dx + s * dy, -s * dx + c * dy)
-        self._width = abs(-s * (lf[0, 3] - rf[0, 3]) + c * (lf[1, 3] - rf[1, 3]))
+        self._stance = Stance.of(q[:2], *self._soles(q))
 
     # -- one tick ----------------------------------------------------------------------------------------------
     def tick(self) -> None:
@@ -335,7 +330,7 @@ class SimCommandedWalk:
         try:
             seg = WalkScenario(n, length, T, turn=turn, step_lateral=lateral, settle=0.0,
                                zmp_feedback=self.zmp_feedback, first_side=side, from_motion=True,
-                               t_init=max(0.08, 0.2 * T), step_width=self._width)
+                               t_init=max(0.08, 0.2 * T), step_width=self._stance.width)
             seg.setup(self.controller, self.sim, q, v)
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
             self.replan_failures += 1
@@ -355,7 +350,7 @@ class SimCommandedWalk:
         try:
             if self._pending_goal is not None:
                 goal, self._pending_goal = self._pending_goal, None
-                n, length, lateral, turn, side = self._goal_steps(q, goal)
+                n, length, lateral, turn, side = goal_steps(*self._soles(q), goal, T, self.limits, self._stance)
                 self.goal = goal
                 planned = "goal"
             else:
@@ -380,31 +375,3 @@ class SimCommandedWalk:
         d = self._pdata
         pin.framesForwardKinematics(self.robot.model, d, q)
         return d.oMf[self._fid[0]].homogeneous.copy(), d.oMf[self._fid[1]].homogeneous.copy()
-
-    def _goal_steps(self, q, goal):
-        """(n_steps, step_length, step_lateral, turn, first side) of a segment putting the base at ``goal``."""
-        gx, gy, gyaw = goal
-        ox, oy = self._base_offset
-        c, s = math.cos(gyaw), math.sin(gyaw)
-        tx, ty = gx - (c * ox - s * oy), gy - (s * ox + c * oy)  # feet mid-point target
-        lf, rf = self._soles(q)
-        mx, my, yaw0 = 0.5 * (lf[0, 3] + rf[0, 3]), 0.5 * (lf[1, 3] + rf[1, 3]), mean_heading(lf, rf)
-        dyaw = (gyaw - yaw0 + math.pi) % (2 * math.pi) - math.pi
-        c0, s0 = math.cos(yaw0), math.sin(yaw0)
-        fwd, lat = c0 * (tx - mx) + s0 * (ty - my), -s0 * (tx - mx) + c0 * (ty - my)
-        if fwd < -0.01:
-            raise GaitError(f"the goal is {-fwd:.3f} m behind the robot: backward walking is not planned in the "
-                            "physics walk; valid: a goal ahead (turn first)")
-        T = self.step_duration
-        n = max(1, math.ceil(max(abs(fwd) / (self.max_velocity * T), abs(lat) / (self.max_lateral * T),
-                                 abs(dyaw) / (self.max_turn * T)) - 1e-9))
-        turn = dyaw / n
-        side = "right" if lat < 0 else "left"  # WalkScenario's first foot for this lateral step
-        length, lateral = steps_to_midpoint(pose_to_xy_yaw(lf), pose_to_xy_yaw(rf), (tx, ty), n, self._width, turn,
-                                            side, lat >= 0)
-        if length < 0:
-            raise GaitError(f"the goal needs backward steps ({length:.3f} m): not planned in the physics walk; "
-                            "valid: a goal ahead")
-        return n + 1, length, lateral, turn, side
-
-

@@ -15,7 +15,7 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   5 cm below the planned landing: the estimated heights drift there) until the detection fires; early touch-down
   switches the contact on at once. Blind (``blind``), the swing sole rises to its clearance height over the first
   ``BLIND_LIFT`` of the swing, is over its foothold by ``BLIND_XY_END`` of the swing and descends vertically, aimed
-  at the stance sole's measured height (:meth:`WalkScenario._blind_swing`); a loaded stance sole rotating about a
+  at the stance sole's measured height (:func:`wbc.gait.blind.blind_swing_into`); a loaded stance sole rotating about a
   line of its sole has its contact cut to a band about that line (partial footholds,
   :meth:`WalkScenario._partial_footholds`). Blind and on planned terrain the planned CoM height is raised by the
   supporting soles' measured − planned height (:meth:`WalkScenario._support_offset`).
@@ -62,13 +62,16 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import convex_hull, mean_heading, polygon_margin, projected_sole_corners
 from wbc.geometry import hull as hull_vertices
 from wbc.gait import Footstep, plan_walk
-from wbc.gait.step_adjustment import StepAdjuster
+from wbc.gait.blind import BLIND_CUT_LOAD, BLIND_XY_END, blind_swing_into, clip_band_range, roll_band
+from wbc.gait.commands import feet_can_yaw
+from wbc.gait.stabilizer import DcmStabilizer, closest_point_xy, stabilizer_kernel, support_kernel
+from wbc.gait.step_adjustment import StepAdjuster, StretchLimits
 from wbc.profiles import min_jerk
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.scenarios import NO_FALL, timed_push
 
-__all__ = ["WalkScenario", "DcmStabilizer", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
+__all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD", "measured_cop", "walk_acceptance", "walk_criteria"]
 
 _CODE_SWING = {1: "right", 2: "left"}  # plan support code → swinging side
 _PHASE_CODE = {"stance": 0, "unloading": 1, "swing": 2, "loading": 3}  # contact phase → its code in the log
@@ -94,17 +97,6 @@ def measured_cop(wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 10.0,
     return zmp_from_wrenches(wrench, [pin.SE3(eye, np.asarray(o, dtype=float)) for o in sole_pos], min_fz, height)
 
 
-def _feet_can_yaw(robot, q: np.ndarray, fid: dict) -> bool:
-    """Whether the joints can change the relative yaw of the two soles at q: the z row of the Jacobian of
-    ω_left − ω_right (world axes; the floating base cancels) is non-zero (> 1e-6 of a unit joint rate). False for
-    legs without a hip yaw joint (humanoid15), whose feet then cannot turn relative to each other."""
-    model, data = robot.model, robot.model.createData()
-    pin.computeJointJacobians(model, data, q)
-    pin.framesForwardKinematics(model, data, q)
-    Jl, Jr = (pin.getFrameJacobian(model, data, fid[s], pin.LOCAL_WORLD_ALIGNED) for s in ("left", "right"))
-    return bool(np.abs(Jl[5] - Jr[5]).max() > 1e-6)
-
-
 def _sole_tracks(model, q: np.ndarray, fid: dict) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2, 2) sole xy (m, world) and (N, 2) sole yaw (rad) of (left, right) along the configurations q (N, nq)."""
     data = model.createData()
@@ -116,243 +108,6 @@ def _sole_tracks(model, q: np.ndarray, fid: dict) -> tuple[np.ndarray, np.ndarra
             xy[k, j] = M.translation[:2]
             yaw[k, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
     return xy, yaw
-
-
-class DcmStabilizer:
-    """DCM tracking with CoP feedback and integral action, commanded CoP kept in the support area.
-
-    LIPM: c̈ = ω² (c − p), DCM ξ = c + ċ/ω, ξ̇ = ω (ξ − p) (Englsberger, Ott, Albu-Schäffer 2015, IEEE T-RO 31(2),
-    eqs. 3–6). The desired CoP (Englsberger 2015 eq. 29 with gain k_ξ; Caron, Kheddar, Tempier 2019, "Stair
-    climbing stabilization of the HRP-4 humanoid robot using whole-body admittance control", ICRA, eq. 9, DCM
-    feedback with proportional and integral terms):
-
-        p_d = p_ref + k_p (ξ − ξ_ref) + k_i ∫ (ξ − ξ_ref) dt,      k_p = 1 + k_ξ/ω > 1
-
-    which gives ξ̇ − ξ̇_ref = −k_ξ (ξ − ξ_ref) − ω k_i ∫… for an exact LIPM. ``p_d`` is projected onto the
-    support area (the convex hull of the soles in contact, each shrunk by ``margin``); the integral is frozen
-    while the projection is active (anti-windup) and clipped to ``i_max``. The CoM acceleration sent to the
-    whole-body QP is c̈_d = ω² (c − p_d) (LIPM eq. 1). CoP feedback (Caron 2019 eq. 10's ZMP term) is
-    ``k_z (p_d − p_measured)`` added to p_d when a measured CoP is given (default k_z = 0: the QP's contact
-    forces realise p_d directly).
-
-    **Hip strategy** (``cmp_offset`` > 0): when ``p_d`` lies outside the support area, the point sent to the QP is
-    the centroidal moment pivot (CMP) ``r = p_c + min(‖p_d − p_c‖, cmp_offset) (p_d − p_c)/‖p_d − p_c‖`` (``p_c`` the
-    projected CoP), c̈_d = ω² (c − r): with a rate of centroidal angular momentum the CMP leaves the support
-    polygon while the CoP stays in it, ``r_cmp = p − (L̇ × e_z)_xy … / F_z`` (Popovic, Goswami, Herr, "Ground reference
-    points in legged locomotion", IJRR 24(12), 2005), and ξ̇ = ω (ξ − r_cmp) (Englsberger 2015, with the CMP in place
-    of the CoP); Hofmann, Popovic, Herr, "Exploiting angular momentum to enhance bipedal center-of-mass control",
-    ICRA 2009, use this bounded CMP–CoP offset as the hip strategy. The whole-body QP realises the difference by
-    upper-body rotation (its CoM task outweighs its angular-momentum and torso tasks,
-    :mod:`wbc.dynamics.balance`).
-
-    Args:
-        omega: LIPM frequency √(g/z_c) (1/s).
-        k_xi: DCM gain k_ξ (1/s, ≥ 0). k_i: integral gain (1/s, ≥ 0). k_z: CoP feedback gain (≥ 0).
-        margin: CoP margin from the sole edges (m). i_max: integral clip (m·s). dt: period (s).
-        cmp_offset: largest CMP distance outside the support area (m, ≥ 0; 0: none).
-    """
-
-    def __init__(self, omega: float, *, k_xi: float = 3.0, k_i: float = 1.0, k_z: float = 0.0,
-                 margin: float = 0.015, i_max: float = 0.05, dt: float = 0.002, cmp_offset: float = 0.0):
-        for val, what in ((omega, "omega"), (dt, "dt")):
-            if not (np.isfinite(val) and val > 0):
-                raise InvalidInputError(f"{what} must be finite and > 0, got {val!r}")
-        for val, what in ((k_xi, "k_xi"), (k_i, "k_i"), (k_z, "k_z"), (margin, "margin"), (i_max, "i_max")):
-            if not (np.isfinite(val) and val >= 0):
-                raise InvalidInputError(f"{what} must be finite and ≥ 0, got {val!r}")
-        self.omega, self.dt = float(omega), float(dt)
-        self.k_p = 1.0 + k_xi / omega
-        self.k_i, self.k_z, self.margin, self.i_max = float(k_i), float(k_z), float(margin), float(i_max)
-        if not (np.isfinite(cmp_offset) and cmp_offset >= 0):
-            raise InvalidInputError(f"cmp_offset must be finite and ≥ 0 m, got {cmp_offset!r}")
-        self.cmp_offset = float(cmp_offset)
-        self.integral = np.zeros(2)
-        self.last_cop = np.zeros(2)
-        self.last_cmp = np.zeros(2)
-        self.saturated = False
-
-    def __call__(self, c: np.ndarray, cd: np.ndarray, xi_ref: np.ndarray, p_ref: np.ndarray,
-                 hull, p_meas: np.ndarray | None = None) -> np.ndarray:
-        """Horizontal CoM acceleration (2,) (m/s²) from CoM c (2,), ċ (2,), references ξ_ref, p_ref (2,) and the
-        support hull (m, 2) (already shrunk by the margin; an array or a list of ``(x, y)`` vertices, CCW)."""
-        if isinstance(hull, np.ndarray):
-            hull = hull.tolist()
-
-        def project(px: float, py: float) -> tuple[float, float]:
-            return _closest_point(px, py, hull) if len(hull) >= 3 else (px, py)
-
-        ax, ay = self.acceleration(float(c[0]), float(c[1]), float(cd[0]), float(cd[1]), float(xi_ref[0]),
-                                   float(xi_ref[1]), float(p_ref[0]), float(p_ref[1]), project, p_meas)
-        return np.array([ax, ay])
-
-    def acceleration(self, cx: float, cy: float, cdx: float, cdy: float, xrx: float, xry: float, prx: float,
-                     pry: float, project, p_meas) -> tuple[float, float]:
-        """:meth:`__call__` on floats (the same arithmetic, element by element; no array made for the inputs):
-        (c̈_x, c̈_y) m/s² from the CoM (cx, cy) m, its velocity (cdx, cdy) m/s, the references ξ_ref (xrx, xry) m and
-        p_ref (prx, pry) m, world frame; ``project(x, y)`` returns the closest point ``(x, y)`` of the support area;
-        ``p_meas`` the measured CoP (2,) m or None. Updates the integral, ``last_cop``, ``last_cmp`` (written in
-        place, (2,) float arrays) and ``saturated``."""
-        w = self.omega
-        ex, ey = cx + cdx / w - xrx, cy + cdy / w - xry
-        ix, iy = self.integral.tolist()
-        px, py = prx + self.k_p * ex + self.k_i * ix, pry + self.k_p * ey + self.k_i * iy
-        if self.k_z > 0 and p_meas is not None:
-            px, py = px + self.k_z * (px - float(p_meas[0])), py + self.k_z * (py - float(p_meas[1]))
-        qx, qy = project(px, py)
-        dx, dy = px - qx, py - qy
-        out = math.sqrt(dx * dx + dy * dy)
-        self.saturated = out > 1e-9
-        if not self.saturated:
-            i_max = self.i_max
-            self.integral[0] = min(max(ix + ex * self.dt, -i_max), i_max)
-            self.integral[1] = min(max(iy + ey * self.dt, -i_max), i_max)
-        self.last_cop[0], self.last_cop[1] = qx, qy
-        rx, ry = qx, qy
-        if self.saturated and self.cmp_offset > 0:  # CMP beyond the CoP's reach: angular momentum (hip strategy)
-            f = min(out, self.cmp_offset) / out
-            rx, ry = qx + f * dx, qy + f * dy
-        self.last_cmp[0], self.last_cmp[1] = rx, ry
-        return w * w * (cx - rx), w * w * (cy - ry)
-
-
-def _closest_point(px: float, py: float, poly: list) -> tuple[float, float]:
-    """:func:`wbc.geometry.closest_point_in_polygon` on floats: the closest point of a CCW convex polygon (list of
-    ``(x, y)`` vertices, m) to ``(px, py)`` (m): the point itself inside, else its projection on the nearest edge."""
-    if polygon_margin((px, py), poly) >= 0:
-        return px, py
-    best, dbest = (px, py), math.inf
-    m = len(poly)
-    for i in range(m):
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % m]
-        ex, ey = bx - ax, by - ay
-        s = min(max(((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
-        qx, qy = ax + s * ex, ay + s * ey
-        dx, dy = px - qx, py - qy
-        dd = math.sqrt(dx * dx + dy * dy)
-        if dd < dbest:
-            best, dbest = (qx, qy), dd
-    return best
-
-
-@nb.njit(cache=True, nogil=True)
-def _support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
-    """Hull of the ``ns`` (1 or 2) soles' corners and the point (px, py) (m, world xy) against it: ``xy`` (4, 3 ns) the
-    corners in the soles' rotated frames (:meth:`WalkScenario._support`), (tx_j, ty_j) the soles' positions.
-    Returns (number of hull vertices m, :func:`~wbc.geometry.polygon_margin`, closest point x, y) with the arithmetic
-    of :func:`wbc.geometry.hull`, :func:`~wbc.geometry.polygon_margin` and :func:`_closest_point` (m < 3: the margin
-    NaN and the point itself)."""
-    n = 4 * ns
-    pts = np.empty((n, 2))
-    for r in range(4):
-        pts[r, 0] = xy[r, 0] + tx0
-        pts[r, 1] = xy[r, 1] + ty0
-        if ns == 2:
-            pts[4 + r, 0] = xy[r, 3] + tx1
-            pts[4 + r, 1] = xy[r, 4] + ty1
-    order = np.arange(n)
-    for i in range(1, n):  # insertion sort, lexicographic (x, y) as Python's sort of tuples
-        j = i
-        while j > 0:
-            a, b = order[j - 1], order[j]
-            if pts[b, 0] < pts[a, 0] or (pts[b, 0] == pts[a, 0] and pts[b, 1] < pts[a, 1]):
-                order[j - 1], order[j] = b, a
-                j -= 1
-            else:
-                break
-    hv = np.empty((2 * n, 2))
-    m = 0
-    for half in range(2):  # lower then upper chain (the sorted points reversed), each without its last point
-        start = m
-        for ii in range(n):
-            p = order[ii] if half == 0 else order[n - 1 - ii]
-            qx, qy = pts[p, 0], pts[p, 1]
-            while m - start >= 2:
-                ox, oy = hv[m - 2, 0], hv[m - 2, 1]
-                ax, ay = hv[m - 1, 0], hv[m - 1, 1]
-                if not (ax - ox) * (qy - oy) - (ay - oy) * (qx - ox) <= 0.0:
-                    break
-                m -= 1
-            hv[m, 0], hv[m, 1] = qx, qy
-            m += 1
-        m -= 1
-    if m < 3:
-        return m, np.nan, px, py
-    d = np.inf
-    ax, ay = hv[m - 1, 0], hv[m - 1, 1]
-    for i in range(m):
-        bx, by = hv[i, 0], hv[i, 1]
-        ex, ey = bx - ax, by - ay
-        val = (ex * (py - ay) - ey * (px - ax)) / math.sqrt(ex * ex + ey * ey)
-        if val < d:
-            d = val
-        ax, ay = bx, by
-    if d >= 0:
-        return m, d, px, py
-    bestx, besty, dbest = px, py, np.inf
-    for i in range(m):
-        ax, ay = hv[i, 0], hv[i, 1]
-        j = (i + 1) % m
-        ex, ey = hv[j, 0] - ax, hv[j, 1] - ay
-        s = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey)
-        if 0.0 > s:
-            s = 0.0
-        if 1.0 < s:
-            s = 1.0
-        qx, qy = ax + s * ex, ay + s * ey
-        dx, dy = px - qx, py - qy
-        dd = math.sqrt(dx * dx + dy * dy)
-        if dd < dbest:
-            bestx, besty, dbest = qx, qy, dd
-    return m, d, bestx, besty
-
-
-@nb.njit(cache=True)
-def _stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_p, k_i, k_z, p_meas, i_max, dt,
-                       cmp_offset, integral, last_cop, last_cmp):
-    """:meth:`DcmStabilizer.acceleration`, its support area the hull of :func:`_support_kernel` (the
-    ``ns`` soles' corners ``xy`` (4, 3 ns) in their rotated frames, the soles at ``pos0``, ``pos1`` (3,); ``ns`` = 0:
-    no projection), on the CoM ``c`` and its velocity ``cd`` (3,) and the references ``ref_dcm[k]``, ``ref_zmp[k]``
-    (2,), the measured CoP ``p_meas`` (2,) fed back with gain ``k_z`` (none when k_z ≤ 0 or ``p_meas`` is NaN), with
-    the same arithmetic element by element. Writes ``integral``, ``last_cop``, ``last_cmp`` (2,) in place.
-    Returns (number of hull vertices m (3 when ns = 0; m < 3: nothing written), c̈_x, c̈_y (m/s²), saturated)."""
-    cx, cy, cdx, cdy = c[0], c[1], cd[0], cd[1]
-    w = omega
-    ex, ey = cx + cdx / w - ref_dcm[k, 0], cy + cdy / w - ref_dcm[k, 1]
-    ix, iy = integral[0], integral[1]
-    px, py = ref_zmp[k, 0] + k_p * ex + k_i * ix, ref_zmp[k, 1] + k_p * ey + k_i * iy
-    if k_z > 0 and p_meas[0] == p_meas[0]:
-        px, py = px + k_z * (px - p_meas[0]), py + k_z * (py - p_meas[1])
-    m = 3
-    qx, qy = px, py
-    if ns > 0:
-        m, _, qx, qy = _support_kernel(xy, pos0[0], pos0[1], pos1[0], pos1[1], ns, px, py)
-        if m < 3:
-            return m, 0.0, 0.0, False
-    dx, dy = px - qx, py - qy
-    out = math.sqrt(dx * dx + dy * dy)
-    saturated = out > 1e-9
-    if not saturated:  # min(max(a, -i_max), i_max) as Python's min and max
-        a, b = ix + ex * dt, iy + ey * dt
-        if -i_max > a:
-            a = -i_max
-        if i_max < a:
-            a = i_max
-        if -i_max > b:
-            b = -i_max
-        if i_max < b:
-            b = i_max
-        integral[0], integral[1] = a, b
-    last_cop[0], last_cop[1] = qx, qy
-    rx, ry = qx, qy
-    if saturated and cmp_offset > 0:
-        f = out
-        if cmp_offset < f:
-            f = cmp_offset
-        f = f / out
-        rx, ry = qx + f * dx, qy + f * dy
-    last_cmp[0], last_cmp[1] = rx, ry
-    return m, w * w * (cx - rx), w * w * (cy - ry), saturated
 
 
 @nb.njit(cache=True, nogil=True)
@@ -371,12 +126,12 @@ def _squares_finite(pos, vel, acc):
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_support_kernel`, :func:`_stabilizer_kernel` and :func:`_squares_finite` (on-disk cache) once per
+    """Load :func:`support_kernel`, :func:`stabilizer_kernel` and :func:`_squares_finite` (on-disk cache) once per
     process, at :meth:`WalkScenario.setup`."""
-    _support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
+    support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
     _squares_finite(np.zeros(3), np.zeros(6), np.zeros(6))
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
-    _stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
+    stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
                        z2.copy(), z2.copy(), z2.copy())
 
 
@@ -401,30 +156,9 @@ SWING_HEIGHT_WEIGHT = 3.0
 #: is measured, not derived (benchmarks/README.md, "Step timing on stairs").
 SWING_FROUDE = 0.6
 
-#: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
-#: swing descends vertically; :meth:`WalkScenario._blind_swing`).
-BLIND_XY_END = 0.8
-#: Blind walk: fraction of a swing over which the sole rises to its clearance height (minimum jerk).
-BLIND_LIFT = 0.3
-#: Blind walk: fraction of a swing from which the sole is set down (minimum jerk to the landing height).
-BLIND_SET_DOWN = 0.6
 #: Blind walk: time constant (s) of the low-pass filter on the supporting soles' measured − planned height that is
 #: added to the planned CoM height (:meth:`WalkScenario._support_offset`).
 BLIND_SUPPORT_TAU = 0.2
-#: Blind walk, partial footholds (:meth:`WalkScenario._partial_footholds`): a loaded sole (measured normal force
-#: ≥ :data:`BLIND_CUT_LOAD` of the weight) rotating faster than this (rad/s, about a sole axis) has its contact
-#: rectangle cut to a band about the line of rotation through its measured CoP.
-BLIND_ROLL_RATE = 0.6
-#: Blind walk: half width (m) of the band about the measured CoP to which a rolling sole's contact is cut.
-BLIND_CUT_BAND = 0.01
-#: Blind walk: fraction of the weight a sole must carry for its rolling to cut its contact rectangle.
-BLIND_CUT_LOAD = 0.1
-#: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
-BLIND_CUT_MIN = 0.02
-#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's edges for a cut.
-BLIND_PIVOT_INSET = 0.02
-#: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
-BLIND_CUT_HOLD = 0.1
 
 
 class WalkScenario:
@@ -450,8 +184,8 @@ class WalkScenario:
             reach, the step time is the remaining means of capture; default on). The swing in progress is cut
             short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
             :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            landing's DCM correction by more than 5 cm (``_correction_clipped``: the nominal landing's own clip not
-            counted): landing sooner, the DCM has diverged less when the new stance
+            landing's DCM correction by more than 5 cm (``StepAdjuster.correction_clip``: the nominal landing's own
+            clip not counted): landing sooner, the DCM has diverged less when the new stance
             starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
             cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
             ``_capturable``). Once per swing, and never more than the swing foot can still travel:
@@ -513,7 +247,7 @@ class WalkScenario:
             a bump early switches to stance, the height rule needs a force, so a foot over a hole is not loaded in
             the air) and a late foot keeps descending up to 5 cm below its planned landing. The swing sole reaches
             its foothold's xy and heading by :data:`BLIND_XY_END` of the swing and descends vertically from there
-            (:meth:`_blind_swing`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
+            (:func:`wbc.gait.blind.blind_swing_into`: an early contact lands on the foothold, with no horizontal speed; the sole rises to
             ``step_height`` over the first :data:`BLIND_LIFT` of the swing, so that its toe clears the bumps ahead
             while it has barely moved forward). The step adjustment leaves the foothold of the vertical descent alone
             (frozen over the last ``1 − BLIND_XY_END`` of the swing, which may end on a bump at any tick), and a
@@ -698,7 +432,7 @@ class WalkScenario:
                                      dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
                                      sole_width=robot.sole_width)
         yaws = [fs.yaw for fs in plan.footsteps]
-        if yaws and max(yaws) - min(yaws) > 0.01 and not _feet_can_yaw(robot, q, self._fid):  # > 0.6 deg
+        if yaws and max(yaws) - min(yaws) > 0.01 and not feet_can_yaw(robot, q):  # > 0.6 deg
             raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
                             "relative yaw rate of the soles has a zero Jacobian), so its feet cannot turn; the plan "
                             f"turns them by {math.degrees(max(yaws) - min(yaws)):.1f} deg")
@@ -929,7 +663,7 @@ class WalkScenario:
     def _support(self, shrink: float, px: float, py: float) -> tuple[float, float, float]:
         """(margin, x, y) of the point (px, py) (m, world xy) in :meth:`_hull` ``(shrink)``: its
         :func:`~wbc.geometry.polygon_margin` (m, NaN when no sole is in contact) and the closest point of the hull
-        (:func:`_closest_point`; the point itself when no sole is in contact). Uncut soles: :func:`_support_kernel` on
+        (:func:`closest_point_xy`; the point itself when no sole is in contact). Uncut soles: :func:`support_kernel` on
         the corners of :meth:`_hull`'s matrix product, the same numbers.
 
         Raises:
@@ -941,7 +675,7 @@ class WalkScenario:
             return math.nan, px, py
         if cuts["left"] is not None or cuts["right"] is not None:
             hull = self._hull(shrink)
-            return (polygon_margin((px, py), hull),) + _closest_point(px, py, hull)
+            return (polygon_margin((px, py), hull),) + closest_point_xy(px, py, hull)
         corners = self._sole_corners(shrink)
         ns = len(sides)
         rt = self._rot_t[ns]
@@ -952,7 +686,7 @@ class WalkScenario:
             _, rot, pos1 = views[sides[1]]
             rt[:, 3:] = rot.T
             tx1, ty1 = float(pos1[0]), float(pos1[1])
-        m, d, qx, qy = _support_kernel(corners @ rt, float(pos0[0]), float(pos0[1]), tx1, ty1, ns, px, py)
+        m, d, qx, qy = support_kernel(corners @ rt, float(pos0[0]), float(pos0[1]), tx1, ty1, ns, px, py)
         if m < 3:
             self._hull(shrink)  # raises InvalidInputError (collinear)
         return d, qx, qy
@@ -960,7 +694,7 @@ class WalkScenario:
     def _stabilize(self, k: int, p_meas: np.ndarray) -> tuple[float, float]:
         """``self.stab.acceleration`` at plan sample ``k`` (no cut sole; measured CoP ``p_meas`` (2,) m, NaN: none), the
         support area that of
-        :meth:`_support` ``(cop_margin)``, in one :func:`_stabilizer_kernel` call: (c̈_x, c̈_y) m/s², the same numbers
+        :meth:`_support` ``(cop_margin)``, in one :func:`stabilizer_kernel` call: (c̈_x, c̈_y) m/s², the same numbers
         (the soles' corners from :meth:`_support`'s matrix product).
 
         Raises:
@@ -979,7 +713,7 @@ class WalkScenario:
                 _, rot, pos1 = views["right"]
                 rt[:, 3:] = rot.T
             xy = self._sole_corners(self.cop_margin) @ rt
-        m, ax, ay, stab.saturated = _stabilizer_kernel(
+        m, ax, ay, stab.saturated = stabilizer_kernel(
             xy, ns, pos0, pos1, self._com_view, self._vcom_view, self.ref_dcm, self.ref_zmp, k, stab.omega, stab.k_p,
             stab.k_i, stab.k_z, p_meas, stab.i_max, stab.dt, stab.cmp_offset, stab.integral, stab.last_cop,
             stab.last_cmp)
@@ -1039,7 +773,8 @@ class WalkScenario:
                 if self.blind and BLIND_XY_END < 1.0:
                     pose = pin.SE3(P)
                     pose.translation = pose.translation + [0.0, 0.0, self._swing_offset(side, kk, k_lift, k_td)]
-                    self._blind_swing(side, kk, k_lift, k_td, pose, vel, acc)
+                    blind_swing_into((self.poses[side], self.vels[side], self.acc[side]), kk, k_lift, k_td, self.step_height,
+                                     self.dt, pose, vel, acc)
                     rot_t, pos = pose.rotation.T.copy(), np.array(pose.translation)
                 else:  # (the plan's rotations are rotations: only the numbers added here need checking)
                     rot_t, pos = P[:3, :3].T.copy(), P[:3, 3].copy()
@@ -1138,40 +873,6 @@ class WalkScenario:
             rot_t[i, 0], rot_t[i, 1], rot_t[i, 2] = a * c - b * s, a * s + b * c, r0[2, i]
         controller.torso.task.set_target_rows(rot_t, pos)
 
-    def _blind_swing(self, side: str, k: int, k_lift: int, k_td: int, pose: pin.SE3, vel: np.ndarray,
-                     acc: np.ndarray) -> None:
-        """Blind walk: the planned swing's horizontal motion and rotation run ``1 / BLIND_XY_END`` times faster,
-        over the first ``BLIND_XY_END`` of the swing (plan sample ``k`` between lift-off ``k_lift`` and touch-down
-        ``k_td``); the sole then descends vertically over its foothold, so a touch-down on ground above the planned
-        one (early contact) lands where planned, with no horizontal speed. Its clearance bump is replaced by a lift
-        of the same height ``h`` that rises over the first :data:`BLIND_LIFT` of the swing (minimum jerk), is held,
-        and is set down from :data:`BLIND_SET_DOWN` on: the toe clears the bumps ahead while the foot has barely
-        moved forward (the bump ``h · 64 s³ (1 − s)³`` is at 0.26 h when the foot has covered a tenth of its step,
-        and the toe of a sole lifted off rough ground struck the facets ahead). Modifies ``pose``, ``vel`` and
-        ``acc`` in place."""
-        n = max(k_td - k_lift, 1)
-        T = n * self.dt
-        s = (k - k_lift) / n
-        if s >= BLIND_XY_END:
-            kx, r = k_td, 0.0
-        else:
-            kx, r = k_lift + int(round(s / BLIND_XY_END * n)), 1.0 / BLIND_XY_END
-        P = self.poses[side][min(kx, k_td)]
-        z_bump = float(self.poses[side][k][2, 3] - self.poses[side][k_td][2, 3])  # the flat plan's bump at k
-        up_b, up_d, up_dd = min_jerk(s / BLIND_LIFT)
-        dn_b, dn_d, dn_dd = min_jerk((1.0 - s) / (1.0 - BLIND_SET_DOWN))
-        a, c, h = BLIND_LIFT, 1.0 - BLIND_SET_DOWN, self.step_height
-        lift = h * up_b * dn_b
-        dlift = h * (up_d / a * dn_b - up_b * dn_d / c) / T
-        ddlift = h * (up_dd / a**2 * dn_b - 2.0 * up_d * dn_d / (a * c) + up_b * dn_dd / c**2) / T**2
-        pose.rotation = P[:3, :3]
-        pose.translation = np.array([P[0, 3], P[1, 3], pose.translation[2] - z_bump + lift])
-        vx, ax = self.vels[side][kx], self.acc[side][kx]
-        vz, az = float(self.vels[side][k][2]), float(self.acc[side][k][2])
-        vel[:2], vel[3:] = r * vx[:2], r * vx[3:]
-        acc[:2], acc[3:] = r * r * ax[:2], r * r * ax[3:]
-        vel[2], acc[2] = vel[2] - vz + dlift, acc[2] - az + ddlift
-
     def _relative_ground(self, k: int, q: np.ndarray) -> None:
         """Touch-down height of a swinging foot relative to the stance sole: its landing height (blind: the
         planned flat ground) plus the stance sole's measured height less its planned one. The estimated base height drifts on terrain (odometry of
@@ -1232,15 +933,7 @@ class WalkScenario:
                         pin.forwardKinematics(self._model, self._gdata, q, v)
                         kinematics = True
                     w = pin.getFrameVelocity(self._model, self._gdata, self._fid[s], pin.LOCAL).angular
-                    px, py = -float(W[j][4]) / fz, float(W[j][3]) / fz
-                    e = BLIND_PIVOT_INSET
-                    h = BLIND_CUT_BAND
-                    if abs(w[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
-                        new[0], new[1] = px - h, px + h
-                        until[0] = t + BLIND_CUT_HOLD
-                    if abs(w[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about an inner line
-                        new[2], new[3] = py - h, py + h
-                        until[1] = t + BLIND_CUT_HOLD
+                    roll_band(new, until, t, w, (-float(W[j][4]) / fz, float(W[j][3]) / fz), (A, B))
             if new == cut:
                 continue
             if all(math.isinf(x) for x in new):
@@ -1249,19 +942,11 @@ class WalkScenario:
                 continue
             x1, y1 = con.half_size
             x0, y0 = -x1, -y1
-            lo_x, hi_x = self._clip_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
-            lo_y, hi_y = self._clip_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
+            lo_x, hi_x = clip_band_range(max(x0, new[0]), min(x1, new[1]), x0, x1)
+            lo_y, hi_y = clip_band_range(max(y0, new[2]), min(y1, new[3]), y0, y1)
             self._cut[s] = tuple(new)
             con.set_support(lo_x, hi_x, lo_y, hi_y)
             self.support_cuts += 1
-
-    @staticmethod
-    def _clip_range(lo: float, hi: float, a: float, b: float) -> tuple[float, float]:
-        """[lo, hi] widened to :data:`BLIND_CUT_MIN` about its middle and kept inside [a, b]."""
-        if hi - lo < BLIND_CUT_MIN:
-            m = min(max(0.5 * (lo + hi), a + 0.5 * BLIND_CUT_MIN), b - 0.5 * BLIND_CUT_MIN)
-            lo, hi = m - 0.5 * BLIND_CUT_MIN, m + 0.5 * BLIND_CUT_MIN
-        return lo, hi
 
     def _support_offset(self, k: int) -> tuple[float, float]:
         """Blind walk and planned terrain: height (m) and rate (m/s) added to the planned CoM height at plan sample
@@ -1401,7 +1086,7 @@ class WalkScenario:
             return
         if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
                 and self._skipped != idx and self._stretched != idx \
-                and self._correction_clipped(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
+                and self.adjuster.correction_clip(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
             # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
             # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
             dist = float(np.linalg.norm(foot - [target.x, target.y]))
@@ -1442,57 +1127,16 @@ class WalkScenario:
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
-    def _correction_clipped(self, fs0: Footstep, stance: tuple[float, float, float], corr: np.ndarray,
-                            target: Footstep) -> float:
-        """How far (m) the reach clips the DCM correction ``corr`` (2,) (m, world xy): the distance from the nominal
-        landing ``fs0`` projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (``StepAdjuster.landing``
-        with no correction), moved by ``corr``, to the adjusted landing ``target``. The reach's clip of the nominal
-        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that
-        rolls or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the
-        turned reach, asked for a timing cut with no DCM error)."""
-        n0 = self.adjuster.landing(fs0, stance, np.zeros(2))
-        return math.hypot(n0.x + float(corr[0]) - target.x, n0.y + float(corr[1]) - target.y)
-
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
-        """Samples by which to lengthen the swing in progress (0: none) — step timing adaptation towards a later
-        landing (Khadiv, Herzog, Moosavian, Righetti 2020, "Walking control based on step timing adaptation",
-        IEEE T-RO 36(3): the step duration ``T`` is a decision variable bounded to ``[T_min, T_max]``, here
-        ``T_max`` = planned + ``max_stretch``).
-
-        A push late in a swing, towards the swing side, asks for a landing the foot cannot reach in the time left
-        (the step adjustment is frozen in the last ``adjust_freeze`` s; a foot near the floor moves slowly): the
-        foot then lands at its nominal place with the DCM beyond the new stance sole, the other foot cannot cross
-        to capture it, and two more steps are needed while the DCM diverges. Landing later with the same foot
-        captures it in one step
-        when the landing of eq. 2 of :mod:`wbc.gait.step_adjustment` (``τ' = τ + Δ``, the DCM diverging further
-        from the stance CoP ``u_0`` meanwhile) is within the reach.
-
-        Trigger: in the last ``stretch_window`` s of the swing (earlier, a cut is better: the foot can still
-        travel and landing sooner lets the DCM diverge less), the swing not yet stretched or cut, the landing moved by more than ``stretch_min`` from the
-        current plan's, the move not inwards of ``min_width`` (that landing needs the other foot: the step is cut
-        short instead) and the foot more than ``stretch_speed · τ`` from it. ``Δ``: the least multiple of 10 ms
-        up to ``max_stretch`` with ``‖u(τ + Δ) − foot‖ ≤ stretch_speed · (τ + Δ)``, else ``max_stretch``."""
+        """Samples by which to lengthen the swing ``idx`` in progress (0: none): in the last ``stretch_window`` s of
+        a swing not yet stretched or cut, with timing adaptation on, :meth:`StepAdjuster.stretch_samples
+        <wbc.gait.step_adjustment.StepAdjuster.stretch_samples>` (earlier in the swing, a cut is better: the foot
+        can still travel and landing sooner lets the DCM diverge less)."""
         if not self.adjust_timing or self.max_stretch <= 0 or self._stretched == idx or self._skipped == idx \
                 or time_left > self.stretch_window:
             return 0
-        if math.hypot(target.x - fs.x, target.y - fs.y) < self.stretch_min:
-            return 0
-        if self.adjuster.lateral_offset(fs0, stance, corr) < self.adjuster.min_width:
-            return 0
-        v = self.stretch_speed
-        if math.hypot(target.x - foot[0], target.y - foot[1]) <= v * time_left:
-            return 0
-        u0 = np.array(stance[:2])
-        n_max = int(round(self.max_stretch / self.dt))
-        step = max(1, int(round(0.01 / self.dt)))
-        for n in range(step, n_max + step, step):
-            n = min(n, n_max)
-            tl = time_left + n * self.dt
-            c2 = self.adjuster.correction(xi, xi_ref, time_left, tl, u0)
-            t2 = self.adjuster.landing(fs0, stance, c2)
-            if math.hypot(t2.x - foot[0], t2.y - foot[1]) <= v * tl:
-                return n
-        return n_max
+        limits = StretchLimits(self.max_stretch, self.stretch_speed, self.stretch_min, self.dt)
+        return self.adjuster.stretch_samples(limits, fs0, fs, stance, corr, target, foot, (xi, xi_ref), time_left)
 
     def _capturable(self, xi: np.ndarray, stance: str) -> bool:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the

@@ -67,13 +67,14 @@ def _as_gain(task, value) -> float:
 
 
 def as_weight(weight, dim: int, what: str) -> np.ndarray:
-    """Broadcast a scalar or (dim,) weight to a non-negative finite (dim,) array.
+    """Broadcast a scalar or (dim,) weight to a non-negative finite (dim,) array of its own (a copy: later edits of
+    the caller's array do not reach it, so that each weight array has one owner).
 
     Raises:
         InvalidInputError: not numbers (e.g. a string or a bool), wrong shape, negative or non-finite entries.
     """
     try:
-        w = np.asarray(weight, dtype=float)
+        w = np.array(weight, dtype=float)
     except (TypeError, ValueError):
         w = None
     if w is None or isinstance(weight, (bool, np.bool_)):

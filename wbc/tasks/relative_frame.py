@@ -15,7 +15,7 @@ acceleration of rMf at v̇ = 0 is
     α₀ = a_f − Ad(fMr) a_r + ν_rel × (Ad(fMr) ν_r)                (a_f, a_r: LOCAL frame accelerations at v̇ = 0)
 
 and, with ν_rel = (v, ω), the position rows drift by R_rel (α₀,lin + ω × v) (the classical acceleration) and the
-orientation rows by Jlog₃ α₀,ang + Hlog₃(R*ᵀR_rel, ω) ω (:func:`wbc.tasks.frame.orientation_drift`).
+orientation rows by Jlog₃ α₀,ang + Hlog₃(R*ᵀR_rel, ω) ω (:func:`wbc.tasks.frame.frame_drift`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import LOCAL, Configuration
-from wbc.tasks.frame import FrameTask, orientation_drift, pose_error_and_jacobian
+from wbc.tasks.frame import FrameTask, frame_drift, pose_error_and_jacobian
 
 __all__ = ["RelativeFrameTask"]
 
@@ -85,7 +85,4 @@ class RelativeFrameTask(FrameTask):
         acc = (pin.getFrameAcceleration(model, data, self.frame_id, LOCAL)
                - fMr.act(pin.getFrameAcceleration(model, data, self.reference_id, LOCAL))
                + nu_rel.cross(fMr.act(nu_r)))
-        d = self._drift6
-        d[:3] = rMf.rotation @ (acc.linear + np.cross(nu_rel.angular, nu_rel.linear))
-        d[3:] = orientation_drift(self._target_rot_t @ rMf.rotation, nu_rel.angular, acc.angular)
-        return d if self._all_rows else d[self.rows]
+        return frame_drift(rMf.rotation, self._target_rot_t, nu_rel, acc, self.rows)

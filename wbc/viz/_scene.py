@@ -248,7 +248,7 @@ def normalized(robot: Robot, q: np.ndarray) -> np.ndarray:
 TERRAIN_ROOT = "/meshcat/terrain"
 
 
-def add_terrain(viewer: meshcat.Visualizer, terrain) -> None:
+def draw_terrain(viewer: meshcat.Visualizer, terrain) -> None:
     """Draw a :class:`wbc.terrain.Terrain` under ``/meshcat/terrain``: each box as a box, the heightfield as a
     triangle mesh (the triangles of :meth:`wbc.terrain.Heightfield.height`); the base plane is the floor of
     :func:`add_floor` moved to ``terrain.floor_z``."""

@@ -89,7 +89,7 @@ class LiveViewer:
         self._viz = _scene.load_robot_visuals(robot, self._vis)
         _scene.add_floor(self._vis)
         if terrain is not None:
-            _scene.add_terrain(self._vis, terrain)
+            _scene.draw_terrain(self._vis, terrain)
         self._height = _scene.robot_height(robot)
         _scene.set_camera_offset(self._vis, _scene.camera_offset(robot))
         self.follow_camera = bool(follow_camera)

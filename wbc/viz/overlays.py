@@ -29,7 +29,7 @@ from wbc.constants import GRAVITY
 from wbc.geometry import convex_hull, sole_polygon
 from wbc.scenarios.metrics import executed_multibody_zmp
 
-__all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "measured_cop"]
+__all__ = ["walk_overlays", "balance_overlays", "sim_overlays", "contact_items", "cart_table_zmp", "dcm_of", "cop_track"]
 
 
 
@@ -139,25 +139,23 @@ def contact_items(t: np.ndarray, support: np.ndarray, left_sole: np.ndarray, rig
     return polygons, prints, paths
 
 
-def measured_cop(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
-    """(N, 3) net CoP from ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world axes) at
-    sole origins (N, 2, 3). Each foot's CoP solves m = (c − p) × f with c at its sole's height
-    (c_x = p_x − m_y / f_z, c_y = p_y + m_x / f_z, c_z = p_z: on its tread on a terrain); the net CoP is their
-    f_z-weighted mean, height included. nan where the total f_z is below ``min_fz`` N (flight)."""
-    w, p = sim_wrench, sole_pos
+def cop_track(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0) -> np.ndarray:
+    """(N, 3) net CoP of ground reactions (N, 2, 6: force N, moment N·m about the sole origin, world axes) at sole
+    origins (N, 2, 3): per sample :func:`wbc.sim.walk.measured_cop` on the plane at the f_z-weighted mean height of
+    the soles loaded above ``min_fz`` N (0 on flat ground; on a terrain, between the treads), that height as z.
+    nan where the total f_z is below ``min_fz`` N (flight)."""
+    from wbc.sim.walk import measured_cop  # (the simulation layer, loaded for simulation logs only)
+
+    w, p = np.asarray(sim_wrench, float), np.asarray(sole_pos, float)
     fz = w[:, :, 2]
-    loaded = fz > min_fz
-    safe = np.where(loaded, fz, 1.0)
-    cx = np.where(loaded, p[:, :, 0] - w[:, :, 4] / safe, 0.0)
-    cy = np.where(loaded, p[:, :, 1] + w[:, :, 3] / safe, 0.0)
-    weight = np.where(loaded, fz, 0.0)
-    total = weight.sum(axis=1)
-    ok = total > min_fz
-    den = np.where(ok, total, 1.0)
-    x = np.where(ok, (cx * weight).sum(axis=1) / den, np.nan)
-    y = np.where(ok, (cy * weight).sum(axis=1) / den, np.nan)
-    z = np.where(ok, (p[:, :, 2] * weight).sum(axis=1) / den, np.nan)
-    return np.c_[x, y, z]
+    weight = np.where(fz > min_fz, fz, 0.0)
+    out = np.full((len(w), 3), np.nan)
+    for k in np.flatnonzero(weight.sum(axis=1) > min_fz):
+        h = float(weight[k] @ p[k, :, 2] / weight[k].sum())
+        cop = measured_cop(w[k], p[k], min_fz, height=h)
+        if cop is not None:
+            out[k] = cop[0], cop[1], h
+    return out
 
 
 def sim_overlays(run, robot=None, plan=None, min_fz: float = 10.0) -> dict:
@@ -181,7 +179,7 @@ def sim_overlays(run, robot=None, plan=None, min_fz: float = 10.0) -> dict:
     t, com = run.t, run.com
     n = len(t)
     ground = np.c_[com[:, :2], np.zeros(n)]
-    cop = measured_cop(run.sim_wrench, run.sole_pos)
+    cop = cop_track(run.sim_wrench, run.sole_pos)
     cop = np.where(np.isnan(cop), ground, cop)
     points = {"com": com, "com_ground": ground, "cop": cop, "dcm_executed": dcm_of(t, com)}
     arrows = {

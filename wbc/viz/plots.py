@@ -29,7 +29,7 @@ import numpy as np
 
 from wbc.exceptions import InvalidInputError
 from wbc.scenarios.metrics import executed_multibody_zmp
-from wbc.viz.overlays import cart_table_zmp, contact_items, dcm_of, measured_cop
+from wbc.viz.overlays import cart_table_zmp, contact_items, cop_track, dcm_of
 
 __all__ = ["plot_log", "load_log", "MIN_SPAN_M"]
 
@@ -80,7 +80,7 @@ def load_log(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
 
 
 def _cop(log: Mapping[str, np.ndarray]) -> np.ndarray:
-    return measured_cop(np.asarray(log["sim_wrench"], float), np.asarray(log["sole_pos"], float))
+    return cop_track(np.asarray(log["sim_wrench"], float), np.asarray(log["sole_pos"], float))
 
 
 def _stance_bands(log):

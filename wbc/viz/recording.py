@@ -155,7 +155,7 @@ def record_html(
     recorder.commands = [c for c in recorder.commands if c["type"] != "set_transform"]
     _scene.add_floor(vis)
     if terrain is not None:
-        _scene.add_terrain(vis, terrain)
+        _scene.draw_terrain(vis, terrain)
     entries = {name: _scene.overlay_color(name, i) for i, name in enumerate(marks)}
     for j, (name, closed, items) in enumerate(lines):
         color = _scene.overlay_color(name, len(marks) + j)
