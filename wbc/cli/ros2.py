@@ -210,16 +210,12 @@ def _loopback(args) -> None:
 def _dds_reset_service(pub):
     """dds backend: /reset_robot as a Cyclone-RMW service on ``pub``'s participant; returns ``answer(message_of)``
     which replies to the requests that arrived and returns their count."""
-    from cyclonedds.pub import DataWriter
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-
-    from wbc.ros2 import dds, msgs
+    from wbc.ros2 import dds, endpoints, msgs
 
     part = pub.participant
     qos = dds.qos_stream(10)
-    req_reader = DataReader(part, Topic(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos=qos), qos=qos)
-    rep_writer = DataWriter(part, Topic(part, "rr/reset_robotReply", msgs.TriggerReply, qos=qos), qos=qos)
+    req_reader = endpoints.reader(part, "rq/reset_robotRequest", msgs.TriggerRequest, qos)
+    rep_writer = endpoints.writer(part, "rr/reset_robotReply", msgs.TriggerReply, qos)
 
     def answer(message_of) -> int:
         n = 0
@@ -318,14 +314,11 @@ def cmd_joint_publisher(args) -> int:
 
 def _joint_samples_dds():
     """dds backend: ``take()`` → list of (names, positions, sec, nanosec) from /joint_states."""
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-
-    from wbc.ros2 import dds, msgs
+    from wbc.ros2 import dds, endpoints, msgs
 
     part = dds.participant()
     qos = dds.qos_stream(100)
-    reader = DataReader(part, Topic(part, dds.ros_topic("/joint_states"), msgs.JointState, qos=qos), qos=qos)
+    reader = endpoints.reader(part, dds.ros_topic("/joint_states"), msgs.JointState, qos)
 
     def take():
         out = [(list(s.name), s.position, s.header.stamp.sec, s.header.stamp.nanosec)
@@ -445,17 +438,19 @@ def cmd_node(args) -> int:
                  f"backend rclpy on {get_rmw_implementation_identifier()}")
     else:
         from wbc.ros2 import dds
+        from wbc.ros2.endpoints import services_notice
         from wbc.ros2.node import ControllerNode
 
         node = ControllerNode(robot, **core)
-        where = (f"domain {dds.domain_id()}, backend dds (services and actions answer rmw_cyclonedds clients only; "
-                 "--backend rclpy serves every RMW)")
+        where = f"domain {dds.domain_id()}, backend dds"
     what = (f"MuJoCo closed loop (ID controller, {args.plant} plant, {args.state} state)" if args.sim
             else "kinematic walk")
     speed = "" if args.max_rtf is None else f" (at most {args.max_rtf:g}x real time)"
     print(f"wbc ros2 node: {robot.name} as /{args.name} on {where}, {what}, time {args.time}{speed}, "
           f"/joint_states at {args.rate:g} Hz; /cmd_vel, /navigate_to_pose, /navigate_to_goal, /reset_robot; "
           "Ctrl-C to stop", flush=True)
+    if backend == "dds":
+        print(services_notice(args.name), flush=True)
     stopped_by = []
 
     def _terminate(signum, frame):

@@ -35,7 +35,7 @@ __all__ = [
     "ListParametersResult", "GetParametersRequest", "GetParametersReply", "SetParametersRequest",
     "SetParametersReply", "SetParametersAtomicallyRequest", "SetParametersAtomicallyReply", "ListParametersRequest",
     "ListParametersReply", "DescribeParametersRequest", "DescribeParametersReply", "GetParameterTypesRequest",
-    "GetParameterTypesReply", "rihs01", "TYPE_DESCRIPTIONS", "to_bytes",
+    "GetParameterTypesReply", "Gid", "NodeEntitiesInfo", "ParticipantEntitiesInfo", "rihs01", "TYPE_DESCRIPTIONS", "to_bytes",
 ]
 
 
@@ -224,6 +224,17 @@ GetParameterTypesRequest = _service("GetParameterTypesRequest", "rcl_interfaces/
                                     "rcl_interfaces/srv/GetParameterTypes request", names=sequence[str])
 GetParameterTypesReply = _service("GetParameterTypesReply", "rcl_interfaces/srv/GetParameterTypes_Response",
                                   "rcl_interfaces/srv/GetParameterTypes response", types=sequence[uint8])
+
+Gid = _struct("Gid", "rmw_dds_common/msg/Gid", "rmw_dds_common/msg/Gid: a DDS entity's GUID (12-byte prefix, "
+              "4-byte entity id; ``char[16]`` in rosidl, the same bytes).", data=array[uint8, 16])
+NodeEntitiesInfo = _struct("NodeEntitiesInfo", "rmw_dds_common/msg/NodeEntitiesInfo",
+                           "rmw_dds_common/msg/NodeEntitiesInfo: a node and the GIDs of its readers and writers.",
+                           node_namespace=str, node_name=str, reader_gid_seq=sequence[Gid],
+                           writer_gid_seq=sequence[Gid])
+ParticipantEntitiesInfo = _struct("ParticipantEntitiesInfo", "rmw_dds_common/msg/ParticipantEntitiesInfo",
+                                  "rmw_dds_common/msg/ParticipantEntitiesInfo (the DDS topic ros_discovery_info): "
+                                  "a participant's GID and its nodes.", gid=Gid,
+                                  node_entities_info_seq=sequence[NodeEntitiesInfo])
 
 
 def to_bytes(msg: IdlStruct) -> bytes:

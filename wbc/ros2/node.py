@@ -80,13 +80,11 @@ class _Service:
     """A Cyclone-RMW service: reader of ``rq/<name>Request``, writer of ``rr/<name>Reply``."""
 
     def __init__(self, part, name: str, req_type, rep_type, qos):
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
+        from wbc.ros2.endpoints import reader, writer
 
         base = name.lstrip("/")
-        self.reader = DataReader(part, Topic(part, f"rq/{base}Request", req_type, qos=qos), qos=qos)
-        self.writer = DataWriter(part, Topic(part, f"rr/{base}Reply", rep_type, qos=qos), qos=qos)
+        self.reader = reader(part, f"rq/{base}Request", req_type, qos)
+        self.writer = writer(part, f"rr/{base}Reply", rep_type, qos)
         self.req_type, self.rep_type = req_type, rep_type
 
     def requests(self):
@@ -118,11 +116,10 @@ class ControllerNode(NodeCore):
     # -- DDS ---------------------------------------------------------------------------------------------------
     def _setup_dds(self, tf: str) -> None:
         from cyclonedds.core import Policy, Qos
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
         from cyclonedds.util import duration
 
         from wbc.ros2 import dds, msgs
+        from wbc.ros2.endpoints import reader
         from wbc.ros2.publisher import Ros2Publisher
 
         self.m = msgs
@@ -135,8 +132,8 @@ class ControllerNode(NodeCore):
         if self.time_mode == "sim":
             self._clock_w = self._writer("rt/clock", msgs.Clock, dds.qos_stream(1))
         be = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10), Policy.Durability.Volatile)
-        self._cmd_r = DataReader(part, Topic(part, "rt/cmd_vel", msgs.Twist, qos=be), qos=be)
-        self._goal_pose_r = DataReader(part, Topic(part, "rt/goal_pose", msgs.PoseStamped, qos=be), qos=be)
+        self._cmd_r = reader(part, "rt/cmd_vel", msgs.Twist, be)
+        self._goal_pose_r = reader(part, "rt/goal_pose", msgs.PoseStamped, be)
         srv = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(10),
                   Policy.Durability.Volatile)
         self._reset = _Service(part, "reset_robot", msgs.TriggerRequest, msgs.TriggerReply, srv)
@@ -165,12 +162,14 @@ class ControllerNode(NodeCore):
                 "feedback": self._writer(f"rt/{a}/feedback", msgs.NavigateToPoseFeedbackMessage, srv),
                 "status": self._writer(f"rt/{a}/status", msgs.GoalStatusArray, latched),
             }
+        from wbc.ros2.discovery import GraphAnnouncement
+
+        self.graph = GraphAnnouncement(part, self.name)  # in `ros2 node list`, with every reader and writer above
 
     def _writer(self, topic: str, typ, qos):
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.topic import Topic
+        from wbc.ros2.endpoints import writer
 
-        return DataWriter(self.part, Topic(self.part, topic, typ, qos=qos), qos=qos)
+        return writer(self.part, topic, typ, qos)
 
     def _rate_changed(self, rate: float) -> None:
         """The publisher's rate, and /odom's history resized to one second of samples (a new writer)."""

@@ -131,10 +131,7 @@ class Ros2Publisher:
 
     # -- setup -------------------------------------------------------------------------------------------------
     def _open_dds(self):
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.topic import Topic
-
-        from wbc.ros2 import dds
+        from wbc.ros2 import dds, endpoints
 
         m = self._msgs
         self.participant = dds.participant()
@@ -146,8 +143,7 @@ class Ros2Publisher:
             "/robot_description": (m.String, dds.qos_latched()),
         }
         for name, (typ, qos) in spec.items():
-            topic = Topic(self.participant, dds.ros_topic(name), typ, qos=qos)
-            self._writers[name] = DataWriter(self.participant, topic, qos=qos)
+            self._writers[name] = endpoints.writer(self.participant, dds.ros_topic(name), typ, qos)
 
     def _open_bag(self, path: Path, storage: str):
         from rosbags.rosbag2 import StoragePlugin, Writer
