@@ -33,16 +33,49 @@ def robot():
 
 
 def test_real_time_epoch_is_taken_when_the_loop_starts(robot):
-    """The first stamp is the wall clock of the first tick: the epoch is taken in spin(), after every import and
-    the walk's set-up, so nothing that happens before the loop delays the stamps."""
+    """The first stamp is the wall clock at the end of the first tick: the epoch is taken in spin() after it, so
+    neither the set-up before the loop nor a one-off cost in the first tick puts the stamps behind the wall
+    clock."""
     node = _Silent(robot, time_mode="real")
     time.sleep(0.3)  # whatever the start-up costs after the node is built
+    tick = node.walk.tick
+
+    def slow_first_tick():  # a one-off cost in the first tick (a kernel loaded on first use)
+        if node.ticks == 0:
+            time.sleep(0.3)
+        tick()
+
+    node.walk.tick = slow_first_tick
     before = time.time()
     node.spin(0.02)
     wall, stamp = node.stamps[0]
-    print(f"first stamp - wall clock at its tick: {1e3 * (stamp - wall):.3f} ms")
-    assert node.epoch >= before  # not the construction time, 0.3 s earlier
+    print(f"first stamp - wall clock at its publication: {1e3 * (stamp - wall):.3f} ms")
+    assert node.epoch + node.walk.dt >= before + 0.3  # after the first tick, not at construction or spin()'s start
+    assert stamp <= wall  # taken before the publication
     assert stamp - node.epoch == pytest.approx(node.walk.dt, abs=1e-6)  # first tick (epoch ~1.8e9 s: 2e-7 s resolution)
+
+
+def test_real_time_stamps_jump_with_the_wall_clock_over_a_stall(robot):
+    """A tick stalled 0.3 s (more than the pacer's 0.1 s catch-up): the next stamps follow the wall clock, the jump
+    is counted in stamp_shift, and node time is not rushed."""
+    node = _Silent(robot, time_mode="real")
+    tick, stalled = node.walk.tick, []
+
+    def stalling_tick():
+        if node.ticks == 10:
+            stalled.append(time.time())
+            time.sleep(0.3)
+        tick()
+
+    node.walk.tick = stalling_tick
+    node.spin(0.06)
+    after = [stamp for wall, stamp in node.stamps if wall > stalled[0]]
+    # after[0]: the stalled tick's own state, stamped on the schedule it started on; after[1]: the next tick's
+    print(f"stamp jump {node.stamp_shift:.3f} s; next tick's stamp - stall start {after[1] - stalled[0]:.3f} s")
+    assert node.pacer.late_ticks >= 1 and node.stamp_shift >= 0.3 - 0.1
+    assert after[1] >= stalled[0] + 0.3 - 0.1  # without the jump: stall start + 4 ms
+    # a tick is published after the previous tick's due time: its stamp (its own due time) is at most dt ahead
+    assert all(stamp <= wall + node.walk.dt + 1e-6 for wall, stamp in node.stamps)
 
 
 def test_parameter_rules(robot):

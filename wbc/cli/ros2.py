@@ -484,9 +484,10 @@ def _node_summary(node, args, wall: float) -> None:
           flush=True)
     pacer = node.pacer
     if pacer is not None and pacer.late_ticks:
+        then = (f"stamps jumped {node.stamp_shift:.3f} s forward with the wall clock, node time is that far behind it"
+                if args.time == "real" else "node time then runs slower than --max-rtf")
         print(f"node: {'real time' if args.time == 'real' else '--max-rtf'} not kept: {pacer.late_ticks} ticks found "
-              f"the loop > {pacer.max_lag:g} s behind the wall clock (re-anchored: stamps are node time, which then "
-              "runs slower)", flush=True)
+              f"the loop > {pacer.max_lag:g} s behind the wall clock (re-anchored: {then})", flush=True)
 
 
 def _ros_type(dds_type: str) -> str:

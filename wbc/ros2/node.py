@@ -50,7 +50,8 @@ Behaviour:
   nothing of that request is applied (set_parameters applies each valid parameter; set_parameters_atomically none
   if one is refused).
 * Time: ``"real"`` paces the loop to the wall clock (:class:`wbc.viz.live.RealTimePacer`), stamps are the wall-clock
-  time at the first tick plus the node time; ``"sim"`` runs as fast as it can (``max_rtf``: at most that many node
+  time at the end of the first tick plus the node time (after a stall > 0.1 s they jump forward with the wall
+  clock); ``"sim"`` runs as fast as it can (``max_rtf``: at most that many node
   seconds per wall-clock second), publishes /clock and stamps node time from 0.
 * Services answer rmw_cyclonedds clients (the request id travels in the payload header). rmw_fastrtps clients are
   not answered: their request id is the request sample's RTPS identity (writer GUID, sequence number) and they take

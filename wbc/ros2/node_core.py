@@ -9,9 +9,11 @@ serve requests), ``_publish_state``, ``_publish_clock``, ``_send_feedback``, ``_
 ``_rate_changed`` and ``close``; the behaviour the hooks report is in :mod:`wbc.ros2.node`'s docstring.
 
 Time: ``"real"`` paces the loop to the wall clock (:class:`wbc.viz.live.RealTimePacer`) and stamps the wall-clock
-time at the first tick plus the node time (the epoch is taken when :meth:`NodeCore.spin` starts, after every import,
-so the first stamp is the wall clock); ``"sim"`` stamps node time from 0, runs as fast as it can or, with
-``max_rtf``, at most ``max_rtf`` node seconds per wall second.
+time at the end of the first tick plus the node time since then (the epoch is taken in :meth:`NodeCore.spin` after
+the first tick, past every import and one-off cost, where the pacer's clock starts: the first stamp is the wall
+clock). A stall of the loop longer than 0.1 s is not caught up: the pacer re-anchors, the stamps jump forward
+with the wall clock (``stamp_shift`` adds the jumps) and node time stays that far behind it. ``"sim"`` stamps node
+time from 0 and runs as fast as it can or, with ``max_rtf``, at most ``max_rtf`` node seconds per wall second.
 """
 
 from __future__ import annotations
@@ -160,6 +162,7 @@ class NodeCore:
         self.tick_time = deque(maxlen=30000)  # s per tick, a ring of the last minute at 500 Hz
         self.counts = {"cmd_vel": 0, "goals": 0, "resets": 0, "param_sets": 0}
         self.heap_trims, self.last_trim_s = 0, 0.0  # spin(trim_every): malloc_trim calls, s taken by the last
+        self.stamp_shift = 0.0  # real time: s the stamps jumped forward over stalls (node time is that far behind)
 
     # -- transport hooks ---------------------------------------------------------------------------------------
     def _poll(self) -> None:
@@ -383,10 +386,10 @@ class NodeCore:
         w = self.walk
         trim_ticks = None if trim is None else max(1, int(round(trim_every / w.dt)))
         pacer = None
+        take_epoch = False
         if self.time_mode == "real":
             pacer = self._pacer_type()
-            if self.ticks == 0:
-                self.epoch = time.time() - w.t
+            take_epoch = self.ticks == 0  # at the end of the first tick, where the pacer's clock starts too
         elif self.max_rtf is not None:
             pacer = self._pacer_type(speed=self.max_rtf)
         self.pacer = pacer  # (late_ticks: ticks that found the loop > 0.1 s behind the wall clock; re-anchored)
@@ -408,6 +411,8 @@ class NodeCore:
                 self._command_timeout()
             w.tick()
             self.ticks += 1
+            if take_epoch:  # the first tick's one-off costs (kernel loading) are behind: stamps = the wall clock
+                self.epoch, take_epoch = time.time() - w.t, False
             if self.sim:
                 self._report_sim()
             self._publish_state()
@@ -428,7 +433,11 @@ class NodeCore:
                 if self.ticks % rep_every == 0:
                     self._report(np.asarray(window) * 1e6, np.asarray(window_cpu) * 1e6)
             if pacer is not None:
-                pacer.wait(w.t)
+                late = pacer.late_ticks
+                lag = pacer.wait(w.t)
+                if pacer.late_ticks > late and self.time_mode == "real":
+                    self.epoch += lag  # re-anchored after a stall: stamps stay on the wall clock
+                    self.stamp_shift += lag
 
     def _report(self, tt: np.ndarray, tc: np.ndarray) -> None:
         w = self.walk
