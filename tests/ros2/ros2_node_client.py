@@ -16,6 +16,7 @@ import os
 import random
 import sys
 import time
+import types
 from dataclasses import dataclass, field
 
 from cyclonedds.core import Policy, Qos
@@ -334,7 +335,10 @@ def _srv(name, fields_req, fields_rep):
               "client_guid": 0, "seq": 0}
         for k, (_, d) in fields.items():
             ns[k] = field(default_factory=d)
-        cls = type(f"{name}_{kind}_", (IdlStruct,), ns, typename=f"rcl_interfaces::srv::dds_::{name}_{kind}_")
+        # types.new_class passes typename to IdlStruct's metaclass (type(...) ignored it: the DDS type name was
+        # "<name>_<kind>_", which only matched while both ends announced XTypes type information)
+        typename = f"rcl_interfaces::srv::dds_::{name}_{kind}_"
+        cls = types.new_class(f"{name}_{kind}_", (IdlStruct,), {"typename": typename}, lambda body: body.update(ns))
         out.append(dataclass(final(cls)))
     return out
 

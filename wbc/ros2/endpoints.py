@@ -33,8 +33,9 @@ import warnings
 
 __all__ = ["writer", "reader", "without_type_information", "services_notice", "SERTYPE_SCAN_BYTES"]
 
-#: How far into the sertype the type-information field is searched (bytes; it sits at 96 in cyclonedds 11.0.1).
-SERTYPE_SCAN_BYTES = 512
+#: How far into the sertype the type-information field is searched (bytes). It sits at 96 in cyclonedds 11.0.1,
+#: followed in the same allocation by the type map and the serializer's descriptor; the search stops there.
+SERTYPE_SCAN_BYTES = 256
 _lock = threading.Lock()
 
 
@@ -61,7 +62,7 @@ def _typeinfo_size_field(topic):
     for off in range(0, SERTYPE_SCAN_BYTES, step):
         ptr = ctypes.c_void_p.from_address(base + off).value
         size = ctypes.c_uint32.from_address(base + off + step)
-        if ptr and size.value == len(info) and ctypes.string_at(ptr, size.value) == info:
+        if ptr and ptr % step == 0 and size.value == len(info) and ctypes.string_at(ptr, size.value) == info:
             return size
     return None
 

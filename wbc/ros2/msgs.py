@@ -35,7 +35,8 @@ __all__ = [
     "ListParametersResult", "GetParametersRequest", "GetParametersReply", "SetParametersRequest",
     "SetParametersReply", "SetParametersAtomicallyRequest", "SetParametersAtomicallyReply", "ListParametersRequest",
     "ListParametersReply", "DescribeParametersRequest", "DescribeParametersReply", "GetParameterTypesRequest",
-    "GetParameterTypesReply", "Gid", "NodeEntitiesInfo", "ParticipantEntitiesInfo", "rihs01", "TYPE_DESCRIPTIONS", "to_bytes",
+    "GetParameterTypesReply", "Gid", "NodeEntitiesInfo", "ParticipantEntitiesInfo", "rihs01", "TYPE_DESCRIPTIONS",
+    "to_bytes",
 ]
 
 
