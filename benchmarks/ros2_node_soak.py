@@ -50,12 +50,15 @@ def main() -> int:
     ap.add_argument("--report-every", type=float, default=None,
                     help="node-time period of the node's tick/RSS reports, s (default 30; 60 with --sim)")
     ap.add_argument("--node-log", type=Path, default=None, help="write the node's stdout to this file")
+    ap.add_argument("--backend", choices=("auto", "rclpy", "dds"), default="dds",
+                    help="the node's transport (default dds; rclpy: run this script with a Python that has rclpy, "
+                         "and its RMW's loopback configuration, e.g. FASTDDS_DEFAULT_PROFILES_FILE)")
     args = ap.parse_args()
     report = args.report_every or (60.0 if args.sim else 30.0)
     os.environ["CYCLONEDDS_URI"] = loopback_uri()
     os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 200))
     cmd = [sys.executable, "-m", "wbc", "ros2", "node", "--robot", args.robot, "--time", "sim",
-           "--report-every", f"{report:g}"] + (["--sim"] if args.sim else [])
+           "--report-every", f"{report:g}", "--backend", args.backend] + (["--sim"] if args.sim else [])
     print("node:", " ".join(cmd[1:]), flush=True)
     node = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
     lines = []

@@ -9,15 +9,21 @@ import tempfile
 from pathlib import Path
 
 import wbc
-from wbc.ros2.dds import domain_id, use_loopback
-from wbc.ros2.publisher import Ros2Publisher
-from wbc.scenarios.walk import plan_default_walk, run_walk
+from wbc.ros2 import Ros2UnavailableError, require
 
 parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))  # the first paragraph
 parser.add_argument("--robot", default="humanoid15", help="catalog robot (default humanoid15)")
 parser.add_argument("--bag", type=Path, default=None, help="rosbag2 folder to create (default: a temporary one)")
 parser.add_argument("--quick", action="store_true", help="2 steps (CI)")
 args = parser.parse_args()
+try:
+    require()                                            # before any work: one line when the extra is missing
+except Ros2UnavailableError as exc:
+    raise SystemExit(f"ros2_publish.py: {exc}") from None
+
+from wbc.ros2.dds import domain_id, use_loopback  # noqa: E402
+from wbc.ros2.publisher import Ros2Publisher  # noqa: E402
+from wbc.scenarios.walk import plan_default_walk, run_walk  # noqa: E402
 
 use_loopback()                                           # CYCLONEDDS_URI: interface lo, multicast off
 robot = wbc.load_robot(args.robot)
