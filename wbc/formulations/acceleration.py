@@ -406,6 +406,15 @@ class InverseDynamicsQP:
         self.last_set_empty = False
         #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
+        #: the current tick's check found a point of the failed full QP's hard set (the QP has a minimiser); reset by
+        #: :meth:`solve`. With :attr:`budget_cut` the tick's failure is the budget's, not the problem's.
+        self.hard_set_point = False
+        #: the tick's counted work cut a failed full QP whose hard set has a point (:attr:`hard_set_point`): the next
+        #: full QP starts with the stage that had no work left, the cost-scaled DAQP call (:meth:`_resume_scaled`),
+        #: and keeps starting so while that call answers (without a clock guard).
+        self.resume_scaled = False
+        #: full QPs answered by the cost-scaled DAQP call a tick started with (:attr:`resume_scaled`).
+        self.resumed_solves = 0
         #: full-QP answers that failed the output check (:meth:`verify`) and passed it once polished on their active
         #: set (:meth:`wbc.solvers.base.QPBackend.polish`; :meth:`_guard_full`).
         self.output_polished = 0
@@ -956,6 +965,7 @@ class InverseDynamicsQP:
         self._assembled = None
         self._relaxed_bounds = None
         self.budget_cut = False
+        self.hard_set_point = False
         self.relaxed_set_feasible = None
         self._relaxed_check_final = False
         self.tick_work = 0.0
@@ -974,6 +984,41 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
                        dt: float = 0.0) -> tuple[np.ndarray, str]:
+        """:meth:`_backend_stages`, started by the cost-scaled DAQP call when the last tick's counted work cut a full
+        QP whose hard set has a point (:attr:`resume_scaled`, :meth:`_resume_scaled`); a failure cut so sets it for the
+        next tick."""
+        backend = self.backend
+        if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
+            x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
+            if x is not None:
+                return x, backend.name
+        try:
+            return self._backend_stages(H, g, A, b, C, l, u, lb, ub, state, dt)
+        except SolverError:
+            self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
+            raise
+
+    def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """The first stage of a full QP after a tick whose counted work cut one with a point in its hard set
+        (:attr:`resume_scaled`): one cost-scaled DAQP call (:meth:`_solve_scaled`) of at most
+        ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations` iterations (what a set found not empty gives the
+        attempt and this call together; the attempt is not made), counted in :attr:`tick_work`. A DAQP attempt that fails by its count
+        on a feasible set is most often an ill-scaled cost (|g| ~ 1e6: a stiff task gain), which the scaled call solves
+        in tens of iterations; ill-scaled in one tick, the cost stays so in the next ones, which start the same way
+        while the call answers. Its checked x, or None (and :attr:`resume_scaled` cleared: the tick goes on with
+        :meth:`_backend_stages`)."""
+        proximal = backend.proximal_iterations
+        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
+        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
+        self.tick_work += self._call_work(backend, proximal)
+        if x is None:
+            self.resume_scaled = False
+        else:
+            self.resumed_solves += 1
+        return x
+
+    def _backend_stages(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
+                        dt: float = 0.0) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
         extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
         also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
@@ -1191,6 +1236,7 @@ class InverseDynamicsQP:
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
         if full is True:
+            self.hard_set_point = True
             return True
         self.last_set_empty = full is False
         left = self._work_left(self.FAILURE_WORK)
