@@ -95,7 +95,8 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
+from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
+                                       PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
                                        contact_views, id_tick_buffers, output_violations,
@@ -243,8 +244,8 @@ class InverseDynamicsQP:
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``fast``, the default: the compiled tick of :mod:`wbc.formulations.idkernel` —
             assembly, Goldfarb–Idnani dual active-set solve (:func:`~wbc.solvers.active_set.dual_active_set`) and
-            torques in one call — with DAQP as fallback (the general path while a hard task is present or the
-            torque-limited joints are not contiguous in v); ``daqp``: the general path, warm-started from the
+            torques in one call — with DAQP as fallback (the general path while the torque-limited joints are
+            not contiguous in v); ``daqp``: the general path, warm-started from the
             previous duals, ``primal_tol`` 1e-6 (DAQP's one-shot dual warm start stops ≈ 3e-7 from the optimum on
             this QP; the compiled tick matches quadprog to ≈ 1e-11); any other qpsolvers backend —
             :func:`wbc.solvers.make_backend`) or a :class:`~wbc.solvers.base.QPBackend`.
@@ -565,7 +566,8 @@ class InverseDynamicsQP:
         (rows in x = [v̇; f], written by its ``write``; equality rows go after the hard tasks' in A x = b), or a
         kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
         ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ =
-        ``gain`` (1/s). While one is present the general (DAQP) path solves the QP.
+        ``gain`` (1/s). Its rows are a gathered entry of the assembly (:meth:`_write_gathered`): the compiled tick
+        solves the QP with them as the general path does.
 
         Returns:
             the ID constraint added (remove it with it, or with the kinematic constraint).
@@ -723,13 +725,7 @@ class InverseDynamicsQP:
         if not gathered:
             rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
-        ctx = self._ctx
-        ctx.state, ctx.dt = state, dt
-        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
-        for k, c in enumerate(self.contacts):
-            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
-            jac[c.name] = rows.Jc[k]
-            offsets[c.name] = rows.cdrift[k]
+        ctx = self._context(state, dt)
         A, b = self._A, self._b
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
@@ -750,17 +746,11 @@ class InverseDynamicsQP:
                 for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
                     if con.enabled:
                         con.rows = slice(min(con.rows.start, i), min(con.rows.stop, i))
-        for con in (*self.hard_tasks, *self.extra_equalities):
-            if con.enabled:
-                con.rows = slice(i, i + con.dim)
-                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
-                i += con.dim
+        i = self._write_gathered(ctx, i)
         self._m = i
         C, l, u = self._C, self._l, self._u
         tl = self.torque_limits
         tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
-        for con in self.extra_constraints:
-            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
         lb, ub = self._lb, self._ub
         self._refresh_contact_rows()
         if self.joint_limits:
@@ -771,6 +761,45 @@ class InverseDynamicsQP:
                 lo, hi = jl.bounds(state, dt)
                 lb[jl.iv], ub[jl.iv] = lo, hi
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
+
+    def _context(self, state: DynamicsState, dt: float) -> IDContext:
+        """The constraints' context of this tick from the gathered contact data: J_cᵀ, the sole Jacobians and the
+        velocity-free parts of eq. 5."""
+        rows = self._rows
+        ctx = self._ctx
+        ctx.state, ctx.dt = state, dt
+        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
+        for k, c in enumerate(self.contacts):
+            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
+            jac[c.name] = rows.Jc[k]
+            offsets[c.name] = rows.cdrift[k]
+        return ctx
+
+    @property
+    def _gathers_rows(self) -> bool:
+        """The QP has gathered constraint entries (:meth:`_write_gathered`)."""
+        return bool(self.hard_tasks or self.extra_equalities or self.extra_constraints)
+
+    def _write_gathered(self, ctx: IDContext, i: int) -> int:
+        """Write the gathered constraint entries — the rows that no compiled body of the tick writes: the hard tasks'
+        and added equalities' rows of A from row ``i`` on, the added inequalities' rows of C — by their constraints'
+        ``write``. The one driver of these rows for both assemblies: :meth:`build` calls it after the contact rows,
+        the compiled tick before its call (:func:`~wbc.formulations.idkernel.id_tick` counts the equality rows,
+        ``PAR_EXTRA_ROWS``, and solves with every row). An added constraint is one more entry here.
+
+        Returns:
+            the row after the last equality row written.
+        """
+        A, b = self._A, self._b
+        for con in (*self.hard_tasks, *self.extra_equalities):
+            if con.enabled:
+                con.rows = slice(i, i + con.dim)
+                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
+                i += con.dim
+        C, l, u = self._C, self._l, self._u
+        for con in self.extra_constraints:
+            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
+        return i
 
     def assembled_qp(self) -> tuple | None:
         """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or by
@@ -969,8 +998,7 @@ class InverseDynamicsQP:
         self.relaxed_set_feasible = None
         self._relaxed_check_final = False
         self.tick_work = 0.0
-        if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
-                and not self.extra_equalities:
+        if self._kernel is not None:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
@@ -1471,6 +1499,11 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
+        if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
+            m0 = 6 + 6 * int(np.count_nonzero(rows.active))
+            par[PAR_EXTRA_ROWS] = self._write_gathered(self._context(state, dt), m0) - m0
+        else:
+            par[PAR_EXTRA_ROWS] = 0.0
         # after a give-up the call starts from DAQP's working set, one answer away: a short attempt
         cap = self.kernel_max_iterations
         par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
@@ -1718,9 +1751,9 @@ class _KernelBuffers:
         tl = qp.torque_limits
         jl = qp.joint_acceleration_limits
         self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
-                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon])
+                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon, 0.0])
         p = blocks[4].shape[0]  # C (p, n): the inequality rows
-        buffers = id_tick_buffers(n, nv, p, nc, jl.dim)
+        buffers = id_tick_buffers(n, nv, p, nc, jl.dim, blocks[2].shape[0])  # A (me, n): room for every equality row
         self.state, self.rstate = buffers[0][:n], buffers[0][n:]  # the working set, views of the kernel's buffer
         self.residual, self.tau, self.wrench, self.x = tick_outputs(buffers[-1], nv, nc)
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
