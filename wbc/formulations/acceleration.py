@@ -95,7 +95,8 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
+from wbc.formulations.idkernel import (IDArrays, IDContactData, IDDynamics, IDLimits, IDTaskRows, IDTickBuffers,
+                                       PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
                                        PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
@@ -1509,7 +1510,7 @@ class InverseDynamicsQP:
         par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
         kb.gave_up = False
         ta = perf_counter()
-        it, m = id_tick(*rows.tasks, state.M, state.h, state.q, state.v, dt, *rows.contacts, *kb.tail)
+        it, m = id_tick(rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *kb.tail)
         self.dependent_contact_rows = 0
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
@@ -1668,7 +1669,7 @@ class _ProblemRows:
         self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
         self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = (self.cbuf, self.active)
+        self.contacts = IDContactData(self.cbuf, self.active)
         self.Hw = np.zeros((nv, nv))  # task_cost workspace
         self.gw = np.zeros(nv)
         self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
@@ -1698,7 +1699,7 @@ class _ProblemRows:
                                  self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
             ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
             k += ref.dim
-        self.tasks = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
+        self.tasks = IDTaskRows(self.Jt, self.R, self.pidx, np.zeros(mt + mp))
         self.layout = tuple(map(id, qp.tasks))
 
     def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
@@ -1757,7 +1758,9 @@ class _KernelBuffers:
         self.state, self.rstate = buffers[0][:n], buffers[0][n:]  # the working set, views of the kernel's buffer
         self.residual, self.tau, self.wrench, self.x = tick_outputs(buffers[-1], nv, nc)
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
-        self.tail = (idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax, *blocks, *buffers)
+        # id_tick's arguments after the tick's rows and dynamics: (IDLimits, IDArrays, IDTickBuffers)
+        self.tail = (IDLimits(idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax), IDArrays(*blocks),
+                     IDTickBuffers(*buffers))
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
@@ -1776,11 +1779,12 @@ class _KernelBuffers:
         if rows.layout is None:
             rows.relayout(qp)
         nv = qp.nv
-        arrays = [a for a in (*rows.tasks, *rows.contacts, *self.tail) if isinstance(a, np.ndarray)]
+        arrays = [a for a in (*rows.tasks, *rows.contacts, *(x for t in self.tail for x in t))
+                  if isinstance(a, np.ndarray)]
         saved = [a.copy() for a in arrays]
         try:
-            id_tick(*rows.tasks, np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(), np.zeros(nv),
-                    0.002, *rows.contacts, *self.tail)
+            id_tick(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(),
+                                           np.zeros(nv), 0.002), rows.contacts, *self.tail)
             _ID_TICK_LOADED = True
         finally:
             for a, a0 in zip(arrays, saved):

@@ -48,6 +48,8 @@ itself), so solvers are compared tick by tick at the same state (``tests/formula
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
@@ -63,7 +65,22 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carv
                                 forward_substitution, primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS",
+           "IDTaskRows", "IDDynamics", "IDContactData", "IDLimits", "IDArrays", "IDTickBuffers"]
+
+#: the workspaces of :func:`id_tick`, one namedtuple per group of its arguments (numba takes them as tuples):
+#: the stacked task rows of :func:`task_cost`
+IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
+#: the state's dynamics, (q, v) and the control period dt (s)
+IDDynamics = namedtuple("IDDynamics", "M h q v dt")
+#: the contact data (:func:`contact_views`) and the activity of each contact
+IDContactData = namedtuple("IDContactData", "cbuf active")
+#: the limits' indices and numbers, and the settings vector ``par`` (``PAR_*``)
+IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
+#: the formulation's QP arrays, written in place
+IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
+#: the buffers of :func:`id_tick_buffers`
+IDTickBuffers = namedtuple("IDTickBuffers", "ws_s ws_f ws_i ws_b out")
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -510,26 +527,27 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, qmax, vmax, H, g, A, b, C, l, u, lb,
-            ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
+def id_tick(tasks, dynamics, contacts, limits, qp, buffers):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
 
-    Args:
-        Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
-        M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
-        cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
+    Args (namedtuples, the fields below):
+        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
+            of :func:`task_cost`.
+        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
+            control period (s).
+        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
             corner maps; Rc (nc, 3, 3): sole rotations (world ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand
             side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,) bool.
-        idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
+        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
             indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (7,): ε_a, a_brk, joint
             limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks, gathered equality rows
             written after the active contacts' (``PAR_*``). qmin,
             qmax, vmax (k,): joint-limit data (eq. 9).
-        H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
+        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
             contact).
-        ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
+        buffers (:data:`IDTickBuffers`): ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
             as the warm start, written), the solve's workspace (the arrays of :func:`id_workspace` — its L and tv
             are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them —, the joint
             bounds jlo, jhi, the equality step's multipliers nu, the workspace gram, gram_y of
@@ -543,6 +561,12 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, 
         ``par[PAR_MAX_ITER]`` is ≥ 2; else the dual active set's steps; negative: exit code of the solve, or
         PROJECT_CONTACT_RHS —, number of equality rows m).
     """
+    Jt, R, pidx, rt = tasks
+    M, h, q, v, dt = dynamics
+    cbuf, active = contacts
+    idx, lim, par, qmin, qmax, vmax = limits
+    H, g, A, b, C, l, u, lb, ub, JcT = qp
+    ws_s, ws_f, ws_i, ws_b, out = buffers
     nv = M.shape[0]
     Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
     nt = lim.shape[0]
