@@ -58,7 +58,7 @@ LAYERS = [
     ("Tasks", ["wbc.tasks"]),
     ("Constraints", ["wbc.constraints"]),
     ("State estimation", ["wbc.estimation"]),
-    ("Formulations, controllers", ["wbc.formulations", "wbc.tick", "wbc.dynamics", "wbc.solve"]),
+    ("Formulations, controllers", ["wbc.formulations", "wbc.controllers", "wbc.tick", "wbc.dynamics", "wbc.solve"]),
     ("Gait", ["wbc.gait"]),
     ("Scenarios", ["wbc.scenarios"]),
     ("Physics (MuJoCo)", ["wbc.sim"]),

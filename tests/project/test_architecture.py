@@ -23,7 +23,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("wbc.geometry", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
-    ("wbc.formulations", "wbc.dynamics", "wbc.solve"),
+    ("wbc.formulations", "wbc.controllers", "wbc.dynamics", "wbc.solve"),
     ("wbc.gait",),
     ("wbc.scenarios", "wbc.sim"),
     ("wbc.viz", "wbc.ros2", "wbc.bench", "wbc.campaign"),

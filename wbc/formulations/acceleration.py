@@ -217,7 +217,7 @@ SCALED_EPS_PROX = -1e-8
 
 def tick_work_iterations(budget: float) -> float:
     """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
-    :attr:`wbc.dynamics.controller.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
+    :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
     iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
     :attr:`InverseDynamicsQP.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
     budget (nothing counted stops a stage)."""
@@ -347,7 +347,7 @@ class InverseDynamicsQP:
         self.dependent_contact_rows = 0
         #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
         #: failure; False by default: it costs many control periods and belongs off the control path
-        #: (:meth:`wbc.dynamics.controller.InverseDynamicsController.diagnose`).
+        #: (:meth:`wbc.controllers.inverse_dynamics.InverseDynamicsController.diagnose`).
         self.confirm_failures = False
         # a user backend whose solve() predates the confirm keyword is called without it
         self._takes_confirm: tuple = (None, False)
@@ -355,18 +355,18 @@ class InverseDynamicsQP:
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
         #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
         #: (:func:`kernel_iterations`). A tick whose compiled call gave up is answered by DAQP, whose working set
         #: warm-starts the next tick's compiled call, capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
         #: (both together ``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`,
         #: without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
         #: (:func:`daqp_attempt_iterations`).
         self.daqp_attempt_iterations = ITERATION_LIMIT
         #: the work of one tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``: nothing
-        #: counted stops a stage); :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget.
+        #: counted stops a stage); :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget.
         #: Without a clock guard the stages after a failed full QP's first attempt start only while
         #: :attr:`tick_work` is below their share of it (``FAILURE_WORK``, ``QUADPROG_WORK``, ``RELAXED_WORK``), each
         #: DAQP call capped at what is left.
@@ -391,7 +391,7 @@ class InverseDynamicsQP:
         self.second_opinion_enabled = True
         #: the clock guard of the current tick: (CPU time ``time.thread_time`` at its start, its budget in s), or
         #: None (default: nothing decided by a clock). Set per tick by
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``; read by
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` with ``clock_guard``; read by
         #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
         self.tick_clock: tuple[float, float] | None = None
         #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`, or by the tick's counted work
