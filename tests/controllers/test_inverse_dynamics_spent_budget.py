@@ -8,6 +8,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from conftest import highs_feasible
 from wbc.dynamics.balance import IDBalanceController
 
@@ -19,18 +21,42 @@ import fuzz_id  # noqa: E402
 LONGEST_FALLBACK_RUN = 5
 
 
-def test_a_feasible_problem_whose_budget_was_spent_never_takes_gravity_compensation(monkeypatch):
-    ticks = []  # (path, ok, HiGHS finds the full QP's hard set feasible)
+def _replayed(monkeypatch, seed: int, episode: int) -> list[tuple[str, bool, bool, float]]:
+    """The episode's ticks: (path, ok, HiGHS finds the full QP's hard set feasible, the command's largest violation
+    of the hard rows and bounds, relative to max(1, |bound|))."""
+    ticks = []
     solve = IDBalanceController.solve
 
     def recorded(self, q, v):
         cmd = solve(self, q, v)
         _, _, A, b, C, l, u, lb, ub = self.qp.build(self.state, fuzz_id.DT)
-        ticks.append((str(cmd.path), cmd.ok, highs_feasible(A, b, C, l, u, lb, ub)))
+        x = np.concatenate([cmd.dv, cmd.forces])
+        worst = max(np.max(np.abs(A @ x - b) / np.maximum(1, np.abs(b)), initial=0),
+                    np.max((C @ x - u) / np.maximum(1, np.abs(u)), initial=0),
+                    np.max((l - C @ x) / np.maximum(1, np.abs(l)), initial=0),
+                    np.max((x - ub) / np.maximum(1, np.abs(ub)), initial=0),
+                    np.max((lb - x) / np.maximum(1, np.abs(lb)), initial=0))
+        ticks.append((str(cmd.path), cmd.ok, highs_feasible(A, b, C, l, u, lb, ub), float(worst)))
         return cmd
 
     monkeypatch.setattr(IDBalanceController, "solve", recorded)
-    fuzz_id.run_chunk(5000, 8302, replay=84, warm=False, quiet=True)
+    fuzz_id.run_chunk(5000, seed, replay=episode, warm=False, quiet=True)
+    return ticks
+
+
+def test_a_first_tick_whose_budget_was_spent_commands_a_point_of_the_hard_set(monkeypatch):
+    """Seed 8301 episode 40 (Talos): tick 0's full QP is cut by the counted work on a feasible set and there is no
+    solved command to hold: the command is the hard set's point (``fallback:feasible``), which meets every hard row
+    and bound to 1e-6 (relative), checked here on build()'s QP."""
+    ticks = _replayed(monkeypatch, 8301, 40)
+    path, ok, feasible, worst = ticks[0]
+    assert feasible and not ok and path == "fallback:feasible", ticks[0]
+    assert worst <= 1e-6
+    assert [t[0] for t in ticks if t[0] == "fallback:gravity" and t[2]] == []
+
+
+def test_a_feasible_problem_whose_budget_was_spent_never_takes_gravity_compensation(monkeypatch):
+    ticks = [t[:3] for t in _replayed(monkeypatch, 8302, 84)]
     assert len(ticks) == 50
     # the episode is the one that took 32 gravity-only ticks in a row while feasible: its hard set is feasible on
     # most ticks

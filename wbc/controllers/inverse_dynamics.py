@@ -14,8 +14,8 @@ relative) is first refined (polished on its active set, else quadprog's solve of
 the violated constraints in ``IDCommand.conflicts``.
 
 Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
-(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold`` or ``fallback:gravity``
-(step 2).
+(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold``, ``fallback:feasible``
+or ``fallback:gravity`` (step 2).
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
@@ -59,7 +59,8 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 2. that fails too → the **previous tick's solved command** when the previous tick was
    solved (``fallback:hold``: a zero-order hold for one tick, as a real-time loop does on a missed deadline — the
    damping term below is a torque step at impact velocities that a single landing tick did not survive; held
-   for as long as the failures are the budget's: a full QP cut by the counted work whose hard set has a point); a
+   for as long as the failures are the budget's: a full QP cut by the counted work whose hard set has a point; with
+   no solved command to hold, the point of the hard set that the tick's check found, ``fallback:feasible``); a
    second failed tick in a row (or a failure with no solved tick before it) takes
    **contact-consistent gravity compensation with joint damping** at the current state (``fallback:gravity``),
 
@@ -223,7 +224,8 @@ class IDCommand(TickResultBase):
             thread, the budgeted quantity).
         path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module
             docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``, ``fallback:hold`` (the previous
-            tick's solved command, held for one failed tick) or ``fallback:gravity`` (its string form).
+            tick's solved command, held), ``fallback:feasible`` (a point of the hard set) or ``fallback:gravity`` (its
+            string form).
         over_budget: the tick used more than the controller's budget.
     """
 
@@ -387,7 +389,14 @@ class InverseDynamicsController:
         spent = self.qp.budget_cut and self.qp.hard_set_point
         if not spent:
             self._last_ok = None
-        if prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
+        if prev is None and spent:
+            # no command to hold: the point of the hard set that the tick's check found (every hard row met)
+            sol = self.qp.solution_from(self.state, self.qp.hard_set_x)
+            cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, ok=False,
+                            message=f"{message}; the tick's budget was spent on a full QP whose hard set has a point, "
+                                    "with no solved command to hold: that point is commanded",
+                            dynamics_residual=sol.dynamics_residual, path=TickPath("fallback", fallback="feasible"))
+        elif prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
             why = ("the tick's budget was spent on a full QP whose hard set has a point: the last solved command is "
                    "held" if spent else
                    "the previous tick's command is held for this tick (a second failed tick in a row takes the safe "

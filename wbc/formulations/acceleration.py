@@ -411,6 +411,9 @@ class InverseDynamicsQP:
         #: the current tick's check found a point of the failed full QP's hard set (the QP has a minimiser); reset by
         #: :meth:`solve`. With :attr:`budget_cut` the tick's failure is the budget's, not the problem's.
         self.hard_set_point = False
+        #: (n,) the point of the full hard set that check found (the projection of the origin onto the set), valid
+        #: while :attr:`hard_set_point` is True
+        self.hard_set_x = np.zeros(n)
         #: the tick's counted work cut a failed full QP whose hard set has a point (:attr:`hard_set_point`): the next
         #: full QP starts with the stage that had no work left, the cost-scaled DAQP call (:meth:`_resume_scaled`),
         #: and keeps starting so while that call answers (without a clock guard).
@@ -501,8 +504,10 @@ class InverseDynamicsQP:
         left = self._work_left(factor)
         if left < MIN_CALL_ITERATIONS:
             return None
+        if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
+            self.hard_set_x = np.zeros(lb.shape)
         verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
-                                             iter_limit=int(min(left, ITERATION_LIMIT)))
+                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
         self.tick_work += iterations + DAQP_CALL_WORK
         return verdict
 
