@@ -386,7 +386,8 @@ class InverseDynamicsController:
         prev = self._last_ok
         # a failure of the budget, not of the problem (the counted work cut a full QP whose hard set has a point):
         # the last solved command stays held while the next ticks resume the cut stages
-        spent = self.qp.budget_cut and self.qp.hard_set_point
+        # (not with a task's numbers non-finite: no solver could answer that QP, whatever its budget)
+        spent = self.qp.budget_cut and self.qp.hard_set_point and not self.qp.nonfinite_inputs()
         if not spent:
             self._last_ok = None
         if prev is None and spent:
