@@ -1018,14 +1018,24 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
                        dt: float = 0.0) -> tuple[np.ndarray, str]:
-        """:meth:`_backend_stages`, started by the cost-scaled DAQP call when the last tick's counted work cut a full
-        QP whose hard set has a point (:attr:`resume_scaled`, :meth:`_resume_scaled`); a failure cut so sets it for the
+        """:meth:`_backend_stages`, started by the stages the last tick's counted work cut on a full QP whose hard set
+        has a point (:attr:`resume_scaled`): the cost-scaled DAQP call (:meth:`_resume_scaled`), then quadprog's solve
+        when its count (:func:`quadprog_work`) fits below ``QUADPROG_WORK`` budgets; a failure cut so sets it for the
         next tick."""
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
             x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
             if x is not None:
                 return x, backend.name
+            # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
+            work = quadprog_work(H.shape[0])
+            if work <= self._work_left(self.QUADPROG_WORK):
+                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                self.tick_work += work
+                if x is not None:
+                    self.pinned_reduced_solves += 1
+                    self.resume_scaled = True  # the next ticks resume the same way
+                    return x, "quadprog"
         try:
             return self._backend_stages(H, g, A, b, C, l, u, lb, ub, state, dt)
         except SolverError:
