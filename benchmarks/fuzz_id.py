@@ -13,7 +13,9 @@ normal force outside [min(f_min, f_max), f_max], corner tangential force outside
 |f_x|, |f_y| ≤ μ/√2 f_z with the μ last assigned (to 1e-6 of max(1, |f_t| + μ/√2 |f_z|), the size of the row's terms), |τ| above the scaled URDF effort (full-QP ticks), and the
 floating-base rows of M v̇ + h − Sᵀτ − Σ J_kᵀ G_k f_k (RNEA, LOCAL sole Jacobians) above 1e-6 max(1, |h_u|);
 failed full-QP ticks (relaxed or fallback) whose hard set HiGHS finds feasible (checked after the tick, off the
-control path); failed ticks that name no conflicting constraint (the tick's own names, else
+control path), those of them that took the gravity-compensation fallback, and the longest run of fallback ticks
+(not ok) on full QPs HiGHS finds feasible (a spent budget holds the last solved command, ``LONGEST_FEASIBLE_RUN``);
+failed ticks that name no conflicting constraint (the tick's own names, else
 ``InverseDynamicsController.diagnose()`` after the tick); tick CPU time (the budgeted quantity) and wall time,
 p50/p99/max, against the budget (the control period); the route and path each tick took (``IDCommand.path``; a
 route outside ``wbc.tick.ID_ROUTES`` fails the run).
@@ -61,8 +63,10 @@ from wbc.tick import ID_ROUTES, count_paths  # noqa: E402
 DT = 0.002
 TOL = 1e-6
 COUNTS = ("ticks", "episodes", "exceptions", "nan", "bound_violations", "failed_full_qp", "fallback_ticks",
-          "relaxed_ticks", "failed_feasible", "failed_feasible_cut", "failed_unnamed", "over_budget", "ramps",
-          "mu_changes")
+          "relaxed_ticks", "failed_feasible", "failed_feasible_cut", "gravity_feasible", "failed_unnamed",
+          "over_budget", "ramps", "mu_changes")
+#: the longest run of fallback ticks (not ok) whose full QP HiGHS finds feasible, of a spent budget or not
+LONGEST_FEASIBLE_RUN = 5
 EVENTS = ("exceptions", "nan", "bound_violations", "failed_feasible", "failed_unnamed", "over_budget")
 MAX_EVENTS = 20
 #: the per-process warm-up (module docstring): ticks, and the seed of its episodes (not a chunk's seed)
@@ -168,6 +172,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
     robots, _ = load_robots()
     rng = np.random.default_rng(seed)
     c = dict.fromkeys(COUNTS, 0)
+    c["longest_feasible_run"], c["longest_feasible_run_at"] = 0, ""
     c["events"] = {k: [] for k in EVENTS}
     paths: Counter = Counter()
     conflicts: Counter = Counter()
@@ -206,6 +211,7 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
             c["ticks"] += episode
             continue
         c["ramps"] += int(ramp_side is not None)
+        run = 0  # fallback ticks in a row on a full QP HiGHS finds feasible
         for tick in range(episode):
             c["ticks"] += 1
             if ramp_side is not None and ramp_start <= tick <= ramp_start + ramp_len:
@@ -256,14 +262,17 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 if bad:
                     c["bound_violations"] += 1
                     event("bound_violations", ep, tick, f"{name} {cmd.path}: {'; '.join(bad)[:200]}")
+            feasible = False
             if not cmd.ok or cmd.relaxed:
                 # off the control path: the full QP's hard set at this state, checked by HiGHS; the names
                 c["failed_full_qp"] += 1
                 c["relaxed_ticks" if cmd.ok else "fallback_ticks"] += 1
                 _, _, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, DT)
-                if highs_feasible(A, b, C, l, u, lb, ub):
+                feasible = highs_feasible(A, b, C, l, u, lb, ub)
+                if feasible:
                     # a stage skipped by the budget (count or clock guard): the safe command, feasible or not, apart
                     c["failed_feasible_cut" if cut else "failed_feasible"] += 1
+                    c["gravity_feasible"] += int(cmd.path.fallback == "gravity")
                     event("failed_feasible", ep, tick, f"{name} {cmd.path}{' (budget cut)' if cut else ''}: "
                                                        f"{cmd.message[:200]}")
                 # a tick the budget cut names its budget when the hard set has no conflict to name
@@ -274,6 +283,10 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 if not names:
                     c["failed_unnamed"] += 1
                     event("failed_unnamed", ep, tick, f"{name} {cmd.path}: {cmd.message[:160]}")
+            run = run + 1 if (feasible and not cmd.ok) else 0
+            if run > c["longest_feasible_run"]:
+                c["longest_feasible_run"] = run
+                c["longest_feasible_run_at"] = f"seed {seed} episode {ep} ticks {tick - run + 1}..{tick} {name}"
             dv = cmd.dv if cmd.ok else np.zeros(robot.nv)
             v = v + dv * DT
             q = pin.integrate(robot.model, q, v * DT)
@@ -294,6 +307,9 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
 def aggregate(chunks: list[dict]) -> dict:
     total = {k: sum(ch.get(k, 0) for ch in chunks) for k in COUNTS}
     total["seconds"] = sum(ch["seconds"] for ch in chunks)
+    longest = max(chunks, key=lambda ch: ch.get("longest_feasible_run", 0), default={})
+    total["longest_feasible_run"] = longest.get("longest_feasible_run", 0)
+    total["longest_feasible_run_at"] = longest.get("longest_feasible_run_at", "")
     for key in ("paths", "conflicts"):
         acc: Counter = Counter()
         for ch in chunks:
@@ -326,6 +342,11 @@ def report(total: dict, budget: float = DT, episode: int = 50) -> str:
          f"{total['failed_feasible']} of {total['failed_full_qp']} ({total.get('failed_feasible_cut', 0)} more whose "
          f"budget was spent, by count or clock guard: a stage skipped, the relaxed or safe command)",
          total["failed_feasible"] == 0),
+        ("full QPs HiGHS finds feasible that end in the gravity-compensation fallback == 0",
+         total["gravity_feasible"], total["gravity_feasible"] == 0),
+        (f"longest run of fallback ticks on a full QP HiGHS finds feasible <= {LONGEST_FEASIBLE_RUN}",
+         f"{total['longest_feasible_run']} ({total['longest_feasible_run_at'] or 'none'})",
+         total["longest_feasible_run"] <= LONGEST_FEASIBLE_RUN),
         ("every failure names its conflict (failed ticks naming none == 0)", total["failed_unnamed"],
          total["failed_unnamed"] == 0),
         over_line(total, float(cpu.max() / budget) if cpu.size else float("nan"), int(np.sum(cpu > 2 * budget)),

@@ -574,7 +574,8 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
     """Talos (62 variables) with a backend that finds no solution on any QP, at the default budget (the 2 ms
     period): quadprog's solve of the full QP and of the relaxed one (~3 ms each on talos) would take the tick past
     twice the budget, so both are skipped by the tick's counted work — no quadprog call —, the tick takes the safe
-    command (``fallback:gravity``, nothing latched: ok False, then the full QP again next tick) with the reason in its
+    command (its hard set has a point and nothing is held yet: that point, ``fallback:feasible``; ok False, then the
+    full QP again next tick) with the reason in its
     message, and the counted work stays within twice the budget (2 × 2 ms at 3.5 µs per DAQP iteration)."""
     import wbc.formulations.acceleration as acceleration
     from wbc.exceptions import SolverError
@@ -596,7 +597,7 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
     finally:
         acceleration.solve_pinned_reduced = reduced
     qp = ctrl.controller.qp
-    assert not cmd.ok and str(cmd.path) == "fallback:gravity", (cmd.path, cmd.message)
+    assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
     assert calls == [] and qp.quadprog_skipped == 2 and qp.budget_cut
     assert "no quadprog solve" in cmd.message and "no quadprog solve of the relaxed QP" in cmd.message
     assert qp.tick_work <= 2 * 0.002 / 3.5e-6
@@ -611,7 +612,7 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
     counted retries end within ``RELAXED_WORK`` budgets (not past them by the calls' set-up) and quadprog's solve of
     the relaxed QP (788 iterations on talos) is skipped. Deterministic counts: the tick's counted work ends in
     (RELAXED_WORK × 571.4 − 4, RELAXED_WORK × 571.4] (the retries' share rounded down per call), the path is
-    ``fallback:gravity``, and the message names the relaxed factor."""
+    ``fallback:feasible`` (the hard set's point: nothing to hold yet), and the message names the relaxed factor."""
     import wbc.formulations.acceleration as acceleration
     from wbc.exceptions import SolverError
 
@@ -633,7 +634,7 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
     cmd = ctrl.solve(q, v)
     qp = ctrl.controller.qp
     budget_iterations = 0.002 / 3.5e-6
-    assert not cmd.ok and str(cmd.path) == "fallback:gravity", (cmd.path, cmd.message)
+    assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
     assert qp.quadprog_skipped == 2 and qp.budget_cut
     assert f"would pass {relaxed_work} budgets" in cmd.message
     assert relaxed_work * budget_iterations - 4 < qp.tick_work <= relaxed_work * budget_iterations

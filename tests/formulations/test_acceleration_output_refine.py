@@ -27,11 +27,12 @@ FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_output_check_ta
 TOL = 1e-6  # the fuzz's bound tolerance, relative to max(1, |bound|)
 
 
-def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settings=None):
+def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settings=None, resume=False):
     """The controller after ticks 32 and 33 of the replayed episode, the fixture, and tick 33's command;
     ``before_last()`` is called between the two ticks; ``tick_work_iterations`` replaces the counted work a tick may
     spend (the 2 ms budget's otherwise; the DAQP attempt's cap stays that of 2 ms); ``scaled_settings`` replaces the
-    DAQP settings of the cost-scaled calls (``DaqpBackend.scaled_settings``)."""
+    DAQP settings of the cost-scaled calls (``DaqpBackend.scaled_settings``); ``resume``: tick 33 resumes the stages
+    a budget cut of tick 32 left (``InverseDynamicsQP.resume_scaled``), else it starts with DAQP's attempt."""
     d = np.load(FIXTURE)
     robot = robots("talos")
     gains = {str(k): float(v) for k, v in zip(d["gain_names"], d["gain_values"])}
@@ -50,6 +51,10 @@ def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settin
     for t in range(2):
         if t == 1:
             del ctrl.qp.RELAXED_WORK  # the class's share from tick 33 on
+        if t == 1 and not resume:
+            # tick 33 as recorded, from DAQP's attempt: at the 2 ms budget tick 32's full QP is cut by the counted
+            # work on a set with a point, which starts tick 33 with the cost-scaled call (``resume``)
+            ctrl.qp.resume_scaled = False
         if t == 1 and before_last is not None:
             before_last()
         ctrl.contacts["left"].mu = float(d["mu_left"][t])
@@ -169,5 +174,16 @@ def test_scaled_call_with_the_ids_regularisation_needs_no_refinement(robots):
     assert cmd.ok and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
     assert ctrl.qp.scaled_solves == 1 and ctrl.qp.output_polished == 0 and ctrl.qp.output_quadprog == 0
     assert ctrl.qp.backend.polished == 0
+    fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
+    assert fx - fq <= 2e-5 * abs(fq)
+
+
+def test_resumed_scaled_call_answers_tick_33(robots):
+    """Tick 32's full QP cut by the counted work on a hard set with a point, tick 33 starts with the cost-scaled DAQP
+    call (``InverseDynamicsQP.resume_scaled``): its answer is the command, unrelaxed, within the scaled URDF effort
+    (1e-6 relative) and its cost within 2e-5 (relative) of quadprog's optimum."""
+    ctrl, d, cmd = _replayed(robots, resume=True)
+    assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
+    assert ctrl.qp.resumed_solves == 1
     fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert fx - fq <= 2e-5 * abs(fq)

@@ -232,3 +232,15 @@ def _sway_reference(robot, fast, dt):
     for c in (fast, ref):
         c.reset(q, v)
     return ref, kick, q, v, fast.state.com.copy()
+
+
+def test_the_compiled_tick_takes_its_arguments_as_six_namedtuples():
+    """id_tick's positional parameters: the task rows, the dynamics, the contacts, the limits, the QP arrays, the
+    buffers (namedtuples of :mod:`wbc.formulations.idkernel`), at most 10."""
+    import inspect
+
+    from wbc.formulations import idkernel
+    params = list(inspect.signature(idkernel.id_tick.py_func).parameters)
+    assert params == ["tasks", "dynamics", "contacts", "limits", "qp", "buffers"]
+    assert [f for t in (idkernel.IDTaskRows, idkernel.IDDynamics, idkernel.IDContactData, idkernel.IDLimits,
+                        idkernel.IDArrays, idkernel.IDTickBuffers) for f in t._fields][:5] == ["Jt", "R", "pidx", "rt", "M"]

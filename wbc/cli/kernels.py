@@ -32,7 +32,7 @@ LOADER_MODULES = (
     "wbc.solvers.fast", "wbc.formulations.velocity_kernel", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
     "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
     "wbc.constraints.braking", "wbc.constraints.limits", "wbc.formulations.reference",
-    "wbc.formulations.idkernel", "wbc.dynamics.controller", "wbc.dynamics.actuator_compensation",
+    "wbc.formulations.idkernel", "wbc.controllers.inverse_dynamics", "wbc.dynamics.actuator_compensation",
     "wbc.constraints.joint_acceleration_bounds",
     "wbc.sim.actuators", "wbc.sim.closed_loop", "wbc.sim.conventions", "wbc.sim.estimated_state",
     "wbc.sim.outcome", "wbc.sim.sensors", "wbc.sim.walk",

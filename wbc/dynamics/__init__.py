@@ -5,13 +5,13 @@ Layers (TSID's split): tasks (:mod:`wbc.tasks`: each states e(q), J and the drif
 contacts (:mod:`~wbc.constraints.sole_contact`) → named constraints (:mod:`~wbc.constraints`) → the
 formulation, the QP written once in :mod:`~wbc.formulations.acceleration`'s docstring, with each task's PD
 reference a* (:class:`~wbc.formulations.reference.AccelerationReference`) → solvers (:mod:`wbc.solvers` backends; the
-compiled tick :mod:`~wbc.formulations.idkernel`) → the controller (:mod:`~wbc.dynamics.controller`: diagnosis,
+compiled tick :mod:`~wbc.formulations.idkernel`) → the controller (:mod:`~wbc.controllers.inverse_dynamics`: diagnosis,
 relaxed solve, safe command) → :class:`IDBalanceController`.
 """
 
 from wbc.dynamics.balance import DEFAULT_GAINS, IDBalanceController
 from wbc.constraints.sole_contact import SoleContact
-from wbc.dynamics.controller import IDCommand, InverseDynamicsController
+from wbc.controllers.inverse_dynamics import IDCommand, InverseDynamicsController
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference

@@ -95,7 +95,9 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (PAR_BRAKING, PAR_EPS_A, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_SPEED_HORIZON,
+from wbc.formulations.idkernel import (IDArrays, IDContactData, IDDynamics, IDLimits, IDTaskRows, IDTickBuffers,
+                                       PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
+                                       PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
                                        R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
                                        contact_views, id_tick_buffers, output_violations,
@@ -215,7 +217,7 @@ SCALED_EPS_PROX = -1e-8
 
 def tick_work_iterations(budget: float) -> float:
     """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
-    :attr:`wbc.dynamics.controller.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
+    :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
     iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
     :attr:`InverseDynamicsQP.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
     budget (nothing counted stops a stage)."""
@@ -243,8 +245,8 @@ class InverseDynamicsQP:
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
         solver: QP backend name (``fast``, the default: the compiled tick of :mod:`wbc.formulations.idkernel` —
             assembly, Goldfarb–Idnani dual active-set solve (:func:`~wbc.solvers.active_set.dual_active_set`) and
-            torques in one call — with DAQP as fallback (the general path while a hard task is present or the
-            torque-limited joints are not contiguous in v); ``daqp``: the general path, warm-started from the
+            torques in one call — with DAQP as fallback (the general path while the torque-limited joints are
+            not contiguous in v); ``daqp``: the general path, warm-started from the
             previous duals, ``primal_tol`` 1e-6 (DAQP's one-shot dual warm start stops ≈ 3e-7 from the optimum on
             this QP; the compiled tick matches quadprog to ≈ 1e-11); any other qpsolvers backend —
             :func:`wbc.solvers.make_backend`) or a :class:`~wbc.solvers.base.QPBackend`.
@@ -345,7 +347,7 @@ class InverseDynamicsQP:
         self.dependent_contact_rows = 0
         #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
         #: failure; False by default: it costs many control periods and belongs off the control path
-        #: (:meth:`wbc.dynamics.controller.InverseDynamicsController.diagnose`).
+        #: (:meth:`wbc.controllers.inverse_dynamics.InverseDynamicsController.diagnose`).
         self.confirm_failures = False
         # a user backend whose solve() predates the confirm keyword is called without it
         self._takes_confirm: tuple = (None, False)
@@ -353,18 +355,18 @@ class InverseDynamicsQP:
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
         #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
         #: (:func:`kernel_iterations`). A tick whose compiled call gave up is answered by DAQP, whose working set
         #: warm-starts the next tick's compiled call, capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
         self.kernel_max_iterations = 100
         #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
         #: (both together ``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`,
         #: without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
         #: (:func:`daqp_attempt_iterations`).
         self.daqp_attempt_iterations = ITERATION_LIMIT
         #: the work of one tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``: nothing
-        #: counted stops a stage); :class:`~wbc.dynamics.controller.InverseDynamicsController` sets it from its budget.
+        #: counted stops a stage); :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget.
         #: Without a clock guard the stages after a failed full QP's first attempt start only while
         #: :attr:`tick_work` is below their share of it (``FAILURE_WORK``, ``QUADPROG_WORK``, ``RELAXED_WORK``), each
         #: DAQP call capped at what is left.
@@ -389,7 +391,7 @@ class InverseDynamicsQP:
         self.second_opinion_enabled = True
         #: the clock guard of the current tick: (CPU time ``time.thread_time`` at its start, its budget in s), or
         #: None (default: nothing decided by a clock). Set per tick by
-        #: :class:`~wbc.dynamics.controller.InverseDynamicsController` with ``clock_guard``; read by
+        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` with ``clock_guard``; read by
         #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
         self.tick_clock: tuple[float, float] | None = None
         #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`, or by the tick's counted work
@@ -406,6 +408,18 @@ class InverseDynamicsQP:
         self.last_set_empty = False
         #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
         self.scaled_solves = 0
+        #: the current tick's check found a point of the failed full QP's hard set (the QP has a minimiser); reset by
+        #: :meth:`solve`. With :attr:`budget_cut` the tick's failure is the budget's, not the problem's.
+        self.hard_set_point = False
+        #: (n,) the point of the full hard set that check found (the projection of the origin onto the set), valid
+        #: while :attr:`hard_set_point` is True
+        self.hard_set_x = np.zeros(n)
+        #: the tick's counted work cut a failed full QP whose hard set has a point (:attr:`hard_set_point`): the next
+        #: full QP starts with the stage that had no work left, the cost-scaled DAQP call (:meth:`_resume_scaled`),
+        #: and keeps starting so while that call answers (without a clock guard).
+        self.resume_scaled = False
+        #: full QPs answered by the cost-scaled DAQP call a tick started with (:attr:`resume_scaled`).
+        self.resumed_solves = 0
         #: full-QP answers that failed the output check (:meth:`verify`) and passed it once polished on their active
         #: set (:meth:`wbc.solvers.base.QPBackend.polish`; :meth:`_guard_full`).
         self.output_polished = 0
@@ -490,8 +504,10 @@ class InverseDynamicsQP:
         left = self._work_left(factor)
         if left < MIN_CALL_ITERATIONS:
             return None
+        if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
+            self.hard_set_x = np.zeros(lb.shape)
         verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
-                                             iter_limit=int(min(left, ITERATION_LIMIT)))
+                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
         self.tick_work += iterations + DAQP_CALL_WORK
         return verdict
 
@@ -556,7 +572,8 @@ class InverseDynamicsQP:
         (rows in x = [v̇; f], written by its ``write``; equality rows go after the hard tasks' in A x = b), or a
         kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
         ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ =
-        ``gain`` (1/s). While one is present the general (DAQP) path solves the QP.
+        ``gain`` (1/s). Its rows are a gathered entry of the assembly (:meth:`_write_gathered`): the compiled tick
+        solves the QP with them as the general path does.
 
         Returns:
             the ID constraint added (remove it with it, or with the kinematic constraint).
@@ -714,13 +731,7 @@ class InverseDynamicsQP:
         if not gathered:
             rows.gather(self, state)
         task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
-        ctx = self._ctx
-        ctx.state, ctx.dt = state, dt
-        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
-        for k, c in enumerate(self.contacts):
-            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
-            jac[c.name] = rows.Jc[k]
-            offsets[c.name] = rows.cdrift[k]
+        ctx = self._context(state, dt)
         A, b = self._A, self._b
         self.dynamics.write(ctx, A[0:6], b[0:6], None)
         i = 6
@@ -741,17 +752,11 @@ class InverseDynamicsQP:
                 for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
                     if con.enabled:
                         con.rows = slice(min(con.rows.start, i), min(con.rows.stop, i))
-        for con in (*self.hard_tasks, *self.extra_equalities):
-            if con.enabled:
-                con.rows = slice(i, i + con.dim)
-                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
-                i += con.dim
+        i = self._write_gathered(ctx, i)
         self._m = i
         C, l, u = self._C, self._l, self._u
         tl = self.torque_limits
         tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
-        for con in self.extra_constraints:
-            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
         lb, ub = self._lb, self._ub
         self._refresh_contact_rows()
         if self.joint_limits:
@@ -762,6 +767,45 @@ class InverseDynamicsQP:
                 lo, hi = jl.bounds(state, dt)
                 lb[jl.iv], ub[jl.iv] = lo, hi
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
+
+    def _context(self, state: DynamicsState, dt: float) -> IDContext:
+        """The constraints' context of this tick from the gathered contact data: J_cᵀ, the sole Jacobians and the
+        velocity-free parts of eq. 5."""
+        rows = self._rows
+        ctx = self._ctx
+        ctx.state, ctx.dt = state, dt
+        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
+        for k, c in enumerate(self.contacts):
+            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
+            jac[c.name] = rows.Jc[k]
+            offsets[c.name] = rows.cdrift[k]
+        return ctx
+
+    @property
+    def _gathers_rows(self) -> bool:
+        """The QP has gathered constraint entries (:meth:`_write_gathered`)."""
+        return bool(self.hard_tasks or self.extra_equalities or self.extra_constraints)
+
+    def _write_gathered(self, ctx: IDContext, i: int) -> int:
+        """Write the gathered constraint entries — the rows that no compiled body of the tick writes: the hard tasks'
+        and added equalities' rows of A from row ``i`` on, the added inequalities' rows of C — by their constraints'
+        ``write``. The one driver of these rows for both assemblies: :meth:`build` calls it after the contact rows,
+        the compiled tick before its call (:func:`~wbc.formulations.idkernel.id_tick` counts the equality rows,
+        ``PAR_EXTRA_ROWS``, and solves with every row). An added constraint is one more entry here.
+
+        Returns:
+            the row after the last equality row written.
+        """
+        A, b = self._A, self._b
+        for con in (*self.hard_tasks, *self.extra_equalities):
+            if con.enabled:
+                con.rows = slice(i, i + con.dim)
+                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
+                i += con.dim
+        C, l, u = self._C, self._l, self._u
+        for con in self.extra_constraints:
+            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
+        return i
 
     def assembled_qp(self) -> tuple | None:
         """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or by
@@ -956,11 +1000,11 @@ class InverseDynamicsQP:
         self._assembled = None
         self._relaxed_bounds = None
         self.budget_cut = False
+        self.hard_set_point = False
         self.relaxed_set_feasible = None
         self._relaxed_check_final = False
         self.tick_work = 0.0
-        if self._kernel is not None and not self.hard_tasks and not self.extra_constraints \
-                and not self.extra_equalities:
+        if self._kernel is not None:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
@@ -974,6 +1018,51 @@ class InverseDynamicsQP:
 
     def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
                        dt: float = 0.0) -> tuple[np.ndarray, str]:
+        """:meth:`_backend_stages`, started by the stages the last tick's counted work cut on a full QP whose hard set
+        has a point (:attr:`resume_scaled`): the cost-scaled DAQP call (:meth:`_resume_scaled`), then quadprog's solve
+        when its count (:func:`quadprog_work`) fits below ``QUADPROG_WORK`` budgets; a failure cut so sets it for the
+        next tick."""
+        backend = self.backend
+        if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
+            x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
+            if x is not None:
+                return x, backend.name
+            # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
+            work = quadprog_work(H.shape[0])
+            if work <= self._work_left(self.QUADPROG_WORK):
+                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                self.tick_work += work
+                if x is not None:
+                    self.pinned_reduced_solves += 1
+                    self.resume_scaled = True  # the next ticks resume the same way
+                    return x, "quadprog"
+        try:
+            return self._backend_stages(H, g, A, b, C, l, u, lb, ub, state, dt)
+        except SolverError:
+            self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
+            raise
+
+    def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """The first stage of a full QP after a tick whose counted work cut one with a point in its hard set
+        (:attr:`resume_scaled`): one cost-scaled DAQP call (:meth:`_solve_scaled`) of at most
+        ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations` iterations (what a set found not empty gives the
+        attempt and this call together; the attempt is not made), counted in :attr:`tick_work`. A DAQP attempt that fails by its count
+        on a feasible set is most often an ill-scaled cost (|g| ~ 1e6: a stiff task gain), which the scaled call solves
+        in tens of iterations; ill-scaled in one tick, the cost stays so in the next ones, which start the same way
+        while the call answers. Its checked x, or None (and :attr:`resume_scaled` cleared: the tick goes on with
+        :meth:`_backend_stages`)."""
+        proximal = backend.proximal_iterations
+        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
+        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
+        self.tick_work += self._call_work(backend, proximal)
+        if x is None:
+            self.resume_scaled = False
+        else:
+            self.resumed_solves += 1
+        return x
+
+    def _backend_stages(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
+                        dt: float = 0.0) -> tuple[np.ndarray, str]:
         """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
         extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
         also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
@@ -1191,6 +1280,7 @@ class InverseDynamicsQP:
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
         if full is True:
+            self.hard_set_point = True
             return True
         self.last_set_empty = full is False
         left = self._work_left(self.FAILURE_WORK)
@@ -1425,12 +1515,17 @@ class InverseDynamicsQP:
         par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
         par[PAR_JOINT_LIMITS] = self.joint_limits
         par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
+        if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
+            m0 = 6 + 6 * int(np.count_nonzero(rows.active))
+            par[PAR_EXTRA_ROWS] = self._write_gathered(self._context(state, dt), m0) - m0
+        else:
+            par[PAR_EXTRA_ROWS] = 0.0
         # after a give-up the call starts from DAQP's working set, one answer away: a short attempt
         cap = self.kernel_max_iterations
         par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
         kb.gave_up = False
         ta = perf_counter()
-        it, m = id_tick(*rows.tasks, state.M, state.h, state.q, state.v, dt, *rows.contacts, *kb.tail)
+        it, m = id_tick(rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *kb.tail)
         self.dependent_contact_rows = 0
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
@@ -1589,7 +1684,7 @@ class _ProblemRows:
         self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
         self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = (self.cbuf, self.active)
+        self.contacts = IDContactData(self.cbuf, self.active)
         self.Hw = np.zeros((nv, nv))  # task_cost workspace
         self.gw = np.zeros(nv)
         self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
@@ -1619,7 +1714,7 @@ class _ProblemRows:
                                  self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
             ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
             k += ref.dim
-        self.tasks = (self.Jt, self.R, self.pidx, np.zeros(mt + mp))
+        self.tasks = IDTaskRows(self.Jt, self.R, self.pidx, np.zeros(mt + mp))
         self.layout = tuple(map(id, qp.tasks))
 
     def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
@@ -1672,13 +1767,15 @@ class _KernelBuffers:
         tl = qp.torque_limits
         jl = qp.joint_acceleration_limits
         self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
-                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon])
+                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon, 0.0])
         p = blocks[4].shape[0]  # C (p, n): the inequality rows
-        buffers = id_tick_buffers(n, nv, p, nc, jl.dim)
+        buffers = id_tick_buffers(n, nv, p, nc, jl.dim, blocks[2].shape[0])  # A (me, n): room for every equality row
         self.state, self.rstate = buffers[0][:n], buffers[0][n:]  # the working set, views of the kernel's buffer
         self.residual, self.tau, self.wrench, self.x = tick_outputs(buffers[-1], nv, nc)
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
-        self.tail = (idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax, *blocks, *buffers)
+        # id_tick's arguments after the tick's rows and dynamics: (IDLimits, IDArrays, IDTickBuffers)
+        self.tail = (IDLimits(idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax), IDArrays(*blocks),
+                     IDTickBuffers(*buffers))
         self.solves = 0
         self.fallbacks = 0
         self.rejected = 0
@@ -1697,11 +1794,12 @@ class _KernelBuffers:
         if rows.layout is None:
             rows.relayout(qp)
         nv = qp.nv
-        arrays = [a for a in (*rows.tasks, *rows.contacts, *self.tail) if isinstance(a, np.ndarray)]
+        arrays = [a for a in (*rows.tasks, *rows.contacts, *(x for t in self.tail for x in t))
+                  if isinstance(a, np.ndarray)]
         saved = [a.copy() for a in arrays]
         try:
-            id_tick(*rows.tasks, np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(), np.zeros(nv),
-                    0.002, *rows.contacts, *self.tail)
+            id_tick(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(),
+                                           np.zeros(nv), 0.002), rows.contacts, *self.tail)
             _ID_TICK_LOADED = True
         finally:
             for a, a0 in zip(arrays, saved):

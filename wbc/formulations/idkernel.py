@@ -48,6 +48,8 @@ itself), so solvers are compared tick by tick at the same state (``tests/formula
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
@@ -63,7 +65,22 @@ from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carv
                                 forward_substitution, primal_from_multipliers, weighted_normal_equations)
 
 __all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
-           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS"]
+           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS",
+           "IDTaskRows", "IDDynamics", "IDContactData", "IDLimits", "IDArrays", "IDTickBuffers"]
+
+#: the workspaces of :func:`id_tick`, one namedtuple per group of its arguments (numba takes them as tuples):
+#: the stacked task rows of :func:`task_cost`
+IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
+#: the state's dynamics, (q, v) and the control period dt (s)
+IDDynamics = namedtuple("IDDynamics", "M h q v dt")
+#: the contact data (:func:`contact_views`) and the activity of each contact
+IDContactData = namedtuple("IDContactData", "cbuf active")
+#: the limits' indices and numbers, and the settings vector ``par`` (``PAR_*``)
+IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
+#: the formulation's QP arrays, written in place
+IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
+#: the buffers of :func:`id_tick_buffers`
+IDTickBuffers = namedtuple("IDTickBuffers", "ws_s ws_f ws_i ws_b out")
 
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -287,20 +304,22 @@ def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
             np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
 
 
-def id_tick_buffers(n: int, nv: int, p: int, nc: int, k: int) -> tuple[np.ndarray, ...]:
+def id_tick_buffers(n: int, nv: int, p: int, nc: int, k: int, me: int | None = None) -> tuple[np.ndarray, ...]:
     """The solver state, outputs and workspace of :func:`id_tick` for n variables, nv accelerations, p inequality
-    rows, nc contacts and k joint-bounded joints, as five zeroed flat buffers (:func:`_carve_tick`, a handful of
-    arguments to unbox per call instead of thirty):
+    rows, nc contacts, k joint-bounded joints and up to ``me`` equality rows (default 6 + 6 nc; more with the
+    formulation's gathered equality rows, ``par[PAR_EXTRA_ROWS]``), as five zeroed flat buffers (:func:`_carve_tick`,
+    a handful of arguments to unbox per call instead of thirty):
 
     * ``ws_s`` int8 (n + p,): the working set, ``state`` (n,) then ``rstate`` (p,);
-    * ``ws_f`` float64: the arrays of :func:`id_workspace` (w = 6 + 6 nc + p working rows) that are float, then
-      jlo, jhi (k,), nu (6 + 6 nc,), mu (p,), gram (6 nc, 6 nc), gram_y (6 nc,);
+    * ``ws_f`` float64: the arrays of :func:`id_workspace` (w = me + p working rows) that are float, then
+      jlo, jhi (k,), nu (me,), mu (p,), gram (6 nc, 6 nc), gram_y (6 nc,);
     * ``ws_i`` int64 and ``ws_b`` bool (w,): the integer and boolean arrays of :func:`id_workspace`;
     * ``out`` float64: residual (2,), tau (nv − 6,), wrench (nc, 6), x (n,) — the outputs the caller reads.
     """
-    w = 6 + 6 * nc + p
+    me = 6 + 6 * nc if me is None else me
+    w = me + p
     nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3
-    nf += 2 * k + (6 + 6 * nc) + p + 36 * nc * nc + 6 * nc
+    nf += 2 * k + me + p + 36 * nc * nc + 6 * nc
     return (np.zeros(n + p, np.int8), np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64),
             np.zeros(w, np.bool_), np.zeros(2 + nv - 6 + 6 * nc + n))
 
@@ -354,7 +373,7 @@ def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
     wout, o = carve(wf, o, 3)
     bounds, o = carve2(wf, o, 2, k)  # jlo, jhi
     jlo, jhi = bounds[0], bounds[1]
-    nu, o = carve(wf, o, 6 + 6 * nc)
+    nu, o = carve(wf, o, w - p)  # the equality rows' multipliers
     mu, o = carve(wf, o, p)
     gram, o = carve2(wf, o, 6 * nc, 6 * nc)
     gram_y = wf[o:o + 6 * nc]
@@ -373,7 +392,7 @@ def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_tick`'s ``par`` vector
-PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON = range(6)
+PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON, PAR_EXTRA_ROWS = range(7)
 #: rows of the ``R`` array of :func:`task_cost` (one column per task row)
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
@@ -462,7 +481,9 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
     (:func:`~wbc.constraints.contact_acceleration.contact_acceleration_rows`), eq. 6
     (:func:`~wbc.constraints.torque_limits.torque_limit_rows`) and eq. 9
     (:func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
-    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints. Inlined into
+    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints; so are the
+    gathered rows of its other constraints (hard tasks and added equalities: ``par[PAR_EXTRA_ROWS]`` rows of A after
+    the active contacts'; added inequalities: their rows of C), written before the call. Inlined into
     :func:`id_tick` (its arguments grouped in tuples: numba inlines no call with that many arguments).
 
     Args (the arrays of :func:`id_tick`, grouped):
@@ -472,7 +493,8 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
         jlo, jhi (k,): joint bounds).
 
     Returns:
-        m, the number of equality rows written (6 + 6 per active contact), or PROJECT_CONTACT_RHS when two or more
+        m, the number of equality rows (6 + 6 per active contact + ``par[PAR_EXTRA_ROWS]``), or PROJECT_CONTACT_RHS
+        when two or more
         active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`; the torque rows
         and bounds are then not written).
     """
@@ -501,29 +523,31 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
-    return m
+    return m + int(par[PAR_EXTRA_ROWS])
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, qmax, vmax, H, g, A, b, C, l, u, lb,
-            ub, JcT, ws_s, ws_f, ws_i, ws_b, out):
+def id_tick(tasks, dynamics, contacts, limits, qp, buffers):
     """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
     :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
     torques and the wrenches.
 
-    Args:
-        Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows of :func:`task_cost`.
-        M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt: control period (s).
-        cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
+    Args (namedtuples, the fields below):
+        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
+            of :func:`task_cost`.
+        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
+            control period (s).
+        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
             corner maps; Rc (nc, 3, 3): sole rotations (world ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand
             side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,) bool.
-        idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
-            indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (6,): ε_a, a_brk, joint
-            limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks (``PAR_*``). qmin,
+        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
+            indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (7,): ε_a, a_brk, joint
+            limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks, gathered equality rows
+            written after the active contacts' (``PAR_*``). qmin,
             qmax, vmax (k,): joint-limit data (eq. 9).
-        H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
+        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
             contact).
-        ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
+        buffers (:data:`IDTickBuffers`): ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
             as the warm start, written), the solve's workspace (the arrays of :func:`id_workspace` — its L and tv
             are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them —, the joint
             bounds jlo, jhi, the equality step's multipliers nu, the workspace gram, gram_y of
@@ -537,6 +561,12 @@ def id_tick(Jt, R, pidx, rt, M, h, q, v, dt, cbuf, active, idx, lim, par, qmin, 
         ``par[PAR_MAX_ITER]`` is ≥ 2; else the dual active set's steps; negative: exit code of the solve, or
         PROJECT_CONTACT_RHS —, number of equality rows m).
     """
+    Jt, R, pidx, rt = tasks
+    M, h, q, v, dt = dynamics
+    cbuf, active = contacts
+    idx, lim, par, qmin, qmax, vmax = limits
+    H, g, A, b, C, l, u, lb, ub, JcT = qp
+    ws_s, ws_f, ws_i, ws_b, out = buffers
     nv = M.shape[0]
     Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
     nt = lim.shape[0]

@@ -39,7 +39,7 @@ forward hop placed at the capture point of the landing (Pratt et al. 2006). Per 
 
 Torque limits (landing included): when the torque-limited QP is infeasible (at a touch-down impact the contact
 rows ask to stop the sole at once; so can the last ticks of a push-off), the controller's fallback
-drops the torque limits (:mod:`wbc.dynamics.controller`). This
+drops the torque limits (:mod:`wbc.controllers.inverse_dynamics`). This
 scenario then re-solves the QP with the torque limits kept and the velocity-damping of the landing contacts
 (``contact_kd``) set to 0 — the contact rows only ask for no sole acceleration beyond J̇v — and, if that fails
 too, clips the relaxed torques at the URDF limits (what MuJoCo's actuators apply anyway). The counts of both

@@ -12,7 +12,7 @@ is assumed monotonic in h; every trial is listed, so a non-monotonic response is
 (legs' relative accelerations and velocity-product terms neglected), every joint torque scales with the apparent
 gravity, τ(a) = (1 + a/g) τ_s, τ_s the static torques of double support (gravity torques minus the least-norm
 pair of sole wrenches that balances the floating base: the contact-consistent gravity compensation of
-:mod:`wbc.dynamics.controller`). The largest admissible push-off acceleration at a posture is then
+:mod:`wbc.controllers.inverse_dynamics`). The largest admissible push-off acceleration at a posture is then
 
     a_max = g (min_j L_j / |τ_s,j| − 1),
 

@@ -200,13 +200,14 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
     return hard_set_check(A, b, C, l, u, lb, ub, tolerance, iter_limit=iter_limit)[0]
 
 
-def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
-                   iter_limit: int = ITERATION_LIMIT) -> tuple[bool | None, int]:
+def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit: int = ITERATION_LIMIT,
+                   out: np.ndarray | None = None) -> tuple[bool | None, int]:
     """:func:`hard_set_feasible` with the work it took, for a caller that counts a tick's work in iterations
     (:class:`wbc.formulations.acceleration.InverseDynamicsQP`).
 
     Args:
         A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,), tolerance, iter_limit: as :func:`hard_set_feasible`.
+        out: (n,) when given, the point found is written there on a True verdict (untouched otherwise).
 
     Returns:
         (verdict, iterations): the return of :func:`hard_set_feasible` (True, False or None) and the DAQP call's
@@ -234,4 +235,8 @@ def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
     if exitflag < 1 or not np.isfinite(x).all():
         return None, iterations
     xc = np.minimum(np.maximum(x, lb), ub)
-    return (True if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None), iterations
+    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
+        return None, iterations
+    if out is not None:
+        out[:] = x
+    return True, iterations

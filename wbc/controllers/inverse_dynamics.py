@@ -14,8 +14,8 @@ relative) is first refined (polished on its active set, else quadprog's solve of
 the violated constraints in ``IDCommand.conflicts``.
 
 Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
-(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold`` or ``fallback:gravity``
-(step 2).
+(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold``, ``fallback:feasible``
+or ``fallback:gravity`` (step 2).
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
 (``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
@@ -37,8 +37,10 @@ get what is left of one budget, quadprog's solve runs only when its count
 (:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
 relaxed QP's calls, its first attempt included, share what is left of 1.2; a stage skipped so adds ``+budget`` to the
 path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
-(``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. Nothing
-latches: the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
+(``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. One thing
+carries over: when the counted work cut a full QP whose hard set has a point (a failure of the budget, not of the
+problem), the next ticks start their full QP with the stage that had no work left, the cost-scaled DAQP call
+(``InverseDynamicsQP.resume_scaled``), while it answers; otherwise the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
 diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
@@ -56,8 +58,10 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
    to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
 2. that fails too → the **previous tick's solved command** when the previous tick was
    solved (``fallback:hold``: a zero-order hold for one tick, as a real-time loop does on a missed deadline — the
-   damping term below is a torque step at impact velocities that a single landing tick did not survive); a second
-   failed tick in a row (or a failure with no solved tick before it) takes
+   damping term below is a torque step at impact velocities that a single landing tick did not survive; held
+   for as long as the failures are the budget's: a full QP cut by the counted work whose hard set has a point; with
+   no solved command to hold, the point of the hard set that the tick's check found, ``fallback:feasible``); a
+   second failed tick in a row (or a failure with no solved tick before it) takes
    **contact-consistent gravity compensation with joint damping** at the current state (``fallback:gravity``),
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
@@ -220,7 +224,8 @@ class IDCommand(TickResultBase):
             thread, the budgeted quantity).
         path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module
             docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``, ``fallback:hold`` (the previous
-            tick's solved command, held for one failed tick) or ``fallback:gravity`` (its string form).
+            tick's solved command, held), ``fallback:feasible`` (a point of the hard set) or ``fallback:gravity`` (its
+            string form).
         over_budget: the tick used more than the controller's budget.
     """
 
@@ -378,13 +383,29 @@ class InverseDynamicsController:
 
     def _fail(self, message: str, conflicts, t0: float, t1: float, c0: float) -> IDCommand:
         self.n_failures += 1
-        prev, self._last_ok = self._last_ok, None
-        if prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
+        prev = self._last_ok
+        # a failure of the budget, not of the problem (the counted work cut a full QP whose hard set has a point):
+        # the last solved command stays held while the next ticks resume the cut stages
+        # (not with a task's numbers non-finite: no solver could answer that QP, whatever its budget)
+        spent = self.qp.budget_cut and self.qp.hard_set_point and not self.qp.nonfinite_inputs()
+        if not spent:
+            self._last_ok = None
+        if prev is None and spent:
+            # no command to hold: the point of the hard set that the tick's check found (every hard row met)
+            sol = self.qp.solution_from(self.state, self.qp.hard_set_x)
+            cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, ok=False,
+                            message=f"{message}; the tick's budget was spent on a full QP whose hard set has a point, "
+                                    "with no solved command to hold: that point is commanded",
+                            dynamics_residual=sol.dynamics_residual, path=TickPath("fallback", fallback="feasible"))
+        elif prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
+            why = ("the tick's budget was spent on a full QP whose hard set has a point: the last solved command is "
+                   "held" if spent else
+                   "the previous tick's command is held for this tick (a second failed tick in a row takes the safe "
+                   "command)")
             cmd = IDCommand(tau=prev.tau.copy(), dv=prev.dv.copy(), forces=prev.forces.copy(),
                             wrenches={k: w.copy() for k, w in prev.wrenches.items()}, ok=False,
-                            message=f"{message}; the previous tick's command is held for this tick (a second "
-                                    "failed tick in a row takes the safe command)",
-                            dynamics_residual=float("nan"), path=TickPath("fallback", fallback="hold"))
+                            message=f"{message}; {why}", dynamics_residual=float("nan"),
+                            path=TickPath("fallback", fallback="hold"))
             self._hold_speed_bounds(cmd)
         else:
             cmd = self.fallback(message)

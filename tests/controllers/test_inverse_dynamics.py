@@ -377,7 +377,7 @@ def test_gravity_fallback_matches_a_numpy_reference(robots, name):
 def test_inverse_diagonal_against_numpy():
     """diag(M⁻¹) of the compiled Cholesky kernel against numpy's inverse on random symmetric positive definite
     matrices (condition up to ~1e6) to 1e-9 relative; a matrix that is not positive definite is declined."""
-    from wbc.dynamics.controller import inverse_diagonal
+    from wbc.controllers.inverse_dynamics import inverse_diagonal
 
     rng = np.random.default_rng(3)
     for n in (1, 7, 38):
