@@ -7,9 +7,9 @@ Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
   ``solver="daqp"`` when DAQP solved its reduced QP), ``general`` (the assembled flat QP on the controller's backend),
   ``levels`` (the strict hierarchy, :mod:`wbc.solvers.hierarchy`), ``fallback`` (a safe command: ``constraints_only``,
   ``contacts_held``, ``trust_region`` or ``hold``);
-* inverse dynamics (:class:`wbc.dynamics.controller.InverseDynamicsController`, :data:`ID_ROUTES`): ``kernel``
+* inverse dynamics (:class:`wbc.controllers.inverse_dynamics.InverseDynamicsController`, :data:`ID_ROUTES`): ``kernel``
   (the compiled tick, :mod:`wbc.formulations.idkernel`), ``general`` (the assembled QP on the backend),
-  ``relaxed`` (the QP without joint bounds and torque limits), ``fallback`` (``hold`` or ``gravity``).
+  ``relaxed`` (the QP without joint bounds and torque limits), ``fallback`` (``hold``, ``feasible`` or ``gravity``).
 
 A route carries qualifiers as fields (:class:`TickPath`): the solver, the fallback kind, ``return_rate`` (the
 return rate of joints outside their limits was relaxed) and ``budget`` (twice the tick's budget stopped its
@@ -142,7 +142,7 @@ class TickPath:
 @dataclass(kw_only=True)
 class TickResultBase:
     """What every controller's tick result says (the kinematic :class:`~wbc.tick.TickResult`, the
-    inverse-dynamics :class:`~wbc.dynamics.controller.IDCommand`).
+    inverse-dynamics :class:`~wbc.controllers.inverse_dynamics.IDCommand`).
 
     Attributes:
         ok: the tick's QP was solved (else a safe command was returned).

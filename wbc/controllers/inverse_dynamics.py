@@ -80,7 +80,7 @@ Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, namedtuple
 from dataclasses import dataclass, field
 import math
 from time import perf_counter, thread_time
@@ -97,13 +97,23 @@ from wbc.geometry import Flag
 from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution
 from wbc.tick import TickPath, TickResultBase
 
-__all__ = ["InverseDynamicsController", "IDCommand", "gravity_torques", "inverse_diagonal"]
+__all__ = ["InverseDynamicsController", "IDCommand", "GravityWorkspace", "gravity_torques", "inverse_diagonal"]
 
 #: the safe command's least-norm sole wrenches come from the normal equations (BᵀB) w = h_u, W = B w, when each
 #: Cholesky pivot of BᵀB is above this fraction of its diagonal entry (B = (J_c)_u, the base columns of the
 #: stacked active sole Jacobians: a 6 × 6 system conditioned ~10 for soles within a few metres of the base);
 #: otherwise numpy's SVD least squares answers (:meth:`InverseDynamicsController.fallback`)
 NORMAL_EQUATION_PIVOT = 1e-8
+
+
+#: the workspace of :func:`gravity_torques` for a model of nv velocities: L (nv, nv) and y (nv,) of the Cholesky of M,
+#: dinv (nv,) ← diag(M⁻¹), N (6, 6) and w (6,) of the normal equations of the base rows
+GravityWorkspace = namedtuple("GravityWorkspace", "L y dinv N w")
+
+
+def gravity_workspace(nv: int) -> GravityWorkspace:
+    """A :data:`GravityWorkspace` for a model of ``nv`` velocities."""
+    return GravityWorkspace(np.empty((nv, nv)), np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH)
@@ -131,7 +141,7 @@ def inverse_diagonal(M, L, y, out) -> bool:
 
 
 @nb.njit(cache=True, fastmath=FASTMATH)
-def gravity_torques(M, h, v, J, k, dt, tau_max, L, y, dinv, N, w, W, tau) -> int:
+def gravity_torques(M, h, v, J, k, dt, tau_max, ws, W, tau) -> int:
     """Joint torques of the gravity fallback (module docstring, step 2): τ = h_a − (J_cᵀ)_a W − K_d v_a with
     K_d,i = 0.5 I_eff,i / dt, I_eff,i = 1 / (M⁻¹)_ii, clipped to ±τ_max where τ_max is finite and > 0; W the least-norm
     solution of (J_cᵀ)_u W = h_u by the normal equations.
@@ -144,11 +154,7 @@ def gravity_torques(M, h, v, J, k, dt, tau_max, L, y, dinv, N, w, W, tau) -> int
         k: 6 × the number of active soles.
         dt: control period (s).
         tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
-        L: (nv, nv) workspace.
-        y: (nv,) workspace.
-        dinv: (nv,) ← diag(M⁻¹).
-        N: (6, 6) workspace.
-        w: (6,) workspace.
+        ws: a :data:`GravityWorkspace` (``ws.dinv`` ← diag(M⁻¹)).
         W: (≥ k,) ← the sole wrenches in its first k entries (LOCAL, 6 per sole).
         tau: (nv − 6,) ← τ (N·m).
 
@@ -157,6 +163,7 @@ def gravity_torques(M, h, v, J, k, dt, tau_max, L, y, dinv, N, w, W, tau) -> int
         (:data:`NORMAL_EQUATION_PIVOT`). Nothing is written to tau on 1 or 2.
     """
     nv = M.shape[0]
+    L, y, dinv, N, w = ws.L, ws.y, ws.dinv, ws.N, ws.w
     if not inverse_diagonal(M, L, y, dinv):
         return 1
     if k > 0:
@@ -199,8 +206,8 @@ def _load_kernels() -> None:
     as a :class:`~wbc.state.DynamicsState`'s), once per process: at construction, not inside a failed tick."""
     nv = 7
     M = np.asfortranarray(np.eye(nv))
-    gravity_torques(M, np.zeros(nv), np.zeros(nv), np.zeros((6, nv)), 6, 0.002, np.ones(nv - 6), np.empty((nv, nv)),
-                    np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6), np.empty(6), np.empty(nv - 6))
+    gravity_torques(M, np.zeros(nv), np.zeros(nv), np.zeros((6, nv)), 6, 0.002, np.ones(nv - 6), gravity_workspace(nv),
+                    np.empty(6), np.empty(nv - 6))
     inverse_diagonal(M, np.empty((nv, nv)), np.empty(nv), np.empty(nv))
 
 
@@ -301,8 +308,7 @@ class InverseDynamicsController:
         nv, nc = qp.nv, len(qp.contacts)
         # the safe command's buffers (gravity_torques): stacked active sole Jacobians, sole wrenches, diag(M⁻¹),
         # workspace
-        self._safe = (np.zeros((6 * nc, nv)), np.zeros(6 * nc), np.empty(nv), np.empty((nv, nv)), np.empty(nv),
-                      np.empty((6, 6)), np.empty(6))
+        self._safe = (np.zeros((6 * nc, nv)), np.zeros(6 * nc), gravity_workspace(nv))
         _load_kernels()
 
     @property
@@ -428,8 +434,9 @@ class InverseDynamicsController:
         if not out.any():
             return
         iv = idx[out]
-        _, _, dinv, L, y, _, _ = self._safe
-        if inverse_diagonal(st.M, L, y, dinv):
+        ws = self._safe[2]
+        dinv = ws.dinv
+        if inverse_diagonal(st.M, ws.L, ws.y, dinv):
             i_eff = 1.0 / dinv[iv]
         else:  # M not positive definite (Cholesky): numpy's inverse
             i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[iv]
@@ -477,12 +484,12 @@ class InverseDynamicsController:
         qp, st = self.qp, self.state
         nv = qp.nv
         active = [c for c in qp.contacts if c.active]
-        J, W, dinv, L, y, N, w = self._safe
+        J, W, ws = self._safe
         k = 6 * len(active)
         for i, c in enumerate(active):
             J[6 * i:6 * i + 6] = c.jacobian(st)
         tau = np.empty(nv - 6)
-        if gravity_torques(st.M, st.h, st.v, J, k, self.dt, qp.tau_max, L, y, dinv, N, w, W, tau) != 0:
+        if gravity_torques(st.M, st.h, st.v, J, k, self.dt, qp.tau_max, ws, W, tau) != 0:
             tau, W = self._gravity_torques_numpy(J[:k])
         wrenches = {c.name: np.zeros(6) for c in qp.contacts}
         for i, c in enumerate(active):
