@@ -59,7 +59,7 @@ def test_recording_draws_the_terrain():
     for spec, n_boxes, hf in (("stairs:0.1:0.3:3:updown", 5, False), ("rough:0.02:1", 0, True)):
         terrain = parse_terrain(spec)
         rec = _scene.CommandRecorder()
-        _scene.add_terrain(meshcat.Visualizer(window=rec), terrain)
+        _scene.draw_terrain(meshcat.Visualizer(window=rec), terrain)
         objs = [c for c in rec.commands if c["type"] == "set_object" and c["path"].startswith(_scene.TERRAIN_ROOT)]
         boxes = [c for c in objs if "/box_" in c["path"]]
         assert len(boxes) == n_boxes == len(terrain.boxes)
