@@ -202,6 +202,15 @@ def _run_label(argv: tuple[str, ...]) -> str:
 def _compile_item(item: str | tuple[str, ...]) -> tuple[str, float, float]:
     """Import the module ``item`` and run its loaders, or run the ``wbc`` command line ``item`` (a tuple); returns
     (its label, wall seconds, CPU seconds of this process or of the command's child process)."""
+    try:
+        return _timed_item(item)
+    finally:  # the pool terminates its workers once all is done: what they printed must be out before the result
+        sys.stdout.flush()
+        sys.stderr.flush()
+
+
+def _timed_item(item: str | tuple[str, ...]) -> tuple[str, float, float]:
+    """:func:`_compile_item`'s work: (label, wall seconds, CPU seconds)."""
     import resource
 
     t0, c0 = time.perf_counter(), time.process_time()
