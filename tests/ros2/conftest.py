@@ -15,7 +15,14 @@ from conftest import dds_domain_id
 from . import kilted as _clients
 
 
-def _session(client, tmp_path):
+def _session(client, tmp_path, monkeypatch):
+    # this process's own participants (the tests' in-process wbc side) on loopback whatever an earlier test of the same
+    # worker left: Cyclone reads CYCLONEDDS_URI when it creates a domain, and wbc.ros2.dds binds a participant's new
+    # sockets to `lo` only while its interface choice is the loopback one
+    from wbc.ros2 import dds
+
+    monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_uri())
+    monkeypatch.setattr(dds, "_chosen", [])
     try:
         client.build()
     except subprocess.CalledProcessError as exc:
@@ -25,16 +32,16 @@ def _session(client, tmp_path):
 
 
 @pytest.fixture
-def kilted(tmp_path):
+def kilted(tmp_path, monkeypatch):
     """rclpy 9.1.2 on Kilted's Fast DDS 3.2.3 (its defaults apart from the loopback profile)."""
-    session = _session(_clients.KILTED, tmp_path)
+    session = _session(_clients.KILTED, tmp_path, monkeypatch)
     yield session
     session.close()
 
 
 @pytest.fixture
-def jazzy(tmp_path):
+def jazzy(tmp_path, monkeypatch):
     """rclpy 7.1.6 on Jazzy's Fast DDS 2.14.5 (its defaults apart from the loopback profile)."""
-    session = _session(_clients.JAZZY, tmp_path)
+    session = _session(_clients.JAZZY, tmp_path, monkeypatch)
     yield session
     session.close()
