@@ -113,8 +113,8 @@ def _cache_files(stdout: str) -> set[str]:
 
 def test_first_walk_and_sim_after_compile_compile_nothing(tmp_path):
     """The install step `wbc compile` covers every kernel `wbc walk` calls: every cache file the walk reads or writes
-    is one `wbc compile` read or wrote, and the walk writes none; `wbc sim walk` (its kernels reached by compile's
-    warm-up run, whose cache log is not in compile's output) reads its kernels from the cache and writes none. Run on
+    is one `wbc compile` read or wrote (its loaders or its warm-up run, whose cache log compile passes on), and the
+    walk writes none; `wbc sim walk` reads its kernels from the cache and writes none. Run on
     the project's own cache (the one the install step fills; a kernel missing there is compiled here once and
     cached), so that the test costs a cache load, not a full compile: the checks hold whether or not the cache was
     warm before."""

@@ -65,7 +65,8 @@ AFTER["wbc sim walk --steps 2"] = tuple(m for m in LOADER_MODULES
 
 def run_warm_up(argv: tuple[str, ...]) -> float:
     """Run ``python -m wbc *argv --quiet`` in a child process (same interpreter, same environment, so the same numba
-    cache), its output discarded: every kernel it calls is loaded from numba's on-disk cache, or compiled and
+    cache), its output discarded (but for numba's cache log, passed on to this process's standard output when
+    ``NUMBA_DEBUG_CACHE`` is set): every kernel it calls is loaded from numba's on-disk cache, or compiled and
     written there.
 
     Args:
@@ -83,8 +84,13 @@ def run_warm_up(argv: tuple[str, ...]) -> float:
     from wbc.exceptions import SimulationError
 
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-m", "wbc", *argv, "--quiet"], stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)  # Ctrl-C stops the run
+    # numba's cache log (NUMBA_DEBUG_CACHE=1) of the run is part of compile's: which kernels the run loaded or wrote
+    debug = os.environ.get("NUMBA_DEBUG_CACHE", "0") not in ("", "0")
+    out = subprocess.run([sys.executable, "-m", "wbc", *argv, "--quiet"], stdout=subprocess.PIPE if debug else
+                         subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=_default_sigint)  # Ctrl-C stops the run
+    if debug:
+        sys.stdout.write("".join(line + "\n" for line in out.stdout.splitlines() if line.startswith("[cache]")))
     if out.returncode not in (0, 1):  # 1: the run's acceptance failed, its kernels ran all the same
         raise SimulationError(f"`wbc {' '.join(argv)}` (run by wbc compile to compile its kernels) exited with "
                               f"{out.returncode}: {out.stderr.strip()[-500:]}")
