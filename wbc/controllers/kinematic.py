@@ -26,7 +26,7 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import ensure_compiled
+from wbc.formulations.velocity_kernel import load_kinematic_kernels
 from wbc.solvers import DEFAULT_SOLVER, FastBackend, QPBackend, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
@@ -259,7 +259,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
         self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
-        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
+        load_kinematic_kernels()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
     def budget(self) -> float | None:
