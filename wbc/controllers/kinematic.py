@@ -33,9 +33,9 @@ from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult
 from wbc.controllers.budget import TickBudget
 from wbc.controllers.general_route import CONFIRM_ORDER, GeneralRoute
-from wbc.controllers.output_guard import OutputGuard
+from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
-from wbc.controllers.contact_hold import ContactHold, DriftFailure
+from wbc.controllers.contact_hold import ContactHold, ContactRange, DriftFailure, DriftMeter
 from wbc.controllers.recovery import Recovery
 from wbc.controllers.relaxation import Relaxation
 from wbc.formulations.velocity import SoftRows, VelocityQP
@@ -52,7 +52,7 @@ _CHECKED_SIZE = 64
 
 
 
-class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, OutputGuard, VelocityQP):
+class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, VelocityQP):
     """Velocity-level whole-body QP (see module docstring).
 
     Args:
@@ -207,7 +207,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._cut: list[str] = []
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
-        self._drift_data = robot.model.createData()
+        #: the contact frames' drift over a tick (:class:`wbc.controllers.contact_hold.DriftMeter`)
+        self.drift_meter = DriftMeter(robot.model)
+        self._drift_data = self.drift_meter.data  # its Data: the compiled tick's scratch at q⁺
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
         self.levels: dict[int, list[Task]] = {}
@@ -255,10 +257,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._soft_tasks: list[Task] | None = None
         self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
         self._level_rows: list[SoftRows] = []
-        self._in_solve, self._drift_cache = False, None
+        self._in_solve = False
         self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
-        self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
+        #: the range of the contact rows (:class:`wbc.controllers.contact_hold.ContactRange`)
+        self.contact_range = ContactRange()
         load_kinematic_kernels()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
@@ -479,6 +482,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
 
 
+    def _command_fault(self, v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray,
+                       u: np.ndarray) -> str:
+        """:func:`wbc.controllers.output_guard.command_fault` at this controller's backend tolerance."""
+        return command_fault(v, lb, ub, C, l, u, self.backend.tolerance)
+
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
         """Solve one tick at ``config`` with control period ``dt`` (s).
@@ -527,7 +535,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self.backend.skip_give_ups = bool(self._level_order)
         t1 = None
         self._assembled = False
-        self._in_solve, self._drift_cache, self._contact_expected = True, None, None
+        self._in_solve, self._contact_expected = True, None
+        self.drift_meter.forget()
         self._projected_contacts = []
         weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
@@ -539,7 +548,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         try:
             H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
             self._assembled = True
-            fault = self._data_fault()
+            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
             if fault:
                 raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
             t1 = perf_counter()
@@ -610,14 +619,16 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
                                    f"directions (projected by up to {worst:.3g} in their rows' units)")
         except InvalidInputError:
-            self._in_solve, self._drift_cache = False, None
+            self._in_solve = False
+            self.drift_meter.forget()
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             self._work.reserve = 0.0
             result = self._recover(config, dt, exc)
-        self._in_solve, self._drift_cache = False, None
+        self._in_solve = False
+        self.drift_meter.forget()
         if self._level_order:
             # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
             # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
