@@ -72,6 +72,34 @@ class DriftMeter:
             self._memo = (v, config.q, dt, (far, drifts, worst))
         return far, drifts, worst
 
+    def held_drift(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
+                   anchors: list[pin.SE3], beta: float) -> float:
+        """Largest drift (m) of a contact frame over one tick of dt (s) with v (nv,) from where its correction
+        towards its anchor (world placement) scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖,
+        e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: the frame's displacement)."""
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        worst = 0.0
+        for c, anchor in zip(contacts, anchors):
+            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
+        return worst
+
+    def within_radius(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
+                      anchors: list[pin.SE3], radius: float) -> bool:
+        """True when one tick of dt (s) with v (nv,) leaves every contact frame within ``radius`` (m) of its anchor
+        (world placement), or no farther from it than the frame is at ``config``."""
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        for c, anchor in zip(contacts, anchors):
+            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
+                                         - anchor.translation))
+            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
+            if after > max(radius, before):
+                return False
+        return True
+
     def forget(self) -> None:
         """Drop the remembered answer (:meth:`measure`)."""
         self._memo = None
@@ -289,29 +317,3 @@ class ContactHold:
                           message=f"contact frame drifts {best:.3g} m over the tick (> sole_drift_tolerance "
                                   f"{self.sole_drift_tolerance:.3g} m) even inside a trust region" + (
                                       f" (tick budget spent: {'; '.join(self._cut)} skipped)" if self._cut else ""))
-
-    def _within_run_radius(self, config: Configuration, v: np.ndarray, dt: float, anchors) -> bool:
-        """True when one tick with v leaves every contact frame within ``SAFE_COMMAND_RADIUS`` of its anchor (where
-        the run of failed ticks began), or no farther from it than the frame is now (forward kinematics)."""
-        model, data = self.robot.model, self._drift_data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        for c, anchor in zip(self._contacts, anchors):
-            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
-                                         - anchor.translation))
-            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
-            if after > max(self.SAFE_COMMAND_RADIUS, before):
-                return False
-        return True
-
-    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
-        """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
-        scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at
-        pin.integrate(q, v dt) by forward kinematics (β = 0: the frame's displacement)."""
-        model, data = self.robot.model, self._drift_data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        worst = 0.0
-        for c, anchor in zip(self._contacts, anchors):
-            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
-            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
-        return worst

@@ -506,6 +506,37 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         # counted in QP solves: deterministic
         self._start_work(dt if self._budget is None else self._budget, self._fused)
+        result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
+        if result is not None:
+            return result
+        weighted_start = self._start_general()
+        t1 = None
+        try:
+            self.assemble(config, dt)  # targets → the tick's QP, in the controller's buffers
+            self._assembled = True
+            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            if fault:
+                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
+            t1 = perf_counter()
+            try:  # → the solver route (flat or strict levels), then the relaxation ladder
+                v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
+            except SolverError as first_failure:
+                v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
+            result = self._held_answer(config, dt, v, relaxed, return_rate, held)  # contacts held, output guarded
+        except InvalidInputError:
+            self._in_solve = False
+            self.drift_meter.forget()
+            raise
+        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
+            t1 = t1 or perf_counter()
+            self._eq_rows = None  # the rank may have changed: recompute next tick
+            self._work.reserve = 0.0
+            result = self._recover(config, dt, exc)  # → the safe command
+        return self._close_tick(result, weighted_start, t0, t1)
+
+    def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
+        """The tick answered by the compiled tick (:mod:`wbc.controllers.compiled_tick`), or None: the general
+        path answers it (any failure of the compiled tick but a typed input error)."""
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -522,6 +553,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 result = None
             if result is not None:
                 return result
+        return None
+
+    def _start_general(self) -> bool:
+        """Set up the general path of the tick (backends' give-up counting, the strict levels' weighted form and
+        reserve); True when the tick starts on the weighted form of its strict levels."""
         self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         if isinstance(self.backend, FastBackend):
             # the general path of a flat QP's tick counts the kernel attempts that give up (and skips the kernel on
@@ -533,7 +569,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             # tick's later problems of a shape it gave up on, uncounted: its contact correction repeated a give-up
             # of up to 100 iterations on each re-solve (kinematic fuzz seed 550004 episode 366 tick 0)
             self.backend.skip_give_ups = bool(self._level_order)
-        t1 = None
         self._assembled = False
         self._in_solve, self._contact_expected = True, None
         self.drift_meter.forget()
@@ -544,89 +579,46 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
-        return_rate, held = None, False
-        try:
-            H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
-            self._assembled = True
-            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+        return weighted_start
+
+    def _held_answer(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, return_rate: float | None,
+                     held: bool) -> TickResult:
+        """The solved tick's command with its contacts held (second-order correction, trust region; the weighted
+        form of a cut cascade, slower returns), checked by the output guard and labelled with its route.
+
+        Raises:
+            SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
+        """
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v)
+        result = self._hold_contacts(config, dt, v, relaxed)
+        if (not result.ok and self._cut and self._level_order and not self._weighted_tick
+                and return_rate is None and not held):
+            result = self._weighted_answer(config, dt, relaxed) or result
+        if not result.ok and return_rate is not None and not held:
+            result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+        if result.ok:
+            fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
             if fault:
-                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
-            t1 = perf_counter()
-            try:
-                v = self._solve_assembled(config)
-                relaxed = []
-            except SolverError as first_failure:
-                v = None
-                self._work.reserve = 0.0  # the relaxations count as before
-                # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
-                # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
-                if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
-                    raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
-                        from None
-                if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
-                    # the failed cascade spent the tick's count: its retries below are answered by the weighted
-                    # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
-                    # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
-                    self._weighted_tick, self._weighted_qp = True, None
-                    self._cut.append("priority levels of the retries (their weighted form's command)")
-                if self._contact_rows.size and self._consistent_contact_rhs():
-                    # dependent contact rows asked contradictory corrections: once more in least squares (one
-                    # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
-                    # weighted level solves, kinematic fuzz seed 410002)
-                    try:
-                        v = self._solve_assembled(config)
-                        relaxed = []
-                    except SolverError:
-                        v = None
-                relaxed = []
-                if v is None and self._relaxable:  # (one solve: not cut by the count)
-                    if not self.tick_budget.fits(self.tick_budget.resolve_cost):
-                        raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
-                    self._relax(config, dt)
-                    relaxed = [c.name for c in self._relaxable]
-                    try:
-                        v = self._solve_assembled(config)
-                    except SolverError:
-                        v = None
-                if v is None:
-                    v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
-                    relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
-                    if held:
-                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
-            if self.contact_correction > 0 and self._contacts and not held:
-                v = self._correct_contacts(config, dt, v)
-            result = self._hold_contacts(config, dt, v, relaxed)
-            if (not result.ok and self._cut and self._level_order and not self._weighted_tick
-                    and return_rate is None and not held):
-                result = self._weighted_answer(config, dt, relaxed) or result
-            if not result.ok and return_rate is not None and not held:
-                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
-            if result.ok:
-                fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
-                if fault:
-                    raise SolverError(f"output guard: {fault}")
-                result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
-                               else TickPath("general", self.backend.name))
-                if return_rate is not None:
-                    result.path = replace(result.path, return_rate=True)
-            else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
-                raise DriftFailure(result.message)
-            if not result.ok and self._projected_contacts:
-                # the hard set had no solution until the dependent contact rows were made consistent: name them
-                result.conflicts = list(self._projected_contacts)
-                worst = max(d for _, d in self._projected_contacts)
-                names = [name for name, _ in self._projected_contacts]
-                result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
-                                   f"directions (projected by up to {worst:.3g} in their rows' units)")
-        except InvalidInputError:
-            self._in_solve = False
-            self.drift_meter.forget()
-            raise
-        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
-            t1 = t1 or perf_counter()
-            self._eq_rows = None  # the rank may have changed: recompute next tick
-            self._work.reserve = 0.0
-            result = self._recover(config, dt, exc)
+                raise SolverError(f"output guard: {fault}")
+            result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                           else TickPath("general", self.backend.name))
+            if return_rate is not None:
+                result.path = replace(result.path, return_rate=True)
+        else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
+            raise DriftFailure(result.message)
+        if not result.ok and self._projected_contacts:
+            # the hard set had no solution until the dependent contact rows were made consistent: name them
+            result.conflicts = list(self._projected_contacts)
+            worst = max(d for _, d in self._projected_contacts)
+            names = [name for name, _ in self._projected_contacts]
+            result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
+                               f"directions (projected by up to {worst:.3g} in their rows' units)")
+        return result
+
+    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None) -> TickResult:
+        """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
+        marks, feedback constraints and the failure count."""
         self._in_solve = False
         self.drift_meter.forget()
         if self._level_order:

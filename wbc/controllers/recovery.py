@@ -109,6 +109,7 @@ class Recovery:
                 if Ur.shape[1] < anchored.size:
                     anchored = Ur @ (Ur.T @ anchored)
                 tried = []  # (β, what became of its command) for the message
+                meter = self.drift_meter
                 for beta in scales:
                     if not self.tick_budget.fits(self.tick_budget.safe_estimate() + self.tick_budget.check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
@@ -136,8 +137,9 @@ class Recovery:
                             break
                         self._work.add(self.CHECK_WORK)
                         t = self._work.seconds()
-                        d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
-                        held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
+                        d = 0.0 if tol is None else meter.held_drift(config, v_h, dt, self._contacts, anchors, beta)
+                        held = (tol is None or d <= tol) and meter.within_radius(
+                            config, v_h, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS)
                         self.tick_budget.check_cost = max(self.tick_budget.check_cost, self._work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
@@ -193,7 +195,7 @@ class Recovery:
         """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
         the constraint objects' QP, its contacts held to second order like an ok tick's (correction, trust region,
         bounded by the tick's count), taken when finite, within the constraints, within ``sole_drift_tolerance`` and
-        within the run's radius (:meth:`_within_run_radius`). Never raises."""
+        within the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
@@ -205,7 +207,7 @@ class Recovery:
             v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
                     tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
-                    self._within_run_radius(config, v_c, dt, anchors):
+                    self.drift_meter.within_radius(config, v_c, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS):
                 v, fallback = v_c, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
             pass
