@@ -17,12 +17,10 @@ from dataclasses import replace
 from time import perf_counter
 
 import numpy as np
-import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
                                   KinematicContext)
-from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -33,6 +31,7 @@ from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult
 from wbc.controllers.budget import TickBudget
 from wbc.controllers.general_route import CONFIRM_ORDER, GeneralRoute
+from wbc.controllers.robot_check import RobotCheck, locked_joints
 from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
 from wbc.controllers.contact_hold import ContactHold, ContactRange, DriftFailure, DriftMeter
@@ -44,10 +43,6 @@ from wbc.formulations.velocity import SoftRows, VelocityQP
 #: the default largest angle (rad) a contact frame may turn per tick away from where its row sends it on an ok tick
 #: (``KinematicController(sole_rotation_tolerance=…)``)
 SOLE_ROTATION_TOLERANCE = 3e-4
-
-
-#: most tasks and constraints a controller remembers as checked against its robot (``_check_robot``)
-_CHECKED_SIZE = 64
 
 
 
@@ -215,9 +210,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.levels: dict[int, list[Task]] = {}
         self.constraints: list[Constraint] = []
         self._hard: dict[int, TaskConstraint] = {}
-        # tasks and constraints already checked against this robot (_check_robot), by id: a support switch that
-        # adds back a sole's contact or swing task does not check it again (at most _CHECKED_SIZE kept)
-        self._checked: dict[int, object] = {}
+        #: refuses tasks and constraints built for another robot (:class:`wbc.controllers.robot_check.RobotCheck`)
+        self.robot_check = RobotCheck(robot.model)
         self._level_order: list[int] = []
         self._level_backends: list[QPBackend] = []
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
@@ -245,7 +239,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0
         #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
         #: found at build and reported once with a warning.
-        self.locked_joints = self._find_locked_joints(robot)
+        self.locked_joints = locked_joints(robot.model)
         if self.locked_joints:
             warnings.warn(f"{len(self.locked_joints)} joint(s) have a zero-width position or velocity range and "
                           f"are treated as locked: {', '.join(self.locked_joints)}", stacklevel=2)
@@ -311,21 +305,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         tb = self.tick_budget
         tb.clock_guard = self.clock_guard
         tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
-
-    @staticmethod
-    def _find_locked_joints(robot: Robot) -> list[str]:
-        model = robot.model
-        locked = []
-        for j in range(1, model.njoints):
-            joint = model.joints[j]
-            if joint.nv == 0 or joint.shortname() == "JointModelFreeFlyer":
-                continue
-            iq, iv = joint.idx_q, joint.idx_v
-            lo, hi = model.lowerPositionLimit[iq:iq + joint.nq], model.upperPositionLimit[iq:iq + joint.nq]
-            vmax = model.velocityLimit[iv:iv + joint.nv]
-            if np.any(np.isfinite(lo) & (hi - lo <= 0)) or np.any(vmax <= 0):
-                locked.append(model.names[j])
-        return locked
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -420,50 +399,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         return constraint
 
     def _check_once(self, obj, what: str) -> None:
-        """:meth:`_check_robot` for an object not already checked by this controller (a contact or swing task added
-        back at a support switch is the same object, checked when first added)."""
-        if self._checked.get(id(obj)) is not obj:
-            self._check_robot(obj, what)
-            if len(self._checked) >= _CHECKED_SIZE:
-                self._checked.clear()
-            self._checked[id(obj)] = obj
-
-    def _check_robot(self, obj, what: str) -> None:
-        """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
-        not this robot's (other nq, nv or joint names), a frame id whose name differs in this model, a Jacobian
-        or an index set sized for another nv."""
-        model = self.robot.model
-        name = getattr(obj, "name", type(obj).__name__)
-        here = f"this controller's robot is {model.name!r} (nq {model.nq}, nv {model.nv})"
-
-        def foreign(why: str) -> InvalidInputError:
-            return InvalidInputError(f"{what} {name!r} was built for another robot ({why}); {here}: build it "
-                                     f"with the controller's robot")
-
-        if isinstance(obj, TaskConstraint):
-            self._check_robot(obj.task, what)
-        other = getattr(obj, "model", None)
-        if other is None and getattr(obj, "robot", None) is not None:
-            other = getattr(obj.robot, "model", None)
-        if isinstance(other, pin.Model) and other is not model and (
-                other.nq != model.nq or other.nv != model.nv or list(other.names) != list(model.names)):
-            raise foreign(f"model {other.name!r}, nq {other.nq}, nv {other.nv}")
-        for id_attr, name_attr in (("frame_id", "frame"), ("reference_id", "reference_frame")):
-            fid, fname = getattr(obj, id_attr, None), getattr(obj, name_attr, None)
-            if isinstance(fid, (int, np.integer)) and isinstance(fname, str) and (
-                    not 0 <= fid < model.nframes or model.frames[fid].name != fname):
-                raise foreign(f"its frame {fname!r} has id {fid}, which is "
-                              + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
-                                 f"beyond this model's {model.nframes} frames"))
-        if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
-            raise foreign(f"nv {obj.nv}")
-        indices = getattr(obj, "indices", None)
-        if indices is not None and np.size(indices) and int(np.max(indices)) >= model.nv:
-            raise foreign(f"velocity index {int(np.max(indices))} ≥ nv")
-        if isinstance(obj, (JointPositionLimit, JointVelocityLimit)):
-            expected = bounded_joints(model)[1] if isinstance(obj, JointPositionLimit) else np.arange(6, model.nv)
-            if not np.array_equal(np.asarray(obj.indices), expected):
-                raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
+        """Raise InvalidInputError when ``obj`` was built for another robot (:class:`RobotCheck`)."""
+        self.robot_check.check(obj, what)
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
