@@ -105,7 +105,7 @@ def test_gait_benchmark_few_repeats(robots):
 
 
 def test_suite_and_report_writer(tmp_path):
-    from wbc.bench.report import acceptance, markdown, write_report
+    from wbc.bench.report import benchmark_goals, markdown, write_report
     from wbc.bench.suite import SuiteConfig, run_suite
 
     cfg = SuiteConfig(ticks=5, repeats=2, warmup=1, pink_select_ticks=3, scaling_robots=("humanoid15",),
@@ -118,7 +118,7 @@ def test_suite_and_report_writer(tmp_path):
         assert paths[key].is_file() and paths[key].stat().st_size > 0
     data = json.loads(paths["json"].read_text())
     assert data["machine"]["cpu_model"] and data["kinematic"]["libraries"]["wbc"]["wall_us"]["repeats"] == 2
-    assert {a["criterion"] for a in data["acceptance"]} == {a["criterion"] for a in acceptance(results)}
+    assert {a["criterion"] for a in data["acceptance"]} == {a["criterion"] for a in benchmark_goals(results)}
     text = markdown(results)
     for title in ("## 1. Kinematic tick", "## 2. wbc tick breakdown", "## 3. wbc with each QP backend",
                   "## 4. Scaling", "## 5. Inverse dynamics", "## 6. Gait planning", "## 7. Walk tick",
@@ -166,7 +166,7 @@ def test_bench_exit_code_names_the_missed_target(monkeypatch, tmp_path, capsys):
     rows = [{"criterion": "A", "value": 1.2, "goal": "≤ 1.0", "met": False, "timing": False},
             {"criterion": "B", "value": "valgrind missing", "goal": "≤ 0.8", "met": None, "timing": False},
             {"criterion": "C", "value": 3.0, "goal": "≥ 1", "met": True, "timing": False}]
-    monkeypatch.setattr(report, "acceptance", lambda results: rows)
+    monkeypatch.setattr(report, "benchmark_goals", lambda results: rows)
     assert main(["bench", "--sections", "gait", "--out-dir", str(tmp_path)]) == 1
     out = capsys.readouterr().out
     assert "target missed: A" in out and "target missed: B" not in out and "target missed: C" not in out

@@ -199,6 +199,7 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
     tick with CHECK_WORK = 0 (the same command), the count is 0.25 higher per check started. With checks that cost more than the tick's work limit leaves
     (CHECK_WORK = 8 solves at a cap of 8), none is started and the tick holds (v = 0), its message naming the count.
     The held command keeps the soles within the drift bound (forward kinematics, from where the tick began)."""
+    from wbc.controllers.contact_hold import DriftMeter
     from wbc.controllers.kinematic import KinematicController
 
     def replay(check_work: float):
@@ -207,15 +208,15 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
                                                             past_limits=0.2)
         assert (name, strict, dt) == ("talos", True, DT)
         counts = []
-        held_drift = KinematicController._held_drift
+        held_drift = DriftMeter.held_drift
 
-        def recorded(self, *args):
-            counts.append(self._work.solves)
-            return held_drift(self, *args)
+        def recorded(meter, *args):
+            counts.append(ctrl._work.solves)
+            return held_drift(meter, *args)
 
-        monkeypatch.setattr(KinematicController, "_held_drift", recorded)
+        monkeypatch.setattr(DriftMeter, "held_drift", recorded)
         res = ctrl.solve(config, DT)
-        monkeypatch.setattr(KinematicController, "_held_drift", held_drift)
+        monkeypatch.setattr(DriftMeter, "held_drift", held_drift)
         return config, ctrl, res, counts
 
     _, ctrl0, res0, counts0 = replay(0.0)

@@ -101,8 +101,8 @@ def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=
     from wbc.formulations import velocity_kernel
     from wbc.solvers import fast
 
-    fast.ensure_compiled()
-    velocity_kernel.ensure_compiled()
+    fast.load_fast_kernels()
+    velocity_kernel.load_kinematic_kernels()
     per, ticks = {}, 0
     for lib in libraries:
         with tempfile.TemporaryDirectory() as d:
@@ -202,8 +202,8 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     from wbc.formulations import velocity_kernel
     from wbc.solvers import fast
 
-    fast.ensure_compiled()  # the JIT cache is written here, so that both child runs only load it
-    velocity_kernel.ensure_compiled()
+    fast.load_fast_kernels()  # the JIT cache is written here, so that both child runs only load it
+    velocity_kernel.load_kinematic_kernels()
     t0 = time.perf_counter()
     raw: dict[str, list[int]] = {}
     for lib in LIBRARIES:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["acceptance", "write_report", "markdown", "plot_latencies"]
+__all__ = ["benchmark_goals", "write_report", "markdown", "plot_latencies"]
 
 
 def _jsonable(x):
@@ -31,7 +31,7 @@ def _jsonable(x):
     return x
 
 
-def acceptance(results: dict) -> list[dict[str, object]]:
+def benchmark_goals(results: dict) -> list[dict[str, object]]:
     """The issue's acceptance criteria evaluated on ``results``: [{criterion, value, goal, met, timing}].
 
     ``timing`` is True for a wall-clock criterion (meaningful only on a quiet machine with full repeats)."""
@@ -151,7 +151,7 @@ def markdown(results: dict) -> str:
            f"BLAS threads: {m.get('blas_threads', 'default')}.",
            f"Python {m['python']}, " + ", ".join(f"{k} {val}" for k, val in v.items() if val) + ".",
            f"Whole run: {_f(results.get('runtime_s'))} s.", ""]
-    acc = acceptance(results)
+    acc = benchmark_goals(results)
     if acc:
         out += ["## Acceptance", "", "| criterion | measured | goal | met |", "|---|---|---|---|"]
         out += [f"| {a['criterion']} | {_f(a['value'], 2) if not isinstance(a['value'], str) else a['value']} | "
@@ -383,7 +383,7 @@ def write_report(results: dict, out_dir: Path) -> dict[str, Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {"json": out_dir / "results.json", "markdown": out_dir / "results.md"}
     data = _jsonable(results)
-    data["acceptance"] = _jsonable(acceptance(results))
+    data["acceptance"] = _jsonable(benchmark_goals(results))
     paths["json"].write_text(json.dumps(data, indent=2, ensure_ascii=False) + "\n")
     paths["markdown"].write_text(markdown(results) + "\n")
     png = plot_latencies(results, out_dir / "latency.png")

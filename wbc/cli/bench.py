@@ -107,7 +107,7 @@ def require_bench_extra() -> None:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     require_bench_extra()
-    from wbc.bench.report import acceptance, write_report
+    from wbc.bench.report import benchmark_goals, write_report
     from wbc.bench.stats import limit_blas_threads
     from wbc.bench.suite import SuiteConfig, run_suite
 
@@ -128,7 +128,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     for kind, path in paths.items():
         print(f"{kind}: {path}")
     print(f"wbc bench: {time.perf_counter() - t0:.1f} s")
-    rows = acceptance(results)
+    rows = benchmark_goals(results)
     if args.quick:
         # A pipeline check: a few ticks say nothing about speed, so only the non-timing criteria decide.
         rows = [a for a in rows if not a.get("timing")]

@@ -25,6 +25,112 @@ class DriftFailure(SolverError):
     """The tick's QP solved, but no trust region kept the contact frames within ``sole_drift_tolerance``."""
 
 
+class DriftMeter:
+    """Where contact frames end after one tick against where their contact rows send them (forward kinematics at
+    q⁺ = pin.integrate(q, v dt) on a Data of its own).
+
+    Args:
+        model: the robot's Pinocchio model.
+    """
+
+    def __init__(self, model: pin.Model):
+        self.model = model
+        #: the Data the frames are placed in at q⁺ (the controller's compiled tick reuses it as scratch)
+        self.data = model.createData()
+        self._memo: tuple | None = None  # (v, q, dt, result) of the last measure(remember=True)
+
+    def measure(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
+                lever: float, expected: list[np.ndarray] | None = None, *,
+                remember: bool = False) -> tuple[float, list[np.ndarray], float]:
+        """(largest distance (m), [(6,) e⁺ − target per contact], largest drift (m)) over one tick of dt (s) with v
+        (nv,) from ``config``: e⁺ = log6(placementᵀ · frame at q⁺); target = (1 − min(K, 1/dt) dt) e at ``config``
+        (or ``expected[i]``, the contact rows' own targets); the distance that of the translations of exp(e⁺) and
+        exp(target); a frame's drift the larger of its distance and ``lever`` (m/rad) times the angle between the
+        two rotations (0: the distance alone).
+
+        ``remember``: keep the answer and return it again for the same v, q (the same arrays) and dt until
+        :meth:`forget` (one control tick asks the drift of one command several times)."""
+        if not contacts:
+            return 0.0, [], 0.0
+        memo = self._memo
+        if memo is not None and memo[0] is v and memo[1] is config.q and memo[2] == dt:
+            return memo[3]
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        far = worst = 0.0
+        drifts = []
+        for i, c in enumerate(contacts):
+            after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
+            drifts.append(after - target)
+            d = translation_gap(after, 1.0, target, 1.0)  # the distance, not the twists' gap
+            far = max(far, d)
+            if lever > 0:
+                d = max(d, lever * rotation_gap(after, 1.0, target, 1.0))
+            worst = max(worst, d)
+        if remember:
+            self._memo = (v, config.q, dt, (far, drifts, worst))
+        return far, drifts, worst
+
+    def held_drift(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
+                   anchors: list[pin.SE3], beta: float) -> float:
+        """Largest drift (m) of a contact frame over one tick of dt (s) with v (nv,) from where its correction
+        towards its anchor (world placement) scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖,
+        e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: the frame's displacement)."""
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        worst = 0.0
+        for c, anchor in zip(contacts, anchors):
+            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
+            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
+        return worst
+
+    def within_radius(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
+                      anchors: list[pin.SE3], radius: float) -> bool:
+        """True when one tick of dt (s) with v (nv,) leaves every contact frame within ``radius`` (m) of its anchor
+        (world placement), or no farther from it than the frame is at ``config``."""
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
+        for c, anchor in zip(contacts, anchors):
+            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
+                                         - anchor.translation))
+            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
+            if after > max(radius, before):
+                return False
+        return True
+
+    def forget(self) -> None:
+        """Drop the remembered answer (:meth:`measure`)."""
+        self._memo = None
+
+
+class ContactRange:
+    """The range of the contact rows J_c (rows of the contacts × nv): their thin SVD, kept while J_c is unchanged
+    (a failed tick asks it of the same rows several times: its retry, contact corrections, trust regions and safe
+    command)."""
+
+    def __init__(self):
+        self._kept: tuple | None = None  # (J_c, U, S) of the last svd()
+
+    def svd(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(U (rows × k), S (k,), descending) of the thin SVD of ``Jc``, k = min(rows, nv); read-only arrays."""
+        kept = self._kept
+        if kept is None or kept[0].shape != Jc.shape or not np.array_equal(kept[0], Jc):
+            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+            U.setflags(write=False)
+            S.setflags(write=False)
+            kept = self._kept = (Jc, U, S)
+        return kept[1], kept[2]
+
+    def basis(self, Jc: np.ndarray, rank_rtol: float) -> np.ndarray:
+        """Orthonormal basis U_r (rows × rank) of the range of ``Jc``: its numerical rank counts the singular values
+        > ``rank_rtol`` · max(the largest, 1) (rank = rows: every contact row independent)."""
+        U, S = self.svd(Jc)
+        rank = int(np.sum(S > rank_rtol * max(S[0], 1.0))) if S.size else 0
+        return U[:, :rank]
+
+
 class ContactHold:
     """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring):
     drift measurement (:meth:`sole_drift`), correction (``_correct_contacts``) and trust regions
@@ -42,33 +148,11 @@ class ContactHold:
 
     def _contact_drifts(self, config: Configuration, v: np.ndarray,
                         dt: float) -> tuple[float, list[np.ndarray], float]:
-        """(largest distance (m), [(6,) e⁺ − (1 − K dt) e per contact], largest drift (m)) over one tick with v:
-        the distance of a contact frame from where it ends (placement · exp(e⁺)) to where its row sent it
-        (placement · exp((1 − K dt) e)); its drift the larger of that distance and the lever times their angle
-        (:meth:`sole_drift`)."""
-        if not self._contacts:
-            return 0.0, [], 0.0
-        cache = self._drift_cache  # within one solve(): the drift of the same v is not computed twice
-        if cache is not None and cache[0] is v and cache[1] is config.q and cache[2] == dt:
-            return cache[3]
-        model, data = self.robot.model, self._drift_data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        far = worst = 0.0
-        lever = self._drift_lever()
-        drifts = []
-        expected = self._contact_expected if self._in_solve else None  # assembled at this config within solve()
-        for i, c in enumerate(self._contacts):
-            after = pin.log6(c.placement.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            target = c.compute_error(config) * (1.0 - min(c.gain, 1.0 / dt) * dt) if expected is None else expected[i]
-            drifts.append(after - target)
-            d = translation_gap(after, 1.0, target, 1.0)  # the distance, not the twists' gap
-            far = max(far, d)
-            if lever > 0:
-                d = max(d, lever * rotation_gap(after, 1.0, target, 1.0))
-            worst = max(worst, d)
-        if self._in_solve:
-            self._drift_cache = (v, config.q, dt, (far, drifts, worst))
-        return far, drifts, worst
+        """:meth:`DriftMeter.measure` of this tick's contacts (remembered within one solve(), against the targets
+        assembled at this config)."""
+        expected = self._contact_expected if self._in_solve else None
+        return self.drift_meter.measure(config, v, dt, self._contacts, self._drift_lever(), expected,
+                                        remember=self._in_solve)
 
     def _drift_lever(self) -> float:
         """m per rad: a contact frame's drift is the larger of its distance and this times its angle, so that an
@@ -86,11 +170,9 @@ class ContactHold:
         U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
         corrections are averaged where the contacts are dependent and unchanged where they are not."""
         rows = self._contact_rows
-        U, S = self._contact_svd()
-        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
-        if rank == rows.size:
+        Ur = self.contact_range.basis(self._A[rows], self.rank_rtol)
+        if Ur.shape[1] == rows.size:
             return False
-        Ur = U[:, :rank]
         projected = Ur @ (Ur.T @ self._b[rows])
         changed = not np.array_equal(projected, self._b[rows])
         change = np.abs(projected - self._b[rows])
@@ -104,28 +186,14 @@ class ContactHold:
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
 
-    def _contact_svd(self) -> tuple[np.ndarray, np.ndarray]:
-        """(U, S) of the thin SVD of the contact rows J_c in the assembled buffers, kept while J_c is unchanged: a
-        failed tick asks it of the same rows several times (its retry, contact corrections, trust regions and safe
-        command), each an SVD otherwise uncounted."""
-        Jc = self._A[self._contact_rows]
-        cached = self._svd_cache
-        if cached is None or cached[0].shape != Jc.shape or not np.array_equal(cached[0], Jc):
-            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
-            U.setflags(write=False)
-            S.setflags(write=False)
-            cached = self._svd_cache = (Jc, U, S)
-        return cached[1], cached[2]
-
     def _contact_range_basis(self) -> np.ndarray | None:
         """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
         rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
         rows = self._contact_rows
         if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None  # every equality row independent (rank computed on this constraint set)
-        U, S = self._contact_svd()
-        rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
-        return None if rank == rows.size else U[:, :rank]
+        basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
+        return None if basis.shape[1] == rows.size else basis
 
     def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
                           bounded: bool = False) -> np.ndarray:
@@ -249,29 +317,3 @@ class ContactHold:
                           message=f"contact frame drifts {best:.3g} m over the tick (> sole_drift_tolerance "
                                   f"{self.sole_drift_tolerance:.3g} m) even inside a trust region" + (
                                       f" (tick budget spent: {'; '.join(self._cut)} skipped)" if self._cut else ""))
-
-    def _within_run_radius(self, config: Configuration, v: np.ndarray, dt: float, anchors) -> bool:
-        """True when one tick with v leaves every contact frame within ``SAFE_COMMAND_RADIUS`` of its anchor (where
-        the run of failed ticks began), or no farther from it than the frame is now (forward kinematics)."""
-        model, data = self.robot.model, self._drift_data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        for c, anchor in zip(self._contacts, anchors):
-            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
-                                         - anchor.translation))
-            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
-            if after > max(self.SAFE_COMMAND_RADIUS, before):
-                return False
-        return True
-
-    def _held_drift(self, config: Configuration, v: np.ndarray, dt: float, beta: float, anchors) -> float:
-        """Largest drift (m) of a contact frame over one tick with v from where its correction towards its anchor
-        scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at
-        pin.integrate(q, v dt) by forward kinematics (β = 0: the frame's displacement)."""
-        model, data = self.robot.model, self._drift_data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        worst = 0.0
-        for c, anchor in zip(self._contacts, anchors):
-            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
-            worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
-        return worst

@@ -17,25 +17,24 @@ from dataclasses import replace
 from time import perf_counter
 
 import numpy as np
-import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
                                   KinematicContext)
-from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bounded_joints
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
-from wbc.formulations.velocity_kernel import ensure_compiled
+from wbc.formulations.velocity_kernel import load_kinematic_kernels
 from wbc.solvers import DEFAULT_SOLVER, FastBackend, QPBackend, make_backend
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult
 from wbc.controllers.budget import TickBudget
 from wbc.controllers.general_route import CONFIRM_ORDER, GeneralRoute
-from wbc.controllers.output_guard import OutputGuard
+from wbc.controllers.robot_check import RobotCheck, locked_joints
+from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
-from wbc.controllers.contact_hold import ContactHold, DriftFailure
+from wbc.controllers.contact_hold import ContactHold, ContactRange, DriftFailure, DriftMeter
 from wbc.controllers.recovery import Recovery
 from wbc.controllers.relaxation import Relaxation
 from wbc.formulations.velocity import SoftRows, VelocityQP
@@ -46,13 +45,9 @@ from wbc.formulations.velocity import SoftRows, VelocityQP
 SOLE_ROTATION_TOLERANCE = 3e-4
 
 
-#: most tasks and constraints a controller remembers as checked against its robot (``_check_robot``)
-_CHECKED_SIZE = 64
 
 
-
-
-class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, OutputGuard, VelocityQP):
+class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, VelocityQP):
     """Velocity-level whole-body QP (see module docstring).
 
     Args:
@@ -207,15 +202,16 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._cut: list[str] = []
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
-        self._drift_data = robot.model.createData()
+        #: the contact frames' drift over a tick (:class:`wbc.controllers.contact_hold.DriftMeter`)
+        self.drift_meter = DriftMeter(robot.model)
+        self._drift_data = self.drift_meter.data  # its Data: the compiled tick's scratch at q⁺
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self.tasks: list[Task] = []
         self.levels: dict[int, list[Task]] = {}
         self.constraints: list[Constraint] = []
         self._hard: dict[int, TaskConstraint] = {}
-        # tasks and constraints already checked against this robot (_check_robot), by id: a support switch that
-        # adds back a sole's contact or swing task does not check it again (at most _CHECKED_SIZE kept)
-        self._checked: dict[int, object] = {}
+        #: refuses tasks and constraints built for another robot (:class:`wbc.controllers.robot_check.RobotCheck`)
+        self.robot_check = RobotCheck(robot.model)
         self._level_order: list[int] = []
         self._level_backends: list[QPBackend] = []
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
@@ -243,7 +239,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0
         #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
         #: found at build and reported once with a warning.
-        self.locked_joints = self._find_locked_joints(robot)
+        self.locked_joints = locked_joints(robot.model)
         if self.locked_joints:
             warnings.warn(f"{len(self.locked_joints)} joint(s) have a zero-width position or velocity range and "
                           f"are treated as locked: {', '.join(self.locked_joints)}", stacklevel=2)
@@ -255,11 +251,12 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._soft_tasks: list[Task] | None = None
         self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
         self._level_rows: list[SoftRows] = []
-        self._in_solve, self._drift_cache = False, None
+        self._in_solve = False
         self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         self._contact_expected: list[np.ndarray] | None = None
-        self._svd_cache: tuple | None = None  # (J_c, U, S) of _contact_svd
-        ensure_compiled()  # the compiled assembly is loaded here, not inside the first tick
+        #: the range of the contact rows (:class:`wbc.controllers.contact_hold.ContactRange`)
+        self.contact_range = ContactRange()
+        load_kinematic_kernels()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
     def budget(self) -> float | None:
@@ -308,21 +305,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         tb = self.tick_budget
         tb.clock_guard = self.clock_guard
         tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
-
-    @staticmethod
-    def _find_locked_joints(robot: Robot) -> list[str]:
-        model = robot.model
-        locked = []
-        for j in range(1, model.njoints):
-            joint = model.joints[j]
-            if joint.nv == 0 or joint.shortname() == "JointModelFreeFlyer":
-                continue
-            iq, iv = joint.idx_q, joint.idx_v
-            lo, hi = model.lowerPositionLimit[iq:iq + joint.nq], model.upperPositionLimit[iq:iq + joint.nq]
-            vmax = model.velocityLimit[iv:iv + joint.nv]
-            if np.any(np.isfinite(lo) & (hi - lo <= 0)) or np.any(vmax <= 0):
-                locked.append(model.names[j])
-        return locked
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -417,50 +399,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         return constraint
 
     def _check_once(self, obj, what: str) -> None:
-        """:meth:`_check_robot` for an object not already checked by this controller (a contact or swing task added
-        back at a support switch is the same object, checked when first added)."""
-        if self._checked.get(id(obj)) is not obj:
-            self._check_robot(obj, what)
-            if len(self._checked) >= _CHECKED_SIZE:
-                self._checked.clear()
-            self._checked[id(obj)] = obj
-
-    def _check_robot(self, obj, what: str) -> None:
-        """Raise InvalidInputError when ``obj`` (task or constraint) was built for another robot: a model that is
-        not this robot's (other nq, nv or joint names), a frame id whose name differs in this model, a Jacobian
-        or an index set sized for another nv."""
-        model = self.robot.model
-        name = getattr(obj, "name", type(obj).__name__)
-        here = f"this controller's robot is {model.name!r} (nq {model.nq}, nv {model.nv})"
-
-        def foreign(why: str) -> InvalidInputError:
-            return InvalidInputError(f"{what} {name!r} was built for another robot ({why}); {here}: build it "
-                                     f"with the controller's robot")
-
-        if isinstance(obj, TaskConstraint):
-            self._check_robot(obj.task, what)
-        other = getattr(obj, "model", None)
-        if other is None and getattr(obj, "robot", None) is not None:
-            other = getattr(obj.robot, "model", None)
-        if isinstance(other, pin.Model) and other is not model and (
-                other.nq != model.nq or other.nv != model.nv or list(other.names) != list(model.names)):
-            raise foreign(f"model {other.name!r}, nq {other.nq}, nv {other.nv}")
-        for id_attr, name_attr in (("frame_id", "frame"), ("reference_id", "reference_frame")):
-            fid, fname = getattr(obj, id_attr, None), getattr(obj, name_attr, None)
-            if isinstance(fid, (int, np.integer)) and isinstance(fname, str) and (
-                    not 0 <= fid < model.nframes or model.frames[fid].name != fname):
-                raise foreign(f"its frame {fname!r} has id {fid}, which is "
-                              + (f"{model.frames[fid].name!r} here" if 0 <= fid < model.nframes else
-                                 f"beyond this model's {model.nframes} frames"))
-        if isinstance(getattr(obj, "nv", None), (int, np.integer)) and obj.nv != model.nv:
-            raise foreign(f"nv {obj.nv}")
-        indices = getattr(obj, "indices", None)
-        if indices is not None and np.size(indices) and int(np.max(indices)) >= model.nv:
-            raise foreign(f"velocity index {int(np.max(indices))} ≥ nv")
-        if isinstance(obj, (JointPositionLimit, JointVelocityLimit)):
-            expected = bounded_joints(model)[1] if isinstance(obj, JointPositionLimit) else np.arange(6, model.nv)
-            if not np.array_equal(np.asarray(obj.indices), expected):
-                raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
+        """Raise InvalidInputError when ``obj`` was built for another robot (:class:`RobotCheck`)."""
+        self.robot_check.check(obj, what)
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
@@ -478,6 +418,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
 
     # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
 
+
+    def _command_fault(self, v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray,
+                       u: np.ndarray) -> str:
+        """:func:`wbc.controllers.output_guard.command_fault` at this controller's backend tolerance."""
+        return command_fault(v, lb, ub, C, l, u, self.backend.tolerance)
 
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
@@ -498,6 +443,37 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         # counted in QP solves: deterministic
         self._start_work(dt if self._budget is None else self._budget, self._fused)
+        result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
+        if result is not None:
+            return result
+        weighted_start = self._start_general()
+        t1 = None
+        try:
+            self.assemble(config, dt)  # targets → the tick's QP, in the controller's buffers
+            self._assembled = True
+            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            if fault:
+                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
+            t1 = perf_counter()
+            try:  # → the solver route (flat or strict levels), then the relaxation ladder
+                v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
+            except SolverError as first_failure:
+                v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
+            result = self._held_answer(config, dt, v, relaxed, return_rate, held)  # contacts held, output guarded
+        except InvalidInputError:
+            self._in_solve = False
+            self.drift_meter.forget()
+            raise
+        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
+            t1 = t1 or perf_counter()
+            self._eq_rows = None  # the rank may have changed: recompute next tick
+            self._work.reserve = 0.0
+            result = self._recover(config, dt, exc)  # → the safe command
+        return self._close_tick(result, weighted_start, t0, t1)
+
+    def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
+        """The tick answered by the compiled tick (:mod:`wbc.controllers.compiled_tick`), or None: the general
+        path answers it (any failure of the compiled tick but a typed input error)."""
         plan = self._fused
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
                                 and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
@@ -514,6 +490,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 result = None
             if result is not None:
                 return result
+        return None
+
+    def _start_general(self) -> bool:
+        """Set up the general path of the tick (backends' give-up counting, the strict levels' weighted form and
+        reserve); True when the tick starts on the weighted form of its strict levels."""
         self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         if isinstance(self.backend, FastBackend):
             # the general path of a flat QP's tick counts the kernel attempts that give up (and skips the kernel on
@@ -525,9 +506,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             # tick's later problems of a shape it gave up on, uncounted: its contact correction repeated a give-up
             # of up to 100 iterations on each re-solve (kinematic fuzz seed 550004 episode 366 tick 0)
             self.backend.skip_give_ups = bool(self._level_order)
-        t1 = None
         self._assembled = False
-        self._in_solve, self._drift_cache, self._contact_expected = True, None, None
+        self._in_solve, self._contact_expected = True, None
+        self.drift_meter.forget()
         self._projected_contacts = []
         weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
@@ -535,89 +516,48 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
-        return_rate, held = None, False
-        try:
-            H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt)
-            self._assembled = True
-            fault = self._data_fault()
+        return weighted_start
+
+    def _held_answer(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, return_rate: float | None,
+                     held: bool) -> TickResult:
+        """The solved tick's command with its contacts held (second-order correction, trust region; the weighted
+        form of a cut cascade, slower returns), checked by the output guard and labelled with its route.
+
+        Raises:
+            SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
+        """
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v)
+        result = self._hold_contacts(config, dt, v, relaxed)
+        if (not result.ok and self._cut and self._level_order and not self._weighted_tick
+                and return_rate is None and not held):
+            result = self._weighted_answer(config, dt, relaxed) or result
+        if not result.ok and return_rate is not None and not held:
+            result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+        if result.ok:
+            fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
             if fault:
-                raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
-            t1 = perf_counter()
-            try:
-                v = self._solve_assembled(config)
-                relaxed = []
-            except SolverError as first_failure:
-                v = None
-                self._work.reserve = 0.0  # the relaxations count as before
-                # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
-                # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
-                if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
-                    raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") \
-                        from None
-                if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
-                    # the failed cascade spent the tick's count: its retries below are answered by the weighted
-                    # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
-                    # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
-                    self._weighted_tick, self._weighted_qp = True, None
-                    self._cut.append("priority levels of the retries (their weighted form's command)")
-                if self._contact_rows.size and self._consistent_contact_rhs():
-                    # dependent contact rows asked contradictory corrections: once more in least squares (one
-                    # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
-                    # weighted level solves, kinematic fuzz seed 410002)
-                    try:
-                        v = self._solve_assembled(config)
-                        relaxed = []
-                    except SolverError:
-                        v = None
-                relaxed = []
-                if v is None and self._relaxable:  # (one solve: not cut by the count)
-                    if not self.tick_budget.fits(self.tick_budget.resolve_cost):
-                        raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
-                    self._relax(config, dt)
-                    relaxed = [c.name for c in self._relaxable]
-                    try:
-                        v = self._solve_assembled(config)
-                    except SolverError:
-                        v = None
-                if v is None:
-                    v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
-                    relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
-                    if held:
-                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
-            if self.contact_correction > 0 and self._contacts and not held:
-                v = self._correct_contacts(config, dt, v)
-            result = self._hold_contacts(config, dt, v, relaxed)
-            if (not result.ok and self._cut and self._level_order and not self._weighted_tick
-                    and return_rate is None and not held):
-                result = self._weighted_answer(config, dt, relaxed) or result
-            if not result.ok and return_rate is not None and not held:
-                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
-            if result.ok:
-                fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
-                if fault:
-                    raise SolverError(f"output guard: {fault}")
-                result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
-                               else TickPath("general", self.backend.name))
-                if return_rate is not None:
-                    result.path = replace(result.path, return_rate=True)
-            else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
-                raise DriftFailure(result.message)
-            if not result.ok and self._projected_contacts:
-                # the hard set had no solution until the dependent contact rows were made consistent: name them
-                result.conflicts = list(self._projected_contacts)
-                worst = max(d for _, d in self._projected_contacts)
-                names = [name for name, _ in self._projected_contacts]
-                result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
-                                   f"directions (projected by up to {worst:.3g} in their rows' units)")
-        except InvalidInputError:
-            self._in_solve, self._drift_cache = False, None
-            raise
-        except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
-            t1 = t1 or perf_counter()
-            self._eq_rows = None  # the rank may have changed: recompute next tick
-            self._work.reserve = 0.0
-            result = self._recover(config, dt, exc)
-        self._in_solve, self._drift_cache = False, None
+                raise SolverError(f"output guard: {fault}")
+            result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                           else TickPath("general", self.backend.name))
+            if return_rate is not None:
+                result.path = replace(result.path, return_rate=True)
+        else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
+            raise DriftFailure(result.message)
+        if not result.ok and self._projected_contacts:
+            # the hard set had no solution until the dependent contact rows were made consistent: name them
+            result.conflicts = list(self._projected_contacts)
+            worst = max(d for _, d in self._projected_contacts)
+            names = [name for name, _ in self._projected_contacts]
+            result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
+                               f"directions (projected by up to {worst:.3g} in their rows' units)")
+        return result
+
+    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None) -> TickResult:
+        """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
+        marks, feedback constraints and the failure count."""
+        self._in_solve = False
+        self.drift_meter.forget()
         if self._level_order:
             # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
             # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough

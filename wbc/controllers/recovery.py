@@ -21,6 +21,7 @@ from wbc.solvers.daqp import WORK_LIMIT_FACTOR
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.hierarchy import independent_rows
 from wbc.controllers.contact_hold import DriftFailure
+from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.tick import TickPath, TickResult
 
 
@@ -51,7 +52,8 @@ class Recovery:
         if not self._assembled:
             return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
                               path=TickPath("fallback", fallback="hold"), reason="exception")
-        data_fault = self._data_fault()
+        data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb,
+                                   self._ub)
         late = not self.tick_budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
         budget = self.tick_budget
@@ -103,11 +105,11 @@ class Recovery:
                 # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
                 # their corrections are made consistent (least squares onto the range of J_c, as after a failed
                 # solve: _consistent_contact_rhs)
-                U, S = self._contact_svd()
-                rank = int(np.sum(S > self.rank_rtol * max(S[0], 1.0))) if S.size else 0
-                if rank < anchored.size:
-                    anchored = U[:, :rank] @ (U[:, :rank].T @ anchored)
+                Ur = self.contact_range.basis(self._A[self._contact_rows], self.rank_rtol)
+                if Ur.shape[1] < anchored.size:
+                    anchored = Ur @ (Ur.T @ anchored)
                 tried = []  # (β, what became of its command) for the message
+                meter = self.drift_meter
                 for beta in scales:
                     if not self.tick_budget.fits(self.tick_budget.safe_estimate() + self.tick_budget.check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
@@ -123,7 +125,7 @@ class Recovery:
                         tried.append(f"β = {beta:g}: {type(qexc).__name__}"
                                      + (" (DAQP stopped at its iteration limit)" if capped else ""))
                         continue
-                    if self._command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u):
+                    if command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance):
                         tried.append(f"β = {beta:g}: outside the constraints")
                         continue
                     d = math.nan
@@ -135,8 +137,9 @@ class Recovery:
                             break
                         self._work.add(self.CHECK_WORK)
                         t = self._work.seconds()
-                        d = 0.0 if tol is None else self._held_drift(config, v_h, dt, beta, anchors)
-                        held = (tol is None or d <= tol) and self._within_run_radius(config, v_h, dt, anchors)
+                        d = 0.0 if tol is None else meter.held_drift(config, v_h, dt, self._contacts, anchors, beta)
+                        held = (tol is None or d <= tol) and meter.within_radius(
+                            config, v_h, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS)
                         self.tick_budget.check_cost = max(self.tick_budget.check_cost, self._work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
@@ -192,7 +195,7 @@ class Recovery:
         """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
         the constraint objects' QP, its contacts held to second order like an ok tick's (correction, trust region,
         bounded by the tick's count), taken when finite, within the constraints, within ``sole_drift_tolerance`` and
-        within the run's radius (:meth:`_within_run_radius`). Never raises."""
+        within the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
@@ -202,9 +205,9 @@ class Recovery:
             if self.contact_correction > 0 and self._contacts:
                 v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
             v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
-            if not self._command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u) and (
+            if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
                     tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
-                    self._within_run_radius(config, v_c, dt, anchors):
+                    self.drift_meter.within_radius(config, v_c, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS):
                 v, fallback = v_c, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
             pass

@@ -22,22 +22,75 @@ from wbc.tick import TickResult
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 
+def outside_limits(config: Configuration, box: list, lb: np.ndarray, ub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(indices into v of the joints below their lower position limit whose box asks a return (lb > 0), the same
+    above the upper limit (ub < 0)), of the :class:`JointPositionLimit` objects in ``box`` at ``config``, against the
+    assembled box bounds lb, ub (nv,)."""
+    entries = []
+    for c in box:
+        if isinstance(c, JointPositionLimit):
+            q = config.q[c.idx_q]
+            idx = np.asarray(c.indices)
+            entries.append(idx[(q < c.q_min) & (lb[idx] > 0)])
+            entries.append(idx[(q > c.q_max) & (ub[idx] < 0)])
+    if not entries:
+        return np.zeros(0, int), np.zeros(0, int)
+    return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+
+
 class Relaxation:
     """The relaxation part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring)."""
 
-    def _outside_limits(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
-        """(indices into v of the joints below their lower position limit whose box asks a return, the same above
-        the upper limit), from the assembled box (``_relax_return_rate``)."""
-        entries = []
-        for c in self._box:
-            if isinstance(c, JointPositionLimit):
-                q = config.q[c.idx_q]
-                idx = np.asarray(c.indices)
-                entries.append(idx[(q < c.q_min) & (self._lb[idx] > 0)])
-                entries.append(idx[(q > c.q_max) & (self._ub[idx] < 0)])
-        if not entries:
-            return np.zeros(0, int), np.zeros(0, int)
-        return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+    def _relaxation_ladder(self, config: Configuration, dt: float,
+                           first_failure: SolverError) -> tuple[np.ndarray, list[str], float | None, bool]:
+        """The tick's QP failed (``first_failure``): its retries before it is declared failed (module docstring) —
+        dependent contact rows made consistent (least squares), the relaxable constraints left out, the return rate
+        of joints outside their limits scaled (``_relax_return_rate``).
+
+        Returns:
+            (v, relaxed: what was relaxed, α of the return rate or None, held: the contacts' corrections dropped).
+
+        Raises:
+            SolverError: no retry solved (or the clock guard left none the time).
+        """
+        return_rate, held = None, False
+        v = None
+        self._work.reserve = 0.0  # the relaxations count as before
+        # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
+        # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
+        if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
+            raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") from None
+        if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
+            # the failed cascade spent the tick's count: its retries below are answered by the weighted
+            # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
+            # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
+            self._weighted_tick, self._weighted_qp = True, None
+            self._cut.append("priority levels of the retries (their weighted form's command)")
+        if self._contact_rows.size and self._consistent_contact_rhs():
+            # dependent contact rows asked contradictory corrections: once more in least squares (one
+            # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
+            # weighted level solves, kinematic fuzz seed 410002)
+            try:
+                v = self._solve_assembled(config)
+                relaxed = []
+            except SolverError:
+                v = None
+        relaxed = []
+        if v is None and self._relaxable:  # (one solve: not cut by the count)
+            if not self.tick_budget.fits(self.tick_budget.resolve_cost):
+                raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
+            self._relax(config, dt)
+            relaxed = [c.name for c in self._relaxable]
+            try:
+                v = self._solve_assembled(config)
+            except SolverError:
+                v = None
+        if v is None:
+            v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
+            relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
+            if held:
+                relaxed.append("contact drift correction × 0 (J_c v = 0)")
+        return v, relaxed, return_rate, held
 
     def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
         """Solve the tick again with the return rate of the joints outside their position limits relaxed.
@@ -66,7 +119,7 @@ class Relaxation:
             SolverError: ``failure`` (the tick's) when no joint is outside its limits, or α = 0 has no solution
                 (with the contacts held either).
         """
-        low, high = self._outside_limits(config)
+        low, high = outside_limits(config, self._box, self._lb, self._ub)
         if not (low.size or high.size):
             raise failure
         if not self.tick_budget.fits(self.tick_budget.resolve_cost):

@@ -99,7 +99,7 @@ from wbc.formulations.idkernel import (IDArrays, IDContactData, IDDynamics, IDLi
                                        PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
                                        PAR_SPEED_HORIZON,
                                        PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
-                                       R_WEIGHT, contact_rows_well_conditioned, ensure_compiled, id_command, id_tick,
+                                       R_WEIGHT, contact_rows_well_conditioned, id_command, id_tick, load_id_kernels,
                                        contact_views, id_tick_buffers, output_violations,
                                        task_cost, tick_outputs)
 from wbc.state import DynamicsState
@@ -329,7 +329,7 @@ class InverseDynamicsQP:
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
             con.written = con.key()
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
-        ensure_compiled()
+        load_id_kernels()
         self._rows = _ProblemRows(self)
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):

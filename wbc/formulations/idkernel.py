@@ -64,7 +64,7 @@ from wbc.solvers.box_eq import clip_eq_residual
 from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve, carve2, cholesky_lower,
                                 forward_substitution, primal_from_multipliers, weighted_normal_equations)
 
-__all__ = ["contact_rows_well_conditioned", "ensure_compiled", "id_assemble", "id_command", "id_tick", "id_workspace",
+__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "id_tick", "id_workspace", "load_id_kernels",
            "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS",
            "IDTaskRows", "IDDynamics", "IDContactData", "IDLimits", "IDArrays", "IDTickBuffers"]
 
@@ -682,7 +682,7 @@ def output_violations(dv, f, tau, lbf, ubf, friction, active, joints, limits, re
 
 
 @once_per_process
-def ensure_compiled() -> None:
+def load_id_kernels() -> None:
     """Load (on-disk cache) or compile, once per process, the kernels the general path calls from Python —
     :func:`task_cost`, :func:`id_command`, :func:`contact_rows_well_conditioned` — on arrays of the types of a real
     call (M column-major as a :class:`~wbc.state.DynamicsState`'s), at construction of an

@@ -12,8 +12,8 @@ the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`c
 contacts' errors: :func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact
 frame ends against where its row sent it.
 
-The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
-them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`load_kinematic_kernels` compiles (or
+loads) them eagerly, once per process, and returns the seconds it took (at construction of a
 :class:`~wbc.controllers.kinematic.KinematicController`, never inside a tick).
 """
 
@@ -34,10 +34,10 @@ from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
-           "ensure_compiled", "form_qp", "kinematic_finish_packed", "kinematic_pack", "kinematic_reduced_packed",
+           "form_qp", "kinematic_finish_packed", "load_kinematic_kernels", "kinematic_pack", "kinematic_reduced_packed",
            "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
            "NONFINITE_RHS", "rotation_gap", "rows_pack",
-           "translation_gap", "warm_up", "weighted_rows"]
+           "translation_gap", "weighted_rows"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -670,14 +670,10 @@ def command_within_rows(v, C, l, u, tolerance):
 
 
 @once_per_process
-def ensure_compiled() -> float:
-    """Run :func:`warm_up` once per process (later calls return None at once)."""
-    return warm_up()
-
-
-def warm_up() -> float:
+def load_kinematic_kernels() -> float:
     """Compile (or load from the on-disk cache) the kinematic kernels, and :func:`wbc.solvers.linalg.clip_box_into`
-    that the controller's bound assembly calls; returns the seconds taken."""
+    that the controller's bound assembly calls, once per process; returns the seconds taken (later calls: None at
+    once)."""
     t0 = time.perf_counter()
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     # the kinematic controller's cost formation and compiled solver (a 7-velocity QP whose base is eliminated

@@ -7,8 +7,8 @@ complementarity), so the returned x is the exact optimum; when it does not end w
 not positive definite or when the equalities are dependent, the call is handed to the
 :class:`~wbc.solvers.daqp.DaqpBackend` it extends.
 
-The kernels are compiled on first use and cached on disk (``cache=True``); :func:`warm_up` compiles (or loads)
-them eagerly and returns the seconds it took, :func:`ensure_compiled` once per process (at construction of a
+The kernels are compiled on first use and cached on disk (``cache=True``); :func:`load_fast_kernels` compiles (or loads)
+them eagerly, once per process, and returns the seconds it took (at construction of a
 backend).
 """
 
@@ -24,7 +24,7 @@ from wbc.solvers.box_eq import solve_box_eq, solve_box_eq_ws
 from wbc.solvers.daqp import DaqpBackend
 from wbc.solvers.linalg import clip_box_into, weighted_normal_equations
 
-__all__ = ["FastBackend", "ensure_compiled", "warm_up"]
+__all__ = ["FastBackend", "load_fast_kernels"]
 
 
 class FastBackend(DaqpBackend):
@@ -73,7 +73,7 @@ class FastBackend(DaqpBackend):
         self.count_give_ups = False
         self.skip_give_ups = False
         self._gave_up: tuple | None = None  # (the tick's work, its tick, the problem's shape) of the last give-up
-        ensure_compiled()  # compile / load the kernel here, once per process, not inside a controller's first tick
+        load_fast_kernels()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
     def _prepare_kernel(self, n: int, m: int) -> None:
         if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
@@ -180,14 +180,10 @@ class FastBackend(DaqpBackend):
 
 
 @once_per_process
-def ensure_compiled() -> float:
-    """Run :func:`warm_up` once per process (later calls return None at once)."""
-    return warm_up()
-
-
-def warm_up() -> float:
+def load_fast_kernels() -> float:
     """Compile (or load from the on-disk cache) the kernels :class:`FastBackend` calls (both its entry points: with
-    and without inequality rows) and the shared ones of :mod:`wbc.solvers.linalg`; returns the seconds taken."""
+    and without inequality rows) and the shared ones of :mod:`wbc.solvers.linalg`, once per process; returns the
+    seconds taken (later calls: None at once)."""
     t0 = time.perf_counter()
     H = np.eye(2)
     s = np.zeros(2, np.int8)
