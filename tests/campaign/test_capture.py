@@ -98,3 +98,16 @@ def test_survival_counts_a_speed_exceedance_as_a_failure(talos_walk):
     assert s["per_octant"]["back"]["n"] == 0  # trial 2 is not capturable: not among the octants' pushes
     text = format_capture_report(s)
     assert "capturable pushes" in text and "forward-right" in text
+
+
+def test_the_zero_step_boundary_is_the_closed_form_push(talos_walk):
+    """At rest over the sole's centre, the largest push along the sole's x the CoP alone captures moves the capture
+    point to the sole's front edge: F = (L/2) m ω² / (1 − e^{−ωT}) (closed form); along y, (W/2) likewise."""
+    from wbc.campaign.capture import boundary_forces
+
+    robot, nominal = talos_walk
+    m = capture_model(robot, nominal, 0.6)
+    state = (np.zeros(3), np.zeros(3), [(0.0, 0.0, 0.0)], 0.3, 0.1)
+    b = boundary_forces(m, [state], [0.0, 90.0, 180.0], 0)[:, 0]
+    k = m.mass * m.omega**2 / (1.0 - math.exp(-m.omega * 0.1))
+    assert b == pytest.approx([0.5 * m.sole_length * k, 0.5 * m.sole_width * k, 0.5 * m.sole_length * k], abs=1.0)

@@ -25,7 +25,7 @@ from wbc.campaign.report import wilson_interval
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["NominalWalk", "load_nominal", "capture_model", "push_capturability", "operator_survival", "capture_summary",
-           "format_capture_report", "plot_capture_map", "OCTANTS"]
+           "format_capture_report", "plot_capture_map", "boundary_forces", "OCTANTS"]
 
 #: Push-direction octants (deg, world: 0 = +x forward, 90 = +y left), centred on their names' directions.
 OCTANTS = ("forward", "forward-left", "left", "back-left", "back", "back-right", "right", "forward-right")
@@ -98,7 +98,9 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
 
     Returns:
         ``{"trial": (m,), "steps": (m,) int (−1: not capturable within n_max), "distance_m": (m,) (the capture
-        point after the push, outside the stance sole), "t_first_s": (m,)}`` for the m rows that are not errors.
+        point after the push, outside the stance sole), "t_first_s": (m,), "states": [(com, com velocity, stance
+        soles, t_first, push duration)] (the arguments of :func:`~wbc.analysis.capturability.capturability`)}`` for
+        the m rows that are not errors.
 
     Raises:
         InvalidInputError: a column missing, a push outside the nominal walk's time span, another robot's log.
@@ -116,7 +118,7 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
         raise InvalidInputError(f"the results lack the push columns {need} (a push campaign's rows have them)")
     data = robot.model.createData()
     fids = [robot.frame_id(f) for f in (robot.left_sole, robot.right_sole)]
-    out = {"trial": [], "steps": [], "distance_m": [], "t_first_s": []}
+    out = {"trial": [], "steps": [], "distance_m": [], "t_first_s": [], "states": []}
     durations = cols.get("push_duration", [0.1] * len(cols["trial"]))
     for trial, outcome, f, deg, t0, dur in zip(cols["trial"], cols["outcome"], cols["force"], cols["direction_deg"],
                                                cols["push_time_s"], durations):
@@ -139,10 +141,38 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
         r = capturability(model, nominal.com[i], nominal.com_velocity[i], (f * math.cos(a), f * math.sin(a)),
                           0.1 if dur is None else dur, stance, t_first, n_max)
         out["trial"].append(trial)
+        out["states"].append((nominal.com[i], nominal.com_velocity[i], stance, t_first, 0.1 if dur is None else dur))
         out["steps"].append(-1 if r.steps is None else r.steps)
         out["distance_m"].append(r.distance)
         out["t_first_s"].append(t_first)
-    return {k: np.asarray(v) for k, v in out.items()}
+    states = out.pop("states")
+    return {**{k: np.asarray(v) for k, v in out.items()}, "states": states}
+
+
+def boundary_forces(model, states: list, directions_deg, steps: int, f_max: float = 5000.0) -> np.ndarray:
+    """The capture boundary along each push direction for each of ``states`` (:func:`push_capturability`'s): the
+    largest force (N, to 1 N, up to ``f_max``) the state captures with at most ``steps`` steps, by bisection on
+    :func:`~wbc.analysis.capturability.capturability` (its steps grow with the force); 0 when it cannot capture
+    even no push. Returns (directions, states)."""
+    from wbc.analysis.capturability import capturability
+
+    def ok(f, u, st):
+        return capturability(model, st[0], st[1], f * u, st[4], st[2], st[3], steps).steps is not None
+
+    out = np.zeros((len(directions_deg), len(states)))
+    for i, deg in enumerate(np.asarray(directions_deg, dtype=float)):
+        u = np.array([math.cos(math.radians(deg)), math.sin(math.radians(deg))])
+        for j, st in enumerate(states):
+            if not ok(0.0, u, st):
+                continue
+            lo, hi = 0.0, f_max
+            if ok(hi, u, st):
+                lo = hi
+            while hi - lo > 1.0:
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if ok(mid, u, st) else (lo, mid)
+            out[i, j] = lo
+    return out
 
 
 def operator_survival(table) -> dict:
@@ -206,9 +236,11 @@ def format_capture_report(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_capture_map(table, capture: dict, path) -> Path:
+def plot_capture_map(table, capture: dict, path, model=None) -> Path:
     """Push force against direction and against the gait phase, each trial coloured by the steps its push needs
-    (grey: not capturable) and marked survived (o) or failed (x); written to ``path`` (PNG)."""
+    (grey: not capturable) and marked survived (o) or failed (x); with ``model`` (the
+    :class:`~wbc.analysis.capturability.CaptureModel`), the 0-, 1- and 2-step boundaries over the direction
+    (:func:`boundary_forces` over every trial's onset state); written to ``path`` (PNG)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -238,6 +270,15 @@ def plot_capture_map(table, capture: dict, path) -> Path:
                                label=f"{name}, {'survived' if good else 'failed'}")
         ax.set_xlabel(label)
         ax.set_ylabel("push force (N)")
+    if model is not None:  # the boundaries: below a solid line every trial's onset captures with ≤ N steps,
+        grid = np.arange(0.0, 361.0, 10.0)  # below a dashed one half of them do
+        top = float(force.max()) * 1.6 if force.size else 1000.0
+        for s in range(0, 3):
+            b = boundary_forces(model, capture["states"], grid, s, f_max=top)
+            axes[0].plot(grid, b.min(axis=1), color=colours[s], lw=1.2, label=f"{s}-step boundary, every onset")
+            axes[0].plot(grid, np.median(b, axis=1), color=colours[s], lw=1.0, ls="--",
+                         label=f"{s}-step boundary, half the onsets")
+        axes[0].set_ylim(0.0, top)
     axes[0].legend(fontsize=7, loc="best")
     fig.suptitle("pushes by the steps the LIPM needs to capture them (o survived, x failed)")
     fig.tight_layout()

@@ -131,7 +131,7 @@ def _capture_report(args, table, plots: Path) -> None:
           f"step time {model.step_time:.3f} s, swing {model.swing_time:.3f} s, sole {model.sole_length:.3f} × "
           f"{model.sole_width:.3f} m")
     print(format_capture_report(capture_summary(table, capture)))
-    print(f"plot written to {plot_capture_map(table, capture, plots / 'capture_map.png')}")
+    print(f"plot written to {plot_capture_map(table, capture, plots / 'capture_map.png', model)}")
 
 
 def cmd_campaign(args) -> int:
