@@ -111,3 +111,11 @@ def test_the_zero_step_boundary_is_the_closed_form_push(talos_walk):
     b = boundary_forces(m, [state], [0.0, 90.0, 180.0], 0)[:, 0]
     k = m.mass * m.omega**2 / (1.0 - math.exp(-m.omega * 0.1))
     assert b == pytest.approx([0.5 * m.sole_length * k, 0.5 * m.sole_width * k, 0.5 * m.sole_length * k], abs=1.0)
+
+
+def test_a_nominal_walk_of_another_step_time_is_refused(talos_walk):
+    from wbc.exceptions import InvalidInputError
+
+    robot, nominal = talos_walk  # lift-offs 0.6 s apart
+    with pytest.raises(InvalidInputError, match="steps last 0.600 s, the campaign's 0.800 s"):
+        capture_model(robot, nominal, 0.8)

@@ -76,14 +76,20 @@ def capture_model(robot, nominal: NominalWalk, step_time: float):
     sole of the nominal walk is out of contact."""
     from wbc.analysis.capturability import CaptureModel
 
-    swing = 0.0
+    swing, lift_offs = 0.0, []
     for side in (0, 1):
         off = ~nominal.contact[:, side]
         edges = np.flatnonzero(np.diff(np.r_[0, off.astype(int), 0]))
+        lift_offs.append(nominal.t[edges[::2]])
         for a, b in zip(edges[::2], edges[1::2]):
             swing = max(swing, float(nominal.t[min(b, len(nominal.t) - 1)] - nominal.t[a]))
     if swing <= 0.0:
         raise InvalidInputError("the nominal walk never lifts a sole: not a walk with steps")
+    period = np.diff(np.sort(np.concatenate(lift_offs)))
+    dt = float(np.median(np.diff(nominal.t)))
+    if period.size and abs(float(np.median(period)) - step_time) > 2.0 * dt:
+        raise InvalidInputError(f"the nominal walk's steps last {float(np.median(period)):.3f} s, the campaign's "
+                                f"{step_time:.3f} s: log the campaign's walk (--step-duration {step_time:g})")
     return CaptureModel.of_robot(robot, step_time, min(swing, step_time))
 
 
