@@ -261,7 +261,7 @@ def plot_capture_map(table, capture: dict, path, model=None) -> Path:
     phase = np.array([(cols.get("phase") or cols["push_time_s"])[i] for i in idx], dtype=float)
     ok = np.array([alive[t] for t in capture["trial"]], dtype=bool)
     steps = capture["steps"]
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     colours = {0: "tab:green", 1: "tab:blue", 2: "tab:orange", 3: "tab:purple"}
     for ax, x, label in ((axes[0], deg, "push direction (deg, 0 = +x forward, 90 = +y left)"),
                          (axes[1], phase, "push onset (fraction of the walking steps)" if "phase" in cols
@@ -285,9 +285,10 @@ def plot_capture_map(table, capture: dict, path, model=None) -> Path:
             axes[0].plot(grid, np.median(b, axis=1), color=colours[s], lw=1.0, ls="--",
                          label=f"{s}-step boundary, half the onsets")
         axes[0].set_ylim(0.0, top)
-    axes[0].legend(fontsize=7, loc="best")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=4)
     fig.suptitle("pushes by the steps the LIPM needs to capture them (o survived, x failed)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.14, 1.0, 1.0))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
