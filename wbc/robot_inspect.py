@@ -5,7 +5,8 @@ reports about a robot file.
 the up axis (the longest extent of the joint origins, its sign pointing from the feet to the base), the two feet
 (the two lowest branch tips, on different branches, apart laterally), left and right (link names, else the
 +y side), the forward axis (the long axis of a foot's contact patch, towards the toes), a sole frame at the
-centre of each foot's contact patch (added as a frame when the URDF has none), the sole rectangle, the torso,
+centre of each foot's contact patch (added as a frame when the URDF has none), the sole rectangle, the torso
+(the upper body: :func:`upper_body_link`),
 the hands, an SRDF beside the URDF and a bent-knee reference posture (the feet raised towards the base by a
 fraction of the leg length with Pinocchio's frame Jacobians, damped least squares). Every guess is returned as
 a note.
