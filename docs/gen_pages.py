@@ -61,6 +61,7 @@ LAYERS = [
     ("State estimation", ["wbc.estimation"]),
     ("Formulations, controllers", ["wbc.formulations", "wbc.controllers", "wbc.tick", "wbc.dynamics", "wbc.solve"]),
     ("Gait", ["wbc.gait"]),
+    ("Analysis", ["wbc.analysis"]),
     ("Scenarios", ["wbc.scenarios"]),
     ("Physics (MuJoCo)", ["wbc.sim"]),
     ("Outputs: viewer, plots, ROS 2, benchmarks, campaigns", ["wbc.viz", "wbc.ros2", "wbc.bench", "wbc.campaign"]),

@@ -5,7 +5,8 @@ reports about a robot file.
 the up axis (the longest extent of the joint origins, its sign pointing from the feet to the base), the two feet
 (the two lowest branch tips, on different branches, apart laterally), left and right (link names, else the
 +y side), the forward axis (the long axis of a foot's contact patch, towards the toes), a sole frame at the
-centre of each foot's contact patch (added as a frame when the URDF has none), the sole rectangle, the torso,
+centre of each foot's contact patch (added as a frame when the URDF has none), the sole rectangle, the torso
+(the upper body: :func:`upper_body_link`),
 the hands, an SRDF beside the URDF and a bent-knee reference posture (the feet raised towards the base by a
 fraction of the leg length with Pinocchio's frame Jacobians, damped least squares). Every guess is returned as
 a note.
@@ -37,7 +38,7 @@ from wbc.robot import (
 )
 from wbc.robot_file import FrameSpec, MujocoOptions, RobotSpec, check_xml, package_roots
 
-__all__ = ["infer_robot_spec", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE",
+__all__ = ["infer_robot_spec", "upper_body_link", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE",
            "FLAT_BAND", "MIN_FLAT_PATCH"]
 
 #: Rotor armature (kg·m², every actuated joint) written by ``wbc robot init`` when the robot has no drive data
@@ -121,6 +122,30 @@ def touch_rectangle(xy: np.ndarray, z: np.ndarray, footprint: np.ndarray,
     if long:
         return max(long, key=lambda r: r[0] * r[1])
     return max(rects, key=lambda r: r[0])
+
+
+def upper_body_link(model: pin.Model, feet: list[int]) -> str:
+    """The upper body of a humanoid: the link above its waist — from the floating base (joint 1) up the one chain
+    of joints that leads to no foot, to the first link where that chain branches (arms, head) or ends. The root
+    link when no such chain leaves the base, or when several do (arms on the pelvis: no waist).
+
+    Args:
+        model: the Pinocchio model (a free-flyer root). feet: the joint ids carrying the feet (the legs' ends).
+
+    Returns:
+        The name of the link (its BODY frame).
+    """
+    legs = {j for f in feet for j in joint_chain(model, f)}
+    children: dict[int, list[int]] = {}
+    for j in range(2, model.njoints):
+        children.setdefault(model.parents[j], []).append(j)
+    j = 1
+    up = [c for c in children.get(1, []) if c not in legs]
+    if len(up) == 1:
+        j = up[0]
+        while len(children.get(j, [])) == 1:
+            j = children[j][0]
+    return next(f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY)
 
 
 def locked_joints(model: pin.Model, tolerance: float = 1e-9) -> list[str]:
@@ -294,9 +319,13 @@ def infer_robot_spec(urdf: str | Path, package_dirs: list[str] | None = None) ->
     root = next(f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
     plain = [n for n in sorted(bodies, key=len) if not _side_from_name(n)
              and not any(k in n.lower() for k in ("imu", "sensor", "camera", "frame", "gyro", "accel"))]
-    torso = next((n for key in ("torso", "chest", "trunk", "upper_body", "body") for n in plain
-                  if key in n.lower()), root)
-    notes.append(f"torso: {torso!r} ({'the root link' if torso == root else 'by name'})")
+    torso = upper_body_link(model, list(foot.values()))
+    how = "the root link: no waist joint above it" if torso == root else "the link above the waist joints"
+    if torso == root:  # no waist: a link named as a torso on the root (fixed joints merged), else the root
+        torso = next((n for key in ("torso", "chest", "trunk", "upper_body", "body") for n in plain
+                      if key in n.lower() and model.frames[model.getFrameId(n)].parentJoint == 1), root)
+        how = how if torso == root else "by name, on the root (no waist joint)"
+    notes.append(f"torso: {torso!r} ({how})")
     hands = {}
     for side in ("left", "right"):
         for key in ("hand", "gripper", "palm", "wrist"):

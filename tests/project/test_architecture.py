@@ -24,7 +24,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.formulations", "wbc.controllers", "wbc.dynamics", "wbc.solve"),
-    ("wbc.gait",),
+    ("wbc.gait", "wbc.analysis"),
     ("wbc.scenarios", "wbc.sim"),
     ("wbc.viz", "wbc.ros2", "wbc.bench", "wbc.campaign"),
     ("wbc.cli", "wbc.__main__"),

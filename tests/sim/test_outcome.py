@@ -289,3 +289,66 @@ def test_mujoco_warnings_reach_python_not_a_log_file_in_the_cwd(tmp_path, monkey
         mujoco.mj_step(model, data)
     assert len(MUJOCO_WARNINGS) == before + 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_upper_body_tilt_is_a_fall_when_the_robot_file_names_the_pelvis_as_torso():
+    """A robot file whose torso is the pelvis (as `robot init` once chose for JVRC-1): the upper body (the link above
+    the waist, torso_2_link) is still the tilt body. Talos standing on its soles with its torso pitched 0.75 rad
+    (43°, Pinocchio the reference) and its pelvis level is a fall; at 0.45 rad (26°) it is not."""
+    robot = wbc.load_robot("talos", torso="base_link")
+    sim = build_mujoco_model(robot)
+    for pitch, fell in ((0.75, True), (0.45, False)):
+        mujoco.mj_resetData(sim.model, sim.data)
+        sim.set_state(robot.q_ref)
+        monitor = OutcomeMonitor(sim)
+        assert monitor.tilt_bodies["torso"] == "torso_2_link"
+        q = robot.q_ref.copy()
+        q[_joint_q(robot, "torso_2_joint")] = pitch
+        sim.set_state(q)
+        assert monitor.update(0.002) is fell, monitor.fall_reason
+        expected = _tilt_deg(robot, robot.q_ref, q, "torso_2_link")
+        assert monitor.max_tilt_deg["torso"] == pytest.approx(expected, abs=1e-6)
+        assert monitor.max_tilt_deg["pelvis"] < 1e-6
+        if fell:
+            assert "torso (torso_2_link)" in monitor.fall_reason, monitor.fall_reason
+
+
+def _crouched_on(robot, q, bend: float, ground: float) -> tuple[np.ndarray, float]:
+    """``q`` with both legs bent by ``bend`` rad (hip pitch −bend, knee +2 bend, ankle pitch −bend: soles and pelvis
+    level) and the base height set so the soles stand on ``ground`` (m; Pinocchio's sole frames); and the base's
+    height above the soles (m)."""
+    q = q.copy()
+    for side in ("left", "right"):
+        q[_joint_q(robot, f"leg_{side}_3_joint")] -= bend
+        q[_joint_q(robot, f"leg_{side}_4_joint")] += 2 * bend
+        q[_joint_q(robot, f"leg_{side}_5_joint")] -= bend
+    d = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, d, q)
+    sole = min(d.oMf[robot.frame_id(f)].translation[2] for f in (robot.left_sole, robot.right_sole))
+    q[2] += ground - sole
+    return q, float(q[2] - ground)
+
+
+@pytest.mark.parametrize("bend, fell", [(0.0, False), (0.75, True)])
+def test_the_base_drop_is_measured_over_the_ground_under_the_feet(bend, fell):
+    """Stairs down (0.25 m rises): Talos standing on the top landing at the start, then standing on the first tread
+    down — its base 0.25 m lower than at the start, over ground 0.25 m lower: not a fall. On the same tread crouched
+    (legs bent 0.75 rad, pelvis level, soles flat on the tread: the base more than 0.2 m lower over the ground under
+    its feet, from Pinocchio) it is a fall by the base drop alone."""
+    from wbc.terrain import parse_terrain
+
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, terrain=parse_terrain("stairs:0.25:0.5:2:down"))
+    mujoco.mj_resetData(sim.model, sim.data)
+    sim.set_state(robot.q_ref)
+    monitor = OutcomeMonitor(sim)
+    assert not monitor.update(0.0)
+    _, standing = _crouched_on(robot, robot.q_ref, 0.0, 0.0)
+    q = robot.q_ref.copy()
+    q[0] += 0.45  # the soles (x ≈ ±0.105 about q[0]) on the first tread, x in [0.25, 0.75)
+    q, height = _crouched_on(robot, q, bend, -0.25)
+    assert (standing - height > 0.2) is fell  # the reference: the base's drop over the soles, Pinocchio
+    sim.set_state(q)
+    assert monitor.update(0.002) is fell, monitor.fall_reason
+    assert monitor.max_tilt_deg["pelvis"] < 1e-3 and monitor.max_tilt_deg["torso"] < 1e-3
+    assert monitor.fall_reason == ("base height dropped by more than 0.2 m" if fell else "")

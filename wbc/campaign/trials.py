@@ -43,12 +43,19 @@ def cached_robot(name: str):
 
 
 def outcome_of(summary: dict) -> tuple[bool, str]:
-    """(survived, what ended it) of a walk summary: survived = no fall and the walk completed; the reason is the
-    fall criterion that fired (``fall_reason``), ``"not completed"``, or ``""``."""
+    """(survived, what ended it) of a walk summary, as a robot's operator would sign it: survived = no fall
+    (:mod:`wbc.sim.outcome`: the upper body's or pelvis' tilt, the base's drop over the terrain under the feet, a
+    non-foot link on the ground, a foot strike), the walk completed and no plant joint past its speed limit
+    (``joint_speed_exceedances`` = 0; the plant's drives cannot exceed their torque envelope,
+    :mod:`wbc.sim.actuators`). The reason: the fall criterion that fired (``fall_reason``), ``"not completed"``,
+    ``"joint speed past its limit: <joint> at <ratio>×"`` or ``""``."""
     if summary.get("fell"):
         return False, str(summary.get("fall_reason") or "fell")
     if not summary.get("completed", False):
         return False, "not completed"
+    if summary.get("joint_speed_exceedances", 0):
+        return False, (f"joint speed past its limit: {summary.get('max_joint_speed_joint', '?')} at "
+                       f"{float(summary.get('max_joint_speed_ratio', math.nan)):.3g}×")
     return True, ""
 
 

@@ -62,6 +62,11 @@ def register(subparsers, add_outputs=None) -> None:
     rep.add_argument("--tolerance", type=float, default=None,
                      help="a sweep's best region: the points with the highest survival rate whose metric is within "
                           "this fraction of the best of them (default 0.05)")
+    rep.add_argument("--nominal", type=Path, default=None, metavar="LOG",
+                     help="a push campaign's denominator: the log of its walk without a push (wbc sim walk --steps "
+                          "S --step-length L --step-duration T --log LOG, the campaign's scenario); prints the "
+                          "survival on the pushes the LIPM can capture, per number of steps and direction octant, "
+                          "and plots them (wbc.campaign.capture)")
     rep.set_defaults(func=cmd_campaign)
 
 
@@ -105,6 +110,30 @@ def _spec(args):
     return load_spec(d)
 
 
+def _capture_report(args, table, plots: Path) -> None:
+    """``--nominal``: the survival on the capturable pushes (:mod:`wbc.campaign.capture`) and its plot."""
+    import json
+
+    from wbc.campaign.capture import (capture_model, capture_summary, format_capture_report, load_nominal,
+                                      plot_capture_map, push_capturability)
+    from wbc.campaign.trials import cached_robot
+    from wbc.exceptions import InvalidInputError
+
+    meta = Path(args.results) / "campaign.json"
+    if not meta.is_file():
+        raise InvalidInputError(f"--nominal needs the campaign's spec: {meta} does not exist")
+    scenario = json.loads(meta.read_text()).get("scenario", {})
+    robot = cached_robot(scenario.get("robot", "talos"))
+    nominal = load_nominal(args.nominal)
+    model = capture_model(robot, nominal, float(scenario.get("step_duration", 0.6)))
+    capture = push_capturability(table, nominal, model, robot)
+    print(f"LIPM: ω = {model.omega:.3f} 1/s (z0 = {model.com_height:.3f} m), ℓ_max = {model.step_max:.3f} m, "
+          f"step time {model.step_time:.3f} s, swing {model.swing_time:.3f} s, sole {model.sole_length:.3f} × "
+          f"{model.sole_width:.3f} m")
+    print(format_capture_report(capture_summary(table, capture)))
+    print(f"plot written to {plot_capture_map(table, capture, plots / 'capture_map.png', model)}")
+
+
 def cmd_campaign(args) -> int:
     """Run ``wbc campaign run`` or ``wbc campaign report`` (module docstring). Returns the exit code."""
     from wbc.exceptions import InvalidInputError
@@ -136,6 +165,8 @@ def cmd_campaign(args) -> int:
         plots = args.plots if args.plots is not None else Path(args.results) / "plots"
         for path in make_plots(table, plots, sweep_params=sweep, sweep_metric=args.metric, tolerance=tolerance):
             print(f"plot written to {path}")
+        if args.nominal is not None:
+            _capture_report(args, table, plots)
         return 0
     if args.workers is not None and args.workers < 1:
         raise InvalidInputError(f"--workers must be ≥ 1, got {args.workers}")

@@ -4,11 +4,12 @@
 velocities of the new state) and decides:
 
 * **fall** — the first of
-  - base drop: the root body (the floating base, e.g. Talos' ``base_link`` = pelvis) lower than its initial height
-    by more than :data:`FALL_HEIGHT_DROP` = 0.2 m (on a terrain, ``sim.terrain`` not None: its height above the
-    lower of the two soles lower than at the start by more than that — walking down stairs lowers the base with
-    the feet);
-  - tilt: the **root body** (pelvis) or the **torso body** (the body carrying ``robot.torso``) tilted by more than
+  - base drop: the root body (the floating base, e.g. Talos' ``base_link`` = pelvis) lower over the terrain under
+    the feet than at the start by more than :data:`FALL_HEIGHT_DROP` = 0.2 m — its height above the lower of the
+    ground heights under the two soles' centres (``sim.terrain``; the plane z = 0 without a terrain), not above its
+    start height: walking down stairs lowers the base with the ground the feet go to;
+  - tilt: the **root body** (pelvis) or the **upper body** (the link above the waist joints,
+    :func:`wbc.robot_inspect.upper_body_link`, whatever ``robot.torso`` names) tilted by more than
     :data:`FALL_TILT_DEG` = 30° from its nominal orientation. The nominal is the body's orientation at the start
     (``robot.q_ref``); tilt is the angle between the body-fixed axis that pointed up (world +z) at the start and
     world +z now — heading changes (yaw, a turning walk) are not a tilt. Read from MuJoCo's ``xmat``;
@@ -45,6 +46,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import once_per_process
+from wbc.robot_inspect import upper_body_link
 
 __all__ = ["OutcomeMonitor", "route_mujoco_warnings", "MUJOCO_WARNINGS", "FALL_HEIGHT_DROP", "FALL_TILT_DEG",
            "STRIKE_DEG", "STRIKE_MIN_FORCE", "CORNER_MATCH", "LIFTOFF_TICKS"]
@@ -241,7 +243,8 @@ class OutcomeMonitor:
         model, d = sim.model, sim.data
         self.sim = sim
         pm = robot.model
-        self.tilt_body_ids = np.array([sim.root_body, sim.body_id(_body_of_frame(robot, robot.torso))])
+        feet = [pm.frames[robot.frame_id(f)].parentJoint for f in (robot.left_sole, robot.right_sole)]
+        self.tilt_body_ids = np.array([sim.root_body, sim.body_id(upper_body_link(pm, feet))])
         self.tilt_bodies = {"pelvis": sim.body_name(self.tilt_body_ids[0]),
                             "torso": sim.body_name(self.tilt_body_ids[1])}
         # body-fixed axis that points up at the start: R0ᵀ e_z (row 2 of R0)
@@ -296,13 +299,15 @@ class OutcomeMonitor:
         self._io = np.zeros(8 + 3 * 64, dtype=np.int64)
         self._views_of = None  # the MjData whose qvel, xmat, xpos views are kept in _qvel, _xmat, _xpos
         _warm_up()
-        # on terrain (stairs down) the base drop is measured relative to the lower sole (module docstring)
+        # on terrain (stairs down) the base drop is measured over the ground under the feet (module docstring)
         self.on_terrain = getattr(sim, "terrain", None) is not None
         self.zf0 = self.support_height() if self.on_terrain else 0.0
 
     def support_height(self) -> float:
-        """World height (m) of the lower of the two soles (mean of its corners), from MuJoCo's body poses."""
-        return float(min(self.corners_world(0)[:, 2].mean(), self.corners_world(1)[:, 2].mean()))
+        """World height (m) of the ground under the feet: the lower of ``sim.terrain``'s heights under the two
+        soles' centres (the mean of each sole's corners, from MuJoCo's body poses)."""
+        x, y = np.array([self.corners_world(s)[:, :2].mean(axis=0) for s in (0, 1)]).T
+        return float(np.min(self.terrain.height(x, y)))
 
     def corners_world(self, side: int) -> np.ndarray:
         """(4, 3) world positions (m) of the sole corners of ``side`` (0 left, 1 right) from MuJoCo's body pose."""
@@ -443,16 +448,3 @@ class OutcomeMonitor:
             "mujoco_warnings": MUJOCO_WARNINGS[self._warnings_from:] or None,
         }
 
-
-def _body_of_frame(robot, frame: str) -> str:
-    """Name of the link (MuJoCo body) a Pinocchio frame is attached to: the frame itself when it is a body frame,
-    else the BODY frame on the same joint closest up its parent chain."""
-    import pinocchio as pin
-
-    pm = robot.model
-    fid = robot.frame_id(frame)
-    f = pm.frames[fid]
-    while f.type != pin.FrameType.BODY and f.parentFrame != fid:
-        fid = f.parentFrame
-        f = pm.frames[fid]
-    return f.name
