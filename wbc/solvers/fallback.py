@@ -50,24 +50,24 @@ DAQP_SETTINGS = {"primal_tol": 1e-6, "warm_start": "dual"}
 
 def daqp_attempt_iterations(budget: float) -> int:
     """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
-    one (:meth:`InverseDynamicsQP._solve_backend`; when the hard set was found not empty, the attempt and that call
-    together take at most ``InverseDynamicsQP.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
+    one (:meth:`FallbackChain.solve`; when the hard set was found not empty, the attempt and that call
+    together take at most ``FallbackChain.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
     seconds of CPU time: a third of the budget at
     :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
-    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
+    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock."""
     if not np.isfinite(budget):
         return ITERATION_LIMIT
     return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
 
 
 #: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
-#: ``InverseDynamicsQP.quadprog_cost``; a humanoid's QP, ~60 variables; benchmarks/README.md)
+#: :attr:`FallbackChain.quadprog_cost`; a humanoid's QP, ~60 variables; benchmarks/README.md)
 QUADPROG_COST = 2.5e-3
 #: variables of the QP whose quadprog solve costs :data:`QUADPROG_COST` (:func:`quadprog_work`)
 QUADPROG_SIZE = 60
 
 #: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
-#: in iterations (:attr:`InverseDynamicsQP.tick_work`)
+#: in iterations (:attr:`FallbackChain.tick_work`)
 DAQP_CALL_WORK = 30
 #: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
 #: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
@@ -86,7 +86,7 @@ def tick_work_iterations(budget: float) -> float:
     """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
     :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
     iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
-    :attr:`InverseDynamicsQP.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
+    :attr:`FallbackChain.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
     budget (nothing counted stops a stage)."""
     return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
 
@@ -137,7 +137,8 @@ class FallbackChain:
         self.tick_work_iterations = math.inf
         self.tick_clock: tuple[float, float] | None = None
         #: CPU time (s) quadprog's solve is expected to take (clock guard): :data:`QUADPROG_COST` until one ran, then
-        #: raised at once to a solve's CPU time, lowered by :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per cheaper one
+        #: raised at once to a solve's CPU time, lowered by :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per
+        #: cheaper one
         self.quadprog_cost = QUADPROG_COST
         #: the last failed full QP's hard set was proved empty: the next full QP's is checked before the attempt
         self.last_set_empty = False
@@ -181,38 +182,27 @@ class FallbackChain:
             return self._relaxed_daqp(*qp)
         return self._solve_checked(*qp)
 
+    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain").
+    #: clock guard: the attempt ends by this many budgets after the tick's start
     FULL_QP_DEADLINE = 1.25
-    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one
-    #: cost-scaled DAQP call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the
-    #: time left)
+    #: clock guard: the hard-set check and the scaled call start before this many budgets, end by ``CHECK_END``
     CHECK_DEADLINE = 1.4
     CHECK_END = 1.55
-    #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
-    #: before this many budgets (:attr:`retry_deadline`)
+    #: clock guard: quadprog and the retries start before this many budgets (:attr:`retry_deadline`), quadprog only
+    #: when expected (:attr:`quadprog_cost`) to end by ``QUADPROG_END``
     QUADPROG_DEADLINE = 1.2
-    #: clock guard: quadprog's solve starts only when it is expected to end by this many budgets (start + the
-    #: CPU time of its recent solves, :attr:`quadprog_cost`)
     QUADPROG_END = 1.55
-    #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
-    #: stopped there fails the tick: the safe command follows, in the budget left)
+    #: clock guard: the relaxed QP's calls end by this many budgets
     RELAXED_DEADLINE = 1.75
-    #: without a clock guard: on a failed full QP whose hard set was found not empty, the first attempt and the
-    #: cost-scaled DAQP call after it take at most this many times :attr:`daqp_attempt_iterations` together (the call
-    #: gets what the attempt left of that count, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`), so that
-    #: quadprog's solve after them still ends by about twice the budget
+    #: counted: the attempt and the scaled call on a set found not empty take this many attempt caps together
     SCALED_FEASIBLE_FACTOR = 2
-    #: without a clock guard: a failed full QP's checks, cost-scaled call and backend retries (each DAQP call capped at
-    #: what is left) run while :attr:`tick_work` is below this many :attr:`tick_work_iterations`
+    #: counted: the checks, the scaled call and the retries run below this many budgets of :attr:`tick_work`
     FAILURE_WORK = 1.0
-    #: without a clock guard: quadprog's solve of a failed full QP runs only when :attr:`tick_work` plus its count
-    #: (:func:`quadprog_work`) stays within this many :attr:`tick_work_iterations`
+    #: counted: quadprog runs only when its count (:func:`quadprog_work`) fits below this many budgets
     QUADPROG_WORK = 1.25
-    #: without a clock guard: the relaxed QP's calls (its first attempt, the check of its set, the backend's retries,
-    #: quadprog) run within this many :attr:`tick_work_iterations`, the first attempt with at least
-    #: :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`: the counted work of a tick stays within about this many budgets
+    #: counted: the relaxed QP's calls run below this many budgets
     RELAXED_WORK = 1.2
-    #: DAQP calls the backend's retries can make (:meth:`wbc.solvers.daqp.DaqpBackend.solve` with ``cold_retry``: the
-    #: dual-started call, the cold one, the two of its cold path): each is capped at this fraction of the work left
+    #: DAQP calls of the backend's retries (each capped at this fraction of the work left)
     RETRY_CALLS = 4
 
     def _counting(self) -> bool:
@@ -240,35 +230,30 @@ class FallbackChain:
         return verdict
 
     def _retry_iterations(self, factor: float) -> int | None:
-        """Iteration cap of each DAQP call of the backend's retries when the work is counted: the work left below
-        ``factor`` shared by :attr:`RETRY_CALLS` calls, less each call's :data:`DAQP_CALL_WORK` (the retries are
-        counted as ``RETRY_CALLS`` × (cap + ``DAQP_CALL_WORK``), :meth:`_retry_work`, so that they end within the
-        work left), at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is
-        counted."""
+        """Iteration cap of each retry call when the work is counted: the work left below ``factor`` shared by
+        :attr:`RETRY_CALLS` calls less each call's :data:`DAQP_CALL_WORK`, at least
+        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is counted."""
         left = self._work_left(factor)
         if not math.isfinite(left):
             return None
         return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
 
     def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer iterations
-        (those counted past ``proximal``, :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`) at
-        :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer
+        iterations past ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
     def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations:
-        ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the proximal outer iterations counted past
-        ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each."""
+        """Work counted for the retries with each call capped at ``calls``: ``RETRY_CALLS`` × (``calls`` +
+        :data:`DAQP_CALL_WORK`), plus the proximal outer iterations past ``proximal``."""
         return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
                 + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
     @property
     def retry_deadline(self) -> float:
-        """CPU time (``time.thread_time``) after which a failed full QP gets no quadprog solve or backend retry
-        (:meth:`_solve_backend`): start + ``QUADPROG_DEADLINE`` × budget of :attr:`tick_clock`; ``math.inf`` without
-        a clock guard."""
+        """CPU time after which a failed full QP gets no quadprog solve or retry: start + ``QUADPROG_DEADLINE``
+        × budget of :attr:`tick_clock`; ``math.inf`` without a clock guard."""
         return self._deadline(self.QUADPROG_DEADLINE)
 
     def _deadline(self, factor: float) -> float:
@@ -284,21 +269,10 @@ class FallbackChain:
         return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
 
     def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """The relaxed QP by a DAQP backend: one attempt (``cold_retry`` off); when it fails, the relaxed hard set
-        is checked (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin
-        onto it; not again when the full QP's failure checked it): a set proved empty ends the solve, otherwise the
-        backend's retries run (the calls of :meth:`wbc.solvers.base.QPBackend.solve` after its first), and when they
-        fail on a set in which the check found a point, quadprog with the pinned variables and the equalities
-        eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`). With a clock guard every DAQP call ends by
-        ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left) and quadprog starts only when
-        :attr:`quadprog_cost` ends by then. Without one, under a finite :attr:`tick_work_iterations`, the first
-        attempt gets at most the work left below ``RELAXED_WORK`` (less its :data:`DAQP_CALL_WORK`; at least
-        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`) iterations and the stages after it share what it leaves
-        (:attr:`tick_work`: the check at most what is left, each retry call a ``RETRY_CALLS``-th of it, quadprog only
-        when :func:`quadprog_work` fits).
-
-        Returns:
-            (x (n,), name of the solver that answered: the backend's or ``quadprog``).
+        """The relaxed QP by a DAQP backend: one attempt; on failure the relaxed hard set is checked (unless the
+        full QP's failure checked it to a verdict): empty, the solve ends; otherwise the backend's retries, then, on a
+        set with a point, quadprog (pinned variables and equalities eliminated). The calls end by
+        ``RELAXED_DEADLINE`` budgets (clock guard) or within ``RELAXED_WORK`` budgets of counted work.
 
         Raises:
             SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
@@ -316,7 +290,8 @@ class FallbackChain:
                     self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
             proximal = backend.proximal_iterations
             try:
-                return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
+                return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
+                                  "attempt")
             except SolverError as exc:
                 first = exc
             finally:
@@ -350,7 +325,8 @@ class FallbackChain:
                 backend.call_iterations = calls
                 proximal = backend.proximal_iterations
                 try:
-                    return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "retries")
+                    return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
+                                      "retries")
                 except SolverError as exc:
                     if backend.budget_capped or feasible is not True:
                         raise
@@ -390,10 +366,13 @@ class FallbackChain:
                           f"the relaxed hard-set check and the backend's retries)")
 
     def solve(self, qp: QPData, relax: Callable | None = None) -> QPSolution:
-        """:meth:`_backend_stages`, started by the stages the last tick's counted work cut on a full QP whose hard set
-        has a point (:attr:`resume_scaled`): the cost-scaled DAQP call (:meth:`_resume_scaled`), then quadprog's solve
-        when its count (:func:`quadprog_work`) fits below ``QUADPROG_WORK`` budgets; a failure cut so sets it for the
-        next tick."""
+        """The full QP ``qp`` through the ladder (module docstring); after a tick whose counted work cut a QP whose
+        hard set has a point (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits.
+        ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP (for the check of its hard set).
+
+        Raises:
+            SolverError: no step found a solution (the message says why the ladder ended).
+        """
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
@@ -416,14 +395,10 @@ class FallbackChain:
             raise
 
     def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """The first stage of a full QP after a tick whose counted work cut one with a point in its hard set
-        (:attr:`resume_scaled`): one cost-scaled DAQP call (:meth:`_solve_scaled`) of at most
-        ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations` iterations (what a set found not empty gives the
-        attempt and this call together; the attempt is not made), counted in :attr:`tick_work`. A DAQP attempt that fails by its count
-        on a feasible set is most often an ill-scaled cost (|g| ~ 1e6: a stiff task gain), which the scaled call solves
-        in tens of iterations; ill-scaled in one tick, the cost stays so in the next ones, which start the same way
-        while the call answers. Its checked x, or None (and :attr:`resume_scaled` cleared: the tick goes on with
-        :meth:`_backend_stages`)."""
+        """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
+        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations`
+        iterations (an ill-scaled cost, |g| ~ 1e6, stays so over the next ticks). Its checked x, or None (and
+        :attr:`resume_scaled` cleared)."""
         proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
         x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
@@ -435,48 +410,15 @@ class FallbackChain:
         return x
 
     def _stages(self, H, g, A, b, C, l, u, lb, ub, relax: Callable | None) -> QPSolution:
-        """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
-        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
-        also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
-        its pinned variables (lb = ub: the forces of a released foot) eliminated
-        (:func:`wbc.solvers.independent.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
-        quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
-        backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
-        landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
-        relaxed QP with its torques clipped.
-
-        Without a clock guard the first attempt gets at most :attr:`daqp_attempt_iterations` iterations (the
-        controller's budget as a count, :func:`daqp_attempt_iterations`); when it fails (a verdict or the count),
-        :func:`wbc.solvers.independent.hard_set_feasible` checks the full hard set (:meth:`_check_hard_sets`): a point
-        found, the relaxed set is not checked; otherwise, given the tick's ``state`` and ``dt``, the relaxed hard set
-        (:meth:`solve_relaxed`'s, :attr:`relaxed_set_feasible`) is checked — empty, it proves the full set empty too
-        and the failure stands (the relaxed QP is then not solved) — and a full set proved empty ends the solve
-        (quadprog and the retries could only fail). Then one cost-scaled DAQP call
-        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
-        max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
-        the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
-        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after
-        the attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks,
-        the cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
-        ``FAILURE_WORK`` budgets (not asked when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left);
-        quadprog's solve, which cannot be stopped once started, runs only when its count (:func:`quadprog_work`) fits
-        below ``QUADPROG_WORK`` budgets, else it and the retries after it are skipped (:attr:`budget_cut`,
-        :attr:`quadprog_skipped`). A count, not a clock: the tick's answer stays a function of its inputs and budget.
-
-        With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
-        DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
-        :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no
-        second opinion, :attr:`budget_cut`); before it, :func:`wbc.solvers.independent.hard_set_feasible` (one DAQP call
-        on the projection of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it
-        proves empty ends the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
-        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
-        deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
-        only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``;
-        quadprog only when start + :attr:`quadprog_cost` ≤ ``QUADPROG_END`` budgets); given ``state``, the relaxed
-        hard set is checked first (:meth:`_check_relaxed_set`), before ``CHECK_DEADLINE`` budgets.
+        """The ladder of the module docstring on the full QP (docs/inverse-dynamics-controller.md, "The fallback
+        chain": the order, and why each step is there). Without a clock guard every step after the attempt is counted
+        in :attr:`tick_work` against ``FAILURE_WORK`` (quadprog: ``QUADPROG_WORK``) budgets; with one
+        (:attr:`tick_clock`) the steps are ordered by cost and started only before their deadlines (``*_DEADLINE``,
+        ``*_END``), the hard-set check first unless the attempt stopped at its deadline. ``relax`` forms the relaxed
+        bounds for the check of the relaxed hard set (None: not checked).
 
         Raises:
-            SolverError: the backend's, when no solver found a solution.
+            SolverError: the backend's, extended with why the ladder ended, when no step found a solution.
         """
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
@@ -633,14 +575,9 @@ class FallbackChain:
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                          relax: Callable | None, full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP without a clock guard
-        (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin onto a set):
-        the full hard set first — a point found, the relaxed set is not checked (the QP has a minimiser: the relaxed
-        QP is needed only if every solver misses it, and :meth:`solve_relaxed` checks its set then) — else, given the
-        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``checked``: the full set was checked
-        already this tick, its verdict ``full`` (True, False or None: not checked again). Each check gets at most the
-        iterations left below ``FAILURE_WORK`` (:meth:`_set_check`; not asked when too few are left). A set proved
-        empty sets :attr:`last_set_empty`.
+        """The hard-set checks of a failed full QP without a clock guard: the full hard set first (a point
+        found: the relaxed set is not checked), else, given ``relax``, the relaxed hard set. ``checked``: the full set
+        was checked already this tick, its verdict ``full``. A set proved empty sets :attr:`last_set_empty`.
 
         Returns:
             True when a point of the full hard set was found, else False (not proved empty).
@@ -670,16 +607,11 @@ class FallbackChain:
 
     def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                            relax: Callable, iter_limit: int) -> None:
-        """Check the relaxed hard set of a failed full QP (:meth:`solve_relaxed`'s, at most ``iter_limit`` DAQP
-        iterations): sets :attr:`relaxed_set_feasible` and keeps the relaxed bounds for
-        ``solve_relaxed(reuse_assembly=True)``.
-
-        Raises:
-            SolverError: ``first`` extended, when the relaxed set is proved empty: so is the full one, and the relaxed
-                QP is not solved.
-        """
+        """Check the relaxed hard set (bounds from ``relax``, at most ``iter_limit`` DAQP iterations): sets
+        :attr:`relaxed_set_feasible` and :attr:`relaxed_bounds`. Raises SolverError (``first`` extended) when it is
+        proved empty: so is the full one, and the relaxed QP is not solved."""
         relaxed = relax(l, u, lb, ub)
-        self.relaxed_bounds = relaxed  # the formulation's solve_relaxed(reuse_assembly=True) reuses them
+        self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
         self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
                                                                iter_limit=iter_limit)
         self._relaxed_check_final = iterations < iter_limit
@@ -702,17 +634,12 @@ class FallbackChain:
         return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
-        :class:`wbc.solvers.base.QPBackend` reports no solution, two active-set solvers are asked before the failure
-        stands (:attr:`second_opinion_enabled`, :func:`wbc.solvers.independent.second_opinion`): quadprog with the
-        pinned variables eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure
-        stands). Either answer is returned only when it meets every row to the backend's tolerance (the check of
-        :meth:`wbc.solvers.base.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal
-        residual that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
-        dependent (two soles on legs without hip yaw); an active-set solver's answer is exact on them.
-
-        Returns:
-            (x (n,), name of the solver that answered).
+        """A backend other than DAQP (e.g. ProxQP) on the QP (full or relaxed); when a
+        :class:`~wbc.solvers.base.QPBackend` reports no solution, the second opinion
+        (:func:`wbc.solvers.independent.second_opinion`: quadprog with the pinned variables eliminated, then one cold
+        DAQP call) unless :attr:`second_opinion_enabled` is False. A proximal method's infeasibility test fires on
+        feasible QPs whose equality rows are nearly dependent (two soles on legs without hip yaw); an active-set
+        solver's answer is exact on them.
 
         Raises:
             SolverError: the backend's, when no solver found a solution.
@@ -743,11 +670,7 @@ class FallbackChain:
         solve (pinned variables eliminated; not when quadprog gave ``x``, ``answered_by``), started only while the
         clock guard or the counted work leaves room for it. ``accept(x, solver)`` returns the caller's solution of a
         candidate (``solver``: None for the polished one, else ``quadprog``) when it passes the output check, else
-        None.
-
-        Returns:
-            the first accepted candidate, or None.
-        """
+        None. Returns the first accepted candidate, or None."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
