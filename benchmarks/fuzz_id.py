@@ -20,7 +20,7 @@ failed ticks that name no conflicting constraint (the tick's own names, else
 p50/p99/max, against the budget (the control period); the route and path each tick took (``IDCommand.path``; a
 route outside ``wbc.tick.ID_ROUTES`` fails the run).
 
-Each slow tick is printed with the work the controller counted in it (``InverseDynamicsQP.tick_work``, in budgets)
+Each slow tick is printed with the work the controller counted in it (``FallbackChain.tick_work``, in budgets)
 and what else it contained (garbage collections, page faults, context switches, and a fixed-work canary timed just
 before and after it as a ratio to its median: ``fuzz_common.TickProbe``); info lines count the ticks over 2 x budget
 whose wall-clock interval overlaps a slow tick of the other process (a stall of the machine,
@@ -235,13 +235,13 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
                 break
             within = probe.stop()
             qp = ctrl.controller.qp
-            cut = qp.budget_cut  # the tick's counted work or its clock guard stopped a stage
+            cut = qp.chain.budget_cut  # the tick's counted work or its clock guard stopped a stage
             t_cpu = cmd.timings.get("cpu", np.nan)
             record_over(c, seed, ticks, ep, tick, t_cpu / DT)
             if len(worst) < MAX_EVENTS or t_cpu > worst[-1][0]:
                 worst.append((t_cpu, f"seed {seed} episode {ep} tick {tick} {name} {cmd.path} at {time.time():.3f} s: "
                                      f"CPU {1e3 * t_cpu:.2f} ms, wall {1e3 * cmd.timings.get('total', np.nan):.2f} ms; "
-                                     f"counted work {qp.tick_work / qp.tick_work_iterations:.2f} budgets; {within}"))
+                                     f"counted work {qp.chain.tick_work / qp.chain.tick_work_iterations:.2f} budgets; {within}"))
                 worst = sorted(worst, key=lambda w: -w[0])[:MAX_EVENTS]
             paths[str(cmd.path)] += 1
             if verbose:

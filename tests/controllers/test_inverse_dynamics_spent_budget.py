@@ -1,5 +1,5 @@
 """A spent tick budget on a feasible full QP: the tick holds the last solved command and the next ticks resume the
-stages the budget cut (``InverseDynamicsQP.resume_scaled``), never the gravity-compensation fallback. The episode is
+stages the budget cut (``FallbackChain.resume_scaled``), never the gravity-compensation fallback. The episode is
 the ID fuzz's (``benchmarks/fuzz_id.py``, seed 8302, episode 84, Talos, |g| ≈ 7e6 from a stiff CoM gain); HiGHS
 (scipy ``linprog``) is the independent feasibility oracle, as in the fuzz."""
 

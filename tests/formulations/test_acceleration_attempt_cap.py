@@ -1,5 +1,5 @@
 """The first DAQP attempt on the inverse-dynamics full QP capped by a count from the tick budget
-(``InverseDynamicsQP.daqp_attempt_iterations``, :func:`wbc.formulations.acceleration.daqp_attempt_iterations`) and the
+(``FallbackChain.daqp_attempt_iterations``, :func:`wbc.solvers.fallback.daqp_attempt_iterations`) and the
 cost-scaled DAQP call before quadprog. Oracles: quadprog (dense Goldfarb–Idnani) for the optimum, HiGHS (scipy
 ``linprog``) for feasibility; counts of iterations and solver calls, never a wall-clock time."""
 
@@ -13,6 +13,7 @@ import pytest
 import quadprog
 
 from conftest import highs_feasible
+from wbc.solvers.qp_data import QPData
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend
 from wbc.solvers.daqp import ITERATION_LIMIT
@@ -75,22 +76,22 @@ def test_id_full_qp_failure_path_takes_the_cost_scaled_call_within_the_cap(robot
     """The recorded QP above through ``InverseDynamicsQP``'s full-QP solve with ``daqp_attempt_iterations`` =
     ``cap``: the answer meets quadprog's optimum to 1e-6 relative on every route; which solver answered, the
     cost-scaled solves and the quadprog calls are counted."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import InverseDynamicsQP, SoleContact
 
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
-    qp.daqp_attempt_iterations = cap
+    qp.chain.daqp_attempt_iterations = cap
     problem = _qp()
     ref = _quadprog(*problem)
     calls = []
-    reduced = acceleration.solve_pinned_reduced
-    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    reduced = fallback.solve_pinned_reduced
+    fallback.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
     try:
-        x, who = qp._solve_backend(*problem)
+        x, who, _ = qp.chain.solve(QPData(*problem))
     finally:
-        acceleration.solve_pinned_reduced = reduced
-    assert who == solver and qp.scaled_solves == scaled and calls.count("quadprog") == quadprog_calls
+        fallback.solve_pinned_reduced = reduced
+    assert who == solver and qp.chain.scaled_solves == scaled and calls.count("quadprog") == quadprog_calls
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
 
 
@@ -98,13 +99,13 @@ def test_controller_budget_sets_the_attempt_cap(robots):
     """A 2 ms budget gives the first DAQP attempt 190 iterations (a third of the budget at 3.5 µs each); an
     unbounded budget leaves the backend's own limit (1000); a 1 µs budget the floor of 10."""
     from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, SoleContact
-    from wbc.formulations.acceleration import daqp_attempt_iterations
+    from wbc.solvers.fallback import daqp_attempt_iterations
 
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")])
     ctrl = InverseDynamicsController(qp, DT)
-    assert qp.daqp_attempt_iterations == daqp_attempt_iterations(DT) == 190
+    assert qp.chain.daqp_attempt_iterations == daqp_attempt_iterations(DT) == 190
     ctrl.budget = math.inf
-    assert qp.daqp_attempt_iterations == 1000
+    assert qp.chain.daqp_attempt_iterations == 1000
     ctrl.budget = 1e-6
-    assert qp.daqp_attempt_iterations == 10
+    assert qp.chain.daqp_attempt_iterations == 10

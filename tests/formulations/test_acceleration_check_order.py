@@ -1,5 +1,5 @@
 """The failure path of the inverse-dynamics full QP without a clock guard, after its first DAQP attempt stopped at its
-count (``InverseDynamicsQP.daqp_attempt_iterations``): the full hard set is checked first
+count (``FallbackChain.daqp_attempt_iterations``): the full hard set is checked first
 (:func:`wbc.solvers.independent.hard_set_feasible`) — proved empty, no cost-scaled DAQP call; found not empty, the
 attempt and the cost-scaled call share ``SCALED_FEASIBLE_FACTOR`` × the attempt's count before quadprog. Two QPs recorded from
 ``benchmarks/fuzz_id.py`` (Talos, 62 variables, the attempt capped at 190 iterations): seed 7002 episode 108 tick 2
@@ -16,6 +16,7 @@ import pytest
 import quadprog
 
 from conftest import highs_feasible
+from wbc.solvers.qp_data import QPData
 from wbc.exceptions import SolverError
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
@@ -41,17 +42,17 @@ def _quadprog(H, g, A, b, C, l, u, lb, ub):
 def counted_qp(robots, monkeypatch):
     """An ``InverseDynamicsQP`` (DAQP backend, attempt cap 190 as a 2 ms budget gives) and a call log of its
     hard-set checks, cost-scaled DAQP calls and quadprog solves."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import InverseDynamicsQP, SoleContact
     from wbc.solvers import DaqpBackend
 
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
-    qp.daqp_attempt_iterations = 190
+    qp.chain.daqp_attempt_iterations = 190
     calls = []
     for name in ("hard_set_check", "solve_pinned_reduced"):
-        real = getattr(acceleration, name)
-        monkeypatch.setattr(acceleration, name,
+        real = getattr(fallback, name)
+        monkeypatch.setattr(fallback, name,
                             lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
     scaled = DaqpBackend.solve_scaled
     solve = DaqpBackend.solve
@@ -78,10 +79,10 @@ def test_capped_attempt_on_an_empty_hard_set_ends_at_the_check(counted_qp):
     assert not highs_feasible(*problem[2:])
     assert highs_feasible(A, b, C, *relaxed)
     with pytest.raises(SolverError, match="the hard set is empty"):
-        qp._solve_backend(*problem)
+        qp.chain.solve(QPData(*problem))
     assert qp.backend.iterations_capped and qp.backend.last_iterations == 190  # the attempt: stopped at its count
     assert calls == ["daqp", "hard_set_check"]
-    assert qp.infeasible_by_check == 1 and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 0
+    assert qp.chain.infeasible_by_check == 1 and qp.chain.scaled_solves == 0 and qp.chain.pinned_reduced_solves == 0
 
 
 def test_capped_attempt_on_a_feasible_set_leaves_the_scaled_call_the_rest_of_one_count(counted_qp):
@@ -92,10 +93,10 @@ def test_capped_attempt_on_a_feasible_set_leaves_the_scaled_call_the_rest_of_one
     problem, _ = _load("id_capped_feasible_talos.npz")
     assert highs_feasible(*problem[2:])
     ref = _quadprog(*problem)
-    x, who = qp._solve_backend(*problem)
+    x, who, _ = qp.chain.solve(QPData(*problem))
     assert calls == ["daqp", "hard_set_check", "solve_scaled", "solve_pinned_reduced"]
     assert iterations[0] == 190
-    assert who == "quadprog" and qp.scaled_solves == 0 and qp.pinned_reduced_solves == 1
+    assert who == "quadprog" and qp.chain.scaled_solves == 0 and qp.chain.pinned_reduced_solves == 1
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
 
 
@@ -108,15 +109,15 @@ def test_a_failing_run_checks_the_hard_set_before_the_attempt(counted_qp):
     feasible, _ = _load("id_capped_feasible_talos.npz")
     assert not highs_feasible(*empty[2:]) and highs_feasible(*feasible[2:])
     with pytest.raises(SolverError):
-        qp._solve_backend(*empty)
-    assert calls == ["daqp", "hard_set_check"] and qp.last_set_empty
+        qp.chain.solve(QPData(*empty))
+    assert calls == ["daqp", "hard_set_check"] and qp.chain.last_set_empty
     calls.clear()
     with pytest.raises(SolverError, match="DAQP not asked"):
-        qp._solve_backend(*empty)
-    assert calls == ["hard_set_check"] and qp.infeasible_by_check == 2
+        qp.chain.solve(QPData(*empty))
+    assert calls == ["hard_set_check"] and qp.chain.infeasible_by_check == 2
     calls.clear()
-    x, _ = qp._solve_backend(*feasible)
-    assert calls == ["hard_set_check", "daqp", "solve_scaled", "solve_pinned_reduced"] and not qp.last_set_empty
+    x, _, _ = qp.chain.solve(QPData(*feasible))
+    assert calls == ["hard_set_check", "daqp", "solve_scaled", "solve_pinned_reduced"] and not qp.chain.last_set_empty
     ref = _quadprog(*feasible)
     assert np.max(np.abs(x - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
 
@@ -132,7 +133,7 @@ def test_counted_work_includes_the_scaled_calls_proximal_iterations(counted_qp, 
     import daqp
 
     qp, calls, _ = counted_qp
-    qp.tick_work_iterations = 0.002 / 3.5e-6
+    qp.chain.tick_work_iterations = 0.002 / 3.5e-6
     if scaled_settings is not None:
         qp.backend.scaled_settings = scaled_settings
     d = dict(np.load(FIXTURES / "id_scaled_proximal_g1.npz"))
@@ -147,11 +148,11 @@ def test_counted_work_includes_the_scaled_calls_proximal_iterations(counted_qp, 
         return out
 
     monkeypatch.setattr(daqp, "solve", recorded)
-    x, who = qp._solve_backend(*problem)
-    assert who == "daqp" and calls == ["daqp", "hard_set_check", "solve_scaled"] and qp.scaled_solves == 1
+    x, who, _ = qp.chain.solve(QPData(*problem))
+    assert who == "daqp" and calls == ["daqp", "hard_set_check", "solve_scaled"] and qp.chain.scaled_solves == 1
     assert len(reports) == 3 and reports[0][0] < 1 and reports[2][0] == 1
     expected = sum(info["iterations"] + 5 * (info["nodes"] - 1) + 30 for _, info in reports)
-    assert qp.tick_work == expected
+    assert qp.chain.tick_work == expected
     scaled = reports[2][1]
     if scaled_settings == {}:
         assert scaled["nodes"] - 1 > 100

@@ -142,7 +142,7 @@ def test_cost_scaled_daqp_call_solves_a_qp_daqp_calls_infeasible_to_quadprogs_op
 def _infeasible_tick(robots, calls, **options):
     """Every joint asked v̇ = 0 (hard) with torque limits at 20 % of the URDF effort (tests/formulations/test_acceleration_faults.py):
     the full QP is infeasible, the relaxed one is not. Counts backend solves and quadprog solves in ``calls``."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
     from wbc.tasks import PostureTask
 
@@ -154,13 +154,13 @@ def _infeasible_tick(robots, calls, **options):
     qp.add_task(posture, hard=True)
     solve = qp.backend.solve
     qp.backend.solve = lambda *a, **k: calls.append("backend") or solve(*a, **k)
-    reduced = acceleration.solve_pinned_reduced
-    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    reduced = fallback.solve_pinned_reduced
+    fallback.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
     try:
         ctrl = InverseDynamicsController(qp, DT, **options)
         cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     finally:
-        acceleration.solve_pinned_reduced = reduced
+        fallback.solve_pinned_reduced = reduced
     H, g, A, b, C, l, u, lb, ub = qp.build(ctrl.state, DT)
     return ctrl, cmd, (A, b, C, l, u, lb, ub)
 
@@ -170,29 +170,29 @@ def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_e
     (10 s): the hard-set check proves the set empty (HiGHS agrees, computed here), so quadprog and the retries are
     skipped — one backend solve for the full QP, then the relaxed QP — path ``relaxed:daqp``. With a spent budget
     (1 ns) no check runs at all, with the clock guard (its clock) and without it (the tick's counted work,
-    ``InverseDynamicsQP.tick_work``): the relaxed QP answers at once, path ``relaxed:daqp+budget``, the same relaxed
+    ``FallbackChain.tick_work``): the relaxed QP answers at once, path ``relaxed:daqp+budget``, the same relaxed
     command (1e-9)."""
     calls_free = []
     ctrl, cmd_free, hard = _infeasible_tick(robots, calls_free)
     assert not _highs_feasible(*hard)
     assert cmd_free.ok and cmd_free.relaxed and cmd_free.path == "relaxed:daqp"
-    assert calls_free == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 1  # attempt, relaxed QP
-    assert "hard set is empty" in cmd_free.message and ctrl.qp.relaxed_set_feasible is True
+    assert calls_free == ["backend", "backend"] and ctrl.qp.chain.infeasible_by_check == 1  # attempt, relaxed QP
+    assert "hard set is empty" in cmd_free.message and ctrl.qp.chain.relaxed_set_feasible is True
     calls_counted = []
     ctrl, cmd_counted, _ = _infeasible_tick(robots, calls_counted, budget=1e-9)
     assert cmd_counted.ok and cmd_counted.relaxed and cmd_counted.path == "relaxed:daqp+budget"
-    assert calls_counted == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 0
-    assert ctrl.qp.relaxed_set_feasible is None
+    assert calls_counted == ["backend", "backend"] and ctrl.qp.chain.infeasible_by_check == 0
+    assert ctrl.qp.chain.relaxed_set_feasible is None
     np.testing.assert_allclose(cmd_counted.tau, cmd_free.tau, rtol=0, atol=1e-9)
     calls_roomy = []
     ctrl, cmd_roomy, _ = _infeasible_tick(robots, calls_roomy, budget=10.0, clock_guard=True)
     assert cmd_roomy.ok and cmd_roomy.relaxed and cmd_roomy.path == "relaxed:daqp" and not cmd_roomy.over_budget
-    assert calls_roomy == ["backend", "backend"] and ctrl.qp.infeasible_by_check == 1
+    assert calls_roomy == ["backend", "backend"] and ctrl.qp.chain.infeasible_by_check == 1
     assert "hard set is empty" in cmd_roomy.message
     calls_cut = []
     ctrl, cmd_cut, _ = _infeasible_tick(robots, calls_cut, budget=1e-9, clock_guard=True)
     assert cmd_cut.ok and cmd_cut.relaxed and cmd_cut.path == "relaxed:daqp+budget" and cmd_cut.over_budget
-    assert calls_cut == ["backend", "backend"] and ctrl.qp.checks_skipped == 1 and ctrl.qp.infeasible_by_check == 0
+    assert calls_cut == ["backend", "backend"] and ctrl.qp.chain.checks_skipped == 1 and ctrl.qp.chain.infeasible_by_check == 0
     for cmd in (cmd_roomy, cmd_cut):
         assert np.max(np.abs(cmd.tau - cmd_free.tau)) <= 1e-9 * max(1.0, np.max(np.abs(cmd_free.tau)))
     assert ctrl.clock_guard is True
@@ -208,7 +208,7 @@ def test_id_empty_relaxed_set_ends_the_failed_tick_after_one_check(robots, clock
     After the full QP's one DAQP attempt the check of the relaxed set proves it empty: no quadprog, no retries and no
     relaxed solve (one backend call in the tick), the safe command (``fallback:gravity``, ok False) naming it."""
     import pinocchio as pin
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
     from wbc.tasks import ComTask, PostureTask
 
@@ -225,13 +225,13 @@ def test_id_empty_relaxed_set_ends_the_failed_tick_after_one_check(robots, clock
     calls = []
     solve = qp.backend.solve
     qp.backend.solve = lambda *a, **k: calls.append("backend") or solve(*a, **k)
-    reduced = acceleration.solve_pinned_reduced
-    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    reduced = fallback.solve_pinned_reduced
+    fallback.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
     try:
         ctrl = InverseDynamicsController(qp, DT, budget=10.0, clock_guard=clock_guard)
         cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))
     finally:
-        acceleration.solve_pinned_reduced = reduced
+        fallback.solve_pinned_reduced = reduced
     _, _, A, b, C, l, u, lb, ub = qp.build(ctrl.state, DT)
     keep = np.ones(C.shape[0], bool)
     keep[qp.torque_limits.rows] = False  # the torque limit rows, dropped in the relaxed QP
@@ -241,5 +241,5 @@ def test_id_empty_relaxed_set_ends_the_failed_tick_after_one_check(robots, clock
     assert not _highs_feasible(A, b, C[keep], l[keep], u[keep], lb, ub)
     assert not cmd.ok and cmd.path == "fallback:gravity"
     assert calls == ["backend"]
-    assert qp.relaxed_set_feasible is False and qp.infeasible_by_check == 1 and qp.relaxed_infeasible_by_check == 1
+    assert qp.chain.relaxed_set_feasible is False and qp.chain.infeasible_by_check == 1 and qp.chain.relaxed_infeasible_by_check == 1
     assert "relaxed hard set is empty" in cmd.message

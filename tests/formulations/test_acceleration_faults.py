@@ -18,6 +18,7 @@ from conftest import highs_feasible
 from wbc.dynamics import IDBalanceController
 from wbc.exceptions import InvalidInputError
 from wbc.solvers import DaqpBackend, QPBackend
+from wbc.solvers.fallback import FallbackChain
 
 DT = 0.002
 
@@ -577,7 +578,7 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
     command (its hard set has a point and nothing is held yet: that point, ``fallback:feasible``; ok False, then the
     full QP again next tick) with the reason in its
     message, and the counted work stays within twice the budget (2 × 2 ms at 3.5 µs per DAQP iteration)."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.exceptions import SolverError
 
     class Failing(DaqpBackend):
@@ -590,17 +591,17 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
     calls = []
-    reduced = acceleration.solve_pinned_reduced
-    acceleration.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
+    reduced = fallback.solve_pinned_reduced
+    fallback.solve_pinned_reduced = lambda *a, **k: calls.append("quadprog") or reduced(*a, **k)
     try:
         cmd = ctrl.solve(q, v)
     finally:
-        acceleration.solve_pinned_reduced = reduced
+        fallback.solve_pinned_reduced = reduced
     qp = ctrl.controller.qp
     assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
-    assert calls == [] and qp.quadprog_skipped == 2 and qp.budget_cut
+    assert calls == [] and qp.chain.quadprog_skipped == 2 and qp.chain.budget_cut
     assert "no quadprog solve" in cmd.message and "no quadprog solve of the relaxed QP" in cmd.message
-    assert qp.tick_work <= 2 * 0.002 / 3.5e-6
+    assert qp.chain.tick_work <= 2 * 0.002 / 3.5e-6
     _finite_and_within_effort(cmd, robot)
 
 
@@ -613,7 +614,7 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
     the relaxed QP (788 iterations on talos) is skipped. Deterministic counts: the tick's counted work ends in
     (RELAXED_WORK × 571.4 − 4, RELAXED_WORK × 571.4] (the retries' share rounded down per call), the path is
     ``fallback:feasible`` (the hard set's point: nothing to hold yet), and the message names the relaxed factor."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.exceptions import SolverError
 
     caps = []
@@ -628,16 +629,16 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
             self.last_iterations = 0
             return None
 
-    monkeypatch.setattr(acceleration.InverseDynamicsQP, "RELAXED_WORK", relaxed_work)
+    monkeypatch.setattr(FallbackChain, "RELAXED_WORK", relaxed_work)
     robot = robots("talos")
     ctrl, q, v = _standing(robot, solver=Failing(primal_tol=1e-6, warm_start="dual"))
     cmd = ctrl.solve(q, v)
     qp = ctrl.controller.qp
     budget_iterations = 0.002 / 3.5e-6
     assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
-    assert qp.quadprog_skipped == 2 and qp.budget_cut
+    assert qp.chain.quadprog_skipped == 2 and qp.chain.budget_cut
     assert f"would pass {relaxed_work} budgets" in cmd.message
-    assert relaxed_work * budget_iterations - 4 < qp.tick_work <= relaxed_work * budget_iterations
+    assert relaxed_work * budget_iterations - 4 < qp.chain.tick_work <= relaxed_work * budget_iterations
     # the full QP's attempt (its cap: a third of the budget), the relaxed QP's attempt (at least that), its retries
     assert len(caps) == 3 and caps[0] == 190 and caps[1] >= 190 and 10 <= caps[2] < caps[1]
     _finite_and_within_effort(cmd, robot)
@@ -719,7 +720,7 @@ def test_id_proxqp_failure_gets_a_second_opinion(robots):
     cmd = ctrl.solve(q, v)
     assert cmd.ok and str(cmd.path) in ("general:quadprog", "general:daqp"), (cmd.path, cmd.message)
     _finite_and_within_effort(cmd, robot)
-    ctrl.controller.qp.second_opinion_enabled = False
+    ctrl.controller.qp.chain.second_opinion_enabled = False
     cmd = ctrl.solve(q, v)
     assert not cmd.ok, (cmd.path, cmd.message)
 

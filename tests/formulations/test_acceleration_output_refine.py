@@ -32,7 +32,7 @@ def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settin
     ``before_last()`` is called between the two ticks; ``tick_work_iterations`` replaces the counted work a tick may
     spend (the 2 ms budget's otherwise; the DAQP attempt's cap stays that of 2 ms); ``scaled_settings`` replaces the
     DAQP settings of the cost-scaled calls (``DaqpBackend.scaled_settings``); ``resume``: tick 33 resumes the stages
-    a budget cut of tick 32 left (``InverseDynamicsQP.resume_scaled``), else it starts with DAQP's attempt."""
+    a budget cut of tick 32 left (``FallbackChain.resume_scaled``), else it starts with DAQP's attempt."""
     d = np.load(FIXTURE)
     robot = robots("talos")
     gains = {str(k): float(v) for k, v in zip(d["gain_names"], d["gain_values"])}
@@ -40,21 +40,21 @@ def _replayed(robots, before_last=None, tick_work_iterations=None, scaled_settin
                                gains=gains, torque_limit_scale=float(d["torque_limit_scale"]))
     ctrl.reset(d["q0"], d["v0"])
     if tick_work_iterations is not None:
-        ctrl.qp.tick_work_iterations = tick_work_iterations
+        ctrl.qp.chain.tick_work_iterations = tick_work_iterations
     if scaled_settings is not None:
         ctrl.qp.backend.scaled_settings = scaled_settings
     ctrl.set_com_reference(d["com_position"], acceleration=d["com_acceleration"])
     # tick 32 with the relaxed QP's share of the counted work the episode was recorded under (1.5 budgets): its relaxed
     # QP needs 153 DAQP iterations after the full QP's 601 counted (1.2 budgets, the default, leave it 54: a fallback
     # tick, and tick 33 starts from other duals)
-    ctrl.qp.RELAXED_WORK = 1.5
+    ctrl.qp.chain.RELAXED_WORK = 1.5
     for t in range(2):
         if t == 1:
-            del ctrl.qp.RELAXED_WORK  # the class's share from tick 33 on
+            del ctrl.qp.chain.RELAXED_WORK  # the class's share from tick 33 on
         if t == 1 and not resume:
             # tick 33 as recorded, from DAQP's attempt: at the 2 ms budget tick 32's full QP is cut by the counted
             # work on a set with a point, which starts tick 33 with the cost-scaled call (``resume``)
-            ctrl.qp.resume_scaled = False
+            ctrl.qp.chain.resume_scaled = False
         if t == 1 and before_last is not None:
             before_last()
         ctrl.contacts["left"].mu = float(d["mu_left"][t])
@@ -137,7 +137,7 @@ def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
                              scaled_settings={})
     assert cmd.ok and not cmd.relaxed, cmd.message
     assert cmd.path == "general:quadprog"
-    assert ctrl.qp.output_quadprog == 1 and ctrl.qp.output_polished == 0
+    assert ctrl.qp.chain.output_quadprog == 1 and ctrl.qp.chain.output_polished == 0
     fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert abs(fx - fq) <= 1e-9 * abs(fq)
 
@@ -145,11 +145,11 @@ def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
 def test_answer_no_refinement_fixes_still_fails_the_output_check(robots, monkeypatch):
     """Neither the polish nor quadprog answering (forced at tick 33), the output check's verdict stands: the tick is
     relaxed, its message names the torque limit (the check is not loosened)."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
 
     def unrefinable():
         _refinement_polish_fails(monkeypatch)
-        monkeypatch.setattr(acceleration, "solve_pinned_reduced", lambda *args: None)
+        monkeypatch.setattr(fallback, "solve_pinned_reduced", lambda *args: None)
     _, _, cmd = _replayed(robots, unrefinable)
     assert cmd.relaxed
     assert "fails the output check: torque_limits" in cmd.message
@@ -160,7 +160,7 @@ def test_refinements_quadprog_is_skipped_past_the_counted_work(robots, monkeypat
     budgets) does not fit: the refinement skips it like the failure path does, and the output check's verdict stands
     (relaxed, the torque limit named)."""
     ctrl, _, cmd = _replayed(robots, lambda: _refinement_polish_fails(monkeypatch))
-    assert ctrl.qp.output_quadprog == 0 and ctrl.qp.quadprog_skipped >= 1
+    assert ctrl.qp.chain.output_quadprog == 0 and ctrl.qp.chain.quadprog_skipped >= 1
     assert cmd.relaxed
     assert "fails the output check: torque_limits" in cmd.message
 
@@ -172,7 +172,7 @@ def test_scaled_call_with_the_ids_regularisation_needs_no_refinement(robots):
     2e-5 (relative) of quadprog's optimum."""
     ctrl, d, cmd = _replayed(robots, tick_work_iterations=math.inf)
     assert cmd.ok and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
-    assert ctrl.qp.scaled_solves == 1 and ctrl.qp.output_polished == 0 and ctrl.qp.output_quadprog == 0
+    assert ctrl.qp.chain.scaled_solves == 1 and ctrl.qp.chain.output_polished == 0 and ctrl.qp.chain.output_quadprog == 0
     assert ctrl.qp.backend.polished == 0
     fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert fx - fq <= 2e-5 * abs(fq)
@@ -180,10 +180,10 @@ def test_scaled_call_with_the_ids_regularisation_needs_no_refinement(robots):
 
 def test_resumed_scaled_call_answers_tick_33(robots):
     """Tick 32's full QP cut by the counted work on a hard set with a point, tick 33 starts with the cost-scaled DAQP
-    call (``InverseDynamicsQP.resume_scaled``): its answer is the command, unrelaxed, within the scaled URDF effort
+    call (``FallbackChain.resume_scaled``): its answer is the command, unrelaxed, within the scaled URDF effort
     (1e-6 relative) and its cost within 2e-5 (relative) of quadprog's optimum."""
     ctrl, d, cmd = _replayed(robots, resume=True)
     assert cmd.ok and not cmd.relaxed and str(cmd.path) == "general:fast", (cmd.path, cmd.message)
-    assert ctrl.qp.resumed_solves == 1
+    assert ctrl.qp.chain.resumed_solves == 1
     fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
     assert fx - fq <= 2e-5 * abs(fq)

@@ -18,6 +18,7 @@ import pytest
 import quadprog
 
 from conftest import dense_quadprog, highs_feasible
+from wbc.solvers.qp_data import QPData
 from wbc.exceptions import SolverError
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "id_scaled_fails_talos.npz"
@@ -48,17 +49,17 @@ def counted_qp(robots, monkeypatch):
     """A Talos ``InverseDynamicsQP`` (DAQP backend, attempt cap 190 as a 2 ms budget gives; its layout is not the
     recorded QP's, which is passed to the solve methods directly), a log of the calls of its failure path and the
     DAQP iterations of each backend call, and the shapes of the Hessians quadprog was given."""
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import InverseDynamicsQP, SoleContact
     from wbc.solvers import DaqpBackend
 
     robot = robots("talos")
     qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
-    qp.daqp_attempt_iterations = CAP
+    qp.chain.daqp_attempt_iterations = CAP
     calls, iterations, hessians = [], [], []
     for name in ("hard_set_check", "solve_pinned_reduced"):
-        real = getattr(acceleration, name)
-        monkeypatch.setattr(acceleration, name,
+        real = getattr(fallback, name)
+        monkeypatch.setattr(fallback, name,
                             lambda *a, _real=real, _name=name, **k: calls.append(_name) or _real(*a, **k))
     for name in ("solve", "solve_scaled"):
         real = getattr(DaqpBackend, name)
@@ -83,8 +84,8 @@ def test_the_slow_tick_is_answered_by_quadprog_at_the_optimum(counted_qp):
     problem, _ = _load()
     assert highs_feasible(*problem[2:])
     ref = dense_quadprog(*problem)
-    x, who = qp._solve_backend(*problem)
-    assert who == "quadprog" and qp.pinned_reduced_solves == 1 and qp.scaled_solves == 0
+    x, who, _ = qp.chain.solve(QPData(*problem))
+    assert who == "quadprog" and qp.chain.pinned_reduced_solves == 1 and qp.chain.scaled_solves == 0
     assert calls == ["daqp", "hard_set_check", "solve_scaled", "solve_pinned_reduced"]
     assert _largest_violation(x, *problem[2:]) <= 1e-6
     H, g = problem[:2]
@@ -96,7 +97,7 @@ def test_the_attempt_and_the_scaled_call_share_one_count(counted_qp):
     alone had 380, and ran 249 on this QP after the attempt's 145)."""
     qp, _, iterations, _ = counted_qp
     problem, _ = _load()
-    qp._solve_backend(*problem)
+    qp.chain.solve(QPData(*problem))
     attempt, scaled = iterations[:2]
     assert 0 < attempt <= CAP and attempt + scaled <= 2 * CAP
 
@@ -105,7 +106,7 @@ def test_quadprog_works_on_the_null_space_of_the_equalities(counted_qp):
     """quadprog is given the QP on the 62 − 18 = 44 directions the equality rows leave free (it was given all 62)."""
     qp, _, _, hessians = counted_qp
     problem, _ = _load()
-    qp._solve_backend(*problem)
+    qp.chain.solve(QPData(*problem))
     n, m = problem[0].shape[0], problem[2].shape[0]
     assert hessians == [(n - m, n - m)]
 
@@ -126,8 +127,8 @@ def test_the_relaxed_qp_gets_quadprog_when_daqp_misses_a_minimiser(counted_qp, m
         raise SolverError("injected")
 
     monkeypatch.setattr(DaqpBackend, "solve", fail)
-    x, who = qp._solve_relaxed_daqp(H, g, A, b, C, *relaxed)
-    assert who == "quadprog" and qp.relaxed_quadprog_solves == 1
+    x, who, _ = qp.chain.solve_relaxed(QPData(H, g, A, b, C, *relaxed), formed=False)
+    assert who == "quadprog" and qp.chain.relaxed_quadprog_solves == 1
     assert calls == ["daqp", "hard_set_check", "daqp", "solve_pinned_reduced"]
     assert _largest_violation(x, A, b, C, *relaxed) <= 1e-6
     ref = dense_quadprog(H, g, A, b, C, *relaxed)
@@ -149,5 +150,5 @@ def test_a_relaxed_set_proved_empty_gets_no_quadprog(counted_qp, monkeypatch):
     monkeypatch.setattr(DaqpBackend, "solve", lambda self, *a, **k: calls.append("daqp") or (_ for _ in ()).throw(
         SolverError("injected")))
     with pytest.raises(SolverError, match="relaxed hard set is empty"):
-        qp._solve_relaxed_daqp(H, g, A, b, C, rl, ru, rlb, rub)
-    assert "solve_pinned_reduced" not in calls and qp.relaxed_quadprog_solves == 0
+        qp.chain.solve_relaxed(QPData(H, g, A, b, C, rl, ru, rlb, rub), formed=False)
+    assert "solve_pinned_reduced" not in calls and qp.chain.relaxed_quadprog_solves == 0

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import highs_feasible
+from wbc.solvers.qp_data import QPData
 from wbc.exceptions import SolverError
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
@@ -37,13 +38,13 @@ def failed_tick(robots, monkeypatch):
     outcome ("relaxed" or the SolverError)."""
     import daqp
 
-    import wbc.formulations.acceleration as acceleration
+    import wbc.solvers.fallback as fallback
     from wbc.dynamics import InverseDynamicsQP, SoleContact
 
     robot = robots("talos")
     checks, reports = [], []
-    real_check = acceleration.hard_set_check
-    monkeypatch.setattr(acceleration, "hard_set_check", lambda *a, **k: checks.append(k["iter_limit"])
+    real_check = fallback.hard_set_check
+    monkeypatch.setattr(fallback, "hard_set_check", lambda *a, **k: checks.append(k["iter_limit"])
                         or real_check(*a, **k))
     real_solve = daqp.solve
 
@@ -57,16 +58,16 @@ def failed_tick(robots, monkeypatch):
     def run(name):
         problem, relaxed, kernel_work, last_set_empty = _load(name)
         qp = InverseDynamicsQP(robot, [], [SoleContact(robot, robot.left_sole, name="left")], solver="daqp")
-        qp.daqp_attempt_iterations = 190  # as a 2 ms budget sets them (InverseDynamicsController.budget)
-        qp.tick_work_iterations = BUDGET
-        qp.tick_work = kernel_work
-        qp.last_set_empty = last_set_empty
+        qp.chain.daqp_attempt_iterations = 190  # as a 2 ms budget sets them (InverseDynamicsController.budget)
+        qp.chain.tick_work_iterations = BUDGET
+        qp.chain.tick_work = kernel_work
+        qp.chain.last_set_empty = last_set_empty
         # the relaxed bounds the tick formed at its state (joint speed bounds included), recorded
         monkeypatch.setattr(qp, "_relaxed_set", lambda state, dt, l, u, lb, ub: tuple(x.copy() for x in relaxed))
         with pytest.raises(SolverError):
-            qp._solve_backend(*problem, state=object(), dt=0.002)
+            qp.chain.solve(QPData(*problem), lambda *bounds: qp._relaxed_set(None, 0.002, *bounds))
         try:
-            qp._solve_relaxed_daqp(*problem[:5], *relaxed)
+            qp.chain.solve_relaxed(QPData(*problem[:5], *relaxed), formed=False)
             outcome = "relaxed"
         except SolverError as exc:
             outcome = exc
@@ -94,7 +95,7 @@ def test_an_undecided_check_of_the_relaxed_set_is_not_asked_again(failed_tick):
     assert flag not in (1, -1) and iterations < limit  # undecided, not stopped by its limit
     work = _daqp_work(kernel_work, reports)
     assert work <= WORST * BUDGET
-    assert qp.tick_work >= work - 1e-9  # the retries are counted at their caps, at least what they ran
+    assert qp.chain.tick_work >= work - 1e-9  # the retries are counted at their caps, at least what they ran
 
 
 def test_the_relaxed_stage_ends_within_the_count_and_counts_its_attempt(failed_tick):
@@ -106,8 +107,8 @@ def test_the_relaxed_stage_ends_within_the_count_and_counts_its_attempt(failed_t
     qp, problem, relaxed, kernel_work, outcome = run("id_relaxed_after_scaled_talos.npz")
     A, b, C = problem[2:5]
     assert highs_feasible(*problem[2:]) and highs_feasible(A, b, C, *relaxed)
-    assert checks and qp.quadprog_skipped == 1
+    assert checks and qp.chain.quadprog_skipped == 1
     work = _daqp_work(kernel_work, reports)
-    assert abs(qp.tick_work - work) <= 1e-9 * work  # no retry: the count is exactly DAQP's reports
+    assert abs(qp.chain.tick_work - work) <= 1e-9 * work  # no retry: the count is exactly DAQP's reports
     assert work <= WORST * BUDGET
-    assert isinstance(outcome, SolverError) and qp.budget_cut
+    assert isinstance(outcome, SolverError) and qp.chain.budget_cut

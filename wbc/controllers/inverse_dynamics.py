@@ -30,17 +30,17 @@ set found not empty. The budget sets one count: the compiled tick's iteration ca
 (:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
 :data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
 from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
-:data:`~wbc.formulations.acceleration.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
-(:func:`~wbc.formulations.acceleration.tick_work_iterations`, the budget in DAQP iterations;
-``InverseDynamicsQP.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
+:data:`~wbc.formulations.id_compiled.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
+(:func:`~wbc.solvers.fallback.tick_work_iterations`, the budget in DAQP iterations;
+``FallbackChain.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
 get what is left of one budget, quadprog's solve runs only when its count
-(:func:`~wbc.formulations.acceleration.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
+(:func:`~wbc.solvers.fallback.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
 relaxed QP's calls, its first attempt included, share what is left of 1.2; a stage skipped so adds ``+budget`` to the
 path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
 (``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. One thing
 carries over: when the counted work cut a full QP whose hard set has a point (a failure of the budget, not of the
 problem), the next ticks start their full QP with the stage that had no work left, the cost-scaled DAQP call
-(``InverseDynamicsQP.resume_scaled``), while it answers; otherwise the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
+(``FallbackChain.resume_scaled``), while it answers; otherwise the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
 (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
 (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
 diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
@@ -89,8 +89,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import (IDSolution, InverseDynamicsQP, daqp_attempt_iterations, kernel_iterations,
-                                         tick_work_iterations)
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
+from wbc.solvers.fallback import daqp_attempt_iterations, tick_work_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -233,7 +233,10 @@ class IDCommand(TickResultBase):
             docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``, ``fallback:hold`` (the previous
             tick's solved command, held), ``fallback:feasible`` (a point of the hard set) or ``fallback:gravity`` (its
             string form).
-        over_budget: the tick used more than the controller's budget.
+        path_reason: why the tick left the compiled route (``kernel``) and which step answered it, e.g.
+            ``kernel status ITERATION_CAP → daqp attempt``, ``full QP failed → relaxed QP, attempt``,
+            ``full and relaxed QP failed → hold``; '' on the compiled route (and for a backend chosen by name, whose
+            ticks take the general route by configuration).
     """
 
     tau: np.ndarray
@@ -242,6 +245,7 @@ class IDCommand(TickResultBase):
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
     relaxed: bool = False
     dynamics_residual: float = 0.0
+    path_reason: str = ""
 
 
 def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
@@ -258,16 +262,16 @@ class InverseDynamicsController:
         dt: control period (s), > 0.
         budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
             the compiled tick's iteration cap (``qp.kernel_max_iterations``), the first DAQP attempt's
-            (``qp.daqp_attempt_iterations``) and the counted work of a failed tick's later stages
-            (``qp.tick_work_iterations``).
+            (``qp.chain.daqp_attempt_iterations``) and the counted work of a failed tick's later stages
+            (``qp.chain.tick_work_iterations``).
         diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
             QP per failure; off by default, :meth:`diagnose` does it on demand).
         clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
-            (``time.thread_time`` since the tick began; ``InverseDynamicsQP.tick_clock``): the full QP's DAQP
+            (``time.thread_time`` since the tick began; ``FallbackChain.tick_clock``): the full QP's DAQP
             calls end by 1.25 budgets, its checks start before 1.4 and end by 1.55, and the relaxed QP's calls end by
             1.75 (iteration limits from the time left); a failed
             full QP gets quadprog only when it is expected to end by 1.55 budgets (its recent CPU time,
-            ``InverseDynamicsQP.quadprog_cost``) and the backend's retries only before 1.2 budgets; a relaxed
+            ``FallbackChain.quadprog_cost``) and the backend's retries only before 1.2 budgets; a relaxed
             command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
             False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations
             and campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's
@@ -326,8 +330,8 @@ class InverseDynamicsController:
             raise InvalidInputError(f"budget must be a number of seconds > 0 (math.inf: unbounded), got {value!r}")
         self._budget = float(value)
         self.qp.kernel_max_iterations = kernel_iterations(self._budget)
-        self.qp.daqp_attempt_iterations = daqp_attempt_iterations(self._budget)
-        self.qp.tick_work_iterations = tick_work_iterations(self._budget)
+        self.qp.chain.daqp_attempt_iterations = daqp_attempt_iterations(self._budget)
+        self.qp.chain.tick_work_iterations = tick_work_iterations(self._budget)
 
     def solve(self, q: np.ndarray, v: np.ndarray) -> IDCommand:
         """Compute the torques for the measured state.
@@ -343,7 +347,7 @@ class InverseDynamicsController:
         """
         t0 = perf_counter()
         c0 = thread_time()
-        self.qp.tick_clock = (c0, self._budget) if self._clock_guard else None
+        self.qp.chain.tick_clock = (c0, self._budget) if self._clock_guard else None
         self.state.update(q, v)
         t1 = perf_counter()
         relaxed = False
@@ -360,7 +364,7 @@ class InverseDynamicsController:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
             relaxed = True
             self.n_relaxed += 1
-            if self.qp.budget_cut:  # the clock guard cut a check of the full QP (or one of its DAQP calls)
+            if self.qp.chain.budget_cut:  # the clock guard cut a check of the full QP (or one of its DAQP calls)
                 sol.path = sol.path.with_budget()
             lim = self.qp.torque_limits
             if lim.dim:
@@ -369,7 +373,7 @@ class InverseDynamicsController:
         self.last_solution = sol
         cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
                         message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,
-                        path=sol.path)
+                        path=sol.path, path_reason=sol.reason)
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
         self._last_ok = cmd
         return self._count(cmd, c0)
@@ -393,12 +397,12 @@ class InverseDynamicsController:
         # a failure of the budget, not of the problem (the counted work cut a full QP whose hard set has a point):
         # the last solved command stays held while the next ticks resume the cut stages
         # (not with a task's numbers non-finite: no solver could answer that QP, whatever its budget)
-        spent = self.qp.budget_cut and self.qp.hard_set_point and not self.qp.nonfinite_inputs()
+        spent = self.qp.chain.budget_cut and self.qp.chain.hard_set_point and not self.qp.nonfinite_inputs()
         if not spent:
             self._last_ok = None
         if prev is None and spent:
             # no command to hold: the point of the hard set that the tick's check found (every hard row met)
-            sol = self.qp.solution_from(self.state, self.qp.hard_set_x)
+            sol = self.qp.solution_from(self.state, self.qp.chain.hard_set_x)
             cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, ok=False,
                             message=f"{message}; the tick's budget was spent on a full QP whose hard set has a point, "
                                     "with no solved command to hold: that point is commanded",
@@ -416,6 +420,7 @@ class InverseDynamicsController:
         else:
             cmd = self.fallback(message)
         cmd.conflicts = conflicts
+        cmd.path_reason = f"full and relaxed QP failed → {cmd.path.fallback}"
         cmd.timings = {"pinocchio": t1 - t0, "total": perf_counter() - t0}
         return self._count(cmd, c0)
 

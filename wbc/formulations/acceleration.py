@@ -1,85 +1,33 @@
-"""Acceleration-level formulation: the inverse-dynamics QP for a floating-base robot in contact.
+"""Acceleration-level formulation: the inverse-dynamics QP of a floating-base robot in contact.
 
-It assembles the shared task objects of :mod:`wbc.tasks` as (J_i, a*_i − J̇_i v) (their e, J and drift J̇v, with the
-PD reference a*_i of :class:`~wbc.formulations.reference.AccelerationReference`) — the velocity-level formulation
-(:mod:`wbc.formulations.velocity`) uses the same objects as (J_i, v*_i) — and named constraint objects
-(:mod:`wbc.constraints`, plus any kinematic constraint of :mod:`wbc.constraints` with a barrier form,
-under its own name: ``com_polygon``, ``self_collision``).
+Variables x = [v̇; f] ∈ R^{nv + 12 n_c}: generalized accelerations v̇ (Pinocchio conventions) and, per declared sole
+contact k, 4 corner forces f_k ∈ R^12 in the sole frame. With M, h and the LOCAL sole Jacobians J_k from Pinocchio and
+G_k the corner-force → sole-wrench map, the torques are not variables (Featherstone 2008, eq. 3.6 with contacts):
 
-The problem, solved once per control tick of period dt (s), at the measured state (q, v):
+    τ = M_a v̇ + h_a − Σ_k (J_kᵀ G_k)_a f_k                       (a: actuated rows 6..nv−1)                (2)
 
-Variables  x = [v̇ ; f] ∈ R^{nv + 12 n_c}: generalized accelerations v̇ (Pinocchio conventions: base spatial
-acceleration in the base frame, then joints) and, per declared sole contact k, 4 corner forces f_k ∈ R^12 in
-the sole frame (:mod:`wbc.constraints.sole_contact`).
+    min_x  Σ_i ‖diag(√w_i)(J_i v̇ − r_i)‖² + ε_a ‖v̇‖² + ε_f ‖f‖²,  r_i = a*_i − J̇_i v  (a*_i: reference.py)  (3)
+    s.t.   M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u                    floating_base_dynamics   (u: rows 0..5)  (4)
+           J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k                  contact:<c>              (active k)     (5)
+           −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a  torque_limits                            (6)
+           F_k f_k ≤ 0                                              friction:<c>             (active k)     (7)
+           f_min ≤ f_z ≤ f_max per corner; f_k = 0 if inactive      unilaterality:<c>                       (8)
+           v̇_lo ≤ v̇_joints ≤ v̇_hi  (position, velocity, viability)  joint_limits  (del Prete 2018)          (9)
+           G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j                   an added barrier's name                 (10)
+           J_t v̇ = r_t                                               task:<t>                 (hard tasks)
 
-Equations of motion (Featherstone 2008, "Rigid Body Dynamics Algorithms", eq. 3.6 with contacts)
-
-    M(q) v̇ + h(q, v) = Sᵀ τ + Σ_k J_kᵀ G_k f_k,         S = [0_{(nv−6)×6}  I_{nv−6}]             (1)
-
-with M, h = C v + g and the LOCAL sole Jacobians J_k from Pinocchio, G_k the constant corner-force →
-sole-wrench map (sole frame). The actuated rows define the torques, which are therefore not variables:
-
-    τ = M_a v̇ + h_a − Σ_k (J_kᵀ G_k)_a f_k          (a: rows 6..nv−1)                              (2)
-
-    min_x   Σ_i ‖ diag(√w_i) (J_i v̇ − r_i) ‖²  +  ε_a ‖v̇‖²  +  ε_f ‖f‖²                           (3)
-            r_i = a*_i − J̇_i v,  a*_i = ä_ff − Kp e_i − Kd (J_i v − ė_ff)       (wbc.formulations.reference)
-    s.t.    M_u v̇ − Σ_k (J_kᵀ G_k)_u f_k = −h_u        (u: rows 0..5, unactuated floating base)          (4)
-            J_k v̇ = −J̇_k v − Kd_c J_k v − Kp_c e_k    for each *active* contact k (sole does not accelerate)  (5)
-                (with ≥ 2 active contacts, the stacked rows and right-hand side are replaced by their components along
-                the rows' left singular vectors with σ ≥ 1e-2 σ_max: the nearly dependent directions are dropped,
-                constraints.contact_acceleration.independent_contact_rows; the equality block then has fewer than
-                6 n_c rows)
-            −τ_max − h_a ≤ M_a v̇ − Σ_k (J_kᵀ G_k)_a f_k ≤ τ_max − h_a     (URDF effort limits, from (2))     (6)
-            F_k f_k ≤ 0                                 (friction pyramids, μ/√2 per corner axis; active k)  (7)
-            f_min ≤ f_z ≤ f_max per corner; f_k = 0 for an inactive contact   (unilaterality; CoP in sole)  (8)
-            v̇_lo ≤ v̇_joints ≤ v̇_hi                      (joint position/velocity limits, below)             (9)
-            G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j       for each added barrier j (h_j(q) ≥ 0, ḣ_j = G_j v:   (10)
-                                                        CoM polygon, self-collision; :meth:`add_constraint`)
-
-Joint acceleration bounds (9), per 1-DoF joint with limits [q_min, q_max], |v| ≤ v_max (URDF), and a braking
-acceleration a_brk (``braking_acceleration``, rad/s²):
-
-    velocity      (−v_max − v)/dt ≤ v̇ ≤ (v_max − v)/dt                       (v reached after one tick)
-    position      v̇ ≤ 2 (q_max − q − v dt)/dt²,   v̇ ≥ 2 (q_min − q − v dt)/dt²      (q after one tick)
-    viability     v⁺ ≤ √(2 a_brk (q_max − q⁺)) with v⁺ = v + v̇ dt, q⁺ = q + v dt + ½ v̇ dt² (and symmetrically
-                  at q_min): the state after one tick can still stop before the limit by decelerating at a_brk.
-                  Squaring gives dt² v̇² + (2 v dt + a_brk dt²) v̇ + v² − 2 a_brk (q_max − q − v dt) ≤ 0, whose
-                  larger root is the bound.
-
-(del Prete 2018, "Joint position and velocity bounds in discrete-time acceleration/torque control of robot
-manipulators", IEEE RA-L 3(1):281–288, sections III–IV: the position bound alone is not viable; the braking
-bound makes it so under the assumption that a_brk is always available.) When a state is already outside these
-sets (a joint faster than its viable velocity, e.g. after an impact, or MuJoCo's soft joint limit let q pass
-q_max), the bounds would demand an arbitrarily large braking acceleration in one tick, which the torque limits
-cannot deliver: the demanded braking is then capped at a_brk (v̇ ≤ max(hi, −a_brk), v̇ ≥ min(lo, a_brk)), the
-best the viability assumption allows, and the lower bound is lowered to the upper one if they cross.
-
-Every constraint (4)–(10) is a named object of :mod:`wbc.constraints` (``floating_base_dynamics``,
-``contact:<c>``, ``torque_limits``, ``friction:<c>``, ``unilaterality:<c>``, ``joint_limits``, the barrier's own
-name in (10); plus ``task:<t>`` for a task held as a hard equality, :meth:`InverseDynamicsQP.add_task` with ``hard=True``). The QP owns one
-preallocated array per block (H, g, A, b, C, l, u, lb, ub); each constraint is given its rows once and writes
-them in place every tick; the friction rows are constant and written once. The task and contact rows are gathered
-once per tick into stacked buffers; the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every
-state-dependent block are written by compiled bodies that :meth:`InverseDynamicsQP.build` (through the constraints'
-``write``) and the compiled tick (:func:`~wbc.formulations.idkernel.id_assemble`) share, so the ``fast`` solver and
-any backend read the same arrays. When a DAQP backend finds no
-solution to the full QP in one attempt, the QP is solved once more by quadprog with its pinned variables (lb = ub: a
-released foot's forces) and its equality rows eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`; the
-path then names ``quadprog``) before the failure stands (then the backend's own retries); the relaxed QP gets the same
-quadprog solve when the backend's calls miss the minimiser of a relaxed set found not empty. Any other
-:class:`~wbc.solvers.base.QPBackend` (e.g. ProxQP) that finds no solution to the full or the relaxed QP gets a second
-opinion (:func:`wbc.solvers.independent.second_opinion`: the same quadprog solve, then one cold DAQP call) before its
-failure stands. When the QP is infeasible, :meth:`InverseDynamicsQP.diagnose` names the conflicting constraints
-(:mod:`wbc.solvers.diagnosis`).
-
-Regularisation ε_a, ε_f > 0 make the Hessian positive definite. The solution gives τ by (2); the dynamics (1)
-then hold to the solver's equality accuracy on rows 0..5 and exactly on the actuated rows.
+With ≥ 2 active contacts the nearly dependent directions of (5) are dropped. Every constraint is a named object of
+:mod:`wbc.constraints` that writes its rows in place into one preallocated array per block;
+:meth:`InverseDynamicsQP.build` returns the blocks (:class:`~wbc.solvers.qp_data.QPData`). With ``solver="fast"``
+the compiled tick (:mod:`wbc.formulations.id_compiled`) assembles the same arrays from the same gathered rows
+(:mod:`wbc.formulations.id_rows`) and solves them; when it gives up, or for any other backend, the fallback chain
+(:attr:`InverseDynamicsQP.chain`, :class:`~wbc.solvers.fallback.FallbackChain`) solves them. ε_a, ε_f > 0 make the
+Hessian positive definite. The derivations, the joint bounds (9) and the rules of the chain:
+docs/inverse-dynamics-controller.md.
 """
 
 from __future__ import annotations
 
-import inspect
-import math
 from dataclasses import dataclass, field
 from time import perf_counter, thread_time
 
@@ -95,30 +43,26 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.idkernel import (IDArrays, IDContactData, IDDynamics, IDLimits, IDTaskRows, IDTickBuffers,
-                                       PAR_BRAKING, PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_MAX_ITER,
-                                       PAR_SPEED_HORIZON,
-                                       PROJECT_CONTACT_RHS, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD, R_KP,
-                                       R_WEIGHT, contact_rows_well_conditioned, id_command, id_tick, load_id_kernels,
-                                       contact_views, id_tick_buffers, output_violations,
-                                       task_cost, tick_outputs)
+from wbc.formulations.id_compiled import KERNEL_ITERATIONS_AFTER_GIVE_UP, CompiledIDTick
+from wbc.formulations.id_output_check import IDOutputCheck, nonfinite_references
+from wbc.formulations.id_rows import IDProblemRows
+from wbc.formulations.idkernel import (IDDynamics, PROJECT_CONTACT_RHS, contact_rows_well_conditioned, load_id_kernels,
+                                       id_command, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.base import POLISH_RANGE
-from wbc.solvers.daqp import DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS
+from wbc.solvers.daqp import DAQP_ITERATION_COST
 from wbc.solvers.diagnosis import diagnose
-from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
+from wbc.solvers.fallback import DAQP_SETTINGS, SCALED_EPS_PROX, FallbackChain
+from wbc.solvers.qp_data import QPData
 from wbc.tick import TickPath
 from wbc.robot import Robot
 from wbc.tasks.base import Task
-from wbc.tasks.posture import PostureTask
 
-__all__ = ["DAQP_CALL_WORK", "InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST",
-           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "OUTPUT_REFINE_RANGE", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST",
-           "QUADPROG_SIZE", "SCALED_EPS_PROX",
-           "daqp_attempt_iterations", "kernel_iterations", "quadprog_work", "tick_work_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
+           "OUTPUT_REFINE_RANGE", "kernel_iterations"]
 
 
 @dataclass
@@ -135,6 +79,8 @@ class IDSolution:
         path: the route that produced it (:class:`wbc.tick.TickPath`): ``kernel`` (the compiled tick),
             ``general:<backend>`` (the backend on the assembled QP), ``relaxed:<backend>``
             (:meth:`InverseDynamicsQP.solve_relaxed`); None before a solve.
+        reason: why a tick left the compiled route and which step of the fallback chain answered (e.g.
+            ``kernel status ITERATION_CAP → daqp attempt``); '' on the compiled route.
     """
 
     dv: np.ndarray
@@ -144,6 +90,7 @@ class IDSolution:
     dynamics_residual: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
     path: TickPath | None = None
+    reason: str = ""
 
 
 #: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
@@ -156,8 +103,7 @@ _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: sh
 #: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
 #: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
 #: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
-_ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
-                "fast": {"primal_tol": 1e-6, "warm_start": "dual", "kernel_rows": False}}
+_ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
 
 #: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
 #: refactors its working set every iteration), with its share of the call's set-up, on the slow ticks of the ID fuzz
@@ -165,10 +111,6 @@ _ID_SETTINGS = {"daqp": {"primal_tol": 1e-6, "warm_start": "dual"},
 #: of ⌊budget / (4 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
 KERNEL_ITERATION_COST = 1.2e-4
 
-#: iteration cap of the compiled ID tick on the tick after one whose compiled call gave up (DAQP answered it): the
-#: call starts from DAQP's working set, so a tick one working-set change away from the last answer stays in the
-#: compiled tick; one that needs more is as hard as the last and goes to DAQP after this short attempt.
-KERNEL_ITERATIONS_AFTER_GIVE_UP = 2
 
 
 def kernel_iterations(budget: float) -> int:
@@ -181,59 +123,6 @@ def kernel_iterations(budget: float) -> int:
     return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
 
 
-def daqp_attempt_iterations(budget: float) -> int:
-    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
-    one (:meth:`InverseDynamicsQP._solve_backend`; when the hard set was found not empty, the attempt and that call
-    together take at most ``InverseDynamicsQP.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
-    seconds of CPU time: a third of the budget at
-    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
-    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock: the tick's answer stays a function of its inputs."""
-    if not np.isfinite(budget):
-        return ITERATION_LIMIT
-    return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
-
-
-#: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
-#: ``InverseDynamicsQP.quadprog_cost``; a humanoid's QP, ~60 variables; benchmarks/README.md)
-QUADPROG_COST = 2.5e-3
-#: variables of the QP whose quadprog solve costs :data:`QUADPROG_COST` (:func:`quadprog_work`)
-QUADPROG_SIZE = 60
-
-#: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
-#: in iterations (:attr:`InverseDynamicsQP.tick_work`)
-DAQP_CALL_WORK = 30
-#: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
-#: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
-#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
-#: several iterations.
-PROXIMAL_ITERATION_WORK = 5
-#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``, negative: used only when
-#: the Hessian is found singular; :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): after the scaling the
-#: Hessian's force-regularisation entries are ~1e-13, and DAQP's default (1e-6) dominates them, so that its proximal
-#: outer iterations (:data:`PROXIMAL_ITERATION_WORK` each) can number a large share of the call's iterations; a
-#: smaller regularisation keeps them few. The answer is checked to the backend's tolerance either way.
-SCALED_EPS_PROX = -1e-8
-
-
-def tick_work_iterations(budget: float) -> float:
-    """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
-    :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
-    iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
-    :attr:`InverseDynamicsQP.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
-    budget (nothing counted stops a stage)."""
-    return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
-
-
-def quadprog_work(n: int) -> float:
-    """Work counted for quadprog's solve of a failed ID QP of ``n`` ≥ 0 variables, in DAQP iterations (a float ≥ 0):
-    :data:`QUADPROG_COST` (s) scaled by (n / :data:`QUADPROG_SIZE`)³ (the order of its dense factorisations,
-    Goldfarb & Idnani 1983), divided by :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` (s). A count from the QP's
-    size, not a clock."""
-    return QUADPROG_COST * (n / QUADPROG_SIZE) ** 3 / DAQP_ITERATION_COST
-
-#: :func:`~wbc.formulations.idkernel.id_tick` has been loaded in this process (``_KernelBuffers._load_kernel``)
-_ID_TICK_LOADED = False
-
 
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring from its named constraints.
@@ -243,13 +132,10 @@ class InverseDynamicsQP:
         tasks: tasks with their PD references (:class:`~wbc.formulations.reference.AccelerationReference`),
             weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
-        solver: QP backend name (``fast``, the default: the compiled tick of :mod:`wbc.formulations.idkernel` —
-            assembly, Goldfarb–Idnani dual active-set solve (:func:`~wbc.solvers.active_set.dual_active_set`) and
-            torques in one call — with DAQP as fallback (the general path while the torque-limited joints are
-            not contiguous in v); ``daqp``: the general path, warm-started from the
-            previous duals, ``primal_tol`` 1e-6 (DAQP's one-shot dual warm start stops ≈ 3e-7 from the optimum on
-            this QP; the compiled tick matches quadprog to ≈ 1e-11); any other qpsolvers backend —
-            :func:`wbc.solvers.make_backend`) or a :class:`~wbc.solvers.base.QPBackend`.
+        solver: the backend of :attr:`chain`: a name (``fast``, the default: the compiled tick,
+            :mod:`wbc.formulations.id_compiled`, with DAQP's chain when it gives up; ``daqp``: DAQP warm-started from
+            the previous duals, ``primal_tol`` 1e-6; any other :func:`wbc.solvers.make_backend` name) or a
+            :class:`~wbc.solvers.base.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
         torque_limit_scale: fraction of the URDF effort limit used in (6), in (0, 1].
@@ -259,6 +145,11 @@ class InverseDynamicsQP:
     Attributes:
         constraints: every named constraint (:mod:`wbc.constraints`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
+        chain: the fallback ladder over the backend (:class:`~wbc.solvers.fallback.FallbackChain`): its budget,
+            steps and counters.
+        kernel_max_iterations: the compiled tick's iteration cap (:func:`kernel_iterations` of the controller's
+            budget; after a call that gave up, at most
+            :data:`~wbc.formulations.id_compiled.KERNEL_ITERATIONS_AFTER_GIVE_UP`).
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
@@ -275,7 +166,8 @@ class InverseDynamicsQP:
         self.robot = robot
         model = robot.model
         self.nv = nv = model.nv
-        self.backend = (make_backend(solver, **_ID_SETTINGS.get(solver, {})) if isinstance(solver, str) else solver)
+        self.chain = FallbackChain(make_backend(solver, **_ID_SETTINGS.get(solver, {})) if isinstance(solver, str)
+                                   else solver)
         self.eps_a = float(acceleration_regularization)
         self.eps_f = float(force_regularization)
         self.joint_limits = bool(joint_limits)
@@ -292,7 +184,6 @@ class InverseDynamicsQP:
             self.contacts.append(c)
         nc = len(self.contacts)
         self.n = n = nv + 12 * nc
-        # Named constraints (wbc.constraints), each with its place in the preallocated blocks.
         self.dynamics = FloatingBaseDynamics()
         self.dynamics.rows = slice(0, 6)
         self.contact_accelerations = [ContactAcceleration(c) for c in self.contacts]
@@ -300,9 +191,7 @@ class InverseDynamicsQP:
         self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.unilaterality = [Unilaterality(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
-        #: optional non-relaxable joint speed bounds kept by :meth:`solve_relaxed`
-        #: (:class:`wbc.constraints.joint_velocity.JointSpeedBounds`); None: none
-        self.joint_speed_limits = None
+        self.joint_speed_limits = None  # optional JointSpeedBounds, kept by solve_relaxed
         self.tau_max = self.torque_limits.tau_max
         self.tau_rows = self.torque_limits.joints
         r = 0
@@ -313,7 +202,6 @@ class InverseDynamicsQP:
         self.extra_constraints: list[IDConstraint] = []
         #: equality constraints added by :meth:`add_constraint` (rows after the hard tasks')
         self.extra_equalities: list[IDConstraint] = []
-        # Preallocated blocks.
         self._H = np.zeros((n, n))
         self._g = np.zeros(n)
         self._A = np.zeros((6 + 6 * nc, n))  # grown by add_task(hard=True)
@@ -330,230 +218,39 @@ class InverseDynamicsQP:
             con.written = con.key()
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         load_id_kernels()
-        self._rows = _ProblemRows(self)
+        self._rows = IDProblemRows(self)
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._kernel = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._kernel = self._new_kernel()
+        # why a tick of this QP is not on the compiled route ('' for a backend chosen by name or object)
+        self._general_reason = ("no compiled tick: torque-limited joints not contiguous in v"
+                                if solver == "fast" and self._kernel is None else "")
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
-        # verify's inputs to output_violations: friction rows, activity, results; no limited joint (relaxed)
-        self._verify_buffers = (np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_), np.zeros((2 * nc + 2, 2)))
-        self._no_joints = np.zeros(0, np.int64)
+        #: the output check of :meth:`verify`
+        self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
         self._m = 6  # equality rows of the last build
-        #: directions of the stacked active contact rows dropped at the last build
-        #: (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`; 0 for legs that can yaw the foot)
+        #: directions of the stacked active contact rows dropped at the last build (0 for legs that can yaw the foot)
         self.dependent_contact_rows = 0
-        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
-        #: failure; False by default: it costs many control periods and belongs off the control path
-        #: (:meth:`wbc.controllers.inverse_dynamics.InverseDynamicsController.diagnose`).
-        self.confirm_failures = False
-        # a user backend whose solve() predates the confirm keyword is called without it
-        self._takes_confirm: tuple = (None, False)
-        self._confirm_kw  # the backend's signature read here, not inside the first tick
+        self.chain.hard_set_x = np.zeros(n)
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
-        #: working-set iterations the compiled tick may take before DAQP answers the tick (``solver="fast"``);
-        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
-        #: (:func:`kernel_iterations`). A tick whose compiled call gave up is answered by DAQP, whose working set
-        #: warm-starts the next tick's compiled call, capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
         self.kernel_max_iterations = 100
-        #: iteration cap of the first DAQP attempt on the full QP and of the cost-scaled call after it
-        #: (both together ``SCALED_FEASIBLE_FACTOR`` times it on a hard set found not empty; :meth:`_solve_backend`,
-        #: without a clock guard; :data:`~wbc.solvers.daqp.ITERATION_LIMIT`: no cap below the backend's own);
-        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget
-        #: (:func:`daqp_attempt_iterations`).
-        self.daqp_attempt_iterations = ITERATION_LIMIT
-        #: the work of one tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``: nothing
-        #: counted stops a stage); :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` sets it from its budget.
-        #: Without a clock guard the stages after a failed full QP's first attempt start only while
-        #: :attr:`tick_work` is below their share of it (``FAILURE_WORK``, ``QUADPROG_WORK``, ``RELAXED_WORK``), each
-        #: DAQP call capped at what is left.
-        self.tick_work_iterations = math.inf
-        #: work counted in the current tick's solve, in DAQP iterations: a compiled call that gave up (its iteration
-        #: cap at :data:`KERNEL_ITERATION_COST`), every DAQP call after it, the one that answers included (its
-        #: iterations + :data:`DAQP_CALL_WORK`, + :data:`PROXIMAL_ITERATION_WORK` per proximal outer iteration; the
-        #: backend's retries at their caps, :meth:`_retry_work`),
-        #: quadprog's solves (:func:`quadprog_work`); reset by :meth:`solve`.
-        self.tick_work = 0.0
-        #: quadprog solves skipped because the tick's counted work left too little for one (:meth:`_solve_backend`,
-        #: :meth:`solve_relaxed`).
-        self.quadprog_skipped = 0
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
-        # ((id(state), dt), (l, u, lb, ub)) of the relaxed QP formed by the current solve()'s failed full QP, else None
-        self._relaxed_bounds = None
-        #: full QPs the backend found no solution to that quadprog solved, pinned variables eliminated
-        #: (:func:`wbc.solvers.independent.solve_pinned_reduced`; ``IDSolution.path`` then names ``quadprog``).
-        self.pinned_reduced_solves = 0
-        #: a backend other than DAQP reports no solution: quadprog (pinned variables eliminated), then one cold
-        #: DAQP call, are asked before the failure stands (:meth:`_solve_checked`); False: its failure stands.
-        self.second_opinion_enabled = True
-        #: the clock guard of the current tick: (CPU time ``time.thread_time`` at its start, its budget in s), or
-        #: None (default: nothing decided by a clock). Set per tick by
-        #: :class:`~wbc.controllers.inverse_dynamics.InverseDynamicsController` with ``clock_guard``; read by
-        #: :meth:`_solve_backend` and :meth:`solve_relaxed` (the deadlines ``*_DEADLINE`` of the class).
-        self.tick_clock: tuple[float, float] | None = None
-        #: failed full QPs whose backend retries were skipped past :attr:`retry_deadline`, or by the tick's counted work
-        #: (:attr:`tick_work`).
-        self.retries_skipped = 0
-        #: failed full QPs whose second opinion (the hard-set check, quadprog, the backend's retries) was skipped
-        #: because the tick reached :attr:`retry_deadline` first (clock guard).
-        self.checks_skipped = 0
-        #: failed full QPs whose hard set :func:`wbc.solvers.independent.hard_set_feasible` found empty (clock guard):
-        #: quadprog and the backend's retries, which could only fail, were skipped.
-        self.infeasible_by_check = 0
-        #: the last failed full QP's hard set was proved empty (without a clock guard: :meth:`_solve_backend` checks
-        #: the next full QP's hard set before DAQP's attempt, and skips the attempt when it is empty too).
-        self.last_set_empty = False
-        #: full QPs that the cost-scaled DAQP call solved ahead of quadprog (:meth:`_solve_backend`).
-        self.scaled_solves = 0
-        #: the current tick's check found a point of the failed full QP's hard set (the QP has a minimiser); reset by
-        #: :meth:`solve`. With :attr:`budget_cut` the tick's failure is the budget's, not the problem's.
-        self.hard_set_point = False
-        #: (n,) the point of the full hard set that check found (the projection of the origin onto the set), valid
-        #: while :attr:`hard_set_point` is True
-        self.hard_set_x = np.zeros(n)
-        #: the tick's counted work cut a failed full QP whose hard set has a point (:attr:`hard_set_point`): the next
-        #: full QP starts with the stage that had no work left, the cost-scaled DAQP call (:meth:`_resume_scaled`),
-        #: and keeps starting so while that call answers (without a clock guard).
-        self.resume_scaled = False
-        #: full QPs answered by the cost-scaled DAQP call a tick started with (:attr:`resume_scaled`).
-        self.resumed_solves = 0
-        #: full-QP answers that failed the output check (:meth:`verify`) and passed it once polished on their active
-        #: set (:meth:`wbc.solvers.base.QPBackend.polish`; :meth:`_guard_full`).
-        self.output_polished = 0
-        #: full-QP answers that failed the output check, polished or not, replaced by quadprog's (pinned variables
-        #: eliminated), which passed it (:meth:`_guard_full`; ``IDSolution.path`` then names ``quadprog``).
-        self.output_quadprog = 0
-        #: the clock guard cut a stage of the current tick's solve (a second opinion skipped, a DAQP call stopped
-        #: at its deadline); reset by :meth:`solve`.
-        self.budget_cut = False
-        #: CPU time (s) quadprog's solve of a failed full QP is expected to take (clock guard, :attr:`QUADPROG_END`):
-        #: :data:`QUADPROG_COST` until one ran, then raised at once to a solve's CPU time, lowered by
-        #: :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per cheaper solve.
-        self.quadprog_cost = QUADPROG_COST
-        #: relaxed QPs whose DAQP attempt failed and whose relaxed hard set
-        #: :func:`wbc.solvers.independent.hard_set_feasible` proved empty (the backend's retries skipped).
-        self.relaxed_infeasible_by_check = 0
-        #: the current tick's check of the relaxed hard set after its full QP failed (:meth:`_solve_backend`):
-        #: True (a point found), False (proved empty: so is the full set, and the relaxed QP is not solved), None
-        #: (not checked, or the check did not finish); reset by :meth:`solve`.
-        self.relaxed_set_feasible: bool | None = None
-        # this tick's check of the relaxed hard set ended before its iteration limit (its verdict, None included, is
-        # what the same DAQP call on the same set gives again: solve_relaxed does not repeat it); reset by solve()
-        self._relaxed_check_final = False
-        #: relaxed QPs whose DAQP calls failed on a set with a point that quadprog solved (:meth:`solve_relaxed`).
-        self.relaxed_quadprog_solves = 0
-        #: full or relaxed QPs a backend other than DAQP found no solution to that quadprog or DAQP solved.
-        self.second_opinion_solves = 0
-        self._daqp_check: DaqpBackend | None = None
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
 
-    #: clock guard (:attr:`tick_clock`): the full QP's DAQP attempt ends by this many budgets after the tick's start
-    FULL_QP_DEADLINE = 1.25
-    #: clock guard: the cheap checks of a failed full QP (:func:`wbc.solvers.independent.hard_set_feasible`, one
-    #: cost-scaled DAQP call) start only before this many budgets and end by ``CHECK_END`` (iteration limits from the
-    #: time left)
-    CHECK_DEADLINE = 1.4
-    CHECK_END = 1.55
-    #: clock guard: quadprog's solve (which cannot be stopped once started) and the backend's retries start only
-    #: before this many budgets (:attr:`retry_deadline`)
-    QUADPROG_DEADLINE = 1.2
-    #: clock guard: quadprog's solve starts only when it is expected to end by this many budgets (start + the
-    #: CPU time of its recent solves, :attr:`quadprog_cost`)
-    QUADPROG_END = 1.55
-    #: clock guard: the relaxed QP's DAQP calls (and the check of its hard set) end by this many budgets (a call
-    #: stopped there fails the tick: the safe command follows, in the budget left)
-    RELAXED_DEADLINE = 1.75
-    #: without a clock guard: on a failed full QP whose hard set was found not empty, the first attempt and the
-    #: cost-scaled DAQP call after it take at most this many times :attr:`daqp_attempt_iterations` together (the call
-    #: gets what the attempt left of that count, at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`), so that
-    #: quadprog's solve after them still ends by about twice the budget
-    SCALED_FEASIBLE_FACTOR = 2
-    #: without a clock guard: a failed full QP's checks, cost-scaled call and backend retries (each DAQP call capped at
-    #: what is left) run while :attr:`tick_work` is below this many :attr:`tick_work_iterations`
-    FAILURE_WORK = 1.0
-    #: without a clock guard: quadprog's solve of a failed full QP runs only when :attr:`tick_work` plus its count
-    #: (:func:`quadprog_work`) stays within this many :attr:`tick_work_iterations`
-    QUADPROG_WORK = 1.25
-    #: without a clock guard: the relaxed QP's calls (its first attempt, the check of its set, the backend's retries,
-    #: quadprog) run within this many :attr:`tick_work_iterations`, the first attempt with at least
-    #: :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`: the counted work of a tick stays within about this many budgets
-    RELAXED_WORK = 1.2
-    #: DAQP calls the backend's retries can make (:meth:`wbc.solvers.daqp.DaqpBackend.solve` with ``cold_retry``: the
-    #: dual-started call, the cold one, the two of its cold path): each is capped at this fraction of the work left
-    RETRY_CALLS = 4
-
-    def _counting(self) -> bool:
-        """The tick's stages are stopped by its counted work (:attr:`tick_work`): no clock guard, a finite
-        :attr:`tick_work_iterations`."""
-        return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
-
-    def _work_left(self, factor: float) -> float:
-        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` × :attr:`tick_work_iterations`
-        (``math.inf`` when nothing is counted)."""
-        return factor * self.tick_work_iterations - self.tick_work
-
-    def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
-        """:func:`wbc.solvers.independent.hard_set_check` with at most the iterations left below ``factor``
-        (:meth:`_work_left`, at most :data:`~wbc.solvers.daqp.ITERATION_LIMIT`), counted in :attr:`tick_work`;
-        None (not asked) when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left."""
-        left = self._work_left(factor)
-        if left < MIN_CALL_ITERATIONS:
-            return None
-        if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
-            self.hard_set_x = np.zeros(lb.shape)
-        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
-                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
-        self.tick_work += iterations + DAQP_CALL_WORK
-        return verdict
-
-    def _retry_iterations(self, factor: float) -> int | None:
-        """Iteration cap of each DAQP call of the backend's retries when the work is counted: the work left below
-        ``factor`` shared by :attr:`RETRY_CALLS` calls, less each call's :data:`DAQP_CALL_WORK` (the retries are
-        counted as ``RETRY_CALLS`` × (cap + ``DAQP_CALL_WORK``), :meth:`_retry_work`, so that they end within the
-        work left), at least :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is
-        counted."""
-        left = self._work_left(factor)
-        if not math.isfinite(left):
-            return None
-        return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
-
-    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer iterations
-        (those counted past ``proximal``, :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`) at
-        :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
-        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
-                + DAQP_CALL_WORK)
-
-    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the backend's retries with each DAQP call capped at ``calls`` iterations:
-        ``RETRY_CALLS`` × (``calls`` + :data:`DAQP_CALL_WORK`), and the proximal outer iterations counted past
-        ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each."""
-        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
-                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
-
     @property
-    def retry_deadline(self) -> float:
-        """CPU time (``time.thread_time``) after which a failed full QP gets no quadprog solve or backend retry
-        (:meth:`_solve_backend`): start + ``QUADPROG_DEADLINE`` × budget of :attr:`tick_clock`; ``math.inf`` without
-        a clock guard."""
-        return self._deadline(self.QUADPROG_DEADLINE)
+    def backend(self):
+        """The QP backend asked first (:attr:`chain`'s; assignable)."""
+        return self.chain.backend
 
-    def _deadline(self, factor: float) -> float:
-        """start + factor × budget of :attr:`tick_clock` (``math.inf`` without a clock guard)."""
-        clock = self.tick_clock
-        return math.inf if clock is None else clock[0] + factor * clock[1]
-
-    @property
-    def _confirm_kw(self) -> dict:
-        backend = self.backend
-        if self._takes_confirm[0] is not backend:  # a backend assigned after construction
-            self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
-        return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
+    @backend.setter
+    def backend(self, value) -> None:
+        self.chain.backend = value
 
     @property
     def braking_acceleration(self) -> float:
@@ -569,18 +266,16 @@ class InverseDynamicsQP:
 
     def add_constraint(self, constraint, *, gain: float = 10.0) -> IDConstraint:
         """Add a constraint under its name: an equality or inequality :class:`~wbc.constraints.base.IDConstraint`
-        (rows in x = [v̇; f], written by its ``write``; equality rows go after the hard tasks' in A x = b), or a
-        kinematic constraint of :mod:`wbc.constraints` with a barrier form (``ComPolygonConstraint``,
-        ``SelfCollisionConstraint``), held as :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ =
-        ``gain`` (1/s). Its rows are a gathered entry of the assembly (:meth:`_write_gathered`): the compiled tick
-        solves the QP with them as the general path does.
+        (rows in x = [v̇; f]; equality rows after the hard tasks'), or a kinematic constraint with a barrier form
+        (``ComPolygonConstraint``, ``SelfCollisionConstraint``), held as
+        :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ = ``gain`` (1/s). Its rows are a gathered entry
+        (:meth:`_write_gathered`): the compiled tick solves the QP with them.
 
         Returns:
             the ID constraint added (remove it with it, or with the kinematic constraint).
 
         Raises:
-            InvalidInputError: another kind of object (a ``bounds`` constraint, a kinematic constraint without a
-                barrier form), bad gain, or a name already in the QP.
+            InvalidInputError: another kind of object, bad gain, or a name already in the QP.
         """
         if isinstance(constraint, InequalityConstraint):
             constraint = AccelerationBarrier(constraint, gain=gain)
@@ -603,10 +298,7 @@ class InverseDynamicsQP:
 
     def remove_constraint(self, constraint) -> None:
         """Remove a constraint added by :meth:`add_constraint` (the ID constraint or the kinematic one it holds).
-
-        Raises:
-            ValueError: not in the QP.
-        """
+        Raises ValueError when it is not in the QP."""
         for con in self.extra_constraints:
             if con is constraint or getattr(con, "constraint", None) is constraint:
                 self.extra_constraints.remove(con)
@@ -617,9 +309,10 @@ class InverseDynamicsQP:
             return
         raise ValueError(f"{constraint!r} is not in the QP")
 
-    def _new_kernel(self) -> _KernelBuffers:
-        """The compiled tick's buffers (:class:`_KernelBuffers`) over this QP's gathered rows and current blocks."""
-        return _KernelBuffers(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l, self._u,
+    def _new_kernel(self) -> CompiledIDTick:
+        """The compiled tick (:class:`~wbc.formulations.id_compiled.CompiledIDTick`) over this QP's gathered rows and
+        current blocks."""
+        return CompiledIDTick(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l, self._u,
                                                  self._lb, self._ub, self._JcT))
 
     def _layout_inequalities(self) -> None:
@@ -649,20 +342,13 @@ class InverseDynamicsQP:
                 con.write(ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
                 con.written = key
 
-    # -- problem definition ----------------------------------------------------------------------------------
     def add_task(self, task: AccelerationReference | Task, *, hard: bool = False, kp: float | None = None,
                  kd: float | None = None, weight=None) -> AccelerationReference:
-        """Add a task: weighted (default) or, with ``hard=True``, held as the equality constraint ``task:<name>``
-        (:class:`~wbc.constraints.hard_task.HardTask`). ``task`` is an
-        :class:`~wbc.formulations.reference.AccelerationReference`, or a :class:`wbc.tasks.base.Task` given with
-        its reference gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight`` (then wrapped in one).
-
-        Returns:
-            the :class:`~wbc.formulations.reference.AccelerationReference` added (remove it with it).
-
-        Raises:
-            InvalidInputError: neither; a Task without ``kp``; bad gains or weights.
-        """
+        """Add a task, weighted or (``hard``) held as the equality ``task:<name>``
+        (:class:`~wbc.constraints.hard_task.HardTask`): an :class:`~wbc.formulations.reference.AccelerationReference`,
+        or a :class:`wbc.tasks.base.Task` with its gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight``.
+        Returns the reference added (remove it with it). Raises InvalidInputError: neither; a Task without ``kp``;
+        bad gains or weights."""
         if isinstance(task, Task):
             if kp is None:
                 raise InvalidInputError(f"add_task({task.name}): a Task needs its reference gain kp (1/s²)")
@@ -680,11 +366,7 @@ class InverseDynamicsQP:
         return task
 
     def remove_task(self, task: AccelerationReference) -> None:
-        """Remove an acceleration task (weighted or hard) added to the QP.
-
-        Raises:
-            ValueError: the task is not in the QP.
-        """
+        """Remove an acceleration task (weighted or hard) added to the QP. Raises ValueError when it is not in it."""
         for h in self.hard_tasks:
             if h.task is task:
                 self.hard_tasks.remove(h)
@@ -707,7 +389,6 @@ class InverseDynamicsQP:
                 return c
         raise InvalidInputError(f"no contact {name!r}; contacts: {[c.name for c in self.contacts]}")
 
-    # -- assembly --------------------------------------------------------------------------------------------
     def joint_acceleration_bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) bounds (9) on the 1-DoF joint accelerations (rad/s²), in the order of
         ``joint_acceleration_limits.iv`` (copies)."""
@@ -715,13 +396,9 @@ class InverseDynamicsQP:
         return lo.copy(), hi.copy()
 
     def build(self, state: DynamicsState, dt: float):
-        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring). Arrays are reused: the cost is
-        formed from the gathered task rows by :func:`~wbc.formulations.idkernel.task_cost` and every constraint
-        writes its block in place (the compiled bodies of the compiled tick: the same numbers bit for bit); the
-        constant blocks (force regularisation, friction rows, force bounds whose contact did not change) are not
-        rewritten. With ≥ 2 active contacts whose rows are not certified well conditioned
-        (:func:`~wbc.formulations.idkernel.contact_rows_well_conditioned`) the dependent directions are dropped
-        (:func:`~wbc.constraints.contact_acceleration.independent_contact_rows`)."""
+        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring), the preallocated arrays written
+        in place by the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every constraint — the compiled tick's
+        bodies, the same numbers bit for bit; constant blocks are not rewritten."""
         return self._build(state, dt)
 
     def _build(self, state: DynamicsState, dt: float, gathered: bool = False):
@@ -740,8 +417,7 @@ class InverseDynamicsQP:
                 con.rows = slice(i, i + con.dim)
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
                 i += con.dim
-        # ≥ 2 active contacts: (nearly) dependent directions of the stacked contact rows dropped (none when the
-        # rows are certified well conditioned, the compiled tick's test)
+        # ≥ 2 active contacts: nearly dependent directions dropped (none when certified well conditioned)
         self.dependent_contact_rows = 0
         if i > 12 and not contact_rows_well_conditioned(rows.Jc, rows.active, DEPENDENT_CONTACT_RATIO, rows.gram,
                                                         rows.gram_y):
@@ -787,15 +463,9 @@ class InverseDynamicsQP:
         return bool(self.hard_tasks or self.extra_equalities or self.extra_constraints)
 
     def _write_gathered(self, ctx: IDContext, i: int) -> int:
-        """Write the gathered constraint entries — the rows that no compiled body of the tick writes: the hard tasks'
-        and added equalities' rows of A from row ``i`` on, the added inequalities' rows of C — by their constraints'
-        ``write``. The one driver of these rows for both assemblies: :meth:`build` calls it after the contact rows,
-        the compiled tick before its call (:func:`~wbc.formulations.idkernel.id_tick` counts the equality rows,
-        ``PAR_EXTRA_ROWS``, and solves with every row). An added constraint is one more entry here.
-
-        Returns:
-            the row after the last equality row written.
-        """
+        """Write the gathered constraint entries (the rows no compiled body writes: hard tasks' and added
+        equalities' rows of A from row ``i`` on, added inequalities' rows of C) by their ``write``: the one driver of
+        these rows for both assemblies. Returns the row after the last equality row written."""
         A, b = self._A, self._b
         for con in (*self.hard_tasks, *self.extra_equalities):
             if con.enabled:
@@ -808,9 +478,8 @@ class InverseDynamicsQP:
         return i
 
     def assembled_qp(self) -> tuple | None:
-        """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or by
-        the compiled tick, :func:`~wbc.formulations.idkernel.id_tick`), the QP its solver received; None when no
-        :meth:`solve` assembled one since."""
+        """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or the
+        compiled tick), the QP its solver received; None when no :meth:`solve` assembled one since."""
         if self._assembled is None:
             return None
         m = self._m
@@ -839,13 +508,9 @@ class InverseDynamicsQP:
 
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
-        a fallback when the full QP is infeasible (MuJoCo still enforces joint limits and clamps torques); the
-        :attr:`joint_speed_limits` bounds, when set, are kept. Same returns/raises as :meth:`solve`.
-
-        ``reuse_assembly``: when the last :meth:`solve` assembled the QP at this same ``state`` object and ``dt``
-        (the failed full QP of the same tick, nothing edited since), its arrays are used instead of assembling
-        again; otherwise (or False) the QP is assembled here. With ``reuse_assembly``, a relaxed hard set that this
-        tick's failed full QP proved empty (:attr:`relaxed_set_feasible` False) raises SolverError at once."""
+        the :attr:`joint_speed_limits` bounds kept (:meth:`wbc.solvers.fallback.FallbackChain.solve_relaxed`). Same
+        returns/raises as :meth:`solve`. ``reuse_assembly``: the arrays of this tick's failed full QP at this same
+        ``state`` object and ``dt`` are reused (and a relaxed hard set it proved empty raises at once)."""
         t0 = perf_counter()
         if reuse_assembly and self._assembled == (id(state), dt):
             m = self._m
@@ -853,551 +518,72 @@ class InverseDynamicsQP:
                                            self._lb, self._ub)
         else:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        reused = self._relaxed_bounds
-        if reuse_assembly and reused is not None and reused[0] == (id(state), dt) == self._assembled:
-            l, u, lb, ub = reused[1]  # this tick's failed full QP formed them for its check of the relaxed hard set
+        same_tick = reuse_assembly and self._assembled == (id(state), dt)
+        reused = self.chain.relaxed_bounds
+        if same_tick and reused is not None:
+            l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
         else:
             l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
-            self._relaxed_check_final = False  # a set formed here: the full QP's check was not of it
         t1 = perf_counter()
-        if self.relaxed_set_feasible is False and reuse_assembly and self._assembled == (id(state), dt):
-            self.relaxed_infeasible_by_check += 1
-            raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
-                              "after the full QP failed): no relaxed solve")
-        if isinstance(self.backend, DaqpBackend):
-            x, solver = self._solve_relaxed_daqp(H, g, A, b, C, l, u, lb, ub)
-        else:
-            x, solver = self._solve_checked(H, g, A, b, C, l, u, lb, ub)
+        x, solver, step = self.chain.solve_relaxed(QPData(H, g, A, b, C, l, u, lb, ub), same_tick=same_tick,
+                                                   formed=not (same_tick and reused is not None))
         t2 = perf_counter()
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
         sol.path = TickPath("relaxed", solver)
-        self._guard(state, sol, relaxed=True)
+        sol.reason = f"full QP failed → relaxed QP, {step}"
+        self.last_violations = viol = self.verify(state, sol, relaxed=True)
+        if viol:
+            raise _output_check_error(sol, viol)
         return sol
 
-    def _solve_relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
-        """The relaxed QP by a DAQP backend: one attempt (``cold_retry`` off); when it fails, the relaxed hard set
-        is checked (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin
-        onto it; not again when the full QP's failure checked it): a set proved empty ends the solve, otherwise the
-        backend's retries run (the calls of :meth:`wbc.solvers.base.QPBackend.solve` after its first), and when they
-        fail on a set in which the check found a point, quadprog with the pinned variables and the equalities
-        eliminated (:func:`wbc.solvers.independent.solve_pinned_reduced`). With a clock guard every DAQP call ends by
-        ``RELAXED_DEADLINE`` budgets (iteration limits from the CPU time left) and quadprog starts only when
-        :attr:`quadprog_cost` ends by then. Without one, under a finite :attr:`tick_work_iterations`, the first
-        attempt gets at most the work left below ``RELAXED_WORK`` (less its :data:`DAQP_CALL_WORK`; at least
-        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`) iterations and the stages after it share what it leaves
-        (:attr:`tick_work`: the check at most what is left, each retry call a ``RETRY_CALLS``-th of it, quadprog only
-        when :func:`quadprog_work` fits).
-
-        Returns:
-            (x (n,), name of the solver that answered: the backend's or ``quadprog``).
-
-        Raises:
-            SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
-                call stopped at the tick's deadline).
-        """
-        backend = self.backend
-        end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
-        counting = self._counting()
-        retry = backend.cold_retry
-        backend.deadline = end
-        try:
-            backend.cold_retry = False
-            if counting:  # the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
-                backend.call_iterations = max(MIN_CALL_ITERATIONS, int(min(
-                    self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
-            proximal = backend.proximal_iterations
-            try:
-                return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-            except SolverError as exc:
-                first = exc
-            finally:
-                backend.cold_retry = retry
-                backend.call_iterations = None
-                self.tick_work += self._call_work(backend, proximal)
-            if counting:
-                left = self._work_left(self.RELAXED_WORK)
-            else:
-                left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
-            if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless the full QP's failure already checked it to a verdict (a check that
-                # ended undecided before its iteration limit is not asked again: the same call gives the same)
-                feasible = self.relaxed_set_feasible
-                if feasible is None and not self._relaxed_check_final and counting:
-                    feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
-                elif feasible is None and not self._relaxed_check_final:
-                    feasible = hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
-                                              iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0]
-                if feasible is False:
-                    self.relaxed_infeasible_by_check += 1
-                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
-                                      f"onto it): the backend's retries skipped")
-                if not retry:
-                    raise first
-                calls = self._retry_iterations(self.RELAXED_WORK) if counting else None
-                if calls is not None and self._work_left(self.RELAXED_WORK) < MIN_CALL_ITERATIONS:
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
-                                      f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
-                backend.call_iterations = calls
-                proximal = backend.proximal_iterations
-                try:
-                    return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-                except SolverError as exc:
-                    if backend.budget_capped or feasible is not True:
-                        raise
-                    first = exc
-                finally:
-                    backend.call_iterations = None
-                    if calls is not None:
-                        self.tick_work += self._retry_work(backend, calls, proximal)
-                # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
-                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
-                # counted, its work fits below RELAXED_WORK
-                if thread_time() + self.quadprog_cost > end:
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
-                work = quadprog_work(H.shape[0])
-                if counting and work > self._work_left(self.RELAXED_WORK):
-                    self.quadprog_skipped += 1
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: the tick's counted work "
-                                      f"({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) would "
-                                      f"pass {self.RELAXED_WORK} budgets")
-                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-                self.tick_work += work
-                if x is None:
-                    raise SolverError(f"{first}; quadprog found no solution either")
-                self.relaxed_quadprog_solves += 1
-                return x, "quadprog"
-        except SolverError as exc:
-            if backend.budget_capped:
-                self.budget_cut = True
-                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
-            raise
-        finally:
-            backend.deadline = math.inf
-        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
-        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
-                          f"the relaxed hard-set check and the backend's retries)")
-
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Build and solve the QP at ``state`` for control period ``dt`` (s). The solution passes the output check
-        (:meth:`verify`); a backend's answer that fails it by at most :data:`OUTPUT_REFINE_RANGE` (relative) is first
-        polished on its active set, else replaced by quadprog's solve of the same QP (path ``general:quadprog``), and
-        the first that passes is returned.
+        """Build and solve the QP at ``state`` for control period ``dt`` (s): the compiled tick, else
+        :attr:`chain`. The solution passes the output check (:meth:`verify`; :meth:`_guard_full` refines an answer off
+        by the solver's precision).
 
         Returns:
-            :class:`IDSolution`.
+            :class:`IDSolution` (``path``, and ``reason`` when the compiled route did not answer).
 
         Raises:
             InvalidInputError: dt not finite and > 0.
-            SolverError: the backend failed, or no answer passes the output check (each row and bound to the backend's
-                tolerance, 1e-6 for the default backends, times max(1, |bound|); :meth:`verify`).
+            SolverError: no step of the chain found a solution, or none passes the output check.
         """
         if not (np.isfinite(dt) and dt > 0):
             raise InvalidInputError(f"dt must be finite and > 0 (s), got {dt!r}")
         self.last_violations = []
         self._assembled = None
-        self._relaxed_bounds = None
-        self.budget_cut = False
-        self.hard_set_point = False
-        self.relaxed_set_feasible = None
-        self._relaxed_check_final = False
-        self.tick_work = 0.0
+        self.chain.begin_tick()
         if self._kernel is not None:
             return self._solve_kernel(state, dt)
         t0 = perf_counter()
-        H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        qp = QPData(*self.build(state, dt))
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
+        return self._solve_general(state, dt, qp, t0, self._general_reason)
+
+    def _solve_general(self, state: DynamicsState, dt: float, qp: QPData, t0: float, why: str,
+                       answered=None) -> IDSolution:
+        """The assembled full QP ``qp`` through :attr:`chain` (route ``general``), its answer checked by
+        :meth:`_guard_full`; ``why`` the tick is not on the compiled route (its ``reason``, with the chain's step);
+        ``answered(x, solver)`` is called with the chain's answer before the check."""
         t1 = perf_counter()
-        x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
-        t2 = perf_counter()
-        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
+        x, solver, step = self.chain.solve(qp, lambda l, u, lb, ub: self._relaxed_set(state, dt, l, u, lb, ub))
+        if answered is not None:
+            answered(x, solver)
+        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
         sol.path = TickPath("general", solver)
-        return self._guard_full(state, sol, (H, g, A, b, C, l, u, lb, ub))
-
-    def _solve_backend(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
-                       dt: float = 0.0) -> tuple[np.ndarray, str]:
-        """:meth:`_backend_stages`, started by the stages the last tick's counted work cut on a full QP whose hard set
-        has a point (:attr:`resume_scaled`): the cost-scaled DAQP call (:meth:`_resume_scaled`), then quadprog's solve
-        when its count (:func:`quadprog_work`) fits below ``QUADPROG_WORK`` budgets; a failure cut so sets it for the
-        next tick."""
-        backend = self.backend
-        if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
-            x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
-            if x is not None:
-                return x, backend.name
-            # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
-            work = quadprog_work(H.shape[0])
-            if work <= self._work_left(self.QUADPROG_WORK):
-                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-                self.tick_work += work
-                if x is not None:
-                    self.pinned_reduced_solves += 1
-                    self.resume_scaled = True  # the next ticks resume the same way
-                    return x, "quadprog"
-        try:
-            return self._backend_stages(H, g, A, b, C, l, u, lb, ub, state, dt)
-        except SolverError:
-            self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
-            raise
-
-    def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """The first stage of a full QP after a tick whose counted work cut one with a point in its hard set
-        (:attr:`resume_scaled`): one cost-scaled DAQP call (:meth:`_solve_scaled`) of at most
-        ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations` iterations (what a set found not empty gives the
-        attempt and this call together; the attempt is not made), counted in :attr:`tick_work`. A DAQP attempt that fails by its count
-        on a feasible set is most often an ill-scaled cost (|g| ~ 1e6: a stiff task gain), which the scaled call solves
-        in tens of iterations; ill-scaled in one tick, the cost stays so in the next ones, which start the same way
-        while the call answers. Its checked x, or None (and :attr:`resume_scaled` cleared: the tick goes on with
-        :meth:`_backend_stages`)."""
-        proximal = backend.proximal_iterations
-        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
-        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
-        self.tick_work += self._call_work(backend, proximal)
-        if x is None:
-            self.resume_scaled = False
-        else:
-            self.resumed_solves += 1
-        return x
-
-    def _backend_stages(self, H, g, A, b, C, l, u, lb, ub, state: DynamicsState | None = None,
-                        dt: float = 0.0) -> tuple[np.ndarray, str]:
-        """The backend's solve of the assembled full QP (not the relaxed one: its failure costs a fallback tick no
-        extra solve), and the name of the solver that answered. A DAQP backend (:class:`wbc.solvers.daqp.DaqpBackend`,
-        also the compiled tick's fallback) gets one attempt (``cold_retry`` off), then the QP is solved by quadprog with
-        its pinned variables (lb = ub: the forces of a released foot) eliminated
-        (:func:`wbc.solvers.independent.solve_pinned_reduced`): DAQP was seen to report such QPs infeasible where
-        quadprog solves them (a released foot; a controller's first tick). When quadprog finds no solution either, the
-        backend gets its retries: quadprog's infeasibility certificate is not final, it was seen on a feasible G1
-        landing QP (Hessian conditioned ~1e10) that DAQP's cold retry solved, and ending there sent the landing to the
-        relaxed QP with its torques clipped.
-
-        Without a clock guard the first attempt gets at most :attr:`daqp_attempt_iterations` iterations (the
-        controller's budget as a count, :func:`daqp_attempt_iterations`); when it fails (a verdict or the count),
-        :func:`wbc.solvers.independent.hard_set_feasible` checks the full hard set (:meth:`_check_hard_sets`): a point
-        found, the relaxed set is not checked; otherwise, given the tick's ``state`` and ``dt``, the relaxed hard set
-        (:meth:`solve_relaxed`'s, :attr:`relaxed_set_feasible`) is checked — empty, it proves the full set empty too
-        and the failure stands (the relaxed QP is then not solved) — and a full set proved empty ends the solve
-        (quadprog and the retries could only fail). Then one cost-scaled DAQP call
-        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`, the same minimiser with the cost divided by
-        max(1, |g|∞, |H|max)) of at most :attr:`daqp_attempt_iterations` iterations — on a set found not empty, what
-        the attempt left of ``SCALED_FEASIBLE_FACTOR`` times that —, before quadprog (pinned variables and equalities
-        eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`), then the backend's retries. Every stage after
-        the attempt is counted in :attr:`tick_work` (DAQP iterations) against :attr:`tick_work_iterations`: the checks,
-        the cost-scaled call and each of the retries' calls (a ``RETRY_CALLS``-th) get at most what is left below
-        ``FAILURE_WORK`` budgets (not asked when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left);
-        quadprog's solve, which cannot be stopped once started, runs only when its count (:func:`quadprog_work`) fits
-        below ``QUADPROG_WORK`` budgets, else it and the retries after it are skipped (:attr:`budget_cut`,
-        :attr:`quadprog_skipped`). A count, not a clock: the tick's answer stays a function of its inputs and budget.
-
-        With a clock guard (:attr:`tick_clock`) the failure path is ordered by cost and stopped by the clock: the
-        DAQP calls end by ``FULL_QP_DEADLINE`` budgets (iteration limits from the CPU time left,
-        :attr:`wbc.solvers.daqp.DaqpBackend.deadline`); past ``CHECK_DEADLINE`` budgets the failure stands at once (no
-        second opinion, :attr:`budget_cut`); before it, :func:`wbc.solvers.independent.hard_set_feasible` (one DAQP call
-        on the projection of the origin onto the hard set, a fraction of quadprog's cost) is asked first: a set it
-        proves empty ends the solve (quadprog and the retries could only fail); otherwise one cost-scaled DAQP call
-        (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`; before the check when the attempt was stopped by its
-        deadline rather than reporting infeasibility), then quadprog and the retries as without the guard, each started
-        only before :attr:`retry_deadline` (the checks before ``CHECK_DEADLINE`` budgets, ending by ``CHECK_END``;
-        quadprog only when start + :attr:`quadprog_cost` ≤ ``QUADPROG_END`` budgets); given ``state``, the relaxed
-        hard set is checked first (:meth:`_check_relaxed_set`), before ``CHECK_DEADLINE`` budgets.
-
-        Raises:
-            SolverError: the backend's, when no solver found a solution.
-        """
-        backend = self.backend
-        if not isinstance(backend, DaqpBackend):
-            return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
-        guarded = self.tick_clock is not None
-        known = None  # the full hard set's check before DAQP's attempt, when made
-        checked = False
-        if not guarded and self.last_set_empty:
-            # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
-            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
-            self.last_set_empty = False
-            known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
-            checked = True
-            if known is False:
-                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
-                                      backend, A, b, C, l, u, lb, ub, state, dt, known, checked=True)
-        retry = backend.cold_retry
-        backend.cold_retry = False
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
-        # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
-        cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
-        backend.call_iterations = cap
-        proximal = backend.proximal_iterations
-        try:
-            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-        except SolverError as exc:
-            first = exc
-            attempted = backend.last_iterations  # the attempt's DAQP iterations
-            if backend.budget_capped:
-                self.budget_cut = True
-        finally:
-            backend.cold_retry = retry
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            self.tick_work += self._call_work(backend, proximal)
-        if not guarded:
-            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, state, dt, known,
-                                             checked=checked)
-            if cap is not None:
-                # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
-                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
-                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap;
-                # at most the tick's counted work left
-                scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
-                              else cap)
-                left = self._work_left(self.FAILURE_WORK)
-                if left < MIN_CALL_ITERATIONS:
-                    self.budget_cut = True
-                else:
-                    proximal = backend.proximal_iterations
-                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
-                    self.tick_work += self._call_work(backend, proximal)
-                    if x is not None:
-                        return x, backend.name
-        elif state is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
-            # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
-            # failing tick's one check); not empty, the full set is checked next (below)
-            left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
-            self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt,
-                                    max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
-        if guarded:
-            if thread_time() >= self._deadline(self.CHECK_DEADLINE):
-                self.checks_skipped += 1
-                self.budget_cut = True
-                raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
-                                  f"tick budget spent (clock guard)")
-            end = self._deadline(self.CHECK_END)
-            # an attempt stopped at its deadline (not a verdict: e.g. a cold solve with |g| ~ 1e6 that needs ~1000
-            # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
-            # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
-            capped = backend.budget_capped
-            for step in (("scaled", "check") if capped else ("check", "scaled")):
-                if thread_time() >= self._deadline(self.CHECK_DEADLINE):
-                    break  # no time for the second step: the failure stands (below)
-                if step == "check":
-                    left = (end - thread_time()) / backend.iteration_cost
-                    if hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
-                                      iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0] is False:
-                        self.infeasible_by_check += 1
-                        raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
-                                          f"it): quadprog and the backend's retries skipped (clock guard)")
-                    continue
-                # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
-                # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
-                backend.deadline = end
-                try:
-                    x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
-                finally:
-                    backend.deadline = math.inf
-                if x is not None:
-                    self.scaled_solves += 1
-                    return x, backend.name
-            if thread_time() >= self.retry_deadline:
-                self.checks_skipped += 1
-                self.budget_cut = True
-                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
-                                  f"quadprog solve or retry: tick budget spent (clock guard)")
-            if thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
-                self.checks_skipped += 1
-                self.budget_cut = True
-                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
-                                  f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
-                                  f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
-        work = quadprog_work(H.shape[0])
-        skipped = not guarded and work > self._work_left(self.QUADPROG_WORK)
-        if skipped:
-            # the tick's counted work leaves too little for quadprog's solve (which cannot be stopped once started)
-            self.quadprog_skipped += 1
-            self.budget_cut = True
-            quadprog = (f"no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP iterations) and "
-                        f"quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets")
-        else:
-            c0 = thread_time()
-            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-            self.tick_work += work
-            if guarded:
-                cost = thread_time() - c0
-                self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-            if x is not None:
-                self.pinned_reduced_solves += 1
-                return x, "quadprog"
-            quadprog = "quadprog found no solution either"
-        if skipped:
-            # the backend's retries (up to RETRY_CALLS DAQP calls) come after quadprog: the count that had no room for
-            # quadprog has none for them (they answer a quadprog failure: its certificate is not final)
-            self.retries_skipped += int(retry)
-            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
-        if not retry:
-            raise first
-        if thread_time() >= self.retry_deadline:
-            self.retries_skipped += 1
-            self.budget_cut = True
-            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: tick budget spent (clock guard)")
-        calls = None if guarded else self._retry_iterations(self.FAILURE_WORK)
-        if calls is not None and self._work_left(self.FAILURE_WORK) < MIN_CALL_ITERATIONS:
-            self.retries_skipped += 1
-            self.budget_cut = True
-            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
-                              f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
-        backend.call_iterations = calls
-        proximal = backend.proximal_iterations
-        try:
-            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-        except SolverError:
-            if backend.budget_capped or backend.iterations_capped:
-                self.budget_cut = True
-            raise
-        finally:
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            if calls is not None:
-                self.tick_work += self._retry_work(backend, calls, proximal)
-
-    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                         state: DynamicsState | None, dt: float, full: bool | None = None, *,
-                         checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP without a clock guard
-        (:func:`wbc.solvers.independent.hard_set_feasible`, one DAQP call on the projection of the origin onto a set):
-        the full hard set first — a point found, the relaxed set is not checked (the QP has a minimiser: the relaxed
-        QP is needed only if every solver misses it, and :meth:`solve_relaxed` checks its set then) — else, given the
-        tick's ``state``, the relaxed hard set (:meth:`_check_relaxed_set`). ``checked``: the full set was checked
-        already this tick, its verdict ``full`` (True, False or None: not checked again). Each check gets at most the
-        iterations left below ``FAILURE_WORK`` (:meth:`_set_check`; not asked when too few are left). A set proved
-        empty sets :attr:`last_set_empty`.
-
-        Returns:
-            True when a point of the full hard set was found, else False (not proved empty).
-
-        Raises:
-            SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
-        """
-        if not checked:
-            full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
-        if full is True:
-            self.hard_set_point = True
-            return True
-        self.last_set_empty = full is False
-        left = self._work_left(self.FAILURE_WORK)
-        if state is not None and left >= MIN_CALL_ITERATIONS:
-            try:
-                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, state, dt,
-                                        int(min(left, ITERATION_LIMIT)))
-            except SolverError:
-                self.last_set_empty = True
-                raise
-        if full is False:
-            self.infeasible_by_check += 1
-            raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
-                              f"quadprog and the backend's retries skipped")
-        return False
-
-    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                           state: DynamicsState, dt: float, iter_limit: int) -> None:
-        """Check the relaxed hard set of a failed full QP (:meth:`solve_relaxed`'s, at most ``iter_limit`` DAQP
-        iterations): sets :attr:`relaxed_set_feasible` and keeps the relaxed bounds for
-        ``solve_relaxed(reuse_assembly=True)``.
-
-        Raises:
-            SolverError: ``first`` extended, when the relaxed set is proved empty: so is the full one, and the relaxed
-                QP is not solved.
-        """
-        relaxed = self._relaxed_set(state, dt, l, u, lb, ub)
-        self._relaxed_bounds = ((id(state), dt), relaxed)  # solve_relaxed(reuse_assembly=True) reuses them
-        self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
-                                                               iter_limit=iter_limit)
-        self._relaxed_check_final = iterations < iter_limit
-        self.tick_work += iterations + DAQP_CALL_WORK
-        if self.relaxed_set_feasible is False:
-            self.infeasible_by_check += 1
-            raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
-                              f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
-
-    def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
-        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
-        backend.call_iterations = cap
-        try:
-            x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
-        finally:
-            backend.call_iterations = None
-        if x is not None:
-            self.scaled_solves += 1
-        return x
-
-    def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> tuple[np.ndarray, str]:
-        """A backend other than DAQP (e.g. ProxQP) on the assembled QP (full or relaxed). When a
-        :class:`wbc.solvers.base.QPBackend` reports no solution, two active-set solvers are asked before the failure
-        stands (:attr:`second_opinion_enabled`, :func:`wbc.solvers.independent.second_opinion`): quadprog with the
-        pinned variables eliminated, then one cold DAQP call (an object with only a ``solve`` method: its failure
-        stands). Either answer is returned only when it meets every row to the backend's tolerance (the check of
-        :meth:`wbc.solvers.base.QPBackend.solve`). A proximal/ADMM method's infeasibility test (ProxQP: a primal
-        residual that stops decreasing against ``eps_primal_inf``) fires on feasible QPs whose equality rows are nearly
-        dependent (two soles on legs without hip yaw); an active-set solver's answer is exact on them.
-
-        Returns:
-            (x (n,), name of the solver that answered).
-
-        Raises:
-            SolverError: the backend's, when no solver found a solution.
-        """
-        backend = self.backend
-        try:
-            return backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name
-        except SolverError as exc:
-            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
-                raise
-            first = exc
-        work = backend.work
-        if work is not None:
-            work.solves += 1  # the quadprog solve
-        if self._daqp_check is None:
-            self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **_ID_SETTINGS["daqp"])
-            self._daqp_check.cold_retry = False
-        self._daqp_check.work = work
-        x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, backend.tolerance, daqp_backend=self._daqp_check)
-        if x is None:
-            raise first
-        self.second_opinion_solves += 1
-        return x, solver
+        sol.reason = f"{why} → {solver} {step}" if why else ""
+        return self._guard_full(state, sol, qp)
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
         feed-forward are not finite — e.g. a target or weight array written in place with a NaN."""
-        out = []
-        for ref in (*self.tasks, *(h.task for h in self.hard_tasks)):
-            ff = ref.feedforward_acceleration
-            if not (np.isfinite(ref.last_error).all() and np.isfinite(ref.weight).all()
-                    and (ff is None or np.isfinite(ff).all())):
-                out.append((f"task:{ref.name}", float("nan")))
-        return out
-
-    def _guard(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False) -> None:
-        """Raise SolverError (naming the constraints, :attr:`last_violations`) when :meth:`verify` finds any."""
-        self.last_violations = viol = self.verify(state, sol, relaxed=relaxed)
-        if viol:
-            raise _output_check_error(sol, viol)
+        return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
     def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
-        """:meth:`_guard` of a full-QP answer of the backend (route ``general``), given the QP it solved
-        ``qp`` = (H, g, A, b, C, l, u, lb, ub): an answer that fails the output check is first refined — polished on
-        its active set (:meth:`wbc.solvers.base.QPBackend.polish`: the bounds and rows it meets or crosses held
-        exactly, the smallest correction of the other entries), then, failing that, replaced by quadprog's solve
-        (pinned variables eliminated, :func:`wbc.solvers.independent.solve_pinned_reduced`; the next route) — and the
-        first candidate that passes :meth:`verify` is returned. The backend's check measures a row against the size
-        of its terms (:meth:`wbc.solvers.base.QPBackend.scaled_violation`), the output check a bound against
-        max(1, |bound|): a torque row whose terms are large against its limit (an ill-conditioned cost's error in the
-        solver's answer) can pass the first and fail the second. Only an answer within :data:`OUTPUT_REFINE_RANGE`
-        of the output check (every violation at most that times its scale) is refined: one further off is not an
-        error of the solver's precision (a solver's bug), and its tick fails. With a clock guard (:attr:`tick_clock`)
-        the refinement starts only before :attr:`retry_deadline`, quadprog only when it is expected to end by
-        ``QUADPROG_END`` budgets; without one, quadprog only when its count (:func:`quadprog_work`) fits below
-        ``QUADPROG_WORK`` budgets of :attr:`tick_work`, as in the failure path.
+        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails the
+        output check by at most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose
+        terms are large against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished,
+        else quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
 
         Returns:
             ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
@@ -1408,8 +594,9 @@ class InverseDynamicsQP:
         """
         viol = self.verify(state, sol)
         if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=OUTPUT_REFINE_RANGE)
-                and thread_time() < self.retry_deadline):
-            refined = self._refined(state, sol, qp)
+                and thread_time() < self.chain.retry_deadline):
+            refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp,
+                                        lambda x, solver: self._candidate(state, sol, x, solver), sol.path.solver)
             if refined is not None:
                 self.last_violations = []
                 return refined
@@ -1418,125 +605,53 @@ class InverseDynamicsQP:
             raise _output_check_error(sol, viol)
         return sol
 
-    def _refined(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution | None:
-        """The candidates of :meth:`_guard_full` in turn: the first that passes :meth:`verify`, or None."""
-        H, g, A, b, C, l, u, lb, ub = qp
-        x = np.concatenate((sol.dv, sol.forces))
-        backend = self.backend
-        if isinstance(backend, QPBackend):
-            if backend.work is not None:
-                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
-            xp = backend.polish(x, A, b, C, l, u, lb, ub)
-            if xp is not None:
-                cand = self.solution_from(state, xp, timings=sol.timings)
-                cand.path = sol.path
-                if not self.verify(state, cand):
-                    self.output_polished += 1
-                    return cand
-        if sol.path.solver == "quadprog" or thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
-            return None
-        work = quadprog_work(H.shape[0])
-        if self._counting() and work > self._work_left(self.QUADPROG_WORK):
-            # the same counted gate as the failure path's quadprog (:meth:`_solve_backend`)
-            self.quadprog_skipped += 1
-            self.budget_cut = True
-            return None
-        xq = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-        self.tick_work += work
-        if xq is None:
-            return None
-        cand = self.solution_from(state, xq, timings=sol.timings)
-        cand.path = TickPath("general", "quadprog")
-        if self.verify(state, cand):
-            return None
-        self.output_quadprog += 1
-        return cand
+    def _candidate(self, state: DynamicsState, sol: IDSolution, x: np.ndarray, solver: str | None):
+        """The solution of a refined candidate ``x`` of ``sol`` (``solver``: the one that gave it, None: ``sol``'s
+        polished) when it passes :meth:`verify`, else None."""
+        cand = self.solution_from(state, x, timings=sol.timings)
+        cand.path = sol.path if solver is None else TickPath("general", solver)
+        cand.reason = f"{sol.reason or 'output check'} → {'polished' if solver is None else solver}"
+        return None if self.verify(state, cand) else cand
 
     def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
-        """Output check of a solution against the hard constraints of the last assembly at ``state``, independent
-        of the solver that produced it: every entry finite; corner normal forces within their bounds
-        (``unilaterality:<c>``, N); the friction pyramids (``friction:<c>``, N); the torque limits
-        (``torque_limits``, N·m; skipped when ``relaxed``: the controller clips the relaxed torques); the
-        floating-base rows of the equations of motion (``floating_base_dynamics``, N, N·m). Each violation is
-        measured in the constraint's units and compared with ``tol`` times the row's scale (max(1, |bound|) for a
-        bound; for a friction row max(1, |f_t| + μ/√2 |f_z|), the size of its terms; the largest |h_u| entry), the
-        scaling of :meth:`wbc.solvers.base.QPBackend.scaled_violation` (a solution the solver accepted is not
-        rejected for a tolerance measured on another scale).
-
-        Args:
-            state: the state the solution was computed at. sol: the solution. relaxed: the torque limits were
-                dropped. tol: relative tolerance (default the backend's ``tolerance``).
+        """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.id_output_check.IDOutputCheck`), at
+        relative tolerance ``tol`` (default the backend's); the torque limits skipped when ``relaxed`` (the
+        controller clips the relaxed torques).
 
         Returns:
             [(constraint name, violation in its units)], largest scaled first; empty when the solution passes.
-            A non-finite solution gives ``("non_finite_command", nan)`` followed by every task whose error is
-            not finite (``task:<name>``, nan), e.g. a target written in place with a NaN.
+            A non-finite solution gives ``("non_finite_command", nan)`` followed by :meth:`nonfinite_inputs`.
         """
-        tol = self.backend.tolerance if tol is None else float(tol)
-        contacts = self.contacts
-        friction, active, out = self._verify_buffers
-        for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
-            friction[k] = c.friction_matrix
-            active[k] = c.active
-        nv = self.nv
-        tl = self.torque_limits
-        joints = self._no_joints if relaxed or not self.tau_rows.size else tl.joints
-        status = output_violations(sol.dv, sol.forces, sol.tau, self._lb[nv:], self._ub[nv:], friction, active,
-                                   joints, tl.limits, float(sol.dynamics_residual), state.h, tol, out)
-        if status < 0:
-            return [("non_finite_command", float("nan")), *self.nonfinite_inputs()]
-        if status == 0:
-            return []
-        found = []  # (scaled, name, violation)
-        for k, c in enumerate(contacts):
-            if out[2 * k, 0] > tol:
-                found.append((float(out[2 * k, 0]), f"unilaterality:{c.name}", float(out[2 * k, 1])))
-            if out[2 * k + 1, 0] > tol:
-                found.append((float(out[2 * k + 1, 0]), f"friction:{c.name}", float(out[2 * k + 1, 1])))
-        nc = len(contacts)
-        if out[2 * nc, 0] > tol:
-            found.append((float(out[2 * nc, 0]), "torque_limits", float(out[2 * nc, 1])))
-        if out[2 * nc + 1, 0] > tol:
-            found.append((float(out[2 * nc + 1, 0]), "floating_base_dynamics", float(out[2 * nc + 1, 1])))
-        found.sort(key=lambda item: -item[0])
-        return [(name, v) for _, name, v in found]
+        found = self.output_check.violations(state.h, sol, self.backend.tolerance if tol is None else float(tol),
+                                             relaxed)
+        return [("non_finite_command", float("nan")), *self.nonfinite_inputs()] if found is None else found
 
     def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
-        """:meth:`solve` through :func:`wbc.formulations.idkernel.id_tick` (same QP, compiled assembly and solve);
-        a kernel call that does not end in a KKT point within tolerance goes to the backend (DAQP)."""
+        """:meth:`solve` through the compiled tick (:class:`~wbc.formulations.id_compiled.CompiledIDTick`: the same
+        QP, compiled assembly and solve); a call that does not end in a KKT point within tolerance, or whose answer
+        fails :meth:`verify`, hands the assembled arrays to :attr:`chain`."""
         t0 = perf_counter()
         kb = self._kernel
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
-        par = kb.par  # settings read every tick, as the general path does
-        par[PAR_EPS_A] = self.eps_a
-        par[PAR_BRAKING] = self.joint_acceleration_limits.braking_acceleration
-        par[PAR_JOINT_LIMITS] = self.joint_limits
-        par[PAR_SPEED_HORIZON] = self.joint_acceleration_limits.speed_horizon
+        extra = 0
         if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
             m0 = 6 + 6 * int(np.count_nonzero(rows.active))
-            par[PAR_EXTRA_ROWS] = self._write_gathered(self._context(state, dt), m0) - m0
-        else:
-            par[PAR_EXTRA_ROWS] = 0.0
-        # after a give-up the call starts from DAQP's working set, one answer away: a short attempt
-        cap = self.kernel_max_iterations
-        par[PAR_MAX_ITER] = min(cap, KERNEL_ITERATIONS_AFTER_GIVE_UP) if kb.gave_up else cap
-        kb.gave_up = False
+            extra = self._write_gathered(self._context(state, dt), m0) - m0
+        jl = self.joint_acceleration_limits
         ta = perf_counter()
-        it, m = id_tick(rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *kb.tail)
+        it, m = kb.solve(rows, IDDynamics(state.M, state.h, state.q, state.v, dt),
+                         (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon), extra,
+                         self.kernel_max_iterations)
         self.dependent_contact_rows = 0
         if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
             kb.state[:] = 0
             kb.rstate[:] = 0
-            H, g, A, b, C, l, u, lb, ub = self._build(state, dt, gathered=True)  # the rows gathered above
+            qp = QPData(*self._build(state, dt, gathered=True))  # the rows gathered above
             self._assembled = (id(state), dt)
-            t1 = perf_counter()
-            x, solver = self._solve_backend(H, g, A, b, C, l, u, lb, ub, state, dt)
-            sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
-            sol.path = TickPath("general", solver)
-            return self._guard_full(state, sol, (H, g, A, b, C, l, u, lb, ub))
+            return self._solve_general(state, dt, qp, t0, "kernel: dependent contact rows")
         self._m = m
         self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
         t1 = perf_counter()
@@ -1553,43 +668,24 @@ class InverseDynamicsQP:
                 kb.solves += 1
                 return sol
             kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
-        kb.fallbacks += 1
-        kb.gave_up = True
-        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
-        self.tick_work += par[PAR_MAX_ITER] * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
-        kb.state[:] = 0
-        kb.rstate[:] = 0
-        x, solver = self._solve_backend(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                        self._lb, self._ub, state, dt)
-        # the kernel's next call starts from the working set of the backend's solution: DAQP's multipliers (bounds,
-        # equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one), else the active bounds
-        lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
-        n, p = self.n, self._C.shape[0]
-        if lam is not None and len(lam) == n + m + p:
-            lam = np.asarray(lam)
-            kb.state[:] = np.sign(lam[:n])
-            kb.rstate[:] = np.sign(lam[n + m:])
+            why = f"kernel answer fails the output check ({self.last_violations[0][0]})"
         else:
-            lb, ub = self._lb, self._ub
-            lo, hi = np.isfinite(lb), np.isfinite(ub)  # an infinite bound is never active
-            kb.state[lo & (x <= np.where(lo, lb, 0.0) + 1e-9 * np.maximum(1.0, np.abs(np.where(lo, lb, 0.0))))] = -1
-            kb.state[hi & (x >= np.where(hi, ub, 0.0) - 1e-9 * np.maximum(1.0, np.abs(np.where(hi, ub, 0.0))))] = 1
-        t2 = perf_counter()
-        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("general", solver)
-        return self._guard_full(state, sol, (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                             self._lb, self._ub))
+            why = kb.status_text(it, kb.residual[0])
+        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
+        self.chain.tick_work += kb.give_up() * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
+        qp = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub)
+
+        def warm(x, solver):  # the next call starts from the working set of the chain's answer
+            lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
+            kb.warm(x, lam, m, self._lb, self._ub)
+
+        return self._solve_general(state, dt, qp, t0, why, warm)
 
     def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
                  tol: float = 1e-6) -> list[tuple[str, float]]:
-        """Names of the hard constraints that conflict at ``state``, with their violation (constraint units),
-        largest first (:func:`wbc.solvers.diagnosis.diagnose`: slack-relaxed least-squares solve of the hard set).
-        Empty when the hard set is feasible.
-
-        Args:
-            include_relaxable: False: diagnose the set without torque and joint limits (the relaxed QP).
-            tol: smallest violation reported.
-        """
+        """Names of the hard constraints that conflict at ``state`` with their violation (constraint units, at least
+        ``tol``), largest first (:func:`wbc.solvers.diagnosis.diagnose`); empty when the hard set is feasible.
+        ``include_relaxable`` False: the set without torque and joint limits (the relaxed QP)."""
         H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
         if not include_relaxable:
             l, u, lb, ub = self._relax(l, u, lb, ub)
@@ -1627,180 +723,8 @@ class InverseDynamicsQP:
         """(nv, 12 n_c) J_cᵀ = [J_kᵀ G_k]_k of the last build (maps corner forces to generalized forces)."""
         return self._JcT
 
-    def check_solution(self, state: DynamicsState, sol: IDSolution) -> dict[str, float]:
-        """Margins of a solution (≥ 0 when satisfied, in constraint units) — used by tests and logs.
-
-        Returns:
-            ``friction`` (N, min over corners of μ/√2 f_z − |f_t|), ``normal`` (N, min f_z − min(f_min, f_max)
-            over active corners), ``torque`` (N·m, min τ_max − |τ| over limited joints), ``cop`` (m, min distance of each
-            loaded foot's CoP to the sole edges).
-        """
-        out = {"friction": np.inf, "normal": np.inf, "torque": np.inf, "cop": np.inf}
-        for k, c in enumerate(self.contacts):
-            if not c.active:
-                continue
-            f = sol.forces[12 * k:12 * k + 12].reshape(4, 3)
-            mu_in = c.mu / np.sqrt(2.0)
-            out["friction"] = min(out["friction"], float(np.min(mu_in * f[:, 2:3] - np.abs(f[:, :2]))))
-            out["normal"] = min(out["normal"], float(np.min(f[:, 2] - c.normal_force_bounds[0])))
-            cop = c.cop(sol.forces[12 * k:12 * k + 12])
-            if cop is not None:
-                x0, x1, y0, y1 = c.support
-                out["cop"] = min(out["cop"], float(min(cop[0] - x0, x1 - cop[0], cop[1] - y0, y1 - cop[1])))
-        if self.tau_rows.size:
-            out["torque"] = float(np.min(self.tau_max[self.tau_rows] - np.abs(sol.tau[self.tau_rows])))
-        return out
-
 
 def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> SolverError:
     """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
     return SolverError(f"{sol.path} returned a command that fails the output check: "
                        + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
-
-
-def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
-    """Write a feed-forward term (ė_ff or ä_ff, (m,)) into its row of R: ``ff``, or zeros if None. Returns whether
-    the row now holds zeros."""
-    if ff is None:
-        row.fill(0.0)
-        return True
-    row[:] = ff
-    return False
-
-
-class _ProblemRows:
-    """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
-    assemblies read (:meth:`InverseDynamicsQP.build` through the constraints' ``write`` and the compiled tick
-    :func:`~wbc.formulations.idkernel.id_tick`): the task rows of
-    :func:`~wbc.formulations.idkernel.task_cost` (J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w; re-laid out only when the task
-    list changes) and the contact data (LOCAL sole Jacobians, corner maps, −J̇v − K_p e, K_d, activity, sole
-    rotations)."""
-
-    def __init__(self, qp: InverseDynamicsQP):
-        nv, nc = qp.nv, len(qp.contacts)
-        self.names = [c.name for c in qp.contacts]
-        # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
-        self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
-        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
-        self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
-        self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = IDContactData(self.cbuf, self.active)
-        self.Hw = np.zeros((nv, nv))  # task_cost workspace
-        self.gw = np.zeros(nv)
-        self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
-        self.gram_y = np.zeros(6 * nc)
-        self.layout: tuple | None = None  # none yet: InverseDynamicsQP lays the task rows out at construction
-        self.entries: list = []
-        self.tasks: tuple = ()
-        self._rotations: tuple = (None, [])
-
-    def relayout(self, qp: InverseDynamicsQP) -> None:
-        """Lay the task rows out for ``qp.tasks`` (dense rows first, then the posture rows)."""
-        dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
-        posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
-        mt = sum(t.dim for t in dense)
-        mp = sum(t.dim for t in posture)
-        self.Jt = np.zeros((mt, qp.nv))
-        self.R = np.zeros((7, mt + mp))
-        pidx = [t.task.rows for t in posture]
-        self.pidx = np.concatenate(pidx).astype(np.int64) if pidx else np.zeros(0, np.int64)
-        self.entries = []
-        k = 0
-        for ref in dense + posture:
-            s = slice(k, k + ref.dim)
-            # reference, its task, dense rows?, views of its J rows, e, ė_ff, J̇v, ä_ff, weights; its columns of R;
-            # the (Kp, Kd) last written there; whether its ė_ff and ä_ff columns hold zeros
-            self.entries.append([ref, ref.task, k < mt, self.Jt[s], self.R[R_ERROR, s], self.R[R_ERROR_RATE_FF, s],
-                                 self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
-            ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
-            k += ref.dim
-        self.tasks = IDTaskRows(self.Jt, self.R, self.pidx, np.zeros(mt + mp))
-        self.layout = tuple(map(id, qp.tasks))
-
-    def gather(self, qp: InverseDynamicsQP, state: DynamicsState) -> None:
-        """Task rows and contact data of this tick into the buffers (no validation: the tasks and contacts
-        validated their targets when they were set)."""
-        if tuple(map(id, qp.tasks)) != self.layout:
-            self.relayout(qp)
-        R = self.R
-        for ent in self.entries:
-            ref, task, dense, J, e, eff, drift, aff, w, s, gains, eff_zero, aff_zero = ent
-            if dense:
-                task.compute_with_drift_into(state, e, J, drift)
-            else:
-                e[:] = task.compute(state)[0]
-                drift[:] = task.drift(state)
-            ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
-            if ff is not None or not eff_zero:
-                ent[11] = _write_feedforward(eff, ff)
-            ff = ref.feedforward_acceleration
-            if ff is not None or not aff_zero:
-                ent[12] = _write_feedforward(aff, ff)
-            w[:] = ref.weight
-            kp, kd = ref.kp, ref.kd
-            if gains is None or gains[0] != kp or gains[1] != kd:
-                R[R_KP, s] = kp
-                R[R_KD, s] = kd
-                ent[10] = (kp, kd)
-        data = state.kinematics_data  # each contact's frame placed by its jacobian below, before its rotation is read
-        if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
-            self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
-        rotations = self._rotations[1]
-        for i, c in enumerate(qp.contacts):
-            self.Jc[i] = c.jacobian(state)
-            self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
-            a = c.active
-            self.active[i] = a
-            if a:
-                self.cdrift[i] = c.acceleration_offset(state)
-                self.ckd[i] = c.kd
-                self.Rc[i] = rotations[i]
-
-
-class _KernelBuffers:
-    """Preallocated solver state, outputs and workspace of :func:`wbc.formulations.idkernel.id_tick` for one QP, and
-    its argument tuple after the gathered rows (:class:`_ProblemRows`): ``rows`` the QP's gathered rows, ``blocks``
-    its (H, g, A, b, C, l, u, lb, ub, JcT) arrays (:meth:`InverseDynamicsQP._new_kernel`)."""
-
-    def __init__(self, qp: InverseDynamicsQP, rows: _ProblemRows, blocks: tuple[np.ndarray, ...]):
-        nv, n, nc = qp.nv, qp.n, len(qp.contacts)
-        tl = qp.torque_limits
-        jl = qp.joint_acceleration_limits
-        self.par = np.array([qp.eps_a, jl.braking_acceleration, float(qp.joint_limits), 100.0,
-                             DEPENDENT_CONTACT_RATIO, jl.speed_horizon, 0.0])
-        p = blocks[4].shape[0]  # C (p, n): the inequality rows
-        buffers = id_tick_buffers(n, nv, p, nc, jl.dim, blocks[2].shape[0])  # A (me, n): room for every equality row
-        self.state, self.rstate = buffers[0][:n], buffers[0][n:]  # the working set, views of the kernel's buffer
-        self.residual, self.tau, self.wrench, self.x = tick_outputs(buffers[-1], nv, nc)
-        idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
-        # id_tick's arguments after the tick's rows and dynamics: (IDLimits, IDArrays, IDTickBuffers)
-        self.tail = (IDLimits(idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax), IDArrays(*blocks),
-                     IDTickBuffers(*buffers))
-        self.solves = 0
-        self.fallbacks = 0
-        self.rejected = 0
-        #: the last call did not end in a solution: the next one is capped at KERNEL_ITERATIONS_AFTER_GIVE_UP
-        self.gave_up = False
-        self._load_kernel(qp, rows)
-
-    def _load_kernel(self, qp: InverseDynamicsQP, rows: _ProblemRows) -> None:
-        """Load :func:`~wbc.formulations.idkernel.id_tick` here, at construction, not inside the first tick: once per
-        process, one call on these buffers at a neutral state (M = I in the column-major order of a
-        :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer it writes
-        restored afterwards (the first tick starts exactly as without this call)."""
-        global _ID_TICK_LOADED
-        if _ID_TICK_LOADED:
-            return
-        if rows.layout is None:
-            rows.relayout(qp)
-        nv = qp.nv
-        arrays = [a for a in (*rows.tasks, *rows.contacts, *(x for t in self.tail for x in t))
-                  if isinstance(a, np.ndarray)]
-        saved = [a.copy() for a in arrays]
-        try:
-            id_tick(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), qp.robot.q_ref.copy(),
-                                           np.zeros(nv), 0.002), rows.contacts, *self.tail)
-            _ID_TICK_LOADED = True
-        finally:
-            for a, a0 in zip(arrays, saved):
-                np.copyto(a, a0)

@@ -1,4 +1,4 @@
-"""The data of one QP as a formulation hands it to a solver (:class:`QPData`):
+"""The data of one QP as a formulation hands it to a solver (:class:`QPData`), and a solver's answer (:class:`QPSolution`):
 
     min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
 
@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["QPData"]
+__all__ = ["QPData", "QPSolution"]
 
 
 class QPData(NamedTuple):
@@ -35,3 +35,18 @@ class QPData(NamedTuple):
     u: np.ndarray
     lb: np.ndarray
     ub: np.ndarray
+
+
+class QPSolution(NamedTuple):
+    """A solver's answer to one :class:`QPData`; unpacks as ``x, solver, step``.
+
+    Attributes:
+        x: (n,) the minimiser.
+        solver: name of the solver that produced it (e.g. ``daqp``, ``quadprog``).
+        step: the step of a :class:`~wbc.solvers.fallback.FallbackChain` that answered (e.g. ``attempt``,
+            ``scaled call``, ``quadprog``, ``retries``, ``second opinion``); ``attempt`` for a backend's own answer.
+    """
+
+    x: np.ndarray
+    solver: str
+    step: str = "attempt"

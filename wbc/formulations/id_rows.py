@@ -1,0 +1,116 @@
+"""The per-tick inputs of the inverse-dynamics QP, gathered once per tick (:class:`IDProblemRows`): the task rows
+(J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w) and the contact data (sole Jacobians, corner maps, eq. 5's right-hand side,
+activity, sole rotations), in the stacked buffers that both assemblies read — the formulation's constraints
+(:meth:`wbc.formulations.acceleration.InverseDynamicsQP.build`) and the compiled tick
+(:mod:`wbc.formulations.id_compiled`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.formulations.idkernel import (IDContactData, IDTaskRows, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD,
+                                       R_KP, R_WEIGHT, contact_views)
+from wbc.state import DynamicsState
+from wbc.tasks.posture import PostureTask
+
+__all__ = ["IDProblemRows"]
+
+
+def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
+    """Write a feed-forward term (ė_ff or ä_ff, (m,)) into its row of R: ``ff``, or zeros if None. Returns whether
+    the row now holds zeros."""
+    if ff is None:
+        row.fill(0.0)
+        return True
+    row[:] = ff
+    return False
+
+
+class IDProblemRows:
+    """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
+    assemblies read (``InverseDynamicsQP.build`` through the constraints' ``write`` and the compiled tick
+    :func:`~wbc.formulations.idkernel.id_tick`): the task rows of
+    :func:`~wbc.formulations.idkernel.task_cost` (J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w; re-laid out only when the task
+    list changes) and the contact data (LOCAL sole Jacobians, corner maps, −J̇v − K_p e, K_d, activity, sole
+    rotations). ``qp``: the :class:`~wbc.formulations.acceleration.InverseDynamicsQP` (its nv, contacts, tasks)."""
+
+    def __init__(self, qp):
+        nv, nc = qp.nv, len(qp.contacts)
+        self.names = [c.name for c in qp.contacts]
+        # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
+        self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
+        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
+        self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
+        self.active = np.zeros(nc, dtype=np.bool_)
+        self.contacts = IDContactData(self.cbuf, self.active)
+        self.Hw = np.zeros((nv, nv))  # task_cost workspace
+        self.gw = np.zeros(nv)
+        self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
+        self.gram_y = np.zeros(6 * nc)
+        self.layout: tuple | None = None  # none yet: InverseDynamicsQP lays the task rows out at construction
+        self.entries: list = []
+        self.tasks: tuple = ()
+        self._rotations: tuple = (None, [])
+
+    def relayout(self, qp) -> None:
+        """Lay the task rows out for ``qp.tasks`` (dense rows first, then the posture rows)."""
+        dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
+        posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
+        mt = sum(t.dim for t in dense)
+        mp = sum(t.dim for t in posture)
+        self.Jt = np.zeros((mt, qp.nv))
+        self.R = np.zeros((7, mt + mp))
+        pidx = [t.task.rows for t in posture]
+        self.pidx = np.concatenate(pidx).astype(np.int64) if pidx else np.zeros(0, np.int64)
+        self.entries = []
+        k = 0
+        for ref in dense + posture:
+            s = slice(k, k + ref.dim)
+            # reference, its task, dense rows?, views of its J rows, e, ė_ff, J̇v, ä_ff, weights; its columns of R;
+            # the (Kp, Kd) last written there; whether its ė_ff and ä_ff columns hold zeros
+            self.entries.append([ref, ref.task, k < mt, self.Jt[s], self.R[R_ERROR, s], self.R[R_ERROR_RATE_FF, s],
+                                 self.R[R_DRIFT, s], self.R[R_ACC_FF, s], self.R[R_WEIGHT, s], s, None, True, True])
+            ref.last_error = self.R[R_ERROR, s]  # a view, rewritten every tick
+            k += ref.dim
+        self.tasks = IDTaskRows(self.Jt, self.R, self.pidx, np.zeros(mt + mp))
+        self.layout = tuple(map(id, qp.tasks))
+
+    def gather(self, qp, state: DynamicsState) -> None:
+        """Task rows and contact data of this tick into the buffers (no validation: the tasks and contacts
+        validated their targets when they were set)."""
+        if tuple(map(id, qp.tasks)) != self.layout:
+            self.relayout(qp)
+        R = self.R
+        for ent in self.entries:
+            ref, task, dense, J, e, eff, drift, aff, w, s, gains, eff_zero, aff_zero = ent
+            if dense:
+                task.compute_with_drift_into(state, e, J, drift)
+            else:
+                e[:] = task.compute(state)[0]
+                drift[:] = task.drift(state)
+            ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
+            if ff is not None or not eff_zero:
+                ent[11] = _write_feedforward(eff, ff)
+            ff = ref.feedforward_acceleration
+            if ff is not None or not aff_zero:
+                ent[12] = _write_feedforward(aff, ff)
+            w[:] = ref.weight
+            kp, kd = ref.kp, ref.kd
+            if gains is None or gains[0] != kp or gains[1] != kd:
+                R[R_KP, s] = kp
+                R[R_KD, s] = kd
+                ent[10] = (kp, kd)
+        data = state.kinematics_data  # each contact's frame placed by its jacobian below, before its rotation is read
+        if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
+            self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
+        rotations = self._rotations[1]
+        for i, c in enumerate(qp.contacts):
+            self.Jc[i] = c.jacobian(state)
+            self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
+            a = c.active
+            self.active[i] = a
+            if a:
+                self.cdrift[i] = c.acceleration_offset(state)
+                self.ckd[i] = c.kd
+                self.Rc[i] = rotations[i]

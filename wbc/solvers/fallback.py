@@ -1,0 +1,700 @@
+"""The fallback ladder of a QP (:class:`FallbackChain`): which solver is asked after which, and under what rules.
+
+A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its backend and, when
+the backend finds no solution, the next steps in order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that
+names the solver and the step that answered. For a DAQP backend (``daqp``, and ``fast``, whose fallback is DAQP):
+
+1. the **attempt**: one DAQP call (cold retry off), its iterations capped by the tick's budget;
+2. the **hard-set checks**: one DAQP call on the projection of the origin onto the hard set (and onto the relaxed hard
+   set): a set proved empty ends the ladder (every later step could only fail);
+3. the **scaled call**: one DAQP call with the cost divided by max(1, |g|∞, |H|max) (an ill-scaled cost);
+4. **quadprog** with the pinned variables and equality rows eliminated
+   (:func:`wbc.solvers.independent.solve_pinned_reduced`);
+5. the backend's **retries** (its cold calls).
+
+A tick whose counted work cut step 3 or 4 on a set with a point resumes at them on the next tick (**resumed scaled
+call**, **resumed quadprog**). Any other backend gets a **second opinion** (quadprog, then one cold DAQP call,
+:func:`wbc.solvers.independent.second_opinion`). An answer that fails the caller's output check by the solver's
+precision is **refined** (:meth:`FallbackChain.refine`: polished on its active set, else quadprog's). The relaxed QP
+(the caller's relaxable rows dropped) has its own shorter ladder (:meth:`FallbackChain.solve_relaxed`).
+
+Every step after the attempt is bounded by the tick's counted work (:attr:`FallbackChain.tick_work`, in DAQP
+iterations, against :attr:`FallbackChain.tick_work_iterations`) or, with a clock guard, by the CPU time
+(:attr:`FallbackChain.tick_clock`): a count keeps the answer a function of the tick's inputs. The rules, the
+factors and their measurements: docs/inverse-dynamics-controller.md, "The fallback chain".
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from time import thread_time
+from typing import Callable
+
+import numpy as np
+
+from wbc.exceptions import SolverError
+from wbc.solvers.base import QPBackend
+from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
+                              DaqpBackend)
+from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
+from wbc.solvers.qp_data import QPData, QPSolution
+
+__all__ = ["DAQP_CALL_WORK", "FallbackChain", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST", "QUADPROG_SIZE",
+           "SCALED_EPS_PROX", "daqp_attempt_iterations", "quadprog_work", "tick_work_iterations"]
+
+#: DAQP settings of a chain built by name: primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking
+#: problems, FIELD_NOTES); the dual warm start, faster than DAQP's persistent workspace on inequality-heavy QPs.
+DAQP_SETTINGS = {"primal_tol": 1e-6, "warm_start": "dual"}
+
+
+def daqp_attempt_iterations(budget: float) -> int:
+    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
+    one (:meth:`FallbackChain.solve`; when the hard set was found not empty, the attempt and that call
+    together take at most ``FallbackChain.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
+    seconds of CPU time: a third of the budget at
+    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
+    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock."""
+    if not np.isfinite(budget):
+        return ITERATION_LIMIT
+    return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
+
+
+#: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
+#: :attr:`FallbackChain.quadprog_cost`; a humanoid's QP, ~60 variables; benchmarks/README.md)
+QUADPROG_COST = 2.5e-3
+#: variables of the QP whose quadprog solve costs :data:`QUADPROG_COST` (:func:`quadprog_work`)
+QUADPROG_SIZE = 60
+
+#: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
+#: in iterations (:attr:`FallbackChain.tick_work`)
+DAQP_CALL_WORK = 30
+#: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
+#: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
+#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
+#: several iterations.
+PROXIMAL_ITERATION_WORK = 5
+#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``, negative: used only when
+#: the Hessian is found singular; :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): after the scaling the
+#: Hessian's force-regularisation entries are ~1e-13, and DAQP's default (1e-6) dominates them, so that its proximal
+#: outer iterations (:data:`PROXIMAL_ITERATION_WORK` each) can number a large share of the call's iterations; a
+#: smaller regularisation keeps them few. The answer is checked to the backend's tolerance either way.
+SCALED_EPS_PROX = -1e-8
+
+
+def tick_work_iterations(budget: float) -> float:
+    """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
+    :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
+    iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
+    :attr:`FallbackChain.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
+    budget (nothing counted stops a stage)."""
+    return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
+
+
+def quadprog_work(n: int) -> float:
+    """Work counted for quadprog's solve of a failed ID QP of ``n`` ≥ 0 variables, in DAQP iterations (a float ≥ 0):
+    :data:`QUADPROG_COST` (s) scaled by (n / :data:`QUADPROG_SIZE`)³ (the order of its dense factorisations,
+    Goldfarb & Idnani 1983), divided by :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` (s). A count from the QP's
+    size, not a clock."""
+    return QUADPROG_COST * (n / QUADPROG_SIZE) ** 3 / DAQP_ITERATION_COST
+
+
+
+class FallbackChain:
+    """The fallback ladder (module docstring) over one backend, with its per-tick budget and counters.
+
+    Args:
+        backend: the backend asked first (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
+            method; its failure then stands).
+
+    Attributes (the tick's budget, set by the controller):
+        tick_work_iterations: the tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``).
+        daqp_attempt_iterations: iteration cap of the attempt and the scaled call (:func:`daqp_attempt_iterations`).
+        tick_clock: (CPU time ``time.thread_time`` at the tick's start, budget in s), or None: no clock guard.
+        tick_work: work counted in the current tick, in DAQP iterations (reset by :meth:`begin_tick`).
+
+    Attributes (the current tick's findings, reset by :meth:`begin_tick`):
+        budget_cut: the counted work or the clock cut a step. hard_set_point: a check found a point of the full hard
+        set, ``hard_set_x`` (n,). relaxed_set_feasible: the relaxed hard set's verdict (True, False, None: not
+        checked). relaxed_bounds: (l, u, lb, ub) of the relaxed QP formed by that check, else None.
+
+    Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
+    ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
+    ``output_quadprog``, ``quadprog_skipped``, ``retries_skipped``, ``checks_skipped``, ``infeasible_by_check``,
+    ``relaxed_infeasible_by_check``.
+    """
+
+    def __init__(self, backend):
+        self.backend = backend
+        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
+        #: failure; False by default: it costs many control periods and belongs off the control path
+        self.confirm_failures = False
+        self._takes_confirm: tuple = (None, False)
+        self._confirm_kw  # the backend's signature read here, not inside the first tick
+        #: a backend other than DAQP reports no solution: quadprog, then one cold DAQP call, are asked
+        self.second_opinion_enabled = True
+        self.daqp_attempt_iterations = ITERATION_LIMIT
+        self.tick_work_iterations = math.inf
+        self.tick_clock: tuple[float, float] | None = None
+        #: CPU time (s) quadprog's solve is expected to take (clock guard): :data:`QUADPROG_COST` until one ran, then
+        #: raised at once to a solve's CPU time, lowered by :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per
+        #: cheaper one
+        self.quadprog_cost = QUADPROG_COST
+        #: the last failed full QP's hard set was proved empty: the next full QP's is checked before the attempt
+        self.last_set_empty = False
+        #: the counted work cut a failed full QP whose hard set has a point: the next full QP starts with the
+        #: scaled call (:meth:`_resume_scaled`), and keeps starting so while that call answers
+        self.resume_scaled = False
+        self.hard_set_x = np.zeros(0)
+        for name in ("scaled_solves", "resumed_solves", "pinned_reduced_solves", "relaxed_quadprog_solves",
+                     "second_opinion_solves", "output_polished", "output_quadprog", "quadprog_skipped",
+                     "retries_skipped", "checks_skipped", "infeasible_by_check", "relaxed_infeasible_by_check"):
+            setattr(self, name, 0)
+        self._daqp_check: DaqpBackend | None = None
+        self.begin_tick()
+
+    def begin_tick(self) -> None:
+        """Reset the current tick's work and findings (class docstring)."""
+        self.tick_work = 0.0
+        self.budget_cut = False
+        self.hard_set_point = False
+        self.relaxed_set_feasible: bool | None = None
+        self.relaxed_bounds: tuple | None = None
+        # this tick's check of the relaxed hard set ended before its iteration limit (its verdict is what the same
+        # DAQP call on the same set gives again: solve_relaxed does not repeat it)
+        self._relaxed_check_final = False
+
+    def solve_relaxed(self, qp: QPData, *, same_tick: bool = False, formed: bool = True) -> QPSolution:
+        """The relaxed QP ``qp`` (the caller dropped its relaxable rows). ``same_tick``: it is the relaxed QP of this
+        tick's failed full QP (a relaxed hard set that tick proved empty raises at once); ``formed``: its bounds were
+        formed by the caller, not taken from :attr:`relaxed_bounds` (so an earlier check was not of them).
+
+        Raises:
+            SolverError: no step found a solution.
+        """
+        if formed:
+            self._relaxed_check_final = False
+        if same_tick and self.relaxed_set_feasible is False:
+            self.relaxed_infeasible_by_check += 1
+            raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
+                              "after the full QP failed): no relaxed solve")
+        if isinstance(self.backend, DaqpBackend):
+            return self._relaxed_daqp(*qp)
+        return self._solve_checked(*qp)
+
+    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain").
+    #: clock guard: the attempt ends by this many budgets after the tick's start
+    FULL_QP_DEADLINE = 1.25
+    #: clock guard: the hard-set check and the scaled call start before this many budgets, end by ``CHECK_END``
+    CHECK_DEADLINE = 1.4
+    CHECK_END = 1.55
+    #: clock guard: quadprog and the retries start before this many budgets (:attr:`retry_deadline`), quadprog only
+    #: when expected (:attr:`quadprog_cost`) to end by ``QUADPROG_END``
+    QUADPROG_DEADLINE = 1.2
+    QUADPROG_END = 1.55
+    #: clock guard: the relaxed QP's calls end by this many budgets
+    RELAXED_DEADLINE = 1.75
+    #: counted: the attempt and the scaled call on a set found not empty take this many attempt caps together
+    SCALED_FEASIBLE_FACTOR = 2
+    #: counted: the checks, the scaled call and the retries run below this many budgets of :attr:`tick_work`
+    FAILURE_WORK = 1.0
+    #: counted: quadprog runs only when its count (:func:`quadprog_work`) fits below this many budgets
+    QUADPROG_WORK = 1.25
+    #: counted: the relaxed QP's calls run below this many budgets
+    RELAXED_WORK = 1.2
+    #: DAQP calls of the backend's retries (each capped at this fraction of the work left)
+    RETRY_CALLS = 4
+
+    def _counting(self) -> bool:
+        """The tick's stages are stopped by its counted work (:attr:`tick_work`): no clock guard, a finite
+        :attr:`tick_work_iterations`."""
+        return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
+
+    def _work_left(self, factor: float) -> float:
+        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` × :attr:`tick_work_iterations`
+        (``math.inf`` when nothing is counted)."""
+        return factor * self.tick_work_iterations - self.tick_work
+
+    def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
+        """:func:`wbc.solvers.independent.hard_set_check` with at most the iterations left below ``factor``
+        (:meth:`_work_left`, at most :data:`~wbc.solvers.daqp.ITERATION_LIMIT`), counted in :attr:`tick_work`;
+        None (not asked) when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left."""
+        left = self._work_left(factor)
+        if left < MIN_CALL_ITERATIONS:
+            return None
+        if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
+            self.hard_set_x = np.zeros(lb.shape)
+        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
+                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
+        self.tick_work += iterations + DAQP_CALL_WORK
+        return verdict
+
+    def _retry_iterations(self, factor: float) -> int | None:
+        """Iteration cap of each retry call when the work is counted: the work left below ``factor`` shared by
+        :attr:`RETRY_CALLS` calls less each call's :data:`DAQP_CALL_WORK`, at least
+        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is counted."""
+        left = self._work_left(factor)
+        if not math.isfinite(left):
+            return None
+        return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
+
+    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
+        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer
+        iterations past ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
+                + DAQP_CALL_WORK)
+
+    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
+        """Work counted for the retries with each call capped at ``calls``: ``RETRY_CALLS`` × (``calls`` +
+        :data:`DAQP_CALL_WORK`), plus the proximal outer iterations past ``proximal``."""
+        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
+
+    @property
+    def retry_deadline(self) -> float:
+        """CPU time after which a failed full QP gets no quadprog solve or retry: start + ``QUADPROG_DEADLINE``
+        × budget of :attr:`tick_clock`; ``math.inf`` without a clock guard."""
+        return self._deadline(self.QUADPROG_DEADLINE)
+
+    def _deadline(self, factor: float) -> float:
+        """start + factor × budget of :attr:`tick_clock` (``math.inf`` without a clock guard)."""
+        clock = self.tick_clock
+        return math.inf if clock is None else clock[0] + factor * clock[1]
+
+    @property
+    def _confirm_kw(self) -> dict:
+        backend = self.backend
+        if self._takes_confirm[0] is not backend:  # a backend assigned after construction
+            self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
+        return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
+
+    def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
+        """The relaxed QP by a DAQP backend: one attempt; on failure the relaxed hard set is checked (unless the
+        full QP's failure checked it to a verdict): empty, the solve ends; otherwise the backend's retries, then, on a
+        set with a point, quadprog (pinned variables and equalities eliminated). The calls end by
+        ``RELAXED_DEADLINE`` budgets (clock guard) or within ``RELAXED_WORK`` budgets of counted work.
+
+        Raises:
+            SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
+                call stopped at the tick's deadline).
+        """
+        backend = self.backend
+        end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
+        counting = self._counting()
+        retry = backend.cold_retry
+        backend.deadline = end
+        try:
+            backend.cold_retry = False
+            if counting:  # the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
+                backend.call_iterations = max(MIN_CALL_ITERATIONS, int(min(
+                    self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
+            proximal = backend.proximal_iterations
+            try:
+                return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
+                                  "attempt")
+            except SolverError as exc:
+                first = exc
+            finally:
+                backend.cold_retry = retry
+                backend.call_iterations = None
+                self.tick_work += self._call_work(backend, proximal)
+            if counting:
+                left = self._work_left(self.RELAXED_WORK)
+            else:
+                left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
+            if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
+                # the relaxed hard set, unless the full QP's failure already checked it to a verdict (a check that
+                # ended undecided before its iteration limit is not asked again: the same call gives the same)
+                feasible = self.relaxed_set_feasible
+                if feasible is None and not self._relaxed_check_final and counting:
+                    feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
+                elif feasible is None and not self._relaxed_check_final:
+                    feasible = hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
+                                              iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0]
+                if feasible is False:
+                    self.relaxed_infeasible_by_check += 1
+                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
+                                      f"onto it): the backend's retries skipped")
+                if not retry:
+                    raise first
+                calls = self._retry_iterations(self.RELAXED_WORK) if counting else None
+                if calls is not None and self._work_left(self.RELAXED_WORK) < MIN_CALL_ITERATIONS:
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
+                                      f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
+                backend.call_iterations = calls
+                proximal = backend.proximal_iterations
+                try:
+                    return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
+                                      "retries")
+                except SolverError as exc:
+                    if backend.budget_capped or feasible is not True:
+                        raise
+                    first = exc
+                finally:
+                    backend.call_iterations = None
+                    if calls is not None:
+                        self.tick_work += self._retry_work(backend, calls, proximal)
+                # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
+                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
+                # counted, its work fits below RELAXED_WORK
+                if thread_time() + self.quadprog_cost > end:
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
+                work = quadprog_work(H.shape[0])
+                if counting and work > self._work_left(self.RELAXED_WORK):
+                    self.quadprog_skipped += 1
+                    self.budget_cut = True
+                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: the tick's counted work "
+                                      f"({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) would "
+                                      f"pass {self.RELAXED_WORK} budgets")
+                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                self.tick_work += work
+                if x is None:
+                    raise SolverError(f"{first}; quadprog found no solution either")
+                self.relaxed_quadprog_solves += 1
+                return QPSolution(x, "quadprog", "quadprog")
+        except SolverError as exc:
+            if backend.budget_capped:
+                self.budget_cut = True
+                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
+            raise
+        finally:
+            backend.deadline = math.inf
+        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
+        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
+                          f"the relaxed hard-set check and the backend's retries)")
+
+    def solve(self, qp: QPData, relax: Callable | None = None) -> QPSolution:
+        """The full QP ``qp`` through the ladder (module docstring); after a tick whose counted work cut a QP whose
+        hard set has a point (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits.
+        ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP (for the check of its hard set).
+
+        Raises:
+            SolverError: no step found a solution (the message says why the ladder ended).
+        """
+        H, g, A, b, C, l, u, lb, ub = qp
+        backend = self.backend
+        if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
+            x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
+            if x is not None:
+                return QPSolution(x, backend.name, "resumed scaled call")
+            # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
+            work = quadprog_work(H.shape[0])
+            if work <= self._work_left(self.QUADPROG_WORK):
+                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+                self.tick_work += work
+                if x is not None:
+                    self.pinned_reduced_solves += 1
+                    self.resume_scaled = True  # the next ticks resume the same way
+                    return QPSolution(x, "quadprog", "resumed quadprog")
+        try:
+            return self._stages(H, g, A, b, C, l, u, lb, ub, relax)
+        except SolverError:
+            self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
+            raise
+
+    def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
+        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations`
+        iterations (an ill-scaled cost, |g| ~ 1e6, stays so over the next ticks). Its checked x, or None (and
+        :attr:`resume_scaled` cleared)."""
+        proximal = backend.proximal_iterations
+        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
+        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
+        self.tick_work += self._call_work(backend, proximal)
+        if x is None:
+            self.resume_scaled = False
+        else:
+            self.resumed_solves += 1
+        return x
+
+    def _stages(self, H, g, A, b, C, l, u, lb, ub, relax: Callable | None) -> QPSolution:
+        """The ladder of the module docstring on the full QP (docs/inverse-dynamics-controller.md, "The fallback
+        chain": the order, and why each step is there). Without a clock guard every step after the attempt is counted
+        in :attr:`tick_work` against ``FAILURE_WORK`` (quadprog: ``QUADPROG_WORK``) budgets; with one
+        (:attr:`tick_clock`) the steps are ordered by cost and started only before their deadlines (``*_DEADLINE``,
+        ``*_END``), the hard-set check first unless the attempt stopped at its deadline. ``relax`` forms the relaxed
+        bounds for the check of the relaxed hard set (None: not checked).
+
+        Raises:
+            SolverError: the backend's, extended with why the ladder ended, when no step found a solution.
+        """
+        backend = self.backend
+        if not isinstance(backend, DaqpBackend):
+            return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
+        guarded = self.tick_clock is not None
+        known = None  # the full hard set's check before DAQP's attempt, when made
+        checked = False
+        if not guarded and self.last_set_empty:
+            # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
+            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
+            self.last_set_empty = False
+            known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
+            checked = True
+            if known is False:
+                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
+                                      backend, A, b, C, l, u, lb, ub, relax, known, checked=True)
+        retry = backend.cold_retry
+        backend.cold_retry = False
+        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
+        # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
+        cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
+        backend.call_iterations = cap
+        proximal = backend.proximal_iterations
+        try:
+            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
+        except SolverError as exc:
+            first = exc
+            attempted = backend.last_iterations  # the attempt's DAQP iterations
+            if backend.budget_capped:
+                self.budget_cut = True
+        finally:
+            backend.cold_retry = retry
+            backend.deadline = math.inf
+            backend.call_iterations = None
+            self.tick_work += self._call_work(backend, proximal)
+        if not guarded:
+            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, relax, known,
+                                             checked=checked)
+            if cap is not None:
+                # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
+                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
+                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap;
+                # at most the tick's counted work left
+                scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
+                              else cap)
+                left = self._work_left(self.FAILURE_WORK)
+                if left < MIN_CALL_ITERATIONS:
+                    self.budget_cut = True
+                else:
+                    proximal = backend.proximal_iterations
+                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
+                    self.tick_work += self._call_work(backend, proximal)
+                    if x is not None:
+                        return QPSolution(x, backend.name, "scaled call")
+        elif relax is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
+            # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
+            # failing tick's one check); not empty, the full set is checked next (below)
+            left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
+            self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, relax,
+                                    max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
+        if guarded:
+            if thread_time() >= self._deadline(self.CHECK_DEADLINE):
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
+                                  f"tick budget spent (clock guard)")
+            end = self._deadline(self.CHECK_END)
+            # an attempt stopped at its deadline (not a verdict: e.g. a cold solve with |g| ~ 1e6 that needs ~1000
+            # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
+            # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
+            capped = backend.budget_capped
+            for step in (("scaled", "check") if capped else ("check", "scaled")):
+                if thread_time() >= self._deadline(self.CHECK_DEADLINE):
+                    break  # no time for the second step: the failure stands (below)
+                if step == "check":
+                    left = (end - thread_time()) / backend.iteration_cost
+                    if hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
+                                      iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0] is False:
+                        self.infeasible_by_check += 1
+                        raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
+                                          f"it): quadprog and the backend's retries skipped (clock guard)")
+                    continue
+                # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
+                # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
+                backend.deadline = end
+                try:
+                    x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
+                finally:
+                    backend.deadline = math.inf
+                if x is not None:
+                    self.scaled_solves += 1
+                    return QPSolution(x, backend.name, "scaled call")
+            if thread_time() >= self.retry_deadline:
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
+                                  f"quadprog solve or retry: tick budget spent (clock guard)")
+            if thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
+                self.checks_skipped += 1
+                self.budget_cut = True
+                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
+                                  f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
+                                  f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
+        work = quadprog_work(H.shape[0])
+        skipped = not guarded and work > self._work_left(self.QUADPROG_WORK)
+        if skipped:
+            # the tick's counted work leaves too little for quadprog's solve (which cannot be stopped once started)
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            quadprog = (f"no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP iterations) and "
+                        f"quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets")
+        else:
+            c0 = thread_time()
+            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+            self.tick_work += work
+            if guarded:
+                cost = thread_time() - c0
+                self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+            if x is not None:
+                self.pinned_reduced_solves += 1
+                return QPSolution(x, "quadprog", "quadprog")
+            quadprog = "quadprog found no solution either"
+        if skipped:
+            # the backend's retries (up to RETRY_CALLS DAQP calls) come after quadprog: the count that had no room for
+            # quadprog has none for them (they answer a quadprog failure: its certificate is not final)
+            self.retries_skipped += int(retry)
+            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
+        if not retry:
+            raise first
+        if thread_time() >= self.retry_deadline:
+            self.retries_skipped += 1
+            self.budget_cut = True
+            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: tick budget spent (clock guard)")
+        calls = None if guarded else self._retry_iterations(self.FAILURE_WORK)
+        if calls is not None and self._work_left(self.FAILURE_WORK) < MIN_CALL_ITERATIONS:
+            self.retries_skipped += 1
+            self.budget_cut = True
+            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
+                              f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
+        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
+        backend.call_iterations = calls
+        proximal = backend.proximal_iterations
+        try:
+            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "retries")
+        except SolverError:
+            if backend.budget_capped or backend.iterations_capped:
+                self.budget_cut = True
+            raise
+        finally:
+            backend.deadline = math.inf
+            backend.call_iterations = None
+            if calls is not None:
+                self.tick_work += self._retry_work(backend, calls, proximal)
+
+    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
+                         relax: Callable | None, full: bool | None = None, *, checked: bool = False) -> bool:
+        """The hard-set checks of a failed full QP without a clock guard: the full hard set first (a point
+        found: the relaxed set is not checked), else, given ``relax``, the relaxed hard set. ``checked``: the full set
+        was checked already this tick, its verdict ``full``. A set proved empty sets :attr:`last_set_empty`.
+
+        Returns:
+            True when a point of the full hard set was found, else False (not proved empty).
+
+        Raises:
+            SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
+        """
+        if not checked:
+            full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
+        if full is True:
+            self.hard_set_point = True
+            return True
+        self.last_set_empty = full is False
+        left = self._work_left(self.FAILURE_WORK)
+        if relax is not None and left >= MIN_CALL_ITERATIONS:
+            try:
+                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, relax,
+                                        int(min(left, ITERATION_LIMIT)))
+            except SolverError:
+                self.last_set_empty = True
+                raise
+        if full is False:
+            self.infeasible_by_check += 1
+            raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
+                              f"quadprog and the backend's retries skipped")
+        return False
+
+    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
+                           relax: Callable, iter_limit: int) -> None:
+        """Check the relaxed hard set (bounds from ``relax``, at most ``iter_limit`` DAQP iterations): sets
+        :attr:`relaxed_set_feasible` and :attr:`relaxed_bounds`. Raises SolverError (``first`` extended) when it is
+        proved empty: so is the full one, and the relaxed QP is not solved."""
+        relaxed = relax(l, u, lb, ub)
+        self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
+        self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
+                                                               iter_limit=iter_limit)
+        self._relaxed_check_final = iterations < iter_limit
+        self.tick_work += iterations + DAQP_CALL_WORK
+        if self.relaxed_set_feasible is False:
+            self.infeasible_by_check += 1
+            raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
+                              f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
+
+    def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
+        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
+        backend.call_iterations = cap
+        try:
+            x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
+        finally:
+            backend.call_iterations = None
+        if x is not None:
+            self.scaled_solves += 1
+        return x
+
+    def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
+        """A backend other than DAQP (e.g. ProxQP) on the QP (full or relaxed); when a
+        :class:`~wbc.solvers.base.QPBackend` reports no solution, the second opinion
+        (:func:`wbc.solvers.independent.second_opinion`: quadprog with the pinned variables eliminated, then one cold
+        DAQP call) unless :attr:`second_opinion_enabled` is False. A proximal method's infeasibility test fires on
+        feasible QPs whose equality rows are nearly dependent (two soles on legs without hip yaw); an active-set
+        solver's answer is exact on them.
+
+        Raises:
+            SolverError: the backend's, when no solver found a solution.
+        """
+        backend = self.backend
+        try:
+            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
+        except SolverError as exc:
+            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
+                raise
+            first = exc
+        work = backend.work
+        if work is not None:
+            work.solves += 1  # the quadprog solve
+        if self._daqp_check is None:
+            self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
+            self._daqp_check.cold_retry = False
+        self._daqp_check.work = work
+        x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, backend.tolerance, daqp_backend=self._daqp_check)
+        if x is None:
+            raise first
+        self.second_opinion_solves += 1
+        return QPSolution(x, solver, "second opinion")
+
+    def refine(self, x: np.ndarray, qp: QPData, accept: Callable, answered_by: str):
+        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished
+        on its active set (:meth:`wbc.solvers.base.QPBackend.polish`), then, failing that, replaced by quadprog's
+        solve (pinned variables eliminated; not when quadprog gave ``x``, ``answered_by``), started only while the
+        clock guard or the counted work leaves room for it. ``accept(x, solver)`` returns the caller's solution of a
+        candidate (``solver``: None for the polished one, else ``quadprog``) when it passes the output check, else
+        None. Returns the first accepted candidate, or None."""
+        H, g, A, b, C, l, u, lb, ub = qp
+        backend = self.backend
+        if isinstance(backend, QPBackend):
+            if backend.work is not None:
+                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
+            xp = backend.polish(x, A, b, C, l, u, lb, ub)
+            if xp is not None:
+                cand = accept(xp, None)
+                if cand is not None:
+                    self.output_polished += 1
+                    return cand
+        if answered_by == "quadprog" or thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
+            return None
+        work = quadprog_work(H.shape[0])
+        if self._counting() and work > self._work_left(self.QUADPROG_WORK):
+            # the same counted gate as the failure path's quadprog (:meth:`solve`)
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            return None
+        xq = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        self.tick_work += work
+        if xq is None:
+            return None
+        cand = accept(xq, "quadprog")
+        if cand is not None:
+            self.output_quadprog += 1
+        return cand
