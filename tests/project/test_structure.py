@@ -5,7 +5,9 @@
 - no public top-level function or class defined in two modules of ``wbc/`` (a re-export, ``from m import f``, is
   not a definition; private ``_names`` cannot be imported across modules, see ``test_architecture.py``), save the
   names of :data:`SHARED_NAMES`;
-- every module of the packages of :data:`MIRRORED` has its test file ``tests/<package>/test_<module>.py``.
+- every module of the packages of :data:`MIRRORED` has its test file ``tests/<package>/test_<module>.py``, or
+  ``tests/<package>/test_<package>_<module>.py`` where another folder holds a ``test_<module>.py`` (pytest imports
+  each test file under its bare name: no two may share one, ``tests/project/test_layout.py``).
 
 The thresholds are written here, not read from ``wbc``.
 """
@@ -72,9 +74,11 @@ def defined_twice(root: Path) -> dict[str, list[str]]:
 
 
 def untested_modules(root: Path, tests: Path, packages=MIRRORED) -> list[str]:
-    """``package/module`` of each module of ``packages`` with no ``tests/<package>/test_<module>.py``."""
+    """``package/module`` of each module of ``packages`` with neither ``tests/<package>/test_<module>.py`` nor
+    ``tests/<package>/test_<package>_<module>.py``."""
     return [f"{pkg}/{p.stem}" for pkg in packages for p in sorted((root / pkg).glob("*.py"))
-            if p.stem != "__init__" and not (tests / pkg / f"test_{p.stem}.py").is_file()]
+            if p.stem != "__init__" and not any((tests / pkg / f"test_{name}.py").is_file()
+                                                for name in (p.stem, f"{pkg}_{p.stem}"))]
 
 
 def test_no_module_over_800_lines_nor_class_over_600():
@@ -112,5 +116,5 @@ def test_the_checkers_flag_a_planted_violation_of_each_rule(tmp_path):
         "tasks/frame.py": ["12 lines > 10", "class Big: 8 lines > 5"]}
     (root / "geometry.py").write_text("def helper():\n    pass\n")
     assert defined_twice(root) == {"helper": ["geometry.py", "tasks/frame.py"]}
-    (tests / "tasks" / "test_com.py").write_text("")
+    (tests / "tasks" / "test_tasks_com.py").write_text("")
     assert untested_modules(root, tests, ("tasks",)) == []
