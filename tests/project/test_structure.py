@@ -7,7 +7,8 @@
   names of :data:`SHARED_NAMES`;
 - every module of the packages of :data:`MIRRORED` has its test file ``tests/<package>/test_<module>.py``, or
   ``tests/<package>/test_<package>_<module>.py`` where another folder holds a ``test_<module>.py`` (pytest imports
-  each test file under its bare name: no two may share one, ``tests/project/test_layout.py``).
+  each test file under its bare name: no two may share one, ``tests/project/test_layout.py``), save the modules of
+  :data:`UNMIRRORED`.
 
 The thresholds are written here, not read from ``wbc``.
 """
@@ -38,6 +39,20 @@ SHARED_NAMES = {
 
 #: packages of ``wbc/`` whose every module has a test file of its name.
 MIRRORED = ("tasks", "constraints", "formulations", "solvers", "controllers", "gait", "estimation")
+
+_BEING_SPLIT = "temporary: module being restructured (issue 59); its tests are topic files until it settles"
+#: ``package/module`` → why it has no test file of its name yet (an entry the tree no longer needs fails too).
+UNMIRRORED = {
+    "formulations/acceleration": _BEING_SPLIT + " (tests/formulations/test_acceleration_*.py)",
+    "formulations/velocity": _BEING_SPLIT + " (tests/formulations/test_velocity_*.py)",
+    "controllers/kinematic": _BEING_SPLIT + " (tests/controllers/test_kinematic_*.py)",
+    "controllers/compiled_tick": _BEING_SPLIT,
+    "controllers/contact_hold": _BEING_SPLIT,
+    "controllers/general_route": _BEING_SPLIT,
+    "controllers/output_guard": _BEING_SPLIT,
+    "controllers/recovery": _BEING_SPLIT,
+    "controllers/relaxation": _BEING_SPLIT,
+}
 
 
 def _modules(root: Path) -> list[Path]:
@@ -99,7 +114,10 @@ def test_no_name_defined_in_two_modules():
 
 def test_every_module_of_the_core_packages_has_its_test_file():
     missing = untested_modules(WBC, REPO / "tests")
-    assert missing == [], f"{len(missing)} modules without tests/<package>/test_<module>.py: {missing}"
+    bad = [m for m in missing if m not in UNMIRRORED]
+    stale = sorted(set(UNMIRRORED) - set(missing))
+    assert bad == [], f"{len(bad)} modules without tests/<package>/test_<module>.py: {bad}"
+    assert stale == [], f"these have their test file now: remove them from UNMIRRORED: {stale}"
 
 
 def test_the_checkers_flag_a_planted_violation_of_each_rule(tmp_path):
