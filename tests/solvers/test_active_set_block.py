@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import qpsolvers
-
+from conftest import dense_quadprog
 from test_active_set import _block_qp, _block_solve
 
 
@@ -18,14 +17,9 @@ def test_a_wrong_warm_start_still_ends_at_the_optimum(seed):
     nv, nf = int(rng.integers(4, 12)), int(rng.integers(2, 10))
     m, p = int(rng.integers(0, 3)), int(rng.integers(1, 10))
     H, g, A, b, C, l, u, lb, ub = _block_qp(rng, nv, nf, m, p)
-    n = nv + nf
-    G, h = np.vstack([C, -C]), np.concatenate([u, -l])
-    fin = np.isfinite(h)
-    ref = qpsolvers.solve_qp(H, g, G=G[fin], h=h[fin], A=A if m else None, b=b if m else None,
-                             lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
-    assert ref is not None
-    state = np.zeros(n, np.int8)
-    held = (rng.random(n) < 0.3) & np.isfinite(lb)
+    ref = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    state = np.zeros(nv + nf, np.int8)
+    held = (rng.random(nv + nf) < 0.3) & np.isfinite(lb)
     state[held] = rng.choice(np.array([-1, 1], np.int8), held.sum())
     state[lb == ub] = 1
     rstate = np.zeros(p, np.int8)
