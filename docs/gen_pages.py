@@ -55,7 +55,7 @@ LAYERS = [
     ("Errors, constants, compiled kernels", ["wbc.exceptions", "wbc.constants", "wbc.compiled"]),
     ("Geometry, Lie groups, profiles, terrain, solvers",
      ["wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"]),
-    ("Robot, kinematics", ["wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),
+    ("Robot, kinematics", ["wbc.robot", "wbc.robot_checks", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),
     ("Tasks", ["wbc.tasks"]),
     ("Constraints", ["wbc.constraints"]),
     ("State estimation", ["wbc.estimation"]),

@@ -9,10 +9,10 @@ import pinocchio as pin
 import pytest
 from scipy.spatial import ConvexHull
 
-from wbc.exceptions import ConfigurationError, GaitError, InvalidTargetError
+from wbc.exceptions import ConfigurationError, GaitError, InvalidInputError, InvalidTargetError
 from wbc.geometry import (
-    as_se3, check_vector, hull, mean_heading, signed_distance, signed_distance_point, sole_corners, support_polygon,
-    yaw_of,
+    as_se3, check_vector, convex_hull, hull, mean_heading, signed_distance, signed_distance_point, sole_corners,
+    sole_polygon, support_polygon, yaw_of,
 )
 
 
@@ -107,3 +107,60 @@ def test_a_flag_takes_true_or_false_only_on_every_assignment():
         assert h.switch is False  # the refused value left the attribute as it was
     with pytest.raises(InvalidInputError, match="switch"):
         Holder("no")
+
+
+def test_sole_polygon_corners_ccw():
+    poly = sole_polygon(1.0, 2.0, math.pi / 2, 0.2, 0.1)
+    np.testing.assert_allclose(poly, [[0.95, 2.1], [0.95, 1.9], [1.05, 1.9], [1.05, 2.1]], atol=1e-12)
+    x, y = poly[:, 0], poly[:, 1]
+    assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0  # CCW: positive signed area
+
+
+def test_convex_hull_matches_scipy():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        pts = rng.normal(size=(30, 2))
+        hull = convex_hull(pts)
+        ref = pts[ConvexHull(pts).vertices]
+        assert {tuple(p) for p in hull.tolist()} == {tuple(p) for p in ref.tolist()}
+        x, y = hull[:, 0], hull[:, 1]
+        assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0
+
+
+def test_convex_hull_drops_collinear_and_rejects_degenerate():
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0], [0.5, 0.5]], dtype=float)
+    assert len(convex_hull(square)) == 4
+    with pytest.raises(InvalidInputError):
+        convex_hull(np.array([[0, 0], [1, 1], [2, 2.0]]))
+    with pytest.raises(InvalidInputError):
+        convex_hull(np.zeros((2, 2)))
+
+
+def test_signed_distance_values_and_vectorisation():
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    pts = np.array([[0.5, 0.5], [0.9, 0.5], [2.0, 0.5], [2.0, 2.0], [-0.5, 0.5], [1.0, 0.3]])
+    expected = [0.5, 0.1, -1.0, -math.sqrt(2), -0.5, 0.0]
+    np.testing.assert_allclose(signed_distance(pts, square), expected, atol=1e-12)
+    np.testing.assert_allclose(signed_distance(pts, square[::-1]), expected, atol=1e-12)  # CW input
+    for p, e in zip(pts, expected):
+        d = signed_distance(p, square)
+        assert isinstance(d, float) and d == pytest.approx(e, abs=1e-12)
+    with pytest.raises(InvalidInputError):
+        signed_distance(np.array([np.nan, 0.0]), square)
+    with pytest.raises(InvalidInputError):
+        signed_distance(np.zeros(3), square)
+
+
+def test_signed_distance_random_against_brute_force():
+    rng = np.random.default_rng(1)
+    poly = convex_hull(rng.normal(size=(12, 2)))
+    pts = rng.normal(scale=2.0, size=(500, 2))
+    d = signed_distance(pts, poly)
+    # Brute force: distance to densely sampled boundary; sign from the half-planes.
+    edges = [(poly[i], poly[(i + 1) % len(poly)]) for i in range(len(poly))]
+    boundary = np.vstack([a + np.linspace(0, 1, 2001)[:, None] * (b - a) for a, b in edges])
+    dist = np.min(np.linalg.norm(pts[:, None, :] - boundary[None], axis=2), axis=1)
+    inside = np.all([(b - a)[0] * (pts[:, 1] - a[1]) - (b - a)[1] * (pts[:, 0] - a[0]) >= 0 for a, b in edges],
+                    axis=0)
+    np.testing.assert_allclose(np.abs(d), dist, atol=2e-3)
+    assert np.all((d > 0) == inside)

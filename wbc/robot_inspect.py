@@ -26,16 +26,8 @@ import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError, RobotDescriptionError, RobotFileNotFoundError
 from wbc.geometry import convex_hull, polygon_margin, rectangle_in_polygon, signed_distance, support_polygon
-from wbc.robot import (
-    Robot,
-    build_robot,
-    example_robot_data_dir,
-    floor_points,
-    foot_points,
-    geometry_points,
-    joint_chain,
-    load_robot,
-)
+from wbc.robot import Robot, build_robot, example_robot_data_dir, load_robot
+from wbc.robot_checks import floor_points, foot_points, geometry_points, joint_chain
 from wbc.robot_file import FrameSpec, MujocoOptions, RobotSpec, check_xml, package_roots
 
 __all__ = ["infer_robot_spec", "upper_body_link", "check_robot", "locked_joints", "KNEE_LIFT", "MIN_COM_MARGIN", "ASSUMED_ARMATURE",
@@ -75,7 +67,7 @@ def _side_from_name(name: str) -> str | None:
 
 def _geometry_points_world(model, data, gmodel, joint: int, up: np.ndarray | None = None) -> np.ndarray | None:
     """Points (k, 3) m, world frame, of the geometry on ``joint``: bounding points, or with ``up`` (unit (3,),
-    world) the points that can touch a floor of that normal (:func:`wbc.robot.floor_points`)."""
+    world) the points that can touch a floor of that normal (:func:`wbc.robot_checks.floor_points`)."""
     pts = []
     for g in gmodel.geometryObjects:
         if g.parentJoint != joint:

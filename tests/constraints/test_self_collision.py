@@ -8,8 +8,9 @@ import pinocchio as pin
 import pytest
 
 from wbc.configuration import Configuration
-from conftest import standing_controller
+from conftest import CATALOG, random_configuration, standing_controller
 from wbc.constraints import SelfCollisionConstraint
+from wbc.constraints.self_collision import default_collision_pairs
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import PositionTask
 
@@ -22,7 +23,6 @@ WATCH = {
 }
 #: (body frame the target goes through, its end point in that frame)
 THROUGH = {"talos": ("torso_2_link", (0.0, 0.35, 0.0)), "g1": ("torso_link", (0.0, 0.3, 0.1))}
-
 
 
 def watched_model(robot):
@@ -469,3 +469,53 @@ def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(rob
     assert len(calls) == 80 and sum(calls) >= 60 and fast.fallbacks == 0 and fast.reduced_fallbacks == 0
     for solver in ("capped", "fast"):
         assert np.abs(runs[solver][2] - runs["daqp"][2]).max() < 1e-5, solver
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_self_collision_rows_match_distance_rates(robots, name):
+    """Each active row C_k equals the finite-difference rate of the coal distance of its pair along a random v
+    (pairs at positive distance; central differences, ε = 1e-5), and the lower bound is the velocity damper."""
+    robot = robots(name)
+    rng = np.random.default_rng(11)
+    q = random_configuration(robot, rng, spread=0.5)
+    constraint = SelfCollisionConstraint(robot, activation_distance=0.15, max_active=24)
+    config = Configuration(robot, q)
+    C, l, u = (x.copy() for x in constraint.compute(config, DT))
+    active = [(constraint.pair_names.index(a[:2]), a[2]) for a in constraint.active]
+    assert active, "no pair within the activation distance"
+    v = rng.standard_normal(robot.nv) * 0.2
+    eps = 1e-5
+    k_pairs = [k for k, _ in active]
+    d_plus = constraint.distances(Configuration(robot, pin.integrate(robot.model, q, eps * v)), k_pairs)
+    d_minus = constraint.distances(Configuration(robot, pin.integrate(robot.model, q, -eps * v)), k_pairs)
+    rate = (d_plus - d_minus) / (2 * eps)
+    checked = 0
+    for row, (k, d) in enumerate(active):
+        ds, gamma = constraint.min_distance + constraint.safety_margin, min(constraint.gain, 1 / DT)
+        bound = -gamma * (d - ds) if d >= ds else min(gamma * (ds - d), constraint.recovery_speed)
+        assert l[row] == pytest.approx(bound) and u[row] == np.inf
+        if d > 1e-3:
+            assert C[row] @ v == pytest.approx(rate[row], abs=1e-4 + 1e-3 * abs(rate[row])), constraint.active[row]
+            checked += 1
+    assert checked >= 3
+    assert np.all(C[len(active):] == 0) and np.all(l[len(active):] == -np.inf)
+
+
+def test_default_collision_pairs_honour_srdf_and_adjacency(robots):
+    """talos: pairs listed in the SRDF's disable_collisions are absent; no pair on the same or adjacent joints.
+    g1 has no SRDF: only adjacency filters."""
+    import xml.etree.ElementTree as ET
+
+    robot = robots("talos")
+    model, gm = robot.model, robot.collision_model
+    pairs = default_collision_pairs(robot)
+    links = {(gm.geometryObjects[a].name.rsplit("_", 1)[0], gm.geometryObjects[b].name.rsplit("_", 1)[0])
+             for a, b in pairs}
+    disabled = [(e.get("link1"), e.get("link2")) for e in ET.parse(robot.srdf_path).getroot().iter("disable_collisions")]
+    assert disabled and not any((a, b) in links or (b, a) in links for a, b in disabled)
+    for a, b in pairs:
+        ja, jb = gm.geometryObjects[a].parentJoint, gm.geometryObjects[b].parentJoint
+        assert ja != jb and model.parents[ja] != jb and model.parents[jb] != ja
+    g1 = robots("g1")
+    n = g1.collision_model.ngeoms
+    assert 0 < len(default_collision_pairs(g1)) < n * (n - 1) // 2

@@ -150,7 +150,7 @@ def _numeric_drift(robot, q, v, f, eps=1e-7):
 def test_reference_rows_are_the_shared_task_terms(robots):
     """The acceleration-level rows of a task are (J, a* − J̇v) from the SAME task object the velocity level uses:
     r = −Kp e − Kd (J v − ė_ff) − J̇v (+ ä_ff), with e, J, J̇v the task's own (its drift is checked against finite
-    differences in tests/tasks/test_tasks.py); the angular-momentum reference asks L̇ = −K (L − L*) − (dAg v)[3:6] with L
+    differences in tests/tasks/test_tasks_base.py); the angular-momentum reference asks L̇ = −K (L − L*) − (dAg v)[3:6] with L
     from Pinocchio's centroidal momentum and the drift against finite differences of Ag v."""
     robot = robots("talos")
     rng = np.random.default_rng(1)

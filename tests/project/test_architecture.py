@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[2] / "wbc"
 LAYERS: list[tuple[str, ...]] = [
     ("wbc.exceptions", "wbc.compiled", "wbc.constants", "wbc.tick"),
     ("wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
-    ("wbc.robot", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
+    ("wbc.robot", "wbc.robot_checks", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),
     ("wbc.formulations", "wbc.controllers", "wbc.dynamics", "wbc.solve"),
     ("wbc.gait", "wbc.analysis"),
@@ -439,7 +439,7 @@ DISTINCT_CONSTANTS = {
     ("wbc.gait.blind.BLIND_LIFT", "wbc.gait.terrain_walk.LIFT"):
         "two swing profiles tuned apart: the terrain swing's symmetric rise and set-down fraction vs the blind "
         "swing's rise, whose set-down starts at BLIND_SET_DOWN",
-    ("wbc.robot.LIMIT_TOLERANCE", "wbc.robot_file.LIMIT_INVERSION_TOLERANCE"):
+    ("wbc.robot_checks.LIMIT_TOLERANCE", "wbc.robot_file.LIMIT_INVERSION_TOLERANCE"):
         "two checks: a reference posture's excess over its joint limits vs a limit pair's inversion taken as "
         "round-off",
 }

@@ -112,7 +112,7 @@ def test_split_step_is_mj_step(standing):
 
 def test_measured_zmp_equals_the_cop_of_the_contact_forces(standing):
     from wbc.sim.estimated_state import EstimatedState
-    from wbc.sim.walk import measured_cop
+    from wbc.sim.walk_summary import measured_cop
 
     robot, sim = standing
     state = EstimatedState(sim, SensorSpecs.ideal())

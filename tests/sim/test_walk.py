@@ -14,7 +14,8 @@ from wbc.sim.mujoco_model import build_mujoco_model
 from wbc.sim.physics_scenarios import id_options_for, walk_options_for
 from wbc.sim.scenarios import make_controller, run_scenario
 from wbc.geometry import polygon_margin
-from wbc.sim.walk import WalkScenario, measured_cop
+from wbc.sim.walk import WalkScenario
+from wbc.sim.walk_summary import measured_cop
 
 
 @pytest.mark.parametrize("name, step_length, step_duration",

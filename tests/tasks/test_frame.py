@@ -8,8 +8,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import random_configuration
-from wbc.tasks import FrameTask, OrientationTask, PositionTask
+from conftest import CATALOG, random_configuration
+from wbc.configuration import Configuration
+from wbc.constraints import ContactConstraint
+from wbc.exceptions import InvalidTargetError
+from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask
 
 #: agreement with the Pinocchio-written rows, relative to max(1, the block's largest entry): the same formulas, the
 #: last bits may differ with the order of the sums
@@ -81,3 +84,35 @@ def test_frame_rows_at_a_half_turn_are_finite_and_consistent(robots):
     assert abs(np.linalg.norm(e) - np.pi) <= 1e-9
     assert np.abs(pin.exp3(e) - task.target.rotation.T @ oMf.rotation).max() <= 1e-9
     assert np.all(np.isfinite(j)) and np.all(np.isfinite(task.drift(state)))
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_task_errors_against_independent_values(robots, name):
+    """Errors vanish at the current placement and equal the independent geometric difference elsewhere."""
+    robot = robots(name)
+    config = Configuration(robot, random_configuration(robot, np.random.default_rng(3)))
+    task = FrameTask(robot, robot.right_sole)
+    task.set_target_from_configuration(config)
+    np.testing.assert_allclose(task.compute_error(config), 0, atol=1e-12)
+    M = config.frame_placement(task.frame_id)
+    shifted = pin.SE3(M.rotation @ pin.exp3(np.array([0.0, 0.0, 0.2])), M.translation + [0.1, 0, 0])
+    task.set_target(shifted)
+    np.testing.assert_allclose(task.compute_error(config), [-0.1, 0, 0, 0, 0, -0.2], atol=1e-12)
+    com = ComTask()
+    com.set_target(config.com + [0, 0.05, 0])
+    np.testing.assert_allclose(com.compute_error(config), [0, -0.05, 0], atol=1e-12)
+    contact = ContactConstraint(robot, robot.left_sole)
+    contact.set_placement_from_configuration(config)
+    np.testing.assert_allclose(contact.compute_error(config), 0, atol=1e-12)
+
+
+def test_position_task_accepts_a_point(robots):
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    task = PositionTask(robot, robot.right_hand)
+    p = config.frame_placement(task.frame_id).translation + [0.1, 0, 0]
+    task.set_target(p, velocity=[0.2, 0, 0])
+    np.testing.assert_allclose(task.compute_error(config), [-0.1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(task.feedforward(), [0.2, 0, 0])
+    with pytest.raises(InvalidTargetError):
+        task.set_target([0.0, np.nan, 0.0])

@@ -93,12 +93,13 @@ import math
 from typing import NamedTuple
 
 import coal
-import numba as nb
 import numpy as np
 import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
+from wbc.constraints.self_collision_kernels import (broad_phase_packed, close_pairs_damper, close_pairs_packed,
+                                                   damper_rows, narrow_phase_done_packed, pack_arrays, pair_dampers)
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_count, check_scalar
 
@@ -116,365 +117,9 @@ else:
 __all__ = ["ClosePairs", "SelfCollisionConstraint", "default_collision_pairs", "joint_placements_view"]
 
 
-#: m subtracted from every lower bound of the broad phase (rounding of the bounds, GJK's 1e-9 m tolerance)
-BOUND_SLACK = 1e-6
 #: m, coal's GJK tolerance for every pair (coal's default 1e-6 m is too coarse for the distance rate: noise / dt)
 GJK_TOLERANCE = 1e-9
 
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def _relative(rot, centre, joint, radius, a, b, out):
-    """The relative placement of pair (a, b) in the root joint's frame written to ``out`` (12,): the rotation
-    R_fᵀR_m (row-major) and the sphere centre Rᵀ_f (c_m − c_f) of the moving geometry m in the frame of the fixed one
-    f, where m is the one of a, b with the smaller bounding radius; returns that radius."""
-    f, m = (b, a) if radius[a] < radius[b] else (a, b)
-    jf, jm = joint[f], joint[m]
-    for i in range(3):
-        for j in range(3):
-            x = 0.0
-            for k in range(3):
-                x += rot[jf, k, i] * rot[jm, k, j]
-            out[3 * i + j] = x
-        x = 0.0
-        for k in range(3):
-            x += rot[jf, k, i] * (centre[m, k] - centre[f, k])
-        out[9 + i] = x
-    return radius[m]
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def _relative_bound(rot, centre, joint, radius, a, b, then, now):
-    """Bound (m) on the displacement of any point of the pair's moving geometry (``_relative``) in the fixed one's
-    frame since the relative placement ``then`` (12,): |Δc| + ‖ΔR‖₂ r with ‖ΔR‖₂ = ‖ΔR‖_F / √2 (the difference of two
-    rotations; module docstring). A distance is 1-Lipschitz in that displacement (it does not change under a motion
-    common to both bodies). ``now`` (12,): scratch."""
-    r = _relative(rot, centre, joint, radius, a, b, now)
-    dr = 0.0
-    for i in range(9):
-        dr += (now[i] - then[i]) ** 2
-    dc = 0.0
-    for i in range(9, 12):
-        dc += (now[i] - then[i]) ** 2
-    return np.sqrt(dc) + np.sqrt(0.5 * dr) * r
-
-
-@nb.njit(cache=True, nogil=True)
-def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known, gap_at):
-    """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
-    ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
-    out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
-
-    ``placements`` (njoints, 12) joint placements (``data.oMi``: rotation column-major, then translation; the layout
-    of ``_joint_placements``), expressed here in the frame of joint ``ref``
-    (distances do not depend on the frame; the root joint's frame leaves out the floating base's motion).
-    ``joint`` (ngeoms,) parent joint of each geometry, ``centre_local`` (ngeoms, 3) / ``radius`` (ngeoms,) its
-    bounding sphere in that joint's frame. State, updated: ``prev_c`` (ngeoms, 3) sphere centres and ``prev_r``
-    (njoints, 3, 3) rotations of the previous call (unused when ``first``), ``moved`` (ngeoms,) accumulated bound on
-    each geometry's displacement (|Δc| + ‖ΔR‖_F r / √2 per call), ``moved_at`` (npairs,) moved_a + moved_b when
-    coal last computed the pair (raised to moved_a + moved_b − δ when the relative bound δ is the smaller: d_known ±
-    (moved_a + moved_b − moved_at) then bounds the distance from there on), ``d_known`` its distance then,
-    ``exact`` whether it was ever computed.
-    ``rel`` (npairs, 12) the pair's relative placement (``_relative``) when coal last computed it (recorded, from
-    ``prev_c``/``prev_r``, by the call at which a pair computed at the previous call is no longer a candidate).
-    Per pair: lower bound L = max(sphere gap, d_known − δ) with the motion bound δ = moved_a + moved_b − moved_at,
-    or the smaller ``_relative_bound`` since ``rel`` where δ leaves a pair that was no candidate at the previous call
-    in question; upper bound U = d_known + (moved_a + moved_b − moved_at) (inf if not ``exact``); τ = the k_max-th
-    smallest U below ``activation`` (``activation`` if fewer); candidates: L < activation and L ≤ τ. The sphere gap
-    is kept as a bound too: ``gap_known`` (npairs,) the pair's gap when last computed (−inf: none), ``gap_at``
-    moved_a + moved_b then; it is recomputed only when gap_known − (moved_a + moved_b − gap_at) leaves the pair in
-    question. ``scratch`` (12,): work space."""
-    nj = placements.shape[0]
-    ng = joint.shape[0]
-    rot = np.empty((nj, 3, 3))
-    pos = np.empty((nj, 3))
-    for s in range(nj):
-        for i in range(3):
-            for j in range(3):
-                x = 0.0
-                for k in range(3):
-                    x += placements[ref, 3 * i + k] * placements[s, 3 * j + k]  # R_ref[k, i] R_s[k, j]
-                rot[s, i, j] = x
-            x = 0.0
-            for k in range(3):
-                x += placements[ref, 3 * i + k] * (placements[s, 9 + k] - placements[ref, 9 + k])
-            pos[s, i] = x
-    centre = np.empty((ng, 3))
-    for g in range(ng):
-        s = joint[g]
-        dc = 0.0
-        for i in range(3):
-            c = pos[s, i]
-            for j in range(3):
-                c += rot[s, i, j] * centre_local[g, j]
-            centre[g, i] = c
-            dc += (c - prev_c[g, i]) ** 2
-        if not first:
-            dr = 0.0
-            for i in range(3):
-                for j in range(3):
-                    dr += (rot[s, i, j] - prev_r[s, i, j]) ** 2
-            moved[g] += np.sqrt(dc) + np.sqrt(0.5 * dr) * radius[g]
-    npairs = pairs.shape[0]
-    nu = 0
-    for k in range(npairs):
-        if exact[k]:
-            u = d_known[k] + (moved[pairs[k, 0]] + moved[pairs[k, 1]] - moved_at[k])
-            if u < activation:
-                buf[nu] = u
-                nu += 1
-    tau = activation
-    if nu >= k_max:
-        tau = np.sort(buf[:nu])[k_max - 1]
-    n = 0
-    nt = 0
-    for k in range(npairs):
-        a = pairs[k, 0]
-        b = pairs[k, 1]
-        was_on = on[k]
-        if was_on:  # assumed dropped; switched back on below if it is a candidate
-            toggle[nt] = ~k
-            nt += 1
-            on[k] = False
-        # the bounds are computed in floating point and coal's distances are exact only to GJK's tolerance: a pair
-        # whose bound is within BOUND_SLACK of the cut-off is kept (e.g. humanoid15's pair 18, at a constant
-        # 0.12 − 1 ulp m, was dropped at activation 0.12 by a sphere gap rounded up to 0.12). L is the larger of
-        # the two bounds: either one at or above the cut-off excludes the pair (the cheaper one first)
-        keep = False
-        while True:  # one pass: break when a bound excludes the pair
-            if exact[k]:
-                low = d_known[k] - (moved[a] + moved[b] - moved_at[k]) - BOUND_SLACK
-                if low >= activation or low > tau:
-                    break
-                if not was_on:  # (a pair computed at the previous call: its summed motions are one call's)
-                    delta = _relative_bound(rot, centre, joint, radius, a, b, rel[k], scratch)
-                    if delta < moved[a] + moved[b] - moved_at[k]:  # the summed motions count from here on
-                        moved_at[k] = moved[a] + moved[b] - delta
-                    low = d_known[k] - delta - BOUND_SLACK
-                    if low >= activation or low > tau:
-                        break
-            low = gap_known[k] - (moved[a] + moved[b] - gap_at[k]) - BOUND_SLACK
-            if low >= activation or low > tau:
-                break
-            d2 = 0.0
-            for i in range(3):
-                d2 += (centre[a, i] - centre[b, i]) ** 2
-            gap = np.sqrt(d2) - radius[a] - radius[b]
-            gap_known[k] = gap
-            gap_at[k] = moved[a] + moved[b]
-            low = gap - BOUND_SLACK
-            keep = low < activation and low <= tau
-            break
-        if not keep:
-            if was_on and exact[k]:  # computed by coal at the previous call, at its placements: kept for rel
-                _relative(prev_r, prev_c, joint, radius, a, b, rel[k])
-            continue
-        cand[n] = k
-        n += 1
-        if nt > 0 and toggle[nt - 1] == ~k:  # active and staying so
-            nt -= 1
-        else:
-            toggle[nt] = k
-            nt += 1
-        on[k] = True
-    prev_c[:] = centre
-    prev_r[:] = rot
-    return n, nt
-
-
-@nb.njit(cache=True, nogil=True)
-def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows):
-    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state) and write to ``rows`` the
-    positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first (ties: lower pair
-    index first); returns their count."""
-    n = cand.shape[0]
-    for i in range(n):
-        k = cand[i]
-        d_known[k] = dist[i]
-        exact[k] = True
-        moved_at[k] = moved[pairs[k, 0]] + moved[pairs[k, 1]]
-    order = np.argsort(dist, kind="mergesort")
-    m = 0
-    for i in order:
-        if m == k_max or dist[i] >= activation:
-            break
-        rows[m] = i
-        m += 1
-    return m
-
-
-#: entries of the integer pack's header (``_unpack``): geometries, joints, pairs, root joint, max_active
-_HEADER = 5
-
-
-def _pack(*arrays):
-    """(pack, views): one 1-D array holding ``arrays`` (one dtype) one after the other, and views of it shaped as
-    them. A compiled call taking a few packs instead of ~18 arrays: Numba's dispatch checks each argument's type."""
-    pack = np.concatenate([np.ravel(a) for a in arrays])
-    views, at = [], 0
-    for a in arrays:
-        views.append(pack[at:at + np.size(a)].reshape(np.shape(a)))
-        at += np.size(a)
-    return pack, views
-
-
-@nb.njit(cache=True, nogil=True)
-def _unpack(fpack, ipack, bpack):
-    """The broad phase's state as views of its three packs (``SelfCollisionConstraint.__init__``: the order)."""
-    ng, nj, npairs, ref, k_max = ipack[0], ipack[1], ipack[2], ipack[3], ipack[4]
-    o = 0
-    centre_local = fpack[o:o + 3 * ng].reshape((ng, 3))
-    o += 3 * ng
-    radius = fpack[o:o + ng]
-    o += ng
-    prev_c = fpack[o:o + 3 * ng].reshape((ng, 3))
-    o += 3 * ng
-    moved = fpack[o:o + ng]
-    o += ng
-    prev_r = fpack[o:o + 9 * nj].reshape((nj, 3, 3))
-    o += 9 * nj
-    d_known = fpack[o:o + npairs]
-    moved_at = fpack[o + npairs:o + 2 * npairs]
-    buf = fpack[o + 2 * npairs:o + 3 * npairs]
-    o += 3 * npairs
-    rel = fpack[o:o + 12 * npairs].reshape((npairs, 12))
-    scratch = fpack[o + 12 * npairs:o + 12 * npairs + 12]
-    o += 12 * npairs + 12
-    gap_known = fpack[o:o + npairs]
-    gap_at = fpack[o + npairs:o + 2 * npairs]
-    o = _HEADER
-    joint = ipack[o:o + ng]
-    o += ng
-    pairs = ipack[o:o + 2 * npairs].reshape((npairs, 2))
-    o += 2 * npairs
-    cand = ipack[o:o + npairs]
-    toggle = ipack[o + npairs:o + 2 * npairs]
-    rows = ipack[o + 2 * npairs:o + 2 * npairs + k_max]
-    exact = bpack[:npairs]
-    on = bpack[npairs:2 * npairs]
-    return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
-            toggle, cand, buf, rows, rel, scratch, gap_known, gap_at)
-
-
-@nb.njit(cache=True, nogil=True)
-def _broad_phase_packed(placements, first, activation, fpack, ipack, bpack):
-    """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    return _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
-                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known,
-                        gap_at)
-
-
-@nb.njit(cache=True, nogil=True)
-def _narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
-    """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
-
-
-@nb.njit(cache=True, nogil=True)
-def _close_pairs_packed(n, found, activation, fpack, ipack, bpack):
-    """``_narrow_phase_done`` for the first n candidates of the packed state, their results in ``found`` (the
-    compiled narrow phase's output: n distances, then n witness points p1, then n normals), and the rows' arrays of
-    :class:`ClosePairs` (fresh): pair indices, distances, normals, p1, p2 = p1 + d n."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    dist = found[:n]
-    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
-    k = np.empty(m, dtype=np.int64)
-    d = np.empty(m)
-    normal = np.empty((m, 3))
-    p1 = np.empty((m, 3))
-    p2 = np.empty((m, 3))
-    for i in range(m):
-        r = rows[i]
-        k[i] = cand[r]
-        d[i] = dist[r]
-        for j in range(3):
-            p1[i, j] = found[n + 3 * r + j]
-            normal[i, j] = found[4 * n + 3 * r + j]
-            p2[i, j] = p1[i, j] + d[i] * normal[i, j]
-    return k, d, normal, p1, p2
-
-
-@nb.njit(cache=True, nogil=True)
-def _damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
-    """C[slot[r]] += nᵀJ2,lin + (p2 × n)ᵀJ2,ang − nᵀJ1,lin − (p1 × n)ᵀJ1,ang on each body's support columns (module
-    docstring), for r < normal.shape[0]; C's other entries untouched. ``support`` (njoints, 1 + nv) int32: row j
-    holds the number of columns of joint j's support, then those columns."""
-    for i in range(normal.shape[0]):
-        r = slot[i]
-        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
-        for side in range(2):
-            p = p2[i] if side == 1 else p1[i]
-            sign = 1.0 if side == 1 else -1.0
-            jt = joint2[i] if side == 1 else joint1[i]
-            x0 = p[1] * n2 - p[2] * n1
-            x1 = p[2] * n0 - p[0] * n2
-            x2 = p[0] * n1 - p[1] * n0
-            for t in range(1, support[jt, 0] + 1):
-                c = support[jt, t]
-                C[r, c] += sign * (n0 * J[0, c] + n1 * J[1, c] + n2 * J[2, c]
-                                   + x0 * J[3, c] + x1 * J[4, c] + x2 * J[5, c])
-
-
-@nb.njit(cache=True, nogil=True)
-def _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slot_of, in_slot, slot):
-    """The velocity-damper rows of the m = len(k) close pairs (module docstring), each pair's floor
-    f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN) and l = −γ (d − f); the unused rows C = 0,
-    l = −∞.
-
-    Rows are slots kept across calls (``slot_of`` (npairs,): a pair's row or −1; ``in_slot`` (rows,): a row's pair
-    or −1): a pair that stays active keeps its row, a new one takes the lowest free row. The QP is the same in any
-    row order; a stable order lets the solver's warm start (its working set, by row index) carry over from one
-    tick to the next. ``slot`` (≥ m,): out, the row of each pair of k."""
-    m = k.shape[0]
-    for r in range(in_slot.shape[0]):  # free the rows of the pairs no longer active
-        q = in_slot[r]
-        if q >= 0:
-            keep = False
-            for i in range(m):
-                if k[i] == q:
-                    keep = True
-                    break
-            if not keep:
-                slot_of[q] = -1
-                in_slot[r] = -1
-    free = 0
-    for i in range(m):
-        r = slot_of[k[i]]
-        if r < 0:
-            while in_slot[free] >= 0:
-                free += 1
-            r = free
-            slot_of[k[i]] = r
-            in_slot[r] = k[i]
-        slot[i] = r
-    C[:, :] = 0.0
-    l[:] = -np.inf
-    _damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C, slot)
-    for i in range(m):
-        f = floor[k[i]]
-        f = d[i] if np.isnan(f) else max(f, d[i]) + rise
-        f = min(ds, f)
-        floor[k[i]] = f
-        l[slot[i]] = -gamma * (d[i] - f)
-
-
-@nb.njit(cache=True, nogil=True)
-def _close_pairs_damper(n, found, activation, fpack, ipack, bpack, pair_joint, J, support, C, l, floor, gamma, ds,
-                        rise, slots):
-    """``_close_pairs_packed`` then ``_damper`` on its rows in one compiled call (one dispatch of the arguments);
-    ``slots``: ``_damper``'s slot_of (npairs,), in_slot (rows,) and slot (rows,) one after the other. Returns the
-    rows' arrays of :class:`ClosePairs`."""
-    k, d, normal, p1, p2 = _close_pairs_packed(n, found, activation, fpack, ipack, bpack)
-    npairs = pair_joint.shape[0]
-    rows = C.shape[0]
-    _damper(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slots[:npairs],
-            slots[npairs:npairs + rows], slots[npairs + rows:npairs + 2 * rows])
-    return k, d, normal, p1, p2
 
 
 def _shape(geometry, convex: bool):
@@ -691,7 +336,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
         # row of each active pair (compute; −1: none), pair of each row (−1: unused), row of each close pair
-        self._slots, (self._slot_of, self._in_slot, self._slot) = _pack(
+        self._slots, (self._slot_of, self._in_slot, self._slot) = pack_arrays(
             np.full(npairs, -1, dtype=np.int64), np.full(self.dim, -1, dtype=np.int64),
             np.empty(self.dim, dtype=np.int64))
         self._identity = np.arange(self.dim, dtype=np.int64)
@@ -706,15 +351,16 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._prev_r = np.zeros((model.njoints, 3, 3))
         self._first = True
         self._placements_of = None  # (data, its joint placements view or None): _joint_placements
-        # the broad phase's state in three packs (the order of _unpack); the attributes become views of them
+        # the broad phase's state in three packs (the order of ``_unpack`` in wbc.constraints.self_collision_kernels);
+        # the attributes become views of them
         header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
         self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
-                      self._moved_at, self._buf, self._rel, _, self._gap_known, _) = _pack(
+                      self._moved_at, self._buf, self._rel, _, self._gap_known, _) = pack_arrays(
             self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known, self._moved_at,
             self._buf, np.zeros((npairs, 12)), np.zeros(12), np.full(npairs, -np.inf), np.zeros(npairs))
-        self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = _pack(
+        self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = pack_arrays(
             np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
-        self._bpack, (self._exact, self._on) = _pack(self._exact, self._on)
+        self._bpack, (self._exact, self._on) = pack_arrays(self._exact, self._on)
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
         note = COMPILED_NARROW_PHASE_MISSING
@@ -779,8 +425,8 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def _narrow(self, config: Configuration, damper: tuple | None = None) -> bool:
         """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``. With
-        ``damper`` (``_damper``'s arguments after the close pairs' and pair_joint: J, support, C, l, floor, gamma, ds,
-        rise), the compiled narrow phase also writes the damper rows; returns whether it did."""
+        ``damper`` (``pair_dampers``'s arguments after the close pairs' and pair_joint: J, support, C, l, floor, gamma,
+        ds, rise), the compiled narrow phase also writes the damper rows; returns whether it did."""
         self._rows_at = None  # compute's rows (and the barrier's, which share _C) are recomputed
         data = config.data
         gm, gd = self.geometry_model, self.geometry_data
@@ -790,7 +436,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         if self.broad_phase or pair_set is not None:
             placements = self._joint_placements(data)
         if self.broad_phase:
-            n, nt = _broad_phase_packed(placements, self._first, self.activation_distance, self._fpack, self._ipack,
+            n, nt = broad_phase_packed(placements, self._first, self.activation_distance, self._fpack, self._ipack,
                                         self._bpack)
             self._first = False
             cand = self._cand[:n]
@@ -810,17 +456,17 @@ class SelfCollisionConstraint(InequalityConstraint):
             # then one compiled call for the rows
             compiled_narrow_phase.distances(pair_set, placements, cand, self._wit)
             if damper is None:
-                self._found = ClosePairs(*_close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
+                self._found = ClosePairs(*close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
                                                               self._ipack, self._bpack))
                 return False
-            self._found = ClosePairs(*_close_pairs_damper(n, self._wit, self.activation_distance, self._fpack,
+            self._found = ClosePairs(*close_pairs_damper(n, self._wit, self.activation_distance, self._fpack,
                                                           self._ipack, self._bpack, self._pair_joint, *damper,
                                                           self._slots))
             return True
         pin.computeDistances(gm, gd)
         res = self._results
         dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
-        m = _narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
+        m = narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
         k = cand[self._rows[:m]]
         d = dist[self._rows[:m]]
         if m:
@@ -856,7 +502,7 @@ class SelfCollisionConstraint(InequalityConstraint):
         C = np.zeros((m, self.model.nv)) if out is None else out
         C[:m] = 0.0
         k = close.pairs
-        _damper_rows(close.normal, close.p1, close.p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]],
+        damper_rows(close.normal, close.p1, close.p2, self._joint[self.pairs[k, 0]], self._joint[self.pairs[k, 1]],
                      config.data.J, self._support, C, self._identity[:m])
         return C
 
@@ -880,7 +526,7 @@ class SelfCollisionConstraint(InequalityConstraint):
                   self.min_distance + self.safety_margin, self.recovery_speed * dt)
         if not self._narrow(config, damper):
             f = self._found
-            _damper(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, *damper, self._slot_of,
+            pair_dampers(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, *damper, self._slot_of,
                     self._in_slot, self._slot)
         self._rows_at = (config, dt)
         self._rows_q[:] = config.q

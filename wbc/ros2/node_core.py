@@ -28,7 +28,7 @@ import numpy as np
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["NodeCore", "Goal", "PARAMETERS", "GOAL_TOLERANCE", "PENDING", "ACCEPTED", "EXECUTING", "CANCELING",
-           "SUCCEEDED", "CANCELED", "ABORTED", "STATUS_NAMES", "history_depth", "yaw_of"]
+           "SUCCEEDED", "CANCELED", "ABORTED", "STATUS_NAMES", "history_depth", "quaternion_yaw"]
 
 # name → (ROS type code, description, (low, high) or None, read only)
 PARAMETERS = {
@@ -49,7 +49,7 @@ def history_depth(rate: float) -> int:
     return max(10, int(math.ceil(rate)))
 
 
-def yaw_of(qx, qy, qz, qw) -> float:
+def quaternion_yaw(qx, qy, qz, qw) -> float:
     """Yaw (rad, about z) of the quaternion (x, y, z, w)."""
     return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
 
@@ -261,7 +261,7 @@ class NodeCore:
         """A /goal_pose (RViz2's "2D Goal Pose"): a goal of /navigate_to_pose without a client."""
         import os
 
-        target = (x, y, yaw_of(qx, qy, qz, qw))
+        target = (x, y, quaternion_yaw(qx, qy, qz, qw))
         if all(math.isfinite(v) for v in target):
             self.start_goal(os.urandom(16), "navigate_to_pose", target)
 
@@ -279,7 +279,7 @@ class NodeCore:
     @staticmethod
     def goal_target(x: float, y: float, qx: float, qy: float, qz: float, qw: float):
         """(x, y, yaw) of a goal pose, or None when a value is not finite (the goal is then rejected)."""
-        target = (x, y, yaw_of(qx, qy, qz, qw))
+        target = (x, y, quaternion_yaw(qx, qy, qz, qw))
         return target if all(math.isfinite(v) for v in target) else None
 
     def start_goal(self, uuid: bytes, action: str, target, handle=None) -> Goal:
@@ -470,7 +470,7 @@ class NodeCore:
         forces (MuJoCo contacts, N)."""
         w = self.walk
         qt = w.q_true
-        yt = yaw_of(*qt[3:7])
+        yt = quaternion_yaw(*qt[3:7])
         x, y, yaw = w.base_pose()
         feet = ", ".join(f"{s} {f[2]:.1f} N" for s, f in w.sim.foot_contact_forces().items())
         return (f"ground truth base x {qt[0]:.4f} m, y {qt[1]:.4f} m, yaw {math.degrees(yt):.2f} deg; "

@@ -170,7 +170,7 @@ class Task(ABC):
     def drift(self, state) -> np.ndarray:
         """(m,) J̇ v at ``state`` (a :class:`~wbc.state.DynamicsState`: Pinocchio data after the forward kinematics
         with (q, v, v̇ = 0)), so that ë = J v̇ + J̇ v (task units /s²). Checked against finite differences of J v
-        along q(t) = q ⊕ t v in ``tests/tasks/test_tasks.py``.
+        along q(t) = q ⊕ t v in ``tests/tasks/test_tasks_base.py``.
 
         Raises:
             NotImplementedError: a task without an acceleration-level form.

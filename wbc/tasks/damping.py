@@ -1,7 +1,7 @@
 """Joint-velocity damping task: e ≡ 0, J = identity rows on v, i.e. the cost Σ_j w_j v_j².
 
 This is a velocity-level regulariser, not a configuration error: it has no e(q) to differentiate (the finite-
-difference check of the other tasks does not apply; ``tests/tasks/test_tasks.py`` checks that it adds exactly
+difference check of the other tasks does not apply; ``tests/tasks/test_damping.py`` checks that it adds exactly
 w_j to the diagonal of H and nothing to g). Unlike the controller's ``damping`` ε (a numerical regulariser that
 only keeps H positive definite), it is a task: it can sit on any level of a hierarchy and be weighted per joint.
 """

@@ -10,7 +10,7 @@ at v̇ = 0 (``pin.getFrameClassicalAcceleration``, LOCAL_WORLD_ALIGNED); orienta
     ë = Jlog₃(rel) ω̇ + (d/dt Jlog₃(rel)) ω   ⇒   J̇v = Jlog₃(rel) α₀ + Hlog₃(rel, ω) ω
 
 with α₀ the LOCAL angular acceleration at v̇ = 0 (``pin.getFrameAcceleration``) and ``pin.Hlog3(rel, ω)`` the
-derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/tasks/test_tasks.py``).
+derivative of Jlog₃ along ω (checked against finite differences of J v in ``tests/tasks/test_tasks_base.py``).
 Position-only and orientation-only forms keep only those rows.
 
 The rows are computed one way, whatever the entry point (:meth:`FrameTask.compute`, ``compute_into``, ``drift``,

@@ -11,7 +11,7 @@ for a uniform signature). Its drift is J̇ v = (dAg v)[3:6] (``pin.computeCentro
 ``DynamicsState.centroidal_drift``), so at the acceleration level the same object asks
 L̇ = A_g,ang v̇ + (dAg v)[3:6] = L̇* with L̇* = L̇_ff − Kd (L − k*) (Kp plays no role, e ≡ 0; Lee & Goswami 2012,
 "A momentum-based balance controller for humanoid robots on non-level and non-stationary ground", Auton. Robots
-33:399–414). Its check is not a finite difference of e: ``tests/tasks/test_tasks.py`` checks that
+33:399–414). Its check is not a finite difference of e: ``tests/tasks/test_momentum.py`` checks that
 J v equals ``pin.computeCentroidalMomentum(model, data, q, v).angular`` and an independent sum over bodies
 Σ_i (c_i − c) × m_i ċ_i + I_i ω_i built from Pinocchio's body velocities.
 """

@@ -144,7 +144,7 @@ def cop_track(sim_wrench: np.ndarray, sole_pos: np.ndarray, min_fz: float = 1.0)
     origins (N, 2, 3): per sample :func:`wbc.sim.walk.measured_cop` on the plane at the f_z-weighted mean height of
     the soles loaded above ``min_fz`` N (0 on flat ground; on a terrain, between the treads), that height as z.
     nan where the total f_z is below ``min_fz`` N (flight)."""
-    from wbc.sim.walk import measured_cop  # (the simulation layer, loaded for simulation logs only)
+    from wbc.sim.walk_summary import measured_cop  # (the simulation layer, loaded for simulation logs only)
 
     w, p = np.asarray(sim_wrench, float), np.asarray(sole_pos, float)
     fz = w[:, :, 2]

@@ -1,9 +1,9 @@
-"""wbc.robot.joint_chain against Pinocchio's own ancestry list (model.supports)."""
+"""wbc.robot_checks.joint_chain against Pinocchio's own ancestry list (model.supports)."""
 
 import pytest
 
 import wbc
-from wbc.robot import joint_chain
+from wbc.robot_checks import joint_chain
 
 
 @pytest.mark.parametrize("name", ["talos", "g1"])

@@ -1,6 +1,6 @@
-"""Estimator building blocks against closed-form cases (no physics): the attitude filter on a static IMU (with and
-without gyro bias), the base Kalman filter on a constant-velocity base, encoder differencing, contact hysteresis,
-the static F/T compensation and the ZMP of known wrenches. Thresholds are written here."""
+"""The floating-base estimator and its building blocks (wbc.estimation.base) against closed-form cases: the base
+Kalman filter on a constant-velocity base, encoder differencing, the heading handed from sole to sole, the compiled
+update against plain numpy/Pinocchio steps. Thresholds are written here."""
 
 import functools
 import math
@@ -10,90 +10,12 @@ import pinocchio as pin
 import pytest
 
 from wbc.estimation import (BaseKalmanFilter, ComplementaryAttitudeFilter, ContactDetector, FloatingBaseEstimator,
-                            FootForceSensor,
-                            JointStateFilter, zmp_from_wrenches)
+                            FootForceSensor, JointStateFilter)
 from wbc.exceptions import InvalidInputError
 from wbc.robot import load_robot
 
 DT = 0.002
 G = 9.81
-
-
-def _tilt_deg(Ra, Rb):
-    return math.degrees(math.acos(min(1.0, float(Ra[2] @ Rb[2]))))
-
-
-def test_static_imu_converges_to_the_gravity_aligned_orientation():
-    # True orientation: roll 10 deg, pitch −5 deg, yaw 30 deg; the filter starts level with yaw 30 deg.
-    R = pin.rpy.rpyToMatrix(math.radians(10), math.radians(-5), math.radians(30))
-    accel = R.T @ np.array([0.0, 0.0, G])  # specific force at rest: +g up, IMU axes
-    f = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.0)
-    f.reset(pin.rpy.rpyToMatrix(0, 0, math.radians(30)))
-    for _ in range(int(10.0 / DT)):
-        f.update(np.zeros(3), accel)
-    assert _tilt_deg(f.rotation, R) < 0.01
-    # zero angular velocity: the estimated rate is zero
-    assert np.abs(f.omega).max() == 0.0
-    assert np.allclose(f.rotation.T @ f.rotation, np.eye(3), atol=1e-12)
-
-
-def test_gyro_bias_is_estimated_on_the_tilt_axes():
-    rng = np.random.default_rng(1)
-    bias = np.array([0.01, -0.02, 0.005])  # rad/s
-    R = np.eye(3)
-    f = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.3)
-    f.reset(R)
-    for _ in range(int(60.0 / DT)):
-        f.update(bias + rng.normal(0, 1e-3, 3), np.array([0.0, 0.0, G]) + rng.normal(0, 1e-2, 3))
-    # roll/pitch bias observable from gravity: estimated; tilt stays small
-    assert np.abs(f.bias[:2] - bias[:2]).max() < 1e-3
-    assert _tilt_deg(f.rotation, R) < 0.1
-    # without the integral term the bias leaves a steady tilt error ≈ |b| / k_p
-    g = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.0)
-    g.reset(R)
-    for _ in range(int(20.0 / DT)):
-        g.update(bias, np.array([0.0, 0.0, G]))
-    assert _tilt_deg(g.rotation, R) == pytest.approx(math.degrees(np.linalg.norm(bias[:2]) / 1.0), rel=0.05)
-
-
-def test_heading_directions_correct_yaw_and_its_bias_only():
-    """A static IMU, level, gyro biased by b about every axis, and one heading direction (world x seen as the IMU's
-    x) that is pitched by 2° — a sole forward axis that disagrees with gravity on tilt. Closed form of the yaw loop
-    (k_H, k_IH): the yaw bias is learnt (b̂_z → b_z) and the yaw error → 0; the heading's pitch disagreement
-    moves nothing: the tilt follows gravity alone, as with no heading at all."""
-    b = np.array([0.004, -0.003, 0.0022])  # rad/s
-    accel = np.array([0.0, 0.0, G])
-    pitched = pin.rpy.rpyToMatrix(0.0, math.radians(2.0), 0.0)[:, 0]  # x pitched 2° (IMU axes)
-    ref = np.array([1.0, 0.0, 0.0])
-    f = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.3, k_heading=1.0, k_heading_bias=0.25)
-    g = ComplementaryAttitudeFilter(DT, k_p=1.0, k_i=0.3, k_heading=0.0, k_heading_bias=0.0)
-    for filt in (f, g):
-        filt.reset(np.eye(3))
-    yaw_peak = 0.0
-    for _ in range(int(60.0 / DT)):
-        f.update(b, accel, heading=[(ref, pitched, 1.0)])
-        g.update(b, accel)
-        yaw_peak = max(yaw_peak, abs(math.atan2(f.rotation[1, 0], f.rotation[0, 0])))
-    yaw = math.atan2(f.rotation[1, 0], f.rotation[0, 0])
-    assert abs(yaw) < 1e-4  # rad, after 60 s (critically damped yaw loop, corner 0.5 rad/s)
-    assert yaw_peak < 1.2 * b[2] / 1.0  # never more than the proportional equilibrium b_z / k_H
-    assert f.bias[2] == pytest.approx(b[2], abs=2e-5)
-    assert _tilt_deg(f.rotation, np.eye(3)) < 0.02  # the 2° pitch of the heading axis is not followed
-    assert np.abs(f.bias[:2] - g.bias[:2]).max() < 1e-6  # tilt and its biases as with no heading
-    # without the heading, yaw integrates the bias: b_z t
-    assert math.atan2(g.rotation[1, 0], g.rotation[0, 0]) == pytest.approx(b[2] * 60.0, rel=1e-3)
-    with pytest.raises(InvalidInputError, match="k_heading"):
-        f.k_heading = -0.5
-
-
-def test_attitude_filter_rejects_bad_gains():
-    with pytest.raises(InvalidInputError, match="k_p"):
-        ComplementaryAttitudeFilter(DT, k_p=-1.0)
-    f = ComplementaryAttitudeFilter(DT)
-    with pytest.raises(InvalidInputError, match="dt"):
-        f.dt = 0.0
-    with pytest.raises(InvalidInputError, match="rotation"):
-        f.reset(np.ones((3, 3)))
 
 
 def test_constant_velocity_base_converges():
@@ -147,34 +69,6 @@ def test_joint_velocity_has_no_lag_at_constant_acceleration():
 def test_joint_velocity_memory_out_of_range():
     with pytest.raises(InvalidInputError, match="memory"):
         JointStateFilter(3, DT, memory=1.0)
-
-
-def test_contact_hysteresis():
-    c = ContactDetector(on=100.0, off=40.0)
-    seq = [0, 90, 101, 60, 41, 39, 99, 100.5]
-    assert [c.update(x) for x in seq] == [False, False, True, True, True, False, False, True]
-    with pytest.raises(InvalidInputError):
-        ContactDetector(on=10.0, off=20.0)
-
-
-def test_ft_static_compensation_and_zmp():
-    robot = load_robot("talos")
-    s = FootForceSensor(robot, robot.left_sole)
-    # A foot at rest, level, with a 500 N vertical ground reaction at CoP (0.02, −0.01) in the sole frame: the
-    # sensor reads F_s = −f − m g, τ_s = −τ_p + p × F_s − (c − p) × m g (module docstring of wbc.estimation.contact).
-    Rw = np.eye(3)
-    mg = s.mass * np.array([0.0, 0.0, -G])
-    f = np.array([0.0, 0.0, 500.0])
-    cop = np.array([0.02, -0.01, 0.0])
-    tau_p = np.cross(cop, f)
-    Fs = -f - mg
-    ts = -tau_p + np.cross(s.sole_in_sensor, Fs) - np.cross(s.com_in_sensor - s.sole_in_sensor, mg)
-    w = s.ground_wrench(np.r_[Fs, ts], Rw)
-    assert np.allclose(w[:3], f) and np.allclose(w[3:], tau_p, atol=1e-12)
-    X = pin.SE3(Rw, np.array([0.3, 0.1, 0.0]))
-    z = zmp_from_wrenches(w[None], [X])
-    assert np.allclose(z, [0.32, 0.09])
-    assert zmp_from_wrenches(np.zeros((1, 6)), [X]) is None
 
 
 def test_floating_base_estimator_update_keeps_the_c_heap_flat():

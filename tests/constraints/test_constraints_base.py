@@ -3,7 +3,7 @@ Constraint with a kind, a level and a ``write``; a kinematic constraint's ``writ
 the inverse-dynamics QP takes an equality constraint of the user's own, solved exactly and named by the diagnosis;
 each controller refuses the other level's constraints with a typed error.
 
-Independent references: each constraint's own ``compute`` (kinematic rows, which tests/constraints/test_constraints.py
+Independent references: each constraint's own ``compute`` (kinematic rows, which the constraint's own test file
 checks by finite differences), Pinocchio's RNEA for the equations of motion, the closed-form value of the constrained
 joint acceleration.
 """

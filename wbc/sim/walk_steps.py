@@ -1,0 +1,187 @@
+"""Step adjustment of a physics walk (:class:`wbc.sim.walk.WalkScenario`, :class:`WalkSteps`): the landing point
+following the measured DCM during a swing, the swing cut short or stretched, the capture step after the last step
+and the scheduled push."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.exceptions import GaitError
+from wbc.gait import Footstep
+from wbc.gait.blind import BLIND_XY_END
+from wbc.gait.step_adjustment import StretchLimits
+from wbc.geometry import convex_hull, polygon_margin, projected_sole_corners
+from wbc.sim.scenarios import timed_push
+
+__all__ = ["WalkSteps"]
+
+
+class WalkSteps:
+    """Step adjustment, capture step and push of :class:`wbc.sim.walk.WalkScenario` (its state: the plan, the
+    switcher, the step adjuster)."""
+
+    def _start_recovery(self, t, controller, sim, q, v, xi):
+        """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
+        (a 2-step walk planned from the measured state, first step from the measured DCM), as
+        :class:`wbc.sim.capture_step.CaptureStepScenario` does for a standing robot.
+
+        The stepping foot is the one on the DCM's side of the feet, unless the DCM lies laterally over that sole or
+        beyond it (less than half a sole width inwards of its middle): that sole then carries the CoP the DCM needs
+        — lifting it leaves the CoP on the other sole, from which the DCM diverges as ``e^{ωt}`` (Englsberger 2015,
+        eq. 6) out of any reach — and the other foot steps instead, towards it (a closing step: the feet are wide
+        apart after a lateral recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
+        the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk) is
+        captured by that foot stepping forward, not by lifting the other one, on which the DCM then nearly stands."""
+        mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
+        lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
+        side = "left" if (xi - mid) @ lat >= 0 else "right"
+        sign = 1.0 if side == "left" else -1.0
+        rel = xi - self._data.oMf[self._fid[side]].translation[:2]
+        fwd = self._data.oMf[self._fid[side]].rotation[:2, 0]
+        if sign * float(rel @ lat) > -0.5 * self.robot.sole_width \
+                and abs(float(rel @ fwd)) <= 0.5 * self.robot.sole_length:
+            side = "right" if side == "left" else "left"
+            self.recovery_swapped = True
+        rec = type(self)(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
+                           first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
+                           zmp_feedback=self.zmp_feedback,
+                           cop_margin=self.cop_margin, adjust_timing=False, cmp_offset=self.cmp_offset,
+                           stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight)
+        try:
+            rec.setup(controller, sim, q, v)
+        except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
+            self.recovery_failures += 1  # (not tried again: see the trigger in update)
+            return
+        self._recovery, self._t_recovery = rec, float(t)
+
+    def _recovery_update(self, t, controller, sim, q, v):
+        rec = self._recovery
+        rec.measured_zmp = self.measured_zmp
+        rec.measured_normal_force = self.measured_normal_force
+        rec.update(t - self._t_recovery, controller, sim, q, v)
+        pin.framesForwardKinematics(self._model, self._data, q)
+        i = min(self._k, len(self.log["phase"]) - 1)
+        lg = self.log
+        for j, s in enumerate(("left", "right")):
+            lg["phase"][i, j] = ("stance", "unloading", "swing", "loading").index(rec.switcher.phase(s))
+            M = self._data.oMf[self._fid[s]]
+            lg["sole_xy"][i, j] = M.translation[:2]
+            lg["sole_yaw"][i, j] = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        self._k += 1
+        return self._apply_push(t, sim)
+
+    def _apply_push(self, t, sim):
+        active = self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9
+        f, self._pushing = timed_push(sim, self._push_body, self.push * self.push_vec if active else None, active,
+                                      self._pushing)
+        return f
+
+    def _adjust_step(self, t, k, c, cd, xi):
+        """Step adjustment (class docstring): in the single support of a released swing foot, the landing from
+        the measured DCM vs the DCM plan held at the swing's start (eq. 1 of :mod:`wbc.gait.step_adjustment`);
+        when it moved by more than 1 cm, replan the DCM and the swing from it (measured CoM state)."""
+        idx = self._swing_at[k]  # the first swing with k_lift <= k < k_td
+        if idx < 0:
+            self._base = None
+            return
+        side, k_lift, k_td, fs = self.swings[idx]
+        if self.switcher.phase(side) != "swing":
+            return
+        if self._base is None or self._base[0] != idx:
+            self._base = (idx, fs, self.ref_dcm.copy())
+        time_left = (k_td - k) * self.dt
+        # blind: the vertical descent (the last 1 - BLIND_XY_END of the swing) may end on a bump at any tick, so its
+        # foothold no longer moves; before it, the foot must reach the foothold by the descent's start
+        descent = (1.0 - BLIND_XY_END) * (k_td - k_lift) * self.dt if self.blind else 0.0
+        frozen = time_left < max(self.adjust_freeze, descent)
+        if frozen and not (self.adjust_timing and self.max_stretch > 0 and self._stretched != idx
+                           and time_left >= 0.02):
+            return
+        _, fs0, dcm0 = self._base
+        if fs.x == fs0.x and fs.y == fs0.y:  # (StepAdjuster.correction's dead band: no correction, nothing to do)
+            ex, ey = float(xi[0]) - float(dcm0[k, 0]), float(xi[1]) - float(dcm0[k, 1])
+            if math.sqrt(ex * ex + ey * ey) <= self.adjuster.dead_band:
+                return
+        other = "right" if side == "left" else "left"
+        M = self._data.oMf[self._fid[other]]
+        stance = (M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0]))
+        corr = self.adjuster.correction(xi, dcm0[k], time_left)
+        if not corr.any() and abs(fs.x - fs0.x) + abs(fs.y - fs0.y) == 0.0:
+            return
+        target = self.adjuster.landing(fs0, stance, corr) if corr.any() else fs0
+        skip = 0
+        foot = self._data.oMf[self._fid[side]].translation[:2]
+        stretch = self._stretch(idx, fs, fs0, stance, corr, target, foot, xi, dcm0[k], time_left)
+        if stretch:
+            skip = -stretch
+            corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left + stretch * self.dt,
+                                            np.array(stance[:2]))
+            target = self.adjuster.landing(fs0, stance, corr)
+        elif frozen:
+            return
+        if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
+                and self._skipped != idx and self._stretched != idx \
+                and self.adjuster.correction_clip(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
+            # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
+            # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
+            dist = float(np.linalg.norm(foot - [target.x, target.y]))
+            cut = min(time_left - self.min_time_left, self.max_cut, time_left - descent - dist / self.max_swing_speed)
+            skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
+            if skip:
+                u0 = np.array(stance[:2])
+                corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left - skip * self.dt, u0)
+                target = self.adjuster.landing(fs0, stance, corr)
+        d = np.array([target.x - fs.x, target.y - fs.y])
+        if np.linalg.norm(d) < 0.01 and not skip:
+            return
+        remaining = [(i, sw) for i, sw in enumerate(self.swings) if sw[2] > k]
+        new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
+        try:
+            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False, skip=skip)
+        except GaitError:
+            self.replan_failures += 1
+            return
+        k1 = k + skip  # the plan sample of the current time after the timing change
+        self._rp, self._rp_k0 = rp, k1
+        for (i, sw), f in zip(remaining, new):
+            self.swings[i] = (sw[0], sw[1], sw[2], f)
+        n = rp.n_samples
+        for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
+            self.poses[s][k1:k1 + n] = P
+            self.vels[s][k1:k1 + n] = V
+            self.acc[s][k1:k1 + n] = np.gradient(V, self.dt, axis=0)
+        self.ref_dcm[k1:k1 + n] = rp.dcm
+        self.ref_zmp[k1:k1 + n] = rp.zmp
+        if skip:
+            self._shift += skip
+            if skip > 0:
+                self._skipped = idx
+            else:
+                self._stretched = idx
+            self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
+            self.timing_changes.append((float(t), side, skip * self.dt))
+        self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
+        """Samples by which to lengthen the swing ``idx`` in progress (0: none): in the last ``stretch_window`` s of
+        a swing not yet stretched or cut, with timing adaptation on, :meth:`StepAdjuster.stretch_samples
+        <wbc.gait.step_adjustment.StepAdjuster.stretch_samples>` (earlier in the swing, a cut is better: the foot
+        can still travel and landing sooner lets the DCM diverge less)."""
+        if not self.adjust_timing or self.max_stretch <= 0 or self._stretched == idx or self._skipped == idx \
+                or time_left > self.stretch_window:
+            return 0
+        limits = StretchLimits(self.max_stretch, self.stretch_speed, self.stretch_min, self.dt)
+        return self.adjuster.stretch_samples(limits, fs0, fs, stance, corr, target, foot, (xi, xi_ref), time_left)
+
+    def _capturable(self, xi: np.ndarray, stance: str) -> bool:
+        """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
+        DCM the DCM stays put (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6) — the state is 0-step capturable (Pratt et
+        al. 2006; Koolen et al., IJRR 31(9), 2012) and landing sooner gains nothing, while the swing, hurried,
+        may land short of its target (after a wide lateral step put the stance sole under the DCM)."""
+        r = self.robot
+        sole = projected_sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
+                                      r.sole_width - 2 * self.cop_margin)
+        return polygon_margin(np.asarray(xi, float), convex_hull(sole)) >= 0.0
