@@ -8,7 +8,7 @@ import copy
 import pytest
 
 from wbc.constraints import ContactConstraint, JointPositionLimit
-from wbc.controllers.robot_check import RobotCheck, locked_joints
+from wbc.controllers.robot_check import RobotCheck, zero_range_joints
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import FrameTask, PostureTask
 
@@ -43,9 +43,9 @@ def test_objects_of_another_robot_are_refused_naming_why(robots):
 def test_locked_joints_from_the_model_limits(robots):
     robot = copy.copy(robots("humanoid15"))
     model = robot.model.copy()
-    assert locked_joints(model) == []
+    assert zero_range_joints(model) == []
     j = model.njoints - 1
     model.velocityLimit[model.joints[j].idx_v] = 0.0
     iq = model.joints[2].idx_q
     model.lowerPositionLimit[iq] = model.upperPositionLimit[iq]
-    assert locked_joints(model) == [model.names[2], model.names[j]]
+    assert zero_range_joints(model) == [model.names[2], model.names[j]]

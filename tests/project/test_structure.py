@@ -25,16 +25,12 @@ CLASS_LINES = 600
 
 #: path under ``wbc/`` → why it may exceed :data:`MODULE_LINES` / hold a class over :data:`CLASS_LINES`.
 SIZE_EXCEPTIONS = {
-    "formulations/acceleration.py": "temporary: being split into the ID problem data and the solver chain (issue 59)",
 }
 
 #: public name → why several modules define it.
 SHARED_NAMES = {
     "register": "the wbc.cli command protocol: every command module's register(subparsers)",
     "main": "entry points: wbc.cli's, and the meshcat server process's (wbc/viz/_server.py)",
-    "ensure_compiled": "temporary: being folded into one loader (issue 59)",
-    "warm_up": "temporary: being folded into one loader (issue 59)",
-    "acceptance": "temporary: being folded into one verdict (issue 59)",
 }
 
 #: packages of ``wbc/`` whose every module has a test file of its name.
@@ -43,14 +39,10 @@ MIRRORED = ("tasks", "constraints", "formulations", "solvers", "controllers", "g
 _BEING_SPLIT = "temporary: module being restructured (issue 59); its tests are topic files until it settles"
 #: ``package/module`` → why it has no test file of its name yet (an entry the tree no longer needs fails too).
 UNMIRRORED = {
-    "formulations/acceleration": _BEING_SPLIT + " (tests/formulations/test_acceleration_*.py)",
     "controllers/kinematic": _BEING_SPLIT + " (tests/controllers/test_kinematic_*.py)",
     "controllers/compiled_tick": _BEING_SPLIT,
-    "controllers/contact_hold": _BEING_SPLIT,
     "controllers/general_route": _BEING_SPLIT,
-    "controllers/output_guard": _BEING_SPLIT,
     "controllers/recovery": _BEING_SPLIT,
-    "controllers/relaxation": _BEING_SPLIT,
 }
 
 

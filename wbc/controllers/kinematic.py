@@ -31,7 +31,7 @@ from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult
 from wbc.controllers.budget import TickBudget
 from wbc.controllers.general_route import CONFIRM_ORDER, GeneralRoute
-from wbc.controllers.robot_check import RobotCheck, locked_joints
+from wbc.controllers.robot_check import RobotCheck, zero_range_joints
 from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.controllers.compiled_tick import CompiledTick, FusedPlan
 from wbc.controllers.contact_hold import ContactHold, ContactRange, DriftFailure, DriftMeter
@@ -239,7 +239,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0
         #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
         #: found at build and reported once with a warning.
-        self.locked_joints = locked_joints(robot.model)
+        self.locked_joints = zero_range_joints(robot.model)
         if self.locked_joints:
             warnings.warn(f"{len(self.locked_joints)} joint(s) have a zero-width position or velocity range and "
                           f"are treated as locked: {', '.join(self.locked_joints)}", stacklevel=2)

@@ -1,6 +1,6 @@
 """Inputs of a kinematic controller checked against its robot: a task or constraint built for another robot is
 refused with a typed error when added (:class:`RobotCheck`), and joints whose range has zero width are found at
-build (:func:`locked_joints`)."""
+build (:func:`zero_range_joints`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit, bound
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["RobotCheck", "locked_joints"]
+__all__ = ["RobotCheck", "zero_range_joints"]
 
 
 class RobotCheck:
@@ -77,7 +77,7 @@ class RobotCheck:
                 raise foreign(f"limits on {np.size(obj.indices)} velocity indices, this robot has {expected.size}")
 
 
-def locked_joints(model: pin.Model) -> list[str]:
+def zero_range_joints(model: pin.Model) -> list[str]:
     """Names of the joints (free-flyer excluded) whose position range has zero width or whose velocity limit is
     ≤ 0: their bounds pin v to 0."""
     locked = []
