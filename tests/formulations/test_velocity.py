@@ -216,9 +216,9 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
     received = []  # (the compiled solver's QP as its buffers held it when solved, its exit code, its v)
     tick_packed = compiled_tick.kinematic_tick_packed
 
-    def spy(fb, ib, *args):  # the kernel forms H, g, then solves reading (never writing) the QP: read after it
-        it, guard = tick_packed(fb, ib, *args)
-        received.append((fb, fb.copy(), it, args[6].copy()))
+    def spy(bufs, *args):  # the kernel forms H, g, then solves reading (never writing) the QP: read after it
+        it, guard = tick_packed(bufs, *args)
+        received.append((bufs.fb, bufs.fb.copy(), it, args[3].copy()))
         return it, guard
 
     specialise = compiled_tick.specialise

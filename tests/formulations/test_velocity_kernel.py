@@ -132,9 +132,8 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
             turns = (axes.T / np.linalg.norm(axes, axis=1) * rng.uniform(0.0, min(scale, 3.0), 2)).T  # < a half turn
             frames = [p * pin.SE3(pin.exp3(w), rng.normal(size=3) * scale) for p, w in zip(places, turns)]
             b, factors = rng.normal(size=17), rng.uniform(-0.01, 0.0, 2)
-            args = []
-            for p, m in zip(places, frames):
-                args += [np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy()]
+            args = [(np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy())
+                    for p, m in zip(places, frames)]
             for lever in (0.0, 0.1):
                 logs = np.full((2, 6), np.nan)
                 d = contact_pair_drift(*args, logs, b, *starts.tolist(), *factors.tolist(), lever)
@@ -144,10 +143,40 @@ def test_contact_pair_drift_is_the_two_errors_and_the_drift_in_one_call():
                 assert d == contact_drift(logs, b, starts, factors, lever)
     p = pin.SE3.Identity()
     half = pin.SE3(pin.exp3(np.array([0.0, 0.0, np.pi])), np.zeros(3))
-    ops = [np.vstack([p.rotation, p.translation]), np.asfortranarray(half.rotation), np.zeros(3)]
+    ops = (np.vstack([p.rotation, p.translation]), np.asfortranarray(half.rotation), np.zeros(3))
     logs = np.zeros((2, 6))
-    far, worst = contact_pair_drift(*ops, *ops, logs, np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
+    far, worst = contact_pair_drift(ops, ops, logs, np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     assert abs(np.linalg.norm(logs[0, 3:]) - np.pi) <= 1e-12 and far == 0.0 and abs(worst - 0.1 * np.pi) <= 1e-12
+
+
+def test_contact_pair_drift_is_never_negative_at_and_near_a_half_turn():
+    """The compiled tick has no half-turn fallback: ``contact_pair_drift`` (through wbc.lie.placement_log6_into)
+    gives Pinocchio's log6 and contact_drift's nonnegative (distance, drift) for errors at, and within 1e-9 rad of,
+    a half turn about random axes, with random translations (the drift of Pinocchio's logs recomputed here)."""
+    import pinocchio as pin
+
+    from wbc.formulations.velocity_kernel import contact_drift, contact_pair_drift
+
+    rng = np.random.default_rng(12)
+    starts, factors = np.array([0, 6]), np.array([-0.002, -0.004])
+    for _ in range(200):
+        pair = []
+        for _ in range(2):
+            place = pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3))
+            axis = rng.normal(size=3)
+            angle = np.pi - rng.choice([0.0, 1e-12, 1e-9])
+            frame = place * pin.SE3(pin.exp3(axis / np.linalg.norm(axis) * angle), rng.normal(size=3) * 0.01)
+            pair.append((place, frame))
+        ops = [(np.vstack([p.rotation, p.translation]), np.asfortranarray(m.rotation), m.translation.copy())
+               for p, m in pair]
+        b = rng.normal(size=12) * 0.01
+        logs = np.full((2, 6), np.nan)
+        far, worst = contact_pair_drift(*ops, logs, b, 0, 6, *factors.tolist(), 0.1)
+        ref = np.array([pin.log6(p.actInv(m)).vector for p, m in pair])
+        assert np.allclose(np.linalg.norm(logs[:, 3:], axis=1), np.linalg.norm(ref[:, 3:], axis=1), atol=1e-9)
+        assert far >= 0.0 and worst >= 0.0
+        far_ref, worst_ref = contact_drift(ref, b, starts, factors, 0.1)
+        assert abs(far - far_ref) <= 1e-9 and abs(worst - worst_ref) <= 1e-9
 
 
 @pytest.mark.parametrize("name", ["talos", "humanoid15"])
@@ -264,7 +293,7 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve_packed, command_within_box and
     command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
-    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, command_within_box,
+    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, command_within_box,
                                                   command_within_rows, form_qp,
                                                   kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
                                                   kinematic_tick_packed, rows_pack)
@@ -296,8 +325,8 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
         n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
     sfb, sib, rows = rows_pack(mt, nv, prow)
     rows["J"][:], rows["e"][:], rows["rowp"][:], rows["pw"][:] = Js, es, rowp, pw
-    it2, guard2 = kinematic_tick_packed(fb2, ib2, sfb, sib, diff, 10.0, 1e-6, states2, v2, 0.002, 1e-6, 200,
-                                        *NO_KERNEL_BOX)
+    it2, guard2 = kinematic_tick_packed(TickBuffers(fb2, ib2, sfb, sib, states2), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
+                                        200, np.zeros(0), NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
     # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
     assert all(np.array_equal(x1[k], x2[k]) for k in x1 if k != "ws")
@@ -311,8 +340,8 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
         rows["e"][:] = es
         if bad == "cost":
             rows["e"][0] = np.inf
-        code, guard = kinematic_tick_packed(fb, ib, sfb, sib, diff, 10.0, 1e-6, states, v2, 0.002, 1e-6, 200,
-                                            *NO_KERNEL_BOX)
+        code, guard = kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, states), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
+                                            200, np.zeros(0), NO_KERNEL_BOX)
         assert code == NONFINITE_RHS and not guard and np.array_equal(states, states2)
 
 
@@ -322,7 +351,8 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
     constant box clipped by the position bounds lo = min((q_min − q)/dt, v_max), hi = max((q_max − q)/dt, −v_max)
     (numpy formula, each bound clipped into the constant one), before anything else: also when it then
     refuses a non-finite right-hand side; the other entries keep the constant box."""
-    from wbc.formulations.velocity_kernel import NONFINITE_RHS, kinematic_pack, kinematic_tick_packed, rows_pack
+    from wbc.formulations.velocity_kernel import (NONFINITE_RHS, KernelBox, TickBuffers, kinematic_pack,
+                                                  kinematic_tick_packed, rows_pack)
 
     rng = np.random.default_rng(40 + seed)
     nv, nq, dt = 14, 15, 0.002
@@ -346,8 +376,8 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
     ub[idx_v] = np.maximum(np.minimum(hi, const[1, idx_v]), const[0, idx_v])
     for b_value in (0.0, np.nan):
         x["lb"][:], x["ub"][:], x["b"][:] = 9.0, 9.0, b_value
-        code, _ = kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(nv), 0.0, 1e-6, np.zeros(nv - 6, np.int8),
-                                        np.empty(nv), dt, 1e-6, 200, q, idx, limits, const)
+        code, _ = kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(nv - 6, np.int8)), np.zeros(nv), 0.0,
+                                        1e-6, np.empty(nv), dt, 1e-6, 200, q, KernelBox(idx, limits, const))
         assert (code == NONFINITE_RHS) == np.isnan(b_value)
         assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)
 

@@ -1,7 +1,7 @@
-"""Size rules of the controllers and the velocity formulation, read from the source with ``ast``: no module over
-800 lines, no class over 600 lines, no function or method with more than 10 positional parameters (``self``
-not counted). Scope: ``wbc/controllers/`` and ``wbc/formulations/velocity.py`` (the compiled kernels of
-``velocity_kernel.py`` still take long positional lists: not yet in scope)."""
+"""Size rules read from the source with ``ast``. The controllers and the velocity formulation: no module over 800
+lines, no class over 600 lines, no function or method with more than 10 positional parameters (``self`` not
+counted). Every module of ``wbc/``: no function or method with more than 10 positional parameters (compiled kernels
+included: they take namedtuple workspaces), but for the functions of :data:`OVER_TEN`, not yet rewritten."""
 
 from __future__ import annotations
 
@@ -13,8 +13,50 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2] / "wbc"
 FILES = sorted((ROOT / "controllers").glob("*.py")) + [ROOT / "formulations" / "velocity.py"]
 
+#: the functions of wbc/ still over 10 positional parameters (qualified name: its count), each a compiled kernel or a
+#: helper whose arguments are yet to be grouped into a namedtuple workspace (named without their module, so that a
+#: function moved to another module keeps its entry); the list may only shrink
+OVER_TEN = {
+    "_intersect_braking_bounds": 11, "_write_contact_pair_rows": 14, "joint_bounds_kernel": 12,
+    "joint_acceleration_bounds": 12, "_broad_phase": 23, "_damper": 17, "_close_pairs_damper": 16, "_zmp_tick": 11,
+    "_fuse_kernel": 26, "InverseDynamicsQP._solve_backend": 11, "InverseDynamicsQP._backend_stages": 11,
+    "InverseDynamicsQP._check_hard_sets": 12, "InverseDynamicsQP._check_relaxed_set": 12,
+    "InverseDynamicsQP._solve_scaled": 11, "_equality_step": 25, "output_violations": 13, "stabilizer_kernel": 20,
+    "_assemble": 16, "executed_multibody_zmp": 11, "_foot_wrench_kernel": 11, "JumpScenario.__init__": 16,
+    "_tick_kernel": 21, "_read_kernel": 14, "_factor": 16, "_kkt": 18, "dual_active_set": 21, "solve_qp_ws": 20,
+    "solve_qp_into": 22, "solve_box_eq": 14, "_working_set_step": 18, "_refine_equalities": 15, "solve_box_eq_ws": 21,
+    "solve_lexicographic": 12, "_cascade": 16, "_checked": 12, "_centroidal_from_base_rows": 12,
+    "_frame_rows_drift": 11,
+}
 
-def oversized(path: Path, module_lines: int = 800, class_lines: int = 600, positional: int = 10) -> list[str]:
+
+def positional(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Positional parameters of a function (``self``/``cls`` not counted)."""
+    args = [*node.args.posonlyargs, *node.args.args]
+    return len(args) - (1 if args and args[0].arg in ("self", "cls") else 0)
+
+
+def long_signatures(root: Path, limit: int = 10) -> dict[str, list[str]]:
+    """{qualified name (``f``, ``Class.method``): ["module.py:line n", …]} of every function under ``root`` with more
+    than ``limit`` positional parameters."""
+    found: dict[str, list[str]] = {}
+
+    def visit(node: ast.AST, prefix: str, path: Path) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.", path)
+            elif isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                if positional(child) > limit:
+                    found.setdefault(prefix + child.name, []).append(
+                        f"{path.relative_to(root)}:{child.lineno} {positional(child)}")
+                visit(child, f"{prefix}{child.name}.", path)
+
+    for path in sorted(root.rglob("*.py")):
+        visit(ast.parse(path.read_text()), "", path)
+    return found
+
+
+def oversized(path: Path, module_lines: int = 800, class_lines: int = 600, max_positional: int = 10) -> list[str]:
     text = path.read_text()
     bad = []
     if text.count("\n") > module_lines:
@@ -22,11 +64,8 @@ def oversized(path: Path, module_lines: int = 800, class_lines: int = 600, posit
     for node in ast.walk(ast.parse(text)):
         if isinstance(node, ast.ClassDef) and node.end_lineno - node.lineno + 1 > class_lines:
             bad.append(f"class {node.name}: {node.end_lineno - node.lineno + 1} lines > {class_lines}")
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-            args = [*node.args.posonlyargs, *node.args.args]
-            n = len(args) - (1 if args and args[0].arg in ("self", "cls") else 0)
-            if n > positional:
-                bad.append(f"{node.name}: {n} positional parameters > {positional}")
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and positional(node) > max_positional:
+            bad.append(f"{node.name}: {positional(node)} positional parameters > {max_positional}")
     return bad
 
 
@@ -41,4 +80,17 @@ def test_the_checker_flags_each_rule(tmp_path):
     assert oversized(src) == []
     assert oversized(src, module_lines=3) == ["m.py: 8 lines > 3"]
     assert oversized(src, class_lines=4) == ["class A: 8 lines > 4"]
-    assert oversized(src, positional=2) == ["f: 3 positional parameters > 2"]
+    assert oversized(src, max_positional=2) == ["f: 3 positional parameters > 2"]
+    (tmp_path / "k.py").write_text("def g(a, b, c, *, d, e):\n    pass\n")
+    assert long_signatures(tmp_path, limit=2) == {"A.f": ["m.py:7 3"], "g": ["k.py:1 3"]}
+    assert long_signatures(tmp_path, limit=3) == {}
+
+
+def test_no_function_of_wbc_takes_more_than_ten_positional_parameters():
+    """Every function of wbc/ over 10 positional parameters is one of OVER_TEN, with at most its listed count; and
+    each of OVER_TEN is still over 10 (a function brought to 10 or fewer leaves the list)."""
+    found = long_signatures(ROOT)
+    new = {name: where for name, where in found.items() if name not in OVER_TEN
+           or any(int(w.rsplit(" ", 1)[1]) > OVER_TEN[name] for w in where)}
+    assert new == {}, f"functions over 10 positional parameters (group them into a namedtuple): {new}"
+    assert sorted(set(OVER_TEN) - set(found)) == [], "no longer over 10: remove them from OVER_TEN"

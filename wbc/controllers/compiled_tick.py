@@ -22,9 +22,9 @@ from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import InvalidInputError, SolverError
-from wbc.formulations.velocity_kernel import (NONFINITE_RHS, command_within_box, command_within_rows, contact_drift,
-                                              contact_pair_drift, kinematic_finish_packed, kinematic_reduced_packed,
-                                              kinematic_tick_packed)
+from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within_box, command_within_rows,
+                                              contact_drift, contact_pair_drift, kinematic_finish_packed,
+                                              kinematic_reduced_packed, kinematic_tick_packed)
 from wbc.solvers import DaqpBackend, FastBackend
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
@@ -113,11 +113,21 @@ class CompiledTick:
         if plan.tick_kernel is None and type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous \
                 and q.flags.writeable:
             soft, backend = self._soft, self.backend
-            fb, ib, _ = self._qp_pack
             pgain = 0.0 if soft.posture is None else soft.posture.gain
-            args = (fb, ib, soft.fb, soft.ib, soft.no_diff, pgain, self.damping, plan.states, np.empty(self.nv),
-                    float(dt), backend.tolerance, backend.max_iter, q) + plan.box
+            args = (self._tick_buffers(plan), soft.no_diff, pgain, self.damping, np.empty(self.nv), float(dt),
+                    backend.tolerance, backend.max_iter, q, plan.box)
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+
+    def _tick_buffers(self, plan: FusedPlan) -> TickBuffers:
+        """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers`: the QP's and the task rows' packed
+        arrays of the current layouts and the plan's working sets (made once per plan, again if a layout's arrays
+        were replaced)."""
+        fb, ib, _ = self._qp_pack
+        soft = self._soft
+        bufs = plan.buffers
+        if bufs is None or bufs.fb is not fb or bufs.sfb is not soft.fb:
+            bufs = plan.buffers = TickBuffers(fb, ib, soft.fb, soft.ib, plan.states)
+        return bufs
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
         """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
@@ -194,7 +204,7 @@ class CompiledTick:
         if box is None:  # the plan's first tick
             box = plan.box = self._kernel_box(config, dt)
         # the cost (and the box, when the kernel writes it) are formed by the kernel below
-        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box[2].shape[0] == 0)
+        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box.const.shape[0] == 0)
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:
@@ -202,16 +212,14 @@ class CompiledTick:
         t1 = perf_counter()
         v = np.empty(self.nv)
         backend = self.backend
-        fb, ib, _ = self._qp_pack
         tol = backend.tolerance
-        soft = self._soft
         # one compiled call: the cost (form_qp); every number of the cost and the contact targets finite (targets,
         # weights, gains written in place, q, placements: NaN and inf propagate into these sums; else None, the
         # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
-        args = (fb, ib, soft.fb, soft.ib, self._posture_diff, self._posture_gain, self.damping, plan.states, v,
-                float(dt), tol, backend.max_iter, q) + box  # box: a tuple (_kernel_box)
+        args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
+                backend.max_iter, q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
@@ -252,14 +260,10 @@ class CompiledTick:
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
                 (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
-                args = ca.log_operands(ndata) + cb.log_operands(ndata) + (plan.logs, b, ra, rb, f_a, f_b, lever)
+                args = (ca.log_operands(ndata), cb.log_operands(ndata), plan.logs, b, ra, rb, f_a, f_b, lever)
                 if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
                     plan.drift_kernel = specialise(contact_pair_drift, *args)
                 far, drift = plan.drift_kernel(*args)
-                if drift < 0.0:  # a half-turn error: Pinocchio's log6 (error_into)
-                    ca.error_into(ndata, plan.logs[0])
-                    cb.error_into(ndata, plan.logs[1])
-                    far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
             else:
                 for c, log in plan.contact_logs:
                     pin.updateFramePlacement(model, ndata, c.frame_id)
@@ -326,4 +330,5 @@ class FusedPlan:
 
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
+    buffers = None  # its TickBuffers (CompiledTick._tick_buffers)
     drift_kernel = None  # contact_pair_drift, likewise

@@ -32,7 +32,8 @@ from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityCo
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
-from wbc.formulations.velocity_kernel import NO_KERNEL_BOX, form_qp, kinematic_pack, rows_pack, weighted_rows
+from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, rows_pack,
+                                              weighted_rows)
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
@@ -247,17 +248,17 @@ class VelocityQP:
             self._intersect_boxes(config, dt)
         return H, g, A, b, C, l, u, self._lb, self._ub
 
-    def _kernel_box(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The box arguments of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
-        layout: (idx, limits, constant box (2, nv)) when the boxes are constant ones followed by one
+    def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
+        """The box argument of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
+        layout: KernelBox(idx, limits, constant box (2, nv)) when the boxes are constant ones followed by one
         :class:`~wbc.constraints.JointPositionLimit` (the kernel then writes lb, ub as :meth:`_intersect_boxes`
         does), else empty arrays (lb, ub assembled here)."""
         if self._const_prefix is None:
             self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
         rest = self._box_sel[self._const_prefix:]
         if self._const_prefix and len(rest) == 1 and type(rest[0][0]) is JointPositionLimit:
-            return (*rest[0][0].packed(), self._const_box)
-        return NO_KERNEL_BOX[1:]
+            return KernelBox(*rest[0][0].packed(), self._const_box)
+        return NO_KERNEL_BOX
 
     def _intersect_boxes(self, config: Configuration, dt: float, record: list | None = None,
                          skip: set | None = None) -> None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import namedtuple
 
 import numba as nb
 import numpy as np
@@ -34,10 +35,29 @@ from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
-           "form_qp", "kinematic_finish_packed", "load_kinematic_kernels", "kinematic_pack", "kinematic_reduced_packed",
-           "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed", "kinematic_workspace", "NO_KERNEL_BOX",
-           "NONFINITE_RHS", "rotation_gap", "rows_pack",
-           "translation_gap", "weighted_rows"]
+           "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
+           "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed",
+           "kinematic_workspace", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "TaskRows",
+           "TickBuffers", "translation_gap", "weighted_rows"]
+
+#: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
+#: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays (views of :func:`kinematic_pack`'s
+#: float array in the compiled tick)
+KinematicQP = namedtuple("KinematicQP", "H g A b C l u lb ub")
+
+#: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
+#: weight w, feed-forward of each row), pw (kp,) float64 posture weights and prow (kp,) int64 their velocity indices
+TaskRows = namedtuple("TaskRows", "J e rowp pw prow")
+
+#: the box arguments of :func:`kinematic_tick_packed`: ``idx`` (2, k) int64 and ``limits`` (3, k) float64 of a
+#: joint position limit (:meth:`wbc.constraints.JointPositionLimit.packed`) and ``const`` (2, nv) float64, the
+#: constant bounds' intersection (lb, ub as rows); ``const`` (0, 0): the box is left as assembled
+KernelBox = namedtuple("KernelBox", "idx limits const")
+
+#: the buffers of one compiled tick (:func:`kinematic_tick_packed`): ``fb``/``ib`` of :func:`kinematic_pack` (the
+#: QP and the solver's workspace), ``sfb``/``sib`` of :func:`rows_pack` (the task rows) and ``states`` (nr + p,) int8,
+#: the working sets of the nr reduced variables and the p inequality rows
+TickBuffers = namedtuple("TickBuffers", "fb ib sfb sib states")
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -147,12 +167,14 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     Returns:
         trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
     """
-    return _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, np.empty(H.shape[0]))
+    return _form_qp_into(TaskRows(Js, es, rowp, pw, prow), diff, pgain, damping, H, g, np.empty(H.shape[0]))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row):
-    """:func:`form_qp` with its row buffer row (nv,) given (scratch: no allocation)."""
+def _form_qp_into(rows, diff, pgain, damping, H, g, row):
+    """:func:`form_qp` on the task rows ``rows`` (:class:`TaskRows`) with its row buffer row (nv,) given (scratch:
+    no allocation)."""
+    Js, es, rowp, pw, prow = rows
     n = H.shape[0]
     g[:] = 0.0
     first = True  # H not yet written: the first weighted row's products are added to 0.0 row by row (no memset)
@@ -298,7 +320,7 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
+def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`)
 
         min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
@@ -315,8 +337,8 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
     exit, and the residuals of all rows of the original one are checked against ``tolerance``.
 
     Args:
-        H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,), C (p, nv), l/u (p,), lb/ub (nv,):
-            the assembled QP (a row of C with l = −inf and u = inf is unused).
+        qp: a :class:`KinematicQP`, H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,),
+            C (p, nv), l/u (p,), lb/ub (nv,): the assembled QP (a row of C with l = −inf and u = inf is unused).
         er: first row of the eliminating block, or −1 (no elimination). dt (s): the workspace receives v·dt.
         tolerance: largest residual accepted. max_iter: working-set iterations.
         state (nr,) int8, rstate (p,) int8: working sets (warm start, in/out). ws, iws: workspaces from
@@ -325,6 +347,7 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
     Returns:
         working-set iterations (≥ 1), or a negative exit code (the caller solves the tick by the general path).
     """
+    H, g, A, b, C, l, u, lb, ub = qp
     n = H.shape[0]
     n0 = 6 if er >= 0 else 0
     nr = n - n0
@@ -366,7 +389,7 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
         state[:] = 0
         rstate[:] = 0
         return it
-    if not _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v):
+    if not _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
         state[:] = 0
         rstate[:] = 0
         return RESIDUAL
@@ -374,9 +397,11 @@ def kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, st
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
+def _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
     """v from the reduced solution x (joint velocities; the base's v_b = c − T v_j when n0 = 6), then the residuals
-    of the original rows A v = b, cl ≤ C v ≤ cu: False when one exceeds ``tolerance``, else ws[:nv] = v·dt."""
+    of the original rows of ``qp`` (:class:`KinematicQP`) A v = b, l ≤ C v ≤ u: False when one exceeds
+    ``tolerance``, else ws[:nv] = v·dt."""
+    A, b, C = qp.A, qp.b, qp.C
     n = v.shape[0]
     nr = n - n0
     neq = A.shape[0]
@@ -389,7 +414,7 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
             s -= Tc[i, j] * x[j]
         v[i] = s
     # residuals of the original rows
-    res = row_violation(C, cl, cu, v, n, p, equality_residual(A, b, v, n, neq))
+    res = row_violation(C, qp.l, qp.u, v, n, p, equality_residual(A, b, v, n, neq))
     if not res <= tolerance:
         return False
     for i in range(n):
@@ -401,9 +426,8 @@ def _finish(A, b, C, cl, cu, Tc, x, n0, dt, tolerance, ws, v):
 #: exit code of :mod:`wbc.solvers.status`
 NONFINITE_RHS = -1000
 
-#: the last four arguments of :func:`kinematic_tick_packed` (q, box_idx, box_limits, const_box) when it leaves the
-#: box as assembled
-NO_KERNEL_BOX = (np.zeros(0), np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
+#: the ``box`` of :func:`kinematic_tick_packed` when it leaves the box as assembled
+NO_KERNEL_BOX = KernelBox(np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
 
 #: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
 _PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
@@ -439,7 +463,7 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
 
 @nb.njit(cache=True, nogil=True)
 def _unpack(fb, ib):
-    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (H, g, A, b, C, l, u, lb, ub, ws, iws,
+    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (the QP (:class:`KinematicQP`), ws, iws,
     er)."""
     nv, neq, p, er = ib[0], ib[1], ib[2], ib[3]
     o = ib[4:]
@@ -454,15 +478,16 @@ def _unpack(fb, ib):
     ub = fb[o[8]:o[8] + nv]
     ws = fb[o[9]:]
     iws = ib[o[10]:]
-    return H, g, A, b, C, l, u, lb, ub, ws, iws, er
+    return KinematicQP(H, g, A, b, C, l, u, lb, ub), ws, iws, er
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
     """:func:`kinematic_solve` on the QP packed into ``fb`` (float) and ``ib`` (int64) by :func:`kinematic_pack`:
-    8 arguments instead of 18 (each array argument costs the call ≈ 50 ns to type and unbox). Same returns."""
-    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
-    return kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
+    8 arguments instead of 19 arrays and numbers (each array argument costs the call ≈ 50 ns to type and
+    unbox). Same returns."""
+    qp, ws, iws, er = _unpack(fb, ib)
+    return kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
@@ -492,46 +517,47 @@ def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 @nb.njit(cache=True, nogil=True)
 def _unpack_rows(sfb, sib):
-    """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: (J, e, rowp, pw, prow)."""
+    """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: a :class:`TaskRows`."""
     mt, nv, kp = sib[0], sib[1], sib[2]
     o = mt * nv
-    return (sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
-            sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
+    return TaskRows(sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
+                    sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, **NO_NRT)  # GIL kept: releasing it costs more per call than a thread could gain
-def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt, tolerance, max_iter, q, box_idx,
-                          box_limits, const_box):
-    """The compiled tick in one call: the box, when ``const_box`` is (2, nv): lb, ub ← its rows (the intersection of
-    the constant bounds), then :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box_idx``,
-    ``box_limits``, dt) of a joint position limit (``const_box`` (0, 0): lb, ub as assembled); :func:`form_qp` into
-    the packed H, g (the task rows ``Js``, ``es``, ``rowp``, ``pw``, ``prow`` packed into ``sfb``/``sib`` by
-    :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and :func:`all_finite` on the equality right-hand
-    side b; :func:`kinematic_solve_packed`; the output guard's screens :func:`command_within_box` and
-    :func:`command_within_rows` on v — the same numbers as those calls made one after the other. ``states`` (nr +
-    p,) int8: the working sets ``state`` (nr,) and ``rstate`` (p,) of :func:`kinematic_solve_packed` one after the
-    other (nr = nv − 6 with the floating-base elimination, else nv; p inequality rows).
+def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter, q, box):
+    """The compiled tick in one call on the buffers ``bufs`` (:class:`TickBuffers`): the box, when ``box.const`` is
+    (2, nv) (``box``: a :class:`KernelBox`): lb, ub ← its rows (the intersection of the constant bounds), then
+    :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box.idx``, ``box.limits``, dt) of a joint
+    position limit (``box.const`` (0, 0): lb, ub as assembled); :func:`form_qp` into the packed H, g (the task rows
+    packed into ``bufs.sfb``/``bufs.sib`` by :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and
+    :func:`all_finite` on the equality right-hand side b; :func:`kinematic_solve_packed` on ``bufs.fb``/``bufs.ib``;
+    the output guard's screens :func:`command_within_box` and :func:`command_within_rows` on v — the same numbers as
+    those calls made one after the other. ``bufs.states`` (nr + p,) int8: the working sets ``state`` (nr,) and
+    ``rstate`` (p,) of :func:`kinematic_solve_packed` one after the other (nr = nv − 6 with the floating-base
+    elimination, else nv; p inequality rows).
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
         ``states`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
         passed both screens.
     """
-    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
-    Js, es, rowp, pw, prow = _unpack_rows(sfb, sib)
+    qp, ws, iws, er = _unpack(bufs.fb, bufs.ib)
+    H, g, A, b, C, l, u, lb, ub = qp
+    const_box = box.const
     if const_box.shape[0] == 2:
         for i in range(lb.shape[0]):
             lb[i] = const_box[0, i]
             ub[i] = const_box[1, i]
-        intersect_position_bounds(q, box_idx, box_limits, dt, lb, ub)
+        intersect_position_bounds(q, box.idx, box.limits, dt, lb, ub)
     n0 = 6 if er >= 0 else 0
     row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
-    check = _form_qp_into(Js, es, rowp, diff, pw, prow, pgain, damping, H, g, row)
+    check = _form_qp_into(_unpack_rows(bufs.sfb, bufs.sib), diff, pgain, damping, H, g, row)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
     nr = H.shape[0] - n0
-    it = kinematic_solve(H, g, A, b, C, l, u, lb, ub, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws,
-                         v)
+    states = bufs.states
+    it = kinematic_solve(qp, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws, v)
     if it < 1:
         return it, False
     return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
@@ -541,16 +567,16 @@ def kinematic_tick_packed(fb, ib, sfb, sib, diff, pgain, damping, states, v, dt,
 @nb.njit(cache=True, nogil=True)
 def kinematic_reduced_packed(fb, ib):
     """The reduced QP formed by the last :func:`kinematic_solve_packed` call on these arrays (valid after any return
-    but ``NOT_REDUCIBLE``), as views into ``fb``: (H (nr, nr), g (nr,), A (mr, nr), b (mr,), C (p, nr), l (p,),
-    u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the joint velocities x
-    (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution x, given to
+    but ``NOT_REDUCIBLE``), as views into ``fb``: a :class:`KinematicQP` (H (nr, nr), g (nr,), A (mr, nr), b (mr,),
+    C (p, nr), l (p,), u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the
+    joint velocities x (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution x, given to
     :func:`kinematic_finish_packed`, completes the tick."""
-    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    qp, ws, iws, er = _unpack(fb, ib)
     n0 = 6 if er >= 0 else 0
-    nr = A.shape[1] - n0
+    nr = qp.A.shape[1] - n0
     (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])
-    return Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr
+     eqres) = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])
+    return KinematicQP(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -559,11 +585,11 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     (nr,) of :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; base velocity recovered
     through the eliminating rows) and the check of every original row against ``tolerance`` (True: passed, and
     the float workspace then holds v·dt as after a successful solve)."""
-    H, g, A, b, C, l, u, lb, ub, ws, iws, er = _unpack(fb, ib)
+    qp, ws, iws, er = _unpack(fb, ib)
     n0 = 6 if er >= 0 else 0
-    nr = A.shape[1] - n0
-    Tc = _solve_views(ws, A.shape[1], nr, A.shape[0] - n0, C.shape[0])[9]
-    return _finish(A, b, C, l, u, Tc, x, n0, dt, tolerance, ws, v)
+    nr = qp.A.shape[1] - n0
+    Tc = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])[9]
+    return _finish(qp, Tc, x, n0, dt, tolerance, ws, v)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
@@ -596,18 +622,18 @@ def _contact_gaps(log, b_rows, factor, lever, far, worst):
 
 
 @nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
-def contact_pair_drift(pose_a, rot_a, pos_a, pose_b, rot_b, pos_b, logs, b, start_a, start_b, factor_a, factor_b,
-                       lever):
+def contact_pair_drift(frame_a, frame_b, logs, b, start_a, start_b, factor_a, factor_b, lever):
     """Two contacts' errors and :func:`contact_drift` in one compiled call: logs[0], logs[1] ← the errors of
-    :func:`wbc.lie.placement_log6_into` (placement ``pose_*`` (4, 3) = [R_P; p_Pᵀ], frame ``rot_*`` (3, 3),
-    ``pos_*`` (3,), world), then :func:`contact_drift` (logs (2, 6), b, starts (``start_a``, ``start_b``), factors
+    :func:`wbc.lie.placement_log6_into` (``frame_*`` = (placement (4, 3) = [R_P; p_Pᵀ], frame rotation (3, 3),
+    frame position (3,)), world: :meth:`wbc.constraints.ContactConstraint.log_operands`; every angle, a half turn
+    included), then :func:`contact_drift` (logs (2, 6), b, starts (``start_a``, ``start_b``), factors
     (``factor_a``, ``factor_b``), ``lever`` (m)) — the same numbers as those calls made one after the other.
 
     Returns:
-        :func:`contact_drift`'s (distance (m), drift (m)).
+        :func:`contact_drift`'s (distance (m), drift (m)), both ≥ 0 (or NaN).
     """
-    placement_log6_into(pose_a, rot_a, pos_a, logs[0])
-    placement_log6_into(pose_b, rot_b, pos_b, logs[1])
+    placement_log6_into(frame_a[0], frame_a[1], frame_a[2], logs[0])
+    placement_log6_into(frame_b[0], frame_b[1], frame_b[2], logs[1])
     far, worst = _contact_gaps(logs[0], b[start_a:start_a + 6], factor_a, lever, 0.0, 0.0)
     return _contact_gaps(logs[1], b[start_b:start_b + 6], factor_b, lever, far, worst)
 
@@ -688,13 +714,13 @@ def load_kinematic_kernels() -> float:
     kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
     sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
     rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
-    kinematic_tick_packed(fb, ib, sfb, sib, np.zeros(7), 0.0, 1e-6, np.zeros(1, np.int8), np.empty(7), 0.002, 1e-6,
-                          10, *NO_KERNEL_BOX)
+    kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(1, np.int8)), np.zeros(7), 0.0, 1e-6, np.empty(7),
+                          0.002, 1e-6, 10, np.zeros(0), NO_KERNEL_BOX)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
-    contact_pair_drift(*frame, *frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
+    contact_pair_drift(frame, frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     all_finite(views["b"])
     command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
