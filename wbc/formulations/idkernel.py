@@ -15,7 +15,7 @@ the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; 
 
 into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
 force bounds (8) — are already there, written by their constraints), bitwise the arrays :meth:`build` writes at the
-same state (``tests/formulations/test_acceleration_assembly.py``). The solver returns its exact optimum (KKT
+same state (``tests/formulations/test_formulations_acceleration.py``). The solver returns its exact optimum (KKT
 conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback by the
 caller, on the same arrays.
 
