@@ -79,7 +79,8 @@ def test_a_first_run_compiles_its_commands_modules_in_worker_processes_with_a_li
     assert kernels.compile_for_command("walk") > 0
     lines = capsys.readouterr().err.splitlines()
     assert lines[0].startswith("wbc walk: first run: compiling the numba kernels of 2 modules in ")
-    assert sorted(line.split(" (")[0] for line in lines[1:]) == ["wbc walk: wbc.tasks.com", "wbc walk: wbc.tasks.posture"]
+    assert sorted(line.split(" (")[0] for line in lines[1:]) == ["wbc walk: wbc.tasks.com",
+                                                                 "wbc walk: wbc.tasks.posture"]
     assert list((tmp_path / "cache").rglob("com.*.nbi")) and list((tmp_path / "cache").rglob("posture.*.nbi"))
     assert kernels.compile_for_command("walk") is None and kernels.compile_for_command("plot") is None
     assert capsys.readouterr().err == ""

@@ -24,8 +24,9 @@ from typing import Callable, Iterable
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["AFTER", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODULES", "WARM_UP_RUNS", "register", "check_compile_args", "cmd_compile",
-           "compile_all", "compile_for_command", "default_jobs", "loader_modules", "run_warm_up"]
+__all__ = ["AFTER", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODULES", "WARM_UP_RUNS", "register",
+           "check_compile_args", "cmd_compile", "compile_all", "compile_for_command", "default_jobs", "loader_modules",
+           "run_warm_up"]
 
 #: Every module with a :func:`wbc.compiled.once_per_process` loader, the kinematic controller's first (what
 #: ``wbc walk`` loads; the longest compilations first), then the inverse-dynamics controller's and the simulation's

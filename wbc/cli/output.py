@@ -381,18 +381,14 @@ def status(args, text: str) -> None:
 
 
 def progress(args, total: float | None, viewer=None, desc: str = ""):
-    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal. First,
-    on the command's first run, compile the kernels its controller needs in parallel worker processes
-    (:func:`wbc.cli.kernels.compile_for_command`, with its progress unless --quiet); say (unless --quiet) when other
-    numba kernels are about to compile in this process (:func:`compile_notice`).
+    """Wrap ``viewer`` (None or a live viewer) in a progress bar on stderr, unless --quiet or not a terminal; say
+    first (unless --quiet) when the numba kernels are about to compile (:func:`compile_notice`).
 
     Args:
         total: simulated duration of the run (s), None when unknown.
     """
-    from wbc.cli.kernels import compile_for_command
     from wbc.viz.progress import ProgressViewer
 
-    compile_for_command(getattr(args, "command", ""), quiet=getattr(args, "quiet", False))
     kernels = DYNAMICS_KERNELS if desc.startswith("wbc sim") else KINEMATIC_KERNELS
     compiling = bool(uncompiled_kernels(kernels))
     if not getattr(args, "quiet", False):
