@@ -17,7 +17,7 @@ import pytest
 from numba.core.dispatcher import Dispatcher
 
 from wbc.cli import kernels
-from wbc.cli.kernels import AFTER, LOADER_MODULES, WARM_UP_RUNS, compile_all
+from wbc.cli.kernels import AFTER, COMPILED_TWICE, LOADER_MODULES, WARM_UP_RUNS, compile_all
 from wbc.exceptions import InvalidInputError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,14 +40,15 @@ def test_loader_modules_lists_every_module_with_a_loader():
 
 def test_after_lists_every_kernel_a_loader_module_imports_from_another():
     """A loader module that imports a numba kernel from another loader module (its kernels call it, compiled by that
-    module's loader too) waits for that module in a parallel compile: read from the modules' own import lines."""
+    module's loader too) waits for that module in a parallel compile, unless COMPILED_TWICE names the import: read
+    from the modules' own import lines."""
     for name in LOADER_MODULES:
         tree = ast.parse((ROOT / Path(*name.split("."))).with_suffix(".py").read_text(encoding="utf-8"))
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and node.module in LOADER_MODULES and node.module != name:
                 source = importlib.import_module(node.module)
                 if any(isinstance(getattr(source, a.name, None), Dispatcher) for a in node.names):
-                    assert node.module in AFTER.get(name, ()), (name, node.module)
+                    assert node.module in AFTER.get(name, ()) + COMPILED_TWICE.get(name, ()), (name, node.module)
     runs = {"wbc " + " ".join(argv) for argv in WARM_UP_RUNS}
     assert all((m in LOADER_MODULES or m in runs) and set(deps) <= set(LOADER_MODULES) for m, deps in AFTER.items())
 
@@ -65,6 +66,39 @@ def test_a_parallel_compile_starts_a_module_after_the_modules_it_waits_for(tmp_p
                       ("done", "wbc.tasks.posture")]
     assert sorted(seconds) == ["wbc.tasks.com", "wbc.tasks.posture"] and min(seconds.values()) > 0
     assert list((tmp_path / "cache").rglob("com.*.nbi")) and list((tmp_path / "cache").rglob("posture.*.nbi"))
+
+
+def test_a_first_run_compiles_its_commands_modules_in_worker_processes_with_a_line_each(tmp_path, monkeypatch,
+                                                                                      capsys):
+    """compile_for_command on an empty cache (NUMBA_CACHE_DIR, inherited by the workers): a first line, then one line
+    per module of the command (here two small ones) as each finishes, and their kernels are in the cache; a second
+    call finds the cache and does nothing; a command without controller does nothing."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(kernels, "COMMAND_MODULES", {"walk": ("wbc.tasks.com", "wbc.tasks.posture")})
+    monkeypatch.setattr("wbc.cli.output.KINEMATIC_KERNELS", ("wbc.tasks.com", "wbc.tasks.posture"))
+    assert kernels.compile_for_command("walk") > 0
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("wbc walk: first run: compiling the numba kernels of 2 modules in ")
+    assert sorted(line.split(" (")[0] for line in lines[1:]) == ["wbc walk: wbc.tasks.com",
+                                                                 "wbc walk: wbc.tasks.posture"]
+    assert list((tmp_path / "cache").rglob("com.*.nbi")) and list((tmp_path / "cache").rglob("posture.*.nbi"))
+    assert kernels.compile_for_command("walk") is None and kernels.compile_for_command("plot") is None
+    assert capsys.readouterr().err == ""
+
+
+def test_a_first_walk_compiles_every_module_whose_loader_it_runs(tmp_path):
+    """COMMAND_MODULES['walk'] holds every loader module a `wbc walk` runs a loader of (listed by the load listener,
+    in a process whose cache is the project's own: loading costs seconds once the install step compiled)."""
+    code = ("import wbc.compiled as c\nfrom wbc.cli import main\nran = []\n"
+            "c.set_load_listener(lambda m, s: ran.append(m))\nmain(['walk', '--steps', '2', '--quiet'])\n"
+            "print('RAN', ' '.join(ran))\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("NUMBA_CACHE_DIR", None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path,
+                         timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    ran = set(out.stdout.split("RAN ")[1].split())
+    assert ran and ran <= set(kernels.COMMAND_MODULES["walk"]), sorted(ran - set(kernels.COMMAND_MODULES["walk"]))
 
 
 def test_compile_all_refuses_no_process():

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 
+from wbc.cli.kernels import compile_for_command
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
@@ -37,6 +38,7 @@ def cmd_balance(args) -> int:
     viewer = pacer = None
     if args.live:
         viewer, pacer = open_live(robot, args.live_start_now)
+    compile_for_command("balance", quiet=getattr(args, "quiet", False))  # a first run: its kernels, in parallel, now
     viewer = progress(args, None, viewer, desc=f"wbc balance {args.behaviour}")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:

@@ -10,6 +10,9 @@ runs each command of :data:`WARM_UP_RUNS` for two steps in a child process (:fun
 calls with array types or layouts no loader used (a MuJoCo contact slice, a column-major mass matrix, the
 inverse-dynamics tick) is compiled and cached there. A progress bar on a terminal, one line per module otherwise.
 Run again, it loads the cached kernels and takes seconds.
+
+A run command's first run (walk, balance, sim) does the same for the modules its controller needs
+(:data:`COMMAND_MODULES`, :func:`compile_for_command`), before it builds the controller, which then loads them.
 """
 
 from __future__ import annotations
@@ -21,15 +24,16 @@ from typing import Callable, Iterable
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["AFTER", "LOADER_MODULES", "WARM_UP_RUNS", "register", "check_compile_args", "cmd_compile", "compile_all",
-           "default_jobs",
-           "loader_modules", "run_warm_up"]
+__all__ = ["AFTER", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODULES", "WARM_UP_RUNS", "register",
+           "check_compile_args", "cmd_compile", "compile_all", "compile_for_command", "default_jobs", "loader_modules",
+           "run_warm_up"]
 
 #: Every module with a :func:`wbc.compiled.once_per_process` loader, the kinematic controller's first (what
 #: ``wbc walk`` loads; the longest compilations first), then the inverse-dynamics controller's and the simulation's
 #: (``wbc sim``).
 LOADER_MODULES = (
-    "wbc.solvers.fast", "wbc.formulations.velocity_kernel", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
+    "wbc.solvers.active_set", "wbc.solvers.box_eq", "wbc.formulations.velocity_kernel", "wbc.solvers.fast",
+    "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
     "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
     "wbc.constraints.braking", "wbc.constraints.limits", "wbc.formulations.reference",
     "wbc.formulations.idkernel", "wbc.controllers.inverse_dynamics", "wbc.dynamics.actuator_compensation",
@@ -38,19 +42,36 @@ LOADER_MODULES = (
     "wbc.sim.outcome", "wbc.sim.sensors", "wbc.sim.walk",
 )
 
+#: The loader modules whose loaders each run command's controllers call (:func:`compile_for_command`): the kinematic
+#: controller's for ``walk`` and ``balance`` (the 11 modules whose loaders a ``wbc walk`` runs, listed by
+#: :func:`wbc.compiled.set_load_listener`, and the two solver modules whose kernels two of them link), every module
+#: for ``sim`` (the inverse-dynamics controller on MuJoCo).
+COMMAND_MODULES = {"walk": LOADER_MODULES[:13], "balance": LOADER_MODULES[:13], "sim": LOADER_MODULES}
+
 #: Loader modules whose kernels call kernels that other loader modules compile (module -> those modules; a warm-up
 #: run of :data:`WARM_UP_RUNS` too, as ``"wbc sim walk --steps 2"``): ``wbc compile`` starts a module's loaders only
 #: once those modules' loaders have finished, so that the shared kernels are compiled by one process and loaded from
 #: the cache by the others (two processes compiling the same kernel do the work twice). Every loader module that
-#: imports a kernel of another loader module lists it; the kinematic solver's kernels also wait for
-#: :mod:`wbc.solvers.fast`, whose loader compiles the active-set and box/equality kernels
-#: (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`, modules without a loader) that both call.
+#: imports a kernel of another loader module lists it, except the imports of :data:`COMPILED_TWICE`. The kinematic
+#: solver's kernels and the ``fast`` backend's both link the active-set and box/equality kernels: these compile
+#: first, side by side in two processes, and the two modules after them, side by side too (a ``wbc walk``'s longest
+#: chain: active_set, then velocity_kernel).
 AFTER = {
-    "wbc.formulations.velocity_kernel": ("wbc.solvers.fast", "wbc.tasks.frame", "wbc.constraints.limits"),
+    "wbc.formulations.velocity_kernel": ("wbc.solvers.active_set", "wbc.solvers.box_eq", "wbc.tasks.frame",
+                                         "wbc.constraints.limits"),
+    "wbc.solvers.fast": ("wbc.solvers.active_set", "wbc.solvers.box_eq"),
     "wbc.constraints.contact": ("wbc.tasks.frame",),
-    "wbc.formulations.idkernel": ("wbc.formulations.reference", "wbc.constraints.joint_acceleration_bounds"),
+    "wbc.formulations.idkernel": ("wbc.formulations.reference", "wbc.constraints.joint_acceleration_bounds",
+                                  "wbc.solvers.active_set", "wbc.solvers.box_eq"),
     "wbc.sim.closed_loop": ("wbc.formulations.velocity_kernel",),
 }
+
+#: Imports of a loader module's kernels that do not make the importer wait (:data:`AFTER`): the importer compiles
+#: them itself, at the same time as their own module does. :mod:`wbc.solvers.active_set` calls two small kernels of
+#: :mod:`wbc.solvers.box_eq` (``clip_eq_residual``, ``drop_infinite_active``: 0.3 s of compilation, against 5.8 s
+#: for box_eq's loader, numba's compile events on one core): waiting would put box_eq's loader on a first walk's
+#: longest chain.
+COMPILED_TWICE = {"wbc.solvers.active_set": ("wbc.solvers.box_eq",)}
 
 #: ``wbc`` commands ``wbc compile`` runs (two steps each, ``--quiet``) after the loaders: they call kernels no loader
 #: reaches with their real argument types (the closed loop on MuJoCo: inverse-dynamics tick, state estimator,
@@ -136,7 +157,8 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
 
     Raises:
         InvalidInputError: a name is not in :data:`LOADER_MODULES` (before any module is imported), or ``jobs`` < 1.
-        SimulationError: a run failed (see :func:`run_warm_up`).
+        SimulationError: a run failed (see :func:`run_warm_up`), or a worker process died (killed, or crashed in the
+            compiler) before it returned its item.
     """
     items = {name: name for name in loader_modules(modules)}
     items.update({_run_label(argv): tuple(argv) for argv in runs})
@@ -159,12 +181,15 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
     import multiprocessing
     import queue
 
+    from wbc.exceptions import SimulationError
+
     waiting = {label: {m for m in AFTER.get(label, ()) if m in items} for label in items}
     running: set[str] = set()
     results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
     # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
     # ignore Ctrl-C (inside numba's compiler it would be swallowed, with a traceback): this process stops them
     pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(items)), initializer=_ignore_sigint)
+    workers = {p.pid for p in multiprocessing.active_children()}  # the pool starts its workers at once
     try:
         while waiting or running:
             for label in [n for n, deps in waiting.items() if not deps][:max(0, jobs - len(running))]:
@@ -175,7 +200,13 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
                                  error_callback=lambda error, label=label: results.put((label, None, error)))
                 if on_start is not None:
                     on_start(label)
-            label, result, error = results.get()
+            try:
+                label, result, error = results.get(timeout=1.0)
+            except queue.Empty:  # a worker that died (a signal, a crash in the compiler) never returns its item
+                if not workers <= {p.pid for p in multiprocessing.active_children()}:
+                    raise SimulationError(f"a compile worker process died while compiling {', '.join(sorted(running))}"
+                                          " (its kernels are compiled on first use instead)") from None
+                continue
             running.discard(label)
             if error is not None:
                 raise error
@@ -275,61 +306,114 @@ def cmd_compile(args) -> int:
     Raises:
         SimulationError: a command of :data:`WARM_UP_RUNS` failed.
     """
-    import threading
-
-    from wbc.cli.output import sigint_received, uncompiled_kernels
+    from wbc.cli.output import uncompiled_kernels
 
     modules = loader_modules(args.modules)
     runs = () if args.modules else WARM_UP_RUNS
     jobs = min(args.jobs, len(modules) + len(runs))
     t0 = time.perf_counter()
-    bar = beat = None
-    if not args.quiet:
-        missing = len(uncompiled_kernels(modules))
-        where = f"in {jobs} processes" if jobs > 1 else "in this process"
-        print(f"wbc compile: compiling the numba kernels of {len(modules)} modules {where} ({missing} without on-disk "
-              "cache; a minute or two once on 2 cores) ..." if missing else
-              f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...", file=sys.stderr,
-              flush=True)
-        if getattr(sys.stderr, "isatty", lambda: False)():
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(modules) + len(runs), desc="wbc compile", unit="item", file=sys.stderr,
-                       bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed}{postfix}")  # postfix: the modules
-            bar.refresh()
-            beat = threading.Event()
-
-            def redraw() -> None:  # the elapsed time moves while a module compiles
-                while not beat.wait(1.0):
-                    bar.refresh()
-
-            threading.Thread(target=redraw, daemon=True, name="wbc-compile-heartbeat").start()
-    busy: list[str] = []
-
-    def started(name: str) -> None:
-        busy.append(name)
-        if bar is not None:
-            bar.set_postfix_str(", ".join(busy))
-
-    def finished(name: str, wall: float, cpu: float) -> None:
-        busy.remove(name)
-        if sigint_received():  # a Ctrl-C swallowed inside numba's compiler (a C callback): stop here
-            raise KeyboardInterrupt
-        if bar is not None:
-            bar.set_postfix_str(", ".join(busy))
-            bar.update()
-        elif not args.quiet:
-            print(f"wbc compile: {name} ({wall:.1f} s, {cpu:.1f} s CPU)", file=sys.stderr, flush=True)
-
-    try:
-        compile_all(modules, jobs=jobs, on_done=finished, on_start=started, runs=runs)
-    finally:
-        if bar is not None:
-            beat.set()
-            bar.set_postfix_str("")
-            bar.close()
+    missing = 0 if args.quiet else len(uncompiled_kernels(modules))
+    where = f"in {jobs} processes" if jobs > 1 else "in this process"
+    with _Progress("wbc compile", len(modules) + len(runs),
+                   f"wbc compile: compiling the numba kernels of {len(modules)} modules {where} ({missing} without "
+                   "on-disk cache; a minute or two once on 2 cores) ..." if missing else
+                   f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...",
+                   show=not args.quiet) as shown:
+        compile_all(modules, jobs=jobs, on_done=shown.finished, on_start=shown.started, runs=runs)
     ran = f" and {len(runs)} warm-up run{'s' if len(runs) > 1 else ''} ({', '.join(' '.join(r) for r in runs)})" \
         if runs else ""
     print(f"wbc compile: the numba kernels of {len(modules)} modules{ran} compiled and cached in "
           f"{time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def compile_for_command(command: str, quiet: bool = False) -> float | None:
+    """A run command's first run: when some of the kernel modules its controllers need have no on-disk cache yet,
+    run the loaders of :data:`COMMAND_MODULES` ``[command]`` now, in :func:`default_jobs` worker processes
+    (:func:`compile_all`, the modules of :data:`AFTER` first), so that the controller built next loads its kernels
+    from the cache. Prints on stderr (unless ``quiet``) a first line at once, then a progress bar redrawn every
+    second on a terminal, or one line per module as each finishes otherwise (its wall and CPU seconds).
+
+    Args:
+        command: the ``wbc`` command (``"walk"``, ``"balance"``, ``"sim"``); another one compiles nothing here.
+        quiet: no output (the modules are compiled all the same).
+
+    Returns:
+        The wall seconds the compilation took, or None when there was nothing to compile here (every module
+        cached, or a command without controller).
+
+    A worker process that dies (killed, or crashed in the compiler) is said in one line; the command goes on and
+    compiles what is still missing in its own process, on first use.
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C during the compilation (the worker processes are stopped).
+    """
+    from wbc.cli.output import DYNAMICS_KERNELS, KINEMATIC_KERNELS, uncompiled_kernels
+    from wbc.exceptions import SimulationError
+
+    modules = COMMAND_MODULES.get(command)
+    sources = KINEMATIC_KERNELS + (DYNAMICS_KERNELS if command == "sim" else ())
+    if modules is None or not uncompiled_kernels(sources):
+        return None
+    jobs = min(default_jobs(), len(modules))
+    t0 = time.perf_counter()
+    with _Progress(f"wbc {command}", len(modules),
+                   f"wbc {command}: first run: compiling the numba kernels of {len(modules)} modules in {jobs} "
+                   "processes (once; cached on disk for later runs) ...", show=not quiet) as shown:
+        try:
+            compile_all(modules, jobs=jobs, on_done=shown.finished, on_start=shown.started)
+        except SimulationError as exc:  # a worker died: this process compiles what is still missing, as it needs it
+            print(f"wbc {command}: {exc}", file=sys.stderr, flush=True)
+    return time.perf_counter() - t0
+
+
+class _Progress:
+    """What a compilation shows on stderr: a first line at once, then a progress bar naming the items being
+    compiled, redrawn every second (on a terminal), or one line per item as it finishes (otherwise)."""
+
+    def __init__(self, desc: str, total: int, first_line: str, show: bool = True):
+        import threading
+
+        self.desc, self.busy, self.show = desc, [], show
+        self.bar = self.beat = None
+        if show:
+            print(first_line, file=sys.stderr, flush=True)
+        if show and getattr(sys.stderr, "isatty", lambda: False)():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=desc, unit="item", file=sys.stderr,
+                            bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed}{postfix}")  # postfix: the items
+            self.bar.refresh()
+            self.beat = threading.Event()
+
+            def redraw() -> None:  # the elapsed time moves while a module compiles
+                while not self.beat.wait(1.0):
+                    self.bar.refresh()
+
+            threading.Thread(target=redraw, daemon=True, name="wbc-compile-heartbeat").start()
+
+    def __enter__(self) -> "_Progress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.beat.set()
+            self.bar.set_postfix_str("")
+            self.bar.close()
+
+    def started(self, name: str) -> None:
+        self.busy.append(name)
+        if self.bar is not None:
+            self.bar.set_postfix_str(", ".join(self.busy))
+
+    def finished(self, name: str, wall: float, cpu: float) -> None:
+        from wbc.cli.output import sigint_received
+
+        self.busy.remove(name)
+        if sigint_received():  # a Ctrl-C swallowed inside numba's compiler (a C callback): stop here
+            raise KeyboardInterrupt
+        if self.bar is not None:
+            self.bar.set_postfix_str(", ".join(self.busy))
+            self.bar.update()
+        elif self.show:
+            print(f"{self.desc}: {name} ({wall:.1f} s, {cpu:.1f} s CPU)", file=sys.stderr, flush=True)

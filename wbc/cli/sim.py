@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from wbc.cli.kernels import compile_for_command
 from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_plant_options, add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
@@ -365,6 +366,7 @@ def cmd_sim(args) -> int:
             from wbc.viz.live_overlays import LiveOverlays
 
             viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
+    compile_for_command("sim", quiet=getattr(args, "quiet", False))  # a first run: its kernels, in parallel, now
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()

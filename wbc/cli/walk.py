@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from wbc.cli.kernels import compile_for_command
 from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
@@ -273,6 +274,7 @@ def cmd_walk(args) -> int:
 
         viewer, pacer = open_live(robot, args.live_start_now, terrain=terrain)
         viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
+    compile_for_command("walk", quiet=getattr(args, "quiet", False))  # a first run: its kernels, in parallel, now
     viewer = progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:

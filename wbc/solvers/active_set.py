@@ -34,7 +34,7 @@ import numba as nb
 import numpy as np
 from numba.extending import overload
 
-from wbc.compiled import FASTMATH
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
 from wbc.solvers.active_set_block import (block_add, block_direction, block_eqp, block_prepare, block_remove,
                                           block_start, block_target)
@@ -43,8 +43,8 @@ from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, f
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "qp_ws_float_size", "qp_ws_int_size", "solve_qp_into",
-           "solve_qp_ws"]
+__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "ensure_compiled", "qp_ws_float_size", "qp_ws_int_size",
+           "solve_qp_into", "solve_qp_ws"]
 
 #: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
 #: = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r,
@@ -668,3 +668,17 @@ def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_
     for i in range(n):
         z[i] = state[i] * lam_b[i] if state[i] != 0 else 0.0
     return it
+
+
+@once_per_process
+def ensure_compiled() -> None:
+    """Compile (or load from the on-disk cache), once per process, :func:`solve_qp_into` for the argument types
+    both its callers give it (C-contiguous float64 arrays, int8 working sets, int64 integer workspace):
+    :func:`solve_qp_ws` (the ``fast`` backend, :mod:`wbc.solvers.fast`) and the kinematic tick
+    (:mod:`wbc.formulations.velocity_kernel`). Their loaders run after this one (``wbc compile``'s
+    :data:`wbc.cli.kernels.AFTER`) and link this version instead of compiling their own."""
+    n, m, p = 2, 1, 1
+    solve_qp_into(np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
+                  -np.ones(n), np.ones(n), np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m),
+                  np.empty(p), np.empty(n), 10, 1e-12, 1e-12, 1e-24, np.empty(1), np.empty(qp_ws_float_size(n, m, p)),
+                  np.empty(qp_ws_int_size(n, m), np.int64))

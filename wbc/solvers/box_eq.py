@@ -20,12 +20,12 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH
+from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.linalg import (backward_substitution, cholesky_lower, equality_residual, forward_substitution,
                                 primal_from_multipliers)
 from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 
-__all__ = ["clip_eq_residual", "drop_infinite_active", "solve_box_eq", "solve_box_eq_ws"]
+__all__ = ["clip_eq_residual", "drop_infinite_active", "ensure_compiled", "solve_box_eq", "solve_box_eq_ws"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -257,3 +257,15 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
             return it
         state[worst_i] = 0
     return ITERATION_CAP
+
+
+@once_per_process
+def ensure_compiled() -> None:
+    """Compile (or load from the on-disk cache), once per process, :func:`solve_box_eq_ws` for the argument types
+    its callers give it (C-contiguous float64 arrays, int8 working set, int64 free list) — the ``fast`` backend
+    (:mod:`wbc.solvers.fast`) and the kinematic tick (:mod:`wbc.formulations.velocity_kernel`), whose loaders run
+    after this one (``wbc compile``'s :data:`wbc.cli.kernels.AFTER`) and link this version."""
+    n, m = 2, 1
+    solve_box_eq_ws(np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), -np.ones(n), np.ones(n), np.zeros(n, np.int8),
+                    np.empty(n), np.empty(m), np.empty(n), 10, 1e-12, 1e-12, 1e-24, np.empty(n, np.int64),
+                    np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n), np.empty(m), np.empty(1))
