@@ -78,10 +78,10 @@ COMPILED_TWICE = {"wbc.solvers.active_set": ("wbc.solvers.box_eq",)}
 #: outcome checks on MuJoCo's contact arrays).
 WARM_UP_RUNS = (("sim", "walk", "--steps", "2"),)
 
-# the closed-loop walk runs the inverse-dynamics controller: it waits for every loader but the kinematic solver's (and
-# closed_loop's, which waits for that), so that it runs beside the kinematic solver's compilation
-AFTER["wbc sim walk --steps 2"] = tuple(m for m in LOADER_MODULES
-                                        if m not in ("wbc.formulations.velocity_kernel", "wbc.sim.closed_loop"))
+# the closed-loop walk calls kernels of every loader module (the kinematic solver's too, through the closed loop's
+# kinematic side): it waits for all of them, so that each kernel is compiled and written by one process (two processes
+# compiling one kernel write its cache index twice, and the run's compilation would race the loader's)
+AFTER["wbc sim walk --steps 2"] = LOADER_MODULES
 
 
 def run_warm_up(argv: tuple[str, ...]) -> float:
