@@ -2,12 +2,17 @@
 rclpy (Kilted, Fast DDS 3.2.3 on its defaults) from tests/ros2/kilted.py, confined to 127.0.0.1 by its XML profile."""
 
 import os
+import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 from conftest import dds_domain_id
+
+from .conftest import descendants
 
 for _mod in ("cyclonedds", "rosbags"):
     pytest.importorskip(_mod, reason=f"the optional extra wbc[ros2] is not installed ({_mod} missing)")
@@ -107,3 +112,101 @@ def test_participant_falls_back_to_loopback_when_the_loopback_configuration_was_
     first, sockets, err = _participant_after_uri_removed("lo")
     assert first == "URI True", (first, err)
     assert sockets and all(a.startswith(("127.0.0.1:", "0.0.0.0%lo:")) for a in sockets), sockets
+
+
+def test_the_loopback_guard_flags_a_wildcard_socket(loopback_guard):
+    """The session's ss -uanp check (tests/ros2/conftest.py) flags a UDP socket bound to 0.0.0.0 without the lo
+    device (a child process binding one; its rows are then taken out of the guard's findings so that this test's
+    own guard does not fail it)."""
+    from .conftest import udp_sockets_off_loopback
+
+    script = ("import socket, time; s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(('0.0.0.0', 0)); "
+              "print(s.getsockname()[1], flush=True); time.sleep(30)")
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        port = child.stdout.readline().strip()
+        bad, n = udp_sockets_off_loopback({child.pid})
+    finally:
+        child.kill()
+        child.wait()
+        loopback_guard.sample()
+        loopback_guard.bad[:] = [row for row in loopback_guard.bad if f"pid={child.pid}," not in row]
+    assert n == 1 and len(bad) == 1 and f" 0.0.0.0:{port} " in f" {bad[0]} ", (port, n, bad)
+
+
+STRACE_CLIENT = """
+import sys, time, rclpy
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+rclpy.init()
+node = Node("wbc_strace_client")
+n = [0]
+node.create_subscription(JointState, "joint_states", lambda m: n.__setitem__(0, n[0] + 1), 100)
+t0 = time.monotonic()
+while time.monotonic() - t0 < 90 and n[0] < 100:
+    rclpy.spin_once(node, timeout_sec=0.05)
+print("SAMPLES", n[0], flush=True)
+node.destroy_node()
+rclpy.shutdown()
+"""
+_CALL = re.compile(r"^(\d+) +(sendto|sendmsg|sendmmsg|connect|setsockopt)\((\d+), (.*)$")
+_DEST = re.compile(r'sin_addr=inet_addr\("([0-9.]+)"\)|inet_pton\(AF_INET6, "([0-9a-fA-F:.]+)"')
+LOOPBACK_MULTICAST_IF = "[16777343]"  # IP_MULTICAST_IF 127.0.0.1 (0x0100007F) as strace prints it
+
+
+def send_destinations(trace: str) -> dict[str, int]:
+    """{destination: count} of the IP sends and connects in an ``strace -f`` output. A send to a multicast group
+    counts as ``"<group> on lo, TTL 0"`` when its socket was set to IP_MULTICAST_IF 127.0.0.1 and
+    IP_MULTICAST_TTL 0 (Cyclone's multicast loopback probe at start-up), else as the bare group."""
+    mcast_if, ttl0, found = set(), set(), {}
+    for line in trace.splitlines():
+        m = _CALL.match(line)
+        if not m:
+            continue
+        pid, call, fd, rest = m.groups()
+        key = (pid, fd)
+        if call == "setsockopt":
+            if "IP_MULTICAST_IF" in rest and LOOPBACK_MULTICAST_IF in rest:
+                mcast_if.add(key)
+            if "IP_MULTICAST_TTL" in rest and '"\\0"' in rest:
+                ttl0.add(key)
+            continue
+        for v4, v6 in _DEST.findall(rest):
+            addr = v4 or v6
+            if v4 and 224 <= int(v4.split(".")[0]) <= 239 and key in mcast_if and key in ttl0:
+                addr = f"{v4} on lo, TTL 0"
+            found[addr] = found.get(addr, 0) + 1
+    return found
+
+
+def test_no_dds_packet_leaves_lo(kilted, loopback_guard):
+    """`wbc ros2 node` (DDS backend) and a Kilted rclpy client (Fast DDS on its defaults with the loopback profile)
+    exchange 100 /joint_states under ``strace -f`` (sendto, sendmsg, connect): every destination address of every
+    send of both, the re-executed Python of the wheels' bootstrapper included, is 127.0.0.1 — but for Cyclone's
+    start-up multicast loopback probe (16 bytes to 239.255.0.1 on a socket set to IP_MULTICAST_IF 127.0.0.1 and
+    TTL 0: it cannot leave the host); the session's ss guard has sampled the processes meanwhile."""
+    trace = kilted.workdir / "strace"
+    trace.mkdir(parents=True, exist_ok=True)
+    strace = ["strace", "-f", "-qq", "-e", "trace=sendto,sendmsg,sendmmsg,connect,setsockopt", "-o"]
+    node = subprocess.Popen([*strace, str(trace / "node"), sys.executable, "-m", "wbc", "ros2", "node", "--backend",
+                             "dds", "--duration", "600"], env=kilted.wbc_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=str(REPO))
+    try:
+        client = subprocess.run([*strace, str(trace / "client"), str(kilted.client.build()), "-c", STRACE_CLIENT],
+                                env=kilted.env, capture_output=True, text=True, timeout=180)
+    finally:
+        for pid in descendants(node.pid) - {node.pid}:  # the traced node (SIGTERM to strace would only detach it)
+            os.kill(pid, signal.SIGTERM)
+        try:
+            node.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            node.kill()
+            node.communicate()
+    assert "SAMPLES 100" in client.stdout, (client.stdout, client.stderr[-2000:])
+    dests = {who: send_destinations((trace / who).read_text(errors="replace")) for who in ("node", "client")}
+    print("send/connect destinations:", dests, f"ss snapshots {loopback_guard.snapshots}, sockets seen "
+          f"{loopback_guard.sockets_seen}")
+    assert sum(dests["node"].values()) > 100 and sum(dests["client"].values()) > 10, dests
+    allowed = {"127.0.0.1", "239.255.0.1 on lo, TTL 0"}  # the second: Cyclone's probe, leaves no host
+    assert set(dests["node"]) | set(dests["client"]) <= allowed and "127.0.0.1" in dests["client"], dests
+    assert loopback_guard.snapshots > 0 and loopback_guard.bad == [], (loopback_guard.snapshots, loopback_guard.bad)
