@@ -9,7 +9,8 @@ Python by tests/ros2/kilted.py (it does not import wbc). Not a test module.
 SUCCEEDED (4). Prints one line ``RESULT <json>``: ``nodes``, ``pubs`` (the node's publisher topics), ``counts``,
 ``joints`` (names, positions of the last JointState), ``urdf`` (first characters, length), ``tf_frames`` (child
 frames seen on /tf), ``tf_static_frames``, ``statuses`` (status codes of the last status array, in order of arrival:
-one list per array), ``distance`` (first and last feedback distance_remaining, m), ``goal_x`` (m).
+one list per array), ``distance`` (first and last feedback distance_remaining, m), ``goal_x`` (m); then
+``reset_service_seen`` (``wait_for_service`` of /reset_robot within 5 s) and ``reset_answered`` (a reply within 5 s).
 """
 
 import json
@@ -24,6 +25,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 try:
     from tf2_msgs.msg import TFMessage
@@ -98,6 +100,11 @@ def main() -> None:
         done = (lambda: counts.get("feedback", want) >= want and bool(out["statuses"])
                 and SUCCEEDED in out["statuses"][-1])
         spin_for(60, done)
+    reset = node.create_client(Trigger, "reset_robot")
+    out["reset_service_seen"] = reset.wait_for_service(timeout_sec=5.0)
+    future = reset.call_async(Trigger.Request())
+    spin_for(5.0, future.done)
+    out["reset_answered"] = future.done()
     if "joint_states" in last:
         out["joints"] = [len(last["joint_states"].name), len(last["joint_states"].position)]
     if "robot_description" in last:

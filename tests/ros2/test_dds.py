@@ -83,16 +83,14 @@ def _participant_after_uri_removed(interface: str):
     env["ROS_DOMAIN_ID"] = str(dds_domain_id())
     proc = subprocess.Popen([sys.executable, "-c", PARTICIPANT, interface], env=env, stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(REPO))
+    first = proc.stdout.readline().strip()
+    sockets = _ss_sockets(proc.pid)
     try:
-        first = proc.stdout.readline().strip()
-        sockets = _ss_sockets(proc.pid)
-        proc.stdin.write("\n")
-        proc.stdin.flush()
-        proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    return first, sockets, proc.stderr.read()
+        _, err = proc.communicate("\n", timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _, err = proc.communicate()
+    return first, sockets, err
 
 
 def test_participant_refuses_a_chosen_interface_whose_configuration_was_removed():
