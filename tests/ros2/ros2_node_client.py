@@ -28,6 +28,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
+from loopback_sockets import bind_to_lo
 
 
 @dataclass
@@ -358,6 +359,7 @@ DEEP = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.Keep
 LATCHED = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(1),
               Policy.Durability.TransientLocal)
 DP = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
+bind_to_lo()  # Cyclone's receive sockets on lo only (tests/ros2/conftest.py checks)
 GUID = random.getrandbits(63)
 
 

@@ -19,6 +19,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
+from loopback_sockets import bind_to_lo
 import os
 
 
@@ -110,6 +111,7 @@ class Trigger_Response_(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Respon
 def main():
     mode, seconds = sys.argv[1], float(sys.argv[2])
     dp = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
+    bind_to_lo()  # Cyclone's receive sockets on lo only (tests/ros2/conftest.py checks)
     rel = Policy.Reliability.Reliable(duration(seconds=1))
     stream = Qos(rel, Policy.History.KeepLast(1000), Policy.Durability.Volatile)
     latched = Qos(rel, Policy.History.KeepLast(1), Policy.Durability.TransientLocal)

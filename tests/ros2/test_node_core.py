@@ -117,3 +117,29 @@ def test_max_rtf_caps_sim_time(robot):
 def test_bad_arguments_are_refused(robot, kw, words):
     with pytest.raises(InvalidInputError, match=words.replace("[", r"\[").replace("]", r"\]")):
         _Silent(robot, **kw)
+
+
+def test_deadline_misses_count_the_ticks_that_overran_the_period(robot, capsys):
+    """Every 7th tick made 3 ms slower than the 2 ms period (a sleep, so at least 3 ms whatever the load): those
+    ticks are deadline misses, counted against the tick times measured independently around the slow ticks, and
+    the periodic report prints the count and the maximum."""
+    node = _Silent(robot, time_mode="sim")
+    tick, slow = node.walk.tick, []
+
+    def sometimes_slow_tick():
+        tick()
+        if node.ticks % 7 == 3:
+            slow.append(node.ticks)
+            time.sleep(0.003)
+
+    node.walk.tick = sometimes_slow_tick
+    node.spin(0.2, report_every=0.2, trim_every=None)  # 100 ticks
+    assert node.ticks == 100 and len(slow) == 14
+    fast = [t for i, t in enumerate(node.tick_time) if i not in slow]
+    expected = len(slow) + sum(t > node.walk.dt for t in fast)  # a fast tick can overrun too on a loaded machine
+    out = capsys.readouterr().out
+    print(out, f"misses {node.deadline_misses}, slow {len(slow)}, fast over 2 ms {expected - len(slow)}")
+    assert node.deadline_misses == expected and node.deadline_misses >= 14, (node.deadline_misses, len(slow))
+    assert node.tick_max >= 0.003
+    assert f"deadline misses {node.deadline_misses} (> 2 ms)" in out, out
+    assert "max " in out and f"max {1e6 * node.tick_max:.0f} µs" in out, out

@@ -480,8 +480,9 @@ def _node_summary(node, args, wall: float) -> None:
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6  # Linux: KiB → MB (10^6 bytes)
     p50, p99 = (np.percentile(tt, 50), np.percentile(tt, 99)) if len(tt) else (float("nan"),) * 2
     print(f"node: {node.ticks} ticks, node time {node.walk.t:.3f} s in {wall:.1f} s wall; "
-          f"tick p50 {p50:.0f} µs p99 {p99:.0f} µs (last {len(tt)}); max RSS {rss:.0f} MB; {node.counts}",
-          flush=True)
+          f"tick p50 {p50:.0f} µs p99 {p99:.0f} µs (last {len(tt)}) max {1e6 * node.tick_max:.0f} µs; "
+          f"deadline misses {node.deadline_misses} of {node.ticks} ticks (compute > {1e3 * node.walk.dt:g} ms); "
+          f"max RSS {rss:.0f} MB; {node.counts}", flush=True)
     pacer = node.pacer
     if pacer is not None and pacer.late_ticks:
         then = (f"stamps jumped {node.stamp_shift:.3f} s forward with the wall clock, node time is that far behind it"

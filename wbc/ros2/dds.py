@@ -103,11 +103,31 @@ def domain_id() -> int:
 
 def participant(domain: int | None = None):
     """A ``cyclonedds.domain.DomainParticipant`` on ``domain`` (default :func:`domain_id`), bound to the
-    loopback interface unless :func:`use_interface` chose another or ``CYCLONEDDS_URI`` is set."""
+    loopback interface unless :func:`use_interface` chose another or ``CYCLONEDDS_URI`` is set.
+
+    Cyclone reads ``CYCLONEDDS_URI`` when it creates a domain; without it, Cyclone's default configuration picks a
+    non-loopback interface and multicast discovery. That default is used only when it was asked for
+    (:func:`use_interface` ``("any")``). With no choice made, or the loopback one, a missing ``CYCLONEDDS_URI``
+    is set to :func:`loopback_uri` again.
+
+    Raises:
+        wbc.exceptions.ConfigurationError: an interface other than ``lo`` and ``any`` was chosen but
+            ``CYCLONEDDS_URI`` is unset or empty now (it was removed after :func:`use_interface`): Cyclone would
+            fall back to its all-interface default instead of the chosen interface.
+    """
     from cyclonedds.domain import DomainParticipant
 
     if not _chosen:
         use_interface(LOOPBACK)
+    if not os.environ.get("CYCLONEDDS_URI", "").strip() and _chosen[0] != ANY_INTERFACE:
+        if _chosen[0] != LOOPBACK:
+            from wbc.exceptions import ConfigurationError
+
+            raise ConfigurationError(
+                f"DDS interface {_chosen[0]!r} was chosen but CYCLONEDDS_URI is unset: Cyclone would use its "
+                "default configuration (every interface, multicast) instead; call use_interface() again before "
+                "participant(), set CYCLONEDDS_URI, or choose 'lo' (127.0.0.1 only) or 'any' (Cyclone's default)")
+        os.environ["CYCLONEDDS_URI"] = loopback_uri()
     confine = _chosen == [LOOPBACK] and os.environ.get("CYCLONEDDS_URI") == loopback_uri()
     before = _wildcard_udp_sockets() if confine else {}
     part = DomainParticipant(domain_id() if domain is None else domain)

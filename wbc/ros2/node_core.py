@@ -160,6 +160,8 @@ class NodeCore:
         self.ticks = 0
         self.pacer = None
         self.tick_time = deque(maxlen=30000)  # s per tick, a ring of the last minute at 500 Hz
+        self.deadline_misses = 0  # ticks whose compute (poll, walk tick, publication) took longer than the period
+        self.tick_max = 0.0  # s, the longest tick since the start
         self.counts = {"cmd_vel": 0, "goals": 0, "resets": 0, "param_sets": 0}
         self.heap_trims, self.last_trim_s = 0, 0.0  # spin(trim_every): malloc_trim calls, s taken by the last
         self.stamp_shift = 0.0  # real time: s the stamps jumped forward over stalls (node time is that far behind)
@@ -365,8 +367,11 @@ class NodeCore:
              trim_every: float | None = 10.0, interrupted: Callable[[], bool] | None = None) -> None:
         """Run until ``duration`` s of node time (None: until KeyboardInterrupt).
 
-        ``report_every`` (s of node time): print a line with the tick time p50/p99 (µs) of the last
-        ``report_every`` s and the resident memory (MB) at that period.
+        ``report_every`` (s of node time): print a line with the tick time p50/p99/max (µs) of the last
+        ``report_every`` s, the deadline misses since the start and the resident memory (MB) at that period.
+        Every tick's compute time (poll, walk tick, publication, heap trim; not the wait) is kept in
+        :attr:`tick_time` (the last 30000) and :attr:`tick_max`; a tick longer than the control period ``dt``
+        counts in :attr:`deadline_misses`.
         ``trim_every`` (s of node time, > 0; None: never): period of the heap trim (``malloc_trim(0)``, glibc),
         done after a tick's messages are published and timed within that tick.
         ``interrupted``: called before every tick; True raises KeyboardInterrupt there (a Ctrl-C whose
@@ -427,6 +432,9 @@ class NodeCore:
                 self.last_trim_s = time.perf_counter() - t_trim
             dt_tick = time.perf_counter() - t0
             self.tick_time.append(dt_tick)
+            if dt_tick > w.dt:
+                self.deadline_misses += 1
+            self.tick_max = max(self.tick_max, dt_tick)
             if rep_every is not None:
                 window.append(dt_tick)
                 window_cpu.append(time.thread_time() - c0)
@@ -442,7 +450,8 @@ class NodeCore:
     def _report(self, tt: np.ndarray, tc: np.ndarray) -> None:
         w = self.walk
         print(f"stats: node time {w.t:.1f} s, tick p50 {np.percentile(tt, 50):.0f} µs "
-              f"p99 {np.percentile(tt, 99):.0f} µs (CPU p50 {np.percentile(tc, 50):.0f} µs "
+              f"p99 {np.percentile(tt, 99):.0f} µs max {tt.max():.0f} µs, deadline misses {self.deadline_misses} "
+              f"(> {1e3 * w.dt:g} ms) (CPU p50 {np.percentile(tc, 50):.0f} µs "
               f"p99 {np.percentile(tc, 99):.0f} µs), RSS {_rss_mb():.1f} MB, replans {w.replans}, "
               f"replan failures {w.replan_failures}, heap trims {self.heap_trims} (last "
               f"{1e3 * self.last_trim_s:.1f} ms)", flush=True)
