@@ -513,6 +513,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
                 result = None
             if result is not None:
+                self.tick_budget.finish(dt)
                 return result
         self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         if isinstance(self.backend, FastBackend):
@@ -640,6 +641,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
         result.consecutive_failures = self.consecutive_failures
         self.last_result = result
+        self.tick_budget.finish(dt)
         return result
 
     # -- failure handling -------------------------------------------------------------------------------------
