@@ -180,7 +180,7 @@ def test_the_controller_counts_its_deadline_misses_by_its_clock(robots):
 
     robot, ctrl = _posture_controller(robots)
     clock = FakeClock(step=3e-3)  # every read 3 ms later: a tick that reads the clock twice took 3 ms
-    ctrl.tick_budget.timer = ctrl.tick_budget.work.timer = clock
+    ctrl.tick_budget.work.timer = clock
     config = Configuration(robot)
     for _ in range(2):
         assert ctrl.solve(config, 0.002).ok
@@ -199,7 +199,7 @@ def test_the_first_solve_of_a_clock_guarded_tick_stops_at_its_iteration_cap(robo
     assert free.backend.last_kernel_iterations > 3  # cold: the compiled solve needs more than the cap below
     for cost, route in ((2e-3 / 3.5, "general"), (1e-12, "compiled")):
         robot, ctrl = _posture_controller(robots, clock_guard=True)
-        ctrl.tick_budget.timer = ctrl.tick_budget.work.timer = FakeClock()  # CPU time 0: the cost sets the cap
+        ctrl.tick_budget.work.timer = FakeClock()  # CPU time 0: the cost sets the cap
         ctrl.tick_budget.iteration_cost = cost  # 2 ms / 3.5: one budget (first_deadline 1) holds 3 iterations
         res = ctrl.solve(Configuration(robot), 0.002)
         # capped at 3, the compiled solve gives up and the general path answers; at a negligible cost it runs to

@@ -32,7 +32,6 @@ exceeded the control period (``deadline_misses``, ``ticks``; read by summaries a
 from __future__ import annotations
 
 import math
-from time import thread_time
 
 from wbc.exceptions import InvalidInputError
 from wbc.solvers import TickWork
@@ -68,11 +67,11 @@ class TickBudget:
         ticks: ticks finished since construction.
 
     Args:
-        timer: the CPU clock (s; default ``time.thread_time``, the calling thread's); a test injects a fake one.
+        timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`, the calling thread's), read through
+            ``work.timer`` (a test injects a fake one).
     """
 
-    def __init__(self, timer=thread_time) -> None:
-        self.timer = timer
+    def __init__(self, timer=None) -> None:
         self.work = TickWork(timer=timer)
         self.clock_guard = False
         self.seconds = math.nan
@@ -95,7 +94,7 @@ class TickBudget:
         ``seconds`` is), with the clock guard seconds / (clock_weight × cap) of CPU time counted as one solve; the
         tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh). Reads the clock: the
         tick's start for :meth:`finish`."""
-        self._t0 = self.timer()
+        self._t0 = self.work.timer()
         self.seconds = seconds
         cap = math.floor(seconds / solve_cost) if math.isfinite(seconds) else math.inf
         clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
@@ -177,6 +176,6 @@ class TickBudget:
         """End the tick: True, and one more ``deadline_misses``, when its CPU time since :meth:`start` exceeded
         ``period`` (s, the control period)."""
         self.ticks += 1
-        late = self.timer() - self._t0 > period
+        late = self.work.timer() - self._t0 > period
         self.deadline_misses += late
         return late

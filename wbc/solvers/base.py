@@ -72,6 +72,12 @@ def register_backend_class(role: str) -> Callable[[type], type]:
     return register
 
 
+def cpu_time() -> float:
+    """CPU time (s) of the calling thread (``time.thread_time``, looked up at each call): what a tick computes, not
+    the time other processes take the core from it."""
+    return thread_time()
+
+
 class TickWork:
     """Work of one control tick: the QP solves done so far, against a cap.
 
@@ -101,12 +107,13 @@ class TickWork:
         ticks: calls of :meth:`reset` so far (a backend tells the ticks apart by it, e.g.
             :class:`wbc.solvers.fast.FastBackend`: a kernel that gave up on a problem is not tried again on the same
             tick's problems of its shape).
-        timer: the CPU clock read (s; default ``time.thread_time``; a test injects a fake one).
+        timer: the CPU clock read (s; default :func:`cpu_time`, the calling thread's; a test injects a fake one).
     """
 
     __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve", "ticks", "timer")
 
-    def __init__(self, cap: float = math.inf, clock: float = math.inf, timer=thread_time):
+    def __init__(self, cap: float = math.inf, clock: float = math.inf, timer=None):
+        timer = cpu_time if timer is None else timer
         self.timer = timer
         self.ticks = 0
         self._solves = 0
