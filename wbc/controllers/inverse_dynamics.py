@@ -479,8 +479,8 @@ class InverseDynamicsController:
         ticks), ``relaxed``, ``routes`` (route → ticks), ``paths`` (path with its qualifiers → ticks)."""
         n = max(self.n_ticks, 1)
         return {"ticks": self.n_ticks, "budget_ms": 1e3 * self.budget, "over_budget": self.n_over_budget,
-                "deadline_misses": self.deadline_misses, "fallback_rate": self.n_failures / n, "relaxed": self.n_relaxed, "routes": dict(self.routes),
-                "paths": dict(self.paths)}
+                "deadline_misses": self.deadline_misses, "fallback_rate": self.n_failures / n,
+                "relaxed": self.n_relaxed, "routes": dict(self.routes), "paths": dict(self.paths)}
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring): :func:`gravity_torques`
