@@ -51,3 +51,20 @@ def test_node_duration_exits_0_and_bad_max_rtf_is_refused(tmp_path):
     proc, out = _node(tmp_path, "--time", "sim", "--max-rtf", "-1")
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 2 and "'-1' is invalid: valid is a finite number > 0" in err
+
+
+@pytest.mark.parametrize("options, real", [
+    ({}, False),  # a logged/offline run: reproducible
+    ({"live": False, "ros2": False, "ros2_unpaced": False}, False),
+    ({"live": True}, True),  # paced by the viewer
+    ({"live": False, "ros2": True, "ros2_unpaced": False}, True),  # paced by the publisher
+    ({"live": False, "ros2": True, "ros2_unpaced": True}, False),  # as fast as it goes: not real time
+    ({"live": True, "ros2": True, "ros2_unpaced": True}, True),
+])
+def test_real_time_is_live_or_a_paced_ros2_run(options, real):
+    """wbc.cli.ros2.real_time: where a run's time is real (the controller's clock guard is on there, only there)."""
+    from argparse import Namespace
+
+    from wbc.cli.ros2 import real_time
+
+    assert real_time(Namespace(**options)) is real

@@ -7,7 +7,7 @@ import io
 
 import pytest
 
-from wbc.cli.output import compile_notice, format_value, print_summary, uncompiled_kernels
+from wbc.cli.output import add_deadline_misses, compile_notice, format_value, print_summary, uncompiled_kernels
 
 
 @pytest.fixture(autouse=True)
@@ -155,3 +155,13 @@ def test_compile_notice_then_reports_each_module_as_its_kernels_become_ready(tmp
     assert len(lines) == 2 and "compiling the numba kernels" in lines[0]
     assert lines[1].startswith("wbc walk: wbc.tasks.com kernels ready (") and lines[1].endswith(" s)")
     assert float(lines[1].split("(")[1].split()[0]) >= 0.6
+
+
+def test_deadline_misses_are_counted_past_the_period_and_placed_beside_the_tick_times():
+    summary = {"ticks": 4, "tick_time_us": {"median": 1.0}, "deadline_misses": -1, "passed": True}
+    add_deadline_misses(summary, [0.001, 0.002, 0.0021, 0.05], 0.002)  # 2 ticks longer than 2 ms (not the equal one)
+    assert list(summary) == ["ticks", "tick_time_us", "deadline_misses", "passed"]
+    assert summary["deadline_misses"] == 2
+    other = {"ticks": 1}
+    add_deadline_misses(other, [0.003], 0.002)
+    assert other == {"ticks": 1, "deadline_misses": 1}

@@ -95,3 +95,113 @@ def test_the_controller_shares_its_budget_work_with_its_backend(robots):
     assert ctrl.tick_budget.work.cap == 8 and ctrl.tick_budget.seconds == 2e-3
     assert 1 <= ctrl.tick_budget.work.solves <= 8
     assert np.all(np.isfinite(res.v))
+
+
+class FakeClock:
+    """A CPU clock for the budget (``TickBudget(timer=...)``): reads ``t``; each read then advances it by ``step``."""
+
+    def __init__(self, step: float = 0.0):
+        self.t, self.step = 0.0, step
+
+    def __call__(self) -> float:
+        t = self.t
+        self.t += self.step
+        return t
+
+
+def _clocked(clock_guard: bool) -> tuple[TickBudget, FakeClock]:
+    clock = FakeClock()
+    b = TickBudget(timer=clock)
+    b.clock_guard = clock_guard
+    b.stage_factor = 1.75
+    b.start(2e-3, 2.5e-4, clock_weight=1.4)  # cap 8; clock guard: 2 ms / (1.4 × 8) of CPU time per solve
+    return b, clock
+
+
+def test_the_clock_guard_stops_a_stage_when_the_time_is_spent_not_before():
+    b, clock = _clocked(clock_guard=True)
+    assert b.work.solves == 0 and b.may_start("retry") and b.may_start("stage")
+    clock.t = 1.8e-3  # 1.8 ms / (2 ms / 11.2) = 10.08 solves: past one cap (8), within 1.75 caps (14)
+    assert b.work.solves == pytest.approx(10.08)
+    assert not b.may_start("retry") and b.may_start("stage")
+    clock.t = 2.6e-3  # 14.56 solves > 14
+    assert not b.may_start("stage")
+    # no solve was counted: the clock alone stopped them; without the guard the same clock stops nothing
+    free, free_clock = _clocked(clock_guard=False)
+    free_clock.t = 2.6e-3
+    assert free.work.solves == 0 and free.may_start("retry") and free.may_start("stage")
+
+
+def test_the_first_solve_gets_an_iteration_cap_from_the_time_left():
+    b, clock = _clocked(clock_guard=True)
+    assert b.iteration_cap(100) == 100  # no cost per iteration measured yet: the solver's own cap
+    b.note_first_solve(10, 1e-4)  # 10 µs per iteration
+    assert b.iteration_cost == pytest.approx(1e-5)
+    clock.t = 0.5e-3  # 1.5 ms left of one budget: 150 iterations, the solver's own 100 is smaller
+    assert b.iteration_cap(100) == 100
+    clock.t = 1.9e-3  # 0.1 ms left: 10 iterations
+    assert b.iteration_cap(100) == 10
+    clock.t = 2.5e-3  # past the budget: one iteration (the kernel gives up, its rescue is bounded by the count)
+    assert b.iteration_cap(100) == 1
+    b.note_first_solve(10, 1e-5)  # a faster sample: the cost decays by 0.9 per tick, not at once
+    assert b.iteration_cost == pytest.approx(0.9e-5)
+    off, off_clock = _clocked(clock_guard=False)
+    off.note_first_solve(10, 1e-4)
+    off_clock.t = 1.9e-3
+    assert off.iteration_cap(100) == 100  # without the clock guard a count: reproducible
+
+
+def test_finish_counts_the_ticks_past_their_period():
+    b, clock = _clocked(clock_guard=False)
+    clock.t = 1.9e-3
+    assert not b.finish(2e-3)
+    b.start(2e-3, 2.5e-4, clock_weight=1.4)  # starts at 1.9 ms
+    clock.t = 4.0e-3  # 2.1 ms of CPU time
+    assert b.finish(2e-3)
+    assert b.ticks == 2 and b.deadline_misses == 1
+
+
+def _posture_controller(robots, **options):
+    from wbc.constraints import JointVelocityLimit
+    from wbc.controllers.kinematic import KinematicController
+    from wbc.tasks import PostureTask
+
+    robot = robots("talos")
+    task = PostureTask(robot, weight=1.0, gain=1e3)  # (a target far away, at a high gain)
+    ctrl = KinematicController(robot, [task], [JointVelocityLimit(robot)], solver="fast", budget=2e-3, **options)
+    target = robot.q_ref.copy()
+    target[7:] += 0.5  # far: many joints at their speed limits (many active bounds)
+    task.set_target(target)
+    return robot, ctrl
+
+
+def test_the_controller_counts_its_deadline_misses_by_its_clock(robots):
+    from wbc.configuration import Configuration
+
+    robot, ctrl = _posture_controller(robots)
+    clock = FakeClock(step=3e-3)  # every read 3 ms later: a tick that reads the clock twice took 3 ms
+    ctrl.tick_budget.work.timer = clock
+    config = Configuration(robot)
+    for _ in range(2):
+        assert ctrl.solve(config, 0.002).ok
+    assert ctrl.tick_budget.ticks == 2 and ctrl.tick_budget.deadline_misses == 2
+    clock.step = 0.0
+    assert ctrl.solve(config, 0.002).ok
+    assert ctrl.tick_budget.ticks == 3 and ctrl.tick_budget.deadline_misses == 2
+
+
+def test_the_first_solve_of_a_clock_guarded_tick_stops_at_its_iteration_cap(robots):
+    from wbc.configuration import Configuration
+
+    robot, free = _posture_controller(robots)
+    res = free.solve(Configuration(robot), 0.002)
+    assert res.ok and res.path.route == "compiled"
+    assert free.backend.last_kernel_iterations > 3  # cold: the compiled solve needs more than the cap below
+    for cost, route in ((2e-3 / 3.5, "general"), (1e-12, "compiled")):
+        robot, ctrl = _posture_controller(robots, clock_guard=True)
+        ctrl.tick_budget.work.timer = FakeClock()  # CPU time 0: the cost sets the cap
+        ctrl.tick_budget.iteration_cost = cost  # 2 ms / 3.5: one budget (first_deadline 1) holds 3 iterations
+        res = ctrl.solve(Configuration(robot), 0.002)
+        # capped at 3, the compiled solve gives up and the general path answers; at a negligible cost it runs to
+        # its own cap (100) and answers as without the guard
+        assert res.ok and res.path.route == route and np.all(np.isfinite(res.v))

@@ -71,3 +71,12 @@ def test_turning_past_half_a_turn_does_not_fall():
     assert not walk.fell
     assert walk.replan_failures == 0
     assert turned >= math.radians(200.0)  # (0.24 rad per 0.8 s step: about 12 s of walking)
+
+
+def test_the_clock_guard_is_the_id_controllers_and_survives_a_reset():
+    walk = SimCommandedWalk(load_robot("g1"))
+    assert walk.clock_guard is False  # off by default: a run is a function of its inputs
+    walk.clock_guard = True
+    assert walk.controller.controller.clock_guard is True
+    walk.reset()
+    assert walk.clock_guard is True and walk.controller.controller.clock_guard is True

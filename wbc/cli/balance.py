@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 
 from wbc.cli.kernels import compile_for_command
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
+from wbc.cli.output import add_deadline_misses, open_live, print_summary, progress, write_outputs, write_recording
 from wbc.cli.robots import add_robot_options, robot_from_args
 from wbc.cli.ros2 import add_run_options, attach, finish
 from wbc.cli.validate import check_jump, finite, solver_name
@@ -50,7 +50,7 @@ def cmd_balance(args) -> int:
         finish(ros2_pub)
     summary = balance_summary(robot, run)
     summary["solver"] = args.solver
-    summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
+    add_deadline_misses(summary, run.tick_time, args.dt)
     print(f"wbc balance {args.behaviour}: {robot.name}, {summary['ticks']} ticks at {1 / args.dt:.0f} Hz, "
           f"solver {args.solver}")
     print_summary(summary)

@@ -22,7 +22,7 @@ import numpy as np
 
 __all__ = [
     "add_outputs", "print_summary", "format_value", "write_outputs", "write_json", "write_plot", "write_recording",
-    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "jsonable", "atomic_output", "atomic_outputs", "write_log",
+    "open_live", "progress", "hold_live", "close_live", "deadline_misses", "add_deadline_misses", "jsonable", "atomic_output", "atomic_outputs", "write_log",
     "compile_notice", "uncompiled_kernels", "status", "on_sigterm", "sigterm_received", "Terminated",
 ]
 
@@ -511,3 +511,17 @@ def close_live() -> None:
 def deadline_misses(tick_time, dt: float) -> int:
     """Number of ticks whose controller time (s) exceeded the control period ``dt`` (s)."""
     return int(np.count_nonzero(np.asarray(tick_time, dtype=float) > dt))
+
+
+def add_deadline_misses(summary: dict, tick_time, dt: float) -> None:
+    """``summary['deadline_misses']`` = :func:`deadline_misses` (tick_time, dt), placed right after
+    ``tick_time_us`` (printed beside the tick's median/p99/max; at the end when the summary has none)."""
+    n = deadline_misses(tick_time, dt)
+    summary.pop("deadline_misses", None)
+    items = list(summary.items())
+    summary.clear()
+    for key, value in items:
+        summary[key] = value
+        if key == "tick_time_us":
+            summary["deadline_misses"] = n
+    summary.setdefault("deadline_misses", n)

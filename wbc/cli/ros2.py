@@ -26,7 +26,7 @@ import numpy as np
 from wbc.cli.validate import count, seconds
 from wbc.ros2.backend import BACKENDS
 
-__all__ = ["register", "add_run_options", "add_backend_option", "attach", "finish", "RclpySession"]
+__all__ = ["register", "add_run_options", "add_backend_option", "attach", "finish", "real_time", "RclpySession"]
 
 
 def add_run_options(p) -> None:
@@ -45,6 +45,14 @@ def add_run_options(p) -> None:
                    help="with --ros2: rclpy (a ROS 2 node on your RMW), dds (wbc's Cyclone DDS participant), auto "
                         "(default: rclpy when it imports, else dds)")
     add_interface_option(g)
+
+
+def real_time(args) -> bool:
+    """Whether a run of ``args`` (:func:`add_run_options` and ``--live``) is paced to real time: ``--live``, or
+    ``--ros2`` without ``--ros2-unpaced``. Read before :func:`attach` (which may clear ``args.ros2``): where time is
+    real the controller's clock guard is on; elsewhere a run is a function of its inputs (logs reproducible)."""
+    return bool(getattr(args, "live", False) or (getattr(args, "ros2", False)
+                                                 and not getattr(args, "ros2_unpaced", False)))
 
 
 def add_backend_option(p) -> None:
@@ -443,6 +451,7 @@ def cmd_node(args) -> int:
 
         node = ControllerNode(robot, **core)
         where = f"domain {dds.domain_id()}, backend dds"
+    node.walk.clock_guard = True  # a real-time loop: the controller's tick bounded by its CPU time too
     what = (f"MuJoCo closed loop (ID controller, {args.plant} plant, {args.state} state)" if args.sim
             else "kinematic walk")
     speed = "" if args.max_rtf is None else f" (at most {args.max_rtf:g}x real time)"

@@ -11,9 +11,9 @@ import math
 from pathlib import Path
 
 from wbc.cli.kernels import compile_for_command
-from wbc.cli.output import deadline_misses, open_live, print_summary, progress, status, write_outputs
+from wbc.cli.output import add_deadline_misses, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_plant_options, add_robot_options, robot_from_args
-from wbc.cli.ros2 import add_run_options, attach, finish
+from wbc.cli.ros2 import add_run_options, attach, finish, real_time
 from wbc.cli.validate import check_jump, check_ticks, count, finite, real, seconds, solver_name, video_size
 
 __all__ = ["register", "cmd_sim"]
@@ -368,8 +368,11 @@ def cmd_sim(args) -> int:
             viewer.set_overlays(LiveOverlays(robot, lambda: scenario.plan))
     compile_for_command("sim", quiet=getattr(args, "quiet", False))  # a first run: its kernels, in parallel, now
     viewer = progress(args, getattr(scenario, "duration", None), viewer, desc=f"wbc sim {scenario.name}")
+    clock_guard = real_time(args)  # before attach (which may clear args.ros2)
     target, ros2_pub = attach(args, robot, viewer, sim.timestep)  # publisher only with --ros2/--bag
     controller = make()
+    if clock_guard and args.controller == "id":
+        controller.controller.clock_guard = True  # time is real: the ID controller's clock guard (else reproducible)
     state = None
     if args.state == "estimated":
         from wbc.sim.estimated_state import EstimatedState
@@ -422,7 +425,7 @@ def cmd_sim(args) -> int:
         walk_opts = walk_options_for(robot, args.solver, args.sole_margin)
         summary["controller_sole_margin_m"] = walk_opts["sole_margin"]
         summary["controller_momentum_weight"] = walk_opts["gains"]["momentum_weight"]
-    summary["deadline_misses"] = deadline_misses(run.tick_time, run.dt)
+    add_deadline_misses(summary, run.tick_time, run.dt)
     if plant is not None:
         summary["plant"] = {"plant_mass_kg": plant["plant_mass_kg"], "model_mass_kg": plant["model_mass_kg"],
                             "delay_ticks": args.delay, "q_noise_deg": args.q_noise, "v_noise": args.v_noise,

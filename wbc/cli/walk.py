@@ -7,9 +7,9 @@ import math
 import numpy as np
 
 from wbc.cli.kernels import compile_for_command
-from wbc.cli.output import add_outputs, deadline_misses, open_live, print_summary, progress, status, write_outputs
+from wbc.cli.output import add_deadline_misses, add_outputs, open_live, print_summary, progress, status, write_outputs
 from wbc.cli.robots import add_robot_options, robot_from_args
-from wbc.cli.ros2 import add_run_options, attach, finish
+from wbc.cli.ros2 import add_run_options, attach, finish, real_time
 from wbc.cli.validate import check_range, check_ticks, finite, real, solver_name
 from wbc.analysis.legs import leg_reach, leg_rise
 from wbc.exceptions import InvalidInputError
@@ -276,16 +276,17 @@ def cmd_walk(args) -> int:
         viewer.set_overlays(LiveOverlays(robot, plan))  # planned footsteps, ZMP and DCM too
     compile_for_command("walk", quiet=getattr(args, "quiet", False))  # a first run: its kernels, in parallel, now
     viewer = progress(args, float(plan.t[-1]), viewer, desc="wbc walk")
+    clock_guard = real_time(args)  # before attach (which may clear args.ros2)
     target, ros2_pub = attach(args, robot, viewer, args.dt)  # publisher only with --ros2/--bag
     try:
-        run = run_walk(robot, plan, solver=args.solver, viewer=target, pacer=pacer)
+        run = run_walk(robot, plan, solver=args.solver, viewer=target, pacer=pacer, clock_guard=clock_guard)
     finally:
         if viewer is not None:
             viewer.close()
         finish(ros2_pub)
     summary = walk_summary(robot, plan, run)
     summary["solver"] = args.solver
-    summary["deadline_misses"] = deadline_misses(run.tick_time, args.dt)
+    add_deadline_misses(summary, run.tick_time, args.dt)
     passed, failures = walk_passes(summary)
     if terrain_walk is not None:
         from wbc.scenarios.terrain_walk import terrain_passes, terrain_summary

@@ -18,6 +18,15 @@ With a ``cost`` (CPU time in s of that stage as timed in this tick), the stage m
 controller owns the numbers (its class constants, read at each :meth:`TickBudget.start`); the decisions are these
 methods'. The same object serves a controller of either level: it needs a :class:`~wbc.solvers.base.TickWork`
 and the numbers, nothing of the formulation.
+
+The first solve of a tick is bounded in time too (clock guard): :meth:`TickBudget.iteration_cap` gives the compiled
+solver's iteration cap as the CPU time left until ``first_deadline`` budgets divided by the CPU time per iteration
+(``iteration_cost``: the largest per-iteration time of the recent first solves, :meth:`TickBudget.note_first_solve`,
+decaying by ``COST_DECAY`` per tick, starting from the controller's measured constant), clamped to [1, the solver's
+own cap]. Without the clock guard the cap is the solver's own (a count: reproducible).
+
+Deadline misses: :meth:`TickBudget.finish` counts the ticks whose CPU time (from :meth:`TickBudget.start`)
+exceeded the control period (``deadline_misses``, ``ticks``; read by summaries and the ROS 2 node).
 """
 
 from __future__ import annotations
@@ -27,10 +36,13 @@ import math
 from wbc.exceptions import InvalidInputError
 from wbc.solvers import TickWork
 
-__all__ = ["STAGES", "TickBudget"]
+__all__ = ["STAGES", "TickBudget", "COST_DECAY"]
 
 #: the stages :meth:`TickBudget.may_start` answers for (module docstring)
 STAGES = ("retry", "stage", "timed")
+#: per tick, the CPU time per iteration of the first solve (``TickBudget.iteration_cost``) decays by this factor
+#: towards the newer samples (a slow sample bounds the next ticks' caps, not all later ones)
+COST_DECAY = 0.9
 
 
 class TickBudget:
@@ -48,10 +60,19 @@ class TickBudget:
         safe_cost: CPU time (s) of the longest solve of the safe command in this tick, else the last tick's;
             ``safe_fresh``: it was timed in this tick; ``safe_stage_cost``: the last 'constraints_only' stage.
         level_mark, level_count: CPU time and counted solves of the tick at the last level boundary of a cascade.
+        first_deadline: with the clock guard, the tick's first solve ends by first_deadline budgets of CPU time
+            (:meth:`iteration_cap`).
+        iteration_cost: CPU time (s) per iteration of the first solve (clock guard; module docstring).
+        deadline_misses: ticks since construction whose CPU time exceeded their control period (:meth:`finish`).
+        ticks: ticks finished since construction.
+
+    Args:
+        timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`, the calling thread's), read through
+            ``work.timer`` (a test injects a fake one).
     """
 
-    def __init__(self) -> None:
-        self.work = TickWork()
+    def __init__(self, timer=None) -> None:
+        self.work = TickWork(timer=timer)
         self.clock_guard = False
         self.seconds = math.nan
         self.stage_factor = 1.0
@@ -62,11 +83,18 @@ class TickBudget:
         self.level_mark = 0.0
         self.level_count = 0.0
         self.resolve_work = self.level_work = 0.0
+        self.first_deadline = 1.0
+        self.iteration_cost = 0.0
+        self.deadline_misses = 0
+        self.ticks = 0
+        self._t0 = 0.0
 
     def start(self, seconds: float, solve_cost: float, clock_weight: float) -> None:
         """Start a tick of ``seconds`` of budget: cap ⌊seconds / solve_cost⌋ counted solves (``math.inf`` when
         ``seconds`` is), with the clock guard seconds / (clock_weight × cap) of CPU time counted as one solve; the
-        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh)."""
+        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh). Reads the clock: the
+        tick's start for :meth:`finish`."""
+        self._t0 = self.work.timer()
         self.seconds = seconds
         cap = math.floor(seconds / solve_cost) if math.isfinite(seconds) else math.inf
         clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
@@ -129,3 +157,25 @@ class TickBudget:
         if n * work.solves > share * work.cap:
             return False
         return not self.clock_guard or 2 * n * work.seconds() <= self.seconds
+
+    def iteration_cap(self, max_iter: int) -> int:
+        """The iteration cap of the tick's first solve (module docstring): ``max_iter`` without the clock guard;
+        with it ⌊(first_deadline × seconds − CPU time so far) / iteration_cost⌋ clamped to [1, max_iter]
+        (``max_iter`` while no cost is known)."""
+        if not self.clock_guard or not self.iteration_cost > 0.0 or not math.isfinite(self.seconds):
+            return max_iter
+        left = self.first_deadline * self.seconds - self.work.seconds()
+        return int(min(max_iter, max(1.0, left // self.iteration_cost)))
+
+    def note_first_solve(self, iterations: int, seconds: float) -> None:
+        """The tick's first solve took ``iterations`` (≥ 0) in ``seconds`` of CPU time: ``iteration_cost`` becomes
+        the larger of COST_DECAY × itself and seconds / max(iterations, 1)."""
+        self.iteration_cost = max(COST_DECAY * self.iteration_cost, seconds / max(iterations, 1))
+
+    def finish(self, period: float) -> bool:
+        """End the tick: True, and one more ``deadline_misses``, when its CPU time since :meth:`start` exceeded
+        ``period`` (s, the control period)."""
+        self.ticks += 1
+        late = self.work.timer() - self._t0 > period
+        self.deadline_misses += late
+        return late

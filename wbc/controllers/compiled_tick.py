@@ -213,19 +213,23 @@ class CompiledTick:
         v = np.empty(self.nv)
         backend = self.backend
         tol = backend.tolerance
+        budget = self.tick_budget
         # one compiled call: the cost (form_qp); every number of the cost and the contact targets finite (targets,
         # weights, gains written in place, q, placements: NaN and inf propagate into these sums; else None, the
         # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
         # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
         # bounds: the solver reads them, never writes them)
         args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
-                backend.max_iter, q, box)  # box: a KernelBox (_kernel_box)
+                budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
         elif kernel is None:  # the plan's first tick: the types of its buffers (and of q, checked above) are fixed
             kernel = plan.tick_kernel = specialise(kinematic_tick_packed, *args)
+        c0 = budget.work.seconds() if budget.clock_guard else 0.0
         it, guard = kernel(*args)
+        if budget.clock_guard:  # the first solve's CPU time per iteration: the next ticks' caps (TickBudget)
+            budget.note_first_solve(it, budget.work.seconds() - c0)
         # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
         # has it in its count (its CPU time is about one solve's)
         self._work.add(1)

@@ -280,6 +280,7 @@ class InverseDynamicsController:
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
+        deadline_misses: ticks since construction whose CPU time exceeded the control period dt.
         paths: path (string form of :class:`wbc.tick.TickPath`) → number of ticks that took it.
         routes: route (:data:`wbc.tick.ID_ROUTES`) → number of ticks that took it.
 
@@ -306,6 +307,7 @@ class InverseDynamicsController:
         self.n_failures = 0
         self.n_relaxed = 0
         self.n_over_budget = 0
+        self.deadline_misses = 0
         self.paths: Counter = Counter()
         self._path_key: tuple = (None, "")  # (path object, its string form) of the last tick
         self.routes: Counter = Counter()
@@ -384,6 +386,7 @@ class InverseDynamicsController:
         cmd.over_budget = cpu > self.budget
         self.n_ticks += 1
         self.n_over_budget += int(cmd.over_budget)
+        self.deadline_misses += cpu > self.dt
         path = cmd.path
         if path is not self._path_key[0]:  # the string form of the last path (the compiled tick's is one object)
             self._path_key = (path, str(path))
@@ -476,12 +479,13 @@ class InverseDynamicsController:
         return self._diagnose()
 
     def summary(self) -> dict:
-        """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``fallback_rate`` (fallback ticks /
+        """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``deadline_misses`` (ticks whose CPU
+        time exceeded dt), ``fallback_rate`` (fallback ticks /
         ticks), ``relaxed``, ``routes`` (route → ticks), ``paths`` (path with its qualifiers → ticks)."""
         n = max(self.n_ticks, 1)
         return {"ticks": self.n_ticks, "budget_ms": 1e3 * self.budget, "over_budget": self.n_over_budget,
-                "fallback_rate": self.n_failures / n, "relaxed": self.n_relaxed, "routes": dict(self.routes),
-                "paths": dict(self.paths)}
+                "deadline_misses": self.deadline_misses, "fallback_rate": self.n_failures / n,
+                "relaxed": self.n_relaxed, "routes": dict(self.routes), "paths": dict(self.paths)}
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring): :func:`gravity_torques`

@@ -101,9 +101,10 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem; and no
             stage after the first solve (relaxation, strict level, correction, trust region, diagnosis, safe command)
             starts unless its CPU time, as timed in this tick, ends it by ``STAGE_DEADLINE`` times the budget
-            (module docstring). Default
+            (module docstring); the compiled first solve stops at the iterations that fit in the budget's CPU time
+            left (:meth:`wbc.controllers.budget.TickBudget.iteration_cap`). Default
             False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
-            real-time loop): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
+            real-time loop; on in ``wbc ros2 node``, ``--live``, ``--ros2``): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
             that depends on the machine's speed and load; a tick under every limit answers as with False; strict
             levels whose cascade does not fit the budget's CPU time are answered by their weighted form (module
             docstring, path ``levels+weighted``). Settable
@@ -489,6 +490,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
                 result = None
             if result is not None:
+                self.tick_budget.finish(dt)
                 return result
         return None
 
@@ -580,6 +582,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
         result.consecutive_failures = self.consecutive_failures
         self.last_result = result
+        self.tick_budget.finish(dt)
         return result
 
     # -- failure handling -------------------------------------------------------------------------------------

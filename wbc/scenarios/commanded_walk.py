@@ -84,6 +84,7 @@ class CommandedWalk:
         self.max_turn = check_finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
         self._solver = solver
         self.walker = WalkController(robot, self.config, solver=solver)
+        self._clock_guard = False
         self.v = np.zeros(robot.model.nv)
         self.t = 0.0
         self.plan = None
@@ -190,10 +191,21 @@ class CommandedWalk:
         self._stop = True
         self._stop_now = True
 
+    @property
+    def clock_guard(self) -> bool:
+        """The kinematic controller's clock guard (:class:`wbc.controllers.kinematic.KinematicController`; False
+        by default, True in a real-time loop such as ``wbc ros2 node``); kept over :meth:`reset`."""
+        return self._clock_guard
+
+    @clock_guard.setter
+    def clock_guard(self, value: bool) -> None:
+        self._clock_guard = bool(value)
+        self.walker.controller.clock_guard = self._clock_guard
+
     def reset(self) -> None:
         """Back to the reference standing configuration, standing, no command."""
         self.config.update(self.robot.q_ref.copy())
-        self.walker = WalkController(self.robot, self.config, solver=self._solver)
+        self.walker = WalkController(self.robot, self.config, solver=self._solver, clock_guard=self._clock_guard)
         self.plan, self.k = None, 0
         self.v[:] = 0.0
         self.command[:] = 0.0

@@ -199,7 +199,7 @@ class WalkRun(StanceRun):
 
 
 def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, config: Configuration | None = None,
-             viewer=None, pacer=None) -> WalkRun:
+             viewer=None, pacer=None, clock_guard: bool = False) -> WalkRun:
     """Walk ``plan`` at its sampling period under the kinematic QP.
 
     Args:
@@ -209,12 +209,14 @@ def run_walk(robot: Robot, plan: WalkPlan, *, solver: str = DEFAULT_SOLVER, conf
         config: starting configuration (default ``robot.q_ref``; must match the plan's initial stance).
         viewer: optional object with ``update(q, t)`` (non-blocking, e.g. :class:`wbc.viz.LiveViewer`).
         pacer: optional :class:`wbc.viz.RealTimePacer` (``wait(t_sim)`` once per tick) for real-time pacing.
+        clock_guard: the controller's clock guard (``KinematicController.clock_guard``): True where time is real
+            (``--live``, ``--ros2``); False (default) keeps a run a function of its inputs (logs reproducible).
 
     Returns:
         :class:`WalkRun` with one row per tick.
     """
     config = config or Configuration(robot)
-    walker = WalkController(robot, config, solver=solver)
+    walker = WalkController(robot, config, solver=solver, clock_guard=clock_guard)
     walker.set_plan(plan)  # validated and precomputed once, before the first tick
     n, dt = len(plan.t), plan.dt
     rec = StanceRecorder(robot, n)

@@ -114,6 +114,16 @@ class SimCommandedWalk:
 
     max_backward = 0.0  # m/s: WalkScenario plans forward steps only
 
+    @property
+    def clock_guard(self) -> bool:
+        """The ID controller's clock guard (:class:`wbc.controllers.inverse_dynamics.InverseDynamicsController`;
+        False by default, True in a real-time loop such as ``wbc ros2 node --sim``)."""
+        return self.controller.controller.clock_guard
+
+    @clock_guard.setter
+    def clock_guard(self, value: bool) -> None:
+        self.controller.controller.clock_guard = bool(value)
+
     def __init__(self, robot, *, plant: str = "realistic", state: str = "estimated", solver: str = "fast",
                  seed: int = 0, step_duration: float = 0.8, max_velocity: float = 0.3, max_lateral: float = 0.1,
                  max_turn: float = 0.5, segment_steps: int = 4):

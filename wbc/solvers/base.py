@@ -72,6 +72,12 @@ def register_backend_class(role: str) -> Callable[[type], type]:
     return register
 
 
+def cpu_time() -> float:
+    """CPU time (s) of the calling thread (``time.thread_time``, looked up at each call): what a tick computes, not
+    the time other processes take the core from it."""
+    return thread_time()
+
+
 class TickWork:
     """Work of one control tick: the QP solves done so far, against a cap.
 
@@ -101,23 +107,26 @@ class TickWork:
         ticks: calls of :meth:`reset` so far (a backend tells the ticks apart by it, e.g.
             :class:`wbc.solvers.fast.FastBackend`: a kernel that gave up on a problem is not tried again on the same
             tick's problems of its shape).
+        timer: the CPU clock read (s; default :func:`cpu_time`, the calling thread's; a test injects a fake one).
     """
 
-    __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve", "ticks")
+    __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve", "ticks", "timer")
 
-    def __init__(self, cap: float = math.inf, clock: float = math.inf):
+    def __init__(self, cap: float = math.inf, clock: float = math.inf, timer=None):
+        timer = cpu_time if timer is None else timer
+        self.timer = timer
         self.ticks = 0
         self._solves = 0
         self.cap = cap
         self._clock = clock
-        self._t0 = thread_time() if clock < math.inf else None
+        self._t0 = timer() if clock < math.inf else None
         self.reserve = 0.0
 
     @property
     def solves(self) -> float:
         """Counted solves of the tick, or (clock guard) the tick's CPU time in solves when that is larger."""
         if self._clock < math.inf:
-            return max(self._solves, (thread_time() - self._t0) / self._clock)
+            return max(self._solves, (self.timer() - self._t0) / self._clock)
         return self._solves
 
     @solves.setter
@@ -144,7 +153,7 @@ class TickWork:
         self._solves = 0
         self.cap = cap
         self._clock = clock
-        self._t0 = thread_time() if clock < math.inf else None
+        self._t0 = self.timer() if clock < math.inf else None
         self.reserve = 0.0
 
     def seconds(self) -> float:
@@ -152,9 +161,9 @@ class TickWork:
         it (``clock`` = ``math.inf``) since the tick's first call of this method (0.0 at that call): only the
         difference of two calls is meaningful then."""
         if self._t0 is None:
-            self._t0 = thread_time()
+            self._t0 = self.timer()
             return 0.0
-        return thread_time() - self._t0
+        return self.timer() - self._t0
 
     def spent(self, factor: float = 1.0, ahead: float = 0.0) -> bool:
         """``factor`` × cap solves are done (``reserve`` counted as done), or would be after ``ahead`` more (≥ 0:
