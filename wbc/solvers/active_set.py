@@ -43,7 +43,7 @@ from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, f
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "ensure_compiled", "qp_ws_float_size", "qp_ws_int_size",
+__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "load_active_set_kernels", "qp_ws_float_size", "qp_ws_int_size",
            "solve_qp_into", "solve_qp_ws"]
 
 #: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
@@ -671,7 +671,7 @@ def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_
 
 
 @once_per_process
-def ensure_compiled() -> None:
+def load_active_set_kernels() -> None:
     """Compile (or load from the on-disk cache), once per process, :func:`solve_qp_into` for the argument types
     both its callers give it (C-contiguous float64 arrays, int8 working sets, int64 integer workspace):
     :func:`solve_qp_ws` (the ``fast`` backend, :mod:`wbc.solvers.fast`) and the kinematic tick

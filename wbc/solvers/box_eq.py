@@ -25,7 +25,7 @@ from wbc.solvers.linalg import (backward_substitution, cholesky_lower, equality_
                                 primal_from_multipliers)
 from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 
-__all__ = ["clip_eq_residual", "drop_infinite_active", "ensure_compiled", "solve_box_eq", "solve_box_eq_ws"]
+__all__ = ["clip_eq_residual", "drop_infinite_active", "load_box_eq_kernels", "solve_box_eq", "solve_box_eq_ws"]
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -260,7 +260,7 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
 
 
 @once_per_process
-def ensure_compiled() -> None:
+def load_box_eq_kernels() -> None:
     """Compile (or load from the on-disk cache), once per process, :func:`solve_box_eq_ws` for the argument types
     its callers give it (C-contiguous float64 arrays, int8 working set, int64 free list) — the ``fast`` backend
     (:mod:`wbc.solvers.fast`) and the kinematic tick (:mod:`wbc.formulations.velocity_kernel`), whose loaders run
