@@ -470,7 +470,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self._eq_rows = None  # the rank may have changed: recompute next tick
             self._work.reserve = 0.0
             result = self._recover(config, dt, exc)  # → the safe command
-        return self._close_tick(result, weighted_start, t0, t1)
+        return self._close_tick(result, weighted_start, t0, t1, dt)
 
     def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
         """The tick answered by the compiled tick (:mod:`wbc.controllers.compiled_tick`), or None: the general
@@ -555,7 +555,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                f"directions (projected by up to {worst:.3g} in their rows' units)")
         return result
 
-    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None) -> TickResult:
+    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None,
+                    dt: float) -> TickResult:
         """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
         marks, feedback constraints and the failure count."""
         self._in_solve = False
