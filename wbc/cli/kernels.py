@@ -111,7 +111,9 @@ def run_warm_up(argv: tuple[str, ...]) -> float:
                          subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                          preexec_fn=_default_sigint)  # Ctrl-C stops the run
     if debug:
-        sys.stdout.write("".join(line + "\n" for line in out.stdout.splitlines() if line.startswith("[cache]")))
+        for line in out.stdout.splitlines():  # a line per write (see _init_worker)
+            if line.startswith("[cache]"):
+                print(line, flush=True)
     if out.returncode not in (0, 1):  # 1: the run's acceptance failed, its kernels ran all the same
         raise SimulationError(f"`wbc {' '.join(argv)}` (run by wbc compile to compile its kernels) exited with "
                               f"{out.returncode}: {out.stderr.strip()[-500:]}")
@@ -188,7 +190,7 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
     results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
     # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
     # ignore Ctrl-C (inside numba's compiler it would be swallowed, with a traceback): this process stops them
-    pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(items)), initializer=_ignore_sigint)
+    pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(items)), initializer=_init_worker)
     workers = {p.pid for p in multiprocessing.active_children()}  # the pool starts its workers at once
     try:
         while waiting or running:
@@ -226,10 +228,16 @@ def _default_sigint() -> None:  # in a child process: Ctrl-C stops it (a compile
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _ignore_sigint() -> None:
+def _init_worker() -> None:
+    """A compile worker: ignores Ctrl-C (this process stops it), and writes its output a line at a time. The workers
+    share this process's standard output (a pipe when captured): a line is one write() of under PIPE_BUF bytes,
+    which a pipe never interleaves with another process's, where a block-buffered flush (several kB) can be cut by
+    another worker's mid-line (numba's cache log lines were lost that way under load)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.stdout.reconfigure(line_buffering=True)
+    sys.stderr.reconfigure(line_buffering=True)
 
 
 def _run_label(argv: tuple[str, ...]) -> str:
