@@ -171,6 +171,10 @@ class NodeCore:
         """Take the commands and serve the requests that arrived (every 5th tick)."""
         raise NotImplementedError
 
+    def _spin_some(self) -> None:
+        """Take at most one pending transport event (every tick; for transports whose polling is costly, so that
+        :meth:`_poll` finds the inputs already taken and no tick pays for a batch of them)."""
+
     def _publish_state(self) -> None:
         """Publish /joint_states, /tf, /odom when the ``update_rate`` period has elapsed (every tick)."""
         raise NotImplementedError
@@ -381,7 +385,8 @@ class NodeCore:
             InvalidInputError: ``trim_every`` not a number > 0 (or None).
 
         Per control tick (``dt`` = 2 ms): every 5th tick /clock is published (``"sim"`` time) and the transport
-        polled (commands, services, actions, parameters); one walk tick; the state at ``update_rate``; action
+        polled (commands, services, actions, parameters), on the other ticks at most one pending transport event
+        taken (:meth:`_spin_some`); one walk tick; the state at ``update_rate``; action
         feedback every 0.1 s; a wait until the tick is due on the wall clock (real time, or ``max_rtf``).
         """
         if trim_every is not None and (isinstance(trim_every, bool) or not isinstance(trim_every, (int, float))
@@ -414,6 +419,8 @@ class NodeCore:
                     self._publish_clock()
                 self._poll()
                 self._command_timeout()
+            else:
+                self._spin_some()
             w.tick()
             self.ticks += 1
             if take_epoch:  # the first tick's one-off costs (kernel loading) are behind: stamps = the wall clock
