@@ -21,8 +21,11 @@ def _node(tmp_path, *extra):
     env.pop("CYCLONEDDS_URI", None)  # wbc's own loopback configuration
     out = tmp_path / "node.out"
     with open(out, "w") as f:
+        # SIGINT at its default in the node: a process started with SIGINT ignored keeps it ignored (wbc's CLI, as
+        # POSIX shells expect of background jobs), and a test process may have it ignored (seen in full-suite runs)
         proc = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--backend", "dds", *extra], env=env,
-                                stdout=f, stderr=subprocess.PIPE, text=True)
+                                stdout=f, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     return proc, out
 
 
