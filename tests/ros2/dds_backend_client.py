@@ -2,13 +2,14 @@
 Python by tests/ros2/kilted.py (it does not import wbc). Not a test module.
 
 ``python dds_backend_client.py SAMPLES``: wait (≤ 90 s) for the node ``wbc_node`` in the graph; subscribe to
-/joint_states, /odom, /robot_description, /tf, /tf_static and /navigate_to_pose's action status and feedback topics
+/clock (the node runs ``--time sim``), /joint_states, /odom, /robot_description, /tf, /tf_static and /navigate_to_pose's action status and feedback topics
 (the last three need tf2_msgs and nav2_msgs: when a venv lacks them, their counts stay absent); drive /cmd_vel at
-0.2 m/s until /joint_states and /odom have SAMPLES samples (≤ 60 s), then stop and, 3 s later, publish a /goal_pose
+0.2 m/s until /joint_states and /odom have SAMPLES samples (≤ 60 s), then stop and, 3 s of /clock time later (≤ 30 s
+of wall time), publish a /goal_pose
 0.4 m ahead of the last /odom position and wait (≤ 60 s) for SAMPLES feedback messages and a status array whose goal
 SUCCEEDED (4). Prints one line ``RESULT <json>``: ``nodes``, ``pubs`` (the node's publisher topics), ``counts``,
 ``joints`` (names, positions of the last JointState), ``urdf`` (first characters, length), ``tf_frames`` (child
-frames seen on /tf), ``tf_static_frames``, ``statuses`` (status codes of the last status array, in order of arrival:
+frames seen on /tf), ``clock`` (the first 50 /clock times, s), ``tf_static_frames``, ``statuses`` (status codes of the last status array, in order of arrival:
 one list per array), ``distance`` (first and last feedback distance_remaining, m), ``goal_x`` (m); then
 ``reset_service_seen`` (``wait_for_service`` of /reset_robot within 5 s) and ``reset_answered`` (a reply within 5 s).
 """
@@ -23,6 +24,7 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
@@ -43,8 +45,8 @@ def main() -> None:
     want = int(sys.argv[1])
     rclpy.init()
     node = Node("wbc_test_client")
-    counts = {"joint_states": 0, "odom": 0, "robot_description": 0, "status": 0}
-    last, out = {}, {"tf_frames": set(), "tf_static_frames": set(), "statuses": [], "distance": []}
+    counts = {"joint_states": 0, "odom": 0, "robot_description": 0, "status": 0, "clock": 0}
+    last, out = {}, {"tf_frames": set(), "tf_static_frames": set(), "statuses": [], "distance": [], "clock": []}
 
     def cb(name):
         def f(msg):
@@ -56,13 +58,17 @@ def main() -> None:
                 out["statuses"].append([s.status for s in msg.status_list])
             elif name == "feedback":
                 out["distance"].append(msg.feedback.distance_remaining)
+            elif name == "clock" and len(out["clock"]) < 50:
+                out["clock"].append(msg.clock.sec + 1e-9 * msg.clock.nanosec)
         return f
 
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
     subs = [node.create_subscription(JointState, "joint_states", cb("joint_states"), 100),
             node.create_subscription(Odometry, "odom", cb("odom"), 100),
             node.create_subscription(String, "robot_description", cb("robot_description"), latched),
-            node.create_subscription(GoalStatusArray, "navigate_to_pose/_action/status", cb("status"), latched)]
+            node.create_subscription(GoalStatusArray, "navigate_to_pose/_action/status", cb("status"), latched),
+            node.create_subscription(Clock, "clock", cb("clock"), QoSProfile(
+                depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))]
     if TFMessage is not None:
         counts.update(tf=0, tf_static=0)
         subs += [node.create_subscription(TFMessage, "tf", cb("tf"), 100),
@@ -90,7 +96,14 @@ def main() -> None:
     twist.linear.x = 0.2
     spin_for(60, lambda: min(counts["joint_states"], counts["odom"]) >= want, lambda: cmd.publish(twist))
     cmd.publish(Twist())
-    spin_for(3.0)  # the robot stands again (its closing step) before the goal
+    # the robot stands again (its closing step) before the goal: 3 s of the node's time (/clock; slower than the
+    # wall clock on a loaded machine), at most 30 s of wall time
+    def node_time():
+        c = last.get("clock")
+        return None if c is None else c.clock.sec + 1e-9 * c.clock.nanosec
+
+    t_stop = node_time()
+    spin_for(30.0, lambda: t_stop is None or node_time() >= t_stop + 3.0)
     if "odom" in last:
         goal = PoseStamped()
         goal.header.frame_id = "odom"

@@ -4,7 +4,8 @@ tf2_msgs and nav2_msgs generated into its venv) and Jazzy (rclpy 7.1.6, Fast DDS
 its venv, so /tf, /tf_static and the action feedback are checked on Kilted only). One node and one client run
 (tests/ros2/dds_backend_client.py) per distribution; one test per interface, its figure in the assertion message.
 Services and actions' send_goal are not answered for a Fast DDS client on this backend (the start-up notice); the
-action's status and feedback are topics and are checked here, the goal sent by /goal_pose.
+action's status and feedback are topics and are checked here, the goal sent by /goal_pose. The node runs
+``--time sim --max-rtf 1`` so that /clock is one of the topics checked.
 """
 
 import json
@@ -26,7 +27,7 @@ HERE = Path(__file__).parent
 REPO = HERE.parents[1]
 CLIENT = (HERE / "dds_backend_client.py").read_text()
 SUCCEEDED = 4
-PUBS = ["/joint_states", "/navigate_to_goal/_action/feedback", "/navigate_to_goal/_action/status",
+PUBS = ["/clock", "/joint_states", "/navigate_to_goal/_action/feedback", "/navigate_to_goal/_action/status",
         "/navigate_to_pose/_action/feedback", "/navigate_to_pose/_action/status", "/odom", "/robot_description",
         "/tf", "/tf_static"]
 
@@ -39,7 +40,9 @@ def _run(client, workdir):
         except subprocess.CalledProcessError as exc:
             pytest.fail(f"building the Kilted venv with tf2_msgs/nav2_msgs failed: {exc.cmd}\n{exc.stdout}\n{exc.stderr}")
     session = clients.ClientSession(client, dds_domain_id(), workdir)
-    node = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--backend", "dds", "--duration", "600"],
+    # sim time at the wall clock's pace: /clock is published too; the rest behaves as in real time
+    node = subprocess.Popen([sys.executable, "-m", "wbc", "ros2", "node", "--backend", "dds", "--duration", "600",
+                             "--time", "sim", "--max-rtf", "1"],
                             env=session.wbc_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             cwd=str(REPO))
     try:
@@ -94,6 +97,15 @@ def test_odom_arrives_and_cmd_vel_is_taken(run):
     res, node_out, _ = run
     assert res["counts"]["odom"] >= SAMPLES, (res["counts"], node_out[-2000:])
     assert "'cmd_vel': 0" not in node_out, node_out[-2000:]  # the node took the client's /cmd_vel
+
+
+def test_clock_counts_sim_time(run):
+    """/clock (``--time sim``): published every 5th tick of 2 ms, so consecutive samples 0.01 s apart."""
+    res, node_out, _ = run
+    c = res["clock"]
+    assert res["counts"]["clock"] >= SAMPLES and len(c) >= SAMPLES, (res["counts"], node_out[-2000:])
+    steps = [round(b - a, 6) for a, b in zip(c, c[1:])]
+    assert all(s == 0.01 for s in steps), steps  # best effort on loopback: no sample lost among the first 50
 
 
 def test_late_joining_robot_description_arrives(run):
