@@ -18,6 +18,7 @@ time from 0 and runs as fast as it can or, with ``max_rtf``, at most ``max_rtf``
 
 from __future__ import annotations
 
+import gc
 import math
 import time
 from collections import deque
@@ -381,6 +382,10 @@ class NodeCore:
         ``interrupted``: called before every tick; True raises KeyboardInterrupt there (a Ctrl-C whose
         KeyboardInterrupt a C callback swallowed still stops the node).
 
+        At the end of the first tick the objects alive then (the robot, the controller, the loaded kernels) are
+        moved out of the garbage collector's reach (``gc.collect()`` then ``gc.freeze()``): a full collection over
+        them took 126 ms (G1 rclpy node), 63 periods; afterwards a collection walks only the objects made since.
+
         Raises:
             InvalidInputError: ``trim_every`` not a number > 0 (or None).
 
@@ -409,6 +414,7 @@ class NodeCore:
         rep_every = None if report_every is None else max(1, int(round(report_every / w.dt)))
         window = deque(maxlen=rep_every or 1)
         window_cpu = deque(maxlen=rep_every or 1)  # the tick's thread CPU time: what load on the machine leaves out
+        first_tick = True
         while duration is None or w.t < duration - 1e-9:
             if interrupted is not None and interrupted():
                 raise KeyboardInterrupt
@@ -423,6 +429,10 @@ class NodeCore:
                 self._spin_some()
             w.tick()
             self.ticks += 1
+            if first_tick:  # its one-off costs (kernel loading) are behind: what lives now is frozen (below)
+                first_tick = False
+                gc.collect()
+                gc.freeze()
             if take_epoch:  # the first tick's one-off costs (kernel loading) are behind: stamps = the wall clock
                 self.epoch, take_epoch = time.time() - w.t, False
             if self.sim:
