@@ -171,3 +171,33 @@ def test_summary_zmp_is_the_executed_motion_zmp(robots, name):
         assert s["min_zmp_margin_com_only_m"] < 0
     # the executed ZMP differs from the plan's: the plan margin is reported beside it
     assert s["min_zmp_margin_plan_m"] != s["min_zmp_margin_m"]
+
+
+@pytest.mark.parametrize("defect", ["reflection", "scaled", "sheared", "nan"])
+def test_set_plan_refuses_a_sole_block_that_is_not_a_rotation(robots, defect):
+    """WalkController.set_plan validates every sample's sole rotation once: a reflection (det −1), a column
+    scaled by 1 + 1e-5, a sheared block, a NaN — each refused with InvalidTargetError; the untouched plan is
+    accepted. (Checked against the definition: RᵀR = I within 1e-6 and det R = +1 by numpy.linalg.)"""
+    from dataclasses import replace
+
+    from wbc.exceptions import InvalidTargetError
+
+    robot = robots("humanoid15")
+    plan = plan_default_walk(robot)
+    walker = WalkController(robot, Configuration(robot))
+    walker.set_plan(plan)  # the planner's plan passes
+    left = plan.left_sole.copy()
+    k = len(left) // 2
+    block = left[k, :3, :3]
+    if defect == "reflection":
+        block[:, 0] *= -1.0
+    elif defect == "scaled":
+        block[:, 1] *= 1.0 + 1e-5
+    elif defect == "sheared":
+        block[:, 2] += 1e-3 * block[:, 0]
+    else:
+        block[0, 0] = np.nan
+    if defect != "nan":  # the defect is real by numpy's definition of a rotation
+        assert (np.abs(block.T @ block - np.eye(3)).max() > 1e-6) or np.linalg.det(block) < 0
+    with pytest.raises(InvalidTargetError, match="left_sole"):
+        walker.set_plan(replace(plan, left_sole=left))
