@@ -15,6 +15,10 @@ Gait (a receding horizon of :func:`wbc.gait.plan_walk` plans):
   (feet where they landed, the plan's CoM position and velocity, the next foot swinging first, initial double
   support the plan's ``t_ds``): a new command takes effect at the next touch-down, and a zero command replans a
   single closing step (the swing foot lands beside the stance foot; the CoM comes to rest over the feet).
+  The re-plan of a velocity command is computed three ticks before its touch-down (its inputs, the plan's samples
+  at the touch-down and the command, are known then) and its rows two ticks before, so that no tick does more than
+  one of the three parts (plan ~0.8 ms, rows ~1 ms, the switch) and the touch-down tick only swaps it in; if the
+  command, a goal or a stop came in between, the touch-down tick plans as above.
 * **Pose goal** ``(x, y, yaw)`` of the base (world): the footsteps reaching it (:func:`wbc.gait.commands.goal_steps`:
   ``n`` walking steps and a closing step, within the speed limits) are planned at once (from the standing stance,
   or from the next touch-down when walking). Backward steps are planned (``max_backward = max_velocity``).
@@ -222,6 +226,7 @@ class CommandedWalk:
                 if self.plan is None:
                     self._retry_at = self.t + 0.5  # a walk that cannot be planned is retried every 0.5 s
         elif self.k > 0 and plan.support[self.k] == _DOUBLE and plan.support[self.k - 1] != _DOUBLE:
+            self._next_touchdown = self._touchdowns.pop(0) if self._touchdowns else -10
             self.touchdowns += 1
             self._stop_now = False
             self._at_touchdown()
@@ -231,6 +236,10 @@ class CommandedWalk:
         if self.plan is None:
             self.v[:] = 0.0
         else:
+            if self.k == self._next_touchdown - 3:
+                self._prepare_touchdown()
+            elif self.k == self._next_touchdown - 2 and self._early is not None:
+                self.walker.prepare_plan(self._early[2])
             self.walker.set_references(self.plan, self.k, self.config)
             result = self.walker.solve(self.config, self.dt)
             self.config.step(result.v, self.dt)
@@ -247,8 +256,38 @@ class CommandedWalk:
             self.plan, self.k = plan, 0
             self.replans += 1
 
+    @property
+    def plan(self):
+        """The plan being tracked (a :class:`~wbc.gait.WalkPlan`), or None when standing."""
+        return self._plan
+
+    @plan.setter
+    def plan(self, plan) -> None:
+        self._plan, self._early = plan, None
+        self._touchdowns = [] if plan is None else (np.flatnonzero(
+            (plan.support[1:] == _DOUBLE) & (plan.support[:-1] != _DOUBLE)) + 1).tolist()
+        self._next_touchdown = self._touchdowns.pop(0) if self._touchdowns else -10
+
+    def _early_inputs(self) -> tuple:
+        """What a touch-down re-plan depends on besides the plan: the command, goal and stop state, the timing."""
+        return (tuple(self.command), self.goal, self._pending_goal, self._stop, self._t_ss, self._t_ds, self.horizon,
+                self.step_height)
+
+    def _prepare_touchdown(self) -> None:
+        """Three ticks before the next touch-down of a velocity-command walk: its re-plan (:meth:`_at_touchdown`)."""
+        k = self._next_touchdown
+        if self.goal is not None or self._pending_goal is not None or not np.any(self.command):
+            return  # goals and stops: planned in the touch-down tick
+        landed = int(self.plan.support[k - 1])
+        failures, error = self.replan_failures, self.last_error
+        new = self._plan_from_state((k, "left" if landed == 1 else "right"))
+        self.replan_failures, self.last_error = failures, error  # counted when the touch-down tick plans
+        if new is not None:
+            self._early = (k, self._early_inputs(), new)
+
     def _at_touchdown(self) -> None:
         plan, k = self.plan, self.k
+        early, self._early = self._early, None
         steps_left = sum(1 for ph in plan.phases if ph.support != _DOUBLE and ph.first >= k)
         if self._pending_goal is None and self.goal is not None and not self._stop:
             return  # walking to a goal: its plan already ends there
@@ -256,7 +295,10 @@ class CommandedWalk:
             return  # already closing (or closed)
         landed = int(plan.support[k - 1])  # 1: left stance, right swung; 2: right stance, left swung
         first = "left" if landed == 1 else "right"
-        new = self._plan_from_state((k, first))
+        if early is not None and early[0] == k and early[1] == self._early_inputs():
+            new = early[2]  # planned three ticks ago from these same inputs
+        else:
+            new = self._plan_from_state((k, first))
         if new is not None:
             self.plan, self.k = new, 0
             self.replans += 1

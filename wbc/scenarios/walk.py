@@ -85,6 +85,7 @@ class WalkController(StanceController):
         self._plan: WalkPlan | None = None
         self._rows: _PlanRows | None = None
         self._swing_rows: dict = {}
+        self._prepared: tuple | None = None  # (plan, rows, swing rows) of prepare_plan, until set_plan takes it
 
     def set_plan(self, plan: WalkPlan) -> None:
         """Validate ``plan`` once and precompute the per-tick targets of all its samples (module docstring of
@@ -96,18 +97,33 @@ class WalkController(StanceController):
         Raises:
             InvalidTargetError: the plan has non-finite samples or a sole rotation block that is not a rotation.
         """
+        prepared = self._prepared
+        if prepared is None or prepared[0] is not plan:
+            self.prepare_plan(plan)
+        self._plan, self._rows, self._swing_rows = self._prepared
+        self._prepared = None
+
+    def prepare_plan(self, plan: WalkPlan) -> None:
+        """The work of :meth:`set_plan` (validation, target rows, support layouts) done ahead, without switching:
+        the next :meth:`set_plan` of this same plan object only swaps it in. A caller that knows its next plan
+        ticks early (:class:`~wbc.scenarios.commanded_walk.CommandedWalk` at a touch-down) keeps that work out of
+        the tick that switches.
+
+        Raises:
+            InvalidTargetError: as :meth:`set_plan`.
+        """
         if not isinstance(plan, WalkPlan):
             raise InvalidTargetError(f"expected a wbc.gait.WalkPlan, got {type(plan).__name__}")
-        rows = self._rows = _PlanRows(plan, self._torso_ref_rot)
-        self._plan = plan
+        rows = _PlanRows(plan, self._torso_ref_rot)
         # the layouts of the plan's support phases, built now rather than in the first tick of each
         self.prepare_supports(set(rows.support), Configuration(self.robot), plan.dt)
         # the swing sole's task and target rows of each support code (None: double support, no swing)
-        self._swing_rows = {int(DOUBLE): None,
-                            int(LEFT_STANCE): (self.swing["right"].set_target_rows, rows.right_rot_t_rows,
-                                               rows.right_pos_rows, rows.right_ff_rows),
-                            int(RIGHT_STANCE): (self.swing["left"].set_target_rows, rows.left_rot_t_rows,
-                                                rows.left_pos_rows, rows.left_ff_rows)}
+        swing_rows = {int(DOUBLE): None,
+                      int(LEFT_STANCE): (self.swing["right"].set_target_rows, rows.right_rot_t_rows,
+                                         rows.right_pos_rows, rows.right_ff_rows),
+                      int(RIGHT_STANCE): (self.swing["left"].set_target_rows, rows.left_rot_t_rows,
+                                          rows.left_pos_rows, rows.left_ff_rows)}
+        self._prepared = (plan, rows, swing_rows)
 
     def set_references(self, plan: WalkPlan, k: int, config: Configuration) -> None:
         """Targets of sample k of the plan, at the current configuration.
@@ -133,7 +149,7 @@ class WalkController(StanceController):
         if swing is not None:
             set_rows, rot_t, pos, ff = swing
             set_rows(rot_t[k], pos[k], ff[k])
-        self.torso.set_target_rows(rows.torso_rot_t_rows[k], rows.zero3)
+        self.torso.set_target_rows(rows.torso_row(k), rows.zero3)
 
 
 class _PlanRows:
@@ -141,10 +157,9 @@ class _PlanRows:
 
     ``com``, ``com_vel`` (N, 3) (views of the plan); per sole, ``*_rot_t`` (N, 3, 3) the transposed rotation R*ᵀ,
     ``*_pos`` (N, 3) the position (m, world) and ``*_ff`` (N, 6) the error rate [ṗ* (world); R*ᵀ ω*], each row
-    C-contiguous (:meth:`wbc.tasks.FrameTask.set_target_rows`); ``torso_rot_t`` (N, 3, 3): the torso target,
-    yaw = mean heading of the soles (:func:`wbc.geometry.mean_heading`) applied to the torso's initial rotation;
-    ``support``: the support codes as a list of ints. ``*_rows``: what a tick indexes with the sample k (the arrays
-    themselves; for the torso a list of views, a run of equal consecutive targets one view).
+    C-contiguous (:meth:`wbc.tasks.FrameTask.set_target_rows`); :meth:`torso_row`: the torso target, yaw = mean
+    heading of the soles (:func:`wbc.geometry.mean_heading`) applied to the torso's initial rotation, made on first
+    use; ``support``: the support codes as a list of ints. ``*_rows``: what a tick indexes with the sample k.
 
     Raises:
         InvalidTargetError: non-finite samples or a sole rotation block that is not a rotation.
@@ -172,23 +187,30 @@ class _PlanRows:
             setattr(self, f"{side}_rot_t", rot_t)
             setattr(self, f"{side}_pos", np.ascontiguousarray(poses[:, :3, 3]))
             setattr(self, f"{side}_ff", ff)
-        # torso: one rotation per distinct pair of sole headings (a straight walk has one)
+        # torso: one rotation per run of equal consecutive sole headings, made when a tick first needs it (a turning
+        # swing changes the headings every sample: all of them at once cost ~3 ms in the tick that switched plans)
         keys = np.stack([plan.left_sole[:, 1, 0], plan.left_sole[:, 0, 0],
                          plan.right_sole[:, 1, 0], plan.right_sole[:, 0, 0]], axis=1)
-        # (runs of equal consecutive keys: a sort over all samples cost ~0.3 ms per plan)
-        first = np.flatnonzero(np.r_[True, (keys[1:] != keys[:-1]).any(axis=1)])
-        inverse = np.repeat(np.arange(len(first)), np.diff(np.r_[first, self.n]))
-        rots = np.empty((len(first), 3, 3))
-        for i, k in enumerate(first.tolist()):
-            yaw = mean_heading(plan.left_sole[k], plan.right_sole[k])
-            rots[i] = (pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ torso_ref_rot).T
-        self.torso_rot_t = rots[inverse]
-        run_rows = list(rots)
-        self.torso_rot_t_rows = [run_rows[i] for i in inverse.tolist()]
+        self._torso_first = np.flatnonzero(np.r_[True, (keys[1:] != keys[:-1]).any(axis=1)]).tolist()
+        self._torso_run = np.repeat(np.arange(len(self._torso_first)),
+                                    np.diff(np.r_[self._torso_first, self.n])).tolist()
+        self._torso_rows: list = [None] * len(self._torso_first)
+        self._plan, self._torso_ref_rot = plan, torso_ref_rot
         for name in ("com", "com_vel", "left_rot_t", "left_pos", "left_ff", "right_rot_t", "right_pos", "right_ff"):
             setattr(self, f"{name}_rows", getattr(self, name))  # indexed per tick: a list of N views per array
             # cost more (~2 ms per plan, in the tick that re-plans) than a tick's 8 indexings (~1 µs)
         # (left writeable: a read-only array is another type for the compiled task kernels, i.e. a recompile)
+
+    def torso_row(self, k: int) -> np.ndarray:
+        """(3, 3) the torso target's transposed rotation at sample ``k`` (one array per run of equal targets)."""
+        i = self._torso_run[k]
+        row = self._torso_rows[i]
+        if row is None:
+            plan, first = self._plan, self._torso_first[i]
+            yaw = mean_heading(plan.left_sole[first], plan.right_sole[first])
+            rot = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ self._torso_ref_rot
+            row = self._torso_rows[i] = np.ascontiguousarray(rot.T)
+        return row
 
 
 def _rotations(rot: np.ndarray) -> bool:
