@@ -384,7 +384,7 @@ class NodeCore:
 
         At the end of the first tick the objects alive then (the robot, the controller, the loaded kernels) are
         moved out of the garbage collector's reach (``gc.collect()`` then ``gc.freeze()``): a full collection over
-        them took 126 ms (G1 rclpy node), 63 periods; afterwards a collection walks only the objects made since.
+        them would stall a tick for many periods; afterwards a collection walks only the objects made since.
 
         Raises:
             InvalidInputError: ``trim_every`` not a number > 0 (or None).

@@ -23,9 +23,8 @@ are needed (any ROS 2 install, or the ``ros-*`` wheels). ``tf2_msgs`` and ``nav2
 The executor runs in the control loop's thread, one ``spin_once`` without waiting per tick (at most one callback:
 500 per second, far more than the node's inputs bring), so callbacks never run concurrently with a tick. It is
 rclpy's ``EventsExecutor`` (``rclpy.experimental``, C++) where the installed rclpy has it, else the
-``SingleThreadedExecutor``: a ``spin_once`` of the latter rebuilds its wait set in Python (134 µs of CPU on this
-node with nothing pending, 25 µs for the EventsExecutor, Kilted, measured 2026-11-27); the eight spins every 5th
-tick that this replaced cost 1.07 ms there and made one tick in five overrun the 2 ms period in a 10-minute soak.
+``SingleThreadedExecutor``, whose ``spin_once`` rebuilds its wait set in Python (several times the cost, paid every
+tick; benchmarks/records/31).
 """
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ Gait (a receding horizon of :func:`wbc.gait.plan_walk` plans):
   single closing step (the swing foot lands beside the stance foot; the CoM comes to rest over the feet).
   The re-plan of a velocity command is computed three ticks before its touch-down (its inputs, the plan's samples
   at the touch-down and the command, are known then) and its rows two ticks before, so that no tick does more than
-  one of the three parts (plan ~0.8 ms, rows ~1 ms, the switch) and the touch-down tick only swaps it in; if the
-  command, a goal or a stop came in between, the touch-down tick plans as above.
+  one of the three parts (plan, rows, the switch) and the touch-down tick only swaps it in; if the command, a goal
+  or a stop came in between, the touch-down tick plans as above.
 * **Pose goal** ``(x, y, yaw)`` of the base (world): the footsteps reaching it (:func:`wbc.gait.commands.goal_steps`:
   ``n`` walking steps and a closing step, within the speed limits) are planned at once (from the standing stance,
   or from the next touch-down when walking). Backward steps are planned (``max_backward = max_velocity``).
