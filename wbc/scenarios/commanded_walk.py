@@ -64,6 +64,12 @@ class CommandedWalk:
         max_turn: yaw rate limit, rad/s (> 0); 0 when the legs cannot yaw the soles relative to each other (no
             hip yaw joint, :attr:`can_turn` False): turning commands are then refused and goals must keep the heading.
 
+    Attributes:
+        plan_ahead: True (default): a velocity command's touch-down re-plan is made ahead (module docstring);
+            False: in the touch-down tick. The walk is the same either way; only the ticks that pay for it differ.
+        replans, early_replans, replan_failures, touchdowns: counts since the start (``early_replans``: re-plans
+            made ahead and taken at their touch-down).
+
     Raises:
         InvalidInputError: a non-finite or out-of-range argument (the message names it and the valid range).
     """
@@ -100,6 +106,8 @@ class CommandedWalk:
         self._stop_now = False
         self._retry_at = 0.0
         self.replans = 0
+        self.early_replans = 0  # touch-down re-plans made ahead (module docstring) and taken at the touch-down
+        self.plan_ahead = True  # False: every touch-down re-plan is made in the touch-down tick
         self.replan_failures = 0
         self.touchdowns = 0
         self.last_error = ""
@@ -236,7 +244,7 @@ class CommandedWalk:
         if self.plan is None:
             self.v[:] = 0.0
         else:
-            if self.k == self._next_touchdown - 3:
+            if self.k == self._next_touchdown - 3 and self.plan_ahead:
                 self._prepare_touchdown()
             elif self.k == self._next_touchdown - 2 and self._early is not None:
                 self.walker.prepare_plan(self._early[2])
@@ -297,6 +305,7 @@ class CommandedWalk:
         first = "left" if landed == 1 else "right"
         if early is not None and early[0] == k and early[1] == self._early_inputs():
             new = early[2]  # planned three ticks ago from these same inputs
+            self.early_replans += 1
         else:
             new = self._plan_from_state((k, first))
         if new is not None:
