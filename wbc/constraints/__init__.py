@@ -33,8 +33,10 @@ Modules: :mod:`~wbc.constraints.floating_base`, :mod:`~wbc.constraints.contact_a
 :mod:`~wbc.constraints.hard_task`, :mod:`~wbc.constraints.torque_limits`, :mod:`~wbc.constraints.friction`,
 :mod:`~wbc.constraints.unilaterality`, :mod:`~wbc.constraints.joint_acceleration_bounds`,
 :mod:`~wbc.constraints.barrier`, :mod:`~wbc.constraints.joint_velocity` (joint speed bounds, kept in the relaxed
-solve). *Relaxable* constraints are the ones a controller drops when the full QP is infeasible (kinematic:
-``TickResult.relaxed``; inverse dynamics: :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`).
+solve). Added by the user (``InverseDynamicsQP.add_constraint``, exported here): a bound on the centroidal angular
+momentum rate, |L̇| ≤ L̇_max (:mod:`~wbc.constraints.momentum_rate`, relaxable). *Relaxable* constraints are the
+ones a controller drops when the full QP is infeasible (kinematic: ``TickResult.relaxed``; inverse dynamics:
+:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`).
 """
 
 from wbc.constraints.acceleration import JointAccelerationLimit
@@ -42,11 +44,12 @@ from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, 
 from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit
+from wbc.constraints.momentum_rate import AngularMomentumRateBound
 from wbc.constraints.self_collision import SelfCollisionConstraint
 from wbc.constraints.task import TaskConstraint
 
 __all__ = [
-    "BoxConstraint", "Constraint", "EqualityConstraint", "InequalityConstraint",
+    "AngularMomentumRateBound", "BoxConstraint", "Constraint", "EqualityConstraint", "InequalityConstraint",
     "ComPolygonConstraint", "ContactConstraint", "JointAccelerationLimit", "JointPositionLimit",
     "JointVelocityLimit", "SelfCollisionConstraint", "TaskConstraint",
 ]
