@@ -11,6 +11,7 @@ finished trial is recorded; run the same command again to resume).
 
 from __future__ import annotations
 
+import math
 import sys
 import tomllib
 from pathlib import Path
@@ -134,6 +135,43 @@ def _capture_report(args, table, plots: Path) -> None:
     print(f"plot written to {plot_capture_map(table, capture, plots / 'capture_map.png', model)}")
 
 
+def _largest(factor, default: float) -> float:
+    """The largest value a campaign factor (a number, ``(lo, hi)`` or ``{"values": [...]}``) can take."""
+    if factor is None:
+        return default
+    if isinstance(factor, dict):
+        return max(factor["values"])
+    return max(factor) if isinstance(factor, (list, tuple)) else float(factor)
+
+
+def _check_push_forces(spec) -> None:
+    """Refuse a campaign whose pushes go beyond what a trial can mean (:func:`wbc.cli.sim.push_force_limit`): the
+    largest force of ``factors.force`` for the longest ``factors.push_duration``, against the robot's bound in the
+    most favourable push direction (every 15 deg), before any trial runs.
+
+    Raises:
+        InvalidInputError: naming the force, the duration and the largest accepted force.
+    """
+    from wbc.campaign.trials import cached_robot
+    from wbc.cli.sim import TRIAL_LIMIT_IN_CAPTURE_BOUNDS, push_force_limit
+    from wbc.exceptions import InvalidInputError
+
+    if "force" not in spec.factors:
+        return
+    force = _largest(spec.factors["force"], 0.0)
+    duration = _largest(spec.factors.get("push_duration"), 0.1)
+    if force <= 0 or duration <= 0:
+        return
+    robot = cached_robot(spec.scenario.get("robot", "talos"))
+    limit, bound = push_force_limit(robot, duration, range(0, 360, 15))
+    if force > limit:
+        raise InvalidInputError(
+            f"factors.force up to {force:g} N for {duration:g} s is beyond what a trial can mean (valid: <= "
+            f"{math.floor(limit):.0f} N, {TRIAL_LIMIT_IN_CAPTURE_BOUNDS:g} × {robot.name}'s largest capture-point "
+            f"bound of {bound:.0f} N over push directions for a {duration:g} s push, beyond which it falls whatever "
+            "the controller does)")
+
+
 def cmd_campaign(args) -> int:
     """Run ``wbc campaign run`` or ``wbc campaign report`` (module docstring). Returns the exit code."""
     from wbc.exceptions import InvalidInputError
@@ -175,6 +213,7 @@ def cmd_campaign(args) -> int:
     if args.workers is not None and not args.ray:
         raise InvalidInputError("--workers only applies with --ray")
     spec = _spec(args)
+    _check_push_forces(spec)
     from wbc.campaign import (RayExecutor, SerialExecutor, format_report, make_plots, run, summarize_campaign)
     from wbc.campaign.report import SWEEP_METRIC, format_sweep_region
     from wbc.campaign.store import ResultStore
