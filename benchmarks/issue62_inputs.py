@@ -58,6 +58,14 @@ def _big_urdf(path: Path, megabytes: int = 200) -> None:
         f.write("</robot>\n")
 
 
+def _edited(text: str, edit) -> str:
+    """``text`` with its first ``edit[0]`` replaced by ``edit[1]`` (which must be there); unchanged when None."""
+    if edit is None:
+        return text
+    assert edit[0] in text, edit
+    return text.replace(*edit, 1)
+
+
 class Files:
     """Writes the hostile robot files of one case into ``d`` (the case's cwd); returns the path to give."""
 
@@ -67,24 +75,12 @@ class Files:
     def h15(self, urdf_edit=None, toml_edit=None, extra: str = "") -> str:
         """humanoid15 with one edit of its URDF text and/or robot file."""
         shutil.copy(self.robots / "humanoid15.srdf", self.d / "humanoid15.srdf")
-        urdf = (self.robots / "humanoid15.urdf").read_text()
-        if urdf_edit:
-            assert urdf_edit[0] in urdf, urdf_edit
-            urdf = urdf.replace(*urdf_edit, 1)
-        (self.d / "humanoid15.urdf").write_text(urdf)
-        text = (self.robots / "humanoid15.toml").read_text()
-        if toml_edit:
-            assert toml_edit[0] in text, toml_edit
-            text = text.replace(*toml_edit, 1)
-        (self.d / "robot.toml").write_text(text + extra)
+        (self.d / "humanoid15.urdf").write_text(_edited((self.robots / "humanoid15.urdf").read_text(), urdf_edit))
+        (self.d / "robot.toml").write_text(_edited((self.robots / "humanoid15.toml").read_text(), toml_edit) + extra)
         return str(self.d / "robot.toml")
 
     def talos(self, toml_edit=None, extra: str = "") -> str:
-        text = (self.robots / "talos.toml").read_text()
-        if toml_edit:
-            assert toml_edit[0] in text, toml_edit
-            text = text.replace(*toml_edit, 1)
-        (self.d / "talos.toml").write_text(text + extra)
+        (self.d / "talos.toml").write_text(_edited((self.robots / "talos.toml").read_text(), toml_edit) + extra)
         return str(self.d / "talos.toml")
 
     def raw(self, name: str, data: bytes | str) -> str:
@@ -181,7 +177,8 @@ def cases():
     return c
 
 
-def _catches(pid: int, sig: int) -> bool:
+def catches(pid: int, sig: int) -> bool:
+    """Whether process ``pid`` has a handler for ``sig`` (bit sig − 1 of SigCgt in /proc/PID/status)."""
     try:
         text = Path(f"/proc/{pid}/status").read_text()
     except OSError:
@@ -211,7 +208,7 @@ def run(root: Path, name: str, build, sig, timeout: float) -> dict:
                 if pid:
                     break
                 now = time.monotonic() - t0
-                if sig is not None and not sent and _catches(proc.pid, signal.SIGTERM):
+                if sig is not None and not sent and catches(proc.pid, signal.SIGTERM):
                     time.sleep(3.0)
                     os.kill(proc.pid, sig)
                     sent, t_sig = True, time.monotonic()

@@ -14,16 +14,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def _catches(pid: int, sig: int) -> bool:
-    """Whether process ``pid`` has a handler for ``sig`` (bit sig − 1 of SigCgt in /proc/PID/status)."""
-    try:
-        text = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return False
-    mask = int(next(line.split()[1] for line in text.splitlines() if line.startswith("SigCgt:")), 16)
-    return bool(mask >> (sig - 1) & 1)
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from issue62_inputs import catches  # noqa: E402  (reads SigCgt of /proc/PID/status)
 
 
 def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> subprocess.CompletedProcess:
@@ -35,7 +27,7 @@ def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> sub
                                                                                            signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 300
-        while not _catches(proc.pid, signal.SIGTERM):
+        while not catches(proc.pid, signal.SIGTERM):
             assert proc.poll() is None, proc.communicate()[1][-2000:]
             assert time.monotonic() < deadline, "the command did not start within 300 s"
             time.sleep(0.01)
