@@ -1,5 +1,6 @@
 """Every input of issue 62's list, run as a user runs it: one row per input with the command, its exit code, the last
-line it printed (stderr, else stdout), wall seconds and the child's max RSS.
+line it printed (stderr, else stdout; for a run that prints a summary, its verdict lines: a failed criterion,
+a note, an error), wall seconds and the child's max RSS.
 
     python benchmarks/issue62_inputs.py [--root REPO] [--only SUBSTRING] [--timeout 600] [--json FILE]
 
@@ -223,6 +224,10 @@ def run(root: Path, name: str, build, sig, timeout: float) -> dict:
         text_err = (d / ".err").read_text(errors="replace").strip()
         text_out = (d / ".out").read_text(errors="replace").strip()
         last = (text_err or text_out).splitlines()[-1] if (text_err or text_out) else ""
+        verdicts = [ln.strip() for ln in (text_err + "\n" + text_out).splitlines()
+                    if re.search(r"\b(failed|passed|error|note)\b", ln, re.I)]
+        if verdicts:  # a run's verdict lines (failed criterion, note, error) rather than the summary's last row
+            last = " / ".join(dict.fromkeys(verdicts))
         left = sorted(p.name for p in d.rglob("*") if p.name not in before and p.name not in (".out", ".err")
                       and (p.name == "MUJOCO_LOG.TXT" or ".partial" in p.name))
         return {"name": name, "command": "wbc " + " ".join(a if len(a) < 60 else a[:57] + "..." for a in argv),

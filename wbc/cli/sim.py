@@ -79,6 +79,12 @@ def check_sim_args(args) -> None:
                                         "it commands a walk: wbc sim walk)")
     if args.scenario == "jump":
         check_jump(args.height, 0.1, args.count, MAX_TIMESTEP)  # JumpScenario: crouch 0.1 m, extension 0
+    else:  # a jump option given to another scenario would be read by nothing
+        for flag, _, default, _ in JUMP_FLAGS:
+            value = getattr(args, flag[2:].replace("-", "_"), default)
+            if value != default:
+                raise InvalidInputError(f"{flag} {value:g} applies to wbc sim jump only; the {args.scenario} "
+                                        f"scenario has no {flag[2:]} (valid: wbc sim jump {flag} ..., or leave it out)")
 
 
 def register(subparsers, add_outputs) -> None:
