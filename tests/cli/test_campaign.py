@@ -23,6 +23,7 @@ def _bound(duration: float) -> float:
 @pytest.mark.parametrize("sets, force, duration", [
     (["factors.force=4000", "factors.push_duration=2"], 4000.0, 2.0),
     (["factors.force=[300, 4000]", "factors.push_duration=[0.1, 1.0]"], 4000.0, 1.0),
+    (["factors.force=1e9"], 1e9, 0.1),  # (the spec's default push_duration)
 ])
 def test_a_push_beyond_what_a_trial_can_mean_is_refused_with_the_bound(tmp_path, capsys, sets, force, duration):
     argv = ["campaign", "run", "--kind", "push", "--trials", "2", "--no-plots", "--no-progress", "--results",
