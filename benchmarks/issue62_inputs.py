@@ -225,7 +225,7 @@ def run(root: Path, name: str, build, sig, timeout: float) -> dict:
         text_out = (d / ".out").read_text(errors="replace").strip()
         last = (text_err or text_out).splitlines()[-1] if (text_err or text_out) else ""
         verdicts = [ln.strip() for ln in (text_err + "\n" + text_out).splitlines()
-                    if re.search(r"\b(failed|passed|error|note)\b", ln, re.I)]
+                    if re.match(r"\s*(failed|passed|note|warning|error|wbc[\w -]*: (error|note|warning))\b", ln)]
         if verdicts:  # a run's verdict lines (failed criterion, note, error) rather than the summary's last row
             last = " / ".join(dict.fromkeys(verdicts))
         left = sorted(p.name for p in d.rglob("*") if p.name not in before and p.name not in (".out", ".err")

@@ -201,3 +201,13 @@ def test_a_wrong_sole_frame_is_offered_only_frames_at_the_feet(tmp_path, capsys)
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     z = {f.name: data.oMf[i].translation[2] for i, f in enumerate(model.frames)}
     assert all(z[n] - min(z.values()) <= 0.3 for n in offered), {n: z[n] for n in offered}
+
+
+def test_a_fifo_named_like_a_robot_file_is_not_called_missing(tmp_path, capsys):
+    import os
+
+    path = tmp_path / "robot.toml"
+    os.mkfifo(path)  # opening it to read would block until a writer comes: it is never opened
+    err = _check(path, capsys)
+    assert err == (f"wbc robot: error: {path} is not a regular file (a pipe, device or socket); a robot file is a "
+                   ".toml file (docs/pages/how-to/robot-file.md)"), err
