@@ -202,7 +202,8 @@ def run(root: Path, name: str, build, sig, timeout: float) -> dict:
         with open(d / ".out", "w") as out, open(d / ".err", "w") as err:
             t0 = time.monotonic()
             proc = subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL, cwd=d, env=env,
-                                    start_new_session=True)
+                                    start_new_session=True,  # SIGINT as a terminal leaves it (a background
+                                    preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # job ignores it)
             sent, note = False, ""
             while True:
                 pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
