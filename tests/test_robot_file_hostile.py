@@ -179,3 +179,35 @@ def test_gait_table_checked_against_the_legs(tmp_path, capsys, edit, words):
 def test_stairs_step_width_narrower_than_the_sole(tmp_path, capsys):
     err = _check(_robot(tmp_path, extra="\n[stairs]\nstep_width = 0.03\n"), capsys)
     assert "[stairs] step_width = 0.03 m puts the feet over each other (sole width 0.100 m)" in err, err
+
+
+def test_a_wrong_sole_frame_is_offered_only_frames_at_the_feet(tmp_path, capsys):
+    """Talos's robot file with its left sole named 'rgbd': the close matches are frames of the feet (its head camera
+    frames, rgbd_*, are the closest names of the whole model but cannot be a sole)."""
+    text = (ROBOTS / "talos.toml").read_text()
+    path = tmp_path / "talos.toml"
+    path.write_text(text.replace('left_sole = "left_sole_link"', 'left_sole = "rgbd"'))
+    err = _check(path, capsys)
+    assert "robot 'talos' has no frame 'rgbd' for its left sole; close matches among the frames at the feet: [" in err
+    offered = re.findall(r"'([^']+)'", err.split("close matches among the frames at the feet:")[1])
+    assert "left_sole_link" in offered and not any(n.startswith("rgbd") for n in offered), offered
+    # the offered frames are at the feet: within 0.3 m of the ground in the neutral posture (Pinocchio, not wbc)
+    import pinocchio as pin
+
+    from wbc.robot import load_robot
+
+    model = load_robot("talos").model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    z = {f.name: data.oMf[i].translation[2] for i, f in enumerate(model.frames)}
+    assert all(z[n] - min(z.values()) <= 0.3 for n in offered), {n: z[n] for n in offered}
+
+
+def test_a_fifo_named_like_a_robot_file_is_not_called_missing(tmp_path, capsys):
+    import os
+
+    path = tmp_path / "robot.toml"
+    os.mkfifo(path)  # opening it to read would block until a writer comes: it is never opened
+    err = _check(path, capsys)
+    assert err == (f"wbc robot: error: {path} is not a regular file (a pipe, device or socket); a robot file is a "
+                   ".toml file (docs/pages/how-to/robot-file.md)"), err

@@ -38,6 +38,10 @@ from wbc.robot_file import (RobotSpec, check_urdf_values, check_xml, lock_zero_r
 
 __all__ = ["Robot", "load_robot", "robot_spec", "build_robot", "catalog", "example_robot_data_dir"]
 
+#: Fraction of a model's height (lowest to highest frame, neutral configuration) above its lowest frame within which
+#: a frame is offered as a close match for a sole frame name.
+SOLE_CANDIDATE_BAND = 0.25
+
 _ERD_PREFIX = "erd:"
 
 
@@ -367,6 +371,21 @@ def _build_geometry(model: pin.Model, urdf: Path, urdf_xml: str | None, kind: pi
         return pin.buildGeomFromUrdfString(model, urdf_xml, kind, None, dirs)
 
 
+def _sole_candidates(model) -> list[str]:
+    """Frames that can be a sole: the frames (joint frames excepted) within :data:`SOLE_CANDIDATE_BAND` of the
+    model's height above its lowest frame, in the neutral configuration (a foot; never a head camera or a hand),
+    lowest first."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    frames = [(float(data.oMf[i].translation[2]), f.name) for i, f in enumerate(model.frames)
+              if f.type != pin.FrameType.JOINT and f.name != "universe"]
+    if not frames:
+        return []
+    z = [h for h, _ in frames]
+    top = min(z) + SOLE_CANDIDATE_BAND * (max(z) - min(z))
+    return [n for h, n in sorted(frames) if h <= top]
+
+
 def _build(
     *,
     name: str,
@@ -463,7 +482,14 @@ def _build(
         added_frames=frames,
         gait=dict(gait or {}),
     )
-    for f in (left_sole, right_sole, torso, left_hand, right_hand):
+    for side, f in (("left", left_sole), ("right", right_sole)):
+        if not model.existFrame(f):
+            candidates = _sole_candidates(model)
+            close = difflib.get_close_matches(str(f), candidates, n=5, cutoff=0.4)
+            raise UnknownFrameError(
+                f"robot {name!r} has no frame {f!r} for its {side} sole; close matches among the frames at the feet: "
+                f"{close or candidates[:10]}")
+    for f in (torso, left_hand, right_hand):
         if f is not None:
             robot.frame_id(f)
     q = pin.neutral(model)

@@ -343,10 +343,13 @@ def load_robot_file(path: str | Path) -> RobotSpec:
 
     Raises:
         RobotFileNotFoundError: no such file.
-        RobotDescriptionError: malformed TOML (with the parser's line and column), or any key problem listed in
+        RobotDescriptionError: a folder or a file that is not regular (a FIFO, a device), malformed TOML (with the parser's line and column), or any key problem listed in
             :func:`parse_robot_spec`.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():
+        kind = "a folder" if path.is_dir() else "not a regular file (a pipe, device or socket)"
+        raise RobotDescriptionError(f"{path} is {kind}; a robot file is a .toml file (docs/pages/how-to/robot-file.md)")
     if not path.is_file():
         raise RobotFileNotFoundError(f"robot file not found: {path}")
     size = path.stat().st_size

@@ -26,3 +26,31 @@ def test_a_clean_walk_survives():
 def test_each_criterion_alone_fails_the_trial(change, reason):
     survived, why = outcome_of({**CLEAN, **change})
     assert not survived and reason in why
+
+
+def test_a_trial_stops_at_its_first_tick_once_a_stop_was_requested():
+    """A signal the campaign's watch saw (STOP_REQUESTED) ends the running trial at its next tick with
+    KeyboardInterrupt — not at the trial's end (a SIGTERM deferred while numba loaded a kernel waited a whole trial).
+    The controller's tick is counted: none runs."""
+    from wbc.campaign.spec import default_spec, trial_params
+    from wbc.campaign.trials import STOP_REQUESTED, walk_trial
+    from wbc.dynamics.balance import IDBalanceController
+
+    spec = default_spec("push")
+    spec.scenario["robot"] = "humanoid15"
+    ticks = []
+    original = IDBalanceController.solve
+
+    def counted(self, *args, **kwargs):
+        ticks.append(1)
+        return original(self, *args, **kwargs)
+
+    STOP_REQUESTED.set()
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(IDBalanceController, "solve", counted)
+            with pytest.raises(KeyboardInterrupt):
+                walk_trial(spec, trial_params(spec, 0))
+    finally:
+        STOP_REQUESTED.clear()
+    assert len(ticks) <= 1, len(ticks)

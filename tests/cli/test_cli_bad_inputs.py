@@ -121,6 +121,9 @@ BAD = [
     (["walk", "--log", "{tmp}/x.npz", "--out", "{tmp}/x.npz"], ".html"),
     (["walk", "--live-start-now"], "--live-start-now"),
     (["walk", "--live", "--hold", "-1"], "--hold"),
+    (["sim", "push", "--height", "100"], "--height 100 applies to wbc sim jump only; the push scenario has no height "
+                                         "(valid: wbc sim jump --height ..., or leave it out)"),
+    (["sim", "walk", "--landing-crouch", "0.05"], "--landing-crouch 0.05 applies to wbc sim jump only"),
 ]
 
 

@@ -14,16 +14,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def _catches(pid: int, sig: int) -> bool:
-    """Whether process ``pid`` has a handler for ``sig`` (bit sig − 1 of SigCgt in /proc/PID/status)."""
-    try:
-        text = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return False
-    mask = int(next(line.split()[1] for line in text.splitlines() if line.startswith("SigCgt:")), 16)
-    return bool(mask >> (sig - 1) & 1)
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from issue62_inputs import catches  # noqa: E402  (reads SigCgt of /proc/PID/status)
 
 
 def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> subprocess.CompletedProcess:
@@ -35,7 +27,7 @@ def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> sub
                                                                                            signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 300
-        while not _catches(proc.pid, signal.SIGTERM):
+        while not catches(proc.pid, signal.SIGTERM):
             assert proc.poll() is None, proc.communicate()[1][-2000:]
             assert time.monotonic() < deadline, "the command did not start within 300 s"
             time.sleep(0.01)
@@ -50,19 +42,35 @@ def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> sub
     return subprocess.CompletedProcess(args, proc.returncode, out, err)
 
 
+SIGNALS = {"SIGTERM": (signal.SIGTERM, 143, "terminated (SIGTERM)"), "SIGINT": (signal.SIGINT, 130, "interrupted")}
+COMMANDS = {
+    "walk": ["walk", "--robot", "humanoid15", "--steps", "400", "--quiet", "--log", "run.npz", "--json", "run.json"],
+    "campaign": ["campaign", "run", "--kind", "push", "--trials", "50", "--no-plots", "--no-progress", "--results",
+                 "c", "--set", "scenario.robot=humanoid15", "--set", "scenario.steps=2"],
+}
+
+
+@pytest.fixture(scope="module")
+def signalled(tmp_path_factory):
+    """Every (command, signal) pair run at once (each in its own folder, its own thread): (result, folder)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    pairs = [(c, s) for c in COMMANDS for s in SIGNALS]
+    folders = {p: tmp_path_factory.mktemp(f"{p[0]}-{p[1]}") for p in pairs}
+    with ThreadPoolExecutor(len(pairs)) as pool:
+        futures = {p: pool.submit(_signalled, COMMANDS[p[0]], SIGNALS[p[1]][0], folders[p]) for p in pairs}
+    return {p: (f.result(), folders[p]) for p, f in futures.items()}
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux only)")
-@pytest.mark.parametrize("sig, code, words", [(signal.SIGTERM, 143, "terminated (SIGTERM)"),
-                                              (signal.SIGINT, 130, "interrupted")])
-@pytest.mark.parametrize("command", [
-    ["walk", "--robot", "humanoid15", "--steps", "400", "--quiet", "--log", "run.npz", "--json", "run.json"],
-    ["campaign", "run", "--kind", "push", "--trials", "50", "--no-plots", "--no-progress", "--results", "c",
-     "--set", "scenario.robot=humanoid15", "--set", "scenario.steps=2"],
-], ids=["walk", "campaign"])
-def test_a_signal_ends_a_command_with_its_exit_code(tmp_path, command, sig, code, words):
-    r = _signalled(command, sig, tmp_path)
+@pytest.mark.parametrize("sig", list(SIGNALS))
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_a_signal_ends_a_command_with_its_exit_code(signalled, command, sig):
+    r, folder = signalled[command, sig]
+    _, code, words = SIGNALS[sig]
     assert r.returncode == code, (r.returncode, r.stderr[-2000:])
     err = r.stderr.strip()
     assert "Traceback" not in err and words in err, err[-2000:]
     assert len(err.splitlines()) == 1, err
-    left = [p.name for p in tmp_path.rglob("*") if ".partial" in p.name or p.name.endswith(".tmp")]
+    left = [p.name for p in folder.rglob("*") if ".partial" in p.name or p.name.endswith(".tmp")]
     assert left == [], left

@@ -20,7 +20,7 @@ from wbc.campaign.executors import RayExecutor, SerialExecutor
 from wbc.campaign.report import format_report, make_plots, summarize_campaign, wilson_interval
 from wbc.campaign.spec import CampaignSpec, default_spec, load_spec, trial_params
 from wbc.campaign.store import ResultStore, is_finished, read_results
-from wbc.campaign.trials import walk_trial
+from wbc.campaign.trials import STOP_REQUESTED, walk_trial
 
 __all__ = ["run", "CampaignSpec", "default_spec", "load_spec", "trial_params", "SerialExecutor", "RayExecutor",
            "read_results", "format_report", "make_plots", "summarize_campaign", "wilson_interval", "walk_trial"]
@@ -117,6 +117,7 @@ class _InterruptWatch:
 
     def _on_signal(self, signum, frame):
         self.seen = signum
+        STOP_REQUESTED.set()
         self._previous[signum](signum, frame)
 
     def raise_again(self) -> None:
@@ -128,6 +129,7 @@ class _InterruptWatch:
         raise KeyboardInterrupt
 
     def __enter__(self):
+        STOP_REQUESTED.clear()
         if threading.current_thread() is threading.main_thread():
             for n in self._SIGNALS:
                 previous = signal.getsignal(n)

@@ -85,7 +85,7 @@ class RayExecutor:
         max_retries: retries of a task whose worker died (default 3).
 
     Raises:
-        InvalidInputError: Ray is not installed (``pip install 'wbc[ray]'``), ``workers`` < 1, a malformed
+        InvalidInputError: Ray is not installed (``pip install -e ".[ray]"``), ``workers`` < 1, a malformed
             ``address``, or the loopback confinement is impossible here (the reason is in the message).
     """
 
@@ -96,8 +96,8 @@ class RayExecutor:
         try:
             import ray  # noqa: F401
         except ImportError:
-            raise InvalidInputError("Ray is not installed: pip install 'wbc[ray]' (or run the campaign serially)") \
-                from None
+            raise InvalidInputError("Ray is not installed: pip install -e \".[ray]\" (from the wbc clone; or run the "
+                                    "campaign serially)") from None
         if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
             raise InvalidInputError(f"workers must be an integer ≥ 1, got {workers!r}")
         if address is not None:

@@ -14,6 +14,7 @@ trial (plant errors edit it in place).
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -30,6 +31,26 @@ WALL_CLOCK_KEYS = frozenset({"real_time_factor", "deadline_misses", "tick_time_p
 
 #: Walk scenario's initial double support (s) before the first step (``WalkScenario`` ``t_init`` default).
 _T_INIT = 0.8
+
+
+#: Set by the campaign's signal watch (:func:`wbc.campaign.run`) once a SIGINT or SIGTERM arrived, cleared when a
+#: campaign starts: a trial running in this process stops at its next tick instead of at its end.
+STOP_REQUESTED = threading.Event()
+
+
+class _StopWatch:
+    """The viewer of a trial's closed loop: draws nothing, reads no configuration, and raises KeyboardInterrupt at
+    the first tick after :data:`STOP_REQUESTED` is set (a signal deferred while numba loaded a kernel would
+    otherwise wait for the trial's end)."""
+
+    reads_configuration = False
+
+    def update(self, q, t=None, *args, **kwargs) -> None:
+        if STOP_REQUESTED.is_set():
+            raise KeyboardInterrupt
+
+    def close(self) -> None:
+        pass
 
 
 def cached_robot(name: str):
@@ -133,7 +154,7 @@ def walk_trial(spec, params: dict) -> dict:
         from wbc.sim.estimated_state import EstimatedState
 
         state = EstimatedState(sim, seed=seed)
-    _, summary = run_scenario(sim, controller, scenario, state=state)
+    _, summary = run_scenario(sim, controller, scenario, state=state, viewer=_StopWatch())
     survived, reason = outcome_of(summary)
     row = {"survived": survived, "outcome": "survived" if survived else "fell" if summary.get("fell") else "failed",
            "fall_reason": reason, "push_time_s": push_time,

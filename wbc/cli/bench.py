@@ -102,7 +102,7 @@ def require_bench_extra() -> None:
                if importlib.util.find_spec(module) is None]
     if missing:
         raise InvalidInputError(f"needs {' and '.join(missing)} (the libraries it compares wbc with): "
-                                "pip install 'wbc[bench]'")
+                                "pip install -e \".[bench]\" (from the wbc clone)")
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -11,6 +11,7 @@ finished trial is recorded; run the same command again to resume).
 
 from __future__ import annotations
 
+import math
 import sys
 import tomllib
 from pathlib import Path
@@ -107,6 +108,7 @@ def _spec(args):
         d.setdefault("scenario", {})["robot"] = args.robot
     if d.get("kind") == "sweep" and args.trials is None:
         d.pop("trials", None)
+    _check_push_forces(d)
     return load_spec(d)
 
 
@@ -132,6 +134,50 @@ def _capture_report(args, table, plots: Path) -> None:
           f"{model.sole_width:.3f} m")
     print(format_capture_report(capture_summary(table, capture)))
     print(f"plot written to {plot_capture_map(table, capture, plots / 'capture_map.png', model)}")
+
+
+def _largest(factor, default: float) -> float | None:
+    """The largest value a campaign factor (a number, ``[lo, hi]`` or ``{"values": [...]}``) can take; None when it
+    is not made of finite numbers (the spec's own checks name that)."""
+    if factor is None:
+        return default
+    values = factor.get("values") if isinstance(factor, dict) else factor
+    values = values if isinstance(values, (list, tuple)) else [values]
+    if not values or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                             for v in values):
+        return None
+    return float(max(values))
+
+
+def _check_push_forces(d: dict) -> None:
+    """Refuse a campaign (its spec as a mapping, before the spec's own range checks) whose pushes go beyond what a
+    trial can mean (:func:`wbc.cli.sim.push_force_limit`): the largest force of ``factors.force`` for the longest
+    ``factors.push_duration``, against the robot's bound in the most favourable push direction (every 15 deg),
+    before any trial runs.
+
+    Raises:
+        InvalidInputError: naming the force, the duration and the largest accepted force.
+    """
+    from wbc.campaign.trials import cached_robot
+    from wbc.cli.sim import TRIAL_LIMIT_IN_CAPTURE_BOUNDS, push_force_limit
+    from wbc.exceptions import InvalidInputError
+
+    factors = d.get("factors")
+    if not isinstance(factors, dict) or "force" not in factors:
+        return
+    force = _largest(factors["force"], 0.0)
+    duration = _largest(factors.get("push_duration"), 0.1)
+    robot_name = (d.get("scenario") or {}).get("robot", "talos")
+    if force is None or duration is None or force <= 0 or duration <= 0 or not isinstance(robot_name, str):
+        return
+    robot = cached_robot(robot_name)
+    limit, bound = push_force_limit(robot, duration, range(0, 360, 15))
+    if force > limit:
+        raise InvalidInputError(
+            f"factors.force up to {force:g} N for {duration:g} s is beyond what a trial can mean (valid: <= "
+            f"{math.floor(limit):.0f} N, {TRIAL_LIMIT_IN_CAPTURE_BOUNDS:g} × {robot.name}'s largest capture-point "
+            f"bound of {bound:.0f} N over push directions for a {duration:g} s push, beyond which it falls whatever "
+            "the controller does)")
 
 
 def cmd_campaign(args) -> int:

@@ -79,6 +79,12 @@ def check_sim_args(args) -> None:
                                         "it commands a walk: wbc sim walk)")
     if args.scenario == "jump":
         check_jump(args.height, 0.1, args.count, MAX_TIMESTEP)  # JumpScenario: crouch 0.1 m, extension 0
+    else:  # a jump option given to another scenario would be read by nothing
+        for flag, _, default, _ in JUMP_FLAGS:
+            value = getattr(args, flag[2:].replace("-", "_"), default)
+            if value != default:
+                raise InvalidInputError(f"{flag} {value:g} applies to wbc sim jump only; the {args.scenario} "
+                                        f"scenario has no {flag[2:]} (valid: wbc sim jump {flag} ..., or leave it out)")
 
 
 def register(subparsers, add_outputs) -> None:
@@ -489,21 +495,33 @@ def _check_push_force(args, robot) -> None:
         InvalidInputError: naming the option, the force and the largest accepted force.
     """
     from wbc.exceptions import InvalidInputError
-    from wbc.sim.scenarios import capture_point_bound
 
     option, force = {"push": ("--force", args.force), "push-step": ("--force", args.force),
                      "walk": ("--push", abs(args.push))}.get(args.scenario, (None, None))
     if not force:
         return
-    a = math.radians(args.push_dir)
-    cp = capture_point_bound(robot, args.push_duration, (math.cos(a), math.sin(a), 0.0))
-    limit = TRIAL_LIMIT_IN_CAPTURE_BOUNDS * cp["f_max_finite_n"]
+    limit, bound = push_force_limit(robot, args.push_duration, [args.push_dir])
     if force > limit:
         raise InvalidInputError(
             f"{option} {force:g} N for {args.push_duration:g} s is beyond what a trial can mean (valid: <= "
             f"{math.floor(limit):.0f} N, {TRIAL_LIMIT_IN_CAPTURE_BOUNDS:g} × {robot.name}'s capture-point bound of "
-            f"{cp['f_max_finite_n']:.0f} N for this duration and direction, beyond which it falls whatever the "
+            f"{bound:.0f} N for this duration and direction, beyond which it falls whatever the "
             "controller does)")
+
+
+def push_force_limit(robot, push_duration: float, directions_deg) -> tuple[float, float]:
+    """The largest push force a trial can mean: :data:`TRIAL_LIMIT_IN_CAPTURE_BOUNDS` times the robot's
+    capture-point bound (:func:`wbc.sim.scenarios.capture_point_bound`, finite push of ``push_duration`` s at the
+    robot's reference posture), the largest over ``directions_deg`` (deg, 0 = +x forward, 90 = +y left).
+
+    Returns:
+        (limit N, the capture-point bound N it is a multiple of).
+    """
+    from wbc.sim.scenarios import capture_point_bound
+
+    bound = max(capture_point_bound(robot, push_duration, (math.cos(math.radians(a)), math.sin(math.radians(a)),
+                                                           0.0))["f_max_finite_n"] for a in directions_deg)
+    return TRIAL_LIMIT_IN_CAPTURE_BOUNDS * bound, bound
 
 
 def _check_crossing(summary: dict, terrain, poses: dict, sole_length: float) -> None:

@@ -55,7 +55,8 @@ def render_video(sim: MujocoModel, t: np.ndarray, q: np.ndarray, path, *, fps: f
         import imageio.v2 as imageio
         importlib.import_module("imageio_ffmpeg")  # the ffmpeg plugin imageio needs for mp4
     except ImportError as exc:
-        raise SimulationError("--video needs imageio and imageio-ffmpeg: pip install 'wbc[video]'") from exc
+        raise SimulationError("--video needs imageio and imageio-ffmpeg: pip install -e \".[video]\" (from the wbc "
+                              "clone)") from exc
     grid = np.arange(t[0], t[-1] + 1e-9, 1.0 / fps)
     idx = np.unique(np.clip(np.searchsorted(t, grid), 0, t.size - 1))
     if max_frames is not None:

@@ -138,7 +138,8 @@ class WalkSummary:
             last[fs.side] = fs.yaw
         yaw_cmd = yaw0 + (self.n_steps - 1) * self.turn if self.n_steps > 1 else yaw0
         dxi = np.linalg.norm(lg["dcm"] - lg["dcm_ref"], axis=1)
-        complete = bool(run.t[-1] >= self.duration - 2 * dt) and not run.fell
+        # the commanded motion was done: the run reached its end without a fall and every planned step landed
+        complete = bool(run.t[-1] >= self.duration - 2 * dt) and not run.fell and len(landing) == len(swings)
         out = {
             "steps": self.n_steps, "step_length_m": self.step_length, "step_duration_s": self.step_duration,
             "commanded_speed_mps": self.step_length / self.step_duration,
@@ -207,7 +208,8 @@ def walk_criteria(*, distance_tol: float = 0.05, slip_max: float = 0.005,
                   "<=", heading_tol, minus="commanded_heading_rad", period=2 * math.pi),
         Criterion(f"stance slip ≤ {slip_max * 1e3:.0f} mm", "max_stance_slip_m", "<=", slip_max),
         Criterion("no solver failure", "solver_failures", "==", 0),
-        Criterion("walk completed", "completed", "==", True),
+        Criterion("walk completed (ran to its end without a fall, every planned step landed)", "completed", "==",
+                  True),
     ]
 
 
