@@ -167,8 +167,8 @@ def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, mon
     attempts, calls = [], []
     kernel, solve = FastBackend._kernel, FastBackend.solve
 
-    def counted_kernel(self, H, g, A, b, lb, ub):
-        ok = kernel(self, H, g, A, b, lb, ub)
+    def counted_kernel(self, H, g, A, b, C, l, u, lb, ub):
+        ok = kernel(self, H, g, A, b, C, l, u, lb, ub)
         attempts.append(((H.shape[0], A.shape[0]), ok))
         return ok
 

@@ -22,6 +22,7 @@ from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import InvalidInputError, SolverError
+from wbc.controllers.output_guard import command_fault
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within_box, command_within_rows,
                                               contact_drift, contact_pair_drift, kinematic_finish_packed,
                                               kinematic_reduced_packed, kinematic_tick_packed)
@@ -72,11 +73,11 @@ class CompiledTick:
                 for t in tasks:
                     if not isinstance(t, Task):
                         raise InvalidInputError(f"expected a wbc Task, got {type(t).__name__}")
-                    self._check_once(t, "task")
+                    self.robot_check.check(t, "task")
                 for c in constraints:
                     if not isinstance(c, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
                         raise InvalidInputError(f"expected a velocity-level wbc Constraint, got {type(c).__name__}")
-                    self._check_once(c, "constraint")
+                    self.robot_check.check(c, "constraint")
                 self.tasks[:], self.constraints[:] = tasks, constraints
                 key = tuple((id(c), c.dim) for c in self.constraints)
                 if key != self._layout_key or not self._layout_ok:
@@ -243,7 +244,7 @@ class CompiledTick:
                 C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))
         if it < 1:
             return None  # the general path: diagnosis, relaxation, safe command
-        if not guard and self._command_fault(v, lb, ub, C, l, u):  # the compiled screens pass only where it returns ''
+        if not guard and command_fault(v, lb, ub, C, l, u, tol):  # the compiled screens pass only where it returns ''
             return None
         drift = 0.0
         if self._contacts:

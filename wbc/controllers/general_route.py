@@ -9,7 +9,7 @@ import numpy as np
 from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
-from wbc.solvers.hierarchy import independent_rows, solve_lexicographic
+from wbc.solvers.hierarchy import band_rows, independent_rows, solve_lexicographic
 
 
 #: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``), each started only while the
@@ -59,15 +59,12 @@ class GeneralRoute:
 
     def _solve_banded(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         """Flat solve with the dropped dependent equality rows as band inequalities (``_solve_flat``)."""
-        dropped = np.setdiff1d(np.arange(A.shape[0]), self._eq_rows)
         half = 0.5 * self.dependent_row_tolerance
         if self._band_backend is None:
             self._band_backend = self._new_backend()
         residual = self.dependent_residual
         try:
-            v = self._band_backend.solve(H, g, A[self._eq_rows], b[self._eq_rows], np.vstack([C, A[dropped]]),
-                                         np.concatenate([l, b[dropped] - half]),
-                                         np.concatenate([u, b[dropped] + half]), lb, ub)
+            v = self._band_backend.solve(H, g, *band_rows(A, b, C, l, u, self._eq_rows, half), lb, ub)
         except SolverError as exc:
             raise SolverError(f"dependent equality rows violated by {residual:.3g} after the solve, and no "
                               f"solution holds them within ±{half:.3g} (contradictory hard equalities): {exc}") \

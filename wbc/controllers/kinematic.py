@@ -45,8 +45,6 @@ from wbc.formulations.velocity import SoftRows, VelocityQP
 SOLE_ROTATION_TOLERANCE = 3e-4
 
 
-
-
 class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, GeneralRoute, VelocityQP):
     """Velocity-level whole-body QP (see module docstring).
 
@@ -80,35 +78,18 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             ways on the next tick. The second-order correction (``contact_correction``) is started and judged on the
             distance alone. Raises InvalidInputError unless None or finite and > 0.
         budget: CPU time (s) a tick may use before its optional stages are skipped, or None (default): the tick's
-            dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (module docstring: deterministic, never
-            read from a clock). Past it, a failed solve is not confirmed by independent solvers (it is still retried once cold), the
-            diagnosis is skipped, the safe command's correction and trust region stop, and the tick returns the
-            safe command (``TickResult.over_budget``); the relaxations (relaxable constraints: one solve; return
-            rate: α = 0, with and without the contacts' corrections, always tried — with the clock guard only
-            when they fit, ``clock_guard`` below —, unconfirmed; the larger α only
-            while the budget lasts, one solver call each) are bounded by their counts. The failure time is
-            then the budget plus at most the stage in progress and the safe command's solves. A solved tick starts
-            no further strict level, contact correction or trust region past ``STAGE_FACTOR`` (1.75) times the
-            budget and returns the last finished stage's command (module docstring, '+budget' path): its work is
-            1.75 times the budget plus at most the stage in progress (one cascade) and its checks. Strict levels
-            stop at 1 budget (``WEIGHTED_RESERVE``) and degrade to their weighted form (module docstring). ``math.inf``: no budget (every failure-handling stage runs,
-            independent of the machine's load: offline analysis and tests).
-        clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` × ⌊budget /
-            ``SOLVE_COST``⌋ solves per budget of CPU time (:class:`wbc.solvers.base.TickWork`, clock guard): every limit
-            above then holds on the CPU time too — a solved tick starts no further stage past
-            ``STAGE_FACTOR`` / ``CLOCK_WEIGHT`` times its budget of CPU time, a DAQP call stops at
-            ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` / ``CLOCK_WEIGHT`` times it, a failed tick's optional stages at
-            1 / ``CLOCK_WEIGHT`` times it — whatever one counted solve costs on this machine and problem; and no
-            stage after the first solve (relaxation, strict level, correction, trust region, diagnosis, safe command)
-            starts unless its CPU time, as timed in this tick, ends it by ``STAGE_DEADLINE`` times the budget
-            (module docstring); the compiled first solve stops at the iterations that fit in the budget's CPU time
-            left (:meth:`wbc.controllers.budget.TickBudget.iteration_cap`). Default
-            False: the answer is a function of the tick's inputs (reproducible simulations, tests). True (a robot's
-            real-time loop; on in ``wbc ros2 node``, ``--live``, ``--ros2``): the tick time is bounded, and a tick that reaches a limit by its clock has an answer
-            that depends on the machine's speed and load; a tick under every limit answers as with False; strict
-            levels whose cascade does not fit the budget's CPU time are answered by their weighted form (module
-            docstring, path ``levels+weighted``). Settable
-            as an attribute.
+            dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (never read from a clock: deterministic);
+            ``math.inf``: no budget (every failure-handling stage runs: offline analysis and tests). What each stage
+            does when it is spent (the '+budget' path, the weighted form of strict levels, the safe command):
+            ``docs/kinematic-controller.md``, "tick budget".
+        clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` ×
+            ⌊budget / ``SOLVE_COST``⌋ solves per budget of CPU time, and start no stage after the first solve unless
+            it ends by ``STAGE_DEADLINE`` budgets (:class:`wbc.controllers.budget.TickBudget`; the first solve's
+            iteration cap, :meth:`~wbc.controllers.budget.TickBudget.iteration_cap`). Default False: the answer is a
+            function of the tick's inputs (reproducible simulations, tests). True (on in ``wbc ros2 node``,
+            ``--live``, ``--ros2``): the tick time is bounded, and a tick that reaches a limit by its clock has an
+            answer that depends on the machine's speed and load (``docs/kinematic-controller.md``). Settable as an
+            attribute.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -129,44 +110,26 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
     #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
     CLOCK_WEIGHT = 1.4
-    #: with ``clock_guard``: a stage (a strict level, a re-solve of a relaxation, correction or trust region, the
-    #: diagnosis, each solve of the safe command) starts only when the tick's CPU time plus that stage's CPU time
-    #: timed in this tick (the longest such stage so far) stays within STAGE_DEADLINE × its budget; the
-    #: rest of twice the budget is left to the checks that follow it and to ``hold``
+    # the numbers below: their roles in docs/kinematic-controller.md (tick budget, clock guard, safe command)
+    #: with ``clock_guard``: a stage after the first solve starts only when it ends, at the CPU time of the longest
+    #: such stage of this tick, by STAGE_DEADLINE × the budget
     STAGE_DEADLINE = 1.5
-    #: with ``clock_guard``: the one stage that may end later, by RESCUE_DEADLINE × the budget: the re-solve of a
-    #: failed tick with its dependent contact rows' corrections made consistent (least squares), which decides
-    #: whether the hard set has a solution at all (cutting it failed ticks that the weighted levels solve)
+    #: with ``clock_guard``: the deadline of the least-squares re-solve of dependent contact rows (× the budget)
     RESCUE_DEADLINE = 1.7
-    #: after a tick of the strict cascade that a budget cut (a level, a contact correction or a trust region not run;
-    #: by the count, or the clock guard's clock), the next WEIGHTED_TICKS ticks solve the strict levels as one
-    #: weighted QP (path ``levels+weighted``; one solve per re-solve instead of one per level), then the cascade is
-    #: tried again (module docstring)
+    #: ticks answered by the weighted form of the strict levels after a cascade cut by the budget
     WEIGHTED_TICKS = 25
-    #: the weighted form of the strict levels: level k of p (0 highest) enters the soft level's cost with its rows
-    #: (task weights applied) scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
+    #: level k of p (0 highest) enters the weighted form's cost scaled by WEIGHTED_LEVEL_RATIO ** (p − k)
     WEIGHTED_LEVEL_RATIO = 100.0
-    #: a tick of the strict cascade keeps WEIGHTED_RESERVE × its budget (in counted solves) for the weighted form of
-    #: its levels: the cascade's levels, contact corrections and trust regions stop at (STAGE_FACTOR −
-    #: WEIGHTED_RESERVE) budgets and its DAQP calls at (``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` − WEIGHTED_RESERVE)
-    #: budgets (``TickWork.reserve``); a cascade stopped there is answered by the weighted form within the rest
+    #: budgets (counted solves) a tick of the strict cascade keeps for the weighted form (``TickWork.reserve``)
     WEIGHTED_RESERVE = 0.75
-    #: counted solves added per level of the strict cascade for the work around its QP (the fixed rows of the
-    #: levels above, their rank check and bands, the cost's scaling: uncounted otherwise, it makes a cascade
-    #: level cost more CPU time than a flat solve), ``solve_lexicographic(level_work=…)``
+    #: counted solves per level of the strict cascade for the work around its QP (``solve_lexicographic``)
     LEVEL_WORK = 0.5
-    #: a safe command ('constraints_only', 'contacts_held') is taken only when it leaves every contact frame within
-    #: SAFE_COMMAND_RADIUS (m) of where the current run of failed ticks began, or no farther from there than the
-    #: frame already is: the per-tick drift bound alone lets a run of failed ticks walk a sole away (humanoid15,
-    #: 0.036 mm per tick in one direction for 47 ticks); with it a run of failed ticks moves a stance sole at most
-    #: this far (``hold``, v = 0, moves none)
+    #: m: a safe command is taken only when it leaves each contact frame within this of where the run of failed
+    #: ticks began (or no farther than it is)
     SAFE_COMMAND_RADIUS = 5e-4
-    #: counted solves added per check of a 'contacts_held' command (forward kinematics of the command's tick, the
-    #: frames' drift and run radius: uncounted otherwise, up to 9 of them as β = 0 is scaled down); a check starts
-    #: only while the tick's count stays below ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times its cap (else: hold)
+    #: counted solves per check of a 'contacts_held' command (forward kinematics, drift, radius)
     CHECK_WORK = 0.25
-    #: DAQP iterations of each call of the 'contacts_held' QP at β = 0 when the tick's count was spent before its
-    #: failure handling began (``_recover``: then that QP is the first safe command tried, β = 1 and 1/10 are not)
+    #: DAQP iterations per call of the 'contacts_held' QP at β = 0 when the count was spent before the failure
     HELD_ITERATIONS = 150
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
@@ -322,7 +285,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         """
         if not isinstance(task, Task):
             raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        self._check_once(task, "task")
+        self.robot_check.check(task, "task")
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -390,7 +353,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
                     f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
-        self._check_once(constraint, "constraint")
+        self.robot_check.check(constraint, "constraint")
         if index is None:
             self.constraints.append(constraint)
         else:
@@ -398,10 +361,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._eq_rows = None
         self._layout_ok = False
         return constraint
-
-    def _check_once(self, obj, what: str) -> None:
-        """Raise InvalidInputError when ``obj`` was built for another robot (:class:`RobotCheck`)."""
-        self.robot_check.check(obj, what)
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
@@ -412,18 +371,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.constraints.remove(constraint)
         self._eq_rows = None
         self._layout_ok = False
-
-
-    # -- assembly -------------------------------------------------------------------------------------------
-
-
-    # -- compiled tick (wbc.formulations.velocity_kernel.kinematic_solve on the assembled QP) ------------------------
-
-
-    def _command_fault(self, v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray,
-                       u: np.ndarray) -> str:
-        """:func:`wbc.controllers.output_guard.command_fault` at this controller's backend tolerance."""
-        return command_fault(v, lb, ub, C, l, u, self.backend.tolerance)
 
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
@@ -537,7 +484,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if not result.ok and return_rate is not None and not held:
             result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
         if result.ok:
-            fault = self._command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u)
+            fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
             if fault:
                 raise SolverError(f"output guard: {fault}")
             result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order

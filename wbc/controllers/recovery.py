@@ -19,7 +19,7 @@ from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend
 from wbc.solvers.daqp import WORK_LIMIT_FACTOR
 from wbc.solvers.diagnosis import diagnose
-from wbc.solvers.hierarchy import independent_rows
+from wbc.solvers.hierarchy import band_rows, independent_rows
 from wbc.controllers.contact_hold import DriftFailure
 from wbc.controllers.output_guard import command_fault, qp_data_fault
 from wbc.tick import TickPath, TickResult
@@ -34,14 +34,8 @@ class Recovery:
     ``_recover`` and the safe commands it tries, and :meth:`diagnose`."""
 
     def _recover(self, config: Configuration, dt: float, exc: Exception) -> TickResult:
-        """Diagnosis + safe command after a failed tick (module docstring). Never raises.
-
-        Every safe command other than v = 0 is taken only when it is finite and within the box, and when it keeps
-        the contact frames as an ok tick must (sole drift ≤ ``sole_drift_tolerance``; for 'contacts_held', whose
-        rows ask no motion, the frames' displacement over the tick); 'contacts_held' is scaled down (by
-        0.9 √(tolerance / drift), at most 1/2, up to 8 times: the displacement is second order in v dt, and J_c v = 0
-        is kept) until it does, each check counted (``CHECK_WORK``) and started only below
-        ``wbc.solvers.daqp.WORK_LIMIT_FACTOR`` times the tick's cap, else v = 0."""
+        """Diagnosis + safe command after a failed tick (module docstring; the conditions under which each safe
+        command is taken, its scaling and its counted checks: ``docs/kinematic-controller.md``). Never raises."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
         over_budget = False
         reason = ("sole_drift" if isinstance(exc, DriftFailure) else
@@ -245,11 +239,8 @@ class Recovery:
         v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
         if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
             # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
-            drop = np.setdiff1d(np.arange(A.shape[0]), keep)
-            half = 0.5 * self.dependent_row_tolerance
-            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], np.vstack([C, A[drop]]),
-                                                  np.concatenate([l, b[drop] - half]),
-                                                  np.concatenate([u, b[drop] + half]), lb, ub)
+            v_safe = self._fallback_backend.solve(H, g, *band_rows(A, b, C, l, u, keep,
+                                                                   0.5 * self.dependent_row_tolerance), lb, ub)
         return v_safe
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:

@@ -9,6 +9,8 @@ weighted form (level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) ans
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from wbc.configuration import Configuration
@@ -72,7 +74,6 @@ class Relaxation:
             # weighted level solves, kinematic fuzz seed 410002)
             try:
                 v = self._solve_assembled(config)
-                relaxed = []
             except SolverError:
                 v = None
         relaxed = []
@@ -93,23 +94,12 @@ class Relaxation:
         return v, relaxed, return_rate, held
 
     def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
-        """Solve the tick again with the return rate of the joints outside their position limits relaxed.
-
-        A joint outside its range must return at min(distance/dt, v_max) (:class:`JointPositionLimit`); with
-        several such joints and both soles in contact that can be impossible while a slower return is not. The
-        return rate ranks below every other hard constraint and above the tasks: the required return velocity of
-        each such joint is scaled by α in ``_RETURN_RATE_SCALES`` (1/2, 1/10, 1/100, 1/1000, 0; α = 0 only forbids
-        moving further out). α = 0 is solved first: the feasible sets are nested (larger as α falls), so when it has
-        no solution no α has. Then the larger scales from 1/1000 up, each started only while the tick's counted
-        budget lasts, until one has no solution (nor has any larger): the largest that solved is kept. These trial
-        solves are unconfirmed and not retried (``QPBackend.cold_retry``): a failure only ends the climb.
-
-        When even α = 0 has no solution and contacts are held, their drift corrections −K e rank below it: the
-        contact rows become J_c v = 0 (each contact frame kept where it is, to first order, instead of pulled back
-        onto its placement; the correction of a stance sole's accumulated drift can ask a joint held at α = 0 to
-        move further out) and the ladder above is solved with them. The tick's sole-drift check still measures the
-        drift from where the full correction would send the frame, so an ok tick keeps its bound. With the clock
-        guard each of these solves starts only when a re-solve of the tick's QP still fits (``TickBudget.fits``).
+        """Solve the tick again with the return rate of the joints outside their position limits scaled by α in
+        ``_RETURN_RATE_SCALES``: α = 0 first (the feasible sets are nested: when it has no solution no α has), then
+        the larger scales from 1/1000 up while they solve and the tick's count lasts, the largest kept; when even
+        α = 0 has no solution, with the contact rows J_c v = 0 too (``docs/kinematic-controller.md``, relaxations).
+        These trial solves are unconfirmed and not retried (``QPBackend.cold_retry``); with the clock guard each
+        starts only when a re-solve of the tick's QP still fits (``TickBudget.fits``).
 
         Returns:
             (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
@@ -125,12 +115,8 @@ class Relaxation:
         if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             raise SolverError(f"{failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
-        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
-        independent = [b.independent for b in backends]
         held = False
-        try:
-            for b in backends:  # a failed α needs no independent confirmation: the next α is tried
-                b.independent = ()
+        with self._unconfirmed() as backends:
             self._lb[low] = 0.0
             self._ub[high] = 0.0
             try:
@@ -164,10 +150,6 @@ class Relaxation:
             self._ub[high] = best * ub0
             self._return_bounds = (low, high, lb0, ub0)
             return v, best, held
-        finally:
-            for b, ind in zip(backends, independent):
-                b.independent = ind
-                b.cold_retry = True
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
                        result: TickResult) -> tuple[TickResult, float]:
@@ -184,11 +166,7 @@ class Relaxation:
             buffers holding α's problem again.
         """
         low, high, lb0, ub0 = self._return_bounds
-        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
-        independent = [b.independent for b in backends]
-        try:
-            for b in backends:  # (as in the ladder: an unconfirmed failure only sends it to the next scale)
-                b.independent = ()
+        with self._unconfirmed():
             for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
@@ -225,9 +203,22 @@ class Relaxation:
             self._lb[low] = alpha * lb0
             self._ub[high] = alpha * ub0
             return result, alpha
+
+    @contextmanager
+    def _unconfirmed(self):
+        """The backends of the tick's QP (a list) with no independent confirmation inside the block: a failed trial
+        of a ladder only sends it to its next step; their ``independent`` restored and ``cold_retry`` back on at
+        its end."""
+        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+        independent = [b.independent for b in backends]
+        try:
+            for b in backends:
+                b.independent = ()
+            yield backends
         finally:
             for b, ind in zip(backends, independent):
                 b.independent = ind
+                b.cold_retry = True
 
     def _relax(self, config: Configuration, dt: float) -> None:
         """Drop the relaxable constraints from the assembled buffers by their kind (equality rows made void,

@@ -91,17 +91,29 @@ class FastBackend(DaqpBackend):
                 np.empty(m), np.empty(1)))
         self._nu, self._ws = cached
 
-    def _kernel(self, H, g, A, b, lb, ub) -> bool:
-        n, m = H.shape[0], A.shape[0]
+    def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
+        """One warm-started call of the kernel of the module docstring (by the rows of C); True when it ended at a
+        KKT point within ``tolerance`` (x in ``self._x``), else its working sets are cleared."""
+        n, m, p = H.shape[0], A.shape[0], C.shape[0]
         if n != self._n or m != self._m:
             self._prepare_kernel(n, m)
-        it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
-                             self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
+        if p:
+            if p != self._p:  # the rows' working set is kept when only the equality rows changed
+                self._p = p
+                self._rstate = np.zeros(p, np.int8)
+                self._mu = np.zeros(p)
+            it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
+                             self._z, self.max_iter, 1e-12, 1e-12, 1e-24, self._ws[6])
+        else:
+            it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
+                                 self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
         self.last_kernel_iterations = it
         if it > 0 and self._ws[6][0] <= self.tolerance:
             self.kernel_solves += 1
             return True
         self._state[:] = 0
+        if p:
+            self._rstate[:] = 0
         return False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
@@ -136,7 +148,7 @@ class FastBackend(DaqpBackend):
             # at velocity bounds, defeat its pivoting for stretches of ticks: on the Talos hand-through-torso drive
             # 414 of 605 calls; a failed attempt cost about half a DAQP solve)
             self._rows_failed = False
-        elif self._kernel(H, g, A, b, lb, ub) if p == 0 else self._kernel_rows(H, g, A, b, C, l, u, lb, ub):
+        elif self._kernel(H, g, A, b, C, l, u, lb, ub):
             if self.work is not None:
                 self.work.solves += 1  # a solve attempt like any other (TickWork): a re-solve loop is counted
             return self._x.copy()
@@ -159,24 +171,6 @@ class FastBackend(DaqpBackend):
                 self._rstate[cx <= l + 1e-12] = -1
                 self._rstate[cx >= u - 1e-12] = 1
         return x
-
-    def _kernel_rows(self, H, g, A, b, C, l, u, lb, ub) -> bool:
-        n, m, p = H.shape[0], A.shape[0], C.shape[0]
-        if n != self._n or m != self._m:
-            self._prepare_kernel(n, m)
-        if p != self._p:  # the rows' working set is kept when only the equality rows changed
-            self._p = p
-            self._rstate = np.zeros(p, np.int8)
-            self._mu = np.zeros(p)
-        it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
-                         self._z, self.max_iter, 1e-12, 1e-12, 1e-24, self._ws[6])
-        self.last_kernel_iterations = it
-        if it > 0 and self._ws[6][0] <= self.tolerance:
-            self.kernel_solves += 1
-            return True
-        self._state[:] = 0
-        self._rstate[:] = 0
-        return False
 
 
 @once_per_process

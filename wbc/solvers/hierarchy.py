@@ -37,7 +37,7 @@ import numpy as np
 
 from wbc.exceptions import SolverError
 
-__all__ = ["solve_lexicographic", "independent_rows"]
+__all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 
 
 #: the last results of :func:`independent_rows` ((A copied, rtol, rows) newest last): a cascade and the re-solves of
@@ -150,18 +150,17 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     """
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
-    dropped = np.setdiff1d(np.arange(A.shape[0]), keep) if keep.size < A.shape[0] else None
+    dropped = keep.size < A.shape[0]  # nearly dependent equality rows left out
     half = 0.5 * dependent_row_tolerance
     banded = None
-    if dropped is not None and memo is not None and memo.get(BAND_KEY) is not None \
+    if dropped and memo is not None and memo.get(BAND_KEY) is not None \
             and np.array_equal(memo[BAND_KEY], A):
         # an earlier cascade on these equality rows (the same tick's: only b or the box changed since) needed the
         # dropped rows as band rows (below): those bands first, one cascade instead of two; a band cascade that
         # fails is forgotten and the full sequence runs
         try:
-            banded = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
-                              np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                              lb, ub, backends, final_backend, band, stop, memo, level_work)
+            banded = _cascade(levels, H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub, backends, final_backend,
+                              band, stop, memo, level_work)
         except SolverError:
             del memo[BAND_KEY]
     if banded is not None:
@@ -169,15 +168,14 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
     else:
         v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop,
                               memo, level_work)
-    if dropped is not None and banded is None:
+    if dropped and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
             try:
-                v, skipped = _cascade(levels, H, g, A[keep], b[keep], np.vstack([C, A[dropped]]),
-                                      np.concatenate([l, b[dropped] - half]), np.concatenate([u, b[dropped] + half]),
-                                      lb, ub, backends, final_backend, band, stop, memo, level_work)
+                v, skipped = _cascade(levels, H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub, backends,
+                                      final_backend, band, stop, memo, level_work)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -185,6 +183,15 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
                 memo[BAND_KEY] = np.array(A, dtype=float)
     solve_lexicographic.last_skipped = skipped
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
+
+
+def band_rows(A, b, C, l, u, keep, half) -> tuple:
+    """The hard set's rows with the equality rows of A (m, n), b (m,) outside ``keep`` (nearly dependent on those
+    in it: :func:`independent_rows`) turned into band rows |A_d v − b_d| ≤ ``half`` (their units) below C (p, n),
+    l, u (p,): (A[keep], b[keep], C', l', u')."""
+    drop = np.setdiff1d(np.arange(A.shape[0]), keep)
+    return (A[keep], b[keep], np.vstack([C, A[drop]]), np.concatenate([l, b[drop] - half]),
+            np.concatenate([u, b[drop] + half]))
 
 
 def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -199,6 +206,19 @@ def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.nda
         return H, g, 1.0
     s = 1.0 / max(1.0, top, float(np.max(np.abs(H), initial=0.0)))
     return H * s, g * s, s
+
+
+def _retry(kind, Hk, gk, scale, tolerance, rest, l=None, u=None, Fv=None) -> tuple:
+    """The arguments of a level's retry by ``backend.solve`` (:func:`_cascade`): ``"damped"``, the level's cost
+    JᵀJ + μI with μ = 1e-9 · max(``scale``, max diag JᵀJ) (Kanoun et al.'s damped least squares; relative bias
+    ~1e-9); ``"wide"``, the upper levels' images Fv (from the rows l, u of the hard set on) held within
+    ±``tolerance`` · max(1, |Fv|) / 2 instead of the band. ``rest``: (A, b, C, l, u, lb, ub) of the level's QP."""
+    A, b, Ck, lk, uk, lb, ub = rest
+    if kind == "damped":
+        mu = 1e-9 * max(scale, float(np.max(np.diag(Hk))))
+        return Hk + mu * np.eye(Hk.shape[0]), gk, A, b, Ck, lk, uk, lb, ub
+    wide = tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
+    return Hk, gk, A, b, Ck, np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide]), lb, ub
 
 
 def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None, memo=None,
@@ -236,19 +256,16 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
         else:
             Hk, gk = J.T @ J, -(J.T @ target)
         Hk, gk, scale = _scaled_cost(Hk, gk, backend.tolerance)
+        rest = (A_kept, b_kept, Ck, lk, uk, lb, ub)
         key = (k, len(levels))
         first = memo.get(key) if memo is not None else None
         if first is not None:
             # an earlier cascade of this tick (same levels, e.g. a contact correction: only b or the box changed)
             # solved this level only by its damped or wide-band retry: that retry first (else the full sequence)
             try:
-                if first == "damped":
-                    mu = 1e-9 * max(scale, float(np.max(np.diag(Hk))))
-                    v = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
-                else:
-                    wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
-                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, np.concatenate([l, Fv - wide]),
-                                      np.concatenate([u, Fv + wide]), lb, ub)
+                v = backend.solve(*_retry(first, Hk, gk, scale, backend.tolerance, rest, l, u,
+                                          Fv if F is not None else None))
+                if first == "wide":
                     skipped.append(k)
                 if J is not None:
                     fixed_J.append(J)
@@ -279,19 +296,16 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
                                       f"soft level below {len(levels)} priority levels: {exc}") from None
             if J is not None and first != "damped":
                 # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
-                # 5e-6 – 2e-3 off the rows: once more damped, JᵀJ + μI with μ = 1e-9 · max(1, max diag)
-                # (Kanoun et al.'s damped least squares; relative bias ~1e-9)
-                mu = 1e-9 * max(scale, float(np.max(np.diag(Hk))))
+                # 5e-6 – 2e-3 off the rows: once more damped (_retry)
                 try:
-                    v_damped = backend.solve(Hk + mu * np.eye(Hk.shape[0]), gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                    v_damped = backend.solve(*_retry("damped", Hk, gk, scale, backend.tolerance, rest))
                 except SolverError:
                     v_damped = None
                 if v_damped is not None:
                     v = v_damped
                     if memo is not None:
                         memo[key] = "damped"
-                    if J is not None:
-                        fixed_J.append(J)
+                    fixed_J.append(J)
                     continue
             if v is None:
                 # the first level failed twice on a feasible hard set: numerical failure of this level, v is the
@@ -306,10 +320,8 @@ def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_back
             # else keep the previous level's v (optimal for every level above, feasible for the hard set)
             v_prev = v
             if fixed_J and first != "wide":
-                wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
-                lk, uk = np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide])
                 try:
-                    v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                    v = backend.solve(*_retry("wide", Hk, gk, scale, backend.tolerance, rest, l, u, Fv))
                     if memo is not None:
                         memo[key] = "wide"
                 except SolverError:
