@@ -68,6 +68,23 @@ def test_a_parallel_compile_starts_a_module_after_the_modules_it_waits_for(tmp_p
     assert list((tmp_path / "cache").rglob("com.*.nbi")) and list((tmp_path / "cache").rglob("posture.*.nbi"))
 
 
+def test_a_module_with_parts_runs_each_part_as_an_item_before_the_module(tmp_path, monkeypatch):
+    """PARTS: posture's loader also given as a part of its own; two worker processes: the part starts first (the
+    order given), com beside it, posture only once its part is done, and the part is reported by its own label."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(kernels, "AFTER", {})
+    monkeypatch.setattr(kernels, "PARTS", {"wbc.tasks.posture": ("_warm_up",)})
+    events = []
+    seconds = compile_all(["wbc.tasks.posture", "wbc.tasks.com"], jobs=2,
+                          on_start=lambda m: events.append(("start", m)),
+                          on_done=lambda m, wall, cpu: events.append(("done", m)))
+    part = "wbc.tasks.posture:_warm_up"
+    assert events[:2] == [("start", part), ("start", "wbc.tasks.com")]
+    assert events.index(("done", part)) < events.index(("start", "wbc.tasks.posture"))
+    assert sorted(seconds) == sorted([part, "wbc.tasks.com", "wbc.tasks.posture"])
+    assert list((tmp_path / "cache").rglob("posture.*.nbi"))
+
+
 def test_a_first_run_compiles_its_commands_modules_in_worker_processes_with_a_line_each(tmp_path, monkeypatch,
                                                                                       capsys):
     """compile_for_command on an empty cache (NUMBA_CACHE_DIR, inherited by the workers): a first line, then one line

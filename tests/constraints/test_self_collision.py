@@ -338,8 +338,8 @@ def test_rows_are_the_damper_on_the_constraints_own_coal_results(robots, compile
 
 
 def test_compiled_narrow_phase_is_built():
-    """``pip install`` built the C++ narrow phase (setup.py) against the coal loaded here; without it the constraint
-    falls back to Pinocchio's bindings (same results, about 45 µs more per call on Talos)."""
+    """``wbc compile`` built the C++ narrow phase (narrow_phase_build) against the coal loaded here; without it the
+    constraint falls back to Pinocchio's bindings (same results, about 45 µs more per call on Talos)."""
     from wbc.constraints import self_collision
 
     assert self_collision.COMPILED_NARROW_PHASE_MISSING is None

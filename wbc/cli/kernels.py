@@ -8,7 +8,8 @@ processes as cores (numba compiles in one thread under a process-wide lock; its 
 atomically, so processes share it), a module only after the modules of :data:`AFTER` whose kernels it calls; then it
 runs each command of :data:`WARM_UP_RUNS` for two steps in a child process (:func:`run_warm_up`): a kernel a command
 calls with array types or layouts no loader used (a MuJoCo contact slice, a column-major mass matrix, the
-inverse-dynamics tick) is compiled and cached there. A progress bar on a terminal, one line per module otherwise.
+inverse-dynamics tick) is compiled and cached there; beside them it builds the C++ self-collision narrow phase
+(:data:`BUILDS`), which the install does not build. A progress bar on a terminal, one line per module otherwise.
 Run again, it loads the cached kernels and takes seconds.
 
 A run command's first run (walk, balance, sim) does the same for the modules its controller needs
@@ -24,8 +25,8 @@ from typing import Callable, Iterable
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["AFTER", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODULES", "WARM_UP_RUNS", "register",
-           "check_compile_args", "cmd_compile", "compile_all", "compile_for_command", "default_jobs", "loader_modules",
+__all__ = ["AFTER", "BUILDS", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODULES", "PARTS", "WARM_UP_RUNS",
+           "register", "check_compile_args", "cmd_compile", "compile_all", "compile_for_command", "default_jobs", "loader_modules",
            "run_warm_up"]
 
 #: Every module with a :func:`wbc.compiled.once_per_process` loader, the kinematic controller's first (what
@@ -72,6 +73,19 @@ AFTER = {
 #: for box_eq's loader, numba's compile events on one core): waiting would put box_eq's loader on a first walk's
 #: longest chain.
 COMPILED_TWICE = {"wbc.solvers.active_set": ("wbc.solvers.box_eq",)}
+
+#: Loaders that a compilation runs as items of their own, ahead of their module's (module -> loader function names):
+#: a module's kernels that link no kernel of the modules it waits for (:data:`AFTER`) compile in another process
+#: while those do, and the module's own item then loads them from the cache. The kinematic kernels' item
+#: ``"wbc.formulations.velocity_kernel:load_kinematic_parts"`` (cost formation, contact drifts, the general route's
+#: reduced QP: 6.5 s of compilation on one core) runs beside the active-set solver's, so that a first walk's longest
+#: chain (active_set, then velocity_kernel) holds only the compiled tick.
+PARTS = {"wbc.formulations.velocity_kernel": ("load_kinematic_parts",)}
+
+#: Functions ``wbc compile`` (all modules) also runs, as ``"module:function"``, beside the loaders: the build of the
+#: C++ self-collision narrow phase (:func:`wbc.constraints.narrow_phase_build.build_or_explain`; nothing to do when
+#: it is built and newer than its source; a failure is one line, not an error), which the install does not build.
+BUILDS = ("wbc.constraints.narrow_phase_build:build_or_explain",)
 
 #: ``wbc`` commands ``wbc compile`` runs (two steps each, ``--quiet``) after the loaders: they call kernels no loader
 #: reaches with their real argument types (the closed loop on MuJoCo: inverse-dynamics tick, state estimator,
@@ -137,11 +151,12 @@ def loader_modules(names: Iterable[str] = ()) -> list[str]:
 def compile_all(modules: Iterable[str] = (), jobs: int = 1,
                 on_done: Callable[[str, float, float], None] | None = None,
                 on_start: Callable[[str], None] | None = None,
-                runs: Iterable[tuple[str, ...]] = ()) -> dict[str, float]:
+                runs: Iterable[tuple[str, ...]] = (), calls: Iterable[str] = ()) -> dict[str, float]:
     """Import each module and run its loaders (:func:`wbc.compiled.run_loaders`): every kernel they call is compiled
     and written to numba's on-disk cache, or loaded from it when already there; then run each command of ``runs``
     (:func:`run_warm_up`).
 
+    A module with :data:`PARTS` is two or more items: each of those loaders, then the module's (which waits for them).
     With ``jobs`` > 1 the modules and runs are done in that many worker processes (same interpreter and environment,
     so the same cache), each once the items :data:`AFTER` lists for it (among those given) are done, the ready ones in
     the order given; the kernels are then in the on-disk cache, not in this process.
@@ -150,9 +165,11 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
         modules: names among :data:`LOADER_MODULES` (default, or empty: all of them).
         jobs: the number of processes (1: in this process, one item after the other).
         on_done: called ``on_done(item, wall_seconds, cpu_seconds)`` in this process as each item finishes (a module
-            name, or a run as ``"wbc sim walk --steps 2"``; CPU: of the worker, or of a run's child process).
+            name, one of its :data:`PARTS` as ``"module:loader"``, or a run as ``"wbc sim walk --steps 2"``; CPU: of
+            the worker, or of a run's child process).
         on_start: called ``on_start(item)`` in this process as each item starts.
         runs: ``wbc`` command lines without the program name (e.g. :data:`WARM_UP_RUNS`).
+        calls: functions without arguments to run as items too, as ``"module:function"`` (e.g. :data:`BUILDS`).
 
     Returns:
         The wall time in seconds each item took (import and loaders; a run: the whole command), by item.
@@ -162,7 +179,11 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
         SimulationError: a run failed (see :func:`run_warm_up`), or a worker process died (killed, or crashed in the
             compiler) before it returned its item.
     """
-    items = {name: name for name in loader_modules(modules)}
+    items = {}
+    for name in loader_modules(modules):
+        items.update({f"{name}:{part}": f"{name}:{part}" for part in PARTS.get(name, ())})
+        items[name] = name
+    items.update({call: call for call in calls})
     items.update({_run_label(argv): tuple(argv) for argv in runs})
     if jobs < 1:
         raise InvalidInputError(f"jobs must be at least 1, got {jobs}")
@@ -185,7 +206,8 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
 
     from wbc.exceptions import SimulationError
 
-    waiting = {label: {m for m in AFTER.get(label, ()) if m in items} for label in items}
+    parts = {label: {f"{label}:{part}" for part in PARTS.get(label, ())} & set(items) for label in items}
+    waiting = {label: {m for m in AFTER.get(label, ()) if m in items} | parts[label] for label in items}
     running: set[str] = set()
     results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
     # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
@@ -240,6 +262,11 @@ def _init_worker() -> None:
     sys.stderr.reconfigure(line_buffering=True)
 
 
+def _item_count(modules: list[str] | tuple[str, ...]) -> int:
+    """The number of items :func:`compile_all` runs for ``modules``: each module and each of its :data:`PARTS`."""
+    return sum(1 + len(PARTS.get(m, ())) for m in modules)
+
+
 def _run_label(argv: tuple[str, ...]) -> str:
     return "wbc " + " ".join(argv)
 
@@ -269,8 +296,12 @@ def _timed_item(item: str | tuple[str, ...]) -> tuple[str, float, float]:
 
     from wbc.compiled import run_loaders
 
-    importlib.import_module(item)
-    run_loaders(item)
+    name, _, part = item.partition(":")
+    module = importlib.import_module(name)
+    if part:  # one loader of the module (PARTS), or a function of BUILDS
+        getattr(module, part)()
+    else:
+        run_loaders(name)
     return item, time.perf_counter() - t0, time.process_time() - c0
 
 
@@ -307,9 +338,10 @@ def check_compile_args(args) -> None:
 
 def cmd_compile(args) -> int:
     """`wbc compile`: run the loaders of every (or each given) kernel module in ``--jobs`` processes
-    (:func:`compile_all`), then (all modules only) the commands of :data:`WARM_UP_RUNS`; with a progress bar on a
-    terminal naming the modules or command being compiled (redrawn every second from the start), one line per
-    module otherwise (its wall and CPU seconds, as each finishes); prints the total time. Exit code 0.
+    (:func:`compile_all`), and (all modules only) the functions of :data:`BUILDS`, then the commands of
+    :data:`WARM_UP_RUNS`; with a progress bar on a terminal naming the modules or command being compiled (redrawn
+    every second from the start), one line per module otherwise (its wall and CPU seconds, as each finishes); prints
+    the total time. Exit code 0.
 
     Raises:
         SimulationError: a command of :data:`WARM_UP_RUNS` failed.
@@ -317,17 +349,17 @@ def cmd_compile(args) -> int:
     from wbc.cli.output import uncompiled_kernels
 
     modules = loader_modules(args.modules)
-    runs = () if args.modules else WARM_UP_RUNS
-    jobs = min(args.jobs, len(modules) + len(runs))
+    runs, calls = ((), ()) if args.modules else (WARM_UP_RUNS, BUILDS)
+    jobs = min(args.jobs, len(modules) + len(runs) + len(calls))
     t0 = time.perf_counter()
     missing = 0 if args.quiet else len(uncompiled_kernels(modules))
     where = f"in {jobs} processes" if jobs > 1 else "in this process"
-    with _Progress("wbc compile", len(modules) + len(runs),
+    with _Progress("wbc compile", _item_count(modules) + len(runs) + len(calls),
                    f"wbc compile: compiling the numba kernels of {len(modules)} modules {where} ({missing} without "
                    "on-disk cache; a minute or two once on 2 cores) ..." if missing else
                    f"wbc compile: loading the cached numba kernels of {len(modules)} modules ...",
                    show=not args.quiet) as shown:
-        compile_all(modules, jobs=jobs, on_done=shown.finished, on_start=shown.started, runs=runs)
+        compile_all(modules, jobs=jobs, on_done=shown.finished, on_start=shown.started, runs=runs, calls=calls)
     ran = f" and {len(runs)} warm-up run{'s' if len(runs) > 1 else ''} ({', '.join(' '.join(r) for r in runs)})" \
         if runs else ""
     print(f"wbc compile: the numba kernels of {len(modules)} modules{ran} compiled and cached in "
@@ -365,7 +397,7 @@ def compile_for_command(command: str, quiet: bool = False) -> float | None:
         return None
     jobs = min(default_jobs(), len(modules))
     t0 = time.perf_counter()
-    with _Progress(f"wbc {command}", len(modules),
+    with _Progress(f"wbc {command}", _item_count(modules),
                    f"wbc {command}: first run: compiling the numba kernels of {len(modules)} modules in {jobs} "
                    "processes (once; cached on disk for later runs) ...", show=not quiet) as shown:
         try:

@@ -72,8 +72,8 @@ under random motion and jumps. No static pruning beyond the SRDF and adjacency: 
 floating-point operations per call.
 
 Narrow phase (``compiled``). The compiled one, ``wbc.constraints.narrow_phase`` (C++, ``narrow_phase.cpp``, built by
-``pip install`` through ``setup.py`` against the ``libcoal`` wheel's headers), owns its own coal geometries (the
-same shapes; a mesh's hull is rebuilt by coal's ``ConvexBase::convexHull`` from the same vertices and qhull command
+``wbc compile`` against the ``libcoal`` wheel's headers: :mod:`wbc.constraints.narrow_phase_build`), owns its own
+coal geometries (the same shapes; a mesh's hull is rebuilt by coal's ``ConvexBase::convexHull`` from the same vertices and qhull command
 as ``buildConvexHull``), one ``coal::ComputeDistance`` functor, request and result per pair as
 ``pinocchio::GeometryData`` has (coal keeps a pair's GJK guess in its request), and the geometry placements
 oMg = oMi · jMg as ``pin.updateGeometryPlacements`` computes them: one call computes the candidates' distances,
@@ -98,21 +98,23 @@ import pinocchio as pin
 
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
+from wbc.constraints.narrow_phase_build import BUILD_HINT
 from wbc.constraints.self_collision_kernels import (broad_phase_packed, close_pairs_damper, close_pairs_packed,
                                                    damper_rows, narrow_phase_done_packed, pack_arrays, pair_dampers)
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_count, check_scalar
 
-try:  # the compiled narrow phase (C++ on coal, built by pip install from setup.py; module docstring)
+try:  # the compiled narrow phase (C++ on coal, built by wbc compile: wbc.constraints.narrow_phase_build)
     from wbc.constraints import narrow_phase as compiled_narrow_phase
 except ImportError as error:
     compiled_narrow_phase = None
-    COMPILED_NARROW_PHASE_MISSING = f"wbc.constraints.narrow_phase was not built or does not load ({error})"
+    COMPILED_NARROW_PHASE_MISSING = (f"wbc.constraints.narrow_phase was not built or does not load ({error}); "
+                                     f"{BUILD_HINT}")
 else:
     COMPILED_NARROW_PHASE_MISSING = (
         None if compiled_narrow_phase.coal_version == coal.__version__ else
         f"wbc.constraints.narrow_phase was built against coal {compiled_narrow_phase.coal_version}, "
-        f"coal {coal.__version__} is loaded (reinstall wbc)")
+        f"coal {coal.__version__} is loaded ({BUILD_HINT})")
 
 __all__ = ["ClosePairs", "SelfCollisionConstraint", "default_collision_pairs", "joint_placements_view"]
 

@@ -37,8 +37,8 @@ from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
            "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed",
-           "kinematic_workspace", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "TaskRows",
-           "TickBuffers", "translation_gap", "weighted_rows"]
+           "kinematic_workspace", "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack",
+           "TaskRows", "TickBuffers", "translation_gap", "weighted_rows"]
 
 #: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
 #: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays (views of :func:`kinematic_pack`'s
@@ -696,28 +696,24 @@ def command_within_rows(v, C, l, u, tolerance):
 
 
 @once_per_process
-def load_kinematic_kernels() -> float:
-    """Compile (or load from the on-disk cache) the kinematic kernels, and :func:`wbc.solvers.linalg.clip_box_into`
-    that the controller's bound assembly calls, once per process; returns the seconds taken (later calls: None at
-    once)."""
+def load_kinematic_parts() -> float:
+    """Compile (or load from the on-disk cache), once per process, the kinematic kernels that link no solver kernel
+    (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`): the cost formation, the reduced QP and finish of the
+    general route, the contact drifts, the output guard's screens, and :func:`wbc.solvers.linalg.clip_box_into` that
+    the controller's bound assembly calls; returns the seconds taken (later calls: None at once). ``wbc compile``
+    runs it in a process of its own while the solver kernels compile (:data:`wbc.cli.kernels.PARTS`)."""
     t0 = time.perf_counter()
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
-    # the kinematic controller's cost formation and compiled solver (a 7-velocity QP whose base is eliminated
-    # through 6 rows)
     fb, ib, views = kinematic_pack(7, 6, 0, 0)
     form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
             1e-6, views["H"], views["g"])
     weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
-    views["A"][:, :6] = np.eye(6)
-    views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
-    views["lb"][6], views["ub"][6] = -1.0, 1.0
-    kinematic_solve_packed(fb, ib, np.zeros(1, np.int8), np.zeros(0, np.int8), np.empty(7), 0.002, 1e-6, 10)
-    sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
-    rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
-    kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(1, np.int8)), np.zeros(7), 0.0, 1e-6, np.empty(7),
-                          0.002, 1e-6, 10, np.zeros(0), NO_KERNEL_BOX)
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
+    # kinematic_solve's base elimination, with the argument types it gives (views of the packed workspace)
+    _eliminate_base(np.zeros((6, 7)), np.zeros(6), 0, 1, np.zeros((6, 6)), np.zeros((6, 2)))
+    _reduce_cost(np.eye(7), np.zeros(7), 6, 1, np.zeros((6, 2)), np.zeros((6, 1)), np.zeros(6), np.zeros((1, 1)),
+                 np.zeros(1))
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
     contact_pair_drift(frame, frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
@@ -726,4 +722,24 @@ def load_kinematic_kernels() -> float:
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
+    return time.perf_counter() - t0
+
+
+@once_per_process
+def load_kinematic_kernels() -> float:
+    """Compile (or load from the on-disk cache), once per process, the kinematic kernels: those of
+    :func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed` (which links
+    :func:`kinematic_solve` and the solver kernels); returns the seconds taken (later calls: None at once).
+    :func:`kinematic_solve_packed`, which no controller calls, is compiled on its first call."""
+    t0 = time.perf_counter()
+    load_kinematic_parts()
+    # the kinematic controller's compiled tick (a 7-velocity QP whose base is eliminated through 6 rows)
+    fb, ib, views = kinematic_pack(7, 6, 0, 0)
+    views["A"][:, :6] = np.eye(6)
+    views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
+    views["lb"][6], views["ub"][6] = -1.0, 1.0
+    sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
+    rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
+    kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(1, np.int8)), np.zeros(7), 0.0, 1e-6, np.empty(7),
+                          0.002, 1e-6, 10, np.zeros(0), NO_KERNEL_BOX)
     return time.perf_counter() - t0
