@@ -27,10 +27,10 @@ one DAQP call on the projection of the origin onto the hard set, a fraction of q
 first — empty, the full one is empty too and the tick goes to step 2 at once —, then the full one; the relaxed QP
 gets its backend's retries only when its set was not proved empty, and quadprog when those miss the minimiser of a
 set found not empty. The budget sets one count: the compiled tick's iteration cap
-(:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
-:data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
+(:func:`~wbc.solvers.compiled_id.kernel_iterations`, a quarter of the budget at
+:data:`~wbc.solvers.compiled_id.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
 from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
-:data:`~wbc.formulations.id_compiled.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
+:data:`~wbc.solvers.compiled_id.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
 (:func:`~wbc.solvers.fallback.tick_work_iterations`, the budget in DAQP iterations;
 ``FallbackChain.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
 get what is left of one budget, quadprog's solve runs only when its count
@@ -89,7 +89,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.solvers.compiled_id import kernel_iterations
 from wbc.solvers.fallback import daqp_attempt_iterations, tick_work_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError

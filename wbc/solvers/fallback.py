@@ -1,8 +1,10 @@
 """The fallback ladder of a QP (:class:`FallbackChain`): which solver is asked after which, and under what rules.
 
-A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its backend and, when
-the backend finds no solution, the next steps in order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that
-names the solver and the step that answered. For a DAQP backend (``daqp``, and ``fast``, whose fallback is DAQP):
+A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its first rung, the
+compiled solver when it has one (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`, ``fast``: its answer stands
+when the caller's check accepts it), then its backend and, when the backend finds no solution, the next steps in
+order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that names the solver and the step that answered. For
+a DAQP backend (``daqp``, and ``fast``, whose backend is DAQP):
 
 1. the **attempt**: one DAQP call (cold retry off), its iterations capped by the tick's budget;
 2. the **hard-set checks**: one DAQP call on the projection of the origin onto the hard set (and onto the relaxed hard
@@ -35,6 +37,7 @@ import numpy as np
 
 from wbc.exceptions import SolverError
 from wbc.solvers.base import QPBackend
+from wbc.solvers.compiled_id import KERNEL_ITERATION_COST, CompiledIDSolver
 from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
                               DaqpBackend)
 from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
@@ -104,8 +107,9 @@ class FallbackChain:
     """The fallback ladder (module docstring) over one backend, with its per-tick budget and counters.
 
     Args:
-        backend: the backend asked first (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
+        backend: the backend of the ladder (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
             method; its failure then stands).
+        compiled: the compiled solver asked before it (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`), or None.
 
     Attributes (the tick's budget, set by the controller):
         tick_work_iterations: the tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``).
@@ -117,6 +121,7 @@ class FallbackChain:
         budget_cut: the counted work or the clock cut a step. hard_set_point: a check found a point of the full hard
         set, ``hard_set_x`` (n,). relaxed_set_feasible: the relaxed hard set's verdict (True, False, None: not
         checked). relaxed_bounds: (l, u, lb, ub) of the relaxed QP formed by that check, else None.
+        compiled_reason: why the compiled solver did not answer the last full QP ('' when it did, or there is none).
 
     Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
     ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
@@ -124,8 +129,10 @@ class FallbackChain:
     ``relaxed_infeasible_by_check``.
     """
 
-    def __init__(self, backend):
+    def __init__(self, backend, compiled: CompiledIDSolver | None = None):
         self.backend = backend
+        self.compiled = compiled
+        self.compiled_reason = ""
         #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
         #: failure; False by default: it costs many control periods and belongs off the control path
         self.confirm_failures = False
@@ -365,10 +372,47 @@ class FallbackChain:
         raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
                           f"the relaxed hard-set check and the backend's retries)")
 
-    def solve(self, qp: QPData, relax: Callable | None = None) -> QPSolution:
+    def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
+              skip_compiled: str = "") -> QPSolution:
+        """The full QP ``qp``: the compiled solver first (when the chain has one), its answer returned when
+        ``check(x)`` (the caller's output check) returns '' — else that text, or the solver's failure, is
+        :attr:`compiled_reason`, its iteration cap is counted in :attr:`tick_work` and the ladder answers, its answer
+        warm-starting the compiled solver's next call. ``skip_compiled``: the compiled solver is not asked (the
+        reason; its working set cleared). ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP
+        (for the check of its hard set).
+
+        Raises:
+            SolverError: no step found a solution (the message says why the ladder ended).
+        """
+        compiled = self.compiled
+        self.compiled_reason = ""
+        if compiled is None:
+            return self._ladder(qp, relax)
+        if skip_compiled:
+            compiled.clear()
+            self.compiled_reason = skip_compiled
+            return self._ladder(qp, relax)
+        compiled.tolerance = self.backend.tolerance
+        try:
+            sol = compiled.solve(qp)
+            why = check(sol.x) if check is not None else ""
+            if not why:
+                compiled.solves += 1
+                return sol
+            compiled.rejected += 1
+        except SolverError as exc:
+            why = str(exc)
+        self.compiled_reason = why
+        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
+        self.tick_work += compiled.give_up() * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
+        sol = self._ladder(qp, relax)
+        backend = self.backend  # the next compiled call starts from the working set of the ladder's answer
+        compiled.warm(sol.x, getattr(backend, "last_multipliers", None) if sol.solver == backend.name else None, qp)
+        return sol
+
+    def _ladder(self, qp: QPData, relax: Callable | None) -> QPSolution:
         """The full QP ``qp`` through the ladder (module docstring); after a tick whose counted work cut a QP whose
         hard set has a point (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits.
-        ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP (for the check of its hard set).
 
         Raises:
             SolverError: no step found a solution (the message says why the ladder ended).
