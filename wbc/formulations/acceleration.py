@@ -34,6 +34,7 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
+from wbc.compiled import specialise
 from wbc.constraints.barrier import AccelerationBarrier
 from wbc.constraints.base import IDConstraint, IDContext, InequalityConstraint
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO, ContactAcceleration, independent_contact_rows
@@ -220,6 +221,7 @@ class InverseDynamicsQP:
         self.last_violations: list[tuple[str, float]] = []
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
+        self._id_command = None  # id_command specialised at the first decode (solution_from)
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -495,13 +497,13 @@ class InverseDynamicsQP:
         returns/raises as :meth:`solve`. ``reuse_assembly``: the arrays of this tick's failed full QP at this same
         ``state`` object and ``dt`` are reused (and a relaxed hard set it proved empty raises at once)."""
         t0 = perf_counter()
-        if reuse_assembly and self._assembled == (id(state), dt):
+        same_tick = reuse_assembly and self._assembled == (id(state), dt)
+        if same_tick:
             m = self._m
             H, g, A, b, C, l, u, lb, ub = (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                            self._lb, self._ub)
         else:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        same_tick = reuse_assembly and self._assembled == (id(state), dt)
         reused = self.chain.relaxed_bounds
         if same_tick and reused is not None:
             l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
@@ -671,7 +673,10 @@ class InverseDynamicsQP:
         rows = self._rows
         tau = np.empty(nv - 6)
         wrench = np.empty((len(self.contacts), 6))
-        residual = id_command(state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        args = (state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        if self._id_command is None:  # a DynamicsState's and the buffers' types are fixed (wbc.compiled.specialise)
+            self._id_command = specialise(id_command, *args)
+        residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
         return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
                           timings=timings or {})

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.compiled import specialise
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO
 from wbc.formulations.id_rows import IDProblemRows
 from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, PAR_BRAKING, PAR_EPS_A,
@@ -43,6 +44,7 @@ class CompiledIDAssembly:
         self.limits = IDLimits(idx, tl.limits.copy(), self.par, jl.qmin, jl.qmax, jl.vmax)
         self.arrays = IDArrays(*blocks)
         self.work = IDAssemblyWork(rows.Hw, rows.gw, rows.gram, rows.gram_y, np.zeros(jl.dim), np.zeros(jl.dim))
+        self._entry = None  # id_assemble specialised to these buffers and a DynamicsState's arrays (first call)
         self._load(qp, rows, solver)
 
     def assemble(self, rows: IDProblemRows, dynamics: IDDynamics, settings: tuple, extra_rows: int) -> int:
@@ -53,7 +55,10 @@ class CompiledIDAssembly:
         par = self.par
         par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = settings
         par[PAR_EXTRA_ROWS] = extra_rows
-        return id_assemble(rows.tasks, dynamics, rows.contacts, self.limits, self.arrays, self.work)
+        args = (rows.tasks, dynamics, rows.contacts, self.limits, self.arrays, self.work)
+        if self._entry is None:  # the buffers' and the state's types are fixed: no per-call type resolution
+            self._entry = specialise(id_assemble, *args)
+        return self._entry(*args)
 
     def _load(self, qp, rows: IDProblemRows, solver: CompiledIDSolver) -> None:
         """Load the assembly and the solver here, at construction, not inside the first tick: once per process,

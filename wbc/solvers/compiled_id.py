@@ -40,7 +40,7 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH
+from wbc.compiled import FASTMATH, specialise
 from wbc.exceptions import SolverError
 from wbc.solvers.active_set import BlockSpace, dual_active_set
 from wbc.solvers.box_eq import clip_eq_residual
@@ -359,6 +359,7 @@ class CompiledIDSolver:
         self.rejected = 0
         self.gave_up = False
         self.cap = self.max_iterations  # the last call's iteration cap
+        self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
 
     def solve(self, qp: QPData) -> QPSolution:
         """The exact optimum of ``qp`` (x a view of this solver's buffer, overwritten by the next call).
@@ -369,7 +370,12 @@ class CompiledIDSolver:
         # after a give-up the call starts from the next rung's working set, one answer away: a short attempt
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
-        it = id_solve(qp, self.nv, self.cap, self.buffers)
+        if all(a.flags.c_contiguous for a in qp):  # the formulation's buffers: the per-call type resolution skipped
+            if self._entry is None:
+                self._entry = specialise(id_solve, qp, self.nv, self.cap, self.buffers)
+            it = self._entry(qp, self.nv, self.cap, self.buffers)
+        else:
+            it = id_solve(qp, self.nv, self.cap, self.buffers)
         if it > 0 and self.residual[0] <= self.tolerance:
             return QPSolution(self.x, self.name)
         raise SolverError(self.status_text(it, self.residual[0]))
