@@ -34,7 +34,7 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
-from wbc.compiled import specialise
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constraints.barrier import AccelerationBarrier
 from wbc.constraints.base import IDConstraint, IDContext, InequalityConstraint
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO, ContactAcceleration, independent_contact_rows
@@ -674,8 +674,9 @@ class InverseDynamicsQP:
         tau = np.empty(nv - 6)
         wrench = np.empty((len(self.contacts), 6))
         args = (state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
-        if self._id_command is None:  # a DynamicsState's and the buffers' types are fixed (wbc.compiled.specialise)
-            self._id_command = specialise(id_command, *args)
+        if self._id_command is None:  # a DynamicsState's and the buffers' types are fixed (wbc.compiled.specialise;
+            # with kernel type checks on, the dispatcher, which resolves them on every call)
+            self._id_command = id_command if CHECK_TYPES else specialise(id_command, *args)
         residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
         return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),

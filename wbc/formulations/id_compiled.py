@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.compiled import specialise
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO
 from wbc.formulations.id_rows import IDProblemRows
 from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, PAR_BRAKING, PAR_EPS_A,
@@ -23,7 +23,7 @@ from wbc.solvers.qp_data import QPData
 __all__ = ["CompiledIDAssembly"]
 
 #: the compiled kernels have been loaded in this process (:meth:`CompiledIDAssembly._load`)
-_LOADED = False
+_COMPILED_ID_LOADED = False
 
 
 class CompiledIDAssembly:
@@ -56,8 +56,9 @@ class CompiledIDAssembly:
         par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = settings
         par[PAR_EXTRA_ROWS] = extra_rows
         args = (rows.tasks, dynamics, rows.contacts, self.limits, self.arrays, self.work)
-        if self._entry is None:  # the buffers' and the state's types are fixed: no per-call type resolution
-            self._entry = specialise(id_assemble, *args)
+        if self._entry is None:  # the buffers' and the state's types are fixed: no per-call type resolution (with
+            # kernel type checks on, the dispatcher's, which resolves them on every call)
+            self._entry = id_assemble if CHECK_TYPES else specialise(id_assemble, *args)
         return self._entry(*args)
 
     def _load(self, qp, rows: IDProblemRows, solver: CompiledIDSolver) -> None:
@@ -65,8 +66,8 @@ class CompiledIDAssembly:
         one call of each on these buffers at a neutral state (M = I in the column-major order of a
         :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer they write restored
         afterwards (the first tick starts exactly as without this call)."""
-        global _LOADED
-        if _LOADED:
+        global _COMPILED_ID_LOADED
+        if _COMPILED_ID_LOADED:
             return
         if rows.layout is None:
             rows.relayout(qp)
@@ -83,7 +84,7 @@ class CompiledIDAssembly:
                 solver.solve(QPData(H, g, A[:max(m, 6)], b[:max(m, 6)], C, l, u, lb, ub))
             except SolverError:  # any answer loads the kernel; this neutral QP's own is not used
                 pass
-            _LOADED = True
+            _COMPILED_ID_LOADED = True
         finally:
             for a, a0 in zip(arrays, saved):
                 np.copyto(a, a0)

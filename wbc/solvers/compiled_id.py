@@ -40,7 +40,7 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH, specialise
+from wbc.compiled import CHECK_TYPES, FASTMATH, specialise
 from wbc.exceptions import SolverError
 from wbc.solvers.active_set import BlockSpace, dual_active_set
 from wbc.solvers.box_eq import clip_eq_residual
@@ -370,7 +370,9 @@ class CompiledIDSolver:
         # after a give-up the call starts from the next rung's working set, one answer away: a short attempt
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
-        if all(a.flags.c_contiguous for a in qp):  # the formulation's buffers: the per-call type resolution skipped
+        # the formulation's buffers: the per-call type resolution skipped (with kernel type checks on, the dispatcher
+        # resolves them on every call, a cheaper check than the specialised function's)
+        if not CHECK_TYPES and all(a.flags.c_contiguous for a in qp):
             if self._entry is None:
                 self._entry = specialise(id_solve, qp, self.nv, self.cap, self.buffers)
             it = self._entry(qp, self.nv, self.cap, self.buffers)

@@ -213,13 +213,11 @@ class FallbackChain:
     RETRY_CALLS = 4
 
     def _counting(self) -> bool:
-        """The tick's stages are stopped by its counted work (:attr:`tick_work`): no clock guard, a finite
-        :attr:`tick_work_iterations`."""
+        """The tick's stages are stopped by its counted work: no clock guard, a finite :attr:`tick_work_iterations`."""
         return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
 
     def _work_left(self, factor: float) -> float:
-        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` × :attr:`tick_work_iterations`
-        (``math.inf`` when nothing is counted)."""
+        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` budgets (``math.inf``: nothing counted)."""
         return factor * self.tick_work_iterations - self.tick_work
 
     def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
@@ -246,14 +244,12 @@ class FallbackChain:
         return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
 
     def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer
-        iterations past ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        """Work of the backend's last DAQP call(s) in DAQP iterations: iterations, proximal ones, the call's own."""
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
     def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the retries with each call capped at ``calls``: ``RETRY_CALLS`` × (``calls`` +
-        :data:`DAQP_CALL_WORK`), plus the proximal outer iterations past ``proximal``."""
+        """Work counted for the retries, each call capped at ``calls``, and proximal iterations past ``proximal``."""
         return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
                 + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
@@ -276,15 +272,9 @@ class FallbackChain:
         return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
 
     def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """The relaxed QP by a DAQP backend: one attempt; on failure the relaxed hard set is checked (unless the
-        full QP's failure checked it to a verdict): empty, the solve ends; otherwise the backend's retries, then, on a
-        set with a point, quadprog (pinned variables and equalities eliminated). The calls end by
-        ``RELAXED_DEADLINE`` budgets (clock guard) or within ``RELAXED_WORK`` budgets of counted work.
-
-        Raises:
-            SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
-                call stopped at the tick's deadline).
-        """
+        """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
+        SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a call
+        stopped at the tick's deadline)."""
         backend = self.backend
         end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
         counting = self._counting()
@@ -374,16 +364,11 @@ class FallbackChain:
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
-        """The full QP ``qp``: the compiled solver first (when the chain has one), its answer returned when
-        ``check(x)`` (the caller's output check) returns '' — else that text, or the solver's failure, is
-        :attr:`compiled_reason`, its iteration cap is counted in :attr:`tick_work` and the ladder answers, its answer
-        warm-starting the compiled solver's next call. ``skip_compiled``: the compiled solver is not asked (the
-        reason; its working set cleared). ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP
-        (for the check of its hard set).
-
-        Raises:
-            SolverError: no step found a solution (the message says why the ladder ended).
-        """
+        """The full QP ``qp``: the compiled solver first (when the chain has one, unless ``skip_compiled`` gives why
+        not), its answer returned when ``check(x)`` (the caller's output check) returns ''; else that text or its
+        failure is :attr:`compiled_reason`, its cap is counted in :attr:`tick_work`, and the ladder's answer
+        (:meth:`_ladder`) warm-starts its next call. ``relax(l, u, lb, ub)``: copies of the relaxed QP's bounds (for
+        the check of its hard set). Raises SolverError: no step found a solution (the message says why)."""
         compiled = self.compiled
         self.compiled_reason = ""
         if compiled is None:
@@ -411,12 +396,8 @@ class FallbackChain:
         return sol
 
     def _ladder(self, qp: QPData, relax: Callable | None) -> QPSolution:
-        """The full QP ``qp`` through the ladder (module docstring); after a tick whose counted work cut a QP whose
-        hard set has a point (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits.
-
-        Raises:
-            SolverError: no step found a solution (the message says why the ladder ended).
-        """
+        """The ladder (module docstring); after a tick whose counted work cut a QP whose hard set has a point
+        (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits. Raises SolverError."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
@@ -440,9 +421,8 @@ class FallbackChain:
 
     def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
-        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations`
-        iterations (an ill-scaled cost, |g| ~ 1e6, stays so over the next ticks). Its checked x, or None (and
-        :attr:`resume_scaled` cleared)."""
+        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` ×
+        :attr:`daqp_attempt_iterations` iterations. Its checked x, or None (and :attr:`resume_scaled` cleared)."""
         proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
         x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
@@ -454,16 +434,10 @@ class FallbackChain:
         return x
 
     def _stages(self, H, g, A, b, C, l, u, lb, ub, relax: Callable | None) -> QPSolution:
-        """The ladder of the module docstring on the full QP (docs/inverse-dynamics-controller.md, "The fallback
-        chain": the order, and why each step is there). Without a clock guard every step after the attempt is counted
-        in :attr:`tick_work` against ``FAILURE_WORK`` (quadprog: ``QUADPROG_WORK``) budgets; with one
-        (:attr:`tick_clock`) the steps are ordered by cost and started only before their deadlines (``*_DEADLINE``,
-        ``*_END``), the hard-set check first unless the attempt stopped at its deadline. ``relax`` forms the relaxed
-        bounds for the check of the relaxed hard set (None: not checked).
-
-        Raises:
-            SolverError: the backend's, extended with why the ladder ended, when no step found a solution.
-        """
+        """The ladder of the module docstring on the full QP; ``relax`` forms the relaxed bounds for the check of the
+        relaxed hard set (None: not checked). The order, the counted work and the clock guard's deadlines:
+        docs/inverse-dynamics-controller.md, "The fallback chain". Raises SolverError: the backend's, extended with
+        why the ladder ended, when no step found a solution."""
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
@@ -619,16 +593,10 @@ class FallbackChain:
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                          relax: Callable | None, full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP without a clock guard: the full hard set first (a point
-        found: the relaxed set is not checked), else, given ``relax``, the relaxed hard set. ``checked``: the full set
-        was checked already this tick, its verdict ``full``. A set proved empty sets :attr:`last_set_empty`.
-
-        Returns:
-            True when a point of the full hard set was found, else False (not proved empty).
-
-        Raises:
-            SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
-        """
+        """The hard-set checks of a failed full QP without a clock guard: the full set (unless ``checked``: its
+        verdict ``full``), then, not found to have a point and given ``relax``, the relaxed set. A set proved empty
+        sets :attr:`last_set_empty` and raises SolverError (``first`` extended). Returns True when a point of the full
+        hard set was found, else False."""
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
         if full is True:
@@ -678,16 +646,10 @@ class FallbackChain:
         return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP (e.g. ProxQP) on the QP (full or relaxed); when a
-        :class:`~wbc.solvers.base.QPBackend` reports no solution, the second opinion
-        (:func:`wbc.solvers.independent.second_opinion`: quadprog with the pinned variables eliminated, then one cold
-        DAQP call) unless :attr:`second_opinion_enabled` is False. A proximal method's infeasibility test fires on
-        feasible QPs whose equality rows are nearly dependent (two soles on legs without hip yaw); an active-set
-        solver's answer is exact on them.
-
-        Raises:
-            SolverError: the backend's, when no solver found a solution.
-        """
+        """A backend other than DAQP on the QP (full or relaxed); when a :class:`~wbc.solvers.base.QPBackend`
+        reports no solution, the second opinion (:func:`wbc.solvers.independent.second_opinion`) unless
+        :attr:`second_opinion_enabled` is False: a proximal method's infeasibility test fires on feasible QPs whose
+        equality rows are nearly dependent. Raises SolverError: the backend's, when no solver found a solution."""
         backend = self.backend
         try:
             return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
@@ -709,12 +671,11 @@ class FallbackChain:
         return QPSolution(x, solver, "second opinion")
 
     def refine(self, x: np.ndarray, qp: QPData, accept: Callable, answered_by: str):
-        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished
-        on its active set (:meth:`wbc.solvers.base.QPBackend.polish`), then, failing that, replaced by quadprog's
-        solve (pinned variables eliminated; not when quadprog gave ``x``, ``answered_by``), started only while the
-        clock guard or the counted work leaves room for it. ``accept(x, solver)`` returns the caller's solution of a
-        candidate (``solver``: None for the polished one, else ``quadprog``) when it passes the output check, else
-        None. Returns the first accepted candidate, or None."""
+        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished on
+        its active set (:meth:`wbc.solvers.base.QPBackend.polish`), else quadprog's solve (not when quadprog gave it,
+        ``answered_by``) while the clock guard or the counted work leaves room. ``accept(x, solver)`` returns the
+        caller's solution of a candidate (``solver`` None: the polished one) that passes its check, else None.
+        Returns the first accepted candidate, or None."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
