@@ -38,9 +38,16 @@ def test_every_id_route_is_reached_with_its_reason(robots):
     reached.add(kernel.path.route)
 
     # the compiled call reports its iteration cap: the chain (its backend: DAQP) answers the arrays it assembled
-    compiled = ctrl.qp._kernel
+    compiled = ctrl.qp.chain.compiled
     call = compiled.solve
-    compiled.solve = lambda *args: (int(SolverStatus.ITERATION_CAP), call(*args)[1])
+
+    def failing(status):
+        def solve(qp):
+            call(qp)
+            raise SolverError(compiled.status_text(int(status), 0.0))
+        return solve
+
+    compiled.solve = failing(SolverStatus.ITERATION_CAP)
     general = ctrl.solve(q, v)
     compiled.solve = call
     assert general.ok and general.path == "general:fast"  # the backend named "fast": DAQP without kernel rows
@@ -67,7 +74,7 @@ def test_every_id_route_is_reached_with_its_reason(robots):
             raise SolverError("broken on purpose")
 
     ctrl.qp.backend = Broken()
-    compiled.solve = lambda *args: (int(SolverStatus.INFEASIBLE), call(*args)[1])
+    compiled.solve = failing(SolverStatus.INFEASIBLE)
     hold = ctrl.solve(q, v)  # the last tick was solved: its command is held
     assert not hold.ok and hold.path == "fallback:hold" and hold.path_reason == "full and relaxed QP failed → hold"
     gravity = ctrl.solve(q, v)  # a second failed tick in a row

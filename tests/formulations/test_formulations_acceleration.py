@@ -1,5 +1,5 @@
 """One assembly of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`): the QP the compiled tick
-(:func:`wbc.formulations.idkernel.id_tick`) assembles and solves is bitwise the QP of the general path
+(:func:`wbc.formulations.idkernel.id_assemble`) assembles is bitwise the QP of the general path
 (:meth:`InverseDynamicsQP.build` through the constraints' ``write``), and the compiled solver's answer is the
 optimum an independent solver (quadprog, Goldfarb–Idnani on the dense QP) finds on it.
 

@@ -1,5 +1,5 @@
-"""The compiled inverse-dynamics tick (:class:`wbc.formulations.id_compiled.CompiledIDTick`, through
-``InverseDynamicsQP.solve``): Talos standing, its answer against two independent oracles — quadprog (dense
+"""The compiled inverse-dynamics route (:class:`wbc.formulations.id_compiled.CompiledIDAssembly` and the chain's
+compiled solver, through ``InverseDynamicsQP.solve``): Talos standing, its answer against two independent oracles — quadprog (dense
 Goldfarb–Idnani) on the QP ``build()`` assembles at the same state, and Pinocchio's equations of motion
 (τ = (M v̇ + h − J_cᵀ f)[6:], with M from CRBA, h = g(q) at v = 0 and the sole Jacobians from Pinocchio)."""
 
@@ -10,8 +10,6 @@ import pinocchio as pin
 
 from conftest import dense_quadprog
 from wbc.dynamics.balance import IDBalanceController
-from wbc.formulations.id_compiled import CompiledIDTick
-from wbc.solvers.status import SolverStatus
 
 DT = 0.002
 
@@ -42,9 +40,3 @@ def test_the_kernel_answer_is_quadprogs_optimum_and_its_torques_close_the_equati
             rhs -= Jc.T @ sol.forces[12 * k + 3 * c: 12 * k + 3 * c + 3]
     np.testing.assert_allclose(rhs[:6], 0.0, atol=1e-6 * np.abs(h).max())  # the base rows: no actuation
     np.testing.assert_allclose(sol.tau, rhs[6:], rtol=0, atol=1e-6 * np.abs(h).max())
-
-
-def test_status_text_names_the_kernel_status_or_the_residual():
-    assert CompiledIDTick.status_text(int(SolverStatus.ITERATION_CAP), 0.0) == "kernel status ITERATION_CAP"
-    assert CompiledIDTick.status_text(-999, 0.0) == "kernel status -999"
-    assert CompiledIDTick.status_text(5, 3.2e-4) == "kernel residual 3.2e-04 above the tolerance"

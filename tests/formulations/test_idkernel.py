@@ -64,7 +64,7 @@ def test_kernel_matches_general_path(robots, robot_name):
                 c.release_foot("left")
         for c in (fast, ref):
             c.set_com_reference(target)
-        solves_before = fast.qp._kernel.solves
+        solves_before = fast.qp.chain.compiled.solves
         a = fast.solve(q, v)
         compare = k % 10 == 0
         b = ref.solve(q, v)  # the same measured state, every tick (release_foot reads the last state)
@@ -75,7 +75,7 @@ def test_kernel_matches_general_path(robots, robot_name):
             continue
         ticks += 1
         assert a.ok and b.ok and not a.relaxed and not b.relaxed
-        if fast.qp._kernel.solves == solves_before:
+        if fast.qp.chain.compiled.solves == solves_before:
             continue  # this tick went to the DAQP fallback: nothing compiled to compare
         checked += 1
         # the numpy assembly at the same state, solved by DAQP (b), is the reference QP
@@ -149,7 +149,7 @@ def test_kernel_equals_daqp_every_tick(robots, robot_name):
             active_ticks += 1
         v = v + a.dv * dt
         q = pin.integrate(robot.model, q, v * dt)
-    assert fast.qp._kernel.fallbacks == 0
+    assert fast.qp.chain.compiled.fallbacks == 0
     assert active_ticks >= 20, active_ticks
     assert worst < 1e-9, worst
 
@@ -190,7 +190,7 @@ def test_kernel_iteration_cap_follows_the_budget_and_daqp_answers_a_capped_tick(
     assembly, and the next tick by the kernel again, started from DAQP's working set (no tick skips the kernel).
     Every answer agrees with the reference DAQP workspace solve to 1e-6 (DAQP's dual one-shot stops within its
     primal tolerance)."""
-    from wbc.formulations.acceleration import kernel_iterations
+    from wbc.solvers.compiled_id import kernel_iterations
 
     assert kernel_iterations(0.004) == 8 and kernel_iterations(0.002) == 4 and kernel_iterations(1e-5) == 4
     assert kernel_iterations(math.inf) == 100
@@ -234,13 +234,13 @@ def _sway_reference(robot, fast, dt):
     return ref, kick, q, v, fast.state.com.copy()
 
 
-def test_the_compiled_tick_takes_its_arguments_as_six_namedtuples():
-    """id_tick's positional parameters: the task rows, the dynamics, the contacts, the limits, the QP arrays, the
-    buffers (namedtuples of :mod:`wbc.formulations.idkernel`), at most 10."""
+def test_the_compiled_assembly_takes_its_arguments_as_six_namedtuples():
+    """id_assemble's positional parameters: the task rows, the dynamics, the contacts, the limits, the QP arrays, the
+    workspace (namedtuples of :mod:`wbc.formulations.idkernel`), at most 10."""
     import inspect
 
     from wbc.formulations import idkernel
-    params = list(inspect.signature(idkernel.id_tick.py_func).parameters)
-    assert params == ["tasks", "dynamics", "contacts", "limits", "qp", "buffers"]
+    params = list(inspect.signature(idkernel.id_assemble.py_func).parameters)
+    assert params == ["tasks", "dynamics", "contacts", "limits", "qp", "work"]
     assert [f for t in (idkernel.IDTaskRows, idkernel.IDDynamics, idkernel.IDContactData, idkernel.IDLimits,
-                        idkernel.IDArrays, idkernel.IDTickBuffers) for f in t._fields][:5] == ["Jt", "R", "pidx", "rt", "M"]
+                        idkernel.IDArrays, idkernel.IDAssemblyWork) for f in t._fields][:5] == ["Jt", "R", "pidx", "rt", "M"]

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from wbc.formulations.idkernel import id_workspace
 from wbc.solvers.active_set import (BlockSpace, dual_active_set, qp_ws_float_size, qp_ws_int_size, solve_qp_into,
                                     solve_qp_ws)
+from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
 from wbc.solvers.status import ITERATION_CAP
 
 
@@ -43,7 +43,7 @@ def _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
     """dual_active_set on a BlockSpace with the ID tick's settings, warm-started from (state, rstate), in place."""
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
     (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho,
-     out) = id_workspace(n, nv, p, m + p)
+     out) = carve_solve(*id_solve_buffers(n, nv, p, m), n, nv, p)[-1]
     space = BlockSpace(nv, rows, Yv, S, L, vfree, ffree, vrow, fac, a, c, tv, ra, rc, dx, drho, npv, nuw, 1e-10)
     x, nu, mu = np.zeros(n), np.zeros(max(m, 1)), np.zeros(p)
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb,

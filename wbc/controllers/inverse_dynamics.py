@@ -18,32 +18,18 @@ Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled
 or ``fallback:gravity`` (step 2).
 
 Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
-(``time.thread_time``: what the tick computes, not the time other processes take the core from it), measured and
-reported (``over_budget``), never used to decide unless ``clock_guard`` is set (constructor): a tick solves at most two QPs — the full QP, and after its
-failure the relaxed QP — each with its solver's iteration cap, so its answer is a function of its inputs and not
-of the machine's load. A failed full QP's costly second opinions (quadprog, the backend's retries) and the relaxed
-QP run only when a cheap check does not prove their set empty (:func:`wbc.solvers.independent.hard_set_feasible`,
-one DAQP call on the projection of the origin onto the hard set, a fraction of quadprog's cost): the relaxed hard set
-first — empty, the full one is empty too and the tick goes to step 2 at once —, then the full one; the relaxed QP
-gets its backend's retries only when its set was not proved empty, and quadprog when those miss the minimiser of a
-set found not empty. The budget sets one count: the compiled tick's iteration cap
-(:func:`~wbc.formulations.acceleration.kernel_iterations`, a quarter of the budget at
-:data:`~wbc.formulations.acceleration.KERNEL_ITERATION_COST` per iteration); a capped call is answered by DAQP
-from the same assembly, and the next tick's compiled call starts from DAQP's working set (with a short cap,
-:data:`~wbc.formulations.id_compiled.KERNEL_ITERATIONS_AFTER_GIVE_UP`). It also sets the tick's counted work
-(:func:`~wbc.solvers.fallback.tick_work_iterations`, the budget in DAQP iterations;
-``FallbackChain.tick_work``): after a failed full QP its checks, cost-scaled DAQP call and the backend's retries
-get what is left of one budget, quadprog's solve runs only when its count
-(:func:`~wbc.solvers.fallback.quadprog_work`) fits in 1.25 budgets (the retries only after it), and the
-relaxed QP's calls, its first attempt included, share what is left of 1.2; a stage skipped so adds ``+budget`` to the
-path — a count, not a clock. A full or relaxed command that ends past the budget is used and counted
-(``over_budget``): the safe command is a last resort, a solved QP one tick late is the better command. One thing
-carries over: when the counted work cut a full QP whose hard set has a point (a failure of the budget, not of the
-problem), the next ticks start their full QP with the stage that had no work left, the cost-scaled DAQP call
-(``FallbackChain.resume_scaled``), while it answers; otherwise the next tick starts again from the full QP. The independent re-solve that would confirm an infeasibility
-(:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the control path by default
-(:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand); ``diagnose=True`` (a
-diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
+(``time.thread_time``), measured and reported (``over_budget``, ``deadline_misses``), never used to decide unless
+``clock_guard`` is set (constructor). The budget sets counts, so that a tick's answer is a function of its inputs:
+the compiled solver's iteration cap (:func:`~wbc.solvers.compiled_id.kernel_iterations`; after a give-up the next
+call is short, :data:`~wbc.solvers.compiled_id.KERNEL_ITERATIONS_AFTER_GIVE_UP`), the first DAQP attempt's cap
+and the counted work of a failed tick's later stages (:func:`~wbc.solvers.fallback.tick_work_iterations`,
+``FallbackChain.tick_work``): the order of those stages, the checks that skip a set proved empty, the resumed
+stages after a budget cut and their factors are the chain's (:mod:`wbc.solvers.fallback`;
+docs/inverse-dynamics-controller.md, "The fallback chain"). A full or relaxed command that ends past the budget is
+used and counted (``over_budget``): a solved QP one tick late is the better command. The independent re-solve that
+would confirm an infeasibility (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the
+control path by default (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand);
+``diagnose=True`` (a diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
@@ -89,7 +75,8 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP, kernel_iterations
+from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.solvers.compiled_id import kernel_iterations
 from wbc.solvers.fallback import daqp_attempt_iterations, tick_work_iterations
 from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError

@@ -19,9 +19,10 @@ G_k the corner-force → sole-wrench map, the torques are not variables (Feather
 With ≥ 2 active contacts the nearly dependent directions of (5) are dropped. Every constraint is a named object of
 :mod:`wbc.constraints` that writes its rows in place into one preallocated array per block;
 :meth:`InverseDynamicsQP.build` returns the blocks (:class:`~wbc.solvers.qp_data.QPData`). With ``solver="fast"``
-the compiled tick (:mod:`wbc.formulations.id_compiled`) assembles the same arrays from the same gathered rows
-(:mod:`wbc.formulations.id_rows`) and solves them; when it gives up, or for any other backend, the fallback chain
-(:attr:`InverseDynamicsQP.chain`, :class:`~wbc.solvers.fallback.FallbackChain`) solves them. ε_a, ε_f > 0 make the
+the compiled assembly (:mod:`wbc.formulations.id_compiled`) writes the same arrays from the same gathered rows
+(:mod:`wbc.formulations.id_rows`). A tick is assemble → :attr:`InverseDynamicsQP.chain`
+(:class:`~wbc.solvers.fallback.FallbackChain`: the compiled solver :class:`~wbc.solvers.compiled_id.CompiledIDSolver`
+first with ``fast``, then the backend's ladder) → decode (:meth:`InverseDynamicsQP.solution_from`). ε_a, ε_f > 0 make the
 Hessian positive definite. The derivations, the joint bounds (9) and the rules of the chain:
 docs/inverse-dynamics-controller.md.
 """
@@ -33,6 +34,7 @@ from time import perf_counter, thread_time
 
 import numpy as np
 
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constraints.barrier import AccelerationBarrier
 from wbc.constraints.base import IDConstraint, IDContext, InequalityConstraint
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO, ContactAcceleration, independent_contact_rows
@@ -43,7 +45,7 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.id_compiled import KERNEL_ITERATIONS_AFTER_GIVE_UP, CompiledIDTick
+from wbc.formulations.id_compiled import CompiledIDAssembly
 from wbc.formulations.id_output_check import IDOutputCheck, nonfinite_references
 from wbc.formulations.id_rows import IDProblemRows
 from wbc.formulations.idkernel import (IDDynamics, PROJECT_CONTACT_RHS, contact_rows_well_conditioned, load_id_kernels,
@@ -53,7 +55,7 @@ from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.base import POLISH_RANGE
-from wbc.solvers.daqp import DAQP_ITERATION_COST
+from wbc.solvers.compiled_id import CompiledIDSolver
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.fallback import DAQP_SETTINGS, SCALED_EPS_PROX, FallbackChain
 from wbc.solvers.qp_data import QPData
@@ -61,8 +63,7 @@ from wbc.tick import TickPath
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
-           "OUTPUT_REFINE_RANGE", "kernel_iterations"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE"]
 
 
 @dataclass
@@ -105,25 +106,6 @@ _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: sh
 #: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
 
-#: CPU time (s) of one working-set iteration of the compiled ID tick (:func:`~wbc.solvers.active_set.dual_active_set`
-#: refactors its working set every iteration), with its share of the call's set-up, on the slow ticks of the ID fuzz
-#: (benchmarks/README.md, "ID kernel cap from its measured iteration cost"). A tick budget becomes an iteration cap
-#: of ⌊budget / (4 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
-KERNEL_ITERATION_COST = 1.2e-4
-
-
-
-def kernel_iterations(budget: float) -> int:
-    """Iteration cap of the compiled ID tick for a tick budget of ``budget`` seconds of CPU time: a quarter of the
-    budget at :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count,
-    not a clock: the tick's answer stays a function of its inputs; a capped call is answered by DAQP on the same
-    assembly, and a failed full QP's checks and relaxed QP come after it, in the rest of the budget."""
-    if not np.isfinite(budget):
-        return 100
-    return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
-
-
-
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring from its named constraints.
 
@@ -147,9 +129,9 @@ class InverseDynamicsQP:
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
         chain: the fallback ladder over the backend (:class:`~wbc.solvers.fallback.FallbackChain`): its budget,
             steps and counters.
-        kernel_max_iterations: the compiled tick's iteration cap (:func:`kernel_iterations` of the controller's
-            budget; after a call that gave up, at most
-            :data:`~wbc.formulations.id_compiled.KERNEL_ITERATIONS_AFTER_GIVE_UP`).
+        kernel_max_iterations: the compiled solver's iteration cap (:func:`~wbc.solvers.compiled_id.kernel_iterations`
+            of the controller's budget; after a call that gave up, at most
+            :data:`~wbc.solvers.compiled_id.KERNEL_ITERATIONS_AFTER_GIVE_UP`).
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
@@ -222,12 +204,12 @@ class InverseDynamicsQP:
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
-        self._kernel = None
+        self._compiled = None
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
-            self._kernel = self._new_kernel()
+            self._new_compiled()
         # why a tick of this QP is not on the compiled route ('' for a backend chosen by name or object)
         self._general_reason = ("no compiled tick: torque-limited joints not contiguous in v"
-                                if solver == "fast" and self._kernel is None else "")
+                                if solver == "fast" and self._compiled is None else "")
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         #: the output check of :meth:`verify`
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
@@ -239,6 +221,7 @@ class InverseDynamicsQP:
         self.last_violations: list[tuple[str, float]] = []
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
+        self._id_command = None  # id_command specialised at the first decode (solution_from)
         jl = self.joint_acceleration_limits
         self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
                           if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
@@ -309,11 +292,13 @@ class InverseDynamicsQP:
             return
         raise ValueError(f"{constraint!r} is not in the QP")
 
-    def _new_kernel(self) -> CompiledIDTick:
-        """The compiled tick (:class:`~wbc.formulations.id_compiled.CompiledIDTick`) over this QP's gathered rows and
-        current blocks."""
-        return CompiledIDTick(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l, self._u,
-                                                 self._lb, self._ub, self._JcT))
+    def _new_compiled(self) -> None:
+        """The compiled assembly over this QP's gathered rows and current blocks, and the compiled solver of their
+        sizes as :attr:`chain`'s first rung."""
+        solver = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
+        self._compiled = CompiledIDAssembly(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l,
+                                                               self._u, self._lb, self._ub, self._JcT), solver)
+        self.chain.compiled = solver
 
     def _layout_inequalities(self) -> None:
         r = self._r0
@@ -324,8 +309,8 @@ class InverseDynamicsQP:
         r0 = self._r0
         C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
         self._C, self._l, self._u = C, l, u
-        if self._kernel is not None:  # its argument tuples hold the blocks: new blocks, new buffers
-            self._kernel = self._new_kernel()
+        if self._compiled is not None:  # its argument tuples hold the blocks: new blocks, new buffers
+            self._new_compiled()
 
     def _refresh_contact_rows(self) -> None:
         """Rewrite the contact blocks whose parameters were assigned since they were written: the force bounds
@@ -379,8 +364,8 @@ class InverseDynamicsQP:
         if rows > self._A.shape[0]:
             self._A = np.zeros((rows, self.n))
             self._b = np.zeros(rows)
-            if self._kernel is not None:  # its argument tuples hold the blocks: new blocks, new buffers
-                self._kernel = self._new_kernel()
+            if self._compiled is not None:  # its argument tuples hold the blocks: new blocks, new buffers
+                self._new_compiled()
 
     def contact(self, name: str) -> SoleContact:
         """The contact called ``name``. Raises InvalidInputError (listing the names) when there is none."""
@@ -512,13 +497,13 @@ class InverseDynamicsQP:
         returns/raises as :meth:`solve`. ``reuse_assembly``: the arrays of this tick's failed full QP at this same
         ``state`` object and ``dt`` are reused (and a relaxed hard set it proved empty raises at once)."""
         t0 = perf_counter()
-        if reuse_assembly and self._assembled == (id(state), dt):
+        same_tick = reuse_assembly and self._assembled == (id(state), dt)
+        if same_tick:
             m = self._m
             H, g, A, b, C, l, u, lb, ub = (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                            self._lb, self._ub)
         else:
             H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
-        same_tick = reuse_assembly and self._assembled == (id(state), dt)
         reused = self.chain.relaxed_bounds
         if same_tick and reused is not None:
             l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
@@ -537,9 +522,10 @@ class InverseDynamicsQP:
         return sol
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Build and solve the QP at ``state`` for control period ``dt`` (s): the compiled tick, else
-        :attr:`chain`. The solution passes the output check (:meth:`verify`; :meth:`_guard_full` refines an answer off
-        by the solver's precision).
+        """Assemble the QP at ``state`` for control period ``dt`` (s) (:meth:`_assemble`), solve it by :attr:`chain`
+        (the compiled solver first, with ``solver="fast"``) and decode the answer (:meth:`solution_from`). The
+        solution passes the output check (:meth:`verify`; :meth:`_guard_full` refines an answer of the ladder off by
+        the solver's precision).
 
         Returns:
             :class:`IDSolution` (``path``, and ``reason`` when the compiled route did not answer).
@@ -553,26 +539,54 @@ class InverseDynamicsQP:
         self.last_violations = []
         self._assembled = None
         self.chain.begin_tick()
-        if self._kernel is not None:
-            return self._solve_kernel(state, dt)
         t0 = perf_counter()
-        qp = QPData(*self.build(state, dt))
+        qp, skip = self._assemble(state, dt)
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
-        return self._solve_general(state, dt, qp, t0, self._general_reason)
-
-    def _solve_general(self, state: DynamicsState, dt: float, qp: QPData, t0: float, why: str,
-                       answered=None) -> IDSolution:
-        """The assembled full QP ``qp`` through :attr:`chain` (route ``general``), its answer checked by
-        :meth:`_guard_full`; ``why`` the tick is not on the compiled route (its ``reason``, with the chain's step);
-        ``answered(x, solver)`` is called with the chain's answer before the check."""
         t1 = perf_counter()
-        x, solver, step = self.chain.solve(qp, lambda l, u, lb, ub: self._relaxed_set(state, dt, l, u, lb, ub))
-        if answered is not None:
-            answered(x, solver)
+        checked = []
+
+        def check(x):  # the compiled solver's answer stands when it passes the output check
+            checked.append(self.solution_from(state, x, timings={"assembly": t1 - t0}))
+            self.last_violations = viol = self.verify(state, checked[-1])
+            return f"kernel answer fails the output check ({viol[0][0]})" if viol else ""
+
+        x, solver, step = self.chain.solve(qp, lambda l, u, lb, ub: self._relaxed_set(state, dt, l, u, lb, ub),
+                                           check, skip)
+        if solver == CompiledIDSolver.name:
+            sol = checked[-1]
+            sol.timings["solve"] = perf_counter() - t1
+            sol.path = _KERNEL_PATH
+            return sol
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
         sol.path = TickPath("general", solver)
+        why = self.chain.compiled_reason or self._general_reason
         sol.reason = f"{why} → {solver} {step}" if why else ""
         return self._guard_full(state, sol, qp)
+
+    def _assemble(self, state: DynamicsState, dt: float) -> tuple[QPData, str]:
+        """The QP at ``state`` (views of the arrays): by the compiled assembly
+        (:class:`~wbc.formulations.id_compiled.CompiledIDAssembly`) when the QP has one, else by :meth:`build`; and
+        why the compiled solver is not asked ('' when it is): two or more active contacts whose rows are not
+        certified independent go to :meth:`build`, which drops their dependent directions."""
+        compiled = self._compiled
+        if compiled is None:
+            return QPData(*self.build(state, dt)), ""
+        rows = self._rows
+        rows.gather(self, state)
+        self._refresh_contact_rows()
+        extra = 0
+        if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
+            m0 = 6 + 6 * int(np.count_nonzero(rows.active))
+            extra = self._write_gathered(self._context(state, dt), m0) - m0
+        jl = self.joint_acceleration_limits
+        self.chain.compiled.max_iterations = self.kernel_max_iterations
+        m = compiled.assemble(rows, IDDynamics(state.M, state.h, state.q, state.v, dt),
+                              (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon), extra)
+        self.dependent_contact_rows = 0
+        if m == PROJECT_CONTACT_RHS:
+            return QPData(*self._build(state, dt, gathered=True)), "kernel: dependent contact rows"
+        self._m = m
+        return QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub), ""
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
@@ -627,60 +641,6 @@ class InverseDynamicsQP:
                                              relaxed)
         return [("non_finite_command", float("nan")), *self.nonfinite_inputs()] if found is None else found
 
-    def _solve_kernel(self, state: DynamicsState, dt: float) -> IDSolution:
-        """:meth:`solve` through the compiled tick (:class:`~wbc.formulations.id_compiled.CompiledIDTick`: the same
-        QP, compiled assembly and solve); a call that does not end in a KKT point within tolerance, or whose answer
-        fails :meth:`verify`, hands the assembled arrays to :attr:`chain`."""
-        t0 = perf_counter()
-        kb = self._kernel
-        rows = self._rows
-        rows.gather(self, state)
-        self._refresh_contact_rows()
-        extra = 0
-        if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
-            m0 = 6 + 6 * int(np.count_nonzero(rows.active))
-            extra = self._write_gathered(self._context(state, dt), m0) - m0
-        jl = self.joint_acceleration_limits
-        ta = perf_counter()
-        it, m = kb.solve(rows, IDDynamics(state.M, state.h, state.q, state.v, dt),
-                         (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon), extra,
-                         self.kernel_max_iterations)
-        self.dependent_contact_rows = 0
-        if it == PROJECT_CONTACT_RHS:  # dependent contact rows: the backend solves the QP of build, which drops them
-            kb.state[:] = 0
-            kb.rstate[:] = 0
-            qp = QPData(*self._build(state, dt, gathered=True))  # the rows gathered above
-            self._assembled = (id(state), dt)
-            return self._solve_general(state, dt, qp, t0, "kernel: dependent contact rows")
-        self._m = m
-        self._assembled = (id(state), dt)  # the kernel wrote the whole QP into the arrays (as build does)
-        t1 = perf_counter()
-        if it > 0 and kb.residual[0] <= self.backend.tolerance:
-            x = kb.x.copy()  # fresh arrays every tick (callers keep them): one copy, views of it
-            nv = self.nv
-            wrench = kb.wrench.copy()
-            sol = IDSolution(dv=x[:nv], forces=x[nv:], tau=kb.tau.copy(),
-                             wrenches={name: wrench[k] for k, name in enumerate(rows.names)},
-                             dynamics_residual=float(kb.residual[1]),
-                             timings={"assembly": ta - t0, "solve": t1 - ta}, path=_KERNEL_PATH)
-            self.last_violations = self.verify(state, sol)
-            if not self.last_violations:
-                kb.solves += 1
-                return sol
-            kb.rejected += 1  # the kernel's answer fails the output check: the backend solves the same QP
-            why = f"kernel answer fails the output check ({self.last_violations[0][0]})"
-        else:
-            why = kb.status_text(it, kb.residual[0])
-        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
-        self.chain.tick_work += kb.give_up() * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
-        qp = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub)
-
-        def warm(x, solver):  # the next call starts from the working set of the chain's answer
-            lam = getattr(self.backend, "last_multipliers", None) if solver == self.backend.name else None
-            kb.warm(x, lam, m, self._lb, self._ub)
-
-        return self._solve_general(state, dt, qp, t0, why, warm)
-
     def diagnose(self, state: DynamicsState, dt: float, *, include_relaxable: bool = True,
                  tol: float = 1e-6) -> list[tuple[str, float]]:
         """Names of the hard constraints that conflict at ``state`` with their violation (constraint units, at least
@@ -713,7 +673,11 @@ class InverseDynamicsQP:
         rows = self._rows
         tau = np.empty(nv - 6)
         wrench = np.empty((len(self.contacts), 6))
-        residual = id_command(state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        args = (state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
+        if self._id_command is None:  # a DynamicsState's and the buffers' types are fixed (wbc.compiled.specialise;
+            # with kernel type checks on, the dispatcher, which resolves them on every call)
+            self._id_command = id_command if CHECK_TYPES else specialise(id_command, *args)
+        residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
         return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
                           timings=timings or {})

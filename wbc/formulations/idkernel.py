@@ -1,10 +1,10 @@
-"""Compiled tick of the inverse-dynamics QP: assembly of every block, the exact active-set solve and the torques
-in one numba call (the ``fast`` solver of :class:`~wbc.formulations.acceleration.InverseDynamicsQP`).
+"""Compiled assembly of the inverse-dynamics QP (the ``fast`` route of
+:class:`~wbc.formulations.acceleration.InverseDynamicsQP`), and the torques of a solution.
 
-The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies: :func:`id_tick` is
-:func:`id_assemble` — the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
+The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies:
+:func:`id_assemble` writes the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
 :mod:`wbc.constraints` that the constraints' ``write`` call on the general path
-(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`) —, then the solve and the torques. From Python
+(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`). From Python
 come the stacked task rows gathered for both paths: per row J (dense rows, stacked) or its v index (posture rows)
 and the numbers e, ė_ff, J̇v, ä_ff, Kp, Kd, w of its reference (eq. 1 of :mod:`wbc.formulations.reference`); M, h;
 the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The assembly forms
@@ -15,35 +15,8 @@ the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; 
 
 into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
 force bounds (8) — are already there, written by their constraints), bitwise the arrays :meth:`build` writes at the
-same state (``tests/formulations/test_formulations_acceleration.py``). The solver returns its exact optimum (KKT
-conditions checked), and any call that does not end in one is handed back to the formulation's DAQP fallback by the
-caller, on the same arrays.
-
-Structure used before the general solve (:func:`_equality_step`): H = blockdiag(H_vv, ε_f I). The bounds held
-at the previous tick's optimum (its working set: e.g. standing Talos holds a gripper joint on its acceleration
-bound every tick) are held again, and the optimum of the equality-constrained QP over the other variables
-(forces of inactive contacts are fixed by lb = ub = 0) is solved by the range-space method on the blocks (Nocedal
-& Wright 2006, *Numerical Optimization*, §16.2, eq. 16.16), F the free accelerations, X the held variables:
-
-    L Lᵀ = H_FF,  t = L⁻¹ (g_F + H_FX x_X),  Y = L⁻¹ A_Fᵀ,  S = Yᵀ Y + A_f D⁻¹ A_fᵀ  (D = ε_f I on the free forces),
-    S ν = −(b − A_X x_X + A_f D⁻¹ g_f + Yᵀ t),   x_F = −L⁻ᵀ (t + Y ν),   x_f = −D⁻¹ (g_f + A_fᵀ ν),
-
-a ≤ 38 × 38 Cholesky for Talos instead of a 62 × 62 one. If that x satisfies every bound and row (to 1e-12) and
-every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i is ≥ 0 (σ_i = −1 at lb, +1 at ub), every KKT
-condition of the full QP holds and x is its (unique) optimum. When it fails on one bound — the most violated free
-variable, else the held bound with the most negative multiplier — that bound enters (or leaves) the working set and
-the step runs once more (a bound that alternates between ticks, as one joint's acceleration bound does while the
-robot sways, costs two equality steps; the answer is checked as before). Otherwise the Goldfarb–Idnani dual active
-set (:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`,
-warm-started from the previous tick's working set) takes over.
-
-Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
-dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
-``daqp`` ID default) stops ≈ 3e-7 from that optimum. Where H_vv is ill-conditioned (a base or joint direction that no
-task weighs, held by ε_a alone: condition number κ ~ 1e8) the Cholesky factor of H_FF loses as many digits, and v̇
-parts from quadprog's by ~κ · 1e-16 relative along that direction. Closed-loop trajectories of two exact solvers still part
-after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against
-itself), so solvers are compared tick by tick at the same state (``tests/formulations/test_idkernel.py``).
+same state (``tests/formulations/test_formulations_acceleration.py``). The formulation hands them to its fallback
+chain, whose first rung is the compiled exact solver :class:`~wbc.solvers.compiled_id.CompiledIDSolver`.
 """
 
 from __future__ import annotations
@@ -59,16 +32,13 @@ from wbc.constraints.floating_base import contact_force_columns, floating_base_r
 from wbc.constraints.joint_acceleration_bounds import joint_bounds_kernel
 from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
-from wbc.solvers.active_set import BlockSpace, dual_active_set
-from wbc.solvers.box_eq import clip_eq_residual
-from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve, carve2, cholesky_lower,
-                                forward_substitution, primal_from_multipliers, weighted_normal_equations)
+from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
-__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "id_tick", "id_workspace", "load_id_kernels",
-           "id_tick_buffers", "output_violations", "tick_outputs", "contact_views", "task_cost", "PROJECT_CONTACT_RHS",
-           "IDTaskRows", "IDDynamics", "IDContactData", "IDLimits", "IDArrays", "IDTickBuffers"]
+__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
+           "output_violations", "contact_views", "task_cost", "PROJECT_CONTACT_RHS", "IDTaskRows", "IDDynamics",
+           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork"]
 
-#: the workspaces of :func:`id_tick`, one namedtuple per group of its arguments (numba takes them as tuples):
+#: the arguments of :func:`id_assemble`, one namedtuple per group of its arguments (numba takes them as tuples):
 #: the stacked task rows of :func:`task_cost`
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
 #: the state's dynamics, (q, v) and the control period dt (s)
@@ -79,164 +49,8 @@ IDContactData = namedtuple("IDContactData", "cbuf active")
 IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
 #: the formulation's QP arrays, written in place
 IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
-#: the buffers of :func:`id_tick_buffers`
-IDTickBuffers = namedtuple("IDTickBuffers", "ws_s ws_f ws_i ws_b out")
-
-
-#: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
-#: dependent on it (the ID tick's :func:`~wbc.solvers.active_set.dual_active_set`)
-DEPENDENCE_TOL = 1e-10
-#: violation (constraint units: m/s², N, N·m) beyond which a bound or row enters the working set (the same solve)
-PRIMAL_TOL = 1e-11
-#: largest constraint violation (m/s², N, N·m) of the solve's final KKT check (the same solve)
-VERIFY_TOL = 1e-9
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, S, t, nu, tol, dinv, fnz, vfree,
-                   xv, bx):
-    """The optimum of a working set of bounds (``state``; module docstring), written into x: the variables
-    with ``state`` ≠ 0 (and the forces with lb = ub) held on their bound, the equality-constrained QP solved over
-    the others. Returns (residual, i, side): residual the largest equality residual, or −1 — ``state`` untouched —
-    when that x is not the optimum of the full QP or the step does not apply: a working inequality row
-    (``rstate`` ≠ 0), a joint variable with lb = ub, H_FF or S not positive definite, a free variable or a row
-    violated by more than ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative.
-    On a failure that one bound explains, (i, side) is the working-set change it points to: the most violated
-    free variable (side −1: held at lb, +1: at ub) when no row is checked yet, else the held bound with the most
-    negative multiplier (side 0: released); otherwise i = −1. dinv (n,), fnz (≥ m,) bool, vfree (nv,) int,
-    xv (nv,), bx (≥ m,): workspace."""
-    n = H.shape[0]
-    for r in range(rstate.size):
-        if rstate[r] != 0:
-            return -1.0, -1, 0
-    nfv = 0
-    for i in range(nv):
-        if lb[i] == ub[i]:
-            return -1.0, -1, 0
-        s = state[i]
-        if s == 0:
-            vfree[nfv] = i
-            nfv += 1
-        else:
-            bound = lb[i] if s < 0 else ub[i]
-            if not np.isfinite(bound):
-                return -1.0, -1, 0
-            x[i] = bound
-    for f in range(nv, n):
-        if lb[f] == ub[f] or state[f] != 0:
-            bound = ub[f] if (state[f] > 0 and lb[f] != ub[f]) else lb[f]
-            if not np.isfinite(bound):
-                return -1.0, -1, 0
-            x[f] = bound
-            dinv[f] = 0.0
-        else:
-            dinv[f] = 1.0 / H[f, f]
-    held = nfv < nv
-    for a in range(nfv):
-        i = vfree[a]
-        s = g[i]
-        if held:
-            for j in range(nv):
-                if state[j] != 0:
-                    s += H[i, j] * x[j]
-        t[a] = s
-        for c in range(a + 1):
-            L[a, c] = H[i, vfree[c]]
-    if not cholesky_lower(L, nfv):
-        return -1.0, -1, 0
-    forward_substitution(L, nfv, t)
-    for k in range(m):
-        Ak = A[k]
-        y = Yt[k]
-        for a in range(nfv):
-            y[a] = Ak[vfree[a]]
-        acc = b[k]
-        if held:
-            for j in range(nv):
-                if state[j] != 0:
-                    acc -= Ak[j] * x[j]
-        nz = False
-        for f in range(nv, n):
-            if dinv[f] == 0.0:
-                acc -= Ak[f] * x[f]
-            elif Ak[f] != 0.0:
-                nz = True
-                acc += Ak[f] * g[f] * dinv[f]
-        fnz[k] = nz
-        bx[k] = acc
-    # Y = L⁻¹ A_Fᵀ: the m forward substitutions together, row i of L once for every k (measured 2× faster than
-    # one substitution per row)
-    for i in range(nfv):
-        d = 1.0 / L[i, i]
-        for k in range(m):
-            acc = Yt[k, i]
-            for p in range(i):
-                acc -= L[i, p] * Yt[k, p]
-            Yt[k, i] = acc * d
-    for k in range(m):
-        Ak = A[k]
-        Yk = Yt[k]
-        for c in range(k + 1):
-            Yc = Yt[c]
-            acc = 0.0
-            for a in range(nfv):
-                acc += Yk[a] * Yc[a]
-            if fnz[k] and fnz[c]:
-                Ac = A[c]
-                for f in range(nv, n):
-                    acc += Ak[f] * Ac[f] * dinv[f]
-            S[k, c] = acc
-        acc = bx[k]
-        for a in range(nfv):
-            acc += Yk[a] * t[a]
-        nu[k] = -acc
-    if not cholesky_lower(S, m):
-        return -1.0, -1, 0
-    forward_substitution(S, m, nu)
-    backward_substitution(S, m, nu)
-    primal_from_multipliers(L, nfv, t, Yt, nu, m, xv)
-    for a in range(nfv):
-        x[vfree[a]] = xv[a]
-    for f in range(nv, n):
-        if dinv[f] != 0.0:
-            s = g[f]
-            for k in range(m):
-                if fnz[k]:
-                    s += A[k, f] * nu[k]
-            x[f] = -s * dinv[f]
-    # primal feasibility of the free variables and of every row
-    worst = tol
-    wi = -1
-    ws = 0
-    for i in range(n):
-        if state[i] == 0 and lb[i] != ub[i]:
-            if lb[i] - x[i] > worst:
-                worst, wi, ws = lb[i] - x[i], i, -1
-            elif x[i] - ub[i] > worst:
-                worst, wi, ws = x[i] - ub[i], i, 1
-    if wi >= 0:
-        return -1.0, wi, ws
-    for r in range(C.shape[0]):
-        acc = 0.0
-        Cr = C[r]
-        for j in range(n):
-            acc += Cr[j] * x[j]
-        if acc < l[r] - tol or acc > u[r] + tol:
-            return -1.0, -1, 0
-    # dual feasibility of the held bounds
-    worst = 0.0
-    wi = -1
-    for i in range(n):
-        if state[i] == 0 or lb[i] == ub[i]:
-            continue
-        s = block_cost_gradient(H, g, x, i, nv)
-        for k in range(m):
-            s += A[k, i] * nu[k]
-        if -state[i] * s < worst:
-            worst, wi = -state[i] * s, i
-    if wi >= 0:
-        return -1.0, wi, 0
-    return clip_eq_residual(x, lb, ub, A, b, n, m), -1, 0
+#: the assembly's workspace (:func:`id_assemble`)
+IDAssemblyWork = namedtuple("IDAssemblyWork", "Hw gw gram gram_y jlo jhi")
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -293,47 +107,11 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     return 1.0 / tinv >= ratio * ratio * tr
 
 
-def id_workspace(n: int, nv: int, p: int, w: int) -> tuple:
-    """Workspace of the ID tick's :func:`~wbc.solvers.active_set.dual_active_set` on a
-    :class:`~wbc.solvers.active_set.BlockSpace` (and of the block equality step) for n variables, nv accelerations, p
-    inequality rows and up to w working rows: (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb,
-    lam_b, lam_r, ra, rc, dx, drho, out), the ``ws_*`` arguments of :func:`id_tick` in order."""
-    return (np.empty(w, np.int64), np.zeros((w, nv)), np.empty((w, w)), np.empty((nv, nv)), np.empty(nv),
-            np.zeros(w), np.zeros(w), np.zeros(w, np.bool_), np.empty(nv, np.int64), np.empty(max(n - nv, 1), np.int64),
-            np.zeros(3, np.int64), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(p),
-            np.zeros(n), np.zeros(w), np.zeros(n), np.zeros(w), np.zeros(3))
-
-
-def id_tick_buffers(n: int, nv: int, p: int, nc: int, k: int, me: int | None = None) -> tuple[np.ndarray, ...]:
-    """The solver state, outputs and workspace of :func:`id_tick` for n variables, nv accelerations, p inequality
-    rows, nc contacts, k joint-bounded joints and up to ``me`` equality rows (default 6 + 6 nc; more with the
-    formulation's gathered equality rows, ``par[PAR_EXTRA_ROWS]``), as five zeroed flat buffers (:func:`_carve_tick`,
-    a handful of arguments to unbox per call instead of thirty):
-
-    * ``ws_s`` int8 (n + p,): the working set, ``state`` (n,) then ``rstate`` (p,);
-    * ``ws_f`` float64: the arrays of :func:`id_workspace` (w = me + p working rows) that are float, then
-      jlo, jhi (k,), nu (me,), mu (p,), gram (6 nc, 6 nc), gram_y (6 nc,);
-    * ``ws_i`` int64 and ``ws_b`` bool (w,): the integer and boolean arrays of :func:`id_workspace`;
-    * ``out`` float64: residual (2,), tau (nv − 6,), wrench (nc, 6), x (n,) — the outputs the caller reads.
-    """
-    me = 6 + 6 * nc if me is None else me
-    w = me + p
-    nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3
-    nf += 2 * k + me + p + 36 * nc * nc + 6 * nc
-    return (np.zeros(n + p, np.int8), np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64),
-            np.zeros(w, np.bool_), np.zeros(2 + nv - 6 + 6 * nc + n))
-
-
-def tick_outputs(out: np.ndarray, nv: int, nc: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(residual (2,), tau (nv − 6,), wrench (nc, 6), x) views of :func:`id_tick_buffers`' ``out`` buffer."""
-    return out[:2], out[2:nv - 4], out[nv - 4:nv - 4 + 6 * nc].reshape(nc, 6), out[nv - 4 + 6 * nc:]
-
-
 @nb.njit(cache=True, nogil=True, inline="always")
 def contact_views(cbuf, nc, nv):
-    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of :func:`id_tick`
+    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of :func:`id_assemble`
     as C-ordered disjoint views of one float64 buffer cbuf (nc (6 nv + 88),), in that order. Compiled (inlined in
-    :func:`id_tick`) and callable from Python alike."""
+    :func:`id_assemble`) and callable from Python alike."""
     o = 6 * nv * nc
     Jc = cbuf[0:o].reshape((nc, 6, nv))
     Gc = cbuf[o:o + 72 * nc].reshape((nc, 6, 12))
@@ -346,53 +124,13 @@ def contact_views(cbuf, nc, nv):
     return Jc, Gc, Rc, cdrift, ckd
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
-def _carve_tick(ws_s, wf, wi, wb, out, n, nv, p, nc, k):
-    """The arrays of :func:`id_tick_buffers` (same shapes, C order, disjoint views): (state, rstate, residual, tau,
-    wrench, x, jlo, jhi, nu, mu, gram, gram_y, the arrays of :func:`id_workspace` in its order)."""
-    w = wb.shape[0]
-    state = ws_s[0:n]
-    rstate = ws_s[n:n + p]
-    residual = out[0:2]
-    tau = out[2:nv - 4]
-    wrench = out[nv - 4:nv - 4 + 6 * nc].reshape((nc, 6))
-    x = out[nv - 4 + 6 * nc:nv - 4 + 6 * nc + n]
-    Yv, o = carve2(wf, 0, w, nv)
-    S, o = carve2(wf, o, w, w)
-    L, o = carve2(wf, o, nv, nv)
-    tv, o = carve(wf, o, nv)
-    rows_w, o = carve2(wf, o, 2, w)  # c, nuw
-    c, nuw = rows_w[0], rows_w[1]
-    rows_n, o = carve2(wf, o, 5, n)  # a, z, npv, rb, lam_b
-    a, z, npv, rb, lam_b = rows_n[0], rows_n[1], rows_n[2], rows_n[3], rows_n[4]
-    lam_r, o = carve(wf, o, p)
-    ra, o = carve(wf, o, n)
-    rc, o = carve(wf, o, w)
-    dx, o = carve(wf, o, n)
-    drho, o = carve(wf, o, w)
-    wout, o = carve(wf, o, 3)
-    bounds, o = carve2(wf, o, 2, k)  # jlo, jhi
-    jlo, jhi = bounds[0], bounds[1]
-    nu, o = carve(wf, o, w - p)  # the equality rows' multipliers
-    mu, o = carve(wf, o, p)
-    gram, o = carve2(wf, o, 6 * nc, 6 * nc)
-    gram_y = wf[o:o + 6 * nc]
-    nff = wi.shape[0] - w - nv - 3
-    rows = wi[0:w]
-    vfree = wi[w:w + nv]
-    ffree = wi[w + nv:w + nv + nff]
-    fac = wi[w + nv + nff:w + nv + nff + 3]
-    return (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y,
-            (rows, Yv, S, L, tv, c, nuw, wb, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho, wout))
-
-
-#: :func:`id_assemble` / :func:`id_tick` exit code: two or more active contacts whose stacked rows are not certified
+#: :func:`id_assemble` exit code: two or more active contacts whose stacked rows are not certified
 #: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
 #: drops the dependent directions (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`).
 PROJECT_CONTACT_RHS = -10
 
-#: entries of :func:`id_tick`'s ``par`` vector
-PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_MAX_ITER, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON, PAR_EXTRA_ROWS = range(7)
+#: entries of :func:`id_assemble`'s ``par`` vector
+PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON, PAR_EXTRA_ROWS = range(6)
 #: rows of the ``R`` array of :func:`task_cost` (one column per task row)
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
@@ -472,39 +210,54 @@ def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
     return worst
 
 
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
-def id_assemble(tasks, contacts, dynamics, limits, qp, work):
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
     :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
     cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.floating_base.contact_force_columns`), eq. 4
     (:func:`~wbc.constraints.floating_base.floating_base_rows`), eq. 5 of each active contact
     (:func:`~wbc.constraints.contact_acceleration.contact_acceleration_rows`), eq. 6
     (:func:`~wbc.constraints.torque_limits.torque_limit_rows`) and eq. 9
-    (:func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant
-    blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints; so are the
-    gathered rows of its other constraints (hard tasks and added equalities: ``par[PAR_EXTRA_ROWS]`` rows of A after
-    the active contacts'; added inequalities: their rows of C), written before the call. Inlined into
-    :func:`id_tick` (its arguments grouped in tuples: numba inlines no call with that many arguments).
+    (:func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The
+    constant blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints; so are
+    the gathered rows of its other constraints (hard tasks and added equalities: ``par[PAR_EXTRA_ROWS]`` rows of A
+    after the active contacts'; added inequalities: their rows of C), written before the call.
 
-    Args (the arrays of :func:`id_tick`, grouped):
-        tasks: (Jt, R, pidx, rt). contacts: (Jc, Gc, cdrift, ckd, active). dynamics: (M, h, q, v, dt).
-        limits: (vrows, lim, par, iq, iv, qmin, qmax, vmax). qp: (H, g, A, b, C, l, u, lb, ub, JcT), out.
-        work: (Hw (nv, nv), gw (nv,): :func:`task_cost`; gram, gram_y: :func:`contact_rows_well_conditioned`;
-        jlo, jhi (k,): joint bounds).
+    Args (namedtuples, the fields below):
+        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
+            of :func:`task_cost`.
+        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
+            control period (s).
+        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv),
+            Gc (nc, 6, 12), LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world ← sole);
+            cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,)
+            bool.
+        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the
+            torque-limited joints, then the q and v indices of the joint-bounded ones; lim (nt,): their torque limits
+            (N·m). par (6,): ε_a, a_brk, joint limits on (≠ 0), contact conditioning ratio, speed horizon in ticks,
+            gathered equality rows written after the active contacts' (``PAR_*``). qmin, qmax, vmax (k,): joint-limit
+            data (eq. 9).
+        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has
+            room for every contact).
+        work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,): :func:`task_cost`; gram (6 nc, 6 nc), gram_y (6 nc,):
+            :func:`contact_rows_well_conditioned`; jlo, jhi (k,): joint bounds.
 
     Returns:
         m, the number of equality rows (6 + 6 per active contact + ``par[PAR_EXTRA_ROWS]``), or PROJECT_CONTACT_RHS
-        when two or more
-        active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`; the torque rows
-        and bounds are then not written).
+        when two or more active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`;
+        the torque rows and bounds are then not written).
     """
     Jt, R, pidx, rt = tasks
-    Jc, Gc, cdrift, ckd, active = contacts
     M, h, q, v, dt = dynamics
-    vrows, lim, par, iq, iv, qmin, qmax, vmax = limits
+    cbuf, active = contacts
+    idx, lim, par, qmin, qmax, vmax = limits
+    nv = M.shape[0]
+    Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
+    nt = lim.shape[0]
+    k = qmin.shape[0]
+    vrows, iq, iv = idx[0:nt], idx[nt:nt + k], idx[nt + k:nt + 2 * k]
     H, g, A, b, C, l, u, lb, ub, JcT = qp
     Hw, gw, gram, gram_y, jlo, jhi = work
-    nv = M.shape[0]
     nc = Jc.shape[0]
     task_cost(Jt, R, pidx, rt, v, par[PAR_EPS_A], Hw, gw, H, g)
     for c in range(nc):
@@ -524,90 +277,6 @@ def id_assemble(tasks, contacts, dynamics, limits, qp, work):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
     return m + int(par[PAR_EXTRA_ROWS])
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_tick(tasks, dynamics, contacts, limits, qp, buffers):
-    """One ID tick (module docstring): :func:`id_assemble`, then the solve (:func:`_equality_step`, else
-    :func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`), the
-    torques and the wrenches.
-
-    Args (namedtuples, the fields below):
-        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
-            of :func:`task_cost`.
-        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
-            control period (s).
-        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv), Gc (nc, 6, 12), LOCAL sole Jacobians and
-            corner maps; Rc (nc, 3, 3): sole rotations (world ← sole); cdrift (nc, 6), ckd (nc,): eq. 5 right-hand
-            side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,) bool.
-        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited joints, then the q and v
-            indices of the joint-bounded ones; lim (nt,): their torque limits (N·m). par (7,): ε_a, a_brk, joint
-            limits on (≠ 0), iteration cap, contact conditioning ratio, speed horizon in ticks, gathered equality rows
-            written after the active contacts' (``PAR_*``). qmin,
-            qmax, vmax (k,): joint-limit data (eq. 9).
-        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has room for every
-            contact).
-        buffers (:data:`IDTickBuffers`): ws_s, ws_f, ws_i, ws_b, out: the buffers of :func:`id_tick_buffers`: the working set (state, rstate; read
-            as the warm start, written), the solve's workspace (the arrays of :func:`id_workspace` — its L and tv
-            are also the workspace of :func:`task_cost`, warm in cache for the solve that reuses them —, the joint
-            bounds jlo, jhi, the equality step's multipliers nu, the workspace gram, gram_y of
-            :func:`contact_rows_well_conditioned`), and the outputs (:func:`tick_outputs`): residual (2,), the
-            largest constraint violation of x, then ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (eq. 1's unactuated rows); tau
-            (nv − 6,), eq. 2; wrench (nc, 6), each sole's wrench G_k f_k at its origin in world axes (N, N·m), zero
-            for an inactive contact; x (n,), the solution.
-
-    Returns:
-        (kernel iterations — 1: the equality step; 2: the step after one working-set change, when the cap
-        ``par[PAR_MAX_ITER]`` is ≥ 2; else the dual active set's steps; negative: exit code of the solve, or
-        PROJECT_CONTACT_RHS —, number of equality rows m).
-    """
-    Jt, R, pidx, rt = tasks
-    M, h, q, v, dt = dynamics
-    cbuf, active = contacts
-    idx, lim, par, qmin, qmax, vmax = limits
-    H, g, A, b, C, l, u, lb, ub, JcT = qp
-    ws_s, ws_f, ws_i, ws_b, out = buffers
-    nv = M.shape[0]
-    Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
-    nt = lim.shape[0]
-    k = qmin.shape[0]
-    vrows = idx[0:nt]
-    iq = idx[nt:nt + k]
-    iv = idx[nt + k:nt + 2 * k]
-    (state, rstate, residual, tau, wrench, x, jlo, jhi, nu, mu, gram, gram_y, ws) = _carve_tick(
-        ws_s, ws_f, ws_i, ws_b, out, H.shape[0], nv, C.shape[0], Jc.shape[0], k)
-    (ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
-     ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = ws
-    m = id_assemble((Jt, R, pidx, rt), (Jc, Gc, cdrift, ckd, active), (M, h, q, v, dt),
-                    (vrows, lim, par, iq, iv, qmin, qmax, vmax), (H, g, A, b, C, l, u, lb, ub, JcT),
-                    (ws_L, ws_tv, gram, gram_y, jlo, jhi))
-    if m < 0:
-        return m, 0
-    res, i, side = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv,
-                                  nu, 1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
-    it = 1
-    if res < 0.0 and i >= 0 and int(par[PAR_MAX_ITER]) >= 2:
-        # one working-set change (a bound entering or leaving), the step again: a bound that alternates between
-        # ticks costs a second equality step instead of the general solve
-        held = state[i]
-        state[i] = side
-        res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu,
-                             1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)[0]
-        it = 2
-        if res < 0.0:
-            state[i] = held  # the general solve starts from the previous tick's working set
-    if res >= 0.0:
-        residual[0] = res
-    else:
-        space = BlockSpace(nv, ws_rows, ws_Yv, ws_S, ws_L, ws_vfree, ws_ffree, ws_vrow, ws_fac, ws_a, ws_c, ws_tv,
-                           ws_ra, ws_rc, ws_dx, ws_drho, ws_npv, ws_nuw, DEPENDENCE_TOL)
-        it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, ws_lam_b, ws_lam_r,
-                             ws_z, ws_rb, int(par[PAR_MAX_ITER]), PRIMAL_TOL, 0.0, DEPENDENCE_TOL, 0.0, True, True, 1,
-                             VERIFY_TOL, ws_out)
-        residual[0] = ws_out[0]
-    if it > 0:
-        residual[1] = id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench)
-    return it, m
 
 
 @nb.njit(cache=True, nogil=True)

@@ -18,7 +18,7 @@ by the type of the ``space`` argument (numba compiles one specialisation per typ
   L Lᵀ = H_vv on the free accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur
   complement of the working rows (range-space method, Nocedal & Wright 2006, *Numerical Optimization*, §16.2);
   each equality-constrained optimum gets two steps of iterative refinement (the Schur complement carries
-  D⁻¹ = 1/ε_f; :mod:`wbc.solvers.active_set_block`). Used by :func:`wbc.formulations.idkernel.id_tick`.
+  D⁻¹ = 1/ε_f; :mod:`wbc.solvers.active_set_block`). Used by :func:`wbc.solvers.compiled_id.id_solve`.
 
 A constraint linearly dependent on the working set (z = 0: self-collision rows of the thighs that the contacts fix,
 nearly parallel; a sole corner with f_z = 0 whose friction-pyramid rows and bound are dependent) only drops working

@@ -1,8 +1,10 @@
 """The fallback ladder of a QP (:class:`FallbackChain`): which solver is asked after which, and under what rules.
 
-A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its backend and, when
-the backend finds no solution, the next steps in order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that
-names the solver and the step that answered. For a DAQP backend (``daqp``, and ``fast``, whose fallback is DAQP):
+A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its first rung, the
+compiled solver when it has one (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`, ``fast``: its answer stands
+when the caller's check accepts it), then its backend and, when the backend finds no solution, the next steps in
+order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that names the solver and the step that answered. For
+a DAQP backend (``daqp``, and ``fast``, whose backend is DAQP):
 
 1. the **attempt**: one DAQP call (cold retry off), its iterations capped by the tick's budget;
 2. the **hard-set checks**: one DAQP call on the projection of the origin onto the hard set (and onto the relaxed hard
@@ -35,6 +37,7 @@ import numpy as np
 
 from wbc.exceptions import SolverError
 from wbc.solvers.base import QPBackend
+from wbc.solvers.compiled_id import KERNEL_ITERATION_COST, CompiledIDSolver
 from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
                               DaqpBackend)
 from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
@@ -104,8 +107,9 @@ class FallbackChain:
     """The fallback ladder (module docstring) over one backend, with its per-tick budget and counters.
 
     Args:
-        backend: the backend asked first (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
+        backend: the backend of the ladder (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
             method; its failure then stands).
+        compiled: the compiled solver asked before it (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`), or None.
 
     Attributes (the tick's budget, set by the controller):
         tick_work_iterations: the tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``).
@@ -117,6 +121,7 @@ class FallbackChain:
         budget_cut: the counted work or the clock cut a step. hard_set_point: a check found a point of the full hard
         set, ``hard_set_x`` (n,). relaxed_set_feasible: the relaxed hard set's verdict (True, False, None: not
         checked). relaxed_bounds: (l, u, lb, ub) of the relaxed QP formed by that check, else None.
+        compiled_reason: why the compiled solver did not answer the last full QP ('' when it did, or there is none).
 
     Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
     ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
@@ -124,8 +129,10 @@ class FallbackChain:
     ``relaxed_infeasible_by_check``.
     """
 
-    def __init__(self, backend):
+    def __init__(self, backend, compiled: CompiledIDSolver | None = None):
         self.backend = backend
+        self.compiled = compiled
+        self.compiled_reason = ""
         #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
         #: failure; False by default: it costs many control periods and belongs off the control path
         self.confirm_failures = False
@@ -206,13 +213,11 @@ class FallbackChain:
     RETRY_CALLS = 4
 
     def _counting(self) -> bool:
-        """The tick's stages are stopped by its counted work (:attr:`tick_work`): no clock guard, a finite
-        :attr:`tick_work_iterations`."""
+        """The tick's stages are stopped by its counted work: no clock guard, a finite :attr:`tick_work_iterations`."""
         return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
 
     def _work_left(self, factor: float) -> float:
-        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` × :attr:`tick_work_iterations`
-        (``math.inf`` when nothing is counted)."""
+        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` budgets (``math.inf``: nothing counted)."""
         return factor * self.tick_work_iterations - self.tick_work
 
     def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
@@ -239,14 +244,12 @@ class FallbackChain:
         return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
 
     def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations: its iterations, its proximal outer
-        iterations past ``proximal`` at :data:`PROXIMAL_ITERATION_WORK` each, and :data:`DAQP_CALL_WORK`."""
+        """Work of the backend's last DAQP call(s) in DAQP iterations: iterations, proximal ones, the call's own."""
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
     def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the retries with each call capped at ``calls``: ``RETRY_CALLS`` × (``calls`` +
-        :data:`DAQP_CALL_WORK`), plus the proximal outer iterations past ``proximal``."""
+        """Work counted for the retries, each call capped at ``calls``, and proximal iterations past ``proximal``."""
         return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
                 + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
@@ -269,15 +272,9 @@ class FallbackChain:
         return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
 
     def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """The relaxed QP by a DAQP backend: one attempt; on failure the relaxed hard set is checked (unless the
-        full QP's failure checked it to a verdict): empty, the solve ends; otherwise the backend's retries, then, on a
-        set with a point, quadprog (pinned variables and equalities eliminated). The calls end by
-        ``RELAXED_DEADLINE`` budgets (clock guard) or within ``RELAXED_WORK`` budgets of counted work.
-
-        Raises:
-            SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a
-                call stopped at the tick's deadline).
-        """
+        """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
+        SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a call
+        stopped at the tick's deadline)."""
         backend = self.backend
         end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
         counting = self._counting()
@@ -365,14 +362,42 @@ class FallbackChain:
         raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
                           f"the relaxed hard-set check and the backend's retries)")
 
-    def solve(self, qp: QPData, relax: Callable | None = None) -> QPSolution:
-        """The full QP ``qp`` through the ladder (module docstring); after a tick whose counted work cut a QP whose
-        hard set has a point (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits.
-        ``relax(l, u, lb, ub)`` returns copies of the bounds of the relaxed QP (for the check of its hard set).
+    def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
+              skip_compiled: str = "") -> QPSolution:
+        """The full QP ``qp``: the compiled solver first (when the chain has one, unless ``skip_compiled`` gives why
+        not), its answer returned when ``check(x)`` (the caller's output check) returns ''; else that text or its
+        failure is :attr:`compiled_reason`, its cap is counted in :attr:`tick_work`, and the ladder's answer
+        (:meth:`_ladder`) warm-starts its next call. ``relax(l, u, lb, ub)``: copies of the relaxed QP's bounds (for
+        the check of its hard set). Raises SolverError: no step found a solution (the message says why)."""
+        compiled = self.compiled
+        self.compiled_reason = ""
+        if compiled is None:
+            return self._ladder(qp, relax)
+        if skip_compiled:
+            compiled.clear()
+            self.compiled_reason = skip_compiled
+            return self._ladder(qp, relax)
+        compiled.tolerance = self.backend.tolerance
+        try:
+            sol = compiled.solve(qp)
+            why = check(sol.x) if check is not None else ""
+            if not why:
+                compiled.solves += 1
+                return sol
+            compiled.rejected += 1
+        except SolverError as exc:
+            why = str(exc)
+        self.compiled_reason = why
+        # the compiled call's work: its iteration cap at its per-iteration cost, in DAQP iterations
+        self.tick_work += compiled.give_up() * KERNEL_ITERATION_COST / DAQP_ITERATION_COST
+        sol = self._ladder(qp, relax)
+        backend = self.backend  # the next compiled call starts from the working set of the ladder's answer
+        compiled.warm(sol.x, getattr(backend, "last_multipliers", None) if sol.solver == backend.name else None, qp)
+        return sol
 
-        Raises:
-            SolverError: no step found a solution (the message says why the ladder ended).
-        """
+    def _ladder(self, qp: QPData, relax: Callable | None) -> QPSolution:
+        """The ladder (module docstring); after a tick whose counted work cut a QP whose hard set has a point
+        (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits. Raises SolverError."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
@@ -396,9 +421,8 @@ class FallbackChain:
 
     def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
-        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` × :attr:`daqp_attempt_iterations`
-        iterations (an ill-scaled cost, |g| ~ 1e6, stays so over the next ticks). Its checked x, or None (and
-        :attr:`resume_scaled` cleared)."""
+        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` ×
+        :attr:`daqp_attempt_iterations` iterations. Its checked x, or None (and :attr:`resume_scaled` cleared)."""
         proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
         x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
@@ -410,16 +434,10 @@ class FallbackChain:
         return x
 
     def _stages(self, H, g, A, b, C, l, u, lb, ub, relax: Callable | None) -> QPSolution:
-        """The ladder of the module docstring on the full QP (docs/inverse-dynamics-controller.md, "The fallback
-        chain": the order, and why each step is there). Without a clock guard every step after the attempt is counted
-        in :attr:`tick_work` against ``FAILURE_WORK`` (quadprog: ``QUADPROG_WORK``) budgets; with one
-        (:attr:`tick_clock`) the steps are ordered by cost and started only before their deadlines (``*_DEADLINE``,
-        ``*_END``), the hard-set check first unless the attempt stopped at its deadline. ``relax`` forms the relaxed
-        bounds for the check of the relaxed hard set (None: not checked).
-
-        Raises:
-            SolverError: the backend's, extended with why the ladder ended, when no step found a solution.
-        """
+        """The ladder of the module docstring on the full QP; ``relax`` forms the relaxed bounds for the check of the
+        relaxed hard set (None: not checked). The order, the counted work and the clock guard's deadlines:
+        docs/inverse-dynamics-controller.md, "The fallback chain". Raises SolverError: the backend's, extended with
+        why the ladder ended, when no step found a solution."""
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
@@ -575,16 +593,10 @@ class FallbackChain:
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
                          relax: Callable | None, full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP without a clock guard: the full hard set first (a point
-        found: the relaxed set is not checked), else, given ``relax``, the relaxed hard set. ``checked``: the full set
-        was checked already this tick, its verdict ``full``. A set proved empty sets :attr:`last_set_empty`.
-
-        Returns:
-            True when a point of the full hard set was found, else False (not proved empty).
-
-        Raises:
-            SolverError: ``first`` extended, when a set is proved empty (quadprog and the retries could only fail).
-        """
+        """The hard-set checks of a failed full QP without a clock guard: the full set (unless ``checked``: its
+        verdict ``full``), then, not found to have a point and given ``relax``, the relaxed set. A set proved empty
+        sets :attr:`last_set_empty` and raises SolverError (``first`` extended). Returns True when a point of the full
+        hard set was found, else False."""
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
         if full is True:
@@ -634,16 +646,10 @@ class FallbackChain:
         return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP (e.g. ProxQP) on the QP (full or relaxed); when a
-        :class:`~wbc.solvers.base.QPBackend` reports no solution, the second opinion
-        (:func:`wbc.solvers.independent.second_opinion`: quadprog with the pinned variables eliminated, then one cold
-        DAQP call) unless :attr:`second_opinion_enabled` is False. A proximal method's infeasibility test fires on
-        feasible QPs whose equality rows are nearly dependent (two soles on legs without hip yaw); an active-set
-        solver's answer is exact on them.
-
-        Raises:
-            SolverError: the backend's, when no solver found a solution.
-        """
+        """A backend other than DAQP on the QP (full or relaxed); when a :class:`~wbc.solvers.base.QPBackend`
+        reports no solution, the second opinion (:func:`wbc.solvers.independent.second_opinion`) unless
+        :attr:`second_opinion_enabled` is False: a proximal method's infeasibility test fires on feasible QPs whose
+        equality rows are nearly dependent. Raises SolverError: the backend's, when no solver found a solution."""
         backend = self.backend
         try:
             return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
@@ -665,12 +671,11 @@ class FallbackChain:
         return QPSolution(x, solver, "second opinion")
 
     def refine(self, x: np.ndarray, qp: QPData, accept: Callable, answered_by: str):
-        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished
-        on its active set (:meth:`wbc.solvers.base.QPBackend.polish`), then, failing that, replaced by quadprog's
-        solve (pinned variables eliminated; not when quadprog gave ``x``, ``answered_by``), started only while the
-        clock guard or the counted work leaves room for it. ``accept(x, solver)`` returns the caller's solution of a
-        candidate (``solver``: None for the polished one, else ``quadprog``) when it passes the output check, else
-        None. Returns the first accepted candidate, or None."""
+        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished on
+        its active set (:meth:`wbc.solvers.base.QPBackend.polish`), else quadprog's solve (not when quadprog gave it,
+        ``answered_by``) while the clock guard or the counted work leaves room. ``accept(x, solver)`` returns the
+        caller's solution of a candidate (``solver`` None: the polished one) that passes its check, else None.
+        Returns the first accepted candidate, or None."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
