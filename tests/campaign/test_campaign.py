@@ -34,7 +34,7 @@ try:
     HAVE_RAY = True
 except ImportError:  # pragma: no cover
     HAVE_RAY = False
-needs_ray = pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install -e ".[ray]")")
+needs_ray = pytest.mark.skipif(not HAVE_RAY, reason='Ray is not installed (pip install -e ".[ray]")')
 
 
 def toy_trial(spec, params):
