@@ -67,6 +67,7 @@ from wbc.gait.step_adjustment import StepAdjuster
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
+from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
 from wbc.sim.walk_support import WalkSupport
 
 __all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD"]
@@ -121,7 +122,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:
@@ -224,6 +225,12 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
             whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
             ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
+        contact_events: False (default), True or a :class:`~wbc.estimation.contact_events.ContactEventThresholds`:
+            the QP's contact set, its force bounds and the stabilizer's support follow the contact events measured
+            from the ankle F/T, the leg kinematics and the base estimate (:mod:`wbc.sim.walk_contacts`: a sole that
+            lost its contact gets no force until it is measured down again); needs ``measured_wrench`` (an
+            estimated state). The events and releases go to the summary (``contact_events``,
+            ``contact_releases``).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -255,8 +262,11 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
-                 swing_froude: float | None = None, swing_height_weight: float | None = None):
+                 swing_froude: float | None = None, swing_height_weight: float | None = None,
+                 contact_events=False):
         from wbc.terrain import parse_terrain
+
+        self.contact_thresholds = contact_events_option(contact_events)
 
         self.terrain = None if terrain is None else parse_terrain(terrain)
         if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
@@ -488,6 +498,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
                                                            if TOUCHDOWN_CONFIRM_LOAD > 0 else None),
                                             await_load=self.await_load)
         self.controller = controller
+        self._setup_contact_events(robot, sim.timestep)
         if (self.terrain is not None or self.blind) and self.base_weight > 0 \
                 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
@@ -648,6 +659,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
         pin.centerOfMass(model, data, q, v)
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
+        if self.contact_monitor is not None:  # the contact set follows the measured contact events (opt-in)
+            self._follow_contacts(tf, controller, {s: tp >= a[2] * dt - 1e-9 for s, a in self._active.items()})
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
         cx, cy, _ = c.tolist()

@@ -1,0 +1,103 @@
+"""The walk's contact set following the measured contact events (wbc.sim.walk_contacts), on a stand-in switcher and
+controller: a loss releases the sole (only with the other sole a measured contact), the released sole is held flat
+on the ground, a measured touch-down switches it on again."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.estimation.contact_events import ContactEventThresholds
+from wbc.exceptions import InvalidInputError
+from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
+
+
+class _Robot:
+    mass, gravity, sole_length, sole_width = 90.0, 9.81, 0.21, 0.13
+
+
+class _Switcher:
+    def __init__(self):
+        self.phases = {"left": "stance", "right": "stance"}
+        self.ground_height = {"left": 0.0, "right": 0.0}
+        self.calls = []
+
+    def phase(self, side):
+        return self.phases[side]
+
+    def release(self, side, t):
+        self.phases[side] = "swing"
+        self.calls.append(("release", side, round(t, 4)))
+
+    def touch_down(self, side, t):
+        self.phases[side] = "loading"
+        self.calls.append(("touchdown", side, round(t, 4)))
+
+
+class _Controller:
+    def __init__(self):
+        self.refs = []
+
+    def set_foot_reference(self, side, pose, vel, acc):
+        self.refs.append((side, pose.copy()))
+
+
+class _Walk(WalkContactEvents):
+    def __init__(self):
+        self.contact_thresholds = ContactEventThresholds()
+        self.switcher = _Switcher()
+        self._setup_contact_events(_Robot(), 0.002)
+        self._sole_views = {}
+        self.measured_wrench = np.zeros((2, 6))
+
+    def tick(self, t, controller, fz, heights, tilt_right=0.0):
+        for j, s in enumerate(("left", "right")):
+            a = tilt_right if s == "right" else 0.0
+            R = pin.rpy.rpyToMatrix(0.0, a, 0.3)
+            pos = np.array([0.1, 0.1 if s == "left" else -0.1, heights[j]])
+            M = pin.SE3(R, pos)
+            self._sole_views[s] = (M, M.rotation, M.translation)
+            self.measured_wrench[j] = [0.0, 0.0, fz[j], 0.0, 0.0, 0.0]
+        self._follow_contacts(t, controller, {})
+
+
+def test_a_lifted_stance_sole_is_released_held_flat_and_set_down_again():
+    w, c = _Walk(), _Controller()
+    dt = 0.002
+    for k in range(200):
+        t = k * dt
+        up = 50 <= k < 120  # the right sole: unloaded and 2 cm up for 0.14 s
+        tilt = math.radians(5.0) if up else 0.0
+        w.tick(t, c, (880.0, 0.0 if up else 440.0), (0.0, 0.02 if up else 0.0), tilt)
+    # released at the 5th tick of the loss (54), set down again at the 5th loaded flat tick (124)
+    assert w.switcher.calls == [("release", "right", 0.108), ("touchdown", "right", 0.248)]
+    held = [M for s, M in c.refs if s == "right"]
+    assert len(held) == 124 - 54
+    M = held[0]  # flat, the sole's heading (0.3 rad) and horizontal position, on the ground
+    assert np.allclose(M.rotation, pin.rpy.rpyToMatrix(0.0, 0.0, 0.3), atol=1e-12)
+    assert np.allclose(M.translation, [0.1, -0.1, 0.0], atol=1e-12)
+    assert [r["action"] for r in w.contact_events_summary()["contact_releases"]] == ["release", "touchdown"]
+
+
+def test_the_last_support_is_never_released():
+    w, c = _Walk(), _Controller()
+    w.switcher.phases["left"] = "swing"  # single support on the right
+    for k in range(100):
+        w.tick(k * 0.002, c, (0.0, 0.0 if k >= 20 else 880.0), (0.05, 0.02 if k >= 20 else 0.0))
+    assert w.switcher.calls == [] and c.refs == []
+    kinds = [e["kind"] for e in w.contact_events_summary()["contact_events"] if e["sole"] == "right"]
+    assert kinds == ["loss"]  # logged, not acted on
+
+
+def test_no_wrench_is_a_typed_error_and_the_option_is_checked():
+    w = _Walk()
+    w.measured_wrench = None
+    with pytest.raises(InvalidInputError, match="estimated"):
+        w._follow_contacts(0.0, _Controller(), {})
+    assert contact_events_option(False) is None and contact_events_option(None) is None
+    assert contact_events_option(True) == ContactEventThresholds()
+    with pytest.raises(InvalidInputError, match="contact_events"):
+        contact_events_option("on")
