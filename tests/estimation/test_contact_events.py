@@ -84,6 +84,7 @@ def test_touchdown_early_late_and_liftoff_against_the_plan():
                                                                  0.0, planned)]
     # late: 0.03 s = 15 ticks after the planned landing; touch-down: 5th tick of the load
     assert kinds == [("late", 65), ("touchdown", 84)]
+    assert det.events[0].cause == "unloaded"
     det2 = SoleContactEvents("left", L, W, WEIGHT, DT, in_contact=False)
     ev = []
     for k in range(20):  # loaded while the plan has it in the air: early
@@ -210,3 +211,38 @@ def test_mujoco_foot_tilted_onto_its_edge_is_an_edge_loss_and_flat_again_a_touch
     # a loaded sole is down once within 2° of flat (the default flat tilt): at the commanded 40°/s that is up to
     # 50 ms before MuJoCo's contacts reach the other edge
     assert t_flat - 0.06 <= down.t <= t_flat + 0.02
+
+
+# -- the logged contact-loss case of a walking push (Talos, wbc sim walk, seed 9813, 300 N at 4.2 s, 344°) -------
+
+FIXTURES = __import__("pathlib").Path(__file__).resolve().parents[1] / "fixtures"
+
+
+def test_walking_push_9813_right_sole_landing_on_its_toe_is_flagged_while_the_controller_keeps_it_as_a_contact():
+    """tests/fixtures/contact_loss_talos_9813.npz: 4.2–4.5 s of the run's log (benchmarks/contact_loss_fixture.py):
+    MuJoCo's ground reaction on each foot and the plant's sole placements, the controller's contact state and its
+    QP normal force per sole. The right sole lands after a 0.26 m step adjustment on its toe edge."""
+    d = np.load(FIXTURES / "contact_loss_talos_9813.npz")
+    t, dt = d["t"], float(d["dt"])
+    flagged = []
+    for j, side in enumerate(("left", "right")):
+        det = SoleContactEvents(side, float(d["sole_length"]), float(d["sole_width"]), float(d["weight"]), dt,
+                                in_contact=bool(d["contact_active"][0, j]))
+        for k in range(len(t)):
+            det.update(float(t[k]), d["wrench"][k, j], d["rotation"][k, j], d["position"][k, j], 0.0,
+                       bool(d["contact_active"][k, j]))
+        flagged += [e for e in det.events if e.kind in ("loss", "late")]
+    # the sole never sits flat: no touch-down; 30 ms after the controller made it a contact, a late contact on
+    # its edge
+    assert [(e.sole, e.kind, e.cause) for e in flagged] == [("right", "late", "edge")]
+    e = flagged[0]
+    k = int(round((e.t - t[0]) / dt))
+    k_on = int(np.argmax(d["contact_active"][:, 1]))  # the controller's touch-down of the right sole
+    assert t[k_on] == pytest.approx(4.32, abs=0.011) and e.t == pytest.approx(t[k_on] + 0.03, abs=1e-9)
+    # what MuJoCo says at that tick, independently of the detector: the sole carries load with its origin more
+    # than 3 mm over the floor (so it rests on an edge), its CoP (MuJoCo's contact wrench) at the toe
+    f = d["wrench"][k, 1]
+    assert f[2] > 100.0 and d["position"][k, 1, 2] > 0.003
+    assert -f[4] / f[2] > 0.5 * float(d["sole_length"]) - 0.01
+    # while the controller held it as a full contact and asked it for a few hundred newtons
+    assert d["contact_active"][k, 1] and d["qp_normal_force"][k, 1] > 300.0

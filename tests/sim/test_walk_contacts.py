@@ -37,9 +37,23 @@ class _Switcher:
         self.calls.append(("touchdown", side, round(t, 4)))
 
 
+class _Contact:
+    half_size = (0.092, 0.052)  # a controller sole shrunk by 13 mm
+
+    def __init__(self):
+        self.support = None
+
+    def set_support(self, *band):
+        self.support = band
+
+    def reset_support(self):
+        self.support = None
+
+
 class _Controller:
     def __init__(self):
         self.refs = []
+        self.contacts = {"left": _Contact(), "right": _Contact()}
 
     def set_foot_reference(self, side, pose, vel, acc):
         self.refs.append((side, pose.copy()))
@@ -48,19 +62,22 @@ class _Controller:
 class _Walk(WalkContactEvents):
     def __init__(self):
         self.contact_thresholds = ContactEventThresholds()
+        self.blind = False
+        self._cut = {"left": None, "right": None}
         self.switcher = _Switcher()
         self._setup_contact_events(_Robot(), 0.002)
         self._sole_views = {}
         self.measured_wrench = np.zeros((2, 6))
 
-    def tick(self, t, controller, fz, heights, tilt_right=0.0):
+    def tick(self, t, controller, fz, heights, tilt_right=0.0, cop_right=(0.0, 0.0)):
         for j, s in enumerate(("left", "right")):
             a = tilt_right if s == "right" else 0.0
             R = pin.rpy.rpyToMatrix(0.0, a, 0.3)
             pos = np.array([0.1, 0.1 if s == "left" else -0.1, heights[j]])
             M = pin.SE3(R, pos)
             self._sole_views[s] = (M, M.rotation, M.translation)
-            self.measured_wrench[j] = [0.0, 0.0, fz[j], 0.0, 0.0, 0.0]
+            cx, cy = cop_right if s == "right" else (0.0, 0.0)
+            self.measured_wrench[j] = [0.0, 0.0, fz[j], cy * fz[j], -cx * fz[j], 0.0]
         self._follow_contacts(t, controller, {})
 
 
@@ -101,3 +118,17 @@ def test_no_wrench_is_a_typed_error_and_the_option_is_checked():
     assert contact_events_option(True) == ContactEventThresholds()
     with pytest.raises(InvalidInputError, match="contact_events"):
         contact_events_option("on")
+
+
+def test_a_loaded_sole_on_its_toe_edge_is_cut_to_a_toe_band_then_released_when_unloaded():
+    w, c = _Walk(), _Controller()
+    toe = (0.104, 0.0)  # the CoP 1 mm from the toe edge (sole half length 0.105 m)
+    for k in range(40):  # heel up 6° on the toe, 300 N: an edge, still loaded
+        w.tick(k * 0.002, c, (580.0, 300.0), (0.0, 0.011), math.radians(6.0), toe)
+    assert c.contacts["right"].support == (0.072, 0.092, -0.052, 0.052)  # a 2 cm band at the toe
+    assert w._cut["right"] == c.contacts["right"].support and w.switcher.calls == []
+    for k in range(40, 80):  # the load goes: released, the band undone
+        w.tick(k * 0.002, c, (880.0, 0.0), (0.0, 0.011), math.radians(6.0), toe)
+    assert w.switcher.calls == [("release", "right", 0.08)]  # the first unloaded tick (the cut sole)
+    assert c.contacts["right"].support is None and w._cut["right"] is None
+    assert [a for _, s, a in w.contact_releases] == ["edge", "whole sole", "release"]

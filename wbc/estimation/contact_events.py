@@ -18,8 +18,9 @@ terrain estimate under it (m, world z). From them:
 * ``edge``: loaded, the CoP within ``edge_margin`` of the sole rectangle's boundary and ``θ > edge_tilt`` (the
   sole pivots about that boundary: a foot-rotation indicator outside the support, Goswami 1999, "Postural
   stability of biped robots and the foot-rotation indicator (FRI) point", IJRR 18(6));
-* ``flat_down``: ``θ < flat_tilt`` and the clearance ≤ ``touch_height`` (kinematic touch-down: a sole set flat on
-  the ground while the controller puts no force on it reads no load);
+* ``flat_down``: ``θ < flat_tilt`` and the clearance ≤ ``touch_height``, while the plan has the sole on the ground
+  (kinematic touch-down: a sole set flat on the ground while the controller puts no force on it reads no load; a
+  swing sole skimming the floor is not one — an early contact is sensed by its load);
 * **in contact**, for a sole not in contact: ``loaded`` with ``θ < flat_tilt``, or ``flat_down``; for a sole in contact it
   stays in contact unless ``edge``, or unloaded (``not loaded``) with its clearance above ``air_height`` or its
   tilt above ``edge_tilt`` (hysteresis on load, height and tilt: the thresholds to leave are past the thresholds
@@ -38,7 +39,8 @@ the confirmation tick:
 * ``liftoff``: contact left while the plan has the sole in the air (cause ``planned``);
 * ``loss``: contact left while the plan has the sole on the ground (cause ``unloaded`` or ``edge``);
 * ``late``: the plan has had the sole on the ground for ``timing_tolerance`` and it has not been in contact since
-  (once per planned contact).
+  (once per planned contact); cause ``edge`` (loaded on an edge: it landed on it), ``unloaded`` or ``tilt`` (loaded,
+  not flat, CoP inside).
 """
 
 from __future__ import annotations
@@ -112,7 +114,7 @@ class ContactEvent:
     Attributes:
         t: s (the confirmation tick). sole: ``"left"`` / ``"right"``. kind: ``touchdown``, ``liftoff``,
         ``loss``, ``early``, ``late``. cause: ``load``, ``kinematic``, ``planned``, ``unloaded``, ``edge``,
-        ``plan``. normal_force: N. cop: (x, y) m, sole frame (NaN unloaded). tilt: rad. clearance: m. height: m
+        ``tilt``, ``plan``. normal_force: N. cop: (x, y) m, sole frame (NaN unloaded). tilt: rad. clearance: m. height: m
         (the sole origin over the terrain).
     """
 
@@ -233,7 +235,7 @@ class SoleContactEvents:
             up = (not self.loaded) and (m.clearance > th.air_height or m.tilt > th.edge_tilt)
             change, cause = edge or up, "edge" if edge else "unloaded"
         else:
-            flat_down = m.tilt < th.flat_tilt and m.clearance <= th.touch_height
+            flat_down = m.tilt < th.flat_tilt and m.clearance <= th.touch_height and planned_contact is not False
             flat_loaded = self.loaded and m.tilt < th.flat_tilt
             change = flat_loaded or flat_down
             cause = "load" if flat_loaded else "kinematic"
@@ -278,7 +280,9 @@ class SoleContactEvents:
             elif not self._late_sent and not self._late_sent \
                     and t - self._planned_since >= self.th.timing_tolerance - 1e-9:
                 self._late_sent = True
-                return [self._event(t, "late", "plan")]
+                m = self.measured
+                cause = "edge" if self.loaded and self._at_edge(m) else ("unloaded" if not self.loaded else "tilt")
+                return [self._event(t, "late", cause)]
         else:
             self._planned_since = None
         return []

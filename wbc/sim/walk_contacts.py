@@ -4,13 +4,20 @@
 Every tick, each sole's :class:`wbc.estimation.contact_events.SoleContactEvents` reads the ankle F/T ground
 reaction (``measured_wrench``, set by the closed loop on an estimated state), the sole placement from the
 kinematics of the estimated state and the height of the ground under it (the contact switcher's
-``ground_height``). A ``loss`` event (an unloaded sole in the air, a sole rolled onto an edge) of a sole the
-switcher holds as a contact (``stance`` or ``loading``) releases it, when the other sole is a measured contact:
-:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release` (no force on it in the QP, out of the stabilizer's
-support area, which follows the switcher) and its foot task holds it flat at its sole's horizontal position and
-heading, on the ground, until the events see it down again (``touchdown``); it is then switched on with the
-switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`). The reaction's latency is
-the events' confirmation time (:attr:`ContactEventMonitor.latency`, 10 ms by default) plus one tick.
+``ground_height``). A ``loss`` or ``late`` event (the controller's contact denied by the measurement) of a sole
+the switcher holds as a contact (``stance`` or ``loading``):
+
+* on an edge and still loaded (cause ``edge``): its QP contact and the stabilizer's support are cut to a band of
+  :data:`EDGE_BAND` along that edge (:meth:`WalkContactEvents._cut_to_edge`) until it is measured flat again
+  (``touchdown``) or the plan lifts it;
+* unloaded (cause ``unloaded``, or a sole cut to its edge whose load is gone), when the other sole is a measured contact: released,
+  :meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release` (no force on it in the QP, out of the
+  stabilizer's support area, which follows the switcher), its foot task holding it flat at its sole's horizontal
+  position and heading, on the ground, until the events see it down again (``touchdown``); it is then switched on
+  with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
+
+The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 10 ms by default):
+the contact set changes on the tick the event is confirmed, before that tick's QP.
 """
 
 from __future__ import annotations
@@ -24,6 +31,9 @@ from wbc.estimation.contact_events import ContactEventMonitor, ContactEventThres
 from wbc.exceptions import InvalidInputError
 
 _OTHER = {"left": "right", "right": "left"}
+
+#: width (m) of the band along the edge that a loaded sole rolled onto that edge is confined to
+EDGE_BAND = 0.02
 
 
 def contact_events_option(value) -> ContactEventThresholds | None:
@@ -49,13 +59,16 @@ class WalkContactEvents:
     def _setup_contact_events(self, robot, dt: float) -> None:
         self.contact_monitor = None if self.contact_thresholds is None else \
             ContactEventMonitor(robot, dt, self.contact_thresholds)
-        self.contact_releases: list[tuple[float, str, str]] = []  # (t, sole, "release" | "touchdown")
+        #: (t, sole, action): "release", "touchdown" (a released sole set down), "edge" (cut to an edge band),
+        #: "whole sole" (the cut undone)
+        self.contact_releases: list[tuple[float, str, str]] = []
         self._lost = {"left": False, "right": False}
         self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
+        self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
 
     def _follow_contacts(self, t: float, controller, landing_due: dict) -> None:
-        """One tick of the events; release / set down soles (module docstring). ``landing_due``: side → whether
-        the plan has that sole on the ground (its swing's planned touch-down has passed)."""
+        """One tick of the events; release, cut or set down soles (module docstring). ``landing_due``: side →
+        whether the plan has that sole on the ground (its swing's planned touch-down has passed)."""
         wrench = self.measured_wrench
         if wrench is None:
             raise InvalidInputError("contact_events needs the ankle F/T wrenches (measured_wrench), set by the closed "
@@ -63,12 +76,21 @@ class WalkContactEvents:
         sw, mon = self.switcher, self.contact_monitor
         for j, side in enumerate(("left", "right")):
             _, R, pos = self._sole_views[side]
+            det = mon.soles[side]
             planned = sw.phase(side) in ("stance", "loading") or landing_due.get(side, False)
-            events = mon.soles[side].update(t, wrench[j], R, pos, sw.ground_height[side], planned)
-            kinds = {e.kind for e in events}
+            causes = {e.cause for e in det.update(t, wrench[j], R, pos, sw.ground_height[side], planned)
+                      if e.kind in ("loss", "late")}  # the controller's contact denied by the measurement
+            if self._edge[side] is not None and (det.in_contact or sw.phase(side) not in ("stance", "loading")):
+                self._uncut(controller, side, t)  # flat again, or lifted by the plan
             other = _OTHER[side]
-            if "loss" in kinds and not self._lost[side] and sw.phase(side) in ("stance", "loading") \
-                    and sw.phase(other) in ("stance", "loading") and mon.soles[other].in_contact:
+            may_release = not self._lost[side] and sw.phase(side) in ("stance", "loading") \
+                and sw.phase(other) in ("stance", "loading") and mon.soles[other].in_contact
+            if "edge" in causes and det.loaded and self._edge[side] is None and not self.blind \
+                    and sw.phase(side) in ("stance", "loading"):
+                self._cut_to_edge(controller, side, det, t)
+            elif may_release and ("unloaded" in causes or (self._edge[side] is not None and not det.loaded)):
+                if self._edge[side] is not None:
+                    self._uncut(controller, side, t)
                 sw.release(side, t)
                 self._lost[side] = True
                 yaw = math.atan2(R[1, 0], R[0, 0])
@@ -78,12 +100,36 @@ class WalkContactEvents:
             if self._lost[side] and sw.phase(side) != "swing":  # set down by the switcher's own test
                 self._lost[side] = False
             if self._lost[side]:
-                if mon.soles[side].in_contact:
+                if det.in_contact:
                     sw.touch_down(side, t)
                     self._lost[side] = False
                     self.contact_releases.append((float(t), side, "touchdown"))
                 else:
                     controller.set_foot_reference(side, self._hold[side], np.zeros(6), np.zeros(6))
+
+    def _cut_to_edge(self, controller, side: str, det, t: float) -> None:
+        """Confine a loaded sole rolled onto an edge to a band of :data:`EDGE_BAND` m along that edge (the QP's
+        corner forces, :meth:`wbc.constraints.sole_contact.SoleContact.set_support`, and the stabilizer's support,
+        ``_cut``): the ankle no longer asks a CoP the ground cannot give (Wiedebach et al., "Walking on partial
+        footholds including line contacts with the humanoid robot Atlas", Humanoids 2016, Sec. III)."""
+        con = controller.contacts[side]
+        x1, y1 = con.half_size
+        band = [-x1, x1, -y1, y1]
+        cx, cy = det.measured.cop
+        a, b = det.half
+        e = det.th.edge_margin
+        if abs(cx) >= a - e:
+            band[0:2] = [x1 - EDGE_BAND, x1] if cx > 0 else [-x1, -x1 + EDGE_BAND]
+        if abs(cy) >= b - e:
+            band[2:4] = [y1 - EDGE_BAND, y1] if cy > 0 else [-y1, -y1 + EDGE_BAND]
+        con.set_support(*band)
+        self._cut[side] = self._edge[side] = tuple(band)
+        self.contact_releases.append((float(t), side, "edge"))
+
+    def _uncut(self, controller, side: str, t: float) -> None:
+        controller.contacts[side].reset_support()
+        self._cut[side] = self._edge[side] = None
+        self.contact_releases.append((float(t), side, "whole sole"))
 
     def contact_events_summary(self) -> dict:
         """The events and the releases for a run summary (empty when off)."""
