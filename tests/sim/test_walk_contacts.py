@@ -63,6 +63,8 @@ class _Walk(WalkContactEvents):
     def __init__(self):
         self.contact_thresholds = ContactEventThresholds()
         self.blind = False
+        self.descent_speed, self.max_descent = 0.1, 0.02
+        self._active, self.dt = {}, 0.002
         self._cut = {"left": None, "right": None}
         self.switcher = _Switcher()
         self._setup_contact_events(_Robot(), 0.002)
@@ -78,7 +80,7 @@ class _Walk(WalkContactEvents):
             self._sole_views[s] = (M, M.rotation, M.translation)
             cx, cy = cop_right if s == "right" else (0.0, 0.0)
             self.measured_wrench[j] = [0.0, 0.0, fz[j], cy * fz[j], -cx * fz[j], 0.0]
-        self._follow_contacts(t, controller, {})
+        self._follow_contacts(t, controller, 0.0)
 
 
 def test_a_lifted_stance_sole_is_released_held_flat_and_set_down_again():
@@ -93,9 +95,11 @@ def test_a_lifted_stance_sole_is_released_held_flat_and_set_down_again():
     assert w.switcher.calls == [("release", "right", 0.108), ("touchdown", "right", 0.248)]
     held = [M for s, M in c.refs if s == "right"]
     assert len(held) == 124 - 54
-    M = held[0]  # flat, the sole's heading (0.3 rad) and horizontal position, on the ground
+    M = held[0]  # flat, the sole's heading (0.3 rad) and horizontal position, on the ground, then lowered
     assert np.allclose(M.rotation, pin.rpy.rpyToMatrix(0.0, 0.0, 0.3), atol=1e-12)
     assert np.allclose(M.translation, [0.1, -0.1, 0.0], atol=1e-12)
+    assert held[10].translation[2] == pytest.approx(-0.1 * 10 * 0.002)  # 0.1 m/s for 10 ticks
+    assert held[-1].translation[2] == pytest.approx(-0.1 * (123 - 54) * 0.002)  # (under the 2 cm cap)
     assert [r["action"] for r in w.contact_events_summary()["contact_releases"]] == ["release", "touchdown"]
 
 
@@ -113,22 +117,24 @@ def test_no_wrench_is_a_typed_error_and_the_option_is_checked():
     w = _Walk()
     w.measured_wrench = None
     with pytest.raises(InvalidInputError, match="estimated"):
-        w._follow_contacts(0.0, _Controller(), {})
+        w._follow_contacts(0.0, _Controller(), 0.0)
     assert contact_events_option(False) is None and contact_events_option(None) is None
     assert contact_events_option(True) == ContactEventThresholds()
     with pytest.raises(InvalidInputError, match="contact_events"):
         contact_events_option("on")
 
 
-def test_a_loaded_sole_on_its_toe_edge_is_cut_to_a_toe_band_then_released_when_unloaded():
+def test_a_loaded_sole_on_its_toe_edge_is_cut_to_a_toe_band_until_it_is_flat_again():
     w, c = _Walk(), _Controller()
     toe = (0.104, 0.0)  # the CoP 1 mm from the toe edge (sole half length 0.105 m)
     for k in range(40):  # heel up 6° on the toe, 300 N: an edge, still loaded
         w.tick(k * 0.002, c, (580.0, 300.0), (0.0, 0.011), math.radians(6.0), toe)
     assert c.contacts["right"].support == (0.072, 0.092, -0.052, 0.052)  # a 2 cm band at the toe
-    assert w._cut["right"] == c.contacts["right"].support and w.switcher.calls == []
-    for k in range(40, 80):  # the load goes: released, the band undone
+    assert w._cut["right"] == c.contacts["right"].support
+    for k in range(40, 80):  # unloaded on its edge: the band stays, no release
         w.tick(k * 0.002, c, (880.0, 0.0), (0.0, 0.011), math.radians(6.0), toe)
-    assert w.switcher.calls == [("release", "right", 0.08)]  # the first unloaded tick (the cut sole)
+    assert w.switcher.calls == [] and c.contacts["right"].support is not None
+    for k in range(80, 100):  # flat and loaded again: the whole sole
+        w.tick(k * 0.002, c, (440.0, 440.0), (0.0, 0.0), 0.0)
     assert c.contacts["right"].support is None and w._cut["right"] is None
-    assert [a for _, s, a in w.contact_releases] == ["edge", "whole sole", "release"]
+    assert [(round(t / 0.002), a) for t, s, a in w.contact_releases] == [(4, "edge"), (84, "whole sole")]

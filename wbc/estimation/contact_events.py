@@ -112,10 +112,15 @@ class ContactEvent:
     """One event (module docstring, **Events**).
 
     Attributes:
-        t: s (the confirmation tick). sole: ``"left"`` / ``"right"``. kind: ``touchdown``, ``liftoff``,
-        ``loss``, ``early``, ``late``. cause: ``load``, ``kinematic``, ``planned``, ``unloaded``, ``edge``,
-        ``tilt``, ``plan``. normal_force: N. cop: (x, y) m, sole frame (NaN unloaded). tilt: rad. clearance: m. height: m
-        (the sole origin over the terrain).
+        t: s (the confirmation tick).
+        sole: ``"left"`` / ``"right"``.
+        kind: ``touchdown``, ``liftoff``, ``loss``, ``early``, ``late``.
+        cause: ``load``, ``kinematic``, ``planned``, ``unloaded``, ``edge``, ``tilt``, ``plan``.
+        normal_force: N.
+        cop: (x, y) m, sole frame (NaN unloaded).
+        tilt: rad.
+        clearance: m, the lowest corner over the terrain.
+        height: m, the sole origin over the terrain.
     """
 
     t: float
@@ -292,7 +297,7 @@ class SoleContactEvents:
 class ContactEventMonitor:
     """The two soles' :class:`SoleContactEvents` of a robot.
 
-    Args (fields):
+    Args:
         robot: the :class:`~wbc.robot.Robot` (its sole rectangle and weight).
         dt: tick (s).
         thresholds: :class:`ContactEventThresholds`.

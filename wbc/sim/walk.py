@@ -225,12 +225,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
             whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
             ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
-        contact_events: False (default), True or a :class:`~wbc.estimation.contact_events.ContactEventThresholds`:
-            the QP's contact set, its force bounds and the stabilizer's support follow the contact events measured
-            from the ankle F/T, the leg kinematics and the base estimate (:mod:`wbc.sim.walk_contacts`: a sole that
-            lost its contact gets no force until it is measured down again); needs ``measured_wrench`` (an
-            estimated state). The events and releases go to the summary (``contact_events``,
-            ``contact_releases``).
+        contact_events: contacts following the measured contact events (:mod:`wbc.sim.walk_contacts`; default off).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -261,13 +256,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
-                 swing_froude: float | None = None, swing_height_weight: float | None = None,
-                 contact_events=False):
+                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
+                 swing_froude: float | None = None, swing_height_weight: float | None = None):
         from wbc.terrain import parse_terrain
-
         self.contact_thresholds = contact_events_option(contact_events)
-
         self.terrain = None if terrain is None else parse_terrain(terrain)
         if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
                 or not (math.isfinite(base_weight) and base_weight >= 0):
@@ -659,8 +651,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         pin.centerOfMass(model, data, q, v)
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
-        if self.contact_monitor is not None:  # the contact set follows the measured contact events (opt-in)
-            self._follow_contacts(tf, controller, {s: tp >= a[2] * dt - 1e-9 for s, a in self._active.items()})
+        self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
         cx, cy, _ = c.tolist()

@@ -10,11 +10,12 @@ the switcher holds as a contact (``stance`` or ``loading``):
 * on an edge and still loaded (cause ``edge``): its QP contact and the stabilizer's support are cut to a band of
   :data:`EDGE_BAND` along that edge (:meth:`WalkContactEvents._cut_to_edge`) until it is measured flat again
   (``touchdown``) or the plan lifts it;
-* unloaded (cause ``unloaded``, or a sole cut to its edge whose load is gone), when the other sole is a measured contact: released,
+* unloaded (cause ``unloaded``; not a sole cut to its edge, which keeps its band), when the other sole is a measured contact: released,
   :meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release` (no force on it in the QP, out of the
   stabilizer's support area, which follows the switcher), its foot task holding it flat at its sole's horizontal
-  position and heading, on the ground, until the events see it down again (``touchdown``); it is then switched on
-  with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
+  position and heading and lowering it into the estimated ground (the walk's late touch-down: ``descent_speed``, at
+  most ``max_descent``) until the events see it down again (``touchdown``: flat and loaded); it is then switched
+  on with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
 
 The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 10 ms by default):
 the contact set changes on the tick the event is confirmed, before that tick's QP.
@@ -30,7 +31,7 @@ import pinocchio as pin
 from wbc.estimation.contact_events import ContactEventMonitor, ContactEventThresholds
 from wbc.exceptions import InvalidInputError
 
-_OTHER = {"left": "right", "right": "left"}
+_OTHER_SOLE = {"left": "right", "right": "left"}
 
 #: width (m) of the band along the edge that a loaded sole rolled onto that edge is confined to
 EDGE_BAND = 0.02
@@ -66,9 +67,12 @@ class WalkContactEvents:
         self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
         self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
 
-    def _follow_contacts(self, t: float, controller, landing_due: dict) -> None:
-        """One tick of the events; release, cut or set down soles (module docstring). ``landing_due``: side →
-        whether the plan has that sole on the ground (its swing's planned touch-down has passed)."""
+    def _follow_contacts(self, t: float, controller, tp: float) -> None:
+        """One tick of the events; release, cut or set down soles (module docstring); nothing when off. ``tp``:
+        the plan clock (s; a swinging sole is planned down once its planned touch-down has passed)."""
+        if self.contact_monitor is None:
+            return
+        landing_due = {s: tp >= a[2] * self.dt - 1e-9 for s, a in self._active.items()}
         wrench = self.measured_wrench
         if wrench is None:
             raise InvalidInputError("contact_events needs the ankle F/T wrenches (measured_wrench), set by the closed "
@@ -82,20 +86,18 @@ class WalkContactEvents:
                       if e.kind in ("loss", "late")}  # the controller's contact denied by the measurement
             if self._edge[side] is not None and (det.in_contact or sw.phase(side) not in ("stance", "loading")):
                 self._uncut(controller, side, t)  # flat again, or lifted by the plan
-            other = _OTHER[side]
+            other = _OTHER_SOLE[side]
             may_release = not self._lost[side] and sw.phase(side) in ("stance", "loading") \
                 and sw.phase(other) in ("stance", "loading") and mon.soles[other].in_contact
             if "edge" in causes and det.loaded and self._edge[side] is None and not self.blind \
                     and sw.phase(side) in ("stance", "loading"):
                 self._cut_to_edge(controller, side, det, t)
-            elif may_release and ("unloaded" in causes or (self._edge[side] is not None and not det.loaded)):
-                if self._edge[side] is not None:
-                    self._uncut(controller, side, t)
+            elif may_release and "unloaded" in causes and self._edge[side] is None:
                 sw.release(side, t)
                 self._lost[side] = True
                 yaw = math.atan2(R[1, 0], R[0, 0])
-                self._hold[side] = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
-                                           np.array([pos[0], pos[1], sw.ground_height[side]]))
+                self._hold[side] = (pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
+                                            np.array([pos[0], pos[1], sw.ground_height[side]])), float(t))
                 self.contact_releases.append((float(t), side, "release"))
             if self._lost[side] and sw.phase(side) != "swing":  # set down by the switcher's own test
                 self._lost[side] = False
@@ -104,8 +106,13 @@ class WalkContactEvents:
                     sw.touch_down(side, t)
                     self._lost[side] = False
                     self.contact_releases.append((float(t), side, "touchdown"))
-                else:
-                    controller.set_foot_reference(side, self._hold[side], np.zeros(6), np.zeros(6))
+                else:  # flat, descending into the ground at descent_speed for at most max_descent
+                    pose, t0 = self._hold[side]
+                    drop = self.descent_speed * (t - t0)
+                    target = pin.SE3(pose.rotation, pose.translation - [0.0, 0.0, min(drop, self.max_descent)])
+                    vel = np.zeros(6)
+                    vel[2] = -self.descent_speed if drop < self.max_descent else 0.0
+                    controller.set_foot_reference(side, target, vel, np.zeros(6))
 
     def _cut_to_edge(self, controller, side: str, det, t: float) -> None:
         """Confine a loaded sole rolled onto an edge to a band of :data:`EDGE_BAND` m along that edge (the QP's
