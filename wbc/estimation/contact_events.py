@@ -161,8 +161,12 @@ class SoleContactEvents:
         in_contact: the confirmed state at the start (default True: standing).
 
     Attributes:
-        in_contact: the confirmed contact state. cause: why the last confirmed change happened. events: list of
-        :class:`ContactEvent`. measured: the last tick's measurements. latency: the confirmation delay (s).
+        in_contact: the confirmed contact state.
+        loaded: the load trigger's state.
+        cause: why the last confirmed change happened.
+        events: list of :class:`ContactEvent`.
+        signals: the last tick's normal force, CoP, tilt, clearance and height.
+        latency: the confirmation delay (s).
 
     Raises:
         InvalidInputError: a non-positive size, weight or dt, an unknown sole.
@@ -190,7 +194,7 @@ class SoleContactEvents:
         self.loaded = bool(in_contact)
         self.cause = "initial"
         self.events: list[ContactEvent] = []
-        self.measured = _Measured()
+        self.signals = _Measured()
         self._pending = 0  # ticks the instantaneous state has differed from the confirmed one
         self._pending_cause = ""
         self._planned_since: float | None = 0.0 if in_contact else None  # plan: on the ground since (s)
@@ -199,7 +203,7 @@ class SoleContactEvents:
     def _measure(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, ground: float) -> _Measured:
         f = np.asarray(wrench, dtype=float)
         R = np.asarray(rotation, dtype=float)
-        m = self.measured
+        m = self.signals
         m.normal_force = float(R[2] @ f[:3])
         fz = float(f[2])
         m.cop = (-float(f[4]) / fz, float(f[3]) / fz) if fz > 1e-6 else (math.nan, math.nan)
@@ -261,7 +265,7 @@ class SoleContactEvents:
         return out
 
     def _event(self, t: float, kind: str, cause: str) -> ContactEvent:
-        m = self.measured
+        m = self.signals
         return ContactEvent(float(t), self.sole, kind, cause, m.normal_force, m.cop, m.tilt, m.clearance, m.height)
 
     def _switch_events(self, t: float, planned: bool | None) -> list[ContactEvent]:
@@ -285,7 +289,7 @@ class SoleContactEvents:
             elif not self._late_sent and not self._late_sent \
                     and t - self._planned_since >= self.th.timing_tolerance - 1e-9:
                 self._late_sent = True
-                m = self.measured
+                m = self.signals
                 cause = "edge" if self.loaded and self._at_edge(m) else ("unloaded" if not self.loaded else "tilt")
                 return [self._event(t, "late", cause)]
         else:

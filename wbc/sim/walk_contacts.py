@@ -7,17 +7,18 @@ kinematics of the estimated state and the height of the ground under it (the con
 ``ground_height``). A ``loss`` or ``late`` event (the controller's contact denied by the measurement) of a sole
 the switcher holds as a contact (``stance`` or ``loading``):
 
-* on an edge and still loaded (cause ``edge``): its QP contact and the stabilizer's support are cut to a band of
-  :data:`EDGE_BAND` along that edge (:meth:`WalkContactEvents._cut_to_edge`) until it is measured flat again
-  (``touchdown``) or the plan lifts it;
-* unloaded (cause ``unloaded``; not a sole cut to its edge, which keeps its band), when the other sole is a measured contact: released,
+* on an edge and still loaded (cause ``edge``): its QP contact and the stabilizer's support are cut to a band
+  along that edge, twice the events' ``edge_margin`` wide (0.02 m by default;
+  :meth:`WalkContactEvents._cut_to_edge`), until it is flat again (``touchdown``) or the plan lifts it;
+* unloaded (cause ``unloaded``; not a sole cut to its edge, which keeps its band), when the other sole is a
+  contact by the events: released,
   :meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release` (no force on it in the QP, out of the
   stabilizer's support area, which follows the switcher), its foot task holding it flat at its sole's horizontal
   position and heading and lowering it into the estimated ground (the walk's late touch-down: ``descent_speed``, at
   most ``max_descent``) until the events see it down again (``touchdown``: flat and loaded); it is then switched
   on with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
 
-The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 10 ms by default):
+The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 0.01 s by default):
 the contact set changes on the tick the event is confirmed, before that tick's QP.
 """
 
@@ -32,9 +33,6 @@ from wbc.estimation.contact_events import ContactEventMonitor, ContactEventThres
 from wbc.exceptions import InvalidInputError
 
 _OTHER_SOLE = {"left": "right", "right": "left"}
-
-#: width (m) of the band along the edge that a loaded sole rolled onto that edge is confined to
-EDGE_BAND = 0.02
 
 
 def contact_events_option(value) -> ContactEventThresholds | None:
@@ -115,20 +113,20 @@ class WalkContactEvents:
                     controller.set_foot_reference(side, target, vel, np.zeros(6))
 
     def _cut_to_edge(self, controller, side: str, det, t: float) -> None:
-        """Confine a loaded sole rolled onto an edge to a band of :data:`EDGE_BAND` m along that edge (the QP's
+        """Confine a loaded sole rolled onto an edge to a band of 2 ``edge_margin`` (m) along that edge (the QP's
         corner forces, :meth:`wbc.constraints.sole_contact.SoleContact.set_support`, and the stabilizer's support,
         ``_cut``): the ankle no longer asks a CoP the ground cannot give (Wiedebach et al., "Walking on partial
         footholds including line contacts with the humanoid robot Atlas", Humanoids 2016, Sec. III)."""
         con = controller.contacts[side]
         x1, y1 = con.half_size
         band = [-x1, x1, -y1, y1]
-        cx, cy = det.measured.cop
+        cx, cy = det.signals.cop
         a, b = det.half
         e = det.th.edge_margin
         if abs(cx) >= a - e:
-            band[0:2] = [x1 - EDGE_BAND, x1] if cx > 0 else [-x1, -x1 + EDGE_BAND]
+            band[0:2] = [x1 - 2 * e, x1] if cx > 0 else [-x1, -x1 + 2 * e]
         if abs(cy) >= b - e:
-            band[2:4] = [y1 - EDGE_BAND, y1] if cy > 0 else [-y1, -y1 + EDGE_BAND]
+            band[2:4] = [y1 - 2 * e, y1] if cy > 0 else [-y1, -y1 + 2 * e]
         con.set_support(*band)
         self._cut[side] = self._edge[side] = tuple(band)
         self.contact_releases.append((float(t), side, "edge"))
