@@ -246,3 +246,32 @@ def test_walking_push_9813_right_sole_landing_on_its_toe_is_flagged_while_the_co
     assert -f[4] / f[2] > 0.5 * float(d["sole_length"]) - 0.01
     # while the controller held it as a full contact and asked it for a few hundred newtons
     assert d["contact_active"][k, 1] and d["qp_normal_force"][k, 1] > 300.0
+
+
+def test_romeo_push_step_right_sole_unloaded_in_the_air_is_a_loss_with_a_2_mm_air_height():
+    """tests/fixtures/contact_loss_romeo_push_step.npz: 0.45–1.0 s of ``wbc sim push-step --robot
+    examples/robots/romeo.toml`` (defaults; benchmarks/contact_loss_fixture.py). The pushed robot unloads its right
+    sole (MuJoCo: 0 N) and lifts it to 2.7 mm (lowest corner) while the controller keeps it a contact."""
+    d = np.load(FIXTURES / "contact_loss_romeo_push_step.npz")
+    t, dt, weight = d["t"], float(d["dt"]), float(d["weight"])
+    length, width = float(d["sole_length"]), float(d["sole_width"])
+    corners = np.array([[sx * length / 2, sy * width / 2, 0.0] for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
+    # the reference, from MuJoCo's force and the plant's sole pose alone: the first tick from which the right sole
+    # carries under 2 % of the weight with its lowest corner over 2 mm
+    low = np.array([(corners @ d["rotation"][k, 1][2]).min() + d["position"][k, 1, 2] for k in range(len(t))])
+    off = (d["wrench"][:, 1, 2] < 0.02 * weight) & (low > 0.002)
+    k_ref = int(np.argmax(off))
+    assert off[k_ref:k_ref + 5].all() and d["contact_active"][k_ref, 1]
+    events = {}
+    for air in (0.002, 0.003):
+        th = ContactEventThresholds(air_height=air, touch_height=0.001)
+        det = SoleContactEvents("right", length, width, weight, dt, th)
+        for k in range(len(t)):
+            det.update(float(t[k]), d["wrench"][k, 1], d["rotation"][k, 1], d["position"][k, 1], 0.0,
+                       bool(d["contact_active"][k, 1]))
+        events[air] = [(e.kind, e.cause, e.t) for e in det.events]
+    # 2 mm: lost on the 5th tick of the reference condition; 3 mm (the default): the sole stays under it, kept
+    assert events[0.002][0] == ("loss", "unloaded", pytest.approx(t[k_ref] + 4 * dt))
+    assert events[0.003] == []
+    # the controller's QP had already taken the load off it (its planned normal force there: 0 N)
+    assert abs(d["qp_normal_force"][k_ref, 1]) < 1.0
