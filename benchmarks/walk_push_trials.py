@@ -16,6 +16,7 @@ recovered by a capture step (:class:`wbc.sim.capture_step.CaptureStepScenario`, 
 Usage: python benchmarks/walk_push_trials.py [--robot talos] [--trials 20] [--force 300] [--steps 8]
        [--step-length 0.25] [--step-duration 0.6] [--seed0 0] [--no-step-adjust]
        [--adjust-timing on|off] [--seeds S ...] [--jobs N] [--cli-options] [--state ground-truth|estimated]
+       [--contact-events]
 """
 
 from __future__ import annotations
@@ -41,11 +42,13 @@ def _plant(robot, plant):
 
 
 def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
-          adjust_timing, cli_options=False, plant="realistic", state="ground-truth", seed=0):
+          adjust_timing, cli_options=False, plant="realistic", state="ground-truth", seed=0, contact_events=False):
     if state == "estimated":
         return _cli_trial(robot, force=force, duration=duration, push_time=push_time, push_dir=push_dir, steps=steps,
                           step_length=step_length, step_duration=step_duration, step_adjust=step_adjust,
-                          adjust_timing=adjust_timing, plant=plant, seed=seed)
+                          adjust_timing=adjust_timing, plant=plant, seed=seed, contact_events=contact_events)
+    if contact_events:
+        raise SystemExit("--contact-events needs --state estimated (the ankle F/T sensors)")
     sim, comp = _plant(robot, plant)
     options = {}
     if cli_options:  # the controller `wbc sim walk` builds (soles shrunk, angular-momentum weight 1)
@@ -60,7 +63,7 @@ def trial(robot, *, force, duration, push_time, push_dir, steps, step_length, st
 
 
 def _cli_trial(robot, *, force, duration, push_time, push_dir, steps, step_length, step_duration, step_adjust,
-               adjust_timing, plant, seed):
+               adjust_timing, plant, seed, contact_events=False):
     """The trial as ``wbc sim walk`` runs it (estimated state; module docstring): its JSON summary."""
     import json
     import subprocess
@@ -75,6 +78,7 @@ def _cli_trial(robot, *, force, duration, push_time, push_dir, steps, step_lengt
                "--step-length", repr(step_length), "--step-duration", repr(step_duration), "--push", repr(force),
                "--push-time", repr(push_time), "--push-dir", repr(push_dir), "--push-duration", repr(duration),
                "--plant", plant, "--state", "estimated", "--seed", str(seed), "--quiet", "--json", out]
+        cmd += ["--contact-events"] if contact_events else []
         done = subprocess.run(cmd, capture_output=True, text=True)
         if done.returncode not in (0, 1):
             raise RuntimeError(f"{' '.join(cmd)} exited {done.returncode}: {done.stderr[-2000:]}")
@@ -106,11 +110,15 @@ def main() -> None:
     ap.add_argument("--state", choices=("ground-truth", "estimated"), default="ground-truth",
                     help="estimated: each trial is `wbc sim walk` with its defaults, sensor noise seeded by the trial's "
                          "seed (module docstring)")
+    ap.add_argument("--contact-events", action="store_true",
+                    help="with --state estimated: `wbc sim walk --contact-events` (the QP's contacts follow the "
+                         "measured contact events, wbc.sim.walk_contacts)")
     args = ap.parse_args()
     robot = wbc.load_robot(args.robot)
     common = dict(force=args.force, duration=args.push_duration, step_duration=args.step_duration,
                   step_adjust=not args.no_step_adjust, adjust_timing=args.adjust_timing == "on",
-                  cli_options=args.cli_options, plant=args.plant, state=args.state)
+                  cli_options=args.cli_options, plant=args.plant, state=args.state,
+                  contact_events=args.contact_events)
     if args.standing:
         from wbc.sim.capture_step import CaptureStepScenario
 
@@ -144,7 +152,8 @@ def main() -> None:
           f"{args.steps} steps x {args.step_length} m at {args.step_duration} s/step, "
           f"{math.fsum([args.step_length]) / args.step_duration:.3f} m/s, controller options "
           f"{'of wbc sim walk' if args.cli_options or args.state == 'estimated' else 'default'}, "
-          f"{args.state} state, {args.plant} plant); fell: seeds {fell}")
+          f"{args.state} state, {args.plant} plant{', contact events' if args.contact_events else ''}); "
+          f"fell: seeds {fell}")
 
 
 def _seeded_trial(job, robot=None):

@@ -1,5 +1,6 @@
 """``wbc sim``'s refusals before any run, as the exact line a user sees and exit 2: a push beyond what a trial can
-mean (with the bound), stairs the robot cannot walk, a ± bound given negative, a NaN velocity command."""
+mean (with the bound), stairs the robot cannot walk, a ± bound given negative, a NaN velocity command,
+contact events without the F/T sensors."""
 
 from __future__ import annotations
 
@@ -24,6 +25,9 @@ REFUSED = [
      "for ±10 %) (see wbc sim --help)"),
     (["sim", "walk", "--wz", "nan"],
      "wbc sim: error: --wz nan is not a finite number (valid: |wz| < 112.5 deg/s: 90 deg per 0.8 s step)"),
+    (["sim", "walk", "--contact-events", "--state", "ground-truth"],
+     "wbc sim: error: --contact-events needs the ankle F/T of --state estimated and a stepping scenario (walk, "
+     "push-step), got walk --state ground-truth"),
 ]
 
 

@@ -64,6 +64,10 @@ def check_sim_args(args) -> None:
         raise InvalidInputError("--blind needs --terrain (the plant's ground) and --state estimated (the F/T "
                                 f"touch-down), got --terrain {getattr(getattr(args, 'terrain', None), 'name', None)} "
                                 f"--state {args.state}")
+    if getattr(args, "contact_events", False) and (args.scenario not in ("walk", "push-step")
+                                                    or args.state != "estimated"):
+        raise InvalidInputError(f"--contact-events needs the ankle F/T of --state estimated and a stepping scenario "
+                                f"(walk, push-step), got {args.scenario} --state {args.state}")
     if args.duration is not None:
         check_ticks(f"--duration {args.duration:g}", args.duration, MAX_TIMESTEP)
     if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
@@ -164,6 +168,10 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--sole-margin", type=finite(0.0), default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
                         "wbc.sim.physics_scenarios.walk_options_for)")
+    w.add_argument("--contact-events", action="store_true",
+                   help="walk, push-step: the QP's contacts follow the contact events measured from the ankle F/T and "
+                        "the leg kinematics (a sole that lost contact gets no force until it is down again; "
+                        "wbc.sim.walk_contacts; needs --state estimated; default off)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=finite(0.0, 100.0, valid=MASS_ERROR_VALID), default=0.0,
                    help="walk: plant link-mass error bound, %%: each link's mass scaled by 1 + e, e uniform in "
@@ -251,7 +259,7 @@ def _scenario(args, robot):
                             step_width=args.step_width, zmp_feedback=args.zmp_feedback,
                             terrain=None if args.blind else getattr(args, "terrain", None),
                             **({} if args.base_weight is None else {"base_weight": args.base_weight}),
-                            blind=args.blind,
+                            blind=args.blind, contact_events=args.contact_events,
                             await_load=robot.spec is not None and robot.spec.touchdown == "load")
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario
@@ -259,7 +267,8 @@ def _scenario(args, robot):
         force = args.force
         if force is None:  # Talos: 450 N; any other robot: its capture-point bound (Talos's is 449 N for 0.1 s)
             force = default_push_force(robot, "push-step", args.push_duration, args.push_dir)
-        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir)
+        return CaptureStepScenario(force, args.push_duration, push_dir=args.push_dir,
+                                   contact_events=args.contact_events)
     if args.scenario == "wave":
         from wbc.sim.physics_scenarios import WaveScenario
 

@@ -37,6 +37,7 @@ from wbc.scenarios.framework import Criterion
 from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push, unloaded_contacts
 from wbc.geometry import polygon_margin
 from wbc.sim.walk import WalkScenario
+from wbc.sim.walk_contacts import contact_events_option
 
 __all__ = ["CaptureStepScenario"]
 
@@ -60,6 +61,8 @@ class CaptureStepScenario:
         trigger_margin: the soles are shrunk by this (m) for the trigger test.
         settle: s after the push when no step is triggered; the run lasts ``t_push + push_duration + settle`` at
             least, and until the recovery walk has finished.
+        contact_events: the recovery walk's ``contact_events`` (:class:`~wbc.sim.walk.WalkScenario`; default
+            False), fed with the ankle F/T wrenches the closed loop sets as ``measured_wrench``.
 
     Raises:
         InvalidInputError: negative or non-finite numbers.
@@ -69,7 +72,8 @@ class CaptureStepScenario:
     needs_id = True
 
     def __init__(self, force: float = 450.0, push_duration: float = 0.1, t_push: float = 0.5, push_dir: float = 0.0,
-                 *, step_duration: float = 0.5, trigger_margin: float = 0.02, settle: float = 3.5):
+                 *, step_duration: float = 0.5, trigger_margin: float = 0.02, settle: float = 3.5,
+                 contact_events=False):
         for val, what in ((force, "force"), (push_duration, "push_duration"), (t_push, "t_push"),
                           (trigger_margin, "trigger_margin"), (settle, "settle")):
             if not (np.isfinite(val) and val >= 0):
@@ -82,6 +86,9 @@ class CaptureStepScenario:
         self.duration = self.t_push + self.push_duration + float(settle)
         self.walk: WalkScenario | None = None
         self.t_trigger: float | None = None
+        self.contact_events = contact_events_option(contact_events)
+        if self.contact_events is not None:  # the closed loop then sets it from the F/T sensors; the walk reads it
+            self.measured_wrench = None
 
     def setup(self, controller, sim, q, v):
         robot = sim.robot
@@ -119,7 +126,8 @@ class CaptureStepScenario:
                 # defaults (forward reach 0.65 z_c, dead band 2 cm), to recover with 0.55 z_c and 3 cm.
                 self.walk = WalkScenario(2, 0.0, self.step_duration, t_init=0.06, settle=1.0, from_state=True,
                                          first_side=side, forward_reach=0.55, lateral_reach=0.5,
-                                         adjust_dead_band=0.03, adjust_timing=False)
+                                         adjust_dead_band=0.03, adjust_timing=False,
+                                         contact_events=self.contact_events or False)
                 try:
                     self.walk.setup(controller, sim, q, v)
                 except GaitError as exc:  # e.g. a sole already tilted off the floor: no step can be planned from
@@ -128,6 +136,8 @@ class CaptureStepScenario:
                 else:
                     self.t_trigger = float(t)
         if self.walk is not None:
+            if self.contact_events is not None:
+                self.walk.measured_wrench = self.measured_wrench
             self.walk.update(t - self.t_trigger, controller, sim, q, v)
         active = self.t_push <= t < self.t_push + self.push_duration - 1e-9
         f, self._on = timed_push(sim, self._body, self.force * self.push_vec if active else None, active, self._on)
@@ -159,5 +169,5 @@ class CaptureStepScenario:
         if self.walk is not None:
             out.update({"stepping_side": self.walk.first_side,
                         "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),
-                        "step_adjustments": len(self.walk.adjustments)})
+                        "step_adjustments": len(self.walk.adjustments), **self.walk.contact_events_summary()})
         return out

@@ -67,6 +67,7 @@ from wbc.gait.step_adjustment import StepAdjuster
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
+from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
 from wbc.sim.walk_support import WalkSupport
 
 __all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD"]
@@ -121,7 +122,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:
@@ -224,6 +225,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
             ``swing_froude · √(g z_c)`` (m/s, ``z_c`` the start CoM height; default :data:`SWING_FROUDE`), a step
             whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
             ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
+        contact_events: contacts following the measured contact events (:mod:`wbc.sim.walk_contacts`; default off).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -254,10 +256,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
-                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False,
+                 blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
                  swing_froude: float | None = None, swing_height_weight: float | None = None):
         from wbc.terrain import parse_terrain
-
+        self.contact_thresholds = contact_events_option(contact_events)
         self.terrain = None if terrain is None else parse_terrain(terrain)
         if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
                 or not (math.isfinite(base_weight) and base_weight >= 0):
@@ -488,6 +490,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
                                                            if TOUCHDOWN_CONFIRM_LOAD > 0 else None),
                                             await_load=self.await_load)
         self.controller = controller
+        self._setup_contact_events(robot, sim.timestep)
         if (self.terrain is not None or self.blind) and self.base_weight > 0 \
                 and hasattr(controller, "set_base_orientation_weight"):
             controller.set_base_orientation_weight(self.base_weight, q=q)
@@ -648,6 +651,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary):
         pin.centerOfMass(model, data, q, v)
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
+        self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
         cx, cy, _ = c.tolist()

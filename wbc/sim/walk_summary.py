@@ -190,6 +190,7 @@ class WalkSummary:
             if ts["min_swing_clearance_m"] is None:
                 ts["min_swing_clearance_m"] = float("inf")
             out.update(ts)
+        out.update(self.contact_events_summary())  # (empty unless contact_events)
         run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
                           "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
         return out

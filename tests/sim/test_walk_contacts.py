@@ -1,0 +1,140 @@
+"""The walk's contact set following the measured contact events (wbc.sim.walk_contacts), on a stand-in switcher and
+controller: a loss releases the sole (only with the other sole a measured contact), the released sole is held flat
+on the ground, a measured touch-down switches it on again."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.estimation.contact_events import ContactEventThresholds
+from wbc.exceptions import InvalidInputError
+from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
+
+
+class _Robot:
+    mass, gravity, sole_length, sole_width = 90.0, 9.81, 0.21, 0.13
+
+
+class _Switcher:
+    def __init__(self):
+        self.phases = {"left": "stance", "right": "stance"}
+        self.ground_height = {"left": 0.0, "right": 0.0}
+        self.calls = []
+
+    def phase(self, side):
+        return self.phases[side]
+
+    def release(self, side, t):
+        self.phases[side] = "swing"
+        self.calls.append(("release", side, round(t, 4)))
+
+    def touch_down(self, side, t):
+        self.phases[side] = "loading"
+        self.calls.append(("touchdown", side, round(t, 4)))
+
+
+class _Contact:
+    half_size = (0.092, 0.052)  # a controller sole shrunk by 13 mm
+
+    def __init__(self):
+        self.support = None
+
+    def set_support(self, *band):
+        self.support = band
+
+    def reset_support(self):
+        self.support = None
+
+
+class _Controller:
+    def __init__(self):
+        self.refs = []
+        self.contacts = {"left": _Contact(), "right": _Contact()}
+
+    def set_foot_reference(self, side, pose, vel, acc):
+        self.refs.append((side, pose.copy()))
+
+
+class _Walk(WalkContactEvents):
+    def __init__(self):
+        self.contact_thresholds = ContactEventThresholds()
+        self.blind = False
+        self.descent_speed, self.max_descent = 0.1, 0.02
+        self._active, self.dt = {}, 0.002
+        self._cut = {"left": None, "right": None}
+        self.switcher = _Switcher()
+        self._setup_contact_events(_Robot(), 0.002)
+        self._sole_views = {}
+        self.measured_wrench = np.zeros((2, 6))
+
+    def tick(self, t, controller, fz, heights, tilt_right=0.0, cop_right=(0.0, 0.0)):
+        for j, s in enumerate(("left", "right")):
+            a = tilt_right if s == "right" else 0.0
+            R = pin.rpy.rpyToMatrix(0.0, a, 0.3)
+            pos = np.array([0.1, 0.1 if s == "left" else -0.1, heights[j]])
+            M = pin.SE3(R, pos)
+            self._sole_views[s] = (M, M.rotation, M.translation)
+            cx, cy = cop_right if s == "right" else (0.0, 0.0)
+            self.measured_wrench[j] = [0.0, 0.0, fz[j], cy * fz[j], -cx * fz[j], 0.0]
+        self._follow_contacts(t, controller, 0.0)
+
+
+def test_a_lifted_stance_sole_is_released_held_flat_and_set_down_again():
+    w, c = _Walk(), _Controller()
+    dt = 0.002
+    for k in range(200):
+        t = k * dt
+        up = 50 <= k < 120  # the right sole: unloaded and 2 cm up for 0.14 s
+        tilt = math.radians(5.0) if up else 0.0
+        w.tick(t, c, (880.0, 0.0 if up else 440.0), (0.0, 0.02 if up else 0.0), tilt)
+    # released at the 5th tick of the loss (54), set down again at the 5th loaded flat tick (124)
+    assert w.switcher.calls == [("release", "right", 0.108), ("touchdown", "right", 0.248)]
+    held = [M for s, M in c.refs if s == "right"]
+    assert len(held) == 124 - 54
+    M = held[0]  # flat, the sole's heading (0.3 rad) and horizontal position, on the ground, then lowered
+    assert np.allclose(M.rotation, pin.rpy.rpyToMatrix(0.0, 0.0, 0.3), atol=1e-12)
+    assert np.allclose(M.translation, [0.1, -0.1, 0.0], atol=1e-12)
+    assert held[10].translation[2] == pytest.approx(-0.1 * 10 * 0.002)  # 0.1 m/s for 10 ticks
+    assert held[-1].translation[2] == pytest.approx(-0.1 * (123 - 54) * 0.002)  # (under the 2 cm cap)
+    assert [r["action"] for r in w.contact_events_summary()["contact_releases"]] == ["release", "touchdown"]
+
+
+def test_the_last_support_is_never_released():
+    w, c = _Walk(), _Controller()
+    w.switcher.phases["left"] = "swing"  # single support on the right
+    for k in range(100):
+        w.tick(k * 0.002, c, (0.0, 0.0 if k >= 20 else 880.0), (0.05, 0.02 if k >= 20 else 0.0))
+    assert w.switcher.calls == [] and c.refs == []
+    kinds = [e["kind"] for e in w.contact_events_summary()["contact_events"] if e["sole"] == "right"]
+    assert kinds == ["loss"]  # logged, not acted on
+
+
+def test_no_wrench_is_a_typed_error_and_the_option_is_checked():
+    w = _Walk()
+    w.measured_wrench = None
+    with pytest.raises(InvalidInputError, match="estimated"):
+        w._follow_contacts(0.0, _Controller(), 0.0)
+    assert contact_events_option(False) is None and contact_events_option(None) is None
+    assert contact_events_option(True) == ContactEventThresholds()
+    with pytest.raises(InvalidInputError, match="contact_events"):
+        contact_events_option("on")
+
+
+def test_a_loaded_sole_on_its_toe_edge_is_cut_to_a_toe_band_until_it_is_flat_again():
+    w, c = _Walk(), _Controller()
+    toe = (0.104, 0.0)  # the CoP 1 mm from the toe edge (sole half length 0.105 m)
+    for k in range(40):  # heel up 6° on the toe, 300 N: an edge, still loaded
+        w.tick(k * 0.002, c, (580.0, 300.0), (0.0, 0.011), math.radians(6.0), toe)
+    assert c.contacts["right"].support == pytest.approx((0.072, 0.092, -0.052, 0.052))  # a 2 cm band at the toe
+    assert w._cut["right"] == c.contacts["right"].support
+    for k in range(40, 80):  # unloaded on its edge: the band stays, no release
+        w.tick(k * 0.002, c, (880.0, 0.0), (0.0, 0.011), math.radians(6.0), toe)
+    assert w.switcher.calls == [] and c.contacts["right"].support is not None
+    for k in range(80, 100):  # flat and loaded again: the whole sole
+        w.tick(k * 0.002, c, (440.0, 440.0), (0.0, 0.0), 0.0)
+    assert c.contacts["right"].support is None and w._cut["right"] is None
+    assert [(round(t / 0.002), a) for t, s, a in w.contact_releases] == [(4, "edge"), (84, "whole sole")]

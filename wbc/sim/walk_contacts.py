@@ -1,0 +1,145 @@
+"""The walk's contact set and force bounds following the measured contact events (opt-in ``contact_events`` of
+:class:`wbc.sim.walk.WalkScenario`).
+
+Every tick, each sole's :class:`wbc.estimation.contact_events.SoleContactEvents` reads the ankle F/T ground
+reaction (``measured_wrench``, set by the closed loop on an estimated state), the sole placement from the
+kinematics of the estimated state and the height of the ground under it (the contact switcher's
+``ground_height``). A ``loss`` or ``late`` event (the controller's contact denied by the measurement) of a sole
+the switcher holds as a contact (``stance`` or ``loading``):
+
+* on an edge and still loaded (cause ``edge``): its QP contact and the stabilizer's support are cut to a band
+  along that edge, twice the events' ``edge_margin`` wide (0.02 m by default;
+  :meth:`WalkContactEvents._cut_to_edge`), until it is flat again (``touchdown``) or the plan lifts it;
+* unloaded (cause ``unloaded``; not a sole cut to its edge, which keeps its band), when the other sole is a
+  contact by the events: released,
+  :meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release` (no force on it in the QP, out of the
+  stabilizer's support area, which follows the switcher), its foot task holding it flat at its sole's horizontal
+  position and heading and lowering it into the estimated ground (the walk's late touch-down: ``descent_speed``, at
+  most ``max_descent``) until the events see it down again (``touchdown``: flat and loaded); it is then switched
+  on with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
+
+The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 0.01 s by default):
+the contact set changes on the tick the event is confirmed, before that tick's QP.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.estimation.contact_events import ContactEventMonitor, ContactEventThresholds
+from wbc.exceptions import InvalidInputError
+
+_OTHER_SOLE = {"left": "right", "right": "left"}
+
+
+def contact_events_option(value) -> ContactEventThresholds | None:
+    """The ``contact_events`` keyword: False/None (off), True (default thresholds) or a
+    :class:`ContactEventThresholds`.
+
+    Raises:
+        InvalidInputError: anything else.
+    """
+    if value is None or value is False:
+        return None
+    if value is True:
+        return ContactEventThresholds()
+    if isinstance(value, ContactEventThresholds):
+        return value
+    raise InvalidInputError(f"contact_events must be a bool or a ContactEventThresholds, got {value!r}")
+
+
+class WalkContactEvents:
+    """The measured contact events of :class:`wbc.sim.walk.WalkScenario` (module docstring). Its state: the
+    switcher, ``measured_wrench``, the sole placements of the tick (``_sole_views``), the active swings."""
+
+    def _setup_contact_events(self, robot, dt: float) -> None:
+        self.contact_monitor = None if self.contact_thresholds is None else \
+            ContactEventMonitor(robot, dt, self.contact_thresholds)
+        #: (t, sole, action): "release", "touchdown" (a released sole set down), "edge" (cut to an edge band),
+        #: "whole sole" (the cut undone)
+        self.contact_releases: list[tuple[float, str, str]] = []
+        self._lost = {"left": False, "right": False}
+        self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
+        self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
+
+    def _follow_contacts(self, t: float, controller, tp: float) -> None:
+        """One tick of the events; release, cut or set down soles (module docstring); nothing when off. ``tp``:
+        the plan clock (s; a swinging sole is planned down once its planned touch-down has passed)."""
+        if self.contact_monitor is None:
+            return
+        landing_due = {s: tp >= a[2] * self.dt - 1e-9 for s, a in self._active.items()}
+        wrench = self.measured_wrench
+        if wrench is None:
+            raise InvalidInputError("contact_events needs the ankle F/T wrenches (measured_wrench), set by the closed "
+                                    "loop on an estimated state (--state estimated)")
+        sw, mon = self.switcher, self.contact_monitor
+        for j, side in enumerate(("left", "right")):
+            _, R, pos = self._sole_views[side]
+            det = mon.soles[side]
+            planned = sw.phase(side) in ("stance", "loading") or landing_due.get(side, False)
+            causes = {e.cause for e in det.update(t, wrench[j], R, pos, sw.ground_height[side], planned)
+                      if e.kind in ("loss", "late")}  # the controller's contact denied by the measurement
+            if self._edge[side] is not None and (det.in_contact or sw.phase(side) not in ("stance", "loading")):
+                self._uncut(controller, side, t)  # flat again, or lifted by the plan
+            other = _OTHER_SOLE[side]
+            may_release = not self._lost[side] and sw.phase(side) in ("stance", "loading") \
+                and sw.phase(other) in ("stance", "loading") and mon.soles[other].in_contact
+            if "edge" in causes and det.loaded and self._edge[side] is None and not self.blind \
+                    and sw.phase(side) in ("stance", "loading"):
+                self._cut_to_edge(controller, side, det, t)
+            elif may_release and "unloaded" in causes and self._edge[side] is None:
+                sw.release(side, t)
+                self._lost[side] = True
+                yaw = math.atan2(R[1, 0], R[0, 0])
+                self._hold[side] = (pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
+                                            np.array([pos[0], pos[1], sw.ground_height[side]])), float(t))
+                self.contact_releases.append((float(t), side, "release"))
+            if self._lost[side] and sw.phase(side) != "swing":  # set down by the switcher's own test
+                self._lost[side] = False
+            if self._lost[side]:
+                if det.in_contact:
+                    sw.touch_down(side, t)
+                    self._lost[side] = False
+                    self.contact_releases.append((float(t), side, "touchdown"))
+                else:  # flat, descending into the ground at descent_speed for at most max_descent
+                    pose, t0 = self._hold[side]
+                    drop = self.descent_speed * (t - t0)
+                    target = pin.SE3(pose.rotation, pose.translation - [0.0, 0.0, min(drop, self.max_descent)])
+                    vel = np.zeros(6)
+                    vel[2] = -self.descent_speed if drop < self.max_descent else 0.0
+                    controller.set_foot_reference(side, target, vel, np.zeros(6))
+
+    def _cut_to_edge(self, controller, side: str, det, t: float) -> None:
+        """Confine a loaded sole rolled onto an edge to a band of 2 ``edge_margin`` (m) along that edge (the QP's
+        corner forces, :meth:`wbc.constraints.sole_contact.SoleContact.set_support`, and the stabilizer's support,
+        ``_cut``): the ankle no longer asks a CoP the ground cannot give (Wiedebach et al., "Walking on partial
+        footholds including line contacts with the humanoid robot Atlas", Humanoids 2016, Sec. III)."""
+        con = controller.contacts[side]
+        x1, y1 = con.half_size
+        band = [-x1, x1, -y1, y1]
+        cx, cy = det.signals.cop
+        a, b = det.half
+        e = det.th.edge_margin
+        if abs(cx) >= a - e:
+            band[0:2] = [x1 - 2 * e, x1] if cx > 0 else [-x1, -x1 + 2 * e]
+        if abs(cy) >= b - e:
+            band[2:4] = [y1 - 2 * e, y1] if cy > 0 else [-y1, -y1 + 2 * e]
+        con.set_support(*band)
+        self._cut[side] = self._edge[side] = tuple(band)
+        self.contact_releases.append((float(t), side, "edge"))
+
+    def _uncut(self, controller, side: str, t: float) -> None:
+        controller.contacts[side].reset_support()
+        self._cut[side] = self._edge[side] = None
+        self.contact_releases.append((float(t), side, "whole sole"))
+
+    def contact_events_summary(self) -> dict:
+        """The events and the releases for a run summary (empty when off)."""
+        if self.contact_monitor is None:
+            return {}
+        return {"contact_events": [e.as_dict() for e in self.contact_monitor.events()],
+                "contact_event_latency_s": self.contact_monitor.latency,
+                "contact_releases": [{"t": t, "sole": s, "action": a} for t, s, a in self.contact_releases]}
