@@ -17,6 +17,7 @@ MAGIC = "from numba.core.codegen import JITCPUCodegen; print(repr(JITCPUCodegen(
 def test_env_targets_generic_cpu_in_its_own_cache(monkeypatch, tmp_path):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.setenv("NUMBA_CPU_FEATURES", "+avx2")
+    monkeypatch.delenv("WBC_CALLGRIND_CPU", raising=False)
     env = callgrind_env()
     assert env["NUMBA_CPU_NAME"] == "generic"
     assert "NUMBA_CPU_FEATURES" not in env

@@ -44,14 +44,17 @@ def callgrind_env() -> dict[str, str]:
     """The environment of a callgrind child: this process's, with numba compiling for the generic x86-64 CPU
     (``NUMBA_CPU_NAME=generic``, no extra CPU features) into its own on-disk cache
     (``NUMBA_CACHE_DIR`` = ``$XDG_CACHE_HOME/wbc/numba-generic``, default ``~/.cache/wbc/numba-generic``), so that
-    the cache a native run wrote is the one a run under valgrind finds.
+    the cache a native run wrote is the one a run under valgrind finds. ``WBC_CALLGRIND_CPU`` names another LLVM
+    CPU (e.g. ``haswell``: x86-64 with AVX2, which valgrind emulates) for a count of code tuned beyond the baseline;
+    its cache is ``numba-<cpu>``.
 
     Returns:
         A copy of ``os.environ`` with those variables set (``NUMBA_CPU_FEATURES`` removed).
     """
     env = dict(os.environ)
-    cache = Path(env.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "wbc" / "numba-generic"
-    env["NUMBA_CPU_NAME"] = "generic"
+    cpu = env.get("WBC_CALLGRIND_CPU") or "generic"
+    cache = Path(env.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "wbc" / f"numba-{cpu}"
+    env["NUMBA_CPU_NAME"] = cpu
     env.pop("NUMBA_CPU_FEATURES", None)
     env["NUMBA_CACHE_DIR"] = str(cache)
     return env
@@ -74,7 +77,8 @@ def prime_child(module: str, args: list[str], label: str, log=print) -> float:
     if r.returncode:
         raise RuntimeError(f"callgrind child {label} failed natively: {r.stderr[-2000:]}")
     seconds = time.perf_counter() - t0
-    log(f"callgrind {label}: kernels compiled or loaded for generic x86-64 natively ({seconds:.0f} s)")
+    log(f"callgrind {label}: kernels compiled or loaded for CPU {callgrind_env()['NUMBA_CPU_NAME']} natively "
+        f"({seconds:.0f} s)")
     return seconds
 
 
@@ -241,8 +245,8 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     """Instructions per kinematic tick of wbc and placo (module docstring).
 
     Returns:
-        {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "ratio_wbc_placo",
-        "seconds"}.
+        {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "cpu" (the LLVM CPU
+        numba compiled for), "ratio_wbc_placo", "seconds"}.
 
     Raises:
         RuntimeError: valgrind missing or a child run failed.
@@ -257,7 +261,7 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
         log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
             f"({time.perf_counter() - t1:.0f} s)")
     per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
-    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw,
+    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw, "cpu": callgrind_env()["NUMBA_CPU_NAME"],
             "ratio_wbc_placo": per["wbc"] / per["placo"], "seconds": time.perf_counter() - t0}
 
 
