@@ -178,6 +178,20 @@ def tsid_child(npz_path: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------------------------- parent
+def _ask(child: subprocess.Popen, command: str) -> dict | None:
+    """Send one command line to the TSID child; its JSON answer (None for ``quit``, which has none)."""
+    child.stdin.write(command + "\n")
+    child.stdin.flush()
+    return None if command == "quit" else json.loads(child.stdout.readline())
+
+
+def _stop(child: subprocess.Popen) -> None:
+    try:
+        child.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        child.kill()
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ticks", type=int, default=400, help="states per timed block (after 30 warm-up ticks)")
@@ -250,23 +264,16 @@ def main(argv: list[str] | None = None) -> int:
             rounds = []
             for r in range(args.repeats):  # 2. A B A B
                 w_wall, w_cpu = _timed_block(wbc_tick, len(qs))
-                child.stdin.write("run\n")
-                child.stdin.flush()
-                t = json.loads(child.stdout.readline())
+                t = _ask(child, "run")
                 rounds.append({"wbc_wall_us": w_wall, "wbc_cpu_us": w_cpu, "tsid_wall_us": t["wall_us"],
                                "tsid_cpu_us": t["cpu_us"]})
                 print(f"  round {r + 1}: wbc {w_wall:7.1f} µs (CPU {w_cpu:7.1f}), TSID {t['wall_us']:7.1f} µs "
                       f"(CPU {t['cpu_us']:7.1f}), wbc/TSID {w_wall / t['wall_us']:.3f} (CPU "
                       f"{w_cpu / t['cpu_us']:.3f})", flush=True)
-            child.stdin.write("check\n")
-            child.stdin.flush()
-            tsid_check = json.loads(child.stdout.readline())
-            child.stdin.write("quit\n")
-            child.stdin.flush()
-            child.wait(timeout=60)
+            tsid_check = _ask(child, "check")
+            _ask(child, "quit")
         finally:
-            if child.poll() is None:
-                child.kill()
+            _stop(child)
 
     # 3. wbc's commands against the dynamics (Pinocchio, outside the controller)
     lwa = pin.LOCAL_WORLD_ALIGNED
