@@ -15,7 +15,8 @@ compile every one under emulation (tens of minutes). Every callgrind child there
 :func:`callgrind_env` (numba targets the generic x86-64 CPU, the baseline that placo's manylinux wheel is built
 for, and caches in a folder of its own), and the same child is first run once natively with that environment
 (:func:`prime_child`), which compiles the kernels or finds them cached; under valgrind they are then loaded. The
-counts are thus the instructions of generic x86-64 code, for wbc's kernels as for placo.
+counts are thus the instructions of generic x86-64 code, for wbc's kernels as for placo (or, with
+``WBC_CALLGRIND_CPU``, of wbc's kernels compiled for that CPU).
 """
 
 from __future__ import annotations
