@@ -20,11 +20,12 @@ def test_env_targets_generic_cpu_in_its_own_cache(monkeypatch, tmp_path):
     monkeypatch.delenv("WBC_CALLGRIND_CPU", raising=False)
     env = callgrind_env()
     assert env["NUMBA_CPU_NAME"] == "generic"
-    assert "NUMBA_CPU_FEATURES" not in env
+    assert env["NUMBA_CPU_FEATURES"] == ""
     assert Path(env["NUMBA_CACHE_DIR"]) == tmp_path / "wbc" / "numba-generic"
 
 
-def test_numba_cache_key_is_generic_whatever_the_host_reports():
+def test_numba_cache_key_is_generic_whatever_the_host_reports(monkeypatch):
+    monkeypatch.delenv("WBC_CALLGRIND_CPU", raising=False)
     # numba's cache index is keyed on (target triple, CPU name, CPU features): in the child's environment the
     # last two must be the generic CPU with no feature string, not what LLVM detects on this host
     out = subprocess.run([sys.executable, "-c", MAGIC], env=callgrind_env(), capture_output=True, text=True,
@@ -34,3 +35,12 @@ def test_numba_cache_key_is_generic_whatever_the_host_reports():
     assert features == ""
     host = subprocess.run([sys.executable, "-c", MAGIC], capture_output=True, text=True, check=True).stdout.strip()
     assert ast.literal_eval(host)[0] == triple
+
+
+def test_numba_cache_key_of_a_named_cpu_has_no_detected_features(monkeypatch):
+    # with another CPU named, numba would append the host's detected features unless told none: the key must
+    # be the named CPU alone, or valgrind's run would miss the native run's cache
+    monkeypatch.setenv("WBC_CALLGRIND_CPU", "haswell")
+    out = subprocess.run([sys.executable, "-c", MAGIC], env=callgrind_env(), capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert ast.literal_eval(out)[1:] == ("haswell", "")

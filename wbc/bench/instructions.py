@@ -50,13 +50,14 @@ def callgrind_env() -> dict[str, str]:
     its cache is ``numba-<cpu>``.
 
     Returns:
-        A copy of ``os.environ`` with those variables set (``NUMBA_CPU_FEATURES`` removed).
+        A copy of ``os.environ`` with those variables set (``NUMBA_CPU_FEATURES`` empty: the named CPU's features,
+        none detected).
     """
     env = dict(os.environ)
     cpu = env.get("WBC_CALLGRIND_CPU") or "generic"
     cache = Path(env.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "wbc" / f"numba-{cpu}"
     env["NUMBA_CPU_NAME"] = cpu
-    env.pop("NUMBA_CPU_FEATURES", None)
+    env["NUMBA_CPU_FEATURES"] = ""  # the CPU's own features; unset, numba adds the ones it detects (all but generic)
     env["NUMBA_CACHE_DIR"] = str(cache)
     return env
 
