@@ -8,18 +8,30 @@ more, the parent reads Ir(2N): (Ir(2N) − Ir(N)) / N is the instructions per ti
 
 Child entry point: ``python -m wbc.bench.instructions <library> <N> [robot]`` (library: ``wbc`` or ``placo``);
 it prints READY / HALF / DONE and waits for a line on stdin after each.
+
+Compiled kernels: numba's on-disk cache is indexed by the CPU name and features LLVM detects, and valgrind's
+emulated CPU reports other features than the host, so a child under valgrind would find no cached kernel and
+compile every one under emulation (tens of minutes). Every callgrind child therefore runs with
+:func:`callgrind_env` (numba targets the generic x86-64 CPU, the baseline that placo's manylinux wheel is built
+for, and caches in a folder of its own), and the same child is first run once natively with that environment
+(:func:`prime_child`), which compiles the kernels or finds them cached; under valgrind they are then loaded. The
+counts are thus the instructions of generic x86-64 code, for wbc's kernels as for placo (or, with
+``WBC_CALLGRIND_CPU``, of wbc's kernels compiled for that CPU).
 """
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
-__all__ = ["callgrind_available", "callgrind_half_and_done", "instructions_per_tick", "walk_instructions_per_tick"]
+__all__ = ["callgrind_available", "callgrind_env", "callgrind_half_and_done", "instructions_per_tick", "prime_child",
+           "walk_instructions_per_tick"]
 
 LIBRARIES = ("wbc", "placo")
 
@@ -27,6 +39,56 @@ LIBRARIES = ("wbc", "placo")
 def callgrind_available() -> bool:
     """Whether ``valgrind`` and ``callgrind_control`` are on the PATH."""
     return shutil.which("valgrind") is not None and shutil.which("callgrind_control") is not None
+
+
+def callgrind_env() -> dict[str, str]:
+    """The environment of a callgrind child: this process's, with numba compiling for the generic x86-64 CPU
+    (``NUMBA_CPU_NAME=generic``, no extra CPU features) into its own on-disk cache
+    (``NUMBA_CACHE_DIR`` = ``$XDG_CACHE_HOME/wbc/numba-generic``, default ``~/.cache/wbc/numba-generic``), so that
+    the cache a native run wrote is the one a run under valgrind finds. ``WBC_CALLGRIND_CPU`` names another LLVM
+    CPU (e.g. ``haswell``: x86-64 with AVX2, which valgrind emulates) for a count of code tuned beyond the baseline;
+    its cache is ``numba-<cpu>``.
+
+    Returns:
+        A copy of ``os.environ`` with those variables set (``NUMBA_CPU_FEATURES`` empty: the named CPU's features,
+        none detected).
+    """
+    env = dict(os.environ)
+    cpu = env.get("WBC_CALLGRIND_CPU") or "generic"
+    cache = Path(env.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "wbc" / f"numba-{cpu}"
+    env["NUMBA_CPU_NAME"] = cpu
+    env["NUMBA_CPU_FEATURES"] = ""  # the CPU's own features; unset, numba adds the ones it detects (all but generic)
+    env["NUMBA_CACHE_DIR"] = str(cache)
+    return env
+
+
+def prime_child(module: str, args: list[str], label: str, log=print) -> float:
+    """Run the callgrind child ``python -m module *args`` once natively with :func:`callgrind_env`, answering each
+    of its markers, so that every kernel it calls is compiled into (or already found in) that environment's
+    numba cache before the run under valgrind.
+
+    Returns:
+        The wall time of the run (s).
+
+    Raises:
+        RuntimeError: the child failed.
+    """
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", module, *args], env=callgrind_env(), input="go\n" * 4,
+                       capture_output=True, text=True, timeout=3600)
+    if r.returncode:
+        raise RuntimeError(f"callgrind child {label} failed natively: {r.stderr[-2000:]}")
+    seconds = time.perf_counter() - t0
+    log(f"callgrind {label}: kernels compiled or loaded for CPU {callgrind_env()['NUMBA_CPU_NAME']} natively "
+        f"({seconds:.0f} s)")
+    return seconds
+
+
+def _start_under_callgrind(module: str, args: list[str], out_dir: str) -> subprocess.Popen:
+    return subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                             f"--callgrind-out-file={out_dir}/cg.out", sys.executable, "-m", module, *args],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=callgrind_env())
 
 
 def _child(library: str, n: int, robot_name: str = "talos") -> None:
@@ -98,18 +160,12 @@ def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=
     """
     if not callgrind_available():
         raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
-    from wbc.formulations import velocity_kernel
-    from wbc.solvers import fast
-
-    fast.load_fast_kernels()
-    velocity_kernel.load_kinematic_kernels()
     per, ticks = {}, 0
     for lib in libraries:
+        args = ["walk-" + lib, str(n_steps), robot_name]
+        prime_child("wbc.bench.instructions", args, f"walk {lib}", log)
         with tempfile.TemporaryDirectory() as d:
-            p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                                  f"--callgrind-out-file={d}/cg.out", sys.executable, "-m", "wbc.bench.instructions",
-                                  "walk-" + lib, str(n_steps), robot_name],
-                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            p = _start_under_callgrind("wbc.bench.instructions", args, d)
             try:
                 line = p.stdout.readline().strip()
                 if line != "READY":
@@ -146,10 +202,11 @@ def _control(pid: int, *args: str) -> str:
     return r.stdout
 
 
-def callgrind_half_and_done(module: str, args: list[str], label: str) -> tuple[int, int]:
+def callgrind_half_and_done(module: str, args: list[str], label: str, log=print) -> tuple[int, int]:
     """Run ``python -m module *args`` under valgrind callgrind with instrumentation off, and read its instruction
     totals at two points of a line protocol: the child prints READY (instrumentation is switched on and zeroed),
-    HALF (after N ticks) and DONE (after 2N ticks), each time waiting for a "go" line on stdin.
+    HALF (after N ticks) and DONE (after 2N ticks), each time waiting for a "go" line on stdin. The child is first
+    run natively (:func:`prime_child`) so that under valgrind it loads its kernels from the cache.
 
     Returns:
         (Ir at HALF, Ir at DONE), counted from READY (instructions of thread 1).
@@ -157,10 +214,9 @@ def callgrind_half_and_done(module: str, args: list[str], label: str) -> tuple[i
     Raises:
         RuntimeError: the child printed something else, failed, or callgrind_control gave no Ir total.
     """
+    prime_child(module, args, label, log)
     with tempfile.TemporaryDirectory() as d:
-        p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={d}/cg.out",
-                              sys.executable, "-m", module, *args],
-                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        p = _start_under_callgrind(module, args, d)
         try:
             irs = []
             for marker in ("READY", "HALF", "DONE"):
@@ -191,28 +247,23 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     """Instructions per kinematic tick of wbc and placo (module docstring).
 
     Returns:
-        {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "ratio_wbc_placo",
-        "seconds"}.
+        {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "cpu" (the LLVM CPU
+        numba compiled for), "ratio_wbc_placo", "seconds"}.
 
     Raises:
         RuntimeError: valgrind missing or a child run failed.
     """
     if not callgrind_available():
         raise RuntimeError("valgrind is not installed (apt-get install valgrind)")
-    from wbc.formulations import velocity_kernel
-    from wbc.solvers import fast
-
-    fast.load_fast_kernels()  # the JIT cache is written here, so that both child runs only load it
-    velocity_kernel.load_kinematic_kernels()
     t0 = time.perf_counter()
     raw: dict[str, list[int]] = {}
     for lib in LIBRARIES:
         t1 = time.perf_counter()
-        raw[lib] = list(callgrind_half_and_done("wbc.bench.instructions", [lib, str(n), robot_name], lib))
+        raw[lib] = list(callgrind_half_and_done("wbc.bench.instructions", [lib, str(n), robot_name], lib, log))
         log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
             f"({time.perf_counter() - t1:.0f} s)")
     per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
-    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw,
+    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw, "cpu": callgrind_env()["NUMBA_CPU_NAME"],
             "ratio_wbc_placo": per["wbc"] / per["placo"], "seconds": time.perf_counter() - t0}
 
 

@@ -314,7 +314,9 @@ def markdown(results: dict) -> str:
             out += [ins["error"], ""]
         else:
             out += [f"Each library ran the kinematic scenario under callgrind with {ins['n']} and {2 * ins['n']} timed "
-                    "ticks; the difference divided by N cancels start-up, imports and JIT loading.", "",
+                    "ticks; the difference divided by N cancels start-up, imports and JIT loading. wbc's numba "
+                    f"kernels were compiled for the {ins.get('cpu', 'generic')} x86-64 CPU (placo's wheel is built for "
+                    "the generic baseline): benchmarks/method.md.", "",
                     "| library | instructions per tick | / placo |", "|---|---|---|"]
             for lib, n in ins["instructions"].items():
                 out.append(f"| {lib} | {n / 1e3:.0f} k | {n / ins['instructions']['placo']:.2f} |")
