@@ -37,7 +37,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.tasks import AngularMomentumTask, ComTask, FrameTask, OrientationTask, PostureTask
 
-__all__ = ["IDBalanceController", "BalanceController", "DEFAULT_GAINS"]
+__all__ = ["IDBalanceController", "DEFAULT_GAINS"]
 
 #: Default gains (kp 1/s², kd 1/s or momentum gain 1/s) and weights.
 DEFAULT_GAINS: dict[str, float] = {
