@@ -46,3 +46,17 @@ def test_touchdown_replan_planned_ahead_gives_the_same_walk(robots):
     in_tick, walk = _streamed_walk(robot, 3000, early=False)
     assert walk.early_replans == 0
     assert np.array_equal(ahead, in_tick), float(np.abs(ahead - in_tick).max())
+
+
+def test_plan_ahead_refuses_a_non_bool(robots):
+    import pytest
+
+    from wbc.exceptions import InvalidInputError
+
+    walk = CommandedWalk(robots("humanoid15"))
+    assert walk.plan_ahead is True
+    for bad in (1, "no", None):
+        with pytest.raises(InvalidInputError, match="plan_ahead must be True or False"):
+            walk.plan_ahead = bad
+    walk.plan_ahead = False
+    assert walk.plan_ahead is False

@@ -49,6 +49,12 @@ __all__ = ["CommandedWalk"]
 _DOUBLE = 0
 
 
+def _check_bool(value, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidInputError(f"{name} must be True or False; got {value!r}")
+    return bool(value)
+
+
 class CommandedWalk:
     """The online walk of the module docstring.
 
@@ -129,6 +135,9 @@ class CommandedWalk:
 
     max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 2.0),
                                       "Forward speed limit, m/s (in [0.001, 2]; raises InvalidInputError).")
+    plan_ahead = ValidatedAttribute(lambda walk, v: _check_bool(v, "plan_ahead"),
+                                    "Touch-down re-plans made ahead (module docstring): a bool (raises "
+                                    "InvalidInputError otherwise).")
 
     @property
     def limits(self) -> CommandLimits:
