@@ -1,10 +1,27 @@
-"""For the Cyclone DDS test clients (tests/ros2/ros2_node_client.py, ros2_subscriber.py), which do not import wbc:
-Cyclone binds its unicast receive sockets to 0.0.0.0 whatever its configuration; :func:`bind_to_lo` restricts this
-process's wildcard-bound UDP sockets to the ``lo`` device (``SO_BINDTODEVICE``), as ``wbc.ros2.dds.participant``
-does for wbc's own participants. Call it right after creating the ``DomainParticipant``. Not a test module."""
+"""For the Cyclone DDS test clients (tests/ros2/ros2_node_client.py, ros2_subscriber.py), which use no part of wbc's
+ROS 2 code but its socket confinement: Cyclone binds its unicast receive sockets to 0.0.0.0 whatever its
+configuration. :func:`loopback_participant` creates the client's ``DomainParticipant`` with Cyclone's ``bind`` calls
+redirected to 127.0.0.1 (:mod:`wbc.ros2.loopback_bind`, as ``wbc.ros2.dds.participant`` does for wbc's own
+participants); where that cannot be done, :func:`bind_to_lo` restricts the wildcard-bound sockets to the ``lo``
+device just after (``SO_BINDTODEVICE``). Not a test module."""
 
 import os
 import socket
+
+
+def loopback_participant(domain: int):
+    """A ``DomainParticipant`` on ``domain`` whose receive sockets are bound to 127.0.0.1 (or, failing the
+    redirection, restricted to ``lo`` just after their creation)."""
+    from cyclonedds.domain import DomainParticipant
+
+    from wbc.ros2 import loopback_bind
+
+    if loopback_bind.install():
+        with loopback_bind.confined():
+            return DomainParticipant(domain)
+    participant = DomainParticipant(domain)
+    bind_to_lo()
+    return participant
 
 
 def bind_to_lo() -> int:

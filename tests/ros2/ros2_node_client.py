@@ -20,7 +20,6 @@ import types
 from dataclasses import dataclass, field
 
 from cyclonedds.core import Policy, Qos
-from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
 from cyclonedds.idl.types import array, float32, float64, int8, int16, int32, int64, sequence, uint8, uint16, uint32, uint64
@@ -28,7 +27,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
-from loopback_sockets import bind_to_lo
+from loopback_sockets import loopback_participant
 
 
 @dataclass
@@ -358,8 +357,7 @@ DEEP = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.Keep
            Policy.Durability.Volatile)
 LATCHED = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(1),
               Policy.Durability.TransientLocal)
-DP = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
-bind_to_lo()  # Cyclone's receive sockets on lo only (tests/ros2/conftest.py checks)
+DP = loopback_participant(int(os.environ.get("ROS_DOMAIN_ID", "0")))  # on 127.0.0.1 only (conftest.py checks)
 GUID = random.getrandbits(63)
 
 

@@ -11,7 +11,6 @@ import time
 from dataclasses import dataclass
 
 from cyclonedds.core import Policy, Qos
-from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
 from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint32, uint64
@@ -19,7 +18,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
-from loopback_sockets import bind_to_lo
+from loopback_sockets import loopback_participant
 import os
 
 
@@ -110,8 +109,7 @@ class Trigger_Response_(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Respon
 
 def main():
     mode, seconds = sys.argv[1], float(sys.argv[2])
-    dp = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
-    bind_to_lo()  # Cyclone's receive sockets on lo only (tests/ros2/conftest.py checks)
+    dp = loopback_participant(int(os.environ.get("ROS_DOMAIN_ID", "0")))  # on 127.0.0.1 only (conftest.py checks)
     rel = Policy.Reliability.Reliable(duration(seconds=1))
     stream = Qos(rel, Policy.History.KeepLast(1000), Policy.Durability.Volatile)
     latched = Qos(rel, Policy.History.KeepLast(1), Policy.Durability.TransientLocal)

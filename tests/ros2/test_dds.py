@@ -177,15 +177,32 @@ def send_destinations(trace: str) -> dict[str, int]:
     return found
 
 
+_BIND = re.compile(r"^(\d+) +bind\((\d+), \{sa_family=(AF_INET6?), (.*)$")
+
+
+def bind_addresses(trace: str) -> dict[str, int]:
+    """{local address: count} of the IPv4/IPv6 ``bind`` calls in an ``strace -f`` output (a wildcard as 0.0.0.0 or
+    ::)."""
+    found = {}
+    for line in trace.splitlines():
+        m = _BIND.match(line)
+        if m:
+            for v4, v6 in _DEST.findall(m.group(4)):
+                found[v4 or v6] = found.get(v4 or v6, 0) + 1
+    return found
+
+
 def test_no_dds_packet_leaves_lo(kilted, loopback_guard):
     """`wbc ros2 node` (DDS backend) and a Kilted rclpy client (Fast DDS on its defaults with the loopback profile)
-    exchange 100 /joint_states under ``strace -f`` (sendto, sendmsg, connect): every destination address of every
-    send of both, the re-executed Python of the wheels' bootstrapper included, is 127.0.0.1 — but for Cyclone's
-    start-up multicast loopback probe (16 bytes to 239.255.0.1 on a socket set to IP_MULTICAST_IF 127.0.0.1 and
-    TTL 0: it cannot leave the host); the session's ss guard has sampled the processes meanwhile."""
+    exchange 100 /joint_states under ``strace -f`` (bind, sendto, sendmsg, connect): every address either binds a
+    socket to is 127.0.0.1 (Cyclone's receive sockets included, which Cyclone asks for on 0.0.0.0:
+    wbc.ros2.loopback_bind), and every destination address of every send of both, the re-executed Python of the
+    wheels' bootstrapper included, is 127.0.0.1 — but for Cyclone's start-up multicast loopback probe (16 bytes to
+    239.255.0.1 on a socket set to IP_MULTICAST_IF 127.0.0.1 and TTL 0: it cannot leave the host); the session's
+    ss guard has sampled the processes meanwhile."""
     trace = kilted.workdir / "strace"
     trace.mkdir(parents=True, exist_ok=True)
-    strace = ["strace", "-f", "-qq", "-e", "trace=sendto,sendmsg,sendmmsg,connect,setsockopt", "-o"]
+    strace = ["strace", "-f", "-qq", "-e", "trace=bind,sendto,sendmsg,sendmmsg,connect,setsockopt", "-o"]
     node = subprocess.Popen([*strace, str(trace / "node"), sys.executable, "-m", "wbc", "ros2", "node", "--backend",
                              "dds", "--duration", "600"], env=kilted.wbc_env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=str(REPO))
@@ -204,6 +221,9 @@ def test_no_dds_packet_leaves_lo(kilted, loopback_guard):
     dests = {who: send_destinations((trace / who).read_text(errors="replace")) for who in ("node", "client")}
     print("send/connect destinations:", dests, f"ss snapshots {loopback_guard.snapshots}, sockets seen "
           f"{loopback_guard.sockets_seen}")
+    binds = {who: bind_addresses((trace / who).read_text(errors="replace")) for who in ("node", "client")}
+    print("bind addresses:", binds)
+    assert binds["node"] and binds["client"] and set(binds["node"]) | set(binds["client"]) == {"127.0.0.1"}, binds
     assert sum(dests["node"].values()) > 100 and sum(dests["client"].values()) > 10, dests
     allowed = {"127.0.0.1", "239.255.0.1 on lo, TTL 0"}  # the second: Cyclone's probe, leaves no host
     assert set(dests["node"]) | set(dests["client"]) <= allowed and "127.0.0.1" in dests["client"], dests

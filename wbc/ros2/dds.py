@@ -4,9 +4,11 @@ wbc's participants use the loopback interface by default: :func:`participant` ca
 ``"lo"`` unless ``CYCLONEDDS_URI`` is already set (the user's own Cyclone configuration always wins). Cyclone then
 advertises and sends to 127.0.0.1 only, multicast off. Cyclone binds its unicast receive sockets (discovery and
 data, 7400 + 250 domain + 10 + 2 index, + 1) to the wildcard address 0.0.0.0 whatever its configuration
-(cyclonedds 11.0.1, ``ddsi_udp_create_conn``); with the loopback configuration :func:`participant` therefore also
-binds those sockets to the ``lo`` device (``SO_BINDTODEVICE``, Linux): they then receive only what arrives on the
-loopback interface (``ss`` shows them as ``0.0.0.0%lo``).
+(cyclonedds 11.0.1, ``ddsi_udp_create_conn``); with the loopback configuration :func:`participant` therefore
+redirects Cyclone's ``bind`` calls to 127.0.0.1 while it creates the participant (:mod:`wbc.ros2.loopback_bind`;
+``ss`` shows them as ``127.0.0.1:<port>``). Where that cannot be done (not Linux, ``pyelftools`` missing), it
+warns once and binds the new sockets to the ``lo`` device just after their creation (``SO_BINDTODEVICE``; ``ss``
+shows ``0.0.0.0%lo``): open on every interface for that moment.
 ``loopback_uri()`` returns the ``CYCLONEDDS_URI`` value confining Cyclone DDS to 127.0.0.1: the ``lo`` interface,
 multicast off, and localhost as the only unicast peer. To reach other machines, choose an interface
 (:func:`use_interface` ``("eth0")``, the ``--ros2-interface`` option of the command line) or ``"any"`` (Cyclone's
@@ -21,7 +23,10 @@ cyclonedds 11.0.1 a reader deleted then could wait forever for Cyclone's already
 
 from __future__ import annotations
 
+import contextlib
 import os
+
+from wbc.ros2 import loopback_bind
 
 __all__ = ["loopback_uri", "interface_uri", "use_loopback", "use_interface", "domain_id", "participant", "qos_stream",
            "qos_latched", "ros_topic", "delete_all_entities", "LOOPBACK", "ANY_INTERFACE", "CYCLONEDDS_HANDLE"]
@@ -129,14 +134,21 @@ def participant(domain: int | None = None):
                 "participant(), set CYCLONEDDS_URI, or choose 'lo' (127.0.0.1 only) or 'any' (Cyclone's default)")
         os.environ["CYCLONEDDS_URI"] = loopback_uri()
     confine = _chosen == [LOOPBACK] and os.environ.get("CYCLONEDDS_URI") == loopback_uri()
-    before = _wildcard_udp_sockets() if confine else {}
-    part = DomainParticipant(domain_id() if domain is None else domain)
+    # Cyclone binds its receive sockets to 0.0.0.0 whatever its configuration says: its calls to bind() are
+    # redirected to 127.0.0.1 (wbc.ros2.loopback_bind); where that cannot be done, the new sockets are restricted to
+    # the lo device just after they were made (open on every interface until then)
+    redirected = confine and loopback_bind.install()
+    if confine and not redirected:
+        _warn_not_redirected()
+    before = _wildcard_udp_sockets() if confine and not redirected else {}
+    with loopback_bind.confined() if redirected else contextlib.nullcontext():
+        part = DomainParticipant(domain_id() if domain is None else domain)
     if not _teardown_registered:
         import atexit
 
         atexit.register(delete_all_entities)
         _teardown_registered.append(True)
-    if confine:
+    if confine and not redirected:
         _bind_to_loopback_device({fd: inode for fd, inode in _wildcard_udp_sockets().items()
                                   if inode not in before.values()})
     return part
@@ -185,6 +197,21 @@ def _wildcard_udp_sockets() -> dict[int, int]:
         if link.startswith("socket:[") and int(link[8:-1]) in inodes:
             found[int(fd)] = int(link[8:-1])
     return found
+
+
+def _warn_not_redirected() -> None:
+    """Warn once per process that Cyclone's receive sockets are bound to 0.0.0.0 before they are restricted."""
+    if _warned_not_redirected:
+        return
+    import warnings
+
+    _warned_not_redirected.append(True)
+    warnings.warn(f"DDS: Cyclone's bind() could not be redirected to 127.0.0.1 ({loopback_bind.installed()}); its "
+                  "receive sockets are bound to 0.0.0.0 and restricted to the lo device just after (pip install "
+                  "pyelftools, on Linux, to bind them to 127.0.0.1 from the start)", RuntimeWarning, stacklevel=3)
+
+
+_warned_not_redirected: list[bool] = []
 
 
 def _bind_to_loopback_device(sockets: dict[int, int]) -> None:
