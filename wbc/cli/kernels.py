@@ -158,8 +158,8 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
 
     A module with :data:`PARTS` is two or more items: each of those loaders, then the module's (which waits for them).
     With ``jobs`` > 1 the modules and runs are done in that many worker processes (same interpreter and environment,
-    so the same cache), each once the items :data:`AFTER` lists for it (among those given) are done, the ready ones in
-    the order given; the kernels are then in the on-disk cache, not in this process.
+    so the same cache), each once the items :data:`AFTER` lists for it (among those given) are done, the ready ones that
+    most items wait for first (then in the order given); the kernels are then in the on-disk cache, not in this process.
 
     Args:
         modules: names among :data:`LOADER_MODULES` (default, or empty: all of them).
@@ -208,6 +208,11 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
 
     parts = {label: {f"{label}:{part}" for part in PARTS.get(label, ())} & set(items) for label in items}
     waiting = {label: {m for m in AFTER.get(label, ()) if m in items} | parts[label] for label in items}
+    # the ready items that other items wait for go first (the most waiting ones first, then in the order given): a
+    # first walk's longest chain ends in the kinematic tick, which waits for five items; started as soon as they are
+    # done rather than after the other modules (a first walk 31.0 s -> 28 s on 2 quiet cores)
+    waited_for = {label: sum(label in deps for deps in waiting.values()) for label in items}
+    order = {label: k for k, label in enumerate(items)}
     running: set[str] = set()
     results: queue.Queue = queue.Queue()  # (label, result or None, exception or None), put by the pool's thread
     # spawn: a fresh interpreter per worker (a fork would copy this process's LLVM state and threads); the workers
@@ -216,7 +221,8 @@ def compile_all(modules: Iterable[str] = (), jobs: int = 1,
     workers = {p.pid for p in multiprocessing.active_children()}  # the pool starts its workers at once
     try:
         while waiting or running:
-            for label in [n for n, deps in waiting.items() if not deps][:max(0, jobs - len(running))]:
+            ready = sorted((n for n, deps in waiting.items() if not deps), key=lambda n: (-waited_for[n], order[n]))
+            for label in ready[:max(0, jobs - len(running))]:
                 del waiting[label]
                 running.add(label)
                 pool.apply_async(_compile_item, (items[label],),
