@@ -143,3 +143,27 @@ def test_deadline_misses_count_the_ticks_that_overran_the_period(robot, capsys):
     assert node.tick_max >= 0.003
     assert f"deadline misses {node.deadline_misses} (> 2 ms)" in out, out
     assert "max " in out and f"max {1e6 * node.tick_max:.0f} µs" in out, out
+
+
+def test_a_goal_whose_cancel_was_accepted_ends_canceled_when_a_new_goal_arrives(robot):
+    """NavigateToPose: goal 1 canceled (accepted: 0), goal 2 sent during goal 1's closing step: goal 1 ends
+    CANCELED (its cancel was honoured; ABORTED is for a goal pre-empted while executing), goal 2 is walked to."""
+    from wbc.ros2.node_core import ABORTED, CANCELED, SUCCEEDED
+
+    core = _Silent(robot, time_mode="sim")
+    first = core.start_goal(b"\x01" * 16, "navigate_to_pose", (1.0, 0.0, 0.0))
+    core.spin(duration=2.0)
+    assert core.cancel(b"\x01" * 16) == 0
+    core.spin(duration=2.3)  # node time: 0.3 s into the closing step
+    assert not core.walk.idle
+    second = core.start_goal(b"\x02" * 16, "navigate_to_pose", (0.6, 0.0, 0.0))
+    assert first.status == CANCELED and first.result_code == 0, first.result_msg
+    third_t = core.walk.t
+    core.spin(duration=third_t + 30.0)
+    assert second.status == SUCCEEDED, second.result_msg
+    # pre-empting an executing goal still aborts it
+    core.start_goal(b"\x03" * 16, "navigate_to_pose", (1.0, 0.0, 0.0))
+    core.spin(duration=core.walk.t + 1.0)
+    fourth = core.start_goal(b"\x04" * 16, "navigate_to_pose", (0.6, 0.0, 0.0))
+    assert core.finished_goal(b"\x03" * 16).status == ABORTED
+    core.cancel(fourth.uuid)

@@ -291,9 +291,11 @@ class NodeCore:
 
     def start_goal(self, uuid: bytes, action: str, target, handle=None) -> Goal:
         """Accept and execute a goal (``target`` from :meth:`goal_target`); an active goal ends ABORTED
-        ("pre-empted by a new goal")."""
+        ("pre-empted by a new goal"), or CANCELED when its cancel was already accepted (it was closing its walk)."""
         self.counts["goals"] += 1
-        if self.active is not None:
+        if self.active is not None and self.active.status == CANCELING:
+            self.end_goal(self.active, CANCELED, 0, "canceled: a new goal arrived during its closing step")
+        elif self.active is not None:
             self.end_goal(self.active, ABORTED, 9000, "pre-empted by a new goal")
         goal = Goal(bytes(uuid), action, self.stamp_seconds(), target, self.walk.t, handle)
         self.active = goal
