@@ -23,6 +23,7 @@ import fcntl
 import hashlib
 import os
 import shutil
+import site
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -95,7 +96,9 @@ class RosClient:
 
     @property
     def venv(self) -> Path:
-        key = hashlib.sha256("\n".join((sys.version, *self.requirements)).encode()).hexdigest()[:12]
+        # a venv's interpreter: its own environment is added to the client's (see build), so it is part of the key
+        env = (sys.prefix,) if sys.prefix != sys.base_prefix else ()
+        key = hashlib.sha256("\n".join((sys.version, *env, *self.requirements)).encode()).hexdigest()[:12]
         return cache_root() / f"ros2-{self.distro}-{key}"
 
     @property
@@ -116,6 +119,15 @@ class RosClient:
             shutil.rmtree(self.venv, ignore_errors=True)  # an interrupted build
             subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(self.venv)], check=True,
                            capture_output=True, text=True)
+            if sys.prefix != sys.base_prefix:
+                # run from a venv: --system-site-packages gives the base interpreter's packages, not this venv's
+                # (wbc and its dependencies, which the rclpy backend's node imports); its site folders are added
+                # after the client's own, .pth files included, as the base's are
+                site_packages = subprocess.run([str(self.python), "-c", "import sysconfig; "
+                                                "print(sysconfig.get_paths()['purelib'])"], check=True,
+                                               capture_output=True, text=True).stdout.strip()
+                (Path(site_packages) / "_wbc_test_environment.pth").write_text(
+                    f"import site; [site.addsitedir(p) for p in {site.getsitepackages()!r}]\n")
             pip = subprocess.run([str(self.python), "-m", "pip", "install", "--no-input", "-q", *self.requirements],
                                  capture_output=True, text=True)
             if pip.returncode:
