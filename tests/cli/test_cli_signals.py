@@ -20,8 +20,13 @@ from issue62_inputs import catches  # noqa: E402  (reads SigCgt of /proc/PID/sta
 
 def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> subprocess.CompletedProcess:
     """Run `wbc args`, send ``sig`` ``settle`` s after its SIGTERM handler is installed (the command runs), return
-    the finished process."""
+    the finished process. A ``ros2`` command runs on a DDS domain of its own (loopback, wbc's default)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    if args[0] == "ros2":
+        from conftest import dds_domain_id
+
+        env["ROS_DOMAIN_ID"] = str(dds_domain_id())
+        env.pop("CYCLONEDDS_URI", None)
     proc = subprocess.Popen([sys.executable, "-m", "wbc", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=env, cwd=cwd, preexec_fn=lambda: signal.signal(signal.SIGINT,
                                                                                            signal.SIG_DFL))
@@ -47,6 +52,7 @@ COMMANDS = {
     "walk": ["walk", "--robot", "humanoid15", "--steps", "400", "--quiet", "--log", "run.npz", "--json", "run.json"],
     "campaign": ["campaign", "run", "--kind", "push", "--trials", "50", "--no-plots", "--no-progress", "--results",
                  "c", "--set", "scenario.robot=humanoid15", "--set", "scenario.steps=2"],
+    "ros2 node": ["ros2", "node", "--robot", "humanoid15", "--backend", "dds", "--duration", "600"],
 }
 
 

@@ -17,6 +17,7 @@ on the user's RMW (a sourced ROS 2 install or the ``ros-*`` wheels), ``dds`` wbc
 from __future__ import annotations
 
 import os
+import sys
 import time
 import uuid
 from pathlib import Path
@@ -419,7 +420,7 @@ def cmd_node(args) -> int:
     """``wbc ros2 node``: the controller node until Ctrl-C (exit 130), SIGTERM (exit 143) or ``--duration`` s (0)."""
     import signal
 
-    from wbc.cli.output import sigint_received
+    from wbc.cli.output import sigint_received, sigterm_received
     from wbc.exceptions import InvalidInputError
     from wbc.robot import load_robot
     from wbc.ros2.backend import resolve
@@ -470,12 +471,16 @@ def cmd_node(args) -> int:
     wall0 = time.monotonic()
     code = 0
     try:
-        node.spin(args.duration, report_every=args.report_every, interrupted=sigint_received)
+        # a signal that came while the node was built, inside a callback that swallowed it, stops it at its 1st tick
+        node.spin(args.duration, report_every=args.report_every,
+                  interrupted=lambda: sigint_received() or sigterm_received())
     except KeyboardInterrupt:
-        code = 143 if stopped_by else 130
+        code = 143 if stopped_by or sigterm_received() else 130
     finally:
         node.close()
     _node_summary(node, args, time.monotonic() - wall0)
+    if code:  # the same last line as every other command stopped by a signal
+        print("wbc ros2: terminated (SIGTERM)" if code == 143 else "wbc ros2: interrupted (Ctrl-C)", file=sys.stderr)
     return code
 
 
