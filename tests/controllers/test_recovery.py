@@ -1,4 +1,6 @@
-"""Infeasible hard constraints: no exception, no NaN, a safe command, and a report naming the conflict."""
+"""The recovery of a failed kinematic tick (:mod:`wbc.controllers.recovery`): infeasible hard constraints give no
+exception, no NaN, a safe command ('constraints_only', 'contacts_held' or 'hold') and a report naming the conflict;
+the diagnosis agrees with an independent feasibility oracle (HiGHS's LP); a run of failures does not latch."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import CATALOG
+from conftest import CATALOG, highs_feasible
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, EqualityConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.controllers.kinematic import KinematicController
@@ -138,3 +140,51 @@ def test_infeasible_hard_set_under_a_hierarchy(robots):
     res = ctrl.solve(config, DT)
     assert not res.ok and res.fallback == "constraints_only" and np.isfinite(res.v).all()
     assert {"right_foot_target", f"contact:{robot.right_sole}"} <= {n for n, _ in res.conflicts}
+
+
+def test_diagnosis_agrees_with_an_lp_feasibility_oracle(robots):
+    """``diagnose`` at a feasible stance names nothing; with a hard foot target 1 m forward it names the hard task,
+    and HiGHS's LP finds the assembled hard set empty with the task and non-empty without it."""
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config)
+    assert ctrl.diagnose(config, DT) == []
+    assert highs_feasible(*ctrl.assemble(config, DT)[2:])
+    foot = FrameTask(robot, robot.left_sole, gain=10.0, name="left_foot_target")
+    target = config.frame_placement(foot.frame_id).copy()
+    target.translation += [1.0, 0.0, 0.0]
+    foot.set_target(target)
+    ctrl.add_task(foot, hard=True)
+    assert not highs_feasible(*ctrl.assemble(config, DT)[2:])
+    names = [n for n, _ in ctrl.diagnose(config, DT)]
+    assert "left_foot_target" in names, names
+    ctrl.remove_task(foot)
+    assert highs_feasible(*ctrl.assemble(config, DT)[2:])
+
+
+def test_a_run_of_failed_ticks_does_not_latch(robots):
+    """Five ticks that fail (the hard foot target above) each answer a finite safe command that keeps the joint
+    velocity limits (checked against the model's limits), counted 1..5; the tick after the conflict is removed is ok
+    and its command is the one a fresh controller gives at the same configuration (within 1e-9)."""
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config)
+    foot = FrameTask(robot, robot.left_sole, gain=10.0, name="far_foot")
+    target = config.frame_placement(foot.frame_id).copy()
+    target.translation += [1.0, 0.0, 0.0]
+    foot.set_target(target)
+    ctrl.add_task(foot, hard=True)
+    for k in range(1, 6):
+        res = ctrl.solve(config, DT)
+        assert not res.ok and res.consecutive_failures == k and np.isfinite(res.v).all()
+        assert res.fallback in ("constraints_only", "contacts_held", "hold") and res.path == f"fallback:{res.fallback}"
+        assert np.all(np.abs(res.v[6:]) <= robot.model.velocityLimit[6:] + 1e-9)
+        config.update(config.integrate(res.v, DT))
+    ctrl.remove_task(foot)
+    res = ctrl.solve(config, DT)
+    fresh, fresh_contacts = standing(robot, config)
+    for c, c0 in zip(fresh_contacts, (c for c in ctrl.constraints if isinstance(c, ContactConstraint))):
+        c.set_placement(c0.placement)
+    ref = fresh.solve(config, DT)
+    assert res.ok and ctrl.consecutive_failures == 0 and ref.ok
+    assert np.abs(res.v - ref.v).max() < 1e-9, np.abs(res.v - ref.v).max()
