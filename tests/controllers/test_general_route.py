@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conftest import dense_quadprog, kkt_gap, standing_controller
+from conftest import dense_quadprog, highs_feasible, kkt_gap, standing_controller
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint
 from wbc.solvers import DaqpBackend
@@ -68,3 +68,30 @@ def test_dependent_equality_rows_are_dropped_and_still_held(robots):
         assert np.abs(res.v - ref).max() < 1e-6, np.abs(res.v - ref).max()
         config.update(config.integrate(res.v, DT))
 
+
+
+def test_nearly_consistent_dependent_rows_are_accepted_within_their_tolerance(robots):
+    """The left sole's twin contact placed 5 µm off the sole: its 6 rows repeat the sole's in A but ask another
+    velocity (the equalities have no common solution: the hard set is empty, as HiGHS's LP confirms). The route keeps
+    one copy of each row and accepts the other's residual, as long as it is within ``dependent_row_tolerance``: the
+    tick is ok, ``dependent_residual`` is the largest |A v − b| (numpy, to 1e-12), between 1e-6 and the tolerance,
+    and the command is quadprog's optimum of the QP with one of the two copies removed (within 1e-6)."""
+    robot = robots("talos")
+    twin = ContactConstraint(robot, robot.left_sole)
+    off = Configuration(robot).frame_placement(twin.frame_id).copy()
+    off.translation += [5e-6, 0.0, 0.0]
+    twin.set_placement(off)
+    robot, config, ctrl = _swaying_on_daqp(robots, twin)
+    q = config.q.copy()
+    res = ctrl.solve(config, DT)
+    assert res.ok and res.path == "general:daqp", (res.path, res.message)
+    H, g, A, b, C, l, u, lb, ub = _assembled(ctrl, robot, q)
+    assert not highs_feasible(A, b, C, l, u, lb, ub)
+    residual = np.abs(A @ res.v - b).max()
+    assert abs(ctrl.dependent_residual - residual) < 1e-12
+    assert 1e-6 < residual <= ctrl.dependent_row_tolerance, residual
+    _, first = np.unique(A, axis=0, return_index=True)
+    _, last = np.unique(A[::-1], axis=0, return_index=True)
+    gaps = [np.abs(res.v - dense_quadprog(H, g, A[keep], b[keep], C, l, u, lb, ub)).max()
+            for keep in (np.sort(first), np.sort(A.shape[0] - 1 - last))]
+    assert min(gaps) < 1e-6, gaps
