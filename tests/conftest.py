@@ -198,6 +198,28 @@ def highs_feasible(A, b, C, l, u, lb, ub) -> bool:
     return r.status == 0
 
 
+def kkt_gap(H, g, A, b, C, l, u, lb, ub, x, active_tol: float = 1e-8) -> float:
+    """Largest violation of the KKT conditions of min ½ xᵀHx + gᵀx s.t. A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub at x,
+    relative to max(1, ‖g‖∞, ‖b‖∞): primal feasibility, and stationarity H x + g = Aᵀλ + Σ μ_i c_i with the
+    multipliers of the active inequalities (within ``active_tol``) of the right sign, fitted by scipy's bounded
+    least squares (no QP solver): the independent oracle of the QP tests' optimality claims."""
+    import scipy.optimize as so
+
+    n = H.shape[0]
+    scale = max(1.0, float(np.abs(g).max()), float(np.abs(b).max(initial=0.0)))
+    Cx, eye = C @ x, np.eye(n)
+    # each active side as a column of the gradient's expansion, oriented so that its multiplier is ≥ 0
+    cols = [A.T, C[Cx <= l + active_tol].T, -C[Cx >= u - active_tol].T, eye[:, x <= lb + active_tol],
+            -eye[:, x >= ub - active_tol]]
+    M = np.hstack(cols)
+    low = np.concatenate([np.full(A.shape[0], -np.inf), np.zeros(M.shape[1] - A.shape[0])])
+    grad = H @ x + g
+    r = grad - M @ so.lsq_linear(M, grad, bounds=(low, np.inf), method="bvls").x if M.shape[1] else grad
+    primal = [np.abs(A @ x - b).max(initial=0.0), np.maximum(l - Cx, 0.0).max(initial=0.0),
+              np.maximum(Cx - u, 0.0).max(initial=0.0), np.maximum(lb - x, 0.0).max(), np.maximum(x - ub, 0.0).max()]
+    return float(max(np.abs(r).max(), *primal)) / scale
+
+
 def fuzz_episode(robots, seed: int, episode: int, dts=(0.002,), past_limits: float = 0.0):
     """(name, kind, strict, dt, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed``
     (its random streams replayed) run with ``--dts`` and ``--past-limits`` (default: the fuzz's defaults, dt = 2 ms

@@ -36,13 +36,8 @@ SHARED_NAMES = {
 #: packages of ``wbc/`` whose every module has a test file of its name.
 MIRRORED = ("tasks", "constraints", "formulations", "solvers", "controllers", "gait", "estimation")
 
-_BEING_SPLIT = "temporary: module being restructured (issue 59); its tests are topic files until it settles"
 #: ``package/module`` → why it has no test file of its name yet (an entry the tree no longer needs fails too).
 UNMIRRORED = {
-    "controllers/kinematic": _BEING_SPLIT + " (tests/controllers/test_kinematic_*.py)",
-    "controllers/compiled_tick": _BEING_SPLIT,
-    "controllers/general_route": _BEING_SPLIT,
-    "controllers/recovery": _BEING_SPLIT,
 }
 
 

@@ -1,4 +1,6 @@
-"""Infeasible hard constraints: no exception, no NaN, a safe command, and a report naming the conflict."""
+"""The recovery of a failed kinematic tick (:mod:`wbc.controllers.recovery`): infeasible hard constraints give no
+exception, no NaN, a safe command ('constraints_only', 'contacts_held' or 'hold') and a report naming the conflict;
+the diagnosis agrees with an independent feasibility oracle (HiGHS's LP); a run of failures does not latch."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import CATALOG
+from conftest import CATALOG, highs_feasible
 from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, EqualityConstraint, JointPositionLimit, JointVelocityLimit
 from wbc.controllers.kinematic import KinematicController
@@ -31,6 +33,17 @@ def standing(robot, config, *tasks):
     return ctrl, contacts
 
 
+def add_far_foot(robot, config, ctrl, name: str = "left_foot_target", frame: str | None = None, offset=(1.0, 0.0, 0.0)):
+    """Add to ``ctrl`` a hard task sending the sole ``frame`` (default the left one) ``offset`` (m, world) away
+    from where it is at ``config``, against its contact; returns the task."""
+    foot = FrameTask(robot, frame or robot.left_sole, gain=10.0, name=name)
+    target = config.frame_placement(foot.frame_id).copy()
+    target.translation += offset
+    foot.set_target(target)
+    ctrl.add_task(foot, hard=True)
+    return foot
+
+
 @pytest.mark.parametrize("name", CATALOG)
 def test_hard_foot_target_against_fixed_feet(robots, name):
     """Both feet are contacts and a hard task asks the left foot to go 1 m forward: every tick returns a finite
@@ -39,11 +52,7 @@ def test_hard_foot_target_against_fixed_feet(robots, name):
     robot = robots(name)
     config = Configuration(robot)
     ctrl, contacts = standing(robot, config)
-    foot = FrameTask(robot, robot.left_sole, gain=10.0, name="left_foot_target")
-    target = config.frame_placement(foot.frame_id).copy()
-    target.translation += [1.0, 0.0, 0.0]
-    foot.set_target(target)
-    ctrl.add_task(foot, hard=True)
+    foot = add_far_foot(robot, config, ctrl)
     for _ in range(20):
         res = ctrl.solve(config, DT)
         assert not res.ok and np.isfinite(res.v).all()
@@ -130,11 +139,51 @@ def test_infeasible_hard_set_under_a_hierarchy(robots):
     hand = FrameTask(robot, robot.right_hand, gain=5.0)
     hand.set_target_from_configuration(config)
     ctrl.add_task(hand, level=0)
-    foot = FrameTask(robot, robot.right_sole, gain=10.0, name="right_foot_target")
-    target = config.frame_placement(foot.frame_id).copy()
-    target.translation += [0.0, 0.0, 1.0]
-    foot.set_target(target)
-    ctrl.add_task(foot, hard=True)
+    add_far_foot(robot, config, ctrl, "right_foot_target", robot.right_sole, (0.0, 0.0, 1.0))
     res = ctrl.solve(config, DT)
     assert not res.ok and res.fallback == "constraints_only" and np.isfinite(res.v).all()
     assert {"right_foot_target", f"contact:{robot.right_sole}"} <= {n for n, _ in res.conflicts}
+
+
+def test_diagnosis_agrees_with_an_lp_feasibility_oracle(robots):
+    """``diagnose`` at a feasible stance names nothing; with a hard foot target 1 m forward it names the hard task,
+    and HiGHS's LP finds the assembled hard set empty with the task and non-empty without it."""
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config)
+    assert ctrl.diagnose(config, DT) == []
+    assert highs_feasible(*ctrl.assemble(config, DT)[2:])
+    foot = add_far_foot(robot, config, ctrl)
+    assert not highs_feasible(*ctrl.assemble(config, DT)[2:])
+    names = [n for n, _ in ctrl.diagnose(config, DT)]
+    assert "left_foot_target" in names, names
+    ctrl.remove_task(foot)
+    assert highs_feasible(*ctrl.assemble(config, DT)[2:])
+
+
+def test_a_run_of_failed_ticks_does_not_latch(robots):
+    """Five ticks that fail (the hard foot target above) each answer a finite safe command that keeps the joint
+    velocity limits (checked against the model's limits), counted 1..5; the tick after the conflict is removed is ok
+    and its command, with a CoM target 2 cm forward, is the one a fresh controller gives at the same configuration
+    (within 1e-9). (Moved here from test_kinematic_solve_core's test_failures_counted_and_never_latch, with the fresh
+    controller added.)"""
+    robot = robots("humanoid15")
+    config = Configuration(robot)
+    ctrl, _ = standing(robot, config)
+    foot = add_far_foot(robot, config, ctrl)
+    for k in range(1, 6):
+        res = ctrl.solve(config, DT)
+        assert not res.ok and res.consecutive_failures == k and np.isfinite(res.v).all()
+        assert res.fallback in ("constraints_only", "contacts_held", "hold") and res.path == f"fallback:{res.fallback}"
+        assert np.all(np.abs(res.v[6:]) <= robot.model.velocityLimit[6:] + 1e-9)
+        config.update(config.integrate(res.v, DT))
+    ctrl.remove_task(foot)
+    fresh, fresh_contacts = standing(robot, config)
+    for c, c0 in zip(fresh_contacts, (c for c in ctrl.constraints if isinstance(c, ContactConstraint))):
+        c.set_placement(c0.placement)
+    for controller in (ctrl, fresh):  # the CoM task asks for motion: the answer depends on the whole QP
+        controller.tasks[0].set_target(config.com + np.array([0.02, 0.0, 0.0]))
+    res, ref = ctrl.solve(config, DT), fresh.solve(config, DT)
+    assert res.ok and ctrl.consecutive_failures == 0 and ref.ok
+    assert np.abs(ref.v).max() > 1e-3
+    assert np.abs(res.v - ref.v).max() < 1e-9, np.abs(res.v - ref.v).max()
