@@ -234,12 +234,16 @@ def cmd_campaign(args) -> int:
         table = run(spec, args.results, executor=executor, progress=not args.no_progress,
                     rerun_errors=args.rerun_errors)
     except KeyboardInterrupt:
+        from wbc.cli.output import sigterm_received
+
         store = ResultStore(args.results, spec.as_dict())
         n = len(store.done())
         store.close()
-        print(f"wbc campaign: interrupted; {n} of {spec.trials} trials finished in {args.results} "
+        # a SIGTERM that came inside a callback (numba's compiler) surfaces here as KeyboardInterrupt too
+        how, code = ("terminated (SIGTERM)", 143) if sigterm_received() else ("interrupted", 130)
+        print(f"wbc campaign: {how}; {n} of {spec.trials} trials finished in {args.results} "
               "(run the same command again to resume)", file=sys.stderr)
-        return 130
+        return code
     print(format_report(table))
     sweep = sorted(spec.sweep["params"]) if spec.sweep else None
     if sweep is not None and len(sweep) == 2 and SWEEP_METRIC in table.column_names:
