@@ -12,7 +12,7 @@ from scipy.spatial import ConvexHull
 from wbc.exceptions import ConfigurationError, GaitError, InvalidInputError, InvalidTargetError
 from wbc.geometry import (
     as_se3, check_vector, convex_hull, hull, mean_heading, signed_distance, signed_distance_point, sole_corners,
-    sole_polygon, support_polygon, yaw_of,
+    sole_polygon, support_corners, support_polygon, yaw_of,
 )
 
 
@@ -39,6 +39,28 @@ def test_support_polygon_of_two_soles_closed_form():
     assert signed_distance_point(0.3, 0.0, [tuple(p) for p in poly.tolist()]) == pytest.approx(-0.2)
     one = support_polygon([left], 0.2, 0.1)
     assert len(one) == 4 and signed_distance(np.array([0.0, 0.1]), one) == pytest.approx(0.05)
+
+
+def test_support_corners_is_support_polygon_in_plain_floats():
+    """The plain-float support polygon of the gait plan, the ZMP constraint and the executed-ZMP metric: the same
+    numbers, bit for bit, as support_polygon and as the hull of the sole polygons; its vertices those of scipy's hull of the sole rectangles (corners
+    in closed form); one sole its 4 corners, none an empty polygon."""
+    rng = np.random.default_rng(1)
+    length, width = 0.22, 0.12
+    for n in (1, 2, 3):
+        poses = [pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), np.array([x, y, 0.0]))
+                 for x, y, yaw in rng.uniform(-0.3, 0.3, size=(n, 3))]
+        soles = [(float(M.translation[0]), float(M.translation[1]), yaw_of(M)) for M in poses]
+        ours = support_corners(soles, length, width)
+        rects = [sole_polygon(*sole, length, width) for sole in soles]
+        assert np.array_equal(np.array(ours), support_polygon(poses, length, width))
+        assert np.array_equal(np.array(ours), rects[0] if n == 1 else convex_hull(np.vstack(rects)))
+        corners = np.array([[x + math.cos(yaw) * u - math.sin(yaw) * v, y + math.sin(yaw) * u + math.cos(yaw) * v]
+                            for x, y, yaw in soles for u in (-length / 2, length / 2) for v in (-width / 2, width / 2)])
+        ref = corners[ConvexHull(corners).vertices]
+        assert len(ours) == len(ref) and (n > 1 or len(ours) == 4)
+        assert {tuple(np.round(p, 12)) for p in ours} == {tuple(np.round(p, 12)) for p in ref}
+    assert support_corners([], length, width) == []
 
 
 def test_yaw_and_mean_heading_closed_form():

@@ -10,7 +10,7 @@ accept either orientation and do not repeat the first vertex at the end.
 
 These helpers are shared by the gait planner (ZMP margins) and by other modules (CoM-projection and CoP margins).
 Small inputs (one point, a few vertices) take plain-Python paths (:func:`sole_corners`, :func:`hull`,
-:func:`signed_distance_point`: lists of ``(x, y)`` tuples, no validation, for callers that built their input
+:func:`support_corners`, :func:`signed_distance_point`: lists of ``(x, y)`` tuples, no validation, for callers that built their input
 themselves): numpy's per-call overhead would dominate.
 """
 
@@ -25,7 +25,7 @@ import pinocchio as pin
 from wbc.exceptions import ConfigurationError, InvalidInputError, InvalidTargetError, ReadOnlyAttributeError
 
 __all__ = [
-    "FLOAT64", "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_polygon",
+    "FLOAT64", "check_vector", "check_scalar", "check_count", "as_se3", "yaw_of", "mean_heading", "sole_corners", "sole_polygon", "hull", "convex_hull", "support_corners", "support_polygon",
     "rectangle_in_polygon", "signed_distance_point", "signed_distance", "polygons_overlap", "polygon_margin", "closest_point_in_polygon",
     "projected_sole_corners",
 ]
@@ -204,12 +204,16 @@ def sole_polygon(x: float, y: float, yaw: float, length: float, width: float) ->
     Raises:
         InvalidInputError: non-finite input or non-positive size.
     """
+    _check_sole(x, y, yaw, length, width)
+    return np.array(sole_corners(x, y, yaw, length, width))
+
+
+def _check_sole(x: float, y: float, yaw: float, length: float, width: float) -> None:
     vals = (x, y, yaw, length, width)
     if not all(math.isfinite(v) for v in vals):
         raise InvalidInputError(f"sole_polygon needs finite x, y, yaw, length, width; got {vals}")
     if length <= 0 or width <= 0:
         raise InvalidInputError(f"sole length and width must be > 0 m; got length={length}, width={width}")
-    return np.array(sole_corners(x, y, yaw, length, width))
 
 
 def hull(points: list[Point]) -> list[Point]:
@@ -303,13 +307,22 @@ def support_polygon(sole_placements, length: float, width: float) -> np.ndarray:
     Raises:
         InvalidInputError: no placement, non-finite pose or non-positive size.
     """
-    polys = []
+    soles = []
     for pose in sole_placements:
         m = pose.homogeneous if isinstance(pose, pin.SE3) else np.asarray(pose, dtype=float)
-        polys.append(sole_polygon(float(m[0, 3]), float(m[1, 3]), yaw_of(m), length, width))
-    if not polys:
+        soles.append((float(m[0, 3]), float(m[1, 3]), yaw_of(m)))
+        _check_sole(*soles[-1], length, width)
+    if not soles:
         raise InvalidInputError("support_polygon needs at least one sole placement")
-    return polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+    return np.array(support_corners(soles, length, width))
+
+
+def support_corners(soles, length: float, width: float) -> list[Point]:
+    """Plain-Python :func:`support_polygon` without validation, from the soles' ``(x, y, yaw)`` (m, m, rad): one
+    sole gives its 4 corners (:func:`sole_corners`, CCW), several the CCW :func:`hull` of all their corners, none
+    an empty list."""
+    corners = [c for x, y, yaw in soles for c in sole_corners(x, y, yaw, length, width)]
+    return corners if len(corners) == 4 else hull(corners)
 
 
 def _ccw_polygon(polygon: np.ndarray, name: str = "polygon") -> np.ndarray:

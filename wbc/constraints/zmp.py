@@ -60,7 +60,7 @@ from wbc.constants import GRAVITY
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import ReadOnly, as_se3, check_count, check_scalar, hull, sole_corners, yaw_of
+from wbc.geometry import ReadOnly, as_se3, check_count, check_scalar, support_corners, yaw_of
 
 __all__ = ["DcmPolygonConstraint", "ExecutedZmpConstraint"]
 
@@ -254,19 +254,19 @@ class ExecutedZmpConstraint(InequalityConstraint):
         """:meth:`set_support` without validating the placements, for a controller's own support switches (e.g.
         :class:`~wbc.scenarios.stance.StanceController` with its contacts' placements, validated when they were
         set): ``sole_placements`` 1..``max_soles`` pin.SE3 with rotation blocks that are rotations. The polygon is
-        built from plain floats (:func:`wbc.geometry.sole_corners`, :func:`wbc.geometry.hull`), the same numbers
-        as :func:`wbc.geometry.support_polygon`.
+        built from plain floats (:func:`wbc.geometry.support_corners`), the same numbers as
+        :func:`wbc.geometry.support_polygon`.
 
         Raises:
             InvalidInputError: polygon smaller than the margin.
         """
         length, width = self.robot.sole_length, self.robot.sole_width
-        corners, ground = [], 0.0
+        soles, ground = [], 0.0
         for M in sole_placements:
             t = M.translation
-            corners += sole_corners(float(t[0]), float(t[1]), yaw_of(M), length, width)
+            soles.append((float(t[0]), float(t[1]), yaw_of(M)))
             ground += float(t[2])
-        poly = corners if len(sole_placements) == 1 else hull(corners)
+        poly = support_corners(soles, length, width)
         # half-planes of the CCW polygon in plain floats: the arithmetic of com_polygon.halfplanes, edge by edge
         k = len(poly)
         cx, cy = sum(p[0] for p in poly) / k, sum(p[1] for p in poly) / k

@@ -30,7 +30,7 @@ from wbc.gait.schedule import (
     build_phases,
     zmp_segments,
 )
-from wbc.geometry import check_vector, hull, signed_distance, signed_distance_point, sole_corners
+from wbc.geometry import check_vector, signed_distance, signed_distance_point, support_corners
 from wbc.gait.swing import sample_feet
 from wbc.profiles import min_jerk
 
@@ -240,11 +240,11 @@ class WalkPlan:
 
 def _support_corners(left: np.ndarray, right: np.ndarray, support: int, length: float,
                      width: float) -> list[tuple[float, float]]:
-    """Support polygon (CCW vertex list) for the given sole poses and support code."""
+    """Support polygon (CCW vertex list, :func:`wbc.geometry.support_corners`) for the given sole poses and support
+    code."""
     if support == DOUBLE_SUPPORT:
-        return hull(sole_corners(*pose_to_xy_yaw(left), length, width)
-                     + sole_corners(*pose_to_xy_yaw(right), length, width))
-    return sole_corners(*pose_to_xy_yaw(left if support == LEFT_SUPPORT else right), length, width)
+        return support_corners((pose_to_xy_yaw(left), pose_to_xy_yaw(right)), length, width)
+    return support_corners((pose_to_xy_yaw(left if support == LEFT_SUPPORT else right),), length, width)
 
 
 def _readonly(*arrays: np.ndarray) -> None:

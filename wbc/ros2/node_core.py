@@ -248,7 +248,7 @@ class NodeCore:
         cmd = np.array([vx, vy, wz], dtype=float)
         lim = np.array([w.max_velocity, w.max_lateral, w.max_turn])
         low = -lim
-        low[0] = -getattr(w, "max_backward", w.max_velocity)  # the physics walk plans no backward step
+        low[0] = -w.max_backward  # (0 for the physics walk: it plans no backward step)
         if not np.isfinite(cmd).all():
             print("cmd_vel ignored: non-finite value", flush=True)
             return

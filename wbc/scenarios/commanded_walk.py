@@ -26,20 +26,23 @@ Gait (a receding horizon of :func:`wbc.gait.plan_walk` plans):
   planned at once, the remaining double support as its initial one; during a swing, at its touch-down. Standing
   once the closing step has settled: at most one step starts after a stop.
 
+The command logic (what is asked, what is due when, the steps of it) is :class:`wbc.gait.commanded.WalkCommands`'s
+with a receding horizon (``receding``), backward steps, a failed start retried after 0.5 s; this module plans its
+steps with :func:`wbc.gait.plan_walk` and integrates the kinematic controller's velocity.
+
 Frames and units: world frame (``odom``), z up, flat ground; m, s, rad.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from wbc.solvers import DEFAULT_SOLVER
 from wbc.configuration import Configuration
 from wbc.exceptions import GaitError, InvalidInputError
 from wbc.gait import plan_walk
-from wbc.gait.commands import CommandLimits, Stance, check_finite, check_velocity, feet_can_yaw, goal_steps
-from wbc.gait.footsteps import pose_to_xy_yaw
+from wbc.gait.commanded import CLOSE, GOAL, WalkCommands
+from wbc.gait.commands import Stance, check_finite, feet_can_yaw
 from wbc.robot import Robot
 from wbc.scenarios.walk import WalkController
 from wbc.tasks.base import ValidatedAttribute
@@ -55,7 +58,7 @@ def _check_bool(value, name: str) -> bool:
     return bool(value)
 
 
-class CommandedWalk:
+class CommandedWalk(WalkCommands):
     """The online walk of the module docstring.
 
     Args:
@@ -73,8 +76,8 @@ class CommandedWalk:
     Attributes:
         plan_ahead: True (default): a velocity command's touch-down re-plan is made ahead (module docstring);
             False: in the touch-down tick. The walk is the same either way; only the ticks that pay for it differ.
-        replans, early_replans, replan_failures, touchdowns: counts since the start (``early_replans``: re-plans
-            made ahead and taken at their touch-down).
+        early_replans, touchdowns: counts since the start (``early_replans``: re-plans made ahead and taken at
+            their touch-down); the command state and the other counts: :class:`~wbc.gait.commanded.WalkCommands`.
 
     Raises:
         InvalidInputError: a non-finite or out-of-range argument (the message names it and the valid range).
@@ -83,21 +86,16 @@ class CommandedWalk:
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = DEFAULT_SOLVER, horizon: int = 3,
                  step_duration: float | None = None, max_velocity: float = 0.3, max_lateral: float = 0.1,
                  max_turn: float = 0.5):
-        self.robot = robot
         self.dt = check_finite(dt, "dt", 1e-4, 0.1)
-        if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 2:
-            raise InvalidInputError(f"horizon must be an integer >= 2 (steps); got {horizon!r}")
-        self.horizon = int(horizon)
         gait = dict(robot.gait)
         self._t_ss0 = float(gait.get("t_ss", 0.8))
         self._t_ds0 = float(gait.get("t_ds", 0.3))
         self.step_height = float(gait.get("step_height", 0.05))
         self.step_duration = self._t_ss0 + self._t_ds0 if step_duration is None else step_duration
-        self.max_velocity = max_velocity
-        self.max_lateral = check_finite(max_lateral, "max_lateral", 1e-3, 2.0)
         self.config = Configuration(robot)
-        self.can_turn = feet_can_yaw(robot, self.config.q)
-        self.max_turn = check_finite(max_turn, "max_turn", 1e-3, 3.0) if self.can_turn else 0.0
+        super().__init__(robot, max_velocity=max_velocity, max_lateral=max_lateral, max_turn=max_turn,
+                         can_turn=feet_can_yaw(robot, self.config.q), steps_per_plan=horizon, plan_name="horizon",
+                         backward=True, receding=True, retry=0.5, top_speed=2.0)
         self._solver = solver
         self.walker = WalkController(robot, self.config, solver=solver)
         self._clock_guard = False
@@ -105,21 +103,13 @@ class CommandedWalk:
         self.t = 0.0
         self.plan = None
         self.k = 0
-        self.command = np.zeros(3)
-        self.goal: tuple[float, float, float] | None = None
-        self._pending_goal: tuple[float, float, float] | None = None
-        self._stop = False
         self._stop_now = False
-        self._retry_at = 0.0
-        self.replans = 0
         self.early_replans = 0  # touch-down re-plans made ahead (module docstring) and taken at the touch-down
         self.plan_ahead = True  # False: every touch-down re-plan is made in the touch-down tick
-        self.replan_failures = 0
         self.touchdowns = 0
-        self.last_error = ""
         # the base's offset from the feet mid-point and the nominal step width, at q_ref (side steps widen the
         # stance only transiently)
-        self._stance = Stance.of(self.config.q[:2], *self._soles())
+        self.stance = Stance.of(self.config.q[:2], *self.soles())
 
     # -- parameters --------------------------------------------------------------------------------------------
     @property
@@ -133,17 +123,9 @@ class CommandedWalk:
         scale = T / (self._t_ss0 + self._t_ds0)
         self._t_ss, self._t_ds = self._t_ss0 * scale, self._t_ds0 * scale
 
-    max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 2.0),
-                                      "Forward speed limit, m/s (in [0.001, 2]; raises InvalidInputError).")
     plan_ahead = ValidatedAttribute(lambda walk, v: _check_bool(v, "plan_ahead"),
                                     "Touch-down re-plans made ahead (module docstring): a bool (raises "
                                     "InvalidInputError otherwise).")
-
-    @property
-    def limits(self) -> CommandLimits:
-        """The command limits now (backward as fast as forward)."""
-        return CommandLimits(self.max_velocity, self.max_velocity, self.max_lateral, self.max_turn, self.can_turn,
-                             self.robot.name)
 
     # -- state -------------------------------------------------------------------------------------------------
     @property
@@ -161,55 +143,16 @@ class CommandedWalk:
         """Support code now: 0 double, 1 left stance, 2 right stance (standing is 0)."""
         return _DOUBLE if self.plan is None else int(self.plan.support[min(self.k, self.plan.n_samples - 1)])
 
-    @property
-    def idle(self) -> bool:
-        """Standing still with no command and no goal waiting."""
-        return self.plan is None and self._pending_goal is None and not np.any(self.command)
-
-    def base_pose(self) -> tuple[float, float, float]:
-        """(x, y, yaw) of the free flyer (m, m, rad), world."""
-        q = self.config.q
-        yaw = pose_to_xy_yaw(pin.XYZQUATToSE3(q[:7]).homogeneous)[2]
-        return float(q[0]), float(q[1]), yaw
-
-    def footprint_pose(self) -> tuple[float, float, float]:
-        """(x, y, yaw) where the base would stand at rest over the current soles (m, m, rad, world): the feet
-        mid-point and mean heading plus the base's offset from them at ``q_ref``. It moves only while a foot
-        swings, so its distance to a goal does not sway with the CoM."""
-        return self._stance.footprint_pose(*self._soles())
-
     def time_remaining(self) -> float:
         """Time (s) until the current plan ends (0 when standing)."""
         return 0.0 if self.plan is None else (self.plan.n_samples - self.k) * self.dt
 
     # -- commands ----------------------------------------------------------------------------------------------
-    def set_velocity(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
-        """Velocity command (m/s, m/s, rad/s, walking frame); zeros stop at the next touch-down.
-
-        Raises:
-            InvalidInputError: non-finite or beyond ``max_velocity`` / ``max_lateral`` / ``max_turn``.
-        """
-        self.command[:] = check_velocity(vx, vy, wz, self.limits)
-        self.goal = self._pending_goal = None
-        if np.any(self.command):
-            self._stop = False
-
-    def set_goal(self, x: float, y: float, yaw: float) -> None:
-        """Walk the base to ``(x, y, yaw)`` (m, m, rad, world); replaces any command or goal.
-
-        Raises:
-            InvalidInputError: non-finite values.
-        """
-        self._pending_goal = (check_finite(x, "goal x (m)"), check_finite(y, "goal y (m)"),
-                              check_finite(yaw, "goal yaw (rad)"))
-        self.command[:] = 0.0
-        self._stop = False
-
     def stop(self) -> None:
-        """Stop at the next touch-down (a closing step); clears the command and goal."""
-        self.command[:] = 0.0
-        self.goal = self._pending_goal = None
-        self._stop = True
+        """Stop (:meth:`WalkCommands.stop <wbc.gait.commanded.WalkCommands.stop>`): the closing step is planned in
+        the next tick when that tick is in a double support before a step with at least 0.1 s of it left, else at
+        the next touch-down."""
+        super().stop()
         self._stop_now = True
 
     @property
@@ -229,19 +172,16 @@ class CommandedWalk:
         self.walker = WalkController(self.robot, self.config, solver=self._solver, clock_guard=self._clock_guard)
         self.plan, self.k = None, 0
         self.v[:] = 0.0
-        self.command[:] = 0.0
-        self.goal = self._pending_goal = None
-        self._stop = False
+        self.clear_commands()
 
     # -- one tick ----------------------------------------------------------------------------------------------
     def tick(self) -> None:
         """Advance one control period ``dt``: (re)plan if due, then one QP tick (or hold when standing)."""
         plan = self.plan
         if plan is None:
-            if (self._pending_goal is not None or np.any(self.command)) and self.t >= self._retry_at:
-                self._start(self._plan_from_state(None))
-                if self.plan is None:
-                    self._retry_at = self.t + 0.5  # a walk that cannot be planned is retried every 0.5 s
+            due = self.start_due(self.t)
+            if due is not None:
+                self._take(self._plan_from_state(due, None))  # (failed: retried 0.5 s later)
         elif self.k > 0 and plan.support[self.k] == _DOUBLE and plan.support[self.k - 1] != _DOUBLE:
             self._next_touchdown = self._touchdowns.pop(0) if self._touchdowns else -10
             self.touchdowns += 1
@@ -256,7 +196,7 @@ class CommandedWalk:
             if self.k == self._next_touchdown - 3 and self.plan_ahead:
                 self._prepare_touchdown()
             elif self.k == self._next_touchdown - 2 and self._early is not None:
-                self.walker.prepare_plan(self._early[2])
+                self.walker.prepare_plan(self._early[2][0])
             self.walker.set_references(self.plan, self.k, self.config)
             result = self.walker.solve(self.config, self.dt)
             self.config.step(result.v, self.dt)
@@ -264,14 +204,14 @@ class CommandedWalk:
             self.k += 1
             if self.k >= self.plan.n_samples:
                 self.plan, self.k = None, 0
-                self.goal = None
-                self._stop = False
+                self.walk_ended()
         self.t += self.dt
 
-    def _start(self, plan) -> None:
-        if plan is not None:
-            self.plan, self.k = plan, 0
-            self.replans += 1
+    def _take(self, new) -> None:
+        """Walk ``new`` = (plan, steps) from now (None: keep the plan)."""
+        if new is not None:
+            self.plan, self.k = new[0], 0
+            self.taken(new[1])
 
     @property
     def plan(self):
@@ -286,18 +226,19 @@ class CommandedWalk:
         self._next_touchdown = self._touchdowns.pop(0) if self._touchdowns else -10
 
     def _early_inputs(self) -> tuple:
-        """What a touch-down re-plan depends on besides the plan: the command, goal and stop state, the timing."""
-        return (tuple(self.command), self.goal, self._pending_goal, self._stop, self._t_ss, self._t_ds, self.horizon,
+        """What a touch-down re-plan depends on besides the plan: the command and goal state, the timing."""
+        return (tuple(self.command), self.goal, self.pending_goal, self._t_ss, self._t_ds, self.steps_per_plan,
                 self.step_height)
 
     def _prepare_touchdown(self) -> None:
         """Three ticks before the next touch-down of a velocity-command walk: its re-plan (:meth:`_at_touchdown`)."""
         k = self._next_touchdown
-        if self.goal is not None or self._pending_goal is not None or not np.any(self.command):
+        due = self.wanted()
+        if due == GOAL or due == CLOSE:
             return  # goals and stops: planned in the touch-down tick
         landed = int(self.plan.support[k - 1])
         failures, error = self.replan_failures, self.last_error
-        new = self._plan_from_state((k, "left" if landed == 1 else "right"))
+        new = self._plan_from_state(due, (k, "left" if landed == 1 else "right"))
         self.replan_failures, self.last_error = failures, error  # counted when the touch-down tick plans
         if new is not None:
             self._early = (k, self._early_inputs(), new)
@@ -306,20 +247,17 @@ class CommandedWalk:
         plan, k = self.plan, self.k
         early, self._early = self._early, None
         steps_left = sum(1 for ph in plan.phases if ph.support != _DOUBLE and ph.first >= k)
-        if self._pending_goal is None and self.goal is not None and not self._stop:
-            return  # walking to a goal: its plan already ends there
-        if self._pending_goal is None and not np.any(self.command) and steps_left <= 1:
-            return  # already closing (or closed)
+        due = self.touchdown_due(steps_left)
+        if due is None:
+            return  # walking to a goal (its plan already ends there), or already closing (or closed)
         landed = int(plan.support[k - 1])  # 1: left stance, right swung; 2: right stance, left swung
         first = "left" if landed == 1 else "right"
         if early is not None and early[0] == k and early[1] == self._early_inputs():
             new = early[2]  # planned three ticks ago from these same inputs
             self.early_replans += 1
         else:
-            new = self._plan_from_state((k, first))
-        if new is not None:
-            self.plan, self.k = new, 0
-            self.replans += 1
+            new = self._plan_from_state(due, (k, first))
+        self._take(new)
 
     def _close_in_double_support(self) -> None:
         """On :meth:`stop` in a double support before a step (≥ 0.1 s of it left): replace the rest of the plan by
@@ -334,15 +272,13 @@ class CommandedWalk:
         if left < 0.1:
             return
         first = "right" if int(phases[i + 1].support) == 1 else "left"  # left stance next: the right foot swings
-        new = self._plan_from_state((k, first), t_init=left)
-        if new is not None:
-            self.plan, self.k = new, 0
-            self.replans += 1
+        self._take(self._plan_from_state(self.wanted(), (k, first), t_init=left))
 
-    def _plan_from_state(self, at, t_init: float | None = None):
-        """A plan from the current double support: ``at`` None (standing) or (k, first swinging side)."""
+    def _plan_from_state(self, due, at, t_init: float | None = None):
+        """(plan, steps) of ``due`` (:mod:`wbc.gait.commanded`) from the current double support, or None when it
+        cannot be planned (counted): ``at`` None (standing) or (k, first swinging side)."""
         if at is None:
-            lf, rf = self._soles()
+            lf, rf = self.soles()
             com, com_vel, first, t_init = self.config.com.copy(), None, None, None
         else:
             k, first = at
@@ -356,32 +292,18 @@ class CommandedWalk:
             kwargs["t_init"] = t_init
         if com_vel is not None:
             kwargs["com_velocity"] = com_vel
-        width = self._stance.width
         try:
-            if self._pending_goal is not None:
-                goal, self._pending_goal = self._pending_goal, None
-                n, L, d, turn, side = goal_steps(lf, rf, goal, self.step_duration, self.limits, self._stance, first)
-                plan = plan_walk(lf, rf, com, n_steps=n, step_length=L, step_lateral=d, turn=turn,
-                                 first_side=side, step_width=width, **kwargs)
-                self.goal = goal
-                return plan
-            T = self.step_duration
-            vx, vy, wz = self.command
-            if not np.any(self.command):
-                if at is None:
-                    return None
-                return plan_walk(lf, rf, com, n_steps=1, step_length=0.0, first_side=first, step_width=width,
-                                 **kwargs)
-            side = first or ("right" if vy < 0 or (vy == 0 and wz < 0) else "left")
-            return plan_walk(lf, rf, com, n_steps=self.horizon, step_length=vx * T, step_lateral=vy * T,
-                             turn=wz * T, first_side=side, step_width=width, **kwargs)
+            s = self.steps(due, self.step_duration, first, (lf, rf))
+            plan = plan_walk(lf, rf, com, n_steps=s.n_steps, step_length=s.step_length, step_lateral=s.step_lateral,
+                             turn=s.turn, first_side=s.first_side, step_width=self.stance.width, **kwargs)
         except (GaitError, np.linalg.LinAlgError) as exc:
-            self.replan_failures += 1
-            self.last_error = str(exc)
+            self.failed(exc, self.t if at is None else None)
             return None
+        return plan, s
 
     # -- geometry ----------------------------------------------------------------------------------------------
-    def _soles(self):
+    def soles(self) -> tuple[np.ndarray, np.ndarray]:
+        """((4, 4), (4, 4)) the left and right sole poses (world) of the current configuration."""
         d = self.config.data
         return (d.oMf[self.robot.frame_id(self.robot.left_sole)].homogeneous.copy(),
                 d.oMf[self.robot.frame_id(self.robot.right_sole)].homogeneous.copy())

@@ -28,7 +28,7 @@ import numpy as np
 
 from wbc.constants import GRAVITY
 from wbc.exceptions import InvalidInputError
-from wbc.geometry import hull, signed_distance_point, sole_corners
+from wbc.geometry import signed_distance_point, support_corners
 
 __all__ = ["executed_multibody_zmp", "executed_angular_momentum", "executed_com_acceleration", "executed_zmp", "stance_ground_z",
            "support_margin"]
@@ -93,20 +93,20 @@ def support_margin(points: np.ndarray, left: np.ndarray, right: np.ndarray, supp
     if not (math.isfinite(length) and math.isfinite(width) and length > 0 and width > 0):
         raise InvalidInputError(f"sole length and width must be finite and > 0 m; got length={length}, width={width}")
     out = np.empty(len(points))
-    # plain Python floats per tick: the same arithmetic as sole_polygon, convex_hull and signed_distance on one point,
-    # without their array round trips
+    # plain Python floats per tick: the same arithmetic as support_polygon and signed_distance on one point, without
+    # their array round trips
     xy = points.tolist()
     soles = ((left_stance, *_ground_pose_columns(left)), (right_stance, *_ground_pose_columns(right)))
     codes = np.asarray(support).tolist()
     for k in range(len(xy)):
-        corners = []
+        stance = []
         for side, xs, ys, r10, r00 in soles:
             if codes[k] in (double, side):
                 x, y, yaw = xs[k], ys[k], math.atan2(r10[k], r00[k])
                 if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
                     raise InvalidInputError(f"the stance sole pose of tick {k} is not finite")
-                corners.append(sole_corners(x, y, yaw, length, width))  # counter-clockwise
-        poly = corners[0] if len(corners) == 1 else hull([c for cs in corners for c in cs])  # counter-clockwise
+                stance.append((x, y, yaw))
+        poly = support_corners(stance, length, width)  # counter-clockwise
         if len(poly) < 3:
             raise InvalidInputError(f"no stance sole at tick {k} (support code {codes[k]})")
         px, py = xy[k]

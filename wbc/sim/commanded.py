@@ -31,6 +31,10 @@ touch-down, so that a command takes effect at the next touch-down):
   step those whose planned final feet mid-point puts the base at the goal
   (:func:`wbc.gait.commands.goal_steps`, no backward steps); where the robot ends is what the plant did.
 
+The command logic (what is asked, what is due when, the steps of it) is :class:`wbc.gait.commanded.WalkCommands`'s
+with segments (not ``receding``), no backward steps, a failed start dropping its command; this module plans its
+steps as :class:`~wbc.sim.walk.WalkScenario` segments and advances the MuJoCo closed loop.
+
 State: :attr:`q`, :attr:`v` are what the controller reads (the estimate by default); :attr:`q_true`,
 :attr:`v_true` MuJoCo's ground truth (Pinocchio conventions); :attr:`tau` the torques applied in the last tick
 (N·m, (nv − 6,), joint order of ``robot.model``: the command written to the actuators, which MuJoCo clamps to
@@ -47,8 +51,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.exceptions import GaitError, InvalidInputError, SimulationError
-from wbc.gait.commands import CommandLimits, Stance, check_finite, check_velocity, goal_steps
-from wbc.gait.footsteps import pose_to_xy_yaw
+from wbc.gait.commanded import CLOSE, WalkCommands
+from wbc.gait.commands import Stance, check_finite, feet_can_yaw
 from wbc.geometry import ReadOnly
 from wbc.sim.outcome import OutcomeMonitor
 from wbc.sim.scenarios import StandScenario, make_controller
@@ -98,21 +102,26 @@ def build_walk_loop(robot, *, plant: str = "realistic", state: str = "estimated"
     return sim, controller, est, (0.5 if est is not None else 0.0)
 
 
-class SimCommandedWalk:
+class SimCommandedWalk(WalkCommands):
     """The commanded physics walk of the module docstring.
 
     Args:
         robot: a :class:`wbc.robot.Robot` with soles (free flyer first).
         plant, state, solver, seed: :func:`build_walk_loop`.
         step_duration: single + double support of a step, s, in [0.4, 3] (default 0.8, ``wbc sim walk``'s).
-        max_velocity: forward speed limit, m/s, in (0, 1]. max_lateral: m/s, > 0. max_turn: rad/s, > 0.
+        max_velocity: forward speed limit, m/s, in [0.001, 1]. max_lateral: m/s, in [0.001, 2]. max_turn: rad/s, in
+            [0.001, 3]; 0 when the legs cannot yaw the soles relative to each other
+            (:func:`wbc.gait.commands.feet_can_yaw` at ``q_ref`` False: :attr:`can_turn`).
         segment_steps: steps per walking segment (>= 2: at least one walking step and the closing one).
+
+    Attributes:
+        segments, touchdown_replans: segments started from standing and re-plans in a double support between steps,
+            since the start; last_replan: what the last of these planned (for the node's log). The command state and
+            the other counts: :class:`~wbc.gait.commanded.WalkCommands`.
 
     Raises:
         InvalidInputError: a bad argument (named, with the valid range).
     """
-
-    max_backward = 0.0  # m/s: WalkScenario plans forward steps only
 
     @property
     def clock_guard(self) -> bool:
@@ -127,31 +136,19 @@ class SimCommandedWalk:
     def __init__(self, robot, *, plant: str = "realistic", state: str = "estimated", solver: str = "fast",
                  seed: int = 0, step_duration: float = 0.8, max_velocity: float = 0.3, max_lateral: float = 0.1,
                  max_turn: float = 0.5, segment_steps: int = 4):
-        if isinstance(segment_steps, bool) or not isinstance(segment_steps, (int, np.integer)) or segment_steps < 2:
-            raise InvalidInputError(f"segment_steps must be an integer >= 2; got {segment_steps!r}")
-        self.robot = robot
-        self.segment_steps = int(segment_steps)
         self.step_duration = step_duration
-        self.max_velocity = max_velocity
-        self.max_lateral = check_finite(max_lateral, "max_lateral (m/s)", 1e-3, 2.0)
-        self.max_turn = check_finite(max_turn, "max_turn (rad/s)", 1e-3, 3.0)
-        self.can_turn = True
+        super().__init__(robot, max_velocity=max_velocity, max_lateral=max_lateral, max_turn=max_turn,
+                         can_turn=feet_can_yaw(robot, robot.q_ref), steps_per_plan=segment_steps,
+                         plan_name="segment_steps", backward=False, receding=False, retry=None, top_speed=1.0)
         self.sim, self.controller, self.state, self.zmp_feedback = build_walk_loop(
             robot, plant=plant, state=state, solver=solver, seed=seed)
         self.dt = self.sim.timestep
         self._pdata = robot.model.createData()
         self._fid = (robot.frame_id(robot.left_sole), robot.frame_id(robot.right_sole))
         self.t = 0.0
-        self.command = np.zeros(3)
-        self.goal: tuple[float, float, float] | None = None
-        self._pending_goal: tuple[float, float, float] | None = None
-        self.replans = 0
-        self.replan_failures = 0
         self.segments = 0
-        self.last_error = ""
         self.touchdown_replans = 0  # re-plans in a double support between steps (``_replan``)
         self.last_replan = ""  # what the last re-plan at a touch-down planned (for the node's log)
-        self._planned = None  # what the current segment walks: a command tuple, "goal" or "close"
         self._no_replan = None  # a segment whose re-plan failed (walked to its end)
         self.tau = np.zeros(robot.model.nv - 6)
         self.reset()
@@ -160,14 +157,6 @@ class SimCommandedWalk:
     step_duration = ValidatedAttribute(lambda walk, T: check_finite(T, "step_duration (s)", 0.4, 3.0),
                                        "Single + double support of a step, s (in [0.4, 3]; takes effect at the next "
                                        "segment).")
-    max_velocity = ValidatedAttribute(lambda walk, v: check_finite(v, "max_velocity (m/s)", 1e-3, 1.0),
-                                      "Forward speed limit, m/s (in [0.001, 1]).")
-
-    @property
-    def limits(self) -> CommandLimits:
-        """The command limits now (no backward steps: :attr:`max_backward`)."""
-        return CommandLimits(self.max_velocity, self.max_backward, self.max_lateral, self.max_turn, self.can_turn,
-                             self.robot.name)
 
     # -- state -------------------------------------------------------------------------------------------------
     q = ReadOnly("""(nq,) the configuration the controller reads (estimate, or ground truth with
@@ -194,57 +183,13 @@ class SimCommandedWalk:
         """A segment is being walked (False: standing)."""
         return self._segment is not None and not self._segment_done()
 
-    @property
-    def idle(self) -> bool:
-        """Standing in double support with no command and no goal waiting."""
-        return not self.walking and self._pending_goal is None and not np.any(self.command)
-
-    def base_pose(self) -> tuple[float, float, float]:
-        """(x, y, yaw) of the free flyer in :attr:`q` (m, m, rad), world."""
-        q = self._q
-        yaw = pose_to_xy_yaw(pin.XYZQUATToSE3(q[:7]).homogeneous)[2]
-        return float(q[0]), float(q[1]), yaw
-
-    def footprint_pose(self) -> tuple[float, float, float]:
-        """(x, y, yaw) where the base would stand at rest over the soles of :attr:`q` (m, m, rad, world): the feet
-        mid-point and mean heading plus the base's offset from them at ``q_ref``."""
-        return self._stance.footprint_pose(*self._soles(self._q))
-
     def time_remaining(self) -> float:
         """Time (s) until the current segment's plan ends (0 when standing)."""
         if not self.walking:
             return 0.0
         return max(0.0, self._segment.ends_at - (self.t - self._t0))
 
-    # -- commands ----------------------------------------------------------------------------------------------
-    def set_velocity(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
-        """Velocity command (m/s, m/s, rad/s, walking frame), taking effect at the next touch-down; zeros: stop
-        (the walk ends with a closing step after the next touch-down).
-
-        Raises:
-            InvalidInputError: non-finite or beyond ``[max_backward, max_velocity]`` / ``max_lateral`` /
-                ``max_turn``.
-        """
-        self.command[:] = check_velocity(vx, vy, wz, self.limits)
-        self.goal = self._pending_goal = None
-
-    def set_goal(self, x: float, y: float, yaw: float) -> None:
-        """Walk the base to ``(x, y, yaw)`` (m, m, rad, world) in one segment, once the robot stands (a walk in
-        progress ends with a closing step after its next touch-down).
-
-        Raises:
-            InvalidInputError: non-finite values.
-        """
-        self._pending_goal = (check_finite(x, "goal x (m)"), check_finite(y, "goal y (m)"),
-                              check_finite(yaw, "goal yaw (rad)"))
-        self.command[:] = 0.0
-
-    def stop(self) -> None:
-        """Stop walking: at the next touch-down the walk ends with one closing step (module docstring); clears the
-        command and goal."""
-        self.command[:] = 0.0
-        self.goal = self._pending_goal = None
-
+    # -- commands (set_velocity, set_goal, stop: WalkCommands) ----------------------------------------------------
     def reset(self) -> None:
         """The plant back to ``q_ref`` at rest (teleported), the controller and estimator restarted, standing.
         The node time :attr:`t` goes on."""
@@ -260,11 +205,9 @@ class SimCommandedWalk:
         self._segment.setup(self.controller, sim, q, v)
         self._stand = self._segment
         self._t0 = self.t
-        self._planned = None
         self.monitor = OutcomeMonitor(sim)
-        self.command[:] = 0.0
-        self.goal = self._pending_goal = None
-        self._stance = Stance.of(q[:2], *self._soles(q))
+        self.clear_commands()
+        self.stance = Stance.of(q[:2], *self.soles(q))
 
     # -- one tick ----------------------------------------------------------------------------------------------
     def tick(self) -> None:
@@ -275,11 +218,15 @@ class SimCommandedWalk:
             SimulationError: the MuJoCo state became non-finite.
         """
         sim, model, data = self.sim, self.sim.model, self.sim.data
-        if not self.walking and not self.monitor.fell and (self._pending_goal is not None or np.any(self.command)):
-            self._start_segment()
-        elif self.walking and not self.monitor.fell:
+        walking = self.walking
+        if not walking:
+            self.walk_ended()
+            due = None if self.monitor.fell else self.start_due(self.t)
+            if due is not None:
+                self._start_segment(due)
+        elif not self.monitor.fell:
             seg = self._segment
-            due = self._replan_due(seg.steps_left) if seg.steps_done >= 1 and seg.steps_left >= 1 \
+            due = self.touchdown_due(seg.steps_left) if seg.steps_done >= 1 and seg.steps_left >= 1 \
                 and seg is not self._no_replan else None
             seg.hold_next_swing = due is not None  # (a late touch-down: the next swing waits for the re-plan)
             if due is not None and seg.between_steps():
@@ -312,18 +259,6 @@ class SimCommandedWalk:
             return True
         return self.t - self._t0 >= seg.ends_at - 1e-9  # (after a capture step, when one was started)
 
-    def _replan_due(self, steps_left: int):
-        """What to re-plan in the double support between steps (None: keep the plan): ``"close"`` for a stop, a
-        command tuple for a changed command or to walk on past the plan's closing step."""
-        if self._pending_goal is not None or not np.any(self.command):
-            if self._planned == "goal" and self.goal is not None:
-                return None  # walking to the goal
-            return "close" if steps_left > 1 and self._planned != "close" else None
-        cmd = tuple(float(c) for c in self.command)
-        if cmd != self._planned or steps_left == 1:
-            return cmd
-        return None
-
     def _replan(self, due, side: str) -> None:
         """Replace the current segment, in its double support between steps, by a walk planned from the measured
         CoM state with ``side`` swinging first: one closing step (``due == "close"``) or ``segment_steps`` steps of
@@ -332,56 +267,47 @@ class SimCommandedWalk:
         would widen the stance at each one."""
         q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
         T = self.step_duration
-        if due == "close":
-            n, length, lateral, turn = 1, 0.0, 0.0, 0.0
-        else:
-            n = self.segment_steps
-            length, lateral, turn = (float(c) * T + 0.0 for c in due)  # (+ 0.0: no -0.0)
+        s = self.steps(due, T, side)
+        n, length, lateral, turn = s.n_steps, s.step_length + 0.0, s.step_lateral + 0.0, s.turn + 0.0  # (no -0.0)
         try:
             seg = WalkScenario(n, length, T, turn=turn, step_lateral=lateral, settle=0.0,
                                zmp_feedback=self.zmp_feedback, first_side=side, from_motion=True,
-                               t_init=max(0.08, 0.2 * T), step_width=self._stance.width)
+                               t_init=max(0.08, 0.2 * T), step_width=self.stance.width)
             seg.setup(self.controller, self.sim, q, v)
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
-            self.replan_failures += 1
-            self.last_error = str(exc)
+            self.failed(exc)
             self._no_replan = self._segment  # (not retried: this plan goes on to its closing step)
             self._segment.hold_next_swing = False
             return
-        self._segment, self._t0, self._planned = seg, self.t, due
-        self.replans += 1
+        self._segment, self._t0 = seg, self.t
+        self.taken(s)
         self.touchdown_replans += 1
-        self.last_replan = "closing step" if due == "close" else \
+        self.last_replan = "closing step" if due == CLOSE else \
             f"{n} steps of {length:.3f} m, lateral {lateral:.3f} m, turn {math.degrees(turn):.1f} deg"
 
-    def _start_segment(self) -> None:
+    def _start_segment(self, due) -> None:
+        """Start walking ``due`` (a goal or a command, :meth:`start_due`) from standing; a failure drops the
+        command."""
         q, v = self.sim.get_state() if self.state is None else (self._q, self._v)
         T = self.step_duration
         try:
-            if self._pending_goal is not None:
-                goal, self._pending_goal = self._pending_goal, None
-                n, length, lateral, turn, side = goal_steps(*self._soles(q), goal, T, self.limits, self._stance)
-                self.goal = goal
-                planned = "goal"
-            else:
-                n = self.segment_steps
-                length, lateral, turn = self.command * T
-                side = "right" if lateral < 0 or (lateral == 0 and turn < 0) else "left"
-                planned = tuple(float(c) for c in self.command)
-            seg = WalkScenario(n, float(length), T, turn=float(turn), step_lateral=float(lateral), settle=0.0,
-                               zmp_feedback=self.zmp_feedback, first_side=side)
+            s = self.steps(due, T, soles=self.soles(q))
+            seg = WalkScenario(s.n_steps, float(s.step_length), T, turn=float(s.turn),
+                               step_lateral=float(s.step_lateral), settle=0.0, zmp_feedback=self.zmp_feedback,
+                               first_side=s.first_side)
             seg.setup(self.controller, self.sim, q, v)
         except (GaitError, InvalidInputError, np.linalg.LinAlgError) as exc:
-            self.replan_failures += 1
-            self.last_error = str(exc)
-            self.command[:] = 0.0
+            self.failed(exc, self.t)
             return
-        self._segment, self._t0, self._planned = seg, self.t, planned
-        self.replans += 1
+        self._segment, self._t0 = seg, self.t
+        self.taken(s)
         self.segments += 1
 
     # -- geometry ----------------------------------------------------------------------------------------------
-    def _soles(self, q):
+    def soles(self, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """((4, 4), (4, 4)) the left and right sole poses (world) at ``q`` ((nq,); None: :attr:`q`)."""
+        if q is None:
+            q = self._q
         d = self._pdata
         pin.framesForwardKinematics(self.robot.model, d, q)
         return d.oMf[self._fid[0]].homogeneous.copy(), d.oMf[self._fid[1]].homogeneous.copy()
