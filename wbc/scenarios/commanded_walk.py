@@ -151,9 +151,9 @@ class CommandedWalk(WalkCommands):
     def stop(self) -> None:
         """Stop (:meth:`WalkCommands.stop <wbc.gait.commanded.WalkCommands.stop>`): the closing step is planned in
         the next tick when that tick is in a double support before a step with at least 0.1 s of it left, else at
-        the next touch-down."""
+        the next touch-down; standing, there is nothing to close (a later command or goal walks as usual)."""
         super().stop()
-        self._stop_now = True
+        self._stop_now = self.plan is not None
 
     @property
     def clock_guard(self) -> bool:
@@ -172,6 +172,7 @@ class CommandedWalk(WalkCommands):
         self.walker = WalkController(self.robot, self.config, solver=self._solver, clock_guard=self._clock_guard)
         self.plan, self.k = None, 0
         self.v[:] = 0.0
+        self._stop_now = False
         self.clear_commands()
 
     # -- one tick ----------------------------------------------------------------------------------------------
