@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from wbc.solvers.active_set import (BlockSpace, dual_active_set, qp_ws_float_size, qp_ws_int_size, solve_qp_into,
-                                    solve_qp_ws)
+from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, BlockSpace, QPLimits, QPWarmArrays,
+                                    dual_active_set, qp_ws_float_size, qp_ws_int_size, solve_qp_into, solve_qp_ws)
 from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
+from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
 
 
@@ -46,8 +47,9 @@ def _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
      out) = carve_solve(*id_solve_buffers(n, nv, p, m), n, nv, p)[-1]
     space = BlockSpace(nv, rows, Yv, S, L, vfree, ffree, vrow, fac, a, c, tv, ra, rc, dx, drho, npv, nuw, 1e-10)
     x, nu, mu = np.zeros(n), np.zeros(max(m, 1)), np.zeros(p)
-    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb,
-                         200, 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9, out)
+    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, z, rb, out),
+                         ActiveSetSettings(200, 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9))
     return it, x, nu[:m], mu, lam_b, state, rstate
 
 
@@ -79,7 +81,7 @@ def test_both_strategies_give_the_exact_optimum(seed):
     # dense strategy on the same QP: the same optimum
     st, rst = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
     xd, nud, mud, zd, res = np.zeros(n), np.zeros(m), np.zeros(len(l)), np.zeros(n), np.zeros(1)
-    itd = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, st, rst, xd, nud, mud, zd, 200, 1e-12, 1e-12, 1e-24, res)
+    itd = solve_qp_ws((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res), (200, 1e-12, 1e-12, 1e-24))
     assert itd > 0, itd
     assert np.abs(xd - ref).max() < 1e-8 * scale
     assert np.abs(xd - x).max() < 1e-8 * scale
@@ -95,8 +97,7 @@ def _into(qp, fw, iw, max_iter):
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
     state, rstate = np.zeros(n, np.int8), np.zeros(p, np.int8)
     x, nu, mu, z, res = np.zeros(n), np.zeros(m), np.zeros(p), np.zeros(n), np.zeros(1)
-    it = solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, 1e-12, 1e-12, 1e-24, res,
-                       fw, iw)
+    it = solve_qp_into(tuple(qp), (state, rstate, x, nu, mu, z, res), (max_iter, 1e-12, 1e-12, 1e-24), fw, iw)
     return it, x, nu, mu, z, state, rstate, res
 
 
@@ -134,3 +135,21 @@ def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
                              lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
     assert ref is not None  # x0 is feasible
     assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
+
+
+def test_solve_qp_ws_takes_its_namedtuples_as_plain_tuples():
+    """QPData, QPWarmArrays and QPLimits, or plain tuples in their order (the fast backend's per-call entry): the same
+    bits out."""
+    rng = np.random.default_rng(9200)
+    qp = QPData(*_block_qp(rng, 8, 6, 2, 7))
+    n, m, p = qp.H.shape[0], qp.A.shape[0], qp.C.shape[0]
+    answers = []
+    for named in (True, False):
+        arrays = QPWarmArrays(np.zeros(n, np.int8), np.zeros(p, np.int8), np.zeros(n), np.zeros(m), np.zeros(p),
+                              np.zeros(n), np.zeros(1))
+        limits = QPLimits(200, 1e-12, 1e-12, 1e-24)
+        it = solve_qp_ws(qp, arrays, limits) if named else solve_qp_ws(tuple(qp), tuple(arrays), tuple(limits))
+        answers.append((it, *arrays))
+    assert answers[0][0] > 0
+    for a, b in zip(*answers):
+        assert np.array_equal(a, b)

@@ -143,8 +143,8 @@ def test_kernel_reports_infeasible_rows():
     lb, ub = -np.ones(n), np.ones(n)
     A, b = np.zeros((0, n)), np.zeros(0)
     state, rstate = np.zeros(n, np.int8), np.zeros(2, np.int8)
-    it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
-                     np.zeros(n), 100, 1e-12, 1e-12, 1e-24, np.zeros(1))
+    it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub), (state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
+                                                     np.zeros(n), np.zeros(1)), (100, 1e-12, 1e-12, 1e-24))
     assert it == INFEASIBLE
     with pytest.raises(SolverError):
         FastBackend().solve(H, g, A, b, C, l, u, lb, ub)

@@ -14,6 +14,7 @@ from wbc.configuration import Configuration
 from wbc.constraints import ContactConstraint, JointVelocityLimit
 from wbc.controllers.kinematic import KinematicController
 from wbc.exceptions import InvalidInputError
+from wbc.solvers.qp_data import QPData
 from wbc.tasks import ComTask, DampingTask, FrameTask, PositionTask, PostureTask
 
 DT = 0.002
@@ -247,7 +248,7 @@ def test_levels_below_a_determined_point_are_not_solved_and_the_answer_is_the_cl
         C, l, u = np.zeros((0, n)), np.zeros(0), np.zeros(0)
         lb, ub = np.full(n, -1e3), np.full(n, 1e3)
         final = DaqpBackend()
-        v, res = solve_lexicographic([(J, t)], H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)], final)
+        v, res = solve_lexicographic([(J, t)], QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3)], final)
         assert solve_lexicographic.last_determined == 1  # the soft level (index len(levels)) was not solved
         K = np.block([[J.T @ J, A.T], [A, np.zeros((m, m))]])
         ref = np.linalg.solve(K, np.concatenate([J.T @ t, b]))[:n]
@@ -255,8 +256,8 @@ def test_levels_below_a_determined_point_are_not_solved_and_the_answer_is_the_cl
         # the exact minimiser on these random problems: the bound is on that, the skip itself adds nothing
         assert np.max(np.abs(v - ref)) < 1e-4 * max(1.0, np.max(np.abs(ref)))
         # with one level row fewer v is not determined: the soft level is solved (and nothing is skipped)
-        v2, _ = solve_lexicographic([(J[:-1], t[:-1])], H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)],
-                                    DaqpBackend())
+        v2, _ = solve_lexicographic([(J[:-1], t[:-1])], QPData(H, g, A, b, C, l, u, lb, ub),
+                                    [DaqpBackend(eps_prox=1e-3)], DaqpBackend())
         assert solve_lexicographic.last_determined is None
 
 
@@ -283,18 +284,18 @@ def test_memo_starts_a_level_with_the_retry_that_solved_it_and_forgets_a_failed_
     lb, ub = np.full(n, -1e3), np.full(n, 1e3)
     J2, t2 = rng.normal(size=(2, n)), rng.normal(size=2)
     levels = [(J, t), (J2, t2)]
-    plain, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
+    plain, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3)] * 2,
                                    DaqpBackend())
     memo = {(1, 2): "damped"}
     lvl = Recording(eps_prox=1e-3)
-    v, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3), lvl],
+    v, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3), lvl],
                                DaqpBackend(), memo=memo)
     mu = 1e-9 * max(1.0, float(np.max(np.diag(J2.T @ J2))))
     assert len(lvl.calls) == 1 and np.allclose(lvl.calls[0], J2.T @ J2 + mu * np.eye(n), rtol=0, atol=1e-15)
     assert memo == {(1, 2): "damped"}
     assert np.max(np.abs(v - plain)) < 1e-6
     memo = {(1, 2): "wide"}  # level 0 has no band to widen... level 1's wide-band hint is tried, kept if it solves
-    v3, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
+    v3, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3)] * 2,
                                 DaqpBackend(), memo=memo)
     assert np.max(np.abs(v3 - plain)) < 1e-5
 
@@ -314,9 +315,9 @@ def test_conflicting_strict_level_is_least_squares_and_lower_level_still_optimis
     A, b = np.array([[1.0, 0, 0, 1.0]]), np.array([0.2])
     lb, ub = -np.ones(n), np.ones(n)
     e = np.zeros((0, n))
-    v, res = solve_lexicographic([(J0, t0), (J1, t1)], np.eye(n) * 1e-6, np.zeros(n), A, b, e, np.zeros(0),
-                                 np.zeros(0), lb, ub, [DaqpBackend(eps_prox=1e-3), DaqpBackend(eps_prox=1e-3)],
-                                 DaqpBackend())
+    v, res = solve_lexicographic([(J0, t0), (J1, t1)], QPData(np.eye(n) * 1e-6, np.zeros(n), A, b, e, np.zeros(0),
+                                                              np.zeros(0), lb, ub),
+                                 [DaqpBackend(eps_prox=1e-3), DaqpBackend(eps_prox=1e-3)], DaqpBackend())
     # x3 = 0.2 − x0 ∈ [−1, 1] ⇔ x0 ∈ [−0.8, 1]: level 0 alone as a bounded least-squares problem in (x0, x1, x2)
     ref = scipy.optimize.lsq_linear(J0[:, :3], t0, bounds=([-0.8, -1, -1], [1, 1, 1]))
     assert abs(res[0] - np.linalg.norm(ref.fun)) < 1e-6

@@ -10,6 +10,7 @@ import pytest
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend
 from wbc.solvers.hierarchy import solve_lexicographic
+from wbc.solvers.qp_data import QPData
 
 
 def _levels_problem(seed: int = 5, n: int = 10):
@@ -42,18 +43,18 @@ def test_a_level_failing_after_the_budget_is_spent_is_cut_with_the_last_solved_l
     levels, H, g, A, b, C, l, u, lb, ub = _levels_problem()
     state = {"spent": False}
     lvl1 = _Failing(lambda: state.update(spent=True))
-    v, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3), lvl1],
+    v, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3), lvl1],
                                DaqpBackend(), stop=lambda: state["spent"])
     assert lvl1.calls == 1  # no damped or wide-band retry once the budget is spent
     assert solve_lexicographic.last_cut == 1
     # oracle: the cascade stopped before level 1 (the pre-existing cut) returns level 0's solution
-    v0, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3)] * 2,
+    v0, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3)] * 2,
                                 DaqpBackend(), stop=lambda: True)
     assert solve_lexicographic.last_cut == 1
     assert np.max(np.abs(v - v0)) < 1e-9
     # with budget left the failing level is retried (damped), as before
     lvl1b = _Failing(lambda: None)
-    solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [DaqpBackend(eps_prox=1e-3), lvl1b], DaqpBackend(),
+    solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [DaqpBackend(eps_prox=1e-3), lvl1b], DaqpBackend(),
                         stop=lambda: False)
     assert lvl1b.calls >= 2
 
@@ -72,13 +73,13 @@ def test_an_infeasible_hard_set_fails_the_first_level_in_two_solves():
             return super().solve(*args, **kw)
 
     with pytest.raises(SolverError, match="priority level 0"):
-        solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [Counting(eps_prox=1e-3), DaqpBackend()],
+        solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [Counting(eps_prox=1e-3), DaqpBackend()],
                             DaqpBackend())
     assert Counting.calls == 2  # the level, then min ‖v‖² on the hard set (not the damped retry in between)
     # a feasible hard set where the level solves: one call
     Counting.calls = 0
     levels, H, g, A, b, C, l, u, lb, ub = _levels_problem()
-    solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, [Counting(eps_prox=1e-3), DaqpBackend()],
+    solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), [Counting(eps_prox=1e-3), DaqpBackend()],
                         DaqpBackend())
     assert Counting.calls == 1
 
@@ -155,7 +156,7 @@ def test_band_memo_starts_with_the_bands_on_equal_rows_only():
     for A_k, b_k in ((A, np.array([0.0, 5e-5])), (A.copy(), np.array([0.0, 4e-5])),
                      (A + np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 1e-6, 0.0, 0.0]]), np.array([0.0, 5e-5]))):
         Counting.solves = 0
-        v, _ = solve_lexicographic(levels, H, g, A_k, b_k, C, l, u, lb, ub, backends, final,
+        v, _ = solve_lexicographic(levels, QPData(H, g, A_k, b_k, C, l, u, lb, ub), backends, final,
                                    dependent_row_tolerance=tol, memo=memo)
         counts.append(Counting.solves)
         r = np.abs(A_k @ v - b_k)
@@ -182,7 +183,7 @@ def test_level_work_is_counted_per_level_started_and_reserve_stops_the_cascade_e
             backend.work = work
         stop = None if factor is None else (lambda: work.spent(factor))
         levels, H, g, A, b, C, l, u, lb, ub = _levels_problem()
-        v, _ = solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final, stop=stop,
+        v, _ = solve_lexicographic(levels, QPData(H, g, A, b, C, l, u, lb, ub), backends, final, stop=stop,
                                    level_work=level_work)
         return v, work.solves, solve_lexicographic.last_cut
 

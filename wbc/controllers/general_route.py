@@ -10,6 +10,7 @@ from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.hierarchy import band_rows, independent_rows, solve_lexicographic
+from wbc.solvers.qp_data import QPData
 
 
 #: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``), each started only while the
@@ -97,7 +98,7 @@ class GeneralRoute:
         self.tick_budget.level_mark = self._work.seconds()
         self.tick_budget.level_count = self._work.solves
         v, self.level_residuals = solve_lexicographic(
-            levels, H, g, A, b, C, l, u, lb, ub, self._level_backends[:len(levels)], self._final_backend,
+            levels, QPData(H, g, A, b, C, l, u, lb, ub), self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
             stop=self.tick_budget.level_stop if self._in_solve else None,
             memo=self._level_memo if self._in_solve else None,

@@ -383,8 +383,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws[:nr], L, Y,
                              S, t, rhs, eqres)
     else:
-        it = solve_qp_into(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, state, rstate, x, nu, mu, z, max_iter, 1e-12,
-                           1e-12, 1e-24, eqres, _scratch_views(ws, n, nr, mr, p)[1], iws)
+        # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
+        it = solve_qp_into((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
+                           (max_iter, 1e-12, 1e-12, 1e-24), _scratch_views(ws, n, nr, mr, p)[1], iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0

@@ -43,8 +43,9 @@ from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, f
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["BlockSpace", "DenseSpace", "dual_active_set", "load_active_set_kernels", "qp_ws_float_size", "qp_ws_int_size",
-           "solve_qp_into", "solve_qp_ws"]
+__all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "QPLimits", "QPWarmArrays",
+           "dual_active_set", "load_active_set_kernels", "qp_ws_float_size", "qp_ws_int_size", "solve_qp_into",
+           "solve_qp_ws"]
 
 #: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
 #: = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r,
@@ -58,6 +59,21 @@ DenseSpace = namedtuple("DenseSpace", "L Yw Sm Sf t0 y w tmp r bw nuw kind idx s
 #: npv (n,); c, rc, drho, nuw (w,); tv (nv,); dep_tol: squared sine (H⁻¹ metric) below which a working row counts
 #: as dependent on the ones before it. :func:`wbc.formulations.idkernel.id_workspace` allocates the arrays.
 BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c tv ra rc dx drho npv nuw dep_tol")
+#: the arrays of :func:`dual_active_set` (n variables, p rows of C): state (n,), rstate (p,) int8 the working set
+#: (in/out); x (n,), nu (≥ m,), mu (p,), lam_b (n,), lam_r (p,), out (3,) the outputs; z, rb (n,) workspace
+ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
+#: the settings of :func:`dual_active_set`: max_iter, start_cost (ints), primal_tol, dual_tol, dep_tol, block_tol,
+#: verify_tol (floats), hold_fixed, refresh (bools)
+ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
+                                                    "refresh start_cost verify_tol")
+#: the arrays of :func:`solve_qp_ws` / :func:`solve_qp_into` (n variables, m equality, p inequality rows): state
+#: (n,), rstate (p,) int8 the working set (in/out, read as the warm start); x (n,), nu (m,), mu (p,), z (n,),
+#: eq_residual (1,) the outputs. A plain tuple in this order is taken as well (numba's dispatcher types a plain
+#: tuple of arrays faster than a namedtuple: the ``fast`` backend's per-call entry passes one)
+QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
+#: the limits of :func:`solve_qp_ws` / :func:`solve_qp_into`: max_iter (int), primal_tol, dual_tol, rank_tol
+#: (floats); or a plain tuple in this order
+QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
 #: relative size (to the largest multiplier, at least 1) of a negative working multiplier that fails the final
 #: KKT check of :func:`dual_active_set`
 DUAL_CHECK_TOL = 1e-9
@@ -356,8 +372,7 @@ def _violation(C, l, u, lb, ub, x, state, rstate, tol):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, max_iter, primal_tol, dual_tol,
-                    dep_tol, block_tol, hold_fixed, refresh, start_cost, verify_tol, out):
+def dual_active_set(qp, space, arrays, settings):
     """Exact solution of  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub  (H positive definite)
     by the dual active-set method of Goldfarb & Idnani (1983, §3), warm-started from a working set; the linear
     algebra is the strategy of ``space`` (module docstring).
@@ -381,25 +396,30 @@ def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, ma
     Args:
         qp: (H (n, n), g (n,), A (≥ m, n), b (≥ m,), m, C (p, n), l, u (p,), lb, ub (n,)), ±inf for absent sides.
         space: a :class:`DenseSpace` or :class:`BlockSpace` (then H[:nv, nv:] = 0, H[nv:, nv:] diagonal > 0).
-        state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
-            side); read as the warm start.
-        x (n,), nu (≥ m,): out — solution, multipliers of the equality rows. mu (p,): out, row multipliers
-            (H x + g + Aᵀν + Cᵀμ + z_b = 0 convention: μ ≤ 0 at l, ≥ 0 at u, 0 off W); workspace until the end.
-        lam_b (n,), lam_r (p,): out, oriented multipliers (≥ 0) of the held bounds and rows (valid where held).
-        z (n,), rb (n,): workspace (the step, the bounds' r).
-        max_iter: steps allowed (drops and GI steps, plus ``start_cost`` per factorisation of a warm or cold
+        arrays: an :data:`ActiveSetArrays`:
+
+            state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
+            side); read as the warm start. x (n,), nu (≥ m,): out — solution, multipliers of the equality rows.
+            mu (p,): out, row multipliers (H x + g + Aᵀν + Cᵀμ + z_b = 0 convention: μ ≤ 0 at l, ≥ 0 at u, 0 off
+            W); workspace until the end. lam_b (n,), lam_r (p,): out, oriented multipliers (≥ 0) of the held
+            bounds and rows (valid where held). z (n,), rb (n,): workspace (the step, the bounds' r). out (3,):
+            out — largest residual of x (equality rows, rows), steps, working-set size; (inf, 0, 0) after an exit
+            code other than NOT_VERIFIED (no checked point: every entry is written on every call).
+        settings: an :data:`ActiveSetSettings`:
+
+            max_iter: steps allowed (drops and GI steps, plus ``start_cost`` per factorisation of a warm or cold
             start). primal_tol: violation that makes a constraint enter. dual_tol: negative multiplier that makes
             one leave at a start. dep_tol: dependency test. block_tol: relative r below which a working constraint
             does not block. hold_fixed: variables with lb = ub are held from the start and never leave.
             refresh: see above. verify_tol: largest residual of the final check (inf: not checked).
-        out (3,): out — largest residual of x (equality rows, rows), steps, working-set size; (inf, 0, 0) after an
-            exit code other than NOT_VERIFIED (no checked point: every entry is written on every call).
 
     Returns:
         steps (≥ 1), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES (a dependent working set) / ITERATION_CAP /
         INFEASIBLE / NOT_VERIFIED (:mod:`wbc.solvers.status`).
     """
     H, g, A, b, m, C, l, u, lb, ub = qp
+    state, rstate, x, nu, mu, lam_b, lam_r, z, rb, out = arrays
+    max_iter, primal_tol, dual_tol, dep_tol, block_tol, hold_fixed, refresh, start_cost, verify_tol = settings
     n = H.shape[0]
     p = C.shape[0]
     out[0] = np.inf  # an exit before the final check reports no residual, not the workspace's last one
@@ -586,8 +606,7 @@ def dual_active_set(qp, space, state, rstate, x, nu, mu, lam_b, lam_r, z, rb, ma
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
-                rank_tol, eq_residual):
+def solve_qp_ws(qp, arrays, limits):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub (H positive definite):
     :func:`dual_active_set` on a :class:`DenseSpace` (range-space form, warm-started from a working set; x and the
     multipliers recomputed on the final working set and every KKT condition checked, a failed check continuing
@@ -595,29 +614,29 @@ def solve_qp_ws(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_it
     largest.
 
     Args:
-        H, g, A, b, C, l, u, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (p, n), (p,), (p,), (n,), (n,)
-            (±inf for absent sides).
-        state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
-            side); read as the warm start.
-        x (n,), nu (m,), mu (p,), z (n,): out — solution and multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0;
-            mu, z ≤ 0 at a lower side, ≥ 0 at an upper one, 0 out of the working set).
-        max_iter: steps allowed (drops and GI steps). primal_tol: violation that counts. dual_tol: negative
-            multiplier that counts. rank_tol: relative pivot of S² below which W counts as dependent.
-        eq_residual (1,): out — largest residual of the rows (equalities, inequalities) at the returned x; inf
-            after an exit code other than NOT_VERIFIED.
+        qp: a :class:`~wbc.solvers.qp_data.QPData` (or a plain tuple in its order) H, g, A, b, C, l, u, lb, ub, of
+            shapes (n, n), (n,), (m, n), (m,), (p, n), (p,), (p,), (n,), (n,) (±inf for absent sides).
+        arrays: a :data:`QPWarmArrays` (or a plain tuple in its order): state (n,) int8, rstate (p,) int8, in/out:
+            working set (0 out, −1 held at the lower, +1 at the upper side), read as the warm start; x (n,),
+            nu (m,), mu (p,), z (n,): out — solution and multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0; mu, z ≤ 0 at
+            a lower side, ≥ 0 at an upper one, 0 out of the working set); eq_residual (1,): out — largest residual
+            of the rows (equalities, inequalities) at the returned x, inf after an exit code other than
+            NOT_VERIFIED.
+        limits: a :data:`QPLimits` (or a plain tuple in its order): max_iter: steps allowed (drops and GI steps).
+            primal_tol: violation that counts. dual_tol: negative multiplier that counts. rank_tol: relative pivot
+            of S² below which W counts as dependent.
 
     On success x lies inside [lb, ub] exactly (clipped: it is within rounding of them).
 
     Returns:
         steps (≥ 1) on success, or DEPENDENT_EQUALITIES / NOT_POSITIVE_DEFINITE / ITERATION_CAP / INFEASIBLE.
     """
-    n = H.shape[0]
-    m = A.shape[0]
-    p = C.shape[0]
+    n = qp[0].shape[0]
+    m = qp[2].shape[0]
+    p = qp[4].shape[0]
     fw = np.empty(qp_ws_float_size(n, m, p))  # one allocation, views in solve_qp_into
     iw = np.empty(qp_ws_int_size(n, m), np.int64)
-    return solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
-                         rank_tol, eq_residual, fw, iw)
+    return solve_qp_into(qp, arrays, limits, fw, iw)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -634,10 +653,12 @@ def qp_ws_int_size(n, m):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_iter, primal_tol, dual_tol,
-                  rank_tol, eq_residual, fw, iw):
+def solve_qp_into(qp, arrays, limits, fw, iw):
     """:func:`solve_qp_ws` in the caller's workspaces: fw (≥ :func:`qp_ws_float_size` (n, m, p),) float64 and
     iw (≥ :func:`qp_ws_int_size` (n, m),) int64 (no allocation). Same arguments otherwise, same returns."""
+    H, g, A, b, C, l, u, lb, ub = qp
+    state, rstate, x, nu, mu, z, eq_residual = arrays
+    max_iter, primal_tol, dual_tol, rank_tol = limits
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
@@ -662,8 +683,9 @@ def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_
     sc = fw[o + p:o + p + 1]
     out = fw[o + p + 1:o + p + 4]
     space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
-    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, lam_b, lam_r, zd, rb,
-                         max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf, out)
+    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out),
+                         ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
     eq_residual[0] = out[0]
     for i in range(n):
         z[i] = state[i] * lam_b[i] if state[i] != 0 else 0.0
@@ -673,12 +695,15 @@ def solve_qp_into(H, g, A, b, C, l, u, lb, ub, state, rstate, x, nu, mu, z, max_
 @once_per_process
 def load_active_set_kernels() -> None:
     """Compile (or load from the on-disk cache), once per process, :func:`solve_qp_into` for the argument types
-    both its callers give it (C-contiguous float64 arrays, int8 working sets, int64 integer workspace):
+    both its callers give it (plain tuples: the QP's C-contiguous float64 arrays, the int8 working sets and the
+    outputs, the limits; float64 and int64 workspaces):
     :func:`solve_qp_ws` (the ``fast`` backend, :mod:`wbc.solvers.fast`) and the kinematic tick
     (:mod:`wbc.formulations.velocity_kernel`). Their loaders run after this one (``wbc compile``'s
     :data:`wbc.cli.kernels.AFTER`) and link this version instead of compiling their own."""
     n, m, p = 2, 1, 1
-    solve_qp_into(np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
-                  -np.ones(n), np.ones(n), np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m),
-                  np.empty(p), np.empty(n), 10, 1e-12, 1e-12, 1e-24, np.empty(1), np.empty(qp_ws_float_size(n, m, p)),
+    solve_qp_into((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
+                   -np.ones(n), np.ones(n)),
+                  (np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m), np.empty(p), np.empty(n),
+                   np.empty(1)),
+                  (10, 1e-12, 1e-12, 1e-24), np.empty(qp_ws_float_size(n, m, p)),
                   np.empty(qp_ws_int_size(n, m), np.int64))

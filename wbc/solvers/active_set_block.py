@@ -26,12 +26,158 @@ def _row(A, C, m, rk):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, fac, dep_tol):
+def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
+    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
+    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
+    if with_v:
+        for i in range(nfv):
+            acc += y[i] * w[i]
+    for i in range(nff):
+        f = ffree[i]
+        acc += R[f] * X[f] / H[f, f]
+    return acc
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _kkt(qp, sp, mw, a, c, y, rho):
+    """With the factors of :func:`block_start` in ``sp`` (a :class:`~wbc.solvers.active_set.BlockSpace`, its tv
+    the workspace): y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space, Nocedal & Wright 2006
+    eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
+    H, A, m, C = qp[0], qp[2], qp[4], qp[5]
+    rows, Yv, S, L, vfree, ffree, vrow, fac, tv = sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac, sp.tv
+    nfv, nff = fac[0], fac[1]
+    for i in range(nfv):
+        tv[i] = a[vfree[i]]
+    forward_substitution(L, nfv, tv)
+    q = 0.0
+    for i in range(nfv):
+        q += tv[i] * tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        q += a[f] * a[f] / H[f, f]
+    for k in range(mw):
+        R = _row(A, C, m, rows[k])
+        rho[k] = _free_dot(-c[k], vrow[k], Yv[k], tv, nfv, R, a, ffree, nff, H)
+    forward_substitution(S, mw, rho)
+    backward_substitution(S, mw, rho)
+    for k in range(mw):
+        if vrow[k]:
+            yk = Yv[k]
+            rk = rho[k]
+            for i in range(nfv):
+                tv[i] -= yk[i] * rk
+    backward_substitution(L, nfv, tv)
+    for i in range(nfv):
+        y[vfree[i]] = tv[i]
+    for i in range(nff):
+        f = ffree[i]
+        s = a[f]
+        for k in range(mw):
+            s -= _row(A, C, m, rows[k])[f] * rho[k]
+        y[f] = s / H[f, f]
+    return q
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def block_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
+    """x = optimum of the working set's equality-constrained QP (held variables on their bound), ν of the equality
+    rows in nu[:m], and the multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j =
+    ±e_i for a bound, ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i in lam_b for
+    a bound held at its lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r in lam_r for a row held at l (s = −1)
+    or u (s = +1)."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    nv, rows, a, c, ra, rc, dx, drho, nuw = sp.nv, sp.rows, sp.a, sp.c, sp.ra, sp.rc, sp.dx, sp.drho, sp.nuw
+    n = H.shape[0]
+    for i in range(n):
+        if state[i] < 0:
+            x[i] = lb[i]
+        elif state[i] > 0:
+            x[i] = ub[i]
+    for i in range(n):
+        if state[i] != 0:
+            a[i] = 0.0
+            continue
+        s = -g[i]
+        if i < nv:
+            for j in range(nv):
+                if state[j] != 0:
+                    s -= H[i, j] * x[j]
+        a[i] = s
+    for k in range(mw):
+        rk = rows[k]
+        R = _row(A, C, m, rk)
+        if rk < m:
+            s = b[rk]
+        else:
+            s = l[rk - m] if rstate[rk - m] < 0 else u[rk - m]
+        for j in range(n):
+            if state[j] != 0:
+                s -= R[j] * x[j]
+        c[k] = s
+    _kkt(qp, sp, mw, a, c, x, nuw)
+    # iterative refinement (the Schur complement carries D⁻¹ = 1/ε_f: one correction step restores the digits)
+    for _ in range(2):
+        for i in range(n):
+            if state[i] != 0:
+                dx[i] = 0.0
+                continue
+            s = a[i]
+            if i < nv:
+                for j in range(nv):
+                    if state[j] == 0:
+                        s -= H[i, j] * x[j]
+            else:
+                s -= H[i, i] * x[i]
+            ra[i] = s
+        for i in range(n):
+            if state[i] == 0:
+                for k in range(mw):
+                    ra[i] -= _row(A, C, m, rows[k])[i] * nuw[k]
+            else:
+                ra[i] = 0.0
+        for k in range(mw):
+            R = _row(A, C, m, rows[k])
+            s = c[k]
+            for j in range(n):
+                if state[j] == 0:
+                    s -= R[j] * x[j]
+            rc[k] = s
+        _kkt(qp, sp, mw, ra, rc, dx, drho)
+        for i in range(n):
+            if state[i] == 0:
+                x[i] += dx[i]
+        for k in range(mw):
+            nuw[k] += drho[k]
+    for k in range(m):
+        nu[k] = nuw[k]
+    for k in range(m, mw):
+        r = rows[k] - m
+        lam_r[r] = rstate[r] * nuw[k]
+    for i in range(n):
+        if state[i] == 0:
+            continue
+        s = block_cost_gradient(H, g, x, i, nv)
+        for k in range(mw):
+            s += _row(A, C, m, rows[k])[i] * nuw[k]
+        lam_b[i] = -state[i] * s
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def block_prepare(qp, sp):
+    """A new QP: the factor of H_vv kept by :func:`block_start` is stale."""
+    sp.fac[0] = -1
+    return 0
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def block_start(qp, sp, state, rstate):
     """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
     from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
     of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ in S. Returns the
     number of working rows, NOT_POSITIVE_DEFINITE, or DEPENDENT_EQUALITIES when a row is (numerically, squared
-    sine below ``dep_tol``) a combination of the ones before it."""
+    sine below ``sp.dep_tol``) a combination of the ones before it."""
+    H, A, m, C = qp[0], qp[2], qp[4], qp[5]
+    nv, rows, Yv, S, L, vfree, ffree, vrow, fac = sp.nv, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac
     n = H.shape[0]
     p = C.shape[0]
     nfv = 0
@@ -82,160 +228,10 @@ def _factor(H, A, m, C, nv, state, rstate, rows, Yv, S, L, vfree, ffree, vrow, f
             forward_substitution(L, nfv, y)
         for c in range(k + 1):
             S[k, c] = _free_dot(0.0, nz and vrow[c], y, Yv[c], nfv, R, _row(A, C, m, rows[c]), ffree, nff, H)
-    if not cholesky_lower(S, mw, dep_tol):
+    if not cholesky_lower(S, mw, sp.dep_tol):
         return DEPENDENT_EQUALITIES
     fac[2] = mw
     return mw
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
-    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
-    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
-    if with_v:
-        for i in range(nfv):
-            acc += y[i] * w[i]
-    for i in range(nff):
-        f = ffree[i]
-        acc += R[f] * X[f] / H[f, f]
-    return acc
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, y, rho, tv):
-    """With the factors of :func:`_factor`: y_F, ρ solving H_FF y_F + R_Fᵀ ρ = a_F, R_F y_F = c (range space,
-    Nocedal & Wright 2006 eq. 16.16), y written on F only. Returns a_Fᵀ H_FF⁻¹ a_F."""
-    nfv, nff = fac[0], fac[1]
-    for i in range(nfv):
-        tv[i] = a[vfree[i]]
-    forward_substitution(L, nfv, tv)
-    q = 0.0
-    for i in range(nfv):
-        q += tv[i] * tv[i]
-    for i in range(nff):
-        f = ffree[i]
-        q += a[f] * a[f] / H[f, f]
-    for k in range(mw):
-        R = _row(A, C, m, rows[k])
-        rho[k] = _free_dot(-c[k], vrow[k], Yv[k], tv, nfv, R, a, ffree, nff, H)
-    forward_substitution(S, mw, rho)
-    backward_substitution(S, mw, rho)
-    for k in range(mw):
-        if vrow[k]:
-            yk = Yv[k]
-            rk = rho[k]
-            for i in range(nfv):
-                tv[i] -= yk[i] * rk
-    backward_substitution(L, nfv, tv)
-    for i in range(nfv):
-        y[vfree[i]] = tv[i]
-    for i in range(nff):
-        f = ffree[i]
-        s = a[f]
-        for k in range(mw):
-            s -= _row(A, C, m, rows[k])[f] * rho[k]
-        y[f] = s / H[f, f]
-    return q
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def block_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
-    """x = optimum of the working set's equality-constrained QP (held variables on their bound), ν of the equality
-    rows in nu[:m], and the multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j =
-    ±e_i for a bound, ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i in lam_b for
-    a bound held at its lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r in lam_r for a row held at l (s = −1)
-    or u (s = +1)."""
-    H, g, A, b, m, C, l, u, lb, ub = qp
-    nv, rows, Yv, S, L, vfree, ffree, vrow, fac = sp.nv, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac
-    a, c, tv, ra, rc, dx, drho, nuw = sp.a, sp.c, sp.tv, sp.ra, sp.rc, sp.dx, sp.drho, sp.nuw
-    n = H.shape[0]
-    for i in range(n):
-        if state[i] < 0:
-            x[i] = lb[i]
-        elif state[i] > 0:
-            x[i] = ub[i]
-    for i in range(n):
-        if state[i] != 0:
-            a[i] = 0.0
-            continue
-        s = -g[i]
-        if i < nv:
-            for j in range(nv):
-                if state[j] != 0:
-                    s -= H[i, j] * x[j]
-        a[i] = s
-    for k in range(mw):
-        rk = rows[k]
-        R = _row(A, C, m, rk)
-        if rk < m:
-            s = b[rk]
-        else:
-            s = l[rk - m] if rstate[rk - m] < 0 else u[rk - m]
-        for j in range(n):
-            if state[j] != 0:
-                s -= R[j] * x[j]
-        c[k] = s
-    _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, a, c, x, nuw, tv)
-    # iterative refinement (the Schur complement carries D⁻¹ = 1/ε_f: one correction step restores the digits)
-    for _ in range(2):
-        for i in range(n):
-            if state[i] != 0:
-                dx[i] = 0.0
-                continue
-            s = a[i]
-            if i < nv:
-                for j in range(nv):
-                    if state[j] == 0:
-                        s -= H[i, j] * x[j]
-            else:
-                s -= H[i, i] * x[i]
-            ra[i] = s
-        for i in range(n):
-            if state[i] == 0:
-                for k in range(mw):
-                    ra[i] -= _row(A, C, m, rows[k])[i] * nuw[k]
-            else:
-                ra[i] = 0.0
-        for k in range(mw):
-            R = _row(A, C, m, rows[k])
-            s = c[k]
-            for j in range(n):
-                if state[j] == 0:
-                    s -= R[j] * x[j]
-            rc[k] = s
-        _kkt(H, A, m, C, rows, mw, Yv, S, L, vfree, ffree, vrow, fac, ra, rc, dx, drho, tv)
-        for i in range(n):
-            if state[i] == 0:
-                x[i] += dx[i]
-        for k in range(mw):
-            nuw[k] += drho[k]
-    for k in range(m):
-        nu[k] = nuw[k]
-    for k in range(m, mw):
-        r = rows[k] - m
-        lam_r[r] = rstate[r] * nuw[k]
-    for i in range(n):
-        if state[i] == 0:
-            continue
-        s = block_cost_gradient(H, g, x, i, nv)
-        for k in range(mw):
-            s += _row(A, C, m, rows[k])[i] * nuw[k]
-        lam_b[i] = -state[i] * s
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def block_prepare(qp, sp):
-    """A new QP: the factor of H_vv kept by :func:`_factor` is stale."""
-    sp.fac[0] = -1
-    return 0
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def block_start(qp, sp, state, rstate):
-    """The working set's factors (:func:`_factor`, from ``state``/``rstate``)."""
-    H, g, A, b, m, C, l, u, lb, ub = qp
-    return _factor(H, A, m, C, sp.nv, state, rstate, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow,
-                   sp.fac, sp.dep_tol)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -279,7 +275,7 @@ def block_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
         z[i] = 0.0
     for k in range(mw):
         c[k] = 0.0
-    q = _kkt(H, A, m, C, rows, mw, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac, a, c, z, nuw, sp.tv)
+    q = _kkt(qp, sp, mw, a, c, z, nuw)
     nz = 0.0
     for i in range(n):
         nz += a[i] * z[i]

@@ -42,18 +42,23 @@ import numpy as np
 
 from wbc.compiled import CHECK_TYPES, FASTMATH, specialise
 from wbc.exceptions import SolverError
-from wbc.solvers.active_set import BlockSpace, dual_active_set
+from wbc.solvers.active_set import ActiveSetArrays, ActiveSetSettings, BlockSpace, dual_active_set
 from wbc.solvers.box_eq import clip_eq_residual
 from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve, carve2, cholesky_lower,
                                 forward_substitution, primal_from_multipliers)
 from wbc.solvers.qp_data import QPData, QPSolution
 from wbc.solvers.status import SolverStatus
 
-__all__ = ["CompiledIDSolver", "IDSolveBuffers", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP",
-           "id_solve", "kernel_iterations"]
+__all__ = ["CompiledIDSolver", "EqualityStepSpace", "IDSolveBuffers", "KERNEL_ITERATION_COST",
+           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "id_solve", "kernel_iterations"]
 
 #: the buffers of :func:`id_solve` (:func:`id_solve_buffers`)
 IDSolveBuffers = namedtuple("IDSolveBuffers", "ws_s ws_f ws_i ws_b out")
+#: workspace of the block equality step (:func:`_equality_step`; :func:`id_solve` carves it from its buffers): nv
+#: the accelerations; L (nv, nv) the factor of H_FF; Yt (≥ m, nv) = (L⁻¹ A_Fᵀ)ᵀ; S (≥ m, ≥ m) its Gram matrix's
+#: factor; t (nv,) = L⁻¹ (g_F + H_FX x_X); dinv (n,) D⁻¹ on the free forces (0 on the held ones); fnz (≥ m,) bool
+#: the equality rows with a free force; vfree (nv,) int64 the free accelerations; xv (≥ nv,), bx (≥ m,) scratch
+EqualityStepSpace = namedtuple("EqualityStepSpace", "nv L Yt S t dinv fnz vfree xv bx")
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
 #: dependent on it (the ID tick's :func:`~wbc.solvers.active_set.dual_active_set`)
@@ -88,9 +93,10 @@ def kernel_iterations(budget: float) -> int:
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, S, t, nu, tol, dinv, fnz, vfree,
-                   xv, bx):
-    """The optimum of a working set of bounds (``state``; module docstring), written into x: the variables
+def _equality_step(qp, state, rstate, x, nu, es, tol):
+    """The optimum of a working set of bounds (``state``; module docstring) of the QP ``qp`` (H, g, A, b, m, C, l,
+    u, lb, ub, as :func:`~wbc.solvers.active_set.dual_active_set` takes it), written into x (n,) and its equality
+    rows' multipliers into nu (≥ m,), in the workspace ``es`` (an :data:`EqualityStepSpace`): the variables
     with ``state`` ≠ 0 (and the forces with lb = ub) held on their bound, the equality-constrained QP solved over
     the others. Returns (residual, i, side): residual the largest equality residual, or −1 — ``state`` untouched —
     when that x is not the optimum of the full QP or the step does not apply: a working inequality row
@@ -98,8 +104,9 @@ def _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, L, Yt, 
     violated by more than ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative.
     On a failure that one bound explains, (i, side) is the working-set change it points to: the most violated
     free variable (side −1: held at lb, +1: at ub) when no row is checked yet, else the held bound with the most
-    negative multiplier (side 0: released); otherwise i = −1. dinv (n,), fnz (≥ m,) bool, vfree (nv,) int,
-    xv (nv,), bx (≥ m,): workspace."""
+    negative multiplier (side 0: released); otherwise i = −1."""
+    H, g, A, b, m, C, l, u, lb, ub = qp
+    nv, L, Yt, S, t, dinv, fnz, vfree, xv, bx = es
     n = H.shape[0]
     for r in range(rstate.size):
         if rstate[r] != 0:
@@ -305,16 +312,16 @@ def id_solve(qp, nv, max_iter, buffers):
     state, rstate, residual, x, nu, mu, ws = carve_solve(ws_s, ws_f, ws_i, ws_b, out, H.shape[0], nv, C.shape[0])
     (ws_rows, ws_Yv, ws_S, ws_L, ws_tv, ws_c, ws_nuw, ws_vrow, ws_vfree, ws_ffree, ws_fac, ws_a, ws_z, ws_npv, ws_rb,
      ws_lam_b, ws_lam_r, ws_ra, ws_rc, ws_dx, ws_drho, ws_out) = ws
-    res, i, side = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv,
-                                  nu, 1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
+    qpm = (H, g, A, b, m, C, l, u, lb, ub)
+    step = EqualityStepSpace(nv, ws_L, ws_Yv, ws_S, ws_tv, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)
+    res, i, side = _equality_step(qpm, state, rstate, x, nu, step, 1e-12)
     it = 1
     if res < 0.0 and i >= 0 and max_iter >= 2:
         # one working-set change (a bound entering or leaving), the step again: a bound that alternates between
         # ticks costs a second equality step instead of the general solve
         held = state[i]
         state[i] = side
-        res = _equality_step(H, g, A, b, m, C, l, u, lb, ub, nv, state, rstate, x, ws_L, ws_Yv, ws_S, ws_tv, nu,
-                             1e-12, ws_rb, ws_vrow, ws_vfree, ws_dx, ws_rc)[0]
+        res = _equality_step(qpm, state, rstate, x, nu, step, 1e-12)[0]
         it = 2
         if res < 0.0:
             state[i] = held  # the general solve starts from the previous tick's working set
@@ -323,9 +330,10 @@ def id_solve(qp, nv, max_iter, buffers):
     else:
         space = BlockSpace(nv, ws_rows, ws_Yv, ws_S, ws_L, ws_vfree, ws_ffree, ws_vrow, ws_fac, ws_a, ws_c, ws_tv,
                            ws_ra, ws_rc, ws_dx, ws_drho, ws_npv, ws_nuw, DEPENDENCE_TOL)
-        it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space, state, rstate, x, nu, mu, ws_lam_b, ws_lam_r,
-                             ws_z, ws_rb, max_iter, PRIMAL_TOL, 0.0, DEPENDENCE_TOL, 0.0, True, True, 1,
-                             VERIFY_TOL, ws_out)
+        it = dual_active_set(qpm, space, ActiveSetArrays(state, rstate, x, nu, mu, ws_lam_b, ws_lam_r, ws_z, ws_rb,
+                                                         ws_out),
+                             ActiveSetSettings(max_iter, PRIMAL_TOL, 0.0, DEPENDENCE_TOL, 0.0, True, True, 1,
+                                               VERIFY_TOL))
         residual[0] = ws_out[0]
     return it
 

@@ -102,8 +102,12 @@ class FastBackend(DaqpBackend):
                 self._p = p
                 self._rstate = np.zeros(p, np.int8)
                 self._mu = np.zeros(p)
-            it = solve_qp_ws(H, g, A, b, C, l, u, lb, ub, self._state, self._rstate, self._x, self._nu, self._mu,
-                             self._z, self.max_iter, 1e-12, 1e-12, 1e-24, self._ws[6])
+            # plain tuples (QPData, QPWarmArrays, QPLimits in order): numba's dispatcher types a plain tuple of arrays
+            # by its fingerprint, a namedtuple through Python's typeof (a call of a kernel of these arguments that
+            # returns at once: 4.3 µs with plain tuples, 9.7 µs with namedtuples, 5.8 µs with the 20 arrays and numbers)
+            it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub),
+                             (self._state, self._rstate, self._x, self._nu, self._mu, self._z, self._ws[6]),
+                             (self.max_iter, 1e-12, 1e-12, 1e-24))
         else:
             it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
                                  self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)

@@ -36,6 +36,7 @@ from typing import Callable
 import numpy as np
 
 from wbc.exceptions import SolverError
+from wbc.solvers.qp_data import QPData
 
 __all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 
@@ -94,7 +95,7 @@ def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
     return np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
 
 
-def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_backend, *, rank_rtol: float = 1e-3,
+def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rtol: float = 1e-3,
                         dependent_row_tolerance: float = 1e-3, band: float = 1e-9,
                         stop: Callable[[], bool] | None = None, memo: dict | None = None,
                         level_work: float = 0.0) -> tuple[np.ndarray, list[float]]:
@@ -102,8 +103,8 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
 
     Args:
         levels: list (highest priority first) of (J (m_k, nv), target (m_k,)) with the weights already applied.
-        H, g: (nv, nv), (nv,) cost of the soft level (weighted tasks + damping).
-        A, b, C, l, u, lb, ub: the hard set (see :mod:`wbc.formulations.velocity`).
+        qp: a :class:`~wbc.solvers.qp_data.QPData`: H, g (nv, nv), (nv,) the cost of the soft level (weighted
+            tasks + damping); A, b, C, l, u, lb, ub the hard set (see :mod:`wbc.formulations.velocity`).
         backends: one QP backend per level in ``levels`` (each keeps its own warm start).
         final_backend: backend of the soft level.
         rank_rtol: relative rank tolerance of the stacked equality rows.
@@ -148,6 +149,7 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
             solved again with the upper levels fixed to the backend's tolerance instead of ``band``, else left at
             the previous level's solution (``solve_lexicographic.last_skipped`` lists such levels).
     """
+    H, g, A, b, C, l, u, lb, ub = qp
     keep = independent_rows(A, rank_rtol)
     solve_lexicographic.last_cut = None
     dropped = keep.size < A.shape[0]  # nearly dependent equality rows left out
@@ -159,23 +161,23 @@ def solve_lexicographic(levels, H, g, A, b, C, l, u, lb, ub, backends, final_bac
         # dropped rows as band rows (below): those bands first, one cascade instead of two; a band cascade that
         # fails is forgotten and the full sequence runs
         try:
-            banded = _cascade(levels, H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub, backends, final_backend,
-                              band, stop, memo, level_work)
+            banded = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub), backends,
+                              final_backend, band, stop, memo, level_work)
         except SolverError:
             del memo[BAND_KEY]
     if banded is not None:
         v, skipped = banded
     else:
-        v, skipped = _cascade(levels, H, g, A[keep], b[keep], C, l, u, lb, ub, backends, final_backend, band, stop,
-                              memo, level_work)
+        v, skipped = _cascade(levels, QPData(H, g, A[keep], b[keep], C, l, u, lb, ub), backends, final_backend, band,
+                              stop, memo, level_work)
     if dropped and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
             try:
-                v, skipped = _cascade(levels, H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub, backends,
-                                      final_backend, band, stop, memo, level_work)
+                v, skipped = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub),
+                                      backends, final_backend, band, stop, memo, level_work)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -221,9 +223,10 @@ def _retry(kind, Hk, gk, scale, tolerance, rest, l=None, u=None, Fv=None) -> tup
     return Hk, gk, A, b, Ck, np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide]), lb, ub
 
 
-def _cascade(levels, H, g, A_kept, b_kept, C, l, u, lb, ub, backends, final_backend, band, stop=None, memo=None,
-             level_work=0.0):
-    """The levels of :func:`solve_lexicographic` on an independent set of equality rows: (v, skipped levels)."""
+def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=None, level_work=0.0):
+    """The levels of :func:`solve_lexicographic` on the QP ``qp`` whose equality rows A, b are independent:
+    (v, skipped levels)."""
+    H, g, A_kept, b_kept, C, l, u, lb, ub = qp
     fixed_J: list[np.ndarray] = []
     v = None
     skipped: list[int] = []

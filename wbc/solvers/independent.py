@@ -14,6 +14,7 @@ import numpy as np
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers.base import QPBackend
 from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT, DaqpBackend
+from wbc.solvers.qp_data import QPData
 
 __all__ = ["hard_set_check", "hard_set_feasible", "second_opinion", "solve_pinned_reduced"]
 
@@ -46,7 +47,7 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *
 
 
 def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
-    n = H.shape[0]
+    qp = QPData(H, g, A, b, C, l, u, lb, ub)
     pinned = np.isfinite(lb) & (lb == ub)
     free = ~pinned
     xp = lb[pinned]
@@ -65,18 +66,20 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
     # finds no checked answer
     xr = _nullspace_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, tolerance)
     if xr is not None:
-        x, reason = _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance)
+        x, reason = _checked(qp, pinned, xp, xr, tolerance)
         if x is not None:
             return x, reason
     xr, reason = _dense_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
     if xr is None:
         return None, reason
-    return _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance)
+    return _checked(qp, pinned, xp, xr, tolerance)
 
 
-def _checked(n, pinned, xp, xr, A, b, C, l, u, lb, ub, tolerance):
-    """The full x from its pinned and free parts, clipped to [lb, ub], when it meets every row to ``tolerance``."""
-    x = np.empty(n)
+def _checked(qp: QPData, pinned, xp, xr, tolerance):
+    """The full x (n,) of the QP ``qp`` from its pinned (``pinned`` (n,) bool: at ``xp``) and free parts (``xr``),
+    clipped to [lb, ub], when it meets every row to ``tolerance``: (x, ''), else (None, 'failed')."""
+    H, g, A, b, C, l, u, lb, ub = qp
+    x = np.empty(H.shape[0])
     x[pinned] = xp
     x[~pinned] = xr
     if not np.isfinite(x).all():
