@@ -29,7 +29,7 @@ import numpy as np
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
-from wbc.constraints.joint_acceleration_bounds import joint_bounds_kernel
+from wbc.constraints.joint_acceleration_bounds import JointRange, joint_bounds_kernel
 from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
@@ -272,7 +272,8 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
         return PROJECT_CONTACT_RHS
     torque_limit_rows(M, h, JcT, vrows, lim, C, l, u, 0)
     if par[PAR_JOINT_LIMITS] != 0.0:
-        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi, par[PAR_SPEED_HORIZON])
+        joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), par[PAR_BRAKING], dt, par[PAR_SPEED_HORIZON],
+                            jlo, jhi)
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
