@@ -19,7 +19,7 @@ FILES = sorted((ROOT / "controllers").glob("*.py")) + [ROOT / "formulations" / "
 OVER_TEN = {
     "_write_contact_pair_rows": 14, 
     
-    "_fuse_kernel": 26,
+    
     "FallbackChain._check_hard_sets": 11, "FallbackChain._check_relaxed_set": 11,
     "FallbackChain._solve_scaled": 11, "_equality_step": 25, "output_violations": 13, "stabilizer_kernel": 20,
     "_assemble": 16, "executed_multibody_zmp": 11, "_foot_wrench_kernel": 11, "JumpScenario.__init__": 16,

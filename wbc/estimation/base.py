@@ -63,11 +63,13 @@ one update costs one ``forwardKinematics`` with velocities and a few 3-vectors.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
@@ -85,17 +87,61 @@ _PRM_SIZE = 38
 _LOADED: list = []  # [True] once _fuse_kernel is loaded in this process
 
 
+def _fuse_inputs(strided: bool = False) -> tuple:
+    """Example sensor inputs of :func:`_fuse_kernel` (ft (2, 6), accel (3,), gyro (3,)) and Kalman covariance
+    (2, 2): contiguous, or strided (numba layout 'A': a version that reads arrays of any strides)."""
+    k = 2 if strided else 1
+    return np.zeros((2, 6 * k))[:, ::k], np.zeros(3 * k)[::k], np.zeros(3 * k)[::k], np.eye(2, 2 * k)[:, ::k]
+
+
+class _Legs(NamedTuple):
+    """One sample's leg kinematics (Pinocchio's, base frame) for :func:`_fuse_kernel`."""
+
+    rot0: np.ndarray  #: (3, 3) the left sole's rotation
+    pos0: np.ndarray  #: (3,) its position (m)
+    rot1: np.ndarray  #: (3, 3) the right sole's rotation
+    pos1: np.ndarray  #: (3,) its position (m)
+    vel0: np.ndarray  #: (6,) the left sole's ``LOCAL_WORLD_ALIGNED`` velocity (linear, angular)
+    vel1: np.ndarray  #: (6,) the right sole's
+
+
+class _Filters(NamedTuple):
+    """The filters' arrays that :func:`_fuse_kernel` updates in place (the filters' attributes at the call)."""
+
+    R: np.ndarray      #: (3, 3) the attitude estimate
+    gains: np.ndarray  #: :attr:`ComplementaryAttitudeFilter.gains`
+    bias: np.ndarray   #: (3,) the gyro bias estimate (rad/s)
+    omega: np.ndarray  #: (3,) the bias-corrected angular velocity (rad/s)
+    kf_p: np.ndarray   #: (3,) the Kalman filter's position (m)
+    kf_v: np.ndarray   #: (3,) its velocity (m/s)
+    kf_P: np.ndarray   #: (2, 2) its covariance
+
+
+class _FuseState(NamedTuple):
+    """The estimator's own arrays that :func:`_fuse_kernel` reads and updates in place (built once)."""
+
+    st: np.ndarray        #: (_ST_SIZE,) the state (``_ST_*`` slots)
+    anchor: np.ndarray    #: (2, 3) the anchors (m, world)
+    axis: np.ndarray      #: (2, 3) their forward axes
+    arot: np.ndarray      #: (2, 3, 3) their rotations (world ← sole)
+    wrench: np.ndarray    #: (2, 6) the ground wrenches
+    sole_rot: np.ndarray  #: (2, 3, 3) the soles' world rotations
+    sole_pos: np.ndarray  #: (2, 3) the soles' world positions (m)
+    prm: np.ndarray       #: (_PRM_SIZE,) the estimator's numbers (:meth:`FloatingBaseEstimator._pack`)
+    q: np.ndarray         #: (nq,) out: the estimate's q[0:3]
+    v: np.ndarray         #: (nv,) out: the estimate's v[0:6]
+
+
 @nb.njit(cache=True)
-def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, bias, omega, kf_p, kf_v, kf_P, st,
-                 anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v):
+def _fuse_kernel(ft, accel, gyro, legs, filters, state):
     """:meth:`FloatingBaseEstimator.update` after the leg kinematics (module docstring, steps 2-4, in its order):
-    the soles' base-frame placements ``rot0``/``pos0`` (left), ``rot1``/``pos1`` (right) and their
-    ``LOCAL_WORLD_ALIGNED`` velocities ``vel0``, ``vel1`` (6,: linear, angular) from Pinocchio; updates in place the
-    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`), the Kalman
-    filter (``kf_p``, ``kf_v``, ``kf_P``), the state ``st`` (``_ST_*`` slots), the anchors (``anchor``, ``axis``,
-    ``arot``: (2, 3), (2, 3), (2, 3, 3)), the wrenches ``wrench`` (2, 6), the soles' world placements
-    (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: the estimator's numbers
-    (:meth:`FloatingBaseEstimator._pack`)."""
+    the soles' base-frame placements and velocities ``legs`` (:class:`_Legs`) from Pinocchio; updates in place the
+    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`) and the Kalman
+    filter (``kf_p``, ``kf_v``, ``kf_P``) of ``filters`` (:class:`_Filters`), and of ``state`` (:class:`_FuseState`)
+    the state ``st``, the anchors, the wrenches, the soles' world placements and ``q[0:3]``, ``v[0:6]``."""
+    rot0, pos0, rot1, pos1, vel0, vel1 = legs
+    R, gains, bias, omega, kf_p, kf_v, kf_P = filters
+    st, anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v = state
     dt, beta, alpha_turn, turn_rate, heading_weight = prm[0], prm[1], prm[2], prm[3], prm[4]
     has_ground, ground_height, handover, end_share = prm[5] != 0.0, prm[6], prm[7] != 0.0, prm[8]
     g_z = prm[19]
@@ -638,6 +684,9 @@ class FloatingBaseEstimator:
         self._chains = _sole_chains(model, self._frame_ids) if self._q_slice else None
         self._sole_rot, self._sole_pos = np.zeros((2, 3, 3)), np.zeros((2, 3))
         self._prm = np.zeros(_PRM_SIZE)
+        self._state = _FuseState(self._st, self._anchor, self._axis, self._arot, self.wrench, self._sole_rot,
+                                 self._sole_pos, self._prm, self.q, self.v)
+        self._fuse = None  # update's compiled call, specialised at the first update
         self._pack()
         self._warm_up()
 
@@ -674,12 +723,12 @@ class FloatingBaseEstimator:
         pin.forwardKinematics(model, data, self._qk, self._vk)
         X = [pin.updateFramePlacement(model, data, f) for f in self._frame_ids]
         vel = [pin.getFrameVelocity(model, data, f, pin.LOCAL_WORLD_ALIGNED).vector for f in self._frame_ids]
-        z3 = np.zeros(3)
-        _fuse_kernel(np.zeros((2, 6)), z3, z3, X[0].rotation, X[0].translation, X[1].rotation, X[1].translation,
-                     vel[0], vel[1], np.eye(3), self.attitude.gains.copy(), np.zeros(3), np.zeros(3), np.zeros(3),
-                     np.zeros(3), np.eye(2), self._st.copy(), self._anchor.copy(), self._axis.copy(),
-                     self._arot.copy(), np.zeros((2, 6)), np.zeros((2, 3, 3)), np.zeros((2, 3)), self._prm.copy(),
-                     self.q.copy(), self.v.copy())
+        legs = _Legs(X[0].rotation, X[0].translation, X[1].rotation, X[1].translation, vel[0], vel[1])
+        state = _FuseState(*(a.copy() for a in self._state))
+        for ft, accel, gyro, P in (_fuse_inputs(), _fuse_inputs(strided=True)):
+            filters = _Filters(np.eye(3), self.attitude.gains.copy(), np.zeros(3), np.zeros(3), np.zeros(3),
+                               np.zeros(3), P)
+            _fuse_kernel(ft, accel, gyro, legs, filters, state)
         _lowpass_kernel(np.zeros(1), np.zeros(1), np.zeros(1), 0.5, 1.0)
         _LOADED.append(True)
 
@@ -765,9 +814,15 @@ class FloatingBaseEstimator:
         prm[11:15] = kf.Q.ravel()
         prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
         # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
-        _fuse_kernel(ft, accel, gyro, Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr,
-                     att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P, st, self._anchor,
-                     self._axis, self._arot, self.wrench, self._sole_rot, self._sole_pos, self._prm, q, v)
+        legs = _Legs(Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr)
+        filters = _Filters(att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P)
+        fuse = self._fuse
+        if fuse is None:  # the arguments' types are fixed (wbc.compiled.specialise; with kernel type checks on, the
+            # dispatcher) but the strides of the sensors' inputs and of the covariance (KalmanFilter.reset's P)
+            ft_any, accel_any, gyro_any, P_any = _fuse_inputs(strided=True)
+            fuse = self._fuse = _fuse_kernel if CHECK_TYPES else specialise(
+                _fuse_kernel, ft_any, accel_any, gyro_any, legs, filters._replace(kf_P=P_any), self._state)
+        fuse(ft, accel, gyro, legs, filters, self._state)
         s = st.tolist()
         object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
         contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors
