@@ -62,7 +62,7 @@ from wbc.geometry import mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
 from wbc.gait.commands import feet_can_yaw
-from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
+from wbc.gait.stabilizer import DcmStabilizer, StabilizerLaw, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
@@ -97,8 +97,9 @@ def _warm_up() -> None:
     support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
     _squares_finite(np.zeros(3), np.zeros(6), np.zeros(6))
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
-    stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
-                       z2.copy(), z2.copy(), z2.copy())
+    law = StabilizerLaw(1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, z2.copy(), z2.copy(), z2.copy())
+    for p_meas in (z2.copy(), np.full(4, np.nan)[::2]):  # (_stabilize's specialisation: p_meas of any strides)
+        stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr[0], zr[0], p_meas, law)
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of
@@ -459,6 +460,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._corners: dict[float, np.ndarray] = {}
         self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
         self._xy0 = np.zeros((4, 6))  # (_stabilize's corners when no sole is in contact: not read)
+        self._stabilizer_kernel = None  # _stabilize's compiled call (specialised at its first call)
         self._no_cop = np.full(2, np.nan)  # (_stabilize's measured CoP when there is none)
         _warm_up()
         # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'
