@@ -63,7 +63,7 @@ one update costs one ``forwardKinematics`` with velocities and a few 3-vectors.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections import namedtuple
 
 import numba as nb
 import numpy as np
@@ -84,61 +84,23 @@ _ST_ACC, _ST_ZV, _ST_HAVE_ZV, _ST_YAW, _ST_FZ, _ST_CONTACT, _ST_TURNING, _ST_FRO
     0, 3, 6, 7, 9, 11, 13, 15, 17)
 _ST_SIZE = 18
 _PRM_SIZE = 38
-_LOADED: list = []  # [True] once _fuse_kernel is loaded in this process
-
-
-def _fuse_inputs(strided: bool = False) -> tuple:
-    """Example sensor inputs of :func:`_fuse_kernel` (ft (2, 6), accel (3,), gyro (3,)) and Kalman covariance
-    (2, 2): contiguous, or strided (numba layout 'A': a version that reads arrays of any strides)."""
-    k = 2 if strided else 1
-    return np.zeros((2, 6 * k))[:, ::k], np.zeros(3 * k)[::k], np.zeros(3 * k)[::k], np.eye(2, 2 * k)[:, ::k]
-
-
-class _Legs(NamedTuple):
-    """One sample's leg kinematics (Pinocchio's, base frame) for :func:`_fuse_kernel`."""
-
-    rot0: np.ndarray  #: (3, 3) the left sole's rotation
-    pos0: np.ndarray  #: (3,) its position (m)
-    rot1: np.ndarray  #: (3, 3) the right sole's rotation
-    pos1: np.ndarray  #: (3,) its position (m)
-    vel0: np.ndarray  #: (6,) the left sole's ``LOCAL_WORLD_ALIGNED`` velocity (linear, angular)
-    vel1: np.ndarray  #: (6,) the right sole's
-
-
-class _Filters(NamedTuple):
-    """The filters' arrays that :func:`_fuse_kernel` updates in place (the filters' attributes at the call)."""
-
-    R: np.ndarray      #: (3, 3) the attitude estimate
-    gains: np.ndarray  #: :attr:`ComplementaryAttitudeFilter.gains`
-    bias: np.ndarray   #: (3,) the gyro bias estimate (rad/s)
-    omega: np.ndarray  #: (3,) the bias-corrected angular velocity (rad/s)
-    kf_p: np.ndarray   #: (3,) the Kalman filter's position (m)
-    kf_v: np.ndarray   #: (3,) its velocity (m/s)
-    kf_P: np.ndarray   #: (2, 2) its covariance
-
-
-class _FuseState(NamedTuple):
-    """The estimator's own arrays that :func:`_fuse_kernel` reads and updates in place (built once)."""
-
-    st: np.ndarray        #: (_ST_SIZE,) the state (``_ST_*`` slots)
-    anchor: np.ndarray    #: (2, 3) the anchors (m, world)
-    axis: np.ndarray      #: (2, 3) their forward axes
-    arot: np.ndarray      #: (2, 3, 3) their rotations (world ← sole)
-    wrench: np.ndarray    #: (2, 6) the ground wrenches
-    sole_rot: np.ndarray  #: (2, 3, 3) the soles' world rotations
-    sole_pos: np.ndarray  #: (2, 3) the soles' world positions (m)
-    prm: np.ndarray       #: (_PRM_SIZE,) the estimator's numbers (:meth:`FloatingBaseEstimator._pack`)
-    q: np.ndarray         #: (nq,) out: the estimate's q[0:3]
-    v: np.ndarray         #: (nv,) out: the estimate's v[0:6]
+#: [update's compiled call] once loaded in this process (wbc.compiled.specialise for the types of update's arguments,
+#: the sensors' inputs and Kalman covariance of any strides; with kernel type checks on, the dispatcher)
+_FUSE: list = []
+#: :func:`_fuse_kernel`'s arguments, one namedtuple per group: one sample's leg kinematics (Pinocchio's, base frame;
+#: left then right); the filters' arrays it updates in place (attitude, :attr:`ComplementaryAttitudeFilter.gains`,
+#: Kalman filter: their attributes at the call, as reset reassigns them); the estimator's own arrays (built once)
+_Legs = namedtuple("_Legs", "rot0 pos0 rot1 pos1 vel0 vel1")
+_Filters = namedtuple("_Filters", "R gains bias omega kf_p kf_v kf_P")
+_FuseState = namedtuple("_FuseState", "st anchor axis arot wrench sole_rot sole_pos prm q v")
 
 
 @nb.njit(cache=True)
 def _fuse_kernel(ft, accel, gyro, legs, filters, state):
-    """:meth:`FloatingBaseEstimator.update` after the leg kinematics (module docstring, steps 2-4, in its order):
-    the soles' base-frame placements and velocities ``legs`` (:class:`_Legs`) from Pinocchio; updates in place the
-    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`) and the Kalman
-    filter (``kf_p``, ``kf_v``, ``kf_P``) of ``filters`` (:class:`_Filters`), and of ``state`` (:class:`_FuseState`)
-    the state ``st``, the anchors, the wrenches, the soles' world placements and ``q[0:3]``, ``v[0:6]``."""
+    """:meth:`FloatingBaseEstimator.update` after the leg kinematics ``legs`` (module docstring, steps 2-4, in its
+    order): updates in place the attitude (``R``, ``bias``, ``omega``) and the Kalman filter (``kf_p``, ``kf_v``,
+    ``kf_P``) of ``filters`` and, of ``state``, ``st`` (``_ST_*`` slots), the anchors, the wrenches, the soles' world
+    placements and ``q[0:3]``, ``v[0:6]`` (``prm``: the estimator's numbers, :meth:`FloatingBaseEstimator._pack`)."""
     rot0, pos0, rot1, pos1, vel0, vel1 = legs
     R, gains, bias, omega, kf_p, kf_v, kf_P = filters
     st, anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v = state
@@ -686,7 +648,6 @@ class FloatingBaseEstimator:
         self._prm = np.zeros(_PRM_SIZE)
         self._state = _FuseState(self._st, self._anchor, self._axis, self._arot, self.wrench, self._sole_rot,
                                  self._sole_pos, self._prm, self.q, self.v)
-        self._fuse = None  # update's compiled call, specialised at the first update
         self._pack()
         self._warm_up()
 
@@ -717,7 +678,7 @@ class FloatingBaseEstimator:
 
     def _warm_up(self) -> None:
         """Load :func:`_fuse_kernel` (on-disk cache) for the argument types of :meth:`update`, on copies."""
-        if _LOADED:
+        if _FUSE:
             return
         model, data = self.model, self.model.createData()
         pin.forwardKinematics(model, data, self._qk, self._vk)
@@ -725,12 +686,12 @@ class FloatingBaseEstimator:
         vel = [pin.getFrameVelocity(model, data, f, pin.LOCAL_WORLD_ALIGNED).vector for f in self._frame_ids]
         legs = _Legs(X[0].rotation, X[0].translation, X[1].rotation, X[1].translation, vel[0], vel[1])
         state = _FuseState(*(a.copy() for a in self._state))
-        for ft, accel, gyro, P in (_fuse_inputs(), _fuse_inputs(strided=True)):
-            filters = _Filters(np.eye(3), self.attitude.gains.copy(), np.zeros(3), np.zeros(3), np.zeros(3),
-                               np.zeros(3), P)
+        for k in (1, 2):  # contiguous sensor inputs and covariance, then strided ones
+            ft, accel, gyro = np.zeros((2, 6 * k))[:, ::k], np.zeros(3 * k)[::k], np.zeros(3 * k)[::k]
+            filters = _Filters(np.eye(3), self.attitude.gains.copy(), *np.zeros((4, 3)), np.eye(2, 2 * k)[:, ::k])
             _fuse_kernel(ft, accel, gyro, legs, filters, state)
         _lowpass_kernel(np.zeros(1), np.zeros(1), np.zeros(1), 0.5, 1.0)
-        _LOADED.append(True)
+        _FUSE.append(_fuse_kernel if CHECK_TYPES else specialise(_fuse_kernel, ft, accel, gyro, legs, filters, state))
 
     def reset(self, q0, v0=None) -> None:
         """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
@@ -816,13 +777,7 @@ class FloatingBaseEstimator:
         # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
         legs = _Legs(Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr)
         filters = _Filters(att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P)
-        fuse = self._fuse
-        if fuse is None:  # the arguments' types are fixed (wbc.compiled.specialise; with kernel type checks on, the
-            # dispatcher) but the strides of the sensors' inputs and of the covariance (KalmanFilter.reset's P)
-            ft_any, accel_any, gyro_any, P_any = _fuse_inputs(strided=True)
-            fuse = self._fuse = _fuse_kernel if CHECK_TYPES else specialise(
-                _fuse_kernel, ft_any, accel_any, gyro_any, legs, filters._replace(kf_P=P_any), self._state)
-        fuse(ft, accel, gyro, legs, filters, self._state)
+        _FUSE[0](ft, accel, gyro, legs, filters, self._state)
         s = st.tolist()
         object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
         contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors

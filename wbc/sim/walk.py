@@ -460,7 +460,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._corners: dict[float, np.ndarray] = {}
         self._rot_t = {1: np.empty((3, 3)), 2: np.empty((3, 6))}
         self._xy0 = np.zeros((4, 6))  # (_stabilize's corners when no sole is in contact: not read)
-        self._stabilizer_kernel = None  # _stabilize's compiled call (specialised at its first call)
         self._no_cop = np.full(2, np.nan)  # (_stabilize's measured CoP when there is none)
         _warm_up()
         # plan sample → index of the swing whose [lift-off, touch-down) holds it, -1 none (_adjust_step; the swings'

@@ -29,6 +29,8 @@ class WalkSupport:
     """The support area and the measured ground heights of :class:`wbc.sim.walk.WalkScenario` (its state: the
     switcher, the sole placements of the tick, the plan)."""
 
+    _stabilizer_kernel = None  # _stabilize's compiled call, specialised at its first call
+
     def _sole_corners(self, shrink: float) -> np.ndarray:
         """(4, 3) corners (m, sole frame) of the sole rectangle shrunk by ``shrink``, in the order of
         :func:`~wbc.geometry.projected_sole_corners` (cached per shrink)."""
