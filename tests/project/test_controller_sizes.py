@@ -17,16 +17,10 @@ FILES = sorted((ROOT / "controllers").glob("*.py")) + [ROOT / "formulations" / "
 #: helper whose arguments are yet to be grouped into a namedtuple workspace (named without their module, so that a
 #: function moved to another module keeps its entry); the list may only shrink
 OVER_TEN = {
-    
-    
-    
-    "FallbackChain._check_hard_sets": 11, "FallbackChain._check_relaxed_set": 11,
-    "FallbackChain._solve_scaled": 11, "_equality_step": 25, 
-    
-    "_factor": 16, "_kkt": 18, "dual_active_set": 21, "solve_qp_ws": 20,
-    "solve_qp_into": 22, "solve_box_eq": 14, "_working_set_step": 18, "_refine_equalities": 15, "solve_box_eq_ws": 21,
-    "solve_lexicographic": 12, "_cascade": 16, "_checked": 12, 
-    
+    "FallbackChain._check_hard_sets": 11, "FallbackChain._check_relaxed_set": 11, "FallbackChain._solve_scaled": 11,
+    "_equality_step": 25, "_factor": 16, "_kkt": 18, "dual_active_set": 21, "solve_qp_ws": 20, "solve_qp_into": 22,
+    "solve_box_eq": 14, "_working_set_step": 18, "_refine_equalities": 15, "solve_box_eq_ws": 21,
+    "solve_lexicographic": 12, "_cascade": 16, "_checked": 12,
 }
 
 
