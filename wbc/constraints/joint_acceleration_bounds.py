@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.constraints.base import IDConstraint
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
@@ -54,13 +54,18 @@ class JointAccelerationLimits(IDConstraint):
         self.speed_horizon = 1.0
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
+        self._joints = JointRange(self.iq, self.iv, self.qmin, self.qmax, self.vmax)
         _warm_up()
+        # bounds' compiled call: these arrays, of fixed types, and a state's q, v of any strides
+        # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+        self._kernel = joint_bounds_kernel if CHECK_TYPES else specialise(
+            joint_bounds_kernel, _strided(1), _strided(1), self._joints, 1.0, 1e-3, 1.0, self._lo, self._hi)
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""
-        return joint_acceleration_bounds(state.q, state.v, self.iq, self.iv, self.qmin, self.qmax, self.vmax,
-                                         self.braking_acceleration, dt, lo=self._lo, hi=self._hi,
-                                         speed_horizon=self.speed_horizon)
+        """(lo, hi) (dim,) at ``state`` (arrays reused across calls): :func:`joint_acceleration_bounds`."""
+        self._kernel(state.q, state.v, self._joints, float(self.braking_acceleration), float(dt),
+                     float(self.speed_horizon), self._lo, self._hi)
+        return self._lo, self._hi
 
     def write(self, ctx, _, lb, ub):
         lo, hi = self.bounds(ctx.state, ctx.dt)
@@ -130,8 +135,9 @@ def _warm_up() -> None:
     :class:`JointAccelerationLimits`, not inside a controller's first tick: on arrays of the types of a real call (M
     column-major as a :class:`~wbc.state.DynamicsState`'s, the rest C-contiguous)."""
     z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
-    joint_bounds_kernel(z, z, JointRange(i, i, -np.ones(1), np.ones(1), np.ones(1)), 1.0, 1e-3, 1.0, np.empty(1),
-                        np.empty(1))
+    joints = JointRange(i, i, -np.ones(1), np.ones(1), np.ones(1))
+    for q, v in ((z, z), (_strided(1), _strided(1))):  # (JointAccelerationLimits.bounds: q, v of any strides)
+        joint_bounds_kernel(q, v, joints, 1.0, 1e-3, 1.0, np.empty(1), np.empty(1))
     nv = 7
     M, h, v = np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros(nv)
     JcT, A, b = np.zeros((nv, 12)), np.zeros((12, nv + 12)), np.zeros(12)
@@ -139,3 +145,9 @@ def _warm_up() -> None:
     floating_base_rows(M, h, JcT, A, b, 0)
     contact_acceleration_rows(np.zeros((6, nv)), np.zeros(6), 1.0, v, A, b, 6)
     torque_limit_rows(M, h, JcT, np.full(1, 6, dtype=np.int64), np.ones(1), A, b, b.copy(), 0)
+
+
+def _strided(n: int) -> np.ndarray:
+    """(max(n, 2),) zeros, strided (numba layout 'A': a version that reads arrays of any strides; numpy flags a
+    strided array of one entry contiguous)."""
+    return np.zeros(2 * max(n, 2))[::2]
