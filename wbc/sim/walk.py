@@ -62,7 +62,7 @@ from wbc.geometry import mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
 from wbc.gait.commands import feet_can_yaw
-from wbc.gait.stabilizer import DcmStabilizer, StabilizerLaw, stabilizer_kernel, support_kernel
+from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
@@ -97,7 +97,7 @@ def _warm_up() -> None:
     support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
     _squares_finite(np.zeros(3), np.zeros(6), np.zeros(6))
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
-    law = StabilizerLaw(1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, z2.copy(), z2.copy(), z2.copy())
+    law = (1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, z2.copy(), z2.copy(), z2.copy())  # DcmStabilizer.law()
     for p_meas in (z2.copy(), np.full(4, np.nan)[::2]):  # (_stabilize's specialisation: p_meas of any strides)
         stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr[0], zr[0], p_meas, law)
 
