@@ -236,8 +236,9 @@ def _warm_up() -> None:
     checks = _Checks(i1, np.ones(2), i1, np.zeros((2, 3)), np.zeros(3, dtype=bool), np.full(3, -1, dtype=np.int64),
                      np.zeros(3, dtype=bool), np.zeros(2, dtype=np.int64), np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5,
                      np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64), np.zeros(5))
-    for contacts in (_contact_arrays(1), _contact_arrays(2, strided=True)):
-        _tick_kernel(np.zeros(3), np.zeros((3, 9)), np.zeros((3, 3)), *contacts, checks, np.zeros(11, dtype=np.int64))
+    for ncon, strided in ((1, False), (2, True)):
+        _tick_kernel(np.zeros(3), np.zeros((3, 9)), np.zeros((3, 3)), *_contact_arrays(ncon, strided), checks,
+                     np.zeros(8 + 3 * ncon, dtype=np.int64))
 
 
 def _contact_arrays(ncon: int, strided: bool = False) -> tuple:
