@@ -53,8 +53,8 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
 def _write_contact_pair_rows(first, second, A, b, ra, rb):
     """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
     … ``rb + 6`` of A (m, nv) and b (m,); ``first``, ``second``: each contact's operands (jac, pose, rot, pos, scale)
-    of :func:`_write_contact_rows` (a plain tuple: a namedtuple's construction costs 0.2 µs a call). Returns False
-    near a half-turn error of either (the second's rows then not written)."""
+    of :func:`_write_contact_rows` (plain tuples, built per call: cheaper than namedtuples). Returns False near a
+    half-turn error of either (the second's rows then not written)."""
     jac, pose, rot, pos, scale = first
     if not _write_contact_rows(jac, pose, rot, pos, scale, A[ra:ra + 6], b[ra:ra + 6]):
         return False

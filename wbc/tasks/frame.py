@@ -92,7 +92,7 @@ def _frame_rows_drift(rot, pos, target, j_local, vel, acc, rows, error_out, jac_
     error, Jacobian and drift J̇v into error_out (k,), jac_out (k, nv), drift_out (k,), from Pinocchio's frame
     rotation ``rot`` (3, 3) and position ``pos`` (3,) (world), LOCAL Jacobian ``j_local`` (6, nv), LOCAL velocity
     ``vel`` and acceleration at v̇ = 0 ``acc`` (6,) (linear then angular), and the ``target`` (R*ᵀ (3, 3), p* (3,))
-    (a plain tuple: a namedtuple's construction costs 0.2 µs a call)
+    (a plain tuple, built per call: cheaper than a namedtuple).
 
     Only SO(3) algebra is done here: log₃, Jlog₃ and the derivative of Jlog₃ along ω (Pinocchio's ``log3``,
     ``Jlog3``, ``Hlog3`` formulas, :func:`wbc.lie.log3_rate_into`), and the classical
