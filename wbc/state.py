@@ -29,10 +29,13 @@ robot without a free-flyer root uses ``computeAllTerms``.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.configuration import Configuration, check_vector
 from wbc.geometry import ReadOnly
 from wbc.exceptions import ConfigurationError
@@ -64,6 +67,7 @@ class DynamicsState(Configuration):
         self._free_flyer = robot.model.njoints > 1 and robot.model.joints[1].shortname() == "JointModelFreeFlyer"
         self._Ag, self._Jcom, self._hg, self._com_buf = np.zeros((6, nv)), np.zeros((3, nv)), np.zeros(6), np.zeros(3)
         self._gravity = np.array(robot.model.gravity.linear, dtype=float)
+        self._centroidal_out = _Centroidal(self._Ag, self._Jcom, self._hg, self._com_buf, self._dAg_v, self._com_drift)
         self._views: tuple | None = None
         super().__init__(robot, q)
         self._com = self._com_buf  # com: this array, rewritten by update with the centroidal quantities
@@ -105,8 +109,12 @@ class DynamicsState(Configuration):
             root = data.oMi[1]
             views = self._views = (data.M, data.nle, root, root.rotation, root.translation)
             self._com_jacobian = self._Jcom
-        _centroidal_from_base_rows(views[0], views[1], views[3], views[4], v, self._gravity, self._Ag, self._Jcom,
-                                   self._hg, self._com_buf, self._dAg_v, self._com_drift)
+            # the compiled call on these views and this object's arrays, of fixed types, for a v of any strides
+            # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+            self._centroidal = _centroidal_from_base_rows if CHECK_TYPES else specialise(
+                _centroidal_from_base_rows, views[0], views[1], views[3], views[4], np.zeros(2 * model.nv)[::2],
+                self._gravity, self._centroidal_out)
+        self._centroidal(views[0], views[1], views[3], views[4], v, self._gravity, self._centroidal_out)
 
     def _update_all_terms(self) -> None:
         """Every quantity from ``pin.computeAllTerms`` (a robot without a free-flyer root)."""
@@ -181,11 +189,24 @@ def _state_inputs_ok(q, v, nq, nv):
     return abs(s - 1.0) <= 1e-6
 
 
+class _Centroidal(NamedTuple):
+    """The outputs of :func:`_centroidal_from_base_rows` (a :class:`DynamicsState`'s arrays, built once)."""
+
+    Ag: np.ndarray         #: (6, nv) the centroidal momentum matrix
+    Jcom: np.ndarray       #: (3, nv) the CoM Jacobian Ag[0:3] / m
+    hg: np.ndarray         #: (6,) the centroidal momentum Ag v
+    com: np.ndarray        #: (3,) the CoM (m, world)
+    dhg: np.ndarray        #: (6,) dAg v
+    com_drift: np.ndarray  #: (3,) dhg[0:3] / m
+
+
 @nb.njit(cache=True, nogil=True)
-def _centroidal_from_base_rows(M, nle, R, p, v, gravity, Ag, Jcom, hg, com, dhg, com_drift):
+def _centroidal_from_base_rows(M, nle, R, p, v, gravity, out):
     """Centroidal quantities of a free-flyer robot from its base rows (module docstring): M (nv, nv), nle (nv,),
-    the base placement (R (3, 3), p (3,)), v (nv,), gravity (3,) (m/s², world); written into Ag (6, nv), the CoM
-    Jacobian Jcom = Ag[0:3] / m (3, nv), hg = Ag v (6,), com (3,), dhg = dAg v (6,), com_drift = dhg[0:3] / m."""
+    the base placement (R (3, 3), p (3,)), v (nv,), gravity (3,) (m/s², world); written into ``out``
+    (:class:`_Centroidal`): Ag (6, nv), the CoM Jacobian Jcom = Ag[0:3] / m (3, nv), hg = Ag v (6,), com (3,),
+    dhg = dAg v (6,), com_drift = dhg[0:3] / m."""
+    Ag, Jcom, hg, com, dhg, com_drift = out
     nv = M.shape[0]
     m = M[0, 0]
     # c_b: CoM in base axes, from the base block M[3:6, 0:3] = m [c_b]× of the composite spatial inertia

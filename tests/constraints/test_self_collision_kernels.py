@@ -1,5 +1,5 @@
 """The compiled kernels of the self-collision constraint: the distance-rate rows against finite differences of the
-witness points carried by their bodies, and the packs' views against the arrays they hold."""
+witness points carried by their bodies."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from conftest import random_configuration
-from wbc.constraints.self_collision_kernels import damper_rows, pack_arrays
+from wbc.constraints.self_collision_kernels import damper_rows
 
 
 def _support(model) -> np.ndarray:
@@ -54,12 +54,3 @@ def test_damper_rows_are_the_rate_of_the_witness_gap(robots, name):
     damper_rows(n, p1, p2, np.array([j1]), np.array([j2]), data.J, _support(model), C, np.array([0]))
     np.testing.assert_allclose(C, 2 * rows, atol=1e-14)  # the kernel adds into its slot
 
-
-def test_pack_views_hold_the_arrays_and_write_through():
-    a, b = np.arange(6.0).reshape(2, 3), np.array([7.0, 8.0])
-    pack, (va, vb) = pack_arrays(a, b)
-    np.testing.assert_array_equal(pack, [0, 1, 2, 3, 4, 5, 7, 8])
-    assert va.shape == (2, 3) and vb.shape == (2,)
-    va[1, 2] = -1.0
-    vb[0] = -2.0
-    assert pack[5] == -1.0 and pack[6] == -2.0

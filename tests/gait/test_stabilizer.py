@@ -66,10 +66,9 @@ def test_stabilizer_kernel_matches_the_stabilizer():
         k = int(rng.integers(0, 3))
         p_meas = None if it % 3 == 0 else o + rng.normal(scale=0.03, size=2)
         integral, last_cop, last_cmp = stab.integral.copy(), np.zeros(2), np.zeros(2)
-        m, ax, ay, sat = stabilizer_kernel(xy, len(soles), t[0], t[1], c, cd, refs[0], refs[1], k, stab.omega,
-                                            stab.k_p, stab.k_i, stab.k_z, np.full(2, np.nan) if p_meas is None
-                                            else p_meas, stab.i_max, stab.dt, stab.cmp_offset, integral, last_cop,
-                                            last_cmp)
+        law = (*stab.law()[:7], integral, last_cop, last_cmp)
+        m, ax, ay, sat = stabilizer_kernel(xy, len(soles), t[0], t[1], c, cd, refs[0, k], refs[1, k],
+                                           np.full(2, np.nan) if p_meas is None else p_meas, law)
         i0 = stab.integral.copy()
         acc = stab(c[:2], cd[:2], refs[0, k], refs[1, k], hull, p_meas)
         assert m == len(hull)

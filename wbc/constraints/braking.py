@@ -25,7 +25,7 @@ import numpy as np
 from wbc.compiled import NO_NRT, once_per_process
 from wbc.configuration import Configuration
 from wbc.constraints.base import BoxConstraint
-from wbc.constraints.limits import bounded_joints, load_limit_kernels
+from wbc.constraints.limits import bounded_joints
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.linalg import clip_entry_into
 
@@ -45,8 +45,8 @@ def _braking_bounds(q, idx_q, q_min, q_max, a, dt, lb, ub):
 
 
 @nb.njit(cache=True, nogil=True, **NO_NRT)
-def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_lb, box_ub):
-    """:func:`_braking_bounds` into lb, ub, intersected with the running box box_lb, box_ub (nv,) at the velocity
+def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, bounds, box_lb, box_ub):
+    """:func:`_braking_bounds` into the rows lb, ub of ``bounds`` (2, n), intersected with the running box box_lb, box_ub (nv,) at the velocity
     indices ``idx_v``, each clipped into it: box_lb ← min(max(lb, box_lb), box_ub), box_ub ← max(min(ub, box_ub),
     box_lb) (compiled: :func:`wbc.solvers.linalg.clip_entry_into` inlined)."""
     adt = a * dt
@@ -56,8 +56,8 @@ def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_
         down = max(qk - q_min[k], 0.0)
         hi = math.sqrt(adt * adt + 2.0 * a * up) - adt
         lo = adt - math.sqrt(adt * adt + 2.0 * a * down)
-        ub[k] = hi
-        lb[k] = lo
+        bounds[1, k] = hi
+        bounds[0, k] = lo
         clip_entry_into(box_lb, box_ub, idx_v[k], lo, hi)
 
 
@@ -65,7 +65,9 @@ def _intersect_braking_bounds(q, idx_q, idx_v, q_min, q_max, a, dt, lb, ub, box_
 def _warm_up() -> None:
     """Load :func:`_braking_bounds` and :func:`_intersect_braking_bounds` (on-disk cache) once per process, at
     construction."""
-    load_limit_kernels(_braking_bounds, _intersect_braking_bounds, 1.0, 1.0, buffers=4)
+    z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
+    _braking_bounds(z, i, z, z, 1.0, 1.0, np.empty(1), np.empty(1))
+    _intersect_braking_bounds(z, i, i, z, z, 1.0, 1.0, np.zeros((2, 1)), np.zeros(1), np.zeros(1))
 
 
 class JointBrakingLimit(BoxConstraint):
@@ -95,8 +97,8 @@ class JointBrakingLimit(BoxConstraint):
         self.q_max = model.upperPositionLimit[self.idx_q].copy()
         if name is not None:
             self.name = name
-        self._lb = np.zeros(self.dim)
-        self._ub = np.zeros(self.dim)
+        self._bounds = np.zeros((2, self.dim))  # rows lb, ub of compute
+        self._lb, self._ub = self._bounds
         _warm_up()
 
     def compute(self, config: Configuration, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -107,4 +109,4 @@ class JointBrakingLimit(BoxConstraint):
         """:meth:`wbc.constraints.base.BoxConstraint.intersect_into` in one compiled pass (the same numbers; the
         bounds of :meth:`compute` are left in its buffers as well)."""
         _intersect_braking_bounds(config.q, self.idx_q, self.indices, self.q_min, self.q_max, self.a_max, float(dt),
-                                  self._lb, self._ub, lb, ub)
+                                  self._bounds, lb, ub)

@@ -15,7 +15,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import NO_NRT, once_per_process
+from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
 from wbc.configuration import LOCAL, Configuration
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
@@ -50,13 +50,16 @@ def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
 
 
 @nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
-def _write_contact_pair_rows(jac_a, pose_a, rot_a, pos_a, scale_a, jac_b, pose_b, rot_b, pos_b, scale_b, A, b, ra, rb):
+def _write_contact_pair_rows(first, second, A, b, ra, rb):
     """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
-    … ``rb + 6`` of A (m, nv) and b (m,). Returns False near a half-turn error of either (the second's rows then not
-    written)."""
-    if not _write_contact_rows(jac_a, pose_a, rot_a, pos_a, scale_a, A[ra:ra + 6], b[ra:ra + 6]):
+    … ``rb + 6`` of A (m, nv) and b (m,); ``first``, ``second``: each contact's operands (jac, pose, rot, pos, scale)
+    of :func:`_write_contact_rows` (plain tuples, built per call: cheaper than namedtuples). Returns False near a
+    half-turn error of either (the second's rows then not written)."""
+    jac, pose, rot, pos, scale = first
+    if not _write_contact_rows(jac, pose, rot, pos, scale, A[ra:ra + 6], b[ra:ra + 6]):
         return False
-    return _write_contact_rows(jac_b, pose_b, rot_b, pos_b, scale_b, A[rb:rb + 6], b[rb:rb + 6])
+    jac, pose, rot, pos, scale = second
+    return _write_contact_rows(jac, pose, rot, pos, scale, A[rb:rb + 6], b[rb:rb + 6])
 
 
 def _as_contact_gain(value) -> float:
@@ -84,7 +87,14 @@ def _warm_up() -> None:
     _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
                         np.zeros((6, 1)), np.zeros(6))
     frame = (np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0)
-    _write_contact_pair_rows(*frame, *frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
+    _write_contact_pair_rows(frame, frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
+    _write_contact_pair_rows(frame, frame, *_strided_rows(1), 0, 6)  # write_pair's specialisation
+
+
+def _strided_rows(nv: int) -> tuple:
+    """Zeros of the types of the stacked rows A (12, nv) and b (12,) as :meth:`ContactConstraint.write_pair` is
+    specialised for them: strided (numba layout 'A', which reads arrays of any strides)."""
+    return np.zeros((12, 2 * nv))[:, ::2], np.zeros(24)[::2]
 
 
 class ContactConstraint(EqualityConstraint):
@@ -102,6 +112,8 @@ class ContactConstraint(EqualityConstraint):
     """
 
     dim = 6
+
+    _pair_kernel = None  # write_pair's compiled call, specialised at its first call
 
     def __init__(self, robot, frame: str, *, gain: float = 100.0, name: str | None = None):
         self.frame = frame
@@ -195,8 +207,14 @@ class ContactConstraint(EqualityConstraint):
         ja = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
         jb = pin.getFrameJacobian(model, data, other.frame_id, LOCAL)
         k = 1.0 / ctx.dt
-        if not _write_contact_pair_rows(ja, self._pose, views[2], views[3], -min(self._gain, k), jb, pose_b, rot_b,
-                                        pos_b, -min(other.gain, k), A, b, row, other_row):
+        first = (ja, self._pose, views[2], views[3], -min(self._gain, k))
+        second = (jb, pose_b, rot_b, pos_b, -min(other.gain, k))
+        kernel = self._pair_kernel
+        if kernel is None:  # the operands are Pinocchio's and the contacts' arrays, of fixed types; the stacked rows
+            # specialised for any strides (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+            kernel = self._pair_kernel = _write_contact_pair_rows if CHECK_TYPES else specialise(
+                _write_contact_pair_rows, first, second, *_strided_rows(1), row, other_row)
+        if not kernel(first, second, A, b, row, other_row):
             self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
             other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
 

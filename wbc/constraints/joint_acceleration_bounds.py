@@ -4,10 +4,12 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.constraints.base import IDConstraint
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
@@ -16,7 +18,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.robot import Robot
 from wbc.state import DynamicsState
 
-__all__ = ["JointAccelerationLimits", "joint_acceleration_bounds", "joint_bounds_kernel"]
+__all__ = ["JointAccelerationLimits", "JointRange", "joint_acceleration_bounds", "joint_bounds_kernel"]
 
 
 class JointAccelerationLimits(IDConstraint):
@@ -52,12 +54,18 @@ class JointAccelerationLimits(IDConstraint):
         self.speed_horizon = 1.0
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
+        self._joints = JointRange(self.iq, self.iv, self.qmin, self.qmax, self.vmax)
         _warm_up()
+        # bounds' compiled call: these arrays, of fixed types, and a state's q, v of any strides
+        # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+        self._kernel = joint_bounds_kernel if CHECK_TYPES else specialise(
+            joint_bounds_kernel, _strided(1), _strided(1), self._joints, 1.0, 1e-3, 1.0, self._lo, self._hi)
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) (dim,) at ``state`` (arrays reused across calls)."""
-        return joint_acceleration_bounds(state.q, state.v, self.iq, self.iv, self.qmin, self.qmax, self.vmax,
-                                         self.braking_acceleration, dt, self._lo, self._hi, self.speed_horizon)
+        """(lo, hi) (dim,) at ``state`` (arrays reused across calls): :func:`joint_acceleration_bounds`."""
+        self._kernel(state.q, state.v, self._joints, float(self.braking_acceleration), float(dt),
+                     float(self.speed_horizon), self._lo, self._hi)
+        return self._lo, self._hi
 
     def write(self, ctx, _, lb, ub):
         lo, hi = self.bounds(ctx.state, ctx.dt)
@@ -65,10 +73,22 @@ class JointAccelerationLimits(IDConstraint):
         ub[:] = hi
 
 
+class JointRange(NamedTuple):
+    """The k limited 1-DoF joints of :func:`joint_bounds_kernel`."""
+
+    iq: np.ndarray    #: (k,) int64 configuration indices
+    iv: np.ndarray    #: (k,) int64 velocity indices
+    qmin: np.ndarray  #: (k,) lower position limits (rad)
+    qmax: np.ndarray  #: (k,) upper position limits (rad)
+    vmax: np.ndarray  #: (k,) speed limits (rad/s, inf when unlimited)
+
+
 @nb.njit(cache=True, nogil=True)
-def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out, horizon):
-    """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint), written into lo_out,
-    hi_out (k,); the velocity term approaches ±vmax over ``horizon`` ticks."""
+def joint_bounds_kernel(q, v, joints, a, dt, horizon, lo_out, hi_out):
+    """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint) of the ``joints``
+    (:class:`JointRange`), written into lo_out, hi_out (k,); the velocity term approaches ±vmax over ``horizon``
+    ticks."""
+    iq, iv, qmin, qmax, vmax = joints
     dt2 = dt * dt
     dth = dt * horizon
     for j in range(iq.size):
@@ -94,7 +114,7 @@ def joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, a, dt, lo_out, hi_out, h
         hi_out[j] = hi
 
 
-def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float,
+def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float, *,
                               lo: np.ndarray | None = None, hi: np.ndarray | None = None, speed_horizon: float = 1.0):
     """(lo, hi) joint acceleration bounds (rad/s²) of eq. 9 (position, velocity and viability with braking
     acceleration a_brk; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV) for the 1-DoF joints with configuration
@@ -104,8 +124,8 @@ def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_accelerati
     k = len(iq)
     lo = np.empty(k) if lo is None else lo
     hi = np.empty(k) if hi is None else hi
-    joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, float(braking_acceleration), float(dt), lo, hi,
-                        float(speed_horizon))
+    joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), float(braking_acceleration), float(dt),
+                        float(speed_horizon), lo, hi)
     return lo, hi
 
 
@@ -115,7 +135,9 @@ def _warm_up() -> None:
     :class:`JointAccelerationLimits`, not inside a controller's first tick: on arrays of the types of a real call (M
     column-major as a :class:`~wbc.state.DynamicsState`'s, the rest C-contiguous)."""
     z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
-    joint_bounds_kernel(z, z, i, i, -np.ones(1), np.ones(1), np.ones(1), 1.0, 1e-3, np.empty(1), np.empty(1), 1.0)
+    joints = JointRange(i, i, -np.ones(1), np.ones(1), np.ones(1))
+    for q, v in ((z, z), (_strided(1), _strided(1))):  # (JointAccelerationLimits.bounds: q, v of any strides)
+        joint_bounds_kernel(q, v, joints, 1.0, 1e-3, 1.0, np.empty(1), np.empty(1))
     nv = 7
     M, h, v = np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros(nv)
     JcT, A, b = np.zeros((nv, 12)), np.zeros((12, nv + 12)), np.zeros(12)
@@ -123,3 +145,9 @@ def _warm_up() -> None:
     floating_base_rows(M, h, JcT, A, b, 0)
     contact_acceleration_rows(np.zeros((6, nv)), np.zeros(6), 1.0, v, A, b, 6)
     torque_limit_rows(M, h, JcT, np.full(1, 6, dtype=np.int64), np.ones(1), A, b, b.copy(), 0)
+
+
+def _strided(n: int) -> np.ndarray:
+    """(max(n, 2),) zeros, strided (numba layout 'A': a version that reads arrays of any strides; numpy flags a
+    strided array of one entry contiguous)."""
+    return np.zeros(2 * max(n, 2))[::2]

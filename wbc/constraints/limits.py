@@ -18,8 +18,7 @@ from wbc.constraints.base import BoxConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.linalg import clip_entry_into
 
-__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints", "intersect_position_bounds",
-           "load_limit_kernels"]
+__all__ = ["JointPositionLimit", "JointVelocityLimit", "bounded_joints", "intersect_position_bounds"]
 
 
 def bounded_joints(model) -> tuple[np.ndarray, np.ndarray]:
@@ -66,21 +65,6 @@ def intersect_position_bounds(q, idx, limits, dt, lb, ub):
         lo = min((limits[0, k] - qk) / dt, limits[2, k])
         hi = max((limits[1, k] - qk) / dt, -limits[2, k])
         clip_entry_into(lb, ub, idx[1, k], lo, hi)
-
-
-def load_limit_kernels(bounds, intersect, *params, buffers: int = 2) -> None:
-    """Load (on-disk cache) the two compiled kernels of a joint-limit box constraint for the argument types of a
-    real call, by calling them on one joint: ``bounds(q, idx_q, q_min, q_max, *params, lb, ub)`` and
-    ``intersect(q, idx_q, idx_v, q_min, q_max, *params, *out)``, ``out`` being ``buffers`` (n,) float arrays.
-
-    Args:
-        bounds, intersect: the compiled kernels (``bounds`` writes the bounds, ``intersect`` clips them into a box).
-        params: example values of the kernels' parameters between q_max and the outputs (floats or (1,) arrays).
-        buffers: how many output arrays ``intersect`` takes.
-    """
-    z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
-    bounds(z, i, z, z, *params, np.empty(1), np.empty(1))
-    intersect(z, i, i, z, z, *params, *[np.zeros(1) for _ in range(buffers)])
 
 
 @once_per_process

@@ -99,8 +99,9 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.base import InequalityConstraint
 from wbc.constraints.narrow_phase_build import BUILD_HINT
-from wbc.constraints.self_collision_kernels import (broad_phase_packed, close_pairs_damper, close_pairs_packed,
-                                                   damper_rows, narrow_phase_done_packed, pack_arrays, pair_dampers)
+from wbc.compiled import CHECK_TYPES, specialise
+from wbc.constraints.self_collision_kernels import (BroadPhaseState, DamperRows, broad_phase, close_pairs,
+                                                   close_pairs_damper, damper_rows, narrow_phase_done, pair_dampers)
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_count, check_scalar
 
@@ -338,9 +339,9 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._buf = np.empty(npairs)
         self._rows = np.empty(self.dim, dtype=np.int64)
         # row of each active pair (compute; −1: none), pair of each row (−1: unused), row of each close pair
-        self._slots, (self._slot_of, self._in_slot, self._slot) = pack_arrays(
-            np.full(npairs, -1, dtype=np.int64), np.full(self.dim, -1, dtype=np.int64),
-            np.empty(self.dim, dtype=np.int64))
+        self._slot_of = np.full(npairs, -1, dtype=np.int64)
+        self._in_slot = np.full(self.dim, -1, dtype=np.int64)
+        self._slot = np.empty(self.dim, dtype=np.int64)
         self._identity = np.arange(self.dim, dtype=np.int64)
         self._rows_at = None  # (config, dt) of the rows in _C/_l (compute), with _rows_q its q; None: stale
         self._rows_q = np.empty(model.nq)
@@ -353,16 +354,17 @@ class SelfCollisionConstraint(InequalityConstraint):
         self._prev_r = np.zeros((model.njoints, 3, 3))
         self._first = True
         self._placements_of = None  # (data, its joint placements view or None): _joint_placements
-        # the broad phase's state in three packs (the order of ``_unpack`` in wbc.constraints.self_collision_kernels);
-        # the attributes become views of them
-        header = [gm.ngeoms, model.njoints, npairs, self._ref, self.dim]
-        self._fpack, (self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known,
-                      self._moved_at, self._buf, self._rel, _, self._gap_known, _) = pack_arrays(
-            self._centre_local, self._radius, self._prev_c, self._moved, self._prev_r, self._d_known, self._moved_at,
-            self._buf, np.zeros((npairs, 12)), np.zeros(12), np.full(npairs, -np.inf), np.zeros(npairs))
-        self._ipack, (_, self._joint, self.pairs, self._cand, self._toggle, self._rows) = pack_arrays(
-            np.array(header, dtype=np.int64), self._joint, self.pairs, self._cand, self._toggle, self._rows)
-        self._bpack, (self._exact, self._on) = pack_arrays(self._exact, self._on)
+        self._gap_known = np.full(npairs, -np.inf)
+        # the compiled kernels' workspaces (wbc.constraints.self_collision_kernels), of the arrays above
+        self._state = BroadPhaseState(
+            self._ref, self.dim, self._joint, self._centre_local, self._radius, self.pairs, self._prev_c, self._prev_r,
+            self._moved, self._moved_at, self._d_known, self._exact, self._on, self._toggle, self._cand, self._buf,
+            self._rows, np.zeros((npairs, 12)), np.zeros(12), self._gap_known, np.zeros(npairs))
+        self._damper_rows = DamperRows(self._pair_joint, self._support, self._C, self._l, self._floor, self._slot_of,
+                                       self._in_slot, self._slot)
+        # their compiled versions for the argument types of the first call, which are fixed (wbc.compiled.specialise;
+        # with kernel type checks on, the dispatchers)
+        self._broad_kernel = self._close_kernel = self._damper_kernel = None
         self._found = ClosePairs(np.zeros(0, dtype=np.int64), np.zeros(0), self._empty, self._empty, self._empty)
         self.coal_calls = 0
         note = COMPILED_NARROW_PHASE_MISSING
@@ -427,8 +429,8 @@ class SelfCollisionConstraint(InequalityConstraint):
 
     def _narrow(self, config: Configuration, damper: tuple | None = None) -> bool:
         """Broad phase, coal on the candidates, the rows' witness points and normals: fills ``self._found``. With
-        ``damper`` (``pair_dampers``'s arguments after the close pairs' and pair_joint: J, support, C, l, floor, gamma,
-        ds, rise), the compiled narrow phase also writes the damper rows; returns whether it did."""
+        ``damper`` (``pair_dampers``'s arguments after the close pairs': J, rows, gamma, ds, rise), the compiled
+        narrow phase also writes the damper rows; returns whether it did."""
         self._rows_at = None  # compute's rows (and the barrier's, which share _C) are recomputed
         data = config.data
         gm, gd = self.geometry_model, self.geometry_data
@@ -438,8 +440,10 @@ class SelfCollisionConstraint(InequalityConstraint):
         if self.broad_phase or pair_set is not None:
             placements = self._joint_placements(data)
         if self.broad_phase:
-            n, nt = broad_phase_packed(placements, self._first, self.activation_distance, self._fpack, self._ipack,
-                                        self._bpack)
+            args = (placements, self._first, self.activation_distance, self._state)
+            if self._broad_kernel is None:
+                self._broad_kernel = broad_phase if CHECK_TYPES else specialise(broad_phase, *args)
+            n, nt = self._broad_kernel(*args)
             self._first = False
             cand = self._cand[:n]
             if nt and pair_set is None:  # the candidates differ little from one call to the next: switch those
@@ -457,18 +461,21 @@ class SelfCollisionConstraint(InequalityConstraint):
             # one call: geometry placements, coal on the candidates, distances / witness points / normals written;
             # then one compiled call for the rows
             compiled_narrow_phase.distances(pair_set, placements, cand, self._wit)
+            args = (n, self._wit, self.activation_distance, self._state)
             if damper is None:
-                self._found = ClosePairs(*close_pairs_packed(n, self._wit, self.activation_distance, self._fpack,
-                                                              self._ipack, self._bpack))
+                if self._close_kernel is None:
+                    self._close_kernel = close_pairs if CHECK_TYPES else specialise(close_pairs, *args)
+                self._found = ClosePairs(*self._close_kernel(*args))
                 return False
-            self._found = ClosePairs(*close_pairs_damper(n, self._wit, self.activation_distance, self._fpack,
-                                                          self._ipack, self._bpack, self._pair_joint, *damper,
-                                                          self._slots))
+            if self._damper_kernel is None:
+                self._damper_kernel = close_pairs_damper if CHECK_TYPES else specialise(close_pairs_damper, *args,
+                                                                                        *damper)
+            self._found = ClosePairs(*self._damper_kernel(*args, *damper))
             return True
         pin.computeDistances(gm, gd)
         res = self._results
         dist = np.array(list(map(self._distance, map(res.__getitem__, cand.tolist()))))
-        m = narrow_phase_done_packed(n, dist, self.activation_distance, self._fpack, self._ipack, self._bpack)
+        m = narrow_phase_done(n, dist, self.activation_distance, self._state)
         k = cand[self._rows[:m]]
         d = dist[self._rows[:m]]
         if m:
@@ -524,12 +531,11 @@ class SelfCollisionConstraint(InequalityConstraint):
         at = self._rows_at
         if at is not None and at[0] is config and at[1] == dt and np.array_equal(self._rows_q, config.q):
             return self._C, self._l, self._u
-        damper = (config.data.J, self._support, self._C, self._l, self._floor, min(self.gain, 1.0 / dt),
-                  self.min_distance + self.safety_margin, self.recovery_speed * dt)
+        damper = (config.data.J, self._damper_rows, min(self.gain, 1.0 / dt), self.min_distance + self.safety_margin,
+                  self.recovery_speed * dt)
         if not self._narrow(config, damper):
             f = self._found
-            pair_dampers(f.pairs, f.distance, f.p1, f.p2, f.normal, self._pair_joint, *damper, self._slot_of,
-                    self._in_slot, self._slot)
+            pair_dampers(f.pairs, f.distance, f.p1, f.p2, f.normal, *damper)
         self._rows_at = (config, dt)
         self._rows_q[:] = config.q
         return self._C, self._l, self._u

@@ -1,16 +1,19 @@
 """The compiled kernels of :class:`wbc.constraints.self_collision.SelfCollisionConstraint` (its module docstring
 states the math): the conservative broad phase over the pairs' bounding spheres and known distances
-(:func:`broad_phase_packed`), the bookkeeping after the narrow phase (:func:`narrow_phase_done_packed`), the close
-pairs with their velocity-damper rows (:func:`close_pairs_packed`, :func:`close_pairs_damper`), the constraint's
-state held in three packed arrays (:func:`pack_arrays`)."""
+(:func:`broad_phase`), the bookkeeping after the narrow phase (:func:`narrow_phase_done`), the close pairs with their
+velocity-damper rows (:func:`close_pairs`, :func:`pair_dampers`, :func:`close_pairs_damper`). The constraint's state
+is held in two namedtuple workspaces of arrays, built once and updated in place: :class:`BroadPhaseState` and
+:class:`DamperRows`."""
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
-__all__ = ["BOUND_SLACK", "broad_phase_packed", "close_pairs_damper", "close_pairs_packed", "damper_rows",
-           "narrow_phase_done_packed", "pack_arrays", "pair_dampers"]
+__all__ = ["BOUND_SLACK", "BroadPhaseState", "DamperRows", "broad_phase", "close_pairs", "close_pairs_damper",
+           "damper_rows", "narrow_phase_done", "pair_dampers"]
 
 
 #: m subtracted from every lower bound of the broad phase (rounding of the bounds, GJK's 1e-9 m tolerance)
@@ -53,12 +56,52 @@ def _relative_bound(rot, centre, joint, radius, a, b, then, now):
     return np.sqrt(dc) + np.sqrt(0.5 * dr) * r
 
 
+class BroadPhaseState(NamedTuple):
+    """The broad phase's state (:func:`broad_phase`; :class:`SelfCollisionConstraint` builds it once, the arrays
+    updated in place), with ng geometries, nj joints, npairs watched pairs and k_max rows."""
+
+    ref: int                   #: the root joint, whose frame the displacements are expressed in
+    k_max: int                 #: the most rows (max_active)
+    joint: np.ndarray          #: (ng,) int64 parent joint of each geometry
+    centre_local: np.ndarray   #: (ng, 3) bounding sphere centre, in its joint's frame (m)
+    radius: np.ndarray         #: (ng,) bounding sphere radius (m)
+    pairs: np.ndarray          #: (npairs, 2) int64 geometry indices of each pair
+    prev_c: np.ndarray         #: (ng, 3) sphere centres of the previous call
+    prev_r: np.ndarray         #: (nj, 3, 3) joint rotations of the previous call
+    moved: np.ndarray          #: (ng,) accumulated bound on each geometry's displacement (m)
+    moved_at: np.ndarray       #: (npairs,) moved_a + moved_b when coal last computed the pair
+    d_known: np.ndarray        #: (npairs,) the pair's distance then (m)
+    exact: np.ndarray          #: (npairs,) bool: whether coal ever computed the pair
+    on: np.ndarray             #: (npairs,) bool: the pairs active in the ``GeometryData``
+    toggle: np.ndarray         #: (npairs,) int64 out: the pairs to switch there (k on, ~k off)
+    cand: np.ndarray           #: (npairs,) int64 out: the candidates
+    buf: np.ndarray            #: (npairs,) scratch of the upper bounds
+    rows: np.ndarray           #: (k_max,) int64 out: positions in ``cand`` of the closest pairs
+    rel: np.ndarray            #: (npairs, 12) relative placement when coal last computed the pair
+    scratch: np.ndarray        #: (12,) scratch
+    gap_known: np.ndarray      #: (npairs,) the pair's sphere gap when last computed (m; −inf: none)
+    gap_at: np.ndarray         #: (npairs,) moved_a + moved_b then
+
+
+class DamperRows(NamedTuple):
+    """The velocity-damper rows' buffers and per-pair memory (:func:`pair_dampers`), built once."""
+
+    pair_joint: np.ndarray  #: (npairs, 2) int64 parent joints of each pair's geometries
+    support: np.ndarray     #: (njoints, 1 + nv) int32: per joint the count of its support's columns, then those
+    C: np.ndarray           #: (rows, nv) out: the rows
+    l: np.ndarray           #: (rows,) out: their lower bounds
+    floor: np.ndarray       #: (npairs,) each pair's floor f (m; NaN: none yet)
+    slot_of: np.ndarray     #: (npairs,) int64: a pair's row, or −1
+    in_slot: np.ndarray     #: (rows,) int64: a row's pair, or −1
+    slot: np.ndarray        #: (rows,) int64 out: the row of each close pair
+
+
 @nb.njit(cache=True, nogil=True)
-def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved, moved_at,
-                 d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known, gap_at):
+def broad_phase(placements, first, activation, s):
     """Candidate pairs of one call (module docstring: broad phase); their indices (increasing) written to ``cand``.
-    ``on`` (npairs,) bool: the pairs active in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,)
-    out: the pairs to switch there, k to activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
+    ``s``: the state (:class:`BroadPhaseState`, its fields below; updated). ``on`` (npairs,) bool: the pairs active
+    in the ``GeometryData`` (updated to the candidates); ``toggle`` (npairs,) out: the pairs to switch there, k to
+    activate, ~k (= −k − 1) to deactivate. Returns (candidates, toggles).
 
     ``placements`` (njoints, 12) joint placements (``data.oMi``: rotation column-major, then translation; the layout
     of ``_joint_placements``), expressed here in the frame of joint ``ref``
@@ -79,6 +122,10 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
     is kept as a bound too: ``gap_known`` (npairs,) the pair's gap when last computed (−inf: none), ``gap_at``
     moved_a + moved_b then; it is recomputed only when gap_known − (moved_a + moved_b − gap_at) leaves the pair in
     question. ``scratch`` (12,): work space."""
+    ref, joint, centre_local, radius, pairs = s.ref, s.joint, s.centre_local, s.radius, s.pairs
+    prev_c, prev_r, moved, moved_at, d_known, exact = s.prev_c, s.prev_r, s.moved, s.moved_at, s.d_known, s.exact
+    k_max, on, toggle, cand, buf, rel, scratch = s.k_max, s.on, s.toggle, s.cand, s.buf, s.rel, s.scratch
+    gap_known, gap_at = s.gap_known, s.gap_at
     nj = placements.shape[0]
     ng = joint.shape[0]
     rot = np.empty((nj, 3, 3))
@@ -178,11 +225,11 @@ def _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, pre
 
 
 @nb.njit(cache=True, nogil=True)
-def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows):
-    """Record the coal distances ``dist`` of the pairs ``cand`` (``_broad_phase``'s state) and write to ``rows`` the
-    positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first (ties: lower pair
-    index first); returns their count."""
-    n = cand.shape[0]
+def narrow_phase_done(n, dist, activation, s):
+    """Record the coal distances ``dist`` of the first n candidates ``s.cand`` (:class:`BroadPhaseState`) and write
+    to ``s.rows`` the positions in ``cand`` of the (at most k_max) closest below ``activation``, closest first
+    (ties: lower pair index first); returns their count."""
+    cand, pairs, d_known, exact, moved, moved_at = s.cand, s.pairs, s.d_known, s.exact, s.moved, s.moved_at
     for i in range(n):
         k = cand[i]
         d_known[k] = dist[i]
@@ -191,93 +238,21 @@ def _narrow_phase_done(cand, dist, activation, k_max, pairs, d_known, exact, mov
     order = np.argsort(dist, kind="mergesort")
     m = 0
     for i in order:
-        if m == k_max or dist[i] >= activation:
+        if m == s.k_max or dist[i] >= activation:
             break
-        rows[m] = i
+        s.rows[m] = i
         m += 1
     return m
 
 
-#: entries of the integer pack's header (``_unpack``): geometries, joints, pairs, root joint, max_active
-_HEADER = 5
-
-
-def pack_arrays(*arrays):
-    """(pack, views): one 1-D array holding ``arrays`` (one dtype) one after the other, and views of it shaped as
-    them. A compiled call taking a few packs instead of ~18 arrays: Numba's dispatch checks each argument's type."""
-    pack = np.concatenate([np.ravel(a) for a in arrays])
-    views, at = [], 0
-    for a in arrays:
-        views.append(pack[at:at + np.size(a)].reshape(np.shape(a)))
-        at += np.size(a)
-    return pack, views
-
-
 @nb.njit(cache=True, nogil=True)
-def _unpack(fpack, ipack, bpack):
-    """The broad phase's state as views of its three packs (``SelfCollisionConstraint.__init__``: the order)."""
-    ng, nj, npairs, ref, k_max = ipack[0], ipack[1], ipack[2], ipack[3], ipack[4]
-    o = 0
-    centre_local = fpack[o:o + 3 * ng].reshape((ng, 3))
-    o += 3 * ng
-    radius = fpack[o:o + ng]
-    o += ng
-    prev_c = fpack[o:o + 3 * ng].reshape((ng, 3))
-    o += 3 * ng
-    moved = fpack[o:o + ng]
-    o += ng
-    prev_r = fpack[o:o + 9 * nj].reshape((nj, 3, 3))
-    o += 9 * nj
-    d_known = fpack[o:o + npairs]
-    moved_at = fpack[o + npairs:o + 2 * npairs]
-    buf = fpack[o + 2 * npairs:o + 3 * npairs]
-    o += 3 * npairs
-    rel = fpack[o:o + 12 * npairs].reshape((npairs, 12))
-    scratch = fpack[o + 12 * npairs:o + 12 * npairs + 12]
-    o += 12 * npairs + 12
-    gap_known = fpack[o:o + npairs]
-    gap_at = fpack[o + npairs:o + 2 * npairs]
-    o = _HEADER
-    joint = ipack[o:o + ng]
-    o += ng
-    pairs = ipack[o:o + 2 * npairs].reshape((npairs, 2))
-    o += 2 * npairs
-    cand = ipack[o:o + npairs]
-    toggle = ipack[o + npairs:o + 2 * npairs]
-    rows = ipack[o + 2 * npairs:o + 2 * npairs + k_max]
-    exact = bpack[:npairs]
-    on = bpack[npairs:2 * npairs]
-    return (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on,
-            toggle, cand, buf, rows, rel, scratch, gap_known, gap_at)
-
-
-@nb.njit(cache=True, nogil=True)
-def broad_phase_packed(placements, first, activation, fpack, ipack, bpack):
-    """``_broad_phase`` on the state packed in ``fpack``, ``ipack``, ``bpack`` (``_unpack``)."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    return _broad_phase(placements, ref, joint, centre_local, radius, pairs, first, prev_c, prev_r, moved,
-                        moved_at, d_known, exact, activation, k_max, on, toggle, cand, buf, rel, scratch, gap_known,
-                        gap_at)
-
-
-@nb.njit(cache=True, nogil=True)
-def narrow_phase_done_packed(n, dist, activation, fpack, ipack, bpack):
-    """``_narrow_phase_done`` for the first n candidates of the packed state (``_unpack``)."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
-    return _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
-
-
-@nb.njit(cache=True, nogil=True)
-def close_pairs_packed(n, found, activation, fpack, ipack, bpack):
-    """``_narrow_phase_done`` for the first n candidates of the packed state, their results in ``found`` (the
+def close_pairs(n, found, activation, s):
+    """:func:`narrow_phase_done` for the first n candidates of the state ``s``, their results in ``found`` (the
     compiled narrow phase's output: n distances, then n witness points p1, then n normals), and the rows' arrays of
     :class:`ClosePairs` (fresh): pair indices, distances, normals, p1, p2 = p1 + d n."""
-    (ref, k_max, joint, centre_local, radius, pairs, prev_c, prev_r, moved, moved_at, d_known, exact, on, toggle,
-     cand, buf, rows, rel, scratch, gap_known, gap_at) = _unpack(fpack, ipack, bpack)
     dist = found[:n]
-    m = _narrow_phase_done(cand[:n], dist, activation, k_max, pairs, d_known, exact, moved, moved_at, rows)
+    m = narrow_phase_done(n, dist, activation, s)
+    cand, rows = s.cand, s.rows
     k = np.empty(m, dtype=np.int64)
     d = np.empty(m)
     normal = np.empty((m, 3))
@@ -316,16 +291,16 @@ def damper_rows(normal, p1, p2, joint1, joint2, J, support, C, slot):
 
 
 @nb.njit(cache=True, nogil=True)
-def pair_dampers(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slot_of, in_slot,
-                 slot):
+def pair_dampers(k, d, p1, p2, normal, J, rows, gamma, ds, rise):
     """The velocity-damper rows of the m = len(k) close pairs (module docstring), each pair's floor
-    f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN) and l = −γ (d − f); the unused rows C = 0,
-    l = −∞.
+    f = min(ds, max(f_prev, d) + rise) (min(ds, d) when f_prev is NaN) and l = −γ (d − f), written to ``rows``
+    (:class:`DamperRows`: C, l, floor); the unused rows C = 0, l = −∞.
 
-    Rows are slots kept across calls (``slot_of`` (npairs,): a pair's row or −1; ``in_slot`` (rows,): a row's pair
-    or −1): a pair that stays active keeps its row, a new one takes the lowest free row. The QP is the same in any
-    row order; a stable order lets the solver's warm start (its working set, by row index) carry over from one
-    tick to the next. ``slot`` (≥ m,): out, the row of each pair of k."""
+    Rows are slots kept across calls (``rows.slot_of`` (npairs,): a pair's row or −1; ``rows.in_slot`` (rows,): a
+    row's pair or −1): a pair that stays active keeps its row, a new one takes the lowest free row. The QP is the
+    same in any row order; a stable order lets the solver's warm start (its working set, by row index) carry over
+    from one tick to the next. ``rows.slot`` (≥ m,): out, the row of each pair of k."""
+    slot_of, in_slot, slot, C, l, floor = rows.slot_of, rows.in_slot, rows.slot, rows.C, rows.l, rows.floor
     m = k.shape[0]
     for r in range(in_slot.shape[0]):  # free the rows of the pairs no longer active
         q = in_slot[r]
@@ -350,7 +325,7 @@ def pair_dampers(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamm
         slot[i] = r
     C[:, :] = 0.0
     l[:] = -np.inf
-    damper_rows(normal, p1, p2, pair_joint[k, 0], pair_joint[k, 1], J, support, C, slot)
+    damper_rows(normal, p1, p2, rows.pair_joint[k, 0], rows.pair_joint[k, 1], J, rows.support, C, slot)
     for i in range(m):
         f = floor[k[i]]
         f = d[i] if np.isnan(f) else max(f, d[i]) + rise
@@ -360,14 +335,9 @@ def pair_dampers(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamm
 
 
 @nb.njit(cache=True, nogil=True)
-def close_pairs_damper(n, found, activation, fpack, ipack, bpack, pair_joint, J, support, C, l, floor, gamma, ds,
-                        rise, slots):
-    """``close_pairs_packed`` then ``pair_dampers`` on its rows in one compiled call (one dispatch of the arguments);
-    ``slots``: ``pair_dampers``'s slot_of (npairs,), in_slot (rows,) and slot (rows,) one after the other. Returns the
-    rows' arrays of :class:`ClosePairs`."""
-    k, d, normal, p1, p2 = close_pairs_packed(n, found, activation, fpack, ipack, bpack)
-    npairs = pair_joint.shape[0]
-    rows = C.shape[0]
-    pair_dampers(k, d, p1, p2, normal, pair_joint, J, support, C, l, floor, gamma, ds, rise, slots[:npairs],
-            slots[npairs:npairs + rows], slots[npairs + rows:npairs + 2 * rows])
+def close_pairs_damper(n, found, activation, s, J, rows, gamma, ds, rise):
+    """:func:`close_pairs` then :func:`pair_dampers` on its rows in one compiled call. Returns the rows' arrays of
+    :class:`ClosePairs`."""
+    k, d, normal, p1, p2 = close_pairs(n, found, activation, s)
+    pair_dampers(k, d, p1, p2, normal, J, rows, gamma, ds, rise)
     return k, d, normal, p1, p2

@@ -77,11 +77,11 @@ _PARAMS = _EDGES + 3
 
 
 @nb.njit(cache=True, nogil=True, **NO_NRT)
-def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
+def _zmp_tick(c, J, Ag, W, now, dt_prev, dt, C, l, u):
     """:meth:`ExecutedZmpConstraint.compute` in one compiled call: keep this tick's CoM c, CoM Jacobian J and
     (use_momentum) the angular rows of the centroidal map Ag (6, nv) in slot ``now`` of the memory W; then, when the
-    previous tick is known (``active``: the other slot's CoM c_prev, Jacobians J_prev, A_prev and command v_prev
-    over dt_prev, all finite), write the rows of the module docstring into C (rows 0..k−1 and the last one; the
+    previous tick is known (``dt_prev`` not NaN: the other slot's CoM c_prev, Jacobians J_prev, A_prev and command
+    v_prev over dt_prev s, all finite), write the rows of the module docstring into C (rows 0..k−1 and the last one; the
     rows between are unused: 0 ≤ +inf) and u, l = −inf, else make every row inactive (0 ≤ +inf). Edge e of the
     shrunk polygon (outward normal (x, y), offset) is column e of rows _EDGES.._EDGES+2 of W, the constants (ground
     height z_g, mass, g, min_normal_ratio, use_momentum, edge count k) row _PARAMS. All kinematic quantities come from
@@ -105,6 +105,7 @@ def _zmp_tick(c, J, Ag, W, now, active, dt_prev, dt, C, l, u):
             C[e, j] = 0.0
         u[e] = np.inf
     h = c[2] - ground_z
+    active = not np.isnan(dt_prev)
     if active:
         for j in range(nv):
             if not np.isfinite(W[p0 + 7, j]):
@@ -165,7 +166,7 @@ def _warm_up() -> None:
     CoM Jacobian and centroidal map are)."""
     c, J, W = np.zeros(3), np.zeros((3, 1)), np.zeros((_PARAMS + 1, 12))
     W[_PARAMS, :6] = 0.0, 1.0, GRAVITY, 0.5, 1.0, 1.0
-    _zmp_tick(c, J, np.zeros((6, 1)), W, 0, True, 0.002, 0.002, np.zeros((2, 1)), np.zeros(2), np.zeros(2))
+    _zmp_tick(c, J, np.zeros((6, 1)), W, 0, 0.002, 0.002, np.zeros((2, 1)), np.zeros(2), np.zeros(2))
 
 
 class ExecutedZmpConstraint(InequalityConstraint):
@@ -373,7 +374,8 @@ class ExecutedZmpConstraint(InequalityConstraint):
         # slack s_i = b_i − n_i·c_xy of the CoM to each shrunk edge; rows a_i = (−n_i, −s_i/h) on J, e_i/(m h) on
         # A_G,ang; last row −c̈_z ≤ (1 − ρ) g ⇔ −J_z v ≤ (1 − ρ) g dt + (r_z − Δc_z)/dt (compiled, one call)
         dt = float(dt)
-        _zmp_tick(config.com, J, Ag, self._mem, self._slot, self._rec_valid, self._rec_dt, dt, C, l, u)
+        _zmp_tick(config.com, J, Ag, self._mem, self._slot, self._rec_dt if self._rec_valid else math.nan, dt, C, l,
+                  u)
         self._dt_now = dt
         self._have_now = True
         self._now_in_rec = False

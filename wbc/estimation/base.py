@@ -63,11 +63,13 @@ one update costs one ``forwardKinematics`` with velocities and a few 3-vectors.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constants import SIDES
 from wbc.estimation.attitude import ComplementaryAttitudeFilter
 from wbc.estimation.contact import GRAVITY_VECTOR, ContactDetector, FootForceSensor
@@ -82,20 +84,23 @@ _ST_ACC, _ST_ZV, _ST_HAVE_ZV, _ST_YAW, _ST_FZ, _ST_CONTACT, _ST_TURNING, _ST_FRO
     0, 3, 6, 7, 9, 11, 13, 15, 17)
 _ST_SIZE = 18
 _PRM_SIZE = 38
-_LOADED: list = []  # [True] once _fuse_kernel is loaded in this process
+#: [update's compiled call] once loaded in this process (wbc.compiled.specialise for the types of update's arguments,
+#: the sensors' inputs and Kalman covariance of any strides; with kernel type checks on, the dispatcher)
+_FUSE: list = []
+#: the estimator's own arrays that :func:`_fuse_kernel` reads and updates in place (built once)
+_FuseState = namedtuple("_FuseState", "st anchor axis arot wrench sole_rot sole_pos prm q v")
 
 
 @nb.njit(cache=True)
-def _fuse_kernel(ft, accel, gyro, rot0, pos0, rot1, pos1, vel0, vel1, R, gains, bias, omega, kf_p, kf_v, kf_P, st,
-                 anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v):
-    """:meth:`FloatingBaseEstimator.update` after the leg kinematics (module docstring, steps 2-4, in its order):
-    the soles' base-frame placements ``rot0``/``pos0`` (left), ``rot1``/``pos1`` (right) and their
-    ``LOCAL_WORLD_ALIGNED`` velocities ``vel0``, ``vel1`` (6,: linear, angular) from Pinocchio; updates in place the
-    attitude (``R``, ``bias``, ``omega``; ``gains``: :attr:`ComplementaryAttitudeFilter.gains`), the Kalman
-    filter (``kf_p``, ``kf_v``, ``kf_P``), the state ``st`` (``_ST_*`` slots), the anchors (``anchor``, ``axis``,
-    ``arot``: (2, 3), (2, 3), (2, 3, 3)), the wrenches ``wrench`` (2, 6), the soles' world placements
-    (``sole_rot`` (2, 3, 3), ``sole_pos`` (2, 3)) and ``q[0:3]``, ``v[0:6]``. ``prm``: the estimator's numbers
-    (:meth:`FloatingBaseEstimator._pack`)."""
+def _fuse_kernel(ft, accel, gyro, legs, filters, state):
+    """:meth:`FloatingBaseEstimator.update` after the leg kinematics ``legs`` (module docstring, steps 2-4, in its
+    order): updates in place the attitude (``R``, ``bias``, ``omega``) and the Kalman filter (``kf_p``, ``kf_v``,
+    ``kf_P``) of ``filters`` and, of ``state`` (:data:`_FuseState`), ``st`` (``_ST_*`` slots), the anchors, the
+    wrenches, the soles' world placements and ``q[0:3]``, ``v[0:6]``. ``legs``, ``filters``: plain tuples of the
+    names below (built per sample: cheaper than namedtuples)."""
+    rot0, pos0, rot1, pos1, vel0, vel1 = legs
+    R, gains, bias, omega, kf_p, kf_v, kf_P = filters
+    st, anchor, axis, arot, wrench, sole_rot, sole_pos, prm, q, v = state
     dt, beta, alpha_turn, turn_rate, heading_weight = prm[0], prm[1], prm[2], prm[3], prm[4]
     has_ground, ground_height, handover, end_share = prm[5] != 0.0, prm[6], prm[7] != 0.0, prm[8]
     g_z = prm[19]
@@ -638,6 +643,8 @@ class FloatingBaseEstimator:
         self._chains = _sole_chains(model, self._frame_ids) if self._q_slice else None
         self._sole_rot, self._sole_pos = np.zeros((2, 3, 3)), np.zeros((2, 3))
         self._prm = np.zeros(_PRM_SIZE)
+        self._state = _FuseState(self._st, self._anchor, self._axis, self._arot, self.wrench, self._sole_rot,
+                                 self._sole_pos, self._prm, self.q, self.v)
         self._pack()
         self._warm_up()
 
@@ -668,20 +675,20 @@ class FloatingBaseEstimator:
 
     def _warm_up(self) -> None:
         """Load :func:`_fuse_kernel` (on-disk cache) for the argument types of :meth:`update`, on copies."""
-        if _LOADED:
+        if _FUSE:
             return
         model, data = self.model, self.model.createData()
         pin.forwardKinematics(model, data, self._qk, self._vk)
         X = [pin.updateFramePlacement(model, data, f) for f in self._frame_ids]
         vel = [pin.getFrameVelocity(model, data, f, pin.LOCAL_WORLD_ALIGNED).vector for f in self._frame_ids]
-        z3 = np.zeros(3)
-        _fuse_kernel(np.zeros((2, 6)), z3, z3, X[0].rotation, X[0].translation, X[1].rotation, X[1].translation,
-                     vel[0], vel[1], np.eye(3), self.attitude.gains.copy(), np.zeros(3), np.zeros(3), np.zeros(3),
-                     np.zeros(3), np.eye(2), self._st.copy(), self._anchor.copy(), self._axis.copy(),
-                     self._arot.copy(), np.zeros((2, 6)), np.zeros((2, 3, 3)), np.zeros((2, 3)), self._prm.copy(),
-                     self.q.copy(), self.v.copy())
+        legs = (X[0].rotation, X[0].translation, X[1].rotation, X[1].translation, vel[0], vel[1])
+        state = _FuseState(*(a.copy() for a in self._state))
+        for k in (1, 2):  # contiguous sensor inputs and covariance, then strided ones
+            ft, accel, gyro = np.zeros((2, 6 * k))[:, ::k], np.zeros(3 * k)[::k], np.zeros(3 * k)[::k]
+            filters = (np.eye(3), self.attitude.gains.copy(), *np.zeros((4, 3)), np.eye(2, 2 * k)[:, ::k])
+            _fuse_kernel(ft, accel, gyro, legs, filters, state)
         _lowpass_kernel(np.zeros(1), np.zeros(1), np.zeros(1), 0.5, 1.0)
-        _LOADED.append(True)
+        _FUSE.append(_fuse_kernel if CHECK_TYPES else specialise(_fuse_kernel, ft, accel, gyro, legs, filters, state))
 
     def reset(self, q0, v0=None) -> None:
         """Start at configuration ``q0`` (nq,) (it defines the world frame of the odometry: its base position and
@@ -765,9 +772,9 @@ class FloatingBaseEstimator:
         prm[11:15] = kf.Q.ravel()
         prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
         # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
-        _fuse_kernel(ft, accel, gyro, Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr,
-                     att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P, st, self._anchor,
-                     self._axis, self._arot, self.wrench, self._sole_rot, self._sole_pos, self._prm, q, v)
+        legs = (Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr)
+        filters = (att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P)
+        _FUSE[0](ft, accel, gyro, legs, filters, self._state)
         s = st.tolist()
         object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
         contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.formulations.idkernel import output_violations
+from wbc.compiled import CHECK_TYPES, specialise
+from wbc.formulations.idkernel import IDOutputBuffers, output_inputs, output_violations
 
 __all__ = ["IDOutputCheck", "nonfinite_references"]
 
@@ -34,6 +35,8 @@ class IDOutputCheck:
         self._friction, self._active = np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_)
         self._out = np.zeros((2 * nc + 2, 2))
         self._no_joints = np.zeros(0, np.int64)
+        self._buffers = IDOutputBuffers(force_lb, force_ub, self._friction, self._active, self._out)
+        self._kernel = None  # violations' compiled call, specialised at its first call
 
     def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
         """[(constraint name, violation in its units)] of the solution ``sol`` (an
@@ -47,8 +50,14 @@ class IDOutputCheck:
             active[k] = c.active
         tl = self.torque_limits
         joints = self._no_joints if relaxed or not tl.joints.size else tl.joints
-        status = output_violations(sol.dv, sol.forces, sol.tau, self.force_lb, self.force_ub, friction, active,
-                                   joints, tl.limits, float(sol.dynamics_residual), h, tol, out)
+        args = (sol.dv, sol.forces, sol.tau, float(sol.dynamics_residual), h, joints, tl.limits, tol, self._buffers)
+        kernel = self._kernel
+        if kernel is None:  # for a solution and h of any strides (wbc.compiled.specialise; with kernel type checks on,
+            # the dispatcher); the torque limits' arrays and the buffers are of fixed types
+            dv, f, tau, h_any = output_inputs(8, 1, strided=True)  # (types only: any sizes)
+            kernel = self._kernel = output_violations if CHECK_TYPES else specialise(
+                output_violations, dv, f, tau, args[3], h_any, *args[5:])
+        status = kernel(*args)
         if status <= 0:
             return None if status < 0 else []
         found = []  # (scaled, name, violation)

@@ -29,14 +29,14 @@ import numpy as np
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
-from wbc.constraints.joint_acceleration_bounds import joint_bounds_kernel
+from wbc.constraints.joint_acceleration_bounds import JointRange, joint_bounds_kernel
 from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
 __all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
            "output_violations", "contact_views", "task_cost", "PROJECT_CONTACT_RHS", "IDTaskRows", "IDDynamics",
-           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork"]
+           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs"]
 
 #: the arguments of :func:`id_assemble`, one namedtuple per group of its arguments (numba takes them as tuples):
 #: the stacked task rows of :func:`task_cost`
@@ -51,6 +51,9 @@ IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
 IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
 #: the assembly's workspace (:func:`id_assemble`)
 IDAssemblyWork = namedtuple("IDAssemblyWork", "Hw gw gram gram_y jlo jhi")
+#: the output check's (:func:`output_violations`) bounds on the corner forces, the contacts' friction rows and
+#: activity, and its results
+IDOutputBuffers = namedtuple("IDOutputBuffers", "lbf ubf friction active out")
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -272,7 +275,8 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
         return PROJECT_CONTACT_RHS
     torque_limit_rows(M, h, JcT, vrows, lim, C, l, u, 0)
     if par[PAR_JOINT_LIMITS] != 0.0:
-        joint_bounds_kernel(q, v, iq, iv, qmin, qmax, vmax, par[PAR_BRAKING], dt, jlo, jhi, par[PAR_SPEED_HORIZON])
+        joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), par[PAR_BRAKING], dt, par[PAR_SPEED_HORIZON],
+                            jlo, jhi)
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
@@ -280,17 +284,19 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
 
 
 @nb.njit(cache=True, nogil=True)
-def output_violations(dv, f, tau, lbf, ubf, friction, active, joints, limits, residual, h, tol, out):
+def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
     """The output check of a command (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) in one call:
-    dv (nv,), corner forces f (12 n_c,) with their bounds lbf, ubf (12 n_c,), torques tau (nv − 6,), the contacts'
-    (n_c, 16, 12) friction rows and (n_c,) activity, the limited joints (k,) int64 (into τ) and their limits (k,)
-    (k = 0: no torque check), the dynamics residual (N, N·m) and h (nv,). Writes (scaled violation, violation in
-    the constraint's units) into out (2 n_c + 2, 2): row 2i the force bounds of contact i, row 2i + 1 its friction
+    dv (nv,), corner forces f (12 n_c,), torques tau (nv − 6,), the dynamics residual (N, N·m) and h (nv,), the
+    limited joints (k,) int64 (into τ) and their limits (k,) (k = 0: no torque check); of ``buffers``
+    (:data:`IDOutputBuffers`) the forces' bounds lbf, ubf (12 n_c,), the contacts' (n_c, 16, 12) friction rows and
+    (n_c,) activity. Writes (scaled violation, violation in the constraint's units) into ``buffers.out``
+    (2 n_c + 2, 2): row 2i the force bounds of contact i, row 2i + 1 its friction
     rows (−inf when inactive), row 2 n_c the torque limits (−inf without a check), the last the floating-base rows.
 
     Returns:
         -1 when an entry of dv, f or tau is not finite (out not written), 1 when a scaled violation exceeds tol, else 0.
     """
+    lbf, ubf, friction, active, out = buffers
     for a in (dv, f, tau):
         for i in range(a.shape[0]):
             if not np.isfinite(a[i]):
@@ -356,7 +362,7 @@ def load_id_kernels() -> None:
     :func:`task_cost`, :func:`id_command`, :func:`contact_rows_well_conditioned` — on arrays of the types of a real
     call (M column-major as a :class:`~wbc.state.DynamicsState`'s), at construction of an
     :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
-    nv = 7
+    nv = 8
     Jt, R, pidx = np.zeros((1, nv)), np.zeros((7, 2)), np.zeros(1, np.int64)
     task_cost(Jt, R, pidx, np.zeros(2), np.zeros(nv), 1e-6, np.empty((nv, nv)), np.empty(nv),
               np.zeros((nv + 12, nv + 12)), np.zeros(nv + 12))
@@ -364,5 +370,14 @@ def load_id_kernels() -> None:
     id_command(np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros((nv, 12)), np.zeros((1, 6, 12)),
                np.zeros((1, 3, 3)), active, np.zeros(nv + 12), np.empty(nv - 6), np.empty((1, 6)))
     contact_rows_well_conditioned(np.ones((1, 6, nv)), active, 1e-2, np.zeros((6, 6)), np.zeros(6))
-    output_violations(np.zeros(nv), np.zeros(12), np.zeros(nv - 6), np.zeros(12), np.zeros(12), np.zeros((1, 16, 12)),
-                      active, np.zeros(1, np.int64), np.ones(1), 0.0, np.zeros(nv), 1e-6, np.zeros((4, 2)))
+    buffers = IDOutputBuffers(np.zeros(12), np.zeros(12), np.zeros((1, 16, 12)), active, np.zeros((4, 2)))
+    for dv, f, tau, h in (output_inputs(nv, 1), output_inputs(nv, 1, strided=True)):
+        output_violations(dv, f, tau, 0.0, h, np.zeros(1, np.int64), np.ones(1), 1e-6, buffers)
+
+
+def output_inputs(nv: int, nc: int, strided: bool = False) -> tuple:
+    """Zeros of the types of :func:`output_violations`' solution inputs (dv (nv,), f (12 nc,), tau (nv − 6,), h
+    (nv,)): contiguous, or strided (numba layout 'A': the version :class:`~wbc.formulations.id_output_check.IDOutputCheck`
+    calls, which reads arrays of any strides; nv ≥ 8, as numpy flags a strided array of one entry contiguous)."""
+    k = 2 if strided else 1
+    return tuple(np.zeros(k * n)[::k] for n in (nv, 12 * nc, nv - 6, nv))

@@ -76,6 +76,13 @@ class DcmStabilizer:
         self.last_cmp = np.zeros(2)
         self.saturated = False
 
+    def law(self) -> tuple:
+        """This stabilizer's numbers for :func:`stabilizer_kernel`: (omega, k_p, k_i, k_z, i_max, dt, cmp_offset,
+        integral, last_cop, last_cmp), the arrays themselves (the kernel updates them); a plain tuple, built per
+        tick (cheaper than a namedtuple)."""
+        return (self.omega, self.k_p, self.k_i, self.k_z, self.i_max, self.dt, self.cmp_offset, self.integral,
+                self.last_cop, self.last_cmp)
+
     def __call__(self, c: np.ndarray, cd: np.ndarray, xi_ref: np.ndarray, p_ref: np.ndarray,
                  hull, p_meas: np.ndarray | None = None) -> np.ndarray:
         """Horizontal CoM acceleration (2,) (m/s²) from CoM c (2,), ċ (2,), references ξ_ref, p_ref (2,) and the
@@ -213,19 +220,20 @@ def support_kernel(xy, tx0, ty0, tx1, ty1, ns, px, py):
 
 
 @nb.njit(cache=True)
-def stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, k, omega, k_p, k_i, k_z, p_meas, i_max, dt,
-                       cmp_offset, integral, last_cop, last_cmp):
+def stabilizer_kernel(xy, ns, pos0, pos1, c, cd, ref_dcm, ref_zmp, p_meas, law):
     """:meth:`DcmStabilizer.acceleration`, its support area the hull of :func:`support_kernel` (the
     ``ns`` soles' corners ``xy`` (4, 3 ns) in their rotated frames, the soles at ``pos0``, ``pos1`` (3,); ``ns`` = 0:
-    no projection), on the CoM ``c`` and its velocity ``cd`` (3,) and the references ``ref_dcm[k]``, ``ref_zmp[k]``
-    (2,), the measured CoP ``p_meas`` (2,) fed back with gain ``k_z`` (none when k_z ≤ 0 or ``p_meas`` is NaN), with
-    the same arithmetic element by element. Writes ``integral``, ``last_cop``, ``last_cmp`` (2,) in place.
-    Returns (number of hull vertices m (3 when ns = 0; m < 3: nothing written), c̈_x, c̈_y (m/s²), saturated)."""
+    no projection), on the CoM ``c`` and its velocity ``cd`` (3,) and the references ``ref_dcm``, ``ref_zmp`` (2,),
+    the measured CoP ``p_meas`` (2,) fed back with gain ``k_z`` (none when k_z ≤ 0 or ``p_meas`` is NaN), with the
+    same arithmetic element by element; ``law``: the stabilizer's gains and state (:meth:`DcmStabilizer.law`). Writes
+    ``integral``, ``last_cop``, ``last_cmp`` (2,) in place. Returns (number of hull vertices m (3 when ns = 0; m < 3:
+    nothing written), c̈_x, c̈_y (m/s²), saturated)."""
+    omega, k_p, k_i, k_z, i_max, dt, cmp_offset, integral, last_cop, last_cmp = law
     cx, cy, cdx, cdy = c[0], c[1], cd[0], cd[1]
     w = omega
-    ex, ey = cx + cdx / w - ref_dcm[k, 0], cy + cdy / w - ref_dcm[k, 1]
+    ex, ey = cx + cdx / w - ref_dcm[0], cy + cdy / w - ref_dcm[1]
     ix, iy = integral[0], integral[1]
-    px, py = ref_zmp[k, 0] + k_p * ex + k_i * ix, ref_zmp[k, 1] + k_p * ey + k_i * iy
+    px, py = ref_zmp[0] + k_p * ex + k_i * ix, ref_zmp[1] + k_p * ey + k_i * iy
     if k_z > 0 and p_meas[0] == p_meas[0]:
         px, py = px + k_z * (px - p_meas[0]), py + k_z * (py - p_meas[1])
     m = 3

@@ -227,8 +227,8 @@ class WalkPlan:
             fst[1:] -= skip
             new_seg = ZmpSegments(fst, cnt, new_seg.start, new_seg.end, new_seg.phase)
         return _assemble(
-            new_seg, phases, steps, c[:2], cd[:2], self.com_height, self.omega, self.dt,
-            *feet, support, self.sole_length, self.sole_width, self.t_offset + k * self.dt,
+            new_seg, phases, steps, c[:2], cd[:2], self.com_height, self.omega, self.dt, feet, support,
+            length=self.sole_length, width=self.sole_width, t_offset=self.t_offset + k * self.dt,
             check_start=check_start,
         )
 
@@ -254,10 +254,12 @@ def _readonly(*arrays: np.ndarray) -> None:
 
 def _assemble(seg: ZmpSegments, phases: list[Phase], footsteps: tuple[Footstep, ...] | list[Footstep],
               com_xy: np.ndarray, com_vel_xy: np.ndarray, com_height: float, omega: float, dt: float,
-              left: np.ndarray, right: np.ndarray, left_vel: np.ndarray, right_vel: np.ndarray,
-              support: np.ndarray, length: float, width: float, t_offset: float, *,
+              feet: tuple, support: np.ndarray, *, length: float, width: float, t_offset: float,
               check_start: bool = True) -> WalkPlan:
-    """Solve the CoM for ``seg`` from the given state, check the solved ZMP start point, build the plan."""
+    """Solve the CoM for ``seg`` from the given state, check the solved ZMP start point, build the plan. ``feet``:
+    the soles' samples (left, right, left_vel, right_vel); ``length``, ``width``: the sole (m); ``t_offset``: the
+    plan's start time (s)."""
+    left, right, left_vel, right_vel = feet
     lipm = plan_lipm(seg.first, seg.count, seg.start, seg.end, com_xy, com_vel_xy, omega, dt)
     a0 = lipm.start[0]
     ax, ay = float(a0[0]), float(a0[1])
@@ -548,4 +550,4 @@ def plan_walk(
     support = np.repeat(np.array([ph.support for ph in phases], dtype=np.int8), counts)
     _readonly(lp, lv, rp, rv, support)
     return _assemble(seg, phases, steps, c[:2], cd[:2], float(c[2]), lipm_omega(float(c[2]), g), dt,
-                     lp, rp, lv, rv, support, length, width, 0.0, check_start=check_start)
+                     (lp, rp, lv, rv), support, length=length, width=width, t_offset=0.0, check_start=check_start)

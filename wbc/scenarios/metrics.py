@@ -130,13 +130,13 @@ def stance_ground_z(left: np.ndarray, right: np.ndarray, support: np.ndarray, do
 
 
 def executed_multibody_zmp(model, mass: float, dt: float, com: np.ndarray, q: np.ndarray, v: np.ndarray,
-                           left: np.ndarray, right: np.ndarray, support: np.ndarray, double: int = 0,
+                           left: np.ndarray, right: np.ndarray, support: np.ndarray, *, double: int = 0,
                            left_stance: int = 1) -> np.ndarray:
     """Multi-body ZMP (N, 2) m, world, of an executed kinematic run, as the walk and balance summaries judge it:
     :func:`executed_zmp` on the stance plane (:func:`stance_ground_z`) with the centroidal angular momentum of
     every (q_k, v_k) (:func:`executed_angular_momentum`). ``com`` (N, 3) m, ``q`` (N, nq), ``v`` (N, nv), ``left``
-    and ``right`` (N, 4, 4) sole poses, ``support`` (N,) codes (``double``, ``left_stance``, else right stance),
-    ``mass`` kg, ``dt`` s."""
+    and ``right`` (N, 4, 4) sole poses, ``support`` (N,) codes (keyword-only ``double``, ``left_stance``, else right
+    stance), ``mass`` kg, ``dt`` s."""
     ground = stance_ground_z(left, right, support, double, left_stance)
     return executed_zmp(com, dt, ground, angular_momentum=executed_angular_momentum(model, q, v), mass=mass)
 

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from time import perf_counter
+from typing import NamedTuple
 
 import mujoco
 import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import InvalidInputError, SimulationError
 from wbc.formulations.velocity_kernel import all_finite
@@ -124,30 +125,44 @@ class _FootWrenches:
         self.sole_body = [int(sim.sole_placements[s][0]) for s in sides]
         self.sole_offset = [sim.sole_placements[s][1].translation.tolist() for s in sides]  # in the body's frame
         self.root = [int(sim.model.body_rootid[b]) for b in self.sole_body]  # subtree whose CoM cfrc_ext is about
-        # the same as arrays for the kernel (``ends``: where each foot's bodies end in ``rows``)
+        # the same as arrays for the kernel
         self.rows = self.rows.astype(np.int64)
-        self.ends = np.array([len(sim.foot_bodies["left"]), len(self.rows)], dtype=np.int64)
-        self.sole_body_arr = np.array(self.sole_body, dtype=np.int64)
-        self.sole_offset_arr = np.array(self.sole_offset, dtype=float)
-        self.root_arr = np.array(self.root, dtype=np.int64)
+        self.feet = _FeetBodies(self.rows, np.array([len(sim.foot_bodies["left"]), len(self.rows)], dtype=np.int64),
+                               np.array(self.sole_body, dtype=np.int64), np.array(self.sole_offset, dtype=float),
+                               np.array(self.root, dtype=np.int64))
         self.single_stage = int(sim.model.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4)
         _warm_up()
+        # the compiled call's arguments are MuJoCo's arrays, this object's and the log's rows, of fixed types
+        # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+        d = sim.data
+        self._kernel = _foot_wrench_kernel if CHECK_TYPES else specialise(
+            _foot_wrench_kernel, d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.feet, np.zeros((2, 6)),
+            np.zeros((2, 3)))
 
     def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
         model, d = self.sim.model, self.sim.data
         if not (self.single_stage and d.flg_rnepost):
             mujoco.mj_rnePostConstraint(model, d)
-        _foot_wrench_kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.rows, self.ends, self.sole_body_arr,
-                            self.sole_offset_arr, self.root_arr, out_wrench, out_pos)
+        self._kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.feet, out_wrench, out_pos)
+
+
+class _FeetBodies(NamedTuple):
+    """The feet of :func:`_foot_wrench_kernel` (left, right) in MuJoCo's model."""
+
+    rows: np.ndarray         #: int64 the bodies rigidly attached to each foot, the left's then the right's
+    ends: np.ndarray         #: (2,) int64 where each foot's bodies end in ``rows``
+    sole_body: np.ndarray    #: (2,) int64 the body of each sole
+    sole_offset: np.ndarray  #: (2, 3) the sole origin in its body's frame (m)
+    root: np.ndarray         #: (2,) int64 the root body of the subtree whose CoM ``cfrc_ext`` is about
 
 
 @nb.njit(cache=True)
-def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, rows, ends, sole_body, sole_offset, root, out_wrench,
-                        out_pos):
-    """:class:`_FootWrenches`' arithmetic after ``mj_rnePostConstraint``: per side i (bodies
-    ``rows[ends[i-1]:ends[i]]``, sole on body ``sole_body[i]`` at ``sole_offset[i]`` in its frame, ``cfrc_ext`` about
-    the CoM of the subtree of ``root[i]``), the summed (torque, force) moved to the sole origin → ``out_wrench[i]``
-    (force, moment), the sole origin → ``out_pos[i]``."""
+def _foot_wrench_kernel(cfrc_ext, xmat, xpos, subtree_com, feet, out_wrench, out_pos):
+    """:class:`_FootWrenches`' arithmetic after ``mj_rnePostConstraint``: per side i (``feet``: :class:`_FeetBodies`;
+    bodies ``rows[ends[i-1]:ends[i]]``, sole on body ``sole_body[i]`` at ``sole_offset[i]`` in its frame,
+    ``cfrc_ext`` about the CoM of the subtree of ``root[i]``), the summed (torque, force) moved to the sole origin →
+    ``out_wrench[i]`` (force, moment), the sole origin → ``out_pos[i]``."""
+    rows, ends, sole_body, sole_offset, root = feet
     start = 0
     for i in range(2):
         t0 = t1 = t2 = f0 = f1 = f2 = 0.0
@@ -179,8 +194,9 @@ def _warm_up() -> None:
     """Load :func:`_foot_wrench_kernel` and the finiteness test of the state (on-disk cache) once per process."""
     all_finite(np.zeros(2))
     i2 = np.zeros(2, dtype=np.int64)
-    _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)), i2,
-                        np.ones(2, np.int64), i2, np.zeros((2, 3)), i2, np.zeros((2, 6)), np.zeros((2, 3)))
+    _foot_wrench_kernel(np.zeros((2, 6)), np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)),
+                        _FeetBodies(i2, np.ones(2, np.int64), i2, np.zeros((2, 3)), i2), np.zeros((2, 6)),
+                        np.zeros((2, 3)))
 
 
 def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float = 0.0, viewer=None,

@@ -153,7 +153,7 @@ class JumpScenario:
     """``count`` jumps (module docstring), each following a :class:`~wbc.gait.jump_plan.JumpPlan`
     (attribute ``jump_plan``).
 
-    Args:
+    Args (``height``, ``forward``, ``count`` positional or keyword, the others keyword-only):
         height: apex CoM rise above take-off (m). forward: foot displacement per jump along world x (m).
         count: number of jumps (int ≥ 1). crouch, extension, t_crouch, tuck, w_land: see
             :class:`~wbc.gait.jump_plan.JumpPlan`. t_ramp: landing force ramp (s). settle: stance after the
@@ -188,7 +188,7 @@ class JumpScenario:
     name = "jump"
     needs_id = True
 
-    def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, crouch: float = 0.1,
+    def __init__(self, height: float = 0.08, forward: float = 0.0, count: int = 1, *, crouch: float = 0.1,
                  extension: float = 0.0, t_crouch: float = 0.6, tuck: float = 0.14, t_ramp: float = 0.06,
                  settle: float = 1.5, t_start: float = 0.2, w_land: float = 8.0, touchdown_height: float = 0.005,
                  landing_force: float | None = None, min_hop: float | None = None,

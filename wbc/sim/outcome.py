@@ -40,12 +40,13 @@ velocities of the new state) and decides:
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import mujoco
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.robot_inspect import upper_body_link
 
 __all__ = ["OutcomeMonitor", "route_mujoco_warnings", "MUJOCO_WARNINGS", "FALL_HEIGHT_DROP", "FALL_TILT_DEG",
@@ -77,18 +78,38 @@ def route_mujoco_warnings() -> None:
         mujoco.set_mju_user_warning(_on_mujoco_warning)
 
 
+class _Checks(NamedTuple):
+    """The model of :func:`_tick_kernel`'s checks and their state (:class:`OutcomeMonitor`'s arrays, built once)."""
+
+    qvel_idx: np.ndarray          #: (nv − 6,) int64 MuJoCo dof of Pinocchio's v[6 + i]
+    vlim: np.ndarray              #: (nv − 6,) joint speed limits (rad/s, inf: none)
+    tilt_ids: np.ndarray          #: (2,) int64 bodies whose tilt is checked (pelvis, torso)
+    up_local: np.ndarray          #: (2, 3) their body-fixed axis that points up at the start
+    is_ground: np.ndarray         #: (ngeom + 1,) bool: the ground's geoms
+    geom_side: np.ndarray         #: (ngeom + 1,) int64 foot side of each geom (0 left, 1 right, −1 none)
+    is_hfield: np.ndarray         #: (ngeom + 1,) bool: heightfield ground geoms
+    sole_body: np.ndarray         #: (2,) int64 the body of each sole
+    corners_body: np.ndarray      #: (2, 3, 4) the sole corners in that body's frame (m)
+    sole_normal_body: np.ndarray  #: (2, 3) the sole normal in that body's frame
+    cos_strike: float             #: cosine of the largest angle of a foot contact's normal to its sole's
+    ref: np.ndarray               #: (2, 4, 2) corner reference positions (xy) of the current support phase
+    state: np.ndarray             #: (6,) int64 [n_known (2), in_support (2), off_ticks (2)] of the landing slide
+    fo: np.ndarray                #: (5,) out: the float results
+
+
 @nb.njit(cache=True)
-def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos, frame, is_ground, geom_side,
-                 is_hfield, sole_body, corners_body, sole_normal_body, cos_strike, ref, state, fo, io):
+def _tick_kernel(qvel, xmat, xpos, geom, pos, frame, checks, io):
     """One tick of :meth:`OutcomeMonitor.update`'s arithmetic (the checks' numbers; the verdicts stay in Python).
 
-    ``geom`` (ncon, 2), ``pos`` (ncon, 3), ``frame`` (ncon, 9): MuJoCo's contacts. ``ref`` (2, 4, 2) and ``state``
-    [n_known (2), in_support (2), off_ticks (2)] (the landing slide's per-side state) are updated in place.
+    ``geom`` (ncon, 2), ``pos`` (ncon, 3), ``frame`` (ncon, 9): MuJoCo's contacts. ``checks``: :class:`_Checks`,
+    whose ``ref`` and ``state`` (the landing slide's per-side state) are updated in place.
     Writes ``fo`` (5,) = [worst |q̇|/q̇_max, cos tilt pelvis, cos tilt torso, slide travel left, right (NaN: none)]
     and ``io`` (≥ 8 + 3 ncon, int64) = [worst joint, exceedances, n bad, on a heightfield, n strike candidates, new
     support left, right, foot contacts, the bad geoms (n bad), the strike candidate contacts (n candidates), then
     from index 8 + 2 ncon the side of each contact (ncon): 0 left or 1 right (a foot on the ground), else -1].
     """
+    (qvel_idx, vlim, tilt_ids, up_local, is_ground, geom_side, is_hfield, sole_body, corners_body, sole_normal_body,
+     cos_strike, ref, state, fo) = checks
     ncon = geom.shape[0]
     io[:8] = 0
     # -- joint speed (numpy's argmax: the first maximum, or the first NaN)
@@ -212,11 +233,18 @@ def _tick_kernel(qvel, qvel_idx, vlim, xmat, xpos, tilt_ids, up_local, geom, pos
 def _warm_up() -> None:
     """Load :func:`_tick_kernel` (on-disk cache) once per process."""
     i1 = np.zeros(2, dtype=np.intp)
-    _tick_kernel(np.zeros(3), i1, np.ones(2), np.zeros((3, 9)), np.zeros((3, 3)), i1, np.zeros((2, 3)),
-                 np.zeros((1, 2), dtype=np.int32), np.zeros((1, 3)), np.zeros((1, 9)), np.zeros(3, dtype=bool),
-                 np.full(3, -1, dtype=np.int64), np.zeros(3, dtype=bool), np.zeros(2, dtype=np.int64),
-                 np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5, np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64),
-                 np.zeros(5), np.zeros(11, dtype=np.int64))
+    checks = _Checks(i1, np.ones(2), i1, np.zeros((2, 3)), np.zeros(3, dtype=bool), np.full(3, -1, dtype=np.int64),
+                     np.zeros(3, dtype=bool), np.zeros(2, dtype=np.int64), np.zeros((2, 3, 4)), np.zeros((2, 3)), 0.5,
+                     np.zeros((2, 4, 2)), np.zeros(6, dtype=np.int64), np.zeros(5))
+    for ncon, strided in ((1, False), (2, True)):
+        _tick_kernel(np.zeros(3), np.zeros((3, 9)), np.zeros((3, 3)), *_contact_arrays(ncon, strided), checks,
+                     np.zeros(8 + 3 * ncon, dtype=np.int64))
+
+
+def _contact_arrays(ncon: int, strided: bool = False) -> tuple:
+    """(geom (ncon, 2) int32, pos (ncon, 3), frame (ncon, 9)) of zeros, as MuJoCo's contact fields: strided views of
+    its contact structs (numba layout 'A') when there are contacts, C-contiguous arrays when there are none."""
+    return tuple(np.zeros((ncon, n + strided), dtype)[:, :n] for n, dtype in ((2, np.int32), (3, float), (9, float)))
 
 
 class OutcomeMonitor:
@@ -298,7 +326,15 @@ class OutcomeMonitor:
         self._fo = np.empty(5)  # the kernel's outputs (io grows with the contact count)
         self._io = np.zeros(8 + 3 * 64, dtype=np.int64)
         self._views_of = None  # the MjData whose qvel, xmat, xpos views are kept in _qvel, _xmat, _xpos
+        self._checks = _Checks(self.qvel_idx, self.vlim, self.tilt_body_ids, self.up_local, self.is_ground,
+                               self.geom_side, self.is_hfield, self._sole_body_arr, self._corners_body_arr,
+                               self._sole_normal_arr, self.cos_strike, self._ref, self._state, self._fo)
         _warm_up()
+        # update's compiled call: MuJoCo's arrays (the contacts' strided, which reads the contiguous ones of a tick
+        # without contact too) and this object's, of fixed types (wbc.compiled.specialise; with kernel type checks
+        # on, the dispatcher)
+        self._kernel = _tick_kernel if CHECK_TYPES else specialise(
+            _tick_kernel, d.qvel, d.xmat, d.xpos, *_contact_arrays(2, strided=True), self._checks, self._io)
         # on terrain (stairs down) the base drop is measured over the ground under the feet (module docstring)
         self.on_terrain = getattr(sim, "terrain", None) is not None
         self.zf0 = self.support_height() if self.on_terrain else 0.0
@@ -325,10 +361,7 @@ class OutcomeMonitor:
         ncon = d.ncon
         if ints.shape[0] < 8 + 3 * ncon:
             ints = self._io = np.zeros(8 + 6 * ncon, dtype=np.int64)
-        _tick_kernel(self._qvel, self.qvel_idx, self.vlim, self._xmat, self._xpos, self.tilt_body_ids, self.up_local,
-                     con.geom, con.pos, con.frame, self.is_ground, self.geom_side, self.is_hfield, self._sole_body_arr,
-                     self._corners_body_arr, self._sole_normal_arr, self.cos_strike, self._ref, self._state, self._fo,
-                     ints)
+        self._kernel(self._qvel, self._xmat, self._xpos, con.geom, con.pos, con.frame, self._checks, ints)
         j, n_over, n_bad, hfield, n_cand, new_left, new_right, n_feet = ints[:8].tolist()
         worst, c_pelvis, c_torso, travel_left, travel_right = self._fo.tolist()
         # -- joint speed ---------------------------------------------------------------------------------------

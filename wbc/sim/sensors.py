@@ -42,13 +42,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import mujoco
 import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.constants import GRAVITY, SIDES
 from wbc.exceptions import InvalidInputError
 
@@ -212,12 +213,28 @@ def _child_link(pmodel: pin.Model, joint: int) -> str:
 _DRAWS_BUFFER = 4096  #: standard normal draws taken from the generator at once (≈ 170 ticks of all sensors)
 
 
+class _SensorLayout(NamedTuple):
+    """What :func:`_read_kernel` reads and writes besides the tick's inputs (:class:`PlantSensors`'s arrays, built at
+    each :meth:`PlantSensors.reset`)."""
+
+    enc: np.ndarray       #: (nj,) int64 index of each encoder in ``sensordata``
+    res: float            #: encoder resolution (rad per count)
+    walk_idx: np.ndarray  #: int64 indices in the 18-vector of the IMU bias walks' draws
+    imu_idx: np.ndarray   #: int64 indices in the 18-vector of the IMU white noise draws
+    ft_idx: np.ndarray    #: int64 indices in the 18-vector of the F/T white noise draws
+    imu_ft: np.ndarray    #: (18,) int64 index in ``sensordata`` of each entry of a sample (gyro, accel, 2 × F/T)
+    sample: np.ndarray    #: (18,) out: the IMU and F/T readings
+    bias: np.ndarray      #: (18,) the sensors' biases (updated by the bias walks)
+
+
 @nb.njit(cache=True)
-def _read_kernel(sd, enc, res, joint_q, imu_on, ft_on, z, scale, walk_idx, imu_idx, ft_idx, imu_ft, sample, bias):
+def _read_kernel(sd, joint_q, imu_on, ft_on, z, scale, lay):
     """:meth:`PlantSensors.read`'s arithmetic after the tick's standard normal draws ``z`` (``len(scale)`` of them),
-    element by element in its order: the encoders quantised (``enc`` (nj,) indices in ``sd``, ``res`` rad per count;
-    ``joint_q`` None: not sampled this tick), the draws scaled by ``scale``, the bias walks added to ``bias`` (18,),
-    the IMU and/or F/T readings ``sd[imu_ft] + bias`` plus their white noise written to ``sample`` (18,)."""
+    element by element in its order, on ``sd`` (MuJoCo's ``sensordata``) and ``lay`` (:class:`_SensorLayout`): the
+    encoders quantised (``joint_q`` None: not sampled this tick), the draws scaled by ``scale``, the bias walks added
+    to ``lay.bias``, the IMU and/or F/T readings ``sd[imu_ft] + bias`` plus their white noise written to
+    ``lay.sample``."""
+    enc, res, walk_idx, imu_idx, ft_idx, imu_ft, sample, bias = lay
     if joint_q is not None:
         for i in range(enc.size):
             joint_q[i] = np.rint(sd[enc[i]] / res) * res
@@ -246,9 +263,9 @@ def _read_kernel(sd, enc, res, joint_q, imu_on, ft_on, z, scale, walk_idx, imu_i
 def _warm_up() -> None:
     """Load :func:`_read_kernel` (on-disk cache) once per process, with and without the encoder sample."""
     i1, f18 = np.zeros(1, dtype=np.int64), np.zeros(18)
+    lay = _SensorLayout(i1, 1.0, i1[:0], i1[:0], i1[:0], np.zeros(18, dtype=np.int64), np.zeros(18), np.zeros(18))
     for joint_q in (np.zeros(1), None):
-        _read_kernel(f18, i1, 1.0, joint_q, True, True, np.zeros(24), np.zeros(0), i1[:0], i1[:0], i1[:0],
-                     np.zeros(18, dtype=np.int64), np.zeros(18), np.zeros(18))
+        _read_kernel(f18, joint_q, True, True, np.zeros(24), np.zeros(0), lay)
 
 
 @dataclass
@@ -326,6 +343,12 @@ class PlantSensors:
                                        self._sample[6:18].reshape(2, 6))
         self.reset()
         _warm_up()
+        # read's compiled calls, with and without the encoder sample: their arguments are this object's arrays and
+        # MuJoCo's sensordata, of fixed types (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+        args = (self.sim.data.sensordata, None, True, True, self._draws[:0], self._draw_sd[True, True], self._layout)
+        self._read = {False: _read_kernel, True: _read_kernel} if CHECK_TYPES else {
+            False: specialise(_read_kernel, *args), True: specialise(_read_kernel, args[0], self.readings.joint_q,
+                                                                     *args[2:])}
 
     def reset(self) -> None:
         """Restart the noise generator from ``seed`` and draw new initial biases. The noise levels of
@@ -367,6 +390,8 @@ class PlantSensors:
                          (False, True): ft_sd, (False, False): np.zeros(0)}
         # standard normal draws of the generator not used yet: _draws[_drawn:] (drawn in bulk by read)
         self._draws, self._drawn = np.zeros(_DRAWS_BUFFER), _DRAWS_BUFFER
+        self._layout = _SensorLayout(self._enc, self._res, self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft,
+                                    self._sample, self._bias)
 
     def read(self, t: float, data: mujoco.MjData | None = None) -> SensorReadings:
         """Sample the sensors at tick time ``t`` (s) from ``data.sensordata`` (call after ``mj_step1``/``mj_forward``)
@@ -380,9 +405,7 @@ class PlantSensors:
         self._k = k + 1
         if not (imu_on or ft_on):
             if enc_on:
-                _read_kernel(sd, self._enc, self._res, r.joint_q, False, False, self._draws,
-                             self._draw_sd[False, False], self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft,
-                             self._sample, self._bias)
+                self._read[True](sd, r.joint_q, False, False, self._draws, self._draw_sd[False, False], self._layout)
             return r
         scale = self._draw_sd[imu_on, ft_on]
         nz, pos, buf = len(scale), self._drawn, self._draws
@@ -393,6 +416,5 @@ class PlantSensors:
             pos = 0
         z = buf[pos:pos + nz]
         self._drawn = pos + nz
-        _read_kernel(sd, self._enc, self._res, r.joint_q if enc_on else None, imu_on, ft_on, z, scale,
-                     self._walk_idx, self._imu_idx, self._ft_idx, self._imu_ft, self._sample, self._bias)
+        self._read[enc_on](sd, r.joint_q if enc_on else None, imu_on, ft_on, z, scale, self._layout)
         return r

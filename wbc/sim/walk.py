@@ -97,8 +97,9 @@ def _warm_up() -> None:
     support_kernel(np.zeros((4, 6)), 0.0, 0.0, 0.0, 0.0, 2, 0.0, 0.0)
     _squares_finite(np.zeros(3), np.zeros(6), np.zeros(6))
     z3, z2, zr = np.zeros(3), np.zeros(2), np.zeros((1, 2))
-    stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr, zr, 0, 1.0, 1.0, 1.0, 0.0, z2.copy(), 1.0, 1.0, 1.0,
-                       z2.copy(), z2.copy(), z2.copy())
+    law = (1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, z2.copy(), z2.copy(), z2.copy())  # DcmStabilizer.law()
+    for p_meas in (z2.copy(), np.full(4, np.nan)[::2]):  # (_stabilize's specialisation: p_meas of any strides)
+        stabilizer_kernel(np.zeros((4, 6)), 2, z3, z3, z3, z3, zr[0], zr[0], p_meas, law)
 
 
 #: Fraction of the robot weight the measured normal force of a swing sole must reach to confirm the height test of

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.gait.blind import BLIND_CUT_LOAD, clip_band_range, roll_band
 from wbc.gait.stabilizer import closest_point_xy, stabilizer_kernel, support_kernel
 from wbc.geometry import convex_hull, polygon_margin
@@ -27,6 +28,8 @@ BLIND_SUPPORT_TAU = 0.2
 class WalkSupport:
     """The support area and the measured ground heights of :class:`wbc.sim.walk.WalkScenario` (its state: the
     switcher, the sole placements of the tick, the plan)."""
+
+    _stabilizer_kernel = None  # _stabilize's compiled call, specialised at its first call
 
     def _sole_corners(self, shrink: float) -> np.ndarray:
         """(4, 3) corners (m, sole frame) of the sole rectangle shrunk by ``shrink``, in the order of
@@ -134,10 +137,14 @@ class WalkSupport:
                 _, rot, pos1 = views["right"]
                 rt[:, 3:] = rot.T
             xy = self._sole_corners(self.cop_margin) @ rt
-        m, ax, ay, stab.saturated = stabilizer_kernel(
-            xy, ns, pos0, pos1, self._com_view, self._vcom_view, self.ref_dcm, self.ref_zmp, k, stab.omega, stab.k_p,
-            stab.k_i, stab.k_z, p_meas, stab.i_max, stab.dt, stab.cmp_offset, stab.integral, stab.last_cop,
-            stab.last_cmp)
+        args = (xy, ns, pos0, pos1, self._com_view, self._vcom_view, self.ref_dcm[k], self.ref_zmp[k], p_meas,
+                stab.law())
+        kernel = self._stabilizer_kernel
+        if kernel is None:  # its arguments' types are fixed (wbc.compiled.specialise; with kernel type checks on, the
+            # dispatcher), but the measured CoP's layout: specialised for any strides
+            kernel = self._stabilizer_kernel = stabilizer_kernel if CHECK_TYPES else specialise(
+                stabilizer_kernel, *args[:8], np.full(4, np.nan)[::2], args[9])
+        m, ax, ay, stab.saturated = kernel(*args)
         if m < 3:
             self._hull(self.cop_margin)  # raises InvalidInputError (collinear)
         return ax, ay

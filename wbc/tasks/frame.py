@@ -26,7 +26,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import NO_NRT, once_per_process
+from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
 from wbc.configuration import LOCAL, Configuration
 from wbc.exceptions import InvalidTargetError
 from wbc.geometry import as_se3
@@ -87,11 +87,12 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
 
 
 @nb.njit(cache=True, nogil=True)
-def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, rows, error_out, jac_out, drift_out):
+def _frame_rows_drift(rot, pos, target, j_local, vel, acc, rows, error_out, jac_out, drift_out):
     """:meth:`FrameTask.compute_with_drift_into` in one compiled pass (module docstring): the selected rows of the
     error, Jacobian and drift J̇v into error_out (k,), jac_out (k, nv), drift_out (k,), from Pinocchio's frame
     rotation ``rot`` (3, 3) and position ``pos`` (3,) (world), LOCAL Jacobian ``j_local`` (6, nv), LOCAL velocity
-    ``vel`` and acceleration at v̇ = 0 ``acc`` (6,) (linear then angular), and the target (R*ᵀ (3, 3), p* (3,)).
+    ``vel`` and acceleration at v̇ = 0 ``acc`` (6,) (linear then angular), and the ``target`` (R*ᵀ (3, 3), p* (3,))
+    (a plain tuple, built per call: cheaper than a namedtuple).
 
     Only SO(3) algebra is done here: log₃, Jlog₃ and the derivative of Jlog₃ along ω (Pinocchio's ``log3``,
     ``Jlog3``, ``Hlog3`` formulas, :func:`wbc.lie.log3_rate_into`), and the classical
@@ -99,6 +100,7 @@ def _frame_rows_drift(rot, target_rot_t, pos, target_pos, j_local, vel, acc, row
     LOCAL_WORLD_ALIGNED).
 
     """
+    target_rot_t, target_pos = target
     has_rot = False
     has_pos = False
     for a in range(rows.shape[0]):
@@ -140,8 +142,20 @@ def _warm_up() -> None:
     _frame_rows(rot, rot, jac, np.zeros(3), np.zeros(3), np.zeros(3), rows[:3], e[:3], j[:3])  # position only
     _frame_rows_log(rot, np.eye(3), jac, np.zeros(3), np.zeros(3), rows, e, j, np.empty(12))  # compiled log₃
     placement_log6_into(np.eye(4, 3), rot, np.zeros(3), np.empty(6))  # a contact's error (Pinocchio's views)
-    # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors
-    _frame_rows_drift(rot, np.eye(3), np.zeros(3), np.zeros(3), jac, np.zeros(6), np.zeros(6), rows, e, j, np.empty(6))
+    # the rows of compute_with_drift_into: a C-ordered target R*ᵀ, Pinocchio's (6,) motion vectors; then the target
+    # and outputs of any strides (FrameTask's specialised call)
+    _frame_rows_drift(rot, np.zeros(3), (np.eye(3), np.zeros(3)), jac, np.zeros(6), np.zeros(6), rows, e, j,
+                      np.empty(6))
+    _frame_rows_drift(rot, np.zeros(3), *_strided_drift_arrays(1))
+
+
+def _strided_drift_arrays(nv: int) -> tuple:
+    """Zeros of the types of the last seven arguments of :func:`_frame_rows_drift` as :class:`FrameTask` calls it
+    (its target and the caller's outputs strided: numba layout 'A', which reads arrays of any strides), for six rows
+    of a Jacobian of nv columns."""
+    j_local = np.zeros((6, nv))
+    return ((np.eye(3, 6)[:, ::2], np.zeros(6)[::2]), j_local, np.zeros(6), np.zeros(6), np.arange(6),
+            np.zeros(12)[::2], np.zeros((6, 2 * nv))[:, ::2], np.zeros(12)[::2])
 
 
 def frame_drift(rot: np.ndarray, target_rot_t: np.ndarray, velocity: pin.Motion, acceleration: pin.Motion,
@@ -150,7 +164,7 @@ def frame_drift(rot: np.ndarray, target_rot_t: np.ndarray, velocity: pin.Motion,
     velocity ``velocity`` and acceleration at v̇ = 0 ``acceleration`` (pin.Motion), against a target of transposed
     rotation ``target_rot_t`` (3, 3): m/s² (position rows, world axes), rad/s² (orientation rows, target axes)."""
     out = np.empty(rows.shape[0])
-    _frame_rows_drift(rot, target_rot_t, _NO_POSITION, _NO_POSITION, _NO_COLUMNS, velocity.vector,
+    _frame_rows_drift(rot, _NO_POSITION, (target_rot_t, _NO_POSITION), _NO_COLUMNS, velocity.vector,
                       acceleration.vector, rows, np.empty(rows.shape[0]), np.empty((rows.shape[0], 0)), out)
     return out
 
@@ -174,6 +188,8 @@ class FrameTask(Task):
         UnknownFrameError: no such frame.
         InvalidInputError: bad weights or gain; all weights zero.
     """
+
+    _drift_kernel = None  # compute_with_drift_into's compiled call, specialised at its first call
 
     def __init__(self, robot, frame: str, *, position_weight=1.0, orientation_weight=1.0, gain: float = 100.0,
                  name: str | None = None):
@@ -320,11 +336,17 @@ class FrameTask(Task):
             return
         model, data, fid = state.model, state.kinematics_data, self.frame_id  # its frame placed by getFrameJacobian
         views = self._views(data)
-        _frame_rows_drift(views[2], self._target_rot_t, views[3], self._target_pos,
-                          pin.getFrameJacobian(model, data, fid, LOCAL),
-                          pin.getFrameVelocity(model, data, fid, LOCAL).vector,
-                          pin.getFrameAcceleration(model, data, fid, LOCAL).vector, self.rows, error_out, jac_out,
-                          drift_out)
+        target = (self._target_rot_t, self._target_pos)
+        jac = pin.getFrameJacobian(model, data, fid, LOCAL)
+        vel = pin.getFrameVelocity(model, data, fid, LOCAL).vector
+        acc = pin.getFrameAcceleration(model, data, fid, LOCAL).vector
+        kernel = self._drift_kernel
+        if kernel is None:  # Pinocchio's views and this task's rows are of fixed types, the target and the outputs
+            # specialised for any strides (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
+            strided = _strided_drift_arrays(1)
+            kernel = self._drift_kernel = _frame_rows_drift if CHECK_TYPES else specialise(
+                _frame_rows_drift, views[2], views[3], strided[0], jac, vel, acc, self.rows, *strided[5:])
+        kernel(views[2], views[3], target, jac, vel, acc, self.rows, error_out, jac_out, drift_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff
