@@ -34,7 +34,6 @@ from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
 from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, rows_pack,
                                               weighted_rows)
-from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
@@ -70,11 +69,6 @@ class VelocityQP:
     #: a change of its constraints that no earlier layout matches): the build and the tick's first solves on fresh
     #: buffers and solver workspaces, uncounted otherwise (docs/kinematic-controller.md, tick budget)
     LAYOUT_WORK = 4
-
-    @staticmethod
-    def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
-        """Indices of a maximal linearly independent subset of the rows of A (QR with pivoting of Aᵀ)."""
-        return independent_rows(A, rtol)
 
     def _build_layout(self) -> None:
         """Row layout of the equality and inequality blocks and their buffers (redone when constraints change).
@@ -210,7 +204,7 @@ class VelocityQP:
         else:
             diff, pgain = soft.no_diff, 0.0
         if form_cost:
-            self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+            form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
         else:
             self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:

@@ -420,16 +420,3 @@ class QPBackend(ABC):
             ex = np.where(ex > 0, ex, 0.0) / np.maximum(1.0, ref)
             worst = max(worst, float(ex.max()))
         return worst if math.isfinite(worst) else math.inf
-
-    @staticmethod
-    def violation(x, A, b, C, l, u, lb, ub) -> float:
-        """Largest violation of any constraint by x (0 when feasible)."""
-        worst = max((lb - x).max(initial=0.0), (x - ub).max(initial=0.0))
-        if A.shape[0]:
-            r = A @ x
-            r -= b
-            worst = max(worst, r.max(), -r.min())
-        if C.shape[0]:
-            cx = C @ x
-            worst = max(worst, (l - cx).max(), (cx - u).max())
-        return float(worst)

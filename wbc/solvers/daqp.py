@@ -96,8 +96,6 @@ class DaqpBackend(QPBackend):
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve attempt (every DAQP call it made; QPBackend.solve resets it).
         self.last_iterations = 0
-        #: warm-started solves that failed and were solved again from a cold start.
-        self.warm_failures = 0
         #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
         #: inequality rows; > 0 at an upper bound, < 0 at a lower one, 0 off its working set), else None.
         self.last_multipliers: np.ndarray | None = None
@@ -245,7 +243,6 @@ class DaqpBackend(QPBackend):
                 self.last_multipliers = info["lam"]
                 return x
             self._note_exit(exitflag, limit)
-            self.warm_failures += 1
             if not self.cold_retry or self.budget_capped:  # a trial (``cold_retry`` off), or the work limit: one
                 self._model = None                         # call; the next solve starts cold
                 return None
@@ -300,7 +297,6 @@ class DaqpBackend(QPBackend):
         return x if exitflag >= 1 else None
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
-        self.warm_failures += 1
         self._dual = None
         outcome = self._cold_outcome
         if outcome is not None:
@@ -416,7 +412,6 @@ class DaqpBackend(QPBackend):
         if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
             # per solve)
-            self.warm_failures += 1
             limit = self.call_limit()
             settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
                                                                                        "iter_limit": limit}
