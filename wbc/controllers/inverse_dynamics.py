@@ -450,20 +450,17 @@ class InverseDynamicsController:
         bad = self.qp.nonfinite_inputs()  # cheap: a NaN written in place past the setters
         if bad:
             return bad
-        return self._diagnose() if self.diagnose_failures else []
-
-    def _diagnose(self) -> list[tuple[str, float]]:
-        """Conflicting constraints at the current state (never raises: a failing diagnosis reports nothing)."""
-        try:
-            return self.qp.diagnose(self.state, self.dt)
-        except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
-            return []
+        return self.diagnose() if self.diagnose_failures else []
 
     def diagnose(self) -> list[tuple[str, float]]:
         """The hard constraints that conflict at the state of the last tick, with their violations (constraint
         units), largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`); empty when the
-        hard set is feasible. Off the control path: call it after a failed tick (it solves a least-squares QP)."""
-        return self._diagnose()
+        hard set is feasible or the diagnosis fails (never raises). Off the control path: call it after a failed
+        tick (it solves a least-squares QP)."""
+        try:
+            return self.qp.diagnose(self.state, self.dt)
+        except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
+            return []
 
     def summary(self) -> dict:
         """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``deadline_misses`` (ticks whose CPU

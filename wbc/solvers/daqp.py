@@ -199,21 +199,23 @@ class DaqpBackend(QPBackend):
         self._sense[n:n + n_eq] = 5
         self._model = None
 
-    def _solve(self, H, g, A, b, C, l, u, lb, ub):
-        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
+    def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
+        """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
+        n, n_eq, n_in = lb.shape[0], A.shape[0], C.shape[0]
         if self._layout != (n, n_eq, n_in):
             self._prepare(n, n_eq, n_in)
         G, upper, lower = self._G, self._upper, self._lower
         e = n + n_eq
-        upper[:n] = ub  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
-        lower[:n] = lb
-        upper[n:e] = b
-        lower[n:e] = b
+        upper[:n], lower[:n] = ub, lb  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
+        upper[n:e], lower[n:e] = b, b
         G[:n_eq] = A
         if n_in:
             G[n_eq:] = C
-            upper[e:] = u
-            lower[e:] = l
+            upper[e:], lower[e:] = u, l
+        return G, upper, lower
+
+    def _solve(self, H, g, A, b, C, l, u, lb, ub):
+        G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
         if self.warm_start == "dual":
             self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
@@ -347,7 +349,7 @@ class DaqpBackend(QPBackend):
             if self.budget_capped:
                 return None
             limit["iter_limit"] = self.call_limit()
-        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        scale = _cost_scale(H, g)
         if scale < 1.0:
             # the same minimiser with the cost divided by max(1, |g|∞, |H|max): with |g| ~ 1e6 and a Hessian
             # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
@@ -372,18 +374,8 @@ class DaqpBackend(QPBackend):
         Returns:
             x (n,) within [lb, ub] meeting every row to ``tolerance`` (the check of :meth:`QPBackend.solve`), or None.
         """
-        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
-        if self._layout != (n, n_eq, n_in):
-            self._prepare(n, n_eq, n_in)
-        G, upper, lower = self._G, self._upper, self._lower
-        e = n + n_eq
-        upper[:n], lower[:n] = ub, lb
-        upper[n:e], lower[n:e] = b, b
-        G[:n_eq] = A
-        if n_in:
-            G[n_eq:] = C
-            upper[e:], lower[e:] = u, l
-        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
+        scale = _cost_scale(H, g)
         limit = self.call_limit()
         x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
                                                 **{**self.settings, "iter_limit": limit, **self.scaled_settings})
@@ -400,12 +392,15 @@ class DaqpBackend(QPBackend):
             self._dual = self.last_multipliers.copy()
         return xc
 
+    def _limited(self, limit: int) -> dict:
+        """The settings with ``iter_limit`` = ``limit`` (the settings themselves when it is theirs)."""
+        return self.settings if limit == self.settings.get("iter_limit") else {**self.settings, "iter_limit": limit}
+
     def _solve_dual(self, H, g, G, upper, lower):
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
         limit = self.call_limit()  # the settings' iter_limit unless a work count or a deadline lowers it
-        settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
-                                                                                   "iter_limit": limit}
+        settings = self._limited(limit)
         kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
         x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **kwargs)
         self._note_exit(exitflag, limit)
@@ -413,9 +408,7 @@ class DaqpBackend(QPBackend):
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
             # per solve)
             limit = self.call_limit()
-            settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
-                                                                                       "iter_limit": limit}
-            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **settings)
+            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **self._limited(limit))
             self._note_exit(exitflag, limit)
         self.last_iterations += int(info["iterations"])
         if exitflag < 1:
@@ -425,3 +418,8 @@ class DaqpBackend(QPBackend):
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual
         return x
+
+
+def _cost_scale(H: np.ndarray, g: np.ndarray) -> float:
+    """1 / max(1, |g|∞, |H|max): the factor of the cost-scaled QP (the same minimiser)."""
+    return 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
