@@ -85,8 +85,7 @@ class DaqpBackend(QPBackend):
         self._daqp = daqp
         self.tolerance = tolerance
         self.warm_start = warm_start
-        # an iteration cap, so that one call's work is bounded (DAQP's default, 10 000, was measured to take 24 ms
-        # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
+        # an iteration cap, so that one call's work is bounded (DAQP's default is 10 000)
         self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
         if self.settings.get("eps_prox", 0.0) > 0.0:
             self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
@@ -250,8 +249,7 @@ class DaqpBackend(QPBackend):
                 return None
             if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
                 # the workspace ran its whole iteration limit (cycling): the one-shot call first, the cold workspace
-                # after it only if it fails (a kinematic weighted-form QP, Hessian conditioned 1e6, ‖g‖ 3e8: the warm
-                # and the cold workspace each stopped at 1000 iterations, the one-shot call solved it in 16)
+                # after it only if it fails
                 self._model = None
                 x = self._solve_oneshot(H, g, G, upper, lower)
                 if x is not None:
@@ -335,10 +333,9 @@ class DaqpBackend(QPBackend):
                 return None
             limit["iter_limit"] = self.call_limit()
         elif self.warm_start == "dual":
-            # DAQP's infeasibility verdict with its primal tolerance at the accepted violation was measured wrong on
-            # two G1 touch-down QPs (Hessian conditioned 5e10; HiGHS: feasible): with the verdict's tolerance at
-            # DUAL_RETRY_PRIMAL_FACTOR × tolerance DAQP solves each in 9 iterations, every row met to 1e-12 (the
-            # answer is held to ``tolerance`` all the same, QPBackend.solve)
+            # DAQP's infeasibility verdict with its primal tolerance at the accepted violation was seen wrong on
+            # ill-conditioned feasible QPs: once more at DUAL_RETRY_PRIMAL_FACTOR × tolerance (the answer is held to
+            # ``tolerance`` all the same, QPBackend.solve)
             loose = {**limit, "primal_tol": DUAL_RETRY_PRIMAL_FACTOR * self.tolerance}
             x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **loose)
             self.last_iterations += int(info["iterations"])
@@ -351,10 +348,8 @@ class DaqpBackend(QPBackend):
             limit["iter_limit"] = self.call_limit()
         scale = _cost_scale(H, g)
         if scale < 1.0:
-            # the same minimiser with the cost divided by max(1, |g|∞, |H|max): with |g| ~ 1e6 and a Hessian
-            # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
-            # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
-            # the scaled solve agrees with quadprog to 4e-8 in x)
+            # the same minimiser with the cost divided by max(1, |g|∞, |H|max): DAQP's absolute dual tolerances
+            # reported feasible inverse-dynamics QPs with a large |g| and an ill-conditioned Hessian infeasible
             x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
                                                      self._sense, **{**limit, **self.scaled_settings})
             self.last_iterations += int(info["iterations"])
