@@ -94,16 +94,14 @@ class IDSolution:
     reason: str = ""
 
 
-#: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
-#: quadprog's solve: :meth:`InverseDynamicsQP.solve`) only when it passes the check at this relative tolerance: off by
-#: the solver's precision, the backends' own polish range (:data:`wbc.solvers.base.POLISH_RANGE`)
+#: a full-QP answer failing the output check is refined only when it passes it at this relative tolerance
+#: (:meth:`InverseDynamicsQP._guard_full`): the backends' own polish range
 OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
-#: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
-#: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
-#: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
+#: Solver settings of the ID QP: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking
+#: problems); the dual warm start, faster than DAQP's workspace on this inequality-heavy QP (benchmarks/README.md).
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
 
 class InverseDynamicsQP:
@@ -577,10 +575,10 @@ class InverseDynamicsQP:
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
     def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
-        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails the
-        output check by at most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose
-        terms are large against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished,
-        else quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
+        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails it by at
+        most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose terms are large
+        against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished, else
+        quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
 
         Returns:
             ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
