@@ -128,11 +128,6 @@ class TickWork:
         else:
             self._solves += n
 
-    @property
-    def clock(self) -> float:
-        """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
-        return self._clock
-
     def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
         (``math.inf``: counted solves only; the clock is then not read here, a system call every tick)."""
