@@ -9,7 +9,7 @@ configurations, then times on the recorded problems, one piece at a time (median
 * the wbc backend call (``QPBackend.solve``: solver + violation check + clip) for every backend;
 * the raw solvers without wbc around them: proxsuite dense ``update`` + ``solve`` warm-started, and daqp's
   ``solve`` with bounds and equalities in its native form;
-* the post-solve ``QPBackend.violation`` check alone.
+* the post-solve ``QPBackend.scaled_violation`` check alone.
 
 Also prints placo's whole tick for scale. Read-only: nothing in wbc is modified (the backend is wrapped).
 """
@@ -104,8 +104,8 @@ def main() -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             print(f"wbc backend {name:9s} QPBackend.solve: {_median_us(b.solve, problems):.1f} µs")
-    print(f"QPBackend.violation check alone: "
-          f"{_median_us(lambda *qp: backend.violation(np.zeros(n), *qp[2:]), problems):.1f} µs")
+    print(f"QPBackend.scaled_violation check alone: "
+          f"{_median_us(lambda *qp: backend.scaled_violation(np.zeros(n), np.zeros(n), *qp[2:]), problems):.1f} µs")
 
     # Raw proxsuite, warm-started like wbc's backend.
     import proxsuite

@@ -222,13 +222,13 @@ def test_joint_acceleration_bounds_keep_limits(robots):
     q[iq] = qp.joint_acceleration_limits.qmax[0] - 1e-3
     v[j] = 0.2  # moving towards the upper limit
     st = DynamicsState(robot, q, v)
-    lo, hi = qp.joint_acceleration_bounds(st, dt)
+    lo, hi = qp.joint_acceleration_limits.bounds(st, dt)
     assert np.all(lo <= hi)
     # Applying the upper bound for one tick keeps the joint below its limit and the velocity stoppable.
     v1 = v[j] + hi[0] * dt
     q1 = q[iq] + v[j] * dt + 0.5 * hi[0] * dt**2
     assert q1 <= qp.joint_acceleration_limits.qmax[0] + 1e-12
-    assert v1 <= math.sqrt(2 * qp.braking_acceleration * max(qp.joint_acceleration_limits.qmax[0] - q1, 0.0)) + 1e-9
+    assert v1 <= math.sqrt(2 * qp.joint_acceleration_limits.braking_acceleration * max(qp.joint_acceleration_limits.qmax[0] - q1, 0.0)) + 1e-9
 
 
 def test_wrap_and_typed_errors(robots):

@@ -48,11 +48,10 @@ class CompiledTick:
 
     def prepare_layouts(self, arrangements, config: Configuration, dt: float) -> None:
         """Build ahead, outside the ticks, what the first tick of each arrangement of tasks and constraints would
-        build: its row layout and buffers, its soft tasks' stacked rows and, for the compiled tick, its plan, box and
-        specialised kernel; the controller's own tasks, constraints and rank decision are left as they were. A
-        later tick whose tasks and constraints are one of these arrangements (the same objects in the same order)
-        then reuses them (e.g. the support phases of a walk plan, each switch otherwise building its phase's
-        layout on the first switch to it). The answers of the ticks are unchanged.
+        build (row layout and buffers, the soft tasks' stacked rows, the compiled tick's plan, box and specialised
+        kernel), for a later tick whose tasks and constraints are one of them (the same objects in the same order;
+        e.g. the support phases of a walk plan). The controller's own tasks, constraints and rank decision and the
+        answers of the ticks are unchanged.
 
         Args:
             arrangements: iterable of (tasks, constraints) lists, each a list of the controller's own task and
@@ -215,11 +214,9 @@ class CompiledTick:
         backend = self.backend
         tol = backend.tolerance
         budget = self.tick_budget
-        # one compiled call: the cost (form_qp); every number of the cost and the contact targets finite (targets,
-        # weights, gains written in place, q, placements: NaN and inf propagate into these sums; else None, the
-        # general path meets them and fails the tick); the solve; the output guard's compiled screens: v finite and
-        # inside the box of the constraint objects and the inequality rows, to the backend's tolerance (the assembled
-        # bounds: the solver reads them, never writes them)
+        # one compiled call: the cost (form_qp); the finite check of the cost and contact targets (NaN and inf
+        # propagate into their sums; else the general path meets them and fails the tick); the solve; the output
+        # guard's compiled screens (v finite, inside the assembled box and inequality rows to the tolerance)
         args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
                 budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
@@ -231,8 +228,7 @@ class CompiledTick:
         it, guard = kernel(*args)
         if budget.clock_guard:  # the first solve's CPU time per iteration: the next ticks' caps (TickBudget)
             budget.note_first_solve(it, budget.work.seconds() - c0)
-        # a solve attempt like any other (TickWork): counted, so that a tick the general path takes over from here
-        # has it in its count (its CPU time is about one solve's)
+        # a solve attempt like any other (TickWork): a tick the general path takes over from here has it counted
         self._work.add(1)
         if it == NONFINITE_RHS:
             return None
@@ -248,9 +244,8 @@ class CompiledTick:
             return None
         drift = 0.0
         if self._contacts:
-            # the kinematics at the next configuration, computed once: the configuration's lookahead, which its
-            # step with this v adopts (Configuration.lookahead); each contact frame placed (data.oMf), what
-            # error_into reads
+            # the kinematics at the next configuration, computed once (Configuration.lookahead, adopted by its step
+            # with this v); each contact frame placed (data.oMf), what error_into reads
             ndata = config.lookahead(plan.vdt)
             lever = self._drift_lever()
             if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
@@ -290,14 +285,13 @@ class CompiledTick:
         return result
 
     def _fused_rescue(self, plan: FusedPlan, v: np.ndarray, dt: float) -> int:
-        """The compiled solver gave up on its reduced QP (dependent active rows — e.g. self-collision rows of the
-        thighs, whose motion the contacts fix, nearly parallel — or its iteration cap): that same QP
+        """The compiled solver gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision
+        rows of the thighs, or its iteration cap): that same QP
         (:func:`wbc.formulations.velocity_kernel.kinematic_reduced_packed`) is solved by DAQP, whose dual active set
         handles dependent constraints, and the tick completed from its solution
         (:func:`wbc.formulations.velocity_kernel.kinematic_finish_packed`: base velocity, every original row checked).
-        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers: linearly independent
-        rows), from which it converges again. Returns 1 on success, else the kernel's exit code (the general path then
-        solves the tick)."""
+        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers). Returns 1 on
+        success, else the kernel's exit code (the general path then solves the tick)."""
         backend = self.backend
         rescue = plan.rescue
         if rescue is None:

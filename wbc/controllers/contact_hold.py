@@ -132,9 +132,8 @@ class ContactRange:
 
 
 class ContactHold:
-    """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring):
-    drift measurement (:meth:`sole_drift`), correction (``_correct_contacts``) and trust regions
-    (``_hold_contacts``), and the run radius of held safe commands."""
+    """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring): drift
+    measurement (:meth:`sole_drift`), correction (``_correct_contacts``) and trust regions (``_hold_contacts``)."""
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): by forward kinematics at
@@ -146,8 +145,7 @@ class ContactHold:
             self._build_layout()
         return self._contact_drifts(config, v, dt)[2]
 
-    def _contact_drifts(self, config: Configuration, v: np.ndarray,
-                        dt: float) -> tuple[float, list[np.ndarray], float]:
+    def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray], float]:
         """:meth:`DriftMeter.measure` of this tick's contacts (remembered within one solve(), against the targets
         assembled at this config)."""
         expected = self._contact_expected if self._in_solve else None
@@ -187,8 +185,7 @@ class ContactHold:
         return changed
 
     def _contact_range_basis(self) -> np.ndarray | None:
-        """Orthonormal basis U_r (rows of the contacts × rank) of the range of the contact rows J_c when they are
-        rank deficient (truncated SVD, singular values > ``rank_rtol`` · max(the largest, 1)), else None."""
+        """:meth:`ContactRange.basis` of the contact rows J_c when they are rank deficient, else None."""
         rows = self._contact_rows
         if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None  # every equality row independent (rank computed on this constraint set)
@@ -212,8 +209,7 @@ class ContactHold:
         b0 = self._b.copy()
         try:
             for k in range(3):
-                # the refinement stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved tick's); the
-                # best command so far is kept
+                # stops at the tick budget (the safe command's) or STAGE_FACTOR times it; the best command is kept
                 if not budget.may_start("retry" if bounded else "stage", cost()):
                     if not bounded:
                         self._cut.append(f"contact correction after {k} of 3 re-solves")
@@ -221,11 +217,8 @@ class ContactHold:
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
                 if range_basis is not None:
-                    # dependent contact rows (two flat feet both fixing the base yaw): the feet's second-order
-                    # drifts differ in the dependent directions, so the corrected right-hand sides would contradict
-                    # each other (measured on humanoid15: the corrected solve failed or was not better, the
-                    # correction was dropped and the soles slid 0.03 mm per ok tick, > 1 mm over a stance).
-                    # Least squares instead: the corrections projected onto the range of J_c.
+                    # dependent contact rows (two flat feet both fixing the base yaw): the corrected right-hand sides
+                    # would contradict each other; projected onto the range of J_c instead (least squares)
                     cr = self._contact_rows
                     self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
                 try:
@@ -256,10 +249,9 @@ class ContactHold:
         ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
 
         When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
-        the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask
-        a large v in the nearly singular direction and their
-        ±dependent_row_tolerance/2 bands leave no solution inside a smaller region. Each region's solution gets
-        the second-order correction (``contact_correction``) before its drift is measured."""
+        the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask a
+        large v in the nearly singular direction, and their bands leave no solution inside a smaller region. Each
+        region's solution gets the second-order correction (``contact_correction``) before its drift is measured."""
         solve = solve or self._solve_assembled
         budget = self.tick_budget
         cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
@@ -277,8 +269,7 @@ class ContactHold:
                 cr = self._contact_rows
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
             for k in range(n_radii):
-                # the trust region stops at the tick budget (the safe command's) or STAGE_FACTOR times it (a solved
-                # tick's); the least drifting command is kept
+                # stops at the tick budget (the safe command's) or STAGE_FACTOR times it; the least drifting is kept
                 if not budget.may_start("retry" if bounded else "stage", cost()):
                     if not bounded:
                         self._cut.append(f"trust region after {k} of at most {n_radii} radii")
@@ -286,10 +277,8 @@ class ContactHold:
                 if basis is not None and k == 0:
                     radius = math.inf  # first the whole box, with consistent contact rows
                 else:
-                    # the next radius from the last drift, taken linear in the radius (measured: the drift of a
-                    # region's corrected solution fell about in proportion to its radius, G1 at dt = 5 ms), with a
-                    # 0.8 margin: ρ ← ρ · clip(0.8 · tolerance / drift, 1/16, 1/2) — halving when the drift is
-                    # near the tolerance, one region instead of four when it is ten times over
+                    # the next radius from the last drift, taken linear in the radius, with a 0.8 margin:
+                    # ρ ← ρ · clip(0.8 · tolerance / drift, 1/16, 1/2)
                     radius = (rho if math.isinf(radius) else radius) * min(
                         0.5, max(1.0 / 16.0, 0.8 * self.sole_drift_tolerance / max(last, 1e-300)))
                 np.clip(lb0, -radius, radius, out=self._lb)

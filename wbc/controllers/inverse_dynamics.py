@@ -1,67 +1,46 @@
 """Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.formulations.acceleration`) → torques τ.
 
-:class:`InverseDynamicsController` is the dynamics-level sibling of :class:`wbc.controllers.kinematic.KinematicController`:
-one :meth:`~InverseDynamicsController.solve` per control period reads the measured state, updates the Pinocchio
-quantities once (:class:`~wbc.state.DynamicsState`), builds and solves the QP and returns τ, v̇ and the
-contact forces.
+:class:`InverseDynamicsController`, the sibling of :class:`wbc.controllers.kinematic.KinematicController`: one
+:meth:`~InverseDynamicsController.solve` per control period updates the Pinocchio quantities once
+(:class:`~wbc.state.DynamicsState`), solves the QP and returns τ, v̇ and the contact forces. Every command a QP
+returns passes the output check (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`; a full-QP answer
+off by the solver's precision is refined first); one that fails it counts as a failed solve, the violated
+constraints in ``IDCommand.conflicts``. ``IDCommand.path`` names the route: ``kernel``, ``general:<backend>``,
+``relaxed:<backend>`` (step 1 below), ``fallback:hold``, ``fallback:feasible`` or ``fallback:gravity`` (step 2).
 
-Every command a QP returns passes an output check before it is used
-(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`: finite; corner forces within their bounds and
-friction pyramids; torques within their limits; the floating-base rows of the equations of motion): a full-QP command
-that fails it by the solver's precision (at most :data:`~wbc.formulations.acceleration.OUTPUT_REFINE_RANGE`
-relative) is first refined (polished on its active set, else quadprog's solve of the same QP:
-:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve`); one that still fails counts as a failed solve, with
-the violated constraints in ``IDCommand.conflicts``.
-
-Each tick says the route it took in ``IDCommand.path``: ``kernel`` (the compiled tick), ``general:<backend>``
-(the backend on the assembled QP), ``relaxed:<backend>`` (step 1 below), ``fallback:hold``, ``fallback:feasible``
-or ``fallback:gravity`` (step 2).
-
-Time budget: a tick has ``budget`` seconds (default the control period dt) of CPU time of the calling thread
-(``time.thread_time``), measured and reported (``over_budget``, ``deadline_misses``), never used to decide unless
-``clock_guard`` is set (constructor). The budget sets counts, so that a tick's answer is a function of its inputs:
-the compiled solver's iteration cap (:func:`~wbc.solvers.compiled_id.kernel_iterations`; after a give-up the next
-call is short, :data:`~wbc.solvers.compiled_id.KERNEL_ITERATIONS_AFTER_GIVE_UP`), the first DAQP attempt's cap
-and the counted work of a failed tick's later stages (:func:`~wbc.solvers.fallback.tick_work_iterations`,
-``FallbackChain.tick_work``): the order of those stages, the checks that skip a set proved empty, the resumed
-stages after a budget cut and their factors are the chain's (:mod:`wbc.solvers.fallback`;
-docs/inverse-dynamics-controller.md, "The fallback chain"). A full or relaxed command that ends past the budget is
-used and counted (``over_budget``): a solved QP one tick late is the better command. The independent re-solve that
-would confirm an infeasibility (:meth:`wbc.solvers.base.QPBackend.confirm`) and the diagnosis of step 0 are off the
-control path by default (:meth:`InverseDynamicsController.diagnose` names the conflicts of the last tick on demand);
-``diagnose=True`` (a diagnosis mode, not for real time) runs the diagnosis inside every failed tick.
+Time budget: a tick has ``budget`` seconds (default dt) of CPU time of the calling thread (``time.thread_time``),
+measured and reported (``over_budget``, ``deadline_misses``), used to decide only with ``clock_guard``. Otherwise it
+sets counts (constructor docstring), so that a tick's answer is a function of its inputs; the stages of a failed tick
+and their factors are the fallback chain's (:mod:`wbc.solvers.fallback`; docs/inverse-dynamics-controller.md). A
+command that ends past the budget is used and counted (a solved QP one tick late is the better command). The
+diagnosis (step 0) and the independent re-solve confirming an infeasibility are off the control path unless
+``diagnose=True`` (a diagnosis mode, not for real time); :meth:`InverseDynamicsController.diagnose` names the last
+tick's conflicts on demand.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
 
-0. diagnosis (``diagnose=True``): the named constraints of :mod:`wbc.constraints` that conflict at this
-   state, with their violations, are reported in ``IDCommand.conflicts`` (largest first;
-   :meth:`InverseDynamicsQP.diagnose`, a slack-relaxed least-squares solve of the hard set,
-   :mod:`wbc.solvers.diagnosis`), and named in ``message``;
-1. the full QP fails (infeasible: e.g. after an impact a joint is outside the viable set of the joint bounds) →
-   the same QP is solved **without joint acceleration bounds and torque limits**
+0. diagnosis (``diagnose=True``): the conflicting named constraints with their violations, largest first, in
+   ``IDCommand.conflicts`` and ``message`` (:meth:`InverseDynamicsQP.diagnose`, :mod:`wbc.solvers.diagnosis`);
+1. the full QP fails (e.g. after an impact a joint is outside the viable set of the joint bounds) → the same QP
+   **without joint acceleration bounds and torque limits**
    (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
-   and stop joints at their limits). ``ok`` stays True, ``relaxed`` is True; the command's torques are clipped
-   to the (scaled) URDF effort limits, so the command stays within the torque limits the relaxed QP dropped.
-2. that fails too → the **previous tick's solved command** when the previous tick was
-   solved (``fallback:hold``: a zero-order hold for one tick, as a real-time loop does on a missed deadline — the
-   damping term below is a torque step at impact velocities that a single landing tick did not survive; held
-   for as long as the failures are the budget's: a full QP cut by the counted work whose hard set has a point; with
-   no solved command to hold, the point of the hard set that the tick's check found, ``fallback:feasible``); a
-   second failed tick in a row (or a failure with no solved tick before it) takes
-   **contact-consistent gravity compensation with joint damping** at the current state (``fallback:gravity``),
+   and stop joints at their limits): ``ok`` and ``relaxed`` True, the torques clipped to the (scaled) URDF limits;
+2. that fails too → the **previous tick's solved command** (``fallback:hold``, a zero-order hold for one tick, as a
+   real-time loop does on a missed deadline: the damping term below is a torque step at impact velocities that a
+   single landing tick did not survive), held for as long as the failures are the budget's (a full QP cut by the
+   counted work whose hard set has a point; with no solved command to hold, that point, ``fallback:feasible``); a
+   second failed tick in a row, or one with no solved tick before it, takes **contact-consistent gravity
+   compensation with joint damping** at the current state (``fallback:gravity``, :func:`gravity_torques`),
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
        τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)
 
-   the damping gain being the largest a 1-tick explicit loop keeps stable on light links (see
-   :mod:`wbc.sim.mujoco_model`). The held command keeps the joint speed bounds of the QP
-   (``qp.joint_speed_limits``, :class:`~wbc.constraints.joint_velocity.JointSpeedBounds`) at the **new** state: a
-   joint whose held acceleration v̇ᵢ leaves the bounds [lᵢ, uᵢ] at the current velocity (a velocity that jumped at
-   an impact, or that the held torques keep driving) gets the torque that moves its acceleration to the nearest
-   bound along its own axis, τᵢ += I_eff,i (clip(v̇ᵢ, lᵢ, uᵢ) − v̇ᵢ) (the diagonal of the joint-space inertia,
-   other joints' coupling neglected; clipped to ±τ_max) — a few dozen µs, within the budget the failed full QP
-   left (the relaxed QP that would keep the bounds exactly is skipped once the budget is spent). ``ok`` is False and the reason is in ``message``; the next tick tries the QP
-   again (cold-started by the backend).
+   the damping gain being the largest a 1-tick explicit loop keeps stable on light links
+   (:mod:`wbc.sim.mujoco_model`). A held command keeps the QP's joint speed bounds (``qp.joint_speed_limits``) at
+   the **new** state: a joint whose held v̇ᵢ leaves [lᵢ, uᵢ] at the current velocity gets
+   τᵢ += I_eff,i (clip(v̇ᵢ, lᵢ, uᵢ) − v̇ᵢ) (diagonal inertia, coupling neglected; clipped to ±τ_max; a few dozen µs,
+   the relaxed QP that would keep them exactly being skipped once the budget is spent). ``ok`` is False, the reason
+   in ``message``; the next tick tries the QP again.
 """
 
 from __future__ import annotations
@@ -200,30 +179,24 @@ def _load_kernels() -> None:
 
 @dataclass
 class IDCommand(TickResultBase):
-    """Output of one tick (the fields ``ok``, ``message``, ``timings``, ``conflicts``, ``path``, ``over_budget``
-    are those of :class:`wbc.tick.TickResultBase`, shared with the kinematic ``TickResult``).
+    """Output of one tick (``ok``, ``message``, ``timings``, ``conflicts``, ``path``, ``over_budget``: the fields of
+    :class:`wbc.tick.TickResultBase`, shared with the kinematic ``TickResult``).
 
     Attributes:
         tau: (nv − 6,) joint torques (N·m), Pinocchio's actuated order.
         dv: (nv,) generalized acceleration of the QP (zeros on fallback).
         forces: (12 n_c,) corner forces (N, sole frames) (zeros on fallback).
         wrenches: contact name → (6,) wrench at the sole origin, world axes (N, N·m).
-        ok: a QP (full or relaxed) was solved.
-        relaxed: the relaxed QP (no joint bounds / torque limits) was used.
+        ok: a QP (full or relaxed) was solved. relaxed: the relaxed QP was used.
         message: failure reason ('' when the full QP was solved); names the conflicting constraints.
-        conflicts: after a failed full QP, (constraint name, violation in its units) of the conflicting
-            constraints, largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`).
+        conflicts: after a failed full QP, (constraint name, violation in its units), largest first.
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
         timings: seconds in 'pinocchio', 'assembly', 'solve', 'total' (wall clock) and 'cpu' (CPU time of the
             thread, the budgeted quantity).
-        path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module
-            docstring): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``, ``fallback:hold`` (the previous
-            tick's solved command, held), ``fallback:feasible`` (a point of the hard set) or ``fallback:gravity`` (its
-            string form).
-        path_reason: why the tick left the compiled route (``kernel``) and which step answered it, e.g.
-            ``kernel status ITERATION_CAP → daqp attempt``, ``full QP failed → relaxed QP, attempt``,
-            ``full and relaxed QP failed → hold``; '' on the compiled route (and for a backend chosen by name, whose
-            ticks take the general route by configuration).
+        path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module docstring).
+        path_reason: why the tick left the compiled route and which step answered, e.g. ``kernel status
+            ITERATION_CAP → daqp attempt``, ``full and relaxed QP failed → hold``; '' on the compiled route and for a
+            backend chosen by name (docs/inverse-dynamics-controller.md, "Routes and reasons").
     """
 
     tau: np.ndarray
@@ -247,23 +220,19 @@ class InverseDynamicsController:
     Args:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
-        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded), module docstring; it sets
-            the compiled tick's iteration cap (``qp.kernel_max_iterations``), the first DAQP attempt's
-            (``qp.chain.daqp_attempt_iterations``) and the counted work of a failed tick's later stages
-            (``qp.chain.tick_work_iterations``).
-        diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (costs a least-squares
-            QP per failure; off by default, :meth:`diagnose` does it on demand).
-        clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time
-            (``time.thread_time`` since the tick began; ``FallbackChain.tick_clock``): the full QP's DAQP
-            calls end by 1.25 budgets, its checks start before 1.4 and end by 1.55, and the relaxed QP's calls end by
-            1.75 (iteration limits from the time left); a failed
-            full QP gets quadprog only when it is expected to end by 1.55 budgets (its recent CPU time,
-            ``FallbackChain.quadprog_cost``) and the backend's retries only before 1.2 budgets; a relaxed
-            command whose full QP lost a check to the clock says so in its path (``relaxed:<solver>+budget``). Default
-            False: nothing is decided by a clock, a tick's answer is a function of its inputs (reproducible simulations
-            and campaigns). True (a robot's real-time loop): at the cost of an answer that depends on the machine's
-            speed and load on a slow tick (a feasible QP that only a skipped solve would have solved takes the
-            relaxed QP). Settable as an attribute.
+        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded); it sets the compiled
+            solver's iteration cap (``qp.kernel_max_iterations``, :func:`~wbc.solvers.compiled_id.kernel_iterations`),
+            the first DAQP attempt's (``qp.chain.daqp_attempt_iterations``) and the counted work of a failed tick's
+            later stages (``qp.chain.tick_work_iterations``).
+        diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (a least-squares QP per
+            failure; off by default, :meth:`diagnose` does it on demand).
+        clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time since the
+            tick began (``FallbackChain.tick_clock``; its deadlines in budgets, ``FallbackChain.FULL_QP_DEADLINE`` …
+            ``RELAXED_DEADLINE``); a relaxed command whose full QP lost a check to the clock says so in its path
+            (``relaxed:<solver>+budget``). Default False: nothing is decided by a clock, a tick's answer is a function
+            of its inputs (reproducible simulations and campaigns). True (a robot's real-time loop): an answer that
+            depends on the machine's speed and load on a slow tick (a feasible QP that only a skipped solve would
+            have solved takes the relaxed QP). Settable as an attribute.
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
@@ -450,20 +419,17 @@ class InverseDynamicsController:
         bad = self.qp.nonfinite_inputs()  # cheap: a NaN written in place past the setters
         if bad:
             return bad
-        return self._diagnose() if self.diagnose_failures else []
-
-    def _diagnose(self) -> list[tuple[str, float]]:
-        """Conflicting constraints at the current state (never raises: a failing diagnosis reports nothing)."""
-        try:
-            return self.qp.diagnose(self.state, self.dt)
-        except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
-            return []
+        return self.diagnose() if self.diagnose_failures else []
 
     def diagnose(self) -> list[tuple[str, float]]:
         """The hard constraints that conflict at the state of the last tick, with their violations (constraint
         units), largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`); empty when the
-        hard set is feasible. Off the control path: call it after a failed tick (it solves a least-squares QP)."""
-        return self._diagnose()
+        hard set is feasible or the diagnosis fails (never raises). Off the control path: call it after a failed
+        tick (it solves a least-squares QP)."""
+        try:
+            return self.qp.diagnose(self.state, self.dt)
+        except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
+            return []
 
     def summary(self) -> dict:
         """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``deadline_misses`` (ticks whose CPU

@@ -172,18 +172,29 @@ class Recovery:
 
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
         """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
-        objects held in the buffers (hard tasks left out), on the fallback backend; with the clock guard its CPU
-        time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
-        if not self.clock_guard:
-            return self._constraints_only_qp()
-        t = self._work.seconds()
+        objects held in the buffers (hard tasks left out; nearly dependent rows once more as band rows, as
+        ``_solve_banded``), on the fallback backend; with the clock guard its CPU time is recorded
+        (``TickBudget.safe_estimate``). Raises SolverError."""
+        t = self._work.seconds() if self.clock_guard else 0.0
         try:
-            return self._constraints_only_qp()
+            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
+                self._lb, self._ub
+            if not self._not_hard_task.all():
+                A, b = A[self._not_hard_task], b[self._not_hard_task]
+            keep = independent_rows(A, self.rank_rtol)
+            if self._fallback_backend is None:
+                self._fallback_backend = self._new_backend()
+            v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
+            if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
+                v_safe = self._fallback_backend.solve(H, g, *band_rows(A, b, C, l, u, keep,
+                                                                       0.5 * self.dependent_row_tolerance), lb, ub)
+            return v_safe
         finally:
-            spent = self._work.seconds() - t
-            budget = self.tick_budget
-            budget.safe_cost = max(budget.safe_cost, spent) if budget.safe_fresh else spent
-            budget.safe_fresh = True
+            if self.clock_guard:
+                spent = self._work.seconds() - t
+                budget = self.tick_budget
+                budget.safe_cost = max(budget.safe_cost, spent) if budget.safe_fresh else spent
+                budget.safe_fresh = True
 
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
         """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
@@ -226,22 +237,6 @@ class Recovery:
             self._work.cap = cap
             if bounded and isinstance(backend, DaqpBackend):
                 backend.call_iterations = calls
-
-    def _constraints_only_qp(self) -> np.ndarray:
-        """The QP of :meth:`_solve_constraints_only`, solved (SolverError when it has no solution)."""
-        H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
-            self._lb, self._ub
-        if not self._not_hard_task.all():
-            A, b = A[self._not_hard_task], b[self._not_hard_task]
-        keep = independent_rows(A, self.rank_rtol)
-        if self._fallback_backend is None:
-            self._fallback_backend = self._new_backend()
-        v_safe = self._fallback_backend.solve(H, g, A[keep], b[keep], C, l, u, lb, ub)
-        if keep.size < A.shape[0] and np.max(np.abs(A @ v_safe - b)) > self.dependent_row_tolerance:
-            # nearly dependent rows: once more with them as band rows (as _solve_banded), else hold
-            v_safe = self._fallback_backend.solve(H, g, *band_rows(A, b, C, l, u, keep,
-                                                                   0.5 * self.dependent_row_tolerance), lb, ub)
-        return v_safe
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the

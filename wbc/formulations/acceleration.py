@@ -94,16 +94,14 @@ class IDSolution:
     reason: str = ""
 
 
-#: a full-QP answer that fails the output check (:meth:`InverseDynamicsQP.verify`) is refined (polished, else
-#: quadprog's solve: :meth:`InverseDynamicsQP.solve`) only when it passes the check at this relative tolerance: off by
-#: the solver's precision, the backends' own polish range (:data:`wbc.solvers.base.POLISH_RANGE`)
+#: a full-QP answer failing the output check is refined only when it passes it at this relative tolerance
+#: (:meth:`InverseDynamicsQP._guard_full`): the backends' own polish range
 OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
-#: Solver settings of the ID QP: the floating-base dynamics rows are equalities (exact in an active-set solve);
-#: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking problems, FIELD_NOTES); the dual
-#: warm start faster than DAQP's persistent workspace on this inequality-heavy QP (benchmarks/README.md).
+#: Solver settings of the ID QP: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking
+#: problems); the dual warm start, faster than DAQP's workspace on this inequality-heavy QP (benchmarks/README.md).
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
 
 class InverseDynamicsQP:
@@ -175,7 +173,6 @@ class InverseDynamicsQP:
         self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
         self.joint_speed_limits = None  # optional JointSpeedBounds, kept by solve_relaxed
         self.tau_max = self.torque_limits.tau_max
-        self.tau_rows = self.torque_limits.joints
         r = 0
         for con in (self.torque_limits, *self.friction):
             con.rows = slice(r, r + con.dim)
@@ -214,8 +211,6 @@ class InverseDynamicsQP:
         #: the output check of :meth:`verify`
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
         self._m = 6  # equality rows of the last build
-        #: directions of the stacked active contact rows dropped at the last build (0 for legs that can yaw the foot)
-        self.dependent_contact_rows = 0
         self.chain.hard_set_x = np.zeros(n)
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
@@ -234,11 +229,6 @@ class InverseDynamicsQP:
     @backend.setter
     def backend(self, value) -> None:
         self.chain.backend = value
-
-    @property
-    def braking_acceleration(self) -> float:
-        """a_brk of the joint viability bounds (rad/s²)."""
-        return self.joint_acceleration_limits.braking_acceleration
 
     @property
     def constraints(self) -> list[IDConstraint]:
@@ -374,12 +364,6 @@ class InverseDynamicsQP:
                 return c
         raise InvalidInputError(f"no contact {name!r}; contacts: {[c.name for c in self.contacts]}")
 
-    def joint_acceleration_bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) bounds (9) on the 1-DoF joint accelerations (rad/s²), in the order of
-        ``joint_acceleration_limits.iv`` (copies)."""
-        lo, hi = self.joint_acceleration_limits.bounds(state, dt)
-        return lo.copy(), hi.copy()
-
     def build(self, state: DynamicsState, dt: float):
         """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring), the preallocated arrays written
         in place by the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every constraint — the compiled tick's
@@ -403,11 +387,9 @@ class InverseDynamicsQP:
                 con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
                 i += con.dim
         # ≥ 2 active contacts: nearly dependent directions dropped (none when certified well conditioned)
-        self.dependent_contact_rows = 0
         if i > 12 and not contact_rows_well_conditioned(rows.Jc, rows.active, DEPENDENT_CONTACT_RATIO, rows.gram,
                                                         rows.gram_y):
             kept = independent_contact_rows(A[6:i], b[6:i])
-            self.dependent_contact_rows = i - 6 - kept
             if kept < i - 6:
                 i = 6 + kept
                 for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
@@ -582,7 +564,6 @@ class InverseDynamicsQP:
         self.chain.compiled.max_iterations = self.kernel_max_iterations
         m = compiled.assemble(rows, IDDynamics(state.M, state.h, state.q, state.v, dt),
                               (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon), extra)
-        self.dependent_contact_rows = 0
         if m == PROJECT_CONTACT_RHS:
             return QPData(*self._build(state, dt, gathered=True)), "kernel: dependent contact rows"
         self._m = m
@@ -594,10 +575,10 @@ class InverseDynamicsQP:
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
     def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
-        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails the
-        output check by at most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose
-        terms are large against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished,
-        else quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
+        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails it by at
+        most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose terms are large
+        against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished, else
+        quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
 
         Returns:
             ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).

@@ -1,10 +1,7 @@
-"""The compiled assembly of the inverse-dynamics QP (:class:`CompiledIDAssembly`).
-
+"""The compiled assembly of the inverse-dynamics QP (:class:`CompiledIDAssembly`):
 :func:`wbc.formulations.idkernel.id_assemble` writes the QP of :mod:`wbc.formulations.acceleration` from the tick's
 gathered rows (:class:`~wbc.formulations.id_rows.IDProblemRows`) into the formulation's own arrays — the same
-numbers, bit for bit, as the formulation's constraints write. The formulation hands the assembled arrays, as
-:class:`~wbc.solvers.qp_data.QPData`, to its fallback chain (:class:`~wbc.solvers.fallback.FallbackChain`), whose
-first rung is the compiled solver :class:`~wbc.solvers.compiled_id.CompiledIDSolver`.
+numbers, bit for bit, as the formulation's constraints write.
 """
 
 from __future__ import annotations
@@ -62,10 +59,9 @@ class CompiledIDAssembly:
         return self._entry(*args)
 
     def _load(self, qp, rows: IDProblemRows, solver: CompiledIDSolver) -> None:
-        """Load the assembly and the solver here, at construction, not inside the first tick: once per process,
-        one call of each on these buffers at a neutral state (M = I in the column-major order of a
-        :class:`~wbc.state.DynamicsState`'s M, h = 0, v = 0, no contact active), every buffer they write restored
-        afterwards (the first tick starts exactly as without this call)."""
+        """Load the assembly and the solver at construction, once per process: one call of each on these buffers at
+        a neutral state (M = I column-major as a :class:`~wbc.state.DynamicsState`'s, h = 0, v = 0, no contact
+        active), every buffer they write restored afterwards."""
         global _COMPILED_ID_LOADED
         if _COMPILED_ID_LOADED:
             return

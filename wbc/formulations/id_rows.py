@@ -28,12 +28,10 @@ def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
 
 
 class IDProblemRows:
-    """The per-tick inputs of the QP's state-dependent blocks, gathered once per tick into stacked buffers that both
-    assemblies read (``InverseDynamicsQP.build`` through the constraints' ``write`` and the compiled tick
-    :func:`~wbc.formulations.idkernel.id_assemble`): the task rows of
-    :func:`~wbc.formulations.idkernel.task_cost` (J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w; re-laid out only when the task
-    list changes) and the contact data (LOCAL sole Jacobians, corner maps, −J̇v − K_p e, K_d, activity, sole
-    rotations). ``qp``: the :class:`~wbc.formulations.acceleration.InverseDynamicsQP` (its nv, contacts, tasks)."""
+    """The per-tick inputs of the module docstring: the task rows of :func:`~wbc.formulations.idkernel.task_cost`
+    (re-laid out only when the task list changes) and the contact data (LOCAL sole Jacobians, corner maps,
+    −J̇v − K_p e, K_d, activity, sole rotations). ``qp``: the
+    :class:`~wbc.formulations.acceleration.InverseDynamicsQP` (its nv, contacts, tasks)."""
 
     def __init__(self, qp):
         nv, nc = qp.nv, len(qp.contacts)

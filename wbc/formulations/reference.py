@@ -53,8 +53,7 @@ def reference_rows(J, e, e_dot_ff, drift, acc_ff, kp, kd, v, r):
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`reference_rows` (on-disk cache) once per process, at construction of an
-    :class:`AccelerationReference`, not inside a controller's first tick."""
+    """Load :func:`reference_rows` (on-disk cache) once per process, at construction of a reference."""
     z = np.zeros(1)
     reference_rows(np.zeros((1, 1)), z, z, z, z, 1.0, 1.0, z, np.empty(1))
 
@@ -128,9 +127,8 @@ class AccelerationReference:
             acceleration, self.dim, f"{self.name} feed-forward acceleration", InvalidTargetError).copy()
 
     def set_feedforward_acceleration_trusted(self, acceleration: np.ndarray | None) -> None:
-        """:meth:`set_feedforward_acceleration` without validation or copy, for a controller's own loop feeding
-        accelerations it built and checked: ``acceleration`` None or a finite (m,) float array, kept by reference
-        until the next one is set (the caller must not modify it). Malformed input is not detected here."""
+        """:meth:`set_feedforward_acceleration` without validation or copy (a controller's own loop): ``acceleration``
+        None or a finite (m,) float array, kept by reference (the caller must not modify it)."""
         self._acc_ff = acceleration
 
     @property

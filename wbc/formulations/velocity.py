@@ -34,7 +34,6 @@ from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
 from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, rows_pack,
                                               weighted_rows)
-from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
@@ -59,29 +58,19 @@ def row_blocks(constraints) -> tuple[list, int]:
 
 
 class VelocityQP:
-    """The kinematic QP of the module docstring: its row layout and buffers, and their assembly.
+    """The kinematic QP of the module docstring: its row layout and buffers, and their assembly. The controller
+    (:class:`wbc.controllers.kinematic.KinematicController`, which derives from it) owns the task and constraint
+    lists, the robot and ``damping``; this class lays out the rows per constraint list (``_build_layout``) and per
+    soft-task list (``_build_soft_layout``), each cached, and writes the QP at each tick (:meth:`assemble`)."""
 
-    The controller (:class:`wbc.controllers.kinematic.KinematicController`, which derives from it) owns the task
-    and constraint lists, the robot and ``damping``; this class builds, per list of constraints, the row blocks
-    of A, C and the box (``_build_layout``, cached per layout) and, per list of soft tasks, their stacked rows
-    (``_build_soft_layout``), and writes the QP at each tick (:meth:`assemble`)."""
-
-    #: counted solves added to a tick that builds a new row layout (the controller's first tick, or the first after
-    #: a change of its constraints that no earlier layout matches): the build and the tick's first solves on fresh
-    #: buffers and solver workspaces, uncounted otherwise (docs/kinematic-controller.md, tick budget)
+    #: counted solves added to a tick that builds a new row layout: the build and the tick's first solves on fresh
+    #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)
     LAYOUT_WORK = 4
 
-    @staticmethod
-    def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
-        """Indices of a maximal linearly independent subset of the rows of A (QR with pivoting of Aᵀ)."""
-        return independent_rows(A, rtol)
-
     def _build_layout(self) -> None:
-        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change).
-
-        Layouts are kept per constraint list (the same objects in the same order, with the same row counts), so
-        that a support switch that returns to an earlier set of contacts reuses its layout, buffers and the
-        intersection of its constant boxes instead of building them again."""
+        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change), kept
+        per constraint list (the same objects in the same order and row counts): a support switch back to an earlier
+        set of contacts reuses its layout, buffers and the intersection of its constant boxes."""
         key = tuple((id(c), c.dim) for c in self.constraints)
         state = self.__dict__
         if self._layout_key is not None:  # keep the current layout (with what _intersect_boxes cached since)
@@ -98,9 +87,7 @@ class VelocityQP:
                 self._prepared.discard(key)
                 self._work.add(self.LAYOUT_WORK)
             return
-        # a new layout (a controller's first tick, new constraints): its build and the first solves on its fresh
-        # buffers and solver workspaces count LAYOUT_WORK solves of the tick's budget
-        self._work.add(self.LAYOUT_WORK)
+        self._work.add(self.LAYOUT_WORK)  # a new layout
         self._prepared.discard(key)
         self._layout_key = key
         self._constraints = list(self.constraints)
@@ -126,23 +113,21 @@ class VelocityQP:
         self._in_blocks, n_in = row_blocks(ineq)
         relax = set(map(id, self._relaxable))  # their row blocks, one list (boxes: re-intersected without them)
         self._relaxable_blocks = [blk for blk in (*self._eq_blocks, *self._in_blocks) if id(blk[0]) in relax]
-        # the floating base is eliminated through the first contact's 6 rows by the compiled solver: a free flyer at
-        # v[0:6] that no box bounds (kinematic_solve)
+        # the compiled solver eliminates the floating base (a free flyer at v[0:6] no box bounds) by the first
+        # contact's 6 rows (kinematic_solve)
         model = self.robot.model
         free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
             model.joints[1].idx_v == 0
         base_bounded = any(np.size(c.indices) and int(np.min(c.indices)) < 6 for c in self._box)
         first = [r0 for c, r0, _ in self._contact_blocks if type(c) is ContactConstraint]
         self._eliminating_row = first[0] if first and free_flyer and not base_bounded else -1
-        # the QP's buffers (H, g, A, b, C, l, u, lb, ub), packed with the compiled solver's workspace: every route
-        # reads the QP where assemble wrote it
+        # the QP's buffers, packed with the compiled solver's workspace: every route reads them
         self._qp_pack = kinematic_pack(self.nv, n_eq, n_in, self._eliminating_row)
         views = self._qp_pack[2]
         self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
         self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
         self._box_rows = views["box"]  # (lb, ub)
-        # each contact's rows written in place (Constraint.write into views of A, b), and its factor dt − 1/K (the
-        # contact's expected error (1 − K dt) e = factor · b)
+        # each contact's rows written in place (views of A, b), and its factor dt − 1/K ((1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
         self._contact_pair = None
@@ -179,14 +164,11 @@ class VelocityQP:
 
     def assemble(self, config: Configuration, dt: float) -> QPData:
         """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
-        route solves (the compiled solver reads these very buffers). Returns :class:`~wbc.solvers.qp_data.QPData`
-        (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)): views of the buffers, no copies.
-
-        The task rows are gathered into stacked buffers (each task's ``compute_into``) and the cost formed from them
-        by one compiled call (:func:`wbc.formulations.velocity_kernel.form_qp`); the constraint rows are written by each
-        constraint (:meth:`~wbc.constraints.base.Constraint.write`, in place) and the box is the intersection of each bound
-        constraint's own bounds (``_intersect_boxes``). The arrays are buffers owned by the controller, overwritten at
-        the next call.
+        route solves. Returns :class:`~wbc.solvers.qp_data.QPData` (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)):
+        views of the controller's buffers, overwritten at the next call. The task rows are gathered into stacked
+        buffers (``compute_into``) and the cost formed by :func:`wbc.formulations.velocity_kernel.form_qp`; each
+        constraint writes its rows in place (:meth:`~wbc.constraints.base.Constraint.write`); the box is the
+        intersection of the bound constraints' own bounds (``_intersect_boxes``).
         """
         return QPData(*self._assemble(config, dt, True))
 
@@ -210,7 +192,7 @@ class VelocityQP:
         else:
             diff, pgain = soft.no_diff, 0.0
         if form_cost:
-            self._cost_check = form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+            form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
         else:
             self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:

@@ -6,35 +6,21 @@ Every backend solves
 
 and returns x, or raises :class:`~wbc.exceptions.SolverError` (:meth:`QPBackend.solve`: one tolerance policy, an
 independent re-solve before a failure stands). :func:`make_backend` builds one by name (:func:`available_solvers`;
-default :data:`DEFAULT_SOLVER`, ``fast``).
+default :data:`DEFAULT_SOLVER`, ``fast``). The modules:
 
-Which solver does what:
-
-* ``fast`` (:class:`FastBackend`, :mod:`wbc.solvers.fast`): the in-house compiled exact active-set kernels — bounds and
-  equalities (:mod:`wbc.solvers.box_eq`), inequality rows too (:mod:`wbc.solvers.active_set`) — warm-started, with
-  DAQP as fallback; the default, and the solver of the compiled kinematic tick
-  (:mod:`wbc.formulations.velocity_kernel`).
-* ``daqp`` (:class:`DaqpBackend`, :mod:`wbc.solvers.daqp`): DAQP's dual active-set method called directly, warm-started
-  from the previous working set or dual variables, its iterations bounded by the tick's counted work.
-* ``proxqp`` (:class:`ProxQPBackend`, :mod:`wbc.solvers.proxqp`): proxsuite's dense ProxQP, warm-started.
-* any other installed qpsolvers backend (:class:`QpsolversBackend`, :mod:`wbc.solvers.by_name`): osqp, quadprog, ...,
-  cold-started each call.
-
-The files:
-
-* :mod:`wbc.solvers.base` — :class:`QPBackend` (the interface, the solution check, polish and independent re-solve)
-  and :class:`TickWork` (a tick's counted work).
-* :mod:`wbc.solvers.daqp`, :mod:`wbc.solvers.proxqp`, :mod:`wbc.solvers.by_name`, :mod:`wbc.solvers.fast` — the
-  backends above; :mod:`wbc.solvers.registry` — :func:`make_backend`, :func:`available_solvers`,
-  :data:`DEFAULT_SOLVER`.
-* :mod:`wbc.solvers.independent` — re-solves of a QP a backend reported infeasible: quadprog with the pinned
-  variables eliminated, the second opinion of two active-set solvers, the feasibility of the constraints alone.
-* :mod:`wbc.solvers.hierarchy` — strict task priorities: the lexicographic cascade of QPs.
-* :mod:`wbc.solvers.diagnosis` — which hard constraints conflict after a failed solve (slack-relaxed solve).
-* :mod:`wbc.solvers.status` — :class:`SolverStatus`, the exit codes of the in-house kernels, and their plain-int
-  constants.
-* :mod:`wbc.solvers.linalg` — the compiled dense linear algebra the kernels share (Cholesky, substitutions).
-* :mod:`wbc.solvers.box_eq`, :mod:`wbc.solvers.active_set` — the compiled exact QP kernels.
+* :mod:`~wbc.solvers.base` — :class:`QPBackend` (the interface, the solution check, polish and independent re-solve)
+  and :class:`TickWork` (a tick's counted work); :mod:`~wbc.solvers.qp_data` — the QP handed over and the answer.
+* :mod:`~wbc.solvers.fast` — ``fast``, :class:`FastBackend`: the in-house compiled exact active-set kernels (bounds
+  and equalities :mod:`~wbc.solvers.box_eq`, inequality rows too :mod:`~wbc.solvers.active_set`), warm-started,
+  DAQP as fallback; the default and the compiled kinematic tick's solver (:mod:`wbc.formulations.velocity_kernel`).
+* :mod:`~wbc.solvers.daqp` — ``daqp``, :class:`DaqpBackend`: DAQP's dual active set called directly, warm-started;
+  :mod:`~wbc.solvers.proxqp` — ``proxqp``, :class:`ProxQPBackend`; :mod:`~wbc.solvers.by_name` — any other
+  qpsolvers backend (:class:`QpsolversBackend`, cold-started); :mod:`~wbc.solvers.registry` — the names.
+* :mod:`~wbc.solvers.compiled_id` — the compiled solver of the inverse-dynamics QP (its block strategy
+  :mod:`~wbc.solvers.active_set_block`); :mod:`~wbc.solvers.fallback` — the ladder of solvers asked after it.
+* :mod:`~wbc.solvers.independent` — re-solves of a QP a backend reported infeasible; :mod:`~wbc.solvers.hierarchy`
+  — the lexicographic cascade of strict levels; :mod:`~wbc.solvers.diagnosis` — which hard constraints conflict.
+* :mod:`~wbc.solvers.status` — the kernels' exit codes; :mod:`~wbc.solvers.linalg` — their shared linear algebra.
 """
 
 from __future__ import annotations

@@ -9,11 +9,9 @@ constraint (:meth:`QPBackend.solve`): a violation above the backend's tolerance 
 projected onto the bounds so that integrating x never crosses a joint limit. Before a failure is declared, the
 problem is re-solved by independent backends (:meth:`QPBackend.confirm`).
 
-The backends themselves are in the sibling modules (:mod:`wbc.solvers.daqp`, :mod:`wbc.solvers.proxqp`,
-:mod:`wbc.solvers.by_name`, :mod:`wbc.solvers.fast`). :class:`QPBackend` builds three of them itself — ProxQP and
-qpsolvers backends for the independent re-solve, DAQP for the projection of :meth:`QPBackend.polish` — and, as
-their modules import this one, it does not import them: each registers its class here on import
-(:func:`register_backend_class`), and :mod:`wbc.solvers` imports them all.
+:class:`QPBackend` builds three backends of the sibling modules itself (ProxQP and qpsolvers for the independent
+re-solve, DAQP for the projection of :meth:`QPBackend.polish`); as those modules import this one, each registers its
+class here on import (:func:`register_backend_class`).
 """
 
 from __future__ import annotations
@@ -34,9 +32,8 @@ __all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "PROX_ITERA
 
 #: stands for an infinite bound where a backend needs a finite number
 INFINITE_BOUND = 1e10
-#: work (in :class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold
-#: solve of an infeasible QP runs to its iteration cap (200 outer × 100 inner), ≈ 580 active-set solves of a
-#: humanoid tick's QP; the others count one
+#: work (:class:`TickWork` solves) an independent re-solve of :meth:`QPBackend.confirm` counts: ProxQP's cold solve
+#: of an infeasible QP runs to its iteration cap (200 × 100), ≈ 580 solves of a humanoid tick's QP; the others one
 _CONFIRM_WORK = {"proxqp": 580}
 
 
@@ -51,9 +48,7 @@ PROX_ITERATIONS_PER_SOLVE = 75
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 POLISH_RANGE = 1e-3
 
-#: The backend classes :class:`QPBackend` builds, by role: ``"proxqp"`` and ``"qpsolvers"`` (any qpsolvers backend by
-#: name), the independent re-solve of :meth:`QPBackend.confirm`; ``"daqp"``, the projection of
-#: :meth:`QPBackend.polish`. Filled by :func:`register_backend_class` when the modules defining them are imported.
+#: The backend classes :class:`QPBackend` builds, by role (:func:`register_backend_class`).
 _BACKEND_CLASSES: dict[str, type] = {}
 
 
@@ -83,30 +78,22 @@ class TickWork:
 
     A controller shares one instance with all its backends (``QPBackend.work``) and resets it at the start of each
     tick; every solve attempt (warm, cold retry) and every independent re-solve of :meth:`QPBackend.solve` adds
-    one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took). A tick
-    budget counted in solves keeps a tick's answer a function of its inputs (a budget read from a clock would make
-    it depend on the machine).
+    one to ``solves`` (an attempt one more per :data:`ITERATIONS_PER_SOLVE` iterations its solver took): a count
+    keeps a tick's answer a function of its inputs.
 
     Clock guard (``clock``: seconds of CPU time counted as one solve, ``math.inf`` by default: off): ``solves``
-    reads max(counted solves, CPU time of the calling thread since :meth:`reset` / ``clock``)
-    (``time.thread_time``: what the tick computes, not the time other processes take the core from it), so every
-    limit on the count (:meth:`spent`, :meth:`wbc.solvers.daqp.DaqpBackend.call_limit`) also holds on the tick's CPU
-    time. The trade-off: a tick that reaches a limit by its clock before its count has an answer that depends on the
-    machine's speed and load (its optional stages stop earlier on a slower machine); a tick that stays under
-    every limit by its clock answers as without the guard.
+    reads max(counted solves, CPU time of the calling thread since :meth:`reset` / ``clock``), so every limit on the
+    count (:meth:`spent`, :meth:`wbc.solvers.daqp.DaqpBackend.call_limit`) also holds on the tick's CPU time; a tick
+    that reaches a limit by its clock first has an answer that depends on the machine's speed and load.
 
     Attributes:
         solves: work of the current tick, in solves (≥ 0; a float once the clock guard counts).
         cap: solves after which the tick's optional stages stop (≥ 0, ``math.inf``: no cap); an independent
-            re-solve starts only when its count fits under it (ProxQP counts 580: off the control path at any
-            budget below 580 × ``KinematicController.SOLVE_COST``).
-        reserve: solves held back for a later stage of the tick (≥ 0, finite; 0 after :meth:`reset`): :meth:`spent`
-            and :meth:`wbc.solvers.daqp.DaqpBackend.call_limit` count them as done, so the stages in progress stop
-            that many solves earlier (a strict cascade keeps them for its weighted form,
-            ``KinematicController.WEIGHTED_RESERVE``).
-        ticks: calls of :meth:`reset` so far (a backend tells the ticks apart by it, e.g.
-            :class:`wbc.solvers.fast.FastBackend`: a kernel that gave up on a problem is not tried again on the same
-            tick's problems of its shape).
+            re-solve starts only when its count (:meth:`QPBackend.confirm`) fits under it.
+        reserve: solves held back for a later stage of the tick (≥ 0, finite; 0 after :meth:`reset`), counted as
+            done by :meth:`spent` and :meth:`wbc.solvers.daqp.DaqpBackend.call_limit`
+            (``KinematicController.WEIGHTED_RESERVE``).
+        ticks: calls of :meth:`reset` so far (a backend tells the ticks apart by it: ``FastBackend``'s give-ups).
         timer: the CPU clock read (s; default :func:`cpu_time`, the calling thread's; a test injects a fake one).
     """
 
@@ -140,11 +127,6 @@ class TickWork:
             self._solves = self.solves + n
         else:
             self._solves += n
-
-    @property
-    def clock(self) -> float:
-        """CPU time (s) counted as one solve by the clock guard (``math.inf``: no clock guard)."""
-        return self._clock
 
     def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: seconds of CPU time counted as one solve
@@ -194,13 +176,11 @@ class QPBackend(ABC):
     last_confirmation: str = ""
     #: the independent solvers that ran in the last :meth:`confirm` (names; empty when none ran)
     last_confirmers: tuple | list = ()
-    #: the counted work of the current control tick (:class:`TickWork`, shared by a controller's backends), or None:
-    #: every solve attempt and independent re-solve adds one; once it reaches its cap a failed solve is not
-    #: confirmed by the independent solvers (:meth:`solve`). None (default): no count, no limit.
+    #: the counted work of the current control tick (:class:`TickWork`, shared by a controller's backends; :meth:`solve`),
+    #: or None (default): no count, no limit.
     work: "TickWork | None" = None
     #: retry a failed solve (from a cold start, :meth:`_solve_cold`, and a backend's own fallbacks) before declaring
-    #: it failed; a caller trying a sequence of problems where a failure only sends it to the next one (one scale of
-    #: a relaxation ladder) may turn it off for those solves: then one solver call per solve.
+    #: it failed; off: one solver call per solve (a trial whose failure is an answer, one step of a relaxation ladder)
     cold_retry: bool = True
     #: names of the independent solvers of :meth:`confirm`, in the order they are tried.
     independent: tuple[str, ...] = ("proxqp", "quadprog", "daqp")
@@ -208,15 +188,12 @@ class QPBackend(ABC):
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
         """Solve the QP (module docstring). A/C may have 0 rows; lb/ub are (n,) with ±inf for free entries.
 
-        Tolerance policy (the same for every backend and both controller levels): the solution is checked row
-        by row in the max-norm, each row against ``tolerance · max(1, |rhs|, Σ_j |a_ij x_j|)`` (its own units
-        and scale: a 1e6 m target row gets a relative tolerance); bound excess within tolerance is projected onto
-        [lb, ub], so integrating x never crosses a joint limit. Before a failure is declared, the problem is re-solved by an
-        independent backend (ProxQP, then quadprog/DAQP through qpsolvers; :meth:`confirm`); its solution, if it passes
-        the same check, is returned. ``confirm=False`` skips that re-solve (the inverse-dynamics controller: its time is
-        unbounded); otherwise, once the tick's counted work (``work``) has reached its cap, the independent solvers
-        not yet run are skipped (the failure is then reported unconfirmed). The limit is a count of solves, not a
-        clock: the answer is a function of the problem alone.
+        Tolerance policy (every backend, both controller levels): the answer's largest scaled violation
+        (:meth:`scaled_violation`: each row against ``tolerance · max(1, |rhs|, Σ_j |a_ij x_j|)``) is at most
+        ``tolerance``; within :data:`POLISH_RANGE` it is polished (:meth:`polish`); bound excess is projected onto
+        [lb, ub]. Before a failure is declared the independent solvers re-solve it (:meth:`confirm`);
+        ``confirm=False`` skips that (the inverse-dynamics controller: its time is unbounded), and once ``work``
+        reaches its cap the ones not yet run are skipped (the failure then reported unconfirmed).
 
         Returns:
             x (n,), within [lb, ub] exactly.
@@ -228,8 +205,7 @@ class QPBackend(ABC):
                 ran and failed too (``last_confirmers``); none run — ``independent`` empty, none installed, or the
                 tick's count spent before the first — leaves it unconfirmed, as with ``confirm=False``.
         """
-        # a warm start can mislead an active-set solver: once more from scratch before declaring failure (unless
-        # ``cold_retry`` is off: a trial whose failure is an answer, e.g. one scale of a relaxation ladder)
+        # a warm start can mislead an active-set solver: once more from scratch before declaring failure
         for attempt in (self._solve, self._solve_cold) if self.cold_retry else (self._solve,):
             self.last_iterations = 0
             x = attempt(H, g, A, b, C, l, u, lb, ub)
@@ -271,15 +247,13 @@ class QPBackend(ABC):
         """Primal polish of a near-feasible solution: bounds within 1e-6 (scaled) of x or crossed are fixed at the
         bound, violated or active inequality rows at the crossed/active side, and the smallest correction of the
         free entries (least squares, ``numpy.linalg.lstsq``) makes the equality and those rows hold; then
-        clipped to the bounds and checked like :meth:`solve`. With |g| ~ 1e9 (a 1e6 m target) every solver
-        tried stopped 1.5e-6 – 1.3e-5 off the rows (cancellation in H⁻¹(g + Aᵀλ)); the correction is of that
-        size, so the cost changes at second order.
+        clipped to the bounds and checked like :meth:`solve`. The correction is of the size of the solver's error
+        (cancellation in H⁻¹(g + Aᵀλ) for a large |g|), so the cost changes at second order.
 
         When that correction cannot hold the rows (the free entries do not span them: the feasible set is thin
-        and some entry must leave the bound the solver put it on, e.g. under a 1e6 m hand target), x is projected
-        onto the hard set instead: min ½‖y − x‖² subject to every row and bound, a well-conditioned QP (identity
-        Hessian, |gradient| ~ |x|) solved by DAQP's one-shot interface. The projection moves x by about the
-        solver's error, so the answer stays that solution up to its error.
+        and some entry must leave the bound the solver put it on), x is projected onto the hard set instead:
+        min ½‖y − x‖² subject to every row and bound (identity Hessian, DAQP's one-shot interface), which moves x by
+        about the solver's error.
 
         Returns:
             the polished x (within [lb, ub], every row to ``tolerance``), or None.
@@ -409,7 +383,7 @@ class QPBackend(ABC):
             ax = np.abs(xc)
         if A.shape[0]:
             # row scale: max(1, |b_i|, Σ_j |A_ij x_j|) — the magnitude of the terms summed (floating-point error
-            # of a_i·x is relative to it; measured: a 1e6 m target gave |g| 2e9 and every solver 1.7e-6 off)
+            # of a_i·x is relative to it)
             r = np.abs(A @ xc - b) / np.maximum(np.maximum(1.0, np.abs(b)), np.abs(A) @ ax)
             worst = max(worst, float(r.max()))
         if C.shape[0]:
@@ -420,16 +394,3 @@ class QPBackend(ABC):
             ex = np.where(ex > 0, ex, 0.0) / np.maximum(1.0, ref)
             worst = max(worst, float(ex.max()))
         return worst if math.isfinite(worst) else math.inf
-
-    @staticmethod
-    def violation(x, A, b, C, l, u, lb, ub) -> float:
-        """Largest violation of any constraint by x (0 when feasible)."""
-        worst = max((lb - x).max(initial=0.0), (x - ub).max(initial=0.0))
-        if A.shape[0]:
-            r = A @ x
-            r -= b
-            worst = max(worst, r.max(), -r.min())
-        if C.shape[0]:
-            cx = C @ x
-            worst = max(worst, (l - cx).max(), (cx - u).max())
-        return float(worst)

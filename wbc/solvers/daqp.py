@@ -85,8 +85,7 @@ class DaqpBackend(QPBackend):
         self._daqp = daqp
         self.tolerance = tolerance
         self.warm_start = warm_start
-        # an iteration cap, so that one call's work is bounded (DAQP's default, 10 000, was measured to take 24 ms
-        # on a kinematic level that cycled; the largest count of a solved kinematic QP seen was 233)
+        # an iteration cap, so that one call's work is bounded (DAQP's default is 10 000)
         self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
         if self.settings.get("eps_prox", 0.0) > 0.0:
             self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
@@ -96,8 +95,6 @@ class DaqpBackend(QPBackend):
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve attempt (every DAQP call it made; QPBackend.solve resets it).
         self.last_iterations = 0
-        #: warm-started solves that failed and were solved again from a cold start.
-        self.warm_failures = 0
         #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
         #: inequality rows; > 0 at an upper bound, < 0 at a lower one, 0 off its working set), else None.
         self.last_multipliers: np.ndarray | None = None
@@ -201,21 +198,23 @@ class DaqpBackend(QPBackend):
         self._sense[n:n + n_eq] = 5
         self._model = None
 
-    def _solve(self, H, g, A, b, C, l, u, lb, ub):
-        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
+    def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
+        """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
+        n, n_eq, n_in = lb.shape[0], A.shape[0], C.shape[0]
         if self._layout != (n, n_eq, n_in):
             self._prepare(n, n_eq, n_in)
         G, upper, lower = self._G, self._upper, self._lower
         e = n + n_eq
-        upper[:n] = ub  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
-        lower[:n] = lb
-        upper[n:e] = b
-        lower[n:e] = b
+        upper[:n], lower[:n] = ub, lb  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
+        upper[n:e], lower[n:e] = b, b
         G[:n_eq] = A
         if n_in:
             G[n_eq:] = C
-            upper[e:] = u
-            lower[e:] = l
+            upper[e:], lower[e:] = u, l
+        return G, upper, lower
+
+    def _solve(self, H, g, A, b, C, l, u, lb, ub):
+        G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
         if self.warm_start == "dual":
             self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
@@ -245,14 +244,12 @@ class DaqpBackend(QPBackend):
                 self.last_multipliers = info["lam"]
                 return x
             self._note_exit(exitflag, limit)
-            self.warm_failures += 1
             if not self.cold_retry or self.budget_capped:  # a trial (``cold_retry`` off), or the work limit: one
                 self._model = None                         # call; the next solve starts cold
                 return None
             if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
                 # the workspace ran its whole iteration limit (cycling): the one-shot call first, the cold workspace
-                # after it only if it fails (a kinematic weighted-form QP, Hessian conditioned 1e6, ‖g‖ 3e8: the warm
-                # and the cold workspace each stopped at 1000 iterations, the one-shot call solved it in 16)
+                # after it only if it fails
                 self._model = None
                 x = self._solve_oneshot(H, g, G, upper, lower)
                 if x is not None:
@@ -300,7 +297,6 @@ class DaqpBackend(QPBackend):
         return x if exitflag >= 1 else None
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
-        self.warm_failures += 1
         self._dual = None
         outcome = self._cold_outcome
         if outcome is not None:
@@ -337,10 +333,9 @@ class DaqpBackend(QPBackend):
                 return None
             limit["iter_limit"] = self.call_limit()
         elif self.warm_start == "dual":
-            # DAQP's infeasibility verdict with its primal tolerance at the accepted violation was measured wrong on
-            # two G1 touch-down QPs (Hessian conditioned 5e10; HiGHS: feasible): with the verdict's tolerance at
-            # DUAL_RETRY_PRIMAL_FACTOR × tolerance DAQP solves each in 9 iterations, every row met to 1e-12 (the
-            # answer is held to ``tolerance`` all the same, QPBackend.solve)
+            # DAQP's infeasibility verdict with its primal tolerance at the accepted violation was seen wrong on
+            # ill-conditioned feasible QPs: once more at DUAL_RETRY_PRIMAL_FACTOR × tolerance (the answer is held to
+            # ``tolerance`` all the same, QPBackend.solve)
             loose = {**limit, "primal_tol": DUAL_RETRY_PRIMAL_FACTOR * self.tolerance}
             x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **loose)
             self.last_iterations += int(info["iterations"])
@@ -351,12 +346,10 @@ class DaqpBackend(QPBackend):
             if self.budget_capped:
                 return None
             limit["iter_limit"] = self.call_limit()
-        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        scale = _cost_scale(H, g)
         if scale < 1.0:
-            # the same minimiser with the cost divided by max(1, |g|∞, |H|max): with |g| ~ 1e6 and a Hessian
-            # conditioned ~1e11 (large task gains and weights against a 1e-7 force regularisation), DAQP's
-            # absolute dual tolerances reported feasible inverse-dynamics QPs infeasible (cross-checked by HiGHS;
-            # the scaled solve agrees with quadprog to 4e-8 in x)
+            # the same minimiser with the cost divided by max(1, |g|∞, |H|max): DAQP's absolute dual tolerances
+            # reported feasible inverse-dynamics QPs with a large |g| and an ill-conditioned Hessian infeasible
             x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
                                                      self._sense, **{**limit, **self.scaled_settings})
             self.last_iterations += int(info["iterations"])
@@ -376,18 +369,8 @@ class DaqpBackend(QPBackend):
         Returns:
             x (n,) within [lb, ub] meeting every row to ``tolerance`` (the check of :meth:`QPBackend.solve`), or None.
         """
-        n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
-        if self._layout != (n, n_eq, n_in):
-            self._prepare(n, n_eq, n_in)
-        G, upper, lower = self._G, self._upper, self._lower
-        e = n + n_eq
-        upper[:n], lower[:n] = ub, lb
-        upper[n:e], lower[n:e] = b, b
-        G[:n_eq] = A
-        if n_in:
-            G[n_eq:] = C
-            upper[e:], lower[e:] = u, l
-        scale = 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))
+        G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
+        scale = _cost_scale(H, g)
         limit = self.call_limit()
         x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
                                                 **{**self.settings, "iter_limit": limit, **self.scaled_settings})
@@ -404,23 +387,23 @@ class DaqpBackend(QPBackend):
             self._dual = self.last_multipliers.copy()
         return xc
 
+    def _limited(self, limit: int) -> dict:
+        """The settings with ``iter_limit`` = ``limit`` (the settings themselves when it is theirs)."""
+        return self.settings if limit == self.settings.get("iter_limit") else {**self.settings, "iter_limit": limit}
+
     def _solve_dual(self, H, g, G, upper, lower):
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
         limit = self.call_limit()  # the settings' iter_limit unless a work count or a deadline lowers it
-        settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
-                                                                                   "iter_limit": limit}
+        settings = self._limited(limit)
         kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
         x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **kwargs)
         self._note_exit(exitflag, limit)
         if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
             # per solve)
-            self.warm_failures += 1
             limit = self.call_limit()
-            settings = self.settings if limit == self.settings.get("iter_limit") else {**self.settings,
-                                                                                       "iter_limit": limit}
-            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **settings)
+            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **self._limited(limit))
             self._note_exit(exitflag, limit)
         self.last_iterations += int(info["iterations"])
         if exitflag < 1:
@@ -430,3 +413,8 @@ class DaqpBackend(QPBackend):
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual
         return x
+
+
+def _cost_scale(H: np.ndarray, g: np.ndarray) -> float:
+    """1 / max(1, |g|∞, |H|max): the factor of the cost-scaled QP (the same minimiser)."""
+    return 1.0 / max(1.0, float(np.abs(g).max(initial=0.0)), float(np.abs(H).max(initial=0.0)))

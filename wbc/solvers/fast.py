@@ -5,11 +5,8 @@ rows to :func:`wbc.solvers.active_set.solve_qp_ws`, each warm-started from the p
 kernel ends only when every KKT condition holds (stationarity by construction, primal feasibility, dual sign,
 complementarity), so the returned x is the exact optimum; when it does not end within the iteration cap, when H is
 not positive definite or when the equalities are dependent, the call is handed to the
-:class:`~wbc.solvers.daqp.DaqpBackend` it extends.
-
-The kernels are compiled on first use and cached on disk (``cache=True``); :func:`load_fast_kernels` compiles (or loads)
-them eagerly, once per process, and returns the seconds it took (at construction of a
-backend).
+:class:`~wbc.solvers.daqp.DaqpBackend` it extends. :func:`load_fast_kernels` loads the kernels (on-disk cache) once
+per process, at construction of a backend.
 """
 
 from __future__ import annotations
@@ -43,13 +40,11 @@ class FastBackend(DaqpBackend):
 
     Attributes:
         count_give_ups (bool): under a tick's counted work (``work``), a kernel attempt that gives up counts one
-            solve and the tick's later problems of its shape skip the kernel (:meth:`solve`); False (default):
-            uncounted, the kernel tried on every call. The kinematic controller sets it on ticks without strict levels.
-        skip_give_ups (bool): under a tick's counted work (``work``), after a kernel attempt that gives up the tick's
-            later problems of its shape skip the kernel, as with ``count_give_ups``, but the attempt is not counted
-            (False, default: the kernel tried on every call unless ``count_give_ups``). The kinematic controller
-            sets it on ticks of strict levels, whose weighted form's re-solves (contact correction, trust region)
-            would each repeat the attempt.
+            solve and the tick's later problems of its shape (variables, equality rows, inequality rows) go to DAQP
+            at once (:meth:`solve`; the tick told apart by ``work.ticks``). Default False: the kernel tried on every
+            call. The kinematic controller sets it on ticks without strict levels.
+        skip_give_ups (bool): the same without counting the attempt (the kinematic controller's ticks of strict
+            levels, whose weighted form's re-solves would each repeat the attempt).
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
@@ -124,11 +119,8 @@ class FastBackend(DaqpBackend):
         """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
         satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
         the kernel against ``tolerance``; anything else goes through DAQP and the general check. A kernel solution
-        adds one solve to the tick's counted work (``work``, when set), as every solve attempt does. With
-        ``count_give_ups`` and a tick's work (``work`` set), a kernel attempt that gives up counts one solve too, and
-        the tick's later problems of that shape (variables, equality rows, inequality rows) go to DAQP at once (the
-        tick is told apart by ``work.ticks``: a count, so the route is a function of the tick's inputs); with
-        ``skip_give_ups`` they go to DAQP at once too, the attempt not counted.
+        adds one solve to ``work``, as every solve attempt does; a give-up as ``count_give_ups`` / ``skip_give_ups``
+        say.
 
         Raises:
             SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
@@ -142,15 +134,12 @@ class FastBackend(DaqpBackend):
         if (self.count_give_ups or self.skip_give_ups) and work is not None and gave_up is not None \
                 and gave_up[0] is work and gave_up[1] == work.ticks and gave_up[2] == shape:
             # the kernel gave up on a problem of this shape earlier in this tick: the tick's re-solves of it (a
-            # relaxation ladder, a trust region, bounds pinned at 0 that make the working set dependent on the
-            # contact rows) go to DAQP at once (a kernel attempt that gives up is not counted as a solve, and on
-            # the Talos fuzz episode of seed 550037 cost as much as one)
+            # relaxation ladder, a trust region, bounds pinned at 0) go to DAQP at once
             pass
         elif p and self._rows_failed:
             # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
             # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held
-            # at velocity bounds, defeat its pivoting for stretches of ticks: on the Talos hand-through-torso drive
-            # 414 of 605 calls; a failed attempt cost about half a DAQP solve)
+            # at velocity bounds, defeat its pivoting for stretches of ticks)
             self._rows_failed = False
         elif self._kernel(H, g, A, b, C, l, u, lb, ub):
             if self.work is not None:
@@ -179,9 +168,9 @@ class FastBackend(DaqpBackend):
 
 @once_per_process
 def load_fast_kernels() -> float:
-    """Compile (or load from the on-disk cache) the kernels :class:`FastBackend` calls (both its entry points: with
-    and without inequality rows) and the shared ones of :mod:`wbc.solvers.linalg`, once per process; returns the
-    seconds taken (later calls: None at once)."""
+    """Compile (or load from the on-disk cache) the kernels :class:`FastBackend` calls (with and without inequality
+    rows) and the shared ones of :mod:`wbc.solvers.linalg`, once per process; returns the seconds taken (later
+    calls: None at once)."""
     t0 = time.perf_counter()
     H = np.eye(2)
     s = np.zeros(2, np.int8)
@@ -192,7 +181,6 @@ def load_fast_kernels() -> float:
     b = FastBackend()
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
-    # no inequality rows: the box/equality kernel's own entry point (else loaded inside a controller's first tick)
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
             np.ones(2))
     return time.perf_counter() - t0

@@ -1,8 +1,5 @@
-"""QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast``.
-
-The one place that knows every backend: the general ones (:mod:`wbc.solvers.daqp`, :mod:`wbc.solvers.proxqp`, any
-qpsolvers backend by :mod:`wbc.solvers.by_name`) and the compiled exact kernel of :mod:`wbc.solvers.fast` (which falls
-back to DAQP), so none of those modules imports another's registry.
+"""QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast`` — the one place that
+knows every backend, so none of their modules imports another's registry.
 
 qpsolvers is imported with :mod:`wbc.solvers`, not on first need: its import (scipy.sparse and every installed
 backend, tens of milliseconds) would otherwise land inside the control tick whose failed solve is first re-solved

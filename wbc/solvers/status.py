@@ -21,7 +21,8 @@ class SolverStatus(IntEnum):
         NOT_POSITIVE_DEFINITE: a Hessian (or reduced Hessian) factorisation failed.
         DEPENDENT_ROWS: an equality or working-set row is (numerically) dependent on the others.
         ITERATION_CAP: the active-set loop reached its iteration cap.
-        NOT_REDUCIBLE: the floating base cannot be eliminated (kinematic tick).
+        NOT_REDUCIBLE: the floating base cannot be eliminated (kinematic tick: a bound on a base velocity, a
+            singular eliminating block).
         RESIDUAL: the solution's equality or inequality residual is above the tolerance (kinematic tick).
         INFEASIBLE: a violated constraint that no working row can make room for (the constraints admit no
             solution, up to the kernel's tolerance; the caller's general solver decides).
@@ -37,18 +38,12 @@ class SolverStatus(IntEnum):
     NOT_VERIFIED = -7
 
 
-#: exit codes (the :class:`SolverStatus` values as plain ints, frozen by numba at compile time) of
-#: :func:`wbc.solvers.box_eq.solve_box_eq` (≥ 0: number of working-set iterations)
+#: the :class:`SolverStatus` values as plain ints (numba freezes them at compile time); DEPENDENT_EQUALITIES is
+#: ``DEPENDENT_ROWS``
 NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
 DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
 ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
-#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base cannot be eliminated (a
-#: bound on a base velocity, a singular eliminating block); the solution's equality or inequality residual is above the
-#: tolerance
 NOT_REDUCIBLE = int(SolverStatus.NOT_REDUCIBLE)
 RESIDUAL = int(SolverStatus.RESIDUAL)
-#: exit codes of the dual active set (:func:`wbc.solvers.active_set.dual_active_set`): a violated constraint that no
-#: working inequality can make room for (the constraints admit no solution; the caller's general solver confirms);
-#: the final KKT check did not pass
 INFEASIBLE = int(SolverStatus.INFEASIBLE)
 NOT_VERIFIED = int(SolverStatus.NOT_VERIFIED)
