@@ -24,7 +24,6 @@ OVER_TEN = {
     "FallbackChain._solve_scaled": 11, "output_violations": 13, "stabilizer_kernel": 20,
     "_assemble": 16, "executed_multibody_zmp": 11, "_foot_wrench_kernel": 11, "JumpScenario.__init__": 16,
     "_tick_kernel": 21, "_read_kernel": 14,
-    "solve_box_eq": 14, "_working_set_step": 18, "_refine_equalities": 15, "solve_box_eq_ws": 21,
     "_centroidal_from_base_rows": 12,
     "_frame_rows_drift": 11,
 }
