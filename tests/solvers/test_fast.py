@@ -32,7 +32,7 @@ def test_kernel_is_the_exact_optimum(seed):
     H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=float(rng.uniform(0.3, 2.0)))
     state = np.zeros(n, np.int8)
     x, nu, z = np.empty(n), np.zeros(m), np.zeros(n)
-    it = solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, 200, 1e-12, 1e-12, 1e-24)
+    it = solve_box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
     assert it > 0, it
     # KKT: stationarity, primal feasibility, dual sign, complementarity (thresholds set here)
     assert np.abs(H @ x + g + A.T @ nu + z).max() < 1e-9
@@ -52,7 +52,7 @@ def test_kernel_is_the_exact_optimum(seed):
         assert ref is not None
         assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max()), solver
     # warm start from the optimal set: one iteration
-    it2 = solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, 200, 1e-12, 1e-12, 1e-24)
+    it2 = solve_box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
     assert it2 == 1
 
 

@@ -380,8 +380,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         lr[r] = l[r] - shift
         ur[r] = u[r] - shift
     if p == 0:
-        it = solve_box_eq_ws(Hr, gr, Ar, br, lbr, ubr, state, x, nu, z, max_iter, 1e-12, 1e-12, 1e-24, iws[:nr], L, Y,
-                             S, t, rhs, eqres)
+        # plain tuples, the types of the fast backend's call: one compiled version of solve_box_eq_ws
+        it = solve_box_eq_ws((Hr, gr, Ar, br, lbr, ubr), (state, x, nu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24),
+                             (iws[:nr], L, Y, S, t, rhs))
     else:
         # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
         it = solve_qp_into((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),

@@ -5,6 +5,13 @@
 (H symmetric positive definite, A full row rank), warm-started from the previous call's working set (the variables
 held at a bound): :func:`solve_box_eq_ws` (workspace given) and :func:`solve_box_eq` (allocating).
 
+Their arguments, as those of :func:`wbc.solvers.active_set.solve_qp_ws`: the QP (H, g, A, b, lb, ub: the order of
+:class:`~wbc.solvers.qp_data.QPData` without its rows C, l, u), a :data:`BoxEqArrays` (working set and outputs),
+the limits (a :data:`wbc.solvers.active_set.QPLimits`) and, for :func:`solve_box_eq_ws`, a :data:`BoxEqSpace`.
+Each may be a plain tuple in that order instead (the kernels unpack them by position): numba's dispatcher types a
+plain tuple of arrays by its fingerprint, a namedtuple through Python's typeof, so the Python callers pass plain
+tuples; compiled callers pass them too, to link the one compiled version.
+
 For a fixed working set W the free part F solves the equality-constrained QP through its KKT system, eliminated with
 a Cholesky factor L Lᵀ = H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical
 Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"), refined once on the equality rows (the Schur
@@ -17,6 +24,8 @@ negative exit code (:mod:`wbc.solvers.status`).
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
@@ -25,30 +34,43 @@ from wbc.solvers.linalg import (backward_substitution, cholesky_lower, equality_
                                 primal_from_multipliers)
 from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 
-__all__ = ["clip_eq_residual", "drop_infinite_active", "load_box_eq_kernels", "solve_box_eq", "solve_box_eq_ws"]
+__all__ = ["BoxEqArrays", "BoxEqSpace", "clip_eq_residual", "drop_infinite_active", "load_box_eq_kernels",
+           "solve_box_eq", "solve_box_eq_ws"]
+
+#: the arrays of :func:`solve_box_eq_ws` / :func:`solve_box_eq` (n variables, m equality rows): state (n,) int8 the
+#: working set (in/out, read as the warm start); x (n,), nu (m,), z (n,), eq_residual (1,) the outputs. A plain tuple
+#: in this order is taken as well (module docstring)
+BoxEqArrays = namedtuple("BoxEqArrays", "state x nu z eq_residual")
+#: the workspace of :func:`solve_box_eq_ws`: free (n,) int64 (the free variables, then the fixed ones from the end);
+#: L (n, n) the Cholesky factor of H_FF; Y (m, n) = L⁻¹A_Fᵀ by row; S (m, m) the Schur complement and its factor;
+#: t (n,), rhs (m,) vectors. Or a plain tuple in this order
+BoxEqSpace = namedtuple("BoxEqSpace", "free L Y S t rhs")
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_box_eq(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol):
+def solve_box_eq(qp, arrays, limits):
     """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
-    n, m = H.shape[0], A.shape[0]
-    return solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
-                           np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)),
-                           np.empty(n), np.empty(m), np.empty(1))
+    n, m = qp[0].shape[0], qp[2].shape[0]
+    return solve_box_eq_ws(qp, arrays, limits, (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)),
+                                                np.empty((m, m)), np.empty(n), np.empty(m)))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs, e):
+def _working_set_step(qp, state, x, nu, rank_tol, space, e):
     """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
-    set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to the first m rows of ``A x = b``, through
-    the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal &
-    Wright 2006, §16.2), refined once on the equality rows (:func:`_refine_equalities`; e (n,) is scratch). On
-    return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the multipliers.
+    set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to ``A x = b`` (qp = (H, g, A, b, lb, ub)),
+    through the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal
+    & Wright 2006, §16.2), refined once on the equality rows (:func:`_refine_equalities`; e (n,) is scratch), in the
+    :data:`BoxEqSpace` ``space``. On return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the
+    multipliers.
 
     Returns:
         nf, the number of free variables (≥ 0), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES.
     """
+    H, g, A, b, lb, ub = qp
+    free, L, Y, S, t, rhs = space
     n = H.shape[0]
+    m = A.shape[0]
     nf = 0
     nw = n  # the fixed variables are listed from the end of ``free``: free[nw:]
     for i in range(n):
@@ -117,18 +139,23 @@ def _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y,
     # x_F = -L⁻ᵀ (t + Y nu)
     primal_from_multipliers(L, nf, t, Y, nu, m, t)
     if m:
-        _refine_equalities(A, b, m, free, nf, nw, n, x, t, nu, L, Y, S, rhs, e)
+        _refine_equalities(qp, space, nf, nw, x, nu, e)
     return nf
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _refine_equalities(A, b, m, free, nf, nw, n, x, t, nu, L, Y, S, r, e):
+def _refine_equalities(qp, space, nf, nw, x, nu, e):
     """One step of iterative refinement of the range-space solve on its equality rows (Golub & Van Loan, *Matrix
     Computations*, 4th ed., §3.5.3): the Schur complement S = A_F H_FF⁻¹ A_Fᵀ squares the conditioning of A_F, so
     A_F x_F = b − A_W x_W holds only to ≈ ε·cond(S) after one solve. With the residual r, the correction
     d = H_FF⁻¹ A_Fᵀ w, S w = r, is the least-H-norm step onto the rows (A_F d = r); it keeps stationarity with the
-    multipliers nu − w. Reuses the factors L (of H_FF), Y = L⁻¹A_Fᵀ and S's Cholesky factor; r (m,) and e (n,) are
-    scratch."""
+    multipliers nu − w. Reuses the factors L (of H_FF), Y = L⁻¹A_Fᵀ and S's Cholesky factor of the
+    :data:`BoxEqSpace` ``space`` (free[:nf] the free variables, free[nw:] the fixed ones, t[:nf] x_F, refined in
+    place); its rhs (m,), as r, and e (n,) are scratch."""
+    H, _, A, b, _, _ = qp
+    free, L, Y, S, t, r = space
+    n = H.shape[0]
+    m = A.shape[0]
     for k in range(m):
         s = b[k]
         for c in range(nw, n):
@@ -218,32 +245,37 @@ def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, dual_tol, rank_tol,
-                    free, L, Y, S, t, rhs, eq_residual):
+def solve_box_eq_ws(qp, arrays, limits, space):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
 
     Args:
-        H, g, A, b, lb, ub: the QP, of shapes (n, n), (n,), (m, n), (m,), (n,), (n,) (±inf for free entries).
-        state (n,) int8, in/out: working set (0 free, -1 held at lb, +1 held at ub); read as the warm start.
-        x (n,), nu (m,), z (n,): out — solution, equality multipliers, bound multipliers
-            (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, z ≥ 0 at an upper bound, 0 when free).
-        max_iter: working-set iterations allowed.
-        primal_tol: bound violation (absolute) that makes a free variable be fixed.
-        dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed.
-        rank_tol: relative pivot of the Schur complement below which the equalities count as dependent.
-        free (n,) int64, L (n, n), Y (m, n), S (m, m), t (n,), rhs (m,): workspace.
-        eq_residual (1,): out — max |A x − b| of the returned x.
+        qp: H, g, A, b, lb, ub (a tuple; :class:`~wbc.solvers.qp_data.QPData`'s order without C, l, u), of shapes
+            (n, n), (n,), (m, n), (m,), (n,), (n,) (±inf for free entries).
+        arrays: a :data:`BoxEqArrays` (or a plain tuple in its order): state (n,) int8, in/out: working set (0 free,
+            -1 held at lb, +1 held at ub), read as the warm start; x (n,), nu (m,), z (n,): out — solution,
+            equality multipliers, bound multipliers (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound,
+            z ≥ 0 at an upper bound, 0 when free); eq_residual (1,): out — max |A x − b| of the returned x.
+        limits: a :data:`wbc.solvers.active_set.QPLimits` (or a plain tuple in its order): max_iter: working-set
+            iterations allowed. primal_tol: bound violation (absolute) that makes a free variable be fixed.
+            dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed. rank_tol: relative
+            pivot of the Schur complement below which the equalities count as dependent.
+        space: a :data:`BoxEqSpace` (or a plain tuple in its order): free (n,) int64, L (n, n), Y (m, n),
+            S (m, m), t (n,), rhs (m,), the workspace.
 
     On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
 
     Returns:
         iterations (≥ 1) on success, or a negative exit code.
     """
+    H, g, A, b, lb, ub = qp
+    state, x, nu, z, eq_residual = arrays
+    max_iter, primal_tol, dual_tol, rank_tol = limits
+    free, _, _, _, t, _ = space
     n = H.shape[0]
     m = A.shape[0]
     drop_infinite_active(state, lb, ub)
     for it in range(1, max_iter + 1):
-        nf = _working_set_step(H, g, A, b, m, lb, ub, state, x, nu, rank_tol, free, L, Y, S, t, rhs, z)
+        nf = _working_set_step(qp, state, x, nu, rank_tol, space, z)
         if nf < 0:
             return nf
         worst, worst_i, worst_side = _place_free(free, t, nf, x, lb, ub, primal_tol)
@@ -262,10 +294,13 @@ def solve_box_eq_ws(H, g, A, b, lb, ub, state, x, nu, z, max_iter, primal_tol, d
 @once_per_process
 def load_box_eq_kernels() -> None:
     """Compile (or load from the on-disk cache), once per process, :func:`solve_box_eq_ws` for the argument types
-    its callers give it (C-contiguous float64 arrays, int8 working set, int64 free list) — the ``fast`` backend
-    (:mod:`wbc.solvers.fast`) and the kinematic tick (:mod:`wbc.formulations.velocity_kernel`), whose loaders run
-    after this one (``wbc compile``'s :data:`wbc.cli.kernels.AFTER`) and link this version."""
+    its callers give it (plain tuples: the QP's C-contiguous float64 arrays, the int8 working set and the outputs,
+    the limits, the workspace with its int64 free list) — the ``fast`` backend (:mod:`wbc.solvers.fast`) and the
+    kinematic tick (:mod:`wbc.formulations.velocity_kernel`), whose loaders run after this one (``wbc compile``'s
+    :data:`wbc.cli.kernels.AFTER`) and link this version."""
     n, m = 2, 1
-    solve_box_eq_ws(np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), -np.ones(n), np.ones(n), np.zeros(n, np.int8),
-                    np.empty(n), np.empty(m), np.empty(n), 10, 1e-12, 1e-12, 1e-24, np.empty(n, np.int64),
-                    np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n), np.empty(m), np.empty(1))
+    solve_box_eq_ws((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), -np.ones(n), np.ones(n)),
+                    (np.zeros(n, np.int8), np.empty(n), np.empty(m), np.empty(n), np.empty(1)),
+                    (10, 1e-12, 1e-12, 1e-24),
+                    (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
+                     np.empty(m)))

@@ -81,10 +81,13 @@ class FastBackend(DaqpBackend):
         self._n, self._m = n, m
         cached = self._ws_by_m.get(m)
         if cached is None:
-            cached = self._ws_by_m[m] = (np.zeros(m), (
+            nu, eq_residual = np.zeros(m), np.empty(1)
+            # the box/equality kernel's arrays and workspace, plain tuples in the orders of BoxEqArrays and
+            # BoxEqSpace (see _kernel), built once per shape
+            cached = self._ws_by_m[m] = (nu, eq_residual, (self._state, self._x, nu, self._z, eq_residual), (
                 np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
-                np.empty(m), np.empty(1)))
-        self._nu, self._ws = cached
+                np.empty(m)))
+        self._nu, self._eq_residual, self._box_arrays, self._box_space = cached
 
     def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
         """One warm-started call of the kernel of the module docstring (by the rows of C); True when it ended at a
@@ -101,13 +104,14 @@ class FastBackend(DaqpBackend):
             # by its fingerprint, a namedtuple through Python's typeof (a call of a kernel of these arguments that
             # returns at once: 4.3 µs with plain tuples, 9.7 µs with namedtuples, 5.8 µs with the 20 arrays and numbers)
             it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub),
-                             (self._state, self._rstate, self._x, self._nu, self._mu, self._z, self._ws[6]),
+                             (self._state, self._rstate, self._x, self._nu, self._mu, self._z, self._eq_residual),
                              (self.max_iter, 1e-12, 1e-12, 1e-24))
         else:
-            it = solve_box_eq_ws(H, g, A, b, lb, ub, self._state, self._x, self._nu, self._z,
-                                 self.max_iter, 1e-12, 1e-12, 1e-24, *self._ws)
+            # the QP (QPData's order without C, l, u), BoxEqArrays, QPLimits, BoxEqSpace: plain tuples likewise
+            it = solve_box_eq_ws((H, g, A, b, lb, ub), self._box_arrays, (self.max_iter, 1e-12, 1e-12, 1e-24),
+                                 self._box_space)
         self.last_kernel_iterations = it
-        if it > 0 and self._ws[6][0] <= self.tolerance:
+        if it > 0 and self._eq_residual[0] <= self.tolerance:
             self.kernel_solves += 1
             return True
         self._state[:] = 0
@@ -174,8 +178,8 @@ def load_fast_kernels() -> float:
     t0 = time.perf_counter()
     H = np.eye(2)
     s = np.zeros(2, np.int8)
-    solve_box_eq(H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2), s, np.empty(2),
-                 np.empty(1), np.empty(2), 10, 1e-12, 1e-12, 1e-24)
+    solve_box_eq((H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2)),
+                 (s, np.empty(2), np.empty(1), np.empty(2), np.empty(1)), (10, 1e-12, 1e-12, 1e-24))
     weighted_normal_equations(np.ones((1, 2)), np.ones(1), np.ones(1), 1e-6, np.empty((2, 2)), np.empty(2))
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     b = FastBackend()
