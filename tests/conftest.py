@@ -112,6 +112,23 @@ def hand_over_posture(robots, **options):
     return robot, config, ctrl, [hand, posture]
 
 
+def count_cascades(monkeypatch) -> list:
+    """Spy on the kinematic controller's strict cascade (``wbc.controllers.general_route.solve_lexicographic``): each
+    call appends 1 to the returned list. The spy shares the cascade's attributes (its ``last_cut``, … reports)."""
+    from wbc.controllers import general_route
+
+    cascade = general_route.solve_lexicographic
+    calls: list = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return cascade(*args, **kwargs)
+
+    counted.__dict__ = cascade.__dict__  # (the same dict: the reports the cascade writes are read through the spy)
+    monkeypatch.setattr(general_route, "solve_lexicographic", counted)
+    return calls
+
+
 def centroidal_oracle(model, q: np.ndarray, v: np.ndarray, dt: float):
     """Independent oracle of the executed-ZMP tests, straight from Pinocchio: total mass (kg), CoM (N, 3) of each
     q, its central second differences c̈ (N, 3) (end rows copied), and L̇ (N, 3), the backward difference of the

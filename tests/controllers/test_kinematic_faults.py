@@ -328,10 +328,11 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
 
 
 def test_ok_tick_past_its_budget_answers_with_the_weighted_levels(robots):
-    """Strict levels (a hand target at level 0, the posture at level 1) with a budget already spent when the first
-    level is solved: the cascade starts no further level and the tick answers with the weighted form of its levels
-    (one QP; its command checked against quadprog in tests/controllers/test_kinematic_weighted_levels.py), ok,
-    with path 'levels+budget+weighted', over_budget and the skipped stages named. Oracles: the command differs from
+    """Strict levels (a hand target at level 0, the posture at level 1) with a budget of 1e-9 s (a cap of 0
+    counted solves): the cascade cannot fit (``TickBudget.cascade_may_start``) and is not started; the tick answers
+    with the weighted form of its levels (one QP; its command checked against quadprog in
+    tests/controllers/test_kinematic_weighted_levels.py), ok, with path 'levels+budget+weighted', over_budget and the
+    skipped cascade named. Oracles: the command differs from
     the full cascade's (budget math.inf), whose level-0 hand residual is the least possible (the weighted form's is
     not smaller), and forward kinematics of the soles over the tick (both placed where they are: each may move
     ≤ 0.05 mm)."""
@@ -342,7 +343,8 @@ def test_ok_tick_past_its_budget_answers_with_the_weighted_levels(robots):
     ctrl.budget = 1e-9
     cut = ctrl.solve(config, DT)
     assert cut.ok and cut.over_budget and cut.path == "levels+budget+weighted", (cut.path, cut.message)
-    assert "priority levels after the first 1 of 3 (their weighted form's command)" in cut.message
+    assert "the cascade of 2 priority levels (with its contact correction, at least 6 counted solves: their " \
+           "weighted form's command) skipped" in cut.message
     err, jac = hand.compute(config)
     target_v = hand.velocity_target(err)
     r_full = np.linalg.norm(jac @ full.v - target_v)
@@ -501,7 +503,9 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     """A tick's budget is counted in QP solves (wbc.solvers.base.TickWork), never read from a clock: the same ticks
     (strict levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths
     and budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
-    itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget)."""
+    itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget). The
+    first tick (its new layout counted: the cascade and its correction cannot fit, ``TickBudget.cascade_may_start``)
+    is paid at an unlimited budget, so that the three ticks compared at the 2 ms budget run the cascade."""
     import wbc.controllers.kinematic as kinematic
     import wbc.solvers.base as base
     import wbc.solvers.daqp as daqp_backend
@@ -509,6 +513,9 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
 
     def run():
         robot, config, ctrl, _ = hand_over_posture(robots)
+        ctrl.budget = math.inf
+        ctrl.solve(config, DT)  # the new layout's tick
+        ctrl.budget = None
         out = []
         for _ in range(3):
             res = ctrl.solve(config, DT)
@@ -839,15 +846,18 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
         assert np.linalg.norm(a - sent.translation) <= tol
 
 
-def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(robots):
+def test_a_first_strict_tick_past_its_count_retries_with_the_weighted_form(robots):
     """Kinematic fuzz seed 550000, episode 93 of the fuzz's run with ``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``
     (humanoid15, a reachable hand target, strict levels, dt = 2 ms, four leg joints 7–36 mrad past their limits, the
-    fuzz's budget of 8 counted solves): tick 0's cascade fails (no return rate of those joints is feasible) after
-    spending the count (its new layout counted too). A failed cascade that spent the count retries with the weighted
-    form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode 176 tick 39 before
-    the layouts were counted: the least-squares retry's cascade took 6 more solves and no contact correction was
-    left): the tick is solved, path 'levels+return_rate+budget+weighted', its return rate relaxed to 0. Oracles: no
-    joint moves further outside its position limits (the model's limits), no joint speed exceeds the model's velocity
+    fuzz's budget of 8 counted solves). Tick 0 counts its new layout (``LAYOUT_WORK``): its cascade and contact
+    correction cannot fit beside it and the weighted reserve (``TickBudget.cascade_may_start``), so the tick starts on
+    the weighted form of its levels; that QP fails (no return rate of those joints is feasible) and its retries stay
+    on the weighted form (one QP each; before that rule the cascade ran first, failed after spending the count, and
+    its retries were cut to the weighted form, 10.5 counted solves; fuzz seed 100014 episode 176 tick 39 before the
+    layouts were counted: the least-squares retry's cascade took 6 more solves and no contact correction was left):
+    the tick is solved, path 'levels+return_rate+budget+weighted', its return rate relaxed to 0, no cascade started
+    (the message names it; a failed cascade's retries cut to the weighted form: the test below). Oracles: no joint
+    moves further outside its position limits (the model's limits), no joint speed exceeds the model's velocity
     limit, and each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's
     forward kinematics on its own Data).
 
@@ -874,8 +884,9 @@ def test_a_failed_cascade_that_spent_the_count_retries_with_its_weighted_form(ro
     res = ctrl.solve(config, dt)
     print(f"\ntick 0: {res.path} ok={res.ok}; {res.relaxed}; {res.message[:200]}")
     assert res.ok and res.path == "levels+return_rate+budget+weighted", (res.path, res.message)
-    assert "priority levels of the retries" in res.message  # the retries cut to the weighted form
-    assert ctrl._work.solves <= 2 * 8  # 10.5 counted solves (12.5 when the retries are a cascade again)
+    assert "the cascade of 2 priority levels (with its contact correction" in res.message  # not started
+    assert "priority levels of the retries" not in res.message  # (no cascade to cut)
+    assert ctrl._work.solves <= 2 * 8  # 10 counted solves (10.5 with the failed cascade first)
     q1 = pin.integrate(model, config.q, res.v * dt)
     assert np.all(np.maximum(0.0, np.maximum(lo - q1[iq], q1[iq] - hi)) <= outside + 1e-9)
     assert np.all(np.abs(res.v[6:]) <= model.velocityLimit[6:] * (1.0 + 1e-9))
@@ -921,14 +932,18 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
     is the optimum of the weighted QP the retry solved (quadprog on the same cost, constraints and bounds, to 1e-6 of
     its size); finite; within the model's joint velocity limits; no joint leaves its position range (the model's
     limits); each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward
-    kinematics on its own Data)."""
+    kinematics on its own Data). Tick 0 is solved at an unlimited budget: at the fuzz's, its cascade and contact
+    correction no longer fit beside the new layout's work (``TickBudget.cascade_may_start``) and the episode runs on
+    the weighted form from tick 0 (``WEIGHTED_TICKS``); unlimited, tick 0 runs the cascade as the fuzz's run did
+    ('levels', its budget not reached either way), and ticks 1–7 at the fuzz's budget replay its route."""
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550001, 281, dts=(0.002, 0.005, 0.01, 0.02),
                                                         past_limits=0.2)
     assert (name, kind, strict, dt) == ("humanoid15", "reachable", True, 0.002)
     model = ctrl.robot.model
     iq, _ = bounded_joints(model)
     lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
-    for _ in range(7):
+    for k in range(7):
+        ctrl.budget = math.inf if k == 0 else None
         res = ctrl.solve(config, dt)
         assert res.ok and res.path == "levels", (res.path, res.message)
         config.update(config.integrate(res.v, dt))

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import fuzz_episode
+from conftest import count_cascades, fuzz_episode
 from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
@@ -154,11 +154,13 @@ def _kkt_gap(H, g, A, b, lb, ub, x, active_tol: float = 1e-9) -> float:
 
 def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, monkeypatch):
     """Fuzz seed 550004 episode 366 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
-    dt 2 ms): the cascade is cut by the count and its weighted form answers, with a contact correction whose
-    re-solves have the same shape. The compiled kernel gave up on the first of them and was tried again, uncounted, on
-    each re-solve (three give-ups, a third of the tick's CPU time). Now a give-up sends the tick's later problems of
-    that shape to DAQP at once: one kernel attempt per shape, the tick's counted solves unchanged (13), each
-    solution a KKT point (closed form) and the soles within the drift bound by forward kinematics."""
+    dt 2 ms): its weighted form answers, with a contact correction whose re-solves have the same shape (the cascade is
+    not started: beside the new layout's work it and its correction cannot fit the count, ``TickBudget.
+    cascade_may_start``; it used to run first, 3 counted solves, and be cut). The compiled kernel gave up on the first
+    of the weighted QPs and was tried again, uncounted, on each re-solve (three give-ups, a third of the tick's CPU
+    time). Now a give-up sends the tick's later problems of that shape to DAQP at once: one kernel attempt per shape,
+    the tick's counted solves 10 (13 with the cascade first), each solution a KKT point (closed form) and the soles
+    within the drift bound by forward kinematics."""
     from wbc.solvers.fast import FastBackend
 
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550004, 366, dts=(0.002, 0.005, 0.01, 0.02),
@@ -185,7 +187,7 @@ def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, mon
     gave_up = [shape for shape, ok in attempts if not ok]
     assert gave_up and all(shape not in gave_up[:i] for i, shape in enumerate(gave_up))  # once per shape
     assert len(attempts) == 1  # (main: 3, each a give-up)
-    assert ctrl._work.solves == 13
+    assert ctrl._work.solves == 10  # LAYOUT_WORK 4 + the weighted QP and its re-solves (13 with the cascade first)
     for (H, g, A, b, C, lb, ub), x in calls:
         assert C.shape[0] == 0
         assert _kkt_gap(H, g, A, b, lb, ub, x) <= 1e-6
@@ -193,8 +195,10 @@ def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, mon
 
 
 def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(robots, monkeypatch):
-    """Fuzz seed 550036 episode 4 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
-    dt 2 ms, joints started past their limits): the tick fails and its safe command holds the contacts (J_c v = 0).
+    """Fuzz seed 100014 episode 175 tick 4 (default flags; humanoid15, a far hand target, strict levels, dt 2 ms):
+    the tick fails and its safe command holds the contacts (J_c v = 0). (Seed 550036 episode 4 tick 0 of
+    ``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``, this test's tick before, is now solved: its cascade, which no
+    longer fits beside the new layout's work, is not started and its weighted form is solved with a return rate.)
     Each check of that command (forward kinematics of its tick) now counts ``CHECK_WORK`` solves: against the same
     tick with CHECK_WORK = 0 (the same command), the count is 0.25 higher per check started. With checks that cost more than the tick's work limit leaves
     (CHECK_WORK = 8 solves at a cap of 8), none is started and the tick holds (v = 0), its message naming the count.
@@ -204,9 +208,9 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
 
     def replay(check_work: float):
         monkeypatch.setattr(KinematicController, "CHECK_WORK", check_work)
-        name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550036, 4, dts=(0.002, 0.005, 0.01, 0.02),
-                                                            past_limits=0.2)
-        assert (name, strict, dt) == ("talos", True, DT)
+        name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 175)
+        assert (name, kind, strict, dt) == ("humanoid15", "far", True, DT)
+        _run_to(ctrl, config, 4)
         counts = []
         held_drift = DriftMeter.held_drift
 
@@ -237,3 +241,27 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
     assert not res.ok and res.fallback == "hold" and not counts
     assert np.array_equal(res.v, np.zeros(ctrl.nv))
     assert "not tried: tick budget spent (count)" in res.message
+
+
+def test_a_first_strict_tick_whose_cascade_cannot_fit_starts_on_the_weighted_form(robots, monkeypatch):
+    """Fuzz seed 8126 episode 32 tick 0 (default flags; G1, a far hand target, strict levels, dt 2 ms: a cap of 8
+    counted solves): the controller's first tick counts its new layout (``LAYOUT_WORK`` = 4) and keeps the weighted
+    form's reserve (0.75 × 8 = 6), so its cascade of 2 levels and one contact correction, at least 2 × 2 × 1.5 = 6
+    solves, would end past 1.75 × 8 = 14. The cascade used to run anyway (3 counted solves), its correction was cut,
+    its command drifted and the weighted form answered after it: 12 counted solves, the one tick of the kinematic
+    fuzz over seeds 8100–8170 whose replays stayed over 2 × its budget (2.08 / 1.39 / 2.07 x). Now the cascade is
+    not started (no ``solve_lexicographic`` call): path 'levels+budget+weighted', at most 9 counted solves, the
+    message naming the skipped cascade; the soles within the drift bound (forward kinematics); the next tick is
+    'levels+weighted' (a cut cascade's rule, ``WEIGHTED_TICKS``) at most 4 counted solves."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8126, 32)
+    assert (name, kind, strict, dt) == ("g1", "far", True, DT)
+    cascades = count_cascades(monkeypatch)
+    res = ctrl.solve(config, DT)
+    assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
+    assert cascades == []
+    assert "the cascade of 2 priority levels (with its contact correction, at least 6 counted solves" in res.message
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 9  # (12 with the cascade first)
+    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
+    config.update(config.integrate(res.v, DT))
+    nxt = ctrl.solve(config, DT)
+    assert nxt.ok and nxt.path == "levels+weighted" and cascades == [] and ctrl._work.solves <= 4

@@ -8,6 +8,8 @@ weight of 1e12) and the work checked is QP solves."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import quadprog
@@ -16,7 +18,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.controllers import general_route
 from wbc.tick import TickPath
 
-from conftest import hand_over_posture
+from conftest import count_cascades, hand_over_posture
 
 DT = 0.002
 
@@ -85,17 +87,18 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
 
 
 def test_count_cut_cascade_answers_with_its_weighted_form_without_the_clock_guard(robots):
-    """Guard off, a budget of 1e-9 s (0 counted solves): the count cuts the cascade after level 0 and the tick
-    answers with the weighted form of its levels, 'levels+budget+weighted' (quadprog on the QP written out here, to
-    1e-6 m/s; the cut cascade's level-0 command was 0.1+ away); a second controller fed the same inputs answers
-    bitwise the same (a count, no clock); the next tick is 'levels+weighted'."""
+    """Guard off, a budget of 1e-9 s (0 counted solves): the cascade cannot fit the count and is not started
+    (``TickBudget.cascade_may_start``; before that rule the count cut it after level 0) and the tick answers with the
+    weighted form of its levels, 'levels+budget+weighted' (quadprog on the QP written out here, to 1e-6 m/s; the cut
+    cascade's level-0 command was 0.1+ away); a second controller fed the same inputs answers bitwise the same (a
+    count, no clock); the next tick is 'levels+weighted'."""
     _, config, ctrl, tasks = hand_over_posture(robots, budget=1e-9, contact_correction=0.0,
                                                 sole_drift_tolerance=None)
     assert ctrl.clock_guard is False
     ref = _weighted_reference(ctrl, config, tasks)
     cut = ctrl.solve(config, DT)
     assert cut.ok and cut.over_budget and cut.path == "levels+budget+weighted", (cut.path, cut.message)
-    assert "priority levels after the first 1 of 3 (their weighted form's command)" in cut.message
+    assert "the cascade of 2 priority levels (at least 3 counted solves: their weighted form's command)" in cut.message
     assert np.max(np.abs(cut.v - ref)) <= 1e-6, np.max(np.abs(cut.v - ref))
     _, _, twin, _ = hand_over_posture(robots, budget=1e-9, contact_correction=0.0, sole_drift_tolerance=None)
     assert twin.solve(config, DT).v.tobytes() == cut.v.tobytes()
@@ -135,3 +138,39 @@ def test_count_cut_cascade_keeps_the_soles_and_returns_to_the_cascade_by_count(r
     assert all(r.ok for r in out)
     _, _, again = run()
     assert [r.v.tobytes() for r in again] == [r.v.tobytes() for r in out]
+
+
+def test_a_cascade_that_cannot_fit_beside_a_new_layout_starts_on_its_weighted_form(robots, monkeypatch):
+    """The budget's rule for a tick's first solve (``TickBudget.cascade_may_start``), at the default 2 ms budget (a
+    cap of 8 counted solves, the stages within 1.75 × 8 = 14, the weighted form's reserve 0.75 × 8 = 6, 2 levels):
+
+    * a fresh controller's first tick counts its new layout (``LAYOUT_WORK`` = 4): its cascade and one contact
+      correction, at least 2 × 2 × (1 + ``LEVEL_WORK``) = 6 solves, would end past 14 (4 + 6 + 6 = 16); the cascade
+      is not started (no ``solve_lexicographic`` call), 'levels+budget+weighted';
+    * without contact correction one cascade counts: 4 + 6 + 3 = 13 ≤ 14, the first tick runs the cascade ('levels');
+      with ``LEVEL_WORK`` = 1.5 on that instance, 4 + 6 + 5 = 15 > 14: the weighted form, its command the weighted
+      QP's optimum written out here (quadprog, to 1e-6 m/s);
+    * after the new layout's tick (paid at an unlimited budget), a tick at the default budget runs the cascade and
+      its correction (0 + 6 + 6 = 12 ≤ 14): 'levels'."""
+    cascades = count_cascades(monkeypatch)
+    _, config, ctrl, _ = hand_over_posture(robots)
+    first = ctrl.solve(config, DT)
+    assert first.ok and first.path == "levels+budget+weighted", (first.path, first.message)
+    assert cascades == [] and ctrl._work.cap == 8
+    assert "the cascade of 2 priority levels (with its contact correction, at least 6 counted solves" in first.message
+
+    _, _, plain, _ = hand_over_posture(robots, contact_correction=0.0, sole_drift_tolerance=None)
+    assert plain.solve(config, DT).path == "levels" and cascades == [1]
+    _, _, heavy, tasks = hand_over_posture(robots, contact_correction=0.0, sole_drift_tolerance=None, LEVEL_WORK=1.5)
+    res = heavy.solve(config, DT)
+    ref = _weighted_reference(heavy, config, tasks)  # (after the tick: its assembly would build the layout first)
+    assert res.path == "levels+budget+weighted" and cascades == [1], (res.path, res.message)
+    assert "the cascade of 2 priority levels (at least 5 counted solves" in res.message
+    assert np.max(np.abs(res.v - ref)) <= 1e-6, np.max(np.abs(res.v - ref))
+
+    _, _, warm, _ = hand_over_posture(robots)
+    warm.budget = math.inf
+    assert warm.solve(config, DT).path == "levels" and cascades == [1, 1]
+    warm.budget = None
+    res = warm.solve(config, DT)
+    assert res.ok and res.path == "levels" and cascades == [1, 1, 1], (res.path, res.message)

@@ -327,11 +327,13 @@ def test_conflicting_strict_level_is_least_squares_and_lower_level_still_optimis
 
 def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(robots):
     """G1 standing on both soles, CoM on level 0, a hand target 1e6 m away (gain 1e4: |g| ~ 1e11 on level 1) and
-    the posture on level 1 — the kinematic fuzz's episode whose level-1 DAQP calls cycled unscaled. With the
-    default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok, the first with
-    every level of its cascade solved (no level cut; its contact correction may stop at the cascade's share of the
-    budget, ``KinematicController.WEIGHTED_RESERVE``, after which that tick is answered by the weighted form and the
-    next ticks may be too, ``levels+weighted``); each stance sole ends where its contact row sends
+    the posture on level 1 — the kinematic fuzz's episode whose level-1 DAQP calls cycled unscaled. After one tick
+    at an unlimited budget (the new layout's: at the default budget its work leaves no room for the cascade and its
+    contact correction, ``TickBudget.cascade_may_start``, and that tick would answer with the weighted form of the
+    levels), with the default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok,
+    the first with every level of its cascade solved (no level cut; its contact correction may stop at the cascade's
+    share of the budget, ``KinematicController.WEIGHTED_RESERVE``, after which that tick is answered by the weighted
+    form and the next ticks may be too, ``levels+weighted``); each stance sole ends where its contact row sends
     it to 5e-5 m (Pinocchio forward kinematics); the CoM level's residual equals its optimum under the contacts and
     bounds computed by an independent solver (scipy SLSQP) to 1e-4 m/s."""
     from wbc.constraints import JointPositionLimit
@@ -353,6 +355,9 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
     ctrl.add_task(hand, level=1)
     ctrl.add_task(PostureTask(robot, weight=0.1), level=1)
     data = robot.model.createData()
+    ctrl.budget = math.inf
+    assert ctrl.solve(config, DT).path == "levels"  # the new layout's tick (the loop starts from the same state)
+    ctrl.budget = None
     for k in range(12):
         res = ctrl.solve(config, DT)
         assert res.ok and "priority levels" not in res.message, (k, str(res.path), res.message)

@@ -149,6 +149,13 @@ class TickBudget:
             return late or not self.fits(self.level_cost)
         return late
 
+    def cascade_may_start(self, levels: int, level_work: float, runs: int = 1) -> bool:
+        """May a strict cascade of ``levels`` levels start as the tick's first solve: ``runs`` cascades (its solve and
+        the re-solves the tick plans after it, e.g. one contact correction) at their least counted work, levels ×
+        (1 + ``level_work``) each (one QP solve per level and the work around it), end within stage_factor caps
+        beside the work already counted (a new layout's, the clock's) and the reserve (``TickWork.spent``)."""
+        return not self.work.spent(self.stage_factor, runs * levels * (1.0 + level_work))
+
     def cascade_fits(self, levels: int, share: float) -> bool:
         """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times
         levels + 1 fit in ``share`` caps, and (clock guard) its CPU time times 2 (levels + 1) in one budget."""

@@ -83,6 +83,27 @@ class GeneralRoute:
         backend.independent = CONFIRM_ORDER
         return backend
 
+    def _plan_levels(self) -> None:
+        """Before the tick's first solve: strict levels whose cascade cannot fit the tick's count — it and its contact
+        correction at their least counted work (``TickBudget.cascade_may_start``) beside the work already counted
+        (a new layout's ``LAYOUT_WORK`` on a controller's first tick) and the weighted form's reserve — are answered
+        by their weighted form (one QP) from the start, as a cascade the budget cut would be after its levels; the
+        next ticks follow the rule of a cut cascade (``WEIGHTED_TICKS``, ``TickBudget.cascade_fits``)."""
+        if not self._level_order or self._weighted_tick:
+            return
+        # a strict controller's first tick at a 2 ms budget (cap 8, LAYOUT_WORK 4, reserve 6) solved its cascade
+        # (3 counted), had its contact correction cut, its command drifted and the weighted form answered after it:
+        # 12 counted solves, 2.1 x its budget on replay (kinematic fuzz seed 8126 episode 32 tick 0); skipped, 9
+        runs = 2 if self.contact_correction > 0 and self._contacts else 1
+        least = runs * len(self._level_order) * (1.0 + self.LEVEL_WORK)
+        if self.tick_budget.cascade_may_start(len(self._level_order), self.LEVEL_WORK, runs):
+            return
+        self._work.reserve = 0.0  # the weighted form's: all of it
+        self._weighted_tick, self._weighted_qp = True, None
+        self._cut.append(f"the cascade of {len(self._level_order)} priority levels ("
+                         + ("with its contact correction, " if runs > 1 else "")
+                         + f"at least {least:g} counted solves: their weighted form's command)")
+
     def _solve_levels(self, config, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         if self._weighted_tick and self._in_solve:
             if self._weighted_qp is None:

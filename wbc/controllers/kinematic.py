@@ -403,6 +403,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             if fault:
                 raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
             t1 = perf_counter()
+            self._plan_levels()  # strict levels whose cascade cannot fit: their weighted form
             try:  # → the solver route (flat or strict levels), then the relaxation ladder
                 v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
             except SolverError as first_failure:

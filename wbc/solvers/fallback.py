@@ -401,7 +401,7 @@ class FallbackChain:
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
-            x = self._resume_scaled(backend, H, g, A, b, C, l, u, lb, ub)
+            x = self._resume_scaled(backend, qp)
             if x is not None:
                 return QPSolution(x, backend.name, "resumed scaled call")
             # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
@@ -414,18 +414,18 @@ class FallbackChain:
                     self.resume_scaled = True  # the next ticks resume the same way
                     return QPSolution(x, "quadprog", "resumed quadprog")
         try:
-            return self._stages(H, g, A, b, C, l, u, lb, ub, relax)
+            return self._stages(qp, relax)
         except SolverError:
             self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
             raise
 
-    def _resume_scaled(self, backend: DaqpBackend, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
+    def _resume_scaled(self, backend: DaqpBackend, qp: QPData) -> np.ndarray | None:
         """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
         (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` ×
         :attr:`daqp_attempt_iterations` iterations. Its checked x, or None (and :attr:`resume_scaled` cleared)."""
         proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
-        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), H, g, A, b, C, l, u, lb, ub)
+        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), qp)
         self.tick_work += self._call_work(backend, proximal)
         if x is None:
             self.resume_scaled = False
@@ -433,11 +433,12 @@ class FallbackChain:
             self.resumed_solves += 1
         return x
 
-    def _stages(self, H, g, A, b, C, l, u, lb, ub, relax: Callable | None) -> QPSolution:
-        """The ladder of the module docstring on the full QP; ``relax`` forms the relaxed bounds for the check of the
-        relaxed hard set (None: not checked). The order, the counted work and the clock guard's deadlines:
+    def _stages(self, qp: QPData, relax: Callable | None) -> QPSolution:
+        """The ladder of the module docstring on the full QP ``qp``; ``relax`` forms the relaxed bounds for the check
+        of the relaxed hard set (None: not checked). The order, the counted work and the clock guard's deadlines:
         docs/inverse-dynamics-controller.md, "The fallback chain". Raises SolverError: the backend's, extended with
         why the ladder ended, when no step found a solution."""
+        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
@@ -452,7 +453,7 @@ class FallbackChain:
             checked = True
             if known is False:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
-                                      backend, A, b, C, l, u, lb, ub, relax, known, checked=True)
+                                      backend, qp, relax, known, checked=True)
         retry = backend.cold_retry
         backend.cold_retry = False
         backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
@@ -473,8 +474,7 @@ class FallbackChain:
             backend.call_iterations = None
             self.tick_work += self._call_work(backend, proximal)
         if not guarded:
-            feasible = self._check_hard_sets(first, backend, A, b, C, l, u, lb, ub, relax, known,
-                                             checked=checked)
+            feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
             if cap is not None:
                 # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
                 # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
@@ -487,7 +487,7 @@ class FallbackChain:
                     self.budget_cut = True
                 else:
                     proximal = backend.proximal_iterations
-                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), H, g, A, b, C, l, u, lb, ub)
+                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), qp)
                     self.tick_work += self._call_work(backend, proximal)
                     if x is not None:
                         return QPSolution(x, backend.name, "scaled call")
@@ -495,7 +495,7 @@ class FallbackChain:
             # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
             # failing tick's one check); not empty, the full set is checked next (below)
             left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
-            self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, relax,
+            self._check_relaxed_set(first, backend, qp, relax,
                                     max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
         if guarded:
             if thread_time() >= self._deadline(self.CHECK_DEADLINE):
@@ -591,14 +591,14 @@ class FallbackChain:
             if calls is not None:
                 self.tick_work += self._retry_work(backend, calls, proximal)
 
-    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                         relax: Callable | None, full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP without a clock guard: the full set (unless ``checked``: its
+    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable | None,
+                         full: bool | None = None, *, checked: bool = False) -> bool:
+        """The hard-set checks of a failed full QP ``qp`` without a clock guard: the full set (unless ``checked``: its
         verdict ``full``), then, not found to have a point and given ``relax``, the relaxed set. A set proved empty
         sets :attr:`last_set_empty` and raises SolverError (``first`` extended). Returns True when a point of the full
         hard set was found, else False."""
         if not checked:
-            full = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
+            full = self._set_check(*qp[2:], self.FAILURE_WORK)
         if full is True:
             self.hard_set_point = True
             return True
@@ -606,8 +606,7 @@ class FallbackChain:
         left = self._work_left(self.FAILURE_WORK)
         if relax is not None and left >= MIN_CALL_ITERATIONS:
             try:
-                self._check_relaxed_set(first, backend, A, b, C, l, u, lb, ub, relax,
-                                        int(min(left, ITERATION_LIMIT)))
+                self._check_relaxed_set(first, backend, qp, relax, int(min(left, ITERATION_LIMIT)))
             except SolverError:
                 self.last_set_empty = True
                 raise
@@ -617,11 +616,12 @@ class FallbackChain:
                               f"quadprog and the backend's retries skipped")
         return False
 
-    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, A, b, C, l, u, lb, ub,
-                           relax: Callable, iter_limit: int) -> None:
-        """Check the relaxed hard set (bounds from ``relax``, at most ``iter_limit`` DAQP iterations): sets
-        :attr:`relaxed_set_feasible` and :attr:`relaxed_bounds`. Raises SolverError (``first`` extended) when it is
+    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable,
+                           iter_limit: int) -> None:
+        """Check the relaxed hard set of ``qp`` (its bounds from ``relax``, at most ``iter_limit`` DAQP iterations):
+        sets :attr:`relaxed_set_feasible` and :attr:`relaxed_bounds`. Raises SolverError (``first`` extended) when it is
         proved empty: so is the full one, and the relaxed QP is not solved."""
+        _, _, A, b, C, l, u, lb, ub = qp
         relaxed = relax(l, u, lb, ub)
         self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
         self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
@@ -633,12 +633,12 @@ class FallbackChain:
             raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
                               f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
-    def _solve_scaled(self, backend: DaqpBackend, cap: int, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) of at most ``cap``
-        iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
+    def _solve_scaled(self, backend: DaqpBackend, cap: int, qp: QPData) -> np.ndarray | None:
+        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) on ``qp`` of at most
+        ``cap`` iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
         backend.call_iterations = cap
         try:
-            x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
+            x = backend.solve_scaled(*qp)
         finally:
             backend.call_iterations = None
         if x is not None:
