@@ -4,7 +4,8 @@ Python by tests/ros2/kilted.py (it does not import wbc). Not a test module.
 ``python dds_backend_client.py SAMPLES``: wait (≤ 90 s) for the node ``wbc_node`` in the graph; subscribe to
 /clock (the node runs ``--time sim``), /joint_states, /odom, /robot_description, /tf, /tf_static and /navigate_to_pose's action status and feedback topics
 (the last three need tf2_msgs and nav2_msgs: when a venv lacks them, their counts stay absent); drive /cmd_vel at
-0.2 m/s until /joint_states and /odom have SAMPLES samples (≤ 60 s), then stop and, 3 s of /clock time later (≤ 30 s
+0.2 m/s until /joint_states and /odom have SAMPLES samples and the node's /cmd_vel reader matched this writer (≤ 60 s),
+then 0.2 s more, then stop and, 3 s of /clock time later (≤ 30 s
 of wall time), publish a /goal_pose
 0.4 m ahead of the last /odom position and wait (≤ 60 s) for SAMPLES feedback messages and a status array whose goal
 SUCCEEDED (4). Prints one line ``RESULT <json>``: ``nodes``, ``pubs`` (the node's publisher topics), ``counts``,
@@ -94,7 +95,12 @@ def main() -> None:
 
     twist = Twist()
     twist.linear.x = 0.2
-    spin_for(60, lambda: min(counts["joint_states"], counts["odom"]) >= want, lambda: cmd.publish(twist))
+    # /cmd_vel until the samples arrived AND the node's reader has matched this writer (discovery is not
+    # symmetric: the node's writers can reach this client before its reader matches ours; publishing before that
+    # match is lost, and the node counted 0 /cmd_vel under load), then 0.2 s more of matched samples
+    spin_for(60, lambda: min(counts["joint_states"], counts["odom"]) >= want and cmd.get_subscription_count() > 0,
+             lambda: cmd.publish(twist))
+    spin_for(0.2, each=lambda: cmd.publish(twist))
     cmd.publish(Twist())
     # the robot stands again (its closing step) before the goal: 3 s of the node's time (/clock; slower than the
     # wall clock on a loaded machine), at most 30 s of wall time
