@@ -236,14 +236,9 @@ class QPBackend(ABC):
             x = np.minimum(np.maximum(x, lb), ub)
             if self.scaled_violation(x, x, A, b, C, l, u, lb, ub) <= self.tolerance:
                 return x
-        return self._project(x0, A, b, C, l, u, lb, ub)
-
-    def _project(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """x projected onto the hard set (:meth:`polish`), or None when that fails the check of :meth:`solve`."""
-        n = x.shape[0]
-        try:
+        try:  # the projection of x onto the hard set
             y = _BACKEND_CLASSES["daqp"](tolerance=self.tolerance).raw_solve(
-                np.eye(n), -np.where(np.isfinite(x), x, 0.0), A, b, C, l, u, lb, ub)
+                np.eye(x.shape[0]), -np.where(np.isfinite(x0), x0, 0.0), A, b, C, l, u, lb, ub)
         except Exception:  # noqa: BLE001 — a failed projection polishes nothing
             return None
         if y is None or not np.isfinite(y).all():

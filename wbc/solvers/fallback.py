@@ -108,8 +108,6 @@ class FallbackChain:
         self.backend = backend
         self.compiled = compiled
         self.compiled_reason = ""
-        #: run :meth:`wbc.solvers.base.QPBackend.confirm` before declaring a failure (off: it costs many periods)
-        self.confirm_failures = False
         self._takes_confirm: tuple = (None, False)
         self._confirm_kw  # the backend's signature read here, not inside the first tick
         self.second_opinion_enabled = True  # :meth:`_solve_checked`
@@ -232,7 +230,8 @@ class FallbackChain:
         backend = self.backend
         if self._takes_confirm[0] is not backend:  # a backend assigned after construction
             self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
-        return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
+        # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
+        return {"confirm": False} if self._takes_confirm[1] else {}
 
     def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
         """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
@@ -478,13 +477,8 @@ class FallbackChain:
                     continue
                 # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
                 # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
-                backend.deadline = end
-                try:
-                    x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
-                finally:
-                    backend.deadline = math.inf
+                x = self._solve_scaled(backend, None, qp, end)
                 if x is not None:
-                    self.scaled_solves += 1
                     return QPSolution(x, backend.name, "scaled call")
             if thread_time() >= self.retry_deadline:
                 self.checks_skipped += 1
@@ -584,13 +578,16 @@ class FallbackChain:
             raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
                               f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
-    def _solve_scaled(self, backend: DaqpBackend, cap: int, qp: QPData) -> np.ndarray | None:
-        """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations: its x, or None."""
+    def _solve_scaled(self, backend: DaqpBackend, cap: int | None, qp: QPData, end: float = math.inf):
+        """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations (None: no cap), ending by
+        the CPU time ``end``: its x, or None."""
         backend.call_iterations = cap
+        backend.deadline = end
         try:
             x = backend.solve_scaled(*qp)
         finally:
             backend.call_iterations = None
+            backend.deadline = math.inf
         if x is not None:
             self.scaled_solves += 1
         return x
