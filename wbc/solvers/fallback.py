@@ -261,8 +261,7 @@ class FallbackChain:
             else:
                 left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
             if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless the full QP's failure already checked it to a verdict (a check that
-                # ended undecided before its iteration limit is not asked again: the same call gives the same)
+                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
                 feasible = self.relaxed_set_feasible
                 if feasible is None and not self._relaxed_check_final and counting:
                     feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
@@ -293,9 +292,7 @@ class FallbackChain:
                     backend.call_iterations = None
                     if calls is not None:
                         self.tick_work += self._retry_work(backend, calls, proximal)
-                # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
-                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
-                # counted, its work fits below RELAXED_WORK
+                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
                 if thread_time() + self.quadprog_cost > end:
                     self.budget_cut = True
                     raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
@@ -403,7 +400,7 @@ class FallbackChain:
         checked = False
         if not guarded and self.last_set_empty:
             # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
-            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
+            # skips DAQP's attempt, which could only fail)
             self.last_set_empty = False
             known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
             checked = True
@@ -432,10 +429,8 @@ class FallbackChain:
         if not guarded:
             feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
             if cap is not None:
-                # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
-                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
-                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap;
-                # at most the tick's counted work left
+                # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set
+                # with a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
                 scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
                               else cap)
                 left = self._work_left(self.FAILURE_WORK)
@@ -460,9 +455,8 @@ class FallbackChain:
                 raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
                                   f"tick budget spent (clock guard)")
             end = self._deadline(self.CHECK_END)
-            # an attempt stopped at its deadline (not a verdict: e.g. a cold solve with |g| ~ 1e6 that needs ~1000
-            # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
-            # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
+            # an attempt stopped at its deadline (not a verdict: e.g. |g| ~ 1e6) goes to the cost-scaled call first, an
+            # infeasibility verdict to the hard-set check first (most failed full QPs are infeasible)
             capped = backend.budget_capped
             for step in (("scaled", "check") if capped else ("check", "scaled")):
                 if thread_time() >= self._deadline(self.CHECK_DEADLINE):
@@ -475,8 +469,7 @@ class FallbackChain:
                         raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
                                           f"it): quadprog and the backend's retries skipped (clock guard)")
                     continue
-                # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
-                # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
+                # not proved empty: DAQP's false infeasibility (ill-conditioned Hessian) or a capped attempt
                 x = self._solve_scaled(backend, None, qp, end)
                 if x is not None:
                     return QPSolution(x, backend.name, "scaled call")
@@ -492,27 +485,24 @@ class FallbackChain:
                                   f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
                                   f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
         work = quadprog_work(H.shape[0])
-        skipped = not guarded and work > self._work_left(self.QUADPROG_WORK)
-        if skipped:
-            # the tick's counted work leaves too little for quadprog's solve (which cannot be stopped once started)
+        if not guarded and work > self._work_left(self.QUADPROG_WORK):
+            # too little counted work left for quadprog's solve (which cannot be stopped once started), and so for the
+            # retries after it
             self.quadprog_skipped += 1
             self.budget_cut = True
-            quadprog = (f"no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP iterations) and "
-                        f"quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets")
-        else:
-            c0 = thread_time()
-            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-            self.tick_work += work
-            if guarded:
-                cost = thread_time() - c0
-                self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-            if x is not None:
-                self.pinned_reduced_solves += 1
-                return QPSolution(x, "quadprog", "quadprog")
-            quadprog = "quadprog found no solution either"
-        if skipped:
-            # the retries come after quadprog: the count that had no room for quadprog has none for them
-            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
+            raise SolverError(f"{first}; no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP "
+                              f"iterations) and quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets"
+                              + ("; the backend's retries skipped with it" if retry else ""))
+        c0 = thread_time()
+        x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        self.tick_work += work
+        if guarded:
+            cost = thread_time() - c0
+            self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+        if x is not None:
+            self.pinned_reduced_solves += 1
+            return QPSolution(x, "quadprog", "quadprog")
+        quadprog = "quadprog found no solution either"
         if not retry:
             raise first
         if thread_time() >= self.retry_deadline:

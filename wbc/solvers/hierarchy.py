@@ -34,6 +34,8 @@ __all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 _RANK_MEMO: list = []
 #: results kept in ``_RANK_MEMO``
 RANK_MEMO_SIZE = 6
+#: dgeqp3's workspace size per shape of Aᵀ (:func:`independent_rows`)
+_QP3_LWORK: dict[tuple, int] = {}
 #: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
 #: its dropped rows as band rows
 BAND_KEY = "band"
@@ -41,34 +43,17 @@ BAND_KEY = "band"
 
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
-    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only.
-
-    The last :data:`RANK_MEMO_SIZE` results are kept: a matrix equal entry for entry to one of them (and the same
-    ``rtol``) returns that result without a new factorisation (the same rows: the factorisation is a function of
-    the entries)."""
+    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only. The last :data:`RANK_MEMO_SIZE`
+    results are kept: a matrix equal to one of them (same ``rtol``) returns it without a new factorisation."""
     if A.shape[0] == 0:
         return np.zeros(0, dtype=int)
     for M, tol, rows in reversed(_RANK_MEMO):
         if tol == rtol and M.shape == A.shape and np.array_equal(M, A):
             return rows
-    rows = _independent_rows(A, rtol)
-    rows.setflags(write=False)
-    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
-        del _RANK_MEMO[0]
-    _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
-    return rows
-
-
-#: dgeqp3's workspace size per shape of Aᵀ (``_independent_rows``)
-_QP3_LWORK: dict[tuple, int] = {}
-
-
-def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
-    """:func:`independent_rows` computed (no memo)."""
     from scipy.linalg import lapack
 
-    # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls, with the same workspace query), without
-    # forming Q: only |R_ii| and the pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
+    # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls), without forming Q: only |R_ii| and the
+    # pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
     At = np.array(A.T, dtype=float, order="F")  # a copy: dgeqp3 overwrites it
     lwork = _QP3_LWORK.get(At.shape)  # the workspace query's answer depends on the shape only
     if lwork is None:
@@ -80,7 +65,12 @@ def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
     diag = [abs(x) for x in qr.diagonal().tolist()]
     tol = rtol * max(diag[0], 1.0)
     rank = sum(1 for x in diag if x > tol)
-    return np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
+    rows = np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
+    rows.setflags(write=False)
+    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
+        del _RANK_MEMO[0]
+    _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
+    return rows
 
 
 def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rtol: float = 1e-3,
@@ -169,9 +159,7 @@ def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.nda
     """(H s, g s, s): a level's cost (H (n, n), g (n,)) divided by s⁻¹ = max(1, |g|∞, |H|max) when |g|∞ · ε (ε the
     machine epsilon) exceeds the backend's ``tolerance`` (its constraint units), else (H, g, 1.0). The same
     minimiser: only the solver's rounding changes (the error of H⁻¹(g + Aᵀλ) is ~|g|∞ ε)."""
-    # a hand target 1e6 m away at a gain of 1e4 gives |g| ~ 3e11: DAQP's workspace and one-shot calls of such a
-    # level with its ±band rows cycled (exit -2), ran to their iteration cap or called it infeasible (g1, kinematic
-    # fuzz seed 5000 episode 10: 70 of 153 level-1 QPs failed unscaled, 0 of 153 scaled, in 39 iterations each)
+    # a hand target 1e6 m away at a gain of 1e4 (|g| ~ 3e11) made DAQP cycle or misjudge a level with ±band rows
     top = float(np.max(np.abs(g), initial=0.0))
     if not top * np.finfo(float).eps > tolerance:
         return H, g, 1.0
