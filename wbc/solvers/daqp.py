@@ -191,8 +191,7 @@ class DaqpBackend(QPBackend):
             self._oneshot_first = False
             if self.budget_capped:
                 return None
-        warm = self._model is not None
-        if warm:
+        if self._model is not None:  # warm-started
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
             if limit != self._model_limit:
