@@ -150,7 +150,7 @@ class FallbackChain:
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
         if isinstance(self.backend, DaqpBackend):
-            return self._relaxed_daqp(*qp)
+            return self._relaxed_daqp(qp)
         return self._solve_checked(*qp)
 
     # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain").
@@ -210,10 +210,31 @@ class FallbackChain:
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
-    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the retries, each call capped at ``calls``, and proximal iterations past ``proximal``."""
-        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
-                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
+    def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
+        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step), its DAQP calls capped at
+        ``calls`` (None: no cap) and ending by the CPU time ``deadline`` (None: as set), its work counted: the retries
+        at ``calls`` per call (nothing when None), an attempt as it ran. (QPSolution, None) or (None, SolverError)."""
+        backend = self.backend
+        retry = backend.cold_retry
+        backend.cold_retry = retry and step == "retries"
+        if deadline is not None:
+            backend.deadline = deadline
+        backend.call_iterations = calls
+        proximal = backend.proximal_iterations
+        try:
+            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
+        except SolverError as exc:
+            return None, exc
+        finally:
+            backend.cold_retry = retry
+            backend.call_iterations = None
+            if deadline is not None:
+                backend.deadline = math.inf
+            if step != "retries":
+                self.tick_work += self._call_work(backend, proximal)
+            elif calls is not None:
+                self.tick_work += (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                                   + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
     @property
     def retry_deadline(self) -> float:
@@ -233,29 +254,21 @@ class FallbackChain:
         # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
         return {"confirm": False} if self._takes_confirm[1] else {}
 
-    def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
+    def _relaxed_daqp(self, qp: QPData) -> QPSolution:
         """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
         SolverError."""
+        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
         counting = self._counting()
         retry = backend.cold_retry
         backend.deadline = end
         try:
-            backend.cold_retry = False
-            if counting:  # the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
-                backend.call_iterations = max(MIN_CALL_ITERATIONS, int(min(
-                    self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
-            proximal = backend.proximal_iterations
-            try:
-                return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
-                                  "attempt")
-            except SolverError as exc:
-                first = exc
-            finally:
-                backend.cold_retry = retry
-                backend.call_iterations = None
-                self.tick_work += self._call_work(backend, proximal)
+            # counted: the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
+            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
+                self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT))) if counting else None)
+            if sol is not None:
+                return sol
             if counting:
                 left = self._work_left(self.RELAXED_WORK)
             else:
@@ -279,19 +292,12 @@ class FallbackChain:
                     self.budget_cut = True
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
-                backend.call_iterations = calls
-                proximal = backend.proximal_iterations
-                try:
-                    return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
-                                      "retries")
-                except SolverError as exc:
-                    if backend.budget_capped or feasible is not True:
-                        raise
-                    first = exc
-                finally:
-                    backend.call_iterations = None
-                    if calls is not None:
-                        self.tick_work += self._retry_work(backend, calls, proximal)
+                sol, exc = self._call(qp, "retries", calls)
+                if sol is not None:
+                    return sol
+                if backend.budget_capped or feasible is not True:
+                    raise exc
+                first = exc
                 # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
                 if thread_time() + self.quadprog_cost > end:
                     self.budget_cut = True
@@ -408,24 +414,14 @@ class FallbackChain:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
                                       backend, qp, relax, known, checked=True)
         retry = backend.cold_retry
-        backend.cold_retry = False
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
         # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
-        backend.call_iterations = cap
-        proximal = backend.proximal_iterations
-        try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
-        except SolverError as exc:
-            first = exc
-            attempted = backend.last_iterations  # the attempt's DAQP iterations
-            if backend.budget_capped:
-                self.budget_cut = True
-        finally:
-            backend.cold_retry = retry
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            self.tick_work += self._call_work(backend, proximal)
+        sol, first = self._call(qp, "attempt", cap, self._deadline(self.FULL_QP_DEADLINE))
+        if sol is not None:
+            return sol
+        attempted = backend.last_iterations  # the attempt's DAQP iterations
+        if backend.budget_capped:
+            self.budget_cut = True
         if not guarded:
             feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
             if cap is not None:
@@ -513,20 +509,12 @@ class FallbackChain:
             self.budget_cut = True
             raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
                               f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
-        backend.call_iterations = calls
-        proximal = backend.proximal_iterations
-        try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "retries")
-        except SolverError:
-            if backend.budget_capped or backend.iterations_capped:
-                self.budget_cut = True
-            raise
-        finally:
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            if calls is not None:
-                self.tick_work += self._retry_work(backend, calls, proximal)
+        sol, exc = self._call(qp, "retries", calls, self._deadline(self.FULL_QP_DEADLINE))
+        if sol is not None:
+            return sol
+        if backend.budget_capped or backend.iterations_capped:
+            self.budget_cut = True
+        raise exc
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable | None,
                          full: bool | None = None, *, checked: bool = False) -> bool:
